@@ -1,0 +1,87 @@
+"""The ``Run``: one recorded (or simulated) drive, its metadata and its typed streams.
+
+Contract (``DESIGN.md``, "Contracts"): every stream is a :class:`pandas.DataFrame` whose first
+column is ``t_s`` (time in s, strictly increasing, starting near 0) followed by channels with
+canonical snake_case names in SI units:
+
+==========  ==========================================================  ==============
+stream      channels                                                    units
+==========  ==========================================================  ==============
+``imu``     ``wx, wy, wz`` (angular rate), ``ax, ay, az`` (specific      rad/s, m/s^2
+            force, body frame)
+``wheels``  ``vel_l, vel_r`` (wheel linear speed, left/right side),      m/s, A
+            ``cur_l, cur_r`` (motor current)
+``truth``   simulator ground truth (pose, body velocities, ``slip_i``)   SI
+``steer``   steering angles ``delta_i``                                  rad
+``cam``     visual-odometry velocities and yaw rate                      m/s, rad/s
+==========  ==========================================================  ==============
+
+Streams keep their own time base. Putting them on one clock is the explicit step
+:func:`terrain.io.align.align_streams`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import pandas as pd
+
+TIME = "t_s"
+IMU_CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az")
+WHEEL_CHANNELS = ("vel_l", "vel_r", "cur_l", "cur_r")
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run: metadata and named streams.
+
+    Parameters
+    ----------
+    run_id : str
+        Unique id, ``<dataset>/<TERRAIN>/<index>`` for measured runs (e.g.
+        ``borealtc/ASPHALT/00``).
+    dataset : str
+        Dataset name (``borealtc``, ``vulpi``, ``sim``, or the folder name for other roots).
+    terrain : str or None
+        Terrain class label of the whole run (upper case), ``None`` when unknown.
+    streams : Mapping[str, pandas.DataFrame]
+        Stream name -> frame with ``t_s`` first and canonical channel columns (SI units).
+    vehicle : str
+        Vehicle name (``husky`` for the measured data).
+    source : str
+        Where the run came from (file path or description).
+    meta : Mapping[str, Any]
+        Further metadata (sampling rates, simulator settings, repair counts...).
+    """
+
+    run_id: str
+    dataset: str
+    terrain: str | None
+    streams: Mapping[str, pd.DataFrame]
+    vehicle: str = "husky"
+    source: str = ""
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def has_imu(self) -> bool:
+        """Whether the run has an IMU stream."""
+        return "imu" in self.streams
+
+    @property
+    def duration_s(self) -> float:
+        """Duration of the wheel stream (or the longest stream), in s."""
+        frame = self.streams.get("wheels")
+        frames = [frame] if frame is not None else list(self.streams.values())
+        return float(max(f[TIME].iloc[-1] - f[TIME].iloc[0] for f in frames if len(f)))
+
+    def rate_hz(self, stream: str) -> float:
+        """Median sampling rate of ``stream`` in Hz.
+
+        Raises
+        ------
+        KeyError
+            If the run has no such stream.
+        """
+        t = self.streams[stream][TIME].to_numpy()
+        return float(1.0 / pd.Series(t).diff().median())
