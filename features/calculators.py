@@ -1,0 +1,129 @@
+"""Feature calculators: small pure functions over a batch of windows.
+
+Each calculator takes ``x`` of shape ``(n_windows, n_channels, n_samples)`` (SI units of each
+channel) and returns ``(n_windows, n_channels)``. Names follow tsfresh's reversible
+convention ``<signal>__<feature>[__<param>]``; the registry :data:`STATISTICS` is explicit (no
+discovery by introspection).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+_EPS = 1e-12
+
+
+def mean(x: np.ndarray) -> np.ndarray:
+    """Mean over samples."""
+    return x.mean(axis=-1)
+
+
+def std(x: np.ndarray) -> np.ndarray:
+    """Population standard deviation over samples."""
+    return x.std(axis=-1)
+
+
+def skewness(x: np.ndarray) -> np.ndarray:
+    """Fisher skewness m3 / m2^1.5 (0 for a constant window)."""
+    d = x - x.mean(axis=-1, keepdims=True)
+    m2 = (d ** 2).mean(axis=-1)
+    m3 = (d ** 3).mean(axis=-1)
+    return np.where(m2 > _EPS, m3 / np.maximum(m2, _EPS) ** 1.5, 0.0)
+
+
+def kurtosis(x: np.ndarray) -> np.ndarray:
+    """Excess kurtosis m4 / m2^2 - 3 (0 for a constant window)."""
+    d = x - x.mean(axis=-1, keepdims=True)
+    m2 = (d ** 2).mean(axis=-1)
+    m4 = (d ** 4).mean(axis=-1)
+    return np.where(m2 > _EPS, m4 / np.maximum(m2, _EPS) ** 2 - 3.0, 0.0)
+
+
+def rms(x: np.ndarray) -> np.ndarray:
+    """Root mean square."""
+    return np.sqrt((x ** 2).mean(axis=-1))
+
+
+def minimum(x: np.ndarray) -> np.ndarray:
+    """Minimum."""
+    return x.min(axis=-1)
+
+
+def maximum(x: np.ndarray) -> np.ndarray:
+    """Maximum."""
+    return x.max(axis=-1)
+
+
+def mean_abs_diff(x: np.ndarray) -> np.ndarray:
+    """Mean absolute first difference (per sample, same unit as the signal)."""
+    return np.abs(np.diff(x, axis=-1)).mean(axis=-1)
+
+
+STATISTICS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
+    "mean": mean, "std": std, "skewness": skewness, "kurtosis": kurtosis, "rms": rms,
+    "min": minimum, "max": maximum, "mean_abs_diff": mean_abs_diff,
+}
+
+
+def band_log_power(x: np.ndarray, rate_hz: float,
+                   bands_hz: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """Log10 of the mean power spectral density in frequency bands.
+
+    The window mean is removed and a Hann taper applied before the FFT (one periodogram per
+    window; the density is one-sided, unit^2/Hz).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``.
+    rate_hz : float
+        Sampling rate, Hz.
+    bands_hz : tuple of (low, high)
+        Bands ``[low, high)`` in Hz; a band holding no FFT bin gets the nearest bin.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels, n_bands)``, log10(unit^2/Hz).
+    """
+    n = x.shape[-1]
+    taper = np.hanning(n)
+    spec = np.fft.rfft((x - x.mean(axis=-1, keepdims=True)) * taper, axis=-1)
+    psd = (np.abs(spec) ** 2) / (rate_hz * (taper ** 2).sum())
+    psd[..., 1:] *= 2.0
+    freqs = np.fft.rfftfreq(n, d=1.0 / rate_hz)
+    out = np.empty(x.shape[:-1] + (len(bands_hz),))
+    for k, (lo, hi) in enumerate(bands_hz):
+        sel = (freqs >= lo) & (freqs < hi)
+        if not sel.any():
+            sel = np.abs(freqs - 0.5 * (lo + hi)) == np.abs(freqs - 0.5 * (lo + hi)).min()
+        out[..., k] = np.log10(psd[..., sel].mean(axis=-1) + _EPS)
+    return out
+
+
+def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> np.ndarray:
+    """Mean current per unit mean wheel speed, A/(m/s).
+
+    ``mean(current) / max(mean(|speed|), min_speed_m_s)``: the floor keeps near-standstill
+    windows finite.
+
+    Parameters
+    ----------
+    current, speed : numpy.ndarray
+        ``(n_windows, n_samples)`` in A and m/s.
+    """
+    return current.mean(axis=-1) / np.maximum(np.abs(speed).mean(axis=-1), min_speed_m_s)
+
+
+def regression_gain(y: np.ndarray, x: np.ndarray, floor: float) -> np.ndarray:
+    """Least-squares gain of ``y`` on ``x`` through the origin, ridge-floored.
+
+    ``sum(x y) / (sum(x^2) + n floor^2)``; with ``y`` the gyro yaw rate and ``x`` the ideal
+    differential-drive yaw rate (v_R - v_L)/B this is 1/chi, the inverse ICR expansion factor
+    of the skid-steer (see ``000_f24201ff985633bf.txt`` eqs. 1-5). The floor (same unit as
+    ``x``) pulls the gain to 0 when the robot barely turns.
+    """
+    n = x.shape[-1]
+    return (x * y).sum(axis=-1) / ((x ** 2).sum(axis=-1) + n * floor ** 2)

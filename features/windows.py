@@ -1,0 +1,302 @@
+"""Windowing: cut aligned runs into fixed-length windows carrying their run id and label.
+
+Arrays follow ``STYLE.md``: windows are ``(n_windows, n_channels, n_window_samples)``, the
+layout ``torch.nn.Conv1d`` expects. Window length and hop are in seconds. The thesis cuts 2 s
+non-overlapping windows in steady motion (``001_59da564c4b2d6a48.txt`` ch. 8.1); the BorealTC
+and Vulpi papers cut each run into 5 s partitions and slide 1.7 s windows by 0.1 s inside each
+partition (``partition_s``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import ConfigError
+from terrain.io.align import DEFAULT_RATE_HZ, align_streams
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+
+#: Husky A200 track width B, m (public husky description, ``husky.urdf.xacro``
+#: ``wheel_separation``), used by the wheel-odometry yaw rate channel.
+HUSKY_TRACK_M = 0.5708
+
+#: Derived wheel channels, each a function of the aligned frame (SI units):
+#: ``vel_mean`` = (vel_l + vel_r)/2 [m/s], ``vel_diff`` = vel_r - vel_l [m/s],
+#: ``cur_sum`` = cur_l + cur_r [A], ``cur_diff`` = cur_r - cur_l [A],
+#: ``yaw_rate_wheels`` = (vel_r - vel_l)/B [rad/s] (ideal differential drive).
+DERIVED_WHEEL_CHANNELS = ("vel_mean", "vel_diff", "cur_sum", "cur_diff", "yaw_rate_wheels")
+SIGNAL_SETS: dict[str, tuple[str, ...]] = {
+    "imu": IMU_CHANNELS,
+    "wheels": WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS,
+    "all": IMU_CHANNELS + WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS,
+}
+ALL_CHANNELS = SIGNAL_SETS["all"]
+
+
+def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
+    """Channel names of a signal set (``imu``, ``wheels``, ``all``) or of a list of channels.
+
+    A list may mix set names and channel names (``["imu", "cur_diff"]``).
+
+    Raises
+    ------
+    ConfigError
+        Unknown set or channel name (the message lists the valid ones).
+    """
+    items = [signals] if isinstance(signals, str) else list(signals)
+    out: list[str] = []
+    for item in items:
+        names = SIGNAL_SETS.get(item, (item,))
+        for name in names:
+            if name not in ALL_CHANNELS:
+                raise ConfigError(f"unknown signal {name!r}; valid sets {list(SIGNAL_SETS)} "
+                                  f"or channels {list(ALL_CHANNELS)}")
+            if name not in out:
+                out.append(name)
+    if not out:
+        raise ConfigError("empty signal selection")
+    return tuple(out)
+
+
+def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) -> pd.DataFrame:
+    """Add :data:`DERIVED_WHEEL_CHANNELS` to an aligned frame that has wheel channels.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Aligned frame with ``vel_l, vel_r, cur_l, cur_r`` (m/s, A).
+    track_m : float
+        Track width B of the skid-steer vehicle, m.
+    """
+    if not set(WHEEL_CHANNELS) <= set(frame.columns):
+        return frame
+    out = frame.copy()
+    out["vel_mean"] = 0.5 * (frame["vel_l"] + frame["vel_r"])
+    out["vel_diff"] = frame["vel_r"] - frame["vel_l"]
+    out["cur_sum"] = frame["cur_l"] + frame["cur_r"]
+    out["cur_diff"] = frame["cur_r"] - frame["cur_l"]
+    out["yaw_rate_wheels"] = out["vel_diff"] / track_m
+    return out
+
+
+@dataclass(frozen=True)
+class WindowConfig:
+    """How runs are cut into windows.
+
+    Parameters
+    ----------
+    window_s : float
+        Window length, s (> 0).
+    hop_s : float or None
+        Step between window starts, s; ``None`` means ``window_s`` (no overlap).
+    rate_hz : float
+        Rate of the aligned clock, Hz (see :mod:`terrain.io.align`).
+    partition_s : float or None
+        If set, each run is first cut into non-overlapping partitions of this length and
+        windows never cross a partition boundary (the papers' protocol uses 5 s).
+    steady_only : bool
+        Keep only windows in steady motion: mean |vel_mean| >= ``min_speed_m_s`` and
+        std(vel_mean) <= ``max_speed_std_m_s`` (thesis ch. 8.1 uses steady-motion windows).
+    min_speed_m_s, max_speed_std_m_s : float
+        Steady-motion thresholds, m/s.
+    """
+
+    window_s: float = 2.0
+    hop_s: float | None = None
+    rate_hz: float = DEFAULT_RATE_HZ
+    partition_s: float | None = None
+    steady_only: bool = False
+    min_speed_m_s: float = 0.1
+    max_speed_std_m_s: float = 0.1
+
+    def __post_init__(self) -> None:
+        if not self.window_s > 0 or not self.rate_hz > 0:
+            raise ConfigError("window_s and rate_hz must be > 0")
+        if self.hop_s is not None and not self.hop_s > 0:
+            raise ConfigError("hop_s must be > 0")
+        if self.partition_s is not None and self.partition_s < self.window_s:
+            raise ConfigError("partition_s must be >= window_s")
+        if round(self.window_s * self.rate_hz) < 4:
+            raise ConfigError("a window must hold at least 4 samples")
+
+    @property
+    def n_samples(self) -> int:
+        """Samples per window."""
+        return int(round(self.window_s * self.rate_hz))
+
+    @property
+    def hop_samples(self) -> int:
+        """Samples between window starts."""
+        return max(1, int(round((self.hop_s or self.window_s) * self.rate_hz)))
+
+
+@dataclass
+class WindowSet:
+    """Windows of many runs, with their provenance.
+
+    Attributes
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, SI units of each channel.
+    channels : tuple of str
+        Channel names, length ``n_channels``.
+    run_ids : numpy.ndarray
+        ``(n_windows,)`` run id of each window.
+    groups : numpy.ndarray
+        ``(n_windows,)`` split unit: the run id, or ``<run_id>#<k>`` for partition ``k``.
+    labels : numpy.ndarray
+        ``(n_windows,)`` terrain label (``None`` for unlabelled runs).
+    t_start_s, t_end_s : numpy.ndarray
+        ``(n_windows,)`` window bounds on the run's clock, s.
+    rate_hz : float
+        Sampling rate of the windows, Hz.
+    counts : dict
+        Book-keeping: windows kept, dropped for gaps or unsteady motion, runs skipped for a
+        missing stream (with their ids).
+    """
+
+    X: np.ndarray
+    channels: tuple[str, ...]
+    run_ids: np.ndarray
+    groups: np.ndarray
+    labels: np.ndarray
+    t_start_s: np.ndarray
+    t_end_s: np.ndarray
+    rate_hz: float
+    counts: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(self.X.shape[0])
+
+    def subset(self, mask: np.ndarray) -> "WindowSet":
+        """Windows selected by a boolean mask or index array."""
+        return WindowSet(self.X[mask], self.channels, self.run_ids[mask], self.groups[mask],
+                         self.labels[mask], self.t_start_s[mask], self.t_end_s[mask],
+                         self.rate_hz, dict(self.counts))
+
+
+def required_streams(channels: Iterable[str]) -> tuple[str, ...]:
+    """Streams a channel selection needs (``imu`` and/or ``wheels``)."""
+    chans = set(channels)
+    need = []
+    if chans & set(IMU_CHANNELS):
+        need.append("imu")
+    if chans - set(IMU_CHANNELS):
+        need.append("wheels")
+    return tuple(need)
+
+
+def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowConfig
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Cut one aligned frame into windows.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Aligned frame (``t_s`` + channels) at ``config.rate_hz``.
+    channels : sequence of str
+        Channels to keep, in order.
+    config : WindowConfig
+
+    Returns
+    -------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``.
+    t_start_s, t_end_s : numpy.ndarray
+        ``(n_windows,)``; ``t_end_s`` is the time of the last sample plus one period.
+    partition : numpy.ndarray
+        ``(n_windows,)`` partition index (0 when ``partition_s`` is None).
+    counts : dict
+        ``dropped_gap``, ``dropped_unsteady``.
+    """
+    n, hop = config.n_samples, config.hop_samples
+    values = frame[list(channels)].to_numpy(dtype=float)
+    t = frame[TIME].to_numpy()
+    total = len(t)
+    if config.partition_s is None:
+        bounds = [(0, total)]
+    else:
+        p = int(round(config.partition_s * config.rate_hz))
+        bounds = [(s, s + p) for s in range(0, total - p + 1, p)]
+    starts, parts = [], []
+    for k, (a, b) in enumerate(bounds):
+        s = np.arange(a, b - n + 1, hop)
+        starts.append(s)
+        parts.append(np.full(s.size, k))
+    start = np.concatenate(starts) if starts else np.zeros(0, int)
+    part = np.concatenate(parts) if parts else np.zeros(0, int)
+    counts = {"dropped_gap": 0, "dropped_unsteady": 0}
+    if start.size == 0:
+        return (np.zeros((0, len(channels), n)), np.zeros(0), np.zeros(0), part, counts)
+    idx = start[:, None] + np.arange(n)[None, :]
+    X = values[idx].transpose(0, 2, 1)  # (n_windows, n_channels, n_samples)
+    keep = np.isfinite(X).all(axis=(1, 2))
+    counts["dropped_gap"] = int((~keep).sum())
+    if config.steady_only and {"vel_l", "vel_r"} <= set(frame.columns):
+        v = 0.5 * (frame["vel_l"].to_numpy() + frame["vel_r"].to_numpy())[idx]
+        steady = (np.abs(np.nanmean(v, axis=1)) >= config.min_speed_m_s) & \
+                 (np.nanstd(v, axis=1) <= config.max_speed_std_m_s)
+        counts["dropped_unsteady"] = int((keep & ~steady).sum())
+        keep &= steady
+    t0 = t[start]
+    return X[keep], t0[keep], t0[keep] + n / config.rate_hz, part[keep], counts
+
+
+def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
+                 config: WindowConfig = WindowConfig(), progress: bool = False) -> WindowSet:
+    """Align every run and cut it into windows.
+
+    Runs lacking a stream that the signal selection needs (e.g. the BorealTC runs without
+    an IMU file when ``signals`` includes IMU channels) are skipped and listed in
+    ``counts["skipped_runs"]``; nothing is dropped silently.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+    signals : str or sequence of str
+        See :func:`resolve_signals`.
+    config : WindowConfig
+    progress : bool
+        Show a progress bar (tqdm) over runs.
+
+    Returns
+    -------
+    WindowSet
+    """
+    channels = resolve_signals(signals)
+    need = required_streams(channels)
+    Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
+    counts = {"windows": 0, "dropped_gap": 0, "dropped_unsteady": 0, "skipped_runs": []}
+    iterator = runs
+    if progress:
+        from tqdm.auto import tqdm
+        iterator = tqdm(runs, desc="windowing runs", unit="run")
+    for run in iterator:
+        if any(s not in run.streams for s in need):
+            counts["skipped_runs"].append(run.run_id)
+            continue
+        frame = add_derived_channels(align_streams(run, need, config.rate_hz))
+        X, t0, t1, part, c = window_frame(frame, channels, config)
+        counts["dropped_gap"] += c["dropped_gap"]
+        counts["dropped_unsteady"] += c["dropped_unsteady"]
+        Xs.append(X)
+        t0s.append(t0)
+        t1s.append(t1)
+        rids.append(np.full(len(X), run.run_id, dtype=object))
+        labels.append(np.full(len(X), run.terrain, dtype=object))
+        if config.partition_s is None:
+            groups.append(np.full(len(X), run.run_id, dtype=object))
+        else:
+            groups.append(np.array([f"{run.run_id}#{k}" for k in part], dtype=object))
+    n = config.n_samples
+    cat = (lambda xs, empty: np.concatenate(xs) if xs else empty)
+    ws = WindowSet(
+        X=cat(Xs, np.zeros((0, len(channels), n))), channels=channels,
+        run_ids=cat(rids, np.zeros(0, object)), groups=cat(groups, np.zeros(0, object)),
+        labels=cat(labels, np.zeros(0, object)), t_start_s=cat(t0s, np.zeros(0)),
+        t_end_s=cat(t1s, np.zeros(0)), rate_hz=config.rate_hz, counts=counts)
+    counts["windows"] = len(ws)
+    return ws

@@ -1,0 +1,26 @@
+"""Regenerate data/ (Parquet + manifest) from runs in the original CSV layout.
+
+Example: terrain convert ../shared/data/borealtc --dataset borealtc --data-dir data
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from terrain.io.shipped import DATASETS, convert_dataset, default_data_dir
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain convert``."""
+    parser.add_argument("src", help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
+    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--data-dir", default=None,
+                        help="output data/ folder (default: the project's data/)")
+
+
+def main(args: argparse.Namespace) -> int:
+    """Convert and print a one-line summary."""
+    entry = convert_dataset(args.src, args.dataset, args.data_dir or default_data_dir())
+    print(f"{args.dataset}: {len(entry['runs'])} runs, terrains {entry['terrains']}, "
+          f"rates {entry['sampling_rates_hz']} Hz, without IMU: {entry['runs_without_imu']}")
+    return 0

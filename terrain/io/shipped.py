@@ -1,0 +1,257 @@
+"""The compact format of the runs shipped in ``data/``, its manifest and its converter.
+
+Layout (one folder per dataset)::
+
+    data/manifest.json              source, license, citation, rates, checksums, runs
+    data/<dataset>/imu.parquet      run_id, t_s, wx, wy, wz, ax, ay, az   (SI units)
+    data/<dataset>/wheels.parquet   run_id, t_s, vel_l, vel_r, cur_l, cur_r (SI units)
+
+Parquet (zstd) keeps the original float64 values bit for bit, so the converter
+:func:`convert_dataset` is loss-free: reading the CSV layout or the shipped copy gives equal
+:class:`~terrain.run.Run` objects (tested). The manifest records the SHA-256 of every source
+CSV and of every shipped file; :func:`verify_manifest` checks the latter.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import ConfigError, DataFormatError
+from terrain.io.measured import list_run_files, read_run
+from terrain.run import TIME, Run
+
+#: Citation and license of each dataset (from ``shared/data/README.md``).
+DATASET_INFO: dict[str, dict[str, str]] = {
+    "borealtc": {
+        "license": "CC0 1.0",
+        "citation": ("D. LaRocque, W. Guimont-Martin, D.-A. Duclos, P. Giguere, F. Pomerleau, "
+                     "\"Proprioception Is All You Need: Terrain Classification for Boreal "
+                     "Forests\", IROS 2024 (arXiv 2403.16877)"),
+        "source": "public repository norlab-ulaval/BorealTC, folder data/borealtc",
+        "robot": "Clearpath Husky A200",
+    },
+    "vulpi": {
+        "license": "as redistributed in norlab-ulaval/BorealTC (data/vulpi)",
+        "citation": ("F. Vulpi, A. Milella, R. Marani, G. Reina, \"Recurrent and convolutional "
+                     "neural networks for deep terrain classification by autonomous robots\", "
+                     "Journal of Terramechanics 96 (2021) 119-131"),
+        "source": ("converted from the authors' MATLAB files to CSV and redistributed in the "
+                   "public repository norlab-ulaval/BorealTC, folder data/vulpi"),
+        "robot": "Clearpath Husky A200",
+    },
+}
+DATASETS = tuple(DATASET_INFO)
+STREAM_FILES = {"imu": "imu.parquet", "wheels": "wheels.parquet"}
+RUN_ID = "run_id"
+
+
+def default_data_dir() -> Path:
+    """The shipped ``data/`` folder (``TERRAIN_DATA_DIR`` overrides it)."""
+    env = os.environ.get("TERRAIN_DATA_DIR")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[2] / "data"
+
+
+def sha256(path: str | Path) -> str:
+    """SHA-256 hex digest of a file."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict:
+    """Convert one dataset from the CSV layout to the shipped format.
+
+    Parameters
+    ----------
+    src : str or Path
+        Folder in the measured-run layout (``<src>/<TERRAIN>/{imu_XX,pro_XX}.csv``).
+    dataset : str
+        Dataset name (key of :data:`DATASET_INFO`).
+    data_dir : str or Path
+        Output ``data/`` folder; writes ``<data_dir>/<dataset>/*.parquet``.
+
+    Returns
+    -------
+    dict
+        The manifest entry of the dataset (also merged into ``<data_dir>/manifest.json``).
+
+    Raises
+    ------
+    ConfigError
+        Unknown dataset name.
+    DataFormatError
+        Any reader error in the source files.
+    """
+    if dataset not in DATASET_INFO:
+        raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
+    src, out = Path(src), Path(data_dir) / dataset
+    out.mkdir(parents=True, exist_ok=True)
+    frames: dict[str, list[pd.DataFrame]] = {s: [] for s in STREAM_FILES}
+    runs_info = []
+    for (folder, index), files in sorted(list_run_files(src).items()):
+        run_id = f"{dataset}/{folder}/{index}"
+        run = read_run(files, run_id, dataset, folder.upper())
+        for name in STREAM_FILES:
+            if name in run.streams:
+                frames[name].append(run.streams[name].assign(**{RUN_ID: run_id}))
+        runs_info.append({
+            "run_id": run_id, "terrain": run.terrain, "has_imu": run.has_imu,
+            "duration_s": round(run.duration_s, 3),
+            "samples": {k: len(v) for k, v in run.streams.items()},
+            "repaired": dict(run.meta["repaired"]), "gaps": run.meta["gaps"],
+            "source_files": {p.name: sha256(p) for k, p in files.items()},
+        })
+    shipped = {}
+    rates = {}
+    for name, parts in frames.items():
+        table = pd.concat(parts, ignore_index=True)
+        table = table[[RUN_ID] + [c for c in table.columns if c != RUN_ID]]
+        table[RUN_ID] = table[RUN_ID].astype("category")
+        path = out / STREAM_FILES[name]
+        table.to_parquet(path, compression="zstd", index=False)
+        shipped[f"{dataset}/{STREAM_FILES[name]}"] = sha256(path)
+        dt = table.groupby(RUN_ID, observed=True)[TIME].diff().median()
+        rates[name] = round(float(1.0 / dt), 3)
+    entry = {**DATASET_INFO[dataset], "sampling_rates_hz": rates,
+             "terrains": sorted({r["terrain"] for r in runs_info}),
+             "runs_without_imu": [r["run_id"] for r in runs_info if not r["has_imu"]],
+             "files": shipped, "runs": runs_info}
+    manifest_path = Path(data_dir) / "manifest.json"
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
+    manifest.setdefault("datasets", {})[dataset] = entry
+    manifest["format"] = __doc__.strip().splitlines()[0]
+    manifest_path.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    return entry
+
+
+def read_manifest(data_dir: str | Path | None = None) -> dict:
+    """Load ``data/manifest.json``.
+
+    Raises
+    ------
+    DataFormatError
+        If the manifest is missing.
+    """
+    path = Path(data_dir or default_data_dir()) / "manifest.json"
+    if not path.exists():
+        raise DataFormatError("manifest not found; regenerate data/ with `terrain convert`",
+                              path)
+    return json.loads(path.read_text())
+
+
+def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
+    """Check the SHA-256 of every shipped file against the manifest.
+
+    Returns
+    -------
+    list of str
+        Relative paths whose checksum differs or that are missing (empty when all match).
+    """
+    data_dir = Path(data_dir or default_data_dir())
+    bad = []
+    for entry in read_manifest(data_dir)["datasets"].values():
+        for rel, digest in entry["files"].items():
+            p = data_dir / rel
+            if not p.exists() or sha256(p) != digest:
+                bad.append(rel)
+    return bad
+
+
+def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
+    """Read one shipped dataset.
+
+    Parameters
+    ----------
+    dataset : str
+        ``borealtc`` or ``vulpi``.
+    data_dir : str or Path, optional
+        Defaults to :func:`default_data_dir`.
+
+    Returns
+    -------
+    list of Run
+        Sorted by run id; runs without an IMU recording have only a ``wheels`` stream.
+
+    Raises
+    ------
+    ConfigError
+        Unknown dataset.
+    DataFormatError
+        Missing files.
+    """
+    if dataset not in DATASET_INFO:
+        raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
+    data_dir = Path(data_dir or default_data_dir())
+    entry = read_manifest(data_dir)["datasets"].get(dataset)
+    if entry is None:
+        raise DataFormatError(f"dataset {dataset!r} not in manifest", data_dir / "manifest.json")
+    tables = {}
+    for name, fname in STREAM_FILES.items():
+        path = data_dir / dataset / fname
+        if not path.exists():
+            raise DataFormatError("shipped file missing", path)
+        table = pd.read_parquet(path)
+        tables[name] = {str(k): g.drop(columns=RUN_ID).reset_index(drop=True)
+                        for k, g in table.groupby(RUN_ID, observed=True, sort=False)}
+    runs = []
+    for info in entry["runs"]:
+        rid = info["run_id"]
+        streams = {n: t[rid] for n, t in tables.items() if rid in t}
+        runs.append(Run(run_id=rid, dataset=dataset, terrain=info["terrain"], streams=streams,
+                        vehicle="husky", source=f"{data_dir / dataset} ({entry['source']})",
+                        meta={"repaired": info["repaired"], "gaps": info["gaps"]}))
+    return runs
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """A named training set: which shipped datasets it pools, and its aligned clock rate.
+
+    ``rate_hz`` is the native IMU rate (100 Hz BorealTC, 50 Hz Vulpi; ``combined`` uses
+    100 Hz, Vulpi's IMU being interpolated, so BorealTC keeps its vibration band up to 50 Hz).
+    """
+
+    name: str
+    parts: tuple[str, ...]
+    rate_hz: float
+
+
+DATASET_SPECS = {
+    "borealtc": DatasetSpec("borealtc", ("borealtc",), 100.0),
+    "vulpi": DatasetSpec("vulpi", ("vulpi",), 50.0),
+    "combined": DatasetSpec("combined", ("borealtc", "vulpi"), 100.0),
+}
+
+
+def load_dataset(name: str, data_dir: str | Path | None = None) -> list[Run]:
+    """Load ``borealtc``, ``vulpi`` or ``combined`` (both pooled, 9 classes).
+
+    Raises
+    ------
+    ConfigError
+        Unknown name (the message lists the valid ones).
+    """
+    spec = DATASET_SPECS.get(name)
+    if spec is None:
+        raise ConfigError(f"unknown dataset {name!r}; valid: {list(DATASET_SPECS)}")
+    return [run for part in spec.parts for run in read_shipped(part, data_dir)]
+
+
+def runs_equal(a: Run, b: Run) -> bool:
+    """Whether two runs have the same id, label and bit-identical streams."""
+    if (a.run_id, a.terrain) != (b.run_id, b.terrain) or set(a.streams) != set(b.streams):
+        return False
+    return all(list(a.streams[k].columns) == list(b.streams[k].columns)
+               and np.array_equal(a.streams[k].to_numpy(), b.streams[k].to_numpy())
+               for k in a.streams)

@@ -1,0 +1,1 @@
+"""Terrain classifiers (SVM, CNN), run-grouped cross-validation and metrics."""

@@ -1,0 +1,213 @@
+"""Cross-validation protocols for terrain classification.
+
+* ``grouped`` (the headline): ``StratifiedGroupKFold`` grouped by run, so no window of a
+  test run, nor an overlapping neighbour of it, is ever in training. Scaling, class
+  balancing and the nested hyperparameter search see training runs only.
+* ``loro``: leave one run out.
+* ``paper``: the published protocol of BorealTC (LaRocque et al., IROS 2024) and Vulpi et al.
+  (J. Terramechanics 2021): each run cut into non-overlapping 5 s partitions,
+  ``StratifiedKFold(5, shuffle=True, random_state=21)`` over partitions, 1.7 s windows sliding
+  by 0.1 s inside each partition. Partitions of one run land on both sides of a split, so it
+  leaks run conditions into the test folds: reported as a secondary line, never the headline.
+
+A class with a single run (Vulpi DIRT_ROAD) cannot be tested on an unseen run. With
+``single_run_blocks=k`` its run is cut into ``k`` contiguous time blocks used as groups (no
+window crosses a block boundary); metrics of that class then measure generalisation to an
+unseen stretch of the same run, which the report says.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterator, Sequence
+
+import numpy as np
+import pandas as pd
+from sklearn.base import clone
+from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
+
+from terrain.errors import ConfigError
+from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
+
+PROTOCOLS = ("grouped", "loro", "paper")
+PAPER_RANDOM_STATE = 21
+
+
+def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: np.ndarray,
+                             n_blocks: int) -> tuple[np.ndarray, list[str]]:
+    """Cut the only run of single-run classes into contiguous time blocks.
+
+    Parameters
+    ----------
+    labels, groups, t_start_s : numpy.ndarray
+        ``(n_windows,)`` label, group (run id) and start time (s) of each window.
+    n_blocks : int
+        Blocks per single-run class (>= 2).
+
+    Returns
+    -------
+    groups : numpy.ndarray
+        ``(n_windows,)`` new groups: ``<run>@block<k>`` for the split classes.
+    split_classes : list of str
+        Classes that were split.
+    """
+    groups = groups.astype(object).copy()
+    split = []
+    for c in np.unique(labels):
+        sel = labels == c
+        runs = np.unique(groups[sel])
+        if len(runs) != 1:
+            continue
+        split.append(str(c))
+        idx = np.flatnonzero(sel)
+        order = idx[np.argsort(t_start_s[idx], kind="stable")]
+        for k, chunk in enumerate(np.array_split(order, n_blocks)):
+            groups[chunk] = f"{runs[0]}@block{k}"
+    return groups, split
+
+
+def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int,
+                n_splits: int = 5) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Train/test window indices of one protocol.
+
+    Parameters
+    ----------
+    protocol : {"grouped", "loro", "paper"}
+    labels, groups : numpy.ndarray
+        ``(n_windows,)``; for ``paper`` the groups are the 5 s partitions.
+    seed : int
+        Shuffling seed (``paper`` uses ``21 + seed`` so seed 0 is the published split).
+    n_splits : int
+        Folds (not used by ``loro``).
+
+    Raises
+    ------
+    ConfigError
+        Unknown protocol.
+    """
+    if protocol == "grouped":
+        yield from StratifiedGroupKFold(n_splits, shuffle=True, random_state=seed).split(
+            labels, labels, groups)
+    elif protocol == "loro":
+        yield from LeaveOneGroupOut().split(labels, labels, groups)
+    elif protocol == "paper":
+        units, first = np.unique(groups, return_index=True)
+        unit_labels = labels[first]
+        skf = StratifiedKFold(n_splits, shuffle=True, random_state=PAPER_RANDOM_STATE + seed)
+        position = {u: i for i, u in enumerate(units)}
+        unit_of = np.array([position[g] for g in groups])
+        for tr_u, te_u in skf.split(units, unit_labels):
+            test = np.isin(unit_of, te_u)
+            yield np.flatnonzero(~test), np.flatnonzero(test)
+    else:
+        raise ConfigError(f"unknown protocol {protocol!r}; valid: {list(PROTOCOLS)}")
+
+
+@dataclass
+class CVReport:
+    """Result of a cross-validation.
+
+    Attributes
+    ----------
+    classes : list of str
+    folds : pandas.DataFrame
+        One row per (seed, fold): window metrics, ``run_majority_accuracy``, ``n_test``,
+        ``fit_s`` and the chosen hyperparameters when a search ran.
+    predictions : pandas.DataFrame
+        One row per test window and seed: ``seed, fold, run, group, t_start_s, t_end_s,
+        true, predicted``.
+    confusion : pandas.DataFrame
+        Counts summed over seeds (rows true, columns predicted).
+    pooled : pandas.DataFrame
+        Metrics of the pooled out-of-fold predictions, one row per seed.
+    notes : list of str
+        What was repaired, split or skipped.
+    """
+
+    classes: list[str]
+    folds: pd.DataFrame
+    predictions: pd.DataFrame
+    confusion: pd.DataFrame
+    pooled: pd.DataFrame
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict[str, dict[str, float]]:
+        """Mean, std, min and max over folds (all seeds) of every metric."""
+        cols = [c for c in self.folds.columns if c not in ("seed", "fold")
+                and self.folds[c].dtype.kind == "f"]
+        return {c: {"mean": float(self.folds[c].mean()), "std": float(self.folds[c].std(ddof=0)),
+                    "min": float(self.folds[c].min()), "max": float(self.folds[c].max())}
+                for c in cols}
+
+
+def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y: np.ndarray,
+                   groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.ndarray,
+                   t_end_s: np.ndarray, protocol: str = "grouped",
+                   seeds: Sequence[int] = (0, 1, 2), n_splits: int = 5,
+                   search: bool = False, progress: bool = False) -> CVReport:
+    """Cross-validate a classifier on window features.
+
+    Parameters
+    ----------
+    estimator_factory : callable
+        ``seed -> estimator``; a fresh estimator per fold (``clone`` is applied too). With
+        ``search=True`` it must return a search object whose ``fit`` accepts ``groups``.
+    X : numpy.ndarray
+        ``(n_windows, n_features)`` (or any array the estimator accepts, indexed on axis 0).
+    y, groups, run_ids, t_start_s, t_end_s : numpy.ndarray
+        ``(n_windows,)`` label, split unit, run id and window bounds (s).
+    protocol : {"grouped", "loro", "paper"}
+    seeds : sequence of int
+    n_splits : int
+    search : bool
+        Pass the training groups to ``fit`` (nested, grouped hyperparameter search).
+    progress : bool
+        Show a progress bar over folds.
+
+    Returns
+    -------
+    CVReport
+    """
+    y = np.asarray(y).astype(str)
+    classes = sorted(np.unique(y))
+    rows, preds = [], []
+    total = len(seeds) * (len(np.unique(groups)) if protocol == "loro" else n_splits)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+        bar = tqdm(total=total, desc=f"cv ({protocol})", unit="fold")
+    for seed in seeds:
+        for fold, (train, test) in enumerate(iter_splits(protocol, y, groups, seed, n_splits)):
+            if np.intersect1d(groups[train], groups[test]).size:
+                raise RuntimeError("a split unit is on both sides of a split")  # invariant
+            est = clone(estimator_factory(seed))
+            t0 = time.perf_counter()
+            if search:
+                est.fit(X[train], y[train], groups=groups[train])
+            else:
+                est.fit(X[train], y[train])
+            fit_s = time.perf_counter() - t0
+            p = np.asarray(est.predict(X[test])).astype(str)
+            m = window_metrics(y[test], p, classes)
+            m["run_majority_accuracy"] = run_majority_accuracy(y[test], p, groups[test])
+            row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)), "fit_s": fit_s}
+            if search and hasattr(est, "best_params_"):
+                row.update({f"best_{k}": v for k, v in est.best_params_.items()})
+            rows.append(row)
+            preds.append(pd.DataFrame({
+                "seed": seed, "fold": fold, "run": run_ids[test], "group": groups[test],
+                "t_start_s": t_start_s[test], "t_end_s": t_end_s[test], "true": y[test],
+                "predicted": p}))
+            if bar is not None:
+                bar.update()
+    if bar is not None:
+        bar.close()
+    predictions = pd.concat(preds, ignore_index=True)
+    pooled = []
+    for seed, g in predictions.groupby("seed"):
+        m = window_metrics(g["true"], g["predicted"], classes)
+        m["run_majority_accuracy"] = run_majority_accuracy(g["true"], g["predicted"], g["group"])
+        pooled.append({"seed": seed, **m})
+    cm = confusion(predictions["true"], predictions["predicted"], classes)
+    return CVReport(classes, pd.DataFrame(rows), predictions, cm, pd.DataFrame(pooled))

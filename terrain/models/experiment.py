@@ -1,0 +1,211 @@
+"""One terrain-classification experiment: shipped dataset -> windows -> features -> CV.
+
+The pipelines (``terrain cv``, ``terrain train``) only parse arguments, call these functions
+and log the results; the composition itself lives here so it can be tested and reused.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from sklearn.pipeline import Pipeline
+
+from features.transformers import WindowFeatures
+from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
+from terrain.errors import ConfigError
+from terrain.io.shipped import DATASET_SPECS, load_dataset
+from terrain.models.cv import PROTOCOLS, CVReport, cross_validate, split_single_run_classes
+from terrain.models.svm import SVMConfig, make_search, make_svm
+from terrain.run import Run
+
+#: Window settings of the papers' protocol (BorealTC, Vulpi): 1.7 s windows, 0.1 s hop,
+#: inside non-overlapping 5 s partitions.
+PAPER_WINDOW = dict(window_s=1.7, hop_s=0.1, partition_s=5.0)
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """Everything that defines a classification experiment.
+
+    Parameters
+    ----------
+    dataset : {"borealtc", "vulpi", "combined"}
+    signals : tuple of str
+        Signal sets or channels (see :func:`features.windows.resolve_signals`).
+    window_s : float
+        Window length, s (the ``paper`` protocol fixes 1.7 s).
+    hop_s : float or None
+        Hop, s; ``None`` = non-overlapping (``paper`` fixes 0.1 s).
+    rate_hz : float or None
+        Aligned clock rate, Hz; ``None`` = the dataset's IMU rate.
+    steady_only : bool
+        Keep steady-motion windows only.
+    protocol : {"grouped", "loro", "paper"}
+    seeds : tuple of int
+    n_splits : int
+    search : bool
+        Nested grouped grid search of C and gamma inside each training fold.
+    single_run_blocks : int
+        Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
+    svm : SVMConfig
+    """
+
+    dataset: str = "borealtc"
+    signals: tuple[str, ...] = ("all",)
+    window_s: float = 2.0
+    hop_s: float | None = None
+    rate_hz: float | None = None
+    steady_only: bool = False
+    protocol: str = "grouped"
+    seeds: tuple[int, ...] = (0, 1, 2)
+    n_splits: int = 5
+    search: bool = False
+    single_run_blocks: int = 5
+    svm: SVMConfig = field(default_factory=SVMConfig)
+
+    def __post_init__(self) -> None:
+        if self.dataset not in DATASET_SPECS:
+            raise ConfigError(f"unknown dataset {self.dataset!r}; valid: {list(DATASET_SPECS)}")
+        if self.protocol not in PROTOCOLS:
+            raise ConfigError(f"unknown protocol {self.protocol!r}; valid: {list(PROTOCOLS)}")
+        resolve_signals(self.signals)
+
+    def window_config(self) -> WindowConfig:
+        """Window settings implied by the protocol and the dataset."""
+        rate = self.rate_hz or DATASET_SPECS[self.dataset].rate_hz
+        if self.protocol == "paper":
+            return WindowConfig(rate_hz=rate, steady_only=self.steady_only, **PAPER_WINDOW)
+        return WindowConfig(window_s=self.window_s, hop_s=self.hop_s, rate_hz=rate,
+                            steady_only=self.steady_only)
+
+    def as_params(self) -> dict:
+        """Flat parameter dict for MLflow."""
+        d = asdict(self)
+        svm = d.pop("svm")
+        d.update({f"svm_{k}": v for k, v in svm.items()})
+        d["signals"] = ",".join(self.signals)
+        d["seeds"] = ",".join(map(str, self.seeds))
+        w = self.window_config()
+        d.update(window_s=w.window_s, hop_s=w.hop_s or w.window_s, rate_hz=w.rate_hz,
+                 partition_s=w.partition_s)
+        return d
+
+
+def feature_extractor(windows: WindowSet) -> WindowFeatures:
+    """The feature transformer matching a window set (fitted: it is stateless)."""
+    return WindowFeatures(channels=windows.channels, rate_hz=windows.rate_hz).fit(windows.X)
+
+
+def inference_pipeline(windows: WindowSet, svm: SVMConfig, random_state: int = 0) -> Pipeline:
+    """Unfitted ``features -> scaler -> SVC`` pipeline taking raw windows as input."""
+    model = make_svm(svm, random_state)
+    return Pipeline([("features", WindowFeatures(channels=windows.channels,
+                                                 rate_hz=windows.rate_hz))] + model.steps)
+
+
+@dataclass
+class ExperimentResult:
+    """What :func:`run_cv` produced: the report, the windows' book-keeping and timings."""
+
+    config: ExperimentConfig
+    report: CVReport
+    n_windows: int
+    n_runs: int
+    counts: dict
+    feature_names: list[str]
+    timings_s: dict[str, float]
+
+
+def load_windows(config: ExperimentConfig, runs: Sequence[Run] | None = None,
+                 data_dir: str | Path | None = None, progress: bool = False) -> WindowSet:
+    """Load the dataset (unless ``runs`` is given) and cut it into windows."""
+    runs = load_dataset(config.dataset, data_dir) if runs is None else runs
+    return make_windows(runs, config.signals, config.window_config(), progress=progress)
+
+
+def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
+           data_dir: str | Path | None = None, progress: bool = False,
+           n_jobs: int | None = None) -> ExperimentResult:
+    """Cross-validate the SVM on a dataset with the configured protocol.
+
+    Features are computed once for all windows (the extractor is stateless, so this leaks
+    nothing); the scaler, class weights and the optional search are fitted per training
+    fold.
+
+    Raises
+    ------
+    ConfigError
+        If the selection leaves no window.
+    """
+    t0 = time.perf_counter()
+    ws = load_windows(config, runs, data_dir, progress)
+    t1 = time.perf_counter()
+    if len(ws) == 0:
+        raise ConfigError("no window left for this dataset, signal set and window")
+    fx = feature_extractor(ws)
+    F = fx.transform(ws.X)
+    t2 = time.perf_counter()
+    labels = ws.labels.astype(str)
+    notes = []
+    groups = ws.groups
+    if config.protocol != "paper":
+        groups, split = split_single_run_classes(labels, ws.groups, ws.t_start_s,
+                                                 config.single_run_blocks)
+        notes += [f"class {c} has a single run: cut into {config.single_run_blocks} contiguous "
+                  f"time blocks used as groups (its scores measure an unseen stretch of the "
+                  f"same run, not an unseen run)" for c in split]
+    if ws.counts["skipped_runs"]:
+        notes.append(f"{len(ws.counts['skipped_runs'])} run(s) skipped for a missing stream: "
+                     f"{ws.counts['skipped_runs']}")
+    for key in ("dropped_gap", "dropped_unsteady"):
+        if ws.counts[key]:
+            notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
+    if config.search:
+        factory = (lambda seed: make_search(config.svm, seed, n_jobs=n_jobs))
+    else:
+        factory = (lambda seed: make_svm(config.svm, seed))
+    report = cross_validate(factory, F, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s,
+                            config.protocol, config.seeds, config.n_splits,
+                            search=config.search, progress=progress)
+    report.notes.extend(notes)
+    t3 = time.perf_counter()
+    return ExperimentResult(config, report, len(ws), len(np.unique(ws.run_ids)), ws.counts,
+                            list(fx.get_feature_names_out()),
+                            {"windowing_s": t1 - t0, "features_s": t2 - t1, "cv_s": t3 - t2})
+
+
+def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
+                 data_dir: str | Path | None = None, progress: bool = False,
+                 n_jobs: int | None = None) -> tuple[Pipeline, WindowSet, dict]:
+    """Fit the whole inference pipeline (features + scaler + SVC) on every labelled window.
+
+    With ``config.search`` the hyperparameters come from a grouped grid search over all runs
+    first. The SVC is fitted with Platt scaling so the served model gives probabilities.
+
+    Returns
+    -------
+    pipeline : sklearn.pipeline.Pipeline
+        Input: windows ``(n, n_channels, n_samples)``; ``predict`` gives terrain labels.
+    windows : WindowSet
+        The training windows.
+    info : dict
+        Chosen hyperparameters.
+    """
+    ws = load_windows(config, runs, data_dir, progress)
+    labels = ws.labels.astype(str)
+    svm = replace(config.svm, probability=True)
+    info: dict = {}
+    if config.search:
+        fx = feature_extractor(ws)
+        search = make_search(config.svm, config.seeds[0], n_jobs=n_jobs)
+        search.fit(fx.transform(ws.X), labels, groups=ws.groups)
+        best = search.best_params_
+        svm = replace(svm, C=best["svc__C"], gamma=best["svc__gamma"])
+        info.update({"best_C": best["svc__C"], "best_gamma": best["svc__gamma"]})
+    pipe = inference_pipeline(ws, svm, config.seeds[0])
+    pipe.fit(ws.X, labels)
+    return pipe, ws, info

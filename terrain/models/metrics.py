@@ -1,0 +1,87 @@
+"""Classification metrics for terrain windows and runs."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+from sklearn.metrics import (accuracy_score, balanced_accuracy_score, confusion_matrix,
+                             f1_score, recall_score)
+
+
+def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
+                   classes: Sequence[str]) -> dict[str, float]:
+    """Window-level metrics.
+
+    Returns
+    -------
+    dict
+        ``accuracy``, ``balanced_accuracy``, ``macro_f1`` (over ``classes``, a class absent
+        from both ``y_true`` and ``y_pred`` counts as 0 only if it is in ``y_true``) and
+        ``recall_<CLASS>`` for each class present in ``y_true``.
+    """
+    y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
+    present = [c for c in classes if (y_true == c).any()]
+    out = {
+        "accuracy": float(accuracy_score(y_true, y_pred)),
+        "balanced_accuracy": float(balanced_accuracy_score(y_true, y_pred)),
+        "macro_f1": float(f1_score(y_true, y_pred, labels=present, average="macro",
+                                   zero_division=0)),
+    }
+    recalls = recall_score(y_true, y_pred, labels=present, average=None, zero_division=0)
+    out.update({f"recall_{c}": float(r) for c, r in zip(present, recalls)})
+    return out
+
+
+def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
+    """Most frequent predicted label per group (ties: alphabetical first)."""
+    frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
+    counts = frame.groupby(["g", "p"]).size().reset_index(name="n")
+    counts = counts.sort_values(["g", "n", "p"], ascending=[True, False, True])
+    return counts.drop_duplicates("g").set_index("g")["p"]
+
+
+def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
+                          groups: Sequence[str]) -> float:
+    """Fraction of runs (groups) whose majority-vote prediction is their true label."""
+    truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
+    truth = truth[~truth.index.duplicated()]
+    vote = majority_vote(y_pred, groups)
+    return float((vote == truth.loc[vote.index]).mean())
+
+
+def confusion(y_true: Sequence[str], y_pred: Sequence[str],
+              classes: Sequence[str]) -> pd.DataFrame:
+    """Confusion matrix as a frame (rows: true class, columns: predicted class, counts)."""
+    cm = confusion_matrix(y_true, y_pred, labels=list(classes))
+    return pd.DataFrame(cm, index=pd.Index(classes, name="true"),
+                        columns=pd.Index(classes, name="predicted"))
+
+
+def plot_confusion(cm: pd.DataFrame, title: str = ""):
+    """Row-normalised confusion matrix as a matplotlib figure (counts in the cells).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    counts = cm.to_numpy()
+    norm = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+    fig, ax = plt.subplots(figsize=(1.2 * len(cm) + 2, 1.1 * len(cm) + 1.5))
+    ax.imshow(norm, cmap="Blues", vmin=0, vmax=1)
+    ax.set_xticks(range(len(cm.columns)), cm.columns, rotation=45, ha="right")
+    ax.set_yticks(range(len(cm.index)), cm.index)
+    ax.set_xlabel("predicted")
+    ax.set_ylabel("true")
+    for i in range(counts.shape[0]):
+        for j in range(counts.shape[1]):
+            ax.text(j, i, f"{counts[i, j]}\n{norm[i, j]:.2f}", ha="center", va="center",
+                    fontsize=7, color="white" if norm[i, j] > 0.5 else "black")
+    ax.set_title(title)
+    fig.tight_layout()
+    return fig
