@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
+from scipy import signal
 
 _EPS = 1e-12
 
@@ -71,7 +72,7 @@ def band_log_power(x: np.ndarray, rate_hz: float,
                    bands_hz: tuple[tuple[float, float], ...]) -> np.ndarray:
     """Log10 of the mean power spectral density in frequency bands.
 
-    The window mean is removed and a Hann taper applied before the FFT (one periodogram per
+    The window mean is removed and a periodic Hann taper applied before the FFT (one periodogram per
     window; the density is one-sided, unit^2/Hz).
 
     Parameters
@@ -89,7 +90,7 @@ def band_log_power(x: np.ndarray, rate_hz: float,
         ``(n_windows, n_channels, n_bands)``, log10(unit^2/Hz).
     """
     n = x.shape[-1]
-    taper = np.hanning(n)
+    taper = signal.get_window("hann", n)  # periodic Hann, as scipy.signal.periodogram
     spec = np.fft.rfft((x - x.mean(axis=-1, keepdims=True)) * taper, axis=-1)
     psd = (np.abs(spec) ** 2) / (rate_hz * (taper ** 2).sum())
     psd[..., 1:] *= 2.0

@@ -57,6 +57,9 @@ def result_dict(result: ExperimentResult) -> dict:
         "config": result.config.as_params(),
         "n_windows": result.n_windows, "n_runs": result.n_runs, "classes": rep.classes,
         "metrics": rep.summary(),
+        "pooled": {k: {"mean": float(rep.pooled[k].mean()),
+                       "std": float(rep.pooled[k].std(ddof=0))}
+                   for k in rep.pooled.columns if k != "seed"},
         "pooled_by_seed": rep.pooled.to_dict(orient="records"),
         "confusion": {"labels": rep.classes, "counts": rep.confusion.to_numpy().tolist()},
         "notes": rep.notes, "timings_s": result.timings_s,
@@ -74,6 +77,7 @@ def main(args: argparse.Namespace) -> int:
         summary = rep.summary()
         metrics = {f"{k}_mean": v["mean"] for k, v in summary.items()}
         metrics.update({f"{k}_std": v["std"] for k, v in summary.items()})
+        metrics.update({f"{k}_pooled": float(rep.pooled[k].mean()) for k in HEADLINE})
         metrics.update({f"time_{k}": v for k, v in result.timings_s.items()})
         metrics.update(n_windows=result.n_windows, n_runs=result.n_runs)
         run.log_metrics(metrics)
@@ -87,10 +91,13 @@ def main(args: argparse.Namespace) -> int:
     line = "secondary (leaky) protocol" if config.protocol == "paper" else "headline"
     print(f"{config.dataset} / {config.protocol} ({line}) / signals {','.join(config.signals)}: "
           f"{result.n_windows} windows from {result.n_runs} runs, {len(rep.classes)} classes")
+    pooled = rep.pooled
+    print(f"  {'metric':24s} {'pooled out-of-fold':>22s}   {'per fold':>22s}")
     for k in HEADLINE:
         s = summary[k]
-        print(f"  {k:24s} {s['mean']:.3f} +- {s['std']:.3f} (folds x seeds; "
-              f"min {s['min']:.3f}, max {s['max']:.3f})")
+        print(f"  {k:24s} {pooled[k].mean():.3f} +- {pooled[k].std(ddof=0):.3f} "
+              f"({len(pooled)} seeds)   {s['mean']:.3f} +- {s['std']:.3f} "
+              f"(min {s['min']:.3f}, max {s['max']:.3f})")
     recalls = ", ".join(f"{k[7:]} {v['mean']:.2f}" for k, v in summary.items()
                         if k.startswith("recall_"))
     print(f"  per-class recall: {recalls}")

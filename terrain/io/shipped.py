@@ -210,7 +210,10 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         streams = {n: t[rid] for n, t in tables.items() if rid in t}
         runs.append(Run(run_id=rid, dataset=dataset, terrain=info["terrain"], streams=streams,
                         vehicle="husky", source=f"{data_dir / dataset} ({entry['source']})",
-                        meta={"repaired": info["repaired"], "gaps": info["gaps"]}))
+                        meta={"repaired": info["repaired"],
+                              # JSON has no tuples: restore the reader's (t_start_s, t_end_s)
+                              "gaps": {k: [tuple(g) for g in v]
+                                       for k, v in info["gaps"].items()}}))
     return runs
 
 

@@ -1,0 +1,43 @@
+"""Benchmark: simulate 10 minutes of each vehicle with every sensor at its rate.
+
+Prints seconds per simulated minute and the real-time factor, and logs them to MLflow
+(experiment ``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from terrain.sim import SimConfig, simulate
+from terrain.tracking import tracked_run
+
+
+def main() -> int:
+    """Run the benchmark; returns 0."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--minutes", type=float, default=10.0)
+    parser.add_argument("--no-mlflow", action="store_true")
+    args = parser.parse_args()
+    duration = 60.0 * args.minutes
+    metrics = {}
+    for vehicle in ("husky", "agrimaro", "tracked"):
+        cfg = SimConfig(vehicle=vehicle, terrains=("ASPHALT", "GRASS"), scenario="random",
+                        duration_s=duration, seed=0)
+        start = time.perf_counter()
+        simulate(cfg)
+        elapsed = time.perf_counter() - start
+        metrics[f"{vehicle}_s_per_sim_min"] = elapsed / args.minutes
+        metrics[f"{vehicle}_realtime_factor"] = duration / elapsed
+        print(f"{vehicle:9s} {elapsed / args.minutes:6.3f} s per simulated minute, "
+              f"{duration / elapsed:6.1f}x real time")
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", run_name="bench_sim",
+                         params={"minutes": args.minutes, "physics_rate_hz": 100,
+                                 "scenario": "random"}) as run:
+            run.log_metrics(metrics)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

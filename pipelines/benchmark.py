@@ -1,0 +1,75 @@
+"""Benchmark feature extraction and cross-validation on the shipped data (MLflow-tracked).
+
+Measures (1) feature extraction for every shipped window (target < 10 s) against a
+per-window reference built from scipy.stats / scipy.signal in the same process (speed ratio
+and the largest difference between the two), (2) the full 5-fold grouped CV of the combined
+dataset with features + SVM and no nested search (target < 60 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from features.windows import make_windows
+from terrain.io.shipped import load_dataset
+from terrain.models.experiment import ExperimentConfig, feature_extractor, run_cv
+from features.reference import reference_features
+from terrain.tracking import tracked_run
+
+EXPERIMENT = "terrain-benchmark"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain benchmark``."""
+    parser.add_argument("--reference-windows", type=int, default=300,
+                        help="windows timed with the per-window reference (default 300)")
+    parser.add_argument("--repeats", type=int, default=3, help="timing repeats (best kept)")
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run the benchmark, print and log the figures."""
+    with tracked_run(EXPERIMENT, run_name="classification",
+                     params={"reference_windows": args.reference_windows,
+                             "repeats": args.repeats}) as run:
+        figures = {}
+        config = ExperimentConfig(dataset="combined", seeds=(0,))
+        t0 = time.perf_counter()
+        runs = load_dataset("combined")
+        figures["load_s"] = time.perf_counter() - t0
+        best = np.inf
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            ws = make_windows(runs, config.signals, config.window_config())
+            F = feature_extractor(ws).transform(ws.X)
+            best = min(best, time.perf_counter() - t0)
+        figures.update(windows_and_features_s=best, n_windows=len(ws),
+                       n_features=F.shape[1])
+        sub = ws.X[: args.reference_windows]
+        t0 = time.perf_counter()
+        ref = reference_features(sub, ws.channels, ws.rate_hz)
+        ref_s = time.perf_counter() - t0
+        ours_best = np.inf
+        fx = feature_extractor(ws)
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            mine = fx.transform(sub)
+            ours_best = min(ours_best, time.perf_counter() - t0)
+        figures.update(reference_s_per_window=ref_s / len(sub),
+                       ours_s_per_window=ours_best / len(sub),
+                       speedup_vs_reference=ref_s / ours_best,
+                       max_abs_diff_vs_reference=float(np.max(np.abs(mine - ref))))
+        t0 = time.perf_counter()
+        result = run_cv(ExperimentConfig(dataset="combined", seeds=(0,)))
+        figures["combined_grouped_cv_s"] = time.perf_counter() - t0
+        figures["combined_accuracy"] = float(result.report.pooled["accuracy"].iloc[0])
+        run.log_metrics(figures)
+    print("classification benchmark (shipped data, this machine):")
+    for k, v in figures.items():
+        print(f"  {k:30s} {v:.6g}")
+    print(f"  target: features < 10 s -> {'met' if figures['windows_and_features_s'] < 10 else 'MISSED'}; "
+          f"combined CV < 60 s -> {'met' if figures['combined_grouped_cv_s'] < 60 else 'MISSED'}")
+    print(run.describe())
+    return 0

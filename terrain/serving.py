@@ -1,0 +1,257 @@
+"""Serving: the whole terrain inference pipeline as one MLflow pyfunc model.
+
+The model takes *aligned samples* (the output of :func:`terrain.io.align.align_streams`, see
+:func:`runs_to_model_input`) in long format, one row per sample::
+
+    run (str), t_s (float, s), wx, wy, wz (rad/s), ax, ay, az (m/s^2),
+    vel_l, vel_r (m/s), cur_l, cur_r (A)          -- the channels the model needs
+
+at the model's clock rate (``metadata["rate_hz"]``), windows each run itself, computes the
+features and returns one row per window::
+
+    run, t_start_s, t_end_s, predicted, proba_<CLASS> ...
+
+Windows holding NaN (gaps) are dropped and counted in the ``dropped_windows`` attribute of
+the returned frame. The same model is served by ``mlflow models serve -m DIR``.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_channels,
+                              required_streams, window_frame)
+from terrain.errors import ConfigError, DataFormatError, MissingColumnError
+from terrain.io.align import align_streams
+from terrain.run import TIME, Run
+
+try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
+    from mlflow.pyfunc import PythonModel
+except ImportError:  # pragma: no cover
+    PythonModel = object
+
+PIPELINE_FILE = "pipeline.joblib"
+RUN = "run"
+
+
+def input_channels(channels: Sequence[str]) -> list[str]:
+    """Raw channels the model input must carry (derived channels are computed inside)."""
+    raw = [c for c in channels if c not in DERIVED_WHEEL_CHANNELS]
+    if any(c in DERIVED_WHEEL_CHANNELS for c in channels):
+        raw += [c for c in ("vel_l", "vel_r", "cur_l", "cur_r") if c not in raw]
+    return raw
+
+
+def runs_to_model_input(runs: Sequence[Run], channels: Sequence[str],
+                        rate_hz: float) -> tuple[pd.DataFrame, list[str]]:
+    """Align runs and stack them into the model's long input format.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        ``run, t_s`` and the raw channels.
+    skipped : list of str
+        Runs lacking a stream the model needs (e.g. no IMU file).
+    """
+    cols = input_channels(channels)
+    need = required_streams(cols)
+    parts, skipped = [], []
+    for run in runs:
+        if any(s not in run.streams for s in need):
+            skipped.append(run.run_id)
+            continue
+        aligned = align_streams(run, need, rate_hz)
+        part = aligned[[TIME] + cols].copy()
+        part.insert(0, RUN, run.run_id)
+        parts.append(part)
+    if not parts:
+        return pd.DataFrame(columns=[RUN, TIME] + cols), skipped
+    return pd.concat(parts, ignore_index=True), skipped
+
+
+class TerrainModel(PythonModel):
+    """MLflow pyfunc wrapper of the fitted ``features -> scaler -> SVC`` pipeline.
+
+    Context artifact ``pipeline``: the joblib file of the fitted scikit-learn pipeline.
+    Settings (channels, window, rate) are passed at construction and pickled with the model.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channel order of the windows the pipeline expects.
+    window : dict
+        :class:`features.windows.WindowConfig` fields (``window_s``, ``hop_s``,
+        ``rate_hz``).
+    classes : sequence of str
+        Terrain classes, in the order of ``predict_proba``.
+    """
+
+    def __init__(self, channels: Sequence[str], window: dict, classes: Sequence[str]) -> None:
+        self.channels = list(channels)
+        self.window = dict(window)
+        self.classes = list(classes)
+        self._pipeline = None
+
+    def load_context(self, context: Any) -> None:
+        """Load the fitted scikit-learn pipeline."""
+        import joblib
+        self._pipeline = joblib.load(context.artifacts["pipeline"])
+
+    def predict(self, context: Any, model_input: pd.DataFrame, params: dict | None = None
+                ) -> pd.DataFrame:
+        """Per-window terrain predictions for aligned samples of one or more runs.
+
+        Raises
+        ------
+        MissingColumnError
+            A required input column is missing.
+        DataFormatError
+            Samples not at the model's rate, or timestamps not increasing within a run.
+        """
+        if self._pipeline is None:
+            self.load_context(context)
+        return predict_windows(self._pipeline, model_input, self.channels,
+                               WindowConfig(**self.window), self.classes)
+
+
+def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str],
+                    config: WindowConfig, classes: Sequence[str]) -> pd.DataFrame:
+    """Window aligned samples per run and predict (see module docstring for the format)."""
+    cols = [RUN, TIME] + input_channels(channels)
+    missing = [c for c in cols if c not in samples.columns]
+    if missing:
+        raise MissingColumnError(f"model input lacks column(s) {missing}; expected {cols}",
+                                 "model input", missing[0])
+    out, dropped = [], 0
+    for run_id, frame in samples.groupby(RUN, sort=False):
+        frame = frame.reset_index(drop=True)
+        t = frame[TIME].to_numpy(dtype=float)
+        dt = np.diff(t)
+        if (dt <= 0).any():
+            row = int(np.flatnonzero(dt <= 0)[0]) + 1
+            raise DataFormatError("timestamps must increase strictly within a run",
+                                  f"model input, run {run_id}", TIME, row)
+        if dt.size and abs(np.median(dt) * config.rate_hz - 1.0) > 0.01:
+            raise DataFormatError(f"samples at {1 / np.median(dt):.3f} Hz; the model expects "
+                                  f"{config.rate_hz} Hz (align with align_streams)",
+                                  f"model input, run {run_id}", TIME)
+        frame = add_derived_channels(frame)
+        X, t0, t1, _, counts = window_frame(frame, channels, config)
+        dropped += counts["dropped_gap"]
+        if len(X) == 0:
+            continue
+        proba = pipeline.predict_proba(X)
+        order = list(pipeline.classes_)
+        part = pd.DataFrame({RUN: str(run_id), "t_start_s": t0, "t_end_s": t1,
+                             "predicted": np.asarray(order, dtype=object)[proba.argmax(1)]})
+        for c in classes:
+            part[f"proba_{c}"] = proba[:, order.index(c)] if c in order else 0.0
+        out.append(part)
+    columns = [RUN, "t_start_s", "t_end_s", "predicted"] + [f"proba_{c}" for c in classes]
+    result = pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=columns)
+    result.attrs["dropped_windows"] = dropped
+    return result[columns]
+
+
+def model_signature(channels: Sequence[str], classes: Sequence[str]):
+    """MLflow signature of :class:`TerrainModel` (input samples, output windows)."""
+    from mlflow.models import ModelSignature
+    from mlflow.types import ColSpec, Schema
+
+    inputs = Schema([ColSpec("string", RUN), ColSpec("double", TIME)]
+                    + [ColSpec("double", c) for c in input_channels(channels)])
+    outputs = Schema([ColSpec("string", RUN), ColSpec("double", "t_start_s"),
+                      ColSpec("double", "t_end_s"), ColSpec("string", "predicted")]
+                     + [ColSpec("double", f"proba_{c}") for c in classes])
+    return ModelSignature(inputs=inputs, outputs=outputs)
+
+
+def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
+                  classes: Sequence[str], metadata: dict, tmp: Path) -> dict:
+    import joblib
+
+    path = tmp / PIPELINE_FILE
+    joblib.dump(pipeline, path)
+    window_d = {"window_s": window.window_s, "hop_s": window.hop_s, "rate_hz": window.rate_hz}
+    root = Path(__file__).resolve().parents[1]
+    import sklearn
+    return dict(
+        python_model=TerrainModel(channels, window_d, classes),
+        artifacts={"pipeline": str(path)},
+        signature=model_signature(channels, classes),
+        code_paths=[str(root / "terrain"), str(root / "features")],
+        pip_requirements=[f"scikit-learn=={sklearn.__version__}", "numpy", "pandas", "scipy",
+                          "joblib"],
+        metadata={**metadata, "channels": list(channels), "classes": list(classes),
+                  **window_d},
+    )
+
+
+def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
+               window: WindowConfig, classes: Sequence[str], metadata: dict) -> Path:
+    """Save the inference pipeline as an MLflow model directory at ``path``.
+
+    Raises
+    ------
+    ConfigError
+        If ``path`` exists and is not empty.
+    """
+    import mlflow.pyfunc
+
+    path = Path(path)
+    if path.exists() and any(path.iterdir()):
+        raise ConfigError(f"model directory {path} exists and is not empty")
+    if path.exists():
+        path.rmdir()
+    with tempfile.TemporaryDirectory() as tmp:
+        mlflow.pyfunc.save_model(path=str(path), **_model_kwargs(
+            pipeline, channels, window, classes, metadata, Path(tmp)))
+    return path
+
+
+def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
+              classes: Sequence[str], metadata: dict, registered_name: str | None) -> str:
+    """Log (and register) the inference pipeline in the active MLflow run.
+
+    Returns
+    -------
+    str
+        The model URI (``models:/...``).
+    """
+    import mlflow.pyfunc
+
+    with tempfile.TemporaryDirectory() as tmp:
+        info = mlflow.pyfunc.log_model(name="terrain-model", registered_model_name=registered_name,
+                                       **_model_kwargs(pipeline, channels, window, classes,
+                                                       metadata, Path(tmp)))
+    return info.model_uri
+
+
+def load_model(uri: str | Path) -> tuple[Any, dict]:
+    """Load a saved or logged terrain model; returns the pyfunc model and its metadata.
+
+    Raises
+    ------
+    ConfigError
+        If the model is not a terrain model (no ``channels``/``rate_hz`` metadata).
+    """
+    import mlflow.pyfunc
+
+    from terrain.tracking import tracking_uri
+    mlflow.set_tracking_uri(tracking_uri())
+    model = mlflow.pyfunc.load_model(str(uri))
+    meta = dict(model.metadata.metadata or {})
+    if "channels" not in meta or "rate_hz" not in meta:
+        raise ConfigError(f"{uri} is not a terrain model (metadata lacks channels/rate_hz)")
+    return model, meta
+
+
+def metadata_json(meta: dict) -> str:
+    """Model metadata as compact JSON (for printing)."""
+    return json.dumps(meta, sort_keys=True, default=str)

@@ -1,0 +1,130 @@
+"""Driving scenarios: body-twist commands over time (seeded, reproducible).
+
+Each scenario returns a :class:`Commands` with the commanded twist ``(v_x, v_y, yaw_rate)``
+at the physics rate and the inclination of the ground plane.
+
+``straight_accel``  seed 001 ch. 7.2.3: accelerate at 1 m/s^2 to 1 m/s, then cruise.
+``orchard``         seed 000 sec. III: rows at constant speed, U-turns at the headland with
+                    constant speed and turning radius, alternating left/right.
+``slope_turn``      seed 003 Experiment III: turning at 20 deg/s and 0.05-0.2 m/s on a 15 deg
+                    slope (the plane rises along world +x).
+``spin``            spin in place at 0.6 rad/s, reversing every 8 s.
+``random``          piecewise-constant random commands (2-6 s segments), acceleration-limited.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from terrain.errors import ConfigError
+
+SCENARIO_NAMES: tuple[str, ...] = ("straight_accel", "orchard", "slope_turn", "spin", "random")
+
+
+@dataclass(frozen=True)
+class Commands:
+    """Commanded motion.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (n,)
+        Time, s.
+    twist : ndarray, shape (n, 3)
+        Commanded ``(v_x, v_y, yaw_rate)`` in the body frame, m/s, m/s, rad/s.
+    slope_rad : float
+        Inclination of the ground plane (rises along world +x), rad.
+    """
+
+    t_s: np.ndarray
+    twist: np.ndarray
+    slope_rad: float = 0.0
+
+
+def _rate_limit(x: np.ndarray, max_rate: float, dt: float) -> np.ndarray:
+    out = np.empty_like(x)
+    acc = x[0]
+    step = max_rate * dt
+    for i, target in enumerate(x):
+        acc += min(max(target - acc, -step), step)
+        out[i] = acc
+    return out
+
+
+def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Generator,
+                  max_speed_m_s: float, omnidirectional: bool = False) -> Commands:
+    """Commanded twist of a named scenario.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`SCENARIO_NAMES`.
+    duration_s : float
+        > 0, s.
+    dt_s : float
+        Physics step, s.
+    rng : numpy.random.Generator
+        Randomness of ``random`` (others are deterministic).
+    max_speed_m_s : float
+        Vehicle speed limit; scenario speeds are scaled down to it.
+    omnidirectional : bool
+        Whether lateral velocity commands are allowed (swerve drive).
+
+    Returns
+    -------
+    Commands
+
+    Raises
+    ------
+    ConfigError
+        Unknown scenario or non-positive duration.
+    """
+    if name not in SCENARIO_NAMES:
+        raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
+    if not duration_s > 0:
+        raise ConfigError(f"duration must be > 0 s, got {duration_s}")
+    n = int(round(duration_s / dt_s)) + 1
+    t = np.arange(n) * dt_s
+    tw = np.zeros((n, 3))
+    slope = 0.0
+    vmax = 0.95 * max_speed_m_s
+    if name == "straight_accel":
+        v = min(1.0, vmax)
+        tw[:, 0] = np.minimum(t * 1.0, v)
+    elif name == "orchard":
+        v = min(0.5, vmax)
+        row_m, radius_m = 20.0, 1.5
+        t_row, t_turn = row_m / v, np.pi * radius_m / v
+        phase = t % (t_row + t_turn)
+        k = (t // (t_row + t_turn)).astype(int)
+        turning = phase >= t_row
+        tw[:, 0] = v
+        tw[:, 2] = np.where(turning, np.where(k % 2 == 0, 1.0, -1.0) * v / radius_m, 0.0)
+        tw[:, 0] = _rate_limit(tw[:, 0], 0.5, dt_s) if n > 1 else tw[:, 0]
+        tw[:, 2] = _rate_limit(tw[:, 2], 2.0, dt_s)
+    elif name == "slope_turn":
+        slope = np.radians(15.0)
+        v = min(0.2, vmax)
+        tw[:, 0] = np.where((t // 10.0) % 2 == 0, v, 0.05)
+        tw[:, 2] = np.radians(20.0) * np.where((t // 20.0) % 2 == 0, 1.0, -1.0)
+        tw[:, 0] = _rate_limit(tw[:, 0], 0.5, dt_s)
+        tw[:, 2] = _rate_limit(tw[:, 2], 1.0, dt_s)
+    elif name == "spin":
+        tw[:, 2] = _rate_limit(0.6 * np.where((t // 8.0) % 2 == 0, 1.0, -1.0), 1.5, dt_s)
+    else:  # random
+        seg_t, seg = [], []
+        now = 0.0
+        while now < duration_s:
+            seg_t.append(now)
+            vx = rng.uniform(-0.3, 1.0) * vmax
+            vy = rng.uniform(-0.5, 0.5) * vmax if omnidirectional else 0.0
+            wz = rng.uniform(-0.8, 0.8) if rng.random() < 0.6 else 0.0
+            seg.append((vx, vy, wz))
+            now += rng.uniform(2.0, 6.0)
+        idx = np.searchsorted(np.asarray(seg_t), t, side="right") - 1
+        raw = np.asarray(seg)[idx]
+        tw[:, 0] = _rate_limit(raw[:, 0], 0.8, dt_s)
+        tw[:, 1] = _rate_limit(raw[:, 1], 0.8, dt_s)
+        tw[:, 2] = _rate_limit(raw[:, 2], 1.5, dt_s)
+    return Commands(t, tw, float(slope))

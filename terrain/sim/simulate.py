@@ -1,0 +1,268 @@
+"""Run a simulation: vehicle + terrain(s) + scenario + motors + sensors -> :class:`SimResult`.
+
+Stream files (same layout as ``../shared/data``; ``time`` first, snake_case otherwise):
+
+``imu``    ``time, wx, wy, wz, ax, ay, az``      IMU at the body origin (rad/s, m/s^2)
+``pro``    ``time, curL, curR, velL, velR``      motor current magnitude (A), rim speed (m/s).
+           husky/tracked: left/right side. agrimaro: L = wheel 1 (d_1 = [-0.5075, 0]),
+           R = wheel 2 (d_2 = [0.5075, 0]); all three wheels are in ``omega`` and ``cur``.
+``truth``  ``time, x, y, yaw, v_bx, v_by, yaw_rate, slip_1.., pitch, roll, terrain``
+           slip_i per motor (husky/tracked: 1 = left, 2 = right), SAE sign convention
+           ``(omega r - v) / max(|omega r|, |v|)``; pitch nose-up positive; terrain label.
+``steer``  ``time, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro)
+``cam``    ``time, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
+           point in robot axes (x forward, y left; before the eq. 5.4 lever-arm correction),
+           m/s, rad/s, rad; rows missing during outages (agrimaro)
+``omega``  ``time, omega_1, omega_2, omega_3`` reported wheel speeds, rad/s (agrimaro)
+``cur``    ``time, cur_1, cur_2, cur_3`` motor current magnitudes, A (agrimaro)
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, is_dataclass
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import ConfigError
+from terrain.sim.dynamics import PhysicsResult, integrate
+from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
+from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
+from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
+                                 quantise, sample_times)
+from terrain.terramechanics.catalogue import get_terrain
+from terrain.vehicles import VEHICLE_NAMES, get_vehicle
+
+DEFAULT_SENSORS: Mapping[str, SensorSettings] = {
+    "husky": SensorSettings(),
+    "agrimaro": SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=0.0,
+                               current_quantum_a=0.01),
+    "tracked": SensorSettings(wheel_rate_hz=10.0, speed_quantum_m_s=0.001),
+}
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """What to simulate.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro``, ``husky`` or ``tracked``.
+    terrains : tuple of str
+        Terrain classes along the path (changing every ``segment_length_m``, cycling).
+    scenario : str
+        One of :data:`~terrain.sim.scenarios.SCENARIO_NAMES`.
+    duration_s : float
+        Simulated time, s (0 < duration <= 7200).
+    seed : int
+        Seed of the run's :class:`numpy.random.Generator`.
+    effects : Effects
+    segment_length_m : float
+        Distance between terrain changes, m.
+    physics_rate_hz : float
+        Integrator rate, Hz (50-1000).
+    sensors : SensorSettings or None
+        None = the vehicle's defaults (:data:`DEFAULT_SENSORS`).
+    """
+
+    vehicle: str = "husky"
+    terrains: tuple[str, ...] = ("ASPHALT",)
+    scenario: str = "random"
+    duration_s: float = 60.0
+    seed: int = 0
+    effects: Effects = field(default_factory=Effects)
+    segment_length_m: float = 25.0
+    physics_rate_hz: float = 100.0
+    sensors: SensorSettings | None = None
+
+    def __post_init__(self) -> None:
+        get_vehicle(self.vehicle)
+        if not self.terrains:
+            raise ConfigError("at least one terrain is needed")
+        for t in self.terrains:
+            get_terrain(t)
+        if self.scenario not in SCENARIO_NAMES:
+            raise ConfigError(f"unknown scenario {self.scenario!r}; valid choices: "
+                              f"{', '.join(SCENARIO_NAMES)}")
+        if not (0.0 < float(self.duration_s) <= 7200.0):
+            raise ConfigError(f"duration_s must be in (0, 7200] s, got {self.duration_s}")
+        if not (50.0 <= float(self.physics_rate_hz) <= 1000.0):
+            raise ConfigError(f"physics_rate_hz must be in [50, 1000], got {self.physics_rate_hz}")
+        if not float(self.segment_length_m) > 0:
+            raise ConfigError(f"segment_length_m must be > 0, got {self.segment_length_m}")
+        if int(self.seed) < 0:
+            raise ConfigError(f"seed must be >= 0, got {self.seed}")
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """A simulated run.
+
+    Attributes
+    ----------
+    config : SimConfig
+    streams : Mapping[str, pandas.DataFrame]
+        Stream name (``imu``, ``pro``, ``truth``...) -> frame with the file's columns.
+    meta : Mapping[str, Any]
+        JSON-serialisable metadata (written as ``meta_XX.json``).
+    physics : PhysicsResult
+        Ground truth at the physics rate.
+    """
+
+    config: SimConfig
+    streams: Mapping[str, pd.DataFrame]
+    meta: Mapping[str, Any]
+    physics: PhysicsResult
+
+
+def _jsonable(obj: Any) -> Any:
+    if is_dataclass(obj):
+        d = {"type": type(obj).__name__}
+        d.update({k: _jsonable(v) for k, v in asdict(obj).items()})
+        return d
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    return obj
+
+
+def _currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray:
+    """Motor current magnitudes with the current effects, shape (n, n_motors), A."""
+    cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
+    turning = effects.turning_resistance * np.tanh(np.abs(phys.twist[:, 2])
+                                                   / TURN_RATE_SCALE_RAD_S)
+    cur = cur + turning[:, None] + effects.grade_resistance * np.abs(phys.pitch)[:, None]
+    if effects.current_offset > 0:
+        cur[:, 1] += effects.current_offset
+    elif effects.current_offset < 0:
+        cur[:, 0] += -effects.current_offset
+    return cur
+
+
+def simulate(config: SimConfig) -> SimResult:
+    """Simulate one run.
+
+    Parameters
+    ----------
+    config : SimConfig
+
+    Returns
+    -------
+    SimResult
+
+    Raises
+    ------
+    ConfigError
+        Bad configuration (names list the valid choices).
+    """
+    vehicle = get_vehicle(config.vehicle)
+    geometry = vehicle.contact_geometry()
+    terrains = tuple(get_terrain(t) for t in config.terrains)
+    sensors = config.sensors or DEFAULT_SENSORS[vehicle.name]
+    rng = np.random.default_rng(int(config.seed))
+    dt = 1.0 / float(config.physics_rate_hz)
+    vmax = vehicle.motor.max_wheel_speed_rad_s * vehicle.wheel_radius_m
+    cmds = make_commands(config.scenario, float(config.duration_s), dt, rng, vmax,
+                         omnidirectional=geometry.steered)
+    steer_offset = None
+    if geometry.steered:
+        db = vehicle.steering_dead_band_rad
+        steer_offset = rng.uniform(-db, db, geometry.n_motors)   # seed 001 ch. 6.1.1
+    chi = 1.0 if geometry.steered else config.effects.icr_expansion
+    phys = integrate(vehicle, geometry, terrains, config.segment_length_m, cmds.t_s,
+                     cmds.twist, cmds.slope_rad, chi, steer_offset)
+    duration = float(cmds.t_s[-1])
+    r_w = geometry.wheel_radius_m
+    streams: dict[str, pd.DataFrame] = {}
+
+    t_imu, imu_data = imu(phys, terrains, sensors, config.effects.gyro_bias, rng, duration)
+    streams["imu"] = pd.DataFrame(np.column_stack([t_imu, imu_data]),
+                                  columns=["time", "wx", "wy", "wz", "ax", "ay", "az"])
+
+    # wheel encoders and motor currents: driver filter, then the wheel_lag effect
+    motor = vehicle.motor
+    omega_rep = first_order_filter(phys.omega, dt, motor.encoder_filter_s)
+    cur = _currents(phys, vehicle, config.effects)
+    t_w = sample_times(duration, sensors.wheel_rate_hz)
+    t_src = np.clip(t_w - config.effects.wheel_lag, 0.0, None)
+    om_w = interp_columns(t_src, phys.t_s, omega_rep)
+    counts_rev = motor.encoder_counts_per_rev
+    om_w = quantise(om_w, 2.0 * np.pi / counts_rev * sensors.wheel_rate_hz
+                    if sensors.speed_quantum_m_s == 0 else 0.0)
+    vel_w = quantise(om_w * r_w, sensors.speed_quantum_m_s)
+    cur_w = interp_columns(t_src, phys.t_s, cur)
+    cur_w = quantise(np.abs(cur_w + sensors.current_noise_a * rng.standard_normal(cur_w.shape)),
+                     sensors.current_quantum_a)
+    streams["pro"] = pd.DataFrame({"time": t_w, "curL": cur_w[:, 0], "curR": cur_w[:, 1],
+                                   "velL": vel_w[:, 0], "velR": vel_w[:, 1]})
+    if geometry.n_motors > 2:
+        streams["omega"] = pd.DataFrame(
+            {"time": t_w, **{f"omega_{i + 1}": om_w[:, i] for i in range(geometry.n_motors)}})
+        streams["cur"] = pd.DataFrame(
+            {"time": t_w, **{f"cur_{i + 1}": cur_w[:, i] for i in range(geometry.n_motors)}})
+
+    # ground truth
+    t_tr = sample_times(duration, sensors.truth_rate_hz)
+    idx = np.clip(np.searchsorted(phys.t_s, t_tr - 1e-9), 0, len(phys.t_s) - 1)
+    truth = {"time": t_tr, "x": phys.pose[idx, 0], "y": phys.pose[idx, 1],
+             "yaw": phys.pose[idx, 2], "v_bx": phys.twist[idx, 0], "v_by": phys.twist[idx, 1],
+             "yaw_rate": phys.twist[idx, 2]}
+    for i in range(geometry.n_motors):
+        truth[f"slip_{i + 1}"] = phys.slip_motor[idx, i]
+    for i in range(geometry.n_motors):
+        truth[f"omega_{i + 1}"] = phys.omega[idx, i]
+    truth["pitch"] = phys.pitch[idx]
+    truth["roll"] = phys.roll[idx]
+    truth["terrain"] = np.asarray(phys.terrain_names)[phys.terrain_index[idx]]
+    streams["truth"] = pd.DataFrame(truth)
+
+    if geometry.steered:
+        t_st = sample_times(duration, sensors.steer_rate_hz)
+        d = quantise(interp_columns(t_st, phys.t_s, phys.delta), sensors.steer_quantum_rad)
+        streams["steer"] = pd.DataFrame(
+            {"time": t_st, **{f"delta_{i + 1}": d[:, i] for i in range(geometry.n_motors)}})
+        t_c = sample_times(duration, sensors.cam_rate_hz)
+        s = interp_columns(t_c, phys.t_s, np.column_stack([phys.twist, phys.pose[:, 2]]))
+        lever = np.asarray(vehicle.camera_lever_arm_m)
+        v_cx = s[:, 0] - s[:, 2] * lever[1]              # v + omega x d (eq. 5.4 inverted)
+        v_cy = s[:, 1] + s[:, 2] * lever[0]
+        nz = rng.standard_normal((len(t_c), 4))
+        cam = pd.DataFrame({"time": t_c, "v_cx": v_cx + sensors.cam_noise_m_s * nz[:, 0],
+                            "v_cy": v_cy + sensors.cam_noise_m_s * nz[:, 1],
+                            "yaw_rate_c": s[:, 2] + sensors.cam_yaw_rate_noise_rad_s * nz[:, 2],
+                            "yaw_c": s[:, 3] + sensors.cam_yaw_noise_rad * nz[:, 3]})
+        keep = np.ones(len(t_c), dtype=bool)
+        n_out = rng.poisson(sensors.cam_outage_rate_hz * duration)
+        for start, length in zip(rng.uniform(0, duration, n_out), rng.uniform(0.5, 2.0, n_out)):
+            keep &= ~((t_c >= start) & (t_c < start + length))
+        streams["cam"] = cam[keep].reset_index(drop=True)
+
+    rates = {"physics": float(config.physics_rate_hz), "imu": sensors.imu_rate_hz,
+             "pro": sensors.wheel_rate_hz, "truth": sensors.truth_rate_hz}
+    if geometry.steered:
+        rates.update(steer=sensors.steer_rate_hz, cam=sensors.cam_rate_hz,
+                     omega=sensors.wheel_rate_hz, cur=sensors.wheel_rate_hz)
+    meta = {
+        "vehicle": vehicle.name, "dataset": "sim", "scenario": config.scenario,
+        "seed": int(config.seed), "duration_s": duration,
+        "terrain": config.terrains[0] if len(config.terrains) == 1 else "MIXED",
+        "terrains": list(config.terrains), "segment_length_m": float(config.segment_length_m),
+        "effects": config.effects.as_dict(), "active_effects": config.effects.active(),
+        "rates_hz": rates, "slope_rad": cmds.slope_rad,
+        "steering_offset_rad": None if steer_offset is None else steer_offset.tolist(),
+        "pro_mapping": ("velL/curL = wheel 1, velR/curR = wheel 2" if geometry.steered
+                        else "velL/curL = left side, velR/curR = right side"),
+        "vehicle_params": _jsonable(vehicle),
+        "terrain_params": {t.name: _jsonable(t) for t in terrains},
+        "sensor_settings": _jsonable(sensors),
+        "units": {"time": "s", "wx": "rad/s", "ax": "m/s^2", "cur": "A", "vel": "m/s",
+                  "delta": "rad", "omega": "rad/s", "v_c": "m/s", "yaw": "rad"},
+    }
+    return SimResult(config=config, streams=streams, meta=meta, physics=phys)

@@ -1,0 +1,113 @@
+"""Calibration of terrain parameters against measurements (documented, reproducible).
+
+* :func:`husky_hysteresis_for_current`: the torque-only rolling loss that makes the simulated
+  Husky draw the measured mean straight-line current on a terrain.
+* :func:`calibrate_janosi`: the Janosi-Hanamoto ``(mu_max, K/L)`` that reproduce a steady slip
+  and a quasi-static acceleration slip (AgriMaRo straight-line test, seed 001 ch. 7.2.3).
+* :func:`steady_slip`: the slip at which traction balances soil resistance plus an extra
+  demand (quasi-static, flat ground).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import brentq
+
+from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
+from terrain.terramechanics.traction import JanosiCurve, _janosi_g, traction_coefficient
+
+
+def steady_slip(terrain, extra_demand: float = 0.0) -> float:
+    """Slip where ``mu(s) = soil_resistance(s) + extra_demand``.
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+    extra_demand : float
+        Further force demand over normal load (e.g. ``a / g`` when accelerating, the grade
+        ``sin(pitch)`` on a slope).
+
+    Returns
+    -------
+    float
+        Slip in [0, 1]; 1.0 when the demand exceeds the available traction.
+    """
+    f = lambda s: float(traction_coefficient(terrain.curve, s)  # noqa: E731
+                        - soil_resistance_coefficient(terrain, s) - extra_demand)
+    if f(0.0) >= 0.0:
+        return 0.0
+    grid = np.linspace(0.0, 1.0, 401)
+    vals = np.array([f(s) for s in grid])
+    above = np.nonzero(vals >= 0.0)[0]
+    if len(above) == 0:
+        return 1.0
+    i = int(above[0])
+    return float(brentq(f, grid[i - 1], grid[i], xtol=1e-10))
+
+
+def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
+                                 husky=None) -> float:
+    """Torque-only rolling loss giving a target per-side current in straight driving.
+
+    At constant speed on flat ground each side supplies the torque
+    ``r (W/2) (mu(s) + h)``, with ``mu(s)`` balancing the soil resistance, and draws
+    ``I = I_0 + torque / (G k_t eta)`` (:class:`terrain.vehicles.MotorParams`). Solving for
+    ``h`` gives the calibrated hysteresis coefficient.
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+    current_a : float
+        Target mean current per side, A.
+    speed_m_s : float
+        Speed at which it was measured, m/s (sets the sign term only: the loss model is
+        speed-independent).
+    husky : HuskyParams, optional
+
+    Returns
+    -------
+    float
+        Hysteresis coefficient (dimensionless), >= 0.
+    """
+    from terrain.vehicles.skid_steer import HUSKY
+
+    h = HUSKY if husky is None else husky
+    m = h.motor
+    side_load = h.mass_kg * G_M_S2 / 2.0
+    s = steady_slip(terrain)
+    mu = float(traction_coefficient(terrain.curve, s))
+    direction = np.tanh(speed_m_s / h.wheel_radius_m / 0.05)
+    torque = (current_a - m.no_load_current_a * direction) * (
+        m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency)
+    return max(0.0, torque / (h.wheel_radius_m * side_load) - mu)
+
+
+def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: float,
+                     accel_m_s2: float = 1.0) -> JanosiCurve:
+    """Janosi-Hanamoto curve through a steady slip and a quasi-static acceleration slip.
+
+    Solves ``mu_max g(s_ss / k) = f`` and ``mu_max g(s_acc / k) = f + a / g_0`` for
+    ``(mu_max, k)``, ``g(x) = 1 - (1 - e^-x) / x``.
+
+    Parameters
+    ----------
+    soil_resistance : float
+        f, dimensionless.
+    slip_steady, slip_accel : float
+        Slips at constant speed and while accelerating at ``accel_m_s2``.
+    accel_m_s2 : float
+
+    Returns
+    -------
+    JanosiCurve
+
+    Raises
+    ------
+    ValueError
+        No solution (the ratio ``(f + a/g)/f`` must be below ``slip_accel / slip_steady``).
+    """
+    g = lambda x: float(_janosi_g(np.asarray(x, dtype=float))[0])  # noqa: E731
+    target = (soil_resistance + accel_m_s2 / G_M_S2) / soil_resistance
+    k = brentq(lambda k: g(slip_accel / k) / g(slip_steady / k) - target, 1e-3, 1e3)
+    return JanosiCurve(soil_resistance / g(slip_steady / k), k,
+                       "calibrated (calibrate_janosi)")

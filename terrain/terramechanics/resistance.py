@@ -1,0 +1,177 @@
+"""Motion, grade, lateral and turning resistance of wheels and tracks.
+
+References
+----------
+J. Y. Wong, *Theory of Ground Vehicles*, 4th ed., Wiley 2008: rolling/compaction resistance
+(ch. 2.2, Bekker pressure-sinkage), skid-steering turning resistance moment
+``M_r = mu_t W l / 4`` of a tracked vehicle (ch. 7.2).
+Seed 003 (``003_557e4138a8e06c5e.txt``) eq. 10: grade resistance ``W sin(theta_pitch)``.
+Brixius (1987), motion resistance ratio ``1/Bn + 0.04 + 0.5 s / sqrt(Bn)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.terramechanics.traction import BrixiusCurve, traction_peak
+
+G_M_S2 = 9.80665
+
+
+def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray:
+    """Slip-producing motion resistance over normal load (soil compaction / bulldozing).
+
+    For Brixius terrains ``1/Bn + 0.5 |s| / sqrt(Bn)`` (the 0.04 tyre-hysteresis term of
+    Brixius is part of :attr:`TerrainParams.hysteresis`); otherwise the constant
+    ``terrain.soil_resistance``.
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+    slip : float or ndarray, shape (...)
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Dimensionless coefficient (force = coefficient x normal load).
+    """
+    s = np.abs(np.clip(np.asarray(slip, dtype=float), -1.0, 1.0))
+    curve = terrain.curve
+    if isinstance(curve, BrixiusCurve):
+        bn = curve.mobility_number
+        return 1.0 / bn + 0.5 * s / np.sqrt(bn)
+    return np.full_like(s, terrain.soil_resistance)
+
+
+def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndarray:
+    """Grade resistance ``m g sin(pitch)`` (seed 003 eq. 10 with zero roll).
+
+    Parameters
+    ----------
+    mass_kg : float
+    pitch_rad : float or ndarray, shape (...)
+        Nose-up inclination of the vehicle, rad (positive when climbing).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Force opposing forward motion, N.
+    """
+    return mass_kg * G_M_S2 * np.sin(np.asarray(pitch_rad, dtype=float))
+
+
+def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s: np.ndarray,
+                    slide_speed_m_s: float = 0.02) -> np.ndarray:
+    """Lateral (sideways) friction of a skidding wheel or track segment.
+
+    Coulomb friction ``-mu_lat N sign(v_lat)`` smoothed as ``tanh(v_lat / v_slide)``; the
+    smoothing speed stands for the lateral compliance of tyre and soil.
+
+    Parameters
+    ----------
+    mu_lateral : float
+        Lateral resistance coefficient (friction plus bulldozing of sunk wheels).
+    normal_load_n : ndarray, shape (n,)
+    v_lateral_m_s : ndarray, shape (n,)
+    slide_speed_m_s : float
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Lateral force, N.
+    """
+    return -mu_lateral * np.asarray(normal_load_n) * np.tanh(
+        np.asarray(v_lateral_m_s) / slide_speed_m_s)
+
+
+def turning_resistance_moment_nm(mu_lateral: float, weight_n: float,
+                                 contact_length_m: float) -> float:
+    """Wong's turning resistance moment of a skid-steer vehicle ``M_r = mu_t W l / 4``.
+
+    Valid for uniform pressure along two contacts of length ``l`` (Wong, ch. 7.2). For the
+    Husky's four wheels at ``x = +-a`` the same reasoning gives ``mu_t W a`` (use
+    ``contact_length_m = 4 a``).
+
+    Parameters
+    ----------
+    mu_lateral : float
+    weight_n : float
+    contact_length_m : float
+
+    Returns
+    -------
+    float
+        Moment resisting yaw, N m.
+    """
+    return mu_lateral * weight_n * contact_length_m / 4.0
+
+
+def can_turn_in_place(geometry, terrain) -> bool:
+    """Whether a skid-steer vehicle can spin in place on a terrain, or digs in.
+
+    Spinning needs the moment of the longitudinal forces (at most ``mu_peak N_i |y_i|`` per
+    contact, less the soil resistance) to exceed the lateral friction moment
+    ``sum mu_lat N_i |x_i|``. When it does not, the vehicle stops turning while its wheels keep
+    spinning (slip -> +-1).
+
+    Parameters
+    ----------
+    geometry : terrain.vehicles.ContactGeometry
+    terrain : TerrainParams
+
+    Returns
+    -------
+    bool
+    """
+    pos = geometry.positions_m
+    share = geometry.load_share
+    mu_long = traction_peak(terrain.curve).mu_max - float(soil_resistance_coefficient(terrain, 1.0))
+    drive = float(np.sum(share * mu_long * np.abs(pos[:, 1])))
+    resist = float(np.sum(share * terrain.lateral_friction * np.abs(pos[:, 0])))
+    return drive > resist
+
+
+def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
+                     k_phi: float, n: float) -> float:
+    """Static sinkage of a flat plate, Bekker ``p = (k_c / b + k_phi) z^n`` (Wong eq. 2.33).
+
+    Parameters
+    ----------
+    load_n : float
+    width_m, length_m : float
+        Contact width b (smaller dimension) and length, m.
+    k_c : float
+        Cohesive modulus, N/m^(n+1).
+    k_phi : float
+        Frictional modulus, N/m^(n+2).
+    n : float
+        Sinkage exponent.
+
+    Returns
+    -------
+    float
+        Sinkage z, m.
+    """
+    p = load_n / (width_m * length_m)
+    return float((p / (k_c / width_m + k_phi)) ** (1.0 / n))
+
+
+def bekker_compaction_coefficient(load_n: float, width_m: float, length_m: float,
+                                  k_c: float, k_phi: float, n: float) -> float:
+    """Compaction resistance over load ``R_c / W``, ``R_c = b (k_c/b + k_phi) z^(n+1)/(n+1)``.
+
+    Wong eq. 2.54 for a track of uniform pressure; used here as the literature estimate of
+    the soil part of motion resistance.
+
+    Parameters
+    ----------
+    load_n, width_m, length_m, k_c, k_phi, n : float
+        As in :func:`bekker_sinkage_m`.
+
+    Returns
+    -------
+    float
+    """
+    z = bekker_sinkage_m(load_n, width_m, length_m, k_c, k_phi, n)
+    rc = width_m * (k_c / width_m + k_phi) * z ** (n + 1.0) / (n + 1.0)
+    return float(rc / load_n)

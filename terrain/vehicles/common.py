@@ -1,0 +1,110 @@
+"""Parameter types shared by all vehicles: motors and the ground-contact geometry."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class MotorParams:
+    """Speed-controlled drive motor (one per side or per wheel).
+
+    The motor current follows the DC-motor torque law ``I = I_0 sign(omega) + T / (G k_t eta)``
+    (torque constant ``k_t``, gear ratio ``G``, gearbox efficiency ``eta``, no-load current
+    ``I_0``).
+
+    Parameters
+    ----------
+    torque_constant_nm_per_a : float
+        Motor torque constant k_t, N m/A (motor side of the gearbox).
+    gear_ratio : float
+        Motor turns per wheel turn.
+    efficiency : float
+        Gearbox efficiency (0, 1].
+    no_load_current_a : float
+        Current drawn at zero load torque (friction of motor, gearbox, chain), A.
+    speed_time_constant_s : float
+        First-order time constant of the closed speed loop, s.
+    max_wheel_speed_rad_s : float
+        Wheel speed limit (commands are clipped), rad/s.
+    encoder_filter_s : float
+        Time constant of the driver's low-pass filter on the reported wheel speed, s
+        (0 = the reported speed is the instantaneous one).
+    encoder_counts_per_rev : int
+        Encoder resolution at the wheel, counts per wheel revolution (quantisation).
+    wheel_inertia_kg_m2 : float
+        Rotational inertia of a wheel with its drive, about its axle, kg m^2.
+    source : str
+        Where the numbers come from.
+    """
+
+    torque_constant_nm_per_a: float
+    gear_ratio: float
+    efficiency: float
+    no_load_current_a: float
+    speed_time_constant_s: float
+    max_wheel_speed_rad_s: float
+    encoder_filter_s: float
+    encoder_counts_per_rev: int
+    wheel_inertia_kg_m2: float
+    source: str
+
+    def current_from_torque(self, wheel_torque_nm: np.ndarray,
+                            omega_rad_s: np.ndarray) -> np.ndarray:
+        """Motor current from the wheel torque it delivers.
+
+        Parameters
+        ----------
+        wheel_torque_nm : ndarray, shape (...)
+            Torque at the wheel (after the gearbox), N m.
+        omega_rad_s : ndarray, shape (...)
+            Wheel angular speed, rad/s (sets the sign of the no-load current).
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Signed motor current, A.
+        """
+        torque = np.asarray(wheel_torque_nm, dtype=float)
+        direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
+        return (self.no_load_current_a * direction
+                + torque / (self.gear_ratio * self.torque_constant_nm_per_a * self.efficiency))
+
+
+@dataclass(frozen=True)
+class ContactGeometry:
+    """Ground contact of a vehicle as a set of points in the body frame.
+
+    The body frame is x forward, y left, z up (REP-103), origin at the vehicle's reference
+    point (centre of rotation used by the kinematics).
+
+    Parameters
+    ----------
+    positions_m : ndarray, shape (n_contacts, 2)
+        Contact point positions (x, y), m.
+    motor_of_contact : ndarray of int, shape (n_contacts,)
+        Index of the drive motor turning each contact (several contacts share a motor on a
+        skid-steer side or along a track).
+    load_share : ndarray, shape (n_contacts,)
+        Static share of the vehicle weight on each contact (sums to 1).
+    steered : bool
+        Whether contacts are steerable (swerve) or fixed along x (skid-steer).
+    wheel_radius_m : float
+        Rolling radius of wheels / drive sprockets, m.
+    motor_names : tuple of str
+        Name of each motor (``left``, ``right`` or ``1``, ``2``, ``3``).
+    """
+
+    positions_m: np.ndarray
+    motor_of_contact: np.ndarray
+    load_share: np.ndarray
+    steered: bool
+    wheel_radius_m: float
+    motor_names: tuple[str, ...]
+
+    @property
+    def n_motors(self) -> int:
+        """Number of drive motors."""
+        return len(self.motor_names)

@@ -1,0 +1,253 @@
+"""Skid-steer vehicles: Clearpath Husky A200 (4 wheels) and the Patako tracked test bed.
+
+Kinematics (seed ``000_f24201ff985633bf.txt``, eqs. 1-5) extended with the ICR expansion
+factor ``chi`` of the ICR-based skid-steer model (Mandow et al., "Experimental kinematics for
+wheeled skid-steer mobile robots", IROS 2007): the contact lines of the two sides act as if
+they were ``chi * B`` apart, so ``yaw_rate = (eta_R v_R - eta_L v_L) / (chi B)``. Seed 000
+writes the track as ``2 d``; here ``B = 2 d``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from terrain.vehicles.common import ContactGeometry, MotorParams
+
+
+def _husky_motor() -> MotorParams:
+    return MotorParams(
+        torque_constant_nm_per_a=0.044, gear_ratio=78.71, efficiency=0.8, no_load_current_a=1.0,
+        speed_time_constant_s=0.1, max_wheel_speed_rad_s=1.0 / 0.1651, encoder_filter_s=0.0,
+        encoder_counts_per_rev=78_000, wheel_inertia_kg_m2=0.06,
+        source=("Husky A200: two 24 V brushed DC motors, one per side, both wheels of a side "
+                "chained together; top speed 1.0 m/s (Clearpath Husky datasheet). ASSUMED: "
+                "gear ratio 78.71 and k_t = 0.044 N m/A (a 24 V motor of that class; with them "
+                "a 1 m/s wheel speed is about 4500 motor rpm), gearbox efficiency 0.8, "
+                "no-load current 1.0 A per side (the currents of the measured runs fall to "
+                "about 1 A when the robot coasts). The reported speed is the instantaneous one "
+                "(no driver filter) so the baseline simulator has no wheel-stream lag."))
+
+
+@dataclass(frozen=True)
+class HuskyParams:
+    """Clearpath Husky A200.
+
+    Parameters
+    ----------
+    name : str
+    track_m : float
+        Lateral distance between left and right wheel centres B, m (0.5708 m, public Husky
+        description, ``husky_description`` URDF).
+    wheelbase_m : float
+        Front-rear axle distance, m (0.512 m, public Husky description).
+    wheel_radius_m : float
+        0.1651 m (13 in tyre, public Husky description; Clearpath datasheet 330 mm wheels).
+    mass_kg : float
+        50 kg (Clearpath Husky A200 datasheet, unloaded).
+    yaw_inertia_kg_m2 : float
+        ASSUMED ``m (L^2 + W^2) / 12`` of the 0.99 m x 0.67 m chassis (datasheet dimensions).
+    motor : MotorParams
+    contact_length_m, contact_width_m : float
+        ASSUMED tyre contact patch on firm ground, m.
+    speed_quantum_m_s : float
+        Resolution of the reported wheel speed, m/s: the borealtc ``pro_`` files hold
+        multiples of 0.2 / 25.4 m/s.
+    current_quantum_a : float
+        Resolution of the reported current, A (two decimals in the measured files).
+    """
+
+    name: str = "husky"
+    track_m: float = 0.5708
+    wheelbase_m: float = 0.512
+    wheel_radius_m: float = 0.1651
+    mass_kg: float = 50.0
+    yaw_inertia_kg_m2: float = 50.0 * (0.99 ** 2 + 0.67 ** 2) / 12.0
+    motor: MotorParams = field(default_factory=_husky_motor)
+    contact_length_m: float = 0.08
+    contact_width_m: float = 0.11
+    speed_quantum_m_s: float = 0.2 / 25.4
+    current_quantum_a: float = 0.01
+
+    def contact_geometry(self) -> ContactGeometry:
+        """Four wheels; motor 0 = left side (y > 0), motor 1 = right side."""
+        a, b = self.wheelbase_m / 2.0, self.track_m / 2.0
+        pos = np.array([[a, b], [-a, b], [a, -b], [-a, -b]])
+        return ContactGeometry(positions_m=pos, motor_of_contact=np.array([0, 0, 1, 1]),
+                               load_share=np.full(4, 0.25), steered=False,
+                               wheel_radius_m=self.wheel_radius_m, motor_names=("left", "right"))
+
+
+HUSKY = HuskyParams()
+
+
+def _tracked_motor() -> MotorParams:
+    return MotorParams(
+        torque_constant_nm_per_a=0.03, gear_ratio=50.0, efficiency=0.7, no_load_current_a=0.4,
+        speed_time_constant_s=0.1, max_wheel_speed_rad_s=0.5 / 0.05, encoder_filter_s=0.0,
+        encoder_counts_per_rev=2048, wheel_inertia_kg_m2=0.01,
+        source=("ASSUMED: seed 003 gives no drive data for the Patako test bed; small 24 V DC "
+                "gear motors (k_t 0.03 N m/A, 50:1, efficiency 0.7 with track losses), "
+                "0.5 m/s top speed (the seed's tests run at 0.05 m/s)."))
+
+
+@dataclass(frozen=True)
+class TrackedParams:
+    """Patako skid-steer tracked test bed (seed 003, Table 2).
+
+    Parameters
+    ----------
+    name : str
+    track_m : float
+        Tread (distance between track centre lines) B, m: 0.393 m (Table 2).
+    track_width_m : float
+        Width b of each track, m: 0.150 m (Table 2).
+    track_length_m : float
+        Ground contact length l, m: 0.600 m (Table 2).
+    cog_height_m : float
+        0.150 m (Table 2).
+    mass_kg : float
+        25 kg (Table 2).
+    slip_parameter_n : float
+        Endo's turning slip exponent n = 0.847, identified on linoleum (Table 2, eq. 27).
+    sprocket_radius_m : float
+        ASSUMED 0.05 m.
+    yaw_inertia_kg_m2 : float
+        ``m (l^2 + B^2) / 12`` (uniform plate over the footprint).
+    n_segments : int
+        Contact points per track used to discretise the track-ground contact.
+    motor : MotorParams
+    """
+
+    name: str = "tracked"
+    track_m: float = 0.393
+    track_width_m: float = 0.150
+    track_length_m: float = 0.600
+    cog_height_m: float = 0.150
+    mass_kg: float = 25.0
+    slip_parameter_n: float = 0.847
+    sprocket_radius_m: float = 0.05
+    yaw_inertia_kg_m2: float = 25.0 * (0.6 ** 2 + 0.393 ** 2) / 12.0
+    n_segments: int = 5
+    motor: MotorParams = field(default_factory=_tracked_motor)
+
+    @property
+    def wheel_radius_m(self) -> float:
+        """Sprocket radius (the "wheel" radius of the drive), m."""
+        return self.sprocket_radius_m
+
+    @property
+    def contact_length_m(self) -> float:
+        """Contact length of one track, m."""
+        return self.track_length_m
+
+    @property
+    def contact_width_m(self) -> float:
+        """Contact width of one track, m."""
+        return self.track_width_m
+
+    def contact_geometry(self) -> ContactGeometry:
+        """``n_segments`` points per track, evenly along its length; motor 0 = left."""
+        n = self.n_segments
+        xs = (np.arange(n) + 0.5) / n * self.track_length_m - self.track_length_m / 2.0
+        b = self.track_m / 2.0
+        pos = np.concatenate([np.column_stack([xs, np.full(n, b)]),
+                              np.column_stack([xs, np.full(n, -b)])])
+        return ContactGeometry(positions_m=pos,
+                               motor_of_contact=np.repeat(np.array([0, 1]), n),
+                               load_share=np.full(2 * n, 1.0 / (2 * n)), steered=False,
+                               wheel_radius_m=self.sprocket_radius_m,
+                               motor_names=("left", "right"))
+
+
+TRACKED = TrackedParams()
+
+
+def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m: float,
+                       eta_left: np.ndarray | float = 1.0, eta_right: np.ndarray | float = 1.0,
+                       chi: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Body speed and yaw rate of a skid-steer vehicle (seed 000 eqs. 2, 3 and 5).
+
+    ``V_G = (eta_R v_R + eta_L v_L) / 2`` and ``Omega = (eta_R v_R - eta_L v_L) / (chi B)``,
+    with ``eta = 1 - i`` (eq. 4) and the ICR expansion ``chi`` (1 = the ideal eq. 2).
+
+    Parameters
+    ----------
+    v_left_m_s, v_right_m_s : ndarray, shape (n,)
+        Wheel/track rim speeds ``omega r``, m/s.
+    track_m : float
+        B (= 2 d of seed 000), m.
+    eta_left, eta_right : float or ndarray, shape (n,)
+        Slip efficiencies (eq. 4), dimensionless.
+    chi : float
+        ICR expansion factor (>= 1 on real ground), dimensionless.
+
+    Returns
+    -------
+    v_m_s : ndarray, shape (n,)
+    yaw_rate_rad_s : ndarray, shape (n,)
+    """
+    vl = np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float)
+    vr = np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float)
+    return 0.5 * (vl + vr), (vr - vl) / (chi * track_m)
+
+
+def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: float,
+                       chi: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Side speeds that give a body speed and yaw rate without slip (inverse of eq. 2).
+
+    Parameters
+    ----------
+    v_m_s, yaw_rate_rad_s : ndarray, shape (n,)
+    track_m : float
+    chi : float
+
+    Returns
+    -------
+    v_left_m_s, v_right_m_s : ndarray, shape (n,)
+    """
+    v = np.asarray(v_m_s, dtype=float)
+    half = 0.5 * chi * track_m * np.asarray(yaw_rate_rad_s, dtype=float)
+    return v - half, v + half
+
+
+def skid_steer_pose_rates(yaw_rad: np.ndarray, v_m_s: np.ndarray,
+                          yaw_rate_rad_s: np.ndarray) -> np.ndarray:
+    """Unicycle pose rates (seed 000 eq. 1).
+
+    Parameters
+    ----------
+    yaw_rad, v_m_s, yaw_rate_rad_s : ndarray, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        ``(x_dot, y_dot, yaw_dot)`` in the world frame, m/s and rad/s.
+    """
+    yaw = np.asarray(yaw_rad, dtype=float)
+    v = np.asarray(v_m_s, dtype=float)
+    return np.stack([v * np.cos(yaw), v * np.sin(yaw),
+                     np.broadcast_to(yaw_rate_rad_s, v.shape)], axis=-1)
+
+
+def endo_slip_ratio_ratio(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
+                          n: float = TRACKED.slip_parameter_n) -> np.ndarray:
+    """Endo's turning slip relation ``alpha_l / alpha_r = -sgn(v_r v_l) |v_r / v_l|^n``.
+
+    Seed 003 eq. 27 (n = 0.847 for the Patako test bed, Table 2).
+
+    Parameters
+    ----------
+    v_left_m_s, v_right_m_s : ndarray, shape (n,)
+        Input track speeds, m/s (non-zero).
+    n : float
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Ratio of left to right slip ratio, dimensionless.
+    """
+    vl = np.asarray(v_left_m_s, dtype=float)
+    vr = np.asarray(v_right_m_s, dtype=float)
+    return -np.sign(vr * vl) * np.abs(vr / vl) ** n

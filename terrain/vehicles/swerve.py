@@ -1,0 +1,268 @@
+"""AgriMaRo three-wheel swerve drive (seed ``001_59da564c4b2d6a48.txt``).
+
+Kinematics of ch. 2.3.1 (eqs. 2.1-2.5) with the wheel positions of ch. 7.2, the T265 camera
+lever arm and axis conventions of ch. 5.2.3 (eqs. 5.4) and the steering dead band of
+ch. 6.1.1. Twists follow the thesis order ``V_b = [yaw_rate, v_x, v_y]`` (rad/s, m/s, m/s) in
+the body frame (x forward, y left, z up).
+
+Wheel numbering follows ch. 7.2 (``d_1 = [-0.5075, 0]``, ``d_2 = [0.5075, 0]``,
+``d_3 = [0, -0.756]`` m). Eq. 2.3 numbers the two on-axis wheels the other way round
+(wheel 1 at ``x = +w/2``); both give ``w = 1.015 m`` and ``t = 0.756 m``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from terrain.vehicles.common import ContactGeometry, MotorParams
+
+#: Rotation taking T265 tracking-frame vectors (x right, y up, z backward) to the robot frame
+#: (x forward, y left, z up), seed 001 ch. 5.2.3.
+R_ROBOT_FROM_T265_TRACKING = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+#: Rotation taking T265 internal IMU vectors (x left, y up, z forward) to the robot frame.
+R_ROBOT_FROM_T265_IMU = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def _agrimaro_motor() -> MotorParams:
+    return MotorParams(
+        torque_constant_nm_per_a=2.0, gear_ratio=1.0, efficiency=0.85, no_load_current_a=0.6,
+        speed_time_constant_s=0.08, max_wheel_speed_rad_s=1.6 / 0.165,
+        encoder_filter_s=0.12, encoder_counts_per_rev=90, wheel_inertia_kg_m2=0.12,
+        source=("UuMotor 48 V BLDC hub motor, max torque 60 N m (seed 001 ch. 2.2); direct drive "
+                "(G = 1). ASSUMED: k_t = 2.0 N m/A (60 N m reached at 30 A, a typical 48 V "
+                "hub-motor phase current); I_0 = 0.6 A; speed loop 0.08 s; ODrive Hall-encoder "
+                "filter 0.12 s, the order of the phase delay of ch. 7.2.2; 90 counts/rev = "
+                "15 pole pairs x 6 Hall states; speed limit 1.6 m/s at the rim (the thesis "
+                "tests run at 1 m/s, ch. 7.2.3)."))
+
+
+@dataclass(frozen=True)
+class AgriMaRoParams:
+    """AgriMaRo geometry, mass and actuators.
+
+    Parameters
+    ----------
+    name : str
+    wheel_positions_m : tuple of (x, y)
+        Wheel (steering axis) positions d_1..d_3 in the body frame, m. Seed 001 ch. 7.2.
+    wheel_radius_m : float
+        Rolling radius r, m. ASSUMED 0.165 m: the thesis does not give it; a 13 in
+        wheelbarrow tyre (ch. 2.2 "electric wheelbarrow" hub motor) has about 0.33 m diameter.
+    mass_kg : float
+        ASSUMED 150 kg: not given in the thesis; gantry frame with three 60 N m hub motors and
+        NEMA 34 steering (ch. 2.2) sized "for payload".
+    yaw_inertia_kg_m2 : float
+        ASSUMED m (w^2 + t^2) / 12 for a plate spanning the wheel triangle.
+    camera_lever_arm_m : tuple of float
+        T265 position in the body frame, m (seed 001 ch. 5.2.3, ``d_cam``).
+    steering_dead_band_rad : float
+        Half width of the steering dead band, rad (seed 001 ch. 6.1.1: +-0.021 rad).
+    steering_rate_rad_s : float
+        Steering speed limit, rad/s (20 rpm, seed 001 ch. 2.2).
+    motor : MotorParams
+    contact_length_m, contact_width_m : float
+        Tyre contact patch (ASSUMED 0.10 m x 0.12 m).
+    """
+
+    name: str = "agrimaro"
+    wheel_positions_m: tuple[tuple[float, float], ...] = ((-0.5075, 0.0), (0.5075, 0.0),
+                                                          (0.0, -0.7560))
+    wheel_radius_m: float = 0.165
+    mass_kg: float = 150.0
+    yaw_inertia_kg_m2: float = 150.0 * (1.015 ** 2 + 0.756 ** 2) / 12.0
+    camera_lever_arm_m: tuple[float, float, float] = (0.6685, -0.26875, 0.0)
+    steering_dead_band_rad: float = 0.021
+    steering_rate_rad_s: float = 20.0 * 2.0 * np.pi / 60.0
+    motor: MotorParams = field(default_factory=_agrimaro_motor)
+    contact_length_m: float = 0.10
+    contact_width_m: float = 0.12
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Wheel positions, shape (3, 2), m."""
+        return np.asarray(self.wheel_positions_m, dtype=float)
+
+    @property
+    def cog_m(self) -> np.ndarray:
+        """ASSUMED centre of gravity, shape (2,), m: centroid of the wheel triangle.
+
+        The body origin lies on the edge between wheels 1 and 2, so a CoG there would leave
+        wheel 3 unloaded; the centroid gives equal static loads.
+        """
+        return self.positions.mean(axis=0)
+
+    def contact_geometry(self) -> ContactGeometry:
+        """One contact per wheel, one motor per wheel, equal static loads."""
+        return ContactGeometry(positions_m=self.positions, motor_of_contact=np.arange(3),
+                               load_share=np.full(3, 1.0 / 3.0), steered=True,
+                               wheel_radius_m=self.wheel_radius_m, motor_names=("1", "2", "3"))
+
+
+AGRIMARO = AgriMaRoParams()
+
+
+def h_matrix(positions_m: np.ndarray) -> np.ndarray:
+    """Stacked rigid-body maps ``h_i`` of eq. 2.2 (the ``H`` of eq. 2.3).
+
+    Parameters
+    ----------
+    positions_m : ndarray, shape (n, 2)
+
+    Returns
+    -------
+    ndarray, shape (2 n, 3)
+        Rows ``[-y_i, 1, 0]`` and ``[x_i, 0, 1]`` per wheel; ``H @ V_b`` gives the contact
+        velocities ``[x_dot_1, y_dot_1, x_dot_2, ...]``.
+    """
+    p = np.asarray(positions_m, dtype=float)
+    n = len(p)
+    h = np.zeros((2 * n, 3))
+    h[0::2, 0] = -p[:, 1]
+    h[0::2, 1] = 1.0
+    h[1::2, 0] = p[:, 0]
+    h[1::2, 2] = 1.0
+    return h
+
+
+def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.ndarray:
+    """Velocity of each wheel's steering axis from the body twist (eq. 2.2, eqs. 7.3-7.4).
+
+    Parameters
+    ----------
+    positions_m : ndarray, shape (n_wheels, 2)
+    twist : ndarray, shape (..., 3)
+        ``[yaw_rate, v_x, v_y]`` (rad/s, m/s, m/s).
+
+    Returns
+    -------
+    ndarray, shape (..., n_wheels, 2)
+        ``(x_dot_i, y_dot_i)`` in the body frame, m/s.
+    """
+    p = np.asarray(positions_m, dtype=float)
+    tw = np.asarray(twist, dtype=float)
+    r = tw[..., 0:1]
+    vx = tw[..., 1:2] - r * p[:, 1]
+    vy = tw[..., 2:3] + r * p[:, 0]
+    return np.stack([vx, vy], axis=-1)
+
+
+def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
+                   params: AgriMaRoParams = AGRIMARO) -> np.ndarray:
+    """Forward kinematics ``V_b = H^+ S(delta) omega`` (seed 001 eq. 2.4).
+
+    Parameters
+    ----------
+    delta_rad : ndarray, shape (..., 3)
+        Steering angles, rad.
+    omega_rad_s : ndarray, shape (..., 3)
+        Wheel angular speeds, rad/s.
+    params : AgriMaRoParams
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Least-squares twist ``[yaw_rate, v_x, v_y]`` (rad/s, m/s, m/s).
+    """
+    d = np.asarray(delta_rad, dtype=float)
+    w = np.asarray(omega_rad_s, dtype=float)
+    rw = params.wheel_radius_m * w
+    s_omega = np.empty(d.shape[:-1] + (2 * d.shape[-1],))
+    s_omega[..., 0::2] = rw * np.cos(d)       # eq. 2.1: s_i(delta_i) omega_i
+    s_omega[..., 1::2] = rw * np.sin(d)
+    h_pinv = np.linalg.pinv(h_matrix(params.positions))
+    return s_omega @ h_pinv.T
+
+
+def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
+                   delta_prev_rad: np.ndarray | None = None,
+                   min_speed_m_s: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse kinematics per swerve unit (seed 001 eq. 2.5).
+
+    Of the two solutions ``k = 0, 1`` the one closest to ``delta_prev_rad`` is chosen (the
+    one within +-pi/2 when no previous angle is given). A unit whose speed is below
+    ``min_speed_m_s`` keeps its previous angle.
+
+    Parameters
+    ----------
+    twist : ndarray, shape (..., 3)
+        ``[yaw_rate, v_x, v_y]``.
+    params : AgriMaRoParams
+    delta_prev_rad : ndarray, shape (..., 3), optional
+    min_speed_m_s : float
+
+    Returns
+    -------
+    delta_rad : ndarray, shape (..., 3)
+    omega_rad_s : ndarray, shape (..., 3)
+    """
+    vel = wheel_contact_velocity(params.positions, twist)
+    speed = np.hypot(vel[..., 0], vel[..., 1])
+    delta0 = np.arctan2(vel[..., 1], vel[..., 0])
+    prev = np.zeros_like(delta0) if delta_prev_rad is None else np.broadcast_to(
+        np.asarray(delta_prev_rad, dtype=float), delta0.shape)
+    delta1 = delta0 - np.pi * np.sign(delta0 + 1e-300)        # the k = 1 (flipped) solution
+    wrap = lambda a: (a + np.pi) % (2.0 * np.pi) - np.pi  # noqa: E731
+    use_flip = np.abs(wrap(delta1 - prev)) < np.abs(wrap(delta0 - prev))
+    delta = np.where(use_flip, delta1, delta0)
+    omega = np.where(use_flip, -speed, speed) / params.wheel_radius_m
+    still = speed < min_speed_m_s
+    delta = np.where(still, prev, delta)
+    omega = np.where(still, 0.0, omega)
+    return delta, omega
+
+
+def camera_to_robot_velocity(v_camera_m_s: np.ndarray, omega_rad_s: np.ndarray,
+                             lever_arm_m: np.ndarray = np.array(AGRIMARO.camera_lever_arm_m)
+                             ) -> np.ndarray:
+    """Poisson formula ``v_robot = v_camera - omega x d_cam`` (seed 001 eq. 5.4).
+
+    Parameters
+    ----------
+    v_camera_m_s : ndarray, shape (..., 3)
+        Velocity of the camera point, robot axes, m/s.
+    omega_rad_s : ndarray, shape (..., 3)
+        Body angular velocity, rad/s.
+    lever_arm_m : ndarray, shape (3,)
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Velocity of the body origin, m/s.
+    """
+    return np.asarray(v_camera_m_s) - np.cross(np.asarray(omega_rad_s), lever_arm_m)
+
+
+def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
+                             lever_arm_m: np.ndarray = np.array(AGRIMARO.camera_lever_arm_m)
+                             ) -> np.ndarray:
+    """Inverse of :func:`camera_to_robot_velocity`: ``v_camera = v_robot + omega x d_cam``.
+
+    Parameters
+    ----------
+    v_robot_m_s : ndarray, shape (..., 3)
+    omega_rad_s : ndarray, shape (..., 3)
+    lever_arm_m : ndarray, shape (3,)
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    return np.asarray(v_robot_m_s) + np.cross(np.asarray(omega_rad_s), lever_arm_m)
+
+
+def t265_tracking_to_robot(vectors: np.ndarray) -> np.ndarray:
+    """Re-express T265 tracking-frame vectors in robot axes (seed 001 ch. 5.2.3).
+
+    Tracking frame: x right, y up, z backward. Robot frame: x forward, y left, z up.
+
+    Parameters
+    ----------
+    vectors : ndarray, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    return np.asarray(vectors, dtype=float) @ R_ROBOT_FROM_T265_TRACKING.T

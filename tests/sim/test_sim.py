@@ -1,0 +1,258 @@
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.cli import main as cli_main
+from terrain.errors import ConfigError
+from terrain.sim import Effects, SimConfig, parse_effects, simulate, write_run
+from terrain.sim.dynamics import integrate
+from terrain.sim.simulate import _currents
+from terrain.terramechanics import MEASURED_HUSKY_STRAIGHT, get_terrain
+from terrain.vehicles import HUSKY, get_vehicle
+
+B = HUSKY.track_m
+
+
+def _best_lag(result, max_lag_s=1.0):
+    """Lag (s) of the wheel stream behind the IMU from cross-correlating yaw rates."""
+    imu, pro = result.streams["imu"], result.streams["pro"]
+    kin = ((pro.velR - pro.velL) / B).to_numpy()
+    t = pro.time.to_numpy()
+    lags = np.arange(0.0, max_lag_s, 0.01)
+    corr = []
+    for lag in lags:
+        m = t - lag >= 0
+        wz = np.interp(t[m] - lag, imu.time, imu.wz)
+        corr.append(np.corrcoef(wz, kin[m])[0, 1])
+    return lags[int(np.argmax(corr))]
+
+
+def test_zero_slip_rigid_surface_constant_speed():
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="straight_accel",
+                           duration_s=8.0, seed=0))
+    tr = r.streams["truth"]
+    late = tr[tr.time > 4.0]
+    assert np.abs(late[["slip_1", "slip_2"]].to_numpy()).max() < 1e-3
+    assert late.v_bx.mean() == pytest.approx(0.95, abs=0.01)
+    assert np.abs(late.yaw_rate).max() < 1e-9
+
+
+def test_pure_rolling_yaw_rate_effects_off(husky_orchard):
+    """yaw_rate = (v_R - v_L) / B with the sides' ground speeds (the rim speeds corrected
+    by the true slip), and close to the rim-speed kinematics on asphalt."""
+    tr = husky_orchard.streams["truth"]
+    wr = HUSKY.wheel_radius_m
+
+    def ground(omega, slip):
+        rim = omega * wr
+        return np.where(slip >= 0, rim * (1 - slip), rim / (1 + slip))
+
+    vl, vr = ground(tr.omega_1, tr.slip_1), ground(tr.omega_2, tr.slip_2)
+    moving = (tr.omega_1 * wr > 0.05) & (tr.omega_2 * wr > 0.05)
+    assert np.allclose(((vr - vl) / B)[moving], tr.yaw_rate[moving], atol=1e-6)
+    kin = (tr.omega_2 - tr.omega_1) * wr / B
+    turning = np.abs(kin) > 0.2
+    ratio = (kin[turning] / tr.yaw_rate[turning]).median()
+    assert 1.0 <= ratio < 1.15          # only the physical lateral scrub: chi = 1 planted
+
+
+def _chi_hat(result):
+    pro, imu = result.streams["pro"], result.streams["imu"]
+    x = ((pro.velR - pro.velL) / B).to_numpy()
+    wz = np.interp(pro.time, imu.time, imu.wz)
+    m = np.abs(x) > 0.2
+    return np.sum(x[m] ** 2) / np.sum(x[m] * wz[m])
+
+
+@pytest.mark.parametrize("chi", [1.55, 1.7])
+def test_icr_expansion_found_by_regression(chi, husky_orchard):
+    """Regressing wz on (velR - velL)/B gives chi times the baseline's own (physical
+    lateral scrub) factor, which stays close to 1 on asphalt."""
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
+                           duration_s=120.0, seed=7, effects=Effects(icr_expansion=chi)))
+    base = _chi_hat(husky_orchard)
+    assert 1.0 <= base < 1.15
+    assert _chi_hat(r) / base == pytest.approx(chi, rel=0.03)
+
+
+def test_gyro_bias_shifts_mean_wz(husky_orchard):
+    bias = 0.03
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
+                           duration_s=120.0, seed=7, effects=Effects(gyro_bias=bias)))
+    shift = r.streams["imu"].wz.mean() - husky_orchard.streams["imu"].wz.mean()
+    assert shift == pytest.approx(bias, abs=1e-6)
+    # and against truth, independently of the baseline run
+    truth_mean = r.streams["truth"].yaw_rate.mean()
+    assert r.streams["imu"].wz.mean() - truth_mean == pytest.approx(bias, abs=2e-3)
+
+
+def test_wheel_lag_found_by_cross_correlation(husky_orchard):
+    base = _best_lag(husky_orchard)
+    assert base <= 0.08                        # effect off: no lag beyond half a wheel sample
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
+                           duration_s=120.0, seed=7, effects=Effects(wheel_lag=0.4)))
+    assert _best_lag(r) == pytest.approx(0.4, abs=0.08)
+
+
+def test_current_effects_show_their_magnitude(husky_orchard):
+    base = husky_orchard.streams["pro"]
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
+                           duration_s=120.0, seed=7, effects=Effects(current_offset=1.5)))
+    pro = r.streams["pro"]
+    d = (pro.curR - pro.curL).mean() - (base.curR - base.curL).mean()
+    assert d == pytest.approx(1.5, abs=0.05)
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
+                           duration_s=120.0, seed=7, effects=Effects(turning_resistance=2.0)))
+    pro, tr = r.streams["pro"], husky_orchard.streams["truth"]
+    turning = np.interp(pro.time, tr.time, np.abs(tr.yaw_rate)) > 0.25
+    extra = (pro.curL + pro.curR - base.curL - base.curR)[turning].mean() / 2
+    straight = (pro.curL + pro.curR - base.curL - base.curR)[~turning].mean() / 2
+    assert extra == pytest.approx(2.0, abs=0.2)
+    assert abs(straight) < extra / 2
+
+
+def test_grade_resistance_extra_current_on_slope():
+    cfg = dict(vehicle="husky", terrains=("ASPHALT",), scenario="slope_turn", duration_s=40.0,
+               seed=2)
+    base = simulate(SimConfig(**cfg))
+    r = simulate(SimConfig(**cfg, effects=Effects(grade_resistance=4.0)))
+    pitch = np.interp(r.streams["pro"].time, base.streams["truth"].time,
+                      np.abs(base.streams["truth"].pitch))
+    d = ((r.streams["pro"].curL - base.streams["pro"].curL)
+         + (r.streams["pro"].curR - base.streams["pro"].curR)).to_numpy() / 2
+    slope = np.sum(d * pitch) / np.sum(pitch * pitch)
+    assert slope == pytest.approx(4.0, rel=0.05)
+    # the accelerometer sees gravity along the slope: mean |(ax, ay)| ~ g sin(15 deg)
+    imu = r.streams["imu"]
+    assert np.hypot(imu.ax, imu.ay).median() > 1.5
+
+
+@pytest.mark.parametrize("terrain", list(MEASURED_HUSKY_STRAIGHT))
+def test_husky_straight_current_matches_measured(terrain):
+    target, speed = MEASURED_HUSKY_STRAIGHT[terrain]
+    g = HUSKY.contact_geometry()
+    t = np.arange(0, 12.0, 0.01)
+    tw = np.zeros((len(t), 3))
+    tw[:, 0] = np.minimum(t * 0.5, speed)
+    phys = integrate(HUSKY, g, (get_terrain(terrain),), 25.0, t, tw, 0.0, 1.55)
+    cur = _currents(phys, HUSKY, Effects(icr_expansion=1.55))
+    assert cur[t > 6.0].mean() == pytest.approx(target, rel=0.05)
+
+
+def test_thesis_straight_line_steady_slip():
+    ranges = {"TILES": (-0.01, 0.01), "GRASS": (0.116, 0.135), "GRAVEL": (0.122, 0.146)}
+    for terrain, (lo, hi) in ranges.items():
+        r = simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,),
+                               scenario="straight_accel", duration_s=8.0, seed=0))
+        tr = r.streams["truth"]
+        steady = tr.loc[tr.time > 4.0, ["slip_1", "slip_2", "slip_3"]].to_numpy().mean()
+        assert lo <= steady <= hi, (terrain, steady)
+        early = tr.loc[(tr.time > 0.2) & (tr.time < 2.0), "slip_1"].max()
+        assert early > steady                     # acceleration peak above cruise
+
+
+def test_dig_in_on_ploughed_but_not_on_asphalt():
+    out = {}
+    for terrain in ("ASPHALT", "PLOUGHED"):
+        r = simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario="spin",
+                               duration_s=6.0, seed=0))
+        tr = r.streams["truth"][r.streams["truth"].time > 2.0]
+        out[terrain] = (np.abs(tr.yaw_rate).mean(), np.abs(tr.slip_1).mean())
+    assert out["ASPHALT"][0] > 0.45                # commanded 0.6 rad/s
+    assert out["PLOUGHED"][0] < 0.15              # digs in...
+    assert out["PLOUGHED"][1] > 0.7               # ...while the wheels keep spinning
+
+
+def test_terrain_changes_along_path():
+    r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT", "SNOW"), scenario="orchard",
+                           duration_s=40.0, seed=1, segment_length_m=5.0))
+    labels = set(r.streams["truth"].terrain)
+    assert labels == {"ASPHALT", "SNOW"} and r.meta["terrain"] == "MIXED"
+
+
+def test_reproducible_with_seed():
+    a = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=10.0, seed=5))
+    b = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=10.0, seed=5))
+    c = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=10.0, seed=6))
+    for k in a.streams:
+        pd.testing.assert_frame_equal(a.streams[k], b.streams[k])
+    assert not a.streams["imu"].equals(c.streams["imu"])
+
+
+def test_bad_config_raises_config_error():
+    with pytest.raises(ConfigError, match="straight_accel"):
+        SimConfig(scenario="loop")
+    with pytest.raises(ConfigError, match="ASPHALT"):
+        SimConfig(terrains=("MUD",))
+    with pytest.raises(ConfigError, match="icr_expansion"):
+        parse_effects(["chi=2"])
+    with pytest.raises(ConfigError, match="range"):
+        parse_effects(["wheel_lag=-1"])
+    with pytest.raises(ConfigError):
+        SimConfig(duration_s=0)
+
+
+EXPECTED = {
+    "imu": ["time", "wx", "wy", "wz", "ax", "ay", "az"],
+    "pro": ["time", "curL", "curR", "velL", "velR"],
+}
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "agrimaro", "tracked"])
+def test_cli_writes_files_with_exact_columns(tmp_path, vehicle):
+    args = ["simulate", "--vehicle", vehicle, "--terrain", "GRASS", "--scenario", "random",
+            "--duration-s", "5", "--seed", "3", "--effect", "gyro_bias=0.01",
+            "--out", str(tmp_path)]
+    assert cli_main(args) == 0
+    assert cli_main(args) == 0                     # second run gets index 01
+    folder = tmp_path / "GRASS"
+    for name, cols in EXPECTED.items():
+        assert list(pd.read_csv(folder / f"{name}_00.csv").columns) == cols
+    assert (folder / "pro_01.csv").exists()
+    truth = pd.read_csv(folder / "truth_00.csv")
+    n = 3 if vehicle == "agrimaro" else 2
+    assert list(truth.columns[:7]) == ["time", "x", "y", "yaw", "v_bx", "v_by", "yaw_rate"]
+    assert [f"slip_{i + 1}" for i in range(n)] == [c for c in truth.columns if c.startswith("slip")]
+    assert truth.terrain.eq("GRASS").all()
+    meta = json.loads((folder / "meta_00.json").read_text())
+    assert meta["vehicle"] == vehicle and meta["effects"]["gyro_bias"] == 0.01
+    if vehicle == "agrimaro":
+        assert list(pd.read_csv(folder / "steer_00.csv").columns) == [
+            "time", "delta_1", "delta_2", "delta_3"]
+        assert list(pd.read_csv(folder / "cam_00.csv").columns) == [
+            "time", "v_cx", "v_cy", "yaw_rate_c", "yaw_c"]
+        assert list(pd.read_csv(folder / "omega_00.csv").columns) == [
+            "time", "omega_1", "omega_2", "omega_3"]
+
+
+def test_cli_bad_names_exit_2(tmp_path, capsys):
+    assert cli_main(["simulate", "--vehicle", "tank", "--terrain", "ICE",
+                     "--out", str(tmp_path)]) == 2
+    assert "valid choices" in capsys.readouterr().err
+
+
+def test_write_run_round_trip(tmp_path, husky_orchard):
+    paths = write_run(husky_orchard, tmp_path)
+    for name, frame in husky_orchard.streams.items():
+        back = pd.read_csv(paths[name])
+        assert list(back.columns) == list(frame.columns)
+        num = frame.select_dtypes("number").columns
+        assert np.allclose(back[num].to_numpy(), frame[num].to_numpy(), rtol=1e-8, atol=1e-9)
+
+
+def test_wheel_rates_and_camera_lever_arm():
+    r = simulate(SimConfig(vehicle="agrimaro", terrains=("TILES",), scenario="random",
+                           duration_s=30.0, seed=4))
+    assert np.median(np.diff(r.streams["imu"].time)) == pytest.approx(0.01)
+    cam, tr = r.streams["cam"], r.streams["truth"]
+    yr = np.interp(cam.time, tr.time, tr.yaw_rate)
+    vx = np.interp(cam.time, tr.time, tr.v_bx)
+    # v_cx = v_bx - yaw_rate * d_y  with d_y = -0.26875 (seed 001 eq. 5.4)
+    resid = cam.v_cx - (vx + 0.26875 * yr)
+    assert np.abs(resid.mean()) < 0.01 and resid.std() < 0.03
+    st = r.streams["steer"]
+    assert np.allclose(np.diff(np.unique(np.round(st.delta_1 / (2 * np.pi / 4096)))) % 1, 0)
+    assert get_vehicle("agrimaro").steering_dead_band_rad >= np.abs(
+        np.asarray(r.meta["steering_offset_rad"])).max()

@@ -1,0 +1,93 @@
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BurckhardtCurve,
+                                    calibrate_janosi, can_turn_in_place, get_terrain,
+                                    husky_hysteresis_for_current, sae_slip, steady_slip,
+                                    traction_coefficient, traction_curve_and_slope,
+                                    traction_peak, turning_resistance_moment_nm)
+from terrain.vehicles import HUSKY
+
+REQUIRED = ["ASPHALT", "CONCRETE", "FLOORING", "ICE", "SNOW", "SANDY_LOAM", "DIRT_ROAD",
+            "PLOUGHED", "UNPLOUGHED", "TILES", "GRASS", "GRAVEL"]
+
+
+def test_catalogue_covers_required_terrains_with_sources():
+    for name in REQUIRED:
+        t = get_terrain(name)
+        assert len(t.source) > 40 and t.curve is not None
+
+
+def test_unknown_terrain_lists_choices():
+    with pytest.raises(ConfigError, match="ASPHALT"):
+        get_terrain("LAVA")
+
+
+@pytest.mark.parametrize("name", list(TERRAINS))
+def test_curve_odd_zero_and_slope_matches_finite_difference(name):
+    curve = TERRAINS[name].curve
+    s = np.linspace(-0.95, 0.95, 39)
+    mu, dmu = traction_curve_and_slope(curve, s)
+    assert np.allclose(mu, -mu[::-1])
+    assert traction_coefficient(curve, 0.0) == pytest.approx(0.0)
+    h = 1e-6
+    pos = s[s > 0.01]
+    fd = (traction_coefficient(curve, pos + h) - traction_coefficient(curve, pos - h)) / (2 * h)
+    assert np.allclose(traction_curve_and_slope(curve, pos)[1], fd, rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", list(TERRAINS))
+def test_traction_peak_is_curve_maximum(name):
+    curve = TERRAINS[name].curve
+    peak = traction_peak(curve)
+    grid = np.linspace(0, 1, 5001)
+    mu = traction_coefficient(curve, grid)
+    assert 0.0 < peak.slip <= 1.0
+    assert peak.mu_max == pytest.approx(mu.max(), rel=1e-4)
+    assert peak.mu >= 0.95 * mu.max() - 1e-9
+
+
+def test_burckhardt_dry_asphalt_peak_known_value():
+    # c1 c2 e^{-c2 s} = c3  ->  s* = ln(c1 c2 / c3) / c2 ~ 0.17, mu ~ 1.17
+    peak = traction_peak(BurckhardtCurve(1.2801, 23.99, 0.52))
+    assert peak.slip == pytest.approx(0.170, abs=2e-3) and not peak.monotonic
+    assert peak.mu == pytest.approx(1.17, abs=0.01)
+
+
+def test_sae_slip_conditioning():
+    assert sae_slip(1.0, 0.0) == 1.0
+    assert sae_slip(0.0, 1.0) == -1.0
+    assert sae_slip(1.0, 0.8) == pytest.approx(0.2)
+    assert sae_slip(0.8, 1.0) == pytest.approx(-0.2)
+
+
+def test_thesis_steady_slip_reproduced():
+    assert steady_slip(get_terrain("TILES")) < 0.01
+    assert 0.116 <= steady_slip(get_terrain("GRASS")) <= 0.135
+    assert 0.122 <= steady_slip(get_terrain("GRAVEL")) <= 0.146
+
+
+def test_calibrate_janosi_reproduces_catalogue_grass():
+    c = calibrate_janosi(0.08, 0.1255, 0.339)
+    g = get_terrain("GRASS").curve
+    assert c.mu_max == pytest.approx(g.mu_max, abs=2e-3)
+    assert c.shear_slip == pytest.approx(g.shear_slip, abs=2e-3)
+
+
+def test_husky_hysteresis_reproduces_target_current():
+    for name, (cur, v) in MEASURED_HUSKY_STRAIGHT.items():
+        t = get_terrain(name)
+        h = husky_hysteresis_for_current(t, cur, v)
+        assert h == pytest.approx(t.hysteresis)
+        assert 0.0 < h < 0.4
+    # a higher target needs more loss
+    t = get_terrain("ASPHALT")
+    assert husky_hysteresis_for_current(t, 3.0, 0.5) > husky_hysteresis_for_current(t, 2.0, 0.5)
+
+
+def test_dig_in_prediction():
+    g = HUSKY.contact_geometry()
+    assert can_turn_in_place(g, get_terrain("ASPHALT"))
+    assert not can_turn_in_place(g, get_terrain("PLOUGHED"))
+    assert turning_resistance_moment_nm(0.5, 100.0, 0.6) == pytest.approx(7.5)
