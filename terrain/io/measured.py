@@ -108,7 +108,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     raw.columns = [c.strip() for c in raw.columns]
     mapping = COLUMN_MAPS.get(kind)
     if mapping is None:
-        mapping = {c: (TIME if c == "time" else c) for c in raw.columns}
+        # extra stream: ``time`` is required and comes first, other columns keep their names
+        mapping = {"time": TIME, **{c: c for c in raw.columns if c != "time"}}
     missing = [c for c in mapping if c not in raw.columns]
     if missing:
         raise MissingColumnError(
@@ -247,6 +248,8 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
             meta = json.loads(files["meta"].read_text())
         except json.JSONDecodeError as exc:
             raise DataFormatError(f"invalid JSON: {exc}", files["meta"]) from None
+        if not isinstance(meta, dict):
+            raise DataFormatError("run metadata must be a JSON object", files["meta"])
     streams: dict[str, pd.DataFrame] = {}
     repaired: dict[str, int] = {}
     gaps: dict[str, list] = {}

@@ -1,0 +1,119 @@
+"""Shared fixtures: shipped runs from ``data/`` and small measured-run CSV trees in tmp_path.
+
+Nothing here reads ``shared/``: synthetic runs are generated, real rows come from the
+shipped copy in ``data/`` (:func:`terrain.io.shipped.read_shipped`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.io.shipped import default_data_dir, read_shipped
+from terrain.run import IMU_CHANNELS, TIME, Run
+
+#: Column orders of the measured files (``shared/data/README.md``).
+IMU_FILE_COLUMNS = ["time", *IMU_CHANNELS]
+BOREALTC_PRO_COLUMNS = ["time", "curL", "curR", "velL", "velR"]
+#: canonical name -> file column name
+FILE_NAMES = {TIME: "time", "vel_l": "velL", "vel_r": "velR", "cur_l": "curL", "cur_r": "curR",
+              **{c: c for c in IMU_CHANNELS}}
+
+
+def _synth_imu(duration_s: float = 10.0, rate_hz: float = 100.0, seed: int = 0
+               ) -> pd.DataFrame:
+    """IMU frame with *file* column names, rad/s and m/s^2, time i / rate_hz (exact)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(duration_s * rate_hz)) + 1
+    t = np.arange(n) / rate_hz
+    gyro = 0.05 * rng.standard_normal((n, 3))
+    acc = 0.3 * rng.standard_normal((n, 3)) + np.array([0.0, 0.0, 9.81])
+    return pd.DataFrame(np.column_stack([t, gyro, acc]), columns=IMU_FILE_COLUMNS)
+
+
+def _synth_pro(duration_s: float = 10.0, rate_hz: float = 10.0, seed: int = 1,
+               columns: list[str] = BOREALTC_PRO_COLUMNS) -> pd.DataFrame:
+    """Wheel frame with *file* column names in the given order (m/s, A)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(duration_s * rate_hz)) + 1
+    data = {"time": np.arange(n) / rate_hz,
+            "velL": 0.5 + 0.02 * rng.standard_normal(n),
+            "velR": 0.6 + 0.02 * rng.standard_normal(n),
+            "curL": 5.0 + rng.standard_normal(n),
+            "curR": 7.0 + rng.standard_normal(n)}
+    return pd.DataFrame(data)[columns]
+
+
+def _write_run(root: Path, terrain: str, index: str, imu: pd.DataFrame | None = None,
+               pro: pd.DataFrame | None = None) -> dict[str, Path]:
+    """Write ``<root>/<terrain>/{imu,pro}_<index>.csv``; returns ``kind -> path``."""
+    folder = Path(root) / terrain
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for kind, frame in (("imu", imu), ("pro", pro)):
+        if frame is not None:
+            paths[kind] = folder / f"{kind}_{index}.csv"
+            frame.to_csv(paths[kind], index=False)
+    return paths
+
+
+def _to_file_frame(frame: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
+    """A canonical stream frame renamed to file column names, in ``columns`` order."""
+    return frame.rename(columns=FILE_NAMES)[columns]
+
+
+@pytest.fixture
+def synth_imu():
+    """Factory of synthetic IMU frames (file column names)."""
+    return _synth_imu
+
+
+@pytest.fixture
+def synth_pro():
+    """Factory of synthetic wheel frames (file column names, chosen order)."""
+    return _synth_pro
+
+
+@pytest.fixture
+def write_run():
+    """Writer of one run's CSV files into a measured-run tree."""
+    return _write_run
+
+
+@pytest.fixture
+def to_file_frame():
+    """Renamer from canonical to file column names."""
+    return _to_file_frame
+
+
+@pytest.fixture
+def make_run():
+    """Build a :class:`Run` in memory from canonical stream frames."""
+    def make(streams: dict[str, pd.DataFrame], run_id: str = "test/ASPHALT/00",
+             terrain: str | None = "ASPHALT") -> Run:
+        return Run(run_id=run_id, dataset=run_id.split("/")[0], terrain=terrain,
+                   streams=streams, source="in-memory test run")
+    return make
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    """The shipped ``data/`` folder of the repository."""
+    path = default_data_dir()
+    assert (path / "manifest.json").exists(), f"shipped data missing at {path}"
+    return path
+
+
+@pytest.fixture(scope="session")
+def borealtc_runs(data_dir):
+    """Every shipped BorealTC run."""
+    return read_shipped("borealtc", data_dir)
+
+
+@pytest.fixture(scope="session")
+def vulpi_runs(data_dir):
+    """Every shipped Vulpi run."""
+    return read_shipped("vulpi", data_dir)

@@ -1,0 +1,142 @@
+"""Feature calculators against hand-computed values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats as sps
+
+from features import calculators as calc
+from features.transformers import linear_bands
+
+RAMP = np.array([1.0, 2.0, 3.0, 4.0])
+# Bernoulli(p = 1/4) scaled by 3: skewness (1-2p)/sqrt(p(1-p)) = 2/sqrt(3),
+# excess kurtosis (1 - 6p(1-p))/(p(1-p)) = -2/3
+SPIKE = np.array([0.0, 0.0, 0.0, 3.0])
+ALTERNATING = np.array([1.0, -1.0, 1.0, -1.0])
+
+
+def _batch(*rows):
+    """(n_windows, 1, n_samples) batch of the given 1-D windows."""
+    return np.stack(rows)[:, None, :]
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("mean", [2.5, 0.75, 0.0]),
+    ("std", [np.sqrt(1.25), np.sqrt(1.6875), 1.0]),
+    ("skewness", [0.0, 2.0 / np.sqrt(3.0), 0.0]),
+    ("kurtosis", [2.5625 / 1.25 ** 2 - 3.0, -2.0 / 3.0, -2.0]),
+    ("rms", [np.sqrt(7.5), 1.5, 1.0]),
+    ("min", [1.0, 0.0, -1.0]),
+    ("max", [4.0, 3.0, 1.0]),
+    ("mean_abs_diff", [1.0, 1.0, 2.0]),
+])
+def test_statistic_hand_values(name, expected):
+    out = calc.STATISTICS[name](_batch(RAMP, SPIKE, ALTERNATING))
+    assert out.shape == (3, 1)
+    np.testing.assert_allclose(out[:, 0], expected, rtol=1e-12, atol=1e-12)
+
+
+def test_registry_is_explicit_and_complete():
+    assert list(calc.STATISTICS) == ["mean", "std", "skewness", "kurtosis", "rms", "min",
+                                     "max", "mean_abs_diff"]
+
+
+def test_statistics_are_per_window_and_channel():
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((5, 3, 64)) ** 3
+    for name, fn in calc.STATISTICS.items():
+        out = fn(x)
+        assert out.shape == (5, 3), name
+        # window (2, 1) alone gives the same value as in the batch
+        np.testing.assert_allclose(fn(x[2:3, 1:2])[0, 0], out[2, 1], err_msg=name)
+    np.testing.assert_allclose(calc.skewness(x), sps.skew(x, axis=-1, bias=True))
+    np.testing.assert_allclose(calc.kurtosis(x), sps.kurtosis(x, axis=-1, bias=True))
+
+
+def test_constant_window_has_zero_shape_moments():
+    x = np.full((1, 1, 10), 4.2)
+    assert calc.skewness(x)[0, 0] == 0.0 and calc.kurtosis(x)[0, 0] == 0.0
+    assert calc.std(x)[0, 0] == pytest.approx(0.0, abs=1e-12)
+    assert calc.mean_abs_diff(x)[0, 0] == 0.0
+
+
+RATE = 50.0
+N = 100  # 2 s windows: 0.5 Hz bins
+
+
+@pytest.mark.parametrize("freq", [1.0, 3.0, 6.0, 11.0, 16.0, 21.0, 24.0])
+def test_band_power_of_pure_tone_peaks_in_its_band(freq):
+    t = np.arange(N) / RATE
+    x = np.sin(2 * np.pi * freq * t)[None, None, :]
+    bands = linear_bands(RATE, 2.5)
+    out = calc.band_log_power(x, RATE, bands)
+    assert out.shape == (1, 1, len(bands))
+    expected = next(k for k, (lo, hi) in enumerate(bands) if lo <= freq < hi)
+    assert int(np.argmax(out[0, 0])) == expected
+    # far from the tone there is (almost) nothing: 4 decades below the peak
+    far = [k for k, (lo, hi) in enumerate(bands) if min(abs(lo - freq), abs(hi - freq)) > 3]
+    assert (out[0, 0, far] < out[0, 0, expected] - 4).all()
+
+
+def _bin_bands(n, rate):
+    """One band per FFT bin (each band holds exactly one bin)."""
+    df = rate / n
+    return tuple(((k - 0.5) * df, (k + 0.5) * df) for k in range(n // 2 + 1)), df
+
+
+def test_band_power_parseval_tone():
+    amplitude, freq = 2.0, 7.0  # on a bin
+    t = np.arange(N) / RATE
+    x = (amplitude * np.sin(2 * np.pi * freq * t) + 5.0)[None, None, :]  # offset removed
+    bands, df = _bin_bands(N, RATE)
+    psd = 10 ** calc.band_log_power(x, RATE, bands)[0, 0]
+    assert psd.sum() * df == pytest.approx(amplitude ** 2 / 2, rel=0.01)  # power of a sine
+
+
+def test_band_power_parseval_noise():
+    rng = np.random.default_rng(0)
+    n = 256
+    x = rng.normal(0.0, 1.5, (20, 2, n))
+    bands, df = _bin_bands(n, RATE)
+    psd = 10 ** calc.band_log_power(x, RATE, bands)
+    w = np.hanning(n)
+    d = x - x.mean(axis=-1, keepdims=True)
+    tapered_var = ((d * w) ** 2).sum(axis=-1) / (w ** 2).sum()
+    np.testing.assert_allclose(psd.sum(axis=-1) * df, tapered_var, rtol=0.05)
+    # and on average it is the signal variance
+    assert (psd.sum(axis=-1) * df).mean() == pytest.approx(1.5 ** 2, rel=0.1)
+
+
+def test_band_without_bin_uses_nearest_bin():
+    t = np.arange(N) / RATE
+    x = np.sin(2 * np.pi * 7.0 * t)[None, None, :]
+    narrow = calc.band_log_power(x, RATE, ((6.9, 7.1),))          # holds the 7.0 bin
+    empty = calc.band_log_power(x, RATE, ((7.05, 7.15),))         # nearest bin: 7.0
+    np.testing.assert_allclose(narrow, empty)
+
+
+def test_per_speed_floors_the_speed():
+    current = np.array([[10.0, 10.0], [10.0, 10.0], [-4.0, -4.0], [6.0, 6.0]])
+    speed = np.array([[0.01, 0.01], [2.0, 2.0], [-2.0, -2.0], [1.0, -1.0]])
+    out = calc.per_speed(current, speed, min_speed_m_s=0.1)
+    np.testing.assert_allclose(out, [100.0, 5.0, -2.0, 6.0])
+    assert out.shape == (4,)
+
+
+@pytest.mark.parametrize("chi", [1.0, 1.4, 2.2])
+def test_regression_gain_recovers_inverse_icr_expansion(chi):
+    t = np.arange(200) / 50.0
+    yaw_rate_wheels = np.stack([0.8 * np.sin(2 * np.pi * 0.3 * t), np.full(200, 0.5)])
+    wz = yaw_rate_wheels / chi
+    np.testing.assert_allclose(calc.regression_gain(wz, yaw_rate_wheels, 0.0), 1.0 / chi,
+                               rtol=1e-12)
+    # the ridge floor shrinks the gain only a little when the robot turns
+    floored = calc.regression_gain(wz, yaw_rate_wheels, 0.05)
+    np.testing.assert_allclose(floored, 1.0 / chi, rtol=0.02)
+    assert (floored < 1.0 / chi).all()
+
+
+def test_regression_gain_goes_to_zero_when_not_turning():
+    x = np.full((1, 100), 1e-4)
+    assert abs(calc.regression_gain(x / 1.5, x, 0.05)[0]) < 1e-4

@@ -1,0 +1,137 @@
+"""WindowFeatures: named columns, shape checks, sklearn API, real shipped windows."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+
+from features import calculators
+from features.transformers import DEFAULT_STATS, WindowFeatures, _band_name, linear_bands
+from features.windows import ALL_CHANNELS, WindowConfig, make_windows
+from terrain.errors import ConfigError
+
+NAME_RE = re.compile(r"^[a-z][a-z0-9_]*?__[a-z0-9_]+$")
+CHANNELS = ("wz", "vel_l", "cur_l")
+
+
+def _windows(n=6, channels=CHANNELS, samples=100, seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.standard_normal((n, len(channels), samples))
+    X[:, list(channels).index("vel_l") if "vel_l" in channels else 0] += 0.5
+    return X
+
+
+def test_feature_names_follow_convention_and_match_columns():
+    X = _windows()
+    fx = WindowFeatures(channels=CHANNELS, rate_hz=50.0)
+    F = fx.fit_transform(X)
+    names = list(fx.get_feature_names_out())
+    assert F.shape == (len(X), len(names))
+    assert len(set(names)) == len(names)
+    for name in names:
+        assert NAME_RE.match(name), name
+        assert name.split("__")[0] in CHANNELS, name
+    bands = linear_bands(50.0, 2.5)
+    expected = ([f"{c}__{s}" for c in CHANNELS for s in DEFAULT_STATS]
+                + [f"wz__{_band_name(lo, hi)}" for lo, hi in bands]   # IMU channels only
+                + ["cur_l__per_speed"])                                # needs cur_l and vel_l
+    assert names == expected
+
+
+def test_columns_hold_what_their_names_say():
+    X = _windows()
+    fx = WindowFeatures(channels=CHANNELS, rate_hz=50.0, min_speed_m_s=0.05)
+    F = fx.fit_transform(X)
+    col = {n: F[:, i] for i, n in enumerate(fx.get_feature_names_out())}
+    np.testing.assert_allclose(col["wz__mean"], X[:, 0].mean(axis=1))
+    np.testing.assert_allclose(col["cur_l__max"], X[:, 2].max(axis=1))
+    np.testing.assert_allclose(col["vel_l__kurtosis"], calculators.kurtosis(X[:, 1]))
+    np.testing.assert_allclose(col["cur_l__per_speed"],
+                               calculators.per_speed(X[:, 2], X[:, 1], 0.05))
+    bp = calculators.band_log_power(X[:, :1], 50.0, ((5.0, 7.5),))[:, 0, 0]
+    np.testing.assert_allclose(col["wz__band_5_7p5hz"], bp)
+
+
+def test_all_channels_include_both_cross_terms():
+    fx = WindowFeatures(channels=ALL_CHANNELS, rate_hz=100.0).fit(
+        np.ones((2, len(ALL_CHANNELS), 200)))
+    names = list(fx.get_feature_names_out())
+    assert {"cur_l__per_speed", "cur_r__per_speed", "wz__gain_on_yaw_rate_wheels"} <= set(names)
+    n_bands = len(linear_bands(100.0, 2.5))
+    assert n_bands == 20
+    assert len(names) == len(ALL_CHANNELS) * len(DEFAULT_STATS) + 6 * n_bands + 3
+
+
+def test_band_names_and_edges():
+    assert _band_name(0.0, 2.5) == "band_0_2p5hz"
+    assert _band_name(2.5, 5.0) == "band_2p5_5hz"
+    assert _band_name(22.5, 25.0) == "band_22p5_25hz"
+    bands = linear_bands(50.0, 2.5)
+    assert len(bands) == 10 and bands[0] == (0.0, 2.5) and bands[-1] == (22.5, 25.0)
+    assert all(a[1] == b[0] for a, b in zip(bands, bands[1:]))  # contiguous
+    assert linear_bands(50.0, 3.0)[-1] == (24.0, 25.0)           # last band ends at Nyquist
+    fx = WindowFeatures(channels=("ax",), rate_hz=50.0, stats=(),
+                        bands_hz=((1.0, 4.0), (4.0, 12.5))).fit(np.ones((1, 1, 50)))
+    assert list(fx.get_feature_names_out()) == ["ax__band_1_4hz", "ax__band_4_12p5hz"]
+
+
+@pytest.mark.parametrize("shape", [(6, 100), (6, 2, 100), (6, 4, 100), (6, 3, 100, 1)])
+def test_wrong_shape_raises_value_error(shape):
+    fx = WindowFeatures(channels=CHANNELS, rate_hz=50.0)
+    with pytest.raises(ValueError, match="shape"):
+        fx.fit(np.zeros(shape))
+    fitted = WindowFeatures(channels=CHANNELS, rate_hz=50.0).fit(_windows())
+    with pytest.raises(ValueError, match="shape"):
+        fitted.transform(np.zeros(shape))
+
+
+def test_non_finite_input_and_unknown_stat_are_rejected():
+    X = _windows()
+    X[2, 1, 5] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        WindowFeatures(channels=CHANNELS).fit(X)
+    with pytest.raises(ConfigError, match="median"):
+        WindowFeatures(channels=CHANNELS, stats=("mean", "median")).fit(_windows())
+
+
+def test_transform_before_fit_raises():
+    with pytest.raises(NotFittedError):
+        WindowFeatures(channels=CHANNELS).transform(_windows())
+
+
+def test_get_params_set_params_and_clone():
+    fx = WindowFeatures(channels=CHANNELS, rate_hz=100.0, stats=("mean", "std"),
+                        band_width_hz=5.0)
+    params = fx.get_params()
+    assert params == {"channels": CHANNELS, "rate_hz": 100.0, "stats": ("mean", "std"),
+                      "bands_hz": None, "band_width_hz": 5.0, "min_speed_m_s": 0.05,
+                      "turn_floor_rad_s": 0.05}
+    fx.fit(_windows(samples=200))
+    twin = clone(fx)
+    assert twin.get_params() == params
+    assert not hasattr(twin, "feature_names_out_")
+    twin.set_params(band_width_hz=10.0)
+    names = twin.fit(_windows(samples=200)).get_feature_names_out()
+    assert sum("__band_" in n for n in names) == 5   # 0-50 Hz in 10 Hz bands, wz only
+    assert fx.band_width_hz == 5.0
+
+
+@pytest.fixture(scope="module")
+def shipped_windows(borealtc_runs, vulpi_runs):
+    return [make_windows(borealtc_runs, "all", WindowConfig(window_s=2.0, rate_hz=100.0)),
+            make_windows(vulpi_runs, "all", WindowConfig(window_s=2.0, rate_hz=50.0))]
+
+
+def test_feature_matrix_on_shipped_windows_is_finite(shipped_windows):
+    for ws in shipped_windows:
+        fx = WindowFeatures(channels=ws.channels, rate_hz=ws.rate_hz)
+        F = fx.fit_transform(ws.X)
+        assert F.shape == (len(ws), len(fx.get_feature_names_out()))
+        assert len(ws) > 100
+        assert np.isfinite(F).all()
+        # features vary between windows (no dead column from a wiring mistake)
+        assert (F.std(axis=0) > 0).all()

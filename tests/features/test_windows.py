@@ -1,0 +1,180 @@
+"""Windowing: counts, partitions, steady-motion filter, signal selection, skipped runs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.windows import (ALL_CHANNELS, DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M,
+                              SIGNAL_SETS, WindowConfig, add_derived_channels, make_windows,
+                              required_streams, resolve_signals)
+from terrain.errors import ConfigError
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+
+
+def _streams(duration_s=20.0, vel=None, seed=0):
+    """IMU at 100 Hz and wheels at 10 Hz over [0, duration_s]; ``vel(t)`` the wheel speed."""
+    rng = np.random.default_rng(seed)
+    ti = np.arange(int(duration_s * 100) + 1) / 100.0
+    imu = pd.DataFrame({TIME: ti, **{c: 0.05 * rng.standard_normal(len(ti))
+                                     for c in IMU_CHANNELS}})
+    imu["az"] += 9.81
+    tw = np.arange(int(duration_s * 10) + 1) / 10.0
+    v = np.full(len(tw), 0.5) if vel is None else vel(tw)
+    wheels = pd.DataFrame({TIME: tw, "vel_l": v, "vel_r": v + 0.1,
+                           "cur_l": 5.0 + rng.standard_normal(len(tw)),
+                           "cur_r": 6.0 + rng.standard_normal(len(tw))})
+    return {"imu": imu, "wheels": wheels}
+
+
+@pytest.mark.parametrize("window_s, hop_s, rate_hz, n_windows, n_samples", [
+    (2.0, None, 50.0, 10, 100),   # 1001 grid points: starts 0, 100, ..., 900
+    (2.0, 1.0, 50.0, 19, 100),
+    (1.7, 0.1, 50.0, 184, 85),    # starts 0, 5, ..., 915
+    (2.0, 0.5, 100.0, 37, 200),   # 2001 grid points: starts 0, 50, ..., 1800
+    (5.0, None, 20.0, 4, 100),    # 401 grid points: starts 0, 100, 200, 300
+])
+def test_window_counts_and_sample_counts(make_run, window_s, hop_s, rate_hz, n_windows,
+                                         n_samples):
+    config = WindowConfig(window_s=window_s, hop_s=hop_s, rate_hz=rate_hz)
+    assert config.n_samples == n_samples
+    ws = make_windows([make_run(_streams())], "all", config)
+    assert ws.X.shape == (n_windows, len(ALL_CHANNELS), n_samples)
+    assert len(ws) == ws.counts["windows"] == n_windows
+    hop = hop_s or window_s
+    np.testing.assert_allclose(ws.t_start_s, np.arange(n_windows) * hop, atol=1e-9)
+    np.testing.assert_allclose(ws.t_end_s - ws.t_start_s, window_s, atol=1e-9)
+    assert ws.t_end_s.max() <= 20.0 + 1 / rate_hz + 1e-9
+    assert ws.rate_hz == rate_hz and ws.channels == ALL_CHANNELS
+
+
+def test_windows_carry_run_id_label_and_values(make_run):
+    runs = [make_run(_streams(seed=1), "t/ASPHALT/00", "ASPHALT"),
+            make_run(_streams(duration_s=10.0, seed=2), "t/SNOW/01", "SNOW")]
+    ws = make_windows(runs, ["wz", "vel_r"], WindowConfig(window_s=2.0, rate_hz=100.0))
+    assert list(ws.run_ids) == ["t/ASPHALT/00"] * 10 + ["t/SNOW/01"] * 5
+    assert list(ws.labels) == ["ASPHALT"] * 10 + ["SNOW"] * 5
+    assert list(ws.groups) == list(ws.run_ids)
+    # at 100 Hz the IMU is not filtered: window 3 of run 0 is samples 600..799 of wz
+    np.testing.assert_allclose(ws.X[3, 0], runs[0].streams["imu"]["wz"].to_numpy()[600:800])
+    np.testing.assert_allclose(ws.X[:, 1], 0.6)
+
+
+def test_partitions_are_never_crossed(make_run):
+    config = WindowConfig(window_s=1.7, hop_s=0.1, rate_hz=50.0, partition_s=5.0)
+    ws = make_windows([make_run(_streams(duration_s=21.0), "t/ICE/00", "ICE")], "all", config)
+    # 1051 grid points -> 4 full partitions of 250 samples, 34 windows each
+    assert len(ws) == 4 * 34
+    first = np.floor(ws.t_start_s / 5.0 + 1e-9)
+    last = np.floor((ws.t_end_s - 1 / 50.0) / 5.0 + 1e-9)
+    np.testing.assert_array_equal(first, last)
+    assert list(ws.groups) == [f"t/ICE/00#{int(k)}" for k in first]
+    assert sorted(set(ws.groups)) == [f"t/ICE/00#{k}" for k in range(4)]
+    assert ws.t_end_s.max() <= 20.0 + 1e-9  # trailing partial partition dropped
+
+
+def test_steady_only_drops_windows_with_speed_changes(make_run):
+    # steady 0.5 m/s until 10 s, then a 1 Hz +-0.4 m/s oscillation
+    vel = (lambda t: np.where(t < 10.0, 0.5, 0.5 + 0.4 * np.sin(2 * np.pi * (t - 10.0))))
+    run = make_run(_streams(vel=vel))
+    base = dict(window_s=2.0, hop_s=1.0, rate_hz=50.0)
+    every = make_windows([run], "all", WindowConfig(**base))
+    steady = make_windows([run], "all", WindowConfig(**base, steady_only=True))
+    np.testing.assert_allclose(steady.t_start_s, np.arange(9.0))  # windows ending by 10 s
+    assert steady.counts["dropped_unsteady"] == len(every) - len(steady) == 10
+    assert every.counts["dropped_unsteady"] == 0
+    v = steady.X[:, [steady.channels.index("vel_l"), steady.channels.index("vel_r")]].mean(1)
+    assert (v.std(axis=-1) <= 0.1).all()
+
+
+def test_steady_only_drops_standstill(make_run):
+    run = make_run(_streams(vel=lambda t: np.zeros_like(t)))
+    ws = make_windows([run], "wheels", WindowConfig(window_s=2.0, steady_only=True))
+    assert len(ws) == 0 and ws.counts["dropped_unsteady"] == 10
+    assert ws.X.shape == (0, len(SIGNAL_SETS["wheels"]), 100)
+
+
+@pytest.mark.xfail(strict=True, reason="known bug in features/windows.py: steady_only is "
+                   "silently ignored when the signal selection needs no wheel stream, since "
+                   "only the IMU is aligned (reported to the project)")
+def test_steady_only_applies_to_imu_only_selection(make_run):
+    run = make_run(_streams(vel=lambda t: np.zeros_like(t)))
+    ws = make_windows([run], "imu", WindowConfig(window_s=2.0, steady_only=True))
+    assert len(ws) == 0
+
+
+@pytest.mark.parametrize("signals, expected", [
+    ("imu", IMU_CHANNELS),
+    ("wheels", WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS),
+    ("all", IMU_CHANNELS + WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS),
+    (["imu", "cur_diff"], IMU_CHANNELS + ("cur_diff",)),
+    (("wz", "imu"), ("wz", "wx", "wy", "ax", "ay", "az")),
+    (["vel_l", "vel_l", "wheels"], WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS),
+])
+def test_resolve_signals(signals, expected):
+    assert resolve_signals(signals) == expected
+
+
+@pytest.mark.parametrize("signals", ["imus", ["imu", "speed"], ["WZ"], []])
+def test_resolve_signals_rejects_unknown_names(signals):
+    with pytest.raises(ConfigError) as info:
+        resolve_signals(signals)
+    if signals:
+        assert "imu" in str(info.value) and "wheels" in str(info.value)
+
+
+def test_required_streams():
+    assert required_streams(IMU_CHANNELS) == ("imu",)
+    assert required_streams(["cur_sum"]) == ("wheels",)
+    assert required_streams(["wz", "yaw_rate_wheels"]) == ("imu", "wheels")
+
+
+def test_derived_channels():
+    frame = pd.DataFrame({TIME: [0.0, 0.1], "vel_l": [0.4, 1.0], "vel_r": [0.6, 1.0],
+                          "cur_l": [3.0, 2.0], "cur_r": [5.0, 2.0]})
+    out = add_derived_channels(frame)
+    np.testing.assert_allclose(out["vel_mean"], [0.5, 1.0])
+    np.testing.assert_allclose(out["vel_diff"], [0.2, 0.0])
+    np.testing.assert_allclose(out["cur_sum"], [8.0, 4.0])
+    np.testing.assert_allclose(out["cur_diff"], [2.0, 0.0])
+    np.testing.assert_allclose(out["yaw_rate_wheels"], [0.2 / HUSKY_TRACK_M, 0.0])
+    imu_only = frame[[TIME]].assign(wz=[0.0, 0.1])
+    assert add_derived_channels(imu_only) is imu_only
+
+
+def test_run_without_imu_skipped_for_all_kept_for_wheels(make_run):
+    full = make_run(_streams(), "t/FLOORING/00", "FLOORING")
+    wheel_only = make_run({"wheels": _streams()["wheels"]}, "t/FLOORING/04", "FLOORING")
+    ws_all = make_windows([full, wheel_only], "all", WindowConfig(window_s=2.0))
+    assert ws_all.counts["skipped_runs"] == ["t/FLOORING/04"]
+    assert set(ws_all.run_ids) == {"t/FLOORING/00"}
+    ws_imu = make_windows([full, wheel_only], ["wz"], WindowConfig(window_s=2.0))
+    assert ws_imu.counts["skipped_runs"] == ["t/FLOORING/04"]
+    ws_wheels = make_windows([full, wheel_only], "wheels", WindowConfig(window_s=2.0))
+    assert ws_wheels.counts["skipped_runs"] == []
+    assert list(ws_wheels.run_ids) == ["t/FLOORING/00"] * 10 + ["t/FLOORING/04"] * 10
+
+
+def test_shipped_runs_without_imu_are_listed(borealtc_runs):
+    ws = make_windows(borealtc_runs, "all", WindowConfig(window_s=2.0))
+    assert sorted(ws.counts["skipped_runs"]) == ["borealtc/FLOORING/04",
+                                                 "borealtc/FLOORING/06", "borealtc/ICE/01"]
+    assert len(set(ws.run_ids)) == len(borealtc_runs) - 3
+    assert np.isfinite(ws.X).all()
+
+
+def test_subset_keeps_provenance(make_run):
+    ws = make_windows([make_run(_streams())], "imu", WindowConfig(window_s=2.0))
+    sub = ws.subset(np.arange(len(ws)) % 2 == 0)
+    assert len(sub) == 5 and sub.channels == ws.channels
+    np.testing.assert_array_equal(sub.t_start_s, ws.t_start_s[::2])
+    np.testing.assert_array_equal(sub.X, ws.X[::2])
+
+
+@pytest.mark.parametrize("kwargs", [dict(window_s=0.0), dict(hop_s=-1.0),
+                                    dict(window_s=2.0, partition_s=1.0),
+                                    dict(window_s=0.05, rate_hz=50.0), dict(rate_hz=0.0)])
+def test_window_config_rejects_bad_settings(kwargs):
+    with pytest.raises(ConfigError):
+        WindowConfig(**kwargs)

@@ -1,0 +1,119 @@
+"""Alignment onto one clock: grid, overlap, anti-alias filtering, provenance in attrs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.errors import ConfigError, DataFormatError
+from terrain.io.align import align_streams
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+
+
+def _imu(t, wz=None):
+    n = len(t)
+    wz = np.zeros(n) if wz is None else wz
+    return pd.DataFrame({TIME: t, "wx": np.zeros(n), "wy": np.zeros(n), "wz": wz,
+                         "ax": np.zeros(n), "ay": np.zeros(n), "az": np.full(n, 9.81)})
+
+
+def _wheels(t, vel_l=None):
+    n = len(t)
+    vel_l = np.full(n, 0.5) if vel_l is None else vel_l
+    return pd.DataFrame({TIME: t, "vel_l": vel_l, "vel_r": np.full(n, 0.6),
+                         "cur_l": np.full(n, 5.0), "cur_r": np.full(n, 6.0)})
+
+
+def _rms(x):
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def test_uniform_grid_over_the_overlap_only(make_run):
+    t_imu = np.arange(0, 1001) / 100.0            # 0 .. 10 s at 100 Hz
+    t_wh = 0.3 + np.arange(0, 60) / 6.5           # 0.3 .. ~9.38 s at 6.5 Hz
+    run = make_run({"imu": _imu(t_imu), "wheels": _wheels(t_wh)})
+    frame = align_streams(run, rate_hz=50.0)
+    t = frame[TIME].to_numpy()
+    np.testing.assert_allclose(np.diff(t), 1 / 50.0, rtol=0, atol=1e-12)
+    assert t[0] == pytest.approx(0.3)                       # latest start
+    assert t_wh[-1] - 1 / 50.0 < t[-1] <= t_wh[-1] + 1e-9  # earliest end, no extrapolation
+    assert list(frame.columns) == [TIME, *IMU_CHANNELS, *WHEEL_CHANNELS]
+    assert np.isfinite(frame.to_numpy()).all()
+
+
+@pytest.mark.parametrize("rate_hz", [20.0, 50.0, 100.0])
+def test_grid_rate_is_the_requested_rate(make_run, rate_hz):
+    run = make_run({"imu": _imu(np.arange(0, 501) / 100.0),
+                    "wheels": _wheels(np.arange(0, 51) / 10.0)})
+    frame = align_streams(run, rate_hz=rate_hz)
+    assert len(frame) == int(5.0 * rate_hz) + 1
+    assert 1.0 / np.median(np.diff(frame[TIME])) == pytest.approx(rate_hz)
+
+
+def test_slow_stream_is_linearly_interpolated(make_run):
+    t_wh = np.arange(0, 66) / 6.5
+    run = make_run({"imu": _imu(np.arange(0, 1001) / 100.0),
+                    "wheels": _wheels(t_wh, vel_l=0.1 + 0.05 * t_wh)})
+    frame = align_streams(run, rate_hz=50.0)
+    np.testing.assert_allclose(frame["vel_l"], 0.1 + 0.05 * frame[TIME], atol=1e-12)
+
+
+def test_sine_below_cutoff_survives_100_to_50_hz(make_run):
+    t = np.arange(0, 2001) / 100.0
+    run = make_run({"imu": _imu(t, wz=np.sin(2 * np.pi * 3.0 * t))})
+    frame = align_streams(run, ("imu",), rate_hz=50.0)
+    tg = frame[TIME].to_numpy()
+    np.testing.assert_allclose(np.diff(tg), 0.02, atol=1e-12)
+    err = frame["wz"].to_numpy() - np.sin(2 * np.pi * 3.0 * tg)
+    assert np.max(np.abs(err)) < 1e-3  # gain of the 20 Hz Butterworth at 3 Hz is ~1
+
+
+def test_tone_above_new_nyquist_is_attenuated_not_aliased(make_run):
+    t = np.arange(0, 2001) / 100.0
+    tone = np.sin(2 * np.pi * 40.0 * t)
+    run = make_run({"imu": _imu(t, wz=tone)})
+    frame = align_streams(run, ("imu",), rate_hz=50.0)
+    wz = frame["wz"].to_numpy()
+    # plain decimation would fold the 40 Hz tone onto 10 Hz at full amplitude
+    assert _rms(tone[::2]) > 0.6
+    assert _rms(wz) < 0.01 * _rms(tone)
+
+
+def test_attrs_record_method_rate_and_streams(make_run):
+    run = make_run({"imu": _imu(np.arange(0, 501) / 100.0),
+                    "wheels": _wheels(np.arange(0, 51) / 10.0)})
+    frame = align_streams(run, rate_hz=25.0)
+    assert frame.attrs["rate_hz"] == 25.0
+    assert frame.attrs["streams"] == ("imu", "wheels")
+    method = frame.attrs["method"]
+    assert "Butterworth" in method and "linear interpolation" in method and "gap" in method
+
+
+def test_missing_stream_is_skipped_and_recorded(make_run):
+    run = make_run({"wheels": _wheels(np.arange(0, 51) / 10.0)})
+    frame = align_streams(run, ("imu", "wheels"), rate_hz=50.0)
+    assert frame.attrs["streams"] == ("wheels",)
+    assert list(frame.columns) == [TIME, *WHEEL_CHANNELS]
+
+
+def test_bad_requests_raise_typed_errors(make_run):
+    run = make_run({"imu": _imu(np.arange(0, 101) / 100.0),
+                    "wheels": _wheels(2.0 + np.arange(0, 11) / 10.0)})
+    with pytest.raises(ConfigError):
+        align_streams(run, rate_hz=0.0)
+    with pytest.raises(DataFormatError, match="overlap"):
+        align_streams(run)                        # imu 0-1 s, wheels 2-3 s
+    with pytest.raises(DataFormatError, match="none of the streams"):
+        align_streams(run, ("truth",))
+
+
+def test_gap_in_slow_stream_gives_nan(make_run):
+    t_wh = np.r_[np.arange(0, 31) / 10.0, 5.0 + np.arange(0, 51) / 10.0]  # no sample in (3, 5)
+    run = make_run({"imu": _imu(np.arange(0, 1001) / 100.0), "wheels": _wheels(t_wh)})
+    frame = align_streams(run, rate_hz=50.0)
+    t = frame[TIME].to_numpy()
+    inside = (t > 3.0) & (t < 5.0)
+    assert np.isnan(frame.loc[inside, list(WHEEL_CHANNELS)].to_numpy()).all()
+    assert np.isfinite(frame.loc[~inside].to_numpy()).all()
+    assert np.isfinite(frame.loc[inside, list(IMU_CHANNELS)].to_numpy()).all()

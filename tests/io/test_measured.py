@@ -1,0 +1,353 @@
+"""Reader of the measured-run CSV layout: typed errors, the one repair rule, gaps, layouts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.windows import WindowConfig, make_windows
+from terrain.errors import (DataFormatError, EmptyFileError, MissingColumnError,
+                            NonFiniteError, NonNumericError, OrphanFileError, TimestampError)
+from terrain.io.align import align_streams
+from terrain.io.measured import list_run_files, read_runs_dir, read_stream_csv
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+
+BOREALTC_PRO = ["time", "curL", "curR", "velL", "velR"]
+VULPI_PRO = ["time", "velL", "velR", "curL", "curR"]
+
+
+def _write(tmp_path, frame, name="imu_00.csv"):
+    path = tmp_path / name
+    frame.to_csv(path, index=False)
+    return path
+
+
+def _set(frame, row, col, value):
+    """Copy of ``frame`` (as text) with one cell replaced."""
+    out = frame.astype(object)
+    out.loc[row, col] = value
+    return out
+
+
+# --- columns -----------------------------------------------------------------------------
+
+def test_valid_imu_file_reads_to_canonical_frame(tmp_path, synth_imu):
+    src = synth_imu(duration_s=2.0)
+    frame, report = read_stream_csv(_write(tmp_path, src), "imu")
+    assert list(frame.columns) == [TIME, *IMU_CHANNELS]
+    assert (frame.dtypes == np.float64).all()
+    np.testing.assert_array_equal(frame.to_numpy(), src.to_numpy())
+    assert report.repaired == {} and report.gaps == []
+
+
+@pytest.mark.parametrize("kind, name, renamed", [
+    ("imu", "imu_00.csv", "wz"),
+    ("imu", "imu_00.csv", "time"),
+    ("pro", "pro_00.csv", "velL"),
+    ("pro", "pro_00.csv", "curR"),
+])
+def test_renamed_column_raises_missing_column(tmp_path, synth_imu, synth_pro, kind, name,
+                                              renamed):
+    src = synth_imu(duration_s=1.0) if kind == "imu" else synth_pro(duration_s=1.0)
+    path = _write(tmp_path, src.rename(columns={renamed: renamed + "_renamed"}), name)
+    with pytest.raises(MissingColumnError) as info:
+        read_stream_csv(path, kind)
+    assert info.value.path == str(path)
+    assert info.value.column == renamed
+    assert info.value.row is None
+    assert renamed in str(info.value) and str(path) in str(info.value)
+
+
+def test_dropped_column_raises_missing_column(tmp_path, synth_imu):
+    path = _write(tmp_path, synth_imu(duration_s=1.0).drop(columns=["ay"]))
+    with pytest.raises(MissingColumnError) as info:
+        read_stream_csv(path, "imu")
+    assert (info.value.path, info.value.column) == (str(path), "ay")
+
+
+# --- values --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("col, row, value", [("wz", 17, "abc"), ("time", 5, "0.05s"),
+                                             ("ax", 0, "1,5")])
+def test_non_numeric_value_names_file_column_row(tmp_path, synth_imu, col, row, value):
+    path = _write(tmp_path, _set(synth_imu(duration_s=1.0), row, col, value))
+    with pytest.raises(NonNumericError) as info:
+        read_stream_csv(path, "imu")
+    assert (info.value.path, info.value.column, info.value.row) == (str(path), col, row)
+    assert value in str(info.value)
+
+
+def test_non_numeric_in_pro_file_reports_file_column_name(tmp_path, synth_pro):
+    path = _write(tmp_path, _set(synth_pro(), 12, "curL", "n/a"), "pro_00.csv")
+    with pytest.raises(NonNumericError) as info:
+        read_stream_csv(path, "pro")
+    assert (info.value.column, info.value.row) == ("curL", 12)
+
+
+def test_decreasing_timestamp_raises_with_row(tmp_path, synth_imu):
+    src = synth_imu(duration_s=1.0)
+    src.loc[40, "time"] = src.loc[38, "time"]  # goes back
+    path = _write(tmp_path, src)
+    with pytest.raises(TimestampError) as info:
+        read_stream_csv(path, "imu")
+    assert (info.value.path, info.value.column, info.value.row) == (str(path), "time", 40)
+    assert "decreasing" in str(info.value)
+
+
+def test_duplicated_timestamp_raises_with_row(tmp_path, synth_pro):
+    src = synth_pro()
+    src.loc[25, "time"] = src.loc[24, "time"]
+    path = _write(tmp_path, src, "pro_00.csv")
+    with pytest.raises(TimestampError) as info:
+        read_stream_csv(path, "pro")
+    assert (info.value.column, info.value.row) == ("time", 25)
+    assert "duplicated" in str(info.value)
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf", ""])
+def test_burst_longer_than_max_repair_run_is_rejected(tmp_path, synth_imu, bad):
+    src = synth_imu(duration_s=1.0).astype(object)
+    src.loc[20:22, "ax"] = bad  # 3 consecutive rows
+    path = _write(tmp_path, src)
+    with pytest.raises(NonFiniteError) as info:
+        read_stream_csv(path, "imu", max_repair_run=2)
+    assert (info.value.path, info.value.column, info.value.row) == (str(path), "ax", 20)
+
+
+def test_burst_within_max_repair_run_is_repaired_and_counted(tmp_path, synth_imu):
+    src = synth_imu(duration_s=1.0)
+    text = src.astype(object)
+    text.loc[20:22, "ax"] = "nan"
+    frame, report = read_stream_csv(_write(tmp_path, text), "imu", max_repair_run=3)
+    expected = np.interp([20, 21, 22], [19, 23], src["ax"].to_numpy()[[19, 23]])
+    np.testing.assert_allclose(frame["ax"].to_numpy()[20:23], expected)
+    assert report.repaired == {"ax": 3}
+
+
+def test_non_finite_at_file_edge_is_rejected(tmp_path, synth_imu):
+    path = _write(tmp_path, _set(synth_imu(duration_s=1.0), 100, "wy", "nan"))  # last row
+    with pytest.raises(NonFiniteError) as info:
+        read_stream_csv(path, "imu")
+    assert (info.value.column, info.value.row) == ("wy", 100)
+
+
+def test_non_finite_timestamp_is_rejected(tmp_path, synth_imu):
+    path = _write(tmp_path, _set(synth_imu(duration_s=1.0), 30, "time", "nan"))
+    with pytest.raises(NonFiniteError) as info:
+        read_stream_csv(path, "imu")
+    assert (info.value.column, info.value.row) == ("time", 30)
+
+
+def test_isolated_nan_is_interpolated_and_counted_in_run_meta(tmp_path, synth_imu,
+                                                              synth_pro, write_run):
+    imu = synth_imu(duration_s=2.0)
+    pro = synth_pro(duration_s=2.0)
+    write_run(tmp_path, "ASPHALT", "00", _set(imu, 50, "wz", "NaN"),
+              _set(_set(pro, 7, "velR", "nan"), 12, "velR", "inf"))
+    (run,) = read_runs_dir(tmp_path, "borealtc")
+    wz = run.streams["imu"]["wz"].to_numpy()
+    assert np.isfinite(wz).all()
+    assert wz[50] == pytest.approx(0.5 * (imu["wz"][49] + imu["wz"][51]))
+    # everything else is untouched
+    np.testing.assert_array_equal(np.delete(wz, 50), np.delete(imu["wz"].to_numpy(), 50))
+    vel_r = run.streams["wheels"]["vel_r"].to_numpy()
+    assert vel_r[7] == pytest.approx(0.5 * (pro["velR"][6] + pro["velR"][8]))
+    assert vel_r[12] == pytest.approx(0.5 * (pro["velR"][11] + pro["velR"][13]))
+    assert run.meta["repaired"] == {"imu.wz": 1, "wheels.vel_r": 2}
+
+
+# --- empty files ---------------------------------------------------------------------------
+
+def test_empty_file_raises_empty_file_error(tmp_path):
+    path = tmp_path / "imu_00.csv"
+    path.write_text("")
+    with pytest.raises(EmptyFileError) as info:
+        read_stream_csv(path, "imu")
+    assert info.value.path == str(path)
+
+
+def test_header_only_file_raises_empty_file_error(tmp_path):
+    path = tmp_path / "pro_00.csv"
+    path.write_text(",".join(BOREALTC_PRO) + "\n")
+    with pytest.raises(EmptyFileError) as info:
+        read_stream_csv(path, "pro")
+    assert info.value.path == str(path)
+    assert "no data rows" in str(info.value)
+
+
+def test_empty_file_error_propagates_from_runs_dir(tmp_path, synth_pro, write_run):
+    write_run(tmp_path, "ICE", "01", pro=synth_pro())
+    (tmp_path / "ICE" / "imu_01.csv").write_text("")
+    with pytest.raises(EmptyFileError) as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(tmp_path / "ICE" / "imu_01.csv")
+
+
+# --- run-level rules -----------------------------------------------------------------------
+
+def test_imu_file_without_pro_file_is_an_orphan(tmp_path, synth_imu, synth_pro, write_run):
+    write_run(tmp_path, "SNOW", "00", synth_imu(), synth_pro())
+    orphan = write_run(tmp_path, "SNOW", "03", imu=synth_imu())["imu"]
+    with pytest.raises(OrphanFileError) as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(orphan)
+
+
+def test_gyro_in_degrees_per_second_is_rejected(tmp_path, synth_imu):
+    src = synth_imu(duration_s=2.0)
+    src["wz"] = np.degrees(src["wz"] + 0.7 * np.sin(np.arange(len(src)) / 10.0))
+    first = int(np.flatnonzero(np.abs(src["wz"].to_numpy()) > 35.0)[0])
+    path = _write(tmp_path, src)
+    with pytest.raises(DataFormatError) as info:
+        read_stream_csv(path, "imu")
+    assert (info.value.path, info.value.column, info.value.row) == (str(path), "wz", first)
+    assert "deg/s" in str(info.value)
+
+
+def test_accelerometer_in_g_is_rejected(tmp_path, synth_imu):
+    src = synth_imu(duration_s=2.0)
+    src[["ax", "ay", "az"]] /= 9.81
+    path = _write(tmp_path, src)
+    with pytest.raises(DataFormatError) as info:
+        read_stream_csv(path, "imu")
+    assert info.value.path == str(path) and info.value.column == "az"
+    assert "units of g" in str(info.value)
+
+
+def test_both_pro_column_orders_give_identical_canonical_frames(tmp_path, synth_pro):
+    src = synth_pro(columns=BOREALTC_PRO)
+    boreal = _write(tmp_path, src[BOREALTC_PRO], "pro_00.csv")
+    vulpi = _write(tmp_path, src[VULPI_PRO], "pro_01.csv")
+    a, _ = read_stream_csv(boreal, "pro")
+    b, _ = read_stream_csv(vulpi, "pro")
+    pd.testing.assert_frame_equal(a, b)
+    assert list(a.columns) == [TIME, *WHEEL_CHANNELS]
+    # mapped by name, not by position
+    for canon, col in {"vel_l": "velL", "vel_r": "velR", "cur_l": "curL", "cur_r": "curR"}.items():
+        np.testing.assert_array_equal(a[canon].to_numpy(), src[col].to_numpy())
+
+
+def test_real_rows_of_both_datasets_read_back_by_name(tmp_path, borealtc_runs, vulpi_runs,
+                                                     to_file_frame):
+    for runs, order in ((borealtc_runs, BOREALTC_PRO), (vulpi_runs, VULPI_PRO)):
+        wheels = runs[0].streams["wheels"].iloc[:200]
+        path = _write(tmp_path, to_file_frame(wheels, order), "pro_00.csv")
+        frame, _ = read_stream_csv(path, "pro")
+        pd.testing.assert_frame_equal(frame, wheels.reset_index(drop=True))
+
+
+def test_run_without_imu_loads_wheel_only(tmp_path, synth_imu, synth_pro, write_run):
+    write_run(tmp_path, "FLOORING", "00", synth_imu(), synth_pro())
+    write_run(tmp_path, "FLOORING", "04", pro=synth_pro())
+    runs = read_runs_dir(tmp_path, "borealtc")
+    assert [r.run_id for r in runs] == ["borealtc/FLOORING/00", "borealtc/FLOORING/04"]
+    wheel_only = runs[1]
+    assert not wheel_only.has_imu and set(wheel_only.streams) == {"wheels"}
+    assert wheel_only.terrain == "FLOORING"
+    frame = align_streams(wheel_only)
+    assert list(frame.columns) == [TIME, *WHEEL_CHANNELS]
+    assert runs[0].has_imu
+
+
+def test_list_run_files_indexes_by_terrain_and_index(tmp_path, synth_imu, synth_pro,
+                                                     write_run):
+    write_run(tmp_path, "ICE", "01", synth_imu(duration_s=1.0), synth_pro(duration_s=1.0))
+    (tmp_path / "ICE" / "notes.txt").write_text("ignored")
+    files = list_run_files(tmp_path)
+    assert set(files) == {("ICE", "01")}
+    assert set(files[("ICE", "01")]) == {"imu", "pro"}
+
+
+def test_empty_runs_folder_is_rejected(tmp_path):
+    with pytest.raises(DataFormatError):
+        list_run_files(tmp_path)
+    with pytest.raises(DataFormatError):
+        list_run_files(tmp_path / "missing")
+
+
+# --- gaps ----------------------------------------------------------------------------------
+
+@pytest.fixture
+def gap_run(tmp_path, synth_imu, synth_pro, write_run):
+    """A 12 s run whose IMU file has no sample strictly between t = 3 s and t = 4 s."""
+    imu = synth_imu(duration_s=12.0)
+    t = imu["time"].to_numpy()
+    imu = imu[~((t > 3.0) & (t < 4.0))].reset_index(drop=True)
+    write_run(tmp_path, "ASPHALT", "00", imu, synth_pro(duration_s=12.0))
+    (run,) = read_runs_dir(tmp_path, "borealtc")
+    return run, len(imu)
+
+
+def test_gap_is_reported_and_not_filled(gap_run):
+    run, n_rows = gap_run
+    assert run.meta["gaps"] == {"imu": [(3.0, 4.0)]}
+    frame = run.streams["imu"]
+    assert len(frame) == n_rows  # nothing interpolated into the file's gap
+    t = frame[TIME].to_numpy()
+    assert not ((t > 3.0) & (t < 4.0)).any()
+    assert run.meta["repaired"] == {}
+
+
+def test_align_puts_nan_inside_gap_only(gap_run):
+    run, _ = gap_run
+    frame = align_streams(run, rate_hz=50.0)
+    t = frame[TIME].to_numpy()
+    inside = (t > 3.0) & (t < 4.0)
+    assert inside.sum() == 49  # grid points 3.02 .. 3.98
+    imu = frame[list(IMU_CHANNELS)].to_numpy()
+    assert np.isnan(imu[inside]).all()
+    assert np.isfinite(imu[~inside]).all()
+    assert np.isfinite(frame[list(WHEEL_CHANNELS)].to_numpy()).all()
+
+
+def test_windows_spanning_gap_are_dropped_and_counted(gap_run):
+    run, _ = gap_run
+    ws = make_windows([run], "all", WindowConfig(window_s=1.0, hop_s=0.5, rate_hz=50.0))
+    # window starts 0, 0.5, ..., 11.0 (23 windows); those starting at 2.5, 3.0 and 3.5 s
+    # hold a grid point inside (3, 4) s
+    assert ws.counts["dropped_gap"] == 3
+    assert len(ws) == 20 and ws.counts["windows"] == 20
+    assert np.isfinite(ws.X).all()
+    starts = np.round(ws.t_start_s, 6)
+    assert not np.isin([2.5, 3.0, 3.5], starts).any()
+    assert np.isin([2.0, 4.0], starts).all()
+
+
+# --- extra streams and run metadata ----------------------------------------------------------
+
+def test_extra_stream_reads_time_first_and_keeps_string_labels(tmp_path):
+    path = tmp_path / "truth_00.csv"
+    path.write_text("x,time,terrain\n1.0,0.0,ICE\n2.0,0.1,ICE\n3.0,0.2,SNOW\n")
+    frame, _ = read_stream_csv(path, "truth")
+    assert list(frame.columns) == [TIME, "x", "terrain"]
+    np.testing.assert_array_equal(frame[TIME], [0.0, 0.1, 0.2])
+    assert list(frame["terrain"]) == ["ICE", "ICE", "SNOW"]
+
+
+def test_extra_stream_without_time_column_is_rejected(tmp_path):
+    path = tmp_path / "truth_00.csv"
+    path.write_text("t,x\n0.0,1.0\n0.1,2.0\n")
+    with pytest.raises(MissingColumnError) as info:
+        read_stream_csv(path, "truth")
+    assert (info.value.path, info.value.column) == (str(path), "time")
+
+
+def test_extra_stream_and_meta_are_loaded_with_the_run(tmp_path, synth_pro, write_run):
+    write_run(tmp_path, "ICE", "00", pro=synth_pro(duration_s=1.0))
+    (tmp_path / "ICE" / "truth_00.csv").write_text("time,slip_1\n0.0,0.1\n0.5,0.2\n1.0,0.3\n")
+    (tmp_path / "ICE" / "meta_00.json").write_text('{"vehicle": "agrimaro", "seed": 3}')
+    (run,) = read_runs_dir(tmp_path, "sim")
+    assert set(run.streams) == {"wheels", "truth"}
+    assert run.vehicle == "agrimaro" and run.meta["seed"] == 3
+    np.testing.assert_array_equal(run.streams["truth"]["slip_1"], [0.1, 0.2, 0.3])
+
+
+@pytest.mark.parametrize("text", ["{not json", "[1, 2]"])
+def test_bad_run_metadata_is_a_typed_error(tmp_path, synth_pro, write_run, text):
+    write_run(tmp_path, "ICE", "00", pro=synth_pro(duration_s=1.0))
+    meta = tmp_path / "ICE" / "meta_00.json"
+    meta.write_text(text)
+    with pytest.raises(DataFormatError) as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(meta)

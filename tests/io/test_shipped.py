@@ -1,0 +1,173 @@
+"""Shipped Parquet format: loss-free round trip, manifest, checksums, named datasets."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir
+from terrain.io.shipped import (DATASET_INFO, DATASET_SPECS, convert_dataset, default_data_dir,
+                                load_dataset, read_manifest, read_shipped, runs_equal, sha256,
+                                verify_manifest)
+
+BOREALTC_PRO = ["time", "curL", "curR", "velL", "velR"]
+
+
+@pytest.fixture
+def csv_tree(tmp_path, borealtc_runs, to_file_frame, write_run):
+    """A small borealtc CSV tree: real rows of three runs, one without IMU, one repaired NaN."""
+    root = tmp_path / "csv" / "borealtc"
+    by_id = {r.run_id: r for r in borealtc_runs}
+    for rid in ("borealtc/ASPHALT/00", "borealtc/SNOW/01", "borealtc/FLOORING/04"):
+        run = by_id[rid]
+        _, terrain, index = rid.split("/")
+        wheels = to_file_frame(run.streams["wheels"].iloc[:40], BOREALTC_PRO)
+        imu = None
+        if run.has_imu:
+            imu = to_file_frame(run.streams["imu"].iloc[:300], ["time", "wx", "wy", "wz",
+                                                                 "ax", "ay", "az"])
+        if rid.endswith("SNOW/01"):
+            imu = imu.astype(object)
+            imu.loc[100, "wz"] = "nan"  # repaired on reading, counted in the manifest
+        if rid.endswith("ASPHALT/00"):
+            imu = imu.drop(index=range(100, 150))  # a 0.5 s gap, reported, never filled
+        write_run(root, terrain, index, imu, wheels)
+    return root
+
+
+def test_convert_then_read_shipped_equals_reading_csv(tmp_path, csv_tree):
+    out = tmp_path / "data"
+    convert_dataset(csv_tree, "borealtc", out)
+    shipped = read_shipped("borealtc", out)
+    from_csv = read_runs_dir(csv_tree, "borealtc")
+    assert [r.run_id for r in shipped] == [r.run_id for r in from_csv] == [
+        "borealtc/ASPHALT/00", "borealtc/FLOORING/04", "borealtc/SNOW/01"]
+    for a, b in zip(shipped, from_csv):
+        assert runs_equal(a, b), a.run_id
+        assert a.meta["repaired"] == b.meta["repaired"]
+        assert a.meta["gaps"] == b.meta["gaps"]
+    assert shipped[2].meta["repaired"] == {"imu.wz": 1}
+    assert not shipped[1].has_imu
+    ((start, end),) = shipped[0].meta["gaps"]["imu"]
+    assert end - start == pytest.approx(0.51, abs=0.005)
+
+
+def test_runs_equal_detects_a_changed_value_label_or_stream(borealtc_runs):
+    run = borealtc_runs[0]
+    assert runs_equal(run, run)
+    imu = run.streams["imu"].copy()
+    imu.iloc[10, 3] = np.nextafter(imu.iloc[10, 3], np.inf)  # one ulp
+    assert not runs_equal(run, dataclasses.replace(run, streams={**run.streams, "imu": imu}))
+    assert not runs_equal(run, dataclasses.replace(run, terrain="SNOW"))
+    assert not runs_equal(run, dataclasses.replace(run, streams={"wheels":
+                                                                 run.streams["wheels"]}))
+
+
+def test_manifest_records_provenance_rates_checksums(tmp_path, csv_tree):
+    out = tmp_path / "data"
+    entry = convert_dataset(csv_tree, "borealtc", out)
+    manifest = read_manifest(out)
+    assert manifest["datasets"]["borealtc"] == json.loads(json.dumps(entry))
+    for key in ("source", "license", "citation"):
+        assert entry[key] == DATASET_INFO["borealtc"][key] and entry[key]
+    assert entry["sampling_rates_hz"] == {"imu": pytest.approx(100.0),
+                                          "wheels": pytest.approx(6.5, abs=0.01)}
+    assert entry["runs_without_imu"] == ["borealtc/FLOORING/04"]
+    assert entry["terrains"] == ["ASPHALT", "FLOORING", "SNOW"]
+    assert entry["files"] == {f"borealtc/{f}": sha256(out / "borealtc" / f)
+                              for f in ("imu.parquet", "wheels.parquet")}
+    for run in entry["runs"]:
+        _, terrain, index = run["run_id"].split("/")
+        for name, digest in run["source_files"].items():
+            assert name.endswith(f"_{index}.csv")
+            assert digest == sha256(csv_tree / terrain / name)
+    assert verify_manifest(out) == []
+
+
+def test_convert_twice_merges_datasets_in_manifest(tmp_path, csv_tree, vulpi_runs,
+                                                    to_file_frame, write_run):
+    out = tmp_path / "data"
+    convert_dataset(csv_tree, "borealtc", out)
+    vroot = tmp_path / "csv" / "vulpi"
+    run = vulpi_runs[0]
+    _, terrain, index = run.run_id.split("/")
+    write_run(vroot, terrain, index,
+              to_file_frame(run.streams["imu"].iloc[:200], ["time", "wx", "wy", "wz", "ax",
+                                                            "ay", "az"]),
+              to_file_frame(run.streams["wheels"].iloc[:60],
+                            ["time", "velL", "velR", "curL", "curR"]))
+    convert_dataset(vroot, "vulpi", out)
+    assert set(read_manifest(out)["datasets"]) == {"borealtc", "vulpi"}
+    (v,) = read_shipped("vulpi", out)
+    assert runs_equal(v, read_runs_dir(vroot, "vulpi")[0])
+
+
+def test_convert_unknown_dataset_is_rejected(tmp_path, csv_tree):
+    with pytest.raises(ConfigError, match="borealtc"):
+        convert_dataset(csv_tree, "husky_2030", tmp_path / "data")
+
+
+def test_shipped_data_checksums_match(data_dir):
+    assert verify_manifest(data_dir) == []
+
+
+def test_verify_manifest_detects_corrupted_and_missing_files(tmp_path, data_dir):
+    copy = tmp_path / "data"
+    shutil.copytree(data_dir, copy)
+    assert verify_manifest(copy) == []
+    target = copy / "vulpi" / "wheels.parquet"
+    raw = bytearray(target.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    target.write_bytes(bytes(raw))
+    assert verify_manifest(copy) == ["vulpi/wheels.parquet"]
+    (copy / "borealtc" / "imu.parquet").unlink()
+    assert sorted(verify_manifest(copy)) == ["borealtc/imu.parquet", "vulpi/wheels.parquet"]
+
+
+def test_data_dir_env_override(monkeypatch, tmp_path):
+    monkeypatch.setenv("TERRAIN_DATA_DIR", str(tmp_path))
+    assert default_data_dir() == tmp_path
+    monkeypatch.delenv("TERRAIN_DATA_DIR")
+    assert (default_data_dir() / "manifest.json").exists()
+
+
+def test_combined_dataset_has_nine_classes_and_seventy_runs(data_dir):
+    runs = load_dataset("combined", data_dir)
+    assert len(runs) == 70
+    assert len({r.run_id for r in runs}) == 70
+    assert len({r.terrain for r in runs}) == 9
+    assert {r.dataset for r in runs} == {"borealtc", "vulpi"}
+    for run in runs:
+        assert run.run_id.startswith(f"{run.dataset}/{run.terrain}/")
+        assert "wheels" in run.streams and len(run.streams["wheels"]) > 10
+
+
+def test_borealtc_classes_and_runs_without_imu(borealtc_runs, data_dir):
+    assert sorted({r.terrain for r in borealtc_runs}) == ["ASPHALT", "FLOORING", "ICE",
+                                                           "SANDY_LOAM", "SNOW"]
+    no_imu = sorted(r.run_id for r in borealtc_runs if not r.has_imu)
+    assert no_imu == ["borealtc/FLOORING/04", "borealtc/FLOORING/06", "borealtc/ICE/01"]
+    assert read_manifest(data_dir)["datasets"]["borealtc"]["runs_without_imu"] == no_imu
+    with_imu = [r for r in borealtc_runs if r.has_imu]
+    assert np.median([r.rate_hz("imu") for r in with_imu]) == pytest.approx(100.0, rel=0.01)
+
+
+def test_vulpi_classes(vulpi_runs):
+    assert sorted({r.terrain for r in vulpi_runs}) == ["CONCRETE", "DIRT_ROAD", "PLOUGHED",
+                                                        "UNPLOUGHED"]
+    assert all(r.has_imu for r in vulpi_runs)
+    assert [r.run_id for r in vulpi_runs if r.terrain == "DIRT_ROAD"] == ["vulpi/DIRT_ROAD/1"]
+
+
+def test_unknown_dataset_lists_valid_names(data_dir):
+    with pytest.raises(ConfigError) as info:
+        load_dataset("husky_2030", data_dir)
+    for name in DATASET_SPECS:
+        assert name in str(info.value)
+    with pytest.raises(ConfigError, match="vulpi"):
+        read_shipped("combined", data_dir)

@@ -1,0 +1,262 @@
+"""Run-grouped cross-validation, the papers' protocol, metrics, and leak-free nested search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.model_selection import StratifiedKFold
+from sklearn.pipeline import Pipeline
+
+from features.windows import WindowConfig, make_windows
+from terrain.errors import ConfigError
+from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, iter_splits,
+                               split_single_run_classes)
+from terrain.models.experiment import PAPER_WINDOW
+from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
+                                    window_metrics)
+from terrain.models.svm import SVMConfig, make_search, make_svm
+
+
+# --- splits on real shipped windows --------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def shipped_windows(borealtc_runs, vulpi_runs):
+    """Non-overlapping 2 s wheel windows of all 70 shipped runs (50 Hz)."""
+    return make_windows(borealtc_runs + vulpi_runs, "wheels",
+                        WindowConfig(window_s=2.0, rate_hz=50.0))
+
+
+@pytest.fixture(scope="module")
+def paper_windows(vulpi_runs):
+    """Vulpi windows of the papers' protocol: 1.7 s by 0.1 s inside 5 s partitions."""
+    return make_windows(vulpi_runs, "all", WindowConfig(rate_hz=50.0, **PAPER_WINDOW))
+
+
+def _assert_no_shared_group(train, test, groups):
+    assert np.intersect1d(groups[train], groups[test]).size == 0
+    assert np.intersect1d(train, test).size == 0
+    assert train.size + test.size == groups.size
+
+
+@pytest.mark.parametrize("split_single", [False, True])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_grouped_protocol_never_shares_a_run(shipped_windows, seed, split_single):
+    labels = shipped_windows.labels.astype(str)
+    groups = shipped_windows.groups
+    if split_single:
+        groups, _ = split_single_run_classes(labels, groups, shipped_windows.t_start_s, 5)
+    tested = np.zeros(len(labels), dtype=int)
+    for train, test in iter_splits("grouped", labels, groups, seed, n_splits=5):
+        _assert_no_shared_group(train, test, groups)
+        # the run id too: a run (not only a block of it) is never on both sides...
+        if not split_single:
+            assert np.intersect1d(shipped_windows.run_ids[train],
+                                  shipped_windows.run_ids[test]).size == 0
+        tested[test] += 1
+    assert (tested == 1).all()  # ... and every window is tested exactly once
+
+
+def test_loro_leaves_one_run_out(shipped_windows):
+    labels = shipped_windows.labels.astype(str)
+    groups = shipped_windows.groups
+    seen = []
+    for train, test in iter_splits("loro", labels, groups, seed=0):
+        _assert_no_shared_group(train, test, groups)
+        (held,) = np.unique(groups[test])
+        seen.append(held)
+    assert sorted(seen) == sorted(np.unique(groups)) and len(seen) == 70
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_paper_protocol_is_sklearn_split_of_partitions(paper_windows, seed):
+    labels = paper_windows.labels.astype(str)
+    groups = paper_windows.groups
+    units, first = np.unique(groups, return_index=True)
+    skf = StratifiedKFold(5, shuffle=True, random_state=21 + seed)
+    expected = [set(units[te]) for _, te in skf.split(units, labels[first])]
+    got = []
+    for train, test in iter_splits("paper", labels, groups, seed):
+        _assert_no_shared_group(train, test, groups)  # partitions are never split
+        got.append(set(groups[test]))
+    assert got == expected
+    assert PAPER_RANDOM_STATE == 21
+
+
+def test_paper_protocol_leaks_runs_across_folds(paper_windows):
+    """Documented weakness: partitions of one run land on both sides of a split."""
+    labels = paper_windows.labels.astype(str)
+    train, test = next(iter_splits("paper", labels, paper_windows.groups, 0))
+    runs = paper_windows.run_ids
+    assert np.intersect1d(runs[train], runs[test]).size > 0
+
+
+def test_paper_partitions_hold_windows_of_one_run(paper_windows):
+    for g in np.unique(paper_windows.groups):
+        sel = paper_windows.groups == g
+        assert len(set(paper_windows.run_ids[sel])) == 1
+        assert paper_windows.t_end_s[sel].max() - paper_windows.t_start_s[sel].min() <= 5.0 + 1e-9
+
+
+def test_unknown_protocol_is_rejected():
+    with pytest.raises(ConfigError, match="grouped"):
+        list(iter_splits("kfold", np.array(["A", "B"]), np.array(["a", "b"]), 0))
+
+
+def test_single_dirt_road_run_is_cut_into_contiguous_blocks(vulpi_runs):
+    ws = make_windows(vulpi_runs, "all", WindowConfig(window_s=1.0, rate_hz=50.0))
+    labels = ws.labels.astype(str)
+    groups, split = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks=5)
+    assert split == ["DIRT_ROAD"]
+    dirt = labels == "DIRT_ROAD"
+    assert set(groups[dirt]) == {f"vulpi/DIRT_ROAD/1@block{k}" for k in range(5)}
+    np.testing.assert_array_equal(groups[~dirt], ws.groups[~dirt])  # others untouched
+    sizes = [np.sum(groups == f"vulpi/DIRT_ROAD/1@block{k}") for k in range(5)]
+    assert max(sizes) - min(sizes) <= 1 and sum(sizes) == dirt.sum()
+    spans = [(ws.t_start_s[groups == f"vulpi/DIRT_ROAD/1@block{k}"].min(),
+              ws.t_end_s[groups == f"vulpi/DIRT_ROAD/1@block{k}"].max()) for k in range(5)]
+    for (_, end), (start, _) in zip(spans, spans[1:]):
+        assert end <= start + 1e-9  # blocks follow each other in time, never interleave
+
+
+# --- metrics ---------------------------------------------------------------------------------
+
+def test_window_metrics_on_a_known_confusion():
+    y_true = ["A", "A", "A", "B", "B", "C"]
+    y_pred = ["A", "A", "B", "B", "C", "C"]
+    m = window_metrics(y_true, y_pred, ["A", "B", "C", "D"])
+    assert m["accuracy"] == pytest.approx(4 / 6)
+    assert m["recall_A"] == pytest.approx(2 / 3)
+    assert m["recall_B"] == pytest.approx(1 / 2)
+    assert m["recall_C"] == pytest.approx(1.0)
+    assert "recall_D" not in m   # absent from y_true
+    assert m["balanced_accuracy"] == pytest.approx((2 / 3 + 1 / 2 + 1) / 3)
+    # precision A 1, B 1/2, C 1/2 -> F1 0.8, 0.5, 2/3
+    assert m["macro_f1"] == pytest.approx((0.8 + 0.5 + 2 / 3) / 3)
+    cm = confusion(y_true, y_pred, ["A", "B", "C"])
+    np.testing.assert_array_equal(cm.to_numpy(), [[2, 1, 0], [0, 1, 1], [0, 0, 1]])
+    assert list(cm.index) == ["A", "B", "C"] and cm.index.name == "true"
+
+
+def test_run_majority_accuracy_on_a_hand_example():
+    groups = ["r1", "r1", "r1", "r2", "r2", "r2", "r3", "r3"]
+    y_true = ["A", "A", "A", "B", "B", "B", "C", "C"]
+    y_pred = ["A", "A", "B", "A", "A", "B", "C", "B"]  # r1 right, r2 wrong, r3 tie -> "B"
+    vote = majority_vote(y_pred, groups)
+    assert vote.to_dict() == {"r1": "A", "r2": "A", "r3": "B"}
+    assert run_majority_accuracy(y_true, y_pred, groups) == pytest.approx(1 / 3)
+    assert run_majority_accuracy(y_true, y_true, groups) == 1.0
+
+
+# --- cross_validate: planted effect and null case ----------------------------------------------
+
+def _planted(n_runs=12, per_run=20, effect=3.0, seed=0):
+    """Two classes, alternate runs; feature 0 is +-effect by class, the rest is noise."""
+    rng = np.random.default_rng(seed)
+    run = np.repeat(np.arange(n_runs), per_run)
+    y = np.where(run % 2 == 0, "ASPHALT", "SNOW").astype(object)
+    X = rng.standard_normal((run.size, 4))
+    X[:, 0] = np.where(y == "ASPHALT", -effect, effect) + 0.3 * rng.standard_normal(run.size)
+    groups = np.array([f"sim/T/{r:02d}" for r in run], dtype=object)
+    t0 = np.tile(np.arange(per_run) * 2.0, n_runs)
+    return X, y, groups, t0
+
+
+def test_planted_effect_is_found():
+    X, y, groups, t0 = _planted()
+    report = cross_validate(lambda seed: make_svm(SVMConfig(), seed), X, y, groups, groups,
+                            t0, t0 + 2.0, protocol="grouped", seeds=(0, 1), n_splits=3)
+    assert report.classes == ["ASPHALT", "SNOW"]
+    assert (report.folds["accuracy"] == 1.0).all()
+    assert (report.pooled["accuracy"] == 1.0).all()
+    assert (report.pooled["run_majority_accuracy"] == 1.0).all()
+    assert len(report.folds) == 6 and len(report.predictions) == 2 * len(y)
+    assert report.confusion.to_numpy().trace() == 2 * len(y)
+    for (seed, fold), p in report.predictions.groupby(["seed", "fold"]):
+        train_groups = set(groups) - set(p["group"])
+        assert train_groups and not (train_groups & set(p["group"]))
+    assert report.summary()["accuracy"]["min"] == 1.0
+
+
+def test_shuffled_labels_stay_near_chance():
+    X, y, groups, t0 = _planted()
+    y_null = np.random.default_rng(1).permutation(y)
+    report = cross_validate(lambda seed: make_svm(SVMConfig(), seed), X, y_null, groups,
+                            groups, t0, t0 + 2.0, protocol="grouped", seeds=(0, 1, 2),
+                            n_splits=3)
+    acc = report.pooled["accuracy"].to_numpy()
+    assert abs(acc.mean() - 0.5) < 0.1, acc
+
+
+def test_grouped_cv_is_not_fooled_by_run_fingerprints():
+    """Features that identify the run but not the terrain: grouped CV gives chance while
+    splitting partitions of runs (the papers' protocol) reports a leak-driven high score."""
+    rng = np.random.default_rng(2)
+    n_runs, per_run = 32, 20
+    run = np.repeat(np.arange(n_runs), per_run)
+    labels_of_run = rng.permutation(np.repeat(["A", "B"], n_runs // 2))
+    y = labels_of_run[run]
+    X = 4.0 * rng.standard_normal((n_runs, 3))[run] + 0.2 * rng.standard_normal((run.size, 3))
+    runs = np.array([f"r{r:02d}" for r in run], dtype=object)
+    partitions = np.array([f"r{r:02d}#{k // 5}" for r, k in
+                           zip(run, np.tile(np.arange(per_run), n_runs))], dtype=object)
+    t0 = np.zeros(run.size)
+    factory = (lambda seed: make_svm(SVMConfig(), seed))
+    grouped = cross_validate(factory, X, y, runs, runs, t0, t0, "grouped", (0, 1, 2), 4)
+    paper = cross_validate(factory, X, y, partitions, runs, t0, t0, "paper", (0,), 5)
+    assert grouped.pooled["accuracy"].mean() < 0.7
+    assert paper.pooled["accuracy"].mean() > 0.9
+
+
+# --- nested search sees training groups only ---------------------------------------------------
+
+class _Log:
+    """Shared record of fits; survives ``clone`` (deep copies return the same log)."""
+
+    def __init__(self):
+        self.fits: list[frozenset] = []
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+class RecordGroups(TransformerMixin, BaseEstimator):
+    """Pipeline step recording the groups (column 0 of X) of every fit, then dropping them."""
+
+    def __init__(self, log=None):
+        self.log = log
+
+    def fit(self, X, y=None):
+        self.log.fits.append(frozenset(np.unique(X[:, 0]).astype(int).tolist()))
+        return self
+
+    def transform(self, X):
+        return X[:, 1:]
+
+
+def test_nested_search_only_sees_training_groups():
+    X, y, groups, t0 = _planted(n_runs=12)
+    group_id = np.array([int(g.rsplit("/", 1)[1]) for g in groups])
+    Xg = np.column_stack([group_id, X])
+    config = SVMConfig(search_C=(1.0, 10.0), search_gamma=("scale",), inner_splits=3)
+    log = _Log()
+
+    def factory(seed):
+        search = make_search(config, seed)
+        return search.set_params(estimator=Pipeline([("record", RecordGroups(log)),
+                                                     *search.estimator.steps]))
+
+    report = cross_validate(factory, Xg, y, groups, groups, t0, t0 + 2.0, "grouped",
+                            seeds=(0,), n_splits=3, search=True)
+    assert (report.pooled["accuracy"] == 1.0).all()
+    assert set(report.folds["best_svc__C"]) <= {1.0, 10.0}
+    per_fold = 2 * 3 + 1  # candidates x inner folds, then the refit
+    splits = list(iter_splits("grouped", y.astype(str), groups, 0, 3))
+    assert len(log.fits) == len(splits) * per_fold
+    for k, (train, test) in enumerate(splits):
+        fits = log.fits[k * per_fold:(k + 1) * per_fold]
+        train_ids, test_ids = set(group_id[train]), set(group_id[test])
+        assert all(f.isdisjoint(test_ids) for f in fits)
+        assert fits[-1] == train_ids                        # refit on every training run
+        assert all(f < train_ids for f in fits[:-1])        # inner fits: a subset of them
+        assert set().union(*fits[:-1]) == train_ids
