@@ -278,7 +278,9 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         if any(s not in run.streams for s in need):
             counts["skipped_runs"].append(run.run_id)
             continue
-        frame = add_derived_channels(align_streams(run, need, config.rate_hz))
+        # steady-motion selection needs the wheel speeds even for IMU-only signal sets
+        streams = tuple(dict.fromkeys(need + (("wheels",) if config.steady_only else ())))
+        frame = add_derived_channels(align_streams(run, streams, config.rate_hz))
         X, t0, t1, part, c = window_frame(frame, channels, config)
         counts["dropped_gap"] += c["dropped_gap"]
         counts["dropped_unsteady"] += c["dropped_unsteady"]

@@ -5,8 +5,9 @@ Method (recorded in the returned frame's ``attrs``):
 1. The common clock is a uniform grid at ``rate_hz`` over the time span covered by *every*
    requested stream (latest start to earliest end), so no value is extrapolated.
 2. A stream sampled faster than the grid (the 100 Hz BorealTC IMU on a 50 Hz grid) is first
-   low-pass filtered (4th-order Butterworth, zero phase, cut-off 0.4 x ``rate_hz``) so that
-   resampling does not alias vibration into the band of interest.
+   low-pass filtered (4th-order Butterworth, zero phase, cut-off 0.4 x ``rate_hz``), each
+   gap-free segment on its own, so that resampling does not alias vibration into the band of
+   interest. Segments too short to filter (<= 27 samples) are interpolated unfiltered.
 3. Every stream is then linearly interpolated onto the grid. The ~6.5 Hz (BorealTC) or
    ~15 Hz (Vulpi) wheel stream is thus interpolated between its samples.
 4. Grid points that fall inside a timestamp gap of any stream (a step longer than
@@ -56,7 +57,7 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not positive.
+        If ``rate_hz`` is not positive, or two streams share a channel name.
     DataFormatError
         If none of ``streams`` is in the run, or their time spans do not overlap.
     """
@@ -80,12 +81,21 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         step = float(np.median(dt))
         channels = [c for c in frame.columns if c != TIME and frame[c].dtype.kind == "f"]
         values = frame[channels].to_numpy(dtype=float)
+        clash = sorted(set(channels) & set(columns))
+        if clash:
+            raise ConfigError(f"streams {present} share channel name(s) {clash}; align them "
+                              "separately")
+        gaps = np.flatnonzero(dt > gap_factor * step)
         native = 1.0 / step
-        if native > 1.5 * rate_hz and len(t) > 27:
+        if native > 1.5 * rate_hz:
             sos = signal.butter(4, 0.4 * rate_hz, fs=native, output="sos")
-            values = signal.sosfiltfilt(sos, values, axis=0)
+            values = values.copy()
+            # filter each gap-free segment on its own: never smear across a gap
+            for a, b in zip(np.r_[0, gaps + 1], np.r_[gaps + 1, len(t)]):
+                if b - a > 27:  # sosfiltfilt's default padding needs > 3 (2 x 4 + 1) samples
+                    values[a:b] = signal.sosfiltfilt(sos, values[a:b], axis=0)
         in_gap = np.zeros(n, dtype=bool)
-        for i in np.flatnonzero(dt > gap_factor * step):
+        for i in gaps:
             in_gap |= (grid > t[i]) & (grid < t[i + 1])
         for j, c in enumerate(channels):
             col = np.interp(grid, t, values[:, j])

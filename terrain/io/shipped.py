@@ -115,6 +115,8 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     shipped = {}
     rates = {}
     for name, parts in frames.items():
+        if not parts:  # e.g. a dataset with no IMU recording at all: no file for it
+            continue
         table = pd.concat(parts, ignore_index=True)
         table = table[[RUN_ID] + [c for c in table.columns if c != RUN_ID]]
         table[RUN_ID] = table[RUN_ID].astype("category")
@@ -199,6 +201,8 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     tables = {}
     for name, fname in STREAM_FILES.items():
         path = data_dir / dataset / fname
+        if f"{dataset}/{fname}" not in entry["files"]:
+            continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
         table = pd.read_parquet(path)

@@ -12,8 +12,8 @@
 
 A class with a single run (Vulpi DIRT_ROAD) cannot be tested on an unseen run. With
 ``single_run_blocks=k`` its run is cut into ``k`` contiguous time blocks used as groups (no
-window crosses a block boundary); metrics of that class then measure generalisation to an
-unseen stretch of the same run, which the report says.
+window crosses a block boundary, see :func:`purge_block_overlaps`); metrics of that class
+then measure generalisation to an unseen stretch of the same run, which the report says.
 """
 
 from __future__ import annotations
@@ -67,6 +67,37 @@ def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: 
     return groups, split
 
 
+def purge_block_overlaps(groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.ndarray,
+                         t_end_s: np.ndarray) -> np.ndarray:
+    """Keep-mask that removes windows overlapping another split unit of the same run.
+
+    With overlapping windows (hop < window), the last windows of a time block of a run
+    overlap the first windows of the next block. Each such straddling window (it ends after
+    the start of the next block of its run) is dropped, so no test window shares samples
+    with a training window.
+
+    Parameters
+    ----------
+    groups, run_ids, t_start_s, t_end_s : numpy.ndarray
+        ``(n_windows,)`` split unit, run id and window bounds (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` bool, True for windows to keep.
+    """
+    keep = np.ones(len(groups), dtype=bool)
+    for run in np.unique(run_ids):
+        sel = np.flatnonzero(run_ids == run)
+        units = np.unique(groups[sel])
+        if len(units) < 2:
+            continue
+        starts = sorted(float(t_start_s[sel][groups[sel] == u].min()) for u in units)
+        for boundary in starts[1:]:
+            keep[sel[(t_start_s[sel] < boundary) & (t_end_s[sel] > boundary + 1e-9)]] = False
+    return keep
+
+
 def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int,
                 n_splits: int = 5) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Train/test window indices of one protocol.
@@ -114,6 +145,8 @@ class CVReport:
     folds : pandas.DataFrame
         One row per (seed, fold): window metrics, ``run_majority_accuracy``, ``n_test``,
         ``fit_s`` and the chosen hyperparameters when a search ran.
+        ``run_majority_accuracy`` votes per split unit: the run under ``grouped``/``loro``
+        (a time block for a single-run class), the 5 s partition under ``paper``.
     predictions : pandas.DataFrame
         One row per test window and seed: ``seed, fold, run, group, t_start_s, t_end_s,
         true, predicted``.

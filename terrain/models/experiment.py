@@ -18,7 +18,8 @@ from features.transformers import WindowFeatures
 from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
 from terrain.errors import ConfigError
 from terrain.io.shipped import DATASET_SPECS, load_dataset
-from terrain.models.cv import PROTOCOLS, CVReport, cross_validate, split_single_run_classes
+from terrain.models.cv import (PROTOCOLS, CVReport, cross_validate, purge_block_overlaps,
+                               split_single_run_classes)
 from terrain.models.svm import SVMConfig, make_search, make_svm
 from terrain.run import Run
 
@@ -158,6 +159,11 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         notes += [f"class {c} has a single run: cut into {config.single_run_blocks} contiguous "
                   f"time blocks used as groups (its scores measure an unseen stretch of the "
                   f"same run, not an unseen run)" for c in split]
+        keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
+        if not keep.all():
+            notes.append(f"{int((~keep).sum())} window(s) straddling a time-block boundary "
+                         "dropped")
+            ws, F, labels, groups = ws.subset(keep), F[keep], labels[keep], groups[keep]
     if ws.counts["skipped_runs"]:
         notes.append(f"{len(ws.counts['skipped_runs'])} run(s) skipped for a missing stream: "
                      f"{ws.counts['skipped_runs']}")

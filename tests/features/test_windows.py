@@ -95,13 +95,13 @@ def test_steady_only_drops_standstill(make_run):
     assert ws.X.shape == (0, len(SIGNAL_SETS["wheels"]), 100)
 
 
-@pytest.mark.xfail(strict=True, reason="known bug in features/windows.py: steady_only is "
-                   "silently ignored when the signal selection needs no wheel stream, since "
-                   "only the IMU is aligned (reported to the project)")
 def test_steady_only_applies_to_imu_only_selection(make_run):
     run = make_run(_streams(vel=lambda t: np.zeros_like(t)))
     ws = make_windows([run], "imu", WindowConfig(window_s=2.0, steady_only=True))
-    assert len(ws) == 0
+    assert len(ws) == 0 and ws.counts["dropped_unsteady"] == 10
+    moving = make_run(_streams(vel=lambda t: np.full_like(t, 0.5)))
+    ws = make_windows([moving], "imu", WindowConfig(window_s=2.0, steady_only=True))
+    assert len(ws) == 10 and ws.channels == IMU_CHANNELS
 
 
 @pytest.mark.parametrize("signals, expected", [

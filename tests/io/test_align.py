@@ -117,3 +117,23 @@ def test_gap_in_slow_stream_gives_nan(make_run):
     assert np.isnan(frame.loc[inside, list(WHEEL_CHANNELS)].to_numpy()).all()
     assert np.isfinite(frame.loc[~inside].to_numpy()).all()
     assert np.isfinite(frame.loc[inside, list(IMU_CHANNELS)].to_numpy()).all()
+
+
+def test_streams_sharing_a_channel_name_are_rejected(make_run):
+    t = np.arange(0, 501) / 100.0
+    run = make_run({"imu": _imu(t), "other": _imu(t)})
+    with pytest.raises(ConfigError, match="share channel"):
+        align_streams(run, ("imu", "other"), rate_hz=50.0)
+
+
+def test_anti_alias_filter_does_not_smear_across_a_gap(make_run):
+    # IMU at 100 Hz: wz = 0 before a 2 s gap and 1 rad/s after it
+    t = np.r_[np.arange(0, 501) / 100.0, 7.0 + np.arange(0, 501) / 100.0]
+    run = make_run({"imu": _imu(t, wz=(t > 6).astype(float)),
+                    "wheels": _wheels(np.arange(0, 121) / 10.0)})
+    frame = align_streams(run, rate_hz=50.0)
+    tt, wz = frame[TIME].to_numpy(), frame["wz"].to_numpy()
+    assert np.isnan(wz[(tt > 5.0) & (tt < 7.0)]).all()
+    # right up to the gap edges the step has not leaked through the zero-phase filter
+    np.testing.assert_allclose(wz[tt <= 5.0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(wz[tt >= 7.0], 1.0, atol=1e-9)

@@ -171,3 +171,18 @@ def test_unknown_dataset_lists_valid_names(data_dir):
         assert name in str(info.value)
     with pytest.raises(ConfigError, match="vulpi"):
         read_shipped("combined", data_dir)
+
+
+def test_dataset_without_any_imu_file_converts_and_reads_wheel_only(tmp_path, borealtc_runs,
+                                                                     to_file_frame, write_run):
+    root = tmp_path / "csv"
+    by_id = {r.run_id: r for r in borealtc_runs}
+    for rid in ("borealtc/FLOORING/04", "borealtc/ICE/01"):
+        _, terrain, index = rid.split("/")
+        write_run(root, terrain, index, None,
+                  to_file_frame(by_id[rid].streams["wheels"].iloc[:30], BOREALTC_PRO))
+    entry = convert_dataset(root, "borealtc", tmp_path / "data")
+    assert list(entry["files"]) == ["borealtc/wheels.parquet"]
+    assert entry["runs_without_imu"] == ["borealtc/FLOORING/04", "borealtc/ICE/01"]
+    runs = read_shipped("borealtc", tmp_path / "data")
+    assert [set(r.streams) for r in runs] == [{"wheels"}, {"wheels"}]

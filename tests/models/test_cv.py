@@ -11,7 +11,7 @@ from sklearn.pipeline import Pipeline
 from features.windows import WindowConfig, make_windows
 from terrain.errors import ConfigError
 from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, iter_splits,
-                               split_single_run_classes)
+                               purge_block_overlaps, split_single_run_classes)
 from terrain.models.experiment import PAPER_WINDOW
 from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
                                     window_metrics)
@@ -260,3 +260,23 @@ def test_nested_search_only_sees_training_groups():
         assert fits[-1] == train_ids                        # refit on every training run
         assert all(f < train_ids for f in fits[:-1])        # inner fits: a subset of them
         assert set().union(*fits[:-1]) == train_ids
+
+
+def test_overlapping_windows_never_straddle_time_blocks_of_a_single_run_class():
+    # one run, windows 2 s long every 0.5 s: blocks would share samples without the purge
+    t0 = np.arange(0, 40, 0.5)
+    t1 = t0 + 2.0
+    labels = np.full(t0.size, "DIRT_ROAD", dtype=object)
+    runs = np.full(t0.size, "v/DIRT_ROAD/1", dtype=object)
+    groups, split = split_single_run_classes(labels, runs.copy(), t0, n_blocks=4)
+    assert split == ["DIRT_ROAD"]
+    keep = purge_block_overlaps(groups, runs, t0, t1)
+    assert 0 < (~keep).sum() <= 3 * 3  # at most (window/hop - 1) windows per boundary
+    g, a, b = groups[keep], t0[keep], t1[keep]
+    for i in range(len(g)):
+        other = g != g[i]
+        assert not np.any((a[other] < b[i]) & (b[other] > a[i])), "windows of two blocks overlap"
+    # non-overlapping windows lose nothing
+    t0 = np.arange(0, 40, 2.0)
+    groups, _ = split_single_run_classes(labels[:20], runs[:20].copy(), t0, n_blocks=4)
+    assert purge_block_overlaps(groups, runs[:20], t0, t0 + 2.0).all()
