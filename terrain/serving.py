@@ -243,8 +243,8 @@ def load_model(uri: str | Path) -> tuple[Any, dict]:
     """
     import mlflow.pyfunc
 
-    from terrain.tracking import tracking_uri
-    mlflow.set_tracking_uri(tracking_uri())
+    from terrain.tracking import activate_store
+    activate_store()
     model = mlflow.pyfunc.load_model(str(uri))
     meta = dict(model.metadata.metadata or {})
     if "channels" not in meta or "rate_hz" not in meta:

@@ -35,6 +35,23 @@ def tracking_uri() -> str:
     return f"sqlite:///{Path.cwd() / DB_FILE}"
 
 
+def activate_store() -> tuple[str, bool]:
+    """Point MLflow at the store in force; returns ``(uri, embedded)``.
+
+    MLflow's ``set_tracking_uri`` also exports ``MLFLOW_TRACKING_URI``; for the embedded
+    store the variable is removed again, so a later call (another working directory, e.g. in
+    tests) still resolves the embedded store afresh and the user's environment is unchanged.
+    """
+    import mlflow
+
+    embedded = not os.environ.get("MLFLOW_TRACKING_URI")
+    uri = tracking_uri()
+    mlflow.set_tracking_uri(uri)
+    if embedded:
+        os.environ.pop("MLFLOW_TRACKING_URI", None)
+    return uri, embedded
+
+
 def code_version() -> str:
     """Git commit of the source tree (with ``-dirty`` when modified), else the version."""
     here = Path(__file__).resolve().parent
@@ -48,12 +65,12 @@ def code_version() -> str:
         return f"terrain-{terrain.__version__}"
 
 
-def _experiment_id(mlflow: Any, name: str) -> str:
+def _experiment_id(mlflow: Any, name: str, embedded: bool) -> str:
     exp = mlflow.get_experiment_by_name(name)
     if exp is not None:
         return exp.experiment_id
     kwargs = {}
-    if "MLFLOW_TRACKING_URI" not in os.environ:
+    if embedded:
         kwargs["artifact_location"] = (Path.cwd() / ARTIFACT_DIR / name).as_uri()
     return mlflow.create_experiment(name, **kwargs)
 
@@ -146,9 +163,8 @@ def tracked_run(experiment: str, run_name: str | None = None,
     """
     import mlflow
 
-    uri = tracking_uri()
-    mlflow.set_tracking_uri(uri)
-    exp_id = _experiment_id(mlflow, experiment)
+    uri, embedded = activate_store()
+    exp_id = _experiment_id(mlflow, experiment, embedded)
     version = code_version()
     with mlflow.start_run(experiment_id=exp_id, run_name=run_name) as active:
         mlflow.set_tags({"code_version": version, **(tags or {})})
