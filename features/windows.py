@@ -15,6 +15,7 @@ from typing import Iterable, Sequence
 import numpy as np
 import pandas as pd
 
+from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.errors import ConfigError
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -28,12 +29,18 @@ HUSKY_TRACK_M = 0.5708
 #: ``cur_sum`` = cur_l + cur_r [A], ``cur_diff`` = cur_r - cur_l [A],
 #: ``yaw_rate_wheels`` = (vel_r - vel_l)/B [rad/s] (ideal differential drive).
 DERIVED_WHEEL_CHANNELS = ("vel_mean", "vel_diff", "cur_sum", "cur_diff", "yaw_rate_wheels")
+#: Every raw (measured or derived-from-measured) channel.
+ALL_CHANNELS = IMU_CHANNELS + WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS
+#: Named signal sets. EKF-derived channels (:mod:`features.ekf_signals`): set ``ekf`` alone,
+#: ``all+ekf`` with every raw channel; kept out of ``all`` so the raw default is unchanged.
 SIGNAL_SETS: dict[str, tuple[str, ...]] = {
     "imu": IMU_CHANNELS,
     "wheels": WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS,
-    "all": IMU_CHANNELS + WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS,
+    "all": ALL_CHANNELS,
+    "ekf": EKF_CHANNELS,
+    "all+ekf": ALL_CHANNELS + EKF_CHANNELS,
 }
-ALL_CHANNELS = SIGNAL_SETS["all"]
+KNOWN_CHANNELS = ALL_CHANNELS + EKF_CHANNELS
 
 
 def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
@@ -51,9 +58,9 @@ def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
     for item in items:
         names = SIGNAL_SETS.get(item, (item,))
         for name in names:
-            if name not in ALL_CHANNELS:
+            if name not in KNOWN_CHANNELS:
                 raise ConfigError(f"unknown signal {name!r}; valid sets {list(SIGNAL_SETS)} "
-                                  f"or channels {list(ALL_CHANNELS)}")
+                                  f"or channels {list(KNOWN_CHANNELS)}")
             if name not in out:
                 out.append(name)
     if not out:
@@ -182,7 +189,7 @@ def required_streams(channels: Iterable[str]) -> tuple[str, ...]:
     """Streams a channel selection needs (``imu`` and/or ``wheels``)."""
     chans = set(channels)
     need = []
-    if chans & set(IMU_CHANNELS):
+    if chans & (set(IMU_CHANNELS) | set(EKF_CHANNELS)):
         need.append("imu")
     if chans - set(IMU_CHANNELS):
         need.append("wheels")
@@ -281,6 +288,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         # steady-motion selection needs the wheel speeds even for IMU-only signal sets
         streams = tuple(dict.fromkeys(need + (("wheels",) if config.steady_only else ())))
         frame = add_derived_channels(align_streams(run, streams, config.rate_hz))
+        if set(channels) & set(EKF_CHANNELS):
+            frame = add_ekf_channels(frame, wheel_rate_hz=run.rate_hz("wheels"))
         X, t0, t1, part, c = window_frame(frame, channels, config)
         counts["dropped_gap"] += c["dropped_gap"]
         counts["dropped_unsteady"] += c["dropped_unsteady"]

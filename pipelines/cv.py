@@ -25,7 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain cv``."""
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--signals", nargs="+", default=["all"],
-                        help="imu, wheels, all, or channel names (default: all)")
+                        help="imu, wheels, all, ekf (EKF-derived channels), all+ekf, or "
+                             "channel names (default: all)")
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
     parser.add_argument("--hop-s", type=float, default=None,
                         help="hop between windows, s (default: window length)")

@@ -26,6 +26,8 @@ SUBCOMMANDS: dict[str, str] = {
     "convert": "pipelines.convert",
     "benchmark": "pipelines.benchmark",
     "simulate": "pipelines.simulate",
+    "audit": "pipelines.audit",
+    "estimate": "pipelines.estimate",
 }
 
 

@@ -70,3 +70,27 @@ class ConfigError(TerrainError, ValueError):
 
     The message lists the valid choices.
     """
+
+
+class EstimationError(TerrainError, ValueError):
+    """Bad input to a state estimator (:mod:`terrain.estimation`, :mod:`terrain.slip`).
+
+    Subclasses say what is wrong; the message names the argument and the offending shape,
+    value or index.
+    """
+
+
+class ShapeError(EstimationError):
+    """An array argument has the wrong shape (e.g. a state of shape (n, 1) for (n,))."""
+
+
+class NonFiniteInputError(EstimationError):
+    """A state, covariance, measurement or parameter holds NaN or inf."""
+
+
+class CovarianceError(EstimationError):
+    """A covariance matrix is not symmetric positive (semi-)definite."""
+
+
+class TimeStepError(EstimationError):
+    """A time step is not strictly positive and finite, or timestamps do not increase."""

@@ -14,6 +14,7 @@ from typing import Sequence
 import numpy as np
 from sklearn.pipeline import Pipeline
 
+from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
 from terrain.errors import ConfigError
@@ -190,7 +191,12 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     """Fit the whole inference pipeline (features + scaler + SVC) on every labelled window.
 
     With ``config.search`` the hyperparameters come from a grouped grid search over all runs
-    first. The SVC is fitted with Platt scaling so the served model gives probabilities.
+    first.
+
+    Raises
+    ------
+    ConfigError
+        If the signals include EKF-derived channels (not computed by the served model). The SVC is fitted with Platt scaling so the served model gives probabilities.
 
     Returns
     -------
@@ -201,6 +207,10 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     info : dict
         Chosen hyperparameters.
     """
+    if set(resolve_signals(config.signals)) & set(EKF_CHANNELS):
+        raise ConfigError("EKF-derived channels are for cross-validation ablations only: the "
+                          "served model takes raw aligned signals (choose imu, wheels, all or "
+                          "raw channel names)")
     ws = load_windows(config, runs, data_dir, progress)
     labels = ws.labels.astype(str)
     svm = replace(config.svm, probability=True)

@@ -126,3 +126,9 @@ def test_predict_on_folder_without_runs_is_a_clear_error(workdir, capsys):
     assert code == 2
     err = capsys.readouterr().err
     assert "no run files" in err and "empty" in err
+
+
+def test_train_refuses_ekf_channels_the_served_model_cannot_compute(workdir, capsys):
+    code = main(["train", "--dataset", "vulpi", "--signals", "all+ekf", "--no-progress"])
+    assert code == 2
+    assert "EKF-derived channels" in capsys.readouterr().err

@@ -1,0 +1,86 @@
+"""Estimate vehicle states and per-wheel slip of recorded runs (EKF for the run's vehicle).
+
+RUN_DIR is a folder in the run layout (RUN_DIR/<TERRAIN>/{imu,pro,omega,steer,cam}_XX.csv and
+meta_XX.json, as measured data and `terrain simulate` write it) or one <TERRAIN> folder of it.
+The vehicle comes from meta_XX.json ("vehicle", default husky): agrimaro -> 12-state EKF of
+thesis ch. 6.1; husky/tracked -> skid-steer EKF (speed, yaw rate, gyro bias, ICR factor).
+With one run the table goes to --out. With several, --run TERRAIN/XX selects one; without
+--run one file per run is written next to --out as <stem>_<TERRAIN>_<XX><suffix>.
+Columns: t_s, states, std_<state>, slip_1.. (simulator wheel numbering), innov_<row>, nis,
+nis_dof.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from terrain.errors import ConfigError
+from terrain.estimation.ekf import Gate
+from terrain.io.measured import read_runs_dir
+from terrain.slip import LAG_MODES, TUNINGS, estimate_run
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain estimate``."""
+    parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
+                                                   "folder of it)")
+    parser.add_argument("--out", type=Path, required=True, help="output CSV file")
+    parser.add_argument("--run", default=None, metavar="TERRAIN/XX",
+                        help="select one run when RUN_DIR holds several")
+    parser.add_argument("--lag", choices=LAG_MODES, default="xcorr",
+                        help="encoder lag handling (default: xcorr, estimated from data)")
+    parser.add_argument("--tuning", choices=TUNINGS, default="noise",
+                        help="AgriMaRo EKF tuning: noise-derived (default) or thesis eqs. "
+                             "6.9/6.13/6.14")
+    parser.add_argument("--gate", type=float, default=None, metavar="P",
+                        help="chi-square gate probability per sensor (e.g. 0.999); off by "
+                             "default")
+    parser.add_argument("--rate-hz", type=float, default=None,
+                        help="filter rate, Hz (default: the IMU rate)")
+
+
+def _load(run_dir: Path, select: str | None):
+    root, only = run_dir, None
+    if run_dir.is_dir() and any(p.suffix == ".csv" for p in run_dir.iterdir()):
+        root, only = run_dir.parent, run_dir.name
+    runs = read_runs_dir(root, dataset=root.resolve().name)
+    if only is not None:
+        runs = [r for r in runs if r.run_id.split("/")[1] == only]
+    if select is not None:
+        chosen = [r for r in runs if "/".join(r.run_id.split("/")[1:]) == select]
+        if not chosen:
+            names = ["/".join(r.run_id.split("/")[1:]) for r in runs]
+            raise ConfigError(f"no run {select!r} in {run_dir}; runs: {', '.join(names)}")
+        runs = chosen
+    return runs
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run the estimator on each selected run and write its table; returns 0."""
+    runs = _load(args.run_dir, args.run)
+    gate = Gate(args.gate) if args.gate is not None else None
+    for run in runs:
+        est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,
+                           rate_hz=args.rate_hz)
+        if len(runs) == 1:
+            out = args.out
+        else:
+            _, terrain, index = run.run_id.split("/")
+            out = args.out.with_name(f"{args.out.stem}_{terrain}_{index}{args.out.suffix}")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        est.to_frame().to_csv(out, index=False, float_format="%.9g")
+        ekf = est.ekf
+        nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
+        slips = ", ".join(f"{n} {np.nanmedian(est.slip[:, j]):+.3f}"
+                          for j, n in enumerate(est.slip_names))
+        lag = f"{est.lag.lag_s:.3f} s" if est.lag is not None else "not estimated"
+        skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
+        print(f"{run.run_id} ({est.vehicle}): {ekf.t_s.size} steps at "
+              f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
+              f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
+              + (f", non-finite samples skipped {skipped}" if skipped else "")
+              + f" -> {out}")
+    return 0

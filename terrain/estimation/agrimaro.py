@@ -1,0 +1,427 @@
+"""AgriMaRo 12-state EKF: the final design of seed ``001_59da564c4b2d6a48.txt`` ch. 6.1.
+
+State (eq. 6.1), body frame x forward, y left, z up; world frame of the start pose::
+
+    x = [X, Y, yaw, v_bx, v_by, yaw_rate, a_bx, a_by, delta_1, delta_2, delta_3, b_g]
+         m  m  rad  m/s   m/s   rad/s     m/s^2 m/s^2 rad      rad      rad      rad/s
+
+Process model (eqs. 6.2, 4.30-4.35): pose integrated with the body velocities, velocities with
+the body accelerations, everything else a random walk.
+
+**Coriolis convention (settled here).** The accelerometer measures the inertial acceleration
+expressed in body axes (gravity removed on level ground), ``a = dv/dt|_body + Omega x v``
+(eq. 4.23), i.e. ``a_bx = dv_bx/dt - yaw_rate v_by`` and ``a_by = dv_by/dt + yaw_rate v_bx``
+(eqs. 4.24-4.25). With ``a_b`` in the state measured directly by the accelerometer (eq. 6.6,
+rows 4-5) the velocity update must therefore be
+
+    v_bx' = v_bx + T (a_bx + yaw_rate v_by)        (eq. 4.33)
+    v_by' = v_by + T (a_by - yaw_rate v_bx)        (eq. 4.34)
+
+Eq. 6.2 prints the opposite signs (``a_bx - yaw_rate v_by``, ``a_by + yaw_rate v_bx``), which
+would double the centripetal term instead of cancelling it: in a steady turn (``dv/dt = 0``,
+``a_by = yaw_rate v_bx``) eq. 6.2 predicts ``dv_by/dt = 2 yaw_rate v_bx``. The simulator
+(:mod:`terrain.sim.dynamics`, ``accel_body``) uses eq. 4.23 and the IMU outputs it, and the
+tests show that the one-step prediction error against simulated ground truth is at round-off
+level with the eq. 4.33-4.34 signs and of the order ``2 T yaw_rate v`` with the eq. 6.2 signs
+(``coriolis="eq6.2"`` reproduces them for that comparison).
+
+Measurements (eqs. 6.3 and 6.6), 14 rows in four sensor groups::
+
+    omega  omega_1..3     wheel speeds, ((v_bx - r y_i) cos d_i + (v_by + r x_i) sin d_i) / R_w
+    imu    ax, ay         a_bx, a_by
+           wz             yaw_rate + b_g                                           (eq. 4.47)
+           yaw_imu        yaw (the integral of wz: the IMU has no magnetometer, ch. 4.5.3)
+    steer  delta_1..3     delta_i
+    cam    v_cx, v_cy     T265 velocity at its mount, robot axes: v_b + Omega x d_cam
+                          = (v_bx - yaw_rate d_y, v_by + yaw_rate d_x)             (eq. 6.6)
+           yaw_rate_c     yaw_rate
+           yaw_c          yaw
+
+The lever arm is inside h(x) (ch. 6.1), so the filter correlates yaw-rate errors with the
+camera velocity. Note that eq. 6.5 prints ``v_cam = v_B - omega x r_cam`` while eq. 6.6 (and
+eq. 5.4, ``v_robot = v_camera - omega x d_cam``) give ``v_cam = v_B + omega x d_cam``; eq. 6.6
+is implemented (it is what the simulator's camera outputs).
+
+Defaults: P0 of eq. 6.9, R of eq. 6.13 and Q of eq. 6.14 (the final tuning; the thesis gives
+Q per filter step and does not state its filter rate, so Q is applied per step of the run
+grid), EMA pre-filter of eq. 6.12 with the ch. 7.2.2 changes (camera alpha = 0.2, encoders
+unfiltered). :func:`noise_derived_settings` gives a tuning derived from sensor noise levels
+and process noise densities instead (used for the NEES / NIS consistency tests).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
+from terrain.errors import ConfigError, DataFormatError
+from terrain.estimation.ekf import Gate
+from terrain.estimation.model import StateSpaceModel
+from terrain.estimation.prefilter import ema_filter
+from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
+from terrain.run import TIME, Run
+from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
+
+STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_bx", "a_by",
+                                "delta_1", "delta_2", "delta_3", "gyro_bias")
+MEASUREMENT_NAMES: tuple[str, ...] = ("omega_1", "omega_2", "omega_3", "ax", "ay", "wz",
+                                      "yaw_imu", "delta_1", "delta_2", "delta_3", "v_cx",
+                                      "v_cy", "yaw_rate_c", "yaw_c")
+SENSOR_ROWS: Mapping[str, tuple[int, ...]] = {"omega": (0, 1, 2), "imu": (3, 4, 5, 6),
+                                              "steer": (7, 8, 9), "cam": (10, 11, 12, 13)}
+#: Columns of each sensor in a :class:`~terrain.run.Run` (stream, columns); ``yaw_imu`` is
+#: derived from ``wz`` by :func:`agrimaro_samples`.
+SENSOR_COLUMNS: Mapping[str, tuple[str, tuple[str, ...]]] = {
+    "omega": ("omega", ("omega_1", "omega_2", "omega_3")),
+    "imu": ("imu", ("ax", "ay", "wz", "yaw_imu")),
+    "steer": ("steer", ("delta_1", "delta_2", "delta_3")),
+    "cam": ("cam", ("v_cx", "v_cy", "yaw_rate_c", "yaw_c")),
+}
+
+#: Eq. 6.9 (P0), eq. 6.13 (R) and eq. 6.14 (Q), in the order of STATE_NAMES /
+#: MEASUREMENT_NAMES.
+THESIS_P0 = (1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1.5e-4, 1.5e-4, 1.5e-4, 1e-4)
+THESIS_R = (0.05, 0.05, 0.05, 0.001, 0.001, 0.001, 0.01, 1e-5, 1e-5, 1e-5, 5e-5, 5e-5, 0.001,
+            5e-4)
+THESIS_Q = (0.5, 0.5, 0.08, 0.08, 0.08, 0.15, 0.12, 0.12, 0.002, 0.002, 0.002, 0.002)
+#: Pre-filter of eq. 6.12 (alpha 0.1) with the ch. 7.2.2 changes: encoders unfiltered, camera
+#: alpha 0.2.
+THESIS_EMA: tuple[tuple[str, float], ...] = (("omega", 0.0), ("imu", 0.1), ("steer", 0.1),
+                                             ("cam", 0.2))
+CORIOLIS_CONVENTIONS = ("body", "eq6.2")
+
+
+@dataclass(frozen=True)
+class AgriMaRoEKFSettings:
+    """Tuning of the AgriMaRo EKF.
+
+    Parameters
+    ----------
+    p0_diag : tuple of 12 float
+        Initial variances (SI units squared), default eq. 6.9.
+    r_diag : tuple of 14 float
+        Measurement noise variances, default eq. 6.13.
+    q_diag : tuple of 12 float
+        Process noise variances, default eq. 6.14.
+    q_per : {"step", "second"}
+        ``step``: ``q_diag`` is added at every filter step (the thesis's discrete tuning);
+        ``second``: ``q_diag`` is a density and ``Q = diag(q) dt``.
+    coriolis : {"body", "eq6.2"}
+        Sign convention of the velocity update (see the module docstring); ``body`` is
+        correct, ``eq6.2`` reproduces the printed eq. 6.2 for comparison.
+    ema_alpha : tuple of (sensor, alpha)
+        EMA pre-filter coefficient per sensor (eq. 6.12); missing sensors are not filtered.
+    name : str
+        Label of the tuning.
+    """
+
+    p0_diag: tuple[float, ...] = THESIS_P0
+    r_diag: tuple[float, ...] = THESIS_R
+    q_diag: tuple[float, ...] = THESIS_Q
+    q_per: str = "step"
+    coriolis: str = "body"
+    ema_alpha: tuple[tuple[str, float], ...] = THESIS_EMA
+    name: str = "thesis"
+
+    def __post_init__(self) -> None:
+        for label, values, size in (("p0_diag", self.p0_diag, 12), ("r_diag", self.r_diag, 14),
+                                    ("q_diag", self.q_diag, 12)):
+            v = np.asarray(values, dtype=float)
+            if v.shape != (size,) or not np.isfinite(v).all():
+                raise ConfigError(f"{label} needs {size} finite values, got {values}")
+            if label == "r_diag" and (v <= 0).any():
+                raise ConfigError(f"{label} must be > 0 (R positive definite), got {values}")
+            if (v < 0).any():
+                raise ConfigError(f"{label} must be >= 0, got {values}")
+        if self.q_per not in ("step", "second"):
+            raise ConfigError(f"q_per must be 'step' or 'second', got {self.q_per!r}")
+        if self.coriolis not in CORIOLIS_CONVENTIONS:
+            raise ConfigError(f"unknown coriolis convention {self.coriolis!r}; valid: "
+                              f"{', '.join(CORIOLIS_CONVENTIONS)}")
+        for sensor, alpha in self.ema_alpha:
+            if sensor not in SENSOR_ROWS or not 0.0 <= float(alpha) < 1.0:
+                raise ConfigError(f"bad EMA entry ({sensor!r}, {alpha}); sensors "
+                                  f"{list(SENSOR_ROWS)}, alpha in [0, 1)")
+
+    def alpha(self, sensor: str) -> float:
+        """EMA coefficient of ``sensor`` (0 when not listed)."""
+        return float(dict(self.ema_alpha).get(sensor, 0.0))
+
+
+def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float = 0.005,
+                           cam_vel_std_m_s: float = 0.01, cam_yaw_rate_std_rad_s: float = 0.01,
+                           cam_yaw_std_rad: float = 0.002, steer_std_rad: float = 5e-4,
+                           omega_std_rad_s: float = 2.5, imu_yaw_std_rad: float = 0.05,
+                           jerk_psd: float = 400.0, yaw_accel_psd: float = 4.0,
+                           velocity_psd: float = 1e-3, position_psd: float = 1e-5,
+                           yaw_psd: float = 1e-7,
+                           steer_rate_psd: float = 1e-2, bias_psd: float = 1e-8,
+                           p0_diag: tuple[float, ...] = THESIS_P0,
+                           coriolis: str = "body") -> AgriMaRoEKFSettings:
+    """A tuning derived from sensor noise levels and process noise densities.
+
+    ``R`` holds the variance of each sensor; ``Q = diag(q) dt`` with white-noise densities
+    (jerk for ``a_b``, angular acceleration for the yaw rate, steering rate...). The wheel
+    rows carry the unmodelled slip: 0.15 (the largest steady slip of the terrain catalogue)
+    times 6 rad/s (1 m/s on the 0.165 m wheel) is 0.9 rad/s, but slip is a slowly varying
+    error, not white noise, so averaging many wheel samples does not reduce it; with
+    0.9 rad/s the filter is overconfident during camera outages (mean NEES 26 for 12 s grass
+    runs with an outage), the default 2.5 rad/s keeps the mean NEES inside its bounds. The
+    zero-slip wheel model of eq. 6.6 then hardly pulls the velocity towards the rim speed.
+    No EMA pre-filter (it colours the noise). Used for the consistency tests.
+
+    Parameters
+    ----------
+    accel_std_m_s2, gyro_std_rad_s, cam_vel_std_m_s, cam_yaw_rate_std_rad_s,
+    cam_yaw_std_rad, steer_std_rad, omega_std_rad_s, imu_yaw_std_rad : float
+        Measurement noise standard deviations (SI units).
+    jerk_psd, yaw_accel_psd, velocity_psd, position_psd, yaw_psd, steer_rate_psd, bias_psd : float
+        Process noise densities ((unit/s)^2 s).
+    p0_diag : tuple of 12 float
+    coriolis : str
+
+    Returns
+    -------
+    AgriMaRoEKFSettings
+    """
+    r = (omega_std_rad_s ** 2,) * 3 + (accel_std_m_s2 ** 2,) * 2 + (
+        gyro_std_rad_s ** 2, imu_yaw_std_rad ** 2) + (steer_std_rad ** 2,) * 3 + (
+        cam_vel_std_m_s ** 2,) * 2 + (cam_yaw_rate_std_rad_s ** 2, cam_yaw_std_rad ** 2)
+    q = (position_psd, position_psd, yaw_psd, velocity_psd, velocity_psd, yaw_accel_psd, jerk_psd,
+         jerk_psd, steer_rate_psd, steer_rate_psd, steer_rate_psd, bias_psd)
+    return AgriMaRoEKFSettings(p0_diag=tuple(p0_diag), r_diag=r, q_diag=q, q_per="second",
+                               coriolis=coriolis, ema_alpha=(), name="noise-derived")
+
+
+@dataclass(frozen=True)
+class AgriMaRoModel(StateSpaceModel):
+    """The 12-state / 14-measurement model of seed 001 ch. 6.1 (eqs. 6.1-6.6).
+
+    Parameters
+    ----------
+    vehicle : AgriMaRoParams
+        Wheel positions ``d_i`` (ch. 7.2), rolling radius and camera lever arm ``d_cam``
+        (ch. 5.2.3).
+    settings : AgriMaRoEKFSettings
+    """
+
+    vehicle: AgriMaRoParams = AGRIMARO
+    settings: AgriMaRoEKFSettings = field(default_factory=AgriMaRoEKFSettings)
+    state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
+    measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
+    angle_rows: tuple[int, ...] = field(default=(6, 13), init=False)
+    _H_template: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        Ht = np.zeros((14, 12))
+        for row, col in ((3, 6), (4, 7), (5, 5), (5, 11), (6, 2), (7, 8), (8, 9), (9, 10),
+                         (10, 3), (11, 4), (12, 5), (13, 2)):
+            Ht[row, col] = 1.0
+        dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
+        Ht[10, 5] = -dy
+        Ht[11, 5] = dx
+        object.__setattr__(self, "_H_template", Ht)
+
+    @property
+    def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
+        """Sensor -> measurement rows."""
+        return SENSOR_ROWS
+
+    @property
+    def _sign(self) -> float:
+        return 1.0 if self.settings.coriolis == "body" else -1.0
+
+    # -- process model -------------------------------------------------------------------
+    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Process model (eq. 6.2 with the eq. 4.33-4.34 Coriolis signs), shape (12,)."""
+        return self.transition(x, dt)[0]
+
+    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Jacobian of :meth:`f`, shape (12, 12)."""
+        return self.transition(x, dt)[1]
+
+    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(f(x, dt), F(x, dt))``."""
+        _, _, yaw, vx, vy, w, ax, ay = x[:8].tolist()
+        c, s = math.cos(yaw), math.sin(yaw)
+        sg = self._sign
+        fx = x.copy()
+        fx[0] += dt * (vx * c - vy * s)
+        fx[1] += dt * (vx * s + vy * c)
+        fx[2] += dt * w
+        fx[3] += dt * (ax + sg * w * vy)
+        fx[4] += dt * (ay - sg * w * vx)
+        F = np.eye(12)
+        F[0, 2] = -dt * (vx * s + vy * c)
+        F[0, 3] = dt * c
+        F[0, 4] = -dt * s
+        F[1, 2] = dt * (vx * c - vy * s)
+        F[1, 3] = dt * s
+        F[1, 4] = dt * c
+        F[2, 5] = dt
+        F[3, 4] = sg * dt * w
+        F[3, 5] = sg * dt * vy
+        F[3, 6] = dt
+        F[4, 3] = -sg * dt * w
+        F[4, 5] = -sg * dt * vx
+        F[4, 7] = dt
+        return fx, F
+
+    def Q(self, dt: float) -> np.ndarray:
+        """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt``, shape (12, 12)."""
+        q = np.asarray(self.settings.q_diag, dtype=float)
+        return np.diag(q if self.settings.q_per == "step" else q * dt)
+
+    # -- measurement model ---------------------------------------------------------------
+    def h(self, x: np.ndarray) -> np.ndarray:
+        """Measurement model (eq. 6.6), shape (14,)."""
+        return self.observation(x)[0]
+
+    def H(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`h`, shape (14, 12)."""
+        return self.observation(x)[1]
+
+    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(h(x), H(x))``."""
+        _, _, yaw, vx, vy, w, ax, ay, d1, d2, d3, bg = x.tolist()
+        (x1, y1), (x2, y2), (x3, y3) = self.vehicle.wheel_positions_m
+        rw = self.vehicle.wheel_radius_m
+        dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
+        H = self._H_template.copy()
+        hx = np.empty(14)
+        for i, (xi, yi, d) in enumerate(((x1, y1, d1), (x2, y2, d2), (x3, y3, d3))):
+            c, s = math.cos(d), math.sin(d)
+            u = vx - w * yi
+            v = vy + w * xi
+            hx[i] = (u * c + v * s) / rw
+            H[i, 3] = c / rw
+            H[i, 4] = s / rw
+            H[i, 5] = (-yi * c + xi * s) / rw
+            H[i, 8 + i] = (-u * s + v * c) / rw
+        hx[3:] = (ax, ay, w + bg, yaw, d1, d2, d3, vx - w * dy, vy + w * dx, w, yaw)
+        return hx, H
+
+    @property
+    def R_diag(self) -> np.ndarray:
+        """Measurement noise variances, shape (14,)."""
+        return np.asarray(self.settings.r_diag, dtype=float)
+
+    @property
+    def x0(self) -> np.ndarray:
+        """Zero start (eq. 6.7), shape (12,)."""
+        return np.zeros(12)
+
+    @property
+    def P0(self) -> np.ndarray:
+        """Initial covariance (eq. 6.9), shape (12, 12)."""
+        return np.diag(np.asarray(self.settings.p0_diag, dtype=float))
+
+
+def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettings(),
+                     time_offsets_s: Mapping[str, float] | None = None,
+                     vehicle: AgriMaRoParams = AGRIMARO) -> dict[str, SensorSamples]:
+    """Sensor samples of an AgriMaRo run for :func:`~terrain.estimation.run_filter`.
+
+    * ``omega``: stream ``omega`` (``omega_1..3``, rad/s); without it, wheels 1 and 2 from the
+      ``wheels`` stream (``vel_l``/``vel_r`` divided by the wheel radius), wheel 3 missing;
+    * ``imu``: ``ax, ay, wz`` and ``yaw_imu``, the trapezoidal integral of ``wz`` from the
+      first IMU sample (the drifting yaw of a magnetometer-less IMU, ch. 4.5.3);
+    * ``steer``: ``delta_1..3``; ``cam``: ``v_cx, v_cy, yaw_rate_c, yaw_c``.
+
+    Missing streams are left out (the filter runs on the others). The EMA pre-filter of
+    ``settings`` is applied per sensor, then ``time_offsets_s[sensor]`` is subtracted from
+    that sensor's timestamps (lag compensation, see :mod:`terrain.slip`).
+
+    Returns
+    -------
+    dict
+        Sensor name -> :class:`SensorSamples`.
+
+    Raises
+    ------
+    DataFormatError
+        The run has no IMU stream (the filter's clock).
+    """
+    if "imu" not in run.streams:
+        raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
+    offsets = dict(time_offsets_s or {})
+    out: dict[str, SensorSamples] = {}
+    for sensor, (stream, cols) in SENSOR_COLUMNS.items():
+        frame = run.streams.get(stream)
+        if frame is None and sensor == "omega" and "wheels" in run.streams:
+            w = run.streams["wheels"]
+            t = w[TIME].to_numpy(dtype=float)
+            vals = np.column_stack([w["vel_l"].to_numpy(dtype=float) / vehicle.wheel_radius_m,
+                                    w["vel_r"].to_numpy(dtype=float) / vehicle.wheel_radius_m,
+                                    np.full(len(w), np.nan)])
+        elif frame is None:
+            continue
+        else:
+            t = frame[TIME].to_numpy(dtype=float)
+            if sensor == "imu":
+                wz = frame["wz"].to_numpy(dtype=float)
+                yaw = cumulative_trapezoid(np.nan_to_num(wz), t, initial=0.0)
+                vals = np.column_stack([frame["ax"].to_numpy(float), frame["ay"].to_numpy(float),
+                                        wz, yaw])
+            else:
+                missing = [c for c in cols if c not in frame.columns]
+                if missing:
+                    raise DataFormatError(f"stream {stream!r} lacks columns {missing}",
+                                          run.source, missing[0])
+                vals = frame[list(cols)].to_numpy(dtype=float)
+        vals = ema_filter(vals, settings.alpha(sensor))
+        out[sensor] = SensorSamples(t - float(offsets.get(sensor, 0.0)), vals)
+    return out
+
+
+def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettings(), *,
+                      rate_hz: float | None = None, gate: Gate | None = None,
+                      time_offsets_s: Mapping[str, float] | None = None,
+                      vehicle: AgriMaRoParams = AGRIMARO, sensors: tuple[str, ...] | None = None,
+                      store_covariance: bool = False,
+                      model: StateSpaceModel | None = None) -> EKFResult:
+    """Run the AgriMaRo EKF over a run.
+
+    Parameters
+    ----------
+    run : Run
+        AgriMaRo run with an ``imu`` stream and any of ``omega``/``wheels``, ``steer``,
+        ``cam``.
+    settings : AgriMaRoEKFSettings
+    rate_hz : float, optional
+        Filter rate, Hz (default: the IMU rate). The grid spans the IMU stream.
+    gate : Gate, optional
+        Per-sensor chi-square gating.
+    time_offsets_s : Mapping[str, float], optional
+        Per-sensor latency subtracted from its timestamps, s.
+    vehicle : AgriMaRoParams
+    sensors : tuple of str, optional
+        Use only these sensors (e.g. to simulate a camera outage).
+    store_covariance : bool
+        Keep full covariances (NEES).
+    model : StateSpaceModel, optional
+        Another model over the same sensors (e.g.
+        :class:`~terrain.estimation.slip_state.SlipStateModel`); default
+        ``AgriMaRoModel(vehicle, settings)``. ``settings`` still sets the pre-filter.
+
+    Returns
+    -------
+    EKFResult
+        ``meta`` records the settings name, the Coriolis convention, EMA and offsets.
+    """
+    samples = agrimaro_samples(run, settings, time_offsets_s, vehicle)
+    model = model if model is not None else AgriMaRoModel(vehicle=vehicle, settings=settings)
+    samples = {k: v for k, v in samples.items()
+               if k in model.sensor_rows and (sensors is None or k in sensors)}
+    t_imu = run.streams["imu"][TIME].to_numpy(dtype=float)
+    rate = float(rate_hz) if rate_hz else float(1.0 / np.median(np.diff(t_imu)))
+    grid = make_grid(float(t_imu[0]), float(t_imu[-1]), rate)
+    result = run_filter(model, grid, samples, gate=gate, store_covariance=store_covariance)
+    result.meta.update(model=type(model).__name__, settings=settings.name,
+                       coriolis=settings.coriolis, ema_alpha=dict(settings.ema_alpha),
+                       time_offsets_s=dict(time_offsets_s or {}))
+    return result

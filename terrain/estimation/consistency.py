@@ -1,0 +1,179 @@
+"""Filter consistency: NEES and NIS with chi-square confidence bounds.
+
+A consistent filter (seed ``001_59da564c4b2d6a48.txt`` ch. 4.2, eqs. 4.13-4.16) has
+``E[NEES] = n`` (states) and ``E[NIS] = m`` (measurement rows). The time average of N
+independent chi-square(d) values, times N, is chi-square(N d), which gives the two-sided
+bounds of :func:`mean_chi2_bounds`. Successive NEES values of a filter are correlated, so
+the bounds use an *effective* sample count ``N / tau`` with ``tau`` the integrated
+autocorrelation time of the sequence (:func:`effective_sample_size`); the nominal iid bounds
+are reported beside them. With ground truth (simulation) NEES can be computed, which the
+thesis could not do (ch. 4.2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from terrain.errors import ShapeError
+from terrain.estimation.model import wrap_angle
+
+
+def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
+    """Normalised estimation error squared ``e_k^T P_k^-1 e_k`` (seed 001 eq. 4.13).
+
+    Parameters
+    ----------
+    errors : ndarray, shape (N, n)
+        Estimate minus truth (angles wrapped by the caller).
+    covariances : ndarray, shape (N, n, n)
+        Posterior covariances.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+
+    Raises
+    ------
+    ShapeError
+    """
+    e = np.asarray(errors, dtype=float)
+    P = np.asarray(covariances, dtype=float)
+    if e.ndim != 2 or P.shape != (e.shape[0], e.shape[1], e.shape[1]):
+        raise ShapeError(f"errors (N, n) and covariances (N, n, n) expected, got {e.shape} "
+                         f"and {P.shape}")
+    sol = np.linalg.solve(P, e[..., None])[..., 0]
+    return np.einsum("ij,ij->i", e, sol)
+
+
+def state_errors(estimates: np.ndarray, truth: np.ndarray,
+                 angle_columns: tuple[int, ...] = ()) -> np.ndarray:
+    """``estimates - truth`` with the angle columns wrapped to [-pi, pi), shape (N, n)."""
+    e = np.asarray(estimates, dtype=float) - np.asarray(truth, dtype=float)
+    for j in angle_columns:
+        e[:, j] = wrap_angle(e[:, j])
+    return e
+
+
+def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
+                     ) -> tuple[float, float]:
+    """Two-sided bounds of the mean of ``n_samples`` independent chi-square(``dof``) values.
+
+    Returns
+    -------
+    (lower, upper) : tuple of float
+        ``chi2.ppf((1 -/+ p) / 2, n dof) / n``.
+    """
+    n = max(float(n_samples), 1.0)
+    a = (1.0 - probability) / 2.0
+    return (float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n))
+
+
+def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
+    """``N / tau`` with ``tau = 1 + 2 sum_k rho_k`` summed until ``rho_k`` first drops below
+    0.05 (integrated autocorrelation time); non-finite values are dropped.
+
+    Returns
+    -------
+    float
+        Between 1 and N.
+    """
+    x = np.asarray(series, dtype=float)
+    x = x[np.isfinite(x)]
+    n = x.size
+    if n < 3:
+        return float(max(n, 1))
+    d = x - x.mean()
+    var = float(d @ d) / n
+    if var <= 0:
+        return float(n)
+    nfft = 1 << int(np.ceil(np.log2(2 * n)))
+    f = np.fft.rfft(d, nfft)
+    acf = np.fft.irfft(f * np.conj(f), nfft)[: min(n, max_lag)] / (var * n)
+    tau = 1.0
+    for k in range(1, acf.size):
+        if acf[k] < 0.05:
+            break
+        tau += 2.0 * acf[k]
+    return float(np.clip(n / tau, 1.0, n))
+
+
+@dataclass(frozen=True)
+class ChiSquareTest:
+    """Time-averaged NEES or NIS against its chi-square bounds.
+
+    Attributes
+    ----------
+    mean : float
+        Time average of the statistic.
+    dof : float
+        Expected value (states or mean number of rows).
+    n_samples : int
+        Number of finite samples averaged.
+    n_effective : float
+        Effective number of independent samples.
+    bounds : tuple of float
+        95 % bounds of the mean with ``n_effective`` samples.
+    bounds_iid : tuple of float
+        95 % bounds assuming independent samples (``n_samples``).
+    fraction_in_pointwise : float
+        Fraction of samples inside the pointwise 95 % interval of chi-square(dof).
+    """
+
+    mean: float
+    dof: float
+    n_samples: int
+    n_effective: float
+    bounds: tuple[float, float]
+    bounds_iid: tuple[float, float]
+    fraction_in_pointwise: float
+
+    @property
+    def inside(self) -> bool:
+        """Whether the mean lies within :attr:`bounds`."""
+        return self.bounds[0] <= self.mean <= self.bounds[1]
+
+    def as_dict(self, prefix: str) -> dict[str, float]:
+        """Flat metrics ``<prefix>_mean``, ``<prefix>_lo``, ``<prefix>_hi``..."""
+        return {f"{prefix}_mean": self.mean, f"{prefix}_dof": self.dof,
+                f"{prefix}_lo": self.bounds[0], f"{prefix}_hi": self.bounds[1],
+                f"{prefix}_n_eff": self.n_effective,
+                f"{prefix}_in_pointwise": self.fraction_in_pointwise,
+                f"{prefix}_inside": float(self.inside)}
+
+
+def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 0.95
+              ) -> ChiSquareTest:
+    """Average a NEES or NIS sequence and test it against chi-square bounds.
+
+    Parameters
+    ----------
+    values : ndarray, shape (N,)
+        NEES or NIS values (NaN entries are ignored).
+    dof : float or ndarray, shape (N,)
+        Degrees of freedom of each value (the number of rows for NIS).
+    probability : float
+
+    Returns
+    -------
+    ChiSquareTest
+    """
+    v = np.asarray(values, dtype=float)
+    d = np.broadcast_to(np.asarray(dof, dtype=float), v.shape)
+    ok = np.isfinite(v) & (d > 0)
+    v, d = v[ok], d[ok]
+    if v.size == 0:
+        nan = float("nan")
+        return ChiSquareTest(nan, nan, 0, 0.0, (nan, nan), (nan, nan), nan)
+    mean_dof = float(d.mean())
+    n_eff = effective_sample_size(v)
+    a = (1.0 - probability) / 2.0
+    lo = stats.chi2.ppf(a, d)
+    hi = stats.chi2.ppf(1.0 - a, d)
+    return ChiSquareTest(mean=float(v.mean()), dof=mean_dof, n_samples=int(v.size),
+                         n_effective=n_eff,
+                         bounds=mean_chi2_bounds(mean_dof, n_eff, probability),
+                         bounds_iid=mean_chi2_bounds(mean_dof, v.size, probability),
+                         fraction_in_pointwise=float(((v >= lo) & (v <= hi)).mean()))

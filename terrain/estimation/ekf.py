@@ -1,0 +1,523 @@
+"""Generic extended Kalman filter core: pure predict / update functions and a streaming wrapper.
+
+Model (seed ``001_59da564c4b2d6a48.txt`` ch. 4.1, eqs. 4.1-4.12)::
+
+    x_k = f(x_{k-1}, dt) + w_k,   w_k ~ N(0, Q(dt))
+    z_k = h(x_k) + v_k,           v_k ~ N(0, R)
+
+* :func:`predict` propagates the mean through ``f`` and the covariance through the Jacobian
+  ``F = df/dx`` evaluated at the previous estimate (eqs. 4.3, 4.5).
+* :func:`update` forms the innovation ``y = z - h(x)`` (eq. 4.7, or a model ``residual`` that
+  wraps angles), its covariance ``S = H P H^T + R`` (eq. 4.9) and the gain
+  ``K = P H^T S^-1`` (eq. 4.10) *by a linear solve* (``S`` is never inverted: one Cholesky
+  solve (LAPACK ``dposv``) of ``S [K^T | u] = [H P | y]`` gives both the gain and ``S^-1 y``
+  for the NIS, and fails cleanly when ``S`` is not positive definite). The covariance
+  is updated in Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T`` rather than eq. 4.12
+  ``(I - K H) P``: both are equal for the optimal gain, but the Joseph form is a sum of
+  positive semi-definite terms, so round-off (or a gain computed from a gated subset of rows)
+  cannot make ``P`` lose symmetry or positive semi-definiteness.
+* Optional chi-square gating (:class:`Gate`): the innovation of each sensor group is tested on
+  its own marginal NIS ``y_g^T S_gg^-1 y_g`` against the chi-square quantile of its size; a
+  group that fails is left out of the update, so one outlier sensor cannot corrupt the state.
+
+Arrays are plain vectors: states ``(n,)``, measurements ``(m,)``, covariances ``(n, n)`` and
+``(m, m)`` (never ``(n, 1)`` column vectors). Functions return new arrays and never modify
+their inputs. Bad input raises a subclass of :class:`terrain.errors.EstimationError`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+from scipy import stats
+from scipy.linalg import lapack
+
+from terrain.errors import CovarianceError, NonFiniteInputError, ShapeError, TimeStepError
+
+#: Relative tolerance of the symmetry check of a covariance matrix.
+SYMMETRY_RTOL = 1e-6
+#: Smallest eigenvalue allowed for a PSD covariance, relative to its largest (round-off).
+PSD_RTOL = 1e-9
+
+Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def as_vector(v: Any, name: str, size: int | None = None) -> np.ndarray:
+    """``v`` as a finite float vector of shape ``(size,)``.
+
+    Raises
+    ------
+    ShapeError
+        Not one-dimensional, or the wrong length.
+    NonFiniteInputError
+        NaN or inf entries (their indices are named).
+    """
+    a = np.asarray(v, dtype=float)
+    if a.ndim != 1 or (size is not None and a.shape[0] != size):
+        want = f"({size},)" if size is not None else "(n,)"
+        raise ShapeError(f"{name} must have shape {want}, got {a.shape}")
+    if not np.isfinite(a).all():
+        bad = np.flatnonzero(~np.isfinite(a)).tolist()
+        raise NonFiniteInputError(f"{name} has non-finite entries at indices {bad}")
+    return a
+
+
+def as_covariance(P: Any, size: int, name: str, *, definite: bool = False) -> np.ndarray:
+    """``P`` as a finite, symmetric, positive semi-definite ``(size, size)`` matrix.
+
+    A vector of length ``size`` is taken for the diagonal of a diagonal covariance.
+
+    Parameters
+    ----------
+    P : array_like, shape (size, size) or (size,)
+    size : int
+    name : str
+        Argument name used in error messages.
+    definite : bool
+        Require positive definiteness (Cholesky succeeds), as for a noise covariance ``R``.
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError, CovarianceError
+    """
+    a = np.asarray(P, dtype=float)
+    if a.ndim == 1 and a.shape[0] == size:
+        a = np.diag(a)
+    if a.shape != (size, size):
+        raise ShapeError(f"{name} must have shape ({size}, {size}), got {a.shape}")
+    if not np.isfinite(a).all():
+        raise NonFiniteInputError(f"{name} has non-finite entries")
+    scale = max(float(np.abs(a).max()), 1e-300)
+    asym = float(np.abs(a - a.T).max())
+    if asym > SYMMETRY_RTOL * scale:
+        raise CovarianceError(f"{name} is not symmetric (max |{name} - {name}^T| = {asym:.3g})")
+    eig = np.linalg.eigvalsh(0.5 * (a + a.T))
+    if definite:
+        if eig[0] <= 0.0:
+            raise CovarianceError(f"{name} is not positive definite (smallest eigenvalue "
+                                  f"{eig[0]:.3g})")
+    elif eig[0] < -PSD_RTOL * max(float(eig[-1]), 1e-300):
+        raise CovarianceError(f"{name} is not positive semi-definite (smallest eigenvalue "
+                              f"{eig[0]:.3g}, largest {eig[-1]:.3g})")
+    return a
+
+
+def check_time_step(dt: float) -> float:
+    """``dt`` as a float, strictly positive and finite (s).
+
+    Raises
+    ------
+    TimeStepError
+    """
+    try:
+        d = float(dt)
+    except (TypeError, ValueError):
+        raise TimeStepError(f"time step must be a number, got {dt!r}") from None
+    if not (np.isfinite(d) and d > 0.0):
+        raise TimeStepError(f"time step must be > 0 and finite, got {dt!r} s")
+    return d
+
+
+@dataclass(frozen=True)
+class Gate:
+    """Chi-square innovation gate.
+
+    A sensor group of ``d`` rows is rejected when its marginal NIS exceeds the
+    ``probability`` quantile of the chi-square distribution with ``d`` degrees of freedom
+    (``probability = 0.999``: a consistent filter rejects 0.1 % of good samples).
+
+    Parameters
+    ----------
+    probability : float
+        In (0, 1).
+    max_dof : int
+        Largest group size supported.
+    """
+
+    probability: float = 0.999
+    max_dof: int = 64
+    _thresholds: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not 0.0 < float(self.probability) < 1.0:
+            raise ValueError(f"gate probability must be in (0, 1), got {self.probability}")
+        table = stats.chi2.ppf(float(self.probability), np.arange(1, int(self.max_dof) + 1))
+        object.__setattr__(self, "_thresholds", table)
+
+    def threshold(self, dof: int) -> float:
+        """Chi-square quantile for ``dof`` degrees of freedom (1 <= dof <= max_dof)."""
+        return float(self._thresholds[int(dof) - 1])
+
+
+@dataclass(frozen=True)
+class Innovation:
+    """Innovation record of one update.
+
+    Attributes
+    ----------
+    y : ndarray, shape (m,)
+        Innovation ``z - h(x_prior)`` of every row (rejected rows included), units of ``z``.
+    S : ndarray, shape (m, m)
+        Innovation covariance ``H P H^T + R`` of every row.
+    nis : float
+        Normalised innovation squared ``y_a^T S_aa^-1 y_a`` over the accepted rows ``a``
+        (seed 001 eq. 4.14); NaN when no row was accepted.
+    accepted : ndarray of bool, shape (m,)
+        Rows used in the update (False for rows rejected by the gate).
+    """
+
+    y: np.ndarray
+    S: np.ndarray
+    nis: float
+    accepted: np.ndarray
+
+    @property
+    def dof(self) -> int:
+        """Degrees of freedom of :attr:`nis` (number of accepted rows)."""
+        return int(np.count_nonzero(self.accepted))
+
+    @property
+    def normalised(self) -> np.ndarray:
+        """Per-row normalised innovation ``y_i / sqrt(S_ii)``, shape (m,)."""
+        return self.y / np.sqrt(np.diag(self.S))
+
+
+def predict(x: np.ndarray, P: np.ndarray, dt: float, f: Callable[..., np.ndarray],
+            F: Callable[..., np.ndarray], Q: np.ndarray | Callable[[float], np.ndarray], *,
+            args: tuple = (), check: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """EKF prediction (seed 001 eqs. 4.3 and 4.5).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Posterior state at the previous step.
+    P : ndarray, shape (n, n)
+        Its covariance.
+    dt : float
+        Time step, s (> 0).
+    f : callable ``f(x, dt, *args) -> (n,)``
+        State transition.
+    F : callable ``F(x, dt, *args) -> (n, n)``
+        Jacobian of ``f`` with respect to ``x``, evaluated at the previous state.
+    Q : ndarray, shape (n, n) or (n,), or callable ``Q(dt)``
+        Process noise covariance of one step of length ``dt`` (a vector is its diagonal).
+    args : tuple
+        Extra arguments of ``f`` and ``F`` (e.g. a control input).
+    check : bool
+        Validate every input (shapes, finiteness, symmetry and PSD of ``P`` and ``Q``,
+        ``dt > 0``). The streaming wrapper validates once and then skips the checks.
+
+    Returns
+    -------
+    x_prior : ndarray, shape (n,)
+    P_prior : ndarray, shape (n, n)
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError, CovarianceError, TimeStepError
+        Only when ``check`` is True.
+    """
+    if check:
+        x = as_vector(x, "x")
+        P = as_covariance(P, x.size, "P")
+        dt = check_time_step(dt)
+    fx = np.asarray(f(x, dt, *args), dtype=float)
+    Fm = np.asarray(F(x, dt, *args), dtype=float)
+    Qm = Q(dt) if callable(Q) else np.asarray(Q, dtype=float)
+    n = x.shape[0]
+    if check:
+        fx = as_vector(fx, "f(x, dt)", n)
+        if Fm.shape != (n, n):
+            raise ShapeError(f"F(x, dt) must have shape ({n}, {n}), got {Fm.shape}")
+        if not np.isfinite(Fm).all():
+            raise NonFiniteInputError("F(x, dt) has non-finite entries")
+        Qm = as_covariance(Qm, n, "Q")
+    elif Qm.ndim == 1:
+        Qm = np.diag(Qm)
+    Pp = np.dot(np.dot(Fm, P), Fm.T) + Qm
+    return fx, 0.5 * (Pp + Pp.T)
+
+
+def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.ndarray, *,
+            gate: Gate | None = None, groups: Sequence[np.ndarray] | None = None,
+            check: bool = True) -> tuple[np.ndarray, np.ndarray, Innovation]:
+    """Kalman correction from an already formed innovation (seed 001 eqs. 4.9-4.11).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Prior state.
+    P : ndarray, shape (n, n)
+        Prior covariance.
+    y : ndarray, shape (m,)
+        Innovation ``z - h(x)`` (angle rows already wrapped).
+    H : ndarray, shape (m, n)
+        Measurement Jacobian at ``x``.
+    R : ndarray, shape (m, m) or (m,)
+        Measurement noise covariance (a vector is its diagonal, variances > 0).
+    gate : Gate or None
+        Chi-square gate applied to each group of ``groups``; None = no gating.
+    groups : sequence of int arrays or None
+        Row indices of each sensor group (a partition of ``range(m)``); None = all rows form
+        one group.
+    check : bool
+        Validate shapes, finiteness and covariances.
+
+    Returns
+    -------
+    x_post : ndarray, shape (n,)
+    P_post : ndarray, shape (n, n)
+        Joseph-form update, symmetrised.
+    innovation : Innovation
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError
+        Bad shapes or non-finite values (``check`` True).
+    CovarianceError
+        ``P`` not symmetric PSD or ``R`` not positive definite (``check`` True), or the
+        innovation covariance ``S`` is singular or indefinite (always checked).
+    """
+    n = x.shape[0]
+    y = np.asarray(y, dtype=float)
+    H = np.asarray(H, dtype=float)
+    m = y.shape[0] if y.ndim == 1 else -1
+    if check:
+        x = as_vector(x, "x")
+        n = x.size
+        P = as_covariance(P, n, "P")
+        y = as_vector(y, "innovation y")
+        m = y.size
+        if H.shape != (m, n):
+            raise ShapeError(f"H must have shape ({m}, {n}), got {H.shape}")
+        if not np.isfinite(H).all():
+            raise NonFiniteInputError("H has non-finite entries")
+        R = as_covariance(R, m, "R", definite=True)
+    R = np.asarray(R, dtype=float)
+    r_diag = R if R.ndim == 1 else None
+    HP = np.dot(H, P)
+    S = np.dot(HP, H.T)
+    if r_diag is not None:
+        S.flat[:: m + 1] += r_diag
+    else:
+        S = S + R
+    accepted = np.ones(m, dtype=bool)
+    if gate is None:
+        rows = None
+        ya, Ha, HPa, Sa = y, H, HP, S
+    else:
+        for g in (groups if groups is not None else (np.arange(m),)):
+            g = np.asarray(g)
+            if g.size == 0:
+                continue
+            Sg = S[np.ix_(g, g)]
+            try:
+                d2 = float(y[g] @ np.linalg.solve(Sg, y[g]))
+            except np.linalg.LinAlgError:
+                raise CovarianceError("innovation covariance S is singular") from None
+            if not d2 <= gate.threshold(g.size):
+                accepted[g] = False
+        if accepted.all():
+            rows = None
+            ya, Ha, HPa, Sa = y, H, HP, S
+        else:
+            rows = np.flatnonzero(accepted)
+            if rows.size == 0:
+                return x.copy(), P.copy(), Innovation(y, S, float("nan"), accepted)
+            ya, Ha, HPa, Sa = y[rows], H[rows], HP[rows], S[np.ix_(rows, rows)]
+    # Cholesky solve S [K^T | u] = [H P | y]: K = P H^T S^-1, u = S^-1 y (no inverse)
+    _, sol, info = lapack.dposv(Sa, np.concatenate([HPa, ya[:, None]], axis=1))
+    if info != 0:
+        raise CovarianceError("innovation covariance S = H P H^T + R is not positive "
+                              f"definite (LAPACK dposv info {info})")
+    K = sol[:, :n].T
+    nis = float(np.dot(ya, sol[:, n]))
+    if not nis >= 0.0:
+        raise CovarianceError(f"innovation covariance S is not positive definite (NIS {nis})")
+    x_new = x + np.dot(K, ya)
+    A = np.dot(K, Ha)
+    A *= -1.0
+    A.flat[:: n + 1] += 1.0                       # A = I - K H
+    if r_diag is not None:
+        KRK = np.dot(K * (r_diag if rows is None else r_diag[rows]), K.T)
+    else:
+        Ra = R if rows is None else R[np.ix_(rows, rows)]
+        KRK = np.dot(np.dot(K, Ra), K.T)
+    P_new = np.dot(np.dot(A, P), A.T) + KRK
+    return x_new, 0.5 * (P_new + P_new.T), Innovation(y, S, nis, accepted)
+
+
+def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, h: Callable[..., np.ndarray],
+           H: Callable[..., np.ndarray], R: np.ndarray, *, args: tuple = (),
+           residual: Residual | None = None, gate: Gate | None = None,
+           groups: Sequence[np.ndarray] | None = None,
+           check: bool = True) -> tuple[np.ndarray, np.ndarray, Innovation]:
+    """EKF measurement update (seed 001 eqs. 4.7-4.11, Joseph form).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Prior state.
+    P : ndarray, shape (n, n)
+        Prior covariance.
+    z : ndarray, shape (m,)
+        Measurement (finite; the runner skips non-finite samples before calling this).
+    h : callable ``h(x, *args) -> (m,)``
+        Measurement model.
+    H : callable ``H(x, *args) -> (m, n)``
+        Its Jacobian.
+    R : ndarray, shape (m, m) or (m,)
+        Measurement noise covariance (vector = diagonal).
+    args : tuple
+        Extra arguments of ``h`` and ``H``.
+    residual : callable ``residual(z, hx) -> (m,)``, optional
+        Innovation (default ``z - hx``); use it to wrap angles to [-pi, pi).
+    gate, groups :
+        See :func:`correct`.
+    check : bool
+        Validate every input.
+
+    Returns
+    -------
+    x_post : ndarray, shape (n,)
+    P_post : ndarray, shape (n, n)
+    innovation : Innovation
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError, CovarianceError
+    """
+    if check:
+        x = as_vector(x, "x")
+        z = as_vector(z, "z")
+    hx = np.asarray(h(x, *args), dtype=float)
+    Hm = np.asarray(H(x, *args), dtype=float)
+    if check:
+        hx = as_vector(hx, "h(x)", z.size)
+    y = residual(z, hx) if residual is not None else z - hx
+    return correct(x, P, y, Hm, R, gate=gate, groups=groups, check=check)
+
+
+class ExtendedKalmanFilter:
+    """Thin stateful wrapper over :func:`predict` and :func:`update` for streaming use.
+
+    All inputs are validated here once; the per-step calls validate the time step and the
+    measurement (and skip the matrix checks, which the Joseph form keeps true).
+
+    Parameters
+    ----------
+    x0 : ndarray, shape (n,)
+        Initial state.
+    P0 : ndarray, shape (n, n) or (n,)
+        Initial covariance.
+    f, F : callables
+        Transition ``f(x, dt, *args)`` and its Jacobian ``F(x, dt, *args)``.
+    h, H : callables
+        Measurement model ``h(x, *args) -> (m,)`` and its Jacobian ``(m, n)``.
+    Q : ndarray, shape (n, n) or (n,), or callable ``Q(dt)``
+        Process noise of one step.
+    R : ndarray, shape (m, m) or (m,)
+        Measurement noise.
+    residual : callable, optional
+        ``residual(z, hx) -> (m,)``.
+    gate : Gate, optional
+        Chi-square gating of each group of ``groups``.
+    groups : sequence of int arrays, optional
+        Sensor groups (rows of ``z``) for the gate.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n,)
+        Current estimate (a copy).
+    P : ndarray, shape (n, n)
+        Current covariance (a copy).
+    last_innovation : Innovation or None
+    """
+
+    def __init__(self, x0: np.ndarray, P0: np.ndarray, f: Callable, F: Callable,
+                 h: Callable, H: Callable, Q: np.ndarray | Callable[[float], np.ndarray],
+                 R: np.ndarray, *, residual: Residual | None = None, gate: Gate | None = None,
+                 groups: Sequence[np.ndarray] | None = None) -> None:
+        self._x = as_vector(x0, "x0")
+        n = self._x.size
+        self._P = as_covariance(P0, n, "P0")
+        self._f, self._F, self._h, self._H = f, F, h, H
+        self._Q = Q if callable(Q) else as_covariance(Q, n, "Q")
+        R = np.asarray(R, dtype=float)
+        self._m = R.shape[0]
+        self._R = R if R.ndim == 1 else as_covariance(R, self._m, "R", definite=True)
+        if R.ndim == 1:
+            as_covariance(R, self._m, "R", definite=True)
+        self._residual = residual
+        self._gate = gate
+        self._groups = None if groups is None else [np.asarray(g) for g in groups]
+        self.last_innovation: Innovation | None = None
+
+    @property
+    def x(self) -> np.ndarray:
+        """Current state estimate, shape (n,) (a copy)."""
+        return self._x.copy()
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current covariance, shape (n, n) (a copy)."""
+        return self._P.copy()
+
+    def predict(self, dt: float, *args: Any) -> None:
+        """Propagate by ``dt`` seconds (> 0).
+
+        Raises
+        ------
+        TimeStepError
+        """
+        dt = check_time_step(dt)
+        self._x, self._P = predict(self._x, self._P, dt, self._f, self._F, self._Q,
+                                   args=args, check=False)
+
+    def update(self, z: np.ndarray, *args: Any, rows: Sequence[int] | None = None
+               ) -> Innovation:
+        """Correct with measurement ``z``.
+
+        Parameters
+        ----------
+        z : ndarray, shape (m,) or (len(rows),)
+            Measurement, or the subset of its rows given by ``rows`` (multi-rate sensors).
+        rows : sequence of int, optional
+            Rows of the full measurement vector present in ``z``.
+
+        Returns
+        -------
+        Innovation
+
+        Raises
+        ------
+        ShapeError, NonFiniteInputError, CovarianceError
+        """
+        idx = np.arange(self._m) if rows is None else np.asarray(rows, dtype=int)
+        z = as_vector(z, "z", idx.size)
+        hx = np.asarray(self._h(self._x, *args), dtype=float)
+        Hm = np.asarray(self._H(self._x, *args), dtype=float)
+        if self._residual is None:
+            y = z - hx[idx]
+        elif rows is None:
+            y = self._residual(z, hx)
+        else:  # the residual sees full vectors (it may wrap angle rows by position)
+            z_full = hx.copy()
+            z_full[idx] = z
+            y = self._residual(z_full, hx)[idx]
+        if rows is None:
+            R = self._R
+            groups = self._groups
+        else:
+            R = self._R[idx] if self._R.ndim == 1 else self._R[np.ix_(idx, idx)]
+            groups = None
+            if self._groups is not None:
+                pos = {int(r): i for i, r in enumerate(idx)}
+                groups = [np.array([pos[int(r)] for r in g if int(r) in pos])
+                          for g in self._groups]
+        self._x, self._P, inn = correct(self._x, self._P, y, Hm[idx], R, gate=self._gate,
+                                        groups=groups, check=False)
+        self.last_innovation = inn
+        return inn

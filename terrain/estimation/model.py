@@ -1,0 +1,139 @@
+"""Base of the EKF process / measurement models used with :func:`terrain.estimation.run_filter`.
+
+A model is a frozen dataclass that knows its state and measurement names, which measurement
+rows each sensor feeds, and implements
+
+* ``f(x, dt) -> (n,)`` and ``F(x, dt) -> (n, n)`` (process model and its Jacobian),
+* ``h(x) -> (m,)`` and ``H(x) -> (m, n)`` (measurement model and its Jacobian),
+* ``Q(dt) -> (n, n)`` (process noise of one step), ``R_diag`` ``(m,)`` (measurement noise
+  variances), ``x0`` ``(n,)`` and ``P0`` ``(n, n)``.
+
+``transition`` and ``observation`` return a value and its Jacobian together; models override
+them when the two share work (trigonometry), which is what the run loop calls.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles to [-pi, pi), rad."""
+    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+class StateSpaceModel:
+    """Interface of an EKF model (see the module docstring). Subclasses are frozen dataclasses.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        Length n.
+    measurement_names : tuple of str
+        Length m.
+    sensor_rows : Mapping[str, tuple of int]
+        Sensor (stream) name -> the measurement rows its samples fill, in column order.
+    angle_rows : tuple of int
+        Measurement rows holding angles (their innovation is wrapped to [-pi, pi)).
+    """
+
+    state_names: tuple[str, ...] = ()
+    measurement_names: tuple[str, ...] = ()
+    angle_rows: tuple[int, ...] = ()
+
+    @property
+    def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    @property
+    def n_states(self) -> int:
+        """Number of states n."""
+        return len(self.state_names)
+
+    @property
+    def n_measurements(self) -> int:
+        """Number of measurement rows m."""
+        return len(self.measurement_names)
+
+    def f(self, x: np.ndarray, dt: float) -> np.ndarray:  # pragma: no cover - interface
+        """Process model, ``(n,)``."""
+        raise NotImplementedError
+
+    def F(self, x: np.ndarray, dt: float) -> np.ndarray:  # pragma: no cover - interface
+        """Jacobian of :meth:`f`, ``(n, n)``."""
+        raise NotImplementedError
+
+    def h(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        """Measurement model, ``(m,)``."""
+        raise NotImplementedError
+
+    def H(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        """Jacobian of :meth:`h`, ``(m, n)``."""
+        raise NotImplementedError
+
+    def Q(self, dt: float) -> np.ndarray:  # pragma: no cover - interface
+        """Process noise covariance of one step of ``dt`` seconds, ``(n, n)``."""
+        raise NotImplementedError
+
+    @property
+    def R_diag(self) -> np.ndarray:  # pragma: no cover - interface
+        """Measurement noise variances, ``(m,)``."""
+        raise NotImplementedError
+
+    @property
+    def x0(self) -> np.ndarray:  # pragma: no cover - interface
+        """Initial state, ``(n,)``."""
+        raise NotImplementedError
+
+    @property
+    def P0(self) -> np.ndarray:  # pragma: no cover - interface
+        """Initial covariance, ``(n, n)``."""
+        raise NotImplementedError
+
+    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(f(x, dt), F(x, dt))``."""
+        return self.f(x, dt), self.F(x, dt)
+
+    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(h(x), H(x))``."""
+        return self.h(x), self.H(x)
+
+    def residual(self, z: np.ndarray, hx: np.ndarray) -> np.ndarray:
+        """Innovation ``z - hx`` over all m rows, angle rows wrapped to [-pi, pi)."""
+        y = np.asarray(z, dtype=float) - hx
+        two_pi = 2.0 * math.pi
+        for r in self.angle_rows:
+            y[r] = (y[r] + math.pi) % two_pi - math.pi      # NaN stays NaN
+        return y
+
+    def sensor_groups(self) -> list[np.ndarray]:
+        """Measurement rows of each sensor, for per-sensor gating."""
+        return [np.asarray(r) for r in self.sensor_rows.values()]
+
+
+def finite_difference_jacobian(fun, x: np.ndarray, eps: float = 1e-6) -> np.ndarray:
+    """Central-difference Jacobian of ``fun`` at ``x`` (to check analytic Jacobians).
+
+    Parameters
+    ----------
+    fun : callable ``fun(x) -> (m,)``
+    x : ndarray, shape (n,)
+    eps : float
+        Step, relative to ``max(1, |x_j|)``.
+
+    Returns
+    -------
+    ndarray, shape (m, n)
+    """
+    x = np.asarray(x, dtype=float)
+    cols = []
+    for j in range(x.size):
+        h = eps * max(1.0, abs(x[j]))
+        xp, xm = x.copy(), x.copy()
+        xp[j] += h
+        xm[j] -= h
+        cols.append((np.asarray(fun(xp)) - np.asarray(fun(xm))) / (2.0 * h))
+    return np.column_stack(cols)

@@ -1,0 +1,93 @@
+"""Signal pre-filters applied to sensor samples before the EKF.
+
+* :func:`ema_filter`: the exponential moving average of seed ``001_59da564c4b2d6a48.txt``
+  eq. 6.12 / 7.8, ``z_new = alpha z_prev + (1 - alpha) z_raw``.
+* :func:`robust_noise_std`: a data-driven noise level for a measurement row (the thesis
+  measured R in static tests, ch. 4.4.3; while driving, the residual about a short moving
+  average gives the same quantity).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import lfilter
+
+from terrain.errors import EstimationError
+
+
+def ema_filter(values: np.ndarray, alpha: float) -> np.ndarray:
+    """Exponential moving average along axis 0 (seed 001 eq. 6.12).
+
+    ``y_0 = z_0``, ``y_k = alpha y_{k-1} + (1 - alpha) z_k``. ``alpha = 0`` returns the input
+    unchanged. Non-finite samples are held over (the previous output is repeated) and stay
+    non-finite in the output, so the EKF still skips and counts them.
+
+    Parameters
+    ----------
+    values : ndarray, shape (k,) or (k, d)
+        Samples of one sensor, in time order.
+    alpha : float
+        Smoothing coefficient in [0, 1) (0.1 in eq. 6.12; 0.2 for the camera, ch. 7.2.2).
+
+    Returns
+    -------
+    ndarray, same shape as ``values``
+
+    Raises
+    ------
+    EstimationError
+        ``alpha`` outside [0, 1).
+    """
+    if not 0.0 <= float(alpha) < 1.0:
+        raise EstimationError(f"EMA alpha must be in [0, 1), got {alpha}")
+    v = np.asarray(values, dtype=float)
+    if alpha == 0.0 or v.shape[0] == 0:
+        return v.copy()
+    flat = v.reshape(v.shape[0], -1)
+    bad = ~np.isfinite(flat)
+    filled = flat.copy()
+    if bad.any():
+        for j in range(flat.shape[1]):
+            col = filled[:, j]
+            idx = np.where(~bad[:, j], np.arange(col.size), 0)
+            np.maximum.accumulate(idx, out=idx)
+            first = np.flatnonzero(~bad[:, j])
+            col[:] = col[idx] if first.size else 0.0
+            if first.size:
+                col[: first[0]] = col[first[0]]
+    a = float(alpha)
+    out, _ = lfilter([1.0 - a], [1.0, -a], filled, axis=0, zi=a * filled[:1])
+    out[bad] = np.nan
+    return out.reshape(v.shape)
+
+
+def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) -> np.ndarray:
+    """Noise standard deviation of each column: 1.4826 x MAD of the signal minus its
+    ``window_s`` moving average (non-finite samples ignored).
+
+    Parameters
+    ----------
+    values : ndarray, shape (k,) or (k, d)
+    rate_hz : float
+        Sampling rate, Hz.
+    window_s : float
+        Moving-average window, s.
+
+    Returns
+    -------
+    ndarray, shape (d,) (or a 0-d array for 1-D input), units of ``values``.
+    """
+    v = np.asarray(values, dtype=float)
+    flat = v.reshape(v.shape[0], -1)
+    w = max(3, int(round(window_s * rate_hz)) | 1)
+    out = np.empty(flat.shape[1])
+    for j in range(flat.shape[1]):
+        col = flat[:, j]
+        col = col[np.isfinite(col)]
+        if col.size < w:
+            out[j] = np.nan
+            continue
+        res = col - uniform_filter1d(col, w, mode="nearest")
+        out[j] = 1.4826 * np.median(np.abs(res - np.median(res)))
+    return out if v.ndim > 1 else out[0]

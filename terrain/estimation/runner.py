@@ -1,0 +1,315 @@
+"""Run an EKF model over a whole multi-rate recording.
+
+Scheduling rule (explicit, recorded in :attr:`EKFResult.meta`):
+
+* the filter steps on a time grid ``t_s`` (normally uniform at the IMU rate); at step ``k``
+  it predicts from ``t_{k-1}`` to ``t_k`` and then updates with every sensor sample whose
+  timestamp lies in ``(t_{k-1}, t_k]`` (the first step takes samples up to one step before
+  ``t_0``). A sample is thus used at most one grid step (<= 10 ms at 100 Hz) after it was
+  taken;
+* when one sensor has two samples inside one step the later one is used and the earlier one
+  is counted as ``superseded``; samples outside the grid are counted as ``outside``;
+* a non-finite value is skipped for its row only (the sensor's other rows and the other
+  sensors are still used) and counted in ``non_finite``: the filter keeps running on the
+  remaining sensors, its covariance grows where information is missing, and it recovers when
+  the sensor comes back;
+* rows rejected by the chi-square gate are counted in ``rejected``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import ShapeError, TimeStepError
+from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct
+from terrain.estimation.model import StateSpaceModel
+
+
+@dataclass(frozen=True)
+class SensorSamples:
+    """Samples of one sensor.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (k,)
+        Sample times, s, strictly increasing.
+    values : ndarray, shape (k, d)
+        Values in the column order of the model's ``sensor_rows[name]`` (SI units); NaN or
+        inf entries are skipped and counted.
+    """
+
+    t_s: np.ndarray
+    values: np.ndarray
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t_s, dtype=float)
+        v = np.asarray(self.values, dtype=float)
+        if v.ndim == 1:
+            v = v[:, None]
+        if t.ndim != 1 or v.ndim != 2 or v.shape[0] != t.shape[0]:
+            raise ShapeError(f"sensor samples need t_s (k,) and values (k, d), got "
+                             f"{t.shape} and {np.shape(self.values)}")
+        if t.size and (not np.isfinite(t).all() or (np.diff(t) <= 0).any()):
+            raise TimeStepError("sensor timestamps must be finite and strictly increasing")
+        object.__setattr__(self, "t_s", t)
+        object.__setattr__(self, "values", v)
+
+
+def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
+    """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive), s.
+
+    Raises
+    ------
+    TimeStepError
+        ``rate_hz`` not > 0 or ``t_end <= t_start``.
+    """
+    if not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise TimeStepError(f"rate must be > 0 Hz, got {rate_hz}")
+    if not t_end_s > t_start_s:
+        raise TimeStepError(f"empty time span [{t_start_s}, {t_end_s}] s")
+    n = int(np.floor((t_end_s - t_start_s) * rate_hz + 1e-9)) + 1
+    return t_start_s + np.arange(n) / rate_hz
+
+
+@dataclass
+class EKFResult:
+    """Output of :func:`run_filter` over N grid steps (n states, m measurement rows).
+
+    Attributes
+    ----------
+    t_s : ndarray, shape (N,)
+        Grid times, s.
+    x : ndarray, shape (N, n)
+        Posterior state at each step (SI units of each state).
+    P_diag : ndarray, shape (N, n)
+        Posterior variances.
+    P : ndarray, shape (N, n, n) or None
+        Full posterior covariances (``store_covariance=True``).
+    y : ndarray, shape (N, m)
+        Innovation of each measurement row (NaN where the row had no sample).
+    S_diag : ndarray, shape (N, m)
+        Innovation variances (NaN where the row had no sample).
+    accepted : ndarray of bool, shape (N, m)
+        Rows used in the update (False if absent or rejected by the gate).
+    nis : ndarray, shape (N,)
+        NIS over the accepted rows of each step (NaN when none).
+    dof : ndarray of int, shape (N,)
+        Its degrees of freedom.
+    state_names, measurement_names : tuple of str
+    sensor_rows : dict
+        Sensor -> measurement rows.
+    counts : dict
+        Sensor -> ``{"samples", "used", "non_finite", "superseded", "outside", "rejected"}``.
+    meta : dict
+        Scheduling rule, gate, rates, settings of the caller.
+    """
+
+    t_s: np.ndarray
+    x: np.ndarray
+    P_diag: np.ndarray
+    P: np.ndarray | None
+    y: np.ndarray
+    S_diag: np.ndarray
+    accepted: np.ndarray
+    nis: np.ndarray
+    dof: np.ndarray
+    state_names: tuple[str, ...]
+    measurement_names: tuple[str, ...]
+    sensor_rows: dict[str, tuple[int, ...]]
+    counts: dict[str, dict[str, int]]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def state(self, name: str) -> np.ndarray:
+        """Estimated state ``name`` over time, shape (N,)."""
+        return self.x[:, self.state_names.index(name)]
+
+    def std(self, name: str) -> np.ndarray:
+        """Posterior standard deviation of state ``name``, shape (N,)."""
+        return np.sqrt(self.P_diag[:, self.state_names.index(name)])
+
+    def sensor_nis(self, sensor: str) -> np.ndarray:
+        """Sum of squared normalised innovations of one sensor's rows, shape (N,).
+
+        This ignores the correlation between rows of the sensor (exact when its rows are
+        uncorrelated); NaN at steps where the sensor had no accepted sample.
+        """
+        rows = list(self.sensor_rows[sensor])
+        nu2 = np.where(self.accepted[:, rows], self.y[:, rows] ** 2 / self.S_diag[:, rows],
+                       0.0)
+        out = nu2.sum(axis=1)
+        out[~self.accepted[:, rows].any(axis=1)] = np.nan
+        return out
+
+    def to_frame(self, include_std: bool = True) -> pd.DataFrame:
+        """Time-stamped table: ``t_s``, states, ``std_<state>``, ``innov_<row>``, ``nis``,
+        ``nis_dof``."""
+        cols: dict[str, np.ndarray] = {"t_s": self.t_s}
+        for j, name in enumerate(self.state_names):
+            cols[name] = self.x[:, j]
+        if include_std:
+            for j, name in enumerate(self.state_names):
+                cols[f"std_{name}"] = np.sqrt(self.P_diag[:, j])
+        for i, name in enumerate(self.measurement_names):
+            cols[f"innov_{name}"] = np.where(self.accepted[:, i], self.y[:, i], np.nan)
+        cols["nis"] = self.nis
+        cols["nis_dof"] = self.dof
+        return pd.DataFrame(cols)
+
+
+def _place(t_grid: np.ndarray, samples: SensorSamples, width: int
+           ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
+    """Step index of each kept sample and the counts of one sensor."""
+    t = samples.t_s
+    v = samples.values
+    if v.shape[1] != width:
+        raise ShapeError(f"sensor has {v.shape[1]} columns, the model expects {width}")
+    step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
+    inside = (t > t_grid[0] - step0 - 1e-9) & (t <= t_grid[-1] + 1e-9)
+    idx = np.searchsorted(t_grid, t - 1e-9, side="left")
+    finite_any = np.isfinite(v).any(axis=1)
+    non_finite = int((~np.isfinite(v).all(axis=1) & inside).sum())
+    keep = inside & finite_any
+    idx_k = idx[keep]
+    # the last sample of each step wins
+    last = np.r_[idx_k[1:] != idx_k[:-1], True] if idx_k.size else np.zeros(0, bool)
+    superseded = int((~last).sum())
+    counts = {"samples": int(t.size), "non_finite": non_finite, "superseded": superseded,
+              "outside": int((~inside).sum())}
+    rows = np.flatnonzero(keep)[last]
+    return idx[rows], v[rows], counts
+
+
+def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
+               samples: Mapping[str, SensorSamples], *, gate: Gate | None = None,
+               x0: np.ndarray | None = None, P0: np.ndarray | None = None,
+               store_covariance: bool = False) -> EKFResult:
+    """Filter a recording with ``model`` on the grid ``t_grid``.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    t_grid : ndarray, shape (N,)
+        Step times, s, strictly increasing (:func:`make_grid`).
+    samples : Mapping[str, SensorSamples]
+        Sensor name (a key of ``model.sensor_rows``) -> samples. Sensors not given are
+        simply never used.
+    gate : Gate, optional
+        Per-sensor chi-square gating.
+    x0 : ndarray, shape (n,), optional
+        Initial state (default ``model.x0``), at ``t_grid[0]``.
+    P0 : ndarray, shape (n, n) or (n,), optional
+        Initial covariance (default ``model.P0``).
+    store_covariance : bool
+        Keep the full covariance of every step (needed for NEES); memory N n^2 floats.
+
+    Returns
+    -------
+    EKFResult
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError, CovarianceError
+        Bad initial state or covariance, unknown sensor, wrong column count.
+    TimeStepError
+        Grid not strictly increasing.
+    """
+    t_grid = as_vector(t_grid, "t_grid")
+    if t_grid.size < 1:
+        raise ShapeError("t_grid is empty")
+    dts = np.diff(t_grid)
+    if (dts <= 0).any():
+        raise TimeStepError(f"t_grid must increase strictly (step {int(np.argmin(dts)) + 1})")
+    n, m = model.n_states, model.n_measurements
+    x = as_vector(model.x0 if x0 is None else x0, "x0", n)
+    P = as_covariance(model.P0 if P0 is None else P0, n, "P0")
+    R_diag = as_vector(model.R_diag, "R_diag", m)
+    as_covariance(R_diag, m, "R", definite=True)
+    N = t_grid.size
+    Z = np.full((N, m), np.nan)
+    counts: dict[str, dict[str, int]] = {}
+    sensor_rows = {k: tuple(v) for k, v in model.sensor_rows.items()}
+    for name, s in samples.items():
+        if name not in sensor_rows:
+            raise ShapeError(f"unknown sensor {name!r}; the model has {list(sensor_rows)}")
+        rows = list(sensor_rows[name])
+        steps, values, c = _place(t_grid, s, len(rows))
+        Z[steps[:, None], np.asarray(rows)[None, :]] = values
+        counts[name] = c
+    avail = np.isfinite(Z)
+    weights = np.left_shift(np.int64(1), np.arange(m, dtype=np.int64))
+    keys = (avail.astype(np.int64) * weights).sum(axis=1)
+    row_sensor = np.full(m, -1)
+    for j, rows in enumerate(sensor_rows.values()):
+        row_sensor[list(rows)] = j
+    cache: dict[int, tuple] = {}
+    for key in np.unique(keys):
+        if key == 0:
+            continue
+        rows = np.flatnonzero(avail[np.argmax(keys == key)])
+        groups = [np.flatnonzero(row_sensor[rows] == j) for j in range(len(sensor_rows))]
+        full = rows.size == m          # every row present: no fancy indexing in the loop
+        cache[int(key)] = (None if full else rows, R_diag[rows], [g for g in groups if g.size])
+
+    xs = np.empty((N, n))
+    Pd = np.empty((N, n))
+    Ps = np.empty((N, n, n)) if store_covariance else None
+    Y = np.full((N, m), np.nan)
+    Sd = np.full((N, m), np.nan)
+    acc = np.zeros((N, m), dtype=bool)
+    nis = np.full(N, np.nan)
+    dof = np.zeros(N, dtype=int)
+    residual = model.residual
+    transition, observation = model.transition, model.observation
+    q_dt, Qk = None, None
+    for k in range(N):
+        if k:
+            dt = dts[k - 1]
+            if dt != q_dt:
+                Qk = np.asarray(model.Q(dt), dtype=float)
+                q_dt = dt
+            fx, Fm = transition(x, dt)
+            Pp = np.dot(np.dot(Fm, P), Fm.T) + Qk
+            P = 0.5 * (Pp + Pp.T)
+            x = fx
+        key = int(keys[k])
+        if key:
+            rows, r_sub, groups = cache[key]
+            hx, Hm = observation(x)
+            y = residual(Z[k], hx)
+            if rows is None:
+                x, P, inn = correct(x, P, y, Hm, r_sub, gate=gate, groups=groups,
+                                    check=False)
+                Y[k] = inn.y
+                Sd[k] = inn.S.diagonal()
+                acc[k] = inn.accepted
+            else:
+                x, P, inn = correct(x, P, y[rows], Hm[rows], r_sub, gate=gate,
+                                    groups=groups, check=False)
+                Y[k, rows] = inn.y
+                Sd[k, rows] = inn.S.diagonal()
+                acc[k, rows] = inn.accepted
+            nis[k] = inn.nis
+            dof[k] = inn.dof
+        xs[k] = x
+        Pd[k] = P.diagonal()
+        if Ps is not None:
+            Ps[k] = P
+    for j, (name, rows) in enumerate(sensor_rows.items()):
+        if name in counts:
+            r = list(rows)
+            used = acc[:, r].any(axis=1)
+            present = avail[:, r].any(axis=1)
+            counts[name]["used"] = int(used.sum())
+            counts[name]["rejected"] = int((present & ~acc[:, r].any(axis=1)).sum())
+    meta = {"scheduling": "grid step k uses samples in (t_{k-1}, t_k]; latest wins",
+            "gate_probability": None if gate is None else gate.probability,
+            "n_steps": int(N),
+            "rate_hz": float(1.0 / np.median(dts)) if dts.size else float("nan")}
+    return EKFResult(t_s=t_grid, x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=acc, nis=nis,
+                     dof=dof, state_names=tuple(model.state_names),
+                     measurement_names=tuple(model.measurement_names),
+                     sensor_rows=dict(sensor_rows), counts=counts, meta=meta)

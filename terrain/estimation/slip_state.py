@@ -1,0 +1,227 @@
+"""The first AgriMaRo EKF design with the wheel slips inside the state (seed
+``001_59da564c4b2d6a48.txt`` ch. 4.3), kept to reproduce the thesis's finding about it.
+
+State (eq. 4.18)::
+
+    x = [X, Y, yaw, v_bx, v_by, yaw_rate, a_bx, a_by, s_1, s_2, s_3, delta_1, delta_2, delta_3]
+
+Process model: eq. 4.36 (pose and velocities integrated, everything else a random walk),
+with the Coriolis signs of eqs. 4.33-4.34 (the ones the thesis prints in ch. 4; see
+:mod:`terrain.estimation.agrimaro` for why they are the right ones).
+
+Measurements (eq. 4.28, ``accel="coriolis"``)::
+
+    omega_i = v_w,i / ((1 - s_i) r)      v_w,i from eq. 4.20           (eq. 4.22)
+    ax = -yaw_rate v_by,  ay = yaw_rate v_bx                           (eqs. 4.26-4.27)
+    wz = yaw_rate,  yaw_imu = yaw,  delta_i = delta_i
+
+``accel="direct"`` measures ``a_bx, a_by`` directly (as in the final design, eq. 6.6) and
+``camera=True`` appends the four T265 rows of eq. 6.6 (``v_cx, v_cy, yaw_rate_c, yaw_c``):
+with them the velocity, and therefore the slip, becomes observable, which the ch. 4.3 sensor
+set does not provide (wheel speed alone cannot tell velocity from slip).
+
+The slip factor ``1 / (1 - s)`` is evaluated with ``1 - s`` floored at 0.05 (slip 0.95) so a
+diverging estimate cannot divide by zero; the Jacobian is exact inside that range.
+
+Default tuning: P0 of eq. 4.38, R of eq. 4.40, Q of eq. 4.41, per filter step. Eq. 4.38
+prints 13 values for 14 states and eq. 4.40 prints 11 for 10 measurements; the text (ch.
+4.4.2-4.4.3) fixes the reading used here: P0 = 1e-6 for pose, velocities, yaw rate and slips,
+1e-3 for the accelerations, 1e-1 for the steering angles; R = 1e-5 for every row except the
+steering encoders (7.2e-5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from terrain.errors import ConfigError
+from terrain.estimation.agrimaro import SENSOR_COLUMNS
+from terrain.estimation.model import StateSpaceModel
+from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
+
+STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_bx", "a_by",
+                                "slip_1", "slip_2", "slip_3", "delta_1", "delta_2",
+                                "delta_3")
+#: Eq. 4.38, 4.40, 4.41 (see the module docstring for the reading of the misprints).
+THESIS_P0_CH4 = (1e-6,) * 6 + (1e-3, 1e-3) + (1e-6,) * 3 + (1e-1,) * 3
+THESIS_R_CH4 = (1e-5,) * 7 + (7.2e-5,) * 3
+THESIS_Q_CH4 = (1e-8, 1e-8, 1e-8, 1e-6, 1e-6, 1e-5, 1e-3, 1e-3, 1e-5, 1e-5, 1e-5, 7.2e-5,
+                7.2e-5, 7.2e-5)
+#: Camera rows when ``camera=True`` (T265 noise of the simulator, seed 001 eq. 6.13 order).
+CAMERA_R = (1e-4, 1e-4, 1e-4, 4e-6)
+SLIP_FLOOR = 0.05
+
+
+@dataclass(frozen=True)
+class SlipStateModel(StateSpaceModel):
+    """14-state EKF with slip in the state (seed 001 ch. 4.3).
+
+    Parameters
+    ----------
+    vehicle : AgriMaRoParams
+    accel : {"coriolis", "direct"}
+        Accelerometer rows: eqs. 4.26-4.27 (``-yaw_rate v_by``, ``yaw_rate v_bx``) or the
+        acceleration states.
+    camera : bool
+        Append the T265 rows of eq. 6.6.
+    p0_diag, r_diag, q_diag : tuple of float
+        Tuning (default eqs. 4.38, 4.40 + ``CAMERA_R``, 4.41); ``r_diag`` has 10 or 14
+        values.
+    q_per : {"step", "second"}
+        As in :class:`~terrain.estimation.agrimaro.AgriMaRoEKFSettings`.
+    """
+
+    vehicle: AgriMaRoParams = AGRIMARO
+    accel: str = "coriolis"
+    camera: bool = False
+    p0_diag: tuple[float, ...] = THESIS_P0_CH4
+    r_diag: tuple[float, ...] | None = None
+    q_diag: tuple[float, ...] = THESIS_Q_CH4
+    q_per: str = "step"
+    state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
+    measurement_names: tuple[str, ...] = field(default=(), init=False)
+    angle_rows: tuple[int, ...] = field(default=(6,), init=False)
+
+    def __post_init__(self) -> None:
+        if self.accel not in ("coriolis", "direct"):
+            raise ConfigError(f"accel must be 'coriolis' or 'direct', got {self.accel!r}")
+        names = ["omega_1", "omega_2", "omega_3", "ax", "ay", "wz", "yaw_imu", "delta_1",
+                 "delta_2", "delta_3"]
+        if self.camera:
+            names += ["v_cx", "v_cy", "yaw_rate_c", "yaw_c"]
+            object.__setattr__(self, "angle_rows", (6, 13))
+        object.__setattr__(self, "measurement_names", tuple(names))
+        r = self.r_diag if self.r_diag is not None else (
+            THESIS_R_CH4 + (CAMERA_R if self.camera else ()))
+        if len(r) != len(names) or min(r) <= 0:
+            raise ConfigError(f"r_diag needs {len(names)} values > 0, got {r}")
+        object.__setattr__(self, "r_diag", tuple(float(v) for v in r))
+        if len(self.p0_diag) != 14 or len(self.q_diag) != 14:
+            raise ConfigError("p0_diag and q_diag need 14 values")
+
+    @property
+    def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
+        """Sensor -> measurement rows (same sensors and columns as the 12-state model)."""
+        rows = {"omega": (0, 1, 2), "imu": (3, 4, 5, 6), "steer": (7, 8, 9)}
+        if self.camera:
+            rows["cam"] = (10, 11, 12, 13)
+        return rows
+
+    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Eq. 4.36 (body-frame Coriolis signs), shape (14,)."""
+        return self.transition(x, dt)[0]
+
+    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Jacobian of :meth:`f`, shape (14, 14)."""
+        return self.transition(x, dt)[1]
+
+    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(f(x, dt), F(x, dt))``."""
+        _, _, yaw, vx, vy, w, ax, ay = x[:8].tolist()
+        c, s = math.cos(yaw), math.sin(yaw)
+        fx = x.copy()
+        fx[0] += dt * (vx * c - vy * s)
+        fx[1] += dt * (vx * s + vy * c)
+        fx[2] += dt * w
+        fx[3] += dt * (ax + w * vy)
+        fx[4] += dt * (ay - w * vx)
+        F = np.eye(14)
+        F[0, 2], F[0, 3], F[0, 4] = -dt * (vx * s + vy * c), dt * c, -dt * s
+        F[1, 2], F[1, 3], F[1, 4] = dt * (vx * c - vy * s), dt * s, dt * c
+        F[2, 5] = dt
+        F[3, 4], F[3, 5], F[3, 6] = dt * w, dt * vy, dt
+        F[4, 3], F[4, 5], F[4, 7] = -dt * w, -dt * vx, dt
+        return fx, F
+
+    def Q(self, dt: float) -> np.ndarray:
+        """Process noise of one step, shape (14, 14)."""
+        q = np.asarray(self.q_diag, dtype=float)
+        return np.diag(q if self.q_per == "step" else q * dt)
+
+    def h(self, x: np.ndarray) -> np.ndarray:
+        """Eq. 4.28 (+ camera rows), shape (m,)."""
+        return self.observation(x)[0]
+
+    def H(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`h`, shape (m, 14)."""
+        return self.observation(x)[1]
+
+    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(h(x), H(x))``."""
+        _, _, yaw, vx, vy, w, ax, ay, s1, s2, s3, d1, d2, d3 = x.tolist()
+        m = len(self.measurement_names)
+        rw = self.vehicle.wheel_radius_m
+        hx = np.empty(m)
+        H = np.zeros((m, 14))
+        for i, ((xi, yi), si, d) in enumerate(zip(self.vehicle.wheel_positions_m,
+                                                  (s1, s2, s3), (d1, d2, d3))):
+            c, sn = math.cos(d), math.sin(d)
+            u, v = vx - w * yi, vy + w * xi
+            vw = u * c + v * sn                                   # eq. 4.20
+            one_s = 1.0 - si
+            k = 1.0 / (max(one_s, SLIP_FLOOR) * rw)
+            hx[i] = vw * k                                        # eq. 4.22
+            H[i, 3], H[i, 4], H[i, 5] = c * k, sn * k, (-yi * c + xi * sn) * k
+            H[i, 11 + i] = (-u * sn + v * c) * k
+            H[i, 8 + i] = vw * k / one_s if one_s > SLIP_FLOOR else 0.0
+        if self.accel == "coriolis":                              # eqs. 4.26-4.27
+            hx[3], hx[4] = -w * vy, w * vx
+            H[3, 4], H[3, 5] = -w, -vy
+            H[4, 3], H[4, 5] = w, vx
+        else:
+            hx[3], hx[4] = ax, ay
+            H[3, 6] = H[4, 7] = 1.0
+        hx[5], hx[6] = w, yaw
+        H[5, 5] = H[6, 2] = 1.0
+        hx[7:10] = (d1, d2, d3)
+        H[7, 11] = H[8, 12] = H[9, 13] = 1.0
+        if self.camera:
+            dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
+            hx[10:14] = (vx - w * dy, vy + w * dx, w, yaw)
+            H[10, 3], H[10, 5] = 1.0, -dy
+            H[11, 4], H[11, 5] = 1.0, dx
+            H[12, 5] = H[13, 2] = 1.0
+        return hx, H
+
+    @property
+    def R_diag(self) -> np.ndarray:
+        """Measurement noise variances, shape (m,)."""
+        return np.asarray(self.r_diag, dtype=float)
+
+    @property
+    def x0(self) -> np.ndarray:
+        """Zero start (eq. 4.37), shape (14,)."""
+        return np.zeros(14)
+
+    @property
+    def P0(self) -> np.ndarray:
+        """Eq. 4.38, shape (14, 14)."""
+        return np.diag(np.asarray(self.p0_diag, dtype=float))
+
+
+#: Columns of each sensor (same as the 12-state model; the ``imu`` sensor still carries
+#: ``ax, ay, wz, yaw_imu``).
+SLIP_STATE_SENSOR_COLUMNS = SENSOR_COLUMNS
+
+
+def noise_derived_slip_state_model(*, accel_std_m_s2: float = 0.8, omega_std_rad_s: float = 0.2,
+                                   slip_psd: float = 0.05, camera: bool = True,
+                                   vehicle: AgriMaRoParams = AGRIMARO) -> SlipStateModel:
+    """The slip-in-state design with the final sensor set and a noise-derived tuning.
+
+    Camera rows and direct accelerometer rows (as in eq. 6.6), the same noise levels as
+    :func:`terrain.estimation.agrimaro.noise_derived_settings`; with the slip in the state
+    the wheel rows only carry the encoder noise and lag (``omega_std_rad_s``), and each slip
+    is a random walk of density ``slip_psd`` (1/s).
+    """
+    r = (omega_std_rad_s ** 2,) * 3 + (accel_std_m_s2 ** 2,) * 2 + (0.005 ** 2, 0.05 ** 2) + (
+        5e-4 ** 2,) * 3 + ((1e-4, 1e-4, 1e-4, 4e-6) if camera else ())
+    q = (1e-5, 1e-5, 1e-7, 1e-3, 1e-3, 4.0, 400.0, 400.0, slip_psd, slip_psd, slip_psd,
+         1e-2, 1e-2, 1e-2)
+    p0 = (1e-5,) * 8 + (1e-2,) * 3 + (1.5e-4,) * 3
+    return SlipStateModel(vehicle=vehicle, accel="direct", camera=camera, p0_diag=p0,
+                          r_diag=r, q_diag=q, q_per="second")

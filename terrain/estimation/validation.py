@@ -1,0 +1,390 @@
+"""Validation of the estimators on simulated runs (imports :mod:`terrain.sim`).
+
+Used by the tests, the benchmark and ``docs/estimation_validation.md``; nothing in the
+library imports it. Slip-level validation (which needs :mod:`terrain.slip`) is in
+:mod:`terrain.slip.validation`, which also prints every figure of the report.
+
+Simulated AgriMaRo runs use a fine wheel encoder (``speed_quantum_m_s=1e-6``): with the
+default sensor settings the simulator rounds the *filtered* wheel speed to its 90 count/rev
+Hall resolution at 50 Hz (3.49 rad/s, 0.58 m/s at the rim) without dithering, so a constant
+speed is reported with a constant error of up to 0.29 m/s and no estimator can recover the
+slip from it (reported in the validation document).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.estimation.agrimaro import (STATE_NAMES, AgriMaRoEKFSettings, AgriMaRoModel,
+                                         estimate_agrimaro, noise_derived_settings)
+from terrain.estimation.consistency import chi2_test, mean_chi2_bounds, nees, state_errors
+from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_truth,
+                                         run_adaptive_observer)
+from terrain.estimation.prefilter import robust_noise_std
+from terrain.estimation.runner import EKFResult
+from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
+from terrain.run import TIME, Run
+from terrain.sim import Effects, SensorSettings, SimConfig, simulate
+from terrain.vehicles import HUSKY
+
+#: simulator file columns -> canonical names (what terrain.io.measured maps them to)
+_PRO = {"time": TIME, "velL": "vel_l", "velR": "vel_r", "curL": "cur_l", "curR": "cur_r"}
+#: AgriMaRo sensors with a fine wheel encoder (see the module docstring).
+FINE_ENCODER = SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=1e-6,
+                              current_quantum_a=0.01)
+THESIS_TERRAINS = ("TILES", "GRASS", "GRAVEL")
+
+
+def sim_to_run(result, run_id: str = "sim/TEST/00") -> Run:
+    """A :class:`Run` with the streams of a SimResult renamed as the CSV reader does."""
+    streams = {}
+    for name, frame in result.streams.items():
+        if name == "pro":
+            streams["wheels"] = frame.rename(columns=_PRO)
+        else:
+            streams[name] = frame.rename(columns={"time": TIME})
+    return Run(run_id=run_id, dataset="sim", terrain=str(result.meta["terrain"]),
+               streams=streams, vehicle=str(result.meta["vehicle"]), source="simulated",
+               meta=dict(result.meta))
+
+
+def truth_on_grid(result, t_grid: np.ndarray) -> pd.DataFrame:
+    """Physics ground truth linearly interpolated on ``t_grid``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t_s, x, y, yaw, v_bx, v_by, yaw_rate, a_bx, a_by, delta_i, slip_i, omega_i``.
+    """
+    ph = result.physics
+    cols = {"x": ph.pose[:, 0], "y": ph.pose[:, 1], "yaw": ph.pose[:, 2],
+            "v_bx": ph.twist[:, 0], "v_by": ph.twist[:, 1], "yaw_rate": ph.twist[:, 2],
+            "a_bx": ph.accel_body[:, 0], "a_by": ph.accel_body[:, 1]}
+    for i in range(ph.delta.shape[1]):
+        cols[f"delta_{i + 1}"] = ph.delta[:, i]
+    for i in range(ph.slip_motor.shape[1]):
+        cols[f"slip_{i + 1}"] = ph.slip_motor[:, i]
+        cols[f"omega_{i + 1}"] = ph.omega[:, i]
+    out = {"t_s": t_grid}
+    for k, v in cols.items():
+        out[k] = np.interp(t_grid, ph.t_s, v)
+    return pd.DataFrame(out)
+
+
+def simulate_agrimaro(terrain: str, seed: int, duration_s: float = 20.0,
+                      scenario: str = "straight_accel", effects: Effects = Effects(),
+                      sensors: SensorSettings = FINE_ENCODER):
+    """One simulated AgriMaRo run (fine encoder by default)."""
+    return simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
+                              duration_s=duration_s, seed=seed, effects=effects,
+                              sensors=sensors))
+
+
+def agrimaro_truth_states(result, t_grid: np.ndarray) -> np.ndarray:
+    """True 12-state vector on ``t_grid``, shape (N, 12) (gyro bias = the planted effect)."""
+    tr = truth_on_grid(result, t_grid)
+    bias = float(result.config.effects.gyro_bias)
+    return np.column_stack([tr[s].to_numpy() if s in tr else np.full(len(tr), bias)
+                            for s in STATE_NAMES])
+
+
+def data_driven_settings(run: Run, **kwargs) -> AgriMaRoEKFSettings:
+    """:func:`noise_derived_settings` with the accelerometer noise measured on the run."""
+    imu = run.streams["imu"]
+    rate = float(1.0 / np.median(np.diff(imu[TIME].to_numpy())))
+    acc = float(np.nanmax(robust_noise_std(imu[["ax", "ay"]].to_numpy(float), rate)))
+    return noise_derived_settings(accel_std_m_s2=acc, **kwargs)
+
+
+@dataclass(frozen=True)
+class ConsistencyRow:
+    """Monte Carlo consistency of the AgriMaRo EKF on one terrain."""
+
+    terrain: str
+    n_runs: int
+    anees: float
+    nees_bounds: tuple[float, float]
+    nees_fraction_in_bounds: float
+    nis_mean: float
+    nis_dof: float
+    nis_bounds: tuple[float, float]
+    rmse: dict[str, float]
+
+    def as_dict(self) -> dict:
+        """Flat row for a table."""
+        d = {"terrain": self.terrain, "runs": self.n_runs, "ANEES": self.anees,
+             "NEES_lo": self.nees_bounds[0], "NEES_hi": self.nees_bounds[1],
+             "NEES_inside": self.nees_bounds[0] <= self.anees <= self.nees_bounds[1],
+             "NEES_frac_steps_in": self.nees_fraction_in_bounds, "NIS": self.nis_mean,
+             "NIS_dof": self.nis_dof, "NIS_lo": self.nis_bounds[0],
+             "NIS_hi": self.nis_bounds[1]}
+        d.update({f"rmse_{k}": v for k, v in self.rmse.items()})
+        return d
+
+
+def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float = 20.0,
+                         scenario: str = "straight_accel",
+                         settings_fn: Callable[[Run], AgriMaRoEKFSettings] = data_driven_settings,
+                         t_min_s: float = 0.0, probability: float = 0.95) -> ConsistencyRow:
+    """Monte Carlo NEES / NIS of the 12-state EKF (Bar-Shalom's average NEES test).
+
+    For each time step the NEES is averaged over the ``M = len(seeds)`` runs; ``M`` times
+    that average is chi-square(12 M) for a consistent filter, which gives the bounds. The
+    reported ANEES is the time average of the run-averaged NEES (``t >= t_min_s``); the
+    fraction of time steps inside the bounds is reported beside it. NIS: time and run
+    average against the bounds of its mean number of rows.
+    """
+    nees_runs, nis_all, dof_all, sq = [], [], [], {k: [] for k in ("v_bx", "v_by", "yaw_rate")}
+    grid = None
+    for seed in seeds:
+        result = simulate_agrimaro(terrain, seed, duration_s, scenario)
+        run = sim_to_run(result)
+        res = estimate_agrimaro(run, settings_fn(run), store_covariance=True)
+        truth = agrimaro_truth_states(result, res.t_s)
+        e = state_errors(res.x, truth, (2,))
+        keep = res.t_s >= t_min_s
+        nees_runs.append(nees(e, res.P)[keep])
+        nis_all.append(res.nis[keep])
+        dof_all.append(res.dof[keep])
+        for k in sq:
+            j = STATE_NAMES.index(k)
+            sq[k].append(e[keep, j] ** 2)
+        grid = res.t_s[keep] if grid is None else grid
+    n = min(len(a) for a in nees_runs)
+    avg = np.mean([a[:n] for a in nees_runs], axis=0)
+    m = len(seeds)
+    lo, hi = mean_chi2_bounds(12, m, probability)
+    nis = np.concatenate(nis_all)
+    dof = np.concatenate(dof_all)
+    test = chi2_test(nis, dof, probability)
+    return ConsistencyRow(terrain=terrain, n_runs=m, anees=float(avg.mean()),
+                          nees_bounds=(lo, hi),
+                          nees_fraction_in_bounds=float(((avg >= lo) & (avg <= hi)).mean()),
+                          nis_mean=test.mean, nis_dof=test.dof, nis_bounds=test.bounds,
+                          rmse={k: float(np.sqrt(np.mean(np.concatenate(v))))
+                                for k, v in sq.items()})
+
+
+def coriolis_prediction_error(result) -> dict[str, float]:
+    """RMS one-step velocity prediction error of the process model fed with ground truth.
+
+    For each physics step the model predicts ``v(t + dt)`` from the true ``v, yaw_rate``
+    and the true accelerometer acceleration ``a_b``; the error against the true ``v(t+dt)``
+    is the model error alone. Returns m/s for ``body`` (eqs. 4.33-4.34) and ``eq6.2``.
+    """
+    ph = result.physics
+    dt = float(ph.t_s[1] - ph.t_s[0])
+    out = {}
+    for conv in ("body", "eq6.2"):
+        model = AgriMaRoModel(settings=AgriMaRoEKFSettings(coriolis=conv))
+        x = np.zeros((len(ph.t_s) - 1, 12))
+        x[:, 2] = ph.pose[:-1, 2]
+        x[:, 3:6] = ph.twist[:-1]
+        # the simulator's accel_body at step k is (V_{k} - V_{k-1}) / dt + r x V: use the
+        # next step's value, which belongs to the interval [k, k + 1]
+        x[:, 6:8] = ph.accel_body[1:]
+        pred = np.array([model.f(xi, dt)[3:5] for xi in x])
+        err = pred - ph.twist[1:, :2]
+        out[conv] = float(np.sqrt(np.mean(err ** 2)))
+    return out
+
+
+def coriolis_filter_rmse(result, settings_fn: Callable[[Run], AgriMaRoEKFSettings]
+                         = data_driven_settings) -> dict[str, dict[str, float]]:
+    """Velocity RMSE of the whole EKF with each Coriolis convention, against truth."""
+    run = sim_to_run(result)
+    base = settings_fn(run)
+    out = {}
+    for conv in ("body", "eq6.2"):
+        res = estimate_agrimaro(run, replace(base, coriolis=conv))
+        tr = truth_on_grid(result, res.t_s)
+        out[conv] = {k: float(np.sqrt(np.mean((res.state(k) - tr[k].to_numpy()) ** 2)))
+                     for k in ("v_bx", "v_by", "yaw_rate")}
+    return out
+
+
+# -- skid-steer ------------------------------------------------------------------------------
+
+def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: str = "random",
+                   icr_expansion: float = 1.5, gyro_bias: float = 0.01):
+    """One simulated Husky run with a planted ICR expansion and gyro bias."""
+    return simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
+                              duration_s=duration_s, seed=seed,
+                              effects=Effects(icr_expansion=icr_expansion,
+                                              gyro_bias=gyro_bias)))
+
+
+def steady_turn_mask(t_s: np.ndarray, yaw_rate: np.ndarray, min_rate: float = 0.15,
+                     max_yaw_accel: float = 0.05, t_min_s: float = 10.0) -> np.ndarray:
+    """Samples in a steady turn (|yaw rate| > min_rate, |d yaw rate / dt| < max_yaw_accel)
+    after ``t_min_s``; where the ICR factor and eta are defined and constant."""
+    wd = np.gradient(yaw_rate, t_s)
+    return (np.abs(yaw_rate) > min_rate) & (np.abs(wd) < max_yaw_accel) & (t_s >= t_min_s)
+
+
+@dataclass(frozen=True)
+class HuskyComparison:
+    """EKF (ICR factor) and adaptive observer (eta_R, eta_L) on one simulated run.
+
+    ``*_err`` are median relative errors over steady turns after 10 s; ``*_p90`` the 90th
+    percentile; ``*_conv_s`` the time after which the relative error of the steady-turn
+    samples stays below 5 %.
+    """
+
+    terrain: str
+    seed: int
+    chi_true: float
+    ekf_chi_err: float
+    ekf_chi_p90: float
+    ekf_chi_conv_s: float
+    obs_chi_err: float
+    obs_chi_p90: float
+    obs_chi_conv_s: float
+    ekf_eta_err: float
+    obs_eta_err: float
+    obs_eta_p90: float
+    obs_eta_conv_s: float
+
+    def as_dict(self) -> dict:
+        """Flat row."""
+        return dict(self.__dict__)
+
+
+def _conv_time(t: np.ndarray, rel_err: np.ndarray, tol: float = 0.05) -> float:
+    bad = np.flatnonzero(rel_err > tol)
+    return float(t[bad[-1]]) if bad.size else float(t[0]) if t.size else float("nan")
+
+
+def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
+                     settings: SkidSteerSettings = SkidSteerSettings(),
+                     pose_noise: tuple[float, float] = (0.01, 0.002),
+                     rng: np.random.Generator | None = None) -> HuskyComparison:
+    """Compare the skid-steer EKF and the seed 000 observer against simulated truth.
+
+    The observer gets the true pose plus white noise (``pose_noise`` = position m, yaw rad),
+    as from the GNSS + compass of the seed's experiments, and the measured side speeds. Truth:
+    local ICR factor ``(v_R - v_L) / (B yaw_rate)`` and eta of seed 000 eq. 15 from the true
+    rim speeds. The EKF's eta is eq. 15 evaluated with its own speed and yaw rate; the
+    observer's ICR factor is ``(v_R - v_L) / (B Omega^)``, ``Omega^ = (eta_R^ v_R - eta_L^
+    v_L) / (2 d)``.
+    """
+    rng = rng if rng is not None else np.random.default_rng(0)
+    run = sim_to_run(result)
+    ekf = estimate_skid_steer(run, settings)
+    tr = result.streams["truth"]
+    rr, B, d = HUSKY.wheel_radius_m, HUSKY.track_m, HUSKY.track_m / 2.0
+    t = ekf.t_s
+    at = (lambda col: np.interp(t, tr["time"].to_numpy(), np.asarray(col, dtype=float)))
+    w_true, v_true = at(tr["yaw_rate"]), at(tr["v_bx"])
+    rim_l, rim_r = at(tr["omega_1"] * rr), at(tr["omega_2"] * rr)
+    pro = result.streams["pro"]
+    vl = np.interp(t, pro["time"], pro["velL"])
+    vr = np.interp(t, pro["time"], pro["velR"])
+    steady = steady_turn_mask(t, w_true)
+    chi_loc = (rim_r - rim_l) / (B * np.where(steady, w_true, 1.0))
+    chi_ekf = icr_chi(ekf)
+    pose = np.column_stack([at(tr["x"]), at(tr["y"]), at(tr["yaw"])])
+    pose = pose + rng.standard_normal(pose.shape) * np.array(
+        [pose_noise[0], pose_noise[0], pose_noise[1]])
+    obs = run_adaptive_observer(t, pose, vr, vl, observer)
+    omega_obs = (obs.eta_right * vr - obs.eta_left * vl) / (2.0 * d)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        chi_obs = (vr - vl) / (B * omega_obs)
+    eta_true = eta_from_truth(v_true, w_true, rim_r, rim_l, d)
+    eta_ekf = eta_from_truth(ekf.state("v_bx"), ekf.state("yaw_rate"), vr, vl, d)
+    ok_eta = steady & np.isfinite(eta_true).all(axis=1)
+
+    def rel(a, b, mask):
+        return np.abs(a[mask] / b[mask] - 1.0)
+
+    e_chi_ekf = rel(chi_ekf, chi_loc, steady)
+    e_chi_obs = rel(chi_obs, chi_loc, steady)
+    ok_eta &= np.isfinite(eta_ekf).all(axis=1)
+    e_eta_obs = np.abs(obs.eta[ok_eta] / eta_true[ok_eta] - 1.0).max(axis=1)
+    e_eta_ekf = np.abs(eta_ekf[ok_eta] / eta_true[ok_eta] - 1.0).max(axis=1)
+    med = (lambda e: float(np.median(e)) if e.size else float("nan"))
+    p90 = (lambda e: float(np.percentile(e, 90)) if e.size else float("nan"))
+    chi_true = float(np.median(chi_loc[steady])) if steady.any() else float("nan")
+    return HuskyComparison(
+        terrain=str(result.meta["terrain"]), seed=int(result.config.seed), chi_true=chi_true,
+        ekf_chi_err=med(e_chi_ekf), ekf_chi_p90=p90(e_chi_ekf),
+        ekf_chi_conv_s=_conv_time(t[steady], e_chi_ekf),
+        obs_chi_err=med(e_chi_obs), obs_chi_p90=p90(e_chi_obs),
+        obs_chi_conv_s=_conv_time(t[steady], e_chi_obs),
+        ekf_eta_err=med(e_eta_ekf), obs_eta_err=med(e_eta_obs), obs_eta_p90=p90(e_eta_obs),
+        obs_eta_conv_s=_conv_time(t[ok_eta], e_eta_obs))
+
+
+def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings =
+                                SkidSteerSettings(), observer: AdaptiveObserverSettings =
+                                AdaptiveObserverSettings(use_position=False)) -> pd.DataFrame:
+    """Per-run ICR factor, gyro bias and the yaw-only observer's turning efficiency.
+
+    The observer gets ``theta`` = integral of ``wz - b`` (b = the EKF's final gyro bias)
+    and the side speeds interpolated on the EKF grid; its ICR factor is computed as in
+    :func:`husky_comparison`. Both are summarised over the samples turning faster than
+    0.15 rad/s (median), with the fraction of such samples.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run with an IMU: run_id, terrain, chi_ekf, chi_observer, eta_R, eta_L,
+        gyro_bias, turning_fraction, duration_s.
+    """
+    rows = []
+    for run in runs:
+        if "imu" not in run.streams:
+            continue
+        ekf = estimate_skid_steer(run, settings)
+        t = ekf.t_s
+        wheels = run.streams["wheels"]
+        vl = np.interp(t, wheels[TIME], wheels["vel_l"])
+        vr = np.interp(t, wheels[TIME], wheels["vel_r"])
+        imu = run.streams["imu"]
+        bias = float(ekf.state("gyro_bias")[-1])
+        wz = np.interp(t, imu[TIME], imu["wz"]) - bias
+        theta = np.concatenate([[0.0], np.cumsum(0.5 * (wz[1:] + wz[:-1]) * np.diff(t))])
+        pose = np.column_stack([np.full(t.size, np.nan), np.full(t.size, np.nan), theta])
+        obs = run_adaptive_observer(t, pose, vr, vl, observer)
+        d = settings.track_m / 2.0
+        omega_obs = (obs.eta_right * vr - obs.eta_left * vl) / (2.0 * d)
+        turning = np.abs(ekf.state("yaw_rate")) > 0.15
+        with np.errstate(divide="ignore", invalid="ignore"):
+            chi_obs = (vr - vl) / (settings.track_m * omega_obs)
+        pick = (lambda a: float(np.nanmedian(a[turning])) if turning.any() else float("nan"))
+        rows.append({"run_id": run.run_id, "terrain": run.terrain,
+                     "chi_ekf": pick(icr_chi(ekf)), "chi_observer": pick(chi_obs),
+                     "eta_R": pick(obs.eta_right), "eta_L": pick(obs.eta_left),
+                     "gyro_bias": bias, "turning_fraction": float(turning.mean()),
+                     "duration_s": float(t[-1] - t[0])})
+    return pd.DataFrame(rows)
+
+
+def outage_experiment(result, t_off_s: float = 8.0, t_on_s: float = 11.0,
+                      settings_fn: Callable[[Run], AgriMaRoEKFSettings] = data_driven_settings
+                      ) -> tuple[EKFResult, EKFResult]:
+    """The EKF with every camera sample in ``[t_off_s, t_on_s)`` dropped (and, as a second
+    result, with them replaced by NaN so they are skipped and counted)."""
+    run = sim_to_run(result)
+    cam = run.streams["cam"]
+    gone = (cam[TIME] >= t_off_s) & (cam[TIME] < t_on_s)
+    dropped = Run(run.run_id, run.dataset, run.terrain,
+                  {**run.streams, "cam": cam[~gone].reset_index(drop=True)}, run.vehicle,
+                  run.source, run.meta)
+    nan_cam = cam.copy()
+    nan_cam.loc[gone, ["v_cx", "v_cy", "yaw_rate_c", "yaw_c"]] = np.nan
+    nanned = Run(run.run_id, run.dataset, run.terrain, {**run.streams, "cam": nan_cam},
+                 run.vehicle, run.source, run.meta)
+    settings = settings_fn(run)
+    return estimate_agrimaro(dropped, settings), estimate_agrimaro(nanned, settings)
+
+
+__all__ = ["FINE_ENCODER", "THESIS_TERRAINS", "sim_to_run", "truth_on_grid",
+           "simulate_agrimaro", "agrimaro_truth_states", "data_driven_settings",
+           "ConsistencyRow", "agrimaro_consistency", "coriolis_prediction_error",
+           "coriolis_filter_rmse", "simulate_husky", "steady_turn_mask", "HuskyComparison",
+           "husky_comparison", "measured_skid_steer_summary", "outage_experiment"]

@@ -1,0 +1,135 @@
+"""Per-wheel SAE longitudinal slip (seed ``001_59da564c4b2d6a48.txt`` ch. 7.1-7.2).
+
+* :func:`wheel_longitudinal_velocity`: the EKF body velocity moved to each wheel and projected
+  on its rolling direction (eqs. 7.3-7.5);
+* :func:`sae_slip`: ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (eqs. 7.1, 7.2 and
+  the denominator of eq. 7.7), saturated to [-1, 1], forced to 0 when both speeds are below
+  the 0.05 m/s dead band (ch. 7.2.1). ``omega`` must be the *raw* encoder speed (ch. 7.2: the
+  EKF-filtered speed is coupled to the estimated velocity and would bias the slip to zero).
+
+Everything is vectorised over a whole run (arrays ``(N, n_wheels)``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.errors import EstimationError, ShapeError
+
+#: Dead band of ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
+DEAD_BAND_M_S = 0.05
+
+
+def sae_slip(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, *,
+             dead_band_m_s: float = DEAD_BAND_M_S, saturation: float = 1.0) -> np.ndarray:
+    """SAE longitudinal slip with the thesis's conditioning (seed 001 eqs. 7.1, 7.2, 7.7).
+
+    ``s = (omega r - v_long) / max(|omega r|, |v_long|)``: positive in traction (the rim is
+    faster, eq. 7.1), negative in braking (eq. 7.2), saturated to ``[-saturation,
+    saturation]``; 0 where both ``|omega r|`` and ``|v_long|`` are below ``dead_band_m_s``.
+    NaN inputs give NaN.
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (...)
+        Peripheral speed ``omega r`` from the raw encoder, m/s (eq. 7.6).
+    v_long_m_s : ndarray, shape (...)
+        Longitudinal velocity of the wheel centre, m/s (eq. 7.5); broadcast with the rim
+        speed.
+    dead_band_m_s : float
+        >= 0, m/s (0.05 in ch. 7.2.1).
+    saturation : float
+        > 0 (1 in ch. 7.2.1).
+
+    Returns
+    -------
+    ndarray, broadcast shape, dimensionless
+
+    Raises
+    ------
+    EstimationError
+        Negative dead band or non-positive saturation.
+    """
+    if not dead_band_m_s >= 0 or not saturation > 0:
+        raise EstimationError(f"dead band must be >= 0 and saturation > 0, got "
+                              f"{dead_band_m_s}, {saturation}")
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    v = np.asarray(v_long_m_s, dtype=float)
+    den = np.maximum(np.abs(rim), np.abs(v))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(den > 0, (rim - v) / np.where(den > 0, den, 1.0), 0.0)
+    s = np.clip(s, -saturation, saturation)
+    still = (np.abs(rim) < dead_band_m_s) & (np.abs(v) < dead_band_m_s)
+    s = np.where(still, 0.0, s)
+    return np.where(np.isnan(rim) | np.isnan(v), np.nan, s)
+
+
+def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
+                                yaw_rate_rad_s: np.ndarray, positions_m: np.ndarray,
+                                delta_rad: np.ndarray | None = None) -> np.ndarray:
+    """Longitudinal velocity of each wheel centre (seed 001 eqs. 7.3-7.5).
+
+    ``v_x,i = v_bx - yaw_rate d_y,i`` (7.3), ``v_y,i = v_by + yaw_rate d_x,i`` (7.4),
+    ``v_long,i = v_x,i cos(delta_i) + v_y,i sin(delta_i)`` (7.5).
+
+    Parameters
+    ----------
+    v_bx_m_s, v_by_m_s, yaw_rate_rad_s : ndarray, shape (N,)
+        Body velocity and yaw rate (EKF estimates), m/s and rad/s.
+    positions_m : ndarray, shape (k, 2)
+        Wheel (steering axis or contact line) positions ``d_i`` in the body frame, m.
+    delta_rad : ndarray, shape (N, k), optional
+        Steering angles; None for fixed wheels (skid-steer, delta = 0).
+
+    Returns
+    -------
+    ndarray, shape (N, k), m/s
+
+    Raises
+    ------
+    ShapeError
+    """
+    vx = np.asarray(v_bx_m_s, dtype=float)
+    vy = np.asarray(v_by_m_s, dtype=float)
+    r = np.asarray(yaw_rate_rad_s, dtype=float)
+    p = np.asarray(positions_m, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ShapeError(f"positions_m must have shape (k, 2), got {p.shape}")
+    if not (vx.shape == vy.shape == r.shape) or vx.ndim != 1:
+        raise ShapeError(f"v_bx, v_by, yaw_rate must share a shape (N,), got {vx.shape}, "
+                         f"{vy.shape}, {r.shape}")
+    vxi = vx[:, None] - r[:, None] * p[None, :, 1]
+    vyi = vy[:, None] + r[:, None] * p[None, :, 0]
+    if delta_rad is None:
+        return vxi
+    d = np.asarray(delta_rad, dtype=float)
+    if d.shape != vxi.shape:
+        raise ShapeError(f"delta_rad must have shape {vxi.shape}, got {d.shape}")
+    return vxi * np.cos(d) + vyi * np.sin(d)
+
+
+def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
+               yaw_rate_rad_s: np.ndarray, positions_m: np.ndarray,
+               delta_rad: np.ndarray | None = None, *,
+               dead_band_m_s: float = DEAD_BAND_M_S) -> np.ndarray:
+    """Slip of every wheel over a run: eqs. 7.3-7.5 then :func:`sae_slip`.
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (N, k)
+        Raw encoder ``omega_i r``, m/s, on the same clock as the velocities.
+    v_bx_m_s, v_by_m_s, yaw_rate_rad_s : ndarray, shape (N,)
+    positions_m : ndarray, shape (k, 2)
+    delta_rad : ndarray, shape (N, k), optional
+    dead_band_m_s : float
+
+    Returns
+    -------
+    ndarray, shape (N, k)
+    """
+    v_long = wheel_longitudinal_velocity(v_bx_m_s, v_by_m_s, yaw_rate_rad_s, positions_m,
+                                         delta_rad)
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    if rim.shape != v_long.shape:
+        raise ShapeError(f"rim speeds must have shape {v_long.shape}, got {rim.shape}")
+    return sae_slip(rim, v_long, dead_band_m_s=dead_band_m_s)

@@ -1,0 +1,47 @@
+"""NEES / NIS statistics and chi-square bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from terrain.errors import ShapeError
+from terrain.estimation.consistency import (chi2_test, effective_sample_size, mean_chi2_bounds,
+                                            nees, state_errors)
+
+
+def test_nees_of_gaussian_errors_has_mean_n():
+    rng = np.random.default_rng(0)
+    n, N = 4, 20000
+    a = rng.standard_normal((n, n))
+    P = a @ a.T + np.eye(n)
+    e = rng.multivariate_normal(np.zeros(n), P, size=N)
+    v = nees(e, np.broadcast_to(P, (N, n, n)))
+    assert v.mean() == pytest.approx(n, rel=0.03)
+    test = chi2_test(v, n)
+    assert test.inside and test.fraction_in_pointwise == pytest.approx(0.95, abs=0.01)
+    assert test.n_effective > 0.8 * N          # independent samples
+
+
+def test_bounds_and_effective_sample_size():
+    lo, hi = mean_chi2_bounds(12, 10)
+    assert lo == pytest.approx(stats.chi2.ppf(0.025, 120) / 10)
+    assert hi == pytest.approx(stats.chi2.ppf(0.975, 120) / 10)
+    rng = np.random.default_rng(1)
+    white = rng.standard_normal(5000)
+    red = np.convolve(white, np.ones(50) / 50, mode="same")
+    assert effective_sample_size(red) < 0.1 * effective_sample_size(white)
+
+
+def test_biased_filter_fails_the_test():
+    rng = np.random.default_rng(2)
+    v = rng.chisquare(3, 3000) * 2.0          # covariance underestimated by 2
+    assert not chi2_test(v, 3).inside
+
+
+def test_state_errors_wrap_angles_and_shapes():
+    e = state_errors(np.array([[3.1, 1.0]]), np.array([[-3.1, 0.5]]), angle_columns=(0,))
+    assert e[0, 0] == pytest.approx(6.2 - 2 * np.pi)
+    with pytest.raises(ShapeError):
+        nees(np.zeros((3, 2)), np.zeros((3, 3, 3)))

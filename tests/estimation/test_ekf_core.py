@@ -1,0 +1,178 @@
+"""EKF core: pure predict/update, Joseph form, gating, streaming wrapper, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import (CovarianceError, EstimationError, NonFiniteInputError, ShapeError,
+                            TimeStepError)
+from terrain.estimation import ExtendedKalmanFilter, Gate, correct, predict, update
+
+
+def _cv_model(dt_unused=None):
+    """Constant-velocity 1-D target: x = [p, v], z = p."""
+    f = lambda x, dt: np.array([x[0] + dt * x[1], x[1]])  # noqa: E731
+    F = lambda x, dt: np.array([[1.0, dt], [0.0, 1.0]])  # noqa: E731
+    h = lambda x: x[:1]  # noqa: E731
+    H = lambda x: np.array([[1.0, 0.0]])  # noqa: E731
+    Q = lambda dt: 0.1 * np.array([[dt ** 3 / 3, dt ** 2 / 2], [dt ** 2 / 2, dt]])  # noqa: E731
+    return f, F, h, H, Q
+
+
+def _random_spd(n, rng, scale=1.0):
+    a = rng.standard_normal((n, n))
+    return scale * (a @ a.T + n * np.eye(n))
+
+
+def _is_psd(P, tol=1e-12):
+    return np.allclose(P, P.T, atol=0, rtol=1e-12) and np.linalg.eigvalsh(P).min() > -tol
+
+
+def test_linear_update_matches_textbook_kalman_filter():
+    rng = np.random.default_rng(0)
+    n, m = 4, 3
+    x, P = rng.standard_normal(n), _random_spd(n, rng)
+    Hm, R = rng.standard_normal((m, n)), _random_spd(m, rng, 0.1)
+    z = rng.standard_normal(m)
+    x1, P1, inn = correct(x, P, z - Hm @ x, Hm, R)
+    S = Hm @ P @ Hm.T + R
+    K = P @ Hm.T @ np.linalg.inv(S)
+    np.testing.assert_allclose(x1, x + K @ (z - Hm @ x), rtol=1e-10)
+    np.testing.assert_allclose(P1, (np.eye(n) - K @ Hm) @ P, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(inn.S, S, rtol=1e-12)
+    y = z - Hm @ x
+    assert inn.nis == pytest.approx(float(y @ np.linalg.solve(S, y)), rel=1e-10)
+    assert inn.dof == m and inn.accepted.all()
+
+
+def test_joseph_form_keeps_covariance_psd_under_bad_conditioning():
+    rng = np.random.default_rng(1)
+    n = 6
+    P = np.diag(10.0 ** rng.uniform(-8, 4, n))
+    for _ in range(200):
+        Hm = rng.standard_normal((2, n))
+        x, P, _ = correct(np.zeros(n), P, rng.standard_normal(2), Hm, np.array([1e-9, 1e-9]),
+                          check=False)
+        P = P + np.diag(np.full(n, 1e-12))
+        assert _is_psd(P, tol=1e-10 * np.abs(P).max())
+
+
+def test_pure_functions_do_not_modify_inputs_and_predict_matches_linear_propagation():
+    f, F, h, H, Q = _cv_model()
+    x = np.array([1.0, 2.0])
+    P = np.diag([0.5, 0.2])
+    xc, Pc = x.copy(), P.copy()
+    x1, P1 = predict(x, P, 0.1, f, F, Q)
+    np.testing.assert_array_equal(x, xc)
+    np.testing.assert_array_equal(P, Pc)
+    Fm = F(x, 0.1)
+    np.testing.assert_allclose(x1, Fm @ x)
+    np.testing.assert_allclose(P1, Fm @ P @ Fm.T + Q(0.1))
+    x2, P2, inn = update(x1, P1, np.array([1.3]), h, H, np.array([0.01]))
+    assert x2 is not x1 and inn.y.shape == (1,) and inn.S.shape == (1, 1)
+    assert P2[0, 0] < P1[0, 0]
+
+
+def test_streaming_wrapper_equals_pure_functions_and_rows_subset():
+    f, F, h, H, Q = _cv_model()
+    rng = np.random.default_rng(2)
+    h2 = lambda x: np.array([x[0], x[1]])  # noqa: E731
+    H2 = lambda x: np.eye(2)  # noqa: E731
+    R = np.array([0.04, 0.09])
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h2, H2, Q, R)
+    x, P = np.zeros(2), np.eye(2)
+    for k in range(50):
+        z = rng.standard_normal(2)
+        ekf.predict(0.1)
+        x, P = predict(x, P, 0.1, f, F, Q, check=False)
+        if k % 3 == 0:    # only the position row arrives
+            inn = ekf.update(z[:1], rows=[0])
+            x, P, ref = correct(x, P, z[:1] - x[:1], np.array([[1.0, 0.0]]), R[:1])
+        else:
+            inn = ekf.update(z)
+            x, P, ref = update(x, P, z, h2, H2, R)
+        assert inn.nis == pytest.approx(ref.nis)
+    np.testing.assert_allclose(ekf.x, x, rtol=1e-12)
+    np.testing.assert_allclose(ekf.P, P, rtol=1e-12)
+
+
+def test_nis_is_chi_square_distributed_for_a_consistent_linear_filter():
+    f, F, h, H, Q = _cv_model()
+    rng = np.random.default_rng(3)
+    dt, r = 0.1, 0.05
+    xt = np.array([0.0, 1.0])
+    ekf = ExtendedKalmanFilter(xt + rng.normal(0, [1.0, 1.0]), np.eye(2), f, F, h, H, Q,
+                               np.array([r]))
+    nis = []
+    chol = np.linalg.cholesky(Q(dt))
+    for _ in range(3000):
+        xt = F(xt, dt) @ xt + chol @ rng.standard_normal(2)
+        ekf.predict(dt)
+        nis.append(ekf.update(np.array([xt[0] + np.sqrt(r) * rng.standard_normal()])).nis)
+    nis = np.asarray(nis[100:])
+    assert 0.93 < nis.mean() < 1.07          # chi2(1) mean 1, 2900 samples: +-0.05 at 95 %
+
+
+def test_gate_rejects_only_the_outlier_sensor():
+    rng = np.random.default_rng(4)
+    n = 3
+    x, P = np.zeros(n), np.eye(n) * 0.01
+    Hm = np.eye(n)
+    R = np.full(n, 1e-4)
+    groups = [np.array([0, 1]), np.array([2])]
+    y = np.array([0.01, -0.01, 5.0])          # sensor 2 is an outlier (50 sigma)
+    x1, P1, inn = correct(x, P, y, Hm, R, gate=Gate(0.999), groups=groups)
+    assert inn.accepted.tolist() == [True, True, False]
+    assert inn.dof == 2
+    assert abs(x1[2]) < 1e-12 and P1[2, 2] == pytest.approx(P[2, 2])
+    assert x1[0] == pytest.approx(0.01 * 0.01 / (0.01 + 1e-4))
+    # without the gate the outlier moves the state by ~5
+    x2, _, _ = correct(x, P, y, Hm, R)
+    assert x2[2] > 4.0
+    # all rows rejected: state and covariance unchanged, NIS NaN
+    x3, P3, inn3 = correct(x, P, np.full(n, 10.0), Hm, R, gate=Gate(0.999), groups=groups)
+    np.testing.assert_array_equal(x3, x)
+    np.testing.assert_array_equal(P3, P)
+    assert np.isnan(inn3.nis) and inn3.dof == 0
+    del rng
+
+
+@pytest.mark.parametrize("bad_dt", [0.0, -0.01, np.nan, np.inf, "a"])
+def test_bad_time_step_raises(bad_dt):
+    f, F, h, H, Q = _cv_model()
+    with pytest.raises(TimeStepError):
+        predict(np.zeros(2), np.eye(2), bad_dt, f, F, Q)
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, Q, np.array([1.0]))
+    with pytest.raises(TimeStepError):
+        ekf.predict(bad_dt)
+
+
+def test_bad_shapes_non_finite_and_covariances_raise_typed_errors():
+    f, F, h, H, Q = _cv_model()
+    x, P, R = np.zeros(2), np.eye(2), np.array([0.1])
+    with pytest.raises(ShapeError, match=r"\(2, 1\)"):
+        predict(np.zeros((2, 1)), P, 0.1, f, F, Q)
+    with pytest.raises(ShapeError):
+        predict(x, np.eye(3), 0.1, f, F, Q)
+    with pytest.raises(NonFiniteInputError, match=r"\[1\]"):
+        predict(np.array([0.0, np.nan]), P, 0.1, f, F, Q)
+    with pytest.raises(CovarianceError, match="symmetric"):
+        predict(x, np.array([[1.0, 0.5], [0.0, 1.0]]), 0.1, f, F, Q)
+    with pytest.raises(CovarianceError, match="semi-definite"):
+        predict(x, np.array([[1.0, 0.0], [0.0, -1.0]]), 0.1, f, F, Q)
+    with pytest.raises(NonFiniteInputError):
+        update(x, P, np.array([np.inf]), h, H, R)
+    with pytest.raises(ShapeError):
+        update(x, P, np.array([1.0, 2.0]), h, H, R)
+    with pytest.raises(CovarianceError, match="positive definite"):
+        update(x, P, np.array([1.0]), h, H, np.array([0.0]))
+    with pytest.raises(CovarianceError):
+        ExtendedKalmanFilter(x, -np.eye(2), f, F, h, H, Q, R)
+    # a non-PD innovation covariance is caught even on the unchecked fast path
+    with pytest.raises(CovarianceError):
+        correct(x, np.zeros((2, 2)), np.array([1.0]), np.array([[1.0, 0.0]]),
+                np.array([-1.0]), check=False)
+    assert issubclass(CovarianceError, EstimationError)
+    with pytest.raises(ValueError):
+        Gate(1.5)

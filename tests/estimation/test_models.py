@@ -1,0 +1,98 @@
+"""Analytic Jacobians of every model against central finite differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, AgriMaRoModel,
+                                         noise_derived_settings)
+from terrain.estimation.model import finite_difference_jacobian
+from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+from terrain.estimation.slip_state import SlipStateModel
+
+MODELS = {
+    "agrimaro-body": AgriMaRoModel(),
+    "agrimaro-eq6.2": AgriMaRoModel(settings=AgriMaRoEKFSettings(coriolis="eq6.2")),
+    "slip-state-ch4": SlipStateModel(),
+    "slip-state-camera": SlipStateModel(accel="direct", camera=True),
+    "skid-steer": SkidSteerModel(SkidSteerSettings(chi0=1.4)),
+}
+
+
+def _random_state(model, rng):
+    x = rng.uniform(-1.0, 1.0, model.n_states)
+    for j, name in enumerate(model.state_names):
+        if name.startswith("slip"):
+            x[j] = rng.uniform(-0.3, 0.6)
+        if name == "log_icr_chi":
+            x[j] = rng.uniform(0.0, 1.0)
+        if name == "yaw_rate":       # chi is only corrected above 0.05 rad/s (skid-steer)
+            x[j] = rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 1.0)
+    return x
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_jacobians_match_finite_differences(name):
+    model = MODELS[name]
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        x = _random_state(model, rng)
+        dt = rng.uniform(0.005, 0.05)
+        fx, F = model.transition(x, dt)
+        np.testing.assert_allclose(fx, model.f(x, dt))
+        np.testing.assert_allclose(F, finite_difference_jacobian(lambda v: model.f(v, dt), x),
+                                   rtol=1e-6, atol=1e-8)
+        hx, H = model.observation(x)
+        assert hx.shape == (model.n_measurements,)
+        assert H.shape == (model.n_measurements, model.n_states)
+        np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x), rtol=1e-6,
+                                   atol=1e-8)
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_model_noise_and_priors_are_valid(name):
+    model = MODELS[name]
+    n, m = model.n_states, model.n_measurements
+    assert model.x0.shape == (n,) and model.P0.shape == (n, n)
+    assert (model.R_diag > 0).all() and model.R_diag.shape == (m,)
+    Q = model.Q(0.01)
+    assert Q.shape == (n, n) and np.linalg.eigvalsh(Q).min() >= 0
+    rows = sorted(r for rs in model.sensor_rows.values() for r in rs)
+    assert rows == list(range(m))          # sensors partition the measurement rows
+    y = model.residual(np.full(m, 3.1), np.full(m, -3.1))
+    for r in model.angle_rows:
+        assert abs(y[r]) < 0.1              # 6.2 rad apart on the circle = 0.083 rad
+
+
+def test_agrimaro_defaults_are_the_thesis_final_tuning():
+    s = AgriMaRoEKFSettings()
+    assert s.p0_diag[8:11] == (1.5e-4,) * 3 and s.p0_diag[11] == 1e-4          # eq. 6.9
+    assert s.r_diag[:3] == (0.05,) * 3 and s.r_diag[10:] == (5e-5, 5e-5, 1e-3, 5e-4)  # 6.13
+    assert s.q_diag == (0.5, 0.5, 0.08, 0.08, 0.08, 0.15, 0.12, 0.12, 0.002, 0.002, 0.002,
+                        0.002)                                                 # eq. 6.14
+    assert s.alpha("cam") == 0.2 and s.alpha("omega") == 0.0 and s.alpha("imu") == 0.1
+    model = AgriMaRoModel()
+    np.testing.assert_allclose(np.diag(model.Q(0.01)), s.q_diag)      # per filter step
+    nd = AgriMaRoModel(settings=noise_derived_settings())
+    np.testing.assert_allclose(np.diag(nd.Q(0.02)), 2 * np.diag(nd.Q(0.01)))
+
+
+def test_camera_lever_arm_is_inside_h():
+    model = AgriMaRoModel()
+    x = np.zeros(12)
+    x[3], x[5] = 1.0, 0.5                     # v_bx 1 m/s, yaw rate 0.5 rad/s
+    hx = model.h(x)
+    dx, dy, _ = model.vehicle.camera_lever_arm_m
+    # eq. 6.6: v_cam = v_B + omega x d_cam
+    assert hx[10] == pytest.approx(1.0 - 0.5 * dy)
+    assert hx[11] == pytest.approx(0.5 * dx)
+
+
+@pytest.mark.parametrize("kwargs", [dict(r_diag=(1.0,) * 13), dict(q_per="hour"),
+                                    dict(coriolis="left"), dict(ema_alpha=(("cam", 1.5),)),
+                                    dict(r_diag=(0.0,) + (1.0,) * 13)])
+def test_bad_settings_raise_config_error(kwargs):
+    with pytest.raises(ConfigError):
+        AgriMaRoEKFSettings(**kwargs)

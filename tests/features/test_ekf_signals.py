@@ -1,0 +1,61 @@
+"""EKF-derived channels as a selectable signal set (``ekf``, ``all+ekf``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from features.ekf_signals import EKF_CHANNELS, add_ekf_channels, ekf_channel_frame
+from features.transformers import WindowFeatures
+from features.windows import (ALL_CHANNELS, SIGNAL_SETS, WindowConfig, make_windows,
+                              required_streams, resolve_signals)
+from terrain.errors import ConfigError
+from terrain.estimation.validation import sim_to_run, simulate_husky
+from terrain.io.align import align_streams
+from terrain.run import Run
+
+
+@pytest.fixture(scope="module")
+def husky_run():
+    return sim_to_run(simulate_husky("ASPHALT", seed=4, duration_s=40.0, icr_expansion=1.5),
+                      run_id="sim/ASPHALT/00")
+
+
+def test_signal_sets_keep_the_raw_default_and_add_ekf():
+    assert SIGNAL_SETS["all"] == ALL_CHANNELS and not set(EKF_CHANNELS) & set(ALL_CHANNELS)
+    assert resolve_signals("all+ekf") == ALL_CHANNELS + EKF_CHANNELS
+    assert resolve_signals(["all", "ekf"]) == ALL_CHANNELS + EKF_CHANNELS
+    assert resolve_signals(["wz", "ekf_icr_chi"]) == ("wz", "ekf_icr_chi")
+    assert required_streams(["ekf_icr_chi"]) == ("imu", "wheels")
+    with pytest.raises(ConfigError, match="ekf_icr_chi"):
+        resolve_signals(["ekf_nonsense"])
+
+
+def test_windows_with_ekf_channels(husky_run):
+    config = WindowConfig(window_s=2.0, rate_hz=50.0)
+    ws = make_windows([husky_run], "all+ekf", config)
+    raw = make_windows([husky_run], "all", config)
+    assert ws.channels == ALL_CHANNELS + EKF_CHANNELS
+    assert len(ws) == len(raw) and np.isfinite(ws.X).all()
+    np.testing.assert_array_equal(ws.X[:, :len(ALL_CHANNELS)], raw.X)   # raw part unchanged
+    chi = ws.X[:, ws.channels.index("ekf_icr_chi")].mean(axis=1)
+    assert 1.4 < np.median(chi[len(chi) // 2:]) < 2.0          # planted 1.5 x scrub ~1.1
+    bias = ws.X[:, ws.channels.index("ekf_gyro_bias")]
+    assert np.abs(bias[-1]).max() < 0.01                        # no gyro bias planted
+    fx = WindowFeatures(channels=ws.channels, rate_hz=ws.rate_hz).fit(ws.X)
+    names = list(fx.get_feature_names_out())
+    assert "ekf_icr_chi__mean" in names and "ekf_nis__std" in names
+    assert not any(n.startswith("ekf_") and "band" in n for n in names)
+    assert np.isfinite(fx.transform(ws.X)).all()
+
+
+def test_runs_without_imu_are_skipped_and_gaps_stay_nan(husky_run):
+    no_imu = Run("sim/ASPHALT/01", "sim", "ASPHALT", {"wheels": husky_run.streams["wheels"]})
+    ws = make_windows([husky_run, no_imu], "ekf", WindowConfig(window_s=2.0, rate_hz=50.0))
+    assert ws.counts["skipped_runs"] == ["sim/ASPHALT/01"]
+    frame = align_streams(husky_run, ("imu", "wheels"), 50.0)
+    frame.loc[500:520, ["vel_l", "vel_r", "wz"]] = np.nan           # a gap
+    ekf = ekf_channel_frame(frame, wheel_rate_hz=husky_run.rate_hz("wheels"))
+    assert ekf.loc[500:520].isna().all().all()
+    assert np.isfinite(ekf.loc[530:].to_numpy()).all()                # the filter recovers
+    assert add_ekf_channels(frame.drop(columns=["wz"])).shape[1] == frame.shape[1] - 1

@@ -1,0 +1,60 @@
+"""``terrain estimate RUN_DIR --out states.csv`` on runs written by the simulator."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.cli import main
+from terrain.estimation.validation import FINE_ENCODER
+from terrain.sim import Effects, SimConfig, simulate, write_run
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("GRASS",),
+                                 scenario="straight_accel", duration_s=8.0, seed=1,
+                                 sensors=FINE_ENCODER)), root)
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="random",
+                                 duration_s=10.0, seed=2,
+                                 effects=Effects(icr_expansion=1.4))), root)
+    return root
+
+
+def test_one_file_per_run_with_states_slip_innovations_and_nis(run_dir, tmp_path, capsys):
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "states.csv")]) == 0
+    agri = pd.read_csv(tmp_path / "states_GRASS_00.csv")
+    husky = pd.read_csv(tmp_path / "states_ASPHALT_00.csv")
+    for frame in (agri, husky):
+        assert frame.columns[0] == "t_s" and np.all(np.diff(frame["t_s"]) > 0)
+        assert {"nis", "nis_dof"} <= set(frame.columns)
+        assert any(c.startswith("innov_") for c in frame.columns)
+    assert {"v_bx", "v_by", "yaw_rate", "gyro_bias", "delta_3", "slip_1", "slip_2",
+            "slip_3", "innov_v_cx"} <= set(agri.columns)
+    assert {"v_bx", "yaw_rate", "gyro_bias", "log_icr_chi", "icr_chi", "slip_1", "slip_2",
+            "innov_vel_l", "innov_wz"} <= set(husky.columns)
+    assert "slip_3" not in husky.columns
+    truth = pd.read_csv(run_dir / "GRASS" / "truth_00.csv")
+    late = agri["t_s"] > 5
+    assert agri.loc[late, "slip_1"].mean() == pytest.approx(
+        truth.loc[truth["time"] > 5, "slip_1"].mean(), abs=0.01)
+    out = capsys.readouterr().out
+    assert "(agrimaro)" in out and "(husky)" in out
+
+
+def test_select_one_run_or_a_terrain_folder(run_dir, tmp_path):
+    out = tmp_path / "one.csv"
+    assert main(["estimate", str(run_dir), "--run", "ASPHALT/00", "--out", str(out)]) == 0
+    assert "log_icr_chi" in pd.read_csv(out).columns
+    out2 = tmp_path / "two.csv"
+    assert main(["estimate", str(run_dir / "GRASS"), "--out", str(out2), "--lag", "none",
+                 "--tuning", "thesis", "--gate", "0.999"]) == 0
+    assert "slip_3" in pd.read_csv(out2).columns
+
+
+def test_unknown_run_is_a_clear_error(run_dir, tmp_path, capsys):
+    assert main(["estimate", str(run_dir), "--run", "SNOW/07", "--out",
+                 str(tmp_path / "x.csv")]) == 2
+    assert "no run 'SNOW/07'" in capsys.readouterr().err

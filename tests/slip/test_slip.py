@@ -1,0 +1,160 @@
+"""SAE slip, wheel projection, lag estimation and whole-run slip against simulated truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError, EstimationError, ShapeError
+from terrain.estimation.validation import (THESIS_TERRAINS, sim_to_run, simulate_agrimaro,
+                                           simulate_husky, truth_on_grid)
+from terrain.sim import Effects
+from terrain.slip import (DEAD_BAND_M_S, estimate_lag, estimate_run, sae_slip,
+                          wheel_longitudinal_velocity, wheel_slip)
+from terrain.vehicles import AGRIMARO
+
+
+def test_sae_slip_traction_braking_and_normalisation():
+    # traction (eq. 7.1): rim faster, denominator omega r
+    assert sae_slip(1.0, 0.8) == pytest.approx(0.2)
+    # braking (eq. 7.2): vehicle faster, denominator v
+    assert sae_slip(0.8, 1.0) == pytest.approx(-0.2)
+    # reverse: denominator max(|omega r|, |v|) (eq. 7.7)
+    assert sae_slip(-1.0, -0.8) == pytest.approx(-0.2)
+    # spinning in place = 1, locked wheel = -1
+    assert sae_slip(1.0, 0.0) == 1.0 and sae_slip(0.0, 1.0) == -1.0
+
+
+def test_sae_slip_dead_band_saturation_nan_and_vectorised():
+    rim = np.array([0.04, 0.04, 0.06, -2.0, np.nan])
+    v = np.array([0.0, 0.049, 0.0, 1.0, 1.0])
+    s = sae_slip(rim, v)
+    assert s[0] == 0.0 and s[1] == 0.0            # both below 0.05 m/s: dead band
+    assert s[2] == 1.0                           # one above: computed
+    assert s[3] == -1.0                          # opposite signs: saturated to [-1, 1]
+    assert np.isnan(s[4])
+    assert DEAD_BAND_M_S == 0.05
+    grid = sae_slip(np.ones((100, 3)), np.full((100, 3), 0.5))
+    assert grid.shape == (100, 3) and np.allclose(grid, 0.5)
+    assert sae_slip(0.3, 0.35, dead_band_m_s=0.4) == 0.0
+    assert sae_slip(3.0, -3.0, saturation=0.5) == 0.5
+    with pytest.raises(EstimationError):
+        sae_slip(1.0, 1.0, dead_band_m_s=-1.0)
+
+
+def test_wheel_longitudinal_velocity_eqs_7_3_to_7_5():
+    pos = np.asarray(AGRIMARO.wheel_positions_m)
+    v = wheel_longitudinal_velocity(np.array([1.0]), np.array([0.2]), np.array([0.5]), pos,
+                                    np.array([[0.0, np.pi / 2, np.pi / 4]]))
+    vx = 1.0 - 0.5 * pos[:, 1]                    # eq. 7.3
+    vy = 0.2 + 0.5 * pos[:, 0]                    # eq. 7.4
+    expected = vx * np.cos([0.0, np.pi / 2, np.pi / 4]) + vy * np.sin([0.0, np.pi / 2,
+                                                                      np.pi / 4])
+    np.testing.assert_allclose(v[0], expected)    # eq. 7.5
+    fixed = wheel_longitudinal_velocity(np.array([1.0]), np.array([0.0]), np.array([0.5]),
+                                        np.array([[0.0, 0.3], [0.0, -0.3]]))
+    np.testing.assert_allclose(fixed[0], [0.85, 1.15])
+    with pytest.raises(ShapeError):
+        wheel_slip(np.ones((2, 2)), np.ones(2), np.ones(2), np.ones(2), pos)
+
+
+def test_estimate_lag_recovers_a_planted_delay():
+    t = np.arange(0, 20, 0.01)
+    ref = np.clip(t - 2.0, 0, 1) + 0.5 * np.clip(t - 8.0, 0, 1) * (t < 12)
+    sig = np.interp(t - 0.37, t, ref)            # delayed copy, 0.37 s
+    t_sig = t[::2]                               # a slower stream
+    est = estimate_lag(t, ref, t_sig, sig[::2])
+    assert est.lag_s == pytest.approx(0.37, abs=0.01)
+    assert est.correlation > 0.8
+    back = estimate_lag(t_sig, sig[::2], t, ref)
+    assert back.lag_s == pytest.approx(-0.37, abs=0.01)
+    with pytest.raises(EstimationError):
+        estimate_lag(t, np.ones_like(t), t, np.ones_like(t))
+    with pytest.raises(EstimationError):
+        estimate_lag(t[:30], ref[:30], t[:30], ref[:30])
+
+
+@pytest.mark.parametrize("terrain", ["GRASS"])
+def test_steady_slip_error_below_001_per_wheel(terrain):
+    result = simulate_agrimaro(terrain, seed=1, duration_s=15.0)
+    est = estimate_run(sim_to_run(result))
+    tr = truth_on_grid(result, est.ekf.t_s)
+    steady = est.ekf.t_s > 5.0
+    for j in range(3):
+        err = np.nanmean(est.slip[steady, j] - tr[f"slip_{j + 1}"][steady])
+        assert abs(err) < 0.01, (j, err)
+    assert tr["slip_1"][steady].mean() > 0.1         # grass really slips
+    frame = est.to_frame()
+    assert ["slip_1", "slip_2", "slip_3"] == [c for c in frame.columns if c.startswith("slip")]
+    assert frame.columns[0] == "t_s" and "nis" in frame.columns
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("terrain", THESIS_TERRAINS)
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_steady_slip_error_below_001_all_thesis_terrains(terrain, seed):
+    result = simulate_agrimaro(terrain, seed=seed, duration_s=20.0)
+    est = estimate_run(sim_to_run(result))
+    tr = truth_on_grid(result, est.ekf.t_s)
+    steady = est.ekf.t_s > 5.0
+    for j in range(3):
+        assert abs(np.nanmean(est.slip[steady, j] - tr[f"slip_{j + 1}"][steady])) < 0.01
+
+
+def test_thesis_tuning_biases_slip_towards_zero():
+    """Eq. 6.13's R = 0.05 on the encoders lets the zero-slip wheel model pull the velocity."""
+    result = simulate_agrimaro("GRAVEL", seed=1, duration_s=15.0)
+    run = sim_to_run(result)
+    thesis = estimate_run(run, tuning="thesis")
+    noise = estimate_run(run, tuning="noise")
+    tr = truth_on_grid(result, thesis.ekf.t_s)
+    steady = thesis.ekf.t_s > 5.0
+    err = (lambda e: abs(np.nanmean(e.slip[steady, 0] - tr["slip_1"][steady])))
+    assert err(thesis) > 0.03 > 0.01 > err(noise)
+
+
+def test_lag_compensation_by_cross_correlation_beats_the_ema():
+    """Known encoder lag (planted 0.3 s): transient slip error of each remedy."""
+    result = simulate_agrimaro("GRASS", seed=1, duration_s=12.0,
+                               effects=Effects(wheel_lag=0.3))
+    run = sim_to_run(result)
+    errs = {}
+    for mode in ("none", "ema", "xcorr"):
+        est = estimate_run(run, lag=mode)
+        tr = truth_on_grid(result, est.ekf.t_s)
+        tt = est.ekf.t_s < 3.0
+        e = est.slip[tt] - tr[["slip_1", "slip_2", "slip_3"]].to_numpy()[tt]
+        errs[mode] = float(np.sqrt(np.nanmean(e ** 2)))
+        if mode == "xcorr":
+            # 0.3 s planted + the encoder filter's ~0.02-0.08 s, minus slip build-up
+            assert 0.28 < est.lag.lag_s < 0.40
+            assert est.meta["time_offsets_s"]["omega"] == est.lag.lag_s
+    assert errs["xcorr"] < 0.5 * errs["ema"]
+    assert errs["ema"] <= errs["none"] + 1e-9
+
+
+def test_husky_run_gives_side_slips_and_recovers_wheel_lag():
+    result = simulate_husky("ASPHALT", seed=2, duration_s=30.0, icr_expansion=1.0)
+    est = estimate_run(sim_to_run(result))
+    assert est.vehicle == "husky" and est.slip_names == ("slip_1", "slip_2")
+    tr = truth_on_grid(result, est.ekf.t_s)
+    moving = (np.abs(tr["v_bx"]) > 0.1).to_numpy() & (est.ekf.t_s > 5)
+    # without planted ICR expansion, the side slips follow the truth (scrub in turns)
+    for j in range(2):
+        assert np.nanmedian(np.abs(est.slip[moving, j] - tr[f"slip_{j + 1}"][moving])) < 0.02
+    assert abs(est.lag.lag_s) < 0.05
+    lagged = simulate_husky("ASPHALT", seed=2, duration_s=30.0, icr_expansion=1.0)
+    from terrain.sim import SimConfig, simulate
+    lagged = simulate(SimConfig(**{**lagged.config.__dict__,
+                                   "effects": Effects(wheel_lag=0.4)}))
+    est_lag = estimate_run(sim_to_run(lagged))
+    assert est_lag.lag.lag_s == pytest.approx(0.4, abs=0.05)
+
+
+def test_bad_options():
+    result = simulate_husky("ASPHALT", seed=2, duration_s=5.0)
+    run = sim_to_run(result)
+    with pytest.raises(ConfigError):
+        estimate_run(run, lag="magic")
+    with pytest.raises(ConfigError):
+        estimate_run(run, settings=object())
