@@ -138,3 +138,33 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
 def quantise(x: np.ndarray, quantum: float) -> np.ndarray:
     """Round to the sensor resolution ``quantum`` (no-op when 0)."""
     return x if quantum <= 0 else np.round(x / quantum) * quantum
+
+
+def encoder_count_rate(omega: np.ndarray, dt_s: float, counts_per_rev: int) -> np.ndarray:
+    """Wheel speed as an incremental encoder sees it: count differences per physics step.
+
+    The true wheel angle (integral of ``omega``) is quantised to whole counts and
+    differentiated, so the reported speed is unbiased on average but jumps by
+    ``2 pi / (counts_per_rev dt_s)``; the motor driver's filter
+    (:func:`first_order_filter`, the ODrive effect of seed 001 ch. 7.2.2) then smooths it.
+
+    Parameters
+    ----------
+    omega : numpy.ndarray
+        ``(n_steps, n_wheels)`` true wheel speed, rad/s, at the physics rate.
+    dt_s : float
+        Physics step, s.
+    counts_per_rev : int
+        Encoder counts per wheel revolution.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_steps, n_wheels)`` count-rate speed, rad/s.
+    """
+    quantum = 2.0 * np.pi / counts_per_rev
+    angle = np.vstack([np.zeros((1, omega.shape[1])),
+                       np.cumsum(0.5 * (omega[1:] + omega[:-1]) * dt_s, axis=0)])
+    counts = np.floor(angle / quantum)
+    rate = np.diff(counts, axis=0, prepend=counts[:1]) * quantum / dt_s
+    return rate

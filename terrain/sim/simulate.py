@@ -30,7 +30,7 @@ from terrain.sim.dynamics import PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
 from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
-                                 quantise, sample_times)
+                                 encoder_count_rate, quantise, sample_times)
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import VEHICLE_NAMES, get_vehicle
 
@@ -188,14 +188,14 @@ def simulate(config: SimConfig) -> SimResult:
 
     # wheel encoders and motor currents: driver filter, then the wheel_lag effect
     motor = vehicle.motor
-    omega_rep = first_order_filter(phys.omega, dt, motor.encoder_filter_s)
+    omega_meas = phys.omega
+    if sensors.speed_quantum_m_s == 0:
+        omega_meas = encoder_count_rate(phys.omega, dt, motor.encoder_counts_per_rev)
+    omega_rep = first_order_filter(omega_meas, dt, motor.encoder_filter_s)
     cur = _currents(phys, vehicle, config.effects)
     t_w = sample_times(duration, sensors.wheel_rate_hz)
     t_src = np.clip(t_w - config.effects.wheel_lag, 0.0, None)
     om_w = interp_columns(t_src, phys.t_s, omega_rep)
-    counts_rev = motor.encoder_counts_per_rev
-    om_w = quantise(om_w, 2.0 * np.pi / counts_rev * sensors.wheel_rate_hz
-                    if sensors.speed_quantum_m_s == 0 else 0.0)
     vel_w = quantise(om_w * r_w, sensors.speed_quantum_m_s)
     cur_w = interp_columns(t_src, phys.t_s, cur)
     cur_w = quantise(np.abs(cur_w + sensors.current_noise_a * rng.standard_normal(cur_w.shape)),
