@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
@@ -65,6 +65,9 @@ from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
+
+if TYPE_CHECKING:
+    from terrain.estimation.fast import FastKernel
 
 STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_bx", "a_by",
                                 "delta_1", "delta_2", "delta_3", "gyro_bias")
@@ -320,6 +323,27 @@ class AgriMaRoModel(StateSpaceModel):
         """Initial covariance (eq. 6.9), shape (12, 12)."""
         return np.diag(np.asarray(self.settings.p0_diag, dtype=float))
 
+    def fast_kernel(self) -> FastKernel | None:
+        """Description of this model for the compiled loop of :mod:`terrain.estimation.fast`
+        (the ``agrimaro`` kernel implements :meth:`transition`, :meth:`observation` and
+        :meth:`Q` of this class); None for subclasses, which may change them.
+
+        Returns
+        -------
+        FastKernel or None
+        """
+        if type(self) is not AgriMaRoModel:
+            return None
+        from terrain.estimation.fast import FastKernel
+
+        v = self.vehicle
+        (x1, y1), (x2, y2), (x3, y3) = v.wheel_positions_m
+        params = (self._sign, x1, y1, x2, y2, x3, y3, v.wheel_radius_m,
+                  v.camera_lever_arm_m[0], v.camera_lever_arm_m[1])
+        return FastKernel("agrimaro", tuple(float(a) for a in params),
+                          tuple(float(q) for q in self.settings.q_diag), self.settings.q_per,
+                          self.angle_rows)
+
 
 def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettings(),
                      time_offsets_s: Mapping[str, float] | None = None,
@@ -383,7 +407,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
                       time_offsets_s: Mapping[str, float] | None = None,
                       vehicle: AgriMaRoParams = AGRIMARO, sensors: tuple[str, ...] | None = None,
                       store_covariance: bool = False,
-                      model: StateSpaceModel | None = None) -> EKFResult:
+                      model: StateSpaceModel | None = None, engine: str = "auto") -> EKFResult:
     """Run the AgriMaRo EKF over a run.
 
     Parameters
@@ -407,6 +431,9 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
         Another model over the same sensors (e.g.
         :class:`~terrain.estimation.slip_state.SlipStateModel`); default
         ``AgriMaRoModel(vehicle, settings)``. ``settings`` still sets the pre-filter.
+    engine : {"auto", "numba", "numpy"}
+        Run loop of :func:`~terrain.estimation.run_filter` (``auto``: compiled when the model
+        has a kernel, as ``AgriMaRoModel`` does).
 
     Returns
     -------
@@ -420,7 +447,8 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     t_imu = run.streams["imu"][TIME].to_numpy(dtype=float)
     rate = float(rate_hz) if rate_hz else float(1.0 / np.median(np.diff(t_imu)))
     grid = make_grid(float(t_imu[0]), float(t_imu[-1]), rate)
-    result = run_filter(model, grid, samples, gate=gate, store_covariance=store_covariance)
+    result = run_filter(model, grid, samples, gate=gate, store_covariance=store_covariance,
+                        engine=engine)
     result.meta.update(model=type(model).__name__, settings=settings.name,
                        coriolis=settings.coriolis, ema_alpha=dict(settings.ema_alpha),
                        time_offsets_s=dict(time_offsets_s or {}))

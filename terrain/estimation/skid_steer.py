@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 import pandas as pd
@@ -44,6 +44,9 @@ from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.skid_steer import HUSKY
+
+if TYPE_CHECKING:
+    from terrain.estimation.fast import FastKernel
 
 STATE_NAMES: tuple[str, ...] = ("v_bx", "yaw_rate", "gyro_bias", "log_icr_chi")
 MEASUREMENT_NAMES: tuple[str, ...] = ("vel_l", "vel_r", "wz")
@@ -193,6 +196,24 @@ class SkidSteerModel(StateSpaceModel):
         s = self.settings
         return np.diag([s.v0_std ** 2, s.yaw_rate0_std ** 2, s.bias0_std ** 2,
                         s.log_chi0_std ** 2])
+
+    def fast_kernel(self) -> FastKernel | None:
+        """Description of this model for the compiled loop of :mod:`terrain.estimation.fast`
+        (the ``skid_steer`` kernel implements :meth:`transition`, :meth:`observation` and
+        :meth:`Q` of this class); None for subclasses, which may change them.
+
+        Returns
+        -------
+        FastKernel or None
+        """
+        if type(self) is not SkidSteerModel:
+            return None
+        from terrain.estimation.fast import FastKernel
+
+        s = self.settings
+        return FastKernel("skid_steer", (float(s.track_m), float(s.chi_min_yaw_rate_rad_s)),
+                          (float(s.accel_psd), float(s.yaw_accel_psd), float(s.bias_psd),
+                           float(s.log_chi_psd)), "second", ())
 
 
 def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSettings(), *,

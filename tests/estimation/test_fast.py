@@ -1,0 +1,137 @@
+"""Compiled (numba) run loop against the NumPy reference: same states, covariances,
+innovations, NIS, gating and counts to round-off; engine selection and fall-back."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError, CovarianceError
+from terrain.estimation import Gate, SensorSamples, make_grid, run_filter
+from terrain.estimation.agrimaro import AgriMaRoModel, agrimaro_samples, estimate_agrimaro
+from terrain.estimation.fast import FastKernel, fast_kernel_of, run_compiled
+from terrain.estimation.skid_steer import SkidSteerModel
+from terrain.estimation.slip_state import SlipStateModel
+from terrain.estimation.validation import (data_driven_settings, outage_experiment, sim_to_run,
+                                           simulate_agrimaro)
+
+RTOL = 1e-9
+
+
+def assert_same_result(fast, ref, covariance=False):
+    """Every array of two EKFResults equal to RTOL of its scale; masks and counts exact."""
+    assert fast.meta["engine"] == "numba" and ref.meta["engine"] == "numpy"
+    names = ("x", "P_diag", "y", "S_diag", "nis") + (("P",) if covariance else ())
+    for name in names:
+        a, b = getattr(fast, name), getattr(ref, name)
+        assert a.shape == b.shape, name
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
+        scale = max(float(np.nanmax(np.abs(b))), 1e-300)
+        np.testing.assert_allclose(a, b, rtol=RTOL, atol=RTOL * scale, equal_nan=True,
+                                   err_msg=name)
+    np.testing.assert_array_equal(fast.accepted, ref.accepted)
+    np.testing.assert_array_equal(fast.dof, ref.dof)
+    assert fast.counts == ref.counts
+
+
+@pytest.fixture(scope="module")
+def grass():
+    return simulate_agrimaro("GRASS", seed=2, duration_s=12.0, scenario="random")
+
+
+def _both(model, grid, samples, **kw):
+    return (run_filter(model, grid, samples, engine="numba", **kw),
+            run_filter(model, grid, samples, engine="numpy", **kw))
+
+
+def test_agrimaro_compiled_equals_reference_with_camera_outage(grass):
+    run = sim_to_run(grass)
+    settings = data_driven_settings(run)
+    samples = agrimaro_samples(run, settings)
+    cam = samples["cam"]
+    vals = cam.values.copy()
+    out = (cam.t_s >= 6.0) & (cam.t_s < 8.0)
+    vals[out] = np.nan                        # 2 s camera outage (whole samples missing)
+    vals[5, 1] = np.nan                       # one row of one sample missing
+    samples["cam"] = SensorSamples(cam.t_s, vals)
+    grid = make_grid(0.0, 12.0, 100.0)
+    fast, ref = _both(AgriMaRoModel(settings=settings), grid, samples, store_covariance=True)
+    assert_same_result(fast, ref, covariance=True)
+    assert fast.counts["cam"]["non_finite"] == int(out.sum()) + 1
+    idle = (grid > 6.05) & (grid < 7.95)
+    assert not fast.accepted[idle][:, 10:].any() and fast.accepted[idle][:, 3:7].all()
+    assert (fast.dof < 14).any() and (fast.dof == 14).any()   # partial and full updates
+
+
+def test_agrimaro_compiled_equals_reference_with_gate(grass):
+    run = sim_to_run(grass)
+    settings = data_driven_settings(run)
+    samples = agrimaro_samples(run, settings)
+    imu = samples["imu"]
+    vals = imu.values.copy()
+    vals[300, 0] += 50.0                      # an accelerometer outlier
+    samples["imu"] = SensorSamples(imu.t_s, vals)
+    grid = make_grid(0.0, 12.0, 100.0)
+    fast, ref = _both(AgriMaRoModel(settings=settings), grid, samples, gate=Gate(0.99))
+    assert_same_result(fast, ref)
+    assert fast.counts["imu"]["rejected"] >= 1
+    rejected = np.isfinite(fast.y) & ~fast.accepted
+    assert rejected.any() and (fast.dof[rejected.any(axis=1)] < 14).all()
+
+
+def test_estimate_agrimaro_uses_the_compiled_loop_and_matches(grass):
+    dropped, _ = outage_experiment(grass, t_off_s=5.0, t_on_s=7.0)
+    assert dropped.meta["engine"] == "numba"
+    run = sim_to_run(grass)
+    fast = estimate_agrimaro(run, engine="auto")                      # thesis tuning
+    ref = estimate_agrimaro(run, engine="numpy")
+    assert_same_result(fast, ref)
+
+
+def test_skid_steer_compiled_equals_reference():
+    rng = np.random.default_rng(0)
+    tw, tg = np.arange(300) * 0.1, np.arange(3001) * 0.01
+    wheels = 0.5 + 0.01 * rng.standard_normal((300, 2))
+    wheels[:, 1] += 0.3 * np.sin(tw)          # turning: chi observable, its column used
+    wheels[10, 0] = np.nan
+    wheels[50, 1] = 5.0                       # outlier for the gate
+    gyro = 0.02 + 0.005 * rng.standard_normal((3001, 1))
+    gyro[100:110] = np.nan
+    samples = {"wheels": SensorSamples(tw, wheels), "gyro": SensorSamples(tg, gyro)}
+    grid = make_grid(0.0, 30.0, 100.0)
+    for gate in (None, Gate(0.999)):
+        fast, ref = _both(SkidSteerModel(wheel_r_scale=2.0), grid, samples, gate=gate)
+        assert_same_result(fast, ref)
+    assert fast.counts["wheels"]["rejected"] == 1
+
+
+@dataclass(frozen=True)
+class _SubclassedModel(AgriMaRoModel):
+    """A subclass may change the model: it gets the reference loop."""
+
+
+def test_engine_selection_and_fallback():
+    grid = make_grid(0.0, 0.1, 100.0)
+    z = {"gyro": SensorSamples(grid, np.zeros((grid.size, 1)))}
+    assert run_filter(SkidSteerModel(), grid, z).meta["engine"] == "numba"
+    assert run_filter(SkidSteerModel(), grid, z, engine="numpy").meta["engine"] == "numpy"
+    assert fast_kernel_of(SlipStateModel()) is None
+    assert fast_kernel_of(_SubclassedModel()) is None
+    assert isinstance(fast_kernel_of(AgriMaRoModel()), FastKernel)
+    assert run_filter(_SubclassedModel(), grid, {}).meta["engine"] == "numpy"
+    with pytest.raises(ConfigError):
+        run_filter(SlipStateModel(), grid, {}, engine="numba")
+    with pytest.raises(ConfigError):
+        run_filter(SkidSteerModel(), grid, z, engine="fortran")
+    with pytest.raises(ValueError):
+        FastKernel("unicycle", (), ())
+
+
+def test_indefinite_innovation_covariance_raises():
+    kernel = SkidSteerModel().fast_kernel()
+    Z = np.zeros((3, 3))
+    with pytest.raises(CovarianceError):
+        run_compiled(kernel, np.full(2, 0.01), Z, np.zeros(4), -np.eye(4), np.full(3, 1e-4),
+                     np.array([0, 0, 1]), 2)
