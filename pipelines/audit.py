@@ -1,0 +1,132 @@
+"""Audit the simulator against measured runs: what it gets wrong, why, and the held-out gain.
+
+Replays each run's own wheel speeds through the simulator's Husky model, compares the
+predicted yaw rate, accelerations and motor currents with the measured ones, fits the named
+effects (icr_expansion, gyro_bias, wheel_lag, turning_resistance, current_offset,
+grade_resistance, immobilised) on training runs and scores them on held-out runs
+(leave one run out per terrain, bootstrap support). Input: RUNS_DIR in the measured-run
+layout (<TERRAIN>/imu_XX.csv, pro_XX.csv) or --dataset for the shipped copy. Writes the JSON
+report (--json), optionally Markdown with figures (--md, figures in <stem>_figures/), and
+logs both to MLflow (experiment terrain-audit) unless --no-mlflow.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+from pathlib import Path
+
+from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
+from terrain.audit.report import flat_metrics
+from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir
+from terrain.io.shipped import DATASET_SPECS, load_dataset
+
+EXPERIMENT = "terrain-audit"
+SWEEP_FACTORS = (0.5, 0.75, 1.0, 1.5, 2.0)
+DEFAULTS = {"bootstrap": 1000, "param_bootstrap": 200, "min_gain": 0.02, "seed": 0}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain audit``."""
+    parser.add_argument("runs_dir", nargs="?", type=Path, default=None,
+                        help="folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv")
+    parser.add_argument("--dataset", choices=list(DATASET_SPECS), default=None,
+                        help="audit a shipped dataset instead of RUNS_DIR")
+    parser.add_argument("--json", type=Path, required=True, help="write the JSON report here")
+    parser.add_argument("--md", type=Path, default=None, help="write the Markdown report here")
+    parser.add_argument("--bootstrap", type=int, default=DEFAULTS["bootstrap"],
+                        help="resamples of held-out runs for the gain interval")
+    parser.add_argument("--param-bootstrap", type=int, default=DEFAULTS["param_bootstrap"],
+                        help="resamples of runs for the parameter intervals")
+    parser.add_argument("--min-gain", type=float, default=DEFAULTS["min_gain"],
+                        help="smallest held-out gain (fraction of baseline RMSE) to support")
+    parser.add_argument("--seed", type=int, default=DEFAULTS["seed"], help="bootstrap seed")
+    parser.add_argument("--no-pooled", action="store_true",
+                        help="skip the pooled fit over all terrains (terrain 'all')")
+    parser.add_argument("--sweep-lateral-friction", action="store_true",
+                        help="also replay each terrain with its catalogue lateral friction "
+                             "scaled by 0.5, 0.75, 1, 1.5, 2 (what-if table)")
+    parser.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
+
+
+def _command(args: argparse.Namespace) -> str:
+    parts = ["terrain", "audit"]
+    parts += [str(args.runs_dir)] if args.runs_dir else ["--dataset", args.dataset]
+    parts += ["--json", str(args.json)] + (["--md", str(args.md)] if args.md else [])
+    for key, default in DEFAULTS.items():
+        if getattr(args, key) != default:
+            parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
+    parts += ["--no-pooled"] * args.no_pooled
+    parts += ["--sweep-lateral-friction"] * args.sweep_lateral_friction
+    return shlex.join(parts)
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run the audit, write the reports, log to MLflow; returns 0."""
+    if (args.runs_dir is None) == (args.dataset is None):
+        raise ConfigError("give exactly one of RUNS_DIR or --dataset")
+    runs = read_runs_dir(args.runs_dir) if args.runs_dir else load_dataset(args.dataset)
+    source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
+    name = args.dataset or args.runs_dir.resolve().name
+    settings = AuditSettings(
+        selection=SelectionSettings(n_bootstrap=args.bootstrap,
+                                    n_param_bootstrap=args.param_bootstrap,
+                                    min_gain=args.min_gain, seed=args.seed),
+        pooled=not args.no_pooled,
+        sweep_factors=SWEEP_FACTORS if args.sweep_lateral_friction else ())
+    if args.no_mlflow:
+        _audit(args, runs, settings, source, name, None)
+    else:
+        from terrain.tracking import tracked_run
+
+        with tracked_run(EXPERIMENT, run_name=name,
+                         params={**source, **settings.as_params()}) as tracked:
+            _audit(args, runs, settings, source, name, tracked)
+    return 0
+
+
+def _audit(args, runs, settings, source, name, tracked) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from terrain.audit import make_figures
+
+    result = run_audit(runs, settings)
+    report = to_dict(result, source)
+    if tracked is not None:
+        report["mlflow_run_id"] = tracked.run_id
+    figures = make_figures(result)
+    title, commands = f"Simulation audit: {name}", [_command(args)]
+    if args.dataset:
+        commands.append(f"# the same runs in the CSV layout give identical results: "
+                        f"terrain audit <folder>/{args.dataset} --json ...")
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(report, indent=1) + "\n")
+    if args.md:
+        folder = args.md.parent / f"{args.md.stem}_figures"
+        folder.mkdir(parents=True, exist_ok=True)
+        for key, fig in figures.items():
+            fig.savefig(folder / f"audit_{key}.png", dpi=90)
+        rel = {k: f"{folder.name}/audit_{k}.png" for k in figures}
+        args.md.write_text(to_markdown(report, rel, commands, title))
+    if tracked is not None:
+        tracked.log_metrics(flat_metrics(report))
+        tracked.log_dict(report, "audit.json")
+        rel = {k: f"figures/audit_{k}.png" for k in figures}
+        tracked.log_text(to_markdown(report, rel, commands, title), "audit.md")
+        for key, fig in figures.items():
+            tracked.log_figure(fig, rel[key])
+        for table, fname in ((result.residuals, "residuals.csv"), (result.lags, "lags.csv"),
+                             (result.sweep, "lateral_friction_sweep.csv")):
+            if len(table):
+                tracked.log_table(table, fname)
+    print(f"audited {len(result.frames)} runs ({', '.join(result.terrains)}), skipped "
+          f"{len(result.skipped)}; {sum(result.timings_s.values()):.1f} s")
+    for terrain in report["supported"]:
+        found = [e for e in report["effects"] if e["terrain"] == terrain and e["supported"]]
+        text = ", ".join(f"{e['name']} ({', '.join(f'{k}={v:.3g}' for k, v in e['params'].items())}"
+                         f"; gain {e['heldout_gain']:.2f})" for e in found)
+        print(f"  {terrain}: {text or 'none'}")
+    print(f"  report written to {args.json}" + (f" and {args.md}" if args.md else ""))

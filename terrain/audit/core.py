@@ -1,0 +1,477 @@
+"""The audit: replay measured runs, compare, attribute residuals to named effects, score them.
+
+:func:`run_audit` chains the steps of :mod:`terrain.audit`:
+
+1. :func:`~terrain.audit.replay.replay_run` for every run (the simulator's Husky model as is,
+   driven by the run's own wheel speeds), :func:`~terrain.audit.frames.prepare_frame` (the
+   comparison clock, the run's own lag track, manoeuvres, pitch);
+2. for every terrain and for all runs pooled (``all``), forward selection of the ``timing``,
+   ``yaw`` and ``current`` effects with leave-one-run-out gains and bootstrap support
+   (:func:`~terrain.audit.selection.select_group`);
+3. residual statistics (RMSE, bias, correlation) per signal, run, terrain and manoeuvre for
+   the ideal kinematics (yaw rate only), the replay on raw timestamps (yaw rate only), the
+   replay on the aligned clock and the extended model (held-out predictions);
+4. measured facts that need no model (currents spinning vs driving straight, right-minus-left
+   current while driving straight, per-run lags).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.audit.effects import (EffectSettings, effect_params, predict_current,
+                                   predict_yaw)
+from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
+                                  FrameSettings, prepare_frame)
+from terrain.audit.replay import ReplaySettings, replay_run
+from terrain.audit.selection import (GroupResult, SelectionSettings, loro, make_units,
+                                     select_group, unit_errors, unscored_group)
+from terrain.audit.timing import LagSettings
+from terrain.errors import ConfigError, DataFormatError
+from terrain.run import Run
+from terrain.vehicles import get_vehicle
+
+SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r")
+POOLED = "all"
+
+
+@dataclass(frozen=True)
+class AuditSettings:
+    """Everything that parametrises an audit (see each part's docstring)."""
+
+    replay: ReplaySettings = field(default_factory=ReplaySettings)
+    frames: FrameSettings = field(default_factory=FrameSettings)
+    lag: LagSettings = field(default_factory=LagSettings)
+    effects: EffectSettings = field(default_factory=EffectSettings)
+    selection: SelectionSettings = field(default_factory=SelectionSettings)
+    pooled: bool = True
+    sweep_factors: tuple[float, ...] = ()
+
+    def as_params(self) -> dict[str, object]:
+        """Flat ``section.name -> value`` mapping (for MLflow parameters)."""
+        out = {}
+        for section in ("replay", "frames", "lag", "effects", "selection"):
+            for k, v in asdict(getattr(self, section)).items():
+                if isinstance(v, tuple):
+                    v = ",".join(f"{a[0]}={a[1]}" if isinstance(a, tuple) else str(a)
+                                 for a in v)
+                out[f"{section}.{k}"] = v
+        out["pooled"] = self.pooled
+        out["sweep_factors"] = ",".join(map(str, self.sweep_factors))
+        return out
+
+
+@dataclass(frozen=True)
+class AuditResult:
+    """Outcome of :func:`run_audit`.
+
+    Attributes
+    ----------
+    settings : AuditSettings
+    frames : tuple of AuditFrame
+        One per audited run.
+    skipped : dict
+        Run id -> why it was not audited.
+    groups : dict
+        ``(terrain, group) -> GroupResult`` (terrain ``all`` = pooled).
+    residuals : pandas.DataFrame
+        Columns ``signal, model, terrain, run_id, manoeuvre, n, rmse, bias, corr``;
+        ``run_id == "*"`` rows pool the terrain, ``manoeuvre == "all"`` rows pool manoeuvres.
+    lags : pandas.DataFrame
+        Per-run lag summary (:meth:`~terrain.audit.timing.LagTrack.summary`) and windows.
+    facts : dict
+        Terrain -> measured statistics that need no model.
+    timings_s : dict
+        Wall time of each step, s.
+    sweep : pandas.DataFrame
+        What-if replays with scaled catalogue lateral friction (empty unless
+        ``settings.sweep_factors``), see :func:`lateral_friction_sweep`.
+    """
+
+    settings: AuditSettings
+    frames: tuple
+    skipped: dict
+    groups: dict
+    residuals: pd.DataFrame
+    lags: pd.DataFrame
+    facts: dict
+    timings_s: dict
+    sweep: pd.DataFrame = field(default_factory=pd.DataFrame)
+
+    @property
+    def terrains(self) -> list[str]:
+        """Terrains audited (without ``all``), sorted."""
+        return sorted({f.terrain for f in self.frames})
+
+    def effects(self) -> list:
+        """Every :class:`~terrain.audit.selection.EffectResult`, terrain by terrain."""
+        return [e for g in self.groups.values() for e in g.effects]
+
+    def supported(self, terrain: str) -> list[str]:
+        """Supported effect names on ``terrain`` (or ``all``)."""
+        return [e.name for e in self.effects() if e.terrain == terrain and e.supported]
+
+    def effect(self, name: str, terrain: str):
+        """The EffectResult of ``name`` on ``terrain``.
+
+        Raises
+        ------
+        KeyError
+            Effect or terrain not audited.
+        """
+        for e in self.effects():
+            if e.name == name and e.terrain == terrain:
+                return e
+        raise KeyError(f"{name} on {terrain}")
+
+
+def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings()
+                   ) -> tuple[list[AuditFrame], dict[str, str]]:
+    """Replay every run and put it on the comparison clock.
+
+    Returns
+    -------
+    frames : list of AuditFrame
+    skipped : dict
+        Run id -> reason (no wheel stream, unknown terrain, not a skid-steer...).
+    """
+    frames, skipped = [], {}
+    for run in runs:
+        try:
+            rep = replay_run(run, settings.replay)
+            frames.append(prepare_frame(run, rep, settings.frames, settings.lag))
+        except (ConfigError, DataFormatError) as exc:
+            skipped[run.run_id] = str(exc)
+    return frames, skipped
+
+
+def _stats(meas: np.ndarray, pred: np.ndarray) -> tuple[int, float, float, float]:
+    r = meas - pred
+    n = int(len(r))
+    if n == 0:
+        return 0, float("nan"), float("nan"), float("nan")
+    corr = float("nan")
+    if n > 2 and np.std(meas) > 0 and np.std(pred) > 0:
+        corr = float(np.corrcoef(meas, pred)[0, 1])
+    return n, float(np.sqrt(np.mean(r * r))), float(np.mean(r)), corr
+
+
+def _samples(result_groups: dict, terrain: str, frames: Sequence[AuditFrame]) -> pd.DataFrame:
+    """Long table of scored samples with every model's prediction for one terrain scope."""
+    rows = []
+    yaw = result_groups.get((terrain, "yaw"))
+    cur = result_groups.get((terrain, "current"))
+    yaw_pred: dict[tuple[str, float], np.ndarray] = {}
+    if yaw is not None:
+        for unit, params in zip(yaw.units, yaw.heldout_params):
+            for f in unit:
+                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.bias)
+    cur_pred = {}
+    if cur is not None:
+        for unit, params in zip(cur.units, cur.heldout_params):
+            for f in unit:
+                cur_pred[(f.group, f.t_s[0])] = (f, predict_current(f, params))
+    for f, wz_ext, bias in yaw_pred.values():
+        m = f.score_imu
+        mobile = wz_ext - bias
+        ay_ext = f.sim_ay + (mobile - f.sim_wz) * f.sim_vx
+        base = {"run_id": f.run_id, "terrain": f.terrain,
+                "manoeuvre": np.asarray(MANOEUVRES)[f.manoeuvre[m]]}
+        rows.append(pd.DataFrame({**base, "signal": "wz", "measured": f.wz[m],
+                                  "ideal": f.x[m], "replay_raw": f.sim_wz[m],
+                                  "measured_raw": f.wz_at_lag(0.0)[m],
+                                  "replay": f.sim_wz[m], "extended": wz_ext[m]}))
+        rows.append(pd.DataFrame({**base, "signal": "ax", "measured": f.ax[m],
+                                  "replay": f.sim_ax[m], "extended": f.sim_ax[m]}))
+        rows.append(pd.DataFrame({**base, "signal": "ay", "measured": f.ay[m],
+                                  "replay": f.sim_ay[m], "extended": ay_ext[m]}))
+    for f, c_ext in cur_pred.values():
+        m = f.score_cur
+        base = {"run_id": f.run_id, "terrain": f.terrain,
+                "manoeuvre": np.asarray(MANOEUVRES)[f.manoeuvre[m]]}
+        for j, s in enumerate(("cur_l", "cur_r")):
+            rows.append(pd.DataFrame({**base, "signal": s, "measured": f.cur[m, j],
+                                      "replay": f.sim_cur[m, j], "extended": c_ext[m, j]}))
+    if not rows:
+        return pd.DataFrame(columns=["run_id", "terrain", "manoeuvre", "signal", "measured"])
+    return pd.concat(rows, ignore_index=True)
+
+
+def residual_statistics(samples: pd.DataFrame, scope: str) -> pd.DataFrame:
+    """RMSE, bias (measured - predicted) and correlation per signal, model, run, manoeuvre.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Output of the sample table (columns ``run_id, terrain, manoeuvre, signal,
+        measured`` and one column per model).
+    scope : str
+        Terrain label written in the ``terrain`` column (``all`` for the pooled scope).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``signal, model, terrain, run_id, manoeuvre, n, rmse, bias, corr``.
+    """
+    out = []
+    models = [c for c in ("ideal", "replay_raw", "replay", "extended") if c in samples]
+    for signal, s in samples.groupby("signal", sort=False):
+        for model in models:
+            if s[model].isna().all():
+                continue
+            meas_col = "measured_raw" if model == "replay_raw" else "measured"
+            keys = [("*", "all", s)]
+            keys += [(rid, "all", g) for rid, g in s.groupby("run_id", sort=True)]
+            keys += [("*", man, g) for man, g in s.groupby("manoeuvre", sort=True)]
+            for rid, man, g in keys:
+                ok = g[model].notna() & g[meas_col].notna()
+                n, rmse, bias, corr = _stats(g.loc[ok, meas_col].to_numpy(),
+                                             g.loc[ok, model].to_numpy())
+                out.append({"signal": signal, "model": model, "terrain": scope,
+                            "run_id": rid, "manoeuvre": man, "n": n, "rmse": rmse,
+                            "bias": bias, "corr": corr})
+    return pd.DataFrame(out)
+
+
+def measured_facts(frames: Sequence[AuditFrame]) -> dict:
+    """Statistics of the measured data that need no model, for one set of runs.
+
+    Returns
+    -------
+    dict
+        ``current_straight_a``, ``current_spin_a``, ``current_curve_a`` (mean current per
+        side), ``spin_to_straight_current_ratio``, ``straight_right_minus_left_a`` and the
+        mean ``|wz|`` of those straight samples (rad/s), ``chi_pooled`` (least squares of
+        the aligned gyro on ``(v_R - v_L) / B`` over turning samples), lag range over runs.
+    """
+    cur, man, dcur, wz_st, x_t, wz_t = [], [], [], [], [], []
+    for f in frames:
+        m = f.score_cur
+        cur.append(f.cur[m].mean(axis=1))
+        man.append(f.manoeuvre[m])
+        dcur.append((f.cur[m, 1] - f.cur[m, 0])[f.manoeuvre[m] == STRAIGHT])
+        if f.has_imu:
+            mi = f.score_imu
+            wz_st.append(np.abs(f.wz[mi][f.manoeuvre[mi] == STRAIGHT]))
+            turn = np.isin(f.manoeuvre[mi], (CURVE, SPIN))
+            x_t.append(f.x[mi][turn])
+            wz_t.append(f.wz[mi][turn])
+    cur = np.concatenate(cur) if cur else np.empty(0)
+    man = np.concatenate(man) if man else np.empty(0, dtype=int)
+
+    def mean(a):
+        return float(np.mean(a)) if len(a) else None
+    straight = mean(cur[man == STRAIGHT])
+    spin = mean(cur[man == SPIN])
+    out = {"current_straight_a": straight, "current_spin_a": spin,
+           "current_curve_a": mean(cur[man == CURVE]),
+           "spin_to_straight_current_ratio": (spin / straight if spin and straight else None),
+           "n_straight": int(np.sum(man == STRAIGHT)), "n_spin": int(np.sum(man == SPIN))}
+    d = np.concatenate(dcur) if dcur else np.empty(0)
+    out["straight_right_minus_left_a"] = mean(d)
+    w = np.concatenate(wz_st) if wz_st else np.empty(0)
+    out["straight_mean_abs_wz_rad_s"] = mean(w)
+    xt = np.concatenate(x_t) if x_t else np.empty(0)
+    wt = np.concatenate(wz_t) if wz_t else np.empty(0)
+    out["chi_pooled"] = (float(np.sum(xt * xt) / np.sum(xt * wt))
+                         if len(xt) > 10 and np.sum(xt * wt) > 0 else None)
+    lags = [f.lag.summary() for f in frames if f.has_imu]
+    ident = [s for s in lags if s["identifiable"]]
+    out["lag_min_s"] = min((s["lag_min_s"] for s in ident), default=None)
+    out["lag_max_s"] = max((s["lag_max_s"] for s in ident), default=None)
+    out["runs_with_identifiable_lag"] = len(ident)
+    out["runs_with_imu"] = len(lags)
+    out["runs"] = len({f.run_id for f in frames})
+    return out
+
+
+def lag_table(frames: Sequence[AuditFrame]) -> pd.DataFrame:
+    """Per-run lag summary (one row per run with IMU) with the window lags as text."""
+    rows = []
+    for f in frames:
+        if not f.has_imu:
+            continue
+        s = f.lag.summary()
+        s.update(run_id=f.run_id, terrain=f.terrain,
+                 windows=";".join(f"{c:.1f}:{l:+.3f}" for c, l in
+                                  zip(f.lag.centres_s, f.lag.lags_s)))
+        rows.append(s)
+    cols = ["run_id", "terrain", "lag_s", "lag_start_s", "lag_end_s", "lag_min_s",
+            "lag_max_s", "drift_s_per_min", "n_windows_used", "n_windows", "identifiable",
+            "windows"]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def _turning_forms(group: GroupResult, settings: AuditSettings) -> dict:
+    """Held-out RMSE of the current model with each turning form forced."""
+    spec = list(group.selected)
+    if "turning_resistance" not in spec:
+        spec.append("turning_resistance")
+    out = {}
+    for form in ("coulomb", "proportional"):
+        params = loro(group.units, "current", spec,
+                      [x for x in spec if x != "turning_resistance"], settings.effects,
+                      form=form)
+        s, n = unit_errors(group.units, "current", params, "turning")
+        out[f"heldout_rmse_turning_{form}"] = float(np.sqrt(s.sum() / max(n.sum(), 1)))
+    return out
+
+
+def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
+              frames: Sequence[AuditFrame] | None = None) -> AuditResult:
+    """Audit the simulator against measured runs (module docstring).
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured runs (``wheels`` stream, ``imu`` optional), labelled with a catalogue
+        terrain; runs that cannot be replayed are skipped and listed.
+    settings : AuditSettings
+    frames : sequence of AuditFrame, optional
+        Already prepared frames (skips the replay; ``runs`` is then ignored).
+
+    Returns
+    -------
+    AuditResult
+
+    Raises
+    ------
+    DataFormatError
+        No run could be audited.
+    """
+    timings = {}
+    t0 = time.perf_counter()
+    skipped: dict[str, str] = {}
+    if frames is None:
+        frames, skipped = prepare_frames(runs, settings)
+    frames = list(frames)
+    timings["replay_s"] = time.perf_counter() - t0
+    if not frames:
+        raise DataFormatError("no run could be audited: " + "; ".join(
+            f"{k}: {v}" for k, v in skipped.items()) if skipped else "no runs given")
+    t1 = time.perf_counter()
+    scopes = sorted({f.terrain for f in frames})
+    if settings.pooled and len(scopes) > 1:
+        scopes.append(POOLED)
+    groups: dict[tuple[str, str], GroupResult] = {}
+    stats, facts = [], {}
+    min_units = settings.selection.min_units
+    for scope in scopes:
+        fs = [f for f in frames if scope == POOLED or f.terrain == scope]
+        facts[scope] = measured_facts(fs)
+        for group in ("timing", "yaw", "current"):
+            if group == "current":
+                def needs(f):
+                    return bool(f.score_cur.any())
+            else:
+                def needs(f):
+                    return bool(f.has_imu and f.score_imu.any())
+            units, segmented = make_units(fs, min_units, needs)
+            if len(units) < 2:
+                what = "current" if group == "current" else "IMU"
+                groups[(scope, group)] = unscored_group(
+                    group, scope, f"no run with {what} samples to score", len(fs))
+                continue
+            refs = None
+            if group == "yaw":
+                ideal = np.array([sum(float(np.sum((f.wz[f.score_imu] - f.x[f.score_imu]) ** 2))
+                                      for f in u) for u in units])
+                refs = {"ideal": ideal}
+            res = select_group(units, group, scope, settings.selection, settings.effects,
+                               segmented, refs)
+            if group == "current":
+                forms = _turning_forms(res, settings)
+                res = _with_details(res, "turning_resistance", forms)
+            groups[(scope, group)] = res
+        stats.append(residual_statistics(_samples(groups, scope, fs), scope))
+    timings["selection_s"] = time.perf_counter() - t1
+    residuals = pd.concat(stats, ignore_index=True) if stats else pd.DataFrame()
+    sweep = pd.DataFrame()
+    if settings.sweep_factors and runs:
+        t2 = time.perf_counter()
+        sweep = pd.concat([lateral_friction_sweep(runs, t, settings.sweep_factors, settings,
+                                                  facts[t].get("chi_pooled"))
+                           for t in scopes if t != POOLED], ignore_index=True)
+        timings["sweep_s"] = time.perf_counter() - t2
+    return AuditResult(settings=settings, frames=tuple(frames), skipped=skipped, groups=groups,
+                       residuals=residuals, lags=lag_table(frames), facts=facts,
+                       timings_s=timings, sweep=sweep)
+
+
+def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[float],
+                           settings: AuditSettings = AuditSettings(),
+                           measured_chi: float | None = None) -> pd.DataFrame:
+    """What-if: the replay's own ICR expansion when the catalogue lateral friction is scaled.
+
+    The simulator produces yaw-rate scrub only through its contact model (lateral friction
+    against traction, :mod:`terrain.sim.dynamics`). Replaying the runs of ``terrain`` that
+    turn, with ``lateral_friction`` multiplied by each factor, tells whether a catalogue
+    value reproduces the measured chi or whether the kinematic ``icr_expansion`` is needed.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Runs of any terrain; those of ``terrain`` with an IMU and at least 20 turning wheel
+        samples are replayed.
+    terrain : str
+        Catalogue terrain.
+    factors : sequence of float
+        Multipliers of the catalogue lateral friction.
+    settings : AuditSettings
+    measured_chi : float, optional
+        Copied into the table for comparison.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``terrain, factor, lateral_friction, replay_chi, measured_chi, n_runs``;
+        ``replay_chi`` is the least-squares ratio of ``(v_R - v_L) / B`` to the replayed yaw
+        rate over turning samples (inf when the replayed robot does not turn).
+    """
+    from dataclasses import replace
+
+    from terrain.terramechanics.catalogue import get_terrain
+
+    base = get_terrain(terrain)
+    chosen = []
+    for run in runs:
+        if run.terrain != terrain or not run.has_imu or "wheels" not in run.streams:
+            continue
+        w = run.streams["wheels"]
+        x = (w["vel_r"] - w["vel_l"]).to_numpy() / get_vehicle(run.vehicle).track_m
+        if np.sum(np.abs(x) >= settings.frames.turn_rad_s) >= 20:
+            chosen.append(run)
+    rows = []
+    for factor in factors:
+        ter = replace(base, lateral_friction=float(base.lateral_friction * factor))
+        num = den = 0.0
+        for run in chosen:
+            rep = replay_run(run, settings.replay, terrain=ter)
+            x = (rep.vel_r - rep.vel_l) / rep.track_m
+            m = ((np.abs(x) >= settings.frames.turn_rad_s)
+                 & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s))
+            num += float(np.sum(x[m] ** 2))
+            den += float(np.sum(x[m] * rep.yaw_rate[m]))
+        rows.append({"terrain": terrain, "factor": float(factor),
+                     "lateral_friction": ter.lateral_friction,
+                     "replay_chi": num / den if den > 0 else float("inf"),
+                     "measured_chi": measured_chi, "n_runs": len(chosen)})
+    return pd.DataFrame(rows)
+
+
+def _with_details(group: GroupResult, name: str, extra: dict) -> GroupResult:
+    from dataclasses import replace
+
+    effects = tuple(replace(e, details={**e.details, **extra}) if e.name == name else e
+                    for e in group.effects)
+    return replace(group, effects=effects)
+
+
+__all__ = ["AuditSettings", "AuditResult", "run_audit", "prepare_frames", "measured_facts",
+           "lateral_friction_sweep",
+           "residual_statistics", "lag_table", "effect_params", "SIGNALS", "POOLED"]

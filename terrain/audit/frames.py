@@ -1,0 +1,284 @@
+"""One run prepared for the audit: replay predictions and measurements on the wheel clock.
+
+Every comparison is made at the wheel-stream timestamps (the replay's inputs are sampled
+there). IMU channels are low-passed with the replay's filter (:func:`~terrain.audit.replay.lowpass`)
+and read at ``t - lag(t)``, the run's own clock offset (:mod:`terrain.audit.timing`, against
+the commanded yaw rate or the replayed one, whichever explains the gyro better), because a
+timestamp offset is a property of the recording, not of the model: it is estimated per run
+from timing alone (scale- and offset-free) and reported as the ``wheel_lag`` effect.
+
+Manoeuvre of each sample, from the measured wheel speeds (``x = (v_R - v_L) / B``,
+``v = (v_L + v_R) / 2``):
+
+=========  =================================================================
+``stop``   both sides slower than ``moving_m_s``
+``straight`` moving, ``|x| < turn_rad_s``
+``curve``  moving, ``|x| >= turn_rad_s``, ``|v| >= |x| B / 2`` (ICR outside the track)
+``spin``   moving, ``|x| >= turn_rad_s``, ``|v| < |x| B / 2`` (sides turn opposite ways,
+           ICR between the wheels: spinning in place)
+=========  =================================================================
+
+Pitch (for ``grade_resistance``) is estimated from the accelerometer:
+``pitch = asin((ax - ax_pred) / g)`` with both low-passed at ``pitch_cutoff_hz`` (seed
+``003`` eq. 10 writes grade resistance with the pitch angle; a level IMU reads
+``g sin(pitch)`` on x when the vehicle is pitched nose-up).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from terrain.audit.replay import Replay, lowpass
+from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
+from terrain.errors import ConfigError
+from terrain.run import TIME, Run
+from terrain.terramechanics.resistance import G_M_S2
+
+MANOEUVRES = ("stop", "straight", "curve", "spin")
+STOP, STRAIGHT, CURVE, SPIN = range(4)
+
+
+@dataclass(frozen=True)
+class FrameSettings:
+    """How measured runs are put on the comparison clock.
+
+    Parameters
+    ----------
+    imu_cutoff_hz : float
+        Low-pass of the IMU channels, Hz (should equal ``ReplaySettings.output_cutoff_hz``).
+    pitch_cutoff_hz : float
+        Low-pass used for the pitch estimate, Hz.
+    edge_s : float
+        Samples closer than this to either end of the overlap of both streams are not scored
+        (room for any lag in the search range and for the replay's start-up transient), s.
+    moving_m_s : float
+        Wheel speed below which a side is at rest, m/s.
+    turn_rad_s : float
+        Commanded yaw rate ``|x|`` from which a sample is a turn, rad/s.
+    quiet_rad_s, quiet_margin_s : float
+        A sample is *quiet* (used to estimate a gyro bias) when ``|x| < quiet_rad_s`` and no
+        turning sample lies within ``quiet_margin_s``.
+    """
+
+    imu_cutoff_hz: float = 2.0
+    pitch_cutoff_hz: float = 0.1
+    edge_s: float = 2.0
+    moving_m_s: float = 0.05
+    turn_rad_s: float = 0.1
+    quiet_rad_s: float = 0.05
+    quiet_margin_s: float = 1.5
+
+    def __post_init__(self) -> None:
+        if not self.imu_cutoff_hz > 0 or not self.pitch_cutoff_hz > 0:
+            raise ConfigError("cut-off frequencies must be > 0")
+        if self.edge_s < 0:
+            raise ConfigError(f"edge_s must be >= 0, got {self.edge_s}")
+
+
+@dataclass(frozen=True)
+class AuditFrame:
+    """One run (or one contiguous segment of a run) on the comparison clock.
+
+    All arrays have shape (n,) unless stated; times in s, rates in rad/s, accelerations in
+    m/s^2, currents in A.
+
+    Attributes
+    ----------
+    run_id : str
+        Run the samples come from.
+    group : str
+        Cross-validation unit: the run id, or ``<run_id>#<k>`` for a segment.
+    terrain : str
+    t_s : wheel timestamps.
+    x : commanded yaw rate ``(v_R - v_L) / B``.
+    v : commanded speed ``(v_L + v_R) / 2``, m/s.
+    manoeuvre : int codes into :data:`MANOEUVRES`.
+    quiet : bool, samples far from any turn (gyro-bias estimation).
+    sim_wz, sim_ax, sim_ay, sim_vx : replay predictions (yaw rate, accelerations, speed).
+    sim_cur : shape (n, 2), replay currents (left, right).
+    cur : shape (n, 2), measured currents (left, right).
+    has_imu : bool
+    wz, ax, ay : measured IMU channels read at ``t - lag(t)`` (NaN without IMU).
+    pitch : estimated pitch, rad (0 without IMU).
+    imu_t_s, imu_wz : shape (m,), the low-passed gyro on its own clock (for constant-lag
+        evaluation of ``wheel_lag``); empty without IMU.
+    score_imu, score_cur : bool masks of the samples scored for IMU and current signals.
+    lag : LagTrack
+    """
+
+    run_id: str
+    group: str
+    terrain: str
+    t_s: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    manoeuvre: np.ndarray
+    quiet: np.ndarray
+    sim_wz: np.ndarray
+    sim_ax: np.ndarray
+    sim_ay: np.ndarray
+    sim_vx: np.ndarray
+    sim_cur: np.ndarray
+    cur: np.ndarray
+    has_imu: bool
+    wz: np.ndarray
+    ax: np.ndarray
+    ay: np.ndarray
+    pitch: np.ndarray
+    imu_t_s: np.ndarray
+    imu_wz: np.ndarray
+    score_imu: np.ndarray
+    score_cur: np.ndarray
+    lag: LagTrack
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return len(self.t_s)
+
+    def wz_at_lag(self, lag_s: float) -> np.ndarray:
+        """Gyro yaw rate read with a constant lag ``lag_s`` instead of the run's own track,
+        shape (n,), rad/s (NaN without IMU)."""
+        if not self.has_imu:
+            return np.full(self.n, np.nan)
+        return np.interp(self.t_s - lag_s, self.imu_t_s, self.imu_wz)
+
+
+def classify_manoeuvres(x: np.ndarray, v: np.ndarray, vel_l: np.ndarray, vel_r: np.ndarray,
+                        track_m: float, settings: FrameSettings = FrameSettings()) -> np.ndarray:
+    """Manoeuvre code of each sample (module docstring).
+
+    Parameters
+    ----------
+    x, v, vel_l, vel_r : ndarray, shape (n,)
+        Commanded yaw rate (rad/s), speed and side speeds (m/s).
+    track_m : float
+        B, m.
+    settings : FrameSettings
+
+    Returns
+    -------
+    ndarray of int, shape (n,)
+        Codes into :data:`MANOEUVRES`.
+    """
+    moving = np.maximum(np.abs(vel_l), np.abs(vel_r)) >= settings.moving_m_s
+    turning = np.abs(x) >= settings.turn_rad_s
+    spin = np.abs(v) < 0.5 * np.abs(x) * track_m
+    out = np.full(len(x), STOP, dtype=np.int8)
+    out[moving & ~turning] = STRAIGHT
+    out[moving & turning & ~spin] = CURVE
+    out[moving & turning & spin] = SPIN
+    return out
+
+
+def _quiet(t: np.ndarray, x: np.ndarray, settings: FrameSettings) -> np.ndarray:
+    turning_t = t[np.abs(x) >= settings.turn_rad_s]
+    quiet = np.abs(x) < settings.quiet_rad_s
+    m = turning_t.size
+    if m:
+        idx = np.searchsorted(turning_t, t)
+        left = np.where(idx > 0, t - turning_t[np.maximum(idx - 1, 0)], np.inf)
+        right = np.where(idx < m, turning_t[np.minimum(idx, m - 1)] - t, np.inf)
+        quiet &= np.minimum(np.abs(left), np.abs(right)) > settings.quiet_margin_s
+    return quiet
+
+
+def _in_gaps(t: np.ndarray, gaps) -> np.ndarray:
+    bad = np.zeros(len(t), dtype=bool)
+    for g in gaps or []:
+        bad |= (t > float(g[0])) & (t < float(g[1]))
+    return bad
+
+
+def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSettings(),
+                  lag_settings: LagSettings = LagSettings()) -> AuditFrame:
+    """Put one run and its replay on the comparison clock.
+
+    Parameters
+    ----------
+    run : Run
+        The measured run (``wheels`` stream required, ``imu`` optional).
+    replay : Replay
+        Its replay (:func:`~terrain.audit.replay.replay_run`).
+    settings : FrameSettings
+    lag_settings : LagSettings
+
+    Returns
+    -------
+    AuditFrame
+    """
+    wheels = run.streams["wheels"]
+    t = replay.t_s
+    x = (replay.vel_r - replay.vel_l) / replay.track_m
+    v = 0.5 * (replay.vel_l + replay.vel_r)
+    cur = wheels[["cur_l", "cur_r"]].to_numpy(dtype=float)
+    gaps = dict(run.meta.get("gaps", {}) or {})
+    score = (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
+    score_cur = score & ~_in_gaps(t, gaps.get("wheels"))
+    nan = np.full(len(t), np.nan)
+    imu = run.streams.get("imu")
+    if imu is not None and len(imu) > 30:
+        ti = imu[TIME].to_numpy(dtype=float)
+        rate = 1.0 / float(np.median(np.diff(ti)))
+        chans = lowpass(imu[["wz", "ax", "ay"]].to_numpy(dtype=float), rate,
+                        settings.imu_cutoff_hz)
+        lag = estimate_lag_track(t, x, ti, chans[:, 0], lag_settings,
+                                 alternative=replay.yaw_rate)
+        t_imu = t - lag.at(t)
+        wz, ax, ay = (np.interp(t_imu, ti, chans[:, j]) for j in range(3))
+        ax_slow = np.interp(t_imu, ti, lowpass(imu["ax"].to_numpy(dtype=float), rate,
+                                               settings.pitch_cutoff_hz))
+        sim_ax_slow = lowpass(replay.ax, 1.0 / max(float(np.median(np.diff(t))), 1e-3),
+                              settings.pitch_cutoff_hz)
+        pitch = np.arcsin(np.clip((ax_slow - sim_ax_slow) / G_M_S2, -1.0, 1.0))
+        score_imu = (score & (t_imu >= ti[0] + settings.edge_s)
+                     & (t_imu <= ti[-1] - settings.edge_s)
+                     & (t >= ti[0] + settings.edge_s) & (t <= ti[-1] - settings.edge_s)
+                     & ~_in_gaps(t_imu, gaps.get("imu")) & ~_in_gaps(t, gaps.get("wheels")))
+        imu_t, imu_wz, has_imu = ti, chans[:, 0], True
+    else:
+        lag = LagTrack(np.empty(0), np.empty(0), np.empty(0), 0)
+        wz, ax, ay, pitch = nan, nan.copy(), nan.copy(), np.zeros(len(t))
+        imu_t, imu_wz, has_imu = np.empty(0), np.empty(0), False
+        score_imu = np.zeros(len(t), dtype=bool)
+    return AuditFrame(
+        run_id=run.run_id, group=run.run_id, terrain=replay.terrain, t_s=t, x=x, v=v,
+        manoeuvre=classify_manoeuvres(x, v, replay.vel_l, replay.vel_r, replay.track_m,
+                                      settings),
+        quiet=_quiet(t, x, settings), sim_wz=replay.yaw_rate, sim_ax=replay.ax,
+        sim_ay=replay.ay, sim_vx=replay.v_x, sim_cur=replay.cur, cur=cur, has_imu=has_imu,
+        wz=wz, ax=ax, ay=ay, pitch=pitch, imu_t_s=imu_t, imu_wz=imu_wz, score_imu=score_imu,
+        score_cur=score_cur, lag=lag)
+
+
+def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
+    """Cut a frame into ``n_parts`` contiguous segments of equal sample count.
+
+    Used when a terrain has too few runs for leave-one-run-out: the segments become the
+    cross-validation units (``group = <run_id>#<k>``).
+
+    Parameters
+    ----------
+    frame : AuditFrame
+    n_parts : int
+        >= 1.
+
+    Returns
+    -------
+    list of AuditFrame
+    """
+    if n_parts <= 1:
+        return [frame]
+    per_sample = ("t_s", "x", "v", "manoeuvre", "quiet", "sim_wz", "sim_ax", "sim_ay",
+                  "sim_vx", "sim_cur", "cur", "wz", "ax", "ay", "pitch", "score_imu",
+                  "score_cur")
+    parts = []
+    for k, idx in enumerate(np.array_split(np.arange(frame.n), n_parts)):
+        if idx.size == 0:
+            continue
+        sl = slice(int(idx[0]), int(idx[-1]) + 1)
+        parts.append(replace(frame, group=f"{frame.run_id}#{k}",
+                             **{name: getattr(frame, name)[sl] for name in per_sample}))
+    return parts

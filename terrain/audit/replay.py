@@ -1,0 +1,254 @@
+"""Replay: drive the simulator's skid-steer model with a measured run's own wheel speeds.
+
+What "baseline" means in the audit
+----------------------------------
+The baseline is the simulator's Husky model *as is*, every named effect off
+(:mod:`terrain.sim.effects`): the planar rigid-body dynamics of
+:func:`terrain.sim.dynamics.integrate` on the run's terrain from
+:mod:`terrain.terramechanics.catalogue`, flat ground, the motor current law of
+:class:`terrain.vehicles.common.MotorParams`. The measured left/right wheel speeds are imposed
+on the motors:
+
+* the speed loop's time constant is set to the physics step, so the simulated wheel speed at
+  each step *is* the measured one, linearly interpolated from the wheel stream (the stream
+  reports the wheels' actual speed, so no further actuator lag is applied);
+* the speed limit is raised (``speed_headroom``) so that measured speeds are never clipped.
+
+With these inputs the physics predicts the body twist (hence the yaw rate, including the
+lateral scrub that the contact model produces by itself), the body-frame accelerations (what
+a level, unbiased accelerometer would read minus gravity) and the motor currents (traction,
+rolling loss and wheel inertia torque through ``I = I_0 sgn(omega) + T / (G k_t eta)``,
+reported as magnitudes like the simulator's sensor model).
+
+Predictions are low-pass filtered (zero phase, ``output_cutoff_hz``) and sampled at the
+wheel-stream timestamps, the clock on which the audit compares them with measurements.
+
+References
+----------
+Seed ``000_f24201ff985633bf.txt`` eqs. 1-3 (skid-steer kinematics with slip); the contact
+model and its sources are documented in :mod:`terrain.sim.dynamics`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import signal
+
+from terrain.errors import ConfigError, DataFormatError
+from terrain.run import TIME, Run
+from terrain.sim.dynamics import integrate
+from terrain.terramechanics.catalogue import TerrainParams, get_terrain
+from terrain.vehicles import get_vehicle
+
+#: vehicles the replay supports (skid-steer: two drive sides, left = motor 0)
+SKID_STEER_VEHICLES = ("husky", "tracked")
+
+
+@dataclass(frozen=True)
+class ReplaySettings:
+    """How measured runs are replayed through the simulator.
+
+    Parameters
+    ----------
+    physics_rate_hz : float
+        Integrator rate, Hz (50-1000). Default: the simulator's own default
+        (:class:`terrain.sim.SimConfig`), because the simulated currents depend on the step
+        (about +-0.4 A on asphalt between 50 and 200 Hz): the baseline is the simulator as
+        it runs by default.
+    output_cutoff_hz : float
+        Cut-off of the zero-phase 4th-order Butterworth low-pass applied to the predictions
+        before they are sampled at the wheel timestamps, Hz. The same filter is applied to
+        the IMU (:mod:`terrain.audit.frames`) so that both sides of every comparison have the
+        same bandwidth; 2 Hz is below the Nyquist rate of the ~6.5 Hz BorealTC wheel stream.
+    speed_headroom : float
+        The replay vehicle's wheel-speed limit is at least ``speed_headroom`` times the
+        largest measured wheel speed (no clipping of measured inputs).
+    merge_subresolution : bool
+        When the wheel stream is quantised (:func:`speed_resolution`), a left-right speed
+        difference of at most one resolution step carries no information (the true one lies
+        anywhere within a step) and both sides are replayed at their mean. Without this, at a
+        speed where the two sides round to neighbouring steps (0.5 m/s is 63.5 steps of
+        0.2/25.4 m/s), the replayed robot fights a fictitious 8 mm/s speed difference and its
+        currents split by about +-0.9 A on asphalt.
+    """
+
+    physics_rate_hz: float = 100.0
+    output_cutoff_hz: float = 2.0
+    speed_headroom: float = 1.5
+    merge_subresolution: bool = True
+
+    def __post_init__(self) -> None:
+        if not 50.0 <= float(self.physics_rate_hz) <= 1000.0:
+            raise ConfigError(f"physics_rate_hz must be in [50, 1000], got {self.physics_rate_hz}")
+        if not 0.0 < float(self.output_cutoff_hz) < 0.5 * float(self.physics_rate_hz):
+            raise ConfigError(f"output_cutoff_hz must be in (0, physics_rate_hz / 2), got "
+                              f"{self.output_cutoff_hz}")
+        if not float(self.speed_headroom) >= 1.0:
+            raise ConfigError(f"speed_headroom must be >= 1, got {self.speed_headroom}")
+
+
+@dataclass(frozen=True)
+class Replay:
+    """Simulator predictions for one measured run, on the run's wheel clock.
+
+    Attributes
+    ----------
+    run_id : str
+    terrain : str
+        Catalogue terrain used.
+    vehicle : str
+    track_m : float
+        Track width B of the replayed vehicle, m.
+    t_s : ndarray, shape (n,)
+        Wheel-stream timestamps, s.
+    vel_l, vel_r : ndarray, shape (n,)
+        Measured wheel (rim) speeds, m/s (the replay's inputs, before the sub-resolution
+        merge of :class:`ReplaySettings`).
+    yaw_rate : ndarray, shape (n,)
+        Predicted yaw rate, rad/s.
+    ax, ay : ndarray, shape (n,)
+        Predicted body-frame kinematic acceleration (level ground, no gravity), m/s^2.
+    v_x : ndarray, shape (n,)
+        Predicted forward body speed, m/s.
+    cur : ndarray, shape (n, 2)
+        Predicted motor current magnitudes, left and right, A.
+    """
+
+    run_id: str
+    terrain: str
+    vehicle: str
+    track_m: float
+    t_s: np.ndarray
+    vel_l: np.ndarray
+    vel_r: np.ndarray
+    yaw_rate: np.ndarray
+    ax: np.ndarray
+    ay: np.ndarray
+    v_x: np.ndarray
+    cur: np.ndarray
+
+
+def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
+    """Zero-phase 4th-order Butterworth low-pass along axis 0.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n,) or (n, k)
+    rate_hz : float
+        Sampling rate of ``values``, Hz.
+    cutoff_hz : float
+        Cut-off, Hz; clipped to 0.45 ``rate_hz``.
+
+    Returns
+    -------
+    ndarray, same shape
+        Filtered values (unchanged when the series is too short to filter).
+    """
+    values = np.asarray(values, dtype=float)
+    fc = min(float(cutoff_hz), 0.45 * float(rate_hz))
+    sos = signal.butter(4, fc, fs=float(rate_hz), output="sos")
+    if values.shape[0] <= 3 * (2 * len(sos) + 1):
+        return values
+    return signal.sosfiltfilt(sos, values, axis=0)
+
+
+def speed_resolution(values: np.ndarray, tol: float = 0.01) -> float:
+    """Resolution step of a quantised speed record (0 when it is not quantised).
+
+    Parameters
+    ----------
+    values : ndarray, shape (n,)
+        Speeds, m/s.
+    tol : float
+        Largest deviation from an integer multiple of the step, in steps.
+
+    Returns
+    -------
+    float
+        The smallest step between distinct magnitudes when every magnitude is an integer
+        multiple of it (BorealTC: 0.2/25.4 m/s), else 0.
+    """
+    v = np.unique(np.round(np.abs(np.asarray(values, dtype=float)), 7))
+    v = v[v > 0]
+    if v.size < 3:
+        return 0.0
+    step = float(np.min(np.diff(np.r_[0.0, v])))
+    if step <= 1e-6:
+        return 0.0
+    k = v / step
+    return step if np.all(np.abs(k - np.round(k)) < tol) else 0.0
+
+
+def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
+               terrain: TerrainParams | None = None) -> Replay:
+    """Replay one measured run through the simulator (see the module docstring).
+
+    Parameters
+    ----------
+    run : Run
+        Needs a ``wheels`` stream (``t_s, vel_l, vel_r, cur_l, cur_r``).
+    settings : ReplaySettings
+    terrain : TerrainParams, optional
+        Terrain parameters to use instead of the catalogue entry of ``run.terrain`` (e.g. a
+        what-if lateral friction).
+
+    Returns
+    -------
+    Replay
+
+    Raises
+    ------
+    ConfigError
+        Vehicle not a skid-steer, or terrain label unknown to the catalogue.
+    DataFormatError
+        No wheel stream, or fewer than 4 wheel samples.
+    """
+    vehicle_name = str(run.vehicle).lower()
+    if vehicle_name not in SKID_STEER_VEHICLES:
+        raise ConfigError(f"the audit replays skid-steer vehicles only "
+                          f"({', '.join(SKID_STEER_VEHICLES)}), run {run.run_id} is "
+                          f"{run.vehicle!r}")
+    if terrain is None:
+        if run.terrain is None:
+            raise ConfigError(f"run {run.run_id} has no terrain label")
+        terrain = get_terrain(run.terrain)
+    wheels = run.streams.get("wheels")
+    if wheels is None:
+        raise DataFormatError(f"run {run.run_id} has no wheel stream", run.source)
+    if len(wheels) < 4:
+        raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
+                              run.source)
+    vehicle = get_vehicle(vehicle_name)
+    geometry = vehicle.contact_geometry()
+    t_w = wheels[TIME].to_numpy(dtype=float)
+    vel_l = wheels["vel_l"].to_numpy(dtype=float)
+    vel_r = wheels["vel_r"].to_numpy(dtype=float)
+    dt = 1.0 / float(settings.physics_rate_hz)
+    t = t_w[0] + np.arange(int(np.floor((t_w[-1] - t_w[0]) / dt)) + 2) * dt
+    in_l, in_r = vel_l, vel_r
+    step = speed_resolution(np.r_[vel_l, vel_r]) if settings.merge_subresolution else 0.0
+    if step > 0:
+        tie = np.abs(vel_r - vel_l) <= 1.01 * step
+        mean = 0.5 * (vel_l + vel_r)
+        in_l, in_r = np.where(tie, mean, vel_l), np.where(tie, mean, vel_r)
+    vl = np.interp(t, t_w, in_l)
+    vr = np.interp(t, t_w, in_r)
+    b = float(vehicle.track_m)
+    twist = np.column_stack([0.5 * (vl + vr), np.zeros_like(t), (vr - vl) / b])
+    r_w = geometry.wheel_radius_m
+    vmax = max(float(np.max(np.abs(np.r_[vel_l, vel_r]))), 1e-3)
+    motor = replace(vehicle.motor, speed_time_constant_s=dt,
+                    max_wheel_speed_rad_s=max(vehicle.motor.max_wheel_speed_rad_s,
+                                              settings.speed_headroom * vmax / r_w))
+    replayed = replace(vehicle, motor=motor)
+    phys = integrate(replayed, geometry, (terrain,), 1e12, t - t[0], twist, 0.0, 1.0)
+    cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
+    out = np.column_stack([phys.twist[:, 2], phys.accel_body, phys.twist[:, 0], cur])
+    out = lowpass(out, settings.physics_rate_hz, settings.output_cutoff_hz)
+    sampled = np.column_stack([np.interp(t_w, t, out[:, j]) for j in range(out.shape[1])])
+    return Replay(run_id=run.run_id, terrain=terrain.name, vehicle=vehicle_name, track_m=b,
+                  t_s=t_w, vel_l=vel_l, vel_r=vel_r, yaw_rate=sampled[:, 0],
+                  ax=sampled[:, 1], ay=sampled[:, 2], v_x=sampled[:, 3],
+                  cur=sampled[:, 4:6])

@@ -1,0 +1,115 @@
+"""Helpers of the audit tests: simulated and real runs written as signal files only.
+
+Every audit in these tests reads a folder in the measured-run layout that holds nothing but
+``imu_XX.csv`` and ``pro_XX.csv`` (no ground truth, no metadata). Effects are planted either
+by the simulator (``terrain.sim`` effects) or by the helpers below, which modify the signal
+files the way the effect would.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import ndimage
+
+from terrain.audit import AuditSettings, SelectionSettings, run_audit
+from terrain.io.measured import read_runs_dir
+from terrain.run import Run
+from terrain.sim import SimConfig, parse_effects, simulate
+from terrain.vehicles import HUSKY
+
+G = 9.80665
+B = HUSKY.track_m
+#: fast but still meaningful selection settings for tests
+FAST = AuditSettings(selection=SelectionSettings(n_bootstrap=300, n_param_bootstrap=30),
+                     pooled=False)
+#: seeds of the simulated runs (three runs per case, 60 s each)
+SIM_SEEDS = (31, 32, 33)
+SIM_DURATION_S = 60.0
+IMU_COLUMNS = ["time", "wx", "wy", "wz", "ax", "ay", "az"]
+PRO_COLUMNS = ["time", "curL", "curR", "velL", "velR"]
+
+
+def write_signal_files(root: Path, terrain: str, index: int, imu: pd.DataFrame | None,
+                       pro: pd.DataFrame) -> None:
+    """Write ``<root>/<terrain>/{imu,pro}_<index>.csv`` (file column names)."""
+    folder = Path(root) / terrain
+    folder.mkdir(parents=True, exist_ok=True)
+    if imu is not None:
+        imu[IMU_COLUMNS].to_csv(folder / f"imu_{index:02d}.csv", index=False,
+                                float_format="%.9g")
+    pro[PRO_COLUMNS].to_csv(folder / f"pro_{index:02d}.csv", index=False, float_format="%.9g")
+
+
+def simulated_streams(effects: dict | None = None, seeds=SIM_SEEDS, terrain: str = "ASPHALT",
+                      scenario: str = "random", duration_s: float = SIM_DURATION_S):
+    """(imu, pro) file frames of simulated Husky runs with the given planted effects."""
+    out = []
+    for seed in seeds:
+        res = simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
+                                 duration_s=duration_s, seed=seed,
+                                 effects=parse_effects(effects or {})))
+        out.append((res.streams["imu"].copy(), res.streams["pro"].copy()))
+    return out
+
+
+def run_to_files(run: Run) -> tuple[pd.DataFrame | None, pd.DataFrame]:
+    """A shipped run's streams as file frames (``time`` and the files' column names)."""
+    pro = run.streams["wheels"].rename(columns={"t_s": "time", "vel_l": "velL",
+                                                "vel_r": "velR", "cur_l": "curL",
+                                                "cur_r": "curR"})
+    imu = run.streams.get("imu")
+    if imu is not None:
+        imu = imu.rename(columns={"t_s": "time"})
+    return imu, pro
+
+
+def turning_episodes(pro: pd.DataFrame, threshold_rad_s: float = 0.1):
+    """``(t_start, t_end)`` of each stretch where ``|v_R - v_L| / B >= threshold``."""
+    x = ((pro.velR - pro.velL) / B).to_numpy()
+    t = pro.time.to_numpy()
+    lab, n = ndimage.label(np.abs(x) >= threshold_rad_s)
+    return [(t[np.flatnonzero(lab == k)[0]], t[np.flatnonzero(lab == k)[-1]])
+            for k in range(1, n + 1)]
+
+
+def plant_immobilised(imu: pd.DataFrame, pro: pd.DataFrame, fraction: float,
+                      rng: np.random.Generator) -> pd.DataFrame:
+    """The robot digs in for ``fraction`` of every turn (a contiguous stretch at a random
+    place): the gyro shows no yaw there (its noise stays), the wheels keep turning."""
+    imu = imu.copy()
+    ti = imu.time.to_numpy()
+    wz = imu.wz.to_numpy().copy()
+    trend = imu.wz.rolling(25, center=True, min_periods=1).mean().to_numpy()
+    for t0, t1 in turning_episodes(pro):
+        length = t1 - t0
+        start = t0 + rng.uniform(0.0, 1.0) * (1.0 - fraction) * length
+        m = (ti >= start) & (ti <= start + fraction * length)
+        wz[m] = wz[m] - trend[m]
+    imu["wz"] = wz
+    return imu
+
+
+def plant_grade(imu: pd.DataFrame, pro: pd.DataFrame, k_a_per_rad: float,
+                rng: np.random.Generator, amplitude_rad: float = 0.15,
+                period_s: float = 20.0) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Drive over rolling hills: pitch ``amplitude sin(2 pi t / period + phase)`` seen by the
+    accelerometer (``g sin(pitch)`` on x) and ``k_a_per_rad |pitch|`` on both currents."""
+    phase = rng.uniform(0.0, 2.0 * np.pi)
+
+    def pitch(t):
+        return amplitude_rad * np.sin(2.0 * np.pi * np.asarray(t) / period_s + phase)
+    imu = imu.copy()
+    pro = pro.copy()
+    imu["ax"] = imu.ax + G * np.sin(pitch(imu.time))
+    extra = k_a_per_rad * np.abs(pitch(pro.time))
+    pro["curL"] = pro.curL + extra
+    pro["curR"] = pro.curR + extra
+    return imu, pro
+
+
+def audit_folder(root: Path, settings: AuditSettings = FAST):
+    """Read a measured-run folder and audit it."""
+    return run_audit(read_runs_dir(root), settings)

@@ -1,0 +1,85 @@
+"""``terrain audit``: JSON and Markdown outputs, MLflow logging, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from audit_helpers import simulated_streams, write_signal_files
+from terrain.audit import EFFECTS
+from terrain.cli import main as cli_main
+
+REQUIRED = {"name", "terrain", "params", "heldout_gain", "supported"}
+
+
+@pytest.fixture(scope="module")
+def runs_dir(tmp_path_factory):
+    """Two terrains of simulated runs (signal files only), a planted gyro bias on one."""
+    root = tmp_path_factory.mktemp("cli_runs")
+    for i, (imu, pro) in enumerate(simulated_streams({"gyro_bias": 0.03}, seeds=(61, 62),
+                                                     duration_s=40.0)):
+        write_signal_files(root, "ASPHALT", i, imu, pro)
+    for i, (imu, pro) in enumerate(simulated_streams(None, seeds=(63, 64), terrain="ICE",
+                                                     duration_s=40.0)):
+        write_signal_files(root, "ICE", i, imu, pro)
+    return root
+
+
+def _args(runs_dir, out, *extra):
+    return ["audit", str(runs_dir), "--json", str(out / "a.json"), "--md", str(out / "a.md"),
+            "--bootstrap", "200", "--param-bootstrap", "20", *extra]
+
+
+def test_cli_writes_json_and_markdown(runs_dir, tmp_path, capsys):
+    assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow")) == 0
+    report = json.loads((tmp_path / "a.json").read_text())
+    assert report["terrains"] == ["ASPHALT", "ICE"]
+    effects = report["effects"]
+    assert {e["terrain"] for e in effects} == {"ASPHALT", "ICE", "all"}
+    for e in effects:
+        assert REQUIRED <= set(e)
+        assert isinstance(e["supported"], bool)
+        assert set(e["params"]) <= {EFFECTS[e["name"]][1]}
+        if e["params"]:
+            assert e["heldout_gain"] is not None
+    assert len([e for e in effects if e["terrain"] == "ICE"]) == len(EFFECTS)
+    bias = next(e for e in effects if e["name"] == "gyro_bias" and e["terrain"] == "ASPHALT")
+    assert bias["supported"] and bias["params"]["bias_rad_s"] == pytest.approx(0.03, abs=0.005)
+    assert "gyro_bias" in report["supported"]["ASPHALT"]
+    assert report["supported"]["ICE"] == ["none"]
+    md = (tmp_path / "a.md").read_text()
+    assert "## Effects" in md and "gyro_bias" in md and "terrain audit" in md
+    for line in md.splitlines():
+        if line.startswith("!["):
+            assert (tmp_path / line.split("](")[1].rstrip(")")).exists()
+    assert "ASPHALT: gyro_bias" in capsys.readouterr().out
+
+
+def test_cli_logs_to_mlflow(runs_dir, tmp_path, monkeypatch):
+    mlflow = pytest.importorskip("mlflow")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    assert cli_main(_args(runs_dir, tmp_path, "--no-pooled")) == 0
+    report = json.loads((tmp_path / "a.json").read_text())
+    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    run = mlflow.get_run(report["mlflow_run_id"])
+    assert run.data.params["selection.min_gain"] == "0.02"
+    assert "gain__gyro_bias__ASPHALT" in run.data.metrics
+    names = {a.path for a in mlflow.MlflowClient().list_artifacts(run.info.run_id)}
+    assert {"audit.json", "audit.md", "figures", "residuals.csv"} <= names
+
+
+def test_cli_bad_input_exits_2(tmp_path, capsys):
+    assert cli_main(["audit", str(tmp_path / "missing"), "--json",
+                     str(tmp_path / "a.json"), "--no-mlflow"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert cli_main(["audit", str(tmp_path), "--dataset", "borealtc", "--json",
+                     str(tmp_path / "a.json"), "--no-mlflow"]) == 2
+    assert "exactly one" in capsys.readouterr().err
+    (tmp_path / "LAVA").mkdir()
+    write_signal_files(tmp_path, "LAVA", 0, *simulated_streams(seeds=(1,),
+                                                               duration_s=10.0)[0])
+    assert cli_main(["audit", str(tmp_path), "--json", str(tmp_path / "a.json"),
+                     "--no-mlflow"]) == 2
+    assert "no run could be audited" in capsys.readouterr().err

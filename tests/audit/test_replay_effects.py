@@ -1,0 +1,149 @@
+"""Replay, manoeuvres, effect fits and the bootstrap, on data with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from audit_helpers import simulated_streams
+from terrain.audit.effects import (EffectSettings, NotIdentifiable, fit_current, fit_yaw,
+                                   predict_current)
+from terrain.audit.frames import MANOEUVRES, classify_manoeuvres, prepare_frame
+from terrain.audit.replay import replay_run
+from terrain.audit.selection import bootstrap_gain, make_units
+from terrain.errors import ConfigError, DataFormatError
+from terrain.run import Run
+from terrain.sim import SimConfig, simulate
+from terrain.vehicles import HUSKY
+
+B = HUSKY.track_m
+
+
+def _run(imu, pro, terrain="ASPHALT", run_id="t/ASPHALT/00", vehicle="husky"):
+    streams = {"wheels": pro.rename(columns={"time": "t_s", "velL": "vel_l", "velR": "vel_r",
+                                             "curL": "cur_l", "curR": "cur_r"})}
+    if imu is not None:
+        streams["imu"] = imu.rename(columns={"time": "t_s"})
+    return Run(run_id=run_id, dataset="t", terrain=terrain, streams=streams, vehicle=vehicle)
+
+
+@pytest.fixture(scope="module")
+def sim_run():
+    res = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="random",
+                             duration_s=60.0, seed=21))
+    return res, _run(res.streams["imu"], res.streams["pro"])
+
+
+def test_replay_reproduces_the_simulator(sim_run):
+    """Replaying a simulated run's own wheel speeds gives back its yaw rate and currents."""
+    res, run = sim_run
+    rep = replay_run(run)
+    truth = res.streams["truth"]
+    keep = (rep.t_s > 2.0) & (rep.t_s < rep.t_s[-1] - 2.0)
+    yaw = np.interp(rep.t_s, truth.time, truth.yaw_rate)
+    assert np.sqrt(np.mean((rep.yaw_rate - yaw)[keep] ** 2)) < 0.02
+    pro = res.streams["pro"]
+    cur = pro[["curL", "curR"]].to_numpy()
+    diff = rep.cur[keep] - cur[keep]
+    assert np.all(np.abs(diff.mean(axis=0)) < 0.1)   # no bias (sensor noise 0.08 A)
+    assert np.abs(diff).mean() < 0.5                 # transients are low-passed
+    assert rep.cur.shape == (len(pro), 2) and np.all(rep.cur >= 0)
+
+
+def test_replay_imposes_measured_speeds_without_clipping():
+    t = np.arange(0.0, 20.0, 0.15)
+    v = np.minimum(t * 0.5, 1.3)                     # above the Husky's 1.0 m/s limit
+    pro = pd.DataFrame({"time": t, "curL": 2.0, "curR": 2.0, "velL": v, "velR": v})
+    rep = replay_run(_run(None, pro))
+    assert rep.v_x[-20:].mean() == pytest.approx(1.3, abs=0.02)
+    assert np.abs(rep.yaw_rate).max() < 1e-6
+
+
+def test_replay_errors():
+    t = np.arange(0.0, 5.0, 0.15)
+    pro = pd.DataFrame({"time": t, "curL": 1.0, "curR": 1.0, "velL": 0.2, "velR": 0.2})
+    with pytest.raises(ConfigError, match="ASPHALT"):
+        replay_run(_run(None, pro, terrain="LAVA"))
+    with pytest.raises(ConfigError, match="skid-steer"):
+        replay_run(_run(None, pro, vehicle="agrimaro"))
+    with pytest.raises(DataFormatError, match="wheel"):
+        replay_run(Run("t/ASPHALT/01", "t", "ASPHALT", {}))
+
+
+def test_manoeuvre_classes():
+    vl = np.array([0.0, 0.5, 0.3, -0.2, 0.5, 0.01])
+    vr = np.array([0.0, 0.5, 0.6, 0.2, 0.52, -0.01])
+    x, v = (vr - vl) / B, (vl + vr) / 2
+    got = [MANOEUVRES[k] for k in classify_manoeuvres(x, v, vl, vr, B)]
+    assert got == ["stop", "straight", "curve", "spin", "straight", "stop"]
+
+
+def _frame_with(run_streams, wz_of, cur_extra=None):
+    """A frame whose gyro is ``wz_of(x)`` and whose currents are the replay's plus extras."""
+    imu, pro = run_streams
+    base = _run(imu, pro)
+    rep = replay_run(base)
+    x = (rep.vel_r - rep.vel_l) / B
+    ti = imu.time.to_numpy()
+    imu = imu.assign(wz=wz_of(np.interp(ti, rep.t_s, x)))
+    cur = rep.cur.copy()
+    if cur_extra is not None:
+        cur += cur_extra(rep, x)
+    pro = pro.assign(curL=cur[:, 0], curR=cur[:, 1])
+    run = _run(imu, pro)
+    return prepare_frame(run, replay_run(run))
+
+
+def test_fit_yaw_recovers_chi_and_bias():
+    streams = simulated_streams(seeds=(41,))[0]
+    frame = _frame_with(streams, lambda x: x / 1.6 + 0.01)
+    p = fit_yaw([frame], ["icr_expansion", "gyro_bias"])
+    assert p.chi == pytest.approx(1.6, rel=0.02)
+    assert p.bias == pytest.approx(0.01, abs=1e-3)
+    assert p.fraction < 0.02
+    with pytest.raises(NotIdentifiable):
+        fit_yaw([frame], ["gyro_bias"], EffectSettings(min_quiet_samples=10 ** 6))
+
+
+def test_fit_current_recovers_offsets_and_turning_term():
+    streams = simulated_streams(seeds=(42,))[0]
+    settings = EffectSettings()
+
+    def extra(rep, x):
+        turn = np.abs(x) >= 0.1
+        moving = np.maximum(np.abs(rep.vel_l), np.abs(rep.vel_r)) >= 0.05
+        g = np.where(turn, np.tanh(np.abs(x) / 0.1) / np.tanh(5.0), 0.0)
+        return np.column_stack([0.8 * g - 0.4 * moving, 0.8 * g + 0.9 * moving])
+    frame = _frame_with(streams, lambda x: x, extra)
+    p = fit_current([frame], ["current_offset", "turning_resistance"], settings)
+    assert p.form == "coulomb"
+    assert p.k_a == pytest.approx(0.8, abs=0.05)
+    assert p.offset_a == pytest.approx(1.3, abs=0.05)
+    assert p.common_a == pytest.approx(0.25, abs=0.05)
+    pred = predict_current(frame, p)
+    m = frame.score_cur
+    assert np.abs(pred[m] - frame.cur[m]).mean() < 0.05
+    with pytest.raises(NotIdentifiable, match="level ground"):
+        fit_current([frame], ["grade_resistance"], settings)
+
+
+def test_bootstrap_gain():
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(1.0, 2.0, 10)
+    gain, ci = bootstrap_gain(ref, 0.25 * ref, ref, rng, 200)
+    assert gain == pytest.approx(0.5)                 # RMSE halves
+    assert ci[0] == pytest.approx(0.5) and ci[1] == pytest.approx(0.5)
+    gain, ci = bootstrap_gain(ref, ref, ref, rng, 200)
+    assert gain == 0.0 and ci == [0.0, 0.0]
+
+
+def test_make_units_cuts_few_runs_into_segments(sim_run):
+    _, run = sim_run
+    frame = prepare_frame(run, replay_run(run))
+    units, segmented = make_units([frame], 4, lambda f: True)
+    assert segmented and len(units) == 4
+    assert sum(u[0].n for u in units) == frame.n
+    assert {u[0].group for u in units} == {f"{frame.run_id}#{k}" for k in range(4)}
+    units, segmented = make_units([frame] * 5, 4, lambda f: True)
+    assert not segmented and len(units) == 5
