@@ -290,11 +290,12 @@ def _general_findings(report: Mapping) -> list[str]:
             out.append(
                 f"- **Stand-still currents**: with both wheels at rest the replay predicts "
                 f"far more current than the robot draws (bias down to {worst.bias:.1f} A, on "
-                f"{', '.join(sorted(set(bad.terrain)))}): the simulated "
-                "contact chatters when a wheel is held at exactly zero speed while the body "
-                "still moves (the slip saturates at -1 and the implicit step loses its "
-                "Jacobian). No effect of the vocabulary covers it; the current effects are "
-                "scored on moving samples.")
+                f"{', '.join(sorted(set(bad.terrain)))}). An earlier cause, contact "
+                "chatter when a wheel is held at exactly zero speed while the body still "
+                "moves (biases down to -11 A), was removed by the simulator's low-speed slip "
+                "regularisation (`terrain.sim.dynamics.SLIP_SPEED_FLOOR_M_S`); the cause of "
+                "what remains is not established. No effect of the vocabulary covers it; the "
+                "current effects are scored on moving samples.")
     return out
 
 

@@ -36,6 +36,12 @@ from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
 SLIDE_SPEED_M_S = 0.02
+#: Low-speed regularisation of the longitudinal slip, m/s: the SAE slip denominator
+#: max(|omega r|, |v|) is floored at this speed, so near standstill the slip is linear in the
+#: speed difference instead of jumping between -1 and 1 (without it a wheel held at zero
+#: speed while the body creeps makes the contact force chatter; found by the audit, see
+#: docs/audit_report.md). Same order as the lateral regularisation speed above.
+SLIP_SPEED_FLOOR_M_S = 0.02
 SOIL_SPEED_M_S = 0.01
 
 
@@ -195,11 +201,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         v_long = a_mat @ vel
         v_lat = b_mat @ vel
         wr = omega[motor_of] * r_w
-        den = np.maximum(np.maximum(np.abs(wr), np.abs(v_long)), 1e-3)
+        den = np.maximum(np.maximum(np.abs(wr), np.abs(v_long)), SLIP_SPEED_FLOOR_M_S)
         slip = np.clip((wr - v_long) / den, -1.0, 1.0)
-        rim_dominant = np.abs(wr) >= np.abs(v_long)
-        ds_dv = np.where(rim_dominant, -1.0 / den,
-                         -wr * np.sign(v_long) / np.maximum(v_long * v_long, 1e-6))
+        body_dominant = np.abs(v_long) >= np.maximum(np.abs(wr), SLIP_SPEED_FLOOR_M_S)
+        ds_dv = np.where(body_dominant,
+                         -wr * np.sign(v_long) / np.maximum(v_long * v_long, 1e-6), -1.0 / den)
         ds_dv = np.where(np.abs((wr - v_long) / den) >= 1.0, 0.0, ds_dv)
         mu, dmu = traction_curve_and_slope(ter.curve, slip)
         f_soil = soil_resistance_coefficient(ter, slip)
@@ -246,7 +252,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         omega_out[k] = omega
         # slip reported consistently with the stored (end-of-step) velocity
         v_long_new = a_mat @ vel
-        den_new = np.maximum(np.maximum(np.abs(wr), np.abs(v_long_new)), 1e-3)
+        den_new = np.maximum(np.maximum(np.abs(wr), np.abs(v_long_new)), SLIP_SPEED_FLOOR_M_S)
         slip_new = np.clip((wr - v_long_new) / den_new, -1.0, 1.0)
         slip_out[k] = np.bincount(motor_of, weights=slip_new, minlength=nm) / counts
         delta_out[k] = delta if geometry.steered else 0.0
