@@ -21,6 +21,7 @@ import pandas as pd
 
 from terrain.audit.core import POOLED, AuditResult
 from terrain.audit.effects import EFFECTS, GROUP_SIGNALS
+from terrain.audit.selection import json_ready
 
 FORMAT = "terrain-audit/1"
 BASELINE = (
@@ -37,24 +38,8 @@ MODELS: Mapping[str, str] = MappingProxyType({
 })
 
 
-def _num(v, nd: int = 5):
-    if v is None:
-        return None
-    if isinstance(v, (bool, np.bool_)):
-        return bool(v)
-    if isinstance(v, (int, np.integer)):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        return None if not np.isfinite(v) else round(float(v), nd)
-    if isinstance(v, Mapping):
-        return {str(k): _num(x, nd) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_num(x, nd) for x in v]
-    return v
-
-
 def _records(frame: pd.DataFrame) -> list[dict]:
-    return [_num(r) for r in frame.to_dict(orient="records")]
+    return [json_ready(r) for r in frame.to_dict(orient="records")]
 
 
 def signal_table(result: AuditResult) -> pd.DataFrame:
@@ -109,7 +94,7 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
                "signals": list(GROUP_SIGNALS[g]), "n_units": len(res.units),
                "segmented": res.segmented, "reference_rmse": res.reference_rmse}
               for (t, g), res in result.groups.items()]
-    return _num({
+    return json_ready({
         "format": FORMAT,
         "source": dict(source or {}),
         "baseline": BASELINE,

@@ -47,6 +47,24 @@ _DEFAULTS: Mapping[str, type] = MappingProxyType(
     {"timing": LagParams, "yaw": YawParams, "current": CurrentParams})
 
 
+def json_ready(v: Any, nd: int = 5) -> Any:
+    """``v`` with numpy scalars turned into Python ones, floats rounded to ``nd`` decimals,
+    non-finite floats to ``None``, recursively through mappings, lists and tuples."""
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return None if not np.isfinite(v) else round(float(v), nd)
+    if isinstance(v, Mapping):
+        return {str(k): json_ready(x, nd) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_ready(x, nd) for x in v]
+    return v
+
+
 @dataclass(frozen=True)
 class SelectionSettings:
     """Settings of the held-out scoring.
@@ -124,26 +142,12 @@ class EffectResult:
 
     def as_dict(self) -> dict:
         """JSON-ready dict."""
-        def num(v):
-            if v is None:
-                return None
-            if isinstance(v, (bool, np.bool_)):
-                return bool(v)
-            if isinstance(v, (int, np.integer)):
-                return int(v)
-            if isinstance(v, (float, np.floating)):
-                return None if not np.isfinite(v) else round(float(v), 5)
-            if isinstance(v, dict):
-                return {k: num(x) for k, x in v.items()}
-            if isinstance(v, (list, tuple)):
-                return [num(x) for x in v]
-            return v
         return {"name": self.name, "terrain": self.terrain, "group": self.group,
-                "params": num(self.params), "ci95": num(self.ci95),
-                "heldout_gain": num(self.heldout_gain),
-                "heldout_gain_ci95": num(self.heldout_gain_ci95),
+                "params": json_ready(self.params), "ci95": json_ready(self.ci95),
+                "heldout_gain": json_ready(self.heldout_gain),
+                "heldout_gain_ci95": json_ready(self.heldout_gain_ci95),
                 "supported": bool(self.supported), "step": self.step,
-                "details": num(self.details), "cause": self.cause, "reason": self.reason,
+                "details": json_ready(self.details), "cause": self.cause, "reason": self.reason,
                 "n_units": self.n_units, "n_runs": self.n_runs}
 
 
