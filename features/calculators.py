@@ -8,7 +8,8 @@ discovery by introspection).
 
 from __future__ import annotations
 
-from typing import Callable
+from types import MappingProxyType
+from typing import Callable, Mapping
 
 import numpy as np
 from scipy import signal
@@ -62,10 +63,10 @@ def mean_abs_diff(x: np.ndarray) -> np.ndarray:
     return np.abs(np.diff(x, axis=-1)).mean(axis=-1)
 
 
-STATISTICS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
+STATISTICS: Mapping[str, Callable[[np.ndarray], np.ndarray]] = MappingProxyType({
     "mean": mean, "std": std, "skewness": skewness, "kurtosis": kurtosis, "rms": rms,
     "min": minimum, "max": maximum, "mean_abs_diff": mean_abs_diff,
-}
+})
 
 
 def band_log_power(x: np.ndarray, rate_hz: float,

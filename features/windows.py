@@ -10,7 +10,8 @@ partition (``partition_s``).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
+from types import MappingProxyType
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -33,13 +34,13 @@ DERIVED_WHEEL_CHANNELS = ("vel_mean", "vel_diff", "cur_sum", "cur_diff", "yaw_ra
 ALL_CHANNELS = IMU_CHANNELS + WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS
 #: Named signal sets. EKF-derived channels (:mod:`features.ekf_signals`): set ``ekf`` alone,
 #: ``all+ekf`` with every raw channel; kept out of ``all`` so the raw default is unchanged.
-SIGNAL_SETS: dict[str, tuple[str, ...]] = {
+SIGNAL_SETS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "imu": IMU_CHANNELS,
     "wheels": WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS,
     "all": ALL_CHANNELS,
     "ekf": EKF_CHANNELS,
     "all+ekf": ALL_CHANNELS + EKF_CHANNELS,
-}
+})
 KNOWN_CHANNELS = ALL_CHANNELS + EKF_CHANNELS
 
 

@@ -14,12 +14,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from typing import Sequence
+from types import MappingProxyType
+from typing import Mapping, Sequence
 
 from terrain.errors import TerrainError
 
 #: subcommand -> pipelines module implementing it
-SUBCOMMANDS: dict[str, str] = {
+SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "cv": "pipelines.cv",
     "train": "pipelines.train",
     "predict": "pipelines.predict",
@@ -28,7 +29,7 @@ SUBCOMMANDS: dict[str, str] = {
     "simulate": "pipelines.simulate",
     "audit": "pipelines.audit",
     "estimate": "pipelines.estimate",
-}
+})
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -27,12 +27,12 @@ from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_trut
 from terrain.estimation.prefilter import robust_noise_std
 from terrain.estimation.runner import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
+from terrain.io.measured import COLUMN_MAPS
 from terrain.run import TIME, Run
 from terrain.sim import Effects, SensorSettings, SimConfig, simulate
 from terrain.vehicles import HUSKY
 
 #: simulator file columns -> canonical names (what terrain.io.measured maps them to)
-_PRO = {"time": TIME, "velL": "vel_l", "velR": "vel_r", "curL": "cur_l", "curR": "cur_r"}
 #: AgriMaRo sensors with a fine wheel encoder (see the module docstring).
 FINE_ENCODER = SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=1e-6,
                               current_quantum_a=0.01)
@@ -44,7 +44,7 @@ def sim_to_run(result, run_id: str = "sim/TEST/00") -> Run:
     streams = {}
     for name, frame in result.streams.items():
         if name == "pro":
-            streams["wheels"] = frame.rename(columns=_PRO)
+            streams["wheels"] = frame.rename(columns=dict(COLUMN_MAPS["pro"]))
         else:
             streams[name] = frame.rename(columns={"time": TIME})
     return Run(run_id=run_id, dataset="sim", terrain=str(result.meta["terrain"]),

@@ -24,6 +24,8 @@ import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
@@ -33,12 +35,13 @@ from terrain.errors import (DataFormatError, EmptyFileError, MissingColumnError,
 from terrain.run import IMU_CHANNELS, TIME, Run
 
 #: file column -> canonical name, per known file kind
-COLUMN_MAPS: dict[str, dict[str, str]] = {
-    "imu": {"time": TIME, **{c: c for c in IMU_CHANNELS}},
-    "pro": {"time": TIME, "velL": "vel_l", "velR": "vel_r", "curL": "cur_l", "curR": "cur_r"},
-}
+COLUMN_MAPS: Mapping[str, Mapping[str, str]] = MappingProxyType({
+    "imu": MappingProxyType({"time": TIME, **{c: c for c in IMU_CHANNELS}}),
+    "pro": MappingProxyType({"time": TIME, "velL": "vel_l", "velR": "vel_r", "curL": "cur_l",
+                             "curR": "cur_r"}),
+})
 #: file prefix -> stream name in the Run
-STREAM_NAMES = {"imu": "imu", "pro": "wheels"}
+STREAM_NAMES: Mapping[str, str] = MappingProxyType({"imu": "imu", "pro": "wheels"})
 #: gyro rates above this (rad/s) are taken for deg/s (2000 deg/s = 34.9 rad/s, a full-scale
 #: MEMS gyro range; no ground robot turns that fast)
 MAX_PLAUSIBLE_RATE_RAD_S = 35.0

@@ -19,6 +19,8 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
@@ -28,16 +30,16 @@ from terrain.io.measured import list_run_files, read_run
 from terrain.run import TIME, Run
 
 #: Citation and license of each dataset (from ``shared/data/README.md``).
-DATASET_INFO: dict[str, dict[str, str]] = {
-    "borealtc": {
+DATASET_INFO: Mapping[str, Mapping[str, str]] = MappingProxyType({
+    "borealtc": MappingProxyType({
         "license": "CC0 1.0",
         "citation": ("D. LaRocque, W. Guimont-Martin, D.-A. Duclos, P. Giguere, F. Pomerleau, "
                      "\"Proprioception Is All You Need: Terrain Classification for Boreal "
                      "Forests\", IROS 2024 (arXiv 2403.16877)"),
         "source": "public repository norlab-ulaval/BorealTC, folder data/borealtc",
         "robot": "Clearpath Husky A200",
-    },
-    "vulpi": {
+    }),
+    "vulpi": MappingProxyType({
         "license": "as redistributed in norlab-ulaval/BorealTC (data/vulpi)",
         "citation": ("F. Vulpi, A. Milella, R. Marani, G. Reina, \"Recurrent and convolutional "
                      "neural networks for deep terrain classification by autonomous robots\", "
@@ -45,10 +47,11 @@ DATASET_INFO: dict[str, dict[str, str]] = {
         "source": ("converted from the authors' MATLAB files to CSV and redistributed in the "
                    "public repository norlab-ulaval/BorealTC, folder data/vulpi"),
         "robot": "Clearpath Husky A200",
-    },
-}
+    }),
+})
 DATASETS = tuple(DATASET_INFO)
-STREAM_FILES = {"imu": "imu.parquet", "wheels": "wheels.parquet"}
+STREAM_FILES: Mapping[str, str] = MappingProxyType({"imu": "imu.parquet",
+                                                   "wheels": "wheels.parquet"})
 RUN_ID = "run_id"
 
 
@@ -234,11 +237,11 @@ class DatasetSpec:
     rate_hz: float
 
 
-DATASET_SPECS = {
+DATASET_SPECS: Mapping[str, DatasetSpec] = MappingProxyType({
     "borealtc": DatasetSpec("borealtc", ("borealtc",), 100.0),
     "vulpi": DatasetSpec("vulpi", ("vulpi",), 50.0),
     "combined": DatasetSpec("combined", ("borealtc", "vulpi"), 100.0),
-}
+})
 
 
 def load_dataset(name: str, data_dir: str | Path | None = None) -> list[Run]:
