@@ -41,6 +41,7 @@ import numba
 import numpy as np
 
 from terrain.errors import CovarianceError, ShapeError
+from terrain.estimation.runner import LoopArrays
 
 #: Kernel names understood by the compiled loop, with their integer code.
 KERNELS: tuple[str, ...] = ("agrimaro", "skid_steer")
@@ -461,38 +462,10 @@ def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_
     return _OK, N
 
 
-@dataclass(frozen=True)
-class FastRun:
-    """Arrays of a compiled run (the same meaning as in
-    :class:`~terrain.estimation.EKFResult`; N steps, n states, m rows).
-
-    Attributes
-    ----------
-    x, P_diag : ndarray, shape (N, n)
-        Posterior states (SI units) and variances.
-    P : ndarray, shape (N, n, n) or None
-        Full covariances when requested.
-    y, S_diag : ndarray, shape (N, m)
-        Innovations and their variances (NaN where the row had no sample).
-    accepted : ndarray of bool, shape (N, m)
-    nis : ndarray, shape (N,)
-    dof : ndarray of int, shape (N,)
-    """
-
-    x: np.ndarray
-    P_diag: np.ndarray
-    P: np.ndarray | None
-    y: np.ndarray
-    S_diag: np.ndarray
-    accepted: np.ndarray
-    nis: np.ndarray
-    dof: np.ndarray
-
-
 def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndarray,
                  P0: np.ndarray, R_diag: np.ndarray, row_sensor: np.ndarray, n_sensors: int,
                  *, thresholds: np.ndarray | None = None,
-                 store_covariance: bool = False) -> FastRun:
+                 store_covariance: bool = False) -> LoopArrays:
     """Run the compiled EKF loop over prepared measurements.
 
     Called by :func:`terrain.estimation.run_filter` after its scheduling (which places the
@@ -524,7 +497,7 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
 
     Returns
     -------
-    FastRun
+    LoopArrays
 
     Raises
     ------
@@ -570,8 +543,8 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
                               f">= 0 at step {step})")
     if status == _GATE_SINGULAR:
         raise CovarianceError(f"innovation covariance S is singular (gate, step {step})")
-    return FastRun(x=xs, P_diag=Pd, P=Ps if store_covariance else None, y=Y, S_diag=Sd,
+    return LoopArrays(x=xs, P_diag=Pd, P=Ps if store_covariance else None, y=Y, S_diag=Sd,
                    accepted=acc, nis=nis, dof=dof)
 
 
-__all__ = ["KERNELS", "FastKernel", "FastRun", "fast_kernel_of", "run_compiled"]
+__all__ = ["KERNELS", "FastKernel", "fast_kernel_of", "run_compiled"]

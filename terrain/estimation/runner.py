@@ -260,22 +260,21 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         Z[steps[:, None], np.asarray(rows)[None, :]] = values
         counts[name] = c
     avail = np.isfinite(Z)
+    row_sensor = np.full(m, -1)            # sensor group of each measurement row
+    for j, rows in enumerate(sensor_rows.values()):
+        row_sensor[list(rows)] = j
     kernel = _fast_kernel(model, engine)
     if kernel is not None:
         from terrain.estimation.fast import run_compiled
 
-        row_sensor = np.full(m, -1)
-        for j, rows in enumerate(sensor_rows.values()):
-            row_sensor[list(rows)] = j
         thresholds = None if gate is None else np.array(
             [gate.threshold(d) for d in range(1, max(map(len, sensor_rows.values())) + 1)])
-        fr = run_compiled(kernel, dts, Z, x, P, R_diag, row_sensor, len(sensor_rows),
-                          thresholds=thresholds, store_covariance=store_covariance)
-        xs, Pd, Ps, Y, Sd, acc, nis, dof = (fr.x, fr.P_diag, fr.P, fr.y, fr.S_diag,
-                                            fr.accepted, fr.nis, fr.dof)
+        loop = run_compiled(kernel, dts, Z, x, P, R_diag, row_sensor, len(sensor_rows),
+                            thresholds=thresholds, store_covariance=store_covariance)
     else:
-        xs, Pd, Ps, Y, Sd, acc, nis, dof = _reference_loop(
-            model, dts, Z, avail, x, P, R_diag, sensor_rows, gate, store_covariance)
+        loop = _reference_loop(model, dts, Z, avail, x, P, R_diag, row_sensor,
+                               len(sensor_rows), gate, store_covariance)
+    acc = loop.accepted
     for j, (name, rows) in enumerate(sensor_rows.items()):
         if name in counts:
             r = list(rows)
@@ -288,10 +287,39 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
             "gate_probability": None if gate is None else gate.probability,
             "n_steps": int(N),
             "rate_hz": float(1.0 / np.median(dts)) if dts.size else float("nan")}
-    return EKFResult(t_s=t_grid, x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=acc, nis=nis,
-                     dof=dof, state_names=tuple(model.state_names),
+    return EKFResult(t_s=t_grid, x=loop.x, P_diag=loop.P_diag, P=loop.P, y=loop.y,
+                     S_diag=loop.S_diag, accepted=acc, nis=loop.nis, dof=loop.dof,
+                     state_names=tuple(model.state_names),
                      measurement_names=tuple(model.measurement_names),
                      sensor_rows=dict(sensor_rows), counts=counts, meta=meta)
+
+
+@dataclass(frozen=True)
+class LoopArrays:
+    """Per-step arrays of one filter loop, NumPy reference or compiled (the same meaning as
+    in :class:`EKFResult`; N steps, n states, m rows).
+
+    Attributes
+    ----------
+    x, P_diag : ndarray, shape (N, n)
+        Posterior states (SI units) and variances.
+    P : ndarray, shape (N, n, n) or None
+        Full covariances when requested.
+    y, S_diag : ndarray, shape (N, m)
+        Innovations and their variances (NaN where the row had no sample).
+    accepted : ndarray of bool, shape (N, m)
+    nis : ndarray, shape (N,)
+    dof : ndarray of int, shape (N,)
+    """
+
+    x: np.ndarray
+    P_diag: np.ndarray
+    P: np.ndarray | None
+    y: np.ndarray
+    S_diag: np.ndarray
+    accepted: np.ndarray
+    nis: np.ndarray
+    dof: np.ndarray
 
 
 def _fast_kernel(model: StateSpaceModel, engine: str) -> Any:
@@ -318,25 +346,20 @@ def _fast_kernel(model: StateSpaceModel, engine: str) -> Any:
 
 
 def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avail: np.ndarray,
-                    x: np.ndarray, P: np.ndarray, R_diag: np.ndarray,
-                    sensor_rows: Mapping[str, tuple[int, ...]], gate: Gate | None,
-                    store_covariance: bool) -> tuple:
+                    x: np.ndarray, P: np.ndarray, R_diag: np.ndarray, row_sensor: np.ndarray,
+                    n_sensors: int, gate: Gate | None, store_covariance: bool) -> LoopArrays:
     """The NumPy reference loop of :func:`run_filter` (predict, then :func:`correct` with the
-    rows available at each step); returns ``(x, P_diag, P, y, S_diag, accepted, nis, dof)``
-    arrays as in :class:`EKFResult`."""
+    rows available at each step)."""
     N, m = Z.shape
     n = x.shape[0]
     weights = np.left_shift(np.int64(1), np.arange(m, dtype=np.int64))
     keys = (avail.astype(np.int64) * weights).sum(axis=1)
-    row_sensor = np.full(m, -1)
-    for j, rows in enumerate(sensor_rows.values()):
-        row_sensor[list(rows)] = j
     cache: dict[int, tuple] = {}
     for key in np.unique(keys):
         if key == 0:
             continue
         rows = np.flatnonzero(avail[np.argmax(keys == key)])
-        groups = [np.flatnonzero(row_sensor[rows] == j) for j in range(len(sensor_rows))]
+        groups = [np.flatnonzero(row_sensor[rows] == j) for j in range(n_sensors)]
         full = rows.size == m          # every row present: no fancy indexing in the loop
         cache[int(key)] = (None if full else rows, R_diag[rows], [g for g in groups if g.size])
 
@@ -384,4 +407,4 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
         Pd[k] = P.diagonal()
         if Ps is not None:
             Ps[k] = P
-    return xs, Pd, Ps, Y, Sd, acc, nis, dof
+    return LoopArrays(x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=acc, nis=nis, dof=dof)
