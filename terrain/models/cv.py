@@ -18,6 +18,7 @@ then measure generalisation to an unseen stretch of the same run, which the repo
 
 from __future__ import annotations
 
+import inspect
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Iterator, Sequence
@@ -174,68 +175,123 @@ class CVReport:
                 for c in cols}
 
 
+def fit_with_groups(estimator, X, y, groups, always: bool = False):
+    """Fit, passing ``groups`` to estimators whose ``fit`` takes it (searches, ensembles, CNNs).
+
+    Parameters
+    ----------
+    estimator : estimator
+        Unfitted scikit-learn estimator.
+    X : array-like
+        ``(n_windows, ...)`` its input.
+    y, groups : numpy.ndarray
+        ``(n_windows,)`` labels and split units (runs) of the training windows.
+    always : bool
+        Pass ``groups`` even if ``fit`` does not name it (``GridSearchCV.fit(**params)``).
+
+    Returns
+    -------
+    estimator
+        The fitted estimator.
+    """
+    if groups is not None and (always
+                               or "groups" in inspect.signature(estimator.fit).parameters):
+        return estimator.fit(X, y, groups=groups)
+    return estimator.fit(X, y)
+
+
+def _fold(estimator, X, y, groups, train, test, classes, search):
+    """Fit on ``train``, predict ``test``; returns (predictions, probabilities or None, fit s)."""
+    t0 = time.perf_counter()
+    est = fit_with_groups(estimator, X[train], y[train], groups[train], always=search)
+    fit_s = time.perf_counter() - t0
+    proba = None
+    if hasattr(est, "predict_proba"):
+        try:
+            raw = est.predict_proba(X[test])
+        except AttributeError:  # e.g. an SVC without probability estimates
+            raw = None
+        if raw is not None:
+            proba = np.zeros((len(test), len(classes)))
+            for j, c in enumerate(est.classes_):
+                proba[:, classes.index(str(c))] = raw[:, j]
+    p = np.asarray(est.predict(X[test])).astype(str)
+    best = getattr(est, "best_params_", None)
+    return p, proba, fit_s, best
+
+
 def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y: np.ndarray,
                    groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.ndarray,
                    t_end_s: np.ndarray, protocol: str = "grouped",
                    seeds: Sequence[int] = (0, 1, 2), n_splits: int = 5,
-                   search: bool = False, progress: bool = False) -> CVReport:
-    """Cross-validate a classifier on window features.
+                   search: bool = False, progress: bool = False,
+                   n_jobs: int | None = None) -> CVReport:
+    """Cross-validate a classifier on window features or raw windows.
+
+    Folds of every seed are independent tasks run through :class:`joblib.Parallel`, so the
+    active joblib backend (``joblib.parallel_config(backend="dask")`` etc.) decides where
+    they run.
 
     Parameters
     ----------
     estimator_factory : callable
-        ``seed -> estimator``; a fresh estimator per fold (``clone`` is applied too). With
-        ``search=True`` it must return a search object whose ``fit`` accepts ``groups``.
+        ``seed -> estimator``; a fresh estimator per fold (``clone`` is applied too).
+        Estimators whose ``fit`` takes ``groups`` (a grouped search, the ensemble, the CNNs)
+        receive the training split units.
     X : numpy.ndarray
-        ``(n_windows, n_features)`` (or any array the estimator accepts, indexed on axis 0).
+        ``(n_windows, n_features)`` or raw windows ``(n_windows, n_channels, n_samples)``.
     y, groups, run_ids, t_start_s, t_end_s : numpy.ndarray
         ``(n_windows,)`` label, split unit, run id and window bounds (s).
     protocol : {"grouped", "loro", "paper"}
     seeds : sequence of int
+        Split (and model) seeds.
     n_splits : int
+        Folds (not used by ``loro``).
     search : bool
-        Pass the training groups to ``fit`` (nested, grouped hyperparameter search).
+        Always pass the training groups to ``fit`` (nested, grouped hyperparameter search).
     progress : bool
-        Show a progress bar over folds.
+        Show a progress bar over folds (sequential runs only).
+    n_jobs : int or None
+        joblib workers over folds (``None``: sequential unless a backend context says).
 
     Returns
     -------
     CVReport
+        ``predictions`` carries ``proba_<CLASS>`` columns when the model gives
+        probabilities.
     """
+    from joblib import Parallel, delayed
+
     y = np.asarray(y).astype(str)
     classes = sorted(np.unique(y))
-    rows, preds = [], []
-    total = len(seeds) * (len(np.unique(groups)) if protocol == "loro" else n_splits)
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-        bar = tqdm(total=total, desc=f"cv ({protocol})", unit="fold")
+    tasks = []
     for seed in seeds:
         for fold, (train, test) in enumerate(iter_splits(protocol, y, groups, seed, n_splits)):
             if np.intersect1d(groups[train], groups[test]).size:
                 raise RuntimeError("a split unit is on both sides of a split")  # invariant
-            est = clone(estimator_factory(seed))
-            t0 = time.perf_counter()
-            if search:
-                est.fit(X[train], y[train], groups=groups[train])
-            else:
-                est.fit(X[train], y[train])
-            fit_s = time.perf_counter() - t0
-            p = np.asarray(est.predict(X[test])).astype(str)
-            m = window_metrics(y[test], p, classes)
-            m["run_majority_accuracy"] = run_majority_accuracy(y[test], p, groups[test])
-            row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)), "fit_s": fit_s}
-            if search and hasattr(est, "best_params_"):
-                row.update({f"best_{k}": v for k, v in est.best_params_.items()})
-            rows.append(row)
-            preds.append(pd.DataFrame({
-                "seed": seed, "fold": fold, "run": run_ids[test], "group": groups[test],
-                "t_start_s": t_start_s[test], "t_end_s": t_end_s[test], "true": y[test],
-                "predicted": p}))
-            if bar is not None:
-                bar.update()
-    if bar is not None:
-        bar.close()
+            tasks.append((seed, fold, train, test))
+    jobs = (delayed(_fold)(clone(estimator_factory(seed)), X, y, groups, train, test, classes,
+                                    search) for seed, _, train, test in tasks)
+    if progress and n_jobs in (None, 1):
+        from tqdm.auto import tqdm
+        jobs = tqdm(jobs, total=len(tasks), desc=f"cv ({protocol})", unit="fold")
+    results = Parallel(n_jobs=n_jobs)(jobs)
+    rows, preds = [], []
+    for (seed, fold, train, test), (p, proba, fit_s, best) in zip(tasks, results):
+        m = window_metrics(y[test], p, classes)
+        m["run_majority_accuracy"] = run_majority_accuracy(y[test], p, groups[test])
+        row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)), "fit_s": fit_s}
+        if best:
+            row.update({f"best_{k}": v for k, v in best.items()})
+        rows.append(row)
+        frame = pd.DataFrame({
+            "seed": seed, "fold": fold, "run": run_ids[test], "group": groups[test],
+            "t_start_s": t_start_s[test], "t_end_s": t_end_s[test], "true": y[test],
+            "predicted": p})
+        if proba is not None:
+            for j, c in enumerate(classes):
+                frame[f"proba_{c}"] = proba[:, j]
+        preds.append(frame)
     predictions = pd.concat(preds, ignore_index=True)
     pooled = []
     for seed, g in predictions.groupby("seed"):

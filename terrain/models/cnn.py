@@ -1,0 +1,454 @@
+"""Convolutional terrain classifiers on raw windows, as scikit-learn estimators.
+
+Two networks, both trained with skorch (a well-kept scikit-learn wrapper of PyTorch) and
+exposed as plain scikit-learn classifiers (``fit / predict / predict_proba / get_params``)
+that take the raw windows of :mod:`features.windows`, ``X`` of shape
+``(n_windows, n_channels, n_samples)`` (a 2-D ``X`` is read as one channel):
+
+* :class:`RawCNNClassifier`: a small 1-D CNN over time on the standardised channels.
+* :class:`SpectrogramCNNClassifier`: the multichannel-spectrogram CNN of BorealTC
+  (LaRocque et al., "Proprioception Is All You Need: Terrain Classification for Boreal
+  Forests", IROS 2024) and Vulpi et al. (J. Terramechanics 2021): the short-time spectrum of
+  every channel is one image channel of a 2-D CNN.
+
+Low-rate wheel channels. BorealTC computes each sensor's spectrogram at its native rate and
+stretches the frequency axis of the low-rate wheel spectrogram (repeating its rows) to the
+IMU spectrogram's size. Here every channel is already on the aligned clock
+(:func:`terrain.io.align.align_streams`), so all spectra share one time-frequency grid by
+construction; bins of a channel above the Nyquist frequency of its native rate
+(``band_limits_hz``, e.g. 3.25 Hz for the 6.5 Hz BorealTC wheel stream) hold only
+interpolation artefacts and are set to zero after standardisation instead of being filled
+with repeated rows. The wheel information (level and slow variations) stays in the low bins,
+at the true frequency instead of a stretched one.
+
+Leakage and reproducibility: the per-channel (raw) or per-channel-and-bin (spectrogram)
+standardisation is computed in ``fit`` from the training windows only. skorch's default
+random validation split is disabled: training runs a fixed epoch budget, or, with
+``early_stopping=True``, validates on whole runs held out of the training data given to
+``fit`` (``groups`` required). Weights, shuffling and dropout draw from ``random_state`` in
+a forked torch RNG, so CPU training is deterministic; a CUDA device is used when present
+(``device="auto"``) and nothing requires one.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.model_selection import StratifiedGroupKFold
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from terrain.errors import ConfigError
+
+#: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
+POWER_FLOOR = 1e-10
+
+
+def as_windows(X) -> np.ndarray:
+    """Windows as float32 ``(n_windows, n_channels, n_samples)``; a 2-D array is one channel.
+
+    Parameters
+    ----------
+    X : array-like
+        ``(n_windows, n_channels, n_samples)`` or ``(n_windows, n_samples)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32, 3-D.
+    """
+    X = np.asarray(X, dtype=np.float32)
+    return X[:, None, :] if X.ndim == 2 else X
+
+
+def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per-channel log power short-time spectra (Hann window, one-sided).
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` signals (SI units of each channel).
+    rate_hz : float
+        Sampling rate, Hz.
+    segment_s : float
+        STFT segment length, s (clipped to the window length).
+    hop_s : float
+        Hop between segments, s.
+
+    Returns
+    -------
+    spectra : numpy.ndarray
+        ``(n_windows, n_channels, n_freqs, n_frames)`` float32, ``log10(|STFT|^2 + 1e-10)``.
+    freqs_hz : numpy.ndarray
+        ``(n_freqs,)`` bin frequencies, Hz.
+    """
+    n_samples = X.shape[-1]
+    seg = int(np.clip(round(segment_s * rate_hz), 2, n_samples))
+    hop = max(1, int(round(hop_s * rate_hz)))
+    frames = np.lib.stride_tricks.sliding_window_view(X, seg, axis=-1)[..., ::hop, :]
+    spec = np.fft.rfft(frames * np.hanning(seg).astype(np.float32), axis=-1)
+    power = np.log10(np.abs(spec) ** 2 + POWER_FLOOR).astype(np.float32)
+    return np.swapaxes(power, -1, -2), np.fft.rfftfreq(seg, 1.0 / rate_hz)
+
+
+def _torch_modules():
+    """The torch network classes (imported lazily so the module imports without torch)."""
+    import torch
+    from torch import nn
+
+    class Raw1dNet(nn.Module):
+        """Conv1d(k7, stride 2)-BN-ReLU-pool, Conv1d(k5)-BN-ReLU-pool, Conv1d(k3)-BN-ReLU,
+        global average, dropout, linear."""
+
+        def __init__(self, n_channels: int = 1, n_classes: int = 2, width: int = 32,
+                     dropout: float = 0.3) -> None:
+            super().__init__()
+
+            def block(cin, cout, k, stride, pool):
+                layers = [nn.Conv1d(cin, cout, k, stride=stride, padding=k // 2),
+                          nn.BatchNorm1d(cout), nn.ReLU()]
+                return layers + ([nn.MaxPool1d(2, ceil_mode=True)] if pool else [])
+
+            self.body = nn.Sequential(*block(n_channels, width, 7, 2, True),
+                                      *block(width, width, 5, 1, True),
+                                      *block(width, 2 * width, 3, 1, False),
+                                      nn.AdaptiveAvgPool1d(1), nn.Flatten(), nn.Dropout(dropout))
+            self.head = nn.Linear(2 * width, n_classes)
+
+        def forward(self, X):
+            return self.head(self.body(X))
+
+    class Spectrogram2dNet(nn.Module):
+        """Conv2d(3x3)-BN-ReLU-pool, Conv2d(3x3)-BN-ReLU, global average, dropout, linear."""
+
+        def __init__(self, n_channels: int = 1, n_classes: int = 2, width: int = 32,
+                     dropout: float = 0.3) -> None:
+            super().__init__()
+            self.body = nn.Sequential(
+                nn.Conv2d(n_channels, width, 3, padding=1), nn.BatchNorm2d(width), nn.ReLU(),
+                nn.MaxPool2d(2, ceil_mode=True),
+                nn.Conv2d(width, 2 * width, 3, padding=1), nn.BatchNorm2d(2 * width),
+                nn.ReLU(), nn.AdaptiveAvgPool2d(1), nn.Flatten(), nn.Dropout(dropout))
+            self.head = nn.Linear(2 * width, n_classes)
+
+        def forward(self, X):
+            return self.head(self.body(X))
+
+    return torch, Raw1dNet, Spectrogram2dNet
+
+
+class _WindowCNN(ClassifierMixin, BaseEstimator):
+    """Shared training logic of the window CNNs (see the module docstring)."""
+
+    def _inputs(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _module(self, n_inputs: int, n_classes: int):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _standardise(self, Z: np.ndarray) -> np.ndarray:
+        Z = (Z - self.mean_) / self.scale_
+        if getattr(self, "mask_", None) is not None:
+            Z = Z * self.mask_
+        return Z.astype(np.float32)
+
+    def _fit_scaling(self, Z: np.ndarray) -> None:
+        axes = (0,) + tuple(range(2 + self._per_bin, Z.ndim))
+        self.mean_ = Z.mean(axis=axes, keepdims=True)[0]
+        std = Z.std(axis=axes, keepdims=True)[0]
+        self.scale_ = np.where(std > 1e-8, std, 1.0).astype(np.float32)
+
+    def _device(self) -> str:
+        import torch
+        if self.device == "auto":
+            return "cuda" if torch.cuda.is_available() else "cpu"
+        return self.device
+
+    def fit(self, X, y, groups=None):
+        """Standardise on the training windows and train the network.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, n_channels, n_samples)`` raw windows (or 2-D: one channel).
+        y : array-like
+            ``(n_windows,)`` terrain labels.
+        groups : array-like or None
+            ``(n_windows,)`` run ids; required with ``early_stopping=True`` (the validation
+            runs are held out whole).
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ConfigError
+            ``early_stopping=True`` without ``groups``.
+        """
+        from skorch import NeuralNetClassifier
+        from skorch.callbacks import EarlyStopping
+        from skorch.dataset import Dataset
+        from skorch.helper import predefined_split
+
+        X = validate_data(self, X, accept_sparse=False, ensure_2d=False, allow_nd=True,
+                          dtype=np.float32, reset=True)
+        if X.ndim not in (2, 3):
+            raise ValueError(f"expected 2-D or 3-D windows, got {X.ndim}-D")
+        check_classification_targets(y)
+        self.classes_, y_idx = np.unique(np.asarray(y), return_inverse=True)
+        if len(self.classes_) < 2:
+            raise ValueError("need at least 2 classes, got 1")
+        torch, _, _ = _torch_modules()
+        Z = self._inputs(as_windows(X))
+        self._fit_scaling(Z)
+        self.mask_ = self._band_mask(X.shape[-1], Z.shape)
+        Z = self._standardise(Z)
+        y_idx = y_idx.astype(np.int64)
+        counts = np.bincount(y_idx, minlength=len(self.classes_)).astype(np.float32)
+        weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
+        train_split, callbacks, fit_idx = None, [], np.arange(len(Z))
+        if self.early_stopping:
+            if groups is None:
+                raise ConfigError("early_stopping needs the run of every window (groups)")
+            inner = StratifiedGroupKFold(self.validation_splits, shuffle=True,
+                                         random_state=self.random_state)
+            fit_idx, val_idx = next(inner.split(Z, y_idx, np.asarray(groups)))
+            train_split = predefined_split(Dataset(Z[val_idx], y_idx[val_idx]))
+            callbacks = [EarlyStopping(patience=self.patience, load_best=True)]
+        threads = torch.get_num_threads()
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(self.random_state)
+            if self.n_threads:
+                torch.set_num_threads(self.n_threads)
+            try:
+                gen = torch.Generator().manual_seed(self.random_state)
+                self.net_ = NeuralNetClassifier(
+                    self._module(Z.shape[1], len(self.classes_)),
+                    criterion=torch.nn.CrossEntropyLoss,
+                    criterion__weight=torch.as_tensor(weight),
+                    optimizer=torch.optim.AdamW, lr=self.lr,
+                    optimizer__weight_decay=self.weight_decay,
+                    max_epochs=self.max_epochs, batch_size=self.batch_size,
+                    iterator_train__shuffle=True, iterator_train__generator=gen,
+                    train_split=train_split, callbacks=callbacks, device=self._device(),
+                    verbose=0, classes=np.arange(len(self.classes_)))
+                self.net_.fit(Z[fit_idx], y_idx[fit_idx])
+            finally:
+                torch.set_num_threads(threads)
+        self.n_epochs_ = len(self.net_.history)
+        return self
+
+    def predict_proba(self, X) -> np.ndarray:
+        """Class probabilities.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, n_channels, n_samples)`` raw windows (or 2-D: one channel).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+        """
+        check_is_fitted(self, "net_")
+        X = validate_data(self, X, accept_sparse=False, ensure_2d=False, allow_nd=True,
+                          dtype=np.float32, reset=False)
+        Z = self._standardise(self._inputs(as_windows(X)))
+        return self.net_.predict_proba(Z).astype(np.float64)
+
+    def predict(self, X) -> np.ndarray:
+        """Most probable terrain of each window.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, n_channels, n_samples)`` raw windows (or 2-D: one channel).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows,)`` labels from ``classes_``.
+        """
+        return self.classes_[self.predict_proba(X).argmax(axis=1)]
+
+    def _band_mask(self, n_samples: int, shape) -> np.ndarray | None:
+        return None
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.non_deterministic = False
+        return tags
+
+
+
+
+class RawCNNClassifier(_WindowCNN):
+    """1-D CNN over the raw, per-channel standardised window signals.
+
+    Parameters
+    ----------
+    max_epochs : int
+        Fixed epoch budget (upper bound with ``early_stopping``).
+    lr : float
+        AdamW learning rate.
+    weight_decay : float
+        AdamW decoupled weight decay.
+    batch_size : int
+        Windows per minibatch.
+    width : int
+        Filters of the first convolution (later layers use twice as many).
+    dropout : float
+        Dropout before the linear head, in [0, 1).
+    early_stopping : bool
+        Stop on the validation loss of whole held-out runs (needs ``groups`` in ``fit``).
+    validation_splits : int
+        ``1 / validation_splits`` of the training runs are held out for early stopping.
+    patience : int
+        Epochs without validation improvement before stopping.
+    random_state : int
+        Seed of weights, shuffling, dropout and the validation split.
+    device : str
+        ``"auto"`` (CUDA when available, else CPU), ``"cpu"`` or a torch device string.
+    n_threads : int or None
+        torch CPU threads during ``fit`` (restored afterwards); ``None`` keeps torch's.
+    Attributes
+    ----------
+    classes_ : numpy.ndarray
+        Terrain labels, in the order of ``predict_proba``.
+    mean_, scale_ : numpy.ndarray
+        ``(n_channels, 1)`` training-window mean and standard deviation per channel.
+    net_ : skorch.NeuralNetClassifier
+        The trained network.
+    n_epochs_ : int
+        Epochs run.
+    """
+
+    _per_bin = 0
+
+    def __init__(self, max_epochs: int = 30, lr: float = 3e-3, weight_decay: float = 1e-2,
+                 batch_size: int = 64, width: int = 32, dropout: float = 0.3,
+                 early_stopping: bool = False, validation_splits: int = 5, patience: int = 5,
+                 random_state: int = 0, device: str = "auto", n_threads: int | None = None
+                 ) -> None:
+        self.max_epochs = max_epochs
+        self.lr = lr
+        self.weight_decay = weight_decay
+        self.batch_size = batch_size
+        self.width = width
+        self.dropout = dropout
+        self.early_stopping = early_stopping
+        self.validation_splits = validation_splits
+        self.patience = patience
+        self.random_state = random_state
+        self.device = device
+        self.n_threads = n_threads
+
+    def _inputs(self, X: np.ndarray) -> np.ndarray:
+        return X
+
+    def _module(self, n_inputs: int, n_classes: int):
+        _, Raw1dNet, _ = _torch_modules()
+        return Raw1dNet(n_inputs, n_classes, self.width, self.dropout)
+
+
+class SpectrogramCNNClassifier(_WindowCNN):
+    """2-D CNN on per-channel log short-time spectra stacked as image channels (BorealTC).
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sampling rate of the windows, Hz.
+    segment_s : float
+        STFT segment length, s.
+    hop_s : float
+        STFT hop, s.
+    band_limits_hz : tuple of float or None
+        ``(n_channels,)`` highest meaningful frequency of each channel, Hz (the Nyquist
+        frequency of its native sensor rate; ``inf`` for channels sampled at ``rate_hz``).
+        Bins above it are zeroed after standardisation. ``None``: no limit.
+    max_epochs : int
+        Fixed epoch budget (upper bound with ``early_stopping``).
+    lr : float
+        AdamW learning rate.
+    weight_decay : float
+        AdamW decoupled weight decay.
+    batch_size : int
+        Windows per minibatch.
+    width : int
+        Filters of the first convolution (later layers use twice as many).
+    dropout : float
+        Dropout before the linear head, in [0, 1).
+    early_stopping : bool
+        Stop on the validation loss of whole held-out runs (needs ``groups`` in ``fit``).
+    validation_splits : int
+        ``1 / validation_splits`` of the training runs are held out for early stopping.
+    patience : int
+        Epochs without validation improvement before stopping.
+    random_state : int
+        Seed of weights, shuffling, dropout and the validation split.
+    device : str
+        ``"auto"`` (CUDA when available, else CPU), ``"cpu"`` or a torch device string.
+    n_threads : int or None
+        torch CPU threads during ``fit`` (restored afterwards); ``None`` keeps torch's.
+    Attributes
+    ----------
+    classes_ : numpy.ndarray
+        Terrain labels, in the order of ``predict_proba``.
+    mean_, scale_ : numpy.ndarray
+        ``(n_channels, n_freqs, 1)`` training mean and standard deviation of every
+        channel's log power per frequency bin.
+    freqs_hz_ : numpy.ndarray
+        ``(n_freqs,)`` bin frequencies, Hz.
+    net_ : skorch.NeuralNetClassifier
+        The trained network.
+    n_epochs_ : int
+        Epochs run.
+    """
+
+    _per_bin = 1
+
+    def __init__(self, rate_hz: float = 100.0, segment_s: float = 0.5, hop_s: float = 0.1,
+                 band_limits_hz: Sequence[float] | None = None, max_epochs: int = 30,
+                 lr: float = 3e-3, weight_decay: float = 1e-2, batch_size: int = 64,
+                 width: int = 32, dropout: float = 0.3, early_stopping: bool = False,
+                 validation_splits: int = 5, patience: int = 5, random_state: int = 0,
+                 device: str = "auto", n_threads: int | None = None) -> None:
+        self.rate_hz = rate_hz
+        self.segment_s = segment_s
+        self.hop_s = hop_s
+        self.band_limits_hz = band_limits_hz
+        self.max_epochs = max_epochs
+        self.lr = lr
+        self.weight_decay = weight_decay
+        self.batch_size = batch_size
+        self.width = width
+        self.dropout = dropout
+        self.early_stopping = early_stopping
+        self.validation_splits = validation_splits
+        self.patience = patience
+        self.random_state = random_state
+        self.device = device
+        self.n_threads = n_threads
+
+    def _inputs(self, X: np.ndarray) -> np.ndarray:
+        return log_spectrogram(X, self.rate_hz, self.segment_s, self.hop_s)[0]
+
+    def _band_mask(self, n_samples: int, shape) -> np.ndarray | None:
+        seg = int(np.clip(round(self.segment_s * self.rate_hz), 2, n_samples))
+        self.freqs_hz_ = np.fft.rfftfreq(seg, 1.0 / self.rate_hz)
+        if self.band_limits_hz is None:
+            return None
+        limits = np.asarray(self.band_limits_hz, dtype=float)
+        if limits.shape != (shape[1],):
+            raise ConfigError(f"band_limits_hz has {limits.size} entries for {shape[1]} "
+                              "channels")
+        return (self.freqs_hz_[None, :] <= limits[:, None]).astype(np.float32)[..., None]
+
+    def _module(self, n_inputs: int, n_classes: int):
+        _, _, Spectrogram2dNet = _torch_modules()
+        return Spectrogram2dNet(n_inputs, n_classes, self.width, self.dropout)

@@ -1,0 +1,181 @@
+"""Soft-voting ensemble of terrain classifiers with weights chosen on held-out training runs.
+
+The ensemble averages the members' class probabilities with non-negative weights summing
+to 1. With ``weights=None`` and the run of every training window given to ``fit``, the
+weights are chosen on a grid of the simplex (step ``weight_step``) by the log loss of the
+members' probabilities on whole runs held out of the training data (one
+``StratifiedGroupKFold(inner_splits)`` split): nothing outside the training fold is seen.
+The members are then refitted on every training window. Without ``groups`` the weights are
+equal.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Sequence
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin, clone
+from sklearn.metrics import log_loss
+from sklearn.model_selection import StratifiedGroupKFold
+from sklearn.utils.validation import check_is_fitted
+
+from terrain.models.cv import fit_with_groups
+
+
+def simplex_grid(n_members: int, step: float) -> np.ndarray:
+    """Every weight vector on the simplex with coordinates in multiples of ``step``.
+
+    Parameters
+    ----------
+    n_members : int
+        Number of weights.
+    step : float
+        Grid step, in (0, 1]; ``1 / step`` must be an integer.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_points, n_members)`` non-negative rows summing to 1.
+    """
+    n = int(round(1.0 / step))
+    rows = [c for c in itertools.product(range(n + 1), repeat=n_members) if sum(c) == n]
+    return np.asarray(rows, dtype=float) / n
+
+
+def aligned_proba(estimator, X, classes: np.ndarray) -> np.ndarray:
+    """``predict_proba`` of a fitted member with columns aligned to ``classes``.
+
+    Parameters
+    ----------
+    estimator : classifier
+        Fitted, with ``classes_`` and ``predict_proba``.
+    X : array-like
+        Its input (raw windows ``(n_windows, n_channels, n_samples)``).
+    classes : numpy.ndarray
+        ``(n_classes,)`` target column order; classes the member never saw get 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_classes)``.
+    """
+    proba = estimator.predict_proba(X)
+    out = np.zeros((proba.shape[0], len(classes)))
+    index = {c: i for i, c in enumerate(classes)}
+    for j, c in enumerate(estimator.classes_):
+        out[:, index[c]] = proba[:, j]
+    return out
+
+
+class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
+    """Weighted average of member class probabilities.
+
+    Parameters
+    ----------
+    estimators : list of (str, estimator)
+        Named members, each with ``predict_proba`` on the same input.
+    weights : sequence of float or None
+        Fixed weights (normalised to sum 1); ``None``: chosen in ``fit`` (see module).
+    weight_step : float
+        Step of the simplex grid searched for the weights.
+    inner_splits : int
+        ``1 / inner_splits`` of the training runs are held out to choose the weights.
+    random_state : int
+        Seed of the inner run split.
+
+    Attributes
+    ----------
+    classes_ : numpy.ndarray
+        Labels, in the order of ``predict_proba``.
+    estimators_ : list of estimator
+        Members fitted on every training window.
+    weights_ : numpy.ndarray
+        ``(n_members,)`` weights used.
+    weight_scores_ : dict
+        Held-out log loss of every weight vector tried (empty with fixed weights).
+    """
+
+    def __init__(self, estimators: Sequence[tuple[str, object]], weights=None,
+                 weight_step: float = 0.25, inner_splits: int = 4,
+                 random_state: int = 0) -> None:
+        self.estimators = estimators
+        self.weights = weights
+        self.weight_step = weight_step
+        self.inner_splits = inner_splits
+        self.random_state = random_state
+
+    def fit(self, X, y, groups=None):
+        """Choose the weights on held-out training runs, then fit every member.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` members' input (raw windows).
+        y : array-like
+            ``(n_windows,)`` labels.
+        groups : array-like or None
+            ``(n_windows,)`` run of every window (needed to choose the weights).
+
+        Returns
+        -------
+        self
+        """
+        y = np.asarray(y)
+        self.classes_ = np.unique(y)
+        n = len(self.estimators)
+        self.weight_scores_ = {}
+        if self.weights is not None:
+            w = np.asarray(self.weights, dtype=float)
+            self.weights_ = w / w.sum()
+        elif groups is None:
+            self.weights_ = np.full(n, 1.0 / n)
+        else:
+            groups = np.asarray(groups)
+            inner = StratifiedGroupKFold(self.inner_splits, shuffle=True,
+                                         random_state=self.random_state)
+            tr, va = next(inner.split(X, y, groups))
+            probas = [aligned_proba(fit_with_groups(clone(est), X[tr], y[tr], groups[tr]), X[va],
+                                    self.classes_) for _, est in self.estimators]
+            best, best_w = np.inf, None
+            for w in simplex_grid(n, self.weight_step):
+                p = sum(wi * pi for wi, pi in zip(w, probas))
+                score = log_loss(y[va], np.clip(p, 1e-12, 1.0), labels=self.classes_)
+                self.weight_scores_[tuple(np.round(w, 4))] = float(score)
+                if score < best - 1e-12:
+                    best, best_w = score, w
+            self.weights_ = best_w
+        self.estimators_ = [fit_with_groups(clone(est), X, y, groups) for _, est in self.estimators]
+        return self
+
+    def predict_proba(self, X) -> np.ndarray:
+        """Weighted mean of the members' probabilities.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` members' input.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+        """
+        check_is_fitted(self, "estimators_")
+        return sum(w * aligned_proba(est, X, self.classes_)
+                   for w, est in zip(self.weights_, self.estimators_))
+
+    def predict(self, X) -> np.ndarray:
+        """Label of the highest mean probability.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` members' input.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows,)`` labels.
+        """
+        return self.classes_[self.predict_proba(X).argmax(axis=1)]
