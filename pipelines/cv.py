@@ -1,4 +1,4 @@
-"""Cross-validate the SVM terrain classifier on a shipped dataset (MLflow-tracked).
+"""Cross-validate a terrain classifier (--model, default SVM) on a shipped dataset (MLflow-tracked).
 
 Headline protocol: StratifiedGroupKFold(5) grouped by run, 3 seeds. --protocol paper runs the
 published BorealTC/Vulpi protocol (5 s partitions, StratifiedKFold(5, shuffle, random_state=21),
@@ -15,6 +15,7 @@ from terrain.io.shipped import DATASET_SPECS
 from terrain.models.cv import PROTOCOLS
 from terrain.models.experiment import ExperimentConfig, ExperimentResult, run_cv
 from terrain.models.metrics import plot_confusion
+from terrain.models.registry import MODELS
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-cv"
@@ -24,6 +25,8 @@ HEADLINE = ("accuracy", "balanced_accuracy", "macro_f1", "run_majority_accuracy"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain cv``."""
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
+    parser.add_argument("--model", choices=MODELS, default="svm",
+                        help="classifier (default: svm; see README 'Model comparison')")
     parser.add_argument("--signals", nargs="+", default=["all"],
                         help="imu, wheels, all, ekf (EKF-derived channels), all+ekf, or "
                              "channel names (default: all)")
@@ -49,7 +52,7 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
     return ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
                             window_s=args.window_s, hop_s=args.hop_s, protocol=args.protocol,
                             seeds=tuple(seeds), search=args.search,
-                            steady_only=args.steady_only)
+                            steady_only=args.steady_only, model=args.model)
 
 
 def result_dict(result: ExperimentResult) -> dict:
@@ -72,7 +75,7 @@ def result_dict(result: ExperimentResult) -> dict:
 def main(args: argparse.Namespace) -> int:
     """Run the CV, log it to MLflow, print the summary."""
     config = config_from_args(args)
-    name = f"{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
+    name = f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
         result = run_cv(config, progress=not args.no_progress)
         rep = result.report
@@ -91,7 +94,7 @@ def main(args: argparse.Namespace) -> int:
         report["mlflow_run_id"] = run.run_id
         run.log_dict(report, "cv_report.json")
     line = "secondary (leaky) protocol" if config.protocol == "paper" else "headline"
-    print(f"{config.dataset} / {config.protocol} ({line}) / signals {','.join(config.signals)}: "
+    print(f"{config.model} / {config.dataset} / {config.protocol} ({line}) / signals {','.join(config.signals)}: "
           f"{result.n_windows} windows from {result.n_runs} runs, {len(rep.classes)} classes")
     pooled = rep.pooled
     print(f"  {'metric':24s} {'pooled out-of-fold':>22s}   {'per fold':>22s}")

@@ -1,7 +1,8 @@
 """Train the terrain classifier on a whole shipped dataset and log it as one MLflow model.
 
-The logged model is the whole inference pipeline (windowing + features + scaler + SVC with
-calibrated probabilities, with signature), registered as terrain-<dataset> and optionally
+The logged model is the whole inference pipeline (windowing + the --model classifier on raw
+windows: features + scaler + SVC with calibrated probabilities, a CNN, MiniRocket or the
+ensemble; with signature), registered as terrain-<dataset> and optionally
 saved to --model-out as an MLflow model directory (servable with `mlflow models serve`).
 """
 
@@ -14,15 +15,21 @@ import numpy as np
 
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
+from terrain.models.registry import MODELS
 from terrain.serving import log_model, save_model
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-train"
+#: Documented default classifier (README "Model comparison").
+DEFAULT_MODEL = "svm"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain train``."""
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
+    parser.add_argument("--model", choices=MODELS, default=DEFAULT_MODEL,
+                        help=f"classifier (default: {DEFAULT_MODEL}, the best of the README's "
+                             "model comparison)")
     parser.add_argument("--signals", nargs="+", default=["all"],
                         help="imu, wheels, all, or channel names (default: all)")
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
@@ -38,8 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Fit, log, register and save the model."""
     config = ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
-                              window_s=args.window_s, search=args.search, seeds=(0,))
-    name = f"{config.dataset}-{'+'.join(config.signals)}"
+                              window_s=args.window_s, search=args.search, seeds=(0,),
+                              model=args.model)
+    name = f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
         pipe, ws, info = fit_pipeline(config, progress=not args.no_progress)
         classes = [str(c) for c in np.unique(ws.labels.astype(str))]
@@ -47,7 +55,7 @@ def main(args: argparse.Namespace) -> int:
         run.log_params(info)
         run.log_metrics({"n_windows": len(ws), "n_runs": len(np.unique(ws.run_ids)),
                          "train_accuracy": train_acc})
-        meta = {"dataset": config.dataset, "signals": list(config.signals),
+        meta = {"model": config.model, "dataset": config.dataset, "signals": list(config.signals),
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
         window = config.window_config()
         uri = log_model(pipe, ws.channels, window, classes, meta,

@@ -6,8 +6,10 @@ The model takes *aligned samples* (the output of :func:`terrain.io.align.align_s
     run (str), t_s (float, s), wx, wy, wz (rad/s), ax, ay, az (m/s^2),
     vel_l, vel_r (m/s), cur_l, cur_r (A)          -- the channels the model needs
 
-at the model's clock rate (``metadata["rate_hz"]``), windows each run itself, computes the
-features and returns one row per window::
+at the model's clock rate (``metadata["rate_hz"]``), windows each run itself, runs the
+classifier on the raw windows (any model of :mod:`terrain.models.registry`: the SVM computes
+its features inside its pipeline, the CNNs their normalisation or spectra) and returns one
+row per window::
 
     run, t_start_s, t_end_s, predicted, proba_<CLASS> ...
 
@@ -76,9 +78,10 @@ def runs_to_model_input(runs: Sequence[Run], channels: Sequence[str],
 
 
 class TerrainModel(PythonModel):
-    """MLflow pyfunc wrapper of the fitted ``features -> scaler -> SVC`` pipeline.
+    """MLflow pyfunc wrapper of a fitted classifier on raw windows (SVM pipeline, CNN, ...).
 
-    Context artifact ``pipeline``: the joblib file of the fitted scikit-learn pipeline.
+    Context artifact ``pipeline``: the joblib file of the fitted scikit-learn estimator
+    (anything with ``classes_`` and ``predict_proba`` on ``(n, n_channels, n_samples)``).
     Settings (channels, window, rate) are passed at construction and pickled with the model.
 
     Parameters
@@ -172,6 +175,40 @@ def model_signature(channels: Sequence[str], classes: Sequence[str]):
     return ModelSignature(inputs=inputs, outputs=outputs)
 
 
+def _components(estimator: Any) -> list:
+    """The estimator and every estimator nested in it (pipeline steps, ensemble members)."""
+    out = [estimator]
+    for _, step in getattr(estimator, "steps", []):
+        out += _components(step)
+    for member in getattr(estimator, "estimators_", []):
+        out += _components(member)
+    return out
+
+
+def pip_requirements(pipeline: Any) -> list[str]:
+    """Pinned pip requirements of a fitted model (torch/skorch and aeon only where used).
+
+    Parameters
+    ----------
+    pipeline : estimator
+        Fitted classifier.
+
+    Returns
+    -------
+    list of str
+        Requirement strings for :func:`mlflow.pyfunc.save_model`.
+    """
+    from importlib.metadata import version
+
+    reqs = [f"scikit-learn=={version('scikit-learn')}", "numpy", "pandas", "scipy", "joblib"]
+    modules = {type(c).__module__.split(".")[0] for c in _components(pipeline)}
+    if any(type(c).__module__ == "terrain.models.cnn" for c in _components(pipeline)):
+        reqs += [f"torch=={version('torch').split('+')[0]}", f"skorch=={version('skorch')}"]
+    if "aeon" in modules:
+        reqs.append(f"aeon=={version('aeon')}")
+    return reqs
+
+
 def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
                   classes: Sequence[str], metadata: dict, tmp: Path) -> dict:
     import joblib
@@ -180,14 +217,12 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     joblib.dump(pipeline, path)
     window_d = {"window_s": window.window_s, "hop_s": window.hop_s, "rate_hz": window.rate_hz}
     root = Path(__file__).resolve().parents[1]
-    import sklearn
     return dict(
         python_model=TerrainModel(channels, window_d, classes),
         artifacts={"pipeline": str(path)},
         signature=model_signature(channels, classes),
         code_paths=[str(root / "terrain"), str(root / "features")],
-        pip_requirements=[f"scikit-learn=={sklearn.__version__}", "numpy", "pandas", "scipy",
-                          "joblib"],
+        pip_requirements=pip_requirements(pipeline),
         metadata={**metadata, "channels": list(channels), "classes": list(classes),
                   **window_d},
     )

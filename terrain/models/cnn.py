@@ -122,17 +122,19 @@ def _torch_modules():
             return self.head(self.body(X))
 
     class Spectrogram2dNet(nn.Module):
-        """Conv2d(3x3)-BN-ReLU-pool, Conv2d(3x3)-BN-ReLU, global average, dropout, linear."""
+        """Conv2d(3x3)-BN-ReLU-pool, Conv2d(3x3)-BN-ReLU, average over time and into
+        ``n_bands`` frequency bands (frequency position is the information), dropout, linear."""
 
         def __init__(self, n_channels: int = 1, n_classes: int = 2, width: int = 32,
-                     dropout: float = 0.3) -> None:
+                     dropout: float = 0.3, n_bands: int = 8) -> None:
             super().__init__()
             self.body = nn.Sequential(
                 nn.Conv2d(n_channels, width, 3, padding=1), nn.BatchNorm2d(width), nn.ReLU(),
                 nn.MaxPool2d(2, ceil_mode=True),
                 nn.Conv2d(width, 2 * width, 3, padding=1), nn.BatchNorm2d(2 * width),
-                nn.ReLU(), nn.AdaptiveAvgPool2d(1), nn.Flatten(), nn.Dropout(dropout))
-            self.head = nn.Linear(2 * width, n_classes)
+                nn.ReLU(), nn.AdaptiveAvgPool2d((n_bands, 1)), nn.Flatten(),
+                nn.Dropout(dropout))
+            self.head = nn.Linear(2 * width * n_bands, n_classes)
 
         def forward(self, X):
             return self.head(self.body(X))
@@ -258,8 +260,17 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         check_is_fitted(self, "net_")
         X = validate_data(self, X, accept_sparse=False, ensure_2d=False, allow_nd=True,
                           dtype=np.float32, reset=False)
+        import torch
+
         Z = self._standardise(self._inputs(as_windows(X)))
-        return self.net_.predict_proba(Z).astype(np.float64)
+        module = self.net_.module_.eval()
+        device = next(module.parameters()).device
+        out = []
+        with torch.no_grad():  # direct forward: no DataLoader overhead for small batches
+            for start in range(0, len(Z), 1024):
+                logits = module(torch.as_tensor(Z[start:start + 1024], device=device))
+                out.append(torch.softmax(logits, dim=1).cpu().numpy())
+        return np.concatenate(out).astype(np.float64)
 
     def predict(self, X) -> np.ndarray:
         """Most probable terrain of each window.
@@ -412,10 +423,10 @@ class SpectrogramCNNClassifier(_WindowCNN):
 
     _per_bin = 1
 
-    def __init__(self, rate_hz: float = 100.0, segment_s: float = 0.5, hop_s: float = 0.1,
+    def __init__(self, rate_hz: float = 100.0, segment_s: float = 0.5, hop_s: float = 0.2,
                  band_limits_hz: Sequence[float] | None = None, max_epochs: int = 30,
                  lr: float = 3e-3, weight_decay: float = 1e-2, batch_size: int = 64,
-                 width: int = 32, dropout: float = 0.3, early_stopping: bool = False,
+                 width: int = 16, dropout: float = 0.3, early_stopping: bool = False,
                  validation_splits: int = 5, patience: int = 5, random_state: int = 0,
                  device: str = "auto", n_threads: int | None = None) -> None:
         self.rate_hz = rate_hz

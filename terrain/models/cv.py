@@ -200,11 +200,45 @@ def fit_with_groups(estimator, X, y, groups, always: bool = False):
     return estimator.fit(X, y)
 
 
-def _fold(estimator, X, y, groups, train, test, classes, search):
-    """Fit on ``train``, predict ``test``; returns (predictions, probabilities or None, fit s)."""
+def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:
+    """Median latency of one window's prediction (batch of 1), ms.
+
+    Parameters
+    ----------
+    estimator : classifier
+        Fitted; ``predict_proba`` is timed when it exists, else ``predict``.
+    X : numpy.ndarray
+        ``(n, ...)`` input windows; the first ``n_windows`` are timed one by one.
+    n_windows : int
+        Windows timed (after one untimed warm-up call).
+
+    Returns
+    -------
+    float
+        Median wall time per call, ms.
+    """
+    call = getattr(estimator, "predict_proba", None) or estimator.predict
+    try:
+        call(X[:1])
+    except AttributeError:  # an SVC without probability estimates
+        call = estimator.predict
+        call(X[:1])
+    times = []
+    for i in range(min(n_windows, len(X))):
+        t0 = time.perf_counter()
+        call(X[i:i + 1])
+        times.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(times))
+
+
+def _fold(estimator, X, y, groups, train, test, classes, search, time_inference):
+    """Fit on ``train``, predict ``test``; (predictions, probabilities or None, fit s,
+    best parameters, inference ms per window or None)."""
     t0 = time.perf_counter()
     est = fit_with_groups(estimator, X[train], y[train], groups[train], always=search)
     fit_s = time.perf_counter() - t0
+    infer_ms = (inference_ms_per_window(est, X[test], time_inference) if time_inference
+                else None)
     proba = None
     if hasattr(est, "predict_proba"):
         try:
@@ -217,7 +251,7 @@ def _fold(estimator, X, y, groups, train, test, classes, search):
                 proba[:, classes.index(str(c))] = raw[:, j]
     p = np.asarray(est.predict(X[test])).astype(str)
     best = getattr(est, "best_params_", None)
-    return p, proba, fit_s, best
+    return p, proba, fit_s, best, infer_ms
 
 
 def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y: np.ndarray,
@@ -225,7 +259,7 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
                    t_end_s: np.ndarray, protocol: str = "grouped",
                    seeds: Sequence[int] = (0, 1, 2), n_splits: int = 5,
                    search: bool = False, progress: bool = False,
-                   n_jobs: int | None = None) -> CVReport:
+                   n_jobs: int | None = None, time_inference: int = 0) -> CVReport:
     """Cross-validate a classifier on window features or raw windows.
 
     Folds of every seed are independent tasks run through :class:`joblib.Parallel`, so the
@@ -253,6 +287,9 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
         Show a progress bar over folds (sequential runs only).
     n_jobs : int or None
         joblib workers over folds (``None``: sequential unless a backend context says).
+    time_inference : int
+        When > 0, time that many test windows one by one per fold
+        (``infer_ms_per_window`` column of ``folds``).
 
     Returns
     -------
@@ -271,16 +308,18 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
                 raise RuntimeError("a split unit is on both sides of a split")  # invariant
             tasks.append((seed, fold, train, test))
     jobs = (delayed(_fold)(clone(estimator_factory(seed)), X, y, groups, train, test, classes,
-                                    search) for seed, _, train, test in tasks)
+                                    search, time_inference) for seed, _, train, test in tasks)
     if progress and n_jobs in (None, 1):
         from tqdm.auto import tqdm
         jobs = tqdm(jobs, total=len(tasks), desc=f"cv ({protocol})", unit="fold")
     results = Parallel(n_jobs=n_jobs)(jobs)
     rows, preds = [], []
-    for (seed, fold, train, test), (p, proba, fit_s, best) in zip(tasks, results):
+    for (seed, fold, train, test), (p, proba, fit_s, best, infer_ms) in zip(tasks, results):
         m = window_metrics(y[test], p, classes)
         m["run_majority_accuracy"] = run_majority_accuracy(y[test], p, groups[test])
         row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)), "fit_s": fit_s}
+        if infer_ms is not None:
+            row["infer_ms_per_window"] = infer_ms
         if best:
             row.update({f"best_{k}": v for k, v in best.items()})
         rows.append(row)

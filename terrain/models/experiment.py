@@ -9,7 +9,8 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from types import MappingProxyType
+from typing import Mapping, Sequence
 
 import numpy as np
 from sklearn.pipeline import Pipeline
@@ -19,14 +20,16 @@ from features.transformers import WindowFeatures
 from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
 from terrain.errors import ConfigError
 from terrain.io.shipped import DATASET_SPECS, load_dataset
-from terrain.models.cv import (PROTOCOLS, CVReport, cross_validate, purge_block_overlaps,
-                               split_single_run_classes)
+from terrain.models.cv import (PROTOCOLS, CVReport, cross_validate, fit_with_groups,
+                               purge_block_overlaps, split_single_run_classes)
+from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, make_search, make_svm
 from terrain.run import Run
 
 #: Window settings of the papers' protocol (BorealTC, Vulpi): 1.7 s windows, 0.1 s hop,
 #: inside non-overlapping 5 s partitions.
-PAPER_WINDOW = dict(window_s=1.7, hop_s=0.1, partition_s=5.0)
+PAPER_WINDOW: Mapping[str, float] = MappingProxyType(
+    {"window_s": 1.7, "hop_s": 0.1, "partition_s": 5.0})
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,12 @@ class ExperimentConfig:
     single_run_blocks : int
         Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
     svm : SVMConfig
+    model : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble"}
+        Classifier (see :mod:`terrain.models.registry`).
+    max_epochs : int
+        Fixed epoch budget of the CNNs.
+    n_threads : int or None
+        torch threads while training a CNN.
     """
 
     dataset: str = "borealtc"
@@ -68,8 +77,15 @@ class ExperimentConfig:
     search: bool = False
     single_run_blocks: int = 5
     svm: SVMConfig = field(default_factory=SVMConfig)
+    model: str = "svm"
+    max_epochs: int = 30
+    n_threads: int | None = None
 
     def __post_init__(self) -> None:
+        if self.model not in MODELS:
+            raise ConfigError(f"unknown model {self.model!r}; valid: {list(MODELS)}")
+        if self.search and self.model != "svm":
+            raise ConfigError("--search tunes the SVM only; drop it for other models")
         if self.dataset not in DATASET_SPECS:
             raise ConfigError(f"unknown dataset {self.dataset!r}; valid: {list(DATASET_SPECS)}")
         if self.protocol not in PROTOCOLS:
@@ -84,6 +100,11 @@ class ExperimentConfig:
         return WindowConfig(window_s=self.window_s, hop_s=self.hop_s, rate_hz=rate,
                             steady_only=self.steady_only)
 
+    def model_config(self) -> ModelConfig:
+        """The classifier settings of this experiment."""
+        return ModelConfig(kind=self.model, max_epochs=self.max_epochs,
+                           n_threads=self.n_threads, svm=self.svm)
+
     def as_params(self) -> dict:
         """Flat parameter dict for MLflow."""
         d = asdict(self)
@@ -92,6 +113,7 @@ class ExperimentConfig:
         d["signals"] = ",".join(self.signals)
         d["seeds"] = ",".join(map(str, self.seeds))
         w = self.window_config()
+        d["n_threads"] = self.n_threads or 0
         d.update(window_s=w.window_s, hop_s=w.hop_s or w.window_s, rate_hz=w.rate_hz,
                  partition_s=w.partition_s)
         return d
@@ -132,11 +154,25 @@ def load_windows(config: ExperimentConfig, runs: Sequence[Run] | None = None,
 def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
            data_dir: str | Path | None = None, progress: bool = False,
            n_jobs: int | None = None) -> ExperimentResult:
-    """Cross-validate the SVM on a dataset with the configured protocol.
+    """Cross-validate the configured model on a dataset with the configured protocol.
 
-    Features are computed once for all windows (the extractor is stateless, so this leaks
-    nothing); the scaler, class weights and the optional search are fitted per training
-    fold.
+    For the SVM, features are computed once for all windows (the extractor is stateless, so
+    this leaks nothing); the scaler, class weights and the optional search are fitted per
+    training fold. Other models get the raw windows; their normalisation, weights and any
+    inner validation are fitted per training fold.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        Dataset, windows, protocol, model.
+    runs : sequence of Run or None
+        Already loaded runs (default: load ``config.dataset``).
+    data_dir : str or Path or None
+        Shipped data folder (default: the package's).
+    progress : bool
+        Show progress bars.
+    n_jobs : int or None
+        joblib workers (grid search for the SVM, folds otherwise).
 
     Raises
     ------
@@ -149,7 +185,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     if len(ws) == 0:
         raise ConfigError("no window left for this dataset, signal set and window")
     fx = feature_extractor(ws)
-    F = fx.transform(ws.X)
+    F = fx.transform(ws.X) if config.model == "svm" else ws.X
     t2 = time.perf_counter()
     labels = ws.labels.astype(str)
     notes = []
@@ -171,13 +207,18 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     for key in ("dropped_gap", "dropped_unsteady"):
         if ws.counts[key]:
             notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
+    fold_jobs = None
     if config.search:
         factory = (lambda seed: make_search(config.svm, seed, n_jobs=n_jobs))
-    else:
+    elif config.model == "svm":
         factory = (lambda seed: make_svm(config.svm, seed))
+    else:
+        mc = config.model_config()
+        factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, config.dataset, seed))
+        fold_jobs = n_jobs
     report = cross_validate(factory, F, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s,
                             config.protocol, config.seeds, config.n_splits,
-                            search=config.search, progress=progress)
+                            search=config.search, progress=progress, n_jobs=fold_jobs)
     report.notes.extend(notes)
     t3 = time.perf_counter()
     return ExperimentResult(config, report, len(ws), len(np.unique(ws.run_ids)), ws.counts,
@@ -188,20 +229,36 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
 def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                  data_dir: str | Path | None = None, progress: bool = False,
                  n_jobs: int | None = None) -> tuple[Pipeline, WindowSet, dict]:
-    """Fit the whole inference pipeline (features + scaler + SVC) on every labelled window.
+    """Fit the whole inference model on every labelled window.
 
-    With ``config.search`` the hyperparameters come from a grouped grid search over all runs
-    first.
+    The SVM is ``features + scaler + SVC`` with Platt-scaled probabilities; with
+    ``config.search`` its hyperparameters come from a grouped grid search over all runs
+    first. Other models (``config.model``) take the raw windows directly; the ensemble
+    chooses its weights on held-out runs.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        Dataset, windows, model (the first seed is the model seed).
+    runs : sequence of Run or None
+        Already loaded runs (default: load ``config.dataset``).
+    data_dir : str or Path or None
+        Shipped data folder.
+    progress : bool
+        Show progress bars.
+    n_jobs : int or None
+        joblib workers of the SVM grid search.
 
     Raises
     ------
     ConfigError
-        If the signals include EKF-derived channels (not computed by the served model). The SVC is fitted with Platt scaling so the served model gives probabilities.
+        If the signals include EKF-derived channels (not computed by the served model).
 
     Returns
     -------
-    pipeline : sklearn.pipeline.Pipeline
-        Input: windows ``(n, n_channels, n_samples)``; ``predict`` gives terrain labels.
+    pipeline : estimator
+        Input: windows ``(n, n_channels, n_samples)``; ``predict_proba`` gives class
+        probabilities, ``predict`` terrain labels.
     windows : WindowSet
         The training windows.
     info : dict
@@ -213,8 +270,16 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                           "raw channel names)")
     ws = load_windows(config, runs, data_dir, progress)
     labels = ws.labels.astype(str)
+    info: dict = {"model": config.model}
+    if config.model != "svm":
+        model = make_model(config.model_config(), ws.channels, ws.rate_hz, config.dataset,
+                           config.seeds[0])
+        model = fit_with_groups(model, ws.X, labels, ws.groups)
+        if hasattr(model, "weights_"):
+            info.update({f"weight_{name}": float(w)
+                         for (name, _), w in zip(model.estimators, model.weights_)})
+        return model, ws, info
     svm = replace(config.svm, probability=True)
-    info: dict = {}
     if config.search:
         fx = feature_extractor(ws)
         search = make_search(config.svm, config.seeds[0], n_jobs=n_jobs)

@@ -66,8 +66,6 @@ def plot_confusion(cm: pd.DataFrame, title: str = ""):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     counts = cm.to_numpy()

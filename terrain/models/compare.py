@@ -1,0 +1,295 @@
+"""Model comparison: every model under one run-grouped protocol, as a grid of cells.
+
+A *cell* is one (model, signal set, window length, dataset, seed): a
+``StratifiedGroupKFold(n_splits)`` cross-validation grouped by run with that seed
+(:func:`terrain.models.cv.cross_validate`). Cells are independent tasks run through
+:class:`joblib.Parallel`, so the active joblib backend decides where they run: local
+processes (``loky``), a Dask cluster (``joblib.parallel_config(backend="dask")`` with a
+``distributed.Client``) or Ray (``ray.util.joblib``), with no other change.
+
+The *decision history* is a reported dimension, not a cell: from the out-of-fold class
+probabilities of a cell, the decision at a window averages the probabilities of the last
+``k`` windows of its run (causal, ``k`` in ``history``), see :func:`history_predictions`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import ConfigError
+from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
+from terrain.models.metrics import run_majority_accuracy, window_metrics
+from terrain.models.registry import MODELS, ModelConfig, make_model
+
+#: Metrics of the comparison table (window level, then run-level majority vote).
+TABLE_METRICS = ("accuracy", "balanced_accuracy", "macro_f1", "run_vote_accuracy")
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One cross-validation of the grid.
+
+    Parameters
+    ----------
+    model : str
+        Model name (:data:`terrain.models.registry.MODELS`).
+    signals : str
+        Signal set (``imu``, ``wheels``, ``all``, ``all+ekf``).
+    window_s : float
+        Window length, s (non-overlapping windows).
+    dataset : str
+        Shipped dataset.
+    seed : int
+        Split and model seed.
+    """
+
+    model: str
+    signals: str
+    window_s: float
+    dataset: str
+    seed: int
+
+
+@dataclass(frozen=True)
+class CompareConfig:
+    """The comparison grid.
+
+    Parameters
+    ----------
+    models, signals, datasets : tuple of str
+        Grid axes.
+    windows_s : tuple of float
+        Window lengths, s.
+    seeds : tuple of int
+        Seeds (one cell each).
+    history : tuple of int
+        Decision-history lengths ``k`` (windows) reported for every cell.
+    n_splits : int
+        Folds of the grouped CV.
+    max_epochs : int
+        Fixed epoch budget of the CNNs.
+    n_threads : int or None
+        torch threads per CNN fit.
+    single_run_blocks : int
+        Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
+    """
+
+    models: tuple[str, ...] = MODELS
+    signals: tuple[str, ...] = ("imu", "wheels", "all", "all+ekf")
+    windows_s: tuple[float, ...] = (1.0, 2.0, 4.0)
+    datasets: tuple[str, ...] = ("borealtc", "vulpi", "combined")
+    seeds: tuple[int, ...] = (0, 1, 2)
+    history: tuple[int, ...] = (1, 5, 10)
+    n_splits: int = 5
+    max_epochs: int = 30
+    n_threads: int | None = None
+    single_run_blocks: int = 5
+
+    def __post_init__(self) -> None:
+        bad = [m for m in self.models if m not in MODELS]
+        if bad:
+            raise ConfigError(f"unknown model(s) {bad}; valid: {list(MODELS)}")
+        if not self.seeds or min(self.history, default=0) < 1:
+            raise ConfigError("need at least one seed and history lengths >= 1")
+
+    def cells(self) -> list[Cell]:
+        """Every cell of the grid (model varies fastest)."""
+        return [Cell(m, s, w, d, seed) for d in self.datasets for w in self.windows_s
+                for s in self.signals for seed in self.seeds for m in self.models]
+
+
+def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: int
+                        ) -> np.ndarray:
+    """Decisions from the class probabilities averaged over the last ``k`` windows of a run.
+
+    Parameters
+    ----------
+    predictions : pandas.DataFrame
+        Out-of-fold rows of one seed with ``group``, ``t_start_s`` and ``proba_<CLASS>``
+        columns (:attr:`terrain.models.cv.CVReport.predictions`).
+    classes : sequence of str
+        Class order of the probability columns.
+    k : int
+        History length, windows (1: the window alone). Only earlier windows of the same
+        run (split unit) enter the mean: the decision is causal.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_rows,)`` predicted labels, aligned with ``predictions``' rows.
+    """
+    cols = [f"proba_{c}" for c in classes]
+    order = predictions.sort_values(["group", "t_start_s"], kind="stable")
+    smooth = (order.groupby("group", sort=False)[cols]
+              .rolling(k, min_periods=1).mean().reset_index(level=0, drop=True))
+    labels = np.asarray(classes, dtype=object)[smooth[cols].to_numpy().argmax(axis=1)]
+    return pd.Series(labels, index=smooth.index).loc[predictions.index].to_numpy()
+
+
+def _windows(cell: Cell, n_blocks: int):
+    """Windows of a cell with single-run classes split into blocks (as ``terrain cv``)."""
+    from terrain.models.experiment import ExperimentConfig, load_windows
+
+    ws = load_windows(ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
+                                       window_s=cell.window_s))
+    labels = ws.labels.astype(str)
+    groups, _ = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
+    keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
+    return ws.subset(keep), labels[keep], groups[keep]
+
+
+def run_cell(cell: Cell, config: CompareConfig) -> dict:
+    """Cross-validate one cell and score it at every history length.
+
+    Parameters
+    ----------
+    cell : Cell
+        The grid point.
+    config : CompareConfig
+        Folds, epochs, threads and history lengths.
+
+    Returns
+    -------
+    dict
+        ``cell`` (its fields), ``rows`` (one dict per history length: the table metrics,
+        ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``), ``folds`` (frame) and
+        ``predictions`` (frame with probabilities).
+    """
+    ws, labels, groups = _windows(cell, config.single_run_blocks)
+    mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
+                     n_threads=config.n_threads)
+    factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
+    t0 = time.perf_counter()
+    report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,
+                            ws.t_end_s, "grouped", (cell.seed,), config.n_splits,
+                            time_inference=20)
+    wall_s = time.perf_counter() - t0
+    pred = report.predictions
+    rows = []
+    for k in config.history:
+        p = history_predictions(pred, report.classes, k)
+        m = window_metrics(pred["true"], p, report.classes)
+        rows.append({**asdict(cell), "history": k,
+                     **{key: m[key] for key in TABLE_METRICS[:3]},
+                     "run_vote_accuracy": run_majority_accuracy(pred["true"], p,
+                                                                pred["group"]),
+                     "fit_s_per_fold": float(report.folds["fit_s"].mean()),
+                     "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
+                     "n_windows": int(len(pred)), "cell_wall_s": wall_s})
+    return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),
+            "predictions": pred.assign(**asdict(cell))}
+
+
+def run_grid(config: CompareConfig, n_jobs: int | None = None) -> list[dict]:
+    """Run every cell through :class:`joblib.Parallel` (the active backend decides where).
+
+    Parameters
+    ----------
+    config : CompareConfig
+        The grid.
+    n_jobs : int or None
+        joblib workers (``None``: sequential unless a backend context says otherwise;
+        ``-1``: every worker of the backend).
+
+    Returns
+    -------
+    list of dict
+        :func:`run_cell` results, in :meth:`CompareConfig.cells` order.
+    """
+    from joblib import Parallel, delayed
+
+    return Parallel(n_jobs=n_jobs)(delayed(run_cell)(c, config) for c in config.cells())
+
+
+def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """Mean and spread (std over seeds) of every metric per model x signals x window x
+    dataset x history.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The ``rows`` of every cell (one per cell and history length).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per group: ``<metric>_mean``, ``<metric>_std`` for the table metrics,
+        ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and ``n_seeds``.
+    """
+    keys = ["dataset", "signals", "window_s", "history", "model"]
+    g = rows.groupby(keys, sort=True)
+    out = pd.concat([g[list(TABLE_METRICS)].mean().add_suffix("_mean"),
+                     g[list(TABLE_METRICS)].std(ddof=0).add_suffix("_std"),
+                     g[["fit_s_per_fold", "infer_ms_per_window"]].mean(),
+                     g.size().rename("n_seeds")], axis=1)
+    return out.reset_index()
+
+
+def markdown_table(table: pd.DataFrame) -> str:
+    """The summary as a Markdown table (``mean ± std`` cells, times rounded).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`summary_table` output.
+
+    Returns
+    -------
+    str
+        GitHub-flavoured Markdown.
+    """
+    head = ["dataset", "signals", "window s", "history k", "model", "accuracy",
+            "balanced acc.", "macro-F1", "run vote acc.", "train s/fold", "infer ms/window",
+            "seeds"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for _, r in table.iterrows():
+        cells = [r["dataset"], r["signals"], f"{r['window_s']:g}", str(int(r["history"])),
+                 r["model"]]
+        cells += [f"{r[m + '_mean']:.3f} ± {r[m + '_std']:.3f}" for m in TABLE_METRICS]
+        cells += [f"{r['fit_s_per_fold']:.1f}", f"{r['infer_ms_per_window']:.2f}",
+                  str(int(r["n_seeds"]))]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot_comparison(table: pd.DataFrame):
+    """Accuracy (mean ± std over seeds) per model, one panel per dataset, one bar per
+    history length.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`summary_table` output (all signal sets and windows are drawn side by side).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    datasets = list(dict.fromkeys(table["dataset"]))
+    fig, axes = plt.subplots(1, len(datasets), figsize=(5 * len(datasets), 3.8),
+                             squeeze=False)
+    for ax, ds in zip(axes[0], datasets):
+        sub = table[table["dataset"] == ds]
+        labels = [f"{m}\n{s} {w:g}s" for m, s, w in
+                  dict.fromkeys(zip(sub["model"], sub["signals"], sub["window_s"]))]
+        histories = sorted(set(sub["history"]))
+        width = 0.8 / len(histories)
+        for i, k in enumerate(histories):
+            h = sub[sub["history"] == k]
+            x = np.arange(len(h)) + i * width
+            ax.bar(x, h["accuracy_mean"], width, yerr=h["accuracy_std"], label=f"k={k}")
+        ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, labels, rotation=60,
+                      fontsize=7, ha="right")
+        ax.set_ylim(0.0, 1.0)
+        ax.set_ylabel("accuracy (run-grouped CV)")
+        ax.set_title(ds)
+        ax.legend(title="history", fontsize=7)
+    fig.tight_layout()
+    return fig

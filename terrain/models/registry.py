@@ -1,0 +1,135 @@
+"""The terrain classifiers by name: one factory for CV, training, comparison and serving.
+
+Every model takes raw windows ``(n_windows, n_channels, n_samples)`` and gives class
+probabilities, so each one is served by :mod:`terrain.serving` unchanged:
+
+* ``svm``: window features -> scaler -> RBF SVC with Platt-scaled probabilities
+  (:mod:`terrain.models.svm`, :class:`features.transformers.WindowFeatures`).
+* ``cnn``: 1-D CNN on the raw channels (:class:`terrain.models.cnn.RawCNNClassifier`).
+* ``cnn-spectrogram``: BorealTC's multichannel-spectrogram CNN
+  (:class:`terrain.models.cnn.SpectrogramCNNClassifier`).
+* ``minirocket``: aeon MiniRocket + logistic regression (:mod:`terrain.models.minirocket`).
+* ``ensemble``: soft vote of ``svm``, ``cnn`` and ``cnn-spectrogram`` with weights chosen
+  on held-out training runs (:class:`terrain.models.ensemble.SoftVotingEnsemble`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from types import MappingProxyType
+from typing import Mapping, Sequence
+
+import numpy as np
+from sklearn.pipeline import Pipeline
+
+from features.transformers import WindowFeatures
+from features.windows import DERIVED_WHEEL_CHANNELS
+from terrain.errors import ConfigError
+from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
+from terrain.models.ensemble import SoftVotingEnsemble
+from terrain.models.minirocket import make_minirocket
+from terrain.models.svm import SVMConfig, make_svm
+from terrain.run import WHEEL_CHANNELS
+
+MODELS = ("svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble")
+
+#: Native rate of the wheel (``pro``) stream of each shipped dataset, Hz: median sample
+#: interval of the shipped parquet files (BorealTC 6.5 Hz, Vulpi 15 Hz); ``combined`` takes
+#: the lower one. Spectrogram bins of wheel channels above half of it are zeroed.
+WHEEL_RATE_HZ: Mapping[str, float] = MappingProxyType(
+    {"borealtc": 6.5, "vulpi": 15.0, "combined": 6.5})
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Which classifier and its training budget.
+
+    Parameters
+    ----------
+    kind : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble"}
+        Model name (see the module docstring).
+    max_epochs : int
+        Fixed epoch budget of the CNNs (no early stopping, see README "Model comparison").
+    n_threads : int or None
+        torch threads while training a CNN (``None``: torch's default).
+    minirocket_kernels : int
+        MiniRocket features.
+    svm : SVMConfig
+        SVM hyperparameters (also the SVM member of the ensemble).
+    """
+
+    kind: str = "svm"
+    max_epochs: int = 30
+    n_threads: int | None = None
+    minirocket_kernels: int = 10_000
+    svm: SVMConfig = SVMConfig()
+
+    def __post_init__(self) -> None:
+        if self.kind not in MODELS:
+            raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
+
+
+def band_limits_hz(channels: Sequence[str], dataset: str) -> tuple[float, ...]:
+    """Highest meaningful frequency of each channel, Hz (Nyquist of its native rate).
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Window channels.
+    dataset : str
+        Shipped dataset name (key of :data:`WHEEL_RATE_HZ`).
+
+    Returns
+    -------
+    tuple of float
+        ``(n_channels,)``; ``inf`` for channels at the aligned (IMU) rate.
+    """
+    wheel = set(WHEEL_CHANNELS) | set(DERIVED_WHEEL_CHANNELS)
+    nyquist = WHEEL_RATE_HZ.get(dataset, np.inf) / 2.0
+    return tuple(float(nyquist) if c in wheel else float("inf") for c in channels)
+
+
+def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dataset: str,
+               random_state: int = 0, probability: bool = True):
+    """Unfitted classifier taking raw windows.
+
+    Parameters
+    ----------
+    config : ModelConfig
+        Model name and budget.
+    channels : sequence of str
+        Channel order of the windows' axis 1.
+    rate_hz : float
+        Window sampling rate, Hz.
+    dataset : str
+        Shipped dataset (native wheel rate of the spectrogram band limits).
+    random_state : int
+        Seed.
+    probability : bool
+        SVM with Platt-scaled probabilities (needed for serving, the ensemble and the
+        decision history; plain SVC otherwise).
+
+    Returns
+    -------
+    estimator
+        scikit-learn classifier with ``predict_proba`` (the plain SVM excepted).
+    """
+    kind = config.kind
+    if kind == "svm":
+        svm = make_svm(replace(config.svm, probability=probability), random_state)
+        return Pipeline([("features", WindowFeatures(channels=tuple(channels),
+                                                     rate_hz=rate_hz))] + svm.steps)
+    if kind == "cnn":
+        return RawCNNClassifier(max_epochs=config.max_epochs, random_state=random_state,
+                                n_threads=config.n_threads)
+    if kind == "cnn-spectrogram":
+        return SpectrogramCNNClassifier(rate_hz=rate_hz,
+                                        band_limits_hz=band_limits_hz(channels, dataset),
+                                        max_epochs=config.max_epochs,
+                                        random_state=random_state, n_threads=config.n_threads)
+    if kind == "minirocket":
+        return make_minirocket(random_state, n_kernels=config.minirocket_kernels)
+    members = [(k, make_model(replace(config, kind=k), channels, rate_hz, dataset,
+                              random_state, probability=True))
+               for k in ("svm", "cnn", "cnn-spectrogram")]
+    return SoftVotingEnsemble(members, random_state=random_state)

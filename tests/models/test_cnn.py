@@ -1,0 +1,100 @@
+"""CNN terrain classifiers: sklearn contract, planted effects, determinism, no leakage."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from terrain.errors import ConfigError
+from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier, log_spectrogram
+
+RATE_HZ = 100.0
+#: small, fast settings for the tests (the library defaults are the measured ones)
+FAST = dict(max_epochs=15, width=8, batch_size=32, n_threads=1, device="cpu")
+
+
+def _planted(n_runs: int = 8, per_run: int = 12, seed: int = 0):
+    """Two terrains: ``B`` adds a 20 Hz vibration on channel 0; channel 1 has offset 5."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(200) / RATE_HZ
+    X, y, groups = [], [], []
+    for r in range(n_runs):
+        label = "A" if r % 2 == 0 else "B"
+        for _ in range(per_run):
+            w = rng.normal(0.0, 1.0, (3, t.size))
+            w[1] += 5.0
+            if label == "B":
+                w[0] += 1.5 * np.sin(2 * np.pi * 20.0 * t + rng.uniform(0, 2 * np.pi))
+            X.append(w)
+            y.append(label)
+            groups.append(f"run{r}")
+    return np.asarray(X, dtype=np.float32), np.asarray(y), np.asarray(groups)
+
+
+@parametrize_with_checks([RawCNNClassifier(**FAST),
+                          SpectrogramCNNClassifier(segment_s=0.04, hop_s=0.02, **FAST)])
+def test_cnns_follow_sklearn_contract(estimator, check):
+    check(estimator)
+
+
+@pytest.mark.parametrize("model", [RawCNNClassifier(**FAST),
+                                   SpectrogramCNNClassifier(**{**FAST, "max_epochs": 40})])
+def test_planted_vibration_is_learned_on_unseen_runs(model):
+    X, y, groups = _planted()
+    test = np.isin(groups, ["run6", "run7"])
+    model.fit(X[~test], y[~test])
+    assert (model.predict(X[test]) == y[test]).mean() >= 0.9
+    proba = model.predict_proba(X[test])
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0, atol=1e-6)
+    assert list(model.classes_) == ["A", "B"]
+
+
+def test_same_seed_same_model_other_seed_other_model():
+    X, y, _ = _planted(n_runs=4)
+    p = [RawCNNClassifier(**{**FAST, "max_epochs": 3}, random_state=s).fit(X, y)
+         .predict_proba(X) for s in (0, 0, 1)]
+    np.testing.assert_array_equal(p[0], p[1])
+    assert np.abs(p[0] - p[2]).max() > 1e-4
+
+
+def test_normalisation_statistics_come_from_the_training_windows_only():
+    X, y, _ = _planted(n_runs=4)
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 1}).fit(X[:24], y[:24])
+    np.testing.assert_allclose(model.mean_[:, 0], X[:24].mean(axis=(0, 2)), rtol=1e-5)
+    np.testing.assert_allclose(model.scale_[:, 0], X[:24].std(axis=(0, 2)), rtol=1e-4)
+    assert abs(model.mean_[1, 0] - 5.0) < 0.1       # the planted offset of channel 1
+
+
+def test_early_stopping_validates_on_whole_held_out_runs():
+    X, y, groups = _planted()
+    with pytest.raises(ConfigError, match="groups"):
+        RawCNNClassifier(**FAST, early_stopping=True).fit(X, y)
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 4}, early_stopping=True,
+                             validation_splits=4).fit(X, y, groups=groups)
+    history = model.net_.history
+    assert "valid_loss" in history[-1]
+    # the network was trained on whole runs only: 6 of 8 runs (12 windows each)
+    assert model.net_.history[0]["batches"][0]["train_batch_size"] == FAST["batch_size"]
+    n_train = sum(b["train_batch_size"] for b in history[0]["batches"] if "train_batch_size" in b)
+    assert n_train == 6 * 12
+
+
+def test_log_spectrogram_peaks_at_the_tone_frequency():
+    t = np.arange(200) / RATE_HZ
+    X = np.sin(2 * np.pi * 20.0 * t)[None, None, :].astype(np.float32)
+    spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=0.5, hop_s=0.1)
+    assert spec.shape == (1, 1, 26, 16)               # 50-sample segments, 10-sample hop
+    assert freqs[spec[0, 0].mean(axis=1).argmax()] == pytest.approx(20.0)
+
+
+def test_band_limit_zeroes_bins_above_the_native_nyquist_of_low_rate_channels():
+    X, y, _ = _planted(n_runs=4)
+    model = SpectrogramCNNClassifier(**{**FAST, "max_epochs": 1},
+                                     band_limits_hz=(np.inf, 3.25, np.inf)).fit(X, y)
+    assert model.mask_[1, :, 0].sum() == 2             # 0 and 2 Hz bins (2 Hz resolution)
+    assert model.mask_[0].all() and model.mask_[2].all()
+    Z = model._standardise(model._inputs(X))
+    assert not Z[:, 1, 2:].any()
+    with pytest.raises(ConfigError, match="band_limits_hz"):
+        SpectrogramCNNClassifier(**FAST, band_limits_hz=(1.0,)).fit(X, y)
