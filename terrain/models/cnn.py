@@ -265,7 +265,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Z = self._standardise(self._inputs(as_windows(X)))
         module = self.net_.module_.eval()
         device = next(module.parameters()).device
-        out = []
+        out = [np.zeros((0, len(self.classes_)), dtype=np.float32)]
         with torch.no_grad():  # direct forward: no DataLoader overhead for small batches
             for start in range(0, len(Z), 1024):
                 logits = module(torch.as_tensor(Z[start:start + 1024], device=device))

@@ -15,6 +15,7 @@ probabilities of a cell, the decision at a window averages the probabilities of 
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from typing import Sequence
 
@@ -293,3 +294,61 @@ def plot_comparison(table: pd.DataFrame):
         ax.legend(title="history", fontsize=7)
     fig.tight_layout()
     return fig
+
+
+BACKENDS = ("loky", "dask", "ray")
+
+
+@contextmanager
+def joblib_backend(backend: str = "loky", address: str | None = None):
+    """Route :class:`joblib.Parallel` calls to local processes, a Dask or a Ray cluster.
+
+    Parameters
+    ----------
+    backend : {"loky", "dask", "ray"}
+        ``loky``: local worker processes. ``dask``: a ``distributed.Client`` connected to
+        ``address`` (``tcp://scheduler:8786``), or a local cluster when ``None``. ``ray``:
+        ``ray.init(address)`` (optional extra ``terrain[ray]``), local when ``None``.
+    address : str or None
+        Scheduler / cluster address.
+
+    Yields
+    ------
+    int
+        The ``n_jobs`` to pass to :class:`joblib.Parallel` (-1: every worker).
+
+    Raises
+    ------
+    ConfigError
+        Unknown backend, or the backend's library is not installed.
+    """
+    from joblib import parallel_config
+
+    if backend == "loky":
+        with parallel_config(backend="loky"):
+            yield -1
+    elif backend == "dask":
+        from distributed import Client, LocalCluster
+
+        cluster = None if address else LocalCluster(n_workers=2, threads_per_worker=1)
+        with Client(address or cluster) as client, parallel_config(backend="dask"):
+            yield -1
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    elif backend == "ray":
+        try:
+            import ray
+            from ray.util.joblib import register_ray
+        except ImportError as exc:
+            raise ConfigError("the ray backend needs the optional extra: "
+                              "pip install 'terrain[ray]'") from exc
+        register_ray()
+        ray.init(address=address, ignore_reinit_error=True)
+        try:
+            with parallel_config(backend="ray"):
+                yield -1
+        finally:
+            ray.shutdown()
+    else:
+        raise ConfigError(f"unknown backend {backend!r}; valid: {list(BACKENDS)}")
