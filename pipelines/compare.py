@@ -68,10 +68,11 @@ def main(args: argparse.Namespace) -> int:
                                                             "backend": args.backend}) as run:
         with joblib_backend(args.backend, args.address) as n_jobs:
             results = run_grid(config, n_jobs=n_jobs if args.n_jobs == -1 else args.n_jobs)
+        experiment_id = mlflow.active_run().info.experiment_id
         for res in results:
             c = res["cell"]
             name = f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
-            with mlflow.start_run(run_name=name, nested=True):
+            with mlflow.start_run(run_name=name, nested=True, experiment_id=experiment_id):
                 mlflow.log_params(c)
                 mlflow.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in res["rows"]
                                     for m in ("accuracy", "balanced_accuracy", "macro_f1",

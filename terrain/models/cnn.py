@@ -266,10 +266,17 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         module = self.net_.module_.eval()
         device = next(module.parameters()).device
         out = [np.zeros((0, len(self.classes_)), dtype=np.float32)]
-        with torch.no_grad():  # direct forward: no DataLoader overhead for small batches
-            for start in range(0, len(Z), 1024):
-                logits = module(torch.as_tensor(Z[start:start + 1024], device=device))
-                out.append(torch.softmax(logits, dim=1).cpu().numpy())
+        threads = torch.get_num_threads()
+        # direct forward (no DataLoader overhead); one thread for small batches, where
+        # thread synchronisation costs more than it saves
+        torch.set_num_threads(1 if len(Z) <= 64 else (self.n_threads or threads))
+        try:
+            with torch.no_grad():
+                for start in range(0, len(Z), 1024):
+                    logits = module(torch.as_tensor(Z[start:start + 1024], device=device))
+                    out.append(torch.softmax(logits, dim=1).cpu().numpy())
+        finally:
+            torch.set_num_threads(threads)
         return np.concatenate(out).astype(np.float64)
 
     def predict(self, X) -> np.ndarray:

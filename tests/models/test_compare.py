@@ -1,0 +1,77 @@
+"""Model comparison grid: history decisions, the --quick CLI run, the Dask backend."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.cli import main
+from terrain.errors import ConfigError
+from terrain.models.compare import (CompareConfig, history_predictions, joblib_backend,
+                                    run_grid)
+
+
+@pytest.fixture
+def workdir(tmp_path, monkeypatch):
+    """Run commands in an empty folder with the embedded MLflow store."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    return tmp_path
+
+
+def test_history_averages_only_earlier_windows_of_the_same_run():
+    # run r1: A, A, B(weak); run r2 starts with a B window that must not see r1's history
+    pred = pd.DataFrame({"group": ["r1", "r1", "r1", "r2"],
+                         "t_start_s": [0.0, 2.0, 4.0, 0.0],
+                         "proba_A": [0.9, 0.8, 0.4, 0.1],
+                         "proba_B": [0.1, 0.2, 0.6, 0.9]})
+    shuffled = pred.iloc[[3, 1, 2, 0]]
+    np.testing.assert_array_equal(history_predictions(shuffled, ["A", "B"], 1),
+                                  ["B", "A", "B", "A"])
+    # k=3 at the third window of r1: mean A = 0.7 -> A; r2 keeps its own B
+    np.testing.assert_array_equal(history_predictions(shuffled, ["A", "B"], 3),
+                                  ["B", "A", "A", "A"])
+
+
+def test_unknown_model_is_rejected():
+    with pytest.raises(ConfigError, match="unknown model"):
+        CompareConfig(models=("svm", "forest"))
+
+
+def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
+    import mlflow
+
+    from terrain.tracking import activate_store
+
+    out = workdir / "cmp"
+    assert main(["compare", "--quick", "--n-jobs", "1", "--out", str(out)]) == 0
+    table = pd.read_csv(out / "compare_table.csv")
+    assert set(table["model"]) == {"svm", "cnn"} and set(table["history"]) == {1, 5, 10}
+    assert (out / "compare.png").stat().st_size > 0
+    assert "| vulpi | all | 2 | 10 | svm |" in (out / "compare_table.md").read_text()
+    svm = table[table["model"] == "svm"].set_index("history")
+    assert svm.loc[1, "accuracy_mean"] > 0.7            # the SVM does learn Vulpi's terrains
+    assert (table["infer_ms_per_window"] > 0).all() and (table["fit_s_per_fold"] > 0).all()
+    activate_store()
+    parent = mlflow.search_runs(experiment_names=["terrain-compare"],
+                                filter_string="attributes.run_name = 'compare'")
+    children = mlflow.search_runs(experiment_names=["terrain-compare"], filter_string=
+                                  f"tags.mlflow.parentRunId = '{parent.run_id.iloc[0]}'")
+    assert len(children) == 2 and "metrics.accuracy_k10" in children.columns
+
+
+def test_dask_local_cluster_gives_the_same_cells_as_local_runs():
+    from distributed import LocalCluster
+
+    config = CompareConfig(models=("svm",), signals=("imu",), windows_s=(2.0,),
+                           datasets=("vulpi",), seeds=(0, 1), n_splits=2, history=(1,))
+    local = run_grid(config)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                      dashboard_address=None) as cluster:
+        with joblib_backend("dask", cluster.scheduler_address) as n_jobs:
+            remote = run_grid(config, n_jobs=n_jobs)
+    assert [r["cell"] for r in remote] == [r["cell"] for r in local]
+    for a, b in zip(local, remote):
+        assert a["rows"][0]["accuracy"] == pytest.approx(b["rows"][0]["accuracy"])
+        pd.testing.assert_frame_equal(a["predictions"], b["predictions"])
