@@ -95,50 +95,10 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
 
 
 def _torch_modules():
-    """The torch network classes (imported lazily so the module imports without torch)."""
+    """torch and the network classes (imported lazily: torch is slow to import)."""
     import torch
-    from torch import nn
 
-    class Raw1dNet(nn.Module):
-        """Conv1d(k7, stride 2)-BN-ReLU-pool, Conv1d(k5)-BN-ReLU-pool, Conv1d(k3)-BN-ReLU,
-        global average, dropout, linear."""
-
-        def __init__(self, n_channels: int = 1, n_classes: int = 2, width: int = 32,
-                     dropout: float = 0.3) -> None:
-            super().__init__()
-
-            def block(cin, cout, k, stride, pool):
-                layers = [nn.Conv1d(cin, cout, k, stride=stride, padding=k // 2),
-                          nn.BatchNorm1d(cout), nn.ReLU()]
-                return layers + ([nn.MaxPool1d(2, ceil_mode=True)] if pool else [])
-
-            self.body = nn.Sequential(*block(n_channels, width, 7, 2, True),
-                                      *block(width, width, 5, 1, True),
-                                      *block(width, 2 * width, 3, 1, False),
-                                      nn.AdaptiveAvgPool1d(1), nn.Flatten(), nn.Dropout(dropout))
-            self.head = nn.Linear(2 * width, n_classes)
-
-        def forward(self, X):
-            return self.head(self.body(X))
-
-    class Spectrogram2dNet(nn.Module):
-        """Conv2d(3x3)-BN-ReLU-pool, Conv2d(3x3)-BN-ReLU, average over time and into
-        ``n_bands`` frequency bands (frequency position is the information), dropout, linear."""
-
-        def __init__(self, n_channels: int = 1, n_classes: int = 2, width: int = 32,
-                     dropout: float = 0.3, n_bands: int = 8) -> None:
-            super().__init__()
-            self.body = nn.Sequential(
-                nn.Conv2d(n_channels, width, 3, padding=1), nn.BatchNorm2d(width), nn.ReLU(),
-                nn.MaxPool2d(2, ceil_mode=True),
-                nn.Conv2d(width, 2 * width, 3, padding=1), nn.BatchNorm2d(2 * width),
-                nn.ReLU(), nn.AdaptiveAvgPool2d((n_bands, 1)), nn.Flatten(),
-                nn.Dropout(dropout))
-            self.head = nn.Linear(2 * width * n_bands, n_classes)
-
-        def forward(self, X):
-            return self.head(self.body(X))
-
+    from terrain.models.nets import Raw1dNet, Spectrogram2dNet
     return torch, Raw1dNet, Spectrogram2dNet
 
 
