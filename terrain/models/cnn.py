@@ -38,7 +38,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.model_selection import StratifiedGroupKFold
 from sklearn.utils.multiclass import check_classification_targets
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
+                                      column_or_1d)
 
 from terrain.errors import ConfigError
 
@@ -123,6 +124,15 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         std = Z.std(axis=axes, keepdims=True)[0]
         self.scale_ = np.where(std > 1e-8, std, 1.0).astype(np.float32)
 
+    @staticmethod
+    def _check_windows(X) -> np.ndarray:
+        """Finite float32 windows, 2-D or 3-D, at least 2 of them (ValueError otherwise)."""
+        X = check_array(X, accept_sparse=False, ensure_2d=True, allow_nd=True,
+                        dtype=np.float32)
+        if X.ndim > 3:
+            raise ValueError(f"expected 2-D or 3-D windows, got {X.ndim}-D")
+        return X
+
     def _device(self) -> str:
         import torch
         if self.device == "auto":
@@ -156,14 +166,14 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         from skorch.dataset import Dataset
         from skorch.helper import predefined_split
 
-        X = validate_data(self, X, accept_sparse=False, ensure_2d=False, allow_nd=True,
-                          dtype=np.float32, reset=True)
-        if X.ndim not in (2, 3):
-            raise ValueError(f"expected 2-D or 3-D windows, got {X.ndim}-D")
+        X = self._check_windows(X)
+        y = column_or_1d(y, warn=True)
+        check_consistent_length(X, y)
         check_classification_targets(y)
-        self.classes_, y_idx = np.unique(np.asarray(y), return_inverse=True)
+        self.n_features_in_ = X.shape[1]
+        self.classes_, y_idx = np.unique(y, return_inverse=True)
         if len(self.classes_) < 2:
-            raise ValueError("need at least 2 classes, got 1")
+            raise ValueError("need at least 2 classes, got 1 class")
         torch, _, _ = _torch_modules()
         Z = self._inputs(as_windows(X))
         self._fit_scaling(Z)
@@ -217,10 +227,13 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         numpy.ndarray
             ``(n_windows, n_classes)``, columns in the order of ``classes_``.
         """
-        check_is_fitted(self, "net_")
-        X = validate_data(self, X, accept_sparse=False, ensure_2d=False, allow_nd=True,
-                          dtype=np.float32, reset=False)
         import torch
+
+        check_is_fitted(self, "net_")
+        X = self._check_windows(X)
+        if X.shape[1] != self.n_features_in_:
+            raise ValueError(f"X has {X.shape[1]} features, but {type(self).__name__} is "
+                             f"expecting {self.n_features_in_} features as input (channels)")
 
         Z = self._standardise(self._inputs(as_windows(X)))
         module = self.net_.module_.eval()
@@ -252,7 +265,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         numpy.ndarray
             ``(n_windows,)`` labels from ``classes_``.
         """
-        return self.classes_[self.predict_proba(X).argmax(axis=1)]
+        proba = self.predict_proba(X)
+        return self.classes_[proba.argmax(axis=1)]
 
     def _band_mask(self, n_samples: int, shape) -> np.ndarray | None:
         return None

@@ -32,8 +32,19 @@ def _planted(n_runs: int = 8, per_run: int = 12, seed: int = 0):
     return np.asarray(X, dtype=np.float32), np.asarray(y), np.asarray(groups)
 
 
-@parametrize_with_checks([RawCNNClassifier(**FAST),
-                          SpectrogramCNNClassifier(segment_s=0.04, hop_s=0.02, **FAST)])
+#: the contract checks test the interface, not learning: 2 epochs keep them fast
+CONTRACT = dict(FAST, max_epochs=2, width=4)
+#: scikit-learn's training check wants > 83 % training accuracy on 2-feature tabular blobs,
+#: read here as a 2-sample, 1-channel signal; 2 epochs of a CNN are not meant to reach it
+#: (learning is tested on planted signals below).
+NOT_A_TABULAR_MODEL = ("2 epochs of a CNN over time are not a model of 2-feature tabular "
+                       "blobs; learning is tested on planted windows")
+
+
+@parametrize_with_checks([RawCNNClassifier(**CONTRACT),
+                          SpectrogramCNNClassifier(segment_s=0.04, hop_s=0.02, **CONTRACT)],
+                         expected_failed_checks=lambda est: {
+                             "check_classifiers_train": NOT_A_TABULAR_MODEL})
 def test_cnns_follow_sklearn_contract(estimator, check):
     check(estimator)
 

@@ -1,0 +1,67 @@
+"""Benchmark: CPU train time of one fold and inference latency of every terrain classifier.
+
+For each model of :data:`terrain.models.registry.MODELS` (or ``--models``), on BorealTC
+(all signals, 2 s windows, the first ``StratifiedGroupKFold(5)`` fold of seed 0, grouped by
+run): ``fit_s`` is the wall time of training on the fold's training runs, ``infer_ms`` the
+median wall time of ``predict_proba`` on one test window (batch of 1, ``--repeats`` windows,
+after one warm-up call), and ``accuracy`` the fold's window accuracy (a sanity check, not the
+comparison: use ``terrain compare``). Targets of issue 13: one CNN fold < 120 s on the 2-core
+CPU machine; < 1 ms per window for every model. Figures are printed and logged to MLflow
+(experiment ``terrain-benchmark``, run ``models``).
+
+Run: ``python benchmarks/bench_models.py [--models cnn svm] [--threads 2] [--repeats 50]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from terrain.models.cv import inference_ms_per_window, iter_splits
+from terrain.models.experiment import ExperimentConfig, load_windows
+from terrain.models.registry import MODELS, ModelConfig, make_model
+from terrain.tracking import tracked_run
+
+
+def main() -> int:
+    """Time every model on one BorealTC fold; print and log the figures."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
+    parser.add_argument("--threads", type=int, default=2, help="torch threads when training")
+    parser.add_argument("--repeats", type=int, default=50, help="timed single windows")
+    args = parser.parse_args()
+    ws = load_windows(ExperimentConfig(dataset="borealtc"))
+    y = ws.labels.astype(str)
+    train, test = next(iter_splits("grouped", y, ws.groups, 0))
+    figures = {}
+    with tracked_run("terrain-benchmark", run_name="models",
+                     params={"models": ",".join(args.models), "threads": args.threads,
+                             "n_train": len(train), "n_test": len(test)}) as run:
+        for kind in args.models:
+            model = make_model(ModelConfig(kind=kind, n_threads=args.threads), ws.channels,
+                               ws.rate_hz, "borealtc", 0)
+            t0 = time.perf_counter()
+            if kind == "ensemble":
+                model.fit(ws.X[train], y[train], groups=ws.groups[train])
+            else:
+                model.fit(ws.X[train], y[train])
+            fit_s = time.perf_counter() - t0
+            infer_ms = inference_ms_per_window(model, ws.X[test], args.repeats)
+            acc = float((model.predict(ws.X[test]) == y[test]).mean())
+            figures.update({f"{kind}_fit_s": fit_s, f"{kind}_infer_ms": infer_ms,
+                            f"{kind}_accuracy": acc})
+            print(f"  {kind:16s} fit {fit_s:7.1f} s   infer {infer_ms:7.3f} ms/window   "
+                  f"fold accuracy {acc:.3f}", flush=True)
+        run.log_metrics(figures)
+    for kind in args.models:
+        fit_ok = figures[f"{kind}_fit_s"] < 120 or not kind.startswith("cnn")
+        print(f"  target {kind}: fit {'met' if fit_ok else 'MISSED'} (CNN < 120 s), "
+              f"inference {'met' if figures[f'{kind}_infer_ms'] < 1 else 'MISSED'} (< 1 ms)")
+    print(run.describe())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
