@@ -132,6 +132,81 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     return pd.Series(labels, index=smooth.index).loc[predictions.index].to_numpy()
 
 
+def score_rows(predictions: pd.DataFrame, classes: Sequence[str], history: Sequence[int],
+               fields: dict) -> list[dict]:
+    """Table metrics of out-of-fold predictions at every history length.
+
+    Parameters
+    ----------
+    predictions : pandas.DataFrame
+        Rows of one cell: ``true``, ``group``, ``t_start_s``, ``proba_<CLASS>``.
+    classes : sequence of str
+        Class order.
+    history : sequence of int
+        History lengths ``k`` (windows).
+    fields : dict
+        Copied into every row (cell fields, timings).
+
+    Returns
+    -------
+    list of dict
+        One row per ``k``: ``history``, :data:`TABLE_METRICS`, ``n_windows`` and ``fields``.
+    """
+    rows = []
+    for k in history:
+        p = history_predictions(predictions, classes, k)
+        m = window_metrics(predictions["true"], p, classes)
+        rows.append({**fields, "history": k, **{key: m[key] for key in TABLE_METRICS[:3]},
+                     "run_vote_accuracy": run_majority_accuracy(predictions["true"], p,
+                                                                predictions["group"]),
+                     "n_windows": int(len(predictions))})
+    return rows
+
+
+def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
+              weights: Sequence[float] | None = None) -> pd.DataFrame:
+    """Soft vote of out-of-fold probabilities of models cross-validated on the same folds.
+
+    With fixed weights (no tuning) this is exactly the out-of-fold prediction of
+    :class:`terrain.models.ensemble.SoftVotingEnsemble` with those weights, because each
+    member is trained deterministically on the same training fold.
+
+    Parameters
+    ----------
+    members : sequence of pandas.DataFrame
+        Predictions of each model (same seed, folds and windows; ``proba_<CLASS>``).
+    classes : sequence of str
+        Class order.
+    weights : sequence of float or None
+        Member weights (normalised); ``None``: equal.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The first member's frame with averaged probabilities and ``predicted``.
+
+    Raises
+    ------
+    ConfigError
+        The members do not cover the same windows in the same folds.
+    """
+    key = ["seed", "fold", "run", "t_start_s"]
+    base = members[0].sort_values(key).reset_index(drop=True)
+    cols = [f"proba_{c}" for c in classes]
+    w = np.full(len(members), 1.0 / len(members)) if weights is None else (
+        np.asarray(weights, float) / np.sum(weights))
+    total = np.zeros((len(base), len(cols)))
+    for wi, frame in zip(w, members):
+        frame = frame.sort_values(key).reset_index(drop=True)
+        if not frame[key].equals(base[key]):
+            raise ConfigError("soft_vote needs predictions of the same folds and windows")
+        total += wi * frame[cols].to_numpy()
+    out = base.copy()
+    out[cols] = total
+    out["predicted"] = np.asarray(classes, dtype=object)[total.argmax(axis=1)]
+    return out
+
+
 def _windows(cell: Cell, n_blocks: int):
     """Windows of a cell with single-run classes split into blocks (as ``terrain cv``)."""
     from terrain.models.experiment import ExperimentConfig, load_windows
@@ -171,17 +246,10 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
                             time_inference=20)
     wall_s = time.perf_counter() - t0
     pred = report.predictions
-    rows = []
-    for k in config.history:
-        p = history_predictions(pred, report.classes, k)
-        m = window_metrics(pred["true"], p, report.classes)
-        rows.append({**asdict(cell), "history": k,
-                     **{key: m[key] for key in TABLE_METRICS[:3]},
-                     "run_vote_accuracy": run_majority_accuracy(pred["true"], p,
-                                                                pred["group"]),
-                     "fit_s_per_fold": float(report.folds["fit_s"].mean()),
-                     "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
-                     "n_windows": int(len(pred)), "cell_wall_s": wall_s})
+    rows = score_rows(pred, report.classes, config.history,
+                      {**asdict(cell), "fit_s_per_fold": float(report.folds["fit_s"].mean()),
+                       "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
+                       "cell_wall_s": wall_s})
     return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),
             "predictions": pred.assign(**asdict(cell))}
 

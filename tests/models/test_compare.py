@@ -75,3 +75,32 @@ def test_dask_local_cluster_gives_the_same_cells_as_local_runs():
     for a, b in zip(local, remote):
         assert a["rows"][0]["accuracy"] == pytest.approx(b["rows"][0]["accuracy"])
         pd.testing.assert_frame_equal(a["predictions"], b["predictions"])
+
+
+def test_soft_vote_of_cv_predictions_equals_the_fixed_weight_ensemble():
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer
+
+    from terrain.models.compare import soft_vote
+    from terrain.models.cv import cross_validate
+    from terrain.models.ensemble import SoftVotingEnsemble
+
+    rng = np.random.default_rng(0)
+    groups = np.repeat([f"r{i}" for i in range(10)], 8)
+    y = np.where(np.arange(80) // 8 % 2 == 0, "A", "B")
+    X = rng.normal(0, 1, (80, 2, 10)) + (y == "B")[:, None, None] * 0.7
+    flat = FunctionTransformer(lambda a: a.reshape(len(a), -1))
+    means = FunctionTransformer(lambda a: a.mean(axis=2))
+    members = [("flat", make_pipeline(flat, LogisticRegression(C=0.1))),
+               ("mean", make_pipeline(means, LogisticRegression()))]
+    t = np.tile(np.arange(8) * 2.0, 10)
+    args = (X, y, groups, groups, t, t + 2.0, "grouped", (0,), 5)
+    single = [cross_validate(lambda s, m=m: m, *args).predictions for _, m in members]
+    ens = cross_validate(lambda s: SoftVotingEnsemble(members, weights=(1, 3)), *args)
+    voted = soft_vote(single, ["A", "B"], weights=(1, 3))
+    ref = ens.predictions.sort_values(["seed", "fold", "run", "t_start_s"])
+    np.testing.assert_allclose(voted["proba_B"], ref["proba_B"], atol=1e-12)
+    assert (voted["predicted"].to_numpy() == ref["predicted"].to_numpy()).all()
+    with pytest.raises(ConfigError, match="same folds"):
+        soft_vote([single[0], single[1].iloc[1:]], ["A", "B"])
