@@ -231,7 +231,8 @@ def desired_slip(terrain: TerrainParams, config: DesiredSlipConfig = DesiredSlip
         braking = -braking_peak
         rule = (f"traction: {config.traction_fraction:.0%} of the friction peak (stable side); "
                 f"braking: {config.braking_fraction:.0%} of the peak")
-        relation = "Burckhardt peak ln(c1 c2/c3)/c2"
+        relation = ("Burckhardt peak ln(c1 c2/c3)/c2" if curve.c3 > 0 else
+                    "Burckhardt curve without interior peak (c3 = 0): peak = max on [0, 1]")
     else:
         s_eff, _ = max_efficiency_slip(terrain)
         traction = min(s_eff, config.deformable_cap)
@@ -245,7 +246,7 @@ def desired_slip(terrain: TerrainParams, config: DesiredSlipConfig = DesiredSlip
     return DesiredSlip(
         terrain=terrain.name, traction=float(traction), braking=float(braking),
         steady=float(steady),
-        source=f"catalogue {terrain.name}: {head}; {relation}",
+        source=f"catalogue {terrain.name}: {head}; curve: {curve.source}; {relation}",
         method=f"{rule}; steady: mu = soil resistance [{_basis(terrain)}]")
 
 
