@@ -17,8 +17,9 @@ from the slip estimator):
 
 Beyond the thesis (all switchable through :class:`TractionControlConfig`):
 
-* anti-windup by conditional integration: the integral does not grow while the output is
-  saturated in the direction of the error, and stays within the output limit;
+* anti-windup by conditional integration: while the output is saturated in the direction of
+  the error the integral grows only up to the value that just reaches the limit, and it always
+  stays within the output limit;
 * output saturation: ``|PID_out| <= output_fraction * omega_max``, the command stays within
   ``[-omega_max, omega_max]`` and never crosses zero (slip control modulates the wheel speed,
   it never reverses a wheel nor moves one the low level holds still);
@@ -321,8 +322,12 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         p_term, d_term = kp * error, -kd * deriv
         candidate = integral + ki_dt * error
         unsat = p_term + candidate + d_term
-        if not ((unsat > hi and error > 0.0) or (unsat < lo and error < 0.0)):
-            integral = candidate                                          # anti-windup
+        if unsat > hi and error > 0.0:      # anti-windup: integrate only up to the limit
+            integral = min(candidate, max(integral, hi - p_term - d_term))
+        elif unsat < lo and error < 0.0:
+            integral = max(candidate, min(integral, lo - p_term - d_term))
+        else:
+            integral = candidate
         integral = min(max(integral, -limit), limit)
         if chassis_on:
             correction = min(max(p_term + integral + d_term, lo), hi)     # eq. 8.2
