@@ -25,7 +25,7 @@ TABLE_8_1 = [
     ("2C", -0.5, -0.47, BRAKING, +0.060, +0.15, +0.090, +0.090, -0.380),
     ("2D", -0.5, -0.39, BRAKING, +0.220, +0.15, -0.070, -0.070, -0.460),
 ]
-THESIS = TractionControlConfig(kp=1.0, ki=0.0, kd=0.0, wheel_radius_m=1.0)
+THESIS = TractionControlConfig(kp=1.0, ki=0.0, kd=0.0, wheel_radius_m=1.0, one_sided=False)
 TARGETS = SlipTargets(traction=0.1, braking=-0.15, steady=0.0)
 
 
@@ -52,14 +52,14 @@ def test_table_8_1_all_cases_at_once_and_with_another_radius():
     wr = np.array([c[2] for c in TABLE_8_1])
     a = np.array([c[3] for c in TABLE_8_1]) * np.sign(v)
     r = 0.165
-    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=r)
+    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=r, one_sided=False)
     out, _ = _step(cfg, TractionState.zeros(8), wr / r, wr / r, v, a)
     np.testing.assert_allclose(np.round(out.error, 3), [c[6] for c in TABLE_8_1], atol=1e-12)
     np.testing.assert_allclose(out.omega_cmd_rad_s, wr / r + out.error)
 
 
 def test_power_state_threshold_gives_steady():
-    cfg = TractionControlConfig(power_threshold_m2_s3=0.05)
+    cfg = TractionControlConfig(power_threshold_m2_s3=0.05, one_sided=False)
     out, _ = _step(cfg, TractionState.zeros(3), [0.7] * 3, [0.7] * 3, [0.6] * 3,
                    [0.05, 0.2, -0.2])                       # a v = 0.03, 0.12, -0.12
     assert list(out.mode) == [STEADY, TRACTION, BRAKING]
@@ -77,8 +77,13 @@ def test_enabling_thresholds():
 
 
 def test_output_saturation_and_no_reversal():
-    cfg = TractionControlConfig(kp=50.0, ki=20.0, kd=0.1, wheel_radius_m=0.1,
-                                omega_max_rad_s=20.0, output_fraction=0.25)
+    for one_sided in (False, True):
+        _check_limits(TractionControlConfig(kp=50.0, ki=20.0, kd=0.1, wheel_radius_m=0.1,
+                                            omega_max_rad_s=20.0, output_fraction=0.25,
+                                            one_sided=one_sided))
+
+
+def _check_limits(cfg):
     rng = np.random.default_rng(3)
     state = TractionState.zeros(4)
     for _ in range(2000):
@@ -92,11 +97,15 @@ def test_output_saturation_and_no_reversal():
         assert np.all(np.abs(cmd) <= 20.0 + 1e-12)
         assert np.all(cmd * omega_ll >= -1e-12) and np.all(cmd[omega_ll == 0] == 0)
         assert np.all(np.abs(state.integral) <= 0.25 * 20.0 + 1e-12)
+        if cfg.one_sided:      # limiter: only towards the ground speed
+            towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
+            assert np.all(out.correction_rad_s * towards >= -1e-12)
 
 
 def test_anti_windup_releases_at_once():
     """Long saturation, then the error reverses: the output leaves the limit in one step."""
-    cfg = TractionControlConfig(kp=0.5, ki=5.0, omega_max_rad_s=10.0, output_fraction=0.5)
+    cfg = TractionControlConfig(kp=0.5, ki=5.0, omega_max_rad_s=10.0, output_fraction=0.5,
+                                one_sided=False)
     omega_ll = 9.8                                 # upper room: 10 - 9.8 = 0.2 rad/s
     state = TractionState.zeros(1)
     for _ in range(1000):                          # slip 0 < target 0.1: pushes upwards
@@ -171,7 +180,7 @@ def test_proportional_only_keeps_no_memory_across_enable():
 
 
 def test_derivative_on_measurement_has_no_setpoint_kick():
-    cfg = TractionControlConfig(kp=0.0, ki=0.0, kd=1.0, derivative_tau_s=1e-9)
+    cfg = TractionControlConfig(kp=0.0, ki=0.0, kd=1.0, derivative_tau_s=1e-9, one_sided=False)
     state = TractionState.zeros(1)
     out, state = _step(cfg, state, 10.0, 0.7, 0.6, 1.0)         # traction target
     out, state = _step(cfg, state, 10.0, 0.7, 0.6, -1.0)        # braking target, same slip
@@ -182,7 +191,8 @@ def test_derivative_on_measurement_has_no_setpoint_kick():
 
 
 def test_derivative_filter_smooths_a_step():
-    cfg = TractionControlConfig(kp=0.0, kd=1.0, derivative_tau_s=0.09, omega_max_rad_s=1e3)
+    cfg = TractionControlConfig(kp=0.0, kd=1.0, derivative_tau_s=0.09, omega_max_rad_s=1e3,
+                                one_sided=False)
     state = TractionState.zeros(1)
     out, state = _step(cfg, state, 10.0, 0.7, 0.6, 1.0)
     slip0 = out.slip[0]
@@ -194,7 +204,7 @@ def test_derivative_filter_smooths_a_step():
 def test_matches_simple_pid_where_nothing_saturates():
     simple_pid = pytest.importorskip("simple_pid")
     kp, ki, kd, dt = 0.8, 3.0, 0.02, 0.01
-    cfg = TractionControlConfig(kp=kp, ki=ki, kd=kd, derivative_tau_s=1e-12)
+    cfg = TractionControlConfig(kp=kp, ki=ki, kd=kd, derivative_tau_s=1e-12, one_sided=False)
     ref = simple_pid.PID(kp, ki, kd, setpoint=0.1, output_limits=(-50.0, 50.0))
     state = TractionState.zeros(1)
     rng = np.random.default_rng(0)
@@ -207,7 +217,7 @@ def test_matches_simple_pid_where_nothing_saturates():
 
 
 def test_skid_steer_sides_use_the_estimated_slip():
-    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=0.165)
+    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=0.165, one_sided=False)
     out, _ = _step(cfg, TractionState.zeros(2), [3.0, 3.0], [3.0, 3.0], [0.45, 0.45],
                    [0.5, 0.5], slip=np.array([0.3, 0.05]))
     np.testing.assert_allclose(out.error, [0.1 - 0.3, 0.1 - 0.05])
@@ -237,3 +247,68 @@ def test_stateful_wrapper_equals_the_pure_steps():
 def test_invalid_settings_are_typed_errors(kwargs):
     with pytest.raises(ConfigError):
         TractionControlConfig(**kwargs)
+
+
+def test_one_sided_limiter_keeps_only_the_slip_reducing_cases_of_table_8_1():
+    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=1.0, one_sided=True)
+    v = np.array([c[1] for c in TABLE_8_1])
+    wr = np.array([c[2] for c in TABLE_8_1])
+    a = np.array([c[3] for c in TABLE_8_1]) * np.sign(v)
+    out, _ = _step(cfg, TractionState.zeros(8), wr, wr, v, a)
+    # 1A, 1D, 2A, 2D bring |slip| down (kept); 1B, 1C, 2B, 2C would push it up (clipped to 0)
+    expected = [c[7] if c[0][1] in "AD" else 0.0 for c in TABLE_8_1]
+    np.testing.assert_allclose(np.round(out.correction_rad_s, 3), expected, atol=1e-12)
+
+
+def _toy_wheel_on(terrain_name, cfg, duration_s=4.0):
+    """One wheel (quarter of a 50 kg robot) on a catalogue curve: the wheel follows its
+    command with a 50 ms lag; m dv/dt = W (mu(s) - rho(s)); ramp to 1 m/s in 0.5 s.
+    Plant integrated at 1 ms, controller at 10 ms. Returns (t, slip, v) per control step."""
+    from terrain.slip import sae_slip
+    from terrain.terramechanics import (get_terrain, soil_resistance_coefficient,
+                                        traction_coefficient)
+    terrain = get_terrain(terrain_name)
+    targets = build_slip_table([terrain_name]).entries[terrain_name]
+    r, m, dt, sub = 0.165, 12.5, 0.01, 10
+    weight = m * 9.80665
+    state, v, w, acc = TractionState.zeros(1), 0.0, 0.0, 0.0
+    log = []
+    for k in range(int(duration_s / dt)):
+        omega_ll = min(1.0, 2.0 * k * dt) / r
+        cmd = omega_ll
+        if cfg is not None:
+            out, state = _step(cfg, state, omega_ll, w, v, acc, chassis=v, dt=dt,
+                               targets=targets)
+            cmd = out.omega_cmd_rad_s[0]
+        v0 = v
+        for _ in range(sub):
+            w += (cmd - w) * (dt / sub) / 0.05
+            s = float(sae_slip(w * r, v))
+            force = weight * float(traction_coefficient(terrain.curve, s)
+                                   - soil_resistance_coefficient(terrain, s))
+            v = max(v + force / m * dt / sub, 0.0)
+        acc = (v - v0) / dt
+        log.append((k * dt, float(sae_slip(w * r, v)), v))
+    return np.array(log).T
+
+
+def test_closed_loop_on_ice_holds_the_target_and_the_commanded_speed():
+    cfg = TractionControlConfig(kp=10.0, ki=1000.0, wheel_radius_m=0.165,
+                                omega_max_rad_s=20.0)
+    target = build_slip_table(["ICE"]).entries["ICE"].traction
+    t, slip_off, v_off = _toy_wheel_on("ICE", None)
+    t, slip_on, v_on = _toy_wheel_on("ICE", cfg)
+    accel = (t > 0.5) & (t < 1.5)           # the ramp asks 2 m/s^2, ice gives < 0.5 m/s^2
+    assert slip_off[accel].mean() > 0.2
+    assert abs(slip_on[accel].mean() - target) < 0.02
+    assert slip_on[t > 0.5].max() < 0.5 * slip_off[t > 0.5].max()
+    assert v_on.max() <= 1.0 + 1e-6 and v_on[-1] == pytest.approx(1.0, abs=0.01)
+
+
+def test_two_sided_thesis_regulation_overspeeds_while_accelerating():
+    """Documents the thesis's two-sided logic: slip is pushed *up* to the traction target,
+    Power_state stays positive, and the robot ends faster than commanded (1 m/s)."""
+    cfg = TractionControlConfig(kp=10.0, ki=1000.0, wheel_radius_m=0.165,
+                                omega_max_rad_s=20.0, one_sided=False)
+    _, _, v = _toy_wheel_on("ICE", cfg)
+    assert v[-1] > 1.1
