@@ -211,7 +211,8 @@ class TractionOutput(NamedTuple):
     Parameters
     ----------
     omega_cmd_rad_s : ndarray, shape (n,)
-        Final wheel speed command ``omega_low_level + PID_out`` (eq. 8.3), rad/s.
+        Final wheel speed command ``omega_low_level + PID_out`` (eq. 8.3), rad/s; exactly
+        ``omega_low_level`` where ``safe`` (even a non-finite one: the controller adds nothing).
     correction_rad_s : ndarray, shape (n,)
         ``PID_out`` actually applied (saturated, or decaying while disabled), rad/s.
     slip : ndarray, shape (n,)
