@@ -1,6 +1,6 @@
 """Per-wheel traction controller of seed ``001_59da564c4b2d6a48.txt`` ch. 8.3.2.
 
-One step, vectorised over the drive units (the wheels of the AgriMaRo; the two sides of a
+One step covers all drive units (the wheels of the AgriMaRo; the two sides of a
 skid-steer Husky or tracked vehicle, which run the same logic per side with the side's slip
 from the slip estimator):
 
@@ -15,7 +15,7 @@ from the slip estimator):
 4. ``e = s_desired - s`` (eq. 8.1), PID (eq. 8.2), ``omega_cmd = omega_low_level + PID_out``
    (eq. 8.3).
 
-Beyond the thesis (all switchable through :class:`TractionControlConfig`):
+Beyond the thesis (their settings in :class:`TractionControlConfig`):
 
 * anti-windup by conditional integration: while the output is saturated in the direction of
   the error the integral grows only up to the value that just reaches the limit, and it always
@@ -34,13 +34,16 @@ Beyond the thesis (all switchable through :class:`TractionControlConfig`):
 * safe output: a non-finite input or an estimate older than ``max_input_age_s`` gives
   ``omega_cmd = omega_low_level`` (no correction) at once and resets that wheel's state.
 
-Why not simple-pid (2.0.1): its windup guard clamps the integral to the output limits, so after
-a long saturation the integral sits at the limit and the output stays saturated until the error
-has integrated back (a lag of ``limit / (Ki |e|)``); here the limits also change every step
-(they depend on ``omega_low_level``), it has no derivative filter, a NaN input enters its
-integral for good, and its state lives in an object driven by a wall clock, not in a record a
-simulator can step. It is used as the reference of ``benchmarks/bench_control.py`` and of a
-test that our PID core equals it where neither saturates.
+Why not simple-pid (2.0.1) for the building blocks: its windup guard clamps the integral to
+the output limits. That is acceptable for a fixed limit, not here: the room left for the
+correction changes every step (it depends on ``omega_low_level`` and the wheel speed limit,
+and on the limiter's side), and an integral allowed to reach the whole static limit keeps the
+output saturated long after the error reverses (``tests/control``: after the same saturated
+history it still asks for > 4 rad/s where only 0.2 rad/s of room is left; ours releases at
+once). It also has no derivative filter, a NaN input enters its integral for good, and its
+state lives in an object timed by a monotonic clock unless ``dt`` is passed, not in a record a
+simulator can step. It is the reference of ``benchmarks/bench_control.py`` and of a test that
+our PID core equals it where neither saturates.
 """
 
 from __future__ import annotations
