@@ -54,7 +54,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.slip import sae_slip
 
 #: Operating modes of a wheel (``TractionOutput.mode``).
@@ -281,6 +281,11 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     output : TractionOutput
     state : TractionState
         Memory for the next step.
+
+    Raises
+    ------
+    ShapeError
+        An input array's shape differs from the state's ``(n,)`` (named in the message).
     """
     cfg = config
     omega_ll = np.asarray(omega_low_level_rad_s, dtype=float)
@@ -292,11 +297,18 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                  and math.isfinite(input_age_s) and input_age_s <= cfg.max_input_age_s
                  and math.isfinite(targets.traction) and math.isfinite(targets.braking)
                  and math.isfinite(targets.steady))
+    n = state.integral.shape
+    arrays = {"omega_low_level_rad_s": omega_ll, "omega_meas_rad_s": omega, "v_long_m_s": v,
+              "a_local_m_s2": acc}
+    if slip is not None:
+        arrays["slip"] = slip = np.asarray(slip, dtype=float)
+    bad = [f"{k} {a.shape}" for k, a in arrays.items() if a.shape != n]
+    if bad:
+        raise ShapeError(f"traction control step: the state has {n} drive units, got "
+                         + ", ".join(bad))
     if slip is None:
         slip = sae_slip(omega * radius, v,                                       # eqs. 8.4-8.5
                         dead_band_m_s=cfg.wheel_speed_threshold_m_s)
-    else:
-        slip = np.asarray(slip, dtype=float)
     chassis_on = global_ok and chassis_speed_m_s > cfg.chassis_speed_threshold_m_s
     dt = dt_s if global_ok else 1.0
     alpha = dt / (cfg.derivative_tau_s + dt)

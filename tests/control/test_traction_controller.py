@@ -11,7 +11,7 @@ from terrain.control.desired_slip import build_slip_table
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionController, TractionState,
                                       traction_control_step)
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 
 #: Table 8.1 of seed 001 (case, v_long m/s, omega r m/s, manoeuvre, slip, desired, error, PID,
 #: omega_ODrive rad/s), as printed.
@@ -312,3 +312,12 @@ def test_two_sided_thesis_regulation_overspeeds_while_accelerating():
                                 omega_max_rad_s=20.0, one_sided=False)
     _, _, v = _toy_wheel_on("ICE", cfg)
     assert v[-1] > 1.1
+
+
+def test_mismatched_shapes_are_a_typed_error_naming_the_argument():
+    with pytest.raises(ShapeError, match="v_long_m_s"):
+        traction_control_step(THESIS, TractionState.zeros(3), TARGETS, np.ones(3), np.ones(3),
+                              np.ones(2), np.ones(3), 0.5, 0.01)
+    with pytest.raises(ShapeError, match="slip"):
+        traction_control_step(THESIS, TractionState.zeros(2), TARGETS, np.ones(2), np.ones(2),
+                              np.ones(2), np.ones(2), 0.5, 0.01, slip=np.ones(3))
