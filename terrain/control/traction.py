@@ -56,6 +56,7 @@ import numpy as np
 
 from terrain.errors import ConfigError, ShapeError
 from terrain.slip import sae_slip
+from terrain.vehicles import contact_geometry, get_vehicle
 
 #: Operating modes of a wheel (``TractionOutput.mode``).
 BRAKING, STEADY, TRACTION = -1, 0, 1
@@ -136,6 +137,37 @@ class TractionControlConfig:
         if min(self.wheel_speed_threshold_m_s, self.chassis_speed_threshold_m_s,
                self.power_threshold_m2_s3) < 0.0:
             raise ConfigError("thresholds must be >= 0")
+
+
+def config_for_vehicle(vehicle: str, **settings: float) -> tuple[TractionControlConfig, int]:
+    """Controller settings for a catalogued vehicle: its rolling radius and wheel speed limit.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` (3 steered wheels, one unit each), ``husky`` or ``tracked`` (two sides,
+        one unit each), see :func:`terrain.vehicles.get_vehicle`.
+    **settings : float or bool
+        Any other :class:`TractionControlConfig` field (gains, thresholds...).
+
+    Returns
+    -------
+    config : TractionControlConfig
+        ``wheel_radius_m`` and ``omega_max_rad_s`` from the vehicle's contact geometry and
+        motor (:class:`terrain.vehicles.MotorParams`).
+    n_units : int
+        Number of drive units (motors).
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle or invalid settings.
+    """
+    params = get_vehicle(vehicle)
+    geometry = contact_geometry(params)
+    cfg = TractionControlConfig(wheel_radius_m=geometry.wheel_radius_m,
+                                omega_max_rad_s=params.motor.max_wheel_speed_rad_s, **settings)
+    return cfg, geometry.n_motors
 
 
 @dataclass(frozen=True)

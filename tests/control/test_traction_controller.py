@@ -10,7 +10,7 @@ import pytest
 from terrain.control.desired_slip import build_slip_table
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionController, TractionState,
-                                      traction_control_step)
+                                      config_for_vehicle, traction_control_step)
 from terrain.errors import ConfigError, ShapeError
 
 #: Table 8.1 of seed 001 (case, v_long m/s, omega r m/s, manoeuvre, slip, desired, error, PID,
@@ -321,3 +321,14 @@ def test_mismatched_shapes_are_a_typed_error_naming_the_argument():
     with pytest.raises(ShapeError, match="slip"):
         traction_control_step(THESIS, TractionState.zeros(2), TARGETS, np.ones(2), np.ones(2),
                               np.ones(2), np.ones(2), 0.5, 0.01, slip=np.ones(3))
+
+
+def test_config_for_vehicle_uses_its_radius_speed_limit_and_motors():
+    from terrain.vehicles import get_vehicle
+    cfg, n = config_for_vehicle("agrimaro", kp=3.0)
+    agrimaro = get_vehicle("agrimaro")
+    assert n == 3 and cfg.kp == 3.0 and cfg.wheel_radius_m == agrimaro.wheel_radius_m
+    assert cfg.omega_max_rad_s == agrimaro.motor.max_wheel_speed_rad_s
+    assert config_for_vehicle("husky")[1] == 2
+    with pytest.raises(ConfigError, match="unknown vehicle"):
+        config_for_vehicle("rover")
