@@ -246,7 +246,9 @@ def desired_slip(terrain: TerrainParams, config: DesiredSlipConfig = DesiredSlip
     return DesiredSlip(
         terrain=terrain.name, traction=float(traction), braking=float(braking),
         steady=float(steady),
-        source=f"catalogue {terrain.name}: {head}; curve: {curve.source}; {relation}",
+        source="; ".join(part for part in (f"catalogue {terrain.name}: {head}",
+                                           curve.source and f"curve: {curve.source}",
+                                           relation) if part),
         method=f"{rule}; steady: mu = soil resistance [{_basis(terrain)}]")
 
 
