@@ -1,0 +1,62 @@
+"""Merge ``terrain compare`` output folders and add the equal-weight soft vote of members.
+
+Each folder holds ``compare_cells.csv`` and ``predictions.csv`` of some cells (e.g. one model
+and one seed per folder, run in parallel). Cells are concatenated; for every (dataset,
+signals, window, seed) where all ``--vote`` members are present, their out-of-fold
+probabilities are averaged with equal weights (:func:`terrain.models.compare.soft_vote`,
+identical to the fixed-weight :class:`~terrain.models.ensemble.SoftVotingEnsemble` on the
+same folds) and scored as model ``vote(<members>)``; its train time is the members' sum and
+its inference time the sum of theirs. Writes ``compare_table.md/.csv`` and ``compare.png``
+to ``--out``.
+
+Run: ``python benchmarks/merge_compare.py DIR... --vote svm cnn cnn-spectrogram --out DIR``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from terrain.models.compare import (markdown_table, plot_comparison, score_rows, soft_vote,
+                                    summary_table)
+
+
+def main() -> int:
+    """Merge the folders, add the vote, write the table and figure."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("dirs", nargs="+", type=Path)
+    parser.add_argument("--vote", nargs="+", default=["svm", "cnn", "cnn-spectrogram"])
+    parser.add_argument("--history", type=int, nargs="+", default=[1, 5, 10])
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    cells = pd.concat([pd.read_csv(d / "compare_cells.csv") for d in args.dirs])
+    preds = pd.concat([pd.read_csv(d / "predictions.csv") for d in args.dirs])
+    keys = ["dataset", "signals", "window_s", "seed"]
+    rows = [cells]
+    name = "vote(" + "+".join(args.vote) + ")"
+    for key, frame in preds.groupby(keys):
+        members = [frame[frame["model"] == m] for m in args.vote]
+        if any(m.empty for m in members):
+            continue
+        classes = [c[6:] for c in frame.columns if c.startswith("proba_")]
+        voted = soft_vote(members, classes)
+        sub = cells[(cells[keys] == pd.Series(key, index=keys)).all(axis=1)
+                    & cells["model"].isin(args.vote) & (cells["history"] == args.history[0])]
+        fields = {**dict(zip(keys, key)), "model": name,
+                  "fit_s_per_fold": float(sub["fit_s_per_fold"].sum()),
+                  "infer_ms_per_window": float(sub["infer_ms_per_window"].sum())}
+        rows.append(pd.DataFrame(score_rows(voted, classes, args.history, fields)))
+    table = summary_table(pd.concat(rows, ignore_index=True))
+    args.out.mkdir(parents=True, exist_ok=True)
+    md = markdown_table(table)
+    (args.out / "compare_table.md").write_text(md)
+    table.to_csv(args.out / "compare_table.csv", index=False)
+    plot_comparison(table).savefig(args.out / "compare.png", dpi=120)
+    print(md)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
