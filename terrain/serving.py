@@ -201,10 +201,10 @@ def pip_requirements(pipeline: Any) -> list[str]:
     from importlib.metadata import version
 
     reqs = [f"scikit-learn=={version('scikit-learn')}", "numpy", "pandas", "scipy", "joblib"]
-    modules = {type(c).__module__.split(".")[0] for c in _components(pipeline)}
-    if any(type(c).__module__ == "terrain.models.cnn" for c in _components(pipeline)):
+    modules = {type(c).__module__ for c in _components(pipeline)}
+    if "terrain.models.cnn" in modules:
         reqs += [f"torch=={version('torch').split('+')[0]}", f"skorch=={version('skorch')}"]
-    if "aeon" in modules:
+    if "terrain.models.minirocket" in modules:
         reqs.append(f"aeon=={version('aeon')}")
     return reqs
 
