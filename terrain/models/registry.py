@@ -9,8 +9,10 @@ probabilities, so each one is served by :mod:`terrain.serving` unchanged:
 * ``cnn-spectrogram``: BorealTC's multichannel-spectrogram CNN
   (:class:`terrain.models.cnn.SpectrogramCNNClassifier`).
 * ``minirocket``: aeon MiniRocket + logistic regression (:mod:`terrain.models.minirocket`).
-* ``ensemble``: soft vote of ``svm``, ``cnn`` and ``cnn-spectrogram`` with weights chosen
-  on held-out training runs (:class:`terrain.models.ensemble.SoftVotingEnsemble`).
+* ``ensemble``: soft vote of ``svm`` and ``cnn-spectrogram`` (``ensemble_members``) with
+  equal weights, the best configuration measured (README "Model comparison"); with
+  ``tune_weights`` the weights are chosen on runs held out of the training data
+  (:class:`terrain.models.ensemble.SoftVotingEnsemble`).
 """
 
 from __future__ import annotations
@@ -56,6 +58,10 @@ class ModelConfig:
         MiniRocket features.
     svm : SVMConfig
         SVM hyperparameters (also the SVM member of the ensemble).
+    ensemble_members : tuple of str
+        Members of the ``ensemble`` model (other model names).
+    tune_weights : bool
+        Choose the ensemble weights on held-out training runs instead of equal weights.
     """
 
     kind: str = "svm"
@@ -63,10 +69,14 @@ class ModelConfig:
     n_threads: int | None = None
     minirocket_kernels: int = 10_000
     svm: SVMConfig = SVMConfig()
+    ensemble_members: tuple[str, ...] = ("svm", "cnn-spectrogram")
+    tune_weights: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
             raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
+        if set(self.ensemble_members) - (set(MODELS) - {"ensemble"}):
+            raise ConfigError(f"ensemble members must be among {list(MODELS[:-1])}")
 
 
 def band_limits_hz(channels: Sequence[str], dataset: str) -> tuple[float, ...]:
@@ -131,5 +141,6 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         return make_minirocket(random_state, n_kernels=config.minirocket_kernels)
     members = [(k, make_model(replace(config, kind=k), channels, rate_hz, dataset,
                               random_state, probability=True))
-               for k in ("svm", "cnn", "cnn-spectrogram")]
-    return SoftVotingEnsemble(members, random_state=random_state)
+               for k in config.ensemble_members]
+    weights = None if config.tune_weights else (1.0,) * len(members)
+    return SoftVotingEnsemble(members, weights=weights, random_state=random_state)
