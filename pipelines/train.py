@@ -21,7 +21,7 @@ from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-train"
 #: Documented default classifier (README "Model comparison").
-DEFAULT_MODEL = "svm"
+DEFAULT_MODEL = "ensemble"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
