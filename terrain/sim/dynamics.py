@@ -89,9 +89,14 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
         delta = np.zeros((n, 3))
         omega = np.zeros((n, 3))
         prev = np.zeros(3)
-        # sequential so that each unit keeps the solution closest to its previous angle
+        # sequential so that each unit keeps the solution closest to its previous angle; a
+        # repeated command gives the previous solution again (the closest one to itself)
+        w = np.zeros(3)
         for i in range(n):
-            d, w = swerve_inverse(thesis_twist[i], vehicle, prev, min_speed_m_s=1e-3)
+            if i == 0 or not np.array_equal(thesis_twist[i], thesis_twist[i - 1]):
+                d, w = swerve_inverse(thesis_twist[i], vehicle, prev, min_speed_m_s=1e-3)
+            else:
+                d = prev
             delta[i], omega[i] = d, w
             prev = d
         return np.clip(omega, -wmax, wmax), delta
@@ -166,7 +171,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         # actuators: steering (rate-limited), speed loop (first-order lag)
         if layout.steered:
             step = (delta_cmd[k] - delta + np.pi) % (2 * np.pi) - np.pi
-            delta = delta + np.clip(step, -steer_rate, steer_rate)
+            delta = delta + np.minimum(np.maximum(step, -steer_rate), steer_rate)
             d_c = delta[motor_of]
             maps = velocity_maps(layout, np.cos(d_c), np.sin(d_c))
         else:

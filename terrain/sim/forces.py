@@ -146,10 +146,16 @@ def velocity_maps(layout: ContactLayout, cos_delta: np.ndarray, sin_delta: np.nd
     """
     x_c, y_c = layout.x_m, layout.y_m
     cd, sd = cos_delta, sin_delta
-    return VelocityMaps(
-        np.column_stack([cd, sd, -layout.y_kinematic_m * cd + x_c * sd]),
-        np.column_stack([cd, sd, -y_c * cd + x_c * sd]),
-        np.column_stack([-sd, cd, y_c * sd + x_c * cd]))
+    maps = np.empty((3, len(cd), 3))
+    maps[0, :, 0] = cd
+    maps[0, :, 1] = sd
+    maps[0, :, 2] = -layout.y_kinematic_m * cd + x_c * sd
+    maps[1, :, :2] = maps[0, :, :2]
+    maps[1, :, 2] = -y_c * cd + x_c * sd
+    maps[2, :, 0] = -sd
+    maps[2, :, 1] = cd
+    maps[2, :, 2] = y_c * sd + x_c * cd
+    return VelocityMaps(maps[0], maps[1], maps[2])
 
 
 class ContactForces(NamedTuple):

@@ -82,7 +82,8 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
     rim = np.asarray(rim_speed_m_s, dtype=float)
     v = np.asarray(v_long_m_s, dtype=float)
     if speed_floor_m_s > 0:
-        s = np.clip(_ratio(rim, v, speed_floor_m_s)[0], -saturation, saturation)
+        # minimum/maximum: same values as np.clip, less call overhead (simulator inner loop)
+        s = np.minimum(np.maximum(_ratio(rim, v, speed_floor_m_s)[0], -saturation), saturation)
     else:
         den = np.maximum(np.abs(rim), np.abs(v))
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -133,4 +134,4 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
     ds_dv = np.where(body_dominant,
                      -rim_speed_m_s * np.sign(v) / np.maximum(v * v, 1e-6), -1.0 / den)
     ds_dv = np.where(np.abs(ratio) >= 1.0, 0.0, ds_dv)
-    return np.clip(ratio, -1.0, 1.0), ds_dv
+    return np.minimum(np.maximum(ratio, -1.0), 1.0), ds_dv
