@@ -1,16 +1,12 @@
-"""Validation figures of issue 4 on simulated and measured runs (imports :mod:`terrain.sim`).
+"""Tables of ``docs/estimation_validation.md``: estimators on simulated and measured runs.
 
-``python -m terrain.slip.validation [--quick] [--out FILE]`` prints every table of
-``docs/estimation_validation.md`` as Markdown (and writes them to FILE). Nothing in the
-library imports this module.
+``terrain validate estimation [--quick] [--out FILE]`` (:mod:`pipelines.validate`) prints every
+table as Markdown (and writes them to FILE). Nothing in the library imports this module.
 """
 
 from __future__ import annotations
 
-import argparse
-import time
-from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -19,12 +15,11 @@ from terrain.estimation.agrimaro import estimate_agrimaro
 from terrain.estimation.consistency import nees, state_errors
 from terrain.estimation.slip_state import STATE_NAMES as SLIP_STATE_NAMES
 from terrain.estimation.slip_state import SlipStateModel, noise_derived_slip_state_model
-from terrain.estimation.validation import (THESIS_TERRAINS, agrimaro_consistency,
-                                           coriolis_filter_rmse, coriolis_prediction_error,
-                                           data_driven_settings, husky_comparison,
-                                           measured_skid_steer_summary, outage_experiment,
-                                           sim_to_run, simulate_agrimaro, simulate_husky,
-                                           truth_on_grid)
+from pipelines.validation.harness import (THESIS_TERRAINS, agrimaro_consistency,
+                                          coriolis_filter_rmse, coriolis_prediction_error,
+                                          data_driven_settings, husky_comparison,
+                                          measured_skid_steer_summary, outage_experiment,
+                                          simulate_agrimaro, simulate_husky, truth_on_grid)
 from terrain.sim import Effects, SensorSettings
 from terrain.slip.estimate import estimate_run
 
@@ -50,7 +45,7 @@ def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0
     for terrain in THESIS_TERRAINS:
         for seed in seeds:
             result = simulate_agrimaro(terrain, seed, duration_s)
-            run = sim_to_run(result)
+            run = result.run
             for tuning in ("noise", "thesis"):
                 row = {"terrain": terrain, "seed": seed, "tuning": tuning}
                 row.update(_slip_errors(result, estimate_run(run, tuning=tuning)))
@@ -64,7 +59,7 @@ def default_encoder_table(seed: int = 1) -> pd.DataFrame:
     for terrain in THESIS_TERRAINS:
         result = simulate_agrimaro(terrain, seed, 20.0, sensors=SensorSettings(
             wheel_rate_hz=50.0, speed_quantum_m_s=0.0, current_quantum_a=0.01))
-        est = estimate_run(sim_to_run(result))
+        est = estimate_run(result.run)
         rows.append({"terrain": terrain, **_slip_errors(result, est),
                      "lag_s": est.lag.lag_s if est.lag else float("nan")})
     return pd.DataFrame(rows)
@@ -78,7 +73,7 @@ def consistency_table(n_runs: int = 10, duration_s: float = 20.0) -> pd.DataFram
         slip_rmse = []
         for seed in range(min(n_runs, 3)):
             result = simulate_agrimaro(terrain, seed, duration_s)
-            slip_rmse.append(_slip_errors(result, estimate_run(sim_to_run(result)))["rmse"])
+            slip_rmse.append(_slip_errors(result, estimate_run(result.run))["rmse"])
         row["rmse_slip"] = float(np.mean(slip_rmse))
         rows.append(row)
     return pd.DataFrame(rows)
@@ -103,7 +98,7 @@ def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) ->
     for terrain in THESIS_TERRAINS:
         for seed in seeds:
             result = simulate_agrimaro(terrain, seed, duration_s)
-            run = sim_to_run(result)
+            run = result.run
             settings = data_driven_settings(run)
             acc = float(np.sqrt(settings.r_diag[3]))
             for label, model in (("ch4.3 as published (no camera)", SlipStateModel()),
@@ -144,7 +139,7 @@ def lag_table(lags_s: Sequence[float] = (0.0, 0.1, 0.3), seed: int = 1) -> pd.Da
     for lag in lags_s:
         for terrain in THESIS_TERRAINS:
             result = simulate_agrimaro(terrain, seed, 15.0, effects=Effects(wheel_lag=lag))
-            run = sim_to_run(result)
+            run = result.run
             row = {"planted_lag_s": lag, "terrain": terrain}
             for mode in ("none", "ema", "xcorr"):
                 est = estimate_run(run, lag=mode)
@@ -204,27 +199,20 @@ def measured_table(datasets: Sequence[str] = ("borealtc", "vulpi")) -> pd.DataFr
             .reset_index())
 
 
-def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:
-    """A DataFrame as a Markdown table (floats with ``digits`` significant digits)."""
-    def fmt(v) -> str:
-        if isinstance(v, (float, np.floating)):
-            return "nan" if not np.isfinite(v) else f"{v:.{digits}g}"
-        return str(v)
-    head = "| " + " | ".join(map(str, table.columns)) + " |"
-    rule = "|" + "|".join("---" for _ in table.columns) + "|"
-    body = ["| " + " | ".join(fmt(v) for v in row) + " |"
-            for row in table.itertuples(index=False)]
-    return "\n".join([head, rule, *body])
+def sections(quick: bool = False) -> list[tuple[str, Callable[[], pd.DataFrame]]]:
+    """The report's tables, in order.
 
+    Parameters
+    ----------
+    quick : bool
+        Fewer seeds / runs (a smoke run, not the published figures).
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Compute every table and print it as Markdown; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer seeds / runs")
-    parser.add_argument("--out", type=Path, default=None, help="write the Markdown here")
-    args = parser.parse_args(argv)
-    q = args.quick
-    sections = [
+    Returns
+    -------
+    list of (title, table function)
+    """
+    q = quick
+    return [
         ("Steady-state slip error per wheel (straight_accel, 20 s)",
          lambda: steady_slip_table((1,) if q else (1, 2, 3))),
         ("Simulator default encoder (undithered quantisation)", default_encoder_table),
@@ -239,18 +227,3 @@ def main(argv: Sequence[str] | None = None) -> int:
          lambda: husky_table((3,) if q else (3, 4, 5))),
         ("Measured runs: per-terrain estimates", measured_table),
     ]
-    text = []
-    for title, fn in sections:
-        start = time.perf_counter()
-        table = fn()
-        block = (f"### {title}\n\n{to_markdown(table)}\n\n"
-                 f"({time.perf_counter() - start:.1f} s)\n")
-        print(block, flush=True)
-        text.append(block)
-    if args.out is not None:
-        args.out.write_text("\n".join(text))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

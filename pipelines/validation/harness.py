@@ -1,8 +1,8 @@
-"""Validation of the estimators on simulated runs (imports :mod:`terrain.sim`).
+"""Validation harness of the estimators on simulated runs (outside the library).
 
-Used by the tests, the benchmark and ``docs/estimation_validation.md``; nothing in the
-library imports it. Slip-level validation (which needs :mod:`terrain.slip`) is in
-:mod:`terrain.slip.validation`, which also prints every figure of the report.
+Used by the tests, ``benchmarks/bench_ekf.py`` and ``terrain validate estimation``
+(:mod:`pipelines.validation.estimation_tables`, every figure of
+``docs/estimation_validation.md``); nothing in :mod:`terrain` imports it.
 
 Simulated AgriMaRo runs use a fine wheel encoder (``speed_quantum_m_s=1e-6``): with the
 default sensor settings the simulator rounds the *filtered* wheel speed to its 90 count/rev
@@ -27,33 +27,25 @@ from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_trut
 from terrain.estimation.prefilter import robust_noise_std
 from terrain.estimation.runner import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
-from terrain.io.measured import COLUMN_MAPS
 from terrain.run import TIME, Run
-from terrain.sim import Effects, SensorSettings, SimConfig, simulate
+from terrain.sim import Effects, SensorSettings, SimConfig, Simulation, simulate_with_physics
 from terrain.vehicles import HUSKY
 
-#: simulator file columns -> canonical names (what terrain.io.measured maps them to)
 #: AgriMaRo sensors with a fine wheel encoder (see the module docstring).
 FINE_ENCODER = SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=1e-6,
                               current_quantum_a=0.01)
 THESIS_TERRAINS = ("TILES", "GRASS", "GRAVEL")
 
 
-def sim_to_run(result, run_id: str = "sim/TEST/00") -> Run:
-    """A :class:`Run` with the streams of a SimResult renamed as the CSV reader does."""
-    streams = {}
-    for name, frame in result.streams.items():
-        if name == "pro":
-            streams["wheels"] = frame.rename(columns=dict(COLUMN_MAPS["pro"]))
-        else:
-            streams[name] = frame.rename(columns={"time": TIME})
-    return Run(run_id=run_id, dataset="sim", terrain=str(result.meta["terrain"]),
-               streams=streams, vehicle=str(result.meta["vehicle"]), source="simulated",
-               meta=dict(result.meta))
-
-
-def truth_on_grid(result, t_grid: np.ndarray) -> pd.DataFrame:
+def truth_on_grid(result: Simulation, t_grid: np.ndarray) -> pd.DataFrame:
     """Physics ground truth linearly interpolated on ``t_grid``.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated run with its physics-rate truth.
+    t_grid : ndarray, shape (N,)
+        Times, s.
 
     Returns
     -------
@@ -77,14 +69,14 @@ def truth_on_grid(result, t_grid: np.ndarray) -> pd.DataFrame:
 
 def simulate_agrimaro(terrain: str, seed: int, duration_s: float = 20.0,
                       scenario: str = "straight_accel", effects: Effects = Effects(),
-                      sensors: SensorSettings = FINE_ENCODER):
-    """One simulated AgriMaRo run (fine encoder by default)."""
-    return simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
+                      sensors: SensorSettings = FINE_ENCODER) -> Simulation:
+    """One simulated AgriMaRo run (fine encoder by default), with its physics-rate truth."""
+    return simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
                               duration_s=duration_s, seed=seed, effects=effects,
                               sensors=sensors))
 
 
-def agrimaro_truth_states(result, t_grid: np.ndarray) -> np.ndarray:
+def agrimaro_truth_states(result: Simulation, t_grid: np.ndarray) -> np.ndarray:
     """True 12-state vector on ``t_grid``, shape (N, 12) (gyro bias = the planted effect)."""
     tr = truth_on_grid(result, t_grid)
     bias = float(result.config.effects.gyro_bias)
@@ -142,7 +134,7 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
     grid = None
     for seed in seeds:
         result = simulate_agrimaro(terrain, seed, duration_s, scenario)
-        run = sim_to_run(result)
+        run = result.run
         res = estimate_agrimaro(run, settings_fn(run), store_covariance=True)
         truth = agrimaro_truth_states(result, res.t_s)
         e = state_errors(res.x, truth, (2,))
@@ -169,7 +161,7 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
                                 for k, v in sq.items()})
 
 
-def coriolis_prediction_error(result) -> dict[str, float]:
+def coriolis_prediction_error(result: Simulation) -> dict[str, float]:
     """RMS one-step velocity prediction error of the process model fed with ground truth.
 
     For each physics step the model predicts ``v(t + dt)`` from the true ``v, yaw_rate``
@@ -193,10 +185,10 @@ def coriolis_prediction_error(result) -> dict[str, float]:
     return out
 
 
-def coriolis_filter_rmse(result, settings_fn: Callable[[Run], AgriMaRoEKFSettings]
+def coriolis_filter_rmse(result: Simulation, settings_fn: Callable[[Run], AgriMaRoEKFSettings]
                          = data_driven_settings) -> dict[str, dict[str, float]]:
     """Velocity RMSE of the whole EKF with each Coriolis convention, against truth."""
-    run = sim_to_run(result)
+    run = result.run
     base = settings_fn(run)
     out = {}
     for conv in ("body", "eq6.2"):
@@ -210,9 +202,9 @@ def coriolis_filter_rmse(result, settings_fn: Callable[[Run], AgriMaRoEKFSetting
 # -- skid-steer ------------------------------------------------------------------------------
 
 def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: str = "random",
-                   icr_expansion: float = 1.5, gyro_bias: float = 0.01):
+                   icr_expansion: float = 1.5, gyro_bias: float = 0.01) -> Simulation:
     """One simulated Husky run with a planted ICR expansion and gyro bias."""
-    return simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
+    return simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
                               duration_s=duration_s, seed=seed,
                               effects=Effects(icr_expansion=icr_expansion,
                                               gyro_bias=gyro_bias)))
@@ -259,7 +251,7 @@ def _conv_time(t: np.ndarray, rel_err: np.ndarray, tol: float = 0.05) -> float:
     return float(t[bad[-1]]) if bad.size else float(t[0]) if t.size else float("nan")
 
 
-def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
+def husky_comparison(result: Simulation, observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
                      settings: SkidSteerSettings = SkidSteerSettings(),
                      pose_noise: tuple[float, float] = (0.01, 0.002),
                      rng: np.random.Generator | None = None) -> HuskyComparison:
@@ -273,17 +265,17 @@ def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserv
     v_L) / (2 d)``.
     """
     rng = rng if rng is not None else np.random.default_rng(0)
-    run = sim_to_run(result)
+    run = result.run
     ekf = estimate_skid_steer(run, settings)
-    tr = result.streams["truth"]
+    tr = run.streams["truth"]
     rr, B, d = HUSKY.wheel_radius_m, HUSKY.track_m, HUSKY.track_m / 2.0
     t = ekf.t_s
-    at = (lambda col: np.interp(t, tr["time"].to_numpy(), np.asarray(col, dtype=float)))
+    at = (lambda col: np.interp(t, tr[TIME].to_numpy(), np.asarray(col, dtype=float)))
     w_true, v_true = at(tr["yaw_rate"]), at(tr["v_bx"])
     rim_l, rim_r = at(tr["omega_1"] * rr), at(tr["omega_2"] * rr)
-    pro = result.streams["pro"]
-    vl = np.interp(t, pro["time"], pro["velL"])
-    vr = np.interp(t, pro["time"], pro["velR"])
+    wheels = run.streams["wheels"]
+    vl = np.interp(t, wheels[TIME], wheels["vel_l"])
+    vr = np.interp(t, wheels[TIME], wheels["vel_r"])
     steady = steady_turn_mask(t, w_true)
     chi_loc = (rim_r - rim_l) / (B * np.where(steady, w_true, 1.0))
     chi_ekf = icr_chi(ekf)
@@ -310,7 +302,7 @@ def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserv
     p90 = (lambda e: float(np.percentile(e, 90)) if e.size else float("nan"))
     chi_true = float(np.median(chi_loc[steady])) if steady.any() else float("nan")
     return HuskyComparison(
-        terrain=str(result.meta["terrain"]), seed=int(result.config.seed), chi_true=chi_true,
+        terrain=str(run.terrain), seed=int(result.config.seed), chi_true=chi_true,
         ekf_chi_err=med(e_chi_ekf), ekf_chi_p90=p90(e_chi_ekf),
         ekf_chi_conv_s=_conv_time(t[steady], e_chi_ekf),
         obs_chi_err=med(e_chi_obs), obs_chi_p90=p90(e_chi_obs),
@@ -364,12 +356,12 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
     return pd.DataFrame(rows)
 
 
-def outage_experiment(result, t_off_s: float = 8.0, t_on_s: float = 11.0,
+def outage_experiment(result: Simulation, t_off_s: float = 8.0, t_on_s: float = 11.0,
                       settings_fn: Callable[[Run], AgriMaRoEKFSettings] = data_driven_settings
                       ) -> tuple[EKFResult, EKFResult]:
     """The EKF with every camera sample in ``[t_off_s, t_on_s)`` dropped (and, as a second
     result, with them replaced by NaN so they are skipped and counted)."""
-    run = sim_to_run(result)
+    run = result.run
     cam = run.streams["cam"]
     gone = (cam[TIME] >= t_off_s) & (cam[TIME] < t_on_s)
     dropped = Run(run.run_id, run.dataset, run.terrain,
@@ -383,7 +375,7 @@ def outage_experiment(result, t_off_s: float = 8.0, t_on_s: float = 11.0,
     return estimate_agrimaro(dropped, settings), estimate_agrimaro(nanned, settings)
 
 
-__all__ = ["FINE_ENCODER", "THESIS_TERRAINS", "sim_to_run", "truth_on_grid",
+__all__ = ["FINE_ENCODER", "THESIS_TERRAINS", "truth_on_grid",
            "simulate_agrimaro", "agrimaro_truth_states", "data_driven_settings",
            "ConsistencyRow", "agrimaro_consistency", "coriolis_prediction_error",
            "coriolis_filter_rmse", "simulate_husky", "steady_turn_mask", "HuskyComparison",
