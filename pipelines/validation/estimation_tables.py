@@ -40,7 +40,20 @@ def _slip_errors(result, est, t_steady_s: float = 5.0, t_transient_s: float = 3.
 
 
 def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0) -> pd.DataFrame:
-    """Steady-state slip error per wheel (straight_accel, thesis scenario), per tuning."""
+    """Steady-state slip error per wheel (straight_accel, thesis scenario), per tuning.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         for seed in seeds:
@@ -54,7 +67,18 @@ def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0
 
 
 def default_encoder_table(seed: int = 1) -> pd.DataFrame:
-    """The same with the simulator's default (undithered 3.49 rad/s) encoder quantisation."""
+    """The same with the simulator's default (undithered 3.49 rad/s) encoder quantisation.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated run(s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         result = simulate_agrimaro(terrain, seed, 20.0, sensors=SensorSettings(
@@ -66,7 +90,20 @@ def default_encoder_table(seed: int = 1) -> pd.DataFrame:
 
 
 def consistency_table(n_runs: int = 10, duration_s: float = 20.0) -> pd.DataFrame:
-    """Monte Carlo NEES / NIS and RMSE per terrain (straight_accel), with slip RMSE."""
+    """Monte Carlo NEES / NIS and RMSE per terrain (straight_accel), with slip RMSE.
+
+    Parameters
+    ----------
+    n_runs : int
+        Monte Carlo runs per terrain.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         row = agrimaro_consistency(terrain, range(n_runs), duration_s).as_dict()
@@ -80,7 +117,18 @@ def consistency_table(n_runs: int = 10, duration_s: float = 20.0) -> pd.DataFram
 
 
 def coriolis_table(seeds: Sequence[int] = (1, 2)) -> pd.DataFrame:
-    """One-step model error and filter RMSE with each Coriolis sign (random driving)."""
+    """One-step model error and filter RMSE with each Coriolis sign (random driving).
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for seed in seeds:
         result = simulate_agrimaro("GRASS", seed, 30.0, scenario="random")
@@ -93,7 +141,20 @@ def coriolis_table(seeds: Sequence[int] = (1, 2)) -> pd.DataFrame:
 
 
 def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) -> pd.DataFrame:
-    """The 14-state slip-in-state EKF (ch. 4.3) against the 12-state design + post-hoc slip."""
+    """The 14-state slip-in-state EKF (ch. 4.3) against the 12-state design + post-hoc slip.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         for seed in seeds:
@@ -134,7 +195,20 @@ def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) ->
 
 
 def lag_table(lags_s: Sequence[float] = (0.0, 0.1, 0.3), seed: int = 1) -> pd.DataFrame:
-    """Transient slip RMSE (first 3 s) with each lag remedy, planted encoder lags."""
+    """Transient slip RMSE (first 3 s) with each lag remedy, planted encoder lags.
+
+    Parameters
+    ----------
+    lags_s : sequence of float
+        Planted ``wheel_lag`` values, s.
+    seed : int
+        Seed of the simulated run(s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for lag in lags_s:
         for terrain in THESIS_TERRAINS:
@@ -153,7 +227,18 @@ def lag_table(lags_s: Sequence[float] = (0.0, 0.1, 0.3), seed: int = 1) -> pd.Da
 
 
 def outage_table(seed: int = 2) -> pd.DataFrame:
-    """Velocity std and error before, during and after a 3 s camera outage."""
+    """Velocity std and error before, during and after a 3 s camera outage.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated run(s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     result = simulate_agrimaro("GRASS", seed, 16.0, scenario="random")
     dropped, _ = outage_experiment(result, 8.0, 11.0)
     tr = truth_on_grid(result, dropped.t_s)
@@ -171,7 +256,18 @@ def outage_table(seed: int = 2) -> pd.DataFrame:
 
 
 def husky_table(seeds: Sequence[int] = (3, 4, 5)) -> pd.DataFrame:
-    """EKF vs adaptive observer on mixed driving and on orchard rows (Assumption 1)."""
+    """EKF vs adaptive observer on mixed driving and on orchard rows (Assumption 1).
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for scenario, duration, terrains in (("random", 60.0, ("ASPHALT", "FLOORING", "ICE")),
                                          ("orchard", 120.0, ("ASPHALT", "FLOORING"))):
@@ -183,7 +279,18 @@ def husky_table(seeds: Sequence[int] = (3, 4, 5)) -> pd.DataFrame:
 
 
 def measured_table(datasets: Sequence[str] = ("borealtc", "vulpi")) -> pd.DataFrame:
-    """Per-terrain medians of the skid-steer EKF and the yaw-only observer on shipped runs."""
+    """Per-terrain medians of the skid-steer EKF and the yaw-only observer on shipped runs.
+
+    Parameters
+    ----------
+    datasets : sequence of str
+        Shipped datasets (``borealtc``, ``vulpi``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     from terrain.io.shipped import load_dataset
     frames = []
     for name in datasets:

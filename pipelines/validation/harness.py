@@ -70,14 +70,48 @@ def truth_on_grid(result: Simulation, t_grid: np.ndarray) -> pd.DataFrame:
 def simulate_agrimaro(terrain: str, seed: int, duration_s: float = 20.0,
                       scenario: str = "straight_accel", effects: Effects = Effects(),
                       sensors: SensorSettings = FINE_ENCODER) -> Simulation:
-    """One simulated AgriMaRo run (fine encoder by default), with its physics-rate truth."""
+    """One simulated AgriMaRo run (fine encoder by default), with its physics-rate truth.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seed : int
+        Seed of the run.
+    duration_s : float
+        Simulated time, s.
+    scenario : str
+        Driving scenario (:data:`terrain.sim.SCENARIO_NAMES`).
+    effects : Effects
+        Planted effects.
+    sensors : SensorSettings
+        Sensor settings (default :data:`FINE_ENCODER`).
+
+    Returns
+    -------
+    Simulation
+    """
     return simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
                               duration_s=duration_s, seed=seed, effects=effects,
                               sensors=sensors))
 
 
 def agrimaro_truth_states(result: Simulation, t_grid: np.ndarray) -> np.ndarray:
-    """True 12-state vector on ``t_grid``, shape (N, 12) (gyro bias = the planted effect)."""
+    """True 12-state vector of the AgriMaRo EKF on a time grid.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+    t_grid : ndarray, shape (N,)
+        Times, s.
+
+    Returns
+    -------
+    ndarray, shape (N, 12)
+        States in :data:`terrain.estimation.agrimaro.STATE_NAMES` order (SI units; the gyro
+        bias is the planted effect).
+    """
     tr = truth_on_grid(result, t_grid)
     bias = float(result.config.effects.gyro_bias)
     return np.column_stack([tr[s].to_numpy() if s in tr else np.full(len(tr), bias)
@@ -85,7 +119,19 @@ def agrimaro_truth_states(result: Simulation, t_grid: np.ndarray) -> np.ndarray:
 
 
 def data_driven_settings(run: Run, **kwargs) -> AgriMaRoEKFSettings:
-    """:func:`noise_derived_settings` with the accelerometer noise measured on the run."""
+    """:func:`noise_derived_settings` with the accelerometer noise measured on the run.
+
+    Parameters
+    ----------
+    run : Run
+        Run with an ``imu`` stream.
+    **kwargs
+        Further arguments of :func:`noise_derived_settings`.
+
+    Returns
+    -------
+    AgriMaRoEKFSettings
+    """
     imu = run.streams["imu"]
     rate = float(1.0 / np.median(np.diff(imu[TIME].to_numpy())))
     acc = float(np.nanmax(robust_noise_std(imu[["ax", "ay"]].to_numpy(float), rate)))
@@ -94,7 +140,29 @@ def data_driven_settings(run: Run, **kwargs) -> AgriMaRoEKFSettings:
 
 @dataclass(frozen=True)
 class ConsistencyRow:
-    """Monte Carlo consistency of the AgriMaRo EKF on one terrain."""
+    """Monte Carlo consistency of the AgriMaRo EKF on one terrain.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    n_runs : int
+        Number of Monte Carlo runs M.
+    anees : float
+        Time average of the run-averaged NEES (12 states).
+    nees_bounds : tuple of float
+        Two-sided chi-square bounds of the run-averaged NEES.
+    nees_fraction_in_bounds : float
+        Fraction of time steps whose run-averaged NEES is inside the bounds.
+    nis_mean : float
+        Mean NIS over runs and steps.
+    nis_dof : float
+        Mean number of measurement rows.
+    nis_bounds : tuple of float
+        Bounds of the mean NIS.
+    rmse : dict
+        State name -> RMSE (SI units) of ``v_bx, v_by, yaw_rate``.
+    """
 
     terrain: str
     n_runs: int
@@ -107,7 +175,13 @@ class ConsistencyRow:
     rmse: dict[str, float]
 
     def as_dict(self) -> dict:
-        """Flat row for a table."""
+        """Flat row for a table.
+
+        Returns
+        -------
+        dict
+            Column -> value (bounds split into ``_lo``/``_hi``, ``rmse_<state>``).
+        """
         d = {"terrain": self.terrain, "runs": self.n_runs, "ANEES": self.anees,
              "NEES_lo": self.nees_bounds[0], "NEES_hi": self.nees_bounds[1],
              "NEES_inside": self.nees_bounds[0] <= self.anees <= self.nees_bounds[1],
@@ -129,6 +203,27 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
     reported ANEES is the time average of the run-averaged NEES (``t >= t_min_s``); the
     fraction of time steps inside the bounds is reported beside it. NIS: time and run
     average against the bounds of its mean number of rows.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seeds : sequence of int
+        Seeds of the Monte Carlo runs.
+    duration_s : float
+        Simulated time per run, s.
+    scenario : str
+        Driving scenario.
+    settings_fn : callable
+        Run -> EKF settings (default :func:`data_driven_settings`).
+    t_min_s : float
+        Start of the evaluated interval, s.
+    probability : float
+        Two-sided probability of the chi-square bounds.
+
+    Returns
+    -------
+    ConsistencyRow
     """
     nees_runs, nis_all, dof_all, sq = [], [], [], {k: [] for k in ("v_bx", "v_by", "yaw_rate")}
     grid = None
@@ -166,7 +261,17 @@ def coriolis_prediction_error(result: Simulation) -> dict[str, float]:
 
     For each physics step the model predicts ``v(t + dt)`` from the true ``v, yaw_rate``
     and the true accelerometer acceleration ``a_b``; the error against the true ``v(t+dt)``
-    is the model error alone. Returns m/s for ``body`` (eqs. 4.33-4.34) and ``eq6.2``.
+    is the model error alone.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+
+    Returns
+    -------
+    dict
+        Convention (``body``, eqs. 4.33-4.34, and ``eq6.2``) -> RMS error, m/s.
     """
     ph = result.physics
     dt = float(ph.t_s[1] - ph.t_s[0])
@@ -187,7 +292,20 @@ def coriolis_prediction_error(result: Simulation) -> dict[str, float]:
 
 def coriolis_filter_rmse(result: Simulation, settings_fn: Callable[[Run], AgriMaRoEKFSettings]
                          = data_driven_settings) -> dict[str, dict[str, float]]:
-    """Velocity RMSE of the whole EKF with each Coriolis convention, against truth."""
+    """Velocity RMSE of the whole EKF with each Coriolis convention, against truth.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+    settings_fn : callable
+        Run -> EKF settings.
+
+    Returns
+    -------
+    dict
+        Convention -> state (``v_bx, v_by, yaw_rate``) -> RMSE, m/s or rad/s.
+    """
     run = result.run
     base = settings_fn(run)
     out = {}
@@ -203,7 +321,27 @@ def coriolis_filter_rmse(result: Simulation, settings_fn: Callable[[Run], AgriMa
 
 def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: str = "random",
                    icr_expansion: float = 1.5, gyro_bias: float = 0.01) -> Simulation:
-    """One simulated Husky run with a planted ICR expansion and gyro bias."""
+    """One simulated Husky run with a planted ICR expansion and gyro bias.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seed : int
+        Seed of the run.
+    duration_s : float
+        Simulated time, s.
+    scenario : str
+        Driving scenario (:data:`terrain.sim.SCENARIO_NAMES`).
+    icr_expansion : float
+        Planted chi (dimensionless).
+    gyro_bias : float
+        Planted gyro bias, rad/s.
+
+    Returns
+    -------
+    Simulation
+    """
     return simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
                               duration_s=duration_s, seed=seed,
                               effects=Effects(icr_expansion=icr_expansion,
@@ -212,8 +350,25 @@ def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: 
 
 def steady_turn_mask(t_s: np.ndarray, yaw_rate: np.ndarray, min_rate: float = 0.15,
                      max_yaw_accel: float = 0.05, t_min_s: float = 10.0) -> np.ndarray:
-    """Samples in a steady turn (|yaw rate| > min_rate, |d yaw rate / dt| < max_yaw_accel)
-    after ``t_min_s``; where the ICR factor and eta are defined and constant."""
+    """Samples in a steady turn, where the ICR factor and eta are defined and constant.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (N,)
+        Times, s.
+    yaw_rate : ndarray, shape (N,)
+        Yaw rate, rad/s.
+    min_rate : float
+        Smallest |yaw rate|, rad/s.
+    max_yaw_accel : float
+        Largest |d yaw rate / dt|, rad/s^2.
+    t_min_s : float
+        Samples before this time are excluded, s.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
     wd = np.gradient(yaw_rate, t_s)
     return (np.abs(yaw_rate) > min_rate) & (np.abs(wd) < max_yaw_accel) & (t_s >= t_min_s)
 
@@ -225,6 +380,23 @@ class HuskyComparison:
     ``*_err`` are median relative errors over steady turns after 10 s; ``*_p90`` the 90th
     percentile; ``*_conv_s`` the time after which the relative error of the steady-turn
     samples stays below 5 %.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seed : int
+        Seed of the run.
+    chi_true : float
+        Median true local ICR factor over steady turns.
+    ekf_chi_err, ekf_chi_p90, ekf_chi_conv_s : float
+        EKF ICR factor: median and 90th percentile relative error, convergence time (s).
+    obs_chi_err, obs_chi_p90, obs_chi_conv_s : float
+        Observer ICR factor: the same.
+    ekf_eta_err : float
+        Median relative error of the EKF's eta.
+    obs_eta_err, obs_eta_p90, obs_eta_conv_s : float
+        Observer eta: median, 90th percentile relative error, convergence time (s).
     """
 
     terrain: str
@@ -242,7 +414,13 @@ class HuskyComparison:
     obs_eta_conv_s: float
 
     def as_dict(self) -> dict:
-        """Flat row."""
+        """Flat row.
+
+        Returns
+        -------
+        dict
+            Field -> value.
+        """
         return dict(self.__dict__)
 
 
@@ -263,6 +441,23 @@ def husky_comparison(result: Simulation, observer: AdaptiveObserverSettings = Ad
     rim speeds. The EKF's eta is eq. 15 evaluated with its own speed and yaw rate; the
     observer's ICR factor is ``(v_R - v_L) / (B Omega^)``, ``Omega^ = (eta_R^ v_R - eta_L^
     v_L) / (2 d)``.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated Husky run.
+    observer : AdaptiveObserverSettings
+        Settings of the seed 000 observer.
+    settings : SkidSteerSettings
+        Settings of the skid-steer EKF.
+    pose_noise : tuple of float
+        Std of the position (m) and yaw (rad) noise given to the observer.
+    rng : numpy.random.Generator, optional
+        Noise source (default seeded 0).
+
+    Returns
+    -------
+    HuskyComparison
     """
     rng = rng if rng is not None else np.random.default_rng(0)
     run = result.run
@@ -321,6 +516,15 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
     :func:`husky_comparison`. Both are summarised over the samples turning faster than
     0.15 rad/s (median), with the fraction of such samples.
 
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured runs (runs without IMU are skipped).
+    settings : SkidSteerSettings
+        Settings of the skid-steer EKF.
+    observer : AdaptiveObserverSettings
+        Settings of the yaw-only observer.
+
     Returns
     -------
     pandas.DataFrame
@@ -359,8 +563,22 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
 def outage_experiment(result: Simulation, t_off_s: float = 8.0, t_on_s: float = 11.0,
                       settings_fn: Callable[[Run], AgriMaRoEKFSettings] = data_driven_settings
                       ) -> tuple[EKFResult, EKFResult]:
-    """The EKF with every camera sample in ``[t_off_s, t_on_s)`` dropped (and, as a second
-    result, with them replaced by NaN so they are skipped and counted)."""
+    """The EKF with every camera sample in ``[t_off_s, t_on_s)`` dropped, and with them NaN.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+    t_off_s, t_on_s : float
+        Start and end of the outage, s.
+    settings_fn : callable
+        Run -> EKF settings.
+
+    Returns
+    -------
+    dropped, nanned : EKFResult
+        Samples removed; samples replaced by NaN (skipped and counted).
+    """
     run = result.run
     cam = run.streams["cam"]
     gone = (cam[TIME] >= t_off_s) & (cam[TIME] < t_on_s)

@@ -33,22 +33,36 @@ __all__ = ["PhysicsResult", "integrate", "wheel_commands", "SLIDE_SPEED_M_S",
 
 @dataclass(frozen=True)
 class PhysicsResult:
-    """Ground truth at every physics step (n steps, c contacts, m motors).
+    """Ground truth at every physics step (n steps, m motors).
 
-    Attributes
+    Parameters
     ----------
-    t_s : (n,) s
-    pose : (n, 3) x, y (m, ground plane), yaw (rad, unwrapped)
-    twist : (n, 3) v_x, v_y (m/s), yaw_rate (rad/s), body frame
-    accel_body : (n, 2) body-frame kinematic acceleration (dV/dt + r x V), m/s^2
-    omega : (n, m) true motor/wheel speeds, rad/s
-    omega_cmd : (n, m) commanded wheel speeds, rad/s
-    slip_motor : (n, m) mean SAE slip of the contacts of each motor
-    delta : (n, m) steering angles (zeros for skid-steer), rad
-    torque : (n, m) wheel torque of each motor, N m
-    pitch, roll : (n,) nose-up and right-side-down inclination, rad
-    terrain_index : (n,) index into ``terrain_names``
+    t_s : ndarray, shape (n,)
+        Time, s.
+    pose : ndarray, shape (n, 3)
+        x, y (m, ground plane), yaw (rad, unwrapped).
+    twist : ndarray, shape (n, 3)
+        v_x, v_y (m/s), yaw_rate (rad/s), body frame.
+    accel_body : ndarray, shape (n, 2)
+        Body-frame kinematic acceleration ``dV/dt + r x V``, m/s^2.
+    omega : ndarray, shape (n, m)
+        True motor (wheel) speeds, rad/s.
+    omega_cmd : ndarray, shape (n, m)
+        Commanded wheel speeds, rad/s.
+    slip_motor : ndarray, shape (n, m)
+        Mean SAE slip of the contacts of each motor (dimensionless).
+    delta : ndarray, shape (n, m)
+        Steering angles (zeros for skid-steer), rad.
+    torque : ndarray, shape (n, m)
+        Wheel torque of each motor, N m.
+    pitch : ndarray, shape (n,)
+        Nose-up inclination, rad.
+    roll : ndarray, shape (n,)
+        Right-side-down inclination, rad.
+    terrain_index : ndarray of int, shape (n,)
+        Index into ``terrain_names``.
     terrain_names : tuple of str
+        Terrain of each index.
     """
 
     t_s: np.ndarray
@@ -70,12 +84,18 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Wheel speed and steering commands from the commanded twist (inverse kinematics).
 
+    Swerve drive: seed 001 inverse kinematics (:func:`terrain.vehicles.swerve.swerve_inverse`),
+    each unit keeping the solution closest to its previous angle; skid-steer:
+    :func:`terrain.vehicles.skid_steer.skid_steer_inverse`.
+
     Parameters
     ----------
     vehicle : AgriMaRoParams or HuskyParams or TrackedParams
+        Vehicle (track, motor speed limit, swerve geometry).
     geometry : ContactGeometry
+        Contact geometry of the vehicle (steered or not, wheel radius).
     twist_cmd : ndarray, shape (n, 3)
-        ``(v_x, v_y, yaw_rate)``.
+        Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
 
     Returns
     -------
@@ -113,14 +133,18 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     Parameters
     ----------
     vehicle : AgriMaRoParams or HuskyParams or TrackedParams
+        Vehicle (mass, yaw inertia, motor, steering rate).
     geometry : ContactGeometry
+        Its contact geometry.
     terrains : tuple of TerrainParams
         Terrain sequence along the path; the vehicle changes terrain every
         ``segment_length_m`` of travelled distance, cycling through the tuple.
     segment_length_m : float
+        Distance between terrain changes, m.
     t_s : ndarray, shape (n,)
         Uniform time grid, s.
     twist_cmd : ndarray, shape (n, 3)
+        Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
     slope_rad : float
         Plane inclination (rises along world +x), rad.
     chi : float
@@ -131,6 +155,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     Returns
     -------
     PhysicsResult
+        Ground truth at every step of ``t_s``.
     """
     dt = float(t_s[1] - t_s[0])
     n = len(t_s)

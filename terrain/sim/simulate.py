@@ -65,12 +65,19 @@ class SimConfig:
     seed : int
         Seed of the run's :class:`numpy.random.Generator`.
     effects : Effects
+        Planted effects (all off by default).
     segment_length_m : float
         Distance between terrain changes, m.
     physics_rate_hz : float
         Integrator rate, Hz (50-1000).
     sensors : SensorSettings or None
         None = the vehicle's defaults (:data:`DEFAULT_SENSORS`).
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle, terrain or scenario (the message lists the valid choices), or a
+        duration, rate, segment length or seed out of range.
     """
 
     vehicle: str = "husky"

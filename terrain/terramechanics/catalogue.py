@@ -198,6 +198,11 @@ def get_terrain(name: str) -> TerrainParams:
     ------
     ConfigError
         Unknown name; the message lists the valid choices.
+
+    Returns
+    -------
+    TerrainParams
+        The catalogue entry (frozen).
     """
     key = str(name).upper()
     if key not in TERRAINS:

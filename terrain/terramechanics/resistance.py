@@ -48,6 +48,7 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     Parameters
     ----------
     mass_kg : float
+        Vehicle mass, kg.
     pitch_rad : float or ndarray, shape (...)
         Nose-up inclination of the vehicle, rad (positive when climbing).
 
@@ -135,8 +136,11 @@ def turning_resistance_moment_nm(mu_lateral: float, weight_n: float,
     Parameters
     ----------
     mu_lateral : float
+        Lateral resistance coefficient (dimensionless).
     weight_n : float
+        Vehicle weight W, N.
     contact_length_m : float
+        Contact length l of each track, m.
 
     Returns
     -------
@@ -157,7 +161,9 @@ def can_turn_in_place(geometry, terrain) -> bool:
     Parameters
     ----------
     geometry : terrain.vehicles.ContactGeometry
+        Contact positions and load shares of the vehicle.
     terrain : TerrainParams
+        Terrain (traction peak, soil and lateral resistance).
 
     Returns
     -------
@@ -178,6 +184,7 @@ def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
     Parameters
     ----------
     load_n : float
+        Normal load on the plate, N.
     width_m, length_m : float
         Contact width b (smaller dimension) and length, m.
     k_c : float

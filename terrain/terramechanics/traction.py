@@ -57,7 +57,7 @@ class CurveCoefficients(NamedTuple):
     dresistance_ds: np.ndarray
 
 
-class TractionCurve(Protocol):
+class TractionCurve(Protocol):  # noqa: D101 - documented below
     """What the simulator and the terramechanics relations need of a traction-slip curve.
 
     A curve is a frozen, cited parameter dataclass with one method; the equations are the
@@ -185,6 +185,7 @@ class BurckhardtCurve:
     c1, c2, c3 : float
         Coefficients (dimensionless).
     source : str
+        Citation of the coefficients.
     """
 
     c1: float
@@ -221,6 +222,7 @@ class JanosiCurve:
     shear_slip : float
         ``k = K / L``: shear deformation modulus over contact length (dimensionless).
     source : str
+        Citation of the coefficients.
     """
 
     mu_max: float
@@ -265,6 +267,12 @@ class JanosiCurve:
         load_n : float
             Normal load W on that contact, N.
         source : str
+            Citation of the soil parameters.
+
+        Returns
+        -------
+        JanosiCurve
+            ``mu_max = tan(phi) + c A / W``, ``shear_slip = K / L``.
         """
         mu_max = np.tan(np.radians(friction_angle_deg)) + cohesion_pa * contact_area_m2 / load_n
         return cls(float(mu_max), shear_modulus_m / contact_length_m, source)
@@ -279,6 +287,7 @@ class BrixiusCurve:
     mobility_number : float
         ``Bn`` (dimensionless), see :func:`brixius_mobility_number`.
     source : str
+        Citation of the coefficients.
     """
 
     mobility_number: float
@@ -367,7 +376,9 @@ def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.n
     Parameters
     ----------
     curve : TractionCurve
+        Traction-slip curve.
     slip : float or ndarray, shape (...)
+        SAE slip (dimensionless), clipped to [-1, 1].
         SAE slip, clipped to [-1, 1] (dimensionless).
 
     Returns
@@ -385,7 +396,9 @@ def traction_curve_and_slope(curve: TractionCurve, slip: np.ndarray | float
     Parameters
     ----------
     curve : TractionCurve
+        Traction-slip curve.
     slip : float or ndarray, shape (...)
+        SAE slip (dimensionless), clipped to [-1, 1].
 
     Returns
     -------
@@ -406,6 +419,7 @@ def traction_peak(curve: TractionCurve, saturation: float = 0.95) -> TractionPea
     Parameters
     ----------
     curve : TractionCurve
+        Traction-slip curve.
     saturation : float
         For curves rising monotonically up to ``s = 1`` (Janosi, Brixius, Burckhardt with
         ``c3 = 0``), the peak is taken as the smallest slip reaching this fraction of the
