@@ -11,13 +11,17 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from types import MappingProxyType, ModuleType
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
 from pipelines.validation import estimation_tables, sim_tables
 
-REPORTS = {"estimation": estimation_tables, "sim": sim_tables}
+#: report name -> module with ``sections(quick)`` (read-only)
+REPORTS: Mapping[str, ModuleType] = MappingProxyType({"estimation": estimation_tables,
+                                                      "sim": sim_tables})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -118,5 +118,5 @@ def sections(quick: bool = False) -> list[tuple[str, Callable[[], pd.DataFrame]]
     return [
         ("AgriMaRo straight-line test (seed 001 ch. 7.2.3)", thesis_straight_line_table),
         ("Husky straight-line currents and chi",
-         lambda: husky_current_chi_table(30.0 if quick else 120.0)),
+         lambda: husky_current_chi_table(60.0 if quick else 120.0)),
     ]

@@ -306,3 +306,17 @@ def test_written_run_reads_back_as_the_simulated_run(tmp_path, husky_orchard):
                                    atol=1e-9)
     assert back.meta["effects"] == husky_orchard.meta["effects"]
 
+
+
+def test_validate_sim_command_prints_the_documented_tables(tmp_path, capsys):
+    """`terrain validate sim` prints the tables of docs/sim_validation.md."""
+    out = tmp_path / "sim.md"
+    assert cli_main(["validate", "sim", "--quick", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "### AgriMaRo straight-line test" in capsys.readouterr().out
+    rows = {line.split("|")[1].strip(): line for line in text.splitlines()
+            if line.startswith("| ") and not line.startswith("| terrain")}
+    grass = [float(v) for v in rows["GRASS"].strip("| ").split("|")[1:]]
+    assert 0.116 <= grass[0] <= 0.135 and grass[1] > grass[0]   # thesis steady slip, peak above
+    asphalt = [float(v) for v in rows["ASPHALT"].strip("| ").split("|")[1:]]
+    assert asphalt[1] == pytest.approx(asphalt[0], rel=0.05)      # current matches measured
