@@ -58,9 +58,9 @@ def test_zero_drive_on_level_ground_gives_about_zero_slip():
     # the current a coasting, unloaded wheel draws: the no-load current plus the rolling loss
     ter = get_terrain("ASPHALT")
     rim = np.full((1, 2), 0.5)
-    _, _, rolling = traction_from_torque(HUSKY, ter, np.zeros((1, 2)), rim, np.zeros(1))
-    torque_rolling = -rolling / traction_from_torque(HUSKY, ter, np.zeros((1, 2)), rim,
-                                                     np.zeros(1))[1]
+    _, dmu_dtorque, rolling = traction_from_torque(HUSKY, ter, np.zeros((1, 2)), rim,
+                                                   np.zeros(1))
+    torque_rolling = rolling / dmu_dtorque
     cur = HUSKY.motor.current_from_torque(torque_rolling, rim / HUSKY.wheel_radius_m)
     out = physics_slip(HUSKY, {"ASPHALT": 1.0}, cur, rim, np.zeros(1))
     np.testing.assert_allclose(out.slip, 0.0, atol=1e-6)
