@@ -76,14 +76,18 @@ def test_slip_increases_with_current(name):
     assert np.all(out.lower <= out.slip + 1e-12) and np.all(out.upper >= out.slip - 1e-12)
 
 
-def test_probability_weighting_widens_the_interval():
+def test_probability_weighting_is_model_averaging():
     cur = np.full((1, 2), 4.0)
     rim = np.full((1, 2), 0.5)
     a = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1))
     b = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, np.zeros(1))
     mix = physics_slip(HUSKY, {"SANDY_LOAM": 0.5, "SNOW": 0.5}, cur, rim, np.zeros(1))
     np.testing.assert_allclose(mix.slip, 0.5 * (a.slip + b.slip))
-    assert (mix.std > np.maximum(a.std, b.std)).all()
+    # law of total variance: mean within-terrain variance + spread of the two slips
+    spread = 0.25 * (a.slip - b.slip) ** 2
+    np.testing.assert_allclose(mix.std ** 2, 0.5 * (a.std ** 2 + b.std ** 2) + spread)
+    assert (mix.lower <= np.minimum(a.slip, b.slip)).all()
+    assert (mix.upper >= np.maximum(a.slip, b.slip)).all()
     with pytest.raises(ConfigError):
         physics_slip(HUSKY, {"MUD": 1.0}, cur, rim, np.zeros(1))
     with pytest.raises(ConfigError):
