@@ -13,7 +13,8 @@ statistics from :mod:`features.calculators`. Per window:
   under them (``phys_slip_l``, ``phys_slip_r``, ``phys_std``,
   :func:`terrain.slip.physics.physics_slip`).
 
-Targets (simulated runs, ``truth`` stream): window means of ``slip_1``, ``slip_2`` and the
+Targets (simulated runs, ``truth`` stream): window means of ``slip_1``, ``slip_2``, the lateral
+body velocity ``v_by`` and the
 effective turning factor ``chi = mean(v_R - v_L) / (B mean(yaw_rate))`` (NaN when the robot
 turns slower than :data:`MIN_TURN_RATE_RAD_S`), which with the measured rim speeds gives the
 true yaw rate ``(v_R - v_L) / (chi B)``.
@@ -171,8 +172,9 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
 
     Returns
     -------
-    pandas.DataFrame, shape (n_windows, 5)
-        ``slip_1, slip_2, chi, yaw_rate, terrain``.
+    pandas.DataFrame, shape (n_windows, 6)
+        ``slip_1, slip_2, chi, v_by`` (lateral body velocity, m/s), ``yaw_rate`` (rad/s),
+        ``terrain``.
 
     Raises
     ------
@@ -181,7 +183,8 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     """
     by_id: Mapping[str, Run] = {r.run_id: r for r in runs}
     out = pd.DataFrame(index=np.arange(len(ws)),
-                       columns=["slip_1", "slip_2", "chi", "yaw_rate", "terrain"], dtype=object)
+                       columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
+                       dtype=object)
     for rid in pd.unique(ws.run_ids):
         run = by_id[rid]
         if "truth" not in run.streams:
@@ -189,7 +192,7 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
         tr = run.streams["truth"]
         sel = np.flatnonzero(ws.run_ids == rid)
         t = tr[TIME].to_numpy()
-        m = _window_means(t, tr[["slip_1", "slip_2", "yaw_rate"]].to_numpy(float),
+        m = _window_means(t, tr[["slip_1", "slip_2", "yaw_rate", "v_by"]].to_numpy(float),
                           ws.t_start_s[sel], ws.t_end_s[sel])
         labels = tr["terrain"].to_numpy()
         mid = np.clip(np.searchsorted(t, 0.5 * (ws.t_start_s[sel] + ws.t_end_s[sel])), 0,
@@ -197,13 +200,14 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
         out.loc[sel, "slip_1"] = m[:, 0]
         out.loc[sel, "slip_2"] = m[:, 1]
         out.loc[sel, "yaw_rate"] = m[:, 2]
+        out.loc[sel, "v_by"] = m[:, 3]
         out.loc[sel, "terrain"] = labels[mid]
     ch = {c: i for i, c in enumerate(ws.channels)}
     dv = (ws.X[:, ch["vel_r"]] - ws.X[:, ch["vel_l"]]).mean(axis=-1)
     yaw = out["yaw_rate"].to_numpy(float)
     turning = np.abs(yaw) >= MIN_TURN_RATE_RAD_S
     out["chi"] = np.where(turning, dv / (track_m * np.where(turning, yaw, 1.0)), np.nan)
-    for c in ("slip_1", "slip_2", "yaw_rate", "chi"):
+    for c in ("slip_1", "slip_2", "yaw_rate", "chi", "v_by"):
         out[c] = out[c].astype(float)
     return out
 
@@ -243,7 +247,7 @@ def slip_table(runs: Sequence[Run], vehicle, terrains: Sequence[str],
     -------
     X : pandas.DataFrame, shape (n, n_features)
         :func:`slip_features` with one-hot terrain probabilities.
-    Y : pandas.DataFrame, shape (n, 5)
+    Y : pandas.DataFrame, shape (n, 6)
         :func:`slip_targets`.
     meta : pandas.DataFrame, shape (n, 6)
         ``run_id, terrain, scenario, seed, t_start_s, t_end_s``.

@@ -93,6 +93,9 @@ def main(args: argparse.Namespace) -> int:
         odo_runs = meta.loc[test & meta["scenario"].isin(["orchard", "slope_turn"]).to_numpy(),
                             "run_id"].unique()
         odo = odometry_errors(runs, meta, preds["learned"], vehicle.track_m, odo_runs)
+        truth_in = np.where(np.isnan(Y), 1.0, Y)        # chi = 1 where the robot does not turn
+        odo["oracle_err_pct"] = odometry_errors(runs, meta, truth_in, vehicle.track_m,
+                                                odo_runs)["compensated_err_pct"]
         summary = _summary(errors, odo)
         errors.to_csv(args.out / "slip_errors.csv", index=False)
         odo.to_csv(args.out / "odometry.csv", index=False)

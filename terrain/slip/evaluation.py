@@ -163,8 +163,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         Simulated runs (``wheels`` and ``truth`` streams).
     meta : pandas.DataFrame, shape (n, ...)
         Window provenance.
-    pred : ndarray, shape (n, 3)
-        Predicted ``slip_1, slip_2, chi`` per window.
+    pred : ndarray, shape (n, 4)
+        Predicted ``slip_1, slip_2, chi, v_by`` per window.
     track_m : float
         Track B, m.
     run_ids : sequence of str
@@ -187,10 +187,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         order = np.argsort(centre)
         p = pred[sel][order]
         c = centre[order]
-        s1, s2, chi = (np.interp(t, c, p[:, k]) for k in range(3))
+        s1, s2, chi, v_by = (np.interp(t, c, p[:, k]) for k in range(4))
         vl, vr = wh["vel_l"].to_numpy(), wh["vel_r"].to_numpy()
         plain = dead_reckon(t, vl, vr, track_m)
-        comp = dead_reckon(t, vl, vr, track_m, s1, s2, np.clip(chi, 0.5, 5.0))
+        comp = dead_reckon(t, vl, vr, track_m, s1, s2, np.clip(chi, 0.5, 5.0), v_by)
         xy = tr[["x", "y"]].to_numpy()
         end = np.array([np.interp(t[-1], tr[TIME], tr["x"]), np.interp(t[-1], tr[TIME], tr["y"])])
         dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
@@ -210,7 +210,7 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
 
     ``zero`` (what the EKF reports for the common slip today), ``physics``
     (:mod:`terrain.slip.physics`, columns ``phys_slip_l/r`` of ``X``), ``pitch-linear`` (eq. 22
-    fitted on the ``train`` windows), ``endo`` (eq. 27 with the gyro), ``observer`` (seed 000).
+    fitted on the straight-driving ``train`` windows, gyro |yaw rate| < 0.05 rad/s), ``endo`` (eq. 27 with the gyro), ``observer`` (seed 000).
 
     Parameters
     ----------
@@ -236,7 +236,8 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
 
     terr = meta["terrain"].to_numpy()
     pitch = X["pitch"].to_numpy()
-    coef = fit_pitch_slip(pitch[train], Y[train, :2].mean(axis=1), terr[train])
+    straight = train & (np.abs(X["wz__mean"].to_numpy()) < 0.05)   # eq. 22: straight driving
+    coef = fit_pitch_slip(pitch[straight], Y[straight, :2].mean(axis=1), terr[straight])
     eq22 = pitch_slip(coef, pitch, terr)
     return {
         "zero": np.zeros((len(X), 2)),

@@ -9,7 +9,9 @@ Compensated: each side's ground speed from its rim speed and slip, inverting the
 turning factor ``chi`` (ICR expansion with the turning slip lumped in; seed 000 eq. 5 with
 Mandow et al. 2007)::
 
-    v = (v_L' + v_R') / 2,  yaw_rate = (v_R - v_L) / (chi B)
+    v = (v_L' + v_R') / 2,  yaw_rate = (v_R - v_L) / (chi B),  lateral velocity v_y
+
+(``v_y``: the sideways sliding on a slope, which wheel speeds cannot see; learned).
 
 The pose is integrated with the midpoint heading (as the simulator does).
 """
@@ -46,8 +48,8 @@ def ground_speed_from_slip(rim_speed_m_s: np.ndarray, slip: np.ndarray) -> np.nd
 
 def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
                 track_m: float, slip_left: np.ndarray | None = None,
-                slip_right: np.ndarray | None = None, chi: np.ndarray | float = 1.0
-                ) -> np.ndarray:
+                slip_right: np.ndarray | None = None, chi: np.ndarray | float = 1.0,
+                lateral_m_s: np.ndarray | float = 0.0) -> np.ndarray:
     """Pose from wheel speeds, optionally slip-compensated (module docstring).
 
     Parameters
@@ -62,6 +64,8 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         SAE slip of each side (None = 0, plain odometry).
     chi : float or ndarray, shape (N,)
         Turning factor (1 = plain odometry).
+    lateral_m_s : float or ndarray, shape (N,)
+        Lateral body velocity (sideways sliding), m/s (0 = plain odometry).
 
     Returns
     -------
@@ -86,11 +90,17 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     gl = vl if slip_left is None else ground_speed_from_slip(vl, slip_left)
     gr = vr if slip_right is None else ground_speed_from_slip(vr, slip_right)
     v = 0.5 * (gl + gr)
+    vy = np.broadcast_to(np.asarray(lateral_m_s, dtype=float), t.shape)
     yaw_rate = (vr - vl) / (np.asarray(chi, dtype=float) * track_m)
     yaw_rate = np.broadcast_to(yaw_rate, t.shape)
     dt = np.diff(t)
-    yaw = np.concatenate([[0.0], np.cumsum(yaw_rate[:-1] * dt)])
-    mid = yaw[:-1] + 0.5 * dt * yaw_rate[:-1]
-    x = np.concatenate([[0.0], np.cumsum(v[:-1] * np.cos(mid) * dt)])
-    y = np.concatenate([[0.0], np.cumsum(v[:-1] * np.sin(mid) * dt)])
+    # trapezoidal in the speeds, midpoint heading
+    w_mid = 0.5 * (yaw_rate[:-1] + yaw_rate[1:])
+    yaw = np.concatenate([[0.0], np.cumsum(w_mid * dt)])
+    mid = yaw[:-1] + 0.5 * dt * w_mid
+    v_mid = 0.5 * (v[:-1] + v[1:])
+    vy_mid = 0.5 * (vy[:-1] + vy[1:])
+    c, s = np.cos(mid), np.sin(mid)
+    x = np.concatenate([[0.0], np.cumsum((v_mid * c - vy_mid * s) * dt)])
+    y = np.concatenate([[0.0], np.cumsum((v_mid * s + vy_mid * c) * dt)])
     return np.column_stack([x, y, yaw])
