@@ -200,7 +200,9 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
                      "scenario": run.meta.get("scenario"), "distance_m": dist,
                      "plain_err_pct": e_plain, "compensated_err_pct": e_comp,
                      "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan})
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=["run_id", "terrain", "scenario", "distance_m",
+                                       "plain_err_pct", "compensated_err_pct",
+                                       "reduction_pct"])
 
 
 def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,

@@ -26,8 +26,10 @@ from terrain.errors import ShapeError, TimeStepError
 def ground_speed_from_slip(rim_speed_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:
     """Ground speed ``v`` of a wheel whose rim speed ``omega r`` has SAE slip ``s``.
 
-    Inverse of ``s = (omega r - v) / max(|omega r|, |v|)``: ``v = omega r (1 - s)`` when
-    ``s >= 0`` (driving), ``v = omega r / (1 + s)`` when ``s < 0`` (braking, ``s > -1``).
+    Inverse of ``s = (omega r - v) / max(|omega r|, |v|)``: with ``s' = s sgn(omega r)``
+    (positive when the wheel outruns the ground, forward or backward),
+    ``v = omega r (1 - s')`` when ``s' >= 0`` (driving), ``v = omega r / (1 + s')`` when
+    ``s' < 0`` (braking, ``s' > -1``).
 
     Parameters
     ----------
@@ -42,7 +44,7 @@ def ground_speed_from_slip(rim_speed_m_s: np.ndarray, slip: np.ndarray) -> np.nd
         m/s.
     """
     w = np.asarray(rim_speed_m_s, dtype=float)
-    s = np.clip(np.asarray(slip, dtype=float), -0.95, 1.0)
+    s = np.clip(np.where(w < 0, -1.0, 1.0) * np.asarray(slip, dtype=float), -0.95, 1.0)
     return np.where(s >= 0, w * (1.0 - s), w / (1.0 + s))
 
 
