@@ -21,6 +21,7 @@ from features.slip_features import slip_table, terrain_columns
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, fit_predict,
                                      odometry_errors, steady_straight)
+from terrain.slip.figures import error_figure, odometry_figure
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.tracking import tracked_run
@@ -103,6 +104,10 @@ def main(args: argparse.Namespace) -> int:
         run.log_metrics(summary)
         run.log_table(errors, "slip_errors.csv")
         run.log_table(odo, "odometry.csv")
+        for name, fig in (("slip_errors.png", error_figure(errors, TARGET_TERRAINS)),
+                          ("odometry.png", odometry_figure(odo))):
+            fig.savefig(args.out / name, dpi=110)
+            run.log_figure(fig, name)
         uri = run.log_sklearn_model(model, "slip-model", X.iloc[:5],
                                     None if args.no_register else "slip-husky", TRUSTED)
     print(errors[(errors.windows == "steady_straight") & errors.terrain.isin(TARGET_TERRAINS)]
@@ -120,8 +125,13 @@ def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:
     for (split, model, terr), v in sel.set_index(["split", "model", "terrain"])[
             "median_abs_err"].items():
         out[f"{split.replace(' ', '_')}.{model}.{terr}.median_abs_err"] = float(v)
-    for scen, g in odo.groupby("scenario"):
-        out[f"odometry.{scen}.plain_err_pct"] = float(g["plain_err_pct"].median())
-        out[f"odometry.{scen}.compensated_err_pct"] = float(g["compensated_err_pct"].median())
-        out[f"odometry.{scen}.reduction_pct"] = float(g["reduction_pct"].median())
+    for scen, g in odo[~odo["slid_off"].astype(bool)].groupby("scenario"):
+        plain, comp = float(g["plain_err_pct"].median()), float(g["compensated_err_pct"].median())
+        out[f"odometry.{scen}.plain_err_pct"] = plain
+        out[f"odometry.{scen}.compensated_err_pct"] = comp
+        out[f"odometry.{scen}.reduction_of_median_pct"] = 100 * (1 - comp / plain)
+        slipping = g[g["plain_err_pct"] > 2.0]       # beyond the 0.8 % speed-quantum floor
+        out[f"odometry.{scen}.slipping_runs"] = float(len(slipping))
+        out[f"odometry.{scen}.slipping_median_reduction_pct"] = float(
+            slipping["reduction_pct"].median()) if len(slipping) else float("nan")
     return out

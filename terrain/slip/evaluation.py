@@ -22,6 +22,8 @@ from terrain.run import TIME, Run
 from terrain.slip.baselines import observer_slip
 from terrain.slip.odometry import dead_reckon
 
+#: A run whose true path is longer than this many times the wheel path slid off its slope.
+SLID_OFF_FACTOR = 3.0
 #: Windows of straight_accel runs starting after this time are steady, s.
 STEADY_AFTER_S = 3.0
 
@@ -173,8 +175,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     Returns
     -------
     pandas.DataFrame
-        One row per run: ``run_id, terrain, scenario, distance_m, plain_err_pct,
-        compensated_err_pct, reduction_pct``.
+        One row per run: ``run_id, terrain, scenario, distance_m, slid_off, plain_err_pct,
+        compensated_err_pct, reduction_pct``. ``slid_off``: the body travelled more than
+        :data:`SLID_OFF_FACTOR` x the wheels' path (it slid down the slope, e.g. the Husky on a
+        15 deg icy slope, which no wheel odometry can follow).
     """
     by_id = {r.run_id: r for r in runs}
     rows = []
@@ -196,12 +200,14 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
         e_plain = 100 * float(np.hypot(*(plain[-1, :2] - end))) / dist
         e_comp = 100 * float(np.hypot(*(comp[-1, :2] - end))) / dist
+        wheel_path = float(np.sum(np.hypot(*np.diff(plain[:, :2], axis=0).T)))
         rows.append({"run_id": rid, "terrain": run.terrain,
                      "scenario": run.meta.get("scenario"), "distance_m": dist,
+                     "slid_off": dist > SLID_OFF_FACTOR * max(wheel_path, 1e-9),
                      "plain_err_pct": e_plain, "compensated_err_pct": e_comp,
                      "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan})
     return pd.DataFrame(rows, columns=["run_id", "terrain", "scenario", "distance_m",
-                                       "plain_err_pct", "compensated_err_pct",
+                                       "slid_off", "plain_err_pct", "compensated_err_pct",
                                        "reduction_pct"])
 
 
