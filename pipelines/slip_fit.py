@@ -17,10 +17,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from features.slip_features import slip_table, terrain_columns
+from features.slip_features import (one_hot_probabilities, slip_features, slip_table,
+                                    slip_windows, terrain_columns)
+from terrain.io.shipped import load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, fit_predict,
-                                     odometry_errors, steady_straight)
+                                     measured_checks, odometry_errors, steady_straight)
 from terrain.slip.figures import error_figure, odometry_figure
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -46,6 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cache-dir", type=Path, default=Path("out/slip_cache"))
     parser.add_argument("--out", type=Path, default=Path("out/slip_fit"))
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
+    parser.add_argument("--measured", default=None,
+                        help="also check the model on a shipped measured dataset (borealtc)")
     parser.add_argument("--no-register", action="store_true")
 
 
@@ -108,6 +112,11 @@ def main(args: argparse.Namespace) -> int:
                           ("odometry.png", odometry_figure(odo))):
             fig.savefig(args.out / name, dpi=110)
             run.log_figure(fig, name)
+        if args.measured:
+            checks = _measured(args.measured, model, vehicle)
+            checks.to_csv(args.out / "measured_checks.csv", index=False)
+            run.log_table(checks, "measured_checks.csv")
+            print(checks.round(4).to_string(index=False))
         uri = run.log_sklearn_model(model, "slip-model", X.iloc[:5],
                                     None if args.no_register else "slip-husky", TRUSTED)
     print(errors[(errors.windows == "steady_straight") & errors.terrain.isin(TARGET_TERRAINS)]
@@ -117,6 +126,13 @@ def main(args: argparse.Namespace) -> int:
     print(f"logged model: {uri}; tables in {args.out}")
     print(run.describe())
     return 0
+
+
+def _measured(dataset: str, model: SlipRegressor, vehicle) -> pd.DataFrame:
+    ws = slip_windows(load_dataset(dataset))
+    X = slip_features(ws, vehicle, one_hot_probabilities(ws.labels.astype(str), TERRAIN_NAMES))
+    return measured_checks(X, model.predict(X), ws.run_ids, ws.labels.astype(str),
+                           vehicle.track_m)
 
 
 def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:

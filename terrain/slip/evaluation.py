@@ -255,3 +255,63 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
                                   X["wz__mean"].to_numpy(), track_m),
         "observer": observer_window_slip(runs, meta, track_m),
     }
+
+
+def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
+                    terrains: np.ndarray, track_m: float, min_turn_rad_s: float = 0.1
+                    ) -> pd.DataFrame:
+    """What can be checked on measured runs without position truth, per terrain.
+
+    * yaw: RMS over turning windows (gyro |yaw rate| >= ``min_turn_rad_s``) of the gyro yaw
+      rate minus the wheel yaw rate, plain ``(v_R - v_L)/B`` and compensated
+      ``(v_R - v_L)/(chi B)`` with the predicted ``chi``;
+    * slip vs currents: median |learned - physics| slip (the physics slip is computed from
+      the measured currents, :mod:`terrain.slip.physics`) and the Spearman correlation of the
+      learned slip with the mean current, over straight windows.
+
+    Parameters
+    ----------
+    X : pandas.DataFrame, shape (n, n_features)
+        Window features of the measured runs (``wz__mean``, ``vel_diff__mean``,
+        ``cur_l__mean``, ``cur_r__mean``, ``phys_slip_l``, ``phys_slip_r``).
+    pred : ndarray, shape (n, 4)
+        Learned ``slip_1, slip_2, chi, v_by``.
+    run_ids : ndarray, shape (n,)
+        Run of each window.
+    terrains : ndarray, shape (n,)
+        Terrain label of each window.
+    track_m : float
+        Track B, m.
+    min_turn_rad_s : float
+        Turning threshold, rad/s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per terrain: ``n_runs, yaw_rms_plain_rad_s, yaw_rms_compensated_rad_s,
+        median_learned_minus_physics, spearman_slip_current``.
+    """
+    from scipy.stats import spearmanr
+
+    wz = X["wz__mean"].to_numpy()
+    dv = X["vel_diff__mean"].to_numpy()
+    chi = np.clip(pred[:, 2], 0.5, 5.0)
+    slip = pred[:, :2].mean(axis=1)
+    phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy().mean(axis=1)
+    cur = X[["cur_l__mean", "cur_r__mean"]].to_numpy().mean(axis=1)
+    rows = []
+    for terr in np.unique(terrains):
+        sel = terrains == terr
+        turn = sel & (np.abs(wz) >= min_turn_rad_s)
+        straight = sel & (np.abs(wz) < 0.05)
+        rms = (lambda r: float(np.sqrt(np.mean(r ** 2))) if r.size else np.nan)
+        rho = (float(spearmanr(slip[straight], cur[straight]).statistic)
+               if straight.sum() > 3 else np.nan)
+        rows.append({"terrain": terr, "n_runs": int(len(np.unique(run_ids[sel]))),
+                     "n_turning_windows": int(turn.sum()),
+                     "yaw_rms_plain_rad_s": rms(wz[turn] - dv[turn] / track_m),
+                     "yaw_rms_compensated_rad_s": rms(wz[turn] - dv[turn] / (chi[turn] * track_m)),
+                     "median_learned_minus_physics": float(np.median(np.abs(
+                         slip[straight] - phys[straight]))) if straight.any() else np.nan,
+                     "spearman_slip_current": rho})
+    return pd.DataFrame(rows)
