@@ -21,7 +21,7 @@ from features.slip_features import (one_hot_probabilities, slip_features, slip_t
                                     slip_windows, terrain_columns)
 from terrain.io.shipped import load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
-from terrain.slip.evaluation import (baseline_predictions, error_table, fit_predict,
+from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
                                      measured_checks, odometry_errors, steady_straight)
 from terrain.slip.figures import error_figure, odometry_figure
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
@@ -77,20 +77,12 @@ def main(args: argparse.Namespace) -> int:
             for cond, mask in (("steady_straight", steady & test), ("all", test)):
                 t = error_table(p, Y, meta, mask)
                 tables.append(t.assign(model=name, windows=cond, split="held-out seeds"))
-        loso = np.full(Y.shape, np.nan)
-        for scen in args.scenarios:
-            m = meta["scenario"].to_numpy() == scen
-            loso = np.where((test & m)[:, None], fit_predict(
-                SlipRegressor, X, Y, train & ~m, test & m), loso)
+        loso = leave_one_out(SlipRegressor, X, Y, meta["scenario"].to_numpy(), train, test)
         tables.append(error_table(loso, Y, meta, test, ("scenario",)).assign(
             model="learned", windows="all", split="leave-one-scenario-out"))
-        if not args.no_loto:
-            Xp = X.drop(columns=terrain_columns(X.columns))
-            loto = np.full(Y.shape, np.nan)
-            for terr in args.terrains:
-                m = meta["terrain"].to_numpy() == terr
-                loto = np.where((test & m)[:, None], fit_predict(
-                    SlipRegressor, Xp, Y, train & ~m, test & m), loto)
+        if not args.no_loto:          # no terrain knowledge: probabilities and physics dropped
+            loto = leave_one_out(SlipRegressor, X.drop(columns=terrain_columns(X.columns)), Y,
+                                 meta["terrain"].to_numpy(), train, test)
             for cond, mask in (("steady_straight", steady & test), ("all", test)):
                 tables.append(error_table(loto, Y, meta, mask).assign(
                     model="learned", windows=cond, split="leave-one-terrain-out"))
@@ -102,12 +94,11 @@ def main(args: argparse.Namespace) -> int:
         odo["oracle_err_pct"] = odometry_errors(runs, meta, truth_in, vehicle.track_m,
                                                 odo_runs)["compensated_err_pct"]
         summary = _summary(errors, odo)
-        errors.to_csv(args.out / "slip_errors.csv", index=False)
-        odo.to_csv(args.out / "odometry.csv", index=False)
         (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
         run.log_metrics(summary)
-        run.log_table(errors, "slip_errors.csv")
-        run.log_table(odo, "odometry.csv")
+        for frame, name in ((errors, "slip_errors.csv"), (odo, "odometry.csv")):
+            frame.to_csv(args.out / name, index=False)
+            run.log_table(frame, name)
         for name, fig in (("slip_errors.png", error_figure(errors, TARGET_TERRAINS)),
                           ("odometry.png", odometry_figure(odo))):
             fig.savefig(args.out / name, dpi=110)

@@ -315,3 +315,37 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
                          slip[straight] - phys[straight]))) if straight.any() else np.nan,
                      "spearman_slip_current": rho})
     return pd.DataFrame(rows)
+
+
+def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray,
+                  groups: np.ndarray, train: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """Predictions where each group's test windows come from a model that never saw the group.
+
+    For every value ``g`` of ``groups`` (a scenario, a terrain), a fresh model is fitted on
+    the ``train`` windows of the other groups and predicts the ``test`` windows of ``g``.
+
+    Parameters
+    ----------
+    make_model : callable
+        Returns an unfitted estimator.
+    X : pandas.DataFrame, shape (n, n_features)
+        Window features.
+    Y : ndarray, shape (n, k)
+        Targets.
+    groups : ndarray, shape (n,)
+        Group of each window.
+    train, test : ndarray of bool, shape (n,)
+        Disjoint window masks (e.g. training and held-out seeds).
+
+    Returns
+    -------
+    ndarray, shape (n, k)
+        NaN outside the ``test`` windows (and for groups without training data elsewhere).
+    """
+    out = np.full(Y.shape, np.nan)
+    for g in np.unique(groups[test]):
+        m = groups == g
+        if (train & ~m).any():
+            out = np.where((test & m)[:, None],
+                           fit_predict(make_model, X, Y, train & ~m, test & m), out)
+    return out
