@@ -14,6 +14,8 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import signal
 
+from terrain.vehicles.icr import inverse_icr_factor
+
 _EPS = 1e-12
 
 
@@ -120,12 +122,27 @@ def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> n
 
 
 def regression_gain(y: np.ndarray, x: np.ndarray, floor: float) -> np.ndarray:
-    """Least-squares gain of ``y`` on ``x`` through the origin, ridge-floored.
+    """Least-squares gain of ``y`` on ``x`` through the origin, ridge-floored, per window.
 
-    ``sum(x y) / (sum(x^2) + n floor^2)``; with ``y`` the gyro yaw rate and ``x`` the ideal
-    differential-drive yaw rate (v_R - v_L)/B this is 1/chi, the inverse ICR expansion factor
-    of the skid-steer (see ``000_f24201ff985633bf.txt`` eqs. 1-5). The floor (same unit as
-    ``x``) pulls the gain to 0 when the robot barely turns.
+    With ``y`` the gyro yaw rate and ``x`` the ideal differential-drive yaw rate
+    ``(v_R - v_L) / B`` this is ``1 / chi``, the inverse ICR expansion factor of the
+    skid-steer; the fit is :func:`terrain.vehicles.icr.inverse_icr_factor` (model and
+    sources there).
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        ``(n_windows, n_samples)``, gyro yaw rate, rad/s.
+    x : numpy.ndarray
+        ``(n_windows, n_samples)``, commanded yaw rate ``(v_R - v_L) / B``, rad/s.
+    floor : float
+        Ridge floor, rad/s (same unit as ``x``): the denominator is
+        ``sum(x^2) + n_samples floor^2``, which pulls the gain to 0 when the robot barely
+        turns.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)``, ``sum(x y) / (sum(x^2) + n floor^2)`` (dimensionless).
     """
-    n = x.shape[-1]
-    return (x * y).sum(axis=-1) / ((x ** 2).sum(axis=-1) + n * floor ** 2)
+    return inverse_icr_factor(y, x, floor)

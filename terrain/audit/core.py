@@ -35,6 +35,7 @@ from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
 from terrain.vehicles import get_vehicle
+from terrain.vehicles.icr import icr_expansion_factor
 
 SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r")
 POOLED = "all"
@@ -278,8 +279,8 @@ def measured_facts(frames: Sequence[AuditFrame]) -> dict:
     out["straight_mean_abs_wz_rad_s"] = mean(w)
     xt = np.concatenate(x_t) if x_t else np.empty(0)
     wt = np.concatenate(wz_t) if wz_t else np.empty(0)
-    out["chi_pooled"] = (float(np.sum(xt * xt) / np.sum(xt * wt))
-                         if len(xt) > 10 and np.sum(xt * wt) > 0 else None)
+    chi = icr_expansion_factor(wt, xt) if len(xt) > 10 else float("inf")
+    out["chi_pooled"] = chi if np.isfinite(chi) else None
     lags = [f.lag.summary() for f in frames if f.has_imu]
     ident = [s for s in lags if s["identifiable"]]
     out["lag_min_s"] = min((s["lag_min_s"] for s in ident), default=None)
@@ -449,17 +450,18 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     rows = []
     for factor in factors:
         ter = replace(base, lateral_friction=float(base.lateral_friction * factor))
-        num = den = 0.0
+        commanded, replayed = [np.empty(0)], [np.empty(0)]
         for run in chosen:
             rep = replay_run(run, settings.replay, terrain=ter)
             x = (rep.vel_r - rep.vel_l) / rep.track_m
             m = ((np.abs(x) >= settings.frames.turn_rad_s)
                  & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s))
-            num += float(np.sum(x[m] ** 2))
-            den += float(np.sum(x[m] * rep.yaw_rate[m]))
+            commanded.append(x[m])
+            replayed.append(rep.yaw_rate[m])
         rows.append({"terrain": terrain, "factor": float(factor),
                      "lateral_friction": ter.lateral_friction,
-                     "replay_chi": num / den if den > 0 else float("inf"),
+                     "replay_chi": icr_expansion_factor(np.concatenate(replayed),
+                                                        np.concatenate(commanded)),
                      "measured_chi": measured_chi, "n_runs": len(chosen)})
     return pd.DataFrame(rows)
 

@@ -84,6 +84,7 @@ from scipy.ndimage import median_filter
 
 from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
 from terrain.errors import TerrainError
+from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
 #: effect -> (group, parameter name, unit)
 EFFECTS: Mapping[str, tuple[str, str, str]] = MappingProxyType({
@@ -407,8 +408,7 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
                               f"samples, need {settings.min_turn_samples}")
     # kinematic mobile model: robust chi on the mobile turning samples
     b = 0.0
-    xt, yt = d.x[d.turn], d.y[d.turn]
-    a = float(np.sum(xt * yt) / np.sum(xt * xt))
+    a = inverse_icr_factor(d.y[d.turn], d.x[d.turn])
     mobile_turn = d.turn.copy()
     for _ in range(settings.robust_iterations):
         if bias_on:
@@ -416,14 +416,12 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
         mobile_turn = d.turn & ~_immobile_flags(d, a * d.x, b, settings)
         if mobile_turn.sum() < settings.min_turn_samples:
             break
-        xm, ym = d.x[mobile_turn], d.y[mobile_turn] - b
-        a_new = float(np.sum(xm * ym) / np.sum(xm * xm))
+        a_new = inverse_icr_factor(d.y[mobile_turn] - b, d.x[mobile_turn])
         if not a_new > 0:
             break
         a = a_new
     fraction = float(1.0 - mobile_turn.sum() / n_turn)
-    xm, sm = d.x[mobile_turn], d.sim[mobile_turn]
-    chi_replay = float(np.sum(xm * xm) / np.sum(xm * sm)) if np.sum(xm * sm) > 0 else np.inf
+    chi_replay = icr_expansion_factor(d.sim[mobile_turn], d.x[mobile_turn])
     common = dict(bias=b, n_turn=n_turn, n_quiet=n_quiet, chi_replay=chi_replay)
     if not imm_on:
         return YawParams(kinematic=True, a=a, fraction=fraction, **common)
