@@ -12,14 +12,14 @@ the report.
 Public API: :class:`AuditSettings`, :func:`run_audit`, :class:`AuditResult`,
 :func:`prepare_frames`, :func:`replay_run`, :class:`ReplaySettings`,
 :func:`estimate_lag_track`, :class:`LagSettings`, :class:`EffectSettings`,
-:class:`SelectionSettings`, :class:`FrameSettings`, :data:`EFFECTS`, :data:`EFFECT_NAMES`,
+:class:`SelectionSettings`, :class:`FrameSettings`, :data:`EFFECT_VOCABULARY`, :data:`EFFECT_NAMES`,
 :func:`to_dict`, :func:`to_markdown`, :func:`make_figures`.
 """
 
 from __future__ import annotations
 
 from terrain.audit.core import POOLED, AuditResult, AuditSettings, prepare_frames, run_audit
-from terrain.audit.effects import EFFECT_NAMES, EFFECTS, EffectSettings
+from terrain.audit.effects import EFFECT_NAMES, EFFECT_VOCABULARY, EffectSettings, EffectSpec
 from terrain.audit.frames import FrameSettings
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.audit.report import to_dict, to_markdown
@@ -35,6 +35,6 @@ def make_figures(result: AuditResult) -> dict:
 
 
 __all__ = ["POOLED", "AuditResult", "AuditSettings", "prepare_frames", "run_audit",
-           "EFFECT_NAMES", "EFFECTS", "EffectSettings", "FrameSettings", "ReplaySettings",
+           "EFFECT_NAMES", "EFFECT_VOCABULARY", "EffectSpec", "EffectSettings", "FrameSettings", "ReplaySettings",
            "replay_run", "to_dict", "to_markdown", "SelectionSettings", "LagSettings",
            "estimate_lag_track", "make_figures"]

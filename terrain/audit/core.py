@@ -171,7 +171,7 @@ def _samples(result_groups: dict, terrain: str, frames: Sequence[AuditFrame]) ->
     if yaw is not None:
         for unit, params in zip(yaw.units, yaw.heldout_params):
             for f in unit:
-                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.bias)
+                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.bias_rad_s)
     cur_pred = {}
     if cur is not None:
         for unit, params in zip(cur.units, cur.heldout_params):
@@ -184,7 +184,7 @@ def _samples(result_groups: dict, terrain: str, frames: Sequence[AuditFrame]) ->
         base = {"run_id": f.run_id, "terrain": f.terrain,
                 "manoeuvre": np.asarray(MANOEUVRES)[f.manoeuvre[m]]}
         rows.append(pd.DataFrame({**base, "signal": "wz", "measured": f.wz[m],
-                                  "ideal": f.x[m], "replay_raw": f.sim_wz[m],
+                                  "ideal": f.commanded_yaw_rate[m], "replay_raw": f.sim_wz[m],
                                   "measured_raw": f.wz_at_lag(0.0)[m],
                                   "replay": f.sim_wz[m], "extended": wz_ext[m]}))
         rows.append(pd.DataFrame({**base, "signal": "ax", "measured": f.ax[m],
@@ -260,7 +260,7 @@ def measured_facts(frames: Sequence[AuditFrame]) -> dict:
             mi = f.score_imu
             wz_st.append(np.abs(f.wz[mi][f.manoeuvre[mi] == STRAIGHT]))
             turn = np.isin(f.manoeuvre[mi], (CURVE, SPIN))
-            x_t.append(f.x[mi][turn])
+            x_t.append(f.commanded_yaw_rate[mi][turn])
             wz_t.append(f.wz[mi][turn])
     cur = np.concatenate(cur) if cur else np.empty(0)
     man = np.concatenate(man) if man else np.empty(0, dtype=int)
@@ -380,7 +380,7 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
                 continue
             refs = None
             if group == "yaw":
-                ideal = np.array([sum(float(np.sum((f.wz[f.score_imu] - f.x[f.score_imu]) ** 2))
+                ideal = np.array([sum(float(np.sum((f.wz[f.score_imu] - f.commanded_yaw_rate[f.score_imu]) ** 2))
                                       for f in u) for u in units])
                 refs = {"ideal": ideal}
             res = select_group(units, group, scope, settings.selection, settings.effects,

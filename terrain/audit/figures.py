@@ -47,7 +47,7 @@ def fig_yaw(result: AuditResult, max_points: int = 4000, seed: int = 0) -> Figur
         if not fs:
             ax.set_title(f"{t}: no IMU")
             continue
-        x = np.concatenate([f.x[f.score_imu] for f in fs])
+        x = np.concatenate([f.commanded_yaw_rate[f.score_imu] for f in fs])
         y = np.concatenate([f.wz[f.score_imu] for f in fs])
         s = np.concatenate([f.sim_wz[f.score_imu] for f in fs])
         idx = rng.permutation(len(x))[:max_points]
@@ -133,7 +133,7 @@ def fig_currents(result: AuditResult, n_bins: int = 8) -> Figure:
         x, meas, rep, ext = [], [], [], []
         for f, p in pairs:
             m = f.score_cur & (f.manoeuvre != 0)
-            x.append(np.abs(f.x[m]))
+            x.append(np.abs(f.commanded_yaw_rate[m]))
             meas.append(f.cur[m].mean(axis=1))
             rep.append(f.sim_cur[m].mean(axis=1))
             ext.append(predict_current(f, p)[m].mean(axis=1))
@@ -171,7 +171,7 @@ def fig_example(result: AuditResult, run_id: str | None = None) -> Figure:
         return fig
     if run_id not in candidates:
         def transitions(k):                          # turns started or ended in scored time
-            return sum(int(np.sum(np.diff((np.abs(f.x[f.score_imu]) >= 0.1).astype(int)) != 0))
+            return sum(int(np.sum(np.diff((np.abs(f.commanded_yaw_rate[f.score_imu]) >= 0.1).astype(int)) != 0))
                        for f, _ in pairs[k]["yaw"])
         run_id = max(candidates, key=transitions)
     ax1, ax2 = fig.subplots(2, 1, sharex=True)

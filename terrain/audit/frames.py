@@ -92,8 +92,9 @@ class AuditFrame:
         Cross-validation unit: the run id, or ``<run_id>#<k>`` for a segment.
     terrain : str
     t_s : wheel timestamps.
-    x : commanded yaw rate ``(v_R - v_L) / B``.
-    v : commanded speed ``(v_L + v_R) / 2``, m/s.
+    commanded_yaw_rate : yaw rate the measured wheel speeds command, ``(v_R - v_L) / B``
+        (ideal differential drive, seed 000 eq. 2), rad/s.
+    commanded_speed : speed the measured wheel speeds command, ``(v_L + v_R) / 2``, m/s.
     manoeuvre : int codes into :data:`MANOEUVRES`.
     quiet : bool, samples far from any turn (gyro-bias estimation).
     sim_wz, sim_ax, sim_ay, sim_vx : replay predictions (yaw rate, accelerations, speed).
@@ -112,8 +113,8 @@ class AuditFrame:
     group: str
     terrain: str
     t_s: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
+    commanded_yaw_rate: np.ndarray
+    commanded_speed: np.ndarray
     manoeuvre: np.ndarray
     quiet: np.ndarray
     sim_wz: np.ndarray
@@ -244,7 +245,8 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         imu_t, imu_wz, has_imu = np.empty(0), np.empty(0), False
         score_imu = np.zeros(len(t), dtype=bool)
     return AuditFrame(
-        run_id=run.run_id, group=run.run_id, terrain=replay.terrain, t_s=t, x=x, v=v,
+        run_id=run.run_id, group=run.run_id, terrain=replay.terrain, t_s=t,
+        commanded_yaw_rate=x, commanded_speed=v,
         manoeuvre=classify_manoeuvres(x, v, replay.vel_l, replay.vel_r, replay.track_m,
                                       settings),
         quiet=_quiet(t, x, settings), sim_wz=replay.yaw_rate, sim_ax=replay.ax,
@@ -271,9 +273,9 @@ def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
     """
     if n_parts <= 1:
         return [frame]
-    per_sample = ("t_s", "x", "v", "manoeuvre", "quiet", "sim_wz", "sim_ax", "sim_ay",
-                  "sim_vx", "sim_cur", "cur", "wz", "ax", "ay", "pitch", "score_imu",
-                  "score_cur")
+    per_sample = ("t_s", "commanded_yaw_rate", "commanded_speed", "manoeuvre", "quiet",
+                  "sim_wz", "sim_ax", "sim_ay", "sim_vx", "sim_cur", "cur", "wz", "ax", "ay",
+                  "pitch", "score_imu", "score_cur")
     parts = []
     for k, idx in enumerate(np.array_split(np.arange(frame.n), n_parts)):
         if idx.size == 0:

@@ -3,7 +3,7 @@
 
 JSON layout (``format = "terrain-audit/1"``): ``effects`` is a list whose items carry ``name``,
 ``terrain`` (a class or ``all``), ``group``, ``params`` (the vocabulary names of
-:data:`terrain.audit.effects.EFFECTS`), ``ci95``, ``heldout_gain`` (fraction of the baseline
+:data:`terrain.audit.effects.EFFECT_VOCABULARY`), ``ci95``, ``heldout_gain`` (fraction of the baseline
 RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``, ``details``,
 ``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per signal and
 terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run``, ``lags`` (per run),
@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.audit.core import POOLED, AuditResult
-from terrain.audit.effects import EFFECTS, GROUP_SIGNALS
+from terrain.audit.effects import EFFECT_VOCABULARY, GROUP_SIGNALS
 from terrain.audit.selection import json_ready
 
 FORMAT = "terrain-audit/1"
@@ -99,7 +99,8 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
         "source": dict(source or {}),
         "baseline": BASELINE,
         "models": MODELS,
-        "vocabulary": {k: {"group": g, "param": p, "unit": u} for k, (g, p, u) in EFFECTS.items()},
+        "vocabulary": {k: {"group": v.group, "param": v.param, "unit": v.unit}
+                       for k, v in EFFECT_VOCABULARY.items()},
         "runs": {"audited": [f.run_id for f in result.frames], "skipped": result.skipped},
         "terrains": result.terrains,
         "supported": supported,
@@ -389,7 +390,7 @@ def to_markdown(report: Mapping, figures: Mapping[str, str] | None = None,
     lines += [_table(["terrain", "effect", "parameters [95 % CI]", "held-out gain [95 % CI]",
                       "supported", "details"], rows), ""]
     lines += ["Causes (plain language):", ""]
-    for name in EFFECTS:
+    for name in EFFECT_VOCABULARY:
         cause = next((e["cause"] for e in effects if e["name"] == name), None)
         if cause:
             lines.append(f"- `{name}`: {cause}")
