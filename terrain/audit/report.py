@@ -13,8 +13,9 @@ no effect is supported) complete it.
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import MappingProxyType
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import jinja2
 import numpy as np
@@ -325,3 +326,58 @@ def to_markdown(report: Mapping, figures: Mapping[str, str] | None = None,
         standstill=_standstill_finding(report), scope_text=SCOPE_TEXT,
         sweep_rows=sweep_rows, sweep_header=sweep_header,
         manoeuvre_rows=_manoeuvre_rows(report))
+
+
+def write_markdown(path: Path, report: Mapping, figures: Mapping[str, Any],
+                   commands: Sequence[str] = (), title: str = "Simulation audit") -> None:
+    """Write the Markdown report at ``path`` and its figures in ``<stem>_figures/`` beside it.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Markdown file to write (its folder is created).
+    report : mapping
+        Output of :func:`to_dict`.
+    figures : mapping of str to matplotlib.figure.Figure
+        Figures by key (:func:`terrain.audit.figures.make_figures`), saved as
+        ``audit_<key>.png`` at 90 dpi and linked by relative paths.
+    commands : sequence of str
+        Shell commands that reproduce the report (from the repository root).
+    title : str
+        Page title.
+    """
+    path = Path(path)
+    folder = path.parent / f"{path.stem}_figures"
+    folder.mkdir(parents=True, exist_ok=True)
+    for key, fig in figures.items():
+        fig.savefig(folder / f"audit_{key}.png", dpi=90)
+    rel = {k: f"{folder.name}/audit_{k}.png" for k in figures}
+    path.write_text(to_markdown(report, rel, commands, title))
+
+
+def summary_lines(report: Mapping, timings_s: Mapping[str, float]) -> list[str]:
+    """A short text summary of a report for the terminal.
+
+    Parameters
+    ----------
+    report : mapping
+        Output of :func:`to_dict`.
+    timings_s : mapping of str to float
+        Wall time of each step, s (summed in the first line).
+
+    Returns
+    -------
+    list of str
+        ``audited N runs (...)`` then one line per terrain with its supported effects,
+        parameters and held-out gains (``none`` without any).
+    """
+    runs = report["runs"]
+    out = [f"audited {len(runs['audited'])} runs ({', '.join(report['terrains'])}), skipped "
+           f"{len(runs['skipped'])}; {sum(timings_s.values()):.1f} s"]
+    for terrain in report["supported"]:
+        found = [e for e in report["effects"] if e["terrain"] == terrain and e["supported"]]
+        text = ", ".join(
+            f"{e['name']} ({', '.join(f'{k}={v:.3g}' for k, v in e['params'].items())}"
+            f"; gain {e['heldout_gain']:.2f})" for e in found)
+        out.append(f"  {terrain}: {text or 'none'}")
+    return out
