@@ -20,17 +20,50 @@ _EPS = 1e-12
 
 
 def mean(x: np.ndarray) -> np.ndarray:
-    """Mean over samples."""
+    """Mean over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.mean(axis=-1)
 
 
 def std(x: np.ndarray) -> np.ndarray:
-    """Population standard deviation over samples."""
+    """Population standard deviation over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.std(axis=-1)
 
 
 def skewness(x: np.ndarray) -> np.ndarray:
-    """Fisher skewness m3 / m2^1.5 (0 for a constant window)."""
+    """Fisher skewness m3 / m2^1.5 (0 for a constant window).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, dimensionless.
+    """
     d = x - x.mean(axis=-1, keepdims=True)
     m2 = (d ** 2).mean(axis=-1)
     m3 = (d ** 3).mean(axis=-1)
@@ -38,7 +71,18 @@ def skewness(x: np.ndarray) -> np.ndarray:
 
 
 def kurtosis(x: np.ndarray) -> np.ndarray:
-    """Excess kurtosis m4 / m2^2 - 3 (0 for a constant window)."""
+    """Excess kurtosis m4 / m2^2 - 3 (0 for a constant window).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, dimensionless.
+    """
     d = x - x.mean(axis=-1, keepdims=True)
     m2 = (d ** 2).mean(axis=-1)
     m4 = (d ** 4).mean(axis=-1)
@@ -46,22 +90,66 @@ def kurtosis(x: np.ndarray) -> np.ndarray:
 
 
 def rms(x: np.ndarray) -> np.ndarray:
-    """Root mean square."""
+    """Root mean square over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return np.sqrt((x ** 2).mean(axis=-1))
 
 
 def minimum(x: np.ndarray) -> np.ndarray:
-    """Minimum."""
+    """Minimum over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.min(axis=-1)
 
 
 def maximum(x: np.ndarray) -> np.ndarray:
-    """Maximum."""
+    """Maximum over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.max(axis=-1)
 
 
 def mean_abs_diff(x: np.ndarray) -> np.ndarray:
-    """Mean absolute first difference (per sample, same unit as the signal)."""
+    """Mean absolute first difference over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel per sample.
+    """
     return np.abs(np.diff(x, axis=-1)).mean(axis=-1)
 
 
@@ -117,6 +205,13 @@ def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> n
     ----------
     current, speed : numpy.ndarray
         ``(n_windows, n_samples)`` in A and m/s.
+    min_speed_m_s : float
+        Floor of the mean absolute speed, m/s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)``, A/(m/s).
     """
     return current.mean(axis=-1) / np.maximum(np.abs(speed).mean(axis=-1), min_speed_m_s)
 

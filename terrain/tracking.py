@@ -74,7 +74,14 @@ def activate_store() -> tuple[str, bool]:
 
 
 def code_version() -> str:
-    """Git commit of the source tree (with ``-dirty`` when modified), else the version."""
+    """The code version a run is tagged with.
+
+    Returns
+    -------
+    str
+        Git commit of the source tree (with ``-dirty`` when tracked files are modified),
+        else ``terrain-<package version>`` outside a git checkout.
+    """
     here = Path(__file__).resolve().parent
     try:
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True,
@@ -220,7 +227,14 @@ class TrackedRun:
             self.client.log_artifact(self.run_id, str(p), artifact_path=folder)
 
     def describe(self) -> str:
-        """One line telling where the run is (with the command that browses it)."""
+        """Where the run is.
+
+        Returns
+        -------
+        str
+            One line with the run id, experiment, store and the ``mlflow ui`` command that
+            browses it.
+        """
         return (f"MLflow run {self.run_id} in experiment '{self.experiment}' at {self.uri} "
                 f"(browse: mlflow ui --backend-store-uri {self.uri})")
 

@@ -201,7 +201,8 @@ IMMOBILE_FORMS = ("uniform", "rate_dependent")
 
 class NotIdentifiable(TerrainError):
     """The data hold no information on an effect (no turns, no straight driving, level
-    ground...)."""
+    ground...). Raised by the group fits; the selection reports it as the effect's
+    ``reason``."""
 
 
 @dataclass(frozen=True)
@@ -271,10 +272,12 @@ class YawParams:
         Whether the mobile yaw rate is ``inverse_chi x`` (``icr_expansion`` on, or
         ``immobilised`` with the kinematic mobile model) or the replay's.
     inverse_chi : float
-        ``1 / chi`` of the kinematic mobile model (:func:`terrain.vehicles.icr.inverse_icr_factor`).
+        ``1 / chi`` of the kinematic mobile model
+        (:func:`terrain.vehicles.icr.inverse_icr_factor`).
     bias_rad_s : float
         Gyro bias, rad/s.
     immobilised : bool
+        Whether the ``immobilised`` effect is in the model.
     fraction : float
         Fraction of turning samples found immobile in the fitted data.
     form : str or None
@@ -367,7 +370,12 @@ def immobile_scale(x: np.ndarray, turn: np.ndarray, fractions: tuple[float, floa
     fractions : (float, float)
         Immobile fraction of turning samples below and above the threshold.
     threshold_rad_s : float
-        Threshold on ``|x|`` (inf: one fraction for every turn).
+        Threshold on ``|x|`` (inf: one fraction for every turn), rad/s.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``1 - fraction`` on turning samples, 1 elsewhere (dimensionless).
     """
     f = np.where(np.abs(x) >= threshold_rad_s, fractions[1], fractions[0])
     return np.where(turn, 1.0 - f, 1.0)
@@ -420,6 +428,7 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
     spec : sequence of str
         Subset of ``icr_expansion``, ``gyro_bias``, ``immobilised``.
     settings : EffectSettings
+        Constants of the effect models (thresholds, iterations, minimum sample counts).
     form : str, optional
         Force the ``immobilised`` form (default: the one with the lower training error).
 
@@ -485,8 +494,23 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
 
 
 def predict_yaw(frame: AuditFrame, params: YawParams) -> np.ndarray:
-    """Predicted gyro yaw rate of a frame, shape (n,), rad/s."""
-    mobile = params.inverse_chi * frame.commanded_yaw_rate if params.kinematic else frame.sim_wz
+    """Predicted gyro yaw rate of a frame.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : YawParams
+        Fitted yaw-rate model.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Mobile yaw rate (``inverse_chi x`` or the replay's) times the expected mobility
+        (:func:`immobile_scale`) plus the gyro bias, rad/s.
+    """
+    mobile = (params.inverse_chi * frame.commanded_yaw_rate if params.kinematic
+              else frame.sim_wz)
     if params.immobilised:
         turn = np.isin(frame.manoeuvre, (CURVE, SPIN))
         mobile = mobile * immobile_scale(frame.commanded_yaw_rate, turn, params.fractions,
@@ -495,8 +519,24 @@ def predict_yaw(frame: AuditFrame, params: YawParams) -> np.ndarray:
 
 
 def yaw_sse(frame: AuditFrame, params: YawParams, scope: str = "all") -> tuple[float, int]:
-    """Sum of squared yaw-rate errors over the frame's scored samples in ``scope`` and their
-    count."""
+    """Squared yaw-rate errors of a frame under a fitted model.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : YawParams
+        Fitted yaw-rate model.
+    scope : str
+        Samples scored, among those with IMU (:func:`scope_mask`).
+
+    Returns
+    -------
+    sse : float
+        Sum of squared errors of :func:`predict_yaw` against the gyro, (rad/s)^2.
+    n : int
+        Samples summed.
+    """
     m = frame.score_imu & scope_mask(frame, scope)
     if not frame.has_imu or not m.any():
         return 0.0, 0
@@ -548,7 +588,21 @@ class CurrentParams:
         return 0.5 * (self.offset_right_a + self.offset_left_a)
 
     def turning_shape(self, x: np.ndarray, form: str | None = None) -> np.ndarray:
-        """``g(|x|)``, shape (n,): 1 at the reference turn."""
+        """Shape ``g(|x|)`` of the turning term, 1 at the reference turn.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            Commanded yaw rate ``(v_R - v_L) / B``, rad/s.
+        form : str, optional
+            ``coulomb`` (``tanh(|x| / coulomb_scale) / tanh(turn_ref / coulomb_scale)``) or
+            ``proportional`` (``|x| / turn_ref``); default :attr:`form`.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``g`` (dimensionless).
+        """
         form = form or self.form
         ax = np.abs(np.asarray(x, dtype=float))
         if form == "proportional":
@@ -611,6 +665,7 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     spec : sequence of str
         Subset of ``turning_resistance``, ``current_offset``, ``grade_resistance``.
     settings : EffectSettings
+        Constants of the effect models (reference turn, minimum sample counts).
     form : str, optional
         Force the ``turning_resistance`` form.
 
@@ -673,12 +728,27 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
 
 
 def predict_current(frame: AuditFrame, params: CurrentParams) -> np.ndarray:
-    """Predicted motor currents of a frame, shape (n, 2) (left, right), A."""
+    """Predicted motor currents of a frame.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : CurrentParams
+        Fitted current model.
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        Replayed currents plus the turning, grade and offset terms (module docstring),
+        left and right, A.
+    """
     moving = frame.manoeuvre != STOP
     extra = np.zeros(frame.n)
     if params.k_a:
         turn = np.isin(frame.manoeuvre, (CURVE, SPIN))
-        extra = extra + np.where(turn, params.k_a * params.turning_shape(frame.commanded_yaw_rate), 0.0)
+        extra = extra + np.where(
+            turn, params.k_a * params.turning_shape(frame.commanded_yaw_rate), 0.0)
     if params.k_a_per_rad:
         extra = extra + np.where(moving, params.k_a_per_rad * np.abs(frame.pitch), 0.0)
     out = frame.sim_cur + extra[:, None]
@@ -689,10 +759,25 @@ def predict_current(frame: AuditFrame, params: CurrentParams) -> np.ndarray:
 
 def current_sse(frame: AuditFrame, params: CurrentParams, scope: str = "all"
                 ) -> tuple[float, int]:
-    """Sum of squared current errors over scored samples in ``scope`` and their count.
+    """Squared current errors of a frame under a fitted model.
 
-    Scope ``straight_diff`` scores the right-minus-left difference on straight samples
-    (one value per sample); other scopes score both sides (two values per sample).
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : CurrentParams
+        Fitted current model.
+    scope : str
+        ``straight_diff`` scores the right-minus-left difference on straight samples (one
+        value per sample); other scopes (:func:`scope_mask`) score both sides (two values
+        per sample).
+
+    Returns
+    -------
+    sse : float
+        Sum of squared errors, A^2.
+    n : int
+        Values summed.
     """
     if scope == "straight_diff":
         m = frame.score_cur & (frame.manoeuvre == STRAIGHT)
@@ -713,7 +798,15 @@ def current_sse(frame: AuditFrame, params: CurrentParams, scope: str = "all"
 
 @dataclass(frozen=True)
 class LagParams:
-    """A constant lag of the wheel stream, s (0 = raw timestamps)."""
+    """Fitted timing model: a constant lag of the wheel stream.
+
+    Parameters
+    ----------
+    lag_s : float
+        Lag, s (positive = wheel data late; 0 = raw timestamps).
+    per_run : mapping of str to float
+        Run id -> the run's own median lag, s (runs with an identifiable lag).
+    """
 
     lag_s: float = 0.0
     per_run: Mapping[str, float] = field(default_factory=dict)
@@ -721,7 +814,22 @@ class LagParams:
 
 def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
             settings: EffectSettings = EffectSettings(), form: str | None = None) -> LagParams:
-    """Constant lag: median of the runs' own median lags (``spec`` empty: 0).
+    """Fit the timing model: the median of the runs' own median lags.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        Training frames (their lag tracks, :mod:`terrain.audit.timing`).
+    spec : sequence of str
+        ``["wheel_lag"]`` or empty (lag 0).
+    settings : EffectSettings
+        Unused (the common signature of :class:`GroupModel` fits).
+    form : str, optional
+        Unused (no forms).
+
+    Returns
+    -------
+    LagParams
 
     Raises
     ------
@@ -738,7 +846,24 @@ def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
 
 
 def lag_sse(frame: AuditFrame, params: LagParams, scope: str = "all") -> tuple[float, int]:
-    """Squared error of the replayed yaw rate against the gyro read with a constant lag."""
+    """Squared errors of the replayed yaw rate against the gyro read with a constant lag.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : LagParams
+        Fitted timing model.
+    scope : str
+        Samples scored, among those with IMU (:func:`scope_mask`).
+
+    Returns
+    -------
+    sse : float
+        Sum of squared errors, (rad/s)^2.
+    n : int
+        Samples summed.
+    """
     m = frame.score_imu & scope_mask(frame, scope)
     if not frame.has_imu or not m.any():
         return 0.0, 0

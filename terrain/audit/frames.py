@@ -140,8 +140,18 @@ class AuditFrame:
         return len(self.t_s)
 
     def wz_at_lag(self, lag_s: float) -> np.ndarray:
-        """Gyro yaw rate read with a constant lag ``lag_s`` instead of the run's own track,
-        shape (n,), rad/s (NaN without IMU)."""
+        """Gyro yaw rate read with a constant lag instead of the run's own lag track.
+
+        Parameters
+        ----------
+        lag_s : float
+            Constant lag of the wheel stream, s (positive = wheel data late).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Low-passed gyro yaw rate at ``t_s - lag_s``, rad/s (NaN without IMU).
+        """
         if not self.has_imu:
             return np.full(self.n, np.nan)
         return np.interp(self.t_s - lag_s, self.imu_t_s, self.imu_wz)
@@ -156,8 +166,9 @@ def classify_manoeuvres(x: np.ndarray, v: np.ndarray, vel_l: np.ndarray, vel_r: 
     x, v, vel_l, vel_r : ndarray, shape (n,)
         Commanded yaw rate (rad/s), speed and side speeds (m/s).
     track_m : float
-        B, m.
+        Track width B, m.
     settings : FrameSettings
+        ``moving_m_s`` and ``turn_rad_s`` thresholds.
 
     Returns
     -------
@@ -204,7 +215,9 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     replay : Replay
         Its replay (:func:`~terrain.audit.replay.replay_run`).
     settings : FrameSettings
+        Filters, scored edges, manoeuvre thresholds.
     lag_settings : LagSettings
+        Window-by-window lag estimation (:func:`~terrain.audit.timing.estimate_lag_track`).
 
     Returns
     -------
@@ -264,8 +277,9 @@ def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
     Parameters
     ----------
     frame : AuditFrame
+        One run on the comparison clock.
     n_parts : int
-        >= 1.
+        Number of segments (1 or less: the frame itself).
 
     Returns
     -------

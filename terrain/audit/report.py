@@ -1,11 +1,15 @@
 """The audit report: a JSON-ready dict and a Markdown page (figures from
 :mod:`terrain.audit.figures`).
 
-JSON layout (``format = "terrain-audit/1"``): ``effects`` is a list whose items carry ``name``,
-``terrain`` (a class or ``all``), ``group``, ``params`` (the vocabulary names of
-:data:`terrain.audit.effects.EFFECT_VOCABULARY`), ``ci95``, ``heldout_gain`` (fraction of the baseline
-RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``, ``details``,
-``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per signal and
+The Markdown page is rendered from the Jinja2 template ``templates/audit_report.md.j2``
+(the prose); every number in it comes from the JSON report (results, and the settings
+recorded under ``settings``).
+
+JSON layout (``format = "terrain-audit/1"``): ``effects`` is a list whose items carry
+``name``, ``terrain`` (a class or ``all``), ``group``, ``params`` (the vocabulary names of
+:data:`terrain.audit.effects.EFFECT_VOCABULARY`), ``ci95``, ``heldout_gain`` (fraction of the
+baseline RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``,
+``details``, ``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per signal and
 terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run``, ``lags`` (per run),
 ``facts`` (model-free statistics), ``supported`` (terrain -> effect names, ``["none"]`` when
 no effect is supported) complete it.
@@ -47,6 +51,11 @@ def _records(frame: pd.DataFrame) -> list[dict]:
 def signal_table(result: AuditResult) -> pd.DataFrame:
     """Error of each model per signal and terrain (all manoeuvres, runs pooled).
 
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+
     Returns
     -------
     pandas.DataFrame
@@ -76,6 +85,7 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
     Parameters
     ----------
     result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
     source : mapping, optional
         Where the runs came from (``runs_dir`` or ``dataset``), recorded as is.
 
@@ -123,9 +133,17 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
 def flat_metrics(report: Mapping) -> dict[str, float]:
     """Numbers of a report as flat metric names (for MLflow).
 
-    ``rmse_<model>__<signal>__<terrain>`` for the replay and the extended model,
-    ``gain__<effect>__<terrain>`` and ``<param>__<effect>__<terrain>`` for supported effects,
-    ``n_supported``, ``n_runs`` and ``time_<step>``.
+    Parameters
+    ----------
+    report : mapping
+        Output of :func:`to_dict`.
+
+    Returns
+    -------
+    dict of str to float
+        ``rmse_<model>__<signal>__<terrain>`` for the replay and the extended model,
+        ``gain__<effect>__<terrain>`` and ``<param>__<effect>__<terrain>`` for supported
+        effects, ``n_supported``, ``n_runs`` and ``time_<step>`` (s).
     """
     out: dict[str, float] = {}
     for s in report["signals"]:

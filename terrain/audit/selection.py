@@ -174,7 +174,13 @@ class EffectResult:
     n_runs: int = 0
 
     def as_dict(self) -> dict:
-        """JSON-ready dict (the report's ``effects`` items, field names as above)."""
+        """The result as the report's ``effects`` item.
+
+        Returns
+        -------
+        dict
+            JSON-ready (:func:`json_ready`), keys = the field names above.
+        """
         return {"name": self.name, "terrain": self.terrain, "group": self.group,
                 "params": json_ready(self.params), "ci95": json_ready(self.ci95),
                 "heldout_gain": json_ready(self.heldout_gain),
@@ -300,11 +306,33 @@ class SelectionPath:
         return tuple(t.name for t in self.accepted)
 
     def step(self, name: str) -> int | None:
-        """Step at which ``name`` joined the model (1 = first), None if it did not."""
+        """Step at which an effect joined the model.
+
+        Parameters
+        ----------
+        name : str
+            Effect name.
+
+        Returns
+        -------
+        int or None
+            1 = first; None if it did not join.
+        """
         return self.selected.index(name) + 1 if name in self.selected else None
 
     def trial(self, name: str) -> Trial | None:
-        """The trial that describes ``name``: its accepted step, else the final round's."""
+        """The trial that describes an effect.
+
+        Parameters
+        ----------
+        name : str
+            Effect name.
+
+        Returns
+        -------
+        Trial or None
+            Its accepted step, else its trial in the final round, else None (never scored).
+        """
         for t in self.accepted:
             if t.name == name:
                 return t
