@@ -2,12 +2,12 @@
 
 Steps (the report they produce is ``docs/audit_report.md``): :mod:`~terrain.audit.replay`
 drives the simulator's Husky model with each measured run's own wheel speeds;
-:mod:`~terrain.audit.frames` puts predictions and measurements on one clock (the run's own ``wheel_lag`` track from
-:mod:`~terrain.audit.timing`); :mod:`~terrain.audit.effects` holds the named model
-extensions (fixed vocabulary) and their fits; :mod:`~terrain.audit.selection` scores them on
-held-out runs with bootstrap support; :mod:`~terrain.audit.core` chains it all
-(:func:`run_audit`); :mod:`~terrain.audit.report` and :mod:`~terrain.audit.figures` write
-the report.
+:mod:`~terrain.audit.frames` puts predictions and measurements on one clock (the run's own
+``wheel_lag`` track from :mod:`~terrain.audit.timing`); :mod:`~terrain.audit.effects` holds
+the named model extensions (fixed vocabulary) and their fits;
+:mod:`~terrain.audit.selection` scores them on held-out runs with bootstrap support;
+:mod:`~terrain.audit.core` chains it all (:func:`run_audit`); :mod:`~terrain.audit.report`
+and :mod:`~terrain.audit.figures` write the report.
 
 Public API: :class:`AuditSettings`, :func:`run_audit`, :class:`AuditResult`,
 :func:`prepare_frames`, :func:`replay_run`, :class:`ReplaySettings`,

@@ -1,18 +1,18 @@
 """The audit report: a JSON-ready dict and a Markdown page (figures from
 :mod:`terrain.audit.figures`).
 
-The Markdown page is rendered from the Jinja2 template ``templates/audit_report.md.j2``
-(the prose); every number in it comes from the JSON report (results, and the settings
-recorded under ``settings``).
+The Markdown page is rendered from the Jinja2 template ``templates/audit_report.md.j2`` (the
+prose); every number in it comes from the JSON report (results, and the settings recorded
+under ``settings``).
 
 JSON layout (``format = "terrain-audit/1"``): ``effects`` is a list whose items carry
 ``name``, ``terrain`` (a class or ``all``), ``group``, ``params`` (the vocabulary names of
-:data:`terrain.audit.effects.EFFECT_VOCABULARY`), ``ci95``, ``heldout_gain`` (fraction of the
-baseline RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``,
-``details``, ``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per signal and
-terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run``, ``lags`` (per run),
-``facts`` (model-free statistics), ``supported`` (terrain -> effect names, ``["none"]`` when
-no effect is supported) complete it.
+:data:`terrain.audit.effects.EFFECT_VOCABULARY`), ``ci95``, ``heldout_gain`` (fraction of
+the baseline RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``,
+``details``, ``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per
+signal and terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run``, ``lags``
+(per run), ``facts`` (model-free statistics), ``supported`` (terrain -> effect names,
+``["none"]`` when no effect is supported) complete it.
 """
 
 from __future__ import annotations
