@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -122,13 +122,13 @@ class AuditResult:
     """
 
     settings: AuditSettings
-    frames: tuple
-    skipped: dict
-    groups: dict
+    frames: tuple[AuditFrame, ...]
+    skipped: Mapping[str, str]
+    groups: Mapping[tuple[str, str], GroupResult]
     residuals: pd.DataFrame
     lags: pd.DataFrame
-    facts: dict
-    timings_s: dict
+    facts: Mapping[str, Mapping[str, Any]]
+    timings_s: Mapping[str, float]
     sweep: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     @property

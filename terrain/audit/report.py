@@ -276,7 +276,8 @@ def _manoeuvre_rows(report: Mapping) -> list[list] | None:
                           values=["rmse", "bias", "n"], aggfunc="first")
     rows = []
     for (signal, terrain, m), r in piv.iterrows():
-        rows.append([signal, terrain, m, _fmt(r[("n", "replay")]),
+        n = r[("n", "replay")]                   # a count: the pivot made it a float
+        rows.append([signal, terrain, m, _fmt(int(n) if np.isfinite(n) else None),
                      _fmt(r[("rmse", "replay")]), _fmt(r[("bias", "replay")]),
                      _fmt(r.get(("rmse", "extended"))), _fmt(r.get(("bias", "extended")))])
     return rows
