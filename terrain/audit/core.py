@@ -34,7 +34,7 @@ from terrain.audit.selection import (EffectResult, GroupResult, SelectionSetting
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import get_vehicle, skid_steer_forward
 from terrain.vehicles.icr import icr_expansion_factor
 
 SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r")
@@ -535,7 +535,8 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         if run.terrain != terrain or not run.has_imu or "wheels" not in run.streams:
             continue
         w = run.streams["wheels"]
-        x = (w["vel_r"] - w["vel_l"]).to_numpy() / get_vehicle(run.vehicle).track_m
+        _, x = skid_steer_forward(w["vel_l"].to_numpy(), w["vel_r"].to_numpy(),
+                                  get_vehicle(run.vehicle).track_m)
         if np.sum(np.abs(x) >= settings.frames.turn_rad_s) >= 20:
             chosen.append(run)
     rows = []
@@ -544,7 +545,7 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         commanded, replayed = [np.empty(0)], [np.empty(0)]
         for run in chosen:
             rep = replay_run(run, settings.replay, terrain=ter)
-            x = (rep.vel_r - rep.vel_l) / rep.track_m
+            _, x = skid_steer_forward(rep.vel_l, rep.vel_r, rep.track_m)
             m = ((np.abs(x) >= settings.frames.turn_rad_s)
                  & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s))
             commanded.append(x[m])

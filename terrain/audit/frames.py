@@ -35,6 +35,7 @@ from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
 from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.terramechanics.resistance import G_M_S2
+from terrain.vehicles import skid_steer_forward
 
 MANOEUVRES = ("stop", "straight", "curve", "spin")
 STOP, STRAIGHT, CURVE, SPIN = range(4)
@@ -225,8 +226,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     """
     wheels = run.streams["wheels"]
     t = replay.t_s
-    x = (replay.vel_r - replay.vel_l) / replay.track_m
-    v = 0.5 * (replay.vel_l + replay.vel_r)
+    v, x = skid_steer_forward(replay.vel_l, replay.vel_r, replay.track_m)  # seed 000 eq. 2
     cur = wheels[["cur_l", "cur_r"]].to_numpy(dtype=float)
     gaps = dict(run.meta.get("gaps", {}) or {})
     score = (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
