@@ -51,8 +51,8 @@ and process noise densities instead (used for the NEES / NIS consistency tests).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
@@ -60,9 +60,13 @@ from scipy.integrate import cumulative_trapezoid
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
+from terrain.estimation.equations.agrimaro import (NO_INPUT, AgriMaRoEquationParams,
+                                                   observation_into, observation_pair,
+                                                   transition_into, transition_pair)
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.prefilter import ema_filter
-from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
+from terrain.estimation.result import EKFResult
+from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -74,16 +78,16 @@ STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_
 MEASUREMENT_NAMES: tuple[str, ...] = ("omega_1", "omega_2", "omega_3", "ax", "ay", "wz",
                                       "yaw_imu", "delta_1", "delta_2", "delta_3", "v_cx",
                                       "v_cy", "yaw_rate_c", "yaw_c")
-SENSOR_ROWS: Mapping[str, tuple[int, ...]] = {"omega": (0, 1, 2), "imu": (3, 4, 5, 6),
-                                              "steer": (7, 8, 9), "cam": (10, 11, 12, 13)}
+SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
+    {"omega": (0, 1, 2), "imu": (3, 4, 5, 6), "steer": (7, 8, 9), "cam": (10, 11, 12, 13)})
 #: Columns of each sensor in a :class:`~terrain.run.Run` (stream, columns); ``yaw_imu`` is
 #: derived from ``wz`` by :func:`agrimaro_samples`.
-SENSOR_COLUMNS: Mapping[str, tuple[str, tuple[str, ...]]] = {
+SENSOR_COLUMNS: Mapping[str, tuple[str, tuple[str, ...]]] = MappingProxyType({
     "omega": ("omega", ("omega_1", "omega_2", "omega_3")),
     "imu": ("imu", ("ax", "ay", "wz", "yaw_imu")),
     "steer": ("steer", ("delta_1", "delta_2", "delta_3")),
     "cam": ("cam", ("v_cx", "v_cy", "yaw_rate_c", "yaw_c")),
-}
+})
 
 #: Eq. 6.9 (P0), eq. 6.13 (R) and eq. 6.14 (Q), in the order of STATE_NAMES /
 #: MEASUREMENT_NAMES.
@@ -217,17 +221,16 @@ class AgriMaRoModel(StateSpaceModel):
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
     angle_rows: tuple[int, ...] = field(default=(6, 13), init=False)
-    _H_template: np.ndarray = field(init=False, repr=False, compare=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        Ht = np.zeros((14, 12))
-        for row, col in ((3, 6), (4, 7), (5, 5), (5, 11), (6, 2), (7, 8), (8, 9), (9, 10),
-                         (10, 3), (11, 4), (12, 5), (13, 2)):
-            Ht[row, col] = 1.0
-        dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
-        Ht[10, 5] = -dy
-        Ht[11, 5] = dx
-        object.__setattr__(self, "_H_template", Ht)
+        object.__setattr__(self, "_p", self.equation_params.as_array())
+
+    @property
+    def equation_params(self) -> AgriMaRoEquationParams:
+        """Constants of the model's equations (:mod:`terrain.estimation.equations.agrimaro`):
+        the vehicle geometry and the Coriolis sign of ``settings``."""
+        return AgriMaRoEquationParams.from_vehicle(self.vehicle, coriolis_sign=self._sign)
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
@@ -248,31 +251,23 @@ class AgriMaRoModel(StateSpaceModel):
         return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))``."""
-        _, _, yaw, vx, vy, w, ax, ay = x[:8].tolist()
-        c, s = math.cos(yaw), math.sin(yaw)
-        sg = self._sign
-        fx = x.copy()
-        fx[0] += dt * (vx * c - vy * s)
-        fx[1] += dt * (vx * s + vy * c)
-        fx[2] += dt * w
-        fx[3] += dt * (ax + sg * w * vy)
-        fx[4] += dt * (ay - sg * w * vx)
-        F = np.eye(12)
-        F[0, 2] = -dt * (vx * s + vy * c)
-        F[0, 3] = dt * c
-        F[0, 4] = -dt * s
-        F[1, 2] = dt * (vx * c - vy * s)
-        F[1, 3] = dt * s
-        F[1, 4] = dt * c
-        F[2, 5] = dt
-        F[3, 4] = sg * dt * w
-        F[3, 5] = sg * dt * vy
-        F[3, 6] = dt
-        F[4, 3] = -sg * dt * w
-        F[4, 5] = -sg * dt * vx
-        F[4, 7] = dt
-        return fx, F
+        """``(f(x, dt), F(x, dt))`` of
+        :func:`terrain.estimation.equations.agrimaro.transition_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State (eq. 6.1).
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (12,)
+        F : ndarray, shape (12, 12)
+        """
+        return transition_pair(np.ascontiguousarray(x, dtype=np.float64), NO_INPUT, float(dt),
+                               self._p)
 
     def Q(self, dt: float) -> np.ndarray:
         """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt``, shape (12, 12)."""
@@ -289,24 +284,20 @@ class AgriMaRoModel(StateSpaceModel):
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
-        _, _, yaw, vx, vy, w, ax, ay, d1, d2, d3, bg = x.tolist()
-        (x1, y1), (x2, y2), (x3, y3) = self.vehicle.wheel_positions_m
-        rw = self.vehicle.wheel_radius_m
-        dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
-        H = self._H_template.copy()
-        hx = np.empty(14)
-        for i, (xi, yi, d) in enumerate(((x1, y1, d1), (x2, y2, d2), (x3, y3, d3))):
-            c, s = math.cos(d), math.sin(d)
-            u = vx - w * yi
-            v = vy + w * xi
-            hx[i] = (u * c + v * s) / rw
-            H[i, 3] = c / rw
-            H[i, 4] = s / rw
-            H[i, 5] = (-yi * c + xi * s) / rw
-            H[i, 8 + i] = (-u * s + v * c) / rw
-        hx[3:] = (ax, ay, w + bg, yaw, d1, d2, d3, vx - w * dy, vy + w * dx, w, yaw)
-        return hx, H
+        """``(h(x), H(x))`` of
+        :func:`terrain.estimation.equations.agrimaro.observation_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State (eq. 6.1).
+
+        Returns
+        -------
+        hx : ndarray, shape (14,)
+        H : ndarray, shape (14, 12)
+        """
+        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -324,9 +315,9 @@ class AgriMaRoModel(StateSpaceModel):
         return np.diag(np.asarray(self.settings.p0_diag, dtype=float))
 
     def fast_kernel(self) -> FastKernel | None:
-        """Description of this model for the compiled loop of :mod:`terrain.estimation.fast`
-        (the ``agrimaro`` kernel implements :meth:`transition`, :meth:`observation` and
-        :meth:`Q` of this class); None for subclasses, which may change them.
+        """This model's kernels for the compiled loop of :mod:`terrain.estimation.fast` (the
+        same functions :meth:`transition` and :meth:`observation` call, with the ``Q`` of
+        :meth:`Q`); None for subclasses, which may change them.
 
         Returns
         -------
@@ -336,11 +327,8 @@ class AgriMaRoModel(StateSpaceModel):
             return None
         from terrain.estimation.fast import FastKernel
 
-        v = self.vehicle
-        (x1, y1), (x2, y2), (x3, y3) = v.wheel_positions_m
-        params = (self._sign, x1, y1, x2, y2, x3, y3, v.wheel_radius_m,
-                  v.camera_lever_arm_m[0], v.camera_lever_arm_m[1])
-        return FastKernel("agrimaro", tuple(float(a) for a in params),
+        return FastKernel(transition_into, observation_into, tuple(self._p.tolist()),
+                          len(STATE_NAMES), len(MEASUREMENT_NAMES),
                           tuple(float(q) for q in self.settings.q_diag), self.settings.q_per,
                           self.angle_rows)
 

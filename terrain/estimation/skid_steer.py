@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
@@ -40,8 +41,12 @@ import pandas as pd
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
+from terrain.estimation.equations.skid_steer import (NO_INPUT, SkidSteerEquationParams,
+                                                     observation_into, observation_pair,
+                                                     transition_into)
 from terrain.estimation.model import StateSpaceModel
-from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
+from terrain.estimation.result import EKFResult
+from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.skid_steer import HUSKY
 
@@ -50,7 +55,7 @@ if TYPE_CHECKING:
 
 STATE_NAMES: tuple[str, ...] = ("v_bx", "yaw_rate", "gyro_bias", "log_icr_chi")
 MEASUREMENT_NAMES: tuple[str, ...] = ("vel_l", "vel_r", "wz")
-SENSOR_ROWS: Mapping[str, tuple[int, ...]] = {"wheels": (0, 1), "gyro": (2,)}
+SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType({"wheels": (0, 1), "gyro": (2,)})
 
 
 @dataclass(frozen=True)
@@ -135,23 +140,74 @@ class SkidSteerModel(StateSpaceModel):
     wheel_r_scale: float = 1.0
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_p", self.equation_params.as_array())
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
         """Sensor -> measurement rows."""
         return SENSOR_ROWS
 
+    @property
+    def equation_params(self) -> SkidSteerEquationParams:
+        """Constants of the model's equations (:mod:`terrain.estimation.equations.skid_steer`)."""
+        s = self.settings
+        return SkidSteerEquationParams(track_m=float(s.track_m),
+                                       chi_min_yaw_rate_rad_s=float(s.chi_min_yaw_rate_rad_s))
+
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Random walk: ``f(x) = x``, shape (4,)."""
-        return np.array(x, dtype=float)
+        """Random walk: ``f(x) = x``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (4,)
+        """
+        return self.transition(x, dt)[0]
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Identity, shape (4, 4)."""
-        return np.eye(4)
+        """Identity, the Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (4, 4)
+        """
+        return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, I)``."""
-        return x, np.eye(4)
+        """``(x, I)`` of :func:`terrain.estimation.equations.skid_steer.transition_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (4,)
+        F : ndarray, shape (4, 4)
+        """
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        fx, Fm = np.empty(4), np.empty((4, 4))
+        transition_into(x, NO_INPUT, float(dt), self._p, fx, Fm)
+        return fx, Fm
 
     def Q(self, dt: float) -> np.ndarray:
         """``diag(accel_psd, yaw_accel_psd, bias_psd, log_chi_psd) dt``, shape (4, 4)."""
@@ -168,15 +224,19 @@ class SkidSteerModel(StateSpaceModel):
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
-        v, w, b, lc = x.tolist()
-        k = math.exp(lc) * 0.5 * self.settings.track_m          # chi B / 2
-        hx = np.array([v - k * w, v + k * w, w + b])
-        kw = k * w if abs(w) >= self.settings.chi_min_yaw_rate_rad_s else 0.0
-        H = np.array([[1.0, -k, 0.0, -kw],
-                      [1.0, k, 0.0, kw],
-                      [0.0, 1.0, 1.0, 0.0]])
-        return hx, H
+        """``(h(x), H(x))`` of :func:`terrain.estimation.equations.skid_steer.observation_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+
+        Returns
+        -------
+        hx : ndarray, shape (3,)
+        H : ndarray, shape (3, 4)
+        """
+        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -198,9 +258,9 @@ class SkidSteerModel(StateSpaceModel):
                         s.log_chi0_std ** 2])
 
     def fast_kernel(self) -> FastKernel | None:
-        """Description of this model for the compiled loop of :mod:`terrain.estimation.fast`
-        (the ``skid_steer`` kernel implements :meth:`transition`, :meth:`observation` and
-        :meth:`Q` of this class); None for subclasses, which may change them.
+        """This model's kernels for the compiled loop of :mod:`terrain.estimation.fast` (the
+        same functions :meth:`transition` and :meth:`observation` call, with the ``Q`` of
+        :meth:`Q`); None for subclasses, which may change them.
 
         Returns
         -------
@@ -211,7 +271,8 @@ class SkidSteerModel(StateSpaceModel):
         from terrain.estimation.fast import FastKernel
 
         s = self.settings
-        return FastKernel("skid_steer", (float(s.track_m), float(s.chi_min_yaw_rate_rad_s)),
+        return FastKernel(transition_into, observation_into, tuple(self._p.tolist()),
+                          len(STATE_NAMES), len(MEASUREMENT_NAMES),
                           (float(s.accel_psd), float(s.yaw_accel_psd), float(s.bias_psd),
                            float(s.log_chi_psd)), "second", ())
 

@@ -32,7 +32,6 @@ steering encoders (7.2e-5).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -40,6 +39,8 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_COLUMNS
+from terrain.estimation.equations.agrimaro import (NO_INPUT, AgriMaRoEquationParams,
+                                                   slip_state_observation_pair, transition_pair)
 from terrain.estimation.model import StateSpaceModel
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -85,6 +86,7 @@ class SlipStateModel(StateSpaceModel):
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=(), init=False)
     angle_rows: tuple[int, ...] = field(default=(6,), init=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.accel not in ("coriolis", "direct"):
@@ -102,6 +104,15 @@ class SlipStateModel(StateSpaceModel):
         object.__setattr__(self, "r_diag", tuple(float(v) for v in r))
         if len(self.p0_diag) != 14 or len(self.q_diag) != 14:
             raise ConfigError("p0_diag and q_diag need 14 values")
+        object.__setattr__(self, "_p", self.equation_params.as_array())
+
+    @property
+    def equation_params(self) -> AgriMaRoEquationParams:
+        """Constants of the model's equations (:mod:`terrain.estimation.equations.agrimaro`):
+        the vehicle geometry, body-frame Coriolis signs, accelerometer and camera options."""
+        return AgriMaRoEquationParams.from_vehicle(
+            self.vehicle, coriolis_sign=1.0, accel_direct=self.accel == "direct",
+            camera=self.camera, slip_floor=SLIP_FLOOR)
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
@@ -120,22 +131,23 @@ class SlipStateModel(StateSpaceModel):
         return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))``."""
-        _, _, yaw, vx, vy, w, ax, ay = x[:8].tolist()
-        c, s = math.cos(yaw), math.sin(yaw)
-        fx = x.copy()
-        fx[0] += dt * (vx * c - vy * s)
-        fx[1] += dt * (vx * s + vy * c)
-        fx[2] += dt * w
-        fx[3] += dt * (ax + w * vy)
-        fx[4] += dt * (ay - w * vx)
-        F = np.eye(14)
-        F[0, 2], F[0, 3], F[0, 4] = -dt * (vx * s + vy * c), dt * c, -dt * s
-        F[1, 2], F[1, 3], F[1, 4] = dt * (vx * c - vy * s), dt * s, dt * c
-        F[2, 5] = dt
-        F[3, 4], F[3, 5], F[3, 6] = dt * w, dt * vy, dt
-        F[4, 3], F[4, 5], F[4, 7] = -dt * w, -dt * vx, dt
-        return fx, F
+        """``(f(x, dt), F(x, dt))`` of
+        :func:`terrain.estimation.equations.agrimaro.transition_into` (eq. 4.36).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State (eq. 4.18).
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (14,)
+        F : ndarray, shape (14, 14)
+        """
+        return transition_pair(np.ascontiguousarray(x, dtype=np.float64), NO_INPUT, float(dt),
+                               self._p)
 
     def Q(self, dt: float) -> np.ndarray:
         """Process noise of one step, shape (14, 14)."""
@@ -151,41 +163,21 @@ class SlipStateModel(StateSpaceModel):
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
-        _, _, yaw, vx, vy, w, ax, ay, s1, s2, s3, d1, d2, d3 = x.tolist()
-        m = len(self.measurement_names)
-        rw = self.vehicle.wheel_radius_m
-        hx = np.empty(m)
-        H = np.zeros((m, 14))
-        for i, ((xi, yi), si, d) in enumerate(zip(self.vehicle.wheel_positions_m,
-                                                  (s1, s2, s3), (d1, d2, d3))):
-            c, sn = math.cos(d), math.sin(d)
-            u, v = vx - w * yi, vy + w * xi
-            vw = u * c + v * sn                                   # eq. 4.20
-            one_s = 1.0 - si
-            k = 1.0 / (max(one_s, SLIP_FLOOR) * rw)
-            hx[i] = vw * k                                        # eq. 4.22
-            H[i, 3], H[i, 4], H[i, 5] = c * k, sn * k, (-yi * c + xi * sn) * k
-            H[i, 11 + i] = (-u * sn + v * c) * k
-            H[i, 8 + i] = vw * k / one_s if one_s > SLIP_FLOOR else 0.0
-        if self.accel == "coriolis":                              # eqs. 4.26-4.27
-            hx[3], hx[4] = -w * vy, w * vx
-            H[3, 4], H[3, 5] = -w, -vy
-            H[4, 3], H[4, 5] = w, vx
-        else:
-            hx[3], hx[4] = ax, ay
-            H[3, 6] = H[4, 7] = 1.0
-        hx[5], hx[6] = w, yaw
-        H[5, 5] = H[6, 2] = 1.0
-        hx[7:10] = (d1, d2, d3)
-        H[7, 11] = H[8, 12] = H[9, 13] = 1.0
-        if self.camera:
-            dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
-            hx[10:14] = (vx - w * dy, vy + w * dx, w, yaw)
-            H[10, 3], H[10, 5] = 1.0, -dy
-            H[11, 4], H[11, 5] = 1.0, dx
-            H[12, 5] = H[13, 2] = 1.0
-        return hx, H
+        """``(h(x), H(x))`` of
+        :func:`terrain.estimation.equations.agrimaro.slip_state_observation_into` (eq. 4.28).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State (eq. 4.18).
+
+        Returns
+        -------
+        hx : ndarray, shape (m,)
+        H : ndarray, shape (m, 14)
+        """
+        return slip_state_observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p,
+                                           len(self.measurement_names))
 
     @property
     def R_diag(self) -> np.ndarray:
