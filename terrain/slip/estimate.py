@@ -36,7 +36,7 @@ from terrain.estimation.runner import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.run import TIME, Run
 from terrain.slip.alignment import LagEstimate, estimate_lag
-from terrain.slip.core import DEAD_BAND_M_S, wheel_slip
+from terrain.slip.core import DEAD_BAND_M_S, skid_steer_side_slip, wheel_slip
 from terrain.vehicles import get_vehicle
 
 LAG_MODES = ("xcorr", "ema", "none")
@@ -179,9 +179,7 @@ def _skid_steer(run: Run, lag: str, gate: Gate | None, rate_hz: float | None,
     ekf = estimate_skid_steer(run, settings, rate_hz=rate_hz, gate=gate, time_offsets_s=offsets,
                               store_covariance=store_covariance)
     rim = _interp_on(ekf.t_s, t_w - offsets.get("wheels", 0.0), vel)
-    half = 0.5 * settings.track_m
-    slip = wheel_slip(rim, ekf.state("v_bx"), np.zeros(ekf.t_s.size), ekf.state("yaw_rate"),
-                      np.array([[0.0, half], [0.0, -half]]))
+    slip = skid_steer_side_slip(rim, ekf.state("v_bx"), ekf.state("yaw_rate"), settings.track_m)
     return RunEstimate(run.run_id, params.name, ekf, slip, ("slip_1", "slip_2"), lag_est,
                        {"tuning": "skid-steer default", "lag_mode": lag,
                         "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S})

@@ -195,6 +195,31 @@ def _wheel_row(vx, vy, w, xi, yi, d):
     return u * c + v * s, c, s, -yi * c + xi * s, -u * s + v * c
 
 
+@numba.vectorize(["float64(float64, float64, float64, float64, float64, float64)"], cache=True)
+def wheel_rim_speed(v_bx, v_by, yaw_rate, x_i, y_i, delta):
+    """Velocity of a wheel's steering axis (or contact line) along its rolling direction:
+    the body velocity moved to ``d_i = (x_i, y_i)`` and projected on ``delta`` (seed 001
+    eq. 4.20, the same relation as eqs. 7.3-7.5); a NumPy ufunc (broadcasts).
+
+    Parameters
+    ----------
+    v_bx, v_by : float or ndarray
+        Body velocity, m/s.
+    yaw_rate : float or ndarray
+        Yaw rate, rad/s.
+    x_i, y_i : float or ndarray
+        Position of the wheel in the body frame, m.
+    delta : float or ndarray
+        Steering angle, rad (0 for fixed wheels).
+
+    Returns
+    -------
+    float or ndarray
+        ``(v_bx - yaw_rate y_i) cos delta + (v_by + yaw_rate x_i) sin delta``, m/s.
+    """
+    return _wheel_row(v_bx, v_by, yaw_rate, x_i, y_i, delta)[0]
+
+
 @numba.njit(cache=True)
 def _camera_rows(yaw, vx, vy, w, dx, dy, hx, H, r0, yaw_col):
     """The four T265 rows of eq. 6.6 from row ``r0``: ``v_b + Omega x d_cam`` (robot axes),
@@ -422,6 +447,6 @@ def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     return observation_pair(_state(x), params.as_array())[1]
 
 
-__all__ = ["AgriMaRoEquationParams", "NO_INPUT", "transition_into", "observation_into",
+__all__ = ["AgriMaRoEquationParams", "NO_INPUT", "wheel_rim_speed", "transition_into", "observation_into",
            "slip_state_observation_into", "transition_pair", "observation_pair",
            "slip_state_observation_pair", "f", "F", "h", "H"]
