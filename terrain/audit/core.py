@@ -170,7 +170,7 @@ def _samples(result_groups: dict, terrain: str, frames: Sequence[AuditFrame]) ->
     if yaw is not None:
         for unit, params in zip(yaw.units, yaw.heldout_params):
             for f in unit:
-                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.bias)
+                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.gyro_bias_rad_s)
     cur_pred = {}
     if cur is not None:
         for unit, params in zip(cur.units, cur.heldout_params):

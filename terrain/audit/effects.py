@@ -228,9 +228,10 @@ class YawParams:
     kinematic : bool
         Whether the mobile yaw rate is ``a x`` (``icr_expansion`` on, or ``immobilised`` with
         the kinematic mobile model) or the replay's.
-    a : float
-        ``1 / chi``.
-    bias : float
+    inverse_icr_factor : float
+        ``1 / chi``, the gain of the kinematic mobile model ``yaw_rate = x / chi``
+        (dimensionless).
+    gyro_bias_rad_s : float
         Gyro bias, rad/s.
     immobilised : bool
     fraction : float
@@ -249,8 +250,8 @@ class YawParams:
     """
 
     kinematic: bool = False
-    a: float = float("nan")
-    bias: float = 0.0
+    inverse_icr_factor: float = float("nan")
+    gyro_bias_rad_s: float = 0.0
     immobilised: bool = False
     fraction: float = 0.0
     form: str | None = None
@@ -264,9 +265,10 @@ class YawParams:
     def chi(self) -> float:
         """ICR expansion factor ``1 / a`` of the mobile model (the replay's own chi when the
         mobile model is the replay; NaN without a fitted chi)."""
-        if not np.isfinite(self.a) or self.a == 0:
+        if not np.isfinite(self.inverse_icr_factor) or self.inverse_icr_factor == 0:
             return float("nan")
-        return float(1.0 / self.a) if self.kinematic else float(self.chi_replay)
+        return (float(1.0 / self.inverse_icr_factor) if self.kinematic
+                else float(self.chi_replay))
 
 
 @dataclass(frozen=True)
@@ -400,7 +402,7 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
                               f"need {settings.min_quiet_samples}")
     if not (icr_on or imm_on):
         b = float(np.mean(d.y[d.quiet] - d.sim[d.quiet])) if bias_on else 0.0
-        return YawParams(bias=b, n_quiet=n_quiet)
+        return YawParams(gyro_bias_rad_s=b, n_quiet=n_quiet)
     n_turn = int(d.turn.sum())
     if n_turn < settings.min_turn_samples:
         raise NotIdentifiable(f"{'chi' if icr_on else 'immobilised'}: {n_turn} turning "
@@ -424,9 +426,9 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
     fraction = float(1.0 - mobile_turn.sum() / n_turn)
     xm, sm = d.x[mobile_turn], d.sim[mobile_turn]
     chi_replay = float(np.sum(xm * xm) / np.sum(xm * sm)) if np.sum(xm * sm) > 0 else np.inf
-    common = dict(bias=b, n_turn=n_turn, n_quiet=n_quiet, chi_replay=chi_replay)
+    common = dict(gyro_bias_rad_s=b, n_turn=n_turn, n_quiet=n_quiet, chi_replay=chi_replay)
     if not imm_on:
-        return YawParams(kinematic=True, a=a, fraction=fraction, **common)
+        return YawParams(kinematic=True, inverse_icr_factor=a, fraction=fraction, **common)
     candidates = [(True, a, b, d.turn & ~mobile_turn, fraction)]
     if not icr_on:
         b_r = float(np.mean(d.y[d.quiet] - d.sim[d.quiet])) if bias_on else 0.0
@@ -439,20 +441,20 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
         if best is None or sse < best[0]:
             best = (sse, kin, b_c, frac, thr, fr)
     _, kin, b, fraction, thr, fr = best
-    common["bias"] = b
-    return YawParams(kinematic=kin, a=a, immobilised=True, fraction=fraction,
+    common["gyro_bias_rad_s"] = b
+    return YawParams(kinematic=kin, inverse_icr_factor=a, immobilised=True, fraction=fraction,
                      form="uniform" if not np.isfinite(thr) else "rate_dependent",
                      threshold_rad_s=thr, fractions=fr, **common)
 
 
 def predict_yaw(frame: AuditFrame, params: YawParams) -> np.ndarray:
     """Predicted gyro yaw rate of a frame, shape (n,), rad/s."""
-    mobile = params.a * frame.x if params.kinematic else frame.sim_wz
+    mobile = params.inverse_icr_factor * frame.x if params.kinematic else frame.sim_wz
     if params.immobilised:
         turn = np.isin(frame.manoeuvre, (CURVE, SPIN))
         mobile = mobile * immobile_scale(frame.x, turn, params.fractions,
                                          params.threshold_rad_s)
-    return mobile + params.bias
+    return mobile + params.gyro_bias_rad_s
 
 
 def yaw_sse(frame: AuditFrame, params: YawParams, scope: str = "all") -> tuple[float, int]:
@@ -720,7 +722,7 @@ def effect_params(name: str, params) -> dict[str, float]:
     if name == "icr_expansion":
         return {"chi": params.chi}
     if name == "gyro_bias":
-        return {"bias_rad_s": params.bias}
+        return {"bias_rad_s": params.gyro_bias_rad_s}
     if name == "immobilised":
         return {"fraction": params.fraction}
     if name == "wheel_lag":
