@@ -124,6 +124,13 @@ class AgriMaRoEKFSettings:
         EMA pre-filter coefficient per sensor (eq. 6.12); missing sensors are not filtered.
     name : str
         Label of the tuning.
+
+    Raises
+    ------
+    ConfigError
+        Wrong number of values, non-finite or negative variances (``r_diag`` must be > 0),
+        unknown ``q_per`` / ``coriolis``, or an EMA entry with an unknown sensor or an alpha
+        outside [0, 1).
     """
 
     p0_diag: tuple[float, ...] = THESIS_P0
@@ -155,7 +162,18 @@ class AgriMaRoEKFSettings:
                                   f"{list(SENSOR_ROWS)}, alpha in [0, 1)")
 
     def alpha(self, sensor: str) -> float:
-        """EMA coefficient of ``sensor`` (0 when not listed)."""
+        """EMA coefficient of one sensor (eq. 6.12).
+
+        Parameters
+        ----------
+        sensor : str
+            A key of :data:`SENSOR_ROWS`.
+
+        Returns
+        -------
+        float
+            In [0, 1); 0 (no filtering) when the sensor is not listed.
+        """
         return float(dict(self.ema_alpha).get(sensor, 0.0))
 
 
@@ -189,7 +207,9 @@ def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float
     jerk_psd, yaw_accel_psd, velocity_psd, position_psd, yaw_psd, steer_rate_psd, bias_psd : float
         Process noise densities ((unit/s)^2 s).
     p0_diag : tuple of 12 float
-    coriolis : str
+        Initial variances (SI units squared), default eq. 6.9.
+    coriolis : {"body", "eq6.2"}
+        Coriolis sign convention (see the module docstring).
 
     Returns
     -------
@@ -206,7 +226,8 @@ def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float
 
 @dataclass(frozen=True)
 class AgriMaRoModel(StateSpaceModel):
-    """The 12-state / 14-measurement model of seed 001 ch. 6.1 (eqs. 6.1-6.6).
+    """The 12-state / 14-measurement model of seed ``001_59da564c4b2d6a48.txt`` ch. 6.1
+    (eqs. 6.1-6.6); its equations are :mod:`terrain.estimation.equations.agrimaro`.
 
     Parameters
     ----------
@@ -214,6 +235,16 @@ class AgriMaRoModel(StateSpaceModel):
         Wheel positions ``d_i`` (ch. 7.2), rolling radius and camera lever arm ``d_cam``
         (ch. 5.2.3).
     settings : AgriMaRoEKFSettings
+        Tuning (P0, R, Q, Coriolis convention, pre-filter).
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (12).
+    measurement_names : tuple of str
+        :data:`MEASUREMENT_NAMES` (14).
+    angle_rows : tuple of int
+        Rows 6 (``yaw_imu``) and 13 (``yaw_c``), wrapped in the innovation.
     """
 
     vehicle: AgriMaRoParams = AGRIMARO
@@ -243,11 +274,35 @@ class AgriMaRoModel(StateSpaceModel):
 
     # -- process model -------------------------------------------------------------------
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Process model (eq. 6.2 with the eq. 4.33-4.34 Coriolis signs), shape (12,)."""
+        """Process model (eq. 6.2 with the eq. 4.33-4.34 Coriolis signs).
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (12,)
+        """
         return self.transition(x, dt)[0]
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Jacobian of :meth:`f`, shape (12, 12)."""
+        """Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (12, 12)
+        """
         return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -270,17 +325,47 @@ class AgriMaRoModel(StateSpaceModel):
                                self._p)
 
     def Q(self, dt: float) -> np.ndarray:
-        """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt``, shape (12, 12)."""
+        """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt`` (eq. 6.14).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (12, 12)
+        """
         q = np.asarray(self.settings.q_diag, dtype=float)
         return np.diag(q if self.settings.q_per == "step" else q * dt)
 
     # -- measurement model ---------------------------------------------------------------
     def h(self, x: np.ndarray) -> np.ndarray:
-        """Measurement model (eq. 6.6), shape (14,)."""
+        """Measurement model (eq. 6.6).
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+
+        Returns
+        -------
+        ndarray, shape (14,)
+        """
         return self.observation(x)[0]
 
     def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`, shape (14, 12)."""
+        """Jacobian of :meth:`h`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+
+        Returns
+        -------
+        ndarray, shape (14, 12)
+        """
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -341,12 +426,23 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     * ``omega``: stream ``omega`` (``omega_1..3``, rad/s); without it, wheels 1 and 2 from the
       ``wheels`` stream (``vel_l``/``vel_r`` divided by the wheel radius), wheel 3 missing;
     * ``imu``: ``ax, ay, wz`` and ``yaw_imu``, the trapezoidal integral of ``wz`` from the
-      first IMU sample (the drifting yaw of a magnetometer-less IMU, ch. 4.5.3);
+      first IMU sample (the drifting yaw of a magnetometer-less IMU, seed 001 ch. 4.5.3);
     * ``steer``: ``delta_1..3``; ``cam``: ``v_cx, v_cy, yaw_rate_c, yaw_c``.
 
     Missing streams are left out (the filter runs on the others). The EMA pre-filter of
-    ``settings`` is applied per sensor, then ``time_offsets_s[sensor]`` is subtracted from
-    that sensor's timestamps (lag compensation, see :mod:`terrain.slip`).
+    ``settings`` is applied per sensor (eq. 6.12), then ``time_offsets_s[sensor]`` is subtracted
+    from that sensor's timestamps (lag compensation, see :mod:`terrain.slip`).
+
+    Parameters
+    ----------
+    run : Run
+        AgriMaRo run (streams ``imu`` and any of ``omega``/``wheels``, ``steer``, ``cam``).
+    settings : AgriMaRoEKFSettings
+        Its ``ema_alpha`` sets the pre-filter.
+    time_offsets_s : Mapping[str, float], optional
+        Sensor -> latency subtracted from its timestamps, s.
+    vehicle : AgriMaRoParams
+        Wheel radius for the ``wheels`` fallback, m.
 
     Returns
     -------
@@ -356,7 +452,7 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     Raises
     ------
     DataFormatError
-        The run has no IMU stream (the filter's clock).
+        The run has no IMU stream (the filter's clock), or a stream lacks a column (named).
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
@@ -404,6 +500,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
         AgriMaRo run with an ``imu`` stream and any of ``omega``/``wheels``, ``steer``,
         ``cam``.
     settings : AgriMaRoEKFSettings
+        Tuning and pre-filter (default: the thesis's, eqs. 6.9, 6.12-6.14).
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate). The grid spans the IMU stream.
     gate : Gate, optional
@@ -411,6 +508,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     time_offsets_s : Mapping[str, float], optional
         Per-sensor latency subtracted from its timestamps, s.
     vehicle : AgriMaRoParams
+        Geometry (seed 001 ch. 7.2, 5.2.3).
     sensors : tuple of str, optional
         Use only these sensors (e.g. to simulate a camera outage).
     store_covariance : bool
@@ -427,6 +525,14 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     -------
     EKFResult
         ``meta`` records the settings name, the Coriolis convention, EMA and offsets.
+
+    Raises
+    ------
+    DataFormatError
+        No IMU stream, or a stream lacks a column.
+    ConfigError, ShapeError, CovarianceError
+        From :func:`~terrain.estimation.run_filter` (bad engine, shapes, or an innovation
+        covariance that is not positive definite).
     """
     samples = agrimaro_samples(run, settings, time_offsets_s, vehicle)
     model = model if model is not None else AgriMaRoModel(vehicle=vehicle, settings=settings)

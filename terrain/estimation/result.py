@@ -92,18 +92,60 @@ class EKFResult:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def state(self, name: str) -> np.ndarray:
-        """Estimated state ``name`` over time, shape (N,)."""
+        """Estimated state ``name`` over time.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`state_names`.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            In the state's SI unit.
+
+        Raises
+        ------
+        ValueError
+            Unknown state name.
+        """
         return self.x[:, self.state_names.index(name)]
 
     def std(self, name: str) -> np.ndarray:
-        """Posterior standard deviation of state ``name``, shape (N,)."""
+        """Posterior standard deviation of state ``name``.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`state_names`.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            In the state's SI unit.
+
+        Raises
+        ------
+        ValueError
+            Unknown state name.
+        """
         return np.sqrt(self.P_diag[:, self.state_names.index(name)])
 
     def sensor_nis(self, sensor: str) -> np.ndarray:
-        """Sum of squared normalised innovations of one sensor's rows, shape (N,).
+        """Sum of squared normalised innovations of one sensor's rows.
 
         This ignores the correlation between rows of the sensor (exact when its rows are
         uncorrelated); NaN at steps where the sensor had no accepted sample.
+
+        Parameters
+        ----------
+        sensor : str
+            A key of :attr:`sensor_rows`.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Dimensionless.
         """
         rows = list(self.sensor_rows[sensor])
         nu2 = np.where(self.accepted[:, rows], self.y[:, rows] ** 2 / self.S_diag[:, rows],
@@ -113,8 +155,19 @@ class EKFResult:
         return out
 
     def to_frame(self, include_std: bool = True) -> pd.DataFrame:
-        """Time-stamped table: ``t_s``, states, ``std_<state>``, ``innov_<row>``, ``nis``,
-        ``nis_dof``."""
+        """Time-stamped table of the run.
+
+        Parameters
+        ----------
+        include_std : bool
+            Add the ``std_<state>`` columns.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``t_s``, states, ``std_<state>``, ``innov_<row>`` (NaN where the row was not used),
+            ``nis``, ``nis_dof``; N rows.
+        """
         cols: dict[str, np.ndarray] = {"t_s": self.t_s}
         for j, name in enumerate(self.state_names):
             cols[name] = self.x[:, j]

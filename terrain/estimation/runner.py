@@ -63,7 +63,19 @@ class SensorSamples:
 
 
 def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
-    """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive), s.
+    """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive).
+
+    Parameters
+    ----------
+    t_start_s, t_end_s : float
+        First and last time, s.
+    rate_hz : float
+        Grid rate, Hz (> 0).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Times, s.
 
     Raises
     ------

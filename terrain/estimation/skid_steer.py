@@ -94,6 +94,12 @@ class SkidSteerSettings:
         while driving straight can be explained either by a yaw rate (pulling ``chi``
         towards 0) or by the bias; the filter then slowly drives ``chi`` down and learns
         the bias late.
+
+    Raises
+    ------
+    ConfigError
+        A standard deviation, ``track_m`` or ``chi0`` not > 0, or a density negative or not
+        finite.
     """
 
     track_m: float = HUSKY.track_m
@@ -125,15 +131,24 @@ class SkidSteerSettings:
 
 @dataclass(frozen=True)
 class SkidSteerModel(StateSpaceModel):
-    """Random-walk process model with the ICR wheel model (see the module docstring).
+    """Random-walk process model with the ICR wheel model (see the module docstring); its
+    equations are :mod:`terrain.estimation.equations.skid_steer`.
 
     Parameters
     ----------
     settings : SkidSteerSettings
+        Geometry and tuning.
     wheel_r_scale : float
         Multiplies the wheel-speed variance (e.g. the up-sampling factor when the wheel
         stream has been interpolated onto a faster clock, so that the correlated repeats do
-        not count as independent measurements).
+        not count as independent measurements), dimensionless.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (4).
+    measurement_names : tuple of str
+        :data:`MEASUREMENT_NAMES` (3).
     """
 
     settings: SkidSteerSettings = field(default_factory=SkidSteerSettings)
@@ -210,17 +225,48 @@ class SkidSteerModel(StateSpaceModel):
         return fx, Fm
 
     def Q(self, dt: float) -> np.ndarray:
-        """``diag(accel_psd, yaw_accel_psd, bias_psd, log_chi_psd) dt``, shape (4, 4)."""
+        """``diag(accel_psd, yaw_accel_psd, bias_psd, log_chi_psd) dt``.
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (4, 4)
+        """
         s = self.settings
         return np.diag([s.accel_psd, s.yaw_accel_psd, s.bias_psd, s.log_chi_psd]) * dt
 
     def h(self, x: np.ndarray) -> np.ndarray:
-        """``[v - chi B w / 2, v + chi B w / 2, w + b]`` with ``chi = exp(x[3])``, shape (3,)."""
+        """``[v - chi B w / 2, v + chi B w / 2, w + b]`` with ``chi = exp(x[3])``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State ``[v_bx m/s, yaw_rate rad/s, b_g rad/s, ln(chi)]``.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            ``vel_l, vel_r`` (m/s), ``wz`` (rad/s).
+        """
         return self.observation(x)[0]
 
     def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`, shape (3, 4) (the ``ln(chi)`` column is zero while
-        ``|yaw_rate| < chi_min_yaw_rate_rad_s``)."""
+        """Jacobian of :meth:`h` (the ``ln(chi)`` column is zero while
+        ``|yaw_rate| < chi_min_yaw_rate_rad_s``).
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State ``[v_bx m/s, yaw_rate rad/s, b_g rad/s, ln(chi)]``.
+
+        Returns
+        -------
+        ndarray, shape (3, 4)
+        """
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -400,5 +446,16 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
 
 
 def icr_chi(result: EKFResult) -> np.ndarray:
-    """ICR factor ``chi = exp(log_icr_chi)`` over time from a skid-steer result, shape (N,)."""
+    """ICR factor ``chi = exp(log_icr_chi)`` over time from a skid-steer result.
+
+    Parameters
+    ----------
+    result : EKFResult
+        Output of :func:`estimate_skid_steer` or :func:`skid_steer_on_frame`.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Dimensionless.
+    """
     return np.exp(result.state("log_icr_chi"))

@@ -59,21 +59,41 @@ SLIP_FLOOR = 0.05
 
 @dataclass(frozen=True)
 class SlipStateModel(StateSpaceModel):
-    """14-state EKF with slip in the state (seed 001 ch. 4.3).
+    """14-state EKF with slip in the state (seed ``001_59da564c4b2d6a48.txt`` ch. 4.3); its
+    equations are :mod:`terrain.estimation.equations.agrimaro`.
 
     Parameters
     ----------
     vehicle : AgriMaRoParams
+        Geometry (ch. 7.2, 5.2.3).
     accel : {"coriolis", "direct"}
         Accelerometer rows: eqs. 4.26-4.27 (``-yaw_rate v_by``, ``yaw_rate v_bx``) or the
         acceleration states.
     camera : bool
         Append the T265 rows of eq. 6.6.
-    p0_diag, r_diag, q_diag : tuple of float
-        Tuning (default eqs. 4.38, 4.40 + ``CAMERA_R``, 4.41); ``r_diag`` has 10 or 14
-        values.
+    p0_diag : tuple of 14 float
+        Initial variances, SI units squared (default eq. 4.38).
+    r_diag : tuple of 10 or 14 float, optional
+        Measurement noise variances (default eq. 4.40 + ``CAMERA_R``).
+    q_diag : tuple of 14 float
+        Process noise variances (default eq. 4.41).
     q_per : {"step", "second"}
         As in :class:`~terrain.estimation.agrimaro.AgriMaRoEKFSettings`.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (14).
+    measurement_names : tuple of str
+        10 rows, 14 with the camera.
+    angle_rows : tuple of int
+        ``yaw_imu`` (6) and, with the camera, ``yaw_c`` (13).
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``accel``, ``r_diag`` of the wrong length or not > 0, ``p0_diag`` / ``q_diag``
+        without 14 values.
     """
 
     vehicle: AgriMaRoParams = AGRIMARO
@@ -123,11 +143,35 @@ class SlipStateModel(StateSpaceModel):
         return rows
 
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Eq. 4.36 (body-frame Coriolis signs), shape (14,)."""
+        """Eq. 4.36 (body-frame Coriolis signs).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (14,)
+        """
         return self.transition(x, dt)[0]
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Jacobian of :meth:`f`, shape (14, 14)."""
+        """Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (14, 14)
+        """
         return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -150,16 +194,46 @@ class SlipStateModel(StateSpaceModel):
                                self._p)
 
     def Q(self, dt: float) -> np.ndarray:
-        """Process noise of one step, shape (14, 14)."""
+        """Process noise of one step, ``diag(q)`` or ``diag(q) dt`` (eq. 4.41).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (14, 14)
+        """
         q = np.asarray(self.q_diag, dtype=float)
         return np.diag(q if self.q_per == "step" else q * dt)
 
     def h(self, x: np.ndarray) -> np.ndarray:
-        """Eq. 4.28 (+ camera rows), shape (m,)."""
+        """Eq. 4.28 (+ camera rows of eq. 6.6).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
         return self.observation(x)[0]
 
     def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`, shape (m, 14)."""
+        """Jacobian of :meth:`h`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+
+        Returns
+        -------
+        ndarray, shape (m, 14)
+        """
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -208,7 +282,24 @@ def noise_derived_slip_state_model(*, accel_std_m_s2: float = 0.8, omega_std_rad
     Camera rows and direct accelerometer rows (as in eq. 6.6), the same noise levels as
     :func:`terrain.estimation.agrimaro.noise_derived_settings`; with the slip in the state
     the wheel rows only carry the encoder noise and lag (``omega_std_rad_s``), and each slip
-    is a random walk of density ``slip_psd`` (1/s).
+    is a random walk of density ``slip_psd``.
+
+    Parameters
+    ----------
+    accel_std_m_s2 : float
+        Accelerometer noise, m/s^2.
+    omega_std_rad_s : float
+        Wheel-encoder noise, rad/s.
+    slip_psd : float
+        Random-walk density of each slip, 1/s.
+    camera : bool
+        Include the camera rows.
+    vehicle : AgriMaRoParams
+        Geometry.
+
+    Returns
+    -------
+    SlipStateModel
     """
     r = (omega_std_rad_s ** 2,) * 3 + (accel_std_m_s2 ** 2,) * 2 + (0.005 ** 2, 0.05 ** 2) + (
         5e-4 ** 2,) * 3 + ((1e-4, 1e-4, 1e-4, 4e-6) if camera else ())

@@ -111,8 +111,14 @@ class AgriMaRoEquationParams:
                    slip_floor=float(slip_floor))
 
     def as_array(self) -> np.ndarray:
-        """The kernels' parameter vector ``p``, shape (13,): ``(sign, x_1, y_1, x_2, y_2,
-        x_3, y_3, R_w, d_x, d_y, accel_direct, camera, slip_floor)`` (m, 0/1 flags)."""
+        """The kernels' parameter vector ``p``.
+
+        Returns
+        -------
+        ndarray, shape (13,)
+            ``(sign, x_1, y_1, x_2, y_2, x_3, y_3, R_w, d_x, d_y, accel_direct, camera,
+            slip_floor)`` (positions and radius in m, flags 0/1).
+        """
         (x1, y1), (x2, y2), (x3, y3) = self.wheel_positions_m
         return np.array([self.coriolis_sign, x1, y1, x2, y2, x3, y3, self.wheel_radius_m,
                          self.camera_lever_arm_m[0], self.camera_lever_arm_m[1],
@@ -340,7 +346,24 @@ def slip_state_observation_into(x, p, hx, H):
 
 @numba.njit(cache=True)
 def transition_pair(x, u, dt, p):
-    """``(f(x), F(x))`` of :func:`transition_into` in new arrays (for the NumPy engine)."""
+    """``(f(x), F(x))`` of :func:`transition_into` in new arrays (for the NumPy engine).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        State, n = 12 or 14 (C-contiguous float64).
+    u : ndarray, shape (0,)
+        Input (none).
+    dt : float
+        Step, s.
+    p : ndarray, shape (13,)
+        :meth:`AgriMaRoEquationParams.as_array`.
+
+    Returns
+    -------
+    fx : ndarray, shape (n,)
+    F : ndarray, shape (n, n)
+    """
     n = x.shape[0]
     fx = np.empty(n)
     F = np.empty((n, n))
@@ -350,7 +373,20 @@ def transition_pair(x, u, dt, p):
 
 @numba.njit(cache=True)
 def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine)."""
+    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
+
+    Parameters
+    ----------
+    x : ndarray, shape (12,)
+        State of eq. 6.1 (C-contiguous float64).
+    p : ndarray, shape (13,)
+        :meth:`AgriMaRoEquationParams.as_array`.
+
+    Returns
+    -------
+    hx : ndarray, shape (14,)
+    H : ndarray, shape (14, 12)
+    """
     hx = np.empty(14)
     H = np.empty((14, 12))
     observation_into(x, p, hx, H)
@@ -359,7 +395,22 @@ def observation_pair(x, p):
 
 @numba.njit(cache=True)
 def slip_state_observation_pair(x, p, m):
-    """``(h(x), H(x))`` of :func:`slip_state_observation_into` with ``m`` rows, new arrays."""
+    """``(h(x), H(x))`` of :func:`slip_state_observation_into`, new arrays.
+
+    Parameters
+    ----------
+    x : ndarray, shape (14,)
+        State of eq. 4.18 (C-contiguous float64).
+    p : ndarray, shape (13,)
+        :meth:`AgriMaRoEquationParams.as_array`.
+    m : int
+        Rows: 10, or 14 with the camera rows (``p[11] = 1``).
+
+    Returns
+    -------
+    hx : ndarray, shape (m,)
+    H : ndarray, shape (m, 14)
+    """
     hx = np.empty(m)
     H = np.empty((m, 14))
     slip_state_observation_into(x, p, hx, H)

@@ -43,7 +43,13 @@ class SkidSteerEquationParams:
     chi_min_yaw_rate_rad_s: float = 0.05
 
     def as_array(self) -> np.ndarray:
-        """The kernels' parameter vector ``p = (B, chi_min_yaw_rate)``, shape (2,)."""
+        """The kernels' parameter vector ``p``.
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            ``(B m, chi_min_yaw_rate rad/s)``.
+        """
         return np.array([self.track_m, self.chi_min_yaw_rate_rad_s], dtype=np.float64)
 
 
@@ -102,7 +108,20 @@ def observation_into(x, p, hx, H):
 
 @numba.njit(cache=True)
 def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine)."""
+    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
+
+    Parameters
+    ----------
+    x : ndarray, shape (4,)
+        State ``[v_bx, yaw_rate, b_g, ln(chi)]`` (C-contiguous float64).
+    p : ndarray, shape (2,)
+        :meth:`SkidSteerEquationParams.as_array`.
+
+    Returns
+    -------
+    hx : ndarray, shape (3,)
+    H : ndarray, shape (3, 4)
+    """
     hx = np.empty(3)
     H = np.empty((3, 4))
     observation_into(x, p, hx, H)
