@@ -87,8 +87,23 @@ def add_ekf_channels(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None,
                      ) -> pd.DataFrame:
     """A copy of the aligned ``frame`` with :data:`EKF_CHANNELS` appended.
 
-    Frames without ``vel_l``, ``vel_r`` or ``wz`` are returned unchanged (the windowing
-    step then reports the missing channels). See :func:`ekf_channel_frame`.
+    Frames without ``vel_l``, ``vel_r`` or ``wz`` (or shorter than 2 rows) are returned
+    unchanged (the windowing step then reports the missing channels). See
+    :func:`ekf_channel_frame`.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Aligned frame (``t_s``, ``vel_l``, ``vel_r`` m/s, ``wz`` rad/s, ...).
+    wheel_rate_hz : float, optional
+        Native rate of the wheel stream, Hz.
+    settings : SkidSteerSettings
+        Husky geometry and tuning by default.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame`` with the EKF channels as extra columns, or ``frame`` itself.
     """
     if not {TIME, "vel_l", "vel_r", "wz"} <= set(frame.columns) or len(frame) < 2:
         return frame

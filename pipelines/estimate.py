@@ -24,7 +24,13 @@ from terrain.slip import LAG_MODES, TUNINGS, estimate_run
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain estimate``."""
+    """Arguments of ``terrain estimate``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
                                                    "folder of it)")
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
@@ -59,7 +65,25 @@ def _load(run_dir: Path, select: str | None):
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the estimator on each selected run and write its table; returns 0."""
+    """Run the estimator on each selected run, write its table and print a summary line.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    ConfigError
+        ``--run`` names no run of RUN_DIR, or bad options.
+    EstimationError, DataFormatError
+        A run lacks the streams its estimator needs.
+    """
     runs = _load(args.run_dir, args.run)
     gate = Gate(args.gate) if args.gate is not None else None
     for run in runs:

@@ -196,6 +196,7 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     dof : float or ndarray, shape (N,)
         Degrees of freedom of each value (the number of rows for NIS).
     probability : float
+        Two-sided coverage of the bounds, in (0, 1).
 
     Returns
     -------

@@ -479,6 +479,7 @@ class ExtendedKalmanFilter:
     P : ndarray, shape (n, n)
         Current covariance (a copy).
     last_innovation : Innovation or None
+        Innovation record of the last update (None before the first).
     """
 
     def __init__(self, x0: np.ndarray, P0: np.ndarray, f: Callable, F: Callable,

@@ -409,6 +409,7 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     Parameters
     ----------
     kernel : FastKernel
+        The model's kernels and constants.
     dts : ndarray, shape (N - 1,)
         Grid steps, s (> 0).
     Z : ndarray, shape (N, m)

@@ -228,7 +228,9 @@ def finite_difference_jacobian(fun, x: np.ndarray, eps: float = 1e-6) -> np.ndar
     Parameters
     ----------
     fun : callable ``fun(x) -> (m,)``
+        Function to differentiate.
     x : ndarray, shape (n,)
+        Point of evaluation.
     eps : float
         Step, relative to ``max(1, |x_j|)``.
 

@@ -29,8 +29,11 @@ class LoopArrays:
     y, S_diag : ndarray, shape (N, m)
         Innovations and their variances (NaN where the row had no sample).
     accepted : ndarray of bool, shape (N, m)
+        Rows used in the update.
     nis : ndarray, shape (N,)
+        NIS over the accepted rows (NaN when none).
     dof : ndarray of int, shape (N,)
+        Its degrees of freedom.
     """
 
     x: np.ndarray
@@ -68,6 +71,7 @@ class EKFResult:
     dof : ndarray of int, shape (N,)
         Its degrees of freedom.
     state_names, measurement_names : tuple of str
+        Names of the n states and m measurement rows.
     sensor_rows : dict
         Sensor -> measurement rows.
     counts : dict

@@ -129,6 +129,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
     Parameters
     ----------
     model : StateSpaceModel
+        Process / measurement model, noises and initial state.
     t_grid : ndarray, shape (N,)
         Step times, s, strictly increasing (:func:`make_grid`).
     samples : Mapping[str, SensorSamples]

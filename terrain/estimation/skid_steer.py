@@ -336,13 +336,16 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         (``wz``, rad/s). Without IMU the filter runs on the wheels alone (``chi`` and the
         bias then stay at their prior).
     settings : SkidSteerSettings
+        Geometry and tuning.
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate, else the wheel rate). The grid spans the
         overlap of the streams used.
     gate : Gate, optional
+        Per-sensor chi-square gating.
     time_offsets_s : Mapping[str, float], optional
         Per-sensor latency (``wheels``, ``gyro``) subtracted from its timestamps, s.
     store_covariance : bool
+        Keep the full covariance of every step (memory N n^2 floats).
 
     Returns
     -------
@@ -391,9 +394,11 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     frame : pandas.DataFrame
         ``t_s``, ``vel_l``, ``vel_r`` (m/s), ``wz`` (rad/s).
     settings : SkidSteerSettings
+        Geometry and tuning.
     wheel_rate_hz : float, optional
         Native wheel rate, Hz (default: the grid rate, i.e. no inflation).
     gate : Gate, optional
+        Per-sensor chi-square gating.
 
     Returns
     -------
@@ -429,7 +434,9 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     yaw_rate_rad_s : ndarray, shape (N,)
         True yaw rate, rad/s.
     track_m : float
+        Track width B, m.
     min_yaw_rate_rad_s : float
+        Samples turning slower than this are left out, rad/s.
 
     Returns
     -------

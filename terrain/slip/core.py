@@ -121,9 +121,13 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     rim_speed_m_s : ndarray, shape (N, k)
         Raw encoder ``omega_i r``, m/s, on the same clock as the velocities.
     v_bx_m_s, v_by_m_s, yaw_rate_rad_s : ndarray, shape (N,)
+        Body velocity (m/s) and yaw rate (rad/s), EKF estimates.
     positions_m : ndarray, shape (k, 2)
+        Wheel (steering axis or contact line) positions in the body frame, m.
     delta_rad : ndarray, shape (N, k), optional
+        Steering angles, rad; None for fixed wheels.
     dead_band_m_s : float
+        Dead band of :func:`sae_slip`, m/s (0.05 in seed 001 ch. 7.2.1).
 
     Returns
     -------

@@ -51,8 +51,11 @@ class RunEstimate:
     Attributes
     ----------
     run_id : str
+        ``<dataset>/<terrain>/<index>``.
     vehicle : str
+        Vehicle name (:data:`terrain.vehicles.VEHICLE_NAMES`).
     ekf : EKFResult
+        The filter's states, covariances and innovations.
     slip : ndarray, shape (N, k)
         SAE slip of each wheel / side on the EKF grid.
     slip_names : tuple of str
@@ -392,6 +395,7 @@ def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate).
     store_covariance : bool
+        Keep the full covariance of every step (memory N n^2 floats).
     settings : AgriMaRoEKFSettings or SkidSteerSettings, optional
         Explicit tuning (overrides ``tuning``).
 

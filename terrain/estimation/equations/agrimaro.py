@@ -436,6 +436,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     dt : float
         Step, s.
     params : AgriMaRoEquationParams
+        Model constants (vehicle geometry, Coriolis sign).
 
     Returns
     -------
@@ -457,6 +458,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     dt : float
         Step, s.
     params : AgriMaRoEquationParams
+        Model constants (vehicle geometry, Coriolis sign).
 
     Returns
     -------
@@ -473,6 +475,7 @@ def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     x : ndarray, shape (12,)
         State of eq. 6.1.
     params : AgriMaRoEquationParams
+        Model constants (vehicle geometry, Coriolis sign).
 
     Returns
     -------
@@ -490,6 +493,7 @@ def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     x : ndarray, shape (12,)
         State of eq. 6.1.
     params : AgriMaRoEquationParams
+        Model constants (vehicle geometry, Coriolis sign).
 
     Returns
     -------

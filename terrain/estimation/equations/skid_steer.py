@@ -141,6 +141,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     dt : float
         Step, s.
     params : SkidSteerEquationParams
+        Model constants (track width, chi yaw-rate threshold).
 
     Returns
     -------
@@ -165,6 +166,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     dt : float
         Step, s.
     params : SkidSteerEquationParams
+        Model constants (track width, chi yaw-rate threshold).
 
     Returns
     -------
@@ -184,6 +186,7 @@ def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     x : ndarray, shape (4,)
         State ``[v_bx, yaw_rate, b_g, ln(chi)]``.
     params : SkidSteerEquationParams
+        Model constants (track width, chi yaw-rate threshold).
 
     Returns
     -------
@@ -200,6 +203,7 @@ def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     x : ndarray, shape (4,)
         State.
     params : SkidSteerEquationParams
+        Model constants (track width, chi yaw-rate threshold).
 
     Returns
     -------
