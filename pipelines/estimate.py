@@ -15,8 +15,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.io.measured import read_runs_dir
@@ -79,10 +77,8 @@ def main(args: argparse.Namespace) -> int:
 
     Raises
     ------
-    ConfigError
-        ``--run`` names no run of RUN_DIR, or bad options.
-    EstimationError, DataFormatError
-        A run lacks the streams its estimator needs.
+    ConfigError, EstimationError, DataFormatError
+        ``--run`` names no run of RUN_DIR; a run lacks the streams its estimator needs.
     """
     runs = _load(args.run_dir, args.run)
     gate = Gate(args.gate) if args.gate is not None else None
@@ -96,15 +92,5 @@ def main(args: argparse.Namespace) -> int:
             out = args.out.with_name(f"{args.out.stem}_{terrain}_{index}{args.out.suffix}")
         out.parent.mkdir(parents=True, exist_ok=True)
         est.to_frame().to_csv(out, index=False, float_format="%.9g")
-        ekf = est.ekf
-        nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
-        slips = ", ".join(f"{n} {np.nanmedian(est.slip[:, j]):+.3f}"
-                          for j, n in enumerate(est.slip_names))
-        lag = f"{est.lag.lag_s:.3f} s" if est.lag is not None else "not estimated"
-        skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
-        print(f"{run.run_id} ({est.vehicle}): {ekf.t_s.size} steps at "
-              f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
-              f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
-              + (f", non-finite samples skipped {skipped}" if skipped else "")
-              + f" -> {out}")
+        print(f"{est.summary()} -> {out}")
     return 0

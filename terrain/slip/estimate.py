@@ -92,6 +92,25 @@ class RunEstimate:
             frame.insert(pos + j, name, self.slip[:, j])
         return frame
 
+    def summary(self) -> str:
+        """One line for the log: steps and rate, mean NIS and dof, median slip of each wheel,
+        encoder lag, non-finite samples skipped.
+
+        Returns
+        -------
+        str
+        """
+        ekf = self.ekf
+        nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
+        slips = ", ".join(f"{n} {np.nanmedian(self.slip[:, j]):+.3f}"
+                          for j, n in enumerate(self.slip_names))
+        lag = f"{self.lag.lag_s:.3f} s" if self.lag is not None else "not estimated"
+        skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
+        return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
+                f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
+                f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
+                + (f", non-finite samples skipped {skipped}" if skipped else ""))
+
 
 def resample(t_grid_s: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:
     """Linear interpolation of each column of ``values`` onto ``t_grid_s``.
