@@ -21,8 +21,10 @@ from terrain.vehicles.common import ContactGeometry, MotorParams
 #: Rotation taking T265 tracking-frame vectors (x right, y up, z backward) to the robot frame
 #: (x forward, y left, z up), seed 001 ch. 5.2.3.
 R_ROBOT_FROM_T265_TRACKING = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+R_ROBOT_FROM_T265_TRACKING.flags.writeable = False
 #: Rotation taking T265 internal IMU vectors (x left, y up, z forward) to the robot frame.
 R_ROBOT_FROM_T265_IMU = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+R_ROBOT_FROM_T265_IMU.flags.writeable = False
 
 
 def _agrimaro_motor() -> MotorParams:

@@ -40,6 +40,7 @@ from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
 #: No control input: the AgriMaRo models are driven by their acceleration states.
 NO_INPUT = np.zeros(0)
+NO_INPUT.flags.writeable = False
 #: Number of states of the final design (eq. 6.1) and of the slip-in-state design (eq. 4.18).
 N_STATES_FINAL, N_STATES_SLIP = 12, 14
 #: Measurement rows of the final design (eq. 6.6).

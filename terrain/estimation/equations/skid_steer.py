@@ -25,6 +25,7 @@ from terrain.vehicles.skid_steer import HUSKY
 
 #: No control input: the model is a random walk corrected by the measurements.
 NO_INPUT = np.zeros(0)
+NO_INPUT.flags.writeable = False
 
 
 @dataclass(frozen=True)
