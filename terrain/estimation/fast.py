@@ -152,33 +152,35 @@ def _cholesky(A, n, L):
             return False
         d = math.sqrt(s)
         L[j, j] = d
+        inv = 1.0 / d
         for i in range(j + 1, n):
             t = A[i, j]
             for k in range(j):
                 t -= L[i, k] * L[j, k]
-            L[i, j] = t / d
+            L[i, j] = t * inv
     return True
 
 
 @numba.njit(cache=True)
 def _cho_solve(L, n, B, ncols):
-    """Overwrite ``B[:n, :ncols]`` with ``(L L^T)^-1 B`` (forward, then back substitution)."""
+    """Overwrite ``B[:n, :ncols]`` with ``(L L^T)^-1 B`` (forward, then back substitution;
+    one reciprocal per row, then multiplications)."""
     for i in range(n):
         for k in range(i):
             lik = L[i, k]
             for c in range(ncols):
                 B[i, c] -= lik * B[k, c]
-        d = L[i, i]
+        inv = 1.0 / L[i, i]
         for c in range(ncols):
-            B[i, c] /= d
+            B[i, c] *= inv
     for i in range(n - 1, -1, -1):
         for k in range(i + 1, n):
             lki = L[k, i]
             for c in range(ncols):
                 B[i, c] -= lki * B[k, c]
-        d = L[i, i]
+        inv = 1.0 / L[i, i]
         for c in range(ncols):
-            B[i, c] /= d
+            B[i, c] *= inv
 
 
 @numba.njit(cache=True)
@@ -355,34 +357,31 @@ def _filter_loop(transition, observation, model, data, options, out):
                     yv = ya[sel[a]]
                     for i in range(n):
                         x[i] += B[a, i] * yv
-                for i in range(n):                # A = I - K H
-                    for j in range(n):
-                        A[i, j] = 0.0
-                    A[i, i] = 1.0
+                # Joseph form P = A P A^T + K R K^T with A = I - K H, evaluated as
+                # AP = P - K (H P) (H P is at hand), then
+                # P = AP - (AP H^T) K^T + K R K^T = AP + sum_a G[a, :]^T K[:, a]^T with
+                # G[a, i] = r_a K[i, a] - (AP H^T)[i, a]   (H applied through its non-zeros)
+                for i in range(n):                # AP = P - K (H P), K = B[:, :n]^T
+                    for c in range(n):
+                        AP[i, c] = P[i, c]
                 for a in range(nacc):
                     s_a = sel[a]
-                    for e in range(h_cnt[s_a]):
-                        j = h_nz[s_a, e]
-                        hv = Ha[s_a, j]
-                        for i in range(n):
-                            A[i, j] -= B[a, i] * hv
-                for i in range(n):                # AP = A P
-                    for c in range(n):
-                        AP[i, c] = 0.0
-                    for j in range(n):
-                        aij = A[i, j]
-                        if aij != 0.0:
-                            for c in range(n):
-                                AP[i, c] += aij * P[j, c]
-                for a in range(nacc):             # K R (rows of B scaled by r)
-                    r_a = r_diag[rows[sel[a]]]
                     for i in range(n):
-                        BR[a, i] = B[a, i] * r_a
-                for i in range(n):                # P = A P A^T + K R K^T (Joseph form),
-                    for j in range(i, n):         # upper triangle, mirrored: symmetric
-                        s = 0.0
+                        kia = B[a, i]
                         for c in range(n):
-                            s += AP[i, c] * A[j, c]
+                            AP[i, c] -= kia * HP[s_a, c]
+                for a in range(nacc):             # G = K R - AP H^T (rows a of BR)
+                    s_a = sel[a]
+                    r_a = r_diag[rows[s_a]]
+                    for i in range(n):
+                        g = B[a, i] * r_a
+                        for e in range(h_cnt[s_a]):
+                            j = h_nz[s_a, e]
+                            g -= AP[i, j] * Ha[s_a, j]
+                        BR[a, i] = g
+                for i in range(n):                # upper triangle, mirrored: symmetric
+                    for j in range(i, n):
+                        s = AP[i, j]
                         for a in range(nacc):
                             s += BR[a, i] * B[a, j]
                         P[i, j] = s
