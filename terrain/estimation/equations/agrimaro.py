@@ -202,7 +202,7 @@ def _wheel_row(vx, vy, w, xi, yi, d):
     return u * c + v * s, c, s, -yi * c + xi * s, -u * s + v * c
 
 
-@numba.vectorize(["float64(float64, float64, float64, float64, float64, float64)"], cache=True)
+@numba.vectorize(cache=True)
 def wheel_rim_speed(v_bx, v_by, yaw_rate, x_i, y_i, delta):
     """Velocity of a wheel's steering axis (or contact line) along its rolling direction:
     the body velocity moved to ``d_i = (x_i, y_i)`` and projected on ``delta`` (seed 001
