@@ -25,7 +25,8 @@ and the ch. 4.3 rows (:func:`slip_state_observation_into`, eq. 4.28): ``omega_i 
 ``-yaw_rate v_by, yaw_rate v_bx`` (eqs. 4.26-4.27) or the acceleration states, optional camera
 rows of eq. 6.6. The wheel speed of eq. 4.20 and the camera rows are written once
 (:func:`_wheel_row`, :func:`_camera_rows`) and used by both designs; they live in this one
-file so that numba's on-disk cache, which tracks the file of each cached function, never keeps a stale copy.
+file so that numba's on-disk cache, which tracks the file of each cached function, never
+keeps a stale copy.
 """
 
 from __future__ import annotations
@@ -503,6 +504,6 @@ def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     return observation_pair(_state(x), params.as_array())[1]
 
 
-__all__ = ["AgriMaRoEquationParams", "NO_INPUT", "wheel_rim_speed", "transition_into", "observation_into",
-           "slip_state_observation_into", "transition_pair", "observation_pair",
+__all__ = ["AgriMaRoEquationParams", "NO_INPUT", "wheel_rim_speed", "transition_into",
+           "observation_into", "slip_state_observation_into", "transition_pair", "observation_pair",
            "slip_state_observation_pair", "f", "F", "h", "H"]
