@@ -3,9 +3,9 @@
 Public API: :func:`sae_slip`, :func:`wheel_longitudinal_velocity`, :func:`wheel_slip`,
 :func:`skid_steer_side_slip`, :data:`DEAD_BAND_M_S` (:mod:`.core`); :func:`estimate_lag`,
 :class:`LagEstimate` (:mod:`.alignment`); :func:`estimate_run` (vehicle dispatch),
-:func:`estimate_agrimaro_run`, :func:`estimate_skid_steer_run` and their pieces (:func:`agrimaro_wheel_speeds`,
-:func:`agrimaro_encoder_lag`, :func:`skid_steer_encoder_lag`, :func:`with_camera_ema`,
-:func:`resample`), :class:`RunEstimate` (:mod:`.estimate`).
+:func:`estimate_agrimaro_run`, :func:`estimate_skid_steer_run` and their pieces
+(:func:`agrimaro_wheel_speeds`, :func:`agrimaro_encoder_lag`, :func:`skid_steer_encoder_lag`,
+:func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate` (:mod:`.estimate`).
 """
 
 from __future__ import annotations
