@@ -294,8 +294,8 @@ def _filter_loop(transition, observation, model, data, options, out):
                     hv = Ha[a, j]
                     for c in range(n):
                         HP[a, c] += hv * P[j, c]
-            for a in range(na):                   # S = H P H^T + R (eq. 4.9)
-                for b in range(na):
+            for a in range(na):                   # S = H P H^T + R (eq. 4.9), lower
+                for b in range(a + 1):            # triangle: all the factorisations read
                     s = 0.0
                     for e in range(h_cnt[b]):
                         j = h_nz[b, e]
