@@ -100,7 +100,7 @@ def test_fit_yaw_recovers_chi_and_bias():
     frame = _frame_with(streams, lambda x: x / 1.6 + 0.01)
     p = fit_yaw([frame], ["icr_expansion", "gyro_bias"])
     assert p.chi == pytest.approx(1.6, rel=0.02)
-    assert p.gyro_bias_rad_s == pytest.approx(0.01, abs=1e-3)
+    assert p.bias_rad_s == pytest.approx(0.01, abs=1e-3)
     assert p.fraction < 0.02
     with pytest.raises(NotIdentifiable):
         fit_yaw([frame], ["gyro_bias"], EffectSettings(min_quiet_samples=10 ** 6))
