@@ -4,16 +4,16 @@
 (:class:`~terrain.sim.dynamics.PlantSnapshot`). :class:`OnlineSensors` turns that into what
 the robot measures, sample by sample at each sensor's rate (the vehicle's
 :class:`~terrain.sim.sensors.SensorSettings`): IMU ``ax, ay, wz`` with white noise and a
-constant accelerometer bias, encoder wheel speeds (count rate over the sample period when
-the speed quantum is 0, else the speed quantised), steering encoders quantised, and on the
+constant accelerometer bias, encoder wheel speeds (count rate per physics step when the
+speed quantum is 0, the motor driver's first-order filter, the speed quantum), steering encoders quantised, and on the
 AgriMaRo the T265 camera velocity at its mount with noise and outages. :func:`make_hook`
 calls a controller at its own rate with only the samples taken since its previous call
 (:class:`Observation`) and the robot's own low-level command, and returns its correction.
 
 Simplifications against the batch sensor model of :mod:`terrain.sim.simulate` (which still
-writes the run's logged streams from the physics): no vibration band on the IMU, no encoder
-driver filter, no sensor lag; noise from a generator of its own (seeded from the run's seed),
-so the logged streams equal the open-loop run's noise draws.
+writes the run's logged streams from the physics): no vibration band on the IMU, no sensor
+lag; noise from a generator of its own (seeded from the run's seed), so the logged streams
+keep the open-loop run's noise draws.
 """
 
 from __future__ import annotations
@@ -97,9 +97,11 @@ class OnlineSensors:
         n_out = self.rng.poisson(s.cam_outage_rate_hz * duration_s)
         self.outages = [(a, a + b) for a, b in zip(self.rng.uniform(0, duration_s, n_out),
                                                    self.rng.uniform(0.5, 2.0, n_out))]
-        self._angle0: np.ndarray | None = None
-        self._angle = None
-        self._t_prev = None
+        self._angle = 0.0
+        self._counts = 0.0
+        self._omega_prev = 0.0
+        self._filtered: np.ndarray | None = None
+        self._t_prev: float | None = None
 
     def record(self, snap: PlantSnapshot) -> None:
         """Take the samples due at ``snap.t_s``.
@@ -112,8 +114,6 @@ class OnlineSensors:
         s, t = self.settings, snap.t_s
         dt = 0.0 if self._t_prev is None else t - self._t_prev
         self._t_prev = t
-        self._angle = (np.zeros_like(snap.omega) if self._angle is None
-                       else self._angle + dt * snap.omega)
         eps = 1e-9
         c = self.ch["imu"]
         if t + eps >= c.next_t:
@@ -121,20 +121,31 @@ class OnlineSensors:
             a = snap.accel_body + self.accel_bias + s.accel_noise_m_s2 * n[:2]
             c.rows.append((t, a[0], a[1], snap.twist[2] + s.gyro_noise_rad_s * n[2]))
             c.next_t += c.period_s
+        # encoders: count rate per physics step when the speed quantum is 0, then the motor
+        # driver's first-order filter, sampled at the wheel rate (as the batch model)
+        motor = self.vehicle.motor
+        if s.speed_quantum_m_s == 0 and dt > 0:
+            self._angle = self._angle + 0.5 * dt * (snap.omega + self._omega_prev)
+            q = 2 * math.pi / motor.encoder_counts_per_rev
+            counts = np.floor(self._angle / q)
+            raw = (counts - self._counts) * q / dt
+            self._counts = counts
+        else:
+            raw = snap.omega
+        if self._filtered is None:
+            self._filtered = raw.copy()
+        elif motor.encoder_filter_s > 0 and dt > 0:
+            a = math.exp(-dt / motor.encoder_filter_s)
+            self._filtered = a * self._filtered + (1 - a) * raw
+        else:
+            self._filtered = raw
+        self._omega_prev = snap.omega
         c = self.ch["wheels"]
         if t + eps >= c.next_t:
             r = self.vehicle.wheel_radius_m
+            om = self._filtered
             if s.speed_quantum_m_s > 0:
-                om = np.round(snap.omega * r / s.speed_quantum_m_s) * s.speed_quantum_m_s / r
-            else:  # encoder count rate over the sample period
-                cpr = self.vehicle.motor.encoder_counts_per_rev
-                counts = np.floor(self._angle * cpr / (2 * math.pi))
-                if self._angle0 is None:
-                    om = np.zeros_like(snap.omega)
-                else:
-                    om = (counts - self._angle0[0]) * 2 * math.pi / cpr / max(
-                        t - self._angle0[1][0], 1e-9)
-                self._angle0 = (counts, np.array([t]))
+                om = np.round(om * r / s.speed_quantum_m_s) * s.speed_quantum_m_s / r
             c.rows.append((t, *om.tolist()))
             c.next_t += c.period_s
         if not self.steered:
