@@ -31,6 +31,7 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "estimate": "pipelines.estimate",
     "validate": "pipelines.validate",
     "slip-table": "pipelines.slip_table",
+    "control-sim": "pipelines.control_sim",
 })
 
 

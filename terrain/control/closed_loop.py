@@ -327,7 +327,8 @@ class TractionLoop:
 
 
 def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
-                 cruise_fraction: float = 0.95, steady_after_s: float = 3.0) -> dict:
+                 cruise_fraction: float = 0.95, steady_after_s: float = 3.0,
+                 final_window_s: float = 2.0) -> dict:
     """Scores of a closed-loop (or shadow-mode) run against the ground truth.
 
     Parameters
@@ -339,15 +340,19 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     bus_voltage_v : float
         DC bus voltage, V (:data:`BUS_VOLTAGE_V`).
     cruise_fraction : float
-        ``time_to_speed_s``: first time the true forward speed reaches this fraction of the
-        largest commanded forward speed.
+        ``time_to_speed_s``: first time the true speed reaches this fraction of the cruise
+        speed reached on the terrain (``final_speed_m_s``, below).
     steady_after_s : float
         Steady-driving slip error counted only this long after the cruise speed is reached, s.
+    final_window_s : float
+        ``final_speed_m_s``: the mean true speed over the last ``final_window_s`` of the run
+        (with steady slip the commanded speed is never reached), s.
 
     Returns
     -------
     dict
         ``cruise_speed_m_s`` (largest mean low-level wheel command times the radius),
+        ``final_speed_m_s``,
         ``slip_rmse`` (true slip against the signed target, controller enabled),
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
         the chassis speed exceeds the enabling threshold), ``time_to_speed_s`` (None if never),
@@ -369,7 +374,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     log = loop.log
     omega_ll = np.array([r["omega_low_level"] for r in log])
     cruise = float(np.max(np.abs(omega_ll).mean(axis=1))) * vehicle.wheel_radius_m
-    reached = np.flatnonzero(phys.twist[:, 0] >= cruise_fraction * cruise) if cruise > 0 \
+    # cruise as reached on this terrain: the mean true speed of the last final_window_s
+    final = float(np.mean(speed[phys.t_s >= phys.t_s[-1] - final_window_s]))
+    reached = np.flatnonzero(speed >= cruise_fraction * final) if final > 0.05 \
         else np.array([], dtype=int)
     t_speed = float(phys.t_s[reached[0]]) if reached.size else None
     t_log = np.array([r["t_s"] for r in log])
@@ -406,6 +413,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "peak_slip_gated": float(np.max(np.abs(phys.slip_motor[gate]))) if gate.any() else 0.0,
         "time_to_speed_s": t_speed,
         "cruise_speed_m_s": cruise,
+        "final_speed_m_s": final,
         "energy_j_per_m": energy / distance if distance > 0 else None,
         "mech_energy_j_per_m": mech / distance if distance > 0 else None,
         "distance_m": distance,
@@ -419,3 +427,110 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "terrain_accuracy": float(np.mean(decided == truth_names)),
         "bus_voltage_v": bus_voltage_v,
     }
+
+
+#: Controller settings of the closed loop per vehicle besides the gains: estimates older than
+#: ``max_input_age_s`` give the safe output. AgriMaRo: 0.5 s of camera outage (its EKF coasts
+#: on IMU and slipping wheels); Husky: 1.6 encoder periods of its 6.5 Hz wheel stream.
+LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
+    "agrimaro": MappingProxyType({"max_input_age_s": 0.5}),
+    "husky": MappingProxyType({"max_input_age_s": 0.25}),
+})
+
+#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by
+#: ``terrain control-grid --tune`` on the tuning seeds (docs/control_validation.md).
+DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
+    "agrimaro": (10.0, 20.0), "husky": (10.0, 20.0)})
+
+
+def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,
+                    duration_s: float = 20.0, gains: tuple[float, float] | None = None,
+                    table: SlipTable | None = None,
+                    terrain_decision: Callable[[float], tuple] | None = None
+                    ) -> tuple[Simulation, TractionLoop, dict]:
+    """Simulate one closed-loop run and score it.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` or ``husky``.
+    terrain : str
+        Catalogued terrain class of the whole run.
+    scenario : str
+        Simulator scenario (``straight_accel``, ``orchard``, ``slope_turn``...).
+    controller_on : bool
+        True: traction control applied; False: shadow mode (no correction).
+    seed : int
+        Run seed (>= 0).
+    duration_s : float
+        Simulated time, s.
+    gains : tuple of float, optional
+        ``(kp, ki)``; None: :data:`DEFAULT_GAINS`.
+    table : SlipTable, optional
+        Desired-slip table; None: built for ``terrain`` alone.
+    terrain_decision : callable, optional
+        ``f(t_s) -> (label, confidence)``; None: the run's terrain label with confidence 1
+        (the ground truth: see the pipelines for when this applies).
+
+    Returns
+    -------
+    sim : Simulation
+    loop : TractionLoop
+    metrics : dict
+        :func:`loop_metrics` plus the estimator's name and limits.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle, terrain or scenario, bad gains.
+    """
+    from terrain.control.desired_slip import build_slip_table
+    from terrain.control.traction import config_for_vehicle
+    from terrain.sim.closed_loop import simulate_closed_loop
+    from terrain.sim.simulate import SimConfig
+
+    if vehicle not in LOOP_SETTINGS:
+        raise ConfigError(f"control-sim supports agrimaro and husky, got {vehicle!r}")
+    kp, ki = gains or DEFAULT_GAINS[vehicle]
+    cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
+    table = table or build_slip_table([terrain])
+    decision = terrain_decision or (lambda t: (terrain, 1.0))
+    estimator = estimator_for(vehicle)
+    loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on)
+    sim = simulate_closed_loop(SimConfig(vehicle=vehicle, terrains=(terrain,),
+                                         scenario=scenario, duration_s=duration_s,
+                                         seed=seed), loop)
+    metrics = loop_metrics(sim, loop, BUS_VOLTAGE_V[vehicle])
+    metrics.update(estimator=estimator.name, estimator_limits=estimator.limits,
+                   kp=float(kp), ki=float(ki))
+    return sim, loop, metrics
+
+
+def trace_frame(sim: Simulation, loop: TractionLoop):
+    """Per-call trace of a closed-loop run: truth next to what the controller saw and did.
+
+    Parameters
+    ----------
+    sim : Simulation
+    loop : TractionLoop
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t_s, v_true_m_s``, then per unit ``slip_true_i, slip_est_i, target_i,
+        correction_i`` (dimensionless, rad/s), ``enabled_i, safe_i``, and ``terrain``.
+    """
+    import pandas as pd
+
+    phys = sim.physics
+    t = np.array([r["t_s"] for r in loop.log])
+    idx = np.clip(np.searchsorted(phys.t_s, t - 1e-9), 0, len(phys.t_s) - 1)
+    cols = {"t_s": t, "v_true_m_s": phys.twist[idx, 0]}
+    for i in range(phys.slip_motor.shape[1]):
+        cols[f"slip_true_{i + 1}"] = phys.slip_motor[idx, i]
+        for key, name in (("slip_est", "slip_est"), ("desired", "target"),
+                          ("correction", "correction"), ("enabled", "enabled"),
+                          ("safe", "safe")):
+            cols[f"{name}_{i + 1}"] = [r[key][i] for r in loop.log]
+    cols["terrain"] = [r["terrain"] for r in loop.log]
+    return pd.DataFrame(cols)
