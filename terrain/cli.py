@@ -32,6 +32,7 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "validate": "pipelines.validate",
     "slip-table": "pipelines.slip_table",
     "control-sim": "pipelines.control_sim",
+    "control-grid": "pipelines.control_grid",
 })
 
 

@@ -278,6 +278,11 @@ class TractionLoop:
         available at time ``t_s`` (s).
     apply : bool
         True: return the correction; False: shadow mode (return zeros, log everything).
+    accel_tau_s : float
+        Time constant of a first-order low-pass on the estimated wheel accelerations before
+        ``Power_state`` (eq. 8.6) classifies traction / braking / steady, s (>= 0; 0 = off).
+        Without it the mode follows the acceleration the correction itself causes and the
+        loop limit-cycles between traction and braking at the control rate (seen on SNOW).
 
     Attributes
     ----------
@@ -287,13 +292,15 @@ class TractionLoop:
 
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
                  table: SlipTable, terrain_decision: Callable[[float], tuple],
-                 apply: bool = True) -> None:
+                 apply: bool = True, accel_tau_s: float = 0.3) -> None:
         self.controller = TractionController(config, n_units)
         self.estimator = estimator
         self.table = table
         self.terrain_decision = terrain_decision
         self.apply = bool(apply)
         self.t_prev: float | None = None
+        self.accel_tau_s = float(accel_tau_s)
+        self.a_filtered: np.ndarray | None = None
         self.log: list[dict] = []
 
     def __call__(self, obs: Observation) -> np.ndarray:
@@ -314,8 +321,16 @@ class TractionLoop:
         targets = select_target(self.table, label, conf)
         dt = obs.t_s - self.t_prev if self.t_prev is not None else 0.02
         self.t_prev = obs.t_s
+        a = np.asarray(est.a_local_m_s2, dtype=float)
+        if self.a_filtered is None or not np.all(np.isfinite(self.a_filtered)):
+            self.a_filtered = a.copy()
+        elif self.accel_tau_s > 0:
+            self.a_filtered = self.a_filtered + (1 - math.exp(-dt / self.accel_tau_s)) * (
+                a - self.a_filtered)
+        else:
+            self.a_filtered = a
         out = self.controller.step(targets, obs.omega_low_level, est.omega_meas_rad_s,
-                                   est.v_long_m_s, est.a_local_m_s2, est.chassis_speed_m_s,
+                                   est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
                                    max(dt, 1e-6), est.age_s)
         self.log.append({"t_s": obs.t_s, "omega_low_level": obs.omega_low_level,
                          "v_long": est.v_long_m_s, "slip_est": out.slip,
