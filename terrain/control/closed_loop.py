@@ -455,7 +455,7 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
 #: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by
 #: ``terrain control-grid --tune`` on the tuning seeds (docs/control_validation.md).
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
-    "agrimaro": (10.0, 20.0), "husky": (10.0, 20.0)})
+    "agrimaro": (10.0, 0.0), "husky": (2.0, 0.0)})
 
 
 def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,
