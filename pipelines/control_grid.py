@@ -15,8 +15,8 @@ import json
 from pathlib import Path
 
 from terrain.control.closed_loop import DEFAULT_GAINS
-from terrain.control.grid import (TUNING_SEEDS, compare, run_grid, slip_limit_bound,
-                                  tune_gains)
+from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
+                                  slip_limit_bound, tune_gains)
 
 EXPERIMENT = "terrain-control"
 SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
@@ -90,6 +90,7 @@ def main(args: argparse.Namespace) -> int:
         table = compare(results)
         results.to_csv(out / "runs.csv", index=False)
         table.to_csv(out / "comparison.csv", index=False, float_format="%.4f")
+        (out / "comparison.md").write_text(markdown_table(table))
         bound = [slip_limit_bound(r.terrain, r.peak_slip_off) for r in table.itertuples()
                  if r.terrain in SOFT and r.scenario == "straight_accel"]
         summary = {"gains": {v: list(g) for v, g in gains.items()},

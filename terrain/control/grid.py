@@ -201,3 +201,35 @@ def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
                 ter, accel_m_s2 / G_M_S2),
             "accel_at_limit_m_s2": a_lim, "min_time_to_cruise_s": t_min,
             "command_time_s": cruise_m_s / accel_m_s2}
+
+
+def markdown_table(table: pd.DataFrame) -> str:
+    """The comparison of :func:`compare` as a Markdown table (the README / docs rendering).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Output of :func:`compare`.
+
+    Returns
+    -------
+    str
+        Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on, the
+        relative changes and the steady-slip share within 0.02 of the target.
+    """
+    head = ("| vehicle | terrain | scenario | peak slip off -> on | cut | energy J/m off -> on "
+            "| cut | time to cruise s off -> on | longer | slip RMSE off -> on "
+            "| steady within 0.02 (on) |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
+
+    def f(v, fmt):
+        return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) \
+            else format(v, fmt)
+
+    lines = [f"| {r.vehicle} | {r.terrain} | {r.scenario} | {f(r.peak_slip_off, '.3f')} -> "
+             f"{f(r.peak_slip_on, '.3f')} | {f(100 * r.peak_slip_cut, '.0f')} % | "
+             f"{f(r.energy_off, '.0f')} -> {f(r.energy_on, '.0f')} | "
+             f"{f(100 * r.energy_cut, '.1f')} % | {f(r.time_to_speed_off, '.2f')} -> "
+             f"{f(r.time_to_speed_on, '.2f')} | {f(100 * r.time_increase, '.0f')} % | "
+             f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')} | "
+             f"{f(r.steady_within_0_02_on, '.2f')} |" for r in table.itertuples()]
+    return head + "\n".join(lines) + "\n"
