@@ -121,3 +121,23 @@ def test_bad_rate_and_vehicle():
         make_hook(sensors, lambda o: None, 0.0)
     with pytest.raises(ConfigError):
         estimator_for("tracked")
+
+
+def test_control_sim_command_writes_the_json_fields(tmp_path):
+    import json
+
+    from terrain.cli import main
+
+    out, trace = tmp_path / "r.json", tmp_path / "t.csv"
+    assert main(["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
+                 "straight_accel", "--controller", "traction", "--seed", "2",
+                 "--duration-s", "3", "--json", str(out), "--csv", str(trace)]) == 0
+    r = json.loads(out.read_text())
+    for key in ("slip_rmse", "peak_slip", "time_to_speed_s", "energy_j_per_m", "distance_m",
+                "mean_speed_m_s", "terrain_accuracy", "terrain_source", "estimator_limits"):
+        assert key in r
+    assert r["terrain_source"].startswith("label")
+    assert 0.0 < r["peak_slip"] <= 1.0 and r["distance_m"] > 1.0
+    assert trace.read_text().startswith("t_s,v_true_m_s,slip_true_1")
+    assert main(["control-sim", "--vehicle", "husky", "--terrain", "MUD", "--scenario",
+                 "straight_accel", "--controller", "off", "--json", str(out)]) == 2
