@@ -375,7 +375,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``), ``distance_m``,
         ``mean_speed_m_s``, ``steady_slip_error_max`` / ``steady_slip_within_0_02``
         (|slip - target| in steady driving after cruise, where enabled), ``safe_fraction``,
-        ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy``.
+        ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control steps whose decision
+        equals the true terrain; no decision counts as wrong), ``terrain_decisions`` (control
+        steps per decided class, ``NONE`` = no decision yet).
     """
     phys = sim.physics
     vehicle = get_vehicle(sim.config.vehicle)
@@ -440,6 +442,8 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "safe_fraction": float(np.mean(safe)),
         "speed_estimate_rmse_m_s": float(np.sqrt(np.mean((v_est - v_true) ** 2))),
         "terrain_accuracy": float(np.mean(decided == truth_names)),
+        "terrain_decisions": {str(k): int(v) for k, v in zip(*np.unique(decided,
+                                                                        return_counts=True))},
         "bus_voltage_v": bus_voltage_v,
     }
 
