@@ -531,7 +531,9 @@ def trace_frame(sim: Simulation, loop: TractionLoop):
     Parameters
     ----------
     sim : Simulation
+        The closed-loop (or shadow-mode) run with its physics.
     loop : TractionLoop
+        The loop that ran in it (its ``log``, one record per control call).
 
     Returns
     -------
