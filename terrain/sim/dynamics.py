@@ -9,6 +9,10 @@ limit, speed-controlled motors as first-order lags with speed limits) and integr
 equations ``M dV/dt = F(V) + Coriolis`` with one Newton step per time step (linearly implicit
 Euler), ``(M - dt J) dV = dt F(V)``, ``J = dF/dV`` analytic, which is stable at 100 Hz.
 
+Closed loop: an optional hook (:data:`ControlHook`) sees the plant after every step and
+returns a wheel speed correction held until its next return (:mod:`terrain.sim.closed_loop`
+puts the robot's sensors between the two); without a hook nothing changes.
+
 Simplifications (stated): static normal loads (no load transfer), mass concentrated at the
 body origin, speed-controlled motors as first-order lags with speed limits.
 """
