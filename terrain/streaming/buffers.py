@@ -94,3 +94,17 @@ class RingBuffer:
         t = self._t[idx]
         start = max(0, int(np.searchsorted(t, t_min_s, side="left")) - 1)
         return t[start:], self._v[idx[start:]]
+
+    def median_step(self, last: int = 64) -> float:
+        """Median time step of the newest ``last`` samples, s (``nan`` with < 2 samples).
+
+        Parameters
+        ----------
+        last : int
+            Samples looked at.
+        """
+        m = min(self._size, last)
+        if m < 2:
+            return float("nan")
+        idx = (self._next - m + np.arange(m)) % self.capacity
+        return float(np.median(np.diff(self._t[idx])))

@@ -5,7 +5,7 @@ its own clock (an optional per-stream offset maps it onto the service clock). Ea
 keeps a bounded :class:`~terrain.streaming.buffers.RingBuffer`, so memory is fixed for an
 unbounded stream. Every ``hop_s`` of service time the service
 
-1. takes the last ``window_s`` (+ one sample either side) of every needed stream,
+1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns them with the project's alignment step (:func:`terrain.io.align.align_streams`),
    adds the derived wheel channels (:func:`features.windows.add_derived_channels`) and
    keeps the last window of the model's length,
@@ -110,7 +110,8 @@ class Decision:
     target_slip_traction, target_slip_braking, target_slip_steady : float
         Slip targets from the provider (dimensionless SAE slip).
     window_age_s : float
-        ``t_s`` minus the time of the last aligned sample the decision rests on, s.
+        ``t_s`` minus the end of the window the decision rests on (its last aligned sample
+        plus one period), s; 0 when the window reaches ``t_s``.
     flags : str
         ``|``-separated flags (see module docstring); empty when clean.
     """
@@ -252,13 +253,17 @@ class StreamService:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
         w = self.model.window
         lo = t - w.window_s - 2.0 / w.rate_hz
-        frames = {}
+        frames, gap = {}, False
         for s, buf in self._buffers.items():
             ts, vs = buf.since(lo)
             cut = int(np.searchsorted(ts, t, side="right")) + 1  # one sample past t
             ts, vs = ts[:cut], vs[:cut]
             if len(ts) < 2:
                 return None, np.inf, {"short"}
+            # a gap is judged against the stream's usual step (the readers' rule), not the
+            # few samples of one window, which a long gap would dominate
+            if (np.diff(ts) > self.config.gap_factor * buf.median_step()).any():
+                gap = True
             frames[s] = pd.DataFrame(vs, columns=list(self.streams[s])).assign(**{TIME: ts})
         frames = {s: f[[TIME] + list(self.streams[s])] for s, f in frames.items()}
         run = Run("stream", "stream", None, frames)
@@ -266,14 +271,17 @@ class StreamService:
             aligned = align_streams(run, tuple(frames), w.rate_hz, self.config.gap_factor)
         except DataFormatError:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
-        aligned = aligned[aligned[TIME] <= t + 1e-9]
+        # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s)
+        aligned = aligned[aligned[TIME] < t - 1e-9]
+        period = 1.0 / w.rate_hz
         if len(aligned) < self._n:
-            age = t - float(aligned[TIME].iloc[-1]) if len(aligned) else np.inf
+            age = max(0.0, t - float(aligned[TIME].iloc[-1]) - period) if len(aligned) \
+                else np.inf
             return None, age, {"short"}
         aligned = add_derived_channels(aligned.iloc[-self._n:])
-        age = t - float(aligned[TIME].iloc[-1])
+        age = max(0.0, t - float(aligned[TIME].iloc[-1]) - period)
         X = aligned[list(self.model.channels)].to_numpy(dtype=float).T[None]
-        if not np.isfinite(X).all():
+        if gap or not np.isfinite(X).all():
             return None, age, {"gap"}
         return X, age, set()
 
@@ -284,7 +292,7 @@ class StreamService:
             flags.add("stale")
         t_lo = t - self.model.window.window_s
         for ev in self._events.values():
-            flags.update(reason for et, reason in ev if t_lo <= et <= t)
+            flags.update(reason for et, reason in ev if t_lo <= et < t)
         q = None
         if X is not None:
             raw = self.model.pipeline.predict_proba(X)[0]
