@@ -1,26 +1,29 @@
 """Wheel-only features that carry the drive physics of a skid-steer robot.
 
 For robots that log no IMU, the terrain shows in how much motor current the drive needs for
-the motion it makes. On level ground a DC drive's current is proportional to the wheel
-torque, and the torque balances rolling/soil resistance, inertia and, for a skid-steer,
-the turning-resistance moment (Wong, *Theory of Ground Vehicles*, 4th ed., ch. 7.2,
-eq. 7.40: ``M_r = mu_lat W L / 4``, see
-:func:`terrain.terramechanics.turning_resistance_moment_nm`). With
-``v = (v_L + v_R)/2`` (m/s), ``a = dv/dt`` (m/s^2), the commanded yaw rate
-``omega = (v_R - v_L)/B`` (rad/s) and a smooth sign ``sgn(x) = tanh(x / x0)``, each window
-is fitted by ridge least squares to the two current balances::
+the motion it makes. A DC drive's current magnitude grows with the wheel torque (the
+BorealTC / Husky currents are magnitudes, >= 0), and on level ground the torque balances
+rolling/soil resistance, inertia and, for a skid-steer, the turning-resistance moment of
+Coulomb-like lateral friction (Wong, *Theory of Ground Vehicles*, 4th ed., ch. 7.2,
+eq. 7.40: ``M_r = mu_lat W L / 4``, independent of the yaw rate once the wheels skid; see
+:func:`terrain.terramechanics.turning_resistance_moment_nm`). With ``v = (v_L + v_R)/2``
+(m/s), ``a = dv/dt`` (m/s^2), the commanded yaw rate ``omega = (v_R - v_L)/B`` (rad/s) and
+the saturating motion indicators ``m_v = tanh(|v| / v0)``, ``m_w = tanh(|omega| / w0)``,
+each window is fitted by ridge least squares to two current balances::
 
-    I_L + I_R = b0 sgn(v) + b1 a + b2 |omega| + e_sum      (longitudinal)
-    I_R - I_L = d0 sgn(omega) + d1 omega + e_diff          (turning)
+    I_L + I_R = c0 + c1 m_v + c2 |a| + c3 m_w + e_sum              (magnitudes)
+    I_R - I_L = d0 sgn(omega) m_v + d1 omega + e_diff              (arcs)
 
-``b0`` is the current the terrain's motion resistance costs (A), ``b1`` the current per unit
-acceleration (inertia plus slip, A s^2/m), ``b2`` and ``d0`` the turning-resistance currents
-(A; ``d0`` scales with the lateral friction ``mu_lat`` of the terrain), ``d1`` a viscous
-term (A s/rad). Beside the coefficients come the residual spreads (unexplained current,
-rough ground), current per unit speed and per unit yaw-rate command, and the operating
-point (speed, yaw rate, acceleration levels) the classifier needs to read the currents in
-context. Every feature is computed over the whole window and over its last ``short_s``
-seconds (two time scales). Names follow ``<signal>__<feature>[__<param>]``.
+``c0`` is the no-load current (A), ``c1`` the current the terrain's motion resistance costs
+when driving (A), ``c2`` the current per unit acceleration (inertia plus slip, A s^2/m),
+``c3`` the current of skidding round (turning resistance, A: in-place turns load both
+sides), ``d0`` the side-to-side current of turning on an arc (A, it scales with
+``mu_lat``), ``d1`` a viscous term (A s/rad). Beside the coefficients come the residual
+spreads (unexplained current, rough ground), the mean current while turning and while
+driving straight, current per unit speed and per unit yaw-rate command, quantiles and the
+operating point (speed, yaw-rate, acceleration levels) the classifier needs to read the
+currents in context. Every feature is computed over the whole window and over its last
+``short_s`` seconds (two time scales). Names follow ``<signal>__<feature>[__<param>]``.
 """
 
 from __future__ import annotations
@@ -35,9 +38,10 @@ from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
 PHYSICS_FEATURES = (
-    "cur_sum__rolling_a", "cur_sum__inertia_a_s2_per_m", "cur_sum__turn_a",
-    "cur_sum__resid_std_a", "cur_diff__turn_a", "cur_diff__viscous_a_s_per_rad",
-    "cur_diff__resid_std_a", "cur_sum__per_speed", "cur_diff__per_yaw_rate",
+    "cur_sum__noload_a", "cur_sum__drive_a", "cur_sum__inertia_a_s2_per_m",
+    "cur_sum__turn_a", "cur_sum__resid_std_a", "cur_diff__arc_turn_a",
+    "cur_diff__viscous_a_s_per_rad", "cur_diff__resid_std_a", "cur_sum__turning_mean_a",
+    "cur_sum__straight_mean_a", "cur_sum__per_speed", "cur_sum__per_yaw_rate",
     "cur_sum__q10", "cur_sum__q50", "cur_sum__q90", "cur_diff_abs__q50", "cur_diff_abs__q90",
     "cur_sum__ripple_a", "vel_mean__abs_mean", "vel_mean__std", "yaw_rate_cmd__abs_mean",
     "yaw_rate_cmd__std", "accel__abs_mean", "moving__fraction", "turning__fraction",
@@ -87,10 +91,10 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     track_m : float
         Track width B, m (Husky A200 by default).
     speed_scale_m_s : float
-        Speed below which ``sgn(v)`` fades to 0 and the robot counts as standing, m/s.
+        Speed scale ``v0`` of ``m_v``; below it the robot counts as standing, m/s.
     yaw_scale_rad_s : float
-        Yaw-rate command below which ``sgn(omega)`` fades and the robot counts as going
-        straight, rad/s.
+        Yaw-rate scale ``w0`` of ``m_w``; below it the robot counts as going straight,
+        rad/s.
     ridge : float
         Ridge weight of the fits (per sample, squared regressor units).
 
@@ -103,18 +107,25 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     omega = (vel_r - vel_l) / track_m
     i_sum, i_diff = cur_l + cur_r, cur_r - cur_l
     acc = np.gradient(v, 1.0 / rate_hz, axis=1) if v.shape[1] > 1 else np.zeros_like(v)
-    sv, so = np.tanh(v / speed_scale_m_s), np.tanh(omega / yaw_scale_rad_s)
-    b, e_sum = ridge_fit(i_sum, np.stack([sv, acc, np.abs(omega)], axis=-1), ridge)
-    d, e_diff = ridge_fit(i_diff, np.stack([so, omega], axis=-1), ridge)
     abs_v, abs_o = np.abs(v), np.abs(omega)
-    per_speed = i_sum.mean(1) / np.maximum(abs_v.mean(1), speed_scale_m_s)
-    per_yaw = (i_diff * so).mean(1) / np.maximum(abs_o.mean(1), yaw_scale_rad_s)
+    m_v, m_w = np.tanh(abs_v / speed_scale_m_s), np.tanh(abs_o / yaw_scale_rad_s)
+    c, e_sum = ridge_fit(i_sum, np.stack([np.ones_like(v), m_v, np.abs(acc), m_w], axis=-1),
+                         ridge)
+    d, e_diff = ridge_fit(i_diff, np.stack([np.sign(omega) * m_v, omega], axis=-1), ridge)
+    # mean current while turning / while driving straight, shrunk to the window mean when
+    # the window holds (almost) none of that motion (1 sample's weight)
+    w_turn, w_straight = m_w, m_v * (1.0 - m_w)
+    mean_all = i_sum.mean(1)
+    turning = ((w_turn * i_sum).sum(1) + mean_all) / (w_turn.sum(1) + 1.0)
+    straight = ((w_straight * i_sum).sum(1) + mean_all) / (w_straight.sum(1) + 1.0)
+    per_speed = mean_all / np.maximum(abs_v.mean(1), speed_scale_m_s)
+    per_yaw = mean_all / np.maximum(abs_o.mean(1), yaw_scale_rad_s)
     q_sum = np.quantile(i_sum, [0.1, 0.5, 0.9], axis=1)
     q_diff = np.quantile(np.abs(i_diff), [0.5, 0.9], axis=1)
     ripple = np.diff(i_sum, axis=1).std(axis=1) if i_sum.shape[1] > 2 else np.zeros(len(v))
-    cols = [b[:, 0], b[:, 1], b[:, 2], e_sum, d[:, 0], d[:, 1], e_diff, per_speed, per_yaw,
-            q_sum[0], q_sum[1], q_sum[2], q_diff[0], q_diff[1], ripple, abs_v.mean(1),
-            v.std(1), abs_o.mean(1), omega.std(1), np.abs(acc).mean(1),
+    cols = [c[:, 0], c[:, 1], c[:, 2], c[:, 3], e_sum, d[:, 0], d[:, 1], e_diff, turning,
+            straight, per_speed, per_yaw, q_sum[0], q_sum[1], q_sum[2], q_diff[0], q_diff[1],
+            ripple, abs_v.mean(1), v.std(1), abs_o.mean(1), omega.std(1), np.abs(acc).mean(1),
             (abs_v > speed_scale_m_s).mean(1), (abs_o > yaw_scale_rad_s).mean(1)]
     return np.stack(cols, axis=1)
 

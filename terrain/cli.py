@@ -30,6 +30,7 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "audit": "pipelines.audit",
     "estimate": "pipelines.estimate",
     "stream": "pipelines.stream",
+    "stream-eval": "pipelines.stream_eval",
 })
 
 

@@ -15,7 +15,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from types import MappingProxyType
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -23,11 +24,16 @@ from sklearn.pipeline import FeatureUnion, Pipeline
 
 from features.transformers import WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
+from features.windows import WindowConfig, make_windows
 from terrain.errors import ConfigError
 from terrain.models.cv import iter_splits
 from terrain.models.svm import SVMConfig, make_svm
 from terrain.run import TIME, Run
+from terrain.streaming.model import StreamModel
+from terrain.streaming.replay import replay_run
+from terrain.streaming.service import StreamConfig, StreamService
 from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
+from terrain.streaming.targets import CataloguePeakTargets
 
 
 def wheel_features(channels: tuple[str, ...], rate_hz: float,
@@ -275,3 +281,268 @@ def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
         sel = (t_s >= a) & (t_s < a + seg.duration_s) & (decided == seg.terrain)
         delays.append(float(t_s[sel][0] - a) if sel.any() else np.inf)
     return np.asarray(delays)
+
+
+#: Model kinds of the held-out stream evaluation: window settings and feature set.
+STREAM_MODEL_KINDS = ("all", "wheels")
+
+
+@dataclass(frozen=True)
+class ModelRecipe:
+    """How a streaming model is trained (one per kind).
+
+    Parameters
+    ----------
+    signals : str
+        Signal set (``all`` or ``wheels``).
+    window_s : float
+        Window length, s.
+    rate_hz : float
+        Aligned clock rate, Hz.
+    train_hop_s : float
+        Hop of the training windows, s.
+    physics : bool
+        Add the wheel-physics features (wheel-only recipe).
+    """
+
+    signals: str
+    window_s: float
+    rate_hz: float
+    train_hop_s: float
+    physics: bool
+
+
+#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); wheels: 8 s of
+#: history at 10 Hz with the physics features (chosen run-grouped, see docs/streaming.md).
+RECIPES = MappingProxyType({
+    "all": ModelRecipe("all", 2.0, 100.0, 2.0, False),
+    "wheels": ModelRecipe("wheels", 8.0, 10.0, 2.0, True),
+})
+
+
+def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) -> StreamModel:
+    """Fit a streaming model on labelled runs.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+    runs : sequence of Run
+        Training runs (labelled).
+    seed : int
+        Seed of the classifier.
+
+    Returns
+    -------
+    StreamModel
+    """
+    window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
+                          rate_hz=recipe.rate_hz)
+    ws = make_windows(runs, recipe.signals, window)
+    svm = SVMConfig(probability=True)
+    if recipe.physics:
+        pipe = wheel_feature_pipeline(ws.channels, recipe.rate_hz, 2.0, svm, seed)
+    else:
+        pipe = Pipeline([("features", WindowFeatures(channels=ws.channels,
+                                                     rate_hz=recipe.rate_hz))]
+                        + make_svm(svm, seed).steps)
+    labels = ws.labels.astype(str)
+    pipe.fit(ws.X, labels)
+    return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
+                                                       rate_hz=recipe.rate_hz),
+                       tuple(sorted(np.unique(labels).tolist())))
+
+
+def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Replay ``run`` through an unsmoothed service; per-decision classifier probabilities.
+
+    Parameters
+    ----------
+    model : StreamModel
+    run : Run
+    hop_s : float
+        Decision hop, s.
+
+    Returns
+    -------
+    t_s : numpy.ndarray
+        ``(n,)`` decision times, s.
+    proba : numpy.ndarray
+        ``(n, n_classes)`` classifier probabilities; NaN rows where the window was invalid
+        (gap, too short), which the filter treats as prediction-only steps.
+    """
+    svc = StreamService(model, CataloguePeakTargets(model.classes),
+                        StreamConfig(hop_s=hop_s, smoothing=SmoothingConfig(dwell_s=None)))
+    decisions = replay_run(svc, run)
+    t = np.array([d.t_s for d in decisions])
+    proba = np.array([d.proba for d in decisions]).reshape(len(decisions), -1)
+    invalid = np.array([("gap" in d.flags) or ("short" in d.flags) for d in decisions],
+                       dtype=bool)
+    proba[invalid] = np.nan
+    return t, proba
+
+
+def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) -> np.ndarray:
+    """Decided class index of each step of one stream (``-1`` before any valid window).
+
+    Parameters
+    ----------
+    proba : numpy.ndarray
+        ``(n, n_classes)``; NaN rows are invalid windows.
+    hop_s : float
+        Step, s.
+    config : SmoothingConfig
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` int.
+    """
+    filt = ForwardFilter(proba.shape[1], hop_s, config)
+    out = np.full(len(proba), -1)
+    for i, q in enumerate(proba):
+        decided = filt.update(None if np.isnan(q).any() else q)[0]
+        out[i] = -1 if decided is None else decided
+    return out
+
+
+@dataclass(frozen=True)
+class StreamScore:
+    """Score of decisions on a concatenated stream.
+
+    Parameters
+    ----------
+    accuracy : float
+        Share of decisions (inside a piece) naming the piece's terrain.
+    delays_s : tuple of float
+        Switching delay of every terrain switch, s (``inf``: never followed).
+    n_decisions : int
+        Decisions scored.
+    """
+
+    accuracy: float
+    delays_s: tuple[float, ...]
+    n_decisions: int
+
+    @property
+    def median_delay_s(self) -> float:
+        """Median switching delay, s."""
+        return float(np.median(self.delays_s)) if self.delays_s else float("nan")
+
+
+def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarray
+                 ) -> StreamScore:
+    """Accuracy and switching delays of decisions on a concatenated stream.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+    t_s : numpy.ndarray
+        ``(n,)`` decision times, s.
+    decided : numpy.ndarray
+        ``(n,)`` decided terrain names (object; ``None`` before any decision).
+
+    Returns
+    -------
+    StreamScore
+    """
+    truth = truth_at(segments, t_s)
+    sel = truth != None  # noqa: E711 (element-wise)
+    acc = float((decided[sel] == truth[sel]).mean()) if sel.any() else float("nan")
+    return StreamScore(acc, tuple(switching_delays(segments, t_s, decided)), int(sel.sum()))
+
+
+def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
+                     smoothings: Mapping[str, SmoothingConfig], hop_s: float = 0.5,
+                     n_splits: int = 5) -> pd.DataFrame:
+    """Train on 4/5 of the runs, replay the held-out fifth as one concatenated stream.
+
+    Runs are split by ``StratifiedGroupKFold`` over runs (one group per run, seeded); each
+    fold's test runs are strung together by :func:`concatenated_streams` (switches every
+    30-120 s) and replayed sample by sample through the service.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Labelled runs.
+    recipe : ModelRecipe
+    seed : int
+        Seed of the folds, the stream and the classifier.
+    smoothings : Mapping[str, SmoothingConfig]
+        Named smoothing settings to score on the same replayed decisions.
+    hop_s : float
+        Decision hop, s.
+    n_splits : int
+        Folds.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per fold and smoothing: ``fold, smoothing, accuracy, median_delay_s,
+        n_switches, n_decisions, delays_s``.
+    """
+    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    usable = [r for r in runs if all(s in r.streams for s in need)]
+    labels = np.array([r.terrain for r in usable], dtype=object)
+    ids = np.array([r.run_id for r in usable], dtype=object)
+    rows = []
+    for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, n_splits)):
+        model = fit_stream_model(recipe, [usable[i] for i in train], seed)
+        stream, segments = concatenated_streams([usable[i] for i in test], need,
+                                                seed * 100 + fold)
+        t, proba = raw_decisions(model, stream, hop_s)
+        names = np.array(list(model.classes) + [None], dtype=object)
+        for name, config in smoothings.items():
+            decided = names[filter_sequence(proba, hop_s, config)]
+            score = score_stream(segments, t, decided)
+            rows.append({"fold": fold, "smoothing": name, "accuracy": score.accuracy,
+                         "median_delay_s": score.median_delay_s,
+                         "n_switches": len(score.delays_s), "n_decisions": score.n_decisions,
+                         "delays_s": list(score.delays_s)})
+    return pd.DataFrame(rows)
+
+
+def wheel_window_cv(runs: Sequence[Run], window_s: float, hop_s: float, seeds: Sequence[int],
+                    smoothings: Mapping[str, SmoothingConfig], rate_hz: float = 10.0,
+                    n_splits: int = 5) -> dict:
+    """Run-grouped wheel-only window accuracy with the physics features, seeds pooled.
+
+    Features are computed once (the extractor is stateless); scaler and SVM are fitted per
+    training fold; probabilities are then filtered causally along each test run.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Labelled runs.
+    window_s, hop_s : float
+        Window (history) length and hop, s.
+    seeds : sequence of int
+        Fold seeds.
+    smoothings : Mapping[str, SmoothingConfig]
+        Named smoothing settings (``dwell_s=None`` = raw windows).
+    rate_hz : float
+        Aligned clock rate, Hz.
+    n_splits : int
+        Folds.
+
+    Returns
+    -------
+    dict
+        ``n_windows``, ``n_runs``, ``pooled_accuracy`` (smoothing -> accuracy over all
+        seeds' out-of-fold windows) and ``by_seed``.
+    """
+    ws = make_windows(runs, "wheels", WindowConfig(window_s=window_s, hop_s=hop_s,
+                                                   rate_hz=rate_hz))
+    labels = ws.labels.astype(str)
+    F = wheel_features(ws.channels, rate_hz).fit(ws.X).transform(ws.X)
+    by_seed: dict[str, list[float]] = {name: [] for name in smoothings}
+    for seed in seeds:
+        proba, classes = grouped_oof_proba(
+            lambda s: make_svm(SVMConfig(probability=True), s), F, labels, ws.run_ids, seed,
+            n_splits)
+        names = np.asarray(classes, dtype=object)
+        for name, config in smoothings.items():
+            decided = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, hop_s, config)]
+            by_seed[name].append(float((decided == labels).mean()))
+    return {"n_windows": len(ws), "n_runs": int(len(np.unique(ws.run_ids))),
+            "pooled_accuracy": {k: float(np.mean(v)) for k, v in by_seed.items()},
+            "by_seed": by_seed}
