@@ -1,25 +1,31 @@
 """Evaluate streaming terrain decisions run-grouped (wheel-only window CV, held-out streams).
 
 * wheel-cv: wheel-only (vel_l, vel_r, cur_l, cur_r) window accuracy on BorealTC with the
-  drive-physics features, StratifiedGroupKFold(5) grouped by run, seeds pooled; decisions
-  every --hop-s with --window-s of history, raw and after the forward filter.
+  drive-physics features and extremely randomised trees, StratifiedGroupKFold(5) grouped by
+  run, seeds pooled; decisions every --hop-s with --window-s of history, raw and after the
+  forward filter.
 * streams: for each fold, runs held out of training are strung into one stream of terrain
   switches every 30-120 s (seeded) and replayed sample by sample through the service;
   per-decision accuracy and median switching delay for the wheel-only and the all-signal
   model, for several smoothing settings.
-Results are logged to MLflow (experiment terrain-stream-eval).
+Results are logged to MLflow (experiment terrain-stream-eval). --model-out saves the
+streaming models fitted on every run (model directories for ``terrain stream``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from terrain.io.shipped import load_dataset
-from terrain.streaming.evaluation import RECIPES, held_out_streams, wheel_window_cv
+from terrain.serving import save_model
+from terrain.streaming.evaluation import (RECIPES, fit_stream_model, held_out_streams,
+                                          window_cv)
 from terrain.streaming.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -32,7 +38,11 @@ SMOOTHINGS = {"raw": SmoothingConfig(dwell_s=None),
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain stream-eval``."""
-    parser.add_argument("--part", choices=["wheel-cv", "streams", "both"], default="both")
+    parser.add_argument("--part", choices=["wheel-cv", "streams", "both", "none"],
+                        default="both")
+    parser.add_argument("--model-out", type=Path, default=None,
+                        help="also fit each --kinds recipe on every BorealTC run and save it "
+                             "to DIR/<kind> (a model directory for terrain stream)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES), default=list(RECIPES),
                         help="models of the held-out stream evaluation")
@@ -49,13 +59,15 @@ def main(args: argparse.Namespace) -> int:
                      params={"part": args.part, "seeds": ",".join(map(str, args.seeds)),
                              "window_s": args.window_s, "hop_s": args.hop_s}) as run:
         if args.part in ("wheel-cv", "both"):
-            cv = wheel_window_cv(runs, args.window_s, args.hop_s, args.seeds, SMOOTHINGS)
+            recipe = replace(RECIPES["wheels"], window_s=args.window_s)
+            cv = window_cv(runs, recipe, args.hop_s, args.seeds, SMOOTHINGS)
             report["wheel_cv"] = cv
             run.log_metrics({f"wheel_cv_{k}": v for k, v in cv["pooled_accuracy"].items()})
             for name, acc in cv["pooled_accuracy"].items():
                 print(f"wheel-only window accuracy ({cv['n_windows']} windows of "
                       f"{args.window_s:g} s every {args.hop_s:g} s, {len(args.seeds)} seeds "
-                      f"pooled), {name}: {acc:.3f}")
+                      f"pooled), {name}: {acc:.3f} (mean over runs "
+                      f"{cv['run_mean_accuracy'][name]:.3f})")
         if args.part in ("streams", "both"):
             for kind in args.kinds:
                 frames = [held_out_streams(runs, RECIPES[kind], seed, SMOOTHINGS)
@@ -74,6 +86,12 @@ def main(args: argparse.Namespace) -> int:
                     print(f"held-out streams, {kind}, {name}: per-decision accuracy {acc:.3f}, "
                           f"median switching delay {med:.1f} s ({delays.size} switches)")
                 report[f"streams_{kind}"] = summary
+        for kind in args.kinds if args.model_out else []:
+            model = fit_stream_model(RECIPES[kind], runs)
+            path = save_model(args.model_out / kind, model.pipeline, model.channels,
+                              model.window, list(model.classes),
+                              {"dataset": "borealtc", "recipe": str(RECIPES[kind])})
+            print(f"saved the {kind} streaming model to {path}")
         run.log_dict(report, "stream_eval.json")
     print(json.dumps(report, indent=1, default=str)[:2000])
     print(run.describe())

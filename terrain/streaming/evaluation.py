@@ -1,8 +1,10 @@
 """Evaluation of streaming terrain decisions, grouped by run.
 
-* :func:`wheel_feature_pipeline` is the wheel-only classifier: window statistics
-  (:class:`features.transformers.WindowFeatures`) plus the drive-physics features
-  (:class:`features.wheel_physics.WheelPhysicsFeatures`) into the project's SVM.
+* :class:`ModelRecipe` / :data:`RECIPES` say how the streaming models are trained: the
+  all-signal model is the ``terrain train`` one (window statistics + SVM); the wheel-only
+  one uses the drive-physics features (:class:`features.wheel_physics.WheelPhysicsFeatures`)
+  with extremely randomised trees; :func:`fit_stream_model` fits one, :func:`window_cv`
+  scores one run-grouped.
 * :func:`grouped_oof_proba` gives out-of-fold class probabilities with
   ``StratifiedGroupKFold`` grouped by run (:func:`terrain.models.cv.iter_splits`), and
   :func:`smooth_runs` runs the causal forward filter along each run's windows, so per-window
@@ -20,6 +22,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from sklearn.ensemble import ExtraTreesClassifier
 from sklearn.pipeline import FeatureUnion, Pipeline
 
 from features.transformers import WindowFeatures
@@ -56,28 +59,6 @@ def wheel_features(channels: tuple[str, ...], rate_hz: float,
     return FeatureUnion([("stats", WindowFeatures(channels=channels, rate_hz=rate_hz)),
                          ("physics", WheelPhysicsFeatures(channels=channels, rate_hz=rate_hz,
                                                           short_s=short_s))])
-
-
-def wheel_feature_pipeline(channels: tuple[str, ...], rate_hz: float,
-                           short_s: float | None = 2.0, svm: SVMConfig = SVMConfig(),
-                           random_state: int = 0) -> Pipeline:
-    """Unfitted ``features -> scaler -> SVC`` pipeline taking raw wheel windows.
-
-    Parameters
-    ----------
-    channels, rate_hz, short_s
-        See :func:`wheel_features`.
-    svm : SVMConfig
-        Classifier settings (``probability=True`` for serving).
-    random_state : int
-        Seed of the SVC.
-
-    Returns
-    -------
-    sklearn.pipeline.Pipeline
-    """
-    return Pipeline([("features", wheel_features(channels, rate_hz, short_s))]
-                    + make_svm(svm, random_state).steps)
 
 
 def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels: np.ndarray,
@@ -283,45 +264,113 @@ def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
     return np.asarray(delays)
 
 
-#: Model kinds of the held-out stream evaluation: window settings and feature set.
-STREAM_MODEL_KINDS = ("all", "wheels")
+#: Feature sets and classifiers a recipe may name.
+FEATURE_SETS = ("stats", "physics", "stats+physics")
+CLASSIFIERS = ("svm", "extra_trees")
 
 
 @dataclass(frozen=True)
 class ModelRecipe:
-    """How a streaming model is trained (one per kind).
+    """How a streaming model is trained.
 
     Parameters
     ----------
     signals : str
         Signal set (``all`` or ``wheels``).
     window_s : float
-        Window length, s.
+        Window (history) length, s.
     rate_hz : float
         Aligned clock rate, Hz.
     train_hop_s : float
         Hop of the training windows, s.
-    physics : bool
-        Add the wheel-physics features (wheel-only recipe).
+    features : {"stats", "physics", "stats+physics"}
+        Window statistics (:class:`~features.transformers.WindowFeatures`), the wheel
+        physics features, or both.
+    classifier : {"svm", "extra_trees"}
+        The project's SVM (:func:`terrain.models.svm.make_svm`, Platt-calibrated) or
+        extremely randomised trees (:func:`extra_trees`).
+    n_trees : int
+        Trees of ``extra_trees``.
     """
 
     signals: str
     window_s: float
     rate_hz: float
     train_hop_s: float
-    physics: bool
+    features: str = "stats"
+    classifier: str = "svm"
+    n_trees: int = 300
+
+    def __post_init__(self) -> None:
+        if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
+            raise ConfigError(f"recipe features must be one of {FEATURE_SETS} and classifier "
+                              f"one of {CLASSIFIERS}")
 
 
-#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); wheels: 8 s of
-#: history at 10 Hz with the physics features (chosen run-grouped, see docs/streaming.md).
+#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); wheels: 4 s of
+#: history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped, see
+#: docs/streaming.md).
 RECIPES = MappingProxyType({
-    "all": ModelRecipe("all", 2.0, 100.0, 2.0, False),
-    "wheels": ModelRecipe("wheels", 8.0, 10.0, 2.0, True),
+    "all": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "svm"),
+    "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees"),
 })
 
 
+def extra_trees(n_trees: int = 300, random_state: int = 0) -> ExtraTreesClassifier:
+    """Extremely randomised trees (Geurts et al., Machine Learning 63, 2006), class-balanced.
+
+    Parameters
+    ----------
+    n_trees : int
+        Number of trees.
+    random_state : int
+        Seed.
+
+    Returns
+    -------
+    sklearn.ensemble.ExtraTreesClassifier
+        ``min_samples_leaf=3``, ``max_features=0.3``, ``class_weight="balanced"``.
+    """
+    return ExtraTreesClassifier(n_trees, min_samples_leaf=3, max_features=0.3,
+                                class_weight="balanced", n_jobs=1, random_state=random_state)
+
+
+def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...]):
+    """Stateless feature transformer of a recipe.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+    channels : tuple of str
+        Window channel order.
+
+    Returns
+    -------
+    sklearn transformer
+    """
+    if recipe.features == "stats":
+        return WindowFeatures(channels=channels, rate_hz=recipe.rate_hz)
+    if recipe.features == "physics":
+        return WheelPhysicsFeatures(channels=channels, rate_hz=recipe.rate_hz)
+    return wheel_features(channels, recipe.rate_hz)
+
+
+def recipe_classifier(recipe: ModelRecipe, random_state: int = 0):
+    """Unfitted classifier (with ``predict_proba``) of a recipe.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+    random_state : int
+        Seed.
+    """
+    if recipe.classifier == "extra_trees":
+        return extra_trees(recipe.n_trees, random_state)
+    return make_svm(SVMConfig(probability=True), random_state)
+
+
 def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) -> StreamModel:
-    """Fit a streaming model on labelled runs.
+    """Fit a streaming model (features + classifier on raw windows) on labelled runs.
 
     Parameters
     ----------
@@ -338,13 +387,8 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
                           rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
-    svm = SVMConfig(probability=True)
-    if recipe.physics:
-        pipe = wheel_feature_pipeline(ws.channels, recipe.rate_hz, 2.0, svm, seed)
-    else:
-        pipe = Pipeline([("features", WindowFeatures(channels=ws.channels,
-                                                     rate_hz=recipe.rate_hz))]
-                        + make_svm(svm, seed).steps)
+    pipe = Pipeline([("features", recipe_features(recipe, ws.channels)),
+                     ("classifier", recipe_classifier(recipe, seed))])
     labels = ws.labels.astype(str)
     pipe.fit(ws.X, labels)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
@@ -501,26 +545,26 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
     return pd.DataFrame(rows)
 
 
-def wheel_window_cv(runs: Sequence[Run], window_s: float, hop_s: float, seeds: Sequence[int],
-                    smoothings: Mapping[str, SmoothingConfig], rate_hz: float = 10.0,
-                    n_splits: int = 5) -> dict:
-    """Run-grouped wheel-only window accuracy with the physics features, seeds pooled.
+def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Sequence[int],
+              smoothings: Mapping[str, SmoothingConfig], n_splits: int = 5) -> dict:
+    """Run-grouped window accuracy of a recipe, seeds pooled, raw and smoothed.
 
-    Features are computed once (the extractor is stateless); scaler and SVM are fitted per
-    training fold; probabilities are then filtered causally along each test run.
+    Features are computed once (the extractors are stateless); the classifier is fitted
+    per training fold (StratifiedGroupKFold grouped by run); probabilities are then
+    filtered causally along each test run.
 
     Parameters
     ----------
     runs : sequence of Run
         Labelled runs.
-    window_s, hop_s : float
-        Window (history) length and hop, s.
+    recipe : ModelRecipe
+        Signals, window (history) length, rate, features and classifier.
+    hop_s : float
+        Hop between windows (decisions), s.
     seeds : sequence of int
         Fold seeds.
     smoothings : Mapping[str, SmoothingConfig]
         Named smoothing settings (``dwell_s=None`` = raw windows).
-    rate_hz : float
-        Aligned clock rate, Hz.
     n_splits : int
         Folds.
 
@@ -528,21 +572,24 @@ def wheel_window_cv(runs: Sequence[Run], window_s: float, hop_s: float, seeds: S
     -------
     dict
         ``n_windows``, ``n_runs``, ``pooled_accuracy`` (smoothing -> accuracy over all
-        seeds' out-of-fold windows) and ``by_seed``.
+        seeds' out-of-fold windows), ``run_mean_accuracy`` (smoothing -> mean over runs of
+        the per-run accuracy, so the long runs do not dominate) and ``by_seed``.
     """
-    ws = make_windows(runs, "wheels", WindowConfig(window_s=window_s, hop_s=hop_s,
-                                                   rate_hz=rate_hz))
+    ws = make_windows(runs, recipe.signals, WindowConfig(window_s=recipe.window_s,
+                                                         hop_s=hop_s, rate_hz=recipe.rate_hz))
     labels = ws.labels.astype(str)
-    F = wheel_features(ws.channels, rate_hz).fit(ws.X).transform(ws.X)
+    F = recipe_features(recipe, ws.channels).fit(ws.X).transform(ws.X)
     by_seed: dict[str, list[float]] = {name: [] for name in smoothings}
+    by_run: dict[str, list[float]] = {name: [] for name in smoothings}
     for seed in seeds:
-        proba, classes = grouped_oof_proba(
-            lambda s: make_svm(SVMConfig(probability=True), s), F, labels, ws.run_ids, seed,
-            n_splits)
+        proba, classes = grouped_oof_proba(lambda s: recipe_classifier(recipe, s), F, labels,
+                                           ws.run_ids, seed, n_splits)
         names = np.asarray(classes, dtype=object)
         for name, config in smoothings.items():
-            decided = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, hop_s, config)]
-            by_seed[name].append(float((decided == labels).mean()))
+            ok = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, hop_s, config)] == labels
+            by_seed[name].append(float(ok.mean()))
+            by_run[name].append(float(pd.Series(ok).groupby(ws.run_ids).mean().mean()))
     return {"n_windows": len(ws), "n_runs": int(len(np.unique(ws.run_ids))),
             "pooled_accuracy": {k: float(np.mean(v)) for k, v in by_seed.items()},
+            "run_mean_accuracy": {k: float(np.mean(v)) for k, v in by_run.items()},
             "by_seed": by_seed}
