@@ -63,6 +63,8 @@ def main(args: argparse.Namespace) -> int:
             cv = window_cv(runs, recipe, args.hop_s, args.seeds, SMOOTHINGS)
             report["wheel_cv"] = cv
             run.log_metrics({f"wheel_cv_{k}": v for k, v in cv["pooled_accuracy"].items()})
+            run.log_metrics({f"wheel_cv_run_mean_{k}": v
+                             for k, v in cv["run_mean_accuracy"].items()})
             for name, acc in cv["pooled_accuracy"].items():
                 print(f"wheel-only window accuracy ({cv['n_windows']} windows of "
                       f"{args.window_s:g} s every {args.hop_s:g} s, {len(args.seeds)} seeds "
