@@ -33,7 +33,10 @@ EXPERIMENT = "terrain-stream-eval"
 #: smoothing settings scored on the same replayed decisions
 SMOOTHINGS = {"raw": SmoothingConfig(dwell_s=None),
               **{f"dwell{d:g}_power{p:g}": SmoothingConfig(dwell_s=d, evidence_power=p)
-                 for d in (10.0, 30.0, 60.0) for p in (0.2, 0.5)}}
+                 for d in (10.0, 30.0, 60.0) for p in (0.2, 0.5)},
+              "raw_hyst0.2": SmoothingConfig(dwell_s=None, hysteresis=0.2),
+              "dwell30_power0.2_hyst0.2": SmoothingConfig(dwell_s=30.0, evidence_power=0.2,
+                                                          hysteresis=0.2)}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
