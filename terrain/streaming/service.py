@@ -264,22 +264,22 @@ class StreamService:
             # few samples of one window, which a long gap would dominate
             if (np.diff(ts) > self.config.gap_factor * buf.median_step()).any():
                 gap = True
-            frames[s] = pd.DataFrame(vs, columns=list(self.streams[s])).assign(**{TIME: ts})
-        frames = {s: f[[TIME] + list(self.streams[s])] for s, f in frames.items()}
+            frames[s] = pd.DataFrame({TIME: ts, **{c: vs[:, j]
+                                                   for j, c in enumerate(self.streams[s])}})
         run = Run("stream", "stream", None, frames)
         try:
             aligned = align_streams(run, tuple(frames), w.rate_hz, self.config.gap_factor)
         except DataFormatError:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s)
-        aligned = aligned[aligned[TIME] < t - 1e-9]
+        grid = aligned[TIME].to_numpy()
+        end = int(np.searchsorted(grid, t - 1e-9, side="left"))
         period = 1.0 / w.rate_hz
-        if len(aligned) < self._n:
-            age = max(0.0, t - float(aligned[TIME].iloc[-1]) - period) if len(aligned) \
-                else np.inf
+        if end < self._n:
+            age = max(0.0, t - float(grid[end - 1]) - period) if end else np.inf
             return None, age, {"short"}
-        aligned = add_derived_channels(aligned.iloc[-self._n:])
-        age = max(0.0, t - float(aligned[TIME].iloc[-1]) - period)
+        aligned = add_derived_channels(aligned.iloc[end - self._n:end])
+        age = max(0.0, t - float(grid[end - 1]) - period)
         X = aligned[list(self.model.channels)].to_numpy(dtype=float).T[None]
         if gap or not np.isfinite(X).all():
             return None, age, {"gap"}
