@@ -28,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--index", default=None, help="run index XX when RUN_DIR holds several")
     parser.add_argument("--out", type=Path, required=True, help="decisions CSV to write")
     parser.add_argument("--hop-s", type=float, default=0.5, help="time between decisions, s")
-    parser.add_argument("--dwell-s", type=float, default=20.0,
+    parser.add_argument("--dwell-s", type=float, default=10.0,
                         help="expected time on one terrain of the forward filter, s "
                              "(0 disables smoothing)")
     parser.add_argument("--min-confidence", type=float, default=0.5,

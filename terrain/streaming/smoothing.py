@@ -43,7 +43,7 @@ class SmoothingConfig:
         Margin of filtered probability a new class needs over the current one, in [0, 1).
     """
 
-    dwell_s: float | None = 20.0
+    dwell_s: float | None = 10.0
     evidence_power: float = 0.5
     hysteresis: float = 0.0
 
