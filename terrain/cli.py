@@ -29,6 +29,8 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "simulate": "pipelines.simulate",
     "audit": "pipelines.audit",
     "estimate": "pipelines.estimate",
+    "validate": "pipelines.validate",
+    "slip-table": "pipelines.slip_table",
     "stream": "pipelines.stream",
     "stream-eval": "pipelines.stream_eval",
 })
