@@ -4,8 +4,9 @@ RUN_DIR is one terrain folder of the measured-run layout (``imu_XX.csv``, ``pro_
 ``--index`` picks the run when it holds several). Samples are fed in timestamp order, the
 streams interleaved, one by one; the decisions (``t_s, terrain, confidence,
 proba_<CLASS>..., target_slip_traction, target_slip_braking, target_slip_steady,
-window_age_s, flags``) are written to --out as CSV. Slip targets come from the catalogue's
-traction-slip curves (:class:`terrain.streaming.CataloguePeakTargets`).
+window_age_s, flags``) are written to --out as CSV. Slip targets come from the desired-slip
+table (:mod:`terrain.control.desired_slip`, its conservative entry below --min-confidence or
+on stale input).
 """
 
 from __future__ import annotations
@@ -15,8 +16,9 @@ from pathlib import Path
 
 from terrain.errors import ConfigError
 from terrain.io.measured import list_run_files, read_run
-from terrain.streaming import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
-                               StreamService, decisions_frame, load_stream_model, replay_run)
+from terrain.control import DesiredSlipConfig
+from terrain.streaming import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
+                               decisions_frame, load_stream_model, replay_run)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -52,8 +54,8 @@ def main(args: argparse.Namespace) -> int:
     model = load_stream_model(args.model)
     config = StreamConfig(hop_s=args.hop_s, min_confidence=args.min_confidence,
                           smoothing=SmoothingConfig(dwell_s=args.dwell_s or None))
-    service = StreamService(model, CataloguePeakTargets(model.classes, args.min_confidence),
-                            config)
+    targets = TableTargets(model.classes, DesiredSlipConfig(min_confidence=args.min_confidence))
+    service = StreamService(model, targets, config)
     missing = [s for s in service.needed_streams if s not in run.streams]
     if missing:
         raise ConfigError(f"the model needs stream(s) {missing}, absent from run {run.run_id}")

@@ -2,7 +2,8 @@
 
 Public API: :class:`StreamService`, :class:`StreamConfig`, :class:`Decision`,
 :func:`decisions_frame`, :class:`StreamModel`, :func:`load_stream_model`,
-:class:`SmoothingConfig`, :class:`TargetProvider`, :class:`CataloguePeakTargets`,
+:class:`SmoothingConfig`, :class:`TargetProvider`, :class:`TableTargets`,
+:class:`CataloguePeakTargets`,
 :func:`replay_run`.
 """
 
@@ -11,8 +12,9 @@ from terrain.streaming.replay import interleave, replay_run
 from terrain.streaming.service import (Decision, StreamConfig, StreamService,
                                        decisions_frame)
 from terrain.streaming.smoothing import SmoothingConfig
-from terrain.streaming.targets import CataloguePeakTargets, SlipTargets, TargetProvider
+from terrain.streaming.targets import (CataloguePeakTargets, SlipTargets, TableTargets,
+                                       TargetProvider)
 
 __all__ = ["StreamModel", "load_stream_model", "interleave", "replay_run", "Decision",
            "StreamConfig", "StreamService", "decisions_frame", "SmoothingConfig",
-           "CataloguePeakTargets", "SlipTargets", "TargetProvider"]
+           "CataloguePeakTargets", "SlipTargets", "TableTargets", "TargetProvider"]

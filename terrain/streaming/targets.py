@@ -1,10 +1,10 @@
 """Target slip per decision: the injected desired-slip lookup and a catalogue-based one.
 
-The service asks a :class:`TargetProvider` for the slip targets of each decision. The
-project's desired-slip table (traction-control work, :mod:`terrain.control`) is the
-production provider; :class:`CataloguePeakTargets` derives targets from the traction-slip
-curves of the terrain catalogue (:mod:`terrain.terramechanics`) so the service runs and is
-tested with real numbers before that table is wired in.
+The service asks a :class:`TargetProvider` for the slip targets of each decision.
+:class:`TableTargets` is the production provider: the project's desired-slip table
+(:mod:`terrain.control.desired_slip`). :class:`CataloguePeakTargets` derives simpler targets
+straight from the peaks of the catalogue's traction-slip curves
+(:mod:`terrain.terramechanics`); the tests use it as an independent provider.
 """
 
 from __future__ import annotations
@@ -110,3 +110,54 @@ class CataloguePeakTargets:
                 or terrain not in self.table:
             return self.fallback
         return self.table[terrain]
+
+
+class TableTargets:
+    """Targets from the project's desired-slip table (:mod:`terrain.control.desired_slip`).
+
+    The table's own fallback rule (:func:`terrain.control.select_target`) decides when its
+    conservative entry is used: unknown class, confidence below the table's
+    ``min_confidence``; a stale decision is passed as older than the table's
+    ``max_decision_age_s``.
+
+    Parameters
+    ----------
+    classes : sequence of str
+        Terrain classes of the model.
+    config : terrain.control.DesiredSlipConfig, optional
+        Rules and fallback thresholds of the table (its defaults when omitted).
+
+    Raises
+    ------
+    ConfigError
+        A class missing from the terrain catalogue.
+    """
+
+    def __init__(self, classes: Sequence[str], config=None) -> None:
+        from terrain.control import DesiredSlipConfig, build_slip_table
+
+        self.table = build_slip_table(classes, config or DesiredSlipConfig())
+        fb = self.table.fallback
+        self.fallback = SlipTargets(fb.traction, fb.braking, fb.steady)
+
+    def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
+        """Targets of the table for a decision.
+
+        Parameters
+        ----------
+        terrain : str or None
+            Decided class (``None``: fallback).
+        confidence : float
+            Its smoothed probability.
+        stale : bool
+            Stale input (fallback).
+
+        Returns
+        -------
+        SlipTargets
+        """
+        from terrain.control import select_target
+
+        age = 2.0 * self.table.config.max_decision_age_s if stale else 0.0
+        e = select_target(self.table, terrain, confidence, age)
+        return SlipTargets(e.traction, e.braking, e.steady)

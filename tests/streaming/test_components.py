@@ -105,3 +105,19 @@ def test_catalogue_targets_are_the_curve_peaks_and_the_fallback_the_slipperiest(
         assert targets.target_for(*args) == ice
     with pytest.raises(ConfigError):
         CataloguePeakTargets(["NOT_A_TERRAIN"])
+
+
+def test_table_targets_follow_the_desired_slip_table_and_its_fallback():
+    from terrain.control import build_slip_table, select_target
+    from terrain.streaming.targets import TableTargets
+
+    classes = ["ASPHALT", "ICE", "SNOW"]
+    targets = TableTargets(classes)
+    table = build_slip_table(classes)
+    snow = select_target(table, "SNOW", 0.9, 0.0)
+    assert tuple(targets.target_for("SNOW", 0.9, False)) == (snow.traction, snow.braking,
+                                                             snow.steady)
+    fb = table.fallback
+    for args in [(None, 0.9, False), ("SNOW", 0.1, False), ("SNOW", 0.9, True)]:
+        assert tuple(targets.target_for(*args)) == (fb.traction, fb.braking, fb.steady)
+    assert targets.fallback.traction == fb.traction
