@@ -31,6 +31,7 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "estimate": "pipelines.estimate",
     "validate": "pipelines.validate",
     "slip-table": "pipelines.slip_table",
+    "slip-fit": "pipelines.slip_fit",
     "stream": "pipelines.stream",
     "stream-eval": "pipelines.stream_eval",
 })
