@@ -141,7 +141,8 @@ def _problems(obj: Callable, kind: str) -> list[str]:
     if kind == "class":
         if dataclasses.is_dataclass(obj):
             wanted = [f.name for f in dataclasses.fields(obj) if f.init]
-        elif "__init__" in vars(obj):
+        elif ("__init__" in vars(obj)
+              and getattr(obj.__init__, "__qualname__", "").startswith(obj.__qualname__ + ".")):
             wanted = _signature_names(obj.__init__)
             init_doc = inspect.getdoc(obj.__init__) or ""
             doc = doc + "\n\n" + init_doc
