@@ -97,8 +97,9 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
     pandas.DataFrame
         A copy of ``frame`` with ``vel_mean = (vel_l + vel_r)/2`` and
         ``vel_diff = vel_r - vel_l`` (m/s), ``cur_sum`` and ``cur_diff = cur_r - cur_l`` (A),
-        and the skid-steer kinematic yaw rate ``yaw_rate_wheels = vel_diff / track_m``
-        (rad/s); ``frame`` itself, unchanged, when a wheel channel is missing.
+        and the skid-steer kinematic (no-slip) yaw rate ``yaw_rate_wheels = vel_diff /
+        track_m`` (rad/s; seeds/000_f24201ff985633bf.txt, Tazzari et al., eq. 2 with
+        ``2d = track_m``); ``frame`` itself, unchanged, when a wheel channel is missing.
     """
     if not set(WHEEL_CHANNELS) <= set(frame.columns):
         return frame
