@@ -11,7 +11,14 @@ from terrain.io.shipped import DATASETS, convert_dataset, default_data_dir
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain convert``."""
+    """Arguments of ``terrain convert``: source folder ``<TERRAIN>/{imu_XX,pro_XX}.csv``,
+    ``--dataset`` name and ``--data-dir`` output folder.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("src", help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", required=True, choices=DATASETS)
     parser.add_argument("--data-dir", default=None,
@@ -19,7 +26,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Convert and print a one-line summary."""
+    """Convert a raw dataset folder to the shipped parquet layout and print a one-line summary
+    (runs, terrains, sampling rates in Hz, runs without IMU).
+
+    Bad input raises the project errors of :func:`terrain.io.shipped.convert_dataset`
+    (``ConfigError`` for an unknown dataset, ``DataFormatError`` for a bad source file),
+    which the CLI entry point reports to the user.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0.
+    """
     entry = convert_dataset(args.src, args.dataset, args.data_dir or default_data_dir())
     print(f"{args.dataset}: {len(entry['runs'])} runs, terrains {entry['terrains']}, "
           f"rates {entry['sampling_rates_hz']} Hz, without IMU: {entry['runs_without_imu']}")

@@ -30,7 +30,13 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "audit": "pipelines.audit",
     "estimate": "pipelines.estimate",
     "compare": "pipelines.compare",
+    "validate": "pipelines.validate",
     "slip-table": "pipelines.slip_table",
+    "slip-fit": "pipelines.slip_fit",
+    "control-sim": "pipelines.control_sim",
+    "control-grid": "pipelines.control_grid",
+    "stream": "pipelines.stream",
+    "stream-eval": "pipelines.stream_eval",
 })
 
 

@@ -2,7 +2,8 @@
 
 * :func:`wheel_longitudinal_velocity`: the EKF body velocity moved to each wheel and projected
   on its rolling direction (eqs. 7.3-7.5);
-* :func:`sae_slip`: ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (eqs. 7.1, 7.2 and
+* :func:`sae_slip` (defined once, in :mod:`terrain.terramechanics.slip`, re-exported here):
+  ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (eqs. 7.1, 7.2 and
   the denominator of eq. 7.7), saturated to [-1, 1], forced to 0 when both speeds are below
   the 0.05 m/s dead band (ch. 7.2.1). ``omega`` must be the *raw* encoder speed (ch. 7.2: the
   EKF-filtered speed is coupled to the estimated velocity and would bias the slip to zero).
@@ -14,54 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import EstimationError, ShapeError
+from terrain.errors import ShapeError
+from terrain.estimation.equations.agrimaro import wheel_rim_speed
+from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
 
 #: Dead band of ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
-DEAD_BAND_M_S = 0.05
-
-
-def sae_slip(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, *,
-             dead_band_m_s: float = DEAD_BAND_M_S, saturation: float = 1.0) -> np.ndarray:
-    """SAE longitudinal slip with the thesis's conditioning (seed 001 eqs. 7.1, 7.2, 7.7).
-
-    ``s = (omega r - v_long) / max(|omega r|, |v_long|)``: positive in traction (the rim is
-    faster, eq. 7.1), negative in braking (eq. 7.2), saturated to ``[-saturation,
-    saturation]``; 0 where both ``|omega r|`` and ``|v_long|`` are below ``dead_band_m_s``.
-    NaN inputs give NaN.
-
-    Parameters
-    ----------
-    rim_speed_m_s : ndarray, shape (...)
-        Peripheral speed ``omega r`` from the raw encoder, m/s (eq. 7.6).
-    v_long_m_s : ndarray, shape (...)
-        Longitudinal velocity of the wheel centre, m/s (eq. 7.5); broadcast with the rim
-        speed.
-    dead_band_m_s : float
-        >= 0, m/s (0.05 in ch. 7.2.1).
-    saturation : float
-        > 0 (1 in ch. 7.2.1).
-
-    Returns
-    -------
-    ndarray, broadcast shape, dimensionless
-
-    Raises
-    ------
-    EstimationError
-        Negative dead band or non-positive saturation.
-    """
-    if not dead_band_m_s >= 0 or not saturation > 0:
-        raise EstimationError(f"dead band must be >= 0 and saturation > 0, got "
-                              f"{dead_band_m_s}, {saturation}")
-    rim = np.asarray(rim_speed_m_s, dtype=float)
-    v = np.asarray(v_long_m_s, dtype=float)
-    den = np.maximum(np.abs(rim), np.abs(v))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(den > 0, (rim - v) / np.where(den > 0, den, 1.0), 0.0)
-    s = np.clip(s, -saturation, saturation)
-    still = (np.abs(rim) < dead_band_m_s) & (np.abs(v) < dead_band_m_s)
-    s = np.where(still, 0.0, s)
-    return np.where(np.isnan(rim) | np.isnan(v), np.nan, s)
+DEAD_BAND_M_S = THESIS_DEAD_BAND_M_S
 
 
 def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
@@ -98,14 +57,15 @@ def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
     if not (vx.shape == vy.shape == r.shape) or vx.ndim != 1:
         raise ShapeError(f"v_bx, v_by, yaw_rate must share a shape (N,), got {vx.shape}, "
                          f"{vy.shape}, {r.shape}")
-    vxi = vx[:, None] - r[:, None] * p[None, :, 1]
-    vyi = vy[:, None] + r[:, None] * p[None, :, 0]
-    if delta_rad is None:
-        return vxi
-    d = np.asarray(delta_rad, dtype=float)
-    if d.shape != vxi.shape:
-        raise ShapeError(f"delta_rad must have shape {vxi.shape}, got {d.shape}")
-    return vxi * np.cos(d) + vyi * np.sin(d)
+    shape = (vx.size, p.shape[0])
+    if delta_rad is None:                  # fixed wheels: v_y,i does not enter (delta = 0)
+        d, vy = np.zeros(shape), np.zeros_like(vy)
+    else:
+        d = np.asarray(delta_rad, dtype=float)
+        if d.shape != shape:
+            raise ShapeError(f"delta_rad must have shape {shape}, got {d.shape}")
+    return wheel_rim_speed(vx[:, None], vy[:, None], r[:, None], p[None, :, 0], p[None, :, 1],
+                           d)
 
 
 def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
@@ -119,9 +79,13 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     rim_speed_m_s : ndarray, shape (N, k)
         Raw encoder ``omega_i r``, m/s, on the same clock as the velocities.
     v_bx_m_s, v_by_m_s, yaw_rate_rad_s : ndarray, shape (N,)
+        Body velocity (m/s) and yaw rate (rad/s), EKF estimates.
     positions_m : ndarray, shape (k, 2)
+        Wheel (steering axis or contact line) positions in the body frame, m.
     delta_rad : ndarray, shape (N, k), optional
+        Steering angles, rad; None for fixed wheels.
     dead_band_m_s : float
+        Dead band of :func:`sae_slip`, m/s (0.05 in seed 001 ch. 7.2.1).
 
     Returns
     -------
@@ -133,3 +97,43 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     if rim.shape != v_long.shape:
         raise ShapeError(f"rim speeds must have shape {v_long.shape}, got {rim.shape}")
     return sae_slip(rim, v_long, dead_band_m_s=dead_band_m_s)
+
+
+def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
+                         yaw_rate_rad_s: np.ndarray, track_m: float, *,
+                         dead_band_m_s: float = DEAD_BAND_M_S) -> np.ndarray:
+    """Slip of the two sides of a skid-steer vehicle: :func:`wheel_slip` with the body
+    velocity moved to the geometric contact lines ``y = +B/2`` (left) and ``y = -B/2``
+    (right), no lateral velocity, fixed wheels.
+
+    Without an external velocity reference the forward speed is the mean wheel speed, so this
+    is the part of each side's slip that shows in turning (scrub), not a common longitudinal
+    slip.
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (N, 2)
+        Raw left and right rim speeds ``vel_l``, ``vel_r``, m/s.
+    v_bx_m_s : ndarray, shape (N,)
+        Body forward speed (EKF estimate), m/s.
+    yaw_rate_rad_s : ndarray, shape (N,)
+        Yaw rate (EKF estimate), rad/s.
+    track_m : float
+        Geometric track width B, m.
+    dead_band_m_s : float
+        Dead band of :func:`sae_slip`, m/s.
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        Left, right slip, dimensionless.
+
+    Raises
+    ------
+    ShapeError
+        Arrays of disagreeing shapes.
+    """
+    v = np.asarray(v_bx_m_s, dtype=float)
+    half = 0.5 * float(track_m)
+    return wheel_slip(rim_speed_m_s, v, np.zeros(v.shape), yaw_rate_rad_s,
+                      np.array([[0.0, half], [0.0, -half]]), dead_band_m_s=dead_band_m_s)
