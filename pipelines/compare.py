@@ -27,7 +27,13 @@ QUICK = dict(models=("svm", "cnn"), signals=("all",), windows_s=(2.0,), datasets
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain compare``."""
+    """Arguments of ``terrain compare``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser, extended in place.
+    """
     d = CompareConfig()
     parser.add_argument("--models", nargs="+", choices=MODELS, default=list(d.models))
     parser.add_argument("--signals", nargs="+", default=list(d.signals))
@@ -48,7 +54,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> CompareConfig:
-    """The grid from parsed arguments (``--quick`` overrides the axes)."""
+    """The grid from parsed arguments (``--quick`` overrides the axes).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed ``terrain compare`` arguments.
+
+    Returns
+    -------
+    CompareConfig
+        The grid.
+    """
     if args.quick:
         return CompareConfig(**QUICK, history=tuple(args.history))
     return CompareConfig(models=tuple(args.models), signals=tuple(args.signals),
@@ -58,7 +75,18 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the grid, log the parent and child runs, write the table and figure."""
+    """Run the grid, log the parent and child runs, write the table and figure.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed ``terrain compare`` arguments.
+
+    Returns
+    -------
+    int
+        Exit status (0).
+    """
     import mlflow
 
     config = config_from_args(args)

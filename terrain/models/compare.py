@@ -99,7 +99,14 @@ class CompareConfig:
             raise ConfigError("need at least one seed and history lengths >= 1")
 
     def cells(self) -> list[Cell]:
-        """Every cell of the grid (model varies fastest)."""
+        """Every cell of the grid (model varies fastest).
+
+        Returns
+        -------
+        list of Cell
+            ``len(datasets) * len(windows_s) * len(signals) * len(seeds) * len(models)``
+            cells.
+        """
         return [Cell(m, s, w, d, seed) for d in self.datasets for w in self.windows_s
                 for s in self.signals for seed in self.seeds for m in self.models]
 

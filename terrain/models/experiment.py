@@ -101,7 +101,13 @@ class ExperimentConfig:
                             steady_only=self.steady_only)
 
     def model_config(self) -> ModelConfig:
-        """The classifier settings of this experiment."""
+        """The classifier settings of this experiment.
+
+        Returns
+        -------
+        ModelConfig
+            Model name, epoch budget, threads and SVM settings.
+        """
         return ModelConfig(kind=self.model, max_epochs=self.max_epochs,
                            n_threads=self.n_threads, svm=self.svm)
 

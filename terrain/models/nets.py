@@ -41,7 +41,18 @@ class Raw1dNet(nn.Module):
         self.head = nn.Linear(2 * width, n_classes)
 
     def forward(self, X):
-        """Class logits ``(batch, n_classes)`` of a batch ``X``."""
+        """Class logits of a batch.
+
+        Parameters
+        ----------
+        X : torch.Tensor
+            Input batch (see the class docstring for its shape).
+
+        Returns
+        -------
+        torch.Tensor
+            ``(batch, n_classes)`` logits.
+        """
         return self.head(self.body(X))
 
 
@@ -77,5 +88,16 @@ class Spectrogram2dNet(nn.Module):
         self.head = nn.Linear(2 * width * n_bands, n_classes)
 
     def forward(self, X):
-        """Class logits ``(batch, n_classes)`` of a batch ``X``."""
+        """Class logits of a batch.
+
+        Parameters
+        ----------
+        X : torch.Tensor
+            Input batch (see the class docstring for its shape).
+
+        Returns
+        -------
+        torch.Tensor
+            ``(batch, n_classes)`` logits.
+        """
         return self.head(self.body(X))
