@@ -182,3 +182,34 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
                          float(np.nanpercentile(g, 2.5)), float(np.nanpercentile(g, 97.5))))
     return pd.DataFrame(rows, columns=["terrain", "signal", "scope", "n_runs", "n", "rmse_ref",
                                        "rmse_new", "gain", "gain_lo", "gain_hi"])
+
+
+def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
+    """Markdown section of the physics comparison (RMSE of both versions, gain, interval).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Output of :func:`gain_table`.
+    meta : dict
+        ``reference`` and ``candidate`` version names.
+
+    Returns
+    -------
+    str
+        The section, ending with a newline.
+    """
+    ref, new = meta["reference"], meta["candidate"]
+    lines = [f"## Physics {new} against {ref} (replay, no fitted effect, every run held out)",
+             "",
+             f"Gain = 1 - RMSE({new}) / RMSE({ref}); 95 % interval: runs resampled with "
+             "replacement within the terrain.", "",
+             f"| terrain | signal | manoeuvre | runs | samples | RMSE {ref} | RMSE {new} | "
+             "gain [95 % CI] |", "|---|---|---|---|---|---|---|---|"]
+    for r in table.itertuples():
+        if r.scope == "stop":
+            continue
+        lines.append(f"| {r.terrain} | {r.signal} | {r.scope} | {r.n_runs} | {r.n} | "
+                     f"{r.rmse_ref:.3g} | {r.rmse_new:.3g} | {r.gain:+.3f} "
+                     f"[{r.gain_lo:+.3f}, {r.gain_hi:+.3f}] |")
+    return "\n".join(lines) + "\n"

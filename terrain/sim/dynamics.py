@@ -18,7 +18,7 @@ the lateral wheel-soil model on soils (:mod:`terrain.sim.forces`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.linalg.lapack import dgesv
@@ -28,7 +28,8 @@ from terrain.sim.forces import (LOAD_TRANSFER, PHYSICS_VERSIONS, SLIDE_SPEED_M_S
                                 SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
                                 transferred_normal_loads, velocity_maps)
-from terrain.terramechanics.lateral import SOILS, SoilContact, soil_contact
+from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
+                                            soil_contact)
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import swerve_inverse
@@ -41,6 +42,27 @@ __all__ = ["PhysicsResult", "integrate", "wheel_commands", "SLIDE_SPEED_M_S",
 #: (ASSUMED: stands for the suspension / tyre compliance; also keeps the one-step-delayed
 #: transfer from feeding back on the integrator's step-to-step acceleration).
 LOAD_TRANSFER_TIME_CONSTANT_S = 0.05
+
+
+def v2_terrain(terrain, contact: SoilContact, load_n: float):
+    """Terrain of physics v2 on a soil: the longitudinal curve from the same soil parameters.
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+        Catalogue terrain (its resistances and calibrated hysteresis are kept: in steady
+        straight driving the torque is ``r N (f_soil + h)`` whatever the curve).
+    contact : SoilContact
+        Wheel-soil contact of the terrain (:func:`soil_contacts`).
+    load_n : float
+        Static wheel load, N.
+
+    Returns
+    -------
+    TerrainParams
+        ``terrain`` with ``curve`` = :func:`terrain.terramechanics.lateral.longitudinal_curve`.
+    """
+    return replace(terrain, curve=longitudinal_curve(contact, load_n))
 
 
 def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
@@ -220,6 +242,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     layout = contact_layout(geometry, vehicle.mass_kg, slope_rad, chi)
     v2 = physics == "v2"
     soils: dict[str, SoilContact] = soil_contacts(vehicle, geometry, terrains) if v2 else {}
+    if soils:
+        terrains = tuple(v2_terrain(t, soils[t.name], float(np.mean(layout.normal_load_n)))
+                         if t.name in soils else t for t in terrains)
     lt = LOAD_TRANSFER.get(vehicle.name)
     cog_h = lt.cog_height_m if (v2 and lt is not None) else 0.0
     alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)

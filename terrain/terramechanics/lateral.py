@@ -27,6 +27,9 @@ over a frozen, cited :class:`SoilParams`:
    is an ANALOGY. The passive pressure is taken to mobilise with the same displacement law
    as the shear (ASSUMED: both need the soil to move).
 
+The longitudinal traction of the same contact is the Janosi-Hanamoto curve of the same soil
+on the sunk patch (:func:`longitudinal_curve`; one isotropic shear modulus K).
+
 The lateral force of a contact is therefore
 ``F_lat = -tanh(v_lat / v_slide) [c A + N tan phi + R_b(z)] g(a)``; it is bounded by the
 soil's strength, smooth through ``v_lat = 0`` and grows with the lateral slip angle, so the
@@ -46,6 +49,7 @@ from typing import Mapping
 import numpy as np
 
 from terrain.terramechanics.resistance import bekker_sinkage_m
+from terrain.terramechanics.traction import JanosiCurve
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
 
@@ -333,3 +337,29 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     big = np.abs(v) > 1e-9
     secant = np.where(big, force / np.where(big, v, 1.0), 0.0)
     return force, secant
+
+
+def longitudinal_curve(contact: SoilContact, load_n: float) -> JanosiCurve:
+    """Longitudinal Janosi-Hanamoto traction curve of the same wheel-soil contact.
+
+    The same soil parameters as the lateral law (one parameter set per terrain, isotropic
+    shear modulus K) on the sunk contact patch at ``load_n``:
+    :meth:`terrain.terramechanics.traction.JanosiCurve.from_soil` with ``A = b l(N)``,
+    ``L = l(N)``.
+
+    Parameters
+    ----------
+    contact : SoilContact
+        Tabulated wheel-soil contact (:func:`soil_contact`).
+    load_n : float
+        Normal load of the wheel, N (> 0).
+
+    Returns
+    -------
+    JanosiCurve
+    """
+    length = float(np.interp(load_n, contact.load_grid_n, contact.length_grid_m))
+    soil = contact.soil
+    return JanosiCurve.from_soil(soil.cohesion_pa, soil.friction_angle_deg,
+                                 soil.shear_modulus_m, contact.width_m * length, length,
+                                 load_n, f"{soil.name}: {soil.source}")
