@@ -39,7 +39,7 @@ from scipy import signal
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import integrate
-from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -253,7 +253,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     replayed = replace(vehicle, motor=motor)
     phys = integrate(replayed, geometry, (terrain,), 1e12, t - t[0], twist, 0.0, 1.0,
                      physics=settings.physics)
-    cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
+    cur = reported_current_a(vehicle.motor, phys.torque, phys.omega, settings.physics)
     out = np.column_stack([phys.twist[:, 2], phys.accel_body, phys.twist[:, 0], cur])
     out = lowpass(out, settings.physics_rate_hz, settings.output_cutoff_hz)
     sampled = np.column_stack([np.interp(t_w, t, out[:, j]) for j in range(out.shape[1])])

@@ -387,3 +387,44 @@ def contact_torque_nm(layout: ContactLayout, terrain, mu: np.ndarray,
     normal = layout.normal_load_n if normal_load_n is None else normal_load_n
     return layout.wheel_radius_m * normal * (
         mu + terrain.hysteresis * np.tanh(rim_speed_m_s / HYSTERESIS_SPEED_M_S))
+
+
+def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarray,
+                       physics: str = "v1") -> np.ndarray:
+    """Motor current magnitude the drive reports, from wheel torque and speed.
+
+    ``v1``: ``|I|`` of the motor law :meth:`terrain.vehicles.common.MotorParams.current_from_torque`
+    in every quadrant. ``v2``: the same while the motor drives (torque and speed of the same
+    sign); while it brakes (torque against the speed, the motor absorbs power) the report is
+    the no-load current only, ``I_0 |tanh(omega / 0.05)|``: the Husky's current reading follows
+    the power drawn, not the braking current circulating in the bridge. This is a sensor
+    model identified by the audit on the measured runs (docs/physics_v2.md: with ``|I|`` the
+    replay over-predicts the current by 6 A on ASPHALT while the wheels decelerate faster
+    than 0.3 m/s^2, and the 2 Hz output filter smears that into the stand-still samples).
+
+    Parameters
+    ----------
+    motor : MotorParams
+        Motor of the vehicle (no-load current, gear ratio, torque constant, efficiency).
+    wheel_torque_nm : ndarray, shape (...)
+        Torque at the wheel, N m.
+    omega_rad_s : ndarray, shape (...)
+        Wheel speed, rad/s.
+    physics : str
+        ``v1`` or ``v2`` (:data:`PHYSICS_VERSIONS`).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Current magnitude, A.
+    """
+    if physics == "v1":
+        return np.abs(motor.current_from_torque(wheel_torque_nm, omega_rad_s))
+    direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
+    drive = np.asarray(wheel_torque_nm, dtype=float) * np.sign(direction)
+    k = motor.gear_ratio * motor.torque_constant_nm_per_a * motor.efficiency
+    moving = np.abs(direction)
+    motoring = np.maximum(drive, 0.0) / k
+    # at rest (direction 0) the torque that holds the wheel is reported as is
+    return motor.no_load_current_a * moving + moving * motoring + (1.0 - moving) * np.abs(
+        np.asarray(wheel_torque_nm, dtype=float)) / k

@@ -33,7 +33,7 @@ from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
-from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
 from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
                                  encoder_count_rate, quantise, sample_times)
@@ -155,7 +155,8 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
-def motor_currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray:
+def motor_currents(phys: PhysicsResult, vehicle, effects: Effects, physics: str = "v1"
+                   ) -> np.ndarray:
     """Motor current magnitudes with the planted current effects.
 
     The motor law of the vehicle (:meth:`terrain.vehicles.MotorParams.current_from_torque`)
@@ -170,13 +171,16 @@ def motor_currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray
         Vehicle (its ``motor``).
     effects : Effects
         Planted effects.
+    physics : str
+        Physics version (``v2`` reports the no-load current while a motor brakes,
+        :func:`terrain.sim.forces.reported_current_a`).
 
     Returns
     -------
     ndarray, shape (n, m)
         Current magnitudes, A.
     """
-    cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
+    cur = reported_current_a(vehicle.motor, phys.torque, phys.omega, physics)
     turning = effects.turning_resistance * np.tanh(np.abs(phys.twist[:, 2])
                                                    / TURN_RATE_SCALE_RAD_S)
     cur = cur + turning[:, None] + effects.grade_resistance * np.abs(phys.pitch)[:, None]
@@ -257,7 +261,7 @@ def simulate_with_physics(config: SimConfig) -> Simulation:
     if sensors.speed_quantum_m_s == 0:
         omega_meas = encoder_count_rate(phys.omega, dt, motor.encoder_counts_per_rev)
     omega_rep = first_order_filter(omega_meas, dt, motor.encoder_filter_s)
-    cur = motor_currents(phys, vehicle, config.effects)
+    cur = motor_currents(phys, vehicle, config.effects, config.physics)
     t_w = sample_times(duration, sensors.wheel_rate_hz)
     t_src = np.clip(t_w - config.effects.wheel_lag, 0.0, None)
     om_w = interp_columns(t_src, phys.t_s, omega_rep)
