@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import argparse
 
-from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.io.writer import write_run
 from terrain.sim import SCENARIO_NAMES, SimConfig, parse_effects, simulate
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.vehicles import VEHICLE_NAMES
 
 
