@@ -219,10 +219,8 @@ def shear_mobilisation(a: np.ndarray) -> np.ndarray:
     ndarray, shape (...)
         Dimensionless, in [0, 1).
     """
-    a = np.asarray(a, dtype=float)
-    small = a < 1e-6
-    safe = np.where(small, 1.0, a)
-    return np.where(small, 0.5 * a, 1.0 - (1.0 - np.exp(-safe)) / safe)
+    a = np.maximum(np.asarray(a, dtype=float), 1e-12)
+    return 1.0 + np.expm1(-a) / a
 
 
 @dataclass(frozen=True)
@@ -334,9 +332,10 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     x_l = v / slide_speed_m_s
     th = np.tanh(x_l)
     force = -th * strength * g
-    big = np.abs(v) > 1e-9
-    secant = np.where(big, force / np.where(big, v, 1.0), 0.0)
-    return force, secant
+    # secant F / v = -(tanh(x)/x) (S / v_slide) g, finite (0) at v = 0
+    x_safe = np.where(np.abs(x_l) > 1e-9, x_l, 1.0)
+    ratio = np.where(np.abs(x_l) > 1e-9, th / x_safe, 1.0)
+    return force, -ratio * strength * g / slide_speed_m_s
 
 
 def longitudinal_curve(contact: SoilContact, load_n: float) -> JanosiCurve:
