@@ -1,7 +1,9 @@
 """Benchmark: simulate 10 minutes of each vehicle with every sensor at its rate.
 
 Prints seconds per simulated minute and the real-time factor, and logs them to MLflow
-(experiment ``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]``.
+(experiment ``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]
+[--physics v1|v2] [--terrains ASPHALT,GRASS]`` (v2 on ``SANDY_LOAM,SNOW`` exercises the
+lateral wheel-soil model).
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import argparse
 import time
 
 from terrain.sim import SimConfig, simulate
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.tracking import tracked_run
 
 
@@ -17,13 +20,16 @@ def main() -> int:
     """Run the benchmark; returns 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=10.0)
+    parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS)
+    parser.add_argument("--terrains", default="ASPHALT,GRASS",
+                        help="comma-separated terrain sequence")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     duration = 60.0 * args.minutes
     metrics = {}
     for vehicle in ("husky", "agrimaro", "tracked"):
-        cfg = SimConfig(vehicle=vehicle, terrains=("ASPHALT", "GRASS"), scenario="random",
-                        duration_s=duration, seed=0)
+        cfg = SimConfig(vehicle=vehicle, terrains=tuple(args.terrains.split(",")),
+                        scenario="random", duration_s=duration, seed=0, physics=args.physics)
         start = time.perf_counter()
         simulate(cfg)
         elapsed = time.perf_counter() - start
@@ -34,7 +40,8 @@ def main() -> int:
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name="bench_sim",
                          params={"minutes": args.minutes, "physics_rate_hz": 100,
-                                 "scenario": "random"}) as run:
+                                 "scenario": "random", "physics": args.physics,
+                                 "terrains": args.terrains}) as run:
             run.log_metrics(metrics)
     return 0
 

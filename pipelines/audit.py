@@ -20,7 +20,11 @@ from types import MappingProxyType
 from typing import Mapping
 
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
+from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
+                                   gain_table, per_run_errors)
+from terrain.audit.replay import ReplaySettings
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -62,6 +66,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also replay each terrain with its catalogue lateral friction "
                              f"scaled by {', '.join(f'{k:g}' for k in SWEEP_FACTORS)} "
                              "(what-if table)")
+    parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,
+                        help="simulator physics replayed (v1: static loads, Coulomb lateral "
+                             "friction; v2: load transfer, lateral wheel-soil model)")
+    parser.add_argument("--compare-physics", action="store_true",
+                        help="also replay every run with v1 and v2 and report the gain of v2 "
+                             "per terrain, signal and manoeuvre with run-bootstrap intervals")
     parser.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
 
 
@@ -83,6 +93,9 @@ def _command(args: argparse.Namespace) -> str:
     for key, default in DEFAULTS.items():
         if getattr(args, key) != default:
             parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
+    if args.physics != DEFAULT_PHYSICS:
+        parts += ["--physics", args.physics]
+    parts += ["--compare-physics"] * args.compare_physics
     parts += ["--no-pooled"] * args.no_pooled
     parts += ["--sweep-lateral-friction"] * args.sweep_lateral_friction
     return shlex.join(parts)
@@ -114,6 +127,7 @@ def main(args: argparse.Namespace) -> int:
     source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
     name = args.dataset or args.runs_dir.resolve().name
     settings = AuditSettings(
+        replay=ReplaySettings(physics=args.physics),
         selection=SelectionSettings(n_bootstrap=args.bootstrap,
                                     n_param_bootstrap=args.param_bootstrap,
                                     min_gain=args.min_gain, seed=args.seed),
@@ -136,6 +150,16 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
 
     result = run_audit(runs, settings)
     report = to_dict(result, source)
+    report["physics"] = settings.replay.physics
+    comparison = None
+    if args.compare_physics:
+        cmp_settings = PhysicsComparisonSettings(n_bootstrap=args.bootstrap, seed=args.seed)
+        per_run, _ = per_run_errors(runs, cmp_settings, settings.replay, settings.frames,
+                                    settings.lag)
+        comparison = gain_table(per_run, cmp_settings)
+        report["physics_comparison"] = {
+            "reference": cmp_settings.reference, "candidate": cmp_settings.candidate,
+            "records": comparison.to_dict(orient="records")}
     if tracked is not None:
         report["mlflow_run_id"] = tracked.run_id
     figures = make_figures(result)
@@ -147,6 +171,9 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     args.json.write_text(json.dumps(report, indent=1) + "\n")
     if args.md:
         write_markdown(args.md, report, figures, commands, title)
+        if comparison is not None:
+            with open(args.md, "a") as fh:
+                fh.write("\n" + comparison_markdown(comparison, report["physics_comparison"]))
     if tracked is not None:
         tracked.log_metrics(flat_metrics(report))
         tracked.log_dict(report, "audit.json")
@@ -155,7 +182,9 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
         for key, fig in figures.items():
             tracked.log_figure(fig, rel[key])
         for table, fname in ((result.residuals, "residuals.csv"), (result.lags, "lags.csv"),
-                             (result.sweep, "lateral_friction_sweep.csv")):
+                             (result.sweep, "lateral_friction_sweep.csv"),
+                             (comparison if comparison is not None else result.sweep.iloc[:0],
+                              "physics_comparison.csv")):
             if len(table):
                 tracked.log_table(table, fname)
     print("\n".join(summary_lines(report, result.timings_s)))

@@ -12,6 +12,7 @@ import argparse
 
 from terrain.io.writer import write_run
 from terrain.sim import SCENARIO_NAMES, SimConfig, parse_effects, simulate
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.vehicles import VEHICLE_NAMES
 
 
@@ -33,6 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="plant a named effect (repeatable)")
     parser.add_argument("--segment-m", type=float, default=25.0,
                         help="distance between terrain changes, m")
+    parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,
+                        help="physics version (v2: load transfer, lateral wheel-soil model, "
+                             "docs/physics_v2.md)")
     parser.add_argument("--out", required=True, help="output root folder")
 
 
@@ -57,7 +61,8 @@ def main(args: argparse.Namespace) -> int:
     config = SimConfig(vehicle=args.vehicle.lower(),
                        terrains=tuple(t.strip().upper() for t in args.terrain.split(",") if t),
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
-                       effects=parse_effects(args.effect), segment_length_m=args.segment_m)
+                       effects=parse_effects(args.effect), segment_length_m=args.segment_m,
+                       physics=args.physics)
     paths = write_run(simulate(config), args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")
     return 0

@@ -39,6 +39,7 @@ from scipy import signal
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import integrate
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -65,6 +66,9 @@ class ReplaySettings:
     speed_headroom : float
         The replay vehicle's wheel-speed limit is at least ``speed_headroom`` times the
         largest measured wheel speed (no clipping of measured inputs).
+    physics : str
+        Physics version of the replayed simulator (:data:`terrain.sim.forces.PHYSICS_VERSIONS`);
+        default the simulator's default, so ``replay_rmse`` always means the default physics.
     merge_subresolution : bool
         When the wheel stream is quantised (:func:`speed_resolution`), a left-right speed
         difference of at most one resolution step carries no information (the true one lies
@@ -78,8 +82,12 @@ class ReplaySettings:
     output_cutoff_hz: float = 2.0
     speed_headroom: float = 1.5
     merge_subresolution: bool = True
+    physics: str = DEFAULT_PHYSICS
 
     def __post_init__(self) -> None:
+        if self.physics not in PHYSICS_VERSIONS:
+            raise ConfigError(f"unknown physics {self.physics!r}; valid choices: "
+                              f"{', '.join(PHYSICS_VERSIONS)}")
         if not 50.0 <= float(self.physics_rate_hz) <= 1000.0:
             raise ConfigError(f"physics_rate_hz must be in [50, 1000], got {self.physics_rate_hz}")
         if not 0.0 < float(self.output_cutoff_hz) < 0.5 * float(self.physics_rate_hz):
@@ -243,8 +251,9 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
                     max_wheel_speed_rad_s=max(vehicle.motor.max_wheel_speed_rad_s,
                                               settings.speed_headroom * vmax / r_w))
     replayed = replace(vehicle, motor=motor)
-    phys = integrate(replayed, geometry, (terrain,), 1e12, t - t[0], twist, 0.0, 1.0)
-    cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
+    phys = integrate(replayed, geometry, (terrain,), 1e12, t - t[0], twist, 0.0, 1.0,
+                     physics=settings.physics)
+    cur = reported_current_a(vehicle.motor, phys.torque, phys.omega, settings.physics)
     out = np.column_stack([phys.twist[:, 2], phys.accel_body, phys.twist[:, 0], cur])
     out = lowpass(out, settings.physics_rate_hz, settings.output_cutoff_hz)
     sampled = np.column_stack([np.interp(t_w, t, out[:, j]) for j in range(out.shape[1])])

@@ -13,29 +13,91 @@ Closed loop: an optional hook (:data:`ControlHook`) sees the plant after every s
 returns a wheel speed correction held until its next return (:mod:`terrain.sim.closed_loop`
 puts the robot's sensors between the two); without a hook nothing changes.
 
-Simplifications (stated): static normal loads (no load transfer), mass concentrated at the
-body origin, speed-controlled motors as first-order lags with speed limits.
+Simplifications (stated): mass concentrated at the body origin, speed-controlled motors as
+first-order lags with speed limits; physics ``v1``: static normal loads (no load transfer);
+physics ``v2``: quasi-static load transfer from the body acceleration of the previous step,
+low-passed with :data:`LOAD_TRANSFER_TIME_CONSTANT_S` (suspension and tyre compliance), and
+the lateral wheel-soil model on soils (:mod:`terrain.sim.forces`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
-from terrain.sim.forces import (SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
-                                 contact_forces, contact_layout, contact_torque_nm,
-                                 gravity_force, velocity_maps)
+from terrain.errors import ConfigError
+from terrain.sim.forces import (LOAD_TRANSFER, PHYSICS_VERSIONS, SLIDE_SPEED_M_S,
+                                SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
+                                contact_layout, contact_torque_nm, gravity_force,
+                                transferred_normal_loads, velocity_maps)
+from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
+                                            soil_contact)
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
 __all__ = ["PhysicsResult", "PlantSnapshot", "ControlHook", "integrate", "wheel_commands",
-           "SLIDE_SPEED_M_S",
-           "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S"]
+           "SLIDE_SPEED_M_S", "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S", "soil_contacts"]
+
+#: Time constant of the low-pass on the body acceleration that drives the v2 load transfer, s
+#: (ASSUMED: stands for the suspension / tyre compliance; also keeps the one-step-delayed
+#: transfer from feeding back on the integrator's step-to-step acceleration).
+LOAD_TRANSFER_TIME_CONSTANT_S = 0.05
+
+
+def v2_terrain(terrain, contact: SoilContact, load_n: float):
+    """Terrain of physics v2 on a soil: the longitudinal curve from the same soil parameters.
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+        Catalogue terrain (its resistances and calibrated hysteresis are kept: in steady
+        straight driving the torque is ``r N (f_soil + h)`` whatever the curve).
+    contact : SoilContact
+        Wheel-soil contact of the terrain (:func:`soil_contacts`).
+    load_n : float
+        Static wheel load, N.
+
+    Returns
+    -------
+    TerrainParams
+        ``terrain`` with ``curve`` = :func:`terrain.terramechanics.lateral.longitudinal_curve`.
+    """
+    return replace(terrain, curve=longitudinal_curve(contact, load_n))
+
+
+def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
+    """Tabulated lateral wheel-soil contacts of physics v2, by terrain name.
+
+    Parameters
+    ----------
+    vehicle : HuskyParams or TrackedParams or AgriMaRoParams
+        Vehicle (contact width and length, mass).
+    geometry : ContactGeometry
+        Its contact geometry.
+    terrains : tuple of TerrainParams
+        Terrains of the run; those with an entry in
+        :data:`terrain.terramechanics.lateral.SOILS` get a contact.
+
+    Returns
+    -------
+    dict
+        Terrain name -> :class:`~terrain.terramechanics.lateral.SoilContact` (empty for
+        steered vehicles and rigid terrains).
+    """
+    if geometry.steered:
+        return {}
+    per_side = len(geometry.motor_of_contact) // geometry.n_motors
+    wheels_per_side = 2 if vehicle.name == "husky" else 1
+    footprint = float(vehicle.contact_length_m) * wheels_per_side / per_side
+    max_load = 4.0 * float(vehicle.mass_kg) * 9.80665 * float(np.max(geometry.load_share))
+    return {t.name: soil_contact(SOILS[t.name], float(vehicle.contact_width_m), footprint,
+                                 geometry.wheel_radius_m, max_load)
+            for t in terrains if t.name in SOILS}
 
 
 @dataclass(frozen=True)
@@ -178,7 +240,7 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
               t_s: np.ndarray, twist_cmd: np.ndarray, slope_rad: float, chi: float,
               steer_offset_rad: np.ndarray | None = None,
-              hook: ControlHook | None = None) -> PhysicsResult:
+              hook: ControlHook | None = None, physics: str = "v1") -> PhysicsResult:
     """Integrate the vehicle dynamics over the command sequence.
 
     Parameters
@@ -208,6 +270,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         steps, the sum clipped to the speed limit, and ``omega_cmd`` of the result records
         the corrected command. None (default): open loop, the commands of ``twist_cmd``
         unchanged (bit-identical to a run without the argument).
+    physics : str
+        ``v1`` (static loads, Coulomb lateral friction) or ``v2`` (load transfer, lateral
+        wheel-soil model on soils), :data:`terrain.sim.forces.PHYSICS_VERSIONS`.
 
     Returns
     -------
@@ -216,14 +281,29 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
 
     Raises
     ------
+    ConfigError
+        Unknown physics version.
     numpy.linalg.LinAlgError
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).
     """
+    if physics not in PHYSICS_VERSIONS:
+        raise ConfigError(f"unknown physics {physics!r}; valid choices: "
+                          f"{', '.join(PHYSICS_VERSIONS)}")
     dt = float(t_s[1] - t_s[0])
     n = len(t_s)
     nm = geometry.n_motors
     layout = contact_layout(geometry, vehicle.mass_kg, slope_rad, chi)
+    v2 = physics == "v2"
+    soils: dict[str, SoilContact] = soil_contacts(vehicle, geometry, terrains) if v2 else {}
+    if soils:
+        terrains = tuple(v2_terrain(t, soils[t.name], float(np.mean(layout.normal_load_n)))
+                         if t.name in soils else t for t in terrains)
+    lt = LOAD_TRANSFER.get(vehicle.name)
+    cog_h = lt.cog_height_m if (v2 and lt is not None) else 0.0
+    alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)
+    acc_lt = np.zeros(2)
+    normal = None
     motor_of = layout.motor_of
     mass = vehicle.mass_kg
     m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
@@ -276,7 +356,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         dw = (omega - omega_prev) / dt
         # force model, then gravity and the Coriolis terms of the body-frame equations:
         # m (dv_x/dt - r v_y) = F_x ...
-        contact = contact_forces(layout, maps, ter, vel, omega)
+        if cog_h > 0:
+            normal = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m,
+                                              mass, cog_h, acc_lt[0], acc_lt[1])
+        contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name))
         force = contact.force + gravity_force(mass, slope_rad, pose[2])
         force[0] += mass * vel[2] * vel[1]
         force[1] -= mass * vel[2] * vel[0]
@@ -290,6 +373,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         acc_out[k] = [(vel_new[0] - vel[0]) / dt - vel[2] * vel[1],
                       (vel_new[1] - vel[1]) / dt + vel[2] * vel[0]]
         vel = vel_new
+        acc_lt = acc_lt + alpha_lt * (acc_out[k] - acc_lt)
         # pose on the plane
         yaw_mid = pose[2] + 0.5 * dt * vel[2]
         cm, sm = np.cos(yaw_mid), np.sin(yaw_mid)
@@ -297,7 +381,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                      vel[2]])
         dist += dt * float(np.hypot(vel[0], vel[1]))
         # motor torque: traction plus torque-only hysteresis, plus wheel inertia
-        t_contact = contact_torque_nm(layout, ter, contact.mu, contact.rim_speed_m_s)
+        t_contact = contact_torque_nm(layout, ter, contact.mu, contact.rim_speed_m_s, normal)
         torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + (
             motor.wheel_inertia_kg_m2 * counts * dw)
         pose_out[k] = pose

@@ -17,6 +17,17 @@ One point of contact per wheel, several per track; for each contact ``i`` with n
   ``yaw_rate = (v_R - v_L) / (chi B)``; forces act at the geometric contacts;
 * gravity along the inclined plane (grade resistance, seed 003 eq. 10-11).
 
+Physics ``v2`` (:data:`PHYSICS_VERSIONS`; ``v1`` is the model above, unchanged) adds
+
+* load transfer: per-contact normal loads from the body accelerations and the height of the
+  centre of gravity (:func:`transferred_normal_loads`, :class:`LoadTransferParams`), used by
+  the longitudinal, lateral and torque laws; the per-side motor current split in curves
+  follows from it;
+* on deformable soils with a :data:`terrain.terramechanics.lateral.SOILS` entry, the lateral
+  wheel-soil law of :mod:`terrain.terramechanics.lateral` (Bekker sinkage, Janosi-Hanamoto
+  lateral shear along the slip trajectory, bulldozing of the sinkage wall) instead of the
+  Coulomb lateral friction; rigid surfaces keep the Coulomb law.
+
 :func:`contact_forces` also returns the analytic Jacobian ``dF/dV`` that the linearly implicit
 integrator needs.
 """
@@ -24,10 +35,12 @@ integrator needs.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from types import MappingProxyType
+from typing import Mapping, NamedTuple
 
 import numpy as np
 
+from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
 from terrain.terramechanics.resistance import G_M_S2, lateral_force_and_slope
 from terrain.terramechanics.slip import sae_slip_and_velocity_slope
 from terrain.vehicles.common import ContactGeometry
@@ -45,6 +58,88 @@ SLIP_SPEED_FLOOR_M_S = 0.02
 SOIL_SPEED_M_S = 0.01
 #: Regularisation speed of the sign of the torque-only rolling loss, m/s.
 HYSTERESIS_SPEED_M_S = 0.05
+#: Physics versions of the simulator: ``v1`` static loads and Coulomb lateral friction on
+#: every terrain; ``v2`` load transfer and the lateral wheel-soil model on soils.
+PHYSICS_VERSIONS = ("v1", "v2")
+#: Physics version the simulator and the audit use unless told otherwise (decided from the
+#: held-out comparison of docs/physics_v2.md).
+DEFAULT_PHYSICS = "v1"
+#: Smallest normal load of a contact under load transfer, as a fraction of its static load
+#: (a wheel about to lift keeps a little contact; avoids a singular implicit step).
+MIN_LOAD_FRACTION = 0.05
+
+
+@dataclass(frozen=True)
+class LoadTransferParams:
+    """Height of the centre of gravity for the load transfer of physics v2.
+
+    Parameters
+    ----------
+    cog_height_m : float
+        Height of the centre of gravity above the contact plane, m.
+    source : str
+        Where the value comes from.
+    """
+
+    cog_height_m: float
+    source: str
+
+
+#: Centre-of-gravity heights by vehicle (read-only). The Husky A200 value is an estimate:
+#: Clearpath gives no CoG height; the datasheet body is 0.39 m tall with 0.13 m ground
+#: clearance and the batteries and drive train sit low in the chassis, so the mass centre is
+#: taken at the wheel-axle height plus 0.05 m.
+LOAD_TRANSFER: Mapping[str, LoadTransferParams] = MappingProxyType({
+    "husky": LoadTransferParams(0.2151, (
+        "ASSUMED 0.215 m: Husky A200 datasheet (height 0.39 m, ground clearance 0.13 m, "
+        "13 in wheels of radius 0.1651 m); mass centre 0.05 m above the wheel axles "
+        "(batteries and motors low in the chassis); no published measurement")),
+    "tracked": LoadTransferParams(0.150, "seed 003 Table 2 (Patako test bed, h = 0.150 m)"),
+    "agrimaro": LoadTransferParams(0.0, "no load transfer modelled for AgriMaRo (steered)"),
+})
+
+
+def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np.ndarray,
+                             mass_kg: float, cog_height_m: float, accel_x_m_s2: float,
+                             accel_y_m_s2: float) -> np.ndarray:
+    """Normal loads with longitudinal and lateral load transfer (quasi-static).
+
+    The inertial force ``-m a`` acting at the centre of gravity, height ``h``, is balanced by
+    normal-load changes ``dN_i`` with ``sum dN_i = 0``, ``sum dN_i x_i = -m h a_x`` and
+    ``sum dN_i y_i = -m h a_y`` (Wong, *Theory of Ground Vehicles*, ch. 3.1 longitudinal and
+    ch. 6.1 lateral load transfer); for a layout symmetric in x and y the minimum-norm
+    solution is ``dN_i = -m h (a_x x_i / sum x_j^2 + a_y y_i / sum y_j^2)``: under forward
+    acceleration the rear wheels gain load, in a left turn (``a_y > 0``) the right (outer)
+    wheels. Loads are floored at :data:`MIN_LOAD_FRACTION` of the static load and rescaled
+    to the static total.
+
+    Parameters
+    ----------
+    static_load_n : ndarray, shape (c,)
+        Static normal loads, N.
+    x_m, y_m : ndarray, shape (c,)
+        Contact positions relative to the centre of gravity, m.
+    mass_kg : float
+        Vehicle mass, kg.
+    cog_height_m : float
+        Height of the centre of gravity, m.
+    accel_x_m_s2, accel_y_m_s2 : float
+        Body-frame acceleration of the centre of gravity, m/s^2.
+
+    Returns
+    -------
+    ndarray, shape (c,)
+        N.
+    """
+    sx = float(np.sum(x_m * x_m))
+    sy = float(np.sum(y_m * y_m))
+    d_n = np.zeros_like(static_load_n)
+    if sx > 0:
+        d_n = d_n - mass_kg * cog_height_m * accel_x_m_s2 * x_m / sx
+    if sy > 0:
+        d_n = d_n - mass_kg * cog_height_m * accel_y_m_s2 * y_m / sy
+    loads = np.maximum(static_load_n + d_n, MIN_LOAD_FRACTION * static_load_n)
+    return loads * (np.sum(static_load_n) / np.sum(loads))
 
 
 @dataclass(frozen=True)
@@ -181,7 +276,8 @@ class ContactForces(NamedTuple):
 
 
 def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np.ndarray,
-                   omega: np.ndarray) -> ContactForces:
+                   omega: np.ndarray, normal_load_n: np.ndarray | None = None,
+                   soil: SoilContact | None = None) -> ContactForces:
     """Contact forces of all wheels/tracks and their Jacobian (the force model).
 
     Parameters
@@ -196,12 +292,19 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
         Body twist ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
     omega : ndarray, shape (m,)
         Motor (wheel) speeds, rad/s.
+    normal_load_n : ndarray, shape (c,), optional
+        Normal loads (physics v2 load transfer, :func:`transferred_normal_loads`); None =
+        the static loads of ``layout`` (v1).
+    soil : SoilContact, optional
+        Lateral wheel-soil contact of physics v2 on deformable soil
+        (:func:`terrain.terramechanics.lateral.soil_lateral_force_and_slope`); None = the
+        Coulomb lateral friction of the terrain (v1, and rigid surfaces in v2).
 
     Returns
     -------
     ContactForces
     """
-    normal = layout.normal_load_n
+    normal = layout.normal_load_n if normal_load_n is None else normal_load_n
     a_mat, a_force, b_mat = maps
     v_long = a_mat @ twist
     v_lat = b_mat @ twist
@@ -221,8 +324,11 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     dmu = np.maximum(dmu, secant)
     k_long = normal * (dmu * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
     k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
-    f_lat, k_lat = lateral_force_and_slope(terrain.lateral_friction, normal, v_lat,
-                                           SLIDE_SPEED_M_S)
+    if soil is None:
+        f_lat, k_lat = lateral_force_and_slope(terrain.lateral_friction, normal, v_lat,
+                                               SLIDE_SPEED_M_S)
+    else:
+        f_lat, k_lat = soil_lateral_force_and_slope(soil, normal, v_lat, wr, SLIDE_SPEED_M_S)
     force = a_force.T @ f_long + b_mat.T @ f_lat
     jac = (a_force.T * k_long) @ a_mat + (b_mat.T * k_lat) @ b_mat
     return ContactForces(force, jac, mu, wr)
@@ -253,7 +359,8 @@ def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float) -> np.ndarra
 
 
 def contact_torque_nm(layout: ContactLayout, terrain, mu: np.ndarray,
-                      rim_speed_m_s: np.ndarray) -> np.ndarray:
+                      rim_speed_m_s: np.ndarray, normal_load_n: np.ndarray | None = None
+                      ) -> np.ndarray:
     """Torque each contact asks of its motor: traction plus torque-only rolling loss.
 
     ``r N_i (mu_i + h tanh(omega r / 0.05 m/s))`` with the terrain's hysteresis ``h``
@@ -269,11 +376,55 @@ def contact_torque_nm(layout: ContactLayout, terrain, mu: np.ndarray,
         Signed traction coefficients (:attr:`ContactForces.mu`).
     rim_speed_m_s : ndarray, shape (c,)
         Rim speeds, m/s.
+    normal_load_n : ndarray, shape (c,), optional
+        Normal loads (v2 load transfer); None = the static loads of ``layout``.
 
     Returns
     -------
     ndarray, shape (c,)
         N m.
     """
-    return layout.wheel_radius_m * layout.normal_load_n * (
+    normal = layout.normal_load_n if normal_load_n is None else normal_load_n
+    return layout.wheel_radius_m * normal * (
         mu + terrain.hysteresis * np.tanh(rim_speed_m_s / HYSTERESIS_SPEED_M_S))
+
+
+def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarray,
+                       physics: str = "v1") -> np.ndarray:
+    """Motor current magnitude the drive reports, from wheel torque and speed.
+
+    ``v1``: ``|I|`` of the motor law :meth:`terrain.vehicles.common.MotorParams.current_from_torque`
+    in every quadrant. ``v2``: the same while the motor drives (torque and speed of the same
+    sign); while it brakes (torque against the speed, the motor absorbs power) the report is
+    the no-load current only, ``I_0 |tanh(omega / 0.05)|``: the Husky's current reading follows
+    the power drawn, not the braking current circulating in the bridge. This is a sensor
+    model identified by the audit on the measured runs (docs/physics_v2.md: with ``|I|`` the
+    replay over-predicts the current by 6 A on ASPHALT while the wheels decelerate faster
+    than 0.3 m/s^2, and the 2 Hz output filter smears that into the stand-still samples).
+
+    Parameters
+    ----------
+    motor : MotorParams
+        Motor of the vehicle (no-load current, gear ratio, torque constant, efficiency).
+    wheel_torque_nm : ndarray, shape (...)
+        Torque at the wheel, N m.
+    omega_rad_s : ndarray, shape (...)
+        Wheel speed, rad/s.
+    physics : str
+        ``v1`` or ``v2`` (:data:`PHYSICS_VERSIONS`).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Current magnitude, A.
+    """
+    if physics == "v1":
+        return np.abs(motor.current_from_torque(wheel_torque_nm, omega_rad_s))
+    direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
+    drive = np.asarray(wheel_torque_nm, dtype=float) * np.sign(direction)
+    k = motor.gear_ratio * motor.torque_constant_nm_per_a * motor.efficiency
+    moving = np.abs(direction)
+    motoring = np.maximum(drive, 0.0) / k
+    # at rest (direction 0) the torque that holds the wheel is reported as is
+    return motor.no_load_current_a * moving + moving * motoring + (1.0 - moving) * np.abs(
+        np.asarray(wheel_torque_nm, dtype=float)) / k

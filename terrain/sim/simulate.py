@@ -33,6 +33,7 @@ from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
+from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
 from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
                                  encoder_count_rate, quantise, sample_times)
@@ -72,11 +73,15 @@ class SimConfig:
         Integrator rate, Hz (50-1000).
     sensors : SensorSettings or None
         None = the vehicle's defaults (:data:`DEFAULT_SENSORS`).
+    physics : str
+        Physics version, :data:`terrain.sim.forces.PHYSICS_VERSIONS`: ``v1`` static loads and
+        Coulomb lateral friction; ``v2`` load transfer and the lateral wheel-soil model
+        (docs/physics_v2.md).
 
     Raises
     ------
     ConfigError
-        Unknown vehicle, terrain or scenario (the message lists the valid choices), or a
+        Unknown vehicle, terrain, scenario or physics version (the message lists the valid choices), or a
         duration, rate, segment length or seed out of range.
     """
 
@@ -89,9 +94,13 @@ class SimConfig:
     segment_length_m: float = 25.0
     physics_rate_hz: float = 100.0
     sensors: SensorSettings | None = None
+    physics: str = DEFAULT_PHYSICS
 
     def __post_init__(self) -> None:
         get_vehicle(self.vehicle)
+        if self.physics not in PHYSICS_VERSIONS:
+            raise ConfigError(f"unknown physics {self.physics!r}; valid choices: "
+                              f"{', '.join(PHYSICS_VERSIONS)}")
         if not self.terrains:
             raise ConfigError("at least one terrain is needed")
         for t in self.terrains:
@@ -146,7 +155,8 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
-def motor_currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray:
+def motor_currents(phys: PhysicsResult, vehicle, effects: Effects, physics: str = "v1"
+                   ) -> np.ndarray:
     """Motor current magnitudes with the planted current effects.
 
     The motor law of the vehicle (:meth:`terrain.vehicles.MotorParams.current_from_torque`)
@@ -161,13 +171,16 @@ def motor_currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray
         Vehicle (its ``motor``).
     effects : Effects
         Planted effects.
+    physics : str
+        Physics version (``v2`` reports the no-load current while a motor brakes,
+        :func:`terrain.sim.forces.reported_current_a`).
 
     Returns
     -------
     ndarray, shape (n, m)
         Current magnitudes, A.
     """
-    cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
+    cur = reported_current_a(vehicle.motor, phys.torque, phys.omega, physics)
     turning = effects.turning_resistance * np.tanh(np.abs(phys.twist[:, 2])
                                                    / TURN_RATE_SCALE_RAD_S)
     cur = cur + turning[:, None] + effects.grade_resistance * np.abs(phys.pitch)[:, None]
@@ -238,7 +251,8 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         steer_offset = rng.uniform(-db, db, geometry.n_motors)   # seed 001 ch. 6.1.1
     chi = 1.0 if geometry.steered else config.effects.icr_expansion
     phys = integrate(vehicle, geometry, terrains, config.segment_length_m, cmds.t_s,
-                     cmds.twist, cmds.slope_rad, chi, steer_offset, hook)
+                     cmds.twist, cmds.slope_rad, chi, steer_offset, hook=hook,
+                     physics=config.physics)
     duration = float(cmds.t_s[-1])
     r_w = geometry.wheel_radius_m
     streams: dict[str, pd.DataFrame] = {}
@@ -253,7 +267,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
     if sensors.speed_quantum_m_s == 0:
         omega_meas = encoder_count_rate(phys.omega, dt, motor.encoder_counts_per_rev)
     omega_rep = first_order_filter(omega_meas, dt, motor.encoder_filter_s)
-    cur = motor_currents(phys, vehicle, config.effects)
+    cur = motor_currents(phys, vehicle, config.effects, config.physics)
     t_w = sample_times(duration, sensors.wheel_rate_hz)
     t_src = np.clip(t_w - config.effects.wheel_lag, 0.0, None)
     om_w = interp_columns(t_src, phys.t_s, omega_rep)
@@ -312,7 +326,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
                      omega=sensors.wheel_rate_hz, cur=sensors.wheel_rate_hz)
     meta = {
         "vehicle": vehicle.name, "dataset": "sim", "scenario": config.scenario,
-        "seed": int(config.seed), "duration_s": duration,
+        "seed": int(config.seed), "duration_s": duration, "physics": config.physics,
         "terrain": config.terrains[0] if len(config.terrains) == 1 else "MIXED",
         "terrains": list(config.terrains), "segment_length_m": float(config.segment_length_m),
         "effects": config.effects.as_dict(), "active_effects": config.effects.active(),

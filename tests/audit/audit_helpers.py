@@ -45,13 +45,14 @@ def write_signal_files(root: Path, terrain: str, index: int, imu: pd.DataFrame |
 
 
 def simulated_streams(effects: dict | None = None, seeds=SIM_SEEDS, terrain: str = "ASPHALT",
-                      scenario: str = "random", duration_s: float = SIM_DURATION_S):
+                      scenario: str = "random", duration_s: float = SIM_DURATION_S,
+                      physics: str = "v1"):
     """(imu, pro) file frames of simulated Husky runs with the given planted effects."""
     out = []
     for seed in seeds:
         res = to_file_frames(simulate(SimConfig(
             vehicle="husky", terrains=(terrain,), scenario=scenario, duration_s=duration_s,
-            seed=seed, effects=parse_effects(effects or {}))))
+            seed=seed, effects=parse_effects(effects or {}), physics=physics)))
         out.append((res["imu"].copy(), res["pro"].copy()))
     return out
 

@@ -1,0 +1,215 @@
+"""Gain of one simulator physics version over another on measured runs (v1 vs v2).
+
+Both versions replay every run with no fitted effect (:func:`~terrain.audit.replay.replay_run`
+with :attr:`ReplaySettings.physics`), on the same comparison clock
+(:func:`~terrain.audit.frames.prepare_frame`, whose lag track is estimated against the
+commanded yaw rate or the replayed one, so it is taken from the *reference* version's frame
+for both, so that both are scored on the same samples and timing). Neither version has a
+parameter fitted on the measured runs (the v2 soil parameters come from published tables,
+:mod:`terrain.terramechanics.lateral`), so every run is held out from any fitting.
+
+For each terrain (and ``all`` pooled), each signal (``wz, ax, ay, cur_l, cur_r``, and
+``cur`` = both currents) and each manoeuvre (``straight, curve, spin``, ``moving`` = all three,
+``stop``), the RMSE of each version, the gain ``1 - RMSE_new / RMSE_ref`` and its 95 %
+run-bootstrap interval (runs resampled with replacement within the terrain; per-run sums of
+squared errors, so long runs weigh by their samples).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.audit.frames import MANOEUVRES, AuditFrame, FrameSettings, prepare_frame
+from terrain.audit.replay import ReplaySettings, replay_run
+from terrain.audit.timing import LagSettings
+from terrain.errors import ConfigError, DataFormatError
+from terrain.run import Run
+
+#: signals compared; ``cur`` pools left and right
+COMPARED_SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r", "cur")
+#: manoeuvre scopes; ``moving`` pools straight, curve and spin
+SCOPES = ("moving", "straight", "curve", "spin", "stop")
+
+
+@dataclass(frozen=True)
+class PhysicsComparisonSettings:
+    """What is compared and how the intervals are drawn.
+
+    Parameters
+    ----------
+    reference : str
+        Physics version the gain is measured against (``v1``).
+    candidate : str
+        Physics version whose gain is measured (``v2``).
+    n_bootstrap : int
+        Run-bootstrap resamples for the gain intervals.
+    seed : int
+        Bootstrap seed.
+    """
+
+    reference: str = "v1"
+    candidate: str = "v2"
+    n_bootstrap: int = 1000
+    seed: int = 0
+
+
+def _errors(frame: AuditFrame, other: AuditFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Squared errors of ``other``'s predictions against ``frame``'s measurements, with
+    the manoeuvre code of each, per signal (scored samples only)."""
+    out = {}
+    man = frame.manoeuvre
+    if frame.has_imu:
+        m = frame.score_imu & np.isfinite(frame.wz)
+        out["wz"] = ((frame.wz - other.sim_wz)[m] ** 2, man[m])
+        out["ax"] = ((frame.ax - other.sim_ax)[m] ** 2, man[m])
+        out["ay"] = ((frame.ay - other.sim_ay)[m] ** 2, man[m])
+    m = frame.score_cur
+    e_l = (frame.cur[:, 0] - other.sim_cur[:, 0])[m] ** 2
+    e_r = (frame.cur[:, 1] - other.sim_cur[:, 1])[m] ** 2
+    out["cur_l"] = (e_l, man[m])
+    out["cur_r"] = (e_r, man[m])
+    out["cur"] = (np.r_[e_l, e_r], np.r_[man[m], man[m]])
+    return out
+
+
+def _sums(errors: dict, scope: str) -> dict[str, tuple[float, int]]:
+    """Per-signal sum of squared errors and count within a manoeuvre scope."""
+    res = {}
+    for sig, (e, man) in errors.items():
+        if scope == "moving":
+            keep = man != MANOEUVRES.index("stop")
+        else:
+            keep = man == MANOEUVRES.index(scope)
+        res[sig] = (float(np.sum(e[keep])), int(np.count_nonzero(keep)))
+    return res
+
+
+def per_run_errors(runs: Sequence[Run], settings: PhysicsComparisonSettings,
+                   replay: ReplaySettings = ReplaySettings(),
+                   frames: FrameSettings = FrameSettings(), lag: LagSettings = LagSettings()
+                   ) -> tuple[pd.DataFrame, dict[str, str]]:
+    """Per run, signal and manoeuvre scope: sums of squared errors of both versions.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured skid-steer runs with catalogue terrain labels.
+    settings : PhysicsComparisonSettings
+        Versions compared.
+    replay : ReplaySettings
+        Replay settings (its ``physics`` is replaced by each version).
+    frames : FrameSettings
+        Comparison clock and manoeuvres.
+    lag : LagSettings
+        Lag-track estimation (done once, on the reference version's replay).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        Columns ``run_id, terrain, signal, scope, n, sse_ref, sse_new``.
+    skipped : dict
+        Run id -> reason.
+    """
+    rows, skipped = [], {}
+    for run in runs:
+        try:
+            ref = prepare_frame(run, replay_run(run, replace(replay, physics=settings.reference)),
+                                frames, lag)
+            new_rep = replay_run(run, replace(replay, physics=settings.candidate))
+        except (ConfigError, DataFormatError) as exc:
+            skipped[run.run_id] = str(exc)
+            continue
+        new = replace(ref, sim_wz=_on(ref, new_rep.yaw_rate), sim_ax=_on(ref, new_rep.ax),
+                      sim_ay=_on(ref, new_rep.ay), sim_vx=_on(ref, new_rep.v_x),
+                      sim_cur=np.column_stack([_on(ref, new_rep.cur[:, 0]),
+                                               _on(ref, new_rep.cur[:, 1])]))
+        e_ref, e_new = _errors(ref, ref), _errors(ref, new)
+        for scope in SCOPES:
+            s_ref, s_new = _sums(e_ref, scope), _sums(e_new, scope)
+            for sig in s_ref:
+                rows.append((run.run_id, ref.terrain, sig, scope, s_ref[sig][1],
+                             s_ref[sig][0], s_new[sig][0]))
+    cols = ["run_id", "terrain", "signal", "scope", "n", "sse_ref", "sse_new"]
+    return pd.DataFrame(rows, columns=cols), skipped
+
+
+def _on(frame: AuditFrame, values: np.ndarray) -> np.ndarray:
+    """Replay values (on the wheel clock of the whole run) at the frame's timestamps."""
+    return np.asarray(values, dtype=float)[-frame.n:] if len(values) >= frame.n else values
+
+
+def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
+               pooled: str = "all") -> pd.DataFrame:
+    """RMSE of both versions and the gain with its run-bootstrap interval.
+
+    Parameters
+    ----------
+    per_run : pandas.DataFrame
+        Output of :func:`per_run_errors`.
+    settings : PhysicsComparisonSettings
+        Bootstrap size and seed.
+    pooled : str
+        Name of the all-terrain group.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``terrain, signal, scope, n_runs, n, rmse_ref, rmse_new, gain, gain_lo,
+        gain_hi`` (gain = ``1 - rmse_new / rmse_ref``; NaN where no sample).
+    """
+    rng = np.random.default_rng(settings.seed)
+    rows = []
+    groups = [(t, per_run[per_run.terrain == t]) for t in sorted(per_run.terrain.unique())]
+    groups.append((pooled, per_run))
+    for terrain, tab in groups:
+        for (sig, scope), sub in tab.groupby(["signal", "scope"], sort=False):
+            sub = sub[sub.n > 0]
+            if sub.empty:
+                continue
+            n = sub.n.to_numpy(float)
+            a, b = sub.sse_ref.to_numpy(float), sub.sse_new.to_numpy(float)
+            r_ref, r_new = np.sqrt(a.sum() / n.sum()), np.sqrt(b.sum() / n.sum())
+            idx = rng.integers(0, len(sub), (settings.n_bootstrap, len(sub)))
+            ra = np.sqrt(a[idx].sum(1) / n[idx].sum(1))
+            rb = np.sqrt(b[idx].sum(1) / n[idx].sum(1))
+            g = 1.0 - rb / np.where(ra > 0, ra, np.nan)
+            rows.append((terrain, sig, scope, len(sub), int(n.sum()), r_ref, r_new,
+                         1.0 - r_new / r_ref if r_ref > 0 else np.nan,
+                         float(np.nanpercentile(g, 2.5)), float(np.nanpercentile(g, 97.5))))
+    return pd.DataFrame(rows, columns=["terrain", "signal", "scope", "n_runs", "n", "rmse_ref",
+                                       "rmse_new", "gain", "gain_lo", "gain_hi"])
+
+
+def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
+    """Markdown section of the physics comparison (RMSE of both versions, gain, interval).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Output of :func:`gain_table`.
+    meta : dict
+        ``reference`` and ``candidate`` version names.
+
+    Returns
+    -------
+    str
+        The section, ending with a newline.
+    """
+    ref, new = meta["reference"], meta["candidate"]
+    lines = [f"## Physics {new} against {ref} (replay, no fitted effect, every run held out)",
+             "",
+             f"Gain = 1 - RMSE({new}) / RMSE({ref}); 95 % interval: runs resampled with "
+             "replacement within the terrain.", "",
+             f"| terrain | signal | manoeuvre | runs | samples | RMSE {ref} | RMSE {new} | "
+             "gain [95 % CI] |", "|---|---|---|---|---|---|---|---|"]
+    for r in table.itertuples():
+        if r.scope == "stop":
+            continue
+        lines.append(f"| {r.terrain} | {r.signal} | {r.scope} | {r.n_runs} | {r.n} | "
+                     f"{r.rmse_ref:.3g} | {r.rmse_new:.3g} | {r.gain:+.3f} "
+                     f"[{r.gain_lo:+.3f}, {r.gain_hi:+.3f}] |")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,364 @@
+"""Lateral wheel-soil force of a skid-steered wheel on deformable ground (physics v2).
+
+A skid-steer turns by dragging its wheels sideways while they roll. On deformable ground
+the lateral force of a wheel is built from three textbook relations, each a pure function
+over a frozen, cited :class:`SoilParams`:
+
+1. **Sinkage** from Bekker's pressure-sinkage relation ``p = (k_c / b + k_phi) z^n``
+   (Wong, *Theory of Ground Vehicles*, 4th ed. 2008, eq. 2.33; the plate formula is
+   :func:`terrain.terramechanics.resistance.bekker_sinkage_m`), with the contact length of a
+   rigid wheel of radius ``r`` sunk by ``z``, ``l = 2 sqrt(2 r z - z^2)`` (never shorter than
+   the tyre's own footprint), solved as a fixed point (:func:`wheel_sinkage_m`).
+2. **Shear-displacement lateral force** (Janosi-Hanamoto, Wong eq. 2.56,
+   ``tau = (c + p tan phi)(1 - exp(-j / K))``) integrated along the slip trajectory of the
+   contact patch: a soil element entering the patch at its front travels with the wheel for
+   ``x / |omega r|`` seconds while the wheel slides sideways at ``v_lat``, so it is sheared
+   laterally by ``j(x) = x |v_lat| / |omega r|`` (Wong ch. 7.2 / 7.3, lateral shear of
+   tracks in skid-steering; the lateral slip angle ``tan beta = v_lat / (omega r)``). Over a
+   patch of length ``l`` the mean mobilisation is
+   ``g(a) = 1 - (1 - exp(-a)) / a``, ``a = l tan(beta) / K`` (:func:`shear_mobilisation`).
+3. **Bulldozing** of the sinkage wall: the side of a sunk wheel pushes a wall of soil of
+   depth ``z`` and width ``l`` sideways, the passive earth pressure of Wong eq. 2.61
+   ``R_b = l (0.67 c z K_pc + 0.5 z^2 gamma_s K_pgamma)`` with
+   ``K_pc = (N_c - tan phi) cos^2 phi``, ``K_pgamma = (2 N_gamma / tan phi + 1) cos^2 phi``
+   and Terzaghi's bearing-capacity factors (Wong eqs. 2.62-2.63; ``N_q = exp(pi tan phi)
+   tan^2(45 deg + phi / 2)``, ``N_c = (N_q - 1) cot phi``, ``N_gamma = 2 (N_q + 1) tan phi``,
+   Vesic's form). Wong writes it for the wheel's front face; applying it to the side face
+   is an ANALOGY. The passive pressure is taken to mobilise with the same displacement law
+   as the shear (ASSUMED: both need the soil to move).
+
+The longitudinal traction of the same contact is the Janosi-Hanamoto curve of the same soil
+on the sunk patch (:func:`longitudinal_curve`; one isotropic shear modulus K).
+
+The lateral force of a contact is therefore
+``F_lat = -tanh(v_lat / v_slide) [c A + N tan phi + R_b(z)] g(a)``; it is bounded by the
+soil's strength, smooth through ``v_lat = 0`` and grows with the lateral slip angle, so the
+yaw response of a skid-steer (its ICR expansion chi) and the traction the motors must supply
+to turn it (the turning current) come from one parameter set.
+
+Rigid surfaces keep the Coulomb law of
+:func:`terrain.terramechanics.resistance.lateral_force_and_slope`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from terrain.terramechanics.resistance import bekker_sinkage_m
+from terrain.terramechanics.traction import JanosiCurve
+
+_WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
+
+
+@dataclass(frozen=True)
+class SoilParams:
+    """Pressure-sinkage and shear parameters of a deformable soil (SI units).
+
+    Parameters
+    ----------
+    name : str
+        Soil name as in the source table.
+    n : float
+        Bekker sinkage exponent (dimensionless).
+    k_c : float
+        Cohesive modulus of deformation, N/m^(n+1).
+    k_phi : float
+        Frictional modulus of deformation, N/m^(n+2).
+    cohesion_pa : float
+        Mohr-Coulomb cohesion c, Pa.
+    friction_angle_deg : float
+        Mohr-Coulomb internal friction angle phi, degrees.
+    shear_modulus_m : float
+        Janosi-Hanamoto shear deformation modulus K of the lateral shear, m.
+    unit_weight_n_m3 : float
+        Specific weight of the soil gamma_s, N/m^3 (bulldozing).
+    source : str
+        Where every number comes from (ASSUMED / ANALOGY stated).
+    """
+
+    name: str
+    n: float
+    k_c: float
+    k_phi: float
+    cohesion_pa: float
+    friction_angle_deg: float
+    shear_modulus_m: float
+    unit_weight_n_m3: float
+    source: str
+
+
+#: Soils of the physics-v2 lateral model, by catalogue terrain (read-only).
+SOILS: Mapping[str, SoilParams] = MappingProxyType({
+    "SANDY_LOAM": SoilParams(
+        "sandy loam (Hanamoto), 15 % moisture", n=0.3, k_c=5.27e3, k_phi=1515.04e3,
+        cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.025,
+        unit_weight_n_m3=15.7e3,
+        source=(f"n, k_c, k_phi, c, phi: sandy loam (Hanamoto) 15 % moisture, {_WONG_T23}; "
+                "K = 0.025 m ASSUMED (Wong ch. 2.4: 1-2.5 cm for firm sandy soils, the "
+                "catalogue's longitudinal value); gamma_s 15.7 kN/m^3 ASSUMED (bulk density "
+                "1.6 t/m^3 of a moist sandy loam)")),
+    "SNOW": SoilParams(
+        "snow (U.S.)", n=1.6, k_c=4.37e3, k_phi=196.72e3, cohesion_pa=1.03e3,
+        friction_angle_deg=19.7, shear_modulus_m=0.04, unit_weight_n_m3=2.45e3,
+        source=(f"n, k_c, k_phi, c, phi: snow (U.S.), {_WONG_T23}; K = 0.04 m ASSUMED "
+                "(the catalogue's longitudinal value for snow); gamma_s 2.45 kN/m^3 ASSUMED "
+                "(fresh forest snow, density 250 kg/m^3)")),
+})
+
+
+def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
+                    wheel_radius_m: float, soil: SoilParams, iterations: int = 30
+                    ) -> tuple[float, float]:
+    """Static sinkage and contact length of a wheel on soil (Bekker, Wong eq. 2.33).
+
+    Fixed point of ``z = bekker_sinkage_m(W, b, l(z))`` with the chord of the sunk wheel
+    ``l(z) = max(l_0, 2 sqrt(2 r z - z^2))``.
+
+    Parameters
+    ----------
+    load_n : float
+        Normal load of the wheel, N (>= 0).
+    width_m : float
+        Contact width b, m.
+    footprint_length_m : float
+        Footprint length of the tyre on firm ground l_0, m.
+    wheel_radius_m : float
+        Wheel radius r, m.
+    soil : SoilParams
+        Soil.
+    iterations : int
+        Fixed-point iterations.
+
+    Returns
+    -------
+    sinkage_m : float
+        z, m (at most ``r``).
+    contact_length_m : float
+        l, m.
+    """
+    if load_n <= 0:
+        return 0.0, footprint_length_m
+    length = footprint_length_m
+    z = 0.0
+    for _ in range(iterations):
+        z = min(bekker_sinkage_m(load_n, width_m, length, soil.k_c, soil.k_phi, soil.n),
+                wheel_radius_m)
+        chord = 2.0 * np.sqrt(max(2.0 * wheel_radius_m * z - z * z, 0.0))
+        length = 0.5 * length + 0.5 * max(footprint_length_m, chord)   # damped
+    return float(z), float(length)
+
+
+def bearing_capacity_factors(friction_angle_deg: float) -> tuple[float, float, float]:
+    """Terzaghi bearing-capacity factors ``N_c, N_q, N_gamma`` (Vesic's closed forms).
+
+    Parameters
+    ----------
+    friction_angle_deg : float
+        Internal friction angle phi, degrees (> 0).
+
+    Returns
+    -------
+    tuple of float
+        ``(N_c, N_q, N_gamma)``, dimensionless (Wong ch. 2.5).
+    """
+    phi = np.radians(friction_angle_deg)
+    n_q = np.exp(np.pi * np.tan(phi)) * np.tan(np.pi / 4 + phi / 2) ** 2
+    n_c = (n_q - 1.0) / np.tan(phi)
+    n_g = 2.0 * (n_q + 1.0) * np.tan(phi)
+    return float(n_c), float(n_q), float(n_g)
+
+
+def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) -> float:
+    """Passive-pressure bulldozing force of a sinkage wall (Wong eq. 2.61).
+
+    ``R_b = w (0.67 c z K_pc + 0.5 z^2 gamma_s K_pgamma)`` with
+    ``K_pc = (N_c - tan phi) cos^2 phi`` and ``K_pgamma = (2 N_gamma / tan phi + 1) cos^2 phi``.
+
+    Parameters
+    ----------
+    sinkage_m : float
+        Depth of the wall z, m.
+    wall_width_m : float
+        Width of the wall w, m (the contact length for a wheel sliding sideways).
+    soil : SoilParams
+        Soil.
+
+    Returns
+    -------
+    float
+        N.
+    """
+    phi = np.radians(soil.friction_angle_deg)
+    n_c, _, n_g = bearing_capacity_factors(soil.friction_angle_deg)
+    cos2 = np.cos(phi) ** 2
+    k_pc = (n_c - np.tan(phi)) * cos2
+    k_pg = (2.0 * n_g / np.tan(phi) + 1.0) * cos2
+    z = float(sinkage_m)
+    return float(wall_width_m * (0.67 * soil.cohesion_pa * z * k_pc
+                                 + 0.5 * z * z * soil.unit_weight_n_m3 * k_pg))
+
+
+def shear_mobilisation(a: np.ndarray) -> np.ndarray:
+    """Mean Janosi-Hanamoto mobilisation over a patch sheared linearly from 0 to ``a K``.
+
+    ``g(a) = (1 / l) int_0^l (1 - exp(-a x / l)) dx = 1 - (1 - exp(-a)) / a``
+    (Wong eq. 2.56 integrated along the patch; ``g -> a / 2`` for small ``a``, ``-> 1`` for
+    large).
+
+    Parameters
+    ----------
+    a : ndarray, shape (...)
+        Shear displacement at the rear of the patch over K, ``l |tan beta| / K`` (>= 0).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Dimensionless, in [0, 1).
+    """
+    a = np.maximum(np.asarray(a, dtype=float), 1e-12)
+    return 1.0 + np.expm1(-a) / a
+
+
+@dataclass(frozen=True)
+class SoilContact:
+    """Lateral strength of one wheel on a soil as a function of its normal load.
+
+    Parameters
+    ----------
+    soil : SoilParams
+        Soil.
+    width_m : float
+        Contact width b, m.
+    wheel_radius_m : float
+        Wheel radius, m.
+    load_grid_n : ndarray, shape (k,)
+        Normal loads at which the strength is tabulated, N.
+    strength_grid_n : ndarray, shape (k,)
+        ``c A + N tan phi + R_b`` at those loads, N.
+    length_grid_m : ndarray, shape (k,)
+        Contact length l at those loads, m.
+    sinkage_grid_m : ndarray, shape (k,)
+        Sinkage z at those loads, m.
+    """
+
+    soil: SoilParams
+    width_m: float
+    wheel_radius_m: float
+    load_grid_n: np.ndarray
+    strength_grid_n: np.ndarray
+    length_grid_m: np.ndarray
+    sinkage_grid_m: np.ndarray
+
+
+def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
+                 wheel_radius_m: float, max_load_n: float, n_grid: int = 64) -> SoilContact:
+    """Tabulate a wheel's lateral strength over normal load (sinkage, shear, bulldozing).
+
+    Parameters
+    ----------
+    soil : SoilParams
+        Soil.
+    width_m : float
+        Contact width b, m.
+    footprint_length_m : float
+        Tyre footprint length on firm ground, m.
+    wheel_radius_m : float
+        Wheel radius, m.
+    max_load_n : float
+        Largest normal load tabulated, N (> 0).
+    n_grid : int
+        Grid points.
+
+    Returns
+    -------
+    SoilContact
+    """
+    loads = np.linspace(0.0, max_load_n, n_grid)
+    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
+    z = np.zeros(n_grid)
+    length = np.full(n_grid, footprint_length_m)
+    strength = np.zeros(n_grid)
+    for i, w in enumerate(loads):
+        z[i], length[i] = wheel_sinkage_m(w, width_m, footprint_length_m, wheel_radius_m, soil)
+        area = width_m * length[i] if w > 0 else 0.0
+        strength[i] = (soil.cohesion_pa * area + w * tan_phi
+                       + (bulldozing_force_n(z[i], length[i], soil) if w > 0 else 0.0))
+    return SoilContact(soil, width_m, wheel_radius_m, loads, strength, length, z)
+
+
+def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray,
+                                 v_lateral_m_s: np.ndarray, rim_speed_m_s: np.ndarray,
+                                 slide_speed_m_s: float = 0.02
+                                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Lateral soil force of skid-steered wheels and its secant slope (module docstring).
+
+    ``F = -tanh(v_lat / v_slide) S(N) g(l |v_lat| / (K max(|omega r|, v_slide)))`` with the
+    tabulated strength ``S(N)`` and contact length ``l(N)`` of :func:`soil_contact`.
+
+    Parameters
+    ----------
+    contact : SoilContact
+        Tabulated wheel-soil contact.
+    normal_load_n : ndarray, shape (c,)
+        Normal load of each wheel, N.
+    v_lateral_m_s : ndarray, shape (c,)
+        Lateral velocity of each contact, m/s.
+    rim_speed_m_s : ndarray, shape (c,)
+        Rim speed ``omega r`` of each wheel, m/s (the rate at which soil passes under it).
+    slide_speed_m_s : float
+        Regularisation speed, m/s: floor of the rim speed (a locked wheel shears the soil
+        fully) and scale of the sign smoothing.
+
+    Returns
+    -------
+    force_n : ndarray, shape (c,)
+        Lateral force, N.
+    slope_n_s_m : ndarray, shape (c,)
+        Secant slope ``F / v_lat`` (N s/m; its limit at ``v_lat = 0``), never steeper than
+        the tangent, which keeps the implicit integrator stable.
+    """
+    n_load = np.clip(np.asarray(normal_load_n, dtype=float), 0.0, contact.load_grid_n[-1])
+    strength = np.interp(n_load, contact.load_grid_n, contact.strength_grid_n)
+    length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
+    v = np.asarray(v_lateral_m_s, dtype=float)
+    roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
+    scale = length / (contact.soil.shear_modulus_m * roll)     # a = scale |v|
+    a = scale * np.abs(v)
+    g = shear_mobilisation(a)
+    x_l = v / slide_speed_m_s
+    th = np.tanh(x_l)
+    force = -th * strength * g
+    # secant F / v = -(tanh(x)/x) (S / v_slide) g, finite (0) at v = 0
+    x_safe = np.where(np.abs(x_l) > 1e-9, x_l, 1.0)
+    ratio = np.where(np.abs(x_l) > 1e-9, th / x_safe, 1.0)
+    return force, -ratio * strength * g / slide_speed_m_s
+
+
+def longitudinal_curve(contact: SoilContact, load_n: float) -> JanosiCurve:
+    """Longitudinal Janosi-Hanamoto traction curve of the same wheel-soil contact.
+
+    The same soil parameters as the lateral law (one parameter set per terrain, isotropic
+    shear modulus K) on the sunk contact patch at ``load_n``:
+    :meth:`terrain.terramechanics.traction.JanosiCurve.from_soil` with ``A = b l(N)``,
+    ``L = l(N)``.
+
+    Parameters
+    ----------
+    contact : SoilContact
+        Tabulated wheel-soil contact (:func:`soil_contact`).
+    load_n : float
+        Normal load of the wheel, N (> 0).
+
+    Returns
+    -------
+    JanosiCurve
+    """
+    length = float(np.interp(load_n, contact.load_grid_n, contact.length_grid_m))
+    soil = contact.soil
+    return JanosiCurve.from_soil(soil.cohesion_pa, soil.friction_angle_deg,
+                                 soil.shear_modulus_m, contact.width_m * length, length,
+                                 load_n, f"{soil.name}: {soil.source}")
