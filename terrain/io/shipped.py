@@ -27,6 +27,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import list_run_files, read_run
+from terrain.io.plausibility import check_run
 from terrain.run import TIME, Run
 
 #: Citation and license of each dataset (from ``shared/data/README.md``).
@@ -215,12 +216,16 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     for info in entry["runs"]:
         rid = info["run_id"]
         streams = {n: t[rid] for n, t in tables.items() if rid in t}
+        # the same plausibility rules as the CSV reader (ranges were checked on conversion)
+        checks = check_run(rid, streams, "husky",
+                           {n: f"{data_dir / dataset / STREAM_FILES[n]} run {rid}"
+                            for n in streams})
         runs.append(Run(run_id=rid, dataset=dataset, terrain=info["terrain"], streams=streams,
                         vehicle="husky", source=f"{data_dir / dataset} ({entry['source']})",
                         meta={"repaired": info["repaired"],
                               # JSON has no tuples: restore the reader's (t_start_s, t_end_s)
                               "gaps": {k: [tuple(g) for g in v]
-                                       for k, v in info["gaps"].items()}}))
+                                       for k, v in info["gaps"].items()}, **checks}))
     return runs
 
 
