@@ -92,15 +92,22 @@ class TerrainModel(PythonModel):
         Terrain classes, in the order of ``predict_proba``.
     """
 
-    def __init__(self, channels: Sequence[str], window: dict, classes: Sequence[str]) -> None:
+    def __init__(self, channels: Sequence[str] = (), window: dict | None = None,
+                 classes: Sequence[str] = ()) -> None:
         self.channels = list(channels)
-        self.window = dict(window)
+        self.window = dict(window or {})
         self.classes = list(classes)
         self._pipeline = None
 
     def load_context(self, context: Any) -> None:
-        """Load the fitted scikit-learn pipeline."""
+        """Load the fitted scikit-learn pipeline; settings from ``context.model_config``
+        when the model was logged from code (:mod:`terrain.serving_entry`)."""
         import joblib
+        config = getattr(context, "model_config", None) or {}
+        if config:
+            self.channels = list(config["channels"])
+            self.window = dict(config["window"])
+            self.classes = list(config["classes"])
         self._pipeline = joblib.load(context.artifacts["pipeline"])
 
     def predict(self, context: Any, model_input: pd.DataFrame, params: dict | None = None
@@ -182,7 +189,9 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     root = Path(__file__).resolve().parents[1]
     import sklearn
     return dict(
-        python_model=TerrainModel(channels, window_d, classes),
+        python_model=str(Path(__file__).with_name("serving_entry.py")),
+        model_config={"channels": list(channels), "window": window_d,
+                      "classes": list(classes)},
         artifacts={"pipeline": str(path)},
         signature=model_signature(channels, classes),
         code_paths=[str(root / "terrain"), str(root / "features")],
@@ -194,7 +203,8 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
 
 
 def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
-               window: WindowConfig, classes: Sequence[str], metadata: dict) -> Path:
+               window: WindowConfig, classes: Sequence[str], metadata: dict,
+               input_example: pd.DataFrame | None = None) -> Path:
     """Save the inference pipeline as an MLflow model directory at ``path``.
 
     Raises
@@ -210,14 +220,18 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
     if path.exists():
         path.rmdir()
     with tempfile.TemporaryDirectory() as tmp:
-        mlflow.pyfunc.save_model(path=str(path), **_model_kwargs(
+        mlflow.pyfunc.save_model(path=str(path), input_example=input_example, **_model_kwargs(
             pipeline, channels, window, classes, metadata, Path(tmp)))
     return path
 
 
 def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
-              classes: Sequence[str], metadata: dict, registered_name: str | None) -> str:
+              classes: Sequence[str], metadata: dict, registered_name: str | None,
+              input_example: pd.DataFrame | None = None) -> str:
     """Log (and register) the inference pipeline in the active MLflow run.
+
+    ``input_example`` (aligned samples in the model's input format, a few windows long) is
+    stored with the model.
 
     Returns
     -------
@@ -228,6 +242,7 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
 
     with tempfile.TemporaryDirectory() as tmp:
         info = mlflow.pyfunc.log_model(name="terrain-model", registered_model_name=registered_name,
+                                       input_example=input_example,
                                        **_model_kwargs(pipeline, channels, window, classes,
                                                        metadata, Path(tmp)))
     return info.model_uri

@@ -354,8 +354,43 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
                      **checks, "files": {k: str(p) for k, p in files.items()}})
 
 
+def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = False,
+                   **reader_options) -> list[Run]:
+    """Read the runs of a runs folder, or of one terrain folder of it.
+
+    Parameters
+    ----------
+    path : str or Path
+        A folder in the layout ``<path>/<TERRAIN>/<kind>_XX.csv``, or one ``<TERRAIN>``
+        folder (holding the CSV files itself).
+    labelled : bool
+        See :func:`read_runs_dir`.
+    progress : bool
+        Show a progress bar over runs.
+    **reader_options
+        Passed to :func:`read_stream_csv`.
+
+    Returns
+    -------
+    list of Run
+        Run ids ``<folder>/<TERRAIN>/<index>``, ``<folder>`` the runs folder's name.
+
+    Raises
+    ------
+    DataFormatError
+        If ``path`` is not a folder or holds no run file.
+    """
+    path = Path(path)
+    root, only = path, None
+    if path.is_dir() and any(_FILE_RE.match(p.name) for p in path.iterdir()):
+        root, only = path.parent, path.name
+    return read_runs_dir(root, root.resolve().name, labelled=labelled, progress=progress,
+                         only=only, **reader_options)
+
+
 def read_runs_dir(root: str | Path, dataset: str | None = None, *,
-                  labelled: bool = True, **reader_options) -> list[Run]:
+                  labelled: bool = True, progress: bool = False, only: str | None = None,
+                  **reader_options) -> list[Run]:
     """Read every run under ``root`` (layout ``<root>/<TERRAIN>/<kind>_XX.csv``).
 
     Parameters
@@ -367,6 +402,10 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     labelled : bool
         If True the terrain folder name is the label; if False runs are unlabelled
         (``terrain=None``, as for prediction).
+    progress : bool
+        Show a progress bar (tqdm, on stderr) over runs.
+    only : str, optional
+        Read the runs of this terrain folder only.
     **reader_options
         Passed to :func:`read_stream_csv`.
 
@@ -378,7 +417,12 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     root = Path(root)
     dataset = dataset or root.resolve().name
     runs = []
-    for (folder, index), files in sorted(list_run_files(root).items()):
+    items = sorted((k, v) for k, v in list_run_files(root).items()
+                   if only is None or k[0] == only)
+    if progress:
+        from tqdm.auto import tqdm
+        items = tqdm(items, desc="reading runs", unit="run")
+    for (folder, index), files in items:
         runs.append(read_run(files, f"{dataset}/{folder}/{index}", dataset,
                              folder.upper() if labelled else None, **reader_options))
     return runs
