@@ -18,9 +18,11 @@ import shlex
 from pathlib import Path
 
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
+from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
+from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 
 EXPERIMENT = "terrain-audit"
@@ -49,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also replay each terrain with its catalogue lateral friction "
                              "scaled by 0.5, 0.75, 1, 1.5, 2 (what-if table)")
     parser.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
+    parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 
 def _command(args: argparse.Namespace) -> str:
@@ -67,7 +70,8 @@ def main(args: argparse.Namespace) -> int:
     """Run the audit, write the reports, log to MLflow; returns 0."""
     if (args.runs_dir is None) == (args.dataset is None):
         raise ConfigError("give exactly one of RUNS_DIR or --dataset")
-    runs = read_runs_dir(args.runs_dir) if args.runs_dir else load_dataset(args.dataset)
+    runs = (read_runs_dir(args.runs_dir, progress=not getattr(args, "no_progress", False)) if args.runs_dir
+            else load_dataset(args.dataset))
     source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
     name = args.dataset or args.runs_dir.resolve().name
     settings = AuditSettings(
@@ -87,13 +91,33 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_with_progress(runs, settings, progress: bool):
+    """``run_audit`` with a progress bar over the replay of the runs (the slow step)."""
+    if not progress:
+        return run_audit(runs, settings)
+    from dataclasses import replace
+
+    from tqdm.auto import tqdm
+
+    frames, skipped = [], {}
+    for run in tqdm(runs, desc="replaying runs", unit="run"):
+        f, s = prepare_frames([run], settings)
+        frames += f
+        skipped.update(s)
+    if not frames:  # run_audit raises the error naming every skipped run
+        return run_audit(runs, settings)
+    return replace(run_audit(runs, settings, frames=frames), skipped=skipped)
+
+
 def _audit(args, runs, settings, source, name, tracked) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     from terrain.audit import make_figures
 
-    result = run_audit(runs, settings)
+    result = _run_with_progress(runs, settings, not getattr(args, "no_progress", False))
+    inputs = input_report(runs)
+    print(inputs.text())
     report = to_dict(result, source)
     if tracked is not None:
         report["mlflow_run_id"] = tracked.run_id
@@ -112,7 +136,8 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
         rel = {k: f"{folder.name}/audit_{k}.png" for k in figures}
         args.md.write_text(to_markdown(report, rel, commands, title))
     if tracked is not None:
-        tracked.log_metrics(flat_metrics(report))
+        tracked.log_metrics({**flat_metrics(report), **inputs.metrics()})
+        tracked.log_table(inputs.table, "input_report.csv")
         tracked.log_dict(report, "audit.json")
         rel = {k: f"figures/audit_{k}.png" for k in figures}
         tracked.log_text(to_markdown(report, rel, commands, title), "audit.md")

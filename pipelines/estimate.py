@@ -20,6 +20,7 @@ import numpy as np
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.io.measured import read_runs_dir
+from terrain.io.report import input_report
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
 
 
@@ -61,6 +62,7 @@ def _load(run_dir: Path, select: str | None):
 def main(args: argparse.Namespace) -> int:
     """Run the estimator on each selected run and write its table; returns 0."""
     runs = _load(args.run_dir, args.run)
+    print(input_report(runs).text())
     gate = Gate(args.gate) if args.gate is not None else None
     for run in runs:
         est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,

@@ -43,8 +43,9 @@ Unit and clock rules (:func:`check_run`)
         runs give at most 1.5 1/m). A gyro in deg/s multiplies ``k`` by 57.3. Certain when the
         wheels do turn (std of ``v_R - v_L`` >= 0.02 m/s), the correlation is >= 0.5 and ``k``
         exceeds :data:`DEG_S_SLOPE_PER_M`. Likely when the median standard deviation of the
-        three gyro axes exceeds 1 rad/s (the shipped runs: at most 0.18 rad/s), or the yaw
-        rate exceeds twice the vehicle's limit.
+        three gyro axes exceeds :data:`MAX_GYRO_SPREAD_RAD_S` (the shipped runs: at most
+        0.18 rad/s; their straight runs converted to deg/s: 0.33 to 10), or the yaw rate
+        exceeds twice the vehicle's limit.
     ``wheel_speed_units``
         Husky wheel speeds against the top speed: a wheel cannot turn faster than the motor
         limit (top speed), so a 99th percentile above twice the top speed is certain (km/h is
@@ -151,6 +152,8 @@ MAX_YAW_SLOPE_PER_M = 5.0
 #: slope beyond which the gyro is certainly in deg/s (57.3 x the smallest rad/s slope seen,
 #: 0.3 1/m, is 17 1/m)
 DEG_S_SLOPE_PER_M = 15.0
+#: median standard deviation of the gyro axes above which a gyro is probably in deg/s, rad/s
+MAX_GYRO_SPREAD_RAD_S = 0.3
 #: seconds of one exact repeated value after which a channel is stuck
 STUCK_IMU_S = 1.0
 STUCK_CURRENT_S = 20.0
@@ -219,11 +222,11 @@ def check_rate(t_s: np.ndarray, stream: str, path) -> None:
     if rate < lo / 10.0 and lo <= 1000.0 * rate <= hi:
         raise UnitError(
             f"rule timestamp_units: median step implies {rate:.4g} Hz, far below the "
-            f"{lo:g}-{hi:g} Hz of a {stream} stream; x1000 gives {1000 * rate:.4g} Hz: the "
+            f"{lo:g}-{hi:g} Hz of the {stream} stream; x1000 gives {1000 * rate:.4g} Hz: the "
             "timestamps look like milliseconds; divide the time column by 1000", path, "time")
     if not lo <= rate <= hi:
         _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
-              f"Hz of a {stream} stream; timestamps assumed in s")
+              f"Hz of the {stream} stream; timestamps assumed in s")
 
 
 def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
@@ -317,7 +320,7 @@ def _check_clocks(imu, wheels, src, found) -> None:
     (a0, a1), (b0, b1) = ((float(f[TIME].iloc[0]), float(f[TIME].iloc[-1]))
                           for f in (imu, wheels))
     overlap = min(a1, b1) - max(a0, b0)
-    spans = f"imu {a0:.6g}..{a1:.6g} s, wheels {b0:.6g}..{b1:.6g} s"
+    spans = f"imu {a0:.10g}..{a1:.10g} s, wheels {b0:.10g}..{b1:.10g} s"
     if overlap <= 0:
         raise ClockError(f"rule clock_overlap: the IMU and wheel clocks do not overlap "
                          f"({spans}); both files must start near time 0 (subtract each "
@@ -344,15 +347,15 @@ def _check_gyro(imu, wheels, vehicle, path, found) -> None:
         k = float(dv0 @ wz0) / float(dv0 @ dv0)
         if abs(corr) >= 0.5 and abs(k) > DEG_S_SLOPE_PER_M:
             raise UnitError(
-                f"rule gyro_units: yaw rate / wheel speed difference slope {k:.1f} 1/m (corr "
-                f"{corr:.2f}) is {abs(k) / (180 / math.pi):.2f} x 57.3; a rad/s gyro gives "
-                f"at most {MAX_YAW_SLOPE_PER_M:g} 1/m (1 / (chi B)): the gyro is in deg/s; "
-                "convert wx, wy, wz to rad/s (x pi/180)", path, "wz")
+                f"rule gyro_units: slope of the yaw rate on the wheel speed difference is "
+                f"{k:.1f} 1/m (corr {corr:.2f}); a rad/s gyro gives 1 / (chi B), at most "
+                f"{MAX_YAW_SLOPE_PER_M:g} 1/m, and deg/s multiplies it by 57.3: the gyro is in "
+                "deg/s; convert wx, wy, wz to rad/s (x pi/180)", path, "wz")
     lim = VEHICLE_LIMITS.get(vehicle)
     p99 = float(np.percentile(np.abs(imu["wz"].to_numpy()), 99))
-    if spread > 1.0 or (lim is not None and p99 > 2 * lim.max_yaw_rate_rad_s):
+    if spread > MAX_GYRO_SPREAD_RAD_S or (lim is not None and p99 > 2 * lim.max_yaw_rate_rad_s):
         found.append(f"{path}: rule gyro_units: gyro spread {spread:.2f} rad/s (median axis "
-                     f"std; real runs <= 0.2), 99th-percentile |wz| {p99:.2f} rad/s: the gyro "
+                     f"std; real runs <= 0.18), 99th-percentile |wz| {p99:.2f} rad/s: the gyro "
                      "is probably in deg/s; assumed rad/s as the format requires")
 
 
