@@ -83,8 +83,8 @@ def main(args: argparse.Namespace) -> int:
     """Run the CV, log it to MLflow, print the summary."""
     config = config_from_args(args)
     name = f"{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
+    runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
-        runs = load_dataset(config.dataset)
         result = run_cv(config, runs=runs, progress=not args.no_progress)
         rep = result.report
         summary = rep.summary()

@@ -57,8 +57,8 @@ def main(args: argparse.Namespace) -> int:
     params = {"dataset": config.dataset, "signals": ",".join(config.signals),
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0]}
+    runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
-        runs = load_dataset(config.dataset)
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)
         classes = [str(c) for c in np.unique(ws.labels.astype(str))]
         train_acc = float((pipe.predict(ws.X) == ws.labels.astype(str)).mean())

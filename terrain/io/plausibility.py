@@ -334,7 +334,7 @@ def _check_clocks(imu, wheels, src, found) -> None:
 
 
 def _check_gyro(imu, wheels, vehicle, path, found) -> None:
-    spread = float(np.median([imu[c].std() for c in ("wx", "wy", "wz")]))
+    spread = float(np.median([np.std(imu[c].to_numpy()) for c in ("wx", "wy", "wz")]))
     t_w = wheels[TIME].to_numpy()
     t_i = imu[TIME].to_numpy()
     inside = (t_w >= t_i[0]) & (t_w <= t_i[-1])
@@ -360,7 +360,7 @@ def _check_gyro(imu, wheels, vehicle, path, found) -> None:
 
 
 def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found) -> None:
-    speed = np.abs(wheels[["vel_l", "vel_r"]].to_numpy())
+    speed = np.abs(np.r_[wheels["vel_l"].to_numpy(), wheels["vel_r"].to_numpy()])
     p99 = float(np.percentile(speed, 99))
     if p99 > 2.0 * lim.top_speed_m_s:
         raise UnitError(
@@ -387,11 +387,13 @@ def _speed_accel_slope(wheels, imu) -> float | None:
     t_i = imu[TIME].to_numpy()
     step = float(np.median(np.diff(t_i)))
     n = max(1, int(round(1.0 / step)))
-    kernel = np.ones(n) / n
+    if t_i.size <= 2 * n:
+        return None
     v = np.interp(t_i, wheels[TIME].to_numpy(),
                   0.5 * (wheels["vel_l"].to_numpy() + wheels["vel_r"].to_numpy()))
-    dv = np.gradient(np.convolve(v, kernel, "same"), t_i)
-    ax = np.convolve(imu["ax"].to_numpy() - np.median(imu["ax"].to_numpy()), kernel, "same")
+    ax = imu["ax"].to_numpy()
+    dv = np.gradient(_moving_mean(v, n), t_i[n - 1:])
+    ax = _moving_mean(ax, n)
     dv0, ax0 = dv - dv.mean(), ax - ax.mean()
     denom = math.sqrt(float(dv0 @ dv0) * float(ax0 @ ax0))
     if denom == 0 or float(dv0 @ ax0) / denom < 0.5:
@@ -399,29 +401,7 @@ def _speed_accel_slope(wheels, imu) -> float | None:
     return float(dv0 @ ax0) / float(ax0 @ ax0)
 
 
-def stuck_window_flags(stuck: Mapping[str, list], t_start_s: np.ndarray,
-                       t_end_s: np.ndarray) -> np.ndarray:
-    """Flag the windows that hold a stuck stretch of a channel.
-
-    Parameters
-    ----------
-    stuck : Mapping[str, list]
-        ``Run.meta["stuck"]``: ``"<stream>.<channel>" -> [[t_start_s, t_end_s], ...]``.
-    t_start_s, t_end_s : numpy.ndarray
-        ``(n_windows,)`` window bounds on the run's clock, s.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n_windows,)`` strings: ``""`` or ``"stuck:<stream>.<channel>[,...]"``.
-    """
-    t0 = np.asarray(t_start_s, dtype=float)
-    t1 = np.asarray(t_end_s, dtype=float)
-    names = [[] for _ in range(t0.size)]
-    for key, spans in stuck.items():
-        hit = np.zeros(t0.size, dtype=bool)
-        for a, b in spans:
-            hit |= (t0 <= b) & (t1 >= a)
-        for i in np.flatnonzero(hit):
-            names[i].append(key)
-    return np.array(["stuck:" + ",".join(n) if n else "" for n in names], dtype=object)
+def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    """Means of the ``len(x) - n + 1`` full windows of ``n`` samples (O(len(x)))."""
+    c = np.cumsum(np.r_[0.0, x])
+    return (c[n:] - c[:-n]) / n
