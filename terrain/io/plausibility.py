@@ -405,3 +405,31 @@ def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
     """Means of the ``len(x) - n + 1`` full windows of ``n`` samples (O(len(x)))."""
     c = np.cumsum(np.r_[0.0, x])
     return (c[n:] - c[:-n]) / n
+
+
+def stuck_window_flags(stuck: Mapping[str, list], t_start_s: np.ndarray,
+                       t_end_s: np.ndarray) -> np.ndarray:
+    """Flag the windows that hold a stuck stretch of a channel.
+
+    Parameters
+    ----------
+    stuck : Mapping[str, list]
+        ``Run.meta["stuck"]``: ``"<stream>.<channel>" -> [[t_start_s, t_end_s], ...]``.
+    t_start_s, t_end_s : numpy.ndarray
+        ``(n_windows,)`` window bounds on the run's clock, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` strings: ``""`` or ``"stuck:<stream>.<channel>[,...]"``.
+    """
+    t0 = np.asarray(t_start_s, dtype=float)
+    t1 = np.asarray(t_end_s, dtype=float)
+    names = [[] for _ in range(t0.size)]
+    for key, spans in stuck.items():
+        hit = np.zeros(t0.size, dtype=bool)
+        for a, b in spans:
+            hit |= (t0 <= b) & (t1 >= a)
+        for i in np.flatnonzero(hit):
+            names[i].append(key)
+    return np.array(["stuck:" + ",".join(n) if n else "" for n in names], dtype=object)
