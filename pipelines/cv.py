@@ -71,8 +71,18 @@ def result_dict(result: ExperimentResult) -> dict:
 
 
 def pooled_recall(confusion) -> dict[str, float]:
-    """Per-class recall of the pooled out-of-fold predictions (diagonal / row sum of the
-    confusion matrix, rows = true class); NaN for a class with no window."""
+    """Per-class recall of the pooled out-of-fold predictions.
+
+    Parameters
+    ----------
+    confusion : pandas.DataFrame
+        Confusion counts (rows true class, columns predicted), summed over seeds.
+
+    Returns
+    -------
+    dict
+        Class -> diagonal / row sum; NaN for a class with no window.
+    """
     counts = confusion.to_numpy().astype(float)
     rows = counts.sum(axis=1)
     return {str(c): float(counts[i, i] / rows[i]) if rows[i] else float("nan")

@@ -37,8 +37,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def trained_params(pipe) -> dict:
-    """The scalar hyperparameters of the fitted pipeline, as MLflow parameters ``model.*``
-    (e.g. the calibrated SVC's ``C``, ``gamma`` and calibration method)."""
+    """The scalar hyperparameters of the fitted pipeline, as MLflow parameters.
+
+    Parameters
+    ----------
+    pipe : sklearn.pipeline.Pipeline
+        The fitted inference pipeline.
+
+    Returns
+    -------
+    dict
+        ``model.<param>`` -> value (e.g. the calibrated SVC's ``C``, ``gamma`` and calibration
+        method) and ``model.steps``, the step classes.
+    """
     flat = {f"model.{k}": v for k, v in pipe.get_params(deep=True).items()
             if isinstance(v, (str, int, float, bool)) or v is None}
     flat["model.steps"] = " -> ".join(

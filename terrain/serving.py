@@ -230,8 +230,22 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
               input_example: pd.DataFrame | None = None) -> str:
     """Log (and register) the inference pipeline in the active MLflow run.
 
-    ``input_example`` (aligned samples in the model's input format, a few windows long) is
-    stored with the model.
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        The fitted ``features -> scaler -> SVC`` pipeline.
+    channels : sequence of str
+        Channel order of the windows.
+    window : WindowConfig
+        Window settings of the model.
+    classes : sequence of str
+        Terrain classes.
+    metadata : dict
+        Extra model metadata (dataset, signals...).
+    registered_name : str or None
+        Registry name, or None not to register.
+    input_example : pandas.DataFrame, optional
+        Aligned samples in the model's input format (a few windows), stored with the model.
 
     Returns
     -------

@@ -36,7 +36,8 @@ Unit and clock rules (:func:`check_run`)
         ``time = 0``). Certain when they do not overlap at all (e.g. an epoch clock beside a
         clock from 0); likely (warning) when they overlap for less than half of the shorter.
     ``gyro_units``
-        Yaw rate of the gyro against the difference of the wheel speeds: for a skid-steer
+        Yaw rate of the gyro against the difference of the wheel speeds (vehicles of
+        :data:`VEHICLE_LIMITS`, skid-steer): for a skid-steer
         vehicle ``wz = (v_R - v_L) / (chi B)`` (ICR model, :mod:`terrain.vehicles.skid_steer`)
         so the least-squares slope ``k`` of ``wz`` on ``v_R - v_L`` is ``1 / (chi B)``,
         at most :data:`MAX_YAW_SLOPE_PER_M` (track ``B >= 0.2 m``, ``chi >= 1``; the shipped
@@ -339,7 +340,9 @@ def _check_gyro(imu, wheels, vehicle, path, found) -> None:
     t_i = imu[TIME].to_numpy()
     inside = (t_w >= t_i[0]) & (t_w <= t_i[-1])
     dv = (wheels["vel_r"].to_numpy() - wheels["vel_l"].to_numpy())[inside]
-    if dv.size >= 10 and dv.std() >= 0.02:
+    # skid-steer vehicles with datasheet bounds only: a steered vehicle's left/right wheel
+    # speeds do not set its yaw rate
+    if vehicle in VEHICLE_LIMITS and dv.size >= 10 and dv.std() >= 0.02:
         wz = np.interp(t_w[inside], t_i, imu["wz"].to_numpy())
         dv0, wz0 = dv - dv.mean(), wz - wz.mean()
         denom = math.sqrt(float(dv0 @ dv0) * float(wz0 @ wz0))

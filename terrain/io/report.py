@@ -41,7 +41,18 @@ class InputReport:
 
     def metrics(self, prefix: str = "input_") -> dict[str, float]:
         """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, windows
-        dropped and flagged, stuck channels, warnings."""
+        dropped and flagged, stuck channels, warnings.
+
+        Parameters
+        ----------
+        prefix : str
+            Prefix of every metric name.
+
+        Returns
+        -------
+        dict
+            Metric name -> value.
+        """
         t = self.table
         windowed = t["windows"] >= 0
         return {f"{prefix}{k}": float(v) for k, v in {
@@ -65,6 +76,11 @@ class InputReport:
         ----------
         limit : int
             Run ids shown per item before ``and N more``.
+
+        Returns
+        -------
+        str
+            Lines without trailing newline.
         """
         t, m = self.table, self.metrics("")
         ids = (lambda mask: _short(list(t.loc[mask, "run_id"]), limit))
