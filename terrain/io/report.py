@@ -154,7 +154,10 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         w = per_run.get(run.run_id)
         status, reason = "used", ""
         if run.run_id in skipped:
-            status, reason = "skipped", "lacks a stream the signals need"
+            missing = sorted({"imu", "wheels"} - set(run.streams))
+            status = "skipped"
+            reason = (f"no {' or '.join(missing)} stream" if missing
+                      else "lacks a stream the signals need")
         elif run.run_id in short:
             status = "too_short"
             reason = ("shorter than one window" if window_s is None
