@@ -110,10 +110,11 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     """
     path = Path(path)
     header, rows, lines, skipped = _split_lines(_read_text(path), path)
+    header_line = skipped.pop("header_line")
     if len(set(header)) < len(header):
         dup = sorted({c for c in header if header.count(c) > 1})
         raise DataFormatError(f"duplicated column name(s) {dup} in the header", path, dup[0],
-                              line=int(lines[0]) - 1)
+                              line=header_line)
     mapping = COLUMN_MAPS.get(kind)
     if mapping is None:
         # extra stream: ``time`` is required and comes first, other columns keep their names
@@ -122,7 +123,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     if missing:
         raise MissingColumnError(
             f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}",
-            path, missing[0], line=int(lines[0]) - 1 if lines.size else 1)
+            path, missing[0], line=header_line)
     report = ReadReport(str(path), skipped_lines=skipped)
     cells = np.empty((len(rows), len(header)), dtype=object)
     cells[:] = rows
@@ -191,6 +192,7 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
             continue
         if header is None:
             header = [c.strip() for c in line.split(",")]
+            skipped["header_line"] = i + 1
             continue
         rows.append(line)
         lines.append(i + 1)

@@ -33,6 +33,16 @@ def _write(run, root, terrain=None):
     return imu
 
 
+class _Captured:
+    """Already captured output, readable like ``capsys``."""
+
+    def __init__(self, captured):
+        self._captured = captured
+
+    def readouterr(self):
+        return self._captured
+
+
 def _assert_one_line_error(capsys, command):
     err = capsys.readouterr().err
     lines = [ln for ln in err.splitlines() if ln.startswith(f"terrain {command}: error:")]
@@ -135,6 +145,42 @@ def test_train_logs_what_it_trained_and_the_model_resolves_from_another_folder(
     (prun,) = mlflow.search_runs(experiment_names=["terrain-predict"], output_format="list")
     assert prun.data.metrics["n_runs_used"] == 1
     assert prun.data.metrics["n_windows_flagged"] == len(pred)
+
+
+@pytest.fixture(scope="module")
+def saved_model(tmp_path_factory):
+    """A model trained on the shipped Vulpi runs, saved as an MLflow model directory."""
+    folder = tmp_path_factory.mktemp("model")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.chdir(folder)
+        mp.delenv("MLFLOW_TRACKING_URI", raising=False)
+        assert main(["train", "--dataset", "vulpi", "--model-out", "model", "--no-register",
+                     "--no-progress"]) == 0
+    return folder / "model"
+
+
+def test_predict_says_why_a_run_gives_no_window(workdir, capsys, vulpi_runs, saved_model):
+    imu = _write(vulpi_runs[0], workdir / "runs")
+    for path in (imu, imu.with_name(imu.name.replace("imu", "pro"))):
+        frame = pd.read_csv(path)
+        frame[frame["time"] < 1.5].to_csv(path, index=False)
+    assert main(["predict", "--model", str(saved_model), str(workdir / "runs"),
+                 "--out", "p.csv", "--no-progress"]) == 2
+    captured = capsys.readouterr()
+    assert "1 run(s) too short (shorter than one 2 s window): runs/" in captured.out
+    assert "no window to predict in 1 run(s)" in _assert_one_line_error(_Captured(captured),
+                                                                        "predict")
+
+
+def test_predict_counts_windows_dropped_for_a_gap(workdir, capsys, vulpi_runs, saved_model):
+    imu = _write(vulpi_runs[0], workdir / "runs")
+    frame = pd.read_csv(imu)
+    frame[(frame["time"] < 10) | (frame["time"] > 13)].to_csv(imu, index=False)
+    assert main(["predict", "--model", str(saved_model), str(workdir / "runs"),
+                 "--out", "p.csv", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "1 timestamp gap(s) (3.0 s) in runs/" in out
+    assert "dropped windows: 2 spanning a gap" in out
 
 
 def test_predict_with_a_bad_model_path_is_one_line(workdir, capsys, vulpi_runs):
