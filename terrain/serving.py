@@ -29,6 +29,7 @@ from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_
                               required_streams, window_frame)
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_streams
+from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
@@ -118,6 +119,8 @@ class TerrainModel(PythonModel):
         ------
         MissingColumnError
             A required input column is missing.
+        ImplausibleValueError
+            A value beyond its channel's plausibility range (:mod:`terrain.io.plausibility`).
         DataFormatError
             Samples not at the model's rate, or timestamps not increasing within a run.
         """
@@ -135,6 +138,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     if missing:
         raise MissingColumnError(f"model input lacks column(s) {missing}; expected {cols}",
                                  "model input", missing[0])
+    # the readers' plausibility ranges also guard served input (1e300 would overflow features)
+    check_ranges(samples, "model input", {c: c for c in cols[2:]})
     out, dropped = [], 0
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)

@@ -193,7 +193,8 @@ def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
             where = lines[bad] if lines is not None else bad
             raise ImplausibleValueError(
                 f"{bad.size} value(s) beyond +-{lim.limit:.4g} {lim.unit} ({lim.source}), "
-                f"first {values[bad[0]]:.6g} at {first_items(where)}"
+                f"first {values[bad[0]]:.6g} at "
+                f"{first_items(where, word='line' if lines is not None else 'row')}"
                 + (f"; {lim.hint}" if lim.hint else ""),
                 path, file_col.get(name, name), int(bad[0]),
                 int(where[0]) if lines is not None else None)

@@ -200,3 +200,17 @@ def test_help_shows_defaults_and_choices(capsys):
         out = " ".join(capsys.readouterr().out.split())
         for needle in needles:
             assert needle in out, needle
+
+
+def test_served_model_refuses_a_huge_finite_value(saved_model, vulpi_runs):
+    from terrain.errors import ImplausibleValueError
+    from terrain.serving import load_model, runs_to_model_input
+
+    model, meta = load_model(saved_model)
+    samples, _ = runs_to_model_input(vulpi_runs[:1], meta["channels"], float(meta["rate_hz"]))
+    assert len(model.predict(samples)) > 5
+    samples.loc[300, "ax"] = 1e300
+    with pytest.raises(ImplausibleValueError) as info:
+        model.predict(samples)
+    assert info.value.column == "ax" and info.value.row == 300
+    assert "row 300" in str(info.value)
