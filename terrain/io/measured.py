@@ -109,7 +109,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         All :class:`DataFormatError`, with file, column and file line.
     """
     path = Path(path)
-    header, rows, lines, skipped = _split_lines(_read_text(path), path)
+    text = _read_text(path)
+    header, rows, lines, skipped = _split_lines(text, path)
     header_line = skipped.pop("header_line")
     if len(set(header)) < len(header):
         dup = sorted({c for c in header if header.count(c) > 1})
@@ -125,10 +126,21 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}",
             path, missing[0], line=header_line)
     report = ReadReport(str(path), skipped_lines=skipped)
-    cells = np.empty((len(rows), len(header)), dtype=object)
-    cells[:] = rows
+    # Python's float() also takes "1_000" and non-ASCII digits: those go the strict path
+    plain = text.isascii() and "_" not in text
+    numbers = _fast_numbers(rows, header, mapping) if plain else None
+    if numbers is not None:
+        cells = None
+    else:
+        cells = np.empty((len(rows), len(header)), dtype=object)
+        cells[:] = rows
     out: dict[str, np.ndarray] = {}
     for col, name in mapping.items():
+        if numbers is not None:
+            values = numbers[:, header.index(col)]
+            out[name] = _repair_non_finite(values, path, col, max_repair_run, report, name,
+                                           lines)
+            continue
         text = pd.Series(cells[:, header.index(col)]).str.strip()
         values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
         is_nan_word = text.str.lower().isin(["nan", "inf", "-inf", "+inf", "infinity", ""])
@@ -153,6 +165,18 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     if kind == "imu":
         _check_imu_units(frame, path)
     return frame, report
+
+
+def _fast_numbers(rows: list[list[str]], header: list[str],
+                  mapping: Mapping[str, str]) -> np.ndarray | None:
+    """All cells as float64 when every column is read and every cell is a number (the usual
+    case); None otherwise: the slower per-column path then names the bad cell."""
+    if set(header) != set(mapping) or not rows:
+        return None
+    try:
+        return np.array(rows, dtype=np.float64)
+    except ValueError:
+        return None
 
 
 def _read_text(path: Path) -> str:
