@@ -151,7 +151,12 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
           f"{len(result.skipped)}; {sum(result.timings_s.values()):.1f} s")
     for terrain in report["supported"]:
         found = [e for e in report["effects"] if e["terrain"] == terrain and e["supported"]]
-        text = ", ".join(f"{e['name']} ({', '.join(f'{k}={v:.3g}' for k, v in e['params'].items())}"
+        text = ", ".join(f"{e['name']} ({', '.join(f'{k}={_g(v)}' for k, v in e['params'].items())}"
                          f"; gain {e['heldout_gain']:.2f})" for e in found)
         print(f"  {terrain}: {text or 'none'}")
     print(f"  report written to {args.json}" + (f" and {args.md}" if args.md else ""))
+
+
+def _g(value) -> str:
+    """A parameter for printing (``n/a`` when it could not be estimated, e.g. a dead gyro)."""
+    return "n/a" if value is None else f"{value:.3g}"

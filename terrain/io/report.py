@@ -111,8 +111,7 @@ class InputReport:
                          + (f"; {int(m['windows_flagged'])} window(s) holding one flagged"
                             if m["windows_flagged"] else ""))
         if m["warnings"]:
-            parts.append(f"  {int(m['warnings'])} plausibility warning(s), see above and "
-                         "input_report.csv")
+            parts.append(f"  {int(m['warnings'])} plausibility warning(s), printed above")
         if len(parts) == 1:
             parts[0] += "; nothing repaired, dropped or skipped"
         return "\n".join(parts)
