@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from features.windows import make_windows
+from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.models.experiment import ExperimentConfig, feature_extractor, run_cv
 from features.reference import reference_features
@@ -32,6 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run the benchmark, print and log the figures."""
+    if args.repeats < 1 or args.reference_windows < 1:
+        raise ConfigError(f"--repeats and --reference-windows must be >= 1, got "
+                          f"{args.repeats} and {args.reference_windows}")
     with tracked_run(EXPERIMENT, run_name="classification",
                      params={"reference_windows": args.reference_windows,
                              "repeats": args.repeats}) as run:
