@@ -352,7 +352,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     meta: dict = {}
     if "meta" in files:
         try:
-            meta = json.loads(files["meta"].read_text())
+            meta = json.loads(_read_text(files["meta"]))
         except json.JSONDecodeError as exc:
             raise DataFormatError(f"invalid JSON: {exc}", files["meta"]) from None
         if not isinstance(meta, dict):

@@ -309,3 +309,14 @@ def test_a_terrain_folder_reads_like_its_runs_folder(turning):
 def test_data_format_error_message_names_line_not_row():
     err = DataFormatError("bad", "f.csv", "wz", row=3, line=7)
     assert str(err) == "bad (file f.csv, column 'wz', line 7)" and err.row == 3
+
+
+@pytest.mark.parametrize("content", [b"\xff{}", b"{not json", b"[1, 2]"])
+def test_bad_run_metadata_is_a_typed_error_naming_the_file(turning, content):
+    imu, _ = turning
+    meta = imu.with_name("meta_00.json")
+    meta.write_bytes(content)
+    with pytest.raises(DataFormatError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.path == str(meta)
+    _one_line(info.value)
