@@ -180,7 +180,10 @@ def _fast_numbers(rows: list[list[str]], header: list[str],
 
 
 def _read_text(path: Path) -> str:
-    """The file as text; directories, symlink loops and non-UTF-8 bytes are typed errors."""
+    """The file as text; directories, symlink loops, FIFOs/devices and non-UTF-8 bytes are
+    typed errors."""
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise UnreadableFileError("is not a regular file (a FIFO, socket or device?)", path)
     try:
         data = path.read_bytes()
     except IsADirectoryError:

@@ -99,12 +99,16 @@ def test_non_utf8_byte_names_file_byte_offset_and_line(turning):
     assert "byte offset 5000" in _one_line(info.value)
 
 
-@pytest.mark.parametrize("kind", ["directory", "symlink loop"])
+@pytest.mark.parametrize("kind", ["directory", "symlink loop", "fifo"])
 def test_directory_or_symlink_loop_instead_of_a_file(turning, kind):
+    import os
+
     imu, _ = turning
     imu.unlink()
     if kind == "directory":
         imu.mkdir()
+    elif kind == "fifo":
+        os.mkfifo(imu)  # reading it would block forever
     else:
         imu.symlink_to(imu)
     with pytest.raises(UnreadableFileError) as info:
