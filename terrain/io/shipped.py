@@ -153,7 +153,11 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
     if not path.exists():
         raise DataFormatError("manifest not found; regenerate data/ with `terrain convert`",
                               path)
-    return json.loads(path.read_text())
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, OSError) as exc:  # JSONDecodeError and UnicodeDecodeError included
+        raise DataFormatError(f"unreadable manifest ({type(exc).__name__}); regenerate data/ "
+                              "with `terrain convert`", path) from None
 
 
 def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
@@ -209,7 +213,12 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
             continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
-        table = pd.read_parquet(path)
+        try:
+            table = pd.read_parquet(path)
+        except (OSError, ValueError) as exc:  # pyarrow's errors derive from these
+            raise DataFormatError(f"unreadable Parquet file ({type(exc).__name__}: "
+                                  f"{str(exc)[:120]}); regenerate data/ with `terrain convert`",
+                                  path) from None
         tables[name] = {str(k): g.drop(columns=RUN_ID).reset_index(drop=True)
                         for k, g in table.groupby(RUN_ID, observed=True, sort=False)}
     runs = []

@@ -324,3 +324,19 @@ def test_bad_run_metadata_is_a_typed_error_naming_the_file(turning, content):
         read_runs_dir(imu.parent.parent)
     assert info.value.path == str(meta)
     _one_line(info.value)
+
+
+def test_corrupted_shipped_parquet_is_a_typed_error(tmp_path, data_dir):
+    import shutil
+
+    from terrain.io.shipped import read_shipped
+
+    copy = tmp_path / "data"
+    shutil.copytree(data_dir, copy)
+    path = copy / "vulpi" / "imu.parquet"
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2: len(data) // 2 + 64] = b"\0" * 64
+    path.write_bytes(bytes(data))
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", copy)
+    assert info.value.path == str(path) and "terrain convert" in _one_line(info.value)
