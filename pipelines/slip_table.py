@@ -1,0 +1,41 @@
+"""Print the desired-slip table: target slip per terrain class for traction, braking, steady.
+
+Every class the terrain classifier can emit (the measured classes of data/manifest.json and
+the thesis's TILES, GRASS, GRAVEL) gets targets computed from its traction-slip curve in the
+terrain catalogue (terrain.control.desired_slip); the last row, UNKNOWN, is the conservative
+fallback for unknown, low-confidence or stale terrain decisions. CSV on stdout with columns
+terrain, target_slip_traction, target_slip_braking, target_slip_steady, source, method;
+--json prints the same rows (and the rules' settings) as JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+
+from terrain.control.desired_slip import build_slip_table, classifier_classes
+from terrain.io.shipped import read_manifest
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain slip-table``."""
+    parser.add_argument("--json", action="store_true", help="print JSON instead of CSV")
+    parser.add_argument("--data-dir", default=None,
+                        help="shipped data folder whose manifest lists the measured classes "
+                             "(default: data/, or TERRAIN_DATA_DIR)")
+
+
+def main(args: argparse.Namespace) -> int:
+    """Compute the table and print it; returns 0."""
+    manifest = read_manifest(args.data_dir)
+    measured = [t for ds in manifest["datasets"].values() for t in ds["terrains"]]
+    table = build_slip_table(classifier_classes(measured))
+    frame = table.frame()
+    if args.json:
+        print(json.dumps({"config": dataclasses.asdict(table.config),
+                          "rows": frame.to_dict(orient="records")}, indent=1))
+    else:
+        frame.to_csv(sys.stdout, index=False, float_format="%.4f", lineterminator="\n")
+    return 0

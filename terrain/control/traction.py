@@ -1,0 +1,472 @@
+"""Per-wheel traction controller of seed ``001_59da564c4b2d6a48.txt`` ch. 8.3.2.
+
+One step covers all drive units (the wheels of the AgriMaRo; the two sides of a
+skid-steer Husky or tracked vehicle, which run the same logic per side with the side's slip
+from the slip estimator):
+
+1. slip ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (eqs. 8.4-8.5, via
+   :func:`terrain.slip.sae_slip`);
+2. per-wheel enable: the error is 0 below ``wheel_speed_threshold_m_s`` (0.05 m/s in ch. 8.3.2;
+   the wheel's speed is ``max(|omega r|, |v_long|)``, the slip's own dead band of ch. 7.2.1);
+   the correction reaches the motors only while the chassis speed exceeds
+   ``chassis_speed_threshold_m_s`` (0.05 m/s);
+3. ``Power_state = a_local v_long`` (eq. 8.6) against ``power_threshold_m2_s3``: traction,
+   braking or steady; ``s_desired = sgn(v_long) s_target`` (eqs. 8.7-8.9);
+4. ``e = s_desired - s`` (eq. 8.1), PID (eq. 8.2), ``omega_cmd = omega_low_level + PID_out``
+   (eq. 8.3).
+
+Beyond the thesis (their settings in :class:`TractionControlConfig`):
+
+* anti-windup by conditional integration: while the output is saturated in the direction of
+  the error the integral grows only up to the value that just reaches the limit, and it always
+  stays within the output limit;
+* output saturation: ``|PID_out| <= output_fraction * omega_max``, the command stays within
+  ``[-omega_max, omega_max]`` and never crosses zero (slip control modulates the wheel speed,
+  it never reverses a wheel nor moves one the low level holds still);
+* one-sided limiting (``one_sided``, default): the correction only ever moves the wheel speed
+  towards the ground speed, so the robot is never driven faster than commanded;
+* derivative on the measured slip (no kick when the target switches between traction, braking
+  and steady), through a first-order low-pass filter of time constant ``derivative_tau_s``;
+* bumpless transfer: when disabled (chassis too slow) the last correction decays with
+  ``release_tau_s`` instead of jumping to 0, and on enable the integral starts from the held
+  correction (with ``ki > 0``), so only the proportional and derivative action on the current
+  error is added, never a stale or reset integral;
+* safe output: a non-finite input or an estimate older than ``max_input_age_s`` gives
+  ``omega_cmd = omega_low_level`` (no correction) at once and resets that wheel's state.
+
+Why not simple-pid (2.0.1) for the building blocks: its windup guard clamps the integral to
+the output limits. That is acceptable for a fixed limit, not here: the room left for the
+correction changes every step (it depends on ``omega_low_level`` and the wheel speed limit,
+and on the limiter's side), and an integral allowed to reach the whole static limit keeps the
+output saturated long after the error reverses (``tests/control``: after the same saturated
+history it still asks for > 4 rad/s where only 0.2 rad/s of room is left; ours releases at
+once). It also has no derivative filter, a NaN input enters its integral for good, and its
+state lives in an object timed by a monotonic clock unless ``dt`` is passed, not in a record a
+simulator can step. It is the reference of ``benchmarks/bench_control.py`` and of a test that
+our PID core equals it where neither saturates.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from terrain.errors import ConfigError, ShapeError
+from terrain.slip import sae_slip
+from terrain.vehicles import contact_geometry, get_vehicle
+
+#: Operating modes of a wheel (``TractionOutput.mode``).
+BRAKING, STEADY, TRACTION = -1, 0, 1
+
+
+@dataclass(frozen=True)
+class TractionControlConfig:
+    """Gains, thresholds and limits of the traction controller.
+
+    Parameters
+    ----------
+    kp : float
+        Proportional gain, rad/s per unit slip error (1.0 in Table 8.1).
+    ki : float
+        Integral gain, rad/s per (unit slip error x s).
+    kd : float
+        Derivative gain on the measured slip, rad/s per (unit slip / s).
+    wheel_radius_m : float
+        Rolling radius r, m (1.0 in Table 8.1).
+    omega_max_rad_s : float
+        Wheel speed limit of the drive, rad/s.
+    output_fraction : float
+        ``|PID_out| <= output_fraction * omega_max_rad_s`` (dimensionless, (0, 1]).
+    wheel_speed_threshold_m_s : float
+        Per-wheel enabling threshold on ``max(|omega r|, |v_long|)``, m/s (0.05, ch. 8.3.2).
+    chassis_speed_threshold_m_s : float
+        Enabling threshold on the chassis speed magnitude, m/s (0.05, ch. 8.3.2).
+    power_threshold_m2_s3 : float
+        ``accel_threshold`` of ch. 8.3.2 on ``Power_state = a_local v_long``, m^2/s^3; the
+        thesis gives no value: 0.02 ASSUMED (0.04 m/s^2 at 0.5 m/s, above the noise of the
+        estimated acceleration).
+    derivative_tau_s : float
+        Time constant of the derivative's low-pass filter, s (> 0).
+    release_tau_s : float
+        Time constant with which the correction decays while disabled, s (> 0).
+    max_input_age_s : float
+        Slip / velocity estimates older than this give the safe output, s.
+    one_sided : bool
+        True (default): a slip *limiter*, as traction control / ABS: in traction and steady
+        driving the correction may only slow the wheel below ``omega_low_level``, in braking
+        only speed it up, so the robot never goes faster than commanded. Steady driving is
+        then limited at the *traction* target: the steady target (the slip that balances the
+        resistances) is a set point for the two-sided regulation only; as a limit it stops any
+        acceleration that ``Power_state`` has not detected yet, and with a measured
+        acceleration the wheel stays locked in "steady" (the toy loop on ICE of
+        ``tests/control`` crept to 0.8 m/s in 4 s instead of 1 m/s). False: the thesis's
+        two-sided regulation (Table 8.1, case 1B speeds a wheel that slips less than the
+        target up beyond the low-level command; while accelerating, ``Power_state`` stays
+        positive, so this feeds back on itself until the output saturates).
+    """
+
+    kp: float = 1.0
+    ki: float = 0.0
+    kd: float = 0.0
+    wheel_radius_m: float = 1.0
+    omega_max_rad_s: float = 100.0
+    output_fraction: float = 0.5
+    wheel_speed_threshold_m_s: float = 0.05
+    chassis_speed_threshold_m_s: float = 0.05
+    power_threshold_m2_s3: float = 0.02
+    derivative_tau_s: float = 0.05
+    release_tau_s: float = 0.2
+    max_input_age_s: float = 0.1
+    one_sided: bool = True
+
+    def __post_init__(self) -> None:
+        values = [float(getattr(self, f)) for f in self.__dataclass_fields__]
+        if not all(math.isfinite(v) for v in values):
+            raise ConfigError(f"traction control settings must be finite: {self}")
+        if min(self.kp, self.ki, self.kd) < 0.0:
+            raise ConfigError(f"gains must be >= 0, got kp={self.kp}, ki={self.ki}, kd={self.kd}")
+        if min(self.wheel_radius_m, self.omega_max_rad_s, self.derivative_tau_s,
+               self.release_tau_s, self.max_input_age_s) <= 0.0:
+            raise ConfigError("wheel radius, speed limit, time constants and input age limit "
+                              "must be > 0")
+        if not 0.0 < self.output_fraction <= 1.0:
+            raise ConfigError(f"output_fraction must be in (0, 1], got {self.output_fraction}")
+        if min(self.wheel_speed_threshold_m_s, self.chassis_speed_threshold_m_s,
+               self.power_threshold_m2_s3) < 0.0:
+            raise ConfigError("thresholds must be >= 0")
+
+
+def config_for_vehicle(vehicle: str, **settings: float) -> tuple[TractionControlConfig, int]:
+    """Controller settings for a catalogued vehicle: its rolling radius and wheel speed limit.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` (3 steered wheels, one unit each), ``husky`` or ``tracked`` (two sides,
+        one unit each), see :func:`terrain.vehicles.get_vehicle`.
+    **settings : float or bool
+        Any other :class:`TractionControlConfig` field (gains, thresholds...).
+
+    Returns
+    -------
+    config : TractionControlConfig
+        ``wheel_radius_m`` and ``omega_max_rad_s`` from the vehicle's contact geometry and
+        motor (:class:`terrain.vehicles.MotorParams`).
+    n_units : int
+        Number of drive units (motors).
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle or invalid settings.
+    """
+    params = get_vehicle(vehicle)
+    geometry = contact_geometry(params)
+    cfg = TractionControlConfig(wheel_radius_m=geometry.wheel_radius_m,
+                                omega_max_rad_s=params.motor.max_wheel_speed_rad_s, **settings)
+    return cfg, geometry.n_motors
+
+
+@dataclass(frozen=True)
+class SlipTargets:
+    """Target slip magnitudes for forward driving (sign from ``sgn(v_long)``, eqs. 8.7-8.9).
+
+    Any object with these three attributes works, e.g. a
+    :class:`~terrain.control.desired_slip.DesiredSlip` row of the table.
+
+    Parameters
+    ----------
+    traction : float
+        Target while accelerating, > 0.
+    braking : float
+        Target while braking, < 0.
+    steady : float
+        Target while cruising, >= 0.
+    """
+
+    traction: float
+    braking: float
+    steady: float
+
+
+class TractionState(NamedTuple):
+    """Controller memory between steps, one entry per drive unit (arrays of shape (n,)).
+
+    An immutable record (a named tuple: cheap to build at every control step).
+
+    Parameters
+    ----------
+    integral : ndarray, shape (n,)
+        Integral term, rad/s.
+    slip_prev : ndarray, shape (n,)
+        Measured slip of the previous step (dimensionless; meaningful where ``slip_valid``).
+    slip_valid : ndarray of bool, shape (n,)
+        Whether ``slip_prev`` was measured above the wheel speed threshold.
+    derivative : ndarray, shape (n,)
+        Filtered derivative of the measured slip, 1/s.
+    correction : ndarray, shape (n,)
+        Correction applied at the previous step, rad/s.
+    active : ndarray of bool, shape (n,)
+        Whether the correction was applied by the PID at the previous step.
+    """
+
+    integral: np.ndarray
+    slip_prev: np.ndarray
+    slip_valid: np.ndarray
+    derivative: np.ndarray
+    correction: np.ndarray
+    active: np.ndarray
+
+    @classmethod
+    def zeros(cls, n: int) -> "TractionState":
+        """Initial state: no memory, no correction.
+
+        Parameters
+        ----------
+        n : int
+            Number of drive units (wheels, or sides of a skid-steer vehicle).
+
+        Returns
+        -------
+        TractionState
+        """
+        z = np.zeros(n)
+        no = np.zeros(n, dtype=bool)
+        return cls(z, z, no, z, z, no)
+
+
+class TractionOutput(NamedTuple):
+    """Result of one controller step, one entry per drive unit (arrays of shape (n,)).
+
+    An immutable record (a named tuple: cheap to build at every control step).
+
+    Parameters
+    ----------
+    omega_cmd_rad_s : ndarray, shape (n,)
+        Final wheel speed command ``omega_low_level + PID_out`` (eq. 8.3), rad/s; exactly
+        ``omega_low_level`` where ``safe`` (even a non-finite one: the controller adds nothing).
+    correction_rad_s : ndarray, shape (n,)
+        ``PID_out`` actually applied (saturated, or decaying while disabled), rad/s.
+    slip : ndarray, shape (n,)
+        Measured SAE slip (eq. 8.4; NaN where the input is not finite).
+    desired_slip : ndarray, shape (n,)
+        Signed target (eqs. 8.7-8.9).
+    error : ndarray, shape (n,)
+        ``desired - slip`` (eq. 8.1), 0 below the wheel speed threshold.
+    mode : ndarray of int, shape (n,)
+        :data:`TRACTION`, :data:`BRAKING` or :data:`STEADY` from ``Power_state``.
+    enabled : ndarray of bool, shape (n,)
+        Whether the PID output was applied.
+    safe : ndarray of bool, shape (n,)
+        Whether the safe output (no correction) was forced by stale or non-finite input.
+    """
+
+    omega_cmd_rad_s: np.ndarray
+    correction_rad_s: np.ndarray
+    slip: np.ndarray
+    desired_slip: np.ndarray
+    error: np.ndarray
+    mode: np.ndarray
+    enabled: np.ndarray
+    safe: np.ndarray
+
+
+def traction_control_step(config: TractionControlConfig, state: TractionState,
+                          targets: SlipTargets, omega_low_level_rad_s: np.ndarray,
+                          omega_meas_rad_s: np.ndarray, v_long_m_s: np.ndarray,
+                          a_local_m_s2: np.ndarray, chassis_speed_m_s: float, dt_s: float,
+                          input_age_s: float = 0.0, slip: np.ndarray | None = None
+                          ) -> tuple[TractionOutput, TractionState]:
+    """One step of the ch. 8.3.2 traction controller (pure: returns the new state).
+
+    Parameters
+    ----------
+    config : TractionControlConfig
+    state : TractionState
+        Memory of the previous step (:meth:`TractionState.zeros` at start), arrays (n,).
+    targets : SlipTargets or DesiredSlip
+        Target slip magnitudes of the current terrain (desired-slip table row).
+    omega_low_level_rad_s : ndarray, shape (n,)
+        Wheel speed from the low-level kinematic control, rad/s.
+    omega_meas_rad_s : ndarray, shape (n,)
+        Raw encoder wheel speed, rad/s (ch. 7.2: not the EKF-filtered one).
+    v_long_m_s : ndarray, shape (n,)
+        Estimated longitudinal velocity of each wheel centre (eq. 7.5), m/s.
+    a_local_m_s2 : ndarray, shape (n,)
+        Longitudinal acceleration of each wheel centre, m/s^2.
+    chassis_speed_m_s : float
+        Magnitude of the chassis velocity, m/s.
+    dt_s : float
+        Time since the previous step, s (> 0).
+    input_age_s : float
+        Age of the slip / velocity estimates, s.
+    slip : ndarray, shape (n,), optional
+        Measured slip per unit from an estimator (skid-steer: the fused slip estimate of each
+        side, dimensionless); None: computed from ``omega_meas_rad_s`` and ``v_long_m_s`` with
+        :func:`terrain.slip.sae_slip` (eqs. 8.4-8.5).
+
+    Returns
+    -------
+    output : TractionOutput
+    state : TractionState
+        Memory for the next step.
+
+    Raises
+    ------
+    ShapeError
+        An input array's shape differs from the state's ``(n,)`` (named in the message).
+    """
+    cfg = config
+    omega_ll = np.asarray(omega_low_level_rad_s, dtype=float)
+    omega = np.asarray(omega_meas_rad_s, dtype=float)
+    v = np.asarray(v_long_m_s, dtype=float)
+    acc = np.asarray(a_local_m_s2, dtype=float)
+    radius = cfg.wheel_radius_m
+    global_ok = (math.isfinite(chassis_speed_m_s) and math.isfinite(dt_s) and dt_s > 0.0
+                 and math.isfinite(input_age_s) and input_age_s <= cfg.max_input_age_s
+                 and math.isfinite(targets.traction) and math.isfinite(targets.braking)
+                 and math.isfinite(targets.steady))
+    n = state.integral.shape
+    arrays = {"omega_low_level_rad_s": omega_ll, "omega_meas_rad_s": omega, "v_long_m_s": v,
+              "a_local_m_s2": acc}
+    if slip is not None:
+        arrays["slip"] = slip = np.asarray(slip, dtype=float)
+    bad = [f"{k} {a.shape}" for k, a in arrays.items() if a.shape != n]
+    if bad:
+        raise ShapeError(f"traction control step: the state has {n} drive units, got "
+                         + ", ".join(bad))
+    if slip is None:
+        slip = sae_slip(omega * radius, v,                                       # eqs. 8.4-8.5
+                        dead_band_m_s=cfg.wheel_speed_threshold_m_s)
+    chassis_on = global_ok and chassis_speed_m_s > cfg.chassis_speed_threshold_m_s
+    dt = dt_s if global_ok else 1.0
+    alpha = dt / (cfg.derivative_tau_s + dt)
+    decay = math.exp(-dt / cfg.release_tau_s)
+    limit = cfg.output_fraction * cfg.omega_max_rad_s
+    w_max, thr_w, thr_p = cfg.omega_max_rad_s, cfg.wheel_speed_threshold_m_s, \
+        cfg.power_threshold_m2_s3
+    kp, ki_dt, kd, one_sided = cfg.kp, cfg.ki * dt, cfg.kd, cfg.one_sided
+    rows = []
+    for ll, wm, vl, al, sl, i_prev, s_prev, s_valid, d_prev, c_prev, act in zip(
+            omega_ll.tolist(), omega.tolist(), v.tolist(), acc.tolist(), slip.tolist(),
+            state.integral.tolist(), state.slip_prev.tolist(), state.slip_valid.tolist(),
+            state.derivative.tolist(), state.correction.tolist(), state.active.tolist()):
+        rs = wm * radius
+        ok = global_ok and math.isfinite(ll + rs + vl + al + sl)
+        if not ok:  # safe output: no correction, memory dropped
+            rows.append((ll, 0.0, sl, 0.0, 0.0, STEADY, False, True,
+                         0.0, 0.0, False, 0.0, 0.0, False))
+            continue
+        power = al * vl                                                   # eq. 8.6
+        if power > thr_p:
+            mode, target = TRACTION, targets.traction                     # eq. 8.7
+        elif power < -thr_p:
+            mode, target = BRAKING, targets.braking                       # eq. 8.8
+        else:                                                             # eq. 8.9
+            mode, target = STEADY, (targets.traction if one_sided else targets.steady)
+        desired = target if vl > 0.0 else (-target if vl < 0.0 else 0.0)   # sgn(v_long)
+        use = max(abs(rs), abs(vl)) >= thr_w
+        error = desired - sl if use else 0.0                              # eq. 8.1
+        # output limits: |PID_out| <= limit, command in the low level's half-line
+        hi = min(limit, (w_max if ll > 0.0 else 0.0) - ll)
+        lo = max(-limit, (-w_max if ll < 0.0 else 0.0) - ll)
+        if one_sided:  # limiter: only towards the ground speed (less |slip|)
+            slow_down = (mode != BRAKING) == (ll > 0.0)
+            hi, lo = (min(hi, 0.0), lo) if slow_down else (hi, max(lo, 0.0))
+        hi = max(hi, lo)
+        # derivative on the measured slip, low-pass filtered
+        if use:
+            raw_d = (sl - s_prev) / dt if s_valid else 0.0
+            deriv = d_prev + alpha * (raw_d - d_prev)
+        else:
+            deriv = 0.0
+        # bumpless enable: a unit becoming active starts its integral from the held correction
+        integral = i_prev if act else (c_prev if ki_dt > 0.0 else 0.0)
+        p_term, d_term = kp * error, -kd * deriv
+        candidate = integral + ki_dt * error
+        unsat = p_term + candidate + d_term
+        if unsat > hi and error > 0.0:      # anti-windup: integrate only up to the limit
+            integral = min(candidate, max(integral, hi - p_term - d_term))
+        elif unsat < lo and error < 0.0:
+            integral = max(candidate, min(integral, lo - p_term - d_term))
+        else:
+            integral = candidate
+        integral = min(max(integral, -limit), limit)
+        if chassis_on:
+            correction = min(max(p_term + integral + d_term, lo), hi)     # eq. 8.2
+        else:  # bumpless disable: the held correction decays
+            correction = min(max(c_prev * decay, lo), hi)
+            integral = correction
+        rows.append((ll + correction, correction, sl, desired, error, mode, chassis_on, False,
+                     integral, sl if use else 0.0, use, deriv, correction, chassis_on))
+    table = np.array(rows, dtype=float).T          # (14, n): one conversion for all fields
+    out = TractionOutput(table[0], table[1], table[2], table[3], table[4],
+                         table[5].astype(int), table[6] > 0.5, table[7] > 0.5)
+    new_state = TractionState(table[8], table[9], table[10] > 0.5, table[11], table[12],
+                              table[13] > 0.5)
+    return out, new_state
+
+
+class TractionController:
+    """Stateful wrapper of :func:`traction_control_step` for a running robot or simulator.
+
+    Parameters
+    ----------
+    config : TractionControlConfig
+    n_units : int
+        Number of drive units: wheels (AgriMaRo: 3), or sides of a skid-steer vehicle (2).
+
+    Raises
+    ------
+    ConfigError
+        ``n_units < 1``.
+    """
+
+    def __init__(self, config: TractionControlConfig, n_units: int) -> None:
+        if int(n_units) < 1:
+            raise ConfigError(f"n_units must be >= 1, got {n_units}")
+        self.config = config
+        self.n_units = int(n_units)
+        self.state = TractionState.zeros(self.n_units)
+
+    def reset(self) -> None:
+        """Forget the memory (integral, derivative, held correction)."""
+        self.state = TractionState.zeros(self.n_units)
+
+    def step(self, targets: SlipTargets, omega_low_level_rad_s: np.ndarray,
+             omega_meas_rad_s: np.ndarray, v_long_m_s: np.ndarray, a_local_m_s2: np.ndarray,
+             chassis_speed_m_s: float, dt_s: float, input_age_s: float = 0.0,
+             slip: np.ndarray | None = None) -> TractionOutput:
+        """Advance one step; parameters as :func:`traction_control_step`.
+
+        Parameters
+        ----------
+        targets : SlipTargets or DesiredSlip
+        omega_low_level_rad_s : ndarray, shape (n_units,)
+            rad/s.
+        omega_meas_rad_s : ndarray, shape (n_units,)
+            rad/s.
+        v_long_m_s : ndarray, shape (n_units,)
+            m/s.
+        a_local_m_s2 : ndarray, shape (n_units,)
+            m/s^2.
+        chassis_speed_m_s : float
+            m/s.
+        dt_s : float
+            s.
+        input_age_s : float
+            s.
+        slip : ndarray, shape (n_units,), optional
+            Estimated slip per unit (dimensionless); None: from the wheel speeds.
+
+        Returns
+        -------
+        TractionOutput
+        """
+        out, self.state = traction_control_step(
+            self.config, self.state, targets, omega_low_level_rad_s, omega_meas_rad_s,
+            v_long_m_s, a_local_m_s2, chassis_speed_m_s, dt_s, input_age_s, slip)
+        return out

@@ -1,0 +1,150 @@
+"""Desired-slip table: physical invariants, closed-form peaks, fallback (issue 11)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrain.control.desired_slip import (FALLBACK_LABEL, THESIS_CLASSES, DesiredSlipConfig,
+                                          build_slip_table, classifier_classes, desired_slip,
+                                          max_efficiency_slip, select_target)
+from terrain.errors import ConfigError
+from terrain.io.shipped import read_manifest
+from terrain.terramechanics import (BrixiusCurve, BurckhardtCurve, get_terrain,
+                                    soil_resistance_coefficient, traction_coefficient,
+                                    traction_curve_and_slope)
+from terrain.terramechanics.efficiency import tractive_efficiency
+
+CFG = DesiredSlipConfig()
+
+
+@pytest.fixture(scope="module")
+def table():
+    manifest = read_manifest()
+    measured = [t for ds in manifest["datasets"].values() for t in ds["terrains"]]
+    return build_slip_table(classifier_classes(measured), CFG)
+
+
+def test_every_class_the_classifier_can_emit_has_an_entry(table):
+    manifest = read_manifest()
+    measured = {t for ds in manifest["datasets"].values() for t in ds["terrains"]}
+    assert len(measured) == 9
+    assert set(table.entries) == measured | set(THESIS_CLASSES)
+    assert list(table.frame()["terrain"])[-1] == FALLBACK_LABEL
+
+
+def test_signs_and_ordering(table):
+    for e in table.entries.values():
+        assert e.braking < 0.0 < e.traction, e
+        assert 0.0 <= e.steady <= e.traction, e
+        assert abs(e.braking) >= e.traction, e   # braking target larger (ch. 8.3.2)
+
+
+def test_targets_on_the_stable_side_of_the_peak(table):
+    for name, e in table.entries.items():
+        curve = get_terrain(name).curve
+        for s in (e.traction, e.braking):
+            assert float(traction_curve_and_slope(curve, s)[1]) > 0.0, (name, s)
+        if isinstance(curve, BurckhardtCurve) and curve.c3 > 0:
+            s_peak = math.log(curve.c1 * curve.c2 / curve.c3) / curve.c2   # closed form
+            assert e.traction < abs(e.braking) < s_peak, name
+
+
+def test_rigid_traction_target_is_95_percent_of_the_closed_form_peak(table):
+    for name in ("ASPHALT", "CONCRETE", "TILES", "FLOORING"):
+        c = get_terrain(name).curve
+        s_peak = math.log(c.c1 * c.c2 / c.c3) / c.c2
+        mu_peak = c.c1 * (1 - math.exp(-c.c2 * s_peak)) - c.c3 * s_peak
+        s = table.entries[name].traction
+        assert c.c1 * (1 - math.exp(-c.c2 * s)) - c.c3 * s == pytest.approx(0.95 * mu_peak,
+                                                                            rel=1e-9)
+
+
+def test_ice_target_from_its_closed_form():
+    c = get_terrain("ICE").curve          # c3 = 0: rising curve, maximum at s = 1
+    expected = -math.log(1 - 0.95 * (1 - math.exp(-c.c2))) / c.c2
+    assert desired_slip(get_terrain("ICE")).traction == pytest.approx(expected, rel=1e-9)
+
+
+def test_deformable_soils_at_max_tractive_efficiency_capped(table):
+    grid = np.linspace(0.0, 1.0, 4001)
+    for name in ("SNOW", "SANDY_LOAM", "DIRT_ROAD", "PLOUGHED", "UNPLOUGHED", "GRASS",
+                 "GRAVEL"):
+        terrain, e = get_terrain(name), table.entries[name]
+        eta = tractive_efficiency(terrain, grid)
+        s_best = grid[np.argmax(eta)]
+        assert e.traction <= CFG.deformable_cap + 1e-12
+        assert abs(e.braking) <= CFG.deformable_cap + 1e-12
+        assert e.traction == pytest.approx(min(s_best, CFG.deformable_cap), abs=1e-3), name
+        # the net-pull peak lies far beyond the target: no usable set point there
+        net = traction_coefficient(terrain.curve, grid) - soil_resistance_coefficient(terrain,
+                                                                                       grid)
+        assert grid[np.argmax(net)] > e.traction + 0.1, name
+    assert table.entries["SANDY_LOAM"].traction == CFG.deformable_cap   # its optimum is 0.34
+
+
+def test_steady_target_balances_the_soil_resistance(table):
+    for name in ("SNOW", "GRASS", "GRAVEL", "SANDY_LOAM"):
+        t, s = get_terrain(name), table.entries[name].steady
+        assert float(traction_coefficient(t.curve, s)) == pytest.approx(
+            float(soil_resistance_coefficient(t, s)), abs=1e-6)
+    assert table.entries["ASPHALT"].steady == 0.0   # rigid: no slip-producing resistance
+
+
+def test_source_and_basis_recorded(table):
+    assert table.entries["TILES"].method.endswith("[analogy]")
+    assert table.entries["FLOORING"].method.endswith("[analogy]")
+    assert table.entries["ASPHALT"].method.endswith("[direct]")
+    assert table.entries["GRASS"].method.endswith("[calibrated]")
+    for name, e in table.entries.items():
+        assert e.source.startswith(f"catalogue {name}:")
+
+
+def test_targets_follow_the_rule_settings():
+    loose = desired_slip(get_terrain("ASPHALT"), DesiredSlipConfig(traction_fraction=0.9))
+    assert loose.traction < desired_slip(get_terrain("ASPHALT")).traction
+    tight = desired_slip(get_terrain("GRASS"), DesiredSlipConfig(deformable_cap=0.2))
+    assert tight.traction == 0.2
+
+
+def test_fallback_is_the_most_conservative_entry(table):
+    fb = table.fallback
+    assert fb.traction == min(e.traction for e in table.entries.values())
+    assert fb.braking == max(e.braking for e in table.entries.values())
+    assert fb.braking < 0 < fb.traction and 0 <= fb.steady <= fb.traction
+
+
+@pytest.mark.parametrize("terrain,confidence,age,expect", [
+    ("GRASS", 0.9, 0.5, "GRASS"), ("grass", 0.9, 0.0, "GRASS"),
+    ("MARS_REGOLITH", 0.9, 0.0, FALLBACK_LABEL), (None, 1.0, 0.0, FALLBACK_LABEL),
+    ("GRASS", 0.3, 0.0, FALLBACK_LABEL), ("GRASS", float("nan"), 0.0, FALLBACK_LABEL),
+    ("GRASS", 0.9, 10.0, FALLBACK_LABEL), ("GRASS", 0.9, float("inf"), FALLBACK_LABEL),
+])
+def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
+    assert select_target(table, terrain, confidence, age).terrain == expect
+
+
+def test_unknown_class_and_bad_settings_are_typed_errors():
+    with pytest.raises(ConfigError, match="unknown terrain"):
+        build_slip_table(["ASPHALT", "LAVA"])
+    with pytest.raises(ConfigError):
+        DesiredSlipConfig(traction_fraction=0.99, braking_fraction=0.9)
+    with pytest.raises(ConfigError):
+        DesiredSlipConfig(deformable_cap=1.5)
+
+
+def test_tractive_efficiency_matches_brixius_textbook_form():
+    """With the 0.04 hysteresis of Brixius (1987): TE = (GT - MR)/GT (1 - s)."""
+    from dataclasses import replace
+    bn = 30.0
+    terrain = replace(get_terrain("DIRT_ROAD"), curve=BrixiusCurve(bn), hysteresis=0.04)
+    s = np.linspace(0.02, 0.6, 30)
+    gt = 0.88 * (1 - np.exp(-0.1 * bn)) * (1 - np.exp(-7.5 * s)) + 0.04
+    mr = 1 / bn + 0.04 + 0.5 * s / np.sqrt(bn)
+    np.testing.assert_allclose(tractive_efficiency(terrain, s), (gt - mr) / gt * (1 - s),
+                               rtol=1e-12)
+    assert tractive_efficiency(terrain, -0.2) == pytest.approx(tractive_efficiency(terrain, 0.2))
+    s_best, eta = max_efficiency_slip(terrain)
+    assert 0.05 < s_best < 0.3 and 0.0 < eta < 1.0

@@ -1,0 +1,334 @@
+"""Traction controller of seed 001 ch. 8.3.2: Table 8.1 oracle and the safety extensions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrain.control.desired_slip import build_slip_table
+from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
+                                      TractionControlConfig, TractionController, TractionState,
+                                      config_for_vehicle, traction_control_step)
+from terrain.errors import ConfigError, ShapeError
+
+#: Table 8.1 of seed 001 (case, v_long m/s, omega r m/s, manoeuvre, slip, desired, error, PID,
+#: omega_ODrive rad/s), as printed.
+TABLE_8_1 = [
+    ("1A", +0.6, +0.7, TRACTION, +0.143, +0.1, -0.043, -0.043, +0.657),
+    ("1B", +0.6, +0.63, TRACTION, +0.048, +0.1, +0.052, +0.052, +0.682),
+    ("1C", +0.5, +0.47, BRAKING, -0.060, -0.15, -0.090, -0.090, +0.380),
+    ("1D", +0.5, +0.39, BRAKING, -0.220, -0.15, +0.070, +0.070, +0.460),
+    ("2A", -0.6, -0.7, TRACTION, -0.143, -0.1, +0.043, +0.043, -0.657),
+    ("2B", -0.6, -0.63, TRACTION, -0.048, -0.1, -0.052, -0.052, -0.682),
+    ("2C", -0.5, -0.47, BRAKING, +0.060, +0.15, +0.090, +0.090, -0.380),
+    ("2D", -0.5, -0.39, BRAKING, +0.220, +0.15, -0.070, -0.070, -0.460),
+]
+THESIS = TractionControlConfig(kp=1.0, ki=0.0, kd=0.0, wheel_radius_m=1.0, one_sided=False)
+TARGETS = SlipTargets(traction=0.1, braking=-0.15, steady=0.0)
+
+
+def _step(cfg, state, omega_ll, omega, v, a, chassis=0.5, dt=0.01, targets=TARGETS, **kw):
+    arr = (lambda x: np.atleast_1d(np.asarray(x, dtype=float)))  # noqa: E731
+    return traction_control_step(cfg, state, targets, arr(omega_ll), arr(omega), arr(v),
+                                 arr(a), chassis, dt, **kw)
+
+
+@pytest.mark.parametrize("case", TABLE_8_1, ids=[c[0] for c in TABLE_8_1])
+def test_table_8_1_case(case):
+    _, v, wr, manoeuvre, slip, desired, error, pid, omega_cmd = case
+    a = manoeuvre * math.copysign(1.0, v)        # Power_state > 0 traction, < 0 braking
+    out, _ = _step(THESIS, TractionState.zeros(1), wr, wr, v, a, chassis=abs(v))
+    got = (out.slip[0], out.desired_slip[0], out.error[0], out.correction_rad_s[0],
+           out.omega_cmd_rad_s[0])
+    for value, printed in zip(got, (slip, desired, error, pid, omega_cmd)):
+        assert round(value, 3) == pytest.approx(printed, abs=1e-12), (case[0], got)
+    assert out.mode[0] == manoeuvre and out.enabled[0] and not out.safe[0]
+
+
+def test_table_8_1_all_cases_at_once_and_with_another_radius():
+    v = np.array([c[1] for c in TABLE_8_1])
+    wr = np.array([c[2] for c in TABLE_8_1])
+    a = np.array([c[3] for c in TABLE_8_1]) * np.sign(v)
+    r = 0.165
+    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=r, one_sided=False)
+    out, _ = _step(cfg, TractionState.zeros(8), wr / r, wr / r, v, a)
+    np.testing.assert_allclose(np.round(out.error, 3), [c[6] for c in TABLE_8_1], atol=1e-12)
+    np.testing.assert_allclose(out.omega_cmd_rad_s, wr / r + out.error)
+
+
+def test_power_state_threshold_gives_steady():
+    cfg = TractionControlConfig(power_threshold_m2_s3=0.05, one_sided=False)
+    out, _ = _step(cfg, TractionState.zeros(3), [0.7] * 3, [0.7] * 3, [0.6] * 3,
+                   [0.05, 0.2, -0.2])                       # a v = 0.03, 0.12, -0.12
+    assert list(out.mode) == [STEADY, TRACTION, BRAKING]
+    np.testing.assert_allclose(out.desired_slip, [0.0, 0.1, -0.15])
+
+
+def test_enabling_thresholds():
+    # wheel below 0.05 m/s: error 0 (ch. 8.3.2)
+    out, _ = _step(THESIS, TractionState.zeros(1), 0.04, 0.04, 0.0, 0.0)
+    assert out.error[0] == 0.0 and out.correction_rad_s[0] == 0.0
+    # chassis below 0.05 m/s: nothing reaches the motors
+    out, _ = _step(THESIS, TractionState.zeros(1), 0.7, 0.7, 0.6, 1.0, chassis=0.04)
+    assert out.error[0] != 0.0 and not out.enabled[0]
+    assert out.omega_cmd_rad_s[0] == 0.7
+
+
+def test_output_saturation_and_no_reversal():
+    for one_sided in (False, True):
+        _check_limits(TractionControlConfig(kp=50.0, ki=20.0, kd=0.1, wheel_radius_m=0.1,
+                                            omega_max_rad_s=20.0, output_fraction=0.25,
+                                            one_sided=one_sided))
+
+
+def _check_limits(cfg):
+    rng = np.random.default_rng(3)
+    state = TractionState.zeros(4)
+    for _ in range(2000):
+        omega_ll = rng.uniform(-20, 20, 4) * (rng.random(4) > 0.1)
+        omega = omega_ll + rng.normal(0, 2, 4)
+        v = omega * 0.1 * rng.uniform(0.3, 1.2, 4)
+        out, state = _step(cfg, state, omega_ll, omega, v, rng.normal(0, 2, 4),
+                           chassis=abs(rng.normal(0.5, 0.5)))
+        cmd = out.omega_cmd_rad_s
+        assert np.all(np.abs(out.correction_rad_s) <= 0.25 * 20.0 + 1e-12)
+        assert np.all(np.abs(cmd) <= 20.0 + 1e-12)
+        assert np.all(cmd * omega_ll >= -1e-12) and np.all(cmd[omega_ll == 0] == 0)
+        assert np.all(np.abs(state.integral) <= 0.25 * 20.0 + 1e-12)
+        if cfg.one_sided:      # limiter: only towards the ground speed
+            towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
+            assert np.all(out.correction_rad_s * towards >= -1e-12)
+
+
+def test_anti_windup_releases_at_once():
+    """Long saturation, then the error reverses: the output leaves the limit in one step."""
+    cfg = TractionControlConfig(kp=0.5, ki=5.0, omega_max_rad_s=10.0, output_fraction=0.5,
+                                one_sided=False)
+    omega_ll = 9.8                                 # upper room: 10 - 9.8 = 0.2 rad/s
+    state = TractionState.zeros(1)
+    for _ in range(1000):                          # slip 0 < target 0.1: pushes upwards
+        out, state = _step(cfg, state, omega_ll, 9.0, 9.0, 1.0)
+    assert out.correction_rad_s[0] == pytest.approx(0.2)
+    assert state.integral[0] <= 0.2 - 0.5 * 0.1 + 1e-9    # integral stopped at the limit
+    out, state = _step(cfg, state, omega_ll, 9.0, 7.2, 1.0)   # slip 0.2 > 0.1
+    assert out.correction_rad_s[0] < 0.2 - 0.04
+
+
+def test_simple_pid_clamp_winds_up_against_the_wheel_speed_limit():
+    """Why simple-pid is not the core: its integral is clamped to the *static* output limits
+    (here +-5 rad/s), not to the room left below the wheel speed limit (0.2 rad/s), so after
+    the same saturated history it keeps asking for a large correction when the error reverses.
+    """
+    simple_pid = pytest.importorskip("simple_pid")
+    ref = simple_pid.PID(0.5, 5.0, 0.0, setpoint=0.1, output_limits=(-5.0, 5.0))
+    for _ in range(1000):
+        ref(0.0, dt=0.01)
+    assert ref(0.2, dt=0.01) > 4.0          # ours: < 0.16 (test above), room is 0.2
+
+
+def test_safe_output_on_stale_or_non_finite_input():
+    state = TractionState.zeros(2)
+    cfg = TractionControlConfig(ki=2.0)
+    for _ in range(20):
+        out, state = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0])
+    assert np.all(out.correction_rad_s < 0)
+    stale, s_stale = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0],
+                           input_age_s=0.5)
+    np.testing.assert_array_equal(stale.omega_cmd_rad_s, [0.7, 0.7])
+    assert stale.safe.all() and not stale.enabled.any()
+    assert np.all(s_stale.integral == 0) and np.all(s_stale.correction == 0)
+    nan, s_nan = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [np.nan, 0.5], [1.0, 1.0])
+    assert list(nan.safe) == [True, False]
+    assert nan.omega_cmd_rad_s[0] == 0.7 and nan.correction_rad_s[0] == 0.0
+    assert nan.correction_rad_s[1] < 0 and np.isnan(nan.slip[0])
+    assert all(np.all(np.isfinite(np.asarray(f, dtype=float))) for f in s_nan)
+    for bad in ({"chassis": np.nan}, {"dt": np.nan}, {"dt": 0.0}, {"chassis": np.inf}):
+        out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0], **bad)
+        assert out.safe.all() and np.all(out.omega_cmd_rad_s == 0.7), bad
+    out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0],
+                   targets=SlipTargets(np.nan, -0.1, 0.0))
+    assert out.safe.all()
+
+
+def test_bumpless_disable_then_enable():
+    cfg = TractionControlConfig(kp=0.0, ki=2.0, release_tau_s=0.2)
+    state = TractionState.zeros(1)
+    for _ in range(50):
+        out, state = _step(cfg, state, 0.7, 0.7, 0.5, 1.0)
+    held = out.correction_rad_s[0]
+    assert held < -0.05
+    out, state = _step(cfg, state, 0.7, 0.7, 0.5, 1.0, chassis=0.0)     # disable
+    assert out.correction_rad_s[0] == pytest.approx(held * math.exp(-0.01 / 0.2))
+    for _ in range(10):
+        prev = out.correction_rad_s[0]
+        out, state = _step(cfg, state, 0.7, 0.7, 0.5, 1.0, chassis=0.0)
+        assert prev < out.correction_rad_s[0] < 0.0                      # decays smoothly
+    prev = out.correction_rad_s[0]
+    out, state = _step(cfg, state, 0.7, 0.7, 0.5, 1.0)                  # enable again
+    expected = prev + 2.0 * 0.01 * out.error[0]
+    assert out.correction_rad_s[0] == pytest.approx(expected)
+
+
+def test_proportional_only_keeps_no_memory_across_enable():
+    state = TractionState.zeros(1)
+    out, state = _step(THESIS, state, 0.7, 0.7, 0.6, 1.0)
+    out, state = _step(THESIS, state, 0.7, 0.7, 0.6, 1.0, chassis=0.0)
+    out, state = _step(THESIS, state, 0.7, 0.7, 0.6, 1.0)
+    assert out.correction_rad_s[0] == pytest.approx(out.error[0])
+
+
+def test_derivative_on_measurement_has_no_setpoint_kick():
+    cfg = TractionControlConfig(kp=0.0, ki=0.0, kd=1.0, derivative_tau_s=1e-9, one_sided=False)
+    state = TractionState.zeros(1)
+    out, state = _step(cfg, state, 10.0, 0.7, 0.6, 1.0)         # traction target
+    out, state = _step(cfg, state, 10.0, 0.7, 0.6, -1.0)        # braking target, same slip
+    assert out.correction_rad_s[0] == 0.0 and out.mode[0] == BRAKING
+    slip0 = out.slip[0]
+    out, state = _step(cfg, state, 10.0, 0.72, 0.6, -1.0)       # slip rises
+    assert out.correction_rad_s[0] == pytest.approx(-(out.slip[0] - slip0) / 0.01)
+
+
+def test_derivative_filter_smooths_a_step():
+    cfg = TractionControlConfig(kp=0.0, kd=1.0, derivative_tau_s=0.09, omega_max_rad_s=1e3,
+                                one_sided=False)
+    state = TractionState.zeros(1)
+    out, state = _step(cfg, state, 10.0, 0.7, 0.6, 1.0)
+    slip0 = out.slip[0]
+    out, state = _step(cfg, state, 10.0, 0.75, 0.6, 1.0)
+    raw = -(out.slip[0] - slip0) / 0.01
+    assert out.correction_rad_s[0] == pytest.approx(0.1 * raw)   # alpha = 0.01 / 0.1
+
+
+def test_matches_simple_pid_where_nothing_saturates():
+    simple_pid = pytest.importorskip("simple_pid")
+    kp, ki, kd, dt = 0.8, 3.0, 0.02, 0.01
+    cfg = TractionControlConfig(kp=kp, ki=ki, kd=kd, derivative_tau_s=1e-12, one_sided=False)
+    ref = simple_pid.PID(kp, ki, kd, setpoint=0.1, output_limits=(-50.0, 50.0))
+    state = TractionState.zeros(1)
+    rng = np.random.default_rng(0)
+    for k in range(300):
+        v = 0.6
+        wr = v / (1 - (0.1 + 0.05 * math.sin(0.05 * k) + 0.01 * rng.standard_normal()))
+        out, state = _step(cfg, state, wr, wr, v, 1.0, dt=dt)
+        expected = ref(out.slip[0], dt=dt)
+        assert out.correction_rad_s[0] == pytest.approx(expected, abs=1e-9), k
+
+
+def test_skid_steer_sides_use_the_estimated_slip():
+    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=0.165, one_sided=False)
+    out, _ = _step(cfg, TractionState.zeros(2), [3.0, 3.0], [3.0, 3.0], [0.45, 0.45],
+                   [0.5, 0.5], slip=np.array([0.3, 0.05]))
+    np.testing.assert_allclose(out.error, [0.1 - 0.3, 0.1 - 0.05])
+
+
+def test_stateful_wrapper_equals_the_pure_steps():
+    table = build_slip_table(["GRASS"])
+    cfg = TractionControlConfig(kp=2.0, ki=1.0, kd=0.01)
+    ctrl = TractionController(cfg, 3)
+    state = TractionState.zeros(3)
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        x = rng.uniform(0.2, 1.0, (4, 3))
+        got = ctrl.step(table.entries["GRASS"], x[0], x[1], x[2], x[3] - 0.5, 0.5, 0.01)
+        ref, state = traction_control_step(cfg, state, table.entries["GRASS"], x[0], x[1],
+                                           x[2], x[3] - 0.5, 0.5, 0.01)
+        np.testing.assert_array_equal(got.omega_cmd_rad_s, ref.omega_cmd_rad_s)
+    ctrl.reset()
+    assert np.all(ctrl.state.integral == 0) and not ctrl.state.active.any()
+    with pytest.raises(ConfigError):
+        TractionController(cfg, 0)
+
+
+@pytest.mark.parametrize("kwargs", [{"kp": -1.0}, {"wheel_radius_m": 0.0},
+                                    {"output_fraction": 1.5}, {"ki": float("nan")},
+                                    {"power_threshold_m2_s3": -0.1}])
+def test_invalid_settings_are_typed_errors(kwargs):
+    with pytest.raises(ConfigError):
+        TractionControlConfig(**kwargs)
+
+
+def test_one_sided_limiter_keeps_only_the_slip_reducing_cases_of_table_8_1():
+    cfg = TractionControlConfig(kp=1.0, wheel_radius_m=1.0, one_sided=True)
+    v = np.array([c[1] for c in TABLE_8_1])
+    wr = np.array([c[2] for c in TABLE_8_1])
+    a = np.array([c[3] for c in TABLE_8_1]) * np.sign(v)
+    out, _ = _step(cfg, TractionState.zeros(8), wr, wr, v, a)
+    # 1A, 1D, 2A, 2D bring |slip| down (kept); 1B, 1C, 2B, 2C would push it up (clipped to 0)
+    expected = [c[7] if c[0][1] in "AD" else 0.0 for c in TABLE_8_1]
+    np.testing.assert_allclose(np.round(out.correction_rad_s, 3), expected, atol=1e-12)
+
+
+def _toy_wheel_on(terrain_name, cfg, duration_s=4.0):
+    """One wheel (quarter of a 50 kg robot) on a catalogue curve: the wheel follows its
+    command with a 50 ms lag; m dv/dt = W (mu(s) - rho(s)); ramp to 1 m/s in 0.5 s.
+    Plant integrated at 1 ms, controller at 10 ms. Returns (t, slip, v) per control step."""
+    from terrain.slip import sae_slip
+    from terrain.terramechanics import (get_terrain, soil_resistance_coefficient,
+                                        traction_coefficient)
+    terrain = get_terrain(terrain_name)
+    targets = build_slip_table([terrain_name]).entries[terrain_name]
+    r, m, dt, sub = 0.165, 12.5, 0.01, 10
+    weight = m * 9.80665
+    state, v, w, acc = TractionState.zeros(1), 0.0, 0.0, 0.0
+    log = []
+    for k in range(int(duration_s / dt)):
+        omega_ll = min(1.0, 2.0 * k * dt) / r
+        cmd = omega_ll
+        if cfg is not None:
+            out, state = _step(cfg, state, omega_ll, w, v, acc, chassis=v, dt=dt,
+                               targets=targets)
+            cmd = out.omega_cmd_rad_s[0]
+        v0 = v
+        for _ in range(sub):
+            w += (cmd - w) * (dt / sub) / 0.05
+            s = float(sae_slip(w * r, v))
+            force = weight * float(traction_coefficient(terrain.curve, s)
+                                   - soil_resistance_coefficient(terrain, s))
+            v = max(v + force / m * dt / sub, 0.0)
+        acc = (v - v0) / dt
+        log.append((k * dt, float(sae_slip(w * r, v)), v))
+    return np.array(log).T
+
+
+def test_closed_loop_on_ice_holds_the_target_and_the_commanded_speed():
+    cfg = TractionControlConfig(kp=10.0, ki=1000.0, wheel_radius_m=0.165,
+                                omega_max_rad_s=20.0)
+    target = build_slip_table(["ICE"]).entries["ICE"].traction
+    t, slip_off, v_off = _toy_wheel_on("ICE", None)
+    t, slip_on, v_on = _toy_wheel_on("ICE", cfg)
+    accel = (t > 0.5) & (t < 1.5)           # the ramp asks 2 m/s^2, ice gives < 0.5 m/s^2
+    assert slip_off[accel].mean() > 0.2
+    assert abs(slip_on[accel].mean() - target) < 0.02
+    assert slip_on[t > 0.5].max() < 0.5 * slip_off[t > 0.5].max()
+    assert v_on.max() <= 1.0 + 1e-6 and v_on[-1] == pytest.approx(1.0, abs=0.01)
+
+
+def test_two_sided_thesis_regulation_overspeeds_while_accelerating():
+    """Documents the thesis's two-sided logic: slip is pushed *up* to the traction target,
+    Power_state stays positive, and the robot ends faster than commanded (1 m/s)."""
+    cfg = TractionControlConfig(kp=10.0, ki=1000.0, wheel_radius_m=0.165,
+                                omega_max_rad_s=20.0, one_sided=False)
+    _, _, v = _toy_wheel_on("ICE", cfg)
+    assert v[-1] > 1.1
+
+
+def test_mismatched_shapes_are_a_typed_error_naming_the_argument():
+    with pytest.raises(ShapeError, match="v_long_m_s"):
+        traction_control_step(THESIS, TractionState.zeros(3), TARGETS, np.ones(3), np.ones(3),
+                              np.ones(2), np.ones(3), 0.5, 0.01)
+    with pytest.raises(ShapeError, match="slip"):
+        traction_control_step(THESIS, TractionState.zeros(2), TARGETS, np.ones(2), np.ones(2),
+                              np.ones(2), np.ones(2), 0.5, 0.01, slip=np.ones(3))
+
+
+def test_config_for_vehicle_uses_its_radius_speed_limit_and_motors():
+    from terrain.vehicles import get_vehicle
+    cfg, n = config_for_vehicle("agrimaro", kp=3.0)
+    agrimaro = get_vehicle("agrimaro")
+    assert n == 3 and cfg.kp == 3.0 and cfg.wheel_radius_m == agrimaro.wheel_radius_m
+    assert cfg.omega_max_rad_s == agrimaro.motor.max_wheel_speed_rad_s
+    assert config_for_vehicle("husky")[1] == 2
+    with pytest.raises(ConfigError, match="unknown vehicle"):
+        config_for_vehicle("rover")
