@@ -60,14 +60,27 @@ def _assert_one_line_error(capsys, command):
     ["simulate", "--vehicle", "mars", "--terrain", "ASPHALT", "--out", "sim"],
     ["audit", "missing_runs", "--json", "a.json", "--no-mlflow"],
     ["estimate", "missing_runs", "--out", "e.csv"],
+    ["slip-table", "--data-dir", "missing_data"],
 ])
 def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(
         workdir, capsys, monkeypatch, argv):
     monkeypatch.setenv("TERRAIN_DATA_DIR", str(workdir / "no_data_here"))
+    from terrain.cli import SUBCOMMANDS
+    if argv[0] not in SUBCOMMANDS:
+        pytest.skip(f"{argv[0]} not in this installation")
     assert main(argv) == 2
     line = _assert_one_line_error(capsys, argv[0])
     assert any(w in line for w in ("not found", "does not exist", "unknown", "mars",
                                    "no run files")), line
+
+
+def test_the_parametrised_list_covers_every_subcommand():
+    from terrain.cli import SUBCOMMANDS
+    covered = {"cv", "train", "predict", "convert", "benchmark", "simulate", "audit",
+               "estimate", "slip-table"}
+    assert set(SUBCOMMANDS) <= covered, (
+        f"add a missing-input case for {sorted(set(SUBCOMMANDS) - covered)} to "
+        "test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2")
 
 
 def test_debug_shows_the_traceback(workdir):
