@@ -34,8 +34,7 @@ import numpy as np
 
 from terrain.estimation import SensorSamples, make_grid, predict, run_filter, update
 from terrain.estimation.agrimaro import AgriMaRoModel, estimate_agrimaro
-from terrain.estimation.validation import (data_driven_settings, sim_to_run,
-                                           simulate_agrimaro)
+from pipelines.validation.harness import data_driven_settings, simulate_agrimaro
 from terrain.tracking import tracked_run
 
 
@@ -158,7 +157,7 @@ def main() -> int:
     result = simulate_agrimaro("GRASS", seed=0, duration_s=60.0 * args.minutes,
                                scenario="random")
     sim_s = time.perf_counter() - start
-    run = sim_to_run(result)
+    run = result.run
     long_s = {}
     for engine in ("numba", "numpy"):
         start = time.perf_counter()

@@ -14,21 +14,56 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import signal
 
+from terrain.vehicles.icr import inverse_icr_factor
+
 _EPS = 1e-12
 
 
 def mean(x: np.ndarray) -> np.ndarray:
-    """Mean over samples."""
+    """Mean over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.mean(axis=-1)
 
 
 def std(x: np.ndarray) -> np.ndarray:
-    """Population standard deviation over samples."""
+    """Population standard deviation over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.std(axis=-1)
 
 
 def skewness(x: np.ndarray) -> np.ndarray:
-    """Fisher skewness m3 / m2^1.5 (0 for a constant window)."""
+    """Fisher skewness m3 / m2^1.5 (0 for a constant window).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, dimensionless.
+    """
     d = x - x.mean(axis=-1, keepdims=True)
     m2 = (d ** 2).mean(axis=-1)
     m3 = (d ** 3).mean(axis=-1)
@@ -36,7 +71,18 @@ def skewness(x: np.ndarray) -> np.ndarray:
 
 
 def kurtosis(x: np.ndarray) -> np.ndarray:
-    """Excess kurtosis m4 / m2^2 - 3 (0 for a constant window)."""
+    """Excess kurtosis m4 / m2^2 - 3 (0 for a constant window).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, dimensionless.
+    """
     d = x - x.mean(axis=-1, keepdims=True)
     m2 = (d ** 2).mean(axis=-1)
     m4 = (d ** 4).mean(axis=-1)
@@ -44,22 +90,66 @@ def kurtosis(x: np.ndarray) -> np.ndarray:
 
 
 def rms(x: np.ndarray) -> np.ndarray:
-    """Root mean square."""
+    """Root mean square over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return np.sqrt((x ** 2).mean(axis=-1))
 
 
 def minimum(x: np.ndarray) -> np.ndarray:
-    """Minimum."""
+    """Minimum over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.min(axis=-1)
 
 
 def maximum(x: np.ndarray) -> np.ndarray:
-    """Maximum."""
+    """Maximum over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel.
+    """
     return x.max(axis=-1)
 
 
 def mean_abs_diff(x: np.ndarray) -> np.ndarray:
-    """Mean absolute first difference (per sample, same unit as the signal)."""
+    """Mean absolute first difference over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)``, unit of the channel per sample.
+    """
     return np.abs(np.diff(x, axis=-1)).mean(axis=-1)
 
 
@@ -115,17 +205,39 @@ def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> n
     ----------
     current, speed : numpy.ndarray
         ``(n_windows, n_samples)`` in A and m/s.
+    min_speed_m_s : float
+        Floor of the mean absolute speed, m/s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)``, A/(m/s).
     """
     return current.mean(axis=-1) / np.maximum(np.abs(speed).mean(axis=-1), min_speed_m_s)
 
 
 def regression_gain(y: np.ndarray, x: np.ndarray, floor: float) -> np.ndarray:
-    """Least-squares gain of ``y`` on ``x`` through the origin, ridge-floored.
+    """Least-squares gain of ``y`` on ``x`` through the origin, ridge-floored, per window.
 
-    ``sum(x y) / (sum(x^2) + n floor^2)``; with ``y`` the gyro yaw rate and ``x`` the ideal
-    differential-drive yaw rate (v_R - v_L)/B this is 1/chi, the inverse ICR expansion factor
-    of the skid-steer (see ``000_f24201ff985633bf.txt`` eqs. 1-5). The floor (same unit as
-    ``x``) pulls the gain to 0 when the robot barely turns.
+    With ``y`` the gyro yaw rate and ``x`` the ideal differential-drive yaw rate
+    ``(v_R - v_L) / B`` this is ``1 / chi``, the inverse ICR expansion factor of the
+    skid-steer; the fit is :func:`terrain.vehicles.icr.inverse_icr_factor` (model and
+    sources there).
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        ``(n_windows, n_samples)``, gyro yaw rate, rad/s.
+    x : numpy.ndarray
+        ``(n_windows, n_samples)``, commanded yaw rate ``(v_R - v_L) / B``, rad/s.
+    floor : float
+        Ridge floor, rad/s (same unit as ``x``): the denominator is
+        ``sum(x^2) + n_samples floor^2``, which pulls the gain to 0 when the robot barely
+        turns.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)``, ``sum(x y) / (sum(x^2) + n floor^2)`` (dimensionless).
     """
-    n = x.shape[-1]
-    return (x * y).sum(axis=-1) / ((x ** 2).sum(axis=-1) + n * floor ** 2)
+    return inverse_icr_factor(y, x, floor)

@@ -20,10 +20,11 @@ from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.errors import ConfigError
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+from terrain.vehicles import HUSKY
 
-#: Husky A200 track width B, m (public husky description, ``husky.urdf.xacro``
-#: ``wheel_separation``), used by the wheel-odometry yaw rate channel.
-HUSKY_TRACK_M = 0.5708
+#: Husky A200 track width B, m, used by the wheel-odometry yaw rate channel: the vehicle's
+#: parameter :attr:`terrain.vehicles.HuskyParams.track_m` (source documented there).
+HUSKY_TRACK_M = HUSKY.track_m
 
 #: Derived wheel channels, each a function of the aligned frame (SI units):
 #: ``vel_mean`` = (vel_l + vel_r)/2 [m/s], ``vel_diff`` = vel_r - vel_l [m/s],

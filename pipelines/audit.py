@@ -16,22 +16,35 @@ import argparse
 import json
 import shlex
 from pathlib import Path
+from types import MappingProxyType
+from typing import Mapping
 
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.core import prepare_frames
-from terrain.audit.report import flat_metrics
+from terrain.audit.report import flat_metrics, summary_lines, write_markdown
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 
 EXPERIMENT = "terrain-audit"
+#: multipliers of the catalogue lateral friction in the what-if sweep
 SWEEP_FACTORS = (0.5, 0.75, 1.0, 1.5, 2.0)
-DEFAULTS = {"bootstrap": 1000, "param_bootstrap": 200, "min_gain": 0.02, "seed": 0}
+#: option -> default, the selection settings' own defaults
+DEFAULTS: Mapping[str, float] = MappingProxyType({
+    "bootstrap": SelectionSettings.n_bootstrap,
+    "param_bootstrap": SelectionSettings.n_param_bootstrap,
+    "min_gain": SelectionSettings.min_gain, "seed": SelectionSettings.seed})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain audit``."""
+    """Add the arguments of ``terrain audit`` to ``parser``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     parser.add_argument("runs_dir", nargs="?", type=Path, default=None,
                         help="folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default=None,
@@ -49,15 +62,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="skip the pooled fit over all terrains (terrain 'all')")
     parser.add_argument("--sweep-lateral-friction", action="store_true",
                         help="also replay each terrain with its catalogue lateral friction "
-                             "scaled by 0.5, 0.75, 1, 1.5, 2 (what-if table)")
+                             f"scaled by {', '.join(f'{k:g}' for k in SWEEP_FACTORS)} "
+                             "(what-if table)")
     parser.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 
+def _portable(path: Path) -> str:
+    """``path`` relative to the working directory when it lies below it (a report's
+    reproduce line then works from the repository root on any machine), else as given."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def _command(args: argparse.Namespace) -> str:
+    """The ``terrain audit`` command line that reproduces this run."""
     parts = ["terrain", "audit"]
-    parts += [str(args.runs_dir)] if args.runs_dir else ["--dataset", args.dataset]
-    parts += ["--json", str(args.json)] + (["--md", str(args.md)] if args.md else [])
+    parts += [_portable(args.runs_dir)] if args.runs_dir else ["--dataset", args.dataset]
+    parts += ["--json", _portable(args.json)] + (["--md", _portable(args.md)] if args.md
+                                                 else [])
     for key, default in DEFAULTS.items():
         if getattr(args, key) != default:
             parts += [f"--{key.replace('_', '-')}", str(getattr(args, key))]
@@ -67,10 +92,29 @@ def _command(args: argparse.Namespace) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the audit, write the reports, log to MLflow; returns 0."""
+    """Run the audit, write the reports, log to MLflow.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    ConfigError
+        Neither or both of ``RUNS_DIR`` and ``--dataset`` given.
+    DataFormatError
+        No run could be audited (from the readers or :func:`terrain.audit.run_audit`).
+    """
     if (args.runs_dir is None) == (args.dataset is None):
         raise ConfigError("give exactly one of RUNS_DIR or --dataset")
-    runs = (read_runs_dir(args.runs_dir, progress=not getattr(args, "no_progress", False)) if args.runs_dir
+    progress = not getattr(args, "no_progress", False)
+    runs = (read_runs_dir(args.runs_dir, progress=progress) if args.runs_dir
             else load_dataset(args.dataset))
     source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
     name = args.dataset or args.runs_dir.resolve().name
@@ -110,9 +154,7 @@ def _run_with_progress(runs, settings, progress: bool):
 
 
 def _audit(args, runs, settings, source, name, tracked) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
+    """Audit ``runs``, write the reports, log them to ``tracked`` (None: no MLflow)."""
     from terrain.audit import make_figures
 
     result = _run_with_progress(runs, settings, not getattr(args, "no_progress", False))
@@ -129,12 +171,7 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(report, indent=1) + "\n")
     if args.md:
-        folder = args.md.parent / f"{args.md.stem}_figures"
-        folder.mkdir(parents=True, exist_ok=True)
-        for key, fig in figures.items():
-            fig.savefig(folder / f"audit_{key}.png", dpi=90)
-        rel = {k: f"{folder.name}/audit_{k}.png" for k in figures}
-        args.md.write_text(to_markdown(report, rel, commands, title))
+        write_markdown(args.md, report, figures, commands, title)
     if tracked is not None:
         tracked.log_metrics({**flat_metrics(report), **inputs.metrics()})
         tracked.log_table(inputs.table, "input_report.csv")
@@ -147,16 +184,5 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
                              (result.sweep, "lateral_friction_sweep.csv")):
             if len(table):
                 tracked.log_table(table, fname)
-    print(f"audited {len(result.frames)} runs ({', '.join(result.terrains)}), skipped "
-          f"{len(result.skipped)}; {sum(result.timings_s.values()):.1f} s")
-    for terrain in report["supported"]:
-        found = [e for e in report["effects"] if e["terrain"] == terrain and e["supported"]]
-        text = ", ".join(f"{e['name']} ({', '.join(f'{k}={_g(v)}' for k, v in e['params'].items())}"
-                         f"; gain {e['heldout_gain']:.2f})" for e in found)
-        print(f"  {terrain}: {text or 'none'}")
+    print("\n".join(summary_lines(report, result.timings_s)))
     print(f"  report written to {args.json}" + (f" and {args.md}" if args.md else ""))
-
-
-def _g(value) -> str:
-    """A parameter for printing (``n/a`` when it could not be estimated, e.g. a dead gyro)."""
-    return "n/a" if value is None else f"{value:.3g}"

@@ -10,13 +10,20 @@ from __future__ import annotations
 
 import argparse
 
-from terrain.sim import SCENARIO_NAMES, SimConfig, parse_effects, simulate, write_run
+from terrain.io.writer import write_run
+from terrain.sim import SCENARIO_NAMES, SimConfig, parse_effects, simulate
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import VEHICLE_NAMES
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain simulate``."""
+    """Arguments of ``terrain simulate``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("--vehicle", required=True, help=f"one of {', '.join(VEHICLE_NAMES)}")
     parser.add_argument("--terrain", required=True,
                         help="terrain class, or comma-separated classes along the path; one "
@@ -32,12 +39,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the simulation and write the files; returns 0."""
+    """Run the simulation and write the files.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle, terrain, scenario or effect, or out-of-range settings.
+    """
     config = SimConfig(vehicle=args.vehicle.lower(),
                        terrains=tuple(t.strip().upper() for t in args.terrain.split(",") if t),
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
                        effects=parse_effects(args.effect), segment_length_m=args.segment_m)
-    result = simulate(config)
-    paths = write_run(result, args.out)
+    paths = write_run(simulate(config), args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")
     return 0

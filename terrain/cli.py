@@ -30,6 +30,7 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "simulate": "pipelines.simulate",
     "audit": "pipelines.audit",
     "estimate": "pipelines.estimate",
+    "validate": "pipelines.validate",
     "slip-table": "pipelines.slip_table",
 })
 

@@ -7,15 +7,20 @@
 * One experiment per pipeline (``terrain-cv``, ``terrain-train``, ``terrain-benchmark``...).
 * Every run is tagged and parametrised with the code version (git commit when the code is
   in a git checkout, else the package version).
+* No process-wide side effects: :func:`tracked_run` passes the store and the artifact
+  location to MLflow explicitly (an ``MlflowClient``) and never edits ``os.environ``; only
+  an entry point may make the store MLflow's process-wide default (:func:`activate_store`).
 """
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import tempfile
+import time
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
@@ -28,7 +33,14 @@ ARTIFACT_DIR = "mlartifacts"
 
 
 def tracking_uri() -> str:
-    """The tracking URI in force: ``MLFLOW_TRACKING_URI`` or the embedded sqlite store."""
+    """The tracking URI in force.
+
+    Returns
+    -------
+    str
+        ``MLFLOW_TRACKING_URI`` when set, else the embedded store
+        ``sqlite:///<cwd>/mlflow.db``.
+    """
     uri = os.environ.get("MLFLOW_TRACKING_URI")
     if uri:
         return uri
@@ -36,24 +48,40 @@ def tracking_uri() -> str:
 
 
 def activate_store() -> tuple[str, bool]:
-    """Point MLflow at the store in force; returns ``(uri, embedded)``.
+    """For entry points only: make the store in force MLflow's process-wide default.
 
-    MLflow's ``set_tracking_uri`` also exports ``MLFLOW_TRACKING_URI``; for the embedded
-    store the variable is removed again, so a later call (another working directory, e.g. in
-    tests) still resolves the embedded store afresh and the user's environment is unchanged.
+    MLflow's fluent API (``mlflow.pyfunc.load_model("models:/...")``, model logging) reads a
+    process-wide tracking URI; setting it is a process-wide side effect (MLflow also exports
+    ``MLFLOW_TRACKING_URI`` for child processes), so only a program's entry point should call
+    this. Nothing is changed when MLflow already resolves to the store in force, which is
+    the case in a fresh process (MLflow's own default is the same ``sqlite:///<cwd>/mlflow.db``
+    and it reads the same environment variable). :func:`tracked_run` does not need it.
+
+    Returns
+    -------
+    uri : str
+        The store in force (:func:`tracking_uri`).
+    embedded : bool
+        Whether it is the embedded store (``MLFLOW_TRACKING_URI`` unset).
     """
     import mlflow
 
     embedded = not os.environ.get("MLFLOW_TRACKING_URI")
     uri = tracking_uri()
-    mlflow.set_tracking_uri(uri)
-    if embedded:
-        os.environ.pop("MLFLOW_TRACKING_URI", None)
+    if mlflow.get_tracking_uri() != uri:
+        mlflow.set_tracking_uri(uri)
     return uri, embedded
 
 
 def code_version() -> str:
-    """Git commit of the source tree (with ``-dirty`` when modified), else the version."""
+    """The code version a run is tagged with.
+
+    Returns
+    -------
+    str
+        Git commit of the source tree (with ``-dirty`` when tracked files are modified),
+        else ``terrain-<package version>`` outside a git checkout.
+    """
     here = Path(__file__).resolve().parent
     try:
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True,
@@ -65,74 +93,148 @@ def code_version() -> str:
         return f"terrain-{terrain.__version__}"
 
 
-def _experiment_id(mlflow: Any, name: str, embedded: bool) -> str:
-    exp = mlflow.get_experiment_by_name(name)
+def _experiment_id(client: Any, name: str, embedded: bool) -> str:
+    """Id of experiment ``name`` in the client's store, created when missing (the embedded
+    store keeps its artifacts in ``<cwd>/mlartifacts/<name>``, passed explicitly)."""
+    exp = client.get_experiment_by_name(name)
     if exp is not None:
         return exp.experiment_id
-    kwargs = {}
-    if embedded:
-        kwargs["artifact_location"] = (Path.cwd() / ARTIFACT_DIR / name).as_uri()
-    return mlflow.create_experiment(name, **kwargs)
+    location = (Path.cwd() / ARTIFACT_DIR / name).as_uri() if embedded else None
+    return client.create_experiment(name, artifact_location=location)
 
 
-@dataclass
+@dataclass(frozen=True)
 class TrackedRun:
-    """Handle on an active MLflow run; thin typed wrappers over the MLflow logging API."""
+    """Handle on an open MLflow run: thin typed wrappers over MLflow's client API.
+
+    Every call goes through ``client`` to the run's own store (no process-wide MLflow state).
+
+    Parameters
+    ----------
+    run_id : str
+        MLflow run id.
+    experiment : str
+        Experiment name.
+    uri : str
+        Tracking URI of the store holding the run.
+    client : mlflow.MlflowClient
+        Client bound to ``uri``.
+    """
 
     run_id: str
     experiment: str
     uri: str
+    client: Any = field(repr=False, compare=False)
 
     def log_params(self, params: Mapping[str, Any]) -> None:
-        """Log parameters (values are stringified by MLflow)."""
-        import mlflow
-        mlflow.log_params({k: v for k, v in params.items()})
+        """Log parameters.
+
+        Parameters
+        ----------
+        params : mapping of str to any
+            Name -> value (stringified, as MLflow stores parameters).
+        """
+        from mlflow.entities import Param
+
+        self.client.log_batch(self.run_id, params=[Param(str(k), str(v))
+                                                   for k, v in params.items()])
 
     def log_metrics(self, metrics: Mapping[str, float], step: int | None = None) -> None:
-        """Log numeric metrics; non-finite values are skipped and listed in a tag."""
-        import math
+        """Log numeric metrics; non-finite values are skipped and listed in a tag.
 
-        import mlflow
+        Parameters
+        ----------
+        metrics : mapping of str to float
+            Name -> value.
+        step : int, optional
+            Step of every value (default 0).
+        """
+        from mlflow.entities import Metric
+
         good = {k: float(v) for k, v in metrics.items() if math.isfinite(float(v))}
         bad = sorted(set(metrics) - set(good))
-        mlflow.log_metrics(good, step=step)
+        now_ms = int(time.time() * 1000)
+        self.client.log_batch(self.run_id, metrics=[Metric(k, v, now_ms, step or 0)
+                                                    for k, v in good.items()])
         if bad:
-            mlflow.set_tag("non_finite_metrics", ",".join(bad))
+            self.client.set_tag(self.run_id, "non_finite_metrics", ",".join(bad))
 
     def log_table(self, frame: pd.DataFrame, name: str) -> None:
-        """Log a DataFrame as a CSV artifact ``name`` (e.g. ``predictions.csv``)."""
-        import mlflow
+        """Log a DataFrame as a CSV artifact.
+
+        Parameters
+        ----------
+        frame : pandas.DataFrame
+            The table (written without index).
+        name : str
+            Artifact file name, e.g. ``predictions.csv``.
+        """
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / name
             frame.to_csv(path, index=False)
-            mlflow.log_artifact(str(path))
+            self.client.log_artifact(self.run_id, str(path))
 
     def log_figure(self, figure: Any, name: str) -> None:
-        """Log a matplotlib figure as an image artifact ``name`` (e.g. ``confusion.png``)."""
-        import mlflow
-        mlflow.log_figure(figure, name)
+        """Log a matplotlib figure as an image artifact.
+
+        Parameters
+        ----------
+        figure : matplotlib.figure.Figure
+            The figure.
+        name : str
+            Artifact path, e.g. ``confusion.png`` or ``figures/x.png``.
+        """
+        self.client.log_figure(self.run_id, figure, name)
 
     def log_dict(self, data: Mapping[str, Any], name: str) -> None:
-        """Log a JSON-serialisable mapping as artifact ``name``."""
-        import mlflow
-        mlflow.log_dict(dict(data), name)
+        """Log a JSON-serialisable mapping as an artifact.
+
+        Parameters
+        ----------
+        data : mapping
+            JSON-serialisable content.
+        name : str
+            Artifact path, e.g. ``report.json``.
+        """
+        self.client.log_dict(self.run_id, dict(data), name)
 
     def log_text(self, text: str, name: str) -> None:
-        """Log text (e.g. a Markdown report) as artifact ``name``."""
-        import mlflow
-        mlflow.log_text(text, name)
+        """Log text (e.g. a Markdown report) as an artifact.
+
+        Parameters
+        ----------
+        text : str
+            Content.
+        name : str
+            Artifact path, e.g. ``audit.md``.
+        """
+        self.client.log_text(self.run_id, text, name)
 
     def log_artifact(self, path: str | Path, folder: str | None = None) -> None:
-        """Log a local file or directory as artifact(s)."""
-        import mlflow
+        """Log a local file or directory as artifact(s).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            File or directory to copy into the run.
+        folder : str, optional
+            Artifact folder to put it in (default: the run's artifact root).
+        """
         p = Path(path)
         if p.is_dir():
-            mlflow.log_artifacts(str(p), artifact_path=folder)
+            self.client.log_artifacts(self.run_id, str(p), artifact_path=folder)
         else:
-            mlflow.log_artifact(str(p), artifact_path=folder)
+            self.client.log_artifact(self.run_id, str(p), artifact_path=folder)
 
     def describe(self) -> str:
-        """One line telling where the run is."""
+        """Where the run is.
+
+        Returns
+        -------
+        str
+            One line with the run id, experiment, store and the ``mlflow ui`` command that
+            browses it.
+        """
         return (f"MLflow run {self.run_id} in experiment '{self.experiment}' at {self.uri} "
                 f"(browse: mlflow ui --backend-store-uri {self.uri})")
 
@@ -142,7 +244,14 @@ def tracked_run(experiment: str, run_name: str | None = None,
                 params: Mapping[str, Any] | None = None,
                 tags: Mapping[str, str] | None = None,
                 announce: bool = True) -> Iterator[TrackedRun]:
-    """Open an MLflow run in ``experiment`` on the store in force.
+    """Open an MLflow run in ``experiment`` on the store in force (:func:`tracking_uri`).
+
+    The store and, for the embedded store, the artifact location (``<cwd>/mlartifacts``) are
+    passed to MLflow explicitly through a client: nothing process-wide is configured and the
+    environment is left as it is. When MLflow's process-wide URI resolves to the same store
+    (always so in a fresh ``terrain`` process, or after :func:`activate_store`), the run is
+    also MLflow's active run for the duration of the block, so fluent calls inside it (model
+    logging) land in it. The run ends ``FINISHED``, or ``FAILED`` when the block raises.
 
     Parameters
     ----------
@@ -150,10 +259,10 @@ def tracked_run(experiment: str, run_name: str | None = None,
         Experiment name, one per pipeline (``terrain-cv``...).
     run_name : str, optional
         Human-readable run name.
-    params : Mapping, optional
-        Parameters logged at start.
-    tags : Mapping, optional
-        Extra tags.
+    params : mapping, optional
+        Parameters logged at start (with ``code_version``).
+    tags : mapping, optional
+        Extra tags (``code_version`` is always set).
     announce : bool
         Print where the run is (stdout) when it starts.
 
@@ -163,13 +272,26 @@ def tracked_run(experiment: str, run_name: str | None = None,
     """
     import mlflow
 
-    uri, embedded = activate_store()
-    exp_id = _experiment_id(mlflow, experiment, embedded)
+    uri = tracking_uri()
+    embedded = not os.environ.get("MLFLOW_TRACKING_URI")
+    client = mlflow.MlflowClient(tracking_uri=uri)
+    exp_id = _experiment_id(client, experiment, embedded)
     version = code_version()
-    with mlflow.start_run(experiment_id=exp_id, run_name=run_name) as active:
-        mlflow.set_tags({"code_version": version, **(tags or {})})
-        handle = TrackedRun(active.info.run_id, experiment, uri)
+    run = client.create_run(exp_id, run_name=run_name,
+                            tags={"code_version": version, **(tags or {})})
+    handle = TrackedRun(run.info.run_id, experiment, uri, client)
+    fluent = mlflow.get_tracking_uri() == uri and mlflow.active_run() is None
+    if fluent:
+        mlflow.start_run(run_id=handle.run_id)
+    status = "FAILED"
+    try:
         handle.log_params({"code_version": version, **(params or {})})
         if announce:
             print(handle.describe(), flush=True)
         yield handle
+        status = "FINISHED"
+    finally:
+        if fluent:
+            mlflow.end_run(status=status)
+        else:
+            client.set_terminated(handle.run_id, status=status)

@@ -12,16 +12,20 @@ from terrain.tracking import code_version, tracked_run, tracking_uri
 def test_embedded_store_lives_in_the_working_directory(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    process_wide = mlflow.get_tracking_uri()
     with tracked_run("terrain-test", params={"alpha": 1}) as run:
         run.log_metrics({"accuracy": 0.5, "bad": float("nan")})
         run.log_dict({"x": 1}, "report.json")
     assert "MLFLOW_TRACKING_URI" not in os.environ  # the user's environment is unchanged
+    assert mlflow.get_tracking_uri() == process_wide  # and MLflow's process-wide store
     assert (tmp_path / "mlflow.db").exists()
-    exp = mlflow.get_experiment_by_name("terrain-test")
+    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    exp = client.get_experiment_by_name("terrain-test")
     assert exp.artifact_location == (tmp_path / "mlartifacts" / "terrain-test").as_uri()
     assert (tmp_path / "mlartifacts" / "terrain-test" / run.run_id / "artifacts" /
             "report.json").exists()
-    logged = mlflow.get_run(run.run_id)
+    logged = client.get_run(run.run_id)
+    assert logged.info.status == "FINISHED"
     assert logged.data.params["alpha"] == "1"
     assert logged.data.params["code_version"] == code_version()
     assert logged.data.metrics == {"accuracy": 0.5}

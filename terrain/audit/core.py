@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -29,12 +29,13 @@ from terrain.audit.effects import (EffectSettings, effect_params, predict_curren
 from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
                                   FrameSettings, prepare_frame)
 from terrain.audit.replay import ReplaySettings, replay_run
-from terrain.audit.selection import (GroupResult, SelectionSettings, loro, make_units,
-                                     select_group, unit_errors, unscored_group)
+from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
+                                     make_units, select_group, unit_errors, unscored_group)
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import get_vehicle, skid_steer_forward
+from terrain.vehicles.icr import icr_expansion_factor
 
 SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r")
 POOLED = "all"
@@ -42,7 +43,26 @@ POOLED = "all"
 
 @dataclass(frozen=True)
 class AuditSettings:
-    """Everything that parametrises an audit (see each part's docstring)."""
+    """Everything that parametrises an audit (see each part's docstring).
+
+    Parameters
+    ----------
+    replay : ReplaySettings
+        How runs are replayed through the simulator.
+    frames : FrameSettings
+        Comparison clock, manoeuvre classes, scored samples.
+    lag : LagSettings
+        Window-by-window estimation of the wheel stream's clock offset.
+    effects : EffectSettings
+        Constants of the effect models and their negligible sizes.
+    selection : SelectionSettings
+        Held-out scoring and bootstrap.
+    pooled : bool
+        Also fit every run pooled (terrain ``all``) when there are several terrains.
+    sweep_factors : tuple of float
+        Multipliers of the catalogue lateral friction for the what-if replays
+        (:func:`lateral_friction_sweep`); empty: no sweep.
+    """
 
     replay: ReplaySettings = field(default_factory=ReplaySettings)
     frames: FrameSettings = field(default_factory=FrameSettings)
@@ -53,7 +73,14 @@ class AuditSettings:
     sweep_factors: tuple[float, ...] = ()
 
     def as_params(self) -> dict[str, object]:
-        """Flat ``section.name -> value`` mapping (for MLflow parameters)."""
+        """Flat ``section.name -> value`` mapping (for MLflow parameters and the report).
+
+        Returns
+        -------
+        dict
+            ``replay.*``, ``frames.*``, ``lag.*``, ``effects.*``, ``selection.*`` (tuples
+            joined by commas), ``pooled``, ``sweep_factors``.
+        """
         out = {}
         for section in ("replay", "frames", "lag", "effects", "selection"):
             for k, v in asdict(getattr(self, section)).items():
@@ -73,6 +100,7 @@ class AuditResult:
     Attributes
     ----------
     settings : AuditSettings
+        Settings the audit ran with.
     frames : tuple of AuditFrame
         One per audited run.
     skipped : dict
@@ -94,13 +122,13 @@ class AuditResult:
     """
 
     settings: AuditSettings
-    frames: tuple
-    skipped: dict
-    groups: dict
+    frames: tuple[AuditFrame, ...]
+    skipped: Mapping[str, str]
+    groups: Mapping[tuple[str, str], GroupResult]
     residuals: pd.DataFrame
     lags: pd.DataFrame
-    facts: dict
-    timings_s: dict
+    facts: Mapping[str, Mapping[str, Any]]
+    timings_s: Mapping[str, float]
     sweep: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     @property
@@ -108,16 +136,44 @@ class AuditResult:
         """Terrains audited (without ``all``), sorted."""
         return sorted({f.terrain for f in self.frames})
 
-    def effects(self) -> list:
-        """Every :class:`~terrain.audit.selection.EffectResult`, terrain by terrain."""
+    def effects(self) -> list[EffectResult]:
+        """Every effect result, terrain by terrain.
+
+        Returns
+        -------
+        list of EffectResult
+            In the order of :attr:`groups`, each group's effects in vocabulary order.
+        """
         return [e for g in self.groups.values() for e in g.effects]
 
     def supported(self, terrain: str) -> list[str]:
-        """Supported effect names on ``terrain`` (or ``all``)."""
+        """Supported effect names on one terrain.
+
+        Parameters
+        ----------
+        terrain : str
+            Terrain class or ``all``.
+
+        Returns
+        -------
+        list of str
+            Names of the supported effects (empty when none, or terrain not audited).
+        """
         return [e.name for e in self.effects() if e.terrain == terrain and e.supported]
 
-    def effect(self, name: str, terrain: str):
-        """The EffectResult of ``name`` on ``terrain``.
+    def effect(self, name: str, terrain: str) -> EffectResult:
+        """The result of one effect on one terrain.
+
+        Parameters
+        ----------
+        name : str
+            Effect name.
+        terrain : str
+            Terrain class or ``all``.
+
+        Returns
+        -------
+        EffectResult
 
         Raises
         ------
@@ -133,6 +189,13 @@ class AuditResult:
 def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings()
                    ) -> tuple[list[AuditFrame], dict[str, str]]:
     """Replay every run and put it on the comparison clock.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured runs (``wheels`` stream, ``imu`` optional) with a catalogue terrain label.
+    settings : AuditSettings
+        Its ``replay``, ``frames`` and ``lag`` parts are used.
 
     Returns
     -------
@@ -170,7 +233,7 @@ def _samples(result_groups: dict, terrain: str, frames: Sequence[AuditFrame]) ->
     if yaw is not None:
         for unit, params in zip(yaw.units, yaw.heldout_params):
             for f in unit:
-                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.bias)
+                yaw_pred[(f.group, f.t_s[0])] = (f, predict_yaw(f, params), params.bias_rad_s)
     cur_pred = {}
     if cur is not None:
         for unit, params in zip(cur.units, cur.heldout_params):
@@ -183,7 +246,7 @@ def _samples(result_groups: dict, terrain: str, frames: Sequence[AuditFrame]) ->
         base = {"run_id": f.run_id, "terrain": f.terrain,
                 "manoeuvre": np.asarray(MANOEUVRES)[f.manoeuvre[m]]}
         rows.append(pd.DataFrame({**base, "signal": "wz", "measured": f.wz[m],
-                                  "ideal": f.x[m], "replay_raw": f.sim_wz[m],
+                                  "ideal": f.commanded_yaw_rate[m], "replay_raw": f.sim_wz[m],
                                   "measured_raw": f.wz_at_lag(0.0)[m],
                                   "replay": f.sim_wz[m], "extended": wz_ext[m]}))
         rows.append(pd.DataFrame({**base, "signal": "ax", "measured": f.ax[m],
@@ -241,13 +304,20 @@ def residual_statistics(samples: pd.DataFrame, scope: str) -> pd.DataFrame:
 def measured_facts(frames: Sequence[AuditFrame]) -> dict:
     """Statistics of the measured data that need no model, for one set of runs.
 
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        The runs (their scored samples are used).
+
     Returns
     -------
     dict
         ``current_straight_a``, ``current_spin_a``, ``current_curve_a`` (mean current per
         side), ``spin_to_straight_current_ratio``, ``straight_right_minus_left_a`` and the
-        mean ``|wz|`` of those straight samples (rad/s), ``chi_pooled`` (least squares of
-        the aligned gyro on ``(v_R - v_L) / B`` over turning samples), lag range over runs.
+        mean ``|wz|`` of those straight samples (rad/s), ``chi_pooled``
+        (:func:`terrain.vehicles.icr.icr_expansion_factor` of the aligned gyro and
+        ``(v_R - v_L) / B`` over turning samples; None with 10 samples or fewer or a robot
+        that does not turn), lag range over runs (s), run counts.
     """
     cur, man, dcur, wz_st, x_t, wz_t = [], [], [], [], [], []
     for f in frames:
@@ -259,7 +329,7 @@ def measured_facts(frames: Sequence[AuditFrame]) -> dict:
             mi = f.score_imu
             wz_st.append(np.abs(f.wz[mi][f.manoeuvre[mi] == STRAIGHT]))
             turn = np.isin(f.manoeuvre[mi], (CURVE, SPIN))
-            x_t.append(f.x[mi][turn])
+            x_t.append(f.commanded_yaw_rate[mi][turn])
             wz_t.append(f.wz[mi][turn])
     cur = np.concatenate(cur) if cur else np.empty(0)
     man = np.concatenate(man) if man else np.empty(0, dtype=int)
@@ -278,8 +348,8 @@ def measured_facts(frames: Sequence[AuditFrame]) -> dict:
     out["straight_mean_abs_wz_rad_s"] = mean(w)
     xt = np.concatenate(x_t) if x_t else np.empty(0)
     wt = np.concatenate(wz_t) if wz_t else np.empty(0)
-    out["chi_pooled"] = (float(np.sum(xt * xt) / np.sum(xt * wt))
-                         if len(xt) > 10 and np.sum(xt * wt) > 0 else None)
+    chi = icr_expansion_factor(wt, xt) if len(xt) > 10 else float("inf")
+    out["chi_pooled"] = chi if np.isfinite(chi) else None
     lags = [f.lag.summary() for f in frames if f.has_imu]
     ident = [s for s in lags if s["identifiable"]]
     out["lag_min_s"] = min((s["lag_min_s"] for s in ident), default=None)
@@ -291,7 +361,20 @@ def measured_facts(frames: Sequence[AuditFrame]) -> dict:
 
 
 def lag_table(frames: Sequence[AuditFrame]) -> pd.DataFrame:
-    """Per-run lag summary (one row per run with IMU) with the window lags as text."""
+    """Per-run lag summary with the window lags as text.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        Audited runs (those without IMU are left out).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run with IMU: ``run_id, terrain`` and the columns of
+        :meth:`~terrain.audit.timing.LagTrack.summary` (s, s/min), ``windows`` as
+        ``centre:lag;...``.
+    """
     rows = []
     for f in frames:
         if not f.has_imu:
@@ -308,7 +391,7 @@ def lag_table(frames: Sequence[AuditFrame]) -> pd.DataFrame:
 
 
 def _turning_forms(group: GroupResult, settings: AuditSettings) -> dict:
-    """Held-out RMSE of the current model with each turning form forced."""
+    """Held-out RMSE (A) of the current model with each turning form forced."""
     spec = list(group.selected)
     if "turning_resistance" not in spec:
         spec.append("turning_resistance")
@@ -332,6 +415,7 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
         Measured runs (``wheels`` stream, ``imu`` optional), labelled with a catalogue
         terrain; runs that cannot be replayed are skipped and listed.
     settings : AuditSettings
+        Every setting of the audit.
     frames : sequence of AuditFrame, optional
         Already prepared frames (skips the replay; ``runs`` is then ignored).
 
@@ -379,7 +463,8 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
                 continue
             refs = None
             if group == "yaw":
-                ideal = np.array([sum(float(np.sum((f.wz[f.score_imu] - f.x[f.score_imu]) ** 2))
+                ideal = np.array([sum(float(np.sum((f.wz[f.score_imu]
+                                                    - f.commanded_yaw_rate[f.score_imu]) ** 2))
                                       for f in u) for u in units])
                 refs = {"ideal": ideal}
             res = select_group(units, group, scope, settings.selection, settings.effects,
@@ -423,6 +508,7 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     factors : sequence of float
         Multipliers of the catalogue lateral friction.
     settings : AuditSettings
+        Its ``replay`` and ``frames`` parts are used.
     measured_chi : float, optional
         Copied into the table for comparison.
 
@@ -430,8 +516,14 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     -------
     pandas.DataFrame
         Columns ``terrain, factor, lateral_friction, replay_chi, measured_chi, n_runs``;
-        ``replay_chi`` is the least-squares ratio of ``(v_R - v_L) / B`` to the replayed yaw
-        rate over turning samples (inf when the replayed robot does not turn).
+        ``replay_chi`` is :func:`terrain.vehicles.icr.icr_expansion_factor` of the replayed
+        yaw rate and ``(v_R - v_L) / B`` over the turning samples of every chosen run (inf
+        when the replayed robot does not turn).
+
+    Raises
+    ------
+    ConfigError
+        ``terrain`` is not in the catalogue.
     """
     from dataclasses import replace
 
@@ -443,28 +535,31 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         if run.terrain != terrain or not run.has_imu or "wheels" not in run.streams:
             continue
         w = run.streams["wheels"]
-        x = (w["vel_r"] - w["vel_l"]).to_numpy() / get_vehicle(run.vehicle).track_m
+        _, x = skid_steer_forward(w["vel_l"].to_numpy(), w["vel_r"].to_numpy(),
+                                  get_vehicle(run.vehicle).track_m)
         if np.sum(np.abs(x) >= settings.frames.turn_rad_s) >= 20:
             chosen.append(run)
     rows = []
     for factor in factors:
         ter = replace(base, lateral_friction=float(base.lateral_friction * factor))
-        num = den = 0.0
+        commanded, replayed = [np.empty(0)], [np.empty(0)]
         for run in chosen:
             rep = replay_run(run, settings.replay, terrain=ter)
-            x = (rep.vel_r - rep.vel_l) / rep.track_m
+            _, x = skid_steer_forward(rep.vel_l, rep.vel_r, rep.track_m)
             m = ((np.abs(x) >= settings.frames.turn_rad_s)
                  & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s))
-            num += float(np.sum(x[m] ** 2))
-            den += float(np.sum(x[m] * rep.yaw_rate[m]))
+            commanded.append(x[m])
+            replayed.append(rep.yaw_rate[m])
         rows.append({"terrain": terrain, "factor": float(factor),
                      "lateral_friction": ter.lateral_friction,
-                     "replay_chi": num / den if den > 0 else float("inf"),
+                     "replay_chi": icr_expansion_factor(np.concatenate(replayed),
+                                                        np.concatenate(commanded)),
                      "measured_chi": measured_chi, "n_runs": len(chosen)})
     return pd.DataFrame(rows)
 
 
 def _with_details(group: GroupResult, name: str, extra: dict) -> GroupResult:
+    """``group`` with ``extra`` added to the details of effect ``name``."""
     from dataclasses import replace
 
     effects = tuple(replace(e, details={**e.details, **extra}) if e.name == name else e

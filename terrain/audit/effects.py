@@ -60,7 +60,7 @@ Fitting rules (all closed form, no optimiser):
 * ``k_a``, ``k_a_per_rad``: least squares of the mean-of-sides current residual over moving
   samples (the turning term acts on turning samples only), alternated with the offsets.
 
-Scoring scopes (:data:`SCOPES`): each effect's held-out gain is measured where it acts:
+Scoring scopes (:attr:`EffectSpec.scope`): each effect's held-out gain is measured where it acts:
 ``icr_expansion``, ``immobilised`` and ``turning_resistance`` on turning samples,
 ``wheel_lag`` on the samples near turns (where the yaw rate moves), ``gyro_bias`` on every
 scored sample, ``current_offset`` on the
@@ -77,89 +77,132 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.ndimage import median_filter
 
 from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
 from terrain.errors import TerrainError
+from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
-#: effect -> (group, parameter name, unit)
-EFFECTS: Mapping[str, tuple[str, str, str]] = MappingProxyType({
-    "icr_expansion": ("yaw", "chi", "1"),
-    "gyro_bias": ("yaw", "bias_rad_s", "rad/s"),
-    "wheel_lag": ("timing", "lag_s", "s"),
-    "turning_resistance": ("current", "k_a", "A"),
-    "current_offset": ("current", "offset_a", "A"),
-    "grade_resistance": ("current", "k_a_per_rad", "A/rad"),
-    "immobilised": ("yaw", "fraction", "1"),
-})
-EFFECT_NAMES: tuple[str, ...] = tuple(EFFECTS)
+@dataclass(frozen=True)
+class EffectSpec:
+    """One effect of the audit's fixed vocabulary (module docstring).
+
+    Parameters
+    ----------
+    name : str
+        Effect name (the JSON report's ``name``).
+    group : str
+        Signal group it is fitted and scored in: ``timing``, ``yaw`` or ``current``.
+    param : str
+        Name of its vocabulary parameter (the JSON report's ``params`` key).
+    unit : str
+        Unit of the parameter (``1`` = dimensionless).
+    scope : str
+        Samples on which its held-out gain is scored: ``all`` scored samples, ``active``
+        (turning or near a turn), ``moving`` (not stopped), ``turning`` (curve or spin),
+        ``straight_diff`` (right-minus-left current difference on straight samples).
+    cause : str
+        Plain-language physical cause (printed in the report).
+    """
+
+    name: str
+    group: str
+    param: str
+    unit: str
+    scope: str
+    cause: str
+
+
+#: the vocabulary of named model extensions, by name (the order is the order of evaluation
+#: and of the report)
+EFFECT_VOCABULARY: Mapping[str, EffectSpec] = MappingProxyType({spec.name: spec for spec in (
+    EffectSpec(
+        name="icr_expansion", group="yaw", param="chi", unit="1", scope="turning",
+        cause=("A skid-steer robot turns by dragging its tyres sideways. The scrub moves the "
+               "instantaneous centres of rotation of the two sides outward (ICR expansion), "
+               "so the robot turns as if its track were chi times wider than it is, and "
+               "slower than ideal differential drive predicts.")),
+    EffectSpec(
+        name="gyro_bias", group="yaw", param="bias_rad_s", unit="rad/s", scope="all",
+        cause=("The gyro reads a constant yaw rate when the robot does not turn: a sensor "
+               "offset.")),
+    EffectSpec(
+        name="wheel_lag", group="timing", param="lag_s", unit="s", scope="active",
+        cause=("The wheel/current stream and the IMU are stamped by different clocks or "
+               "buffers. The wheel data arrive late (or early) by lag_s. The offset is a "
+               "property of each recording and can drift within one.")),
+    EffectSpec(
+        name="turning_resistance", group="current", param="k_a", unit="A", scope="turning",
+        cause=("While turning, the tyres slide sideways against the ground (skid-steer "
+               "lateral friction). The motors must supply this scrub torque, so the current "
+               "rises in every turn by more than the simulated contact model gives.")),
+    EffectSpec(
+        name="current_offset", group="current", param="offset_a", unit="A",
+        scope="straight_diff",
+        cause=("When driving straight without yawing, the right motor reads more current "
+               "than the left. A traction difference would make the robot yaw, so the cause "
+               "is a current-sensor offset or extra drive-train friction on one side.")),
+    EffectSpec(
+        name="grade_resistance", group="current", param="k_a_per_rad", unit="A/rad",
+        scope="moving",
+        cause=("On a slope, climbing costs gravity torque, W sin(pitch) (seed 003 eq. 10). "
+               "The flat-ground replay ignores it; the pitch comes from the accelerometer.")),
+    EffectSpec(
+        name="immobilised", group="yaw", param="fraction", unit="1", scope="turning",
+        cause=("The wheels dig into soft ground: the robot stops turning while its wheels "
+               "keep spinning, so the gyro reads nothing where the wheels command a turn.")),
+)})
+EFFECT_NAMES: tuple[str, ...] = tuple(EFFECT_VOCABULARY)
+#: group -> its effects, in vocabulary order
 GROUPS: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    g: tuple(n for n, (grp, _, _) in EFFECTS.items() if grp == g)
+    g: tuple(n for n, spec in EFFECT_VOCABULARY.items() if spec.group == g)
     for g in ("timing", "yaw", "current")})
 #: signals each group is scored on
 GROUP_SIGNALS: Mapping[str, tuple[str, ...]] = MappingProxyType(
     {"timing": ("wz",), "yaw": ("wz",), "current": ("cur_l", "cur_r")})
-#: samples on which each effect is scored (manoeuvre classes of :mod:`terrain.audit.frames`):
-#: ``all`` scored samples, ``active`` (turning or near a turn), ``moving`` (not stopped),
-#: ``turning`` (curve or spin), ``straight_diff`` (right-minus-left current difference on
-#: straight samples)
-SCOPES: Mapping[str, str] = MappingProxyType({
-    "icr_expansion": "turning", "gyro_bias": "all", "immobilised": "turning",
-    "wheel_lag": "active",
-    "turning_resistance": "turning", "current_offset": "straight_diff",
-    "grade_resistance": "moving",
-})
 _SCOPE_CODES: Mapping[str, tuple[int, ...]] = MappingProxyType(
     {"moving": (STRAIGHT, CURVE, SPIN), "straight": (STRAIGHT,), "turning": (CURVE, SPIN)})
 
 
 def scope_mask(frame: AuditFrame, scope: str = "all") -> np.ndarray:
-    """Samples of a frame in a scope (``all``, ``active`` = not quiet, i.e. turning or within
-    the quiet margin of a turn, ``moving``, ``straight``, ``turning``), shape (n,) bool."""
+    """Samples of a frame in a scope.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        The frame (``n`` samples).
+    scope : str
+        ``all``, ``active`` (not quiet: turning or within the quiet margin of a turn),
+        ``moving``, ``straight`` or ``turning`` (manoeuvre classes of
+        :mod:`terrain.audit.frames`).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+
+    Raises
+    ------
+    KeyError
+        Unknown scope.
+    """
     if scope == "all":
         return np.ones(frame.n, dtype=bool)
     if scope == "active":
         return ~frame.quiet
     return np.isin(frame.manoeuvre, _SCOPE_CODES[scope])
+
+
 TURNING_FORMS = ("coulomb", "proportional")
 IMMOBILE_FORMS = ("uniform", "rate_dependent")
-
-#: plain-language cause of each effect
-CAUSES: Mapping[str, str] = MappingProxyType({
-    "icr_expansion": (
-        "A skid-steer robot turns by dragging its tyres sideways. The scrub moves the "
-        "instantaneous centres of rotation of the two sides outward (ICR expansion), so the "
-        "robot turns as if its track were chi times wider than it is, and slower than ideal "
-        "differential drive predicts."),
-    "gyro_bias": ("The gyro reads a constant yaw rate when the robot does not turn: a sensor "
-                  "offset."),
-    "wheel_lag": (
-        "The wheel/current stream and the IMU are stamped by different clocks or buffers. "
-        "The wheel data arrive late (or early) by lag_s. The offset is a property of each "
-        "recording and can drift within one."),
-    "turning_resistance": (
-        "While turning, the tyres slide sideways against the ground (skid-steer lateral "
-        "friction). The motors must supply this scrub torque, so the current rises in every "
-        "turn by more than the simulated contact model gives."),
-    "current_offset": (
-        "When driving straight without yawing, the right motor reads more current than the "
-        "left. A traction difference would make the robot yaw, so the cause is a "
-        "current-sensor offset or extra drive-train friction on one side."),
-    "grade_resistance": (
-        "On a slope, climbing costs gravity torque, W sin(pitch) (seed 003 eq. 10). The "
-        "flat-ground replay ignores it; the pitch comes from the accelerometer."),
-    "immobilised": (
-        "The wheels dig into soft ground: the robot stops turning while its wheels keep "
-        "spinning, so the gyro reads nothing where the wheels command a turn."),
-})
 
 
 class NotIdentifiable(TerrainError):
     """The data hold no information on an effect (no turns, no straight driving, level
-    ground...)."""
+    ground...). Raised by the group fits; the selection reports it as the effect's
+    ``reason``."""
 
 
 @dataclass(frozen=True)
@@ -226,13 +269,15 @@ class YawParams:
     Attributes
     ----------
     kinematic : bool
-        Whether the mobile yaw rate is ``a x`` (``icr_expansion`` on, or ``immobilised`` with
-        the kinematic mobile model) or the replay's.
-    a : float
-        ``1 / chi``.
-    bias : float
+        Whether the mobile yaw rate is ``inverse_chi x`` (``icr_expansion`` on, or
+        ``immobilised`` with the kinematic mobile model) or the replay's.
+    inverse_chi : float
+        ``1 / chi`` of the kinematic mobile model
+        (:func:`terrain.vehicles.icr.inverse_icr_factor`).
+    bias_rad_s : float
         Gyro bias, rad/s.
     immobilised : bool
+        Whether the ``immobilised`` effect is in the model.
     fraction : float
         Fraction of turning samples found immobile in the fitted data.
     form : str or None
@@ -249,8 +294,8 @@ class YawParams:
     """
 
     kinematic: bool = False
-    a: float = float("nan")
-    bias: float = 0.0
+    inverse_chi: float = float("nan")
+    bias_rad_s: float = 0.0
     immobilised: bool = False
     fraction: float = 0.0
     form: str | None = None
@@ -262,11 +307,11 @@ class YawParams:
 
     @property
     def chi(self) -> float:
-        """ICR expansion factor ``1 / a`` of the mobile model (the replay's own chi when the
-        mobile model is the replay; NaN without a fitted chi)."""
-        if not np.isfinite(self.a) or self.a == 0:
+        """ICR expansion factor ``1 / inverse_chi`` of the mobile model (the replay's own chi
+        when the mobile model is the replay; NaN without a fitted chi)."""
+        if not np.isfinite(self.inverse_chi) or self.inverse_chi == 0:
             return float("nan")
-        return float(1.0 / self.a) if self.kinematic else float(self.chi_replay)
+        return float(1.0 / self.inverse_chi) if self.kinematic else float(self.chi_replay)
 
 
 @dataclass(frozen=True)
@@ -286,7 +331,7 @@ def _yaw_data(frames: Sequence[AuditFrame], settings: EffectSettings) -> _YawDat
         m = f.score_imu
         if not f.has_imu or not m.any():
             continue
-        xs.append(f.x[m])
+        xs.append(f.commanded_yaw_rate[m])
         ys.append(f.wz[m])
         ss.append(f.sim_wz[m])
         ts.append(np.isin(f.manoeuvre[m], (CURVE, SPIN)))
@@ -325,7 +370,12 @@ def immobile_scale(x: np.ndarray, turn: np.ndarray, fractions: tuple[float, floa
     fractions : (float, float)
         Immobile fraction of turning samples below and above the threshold.
     threshold_rad_s : float
-        Threshold on ``|x|`` (inf: one fraction for every turn).
+        Threshold on ``|x|`` (inf: one fraction for every turn), rad/s.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``1 - fraction`` on turning samples, 1 elsewhere (dimensionless).
     """
     f = np.where(np.abs(x) >= threshold_rad_s, fractions[1], fractions[0])
     return np.where(turn, 1.0 - f, 1.0)
@@ -378,6 +428,7 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
     spec : sequence of str
         Subset of ``icr_expansion``, ``gyro_bias``, ``immobilised``.
     settings : EffectSettings
+        Constants of the effect models (thresholds, iterations, minimum sample counts).
     form : str, optional
         Force the ``immobilised`` form (default: the one with the lower training error).
 
@@ -400,15 +451,14 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
                               f"need {settings.min_quiet_samples}")
     if not (icr_on or imm_on):
         b = float(np.mean(d.y[d.quiet] - d.sim[d.quiet])) if bias_on else 0.0
-        return YawParams(bias=b, n_quiet=n_quiet)
+        return YawParams(bias_rad_s=b, n_quiet=n_quiet)
     n_turn = int(d.turn.sum())
     if n_turn < settings.min_turn_samples:
         raise NotIdentifiable(f"{'chi' if icr_on else 'immobilised'}: {n_turn} turning "
                               f"samples, need {settings.min_turn_samples}")
     # kinematic mobile model: robust chi on the mobile turning samples
     b = 0.0
-    xt, yt = d.x[d.turn], d.y[d.turn]
-    a = float(np.sum(xt * yt) / np.sum(xt * xt))
+    a = inverse_icr_factor(d.y[d.turn], d.x[d.turn])
     mobile_turn = d.turn.copy()
     for _ in range(settings.robust_iterations):
         if bias_on:
@@ -416,17 +466,15 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
         mobile_turn = d.turn & ~_immobile_flags(d, a * d.x, b, settings)
         if mobile_turn.sum() < settings.min_turn_samples:
             break
-        xm, ym = d.x[mobile_turn], d.y[mobile_turn] - b
-        a_new = float(np.sum(xm * ym) / np.sum(xm * xm))
+        a_new = inverse_icr_factor(d.y[mobile_turn] - b, d.x[mobile_turn])
         if not a_new > 0:
             break
         a = a_new
     fraction = float(1.0 - mobile_turn.sum() / n_turn)
-    xm, sm = d.x[mobile_turn], d.sim[mobile_turn]
-    chi_replay = float(np.sum(xm * xm) / np.sum(xm * sm)) if np.sum(xm * sm) > 0 else np.inf
-    common = dict(bias=b, n_turn=n_turn, n_quiet=n_quiet, chi_replay=chi_replay)
+    chi_replay = icr_expansion_factor(d.sim[mobile_turn], d.x[mobile_turn])
+    common = dict(bias_rad_s=b, n_turn=n_turn, n_quiet=n_quiet, chi_replay=chi_replay)
     if not imm_on:
-        return YawParams(kinematic=True, a=a, fraction=fraction, **common)
+        return YawParams(kinematic=True, inverse_chi=a, fraction=fraction, **common)
     candidates = [(True, a, b, d.turn & ~mobile_turn, fraction)]
     if not icr_on:
         b_r = float(np.mean(d.y[d.quiet] - d.sim[d.quiet])) if bias_on else 0.0
@@ -439,25 +487,56 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
         if best is None or sse < best[0]:
             best = (sse, kin, b_c, frac, thr, fr)
     _, kin, b, fraction, thr, fr = best
-    common["bias"] = b
-    return YawParams(kinematic=kin, a=a, immobilised=True, fraction=fraction,
+    common["bias_rad_s"] = b
+    return YawParams(kinematic=kin, inverse_chi=a, immobilised=True, fraction=fraction,
                      form="uniform" if not np.isfinite(thr) else "rate_dependent",
                      threshold_rad_s=thr, fractions=fr, **common)
 
 
 def predict_yaw(frame: AuditFrame, params: YawParams) -> np.ndarray:
-    """Predicted gyro yaw rate of a frame, shape (n,), rad/s."""
-    mobile = params.a * frame.x if params.kinematic else frame.sim_wz
+    """Predicted gyro yaw rate of a frame.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : YawParams
+        Fitted yaw-rate model.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Mobile yaw rate (``inverse_chi x`` or the replay's) times the expected mobility
+        (:func:`immobile_scale`) plus the gyro bias, rad/s.
+    """
+    mobile = (params.inverse_chi * frame.commanded_yaw_rate if params.kinematic
+              else frame.sim_wz)
     if params.immobilised:
         turn = np.isin(frame.manoeuvre, (CURVE, SPIN))
-        mobile = mobile * immobile_scale(frame.x, turn, params.fractions,
+        mobile = mobile * immobile_scale(frame.commanded_yaw_rate, turn, params.fractions,
                                          params.threshold_rad_s)
-    return mobile + params.bias
+    return mobile + params.bias_rad_s
 
 
 def yaw_sse(frame: AuditFrame, params: YawParams, scope: str = "all") -> tuple[float, int]:
-    """Sum of squared yaw-rate errors over the frame's scored samples in ``scope`` and their
-    count."""
+    """Squared yaw-rate errors of a frame under a fitted model.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : YawParams
+        Fitted yaw-rate model.
+    scope : str
+        Samples scored, among those with IMU (:func:`scope_mask`).
+
+    Returns
+    -------
+    sse : float
+        Sum of squared errors of :func:`predict_yaw` against the gyro, (rad/s)^2.
+    n : int
+        Samples summed.
+    """
     m = frame.score_imu & scope_mask(frame, scope)
     if not frame.has_imu or not m.any():
         return 0.0, 0
@@ -509,7 +588,21 @@ class CurrentParams:
         return 0.5 * (self.offset_right_a + self.offset_left_a)
 
     def turning_shape(self, x: np.ndarray, form: str | None = None) -> np.ndarray:
-        """``g(|x|)``, shape (n,): 1 at the reference turn."""
+        """Shape ``g(|x|)`` of the turning term, 1 at the reference turn.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            Commanded yaw rate ``(v_R - v_L) / B``, rad/s.
+        form : str, optional
+            ``coulomb`` (``tanh(|x| / coulomb_scale) / tanh(turn_ref / coulomb_scale)``) or
+            ``proportional`` (``|x| / turn_ref``); default :attr:`form`.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``g`` (dimensionless).
+        """
         form = form or self.form
         ax = np.abs(np.asarray(x, dtype=float))
         if form == "proportional":
@@ -542,7 +635,7 @@ def _current_data(frames: Sequence[AuditFrame]) -> _CurrentData:
         if not m.any():
             continue
         man = f.manoeuvre[m]
-        cols["x"].append(f.x[m])
+        cols["x"].append(f.commanded_yaw_rate[m])
         cols["res"].append(f.cur[m] - f.sim_cur[m])
         cols["straight"].append(man == STRAIGHT)
         cols["turn"].append(np.isin(man, (CURVE, SPIN)))
@@ -572,6 +665,7 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     spec : sequence of str
         Subset of ``turning_resistance``, ``current_offset``, ``grade_resistance``.
     settings : EffectSettings
+        Constants of the effect models (reference turn, minimum sample counts).
     form : str, optional
         Force the ``turning_resistance`` form.
 
@@ -634,12 +728,27 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
 
 
 def predict_current(frame: AuditFrame, params: CurrentParams) -> np.ndarray:
-    """Predicted motor currents of a frame, shape (n, 2) (left, right), A."""
+    """Predicted motor currents of a frame.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : CurrentParams
+        Fitted current model.
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        Replayed currents plus the turning, grade and offset terms (module docstring),
+        left and right, A.
+    """
     moving = frame.manoeuvre != STOP
     extra = np.zeros(frame.n)
     if params.k_a:
         turn = np.isin(frame.manoeuvre, (CURVE, SPIN))
-        extra = extra + np.where(turn, params.k_a * params.turning_shape(frame.x), 0.0)
+        extra = extra + np.where(
+            turn, params.k_a * params.turning_shape(frame.commanded_yaw_rate), 0.0)
     if params.k_a_per_rad:
         extra = extra + np.where(moving, params.k_a_per_rad * np.abs(frame.pitch), 0.0)
     out = frame.sim_cur + extra[:, None]
@@ -650,10 +759,25 @@ def predict_current(frame: AuditFrame, params: CurrentParams) -> np.ndarray:
 
 def current_sse(frame: AuditFrame, params: CurrentParams, scope: str = "all"
                 ) -> tuple[float, int]:
-    """Sum of squared current errors over scored samples in ``scope`` and their count.
+    """Squared current errors of a frame under a fitted model.
 
-    Scope ``straight_diff`` scores the right-minus-left difference on straight samples
-    (one value per sample); other scopes score both sides (two values per sample).
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : CurrentParams
+        Fitted current model.
+    scope : str
+        ``straight_diff`` scores the right-minus-left difference on straight samples (one
+        value per sample); other scopes (:func:`scope_mask`) score both sides (two values
+        per sample).
+
+    Returns
+    -------
+    sse : float
+        Sum of squared errors, A^2.
+    n : int
+        Values summed.
     """
     if scope == "straight_diff":
         m = frame.score_cur & (frame.manoeuvre == STRAIGHT)
@@ -674,15 +798,38 @@ def current_sse(frame: AuditFrame, params: CurrentParams, scope: str = "all"
 
 @dataclass(frozen=True)
 class LagParams:
-    """A constant lag of the wheel stream, s (0 = raw timestamps)."""
+    """Fitted timing model: a constant lag of the wheel stream.
+
+    Parameters
+    ----------
+    lag_s : float
+        Lag, s (positive = wheel data late; 0 = raw timestamps).
+    per_run : mapping of str to float
+        Run id -> the run's own median lag, s (runs with an identifiable lag).
+    """
 
     lag_s: float = 0.0
-    per_run: dict = field(default_factory=dict)
+    per_run: Mapping[str, float] = field(default_factory=dict)
 
 
 def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
             settings: EffectSettings = EffectSettings(), form: str | None = None) -> LagParams:
-    """Constant lag: median of the runs' own median lags (``spec`` empty: 0).
+    """Fit the timing model: the median of the runs' own median lags.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        Training frames (their lag tracks, :mod:`terrain.audit.timing`).
+    spec : sequence of str
+        ``["wheel_lag"]`` or empty (lag 0).
+    settings : EffectSettings
+        Unused (the common signature of :class:`GroupModel` fits).
+    form : str, optional
+        Unused (no forms).
+
+    Returns
+    -------
+    LagParams
 
     Raises
     ------
@@ -699,7 +846,24 @@ def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
 
 
 def lag_sse(frame: AuditFrame, params: LagParams, scope: str = "all") -> tuple[float, int]:
-    """Squared error of the replayed yaw rate against the gyro read with a constant lag."""
+    """Squared errors of the replayed yaw rate against the gyro read with a constant lag.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run (or segment) on the comparison clock, ``n`` samples.
+    params : LagParams
+        Fitted timing model.
+    scope : str
+        Samples scored, among those with IMU (:func:`scope_mask`).
+
+    Returns
+    -------
+    sse : float
+        Sum of squared errors, (rad/s)^2.
+    n : int
+        Samples summed.
+    """
     m = frame.score_imu & scope_mask(frame, scope)
     if not frame.has_imu or not m.any():
         return 0.0, 0
@@ -707,35 +871,79 @@ def lag_sse(frame: AuditFrame, params: LagParams, scope: str = "all") -> tuple[f
     return float(np.sum(r * r)), int(m.sum())
 
 
-#: group -> (fit, sse) functions
-GROUP_MODELS: Mapping[str, tuple] = MappingProxyType({
-    "timing": (fit_lag, lag_sse),
-    "yaw": (fit_yaw, yaw_sse),
-    "current": (fit_current, current_sse),
+@dataclass(frozen=True)
+class GroupModel:
+    """How the effects of one group are fitted and scored.
+
+    Parameters
+    ----------
+    fit : callable
+        ``fit(frames, spec, settings, form=None) -> params`` (:func:`fit_lag`,
+        :func:`fit_yaw`, :func:`fit_current`); raises :class:`NotIdentifiable`.
+    sse : callable
+        ``sse(frame, params, scope) -> (sum of squared errors, count)`` (:func:`lag_sse`,
+        :func:`yaw_sse`, :func:`current_sse`).
+    no_effect : type
+        Parameter class whose default instance is the baseline (the replay, no effect):
+        :class:`LagParams`, :class:`YawParams` or :class:`CurrentParams`.
+    """
+
+    fit: Callable[..., Any]
+    sse: Callable[..., tuple[float, int]]
+    no_effect: type
+
+
+#: group -> how it is fitted and scored
+GROUP_MODELS: Mapping[str, GroupModel] = MappingProxyType({
+    "timing": GroupModel(fit=fit_lag, sse=lag_sse, no_effect=LagParams),
+    "yaw": GroupModel(fit=fit_yaw, sse=yaw_sse, no_effect=YawParams),
+    "current": GroupModel(fit=fit_current, sse=current_sse, no_effect=CurrentParams),
 })
 
 
-def effect_params(name: str, params) -> dict[str, float]:
-    """The vocabulary parameter of effect ``name`` read from a fitted group model."""
-    if name == "icr_expansion":
-        return {"chi": params.chi}
-    if name == "gyro_bias":
-        return {"bias_rad_s": params.bias}
-    if name == "immobilised":
-        return {"fraction": params.fraction}
-    if name == "wheel_lag":
-        return {"lag_s": params.lag_s}
-    if name == "turning_resistance":
-        return {"k_a": params.k_a}
-    if name == "current_offset":
-        return {"offset_a": params.offset_a}
-    if name == "grade_resistance":
-        return {"k_a_per_rad": params.k_a_per_rad}
-    raise KeyError(name)
+def effect_params(name: str, params: LagParams | YawParams | CurrentParams) -> dict[str, float]:
+    """The vocabulary parameter of effect ``name`` read from a fitted group model.
+
+    Parameters
+    ----------
+    name : str
+        Effect name (a key of :data:`EFFECT_VOCABULARY`).
+    params : LagParams or YawParams or CurrentParams
+        Fitted model of the effect's group (every group parameter class names its attributes
+        after the vocabulary parameters).
+
+    Returns
+    -------
+    dict
+        ``{EffectSpec.param: value}``, value in :attr:`EffectSpec.unit`.
+
+    Raises
+    ------
+    KeyError
+        ``name`` is not in the vocabulary.
+    """
+    param = EFFECT_VOCABULARY[name].param
+    return {param: getattr(params, param)}
 
 
-def effect_details(name: str, params) -> dict:
-    """Secondary quantities of a fitted effect (form, thresholds, reference condition)."""
+def effect_details(name: str, params: LagParams | YawParams | CurrentParams) -> dict:
+    """Secondary quantities of a fitted effect (form, thresholds, reference condition).
+
+    Parameters
+    ----------
+    name : str
+        Effect name (a key of :data:`EFFECT_VOCABULARY`).
+    params : LagParams or YawParams or CurrentParams
+        Fitted model of the effect's group.
+
+    Returns
+    -------
+    dict
+        ``immobilised``: ``form, chi_mobile, mobile_model, threshold_rad_s, fractions``;
+        ``turning_resistance``: ``form, reference``; ``icr_expansion``:
+        ``fraction_excluded_immobile``; ``current_offset``: ``offset_left_a,
+        offset_right_a, common_a`` (A); other effects: empty.
+    """
     if name == "immobilised":
         return {"form": params.form, "chi_mobile": params.chi,
                 "mobile_model": "kinematic" if params.kinematic else "replay",

@@ -14,6 +14,8 @@ from matplotlib.figure import Figure
 
 from terrain.audit.core import POOLED, AuditResult
 from terrain.audit.effects import predict_current, predict_yaw
+from terrain.audit.frames import STOP
+from terrain.vehicles.icr import icr_expansion_factor
 
 _COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
            "tab:pink", "tab:gray", "tab:olive", "tab:cyan")
@@ -37,8 +39,26 @@ def _heldout(result: AuditResult, terrain: str, group: str):
 
 
 def fig_yaw(result: AuditResult, max_points: int = 4000, seed: int = 0) -> Figure:
-    """Aligned gyro yaw rate against ``(v_R - v_L) / B`` per terrain, with the ideal line, the
-    replay's effective chi and the fitted ``icr_expansion`` / ``immobilised`` chi."""
+    """Aligned gyro yaw rate against ``(v_R - v_L) / B`` per terrain.
+
+    With the ideal line, the replay's effective chi
+    (:func:`terrain.vehicles.icr.icr_expansion_factor` over turning samples) and the fitted
+    ``icr_expansion`` / ``immobilised`` chi.
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+    max_points : int
+        Scored samples drawn per panel.
+    seed : int
+        Seed of the sample draw.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per terrain.
+    """
     terrains = result.terrains
     fig, axes = _grid(len(terrains))
     rng = np.random.default_rng(seed)
@@ -47,7 +67,7 @@ def fig_yaw(result: AuditResult, max_points: int = 4000, seed: int = 0) -> Figur
         if not fs:
             ax.set_title(f"{t}: no IMU")
             continue
-        x = np.concatenate([f.x[f.score_imu] for f in fs])
+        x = np.concatenate([f.commanded_yaw_rate[f.score_imu] for f in fs])
         y = np.concatenate([f.wz[f.score_imu] for f in fs])
         s = np.concatenate([f.sim_wz[f.score_imu] for f in fs])
         idx = rng.permutation(len(x))[:max_points]
@@ -55,9 +75,9 @@ def fig_yaw(result: AuditResult, max_points: int = 4000, seed: int = 0) -> Figur
         lim = max(float(np.percentile(np.abs(x), 99.5)), 0.2)
         grid = np.linspace(-lim, lim, 3)
         ax.plot(grid, grid, "k--", lw=1, label="ideal (chi = 1)")
-        turn = np.abs(x) >= 0.1
-        if turn.sum() > 10 and np.sum(x[turn] * s[turn]) > 0:
-            chi_r = np.sum(x[turn] ** 2) / np.sum(x[turn] * s[turn])
+        turn = np.abs(x) >= result.settings.frames.turn_rad_s
+        chi_r = icr_expansion_factor(s[turn], x[turn]) if turn.sum() > 10 else np.inf
+        if np.isfinite(chi_r):
             ax.plot(grid, grid / chi_r, color="tab:blue", lw=1.2,
                     label=f"replay (chi {chi_r:.2f})")
         res = result.groups.get((t, "yaw"))
@@ -75,7 +95,18 @@ def fig_yaw(result: AuditResult, max_points: int = 4000, seed: int = 0) -> Figur
 
 
 def fig_lags(result: AuditResult) -> Figure:
-    """Lag of the wheel stream behind the IMU over time, one line per run."""
+    """Lag of the wheel stream behind the IMU over time, one line per run.
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Lag (s) against time in run (s), runs with an identifiable lag.
+    """
     fig = Figure(figsize=(10, 4.5))
     ax = fig.subplots()
     terrains = result.terrains
@@ -91,7 +122,7 @@ def fig_lags(result: AuditResult) -> Figure:
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xlabel("time in run (s)")
     ax.set_ylabel("lag of wheel stream (s)")
-    ax.set_title("wheel_lag per run (30 s windows)")
+    ax.set_title(f"wheel_lag per run ({result.settings.lag.window_s:g} s windows)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -99,7 +130,18 @@ def fig_lags(result: AuditResult) -> Figure:
 
 
 def fig_rmse(result: AuditResult) -> Figure:
-    """Replay (aligned) and extended held-out RMSE per signal and terrain."""
+    """Replay (aligned) and extended held-out RMSE per signal and terrain.
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One bar panel per signal (rad/s, m/s^2, A).
+    """
     r = result.residuals
     r = r[(r.run_id == "*") & (r.manoeuvre == "all")]
     signals = [s for s in ("wz", "ay", "ax", "cur_l", "cur_r") if s in set(r.signal)]
@@ -122,7 +164,20 @@ def fig_rmse(result: AuditResult) -> Figure:
 
 
 def fig_currents(result: AuditResult, n_bins: int = 8) -> Figure:
-    """Mean current per side against ``|v_R - v_L| / B``: measured, replay, extended."""
+    """Mean current per side against ``|v_R - v_L| / B``: measured, replay, extended.
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+    n_bins : int
+        Quantile bins of the commanded turn rate.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per terrain (moving samples, held-out predictions).
+    """
     terrains = result.terrains
     fig, axes = _grid(len(terrains))
     for ax, t in zip(axes, terrains):
@@ -132,8 +187,8 @@ def fig_currents(result: AuditResult, n_bins: int = 8) -> Figure:
             continue
         x, meas, rep, ext = [], [], [], []
         for f, p in pairs:
-            m = f.score_cur & (f.manoeuvre != 0)
-            x.append(np.abs(f.x[m]))
+            m = f.score_cur & (f.manoeuvre != STOP)
+            x.append(np.abs(f.commanded_yaw_rate[m]))
             meas.append(f.cur[m].mean(axis=1))
             rep.append(f.sim_cur[m].mean(axis=1))
             ext.append(predict_current(f, p)[m].mean(axis=1))
@@ -158,8 +213,22 @@ def fig_currents(result: AuditResult, n_bins: int = 8) -> Figure:
 
 
 def fig_example(result: AuditResult, run_id: str | None = None) -> Figure:
-    """Time series of one run (default: the run with IMU and the most turning samples):
-    gyro vs replay vs extended, currents vs replay vs extended."""
+    """Time series of one run: gyro vs replay vs extended, currents vs replay vs extended.
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+    run_id : str, optional
+        Run to show; default (or unknown id): the run with IMU whose commanded yaw rate
+        crosses the turn threshold most often.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Yaw rate (rad/s) and currents (A) against time (s); empty without a run that has
+        both held-out yaw and current predictions.
+    """
     pairs: dict[str, dict[str, list]] = {}
     for t in result.terrains:
         for group in ("yaw", "current"):
@@ -170,9 +239,12 @@ def fig_example(result: AuditResult, run_id: str | None = None) -> Figure:
     if not candidates:
         return fig
     if run_id not in candidates:
+        turn_rad_s = result.settings.frames.turn_rad_s
+
         def transitions(k):                          # turns started or ended in scored time
-            return sum(int(np.sum(np.diff((np.abs(f.x[f.score_imu]) >= 0.1).astype(int)) != 0))
-                       for f, _ in pairs[k]["yaw"])
+            return sum(int(np.sum(np.diff(
+                (np.abs(f.commanded_yaw_rate[f.score_imu]) >= turn_rad_s).astype(int)) != 0))
+                for f, _ in pairs[k]["yaw"])
         run_id = max(candidates, key=transitions)
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     for f, p in pairs[run_id]["yaw"]:
@@ -203,7 +275,19 @@ def fig_example(result: AuditResult, run_id: str | None = None) -> Figure:
 
 
 def make_figures(result: AuditResult) -> dict[str, Figure]:
-    """Every figure of the report, by key (module docstring)."""
+    """Every figure of the report, by key (module docstring).
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
+
+    Returns
+    -------
+    dict of str to matplotlib.figure.Figure
+        ``yaw``, ``rmse``, ``currents``, ``example`` and, when any run has an identifiable
+        lag, ``lags``.
+    """
     out = {"yaw": fig_yaw(result), "rmse": fig_rmse(result),
            "currents": fig_currents(result), "example": fig_example(result)}
     if any(f.has_imu and f.lag.identifiable for f in result.frames):

@@ -35,6 +35,7 @@ from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
 from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.terramechanics.resistance import G_M_S2
+from terrain.vehicles import skid_steer_forward
 
 MANOEUVRES = ("stop", "straight", "curve", "spin")
 STOP, STRAIGHT, CURVE, SPIN = range(4)
@@ -92,8 +93,9 @@ class AuditFrame:
         Cross-validation unit: the run id, or ``<run_id>#<k>`` for a segment.
     terrain : str
     t_s : wheel timestamps.
-    x : commanded yaw rate ``(v_R - v_L) / B``.
-    v : commanded speed ``(v_L + v_R) / 2``, m/s.
+    commanded_yaw_rate : yaw rate the measured wheel speeds command, ``(v_R - v_L) / B``
+        (ideal differential drive, seed 000 eq. 2), rad/s.
+    commanded_speed : speed the measured wheel speeds command, ``(v_L + v_R) / 2``, m/s.
     manoeuvre : int codes into :data:`MANOEUVRES`.
     quiet : bool, samples far from any turn (gyro-bias estimation).
     sim_wz, sim_ax, sim_ay, sim_vx : replay predictions (yaw rate, accelerations, speed).
@@ -112,8 +114,8 @@ class AuditFrame:
     group: str
     terrain: str
     t_s: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
+    commanded_yaw_rate: np.ndarray
+    commanded_speed: np.ndarray
     manoeuvre: np.ndarray
     quiet: np.ndarray
     sim_wz: np.ndarray
@@ -139,8 +141,18 @@ class AuditFrame:
         return len(self.t_s)
 
     def wz_at_lag(self, lag_s: float) -> np.ndarray:
-        """Gyro yaw rate read with a constant lag ``lag_s`` instead of the run's own track,
-        shape (n,), rad/s (NaN without IMU)."""
+        """Gyro yaw rate read with a constant lag instead of the run's own lag track.
+
+        Parameters
+        ----------
+        lag_s : float
+            Constant lag of the wheel stream, s (positive = wheel data late).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Low-passed gyro yaw rate at ``t_s - lag_s``, rad/s (NaN without IMU).
+        """
         if not self.has_imu:
             return np.full(self.n, np.nan)
         return np.interp(self.t_s - lag_s, self.imu_t_s, self.imu_wz)
@@ -155,8 +167,9 @@ def classify_manoeuvres(x: np.ndarray, v: np.ndarray, vel_l: np.ndarray, vel_r: 
     x, v, vel_l, vel_r : ndarray, shape (n,)
         Commanded yaw rate (rad/s), speed and side speeds (m/s).
     track_m : float
-        B, m.
+        Track width B, m.
     settings : FrameSettings
+        ``moving_m_s`` and ``turn_rad_s`` thresholds.
 
     Returns
     -------
@@ -203,7 +216,9 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     replay : Replay
         Its replay (:func:`~terrain.audit.replay.replay_run`).
     settings : FrameSettings
+        Filters, scored edges, manoeuvre thresholds.
     lag_settings : LagSettings
+        Window-by-window lag estimation (:func:`~terrain.audit.timing.estimate_lag_track`).
 
     Returns
     -------
@@ -211,8 +226,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     """
     wheels = run.streams["wheels"]
     t = replay.t_s
-    x = (replay.vel_r - replay.vel_l) / replay.track_m
-    v = 0.5 * (replay.vel_l + replay.vel_r)
+    v, x = skid_steer_forward(replay.vel_l, replay.vel_r, replay.track_m)  # seed 000 eq. 2
     cur = wheels[["cur_l", "cur_r"]].to_numpy(dtype=float)
     gaps = dict(run.meta.get("gaps", {}) or {})
     score = (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
@@ -244,7 +258,8 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         imu_t, imu_wz, has_imu = np.empty(0), np.empty(0), False
         score_imu = np.zeros(len(t), dtype=bool)
     return AuditFrame(
-        run_id=run.run_id, group=run.run_id, terrain=replay.terrain, t_s=t, x=x, v=v,
+        run_id=run.run_id, group=run.run_id, terrain=replay.terrain, t_s=t,
+        commanded_yaw_rate=x, commanded_speed=v,
         manoeuvre=classify_manoeuvres(x, v, replay.vel_l, replay.vel_r, replay.track_m,
                                       settings),
         quiet=_quiet(t, x, settings), sim_wz=replay.yaw_rate, sim_ax=replay.ax,
@@ -262,8 +277,9 @@ def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
     Parameters
     ----------
     frame : AuditFrame
+        One run on the comparison clock.
     n_parts : int
-        >= 1.
+        Number of segments (1 or less: the frame itself).
 
     Returns
     -------
@@ -271,9 +287,9 @@ def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
     """
     if n_parts <= 1:
         return [frame]
-    per_sample = ("t_s", "x", "v", "manoeuvre", "quiet", "sim_wz", "sim_ax", "sim_ay",
-                  "sim_vx", "sim_cur", "cur", "wz", "ax", "ay", "pitch", "score_imu",
-                  "score_cur")
+    per_sample = ("t_s", "commanded_yaw_rate", "commanded_speed", "manoeuvre", "quiet",
+                  "sim_wz", "sim_ax", "sim_ay", "sim_vx", "sim_cur", "cur", "wz", "ax", "ay",
+                  "pitch", "score_imu", "score_cur")
     parts = []
     for k, idx in enumerate(np.array_split(np.arange(frame.n), n_parts)):
         if idx.size == 0:

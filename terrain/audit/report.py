@@ -1,26 +1,32 @@
 """The audit report: a JSON-ready dict and a Markdown page (figures from
 :mod:`terrain.audit.figures`).
 
-JSON layout (``format = "terrain-audit/1"``): ``effects`` is a list whose items carry ``name``,
-``terrain`` (a class or ``all``), ``group``, ``params`` (the vocabulary names of
-:data:`terrain.audit.effects.EFFECTS`), ``ci95``, ``heldout_gain`` (fraction of the baseline
-RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``, ``details``,
-``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per signal and
-terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run``, ``lags`` (per run),
-``facts`` (model-free statistics), ``supported`` (terrain -> effect names, ``["none"]`` when
-no effect is supported) complete it.
+The Markdown page is rendered from the Jinja2 template ``templates/audit_report.md.j2`` (the
+prose); every number in it comes from the JSON report (results, and the settings recorded
+under ``settings``).
+
+JSON layout (``format = "terrain-audit/1"``): ``effects`` is a list whose items carry
+``name``, ``terrain`` (a class or ``all``), ``group``, ``params`` (the vocabulary names of
+:data:`terrain.audit.effects.EFFECT_VOCABULARY`), ``ci95``, ``heldout_gain`` (fraction of
+the baseline RMSE removed on held-out runs), ``heldout_gain_ci95``, ``supported``, ``step``,
+``details``, ``cause``, ``reason``, ``n_units``, ``n_runs``; ``signals`` gives the error per
+signal and terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run``, ``lags``
+(per run), ``facts`` (model-free statistics), ``supported`` (terrain -> effect names,
+``["none"]`` when no effect is supported) complete it.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import MappingProxyType
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
+import jinja2
 import numpy as np
 import pandas as pd
 
 from terrain.audit.core import POOLED, AuditResult
-from terrain.audit.effects import EFFECTS, GROUP_SIGNALS
+from terrain.audit.effects import EFFECT_VOCABULARY, GROUP_SIGNALS
 from terrain.audit.selection import json_ready
 
 FORMAT = "terrain-audit/1"
@@ -44,6 +50,11 @@ def _records(frame: pd.DataFrame) -> list[dict]:
 
 def signal_table(result: AuditResult) -> pd.DataFrame:
     """Error of each model per signal and terrain (all manoeuvres, runs pooled).
+
+    Parameters
+    ----------
+    result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
 
     Returns
     -------
@@ -74,6 +85,7 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
     Parameters
     ----------
     result : AuditResult
+        Output of :func:`terrain.audit.run_audit`.
     source : mapping, optional
         Where the runs came from (``runs_dir`` or ``dataset``), recorded as is.
 
@@ -99,7 +111,8 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
         "source": dict(source or {}),
         "baseline": BASELINE,
         "models": MODELS,
-        "vocabulary": {k: {"group": g, "param": p, "unit": u} for k, (g, p, u) in EFFECTS.items()},
+        "vocabulary": {k: {"group": v.group, "param": v.param, "unit": v.unit}
+                       for k, v in EFFECT_VOCABULARY.items()},
         "runs": {"audited": [f.run_id for f in result.frames], "skipped": result.skipped},
         "terrains": result.terrains,
         "supported": supported,
@@ -120,9 +133,17 @@ def to_dict(result: AuditResult, source: Mapping | None = None) -> dict:
 def flat_metrics(report: Mapping) -> dict[str, float]:
     """Numbers of a report as flat metric names (for MLflow).
 
-    ``rmse_<model>__<signal>__<terrain>`` for the replay and the extended model,
-    ``gain__<effect>__<terrain>`` and ``<param>__<effect>__<terrain>`` for supported effects,
-    ``n_supported``, ``n_runs`` and ``time_<step>``.
+    Parameters
+    ----------
+    report : mapping
+        Output of :func:`to_dict`.
+
+    Returns
+    -------
+    dict of str to float
+        ``rmse_<model>__<signal>__<terrain>`` for the replay and the extended model,
+        ``gain__<effect>__<terrain>`` and ``<param>__<effect>__<terrain>`` for supported
+        effects, ``n_supported``, ``n_runs`` and ``time_<step>`` (s).
     """
     out: dict[str, float] = {}
     for s in report["signals"]:
@@ -141,7 +162,17 @@ def flat_metrics(report: Mapping) -> dict[str, float]:
     return out
 
 
+#: a stand-still current bias (measured - replayed) below minus this is reported as a finding, A
+STANDSTILL_BIAS_FINDING_A = 2.0
+#: how each scoring scope is described in the effects table
+SCOPE_TEXT: Mapping[str, str] = MappingProxyType({
+    "straight_diff": "scored on right - left in straight driving",
+    "active": "scored near turns",
+    "turning": "scored on turning samples", "moving": "scored on moving samples"})
+
+
 def _fmt(v, nd: int = 3) -> str:
+    """A number as table text: ``nd`` significant digits, ``-`` for missing or non-finite."""
     if v is None or (isinstance(v, float) and not np.isfinite(v)):
         return "-"
     if isinstance(v, (bool, np.bool_)):
@@ -151,145 +182,29 @@ def _fmt(v, nd: int = 3) -> str:
     return f"{float(v):.{nd}g}" if abs(float(v)) >= 1e-3 or v == 0 else f"{float(v):.2e}"
 
 
-def _table(header: Sequence[str], rows: Sequence[Sequence]) -> str:
+def _md_table(rows: Sequence[Sequence], header: Sequence[str]) -> str:
+    """A Markdown pipe table (header, separator, one line per row)."""
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
     return "\n".join(out)
 
 
-def _param_text(e: Mapping) -> str:
-    parts = []
-    for k, v in (e.get("params") or {}).items():
-        ci = (e.get("ci95") or {}).get(k)
-        parts.append(f"{k} = {_fmt(v)}" + (f" [{_fmt(ci[0])}, {_fmt(ci[1])}]" if ci else ""))
-    return ", ".join(parts) or "-"
-
-
-def _gain_text(e: Mapping) -> str:
-    g = e.get("heldout_gain")
-    if g is None:
-        return "-"
-    ci = e.get("heldout_gain_ci95")
-    return f"{g:.3f}" + (f" [{ci[0]:.3f}, {ci[1]:.3f}]" if ci else "")
-
-
-def _detail_text(e: Mapping) -> str:
-    d = e.get("details") or {}
-    keep = []
-    if d.get("form"):
-        keep.append(f"form {d['form']}")
-    if e["name"] == "immobilised" and d.get("chi_mobile") is not None:
-        keep.append(f"mobile model {d.get('mobile_model')} (chi {_fmt(d['chi_mobile'])})")
-        if d.get("threshold_rad_s") is not None:
-            fr = d.get("fractions") or [None, None]
-            keep.append(f"digs in above |x| = {_fmt(d['threshold_rad_s'])} rad/s "
-                        f"(immobile {_fmt(fr[0], 2)} below, {_fmt(fr[1], 2)} above)")
-    if e["name"] == "turning_resistance":
-        for form in ("coulomb", "proportional"):
-            v = d.get(f"heldout_rmse_turning_{form}")
-            if v is not None:
-                keep.append(f"held-out turning RMSE {form} {_fmt(v)} A")
-    if e["name"] == "icr_expansion" and d.get("heldout_gain_vs_ideal") is not None:
-        keep.append(f"gain vs ideal drive {d['heldout_gain_vs_ideal']:.2f}")
-    scope_text = {"straight_diff": "scored on right - left in straight driving",
-                  "active": "scored near turns",
-                  "turning": "scored on turning samples", "moving": "scored on moving samples"}
-    if d.get("scope") in scope_text:
-        keep.append(scope_text[d["scope"]])
-    if e["name"] == "current_offset" and d.get("common_a") is not None:
-        keep.append(f"left {_fmt(d['offset_left_a'])} A, right {_fmt(d['offset_right_a'])} A")
-    if d.get("unphysical"):
-        keep.append(f"rejected: {d['unphysical']}")
-    if d.get("negligible"):
-        keep.append(f"negligible: {d['negligible']}")
-    if e.get("reason"):
-        keep.append(f"not identifiable: {e['reason']}")
-    return "; ".join(keep)
-
-
-def _sentence(e: Mapping) -> str:
-    p = e["params"]
-    name = e["name"]
-    g = e["heldout_gain"]
-    if name == "icr_expansion":
-        return (f"the robot turns {p['chi']:.2f} times slower than ideal differential drive "
-                f"(chi = {p['chi']:.2f}); fitting chi removes {100 * g:.0f} % of the replay's "
-                f"yaw-rate error in turns on held-out runs")
-    if name == "immobilised":
-        d = e["details"]
-        extra = ""
-        if d.get("threshold_rad_s") is not None:
-            extra = (f"; it digs in mostly when the wheels command more than "
-                     f"{d['threshold_rad_s']:.2f} rad/s")
-        return (f"the robot is immobilised (digs in) during {100 * p['fraction']:.0f} % of "
-                f"its turning time while the wheels keep spinning; mobile turns have chi "
-                f"{d.get('chi_mobile', float('nan')):.2f}{extra}; this removes "
-                f"{100 * g:.0f} % of the replay's yaw-rate error in turns on held-out runs")
-    if name == "current_offset":
-        return (f"driving straight, the right motor reads {p['offset_a']:.2f} A more than the "
-                f"left (held-out gain {100 * g:.0f} % on straight samples)")
-    if name == "turning_resistance":
-        d = e["details"]
-        word = "more" if p["k_a"] > 0 else "less"
-        return (f"turning costs {abs(p['k_a']):.2f} A per side {word} than simulated at the "
-                f"reference turn ({d.get('form')} form; held-out gain {100 * g:.0f} % on "
-                f"turning samples)")
-    if name == "grade_resistance":
-        return (f"current grows by {p['k_a_per_rad']:.1f} A per rad of pitch (held-out gain "
-                f"{100 * g:.0f} %)")
-    if name == "gyro_bias":
-        return f"the gyro is offset by {p['bias_rad_s']:.4f} rad/s (held-out gain {100 * g:.0f} %)"
-    if name == "wheel_lag":
-        return (f"the wheel stream is {p['lag_s']:.2f} s late on every run (held-out gain "
-                f"{100 * g:.0f} %)")
-    return name
-
-
-def _general_findings(report: Mapping) -> list[str]:
-    """Findings across terrains: timing, stand-still currents."""
-    out = []
-    lags = [x for x in report["lags"] if x["identifiable"]]
-    if lags:
-        lag_effects = [e for e in report["effects"] if e["name"] == "wheel_lag"]
-        constant = [e["terrain"] for e in lag_effects if e["supported"]]
-        drifts = [abs(x["drift_s_per_min"]) for x in lags if x["drift_s_per_min"] is not None]
-        text = (f"- **Timing**: in the {len(lags)} runs where it is identifiable, the wheel "
-                f"stream is offset from the IMU by {min(x['lag_min_s'] for x in lags):+.2f} "
-                f"to {max(x['lag_max_s'] for x in lags):+.2f} s (per-run medians "
-                f"{min(x['lag_s'] for x in lags):+.2f} to {max(x['lag_s'] for x in lags):+.2f}"
-                " s)")
-        if drifts:
-            text += f", drifting by up to {max(drifts):.2f} s per minute within a run"
-        text += ("; a constant lag transfers between runs on " + ", ".join(constant)
-                 if constant else "; no constant lag transfers from run to run "
-                 "(`wheel_lag` is not supported as a constant), so every comparison uses the "
-                 "run's own lag track")
-        out.append(text + ".")
-    man = pd.DataFrame(report["residuals_by_manoeuvre"])
-    if len(man):
-        stop = man[(man.manoeuvre == "stop") & (man.model == "replay")
-                   & man.signal.isin(["cur_l", "cur_r"]) & (man.terrain != "all")]
-        bad = stop[stop.bias < -2.0]
-        if len(bad):
-            worst = bad.loc[bad.bias.idxmin()]
-            out.append(
-                f"- **Stand-still currents**: with both wheels at rest the replay predicts "
-                f"far more current than the robot draws (bias down to {worst.bias:.1f} A, on "
-                f"{', '.join(sorted(set(bad.terrain)))}). An earlier cause, contact "
-                "chatter when a wheel is held at exactly zero speed while the body still "
-                "moves (biases down to -11 A), was removed by the simulator's low-speed slip "
-                "regularisation (`terrain.sim.dynamics.SLIP_SPEED_FLOOR_M_S`); the cause of "
-                "what remains is not established. No effect of the vocabulary covers it; the "
-                "current effects are scored on moving samples.")
-    return out
-
-
 def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     """Lateral friction at which the replay's chi equals the measured one, as text.
 
-    Linear interpolation between the two sweep points that bracket the measured chi;
-    ``below <lowest>`` / ``above <highest>`` when the sweep does not bracket it, ``-``
-    without a measured chi.
+    Linear interpolation between the two sweep points that bracket the measured chi.
+
+    Parameters
+    ----------
+    sweep : pandas.DataFrame
+        One terrain's rows of :func:`terrain.audit.core.lateral_friction_sweep` (columns
+        ``lateral_friction``, ``replay_chi``, ``measured_chi``).
+
+    Returns
+    -------
+    str
+        ``~<mu>``; ``below <lowest>`` / ``above <highest>`` when the sweep does not bracket
+        the measured chi; ``-`` without a measured chi.
     """
     g = sweep.sort_values("lateral_friction")
     target = g.measured_chi.iloc[0]
@@ -303,170 +218,185 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     return f"below {mu[0]:.3g}" if target < chi[0] else f"above {mu[-1]:.3g}"
 
 
+def _timing_finding(report: Mapping) -> dict | None:
+    """Numbers of the timing finding (None without any identifiable lag)."""
+    lags = [x for x in report["lags"] if x["identifiable"]]
+    if not lags:
+        return None
+    drifts = [abs(x["drift_s_per_min"]) for x in lags if x["drift_s_per_min"] is not None]
+    return {"n_runs": len(lags),
+            "lag_min_s": min(x["lag_min_s"] for x in lags),
+            "lag_max_s": max(x["lag_max_s"] for x in lags),
+            "median_min_s": min(x["lag_s"] for x in lags),
+            "median_max_s": max(x["lag_s"] for x in lags),
+            "max_drift_s_per_min": max(drifts) if drifts else None,
+            "constant": [e["terrain"] for e in report["effects"]
+                         if e["name"] == "wheel_lag" and e["supported"]]}
+
+
+def _standstill_finding(report: Mapping) -> dict | None:
+    """Numbers of the stand-still current finding (None when no terrain's replay bias at
+    rest is below ``-STANDSTILL_BIAS_FINDING_A``)."""
+    man = pd.DataFrame(report["residuals_by_manoeuvre"])
+    if not len(man):
+        return None
+    stop = man[(man.manoeuvre == "stop") & (man.model == "replay")
+               & man.signal.isin(["cur_l", "cur_r"]) & (man.terrain != "all")]
+    bad = stop[stop.bias < -STANDSTILL_BIAS_FINDING_A]
+    if not len(bad):
+        return None
+    return {"worst_bias_a": float(bad.bias.min()), "terrains": sorted(set(bad.terrain))}
+
+
+def _sweep_table(report: Mapping) -> tuple[list[list], list[str]]:
+    """Rows and header of the lateral-friction what-if table (empty without a sweep)."""
+    sweep = pd.DataFrame(report.get("lateral_friction_sweep") or [])
+    if not len(sweep):
+        return [], []
+    rows = []
+    for t, g in sweep.groupby("terrain", sort=False):
+        rows.append([t, _fmt(g.measured_chi.iloc[0]), int(g.n_runs.iloc[0]),
+                     matching_lateral_friction(g)]
+                    + [f"{_fmt(r.lateral_friction)}: {_fmt(r.replay_chi)}"
+                       for r in g.itertuples()])
+    width = max(len(r) for r in rows)
+    rows = [r + [""] * (width - len(r)) for r in rows]
+    header = (["terrain", "measured chi", "runs", "mu_lat matching it"]
+              + [f"mu_lat: chi ({k + 1})" for k in range(width - 4)])
+    return rows, header
+
+
+def _manoeuvre_rows(report: Mapping) -> list[list] | None:
+    """Rows of the residuals-by-manoeuvre table (None without residuals)."""
+    man = pd.DataFrame(report["residuals_by_manoeuvre"])
+    if not len(man):
+        return None
+    man = man[man.model.isin(["replay", "extended"]) & (man.manoeuvre != "all")]
+    piv = man.pivot_table(index=["signal", "terrain", "manoeuvre"], columns="model",
+                          values=["rmse", "bias", "n"], aggfunc="first")
+    rows = []
+    for (signal, terrain, m), r in piv.iterrows():
+        n = r[("n", "replay")]                   # a count: the pivot made it a float
+        rows.append([signal, terrain, m, _fmt(int(n) if np.isfinite(n) else None),
+                     _fmt(r[("rmse", "replay")]), _fmt(r[("bias", "replay")]),
+                     _fmt(r.get(("rmse", "extended"))), _fmt(r.get(("bias", "extended")))])
+    return rows
+
+
+def _environment() -> jinja2.Environment:
+    """The template environment: package templates, strict undefined names, the ``do``
+    extension, and the filters ``fmt`` (numbers) and ``md_table`` (pipe tables)."""
+    env = jinja2.Environment(loader=jinja2.PackageLoader("terrain.audit", "templates"),
+                             undefined=jinja2.StrictUndefined, trim_blocks=True,
+                             lstrip_blocks=True, keep_trailing_newline=True,
+                             autoescape=False, extensions=["jinja2.ext.do"])
+    env.filters["fmt"] = _fmt
+    env.filters["md_table"] = _md_table
+    return env
+
+
 def to_markdown(report: Mapping, figures: Mapping[str, str] | None = None,
                 commands: Sequence[str] = (), title: str = "Simulation audit") -> str:
-    """The Markdown report.
+    """The Markdown report, rendered from ``templates/audit_report.md.j2``.
+
+    Every number in the page comes from ``report`` (results, and the settings it records
+    under ``settings``); the template holds the prose.
 
     Parameters
     ----------
     report : mapping
         Output of :func:`to_dict`.
-    figures : mapping, optional
+    figures : mapping of str to str, optional
         Figure key -> relative path of its image (keys of
-        :func:`terrain.audit.figures.make_figures`).
+        :func:`terrain.audit.figures.make_figures`); figures not given are left out.
     commands : sequence of str
-        Shell commands that reproduce the report.
+        Shell commands that reproduce the report (from the repository root).
     title : str
+        Page title.
 
     Returns
     -------
     str
-    """
-    figures = dict(figures or {})
-    effects = report["effects"]
-    lines = [f"# {title}", ""]
-    runs = report["runs"]
-    lines += [f"Audited runs: {len(runs['audited'])} ({', '.join(report['terrains'])})"
-              + (f"; skipped {len(runs['skipped'])}: " + "; ".join(
-                  f"{k} ({v})" for k, v in runs["skipped"].items()) if runs["skipped"] else "")
-              + ".", ""]
-    if report.get("source"):
-        lines += ["Source: " + ", ".join(f"{k} `{v}`" for k, v in report["source"].items()), ""]
-    if commands:
-        lines += ["Reproduce:", "", "```", *commands, "```", ""]
-    lines += ["**Baseline**: " + report["baseline"] + ".", "",
-              "**Method**: each effect is fitted on training runs and scored on held-out runs "
-              "(leave one run out within a terrain; `all` pools every run). Its held-out gain "
-              "is the fraction of the baseline RMSE it removes, measured on the samples where "
-              "it acts. An effect is **supported** when the 95 % bootstrap interval of that "
-              "gain (runs resampled with replacement) lies above 0 and the gain is at least "
-              f"{report['settings'].get('selection.min_gain')}, its size is above a "
-              "practical floor and its parameter does not contradict its physics. Effects join the model one at a time, best first "
-              "(forward selection). Parameter intervals are bootstrap intervals over runs.", ""]
-    seg = sorted({f"{g['terrain']} ({g['group']})" for g in report["groups"]
-                  if g.get("segmented")})
-    if seg:
-        lines += ["Too few runs for leave-one-run-out in " + ", ".join(seg) + ": their runs "
-                  "were cut into contiguous segments, left out one at a time.", ""]
+        Markdown text ending with a newline.
 
-    lines += ["## Findings", ""]
-    for t, names in report["supported"].items():
+    Raises
+    ------
+    jinja2.UndefinedError
+        ``report`` lacks a field of the :func:`to_dict` layout.
+    """
+    effects = report["effects"]
+    findings = []
+    for t in report["supported"]:
         found = [e for e in effects if e["terrain"] == t and e["supported"]]
         found.sort(key=lambda e: (e["group"], e["step"] or 0))
-        if not found:
-            lines.append(f"- **{t}**: none of the effects is supported.")
-            continue
-        lines.append(f"- **{t}**: " + "; ".join(_sentence(e) for e in found) + ".")
-    lines += _general_findings(report)
-    lines.append("")
-
-    sig = pd.DataFrame(report["signals"])
-    if len(sig):
-        lines += ["## Error per signal and terrain", "",
-                  "RMSE (rad/s, m/s^2, A), bias = mean(measured - predicted), correlation. "
-                  "`ideal` is ideal differential drive (yaw rate only); `raw` is the replay "
-                  "without clock alignment.", ""]
-        rows = []
-        for _, s in sig.iterrows():
-            rows.append([s.signal, s.terrain, _fmt(s.get("ideal_rmse")),
-                         _fmt(s.get("replay_raw_rmse")), _fmt(s.get("replay_rmse")),
-                         _fmt(s.get("replay_bias")), _fmt(s.get("replay_corr")),
-                         _fmt(s.get("extended_rmse")), _fmt(s.get("extended_corr")),
-                         _fmt(s.get("extended_gain"), 2)])
-        lines += [_table(["signal", "terrain", "ideal RMSE", "replay RMSE (raw)",
-                          "replay RMSE", "replay bias", "replay corr", "extended RMSE",
-                          "extended corr", "gain"], rows), ""]
-        if "rmse" in figures:
-            lines += [f"![RMSE of the replay and of the extended model]({figures['rmse']})", ""]
-
-    lines += ["## Effects", "",
-              "Every effect of the vocabulary on every terrain: parameters with 95 % "
-              "intervals, held-out gain with its interval, support.", ""]
-    rows = []
-    for e in effects:
-        rows.append([e["terrain"], e["name"], _param_text(e), _gain_text(e),
-                     "**yes**" if e["supported"] else "no", _detail_text(e)])
-    lines += [_table(["terrain", "effect", "parameters [95 % CI]", "held-out gain [95 % CI]",
-                      "supported", "details"], rows), ""]
-    lines += ["Causes (plain language):", ""]
-    for name in EFFECTS:
+        findings.append((t, found))
+    causes = []
+    for name in EFFECT_VOCABULARY:
         cause = next((e["cause"] for e in effects if e["name"] == name), None)
         if cause:
-            lines.append(f"- `{name}`: {cause}")
-    lines.append("")
+            causes.append((name, cause))
+    segmented = sorted({f"{g['terrain']} ({g['group']})" for g in report["groups"]
+                        if g.get("segmented")})
+    sweep_rows, sweep_header = _sweep_table(report)
+    return _environment().get_template("audit_report.md.j2").render(
+        report=report, settings=report["settings"], figures=dict(figures or {}),
+        commands=list(commands), title=title, findings=findings, causes=causes,
+        segmented=segmented, timing=_timing_finding(report),
+        standstill=_standstill_finding(report), scope_text=SCOPE_TEXT,
+        sweep_rows=sweep_rows, sweep_header=sweep_header,
+        manoeuvre_rows=_manoeuvre_rows(report))
 
-    lines += ["## Yaw rate", ""]
-    if "yaw" in figures:
-        lines += [f"![Gyro yaw rate against the commanded (v_R - v_L)/B]({figures['yaw']})", ""]
-    facts = report["facts"]
-    rows = [[t, _fmt(f.get("chi_pooled")), _fmt(f.get("straight_mean_abs_wz_rad_s"))]
-            for t, f in facts.items()]
-    lines += [_table(["terrain", "chi (least squares, all turning samples)",
-                      "mean abs wz driving straight (rad/s)"], rows), ""]
-    if "example" in figures:
-        lines += [f"![One run: measured, replayed and extended signals]({figures['example']})",
-                  ""]
 
-    lines += ["## Timing (`wheel_lag`)", "",
-              "Lag of the wheel stream behind the IMU, per run (positive = wheel data late), "
-              "estimated in 30 s windows. Runs without any window where the commanded yaw "
-              "rate varies and the gyro follows it are left out.", ""]
-    lag_rows = [[x["run_id"], _fmt(x["lag_s"]), _fmt(x["lag_start_s"]), _fmt(x["lag_end_s"]),
-                 f"{_fmt(x['lag_min_s'])} .. {_fmt(x['lag_max_s'])}",
-                 _fmt(x["drift_s_per_min"]), f"{x['n_windows_used']}/{x['n_windows']}"]
-                for x in report["lags"] if x["identifiable"]]
-    n_not = sum(1 for x in report["lags"] if not x["identifiable"])
-    if lag_rows:
-        lines += [_table(["run", "median lag (s)", "first window (s)", "last window (s)",
-                          "range (s)", "drift (s/min)", "windows used"], lag_rows), ""]
-    lines += [f"{n_not} run(s) with IMU have no identifiable lag.", ""]
-    if "lags" in figures:
-        lines += [f"![Lag of the wheel stream over time, per run]({figures['lags']})", ""]
+def write_markdown(path: Path, report: Mapping, figures: Mapping[str, Any],
+                   commands: Sequence[str] = (), title: str = "Simulation audit") -> None:
+    """Write the Markdown report at ``path`` and its figures in ``<stem>_figures/`` beside it.
 
-    lines += ["## Motor currents", ""]
-    rows = [[t, _fmt(f.get("current_straight_a")), _fmt(f.get("current_curve_a")),
-             _fmt(f.get("current_spin_a")), _fmt(f.get("spin_to_straight_current_ratio"), 2),
-             _fmt(f.get("straight_right_minus_left_a"))] for t, f in facts.items()]
-    lines += ["Measured mean current per side (A), model-free:", "",
-              _table(["terrain", "straight", "curve", "spin", "spin / straight",
-                      "right - left, straight"], rows), ""]
-    if "currents" in figures:
-        lines += [f"![Mean current per side against the commanded turn rate]"
-                  f"({figures['currents']})", ""]
+    Parameters
+    ----------
+    path : pathlib.Path
+        Markdown file to write (its folder is created).
+    report : mapping
+        Output of :func:`to_dict`.
+    figures : mapping of str to matplotlib.figure.Figure
+        Figures by key (:func:`terrain.audit.figures.make_figures`), saved as
+        ``audit_<key>.png`` at 90 dpi and linked by relative paths.
+    commands : sequence of str
+        Shell commands that reproduce the report (from the repository root).
+    title : str
+        Page title.
+    """
+    path = Path(path)
+    folder = path.parent / f"{path.stem}_figures"
+    folder.mkdir(parents=True, exist_ok=True)
+    for key, fig in figures.items():
+        fig.savefig(folder / f"audit_{key}.png", dpi=90)
+    rel = {k: f"{folder.name}/audit_{k}.png" for k in figures}
+    path.write_text(to_markdown(report, rel, commands, title))
 
-    sweep = pd.DataFrame(report.get("lateral_friction_sweep") or [])
-    if len(sweep):
-        lines += ["## What-if: catalogue lateral friction", "",
-                  "The replayed robot's own chi (least squares of (v_R - v_L)/B on the replayed "
-                  "yaw rate over turning samples) when the catalogue `lateral_friction` of the "
-                  "terrain is scaled; `inf` = the replayed robot digs in completely.", ""]
-        rows = []
-        for t, g in sweep.groupby("terrain", sort=False):
-            rows.append([t, _fmt(g.measured_chi.iloc[0]), int(g.n_runs.iloc[0]),
-                         matching_lateral_friction(g)]
-                        + [f"{_fmt(r.lateral_friction)}: {_fmt(r.replay_chi)}"
-                           for r in g.itertuples()])
-        width = max(len(r) for r in rows)
-        rows = [r + [""] * (width - len(r)) for r in rows]
-        lines += [_table(["terrain", "measured chi", "runs", "mu_lat matching it"]
-                         + [f"mu_lat: chi ({k + 1})" for k in range(width - 4)], rows), ""]
 
-    man = pd.DataFrame(report["residuals_by_manoeuvre"])
-    if len(man):
-        lines += ["## Residuals by manoeuvre", "",
-                  "RMSE and bias (measured - predicted) of the replay and of the extended "
-                  "model per manoeuvre (stop, straight, curve = turning while moving, spin = "
-                  "turning in place).", ""]
-        man = man[man.model.isin(["replay", "extended"]) & (man.manoeuvre != "all")]
-        piv = man.pivot_table(index=["signal", "terrain", "manoeuvre"], columns="model",
-                              values=["rmse", "bias", "n"], aggfunc="first")
-        rows = []
-        for (signal, terrain, m), r in piv.iterrows():
-            rows.append([signal, terrain, m, _fmt(r[("n", "replay")]),
-                         _fmt(r[("rmse", "replay")]), _fmt(r[("bias", "replay")]),
-                         _fmt(r.get(("rmse", "extended"))), _fmt(r.get(("bias", "extended")))])
-        lines += [_table(["signal", "terrain", "manoeuvre", "n", "replay RMSE", "replay bias",
-                          "extended RMSE", "extended bias"], rows), ""]
-    lines += [f"Timings: " + ", ".join(f"{k} {v:.1f} s" for k, v in report["timings_s"].items()),
-              ""]
-    return "\n".join(lines)
+def summary_lines(report: Mapping, timings_s: Mapping[str, float]) -> list[str]:
+    """A short text summary of a report for the terminal.
+
+    Parameters
+    ----------
+    report : mapping
+        Output of :func:`to_dict`.
+    timings_s : mapping of str to float
+        Wall time of each step, s (summed in the first line).
+
+    Returns
+    -------
+    list of str
+        ``audited N runs (...)`` then one line per terrain with its supported effects,
+        parameters and held-out gains (``none`` without any).
+    """
+    runs = report["runs"]
+    out = [f"audited {len(runs['audited'])} runs ({', '.join(report['terrains'])}), skipped "
+           f"{len(runs['skipped'])}; {sum(timings_s.values()):.1f} s"]
+    for terrain in report["supported"]:
+        found = [e for e in report["effects"] if e["terrain"] == terrain and e["supported"]]
+        text = ", ".join(
+            f"{e['name']} ({', '.join(f'{k}={v:.3g}' for k, v in e['params'].items())}"
+            f"; gain {e['heldout_gain']:.2f})" for e in found)
+        out.append(f"  {terrain}: {text or 'none'}")
+    return out

@@ -11,7 +11,7 @@ runs pooled):
 3. Forward selection: every effect not yet in the model is added in turn; the extended model
    is fitted on all units but one and scored on the one left out, for every unit. The gain of
    a candidate is the fraction of the baseline RMSE it removes on held-out units, measured on
-   the samples where the effect acts (:data:`~terrain.audit.effects.SCOPES`):
+   the samples where the effect acts (:attr:`~terrain.audit.effects.EffectSpec.scope`):
    ``(RMSE_before - RMSE_with) / RMSE_baseline`` (RMSE pooled over held-out samples).
 4. Support: units (those with samples in the effect's scope) are resampled with
    replacement (``n_bootstrap`` times) and the gain is recomputed from the resampled per-unit
@@ -32,24 +32,38 @@ is held out) predicts with the model without that candidate.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from terrain.audit.effects import (CAUSES, GROUP_MODELS, GROUPS, SCOPES, CurrentParams,
+from terrain.audit.effects import (EFFECT_VOCABULARY, GROUP_MODELS, GROUPS, CurrentParams,
                                    EffectSettings, LagParams, NotIdentifiable, YawParams,
                                    effect_details, effect_params)
-from terrain.audit.frames import AuditFrame
+from terrain.audit.frames import AuditFrame, split_frame
 from terrain.errors import ConfigError
 
-_DEFAULTS: Mapping[str, type] = MappingProxyType(
-    {"timing": LagParams, "yaw": YawParams, "current": CurrentParams})
+#: fitted model of one group
+GroupParams = LagParams | YawParams | CurrentParams
+#: cross-validation units: each a list of frames (one run, or one segment of a run)
+Units = Sequence[Sequence[AuditFrame]]
 
 
 def json_ready(v: Any, nd: int = 5) -> Any:
-    """``v`` with numpy scalars turned into Python ones, floats rounded to ``nd`` decimals,
-    non-finite floats to ``None``, recursively through mappings, lists and tuples."""
+    """A value made JSON-ready.
+
+    Parameters
+    ----------
+    v : any
+        Value; mappings, lists and tuples are converted recursively.
+    nd : int, optional
+        Decimals kept of every float.
+
+    Returns
+    -------
+    any
+        ``v`` with numpy scalars turned into Python ones, floats rounded to ``nd`` decimals,
+        non-finite floats to ``None``, mappings to dicts with string keys, tuples to lists.
+    """
     if v is None:
         return None
     if isinstance(v, (bool, np.bool_)):
@@ -81,6 +95,11 @@ class SelectionSettings:
         Fewest cross-validation units; terrains with fewer runs are cut into segments.
     seed : int
         Seed of the bootstrap generator.
+
+    Raises
+    ------
+    ConfigError
+        ``n_bootstrap < 10``, ``n_param_bootstrap < 0`` or ``min_units < 2``.
     """
 
     n_bootstrap: int = 1000
@@ -96,52 +115,72 @@ class SelectionSettings:
             raise ConfigError(f"min_units must be >= 2, got {self.min_units}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class EffectResult:
-    """One effect scored on one terrain (or ``all``).
+    """One effect scored on one terrain (or ``all``). Keyword construction only.
 
-    Attributes
+    Parameters
     ----------
-    name, terrain, group : str
-    params : dict
-        Vocabulary parameter(s), e.g. ``{"chi": 1.55}`` (empty when not identifiable).
-    ci95 : dict
-        Parameter name -> ``[low, high]`` bootstrap interval over units.
+    name : str
+        Effect (a key of :data:`~terrain.audit.effects.EFFECT_VOCABULARY`).
+    terrain : str
+        Terrain class, or ``all`` for every run pooled.
+    group : str
+        ``timing``, ``yaw`` or ``current``.
+    params : mapping of str to float
+        Vocabulary parameter, e.g. ``{"chi": 1.55}`` (empty when not identifiable), in the
+        unit of :attr:`~terrain.audit.effects.EffectSpec.unit`.
+    ci95 : mapping of str to (float, float)
+        Parameter name -> ``(low, high)`` bootstrap interval over units (empty when too few
+        resamples could be fitted).
     heldout_gain : float or None
         Fraction of the baseline RMSE removed on held-out units (increment at the effect's
-        step; for unsupported effects, increment over the final model).
-    heldout_gain_ci95 : list or None
+        step; for unsupported effects, increment over the final model); None when the effect
+        was not scored.
+    heldout_gain_ci95 : (float, float) or None
         Bootstrap interval of the gain.
     supported : bool
+        Whether the effect joined the model.
     step : int or None
         Order in which the effect joined the model (1 = first), None if not selected.
-    details : dict
-        Form, secondary parameters, RMSE before/after.
+    details : mapping
+        ``scope``, the effect's secondary quantities
+        (:func:`~terrain.audit.effects.effect_details`), ``unphysical`` / ``negligible``
+        when a rule rejected it, held-out RMSE before / with it / of the baseline and its gain
+        against reference models (``heldout_gain_vs_<reference>``).
     cause : str
-        Plain-language cause.
+        Plain-language cause (:attr:`~terrain.audit.effects.EffectSpec.cause`).
     reason : str or None
-        Why the effect could not be fitted (not identifiable), if so.
-    n_units, n_runs : int
-        Cross-validation units and distinct runs.
+        Why the effect could not be fitted or scored, if so.
+    n_units : int
+        Cross-validation units.
+    n_runs : int
+        Distinct runs in them.
     """
 
     name: str
     terrain: str
     group: str
-    params: dict
-    ci95: dict
-    heldout_gain: float | None
-    heldout_gain_ci95: list | None
-    supported: bool
-    step: int | None
-    details: dict
-    cause: str
-    reason: str | None
-    n_units: int
-    n_runs: int
+    params: Mapping[str, float] = field(default_factory=dict)
+    ci95: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    heldout_gain: float | None = None
+    heldout_gain_ci95: tuple[float, float] | None = None
+    supported: bool = False
+    step: int | None = None
+    details: Mapping[str, Any] = field(default_factory=dict)
+    cause: str = ""
+    reason: str | None = None
+    n_units: int = 0
+    n_runs: int = 0
 
     def as_dict(self) -> dict:
-        """JSON-ready dict."""
+        """The result as the report's ``effects`` item.
+
+        Returns
+        -------
+        dict
+            JSON-ready (:func:`json_ready`), keys = the field names above.
+        """
         return {"name": self.name, "terrain": self.terrain, "group": self.group,
                 "params": json_ready(self.params), "ci95": json_ready(self.ci95),
                 "heldout_gain": json_ready(self.heldout_gain),
@@ -151,27 +190,33 @@ class EffectResult:
                 "n_units": self.n_units, "n_runs": self.n_runs}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GroupResult:
     """Forward selection of one group on one terrain.
 
-    Attributes
+    Parameters
     ----------
-    group, terrain : str
+    group : str
+        ``timing``, ``yaw`` or ``current``.
+    terrain : str
+        Terrain class or ``all``.
     selected : tuple of str
         Supported effects in order of selection.
     effects : tuple of EffectResult
-        Every effect of the group.
-    params : Any
-        Final model fitted on all units (YawParams, CurrentParams or LagParams).
-    baseline_rmse, final_rmse : float
-        Held-out RMSE of the replay and of the final model (pooled over units).
+        Every effect of the group, in vocabulary order.
+    params : LagParams or YawParams or CurrentParams
+        Final model fitted on all units.
+    baseline_rmse : float
+        Held-out RMSE of the replay (pooled over units; rad/s or A).
+    final_rmse : float
+        Held-out RMSE of the final model (pooled over units; rad/s or A).
     units : tuple of tuple of AuditFrame
+        Cross-validation units.
     heldout_params : tuple
         Final-model parameters fitted without each unit (same order as ``units``).
     segmented : bool
         Whether runs were cut into segments to get enough units.
-    reference_rmse : dict
+    reference_rmse : mapping of str to float
         Held-out RMSE of extra reference models (e.g. ``ideal`` kinematics for the yaw rate).
     """
 
@@ -179,38 +224,171 @@ class GroupResult:
     terrain: str
     selected: tuple[str, ...]
     effects: tuple[EffectResult, ...]
-    params: Any
+    params: GroupParams
     baseline_rmse: float
     final_rmse: float
-    units: tuple
-    heldout_params: tuple
+    units: tuple[tuple[AuditFrame, ...], ...]
+    heldout_params: tuple[GroupParams, ...]
     segmented: bool
-    reference_rmse: dict = field(default_factory=dict)
+    reference_rmse: Mapping[str, float] = field(default_factory=dict)
 
 
-def negligible(name: str, params, settings: EffectSettings) -> str | None:
-    """Why a fitted effect is too small to matter (None if it is not); floors in
-    :attr:`EffectSettings.negligible`."""
+@dataclass(frozen=True, kw_only=True)
+class Trial:
+    """One candidate effect scored against the current model on held-out units.
+
+    Parameters
+    ----------
+    name : str
+        Candidate effect.
+    scope : str
+        Samples it is scored on (:attr:`~terrain.audit.effects.EffectSpec.scope`).
+    heldout_params : tuple
+        Parameters of the model with the candidate, fitted without each unit.
+    gain : float
+        ``(RMSE_before - RMSE_with) / RMSE_baseline`` on held-out units in ``scope``.
+    gain_ci95 : (float, float)
+        Bootstrap interval of the gain over units.
+    rmse_baseline, rmse_before, rmse_with : float
+        Held-out RMSE in ``scope`` of the replay, of the model before and of the model with the
+        candidate (rad/s or A).
+    sse_per_unit : ndarray, shape (n_units,)
+        Held-out squared errors of the model with the candidate over all scored samples.
+    unphysical : str or None
+        Why the fitted effect contradicts its physics (:func:`unphysical`).
+    negligible : str or None
+        Why the fitted effect is too small to matter (:func:`negligible`).
+    """
+
+    name: str
+    scope: str
+    heldout_params: tuple[GroupParams, ...]
+    gain: float
+    gain_ci95: tuple[float, float]
+    rmse_baseline: float
+    rmse_before: float
+    rmse_with: float
+    sse_per_unit: np.ndarray
+    unphysical: str | None
+    negligible: str | None
+
+    @property
+    def admissible(self) -> bool:
+        """Neither unphysical nor negligible."""
+        return not (self.unphysical or self.negligible)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SelectionPath:
+    """What forward selection did in one group.
+
+    Parameters
+    ----------
+    accepted : tuple of Trial
+        Trials of the effects that joined the model, in order (step = index + 1).
+    final_round : mapping of str to Trial
+        Trials of the round that ended the selection (every remaining candidate's increment
+        over the final model); empty when every scorable effect was accepted.
+    not_identifiable : mapping of str to str
+        Effect -> why it could not be fitted or scored.
+    heldout_params : tuple
+        Final-model parameters fitted without each unit.
+    """
+
+    accepted: tuple[Trial, ...]
+    final_round: Mapping[str, Trial]
+    not_identifiable: Mapping[str, str]
+    heldout_params: tuple[GroupParams, ...]
+
+    @property
+    def selected(self) -> tuple[str, ...]:
+        """Names of the accepted effects, in order."""
+        return tuple(t.name for t in self.accepted)
+
+    def step(self, name: str) -> int | None:
+        """Step at which an effect joined the model.
+
+        Parameters
+        ----------
+        name : str
+            Effect name.
+
+        Returns
+        -------
+        int or None
+            1 = first; None if it did not join.
+        """
+        return self.selected.index(name) + 1 if name in self.selected else None
+
+    def trial(self, name: str) -> Trial | None:
+        """The trial that describes an effect.
+
+        Parameters
+        ----------
+        name : str
+            Effect name.
+
+        Returns
+        -------
+        Trial or None
+            Its accepted step, else its trial in the final round, else None (never scored).
+        """
+        for t in self.accepted:
+            if t.name == name:
+                return t
+        return self.final_round.get(name)
+
+
+def negligible(name: str, params: GroupParams, settings: EffectSettings) -> str | None:
+    """Why a fitted effect is too small to matter.
+
+    Parameters
+    ----------
+    name : str
+        Effect.
+    params : LagParams or YawParams or CurrentParams
+        Fitted model of its group.
+    settings : EffectSettings
+        Floors in :attr:`~terrain.audit.effects.EffectSettings.negligible`.
+
+    Returns
+    -------
+    str or None
+        The reason, or None when the effect is above its floor (or has none).
+    """
     floor = dict(settings.negligible).get(name)
     if floor is None:
         return None
     if name == "icr_expansion":
         size = abs(params.chi / params.chi_replay - 1.0) if np.isfinite(params.chi_replay) \
             else np.inf
-        text = f"chi {params.chi:.3g} within {100 * floor:.0f} % of the replay's {params.chi_replay:.3g}"
+        text = (f"chi {params.chi:.3g} within {100 * floor:.0f} % of the replay's "
+                f"{params.chi_replay:.3g}")
     else:
         size = abs(next(iter(effect_params(name, params).values())))
         text = f"{next(iter(effect_params(name, params)))} = {size:.3g} below {floor}"
     return text if size < floor else None
 
 
-def unphysical(name: str, params) -> str | None:
-    """Why a fitted effect contradicts its physics (None if it does not).
+def unphysical(name: str, params: GroupParams) -> str | None:
+    """Why a fitted effect contradicts its physics.
 
     ``grade_resistance`` must cost current: a slope in either direction adds gravity load to
     the flat-ground replay (seed 003 eq. 10), so ``k_a_per_rad <= 0`` means the pitch
     estimate is correlated with something else (accelerations, vibration) and the effect is
     not supported whatever its gain.
+
+    Parameters
+    ----------
+    name : str
+        Effect.
+    params : LagParams or YawParams or CurrentParams
+        Fitted model of its group.
+
+    Returns
+    -------
+    str or None
+        The reason, or None when the effect does not contradict its physics.
     """
     if name == "grade_resistance" and not params.k_a_per_rad > 0:
         return (f"k_a_per_rad = {params.k_a_per_rad:.3g} <= 0: slopes would lower the "
@@ -218,20 +396,22 @@ def unphysical(name: str, params) -> str | None:
     return None
 
 
-def _fit_or(fit: Callable, frames: Sequence[AuditFrame], spec: Sequence[str],
-            fallback: Sequence[str], settings: EffectSettings, group: str,
-            form: str | None = None):
+def _fit_or(frames: Sequence[AuditFrame], group: str, spec: Sequence[str],
+            fallback: Sequence[str], settings: EffectSettings,
+            form: str | None = None) -> GroupParams:
+    """Fit ``spec``; where the data cannot identify it, ``fallback``; else no effect."""
+    model = GROUP_MODELS[group]
     try:
-        return fit(frames, list(spec), settings, form)
+        return model.fit(frames, list(spec), settings, form)
     except NotIdentifiable:
         try:
-            return fit(frames, list(fallback), settings)
+            return model.fit(frames, list(fallback), settings)
         except NotIdentifiable:
-            return _DEFAULTS[group]()
+            return model.no_effect()
 
 
-def loro(units: Sequence[Sequence[AuditFrame]], group: str, spec: Sequence[str],
-         fallback: Sequence[str], settings: EffectSettings, form: str | None = None) -> list:
+def loro(units: Units, group: str, spec: Sequence[str], fallback: Sequence[str],
+         settings: EffectSettings, form: str | None = None) -> list[GroupParams]:
     """Parameters of the model ``spec`` fitted without each unit in turn.
 
     Parameters
@@ -245,6 +425,7 @@ def loro(units: Sequence[Sequence[AuditFrame]], group: str, spec: Sequence[str],
     fallback : sequence of str
         Model used in a fold whose training units cannot identify ``spec``.
     settings : EffectSettings
+        Constants of the effect models.
     form : str, optional
         Functional form forced on the effect that has forms.
 
@@ -253,34 +434,36 @@ def loro(units: Sequence[Sequence[AuditFrame]], group: str, spec: Sequence[str],
     list
         One fitted parameter object per unit (fitted on all the other units).
     """
-    fit, _ = GROUP_MODELS[group]
     params = []
     for k in range(len(units)):
         train = [f for j, u in enumerate(units) if j != k for f in u]
-        params.append(_fit_or(fit, train, spec, fallback, settings, group, form))
+        params.append(_fit_or(train, group, spec, fallback, settings, form))
     return params
 
 
-def unit_errors(units: Sequence[Sequence[AuditFrame]], group: str, params: Sequence,
+def unit_errors(units: Units, group: str, params: Sequence[GroupParams],
                 scope: str = "all") -> tuple[np.ndarray, np.ndarray]:
     """Squared errors of each unit under its own parameters.
 
     Parameters
     ----------
     units : sequence of sequence of AuditFrame
+        Cross-validation units.
     group : str
+        ``timing``, ``yaw`` or ``current``.
     params : sequence
         One parameter object per unit (e.g. from :func:`loro`).
     scope : str
-        Samples scored (:func:`~terrain.audit.effects.scope_mask`).
+        Samples scored (:func:`~terrain.audit.effects.scope_mask`, or ``straight_diff``).
 
     Returns
     -------
     sse : ndarray, shape (n_units,)
+        Sum of squared errors per unit, (rad/s)^2 or A^2.
     n : ndarray, shape (n_units,)
         Scored samples (both sides count for currents).
     """
-    _, sse_fn = GROUP_MODELS[group]
+    sse_fn = GROUP_MODELS[group].sse
     out_s, out_n = [], []
     for unit, p in zip(units, params):
         s = n = 0
@@ -299,15 +482,21 @@ def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
 
     Parameters
     ----------
-    ref, new, base : ndarray, shape (n_units,)
-        Per-unit squared-error sums of the model before, with the candidate, and of the
-        baseline (same samples in each).
+    ref : ndarray, shape (n_units,)
+        Per-unit squared-error sums of the model before the candidate.
+    new : ndarray, shape (n_units,)
+        The same with the candidate.
+    base : ndarray, shape (n_units,)
+        The same of the baseline (same samples in each).
     rng : numpy.random.Generator
+        Draws the unit resamples.
     n_boot : int
+        Number of resamples.
 
     Returns
     -------
     gain : float
+        Point estimate (fraction of the baseline RMSE).
     ci95 : list of float
         Percentile interval ``[2.5 %, 97.5 %]`` over unit resamples.
     """
@@ -319,11 +508,13 @@ def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
     return point, [float(np.percentile(g, 2.5)), float(np.percentile(g, 97.5))]
 
 
-def _param_ci(units, group: str, spec: Sequence[str], name: str, form: str | None,
-              settings: EffectSettings, rng: np.random.Generator, n_boot: int) -> dict:
+def _param_ci(units: Units, group: str, spec: Sequence[str], name: str, form: str | None,
+              settings: EffectSettings, rng: np.random.Generator,
+              n_boot: int) -> dict[str, tuple[float, float]]:
+    """Bootstrap interval of the parameter of ``name`` refitted on resampled units."""
     if n_boot <= 0:
         return {}
-    fit, _ = GROUP_MODELS[group]
+    fit = GROUP_MODELS[group].fit
     draws = []
     for _ in range(n_boot):
         idx = rng.integers(0, len(units), len(units))
@@ -335,23 +526,217 @@ def _param_ci(units, group: str, spec: Sequence[str], name: str, form: str | Non
         draws.append(effect_params(name, p))
     if len(draws) < max(5, n_boot // 4):
         return {}
-    return {k: [float(np.nanpercentile([d[k] for d in draws], 2.5)),
-                float(np.nanpercentile([d[k] for d in draws], 97.5))] for k in draws[0]}
+    return {k: (float(np.nanpercentile([d[k] for d in draws], 2.5)),
+                float(np.nanpercentile([d[k] for d in draws], 97.5))) for k in draws[0]}
 
 
-def _form_of(name: str, params) -> str | None:
-    if name == "turning_resistance":
-        return params.form
-    if name == "immobilised":
+def _form_of(name: str, params: GroupParams) -> str | None:
+    """The functional form of an effect that has forms (kept fixed in its refits)."""
+    if name in ("turning_resistance", "immobilised"):
         return params.form
     return None
 
 
-def select_group(units: Sequence[Sequence[AuditFrame]], group: str, terrain: str,
+def score_candidate(units: Units, group: str, spec: Sequence[str], name: str,
+                    before: Sequence[GroupParams], effect_settings: EffectSettings,
+                    rng: np.random.Generator, n_bootstrap: int) -> Trial:
+    """Score one candidate added to the model ``spec`` on held-out units.
+
+    Parameters
+    ----------
+    units : sequence of sequence of AuditFrame
+        Cross-validation units.
+    group : str
+        ``timing``, ``yaw`` or ``current``.
+    spec : sequence of str
+        Effects already in the model.
+    name : str
+        Candidate effect.
+    before : sequence
+        Held-out parameters of the model ``spec`` (one per unit).
+    effect_settings : EffectSettings
+        Constants of the effect models.
+    rng : numpy.random.Generator
+        Draws the bootstrap resamples of the gain.
+    n_bootstrap : int
+        Number of resamples.
+
+    Returns
+    -------
+    Trial
+
+    Raises
+    ------
+    NotIdentifiable
+        The data cannot identify the candidate, or no unit has samples in its scope.
+    """
+    model = GROUP_MODELS[group]
+    full = model.fit([f for u in units for f in u], list(spec) + [name], effect_settings)
+    with_params = loro(units, group, list(spec) + [name], spec, effect_settings)
+    scope = EFFECT_VOCABULARY[name].scope
+    base, n = unit_errors(units, group, [model.no_effect() for _ in units], scope)
+    ref, _ = unit_errors(units, group, before, scope)
+    new, _ = unit_errors(units, group, with_params, scope)
+    keep = n > 0                                 # units with samples where the effect acts
+    if base[keep].sum() <= 0:
+        raise NotIdentifiable(f"no scored samples in scope {scope!r}")
+    gain, ci = bootstrap_gain(ref[keep], new[keep], base[keep], rng, n_bootstrap)
+    n_all = max(n.sum(), 1)
+    return Trial(name=name, scope=scope, heldout_params=tuple(with_params), gain=gain,
+                 gain_ci95=(ci[0], ci[1]),
+                 rmse_baseline=float(np.sqrt(base.sum() / n_all)),
+                 rmse_before=float(np.sqrt(ref.sum() / n_all)),
+                 rmse_with=float(np.sqrt(new.sum() / n_all)),
+                 sse_per_unit=unit_errors(units, group, with_params)[0],
+                 unphysical=unphysical(name, full),
+                 negligible=negligible(name, full, effect_settings))
+
+
+def is_supported(trial: Trial, settings: SelectionSettings) -> bool:
+    """Whether a trial's effect joins the model.
+
+    Parameters
+    ----------
+    trial : Trial
+        The best admissible candidate of a round.
+    settings : SelectionSettings
+        ``min_gain``.
+
+    Returns
+    -------
+    bool
+        The lower end of the gain's 95 % interval is above 0, the gain is at least
+        ``min_gain`` and the effect is neither unphysical nor negligible.
+    """
+    return trial.gain_ci95[0] > 0 and trial.gain >= settings.min_gain and trial.admissible
+
+
+def forward_selection(units: Units, group: str, settings: SelectionSettings,
+                      effect_settings: EffectSettings,
+                      rng: np.random.Generator) -> SelectionPath:
+    """Forward selection of the effects of one group (module docstring, steps 2-4).
+
+    Each round scores every remaining candidate (:func:`score_candidate`); the admissible
+    one with the largest gain joins the model when it is supported (:func:`is_supported`),
+    otherwise the selection ends. Every round accepts one effect or ends, so there are at
+    most as many rounds as effects in the group.
+
+    Parameters
+    ----------
+    units : sequence of sequence of AuditFrame
+        Cross-validation units.
+    group : str
+        ``timing``, ``yaw`` or ``current``.
+    settings : SelectionSettings
+        Bootstrap size and ``min_gain``.
+    effect_settings : EffectSettings
+        Constants of the effect models.
+    rng : numpy.random.Generator
+        Draws the bootstrap resamples.
+
+    Returns
+    -------
+    SelectionPath
+    """
+    no_effect = tuple(GROUP_MODELS[group].no_effect() for _ in units)
+    accepted: list[Trial] = []
+    reasons: dict[str, str] = {}
+    before = no_effect
+    final_round: dict[str, Trial] = {}
+    for _ in GROUPS[group]:
+        spec = [t.name for t in accepted]
+        trials: dict[str, Trial] = {}
+        for name in GROUPS[group]:
+            if name in spec or name in reasons:
+                continue
+            try:
+                trials[name] = score_candidate(units, group, spec, name, before,
+                                               effect_settings, rng, settings.n_bootstrap)
+            except NotIdentifiable as exc:
+                reasons[name] = str(exc)
+        admissible = [t for t in trials.values() if t.admissible]
+        best = max(admissible, key=lambda t: t.gain) if admissible else None
+        if best is None or not is_supported(best, settings):
+            final_round = trials
+            break
+        accepted.append(best)
+        before = best.heldout_params
+    return SelectionPath(accepted=tuple(accepted), final_round=final_round,
+                         not_identifiable=reasons, heldout_params=tuple(before))
+
+
+def effect_result(name: str, terrain: str, group: str, units: Units, path: SelectionPath,
+                  final_params: GroupParams, effect_settings: EffectSettings,
+                  rng: np.random.Generator, n_param_bootstrap: int,
+                  references: Mapping[str, np.ndarray] | None = None) -> EffectResult:
+    """The reported result of one effect after forward selection (module docstring, step 5).
+
+    Parameters
+    ----------
+    name : str
+        Effect of ``group``.
+    terrain : str
+        Terrain label or ``all`` (reported).
+    group : str
+        ``timing``, ``yaw`` or ``current``.
+    units : sequence of sequence of AuditFrame
+        Cross-validation units.
+    path : SelectionPath
+        What forward selection did.
+    final_params : LagParams or YawParams or CurrentParams
+        Final model fitted on all units.
+    effect_settings : EffectSettings
+        Constants of the effect models.
+    rng : numpy.random.Generator
+        Draws the unit resamples of the parameter interval.
+    n_param_bootstrap : int
+        Number of resamples.
+    references : mapping of str to ndarray, optional
+        Reference name -> per-unit squared-error sums, shape (n_units,).
+
+    Returns
+    -------
+    EffectResult
+    """
+    spec = EFFECT_VOCABULARY[name]
+    n_runs = len({f.run_id for u in units for f in u})
+    supported = name in path.selected
+    if name in path.not_identifiable and not supported:
+        return EffectResult(name=name, terrain=terrain, group=group,
+                            details={"scope": spec.scope}, cause=spec.cause,
+                            reason=path.not_identifiable[name], n_units=len(units),
+                            n_runs=n_runs)
+    model = list(path.selected) if supported else list(path.selected) + [name]
+    params = (final_params if supported
+              else _fit_or([f for u in units for f in u], group, model, path.selected,
+                           effect_settings))
+    trial = path.trial(name)
+    details = {"scope": spec.scope, **effect_details(name, params)}
+    if trial is not None:
+        for flag in ("unphysical", "negligible"):
+            if getattr(trial, flag):
+                details[flag] = getattr(trial, flag)
+        details["heldout_rmse_baseline"] = trial.rmse_baseline
+        details["heldout_rmse_before"] = trial.rmse_before
+        details["heldout_rmse_with"] = trial.rmse_with
+        for rname, rsse in (references or {}).items():
+            details[f"heldout_gain_vs_{rname}"] = float(
+                1.0 - np.sqrt(trial.sse_per_unit.sum() / max(rsse.sum(), 1e-300)))
+    ci = _param_ci(units, group, model, name, _form_of(name, params), effect_settings, rng,
+                   n_param_bootstrap)
+    return EffectResult(
+        name=name, terrain=terrain, group=group, params=effect_params(name, params), ci95=ci,
+        heldout_gain=None if trial is None else trial.gain,
+        heldout_gain_ci95=None if trial is None else trial.gain_ci95,
+        supported=supported, step=path.step(name), details=details, cause=spec.cause,
+        n_units=len(units), n_runs=n_runs)
+
+
+def select_group(units: Units, group: str, terrain: str,
                  settings: SelectionSettings = SelectionSettings(),
                  effect_settings: EffectSettings = EffectSettings(), segmented: bool = False,
-                 references: dict[str, np.ndarray] | None = None) -> GroupResult:
-    """Forward selection of the effects of one group (module docstring).
+                 references: Mapping[str, np.ndarray] | None = None) -> GroupResult:
+    """Forward selection of the effects of one group, and every effect's result.
 
     Parameters
     ----------
@@ -362,13 +747,15 @@ def select_group(units: Sequence[Sequence[AuditFrame]], group: str, terrain: str
     terrain : str
         Terrain label or ``all`` (reported).
     settings : SelectionSettings
+        Bootstrap sizes, ``min_gain``, seed.
     effect_settings : EffectSettings
+        Constants of the effect models.
     segmented : bool
         Whether units are segments of runs (reported).
-    references : dict, optional
-        Name -> per-unit squared-error sums of extra reference models (e.g. ``ideal``
-        kinematics for the yaw rate); each effect's details then carry its held-out gain
-        relative to them.
+    references : mapping of str to ndarray, optional
+        Name -> per-unit squared-error sums, shape (n_units,), of extra reference models
+        (e.g. ``ideal`` kinematics for the yaw rate); each effect's details then carry its
+        held-out gain relative to them.
 
     Returns
     -------
@@ -384,110 +771,51 @@ def select_group(units: Sequence[Sequence[AuditFrame]], group: str, terrain: str
     if len(units) < 2:
         raise ConfigError(f"need at least 2 cross-validation units, got {len(units)}")
     rng = np.random.default_rng(settings.seed)
-    fit, _ = GROUP_MODELS[group]
     all_frames = [f for u in units for f in u]
-    n_runs = len({f.run_id for f in all_frames})
-    base_params = [_DEFAULTS[group]() for _ in units]
-    base_all, n_all = unit_errors(units, group, base_params)
-    ref_params = base_params
-    spec: list[str] = []
-    steps: dict[str, dict] = {}
-    reasons: dict[str, str] = {}
-    last: dict[str, dict] = {}
-    while True:
-        trials = {}
-        for c in GROUPS[group]:
-            if c in spec or c in reasons:
-                continue
-            try:
-                full = fit(all_frames, spec + [c], effect_settings)
-            except NotIdentifiable as exc:
-                reasons[c] = str(exc)
-                continue
-            new_params = loro(units, group, spec + [c], spec, effect_settings)
-            scope = SCOPES[c]
-            base, n = unit_errors(units, group, base_params, scope)
-            ref, _ = unit_errors(units, group, ref_params, scope)
-            new, _ = unit_errors(units, group, new_params, scope)
-            keep = n > 0                         # units with samples where the effect acts
-            if base[keep].sum() <= 0:
-                reasons[c] = f"no scored samples in scope {scope!r}"
-                continue
-            gain, ci = bootstrap_gain(ref[keep], new[keep], base[keep], rng,
-                                      settings.n_bootstrap)
-            trials[c] = {"params": new_params, "gain": gain, "ci": ci, "scope": scope,
-                         "rmse_before": float(np.sqrt(ref.sum() / max(n.sum(), 1))),
-                         "rmse_with": float(np.sqrt(new.sum() / max(n.sum(), 1))),
-                         "rmse_baseline": float(np.sqrt(base.sum() / max(n.sum(), 1))),
-                         "sse_all": unit_errors(units, group, new_params)[0],
-                         "unphysical": unphysical(c, full),
-                         "negligible": negligible(c, full, effect_settings)}
-        if not trials:
-            break
-        ok = [c for c in trials if not (trials[c]["unphysical"] or trials[c]["negligible"])]
-        if not ok:
-            last = trials
-            break
-        best = max(ok, key=lambda c: trials[c]["gain"])
-        t = trials[best]
-        if t["ci"][0] > 0 and t["gain"] >= settings.min_gain and not t["negligible"]:
-            spec.append(best)
-            steps[best] = {**t, "step": len(spec)}
-            ref_params = t["params"]
-            continue
-        last = trials
-        break
-    final_params = _fit_or(fit, all_frames, spec, [], effect_settings, group)
-    final_all, _ = unit_errors(units, group, ref_params)
+    base_all, n_all = unit_errors(units, group, [GROUP_MODELS[group].no_effect()
+                                                 for _ in units])
+    path = forward_selection(units, group, settings, effect_settings, rng)
+    final_params = _fit_or(all_frames, group, path.selected, [], effect_settings)
+    final_all, _ = unit_errors(units, group, path.heldout_params)
     n_tot = max(int(n_all.sum()), 1)
-    results = []
-    for name in GROUPS[group]:
-        info = steps.get(name) or last.get(name)
-        model = spec if name in steps else spec + [name]
-        if name in reasons and name not in steps:
-            results.append(EffectResult(
-                name, terrain, group, {}, {}, None, None, False, None,
-                {"scope": SCOPES[name]}, CAUSES[name], reasons[name], len(units), n_runs))
-            continue
-        params = (final_params if name in steps
-                  else _fit_or(fit, all_frames, model, spec, effect_settings, group))
-        details = {"scope": SCOPES[name], **effect_details(name, params)}
-        for flag in ("unphysical", "negligible"):
-            if info is not None and info.get(flag):
-                details[flag] = info[flag]
-        if info is not None:
-            details["heldout_rmse_baseline"] = info["rmse_baseline"]
-            details["heldout_rmse_before"] = info["rmse_before"]
-            details["heldout_rmse_with"] = info["rmse_with"]
-            for rname, rsse in (references or {}).items():
-                details[f"heldout_gain_vs_{rname}"] = float(
-                    1.0 - np.sqrt(info["sse_all"].sum() / max(rsse.sum(), 1e-300)))
-        form = _form_of(name, params)
-        ci = _param_ci(units, group, model, name, form, effect_settings, rng,
-                       settings.n_param_bootstrap)
-        results.append(EffectResult(
-            name=name, terrain=terrain, group=group, params=effect_params(name, params),
-            ci95=ci, heldout_gain=None if info is None else info["gain"],
-            heldout_gain_ci95=None if info is None else info["ci"],
-            supported=name in steps, step=steps[name]["step"] if name in steps else None,
-            details=details, cause=CAUSES[name], reason=None, n_units=len(units),
-            n_runs=n_runs))
+    results = tuple(effect_result(name, terrain, group, units, path, final_params,
+                                  effect_settings, rng, settings.n_param_bootstrap, references)
+                    for name in GROUPS[group])
     return GroupResult(
-        group=group, terrain=terrain, selected=tuple(spec), effects=tuple(results),
+        group=group, terrain=terrain, selected=path.selected, effects=results,
         params=final_params, baseline_rmse=float(np.sqrt(base_all.sum() / n_tot)),
-        final_rmse=float(np.sqrt(final_all.sum() / n_tot)), units=tuple(tuple(u) for u in units),
-        heldout_params=tuple(ref_params), segmented=segmented,
+        final_rmse=float(np.sqrt(final_all.sum() / n_tot)),
+        units=tuple(tuple(u) for u in units), heldout_params=path.heldout_params,
+        segmented=segmented,
         reference_rmse={k: float(np.sqrt(v.sum() / n_tot)) for k, v in (references or {}).items()})
 
 
 def unscored_group(group: str, terrain: str, reason: str, n_runs: int) -> GroupResult:
-    """A group that could not be scored at all (e.g. no run with an IMU): every effect is
-    listed as not supported with ``reason``."""
-    effects = tuple(EffectResult(name, terrain, group, {}, {}, None, None, False, None,
-                                 {"scope": SCOPES[name]}, CAUSES[name], reason, 0, n_runs)
+    """A group that could not be scored at all (e.g. no run with an IMU).
+
+    Parameters
+    ----------
+    group : str
+        ``timing``, ``yaw`` or ``current``.
+    terrain : str
+        Terrain label or ``all``.
+    reason : str
+        Why (reported for every effect of the group).
+    n_runs : int
+        Runs of the terrain.
+
+    Returns
+    -------
+    GroupResult
+        Every effect listed as not supported with ``reason``.
+    """
+    effects = tuple(EffectResult(name=name, terrain=terrain, group=group,
+                                 details={"scope": EFFECT_VOCABULARY[name].scope},
+                                 cause=EFFECT_VOCABULARY[name].cause, reason=reason,
+                                 n_units=0, n_runs=n_runs)
                     for name in GROUPS[group])
     return GroupResult(group=group, terrain=terrain, selected=(), effects=effects,
-                       params=_DEFAULTS[group](), baseline_rmse=float("nan"),
+                       params=GROUP_MODELS[group].no_effect(), baseline_rmse=float("nan"),
                        final_rmse=float("nan"), units=(), heldout_params=(), segmented=False)
 
 
@@ -500,17 +828,18 @@ def make_units(frames: Sequence[AuditFrame], min_units: int,
     frames : sequence of AuditFrame
         One per run.
     min_units : int
+        Fewest units wanted; with fewer usable runs each run is cut into
+        ``ceil(min_units / n_runs)`` contiguous segments.
     needs : callable
         ``needs(frame)`` is True when the frame can be scored.
 
     Returns
     -------
     units : list of list of AuditFrame
+        One unit per usable run, or per usable segment.
     segmented : bool
         True when runs were cut into segments (too few runs).
     """
-    from terrain.audit.frames import split_frame
-
     usable = [f for f in frames if needs(f)]
     if not usable:
         return [], False

@@ -20,8 +20,9 @@ time, which matters where the simulated robot follows turn commands slowly.
 The lag may drift within a run, so it is estimated in overlapping windows (``window_s`` long,
 every ``step_s``); a window is used when the commanded yaw rate moves in it (std of ``x``
 >= ``min_excitation_rad_s``), the best fit explains the gyro (R^2 >= ``min_r2``), the
-slope is positive and the best lag is not at the edge of the search range. The lag at any time is interpolated between window centres (constant
-beyond the first and last). A run with no usable window has no identifiable lag.
+slope is positive and the best lag is not at the edge of the search range. The lag at any
+time is interpolated between window centres (constant beyond the first and last). A run
+with no usable window has no identifiable lag.
 """
 
 from __future__ import annotations
@@ -97,22 +98,52 @@ class LagTrack:
         return float(np.median(self.lags_s)) if self.identifiable else float("nan")
 
     def at(self, t_s: np.ndarray) -> np.ndarray:
-        """Lag at times ``t_s`` (shape (n,)), s: interpolated between windows; 0 when the
-        run has no identifiable lag."""
+        """Lag of the wheel stream at given times.
+
+        Parameters
+        ----------
+        t_s : ndarray, shape (n,)
+            Wheel-clock times, s.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Lag, s: interpolated between window centres (constant beyond the first and
+            last); 0 when the run has no identifiable lag.
+        """
         t_s = np.asarray(t_s, dtype=float)
         if not self.identifiable:
             return np.zeros_like(t_s)
         return np.interp(t_s, self.centres_s, self.lags_s)
 
     def drift_s_per_min(self, min_span_s: float = 45.0) -> float:
-        """Least-squares slope of lag against time, s per minute (NaN unless at least two
-        windows span ``min_span_s``)."""
+        """Drift of the lag within the run.
+
+        Parameters
+        ----------
+        min_span_s : float
+            Shortest span of window centres over which a drift is reported, s.
+
+        Returns
+        -------
+        float
+            Least-squares slope of lag against time, s per minute (NaN unless at least two
+            windows span ``min_span_s``).
+        """
         if len(self.lags_s) < 2 or np.ptp(self.centres_s) < min_span_s:
             return float("nan")
         return float(np.polyfit(self.centres_s, self.lags_s, 1)[0] * 60.0)
 
     def summary(self) -> dict:
-        """JSON-ready summary: median, first and last window lag, range, drift."""
+        """JSON-ready summary of the track.
+
+        Returns
+        -------
+        dict
+            ``lag_s`` (median), ``lag_start_s``, ``lag_end_s``, ``lag_min_s``, ``lag_max_s``
+            (s, rounded to ms; None when not identifiable), ``drift_s_per_min``,
+            ``n_windows_used``, ``n_windows``, ``identifiable``.
+        """
         if not self.identifiable:
             return {"lag_s": None, "lag_start_s": None, "lag_end_s": None, "lag_min_s": None,
                     "lag_max_s": None, "drift_s_per_min": None,
@@ -142,6 +173,7 @@ def best_lag(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: np.ndarray
     wz : ndarray, shape (m,)
         Low-passed gyro yaw rate, rad/s.
     settings : LagSettings
+        Search range and grid step, minimum excitation.
 
     Returns
     -------
@@ -191,6 +223,7 @@ def estimate_lag_track(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: 
     wz : ndarray, shape (m,)
         Low-passed gyro yaw rate, rad/s.
     settings : LagSettings
+        Windows, search range, acceptance thresholds.
     alternative : ndarray, shape (n,), optional
         A second prediction of the yaw rate at ``t_s`` (the replay's, which includes the
         simulated vehicle's response time); in each window the reference that explains the

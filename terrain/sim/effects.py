@@ -20,27 +20,72 @@ With every effect off the simulator is ideal in each named respect.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from types import MappingProxyType
 from typing import Iterable, Mapping
 
 from terrain.errors import ConfigError
 
-#: name -> (unit, value when off, lower bound, upper bound)
-EFFECTS: Mapping[str, tuple[str, float, float, float]] = {
-    "icr_expansion": ("1", 1.0, 1.0, 20.0),
-    "gyro_bias": ("rad/s", 0.0, -0.5, 0.5),
-    "wheel_lag": ("s", 0.0, 0.0, 2.0),
-    "turning_resistance": ("A", 0.0, 0.0, 50.0),
-    "current_offset": ("A", 0.0, -20.0, 20.0),
-    "grade_resistance": ("A/rad", 0.0, -200.0, 200.0),
-}
-EFFECT_NAMES: tuple[str, ...] = tuple(EFFECTS)
+
+@dataclass(frozen=True)
+class PlantedEffect:
+    """One effect the simulator can plant (a row of the table above).
+
+    Parameters
+    ----------
+    unit : str
+        Unit of the magnitude (``1`` = dimensionless).
+    off_value : float
+        Magnitude meaning "off".
+    lower, upper : float
+        Accepted range of the magnitude, in ``unit``.
+    """
+
+    unit: str
+    off_value: float
+    lower: float
+    upper: float
+
+
+#: name -> planted effect (read-only). Not to be confused with the audit's vocabulary
+#: (:mod:`terrain.audit.effects`), which says how each effect is fitted.
+PLANTED_EFFECTS: Mapping[str, PlantedEffect] = MappingProxyType({
+    "icr_expansion": PlantedEffect("1", 1.0, 1.0, 20.0),
+    "gyro_bias": PlantedEffect("rad/s", 0.0, -0.5, 0.5),
+    "wheel_lag": PlantedEffect("s", 0.0, 0.0, 2.0),
+    "turning_resistance": PlantedEffect("A", 0.0, 0.0, 50.0),
+    "current_offset": PlantedEffect("A", 0.0, -20.0, 20.0),
+    "grade_resistance": PlantedEffect("A/rad", 0.0, -200.0, 200.0),
+})
+EFFECT_NAMES: tuple[str, ...] = tuple(PLANTED_EFFECTS)
 #: Yaw rate at which ``turning_resistance`` reaches 76 % (tanh(1)) of its value, rad/s.
 TURN_RATE_SCALE_RAD_S = 0.1
 
 
 @dataclass(frozen=True)
 class Effects:
-    """Magnitudes of the named effects (defaults = off)."""
+    """Magnitudes of the named effects (defaults = off; units and ranges in
+    :data:`PLANTED_EFFECTS`).
+
+    Parameters
+    ----------
+    icr_expansion : float
+        chi, dimensionless, in [1, 20].
+    gyro_bias : float
+        Offset of the IMU ``wz``, rad/s, in [-0.5, 0.5].
+    wheel_lag : float
+        Lag of the wheel stream, s, in [0, 2].
+    turning_resistance : float
+        Extra current while turning, A, in [0, 50].
+    current_offset : float
+        Right-minus-left current shift, A, in [-20, 20].
+    grade_resistance : float
+        Extra current per rad of pitch, A/rad, in [-200, 200].
+
+    Raises
+    ------
+    ConfigError
+        A magnitude out of its range.
+    """
 
     icr_expansion: float = 1.0
     gyro_bias: float = 0.0
@@ -52,18 +97,30 @@ class Effects:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = float(getattr(self, f.name))
-            _, _, lo, hi = EFFECTS[f.name]
-            if not (lo <= value <= hi):
-                raise ConfigError(f"effect {f.name}={value} out of range [{lo}, {hi}] "
-                                  f"({EFFECTS[f.name][0]})")
+            spec = PLANTED_EFFECTS[f.name]
+            if not (spec.lower <= value <= spec.upper):
+                raise ConfigError(f"effect {f.name}={value} out of range [{spec.lower}, "
+                                  f"{spec.upper}] ({spec.unit})")
 
     def active(self) -> dict[str, float]:
-        """Effects that are on, name -> magnitude."""
+        """Effects that are on.
+
+        Returns
+        -------
+        dict
+            Name -> magnitude, for every effect not at its off value.
+        """
         return {f.name: float(getattr(self, f.name)) for f in fields(self)
-                if float(getattr(self, f.name)) != EFFECTS[f.name][1]}
+                if float(getattr(self, f.name)) != PLANTED_EFFECTS[f.name].off_value}
 
     def as_dict(self) -> dict[str, float]:
-        """All effects, name -> magnitude."""
+        """All effects.
+
+        Returns
+        -------
+        dict
+            Name -> magnitude.
+        """
         return {f.name: float(getattr(self, f.name)) for f in fields(self)}
 
 
@@ -73,6 +130,7 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     Parameters
     ----------
     items : iterable of str, mapping or None
+        ``NAME=VALUE`` strings, or name -> value; None = every effect off.
 
     Returns
     -------
@@ -96,7 +154,7 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
             name, value = str(item).split("=", 1)
             source.append((name.strip(), value.strip()))
     for name, value in source:
-        if name not in EFFECTS:
+        if name not in PLANTED_EFFECTS:
             raise ConfigError(f"unknown effect {name!r}; valid choices: {', '.join(EFFECT_NAMES)}")
         try:
             pairs[name] = float(value)

@@ -63,12 +63,40 @@ class SensorSettings:
 
 
 def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
-    """Sample times ``0, 1/rate, ...`` up to ``duration_s``, shape (n,), s."""
+    """Sample times ``0, 1/rate, ...`` up to ``duration_s``.
+
+    Parameters
+    ----------
+    duration_s : float
+        Last time (inclusive, within 1e-9 s), s.
+    rate_hz : float
+        Sampling rate, Hz (> 0).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Times, s.
+    """
     return np.arange(0.0, duration_s + 1e-9, 1.0 / rate_hz)
 
 
 def interp_columns(t_new: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Linear interpolation of each column of ``values`` (n, k) at ``t_new`` (m,) -> (m, k)."""
+    """Linear interpolation of each column of ``values`` at new times.
+
+    Parameters
+    ----------
+    t_new : ndarray, shape (m,)
+        Times to interpolate at, s.
+    t : ndarray, shape (n,)
+        Increasing times of ``values``, s.
+    values : ndarray, shape (n,) or (n, k)
+        Samples (any unit).
+
+    Returns
+    -------
+    ndarray, shape (m, k)
+        Interpolated samples (held constant outside ``t``).
+    """
     v = values.reshape(len(t), -1)
     return np.column_stack([np.interp(t_new, t, v[:, j]) for j in range(v.shape[1])])
 
@@ -82,7 +110,25 @@ def _coloured(rng: np.random.Generator, n: int, k: int, rate_hz: float,
 
 
 def first_order_filter(x: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
-    """Discrete first-order low-pass (EMA) along axis 0; identity when ``tau_s`` = 0."""
+    """Discrete first-order low-pass (EMA) along axis 0; identity when ``tau_s`` <= 0.
+
+    ``y_k = a y_(k-1) + (1 - a) x_k``, ``a = exp(-dt / tau)``, started at ``y = x_0`` (the
+    motor driver's speed filter, the ODrive effect of seed 001 ch. 7.2.2).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, ...)
+        Samples at a fixed step (any unit).
+    dt_s : float
+        Sample step, s.
+    tau_s : float
+        Time constant, s.
+
+    Returns
+    -------
+    ndarray, shape (n, ...)
+        Filtered samples.
+    """
     if tau_s <= 0:
         return x
     a = np.exp(-dt_s / tau_s)
@@ -99,6 +145,21 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
     Accelerometer: specific force ``a_body - g_body`` (gravity along the inclined plane and
     ``g cos(slope)`` on z), terrain vibration (std from the catalogue, scaled by
     ``sqrt(|v| / v_ref)``), a constant per-run bias and white noise.
+
+    Parameters
+    ----------
+    phys : PhysicsResult
+        Ground truth at the physics rate.
+    terrains : tuple of TerrainParams
+        Terrains of the run, indexed by ``phys.terrain_index`` (vibration levels).
+    settings : SensorSettings
+        IMU rate, noise levels and vibration bandwidth.
+    gyro_bias_rad_s : float
+        Planted ``gyro_bias`` effect, rad/s.
+    rng : numpy.random.Generator
+        Noise source of the run.
+    duration_s : float
+        Duration of the run, s.
 
     Returns
     -------
@@ -136,7 +197,20 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
 
 
 def quantise(x: np.ndarray, quantum: float) -> np.ndarray:
-    """Round to the sensor resolution ``quantum`` (no-op when 0)."""
+    """Round to the sensor resolution ``quantum`` (no-op when <= 0).
+
+    Parameters
+    ----------
+    x : ndarray
+        Values (any unit).
+    quantum : float
+        Resolution, in the unit of ``x``.
+
+    Returns
+    -------
+    ndarray
+        Rounded values, same shape.
+    """
     return x if quantum <= 0 else np.round(x / quantum) * quantum
 
 

@@ -1,31 +1,36 @@
-"""Run a simulation: vehicle + terrain(s) + scenario + motors + sensors -> :class:`SimResult`.
+"""Run a simulation: vehicle + terrain(s) + scenario + motors + sensors -> :class:`~terrain.run.Run`.
 
-Stream files (same layout as ``../shared/data``; ``time`` first, snake_case otherwise):
+The simulated run follows the :mod:`terrain.run` contract (``t_s`` first, canonical channel
+names, SI units); writing it in the measured-file layout is :func:`terrain.io.writer.write_run`.
+Streams (file columns in brackets where the file names them differently):
 
-``imu``    ``time, wx, wy, wz, ax, ay, az``      IMU at the body origin (rad/s, m/s^2)
-``pro``    ``time, curL, curR, velL, velR``      motor current magnitude (A), rim speed (m/s).
-           husky/tracked: left/right side. agrimaro: L = wheel 1 (d_1 = [-0.5075, 0]),
-           R = wheel 2 (d_2 = [0.5075, 0]); all three wheels are in ``omega`` and ``cur``.
-``truth``  ``time, x, y, yaw, v_bx, v_by, yaw_rate, slip_1.., pitch, roll, terrain``
+``imu``    ``t_s, wx, wy, wz, ax, ay, az``       IMU at the body origin (rad/s, m/s^2)
+``wheels`` ``t_s, cur_l, cur_r, vel_l, vel_r``   motor current magnitude (A), rim speed (m/s)
+           (file ``pro``: ``time, curL, curR, velL, velR``).
+           husky/tracked: left/right side. agrimaro: l = wheel 1 (d_1 = [-0.5075, 0]),
+           r = wheel 2 (d_2 = [0.5075, 0]); all three wheels are in ``omega`` and ``cur``.
+``truth``  ``t_s, x, y, yaw, v_bx, v_by, yaw_rate, slip_1.., omega_1.., pitch, roll, terrain``
            slip_i per motor (husky/tracked: 1 = left, 2 = right), SAE sign convention
            ``(omega r - v) / max(|omega r|, |v|)``; pitch nose-up positive; terrain label.
-``steer``  ``time, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro)
-``cam``    ``time, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
+``steer``  ``t_s, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro)
+``cam``    ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
            point in robot axes (x forward, y left; before the eq. 5.4 lever-arm correction),
            m/s, rad/s, rad; rows missing during outages (agrimaro)
-``omega``  ``time, omega_1, omega_2, omega_3`` reported wheel speeds, rad/s (agrimaro)
-``cur``    ``time, cur_1, cur_2, cur_3`` motor current magnitudes, A (agrimaro)
+``omega``  ``t_s, omega_1, omega_2, omega_3`` reported wheel speeds, rad/s (agrimaro)
+``cur``    ``t_s, cur_1, cur_2, cur_3`` motor current magnitudes, A (agrimaro)
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, is_dataclass
+from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError
+from terrain.run import TIME, Run
 from terrain.sim.dynamics import PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
@@ -34,12 +39,13 @@ from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import VEHICLE_NAMES, get_vehicle
 
-DEFAULT_SENSORS: Mapping[str, SensorSettings] = {
+#: Sensor settings of each vehicle (read-only).
+DEFAULT_SENSORS: Mapping[str, SensorSettings] = MappingProxyType({
     "husky": SensorSettings(),
     "agrimaro": SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=0.0,
                                current_quantum_a=0.01),
     "tracked": SensorSettings(wheel_rate_hz=10.0, speed_quantum_m_s=0.001),
-}
+})
 
 
 @dataclass(frozen=True)
@@ -59,12 +65,19 @@ class SimConfig:
     seed : int
         Seed of the run's :class:`numpy.random.Generator`.
     effects : Effects
+        Planted effects (all off by default).
     segment_length_m : float
         Distance between terrain changes, m.
     physics_rate_hz : float
         Integrator rate, Hz (50-1000).
     sensors : SensorSettings or None
         None = the vehicle's defaults (:data:`DEFAULT_SENSORS`).
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle, terrain or scenario (the message lists the valid choices), or a
+        duration, rate, segment length or seed out of range.
     """
 
     vehicle: str = "husky"
@@ -97,23 +110,23 @@ class SimConfig:
 
 
 @dataclass(frozen=True)
-class SimResult:
-    """A simulated run.
+class Simulation:
+    """A simulated run with its ground truth at the physics rate.
 
-    Attributes
+    Parameters
     ----------
     config : SimConfig
-    streams : Mapping[str, pandas.DataFrame]
-        Stream name (``imu``, ``pro``, ``truth``...) -> frame with the file's columns.
-    meta : Mapping[str, Any]
-        JSON-serialisable metadata (written as ``meta_XX.json``).
+        What was simulated.
+    run : Run
+        The run (:mod:`terrain.run` contract: sensor streams, the ``truth`` stream at the
+        truth rate and JSON-serialisable metadata, written as ``meta_XX.json``).
     physics : PhysicsResult
-        Ground truth at the physics rate.
+        Ground truth at every physics step (body accelerations, steering angles and motor
+        torques included, which the ``truth`` stream does not carry).
     """
 
     config: SimConfig
-    streams: Mapping[str, pd.DataFrame]
-    meta: Mapping[str, Any]
+    run: Run
     physics: PhysicsResult
 
 
@@ -133,8 +146,27 @@ def _jsonable(obj: Any) -> Any:
     return obj
 
 
-def _currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray:
-    """Motor current magnitudes with the current effects, shape (n, n_motors), A."""
+def motor_currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray:
+    """Motor current magnitudes with the planted current effects.
+
+    The motor law of the vehicle (:meth:`terrain.vehicles.MotorParams.current_from_torque`)
+    applied to the true torques and speeds, plus ``turning_resistance``,
+    ``grade_resistance`` and ``current_offset`` (:mod:`terrain.sim.effects`).
+
+    Parameters
+    ----------
+    phys : PhysicsResult
+        Ground truth at the physics rate (n steps, m motors).
+    vehicle : AgriMaRoParams or HuskyParams or TrackedParams
+        Vehicle (its ``motor``).
+    effects : Effects
+        Planted effects.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        Current magnitudes, A.
+    """
     cur = np.abs(vehicle.motor.current_from_torque(phys.torque, phys.omega))
     turning = effects.turning_resistance * np.tanh(np.abs(phys.twist[:, 2])
                                                    / TURN_RATE_SCALE_RAD_S)
@@ -146,16 +178,40 @@ def _currents(phys: PhysicsResult, vehicle, effects: Effects) -> np.ndarray:
     return cur
 
 
-def simulate(config: SimConfig) -> SimResult:
+def simulate(config: SimConfig) -> Run:
     """Simulate one run.
 
     Parameters
     ----------
     config : SimConfig
+        Vehicle, terrains, scenario, duration, seed, planted effects, sensors.
 
     Returns
     -------
-    SimResult
+    Run
+        ``dataset = "sim"``, run id ``sim/<TERRAIN>/<seed>``, streams as in the module
+        docstring, metadata (settings, rates, parameters of vehicle, terrains and sensors).
+
+    Raises
+    ------
+    ConfigError
+        Bad configuration (names list the valid choices).
+    """
+    return simulate_with_physics(config).run
+
+
+def simulate_with_physics(config: SimConfig) -> Simulation:
+    """Simulate one run and keep the ground truth at the physics rate.
+
+    Parameters
+    ----------
+    config : SimConfig
+        Vehicle, terrains, scenario, duration, seed, planted effects, sensors.
+
+    Returns
+    -------
+    Simulation
+        The run of :func:`simulate` and the :class:`PhysicsResult` it was sampled from.
 
     Raises
     ------
@@ -184,7 +240,7 @@ def simulate(config: SimConfig) -> SimResult:
 
     t_imu, imu_data = imu(phys, terrains, sensors, config.effects.gyro_bias, rng, duration)
     streams["imu"] = pd.DataFrame(np.column_stack([t_imu, imu_data]),
-                                  columns=["time", "wx", "wy", "wz", "ax", "ay", "az"])
+                                  columns=[TIME, "wx", "wy", "wz", "ax", "ay", "az"])
 
     # wheel encoders and motor currents: driver filter, then the wheel_lag effect
     motor = vehicle.motor
@@ -192,7 +248,7 @@ def simulate(config: SimConfig) -> SimResult:
     if sensors.speed_quantum_m_s == 0:
         omega_meas = encoder_count_rate(phys.omega, dt, motor.encoder_counts_per_rev)
     omega_rep = first_order_filter(omega_meas, dt, motor.encoder_filter_s)
-    cur = _currents(phys, vehicle, config.effects)
+    cur = motor_currents(phys, vehicle, config.effects)
     t_w = sample_times(duration, sensors.wheel_rate_hz)
     t_src = np.clip(t_w - config.effects.wheel_lag, 0.0, None)
     om_w = interp_columns(t_src, phys.t_s, omega_rep)
@@ -200,18 +256,18 @@ def simulate(config: SimConfig) -> SimResult:
     cur_w = interp_columns(t_src, phys.t_s, cur)
     cur_w = quantise(np.abs(cur_w + sensors.current_noise_a * rng.standard_normal(cur_w.shape)),
                      sensors.current_quantum_a)
-    streams["pro"] = pd.DataFrame({"time": t_w, "curL": cur_w[:, 0], "curR": cur_w[:, 1],
-                                   "velL": vel_w[:, 0], "velR": vel_w[:, 1]})
+    streams["wheels"] = pd.DataFrame({TIME: t_w, "cur_l": cur_w[:, 0], "cur_r": cur_w[:, 1],
+                                      "vel_l": vel_w[:, 0], "vel_r": vel_w[:, 1]})
     if geometry.n_motors > 2:
         streams["omega"] = pd.DataFrame(
-            {"time": t_w, **{f"omega_{i + 1}": om_w[:, i] for i in range(geometry.n_motors)}})
+            {TIME: t_w, **{f"omega_{i + 1}": om_w[:, i] for i in range(geometry.n_motors)}})
         streams["cur"] = pd.DataFrame(
-            {"time": t_w, **{f"cur_{i + 1}": cur_w[:, i] for i in range(geometry.n_motors)}})
+            {TIME: t_w, **{f"cur_{i + 1}": cur_w[:, i] for i in range(geometry.n_motors)}})
 
     # ground truth
     t_tr = sample_times(duration, sensors.truth_rate_hz)
     idx = np.clip(np.searchsorted(phys.t_s, t_tr - 1e-9), 0, len(phys.t_s) - 1)
-    truth = {"time": t_tr, "x": phys.pose[idx, 0], "y": phys.pose[idx, 1],
+    truth = {TIME: t_tr, "x": phys.pose[idx, 0], "y": phys.pose[idx, 1],
              "yaw": phys.pose[idx, 2], "v_bx": phys.twist[idx, 0], "v_by": phys.twist[idx, 1],
              "yaw_rate": phys.twist[idx, 2]}
     for i in range(geometry.n_motors):
@@ -227,14 +283,14 @@ def simulate(config: SimConfig) -> SimResult:
         t_st = sample_times(duration, sensors.steer_rate_hz)
         d = quantise(interp_columns(t_st, phys.t_s, phys.delta), sensors.steer_quantum_rad)
         streams["steer"] = pd.DataFrame(
-            {"time": t_st, **{f"delta_{i + 1}": d[:, i] for i in range(geometry.n_motors)}})
+            {TIME: t_st, **{f"delta_{i + 1}": d[:, i] for i in range(geometry.n_motors)}})
         t_c = sample_times(duration, sensors.cam_rate_hz)
         s = interp_columns(t_c, phys.t_s, np.column_stack([phys.twist, phys.pose[:, 2]]))
         lever = np.asarray(vehicle.camera_lever_arm_m)
         v_cx = s[:, 0] - s[:, 2] * lever[1]              # v + omega x d (eq. 5.4 inverted)
         v_cy = s[:, 1] + s[:, 2] * lever[0]
         nz = rng.standard_normal((len(t_c), 4))
-        cam = pd.DataFrame({"time": t_c, "v_cx": v_cx + sensors.cam_noise_m_s * nz[:, 0],
+        cam = pd.DataFrame({TIME: t_c, "v_cx": v_cx + sensors.cam_noise_m_s * nz[:, 0],
                             "v_cy": v_cy + sensors.cam_noise_m_s * nz[:, 1],
                             "yaw_rate_c": s[:, 2] + sensors.cam_yaw_rate_noise_rad_s * nz[:, 2],
                             "yaw_c": s[:, 3] + sensors.cam_yaw_noise_rad * nz[:, 3]})
@@ -265,4 +321,7 @@ def simulate(config: SimConfig) -> SimResult:
         "units": {"time": "s", "wx": "rad/s", "ax": "m/s^2", "cur": "A", "vel": "m/s",
                   "delta": "rad", "omega": "rad/s", "v_c": "m/s", "yaw": "rad"},
     }
-    return SimResult(config=config, streams=streams, meta=meta, physics=phys)
+    run = Run(run_id=f"sim/{meta['terrain']}/{int(config.seed)}", dataset="sim",
+              terrain=str(meta["terrain"]), streams=streams, vehicle=vehicle.name,
+              source="terrain.sim", meta=meta)
+    return Simulation(config=config, run=run, physics=phys)

@@ -2,7 +2,8 @@
 
 * :func:`wheel_longitudinal_velocity`: the EKF body velocity moved to each wheel and projected
   on its rolling direction (eqs. 7.3-7.5);
-* :func:`sae_slip`: ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (eqs. 7.1, 7.2 and
+* :func:`sae_slip` (defined once, in :mod:`terrain.terramechanics.slip`, re-exported here):
+  ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (eqs. 7.1, 7.2 and
   the denominator of eq. 7.7), saturated to [-1, 1], forced to 0 when both speeds are below
   the 0.05 m/s dead band (ch. 7.2.1). ``omega`` must be the *raw* encoder speed (ch. 7.2: the
   EKF-filtered speed is coupled to the estimated velocity and would bias the slip to zero).
@@ -14,54 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import EstimationError, ShapeError
+from terrain.errors import ShapeError
+from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
 
 #: Dead band of ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
-DEAD_BAND_M_S = 0.05
-
-
-def sae_slip(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, *,
-             dead_band_m_s: float = DEAD_BAND_M_S, saturation: float = 1.0) -> np.ndarray:
-    """SAE longitudinal slip with the thesis's conditioning (seed 001 eqs. 7.1, 7.2, 7.7).
-
-    ``s = (omega r - v_long) / max(|omega r|, |v_long|)``: positive in traction (the rim is
-    faster, eq. 7.1), negative in braking (eq. 7.2), saturated to ``[-saturation,
-    saturation]``; 0 where both ``|omega r|`` and ``|v_long|`` are below ``dead_band_m_s``.
-    NaN inputs give NaN.
-
-    Parameters
-    ----------
-    rim_speed_m_s : ndarray, shape (...)
-        Peripheral speed ``omega r`` from the raw encoder, m/s (eq. 7.6).
-    v_long_m_s : ndarray, shape (...)
-        Longitudinal velocity of the wheel centre, m/s (eq. 7.5); broadcast with the rim
-        speed.
-    dead_band_m_s : float
-        >= 0, m/s (0.05 in ch. 7.2.1).
-    saturation : float
-        > 0 (1 in ch. 7.2.1).
-
-    Returns
-    -------
-    ndarray, broadcast shape, dimensionless
-
-    Raises
-    ------
-    EstimationError
-        Negative dead band or non-positive saturation.
-    """
-    if not dead_band_m_s >= 0 or not saturation > 0:
-        raise EstimationError(f"dead band must be >= 0 and saturation > 0, got "
-                              f"{dead_band_m_s}, {saturation}")
-    rim = np.asarray(rim_speed_m_s, dtype=float)
-    v = np.asarray(v_long_m_s, dtype=float)
-    den = np.maximum(np.abs(rim), np.abs(v))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(den > 0, (rim - v) / np.where(den > 0, den, 1.0), 0.0)
-    s = np.clip(s, -saturation, saturation)
-    still = (np.abs(rim) < dead_band_m_s) & (np.abs(v) < dead_band_m_s)
-    s = np.where(still, 0.0, s)
-    return np.where(np.isnan(rim) | np.isnan(v), np.nan, s)
+DEAD_BAND_M_S = THESIS_DEAD_BAND_M_S
 
 
 def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,

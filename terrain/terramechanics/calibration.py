@@ -23,6 +23,7 @@ def steady_slip(terrain, extra_demand: float = 0.0) -> float:
     Parameters
     ----------
     terrain : TerrainParams
+        Terrain (traction curve and soil resistance).
     extra_demand : float
         Further force demand over normal load (e.g. ``a / g`` when accelerating, the grade
         ``sin(pitch)`` on a slope).
@@ -57,12 +58,14 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     Parameters
     ----------
     terrain : TerrainParams
+        Terrain to calibrate (its curve and soil resistance; hysteresis ignored).
     current_a : float
         Target mean current per side, A.
     speed_m_s : float
         Speed at which it was measured, m/s (sets the sign term only: the loss model is
         speed-independent).
     husky : HuskyParams, optional
+        Vehicle (default :data:`terrain.vehicles.HUSKY`).
 
     Returns
     -------
@@ -96,6 +99,7 @@ def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: flo
     slip_steady, slip_accel : float
         Slips at constant speed and while accelerating at ``accel_m_s2``.
     accel_m_s2 : float
+        Acceleration of the accelerating test, m/s^2 (1 in seed 001 ch. 7.2.3).
 
     Returns
     -------

@@ -23,6 +23,7 @@ from types import MappingProxyType
 from typing import Mapping
 
 from terrain.errors import ConfigError
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.traction import (BrixiusCurve, BurckhardtCurve, JanosiCurve,
                                              TractionCurve, brixius_mobility_number)
 
@@ -77,8 +78,9 @@ MEASURED_HUSKY_STRAIGHT: Mapping[str, tuple[float, float]] = MappingProxyType({
 
 #: Husky reference contact used to turn soil parameters into curves: 13 in tyre, 0.11 m
 #: section width, quarter of 50 kg (see terrain.vehicles.skid_steer.HuskyParams).
-_HUSKY_WHEEL_LOAD_N = 50.0 * 9.80665 / 4.0
-_HUSKY_TYRE = dict(section_width_m=0.11, diameter_m=0.33, load_n=_HUSKY_WHEEL_LOAD_N)
+_HUSKY_WHEEL_LOAD_N = 50.0 * G_M_S2 / 4.0
+_HUSKY_TYRE: Mapping[str, float] = MappingProxyType(
+    dict(section_width_m=0.11, diameter_m=0.33, load_n=_HUSKY_WHEEL_LOAD_N))
 
 _BURCKHARDT = "Burckhardt (1993) coefficients, as tabulated in Kiencke & Nielsen (2005)"
 _BRIXIUS = ("Brixius (1987) traction equations with Bn for the Husky tyre "
@@ -198,6 +200,11 @@ def get_terrain(name: str) -> TerrainParams:
     ------
     ConfigError
         Unknown name; the message lists the valid choices.
+
+    Returns
+    -------
+    TerrainParams
+        The catalogue entry (frozen).
     """
     key = str(name).upper()
     if key not in TERRAINS:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.terramechanics.traction import BrixiusCurve, traction_peak
+from terrain.terramechanics.traction import traction_peak
 
 G_M_S2 = 9.80665
 
@@ -21,14 +21,17 @@ G_M_S2 = 9.80665
 def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray:
     """Slip-producing motion resistance over normal load (soil compaction / bulldozing).
 
-    For Brixius terrains ``1/Bn + 0.5 |s| / sqrt(Bn)`` (the 0.04 tyre-hysteresis term of
+    The terrain's curve says which law applies (:meth:`TractionCurve.coefficients`): for
+    Brixius terrains ``1/Bn + 0.5 |s| / sqrt(Bn)`` (the 0.04 tyre-hysteresis term of
     Brixius is part of :attr:`TerrainParams.hysteresis`); otherwise the constant
     ``terrain.soil_resistance``.
 
     Parameters
     ----------
     terrain : TerrainParams
+        Terrain (its ``curve`` and ``soil_resistance``).
     slip : float or ndarray, shape (...)
+        SAE slip, clipped to [-1, 1] (dimensionless).
 
     Returns
     -------
@@ -36,11 +39,7 @@ def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray
         Dimensionless coefficient (force = coefficient x normal load).
     """
     s = np.abs(np.clip(np.asarray(slip, dtype=float), -1.0, 1.0))
-    curve = terrain.curve
-    if isinstance(curve, BrixiusCurve):
-        bn = curve.mobility_number
-        return 1.0 / bn + 0.5 * s / np.sqrt(bn)
-    return np.full_like(s, terrain.soil_resistance)
+    return terrain.curve.coefficients(s, terrain.soil_resistance).resistance
 
 
 def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndarray:
@@ -49,6 +48,7 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     Parameters
     ----------
     mass_kg : float
+        Vehicle mass, kg.
     pitch_rad : float or ndarray, shape (...)
         Nose-up inclination of the vehicle, rad (positive when climbing).
 
@@ -60,28 +60,69 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     return mass_kg * G_M_S2 * np.sin(np.asarray(pitch_rad, dtype=float))
 
 
-def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s: np.ndarray,
-                    slide_speed_m_s: float = 0.02) -> np.ndarray:
-    """Lateral (sideways) friction of a skidding wheel or track segment.
+def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
+                            v_lateral_m_s: np.ndarray, slide_speed_m_s: float = 0.02
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """Lateral (sideways) friction of a skidding wheel or track segment, and its slope.
 
     Coulomb friction ``-mu_lat N sign(v_lat)`` smoothed as ``tanh(v_lat / v_slide)``; the
-    smoothing speed stands for the lateral compliance of tyre and soil.
+    smoothing speed stands for the lateral compliance of tyre and soil (Wong, *Theory of
+    Ground Vehicles*, ch. 7.2: lateral resistance of skid-steered vehicles). The slope is the
+    secant ``F / v_lat`` (``-mu_lat N / v_slide`` at 0), which is never steeper than the
+    tangent and keeps an implicit integrator stable.
 
     Parameters
     ----------
     mu_lateral : float
         Lateral resistance coefficient (friction plus bulldozing of sunk wheels).
     normal_load_n : ndarray, shape (n,)
+        Normal load of each contact, N.
     v_lateral_m_s : ndarray, shape (n,)
+        Lateral velocity of each contact, m/s.
     slide_speed_m_s : float
+        Smoothing speed, m/s (> 0).
+
+    Returns
+    -------
+    force_n : ndarray, shape (n,)
+        Lateral force, N.
+    slope_n_s_m : ndarray, shape (n,)
+        Secant slope ``d F / d v_lat``, N s/m.
+    """
+    normal = np.asarray(normal_load_n)
+    v = np.asarray(v_lateral_m_s)
+    th_l = np.tanh(v / slide_speed_m_s)
+    force = -mu_lateral * normal * th_l
+    x_l = v / slide_speed_m_s
+    big = np.abs(x_l) > 1e-6
+    secant = np.where(big, th_l / np.where(big, x_l, 1.0), 1.0)
+    return force, -mu_lateral * normal * secant / slide_speed_m_s
+
+
+def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s: np.ndarray,
+                    slide_speed_m_s: float = 0.02) -> np.ndarray:
+    """Lateral (sideways) friction of a skidding wheel or track segment.
+
+    The force of :func:`lateral_force_and_slope`.
+
+    Parameters
+    ----------
+    mu_lateral : float
+        Lateral resistance coefficient (friction plus bulldozing of sunk wheels).
+    normal_load_n : ndarray, shape (n,)
+        Normal load of each contact, N.
+    v_lateral_m_s : ndarray, shape (n,)
+        Lateral velocity of each contact, m/s.
+    slide_speed_m_s : float
+        Smoothing speed, m/s (> 0).
 
     Returns
     -------
     ndarray, shape (n,)
         Lateral force, N.
     """
-    return -mu_lateral * np.asarray(normal_load_n) * np.tanh(
-        np.asarray(v_lateral_m_s) / slide_speed_m_s)
+    return lateral_force_and_slope(mu_lateral, normal_load_n, v_lateral_m_s,
+                                   slide_speed_m_s)[0]
 
 
 def turning_resistance_moment_nm(mu_lateral: float, weight_n: float,
@@ -95,8 +136,11 @@ def turning_resistance_moment_nm(mu_lateral: float, weight_n: float,
     Parameters
     ----------
     mu_lateral : float
+        Lateral resistance coefficient (dimensionless).
     weight_n : float
+        Vehicle weight W, N.
     contact_length_m : float
+        Contact length l of each track, m.
 
     Returns
     -------
@@ -117,7 +161,9 @@ def can_turn_in_place(geometry, terrain) -> bool:
     Parameters
     ----------
     geometry : terrain.vehicles.ContactGeometry
+        Contact positions and load shares of the vehicle.
     terrain : TerrainParams
+        Terrain (traction peak, soil and lateral resistance).
 
     Returns
     -------
@@ -138,6 +184,7 @@ def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
     Parameters
     ----------
     load_n : float
+        Normal load on the plate, N.
     width_m, length_m : float
         Contact width b (smaller dimension) and length, m.
     k_c : float

@@ -19,15 +19,161 @@ Curve families
 :class:`BrixiusCurve`
     Brixius (1987) traction equation for tyres on agricultural soils (ASAE paper 87-1622):
     gross traction ratio ``0.88 (1 - exp(-0.1 Bn)) (1 - exp(-7.5 s))`` with the mobility number
-    ``Bn``; the motion resistance ratio ``1/Bn + 0.5 s / sqrt(Bn)`` lives in
-    :mod:`terrain.terramechanics.resistance`.
+    ``Bn`` and the motion resistance ratio ``1/Bn + 0.5 s / sqrt(Bn)``.
+
+Each relation is one function (:func:`burckhardt_traction`, :func:`janosi_traction`,
+:func:`brixius_traction`, :func:`brixius_motion_resistance`); each curve is a frozen parameter
+dataclass satisfying the :class:`TractionCurve` protocol (one method, ``coefficients``), so
+callers never dispatch on the curve type.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple, Protocol
 
 import numpy as np
+from scipy.optimize import minimize_scalar
+
+
+class CurveCoefficients(NamedTuple):
+    """Longitudinal coefficients of a contact at slip magnitudes ``|s|`` (arrays, shape (...)).
+
+    Attributes
+    ----------
+    mu : ndarray
+        Gross traction coefficient ``mu(|s|)`` (force over normal load), >= 0.
+    dmu_ds : ndarray
+        ``d mu / d|s|``.
+    resistance : ndarray
+        Slip-producing motion resistance coefficient (soil compaction / bulldozing).
+    dresistance_ds : ndarray
+        ``d resistance / d|s|``.
+    """
+
+    mu: np.ndarray
+    dmu_ds: np.ndarray
+    resistance: np.ndarray
+    dresistance_ds: np.ndarray
+
+
+class TractionCurve(Protocol):  # noqa: D101 - documented below
+    """What the simulator and the terramechanics relations need of a traction-slip curve.
+
+    A curve is a frozen, cited parameter dataclass with one method; the equations are the
+    module-level functions (:func:`burckhardt_traction`, :func:`janosi_traction`,
+    :func:`brixius_traction`, :func:`brixius_motion_resistance`).
+    """
+
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """Coefficients at slip magnitudes ``abs_slip`` in [0, 1].
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            ``|s|``, dimensionless, in [0, 1].
+        soil_resistance : float
+            The terrain's constant motion resistance coefficient
+            (:attr:`TerrainParams.soil_resistance`); curves with their own resistance law
+            (Brixius) ignore it.
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        ...  # pragma: no cover - protocol
+
+
+def burckhardt_traction(abs_slip: np.ndarray, c1: float, c2: float, c3: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Burckhardt ``mu = c1 (1 - exp(-c2 s)) - c3 s`` and its slope, ``s = |slip|``.
+
+    Source: M. Burckhardt, *Fahrwerktechnik: Radschlupf-Regelsysteme*, Vogel 1993
+    (coefficients tabulated in Kiencke & Nielsen, *Automotive Control Systems*, 2005).
+
+    Parameters
+    ----------
+    abs_slip : ndarray, shape (...)
+        Slip magnitude in [0, 1].
+    c1, c2, c3 : float
+        Burckhardt coefficients (dimensionless).
+
+    Returns
+    -------
+    mu, dmu_ds : ndarray, shape (...)
+    """
+    e = np.exp(-c2 * abs_slip)
+    return c1 * (1.0 - e) - c3 * abs_slip, c1 * c2 * e - c3
+
+
+def janosi_traction(abs_slip: np.ndarray, mu_max: float, shear_slip: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Janosi-Hanamoto traction averaged over the contact, ``mu = mu_max g(s / k)``.
+
+    ``g(x) = 1 - (1 - e^-x) / x`` (Wong, *Theory of Ground Vehicles*, 4th ed., ch. 2.4-2.5;
+    seed 003 eqs. 14-17).
+
+    Parameters
+    ----------
+    abs_slip : ndarray, shape (...)
+        Slip magnitude in [0, 1].
+    mu_max : float
+        Shear strength over normal load (dimensionless).
+    shear_slip : float
+        ``k = K / L`` (dimensionless), > 0.
+
+    Returns
+    -------
+    mu, dmu_ds : ndarray, shape (...)
+    """
+    g, dg = _janosi_g(abs_slip / shear_slip)
+    return mu_max * g, mu_max * dg / shear_slip
+
+
+def brixius_traction(abs_slip: np.ndarray, mobility_number: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Brixius (1987) gross traction ratio ``0.88 (1 - e^(-0.1 Bn)) (1 - e^(-7.5 s))``.
+
+    Parameters
+    ----------
+    abs_slip : ndarray, shape (...)
+        Slip magnitude in [0, 1].
+    mobility_number : float
+        ``Bn`` (dimensionless), :func:`brixius_mobility_number`.
+
+    Returns
+    -------
+    mu, dmu_ds : ndarray, shape (...)
+    """
+    amp = 0.88 * (1.0 - np.exp(-0.1 * mobility_number))
+    e = np.exp(-7.5 * abs_slip)
+    return amp * (1.0 - e), amp * 7.5 * e
+
+
+def brixius_motion_resistance(abs_slip: np.ndarray, mobility_number: float
+                              ) -> tuple[np.ndarray, np.ndarray]:
+    """Soil part of the Brixius (1987) motion resistance ratio ``1/Bn + 0.5 s / sqrt(Bn)``.
+
+    The 0.04 tyre-hysteresis term of Brixius is part of :attr:`TerrainParams.hysteresis`
+    (torque only, no slip).
+
+    Parameters
+    ----------
+    abs_slip : ndarray, shape (...)
+        Slip magnitude in [0, 1].
+    mobility_number : float
+        ``Bn`` (dimensionless).
+
+    Returns
+    -------
+    resistance, dresistance_ds : ndarray, shape (...)
+    """
+    return (1.0 / mobility_number + 0.5 * abs_slip / np.sqrt(mobility_number),
+            np.full_like(abs_slip, 0.5 / np.sqrt(mobility_number)))
+
+
+def _constant(abs_slip: np.ndarray, value: float) -> tuple[np.ndarray, np.ndarray]:
+    return np.full_like(abs_slip, value), np.zeros_like(abs_slip)
 
 
 @dataclass(frozen=True)
@@ -39,12 +185,30 @@ class BurckhardtCurve:
     c1, c2, c3 : float
         Coefficients (dimensionless).
     source : str
+        Citation of the coefficients.
     """
 
     c1: float
     c2: float
     c3: float
     source: str = ""
+
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """:func:`burckhardt_traction` with the terrain's constant resistance.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain.
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        return CurveCoefficients(*burckhardt_traction(abs_slip, self.c1, self.c2, self.c3),
+                                 *_constant(abs_slip, soil_resistance))
 
 
 @dataclass(frozen=True)
@@ -58,11 +222,29 @@ class JanosiCurve:
     shear_slip : float
         ``k = K / L``: shear deformation modulus over contact length (dimensionless).
     source : str
+        Citation of the coefficients.
     """
 
     mu_max: float
     shear_slip: float
     source: str = ""
+
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """:func:`janosi_traction` with the terrain's constant resistance.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain.
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        return CurveCoefficients(*janosi_traction(abs_slip, self.mu_max, self.shear_slip),
+                                 *_constant(abs_slip, soil_resistance))
 
     @classmethod
     def from_soil(cls, cohesion_pa: float, friction_angle_deg: float,
@@ -85,6 +267,12 @@ class JanosiCurve:
         load_n : float
             Normal load W on that contact, N.
         source : str
+            Citation of the soil parameters.
+
+        Returns
+        -------
+        JanosiCurve
+            ``mu_max = tan(phi) + c A / W``, ``shear_slip = K / L``.
         """
         mu_max = np.tan(np.radians(friction_angle_deg)) + cohesion_pa * contact_area_m2 / load_n
         return cls(float(mu_max), shear_modulus_m / contact_length_m, source)
@@ -99,13 +287,28 @@ class BrixiusCurve:
     mobility_number : float
         ``Bn`` (dimensionless), see :func:`brixius_mobility_number`.
     source : str
+        Citation of the coefficients.
     """
 
     mobility_number: float
     source: str = ""
 
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """:func:`brixius_traction` and :func:`brixius_motion_resistance`.
 
-TractionCurve = BurckhardtCurve | JanosiCurve | BrixiusCurve
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Ignored: Brixius curves carry their own motion resistance.
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        return CurveCoefficients(*brixius_traction(abs_slip, self.mobility_number),
+                                 *brixius_motion_resistance(abs_slip, self.mobility_number))
 
 
 @dataclass(frozen=True)
@@ -173,7 +376,9 @@ def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.n
     Parameters
     ----------
     curve : TractionCurve
+        Traction-slip curve.
     slip : float or ndarray, shape (...)
+        SAE slip (dimensionless), clipped to [-1, 1].
         SAE slip, clipped to [-1, 1] (dimensionless).
 
     Returns
@@ -191,7 +396,9 @@ def traction_curve_and_slope(curve: TractionCurve, slip: np.ndarray | float
     Parameters
     ----------
     curve : TractionCurve
+        Traction-slip curve.
     slip : float or ndarray, shape (...)
+        SAE slip (dimensionless), clipped to [-1, 1].
 
     Returns
     -------
@@ -201,25 +408,9 @@ def traction_curve_and_slope(curve: TractionCurve, slip: np.ndarray | float
     """
     s_raw = np.asarray(slip, dtype=float)
     s = np.clip(s_raw, -1.0, 1.0)
-    a = np.abs(s)
-    sign = np.sign(s)
-    if isinstance(curve, BurckhardtCurve):
-        e = np.exp(-curve.c2 * a)
-        mu = curve.c1 * (1.0 - e) - curve.c3 * a
-        dmu = curve.c1 * curve.c2 * e - curve.c3
-    elif isinstance(curve, JanosiCurve):
-        g, dg = _janosi_g(a / curve.shear_slip)
-        mu = curve.mu_max * g
-        dmu = curve.mu_max * dg / curve.shear_slip
-    elif isinstance(curve, BrixiusCurve):
-        amp = 0.88 * (1.0 - np.exp(-0.1 * curve.mobility_number))
-        e = np.exp(-7.5 * a)
-        mu = amp * (1.0 - e)
-        dmu = amp * 7.5 * e
-    else:  # pragma: no cover - guarded by the type
-        raise TypeError(f"unknown traction curve {type(curve).__name__}")
+    mu, dmu = curve.coefficients(np.abs(s), 0.0)[:2]
     dmu = np.where(np.abs(s_raw) > 1.0, 0.0, dmu)
-    return sign * mu, dmu
+    return np.sign(s) * mu, dmu
 
 
 def traction_peak(curve: TractionCurve, saturation: float = 0.95) -> TractionPeak:
@@ -228,6 +419,7 @@ def traction_peak(curve: TractionCurve, saturation: float = 0.95) -> TractionPea
     Parameters
     ----------
     curve : TractionCurve
+        Traction-slip curve.
     saturation : float
         For curves rising monotonically up to ``s = 1`` (Janosi, Brixius, Burckhardt with
         ``c3 = 0``), the peak is taken as the smallest slip reaching this fraction of the
@@ -237,37 +429,15 @@ def traction_peak(curve: TractionCurve, saturation: float = 0.95) -> TractionPea
     -------
     TractionPeak
     """
-    if isinstance(curve, BurckhardtCurve) and curve.c3 > 0:
-        s_star = np.log(curve.c1 * curve.c2 / curve.c3) / curve.c2
-        if 0.0 < s_star < 1.0:
-            mu = float(traction_coefficient(curve, s_star))
-            return TractionPeak(float(s_star), mu, mu, False)
     grid = np.linspace(0.0, 1.0, 20001)
     mu = traction_coefficient(curve, grid)
+    i_max = int(np.argmax(mu))
+    if mu[-1] < (1.0 - 1e-9) * mu[i_max]:      # falls after an interior maximum: refine it
+        best = minimize_scalar(lambda s: -float(traction_coefficient(curve, s)),
+                               bounds=(grid[i_max - 1], grid[i_max + 1]), method="bounded",
+                               options={"xatol": 1e-10})
+        mu_star = float(-best.fun)
+        return TractionPeak(float(best.x), mu_star, mu_star, False)
     mu_max = float(mu.max())
     idx = int(np.argmax(mu >= saturation * mu_max))
     return TractionPeak(float(grid[idx]), float(mu[idx]), mu_max, True)
-
-
-def sae_slip(omega_r_m_s: np.ndarray, v_long_m_s: np.ndarray,
-             eps_m_s: float = 1e-3) -> np.ndarray:
-    """SAE longitudinal slip (seed 001 eqs. 7.1-7.2), denominator ``max(|omega r|, |v|)``.
-
-    Parameters
-    ----------
-    omega_r_m_s : ndarray, shape (...)
-        Rim speed, m/s.
-    v_long_m_s : ndarray, shape (...)
-        Longitudinal ground speed of the wheel centre, m/s.
-    eps_m_s : float
-        Floor of the denominator (avoids 0/0 at standstill; slip 0 there).
-
-    Returns
-    -------
-    ndarray, shape (...)
-        Slip in [-1, 1] (dimensionless).
-    """
-    wr = np.asarray(omega_r_m_s, dtype=float)
-    v = np.asarray(v_long_m_s, dtype=float)
-    den = np.maximum(np.maximum(np.abs(wr), np.abs(v)), eps_m_s)
-    return np.clip((wr - v) / den, -1.0, 1.0)

@@ -17,6 +17,7 @@ from scipy import ndimage
 from terrain.audit import AuditSettings, SelectionSettings, run_audit
 from terrain.io.measured import read_runs_dir
 from terrain.run import Run
+from terrain.io.writer import to_file_frames
 from terrain.sim import SimConfig, parse_effects, simulate
 from terrain.vehicles import HUSKY
 
@@ -48,10 +49,10 @@ def simulated_streams(effects: dict | None = None, seeds=SIM_SEEDS, terrain: str
     """(imu, pro) file frames of simulated Husky runs with the given planted effects."""
     out = []
     for seed in seeds:
-        res = simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
-                                 duration_s=duration_s, seed=seed,
-                                 effects=parse_effects(effects or {})))
-        out.append((res.streams["imu"].copy(), res.streams["pro"].copy()))
+        res = to_file_frames(simulate(SimConfig(
+            vehicle="husky", terrains=(terrain,), scenario=scenario, duration_s=duration_s,
+            seed=seed, effects=parse_effects(effects or {}))))
+        out.append((res["imu"].copy(), res["pro"].copy()))
     return out
 
 

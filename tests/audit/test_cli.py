@@ -7,7 +7,7 @@ import json
 import pytest
 
 from audit_helpers import simulated_streams, write_signal_files
-from terrain.audit import EFFECTS
+from terrain.audit import EFFECT_VOCABULARY
 from terrain.cli import main as cli_main
 
 REQUIRED = {"name", "terrain", "params", "heldout_gain", "supported"}
@@ -40,10 +40,10 @@ def test_cli_writes_json_and_markdown(runs_dir, tmp_path, capsys):
     for e in effects:
         assert REQUIRED <= set(e)
         assert isinstance(e["supported"], bool)
-        assert set(e["params"]) <= {EFFECTS[e["name"]][1]}
+        assert set(e["params"]) <= {EFFECT_VOCABULARY[e["name"]].param}
         if e["params"]:
             assert e["heldout_gain"] is not None
-    assert len([e for e in effects if e["terrain"] == "ICE"]) == len(EFFECTS)
+    assert len([e for e in effects if e["terrain"] == "ICE"]) == len(EFFECT_VOCABULARY)
     bias = next(e for e in effects if e["name"] == "gyro_bias" and e["terrain"] == "ASPHALT")
     assert bias["supported"] and bias["params"]["bias_rad_s"] == pytest.approx(0.03, abs=0.005)
     assert "gyro_bias" in report["supported"]["ASPHALT"]

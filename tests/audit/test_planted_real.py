@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from audit_helpers import audit_folder, run_to_files, turning_episodes, write_signal_files
+from audit_helpers import B, audit_folder, run_to_files, turning_episodes, write_signal_files
 from terrain.audit.effects import fit_current
 
 TERRAIN = "ASPHALT"
@@ -133,7 +133,7 @@ def test_planted_grade_resistance_on_real_runs(audit_tmp, shipped_borealtc, real
 
 def test_planted_turning_resistance_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
-        x = np.abs(pro.velR - pro.velL) / 0.5708
+        x = np.abs(pro.velR - pro.velL) / B
         extra = np.where(x >= 0.1, 2.0 * np.tanh(x / 0.1) / np.tanh(5.0), 0.0)
         pro["curL"] = pro.curL + extra
         pro["curR"] = pro.curR + extra

@@ -14,6 +14,7 @@ from terrain.audit.replay import replay_run
 from terrain.audit.selection import bootstrap_gain, make_units
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
+from terrain.io.writer import to_file_frames
 from terrain.sim import SimConfig, simulate
 from terrain.vehicles import HUSKY
 
@@ -30,20 +31,20 @@ def _run(imu, pro, terrain="ASPHALT", run_id="t/ASPHALT/00", vehicle="husky"):
 
 @pytest.fixture(scope="module")
 def sim_run():
-    res = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="random",
-                             duration_s=60.0, seed=21))
-    return res, _run(res.streams["imu"], res.streams["pro"])
+    res = to_file_frames(simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",),
+                                            scenario="random", duration_s=60.0, seed=21)))
+    return res, _run(res["imu"], res["pro"])
 
 
 def test_replay_reproduces_the_simulator(sim_run):
     """Replaying a simulated run's own wheel speeds gives back its yaw rate and currents."""
     res, run = sim_run
     rep = replay_run(run)
-    truth = res.streams["truth"]
+    truth = res["truth"]
     keep = (rep.t_s > 2.0) & (rep.t_s < rep.t_s[-1] - 2.0)
     yaw = np.interp(rep.t_s, truth.time, truth.yaw_rate)
     assert np.sqrt(np.mean((rep.yaw_rate - yaw)[keep] ** 2)) < 0.02
-    pro = res.streams["pro"]
+    pro = res["pro"]
     cur = pro[["curL", "curR"]].to_numpy()
     diff = rep.cur[keep] - cur[keep]
     assert np.all(np.abs(diff.mean(axis=0)) < 0.1)   # no bias (sensor noise 0.08 A)
@@ -100,7 +101,7 @@ def test_fit_yaw_recovers_chi_and_bias():
     frame = _frame_with(streams, lambda x: x / 1.6 + 0.01)
     p = fit_yaw([frame], ["icr_expansion", "gyro_bias"])
     assert p.chi == pytest.approx(1.6, rel=0.02)
-    assert p.bias == pytest.approx(0.01, abs=1e-3)
+    assert p.bias_rad_s == pytest.approx(0.01, abs=1e-3)
     assert p.fraction < 0.02
     with pytest.raises(NotIdentifiable):
         fit_yaw([frame], ["gyro_bias"], EffectSettings(min_quiet_samples=10 ** 6))

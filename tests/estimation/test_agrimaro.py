@@ -8,9 +8,9 @@ import pytest
 from terrain.estimation.agrimaro import AgriMaRoEKFSettings, estimate_agrimaro
 from terrain.estimation.consistency import mean_chi2_bounds
 from terrain.estimation.slip_state import SlipStateModel
-from terrain.estimation.validation import (THESIS_TERRAINS, agrimaro_consistency,
-                                           coriolis_filter_rmse, coriolis_prediction_error,
-                                           sim_to_run, simulate_agrimaro, truth_on_grid)
+from pipelines.validation.harness import (THESIS_TERRAINS, agrimaro_consistency,
+                                          coriolis_filter_rmse, coriolis_prediction_error,
+                                          simulate_agrimaro, truth_on_grid)
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +47,7 @@ def test_mean_nees_inside_bounds_on_thesis_terrains_ten_runs(terrain):
 
 
 def test_thesis_tuning_runs_and_tracks_velocity(turning_run):
-    run = sim_to_run(turning_run)
+    run = turning_run.run
     res = estimate_agrimaro(run, AgriMaRoEKFSettings())
     tr = truth_on_grid(turning_run, res.t_s)
     assert np.isfinite(res.x).all()
@@ -60,7 +60,7 @@ def test_thesis_tuning_runs_and_tracks_velocity(turning_run):
 def test_slip_state_design_of_chapter_4_3_is_badly_behaved():
     """The 14-state design (slip in the state, no camera) cannot tell velocity from slip."""
     result = simulate_agrimaro("GRASS", seed=3, duration_s=15.0)
-    run = sim_to_run(result)
+    run = result.run
     res = estimate_agrimaro(run, model=SlipStateModel(), store_covariance=False)
     tr = truth_on_grid(result, res.t_s)
     steady = res.t_s > 5.0

@@ -14,8 +14,8 @@ from terrain.estimation.agrimaro import AgriMaRoModel, agrimaro_samples, estimat
 from terrain.estimation.fast import FastKernel, fast_kernel_of, run_compiled
 from terrain.estimation.skid_steer import SkidSteerModel
 from terrain.estimation.slip_state import SlipStateModel
-from terrain.estimation.validation import (data_driven_settings, outage_experiment, sim_to_run,
-                                           simulate_agrimaro)
+from pipelines.validation.harness import (data_driven_settings, outage_experiment,
+                                          simulate_agrimaro)
 
 RTOL = 1e-9
 
@@ -47,7 +47,7 @@ def _both(model, grid, samples, **kw):
 
 
 def test_agrimaro_compiled_equals_reference_with_camera_outage(grass):
-    run = sim_to_run(grass)
+    run = grass.run
     settings = data_driven_settings(run)
     samples = agrimaro_samples(run, settings)
     cam = samples["cam"]
@@ -66,7 +66,7 @@ def test_agrimaro_compiled_equals_reference_with_camera_outage(grass):
 
 
 def test_agrimaro_compiled_equals_reference_with_gate(grass):
-    run = sim_to_run(grass)
+    run = grass.run
     settings = data_driven_settings(run)
     samples = agrimaro_samples(run, settings)
     imu = samples["imu"]
@@ -84,7 +84,7 @@ def test_agrimaro_compiled_equals_reference_with_gate(grass):
 def test_estimate_agrimaro_uses_the_compiled_loop_and_matches(grass):
     dropped, _ = outage_experiment(grass, t_off_s=5.0, t_on_s=7.0)
     assert dropped.meta["engine"] == "numba"
-    run = sim_to_run(grass)
+    run = grass.run
     fast = estimate_agrimaro(run, engine="auto")                      # thesis tuning
     ref = estimate_agrimaro(run, engine="numpy")
     assert_same_result(fast, ref)

@@ -8,8 +8,7 @@ import pytest
 from terrain.errors import ShapeError, TimeStepError
 from terrain.estimation import SensorSamples, make_grid, run_filter
 from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
-from terrain.estimation.validation import (outage_experiment, simulate_agrimaro,
-                                           truth_on_grid)
+from pipelines.validation.harness import outage_experiment, simulate_agrimaro, truth_on_grid
 
 
 def _straight_samples(n_wheel=300, n_gyro=3001, v=0.5, seed=0):

@@ -10,7 +10,7 @@ from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_trut
                                          run_adaptive_observer)
 from terrain.estimation.skid_steer import (SkidSteerSettings, chi_from_truth,
                                            estimate_skid_steer, icr_chi, skid_steer_on_frame)
-from terrain.estimation.validation import husky_comparison, sim_to_run, simulate_husky
+from pipelines.validation.harness import husky_comparison, simulate_husky
 from terrain.io.align import align_streams
 from terrain.vehicles import HUSKY
 
@@ -27,11 +27,11 @@ def test_planted_icr_factor_and_gyro_bias_recovered(husky_mixed):
     # target: within 5 % of truth after 10 s of mixed driving (steady turns)
     assert comp.ekf_chi_err < 0.025
     assert comp.ekf_chi_p90 < 0.05
-    res = estimate_skid_steer(sim_to_run(husky_mixed))
+    res = estimate_skid_steer(husky_mixed.run)
     assert res.state("gyro_bias")[-1] == pytest.approx(0.01, abs=0.002)
     # the planted expansion is visible: the effective chi is 1.5 x the scrub baseline (~1.1)
     assert 1.5 < float(np.median(icr_chi(res)[res.t_s > 10])) < 1.9
-    truth = husky_mixed.streams["truth"]
+    truth = husky_mixed.run.streams["truth"]
     r = HUSKY.wheel_radius_m
     chi_run = chi_from_truth(truth["omega_1"] * r, truth["omega_2"] * r, truth["yaw_rate"],
                              HUSKY.track_m)
@@ -94,7 +94,7 @@ def test_eta_from_truth_matches_eq_15():
 
 
 def test_skid_steer_on_aligned_frame_matches_native_streams(husky_mixed):
-    run = sim_to_run(husky_mixed)
+    run = husky_mixed.run
     frame = align_streams(run, ("imu", "wheels"), 50.0)
     res = skid_steer_on_frame(frame, wheel_rate_hz=run.rate_hz("wheels"))
     native = estimate_skid_steer(run)

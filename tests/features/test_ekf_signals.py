@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -10,15 +12,15 @@ from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, SIGNAL_SETS, WindowConfig, make_windows,
                               required_streams, resolve_signals)
 from terrain.errors import ConfigError
-from terrain.estimation.validation import sim_to_run, simulate_husky
+from pipelines.validation.harness import simulate_husky
 from terrain.io.align import align_streams
 from terrain.run import Run
 
 
 @pytest.fixture(scope="module")
 def husky_run():
-    return sim_to_run(simulate_husky("ASPHALT", seed=4, duration_s=40.0, icr_expansion=1.5),
-                      run_id="sim/ASPHALT/00")
+    return replace(simulate_husky("ASPHALT", seed=4, duration_s=40.0, icr_expansion=1.5).run,
+                   run_id="sim/ASPHALT/00")
 
 
 def test_signal_sets_keep_the_raw_default_and_add_ekf():

@@ -6,9 +6,10 @@ import pytest
 
 from terrain.cli import main as cli_main
 from terrain.errors import ConfigError
-from terrain.sim import Effects, SimConfig, parse_effects, simulate, write_run
+from terrain.io.writer import to_file_frames, write_run
+from terrain.sim import Effects, SimConfig, parse_effects, simulate
 from terrain.sim.dynamics import integrate
-from terrain.sim.simulate import _currents
+from terrain.sim.simulate import motor_currents
 from terrain.terramechanics import MEASURED_HUSKY_STRAIGHT, get_terrain
 from terrain.vehicles import HUSKY, get_vehicle
 
@@ -17,14 +18,14 @@ B = HUSKY.track_m
 
 def _best_lag(result, max_lag_s=1.0):
     """Lag (s) of the wheel stream behind the IMU from cross-correlating yaw rates."""
-    imu, pro = result.streams["imu"], result.streams["pro"]
-    kin = ((pro.velR - pro.velL) / B).to_numpy()
-    t = pro.time.to_numpy()
+    imu, pro = result.streams["imu"], result.streams["wheels"]
+    kin = ((pro.vel_r - pro.vel_l) / B).to_numpy()
+    t = pro.t_s.to_numpy()
     lags = np.arange(0.0, max_lag_s, 0.01)
     corr = []
     for lag in lags:
         m = t - lag >= 0
-        wz = np.interp(t[m] - lag, imu.time, imu.wz)
+        wz = np.interp(t[m] - lag, imu.t_s, imu.wz)
         corr.append(np.corrcoef(wz, kin[m])[0, 1])
     return lags[int(np.argmax(corr))]
 
@@ -33,7 +34,7 @@ def test_zero_slip_rigid_surface_constant_speed():
     r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="straight_accel",
                            duration_s=8.0, seed=0))
     tr = r.streams["truth"]
-    late = tr[tr.time > 4.0]
+    late = tr[tr.t_s > 4.0]
     assert np.abs(late[["slip_1", "slip_2"]].to_numpy()).max() < 1e-3
     assert late.v_bx.mean() == pytest.approx(0.95, abs=0.01)
     assert np.abs(late.yaw_rate).max() < 1e-9
@@ -59,9 +60,9 @@ def test_pure_rolling_yaw_rate_effects_off(husky_orchard):
 
 
 def _chi_hat(result):
-    pro, imu = result.streams["pro"], result.streams["imu"]
-    x = ((pro.velR - pro.velL) / B).to_numpy()
-    wz = np.interp(pro.time, imu.time, imu.wz)
+    pro, imu = result.streams["wheels"], result.streams["imu"]
+    x = ((pro.vel_r - pro.vel_l) / B).to_numpy()
+    wz = np.interp(pro.t_s, imu.t_s, imu.wz)
     m = np.abs(x) > 0.2
     return np.sum(x[m] ** 2) / np.sum(x[m] * wz[m])
 
@@ -97,18 +98,18 @@ def test_wheel_lag_found_by_cross_correlation(husky_orchard):
 
 
 def test_current_effects_show_their_magnitude(husky_orchard):
-    base = husky_orchard.streams["pro"]
+    base = husky_orchard.streams["wheels"]
     r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
                            duration_s=120.0, seed=7, effects=Effects(current_offset=1.5)))
-    pro = r.streams["pro"]
-    d = (pro.curR - pro.curL).mean() - (base.curR - base.curL).mean()
+    pro = r.streams["wheels"]
+    d = (pro.cur_r - pro.cur_l).mean() - (base.cur_r - base.cur_l).mean()
     assert d == pytest.approx(1.5, abs=0.05)
     r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
                            duration_s=120.0, seed=7, effects=Effects(turning_resistance=2.0)))
-    pro, tr = r.streams["pro"], husky_orchard.streams["truth"]
-    turning = np.interp(pro.time, tr.time, np.abs(tr.yaw_rate)) > 0.25
-    extra = (pro.curL + pro.curR - base.curL - base.curR)[turning].mean() / 2
-    straight = (pro.curL + pro.curR - base.curL - base.curR)[~turning].mean() / 2
+    pro, tr = r.streams["wheels"], husky_orchard.streams["truth"]
+    turning = np.interp(pro.t_s, tr.t_s, np.abs(tr.yaw_rate)) > 0.25
+    extra = (pro.cur_l + pro.cur_r - base.cur_l - base.cur_r)[turning].mean() / 2
+    straight = (pro.cur_l + pro.cur_r - base.cur_l - base.cur_r)[~turning].mean() / 2
     assert extra == pytest.approx(2.0, abs=0.2)
     assert abs(straight) < extra / 2
 
@@ -118,10 +119,10 @@ def test_grade_resistance_extra_current_on_slope():
                seed=2)
     base = simulate(SimConfig(**cfg))
     r = simulate(SimConfig(**cfg, effects=Effects(grade_resistance=4.0)))
-    pitch = np.interp(r.streams["pro"].time, base.streams["truth"].time,
+    pitch = np.interp(r.streams["wheels"].t_s, base.streams["truth"].t_s,
                       np.abs(base.streams["truth"].pitch))
-    d = ((r.streams["pro"].curL - base.streams["pro"].curL)
-         + (r.streams["pro"].curR - base.streams["pro"].curR)).to_numpy() / 2
+    d = ((r.streams["wheels"].cur_l - base.streams["wheels"].cur_l)
+         + (r.streams["wheels"].cur_r - base.streams["wheels"].cur_r)).to_numpy() / 2
     slope = np.sum(d * pitch) / np.sum(pitch * pitch)
     assert slope == pytest.approx(4.0, rel=0.05)
     # the accelerometer sees gravity along the slope: mean |(ax, ay)| ~ g sin(15 deg)
@@ -137,7 +138,7 @@ def test_husky_straight_current_matches_measured(terrain):
     tw = np.zeros((len(t), 3))
     tw[:, 0] = np.minimum(t * 0.5, speed)
     phys = integrate(HUSKY, g, (get_terrain(terrain),), 25.0, t, tw, 0.0, 1.55)
-    cur = _currents(phys, HUSKY, Effects(icr_expansion=1.55))
+    cur = motor_currents(phys, HUSKY, Effects(icr_expansion=1.55))
     assert cur[t > 6.0].mean() == pytest.approx(target, rel=0.05)
 
 
@@ -147,9 +148,9 @@ def test_thesis_straight_line_steady_slip():
         r = simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,),
                                scenario="straight_accel", duration_s=8.0, seed=0))
         tr = r.streams["truth"]
-        steady = tr.loc[tr.time > 4.0, ["slip_1", "slip_2", "slip_3"]].to_numpy().mean()
+        steady = tr.loc[tr.t_s > 4.0, ["slip_1", "slip_2", "slip_3"]].to_numpy().mean()
         assert lo <= steady <= hi, (terrain, steady)
-        early = tr.loc[(tr.time > 0.2) & (tr.time < 2.0), "slip_1"].max()
+        early = tr.loc[(tr.t_s > 0.2) & (tr.t_s < 2.0), "slip_1"].max()
         assert early > steady                     # acceleration peak above cruise
 
 
@@ -158,7 +159,7 @@ def test_dig_in_on_ploughed_but_not_on_asphalt():
     for terrain in ("ASPHALT", "PLOUGHED"):
         r = simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario="spin",
                                duration_s=6.0, seed=0))
-        tr = r.streams["truth"][r.streams["truth"].time > 2.0]
+        tr = r.streams["truth"][r.streams["truth"].t_s > 2.0]
         out[terrain] = (np.abs(tr.yaw_rate).mean(), np.abs(tr.slip_1).mean())
     assert out["ASPHALT"][0] > 0.45                # commanded 0.6 rad/s
     assert out["PLOUGHED"][0] < 0.15              # digs in...
@@ -235,7 +236,7 @@ def test_cli_bad_names_exit_2(tmp_path, capsys):
 
 def test_write_run_round_trip(tmp_path, husky_orchard):
     paths = write_run(husky_orchard, tmp_path)
-    for name, frame in husky_orchard.streams.items():
+    for name, frame in to_file_frames(husky_orchard).items():
         back = pd.read_csv(paths[name])
         assert list(back.columns) == list(frame.columns)
         num = frame.select_dtypes("number").columns
@@ -245,10 +246,10 @@ def test_write_run_round_trip(tmp_path, husky_orchard):
 def test_wheel_rates_and_camera_lever_arm():
     r = simulate(SimConfig(vehicle="agrimaro", terrains=("TILES",), scenario="random",
                            duration_s=30.0, seed=4))
-    assert np.median(np.diff(r.streams["imu"].time)) == pytest.approx(0.01)
+    assert np.median(np.diff(r.streams["imu"].t_s)) == pytest.approx(0.01)
     cam, tr = r.streams["cam"], r.streams["truth"]
-    yr = np.interp(cam.time, tr.time, tr.yaw_rate)
-    vx = np.interp(cam.time, tr.time, tr.v_bx)
+    yr = np.interp(cam.t_s, tr.t_s, tr.yaw_rate)
+    vx = np.interp(cam.t_s, tr.t_s, tr.v_bx)
     # v_cx = v_bx - yaw_rate * d_y  with d_y = -0.26875 (seed 001 eq. 5.4)
     resid = cam.v_cx - (vx + 0.26875 * yr)
     assert np.abs(resid.mean()) < 0.01 and resid.std() < 0.03
@@ -280,9 +281,42 @@ def test_agrimaro_reported_wheel_speed_is_unbiased_in_cruise():
     res = simulate(SimConfig(vehicle="agrimaro", terrains=("TILES",), scenario="straight_accel",
                              duration_s=20.0, seed=0))
     om, tr = res.streams["omega"], res.streams["truth"]
-    t = om["time"].to_numpy()
+    t = om["t_s"].to_numpy()
     cruise = t > 5.0
-    true = np.interp(t, tr["time"], tr["omega_1"])
+    true = np.interp(t, tr["t_s"], tr["omega_1"])
     err = om["omega_1"].to_numpy()[cruise] - true[cruise]
     assert abs(err.mean()) < 0.02          # rad/s, vs a 3.49 rad/s count-rate quantum at 50 Hz
     assert 0.01 < err.std() < 0.5          # quantisation noise left by the driver filter
+
+
+def test_written_run_reads_back_as_the_simulated_run(tmp_path, husky_orchard):
+    """terrain.io writes the simulated Run; the measured-data reader loads the same streams."""
+    from terrain.io.measured import read_runs_dir
+
+    write_run(husky_orchard, tmp_path)
+    (back,) = read_runs_dir(tmp_path, "sim")
+    assert back.vehicle == "husky" and back.terrain == "ASPHALT"
+    assert set(back.streams) == set(husky_orchard.streams)
+    for name, frame in husky_orchard.streams.items():
+        got = back.streams[name]
+        assert got.columns[0] == "t_s" and set(got.columns) == set(frame.columns), name
+        got = got[list(frame.columns)]
+        num = frame.select_dtypes("number").columns
+        np.testing.assert_allclose(got[num].to_numpy(), frame[num].to_numpy(), rtol=1e-8,
+                                   atol=1e-9)
+    assert back.meta["effects"] == husky_orchard.meta["effects"]
+
+
+
+def test_validate_sim_command_prints_the_documented_tables(tmp_path, capsys):
+    """`terrain validate sim` prints the tables of docs/sim_validation.md."""
+    out = tmp_path / "sim.md"
+    assert cli_main(["validate", "sim", "--quick", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "### AgriMaRo straight-line test" in capsys.readouterr().out
+    rows = {line.split("|")[1].strip(): line for line in text.splitlines()
+            if line.startswith("| ") and not line.startswith("| terrain")}
+    grass = [float(v) for v in rows["GRASS"].strip("| ").split("|")[1:]]
+    assert 0.116 <= grass[0] <= 0.135 and grass[1] > grass[0]   # thesis steady slip, peak above
+    asphalt = [float(v) for v in rows["ASPHALT"].strip("| ").split("|")[1:]]
+    assert asphalt[1] == pytest.approx(asphalt[0], rel=0.05)      # current matches measured

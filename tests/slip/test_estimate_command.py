@@ -7,8 +7,9 @@ import pandas as pd
 import pytest
 
 from terrain.cli import main
-from terrain.estimation.validation import FINE_ENCODER
-from terrain.sim import Effects, SimConfig, simulate, write_run
+from pipelines.validation.harness import FINE_ENCODER
+from terrain.io.writer import write_run
+from terrain.sim import Effects, SimConfig, simulate
 
 
 @pytest.fixture(scope="module")

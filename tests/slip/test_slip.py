@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError, EstimationError, ShapeError
-from terrain.estimation.validation import (THESIS_TERRAINS, sim_to_run, simulate_agrimaro,
-                                           simulate_husky, truth_on_grid)
+from pipelines.validation.harness import (THESIS_TERRAINS, simulate_agrimaro, simulate_husky,
+                                          truth_on_grid)
 from terrain.sim import Effects
 from terrain.slip import (DEAD_BAND_M_S, estimate_lag, estimate_run, sae_slip,
                           wheel_longitudinal_velocity, wheel_slip)
@@ -77,7 +77,7 @@ def test_estimate_lag_recovers_a_planted_delay():
 @pytest.mark.parametrize("terrain", ["GRASS"])
 def test_steady_slip_error_below_001_per_wheel(terrain):
     result = simulate_agrimaro(terrain, seed=1, duration_s=15.0)
-    est = estimate_run(sim_to_run(result))
+    est = estimate_run(result.run)
     tr = truth_on_grid(result, est.ekf.t_s)
     steady = est.ekf.t_s > 5.0
     for j in range(3):
@@ -94,7 +94,7 @@ def test_steady_slip_error_below_001_per_wheel(terrain):
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_steady_slip_error_below_001_all_thesis_terrains(terrain, seed):
     result = simulate_agrimaro(terrain, seed=seed, duration_s=20.0)
-    est = estimate_run(sim_to_run(result))
+    est = estimate_run(result.run)
     tr = truth_on_grid(result, est.ekf.t_s)
     steady = est.ekf.t_s > 5.0
     for j in range(3):
@@ -104,7 +104,7 @@ def test_steady_slip_error_below_001_all_thesis_terrains(terrain, seed):
 def test_thesis_tuning_biases_slip_towards_zero():
     """Eq. 6.13's R = 0.05 on the encoders lets the zero-slip wheel model pull the velocity."""
     result = simulate_agrimaro("GRAVEL", seed=1, duration_s=15.0)
-    run = sim_to_run(result)
+    run = result.run
     thesis = estimate_run(run, tuning="thesis")
     noise = estimate_run(run, tuning="noise")
     tr = truth_on_grid(result, thesis.ekf.t_s)
@@ -117,7 +117,7 @@ def test_lag_compensation_by_cross_correlation_beats_the_ema():
     """Known encoder lag (planted 0.3 s): transient slip error of each remedy."""
     result = simulate_agrimaro("GRASS", seed=1, duration_s=12.0,
                                effects=Effects(wheel_lag=0.3))
-    run = sim_to_run(result)
+    run = result.run
     errs = {}
     for mode in ("none", "ema", "xcorr"):
         est = estimate_run(run, lag=mode)
@@ -135,7 +135,7 @@ def test_lag_compensation_by_cross_correlation_beats_the_ema():
 
 def test_husky_run_gives_side_slips_and_recovers_wheel_lag():
     result = simulate_husky("ASPHALT", seed=2, duration_s=30.0, icr_expansion=1.0)
-    est = estimate_run(sim_to_run(result))
+    est = estimate_run(result.run)
     assert est.vehicle == "husky" and est.slip_names == ("slip_1", "slip_2")
     tr = truth_on_grid(result, est.ekf.t_s)
     moving = (np.abs(tr["v_bx"]) > 0.1).to_numpy() & (est.ekf.t_s > 5)
@@ -144,16 +144,16 @@ def test_husky_run_gives_side_slips_and_recovers_wheel_lag():
         assert np.nanmedian(np.abs(est.slip[moving, j] - tr[f"slip_{j + 1}"][moving])) < 0.02
     assert abs(est.lag.lag_s) < 0.05
     lagged = simulate_husky("ASPHALT", seed=2, duration_s=30.0, icr_expansion=1.0)
-    from terrain.sim import SimConfig, simulate
-    lagged = simulate(SimConfig(**{**lagged.config.__dict__,
-                                   "effects": Effects(wheel_lag=0.4)}))
-    est_lag = estimate_run(sim_to_run(lagged))
+    from terrain.sim import SimConfig, simulate_with_physics
+    lagged = simulate_with_physics(SimConfig(**{**lagged.config.__dict__,
+                                                "effects": Effects(wheel_lag=0.4)}))
+    est_lag = estimate_run(lagged.run)
     assert est_lag.lag.lag_s == pytest.approx(0.4, abs=0.05)
 
 
 def test_bad_options():
     result = simulate_husky("ASPHALT", seed=2, duration_s=5.0)
-    run = sim_to_run(result)
+    run = result.run
     with pytest.raises(ConfigError):
         estimate_run(run, lag="magic")
     with pytest.raises(ConfigError):

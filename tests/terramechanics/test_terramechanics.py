@@ -91,3 +91,36 @@ def test_dig_in_prediction():
     assert can_turn_in_place(g, get_terrain("ASPHALT"))
     assert not can_turn_in_place(g, get_terrain("PLOUGHED"))
     assert turning_resistance_moment_nm(0.5, 100.0, 0.6) == pytest.approx(7.5)
+
+
+def test_one_sae_slip_with_the_simulator_and_thesis_conditioning():
+    from terrain.slip import sae_slip as slip_reexport
+    from terrain.terramechanics.slip import sae_slip_and_velocity_slope
+
+    assert slip_reexport is sae_slip
+    # thesis defaults: 0.05 m/s dead band, saturation 1
+    assert sae_slip(0.04, 0.0) == 0.0
+    # simulator: no dead band, denominator floored at 0.02 m/s -> linear near standstill
+    s = sae_slip(0.01, 0.0, speed_floor_m_s=0.02, dead_band_m_s=0.0)
+    assert s == pytest.approx(0.5)
+    wr = np.array([1.0, 1.0, 0.01, 0.5])
+    v = np.array([0.8, 1.2, 0.0, -0.6])
+    slip, dsdv = sae_slip_and_velocity_slope(wr, v, 0.02)
+    np.testing.assert_allclose(slip, sae_slip(wr, v, speed_floor_m_s=0.02, dead_band_m_s=0.0))
+    h = 1e-7
+    fd = (sae_slip(wr, v + h, speed_floor_m_s=0.02, dead_band_m_s=0.0)
+          - sae_slip(wr, v - h, speed_floor_m_s=0.02, dead_band_m_s=0.0)) / (2 * h)
+    np.testing.assert_allclose(dsdv, fd, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["ASPHALT", "GRASS", "DIRT_ROAD"])
+def test_curve_coefficients_slopes_match_finite_differences(name):
+    terrain = TERRAINS[name]
+    s = np.linspace(0.05, 0.95, 7)
+    h = 1e-6
+    c = terrain.curve.coefficients(s, terrain.soil_resistance)
+    up = terrain.curve.coefficients(s + h, terrain.soil_resistance)
+    dn = terrain.curve.coefficients(s - h, terrain.soil_resistance)
+    np.testing.assert_allclose(c.dmu_ds, (up.mu - dn.mu) / (2 * h), rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(c.dresistance_ds, (up.resistance - dn.resistance) / (2 * h),
+                               rtol=1e-5, atol=1e-7)

@@ -1,16 +1,12 @@
-"""Validation figures of issue 4 on simulated and measured runs (imports :mod:`terrain.sim`).
+"""Tables of ``docs/estimation_validation.md``: estimators on simulated and measured runs.
 
-``python -m terrain.slip.validation [--quick] [--out FILE]`` prints every table of
-``docs/estimation_validation.md`` as Markdown (and writes them to FILE). Nothing in the
-library imports this module.
+``terrain validate estimation [--quick] [--out FILE]`` (:mod:`pipelines.validate`) prints every
+table as Markdown (and writes them to FILE). Nothing in the library imports this module.
 """
 
 from __future__ import annotations
 
-import argparse
-import time
-from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -19,12 +15,11 @@ from terrain.estimation.agrimaro import estimate_agrimaro
 from terrain.estimation.consistency import nees, state_errors
 from terrain.estimation.slip_state import STATE_NAMES as SLIP_STATE_NAMES
 from terrain.estimation.slip_state import SlipStateModel, noise_derived_slip_state_model
-from terrain.estimation.validation import (THESIS_TERRAINS, agrimaro_consistency,
-                                           coriolis_filter_rmse, coriolis_prediction_error,
-                                           data_driven_settings, husky_comparison,
-                                           measured_skid_steer_summary, outage_experiment,
-                                           sim_to_run, simulate_agrimaro, simulate_husky,
-                                           truth_on_grid)
+from pipelines.validation.harness import (THESIS_TERRAINS, agrimaro_consistency,
+                                          coriolis_filter_rmse, coriolis_prediction_error,
+                                          data_driven_settings, husky_comparison,
+                                          measured_skid_steer_summary, outage_experiment,
+                                          simulate_agrimaro, simulate_husky, truth_on_grid)
 from terrain.sim import Effects, SensorSettings
 from terrain.slip.estimate import estimate_run
 
@@ -45,12 +40,25 @@ def _slip_errors(result, est, t_steady_s: float = 5.0, t_transient_s: float = 3.
 
 
 def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0) -> pd.DataFrame:
-    """Steady-state slip error per wheel (straight_accel, thesis scenario), per tuning."""
+    """Steady-state slip error per wheel (straight_accel, thesis scenario), per tuning.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         for seed in seeds:
             result = simulate_agrimaro(terrain, seed, duration_s)
-            run = sim_to_run(result)
+            run = result.run
             for tuning in ("noise", "thesis"):
                 row = {"terrain": terrain, "seed": seed, "tuning": tuning}
                 row.update(_slip_errors(result, estimate_run(run, tuning=tuning)))
@@ -59,33 +67,68 @@ def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0
 
 
 def default_encoder_table(seed: int = 1) -> pd.DataFrame:
-    """The same with the simulator's default (undithered 3.49 rad/s) encoder quantisation."""
+    """The same with the simulator's default (undithered 3.49 rad/s) encoder quantisation.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated run(s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         result = simulate_agrimaro(terrain, seed, 20.0, sensors=SensorSettings(
             wheel_rate_hz=50.0, speed_quantum_m_s=0.0, current_quantum_a=0.01))
-        est = estimate_run(sim_to_run(result))
+        est = estimate_run(result.run)
         rows.append({"terrain": terrain, **_slip_errors(result, est),
                      "lag_s": est.lag.lag_s if est.lag else float("nan")})
     return pd.DataFrame(rows)
 
 
 def consistency_table(n_runs: int = 10, duration_s: float = 20.0) -> pd.DataFrame:
-    """Monte Carlo NEES / NIS and RMSE per terrain (straight_accel), with slip RMSE."""
+    """Monte Carlo NEES / NIS and RMSE per terrain (straight_accel), with slip RMSE.
+
+    Parameters
+    ----------
+    n_runs : int
+        Monte Carlo runs per terrain.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         row = agrimaro_consistency(terrain, range(n_runs), duration_s).as_dict()
         slip_rmse = []
         for seed in range(min(n_runs, 3)):
             result = simulate_agrimaro(terrain, seed, duration_s)
-            slip_rmse.append(_slip_errors(result, estimate_run(sim_to_run(result)))["rmse"])
+            slip_rmse.append(_slip_errors(result, estimate_run(result.run))["rmse"])
         row["rmse_slip"] = float(np.mean(slip_rmse))
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def coriolis_table(seeds: Sequence[int] = (1, 2)) -> pd.DataFrame:
-    """One-step model error and filter RMSE with each Coriolis sign (random driving)."""
+    """One-step model error and filter RMSE with each Coriolis sign (random driving).
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for seed in seeds:
         result = simulate_agrimaro("GRASS", seed, 30.0, scenario="random")
@@ -98,12 +141,25 @@ def coriolis_table(seeds: Sequence[int] = (1, 2)) -> pd.DataFrame:
 
 
 def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) -> pd.DataFrame:
-    """The 14-state slip-in-state EKF (ch. 4.3) against the 12-state design + post-hoc slip."""
+    """The 14-state slip-in-state EKF (ch. 4.3) against the 12-state design + post-hoc slip.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for terrain in THESIS_TERRAINS:
         for seed in seeds:
             result = simulate_agrimaro(terrain, seed, duration_s)
-            run = sim_to_run(result)
+            run = result.run
             settings = data_driven_settings(run)
             acc = float(np.sqrt(settings.r_diag[3]))
             for label, model in (("ch4.3 as published (no camera)", SlipStateModel()),
@@ -139,12 +195,25 @@ def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) ->
 
 
 def lag_table(lags_s: Sequence[float] = (0.0, 0.1, 0.3), seed: int = 1) -> pd.DataFrame:
-    """Transient slip RMSE (first 3 s) with each lag remedy, planted encoder lags."""
+    """Transient slip RMSE (first 3 s) with each lag remedy, planted encoder lags.
+
+    Parameters
+    ----------
+    lags_s : sequence of float
+        Planted ``wheel_lag`` values, s.
+    seed : int
+        Seed of the simulated run(s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for lag in lags_s:
         for terrain in THESIS_TERRAINS:
             result = simulate_agrimaro(terrain, seed, 15.0, effects=Effects(wheel_lag=lag))
-            run = sim_to_run(result)
+            run = result.run
             row = {"planted_lag_s": lag, "terrain": terrain}
             for mode in ("none", "ema", "xcorr"):
                 est = estimate_run(run, lag=mode)
@@ -158,7 +227,18 @@ def lag_table(lags_s: Sequence[float] = (0.0, 0.1, 0.3), seed: int = 1) -> pd.Da
 
 
 def outage_table(seed: int = 2) -> pd.DataFrame:
-    """Velocity std and error before, during and after a 3 s camera outage."""
+    """Velocity std and error before, during and after a 3 s camera outage.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated run(s).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     result = simulate_agrimaro("GRASS", seed, 16.0, scenario="random")
     dropped, _ = outage_experiment(result, 8.0, 11.0)
     tr = truth_on_grid(result, dropped.t_s)
@@ -176,7 +256,18 @@ def outage_table(seed: int = 2) -> pd.DataFrame:
 
 
 def husky_table(seeds: Sequence[int] = (3, 4, 5)) -> pd.DataFrame:
-    """EKF vs adaptive observer on mixed driving and on orchard rows (Assumption 1)."""
+    """EKF vs adaptive observer on mixed driving and on orchard rows (Assumption 1).
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the simulated runs.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     rows = []
     for scenario, duration, terrains in (("random", 60.0, ("ASPHALT", "FLOORING", "ICE")),
                                          ("orchard", 120.0, ("ASPHALT", "FLOORING"))):
@@ -188,7 +279,18 @@ def husky_table(seeds: Sequence[int] = (3, 4, 5)) -> pd.DataFrame:
 
 
 def measured_table(datasets: Sequence[str] = ("borealtc", "vulpi")) -> pd.DataFrame:
-    """Per-terrain medians of the skid-steer EKF and the yaw-only observer on shipped runs."""
+    """Per-terrain medians of the skid-steer EKF and the yaw-only observer on shipped runs.
+
+    Parameters
+    ----------
+    datasets : sequence of str
+        Shipped datasets (``borealtc``, ``vulpi``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (columns as printed in the report).
+    """
     from terrain.io.shipped import load_dataset
     frames = []
     for name in datasets:
@@ -204,27 +306,20 @@ def measured_table(datasets: Sequence[str] = ("borealtc", "vulpi")) -> pd.DataFr
             .reset_index())
 
 
-def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:
-    """A DataFrame as a Markdown table (floats with ``digits`` significant digits)."""
-    def fmt(v) -> str:
-        if isinstance(v, (float, np.floating)):
-            return "nan" if not np.isfinite(v) else f"{v:.{digits}g}"
-        return str(v)
-    head = "| " + " | ".join(map(str, table.columns)) + " |"
-    rule = "|" + "|".join("---" for _ in table.columns) + "|"
-    body = ["| " + " | ".join(fmt(v) for v in row) + " |"
-            for row in table.itertuples(index=False)]
-    return "\n".join([head, rule, *body])
+def sections(quick: bool = False) -> list[tuple[str, Callable[[], pd.DataFrame]]]:
+    """The report's tables, in order.
 
+    Parameters
+    ----------
+    quick : bool
+        Fewer seeds / runs (a smoke run, not the published figures).
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Compute every table and print it as Markdown; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer seeds / runs")
-    parser.add_argument("--out", type=Path, default=None, help="write the Markdown here")
-    args = parser.parse_args(argv)
-    q = args.quick
-    sections = [
+    Returns
+    -------
+    list of (title, table function)
+    """
+    q = quick
+    return [
         ("Steady-state slip error per wheel (straight_accel, 20 s)",
          lambda: steady_slip_table((1,) if q else (1, 2, 3))),
         ("Simulator default encoder (undithered quantisation)", default_encoder_table),
@@ -239,18 +334,3 @@ def main(argv: Sequence[str] | None = None) -> int:
          lambda: husky_table((3,) if q else (3, 4, 5))),
         ("Measured runs: per-terrain estimates", measured_table),
     ]
-    text = []
-    for title, fn in sections:
-        start = time.perf_counter()
-        table = fn()
-        block = (f"### {title}\n\n{to_markdown(table)}\n\n"
-                 f"({time.perf_counter() - start:.1f} s)\n")
-        print(block, flush=True)
-        text.append(block)
-    if args.out is not None:
-        args.out.write_text("\n".join(text))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,8 +1,8 @@
-"""Validation of the estimators on simulated runs (imports :mod:`terrain.sim`).
+"""Validation harness of the estimators on simulated runs (outside the library).
 
-Used by the tests, the benchmark and ``docs/estimation_validation.md``; nothing in the
-library imports it. Slip-level validation (which needs :mod:`terrain.slip`) is in
-:mod:`terrain.slip.validation`, which also prints every figure of the report.
+Used by the tests, ``benchmarks/bench_ekf.py`` and ``terrain validate estimation``
+(:mod:`pipelines.validation.estimation_tables`, every figure of
+``docs/estimation_validation.md``); nothing in :mod:`terrain` imports it.
 
 Simulated AgriMaRo runs use a fine wheel encoder (``speed_quantum_m_s=1e-6``): with the
 default sensor settings the simulator rounds the *filtered* wheel speed to its 90 count/rev
@@ -27,33 +27,25 @@ from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_trut
 from terrain.estimation.prefilter import robust_noise_std
 from terrain.estimation.runner import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
-from terrain.io.measured import COLUMN_MAPS
 from terrain.run import TIME, Run
-from terrain.sim import Effects, SensorSettings, SimConfig, simulate
+from terrain.sim import Effects, SensorSettings, SimConfig, Simulation, simulate_with_physics
 from terrain.vehicles import HUSKY
 
-#: simulator file columns -> canonical names (what terrain.io.measured maps them to)
 #: AgriMaRo sensors with a fine wheel encoder (see the module docstring).
 FINE_ENCODER = SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=1e-6,
                               current_quantum_a=0.01)
 THESIS_TERRAINS = ("TILES", "GRASS", "GRAVEL")
 
 
-def sim_to_run(result, run_id: str = "sim/TEST/00") -> Run:
-    """A :class:`Run` with the streams of a SimResult renamed as the CSV reader does."""
-    streams = {}
-    for name, frame in result.streams.items():
-        if name == "pro":
-            streams["wheels"] = frame.rename(columns=dict(COLUMN_MAPS["pro"]))
-        else:
-            streams[name] = frame.rename(columns={"time": TIME})
-    return Run(run_id=run_id, dataset="sim", terrain=str(result.meta["terrain"]),
-               streams=streams, vehicle=str(result.meta["vehicle"]), source="simulated",
-               meta=dict(result.meta))
-
-
-def truth_on_grid(result, t_grid: np.ndarray) -> pd.DataFrame:
+def truth_on_grid(result: Simulation, t_grid: np.ndarray) -> pd.DataFrame:
     """Physics ground truth linearly interpolated on ``t_grid``.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated run with its physics-rate truth.
+    t_grid : ndarray, shape (N,)
+        Times, s.
 
     Returns
     -------
@@ -77,15 +69,49 @@ def truth_on_grid(result, t_grid: np.ndarray) -> pd.DataFrame:
 
 def simulate_agrimaro(terrain: str, seed: int, duration_s: float = 20.0,
                       scenario: str = "straight_accel", effects: Effects = Effects(),
-                      sensors: SensorSettings = FINE_ENCODER):
-    """One simulated AgriMaRo run (fine encoder by default)."""
-    return simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
+                      sensors: SensorSettings = FINE_ENCODER) -> Simulation:
+    """One simulated AgriMaRo run (fine encoder by default), with its physics-rate truth.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seed : int
+        Seed of the run.
+    duration_s : float
+        Simulated time, s.
+    scenario : str
+        Driving scenario (:data:`terrain.sim.SCENARIO_NAMES`).
+    effects : Effects
+        Planted effects.
+    sensors : SensorSettings
+        Sensor settings (default :data:`FINE_ENCODER`).
+
+    Returns
+    -------
+    Simulation
+    """
+    return simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
                               duration_s=duration_s, seed=seed, effects=effects,
                               sensors=sensors))
 
 
-def agrimaro_truth_states(result, t_grid: np.ndarray) -> np.ndarray:
-    """True 12-state vector on ``t_grid``, shape (N, 12) (gyro bias = the planted effect)."""
+def agrimaro_truth_states(result: Simulation, t_grid: np.ndarray) -> np.ndarray:
+    """True 12-state vector of the AgriMaRo EKF on a time grid.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+    t_grid : ndarray, shape (N,)
+        Times, s.
+
+    Returns
+    -------
+    ndarray, shape (N, 12)
+        States in :data:`terrain.estimation.agrimaro.STATE_NAMES` order (SI units; the gyro
+        bias is the planted effect).
+    """
     tr = truth_on_grid(result, t_grid)
     bias = float(result.config.effects.gyro_bias)
     return np.column_stack([tr[s].to_numpy() if s in tr else np.full(len(tr), bias)
@@ -93,7 +119,19 @@ def agrimaro_truth_states(result, t_grid: np.ndarray) -> np.ndarray:
 
 
 def data_driven_settings(run: Run, **kwargs) -> AgriMaRoEKFSettings:
-    """:func:`noise_derived_settings` with the accelerometer noise measured on the run."""
+    """:func:`noise_derived_settings` with the accelerometer noise measured on the run.
+
+    Parameters
+    ----------
+    run : Run
+        Run with an ``imu`` stream.
+    **kwargs
+        Further arguments of :func:`noise_derived_settings`.
+
+    Returns
+    -------
+    AgriMaRoEKFSettings
+    """
     imu = run.streams["imu"]
     rate = float(1.0 / np.median(np.diff(imu[TIME].to_numpy())))
     acc = float(np.nanmax(robust_noise_std(imu[["ax", "ay"]].to_numpy(float), rate)))
@@ -102,7 +140,29 @@ def data_driven_settings(run: Run, **kwargs) -> AgriMaRoEKFSettings:
 
 @dataclass(frozen=True)
 class ConsistencyRow:
-    """Monte Carlo consistency of the AgriMaRo EKF on one terrain."""
+    """Monte Carlo consistency of the AgriMaRo EKF on one terrain.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    n_runs : int
+        Number of Monte Carlo runs M.
+    anees : float
+        Time average of the run-averaged NEES (12 states).
+    nees_bounds : tuple of float
+        Two-sided chi-square bounds of the run-averaged NEES.
+    nees_fraction_in_bounds : float
+        Fraction of time steps whose run-averaged NEES is inside the bounds.
+    nis_mean : float
+        Mean NIS over runs and steps.
+    nis_dof : float
+        Mean number of measurement rows.
+    nis_bounds : tuple of float
+        Bounds of the mean NIS.
+    rmse : dict
+        State name -> RMSE (SI units) of ``v_bx, v_by, yaw_rate``.
+    """
 
     terrain: str
     n_runs: int
@@ -115,7 +175,13 @@ class ConsistencyRow:
     rmse: dict[str, float]
 
     def as_dict(self) -> dict:
-        """Flat row for a table."""
+        """Flat row for a table.
+
+        Returns
+        -------
+        dict
+            Column -> value (bounds split into ``_lo``/``_hi``, ``rmse_<state>``).
+        """
         d = {"terrain": self.terrain, "runs": self.n_runs, "ANEES": self.anees,
              "NEES_lo": self.nees_bounds[0], "NEES_hi": self.nees_bounds[1],
              "NEES_inside": self.nees_bounds[0] <= self.anees <= self.nees_bounds[1],
@@ -137,12 +203,33 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
     reported ANEES is the time average of the run-averaged NEES (``t >= t_min_s``); the
     fraction of time steps inside the bounds is reported beside it. NIS: time and run
     average against the bounds of its mean number of rows.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seeds : sequence of int
+        Seeds of the Monte Carlo runs.
+    duration_s : float
+        Simulated time per run, s.
+    scenario : str
+        Driving scenario.
+    settings_fn : callable
+        Run -> EKF settings (default :func:`data_driven_settings`).
+    t_min_s : float
+        Start of the evaluated interval, s.
+    probability : float
+        Two-sided probability of the chi-square bounds.
+
+    Returns
+    -------
+    ConsistencyRow
     """
     nees_runs, nis_all, dof_all, sq = [], [], [], {k: [] for k in ("v_bx", "v_by", "yaw_rate")}
     grid = None
     for seed in seeds:
         result = simulate_agrimaro(terrain, seed, duration_s, scenario)
-        run = sim_to_run(result)
+        run = result.run
         res = estimate_agrimaro(run, settings_fn(run), store_covariance=True)
         truth = agrimaro_truth_states(result, res.t_s)
         e = state_errors(res.x, truth, (2,))
@@ -169,12 +256,22 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
                                 for k, v in sq.items()})
 
 
-def coriolis_prediction_error(result) -> dict[str, float]:
+def coriolis_prediction_error(result: Simulation) -> dict[str, float]:
     """RMS one-step velocity prediction error of the process model fed with ground truth.
 
     For each physics step the model predicts ``v(t + dt)`` from the true ``v, yaw_rate``
     and the true accelerometer acceleration ``a_b``; the error against the true ``v(t+dt)``
-    is the model error alone. Returns m/s for ``body`` (eqs. 4.33-4.34) and ``eq6.2``.
+    is the model error alone.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+
+    Returns
+    -------
+    dict
+        Convention (``body``, eqs. 4.33-4.34, and ``eq6.2``) -> RMS error, m/s.
     """
     ph = result.physics
     dt = float(ph.t_s[1] - ph.t_s[0])
@@ -193,10 +290,23 @@ def coriolis_prediction_error(result) -> dict[str, float]:
     return out
 
 
-def coriolis_filter_rmse(result, settings_fn: Callable[[Run], AgriMaRoEKFSettings]
+def coriolis_filter_rmse(result: Simulation, settings_fn: Callable[[Run], AgriMaRoEKFSettings]
                          = data_driven_settings) -> dict[str, dict[str, float]]:
-    """Velocity RMSE of the whole EKF with each Coriolis convention, against truth."""
-    run = sim_to_run(result)
+    """Velocity RMSE of the whole EKF with each Coriolis convention, against truth.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+    settings_fn : callable
+        Run -> EKF settings.
+
+    Returns
+    -------
+    dict
+        Convention -> state (``v_bx, v_by, yaw_rate``) -> RMSE, m/s or rad/s.
+    """
+    run = result.run
     base = settings_fn(run)
     out = {}
     for conv in ("body", "eq6.2"):
@@ -210,9 +320,29 @@ def coriolis_filter_rmse(result, settings_fn: Callable[[Run], AgriMaRoEKFSetting
 # -- skid-steer ------------------------------------------------------------------------------
 
 def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: str = "random",
-                   icr_expansion: float = 1.5, gyro_bias: float = 0.01):
-    """One simulated Husky run with a planted ICR expansion and gyro bias."""
-    return simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
+                   icr_expansion: float = 1.5, gyro_bias: float = 0.01) -> Simulation:
+    """One simulated Husky run with a planted ICR expansion and gyro bias.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seed : int
+        Seed of the run.
+    duration_s : float
+        Simulated time, s.
+    scenario : str
+        Driving scenario (:data:`terrain.sim.SCENARIO_NAMES`).
+    icr_expansion : float
+        Planted chi (dimensionless).
+    gyro_bias : float
+        Planted gyro bias, rad/s.
+
+    Returns
+    -------
+    Simulation
+    """
+    return simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
                               duration_s=duration_s, seed=seed,
                               effects=Effects(icr_expansion=icr_expansion,
                                               gyro_bias=gyro_bias)))
@@ -220,8 +350,25 @@ def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: 
 
 def steady_turn_mask(t_s: np.ndarray, yaw_rate: np.ndarray, min_rate: float = 0.15,
                      max_yaw_accel: float = 0.05, t_min_s: float = 10.0) -> np.ndarray:
-    """Samples in a steady turn (|yaw rate| > min_rate, |d yaw rate / dt| < max_yaw_accel)
-    after ``t_min_s``; where the ICR factor and eta are defined and constant."""
+    """Samples in a steady turn, where the ICR factor and eta are defined and constant.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (N,)
+        Times, s.
+    yaw_rate : ndarray, shape (N,)
+        Yaw rate, rad/s.
+    min_rate : float
+        Smallest |yaw rate|, rad/s.
+    max_yaw_accel : float
+        Largest |d yaw rate / dt|, rad/s^2.
+    t_min_s : float
+        Samples before this time are excluded, s.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
     wd = np.gradient(yaw_rate, t_s)
     return (np.abs(yaw_rate) > min_rate) & (np.abs(wd) < max_yaw_accel) & (t_s >= t_min_s)
 
@@ -233,6 +380,23 @@ class HuskyComparison:
     ``*_err`` are median relative errors over steady turns after 10 s; ``*_p90`` the 90th
     percentile; ``*_conv_s`` the time after which the relative error of the steady-turn
     samples stays below 5 %.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    seed : int
+        Seed of the run.
+    chi_true : float
+        Median true local ICR factor over steady turns.
+    ekf_chi_err, ekf_chi_p90, ekf_chi_conv_s : float
+        EKF ICR factor: median and 90th percentile relative error, convergence time (s).
+    obs_chi_err, obs_chi_p90, obs_chi_conv_s : float
+        Observer ICR factor: the same.
+    ekf_eta_err : float
+        Median relative error of the EKF's eta.
+    obs_eta_err, obs_eta_p90, obs_eta_conv_s : float
+        Observer eta: median, 90th percentile relative error, convergence time (s).
     """
 
     terrain: str
@@ -250,7 +414,13 @@ class HuskyComparison:
     obs_eta_conv_s: float
 
     def as_dict(self) -> dict:
-        """Flat row."""
+        """Flat row.
+
+        Returns
+        -------
+        dict
+            Field -> value.
+        """
         return dict(self.__dict__)
 
 
@@ -259,7 +429,7 @@ def _conv_time(t: np.ndarray, rel_err: np.ndarray, tol: float = 0.05) -> float:
     return float(t[bad[-1]]) if bad.size else float(t[0]) if t.size else float("nan")
 
 
-def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
+def husky_comparison(result: Simulation, observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
                      settings: SkidSteerSettings = SkidSteerSettings(),
                      pose_noise: tuple[float, float] = (0.01, 0.002),
                      rng: np.random.Generator | None = None) -> HuskyComparison:
@@ -271,19 +441,36 @@ def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserv
     rim speeds. The EKF's eta is eq. 15 evaluated with its own speed and yaw rate; the
     observer's ICR factor is ``(v_R - v_L) / (B Omega^)``, ``Omega^ = (eta_R^ v_R - eta_L^
     v_L) / (2 d)``.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated Husky run.
+    observer : AdaptiveObserverSettings
+        Settings of the seed 000 observer.
+    settings : SkidSteerSettings
+        Settings of the skid-steer EKF.
+    pose_noise : tuple of float
+        Std of the position (m) and yaw (rad) noise given to the observer.
+    rng : numpy.random.Generator, optional
+        Noise source (default seeded 0).
+
+    Returns
+    -------
+    HuskyComparison
     """
     rng = rng if rng is not None else np.random.default_rng(0)
-    run = sim_to_run(result)
+    run = result.run
     ekf = estimate_skid_steer(run, settings)
-    tr = result.streams["truth"]
+    tr = run.streams["truth"]
     rr, B, d = HUSKY.wheel_radius_m, HUSKY.track_m, HUSKY.track_m / 2.0
     t = ekf.t_s
-    at = (lambda col: np.interp(t, tr["time"].to_numpy(), np.asarray(col, dtype=float)))
+    at = (lambda col: np.interp(t, tr[TIME].to_numpy(), np.asarray(col, dtype=float)))
     w_true, v_true = at(tr["yaw_rate"]), at(tr["v_bx"])
     rim_l, rim_r = at(tr["omega_1"] * rr), at(tr["omega_2"] * rr)
-    pro = result.streams["pro"]
-    vl = np.interp(t, pro["time"], pro["velL"])
-    vr = np.interp(t, pro["time"], pro["velR"])
+    wheels = run.streams["wheels"]
+    vl = np.interp(t, wheels[TIME], wheels["vel_l"])
+    vr = np.interp(t, wheels[TIME], wheels["vel_r"])
     steady = steady_turn_mask(t, w_true)
     chi_loc = (rim_r - rim_l) / (B * np.where(steady, w_true, 1.0))
     chi_ekf = icr_chi(ekf)
@@ -310,7 +497,7 @@ def husky_comparison(result, observer: AdaptiveObserverSettings = AdaptiveObserv
     p90 = (lambda e: float(np.percentile(e, 90)) if e.size else float("nan"))
     chi_true = float(np.median(chi_loc[steady])) if steady.any() else float("nan")
     return HuskyComparison(
-        terrain=str(result.meta["terrain"]), seed=int(result.config.seed), chi_true=chi_true,
+        terrain=str(run.terrain), seed=int(result.config.seed), chi_true=chi_true,
         ekf_chi_err=med(e_chi_ekf), ekf_chi_p90=p90(e_chi_ekf),
         ekf_chi_conv_s=_conv_time(t[steady], e_chi_ekf),
         obs_chi_err=med(e_chi_obs), obs_chi_p90=p90(e_chi_obs),
@@ -328,6 +515,15 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
     and the side speeds interpolated on the EKF grid; its ICR factor is computed as in
     :func:`husky_comparison`. Both are summarised over the samples turning faster than
     0.15 rad/s (median), with the fraction of such samples.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured runs (runs without IMU are skipped).
+    settings : SkidSteerSettings
+        Settings of the skid-steer EKF.
+    observer : AdaptiveObserverSettings
+        Settings of the yaw-only observer.
 
     Returns
     -------
@@ -364,12 +560,26 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
     return pd.DataFrame(rows)
 
 
-def outage_experiment(result, t_off_s: float = 8.0, t_on_s: float = 11.0,
+def outage_experiment(result: Simulation, t_off_s: float = 8.0, t_on_s: float = 11.0,
                       settings_fn: Callable[[Run], AgriMaRoEKFSettings] = data_driven_settings
                       ) -> tuple[EKFResult, EKFResult]:
-    """The EKF with every camera sample in ``[t_off_s, t_on_s)`` dropped (and, as a second
-    result, with them replaced by NaN so they are skipped and counted)."""
-    run = sim_to_run(result)
+    """The EKF with every camera sample in ``[t_off_s, t_on_s)`` dropped, and with them NaN.
+
+    Parameters
+    ----------
+    result : Simulation
+        Simulated AgriMaRo run.
+    t_off_s, t_on_s : float
+        Start and end of the outage, s.
+    settings_fn : callable
+        Run -> EKF settings.
+
+    Returns
+    -------
+    dropped, nanned : EKFResult
+        Samples removed; samples replaced by NaN (skipped and counted).
+    """
+    run = result.run
     cam = run.streams["cam"]
     gone = (cam[TIME] >= t_off_s) & (cam[TIME] < t_on_s)
     dropped = Run(run.run_id, run.dataset, run.terrain,
@@ -383,7 +593,7 @@ def outage_experiment(result, t_off_s: float = 8.0, t_on_s: float = 11.0,
     return estimate_agrimaro(dropped, settings), estimate_agrimaro(nanned, settings)
 
 
-__all__ = ["FINE_ENCODER", "THESIS_TERRAINS", "sim_to_run", "truth_on_grid",
+__all__ = ["FINE_ENCODER", "THESIS_TERRAINS", "truth_on_grid",
            "simulate_agrimaro", "agrimaro_truth_states", "data_driven_settings",
            "ConsistencyRow", "agrimaro_consistency", "coriolis_prediction_error",
            "coriolis_filter_rmse", "simulate_husky", "steady_turn_mask", "HuskyComparison",

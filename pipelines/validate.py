@@ -1,0 +1,90 @@
+"""Reproduce the validation reports: docs/estimation_validation.md or docs/sim_validation.md.
+
+terrain validate estimation   every table of docs/estimation_validation.md (about 75 s)
+terrain validate sim          the tables of docs/sim_validation.md (about 30 s)
+The checks with tolerances are tests (tests/estimation, tests/slip, tests/sim); the simulator
+speed is benchmarks/bench_sim.py. Tables are printed as Markdown (--out also writes them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import time
+from pathlib import Path
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+
+#: report name -> module with ``sections(quick)`` (read-only; imported when run, so that
+#: building the ``terrain`` parser stays light)
+REPORTS: Mapping[str, str] = MappingProxyType({
+    "estimation": "pipelines.validation.estimation_tables",
+    "sim": "pipelines.validation.sim_tables"})
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain validate``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
+    parser.add_argument("report", choices=sorted(REPORTS), help="which report")
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer seeds / shorter runs (smoke run, not the published figures)")
+    parser.add_argument("--out", type=Path, default=None, help="also write the Markdown here")
+
+
+def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:
+    """A DataFrame as a Markdown table (floats with ``digits`` significant digits).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Table to format.
+    digits : int
+        Significant digits of floats.
+
+    Returns
+    -------
+    str
+    """
+    def fmt(v) -> str:
+        if isinstance(v, (float, np.floating)):
+            return "nan" if not np.isfinite(v) else f"{v:.{digits}g}"
+        return str(v)
+    head = "| " + " | ".join(map(str, table.columns)) + " |"
+    rule = "|" + "|".join("---" for _ in table.columns) + "|"
+    body = ["| " + " | ".join(fmt(v) for v in row) + " |"
+            for row in table.itertuples(index=False)]
+    return "\n".join([head, rule, *body])
+
+
+def main(args: argparse.Namespace) -> int:
+    """Compute every table of the chosen report and print it as Markdown.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    text = []
+    report = importlib.import_module(REPORTS[args.report])
+    for title, table_fn in report.sections(args.quick):
+        start = time.perf_counter()
+        block = (f"### {title}\n\n{to_markdown(table_fn())}\n\n"
+                 f"({time.perf_counter() - start:.1f} s)\n")
+        print(block, flush=True)
+        text.append(block)
+    if args.out is not None:
+        args.out.write_text("\n".join(text))
+    return 0

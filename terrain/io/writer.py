@@ -1,0 +1,139 @@
+"""Write a :class:`~terrain.run.Run` in the measured-data layout (what the reader reads back).
+
+``DIR/<TERRAIN>/<stream>_XX.csv`` and ``DIR/<TERRAIN>/meta_XX.json``, ``XX`` the next free
+two-digit index in that folder. ``<TERRAIN>`` is the run's terrain (``MIXED`` when a simulated
+path crosses several; per-sample labels are in ``truth_XX.csv``).
+
+Converting a run's canonical streams back to the file dialect is the inverse of
+:data:`terrain.io.measured.COLUMN_MAPS` / :data:`~terrain.io.measured.STREAM_NAMES`: stream
+``wheels`` becomes file ``pro`` (``time, curL, curR, velL, velR`` in the frame's column order),
+``t_s`` becomes ``time`` in every file, other columns keep their names. Numbers are written with
+``%.9g``. :func:`terrain.io.measured.read_runs_dir` loads the files unchanged.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from terrain.errors import ConfigError
+from terrain.io.measured import COLUMN_MAPS, STREAM_NAMES
+from terrain.run import TIME, Run
+
+#: Number format of the written CSV files.
+FLOAT_FORMAT = "%.9g"
+
+
+def file_kind(stream: str) -> str:
+    """File prefix of a run stream (``wheels`` -> ``pro``; other names unchanged).
+
+    Parameters
+    ----------
+    stream : str
+        Stream name in the :class:`~terrain.run.Run`.
+
+    Returns
+    -------
+    str
+        The ``<kind>`` of ``<kind>_XX.csv``.
+    """
+    for kind, name in STREAM_NAMES.items():
+        if name == stream:
+            return kind
+    return stream
+
+
+def to_file_frames(run: Run) -> dict[str, pd.DataFrame]:
+    """A run's streams renamed to the measured-file dialect.
+
+    Parameters
+    ----------
+    run : Run
+        Run with canonical streams (``t_s`` first).
+
+    Returns
+    -------
+    dict
+        File kind (``imu``, ``pro``, ``truth``...) -> frame with the file's column names, in
+        the order of ``run.streams``.
+    """
+    frames: dict[str, pd.DataFrame] = {}
+    for name, frame in run.streams.items():
+        kind = file_kind(name)
+        mapping = COLUMN_MAPS.get(kind, {"time": TIME})
+        inverse = {canonical: column for column, canonical in mapping.items()}
+        frames[kind] = frame.rename(columns=inverse)
+    return frames
+
+
+def next_index(folder: str | Path) -> int:
+    """Smallest index ``XX`` not used by any ``*_XX.*`` file of ``folder``.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Terrain folder (need not exist).
+
+    Returns
+    -------
+    int
+        >= 0.
+    """
+    folder = Path(folder)
+    used = set()
+    if folder.is_dir():
+        for p in folder.iterdir():
+            stem = p.stem
+            if "_" in stem and stem.rsplit("_", 1)[1].isdigit():
+                used.add(int(stem.rsplit("_", 1)[1]))
+    i = 0
+    while i in used:
+        i += 1
+    return i
+
+
+def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[str, Path]:
+    """Write every stream of a run and its metadata in the measured-data layout.
+
+    Parameters
+    ----------
+    run : Run
+        Run to write (e.g. from :func:`terrain.sim.simulate`); its ``meta`` must be
+        JSON-serialisable (values that are not are written with ``str``).
+    out_dir : str or Path
+        Root folder; the run goes to ``out_dir / <TERRAIN>`` (``run.terrain``, ``UNLABELLED``
+        when it has none).
+    index : int, optional
+        Run index (default: the next free one).
+
+    Returns
+    -------
+    dict
+        File kind (and ``meta``) -> written path.
+
+    Raises
+    ------
+    ConfigError
+        Index out of range [0, 99] or already used.
+    """
+    folder = Path(out_dir) / str(run.terrain or "UNLABELLED")
+    folder.mkdir(parents=True, exist_ok=True)
+    idx = next_index(folder) if index is None else int(index)
+    if not 0 <= idx <= 99:
+        raise ConfigError(f"run index must be in [0, 99], got {idx}")
+    if (folder / f"meta_{idx:02d}.json").exists():
+        raise ConfigError(f"run index {idx:02d} already used in {folder}")
+    paths: dict[str, Path] = {}
+    for kind, frame in to_file_frames(run).items():
+        path = folder / f"{kind}_{idx:02d}.csv"
+        frame.to_csv(path, index=False, float_format=FLOAT_FORMAT)
+        paths[kind] = path
+    meta = dict(run.meta)
+    meta["index"] = f"{idx:02d}"
+    meta["files"] = {k: p.name for k, p in paths.items()}
+    path = folder / f"meta_{idx:02d}.json"
+    path.write_text(json.dumps(meta, indent=2, default=str))
+    paths["meta"] = path
+    return paths

@@ -1,0 +1,137 @@
+"""SAE longitudinal slip of a wheel or track: the one place the formula lives.
+
+``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (seed ``001_59da564c4b2d6a48.txt``
+eqs. 7.1-7.2, denominator of eq. 7.7): positive in traction (the rim is faster), negative in
+braking, in [-1, 1]. Every caller (the simulator's contact model, the post-hoc slip estimate
+of :mod:`terrain.slip`, the terramechanics calibration) calls :func:`sae_slip`; they differ
+only in its conditioning options:
+
+* ``saturation``: the slip is clipped to ``[-saturation, saturation]`` (1 in ch. 7.2.1);
+* ``dead_band_m_s``: slip forced to 0 when both speeds are below it (0.05 m/s in ch. 7.2.1,
+  :data:`THESIS_DEAD_BAND_M_S`);
+* ``speed_floor_m_s``: the denominator is floored at this speed, so near standstill the slip
+  is linear in the speed difference instead of jumping between -1 and 1 (the simulator's
+  low-speed regularisation, 0.02 m/s, :data:`terrain.sim.dynamics.SLIP_SPEED_FLOOR_M_S`).
+
+:func:`sae_slip_and_velocity_slope` also returns ``d s / d v_long``, which the simulator's
+linearly implicit integrator needs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.errors import EstimationError
+
+#: Dead band of seed 001 ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
+THESIS_DEAD_BAND_M_S = 0.05
+
+
+def _check(speed_floor_m_s: float, dead_band_m_s: float, saturation: float) -> None:
+    if not (speed_floor_m_s >= 0 and dead_band_m_s >= 0 and saturation > 0):
+        raise EstimationError(
+            f"sae_slip: speed floor and dead band must be >= 0 and saturation > 0, got "
+            f"speed_floor_m_s={speed_floor_m_s}, dead band {dead_band_m_s}, saturation "
+            f"{saturation}")
+
+
+def _ratio(rim: np.ndarray, v: np.ndarray, speed_floor_m_s: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Unsaturated slip and its denominator (eqs. 7.1-7.2); needs ``speed_floor_m_s > 0``."""
+    den = np.maximum(np.maximum(np.abs(rim), np.abs(v)), speed_floor_m_s)
+    return (rim - v) / den, den
+
+
+def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, *,
+             speed_floor_m_s: float = 0.0, dead_band_m_s: float = THESIS_DEAD_BAND_M_S,
+             saturation: float = 1.0) -> np.ndarray:
+    """SAE longitudinal slip (seed 001 eqs. 7.1, 7.2 and the denominator of eq. 7.7).
+
+    ``s = (omega r - v_long) / max(|omega r|, |v_long|, speed_floor_m_s)``, clipped to
+    ``[-saturation, saturation]``, 0 where both ``|omega r|`` and ``|v_long|`` are below
+    ``dead_band_m_s`` and where both are exactly 0 (0/0); NaN inputs give NaN.
+
+    Parameters
+    ----------
+    rim_speed_m_s : float or ndarray, shape (...)
+        Rim (peripheral) speed ``omega r`` of the wheel, m/s (eq. 7.6); for the thesis's
+        estimate the *raw* encoder speed (ch. 7.2).
+    v_long_m_s : float or ndarray, shape (...)
+        Longitudinal velocity of the wheel centre (or contact point) along its rolling
+        direction, m/s (eq. 7.5); broadcast with ``rim_speed_m_s``.
+    speed_floor_m_s : float, optional
+        Floor of the denominator, m/s, >= 0 (0: none, the thesis's formula; the simulator
+        uses 0.02 m/s).
+    dead_band_m_s : float, optional
+        Speed below which (both speeds) the slip is 0, m/s, >= 0 (default 0.05, ch. 7.2.1;
+        the simulator passes 0).
+    saturation : float, optional
+        Clip bound, > 0 (1 in ch. 7.2.1).
+
+    Returns
+    -------
+    ndarray, broadcast shape of the inputs
+        Slip, dimensionless.
+
+    Raises
+    ------
+    EstimationError
+        Negative speed floor or dead band, or non-positive saturation.
+    """
+    _check(speed_floor_m_s, dead_band_m_s, saturation)
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    v = np.asarray(v_long_m_s, dtype=float)
+    if speed_floor_m_s > 0:
+        # minimum/maximum: same values as np.clip, less call overhead (simulator inner loop)
+        s = np.minimum(np.maximum(_ratio(rim, v, speed_floor_m_s)[0], -saturation), saturation)
+    else:
+        den = np.maximum(np.abs(rim), np.abs(v))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(den > 0, (rim - v) / np.where(den > 0, den, 1.0), 0.0)
+        s = np.clip(s, -saturation, saturation)
+        s = np.where(np.isnan(rim) | np.isnan(v), np.nan, s)
+    if dead_band_m_s > 0:
+        s = np.where((np.abs(rim) < dead_band_m_s) & (np.abs(v) < dead_band_m_s), 0.0, s)
+    return s
+
+
+def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray,
+                                speed_floor_m_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """SAE slip saturated to [-1, 1] and its derivative with respect to ``v_long``.
+
+    The slip is :func:`sae_slip` with ``speed_floor_m_s`` (no dead band, saturation 1). Its
+    derivative at fixed rim speed ``w`` is ``-w sign(v) / v^2`` where the body speed sets the
+    denominator (``|v| >= max(|w|, floor)``), ``-1 / den`` otherwise, and 0 where the slip is
+    saturated. It is the contact-force Jacobian factor of the simulator
+    (:func:`terrain.sim.dynamics.contact_forces`).
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (c,)
+        Rim speeds ``omega r`` of the contacts, m/s.
+    v_long_m_s : ndarray, shape (c,)
+        Longitudinal contact velocities, m/s.
+    speed_floor_m_s : float
+        Floor of the denominator, m/s, > 0.
+
+    Returns
+    -------
+    slip : ndarray, shape (c,)
+        Dimensionless, in [-1, 1].
+    dslip_dv : ndarray, shape (c,)
+        ``d slip / d v_long``, s/m.
+
+    Raises
+    ------
+    EstimationError
+        Non-positive speed floor.
+    """
+    if not speed_floor_m_s > 0:
+        raise EstimationError(f"speed_floor_m_s must be > 0, got {speed_floor_m_s}")
+    ratio, den = _ratio(rim_speed_m_s, v_long_m_s, speed_floor_m_s)
+    v = v_long_m_s
+    body_dominant = np.abs(v) >= np.maximum(np.abs(rim_speed_m_s), speed_floor_m_s)
+    ds_dv = np.where(body_dominant,
+                     -rim_speed_m_s * np.sign(v) / np.maximum(v * v, 1e-6), -1.0 / den)
+    ds_dv = np.where(np.abs(ratio) >= 1.0, 0.0, ds_dv)
+    return np.minimum(np.maximum(ratio, -1.0), 1.0), ds_dv

@@ -1,0 +1,107 @@
+"""ICR expansion factor ``chi`` of a skid-steer vehicle: the one least-squares fit.
+
+Model
+-----
+Ideal differential drive commands the yaw rate ``x = (v_R - v_L) / B`` (seed
+``000_f24201ff985633bf.txt`` eq. 2 with ``B = 2 d``; seed ``003_557e4138a8e06c5e.txt`` eq. 7
+without slip). A skid-steer vehicle scrubs its tyres sideways in a turn, which moves the
+instantaneous centres of rotation (ICR) of the two sides outward: it turns as if its track
+were ``chi B`` wide (Mandow et al., "Experimental kinematics for wheeled skid-steer mobile
+robots", IROS 2007; seed ``000`` eq. 3 with the slip of both sides folded into ``chi``)::
+
+    yaw_rate = x / chi = a x,        a = 1 / chi
+
+Fit
+---
+Least squares of the measured (or simulated) yaw rate ``y`` on ``x`` through the origin::
+
+    a = sum(x y) / (sum(x^2) + n floor^2),        chi = 1 / a
+
+The optional ridge ``floor`` (same unit as ``x``) pulls ``a`` to 0 when the vehicle barely
+turns (the window features of :mod:`features.calculators`); the audit fits without floor and
+reports ``chi = sum(x^2) / sum(x y)`` (infinite when the vehicle does not turn the commanded
+way, e.g. a robot that digs in).
+
+Every caller that needs ``chi`` (the audit's yaw-rate effects, its model-free facts and its
+lateral-friction what-if, the window feature ``yaw_rate_gain``) calls these functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.ndarray,
+                       floor_rad_s: float = 0.0) -> np.ndarray | float:
+    """Least-squares ``a = 1 / chi`` of ``yaw_rate = a x`` along the last axis.
+
+    Parameters
+    ----------
+    yaw_rate_rad_s : ndarray, shape (..., n)
+        Yaw rate the vehicle shows (gyro, or a simulated one), rad/s.
+    commanded_yaw_rate_rad_s : ndarray, shape (..., n)
+        Ideal differential-drive yaw rate ``x = (v_R - v_L) / B`` at the same samples, rad/s.
+    floor_rad_s : float, optional
+        Ridge floor, rad/s (default 0: plain least squares): the denominator is
+        ``sum(x^2) + n floor^2``.
+
+    Returns
+    -------
+    ndarray, shape (...), or float
+        ``a = sum(x y) / (sum(x^2) + n floor^2)`` (dimensionless); NaN where the denominator
+        is 0 (no sample, or no commanded turn and no floor).
+
+    References
+    ----------
+    Seed ``000_f24201ff985633bf.txt`` eqs. 2-3; Mandow et al., IROS 2007 (ICR expansion).
+    """
+    y = np.asarray(yaw_rate_rad_s, dtype=float)
+    x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
+    n = x.shape[-1]
+    den = (x ** 2).sum(axis=-1) + n * float(floor_rad_s) ** 2
+    num = (x * y).sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = num / den
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
+                         commanded_yaw_rate_rad_s: np.ndarray) -> float:
+    """Least-squares ICR expansion factor ``chi = sum(x^2) / sum(x y)`` of one sample set.
+
+    The reciprocal of :func:`inverse_icr_factor` without floor, written as a ratio so that a
+    vehicle that does not turn the commanded way gives ``inf`` instead of a negative or
+    infinite ``a``.
+
+    Parameters
+    ----------
+    yaw_rate_rad_s : ndarray, shape (n,)
+        Yaw rate the vehicle shows (gyro, or a simulated one), rad/s.
+    commanded_yaw_rate_rad_s : ndarray, shape (n,)
+        Ideal differential-drive yaw rate ``x = (v_R - v_L) / B``, rad/s.
+
+    Returns
+    -------
+    float
+        ``chi`` (dimensionless, 1 = ideal differential drive); ``inf`` when
+        ``sum(x y) <= 0`` (the vehicle does not turn, or turns against the command).
+
+    Raises
+    ------
+    ValueError
+        The two arrays differ in shape.
+
+    References
+    ----------
+    Mandow et al., "Experimental kinematics for wheeled skid-steer mobile robots", IROS 2007;
+    seed ``000_f24201ff985633bf.txt`` eqs. 2-3.
+    """
+    y = np.asarray(yaw_rate_rad_s, dtype=float)
+    x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
+    if x.shape != y.shape:
+        raise ValueError(f"yaw rate shape {y.shape} differs from command shape {x.shape}")
+    sxy = float(np.sum(x * y))
+    return float(np.sum(x * x)) / sxy if sxy > 0 else float("inf")
+
+
+__all__ = ["inverse_icr_factor", "icr_expansion_factor"]

@@ -1,0 +1,61 @@
+"""The Markdown report: rendered from the template, numbers from the JSON report and its
+settings."""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from terrain.audit.report import to_markdown
+from terrain.audit.selection import EffectResult
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+
+
+@pytest.fixture(scope="module")
+def shipped_report():
+    """The committed report pair: JSON and the Markdown written from it."""
+    return (json.loads((DOCS / "audit_report.json").read_text()),
+            (DOCS / "audit_report.md").read_text())
+
+
+def _page_inputs(md: str):
+    lines = md.splitlines()
+    title = lines[0][2:]
+    start = lines.index("Reproduce:") + 3
+    commands = lines[start:lines.index("```", start)]
+    figures = {m.group(2): m.group(1) for m in
+               re.finditer(r"\]\(((?:[^)]*/)?audit_(\w+)\.png)\)", md)}
+    return title, commands, figures
+
+
+def test_committed_markdown_is_the_rendering_of_the_committed_json(shipped_report):
+    report, md = shipped_report
+    title, commands, figures = _page_inputs(md)
+    assert to_markdown(report, figures, commands, title) == md
+
+
+def test_settings_reach_the_prose(shipped_report):
+    report, md = shipped_report
+    title, commands, figures = _page_inputs(md)
+    changed = copy.deepcopy(report)
+    changed["settings"]["lag.window_s"] = 20.0
+    changed["settings"]["selection.min_gain"] = 0.05
+    page = to_markdown(changed, figures, commands, title)
+    assert "estimated in 20 s windows" in page and "estimated in 30 s windows" in md
+    assert "the gain is at least 0.05," in page
+
+
+def test_effect_results_are_built_by_keyword_and_frozen():
+    with pytest.raises(TypeError):
+        EffectResult("icr_expansion", "ASPHALT", "yaw")          # positional: refused
+    e = EffectResult(name="icr_expansion", terrain="ASPHALT", group="yaw",
+                     params={"chi": 1.5}, ci95={"chi": (1.4, 1.6)}, heldout_gain=0.5,
+                     heldout_gain_ci95=(0.4, 0.6), supported=True, step=1)
+    assert e.as_dict()["ci95"] == {"chi": [1.4, 1.6]}
+    with pytest.raises(AttributeError):
+        e.supported = False

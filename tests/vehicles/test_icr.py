@@ -1,0 +1,35 @@
+"""The single least-squares fit of the ICR expansion factor chi (terrain.vehicles.icr)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
+
+
+@pytest.mark.parametrize("chi", [1.0, 1.5, 2.1])
+def test_fit_recovers_chi_of_a_noisy_skid_steer(chi):
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-0.8, 0.8, 5000)                  # commanded (v_R - v_L)/B, rad/s
+    wz = x / chi + rng.normal(0.0, 0.02, x.size)      # gyro
+    assert icr_expansion_factor(wz, x) == pytest.approx(chi, rel=0.01)
+    assert inverse_icr_factor(wz, x) == pytest.approx(1.0 / chi, rel=0.01)
+    # the two forms are reciprocal without floor
+    assert icr_expansion_factor(wz, x) * inverse_icr_factor(wz, x) == pytest.approx(1.0)
+
+
+def test_dug_in_vehicle_has_infinite_chi_and_floor_pulls_gain_to_zero():
+    x = np.full(50, 0.5)
+    assert icr_expansion_factor(np.zeros(50), x) == np.inf
+    assert icr_expansion_factor(-x, x) == np.inf      # turning against the command
+    tiny = np.full(50, 1e-3)
+    assert abs(inverse_icr_factor(tiny / 1.5, tiny, 0.05)) < 1e-3
+
+
+def test_batched_windows_and_shape_check():
+    x = np.tile(np.linspace(-0.5, 0.5, 40), (3, 1))
+    gains = inverse_icr_factor(x / np.array([[1.2], [1.5], [2.0]]), x)
+    np.testing.assert_allclose(gains, [1 / 1.2, 1 / 1.5, 1 / 2.0])
+    with pytest.raises(ValueError, match="shape"):
+        icr_expansion_factor(np.zeros(3), np.zeros(4))
