@@ -227,3 +227,18 @@ def test_served_model_refuses_a_huge_finite_value(saved_model, vulpi_runs):
         model.predict(samples)
     assert info.value.column == "ax" and info.value.row == 300
     assert "row 300" in str(info.value)
+
+
+def test_audit_of_a_run_with_a_dead_gyro_reports_instead_of_crashing(workdir, capsys,
+                                                                    borealtc_runs):
+    run = next(r for r in borealtc_runs if r.run_id == "borealtc/ASPHALT/00")
+    imu = _write(run, workdir / "runs")
+    frame = pd.read_csv(imu)
+    frame["wz"] = 0.0
+    frame.to_csv(imu, index=False)
+    assert main(["audit", str(workdir / "runs"), "--json", "a.json", "--no-mlflow",
+                 "--no-progress"]) == 0
+    captured = capsys.readouterr()
+    assert "imu.wz stuck" in captured.err
+    assert "stuck or dead sensor channel(s): runs/ASPHALT/00 (imu.wz)" in captured.out
+    assert "audited 1 runs" in captured.out
