@@ -16,7 +16,7 @@ from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
 from terrain.serving import log_model, runs_to_model_input, save_model
-from terrain.tracking import tracked_run
+from terrain.tracking import activate_store, tracked_run
 
 EXPERIMENT = "terrain-train"
 
@@ -69,6 +69,7 @@ def main(args: argparse.Namespace) -> int:
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0]}
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
+    activate_store()  # model logging and the registry use MLflow's process-wide store
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)
         classes = [str(c) for c in np.unique(ws.labels.astype(str))]
