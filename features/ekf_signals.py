@@ -32,7 +32,7 @@ import pandas as pd
 
 from terrain.estimation.skid_steer import SkidSteerSettings, icr_chi, skid_steer_on_frame
 from terrain.run import TIME
-from terrain.slip import wheel_slip
+from terrain.slip import skid_steer_side_slip
 from terrain.vehicles import HUSKY
 
 EKF_CHANNELS: tuple[str, ...] = ("ekf_v_bx", "ekf_yaw_rate", "ekf_gyro_bias", "ekf_icr_chi",
@@ -70,10 +70,8 @@ def ekf_channel_frame(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None
     """
     res = skid_steer_on_frame(frame, settings, wheel_rate_hz=wheel_rate_hz)
     gap = ~np.isfinite(frame[["vel_l", "vel_r", "wz"]].to_numpy(float)).all(axis=1)
-    half = 0.5 * settings.track_m
-    rim = frame[["vel_l", "vel_r"]].to_numpy(float)
-    slip = wheel_slip(rim, res.state("v_bx"), np.zeros(len(frame)), res.state("yaw_rate"),
-                      np.array([[0.0, half], [0.0, -half]]))
+    slip = skid_steer_side_slip(frame[["vel_l", "vel_r"]].to_numpy(float), res.state("v_bx"),
+                                res.state("yaw_rate"), settings.track_m)
     y = np.where(res.accepted, res.y, np.nan)
     cols = {"ekf_v_bx": res.state("v_bx"), "ekf_yaw_rate": res.state("yaw_rate"),
             "ekf_gyro_bias": res.state("gyro_bias"), "ekf_icr_chi": icr_chi(res),
@@ -89,8 +87,23 @@ def add_ekf_channels(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None,
                      ) -> pd.DataFrame:
     """A copy of the aligned ``frame`` with :data:`EKF_CHANNELS` appended.
 
-    Frames without ``vel_l``, ``vel_r`` or ``wz`` are returned unchanged (the windowing
-    step then reports the missing channels). See :func:`ekf_channel_frame`.
+    Frames without ``vel_l``, ``vel_r`` or ``wz`` (or shorter than 2 rows) are returned
+    unchanged (the windowing step then reports the missing channels). See
+    :func:`ekf_channel_frame`.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Aligned frame (``t_s``, ``vel_l``, ``vel_r`` m/s, ``wz`` rad/s, ...).
+    wheel_rate_hz : float, optional
+        Native rate of the wheel stream, Hz.
+    settings : SkidSteerSettings
+        Husky geometry and tuning by default.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame`` with the EKF channels as extra columns, or ``frame`` itself.
     """
     if not {TIME, "vel_l", "vel_r", "wz"} <= set(frame.columns) or len(frame) < 2:
         return frame

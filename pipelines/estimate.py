@@ -15,8 +15,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.io.measured import read_runs_dir
@@ -25,7 +23,13 @@ from terrain.slip import LAG_MODES, TUNINGS, estimate_run
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain estimate``."""
+    """Arguments of ``terrain estimate``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
                                                    "folder of it)")
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
@@ -60,7 +64,23 @@ def _load(run_dir: Path, select: str | None):
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the estimator on each selected run and write its table; returns 0."""
+    """Run the estimator on each selected run, write its table and print a summary line.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    ConfigError, EstimationError, DataFormatError
+        ``--run`` names no run of RUN_DIR; a run lacks the streams its estimator needs.
+    """
     runs = _load(args.run_dir, args.run)
     print(input_report(runs).text())
     gate = Gate(args.gate) if args.gate is not None else None
@@ -74,15 +94,5 @@ def main(args: argparse.Namespace) -> int:
             out = args.out.with_name(f"{args.out.stem}_{terrain}_{index}{args.out.suffix}")
         out.parent.mkdir(parents=True, exist_ok=True)
         est.to_frame().to_csv(out, index=False, float_format="%.9g")
-        ekf = est.ekf
-        nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
-        slips = ", ".join(f"{n} {np.nanmedian(est.slip[:, j]):+.3f}"
-                          for j, n in enumerate(est.slip_names))
-        lag = f"{est.lag.lag_s:.3f} s" if est.lag is not None else "not estimated"
-        skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
-        print(f"{run.run_id} ({est.vehicle}): {ekf.t_s.size} steps at "
-              f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
-              f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
-              + (f", non-finite samples skipped {skipped}" if skipped else "")
-              + f" -> {out}")
+        print(f"{est.summary()} -> {out}")
     return 0

@@ -24,6 +24,67 @@ def test_import_layers_contract_is_kept():
     assert "0 broken" in done.stdout
 
 
+def _import_cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (or a self-import) of the
+    directed import graph ``edges`` (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles: list[list[str]] = []
+    for root in sorted(edges):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(edges[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            v, children = work[-1]
+            for w in children:
+                if w not in edges:
+                    continue
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(sorted(edges[w]))))
+                    break
+                if w in on_stack:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    component = []
+                    while True:
+                        w = stack.pop()
+                        on_stack.discard(w)
+                        component.append(w)
+                        if w == v:
+                            break
+                    if len(component) > 1 or v in edges[v]:
+                        cycles.append(sorted(component))
+    return cycles
+
+
+def test_cycle_finder_finds_a_planted_cycle():
+    edges = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"e"}}
+    assert sorted(_import_cycles(edges)) == [["a", "b", "c"], ["e"]]
+    assert _import_cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_cycle_between_modules():
+    """No module of terrain, features or pipelines imports itself back through others
+    (any import statement counts, also those inside functions or TYPE_CHECKING blocks)."""
+    import grimp                                # installed with import-linter (dev extra)
+
+    graph = grimp.build_graph("terrain", "features", "pipelines", cache_dir=None)
+    edges = {m: set(graph.find_modules_directly_imported_by(m)) for m in graph.modules}
+    assert _import_cycles(edges) == []
+
+
 def _public_members():
     for pkg_name in ("terrain", "features"):
         pkg = importlib.import_module(pkg_name)

@@ -51,8 +51,8 @@ and process noise densities instead (used for the NEES / NIS consistency tests).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
@@ -60,9 +60,13 @@ from scipy.integrate import cumulative_trapezoid
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
+from terrain.estimation.equations.agrimaro import (NO_INPUT, AgriMaRoEquationParams,
+                                                   observation_into, observation_pair,
+                                                   transition_into, transition_pair)
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.prefilter import ema_filter
-from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
+from terrain.estimation.result import EKFResult
+from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -74,16 +78,16 @@ STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_
 MEASUREMENT_NAMES: tuple[str, ...] = ("omega_1", "omega_2", "omega_3", "ax", "ay", "wz",
                                       "yaw_imu", "delta_1", "delta_2", "delta_3", "v_cx",
                                       "v_cy", "yaw_rate_c", "yaw_c")
-SENSOR_ROWS: Mapping[str, tuple[int, ...]] = {"omega": (0, 1, 2), "imu": (3, 4, 5, 6),
-                                              "steer": (7, 8, 9), "cam": (10, 11, 12, 13)}
+SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
+    {"omega": (0, 1, 2), "imu": (3, 4, 5, 6), "steer": (7, 8, 9), "cam": (10, 11, 12, 13)})
 #: Columns of each sensor in a :class:`~terrain.run.Run` (stream, columns); ``yaw_imu`` is
 #: derived from ``wz`` by :func:`agrimaro_samples`.
-SENSOR_COLUMNS: Mapping[str, tuple[str, tuple[str, ...]]] = {
+SENSOR_COLUMNS: Mapping[str, tuple[str, tuple[str, ...]]] = MappingProxyType({
     "omega": ("omega", ("omega_1", "omega_2", "omega_3")),
     "imu": ("imu", ("ax", "ay", "wz", "yaw_imu")),
     "steer": ("steer", ("delta_1", "delta_2", "delta_3")),
     "cam": ("cam", ("v_cx", "v_cy", "yaw_rate_c", "yaw_c")),
-}
+})
 
 #: Eq. 6.9 (P0), eq. 6.13 (R) and eq. 6.14 (Q), in the order of STATE_NAMES /
 #: MEASUREMENT_NAMES.
@@ -120,6 +124,13 @@ class AgriMaRoEKFSettings:
         EMA pre-filter coefficient per sensor (eq. 6.12); missing sensors are not filtered.
     name : str
         Label of the tuning.
+
+    Raises
+    ------
+    ConfigError
+        Wrong number of values, non-finite or negative variances (``r_diag`` must be > 0),
+        unknown ``q_per`` / ``coriolis``, or an EMA entry with an unknown sensor or an alpha
+        outside [0, 1).
     """
 
     p0_diag: tuple[float, ...] = THESIS_P0
@@ -151,7 +162,18 @@ class AgriMaRoEKFSettings:
                                   f"{list(SENSOR_ROWS)}, alpha in [0, 1)")
 
     def alpha(self, sensor: str) -> float:
-        """EMA coefficient of ``sensor`` (0 when not listed)."""
+        """EMA coefficient of one sensor (eq. 6.12).
+
+        Parameters
+        ----------
+        sensor : str
+            A key of :data:`SENSOR_ROWS`.
+
+        Returns
+        -------
+        float
+            In [0, 1); 0 (no filtering) when the sensor is not listed.
+        """
         return float(dict(self.ema_alpha).get(sensor, 0.0))
 
 
@@ -185,7 +207,9 @@ def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float
     jerk_psd, yaw_accel_psd, velocity_psd, position_psd, yaw_psd, steer_rate_psd, bias_psd : float
         Process noise densities ((unit/s)^2 s).
     p0_diag : tuple of 12 float
-    coriolis : str
+        Initial variances (SI units squared), default eq. 6.9.
+    coriolis : {"body", "eq6.2"}
+        Coriolis sign convention (see the module docstring).
 
     Returns
     -------
@@ -202,7 +226,8 @@ def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float
 
 @dataclass(frozen=True)
 class AgriMaRoModel(StateSpaceModel):
-    """The 12-state / 14-measurement model of seed 001 ch. 6.1 (eqs. 6.1-6.6).
+    """The 12-state / 14-measurement model of seed ``001_59da564c4b2d6a48.txt`` ch. 6.1
+    (eqs. 6.1-6.6); its equations are :mod:`terrain.estimation.equations.agrimaro`.
 
     Parameters
     ----------
@@ -210,6 +235,16 @@ class AgriMaRoModel(StateSpaceModel):
         Wheel positions ``d_i`` (ch. 7.2), rolling radius and camera lever arm ``d_cam``
         (ch. 5.2.3).
     settings : AgriMaRoEKFSettings
+        Tuning (P0, R, Q, Coriolis convention, pre-filter).
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (12).
+    measurement_names : tuple of str
+        :data:`MEASUREMENT_NAMES` (14).
+    angle_rows : tuple of int
+        Rows 6 (``yaw_imu``) and 13 (``yaw_c``), wrapped in the innovation.
     """
 
     vehicle: AgriMaRoParams = AGRIMARO
@@ -217,17 +252,16 @@ class AgriMaRoModel(StateSpaceModel):
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
     angle_rows: tuple[int, ...] = field(default=(6, 13), init=False)
-    _H_template: np.ndarray = field(init=False, repr=False, compare=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        Ht = np.zeros((14, 12))
-        for row, col in ((3, 6), (4, 7), (5, 5), (5, 11), (6, 2), (7, 8), (8, 9), (9, 10),
-                         (10, 3), (11, 4), (12, 5), (13, 2)):
-            Ht[row, col] = 1.0
-        dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
-        Ht[10, 5] = -dy
-        Ht[11, 5] = dx
-        object.__setattr__(self, "_H_template", Ht)
+        object.__setattr__(self, "_p", self.equation_params.as_array())
+
+    @property
+    def equation_params(self) -> AgriMaRoEquationParams:
+        """Constants of the model's equations (:mod:`terrain.estimation.equations.agrimaro`):
+        the vehicle geometry and the Coriolis sign of ``settings``."""
+        return AgriMaRoEquationParams.from_vehicle(self.vehicle, coriolis_sign=self._sign)
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
@@ -240,73 +274,115 @@ class AgriMaRoModel(StateSpaceModel):
 
     # -- process model -------------------------------------------------------------------
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Process model (eq. 6.2 with the eq. 4.33-4.34 Coriolis signs), shape (12,)."""
+        """Process model (eq. 6.2 with the eq. 4.33-4.34 Coriolis signs).
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (12,)
+        """
         return self.transition(x, dt)[0]
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Jacobian of :meth:`f`, shape (12, 12)."""
+        """Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (12, 12)
+        """
         return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))``."""
-        _, _, yaw, vx, vy, w, ax, ay = x[:8].tolist()
-        c, s = math.cos(yaw), math.sin(yaw)
-        sg = self._sign
-        fx = x.copy()
-        fx[0] += dt * (vx * c - vy * s)
-        fx[1] += dt * (vx * s + vy * c)
-        fx[2] += dt * w
-        fx[3] += dt * (ax + sg * w * vy)
-        fx[4] += dt * (ay - sg * w * vx)
-        F = np.eye(12)
-        F[0, 2] = -dt * (vx * s + vy * c)
-        F[0, 3] = dt * c
-        F[0, 4] = -dt * s
-        F[1, 2] = dt * (vx * c - vy * s)
-        F[1, 3] = dt * s
-        F[1, 4] = dt * c
-        F[2, 5] = dt
-        F[3, 4] = sg * dt * w
-        F[3, 5] = sg * dt * vy
-        F[3, 6] = dt
-        F[4, 3] = -sg * dt * w
-        F[4, 5] = -sg * dt * vx
-        F[4, 7] = dt
-        return fx, F
+        """``(f(x, dt), F(x, dt))`` of
+        :func:`terrain.estimation.equations.agrimaro.transition_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State (eq. 6.1).
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (12,)
+        F : ndarray, shape (12, 12)
+        """
+        return transition_pair(np.ascontiguousarray(x, dtype=np.float64), NO_INPUT, float(dt),
+                               self._p)
 
     def Q(self, dt: float) -> np.ndarray:
-        """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt``, shape (12, 12)."""
+        """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt`` (eq. 6.14).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (12, 12)
+        """
         q = np.asarray(self.settings.q_diag, dtype=float)
         return np.diag(q if self.settings.q_per == "step" else q * dt)
 
     # -- measurement model ---------------------------------------------------------------
     def h(self, x: np.ndarray) -> np.ndarray:
-        """Measurement model (eq. 6.6), shape (14,)."""
+        """Measurement model (eq. 6.6).
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+
+        Returns
+        -------
+        ndarray, shape (14,)
+        """
         return self.observation(x)[0]
 
     def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`, shape (14, 12)."""
+        """Jacobian of :meth:`h`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
+
+        Returns
+        -------
+        ndarray, shape (14, 12)
+        """
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
-        _, _, yaw, vx, vy, w, ax, ay, d1, d2, d3, bg = x.tolist()
-        (x1, y1), (x2, y2), (x3, y3) = self.vehicle.wheel_positions_m
-        rw = self.vehicle.wheel_radius_m
-        dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
-        H = self._H_template.copy()
-        hx = np.empty(14)
-        for i, (xi, yi, d) in enumerate(((x1, y1, d1), (x2, y2, d2), (x3, y3, d3))):
-            c, s = math.cos(d), math.sin(d)
-            u = vx - w * yi
-            v = vy + w * xi
-            hx[i] = (u * c + v * s) / rw
-            H[i, 3] = c / rw
-            H[i, 4] = s / rw
-            H[i, 5] = (-yi * c + xi * s) / rw
-            H[i, 8 + i] = (-u * s + v * c) / rw
-        hx[3:] = (ax, ay, w + bg, yaw, d1, d2, d3, vx - w * dy, vy + w * dx, w, yaw)
-        return hx, H
+        """``(h(x), H(x))`` of
+        :func:`terrain.estimation.equations.agrimaro.observation_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (12,)
+            State (eq. 6.1).
+
+        Returns
+        -------
+        hx : ndarray, shape (14,)
+        H : ndarray, shape (14, 12)
+        """
+        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -324,9 +400,9 @@ class AgriMaRoModel(StateSpaceModel):
         return np.diag(np.asarray(self.settings.p0_diag, dtype=float))
 
     def fast_kernel(self) -> FastKernel | None:
-        """Description of this model for the compiled loop of :mod:`terrain.estimation.fast`
-        (the ``agrimaro`` kernel implements :meth:`transition`, :meth:`observation` and
-        :meth:`Q` of this class); None for subclasses, which may change them.
+        """This model's kernels for the compiled loop of :mod:`terrain.estimation.fast` (the
+        same functions :meth:`transition` and :meth:`observation` call, with the ``Q`` of
+        :meth:`Q`); None for subclasses, which may change them.
 
         Returns
         -------
@@ -336,11 +412,8 @@ class AgriMaRoModel(StateSpaceModel):
             return None
         from terrain.estimation.fast import FastKernel
 
-        v = self.vehicle
-        (x1, y1), (x2, y2), (x3, y3) = v.wheel_positions_m
-        params = (self._sign, x1, y1, x2, y2, x3, y3, v.wheel_radius_m,
-                  v.camera_lever_arm_m[0], v.camera_lever_arm_m[1])
-        return FastKernel("agrimaro", tuple(float(a) for a in params),
+        return FastKernel(transition_into, observation_into, tuple(self._p.tolist()),
+                          len(STATE_NAMES), len(MEASUREMENT_NAMES),
                           tuple(float(q) for q in self.settings.q_diag), self.settings.q_per,
                           self.angle_rows)
 
@@ -353,12 +426,23 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     * ``omega``: stream ``omega`` (``omega_1..3``, rad/s); without it, wheels 1 and 2 from the
       ``wheels`` stream (``vel_l``/``vel_r`` divided by the wheel radius), wheel 3 missing;
     * ``imu``: ``ax, ay, wz`` and ``yaw_imu``, the trapezoidal integral of ``wz`` from the
-      first IMU sample (the drifting yaw of a magnetometer-less IMU, ch. 4.5.3);
+      first IMU sample (the drifting yaw of a magnetometer-less IMU, seed 001 ch. 4.5.3);
     * ``steer``: ``delta_1..3``; ``cam``: ``v_cx, v_cy, yaw_rate_c, yaw_c``.
 
     Missing streams are left out (the filter runs on the others). The EMA pre-filter of
-    ``settings`` is applied per sensor, then ``time_offsets_s[sensor]`` is subtracted from
-    that sensor's timestamps (lag compensation, see :mod:`terrain.slip`).
+    ``settings`` is applied per sensor (eq. 6.12), then ``time_offsets_s[sensor]`` is subtracted
+    from that sensor's timestamps (lag compensation, see :mod:`terrain.slip`).
+
+    Parameters
+    ----------
+    run : Run
+        AgriMaRo run (streams ``imu`` and any of ``omega``/``wheels``, ``steer``, ``cam``).
+    settings : AgriMaRoEKFSettings
+        Its ``ema_alpha`` sets the pre-filter.
+    time_offsets_s : Mapping[str, float], optional
+        Sensor -> latency subtracted from its timestamps, s.
+    vehicle : AgriMaRoParams
+        Wheel radius for the ``wheels`` fallback, m.
 
     Returns
     -------
@@ -368,7 +452,7 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     Raises
     ------
     DataFormatError
-        The run has no IMU stream (the filter's clock).
+        The run has no IMU stream (the filter's clock), or a stream lacks a column (named).
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
@@ -416,6 +500,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
         AgriMaRo run with an ``imu`` stream and any of ``omega``/``wheels``, ``steer``,
         ``cam``.
     settings : AgriMaRoEKFSettings
+        Tuning and pre-filter (default: the thesis's, eqs. 6.9, 6.12-6.14).
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate). The grid spans the IMU stream.
     gate : Gate, optional
@@ -423,6 +508,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     time_offsets_s : Mapping[str, float], optional
         Per-sensor latency subtracted from its timestamps, s.
     vehicle : AgriMaRoParams
+        Geometry (seed 001 ch. 7.2, 5.2.3).
     sensors : tuple of str, optional
         Use only these sensors (e.g. to simulate a camera outage).
     store_covariance : bool
@@ -439,6 +525,14 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     -------
     EKFResult
         ``meta`` records the settings name, the Coriolis convention, EMA and offsets.
+
+    Raises
+    ------
+    DataFormatError
+        No IMU stream, or a stream lacks a column.
+    ConfigError, ShapeError, CovarianceError
+        From :func:`~terrain.estimation.run_filter` (bad engine, shapes, or an innovation
+        covariance that is not positive definite).
     """
     samples = agrimaro_samples(run, settings, time_offsets_s, vehicle)
     model = model if model is not None else AgriMaRoModel(vehicle=vehicle, settings=settings)

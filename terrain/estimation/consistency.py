@@ -50,7 +50,19 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
 
 def state_errors(estimates: np.ndarray, truth: np.ndarray,
                  angle_columns: tuple[int, ...] = ()) -> np.ndarray:
-    """``estimates - truth`` with the angle columns wrapped to [-pi, pi), shape (N, n)."""
+    """``estimates - truth`` with the angle columns wrapped to [-pi, pi).
+
+    Parameters
+    ----------
+    estimates, truth : ndarray, shape (N, n)
+        Estimated and true states (SI units).
+    angle_columns : tuple of int
+        Columns holding angles (rad).
+
+    Returns
+    -------
+    ndarray, shape (N, n)
+    """
     e = np.asarray(estimates, dtype=float) - np.asarray(truth, dtype=float)
     for j in angle_columns:
         e[:, j] = wrap_angle(e[:, j])
@@ -59,7 +71,17 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
 
 def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
                      ) -> tuple[float, float]:
-    """Two-sided bounds of the mean of ``n_samples`` independent chi-square(``dof``) values.
+    """Two-sided bounds of the mean of ``n_samples`` independent chi-square(``dof``) values
+    (Bar-Shalom, Li & Kirubarajan 2001, ch. 5.4.2).
+
+    Parameters
+    ----------
+    dof : float
+        Degrees of freedom of each value.
+    n_samples : float
+        Number of (effectively independent) values averaged (>= 1).
+    probability : float
+        Two-sided coverage, in (0, 1).
 
     Returns
     -------
@@ -74,6 +96,13 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
 def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     """``N / tau`` with ``tau = 1 + 2 sum_k rho_k`` summed until ``rho_k`` first drops below
     0.05 (integrated autocorrelation time); non-finite values are dropped.
+
+    Parameters
+    ----------
+    series : ndarray, shape (N,)
+        Values (e.g. NEES over time).
+    max_lag : int
+        Largest lag of the autocorrelation summed, samples.
 
     Returns
     -------
@@ -136,7 +165,19 @@ class ChiSquareTest:
         return self.bounds[0] <= self.mean <= self.bounds[1]
 
     def as_dict(self, prefix: str) -> dict[str, float]:
-        """Flat metrics ``<prefix>_mean``, ``<prefix>_lo``, ``<prefix>_hi``..."""
+        """Flat metrics ``<prefix>_mean``, ``<prefix>_dof``, ``<prefix>_lo``, ``<prefix>_hi``,
+        ``<prefix>_n_eff``, ``<prefix>_in_pointwise``, ``<prefix>_inside``.
+
+        Parameters
+        ----------
+        prefix : str
+            Metric name prefix (e.g. ``nees``).
+
+        Returns
+        -------
+        dict
+            Name -> float.
+        """
         return {f"{prefix}_mean": self.mean, f"{prefix}_dof": self.dof,
                 f"{prefix}_lo": self.bounds[0], f"{prefix}_hi": self.bounds[1],
                 f"{prefix}_n_eff": self.n_effective,
@@ -155,6 +196,7 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     dof : float or ndarray, shape (N,)
         Degrees of freedom of each value (the number of rows for NIS).
     probability : float
+        Two-sided coverage of the bounds, in (0, 1).
 
     Returns
     -------

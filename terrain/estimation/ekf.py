@@ -47,6 +47,20 @@ Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 def as_vector(v: Any, name: str, size: int | None = None) -> np.ndarray:
     """``v`` as a finite float vector of shape ``(size,)``.
 
+    Parameters
+    ----------
+    v : array_like, shape (size,)
+        Values (any unit).
+    name : str
+        Argument name used in error messages.
+    size : int, optional
+        Required length (any when None).
+
+    Returns
+    -------
+    ndarray, shape (size,)
+        float64 copy or view.
+
     Raises
     ------
     ShapeError
@@ -72,15 +86,24 @@ def as_covariance(P: Any, size: int, name: str, *, definite: bool = False) -> np
     Parameters
     ----------
     P : array_like, shape (size, size) or (size,)
+        Covariance (SI units squared), or its diagonal.
     size : int
+        Required dimension.
     name : str
         Argument name used in error messages.
     definite : bool
         Require positive definiteness (Cholesky succeeds), as for a noise covariance ``R``.
 
+    Returns
+    -------
+    ndarray, shape (size, size)
+        float64 matrix (a diagonal one when a vector was given).
+
     Raises
     ------
     ShapeError, NonFiniteInputError, CovarianceError
+        Wrong shape, non-finite entries, asymmetric, not positive semi-definite (or not
+        positive definite with ``definite``).
     """
     a = np.asarray(P, dtype=float)
     if a.ndim == 1 and a.shape[0] == size:
@@ -105,11 +128,22 @@ def as_covariance(P: Any, size: int, name: str, *, definite: bool = False) -> np
 
 
 def check_time_step(dt: float) -> float:
-    """``dt`` as a float, strictly positive and finite (s).
+    """``dt`` as a float, strictly positive and finite.
+
+    Parameters
+    ----------
+    dt : float
+        Time step, s.
+
+    Returns
+    -------
+    float
+        ``dt``, s.
 
     Raises
     ------
     TimeStepError
+        Not a number, not finite or not > 0.
     """
     try:
         d = float(dt)
@@ -147,7 +181,18 @@ class Gate:
         object.__setattr__(self, "_thresholds", table)
 
     def threshold(self, dof: int) -> float:
-        """Chi-square quantile for ``dof`` degrees of freedom (1 <= dof <= max_dof)."""
+        """Chi-square quantile for ``dof`` degrees of freedom.
+
+        Parameters
+        ----------
+        dof : int
+            Degrees of freedom, 1 <= dof <= ``max_dof``.
+
+        Returns
+        -------
+        float
+            The ``probability`` quantile (dimensionless NIS).
+        """
         return float(self._thresholds[int(dof) - 1])
 
 
@@ -434,6 +479,7 @@ class ExtendedKalmanFilter:
     P : ndarray, shape (n, n)
         Current covariance (a copy).
     last_innovation : Innovation or None
+        Innovation record of the last update (None before the first).
     """
 
     def __init__(self, x0: np.ndarray, P0: np.ndarray, f: Callable, F: Callable,
@@ -466,11 +512,19 @@ class ExtendedKalmanFilter:
         return self._P.copy()
 
     def predict(self, dt: float, *args: Any) -> None:
-        """Propagate by ``dt`` seconds (> 0).
+        """Propagate by ``dt`` seconds (seed 001 eqs. 4.3, 4.5).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+        *args
+            Extra arguments passed to ``f``, ``F`` (e.g. a control input).
 
         Raises
         ------
         TimeStepError
+            ``dt`` not > 0 or not finite.
         """
         dt = check_time_step(dt)
         self._x, self._P = predict(self._x, self._P, dt, self._f, self._F, self._Q,
@@ -484,6 +538,8 @@ class ExtendedKalmanFilter:
         ----------
         z : ndarray, shape (m,) or (len(rows),)
             Measurement, or the subset of its rows given by ``rows`` (multi-rate sensors).
+        *args
+            Extra arguments passed to ``h``, ``H``.
         rows : sequence of int, optional
             Rows of the full measurement vector present in ``z``.
 

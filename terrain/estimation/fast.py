@@ -21,68 +21,99 @@ the ~1 us dispatch of each of the ~20 small NumPy calls of a step:
 The results equal the reference to round-off (the sums are taken in another order than
 BLAS / LAPACK's; ``tests/estimation/test_fast.py`` checks 1e-9).
 
-Models opt in with a method ``fast_kernel() -> FastKernel | None`` (AgriMaRo, ch. 6.1, and
-the skid-steer model implement it). The kernels live in this module, next to the loop that
-calls them: numba's on-disk cache (``cache=True``: the first call on a machine compiles in
-about 4.5 s on 2 cores, later processes load it in about 0.3 s) is invalidated only by edits
-to the file of the cached function, so a kernel kept in another module could go stale
-silently. Restrictions
-of the fast path: the measurement noise is diagonal (``R_diag``), the process noise is
-diagonal (``q_diag`` per step, or ``q_diag dt``), and the model's ``residual`` is the
-default one (``z - h(x)``, angle rows wrapped).
+Models opt in with a method ``fast_kernel() -> FastKernel | None`` that hands over the model's
+own kernels (``transition_into``, ``observation_into`` of
+:mod:`terrain.estimation.equations`). This
+module holds no model equation and names no model: the kernels are compiled to C callbacks
+(``numba.cfunc``) and the loop, compiled once for every model, calls them through function
+pointers. Each piece sits in numba's on-disk cache (``cache=True``) next to its own source
+file, which is what numba checks for staleness: an edit of a model's equations recompiles that
+model's kernels only, an edit of this file the loop only (first call on a machine: a few
+seconds of compilation; later processes load the cache). Restrictions of the fast path: the
+measurement noise is diagonal (``R_diag``), the process noise is diagonal (``q_diag`` per
+step, or ``q_diag dt``), and the model's ``residual`` is the default one (``z - h(x)``, angle
+rows wrapped).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numba
 import numpy as np
+from numba import types
 
 from terrain.errors import CovarianceError, ShapeError
-from terrain.estimation.runner import LoopArrays
+from terrain.estimation.result import LoopArrays
 
-#: Kernel names understood by the compiled loop, with their integer code.
-KERNELS: tuple[str, ...] = ("agrimaro", "skid_steer")
 #: Status codes returned by the compiled loop.
 _OK, _S_NOT_PD, _NIS_NEGATIVE, _GATE_SINGULAR = 0, 1, 2, 3
+_VEC = types.float64[::1]
+_MAT = types.float64[:, ::1]
+#: Signature of a model's process kernel ``transition_into(x, u, dt, p, fx, F)``.
+TRANSITION_SIGNATURE = types.void(_VEC, _VEC, types.float64, _VEC, _VEC, _MAT)
+#: Signature of a model's measurement kernel ``observation_into(x, p, hx, H)``.
+OBSERVATION_SIGNATURE = types.void(_VEC, _VEC, _VEC, _MAT)
 
 
 @dataclass(frozen=True)
 class FastKernel:
-    """Description of a model for the compiled loop.
+    """What the compiled loop needs from a model: its two kernels and their constants.
+
+    The loop does not know any model: a model hands over its own kernels (see
+    :mod:`terrain.estimation.equations`), compiled here to C callbacks of
+    :data:`TRANSITION_SIGNATURE` / :data:`OBSERVATION_SIGNATURE` that the loop calls through a
+    function pointer. Adding a model never edits this module.
 
     Parameters
     ----------
-    kind : str
-        One of :data:`KERNELS`: ``"agrimaro"`` (12 states, 14 rows, seed 001 ch. 6.1,
-        eqs. 6.2/4.33-4.34 and 6.6) or ``"skid_steer"`` (4 states, 3 rows, see
-        :mod:`terrain.estimation.skid_steer`).
+    transition : numba dispatcher or function
+        ``transition_into(x, u, dt, p, fx, F)``: writes ``f(x, u, dt)`` (n,) into ``fx`` and
+        its Jacobian (n, n) into ``F`` (the ``transition_into`` of a module of
+        :mod:`terrain.estimation.equations`).
+    observation : numba dispatcher or function
+        ``observation_into(x, p, hx, H)``: writes ``h(x)`` (m,) into ``hx`` and its Jacobian
+        (m, n) into ``H``.
     params : tuple of float
-        Model constants in the order the kernel reads them: AgriMaRo ``(coriolis sign,
-        x_1, y_1, x_2, y_2, x_3, y_3, wheel radius, d_cam_x, d_cam_y)`` (sign 1 for the body
-        convention, -1 for eq. 6.2 as printed; positions and radius in m); skid-steer
-        ``(track B m, chi_min_yaw_rate rad/s)``.
+        The kernels' parameter vector ``p`` (the model's parameter dataclass ``as_array()``;
+        SI units).
+    n_states, n_measurements : int
+        n and m.
     q_diag : tuple of float
         Process noise variances (n,), SI units squared, per step or per second.
     q_per : {"step", "second"}
         ``Q = diag(q_diag)`` at every step, or ``Q = diag(q_diag) dt``.
     angle_rows : tuple of int
         Measurement rows whose innovation is wrapped to [-pi, pi).
+
+    Raises
+    ------
+    ValueError
+        A kernel that is not callable, ``q_diag`` of the wrong length, unknown ``q_per`` or
+        an angle row outside ``0..m-1``.
     """
 
-    kind: str
+    transition: Callable[..., Any]
+    observation: Callable[..., Any]
     params: tuple[float, ...]
+    n_states: int
+    n_measurements: int
     q_diag: tuple[float, ...]
     q_per: str = "step"
     angle_rows: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.kind not in KERNELS:
-            raise ValueError(f"unknown kernel {self.kind!r}; valid: {', '.join(KERNELS)}")
+        if not (callable(self.transition) and callable(self.observation)):
+            raise ValueError("transition and observation must be (numba-compilable) functions")
+        if len(self.q_diag) != self.n_states:
+            raise ValueError(f"q_diag needs {self.n_states} values, got {len(self.q_diag)}")
         if self.q_per not in ("step", "second"):
             raise ValueError(f"q_per must be 'step' or 'second', got {self.q_per!r}")
+        if any(not 0 <= r < self.n_measurements for r in self.angle_rows):
+            raise ValueError(f"angle rows {self.angle_rows} outside 0..{self.n_measurements - 1}")
 
 
 def fast_kernel_of(model: object) -> FastKernel | None:
@@ -102,110 +133,12 @@ def fast_kernel_of(model: object) -> FastKernel | None:
     return method() if callable(method) else None
 
 
-# -- model kernels (seed 001 ch. 6.1; skid-steer of terrain.estimation.skid_steer) -----------
-
-@numba.njit(cache=True)
-def _agrimaro_transition(x, dt, p, fx, F):
-    """AgriMaRo process model (eqs. 6.2, 4.33-4.34) and its Jacobian, into ``fx`` (12,) and
-    ``F`` (12, 12); ``p[0]`` is the Coriolis sign."""
-    yaw, vx, vy, w, ax, ay = x[2], x[3], x[4], x[5], x[6], x[7]
-    c, s = math.cos(yaw), math.sin(yaw)
-    sg = p[0]
-    for i in range(12):
-        fx[i] = x[i]
-        for j in range(12):
-            F[i, j] = 0.0
-        F[i, i] = 1.0
-    fx[0] += dt * (vx * c - vy * s)
-    fx[1] += dt * (vx * s + vy * c)
-    fx[2] += dt * w
-    fx[3] += dt * (ax + sg * w * vy)
-    fx[4] += dt * (ay - sg * w * vx)
-    F[0, 2] = -dt * (vx * s + vy * c)
-    F[0, 3] = dt * c
-    F[0, 4] = -dt * s
-    F[1, 2] = dt * (vx * c - vy * s)
-    F[1, 3] = dt * s
-    F[1, 4] = dt * c
-    F[2, 5] = dt
-    F[3, 4] = sg * dt * w
-    F[3, 5] = sg * dt * vy
-    F[3, 6] = dt
-    F[4, 3] = -sg * dt * w
-    F[4, 5] = -sg * dt * vx
-    F[4, 7] = dt
-
-
-@numba.njit(cache=True)
-def _agrimaro_observation(x, p, hx, H):
-    """AgriMaRo measurement model (eq. 6.6) and its Jacobian, into ``hx`` (14,) and ``H``
-    (14, 12); ``p = (sign, x_1, y_1, x_2, y_2, x_3, y_3, R_w, d_x, d_y)``."""
-    yaw, vx, vy, w, ax, ay, bg = x[2], x[3], x[4], x[5], x[6], x[7], x[11]
-    rw, dx, dy = p[7], p[8], p[9]
-    for i in range(14):
-        for j in range(12):
-            H[i, j] = 0.0
-    for i in range(3):
-        xi, yi, d = p[1 + 2 * i], p[2 + 2 * i], x[8 + i]
-        c, s = math.cos(d), math.sin(d)
-        u = vx - w * yi
-        v = vy + w * xi
-        hx[i] = (u * c + v * s) / rw
-        H[i, 3] = c / rw
-        H[i, 4] = s / rw
-        H[i, 5] = (-yi * c + xi * s) / rw
-        H[i, 8 + i] = (-u * s + v * c) / rw
-    hx[3] = ax
-    hx[4] = ay
-    hx[5] = w + bg
-    hx[6] = yaw
-    hx[7] = x[8]
-    hx[8] = x[9]
-    hx[9] = x[10]
-    hx[10] = vx - w * dy
-    hx[11] = vy + w * dx
-    hx[12] = w
-    hx[13] = yaw
-    H[3, 6] = 1.0
-    H[4, 7] = 1.0
-    H[5, 5] = 1.0
-    H[5, 11] = 1.0
-    H[6, 2] = 1.0
-    H[7, 8] = 1.0
-    H[8, 9] = 1.0
-    H[9, 10] = 1.0
-    H[10, 3] = 1.0
-    H[10, 5] = -dy
-    H[11, 4] = 1.0
-    H[11, 5] = dx
-    H[12, 5] = 1.0
-    H[13, 2] = 1.0
-
-
-@numba.njit(cache=True)
-def _skid_transition(x, dt, p, fx, F):
-    """Skid-steer random walk: ``fx = x``, ``F = I`` (4 states)."""
-    n = x.shape[0]
-    for i in range(n):
-        fx[i] = x[i]
-        for j in range(n):
-            F[i, j] = 0.0
-        F[i, i] = 1.0
-
-
-@numba.njit(cache=True)
-def _skid_observation(x, p, hx, H):
-    """Skid-steer ICR wheel model and gyro, into ``hx`` (3,) and ``H`` (3, 4);
-    ``p = (track B, chi_min_yaw_rate)``."""
-    v, w, b, lc = x[0], x[1], x[2], x[3]
-    k = math.exp(lc) * 0.5 * p[0]
-    hx[0] = v - k * w
-    hx[1] = v + k * w
-    hx[2] = w + b
-    kw = k * w if abs(w) >= p[1] else 0.0
-    H[0, 0], H[0, 1], H[0, 2], H[0, 3] = 1.0, -k, 0.0, -kw
-    H[1, 0], H[1, 1], H[1, 2], H[1, 3] = 1.0, k, 0.0, kw
-    H[2, 0], H[2, 1], H[2, 2], H[2, 3] = 0.0, 1.0, 1.0, 0.0
+@functools.lru_cache(maxsize=None)
+def _callback(function: Callable[..., Any], signature: Any) -> Any:
+    """``function`` (a numba dispatcher's Python function, or a plain one) compiled to a C
+    callback of ``signature``; cached on disk next to the function's own module, so an edit
+    of a model's equations recompiles its kernel and never the loop."""
+    return numba.cfunc(signature, cache=True)(getattr(function, "py_func", function))
 
 
 @numba.njit(cache=True)
@@ -219,41 +152,51 @@ def _cholesky(A, n, L):
             return False
         d = math.sqrt(s)
         L[j, j] = d
+        inv = 1.0 / d
         for i in range(j + 1, n):
             t = A[i, j]
             for k in range(j):
                 t -= L[i, k] * L[j, k]
-            L[i, j] = t / d
+            L[i, j] = t * inv
     return True
 
 
 @numba.njit(cache=True)
 def _cho_solve(L, n, B, ncols):
-    """Overwrite ``B[:n, :ncols]`` with ``(L L^T)^-1 B`` (forward, then back substitution)."""
+    """Overwrite ``B[:n, :ncols]`` with ``(L L^T)^-1 B`` (forward, then back substitution;
+    one reciprocal per row, then multiplications)."""
     for i in range(n):
         for k in range(i):
             lik = L[i, k]
             for c in range(ncols):
                 B[i, c] -= lik * B[k, c]
-        d = L[i, i]
+        inv = 1.0 / L[i, i]
         for c in range(ncols):
-            B[i, c] /= d
+            B[i, c] *= inv
     for i in range(n - 1, -1, -1):
         for k in range(i + 1, n):
             lki = L[k, i]
             for c in range(ncols):
                 B[i, c] -= lki * B[k, c]
-        d = L[i, i]
+        inv = 1.0 / L[i, i]
         for c in range(ncols):
-            B[i, c] /= d
+            B[i, c] *= inv
 
 
 @numba.njit(cache=True)
-def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_angle,
-                 row_sensor, n_sensors, gate_on, thresholds, store_cov,
-                 xs, Pd, Ps, Y, Sd, acc, nis, dof):
-    """The whole run on the grid; writes the outputs in place and returns
-    ``(status, step)`` (status 0 = ok; otherwise the step where it failed)."""
+def _filter_loop(transition, observation, model, data, options, out):
+    """The whole run on the grid; writes ``out`` in place and returns ``(status, step)``
+    (status 0 = ok; otherwise the step where it failed).
+
+    ``transition``, ``observation``: the model's C callbacks; ``model = (p, u, q_diag,
+    r_diag, is_angle)``; ``data = (dts, Z, x0, P0, row_sensor, thresholds)``; ``options =
+    [q_per_second, n_sensors, gate_on, store_cov]`` (int64); ``out = (x, P_diag, P, y,
+    S_diag, accepted, nis, dof)`` as in :class:`LoopArrays`."""
+    params, u, q_diag, r_diag, is_angle = model
+    dts, Z, x0, P0, row_sensor, thresholds = data
+    q_per_second, n_sensors = options[0] != 0, options[1]
+    gate_on, store_cov = options[2] != 0, options[3] != 0
+    xs, Pd, Ps, Y, Sd, accepted, nis, dof = out
     N, m = Z.shape
     n = x0.shape[0]
     x = x0.copy()
@@ -289,10 +232,7 @@ def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_
         if k > 0:
             # -- predict (eqs. 4.3, 4.5): P = F P F^T + Q, F applied through its non-zeros
             dt = dts[k - 1]
-            if kind == 0:
-                _agrimaro_transition(x, dt, params, fx, F)
-            else:
-                _skid_transition(x, dt, params, fx, F)
+            transition(x, u, dt, params, fx, F)
             for i in range(n):
                 c = 0
                 for j in range(n):
@@ -331,10 +271,7 @@ def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_
                 rows[na] = r
                 na += 1
         if na > 0:
-            if kind == 0:
-                _agrimaro_observation(x, params, hx, Hf)
-            else:
-                _skid_observation(x, params, hx, Hf)
+            observation(x, params, hx, Hf)
             for a in range(na):
                 r = rows[a]
                 yv = Z[k, r] - hx[r]
@@ -357,8 +294,8 @@ def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_
                     hv = Ha[a, j]
                     for c in range(n):
                         HP[a, c] += hv * P[j, c]
-            for a in range(na):                   # S = H P H^T + R (eq. 4.9)
-                for b in range(na):
+            for a in range(na):                   # S = H P H^T + R (eq. 4.9), lower
+                for b in range(a + 1):            # triangle: all the factorisations read
                     s = 0.0
                     for e in range(h_cnt[b]):
                         j = h_nz[b, e]
@@ -394,7 +331,7 @@ def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_
                 r = rows[a]
                 Y[k, r] = ya[a]
                 Sd[k, r] = S[a, a]
-                acc[k, r] = ok_row[a]
+                accepted[k, r] = ok_row[a]
                 if ok_row[a]:
                     sel[nacc] = a
                     nacc += 1
@@ -420,34 +357,31 @@ def _filter_loop(kind, params, q_diag, q_per_second, dts, Z, x0, P0, r_diag, is_
                     yv = ya[sel[a]]
                     for i in range(n):
                         x[i] += B[a, i] * yv
-                for i in range(n):                # A = I - K H
-                    for j in range(n):
-                        A[i, j] = 0.0
-                    A[i, i] = 1.0
+                # Joseph form P = A P A^T + K R K^T with A = I - K H, evaluated as
+                # AP = P - K (H P) (H P is at hand), then
+                # P = AP - (AP H^T) K^T + K R K^T = AP + sum_a G[a, :]^T K[:, a]^T with
+                # G[a, i] = r_a K[i, a] - (AP H^T)[i, a]   (H applied through its non-zeros)
+                for i in range(n):                # AP = P - K (H P), K = B[:, :n]^T
+                    for c in range(n):
+                        AP[i, c] = P[i, c]
                 for a in range(nacc):
                     s_a = sel[a]
-                    for e in range(h_cnt[s_a]):
-                        j = h_nz[s_a, e]
-                        hv = Ha[s_a, j]
-                        for i in range(n):
-                            A[i, j] -= B[a, i] * hv
-                for i in range(n):                # AP = A P
-                    for c in range(n):
-                        AP[i, c] = 0.0
-                    for j in range(n):
-                        aij = A[i, j]
-                        if aij != 0.0:
-                            for c in range(n):
-                                AP[i, c] += aij * P[j, c]
-                for a in range(nacc):             # K R (rows of B scaled by r)
-                    r_a = r_diag[rows[sel[a]]]
                     for i in range(n):
-                        BR[a, i] = B[a, i] * r_a
-                for i in range(n):                # P = A P A^T + K R K^T (Joseph form),
-                    for j in range(i, n):         # upper triangle, mirrored: symmetric
-                        s = 0.0
+                        kia = B[a, i]
                         for c in range(n):
-                            s += AP[i, c] * A[j, c]
+                            AP[i, c] -= kia * HP[s_a, c]
+                for a in range(nacc):             # G = K R - AP H^T (rows a of BR)
+                    s_a = sel[a]
+                    r_a = r_diag[rows[s_a]]
+                    for i in range(n):
+                        g = B[a, i] * r_a
+                        for e in range(h_cnt[s_a]):
+                            j = h_nz[s_a, e]
+                            g -= AP[i, j] * Ha[s_a, j]
+                        BR[a, i] = g
+                for i in range(n):                # upper triangle, mirrored: symmetric
+                    for j in range(i, n):
+                        s = AP[i, j]
                         for a in range(nacc):
                             s += BR[a, i] * B[a, j]
                         P[i, j] = s
@@ -474,6 +408,7 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     Parameters
     ----------
     kernel : FastKernel
+        The model's kernels and constants.
     dts : ndarray, shape (N - 1,)
         Grid steps, s (> 0).
     Z : ndarray, shape (N, m)
@@ -511,30 +446,28 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     N, m = Z.shape
     x0 = np.ascontiguousarray(x0, dtype=np.float64)
     n = x0.shape[0]
-    sizes = {"agrimaro": (12, 14), "skid_steer": (4, 3)}[kernel.kind]
-    if (n, m) != sizes:
-        raise ShapeError(f"kernel {kernel.kind!r} needs {sizes[0]} states and {sizes[1]} rows, "
-                         f"got {n} and {m}")
+    if (n, m) != (kernel.n_states, kernel.n_measurements):
+        raise ShapeError(f"the kernel needs {kernel.n_states} states and "
+                         f"{kernel.n_measurements} rows, got {n} and {m}")
     is_angle = np.zeros(m, dtype=np.bool_)
     is_angle[list(kernel.angle_rows)] = True
     gate_on = thresholds is not None
     thr = np.ones(1) if thresholds is None else np.ascontiguousarray(thresholds, np.float64)
-    xs = np.empty((N, n))
-    Pd = np.empty((N, n))
-    Ps = np.empty((N if store_covariance else 0, n, n))
-    Y = np.full((N, m), np.nan)
-    Sd = np.full((N, m), np.nan)
-    acc = np.zeros((N, m), dtype=np.bool_)
-    nis = np.full(N, np.nan)
-    dof = np.zeros(N, dtype=np.int64)
-    status, step = _filter_loop(
-        KERNELS.index(kernel.kind), np.asarray(kernel.params, dtype=np.float64),
-        np.asarray(kernel.q_diag, dtype=np.float64), kernel.q_per == "second",
-        np.ascontiguousarray(dts, dtype=np.float64), Z, x0,
-        np.ascontiguousarray(P0, dtype=np.float64),
-        np.ascontiguousarray(R_diag, dtype=np.float64), is_angle,
-        np.ascontiguousarray(row_sensor, dtype=np.int64), int(n_sensors), gate_on, thr,
-        bool(store_covariance), xs, Pd, Ps, Y, Sd, acc, nis, dof)
+    out = (np.empty((N, n)), np.empty((N, n)),
+           np.empty((N if store_covariance else 0, n, n)), np.full((N, m), np.nan),
+           np.full((N, m), np.nan), np.zeros((N, m), dtype=np.bool_), np.full(N, np.nan),
+           np.zeros(N, dtype=np.int64))
+    model = (np.asarray(kernel.params, dtype=np.float64), np.zeros(0),
+             np.asarray(kernel.q_diag, dtype=np.float64),
+             np.ascontiguousarray(R_diag, dtype=np.float64), is_angle)
+    data = (np.ascontiguousarray(dts, dtype=np.float64), Z, x0,
+            np.ascontiguousarray(P0, dtype=np.float64),
+            np.ascontiguousarray(row_sensor, dtype=np.int64), thr)
+    options = np.array([kernel.q_per == "second", int(n_sensors), gate_on,
+                        bool(store_covariance)], dtype=np.int64)
+    status, step = _filter_loop(_callback(kernel.transition, TRANSITION_SIGNATURE),
+                                _callback(kernel.observation, OBSERVATION_SIGNATURE),
+                                model, data, options, out)
     if status == _S_NOT_PD:
         raise CovarianceError("innovation covariance S = H P H^T + R is not positive definite "
                               f"(Cholesky failed at step {step})")
@@ -543,8 +476,10 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
                               f">= 0 at step {step})")
     if status == _GATE_SINGULAR:
         raise CovarianceError(f"innovation covariance S is singular (gate, step {step})")
+    xs, Pd, Ps, Y, Sd, accepted, nis, dof = out
     return LoopArrays(x=xs, P_diag=Pd, P=Ps if store_covariance else None, y=Y, S_diag=Sd,
-                   accepted=acc, nis=nis, dof=dof)
+                      accepted=accepted, nis=nis, dof=dof)
 
 
-__all__ = ["KERNELS", "FastKernel", "fast_kernel_of", "run_compiled"]
+__all__ = ["TRANSITION_SIGNATURE", "OBSERVATION_SIGNATURE", "FastKernel", "fast_kernel_of",
+           "run_compiled"]

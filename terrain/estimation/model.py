@@ -21,7 +21,18 @@ import numpy as np
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
-    """Wrap angles to [-pi, pi), rad."""
+    """Wrap angles to [-pi, pi).
+
+    Parameters
+    ----------
+    a : float or ndarray
+        Angles, rad.
+
+    Returns
+    -------
+    float or ndarray
+        Same shape, rad.
+    """
     return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
@@ -59,23 +70,77 @@ class StateSpaceModel:
         return len(self.measurement_names)
 
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:  # pragma: no cover - interface
-        """Process model, ``(n,)``."""
+        """Process model (interface).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
         raise NotImplementedError
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:  # pragma: no cover - interface
-        """Jacobian of :meth:`f`, ``(n, n)``."""
+        """Jacobian of :meth:`f` (interface).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+        """
         raise NotImplementedError
 
     def h(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
-        """Measurement model, ``(m,)``."""
+        """Measurement model (interface).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
         raise NotImplementedError
 
     def H(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
-        """Jacobian of :meth:`h`, ``(m, n)``."""
+        """Jacobian of :meth:`h` (interface).
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+
+        Returns
+        -------
+        ndarray, shape (m, n)
+        """
         raise NotImplementedError
 
     def Q(self, dt: float) -> np.ndarray:  # pragma: no cover - interface
-        """Process noise covariance of one step of ``dt`` seconds, ``(n, n)``."""
+        """Process noise covariance of one step (interface).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+        """
         raise NotImplementedError
 
     @property
@@ -94,15 +159,52 @@ class StateSpaceModel:
         raise NotImplementedError
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))``."""
+        """``(f(x, dt), F(x, dt))``; models override it when the two share work.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        fx : ndarray, shape (n,)
+        F : ndarray, shape (n, n)
+        """
         return self.f(x, dt), self.F(x, dt)
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
+        """``(h(x), H(x))``; models override it when the two share work.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+
+        Returns
+        -------
+        hx : ndarray, shape (m,)
+        H : ndarray, shape (m, n)
+        """
         return self.h(x), self.H(x)
 
     def residual(self, z: np.ndarray, hx: np.ndarray) -> np.ndarray:
-        """Innovation ``z - hx`` over all m rows, angle rows wrapped to [-pi, pi)."""
+        """Innovation ``z - hx`` over all m rows, angle rows wrapped to [-pi, pi) (seed
+        ``001_59da564c4b2d6a48.txt`` eq. 4.7).
+
+        Parameters
+        ----------
+        z : ndarray, shape (m,)
+            Measurement (NaN where a row has no sample; NaN stays NaN).
+        hx : ndarray, shape (m,)
+            Predicted measurement ``h(x)``.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
         y = np.asarray(z, dtype=float) - hx
         two_pi = 2.0 * math.pi
         for r in self.angle_rows:
@@ -110,7 +212,13 @@ class StateSpaceModel:
         return y
 
     def sensor_groups(self) -> list[np.ndarray]:
-        """Measurement rows of each sensor, for per-sensor gating."""
+        """Measurement rows of each sensor, for per-sensor gating.
+
+        Returns
+        -------
+        list of ndarray of int
+            One array of row indices per sensor, in the order of ``sensor_rows``.
+        """
         return [np.asarray(r) for r in self.sensor_rows.values()]
 
 
@@ -120,7 +228,9 @@ def finite_difference_jacobian(fun, x: np.ndarray, eps: float = 1e-6) -> np.ndar
     Parameters
     ----------
     fun : callable ``fun(x) -> (m,)``
+        Function to differentiate.
     x : ndarray, shape (n,)
+        Point of evaluation.
     eps : float
         Step, relative to ``max(1, |x_j|)``.
 

@@ -82,6 +82,7 @@ class ObserverResult:
     Attributes
     ----------
     t_s : ndarray, shape (N,)
+        Times, s.
     pose_hat : ndarray, shape (N, 3)
         Observer state ``x^, y^, theta^`` (m, m, rad).
     eta : ndarray, shape (N, 2)
@@ -122,6 +123,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     v_right_m_s, v_left_m_s : ndarray, shape (N,)
         Track / side speeds ``omega r`` at the same times, m/s.
     settings : AdaptiveObserverSettings
+        Gains and initial values.
 
     Returns
     -------
@@ -207,6 +209,7 @@ def eta_from_truth(v_body_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, v_right_m
     v_right_m_s, v_left_m_s : ndarray, shape (N,)
         True rim speeds.
     half_track_m : float
+        Half track width B/2, m.
     min_speed_m_s : float
         Rim speeds below this give NaN (eta undefined).
 

@@ -69,6 +69,7 @@ def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) 
     Parameters
     ----------
     values : ndarray, shape (k,) or (k, d)
+        Samples (any unit), one column per channel.
     rate_hz : float
         Sampling rate, Hz.
     window_s : float

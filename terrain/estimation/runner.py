@@ -18,15 +18,15 @@ Scheduling rule (explicit, recorded in :attr:`EKFResult.meta`):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
-import pandas as pd
 
 from terrain.errors import ConfigError, ShapeError, TimeStepError
 from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct
 from terrain.estimation.model import StateSpaceModel
+from terrain.estimation.result import EKFResult, LoopArrays
 
 #: Engines of :func:`run_filter`.
 ENGINES: tuple[str, ...] = ("auto", "numba", "numpy")
@@ -63,7 +63,19 @@ class SensorSamples:
 
 
 def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
-    """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive), s.
+    """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive).
+
+    Parameters
+    ----------
+    t_start_s, t_end_s : float
+        First and last time, s.
+    rate_hz : float
+        Grid rate, Hz (> 0).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Times, s.
 
     Raises
     ------
@@ -76,91 +88,6 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
         raise TimeStepError(f"empty time span [{t_start_s}, {t_end_s}] s")
     n = int(np.floor((t_end_s - t_start_s) * rate_hz + 1e-9)) + 1
     return t_start_s + np.arange(n) / rate_hz
-
-
-@dataclass
-class EKFResult:
-    """Output of :func:`run_filter` over N grid steps (n states, m measurement rows).
-
-    Attributes
-    ----------
-    t_s : ndarray, shape (N,)
-        Grid times, s.
-    x : ndarray, shape (N, n)
-        Posterior state at each step (SI units of each state).
-    P_diag : ndarray, shape (N, n)
-        Posterior variances.
-    P : ndarray, shape (N, n, n) or None
-        Full posterior covariances (``store_covariance=True``).
-    y : ndarray, shape (N, m)
-        Innovation of each measurement row (NaN where the row had no sample).
-    S_diag : ndarray, shape (N, m)
-        Innovation variances (NaN where the row had no sample).
-    accepted : ndarray of bool, shape (N, m)
-        Rows used in the update (False if absent or rejected by the gate).
-    nis : ndarray, shape (N,)
-        NIS over the accepted rows of each step (NaN when none).
-    dof : ndarray of int, shape (N,)
-        Its degrees of freedom.
-    state_names, measurement_names : tuple of str
-    sensor_rows : dict
-        Sensor -> measurement rows.
-    counts : dict
-        Sensor -> ``{"samples", "used", "non_finite", "superseded", "outside", "rejected"}``.
-    meta : dict
-        Scheduling rule, gate, rates, settings of the caller.
-    """
-
-    t_s: np.ndarray
-    x: np.ndarray
-    P_diag: np.ndarray
-    P: np.ndarray | None
-    y: np.ndarray
-    S_diag: np.ndarray
-    accepted: np.ndarray
-    nis: np.ndarray
-    dof: np.ndarray
-    state_names: tuple[str, ...]
-    measurement_names: tuple[str, ...]
-    sensor_rows: dict[str, tuple[int, ...]]
-    counts: dict[str, dict[str, int]]
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    def state(self, name: str) -> np.ndarray:
-        """Estimated state ``name`` over time, shape (N,)."""
-        return self.x[:, self.state_names.index(name)]
-
-    def std(self, name: str) -> np.ndarray:
-        """Posterior standard deviation of state ``name``, shape (N,)."""
-        return np.sqrt(self.P_diag[:, self.state_names.index(name)])
-
-    def sensor_nis(self, sensor: str) -> np.ndarray:
-        """Sum of squared normalised innovations of one sensor's rows, shape (N,).
-
-        This ignores the correlation between rows of the sensor (exact when its rows are
-        uncorrelated); NaN at steps where the sensor had no accepted sample.
-        """
-        rows = list(self.sensor_rows[sensor])
-        nu2 = np.where(self.accepted[:, rows], self.y[:, rows] ** 2 / self.S_diag[:, rows],
-                       0.0)
-        out = nu2.sum(axis=1)
-        out[~self.accepted[:, rows].any(axis=1)] = np.nan
-        return out
-
-    def to_frame(self, include_std: bool = True) -> pd.DataFrame:
-        """Time-stamped table: ``t_s``, states, ``std_<state>``, ``innov_<row>``, ``nis``,
-        ``nis_dof``."""
-        cols: dict[str, np.ndarray] = {"t_s": self.t_s}
-        for j, name in enumerate(self.state_names):
-            cols[name] = self.x[:, j]
-        if include_std:
-            for j, name in enumerate(self.state_names):
-                cols[f"std_{name}"] = np.sqrt(self.P_diag[:, j])
-        for i, name in enumerate(self.measurement_names):
-            cols[f"innov_{name}"] = np.where(self.accepted[:, i], self.y[:, i], np.nan)
-        cols["nis"] = self.nis
-        cols["nis_dof"] = self.dof
-        return pd.DataFrame(cols)
 
 
 def _place(t_grid: np.ndarray, samples: SensorSamples, width: int
@@ -202,6 +129,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
     Parameters
     ----------
     model : StateSpaceModel
+        Process / measurement model, noises and initial state.
     t_grid : ndarray, shape (N,)
         Step times, s, strictly increasing (:func:`make_grid`).
     samples : Mapping[str, SensorSamples]
@@ -274,52 +202,24 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
     else:
         loop = _reference_loop(model, dts, Z, avail, x, P, R_diag, row_sensor,
                                len(sensor_rows), gate, store_covariance)
-    acc = loop.accepted
-    for j, (name, rows) in enumerate(sensor_rows.items()):
+    accepted = loop.accepted
+    for name, rows in sensor_rows.items():
         if name in counts:
             r = list(rows)
-            used = acc[:, r].any(axis=1)
+            used = accepted[:, r].any(axis=1)
             present = avail[:, r].any(axis=1)
             counts[name]["used"] = int(used.sum())
-            counts[name]["rejected"] = int((present & ~acc[:, r].any(axis=1)).sum())
+            counts[name]["rejected"] = int((present & ~used).sum())
     meta = {"scheduling": "grid step k uses samples in (t_{k-1}, t_k]; latest wins",
             "engine": "numpy" if kernel is None else "numba",
             "gate_probability": None if gate is None else gate.probability,
             "n_steps": int(N),
             "rate_hz": float(1.0 / np.median(dts)) if dts.size else float("nan")}
     return EKFResult(t_s=t_grid, x=loop.x, P_diag=loop.P_diag, P=loop.P, y=loop.y,
-                     S_diag=loop.S_diag, accepted=acc, nis=loop.nis, dof=loop.dof,
+                     S_diag=loop.S_diag, accepted=accepted, nis=loop.nis, dof=loop.dof,
                      state_names=tuple(model.state_names),
                      measurement_names=tuple(model.measurement_names),
                      sensor_rows=dict(sensor_rows), counts=counts, meta=meta)
-
-
-@dataclass(frozen=True)
-class LoopArrays:
-    """Per-step arrays of one filter loop, NumPy reference or compiled (the same meaning as
-    in :class:`EKFResult`; N steps, n states, m rows).
-
-    Attributes
-    ----------
-    x, P_diag : ndarray, shape (N, n)
-        Posterior states (SI units) and variances.
-    P : ndarray, shape (N, n, n) or None
-        Full covariances when requested.
-    y, S_diag : ndarray, shape (N, m)
-        Innovations and their variances (NaN where the row had no sample).
-    accepted : ndarray of bool, shape (N, m)
-    nis : ndarray, shape (N,)
-    dof : ndarray of int, shape (N,)
-    """
-
-    x: np.ndarray
-    P_diag: np.ndarray
-    P: np.ndarray | None
-    y: np.ndarray
-    S_diag: np.ndarray
-    accepted: np.ndarray
-    nis: np.ndarray
-    dof: np.ndarray
 
 
 def _fast_kernel(model: StateSpaceModel, engine: str) -> Any:
@@ -368,7 +268,7 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
     Ps = np.empty((N, n, n)) if store_covariance else None
     Y = np.full((N, m), np.nan)
     Sd = np.full((N, m), np.nan)
-    acc = np.zeros((N, m), dtype=bool)
+    accepted = np.zeros((N, m), dtype=bool)
     nis = np.full(N, np.nan)
     dof = np.zeros(N, dtype=int)
     residual = model.residual
@@ -394,17 +294,17 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
                                     check=False)
                 Y[k] = inn.y
                 Sd[k] = inn.S.diagonal()
-                acc[k] = inn.accepted
+                accepted[k] = inn.accepted
             else:
                 x, P, inn = correct(x, P, y[rows], Hm[rows], r_sub, gate=gate,
                                     groups=groups, check=False)
                 Y[k, rows] = inn.y
                 Sd[k, rows] = inn.S.diagonal()
-                acc[k, rows] = inn.accepted
+                accepted[k, rows] = inn.accepted
             nis[k] = inn.nis
             dof[k] = inn.dof
         xs[k] = x
         Pd[k] = P.diagonal()
         if Ps is not None:
             Ps[k] = P
-    return LoopArrays(x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=acc, nis=nis, dof=dof)
+    return LoopArrays(x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=accepted, nis=nis, dof=dof)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
@@ -40,8 +41,12 @@ import pandas as pd
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
+from terrain.estimation.equations.skid_steer import (NO_INPUT, SkidSteerEquationParams,
+                                                     observation_into, observation_pair,
+                                                     transition_into)
 from terrain.estimation.model import StateSpaceModel
-from terrain.estimation.runner import EKFResult, SensorSamples, make_grid, run_filter
+from terrain.estimation.result import EKFResult
+from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.skid_steer import HUSKY
 
@@ -50,7 +55,7 @@ if TYPE_CHECKING:
 
 STATE_NAMES: tuple[str, ...] = ("v_bx", "yaw_rate", "gyro_bias", "log_icr_chi")
 MEASUREMENT_NAMES: tuple[str, ...] = ("vel_l", "vel_r", "wz")
-SENSOR_ROWS: Mapping[str, tuple[int, ...]] = {"wheels": (0, 1), "gyro": (2,)}
+SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType({"wheels": (0, 1), "gyro": (2,)})
 
 
 @dataclass(frozen=True)
@@ -89,6 +94,12 @@ class SkidSteerSettings:
         while driving straight can be explained either by a yaw rate (pulling ``chi``
         towards 0) or by the bias; the filter then slowly drives ``chi`` down and learns
         the bias late.
+
+    Raises
+    ------
+    ConfigError
+        A standard deviation, ``track_m`` or ``chi0`` not > 0, or a density negative or not
+        finite.
     """
 
     track_m: float = HUSKY.track_m
@@ -120,63 +131,158 @@ class SkidSteerSettings:
 
 @dataclass(frozen=True)
 class SkidSteerModel(StateSpaceModel):
-    """Random-walk process model with the ICR wheel model (see the module docstring).
+    """Random-walk process model with the ICR wheel model (see the module docstring); its
+    equations are :mod:`terrain.estimation.equations.skid_steer`.
 
     Parameters
     ----------
     settings : SkidSteerSettings
+        Geometry and tuning.
     wheel_r_scale : float
         Multiplies the wheel-speed variance (e.g. the up-sampling factor when the wheel
         stream has been interpolated onto a faster clock, so that the correlated repeats do
-        not count as independent measurements).
+        not count as independent measurements), dimensionless.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (4).
+    measurement_names : tuple of str
+        :data:`MEASUREMENT_NAMES` (3).
     """
 
     settings: SkidSteerSettings = field(default_factory=SkidSteerSettings)
     wheel_r_scale: float = 1.0
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_p", self.equation_params.as_array())
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
         """Sensor -> measurement rows."""
         return SENSOR_ROWS
 
+    @property
+    def equation_params(self) -> SkidSteerEquationParams:
+        """Constants of the model's equations (:mod:`terrain.estimation.equations.skid_steer`)."""
+        s = self.settings
+        return SkidSteerEquationParams(track_m=float(s.track_m),
+                                       chi_min_yaw_rate_rad_s=float(s.chi_min_yaw_rate_rad_s))
+
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Random walk: ``f(x) = x``, shape (4,)."""
-        return np.array(x, dtype=float)
+        """Random walk: ``f(x) = x``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (4,)
+        """
+        return self.transition(x, dt)[0]
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Identity, shape (4, 4)."""
-        return np.eye(4)
+        """Identity, the Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (4, 4)
+        """
+        return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, I)``."""
-        return x, np.eye(4)
+        """``(x, I)`` of :func:`terrain.estimation.equations.skid_steer.transition_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (4,)
+        F : ndarray, shape (4, 4)
+        """
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        fx, Fm = np.empty(4), np.empty((4, 4))
+        transition_into(x, NO_INPUT, float(dt), self._p, fx, Fm)
+        return fx, Fm
 
     def Q(self, dt: float) -> np.ndarray:
-        """``diag(accel_psd, yaw_accel_psd, bias_psd, log_chi_psd) dt``, shape (4, 4)."""
+        """``diag(accel_psd, yaw_accel_psd, bias_psd, log_chi_psd) dt``.
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (4, 4)
+        """
         s = self.settings
         return np.diag([s.accel_psd, s.yaw_accel_psd, s.bias_psd, s.log_chi_psd]) * dt
 
     def h(self, x: np.ndarray) -> np.ndarray:
-        """``[v - chi B w / 2, v + chi B w / 2, w + b]`` with ``chi = exp(x[3])``, shape (3,)."""
+        """``[v - chi B w / 2, v + chi B w / 2, w + b]`` with ``chi = exp(x[3])``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State ``[v_bx m/s, yaw_rate rad/s, b_g rad/s, ln(chi)]``.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            ``vel_l, vel_r`` (m/s), ``wz`` (rad/s).
+        """
         return self.observation(x)[0]
 
     def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`, shape (3, 4) (the ``ln(chi)`` column is zero while
-        ``|yaw_rate| < chi_min_yaw_rate_rad_s``)."""
+        """Jacobian of :meth:`h` (the ``ln(chi)`` column is zero while
+        ``|yaw_rate| < chi_min_yaw_rate_rad_s``).
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State ``[v_bx m/s, yaw_rate rad/s, b_g rad/s, ln(chi)]``.
+
+        Returns
+        -------
+        ndarray, shape (3, 4)
+        """
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
-        v, w, b, lc = x.tolist()
-        k = math.exp(lc) * 0.5 * self.settings.track_m          # chi B / 2
-        hx = np.array([v - k * w, v + k * w, w + b])
-        kw = k * w if abs(w) >= self.settings.chi_min_yaw_rate_rad_s else 0.0
-        H = np.array([[1.0, -k, 0.0, -kw],
-                      [1.0, k, 0.0, kw],
-                      [0.0, 1.0, 1.0, 0.0]])
-        return hx, H
+        """``(h(x), H(x))`` of :func:`terrain.estimation.equations.skid_steer.observation_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (4,)
+            State.
+
+        Returns
+        -------
+        hx : ndarray, shape (3,)
+        H : ndarray, shape (3, 4)
+        """
+        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -198,9 +304,9 @@ class SkidSteerModel(StateSpaceModel):
                         s.log_chi0_std ** 2])
 
     def fast_kernel(self) -> FastKernel | None:
-        """Description of this model for the compiled loop of :mod:`terrain.estimation.fast`
-        (the ``skid_steer`` kernel implements :meth:`transition`, :meth:`observation` and
-        :meth:`Q` of this class); None for subclasses, which may change them.
+        """This model's kernels for the compiled loop of :mod:`terrain.estimation.fast` (the
+        same functions :meth:`transition` and :meth:`observation` call, with the ``Q`` of
+        :meth:`Q`); None for subclasses, which may change them.
 
         Returns
         -------
@@ -211,7 +317,8 @@ class SkidSteerModel(StateSpaceModel):
         from terrain.estimation.fast import FastKernel
 
         s = self.settings
-        return FastKernel("skid_steer", (float(s.track_m), float(s.chi_min_yaw_rate_rad_s)),
+        return FastKernel(transition_into, observation_into, tuple(self._p.tolist()),
+                          len(STATE_NAMES), len(MEASUREMENT_NAMES),
                           (float(s.accel_psd), float(s.yaw_accel_psd), float(s.bias_psd),
                            float(s.log_chi_psd)), "second", ())
 
@@ -229,13 +336,16 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         (``wz``, rad/s). Without IMU the filter runs on the wheels alone (``chi`` and the
         bias then stay at their prior).
     settings : SkidSteerSettings
+        Geometry and tuning.
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate, else the wheel rate). The grid spans the
         overlap of the streams used.
     gate : Gate, optional
+        Per-sensor chi-square gating.
     time_offsets_s : Mapping[str, float], optional
         Per-sensor latency (``wheels``, ``gyro``) subtracted from its timestamps, s.
     store_covariance : bool
+        Keep the full covariance of every step (memory N n^2 floats).
 
     Returns
     -------
@@ -284,9 +394,11 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     frame : pandas.DataFrame
         ``t_s``, ``vel_l``, ``vel_r`` (m/s), ``wz`` (rad/s).
     settings : SkidSteerSettings
+        Geometry and tuning.
     wheel_rate_hz : float, optional
         Native wheel rate, Hz (default: the grid rate, i.e. no inflation).
     gate : Gate, optional
+        Per-sensor chi-square gating.
 
     Returns
     -------
@@ -322,7 +434,9 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     yaw_rate_rad_s : ndarray, shape (N,)
         True yaw rate, rad/s.
     track_m : float
+        Track width B, m.
     min_yaw_rate_rad_s : float
+        Samples turning slower than this are left out, rad/s.
 
     Returns
     -------
@@ -339,5 +453,16 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
 
 
 def icr_chi(result: EKFResult) -> np.ndarray:
-    """ICR factor ``chi = exp(log_icr_chi)`` over time from a skid-steer result, shape (N,)."""
+    """ICR factor ``chi = exp(log_icr_chi)`` over time from a skid-steer result.
+
+    Parameters
+    ----------
+    result : EKFResult
+        Output of :func:`estimate_skid_steer` or :func:`skid_steer_on_frame`.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Dimensionless.
+    """
     return np.exp(result.state("log_icr_chi"))

@@ -32,7 +32,6 @@ steering encoders (7.2e-5).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -40,6 +39,8 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_COLUMNS
+from terrain.estimation.equations.agrimaro import (NO_INPUT, AgriMaRoEquationParams,
+                                                   slip_state_observation_pair, transition_pair)
 from terrain.estimation.model import StateSpaceModel
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -58,21 +59,41 @@ SLIP_FLOOR = 0.05
 
 @dataclass(frozen=True)
 class SlipStateModel(StateSpaceModel):
-    """14-state EKF with slip in the state (seed 001 ch. 4.3).
+    """14-state EKF with slip in the state (seed ``001_59da564c4b2d6a48.txt`` ch. 4.3); its
+    equations are :mod:`terrain.estimation.equations.agrimaro`.
 
     Parameters
     ----------
     vehicle : AgriMaRoParams
+        Geometry (ch. 7.2, 5.2.3).
     accel : {"coriolis", "direct"}
         Accelerometer rows: eqs. 4.26-4.27 (``-yaw_rate v_by``, ``yaw_rate v_bx``) or the
         acceleration states.
     camera : bool
         Append the T265 rows of eq. 6.6.
-    p0_diag, r_diag, q_diag : tuple of float
-        Tuning (default eqs. 4.38, 4.40 + ``CAMERA_R``, 4.41); ``r_diag`` has 10 or 14
-        values.
+    p0_diag : tuple of 14 float
+        Initial variances, SI units squared (default eq. 4.38).
+    r_diag : tuple of 10 or 14 float, optional
+        Measurement noise variances (default eq. 4.40 + ``CAMERA_R``).
+    q_diag : tuple of 14 float
+        Process noise variances (default eq. 4.41).
     q_per : {"step", "second"}
         As in :class:`~terrain.estimation.agrimaro.AgriMaRoEKFSettings`.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (14).
+    measurement_names : tuple of str
+        10 rows, 14 with the camera.
+    angle_rows : tuple of int
+        ``yaw_imu`` (6) and, with the camera, ``yaw_c`` (13).
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``accel``, ``r_diag`` of the wrong length or not > 0, ``p0_diag`` / ``q_diag``
+        without 14 values.
     """
 
     vehicle: AgriMaRoParams = AGRIMARO
@@ -85,6 +106,7 @@ class SlipStateModel(StateSpaceModel):
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=(), init=False)
     angle_rows: tuple[int, ...] = field(default=(6,), init=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.accel not in ("coriolis", "direct"):
@@ -102,6 +124,15 @@ class SlipStateModel(StateSpaceModel):
         object.__setattr__(self, "r_diag", tuple(float(v) for v in r))
         if len(self.p0_diag) != 14 or len(self.q_diag) != 14:
             raise ConfigError("p0_diag and q_diag need 14 values")
+        object.__setattr__(self, "_p", self.equation_params.as_array())
+
+    @property
+    def equation_params(self) -> AgriMaRoEquationParams:
+        """Constants of the model's equations (:mod:`terrain.estimation.equations.agrimaro`):
+        the vehicle geometry, body-frame Coriolis signs, accelerometer and camera options."""
+        return AgriMaRoEquationParams.from_vehicle(
+            self.vehicle, coriolis_sign=1.0, accel_direct=self.accel == "direct",
+            camera=self.camera, slip_floor=SLIP_FLOOR)
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
@@ -112,80 +143,115 @@ class SlipStateModel(StateSpaceModel):
         return rows
 
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Eq. 4.36 (body-frame Coriolis signs), shape (14,)."""
+        """Eq. 4.36 (body-frame Coriolis signs).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (14,)
+        """
         return self.transition(x, dt)[0]
 
     def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Jacobian of :meth:`f`, shape (14, 14)."""
+        """Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (14, 14)
+        """
         return self.transition(x, dt)[1]
 
     def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))``."""
-        _, _, yaw, vx, vy, w, ax, ay = x[:8].tolist()
-        c, s = math.cos(yaw), math.sin(yaw)
-        fx = x.copy()
-        fx[0] += dt * (vx * c - vy * s)
-        fx[1] += dt * (vx * s + vy * c)
-        fx[2] += dt * w
-        fx[3] += dt * (ax + w * vy)
-        fx[4] += dt * (ay - w * vx)
-        F = np.eye(14)
-        F[0, 2], F[0, 3], F[0, 4] = -dt * (vx * s + vy * c), dt * c, -dt * s
-        F[1, 2], F[1, 3], F[1, 4] = dt * (vx * c - vy * s), dt * s, dt * c
-        F[2, 5] = dt
-        F[3, 4], F[3, 5], F[3, 6] = dt * w, dt * vy, dt
-        F[4, 3], F[4, 5], F[4, 7] = -dt * w, -dt * vx, dt
-        return fx, F
+        """``(f(x, dt), F(x, dt))`` of
+        :func:`terrain.estimation.equations.agrimaro.transition_into` (eq. 4.36).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State (eq. 4.18).
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (14,)
+        F : ndarray, shape (14, 14)
+        """
+        return transition_pair(np.ascontiguousarray(x, dtype=np.float64), NO_INPUT, float(dt),
+                               self._p)
 
     def Q(self, dt: float) -> np.ndarray:
-        """Process noise of one step, shape (14, 14)."""
+        """Process noise of one step, ``diag(q)`` or ``diag(q) dt`` (eq. 4.41).
+
+        Parameters
+        ----------
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (14, 14)
+        """
         q = np.asarray(self.q_diag, dtype=float)
         return np.diag(q if self.q_per == "step" else q * dt)
 
     def h(self, x: np.ndarray) -> np.ndarray:
-        """Eq. 4.28 (+ camera rows), shape (m,)."""
+        """Eq. 4.28 (+ camera rows of eq. 6.6).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
         return self.observation(x)[0]
 
     def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`, shape (m, 14)."""
+        """Jacobian of :meth:`h`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
+
+        Returns
+        -------
+        ndarray, shape (m, 14)
+        """
         return self.observation(x)[1]
 
     def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))``."""
-        _, _, yaw, vx, vy, w, ax, ay, s1, s2, s3, d1, d2, d3 = x.tolist()
-        m = len(self.measurement_names)
-        rw = self.vehicle.wheel_radius_m
-        hx = np.empty(m)
-        H = np.zeros((m, 14))
-        for i, ((xi, yi), si, d) in enumerate(zip(self.vehicle.wheel_positions_m,
-                                                  (s1, s2, s3), (d1, d2, d3))):
-            c, sn = math.cos(d), math.sin(d)
-            u, v = vx - w * yi, vy + w * xi
-            vw = u * c + v * sn                                   # eq. 4.20
-            one_s = 1.0 - si
-            k = 1.0 / (max(one_s, SLIP_FLOOR) * rw)
-            hx[i] = vw * k                                        # eq. 4.22
-            H[i, 3], H[i, 4], H[i, 5] = c * k, sn * k, (-yi * c + xi * sn) * k
-            H[i, 11 + i] = (-u * sn + v * c) * k
-            H[i, 8 + i] = vw * k / one_s if one_s > SLIP_FLOOR else 0.0
-        if self.accel == "coriolis":                              # eqs. 4.26-4.27
-            hx[3], hx[4] = -w * vy, w * vx
-            H[3, 4], H[3, 5] = -w, -vy
-            H[4, 3], H[4, 5] = w, vx
-        else:
-            hx[3], hx[4] = ax, ay
-            H[3, 6] = H[4, 7] = 1.0
-        hx[5], hx[6] = w, yaw
-        H[5, 5] = H[6, 2] = 1.0
-        hx[7:10] = (d1, d2, d3)
-        H[7, 11] = H[8, 12] = H[9, 13] = 1.0
-        if self.camera:
-            dx, dy = self.vehicle.camera_lever_arm_m[0], self.vehicle.camera_lever_arm_m[1]
-            hx[10:14] = (vx - w * dy, vy + w * dx, w, yaw)
-            H[10, 3], H[10, 5] = 1.0, -dy
-            H[11, 4], H[11, 5] = 1.0, dx
-            H[12, 5] = H[13, 2] = 1.0
-        return hx, H
+        """``(h(x), H(x))`` of
+        :func:`terrain.estimation.equations.agrimaro.slip_state_observation_into` (eq. 4.28).
+
+        Parameters
+        ----------
+        x : ndarray, shape (14,)
+            State (eq. 4.18).
+
+        Returns
+        -------
+        hx : ndarray, shape (m,)
+        H : ndarray, shape (m, 14)
+        """
+        return slip_state_observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p,
+                                           len(self.measurement_names))
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -216,7 +282,24 @@ def noise_derived_slip_state_model(*, accel_std_m_s2: float = 0.8, omega_std_rad
     Camera rows and direct accelerometer rows (as in eq. 6.6), the same noise levels as
     :func:`terrain.estimation.agrimaro.noise_derived_settings`; with the slip in the state
     the wheel rows only carry the encoder noise and lag (``omega_std_rad_s``), and each slip
-    is a random walk of density ``slip_psd`` (1/s).
+    is a random walk of density ``slip_psd``.
+
+    Parameters
+    ----------
+    accel_std_m_s2 : float
+        Accelerometer noise, m/s^2.
+    omega_std_rad_s : float
+        Wheel-encoder noise, rad/s.
+    slip_psd : float
+        Random-walk density of each slip, 1/s.
+    camera : bool
+        Include the camera rows.
+    vehicle : AgriMaRoParams
+        Geometry.
+
+    Returns
+    -------
+    SlipStateModel
     """
     r = (omega_std_rad_s ** 2,) * 3 + (accel_std_m_s2 ** 2,) * 2 + (0.005 ** 2, 0.05 ** 2) + (
         5e-4 ** 2,) * 3 + ((1e-4, 1e-4, 1e-4, 4e-6) if camera else ())

@@ -1,16 +1,25 @@
 """Per-wheel longitudinal slip from EKF states and raw encoders (seed 001 ch. 7.1-7.2).
 
 Public API: :func:`sae_slip`, :func:`wheel_longitudinal_velocity`, :func:`wheel_slip`,
-:data:`DEAD_BAND_M_S` (:mod:`.core`); :func:`estimate_lag`, :class:`LagEstimate`
-(:mod:`.alignment`); :func:`estimate_run`, :class:`RunEstimate` (:mod:`.estimate`).
+:func:`skid_steer_side_slip`, :data:`DEAD_BAND_M_S` (:mod:`.core`); :func:`estimate_lag`,
+:class:`LagEstimate` (:mod:`.alignment`); :func:`estimate_run` (vehicle dispatch),
+:func:`estimate_agrimaro_run`, :func:`estimate_skid_steer_run` and their pieces
+(:func:`agrimaro_wheel_speeds`, :func:`agrimaro_encoder_lag`, :func:`skid_steer_encoder_lag`,
+:func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate` (:mod:`.estimate`).
 """
 
 from __future__ import annotations
 
 from terrain.slip.alignment import LagEstimate, estimate_lag
-from terrain.slip.core import DEAD_BAND_M_S, sae_slip, wheel_longitudinal_velocity, wheel_slip
-from terrain.slip.estimate import LAG_MODES, TUNINGS, RunEstimate, agrimaro_settings, estimate_run
+from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_side_slip,
+                               wheel_longitudinal_velocity, wheel_slip)
+from terrain.slip.estimate import (LAG_MODES, TUNINGS, RunEstimate, agrimaro_encoder_lag,
+                                   agrimaro_settings, agrimaro_wheel_speeds,
+                                   estimate_agrimaro_run, estimate_run, estimate_skid_steer_run,
+                                   resample, skid_steer_encoder_lag, with_camera_ema)
 
-__all__ = ["LagEstimate", "estimate_lag", "DEAD_BAND_M_S", "sae_slip",
+__all__ = ["LagEstimate", "estimate_lag", "DEAD_BAND_M_S", "sae_slip", "skid_steer_side_slip",
            "wheel_longitudinal_velocity", "wheel_slip", "LAG_MODES", "TUNINGS", "RunEstimate",
-           "agrimaro_settings", "estimate_run"]
+           "agrimaro_settings", "estimate_run", "agrimaro_encoder_lag", "agrimaro_wheel_speeds",
+           "estimate_agrimaro_run", "estimate_skid_steer_run", "resample",
+           "skid_steer_encoder_lag", "with_camera_ema"]

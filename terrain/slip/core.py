@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from terrain.errors import ShapeError
+from terrain.estimation.equations.agrimaro import wheel_rim_speed
 from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
 
 #: Dead band of ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
@@ -56,14 +57,15 @@ def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
     if not (vx.shape == vy.shape == r.shape) or vx.ndim != 1:
         raise ShapeError(f"v_bx, v_by, yaw_rate must share a shape (N,), got {vx.shape}, "
                          f"{vy.shape}, {r.shape}")
-    vxi = vx[:, None] - r[:, None] * p[None, :, 1]
-    vyi = vy[:, None] + r[:, None] * p[None, :, 0]
-    if delta_rad is None:
-        return vxi
-    d = np.asarray(delta_rad, dtype=float)
-    if d.shape != vxi.shape:
-        raise ShapeError(f"delta_rad must have shape {vxi.shape}, got {d.shape}")
-    return vxi * np.cos(d) + vyi * np.sin(d)
+    shape = (vx.size, p.shape[0])
+    if delta_rad is None:                  # fixed wheels: v_y,i does not enter (delta = 0)
+        d, vy = np.zeros(shape), np.zeros_like(vy)
+    else:
+        d = np.asarray(delta_rad, dtype=float)
+        if d.shape != shape:
+            raise ShapeError(f"delta_rad must have shape {shape}, got {d.shape}")
+    return wheel_rim_speed(vx[:, None], vy[:, None], r[:, None], p[None, :, 0], p[None, :, 1],
+                           d)
 
 
 def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
@@ -77,9 +79,13 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     rim_speed_m_s : ndarray, shape (N, k)
         Raw encoder ``omega_i r``, m/s, on the same clock as the velocities.
     v_bx_m_s, v_by_m_s, yaw_rate_rad_s : ndarray, shape (N,)
+        Body velocity (m/s) and yaw rate (rad/s), EKF estimates.
     positions_m : ndarray, shape (k, 2)
+        Wheel (steering axis or contact line) positions in the body frame, m.
     delta_rad : ndarray, shape (N, k), optional
+        Steering angles, rad; None for fixed wheels.
     dead_band_m_s : float
+        Dead band of :func:`sae_slip`, m/s (0.05 in seed 001 ch. 7.2.1).
 
     Returns
     -------
@@ -91,3 +97,43 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     if rim.shape != v_long.shape:
         raise ShapeError(f"rim speeds must have shape {v_long.shape}, got {rim.shape}")
     return sae_slip(rim, v_long, dead_band_m_s=dead_band_m_s)
+
+
+def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
+                         yaw_rate_rad_s: np.ndarray, track_m: float, *,
+                         dead_band_m_s: float = DEAD_BAND_M_S) -> np.ndarray:
+    """Slip of the two sides of a skid-steer vehicle: :func:`wheel_slip` with the body
+    velocity moved to the geometric contact lines ``y = +B/2`` (left) and ``y = -B/2``
+    (right), no lateral velocity, fixed wheels.
+
+    Without an external velocity reference the forward speed is the mean wheel speed, so this
+    is the part of each side's slip that shows in turning (scrub), not a common longitudinal
+    slip.
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (N, 2)
+        Raw left and right rim speeds ``vel_l``, ``vel_r``, m/s.
+    v_bx_m_s : ndarray, shape (N,)
+        Body forward speed (EKF estimate), m/s.
+    yaw_rate_rad_s : ndarray, shape (N,)
+        Yaw rate (EKF estimate), rad/s.
+    track_m : float
+        Geometric track width B, m.
+    dead_band_m_s : float
+        Dead band of :func:`sae_slip`, m/s.
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        Left, right slip, dimensionless.
+
+    Raises
+    ------
+    ShapeError
+        Arrays of disagreeing shapes.
+    """
+    v = np.asarray(v_bx_m_s, dtype=float)
+    half = 0.5 * float(track_m)
+    return wheel_slip(rim_speed_m_s, v, np.zeros(v.shape), yaw_rate_rad_s,
+                      np.array([[0.0, half], [0.0, -half]]), dead_band_m_s=dead_band_m_s)

@@ -32,12 +32,13 @@ from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, estimate_agrimaro,
                                          noise_derived_settings)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.prefilter import robust_noise_std
-from terrain.estimation.runner import EKFResult
+from terrain.estimation.result import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.run import TIME, Run
 from terrain.slip.alignment import LagEstimate, estimate_lag
-from terrain.slip.core import DEAD_BAND_M_S, wheel_slip
+from terrain.slip.core import DEAD_BAND_M_S, skid_steer_side_slip, wheel_slip
 from terrain.vehicles import get_vehicle
+from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
 LAG_MODES = ("xcorr", "ema", "none")
 TUNINGS = ("noise", "thesis")
@@ -50,8 +51,11 @@ class RunEstimate:
     Attributes
     ----------
     run_id : str
+        ``<dataset>/<terrain>/<index>``.
     vehicle : str
+        Vehicle name (:data:`terrain.vehicles.VEHICLE_NAMES`).
     ekf : EKFResult
+        The filter's states, covariances and innovations.
     slip : ndarray, shape (N, k)
         SAE slip of each wheel / side on the EKF grid.
     slip_names : tuple of str
@@ -71,8 +75,14 @@ class RunEstimate:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def to_frame(self) -> pd.DataFrame:
-        """``t_s``, states (plus ``icr_chi = exp(log_icr_chi)`` for skid-steer),
-        ``std_<state>``, ``slip_i``, ``innov_<row>``, ``nis``, ``nis_dof``."""
+        """The run's table (the columns of ``terrain estimate``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``t_s``, states (plus ``icr_chi = exp(log_icr_chi)`` for skid-steer), ``std_<state>``,
+            ``slip_i``, ``innov_<row>``, ``nis``, ``nis_dof``; one row per EKF step.
+        """
         frame = self.ekf.to_frame()
         if "log_icr_chi" in frame.columns:
             frame.insert(frame.columns.get_loc("log_icr_chi") + 1, "icr_chi",
@@ -82,20 +92,184 @@ class RunEstimate:
             frame.insert(pos + j, name, self.slip[:, j])
         return frame
 
+    def summary(self) -> str:
+        """One line for the log: steps and rate, mean NIS and dof, median slip of each wheel,
+        encoder lag, non-finite samples skipped.
 
-def _interp_on(t_grid: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
-    out = np.empty((t_grid.size, values.shape[1]))
+        Returns
+        -------
+        str
+        """
+        ekf = self.ekf
+        nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
+        slips = ", ".join(f"{n} {np.nanmedian(self.slip[:, j]):+.3f}"
+                          for j, n in enumerate(self.slip_names))
+        lag = f"{self.lag.lag_s:.3f} s" if self.lag is not None else "not estimated"
+        skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
+        return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
+                f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
+                f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
+                + (f", non-finite samples skipped {skipped}" if skipped else ""))
+
+
+def resample(t_grid_s: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Linear interpolation of each column of ``values`` onto ``t_grid_s``.
+
+    Parameters
+    ----------
+    t_grid_s : ndarray, shape (N,)
+        Target times, s.
+    t_s : ndarray, shape (k,)
+        Sample times, s, increasing.
+    values : ndarray, shape (k, c)
+        Samples (any unit); non-finite samples are skipped per column.
+
+    Returns
+    -------
+    ndarray, shape (N, c)
+        NaN outside a column's finite samples, and everywhere for a column with fewer than
+        two of them.
+    """
+    out = np.empty((t_grid_s.size, values.shape[1]))
     for j in range(values.shape[1]):
         ok = np.isfinite(values[:, j])
-        out[:, j] = (np.interp(t_grid, t[ok], values[ok, j], left=np.nan, right=np.nan)
+        out[:, j] = (np.interp(t_grid_s, t_s[ok], values[ok, j], left=np.nan, right=np.nan)
                      if ok.sum() >= 2 else np.nan)
     return out
 
 
+def agrimaro_wheel_speeds(run: Run, vehicle: AgriMaRoParams = AGRIMARO
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Raw wheel angular speeds of an AgriMaRo run (the slip needs the unfiltered encoder,
+    seed 001 ch. 7.2).
+
+    Parameters
+    ----------
+    run : Run
+        With an ``omega`` stream (``omega_1..3``, rad/s) or, failing that, a ``wheels`` stream
+        (``vel_l``, ``vel_r``, m/s: wheels 1 and 2; wheel 3 NaN).
+    vehicle : AgriMaRoParams
+        Wheel radius for the ``wheels`` fallback, m.
+
+    Returns
+    -------
+    t_s : ndarray, shape (k,)
+        Sample times, s.
+    omega_rad_s : ndarray, shape (k, 3)
+        Wheel speeds, rad/s.
+
+    Raises
+    ------
+    EstimationError
+        Neither stream is present.
+    """
+    omega = run.streams.get("omega")
+    if omega is not None:
+        return (omega[TIME].to_numpy(float),
+                omega[["omega_1", "omega_2", "omega_3"]].to_numpy(float))
+    if "wheels" in run.streams:
+        w = run.streams["wheels"]
+        om = np.column_stack([w["vel_l"].to_numpy(float), w["vel_r"].to_numpy(float),
+                              np.full(len(w), np.nan)]) / vehicle.wheel_radius_m
+        return w[TIME].to_numpy(float), om
+    raise EstimationError(f"run {run.run_id} has no wheel-speed stream (omega or wheels)")
+
+
+def agrimaro_encoder_lag(run: Run, t_s: np.ndarray, omega_rad_s: np.ndarray,
+                         vehicle: AgriMaRoParams = AGRIMARO) -> LagEstimate | None:
+    """Encoder lag of an AgriMaRo run: camera speed ``|v_c|`` against the mean rim speed
+    (:func:`~terrain.slip.alignment.estimate_lag`).
+
+    Parameters
+    ----------
+    run : Run
+        Its ``cam`` stream (``v_cx``, ``v_cy``, m/s) is the reference.
+    t_s : ndarray, shape (k,)
+        Encoder times, s.
+    omega_rad_s : ndarray, shape (k, 3)
+        Raw wheel speeds, rad/s (:func:`agrimaro_wheel_speeds`).
+    vehicle : AgriMaRoParams
+        Wheel radius, m.
+
+    Returns
+    -------
+    LagEstimate or None
+        None without a camera stream or when no lag can be estimated.
+    """
+    cam = run.streams.get("cam")
+    if cam is None:
+        return None
+    ref = np.hypot(cam["v_cx"].to_numpy(float), cam["v_cy"].to_numpy(float))
+    rim = np.nanmean(np.abs(omega_rad_s), axis=1) * vehicle.wheel_radius_m
+    try:
+        return estimate_lag(cam[TIME].to_numpy(float), ref, t_s, rim)
+    except EstimationError:
+        return None
+
+
+def skid_steer_encoder_lag(run: Run, track_m: float) -> LagEstimate | None:
+    """Wheel-stream lag of a skid-steer run: gyro yaw rate against the wheel yaw rate
+    ``(vel_r - vel_l) / B`` (:func:`~terrain.slip.alignment.estimate_lag`, up to 1 s, 50 Hz).
+
+    Parameters
+    ----------
+    run : Run
+        With ``wheels`` (``vel_l``, ``vel_r``, m/s) and ``imu`` (``wz``, rad/s) streams.
+    track_m : float
+        Track width B, m.
+
+    Returns
+    -------
+    LagEstimate or None
+        None without both streams or when no lag can be estimated.
+    """
+    w, imu = run.streams.get("wheels"), run.streams.get("imu")
+    if w is None or imu is None:
+        return None
+    vel = w[["vel_l", "vel_r"]].to_numpy(float)
+    try:
+        return estimate_lag(imu[TIME].to_numpy(float), imu["wz"].to_numpy(float),
+                            w[TIME].to_numpy(float), (vel[:, 1] - vel[:, 0]) / track_m,
+                            max_lag_s=1.0, rate_hz=50.0)
+    except EstimationError:
+        return None
+
+
+def with_camera_ema(settings: AgriMaRoEKFSettings) -> AgriMaRoEKFSettings:
+    """The thesis's lag remedy (seed 001 ch. 7.2.2, eq. 7.8): camera EMA ``alpha = 0.2``,
+    encoders unfiltered, other sensors as in ``settings``.
+
+    Parameters
+    ----------
+    settings : AgriMaRoEKFSettings
+        Tuning to modify.
+
+    Returns
+    -------
+    AgriMaRoEKFSettings
+    """
+    ema = dict(settings.ema_alpha)
+    ema.update(cam=0.2, omega=0.0)
+    return replace(settings, ema_alpha=tuple(ema.items()))
+
+
 def agrimaro_settings(run: Run, tuning: str = "noise") -> AgriMaRoEKFSettings:
-    """EKF settings for a run: ``thesis`` (eqs. 6.9, 6.13, 6.14) or ``noise`` (noise-derived,
-    the accelerometer variance measured on the run with
-    :func:`~terrain.estimation.prefilter.robust_noise_std`).
+    """EKF settings for a run: ``thesis`` (seed 001 eqs. 6.9, 6.13, 6.14) or ``noise``
+    (noise-derived, :func:`~terrain.estimation.agrimaro.noise_derived_settings`, with the
+    accelerometer noise measured on the run by
+    :func:`~terrain.estimation.prefilter.robust_noise_std`; 0.8 m/s^2 when the run has fewer
+    than 51 IMU samples).
+
+    Parameters
+    ----------
+    run : Run
+        The run (its ``imu`` stream, ``ax``, ``ay`` in m/s^2).
+    tuning : {"noise", "thesis"}
+        Which tuning.
+
+    Returns
+    -------
+    AgriMaRoEKFSettings
 
     Raises
     ------
@@ -115,39 +289,53 @@ def agrimaro_settings(run: Run, tuning: str = "noise") -> AgriMaRoEKFSettings:
     return noise_derived_settings(accel_std_m_s2=acc)
 
 
-def _agrimaro(run: Run, lag: str, tuning: str, gate: Gate | None, rate_hz: float | None,
-              store_covariance: bool, settings: AgriMaRoEKFSettings | None) -> RunEstimate:
+def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
+                          gate: Gate | None = None, rate_hz: float | None = None,
+                          store_covariance: bool = False,
+                          settings: AgriMaRoEKFSettings | None = None) -> RunEstimate:
+    """States and slip of wheels 1-3 of an AgriMaRo run: the 12-state EKF
+    (:func:`~terrain.estimation.agrimaro.estimate_agrimaro`), then the raw rim speeds against
+    the EKF velocity moved to each wheel with the EKF steering angles (seed 001 eqs. 7.3-7.5,
+    :func:`~terrain.slip.wheel_slip`).
+
+    Parameters
+    ----------
+    run : Run
+        AgriMaRo run.
+    lag : {"xcorr", "ema", "none"}
+        Encoder lag handling (module docstring).
+    tuning : {"noise", "thesis"}
+        Tuning when ``settings`` is None (:func:`agrimaro_settings`).
+    gate : Gate, optional
+        Chi-square gating per sensor.
+    rate_hz : float, optional
+        Filter rate, Hz (default: the IMU rate).
+    store_covariance : bool
+        Keep the full covariances.
+    settings : AgriMaRoEKFSettings, optional
+        Explicit tuning.
+
+    Returns
+    -------
+    RunEstimate
+
+    Raises
+    ------
+    EstimationError, DataFormatError
+        The run lacks a wheel-speed or IMU stream.
+    ConfigError
+        Unknown tuning.
+    """
     params = get_vehicle("agrimaro")
     settings = settings or agrimaro_settings(run, tuning)
-    offsets: dict[str, float] = {}
-    lag_est = None
     if lag == "ema":
-        ema = dict(settings.ema_alpha)
-        ema.update(cam=0.2, omega=0.0)
-        settings = replace(settings, ema_alpha=tuple(ema.items()))
-    omega = run.streams.get("omega")
-    if omega is not None:
-        t_om = omega[TIME].to_numpy(float)
-        om = omega[["omega_1", "omega_2", "omega_3"]].to_numpy(float)
-    elif "wheels" in run.streams:
-        w = run.streams["wheels"]
-        t_om = w[TIME].to_numpy(float)
-        om = np.column_stack([w["vel_l"].to_numpy(float), w["vel_r"].to_numpy(float),
-                              np.full(len(w), np.nan)]) / params.wheel_radius_m
-    else:
-        raise EstimationError(f"run {run.run_id} has no wheel-speed stream (omega or wheels)")
-    if lag == "xcorr" and "cam" in run.streams:
-        cam = run.streams["cam"]
-        ref = np.hypot(cam["v_cx"].to_numpy(float), cam["v_cy"].to_numpy(float))
-        rim = np.nanmean(np.abs(om), axis=1) * params.wheel_radius_m
-        try:
-            lag_est = estimate_lag(cam[TIME].to_numpy(float), ref, t_om, rim)
-            offsets["omega"] = lag_est.lag_s
-        except EstimationError:
-            lag_est = None
+        settings = with_camera_ema(settings)
+    t_om, om = agrimaro_wheel_speeds(run, params)
+    lag_est = agrimaro_encoder_lag(run, t_om, om, params) if lag == "xcorr" else None
+    offsets = {"omega": lag_est.lag_s} if lag_est is not None else {}
     ekf = estimate_agrimaro(run, settings, rate_hz=rate_hz, gate=gate, time_offsets_s=offsets,
                             store_covariance=store_covariance)
-    rim = _interp_on(ekf.t_s, t_om - offsets.get("omega", 0.0), om) * params.wheel_radius_m
+    rim = resample(ekf.t_s, t_om - offsets.get("omega", 0.0), om) * params.wheel_radius_m
     delta = ekf.x[:, [ekf.state_names.index(f"delta_{i}") for i in (1, 2, 3)]]
     slip = wheel_slip(rim, ekf.state("v_bx"), ekf.state("v_by"), ekf.state("yaw_rate"),
                       params.positions, delta)
@@ -156,32 +344,51 @@ def _agrimaro(run: Run, lag: str, tuning: str, gate: Gate | None, rate_hz: float
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S})
 
 
-def _skid_steer(run: Run, lag: str, gate: Gate | None, rate_hz: float | None,
-                store_covariance: bool, settings: SkidSteerSettings | None) -> RunEstimate:
+def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None = None,
+                            rate_hz: float | None = None, store_covariance: bool = False,
+                            settings: SkidSteerSettings | None = None) -> RunEstimate:
+    """States and side slips of a skid-steer run: the 4-state EKF
+    (:func:`~terrain.estimation.skid_steer.estimate_skid_steer`), then
+    :func:`~terrain.slip.skid_steer_side_slip` (side 1 = left, 2 = right).
+
+    Parameters
+    ----------
+    run : Run
+        Husky or tracked run with a ``wheels`` stream.
+    lag : {"xcorr", "ema", "none"}
+        ``xcorr`` estimates the wheel-stream lag against the gyro; the others do nothing.
+    gate : Gate, optional
+        Chi-square gating per sensor.
+    rate_hz : float, optional
+        Filter rate, Hz (default: the IMU rate).
+    store_covariance : bool
+        Keep the full covariances.
+    settings : SkidSteerSettings, optional
+        Explicit tuning (default: the vehicle's track width, default tuning).
+
+    Returns
+    -------
+    RunEstimate
+
+    Raises
+    ------
+    EstimationError
+        No ``wheels`` stream.
+    ConfigError
+        Unknown vehicle.
+    """
     params = get_vehicle(run.vehicle)
     settings = settings or SkidSteerSettings(track_m=params.track_m)
     w = run.streams.get("wheels")
     if w is None:
         raise EstimationError(f"run {run.run_id} has no wheels stream")
-    t_w = w[TIME].to_numpy(float)
-    vel = w[["vel_l", "vel_r"]].to_numpy(float)
-    offsets: dict[str, float] = {}
-    lag_est = None
-    if lag == "xcorr" and "imu" in run.streams:
-        imu = run.streams["imu"]
-        try:
-            lag_est = estimate_lag(imu[TIME].to_numpy(float), imu["wz"].to_numpy(float), t_w,
-                                   (vel[:, 1] - vel[:, 0]) / settings.track_m,
-                                   max_lag_s=1.0, rate_hz=50.0)
-            offsets["wheels"] = lag_est.lag_s
-        except EstimationError:
-            lag_est = None
+    lag_est = skid_steer_encoder_lag(run, settings.track_m) if lag == "xcorr" else None
+    offsets = {"wheels": lag_est.lag_s} if lag_est is not None else {}
     ekf = estimate_skid_steer(run, settings, rate_hz=rate_hz, gate=gate, time_offsets_s=offsets,
                               store_covariance=store_covariance)
-    rim = _interp_on(ekf.t_s, t_w - offsets.get("wheels", 0.0), vel)
-    half = 0.5 * settings.track_m
-    slip = wheel_slip(rim, ekf.state("v_bx"), np.zeros(ekf.t_s.size), ekf.state("yaw_rate"),
-                      np.array([[0.0, half], [0.0, -half]]))
+    rim = resample(ekf.t_s, w[TIME].to_numpy(float) - offsets.get("wheels", 0.0),
+                   w[["vel_l", "vel_r"]].to_numpy(float))
+    slip = skid_steer_side_slip(rim, ekf.state("v_bx"), ekf.state("yaw_rate"), settings.track_m)
     return RunEstimate(run.run_id, params.name, ekf, slip, ("slip_1", "slip_2"), lag_est,
                        {"tuning": "skid-steer default", "lag_mode": lag,
                         "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S})
@@ -207,6 +414,7 @@ def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate).
     store_covariance : bool
+        Keep the full covariance of every step (memory N n^2 floats).
     settings : AgriMaRoEKFSettings or SkidSteerSettings, optional
         Explicit tuning (overrides ``tuning``).
 
@@ -227,7 +435,9 @@ def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
     if vehicle == "agrimaro":
         if settings is not None and not isinstance(settings, AgriMaRoEKFSettings):
             raise ConfigError("agrimaro runs need AgriMaRoEKFSettings")
-        return _agrimaro(run, lag, tuning, gate, rate_hz, store_covariance, settings)
+        return estimate_agrimaro_run(run, lag=lag, tuning=tuning, gate=gate, rate_hz=rate_hz,
+                                     store_covariance=store_covariance, settings=settings)
     if settings is not None and not isinstance(settings, SkidSteerSettings):
         raise ConfigError(f"{vehicle} runs need SkidSteerSettings")
-    return _skid_steer(run, lag, gate, rate_hz, store_covariance, settings)
+    return estimate_skid_steer_run(run, lag=lag, gate=gate, rate_hz=rate_hz,
+                                   store_covariance=store_covariance, settings=settings)

@@ -37,6 +37,11 @@ def get_vehicle(name: str) -> AgriMaRoParams | HuskyParams | TrackedParams:
     name : str
         One of :data:`VEHICLE_NAMES` (case-insensitive).
 
+    Returns
+    -------
+    AgriMaRoParams or HuskyParams or TrackedParams
+        The shared default instance (frozen).
+
     Raises
     ------
     ConfigError
@@ -55,6 +60,7 @@ def contact_geometry(params: AgriMaRoParams | HuskyParams | TrackedParams) -> Co
     Parameters
     ----------
     params : AgriMaRoParams or HuskyParams or TrackedParams
+        Vehicle parameters.
 
     Returns
     -------

@@ -37,6 +37,7 @@ class HuskyParams:
     Parameters
     ----------
     name : str
+        Vehicle name.
     track_m : float
         Lateral distance between left and right wheel centres B, m (0.5708 m, public Husky
         description, ``husky_description`` URDF).
@@ -49,6 +50,7 @@ class HuskyParams:
     yaw_inertia_kg_m2 : float
         ASSUMED ``m (L^2 + W^2) / 12`` of the 0.99 m x 0.67 m chassis (datasheet dimensions).
     motor : MotorParams
+        Drive motor of each side / wheel (sources in ``MotorParams.source``).
     contact_length_m, contact_width_m : float
         ASSUMED tyre contact patch on firm ground, m.
     speed_quantum_m_s : float
@@ -71,7 +73,14 @@ class HuskyParams:
     current_quantum_a: float = 0.01
 
     def contact_geometry(self) -> ContactGeometry:
-        """Four wheels; motor 0 = left side (y > 0), motor 1 = right side."""
+        """Four wheels at ``(+-L/2, +-B/2)``; motor 0 = left side (y > 0), motor 1 = right
+        side; equal static loads.
+
+        Returns
+        -------
+        ContactGeometry
+            Contact positions (body frame, m), motor of each contact, static load shares.
+        """
         a, b = self.wheelbase_m / 2.0, self.track_m / 2.0
         pos = np.array([[a, b], [-a, b], [a, -b], [-a, -b]])
         return ContactGeometry(positions_m=pos, motor_of_contact=np.array([0, 0, 1, 1]),
@@ -99,6 +108,7 @@ class TrackedParams:
     Parameters
     ----------
     name : str
+        Vehicle name.
     track_m : float
         Tread (distance between track centre lines) B, m: 0.393 m (Table 2).
     track_width_m : float
@@ -118,6 +128,7 @@ class TrackedParams:
     n_segments : int
         Contact points per track used to discretise the track-ground contact.
     motor : MotorParams
+        Drive motor of each side / wheel (sources in ``MotorParams.source``).
     """
 
     name: str = "tracked"
@@ -148,7 +159,14 @@ class TrackedParams:
         return self.track_width_m
 
     def contact_geometry(self) -> ContactGeometry:
-        """``n_segments`` points per track, evenly along its length; motor 0 = left."""
+        """``n_segments`` points per track, evenly along its length; motor 0 = left; equal
+        static loads.
+
+        Returns
+        -------
+        ContactGeometry
+            Contact positions (body frame, m), motor of each contact, static load shares.
+        """
         n = self.n_segments
         xs = (np.arange(n) + 0.5) / n * self.track_length_m - self.track_length_m / 2.0
         b = self.track_m / 2.0
@@ -200,8 +218,11 @@ def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: f
     Parameters
     ----------
     v_m_s, yaw_rate_rad_s : ndarray, shape (n,)
+        Body speed (m/s) and yaw rate (rad/s).
     track_m : float
+        Track width B, m.
     chi : float
+        ICR expansion factor, dimensionless (1 = ideal).
 
     Returns
     -------
@@ -219,6 +240,7 @@ def skid_steer_pose_rates(yaw_rad: np.ndarray, v_m_s: np.ndarray,
     Parameters
     ----------
     yaw_rad, v_m_s, yaw_rate_rad_s : ndarray, shape (n,)
+        Heading (rad), body speed (m/s), yaw rate (rad/s).
 
     Returns
     -------
@@ -242,6 +264,7 @@ def endo_slip_ratio_ratio(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     v_left_m_s, v_right_m_s : ndarray, shape (n,)
         Input track speeds, m/s (non-zero).
     n : float
+        Endo's turning slip exponent (seed 003 eq. 27), dimensionless.
 
     Returns
     -------

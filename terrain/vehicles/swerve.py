@@ -21,8 +21,10 @@ from terrain.vehicles.common import ContactGeometry, MotorParams
 #: Rotation taking T265 tracking-frame vectors (x right, y up, z backward) to the robot frame
 #: (x forward, y left, z up), seed 001 ch. 5.2.3.
 R_ROBOT_FROM_T265_TRACKING = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+R_ROBOT_FROM_T265_TRACKING.flags.writeable = False
 #: Rotation taking T265 internal IMU vectors (x left, y up, z forward) to the robot frame.
 R_ROBOT_FROM_T265_IMU = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+R_ROBOT_FROM_T265_IMU.flags.writeable = False
 
 
 def _agrimaro_motor() -> MotorParams:
@@ -45,6 +47,7 @@ class AgriMaRoParams:
     Parameters
     ----------
     name : str
+        Vehicle name.
     wheel_positions_m : tuple of (x, y)
         Wheel (steering axis) positions d_1..d_3 in the body frame, m. Seed 001 ch. 7.2.
     wheel_radius_m : float
@@ -62,6 +65,7 @@ class AgriMaRoParams:
     steering_rate_rad_s : float
         Steering speed limit, rad/s (20 rpm, seed 001 ch. 2.2).
     motor : MotorParams
+        Drive motor of each side / wheel (sources in ``MotorParams.source``).
     contact_length_m, contact_width_m : float
         Tyre contact patch (ASSUMED 0.10 m x 0.12 m).
     """
@@ -94,7 +98,13 @@ class AgriMaRoParams:
         return self.positions.mean(axis=0)
 
     def contact_geometry(self) -> ContactGeometry:
-        """One contact per wheel, one motor per wheel, equal static loads."""
+        """One contact per wheel (ch. 7.2 positions), one motor per wheel, equal static loads.
+
+        Returns
+        -------
+        ContactGeometry
+            Contact positions (body frame, m), motor of each contact, static load shares.
+        """
         return ContactGeometry(positions_m=self.positions, motor_of_contact=np.arange(3),
                                load_share=np.full(3, 1.0 / 3.0), steered=True,
                                wheel_radius_m=self.wheel_radius_m, motor_names=("1", "2", "3"))
@@ -109,6 +119,7 @@ def h_matrix(positions_m: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     positions_m : ndarray, shape (n, 2)
+        Wheel positions in the body frame, m.
 
     Returns
     -------
@@ -132,6 +143,7 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
     Parameters
     ----------
     positions_m : ndarray, shape (n_wheels, 2)
+        Wheel (steering axis) positions in the body frame, m.
     twist : ndarray, shape (..., 3)
         ``[yaw_rate, v_x, v_y]`` (rad/s, m/s, m/s).
 
@@ -159,6 +171,7 @@ def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
     omega_rad_s : ndarray, shape (..., 3)
         Wheel angular speeds, rad/s.
     params : AgriMaRoParams
+        Geometry (seed 001 ch. 7.2) and wheel radius.
 
     Returns
     -------
@@ -189,13 +202,17 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     twist : ndarray, shape (..., 3)
         ``[yaw_rate, v_x, v_y]``.
     params : AgriMaRoParams
+        Geometry (seed 001 ch. 7.2) and wheel radius.
     delta_prev_rad : ndarray, shape (..., 3), optional
+        Previous steering angles, rad.
     min_speed_m_s : float
+        Speed below which a unit keeps its previous angle, m/s.
 
     Returns
     -------
     delta_rad : ndarray, shape (..., 3)
     omega_rad_s : ndarray, shape (..., 3)
+        Body angular velocity, rad/s.
     """
     vel = wheel_contact_velocity(params.positions, twist)
     speed = np.hypot(vel[..., 0], vel[..., 1])
@@ -225,6 +242,7 @@ def camera_to_robot_velocity(v_camera_m_s: np.ndarray, omega_rad_s: np.ndarray,
     omega_rad_s : ndarray, shape (..., 3)
         Body angular velocity, rad/s.
     lever_arm_m : ndarray, shape (3,)
+        Camera position ``d_cam`` in the body frame, m (seed 001 ch. 5.2.3).
 
     Returns
     -------
@@ -242,8 +260,11 @@ def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
     Parameters
     ----------
     v_robot_m_s : ndarray, shape (..., 3)
+        Velocity of the body origin, robot axes, m/s.
     omega_rad_s : ndarray, shape (..., 3)
+        Body angular velocity, rad/s.
     lever_arm_m : ndarray, shape (3,)
+        Camera position ``d_cam`` in the body frame, m (seed 001 ch. 5.2.3).
 
     Returns
     -------
@@ -260,6 +281,7 @@ def t265_tracking_to_robot(vectors: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     vectors : ndarray, shape (..., 3)
+        Vectors in the T265 tracking frame (any unit).
 
     Returns
     -------

@@ -3,13 +3,17 @@ innovations, NIS, gating and counts to round-off; engine selection and fall-back
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numba
 
 import numpy as np
 import pytest
 
 from terrain.errors import ConfigError, CovarianceError
-from terrain.estimation import Gate, SensorSamples, make_grid, run_filter
+from terrain.estimation import Gate, SensorSamples, StateSpaceModel, make_grid, run_filter
 from terrain.estimation.agrimaro import AgriMaRoModel, agrimaro_samples, estimate_agrimaro
 from terrain.estimation.fast import FastKernel, fast_kernel_of, run_compiled
 from terrain.estimation.skid_steer import SkidSteerModel
@@ -125,8 +129,13 @@ def test_engine_selection_and_fallback():
         run_filter(SlipStateModel(), grid, {}, engine="numba")
     with pytest.raises(ConfigError):
         run_filter(SkidSteerModel(), grid, z, engine="fortran")
+    kernel = fast_kernel_of(SkidSteerModel())
     with pytest.raises(ValueError):
-        FastKernel("unicycle", (), ())
+        replace(kernel, q_diag=(1.0,))                         # 1 variance for 4 states
+    with pytest.raises(ValueError):
+        replace(kernel, q_per="minute")
+    with pytest.raises(ValueError):
+        replace(kernel, angle_rows=(3,))                       # 3 rows: 0..2
 
 
 def test_indefinite_innovation_covariance_raises():
@@ -135,3 +144,80 @@ def test_indefinite_innovation_covariance_raises():
     with pytest.raises(CovarianceError):
         run_compiled(kernel, np.full(2, 0.01), Z, np.zeros(4), -np.eye(4), np.full(3, 1e-4),
                      np.array([0, 0, 1]), 2)
+
+
+# -- a model the engine has never heard of ---------------------------------------------------
+
+@numba.njit(cache=True)
+def _pendulum_transition(x, u, dt, p, fx, F):
+    """Pendulum ``[angle, rate]``, explicit Euler: ``rate' = rate - dt g/l sin(angle)``."""
+    fx[0] = x[0] + dt * x[1]
+    fx[1] = x[1] - dt * p[0] * math.sin(x[0])
+    F[0, 0], F[0, 1] = 1.0, dt
+    F[1, 0], F[1, 1] = -dt * p[0] * math.cos(x[0]), 1.0
+
+
+@numba.njit(cache=True)
+def _pendulum_observation(x, p, hx, H):
+    """Angle (wrapped) and the tip's horizontal position ``l sin(angle)``."""
+    hx[0] = x[0]
+    hx[1] = p[1] * math.sin(x[0])
+    H[0, 0], H[0, 1] = 1.0, 0.0
+    H[1, 0], H[1, 1] = p[1] * math.cos(x[0]), 0.0
+
+
+@dataclass(frozen=True)
+class _Pendulum(StateSpaceModel):
+    """g/l = 9.81 / 0.5; both engines through the same two kernels."""
+
+    state_names: tuple = ("angle", "rate")
+    measurement_names: tuple = ("angle_m", "tip_x")
+    angle_rows: tuple = (0,)
+
+    @property
+    def sensor_rows(self):
+        return {"encoder": (0,), "camera": (1,)}
+
+    def transition(self, x, dt):
+        fx, F = np.empty(2), np.empty((2, 2))
+        _pendulum_transition(np.ascontiguousarray(x, float), np.zeros(0), float(dt),
+                             np.array([19.62, 0.5]), fx, F)
+        return fx, F
+
+    def observation(self, x):
+        hx, H = np.empty(2), np.empty((2, 2))
+        _pendulum_observation(np.ascontiguousarray(x, float), np.array([19.62, 0.5]), hx, H)
+        return hx, H
+
+    def Q(self, dt):
+        return np.diag([1e-6, 1e-3]) * dt
+
+    @property
+    def R_diag(self):
+        return np.array([1e-4, 1e-4])
+
+    @property
+    def x0(self):
+        return np.array([0.5, 0.0])
+
+    @property
+    def P0(self):
+        return np.diag([0.1, 0.1])
+
+    def fast_kernel(self):
+        return FastKernel(_pendulum_transition, _pendulum_observation, (19.62, 0.5), 2, 2,
+                          (1e-6, 1e-3), "second", (0,))
+
+
+def test_a_new_model_runs_on_the_engine_without_editing_it():
+    t = np.arange(0.0, 5.0, 0.01)
+    angle = 0.4 * np.cos(math.sqrt(19.62) * t)
+    rng = np.random.default_rng(1)
+    samples = {"encoder": SensorSamples(t, (angle + 0.01 * rng.standard_normal(t.size))[:, None]),
+               "camera": SensorSamples(t[::3], 0.5 * np.sin(angle[::3])[:, None])}
+    fast, ref = _both(_Pendulum(), t, samples, gate=Gate(0.999))
+    assert_same_result(fast, ref)
+    assert np.abs(fast.state("angle")[100:] - angle[100:]).max() < 0.05
+    engine = Path(__file__).resolve().parents[2] / "terrain" / "estimation" / "fast.py"
+    code = engine.read_text().lower()
+    assert not any(name in code for name in ("agrimaro", "skid", "husky", "pendulum"))

@@ -1,0 +1,76 @@
+"""The python-control style functions of terrain.estimation.equations: known values from the
+seed's equations, Jacobians against finite differences, and the model classes using them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrain.estimation.agrimaro import AgriMaRoModel
+from terrain.estimation.equations import agrimaro, skid_steer
+from terrain.estimation.model import finite_difference_jacobian
+from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+from terrain.vehicles.swerve import AGRIMARO
+
+
+def test_agrimaro_steady_turn_keeps_body_velocity():
+    """Eqs. 4.33-4.34: in a steady turn the accelerometer reads the centripetal term
+    (a_by = yaw_rate v_bx) and the body velocity does not change."""
+    x = np.zeros(12)
+    x[3], x[5], x[7] = 1.0, 0.5, 0.5 * 1.0
+    nxt = agrimaro.f(x, None, 0.01, agrimaro.AgriMaRoEquationParams())
+    assert nxt[3] == pytest.approx(1.0, abs=1e-15) and nxt[4] == pytest.approx(0.0, abs=1e-15)
+    assert nxt[2] == pytest.approx(0.005) and nxt[0] == pytest.approx(0.01)
+
+
+def test_agrimaro_wheel_and_camera_rows():
+    """Eq. 6.6: a pure yaw rotation turns a wheel steered across its lever arm at
+    r |d_i| / R_w, and the camera sees v_b + omega x d_cam."""
+    params = agrimaro.AgriMaRoEquationParams.from_vehicle(AGRIMARO)
+    x = np.zeros(12)
+    x[5] = 0.4                                            # yaw rate, rad/s
+    x[8:11] = [math.pi / 2, math.pi / 2, 0.0]             # wheels 1, 2 sideways, 3 straight
+    z = agrimaro.h(x, params)
+    (x1, _), (x2, _), (_, y3) = AGRIMARO.wheel_positions_m
+    r = AGRIMARO.wheel_radius_m
+    np.testing.assert_allclose(z[:3], [0.4 * x1 / r, 0.4 * x2 / r, -0.4 * y3 / r], atol=1e-12)
+    dx, dy = AGRIMARO.camera_lever_arm_m[:2]
+    np.testing.assert_allclose(z[10:12], [-0.4 * dy, 0.4 * dx], atol=1e-15)
+    assert z[5] == 0.4 and z[12] == 0.4
+
+
+@pytest.mark.parametrize("module,n", [(agrimaro, 12), (skid_steer, 4)])
+def test_jacobians_of_the_equations(module, n):
+    rng = np.random.default_rng(3)
+    params = (agrimaro.AgriMaRoEquationParams() if module is agrimaro
+              else skid_steer.SkidSteerEquationParams())
+    for _ in range(5):
+        x = rng.uniform(-1.0, 1.0, n)
+        if module is skid_steer:
+            x[1] = 0.5                                    # turning: ln(chi) column active
+        num_F = finite_difference_jacobian(lambda v: module.f(v, None, 0.02, params), x)
+        num_H = finite_difference_jacobian(lambda v: module.h(v, params), x)
+        np.testing.assert_allclose(module.F(x, None, 0.02, params), num_F, atol=1e-7)
+        np.testing.assert_allclose(module.H(x, params), num_H, atol=1e-6)
+
+
+def test_model_classes_call_the_equations():
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-1.0, 1.0, 12)
+    model = AgriMaRoModel()
+    np.testing.assert_array_equal(model.f(x, 0.01), agrimaro.f(x, None, 0.01,
+                                                                model.equation_params))
+    np.testing.assert_array_equal(model.H(x), agrimaro.H(x, model.equation_params))
+    skid = SkidSteerModel(SkidSteerSettings(track_m=0.6))
+    xs = np.array([0.5, 0.3, 0.01, math.log(1.5)])
+    hx = skid_steer.h(xs, skid.equation_params)
+    np.testing.assert_allclose(hx, [0.5 - 1.5 * 0.3 * 0.3, 0.5 + 1.5 * 0.3 * 0.3, 0.31])
+    np.testing.assert_array_equal(skid.h(xs), hx)
+
+
+def test_wheel_rim_speed_is_eq_4_20():
+    v = agrimaro.wheel_rim_speed(1.0, 0.2, 0.5, 0.3, -0.4, 0.1)
+    expected = (1.0 - 0.5 * -0.4) * math.cos(0.1) + (0.2 + 0.5 * 0.3) * math.sin(0.1)
+    assert v == pytest.approx(expected, rel=1e-15)
