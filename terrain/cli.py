@@ -32,6 +32,9 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "estimate": "pipelines.estimate",
     "validate": "pipelines.validate",
     "slip-table": "pipelines.slip_table",
+    "slip-fit": "pipelines.slip_fit",
+    "control-sim": "pipelines.control_sim",
+    "control-grid": "pipelines.control_grid",
 })
 
 

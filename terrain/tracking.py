@@ -226,6 +226,39 @@ class TrackedRun:
         else:
             self.client.log_artifact(self.run_id, str(p), artifact_path=folder)
 
+    def log_sklearn_model(self, model: Any, name: str, input_example: pd.DataFrame,
+                          registered_name: str | None = None,
+                          trusted_types: tuple[str, ...] = ()) -> str:
+        """Log (and register) a fitted scikit-learn estimator; returns its model URI.
+
+        Parameters
+        ----------
+        model : sklearn estimator
+            Fitted estimator (``predict`` on a feature table).
+        name : str
+            Artifact name of the model in the run.
+        input_example : pandas.DataFrame
+            A few feature rows (sets the model signature).
+        registered_name : str, optional
+            Model registry name (None: log without registering).
+        trusted_types : tuple of str
+            Classes the skops serialiser must accept (the project's own estimator and
+            scikit-learn internals it contains; reviewed by the caller).
+
+        Returns
+        -------
+        str
+            ``models:/...`` URI.
+        """
+        import mlflow.sklearn
+        from mlflow.models import infer_signature
+
+        signature = infer_signature(input_example, model.predict(input_example))
+        info = mlflow.sklearn.log_model(model, name=name, signature=signature,
+                                        registered_model_name=registered_name,
+                                        skops_trusted_types=list(trusted_types) or None)
+        return info.model_uri
+
     def describe(self) -> str:
         """Where the run is.
 

@@ -9,6 +9,10 @@ limit, speed-controlled motors as first-order lags with speed limits) and integr
 equations ``M dV/dt = F(V) + Coriolis`` with one Newton step per time step (linearly implicit
 Euler), ``(M - dt J) dV = dt F(V)``, ``J = dF/dV`` analytic, which is stable at 100 Hz.
 
+Closed loop: an optional hook (:data:`ControlHook`) sees the plant after every step and
+returns a wheel speed correction held until its next return (:mod:`terrain.sim.closed_loop`
+puts the robot's sensors between the two); without a hook nothing changes.
+
 Simplifications (stated): static normal loads (no load transfer), mass concentrated at the
 body origin, speed-controlled motors as first-order lags with speed limits.
 """
@@ -16,6 +20,7 @@ body origin, speed-controlled motors as first-order lags with speed limits.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy.linalg.lapack import dgesv
@@ -28,7 +33,8 @@ from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
-__all__ = ["PhysicsResult", "integrate", "wheel_commands", "SLIDE_SPEED_M_S",
+__all__ = ["PhysicsResult", "PlantSnapshot", "ControlHook", "integrate", "wheel_commands",
+           "SLIDE_SPEED_M_S",
            "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S"]
 
 
@@ -81,6 +87,49 @@ class PhysicsResult:
     terrain_names: tuple[str, ...]
 
 
+class PlantSnapshot(NamedTuple):
+    """Physical state after one integrator step, handed to a closed-loop hook.
+
+    This is the plant, not what a robot measures: a hook must pass it through sensor models
+    (:mod:`terrain.sim.closed_loop` does) before anything reaches a controller.
+
+    Parameters
+    ----------
+    step : int
+        Index of the step just completed.
+    t_s : float
+        Time stamp of the step (``t_s[step]`` of the grid, as in :class:`PhysicsResult`), s.
+    pose : ndarray, shape (3,)
+        x, y (m), yaw (rad).
+    twist : ndarray, shape (3,)
+        v_x, v_y (m/s), yaw_rate (rad/s), body frame.
+    accel_body : ndarray, shape (2,)
+        Body-frame kinematic acceleration (what an accelerometer senses), m/s^2.
+    omega : ndarray, shape (m,)
+        Motor (wheel) speeds, rad/s.
+    delta : ndarray, shape (m,)
+        Steering angles, rad (zeros for skid-steer).
+    omega_low_level : ndarray, shape (m,)
+        Wheel speed command of the kinematic low level for the next step (before any
+        correction), rad/s: known to the robot, it is its own command.
+    """
+
+    step: int
+    t_s: float
+    pose: np.ndarray
+    twist: np.ndarray
+    accel_body: np.ndarray
+    omega: np.ndarray
+    delta: np.ndarray
+    omega_low_level: np.ndarray
+
+
+#: Closed-loop hook: called after every integrator step with the plant's state; returns a
+#: wheel speed correction (rad/s, shape (m,)) added to the low-level command from the next
+#: step on (held until the next non-None return), or None to keep the held one.
+ControlHook = Callable[[PlantSnapshot], "np.ndarray | None"]
+
+
 def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Wheel speed and steering commands from the commanded twist (inverse kinematics).
@@ -128,7 +177,8 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
 
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
               t_s: np.ndarray, twist_cmd: np.ndarray, slope_rad: float, chi: float,
-              steer_offset_rad: np.ndarray | None = None) -> PhysicsResult:
+              steer_offset_rad: np.ndarray | None = None,
+              hook: ControlHook | None = None) -> PhysicsResult:
     """Integrate the vehicle dynamics over the command sequence.
 
     Parameters
@@ -152,6 +202,12 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         ICR expansion (skid-steer only; 1 = off).
     steer_offset_rad : ndarray, shape (n_motors,), optional
         Constant steering error inside the dead band (swerve only).
+    hook : ControlHook, optional
+        Closed loop: called after every step with a :class:`PlantSnapshot`; the correction
+        it returns (rad/s per motor) is added to the low-level wheel command of the following
+        steps, the sum clipped to the speed limit, and ``omega_cmd`` of the result records
+        the corrected command. None (default): open loop, the commands of ``twist_cmd``
+        unchanged (bit-identical to a run without the argument).
 
     Returns
     -------
@@ -177,6 +233,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     steer_rate = getattr(vehicle, "steering_rate_rad_s", 0.0) * dt
 
     omega_cmd, delta_cmd = wheel_commands(vehicle, geometry, twist_cmd)
+    omega_ll = omega_cmd
+    correction = np.zeros(nm)
+    if hook is not None:
+        omega_cmd = omega_cmd.copy()
     if steer_offset_rad is not None:
         delta_cmd = delta_cmd + steer_offset_rad
 
@@ -209,6 +269,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         else:
             maps = fixed_maps
         omega_prev = omega
+        if hook is not None:
+            omega_cmd[k] = np.clip(omega_ll[k] + correction, -motor.max_wheel_speed_rad_s,
+                                   motor.max_wheel_speed_rad_s)
         omega = omega + alpha_m * (omega_cmd[k] - omega)
         dw = (omega - omega_prev) / dt
         # force model, then gravity and the Coriolis terms of the body-frame equations:
@@ -247,6 +310,13 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         delta_out[k] = delta if layout.steered else 0.0
         torque_out[k] = torque
         terr_out[k] = ti
+        if hook is not None:
+            nxt = omega_ll[min(k + 1, n - 1)]
+            new = hook(PlantSnapshot(k, float(t_s[k]), pose.copy(), vel.copy(),
+                                     acc_out[k].copy(), omega.copy(), delta_out[k].copy(),
+                                     nxt.copy()))
+            if new is not None:
+                correction = np.asarray(new, dtype=float).reshape(nm)
     yaw = pose_out[:, 2]
     pitch = slope_rad * np.cos(yaw) if slope_rad else np.zeros(n)
     roll = -slope_rad * np.sin(yaw) if slope_rad else np.zeros(n)

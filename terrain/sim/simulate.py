@@ -31,7 +31,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError
 from terrain.run import TIME, Run
-from terrain.sim.dynamics import PhysicsResult, integrate
+from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
 from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
@@ -200,13 +200,18 @@ def simulate(config: SimConfig) -> Run:
     return simulate_with_physics(config).run
 
 
-def simulate_with_physics(config: SimConfig) -> Simulation:
+def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) -> Simulation:
     """Simulate one run and keep the ground truth at the physics rate.
 
     Parameters
     ----------
     config : SimConfig
         Vehicle, terrains, scenario, duration, seed, planted effects, sensors.
+    hook : ControlHook, optional
+        Closed-loop hook of :func:`terrain.sim.dynamics.integrate` (see
+        :func:`terrain.sim.closed_loop.simulate_closed_loop`); None: open loop. The hook draws
+        no number from the run's generator, so the sensor streams' noise is the same as in
+        the open-loop run of the same seed.
 
     Returns
     -------
@@ -233,7 +238,7 @@ def simulate_with_physics(config: SimConfig) -> Simulation:
         steer_offset = rng.uniform(-db, db, geometry.n_motors)   # seed 001 ch. 6.1.1
     chi = 1.0 if geometry.steered else config.effects.icr_expansion
     phys = integrate(vehicle, geometry, terrains, config.segment_length_m, cmds.t_s,
-                     cmds.twist, cmds.slope_rad, chi, steer_offset)
+                     cmds.twist, cmds.slope_rad, chi, steer_offset, hook)
     duration = float(cmds.t_s[-1])
     r_w = geometry.wheel_radius_m
     streams: dict[str, pd.DataFrame] = {}

@@ -1,0 +1,263 @@
+"""Window features and targets of the slip models (issue 10).
+
+Windows come from :func:`features.windows.make_windows` (aligned clock, run provenance);
+statistics from :mod:`features.calculators`. Per window:
+
+* ``<channel>__mean`` / ``<channel>__std`` of :data:`SLIP_CHANNELS` (currents, rim speeds and
+  their differences, accelerometer, gyro yaw rate);
+* ``vel_mean__slope``: least-squares slope of the mean rim speed, m/s^2 (transients);
+* ``pitch``: :func:`terrain.slip.physics.pitch_from_accelerometer` with that slope removed, rad;
+* ``inv_chi``: :func:`features.calculators.regression_gain` of the gyro yaw rate on the wheel
+  yaw rate ``(v_R - v_L)/B`` (the inverse ICR expansion, seed 000 eqs. 1-5);
+* with terrain probabilities: one column per terrain (``p__<TERRAIN>``) and the physics slip
+  under them (``phys_slip_l``, ``phys_slip_r``, ``phys_std``,
+  :func:`terrain.slip.physics.physics_slip`).
+
+Targets (simulated runs, ``truth`` stream): window means of ``slip_1``, ``slip_2``, the lateral
+body velocity ``v_by`` and the
+effective turning factor ``chi = mean(v_R - v_L) / (B mean(yaw_rate))`` (NaN when the robot
+turns slower than :data:`MIN_TURN_RATE_RAD_S`), which with the measured rim speeds gives the
+true yaw rate ``(v_R - v_L) / (chi B)``.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from features.calculators import mean, regression_gain, std
+from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
+from terrain.errors import ConfigError
+from terrain.run import TIME, Run
+from terrain.sim.sensors import SensorSettings
+from terrain.slip.physics import physics_slip, pitch_from_accelerometer
+
+#: Channels whose window statistics feed the slip models.
+SLIP_CHANNELS = ("cur_l", "cur_r", "vel_l", "vel_r", "vel_diff", "cur_diff",
+                 "yaw_rate_wheels", "ax", "ay", "az", "wz")
+#: Windows of the slip models: 2 s, hop 1 s, on the 50 Hz aligned clock.
+SLIP_WINDOW = WindowConfig(window_s=2.0, hop_s=1.0)
+#: Below this |yaw rate| (rad/s) a window's chi target is undefined.
+MIN_TURN_RATE_RAD_S = 0.1
+#: Floor of the wheel yaw rate in the ``inv_chi`` regression, rad/s.
+INV_CHI_FLOOR_RAD_S = 0.05
+
+
+def slip_windows(runs: Sequence[Run], config: WindowConfig = SLIP_WINDOW) -> WindowSet:
+    """Windows of :data:`SLIP_CHANNELS` of every run (runs without IMU or wheels skipped).
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured or simulated runs.
+    config : WindowConfig
+        Window length, hop and clock.
+
+    Returns
+    -------
+    WindowSet
+    """
+    return make_windows(runs, SLIP_CHANNELS, config)
+
+
+def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | None = None,
+                  current_rate_hz: float = SensorSettings.wheel_rate_hz) -> pd.DataFrame:
+    """Feature table of the slip models (module docstring).
+
+    Parameters
+    ----------
+    ws : WindowSet
+        Windows of :data:`SLIP_CHANNELS` (:func:`slip_windows`).
+    vehicle : HuskyParams or TrackedParams
+        Skid-steer vehicle (track, physics slip).
+    terrain_probabilities : pandas.DataFrame, shape (n_windows, n_terrains), optional
+        Classifier probability of each catalogue terrain per window (columns = terrain
+        names); None leaves the terrain and physics columns out.
+    current_rate_hz : float
+        Rate of independent current samples, Hz (the wheel stream's; default the Husky's
+        simulated and measured rate), for the noise of the window-mean current.
+
+    Returns
+    -------
+    pandas.DataFrame, shape (n_windows, n_features)
+
+    Raises
+    ------
+    ConfigError
+        A channel of :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
+        number of rows.
+    """
+    missing = [c for c in SLIP_CHANNELS if c not in ws.channels]
+    if missing:
+        raise ConfigError(f"slip features need channels {missing}")
+    x = ws.X
+    ch = {c: i for i, c in enumerate(ws.channels)}
+    cols: dict[str, np.ndarray] = {}
+    means, stds = mean(x), std(x)
+    for c in SLIP_CHANNELS:
+        cols[f"{c}__mean"] = means[:, ch[c]]
+        cols[f"{c}__std"] = stds[:, ch[c]]
+    n_s = x.shape[-1]
+    tc = (np.arange(n_s) - 0.5 * (n_s - 1)) / ws.rate_hz
+    v_mean = 0.5 * (x[:, ch["vel_l"]] + x[:, ch["vel_r"]])
+    slope = (v_mean * tc).sum(axis=-1) / (tc ** 2).sum()
+    cols["vel_mean__slope"] = slope
+    pitch = pitch_from_accelerometer(cols["ax__mean"], cols["ay__mean"], cols["az__mean"], slope)
+    cols["pitch"] = pitch
+    cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["yaw_rate_wheels"]],
+                                      INV_CHI_FLOOR_RAD_S)
+    if terrain_probabilities is not None:
+        if len(terrain_probabilities) != len(ws):
+            raise ConfigError(f"{len(terrain_probabilities)} probability rows for {len(ws)} "
+                              f"windows")
+        probs = {str(k): terrain_probabilities[k].to_numpy(float)
+                 for k in terrain_probabilities.columns}
+        for k, p in probs.items():
+            cols[f"p__{k}"] = p
+        cur = np.column_stack([cols["cur_l__mean"], cols["cur_r__mean"]])
+        rim = np.column_stack([cols["vel_l__mean"], cols["vel_r__mean"]])
+        r_w = vehicle.contact_geometry().wheel_radius_m
+        wheel_acc = np.column_stack([slope, slope]) / r_w
+        n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(current_rate_hz, ws.rate_hz))
+        phys = physics_slip(vehicle, probs, cur, rim, pitch, wheel_acc, n_averaged=n_cur)
+        cols["phys_slip_l"] = phys.slip[:, 0]
+        cols["phys_slip_r"] = phys.slip[:, 1]
+        cols["phys_std"] = phys.std.mean(axis=1)
+    return pd.DataFrame(cols)
+
+
+def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.DataFrame:
+    """Terrain probabilities of a perfect classifier (1 for the label, 0 elsewhere).
+
+    Parameters
+    ----------
+    labels : sequence of str, length n
+        True terrain of each window.
+    terrains : sequence of str
+        Column order (catalogue names).
+
+    Returns
+    -------
+    pandas.DataFrame, shape (n, len(terrains))
+    """
+    lab = np.asarray(labels, dtype=object)
+    return pd.DataFrame({t: (lab == t).astype(float) for t in terrains})
+
+
+def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndarray
+                  ) -> np.ndarray:
+    csum = np.vstack([np.zeros((1, values.shape[1])), np.cumsum(values, axis=0)])
+    a = np.searchsorted(t, t0, side="left")
+    b = np.searchsorted(t, t1, side="left")
+    n = np.maximum(b - a, 1)[:, None]
+    out = (csum[b] - csum[a]) / n
+    out[b <= a] = np.nan
+    return out
+
+
+def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRACK_M
+                 ) -> pd.DataFrame:
+    """True per-window ``slip_1``, ``slip_2``, ``chi`` and terrain from the ``truth`` streams.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        The simulated runs the windows were cut from (each with a ``truth`` stream).
+    ws : WindowSet
+        Their windows.
+    track_m : float
+        Track width B, m.
+
+    Returns
+    -------
+    pandas.DataFrame, shape (n_windows, 6)
+        ``slip_1, slip_2, chi, v_by`` (lateral body velocity, m/s), ``yaw_rate`` (rad/s),
+        ``terrain``.
+
+    Raises
+    ------
+    ConfigError
+        A run of the window set has no ``truth`` stream.
+    """
+    by_id: Mapping[str, Run] = {r.run_id: r for r in runs}
+    out = pd.DataFrame(index=np.arange(len(ws)),
+                       columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
+                       dtype=object)
+    for rid in pd.unique(ws.run_ids):
+        run = by_id[rid]
+        if "truth" not in run.streams:
+            raise ConfigError(f"run {rid} has no truth stream (slip targets need simulated runs)")
+        tr = run.streams["truth"]
+        sel = np.flatnonzero(ws.run_ids == rid)
+        t = tr[TIME].to_numpy()
+        m = _window_means(t, tr[["slip_1", "slip_2", "yaw_rate", "v_by"]].to_numpy(float),
+                          ws.t_start_s[sel], ws.t_end_s[sel])
+        labels = tr["terrain"].to_numpy()
+        mid = np.clip(np.searchsorted(t, 0.5 * (ws.t_start_s[sel] + ws.t_end_s[sel])), 0,
+                      len(t) - 1)
+        out.loc[sel, "slip_1"] = m[:, 0]
+        out.loc[sel, "slip_2"] = m[:, 1]
+        out.loc[sel, "yaw_rate"] = m[:, 2]
+        out.loc[sel, "v_by"] = m[:, 3]
+        out.loc[sel, "terrain"] = labels[mid]
+    ch = {c: i for i, c in enumerate(ws.channels)}
+    dv = (ws.X[:, ch["vel_r"]] - ws.X[:, ch["vel_l"]]).mean(axis=-1)
+    yaw = out["yaw_rate"].to_numpy(float)
+    turning = np.abs(yaw) >= MIN_TURN_RATE_RAD_S
+    out["chi"] = np.where(turning, dv / (track_m * np.where(turning, yaw, 1.0)), np.nan)
+    for c in ("slip_1", "slip_2", "yaw_rate", "chi", "v_by"):
+        out[c] = out[c].astype(float)
+    return out
+
+
+def terrain_columns(columns: Sequence[str]) -> list[str]:
+    """Columns of a feature table that carry terrain knowledge (``p__*``, ``phys_*``).
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Feature table columns.
+
+    Returns
+    -------
+    list of str
+    """
+    return [c for c in columns if c.startswith(("p__", "phys_"))]
+
+
+def slip_table(runs: Sequence[Run], vehicle, terrains: Sequence[str],
+               config: WindowConfig = SLIP_WINDOW
+               ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Features (perfect-classifier terrain probabilities), targets and provenance of windows.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Simulated runs with ``truth`` (``meta["scenario"]``, ``meta["seed"]``).
+    vehicle : HuskyParams or TrackedParams
+        Skid-steer vehicle.
+    terrains : sequence of str
+        Terrain probability columns (catalogue names).
+    config : WindowConfig
+        Windows.
+
+    Returns
+    -------
+    X : pandas.DataFrame, shape (n, n_features)
+        :func:`slip_features` with one-hot terrain probabilities.
+    Y : pandas.DataFrame, shape (n, 6)
+        :func:`slip_targets`.
+    meta : pandas.DataFrame, shape (n, 6)
+        ``run_id, terrain, scenario, seed, t_start_s, t_end_s``.
+    """
+    ws = slip_windows(runs, config)
+    Y = slip_targets(runs, ws, vehicle.track_m)
+    X = slip_features(ws, vehicle, one_hot_probabilities(Y["terrain"], terrains))
+    info = {r.run_id: (r.meta.get("scenario", ""), int(r.meta.get("seed", -1))) for r in runs}
+    meta = pd.DataFrame({"run_id": ws.run_ids.astype(str), "terrain": Y["terrain"].astype(str),
+                         "scenario": [info[r][0] for r in ws.run_ids],
+                         "seed": [info[r][1] for r in ws.run_ids],
+                         "t_start_s": ws.t_start_s, "t_end_s": ws.t_end_s})
+    return X, Y, meta

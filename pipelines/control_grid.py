@@ -1,0 +1,105 @@
+"""Closed-loop validation grid: tune the traction gains on tuning seeds, then run vehicles x
+terrains x scenarios x controller off/on x evaluation seeds; write a table, plots and the
+quasi-static slip-limit bound, log everything to MLflow (experiment terrain-control).
+
+Default (small, about a minute on a loaded core): both vehicles, TILES GRASS SANDY_LOAM SNOW
+ICE, straight_accel, seed 0, 20 s. Full grid (docs/control_validation.md):
+  terrain control-grid --scenarios straight_accel orchard slope_turn --seeds 0 1 2 --out OUT
+--no-tune uses terrain.control.closed_loop.DEFAULT_GAINS instead of tuning.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from terrain.control.closed_loop import DEFAULT_GAINS
+from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
+                                  slip_limit_bound, tune_gains)
+
+EXPERIMENT = "terrain-control"
+SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``terrain control-grid``."""
+    parser.add_argument("--vehicles", nargs="+", default=["agrimaro", "husky"])
+    parser.add_argument("--terrains", nargs="+",
+                        default=["TILES", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
+    parser.add_argument("--scenarios", nargs="+", default=["straight_accel"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0])
+    parser.add_argument("--duration-s", type=float, default=20.0)
+    parser.add_argument("--no-tune", action="store_true", help="use the default gains")
+    parser.add_argument("--kp-grid", nargs="+", type=float, default=[2.0, 5.0, 10.0, 20.0])
+    parser.add_argument("--ki-grid", nargs="+", type=float, default=[0.0, 10.0])
+    parser.add_argument("--out", required=True, help="output folder")
+
+
+def _plots(traces: dict, table, out: Path) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    paths = []
+    for (veh, ter, sc, ctrl, seed), tr in traces.items():
+        if ctrl != "traction" or sc != "straight_accel" or seed != min(k[4] for k in traces):
+            continue
+        off = traces[veh, ter, sc, "off", seed]
+        fig, ax = plt.subplots(figsize=(7, 3))
+        ax.plot(off["t_s"], off["slip_true_1"], label="true slip, off", lw=0.8)
+        ax.plot(tr["t_s"], tr["slip_true_1"], label="true slip, traction", lw=0.8)
+        ax.plot(tr["t_s"], tr["target_1"], "k--", label="target", lw=0.8)
+        ax.set(xlabel="t (s)", ylabel="slip, unit 1", title=f"{veh} {ter} {sc} seed {seed}")
+        ax.legend(fontsize=7)
+        paths.append(out / f"slip_{veh}_{ter}_{sc}.png")
+        fig.savefig(paths[-1], dpi=90, bbox_inches="tight")
+        plt.close(fig)
+    fig, ax = plt.subplots(figsize=(7, 3))
+    lab = table["vehicle"] + "\n" + table["terrain"] + "\n" + table["scenario"].str[:8]
+    x = range(len(table))
+    ax.bar([i - 0.2 for i in x], table["energy_off"], 0.4, label="off")
+    ax.bar([i + 0.2 for i in x], table["energy_on"], 0.4, label="traction")
+    ax.set_xticks(list(x), lab, fontsize=6)
+    ax.set(ylabel="energy (J/m)")
+    ax.legend()
+    paths.append(out / "energy_per_m.png")
+    fig.savefig(paths[-1], dpi=90, bbox_inches="tight")
+    plt.close(fig)
+    return paths
+
+
+def main(args: argparse.Namespace) -> int:
+    """Tune, run the grid, write table/plots/JSON, log to MLflow; returns 0."""
+    from terrain.tracking import tracked_run
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    params = {k: v for k, v in vars(args).items() if not k.startswith("_")}
+    with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
+        gains, tuning = dict(DEFAULT_GAINS), {}
+        if not args.no_tune:
+            for veh in args.vehicles:
+                step = iter(range(10_000))
+                gains[veh], tuning[veh] = tune_gains(
+                    veh, ["ICE"], args.kp_grid, args.ki_grid,
+                    log=lambda r, v=veh: run.log_metrics(
+                        {f"tune_{v}_cost": r["cost"]}, step=next(step)))
+                tuning[veh].to_csv(out / f"tuning_{veh}.csv", index=False)
+                run.log_table(tuning[veh], f"tuning_{veh}.json")
+        results, traces = run_grid(args.vehicles, args.terrains, args.scenarios, args.seeds,
+                                   gains, args.duration_s)
+        table = compare(results)
+        results.to_csv(out / "runs.csv", index=False)
+        table.to_csv(out / "comparison.csv", index=False, float_format="%.4f")
+        (out / "comparison.md").write_text(markdown_table(table))
+        bound = [slip_limit_bound(r.terrain, r.peak_slip_off) for r in table.itertuples()
+                 if r.terrain in SOFT and r.scenario == "straight_accel"]
+        summary = {"gains": {v: list(g) for v, g in gains.items()},
+                   "tuning_seeds": list(TUNING_SEEDS), "evaluation_seeds": args.seeds,
+                   "comparison": table.to_dict(orient="records"), "slip_limit_bound": bound}
+        (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
+        for p in _plots(traces, table, out):
+            run.log_artifact(p, "plots")
+        run.log_table(table, "comparison.json")
+        run.log_dict(summary, "summary.json")
+        print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    return 0

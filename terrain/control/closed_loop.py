@@ -1,0 +1,557 @@
+"""The robot side of the closed loop: slip estimator -> desired slip -> traction controller.
+
+:class:`TractionLoop` is the controller callback of
+:func:`terrain.sim.closed_loop.simulate_closed_loop`. At every call it sees only an
+:class:`~terrain.sim.closed_loop.Observation` (sensor samples since its previous call and its
+own low-level command), updates the vehicle's estimator, looks up the target of the current
+terrain decision in the desired-slip table (:func:`~terrain.control.desired_slip.select_target`)
+and steps the traction controller (:func:`~terrain.control.traction.traction_control_step`).
+With ``apply=False`` it runs in shadow mode (everything computed and logged, no correction),
+so an uncontrolled run is scored against the same targets and enabling logic.
+
+Estimators (the :class:`SlipEstimator` interface):
+
+* :class:`AgriMaRoVisualOdometryEKF`: the 12-state EKF of seed 001 ch. 6.1
+  (:class:`terrain.estimation.agrimaro.AgriMaRoModel`) run streaming on IMU, wheel encoders,
+  steering encoders and the T265 velocity: the vehicle's real estimator. The camera is the
+  velocity reference, so the estimate is *stale* during camera outages (its age is the time
+  since the last camera sample).
+* :class:`WheelImuObserver`: the interim estimator for the Husky until the fused slip
+  estimate of the slip-learning work lands: forward speed from the integrated accelerometer,
+  pulled towards the *slower* side's wheel speed with time constant ``tau_s``. Limits
+  (stated in every result): a slip common to both sides is observable only for times short
+  against ``tau_s``; in steady slipping the estimate converges to the slower wheel and the
+  estimated slip to zero; an accelerometer bias ``b`` gives a speed error ``b tau_s``.
+
+Bus voltages for the electrical energy (:data:`BUS_VOLTAGE_V`): AgriMaRo 48 V (seed 001
+ch. 3: "UuMotor hub-motor ... powered at 48V"); Husky 24 V (Clearpath Husky A200 data sheet,
+24 V sealed lead-acid battery; not in the seeds).
+"""
+
+from __future__ import annotations
+
+import math
+from types import MappingProxyType
+from typing import Callable, Mapping, NamedTuple, Protocol
+
+import numpy as np
+
+from terrain.control.desired_slip import SlipTable, select_target
+from terrain.control.traction import TractionControlConfig, TractionController
+from terrain.errors import ConfigError
+from terrain.estimation.agrimaro import AgriMaRoModel, noise_derived_settings
+from terrain.estimation.ekf import ExtendedKalmanFilter
+from terrain.sim.closed_loop import Observation
+from terrain.sim.simulate import Simulation, motor_currents
+from terrain.vehicles import get_vehicle
+
+#: DC bus voltage of each vehicle, V (sources in the module docstring).
+BUS_VOLTAGE_V: Mapping[str, float] = MappingProxyType({"agrimaro": 48.0, "husky": 24.0})
+
+
+class VelocityEstimate(NamedTuple):
+    """What the controller needs from an estimator, one entry per drive unit.
+
+    Parameters
+    ----------
+    omega_meas_rad_s : ndarray, shape (n,)
+        Latest raw encoder wheel speed, rad/s.
+    v_long_m_s : ndarray, shape (n,)
+        Estimated longitudinal speed of each wheel centre (skid-steer: each side), m/s.
+    a_local_m_s2 : ndarray, shape (n,)
+        Estimated longitudinal acceleration of each wheel centre, m/s^2.
+    chassis_speed_m_s : float
+        Estimated chassis speed magnitude, m/s.
+    age_s : float
+        Age of the velocity reference (camera, or wheel sample), s; inf before the first.
+    """
+
+    omega_meas_rad_s: np.ndarray
+    v_long_m_s: np.ndarray
+    a_local_m_s2: np.ndarray
+    chassis_speed_m_s: float
+    age_s: float
+
+
+class SlipEstimator(Protocol):
+    """Estimator interface of the closed loop.
+
+    Attributes
+    ----------
+    name : str
+        Short name (recorded in results).
+    limits : str
+        What it cannot see (recorded in results).
+    """
+
+    name: str
+    limits: str
+
+    def update(self, obs: Observation) -> VelocityEstimate:
+        """Fold in the new samples and return the current estimate.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call.
+
+        Returns
+        -------
+        VelocityEstimate
+        """
+        ...
+
+
+def _merged(obs: Observation) -> list[tuple[float, str, np.ndarray]]:
+    rows = [(float(r[0]), name, r[1:]) for name in ("imu", "wheels", "steer", "cam")
+            for r in getattr(obs, name)]
+    rows.sort(key=lambda x: x[0])
+    return rows
+
+
+class AgriMaRoVisualOdometryEKF:
+    """Streaming AgriMaRo EKF (seed 001 ch. 6.1) on IMU, encoders, steering and camera.
+
+    Parameters
+    ----------
+    accel_std_m_s2 : float
+        Accelerometer noise for :func:`terrain.estimation.agrimaro.noise_derived_settings`,
+        m/s^2 (its default 0.8: vibration included).
+    """
+
+    name = "agrimaro-ekf-vo"
+    limits = ("12-state EKF of seed 001 ch. 6.1 with the T265 velocity (rows v_cx, v_cy, "
+              "yaw_rate_c; yaw_c and the IMU yaw left out); noise-derived tuning; without a "
+              "camera sample the velocity drifts with the slipping wheels, so the estimate is "
+              "reported stale (age = time since the last camera sample)")
+
+    def __init__(self, accel_std_m_s2: float = 0.8) -> None:
+        self.vehicle = get_vehicle("agrimaro")
+        self.model = AgriMaRoModel(self.vehicle, noise_derived_settings(
+            accel_std_m_s2=accel_std_m_s2))
+        m = self.model
+        self.ekf = ExtendedKalmanFilter(m.x0, m.P0, m.f, m.F, m.h, m.H, m.Q, m.R_diag)
+        self.t = 0.0
+        self.t_cam = -math.inf
+        self.omega = np.zeros(3)
+        self.rows = MappingProxyType({"imu": (3, 4, 5), "wheels": (0, 1, 2),
+                                      "steer": (7, 8, 9), "cam": (10, 11, 12)})
+
+    def update(self, obs: Observation) -> VelocityEstimate:
+        """See :meth:`SlipEstimator.update`.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call.
+
+        Returns
+        -------
+        VelocityEstimate
+        """
+        for t, name, z in _merged(obs):
+            if t > self.t:
+                self.ekf.predict(t - self.t)
+                self.t = t
+            if name == "wheels":
+                self.omega = z.copy()
+            z = z[:3]
+            if np.all(np.isfinite(z)):
+                self.ekf.update(z, rows=self.rows[name])
+            if name == "cam":
+                self.t_cam = t
+        x = self.ekf.x
+        vx, vy, w, ax, ay = x[3], x[4], x[5], x[6], x[7]
+        pos = np.asarray(self.vehicle.wheel_positions_m)
+        d = x[8:11]
+        c, s = np.cos(d), np.sin(d)
+        v_long = (vx - w * pos[:, 1]) * c + (vy + w * pos[:, 0]) * s
+        a_long = ax * c + ay * s
+        return VelocityEstimate(self.omega.copy(), v_long, a_long, float(math.hypot(vx, vy)),
+                                float(obs.t_s - self.t_cam))
+
+
+class WheelImuObserver:
+    """Interim skid-steer estimator: integrated accelerometer pulled to the slower side.
+
+    ``v <- v + dt a_x`` at every IMU sample; at every encoder sample
+    ``v <- v + (1 - exp(-dt_w / tau_s)) (v_ref - v)`` with ``v_ref`` the side speed
+    ``omega r`` of smaller magnitude; side speeds ``v -/+ yaw_rate B / 2`` (gyro, track B).
+
+    Parameters
+    ----------
+    vehicle : str
+        Skid-steer vehicle name (wheel radius, track).
+    tau_s : float
+        Time constant of the pull towards the slower wheel, s (> 0).
+    """
+
+    name = "wheel-imu-observer"
+
+    def __init__(self, vehicle: str = "husky", tau_s: float = 2.0) -> None:
+        if not tau_s > 0:
+            raise ConfigError(f"tau_s must be > 0, got {tau_s}")
+        self.vehicle = get_vehicle(vehicle)
+        self.tau_s = float(tau_s)
+        self.limits = (f"interim until the fused slip estimate: integrated accelerometer "
+                       f"pulled to the slower side's wheel speed (tau = {tau_s:g} s); a slip "
+                       f"common to both sides is seen only for times short against tau, "
+                       f"steady slip converges to 0 in the estimate")
+        self.v = 0.0
+        self.a = 0.0
+        self.w = 0.0
+        self.t_imu: float | None = None
+        self.t_wheel: float | None = None
+        self.omega = np.zeros(2)
+
+    def update(self, obs: Observation) -> VelocityEstimate:
+        """See :meth:`SlipEstimator.update`.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call.
+
+        Returns
+        -------
+        VelocityEstimate
+        """
+        r = self.vehicle.wheel_radius_m
+        for t, name, z in _merged(obs):
+            if name == "imu" and np.all(np.isfinite(z)):
+                if self.t_imu is not None:
+                    self.v += (t - self.t_imu) * float(z[0])
+                self.t_imu, self.a, self.w = t, float(z[0]), float(z[2])
+            elif name == "wheels" and np.all(np.isfinite(z)):
+                self.omega = z.copy()
+                v_ref = float(z[np.argmin(np.abs(z))]) * r
+                dt_w = 0.0 if self.t_wheel is None else t - self.t_wheel
+                self.v += (1.0 - math.exp(-dt_w / self.tau_s)) * (v_ref - self.v)
+                if np.all(z == 0.0) and np.all(obs.omega_low_level == 0.0):
+                    self.v = 0.0                      # standing still: zero-velocity update
+                self.t_wheel = t
+        half = 0.5 * self.vehicle.track_m * self.w
+        age = math.inf if self.t_wheel is None else float(obs.t_s - self.t_wheel)
+        return VelocityEstimate(self.omega.copy(), np.array([self.v - half, self.v + half]),
+                                np.array([self.a, self.a]), abs(self.v), age)
+
+
+def estimator_for(vehicle: str) -> SlipEstimator:
+    """The best estimator available for a vehicle.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` or ``husky``.
+
+    Returns
+    -------
+    SlipEstimator
+
+    Raises
+    ------
+    ConfigError
+        Another vehicle.
+    """
+    if vehicle == "agrimaro":
+        return AgriMaRoVisualOdometryEKF()
+    if vehicle == "husky":
+        return WheelImuObserver("husky")
+    raise ConfigError(f"no closed-loop estimator for vehicle {vehicle!r}; valid: agrimaro, husky")
+
+
+class TractionLoop:
+    """Controller callback: estimator -> target from the table -> traction step.
+
+    Parameters
+    ----------
+    config : TractionControlConfig
+        Controller settings (gains, limits, ``max_input_age_s``).
+    n_units : int
+        Drive units (= motors here).
+    estimator : SlipEstimator
+        The vehicle's estimator.
+    table : SlipTable
+        Desired-slip table.
+    terrain_decision : callable
+        ``terrain_decision(t_s) -> (label or None, confidence)``: the terrain decision
+        available at time ``t_s`` (s).
+    apply : bool
+        True: return the correction; False: shadow mode (return zeros, log everything).
+    accel_tau_s : float
+        Time constant of a first-order low-pass on the estimated wheel accelerations before
+        ``Power_state`` (eq. 8.6) classifies traction / braking / steady, s (>= 0; 0 = off).
+        Without it the mode follows the acceleration the correction itself causes and the
+        loop limit-cycles between traction and braking at the control rate (seen on SNOW).
+
+    Attributes
+    ----------
+    log : list of dict
+        One record per call (time, estimate, controller output, decision).
+    """
+
+    def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
+                 table: SlipTable, terrain_decision: Callable[[float], tuple],
+                 apply: bool = True, accel_tau_s: float = 0.3) -> None:
+        self.controller = TractionController(config, n_units)
+        self.estimator = estimator
+        self.table = table
+        self.terrain_decision = terrain_decision
+        self.apply = bool(apply)
+        self.t_prev: float | None = None
+        self.accel_tau_s = float(accel_tau_s)
+        self.a_filtered: np.ndarray | None = None
+        self.log: list[dict] = []
+
+    def __call__(self, obs: Observation) -> np.ndarray:
+        """One control step.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call.
+
+        Returns
+        -------
+        ndarray, shape (n_units,)
+            Wheel speed correction, rad/s (zeros in shadow mode).
+        """
+        est = self.estimator.update(obs)
+        label, conf = self.terrain_decision(obs.t_s)
+        targets = select_target(self.table, label, conf)
+        dt = obs.t_s - self.t_prev if self.t_prev is not None else 0.02
+        self.t_prev = obs.t_s
+        a = np.asarray(est.a_local_m_s2, dtype=float)
+        if self.a_filtered is None or not np.all(np.isfinite(self.a_filtered)):
+            self.a_filtered = a.copy()
+        elif self.accel_tau_s > 0:
+            self.a_filtered = self.a_filtered + (1 - math.exp(-dt / self.accel_tau_s)) * (
+                a - self.a_filtered)
+        else:
+            self.a_filtered = a
+        out = self.controller.step(targets, obs.omega_low_level, est.omega_meas_rad_s,
+                                   est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
+                                   max(dt, 1e-6), est.age_s)
+        self.log.append({"t_s": obs.t_s, "omega_low_level": obs.omega_low_level,
+                         "v_long": est.v_long_m_s, "slip_est": out.slip,
+                         "desired": out.desired_slip, "enabled": out.enabled,
+                         "safe": out.safe, "mode": out.mode,
+                         "correction": out.correction_rad_s, "terrain": label,
+                         "target_traction": targets.traction})
+        return out.correction_rad_s if self.apply else np.zeros_like(out.correction_rad_s)
+
+
+def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
+                 cruise_fraction: float = 0.95, steady_after_s: float = 3.0,
+                 final_window_s: float = 2.0) -> dict:
+    """Scores of a closed-loop (or shadow-mode) run against the ground truth.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulated run with its physics.
+    loop : TractionLoop
+        The loop that ran in it (its ``log``).
+    bus_voltage_v : float
+        DC bus voltage, V (:data:`BUS_VOLTAGE_V`).
+    cruise_fraction : float
+        ``time_to_speed_s``: first time the true speed reaches this fraction of the cruise
+        speed reached on the terrain (``final_speed_m_s``, below).
+    steady_after_s : float
+        Steady-driving slip error counted only this long after the cruise speed is reached, s.
+    final_window_s : float
+        ``final_speed_m_s``: the mean true speed over the last ``final_window_s`` of the run
+        (with steady slip the commanded speed is never reached), s.
+
+    Returns
+    -------
+    dict
+        ``cruise_speed_m_s`` (largest mean low-level wheel command times the radius),
+        ``final_speed_m_s``,
+        ``slip_rmse`` (true slip against the signed target, controller enabled),
+        ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
+        the chassis speed exceeds the enabling threshold), ``time_to_speed_s`` (None if never),
+        ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law),
+        ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``), ``distance_m``,
+        ``mean_speed_m_s``, ``steady_slip_error_max`` / ``steady_slip_within_0_02``
+        (|slip - target| in steady driving after cruise, where enabled), ``safe_fraction``,
+        ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control steps whose decision
+        equals the true terrain; no decision counts as wrong), ``terrain_decisions`` (control
+        steps per decided class, ``NONE`` = no decision yet).
+    """
+    phys = sim.physics
+    vehicle = get_vehicle(sim.config.vehicle)
+    dt = float(phys.t_s[1] - phys.t_s[0])
+    speed = np.hypot(phys.twist[:, 0], phys.twist[:, 1])
+    distance = float(np.sum(speed) * dt)
+    duration = float(phys.t_s[-1] - phys.t_s[0] + dt)
+    cur = motor_currents(phys, vehicle, sim.config.effects)
+    energy = bus_voltage_v * float(np.sum(cur) * dt)
+    mech = float(np.sum(np.maximum(phys.torque * phys.omega, 0.0)) * dt)
+    log = loop.log
+    omega_ll = np.array([r["omega_low_level"] for r in log])
+    cruise = float(np.max(np.abs(omega_ll).mean(axis=1))) * vehicle.wheel_radius_m
+    # cruise as reached on this terrain: the mean true speed of the last final_window_s
+    final = float(np.mean(speed[phys.t_s >= phys.t_s[-1] - final_window_s]))
+    reached = np.flatnonzero(speed >= cruise_fraction * final) if final > 0.05 \
+        else np.array([], dtype=int)
+    t_speed = float(phys.t_s[reached[0]]) if reached.size else None
+    t_log = np.array([r["t_s"] for r in log])
+    idx = np.clip(np.searchsorted(phys.t_s, t_log - 1e-9), 0, len(phys.t_s) - 1)
+    slip_true = phys.slip_motor[idx]
+    desired = np.array([r["desired"] for r in log])
+    enabled = np.array([r["enabled"] for r in log])
+    safe = np.array([r["safe"] for r in log])
+    mode = np.array([r["mode"] for r in log])
+    err = (slip_true - desired)[enabled]
+    gate = speed > loop.controller.config.chassis_speed_threshold_m_s
+    steady = enabled & (mode == 0)
+    if t_speed is not None:
+        steady &= (t_log >= t_speed + steady_after_s)[:, None]
+    else:
+        steady &= False
+    s_err = np.abs(slip_true - desired)[steady]
+    v_est = np.array([r["v_long"] for r in log])
+    geo = vehicle.contact_geometry()
+    if geo.steered:
+        pos = np.asarray(vehicle.wheel_positions_m)
+        d = phys.delta[idx]
+        tw = phys.twist[idx]
+        v_true = ((tw[:, [0]] - tw[:, [2]] * pos[:, 1]) * np.cos(d)
+                  + (tw[:, [1]] + tw[:, [2]] * pos[:, 0]) * np.sin(d))
+    else:
+        half = 0.5 * vehicle.track_m * phys.twist[idx, 2]
+        v_true = np.column_stack([phys.twist[idx, 0] - half, phys.twist[idx, 0] + half])
+    truth_names = np.asarray(phys.terrain_names)[phys.terrain_index[idx]]
+    decided = np.array([str(r["terrain"]).upper() for r in log])
+    return {
+        "slip_rmse": float(np.sqrt(np.mean(err ** 2))) if err.size else None,
+        "peak_slip": float(np.max(np.abs(phys.slip_motor))),
+        "peak_slip_gated": float(np.max(np.abs(phys.slip_motor[gate]))) if gate.any() else 0.0,
+        "time_to_speed_s": t_speed,
+        "cruise_speed_m_s": cruise,
+        "final_speed_m_s": final,
+        "energy_j_per_m": energy / distance if distance > 0 else None,
+        "mech_energy_j_per_m": mech / distance if distance > 0 else None,
+        "distance_m": distance,
+        "mean_speed_m_s": distance / duration,
+        "steady_slip_error_max": float(np.max(s_err)) if s_err.size else None,
+        "steady_slip_error_mean": float(np.mean(s_err)) if s_err.size else None,
+        "steady_slip_within_0_02": float(np.mean(s_err <= 0.02)) if s_err.size else None,
+        "enabled_fraction": float(np.mean(enabled)),
+        "safe_fraction": float(np.mean(safe)),
+        "speed_estimate_rmse_m_s": float(np.sqrt(np.mean((v_est - v_true) ** 2))),
+        "terrain_accuracy": float(np.mean(decided == truth_names)),
+        "terrain_decisions": {str(k): int(v) for k, v in zip(*np.unique(decided,
+                                                                        return_counts=True))},
+        "bus_voltage_v": bus_voltage_v,
+    }
+
+
+#: Controller settings of the closed loop per vehicle besides the gains: estimates older than
+#: ``max_input_age_s`` give the safe output. AgriMaRo: 0.5 s of camera outage (its EKF coasts
+#: on IMU and slipping wheels); Husky: 1.6 encoder periods of its 6.5 Hz wheel stream.
+LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
+    "agrimaro": MappingProxyType({"max_input_age_s": 0.5}),
+    "husky": MappingProxyType({"max_input_age_s": 0.25}),
+})
+
+#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by
+#: ``terrain control-grid --tune`` on the tuning seeds (docs/control_validation.md).
+DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
+    "agrimaro": (10.0, 0.0), "husky": (2.0, 0.0)})
+
+
+def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,
+                    duration_s: float = 20.0, gains: tuple[float, float] | None = None,
+                    table: SlipTable | None = None,
+                    terrain_decision: Callable[[float], tuple] | None = None
+                    ) -> tuple[Simulation, TractionLoop, dict]:
+    """Simulate one closed-loop run and score it.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` or ``husky``.
+    terrain : str
+        Catalogued terrain class of the whole run.
+    scenario : str
+        Simulator scenario (``straight_accel``, ``orchard``, ``slope_turn``...).
+    controller_on : bool
+        True: traction control applied; False: shadow mode (no correction).
+    seed : int
+        Run seed (>= 0).
+    duration_s : float
+        Simulated time, s.
+    gains : tuple of float, optional
+        ``(kp, ki)``; None: :data:`DEFAULT_GAINS`.
+    table : SlipTable, optional
+        Desired-slip table; None: built for ``terrain`` alone.
+    terrain_decision : callable, optional
+        ``f(t_s) -> (label, confidence)``; None: the run's terrain label with confidence 1
+        (the ground truth: see the pipelines for when this applies).
+
+    Returns
+    -------
+    sim : Simulation
+    loop : TractionLoop
+    metrics : dict
+        :func:`loop_metrics` plus the estimator's name and limits.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle, terrain or scenario, bad gains.
+    """
+    from terrain.control.desired_slip import build_slip_table
+    from terrain.control.traction import config_for_vehicle
+    from terrain.sim.closed_loop import simulate_closed_loop
+    from terrain.sim.simulate import SimConfig
+
+    if vehicle not in LOOP_SETTINGS:
+        raise ConfigError(f"control-sim supports agrimaro and husky, got {vehicle!r}")
+    kp, ki = gains or DEFAULT_GAINS[vehicle]
+    cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
+    table = table or build_slip_table([terrain])
+    decision = terrain_decision or (lambda t: (terrain, 1.0))
+    estimator = estimator_for(vehicle)
+    loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on)
+    sim = simulate_closed_loop(SimConfig(vehicle=vehicle, terrains=(terrain,),
+                                         scenario=scenario, duration_s=duration_s,
+                                         seed=seed), loop)
+    metrics = loop_metrics(sim, loop, BUS_VOLTAGE_V[vehicle])
+    metrics.update(estimator=estimator.name, estimator_limits=estimator.limits,
+                   kp=float(kp), ki=float(ki))
+    return sim, loop, metrics
+
+
+def trace_frame(sim: Simulation, loop: TractionLoop):
+    """Per-call trace of a closed-loop run: truth next to what the controller saw and did.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The closed-loop (or shadow-mode) run with its physics.
+    loop : TractionLoop
+        The loop that ran in it (its ``log``, one record per control call).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t_s, v_true_m_s``, then per unit ``slip_true_i, slip_est_i, target_i,
+        correction_i`` (dimensionless, rad/s), ``enabled_i, safe_i``, and ``terrain``.
+    """
+    import pandas as pd
+
+    phys = sim.physics
+    t = np.array([r["t_s"] for r in loop.log])
+    idx = np.clip(np.searchsorted(phys.t_s, t - 1e-9), 0, len(phys.t_s) - 1)
+    cols = {"t_s": t, "v_true_m_s": phys.twist[idx, 0]}
+    for i in range(phys.slip_motor.shape[1]):
+        cols[f"slip_true_{i + 1}"] = phys.slip_motor[idx, i]
+        for key, name in (("slip_est", "slip_est"), ("desired", "target"),
+                          ("correction", "correction"), ("enabled", "enabled"),
+                          ("safe", "safe")):
+            cols[f"{name}_{i + 1}"] = [r[key][i] for r in loop.log]
+    cols["terrain"] = [r["terrain"] for r in loop.log]
+    return pd.DataFrame(cols)

@@ -1,0 +1,235 @@
+"""Validation grid of the closed loop: gain tuning on tuning seeds, the evaluation grid, and
+the quasi-static bound that decides whether a slip-limit target is reachable.
+
+Tuning (:func:`tune_gains`): an exhaustive search over a small ``(kp, ki)`` grid, each pair
+scored by simulated ``straight_accel`` runs on the tuning terrains and *tuning seeds* only
+(:data:`TUNING_SEEDS`, disjoint from the evaluation seeds, which :func:`run_grid` refuses to
+share), cost = mean slip RMSE against the target while enabled + ``time_weight`` x the mean
+relative increase of the time to cruise against no control.
+
+Quasi-static bound (:func:`slip_limit_bound`): with the wheel slip held at or below ``s``,
+the largest forward acceleration on flat ground is
+``a(s) = g (mu(s) - soil_resistance(s))`` (the traction balance of
+:func:`terrain.terramechanics.steady_slip`); cutting the peak slip by a factor ``k`` needs
+``a(k peak) > 0`` and costs time ``v / a(k peak)`` against the open-loop acceleration.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.control.closed_loop import run_closed_loop
+from terrain.errors import ConfigError
+from terrain.terramechanics import get_terrain, steady_slip
+from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
+from terrain.terramechanics.traction import traction_coefficient
+
+#: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
+TUNING_SEEDS: tuple[int, ...] = (1000, 1001)
+
+
+def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
+               ki_grid: Sequence[float], duration_s: float = 10.0,
+               seeds: Sequence[int] = TUNING_SEEDS, time_weight: float = 0.5,
+               log: Callable[[dict], None] | None = None) -> tuple[tuple[float, float], pd.DataFrame]:
+    """Grid search of ``(kp, ki)`` on simulated ``straight_accel`` runs of the tuning seeds.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` or ``husky``.
+    terrains : sequence of str
+        Tuning terrains.
+    kp_grid, ki_grid : sequence of float
+        Candidate gains (rad/s per unit slip; rad/s per unit slip and s).
+    duration_s : float
+        Simulated time per run, s.
+    seeds : sequence of int
+        Tuning seeds.
+    time_weight : float
+        Weight of the relative time-to-cruise increase in the cost.
+    log : callable, optional
+        Called with each candidate's row (e.g. to log it to MLflow).
+
+    Returns
+    -------
+    best : tuple of float
+        ``(kp, ki)`` of the lowest cost.
+    table : pandas.DataFrame
+        ``kp, ki, slip_rmse, time_increase, cost`` per candidate.
+    """
+    base = {}
+    for ter, seed in itertools.product(terrains, seeds):
+        base[ter, seed] = run_closed_loop(vehicle, ter, "straight_accel", False, seed,
+                                          duration_s)[2]
+    rows = []
+    for kp, ki in itertools.product(kp_grid, ki_grid):
+        rmse, dt = [], []
+        for ter, seed in itertools.product(terrains, seeds):
+            m = run_closed_loop(vehicle, ter, "straight_accel", True, seed, duration_s,
+                                (kp, ki))[2]
+            t0, t1 = base[ter, seed]["time_to_speed_s"], m["time_to_speed_s"]
+            rmse.append(m["slip_rmse"] if m["slip_rmse"] is not None else 1.0)
+            dt.append(1.0 if (t1 is None or not t0) else max(t1 / t0 - 1.0, 0.0))
+        row = {"kp": kp, "ki": ki, "slip_rmse": float(np.mean(rmse)),
+               "time_increase": float(np.mean(dt))}
+        row["cost"] = row["slip_rmse"] + time_weight * row["time_increase"]
+        rows.append(row)
+        if log is not None:
+            log(row)
+    table = pd.DataFrame(rows)
+    best = table.loc[table["cost"].idxmin()]
+    return (float(best["kp"]), float(best["ki"])), table
+
+
+def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
+             seeds: Sequence[int], gains: dict, duration_s: float = 20.0
+             ) -> tuple[pd.DataFrame, dict]:
+    """Run the evaluation grid (controller off and on for every cell).
+
+    Parameters
+    ----------
+    vehicles, terrains, scenarios : sequence of str
+        Grid axes.
+    seeds : sequence of int
+        Evaluation seeds (disjoint from :data:`TUNING_SEEDS`).
+    gains : dict
+        Vehicle -> ``(kp, ki)``.
+    duration_s : float
+        Simulated time per run, s.
+
+    Returns
+    -------
+    results : pandas.DataFrame
+        One row per run: the axes, ``controller`` and the metrics of
+        :func:`terrain.control.closed_loop.loop_metrics`.
+    traces : dict
+        ``(vehicle, terrain, scenario, controller, seed)`` -> per-call trace frame.
+
+    Raises
+    ------
+    ConfigError
+        An evaluation seed is a tuning seed.
+    """
+    from terrain.control.closed_loop import trace_frame
+
+    shared = sorted(set(seeds) & set(TUNING_SEEDS))
+    if shared:
+        raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
+    rows, traces = [], {}
+    for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
+                                                   (False, True)):
+        sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh])
+        ctrl = "traction" if on else "off"
+        rows.append({"vehicle": veh, "terrain": ter, "scenario": sc, "seed": seed,
+                     "controller": ctrl, **{k: v for k, v in m.items()
+                                            if not isinstance(v, str)}})
+        traces[veh, ter, sc, ctrl, seed] = trace_frame(sim, loop)
+    return pd.DataFrame(rows), traces
+
+
+def compare(results: pd.DataFrame) -> pd.DataFrame:
+    """Controller on against off, per vehicle, terrain and scenario (means over seeds).
+
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        Output of :func:`run_grid`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``peak_slip_off/on``, ``peak_slip_cut`` (fraction), ``energy_off/on`` (J/m),
+        ``energy_cut`` (fraction), ``time_to_speed_off/on`` (s), ``time_increase``
+        (fraction), ``slip_rmse_off/on``, ``steady_within_0_02_on`` (fraction of steady
+        samples with |slip - target| <= 0.02).
+    """
+    keys = ["vehicle", "terrain", "scenario"]
+    cols = ["peak_slip", "energy_j_per_m", "time_to_speed_s", "slip_rmse",
+            "steady_slip_within_0_02", "mean_speed_m_s"]
+    mean = results.groupby(keys + ["controller"])[cols].mean().unstack("controller")
+    out = pd.DataFrame(index=mean.index)
+    for c, short in (("peak_slip", "peak_slip"), ("energy_j_per_m", "energy"),
+                     ("time_to_speed_s", "time_to_speed"), ("slip_rmse", "slip_rmse"),
+                     ("mean_speed_m_s", "mean_speed")):
+        out[f"{short}_off"] = mean[(c, "off")]
+        out[f"{short}_on"] = mean[(c, "traction")]
+    out["peak_slip_cut"] = 1.0 - out["peak_slip_on"] / out["peak_slip_off"]
+    out["energy_cut"] = 1.0 - out["energy_on"] / out["energy_off"]
+    out["time_increase"] = out["time_to_speed_on"] / out["time_to_speed_off"] - 1.0
+    out["steady_within_0_02_on"] = mean[("steady_slip_within_0_02", "traction")]
+    return out.reset_index()
+
+
+def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
+                     accel_m_s2: float = 1.0, cruise_m_s: float = 1.0) -> dict:
+    """Whether a slip limit of ``(1 - cut) x peak`` leaves room to accelerate (quasi-static).
+
+    Parameters
+    ----------
+    terrain : str
+        Catalogued terrain.
+    peak_slip_open : float
+        Peak slip without control.
+    cut : float
+        Fraction of the peak to remove (0.5 = the issue's target).
+    accel_m_s2 : float
+        Commanded acceleration, m/s^2 (straight_accel: 1).
+    cruise_m_s : float
+        Cruise speed, m/s.
+
+    Returns
+    -------
+    dict
+        ``slip_limit``; ``steady_slip`` (slip balancing the soil resistance at cruise);
+        ``slip_for_command`` (slip needed for ``accel_m_s2``); ``accel_at_limit_m_s2``
+        (``g (mu - resistance)`` at the limit); ``min_time_to_cruise_s`` (``cruise /
+        min(accel_at_limit, accel)``, inf when it is <= 0) against ``command_time_s``.
+    """
+    ter = get_terrain(terrain)
+    s_lim = (1.0 - cut) * float(peak_slip_open)
+    a_lim = G_M_S2 * float(traction_coefficient(ter.curve, s_lim)
+                           - soil_resistance_coefficient(ter, s_lim))
+    t_min = cruise_m_s / min(a_lim, accel_m_s2) if a_lim > 0 else math.inf
+    return {"terrain": terrain, "peak_slip_open": float(peak_slip_open), "slip_limit": s_lim,
+            "steady_slip": steady_slip(ter), "slip_for_command": steady_slip(
+                ter, accel_m_s2 / G_M_S2),
+            "accel_at_limit_m_s2": a_lim, "min_time_to_cruise_s": t_min,
+            "command_time_s": cruise_m_s / accel_m_s2}
+
+
+def markdown_table(table: pd.DataFrame) -> str:
+    """The comparison of :func:`compare` as a Markdown table (the README / docs rendering).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Output of :func:`compare`.
+
+    Returns
+    -------
+    str
+        Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on, the
+        relative changes and the steady-slip share within 0.02 of the target.
+    """
+    head = ("| vehicle | terrain | scenario | peak slip off -> on | cut | energy J/m off -> on "
+            "| cut | time to cruise s off -> on | longer | slip RMSE off -> on "
+            "| steady within 0.02 (on) |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
+
+    def f(v, fmt):
+        return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) \
+            else format(v, fmt)
+
+    lines = [f"| {r.vehicle} | {r.terrain} | {r.scenario} | {f(r.peak_slip_off, '.3f')} -> "
+             f"{f(r.peak_slip_on, '.3f')} | {f(100 * r.peak_slip_cut, '.0f')} % | "
+             f"{f(r.energy_off, '.0f')} -> {f(r.energy_on, '.0f')} | "
+             f"{f(100 * r.energy_cut, '.1f')} % | {f(r.time_to_speed_off, '.2f')} -> "
+             f"{f(r.time_to_speed_on, '.2f')} | {f(100 * r.time_increase, '.0f')} % | "
+             f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')} | "
+             f"{f(r.steady_within_0_02_on, '.2f')} |" for r in table.itertuples()]
+    return head + "\n".join(lines) + "\n"

@@ -1,0 +1,258 @@
+"""Closed loop in simulation: online sensors between the plant and a robot-side controller.
+
+:func:`terrain.sim.dynamics.integrate` hands its hook the *plant* after every step
+(:class:`~terrain.sim.dynamics.PlantSnapshot`). :class:`OnlineSensors` turns that into what
+the robot measures, sample by sample at each sensor's rate (the vehicle's
+:class:`~terrain.sim.sensors.SensorSettings`): IMU ``ax, ay, wz`` with white noise and a
+constant accelerometer bias, encoder wheel speeds (count rate per physics step when the
+speed quantum is 0, the motor driver's first-order filter, the speed quantum), steering encoders quantised, and on the
+AgriMaRo the T265 camera velocity at its mount with noise and outages. :func:`make_hook`
+calls a controller at its own rate with only the samples taken since its previous call
+(:class:`Observation`) and the robot's own low-level command, and returns its correction.
+
+Simplifications against the batch sensor model of :mod:`terrain.sim.simulate` (which still
+writes the run's logged streams from the physics): no vibration band on the IMU, no sensor
+lag; noise from a generator of its own (seeded from the run's seed), so the logged streams
+keep the open-loop run's noise draws.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from terrain.errors import ConfigError
+from terrain.sim.dynamics import ControlHook, PlantSnapshot
+from terrain.sim.sensors import SensorSettings
+from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulate_with_physics
+from terrain.vehicles import get_vehicle
+
+__all__ = ["Observation", "OnlineSensors", "make_hook", "simulate_closed_loop"]
+
+
+class Observation(NamedTuple):
+    """Sensor samples taken since the controller's previous call (rows in time order).
+
+    Parameters
+    ----------
+    t_s : float
+        Time of the call, s.
+    omega_low_level : ndarray, shape (m,)
+        The low-level wheel speed command the robot is about to apply, rad/s.
+    imu : ndarray, shape (k, 4)
+        ``t_s, ax, ay, wz`` (s, m/s^2, m/s^2, rad/s).
+    wheels : ndarray, shape (k, 1 + m)
+        ``t_s, omega_1..m`` encoder wheel speeds, rad/s (skid-steer: left, right).
+    steer : ndarray, shape (k, 1 + m)
+        ``t_s, delta_1..m`` steering encoders, rad (empty for skid-steer).
+    cam : ndarray, shape (k, 5)
+        ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` camera (empty without a camera or in outages).
+    """
+
+    t_s: float
+    omega_low_level: np.ndarray
+    imu: np.ndarray
+    wheels: np.ndarray
+    steer: np.ndarray
+    cam: np.ndarray
+
+
+@dataclass
+class _Channel:
+    period_s: float
+    next_t: float
+    rows: list
+
+
+class OnlineSensors:
+    """Sample the plant as the robot's sensors would, one physics step at a time.
+
+    Parameters
+    ----------
+    vehicle : str
+        Catalogued vehicle name (camera lever arm, encoder resolution, wheel radius).
+    sensors : SensorSettings
+        Rates, noise levels and quanta.
+    seed : int
+        Seed of the sensors' own generator (>= 0).
+    duration_s : float
+        Run length, s (for the camera outages, drawn at start as in the batch model).
+    """
+
+    def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
+                 duration_s: float) -> None:
+        self.vehicle = get_vehicle(vehicle)
+        self.settings = sensors
+        self.steered = self.vehicle.contact_geometry().steered
+        self.rng = np.random.default_rng([int(seed), 11])
+        s = sensors
+        self.accel_bias = s.accel_bias_std_m_s2 * self.rng.standard_normal(2)
+        self.ch = {"imu": _Channel(1.0 / s.imu_rate_hz, 0.0, []),
+                   "wheels": _Channel(1.0 / s.wheel_rate_hz, 0.0, []),
+                   "steer": _Channel(1.0 / s.steer_rate_hz, 0.0, []),
+                   "cam": _Channel(1.0 / s.cam_rate_hz, 0.0, [])}
+        n_out = self.rng.poisson(s.cam_outage_rate_hz * duration_s)
+        self.outages = [(a, a + b) for a, b in zip(self.rng.uniform(0, duration_s, n_out),
+                                                   self.rng.uniform(0.5, 2.0, n_out))]
+        self._angle = 0.0
+        self._counts = 0.0
+        self._omega_prev = 0.0
+        self._filtered: np.ndarray | None = None
+        self._t_prev: float | None = None
+
+    def record(self, snap: PlantSnapshot) -> None:
+        """Take the samples due at ``snap.t_s``.
+
+        Parameters
+        ----------
+        snap : PlantSnapshot
+            Plant state after a physics step.
+        """
+        s, t = self.settings, snap.t_s
+        dt = 0.0 if self._t_prev is None else t - self._t_prev
+        self._t_prev = t
+        eps = 1e-9
+        c = self.ch["imu"]
+        if t + eps >= c.next_t:
+            n = self.rng.standard_normal(3)
+            a = snap.accel_body + self.accel_bias + s.accel_noise_m_s2 * n[:2]
+            c.rows.append((t, a[0], a[1], snap.twist[2] + s.gyro_noise_rad_s * n[2]))
+            c.next_t += c.period_s
+        # encoders: count rate per physics step when the speed quantum is 0, then the motor
+        # driver's first-order filter, sampled at the wheel rate (as the batch model)
+        motor = self.vehicle.motor
+        if s.speed_quantum_m_s == 0 and dt > 0:
+            self._angle = self._angle + 0.5 * dt * (snap.omega + self._omega_prev)
+            q = 2 * math.pi / motor.encoder_counts_per_rev
+            counts = np.floor(self._angle / q)
+            raw = (counts - self._counts) * q / dt
+            self._counts = counts
+        else:
+            raw = snap.omega
+        if self._filtered is None:
+            self._filtered = raw.copy()
+        elif motor.encoder_filter_s > 0 and dt > 0:
+            a = math.exp(-dt / motor.encoder_filter_s)
+            self._filtered = a * self._filtered + (1 - a) * raw
+        else:
+            self._filtered = raw
+        self._omega_prev = snap.omega
+        c = self.ch["wheels"]
+        if t + eps >= c.next_t:
+            r = self.vehicle.wheel_radius_m
+            om = self._filtered
+            if s.speed_quantum_m_s > 0:
+                om = np.round(om * r / s.speed_quantum_m_s) * s.speed_quantum_m_s / r
+            c.rows.append((t, *om.tolist()))
+            c.next_t += c.period_s
+        if not self.steered:
+            return
+        c = self.ch["steer"]
+        if t + eps >= c.next_t:
+            d = np.round(snap.delta / s.steer_quantum_rad) * s.steer_quantum_rad
+            c.rows.append((t, *d.tolist()))
+            c.next_t += c.period_s
+        c = self.ch["cam"]
+        if t + eps >= c.next_t:
+            c.next_t += c.period_s
+            if not any(a <= t < b for a, b in self.outages):
+                lever = self.vehicle.camera_lever_arm_m
+                vx, vy, w = snap.twist.tolist()
+                n = self.rng.standard_normal(4)
+                c.rows.append((t, vx - w * lever[1] + s.cam_noise_m_s * n[0],
+                               vy + w * lever[0] + s.cam_noise_m_s * n[1],
+                               w + s.cam_yaw_rate_noise_rad_s * n[2],
+                               snap.pose[2] + s.cam_yaw_noise_rad * n[3]))
+
+    def take(self, t_s: float, omega_low_level: np.ndarray) -> Observation:
+        """Samples since the previous call (and forget them).
+
+        Parameters
+        ----------
+        t_s : float
+            Time of the call, s.
+        omega_low_level : ndarray, shape (m,)
+            The robot's low-level wheel speed command, rad/s.
+
+        Returns
+        -------
+        Observation
+        """
+        m = len(omega_low_level)
+        widths = {"imu": 4, "wheels": 1 + m, "steer": 1 + m, "cam": 5}
+        out = {}
+        for name, c in self.ch.items():
+            out[name] = (np.array(c.rows, dtype=float) if c.rows
+                         else np.zeros((0, widths[name])))
+            c.rows = []
+        return Observation(t_s, np.asarray(omega_low_level, dtype=float), **out)
+
+
+def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.ndarray],
+              control_rate_hz: float) -> ControlHook:
+    """Integrator hook: sensors every step, the controller at ``control_rate_hz``.
+
+    Parameters
+    ----------
+    sensors : OnlineSensors
+        The robot's sensors.
+    controller : callable
+        ``controller(observation) -> correction`` (rad/s, shape (m,)); sees only the
+        :class:`Observation`.
+    control_rate_hz : float
+        Controller rate, Hz (> 0).
+
+    Returns
+    -------
+    ControlHook
+
+    Raises
+    ------
+    ConfigError
+        Non-positive rate.
+    """
+    if not control_rate_hz > 0:
+        raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
+    period = 1.0 / control_rate_hz
+    state = {"next": 0.0}
+
+    def hook(snap: PlantSnapshot) -> np.ndarray | None:
+        sensors.record(snap)
+        if snap.t_s + 1e-9 < state["next"]:
+            return None
+        state["next"] += period
+        return controller(sensors.take(snap.t_s, snap.omega_low_level))
+
+    return hook
+
+
+def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], np.ndarray],
+                         control_rate_hz: float = 50.0) -> Simulation:
+    """Simulate with a controller in the loop.
+
+    Parameters
+    ----------
+    config : SimConfig
+        What to simulate (the sensors of ``config.sensors`` or the vehicle's defaults).
+    controller : callable
+        ``controller(observation) -> correction`` (rad/s per motor).
+    control_rate_hz : float
+        Controller rate, Hz.
+
+    Returns
+    -------
+    Simulation
+        As :func:`terrain.sim.simulate.simulate_with_physics`; ``physics.omega_cmd`` holds
+        the corrected commands.
+
+    Raises
+    ------
+    ConfigError
+        Bad configuration or rate.
+    """
+    sensors = OnlineSensors(config.vehicle, config.sensors or DEFAULT_SENSORS[config.vehicle],
+                            config.seed, config.duration_s)
+    return simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))

@@ -1,0 +1,171 @@
+"""The seed slip models as named baselines (compared with the physics and learned models).
+
+``pitch-linear`` (seed ``003_557e4138a8e06c5e.txt`` eq. 22)
+    Steady slip linear in pitch, ``s ~ R_c / C + (W / C) theta_pitch``, the two coefficients
+    fitted per terrain by least squares (:func:`fit_pitch_slip`, :func:`pitch_slip`).
+``endo`` (seed 003 eq. 27)
+    Endo's turning slip ratio ``alpha_l / alpha_r = -sgn(v_r v_l) |v_r / v_l|^n``
+    (:func:`terrain.vehicles.skid_steer.endo_slip_ratio_ratio`) closed with the gyro yaw rate:
+    ``B yaw_rate = v_r (1 - alpha_r) - v_l (1 - alpha_l)`` gives both slips
+    (:func:`endo_turning_slip`); undefined when driving straight.
+``observer`` (seed ``000_f24201ff985633bf.txt`` eq. 8)
+    The adaptive observer of the track efficiencies ``eta = 1 - i``
+    (:func:`terrain.estimation.observer.run_adaptive_observer`) in its yaw-only variant (no
+    position sensor on the Husky runs), slip ``1 - eta`` (:func:`observer_slip`).
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from terrain.errors import ConfigError, ShapeError
+from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.vehicles.skid_steer import TRACKED, endo_slip_ratio_ratio
+
+
+def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[str]
+                   ) -> Mapping[str, tuple[float, float]]:
+    """Least-squares ``slip = a + b pitch`` per terrain (seed 003 eq. 22).
+
+    A terrain whose windows span less than 0.01 rad of pitch gets ``b = 0`` (its mean slip).
+
+    Parameters
+    ----------
+    pitch_rad : ndarray, shape (n,)
+        Window pitch, rad.
+    slip : ndarray, shape (n,)
+        True window slip (dimensionless).
+    terrains : sequence of str, length n
+        Terrain of each window.
+
+    Returns
+    -------
+    Mapping str -> (a, b)
+        Intercept (dimensionless) and slope (1/rad), read-only.
+
+    Raises
+    ------
+    ShapeError
+        Lengths differ.
+    """
+    p = np.asarray(pitch_rad, dtype=float)
+    s = np.asarray(slip, dtype=float)
+    lab = np.asarray(terrains, dtype=object)
+    if not (p.shape == s.shape == lab.shape):
+        raise ShapeError(f"pitch, slip and terrains differ in length: {p.shape}, {s.shape}, "
+                         f"{lab.shape}")
+    out = {}
+    for name in np.unique(lab):
+        sel = (lab == name) & np.isfinite(p) & np.isfinite(s)
+        if not sel.any():
+            continue
+        if np.ptp(p[sel]) < 0.01:
+            out[str(name)] = (float(np.mean(s[sel])), 0.0)
+        else:
+            b, a = np.polyfit(p[sel], s[sel], 1)
+            out[str(name)] = (float(a), float(b))
+    return MappingProxyType(out)
+
+
+def pitch_slip(coefficients: Mapping[str, tuple[float, float]], pitch_rad: np.ndarray,
+               terrains: Sequence[str]) -> np.ndarray:
+    """Slip of the eq. 22 model for windows of known terrain.
+
+    Parameters
+    ----------
+    coefficients : Mapping str -> (a, b)
+        From :func:`fit_pitch_slip`.
+    pitch_rad : ndarray, shape (n,)
+        Pitch, rad.
+    terrains : sequence of str, length n
+        Terrain of each window.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Slip (NaN for a terrain without coefficients).
+    """
+    p = np.asarray(pitch_rad, dtype=float)
+    out = np.full(p.shape, np.nan)
+    lab = np.asarray(terrains, dtype=object)
+    for name, (a, b) in coefficients.items():
+        sel = lab == name
+        out[sel] = a + b * p[sel]
+    return out
+
+
+def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
+                      yaw_rate_rad_s: np.ndarray, track_m: float,
+                      n: float = TRACKED.slip_parameter_n, min_turn_rad_s: float = 0.1
+                      ) -> np.ndarray:
+    """Left and right slip from Endo's ratio (seed 003 eq. 27) and the measured yaw rate.
+
+    ``alpha_l = rho alpha_r`` with ``rho`` of eq. 27, and
+    ``B yaw_rate = v_r (1 - alpha_r) - v_l (1 - alpha_l)``, so
+    ``alpha_r = (v_r - v_l - B yaw_rate) / (v_r - rho v_l)``.
+
+    Parameters
+    ----------
+    v_left_m_s, v_right_m_s : ndarray, shape (n,)
+        Side rim speeds, m/s.
+    yaw_rate_rad_s : ndarray, shape (n,)
+        Gyro yaw rate, rad/s.
+    track_m : float
+        Track B, m.
+    n : float
+        Endo's exponent (default the seed's 0.847, Table 2).
+    min_turn_rad_s : float
+        Below this |yaw rate| (or with a zero side speed) the slips are NaN (straight
+        driving leaves eq. 27 undetermined).
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        ``alpha_l, alpha_r`` clipped to [-1, 1].
+    """
+    vl = np.asarray(v_left_m_s, dtype=float)
+    vr = np.asarray(v_right_m_s, dtype=float)
+    w = np.asarray(yaw_rate_rad_s, dtype=float)
+    ok = (np.abs(w) >= min_turn_rad_s) & (np.abs(vl) > 1e-3) & (np.abs(vr) > 1e-3)
+    rho = endo_slip_ratio_ratio(np.where(ok, vl, 1.0), np.where(ok, vr, 1.0), n)
+    den = vr - rho * vl
+    ok &= np.abs(den) > 1e-6
+    a_r = np.where(ok, (vr - vl - track_m * w) / np.where(ok, den, 1.0), np.nan)
+    return np.clip(np.column_stack([rho * a_r, a_r]), -1.0, 1.0)
+
+
+def observer_slip(t_s: np.ndarray, yaw_rad: np.ndarray, v_left_m_s: np.ndarray,
+                  v_right_m_s: np.ndarray, half_track_m: float) -> np.ndarray:
+    """Slip ``1 - eta`` of the seed 000 adaptive observer, yaw-only (no position sensor).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (N,)
+        Strictly increasing times, s.
+    yaw_rad : ndarray, shape (N,)
+        Heading (integral of the gyro yaw rate), rad.
+    v_left_m_s, v_right_m_s : ndarray, shape (N,)
+        Side rim speeds, m/s.
+    half_track_m : float
+        Half track d, m.
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        ``1 - eta_L, 1 - eta_R`` (left, right).
+
+    Raises
+    ------
+    ConfigError
+        Bad observer settings.
+    """
+    if not half_track_m > 0:
+        raise ConfigError(f"half_track_m must be > 0, got {half_track_m}")
+    pose = np.column_stack([np.full(len(t_s), np.nan), np.full(len(t_s), np.nan), yaw_rad])
+    res = run_adaptive_observer(t_s, pose, v_right_m_s, v_left_m_s,
+                                AdaptiveObserverSettings(half_track_m=half_track_m,
+                                                         use_position=False))
+    return np.column_stack([1.0 - res.eta_left, 1.0 - res.eta_right])

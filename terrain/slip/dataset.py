@@ -1,0 +1,133 @@
+"""Simulated Husky runs with truth for the slip models, cached on disk.
+
+A :class:`SlipDataSpec` names a grid terrains x scenarios x seeds; :func:`simulated_runs`
+simulates each cell once (:func:`terrain.sim.simulate.simulate`) and keeps the
+:class:`~terrain.run.Run` in a cache folder (joblib files keyed by every setting and a cache
+version), so repeated ``terrain slip-fit`` calls on the shared machine cost no simulation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Iterator
+
+import joblib
+
+from terrain.errors import ConfigError
+from terrain.run import Run
+from terrain.sim.scenarios import SCENARIO_NAMES
+from terrain.sim.simulate import SimConfig, simulate
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
+
+#: Bump when the simulator changes in a way that invalidates cached runs.
+CACHE_VERSION = 1
+
+
+@dataclass(frozen=True)
+class SlipDataSpec:
+    """Grid of simulated runs.
+
+    Parameters
+    ----------
+    terrains : tuple of str
+        Catalogue terrains (one terrain per run).
+    scenarios : tuple of str
+        Scenarios (:data:`terrain.sim.scenarios.SCENARIO_NAMES`).
+    seeds : tuple of int
+        Seeds (each seed gives other sensor noise and, for ``random``, other commands).
+    duration_s : float
+        Length of each run, s.
+    vehicle : str
+        Simulated vehicle.
+
+    Raises
+    ------
+    ConfigError
+        Unknown terrain or scenario, empty grid, non-positive duration.
+    """
+
+    terrains: tuple[str, ...] = TERRAIN_NAMES
+    scenarios: tuple[str, ...] = ("straight_accel", "orchard", "slope_turn", "random")
+    seeds: tuple[int, ...] = (0, 1, 2)
+    duration_s: float = 40.0
+    vehicle: str = "husky"
+
+    def __post_init__(self) -> None:
+        bad = [t for t in self.terrains if t not in TERRAIN_NAMES]
+        bad += [s for s in self.scenarios if s not in SCENARIO_NAMES]
+        if bad:
+            raise ConfigError(f"unknown terrains/scenarios {bad}; valid terrains "
+                              f"{list(TERRAIN_NAMES)}, scenarios {list(SCENARIO_NAMES)}")
+        if not (self.terrains and self.scenarios and self.seeds):
+            raise ConfigError("the run grid is empty")
+        if not self.duration_s > 0:
+            raise ConfigError(f"duration_s must be > 0, got {self.duration_s}")
+
+    def configs(self) -> Iterator[SimConfig]:
+        """Simulation settings of every cell of the grid."""
+        for terrain in self.terrains:
+            for scenario in self.scenarios:
+                for seed in self.seeds:
+                    yield SimConfig(vehicle=self.vehicle, terrains=(terrain,),
+                                    scenario=scenario, duration_s=float(self.duration_s),
+                                    seed=int(seed))
+
+
+def _key(config: SimConfig) -> str:
+    return (f"v{CACHE_VERSION}_{config.vehicle}_{config.terrains[0]}_{config.scenario}_"
+            f"s{config.seed}_{config.duration_s:g}s.joblib")
+
+
+def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run:
+    """One simulated run, from the cache when present.
+
+    The run id is made unique across scenarios: ``sim/<TERRAIN>/<scenario>/<seed>``, and
+    ``meta["scenario"]`` says the scenario.
+
+    Parameters
+    ----------
+    config : SimConfig
+        One terrain, default effects and sensors.
+    cache_dir : str or Path, optional
+        Cache folder (created); None = no cache.
+
+    Returns
+    -------
+    Run
+    """
+    path = None if cache_dir is None else Path(cache_dir) / _key(config)
+    if path is not None and path.exists():
+        return joblib.load(path)
+    run = simulate(config)
+    run = replace(run, run_id=f"sim/{config.terrains[0]}/{config.scenario}/{config.seed}")
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        joblib.dump(run, tmp)
+        tmp.replace(path)
+    return run
+
+
+def simulated_runs(spec: SlipDataSpec, cache_dir: str | Path | None = None,
+                   progress: bool = False) -> list[Run]:
+    """Every run of the grid (simulated once, then read from the cache).
+
+    Parameters
+    ----------
+    spec : SlipDataSpec
+        The grid.
+    cache_dir : str or Path, optional
+        Cache folder; None = simulate everything in memory.
+    progress : bool
+        Show a progress bar (tqdm).
+
+    Returns
+    -------
+    list of Run
+    """
+    configs = list(spec.configs())
+    if progress:
+        from tqdm.auto import tqdm
+        configs = tqdm(configs, desc="simulating runs", unit="run")
+    return [simulated_run(c, cache_dir) for c in configs]

@@ -1,0 +1,351 @@
+"""Evaluation of slip models on simulated runs with truth: splits, error tables, odometry.
+
+Everything here takes window tables (features ``X``, truth ``Y``, window provenance ``meta``
+with columns ``run_id, terrain, scenario, seed, t_start_s, t_end_s``); the features themselves
+come from :mod:`features.slip_features`. Splits are grouped by run (a run's windows are never
+on both sides).
+
+Steady straight driving (the issue's target condition): windows of ``straight_accel`` runs that
+start after the 1 m/s^2 ramp (``t_start_s >= STEADY_AFTER_S``) with true |yaw rate| below
+``0.05`` rad/s.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import ConfigError
+from terrain.run import TIME, Run
+from terrain.slip.baselines import observer_slip
+from terrain.slip.odometry import dead_reckon
+
+#: A run whose true path is longer than this many times the wheel path slid off its slope.
+SLID_OFF_FACTOR = 3.0
+#: Windows of straight_accel runs starting after this time are steady, s.
+STEADY_AFTER_S = 3.0
+
+
+def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarray:
+    """Mask of the steady straight-driving windows (module docstring).
+
+    Parameters
+    ----------
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance (``scenario``, ``t_start_s``).
+    yaw_rate_rad_s : ndarray, shape (n,)
+        True mean yaw rate of each window, rad/s.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    return ((meta["scenario"].to_numpy() == "straight_accel")
+            & (meta["t_start_s"].to_numpy() >= STEADY_AFTER_S)
+            & (np.abs(np.asarray(yaw_rate_rad_s, dtype=float)) < 0.05))
+
+
+def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray,
+                train: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """Fit a fresh model on the ``train`` windows and predict the ``test`` windows.
+
+    Parameters
+    ----------
+    make_model : callable
+        Returns an unfitted estimator with ``fit(X, Y)`` and ``predict(X)``.
+    X : pandas.DataFrame, shape (n, n_features)
+        Window features.
+    Y : ndarray, shape (n, k)
+        Targets.
+    train, test : ndarray of bool, shape (n,)
+        Disjoint window masks (grouped by run by the caller).
+
+    Returns
+    -------
+    ndarray, shape (n, k)
+        Predictions on ``test`` rows, NaN elsewhere.
+
+    Raises
+    ------
+    ConfigError
+        The masks overlap or one is empty.
+    """
+    if np.any(train & test) or not train.any() or not test.any():
+        raise ConfigError("train and test windows must be disjoint and non-empty")
+    model = make_model()
+    model.fit(X[train], Y[train])
+    out = np.full(Y.shape, np.nan)
+    out[test] = model.predict(X[test])
+    return out
+
+
+def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: np.ndarray,
+                by: Sequence[str] = ("terrain",)) -> pd.DataFrame:
+    """Median and 90th percentile absolute slip error over both sides, grouped.
+
+    Parameters
+    ----------
+    pred, truth : ndarray, shape (n, 2)
+        Predicted and true ``slip_1, slip_2``.
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance (columns named in ``by``).
+    mask : ndarray of bool, shape (n,)
+        Windows to score.
+    by : sequence of str
+        Grouping columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``by`` columns, ``median_abs_err``, ``p90_abs_err``, ``n_windows``, ``n_runs``.
+    """
+    err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
+    frame = meta.loc[mask, list(by) + ["run_id"]].copy()
+    frame["e1"] = err[mask, 0]
+    frame["e2"] = err[mask, 1]
+    rows = []
+    for key, g in frame.groupby(list(by), sort=True):
+        e = np.concatenate([g["e1"].to_numpy(), g["e2"].to_numpy()])
+        e = e[np.isfinite(e)]
+        key = key if isinstance(key, tuple) else (key,)
+        rows.append({**dict(zip(by, key)),
+                     "median_abs_err": float(np.median(e)) if e.size else np.nan,
+                     "p90_abs_err": float(np.percentile(e, 90)) if e.size else np.nan,
+                     "n_windows": int(len(g)), "n_runs": int(g["run_id"].nunique())})
+    return pd.DataFrame(rows)
+
+
+def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
+                         ) -> np.ndarray:
+    """Window means of the seed 000 observer slip (yaw-only, gyro heading) per run.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Runs with ``imu`` and ``wheels`` streams.
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance (``run_id, t_start_s, t_end_s``).
+    track_m : float
+        Track B, m.
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        Left and right slip.
+    """
+    out = np.full((len(meta), 2), np.nan)
+    by_id = {r.run_id: r for r in runs}
+    for rid, idx in meta.groupby("run_id").indices.items():
+        run = by_id[rid]
+        imu, wh = run.streams["imu"], run.streams["wheels"]
+        t = imu[TIME].to_numpy()
+        yaw = np.concatenate([[0.0], np.cumsum(np.diff(t) * imu["wz"].to_numpy()[:-1])])
+        vl = np.interp(t, wh[TIME], wh["vel_l"])
+        vr = np.interp(t, wh[TIME], wh["vel_r"])
+        s = observer_slip(t, yaw, vl, vr, 0.5 * track_m)
+        csum = np.vstack([np.zeros((1, 2)), np.cumsum(s, axis=0)])
+        a = np.searchsorted(t, meta["t_start_s"].to_numpy()[idx])
+        b = np.searchsorted(t, meta["t_end_s"].to_numpy()[idx])
+        out[idx] = (csum[b] - csum[a]) / np.maximum(b - a, 1)[:, None]
+    return out
+
+
+def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
+                    track_m: float, run_ids: Sequence[str]) -> pd.DataFrame:
+    """Final position error of plain and slip-compensated dead reckoning (percent of distance).
+
+    The window predictions (``slip_1, slip_2, chi`` at the window centres) are interpolated
+    onto the wheel samples; before the first centre the first prediction holds.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Simulated runs (``wheels`` and ``truth`` streams).
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance.
+    pred : ndarray, shape (n, 4)
+        Predicted ``slip_1, slip_2, chi, v_by`` per window.
+    track_m : float
+        Track B, m.
+    run_ids : sequence of str
+        Runs to evaluate.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run: ``run_id, terrain, scenario, distance_m, slid_off, plain_err_pct,
+        compensated_err_pct, reduction_pct``. ``slid_off``: the body travelled more than
+        :data:`SLID_OFF_FACTOR` x the wheels' path (it slid down the slope, e.g. the Husky on a
+        15 deg icy slope, which no wheel odometry can follow).
+    """
+    by_id = {r.run_id: r for r in runs}
+    rows = []
+    for rid in run_ids:
+        run = by_id[rid]
+        sel = np.flatnonzero(meta["run_id"].to_numpy() == rid)
+        wh, tr = run.streams["wheels"], run.streams["truth"]
+        t = wh[TIME].to_numpy()
+        centre = 0.5 * (meta["t_start_s"].to_numpy()[sel] + meta["t_end_s"].to_numpy()[sel])
+        order = np.argsort(centre)
+        p = pred[sel][order]
+        c = centre[order]
+        s1, s2, chi, v_by = (np.interp(t, c, p[:, k]) for k in range(4))
+        vl, vr = wh["vel_l"].to_numpy(), wh["vel_r"].to_numpy()
+        plain = dead_reckon(t, vl, vr, track_m)
+        comp = dead_reckon(t, vl, vr, track_m, s1, s2, np.clip(chi, 0.5, 5.0), v_by)
+        xy = tr[["x", "y"]].to_numpy()
+        end = np.array([np.interp(t[-1], tr[TIME], tr["x"]), np.interp(t[-1], tr[TIME], tr["y"])])
+        dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+        e_plain = 100 * float(np.hypot(*(plain[-1, :2] - end))) / dist
+        e_comp = 100 * float(np.hypot(*(comp[-1, :2] - end))) / dist
+        wheel_path = float(np.sum(np.hypot(*np.diff(plain[:, :2], axis=0).T)))
+        rows.append({"run_id": rid, "terrain": run.terrain,
+                     "scenario": run.meta.get("scenario"), "distance_m": dist,
+                     "slid_off": dist > SLID_OFF_FACTOR * max(wheel_path, 1e-9),
+                     "plain_err_pct": e_plain, "compensated_err_pct": e_comp,
+                     "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan})
+    return pd.DataFrame(rows, columns=["run_id", "terrain", "scenario", "distance_m",
+                                       "slid_off", "plain_err_pct", "compensated_err_pct",
+                                       "reduction_pct"])
+
+
+def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
+                         train: np.ndarray, runs: Sequence[Run], track_m: float
+                         ) -> dict[str, np.ndarray]:
+    """Per-window left/right slip of every non-learned model (same windows for all).
+
+    ``zero`` (what the EKF reports for the common slip today), ``physics``
+    (:mod:`terrain.slip.physics`, columns ``phys_slip_l/r`` of ``X``), ``pitch-linear`` (eq. 22
+    fitted on the straight-driving ``train`` windows, gyro |yaw rate| < 0.05 rad/s), ``endo`` (eq. 27 with the gyro), ``observer`` (seed 000).
+
+    Parameters
+    ----------
+    X : pandas.DataFrame, shape (n, n_features)
+        Window features (``pitch``, ``vel_l__mean``, ``vel_r__mean``, ``wz__mean``,
+        ``phys_slip_l``, ``phys_slip_r``).
+    Y : ndarray, shape (n, >= 2)
+        True ``slip_1, slip_2`` (only the ``train`` rows are read).
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance.
+    train : ndarray of bool, shape (n,)
+        Windows the eq. 22 coefficients are fitted on.
+    runs : sequence of Run
+        The runs (observer).
+    track_m : float
+        Track B, m.
+
+    Returns
+    -------
+    dict str -> ndarray, shape (n, 2)
+    """
+    from terrain.slip.baselines import endo_turning_slip, fit_pitch_slip, pitch_slip
+
+    terr = meta["terrain"].to_numpy()
+    pitch = X["pitch"].to_numpy()
+    straight = train & (np.abs(X["wz__mean"].to_numpy()) < 0.05)   # eq. 22: straight driving
+    coef = fit_pitch_slip(pitch[straight], Y[straight, :2].mean(axis=1), terr[straight])
+    eq22 = pitch_slip(coef, pitch, terr)
+    return {
+        "zero": np.zeros((len(X), 2)),
+        "physics": X[["phys_slip_l", "phys_slip_r"]].to_numpy(),
+        "pitch-linear": np.column_stack([eq22, eq22]),
+        "endo": endo_turning_slip(X["vel_l__mean"].to_numpy(), X["vel_r__mean"].to_numpy(),
+                                  X["wz__mean"].to_numpy(), track_m),
+        "observer": observer_window_slip(runs, meta, track_m),
+    }
+
+
+def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
+                    terrains: np.ndarray, track_m: float, min_turn_rad_s: float = 0.1
+                    ) -> pd.DataFrame:
+    """What can be checked on measured runs without position truth, per terrain.
+
+    * yaw: RMS over turning windows (gyro |yaw rate| >= ``min_turn_rad_s``) of the gyro yaw
+      rate minus the wheel yaw rate, plain ``(v_R - v_L)/B`` and compensated
+      ``(v_R - v_L)/(chi B)`` with the predicted ``chi``;
+    * slip vs currents: median |learned - physics| slip (the physics slip is computed from
+      the measured currents, :mod:`terrain.slip.physics`) and the Spearman correlation of the
+      learned slip with the mean current, over straight windows.
+
+    Parameters
+    ----------
+    X : pandas.DataFrame, shape (n, n_features)
+        Window features of the measured runs (``wz__mean``, ``vel_diff__mean``,
+        ``cur_l__mean``, ``cur_r__mean``, ``phys_slip_l``, ``phys_slip_r``).
+    pred : ndarray, shape (n, 4)
+        Learned ``slip_1, slip_2, chi, v_by``.
+    run_ids : ndarray, shape (n,)
+        Run of each window.
+    terrains : ndarray, shape (n,)
+        Terrain label of each window.
+    track_m : float
+        Track B, m.
+    min_turn_rad_s : float
+        Turning threshold, rad/s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per terrain: ``n_runs, yaw_rms_plain_rad_s, yaw_rms_compensated_rad_s,
+        median_learned_minus_physics, spearman_slip_current``.
+    """
+    from scipy.stats import spearmanr
+
+    wz = X["wz__mean"].to_numpy()
+    dv = X["vel_diff__mean"].to_numpy()
+    chi = np.clip(pred[:, 2], 0.5, 5.0)
+    slip = pred[:, :2].mean(axis=1)
+    phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy().mean(axis=1)
+    cur = X[["cur_l__mean", "cur_r__mean"]].to_numpy().mean(axis=1)
+    rows = []
+    for terr in np.unique(terrains):
+        sel = terrains == terr
+        turn = sel & (np.abs(wz) >= min_turn_rad_s)
+        straight = sel & (np.abs(wz) < 0.05)
+        rms = (lambda r: float(np.sqrt(np.mean(r ** 2))) if r.size else np.nan)
+        rho = (float(spearmanr(slip[straight], cur[straight]).statistic)
+               if straight.sum() > 3 else np.nan)
+        rows.append({"terrain": terr, "n_runs": int(len(np.unique(run_ids[sel]))),
+                     "n_turning_windows": int(turn.sum()),
+                     "yaw_rms_plain_rad_s": rms(wz[turn] - dv[turn] / track_m),
+                     "yaw_rms_compensated_rad_s": rms(wz[turn] - dv[turn] / (chi[turn] * track_m)),
+                     "median_learned_minus_physics": float(np.median(np.abs(
+                         slip[straight] - phys[straight]))) if straight.any() else np.nan,
+                     "spearman_slip_current": rho})
+    return pd.DataFrame(rows)
+
+
+def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray,
+                  groups: np.ndarray, train: np.ndarray, test: np.ndarray) -> np.ndarray:
+    """Predictions where each group's test windows come from a model that never saw the group.
+
+    For every value ``g`` of ``groups`` (a scenario, a terrain), a fresh model is fitted on
+    the ``train`` windows of the other groups and predicts the ``test`` windows of ``g``.
+
+    Parameters
+    ----------
+    make_model : callable
+        Returns an unfitted estimator.
+    X : pandas.DataFrame, shape (n, n_features)
+        Window features.
+    Y : ndarray, shape (n, k)
+        Targets.
+    groups : ndarray, shape (n,)
+        Group of each window.
+    train, test : ndarray of bool, shape (n,)
+        Disjoint window masks (e.g. training and held-out seeds).
+
+    Returns
+    -------
+    ndarray, shape (n, k)
+        NaN outside the ``test`` windows (and for groups without training data elsewhere).
+    """
+    out = np.full(Y.shape, np.nan)
+    for g in np.unique(groups[test]):
+        m = groups == g
+        if (train & ~m).any():
+            out = np.where((test & m)[:, None],
+                           fit_predict(make_model, X, Y, train & ~m, test & m), out)
+    return out

@@ -1,0 +1,75 @@
+"""Figures of the slip-model evaluation (``terrain slip-fit``); matplotlib, no global state."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+
+def error_figure(errors: pd.DataFrame, terrains: Sequence[str]):
+    """Median absolute slip error per terrain and model, steady straight driving.
+
+    Parameters
+    ----------
+    errors : pandas.DataFrame
+        ``slip_errors.csv`` of ``terrain slip-fit`` (columns ``split, model, windows,
+        terrain, median_abs_err``).
+    terrains : sequence of str
+        Terrains to show.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    sel = errors[(errors["windows"] == "steady_straight") & errors["terrain"].isin(terrains)]
+    sel = sel.assign(label=np.where(sel["split"] == "held-out seeds", sel["model"],
+                                    sel["model"] + " (" + sel["split"] + ")"))
+    table = sel.pivot_table(index="terrain", columns="label", values="median_abs_err")
+    table = table.reindex(list(terrains))
+    fig = Figure(figsize=(9, 4))
+    ax = fig.add_subplot()
+    width = 0.8 / max(1, table.shape[1])
+    x = np.arange(len(table))
+    for k, col in enumerate(table.columns):
+        ax.bar(x + k * width, table[col].fillna(0.0).to_numpy() + 1e-5, width, label=col)
+    ax.axhline(0.02, color="k", ls="--", lw=1, label="target 0.02")
+    ax.set_yscale("log")
+    ax.set_xticks(x + 0.4 - width / 2, table.index)
+    ax.set_ylabel("median |slip error| (held-out seeds)")
+    ax.set_title("Steady straight driving, simulated Husky")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return fig
+
+
+def odometry_figure(odometry: pd.DataFrame):
+    """Final position error of plain and compensated dead reckoning per held-out run.
+
+    Parameters
+    ----------
+    odometry : pandas.DataFrame
+        ``odometry.csv`` of ``terrain slip-fit``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    odo = odometry[~odometry["slid_off"].astype(bool)]
+    fig = Figure(figsize=(9, 4))
+    for k, (scen, g) in enumerate(odo.groupby("scenario")):
+        ax = fig.add_subplot(1, 2, k + 1)
+        x = np.arange(len(g))
+        ax.bar(x - 0.2, g["plain_err_pct"], 0.4, label="wheel odometry")
+        ax.bar(x + 0.2, g["compensated_err_pct"], 0.4, label="slip-compensated")
+        ax.set_xticks(x, g["terrain"], rotation=70, fontsize=7)
+        ax.set_ylabel("final position error, % of distance")
+        ax.set_title(scen)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig

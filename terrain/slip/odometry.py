@@ -1,0 +1,108 @@
+"""Slip-compensated dead reckoning of a skid-steer vehicle.
+
+Plain wheel odometry (seed 000 eqs. 1-5 with ``eta = 1``)::
+
+    v = (v_L + v_R) / 2,   yaw_rate = (v_R - v_L) / B
+
+Compensated: each side's ground speed from its rim speed and slip, inverting the SAE slip of
+:func:`terrain.terramechanics.slip.sae_slip` (:func:`ground_speed_from_slip`), and the
+turning factor ``chi`` (ICR expansion with the turning slip lumped in; seed 000 eq. 5 with
+Mandow et al. 2007)::
+
+    v = (v_L' + v_R') / 2,  yaw_rate = (v_R - v_L) / (chi B),  lateral velocity v_y
+
+(``v_y``: the sideways sliding on a slope, which wheel speeds cannot see; learned).
+
+The pose is integrated with the midpoint heading (as the simulator does).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.errors import ShapeError, TimeStepError
+
+
+def ground_speed_from_slip(rim_speed_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:
+    """Ground speed ``v`` of a wheel whose rim speed ``omega r`` has SAE slip ``s``.
+
+    Inverse of ``s = (omega r - v) / max(|omega r|, |v|)``: with ``s' = s sgn(omega r)``
+    (positive when the wheel outruns the ground, forward or backward),
+    ``v = omega r (1 - s')`` when ``s' >= 0`` (driving), ``v = omega r / (1 + s')`` when
+    ``s' < 0`` (braking, ``s' > -1``).
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (...)
+        ``omega r``, m/s.
+    slip : ndarray, shape (...)
+        SAE slip in (-1, 1].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        m/s.
+    """
+    w = np.asarray(rim_speed_m_s, dtype=float)
+    s = np.clip(np.where(w < 0, -1.0, 1.0) * np.asarray(slip, dtype=float), -0.95, 1.0)
+    return np.where(s >= 0, w * (1.0 - s), w / (1.0 + s))
+
+
+def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
+                track_m: float, slip_left: np.ndarray | None = None,
+                slip_right: np.ndarray | None = None, chi: np.ndarray | float = 1.0,
+                lateral_m_s: np.ndarray | float = 0.0) -> np.ndarray:
+    """Pose from wheel speeds, optionally slip-compensated (module docstring).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (N,)
+        Strictly increasing times, s.
+    v_left_m_s, v_right_m_s : ndarray, shape (N,)
+        Side rim speeds, m/s.
+    track_m : float
+        Track B, m.
+    slip_left, slip_right : ndarray, shape (N,), optional
+        SAE slip of each side (None = 0, plain odometry).
+    chi : float or ndarray, shape (N,)
+        Turning factor (1 = plain odometry).
+    lateral_m_s : float or ndarray, shape (N,)
+        Lateral body velocity (sideways sliding), m/s (0 = plain odometry).
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        ``x, y`` (m, start frame) and yaw (rad), starting at 0.
+
+    Raises
+    ------
+    ShapeError
+        Inconsistent lengths.
+    TimeStepError
+        Times not strictly increasing.
+    """
+    t = np.asarray(t_s, dtype=float)
+    vl = np.asarray(v_left_m_s, dtype=float)
+    vr = np.asarray(v_right_m_s, dtype=float)
+    if not (t.shape == vl.shape == vr.shape) or t.ndim != 1:
+        raise ShapeError(f"t, v_left, v_right must share a shape (N,), got {t.shape}, "
+                         f"{vl.shape}, {vr.shape}")
+    if t.size > 1 and np.any(np.diff(t) <= 0):
+        raise TimeStepError("dead_reckon: times must be strictly increasing")
+    gl = vl if slip_left is None else ground_speed_from_slip(vl, slip_left)
+    gr = vr if slip_right is None else ground_speed_from_slip(vr, slip_right)
+    v = 0.5 * (gl + gr)
+    vy = np.broadcast_to(np.asarray(lateral_m_s, dtype=float), t.shape)
+    yaw_rate = (vr - vl) / (np.asarray(chi, dtype=float) * track_m)
+    yaw_rate = np.broadcast_to(yaw_rate, t.shape)
+    dt = np.diff(t)
+    # trapezoidal in the speeds, midpoint heading
+    w_mid = 0.5 * (yaw_rate[:-1] + yaw_rate[1:])
+    yaw = np.concatenate([[0.0], np.cumsum(w_mid * dt)])
+    mid = yaw[:-1] + 0.5 * dt * w_mid
+    v_mid = 0.5 * (v[:-1] + v[1:])
+    vy_mid = 0.5 * (vy[:-1] + vy[1:])
+    c, s = np.cos(mid), np.sin(mid)
+    x = np.concatenate([[0.0], np.cumsum((v_mid * c - vy_mid * s) * dt)])
+    y = np.concatenate([[0.0], np.cumsum((v_mid * s + vy_mid * c) * dt)])
+    return np.column_stack([x, y, yaw])

@@ -1,0 +1,332 @@
+"""Physics-based longitudinal slip from the drive force (no absolute velocity sensor needed).
+
+The chain, every relation called from where it is defined (nothing re-typed):
+
+1. motor current -> wheel torque: the vehicle's motor law
+   :meth:`terrain.vehicles.MotorParams.current_from_torque` (``I = I_0 sgn(omega) +
+   T / (G k_t eta)``, Husky A200 constants in :mod:`terrain.vehicles.skid_steer`) is affine in
+   the torque, so it is inverted by evaluating it at two torques (:func:`wheel_torque_from_current`);
+2. wheel torque -> gross traction coefficient: the simulator's torque law
+   :func:`terrain.sim.forces.contact_torque_nm` (``T_i = r N_i (mu + h tanh(omega r / v_h))``,
+   torque-only rolling loss ``h`` of the terrain), again affine in ``mu``, with the normal loads
+   of :func:`terrain.sim.forces.contact_layout` at the pitch measured by the accelerometer
+   (grade: ``N = m g cos(pitch) x share``) and the wheel inertia torque removed
+   (:func:`traction_from_torque`). Grade and soil resistance act on the body, not on the wheel
+   torque: they set how much the body accelerates (``m a_x = N (mu - f_soil) - m g sin(pitch)``,
+   seed 003 eq. 10), which the accelerometer's specific force ``a_x + g sin(pitch)`` shows;
+3. traction coefficient -> slip on the stable side of the terrain's curve:
+   :func:`terrain.terramechanics.inverse.slip_from_traction`.
+
+Terrain from a classifier: the slip is computed under every terrain with a non-negligible
+probability and the results are **probability-weighted** (Bayesian model averaging over the
+terrain class), with the spread between terrains added to the variance (law of total
+variance). Why not the most-likely curve: when the classifier hesitates between grounds with
+different curves (SNOW vs SANDY_LOAM), the most-likely curve gives a confident but possibly
+wrong slip; the weighted mean minimises the expected squared error under the classifier's
+posterior, and its interval widens honestly. With a confident classifier both coincide.
+
+Uncertainty (first order, at ``coverage_sigma`` standard deviations): current noise, relative
+uncertainty of the gearbox efficiency (ASSUMED in the Husky motor parameters) and of the
+calibrated rolling loss; the interval on ``mu`` is mapped through the monotone inverse curve,
+so the slip interval is exact for that ``mu`` interval (asymmetric near the peak).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, NamedTuple
+
+import numpy as np
+
+from terrain.errors import ConfigError, ShapeError
+from terrain.sim.forces import contact_layout, contact_torque_nm
+from terrain.sim.sensors import SensorSettings
+from terrain.terramechanics.catalogue import TerrainParams, get_terrain
+from terrain.terramechanics.inverse import slip_from_traction
+
+
+@dataclass(frozen=True)
+class PhysicsSlipSettings:
+    """Uncertainties of the physics slip.
+
+    Parameters
+    ----------
+    current_std_a : float
+        Std of one current sample, A (default: the simulated sensor's
+        :attr:`terrain.sim.sensors.SensorSettings.current_noise_a`).
+    efficiency_rel_std : float
+        Relative std of the gearbox efficiency (ASSUMED 0.1: the Husky value 0.8 is itself
+        assumed, :mod:`terrain.vehicles.skid_steer`).
+    hysteresis_rel_std : float
+        Relative std of the terrain's calibrated rolling loss ``h`` (ASSUMED 0.15: the
+        calibration matches one mean current per terrain,
+        :mod:`terrain.terramechanics.calibration`).
+    coverage_sigma : float
+        Half-width of the reported interval in standard deviations (2 ~ 95 %).
+    min_probability : float
+        Terrains below this classifier probability are ignored (weights renormalised).
+    """
+
+    current_std_a: float = SensorSettings.current_noise_a
+    efficiency_rel_std: float = 0.1
+    hysteresis_rel_std: float = 0.15
+    coverage_sigma: float = 2.0
+    min_probability: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if min(self.current_std_a, self.efficiency_rel_std, self.hysteresis_rel_std) < 0:
+            raise ConfigError("PhysicsSlipSettings: uncertainties must be >= 0")
+        if not self.coverage_sigma > 0:
+            raise ConfigError("PhysicsSlipSettings: coverage_sigma must be > 0")
+
+
+class PhysicsSlip(NamedTuple):
+    """Physics slip of each drive side (n samples or windows, m motors).
+
+    Attributes
+    ----------
+    slip : ndarray, shape (n, m)
+        Longitudinal SAE slip estimate (dimensionless).
+    std : ndarray, shape (n, m)
+        Standard deviation (interval half-width over ``coverage_sigma``).
+    lower, upper : ndarray, shape (n, m)
+        Interval at ``coverage_sigma``.
+    mu : ndarray, shape (n, m)
+        Probability-weighted gross traction coefficient.
+    saturated : ndarray of bool, shape (n, m)
+        The most probable terrain's curve was asked for its maximum traction or more.
+    """
+
+    slip: np.ndarray
+    std: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    mu: np.ndarray
+    saturated: np.ndarray
+
+
+def _affine(fn, x_at_0, x_at_1):
+    a = fn(x_at_0)
+    return a, fn(x_at_1) - a
+
+
+def wheel_torque_from_current(motor, current_a: np.ndarray, omega_rad_s: np.ndarray
+                              ) -> np.ndarray:
+    """Wheel torque that draws a signed motor current (inverse of the motor law).
+
+    Inverts :meth:`terrain.vehicles.MotorParams.current_from_torque` (affine in the
+    torque) by evaluating it at 0 and 1 N m.
+
+    Parameters
+    ----------
+    motor : MotorParams
+        Motor of the vehicle (``vehicle.motor``).
+    current_a : ndarray, shape (...)
+        Signed motor current, A (positive drives forward).
+    omega_rad_s : ndarray, shape (...)
+        Wheel speed, rad/s.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Wheel torque, N m.
+    """
+    w = np.asarray(omega_rad_s, dtype=float)
+    a, b = _affine(lambda t: motor.current_from_torque(np.full_like(w, t), w), 0.0, 1.0)
+    return (np.asarray(current_a, dtype=float) - a) / b
+
+
+def pitch_from_accelerometer(ax_m_s2: np.ndarray, ay_m_s2: np.ndarray, az_m_s2: np.ndarray,
+                             accel_long_m_s2: np.ndarray | float = 0.0) -> np.ndarray:
+    """Nose-up pitch from the specific force ``(a_x - dv/dt, a_y, a_z) = g (sin p, ., cos p)``.
+
+    Parameters
+    ----------
+    ax_m_s2, ay_m_s2, az_m_s2 : ndarray, shape (...)
+        Accelerometer (window means to average out vibration), m/s^2, body axes x forward,
+        z up.
+    accel_long_m_s2 : float or ndarray, shape (...)
+        Longitudinal body acceleration to remove (e.g. the slope of the wheel speed), m/s^2.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Pitch, rad (positive nose-up, climbing).
+    """
+    ax = np.asarray(ax_m_s2, dtype=float) - np.asarray(accel_long_m_s2, dtype=float)
+    return np.arctan2(ax, np.hypot(np.asarray(ay_m_s2, dtype=float),
+                                   np.asarray(az_m_s2, dtype=float)))
+
+
+def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
+                         rim_speed_m_s: np.ndarray, pitch_rad: np.ndarray,
+                         wheel_accel_rad_s2: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gross traction coefficient of each drive side from its wheel torque.
+
+    Inverts :func:`terrain.sim.forces.contact_torque_nm` (affine in ``mu``), all contacts
+    of a side sharing one ``mu``; the wheel inertia torque
+    ``J n_side d omega / dt`` (:attr:`MotorParams.wheel_inertia_kg_m2`) is removed first.
+
+    Parameters
+    ----------
+    vehicle : HuskyParams or TrackedParams
+        Skid-steer vehicle (mass, contact geometry, motor).
+    terrain : TerrainParams
+        Terrain (rolling loss ``hysteresis``).
+    torque_nm : ndarray, shape (n, m)
+        Wheel torque of each motor, N m.
+    rim_speed_m_s : ndarray, shape (n, m)
+        Rim speed ``omega r`` of each motor, m/s.
+    pitch_rad : ndarray, shape (n,)
+        Nose-up pitch, rad (normal loads scale with its cosine).
+    wheel_accel_rad_s2 : ndarray, shape (n, m), optional
+        Wheel angular acceleration, rad/s^2 (None = 0, steady driving).
+
+    Returns
+    -------
+    mu : ndarray, shape (n, m)
+        Gross traction coefficient (dimensionless).
+    dmu_dtorque : ndarray, shape (n, m)
+        ``d mu / d T``, 1/(N m).
+    rolling_mu : ndarray, shape (n, m)
+        Rolling-loss part subtracted (``torque at mu = 0`` over ``d T / d mu``).
+
+    Raises
+    ------
+    ShapeError
+        Shapes do not match ``(n, n_motors)`` and ``(n,)``.
+    """
+    geometry = vehicle.contact_geometry()
+    torque = np.asarray(torque_nm, dtype=float)
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    pitch = np.asarray(pitch_rad, dtype=float)
+    nm = geometry.n_motors
+    if torque.ndim != 2 or torque.shape[1] != nm or rim.shape != torque.shape \
+            or pitch.shape != torque.shape[:1]:
+        raise ShapeError(f"torque and rim speed must be (n, {nm}) and pitch (n,), got "
+                         f"{torque.shape}, {rim.shape}, {pitch.shape}")
+    motor_of = geometry.motor_of_contact
+    counts = np.bincount(motor_of, minlength=nm).astype(float)
+    a = np.empty_like(torque)
+    b = np.empty_like(torque)
+    # normal loads scale with cos(pitch): one layout per distinct pitch value
+    for p in np.unique(np.round(pitch, 4)):
+        rows = np.round(pitch, 4) == p
+        layout = contact_layout(geometry, vehicle.mass_kg, float(p), 1.0)
+        rim_c = rim[rows][:, motor_of]
+        t0 = contact_torque_nm(layout, terrain, np.zeros_like(rim_c), rim_c)
+        t1 = contact_torque_nm(layout, terrain, np.ones_like(rim_c), rim_c)
+        a[rows] = np.stack([t0[:, motor_of == j].sum(axis=1) for j in range(nm)], axis=1)
+        b[rows] = np.stack([(t1 - t0)[:, motor_of == j].sum(axis=1) for j in range(nm)],
+                           axis=1)
+    inertia = 0.0 if wheel_accel_rad_s2 is None else (
+        vehicle.motor.wheel_inertia_kg_m2 * counts * np.asarray(wheel_accel_rad_s2, float))
+    return (torque - inertia - a) / b, 1.0 / b, a / b
+
+
+def _normalise(probabilities: Mapping[str, np.ndarray | float], n: int,
+               min_p: float) -> dict[str, np.ndarray]:
+    if not probabilities:
+        raise ConfigError("terrain probabilities are empty")
+    names = list(probabilities)
+    p = np.column_stack([np.broadcast_to(np.asarray(probabilities[k], float), (n,))
+                         for k in names])
+    if np.any(p < 0) or not np.all(np.isfinite(p)):
+        raise ConfigError("terrain probabilities must be finite and >= 0")
+    p = np.where(p >= min_p, p, 0.0)
+    total = p.sum(axis=1, keepdims=True)
+    if np.any(total <= 0):
+        raise ConfigError("terrain probabilities sum to 0 on some rows")
+    p = p / total
+    return {k: p[:, i] for i, k in enumerate(names) if np.any(p[:, i] > 0)}
+
+
+def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float],
+                 current_a: np.ndarray, rim_speed_m_s: np.ndarray, pitch_rad: np.ndarray,
+                 wheel_accel_rad_s2: np.ndarray | None = None, n_averaged: np.ndarray | float = 1.0,
+                 settings: PhysicsSlipSettings = PhysicsSlipSettings()) -> PhysicsSlip:
+    """Longitudinal slip of each drive side from motor currents (module docstring).
+
+    Parameters
+    ----------
+    vehicle : HuskyParams or TrackedParams
+        Skid-steer vehicle.
+    terrain_probabilities : mapping str -> float or ndarray, shape (n,)
+        Classifier probability of each catalogue terrain (per row or constant); a single
+        ``{"SNOW": 1.0}`` for a known ground.
+    current_a : ndarray, shape (n, m)
+        Motor current magnitudes as logged (``cur_l, cur_r``), A; the sign is taken from the
+        wheel speed (driving assumption: a braking side reads as driving).
+    rim_speed_m_s : ndarray, shape (n, m)
+        Wheel rim speeds (``vel_l, vel_r``), m/s.
+    pitch_rad : ndarray, shape (n,)
+        Nose-up pitch (:func:`pitch_from_accelerometer`), rad.
+    wheel_accel_rad_s2 : ndarray, shape (n, m), optional
+        Wheel angular acceleration, rad/s^2 (None = steady).
+    n_averaged : float or ndarray, shape (n,)
+        Number of current samples averaged into each row (the current noise shrinks with
+        its square root).
+    settings : PhysicsSlipSettings
+        Uncertainties and coverage.
+
+    Returns
+    -------
+    PhysicsSlip
+
+    Raises
+    ------
+    ConfigError
+        Unknown terrain name or invalid probabilities.
+    ShapeError
+        Inconsistent shapes.
+    """
+    cur = np.abs(np.asarray(current_a, dtype=float))
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    if cur.shape != rim.shape or cur.ndim != 2:
+        raise ShapeError(f"current and rim speed must share a shape (n, m), got {cur.shape}, "
+                         f"{rim.shape}")
+    n = cur.shape[0]
+    probs = _normalise(terrain_probabilities, n, settings.min_probability)
+    radius = vehicle.contact_geometry().wheel_radius_m
+    omega = rim / radius
+    signed = np.where(rim < 0, -cur, cur)
+    torque = wheel_torque_from_current(vehicle.motor, signed, omega)
+    dtorque_di = wheel_torque_from_current(vehicle.motor, signed + 1.0, omega) - torque
+    k = settings.coverage_sigma
+    sd_i = settings.current_std_a / np.sqrt(np.broadcast_to(np.asarray(n_averaged, float),
+                                                            (n,)))[:, None]
+    mean = np.zeros_like(cur)
+    second = np.zeros_like(cur)
+    within = np.zeros_like(cur)
+    lower = np.zeros_like(cur)
+    upper = np.zeros_like(cur)
+    mu_w = np.zeros_like(cur)
+    best = max(probs, key=lambda name: float(np.sum(probs[name])))
+    saturated = np.zeros(cur.shape, dtype=bool)
+    for name, p in probs.items():
+        terrain = get_terrain(name)
+        mu, dmu_dt, rolling = traction_from_torque(vehicle, terrain, torque, rim, pitch_rad,
+                                                   wheel_accel_rad_s2)
+        sd_mu = np.sqrt((dmu_dt * dtorque_di * sd_i) ** 2
+                        + (dmu_dt * torque * settings.efficiency_rel_std) ** 2
+                        + (rolling * settings.hysteresis_rel_std) ** 2)
+        est = slip_from_traction(terrain.curve, mu)
+        lo = slip_from_traction(terrain.curve, mu - k * sd_mu).slip
+        hi = slip_from_traction(terrain.curve, mu + k * sd_mu).slip
+        sd = (hi - lo) / (2.0 * k)
+        w = p[:, None]
+        mean += w * est.slip
+        second += w * est.slip ** 2
+        within += w * sd ** 2
+        lower += w * lo
+        upper += w * hi
+        mu_w += w * mu
+        if name == best:
+            saturated = est.saturated
+    # law of total variance: within-terrain variance + spread of the terrain-wise slips
+    between = np.sqrt(np.maximum(second - mean ** 2, 0.0))
+    std = np.sqrt(within + between ** 2)
+    return PhysicsSlip(mean, std, np.clip(lower - k * between, -1, 1),
+                       np.clip(upper + k * between, -1, 1), mu_w, saturated)
+

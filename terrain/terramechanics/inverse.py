@@ -1,0 +1,97 @@
+"""Inverse of a traction-slip curve: the slip that produces a given traction coefficient.
+
+A relation of the curve only (:mod:`terrain.terramechanics.traction`): on the *stable* side of
+``mu(s)`` (``0 <= |s| <= s_peak``, where ``d mu / d s > 0``) the curve is strictly increasing
+and has a unique inverse; a wheel that is asked for more than ``mu_max`` spins up past the
+peak (unstable side), which a steady measurement cannot place, so the inverse saturates there
+and says so. The forward curve is evaluated through :func:`traction_coefficient`; nothing of
+it is re-typed here.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from terrain.terramechanics.traction import (TractionCurve, traction_coefficient,
+                                             traction_peak)
+
+#: Points of the tabulated stable side (the inverse is linear between them).
+INVERSE_GRID_POINTS = 4001
+
+
+class StableSlip(NamedTuple):
+    """Slip on the stable side of a traction curve.
+
+    Attributes
+    ----------
+    slip : ndarray, shape (...)
+        SAE slip (dimensionless), same sign as ``mu``, ``|slip| <= s_peak``.
+    saturated : ndarray of bool, shape (...)
+        ``|mu|`` reached the curve's maximum: the slip is the peak slip or more.
+    """
+
+    slip: np.ndarray
+    saturated: np.ndarray
+
+
+def stable_side(curve: TractionCurve, points: int = INVERSE_GRID_POINTS
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Tabulated stable side ``(s, mu(s))`` of a curve, ``0 <= s <= s_peak``.
+
+    For curves with an interior maximum ``s_peak`` is that maximum; for curves rising up to
+    ``s = 1`` (Janosi, Brixius) the whole ``[0, 1]`` is stable.
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Traction-slip curve (catalogue entry's ``curve``).
+    points : int
+        Number of grid points (>= 2).
+
+    Returns
+    -------
+    slip : ndarray, shape (points,)
+        Slip grid, dimensionless, increasing from 0.
+    mu : ndarray, shape (points,)
+        ``mu`` on the grid, strictly increasing.
+    """
+    peak = traction_peak(curve)
+    s_end = 1.0 if peak.monotonic else peak.slip
+    s = np.linspace(0.0, s_end, int(points))
+    mu = traction_coefficient(curve, s)
+    # keep the strictly increasing part (flat tails of saturated curves add no information)
+    keep = np.concatenate([[True], np.diff(mu) > 0.0])
+    return s[keep], mu[keep]
+
+
+def slip_from_traction(curve: TractionCurve, mu: np.ndarray | float,
+                       points: int = INVERSE_GRID_POINTS) -> StableSlip:
+    """Slip on the stable side at which ``curve`` delivers the traction coefficient ``mu``.
+
+    Inverse of :func:`terrain.terramechanics.traction.traction_coefficient` restricted to
+    ``|s| <= s_peak``: ``traction_coefficient(curve, slip_from_traction(curve, mu).slip) == mu``
+    (to the grid resolution) for ``|mu| < mu_max``. Odd in ``mu``.
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Traction-slip curve.
+    mu : float or ndarray, shape (...)
+        Gross traction coefficient (force over normal load), dimensionless; NaN passes
+        through.
+    points : int
+        Resolution of the tabulated stable side.
+
+    Returns
+    -------
+    StableSlip
+        Slip and whether ``|mu|`` was at or beyond the curve's maximum (slip = peak slip).
+    """
+    m = np.asarray(mu, dtype=float)
+    s_grid, mu_grid = stable_side(curve, points)
+    mag = np.abs(m)
+    slip = np.sign(m) * np.interp(mag, mu_grid, s_grid)
+    saturated = mag >= mu_grid[-1]
+    return StableSlip(np.where(np.isfinite(m), slip, np.nan), saturated & np.isfinite(m))

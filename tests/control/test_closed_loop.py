@@ -1,0 +1,143 @@
+"""Closed loop in simulation: hook, online sensors, estimators, traction loop, grid rules."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrain.control import build_slip_table, config_for_vehicle
+from terrain.control.closed_loop import (BUS_VOLTAGE_V, TractionLoop, VelocityEstimate,
+                                         estimator_for, loop_metrics, run_closed_loop)
+from terrain.control.grid import TUNING_SEEDS, run_grid, slip_limit_bound
+from terrain.errors import ConfigError
+from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
+from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, simulate_with_physics
+
+
+def _config(vehicle="husky", terrain="ICE", duration=3.0, seed=4):
+    return SimConfig(vehicle=vehicle, terrains=(terrain,), scenario="straight_accel",
+                     duration_s=duration, seed=seed)
+
+
+def test_zero_correction_hook_leaves_the_run_identical():
+    cfg = _config()
+    calls = []
+    open_loop = simulate_with_physics(cfg)
+    closed = simulate_with_physics(cfg, hook=lambda snap: calls.append(snap.t_s) or np.zeros(2))
+    assert len(calls) == len(open_loop.physics.t_s)
+    np.testing.assert_array_equal(open_loop.physics.twist, closed.physics.twist)
+    np.testing.assert_array_equal(open_loop.physics.omega_cmd, closed.physics.omega_cmd)
+    for name, frame in open_loop.run.streams.items():
+        assert frame.equals(closed.run.streams[name]), name
+
+
+def test_controller_sees_samples_at_sensor_rates_only():
+    cfg = _config("agrimaro", "TILES", duration=2.0)
+    seen = []
+    simulate_closed_loop(cfg, lambda obs: seen.append(obs) or np.zeros(3), 50.0)
+    s = DEFAULT_SENSORS["agrimaro"]
+    n_imu = sum(len(o.imu) for o in seen)
+    n_cam = sum(len(o.cam) for o in seen)
+    assert 100 <= len(seen) <= 101                     # 50 Hz controller over 2 s
+    assert abs(n_imu - 2.0 * s.imu_rate_hz) <= 2
+    assert n_cam <= 2.0 * s.cam_rate_hz + 1
+    assert all(o.wheels.shape[1] == 4 for o in seen)    # t + three wheels
+    times = np.concatenate([o.imu[:, 0] for o in seen])
+    assert np.all(np.diff(times) > 0)                   # each sample delivered once, in order
+
+
+class _StaleEstimator:
+    name, limits = "stale", "never has a fresh estimate"
+
+    def update(self, obs):
+        n = len(obs.omega_low_level)
+        return VelocityEstimate(np.zeros(n), np.full(n, 0.5), np.zeros(n), 0.5, math.inf)
+
+
+def test_stale_estimate_gives_no_correction():
+    cfg = _config(duration=2.0)
+    ctrl_cfg, n = config_for_vehicle("husky", kp=10.0)
+    loop = TractionLoop(ctrl_cfg, n, _StaleEstimator(), build_slip_table(["ICE"]),
+                        lambda t: ("ICE", 1.0), apply=True)
+    sim = simulate_closed_loop(cfg, loop)
+    assert all(r["safe"].all() for r in loop.log)
+    assert all(np.all(r["correction"] == 0.0) for r in loop.log)
+    np.testing.assert_array_equal(sim.physics.omega_cmd,
+                                  simulate_with_physics(cfg).physics.omega_cmd)
+
+
+@pytest.mark.parametrize("vehicle", ["agrimaro", "husky"])
+def test_traction_control_cuts_slip_on_ice_same_seed(vehicle):
+    off = run_closed_loop(vehicle, "ICE", "straight_accel", False, 3, duration_s=5.0)[2]
+    on = run_closed_loop(vehicle, "ICE", "straight_accel", True, 3, duration_s=5.0)[2]
+    assert on["peak_slip"] < off["peak_slip"]
+    assert on["slip_rmse"] < off["slip_rmse"]
+    assert off["terrain_accuracy"] == 1.0 and on["bus_voltage_v"] == BUS_VOLTAGE_V[vehicle]
+    assert on["distance_m"] > 2.0 and on["energy_j_per_m"] > 0
+
+
+def test_shadow_mode_does_not_act():
+    sim_off, loop, m = run_closed_loop("agrimaro", "ICE", "straight_accel", False, 3, 3.0)
+    assert any(np.any(r["correction"] != 0) for r in loop.log)   # it would have acted...
+    plain = simulate_with_physics(_config("agrimaro", "ICE", 3.0, 3)).physics
+    np.testing.assert_array_equal(sim_off.physics.omega_cmd, plain.omega_cmd)  # ...but did not
+
+
+def test_agrimaro_ekf_tracks_the_wheel_speeds_on_tiles():
+    m = run_closed_loop("agrimaro", "TILES", "straight_accel", False, 5, duration_s=4.0)[2]
+    assert m["speed_estimate_rmse_m_s"] < 0.05
+    assert m["estimator"] == "agrimaro-ekf-vo"
+
+
+def test_metrics_energy_from_currents_and_bus_voltage():
+    sim, loop, m = run_closed_loop("husky", "TILES", "straight_accel", False, 2, 3.0)
+    from terrain.sim.simulate import motor_currents
+    from terrain.vehicles import get_vehicle
+    cur = motor_currents(sim.physics, get_vehicle("husky"), sim.config.effects)
+    dt = sim.physics.t_s[1] - sim.physics.t_s[0]
+    assert m["energy_j_per_m"] * m["distance_m"] == pytest.approx(24.0 * cur.sum() * dt)
+
+
+def test_grid_refuses_tuning_seeds():
+    with pytest.raises(ConfigError, match="tuning seeds"):
+        run_grid(["husky"], ["ICE"], ["straight_accel"], [TUNING_SEEDS[0]],
+                 {"husky": (1.0, 0.0)}, 1.0)
+
+
+def test_slip_limit_bound_snow_leaves_no_acceleration():
+    snow = slip_limit_bound("SNOW", 0.334)
+    assert snow["slip_limit"] == pytest.approx(0.167)
+    assert abs(snow["accel_at_limit_m_s2"]) < 0.01          # the limit is the steady slip
+    assert snow["min_time_to_cruise_s"] > 100.0
+    tiles = slip_limit_bound("TILES", 0.1)
+    assert tiles["min_time_to_cruise_s"] == pytest.approx(1.0)  # no limit on a firm surface
+
+
+def test_bad_rate_and_vehicle():
+    sensors = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0)
+    with pytest.raises(ConfigError):
+        make_hook(sensors, lambda o: None, 0.0)
+    with pytest.raises(ConfigError):
+        estimator_for("tracked")
+
+
+def test_control_sim_command_writes_the_json_fields(tmp_path):
+    import json
+
+    from terrain.cli import main
+
+    out, trace = tmp_path / "r.json", tmp_path / "t.csv"
+    assert main(["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
+                 "straight_accel", "--controller", "traction", "--seed", "2",
+                 "--duration-s", "3", "--json", str(out), "--csv", str(trace)]) == 0
+    r = json.loads(out.read_text())
+    for key in ("slip_rmse", "peak_slip", "time_to_speed_s", "energy_j_per_m", "distance_m",
+                "mean_speed_m_s", "terrain_accuracy", "terrain_source", "estimator_limits"):
+        assert key in r
+    assert r["terrain_source"].startswith("label")
+    assert 0.0 < r["peak_slip"] <= 1.0 and r["distance_m"] > 1.0
+    assert trace.read_text().startswith("t_s,v_true_m_s,slip_true_1")
+    assert main(["control-sim", "--vehicle", "husky", "--terrain", "MUD", "--scenario",
+                 "straight_accel", "--controller", "off", "--json", str(out)]) == 2

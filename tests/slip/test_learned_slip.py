@@ -1,0 +1,148 @@
+"""Learned slip model, seed baselines, slip-compensated odometry and `terrain slip-fit`."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.slip_features import slip_table, terrain_columns
+from terrain.cli import main as cli_main
+from terrain.errors import ShapeError, TimeStepError
+from terrain.slip.baselines import endo_turning_slip, fit_pitch_slip, observer_slip, pitch_slip
+from terrain.slip.dataset import SlipDataSpec, simulated_runs
+from terrain.slip.evaluation import error_table, odometry_errors, steady_straight
+from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
+from terrain.slip.odometry import dead_reckon, ground_speed_from_slip
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
+from terrain.terramechanics.slip import sae_slip
+from terrain.vehicles import HUSKY, endo_slip_ratio_ratio
+
+TINY = SlipDataSpec(terrains=("SANDY_LOAM", "SNOW"), scenarios=("straight_accel", "random"),
+                    seeds=(0, 1, 100), duration_s=14.0)
+
+
+@pytest.fixture(scope="module")
+def tiny_table(tmp_path_factory):
+    runs = simulated_runs(TINY, tmp_path_factory.mktemp("slipcache"))
+    X, Y, meta = slip_table(runs, HUSKY, TERRAIN_NAMES)
+    return runs, X, Y, meta
+
+
+def test_ground_speed_inverts_sae_slip():
+    rim = np.array([1.0, 1.0, 0.5, -0.8, 0.3])
+    v = np.array([0.7, 1.2, 0.5, -0.5, 0.0])
+    s = sae_slip(rim, v, dead_band_m_s=0.0)
+    np.testing.assert_allclose(ground_speed_from_slip(rim, s), v, atol=1e-12)
+
+
+def test_dead_reckon_straight_and_circle():
+    t = np.linspace(0.0, 10.0, 1001)
+    pose = dead_reckon(t, np.full_like(t, 0.5), np.full_like(t, 0.5), HUSKY.track_m)
+    np.testing.assert_allclose(pose[-1], [5.0, 0.0, 0.0], atol=1e-9)
+    # slip 0.2 on both sides: ground speed 0.4 m/s
+    pose = dead_reckon(t, np.full_like(t, 0.5), np.full_like(t, 0.5), HUSKY.track_m,
+                       np.full_like(t, 0.2), np.full_like(t, 0.2))
+    assert pose[-1, 0] == pytest.approx(4.0)
+    # a full circle with chi = 2 takes twice the time: after T the yaw is pi, not 2 pi
+    vl, vr = 0.3, 0.5
+    period = 2 * np.pi * HUSKY.track_m / (vr - vl)
+    t = np.linspace(0.0, period, 20001)
+    pose = dead_reckon(t, np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m)
+    np.testing.assert_allclose(pose[-1, :2], 0.0, atol=1e-6)
+    pose2 = dead_reckon(t, np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m, chi=2.0)
+    assert pose2[-1, 2] == pytest.approx(np.pi)
+    with pytest.raises(TimeStepError):
+        dead_reckon(t[::-1], np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m)
+    with pytest.raises(ShapeError):
+        dead_reckon(t, np.full(3, vl), np.full_like(t, vr), HUSKY.track_m)
+
+
+def test_pitch_slip_recovers_a_planted_line():
+    rng = np.random.default_rng(0)
+    pitch = rng.uniform(-0.3, 0.3, 200)
+    terr = np.where(np.arange(200) < 100, "SNOW", "ICE")
+    slip = np.where(terr == "SNOW", 0.1 + 0.5 * pitch, 0.02 + 0.1 * pitch)
+    coef = fit_pitch_slip(pitch, slip, terr)
+    assert coef["SNOW"] == pytest.approx((0.1, 0.5))
+    assert coef["ICE"] == pytest.approx((0.02, 0.1))
+    np.testing.assert_allclose(pitch_slip(coef, pitch, terr), slip, atol=1e-12)
+
+
+def test_endo_turning_slip_recovers_planted_slips():
+    vl, vr = np.array([0.2, -0.3]), np.array([0.5, 0.4])
+    a_r = np.array([0.1, 0.15])
+    a_l = endo_slip_ratio_ratio(vl, vr) * a_r
+    yaw = (vr * (1 - a_r) - vl * (1 - a_l)) / HUSKY.track_m
+    np.testing.assert_allclose(endo_turning_slip(vl, vr, yaw, HUSKY.track_m),
+                               np.column_stack([a_l, a_r]), atol=1e-12)
+    assert np.isnan(endo_turning_slip(np.array([0.5]), np.array([0.5]), np.array([0.0]),
+                                      HUSKY.track_m)).all()
+
+
+def test_observer_finds_no_slip_in_slip_free_turning():
+    t = np.arange(0, 20, 0.01)
+    vl, vr = np.full_like(t, 0.3), np.full_like(t, 0.5)
+    yaw = (vr - vl) / HUSKY.track_m * t
+    s = observer_slip(t, yaw, vl, vr, HUSKY.track_m / 2)
+    np.testing.assert_allclose(s[-1], 0.0, atol=1e-3)
+
+
+def test_targets_and_features_on_simulated_runs(tiny_table):
+    runs, X, Y, meta = tiny_table
+    assert len(X) == len(Y) == len(meta) > 0
+    assert set(SLIP_OUTPUTS) <= set(Y.columns)
+    assert {"phys_slip_l", "p__SNOW", "pitch", "inv_chi"} <= set(X.columns)
+    assert not X.drop(columns=terrain_columns(X.columns)).filter(like="p__").shape[1]
+    steady = steady_straight(meta, Y["yaw_rate"].to_numpy())
+    snow = steady & (meta["terrain"] == "SNOW").to_numpy()
+    assert Y.loc[snow, "slip_1"].median() > 0.1               # soft snow slips
+    # random commands turn: chi is defined there and > 1 (skid-steer turns less than the wheels say)
+    turning = np.isfinite(Y["chi"].to_numpy())
+    assert turning.any() and np.nanmedian(Y["chi"]) > 1.0
+
+
+def test_learned_model_on_held_out_seed(tiny_table):
+    runs, X, Y, meta = tiny_table
+    test = (meta["seed"] == 100).to_numpy()
+    y = Y[list(SLIP_OUTPUTS)].to_numpy()
+    model = SlipRegressor(max_iter=100).fit(X[~test], y[~test])
+    pred = model.predict(X[test])
+    assert pred.shape == (test.sum(), len(SLIP_OUTPUTS))
+    steady = steady_straight(meta, Y["yaw_rate"].to_numpy())[test]
+    table = error_table(pred, y[test], meta[test].reset_index(drop=True), steady)
+    assert (table["median_abs_err"] < 0.02).all()
+    zero = error_table(np.zeros_like(pred), y[test], meta[test].reset_index(drop=True), steady)
+    assert (table["median_abs_err"].to_numpy() < 0.2 * zero["median_abs_err"].to_numpy()).all()
+    with pytest.raises(ShapeError):
+        SlipRegressor().fit(X, y[:, :2])
+
+
+def test_compensated_odometry_beats_plain_with_true_slip(tiny_table):
+    runs, X, Y, meta = tiny_table
+    truth = np.where(np.isnan(Y[list(SLIP_OUTPUTS)].to_numpy()), 1.0,
+                     Y[list(SLIP_OUTPUTS)].to_numpy())
+    ids = [r for r in meta["run_id"].unique() if "/SNOW/straight_accel/" in r]
+    odo = odometry_errors(runs, meta, truth, HUSKY.track_m, ids)
+    assert (odo["plain_err_pct"] > 10).all()                  # 17 % slip on snow
+    assert (odo["compensated_err_pct"] < 0.2 * odo["plain_err_pct"]).all()
+
+
+@pytest.mark.slow
+def test_slip_fit_command(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    rc = cli_main(["slip-fit", "--terrains", "SANDY_LOAM", "SNOW", "--scenarios",
+                   "straight_accel", "random", "--train-seeds", "0", "1", "--test-seeds",
+                   "100", "--duration-s", "14", "--cache-dir", str(tmp_path / "cache"),
+                   "--out", str(out), "--no-register"])
+    assert rc == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["held-out_seeds.learned.SNOW.median_abs_err"] < 0.02
+    assert summary["held-out_seeds.zero.SNOW.median_abs_err"] > 0.1
+    errors = pd.read_csv(out / "slip_errors.csv")
+    assert {"held-out seeds", "leave-one-scenario-out", "leave-one-terrain-out"} <= set(
+        errors["split"])
+    assert (tmp_path / "mlflow.db").exists()

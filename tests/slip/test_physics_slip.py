@@ -1,0 +1,117 @@
+"""Physics slip from drive force: invariants, inverse-curve round trip, planted truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError, ShapeError
+from terrain.sim.simulate import SimConfig, simulate_with_physics
+from terrain.slip.physics import (PhysicsSlipSettings, physics_slip, pitch_from_accelerometer,
+                                  traction_from_torque, wheel_torque_from_current)
+from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
+from terrain.terramechanics.inverse import slip_from_traction, stable_side
+from terrain.terramechanics.traction import traction_coefficient, traction_peak
+from terrain.vehicles import HUSKY
+
+
+@pytest.mark.parametrize("name", TERRAIN_NAMES)
+def test_inverse_curve_round_trip(name):
+    curve = get_terrain(name).curve
+    s_grid, _ = stable_side(curve)
+    s = np.linspace(-0.98, 0.98, 41) * s_grid[-1]
+    back = slip_from_traction(curve, traction_coefficient(curve, s))
+    np.testing.assert_allclose(back.slip, s, atol=2e-3)
+    assert not back.saturated[np.abs(s) < 0.9 * s_grid[-1]].any()
+
+
+@pytest.mark.parametrize("name", ["ASPHALT", "ICE", "SNOW"])
+def test_inverse_saturates_beyond_the_peak(name):
+    curve = get_terrain(name).curve
+    peak = traction_peak(curve)
+    out = slip_from_traction(curve, np.array([1.5 * peak.mu_max, -1.5 * peak.mu_max]))
+    assert out.saturated.all()
+    assert out.slip[0] == pytest.approx(-out.slip[1])
+    assert abs(out.slip[0]) <= (1.0 if peak.monotonic else peak.slip) + 1e-9
+
+
+def test_torque_from_current_inverts_the_motor_law():
+    torque = np.array([-3.0, 0.0, 2.5, 10.0])
+    omega = np.array([-2.0, 3.0, 4.0, 5.0])
+    cur = HUSKY.motor.current_from_torque(torque, omega)
+    np.testing.assert_allclose(wheel_torque_from_current(HUSKY.motor, cur, omega), torque)
+
+
+def test_traction_from_torque_with_pitch_uses_smaller_normal_load():
+    ter = get_terrain("SANDY_LOAM")
+    torque = np.full((2, 2), 5.0)
+    rim = np.full((2, 2), 0.5)
+    mu, _, rolling = traction_from_torque(HUSKY, ter, torque, rim, np.array([0.0, 0.25]))
+    assert mu[1, 0] > mu[0, 0]
+    # torque / (r N) = mu + h with N proportional to cos(pitch)
+    assert mu[1, 0] + rolling[1, 0] == pytest.approx((mu[0, 0] + rolling[0, 0]) / np.cos(0.25))
+    with pytest.raises(ShapeError):
+        traction_from_torque(HUSKY, ter, torque[:, :1], rim, np.zeros(2))
+
+
+def test_zero_drive_on_level_ground_gives_about_zero_slip():
+    # the current a coasting, unloaded wheel draws: the no-load current plus the rolling loss
+    ter = get_terrain("ASPHALT")
+    rim = np.full((1, 2), 0.5)
+    _, dmu_dtorque, rolling = traction_from_torque(HUSKY, ter, np.zeros((1, 2)), rim,
+                                                   np.zeros(1))
+    torque_rolling = rolling / dmu_dtorque
+    cur = HUSKY.motor.current_from_torque(torque_rolling, rim / HUSKY.wheel_radius_m)
+    out = physics_slip(HUSKY, {"ASPHALT": 1.0}, cur, rim, np.zeros(1))
+    np.testing.assert_allclose(out.slip, 0.0, atol=1e-6)
+    assert (out.lower <= 0).all() and (out.upper >= 0).all()
+
+
+@pytest.mark.parametrize("name", ["SANDY_LOAM", "SNOW", "GRASS", "ICE"])
+def test_slip_increases_with_current(name):
+    cur = np.linspace(1.0, 8.0, 30)[:, None].repeat(2, axis=1)
+    out = physics_slip(HUSKY, {name: 1.0}, cur, np.full_like(cur, 0.5), np.zeros(30))
+    assert np.all(np.diff(out.slip[:, 0]) >= -1e-12)
+    assert out.slip[-1, 0] > out.slip[0, 0]
+    assert np.all(out.lower <= out.slip + 1e-12) and np.all(out.upper >= out.slip - 1e-12)
+
+
+def test_probability_weighting_is_model_averaging():
+    cur = np.full((1, 2), 4.0)
+    rim = np.full((1, 2), 0.5)
+    a = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1))
+    b = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, np.zeros(1))
+    mix = physics_slip(HUSKY, {"SANDY_LOAM": 0.5, "SNOW": 0.5}, cur, rim, np.zeros(1))
+    np.testing.assert_allclose(mix.slip, 0.5 * (a.slip + b.slip))
+    # law of total variance: mean within-terrain variance + spread of the two slips
+    spread = 0.25 * (a.slip - b.slip) ** 2
+    np.testing.assert_allclose(mix.std ** 2, 0.5 * (a.std ** 2 + b.std ** 2) + spread)
+    assert (mix.lower <= np.minimum(a.slip, b.slip)).all()
+    assert (mix.upper >= np.maximum(a.slip, b.slip)).all()
+    with pytest.raises(ConfigError):
+        physics_slip(HUSKY, {"MUD": 1.0}, cur, rim, np.zeros(1))
+    with pytest.raises(ConfigError):
+        PhysicsSlipSettings(coverage_sigma=0.0)
+
+
+def test_pitch_from_accelerometer_on_a_slope():
+    p = np.radians(15.0)
+    g = 9.80665
+    assert pitch_from_accelerometer(g * np.sin(p) + 0.3, 0.0, g * np.cos(p), 0.3) == \
+        pytest.approx(p)
+
+
+@pytest.mark.parametrize("name,seed", [("SANDY_LOAM", 7), ("SNOW", 3), ("GRASS", 11)])
+def test_planted_truth_on_simulated_straight_runs(name, seed):
+    sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=(name,),
+                                          scenario="straight_accel", duration_s=15, seed=seed))
+    wheels = sim.run.streams["wheels"]
+    steady = wheels[wheels["t_s"] > 6.0]
+    out = physics_slip(HUSKY, {name: 1.0}, steady[["cur_l", "cur_r"]].to_numpy(),
+                       steady[["vel_l", "vel_r"]].to_numpy(), np.zeros(len(steady)))
+    truth = sim.run.streams["truth"]
+    true_slip = truth.loc[truth["t_s"] > 6.0, "slip_1"].median()
+    assert true_slip > 0.05                               # there is slip to find
+    assert abs(np.median(out.slip) - true_slip) < 0.01
+    inside = (out.lower <= true_slip) & (out.upper >= true_slip)
+    assert inside.mean() > 0.8                            # the interval covers the truth
