@@ -63,6 +63,10 @@ def _assert_one_line_error(capsys, command):
     ["slip-table", "--data-dir", "missing_data"],
     # reaches the (missing) shipped data only after ~45 s of simulation: slow
     pytest.param(["validate", "estimation", "--quick"], marks=pytest.mark.slow),
+    ["slip-fit", "--terrains", "MUD"],
+    ["control-sim", "--vehicle", "husky", "--terrain", "MUD", "--scenario", "orchard",
+     "--controller", "off", "--json", "c.json"],
+    pytest.param(["control-grid", "--terrains", "MUD", "--out", "g"], marks=pytest.mark.slow),
 ])
 def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(
         workdir, capsys, monkeypatch, argv):
@@ -79,7 +83,8 @@ def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(
 def test_the_parametrised_list_covers_every_subcommand():
     from terrain.cli import SUBCOMMANDS
     covered = {"cv", "train", "predict", "convert", "benchmark", "simulate", "audit",
-               "estimate", "slip-table", "validate"}
+               "estimate", "slip-table", "validate", "slip-fit", "control-sim",
+               "control-grid"}
     assert set(SUBCOMMANDS) <= covered, (
         f"add a missing-input case for {sorted(set(SUBCOMMANDS) - covered)} to "
         "test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2")
