@@ -22,12 +22,18 @@ def reference_features(X: np.ndarray, channels: Sequence[str], rate_hz: float) -
     Parameters
     ----------
     X : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``.
+        ``(n_windows, n_channels, n_samples)`` windows, each channel in its SI unit.
+    channels : sequence of str
+        Names of the channels, in the order of axis 1 of ``X``.
+    rate_hz : float
+        Sampling rate of the windows, Hz (sets the periodogram frequencies and the default
+        bands up to ``rate_hz/2``).
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_features)``.
+        ``(n_windows, n_features)``, columns in the order of
+        ``WindowFeatures(channels, rate_hz).get_feature_names_out()``.
     """
     fx = WindowFeatures(tuple(channels), rate_hz).fit(X)
     idx = {c: i for i, c in enumerate(channels)}

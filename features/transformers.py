@@ -21,7 +21,24 @@ DEFAULT_STATS = tuple(calculators.STATISTICS)
 
 
 def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, float], ...]:
-    """Contiguous bands ``[k w, (k+1) w)`` from 0 Hz to the Nyquist frequency ``rate_hz/2``."""
+    """Contiguous bands ``[k w, (k+1) w)`` from 0 Hz to the Nyquist frequency ``rate_hz/2``.
+
+    The last band is cut at the Nyquist frequency when ``rate_hz/2`` is not a multiple of
+    ``band_width_hz``; bands narrower than 1e-9 Hz are dropped.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sampling rate of the windows, Hz.
+    band_width_hz : float
+        Width ``w`` of each band, Hz.
+
+    Returns
+    -------
+    tuple of (float, float)
+        ``(lower, upper)`` edges of each band, Hz, ascending; lower edge inclusive, upper
+        exclusive.
+    """
     nyquist = rate_hz / 2.0
     edges = np.append(np.arange(0.0, nyquist, band_width_hz), nyquist)
     return tuple((float(a), float(b)) for a, b in zip(edges[:-1], edges[1:]) if b - a > 1e-9)
@@ -95,7 +112,20 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         return terms
 
     def fit(self, X: np.ndarray, y: np.ndarray | None = None) -> "WindowFeatures":
-        """Check ``X`` and fix the output names. Returns self.
+        """Check ``X`` and fix the output names and bands.
+
+        Parameters
+        ----------
+        X : numpy.ndarray
+            ``(n_windows, n_channels, n_samples)`` windows, channels in the order of
+            ``channels``, each in its channel's SI unit.
+        y : numpy.ndarray or None
+            Ignored (scikit-learn API); ``(n_windows,)`` labels when given.
+
+        Returns
+        -------
+        WindowFeatures
+            ``self``, with ``feature_names_out_``, ``bands_`` (Hz) and ``n_samples_in_`` set.
 
         Raises
         ------
@@ -122,10 +152,24 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
     def transform(self, X: np.ndarray) -> np.ndarray:
         """Features of each window.
 
+        Parameters
+        ----------
+        X : numpy.ndarray
+            ``(n_windows, n_channels, n_samples)`` windows, channels in the order of
+            ``channels``, each in its channel's SI unit.
+
         Returns
         -------
         numpy.ndarray
-            ``(n_windows, n_features)``, float64.
+            ``(n_windows, n_features)``, float64, columns named by
+            :meth:`get_feature_names_out`.
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError
+            ``fit`` has not been called.
+        ValueError
+            ``X`` of the wrong shape or non-finite.
         """
         check_is_fitted(self, "feature_names_out_")
         X = self._check(X)

@@ -50,10 +50,22 @@ def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
 
     A list may mix set names and channel names (``["imu", "cur_diff"]``).
 
+    Parameters
+    ----------
+    signals : str or sequence of str
+        A set name of :data:`SIGNAL_SETS` (``imu``, ``wheels``, ``all``, ``ekf``,
+        ``all+ekf``), a channel name of :data:`KNOWN_CHANNELS`, or a sequence of both.
+
+    Returns
+    -------
+    tuple of str
+        Channel names in the order given, each set expanded, duplicates removed.
+
     Raises
     ------
     ConfigError
-        Unknown set or channel name (the message lists the valid ones).
+        Unknown set or channel name (the message lists the valid ones), or an empty
+        selection.
     """
     items = [signals] if isinstance(signals, str) else list(signals)
     out: list[str] = []
@@ -79,6 +91,15 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
         Aligned frame with ``vel_l, vel_r, cur_l, cur_r`` (m/s, A).
     track_m : float
         Track width B of the skid-steer vehicle, m.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of ``frame`` with ``vel_mean = (vel_l + vel_r)/2`` and
+        ``vel_diff = vel_r - vel_l`` (m/s), ``cur_sum`` and ``cur_diff = cur_r - cur_l`` (A),
+        and the skid-steer kinematic (no-slip) yaw rate ``yaw_rate_wheels = vel_diff /
+        track_m`` (rad/s; seeds/000_f24201ff985633bf.txt, Tazzari et al., eq. 2 with
+        ``2d = track_m``); ``frame`` itself, unchanged, when a wheel channel is missing.
     """
     if not set(WHEEL_CHANNELS) <= set(frame.columns):
         return frame
@@ -182,14 +203,39 @@ class WindowSet:
         return int(self.X.shape[0])
 
     def subset(self, mask: np.ndarray) -> "WindowSet":
-        """Windows selected by a boolean mask or index array."""
+        """Windows selected by a boolean mask or index array.
+
+        Parameters
+        ----------
+        mask : numpy.ndarray
+            ``(n_windows,)`` bool mask, or an integer index array, over the windows.
+
+        Returns
+        -------
+        WindowSet
+            The selected windows with the same ``channels`` and ``rate_hz`` and a copy of
+            ``counts``.
+        """
         return WindowSet(self.X[mask], self.channels, self.run_ids[mask], self.groups[mask],
                          self.labels[mask], self.t_start_s[mask], self.t_end_s[mask],
                          self.rate_hz, dict(self.counts))
 
 
 def required_streams(channels: Iterable[str]) -> tuple[str, ...]:
-    """Streams a channel selection needs (``imu`` and/or ``wheels``)."""
+    """Streams a channel selection needs (``imu`` and/or ``wheels``).
+
+    Parameters
+    ----------
+    channels : iterable of str
+        Channel names (IMU, wheel, derived wheel or EKF channels).
+
+    Returns
+    -------
+    tuple of str
+        ``("imu",)``, ``("wheels",)`` or ``("imu", "wheels")``: ``imu`` when an IMU or EKF
+        channel is selected, ``wheels`` when any channel is not an IMU channel (EKF channels
+        need both streams).
+    """
     chans = set(channels)
     need = []
     if chans & (set(IMU_CHANNELS) | set(EKF_CHANNELS)):

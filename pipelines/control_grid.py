@@ -23,7 +23,15 @@ SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain control-grid``."""
+    """Arguments of ``terrain control-grid``: vehicles, terrains, scenarios, evaluation seeds,
+    ``--duration-s`` (simulated time per run, s), ``--no-tune``, the proportional
+    (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids and ``--out``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("--vehicles", nargs="+", default=["agrimaro", "husky"])
     parser.add_argument("--terrains", nargs="+",
                         default=["TILES", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
@@ -68,7 +76,24 @@ def _plots(traces: dict, table, out: Path) -> list[Path]:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Tune, run the grid, write table/plots/JSON, log to MLflow; returns 0."""
+    """Tune, run the grid, write table/plots/JSON, log to MLflow.
+
+    Unless ``args.no_tune``, tunes each vehicle's gains on ICE over the tuning seeds
+    (:func:`terrain.control.grid.tune_gains`); then runs the grid with the controller off and
+    on and writes ``runs.csv``, ``comparison.csv``/``.md``, ``tuning_<vehicle>.csv``,
+    ``summary.json`` (gains, comparison, quasi-static slip-limit bound) and plots to
+    ``args.out``, all logged to the MLflow experiment ``terrain-control``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0.
+    """
     from terrain.tracking import tracked_run
 
     out = Path(args.out)

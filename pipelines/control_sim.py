@@ -33,7 +33,16 @@ TERRAIN_SOURCE_NOTE = ("label: terrain decisions are the run's ground-truth labe
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain control-sim``."""
+    """Arguments of ``terrain control-sim``: vehicle, terrain, scenario, controller
+    (``off`` or ``traction``), seed, ``--duration-s`` (s), gains ``--kp`` (rad/s per unit
+    slip) and ``--ki`` (rad/s per unit slip and s), an optional classifier ``--model``, and the
+    ``--json`` / ``--csv`` outputs.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("--vehicle", required=True, choices=VEHICLES)
     parser.add_argument("--terrain", required=True, help="catalogued terrain class")
     parser.add_argument("--scenario", required=True, choices=SCENARIOS)
@@ -51,7 +60,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run one closed-loop simulation; returns 0."""
+    """Run one closed-loop simulation and write its metrics.
+
+    Gains not given default to :data:`terrain.control.closed_loop.DEFAULT_GAINS`. With
+    ``args.model`` the controller's terrain comes from the classifier's decisions on the
+    simulated run (:func:`pipelines.live_terrain.classifier_decisions`), else the true
+    terrain is used. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
+    ``args.json`` and, if ``args.csv``, the per-step trace.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0.
+    """
     kp, ki = DEFAULT_GAINS[args.vehicle]
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, decide, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None

@@ -12,7 +12,14 @@ from terrain.io.shipped import DATASETS, convert_dataset, default_data_dir, read
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain convert``."""
+    """Arguments of ``terrain convert``: source folder ``<TERRAIN>/{imu_XX,pro_XX}.csv``,
+    ``--dataset`` name and ``--data-dir`` output folder.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("src", help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", required=True, choices=DATASETS)
     parser.add_argument("--data-dir", default=None,
@@ -20,7 +27,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Convert and print a one-line summary."""
+    """Convert a raw dataset folder to the shipped parquet layout and print a one-line summary
+    (runs, terrains, sampling rates in Hz, runs without IMU).
+
+    Bad input raises the project errors of :func:`terrain.io.shipped.convert_dataset`
+    (``ConfigError`` for an unknown dataset, ``DataFormatError`` for a bad source file),
+    which the CLI entry point reports to the user.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0.
+    """
     data_dir = args.data_dir or default_data_dir()
     entry = convert_dataset(args.src, args.dataset, data_dir)
     print(input_report(read_shipped(args.dataset, data_dir)).text())

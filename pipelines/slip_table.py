@@ -20,7 +20,13 @@ from terrain.io.shipped import read_manifest
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain slip-table``."""
+    """Arguments of ``terrain slip-table``: ``--json`` and ``--data-dir``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("--json", action="store_true", help="print JSON instead of CSV")
     parser.add_argument("--data-dir", default=None,
                         help="shipped data folder whose manifest lists the measured classes "
@@ -28,7 +34,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Compute the table and print it; returns 0."""
+    """Compute the per-class slip table and print it.
+
+    The classes are the classifier's classes for the terrains of the manifest of
+    ``args.data_dir`` (:func:`terrain.control.desired_slip.build_slip_table`); printed as CSV
+    (4 decimals) or, with ``args.json``, as JSON with the table's config.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0.
+    """
     manifest = read_manifest(args.data_dir)
     measured = [t for ds in manifest["datasets"].values() for t in ds["terrains"]]
     table = build_slip_table(classifier_classes(measured))

@@ -35,6 +35,8 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "slip-fit": "pipelines.slip_fit",
     "control-sim": "pipelines.control_sim",
     "control-grid": "pipelines.control_grid",
+    "stream": "pipelines.stream",
+    "stream-eval": "pipelines.stream_eval",
 })
 
 

@@ -35,7 +35,7 @@ import pandas as pd
 from terrain.errors import (DataFormatError, EmptyFileError, EncodingError, MissingColumnError,
                             NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
                             TimestampError, UnitError, UnreadableFileError, first_items)
-from terrain.io.plausibility import check_ranges, check_rate, check_run
+from terrain.io.plausibility import CHANNEL_LIMITS, check_ranges, check_rate, check_run
 from terrain.run import IMU_CHANNELS, TIME, Run
 
 #: file column -> canonical name, per known file kind
@@ -46,6 +46,9 @@ COLUMN_MAPS: Mapping[str, Mapping[str, str]] = MappingProxyType({
 })
 #: file prefix -> stream name in the Run
 STREAM_NAMES: Mapping[str, str] = MappingProxyType({"imu": "imu", "pro": "wheels"})
+#: gyro rates above this (rad/s) are beyond a MEMS gyro's 2000 deg/s full scale: the reader's
+#: plausibility range of the angular rates (:data:`terrain.io.plausibility.CHANNEL_LIMITS`)
+MAX_PLAUSIBLE_RATE_RAD_S = CHANNEL_LIMITS["wz"].limit
 _FILE_RE = re.compile(r"^(?P<kind>[a-z][a-z0-9]*)_(?P<index>\d+)\.csv$")
 
 

@@ -65,7 +65,14 @@ class SlipDataSpec:
             raise ConfigError(f"duration_s must be > 0, got {self.duration_s}")
 
     def configs(self) -> Iterator[SimConfig]:
-        """Simulation settings of every cell of the grid."""
+        """Simulation settings of every cell of the grid.
+
+        Yields
+        ------
+        SimConfig
+            One per ``(terrain, scenario, seed)``, terrains outermost and seeds innermost,
+            each with a single terrain, this spec's ``vehicle`` and ``duration_s`` (s).
+        """
         for terrain in self.terrains:
             for scenario in self.scenarios:
                 for seed in self.seeds:

@@ -1,0 +1,136 @@
+"""Benchmark: in-process decision latency and a 30-minute soak of the streaming service.
+
+* Latency: a BorealTC run (IMU + wheels) is replayed sample by sample through
+  :class:`terrain.streaming.StreamService`; every ``push`` that completes exactly one
+  decision is timed (alignment of the window, features, classifier, forward filter, slip
+  target), after ``--warmup`` decisions. p50 / p99 / max are reported (target p99 < 1 ms).
+* Soak: held-out-style runs are strung into one stream of >= ``--minutes`` minutes
+  (:func:`terrain.streaming.evaluation.concatenated_streams`, seeded) and replayed faster
+  than real time; resident set size (RSS) is sampled every 1000 pushes; peak RSS and its
+  growth after the first 2 minutes of stream are reported (target growth < 20 MB).
+
+Both models are trained here on BorealTC (or read with ``--model DIR``), the all-signal
+recipe unless ``--kind wheels``. Results print and are logged to MLflow (experiment
+``terrain-benchmark``).
+
+Run: ``python benchmarks/bench_serving.py [--kind all|wheels] [--minutes 30] [--no-mlflow]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+
+from terrain.io.shipped import load_dataset
+from terrain.run import TIME
+from terrain.streaming import (CataloguePeakTargets, StreamConfig, StreamService,
+                               interleave, load_stream_model)
+from terrain.streaming.evaluation import RECIPES, concatenated_streams, fit_stream_model
+from terrain.tracking import tracked_run
+
+
+def _pushes(service, run):
+    """(stream, t, values-dict) of a run in timestamp order, one sample each."""
+    cols = {s: [c for c in run.streams[s].columns if c != TIME] for s in run.streams}
+    for stream, t, v in interleave(run, service.needed_streams):
+        yield stream, t, dict(zip(cols[stream], v.T))
+
+
+def latency(model, run, warmup: int) -> np.ndarray:
+    """Seconds of every push that completed exactly one decision, after ``warmup``."""
+    svc = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(hop_s=0.5))
+    times, n = [], 0
+    for stream, t, v in _pushes(svc, run):
+        start = time.perf_counter()
+        out = svc.push(stream, t, v)
+        elapsed = time.perf_counter() - start
+        if len(out) == 1:
+            n += 1
+            if n > warmup:
+                times.append(elapsed)
+    return np.asarray(times)
+
+
+def soak(model, run, sample_every: int = 1000) -> dict:
+    """Replay ``run`` once; RSS samples, decisions and wall time."""
+    proc = psutil.Process()
+    svc = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(hop_s=0.5))
+    t_stream, rss, n_dec = [], [], 0
+    start = time.perf_counter()
+    for k, (stream, t, v) in enumerate(_pushes(svc, run)):
+        n_dec += len(svc.push(stream, t, v))
+        if k % sample_every == 0:
+            t_stream.append(float(t[-1]))
+            rss.append(proc.memory_info().rss / 2 ** 20)
+    wall = time.perf_counter() - start
+    t_stream, rss = np.asarray(t_stream), np.asarray(rss)
+    after = rss[t_stream >= t_stream[0] + 120.0]
+    return {"stream_s": float(t_stream[-1] - t_stream[0]), "wall_s": wall,
+            "speedup_x": float((t_stream[-1] - t_stream[0]) / wall), "decisions": n_dec,
+            "rss_peak_mb": float(rss.max()), "rss_after_2min_mb": float(after[0]),
+            "rss_growth_mb": float(after.max() - after[0])}
+
+
+def main() -> int:
+    """Run the benchmark; returns 0."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--kind", choices=list(RECIPES), default="all")
+    parser.add_argument("--model", type=Path, default=None, help="model directory to use")
+    parser.add_argument("--minutes", type=float, default=30.0, help="soak stream length")
+    parser.add_argument("--warmup", type=int, default=20, help="decisions not timed")
+    parser.add_argument("--no-mlflow", action="store_true")
+    args = parser.parse_args()
+    runs = load_dataset("borealtc")
+    recipe = RECIPES[args.kind]
+    need = ("wheels",) if recipe.signals == "wheels" else ("imu", "wheels")
+    model = (load_stream_model(args.model) if args.model
+             else fit_stream_model(recipe, runs, seed=0))
+    usable = [r for r in runs if all(s in r.streams for s in need)]
+    longest = max(usable, key=lambda r: r.duration_s)
+    lat = latency(model, longest, args.warmup) * 1e3
+    stream, segments, seed = None, [], 0
+    while stream is None or sum(s.duration_s for s in segments) < 60 * args.minutes:
+        piece, segs = concatenated_streams(usable, need, seed)
+        stream = piece if stream is None else _append(stream, piece)
+        segments += segs
+        seed += 1
+    result = soak(model, stream)
+    metrics = {"decision_p50_ms": float(np.percentile(lat, 50)),
+               "decision_p99_ms": float(np.percentile(lat, 99)),
+               "decision_max_ms": float(lat.max()), "decisions_timed": int(lat.size),
+               **{f"soak_{k}": v for k, v in result.items()}}
+    print(f"model {args.kind} ({len(model.channels)} channels, {model.window.window_s:g} s "
+          f"at {model.window.rate_hz:g} Hz); latency of one decision on {longest.run_id}: "
+          f"p50 {metrics['decision_p50_ms']:.3f} ms, p99 {metrics['decision_p99_ms']:.3f} ms, "
+          f"max {metrics['decision_max_ms']:.3f} ms ({lat.size} decisions after "
+          f"{args.warmup} warm-up)")
+    print(f"soak: {result['stream_s'] / 60:.1f} min stream in {result['wall_s']:.0f} s "
+          f"({result['speedup_x']:.1f}x real time), {result['decisions']} decisions; RSS "
+          f"peak {result['rss_peak_mb']:.1f} MB, growth after 2 min "
+          f"{result['rss_growth_mb']:.2f} MB")
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", run_name=f"serving-{args.kind}",
+                         params={"kind": args.kind, "minutes": args.minutes}) as run:
+            run.log_metrics(metrics)
+        print(run.describe())
+    return 0
+
+
+def _append(a, b):
+    """Run ``b`` appended after run ``a`` on one clock."""
+    import pandas as pd
+    from dataclasses import replace
+
+    end = max(f[TIME].iloc[-1] for f in a.streams.values()) + 0.1
+    frames = {s: pd.concat([a.streams[s], b.streams[s].assign(**{TIME: b.streams[s][TIME]
+                                                                 + end})], ignore_index=True)
+              for s in a.streams}
+    return replace(a, streams=frames)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,110 @@
+"""Bounded ring buffer of one stream's samples: timestamps and channel values.
+
+Memory is fixed at construction (``capacity`` rows), so an unbounded stream never grows it:
+the oldest samples are overwritten.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.errors import ConfigError
+
+
+class RingBuffer:
+    """Fixed-capacity FIFO of ``(t_s, values)`` samples of one stream.
+
+    Parameters
+    ----------
+    n_channels : int
+        Channels per sample (> 0).
+    capacity : int
+        Samples kept (> 0); older ones are overwritten.
+
+    Raises
+    ------
+    ConfigError
+        Non-positive ``n_channels`` or ``capacity``.
+    """
+
+    def __init__(self, n_channels: int, capacity: int) -> None:
+        if n_channels <= 0 or capacity <= 0:
+            raise ConfigError(f"ring buffer needs n_channels > 0 and capacity > 0, got "
+                              f"{n_channels}, {capacity}")
+        self.capacity = int(capacity)
+        self._t = np.empty(self.capacity)
+        self._v = np.empty((self.capacity, n_channels))
+        self._next = 0  # slot the next sample goes to
+        self._size = 0
+
+    def __len__(self) -> int:
+        return self._size
+
+    @property
+    def last_t(self) -> float:
+        """Timestamp of the newest sample, s (``-inf`` when empty)."""
+        return float(self._t[(self._next - 1) % self.capacity]) if self._size else -np.inf
+
+    @property
+    def first_t(self) -> float:
+        """Timestamp of the oldest kept sample, s (``inf`` when empty)."""
+        return float(self._t[(self._next - self._size) % self.capacity]) if self._size \
+            else np.inf
+
+    def append(self, t_s: np.ndarray, values: np.ndarray) -> None:
+        """Append samples (already validated, in increasing time).
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` timestamps, s.
+        values : numpy.ndarray
+            ``(n, n_channels)`` values, SI units.
+        """
+        n = len(t_s)
+        if n >= self.capacity:  # only the newest ``capacity`` samples survive
+            t_s, values, n = t_s[-self.capacity:], values[-self.capacity:], self.capacity
+        idx = (self._next + np.arange(n)) % self.capacity
+        self._t[idx] = t_s
+        self._v[idx] = values
+        self._next = (self._next + n) % self.capacity
+        self._size = min(self.capacity, self._size + n)
+
+    def since(self, t_min_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Samples with ``t >= t_min_s``, oldest first, plus the one just before (if kept).
+
+        The sample preceding ``t_min_s`` is included so that interpolation onto a grid
+        starting at ``t_min_s`` needs no extrapolation.
+
+        Parameters
+        ----------
+        t_min_s : float
+            Earliest time wanted, s.
+
+        Returns
+        -------
+        t_s : numpy.ndarray
+            ``(m,)`` timestamps, s (copies).
+        values : numpy.ndarray
+            ``(m, n_channels)``.
+        """
+        if self._size == 0:
+            return self._t[:0].copy(), self._v[:0].copy()
+        idx = (self._next - self._size + np.arange(self._size)) % self.capacity
+        t = self._t[idx]
+        start = max(0, int(np.searchsorted(t, t_min_s, side="left")) - 1)
+        return t[start:], self._v[idx[start:]]
+
+    def median_step(self, last: int = 64) -> float:
+        """Median time step of the newest ``last`` samples, s (``nan`` with < 2 samples).
+
+        Parameters
+        ----------
+        last : int
+            Samples looked at.
+        """
+        m = min(self._size, last)
+        if m < 2:
+            return float("nan")
+        idx = (self._next - m + np.arange(m)) % self.capacity
+        return float(np.median(np.diff(self._t[idx])))

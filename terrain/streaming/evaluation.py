@@ -1,0 +1,595 @@
+"""Evaluation of streaming terrain decisions, grouped by run.
+
+* :class:`ModelRecipe` / :data:`RECIPES` say how the streaming models are trained: the
+  all-signal model is the ``terrain train`` one (window statistics + SVM); the wheel-only
+  one uses the drive-physics features (:class:`features.wheel_physics.WheelPhysicsFeatures`)
+  with extremely randomised trees; :func:`fit_stream_model` fits one, :func:`window_cv`
+  scores one run-grouped.
+* :func:`grouped_oof_proba` gives out-of-fold class probabilities with
+  ``StratifiedGroupKFold`` grouped by run (:func:`terrain.models.cv.iter_splits`), and
+  :func:`smooth_runs` runs the causal forward filter along each run's windows, so per-window
+  accuracy can be measured with and without temporal smoothing.
+* :func:`concatenated_streams` strings held-out runs of different terrains into one stream
+  (seeded segment lengths), and :func:`switching_delays` measures how long the decisions
+  take to follow a terrain switch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+from sklearn.ensemble import ExtraTreesClassifier
+from sklearn.pipeline import FeatureUnion, Pipeline
+
+from features.transformers import WindowFeatures
+from features.wheel_physics import WheelPhysicsFeatures
+from features.windows import WindowConfig, make_windows
+from terrain.errors import ConfigError
+from terrain.models.cv import iter_splits
+from terrain.models.svm import SVMConfig, make_svm
+from terrain.run import TIME, Run
+from terrain.streaming.model import StreamModel
+from terrain.streaming.replay import replay_run
+from terrain.streaming.service import StreamConfig, StreamService
+from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
+from terrain.streaming.targets import CataloguePeakTargets
+
+
+def wheel_features(channels: tuple[str, ...], rate_hz: float,
+                   short_s: float | None = 2.0) -> FeatureUnion:
+    """Statistics + physics features of wheel windows (stateless).
+
+    Parameters
+    ----------
+    channels : tuple of str
+        Window channel order (must hold the four wheel channels).
+    rate_hz : float
+        Window sampling rate, Hz.
+    short_s : float or None
+        Recent time scale of the physics features, s.
+
+    Returns
+    -------
+    sklearn.pipeline.FeatureUnion
+    """
+    return FeatureUnion([("stats", WindowFeatures(channels=channels, rate_hz=rate_hz)),
+                         ("physics", WheelPhysicsFeatures(channels=channels, rate_hz=rate_hz,
+                                                          short_s=short_s))])
+
+
+def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels: np.ndarray,
+                      groups: np.ndarray, seed: int, n_splits: int = 5
+                      ) -> tuple[np.ndarray, list[str]]:
+    """Out-of-fold probabilities with folds grouped by run.
+
+    Parameters
+    ----------
+    make_model : callable
+        ``seed -> unfitted classifier with predict_proba``.
+    F : numpy.ndarray
+        ``(n_windows, ...)`` model input.
+    labels, groups : numpy.ndarray
+        ``(n_windows,)`` class labels and split groups (run ids).
+    seed : int
+        Fold shuffling seed.
+    n_splits : int
+        Folds.
+
+    Returns
+    -------
+    proba : numpy.ndarray
+        ``(n_windows, n_classes)``.
+    classes : list of str
+        Sorted class names (column order).
+    """
+    classes = sorted(np.unique(labels).tolist())
+    proba = np.zeros((len(labels), len(classes)))
+    for train, test in iter_splits("grouped", labels, groups, seed, n_splits):
+        model = make_model(seed)
+        model.fit(F[train], labels[train])
+        cols = [classes.index(c) for c in model.classes_]
+        proba[np.ix_(test, cols)] = model.predict_proba(F[test])
+    return proba, classes
+
+
+def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: float,
+                config: SmoothingConfig) -> np.ndarray:
+    """Causal forward filtering of window probabilities along each run.
+
+    Parameters
+    ----------
+    proba : numpy.ndarray
+        ``(n_windows, n_classes)``.
+    run_ids, t_s : numpy.ndarray
+        ``(n_windows,)`` run of each window and its time, s (windows are ordered by it).
+    hop_s : float
+        Time between consecutive windows, s.
+    config : SmoothingConfig
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` decided class index of each window.
+    """
+    out = np.zeros(len(proba), dtype=int)
+    for run in np.unique(run_ids):
+        idx = np.flatnonzero(run_ids == run)
+        idx = idx[np.argsort(t_s[idx], kind="stable")]
+        filt = ForwardFilter(proba.shape[1], hop_s, config)
+        for i in idx:
+            out[i] = filt.update(proba[i])[0]
+    return out
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One piece of a concatenated stream.
+
+    Parameters
+    ----------
+    run_id : str
+        Source run.
+    terrain : str
+        Its label.
+    t_from_s : float
+        Start of the piece on the run's clock, s.
+    t_offset_s : float
+        Shift added to the run's timestamps to place the piece on the stream clock, s.
+    duration_s : float
+        Length of the piece, s.
+    """
+
+    run_id: str
+    terrain: str
+    t_from_s: float
+    t_offset_s: float
+    duration_s: float
+
+
+def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
+                         min_s: float = 30.0, max_s: float = 120.0, gap_s: float = 0.1
+                         ) -> tuple[Run, list[Segment]]:
+    """String runs of changing terrain into one long run (seeded).
+
+    Runs are taken in a seeded random order, each time choosing a run whose terrain differs
+    from the previous piece's; each piece is a random stretch of ``min_s``-``max_s`` seconds
+    (capped at the run's length; every run is used once).
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Candidate runs (held out of training); those lacking a stream are skipped.
+    streams : sequence of str
+        Streams to keep.
+    seed : int
+        Seed of the order and piece lengths.
+    min_s, max_s : float
+        Piece length bounds, s.
+    gap_s : float
+        Time between the end of a piece and the first sample of the next, s.
+
+    Returns
+    -------
+    run : Run
+        The concatenated run (terrain ``None``; ``meta["segments"]`` lists the pieces).
+    segments : list of Segment
+
+    Raises
+    ------
+    ConfigError
+        Fewer than two terrains among the usable runs.
+    """
+    rng = np.random.default_rng(seed)
+    pool = [r for r in runs if all(s in r.streams for s in streams)]
+    if len({r.terrain for r in pool}) < 2:
+        raise ConfigError("a concatenated stream needs runs of at least two terrains")
+    order = list(rng.permutation(len(pool)))
+    parts: dict[str, list[pd.DataFrame]] = {s: [] for s in streams}
+    segments: list[Segment] = []
+    clock = 0.0
+    while order:
+        prev = segments[-1].terrain if segments else None
+        pick = next((k for k in order if pool[k].terrain != prev), order[0])
+        order.remove(pick)
+        run = pool[pick]
+        t_lo = max(run.streams[s][TIME].iloc[0] for s in streams)
+        t_hi = min(run.streams[s][TIME].iloc[-1] for s in streams)
+        length = min(float(rng.uniform(min_s, max_s)), t_hi - t_lo)
+        if length < min(min_s, 10.0):
+            continue
+        start = t_lo + float(rng.uniform(0.0, t_hi - t_lo - length))
+        offset = clock - start
+        for s in streams:
+            f = run.streams[s]
+            sel = f[(f[TIME] >= start) & (f[TIME] < start + length)]
+            parts[s].append(sel.assign(**{TIME: sel[TIME] + offset}))
+        segments.append(Segment(run.run_id, str(run.terrain), start, offset, length))
+        clock += length + gap_s
+    frames = {s: pd.concat(p, ignore_index=True) for s, p in parts.items()}
+    return Run("concatenated", "concatenated", None, frames,
+               meta={"segments": [s.__dict__ for s in segments]}), segments
+
+
+def truth_at(segments: Sequence[Segment], t_s: np.ndarray) -> np.ndarray:
+    """True terrain at stream times (``None`` between pieces).
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+    t_s : numpy.ndarray
+        ``(n,)`` stream times, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` object array of labels.
+    """
+    out = np.full(len(t_s), None, dtype=object)
+    for s in segments:
+        a = s.t_from_s + s.t_offset_s
+        out[(t_s >= a) & (t_s < a + s.duration_s)] = s.terrain
+    return out
+
+
+def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
+                     decided: np.ndarray) -> np.ndarray:
+    """Delay from each terrain switch until the decisions first name the new terrain, s.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+        Pieces in stream order.
+    t_s : numpy.ndarray
+        ``(n,)`` decision times, s (increasing).
+    decided : numpy.ndarray
+        ``(n,)`` decided terrain of each decision.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_switches,)`` delays, s; ``inf`` when the piece ended before the new terrain was
+        ever decided.
+    """
+    delays = []
+    for prev, seg in zip(segments[:-1], segments[1:]):
+        if seg.terrain == prev.terrain:
+            continue
+        a = seg.t_from_s + seg.t_offset_s
+        sel = (t_s >= a) & (t_s < a + seg.duration_s) & (decided == seg.terrain)
+        delays.append(float(t_s[sel][0] - a) if sel.any() else np.inf)
+    return np.asarray(delays)
+
+
+#: Feature sets and classifiers a recipe may name.
+FEATURE_SETS = ("stats", "physics", "stats+physics")
+CLASSIFIERS = ("svm", "extra_trees")
+
+
+@dataclass(frozen=True)
+class ModelRecipe:
+    """How a streaming model is trained.
+
+    Parameters
+    ----------
+    signals : str
+        Signal set (``all`` or ``wheels``).
+    window_s : float
+        Window (history) length, s.
+    rate_hz : float
+        Aligned clock rate, Hz.
+    train_hop_s : float
+        Hop of the training windows, s.
+    features : {"stats", "physics", "stats+physics"}
+        Window statistics (:class:`~features.transformers.WindowFeatures`), the wheel
+        physics features, or both.
+    classifier : {"svm", "extra_trees"}
+        The project's SVM (:func:`terrain.models.svm.make_svm`, Platt-calibrated) or
+        extremely randomised trees (:func:`extra_trees`).
+    n_trees : int
+        Trees of ``extra_trees``.
+    """
+
+    signals: str
+    window_s: float
+    rate_hz: float
+    train_hop_s: float
+    features: str = "stats"
+    classifier: str = "svm"
+    n_trees: int = 300
+
+    def __post_init__(self) -> None:
+        if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
+            raise ConfigError(f"recipe features must be one of {FEATURE_SETS} and classifier "
+                              f"one of {CLASSIFIERS}")
+
+
+#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); wheels: 4 s of
+#: history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped, see
+#: docs/streaming.md).
+RECIPES = MappingProxyType({
+    "all": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "svm"),
+    "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees"),
+})
+
+
+def extra_trees(n_trees: int = 300, random_state: int = 0) -> ExtraTreesClassifier:
+    """Extremely randomised trees (Geurts et al., Machine Learning 63, 2006), class-balanced.
+
+    Parameters
+    ----------
+    n_trees : int
+        Number of trees.
+    random_state : int
+        Seed.
+
+    Returns
+    -------
+    sklearn.ensemble.ExtraTreesClassifier
+        ``min_samples_leaf=3``, ``max_features=0.3``, ``class_weight="balanced"``.
+    """
+    return ExtraTreesClassifier(n_trees, min_samples_leaf=3, max_features=0.3,
+                                class_weight="balanced", n_jobs=1, random_state=random_state)
+
+
+def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...]):
+    """Stateless feature transformer of a recipe.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+    channels : tuple of str
+        Window channel order.
+
+    Returns
+    -------
+    sklearn transformer
+    """
+    if recipe.features == "stats":
+        return WindowFeatures(channels=channels, rate_hz=recipe.rate_hz)
+    if recipe.features == "physics":
+        return WheelPhysicsFeatures(channels=channels, rate_hz=recipe.rate_hz)
+    return wheel_features(channels, recipe.rate_hz)
+
+
+def recipe_classifier(recipe: ModelRecipe, random_state: int = 0):
+    """Unfitted classifier (with ``predict_proba``) of a recipe.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+    random_state : int
+        Seed.
+    """
+    if recipe.classifier == "extra_trees":
+        return extra_trees(recipe.n_trees, random_state)
+    return make_svm(SVMConfig(probability=True), random_state)
+
+
+def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) -> StreamModel:
+    """Fit a streaming model (features + classifier on raw windows) on labelled runs.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+    runs : sequence of Run
+        Training runs (labelled).
+    seed : int
+        Seed of the classifier.
+
+    Returns
+    -------
+    StreamModel
+    """
+    window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
+                          rate_hz=recipe.rate_hz)
+    ws = make_windows(runs, recipe.signals, window)
+    pipe = Pipeline([("features", recipe_features(recipe, ws.channels)),
+                     ("classifier", recipe_classifier(recipe, seed))])
+    labels = ws.labels.astype(str)
+    pipe.fit(ws.X, labels)
+    return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
+                                                       rate_hz=recipe.rate_hz),
+                       tuple(sorted(np.unique(labels).tolist())))
+
+
+def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Replay ``run`` through an unsmoothed service; per-decision classifier probabilities.
+
+    Parameters
+    ----------
+    model : StreamModel
+    run : Run
+    hop_s : float
+        Decision hop, s.
+
+    Returns
+    -------
+    t_s : numpy.ndarray
+        ``(n,)`` decision times, s.
+    proba : numpy.ndarray
+        ``(n, n_classes)`` classifier probabilities; NaN rows where the window was invalid
+        (gap, too short), which the filter treats as prediction-only steps.
+    """
+    svc = StreamService(model, CataloguePeakTargets(model.classes),
+                        StreamConfig(hop_s=hop_s, smoothing=SmoothingConfig(dwell_s=None)))
+    decisions = replay_run(svc, run)
+    t = np.array([d.t_s for d in decisions])
+    proba = np.array([d.proba for d in decisions]).reshape(len(decisions), -1)
+    invalid = np.array([("gap" in d.flags) or ("short" in d.flags) for d in decisions],
+                       dtype=bool)
+    proba[invalid] = np.nan
+    return t, proba
+
+
+def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) -> np.ndarray:
+    """Decided class index of each step of one stream (``-1`` before any valid window).
+
+    Parameters
+    ----------
+    proba : numpy.ndarray
+        ``(n, n_classes)``; NaN rows are invalid windows.
+    hop_s : float
+        Step, s.
+    config : SmoothingConfig
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` int.
+    """
+    filt = ForwardFilter(proba.shape[1], hop_s, config)
+    out = np.full(len(proba), -1)
+    for i, q in enumerate(proba):
+        decided = filt.update(None if np.isnan(q).any() else q)[0]
+        out[i] = -1 if decided is None else decided
+    return out
+
+
+@dataclass(frozen=True)
+class StreamScore:
+    """Score of decisions on a concatenated stream.
+
+    Parameters
+    ----------
+    accuracy : float
+        Share of decisions (inside a piece) naming the piece's terrain.
+    delays_s : tuple of float
+        Switching delay of every terrain switch, s (``inf``: never followed).
+    n_decisions : int
+        Decisions scored.
+    """
+
+    accuracy: float
+    delays_s: tuple[float, ...]
+    n_decisions: int
+
+    @property
+    def median_delay_s(self) -> float:
+        """Median switching delay, s."""
+        return float(np.median(self.delays_s)) if self.delays_s else float("nan")
+
+
+def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarray
+                 ) -> StreamScore:
+    """Accuracy and switching delays of decisions on a concatenated stream.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+    t_s : numpy.ndarray
+        ``(n,)`` decision times, s.
+    decided : numpy.ndarray
+        ``(n,)`` decided terrain names (object; ``None`` before any decision).
+
+    Returns
+    -------
+    StreamScore
+    """
+    truth = truth_at(segments, t_s)
+    sel = truth != None  # noqa: E711 (element-wise)
+    acc = float((decided[sel] == truth[sel]).mean()) if sel.any() else float("nan")
+    return StreamScore(acc, tuple(switching_delays(segments, t_s, decided)), int(sel.sum()))
+
+
+def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
+                     smoothings: Mapping[str, SmoothingConfig], hop_s: float = 0.5,
+                     n_splits: int = 5) -> pd.DataFrame:
+    """Train on 4/5 of the runs, replay the held-out fifth as one concatenated stream.
+
+    Runs are split by ``StratifiedGroupKFold`` over runs (one group per run, seeded); each
+    fold's test runs are strung together by :func:`concatenated_streams` (switches every
+    30-120 s) and replayed sample by sample through the service.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Labelled runs.
+    recipe : ModelRecipe
+    seed : int
+        Seed of the folds, the stream and the classifier.
+    smoothings : Mapping[str, SmoothingConfig]
+        Named smoothing settings to score on the same replayed decisions.
+    hop_s : float
+        Decision hop, s.
+    n_splits : int
+        Folds.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per fold and smoothing: ``fold, smoothing, accuracy, median_delay_s,
+        n_switches, n_decisions, delays_s``.
+    """
+    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    usable = [r for r in runs if all(s in r.streams for s in need)]
+    labels = np.array([r.terrain for r in usable], dtype=object)
+    ids = np.array([r.run_id for r in usable], dtype=object)
+    rows = []
+    for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, n_splits)):
+        model = fit_stream_model(recipe, [usable[i] for i in train], seed)
+        stream, segments = concatenated_streams([usable[i] for i in test], need,
+                                                seed * 100 + fold)
+        t, proba = raw_decisions(model, stream, hop_s)
+        names = np.array(list(model.classes) + [None], dtype=object)
+        for name, config in smoothings.items():
+            decided = names[filter_sequence(proba, hop_s, config)]
+            score = score_stream(segments, t, decided)
+            rows.append({"fold": fold, "smoothing": name, "accuracy": score.accuracy,
+                         "median_delay_s": score.median_delay_s,
+                         "n_switches": len(score.delays_s), "n_decisions": score.n_decisions,
+                         "delays_s": list(score.delays_s)})
+    return pd.DataFrame(rows)
+
+
+def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Sequence[int],
+              smoothings: Mapping[str, SmoothingConfig], n_splits: int = 5) -> dict:
+    """Run-grouped window accuracy of a recipe, seeds pooled, raw and smoothed.
+
+    Features are computed once (the extractors are stateless); the classifier is fitted
+    per training fold (StratifiedGroupKFold grouped by run); probabilities are then
+    filtered causally along each test run.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Labelled runs.
+    recipe : ModelRecipe
+        Signals, window (history) length, rate, features and classifier.
+    hop_s : float
+        Hop between windows (decisions), s.
+    seeds : sequence of int
+        Fold seeds.
+    smoothings : Mapping[str, SmoothingConfig]
+        Named smoothing settings (``dwell_s=None`` = raw windows).
+    n_splits : int
+        Folds.
+
+    Returns
+    -------
+    dict
+        ``n_windows``, ``n_runs``, ``pooled_accuracy`` (smoothing -> accuracy over all
+        seeds' out-of-fold windows), ``run_mean_accuracy`` (smoothing -> mean over runs of
+        the per-run accuracy, so the long runs do not dominate) and ``by_seed``.
+    """
+    ws = make_windows(runs, recipe.signals, WindowConfig(window_s=recipe.window_s,
+                                                         hop_s=hop_s, rate_hz=recipe.rate_hz))
+    labels = ws.labels.astype(str)
+    F = recipe_features(recipe, ws.channels).fit(ws.X).transform(ws.X)
+    by_seed: dict[str, list[float]] = {name: [] for name in smoothings}
+    by_run: dict[str, list[float]] = {name: [] for name in smoothings}
+    for seed in seeds:
+        proba, classes = grouped_oof_proba(lambda s: recipe_classifier(recipe, s), F, labels,
+                                           ws.run_ids, seed, n_splits)
+        names = np.asarray(classes, dtype=object)
+        for name, config in smoothings.items():
+            ok = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, hop_s, config)] == labels
+            by_seed[name].append(float(ok.mean()))
+            by_run[name].append(float(pd.Series(ok).groupby(ws.run_ids).mean().mean()))
+    return {"n_windows": len(ws), "n_runs": int(len(np.unique(ws.run_ids))),
+            "pooled_accuracy": {k: float(np.mean(v)) for k, v in by_seed.items()},
+            "run_mean_accuracy": {k: float(np.mean(v)) for k, v in by_run.items()},
+            "by_seed": by_seed}

@@ -1,0 +1,332 @@
+"""In-process streaming terrain service: samples in, smoothed terrain + slip targets out.
+
+Samples of each stream arrive one by one or in chunks, each stream at its own rate and on
+its own clock (an optional per-stream offset maps it onto the service clock). Each stream
+keeps a bounded :class:`~terrain.streaming.buffers.RingBuffer`, so memory is fixed for an
+unbounded stream. Every ``hop_s`` of service time the service
+
+1. takes the samples of every needed stream around ``[t - window_s, t)``,
+2. aligns them with the project's alignment step (:func:`terrain.io.align.align_streams`),
+   adds the derived wheel channels (:func:`features.windows.add_derived_channels`) and
+   keeps the last window of the model's length,
+3. classifies it with the fitted pipeline (the model's own feature code),
+4. folds the probabilities into the forward filter (:mod:`terrain.streaming.smoothing`),
+5. asks the injected :class:`~terrain.streaming.targets.TargetProvider` for the slip
+   targets, passing ``terrain=None`` (the conservative fallback) below ``min_confidence``.
+
+A decision is due at service time ``t`` once every needed stream has reached ``t``, or once
+some stream is ``stale_s`` past ``t`` while another lags (the decision is then flagged
+``stale`` and rests on the data that did arrive; its ``window_age_s`` says how old).
+
+``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
+timestamp gap, so it was not classified), ``short`` (not enough aligned history),
+``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` (samples rejected by the
+rules of :mod:`terrain.streaming.rules` inside the window), ``low_confidence`` (fallback
+target).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from features.windows import add_derived_channels
+from terrain.errors import ConfigError, DataFormatError, MissingColumnError
+from terrain.io.align import align_streams
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+from terrain.streaming.buffers import RingBuffer
+from terrain.streaming.model import StreamModel
+from terrain.streaming.rules import DEFAULT_RULES, SampleRule
+from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
+from terrain.streaming.targets import TargetProvider
+
+#: Stream name -> channels, as the readers name them (``terrain.io.measured``).
+KNOWN_STREAMS: Mapping[str, tuple[str, ...]] = MappingProxyType(
+    {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS})
+#: Rejection events remembered per stream (bounded, for the flags).
+MAX_EVENTS = 256
+
+
+@dataclass(frozen=True)
+class StreamConfig:
+    """Settings of the streaming service.
+
+    Parameters
+    ----------
+    hop_s : float
+        Time between decisions, s (> 0).
+    stale_s : float
+        A stream whose newest sample is older than the decision time by more than this is
+        stale, s (> 0).
+    min_confidence : float
+        Smoothed probability below which the fallback target is used, in [0, 1].
+    buffer_samples : int
+        Capacity of each stream's ring buffer, samples (must hold ``window_s`` of the
+        fastest stream; 4096 is 40 s at 100 Hz).
+    gap_factor : float
+        A step longer than this many median steps is a gap (as in the readers).
+    streams : Mapping[str, tuple of str]
+        Stream name -> its channels.
+    clock_offsets_s : Mapping[str, float]
+        Per-stream offset added to its timestamps to put them on the service clock, s.
+    smoothing : SmoothingConfig
+    """
+
+    hop_s: float = 0.5
+    stale_s: float = 1.0
+    min_confidence: float = 0.5
+    buffer_samples: int = 4096
+    gap_factor: float = 3.0
+    streams: Mapping[str, tuple[str, ...]] = field(default_factory=lambda: KNOWN_STREAMS)
+    clock_offsets_s: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
+
+    def __post_init__(self) -> None:
+        if not self.hop_s > 0 or not self.stale_s > 0:
+            raise ConfigError("hop_s and stale_s must be > 0")
+        if not 0 <= self.min_confidence <= 1:
+            raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One decision of the service.
+
+    Parameters
+    ----------
+    t_s : float
+        Decision time on the service clock, s.
+    terrain : str or None
+        Decided (smoothed) terrain; ``None`` before the first valid window.
+    confidence : float
+        Smoothed probability of ``terrain``.
+    proba : numpy.ndarray
+        ``(n_classes,)`` smoothed class probabilities, in the model's class order.
+    target_slip_traction, target_slip_braking, target_slip_steady : float
+        Slip targets from the provider (dimensionless SAE slip).
+    window_age_s : float
+        ``t_s`` minus the end of the window the decision rests on (its last aligned sample
+        plus one period), s; 0 when the window reaches ``t_s``.
+    flags : str
+        ``|``-separated flags (see module docstring); empty when clean.
+    """
+
+    t_s: float
+    terrain: str | None
+    confidence: float
+    proba: np.ndarray
+    target_slip_traction: float
+    target_slip_braking: float
+    target_slip_steady: float
+    window_age_s: float
+    flags: str
+
+
+class StreamService:
+    """Streaming terrain classifier with bounded memory (see module docstring).
+
+    Parameters
+    ----------
+    model : StreamModel
+        Fitted classifier and its window settings.
+    targets : TargetProvider
+        Desired-slip lookup.
+    config : StreamConfig
+    rules : sequence of SampleRule
+        Per-sample plausibility rules (default: the readers' rules).
+
+    Raises
+    ------
+    ConfigError
+        A channel the model needs is in none of the configured streams.
+    """
+
+    def __init__(self, model: StreamModel, targets: TargetProvider,
+                 config: StreamConfig = StreamConfig(),
+                 rules: Sequence[SampleRule] = DEFAULT_RULES) -> None:
+        self.model, self.targets, self.config, self.rules = model, targets, config, rules
+        need = set(model.raw_channels)
+        self.streams = {s: tuple(ch) for s, ch in config.streams.items() if need & set(ch)}
+        covered = {c for ch in self.streams.values() for c in ch}
+        if need - covered:
+            raise ConfigError(f"model channels {sorted(need - covered)} are in none of the "
+                              f"streams {dict(config.streams)}")
+        self._buffers = {s: RingBuffer(len(ch), config.buffer_samples)
+                         for s, ch in self.streams.items()}
+        self._events: dict[str, deque] = {s: deque(maxlen=MAX_EVENTS) for s in self.streams}
+        self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
+        self._next_t: float | None = None
+        self._n = model.window.n_samples
+        self._pipe_cols = [list(model.pipeline.classes_).index(c)
+                           if c in list(model.pipeline.classes_) else -1
+                           for c in model.classes]
+
+    @property
+    def needed_streams(self) -> tuple[str, ...]:
+        """Streams the model needs (others pushed to the service are ignored)."""
+        return tuple(self.streams)
+
+    def push(self, stream: str, t_s: np.ndarray | float,
+             values: Mapping[str, np.ndarray] | np.ndarray) -> list[Decision]:
+        """Feed samples of one stream; returns the decisions that became due.
+
+        Parameters
+        ----------
+        stream : str
+            Stream name (a key of ``config.streams``).
+        t_s : float or numpy.ndarray
+            ``(n,)`` timestamps on the stream's own clock, s.
+        values : Mapping[str, array] or numpy.ndarray
+            Channel -> ``(n,)`` values, or ``(n, n_channels)`` in the stream's channel
+            order; SI units.
+
+        Returns
+        -------
+        list of Decision
+            Possibly empty.
+
+        Raises
+        ------
+        ConfigError
+            Unknown stream name.
+        MissingColumnError
+            A channel of the stream is missing from ``values``.
+        DataFormatError
+            ``values`` of the wrong shape.
+        """
+        if stream not in self.config.streams:
+            raise ConfigError(f"unknown stream {stream!r}; configured: "
+                              f"{list(self.config.streams)}")
+        if stream not in self.streams:
+            return []
+        channels = self.streams[stream]
+        t = np.atleast_1d(np.asarray(t_s, dtype=float)) \
+            + self.config.clock_offsets_s.get(stream, 0.0)
+        if isinstance(values, Mapping):
+            absent = [c for c in channels if c not in values]
+            if absent:
+                raise MissingColumnError(f"stream {stream!r} sample lacks channel(s) {absent}",
+                                         f"stream {stream}", absent[0])
+            v = np.column_stack([np.atleast_1d(np.asarray(values[c], dtype=float))
+                                 for c in channels])
+        else:
+            v = np.asarray(values, dtype=float).reshape(len(t), -1) \
+                if np.size(values) == len(t) * len(channels) else None
+        if v is None or v.shape != (len(t), len(channels)):
+            raise DataFormatError(f"stream {stream!r}: expected values of shape "
+                                  f"({len(t)}, {len(channels)}) for channels {channels}",
+                                  f"stream {stream}")
+        buf = self._buffers[stream]
+        for rule in self.rules:
+            keep, reason = rule(channels, t, v, buf.last_t)
+            if not keep.all():
+                bad_t = t[~keep]
+                self._events[stream].extend(
+                    (bt if np.isfinite(bt) else buf.last_t, reason) for bt in bad_t)
+                t, v = t[keep], v[keep]
+        buf.append(t, v)
+        return self._emit()
+
+    def _emit(self) -> list[Decision]:
+        last = [b.last_t for b in self._buffers.values()]
+        if self._next_t is None:
+            filled = [b for b in self._buffers.values() if len(b)]
+            if not filled:
+                return []
+            start = max(b.first_t for b in filled)
+            if len(filled) < len(self._buffers) and \
+                    max(last) < start + self.model.window.window_s + self.config.stale_s:
+                return []  # wait for the silent stream(s) for a while
+            self._next_t = start + self.model.window.window_s
+        out = []
+        while min(last) >= self._next_t or max(last) >= self._next_t + self.config.stale_s:
+            out.append(self._decide(self._next_t))
+            self._next_t += self.config.hop_s
+        return out
+
+    def _window(self, t: float) -> tuple[np.ndarray | None, float, set[str]]:
+        """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
+        w = self.model.window
+        lo = t - w.window_s - 2.0 / w.rate_hz
+        frames, gap = {}, False
+        for s, buf in self._buffers.items():
+            ts, vs = buf.since(lo)
+            cut = int(np.searchsorted(ts, t, side="right")) + 1  # one sample past t
+            ts, vs = ts[:cut], vs[:cut]
+            if len(ts) < 2:
+                return None, np.inf, {"short"}
+            # a gap is judged against the stream's usual step (the readers' rule), not the
+            # few samples of one window, which a long gap would dominate
+            if (np.diff(ts) > self.config.gap_factor * buf.median_step()).any():
+                gap = True
+            frames[s] = pd.DataFrame({TIME: ts, **{c: vs[:, j]
+                                                   for j, c in enumerate(self.streams[s])}})
+        run = Run("stream", "stream", None, frames)
+        try:
+            aligned = align_streams(run, tuple(frames), w.rate_hz, self.config.gap_factor)
+        except DataFormatError:  # streams do not overlap inside the window
+            return None, np.inf, {"short"}
+        # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s)
+        grid = aligned[TIME].to_numpy()
+        end = int(np.searchsorted(grid, t - 1e-9, side="left"))
+        period = 1.0 / w.rate_hz
+        if end < self._n:
+            age = max(0.0, t - float(grid[end - 1]) - period) if end else np.inf
+            return None, age, {"short"}
+        aligned = add_derived_channels(aligned.iloc[end - self._n:end])
+        age = max(0.0, t - float(grid[end - 1]) - period)
+        X = aligned[list(self.model.channels)].to_numpy(dtype=float).T[None]
+        if gap or not np.isfinite(X).all():
+            return None, age, {"gap"}
+        return X, age, set()
+
+    def _decide(self, t: float) -> Decision:
+        X, age, flags = self._window(t)
+        stale = any(t - b.last_t > self.config.stale_s for b in self._buffers.values())
+        if stale:
+            flags.add("stale")
+        t_lo = t - self.model.window.window_s
+        for ev in self._events.values():
+            flags.update(reason for et, reason in ev if t_lo <= et < t)
+        q = None
+        if X is not None:
+            raw = self.model.pipeline.predict_proba(X)[0]
+            q = np.array([raw[i] if i >= 0 else 0.0 for i in self._pipe_cols])
+        decided, p = self._filter.update(q)
+        terrain = None if decided is None else self.model.classes[decided]
+        conf = 0.0 if decided is None else float(p[decided])
+        trusted = terrain if conf >= self.config.min_confidence else None
+        if terrain is not None and trusted is None:
+            flags.add("low_confidence")
+        traction, braking, steady = self.targets.target_for(trusted, conf, stale)
+        return Decision(float(t), terrain, conf, p, float(traction), float(braking),
+                        float(steady), float(age), "|".join(sorted(flags)))
+
+
+def decisions_frame(decisions: Sequence[Decision], classes: Sequence[str]) -> pd.DataFrame:
+    """Decisions as a table with the service's column names.
+
+    Parameters
+    ----------
+    decisions : sequence of Decision
+    classes : sequence of str
+        Class order of ``Decision.proba``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t_s, terrain, confidence, proba_<CLASS>..., target_slip_traction,
+        target_slip_braking, target_slip_steady, window_age_s, flags``.
+    """
+    cols = (["t_s", "terrain", "confidence"] + [f"proba_{c}" for c in classes]
+            + ["target_slip_traction", "target_slip_braking", "target_slip_steady",
+               "window_age_s", "flags"])
+    rows = [[d.t_s, d.terrain, d.confidence, *d.proba, d.target_slip_traction,
+             d.target_slip_braking, d.target_slip_steady, d.window_age_s, d.flags]
+            for d in decisions]
+    return pd.DataFrame(rows, columns=cols)

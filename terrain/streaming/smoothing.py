@@ -1,0 +1,132 @@
+"""Temporal smoothing of per-window class probabilities: HMM forward filter + hysteresis.
+
+Forward filter (Rabiner, "A tutorial on hidden Markov models", Proc. IEEE 77(2) 1989,
+eq. 20, the forward variable normalised at every step). The hidden state is the terrain
+class; between two decisions (one hop apart) the robot stays on its terrain with
+probability ``1 - p_switch`` and otherwise moves to any other class uniformly, with
+``p_switch = hop_s / dwell_s`` (a mean dwell time ``dwell_s`` on one terrain). The
+classifier's posterior ``q`` stands for the emission likelihood up to the class prior
+(the SVM is trained class-balanced, so the prior is uniform); it is tempered by
+``evidence_power`` because overlapping windows are not independent observations::
+
+    prior_k   = (1 - p_switch) p_{k-1} + p_switch (1 - p_{k-1}) / (K - 1)
+    p_k      ∝ prior_k * q_k ** evidence_power
+
+The decided class then changes only when another class's filtered probability exceeds the
+current one's by ``hysteresis`` (0 disables it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from terrain.errors import ConfigError
+
+#: floor on classifier probabilities so one window can never veto a class for good
+PROBA_FLOOR = 1e-4
+
+
+@dataclass(frozen=True)
+class SmoothingConfig:
+    """Settings of the forward filter.
+
+    Parameters
+    ----------
+    dwell_s : float or None
+        Expected time on one terrain, s (> 0); ``None`` disables the filter (each window's
+        probabilities pass through unchanged).
+    evidence_power : float
+        Exponent on the classifier probabilities, in (0, 1].
+    hysteresis : float
+        Margin of filtered probability a new class needs over the current one, in [0, 1).
+    """
+
+    dwell_s: float | None = 10.0
+    evidence_power: float = 0.5
+    hysteresis: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.dwell_s is not None and not self.dwell_s > 0:
+            raise ConfigError(f"dwell_s must be > 0 or None, got {self.dwell_s}")
+        if not 0 < self.evidence_power <= 1:
+            raise ConfigError(f"evidence_power must be in (0, 1], got {self.evidence_power}")
+        if not 0 <= self.hysteresis < 1:
+            raise ConfigError(f"hysteresis must be in [0, 1), got {self.hysteresis}")
+
+
+def forward_step(p_prev: np.ndarray, q: np.ndarray | None, p_switch: float,
+                 evidence_power: float) -> np.ndarray:
+    """One step of the normalised forward recursion.
+
+    Parameters
+    ----------
+    p_prev : numpy.ndarray
+        ``(K,)`` filtered class probabilities of the previous step (sum 1).
+    q : numpy.ndarray or None
+        ``(K,)`` classifier probabilities of the new window; ``None`` (no valid window):
+        prediction only.
+    p_switch : float
+        Probability of leaving the current class within one step, in [0, 1].
+    evidence_power : float
+        Tempering exponent of ``q``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K,)`` filtered probabilities.
+    """
+    k = len(p_prev)
+    prior = (1.0 - p_switch) * p_prev + p_switch * (1.0 - p_prev) / max(k - 1, 1)
+    if q is None:
+        return prior
+    post = prior * np.maximum(q, PROBA_FLOOR) ** evidence_power
+    return post / post.sum()
+
+
+class ForwardFilter:
+    """Streaming forward filter with hysteresis on the decided class.
+
+    Parameters
+    ----------
+    n_classes : int
+        Number of terrain classes K.
+    hop_s : float
+        Time between decisions, s.
+    config : SmoothingConfig
+    """
+
+    def __init__(self, n_classes: int, hop_s: float, config: SmoothingConfig) -> None:
+        self.config = config
+        self.p_switch = 1.0 if config.dwell_s is None else min(1.0, hop_s / config.dwell_s)
+        self.p = np.full(n_classes, 1.0 / n_classes)
+        self.current: int | None = None
+
+    def update(self, q: np.ndarray | None) -> tuple[int | None, np.ndarray]:
+        """Fold in one window's probabilities.
+
+        Parameters
+        ----------
+        q : numpy.ndarray or None
+            ``(K,)`` classifier probabilities; ``None`` when the window was invalid.
+
+        Returns
+        -------
+        decided : int or None
+            Index of the decided class (``None`` before the first valid window).
+        p : numpy.ndarray
+            ``(K,)`` filtered probabilities (a copy).
+        """
+        if self.config.dwell_s is None:
+            if q is not None:
+                self.p = np.asarray(q, dtype=float).copy()
+        else:
+            self.p = forward_step(self.p, q, self.p_switch, self.config.evidence_power)
+        if q is None and self.current is None:
+            return None, self.p.copy()
+        best = int(np.argmax(self.p))
+        if self.current is None or \
+                self.p[best] > self.p[self.current] + self.config.hysteresis:
+            self.current = best
+        return self.current, self.p.copy()

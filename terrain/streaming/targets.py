@@ -1,0 +1,163 @@
+"""Target slip per decision: the injected desired-slip lookup and a catalogue-based one.
+
+The service asks a :class:`TargetProvider` for the slip targets of each decision.
+:class:`TableTargets` is the production provider: the project's desired-slip table
+(:mod:`terrain.control.desired_slip`). :class:`CataloguePeakTargets` derives simpler targets
+straight from the peaks of the catalogue's traction-slip curves
+(:mod:`terrain.terramechanics`); the tests use it as an independent provider.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+from typing import Mapping, NamedTuple, Protocol, Sequence
+
+from terrain.errors import ConfigError
+from terrain.terramechanics import get_terrain, steady_slip, traction_peak
+
+
+class SlipTargets(NamedTuple):
+    """Slip targets of one decision (SAE slip, dimensionless); a plain tuple also works.
+
+    Parameters
+    ----------
+    traction : float
+        Target slip when driving (> 0: wheel faster than ground).
+    braking : float
+        Target slip when braking (< 0).
+    steady : float
+        Slip expected in steady driving on level ground.
+    """
+
+    traction: float
+    braking: float
+    steady: float
+
+
+class TargetProvider(Protocol):
+    """Desired-slip lookup injected into the service."""
+
+    def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
+        """Targets for a decided terrain.
+
+        Parameters
+        ----------
+        terrain : str or None
+            Decided terrain class; ``None`` when the service has no trustworthy decision
+            (low confidence or no valid window yet): the provider returns its conservative
+            fallback.
+        confidence : float
+            Smoothed probability of ``terrain`` in [0, 1].
+        stale : bool
+            Whether the decision rests on stale or missing input.
+        """
+        ...  # pragma: no cover
+
+
+class CataloguePeakTargets:
+    """Targets from the catalogue's traction-slip curves.
+
+    ``traction`` is the slip at the peak of the terrain's curve
+    (:func:`terrain.terramechanics.traction_peak`), ``braking`` its mirror image (the curves
+    are taken as symmetric in braking), ``steady`` the level-ground steady slip
+    (:func:`terrain.terramechanics.steady_slip`). The conservative fallback, used for
+    ``terrain=None``, for a stale decision and below ``min_confidence``, is the smallest
+    traction target over ``classes`` with its steady slip: the slip that is safe on the
+    slipperiest terrain the model knows.
+
+    Parameters
+    ----------
+    classes : sequence of str
+        Terrain classes of the model (each must be in the catalogue).
+    min_confidence : float
+        Confidence below which the fallback is returned.
+
+    Raises
+    ------
+    ConfigError
+        A class unknown to the catalogue.
+    """
+
+    def __init__(self, classes: Sequence[str], min_confidence: float = 0.5) -> None:
+        table = {}
+        for name in classes:
+            params = get_terrain(name)
+            peak = traction_peak(params.curve).slip
+            table[name] = SlipTargets(peak, -peak, steady_slip(params))
+        if not table:
+            raise ConfigError("CataloguePeakTargets needs at least one class")
+        self.table: Mapping[str, SlipTargets] = MappingProxyType(table)
+        self.fallback = min(table.values(), key=lambda s: s.traction)
+        self.min_confidence = float(min_confidence)
+
+    def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
+        """Targets of ``terrain``, or the fallback (see class docstring).
+
+        Parameters
+        ----------
+        terrain : str or None
+            Decided class.
+        confidence : float
+            Its smoothed probability.
+        stale : bool
+            Stale input.
+
+        Returns
+        -------
+        SlipTargets
+        """
+        if terrain is None or stale or confidence < self.min_confidence \
+                or terrain not in self.table:
+            return self.fallback
+        return self.table[terrain]
+
+
+class TableTargets:
+    """Targets from the project's desired-slip table (:mod:`terrain.control.desired_slip`).
+
+    The table's own fallback rule (:func:`terrain.control.select_target`) decides when its
+    conservative entry is used: unknown class, confidence below the table's
+    ``min_confidence``; a stale decision is passed as older than the table's
+    ``max_decision_age_s``.
+
+    Parameters
+    ----------
+    classes : sequence of str
+        Terrain classes of the model.
+    config : terrain.control.DesiredSlipConfig, optional
+        Rules and fallback thresholds of the table (its defaults when omitted).
+
+    Raises
+    ------
+    ConfigError
+        A class missing from the terrain catalogue.
+    """
+
+    def __init__(self, classes: Sequence[str], config=None) -> None:
+        from terrain.control import DesiredSlipConfig, build_slip_table
+
+        self.table = build_slip_table(classes, config or DesiredSlipConfig())
+        fb = self.table.fallback
+        self.fallback = SlipTargets(fb.traction, fb.braking, fb.steady)
+
+    def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
+        """Targets of the table for a decision.
+
+        Parameters
+        ----------
+        terrain : str or None
+            Decided class (``None``: fallback).
+        confidence : float
+            Its smoothed probability.
+        stale : bool
+            Stale input (fallback).
+
+        Returns
+        -------
+        SlipTargets
+        """
+        from terrain.control import select_target
+
+        age = 2.0 * self.table.config.max_decision_age_s if stale else 0.0
+        e = select_target(self.table, terrain, confidence, age)
+        return SlipTargets(e.traction, e.braking, e.steady)

@@ -1,0 +1,40 @@
+"""A small wheel-only and an IMU+wheel model fitted on real BorealTC runs (session scope)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from features.windows import WindowConfig, make_windows
+from terrain.models.experiment import inference_pipeline
+from terrain.models.svm import SVMConfig
+from terrain.streaming import StreamModel
+
+
+def _fit(runs, signals, rate_hz):
+    config = WindowConfig(window_s=2.0, rate_hz=rate_hz)
+    ws = make_windows(runs, signals, config)
+    pipe = inference_pipeline(ws, SVMConfig(probability=True)).fit(ws.X, ws.labels.astype(str))
+    classes = tuple(str(c) for c in np.unique(ws.labels.astype(str)))
+    return StreamModel(pipe, ws.channels, config, classes)
+
+
+@pytest.fixture(scope="session")
+def train_runs(borealtc_runs):
+    """Two runs with IMU per terrain class (the rest stays unseen)."""
+    out = []
+    for terrain in sorted({r.terrain for r in borealtc_runs}):
+        out += [r for r in borealtc_runs if r.terrain == terrain and r.has_imu][:2]
+    return out
+
+
+@pytest.fixture(scope="session")
+def wheel_model(train_runs):
+    """Wheel-only model (derived wheel channels included) on a 20 Hz clock."""
+    return _fit(train_runs, "wheels", 20.0)
+
+
+@pytest.fixture(scope="session")
+def all_model(train_runs):
+    """IMU + wheel model on a 50 Hz clock."""
+    return _fit(train_runs, "all", 50.0)

@@ -1,0 +1,123 @@
+"""Ring buffer, sample rules, forward filter and catalogue targets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.streaming.buffers import RingBuffer
+from terrain.streaming.rules import finite_values, plausible_gyro, time_increasing
+from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig, forward_step
+from terrain.streaming.targets import CataloguePeakTargets
+from terrain.terramechanics import get_terrain, steady_slip
+
+
+def test_ring_buffer_keeps_newest_samples_in_order_and_never_grows():
+    buf = RingBuffer(2, capacity=50)
+    t = np.arange(1000) * 0.01
+    for a in range(0, 1000, 7):  # odd chunk size: wraps at every position
+        buf.append(t[a:a + 7], np.column_stack([t[a:a + 7], -t[a:a + 7]]))
+    assert len(buf) == 50 and buf._t.shape == (50,)
+    ts, vs = buf.since(-np.inf)
+    np.testing.assert_array_equal(ts, t[-50:])
+    np.testing.assert_array_equal(vs[:, 1], -t[-50:])
+    ts, _ = buf.since(t[-10])
+    assert ts[0] == t[-11] and len(ts) == 11  # plus the sample just before
+
+
+def test_ring_buffer_chunk_larger_than_capacity_keeps_its_tail():
+    buf = RingBuffer(1, capacity=4)
+    buf.append(np.arange(10.0), np.arange(10.0)[:, None])
+    np.testing.assert_array_equal(buf.since(-np.inf)[0], [6, 7, 8, 9])
+    assert buf.first_t == 6 and buf.last_t == 9
+
+
+def test_rules_reject_what_the_readers_reject():
+    t = np.array([1.0, 2.0, 2.0, 1.5, 3.0])
+    keep, reason = time_increasing(("vel_l",), t, np.zeros((5, 1)), 0.5)
+    assert reason == "time_not_increasing"
+    np.testing.assert_array_equal(keep, [True, True, False, False, True])
+    keep, _ = time_increasing(("vel_l",), np.array([1.0]), np.zeros((1, 1)), 1.0)
+    assert not keep[0]  # a duplicate of the last accepted time
+    v = np.array([[0.1, 0.2], [np.nan, 0.2], [0.1, np.inf]])
+    np.testing.assert_array_equal(finite_values(("a", "b"), np.arange(3.0), v, -np.inf)[0],
+                                  [True, False, False])
+    gyro = np.array([[0.5, 0.0, 0.0], [0.0, 0.0, 40.0]])  # 40 rad/s: deg/s sent as rad/s
+    np.testing.assert_array_equal(plausible_gyro(("wx", "wy", "wz"), np.arange(2.0), gyro,
+                                                 -np.inf)[0], [True, False])
+    assert plausible_gyro(("vel_l",), np.arange(2.0), 100 * np.ones((2, 1)), -np.inf)[0].all()
+
+
+def test_forward_step_is_a_normalised_sticky_markov_prediction():
+    p = np.array([0.7, 0.2, 0.1])
+    prior = forward_step(p, None, 0.1, 1.0)
+    assert prior.sum() == pytest.approx(1.0)
+    # stay with 0.9, move uniformly to the 2 others with 0.1
+    assert prior[0] == pytest.approx(0.9 * 0.7 + 0.1 * 0.3 / 2)
+    post = forward_step(p, np.array([0.1, 0.8, 0.1]), 0.1, 1.0)
+    assert post.sum() == pytest.approx(1.0) and post[1] > p[1]
+
+
+def _switch_step(dwell_s, hysteresis=0.0):
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=dwell_s, hysteresis=hysteresis))
+    for _ in range(40):
+        filt.update(np.array([0.8, 0.1, 0.1]))
+    for k in range(200):
+        if filt.update(np.array([0.2, 0.7, 0.1]))[0] == 1:
+            return k + 1
+    return np.inf
+
+
+def test_longer_dwell_and_hysteresis_delay_the_switch_but_it_happens():
+    unsmoothed, short, long_ = _switch_step(None), _switch_step(5.0), _switch_step(60.0)
+    assert unsmoothed == 1
+    assert 1 < short < long_ < np.inf
+    assert _switch_step(5.0, hysteresis=0.5) > short
+
+
+def test_no_decision_before_a_valid_window_and_invalid_windows_only_predict():
+    filt = ForwardFilter(2, 0.5, SmoothingConfig(dwell_s=10.0))
+    assert filt.update(None)[0] is None
+    filt.update(np.array([0.9, 0.1]))
+    decided, p = filt.update(None)
+    assert decided == 0 and 0.5 < p[0] < 0.9 ** 0.5 / (0.9 ** 0.5 + 0.1 ** 0.5) + 1e-12
+
+
+@pytest.mark.parametrize("kwargs", [dict(dwell_s=0.0), dict(evidence_power=0.0),
+                                    dict(hysteresis=1.0)])
+def test_smoothing_config_is_checked(kwargs):
+    with pytest.raises(ConfigError):
+        SmoothingConfig(**kwargs)
+
+
+def test_catalogue_targets_are_the_curve_peaks_and_the_fallback_the_slipperiest():
+    targets = CataloguePeakTargets(["ASPHALT", "ICE", "SNOW"], min_confidence=0.6)
+    asphalt = get_terrain("ASPHALT").curve  # Burckhardt: peak at ln(c1 c2 / c3) / c2
+    peak = np.log(asphalt.c1 * asphalt.c2 / asphalt.c3) / asphalt.c2
+    t = targets.target_for("ASPHALT", 0.9, False)
+    assert t.traction == pytest.approx(peak) and t.braking == pytest.approx(-peak)
+    assert targets.target_for("SNOW", 0.9, False).steady == pytest.approx(
+        steady_slip(get_terrain("SNOW")))
+    ice = targets.target_for("ICE", 0.9, False)
+    assert ice.traction == min(v.traction for v in targets.table.values())
+    for args in [(None, 0.9, False), ("SNOW", 0.5, False), ("SNOW", 0.9, True)]:
+        assert targets.target_for(*args) == ice
+    with pytest.raises(ConfigError):
+        CataloguePeakTargets(["NOT_A_TERRAIN"])
+
+
+def test_table_targets_follow_the_desired_slip_table_and_its_fallback():
+    from terrain.control import build_slip_table, select_target
+    from terrain.streaming.targets import TableTargets
+
+    classes = ["ASPHALT", "ICE", "SNOW"]
+    targets = TableTargets(classes)
+    table = build_slip_table(classes)
+    snow = select_target(table, "SNOW", 0.9, 0.0)
+    assert tuple(targets.target_for("SNOW", 0.9, False)) == (snow.traction, snow.braking,
+                                                             snow.steady)
+    fb = table.fallback
+    for args in [(None, 0.9, False), ("SNOW", 0.1, False), ("SNOW", 0.9, True)]:
+        assert tuple(targets.target_for(*args)) == (fb.traction, fb.braking, fb.steady)
+    assert targets.fallback.traction == fb.traction

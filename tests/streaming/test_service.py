@@ -1,0 +1,170 @@
+"""The streaming service on real BorealTC runs: windows, flags, bounds, errors."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from features.windows import add_derived_channels, window_frame
+from terrain.errors import ConfigError, DataFormatError, MissingColumnError
+from terrain.io.align import align_streams
+from terrain.run import TIME, WHEEL_CHANNELS
+from terrain.streaming import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
+                               StreamService, decisions_frame, replay_run)
+from terrain.streaming.service import MAX_EVENTS
+
+RAW = SmoothingConfig(dwell_s=None)
+
+
+@pytest.fixture(scope="module")
+def unseen_run(borealtc_runs, train_runs):
+    """A run with IMU that no test model was trained on."""
+    seen = {r.run_id for r in train_runs}
+    return next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+                and r.duration_s > 40)
+
+
+def service(model, **kwargs):
+    smoothing = kwargs.pop("smoothing", RAW)
+    return StreamService(model, CataloguePeakTargets(model.classes),
+                         StreamConfig(smoothing=smoothing, **kwargs))
+
+
+def push_wheels(svc, frame):
+    out = []
+    for row in frame.itertuples(index=False):
+        out += svc.push("wheels", row.t_s, {c: getattr(row, c) for c in WHEEL_CHANNELS})
+    return out
+
+
+def test_windows_are_the_batch_windows_when_samples_sit_on_the_model_clock(
+        wheel_model, unseen_run):
+    # a wheel stream already on the model's clock: alignment is exact, so every streamed
+    # window must be the batch window of the same span, and so must its probabilities
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz)
+    svc = service(wheel_model, hop_s=wheel_model.window.window_s)
+    decisions = push_wheels(svc, frame)
+    X, t0, t1, _, _ = window_frame(add_derived_channels(frame), wheel_model.channels,
+                                   wheel_model.window)
+    n = min(len(decisions), len(X))
+    assert n >= len(X) - 1 > 10
+    np.testing.assert_allclose([d.t_s for d in decisions[:n]], t1[:n], atol=1e-9)
+    expected = wheel_model.pipeline.predict_proba(X[:n])
+    got = np.array([d.proba for d in decisions[:n]])
+    order = [list(wheel_model.pipeline.classes_).index(c) for c in wheel_model.classes]
+    np.testing.assert_allclose(got, expected[:, order], atol=1e-6)
+    assert all(d.flags == "" and d.window_age_s < 1e-6 for d in decisions[:n])
+
+
+def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run):
+    svc = service(all_model, hop_s=0.5, smoothing=SmoothingConfig())
+    frame = decisions_frame(replay_run(svc, unseen_run), all_model.classes)
+    assert list(frame.columns) == (
+        ["t_s", "terrain", "confidence"] + [f"proba_{c}" for c in all_model.classes]
+        + ["target_slip_traction", "target_slip_braking", "target_slip_steady",
+           "window_age_s", "flags"])
+    span = min(unseen_run.streams[s][TIME].iloc[-1] for s in ("imu", "wheels")) - max(
+        unseen_run.streams[s][TIME].iloc[0] for s in ("imu", "wheels"))
+    assert abs(len(frame) - (span - 2.0) / 0.5) <= 2
+    np.testing.assert_allclose(frame.filter(like="proba_").sum(axis=1), 1.0)
+    assert (frame["window_age_s"] < 0.2).all()  # the 6.5 Hz wheels set the pace
+    assert set(frame["terrain"]) <= set(all_model.classes)
+
+
+def test_a_silent_stream_makes_decisions_stale_with_the_fallback_target(all_model, unseen_run):
+    imu = unseen_run.streams["imu"]
+    cut = float(imu[TIME].iloc[0]) + 10.0
+    run = replace(unseen_run, streams={"imu": imu[imu[TIME] < cut],
+                                       "wheels": unseen_run.streams["wheels"]})
+    svc = service(all_model, hop_s=0.5, stale_s=1.0)
+    frame = decisions_frame(replay_run(svc, run), all_model.classes)
+    late = frame[frame["t_s"] > cut + 1.5]
+    assert len(late) > 20 and late["flags"].str.contains("stale").all()
+    fallback = svc.targets.fallback
+    assert (late["target_slip_traction"] == fallback.traction).all()
+    assert late["window_age_s"].is_monotonic_increasing
+    early = frame[frame["t_s"] < cut - 1.0]
+    assert not early["flags"].str.contains("stale").any()
+
+
+def test_rejected_and_missing_samples_flag_the_windows_that_cover_them(wheel_model,
+                                                                       unseen_run):
+    wheels = unseen_run.streams["wheels"].copy()
+    t = wheels[TIME].to_numpy()
+    i_nan = int(np.searchsorted(t, t[0] + 10.0))
+    wheels.loc[i_nan, "cur_l"] = np.nan
+    gap = (t > t[0] + 20.0) & (t < t[0] + 23.0)
+    wheels = wheels[~gap]
+    svc = service(wheel_model, hop_s=0.5)
+    decisions = push_wheels(svc, wheels)
+    # an old timestamp sent after the run: rejected, the buffer is unchanged
+    before = len(svc._buffers["wheels"])
+    late = svc.push("wheels", t[5], {c: 0.0 for c in WHEEL_CHANNELS})
+    assert len(svc._buffers["wheels"]) == before and late == []
+    frame = decisions_frame(decisions, wheel_model.classes)
+    covers_nan = (frame["t_s"] > t[i_nan]) & (frame["t_s"] - 2.0 <= t[i_nan])
+    assert frame.loc[covers_nan, "flags"].str.contains("non_finite").all()
+    assert not frame.loc[~covers_nan, "flags"].str.contains("non_finite").any()
+    in_gap = (frame["t_s"] > t[0] + 21.0) & (frame["t_s"] < t[0] + 23.0)
+    assert frame.loc[in_gap, "flags"].str.contains("gap").all()
+    clean = frame[(frame["t_s"] > t[0] + 26.0)]
+    assert (clean["flags"] == "").all()
+    assert any(ev[1] == "time_not_increasing" for ev in svc._events["wheels"])
+
+
+def test_low_confidence_uses_the_fallback_target(wheel_model, unseen_run):
+    svc = service(wheel_model, min_confidence=0.999)
+    frame = decisions_frame(push_wheels(svc, unseen_run.streams["wheels"].iloc[:200]),
+                            wheel_model.classes)
+    assert len(frame) > 5 and frame["flags"].str.contains("low_confidence").all()
+    assert (frame["target_slip_traction"] == svc.targets.fallback.traction).all()
+
+
+def test_memory_is_bounded_for_an_unbounded_stream(wheel_model, unseen_run):
+    svc = service(wheel_model, hop_s=1.0, buffer_samples=128)
+    wheels = unseen_run.streams["wheels"]
+    span = float(wheels[TIME].iloc[-1] - wheels[TIME].iloc[0]) + 1.0
+    values = wheels[list(WHEEL_CHANNELS)].to_numpy().copy()
+    values[::7, 0] = np.nan  # plenty of rejection events too
+    n_dec = 0
+    t = wheels[TIME].to_numpy()
+    for k in range(6):
+        for a in range(0, len(t), 50):
+            n_dec += len(svc.push("wheels", t[a:a + 50] + k * span, values[a:a + 50]))
+    assert len(svc._buffers["wheels"]) == 128
+    assert len(svc._events["wheels"]) == MAX_EVENTS
+    assert n_dec > 6 * (span - 5)
+
+
+def test_streams_may_split_channels_and_run_on_their_own_clocks(wheel_model, unseen_run):
+    wheels = unseen_run.streams["wheels"]
+    split = {"vel": ("vel_l", "vel_r"), "cur": ("cur_l", "cur_r")}
+    a = service(wheel_model)
+    b = StreamService(wheel_model, CataloguePeakTargets(wheel_model.classes),
+                      StreamConfig(smoothing=RAW, streams=split,
+                                   clock_offsets_s={"cur": -100.0}))
+    ref = push_wheels(a, wheels)
+    got = []
+    for row in wheels.itertuples(index=False):
+        got += b.push("cur", row.t_s + 100.0, {"cur_l": row.cur_l, "cur_r": row.cur_r})
+        got += b.push("vel", row.t_s, {"vel_l": row.vel_l, "vel_r": row.vel_r})
+    n = min(len(ref), len(got))
+    assert n > 20
+    np.testing.assert_allclose([d.proba for d in got[:n]], [d.proba for d in ref[:n]],
+                               atol=1e-9)
+
+
+def test_bad_calls_raise_typed_errors(wheel_model, all_model):
+    svc = service(wheel_model)
+    with pytest.raises(ConfigError, match="unknown stream"):
+        svc.push("lidar", 0.0, {"x": 1.0})
+    with pytest.raises(MissingColumnError, match="cur_r"):
+        svc.push("wheels", 0.0, {"vel_l": 0.0, "vel_r": 0.0, "cur_l": 0.0})
+    with pytest.raises(DataFormatError, match="shape"):
+        svc.push("wheels", [0.0, 0.1], np.zeros((2, 3)))
+    assert svc.push("imu", 0.0, np.zeros(6)) == []  # a stream the model does not need
+    with pytest.raises(ConfigError, match="none of the streams"):
+        StreamService(all_model, CataloguePeakTargets(all_model.classes),
+                      StreamConfig(streams={"wheels": WHEEL_CHANNELS}))
