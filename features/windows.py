@@ -185,7 +185,8 @@ class WindowSet:
         Sampling rate of the windows, Hz.
     counts : dict
         Book-keeping: windows kept, dropped for gaps or unsteady motion, runs skipped for a
-        missing stream (with their ids).
+        missing stream and runs shorter than one window (with their ids), and ``per_run``:
+        run id -> ``windows``, ``dropped_gap``, ``dropped_unsteady``, ``aligned_s``.
     """
 
     X: np.ndarray
@@ -324,7 +325,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     channels = resolve_signals(signals)
     need = required_streams(channels)
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
-    counts = {"windows": 0, "dropped_gap": 0, "dropped_unsteady": 0, "skipped_runs": []}
+    counts = {"windows": 0, "dropped_gap": 0, "dropped_unsteady": 0, "skipped_runs": [],
+              "too_short_runs": [], "per_run": {}}
     iterator = runs
     if progress:
         from tqdm.auto import tqdm
@@ -341,6 +343,10 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         X, t0, t1, part, c = window_frame(frame, channels, config)
         counts["dropped_gap"] += c["dropped_gap"]
         counts["dropped_unsteady"] += c["dropped_unsteady"]
+        counts["per_run"][run.run_id] = {"windows": len(X), **c, "aligned_s": len(frame)
+                                         / config.rate_hz}
+        if len(frame) < config.n_samples:
+            counts["too_short_runs"].append(run.run_id)
         Xs.append(X)
         t0s.append(t0)
         t1s.append(t1)

@@ -23,10 +23,12 @@ from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, 
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
 from terrain.audit.replay import ReplaySettings
+from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
+from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 
 EXPERIMENT = "terrain-audit"
@@ -73,6 +75,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also replay every run with v1 and v2 and report the gain of v2 "
                              "per terrain, signal and manoeuvre with run-bootstrap intervals")
     parser.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
+    parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 
 def _portable(path: Path) -> str:
@@ -123,7 +126,9 @@ def main(args: argparse.Namespace) -> int:
     """
     if (args.runs_dir is None) == (args.dataset is None):
         raise ConfigError("give exactly one of RUNS_DIR or --dataset")
-    runs = read_runs_dir(args.runs_dir) if args.runs_dir else load_dataset(args.dataset)
+    progress = not getattr(args, "no_progress", False)
+    runs = (read_runs_dir(args.runs_dir, progress=progress) if args.runs_dir
+            else load_dataset(args.dataset))
     source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
     name = args.dataset or args.runs_dir.resolve().name
     settings = AuditSettings(
@@ -144,11 +149,31 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_with_progress(runs, settings, progress: bool):
+    """``run_audit`` with a progress bar over the replay of the runs (the slow step)."""
+    if not progress:
+        return run_audit(runs, settings)
+    from dataclasses import replace
+
+    from tqdm.auto import tqdm
+
+    frames, skipped = [], {}
+    for run in tqdm(runs, desc="replaying runs", unit="run"):
+        f, s = prepare_frames([run], settings)
+        frames += f
+        skipped.update(s)
+    if not frames:  # run_audit raises the error naming every skipped run
+        return run_audit(runs, settings)
+    return replace(run_audit(runs, settings, frames=frames), skipped=skipped)
+
+
 def _audit(args, runs, settings, source, name, tracked) -> None:
     """Audit ``runs``, write the reports, log them to ``tracked`` (None: no MLflow)."""
     from terrain.audit import make_figures
 
-    result = run_audit(runs, settings)
+    result = _run_with_progress(runs, settings, not getattr(args, "no_progress", False))
+    inputs = input_report(runs)
+    print(inputs.text())
     report = to_dict(result, source)
     report["physics"] = settings.replay.physics
     comparison = None
@@ -175,7 +200,8 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
             with open(args.md, "a") as fh:
                 fh.write("\n" + comparison_markdown(comparison, report["physics_comparison"]))
     if tracked is not None:
-        tracked.log_metrics(flat_metrics(report))
+        tracked.log_metrics({**flat_metrics(report), **inputs.metrics()})
+        tracked.log_table(inputs.table, "input_report.csv")
         tracked.log_dict(report, "audit.json")
         rel = {k: f"figures/audit_{k}.png" for k in figures}
         tracked.log_text(to_markdown(report, rel, commands, title), "audit.md")

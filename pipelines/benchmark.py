@@ -1,6 +1,7 @@
 """Benchmark feature extraction and cross-validation on the shipped data (MLflow-tracked).
 
-Measures (1) feature extraction for every shipped window (target < 10 s) against a
+Measures (1) reading every shipped run (with the plausibility checks of terrain.io), windowing
+and feature extraction for every shipped window (target < 10 s), the features against a
 per-window reference built from scipy.stats / scipy.signal in the same process (speed ratio
 and the largest difference between the two), (2) the full 5-fold grouped CV of the combined
 dataset with features + SVM and no nested search (target < 60 s).
@@ -14,6 +15,7 @@ import time
 import numpy as np
 
 from features.windows import make_windows
+from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.models.experiment import ExperimentConfig, feature_extractor, run_cv
 from features.reference import reference_features
@@ -56,6 +58,9 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status, 0 (a missed target is printed, not an error).
     """
+    if args.repeats < 1 or args.reference_windows < 1:
+        raise ConfigError(f"--repeats and --reference-windows must be >= 1, got "
+                          f"{args.repeats} and {args.reference_windows}")
     with tracked_run(EXPERIMENT, run_name="classification",
                      params={"reference_windows": args.reference_windows,
                              "repeats": args.repeats}) as run:
@@ -64,14 +69,17 @@ def main(args: argparse.Namespace) -> int:
         t0 = time.perf_counter()
         runs = load_dataset("combined")
         figures["load_s"] = time.perf_counter() - t0
-        best = np.inf
+        best = best_all = np.inf
         for _ in range(args.repeats):
             t0 = time.perf_counter()
+            runs = load_dataset("combined")  # readers incl. plausibility checks
+            t1 = time.perf_counter()
             ws = make_windows(runs, config.signals, config.window_config())
             F = feature_extractor(ws).transform(ws.X)
-            best = min(best, time.perf_counter() - t0)
-        figures.update(windows_and_features_s=best, n_windows=len(ws),
-                       n_features=F.shape[1])
+            t2 = time.perf_counter()
+            best, best_all = min(best, t2 - t1), min(best_all, t2 - t0)
+        figures.update(windows_and_features_s=best, readers_windows_features_s=best_all,
+                       n_windows=len(ws), n_features=F.shape[1])
         sub = ws.X[: args.reference_windows]
         t0 = time.perf_counter()
         ref = reference_features(sub, ws.channels, ws.rate_hz)
@@ -94,7 +102,8 @@ def main(args: argparse.Namespace) -> int:
     print("classification benchmark (shipped data, this machine):")
     for k, v in figures.items():
         print(f"  {k:30s} {v:.6g}")
-    print(f"  target: features < 10 s -> {'met' if figures['windows_and_features_s'] < 10 else 'MISSED'}; "
+    print(f"  target: readers + windows + features < 10 s -> "
+          f"{'met' if figures['readers_windows_features_s'] < 10 else 'MISSED'}; "
           f"combined CV < 60 s -> {'met' if figures['combined_grouped_cv_s'] < 60 else 'MISSED'}")
     print(run.describe())
     return 0

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import argparse
 
-from terrain.io.shipped import DATASETS, convert_dataset, default_data_dir
+from terrain.io.report import input_report
+from terrain.io.shipped import DATASETS, convert_dataset, default_data_dir, read_shipped
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,7 +44,9 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status, 0.
     """
-    entry = convert_dataset(args.src, args.dataset, args.data_dir or default_data_dir())
+    data_dir = args.data_dir or default_data_dir()
+    entry = convert_dataset(args.src, args.dataset, data_dir)
+    print(input_report(read_shipped(args.dataset, data_dir)).text())
     print(f"{args.dataset}: {len(entry['runs'])} runs, terrains {entry['terrains']}, "
           f"rates {entry['sampling_rates_hz']} Hz, without IMU: {entry['runs_without_imu']}")
     return 0

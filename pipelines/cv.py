@@ -11,7 +11,8 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.io.shipped import DATASET_SPECS
+from terrain.io.report import input_report
+from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
 from terrain.models.experiment import ExperimentConfig, ExperimentResult, run_cv
 from terrain.models.metrics import plot_confusion
@@ -72,25 +73,53 @@ def result_dict(result: ExperimentResult) -> dict:
     }
 
 
+def pooled_recall(confusion) -> dict[str, float]:
+    """Per-class recall of the pooled out-of-fold predictions.
+
+    Parameters
+    ----------
+    confusion : pandas.DataFrame
+        Confusion counts (rows true class, columns predicted), summed over seeds.
+
+    Returns
+    -------
+    dict
+        Class -> diagonal / row sum; NaN for a class with no window.
+    """
+    counts = confusion.to_numpy().astype(float)
+    rows = counts.sum(axis=1)
+    return {str(c): float(counts[i, i] / rows[i]) if rows[i] else float("nan")
+            for i, c in enumerate(confusion.index)}
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the CV, log it to MLflow, print the summary."""
     config = config_from_args(args)
     name = f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
+    runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
-        result = run_cv(config, progress=not args.no_progress)
+        result = run_cv(config, runs=runs, progress=not args.no_progress)
         rep = result.report
         summary = rep.summary()
+        inputs = input_report(runs, result.counts, config.window_config().window_s)
+        recall = pooled_recall(rep.confusion)
         metrics = {f"{k}_mean": v["mean"] for k, v in summary.items()}
         metrics.update({f"{k}_std": v["std"] for k, v in summary.items()})
         metrics.update({f"{k}_pooled": float(rep.pooled[k].mean()) for k in HEADLINE})
+        metrics.update({f"recall_{c}_pooled": v for c, v in recall.items()})
+        metrics.update(inputs.metrics())
+        run.log_table(inputs.table, "input_report.csv")
         metrics.update({f"time_{k}": v for k, v in result.timings_s.items()})
         metrics.update(n_windows=result.n_windows, n_runs=result.n_runs)
         run.log_metrics(metrics)
         run.log_table(rep.confusion.reset_index(), "confusion_matrix.csv")
-        run.log_figure(plot_confusion(rep.confusion, name), "confusion_matrix.png")
+        n_seeds = len(rep.pooled)
+        run.log_figure(plot_confusion(rep.confusion, f"{name}: out-of-fold counts summed over "
+                                      f"{n_seeds} seed(s)"), "confusion_matrix.png")
         run.log_table(rep.predictions, "predictions.csv")
         run.log_table(rep.folds, "folds.csv")
         report = result_dict(result)
+        report["pooled_recall"] = recall
         report["mlflow_run_id"] = run.run_id
         run.log_dict(report, "cv_report.json")
     line = "secondary (leaky) protocol" if config.protocol == "paper" else "headline"
@@ -103,9 +132,12 @@ def main(args: argparse.Namespace) -> int:
         print(f"  {k:24s} {pooled[k].mean():.3f} +- {pooled[k].std(ddof=0):.3f} "
               f"({len(pooled)} seeds)   {s['mean']:.3f} +- {s['std']:.3f} "
               f"(min {s['min']:.3f}, max {s['max']:.3f})")
+    print(f"  pooled per-class recall (confusion matrix, counts summed over {len(pooled)} "
+          f"seed(s)): {', '.join(f'{c} {v:.2f}' for c, v in recall.items())}")
     recalls = ", ".join(f"{k[7:]} {v['mean']:.2f}" for k, v in summary.items()
                         if k.startswith("recall_"))
-    print(f"  per-class recall: {recalls}")
+    print(f"  per-class recall, mean over folds: {recalls}")
+    print(inputs.text())
     for note in rep.notes:
         print(f"  note: {note}")
     print(f"  timings: {', '.join(f'{k} {v:.1f}' for k, v in result.timings_s.items())}")

@@ -18,6 +18,7 @@ from pathlib import Path
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.io.measured import read_runs_dir
+from terrain.io.report import input_report
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
 
 
@@ -81,6 +82,7 @@ def main(args: argparse.Namespace) -> int:
         ``--run`` names no run of RUN_DIR; a run lacks the streams its estimator needs.
     """
     runs = _load(args.run_dir, args.run)
+    print(input_report(runs).text())
     gate = Gate(args.gate) if args.gate is not None else None
     for run in runs:
         est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,

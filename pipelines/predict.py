@@ -1,8 +1,9 @@
 """Predict the terrain of every window of the runs in a folder with a trained model.
 
-RUNS_DIR is any folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv (the terrain
-folder names are ignored). Output: one row per window with run, t_start_s, t_end_s,
-predicted and one proba_<CLASS> column per class.
+RUNS_DIR is any folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv, or one
+<TERRAIN> folder of it (the terrain folder names are ignored). Output: one row per window with
+run, t_start_s, t_end_s, predicted, one proba_<CLASS> column per class and flags ("stuck:
+<stream>.<channel>" when the window holds a stuck or dead sensor: do not trust it blindly).
 """
 
 from __future__ import annotations
@@ -10,7 +11,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from terrain.io.measured import read_runs_dir
+import pandas as pd
+
+from terrain.errors import ConfigError, DataFormatError
+from terrain.io.measured import read_runs_path
+from terrain.io.plausibility import stuck_window_flags
+from terrain.io.report import input_report
 from terrain.serving import load_model, runs_to_model_input
 from terrain.tracking import tracked_run
 
@@ -20,28 +26,72 @@ EXPERIMENT = "terrain-predict"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain predict``."""
     parser.add_argument("--model", required=True,
-                        help="MLflow model directory or URI (models:/terrain-borealtc/1)")
-    parser.add_argument("runs_dir", type=Path, metavar="RUNS_DIR")
+                        help="MLflow model directory or URI (e.g. models:/terrain-borealtc/latest, "
+                             "resolved in the tracking store in force, see README)")
+    parser.add_argument("runs_dir", type=Path, metavar="RUNS_DIR",
+                        help="runs folder <TERRAIN>/{imu_XX,pro_XX}.csv or one terrain folder")
     parser.add_argument("--out", type=Path, required=True, help="predictions CSV")
+    parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
+
+
+def _load(uri: str):
+    from mlflow.exceptions import MlflowException
+
+    try:
+        return load_model(uri)
+    except (MlflowException, OSError) as exc:
+        first = str(exc).strip().splitlines()[0][:300] if str(exc).strip() else type(exc).__name__
+        raise ConfigError(f"cannot load model {uri!r}: {first} (a models:/ URI resolves in the "
+                          "tracking store in force: run where `terrain train` ran or set "
+                          "MLFLOW_TRACKING_URI to its store)") from None
 
 
 def main(args: argparse.Namespace) -> int:
     """Load the model, align and window the runs, write the predictions."""
-    runs = read_runs_dir(args.runs_dir, labelled=False)
-    model, meta = load_model(args.model)
-    samples, skipped = runs_to_model_input(runs, meta["channels"], float(meta["rate_hz"]))
+    progress = not args.no_progress
+    runs = read_runs_path(args.runs_dir, labelled=False, progress=progress)
+    model, meta = _load(args.model)
+    window_s = float(meta["window_s"])
+    counts: dict = {"per_run": {}, "skipped_runs": [], "too_short_runs": []}
+    parts = []
+    items = runs
+    if progress:
+        from tqdm.auto import tqdm
+        items = tqdm(runs, desc="predicting runs", unit="run")
+    for run in items:
+        samples, skipped = runs_to_model_input([run], meta["channels"], float(meta["rate_hz"]))
+        if skipped:
+            counts["skipped_runs"].append(run.run_id)
+            continue
+        pred = model.predict(samples)
+        pred["flags"] = stuck_window_flags(run.meta.get("stuck", {}), pred["t_start_s"],
+                                           pred["t_end_s"])
+        counts["per_run"][run.run_id] = {"windows": len(pred), "dropped_unsteady": 0,
+                                         "dropped_gap": int(pred.attrs.get("dropped_windows", 0))}
+        if len(samples) / float(meta["rate_hz"]) < window_s:
+            counts["too_short_runs"].append(run.run_id)
+        parts.append(pred)
+    flagged = {r: int((p["flags"] != "").sum()) for r, p in
+               zip(counts["per_run"], parts)}
+    inputs = input_report(runs, counts, window_s, flagged)
+    print(inputs.text())
+    if not parts or not sum(len(p) for p in parts):
+        raise DataFormatError(f"no window to predict in {len(runs)} run(s) (see above; a "
+                              f"window is {window_s:g} s)", args.runs_dir)
+    pred = pd.concat(parts, ignore_index=True)
+    used = len(counts["per_run"])
     with tracked_run(EXPERIMENT, params={"model": str(args.model),
                                          "runs_dir": str(args.runs_dir)}) as run:
-        pred = model.predict(samples)
         args.out.parent.mkdir(parents=True, exist_ok=True)
         pred.to_csv(args.out, index=False)
-        run.log_metrics({"n_windows": len(pred), "n_runs": len(runs),
-                         "n_runs_skipped": len(skipped)})
+        run.log_metrics({"n_windows": len(pred), "n_runs": len(runs), "n_runs_used": used,
+                         "n_runs_skipped": len(counts["skipped_runs"]),
+                         "n_windows_flagged": int((pred["flags"] != "").sum()),
+                         **inputs.metrics()})
         run.log_table(pred, "predictions.csv")
-    print(f"{len(pred)} windows from {len(runs) - len(skipped)} runs -> {args.out}")
-    if skipped:
-        print(f"skipped {len(skipped)} run(s) lacking a stream the model needs: {skipped}")
-    counts = pred["predicted"].value_counts().to_dict()
-    print(f"predicted windows per class: {counts}")
+        run.log_table(inputs.table, "input_report.csv")
+    print(f"{len(pred)} windows from {used} of {len(runs)} runs -> {args.out}")
+    counts_by_class = pred["predicted"].value_counts().to_dict()
+    print(f"predicted windows per class: {counts_by_class}")
     print(run.describe())
     return 0

@@ -13,6 +13,7 @@ import argparse
 from terrain.io.writer import write_run
 from terrain.sim import SCENARIO_NAMES, SimConfig, parse_effects, simulate
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import VEHICLE_NAMES
 
 
@@ -26,7 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """
     parser.add_argument("--vehicle", required=True, help=f"one of {', '.join(VEHICLE_NAMES)}")
     parser.add_argument("--terrain", required=True,
-                        help="terrain class, or comma-separated classes along the path")
+                        help="terrain class, or comma-separated classes along the path; one "
+                             f"of {', '.join(TERRAIN_NAMES)}")
     parser.add_argument("--scenario", default="random", help=f"one of {', '.join(SCENARIO_NAMES)}")
     parser.add_argument("--duration-s", type=float, default=60.0, help="simulated time, s")
     parser.add_argument("--seed", type=int, default=0, help="random seed")

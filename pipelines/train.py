@@ -13,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from terrain.io.shipped import DATASET_SPECS
+from terrain.io.report import input_report
+from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
 from terrain.models.registry import MODELS
-from terrain.serving import log_model, save_model
-from terrain.tracking import tracked_run
+from terrain.serving import log_model, runs_to_model_input, save_model
+from terrain.tracking import activate_store, tracked_run
 
 EXPERIMENT = "terrain-train"
 #: Documented default classifier (README "Model comparison").
@@ -42,30 +43,71 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 
+def trained_params(pipe) -> dict:
+    """The scalar hyperparameters of the fitted pipeline, as MLflow parameters.
+
+    Parameters
+    ----------
+    pipe : sklearn.pipeline.Pipeline
+        The fitted inference pipeline.
+
+    Returns
+    -------
+    dict
+        ``model.<param>`` -> value (e.g. the calibrated SVC's ``C``, ``gamma`` and calibration
+        method) and ``model.steps``, the step classes.
+    """
+    flat = {f"model.{k}": v for k, v in pipe.get_params(deep=True).items()
+            if isinstance(v, (str, int, float, bool)) or v is None}
+    flat["model.steps"] = " -> ".join(
+        f"{n}:{type(e).__name__}" + (f"({type(e.estimator).__name__})"
+                                     if hasattr(e, "estimator") else "")
+        for n, e in pipe.steps)
+    return {k: v for k, v in flat.items() if not k.endswith(("verbose", "memory", "n_jobs"))}
+
+
 def main(args: argparse.Namespace) -> int:
     """Fit, log, register and save the model."""
     config = ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
                               window_s=args.window_s, search=args.search, seeds=(0,),
                               model=args.model)
     name = f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
-    with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
-        pipe, ws, info = fit_pipeline(config, progress=not args.no_progress)
+    window = config.window_config()
+    params = {"model": config.model, "dataset": config.dataset,
+              "signals": ",".join(config.signals),
+              "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
+              "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0]}
+    runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
+    activate_store()  # model logging and the registry use MLflow's process-wide store
+    with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
+        pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)
         classes = [str(c) for c in np.unique(ws.labels.astype(str))]
         train_acc = float((pipe.predict(ws.X) == ws.labels.astype(str)).mean())
-        run.log_params(info)
+        run.log_params({**info, **trained_params(pipe)})
+        inputs = input_report(runs, ws.counts, window.window_s)
         run.log_metrics({"n_windows": len(ws), "n_runs": len(np.unique(ws.run_ids)),
-                         "train_accuracy": train_acc})
-        meta = {"model": config.model, "dataset": config.dataset, "signals": list(config.signals),
+                         "train_accuracy": train_acc, **inputs.metrics()})
+        run.log_table(inputs.table, "input_report.csv")
+        used = [r for r in runs if r.run_id in set(ws.run_ids)]
+        example = runs_to_model_input(used[:1], ws.channels, window.rate_hz)[0]
+        meta = {"model": config.model, "dataset": config.dataset,
+                "signals": list(config.signals),
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
-        window = config.window_config()
         uri = log_model(pipe, ws.channels, window, classes, meta,
-                        None if args.no_register else f"terrain-{config.dataset}")
+                        None if args.no_register else f"terrain-{config.dataset}",
+                        input_example=example.head(2 * window.n_samples))
         print(f"trained on {len(ws)} windows of {len(np.unique(ws.run_ids))} runs, classes "
               f"{classes}; training accuracy {train_acc:.3f} (not a generalisation estimate: "
               f"use `terrain cv`)")
+        print(inputs.text())
         print(f"logged model: {uri}")
+        if not args.no_register:
+            print(f"registered as terrain-{config.dataset}: load it with --model "
+                  f"models:/terrain-{config.dataset}/latest from any folder using this "
+                  "tracking store (MLFLOW_TRACKING_URI, see README)")
         if args.model_out:
-            save_model(args.model_out, pipe, ws.channels, window, classes, meta)
+            save_model(args.model_out, pipe, ws.channels, window, classes, meta,
+                       input_example=example.head(2 * window.n_samples))
             print(f"saved model directory: {args.model_out}")
     print(run.describe())
     return 0

@@ -14,10 +14,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
-from terrain.errors import TerrainError
+from terrain.errors import DataWarning, TerrainError
 
 #: subcommand -> pipelines module implementing it
 SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
@@ -40,11 +41,33 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
 })
 
 
+#: placeholder help (zero-width space): argparse prints no line for an option without help
+_NO_HELP = "\u200b"
+
+
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the descriptions' line breaks; shows each option's default and valid choices
+    (unless its help already states them, or it is a flag or has no default)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = (action.help or "").replace(_NO_HELP, "")
+        if action.choices is not None and action.metavar is not None and "{" not in text and not isinstance(
+                action, argparse._SubParsersAction):
+            text += f" (choices: {', '.join(map(str, action.choices))})"
+        flag = isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction))
+        if (action.option_strings and not flag and "default" not in text
+                and action.default not in (None, argparse.SUPPRESS)):
+            text += " (default: %(default)s)"
+        return text.strip()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the argument parser with one subparser per available pipeline."""
     parser = argparse.ArgumentParser(
         prog="terrain",
         description="Terrain classification, slip estimation and simulation for field robots.")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the full traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module_name in SUBCOMMANDS.items():
         try:
@@ -55,21 +78,60 @@ def build_parser() -> argparse.ArgumentParser:
             raise
         doc = (module.__doc__ or name).strip()
         sp = sub.add_parser(name, help=doc.splitlines()[0], description=doc,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
+                            formatter_class=_HelpFormatter)
+        sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show the full traceback of an error")
         module.add_arguments(sp)
         sp.set_defaults(_main=module.main)
+    for sp in sub.choices.values():
+        for action in sp._actions:
+            if action.help is None and (action.option_strings or action.choices):
+                action.help = _NO_HELP  # argparse prints no help line without a help text
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """One line per warning on stderr (a :class:`~terrain.errors.DataWarning` is the
+    reader telling what it assumed), instead of Python's two-line source display."""
+    kind = "warning" if issubclass(category, DataWarning) else category.__name__
+    print(f"terrain: {kind}: {message}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``terrain`` command; returns the process exit code."""
+    """Entry point of the ``terrain`` command; returns the process exit code.
+
+    A project error (:class:`~terrain.errors.TerrainError`), a missing or unreadable file,
+    or a model store error is printed as one line on stderr with exit status 2; ``--debug``
+    shows the traceback instead.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
+    debug = getattr(args, "debug", False)
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        try:
+            return int(args._main(args) or 0)
+        except (TerrainError, OSError) + _store_errors() as exc:
+            if debug:
+                raise
+            print(f"terrain {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+
+
+def _store_errors() -> tuple[type[BaseException], ...]:
     try:
-        return int(args._main(args) or 0)
-    except TerrainError as exc:
-        print(f"terrain {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        from mlflow.exceptions import MlflowException
+    except ImportError:  # pragma: no cover
+        return ()
+    return (MlflowException,)
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.filename is not None:
+        text = f"{exc.strerror or type(exc).__name__}: {exc.filename}"
+    else:
+        text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 500 else text[:497] + "..."
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,7 +1,12 @@
 """Typed errors raised by the library.
 
-Every error that concerns input data names the file, the column and the row (0-based data
-row, header excluded) where it is known, so a user can open the file and find the problem.
+Every error that concerns input data names the file, the column and the **file line** (1-based,
+as an editor shows it, header and blank lines included) where it is known, so a user can open
+the file and find the problem. Messages stay short: the first offending lines and a count,
+never a dump (:func:`first_items`).
+
+Warnings about input that is only *likely* wrong (a plausibility rule that is not certain, a
+stuck sensor) are :class:`DataWarning`: they say what the reader assumed and never rescale.
 """
 
 from __future__ import annotations
@@ -23,21 +28,27 @@ class DataFormatError(TerrainError, ValueError):
     column : str or None
         Column that holds the problem, as named in the file.
     row : int or None
-        0-based data row (header excluded) of the first offending value.
+        0-based data row (header, blank and comment lines excluded) of the first offending
+        value.
+    line : int or None
+        1-based line of the file holding the first offending value (what an editor shows).
     """
 
     def __init__(self, message: str, path: str | None = None, column: str | None = None,
-                 row: int | None = None) -> None:
+                 row: int | None = None, line: int | None = None) -> None:
         self.path = None if path is None else str(path)
         self.column = column
         self.row = row
+        self.line = line
         where = []
         if path is not None:
             where.append(f"file {path}")
         if column is not None:
             where.append(f"column {column!r}")
-        if row is not None:
-            where.append(f"row {row}")
+        if line is not None:
+            where.append(f"line {line}")
+        elif row is not None:
+            where.append(f"data row {row}")
         super().__init__(f"{message} ({', '.join(where)})" if where else message)
 
 
@@ -63,6 +74,59 @@ class EmptyFileError(DataFormatError):
 
 class OrphanFileError(DataFormatError):
     """A stream file whose run has no wheel (``pro_``) file."""
+
+
+class UnreadableFileError(DataFormatError):
+    """A path where a data file is expected is a directory, a symlink loop, or unreadable."""
+
+
+class EncodingError(DataFormatError):
+    """A file holds bytes that are not UTF-8 text; the message gives the byte offset."""
+
+
+class RaggedRowError(DataFormatError):
+    """Data rows whose number of fields differs from the header's."""
+
+
+class ImplausibleValueError(DataFormatError):
+    """A value outside the physical plausibility range of its channel (sensor full scale,
+    vehicle top speed, motor current), see :mod:`terrain.io.plausibility`."""
+
+
+class UnitError(DataFormatError):
+    """A plausibility rule is certain that a channel is in the wrong unit (deg/s for rad/s,
+    km/h for m/s, ms for s). The message names the rule, its evidence and the likely fix."""
+
+
+class ClockError(DataFormatError):
+    """The streams of one run do not share a clock (their time spans do not overlap)."""
+
+
+class DataWarning(UserWarning):
+    """Input that is probably, not certainly, wrong: the message says what was assumed."""
+
+
+def first_items(items, limit: int = 3, word: str = "line") -> str:
+    """Short list of the first offending items and the count of the others.
+
+    Parameters
+    ----------
+    items : sequence
+        Offending items (e.g. file lines), in file order.
+    limit : int
+        How many to show.
+    word : str
+        Singular noun of the items (an ``s`` is appended for several).
+
+    Returns
+    -------
+    str
+        E.g. ``"lines 4, 9, 12 and 37 more"``.
+    """
+    items = list(items)
+    shown = ", ".join(str(i) for i in items[:limit])
+    more = f" and {len(items) - limit} more" if len(items) > limit else ""
+    return f"{word}{'s' if len(items) > 1 else ''} {shown}{more}"
 
 
 class ConfigError(TerrainError, ValueError):

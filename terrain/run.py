@@ -1,6 +1,6 @@
 """The ``Run``: one recorded (or simulated) drive, its metadata and its typed streams.
 
-Contract (``DESIGN.md``, "Contracts"): every stream is a :class:`pandas.DataFrame` whose first
+Contract: every stream is a :class:`pandas.DataFrame` whose first
 column is ``t_s`` (time in s, strictly increasing, starting near 0) followed by channels with
 canonical snake_case names in SI units:
 

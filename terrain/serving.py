@@ -31,6 +31,7 @@ from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_
                               required_streams, window_frame)
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_streams
+from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
@@ -95,15 +96,22 @@ class TerrainModel(PythonModel):
         Terrain classes, in the order of ``predict_proba``.
     """
 
-    def __init__(self, channels: Sequence[str], window: dict, classes: Sequence[str]) -> None:
+    def __init__(self, channels: Sequence[str] = (), window: dict | None = None,
+                 classes: Sequence[str] = ()) -> None:
         self.channels = list(channels)
-        self.window = dict(window)
+        self.window = dict(window or {})
         self.classes = list(classes)
         self._pipeline = None
 
     def load_context(self, context: Any) -> None:
-        """Load the fitted scikit-learn pipeline."""
+        """Load the fitted scikit-learn pipeline; settings from ``context.model_config``
+        when the model was logged from code (:mod:`terrain.serving_entry`)."""
         import joblib
+        config = getattr(context, "model_config", None) or {}
+        if config:
+            self.channels = list(config["channels"])
+            self.window = dict(config["window"])
+            self.classes = list(config["classes"])
         self._pipeline = joblib.load(context.artifacts["pipeline"])
 
     def predict(self, context: Any, model_input: pd.DataFrame, params: dict | None = None
@@ -114,6 +122,8 @@ class TerrainModel(PythonModel):
         ------
         MissingColumnError
             A required input column is missing.
+        ImplausibleValueError
+            A value beyond its channel's plausibility range (:mod:`terrain.io.plausibility`).
         DataFormatError
             Samples not at the model's rate, or timestamps not increasing within a run.
         """
@@ -131,6 +141,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     if missing:
         raise MissingColumnError(f"model input lacks column(s) {missing}; expected {cols}",
                                  "model input", missing[0])
+    # the readers' plausibility ranges also guard served input (1e300 would overflow features)
+    check_ranges(samples, "model input", {c: c for c in cols[2:]})
     out, dropped = [], 0
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)
@@ -218,7 +230,9 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     window_d = {"window_s": window.window_s, "hop_s": window.hop_s, "rate_hz": window.rate_hz}
     root = Path(__file__).resolve().parents[1]
     return dict(
-        python_model=TerrainModel(channels, window_d, classes),
+        python_model=str(Path(__file__).with_name("serving_entry.py")),
+        model_config={"channels": list(channels), "window": window_d,
+                      "classes": list(classes)},
         artifacts={"pipeline": str(path)},
         signature=model_signature(channels, classes),
         code_paths=[str(root / "terrain"), str(root / "features")],
@@ -229,7 +243,8 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
 
 
 def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
-               window: WindowConfig, classes: Sequence[str], metadata: dict) -> Path:
+               window: WindowConfig, classes: Sequence[str], metadata: dict,
+               input_example: pd.DataFrame | None = None) -> Path:
     """Save the inference pipeline as an MLflow model directory at ``path``.
 
     Raises
@@ -245,14 +260,32 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
     if path.exists():
         path.rmdir()
     with tempfile.TemporaryDirectory() as tmp:
-        mlflow.pyfunc.save_model(path=str(path), **_model_kwargs(
+        mlflow.pyfunc.save_model(path=str(path), input_example=input_example, **_model_kwargs(
             pipeline, channels, window, classes, metadata, Path(tmp)))
     return path
 
 
 def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
-              classes: Sequence[str], metadata: dict, registered_name: str | None) -> str:
+              classes: Sequence[str], metadata: dict, registered_name: str | None,
+              input_example: pd.DataFrame | None = None) -> str:
     """Log (and register) the inference pipeline in the active MLflow run.
+
+    Parameters
+    ----------
+    pipeline : sklearn.pipeline.Pipeline
+        The fitted ``features -> scaler -> SVC`` pipeline.
+    channels : sequence of str
+        Channel order of the windows.
+    window : WindowConfig
+        Window settings of the model.
+    classes : sequence of str
+        Terrain classes.
+    metadata : dict
+        Extra model metadata (dataset, signals...).
+    registered_name : str or None
+        Registry name, or None not to register.
+    input_example : pandas.DataFrame, optional
+        Aligned samples in the model's input format (a few windows), stored with the model.
 
     Returns
     -------
@@ -263,6 +296,7 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
 
     with tempfile.TemporaryDirectory() as tmp:
         info = mlflow.pyfunc.log_model(name="terrain-model", registered_model_name=registered_name,
+                                       input_example=input_example,
                                        **_model_kwargs(pipeline, channels, window, classes,
                                                        metadata, Path(tmp)))
     return info.model_uri

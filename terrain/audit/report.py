@@ -396,7 +396,12 @@ def summary_lines(report: Mapping, timings_s: Mapping[str, float]) -> list[str]:
     for terrain in report["supported"]:
         found = [e for e in report["effects"] if e["terrain"] == terrain and e["supported"]]
         text = ", ".join(
-            f"{e['name']} ({', '.join(f'{k}={v:.3g}' for k, v in e['params'].items())}"
+            f"{e['name']} ({', '.join(f'{k}={_g(v)}' for k, v in e['params'].items())}"
             f"; gain {e['heldout_gain']:.2f})" for e in found)
         out.append(f"  {terrain}: {text or 'none'}")
     return out
+
+
+def _g(value) -> str:
+    """A parameter for printing: ``n/a`` when it could not be estimated (e.g. a dead gyro)."""
+    return "n/a" if value is None else f"{value:.3g}"

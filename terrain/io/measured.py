@@ -10,8 +10,9 @@ files written by ``terrain simulate``:
   snake_case channel names, SI units; loaded as stream ``<stream>``;
 * ``meta_XX.json`` (optional): run metadata, e.g. ``{"vehicle": "husky"}``.
 
-Validation rules (``DESIGN.md``, "Bad input"): every problem raises a subclass of
-:class:`terrain.errors.DataFormatError` naming file, column and 0-based data row. The only
+Validation rules: every problem raises a subclass of :class:`terrain.errors.DataFormatError`
+naming file, column and 1-based file line; the plausibility rules (ranges, units, clocks,
+stuck sensors) are those of :mod:`terrain.io.plausibility`. The only
 repair is documented in :func:`read_stream_csv`: isolated non-finite samples (at most
 ``max_repair_run`` consecutive rows in one channel) are linearly interpolated and counted;
 longer bursts are rejected. Timestamp gaps are never interpolated across: they are listed in
@@ -20,6 +21,7 @@ longer bursts are rejected. Timestamp gaps are never interpolated across: they a
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 from dataclasses import dataclass, field
@@ -30,8 +32,10 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (DataFormatError, EmptyFileError, MissingColumnError,
-                            NonFiniteError, NonNumericError, OrphanFileError, TimestampError)
+from terrain.errors import (DataFormatError, EmptyFileError, EncodingError, MissingColumnError,
+                            NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
+                            TimestampError, UnitError, UnreadableFileError, first_items)
+from terrain.io.plausibility import CHANNEL_LIMITS, check_ranges, check_rate, check_run
 from terrain.run import IMU_CHANNELS, TIME, Run
 
 #: file column -> canonical name, per known file kind
@@ -42,9 +46,9 @@ COLUMN_MAPS: Mapping[str, Mapping[str, str]] = MappingProxyType({
 })
 #: file prefix -> stream name in the Run
 STREAM_NAMES: Mapping[str, str] = MappingProxyType({"imu": "imu", "pro": "wheels"})
-#: gyro rates above this (rad/s) are taken for deg/s (2000 deg/s = 34.9 rad/s, a full-scale
-#: MEMS gyro range; no ground robot turns that fast)
-MAX_PLAUSIBLE_RATE_RAD_S = 35.0
+#: gyro rates above this (rad/s) are beyond a MEMS gyro's 2000 deg/s full scale: the reader's
+#: plausibility range of the angular rates (:data:`terrain.io.plausibility.CHANNEL_LIMITS`)
+MAX_PLAUSIBLE_RATE_RAD_S = CHANNEL_LIMITS["wz"].limit
 _FILE_RE = re.compile(r"^(?P<kind>[a-z][a-z0-9]*)_(?P<index>\d+)\.csv$")
 
 
@@ -61,16 +65,24 @@ class ReadReport:
     gaps : list[tuple[float, float]]
         ``(t_start_s, t_end_s)`` of each timestamp gap longer than ``gap_factor`` times the
         median sampling interval.
+    skipped_lines : dict[str, int]
+        ``blank`` and ``comment`` lines skipped.
     """
 
     path: str
     repaired: dict[str, int] = field(default_factory=dict)
     gaps: list[tuple[float, float]] = field(default_factory=list)
+    skipped_lines: dict[str, int] = field(default_factory=dict)
 
 
 def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
                     gap_factor: float = 3.0) -> tuple[pd.DataFrame, ReadReport]:
     """Read and validate one stream file.
+
+    The file is parsed strictly: UTF-8 text (a BOM is allowed), comma separated, no quoting,
+    one header line then one data row per line. Blank lines and ``#`` comment lines are
+    skipped and counted in the report; every other line must have as many fields as the
+    header. Errors name the 1-based file line (what an editor shows).
 
     Parameters
     ----------
@@ -95,33 +107,44 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
 
     Raises
     ------
-    EmptyFileError, MissingColumnError, NonNumericError, NonFiniteError, TimestampError,
-    DataFormatError
-        With file, column and 0-based data row.
+    UnreadableFileError, EncodingError, EmptyFileError, RaggedRowError, MissingColumnError,
+    NonNumericError, NonFiniteError, TimestampError, ImplausibleValueError, UnitError
+        All :class:`DataFormatError`, with file, column and file line.
     """
     path = Path(path)
-    try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
-    except pd.errors.EmptyDataError:
-        raise EmptyFileError("file is empty", path) from None
-    except pd.errors.ParserError as exc:
-        raise DataFormatError(f"not a valid CSV file: {exc}", path) from None
-    if raw.empty:
-        raise EmptyFileError("file has a header but no data rows", path)
-    raw.columns = [c.strip() for c in raw.columns]
+    text = _read_text(path)
+    header, rows, lines, skipped = _split_lines(text, path)
+    header_line = skipped.pop("header_line")
+    if len(set(header)) < len(header):
+        dup = sorted({c for c in header if header.count(c) > 1})
+        raise DataFormatError(f"duplicated column name(s) {dup} in the header", path, dup[0],
+                              line=header_line)
     mapping = COLUMN_MAPS.get(kind)
     if mapping is None:
         # extra stream: ``time`` is required and comes first, other columns keep their names
-        mapping = {"time": TIME, **{c: c for c in raw.columns if c != "time"}}
-    missing = [c for c in mapping if c not in raw.columns]
+        mapping = {"time": TIME, **{c: c for c in header if c != "time"}}
+    missing = [c for c in mapping if c not in header]
     if missing:
         raise MissingColumnError(
-            f"missing column(s) {missing}; found {list(raw.columns)}, expected {list(mapping)}",
-            path, missing[0])
-    report = ReadReport(str(path))
+            f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}",
+            path, missing[0], line=header_line)
+    report = ReadReport(str(path), skipped_lines=skipped)
+    # Python's float() also takes "1_000" and non-ASCII digits: those go the strict path
+    plain = text.isascii() and "_" not in text
+    numbers = _fast_numbers(rows, header, mapping) if plain else None
+    if numbers is not None:
+        cells = None
+    else:
+        cells = np.empty((len(rows), len(header)), dtype=object)
+        cells[:] = rows
     out: dict[str, np.ndarray] = {}
     for col, name in mapping.items():
-        text = raw[col].str.strip()
+        if numbers is not None:
+            values = numbers[:, header.index(col)]
+            out[name] = _repair_non_finite(values, path, col, max_repair_run, report, name,
+                                           lines)
+            continue
+        text = pd.Series(cells[:, header.index(col)]).str.strip()
         values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
         is_nan_word = text.str.lower().isin(["nan", "inf", "-inf", "+inf", "infinity", ""])
         bad = np.isnan(values) & ~is_nan_word.to_numpy()
@@ -129,25 +152,113 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             if kind not in COLUMN_MAPS and name != TIME and bad.all():
                 out[name] = text.to_numpy()  # a string channel of an extra stream
                 continue
-            row = int(np.flatnonzero(bad)[0])
-            raise NonNumericError(f"non-numeric value {raw[col].iloc[row]!r}", path, col, row)
-        values = _repair_non_finite(values, path, col, max_repair_run, report, name)
+            idx = np.flatnonzero(bad)
+            shown = text.iloc[idx[0]]
+            shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            raise NonNumericError(f"{idx.size} non-numeric value(s), first {shown!r} at "
+                                  f"{first_items(lines[idx])}", path, col, int(idx[0]),
+                                  int(lines[idx[0]]))
+        values = _repair_non_finite(values, path, col, max_repair_run, report, name, lines)
         out[name] = values
     frame = pd.DataFrame(out)
-    _check_time(frame[TIME].to_numpy(), path, gap_factor, report)
+    _check_time(frame[TIME].to_numpy(), path, gap_factor, report, lines)
+    stream = STREAM_NAMES.get(kind, kind)
+    check_rate(frame[TIME].to_numpy(), stream, path)
+    check_ranges(frame, path, mapping, lines)
     if kind == "imu":
         _check_imu_units(frame, path)
     return frame, report
 
 
+def _fast_numbers(rows: list[list[str]], header: list[str],
+                  mapping: Mapping[str, str]) -> np.ndarray | None:
+    """All cells as float64 when every column is read and every cell is a number (the usual
+    case); None otherwise: the slower per-column path then names the bad cell."""
+    if set(header) != set(mapping) or not rows:
+        return None
+    try:
+        return np.array(rows, dtype=np.float64)
+    except ValueError:
+        return None
+
+
+def _read_text(path: Path) -> str:
+    """The file as text; directories, symlink loops, FIFOs/devices and non-UTF-8 bytes are
+    typed errors."""
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise UnreadableFileError("is not a regular file (a FIFO, socket or device?)", path)
+    try:
+        data = path.read_bytes()
+    except IsADirectoryError:
+        raise UnreadableFileError("is a directory, expected a CSV file", path) from None
+    except FileNotFoundError:
+        raise UnreadableFileError("file not found (a dangling symlink?)", path) from None
+    except OSError as exc:  # ELOOP (symlink loop), EACCES...
+        raise UnreadableFileError(f"cannot be read: {exc.strerror or exc}", path) from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise EncodingError(f"undecodable byte 0x{data[exc.start]:02x} at byte offset "
+                            f"{exc.start}; expected UTF-8 text", path,
+                            line=line) from None
+
+
+def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.ndarray, dict]:
+    """Header fields, data rows (fields), their 1-based file lines, skipped-line counts."""
+    raw = text.split("\n")
+    if raw and raw[-1] == "":
+        raw.pop()  # the newline that ends the last line
+    skipped = {"blank": 0, "comment": 0}
+    header, rows, lines = None, [], []
+    for i, line in enumerate(raw):
+        line = line.rstrip("\r")
+        stripped = line.strip()
+        if not stripped:
+            skipped["blank"] += 1
+            continue
+        if stripped.startswith("#"):
+            skipped["comment"] += 1
+            continue
+        if header is None:
+            header = [c.strip() for c in line.split(",")]
+            skipped["header_line"] = i + 1
+            continue
+        rows.append(line)
+        lines.append(i + 1)
+    if header is None:
+        raise EmptyFileError("file is empty", path)
+    if not rows:
+        raise EmptyFileError("file has a header but no data rows", path)
+    lines = np.asarray(lines)
+    # a quoted field (``"1,5"``) is parsed as CSV within its own line only: an unbalanced
+    # quote never swallows the following lines, it makes its line ragged
+    cells = [r.split(",") if '"' not in r else next(csv.reader([r])) for r in rows]
+    n_fields = np.fromiter((len(c) for c in cells), dtype=int, count=len(cells))
+    ragged = np.flatnonzero(n_fields != len(header))
+    if ragged.size:
+        k = int(ragged[0])
+        hint = ("; a trailing comma?" if rows[k].rstrip().endswith(",")
+                else "; an unbalanced quote?" if rows[k].count('"') % 2 else "")
+        raise RaggedRowError(f"{ragged.size} of {len(rows)} data rows have a field count "
+                             f"other than the header's {len(header)} (first: {n_fields[k]} "
+                             f"fields) at {first_items(lines[ragged])}{hint}", path,
+                             row=k, line=int(lines[k]))
+    if len(rows) < 2:
+        raise EmptyFileError("file has a single data row; at least 2 are needed to know the "
+                             "sample rate", path, line=int(lines[0]))
+    return header, cells, lines, skipped
+
+
 def _repair_non_finite(values: np.ndarray, path: Path, col: str, max_run: int,
-                       report: ReadReport, name: str) -> np.ndarray:
+                       report: ReadReport, name: str, lines: np.ndarray) -> np.ndarray:
     finite = np.isfinite(values)
     if finite.all():
         return values
     idx = np.flatnonzero(~finite)
     if name == TIME:
-        raise NonFiniteError("non-finite timestamp", path, col, int(idx[0]))
+        raise NonFiniteError(f"{idx.size} non-finite timestamp(s) at {first_items(lines[idx])}",
+                             path, col, int(idx[0]), int(lines[idx[0]]))
     # runs of consecutive non-finite rows
     breaks = np.flatnonzero(np.diff(idx) > 1)
     starts = np.r_[idx[0], idx[breaks + 1]]
@@ -155,10 +266,11 @@ def _repair_non_finite(values: np.ndarray, path: Path, col: str, max_run: int,
     for s, e in zip(starts, ends):
         if e - s + 1 > max_run:
             raise NonFiniteError(f"burst of {e - s + 1} non-finite values (more than "
-                                 f"{max_run} are not repaired)", path, col, int(s))
+                                 f"{max_run} are not repaired)", path, col, int(s),
+                                 int(lines[s]))
         if s == 0 or e == len(values) - 1:
             raise NonFiniteError("non-finite value at the edge of the file cannot be "
-                                 "interpolated", path, col, int(s))
+                                 "interpolated", path, col, int(s), int(lines[s]))
     good = np.flatnonzero(finite)
     repaired = values.copy()
     repaired[idx] = np.interp(idx, good, values[good])
@@ -166,13 +278,17 @@ def _repair_non_finite(values: np.ndarray, path: Path, col: str, max_run: int,
     return repaired
 
 
-def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport) -> None:
+def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport,
+                lines: np.ndarray) -> None:
     dt = np.diff(t)
     if dt.size and (dt <= 0).any():
-        row = int(np.flatnonzero(dt <= 0)[0]) + 1
+        bad = np.flatnonzero(dt <= 0) + 1
+        row = int(bad[0])
         what = "duplicated" if dt[row - 1] == 0 else "decreasing"
-        raise TimestampError(f"{what} timestamp {t[row]!r} after {t[row - 1]!r}; "
-                             "timestamps must increase strictly", path, "time", row)
+        raise TimestampError(f"{what} timestamp {t[row]!r} after {t[row - 1]!r} "
+                             f"({bad.size} such row(s), at {first_items(lines[bad])}); "
+                             "timestamps must increase strictly", path, "time", row,
+                             int(lines[row]))
     if dt.size:
         step = float(np.median(dt))
         for i in np.flatnonzero(dt > gap_factor * step):
@@ -180,17 +296,11 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
 
 
 def _check_imu_units(frame: pd.DataFrame, path: Path) -> None:
-    for c in ("wx", "wy", "wz"):
-        big = np.abs(frame[c].to_numpy()) > MAX_PLAUSIBLE_RATE_RAD_S
-        if big.any():
-            raise DataFormatError(f"angular rate above {MAX_PLAUSIBLE_RATE_RAD_S} rad/s; the "
-                                  "file looks like deg/s, expected rad/s", path, c,
-                                  int(np.flatnonzero(big)[0]))
     norm = np.linalg.norm(frame[["ax", "ay", "az"]].to_numpy(), axis=1)
     if np.median(norm) < 3.0:
-        raise DataFormatError(f"median specific force {np.median(norm):.2f} is far below "
-                              "9.81 m/s^2; the file looks like units of g, expected m/s^2",
-                              path, "az")
+        raise UnitError(f"rule accel_units: median specific force {np.median(norm):.2f} is "
+                        "far below 9.81 m/s^2; the file looks like units of g, expected "
+                        "m/s^2 (x 9.81)", path, "az")
 
 
 def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:
@@ -248,7 +358,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     meta: dict = {}
     if "meta" in files:
         try:
-            meta = json.loads(files["meta"].read_text())
+            meta = json.loads(_read_text(files["meta"]))
         except json.JSONDecodeError as exc:
             raise DataFormatError(f"invalid JSON: {exc}", files["meta"]) from None
         if not isinstance(meta, dict):
@@ -256,6 +366,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     streams: dict[str, pd.DataFrame] = {}
     repaired: dict[str, int] = {}
     gaps: dict[str, list] = {}
+    skipped: dict[str, int] = {}
     for kind, path in sorted(files.items()):
         if kind == "meta":
             continue
@@ -263,16 +374,55 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         name = STREAM_NAMES.get(kind, kind)
         streams[name] = frame
         repaired.update({f"{name}.{c}": n for c, n in report.repaired.items()})
+        skipped.update({f"{name}.{k}": n for k, n in report.skipped_lines.items() if n})
         if report.gaps:
             gaps[name] = report.gaps
+    vehicle = str(meta.get("vehicle", "husky"))
+    checks = check_run(run_id, streams, vehicle,
+                       {STREAM_NAMES.get(k, k): str(p) for k, p in files.items()})
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
-               vehicle=str(meta.get("vehicle", "husky")), source=str(files["pro"].parent),
-               meta={**meta, "repaired": repaired, "gaps": gaps,
-                     "files": {k: str(p) for k, p in files.items()}})
+               vehicle=vehicle, source=str(files["pro"].parent),
+               meta={**meta, "repaired": repaired, "gaps": gaps, "skipped_lines": skipped,
+                     **checks, "files": {k: str(p) for k, p in files.items()}})
+
+
+def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = False,
+                   **reader_options) -> list[Run]:
+    """Read the runs of a runs folder, or of one terrain folder of it.
+
+    Parameters
+    ----------
+    path : str or Path
+        A folder in the layout ``<path>/<TERRAIN>/<kind>_XX.csv``, or one ``<TERRAIN>``
+        folder (holding the CSV files itself).
+    labelled : bool
+        See :func:`read_runs_dir`.
+    progress : bool
+        Show a progress bar over runs.
+    **reader_options
+        Passed to :func:`read_stream_csv`.
+
+    Returns
+    -------
+    list of Run
+        Run ids ``<folder>/<TERRAIN>/<index>``, ``<folder>`` the runs folder's name.
+
+    Raises
+    ------
+    DataFormatError
+        If ``path`` is not a folder or holds no run file.
+    """
+    path = Path(path)
+    root, only = path, None
+    if path.is_dir() and any(_FILE_RE.match(p.name) for p in path.iterdir()):
+        root, only = path.parent, path.name
+    return read_runs_dir(root, root.resolve().name, labelled=labelled, progress=progress,
+                         only=only, **reader_options)
 
 
 def read_runs_dir(root: str | Path, dataset: str | None = None, *,
-                  labelled: bool = True, **reader_options) -> list[Run]:
+                  labelled: bool = True, progress: bool = False, only: str | None = None,
+                  **reader_options) -> list[Run]:
     """Read every run under ``root`` (layout ``<root>/<TERRAIN>/<kind>_XX.csv``).
 
     Parameters
@@ -284,6 +434,10 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     labelled : bool
         If True the terrain folder name is the label; if False runs are unlabelled
         (``terrain=None``, as for prediction).
+    progress : bool
+        Show a progress bar (tqdm, on stderr) over runs.
+    only : str, optional
+        Read the runs of this terrain folder only.
     **reader_options
         Passed to :func:`read_stream_csv`.
 
@@ -295,7 +449,12 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     root = Path(root)
     dataset = dataset or root.resolve().name
     runs = []
-    for (folder, index), files in sorted(list_run_files(root).items()):
+    items = sorted((k, v) for k, v in list_run_files(root).items()
+                   if only is None or k[0] == only)
+    if progress:
+        from tqdm.auto import tqdm
+        items = tqdm(items, desc="reading runs", unit="run")
+    for (folder, index), files in items:
         runs.append(read_run(files, f"{dataset}/{folder}/{index}", dataset,
                              folder.upper() if labelled else None, **reader_options))
     return runs

@@ -27,6 +27,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import list_run_files, read_run
+from terrain.io.plausibility import check_run
 from terrain.run import TIME, Run
 
 #: Citation and license of each dataset (from ``shared/data/README.md``).
@@ -152,7 +153,11 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
     if not path.exists():
         raise DataFormatError("manifest not found; regenerate data/ with `terrain convert`",
                               path)
-    return json.loads(path.read_text())
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, OSError) as exc:  # JSONDecodeError and UnicodeDecodeError included
+        raise DataFormatError(f"unreadable manifest ({type(exc).__name__}); regenerate data/ "
+                              "with `terrain convert`", path) from None
 
 
 def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
@@ -208,19 +213,28 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
             continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
-        table = pd.read_parquet(path)
+        try:
+            table = pd.read_parquet(path)
+        except (OSError, ValueError) as exc:  # pyarrow's errors derive from these
+            raise DataFormatError(f"unreadable Parquet file ({type(exc).__name__}: "
+                                  f"{str(exc)[:120]}); regenerate data/ with `terrain convert`",
+                                  path) from None
         tables[name] = {str(k): g.drop(columns=RUN_ID).reset_index(drop=True)
                         for k, g in table.groupby(RUN_ID, observed=True, sort=False)}
     runs = []
     for info in entry["runs"]:
         rid = info["run_id"]
         streams = {n: t[rid] for n, t in tables.items() if rid in t}
+        # the same plausibility rules as the CSV reader (ranges were checked on conversion)
+        checks = check_run(rid, streams, "husky",
+                           {n: f"{data_dir / dataset / STREAM_FILES[n]} run {rid}"
+                            for n in streams})
         runs.append(Run(run_id=rid, dataset=dataset, terrain=info["terrain"], streams=streams,
                         vehicle="husky", source=f"{data_dir / dataset} ({entry['source']})",
                         meta={"repaired": info["repaired"],
                               # JSON has no tuples: restore the reader's (t_start_s, t_end_s)
                               "gaps": {k: [tuple(g) for g in v]
-                                       for k, v in info["gaps"].items()}}))
+                                       for k, v in info["gaps"].items()}, **checks}))
     return runs
 
 

@@ -1,0 +1,439 @@
+"""Physical plausibility of measured streams: value ranges, unit and clock rules, stuck sensors.
+
+Robot logs go wrong in ordinary ways (a driver publishing the gyro in deg/s, wheel speeds in
+km/h, timestamps in ms, two clocks with different epochs, a dead sensor). The readers of
+:mod:`terrain.io` apply the rules below to every run they load. A rule whose evidence is
+*certain* raises a typed error naming the rule, its evidence and the likely fix; a rule whose
+evidence is only *likely* emits a :class:`~terrain.errors.DataWarning` saying what the reader
+assumed. Nothing is ever rescaled.
+
+Ranges (:data:`CHANNEL_LIMITS`, refuse beyond them, any vehicle)
+    * angular rate ``|w| <= 34.9 rad/s``: 2000 deg/s, the largest full-scale range of common
+      MEMS gyroscopes (Bosch BMI088 and InvenSense MPU-9250 datasheets);
+    * specific force ``|a| <= 235.4 m/s^2``: 24 g, the largest full-scale range of the BMI088
+      accelerometer (the shipped runs peak at 140 m/s^2 in shocks);
+    * wheel speed ``|v| <= 5 m/s`` and motor current ``|i| <= 1000 A``: an order of magnitude
+      above every vehicle of :mod:`terrain.vehicles` (top speeds 0.5 to 1.6 m/s); the
+      vehicle-specific bounds of :data:`VEHICLE_LIMITS` are stricter.
+
+Vehicle bounds (:data:`VEHICLE_LIMITS`, Clearpath Husky A200, the robot of the measured data)
+    * top speed 1.0 m/s and yaw rate 2.0 rad/s: Clearpath Husky datasheet, and the velocity
+      limits of Clearpath's ``husky_control/config/control.yaml`` (``max_velocity`` 1.0 m/s
+      linear, 2.0 rad/s angular); the same top speed is the motor limit of
+      :data:`terrain.vehicles.HUSKY`;
+    * motor current 80 A: the Husky A200 user manual (Clearpath, 2014, p. 12) rates the
+      motors at 8 A continuous "but they will spike to several times this"; the shipped runs
+      peak at 32.6 A. ASSUMED bound: ten times the continuous rating.
+
+Unit and clock rules (:func:`check_run`)
+    ``timestamp_units``
+        The sample rate implied by the median time step against the nominal rate range of
+        the stream (:data:`NOMINAL_RATE_HZ`). Certain (refuse) when the implied rate is ten
+        times below the range and 1000 x the implied rate falls inside it: the timestamps are
+        in ms.
+    ``clock_overlap``
+        The time spans of the streams of a run must overlap (both measured files start at
+        ``time = 0``). Certain when they do not overlap at all (e.g. an epoch clock beside a
+        clock from 0); likely (warning) when they overlap for less than half of the shorter.
+    ``gyro_units``
+        Yaw rate of the gyro against the difference of the wheel speeds (vehicles of
+        :data:`VEHICLE_LIMITS`, skid-steer): for a skid-steer
+        vehicle ``wz = (v_R - v_L) / (chi B)`` (ICR model, :mod:`terrain.vehicles.skid_steer`)
+        so the least-squares slope ``k`` of ``wz`` on ``v_R - v_L`` is ``1 / (chi B)``,
+        at most :data:`MAX_YAW_SLOPE_PER_M` (track ``B >= 0.2 m``, ``chi >= 1``; the shipped
+        runs give at most 1.5 1/m). A gyro in deg/s multiplies ``k`` by 57.3. Certain when the
+        wheels do turn (std of ``v_R - v_L`` >= 0.02 m/s), the correlation is >= 0.5 and ``k``
+        exceeds :data:`DEG_S_SLOPE_PER_M`. Likely when the median standard deviation of the
+        three gyro axes exceeds :data:`MAX_GYRO_SPREAD_RAD_S` (the shipped runs: at most
+        0.18 rad/s; their straight runs converted to deg/s: 0.33 to 10), or the yaw rate
+        exceeds twice the vehicle's limit.
+    ``wheel_speed_units``
+        Husky wheel speeds against the top speed: a wheel cannot turn faster than the motor
+        limit (top speed), so a 99th percentile above twice the top speed is certain (km/h is
+        3.6 x m/s); above 1.2 x the top speed it is likely. Against the accelerometer: the
+        slope of the wheel-speed derivative on the forward specific force (1 s averages) is
+        about 1 in m/s (the shipped runs: at most 0.5, the IMU axes being tilted); when the
+        correlation is >= 0.5 and the slope exceeds 2.5 the speeds are likely in km/h.
+    ``stuck_sensor``
+        A channel that holds one exact value for long is a dead or stuck sensor: IMU channels
+        for :data:`STUCK_IMU_S` (a live MEMS sensor never repeats a float for more than 2
+        samples in the shipped runs), motor currents for :data:`STUCK_CURRENT_S` (shipped
+        runs: at most 12.5 s, at standstill). Wheel speeds are not judged this way: quantised
+        speeds legitimately hold one value for minutes at cruise. Stuck stretches are reported
+        (``Run.meta["stuck"]``) and windows holding one are flagged by the commands.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+
+from terrain.errors import (ClockError, DataWarning, ImplausibleValueError, UnitError,
+                            first_items)
+from terrain.run import TIME
+
+
+@dataclass(frozen=True)
+class ChannelLimit:
+    """Largest plausible magnitude of a channel.
+
+    Parameters
+    ----------
+    limit : float
+        Largest plausible ``|value|`` in ``unit``.
+    unit : str
+        SI unit of the channel.
+    source : str
+        Where the bound comes from.
+    hint : str
+        Likely cause and fix, appended to the message.
+    """
+
+    limit: float
+    unit: str
+    source: str
+    hint: str = ""
+
+
+_GYRO = ChannelLimit(math.radians(2000.0), "rad/s",
+                     "2000 deg/s MEMS gyro full scale (BMI088, MPU-9250 datasheets)",
+                     "the file looks like deg/s, expected rad/s")
+_ACC = ChannelLimit(24 * 9.80665, "m/s^2", "24 g MEMS accelerometer full scale (BMI088)")
+_SPEED = ChannelLimit(5.0, "m/s", "5 x the fastest vehicle of terrain.vehicles")
+_CURRENT = ChannelLimit(1000.0, "A", "far above any motor of terrain.vehicles")
+
+#: canonical channel -> plausibility bound (any vehicle)
+CHANNEL_LIMITS: Mapping[str, ChannelLimit] = MappingProxyType({
+    "wx": _GYRO, "wy": _GYRO, "wz": _GYRO, "ax": _ACC, "ay": _ACC, "az": _ACC,
+    "vel_l": _SPEED, "vel_r": _SPEED, "cur_l": _CURRENT, "cur_r": _CURRENT,
+})
+
+
+@dataclass(frozen=True)
+class VehicleLimits:
+    """Datasheet bounds of one vehicle used by the unit rules.
+
+    Parameters
+    ----------
+    top_speed_m_s : float
+        Top speed, m/s.
+    max_yaw_rate_rad_s : float
+        Largest commanded yaw rate, rad/s.
+    max_current_a : float
+        Largest plausible motor current, A.
+    source : str
+        Where the figures come from.
+    """
+
+    top_speed_m_s: float
+    max_yaw_rate_rad_s: float
+    max_current_a: float
+    source: str
+
+
+VEHICLE_LIMITS: Mapping[str, VehicleLimits] = MappingProxyType({
+    "husky": VehicleLimits(1.0, 2.0, 80.0,
+                           "Clearpath Husky A200 datasheet and husky_control/config/"
+                           "control.yaml (1.0 m/s, 2.0 rad/s); user manual 2014 p. 12 "
+                           "(8 A continuous, spikes several times; 80 A ASSUMED)"),
+})
+
+#: stream -> (lowest, highest) nominal sample rate, Hz (MEMS IMUs 10-2000 Hz; Husky wheel
+#: reports 6.5-15 Hz in the shipped data, simulator streams up to 100 Hz)
+NOMINAL_RATE_HZ: Mapping[str, tuple[float, float]] = MappingProxyType({
+    "imu": (10.0, 2000.0), "wheels": (1.0, 1000.0)})
+#: largest plausible slope of wz on v_R - v_L, 1/m (1 / (chi B) with B >= 0.2 m, chi >= 1)
+MAX_YAW_SLOPE_PER_M = 5.0
+#: slope beyond which the gyro is certainly in deg/s (57.3 x the smallest rad/s slope seen,
+#: 0.3 1/m, is 17 1/m)
+DEG_S_SLOPE_PER_M = 15.0
+#: median standard deviation of the gyro axes above which a gyro is probably in deg/s, rad/s
+MAX_GYRO_SPREAD_RAD_S = 0.3
+#: seconds of one exact repeated value after which a channel is stuck
+STUCK_IMU_S = 1.0
+STUCK_CURRENT_S = 20.0
+
+
+def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
+                 lines: np.ndarray | None = None,
+                 limits: Mapping[str, ChannelLimit] = CHANNEL_LIMITS) -> None:
+    """Refuse values outside the plausibility range of their channel.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Stream frame with canonical channel names (SI units).
+    path : str or Path
+        File the frame was read from (for the message).
+    columns : Mapping[str, str]
+        Canonical name -> column name in the file.
+    lines : numpy.ndarray, optional
+        ``(n_rows,)`` 1-based file line of each row.
+    limits : Mapping[str, ChannelLimit]
+        Bounds per canonical channel.
+
+    Raises
+    ------
+    ImplausibleValueError
+        Naming file, column, the first offending lines and their count.
+    """
+    file_col = {v: k for k, v in columns.items()}
+    for name, lim in limits.items():
+        if name not in frame.columns or frame[name].dtype.kind != "f":
+            continue
+        values = frame[name].to_numpy()
+        bad = np.flatnonzero(np.abs(values) > lim.limit)
+        if bad.size:
+            where = lines[bad] if lines is not None else bad
+            raise ImplausibleValueError(
+                f"{bad.size} value(s) beyond +-{lim.limit:.4g} {lim.unit} ({lim.source}), "
+                f"first {values[bad[0]]:.6g} at "
+                f"{first_items(where, word='line' if lines is not None else 'row')}"
+                + (f"; {lim.hint}" if lim.hint else ""),
+                path, file_col.get(name, name), int(bad[0]),
+                int(where[0]) if lines is not None else None)
+
+
+def check_rate(t_s: np.ndarray, stream: str, path) -> None:
+    """Rule ``timestamp_units``: implied sample rate against the stream's nominal rate.
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        ``(n,)`` timestamps as read, supposedly s.
+    stream : str
+        Stream name (``imu``, ``wheels``; others are not judged).
+    path : str or Path
+        File (for the message).
+
+    Raises
+    ------
+    UnitError
+        When the timestamps are certainly in ms.
+    """
+    if stream not in NOMINAL_RATE_HZ or t_s.size < 2:
+        return
+    lo, hi = NOMINAL_RATE_HZ[stream]
+    rate = 1.0 / float(np.median(np.diff(t_s)))
+    if rate < lo / 10.0 and lo <= 1000.0 * rate <= hi:
+        raise UnitError(
+            f"rule timestamp_units: median step implies {rate:.4g} Hz, far below the "
+            f"{lo:g}-{hi:g} Hz of the {stream} stream; x1000 gives {1000 * rate:.4g} Hz: the "
+            "timestamps look like milliseconds; divide the time column by 1000", path, "time")
+    if not lo <= rate <= hi:
+        _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
+              f"Hz of the {stream} stream; timestamps assumed in s")
+
+
+def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
+              files: Mapping[str, str]) -> dict:
+    """Apply the clock, unit and stuck-sensor rules to the streams of one run.
+
+    Parameters
+    ----------
+    run_id : str
+        Run id (for the messages).
+    streams : Mapping[str, pandas.DataFrame]
+        Stream name -> frame (``t_s`` first, canonical channels, SI units).
+    vehicle : str
+        Vehicle name; the vehicle rules apply to vehicles of :data:`VEHICLE_LIMITS`.
+    files : Mapping[str, str]
+        Stream name -> file or source (for the messages).
+
+    Returns
+    -------
+    dict
+        ``{"stuck": {"<stream>.<channel>": [[t_start_s, t_end_s], ...]},
+        "warnings": [str, ...]}``, JSON-ready.
+
+    Raises
+    ------
+    ClockError
+        Streams whose time spans do not overlap.
+    UnitError
+        A gyro certainly in deg/s, wheel speeds certainly in km/h.
+    """
+    found: list[str] = []
+    imu, wheels = streams.get("imu"), streams.get("wheels")
+    src = (lambda s: files.get(s, run_id))
+    if imu is not None and wheels is not None and len(imu) and len(wheels):
+        _check_clocks(imu, wheels, src, found)
+        _check_gyro(imu, wheels, vehicle, src("imu"), found)
+    if wheels is not None and len(wheels) and vehicle in VEHICLE_LIMITS:
+        _check_wheel_speed(wheels, imu, VEHICLE_LIMITS[vehicle], src("wheels"), found)
+    stuck = stuck_stretches(streams)
+    for key, spans in stuck.items():
+        total = sum(b - a for a, b in spans)
+        found.append(f"{run_id}: {key} stuck at one value for {total:.1f} s "
+                     f"({len(spans)} stretch(es), first from t = {spans[0][0]:.1f} s): dead "
+                     "or stuck sensor; windows holding it are flagged")
+    for msg in found:
+        _warn(msg)
+    return {"stuck": stuck, "warnings": found}
+
+
+def stuck_stretches(streams: Mapping[str, pd.DataFrame]) -> dict[str, list[list[float]]]:
+    """Rule ``stuck_sensor``: stretches where a channel repeats one exact value for long.
+
+    Parameters
+    ----------
+    streams : Mapping[str, pandas.DataFrame]
+        Stream name -> frame; only ``imu`` channels and ``wheels`` currents are judged.
+
+    Returns
+    -------
+    dict
+        ``"<stream>.<channel>" -> [[t_start_s, t_end_s], ...]`` (only stuck channels).
+    """
+    judged = {"imu": (("wx", "wy", "wz", "ax", "ay", "az"), STUCK_IMU_S),
+              "wheels": (("cur_l", "cur_r"), STUCK_CURRENT_S)}
+    out: dict[str, list[list[float]]] = {}
+    for stream, (channels, min_s) in judged.items():
+        frame = streams.get(stream)
+        if frame is None or len(frame) < 3:
+            continue
+        t = frame[TIME].to_numpy()
+        for c in channels:
+            if c not in frame.columns:
+                continue
+            x = frame[c].to_numpy()
+            change = np.flatnonzero(np.diff(x) != 0)
+            starts = np.r_[0, change + 1]
+            ends = np.r_[change, x.size - 1]
+            # a stuck stretch also needs >= 10 samples (a slow stream's few repeats are not)
+            long = (t[ends] - t[starts] >= min_s) & (ends - starts >= 9)
+            if long.any():
+                out[f"{stream}.{c}"] = [[float(t[a]), float(t[b])]
+                                        for a, b in zip(starts[long], ends[long])]
+    return out
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, DataWarning, stacklevel=3)
+
+
+def _check_clocks(imu, wheels, src, found) -> None:
+    (a0, a1), (b0, b1) = ((float(f[TIME].iloc[0]), float(f[TIME].iloc[-1]))
+                          for f in (imu, wheels))
+    overlap = min(a1, b1) - max(a0, b0)
+    spans = f"imu {a0:.10g}..{a1:.10g} s, wheels {b0:.10g}..{b1:.10g} s"
+    if overlap <= 0:
+        raise ClockError(f"rule clock_overlap: the IMU and wheel clocks do not overlap "
+                         f"({spans}); both files must start near time 0 (subtract each "
+                         "file's first timestamp, or fix the one in another unit or epoch)",
+                         f"{src('imu')} and {src('wheels')}", "time")
+    shorter = min(a1 - a0, b1 - b0)
+    if shorter > 0 and overlap < 0.5 * shorter:
+        found.append(f"{src('imu')}: rule clock_overlap: the IMU and wheel clocks overlap for "
+                     f"{overlap:.1f} s only ({spans}); assumed one clock, only the overlap "
+                     "is used")
+
+
+def _check_gyro(imu, wheels, vehicle, path, found) -> None:
+    spread = float(np.median([np.std(imu[c].to_numpy()) for c in ("wx", "wy", "wz")]))
+    t_w = wheels[TIME].to_numpy()
+    t_i = imu[TIME].to_numpy()
+    inside = (t_w >= t_i[0]) & (t_w <= t_i[-1])
+    dv = (wheels["vel_r"].to_numpy() - wheels["vel_l"].to_numpy())[inside]
+    # skid-steer vehicles with datasheet bounds only: a steered vehicle's left/right wheel
+    # speeds do not set its yaw rate
+    if vehicle in VEHICLE_LIMITS and dv.size >= 10 and dv.std() >= 0.02:
+        wz = np.interp(t_w[inside], t_i, imu["wz"].to_numpy())
+        dv0, wz0 = dv - dv.mean(), wz - wz.mean()
+        denom = math.sqrt(float(dv0 @ dv0) * float(wz0 @ wz0))
+        corr = float(dv0 @ wz0) / denom if denom > 0 else 0.0
+        k = float(dv0 @ wz0) / float(dv0 @ dv0)
+        if abs(corr) >= 0.5 and abs(k) > DEG_S_SLOPE_PER_M:
+            raise UnitError(
+                f"rule gyro_units: slope of the yaw rate on the wheel speed difference is "
+                f"{k:.1f} 1/m (corr {corr:.2f}); a rad/s gyro gives 1 / (chi B), at most "
+                f"{MAX_YAW_SLOPE_PER_M:g} 1/m, and deg/s multiplies it by 57.3: the gyro is in "
+                "deg/s; convert wx, wy, wz to rad/s (x pi/180)", path, "wz")
+    lim = VEHICLE_LIMITS.get(vehicle)
+    p99 = float(np.percentile(np.abs(imu["wz"].to_numpy()), 99))
+    if spread > MAX_GYRO_SPREAD_RAD_S or (lim is not None and p99 > 2 * lim.max_yaw_rate_rad_s):
+        found.append(f"{path}: rule gyro_units: gyro spread {spread:.2f} rad/s (median axis "
+                     f"std; real runs <= 0.18), 99th-percentile |wz| {p99:.2f} rad/s: the gyro "
+                     "is probably in deg/s; assumed rad/s as the format requires")
+
+
+def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found) -> None:
+    speed = np.abs(np.r_[wheels["vel_l"].to_numpy(), wheels["vel_r"].to_numpy()])
+    p99 = float(np.percentile(speed, 99))
+    if p99 > 2.0 * lim.top_speed_m_s:
+        raise UnitError(
+            f"rule wheel_speed_units: 99th-percentile wheel speed {p99:.3g} is more than twice "
+            f"the top speed {lim.top_speed_m_s:g} m/s ({lim.source}); km/h is 3.6 x m/s: "
+            "convert velL, velR to m/s (/ 3.6)", path, "velL")
+    evidence = []
+    if p99 > 1.2 * lim.top_speed_m_s:
+        evidence.append(f"99th-percentile speed {p99:.3g} above 1.2 x top speed "
+                        f"{lim.top_speed_m_s:g} m/s")
+    slope = _speed_accel_slope(wheels, imu)
+    if slope is not None and slope > 2.5:
+        evidence.append(f"speed derivative / forward acceleration slope {slope:.2f} "
+                        "(m/s gives about 1, km/h 3.6)")
+    if evidence:
+        found.append(f"{path}: rule wheel_speed_units: {'; '.join(evidence)}: wheel speeds "
+                     "probably in km/h; assumed m/s as the format requires")
+
+
+def _speed_accel_slope(wheels, imu) -> float | None:
+    """Slope of d(mean wheel speed)/dt on ax (1 s averages), when correlated >= 0.5."""
+    if imu is None or len(imu) < 20 or len(wheels) < 10:
+        return None
+    t_i = imu[TIME].to_numpy()
+    step = float(np.median(np.diff(t_i)))
+    n = max(1, int(round(1.0 / step)))
+    if t_i.size <= 2 * n:
+        return None
+    v = np.interp(t_i, wheels[TIME].to_numpy(),
+                  0.5 * (wheels["vel_l"].to_numpy() + wheels["vel_r"].to_numpy()))
+    ax = imu["ax"].to_numpy()
+    dv = np.gradient(_moving_mean(v, n), t_i[n - 1:])
+    ax = _moving_mean(ax, n)
+    dv0, ax0 = dv - dv.mean(), ax - ax.mean()
+    denom = math.sqrt(float(dv0 @ dv0) * float(ax0 @ ax0))
+    if denom == 0 or float(dv0 @ ax0) / denom < 0.5:
+        return None
+    return float(dv0 @ ax0) / float(ax0 @ ax0)
+
+
+def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    """Means of the ``len(x) - n + 1`` full windows of ``n`` samples (O(len(x)))."""
+    c = np.cumsum(np.r_[0.0, x])
+    return (c[n:] - c[:-n]) / n
+
+
+def stuck_window_flags(stuck: Mapping[str, list], t_start_s: np.ndarray,
+                       t_end_s: np.ndarray) -> np.ndarray:
+    """Flag the windows that hold a stuck stretch of a channel.
+
+    Parameters
+    ----------
+    stuck : Mapping[str, list]
+        ``Run.meta["stuck"]``: ``"<stream>.<channel>" -> [[t_start_s, t_end_s], ...]``.
+    t_start_s, t_end_s : numpy.ndarray
+        ``(n_windows,)`` window bounds on the run's clock, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` strings: ``""`` or ``"stuck:<stream>.<channel>[,...]"``.
+    """
+    t0 = np.asarray(t_start_s, dtype=float)
+    t1 = np.asarray(t_end_s, dtype=float)
+    names = [[] for _ in range(t0.size)]
+    for key, spans in stuck.items():
+        hit = np.zeros(t0.size, dtype=bool)
+        for a, b in spans:
+            hit |= (t0 <= b) & (t1 >= a)
+        for i in np.flatnonzero(hit):
+            names[i].append(key)
+    return np.array(["stuck:" + ",".join(n) if n else "" for n in names], dtype=object)

@@ -1,0 +1,182 @@
+"""What the readers and the windowing step repaired, dropped or skipped, and why.
+
+Every command builds one :class:`InputReport` from the runs it read (their ``meta``: repaired
+cells, gaps, skipped blank/comment lines, stuck sensors, plausibility warnings) and the
+book-keeping of :func:`features.windows.make_windows` (windows kept and dropped per run,
+runs skipped for a missing stream, runs shorter than one window). The command prints
+:meth:`InputReport.text` (a few lines), logs :meth:`InputReport.metrics` to MLflow and the
+per-run :attr:`InputReport.table` as ``input_report.csv``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+import pandas as pd
+
+from terrain.run import Run
+
+#: columns of :attr:`InputReport.table`
+COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
+           "skipped_lines", "stuck", "windows", "dropped_gap", "dropped_unsteady",
+           "flagged_windows", "warnings")
+
+
+@dataclass(frozen=True)
+class InputReport:
+    """Per-run account of the input of one command.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        One row per run, columns :data:`COLUMNS`: ``status`` is ``used``, ``skipped`` or
+        ``too_short`` with the ``reason``; ``repaired`` lists ``<stream>.<channel>:<cells>``;
+        ``gaps`` / ``gap_s`` count the timestamp gaps and the time they span (s);
+        ``stuck`` lists stuck channels; window columns are empty (-1) when the command does
+        not window.
+    """
+
+    table: pd.DataFrame
+
+    def metrics(self, prefix: str = "input_") -> dict[str, float]:
+        """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, windows
+        dropped and flagged, stuck channels, warnings.
+
+        Parameters
+        ----------
+        prefix : str
+            Prefix of every metric name.
+
+        Returns
+        -------
+        dict
+            Metric name -> value.
+        """
+        t = self.table
+        windowed = t["windows"] >= 0
+        return {f"{prefix}{k}": float(v) for k, v in {
+            "runs": len(t), "runs_used": int((t["status"] == "used").sum()),
+            "runs_skipped": int((t["status"] == "skipped").sum()),
+            "runs_too_short": int((t["status"] == "too_short").sum()),
+            "repaired_cells": int(t["repaired_cells"].sum()), "gaps": int(t["gaps"].sum()),
+            "gap_s": float(t["gap_s"].sum()),
+            "skipped_lines": int(t["skipped_lines"].sum()),
+            "stuck_channels": int(t["stuck"].str.count(",").add(t["stuck"] != "").sum()),
+            "windows_dropped_gap": int(t.loc[windowed, "dropped_gap"].sum()),
+            "windows_dropped_unsteady": int(t.loc[windowed, "dropped_unsteady"].sum()),
+            "windows_flagged": int(t.loc[t["flagged_windows"] > 0, "flagged_windows"].sum()),
+            "warnings": int(t["warnings"].sum()),
+        }.items()}
+
+    def text(self, limit: int = 4) -> str:
+        """A compact account (a few lines) of what was repaired, dropped or skipped, and why.
+
+        Parameters
+        ----------
+        limit : int
+            Run ids shown per item before ``and N more``.
+
+        Returns
+        -------
+        str
+            Lines without trailing newline.
+        """
+        t, m = self.table, self.metrics("")
+        ids = (lambda mask: _short(list(t.loc[mask, "run_id"]), limit))
+        parts = [f"input: {int(m['runs'])} run(s), {int(m['runs_used'])} used"]
+        if m["repaired_cells"]:
+            per = (t.loc[t["repaired_cells"] > 0, ["run_id", "repaired"]]
+                   .apply(lambda r: f"{r.run_id} ({r.repaired})", axis=1))
+            parts.append(f"  repaired {int(m['repaired_cells'])} isolated non-finite cell(s) "
+                         f"by linear interpolation: {_short(list(per), limit)}")
+        if m["skipped_lines"]:
+            parts.append(f"  skipped {int(m['skipped_lines'])} blank/comment line(s): "
+                         f"{ids(t['skipped_lines'] > 0)}")
+        if m["gaps"]:
+            parts.append(f"  {int(m['gaps'])} timestamp gap(s) ({m['gap_s']:.1f} s) in "
+                         f"{ids(t['gaps'] > 0)}; never interpolated across")
+        if m["windows_dropped_gap"] or m["windows_dropped_unsteady"]:
+            parts.append(f"  dropped windows: {int(m['windows_dropped_gap'])} spanning a gap, "
+                         f"{int(m['windows_dropped_unsteady'])} unsteady (--steady-only)")
+        for status in ("skipped", "too_short"):
+            for reason, group in t[t["status"] == status].groupby("reason", sort=False):
+                word = "skipped" if status == "skipped" else "too short"
+                parts.append(f"  {len(group)} run(s) {word} ({reason}): "
+                             f"{_short(list(group['run_id']), limit)}")
+        if m["stuck_channels"]:
+            per = (t.loc[t["stuck"] != "", ["run_id", "stuck"]]
+                   .apply(lambda r: f"{r.run_id} ({r.stuck})", axis=1))
+            parts.append(f"  stuck or dead sensor channel(s): {_short(list(per), limit)}"
+                         + (f"; {int(m['windows_flagged'])} window(s) holding one flagged"
+                            if m["windows_flagged"] else ""))
+        if m["warnings"]:
+            parts.append(f"  {int(m['warnings'])} plausibility warning(s), printed above")
+        if len(parts) == 1:
+            parts[0] += "; nothing repaired, dropped or skipped"
+        return "\n".join(parts)
+
+
+def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
+                 window_s: float | None = None,
+                 flagged: Mapping[str, int] | None = None) -> InputReport:
+    """Build the report of the runs a command read and windowed.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        The runs read (their ``meta`` holds what the readers repaired and noticed).
+    counts : Mapping, optional
+        ``WindowSet.counts`` of :func:`features.windows.make_windows` (or the same keys:
+        ``per_run``, ``skipped_runs``, ``too_short_runs``). Without it the window columns
+        are -1.
+    window_s : float, optional
+        Window length, s (for the too-short reason).
+    flagged : Mapping[str, int], optional
+        Run id -> windows flagged for holding a stuck sensor.
+
+    Returns
+    -------
+    InputReport
+    """
+    counts = counts or {}
+    per_run = counts.get("per_run", {})
+    skipped = set(counts.get("skipped_runs", ()))
+    short = set(counts.get("too_short_runs", ()))
+    flagged = flagged or {}
+    rows = []
+    for run in runs:
+        meta = run.meta
+        repaired = dict(meta.get("repaired", {}))
+        gaps = [g for spans in dict(meta.get("gaps", {})).values() for g in spans]
+        stuck = sorted(dict(meta.get("stuck", {})))
+        w = per_run.get(run.run_id)
+        status, reason = "used", ""
+        if run.run_id in skipped:
+            missing = sorted({"imu", "wheels"} - set(run.streams))
+            status = "skipped"
+            reason = (f"no {' or '.join(missing)} stream" if missing
+                      else "lacks a stream the signals need")
+        elif run.run_id in short:
+            status = "too_short"
+            reason = ("shorter than one window" if window_s is None
+                      else f"shorter than one {window_s:g} s window")
+        rows.append({
+            "run_id": run.run_id, "status": status, "reason": reason,
+            "repaired_cells": int(sum(repaired.values())),
+            "repaired": ", ".join(f"{k}:{v}" for k, v in repaired.items()),
+            "gaps": len(gaps), "gap_s": float(sum(b - a for a, b in gaps)),
+            "skipped_lines": int(sum(dict(meta.get("skipped_lines", {})).values())),
+            "stuck": ",".join(stuck),
+            "windows": int(w["windows"]) if w else -1,
+            "dropped_gap": int(w["dropped_gap"]) if w else 0,
+            "dropped_unsteady": int(w["dropped_unsteady"]) if w else 0,
+            "flagged_windows": int(flagged.get(run.run_id, 0)),
+            "warnings": len(meta.get("warnings", ())),
+        })
+    return InputReport(pd.DataFrame(rows, columns=list(COLUMNS)))
+
+
+def _short(items: list[str], limit: int) -> str:
+    more = f" and {len(items) - limit} more" if len(items) > limit else ""
+    return ", ".join(items[:limit]) + more

@@ -1,0 +1,342 @@
+"""One test per class of bad input of issue 9, on real rows of the shipped runs.
+
+Every class gets a typed error naming the file (and column and file line where they exist)
+in one short line, or an explicit :class:`DataWarning`; nothing is rescaled.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.windows import WindowConfig, make_windows
+from terrain.errors import (ClockError, DataFormatError, DataWarning, EmptyFileError,
+                            EncodingError, ImplausibleValueError, NonNumericError,
+                            RaggedRowError, UnitError, UnreadableFileError)
+from terrain.io.measured import read_runs_dir, read_runs_path
+from terrain.io.plausibility import stuck_window_flags
+from terrain.io.report import input_report
+from terrain.io.shipped import load_dataset
+from terrain.run import TIME
+
+PRO_COLUMNS = {"t_s": "time", "vel_l": "velL", "vel_r": "velR", "cur_l": "curL",
+               "cur_r": "curR"}
+
+
+def _write(run, root):
+    """Write a shipped run in the measured CSV layout; returns (imu path, pro path)."""
+    _, terrain, index = run.run_id.split("/")
+    folder = root / terrain
+    folder.mkdir(parents=True, exist_ok=True)
+    pro = folder / f"pro_{index}.csv"
+    run.streams["wheels"].rename(columns=PRO_COLUMNS).to_csv(pro, index=False)
+    imu = folder / f"imu_{index}.csv"
+    run.streams["imu"].rename(columns={TIME: "time"}).to_csv(imu, index=False)
+    return imu, pro
+
+
+@pytest.fixture(scope="module")
+def runs_by_id(borealtc_runs):
+    return {r.run_id: r for r in borealtc_runs}
+
+
+@pytest.fixture
+def turning(runs_by_id, tmp_path):
+    """A real run that turns (yaw rate well correlated with the wheel speed difference)."""
+    return _write(runs_by_id["borealtc/ASPHALT/00"], tmp_path)
+
+
+def _edit(path, fn):
+    """Rewrite a CSV file through ``fn`` (edits the frame in place or returns a new one)."""
+    frame = pd.read_csv(path)
+    out = fn(frame)
+    (frame if out is None else out).to_csv(path, index=False)
+
+
+def _lines(path):
+    return path.read_text().split("\n")
+
+
+def _one_line(exc):
+    text = str(exc)
+    assert "\n" not in text and len(text) < 600, text
+    return text
+
+
+def _read(root):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        runs = read_runs_dir(root)
+    return runs, [w for w in caught if issubclass(w.category, DataWarning)]
+
+
+def test_shipped_and_csv_data_load_with_zero_warnings(tmp_path, borealtc_runs, vulpi_runs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        runs = load_dataset("combined")
+    assert len(runs) == 70 and all(not r.meta["warnings"] and not r.meta["stuck"] for r in runs)
+    for run in borealtc_runs[:6] + vulpi_runs[:3]:
+        if run.has_imu:
+            _write(run, tmp_path / run.dataset)
+    for root in (tmp_path / "borealtc", tmp_path / "vulpi"):
+        back, caught = _read(root)
+        assert back and not caught
+
+
+def test_non_utf8_byte_names_file_byte_offset_and_line(turning):
+    imu, _ = turning
+    data = bytearray(imu.read_bytes())
+    offset = 5000
+    data[offset] = 0xFF
+    imu.write_bytes(bytes(data))
+    with pytest.raises(EncodingError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.path == str(imu)
+    assert info.value.line == bytes(data[:offset]).count(b"\n") + 1
+    assert "byte offset 5000" in _one_line(info.value)
+
+
+@pytest.mark.parametrize("kind", ["directory", "symlink loop", "fifo"])
+def test_directory_or_symlink_loop_instead_of_a_file(turning, kind):
+    import os
+
+    imu, _ = turning
+    imu.unlink()
+    if kind == "directory":
+        imu.mkdir()
+    elif kind == "fifo":
+        os.mkfifo(imu)  # reading it would block forever
+    else:
+        imu.symlink_to(imu)
+    with pytest.raises(UnreadableFileError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.path == str(imu)
+    _one_line(info.value)
+
+
+def test_huge_finite_value_is_implausible_with_file_column_line(turning):
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__("ax", f["ax"].where(f.index != 500, 1e300)))
+    with pytest.raises(ImplausibleValueError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert (info.value.path, info.value.column, info.value.line) == (str(imu), "ax", 502)
+    assert "24 g" in _one_line(info.value)
+
+
+def test_gyro_in_deg_s_on_a_turning_run_is_refused_by_the_yaw_rule(turning):
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__(["wx", "wy", "wz"], np.degrees(f[["wx", "wy", "wz"]])))
+    with pytest.raises(UnitError) as info:
+        read_runs_dir(imu.parent.parent)
+    text = _one_line(info.value)
+    assert info.value.column == "wz" and "gyro_units" in text and "deg/s" in text
+
+
+def test_gyro_in_deg_s_on_a_straight_run_is_a_warning(runs_by_id, tmp_path):
+    run = runs_by_id["borealtc/ICE/12"]
+    w = run.streams["wheels"]
+    assert (w["vel_r"] - w["vel_l"]).std() < 0.02  # straight: the yaw rule has no evidence
+    imu, _ = _write(run, tmp_path)
+    _edit(imu, lambda f: f.__setitem__(["wx", "wy", "wz"], np.degrees(f[["wx", "wy", "wz"]])))
+    runs, caught = _read(tmp_path)
+    assert len(caught) == 1 and "gyro_units" in str(caught[0].message)
+    assert "assumed rad/s" in str(caught[0].message)
+    # never rescaled
+    np.testing.assert_allclose(runs[0].streams["imu"]["wz"], np.degrees(run.streams["imu"]["wz"]))
+
+
+def test_wheel_speeds_in_km_h_refused_when_beyond_twice_top_speed(runs_by_id, tmp_path):
+    _, pro = _write(runs_by_id["borealtc/ASPHALT/01"], tmp_path)  # cruises at 0.79 m/s
+    _edit(pro, lambda f: f.__setitem__(["velL", "velR"], 3.6 * f[["velL", "velR"]]))
+    with pytest.raises(UnitError) as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(pro) and "km/h" in _one_line(info.value)
+
+
+def test_slow_wheel_speeds_in_km_h_are_a_warning(turning):
+    _, pro = turning  # 0.47 m/s: 1.7 in km/h, below twice the top speed
+    _edit(pro, lambda f: f.__setitem__(["velL", "velR"], 3.6 * f[["velL", "velR"]]))
+    _, caught = _read(pro.parent.parent)
+    assert len(caught) == 1 and "wheel_speed_units" in str(caught[0].message)
+
+
+@pytest.mark.parametrize("which", ["both", "imu", "pro"])
+def test_timestamps_in_ms_are_refused(turning, which):
+    imu, pro = turning
+    for path in {"both": (imu, pro), "imu": (imu,), "pro": (pro,)}[which]:
+        _edit(path, lambda f: f.__setitem__("time", 1000.0 * f["time"]))
+    with pytest.raises(UnitError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.column == "time" and "milliseconds" in _one_line(info.value)
+
+
+def test_epoch_imu_clock_beside_a_clock_from_zero_is_refused(turning):
+    imu, pro = turning
+    _edit(imu, lambda f: f.__setitem__("time", f["time"] + 1.7e9))
+    with pytest.raises(ClockError) as info:
+        read_runs_dir(imu.parent.parent)
+    text = _one_line(info.value)
+    assert str(imu) in text and str(pro) in text and "do not overlap" in text
+
+
+def test_dead_sensor_is_reported_and_its_windows_flagged(turning):
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__("wz", 0.0))
+    (run,), caught = _read(imu.parent.parent)
+    assert len(caught) == 1 and "imu.wz stuck" in str(caught[0].message)
+    assert list(run.meta["stuck"]) == ["imu.wz"]
+    ws = make_windows([run], "all", WindowConfig(rate_hz=50.0))
+    flags = stuck_window_flags(run.meta["stuck"], ws.t_start_s, ws.t_end_s)
+    assert len(ws) > 10 and (flags == "stuck:imu.wz").all()
+    report = input_report([run], ws.counts, 2.0)
+    assert "stuck or dead sensor channel(s): " in report.text()
+    assert report.metrics()["input_stuck_channels"] == 1
+
+
+def test_stuck_stretch_flags_only_the_windows_holding_it(turning):
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__("ax", f["ax"].where((f["time"] < 20) | (f["time"] > 23),
+                                                           1.5)))
+    (run,), caught = _read(imu.parent.parent)
+    ((a, b),) = run.meta["stuck"]["imu.ax"]
+    assert 19.9 < a < 20.1 and 22.9 < b < 23.1
+    t0 = np.arange(0.0, 50.0, 2.0)
+    flags = stuck_window_flags(run.meta["stuck"], t0, t0 + 2.0)
+    assert list(t0[flags != ""]) == [18.0, 20.0, 22.0]
+
+
+def test_run_shorter_than_one_window_and_gaps_are_reported(runs_by_id, tmp_path):
+    imu, pro = _write(runs_by_id["borealtc/ASPHALT/00"], tmp_path)
+    _edit(imu, lambda f: f[f["time"] < 1.2])
+    _edit(pro, lambda f: f[f["time"] < 1.2])
+    other = runs_by_id["borealtc/ASPHALT/01"]
+    imu2, pro2 = _write(other, tmp_path)
+    _edit(imu2, lambda f: f[(f["time"] <= 10) | (f["time"] >= 14)])
+    runs, _ = _read(tmp_path)
+    ws = make_windows(runs, "all", WindowConfig(rate_hz=50.0))
+    report = input_report(runs, ws.counts, 2.0)
+    text = report.text()
+    assert "1 run(s) too short (shorter than one 2 s window): ASPHALT/00" in text.replace(
+        f"{tmp_path.name}/", "")
+    assert "timestamp gap(s)" in text and "spanning a gap" in text
+    m = report.metrics()
+    assert m["input_runs_too_short"] == 1 and m["input_gaps"] == 1
+    assert m["input_windows_dropped_gap"] == ws.counts["dropped_gap"] >= 2
+
+
+def test_repaired_cells_are_counted_shown_and_become_metrics(turning):
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__("wy", f["wy"].where(f.index % 7 != 3, np.nan)))
+    (run,), _ = _read(imu.parent.parent)
+    n = int((np.arange(len(run.streams["imu"])) % 7 == 3).sum())
+    assert run.meta["repaired"] == {"imu.wy": n}
+    report = input_report([run])
+    assert report.metrics()["input_repaired_cells"] == n > 700
+    assert f"repaired {n} isolated non-finite cell(s)" in report.text()
+    assert report.table.loc[0, "repaired"] == f"imu.wy:{n}"
+
+
+def test_trailing_comma_on_data_rows_is_a_ragged_row_error(turning):
+    imu, _ = turning
+    lines = _lines(imu)
+    imu.write_text("\n".join([lines[0]] + [ln + "," if ln else ln for ln in lines[1:]]))
+    with pytest.raises(RaggedRowError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.line == 2 and "trailing comma" in _one_line(info.value)
+
+
+def test_blank_and_comment_lines_keep_the_file_line_right(turning):
+    imu, _ = turning
+    lines = _lines(imu)
+    lines[30] = lines[30].replace(",", ",oops", 1)  # file line 31 before the insertions
+    lines.insert(5, "")
+    lines.insert(9, "# operator note")
+    imu.write_text("\n".join(lines))
+    with pytest.raises(NonNumericError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert (info.value.column, info.value.line) == ("wx", 33)
+    assert _lines(imu)[info.value.line - 1].split(",")[1].startswith("oops")
+
+
+def test_blank_and_comment_lines_are_skipped_and_counted(turning):
+    imu, _ = turning
+    lines = _lines(imu)
+    lines.insert(5, "")
+    lines.insert(9, "# operator note")
+    imu.write_text("\n".join(lines))
+    (run,), caught = _read(imu.parent.parent)
+    assert not caught and run.meta["skipped_lines"] == {"imu.blank": 1, "imu.comment": 1}
+    assert "skipped 2 blank/comment line(s)" in input_report([run]).text()
+
+
+def test_two_stray_quotes_289_rows_apart_give_a_short_message(turning):
+    imu, _ = turning
+    lines = _lines(imu)
+    lines[10] = '"' + lines[10]
+    lines[299] = lines[299] + '"'
+    imu.write_text("\n".join(lines))
+    with pytest.raises(RaggedRowError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.line == 11 and len(_one_line(info.value)) < 300
+
+
+def test_single_data_row_names_the_file(turning):
+    _, pro = turning
+    pro.write_text("\n".join(_lines(pro)[:2]) + "\n")
+    with pytest.raises(EmptyFileError) as info:
+        read_runs_dir(pro.parent.parent)
+    assert info.value.path == str(pro) and "single data row" in _one_line(info.value)
+
+
+def test_many_bad_cells_give_the_first_lines_and_a_count(turning):
+    imu, _ = turning
+    lines = _lines(imu)
+    for i in range(100, 600, 5):
+        lines[i] = lines[i].replace(",", ",x", 1)
+    imu.write_text("\n".join(lines))
+    with pytest.raises(NonNumericError) as info:
+        read_runs_dir(imu.parent.parent)
+    text = _one_line(info.value)
+    assert "100 non-numeric value(s)" in text and "lines 101, 106, 111 and 97 more" in text
+
+
+def test_a_terrain_folder_reads_like_its_runs_folder(turning):
+    imu, _ = turning
+    (a,) = read_runs_path(imu.parent.parent)
+    (b,) = read_runs_path(imu.parent)
+    assert a.run_id == b.run_id and a.streams["imu"].equals(b.streams["imu"])
+
+
+def test_data_format_error_message_names_line_not_row():
+    err = DataFormatError("bad", "f.csv", "wz", row=3, line=7)
+    assert str(err) == "bad (file f.csv, column 'wz', line 7)" and err.row == 3
+
+
+@pytest.mark.parametrize("content", [b"\xff{}", b"{not json", b"[1, 2]"])
+def test_bad_run_metadata_is_a_typed_error_naming_the_file(turning, content):
+    imu, _ = turning
+    meta = imu.with_name("meta_00.json")
+    meta.write_bytes(content)
+    with pytest.raises(DataFormatError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.path == str(meta)
+    _one_line(info.value)
+
+
+def test_corrupted_shipped_parquet_is_a_typed_error(tmp_path, data_dir):
+    import shutil
+
+    from terrain.io.shipped import read_shipped
+
+    copy = tmp_path / "data"
+    shutil.copytree(data_dir, copy)
+    path = copy / "vulpi" / "imu.parquet"
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2: len(data) // 2 + 64] = b"\0" * 64
+    path.write_bytes(bytes(data))
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", copy)
+    assert info.value.path == str(path) and "terrain convert" in _one_line(info.value)
