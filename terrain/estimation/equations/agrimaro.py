@@ -37,11 +37,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
-#: No control input: the AgriMaRo models are driven by their acceleration states.
-NO_INPUT = np.zeros(0)
-NO_INPUT.flags.writeable = False
 #: Number of states of the final design (eq. 6.1) and of the slip-in-state design (eq. 4.18).
 N_STATES_FINAL, N_STATES_SLIP = 12, 14
 #: Measurement rows of the final design (eq. 6.6).
@@ -346,84 +344,7 @@ def slip_state_observation_into(x, p, hx, H):
         _camera_rows(yaw, vx, vy, w, p[8], p[9], hx, H, 10, 2)
 
 
-@numba.njit(cache=True)
-def transition_pair(x, u, dt, p):
-    """``(f(x), F(x))`` of :func:`transition_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (n,)
-        State, n = 12 or 14 (C-contiguous float64).
-    u : ndarray, shape (0,)
-        Input (none).
-    dt : float
-        Step, s.
-    p : ndarray, shape (13,)
-        :meth:`AgriMaRoEquationParams.as_array`.
-
-    Returns
-    -------
-    fx : ndarray, shape (n,)
-    F : ndarray, shape (n, n)
-    """
-    n = x.shape[0]
-    fx = np.empty(n)
-    F = np.empty((n, n))
-    transition_into(x, u, dt, p, fx, F)
-    return fx, F
-
-
-@numba.njit(cache=True)
-def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (12,)
-        State of eq. 6.1 (C-contiguous float64).
-    p : ndarray, shape (13,)
-        :meth:`AgriMaRoEquationParams.as_array`.
-
-    Returns
-    -------
-    hx : ndarray, shape (14,)
-    H : ndarray, shape (14, 12)
-    """
-    hx = np.empty(14)
-    H = np.empty((14, 12))
-    observation_into(x, p, hx, H)
-    return hx, H
-
-
-@numba.njit(cache=True)
-def slip_state_observation_pair(x, p, m):
-    """``(h(x), H(x))`` of :func:`slip_state_observation_into`, new arrays.
-
-    Parameters
-    ----------
-    x : ndarray, shape (14,)
-        State of eq. 4.18 (C-contiguous float64).
-    p : ndarray, shape (13,)
-        :meth:`AgriMaRoEquationParams.as_array`.
-    m : int
-        Rows: 10, or 14 with the camera rows (``p[11] = 1``).
-
-    Returns
-    -------
-    hx : ndarray, shape (m,)
-    H : ndarray, shape (m, 14)
-    """
-    hx = np.empty(m)
-    H = np.empty((m, 14))
-    slip_state_observation_into(x, p, hx, H)
-    return hx, H
-
-
 # -- python-control style API -----------------------------------------------------------------
-
-def _state(x: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(x, dtype=np.float64)
-
 
 def f(x: np.ndarray, u: np.ndarray | None, dt: float,
       params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -444,7 +365,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (n,)
     """
-    return transition_pair(_state(x), NO_INPUT, float(dt), params.as_array())[0]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -466,7 +387,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (n, n)
     """
-    return transition_pair(_state(x), NO_INPUT, float(dt), params.as_array())[1]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
 
 
 def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -484,7 +405,7 @@ def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     ndarray, shape (14,)
         Rows in the order of :data:`terrain.estimation.agrimaro.MEASUREMENT_NAMES`.
     """
-    return observation_pair(_state(x), params.as_array())[0]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL)[0]
 
 
 def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -501,9 +422,8 @@ def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     -------
     ndarray, shape (14, 12)
     """
-    return observation_pair(_state(x), params.as_array())[1]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL)[1]
 
 
 __all__ = ["AgriMaRoEquationParams", "NO_INPUT", "wheel_rim_speed", "transition_into",
-           "observation_into", "slip_state_observation_into", "transition_pair", "observation_pair",
-           "slip_state_observation_pair", "f", "F", "h", "H"]
+           "observation_into", "slip_state_observation_into", "f", "F", "h", "H"]

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.vehicles.skid_steer import HUSKY
 
-#: No control input: the model is a random walk corrected by the measurements.
-NO_INPUT = np.zeros(0)
-NO_INPUT.flags.writeable = False
+#: Number of states and of measurement rows.
+N_STATES, N_ROWS = 4, 3
 
 
 @dataclass(frozen=True)
@@ -107,28 +107,6 @@ def observation_into(x, p, hx, H):
     H[2, 0], H[2, 1], H[2, 2], H[2, 3] = 0.0, 1.0, 1.0, 0.0
 
 
-@numba.njit(cache=True)
-def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (4,)
-        State ``[v_bx, yaw_rate, b_g, ln(chi)]`` (C-contiguous float64).
-    p : ndarray, shape (2,)
-        :meth:`SkidSteerEquationParams.as_array`.
-
-    Returns
-    -------
-    hx : ndarray, shape (3,)
-    H : ndarray, shape (3, 4)
-    """
-    hx = np.empty(3)
-    H = np.empty((3, 4))
-    observation_into(x, p, hx, H)
-    return hx, H
-
-
 def f(x: np.ndarray, u: np.ndarray | None, dt: float,
       params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
     """Next state: ``x`` (random walk).
@@ -148,10 +126,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (4,)
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    fx, Fm = np.empty(x.shape[0]), np.empty((x.shape[0], x.shape[0]))
-    transition_into(x, NO_INPUT, float(dt), params.as_array(), fx, Fm)
-    return fx
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -173,10 +148,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (4, 4)
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    fx, Fm = np.empty(x.shape[0]), np.empty((x.shape[0], x.shape[0]))
-    transition_into(x, NO_INPUT, float(dt), params.as_array(), fx, Fm)
-    return Fm
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
 
 
 def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
@@ -193,7 +165,7 @@ def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     -------
     ndarray, shape (3,)
     """
-    return observation_pair(np.ascontiguousarray(x, dtype=np.float64), params.as_array())[0]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS)[0]
 
 
 def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
@@ -210,8 +182,8 @@ def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     -------
     ndarray, shape (3, 4)
     """
-    return observation_pair(np.ascontiguousarray(x, dtype=np.float64), params.as_array())[1]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS)[1]
 
 
 __all__ = ["SkidSteerEquationParams", "NO_INPUT", "transition_into", "observation_into",
-           "observation_pair", "f", "F", "h", "H"]
+           "f", "F", "h", "H"]
