@@ -8,6 +8,10 @@ a random walk (``f(x) = x``, ``F = I``). Measurements, with ``chi`` the ICR expa
 
     vel_l = v_bx - chi B yaw_rate / 2,   vel_r = v_bx + chi B yaw_rate / 2,   wz = yaw_rate + b_g
 
+(the wheel rows are :func:`terrain.vehicles.skid_steer.side_speeds`, inlined into the kernel:
+see :mod:`terrain.estimation.equations.agrimaro` for numba's cache and the test that guards
+it).
+
 The ``ln(chi)`` column of the wheel rows is zero while ``|yaw_rate|`` is below
 ``chi_min_yaw_rate_rad_s`` (``chi`` is then a consider parameter, see
 :class:`~terrain.estimation.skid_steer.SkidSteerSettings`).
@@ -22,7 +26,7 @@ import numba
 import numpy as np
 
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
-from terrain.vehicles.skid_steer import HUSKY
+from terrain.vehicles.skid_steer import HUSKY, side_speeds
 
 #: Number of states and of measurement rows.
 N_STATES, N_ROWS = 4, 3
@@ -96,10 +100,9 @@ def observation_into(x, p, hx, H):
     H : ndarray, shape (3, 4)
         Output: ``dh/dx``.
     """
-    v, w, b, lc = x[0], x[1], x[2], x[3]
-    k = math.exp(lc) * 0.5 * p[0]                 # chi B / 2
-    hx[0] = v - k * w
-    hx[1] = v + k * w
+    v, w, b, chi = x[0], x[1], x[2], math.exp(x[3])
+    hx[0], hx[1] = side_speeds(v, w, p[0], chi)
+    k = side_speeds(0.0, 1.0, p[0], chi)[1]       # d vel_r / d yaw_rate = chi B / 2
     hx[2] = w + b
     kw = k * w if abs(w) >= p[1] else 0.0
     H[0, 0], H[0, 1], H[0, 2], H[0, 3] = 1.0, -k, 0.0, -kw
