@@ -47,6 +47,7 @@ from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
+from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
 
 if TYPE_CHECKING:
@@ -317,36 +318,6 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     result = run_filter(SkidSteerModel(settings, wheel_r_scale=scale), t, samples, gate=gate)
     result.meta.update(model="skid-steer-4", track_m=settings.track_m, wheel_r_scale=scale)
     return result
-
-
-def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray,
-                   track_m: float, min_yaw_rate_rad_s: float = 0.1) -> float:
-    """Effective ICR factor of a recording: least squares of ``v_R - v_L = chi B yaw_rate``
-    over the samples turning faster than ``min_yaw_rate_rad_s``.
-
-    Parameters
-    ----------
-    v_left_m_s, v_right_m_s : ndarray, shape (N,)
-        True rim speeds, m/s.
-    yaw_rate_rad_s : ndarray, shape (N,)
-        True yaw rate, rad/s.
-    track_m : float
-        Track width B, m.
-    min_yaw_rate_rad_s : float
-        Samples turning slower than this are left out, rad/s.
-
-    Returns
-    -------
-    float
-        NaN when the recording never turns.
-    """
-    w = np.asarray(yaw_rate_rad_s, dtype=float)
-    d = np.asarray(v_right_m_s, dtype=float) - np.asarray(v_left_m_s, dtype=float)
-    turning = np.abs(w) > min_yaw_rate_rad_s
-    if not turning.any():
-        return float("nan")
-    x = track_m * w[turning]
-    return float(x @ d[turning] / (x @ x))
 
 
 def icr_chi(result: EKFResult) -> np.ndarray:
