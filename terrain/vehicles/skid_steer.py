@@ -207,9 +207,35 @@ def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m:
     v_m_s : ndarray, shape (n,)
     yaw_rate_rad_s : ndarray, shape (n,)
     """
-    vl = np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float)
-    vr = np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float)
-    return 0.5 * (vl + vr), (vr - vl) / (chi * track_m)
+    return body_rates(np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float),
+                      np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float), track_m, chi)
+
+
+@register_jitable
+def body_rates(v_left_m_s, v_right_m_s, track_m, chi):
+    """Body speed and yaw rate from the effective side speeds ``eta v`` (seed
+    ``000_f24201ff985633bf.txt`` eqs. 2 and 5; ICR expansion ``chi`` of Mandow et al. 2007):
+    ``V_G = (v_R + v_L) / 2``, ``Omega = (v_R - v_L) / (chi B)``; the inverse of
+    :func:`side_speeds`. The one home of this relation: NumPy callers, the observer of
+    :mod:`terrain.estimation.observer` and numba code call it.
+
+    Parameters
+    ----------
+    v_left_m_s, v_right_m_s : float or ndarray
+        Effective side speeds (rim speed times slip efficiency), m/s.
+    track_m : float
+        Track width B (= 2 d of seed 000), m.
+    chi : float or ndarray
+        ICR expansion factor, dimensionless (1 = ideal).
+
+    Returns
+    -------
+    v_m_s : float or ndarray
+        Body forward speed, m/s.
+    yaw_rate_rad_s : float or ndarray
+        Yaw rate, rad/s.
+    """
+    return 0.5 * (v_left_m_s + v_right_m_s), (v_right_m_s - v_left_m_s) / (chi * track_m)
 
 
 def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: float,
