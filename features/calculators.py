@@ -51,6 +51,29 @@ def std(x: np.ndarray) -> np.ndarray:
     return x.std(axis=-1)
 
 
+def _standardised_moment(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Standardised central moment ``m_k / m_2^(k/2)`` over samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+    k : int
+        Order of the moment (3: skewness, 4: kurtosis).
+
+    Returns
+    -------
+    varies : numpy.ndarray of bool
+        ``(n_windows, n_channels)``, ``m_2 > 1e-12`` (the window is not constant).
+    moment : numpy.ndarray
+        ``(n_windows, n_channels)``, dimensionless (``m_2`` floored at 1e-12).
+    """
+    d = x - x.mean(axis=-1, keepdims=True)
+    m2 = (d ** 2).mean(axis=-1)
+    mk = (d ** k).mean(axis=-1)
+    return m2 > _EPS, mk / np.maximum(m2, _EPS) ** (k / 2)
+
+
 def skewness(x: np.ndarray) -> np.ndarray:
     """Fisher skewness m3 / m2^1.5 (0 for a constant window).
 
@@ -64,10 +87,8 @@ def skewness(x: np.ndarray) -> np.ndarray:
     numpy.ndarray
         ``(n_windows, n_channels)``, dimensionless.
     """
-    d = x - x.mean(axis=-1, keepdims=True)
-    m2 = (d ** 2).mean(axis=-1)
-    m3 = (d ** 3).mean(axis=-1)
-    return np.where(m2 > _EPS, m3 / np.maximum(m2, _EPS) ** 1.5, 0.0)
+    varies, moment = _standardised_moment(x, 3)
+    return np.where(varies, moment, 0.0)
 
 
 def kurtosis(x: np.ndarray) -> np.ndarray:
@@ -83,10 +104,8 @@ def kurtosis(x: np.ndarray) -> np.ndarray:
     numpy.ndarray
         ``(n_windows, n_channels)``, dimensionless.
     """
-    d = x - x.mean(axis=-1, keepdims=True)
-    m2 = (d ** 2).mean(axis=-1)
-    m4 = (d ** 4).mean(axis=-1)
-    return np.where(m2 > _EPS, m4 / np.maximum(m2, _EPS) ** 2 - 3.0, 0.0)
+    varies, moment = _standardised_moment(x, 4)
+    return np.where(varies, moment - 3.0, 0.0)
 
 
 def rms(x: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.estimation.agrimaro import estimate_agrimaro
-from terrain.estimation.consistency import nees, state_errors
+from terrain.estimation.consistency import nees, rmse, state_errors
 from terrain.estimation.slip_state import STATE_NAMES as SLIP_STATE_NAMES
 from terrain.estimation.slip_state import SlipStateModel, noise_derived_slip_state_model
 from pipelines.validation.harness import (THESIS_TERRAINS, agrimaro_consistency,
@@ -34,8 +34,8 @@ def _slip_errors(result, est, t_steady_s: float = 5.0, t_transient_s: float = 3.
     trans = est.ekf.t_s < t_transient_s
     out = {f"steady_err_{j + 1}": float(np.nanmean(e[steady, j])) for j in range(3)}
     out["steady_truth"] = float(np.mean(truth[steady]))
-    out["transient_rmse"] = float(np.sqrt(np.nanmean(e[trans] ** 2)))
-    out["rmse"] = float(np.sqrt(np.nanmean(e ** 2)))
+    out["transient_rmse"] = rmse(e[trans], ignore_nan=True)
+    out["rmse"] = rmse(e, ignore_nan=True)
     return out
 
 
@@ -176,8 +176,8 @@ def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) ->
                 slip_e = est - tr[list(SLIPS)].to_numpy()
                 rows.append({"terrain": terrain, "seed": seed, "design": label,
                              "steady_slip_err": float(np.abs(slip_e[steady].mean(axis=0)).max()),
-                             "slip_rmse": float(np.sqrt(np.mean(slip_e ** 2))),
-                             "v_bx_rmse": float(np.sqrt(np.mean(e[:, 3] ** 2))),
+                             "slip_rmse": rmse(slip_e),
+                             "v_bx_rmse": rmse(e[:, 3]),
                              "max_abs_slip": float(np.abs(est).max()),
                              "anees_per_state": float(np.mean(nees(e, res.P)) / 14)})
             est12 = estimate_run(run)
@@ -187,8 +187,7 @@ def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) ->
                          "design": "12-state (ch. 6.1) + post-hoc slip (ch. 7)",
                          "steady_slip_err": max(abs(err[f"steady_err_{j}"]) for j in (1, 2, 3)),
                          "slip_rmse": err["rmse"],
-                         "v_bx_rmse": float(np.sqrt(np.mean((est12.ekf.state("v_bx")
-                                                             - tr["v_bx"]) ** 2))),
+                         "v_bx_rmse": rmse(est12.ekf.state("v_bx") - tr["v_bx"], ignore_nan=True),
                          "max_abs_slip": float(np.nanmax(np.abs(est12.slip))),
                          "anees_per_state": float("nan")})
     return pd.DataFrame(rows)

@@ -21,7 +21,8 @@ import pandas as pd
 
 from terrain.estimation.agrimaro import (STATE_NAMES, AgriMaRoEKFSettings, AgriMaRoModel,
                                          estimate_agrimaro, noise_derived_settings)
-from terrain.estimation.consistency import chi2_test, mean_chi2_bounds, nees, state_errors
+from terrain.estimation.consistency import (chi2_test, mean_chi2_bounds, nees, rmse,
+                                            state_errors)
 from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_truth,
                                          run_adaptive_observer)
 from terrain.estimation.prefilter import robust_noise_std
@@ -225,7 +226,7 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
     -------
     ConsistencyRow
     """
-    nees_runs, nis_all, dof_all, sq = [], [], [], {k: [] for k in ("v_bx", "v_by", "yaw_rate")}
+    nees_runs, nis_all, dof_all, err = [], [], [], {k: [] for k in ("v_bx", "v_by", "yaw_rate")}
     grid = None
     for seed in seeds:
         result = simulate_agrimaro(terrain, seed, duration_s, scenario)
@@ -237,9 +238,9 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
         nees_runs.append(nees(e, res.P)[keep])
         nis_all.append(res.nis[keep])
         dof_all.append(res.dof[keep])
-        for k in sq:
+        for k in err:
             j = STATE_NAMES.index(k)
-            sq[k].append(e[keep, j] ** 2)
+            err[k].append(e[keep, j])
         grid = res.t_s[keep] if grid is None else grid
     n = min(len(a) for a in nees_runs)
     avg = np.mean([a[:n] for a in nees_runs], axis=0)
@@ -252,8 +253,7 @@ def agrimaro_consistency(terrain: str, seeds: Sequence[int], duration_s: float =
                           nees_bounds=(lo, hi),
                           nees_fraction_in_bounds=float(((avg >= lo) & (avg <= hi)).mean()),
                           nis_mean=test.mean, nis_dof=test.dof, nis_bounds=test.bounds,
-                          rmse={k: float(np.sqrt(np.mean(np.concatenate(v))))
-                                for k, v in sq.items()})
+                          rmse={k: rmse(np.concatenate(v)) for k, v in err.items()})
 
 
 def coriolis_prediction_error(result: Simulation) -> dict[str, float]:
@@ -286,7 +286,7 @@ def coriolis_prediction_error(result: Simulation) -> dict[str, float]:
         x[:, 6:8] = ph.accel_body[1:]
         pred = np.array([model.f(xi, dt)[3:5] for xi in x])
         err = pred - ph.twist[1:, :2]
-        out[conv] = float(np.sqrt(np.mean(err ** 2)))
+        out[conv] = rmse(err)
     return out
 
 
@@ -312,7 +312,7 @@ def coriolis_filter_rmse(result: Simulation, settings_fn: Callable[[Run], AgriMa
     for conv in ("body", "eq6.2"):
         res = estimate_agrimaro(run, replace(base, coriolis=conv))
         tr = truth_on_grid(result, res.t_s)
-        out[conv] = {k: float(np.sqrt(np.mean((res.state(k) - tr[k].to_numpy()) ** 2)))
+        out[conv] = {k: rmse(res.state(k) - tr[k].to_numpy())
                      for k in ("v_bx", "v_by", "yaw_rate")}
     return out
 

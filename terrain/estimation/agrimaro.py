@@ -60,10 +60,9 @@ from scipy.integrate import cumulative_trapezoid
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
-from terrain.estimation.equations.agrimaro import (NO_INPUT, AgriMaRoEquationParams,
-                                                   observation_into, observation_pair,
-                                                   transition_into, transition_pair)
-from terrain.estimation.model import StateSpaceModel
+from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
+                                                   transition_into)
+from terrain.estimation.model import KernelModel, StateSpaceModel, diagonal_process_noise
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import SensorSamples, make_grid, run_filter
@@ -225,7 +224,7 @@ def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float
 
 
 @dataclass(frozen=True)
-class AgriMaRoModel(StateSpaceModel):
+class AgriMaRoModel(KernelModel):
     """The 12-state / 14-measurement model of seed ``001_59da564c4b2d6a48.txt`` ch. 6.1
     (eqs. 6.1-6.6); its equations are :mod:`terrain.estimation.equations.agrimaro`.
 
@@ -252,10 +251,8 @@ class AgriMaRoModel(StateSpaceModel):
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
     angle_rows: tuple[int, ...] = field(default=(6, 13), init=False)
-    _p: np.ndarray = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "_p", self.equation_params.as_array())
+    transition_kernel = staticmethod(transition_into)
+    observation_kernel = staticmethod(observation_into)
 
     @property
     def equation_params(self) -> AgriMaRoEquationParams:
@@ -272,58 +269,6 @@ class AgriMaRoModel(StateSpaceModel):
     def _sign(self) -> float:
         return 1.0 if self.settings.coriolis == "body" else -1.0
 
-    # -- process model -------------------------------------------------------------------
-    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Process model (eq. 6.2 with the eq. 4.33-4.34 Coriolis signs).
-
-        Parameters
-        ----------
-        x : ndarray, shape (12,)
-            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
-        dt : float
-            Step, s (> 0).
-
-        Returns
-        -------
-        ndarray, shape (12,)
-        """
-        return self.transition(x, dt)[0]
-
-    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Jacobian of :meth:`f`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (12,)
-            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
-        dt : float
-            Step, s (> 0).
-
-        Returns
-        -------
-        ndarray, shape (12, 12)
-        """
-        return self.transition(x, dt)[1]
-
-    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))`` of
-        :func:`terrain.estimation.equations.agrimaro.transition_into`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (12,)
-            State (eq. 6.1).
-        dt : float
-            Step, s.
-
-        Returns
-        -------
-        fx : ndarray, shape (12,)
-        F : ndarray, shape (12, 12)
-        """
-        return transition_pair(np.ascontiguousarray(x, dtype=np.float64), NO_INPUT, float(dt),
-                               self._p)
-
     def Q(self, dt: float) -> np.ndarray:
         """Process noise of one step: ``diag(q)`` per step or ``diag(q) dt`` (eq. 6.14).
 
@@ -336,53 +281,7 @@ class AgriMaRoModel(StateSpaceModel):
         -------
         ndarray, shape (12, 12)
         """
-        q = np.asarray(self.settings.q_diag, dtype=float)
-        return np.diag(q if self.settings.q_per == "step" else q * dt)
-
-    # -- measurement model ---------------------------------------------------------------
-    def h(self, x: np.ndarray) -> np.ndarray:
-        """Measurement model (eq. 6.6).
-
-        Parameters
-        ----------
-        x : ndarray, shape (12,)
-            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
-
-        Returns
-        -------
-        ndarray, shape (14,)
-        """
-        return self.observation(x)[0]
-
-    def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (12,)
-            State of eq. 6.1 (m, rad, m/s, rad/s, m/s^2, rad, rad/s).
-
-        Returns
-        -------
-        ndarray, shape (14, 12)
-        """
-        return self.observation(x)[1]
-
-    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))`` of
-        :func:`terrain.estimation.equations.agrimaro.observation_into`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (12,)
-            State (eq. 6.1).
-
-        Returns
-        -------
-        hx : ndarray, shape (14,)
-        H : ndarray, shape (14, 12)
-        """
-        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
+        return diagonal_process_noise(self.settings.q_diag, self.settings.q_per, dt)
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -410,12 +309,7 @@ class AgriMaRoModel(StateSpaceModel):
         """
         if type(self) is not AgriMaRoModel:
             return None
-        from terrain.estimation.fast import FastKernel
-
-        return FastKernel(transition_into, observation_into, tuple(self._p.tolist()),
-                          len(STATE_NAMES), len(MEASUREMENT_NAMES),
-                          tuple(float(q) for q in self.settings.q_diag), self.settings.q_per,
-                          self.angle_rows)
+        return self.kernel_for_fast_loop(self.settings.q_diag, self.settings.q_per)
 
 
 def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettings(),

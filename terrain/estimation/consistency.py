@@ -69,6 +69,26 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
     return e
 
 
+def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
+    """Root mean square of estimation errors, ``sqrt(mean(e^2))`` over every element.
+
+    Parameters
+    ----------
+    errors : array_like
+        Errors ``estimate - truth`` of any shape, in the unit of the quantity.
+    ignore_nan : bool
+        Average over the finite errors only (``numpy.nanmean``; for estimates that are NaN by
+        design, e.g. a slip inside its dead band). False: a NaN error gives NaN.
+
+    Returns
+    -------
+    float
+        In the unit of ``errors``.
+    """
+    sq = np.asarray(errors, dtype=float) ** 2
+    return float(np.sqrt(np.nanmean(sq) if ignore_nan else np.mean(sq)))
+
+
 def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
                      ) -> tuple[float, float]:
     """Two-sided bounds of the mean of ``n_samples`` independent chi-square(``dof``) values

@@ -183,6 +183,41 @@ def _cho_solve(L, n, B, ncols):
             B[i, c] *= inv
 
 
+@numba.njit(cache=True, inline="always")
+def _row_nonzeros(M, i, nz, cnt):
+    """Column indices of the non-zeros of row ``i`` of ``M`` into ``nz[i, :cnt[i]]`` (the
+    sparsity the loop exploits in ``F`` and ``H``)."""
+    c = 0
+    for j in range(M.shape[1]):
+        if M[i, j] != 0.0:
+            nz[i, c] = j
+            c += 1
+    cnt[i] = c
+
+
+@numba.njit(cache=True, inline="always")
+def _sparse_row_times(M, i, nz, cnt, P, out):
+    """``out[i, :] = M[i, :] P`` through the non-zeros ``nz[i, :cnt[i]]`` of row ``i``."""
+    n = P.shape[1]
+    for c in range(n):
+        out[i, c] = 0.0
+    for a in range(cnt[i]):
+        j = nz[i, a]
+        mij = M[i, j]
+        for c in range(n):
+            out[i, c] += mij * P[j, c]
+
+
+@numba.njit(cache=True, inline="always")
+def _dot_row_nonzeros(X, i, M, j, nz, cnt):
+    """``X[i, :] . M[j, :]`` over the non-zeros ``nz[j, :cnt[j]]`` of row ``j`` of ``M``."""
+    s = 0.0
+    for e in range(cnt[j]):
+        c = nz[j, e]
+        s += X[i, c] * M[j, c]
+    return s
+
+
 @numba.njit(cache=True)
 def _filter_loop(transition, observation, model, data, options, out):
     """The whole run on the grid; writes ``out`` in place and returns ``(status, step)``
@@ -234,27 +269,12 @@ def _filter_loop(transition, observation, model, data, options, out):
             dt = dts[k - 1]
             transition(x, u, dt, params, fx, F)
             for i in range(n):
-                c = 0
-                for j in range(n):
-                    if F[i, j] != 0.0:
-                        f_nz[i, c] = j
-                        c += 1
-                f_cnt[i] = c
+                _row_nonzeros(F, i, f_nz, f_cnt)
             for i in range(n):                    # T = F P
-                for j in range(n):
-                    T[i, j] = 0.0
-                for a in range(f_cnt[i]):
-                    j = f_nz[i, a]
-                    fij = F[i, j]
-                    for c in range(n):
-                        T[i, c] += fij * P[j, c]
+                _sparse_row_times(F, i, f_nz, f_cnt, P, T)
             for i in range(n):                    # U = T F^T
                 for j in range(n):
-                    s = 0.0
-                    for a in range(f_cnt[j]):
-                        c = f_nz[j, a]
-                        s += T[i, c] * F[j, c]
-                    U[i, j] = s
+                    U[i, j] = _dot_row_nonzeros(T, i, F, j, f_nz, f_cnt)
             for i in range(n):
                 U[i, i] += q_diag[i] * dt if q_per_second else q_diag[i]
             for i in range(n):
@@ -278,29 +298,14 @@ def _filter_loop(transition, observation, model, data, options, out):
                 if is_angle[r]:
                     yv = (yv + math.pi) % two_pi - math.pi
                 ya[a] = yv
-                c = 0
                 for j in range(n):
-                    hv = Hf[r, j]
-                    Ha[a, j] = hv
-                    if hv != 0.0:
-                        h_nz[a, c] = j
-                        c += 1
-                h_cnt[a] = c
+                    Ha[a, j] = Hf[r, j]
+                _row_nonzeros(Ha, a, h_nz, h_cnt)
             for a in range(na):                   # HP = H P
-                for j in range(n):
-                    HP[a, j] = 0.0
-                for e in range(h_cnt[a]):
-                    j = h_nz[a, e]
-                    hv = Ha[a, j]
-                    for c in range(n):
-                        HP[a, c] += hv * P[j, c]
+                _sparse_row_times(Ha, a, h_nz, h_cnt, P, HP)
             for a in range(na):                   # S = H P H^T + R (eq. 4.9), lower
                 for b in range(a + 1):            # triangle: all the factorisations read
-                    s = 0.0
-                    for e in range(h_cnt[b]):
-                        j = h_nz[b, e]
-                        s += HP[a, j] * Ha[b, j]
-                    S[a, b] = s
+                    S[a, b] = _dot_row_nonzeros(HP, a, Ha, b, h_nz, h_cnt)
                 S[a, a] += r_diag[rows[a]]
             for a in range(na):
                 ok_row[a] = True

@@ -15,9 +15,15 @@ them when the two share work (trigonometry), which is what the run loop calls.
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable, ClassVar, Mapping
 
 import numpy as np
+
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+
+if TYPE_CHECKING:
+    from terrain.estimation.fast import FastKernel
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
@@ -220,6 +226,175 @@ class StateSpaceModel:
             One array of row indices per sensor, in the order of ``sensor_rows``.
         """
         return [np.asarray(r) for r in self.sensor_rows.values()]
+
+
+@dataclass(frozen=True)
+class KernelModel(StateSpaceModel):
+    """A model whose equations are a pair of kernels of :mod:`terrain.estimation.equations`.
+
+    ``f``, ``F``, ``transition``, ``h``, ``H`` and ``observation`` all evaluate the same two
+    kernels (the compiled loop of :mod:`terrain.estimation.fast` calls them too, see
+    :meth:`kernel_for_fast_loop`). Subclasses (frozen dataclasses) set the class attributes
+    ``transition_kernel`` and ``observation_kernel`` and the property ``equation_params``
+    (a parameter dataclass with ``as_array()``); ``_p``, the packed constants, is filled in
+    ``__post_init__`` (a subclass that validates its fields calls ``super().__post_init__()``
+    last).
+
+    Attributes
+    ----------
+    transition_kernel : callable ``(x, u, dt, p, fx, F) -> None``
+        The model's ``transition_into``.
+    observation_kernel : callable ``(x, p, hx, H) -> None``
+        The model's ``observation_into``.
+    """
+
+    transition_kernel: ClassVar[Callable[..., None]]
+    observation_kernel: ClassVar[Callable[..., None]]
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_p", self.equation_params.as_array())
+
+    @property
+    def equation_params(self):  # pragma: no cover - interface
+        """Constants of the model's equations (a dataclass with ``as_array()``)."""
+        raise NotImplementedError
+
+    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Process model: first output of :meth:`transition`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
+        return self.transition(x, dt)[0]
+
+    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Jacobian of :meth:`f`: second output of :meth:`transition`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+        """
+        return self.transition(x, dt)[1]
+
+    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(f(x, dt), F(x, dt))`` of the model's ``transition_kernel``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+        dt : float
+            Step, s (> 0).
+
+        Returns
+        -------
+        fx : ndarray, shape (n,)
+        F : ndarray, shape (n, n)
+        """
+        return transition_pair(type(self).transition_kernel, x, NO_INPUT, dt, self._p)
+
+    def h(self, x: np.ndarray) -> np.ndarray:
+        """Measurement model: first output of :meth:`observation`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
+        return self.observation(x)[0]
+
+    def H(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`h`: second output of :meth:`observation`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+
+        Returns
+        -------
+        ndarray, shape (m, n)
+        """
+        return self.observation(x)[1]
+
+    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(h(x), H(x))`` of the model's ``observation_kernel``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            State (SI units of each state).
+
+        Returns
+        -------
+        hx : ndarray, shape (m,)
+        H : ndarray, shape (m, n)
+        """
+        return observation_pair(type(self).observation_kernel, x, self._p,
+                                len(self.measurement_names))
+
+    def kernel_for_fast_loop(self, q_diag: tuple[float, ...], q_per: str) -> FastKernel:
+        """The model's kernels and constants for the compiled loop of
+        :mod:`terrain.estimation.fast` (the functions :meth:`transition` and
+        :meth:`observation` call).
+
+        Parameters
+        ----------
+        q_diag : tuple of float, length n
+            Process noise variances of :meth:`Q` (SI units squared, per step or per second).
+        q_per : {"step", "second"}
+            ``Q = diag(q_diag)`` or ``Q = diag(q_diag) dt``.
+
+        Returns
+        -------
+        FastKernel
+        """
+        from terrain.estimation.fast import FastKernel
+
+        return FastKernel(type(self).transition_kernel, type(self).observation_kernel,
+                          tuple(self._p.tolist()), self.n_states, self.n_measurements,
+                          tuple(float(q) for q in q_diag), q_per, tuple(self.angle_rows))
+
+
+def diagonal_process_noise(q_diag: tuple[float, ...], q_per: str, dt: float) -> np.ndarray:
+    """``diag(q)`` per step or ``diag(q) dt`` (seed ``001_59da564c4b2d6a48.txt`` eqs. 4.41
+    and 6.14; the compiled loop of :mod:`terrain.estimation.fast` forms the same ``Q``).
+
+    Parameters
+    ----------
+    q_diag : tuple of float, length n
+        Process noise variances (SI units squared, per step or per second).
+    q_per : {"step", "second"}
+        Whether ``q_diag`` holds variances per filter step or per second.
+    dt : float
+        Step, s (> 0).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+    """
+    q = np.asarray(q_diag, dtype=float)
+    return np.diag(q if q_per == "step" else q * dt)
 
 
 def finite_difference_jacobian(fun, x: np.ndarray, eps: float = 1e-6) -> np.ndarray:

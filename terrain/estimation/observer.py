@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain.errors import ConfigError, ShapeError, TimeStepError
-from terrain.vehicles.skid_steer import HUSKY
+from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
 
 
 @dataclass(frozen=True)
@@ -182,9 +182,10 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         if h <= 0.0:
             break
         # eq. 8: observer and adaptive laws, explicit Euler
-        dx = 0.5 * c * (a * er + b * el) + l1 * e_x
-        dy = 0.5 * sn * (a * er + b * el) + l2 * e_y
-        dth = (a * er - b * el) / (2.0 * d) + l3 * e_th
+        v_g, w_g = body_rates(b * el, a * er, 2.0 * d, 1.0)     # eq. 5
+        dx = c * v_g + l1 * e_x
+        dy = sn * v_g + l2 * e_y
+        dth = w_g + l3 * e_th
         der = lam_r * (0.5 * c * a * e_x + 0.5 * sn * a * e_y + a / (2.0 * d) * e_th)
         del_ = lam_l * (0.5 * c * b * e_x + 0.5 * sn * b * e_y - b / (2.0 * d) * e_th)
         if use_pos:
@@ -222,7 +223,8 @@ def eta_from_truth(v_body_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, v_right_m
     w = np.asarray(yaw_rate_rad_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
     vl = np.asarray(v_left_m_s, dtype=float)
+    true_l, true_r = side_speeds(v, w, 2.0 * half_track_m, 1.0)   # V_G -+ d Omega
     with np.errstate(divide="ignore", invalid="ignore"):
-        er = np.where(np.abs(vr) >= min_speed_m_s, (v + half_track_m * w) / vr, np.nan)
-        el = np.where(np.abs(vl) >= min_speed_m_s, (v - half_track_m * w) / vl, np.nan)
+        er = np.where(np.abs(vr) >= min_speed_m_s, true_r / vr, np.nan)
+        el = np.where(np.abs(vl) >= min_speed_m_s, true_l / vl, np.nan)
     return np.column_stack([er, el])

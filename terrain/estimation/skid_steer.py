@@ -41,13 +41,13 @@ import pandas as pd
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
-from terrain.estimation.equations.skid_steer import (NO_INPUT, SkidSteerEquationParams,
-                                                     observation_into, observation_pair,
+from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
-from terrain.estimation.model import StateSpaceModel
+from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.run import TIME, Run
+from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
 
 if TYPE_CHECKING:
@@ -130,7 +130,7 @@ class SkidSteerSettings:
 
 
 @dataclass(frozen=True)
-class SkidSteerModel(StateSpaceModel):
+class SkidSteerModel(KernelModel):
     """Random-walk process model with the ICR wheel model (see the module docstring); its
     equations are :mod:`terrain.estimation.equations.skid_steer`.
 
@@ -155,10 +155,8 @@ class SkidSteerModel(StateSpaceModel):
     wheel_r_scale: float = 1.0
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
-    _p: np.ndarray = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "_p", self.equation_params.as_array())
+    transition_kernel = staticmethod(transition_into)
+    observation_kernel = staticmethod(observation_into)
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
@@ -171,58 +169,6 @@ class SkidSteerModel(StateSpaceModel):
         s = self.settings
         return SkidSteerEquationParams(track_m=float(s.track_m),
                                        chi_min_yaw_rate_rad_s=float(s.chi_min_yaw_rate_rad_s))
-
-    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Random walk: ``f(x) = x``.
-
-        Parameters
-        ----------
-        x : ndarray, shape (4,)
-            State.
-        dt : float
-            Step, s.
-
-        Returns
-        -------
-        ndarray, shape (4,)
-        """
-        return self.transition(x, dt)[0]
-
-    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Identity, the Jacobian of :meth:`f`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (4,)
-            State.
-        dt : float
-            Step, s.
-
-        Returns
-        -------
-        ndarray, shape (4, 4)
-        """
-        return self.transition(x, dt)[1]
-
-    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, I)`` of :func:`terrain.estimation.equations.skid_steer.transition_into`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (4,)
-            State.
-        dt : float
-            Step, s.
-
-        Returns
-        -------
-        fx : ndarray, shape (4,)
-        F : ndarray, shape (4, 4)
-        """
-        x = np.ascontiguousarray(x, dtype=np.float64)
-        fx, Fm = np.empty(4), np.empty((4, 4))
-        transition_into(x, NO_INPUT, float(dt), self._p, fx, Fm)
-        return fx, Fm
 
     def Q(self, dt: float) -> np.ndarray:
         """``diag(accel_psd, yaw_accel_psd, bias_psd, log_chi_psd) dt``.
@@ -237,52 +183,8 @@ class SkidSteerModel(StateSpaceModel):
         ndarray, shape (4, 4)
         """
         s = self.settings
-        return np.diag([s.accel_psd, s.yaw_accel_psd, s.bias_psd, s.log_chi_psd]) * dt
-
-    def h(self, x: np.ndarray) -> np.ndarray:
-        """``[v - chi B w / 2, v + chi B w / 2, w + b]`` with ``chi = exp(x[3])``.
-
-        Parameters
-        ----------
-        x : ndarray, shape (4,)
-            State ``[v_bx m/s, yaw_rate rad/s, b_g rad/s, ln(chi)]``.
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            ``vel_l, vel_r`` (m/s), ``wz`` (rad/s).
-        """
-        return self.observation(x)[0]
-
-    def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h` (the ``ln(chi)`` column is zero while
-        ``|yaw_rate| < chi_min_yaw_rate_rad_s``).
-
-        Parameters
-        ----------
-        x : ndarray, shape (4,)
-            State ``[v_bx m/s, yaw_rate rad/s, b_g rad/s, ln(chi)]``.
-
-        Returns
-        -------
-        ndarray, shape (3, 4)
-        """
-        return self.observation(x)[1]
-
-    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))`` of :func:`terrain.estimation.equations.skid_steer.observation_into`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (4,)
-            State.
-
-        Returns
-        -------
-        hx : ndarray, shape (3,)
-        H : ndarray, shape (3, 4)
-        """
-        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
+        return diagonal_process_noise((s.accel_psd, s.yaw_accel_psd, s.bias_psd,
+                                       s.log_chi_psd), "second", dt)
 
     @property
     def R_diag(self) -> np.ndarray:
@@ -314,13 +216,9 @@ class SkidSteerModel(StateSpaceModel):
         """
         if type(self) is not SkidSteerModel:
             return None
-        from terrain.estimation.fast import FastKernel
-
         s = self.settings
-        return FastKernel(transition_into, observation_into, tuple(self._p.tolist()),
-                          len(STATE_NAMES), len(MEASUREMENT_NAMES),
-                          (float(s.accel_psd), float(s.yaw_accel_psd), float(s.bias_psd),
-                           float(s.log_chi_psd)), "second", ())
+        return self.kernel_for_fast_loop((s.accel_psd, s.yaw_accel_psd, s.bias_psd,
+                                          s.log_chi_psd), "second")
 
 
 def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSettings(), *,
@@ -420,36 +318,6 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     result = run_filter(SkidSteerModel(settings, wheel_r_scale=scale), t, samples, gate=gate)
     result.meta.update(model="skid-steer-4", track_m=settings.track_m, wheel_r_scale=scale)
     return result
-
-
-def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray,
-                   track_m: float, min_yaw_rate_rad_s: float = 0.1) -> float:
-    """Effective ICR factor of a recording: least squares of ``v_R - v_L = chi B yaw_rate``
-    over the samples turning faster than ``min_yaw_rate_rad_s``.
-
-    Parameters
-    ----------
-    v_left_m_s, v_right_m_s : ndarray, shape (N,)
-        True rim speeds, m/s.
-    yaw_rate_rad_s : ndarray, shape (N,)
-        True yaw rate, rad/s.
-    track_m : float
-        Track width B, m.
-    min_yaw_rate_rad_s : float
-        Samples turning slower than this are left out, rad/s.
-
-    Returns
-    -------
-    float
-        NaN when the recording never turns.
-    """
-    w = np.asarray(yaw_rate_rad_s, dtype=float)
-    d = np.asarray(v_right_m_s, dtype=float) - np.asarray(v_left_m_s, dtype=float)
-    turning = np.abs(w) > min_yaw_rate_rad_s
-    if not turning.any():
-        return float("nan")
-    x = track_m * w[turning]
-    return float(x @ d[turning] / (x @ x))
 
 
 def icr_chi(result: EKFResult) -> np.ndarray:

@@ -39,9 +39,9 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_COLUMNS
-from terrain.estimation.equations.agrimaro import (NO_INPUT, AgriMaRoEquationParams,
-                                                   slip_state_observation_pair, transition_pair)
-from terrain.estimation.model import StateSpaceModel
+from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams,
+                                                   slip_state_observation_into, transition_into)
+from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
 STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_bx", "a_by",
@@ -58,7 +58,7 @@ SLIP_FLOOR = 0.05
 
 
 @dataclass(frozen=True)
-class SlipStateModel(StateSpaceModel):
+class SlipStateModel(KernelModel):
     """14-state EKF with slip in the state (seed ``001_59da564c4b2d6a48.txt`` ch. 4.3); its
     equations are :mod:`terrain.estimation.equations.agrimaro`.
 
@@ -106,7 +106,8 @@ class SlipStateModel(StateSpaceModel):
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=(), init=False)
     angle_rows: tuple[int, ...] = field(default=(6,), init=False)
-    _p: np.ndarray = field(init=False, repr=False, compare=False)
+    transition_kernel = staticmethod(transition_into)
+    observation_kernel = staticmethod(slip_state_observation_into)
 
     def __post_init__(self) -> None:
         if self.accel not in ("coriolis", "direct"):
@@ -124,7 +125,7 @@ class SlipStateModel(StateSpaceModel):
         object.__setattr__(self, "r_diag", tuple(float(v) for v in r))
         if len(self.p0_diag) != 14 or len(self.q_diag) != 14:
             raise ConfigError("p0_diag and q_diag need 14 values")
-        object.__setattr__(self, "_p", self.equation_params.as_array())
+        super().__post_init__()
 
     @property
     def equation_params(self) -> AgriMaRoEquationParams:
@@ -142,57 +143,6 @@ class SlipStateModel(StateSpaceModel):
             rows["cam"] = (10, 11, 12, 13)
         return rows
 
-    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Eq. 4.36 (body-frame Coriolis signs).
-
-        Parameters
-        ----------
-        x : ndarray, shape (14,)
-            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
-        dt : float
-            Step, s (> 0).
-
-        Returns
-        -------
-        ndarray, shape (14,)
-        """
-        return self.transition(x, dt)[0]
-
-    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
-        """Jacobian of :meth:`f`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (14,)
-            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
-        dt : float
-            Step, s (> 0).
-
-        Returns
-        -------
-        ndarray, shape (14, 14)
-        """
-        return self.transition(x, dt)[1]
-
-    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(f(x, dt), F(x, dt))`` of
-        :func:`terrain.estimation.equations.agrimaro.transition_into` (eq. 4.36).
-
-        Parameters
-        ----------
-        x : ndarray, shape (14,)
-            State (eq. 4.18).
-        dt : float
-            Step, s.
-
-        Returns
-        -------
-        fx : ndarray, shape (14,)
-        F : ndarray, shape (14, 14)
-        """
-        return transition_pair(np.ascontiguousarray(x, dtype=np.float64), NO_INPUT, float(dt),
-                               self._p)
-
     def Q(self, dt: float) -> np.ndarray:
         """Process noise of one step, ``diag(q)`` or ``diag(q) dt`` (eq. 4.41).
 
@@ -205,53 +155,7 @@ class SlipStateModel(StateSpaceModel):
         -------
         ndarray, shape (14, 14)
         """
-        q = np.asarray(self.q_diag, dtype=float)
-        return np.diag(q if self.q_per == "step" else q * dt)
-
-    def h(self, x: np.ndarray) -> np.ndarray:
-        """Eq. 4.28 (+ camera rows of eq. 6.6).
-
-        Parameters
-        ----------
-        x : ndarray, shape (14,)
-            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
-
-        Returns
-        -------
-        ndarray, shape (m,)
-        """
-        return self.observation(x)[0]
-
-    def H(self, x: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`h`.
-
-        Parameters
-        ----------
-        x : ndarray, shape (14,)
-            State of eq. 4.18 (m, rad, m/s, rad/s, m/s^2, 1, rad).
-
-        Returns
-        -------
-        ndarray, shape (m, 14)
-        """
-        return self.observation(x)[1]
-
-    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(h(x), H(x))`` of
-        :func:`terrain.estimation.equations.agrimaro.slip_state_observation_into` (eq. 4.28).
-
-        Parameters
-        ----------
-        x : ndarray, shape (14,)
-            State (eq. 4.18).
-
-        Returns
-        -------
-        hx : ndarray, shape (m,)
-        H : ndarray, shape (m, 14)
-        """
-        return slip_state_observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p,
-                                           len(self.measurement_names))
+        return diagonal_process_noise(self.q_diag, self.q_per, dt)
 
     @property
     def R_diag(self) -> np.ndarray:

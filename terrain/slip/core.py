@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from terrain.errors import ShapeError
-from terrain.estimation.equations.agrimaro import wheel_rim_speed
 from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
+from terrain.vehicles.swerve import wheel_rim_speed
 
 #: Dead band of ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
 DEAD_BAND_M_S = THESIS_DEAD_BAND_M_S

@@ -20,11 +20,13 @@ from __future__ import annotations
 from terrain.errors import ConfigError
 from terrain.vehicles.common import ContactGeometry, MotorParams
 from terrain.vehicles.skid_steer import (HUSKY, TRACKED, HuskyParams, TrackedParams,
-                                         endo_slip_ratio_ratio, skid_steer_forward,
+                                         body_rates, endo_slip_ratio_ratio, side_speeds,
+                                         skid_steer_forward,
                                          skid_steer_inverse, skid_steer_pose_rates)
 from terrain.vehicles.swerve import (AGRIMARO, AgriMaRoParams, camera_to_robot_velocity,
-                                     robot_to_camera_velocity, swerve_forward, swerve_inverse,
-                                     t265_tracking_to_robot, wheel_contact_velocity)
+                                     point_velocity, rim_speed_row, robot_to_camera_velocity,
+                                     swerve_forward, swerve_inverse, t265_tracking_to_robot,
+                                     wheel_contact_velocity, wheel_rim_speed)
 
 VEHICLE_NAMES: tuple[str, ...] = ("agrimaro", "husky", "tracked")
 
@@ -74,5 +76,7 @@ __all__ = [
     "ContactGeometry", "MotorParams", "VEHICLE_NAMES", "get_vehicle", "contact_geometry",
     "swerve_forward", "swerve_inverse", "wheel_contact_velocity", "camera_to_robot_velocity",
     "robot_to_camera_velocity", "t265_tracking_to_robot", "skid_steer_forward",
-    "skid_steer_inverse", "skid_steer_pose_rates", "endo_slip_ratio_ratio",
+    "skid_steer_inverse", "skid_steer_pose_rates", "endo_slip_ratio_ratio", "side_speeds",
+    "body_rates",
+    "point_velocity", "rim_speed_row", "wheel_rim_speed",
 ]

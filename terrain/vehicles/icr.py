@@ -23,12 +23,35 @@ reports ``chi = sum(x^2) / sum(x y)`` (infinite when the vehicle does not turn t
 way, e.g. a robot that digs in).
 
 Every caller that needs ``chi`` (the audit's yaw-rate effects, its model-free facts and its
-lateral-friction what-if, the window feature ``yaw_rate_gain``) calls these functions.
+lateral-friction what-if, the window feature ``yaw_rate_gain``, the true ``chi`` of a
+simulated skid-steer run that the EKF estimate is checked against) calls these functions.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+
+def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarray:
+    """Least-squares slope of ``y = a x`` through the origin along the last axis, ridge
+    ``floor``: ``sum(x y) / (sum(x^2) + n floor^2)`` (NaN where the denominator is 0).
+
+    Parameters
+    ----------
+    y, x : ndarray, shape (..., n)
+        Response and regressor (any unit; ``a`` in unit of y per unit of x).
+    floor : float
+        Ridge floor, unit of ``x``.
+
+    Returns
+    -------
+    ndarray, shape (...)
+    """
+    n = x.shape[-1]
+    den = (x ** 2).sum(axis=-1) + n * float(floor) ** 2
+    num = (x * y).sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return num / den
 
 
 def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.ndarray,
@@ -55,13 +78,8 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     ----------
     Seed ``000_f24201ff985633bf.txt`` eqs. 2-3; Mandow et al., IROS 2007 (ICR expansion).
     """
-    y = np.asarray(yaw_rate_rad_s, dtype=float)
-    x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
-    n = x.shape[-1]
-    den = (x ** 2).sum(axis=-1) + n * float(floor_rad_s) ** 2
-    num = (x * y).sum(axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = num / den
+    out = _origin_slope(np.asarray(yaw_rate_rad_s, dtype=float),
+                        np.asarray(commanded_yaw_rate_rad_s, dtype=float), floor_rad_s)
     return float(out) if np.ndim(out) == 0 else out
 
 
@@ -104,4 +122,39 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     return float(np.sum(x * x)) / sxy if sxy > 0 else float("inf")
 
 
-__all__ = ["inverse_icr_factor", "icr_expansion_factor"]
+def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray,
+                   track_m: float, min_yaw_rate_rad_s: float = 0.1) -> float:
+    """Effective ICR factor of a recording from its true motion: least squares of
+    ``v_R - v_L = chi B yaw_rate`` over the samples turning faster than
+    ``min_yaw_rate_rad_s`` (the side-speed difference regressed on the true yaw rate, the
+    error-free variable of a simulation's truth).
+
+    Parameters
+    ----------
+    v_left_m_s, v_right_m_s : ndarray, shape (N,)
+        True rim speeds, m/s.
+    yaw_rate_rad_s : ndarray, shape (N,)
+        True yaw rate, rad/s.
+    track_m : float
+        Track width B, m.
+    min_yaw_rate_rad_s : float
+        Samples turning slower than this are left out, rad/s.
+
+    Returns
+    -------
+    float
+        ``chi`` (dimensionless); NaN when the recording never turns.
+
+    References
+    ----------
+    Mandow et al., IROS 2007 (ICR expansion); seed ``000_f24201ff985633bf.txt`` eqs. 2-3.
+    """
+    w = np.asarray(yaw_rate_rad_s, dtype=float)
+    d = np.asarray(v_right_m_s, dtype=float) - np.asarray(v_left_m_s, dtype=float)
+    turning = np.abs(w) > min_yaw_rate_rad_s
+    if not turning.any():
+        return float("nan")
+    return float(_origin_slope(d[turning], track_m * w[turning]))
+
+
+__all__ = ["inverse_icr_factor", "icr_expansion_factor", "chi_from_truth"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba.extending import register_jitable
 
 from terrain.vehicles.common import ContactGeometry, MotorParams
 
@@ -206,9 +207,35 @@ def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m:
     v_m_s : ndarray, shape (n,)
     yaw_rate_rad_s : ndarray, shape (n,)
     """
-    vl = np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float)
-    vr = np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float)
-    return 0.5 * (vl + vr), (vr - vl) / (chi * track_m)
+    return body_rates(np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float),
+                      np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float), track_m, chi)
+
+
+@register_jitable
+def body_rates(v_left_m_s, v_right_m_s, track_m, chi):
+    """Body speed and yaw rate from the effective side speeds ``eta v`` (seed
+    ``000_f24201ff985633bf.txt`` eqs. 2 and 5; ICR expansion ``chi`` of Mandow et al. 2007):
+    ``V_G = (v_R + v_L) / 2``, ``Omega = (v_R - v_L) / (chi B)``; the inverse of
+    :func:`side_speeds`. The one home of this relation: NumPy callers, the observer of
+    :mod:`terrain.estimation.observer` and numba code call it.
+
+    Parameters
+    ----------
+    v_left_m_s, v_right_m_s : float or ndarray
+        Effective side speeds (rim speed times slip efficiency), m/s.
+    track_m : float
+        Track width B (= 2 d of seed 000), m.
+    chi : float or ndarray
+        ICR expansion factor, dimensionless (1 = ideal).
+
+    Returns
+    -------
+    v_m_s : float or ndarray
+        Body forward speed, m/s.
+    yaw_rate_rad_s : float or ndarray
+        Yaw rate, rad/s.
+    """
+    return 0.5 * (v_left_m_s + v_right_m_s), (v_right_m_s - v_left_m_s) / (chi * track_m)
 
 
 def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: float,
@@ -228,9 +255,35 @@ def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: f
     -------
     v_left_m_s, v_right_m_s : ndarray, shape (n,)
     """
-    v = np.asarray(v_m_s, dtype=float)
-    half = 0.5 * chi * track_m * np.asarray(yaw_rate_rad_s, dtype=float)
-    return v - half, v + half
+    return side_speeds(np.asarray(v_m_s, dtype=float), np.asarray(yaw_rate_rad_s, dtype=float),
+                       track_m, chi)
+
+
+@register_jitable
+def side_speeds(v_m_s, yaw_rate_rad_s, track_m, chi):
+    """Left and right contact-line speeds of a rigid skid-steer body (the ICR model of
+    Mandow et al. 2007; seed ``000_f24201ff985633bf.txt`` eq. 2 with ``B = 2 d`` when
+    ``chi = 1``): ``v -+ chi B yaw_rate / 2``. The one home of this relation: NumPy callers
+    and the numba kernels of :mod:`terrain.estimation.equations.skid_steer` call it.
+
+    Parameters
+    ----------
+    v_m_s : float or ndarray
+        Body forward speed, m/s.
+    yaw_rate_rad_s : float or ndarray
+        Yaw rate, rad/s.
+    track_m : float
+        Track width B, m.
+    chi : float or ndarray
+        ICR expansion factor, dimensionless (1 = ideal).
+
+    Returns
+    -------
+    v_left_m_s, v_right_m_s : float or ndarray
+        Speeds of the left and right contact lines, m/s.
+    """
+    half = 0.5 * chi * track_m * yaw_rate_rad_s
+    return v_m_s - half, v_m_s + half
 
 
 def skid_steer_pose_rates(yaw_rad: np.ndarray, v_m_s: np.ndarray,

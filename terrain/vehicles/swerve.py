@@ -12,9 +12,12 @@ Wheel numbering follows ch. 7.2 (``d_1 = [-0.5075, 0]``, ``d_2 = [0.5075, 0]``,
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from terrain.vehicles.common import ContactGeometry, MotorParams
 
@@ -113,6 +116,87 @@ class AgriMaRoParams:
 AGRIMARO = AgriMaRoParams()
 
 
+@register_jitable
+def point_velocity(v_bx, v_by, yaw_rate, x_m, y_m):
+    """Velocity of the body point ``(x_m, y_m)`` of a rigid body moving in the plane: seed 001
+    eq. 2.2 (``h_i V_b``, the wheel steering axes, eqs. 7.3-7.4) and eq. 6.6 (the T265 point),
+    i.e. ``v + Omega x d`` of :func:`robot_to_camera_velocity` with ``Omega = (0, 0,
+    yaw_rate)``. The one home of this relation: NumPy callers (any broadcastable arrays) and
+    the numba kernels of :mod:`terrain.estimation.equations` call it.
+
+    Parameters
+    ----------
+    v_bx, v_by : float or ndarray
+        Velocity of the body origin in the body frame, m/s.
+    yaw_rate : float or ndarray
+        Body yaw rate, rad/s.
+    x_m, y_m : float or ndarray
+        Position of the point in the body frame, m.
+
+    Returns
+    -------
+    v_x, v_y : float or ndarray
+        Velocity of the point in the body frame, ``(v_bx - yaw_rate y, v_by + yaw_rate x)``,
+        m/s.
+    """
+    return v_bx - yaw_rate * y_m, v_by + yaw_rate * x_m
+
+
+@register_jitable
+def rim_speed_row(v_bx, v_by, yaw_rate, x_m, y_m, delta_rad):
+    """Speed of the steering axis at ``(x_m, y_m)`` along the rolling direction of a wheel
+    steered to ``delta_rad`` (seed 001 eq. 4.20; eqs. 7.3-7.5) and its partial derivatives.
+
+    Parameters
+    ----------
+    v_bx, v_by : float
+        Velocity of the body origin in the body frame, m/s.
+    yaw_rate : float
+        Body yaw rate, rad/s.
+    x_m, y_m : float
+        Steering-axis position in the body frame, m.
+    delta_rad : float
+        Steering angle, rad (0 for a fixed wheel).
+
+    Returns
+    -------
+    v_w : float
+        ``v_x cos(delta) + v_y sin(delta)`` with ``(v_x, v_y)`` of :func:`point_velocity`,
+        m/s.
+    dv_dvx, dv_dvy, dv_dyaw_rate, dv_ddelta : float
+        Partial derivatives of ``v_w`` (1, 1, m, m/s per rad).
+    """
+    c, s = math.cos(delta_rad), math.sin(delta_rad)
+    u, v = point_velocity(v_bx, v_by, yaw_rate, x_m, y_m)
+    du_dw, dv_dw = point_velocity(0.0, 0.0, 1.0, x_m, y_m)
+    return u * c + v * s, c, s, du_dw * c + dv_dw * s, -u * s + v * c
+
+
+@numba.vectorize(cache=True)
+def wheel_rim_speed(v_bx, v_by, yaw_rate, x_i, y_i, delta):
+    """Velocity of a wheel's steering axis (or contact line) along its rolling direction:
+    the body velocity moved to ``d_i = (x_i, y_i)`` and projected on ``delta`` (seed 001
+    eq. 4.20, the same relation as eqs. 7.3-7.5); a NumPy ufunc (broadcasts).
+
+    Parameters
+    ----------
+    v_bx, v_by : float or ndarray
+        Body velocity, m/s.
+    yaw_rate : float or ndarray
+        Yaw rate, rad/s.
+    x_i, y_i : float or ndarray
+        Position of the wheel in the body frame, m.
+    delta : float or ndarray
+        Steering angle, rad (0 for fixed wheels).
+
+    Returns
+    -------
+    float or ndarray
+        ``(v_bx - yaw_rate y_i) cos delta + (v_by + yaw_rate x_i) sin delta``, m/s.
+    """
+    return rim_speed_row(v_bx, v_by, yaw_rate, x_i, y_i, delta)[0]
+
+
 def h_matrix(positions_m: np.ndarray) -> np.ndarray:
     """Stacked rigid-body maps ``h_i`` of eq. 2.2 (the ``H`` of eq. 2.3).
 
@@ -128,12 +212,9 @@ def h_matrix(positions_m: np.ndarray) -> np.ndarray:
         velocities ``[x_dot_1, y_dot_1, x_dot_2, ...]``.
     """
     p = np.asarray(positions_m, dtype=float)
-    n = len(p)
-    h = np.zeros((2 * n, 3))
-    h[0::2, 0] = -p[:, 1]
-    h[0::2, 1] = 1.0
-    h[1::2, 0] = p[:, 0]
-    h[1::2, 2] = 1.0
+    h = np.empty((2 * len(p), 3))
+    for k, (yaw_rate, v_x, v_y) in enumerate(np.eye(3)):     # point_velocity is linear
+        h[0::2, k], h[1::2, k] = point_velocity(v_x, v_y, yaw_rate, p[:, 0], p[:, 1])
     return h
 
 
@@ -154,9 +235,7 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
     """
     p = np.asarray(positions_m, dtype=float)
     tw = np.asarray(twist, dtype=float)
-    r = tw[..., 0:1]
-    vx = tw[..., 1:2] - r * p[:, 1]
-    vy = tw[..., 2:3] + r * p[:, 0]
+    vx, vy = point_velocity(tw[..., 1:2], tw[..., 2:3], tw[..., 0:1], p[:, 0], p[:, 1])
     return np.stack([vx, vy], axis=-1)
 
 
@@ -249,13 +328,15 @@ def camera_to_robot_velocity(v_camera_m_s: np.ndarray, omega_rad_s: np.ndarray,
     ndarray, shape (..., 3)
         Velocity of the body origin, m/s.
     """
-    return np.asarray(v_camera_m_s) - np.cross(np.asarray(omega_rad_s), lever_arm_m)
+    return robot_to_camera_velocity(v_camera_m_s, -np.asarray(omega_rad_s), lever_arm_m)
 
 
 def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
                              lever_arm_m: np.ndarray = np.array(AGRIMARO.camera_lever_arm_m)
                              ) -> np.ndarray:
-    """Inverse of :func:`camera_to_robot_velocity`: ``v_camera = v_robot + omega x d_cam``.
+    """Velocity of the camera point, ``v_camera = v_robot + omega x d_cam`` (seed 001 eq. 5.4
+    solved for ``v_camera``; :func:`camera_to_robot_velocity` is its inverse, the planar case
+    is :func:`point_velocity`).
 
     Parameters
     ----------

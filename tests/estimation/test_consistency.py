@@ -8,7 +8,7 @@ from scipy import stats
 
 from terrain.errors import ShapeError
 from terrain.estimation.consistency import (chi2_test, effective_sample_size, mean_chi2_bounds,
-                                            nees, state_errors)
+                                            nees, rmse, state_errors)
 
 
 def test_nees_of_gaussian_errors_has_mean_n():
@@ -45,3 +45,10 @@ def test_state_errors_wrap_angles_and_shapes():
     assert e[0, 0] == pytest.approx(6.2 - 2 * np.pi)
     with pytest.raises(ShapeError):
         nees(np.zeros((3, 2)), np.zeros((3, 3, 3)))
+
+
+def test_rmse_known_value_and_nan_policy():
+    assert rmse(np.array([3.0, -4.0])) == pytest.approx(np.sqrt(12.5))
+    assert rmse(np.array([[1.0, 1.0], [-1.0, 1.0]])) == pytest.approx(1.0)
+    assert np.isnan(rmse(np.array([1.0, np.nan])))              # NaN not dropped silently
+    assert rmse(np.array([2.0, np.nan]), ignore_nan=True) == pytest.approx(2.0)

@@ -23,10 +23,20 @@ Measurement rows (:func:`observation_into`, eq. 6.6)::
 and the ch. 4.3 rows (:func:`slip_state_observation_into`, eq. 4.28): ``omega_i = v_w,i /
 ((1 - s_i) R_w)`` (eq. 4.22, ``1 - s_i`` floored at ``slip_floor``), accelerometer
 ``-yaw_rate v_by, yaw_rate v_bx`` (eqs. 4.26-4.27) or the acceleration states, optional camera
-rows of eq. 6.6. The wheel speed of eq. 4.20 and the camera rows are written once
-(:func:`_wheel_row`, :func:`_camera_rows`) and used by both designs; they live in this one
-file so that numba's on-disk cache, which tracks the file of each cached function, never
-keeps a stale copy.
+rows of eq. 6.6. The vehicle kinematics are not written here: the wheel speed of eq. 4.20 is
+:func:`terrain.vehicles.swerve.rim_speed_row` and the camera velocity
+:func:`terrain.vehicles.swerve.point_velocity` (eq. 2.2 at ``d_cam``), shared by both designs
+through :func:`_camera_rows`.
+
+Numba's on-disk cache (``cache=True``) checks only the source file of the cached function,
+not the files of the functions it calls: after an edit of :mod:`terrain.vehicles.swerve` a
+kernel of this module could load a stale compiled copy. The helpers it calls are therefore
+``register_jitable`` (inlined, no cache of their own), and
+``tests/estimation/test_kernel_cache.py`` compares every cached kernel with its Python source
+(``py_func``, which runs the current vehicle code); the compiled loop of
+:mod:`terrain.estimation.fast` is checked against these kernels by
+``tests/estimation/test_fast.py``. When the first test fails, delete the stale cache
+(``find terrain -name '*.nbi' -delete -o -name '*.nbc' -delete``).
 """
 
 from __future__ import annotations
@@ -36,12 +46,12 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
-from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+from terrain.vehicles.swerve import (AGRIMARO, AgriMaRoParams, point_velocity, rim_speed_row,
+                                     wheel_rim_speed)
 
-#: No control input: the AgriMaRo models are driven by their acceleration states.
-NO_INPUT = np.zeros(0)
-NO_INPUT.flags.writeable = False
 #: Number of states of the final design (eq. 6.1) and of the slip-in-state design (eq. 4.18).
 N_STATES_FINAL, N_STATES_SLIP = 12, 14
 #: Measurement rows of the final design (eq. 6.6).
@@ -192,54 +202,17 @@ def transition_into(x, u, dt, p, fx, F):
     F[4, 7] = dt
 
 
-@numba.njit(cache=True)
-def _wheel_row(vx, vy, w, xi, yi, d):
-    """Speed of the steering axis at ``(xi, yi)`` along the rim of a wheel steered to ``d``
-    (eq. 4.20) and its partial derivatives: returns ``(v_w, dv_w/dv_bx, dv_w/dv_by,
-    dv_w/dyaw_rate, dv_w/dd)`` (m/s per unit of each)."""
-    c, s = math.cos(d), math.sin(d)
-    u = vx - w * yi
-    v = vy + w * xi
-    return u * c + v * s, c, s, -yi * c + xi * s, -u * s + v * c
-
-
-@numba.vectorize(cache=True)
-def wheel_rim_speed(v_bx, v_by, yaw_rate, x_i, y_i, delta):
-    """Velocity of a wheel's steering axis (or contact line) along its rolling direction:
-    the body velocity moved to ``d_i = (x_i, y_i)`` and projected on ``delta`` (seed 001
-    eq. 4.20, the same relation as eqs. 7.3-7.5); a NumPy ufunc (broadcasts).
-
-    Parameters
-    ----------
-    v_bx, v_by : float or ndarray
-        Body velocity, m/s.
-    yaw_rate : float or ndarray
-        Yaw rate, rad/s.
-    x_i, y_i : float or ndarray
-        Position of the wheel in the body frame, m.
-    delta : float or ndarray
-        Steering angle, rad (0 for fixed wheels).
-
-    Returns
-    -------
-    float or ndarray
-        ``(v_bx - yaw_rate y_i) cos delta + (v_by + yaw_rate x_i) sin delta``, m/s.
-    """
-    return _wheel_row(v_bx, v_by, yaw_rate, x_i, y_i, delta)[0]
-
-
-@numba.njit(cache=True)
+@register_jitable
 def _camera_rows(yaw, vx, vy, w, dx, dy, hx, H, r0, yaw_col):
-    """The four T265 rows of eq. 6.6 from row ``r0``: ``v_b + Omega x d_cam`` (robot axes),
-    yaw rate and yaw; ``yaw_col`` is the state column of yaw."""
-    hx[r0] = vx - w * dy
-    hx[r0 + 1] = vy + w * dx
+    """The four T265 rows of eq. 6.6 from row ``r0``: ``v_b + Omega x d_cam`` (robot axes,
+    :func:`~terrain.vehicles.swerve.point_velocity` at ``d_cam = (dx, dy)``), yaw rate and
+    yaw; ``yaw_col`` is the state column of yaw."""
+    hx[r0], hx[r0 + 1] = point_velocity(vx, vy, w, dx, dy)
     hx[r0 + 2] = w
     hx[r0 + 3] = yaw
     H[r0, 3] = 1.0
-    H[r0, 5] = -dy
     H[r0 + 1, 4] = 1.0
-    H[r0 + 1, 5] = dx
+    H[r0, 5], H[r0 + 1, 5] = point_velocity(0.0, 0.0, 1.0, dx, dy)
     H[r0 + 2, 5] = 1.0
     H[r0 + 3, yaw_col] = 1.0
 
@@ -266,7 +239,7 @@ def observation_into(x, p, hx, H):
             H[i, j] = 0.0
     rw = p[7]
     for i in range(3):                                           # eq. 4.20 / R_w
-        vw, dvx, dvy, dw, dd = _wheel_row(vx, vy, w, p[1 + 2 * i], p[2 + 2 * i], x[8 + i])
+        vw, dvx, dvy, dw, dd = rim_speed_row(vx, vy, w, p[1 + 2 * i], p[2 + 2 * i], x[8 + i])
         hx[i] = vw / rw
         H[i, 3] = dvx / rw
         H[i, 4] = dvy / rw
@@ -316,7 +289,7 @@ def slip_state_observation_into(x, p, hx, H):
     for i in range(3):
         one_s = 1.0 - x[8 + i]
         k = 1.0 / (max(one_s, floor) * rw)                       # eq. 4.22
-        vw, dvx, dvy, dw, dd = _wheel_row(vx, vy, w, p[1 + 2 * i], p[2 + 2 * i], x[11 + i])
+        vw, dvx, dvy, dw, dd = rim_speed_row(vx, vy, w, p[1 + 2 * i], p[2 + 2 * i], x[11 + i])
         hx[i] = vw * k
         H[i, 3] = dvx * k
         H[i, 4] = dvy * k
@@ -346,84 +319,7 @@ def slip_state_observation_into(x, p, hx, H):
         _camera_rows(yaw, vx, vy, w, p[8], p[9], hx, H, 10, 2)
 
 
-@numba.njit(cache=True)
-def transition_pair(x, u, dt, p):
-    """``(f(x), F(x))`` of :func:`transition_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (n,)
-        State, n = 12 or 14 (C-contiguous float64).
-    u : ndarray, shape (0,)
-        Input (none).
-    dt : float
-        Step, s.
-    p : ndarray, shape (13,)
-        :meth:`AgriMaRoEquationParams.as_array`.
-
-    Returns
-    -------
-    fx : ndarray, shape (n,)
-    F : ndarray, shape (n, n)
-    """
-    n = x.shape[0]
-    fx = np.empty(n)
-    F = np.empty((n, n))
-    transition_into(x, u, dt, p, fx, F)
-    return fx, F
-
-
-@numba.njit(cache=True)
-def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (12,)
-        State of eq. 6.1 (C-contiguous float64).
-    p : ndarray, shape (13,)
-        :meth:`AgriMaRoEquationParams.as_array`.
-
-    Returns
-    -------
-    hx : ndarray, shape (14,)
-    H : ndarray, shape (14, 12)
-    """
-    hx = np.empty(14)
-    H = np.empty((14, 12))
-    observation_into(x, p, hx, H)
-    return hx, H
-
-
-@numba.njit(cache=True)
-def slip_state_observation_pair(x, p, m):
-    """``(h(x), H(x))`` of :func:`slip_state_observation_into`, new arrays.
-
-    Parameters
-    ----------
-    x : ndarray, shape (14,)
-        State of eq. 4.18 (C-contiguous float64).
-    p : ndarray, shape (13,)
-        :meth:`AgriMaRoEquationParams.as_array`.
-    m : int
-        Rows: 10, or 14 with the camera rows (``p[11] = 1``).
-
-    Returns
-    -------
-    hx : ndarray, shape (m,)
-    H : ndarray, shape (m, 14)
-    """
-    hx = np.empty(m)
-    H = np.empty((m, 14))
-    slip_state_observation_into(x, p, hx, H)
-    return hx, H
-
-
 # -- python-control style API -----------------------------------------------------------------
-
-def _state(x: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(x, dtype=np.float64)
-
 
 def f(x: np.ndarray, u: np.ndarray | None, dt: float,
       params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -444,7 +340,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (n,)
     """
-    return transition_pair(_state(x), NO_INPUT, float(dt), params.as_array())[0]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -466,7 +362,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (n, n)
     """
-    return transition_pair(_state(x), NO_INPUT, float(dt), params.as_array())[1]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
 
 
 def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -484,7 +380,7 @@ def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     ndarray, shape (14,)
         Rows in the order of :data:`terrain.estimation.agrimaro.MEASUREMENT_NAMES`.
     """
-    return observation_pair(_state(x), params.as_array())[0]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL)[0]
 
 
 def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -501,9 +397,8 @@ def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     -------
     ndarray, shape (14, 12)
     """
-    return observation_pair(_state(x), params.as_array())[1]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL)[1]
 
 
 __all__ = ["AgriMaRoEquationParams", "NO_INPUT", "wheel_rim_speed", "transition_into",
-           "observation_into", "slip_state_observation_into", "transition_pair", "observation_pair",
-           "slip_state_observation_pair", "f", "F", "h", "H"]
+           "observation_into", "slip_state_observation_into", "f", "F", "h", "H"]

@@ -8,6 +8,10 @@ a random walk (``f(x) = x``, ``F = I``). Measurements, with ``chi`` the ICR expa
 
     vel_l = v_bx - chi B yaw_rate / 2,   vel_r = v_bx + chi B yaw_rate / 2,   wz = yaw_rate + b_g
 
+(the wheel rows are :func:`terrain.vehicles.skid_steer.side_speeds`, inlined into the kernel:
+see :mod:`terrain.estimation.equations.agrimaro` for numba's cache and the test that guards
+it).
+
 The ``ln(chi)`` column of the wheel rows is zero while ``|yaw_rate|`` is below
 ``chi_min_yaw_rate_rad_s`` (``chi`` is then a consider parameter, see
 :class:`~terrain.estimation.skid_steer.SkidSteerSettings`).
@@ -21,11 +25,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from terrain.vehicles.skid_steer import HUSKY
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+from terrain.vehicles.skid_steer import HUSKY, side_speeds
 
-#: No control input: the model is a random walk corrected by the measurements.
-NO_INPUT = np.zeros(0)
-NO_INPUT.flags.writeable = False
+#: Number of states and of measurement rows.
+N_STATES, N_ROWS = 4, 3
 
 
 @dataclass(frozen=True)
@@ -96,37 +100,14 @@ def observation_into(x, p, hx, H):
     H : ndarray, shape (3, 4)
         Output: ``dh/dx``.
     """
-    v, w, b, lc = x[0], x[1], x[2], x[3]
-    k = math.exp(lc) * 0.5 * p[0]                 # chi B / 2
-    hx[0] = v - k * w
-    hx[1] = v + k * w
+    v, w, b, chi = x[0], x[1], x[2], math.exp(x[3])
+    hx[0], hx[1] = side_speeds(v, w, p[0], chi)
+    k = side_speeds(0.0, 1.0, p[0], chi)[1]       # d vel_r / d yaw_rate = chi B / 2
     hx[2] = w + b
     kw = k * w if abs(w) >= p[1] else 0.0
     H[0, 0], H[0, 1], H[0, 2], H[0, 3] = 1.0, -k, 0.0, -kw
     H[1, 0], H[1, 1], H[1, 2], H[1, 3] = 1.0, k, 0.0, kw
     H[2, 0], H[2, 1], H[2, 2], H[2, 3] = 0.0, 1.0, 1.0, 0.0
-
-
-@numba.njit(cache=True)
-def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (4,)
-        State ``[v_bx, yaw_rate, b_g, ln(chi)]`` (C-contiguous float64).
-    p : ndarray, shape (2,)
-        :meth:`SkidSteerEquationParams.as_array`.
-
-    Returns
-    -------
-    hx : ndarray, shape (3,)
-    H : ndarray, shape (3, 4)
-    """
-    hx = np.empty(3)
-    H = np.empty((3, 4))
-    observation_into(x, p, hx, H)
-    return hx, H
 
 
 def f(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -148,10 +129,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (4,)
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    fx, Fm = np.empty(x.shape[0]), np.empty((x.shape[0], x.shape[0]))
-    transition_into(x, NO_INPUT, float(dt), params.as_array(), fx, Fm)
-    return fx
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -173,10 +151,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (4, 4)
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    fx, Fm = np.empty(x.shape[0]), np.empty((x.shape[0], x.shape[0]))
-    transition_into(x, NO_INPUT, float(dt), params.as_array(), fx, Fm)
-    return Fm
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
 
 
 def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
@@ -193,7 +168,7 @@ def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     -------
     ndarray, shape (3,)
     """
-    return observation_pair(np.ascontiguousarray(x, dtype=np.float64), params.as_array())[0]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS)[0]
 
 
 def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
@@ -210,8 +185,8 @@ def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     -------
     ndarray, shape (3, 4)
     """
-    return observation_pair(np.ascontiguousarray(x, dtype=np.float64), params.as_array())[1]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS)[1]
 
 
 __all__ = ["SkidSteerEquationParams", "NO_INPUT", "transition_into", "observation_into",
-           "observation_pair", "f", "F", "h", "H"]
+           "f", "F", "h", "H"]
