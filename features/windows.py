@@ -1,7 +1,7 @@
 """Windowing: cut aligned runs into fixed-length windows carrying their run id and label.
 
-Arrays follow ``STYLE.md``: windows are ``(n_windows, n_channels, n_window_samples)``, the
-layout ``torch.nn.Conv1d`` expects. Window length and hop are in seconds. The thesis cuts 2 s
+Windows are arrays ``(n_windows, n_channels, n_window_samples)``, the layout
+``torch.nn.Conv1d`` expects. Window length and hop are in seconds. The thesis cuts 2 s
 non-overlapping windows in steady motion (``001_59da564c4b2d6a48.txt`` ch. 8.1); the BorealTC
 and Vulpi papers cut each run into 5 s partitions and slide 1.7 s windows by 0.1 s inside each
 partition (``partition_s``).

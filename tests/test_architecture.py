@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_import_layers_contract_is_kept():
-    """The import-linter `layers` contract in pyproject.toml holds (DESIGN.md data flow)."""
+    """The import-linter `layers` contract in pyproject.toml holds (one-way data flow)."""
     exe = shutil.which("lint-imports")
     assert exe, "import-linter is a dev dependency: pip install -e '.[dev]'"
     done = subprocess.run([exe, "--no-cache"], cwd=ROOT, capture_output=True, text=True,

@@ -1,6 +1,6 @@
 """Plausibility rules applied to every incoming sample (pluggable).
 
-The rules are those of the readers (:mod:`terrain.io.measured`, ``DESIGN.md`` "Bad input"),
+The rules are those of the readers (:mod:`terrain.io.measured` and :mod:`terrain.io.plausibility`),
 applied sample by sample instead of file by file:
 
 * ``time_not_increasing``: a timestamp not strictly after the stream's previous one (the
