@@ -90,6 +90,13 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     Returns
     -------
     ndarray, shape (N, k)
+        SAE slip of each wheel, dimensionless, in [-1, 1] (NaN where an input is NaN).
+
+    Raises
+    ------
+    ShapeError
+        ``rim_speed_m_s`` does not have the shape ``(N, k)`` of the projected wheel
+        velocities.
     """
     v_long = wheel_longitudinal_velocity(v_bx_m_s, v_by_m_s, yaw_rate_rad_s, positions_m,
                                          delta_rad)
