@@ -54,7 +54,7 @@ def make_svm(config: SVMConfig = SVMConfig(), random_state: int = 0) -> Pipeline
     config : SVMConfig
         ``C``, ``gamma`` and whether to calibrate probabilities (Platt scaling).
     random_state : int
-        Seed of the SVC (and of its probability calibration).
+        Seed of the SVC (passed to every calibrated copy too).
 
     Returns
     -------
