@@ -151,6 +151,7 @@ class CVReport:
     Attributes
     ----------
     classes : list of str
+        Sorted class labels of the windows.
     folds : pandas.DataFrame
         One row per (seed, fold): window metrics, ``run_majority_accuracy``, ``n_test``,
         ``fit_s`` and the chosen hyperparameters when a search ran.

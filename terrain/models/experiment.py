@@ -39,6 +39,7 @@ class ExperimentConfig:
     Parameters
     ----------
     dataset : {"borealtc", "vulpi", "combined"}
+        Shipped training set (:data:`terrain.io.shipped.DATASET_SPECS`).
     signals : tuple of str
         Signal sets or channels (see :func:`features.windows.resolve_signals`).
     window_s : float
@@ -50,19 +51,29 @@ class ExperimentConfig:
     steady_only : bool
         Keep steady-motion windows only.
     protocol : {"grouped", "loro", "paper"}
+        Split protocol (:func:`terrain.models.cv.iter_splits`); ``grouped`` is the headline.
     seeds : tuple of int
+        Split and model seeds; one CV per seed.
     n_splits : int
+        Outer folds (not used by ``loro``).
     search : bool
         Nested grouped grid search of C and gamma inside each training fold.
     single_run_blocks : int
         Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
     svm : SVMConfig
+        SVM hyperparameters and search grid (:class:`terrain.models.svm.SVMConfig`).
     model : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble"}
         Classifier (see :mod:`terrain.models.registry`).
     max_epochs : int
         Fixed epoch budget of the CNNs.
     n_threads : int or None
         torch threads while training a CNN.
+
+    Raises
+    ------
+    ConfigError
+        Unknown model, dataset, protocol or signal, or ``search`` with a model other than
+        the SVM.
     """
 
     dataset: str = "borealtc"
