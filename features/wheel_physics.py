@@ -177,6 +177,12 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         X : numpy.ndarray
             ``(n_windows, n_channels, n_samples)`` windows.
         y : ignored
+            Present for the scikit-learn transformer protocol.
+
+        Returns
+        -------
+        WheelPhysicsFeatures
+            ``self``, with ``feature_names_out_`` and ``n_samples_in_`` set.
 
         Raises
         ------

@@ -57,6 +57,11 @@ def main(args: argparse.Namespace) -> int:
     -------
     int
         Exit status, 0 (a missed target is printed, not an error).
+
+    Raises
+    ------
+    ConfigError
+        When ``args.repeats`` or ``args.reference_windows`` is below 1.
     """
     if args.repeats < 1 or args.reference_windows < 1:
         raise ConfigError(f"--repeats and --reference-windows must be >= 1, got "

@@ -24,7 +24,13 @@ HEADLINE = ("accuracy", "balanced_accuracy", "macro_f1", "run_majority_accuracy"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain cv``."""
+    """Arguments of ``terrain cv``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser to which the options are added (modified in place).
+    """
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--model", choices=MODELS, default="svm",
                         help="classifier (default: svm; see README 'Model comparison')")
@@ -47,7 +53,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
-    """Build the experiment configuration from parsed arguments."""
+    """Build the experiment configuration from parsed arguments.
+
+    Without ``--seeds``, the ``paper`` and ``loro`` protocols use seed 0 (leave-one-run-out is
+    deterministic; seed 0 is the paper protocol's published split), the others seeds 0, 1, 2.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    ExperimentConfig
+        The configuration handed to :func:`terrain.models.experiment.run_cv`.
+    """
     # leave-one-run-out is deterministic; the paper protocol's published split is seed 0
     seeds = args.seeds or ([0] if args.protocol in ("paper", "loro") else [0, 1, 2])
     return ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
@@ -57,7 +77,22 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
 
 
 def result_dict(result: ExperimentResult) -> dict:
-    """The JSON report of a CV run."""
+    """The JSON report of a CV run.
+
+    Parameters
+    ----------
+    result : ExperimentResult
+        Outcome of :func:`terrain.models.experiment.run_cv`.
+
+    Returns
+    -------
+    dict
+        JSON-serialisable report: ``config``, ``n_windows``, ``n_runs``, ``classes``,
+        ``metrics`` (mean/std per metric over folds), ``pooled`` (mean/std over seeds of the
+        pooled out-of-fold metrics), ``pooled_by_seed``, ``confusion`` (labels and counts
+        summed over seeds), ``notes``, ``timings_s`` (s) and ``headline`` (False for the leaky
+        ``paper`` protocol).
+    """
     rep = result.report
     return {
         "config": result.config.as_params(),
@@ -93,7 +128,19 @@ def pooled_recall(confusion) -> dict[str, float]:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the CV, log it to MLflow, print the summary."""
+    """Run the CV, log it to MLflow, print the summary.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0 on success. Data and configuration errors (:mod:`terrain.errors`)
+        raised while loading the dataset propagate to the CLI, which prints them on one line.
+    """
     config = config_from_args(args)
     name = f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run

@@ -24,7 +24,13 @@ EXPERIMENT = "terrain-predict"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain predict``."""
+    """Arguments of ``terrain predict``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser to which the options are added (modified in place).
+    """
     parser.add_argument("--model", required=True,
                         help="MLflow model directory or URI (e.g. models:/terrain-borealtc/latest, "
                              "resolved in the tracking store in force, see README)")
@@ -47,7 +53,26 @@ def _load(uri: str):
 
 
 def main(args: argparse.Namespace) -> int:
-    """Load the model, align and window the runs, write the predictions."""
+    """Load the model, align and window the runs, write the predictions.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0 on success.
+
+    Raises
+    ------
+    ConfigError
+        When the model at ``args.model`` cannot be loaded.
+    DataFormatError
+        When no run of ``args.runs_dir`` yields a single window (all skipped or shorter than
+        the model's window); names the runs folder.
+    """
     progress = not args.no_progress
     runs = read_runs_path(args.runs_dir, labelled=False, progress=progress)
     model, meta = _load(args.model)

@@ -22,7 +22,13 @@ from terrain.streaming import (SmoothingConfig, StreamConfig, StreamService, Tab
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain stream``."""
+    """Arguments of ``terrain stream``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser to which the options are added (modified in place).
+    """
     parser.add_argument("--model", type=Path, required=True,
                         help="model directory (terrain train --model-out)")
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR",
@@ -38,7 +44,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Read the run, replay it, write and summarise the decisions."""
+    """Read the run, replay it, write and summarise the decisions.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0 on success.
+
+    Raises
+    ------
+    ConfigError
+        When ``args.run_dir`` holds no run files, holds several runs and ``--index`` is not
+        given, lacks the run ``--index``, or lacks a stream the model needs.
+    """
     run_dir = args.run_dir.resolve()
     runs = {idx: files for (folder, idx), files in list_run_files(run_dir.parent).items()
             if folder == run_dir.name}

@@ -40,7 +40,13 @@ SMOOTHINGS = {"raw": SmoothingConfig(dwell_s=None),
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain stream-eval``."""
+    """Arguments of ``terrain stream-eval``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser to which the options are added (modified in place).
+    """
     parser.add_argument("--part", choices=["wheel-cv", "streams", "both", "none"],
                         default="both")
     parser.add_argument("--model-out", type=Path, default=None,
@@ -55,7 +61,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the chosen parts, print and log them."""
+    """Run the chosen parts, print and log them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0 on success.
+    """
     runs = load_dataset("borealtc")
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",

@@ -26,7 +26,13 @@ DEFAULT_MODEL = "ensemble"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain train``."""
+    """Arguments of ``terrain train``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser to which the options are added (modified in place).
+    """
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--model", choices=MODELS, default=DEFAULT_MODEL,
                         help=f"classifier (default: {DEFAULT_MODEL}, the best of the README's "
@@ -67,7 +73,18 @@ def trained_params(pipe) -> dict:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Fit, log, register and save the model."""
+    """Fit, log, register and save the model.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0 on success.
+    """
     config = ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
                               window_s=args.window_s, search=args.search, seeds=(0,),
                               model=args.model)

@@ -62,7 +62,16 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with one subparser per available pipeline."""
+    """Build the argument parser with one subparser per available pipeline.
+
+    A pipeline module of :data:`SUBCOMMANDS` that is not installed is left out; each
+    subparser takes the module's ``add_arguments`` and its ``main`` as ``_main`` default.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``terrain`` parser (global ``--debug``, a required ``COMMAND``).
+    """
     parser = argparse.ArgumentParser(
         prog="terrain",
         description="Terrain classification, slip estimation and simulation for field robots.")
@@ -103,6 +112,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     A project error (:class:`~terrain.errors.TerrainError`), a missing or unreadable file,
     or a model store error is printed as one line on stderr with exit status 2; ``--debug``
     shows the traceback instead.
+
+    Parameters
+    ----------
+    argv : sequence of str or None
+        Command-line arguments without the program name; ``None`` reads ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        Exit status: the sub-command's (0 on success) or 2 after a reported error
+        (argparse itself exits with 2 on a usage error).
     """
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -78,6 +78,16 @@ class Run:
     def rate_hz(self, stream: str) -> float:
         """Median sampling rate of ``stream`` in Hz.
 
+        Parameters
+        ----------
+        stream : str
+            Stream name, a key of :attr:`streams` (e.g. ``"imu"``, ``"wheels"``).
+
+        Returns
+        -------
+        float
+            1 / median of the time steps of the stream's ``t_s`` column, Hz.
+
         Raises
         ------
         KeyError

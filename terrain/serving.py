@@ -44,7 +44,20 @@ RUN = "run"
 
 
 def input_channels(channels: Sequence[str]) -> list[str]:
-    """Raw channels the model input must carry (derived channels are computed inside)."""
+    """Raw channels the model input must carry (derived channels are computed inside).
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channels of the model's windows, possibly including derived wheel channels
+        (:data:`features.windows.DERIVED_WHEEL_CHANNELS`).
+
+    Returns
+    -------
+    list of str
+        The raw channels of ``channels``, in order, followed by ``vel_l, vel_r, cur_l,
+        cur_r`` (m/s, A) when a derived channel needs them.
+    """
     raw = [c for c in channels if c not in DERIVED_WHEEL_CHANNELS]
     if any(c in DERIVED_WHEEL_CHANNELS for c in channels):
         raw += [c for c in ("vel_l", "vel_r", "cur_l", "cur_r") if c not in raw]
@@ -54,6 +67,16 @@ def input_channels(channels: Sequence[str]) -> list[str]:
 def runs_to_model_input(runs: Sequence[Run], channels: Sequence[str],
                         rate_hz: float) -> tuple[pd.DataFrame, list[str]]:
     """Align runs and stack them into the model's long input format.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Runs to predict (labelled or not).
+    channels : sequence of str
+        Channels of the model (``metadata["channels"]``); see :func:`input_channels`.
+    rate_hz : float
+        Model clock rate, Hz: each run is resampled to it by
+        :func:`terrain.io.align.align_streams`.
 
     Returns
     -------
@@ -118,6 +141,21 @@ class TerrainModel(PythonModel):
                 ) -> pd.DataFrame:
         """Per-window terrain predictions for aligned samples of one or more runs.
 
+        Parameters
+        ----------
+        context : mlflow.pyfunc.PythonModelContext
+            MLflow context; used to load the pipeline if :meth:`load_context` has not run.
+        model_input : pandas.DataFrame
+            Aligned samples in the long format of the module docstring (``run``, ``t_s`` in
+            s, raw channels in SI units) at the model's rate.
+        params : dict or None
+            MLflow inference parameters (unused).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per window, see :func:`predict_windows`.
+
         Raises
         ------
         MissingColumnError
@@ -135,7 +173,41 @@ class TerrainModel(PythonModel):
 
 def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str],
                     config: WindowConfig, classes: Sequence[str]) -> pd.DataFrame:
-    """Window aligned samples per run and predict (see module docstring for the format)."""
+    """Window aligned samples per run and predict (see module docstring for the format).
+
+    Parameters
+    ----------
+    pipeline : estimator
+        Fitted classifier with ``classes_`` and ``predict_proba`` on raw windows
+        ``(n_windows, n_channels, n_samples)``.
+    samples : pandas.DataFrame
+        Aligned samples: ``run``, ``t_s`` (s, strictly increasing within a run) and the
+        channels of :func:`input_channels` (SI units), at ``config.rate_hz``.
+    channels : sequence of str
+        Channel order of the windows (derived channels are added from the raw ones).
+    config : WindowConfig
+        Window length and hop (s) and clock rate (Hz) of the model.
+    classes : sequence of str
+        Classes whose ``proba_<CLASS>`` columns are returned (0 for a class the pipeline
+        does not know).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``run, t_start_s, t_end_s`` (s), ``predicted`` and ``proba_<CLASS>`` per window; its
+        ``attrs["dropped_windows"]`` counts windows dropped for holding NaN.
+
+    Raises
+    ------
+    MissingColumnError
+        A required input column is missing.
+    ImplausibleValueError
+        A value beyond its channel's plausibility range (:func:`terrain.io.plausibility.
+        check_ranges`).
+    DataFormatError
+        Timestamps not strictly increasing within a run (names the run and row), or a
+        median sample rate more than 1 % off ``config.rate_hz``.
+    """
     cols = [RUN, TIME] + input_channels(channels)
     missing = [c for c in cols if c not in samples.columns]
     if missing:
@@ -175,7 +247,21 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
 
 
 def model_signature(channels: Sequence[str], classes: Sequence[str]):
-    """MLflow signature of :class:`TerrainModel` (input samples, output windows)."""
+    """MLflow signature of :class:`TerrainModel` (input samples, output windows).
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channels of the model; the input schema holds those of :func:`input_channels`.
+    classes : sequence of str
+        Terrain classes, one ``proba_<CLASS>`` output column each.
+
+    Returns
+    -------
+    mlflow.models.ModelSignature
+        Input ``run`` (string), ``t_s`` and channels (double); output ``run``,
+        ``t_start_s``, ``t_end_s``, ``predicted`` and the probabilities.
+    """
     from mlflow.models import ModelSignature
     from mlflow.types import ColSpec, Schema
 
@@ -247,6 +333,29 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
                input_example: pd.DataFrame | None = None) -> Path:
     """Save the inference pipeline as an MLflow model directory at ``path``.
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Model directory to create (absent or empty).
+    pipeline : estimator
+        Fitted classifier on raw windows (see :class:`TerrainModel`), stored with joblib.
+    channels : sequence of str
+        Channel order of the windows.
+    window : WindowConfig
+        Window settings of the model (``window_s``, ``hop_s`` in s, ``rate_hz`` in Hz).
+    classes : sequence of str
+        Terrain classes, in the order of ``predict_proba``.
+    metadata : dict
+        Extra model metadata (dataset, signals...); channels, classes and window settings
+        are added to it.
+    input_example : pandas.DataFrame, optional
+        Aligned samples in the model's input format, stored with the model.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
     Raises
     ------
     ConfigError
@@ -305,6 +414,20 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
 def load_model(uri: str | Path) -> tuple[Any, dict]:
     """Load a saved or logged terrain model; returns the pyfunc model and its metadata.
 
+    Parameters
+    ----------
+    uri : str or pathlib.Path
+        Model directory or MLflow URI (``runs:/...``, ``models:/name/version``), resolved in
+        the tracking store activated by :func:`terrain.tracking.activate_store`.
+
+    Returns
+    -------
+    model : mlflow.pyfunc.PyFuncModel
+        The loaded model (its ``predict`` is :meth:`TerrainModel.predict`).
+    meta : dict
+        Model metadata: ``channels``, ``classes``, ``window_s``, ``hop_s``, ``rate_hz`` and
+        the extra metadata given at saving.
+
     Raises
     ------
     ConfigError
@@ -322,5 +445,16 @@ def load_model(uri: str | Path) -> tuple[Any, dict]:
 
 
 def metadata_json(meta: dict) -> str:
-    """Model metadata as compact JSON (for printing)."""
+    """Model metadata as compact JSON (for printing).
+
+    Parameters
+    ----------
+    meta : dict
+        Metadata as returned by :func:`load_model`.
+
+    Returns
+    -------
+    str
+        One-line JSON with sorted keys; non-JSON values are written with ``str``.
+    """
     return json.dumps(meta, sort_keys=True, default=str)

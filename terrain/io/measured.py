@@ -306,6 +306,12 @@ def _check_imu_units(frame: pd.DataFrame, path: Path) -> None:
 def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:
     """Index the stream files under ``root``.
 
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        Runs folder holding one sub-folder per terrain (``<root>/<TERRAIN>/imu_XX.csv``,
+        ``pro_XX.csv``, optional ``meta_XX.json``), e.g. ``data/borealtc``.
+
     Returns
     -------
     dict
@@ -342,15 +348,29 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     ----------
     files : dict
         ``kind -> path`` as produced by :func:`list_run_files` (``pro`` is required).
-    run_id, dataset, terrain : str
-        Metadata of the run.
+    run_id : str
+        Unique id of the run, ``<dataset>/<TERRAIN>/<index>`` for measured runs.
+    dataset : str
+        Dataset name (``borealtc``, ``vulpi`` or the runs folder's name).
+    terrain : str or None
+        Terrain class label of the whole run (upper case); ``None`` for unlabelled runs.
     **reader_options
         Passed to :func:`read_stream_csv`.
+
+    Returns
+    -------
+    Run
+        The run with one stream per file (``pro`` -> wheel stream, ``imu`` -> IMU stream,
+        ``t_s`` first, SI units); its ``meta`` holds ``meta_XX.json`` plus the repair, gap and
+        skipped-line counts of the readers.
 
     Raises
     ------
     OrphanFileError
         If the run has stream files but no ``pro`` (wheel) file.
+    DataFormatError
+        If ``meta_XX.json`` is not valid JSON or not a JSON object (names the file), or a
+        stream file is malformed (raised by :func:`read_stream_csv`).
     """
     if "pro" not in files:
         other = next(iter(p for k, p in files.items() if k != "meta"), None)

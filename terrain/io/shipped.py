@@ -57,7 +57,13 @@ RUN_ID = "run_id"
 
 
 def default_data_dir() -> Path:
-    """The shipped ``data/`` folder (``TERRAIN_DATA_DIR`` overrides it)."""
+    """The shipped ``data/`` folder (``TERRAIN_DATA_DIR`` overrides it).
+
+    Returns
+    -------
+    pathlib.Path
+        ``$TERRAIN_DATA_DIR`` when set, else the repository's ``data/`` folder.
+    """
     env = os.environ.get("TERRAIN_DATA_DIR")
     if env:
         return Path(env)
@@ -65,7 +71,18 @@ def default_data_dir() -> Path:
 
 
 def sha256(path: str | Path) -> str:
-    """SHA-256 hex digest of a file."""
+    """SHA-256 hex digest of a file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        File to hash (read in 1 MiB chunks).
+
+    Returns
+    -------
+    str
+        64-character lower-case hexadecimal digest.
+    """
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):
@@ -144,10 +161,21 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
 def read_manifest(data_dir: str | Path | None = None) -> dict:
     """Load ``data/manifest.json``.
 
+    Parameters
+    ----------
+    data_dir : str or pathlib.Path, optional
+        Shipped data folder; defaults to :func:`default_data_dir`.
+
+    Returns
+    -------
+    dict
+        The manifest; its ``datasets`` maps each dataset to an entry whose ``files`` maps
+        relative paths to SHA-256 digests.
+
     Raises
     ------
     DataFormatError
-        If the manifest is missing.
+        If the manifest is missing, or unreadable (not UTF-8 JSON); names the file.
     """
     path = Path(data_dir or default_data_dir()) / "manifest.json"
     if not path.exists():
@@ -162,6 +190,12 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
 
 def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
     """Check the SHA-256 of every shipped file against the manifest.
+
+    Parameters
+    ----------
+    data_dir : str or pathlib.Path, optional
+        Shipped data folder; defaults to :func:`default_data_dir`. Errors of
+        :func:`read_manifest` propagate.
 
     Returns
     -------
@@ -244,6 +278,15 @@ class DatasetSpec:
 
     ``rate_hz`` is the native IMU rate (100 Hz BorealTC, 50 Hz Vulpi; ``combined`` uses
     100 Hz, Vulpi's IMU being interpolated, so BorealTC keeps its vibration band up to 50 Hz).
+
+    Parameters
+    ----------
+    name : str
+        Name of the training set (``borealtc``, ``vulpi``, ``combined``).
+    parts : tuple of str
+        Shipped datasets it pools, each read by :func:`read_shipped`.
+    rate_hz : float
+        Common clock rate the streams are aligned to, Hz.
     """
 
     name: str
@@ -261,10 +304,24 @@ DATASET_SPECS: Mapping[str, DatasetSpec] = MappingProxyType({
 def load_dataset(name: str, data_dir: str | Path | None = None) -> list[Run]:
     """Load ``borealtc``, ``vulpi`` or ``combined`` (both pooled, 9 classes).
 
+    Parameters
+    ----------
+    name : str
+        Key of :data:`DATASET_SPECS`.
+    data_dir : str or pathlib.Path, optional
+        Shipped data folder; defaults to :func:`default_data_dir`.
+
+    Returns
+    -------
+    list of Run
+        The runs of every part of the spec, in part order, each sorted by run id.
+
     Raises
     ------
     ConfigError
         Unknown name (the message lists the valid ones).
+    DataFormatError
+        Missing or corrupt shipped file (raised by :func:`read_shipped`).
     """
     spec = DATASET_SPECS.get(name)
     if spec is None:
@@ -273,7 +330,19 @@ def load_dataset(name: str, data_dir: str | Path | None = None) -> list[Run]:
 
 
 def runs_equal(a: Run, b: Run) -> bool:
-    """Whether two runs have the same id, label and bit-identical streams."""
+    """Whether two runs have the same id, label and bit-identical streams.
+
+    Parameters
+    ----------
+    a, b : Run
+        Runs to compare (e.g. a CSV-read run and its shipped Parquet round trip).
+
+    Returns
+    -------
+    bool
+        True when run id, terrain, stream names, column names and all values match exactly
+        (:func:`numpy.array_equal`, so a stream holding NaN never compares equal).
+    """
     if (a.run_id, a.terrain) != (b.run_id, b.terrain) or set(a.streams) != set(b.streams):
         return False
     return all(list(a.streams[k].columns) == list(b.streams[k].columns)

@@ -106,12 +106,20 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     Parameters
     ----------
     protocol : {"grouped", "loro", "paper"}
+        ``StratifiedGroupKFold`` by group, leave one group out, or the published
+        ``StratifiedKFold`` over 5 s partitions (see the module docstring).
     labels, groups : numpy.ndarray
         ``(n_windows,)``; for ``paper`` the groups are the 5 s partitions.
     seed : int
         Shuffling seed (``paper`` uses ``21 + seed`` so seed 0 is the published split).
     n_splits : int
         Folds (not used by ``loro``).
+
+    Yields
+    ------
+    train, test : numpy.ndarray
+        ``(n_train,)`` and ``(n_test,)`` integer indices into the windows, one pair per
+        fold; no group is on both sides.
 
     Raises
     ------
@@ -143,6 +151,7 @@ class CVReport:
     Attributes
     ----------
     classes : list of str
+        Sorted class labels of the windows.
     folds : pandas.DataFrame
         One row per (seed, fold): window metrics, ``run_majority_accuracy``, ``n_test``,
         ``fit_s`` and the chosen hyperparameters when a search ran.
@@ -167,7 +176,14 @@ class CVReport:
     notes: list[str] = field(default_factory=list)
 
     def summary(self) -> dict[str, dict[str, float]]:
-        """Mean, std, min and max over folds (all seeds) of every metric."""
+        """Mean, std, min and max over folds (all seeds) of every metric.
+
+        Returns
+        -------
+        dict
+            Metric name (each float column of :attr:`folds` but ``seed``/``fold``) ->
+            ``{"mean", "std" (population, ddof=0), "min", "max"}``.
+        """
         cols = [c for c in self.folds.columns if c not in ("seed", "fold")
                 and self.folds[c].dtype.kind == "f"]
         return {c: {"mean": float(self.folds[c].mean()), "std": float(self.folds[c].std(ddof=0)),
@@ -277,6 +293,7 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     y, groups, run_ids, t_start_s, t_end_s : numpy.ndarray
         ``(n_windows,)`` label, split unit, run id and window bounds (s).
     protocol : {"grouped", "loro", "paper"}
+        Split protocol, see :func:`iter_splits`.
     seeds : sequence of int
         Split (and model) seeds.
     n_splits : int
@@ -296,6 +313,14 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     CVReport
         ``predictions`` carries ``proba_<CLASS>`` columns when the model gives
         probabilities.
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``protocol`` (from :func:`iter_splits`).
+    RuntimeError
+        If a split unit lands on both sides of a split (an internal invariant; it signals a
+        bug, not bad input).
     """
     from joblib import Parallel, delayed
 

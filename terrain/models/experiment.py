@@ -39,6 +39,7 @@ class ExperimentConfig:
     Parameters
     ----------
     dataset : {"borealtc", "vulpi", "combined"}
+        Shipped training set (:data:`terrain.io.shipped.DATASET_SPECS`).
     signals : tuple of str
         Signal sets or channels (see :func:`features.windows.resolve_signals`).
     window_s : float
@@ -50,19 +51,29 @@ class ExperimentConfig:
     steady_only : bool
         Keep steady-motion windows only.
     protocol : {"grouped", "loro", "paper"}
+        Split protocol (:func:`terrain.models.cv.iter_splits`); ``grouped`` is the headline.
     seeds : tuple of int
+        Split and model seeds; one CV per seed.
     n_splits : int
+        Outer folds (not used by ``loro``).
     search : bool
         Nested grouped grid search of C and gamma inside each training fold.
     single_run_blocks : int
         Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
     svm : SVMConfig
+        SVM hyperparameters and search grid (:class:`terrain.models.svm.SVMConfig`).
     model : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble"}
         Classifier (see :mod:`terrain.models.registry`).
     max_epochs : int
         Fixed epoch budget of the CNNs.
     n_threads : int or None
         torch threads while training a CNN.
+
+    Raises
+    ------
+    ConfigError
+        Unknown model, dataset, protocol or signal, or ``search`` with a model other than
+        the SVM.
     """
 
     dataset: str = "borealtc"
@@ -93,7 +104,15 @@ class ExperimentConfig:
         resolve_signals(self.signals)
 
     def window_config(self) -> WindowConfig:
-        """Window settings implied by the protocol and the dataset."""
+        """Window settings implied by the protocol and the dataset.
+
+        Returns
+        -------
+        WindowConfig
+            :data:`PAPER_WINDOW` (1.7 s windows, 0.1 s hop, 5 s partitions) under the
+            ``paper`` protocol, else ``window_s``/``hop_s``; the rate is ``rate_hz`` or the
+            dataset's IMU rate (:data:`terrain.io.shipped.DATASET_SPECS`).
+        """
         rate = self.rate_hz or DATASET_SPECS[self.dataset].rate_hz
         if self.protocol == "paper":
             return WindowConfig(rate_hz=rate, steady_only=self.steady_only, **PAPER_WINDOW)
@@ -112,7 +131,15 @@ class ExperimentConfig:
                            n_threads=self.n_threads, svm=self.svm)
 
     def as_params(self) -> dict:
-        """Flat parameter dict for MLflow."""
+        """Flat parameter dict for MLflow.
+
+        Returns
+        -------
+        dict
+            The fields, with ``svm`` flattened to ``svm_<field>``, ``signals`` and ``seeds``
+            comma-joined, ``n_threads`` 0 for ``None``, and the effective window settings of
+            :meth:`window_config` (``window_s``, ``hop_s``, ``rate_hz``, ``partition_s``; s, Hz).
+        """
         d = asdict(self)
         svm = d.pop("svm")
         d.update({f"svm_{k}": v for k, v in svm.items()})
@@ -126,12 +153,39 @@ class ExperimentConfig:
 
 
 def feature_extractor(windows: WindowSet) -> WindowFeatures:
-    """The feature transformer matching a window set (fitted: it is stateless)."""
+    """The feature transformer matching a window set (fitted: it is stateless).
+
+    Parameters
+    ----------
+    windows : WindowSet
+        Windows whose ``channels`` and ``rate_hz`` (Hz) configure the extractor.
+
+    Returns
+    -------
+    WindowFeatures
+        Fitted extractor mapping ``(n_windows, n_channels, n_samples)`` windows to features.
+    """
     return WindowFeatures(channels=windows.channels, rate_hz=windows.rate_hz).fit(windows.X)
 
 
 def inference_pipeline(windows: WindowSet, svm: SVMConfig, random_state: int = 0) -> Pipeline:
-    """Unfitted ``features -> scaler -> SVC`` pipeline taking raw windows as input."""
+    """Unfitted ``features -> scaler -> SVC`` pipeline taking raw windows as input.
+
+    Parameters
+    ----------
+    windows : WindowSet
+        Windows whose ``channels`` and ``rate_hz`` (Hz) configure the feature step.
+    svm : SVMConfig
+        SVM hyperparameters (see :func:`terrain.models.svm.make_svm`).
+    random_state : int
+        Seed of the SVC.
+
+    Returns
+    -------
+    sklearn.pipeline.Pipeline
+        ``features`` (:class:`features.windows.WindowFeatures`) followed by the steps of
+        :func:`terrain.models.svm.make_svm`; input ``(n_windows, n_channels, n_samples)``.
+    """
     model = make_svm(svm, random_state)
     return Pipeline([("features", WindowFeatures(channels=windows.channels,
                                                  rate_hz=windows.rate_hz))] + model.steps)
@@ -139,7 +193,25 @@ def inference_pipeline(windows: WindowSet, svm: SVMConfig, random_state: int = 0
 
 @dataclass
 class ExperimentResult:
-    """What :func:`run_cv` produced: the report, the windows' book-keeping and timings."""
+    """What :func:`run_cv` produced: the report, the windows' book-keeping and timings.
+
+    Attributes
+    ----------
+    config : ExperimentConfig
+        The configuration that was run.
+    report : CVReport
+        Folds, pooled metrics, confusion, out-of-fold predictions and notes.
+    n_windows : int
+        Windows cross-validated (after purging those crossing a time-block boundary).
+    n_runs : int
+        Distinct runs among them.
+    counts : dict
+        Windowing book-keeping, :attr:`features.windows.WindowSet.counts`.
+    feature_names : list of str
+        Names of the window features (``get_feature_names_out`` of the extractor).
+    timings_s : dict of str to float
+        ``windowing_s``, ``features_s`` and ``cv_s``: wall-clock time of each stage, s.
+    """
 
     config: ExperimentConfig
     report: CVReport
@@ -152,7 +224,26 @@ class ExperimentResult:
 
 def load_windows(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                  data_dir: str | Path | None = None, progress: bool = False) -> WindowSet:
-    """Load the dataset (unless ``runs`` is given) and cut it into windows."""
+    """Load the dataset (unless ``runs`` is given) and cut it into windows.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        Dataset, signals and window settings (:meth:`ExperimentConfig.window_config`).
+    runs : sequence of Run or None
+        Already loaded runs (default: load ``config.dataset``).
+    data_dir : str or pathlib.Path or None
+        Shipped data folder (default: :func:`terrain.io.shipped.default_data_dir`).
+    progress : bool
+        Show a progress bar over runs.
+
+    Returns
+    -------
+    WindowSet
+        Windows ``(n_windows, n_channels, n_samples)`` with labels, run ids, groups, bounds
+        (s) and book-keeping counts. Errors of :func:`terrain.io.shipped.load_dataset`
+        propagate.
+    """
     runs = load_dataset(config.dataset, data_dir) if runs is None else runs
     return make_windows(runs, config.signals, config.window_config(), progress=progress)
 
@@ -179,6 +270,12 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         Show progress bars.
     n_jobs : int or None
         joblib workers (grid search for the SVM, folds otherwise).
+
+    Returns
+    -------
+    ExperimentResult
+        The CV report (notes list single-run classes cut into blocks and dropped windows),
+        window counts, feature names and stage timings (s).
 
     Raises
     ------

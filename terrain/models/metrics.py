@@ -14,6 +14,16 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
                    classes: Sequence[str]) -> dict[str, float]:
     """Window-level metrics.
 
+    Parameters
+    ----------
+    y_true : sequence of str
+        ``(n_windows,)`` true terrain label of each window.
+    y_pred : sequence of str
+        ``(n_windows,)`` predicted label of each window.
+    classes : sequence of str
+        All class labels of the task; the metrics are taken over those present in
+        ``y_true``.
+
     Returns
     -------
     dict
@@ -35,7 +45,20 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
 
 
 def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
-    """Most frequent predicted label per group (ties: alphabetical first)."""
+    """Most frequent predicted label per group (ties: alphabetical first).
+
+    Parameters
+    ----------
+    y_pred : sequence of str
+        ``(n_windows,)`` predicted label of each window.
+    groups : sequence of str
+        ``(n_windows,)`` group (run, or split unit) of each window.
+
+    Returns
+    -------
+    pandas.Series
+        Group -> voted label, indexed by the sorted group ids.
+    """
     frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
     counts = frame.groupby(["g", "p"]).size().reset_index(name="n")
     counts = counts.sort_values(["g", "n", "p"], ascending=[True, False, True])
@@ -44,7 +67,23 @@ def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
 
 def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
                           groups: Sequence[str]) -> float:
-    """Fraction of runs (groups) whose majority-vote prediction is their true label."""
+    """Fraction of runs (groups) whose majority-vote prediction is their true label.
+
+    Parameters
+    ----------
+    y_true : sequence of str
+        ``(n_windows,)`` true terrain label of each window.
+    y_pred : sequence of str
+        ``(n_windows,)`` predicted label of each window.
+    groups : sequence of str
+        ``(n_windows,)`` run (or split unit) of each window; a group's true label is that of
+        its first window.
+
+    Returns
+    -------
+    float
+        Correctly voted groups / groups, in [0, 1] (see :func:`majority_vote`).
+    """
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
     truth = truth[~truth.index.duplicated()]
     vote = majority_vote(y_pred, groups)
@@ -53,7 +92,22 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
 
 def confusion(y_true: Sequence[str], y_pred: Sequence[str],
               classes: Sequence[str]) -> pd.DataFrame:
-    """Confusion matrix as a frame (rows: true class, columns: predicted class, counts)."""
+    """Confusion matrix as a frame (rows: true class, columns: predicted class, counts).
+
+    Parameters
+    ----------
+    y_true : sequence of str
+        ``(n_windows,)`` true terrain label of each window.
+    y_pred : sequence of str
+        ``(n_windows,)`` predicted label of each window.
+    classes : sequence of str
+        Row and column labels, in this order (labels outside it are not counted).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``(n_classes, n_classes)`` window counts, index ``true``, columns ``predicted``.
+    """
     cm = confusion_matrix(y_true, y_pred, labels=list(classes))
     return pd.DataFrame(cm, index=pd.Index(classes, name="true"),
                         columns=pd.Index(classes, name="predicted"))
@@ -61,6 +115,13 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
 
 def plot_confusion(cm: pd.DataFrame, title: str = ""):
     """Row-normalised confusion matrix as a matplotlib figure (counts in the cells).
+
+    Parameters
+    ----------
+    cm : pandas.DataFrame
+        ``(n_classes, n_classes)`` counts as returned by :func:`confusion` (rows true class).
+    title : str
+        Figure title.
 
     Returns
     -------

@@ -47,7 +47,21 @@ class SVMConfig:
 
 
 def make_svm(config: SVMConfig = SVMConfig(), random_state: int = 0) -> Pipeline:
-    """``StandardScaler`` + RBF ``SVC`` (``class_weight="balanced"``) as one pipeline."""
+    """``StandardScaler`` + RBF ``SVC`` (``class_weight="balanced"``) as one pipeline.
+
+    Parameters
+    ----------
+    config : SVMConfig
+        ``C``, ``gamma`` and whether to calibrate probabilities (Platt scaling).
+    random_state : int
+        Seed of the SVC (passed to every calibrated copy too).
+
+    Returns
+    -------
+    sklearn.pipeline.Pipeline
+        Unfitted ``scale -> svc`` pipeline over ``(n_windows, n_features)`` features; ``svc``
+        is a ``CalibratedClassifierCV`` when ``config.probability``.
+    """
     svc = SVC(C=config.C, gamma=config.gamma, kernel="rbf", class_weight="balanced",
               random_state=random_state)
     if config.probability:
@@ -61,6 +75,22 @@ def make_search(config: SVMConfig = SVMConfig(), random_state: int = 0,
 
     Call ``fit(X, y, groups=groups)``: the inner ``StratifiedGroupKFold`` only ever splits the
     training runs it is given, so tuning never sees a test run.
+
+    Parameters
+    ----------
+    config : SVMConfig
+        Grid (``search_C``, ``search_gamma``), inner fold count and the base settings of
+        :func:`make_svm`.
+    random_state : int
+        Seed of the inner split shuffling and of the SVC.
+    n_jobs : int or None
+        joblib workers of the grid search.
+
+    Returns
+    -------
+    sklearn.model_selection.GridSearchCV
+        Unfitted search scored by macro F1, refitted on the whole training split with the
+        best ``svc__C`` and ``svc__gamma``.
     """
     inner = StratifiedGroupKFold(config.inner_splits, shuffle=True, random_state=random_state)
     grid = {"svc__C": list(config.search_C), "svc__gamma": list(config.search_gamma)}

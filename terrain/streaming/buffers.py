@@ -102,6 +102,11 @@ class RingBuffer:
         ----------
         last : int
             Samples looked at.
+
+        Returns
+        -------
+        float
+            Median of the differences of their timestamps, s; ``nan`` with fewer than 2.
         """
         m = min(self._size, last)
         if m < 2:

@@ -50,6 +50,11 @@ class TargetProvider(Protocol):
             Smoothed probability of ``terrain`` in [0, 1].
         stale : bool
             Whether the decision rests on stale or missing input.
+
+        Returns
+        -------
+        SlipTargets
+            Traction, braking and steady slip targets (SAE slip, dimensionless).
         """
         ...  # pragma: no cover
 
