@@ -18,7 +18,7 @@ from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
 from terrain.models.registry import MODELS
 from terrain.serving import log_model, runs_to_model_input, save_model
-from terrain.tracking import activate_store, tracked_run
+from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-train"
 #: Documented default classifier (README "Model comparison").
@@ -49,26 +49,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 
+def _structure(est) -> str:
+    """``name:Class -> ...`` of a pipeline, ``Class(member, ...)`` of an ensemble."""
+    if hasattr(est, "steps"):
+        return " -> ".join(f"{n}:{_structure(e)}" for n, e in est.steps)
+    members = getattr(est, "estimators", None)
+    if members is not None and not hasattr(est, "estimator"):
+        return f"{type(est).__name__}(" + ", ".join(f"{n}:{_structure(e)}"
+                                                     for n, e in members) + ")"
+    inner = getattr(est, "estimator", None)
+    return type(est).__name__ + (f"({type(inner).__name__})" if inner is not None else "")
+
+
 def trained_params(pipe) -> dict:
     """The scalar hyperparameters of the fitted pipeline, as MLflow parameters.
 
     Parameters
     ----------
-    pipe : sklearn.pipeline.Pipeline
-        The fitted inference pipeline.
+    pipe : sklearn.pipeline.Pipeline or sklearn estimator
+        The fitted inference pipeline (a soft-voting ensemble of pipelines for
+        ``--model ensemble``).
 
     Returns
     -------
     dict
         ``model.<param>`` -> value (e.g. the calibrated SVC's ``C``, ``gamma`` and calibration
-        method) and ``model.steps``, the step classes.
+        method) and ``model.steps``, the step classes (members of an ensemble in brackets).
     """
     flat = {f"model.{k}": v for k, v in pipe.get_params(deep=True).items()
             if isinstance(v, (str, int, float, bool)) or v is None}
-    flat["model.steps"] = " -> ".join(
-        f"{n}:{type(e).__name__}" + (f"({type(e.estimator).__name__})"
-                                     if hasattr(e, "estimator") else "")
-        for n, e in pipe.steps)
+    flat["model.steps"] = _structure(pipe)
     return {k: v for k, v in flat.items() if not k.endswith(("verbose", "memory", "n_jobs"))}
 
 
@@ -95,7 +105,6 @@ def main(args: argparse.Namespace) -> int:
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0]}
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
-    activate_store()  # model logging and the registry use MLflow's process-wide store
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)
         classes = [str(c) for c in np.unique(ws.labels.astype(str))]

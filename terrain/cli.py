@@ -18,6 +18,7 @@ import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
+from terrain.tracking import activate_store
 from terrain.errors import DataWarning, TerrainError
 
 #: subcommand -> pipelines module implementing it
@@ -130,6 +131,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
         try:
+            # the entry point owns MLflow's process-wide store (model logging, the registry
+            # and ``models:/`` URIs read it); the library never sets it
+            activate_store()
             return int(args._main(args) or 0)
         except (TerrainError, OSError) + _store_errors() as exc:
             if debug:

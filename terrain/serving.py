@@ -418,7 +418,8 @@ def load_model(uri: str | Path) -> tuple[Any, dict]:
     ----------
     uri : str or pathlib.Path
         Model directory or MLflow URI (``runs:/...``, ``models:/name/version``), resolved in
-        the tracking store activated by :func:`terrain.tracking.activate_store`.
+        MLflow's process-wide store (set by the ``terrain`` entry point with
+        :func:`terrain.tracking.activate_store`).
 
     Returns
     -------
@@ -435,8 +436,6 @@ def load_model(uri: str | Path) -> tuple[Any, dict]:
     """
     import mlflow.pyfunc
 
-    from terrain.tracking import activate_store
-    activate_store()
     model = mlflow.pyfunc.load_model(str(uri))
     meta = dict(model.metadata.metadata or {})
     if "channels" not in meta or "rate_hz" not in meta:
