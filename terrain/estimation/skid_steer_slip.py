@@ -82,7 +82,8 @@ class SkidSteerSlipSettings:
     log_chi_psd : float
         Drift density of ``ln(chi)``, 1/s.
     slip_psd : float
-        Drift density of each side's slip, 1/s (terrain and load changes).
+        Drift density of each side's slip, 1/s (terrain and load changes; small: the slip
+        follows the pseudo-measurement, one per second).
     pitch_psd : float
         Drift density of the pitch, rad^2 / s (grade changes).
     chi0, log_chi0_std, bias0_std, v0_std, yaw_rate0_std : float
@@ -109,11 +110,11 @@ class SkidSteerSlipSettings:
     wheel_std_m_s: float = 0.03
     gyro_std_rad_s: float = 0.01
     accel_std_m_s2: float = 0.3
-    jerk_psd: float = 1.0
+    jerk_psd: float = 0.3
     yaw_accel_psd: float = 0.1
     bias_psd: float = 1e-8
     log_chi_psd: float = 2e-3
-    slip_psd: float = 1e-3
+    slip_psd: float = 1e-5
     pitch_psd: float = 1e-3
     chi0: float = 1.5
     log_chi0_std: float = 1.0
