@@ -45,7 +45,8 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     -------
     dict or None
         ``{"physics": (t_s, slip (k, 2), std (k, 2)), "learned": ...}`` with ``t_s`` the window
-        ends (s, causal); None when the run lacks currents or IMU, its terrain is not in the
+        centres, s (the time a window mean describes; the estimate is therefore not causal:
+        a filter step uses up to half a window, 1 s, of later data). None when the run lacks currents or IMU, its terrain is not in the
         catalogue, or it is shorter than one window.
     """
 
@@ -72,10 +73,11 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
         res = physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
                            acc, n_averaged=n_cur, settings=physics_settings)
         phys, phys_std = res.slip, res.std
-    out = {"physics": (ws.t_end_s.astype(float), phys, phys_std)}
+    t_mid = 0.5 * (ws.t_start_s + ws.t_end_s).astype(float)
+    out = {"physics": (t_mid, phys, phys_std)}
     if learned_model is not None:
         pred = np.asarray(learned_model.predict(X), dtype=float)[:, :2]
-        out["learned"] = (ws.t_end_s.astype(float), pred, np.full_like(pred, np.nan))
+        out["learned"] = (t_mid, pred, np.full_like(pred, np.nan))
     return out
 
 

@@ -114,7 +114,7 @@ class SkidSteerSlipSettings:
     yaw_accel_psd: float = 0.1
     bias_psd: float = 1e-8
     log_chi_psd: float = 2e-3
-    slip_psd: float = 1e-5
+    slip_psd: float = 6e-6
     pitch_psd: float = 1e-3
     chi0: float = 1.5
     log_chi0_std: float = 1.0
