@@ -311,7 +311,9 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     """States and slip of wheels 1-3 of an AgriMaRo run: the 12-state EKF
     (:func:`~terrain.estimation.agrimaro.estimate_agrimaro`), then the raw rim speeds against
     the EKF velocity moved to each wheel with the EKF steering angles (seed 001 eqs. 7.3-7.5,
-    :func:`~terrain.slip.wheel_slip`).
+    :func:`~terrain.slip.wheel_slip`); ``slip_std`` propagates the EKF's marginal standard
+    deviations of the speed, yaw rate and steering angles to first order (one-sigma finite
+    differences, correlations ignored; the camera makes the slip observable).
 
     Parameters
     ----------
@@ -352,11 +354,24 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
                             store_covariance=store_covariance)
     rim = resample(ekf.t_s, t_om - offsets.get("omega", 0.0), om) * params.wheel_radius_m
     delta = ekf.x[:, [ekf.state_names.index(f"delta_{i}") for i in (1, 2, 3)]]
-    slip = wheel_slip(rim, ekf.state("v_bx"), ekf.state("v_by"), ekf.state("yaw_rate"),
-                      params.positions, delta)
+    names = ["v_bx", "v_by", "yaw_rate"] + [f"delta_{i}" for i in (1, 2, 3)]
+    cols = [ekf.state_names.index(n) for n in names]
+
+    def slip_at(x: np.ndarray) -> np.ndarray:
+        return wheel_slip(rim, x[:, 0], x[:, 1], x[:, 2], params.positions, x[:, 3:])
+
+    x = ekf.x[:, cols]
+    slip = slip_at(x)
+    # first-order propagation of the EKF's marginal variances (correlations ignored)
+    var = np.zeros_like(slip)
+    for j, sd in enumerate(np.sqrt(ekf.P_diag[:, cols]).T):
+        xp = x.copy()
+        xp[:, j] += sd
+        var += (slip_at(xp) - slip) ** 2
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
-                                 "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S})
+                                 "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
+                       np.sqrt(var))
 
 
 def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None = None,
