@@ -46,8 +46,8 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     dict or None
         ``{"physics": (t_s, slip (k, 2), std (k, 2)), "learned": ...}`` with ``t_s`` the window
         centres, s (the time a window mean describes; the estimate is therefore not causal:
-        a filter step uses up to half a window, 1 s, of later data). None when the run lacks currents or IMU, its terrain is not in the
-        catalogue, or it is shorter than one window.
+        a filter step uses up to half a window, 1 s, of later data). None when the run lacks
+        currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
     """
 
     w = run.streams.get("wheels")

@@ -18,11 +18,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from features.slip_outputs import slip_model_outputs
+from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.io.measured import read_runs_dir
-from features.slip_outputs import slip_model_outputs
-from pipelines.slip_model import resolve_slip_model
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
 from terrain.slip.estimate import SLIP_MODELS, estimate_skid_steer_slip_run
 
@@ -87,9 +87,11 @@ def main(args: argparse.Namespace) -> int:
     """
     runs = _load(args.run_dir, args.run)
     gate = Gate(args.gate) if args.gate is not None else None
-    learned, where = None, ""
+    learned = None
     if args.slip_model in ("learned", "fused") and any(r.vehicle != "agrimaro" for r in runs):
         learned, where = resolve_slip_model(args.slip_model_dir)
+        if learned is None:
+            print(f"note: no learned slip model ({where}); physics supplies the slip")
     for run in runs:
         if run.vehicle == "agrimaro":
             est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,
@@ -98,8 +100,6 @@ def main(args: argparse.Namespace) -> int:
             outputs = slip_model_outputs(run, learned) if args.slip_model != "ekf" else None
             est = estimate_skid_steer_slip_run(run, args.slip_model, outputs=outputs,
                                                lag=args.lag, gate=gate, rate_hz=args.rate_hz)
-            if learned is None and args.slip_model in ("learned", "fused"):
-                print(f"note: no learned slip model ({where}); physics supplies the slip")
         for note in est.notes:
             print(note)
         if len(runs) == 1:

@@ -66,7 +66,8 @@ class SkidSteerSlipSettings:
     track_m : float
         Geometric track width B, m (Husky 0.5708 m).
     wheel_std_m_s : float
-        Noise of a side's rim speed, m/s (as :class:`~terrain.estimation.skid_steer.SkidSteerSettings`).
+        Noise of a side's rim speed, m/s (as in
+        :class:`~terrain.estimation.skid_steer.SkidSteerSettings`).
     gyro_std_rad_s : float
         Gyro z noise, rad/s.
     accel_std_m_s2 : float
