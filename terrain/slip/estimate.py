@@ -10,7 +10,9 @@
   ``vel_r`` and the EKF body velocity moved to the side's geometric contact line
   ``y = +-B/2``. Without an external velocity reference the forward speed is the mean wheel
   speed, so this slip is the part of each side's slip that shows in turning (scrub), not the
-  common longitudinal slip.
+  common longitudinal slip. :func:`estimate_skid_steer_slip_run` supplies that: the EKF of
+  :mod:`terrain.estimation.skid_steer_slip` with a slip model (physics, learned or both) as
+  pseudo-measurement and the accelerometer, reporting ``slip_i`` with ``std_slip_i``.
 
 Encoder lag (``lag``): ``"xcorr"`` (default) estimates it from the data
 (:func:`terrain.slip.alignment.estimate_lag`: camera speed vs rim speed for AgriMaRo, gyro
