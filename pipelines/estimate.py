@@ -6,8 +6,11 @@ The vehicle comes from meta_XX.json ("vehicle", default husky): agrimaro -> 12-s
 thesis ch. 6.1; husky/tracked -> skid-steer EKF (speed, yaw rate, gyro bias, ICR factor).
 With one run the table goes to --out. With several, --run TERRAIN/XX selects one; without
 --run one file per run is written next to --out as <stem>_<TERRAIN>_<XX><suffix>.
-Columns: t_s, states, std_<state>, slip_1.. (simulator wheel numbering), innov_<row>, nis,
-nis_dof.
+Columns: t_s, states, std_<state>, slip_1.. with std_slip_1.. (simulator wheel numbering),
+innov_<row>, nis, nis_dof. Skid-steer: the common longitudinal slip is not observable from
+wheels + IMU; --slip-model picks its source (fused default: physics + learned model as the
+EKF's pseudo-measurement; learned falls back to physics without a model; ekf: none) and a
+note says so.
 """
 
 from __future__ import annotations
@@ -15,21 +18,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from features.slip_outputs import slip_model_outputs
+from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
+from terrain.slip.estimate import SLIP_MODELS, estimate_skid_steer_slip_run
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain estimate``.
-
-    Parameters
-    ----------
-    parser : argparse.ArgumentParser
-        The subcommand's parser.
-    """
+    """Arguments of ``terrain estimate`` (``parser``: the subcommand's parser)."""
     parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
                                                    "folder of it)")
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
@@ -45,6 +45,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "default")
     parser.add_argument("--rate-hz", type=float, default=None,
                         help="filter rate, Hz (default: the IMU rate)")
+    parser.add_argument("--slip-model", choices=SLIP_MODELS, default="fused",
+                        help="skid-steer slip source (default fused)")
+    parser.add_argument("--slip-model-dir", type=Path, default=None,
+                        help="learned slip model (MLflow model dir; default: registered "
+                             "slip-husky)")
 
 
 def _load(run_dir: Path, select: str | None):
@@ -84,9 +89,21 @@ def main(args: argparse.Namespace) -> int:
     runs = _load(args.run_dir, args.run)
     print(input_report(runs).text())
     gate = Gate(args.gate) if args.gate is not None else None
+    learned = None
+    if args.slip_model in ("learned", "fused") and any(r.vehicle != "agrimaro" for r in runs):
+        learned, where = resolve_slip_model(args.slip_model_dir)
+        if learned is None:
+            print(f"note: no learned slip model ({where}); physics supplies the slip")
     for run in runs:
-        est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,
-                           rate_hz=args.rate_hz)
+        if run.vehicle == "agrimaro":
+            est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,
+                               rate_hz=args.rate_hz)
+        else:
+            outputs = slip_model_outputs(run, learned) if args.slip_model != "ekf" else None
+            est = estimate_skid_steer_slip_run(run, args.slip_model, outputs=outputs,
+                                               lag=args.lag, gate=gate, rate_hz=args.rate_hz)
+        for note in est.notes:
+            print(note)
         if len(runs) == 1:
             out = args.out
         else:

@@ -5,7 +5,8 @@ Public API: :func:`sae_slip`, :func:`wheel_longitudinal_velocity`, :func:`wheel_
 :class:`LagEstimate` (:mod:`.alignment`); :func:`estimate_run` (vehicle dispatch),
 :func:`estimate_agrimaro_run`, :func:`estimate_skid_steer_run` and their pieces
 (:func:`agrimaro_wheel_speeds`, :func:`agrimaro_encoder_lag`, :func:`skid_steer_encoder_lag`,
-:func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate` (:mod:`.estimate`).
+:func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate`; the fused skid-steer slip :func:`estimate_skid_steer_slip_run`,
+:func:`pseudo_measurement`, :class:`FusionSettings`, :data:`SLIP_MODELS` (:mod:`.estimate`).
 """
 
 from __future__ import annotations
@@ -17,9 +18,12 @@ from terrain.slip.estimate import (LAG_MODES, TUNINGS, RunEstimate, agrimaro_enc
                                    agrimaro_settings, agrimaro_wheel_speeds,
                                    estimate_agrimaro_run, estimate_run, estimate_skid_steer_run,
                                    resample, skid_steer_encoder_lag, with_camera_ema)
+from terrain.slip.estimate import (SLIP_MODELS, FusionSettings, estimate_skid_steer_slip_run,
+                                   pseudo_measurement)
 
 __all__ = ["LagEstimate", "estimate_lag", "DEAD_BAND_M_S", "sae_slip", "skid_steer_side_slip",
            "wheel_longitudinal_velocity", "wheel_slip", "LAG_MODES", "TUNINGS", "RunEstimate",
            "agrimaro_settings", "estimate_run", "agrimaro_encoder_lag", "agrimaro_wheel_speeds",
            "estimate_agrimaro_run", "estimate_skid_steer_run", "resample",
-           "skid_steer_encoder_lag", "with_camera_ema"]
+           "skid_steer_encoder_lag", "with_camera_ema", "SLIP_MODELS", "FusionSettings",
+           "estimate_skid_steer_slip_run", "pseudo_measurement"]

@@ -10,7 +10,9 @@
   ``vel_r`` and the EKF body velocity moved to the side's geometric contact line
   ``y = +-B/2``. Without an external velocity reference the forward speed is the mean wheel
   speed, so this slip is the part of each side's slip that shows in turning (scrub), not the
-  common longitudinal slip.
+  common longitudinal slip. :func:`estimate_skid_steer_slip_run` supplies that: the EKF of
+  :mod:`terrain.estimation.skid_steer_slip` with a slip model (physics, learned or both) as
+  pseudo-measurement and the accelerometer, reporting ``slip_i`` with ``std_slip_i``.
 
 Encoder lag (``lag``): ``"xcorr"`` (default) estimates it from the data
 (:func:`terrain.slip.alignment.estimate_lag`: camera speed vs rim speed for AgriMaRo, gyro
@@ -34,6 +36,7 @@ from terrain.estimation.ekf import Gate
 from terrain.estimation.prefilter import robust_noise_std
 from terrain.estimation.result import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
+from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run
 from terrain.slip.alignment import LagEstimate, estimate_lag
 from terrain.slip.core import DEAD_BAND_M_S, skid_steer_side_slip, wheel_slip
@@ -64,6 +67,10 @@ class RunEstimate:
         Estimated encoder lag (``lag="xcorr"``).
     meta : dict
         Tuning, lag mode and offsets, dead band.
+    slip_std : ndarray, shape (N, k), optional
+        Standard deviation of each slip column (``std_slip_i``); NaN where not propagated.
+    notes : tuple of str
+        One-line notes for the user (e.g. which model supplies an unobservable slip).
     """
 
     run_id: str
@@ -73,6 +80,8 @@ class RunEstimate:
     slip_names: tuple[str, ...]
     lag: LagEstimate | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    slip_std: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     def to_frame(self) -> pd.DataFrame:
         """The run's table (the columns of ``terrain estimate``).
@@ -81,15 +90,20 @@ class RunEstimate:
         -------
         pandas.DataFrame
             ``t_s``, states (plus ``icr_chi = exp(log_icr_chi)`` for skid-steer), ``std_<state>``,
-            ``slip_i``, ``innov_<row>``, ``nis``, ``nis_dof``; one row per EKF step.
+            ``slip_i`` and ``std_slip_i``, ``innov_<row>``, ``nis``, ``nis_dof``; one row per EKF
+            step.
         """
         frame = self.ekf.to_frame()
         if "log_icr_chi" in frame.columns:
             frame.insert(frame.columns.get_loc("log_icr_chi") + 1, "icr_chi",
                          np.exp(frame["log_icr_chi"]))
+        frame = frame.drop(columns=[c for n in self.slip_names for c in (n, f"std_{n}")
+                                    if c in frame.columns])
         pos = frame.columns.get_loc("nis") - len(self.ekf.measurement_names)
+        std = self.slip_std if self.slip_std is not None else np.full_like(self.slip, np.nan)
         for j, name in enumerate(self.slip_names):
-            frame.insert(pos + j, name, self.slip[:, j])
+            frame.insert(pos + 2 * j, name, self.slip[:, j])
+            frame.insert(pos + 2 * j + 1, f"std_{name}", std[:, j])
         return frame
 
     def summary(self) -> str:
@@ -102,7 +116,10 @@ class RunEstimate:
         """
         ekf = self.ekf
         nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
+        std = self.slip_std if self.slip_std is not None else np.full_like(self.slip, np.nan)
         slips = ", ".join(f"{n} {np.nanmedian(self.slip[:, j]):+.3f}"
+                          + (f" (std {np.nanmedian(std[:, j]):.3f})"
+                             if np.isfinite(std[:, j]).any() else "")
                           for j, n in enumerate(self.slip_names))
         lag = f"{self.lag.lag_s:.3f} s" if self.lag is not None else "not estimated"
         skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
@@ -296,7 +313,9 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     """States and slip of wheels 1-3 of an AgriMaRo run: the 12-state EKF
     (:func:`~terrain.estimation.agrimaro.estimate_agrimaro`), then the raw rim speeds against
     the EKF velocity moved to each wheel with the EKF steering angles (seed 001 eqs. 7.3-7.5,
-    :func:`~terrain.slip.wheel_slip`).
+    :func:`~terrain.slip.wheel_slip`); ``slip_std`` propagates the EKF's marginal standard
+    deviations of the speed, yaw rate and steering angles to first order (one-sigma finite
+    differences, correlations ignored; the camera makes the slip observable).
 
     Parameters
     ----------
@@ -337,11 +356,24 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
                             store_covariance=store_covariance)
     rim = resample(ekf.t_s, t_om - offsets.get("omega", 0.0), om) * params.wheel_radius_m
     delta = ekf.x[:, [ekf.state_names.index(f"delta_{i}") for i in (1, 2, 3)]]
-    slip = wheel_slip(rim, ekf.state("v_bx"), ekf.state("v_by"), ekf.state("yaw_rate"),
-                      params.positions, delta)
+    names = ["v_bx", "v_by", "yaw_rate"] + [f"delta_{i}" for i in (1, 2, 3)]
+    cols = [ekf.state_names.index(n) for n in names]
+
+    def slip_at(x: np.ndarray) -> np.ndarray:
+        return wheel_slip(rim, x[:, 0], x[:, 1], x[:, 2], params.positions, x[:, 3:])
+
+    x = ekf.x[:, cols]
+    slip = slip_at(x)
+    # first-order propagation of the EKF's marginal variances (correlations ignored)
+    var = np.zeros_like(slip)
+    for j, sd in enumerate(np.sqrt(ekf.P_diag[:, cols]).T):
+        xp = x.copy()
+        xp[:, j] += sd
+        var += (slip_at(xp) - slip) ** 2
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
-                                 "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S})
+                                 "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
+                       np.sqrt(var))
 
 
 def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None = None,
@@ -441,3 +473,186 @@ def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
         raise ConfigError(f"{vehicle} runs need SkidSteerSettings")
     return estimate_skid_steer_run(run, lag=lag, gate=gate, rate_hz=rate_hz,
                                    store_covariance=store_covariance, settings=settings)
+
+
+#: Slip sources of :func:`estimate_skid_steer_slip_run` (``terrain estimate --slip-model``).
+SLIP_MODELS = ("ekf", "physics", "learned", "fused")
+
+
+@dataclass(frozen=True)
+class FusionSettings:
+    """How the slip models become the EKF's pseudo-measurement.
+
+    Parameters
+    ----------
+    learned_std_floor : float
+        Smallest standard deviation of the learned model's slip (ASSUMED 0.01: the largest
+        held-out median error of the registered model on steady straight driving is 0.0072,
+        ``docs/slip_learning.md``). The learned model gives no variance of its own; its std is
+        ``sqrt(floor^2 + (learned - physics)^2)``: where the two models disagree, at least one
+        is wrong by about that much.
+    min_std : float
+        Floor of every pseudo-measurement std, dimensionless (the physics std is 1e-4 on firm
+        ground, where the error of a 2 s window mean in a transient is larger; 0.003 gave
+        NEES inside its bounds on simulated SANDY_LOAM and SNOW, ``docs/slip_learning.md``).
+    filter : SkidSteerSlipSettings
+        Tuning of the slip-augmented EKF.
+    """
+
+    learned_std_floor: float = 0.01
+    min_std: float = 0.003
+    filter: SkidSteerSlipSettings = field(default_factory=SkidSteerSlipSettings)
+
+
+def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
+                       source: str, settings: FusionSettings = FusionSettings()
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Slip pseudo-measurement and its std from the slip models (:class:`FusionSettings`).
+
+    ``fused``: inverse-variance weighted mean of physics and learned, with the variance of the
+    better of the two (not their combined variance: the learned model takes the physics slip
+    as a feature, so their errors are not independent).
+
+    Parameters
+    ----------
+    outputs : dict
+        :func:`features.slip_outputs.slip_model_outputs`.
+    source : {"physics", "learned", "fused"}
+        Which model (``fused`` without a learned model is ``physics``).
+    settings : FusionSettings
+        Std floors.
+
+    Returns
+    -------
+    t_s : ndarray, shape (k,)
+        Window ends, s.
+    slip : ndarray, shape (k, 2)
+        Sides 1, 2.
+    std : ndarray, shape (k, 2)
+
+    Raises
+    ------
+    ConfigError
+        Unknown source, or ``learned`` without a learned model.
+    """
+    if source not in ("physics", "learned", "fused"):
+        raise ConfigError(f"unknown slip source {source!r}; valid: physics, learned, fused")
+    t, sp, vp = outputs["physics"]
+    vp = np.maximum(vp, settings.min_std)
+    if source == "physics" or (source == "fused" and "learned" not in outputs):
+        return t, sp, vp
+    if "learned" not in outputs:
+        raise ConfigError("the learned slip model is not available")
+    sl = outputs["learned"][1]
+    vl = np.maximum(np.hypot(settings.learned_std_floor, sl - sp), settings.min_std)
+    if source == "learned":
+        return t, sl, vl
+    wp, wl = vp ** -2, vl ** -2
+    return t, (wp * sp + wl * sl) / (wp + wl), np.minimum(vp, vl)
+
+
+def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
+                                 outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
+                                 | None = None, lag: str = "xcorr",
+                                 gate: Gate | None = None, rate_hz: float | None = None,
+                                 settings: FusionSettings = FusionSettings()) -> RunEstimate:
+    """States and side slips with standard deviations of a skid-steer run: the slip-augmented
+    EKF of :mod:`terrain.estimation.skid_steer_slip` with the slip model as pseudo-measurement
+    and the accelerometer.
+
+    Parameters
+    ----------
+    run : Run
+        Husky or tracked run (``wheels``; ``imu`` and currents for the slip models).
+    slip_model : {"ekf", "physics", "learned", "fused"}
+        Pseudo-measurement source; ``ekf``: none (slip stays at its prior, std says so).
+    outputs : dict, optional
+        Window outputs of the slip models
+        (:func:`features.slip_outputs.slip_model_outputs`: ``physics`` and, with a learned
+        model, ``learned``); None when they could not be computed (then no pseudo-measurement).
+    lag : {"xcorr", "ema", "none"}
+        ``xcorr`` estimates the wheel-stream lag against the gyro.
+    gate : Gate, optional
+        Chi-square gating per sensor.
+    rate_hz : float, optional
+        Filter rate, Hz (default: the IMU rate, else the wheel rate).
+    settings : FusionSettings
+        Std floors and EKF tuning.
+
+    Returns
+    -------
+    RunEstimate
+        ``slip`` and ``slip_std`` from the EKF states ``slip_1, slip_2``; ``notes`` say which
+        source supplied the unobservable common slip (and any fallback).
+
+    Raises
+    ------
+    EstimationError
+        No ``wheels`` stream.
+    ConfigError
+        Unknown slip model or vehicle.
+    """
+    from terrain.estimation.runner import SensorSamples, make_grid
+    from terrain.estimation.skid_steer_slip import run_with_pseudo_slip
+
+    if slip_model not in SLIP_MODELS:
+        raise ConfigError(f"unknown slip model {slip_model!r}; valid: {', '.join(SLIP_MODELS)}")
+    if slip_model == "ekf":
+        est = estimate_skid_steer_run(run, lag=lag, gate=gate, rate_hz=rate_hz)
+        est.notes = ("note: longitudinal slip common to both sides (slip_1, slip_2) is not "
+                     "observable from wheel speeds + IMU and no slip model is used (--slip-model "
+                     "ekf): slip_* is the turning part only, std_slip_* not available",)
+        est.meta["slip_model"] = "ekf"
+        return est
+    params = get_vehicle(run.vehicle)
+    fs = replace(settings.filter, track_m=params.track_m)
+    w = run.streams.get("wheels")
+    if w is None:
+        raise EstimationError(f"run {run.run_id} has no wheels stream")
+    lag_est = skid_steer_encoder_lag(run, fs.track_m) if lag == "xcorr" else None
+    off = lag_est.lag_s if lag_est is not None else 0.0
+    samples = {"wheels": SensorSamples(w[TIME].to_numpy(float) - off,
+                                       w[["vel_l", "vel_r"]].to_numpy(float))}
+    spans = [samples["wheels"].t_s]
+    imu = run.streams.get("imu")
+    if imu is not None:
+        t_imu = imu[TIME].to_numpy(float)
+        samples["gyro"] = SensorSamples(t_imu, imu[["wz"]].to_numpy(float))
+        acc = imu[["ax", "az"]].to_numpy(float)
+        samples["accel"] = SensorSamples(t_imu, acc)
+        spans.append(t_imu)
+        if len(imu) > 50:        # vibration sets the accelerometer noise: measure it on the run
+            noise = np.nanmax(robust_noise_std(acc, float(1.0 / np.median(np.diff(t_imu)))))
+            if np.isfinite(noise) and noise > 0:
+                fs = replace(fs, accel_std_m_s2=float(noise))
+    rate = float(rate_hz) if rate_hz else float(1.0 / np.median(np.diff(spans[-1])))
+    grid = make_grid(max(s[0] for s in spans), min(s[-1] for s in spans), rate)
+    notes: list[str] = []
+    source = slip_model
+    if slip_model == "learned" and outputs is not None and "learned" not in outputs:
+        notes.append("no learned slip model available: falling back to physics")
+        source = "physics"
+    if outputs is None and source != "ekf":
+        notes.append(f"{source} slip model needs motor currents, an IMU and a catalogue "
+                     f"terrain (run terrain {run.terrain!r}): none used")
+        source = "ekf"
+    if source == "fused" and "learned" not in outputs:
+        source = "fused (physics only: no learned model)"
+        pm = pseudo_measurement(outputs, "physics", settings)
+    elif source != "ekf":
+        pm = pseudo_measurement(outputs, source, settings)
+    else:
+        pm = (None, None, None)
+    ekf = run_with_pseudo_slip(grid, samples, fs, *pm, gate=gate)
+    names = ("slip_1", "slip_2")
+    idx = [ekf.state_names.index(n) for n in names]
+    supplier = ("nothing: slip_1, slip_2 stay at their prior 0, see std_slip_*"
+                if source == "ekf" else f"the {source} slip model (pseudo-measurement)")
+    notes.insert(0, "note: longitudinal slip common to both sides (slip_1, slip_2) is not "
+                    f"observable from wheel speeds + IMU; supplied by {supplier}")
+    ekf.meta.update(model="skid-steer-slip-8", track_m=fs.track_m,
+                    time_offsets_s={"wheels": off} if lag_est is not None else {})
+    return RunEstimate(run.run_id, params.name, ekf, ekf.x[:, idx], names, lag_est,
+                       {"tuning": "skid-steer-slip default", "lag_mode": lag,
+                        "slip_model": source, "dead_band_m_s": DEAD_BAND_M_S},
+                       np.sqrt(ekf.P_diag[:, idx]), tuple(notes))

@@ -1,0 +1,84 @@
+"""Window outputs of the slip models for the EKF's slip pseudo-measurement (issue 10 item 4).
+
+The physics slip (:func:`terrain.slip.physics.physics_slip`, through the ``phys_*`` columns of
+:func:`features.slip_features.slip_features`) and the learned slip
+(:class:`terrain.slip.learned.SlipRegressor`) of every 2 s window of a run, handed to
+:func:`terrain.slip.estimate.estimate_skid_steer_slip_run`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_features,
+                                    slip_windows)
+from terrain.run import Run
+from terrain.sim.sensors import SensorSettings
+from terrain.slip.physics import PhysicsSlipSettings, physics_slip
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
+from terrain.vehicles import get_vehicle
+
+
+def slip_model_outputs(run: Run, learned_model: Any | None = None,
+                       physics_settings: PhysicsSlipSettings = PhysicsSlipSettings()
+                       ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] | None:
+    """Physics and (with a model) learned slip of each 2 s window of a skid-steer run.
+
+    The terrain probabilities are those of a confident classifier on the run's terrain label
+    (one-hot over the catalogue; the label of a simulated run is its true terrain).
+
+    Parameters
+    ----------
+    run : Run
+        Skid-steer run with ``wheels`` (``vel_l, vel_r`` m/s, ``cur_l, cur_r`` A) and ``imu``
+        streams, terrain label in ``run.terrain``.
+    learned_model : SlipRegressor or None
+        Fitted model (``predict`` -> ``slip_1, slip_2, ...``) on the features of
+        :func:`features.slip_features.slip_features`.
+    physics_settings : PhysicsSlipSettings
+        Uncertainties of the physics slip of the pseudo-measurement (the learned model's
+        ``phys_*`` features keep the defaults it was trained with).
+
+    Returns
+    -------
+    dict or None
+        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "learned": ...}`` with ``t_s`` the window
+        centres, s (the time a window mean describes; the estimate is therefore not causal:
+        a filter step uses up to half a window, 1 s, of later data). None when the run lacks
+        currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
+    """
+
+    w = run.streams.get("wheels")
+    if w is None or "imu" not in run.streams or not {"cur_l", "cur_r"} <= set(w.columns) \
+            or str(run.terrain) not in TERRAIN_NAMES:
+        return None
+    ws = slip_windows([run])
+    if len(ws) == 0 or set(SLIP_CHANNELS) - set(ws.channels):
+        return None
+    vehicle = get_vehicle(run.vehicle)
+    X = slip_features(ws, vehicle, one_hot_probabilities([str(run.terrain)] * len(ws),
+                                                         TERRAIN_NAMES))
+    if physics_settings == PhysicsSlipSettings():
+        phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy(float)
+        phys_std = np.repeat(X[["phys_std"]].to_numpy(float), 2, axis=1)
+    else:       # same inputs as the phys_* features, other uncertainties
+        cur = X[["cur_l__mean", "cur_r__mean"]].to_numpy(float)
+        rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(float)
+        acc = np.repeat(X[["vel_mean__slope"]].to_numpy(float), 2, axis=1) / \
+            vehicle.contact_geometry().wheel_radius_m
+        n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(SensorSettings.wheel_rate_hz,
+                                                            ws.rate_hz))
+        res = physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
+                           acc, n_averaged=n_cur, settings=physics_settings)
+        phys, phys_std = res.slip, res.std
+    t_mid = 0.5 * (ws.t_start_s + ws.t_end_s).astype(float)
+    out = {"physics": (t_mid, phys, phys_std)}
+    if learned_model is not None:
+        pred = np.asarray(learned_model.predict(X), dtype=float)[:, :2]
+        out["learned"] = (t_mid, pred, np.full_like(pred, np.nan))
+    return out
+
+
+__all__ = ["slip_model_outputs"]

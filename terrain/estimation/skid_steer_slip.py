@@ -1,0 +1,441 @@
+"""Skid-steer EKF with per-side longitudinal slip fused from a slip model (issue 10 item 4).
+
+State (8)::
+
+    x = [v_bx, yaw_rate, b_g, ln(chi), s_1, s_2, a_x, pitch]
+         m/s   rad/s     rad/s 1       1    1    m/s^2 rad
+
+Equations: :mod:`terrain.estimation.equations.skid_steer_slip` (the wheel and gyro rows are
+those of :mod:`terrain.estimation.equations.skid_steer`, with each side's rim speed its
+ground speed over ``1 - s_i``). With wheels and a gyro only, the common slip of both sides and
+the forward speed are not separable (``docs/estimation_validation.md``). Two sources close the
+gap:
+
+* a **slip model** (:mod:`terrain.slip.physics` or :mod:`terrain.slip.learned`) enters as a
+  pseudo-measurement of ``s_1, s_2`` with the model's own standard deviation. The engine of
+  :func:`terrain.estimation.runner.run_filter` has a constant diagonal ``R``; a time-varying
+  pseudo-measurement variance is handled by running it in segments, one per pseudo-measurement
+  sample, each with that sample's variance, the state and covariance handed from one segment
+  to the next (:func:`run_with_pseudo_slip`). No model equation is re-typed here;
+* the **accelerometer** (specific force ``ax = a_x + g sin(pitch)``, ``az = g cos(pitch)``)
+  drives ``v_bx`` through ``a_x`` in transients, so the speed follows accelerations faster than
+  the window-mean slip pseudo-measurement can.
+
+Without a pseudo-measurement the slip states keep their prior (0 with ``slip0_std``) plus
+their random-walk growth: the reported standard deviation then says that the slip is not
+observable, instead of a confident 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Mapping
+
+import numpy as np
+
+from terrain.errors import ConfigError, ShapeError
+from terrain.estimation.ekf import Gate
+from terrain.estimation.equations.skid_steer_slip import (N_MEASUREMENTS, N_STATES,
+                                                          SkidSteerSlipEquationParams,
+                                                          observation_into, observation_pair,
+                                                          transition_into)
+from terrain.estimation.equations.skid_steer import NO_INPUT
+from terrain.estimation.model import StateSpaceModel
+from terrain.estimation.result import EKFResult
+from terrain.estimation.runner import SensorSamples, run_filter
+from terrain.vehicles.skid_steer import HUSKY
+
+if TYPE_CHECKING:
+    from terrain.estimation.fast import FastKernel
+
+STATE_NAMES: tuple[str, ...] = ("v_bx", "yaw_rate", "gyro_bias", "log_icr_chi", "slip_1",
+                                "slip_2", "accel_x", "pitch")
+MEASUREMENT_NAMES: tuple[str, ...] = ("vel_l", "vel_r", "wz", "slip_1", "slip_2", "ax", "az")
+SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
+    {"wheels": (0, 1), "gyro": (2,), "slip_model": (3, 4), "accel": (5, 6)})
+
+
+@dataclass(frozen=True)
+class SkidSteerSlipSettings:
+    """Geometry and tuning of the slip-augmented skid-steer EKF.
+
+    Parameters
+    ----------
+    track_m : float
+        Geometric track width B, m (Husky 0.5708 m).
+    wheel_std_m_s : float
+        Noise of a side's rim speed, m/s (as in
+        :class:`~terrain.estimation.skid_steer.SkidSteerSettings`).
+    gyro_std_rad_s : float
+        Gyro z noise, rad/s.
+    accel_std_m_s2 : float
+        Accelerometer noise including vibration and the unmodelled centripetal and vertical
+        accelerations, m/s^2 (ASSUMED 0.3: the simulated white noise is 0.05 m/s^2, terrain
+        vibration adds several times that).
+    jerk_psd : float
+        Density of the jerk driving ``a_x``, (m/s^3)^2 s.
+    yaw_accel_psd : float
+        Density of the yaw acceleration, (rad/s^2)^2 s.
+    bias_psd : float
+        Gyro bias drift density, (rad/s)^2 / s.
+    log_chi_psd : float
+        Drift density of ``ln(chi)``, 1/s.
+    slip_psd : float
+        Drift density of each side's slip, 1/s (terrain and load changes; small: the slip
+        follows the pseudo-measurement, one per second).
+    pitch_psd : float
+        Drift density of the pitch, rad^2 / s (grade changes).
+    chi0, log_chi0_std, bias0_std, v0_std, yaw_rate0_std : float
+        Priors as in :class:`~terrain.estimation.skid_steer.SkidSteerSettings`.
+    slip0_std : float
+        Prior standard deviation of each side's slip (prior mean 0).
+    accel0_std : float
+        Prior standard deviation of ``a_x``, m/s^2.
+    pitch0_std : float
+        Prior standard deviation of the pitch, rad.
+    chi_min_yaw_rate_rad_s : float
+        ``chi`` is corrected only above this yaw rate, rad/s.
+    slip_std : float
+        Standard deviation of the slip pseudo-measurement rows (set per segment by
+        :func:`run_with_pseudo_slip` from the slip model's own std).
+
+    Raises
+    ------
+    ConfigError
+        A standard deviation not > 0 or a density negative or not finite.
+    """
+
+    track_m: float = HUSKY.track_m
+    wheel_std_m_s: float = 0.03
+    gyro_std_rad_s: float = 0.01
+    accel_std_m_s2: float = 0.3
+    jerk_psd: float = 0.3
+    yaw_accel_psd: float = 0.1
+    bias_psd: float = 1e-8
+    log_chi_psd: float = 2e-3
+    slip_psd: float = 6e-6
+    pitch_psd: float = 1e-3
+    chi0: float = 1.5
+    log_chi0_std: float = 1.0
+    bias0_std: float = 0.01
+    v0_std: float = 0.3
+    yaw_rate0_std: float = 0.3
+    slip0_std: float = 0.3
+    accel0_std: float = 1.0
+    pitch0_std: float = 0.3
+    chi_min_yaw_rate_rad_s: float = 0.05
+    slip_std: float = 0.1
+
+    def __post_init__(self) -> None:
+        for name in ("track_m", "wheel_std_m_s", "gyro_std_rad_s", "accel_std_m_s2", "chi0",
+                     "log_chi0_std", "bias0_std", "v0_std", "yaw_rate0_std", "slip0_std",
+                     "accel0_std", "pitch0_std", "slip_std"):
+            v = float(getattr(self, name))
+            if not (np.isfinite(v) and v > 0):
+                raise ConfigError(f"{name} must be > 0 and finite, got {v}")
+        for name in ("jerk_psd", "yaw_accel_psd", "bias_psd", "log_chi_psd", "slip_psd",
+                     "pitch_psd", "chi_min_yaw_rate_rad_s"):
+            v = float(getattr(self, name))
+            if not (np.isfinite(v) and v >= 0):
+                raise ConfigError(f"{name} must be >= 0 and finite, got {v}")
+
+    @property
+    def q_diag(self) -> tuple[float, ...]:
+        """Process noise densities per state (the ``Q = diag(q) dt`` of the model), shape (8,).
+
+        ``v_bx`` has none of its own: it is driven by ``a_x``, whose jerk density is
+        ``jerk_psd``.
+        """
+        return (0.0, self.yaw_accel_psd, self.bias_psd, self.log_chi_psd, self.slip_psd,
+                self.slip_psd, self.jerk_psd, self.pitch_psd)
+
+
+@dataclass(frozen=True)
+class SkidSteerSlipModel(StateSpaceModel):
+    """The 8-state model of the module docstring over
+    :mod:`terrain.estimation.equations.skid_steer_slip`.
+
+    Parameters
+    ----------
+    settings : SkidSteerSlipSettings
+        Geometry and tuning (``slip_std`` is the pseudo-measurement std in force).
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        :data:`STATE_NAMES` (8).
+    measurement_names : tuple of str
+        :data:`MEASUREMENT_NAMES` (7).
+    """
+
+    settings: SkidSteerSlipSettings = field(default_factory=SkidSteerSlipSettings)
+    state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
+    measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
+    _p: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        s = self.settings
+        object.__setattr__(self, "_p", SkidSteerSlipEquationParams(
+            track_m=float(s.track_m),
+            chi_min_yaw_rate_rad_s=float(s.chi_min_yaw_rate_rad_s)).as_array())
+
+    @property
+    def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:
+        """Sensor -> measurement rows (:data:`SENSOR_ROWS`)."""
+        return SENSOR_ROWS
+
+    def transition(self, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(f(x), F)`` of :func:`~terrain.estimation.equations.skid_steer_slip.transition_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (8,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        fx : ndarray, shape (8,)
+        F : ndarray, shape (8, 8)
+        """
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        fx, Fm = np.empty(N_STATES), np.empty((N_STATES, N_STATES))
+        transition_into(x, NO_INPUT, float(dt), self._p, fx, Fm)
+        return fx, Fm
+
+    def f(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Next state.
+
+        Parameters
+        ----------
+        x : ndarray, shape (8,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (8,)
+        """
+        return self.transition(x, dt)[0]
+
+    def F(self, x: np.ndarray, dt: float) -> np.ndarray:
+        """Jacobian of :meth:`f`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (8,)
+            State.
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (8, 8)
+        """
+        return self.transition(x, dt)[1]
+
+    def Q(self, dt: float) -> np.ndarray:
+        """``diag(settings.q_diag) dt``.
+
+        Parameters
+        ----------
+        dt : float
+            Step, s.
+
+        Returns
+        -------
+        ndarray, shape (8, 8)
+        """
+        q = np.diag(np.asarray(self.settings.q_diag, dtype=float)) * dt
+        # a_x enters v_bx over the step: the exact discretisation of white jerk on (v, a)
+        j = self.settings.jerk_psd
+        q[0, 0] = j * dt ** 3 / 3.0
+        q[0, 6] = q[6, 0] = j * dt ** 2 / 2.0
+        return q
+
+    def observation(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(h(x), H(x))`` of
+        :func:`~terrain.estimation.equations.skid_steer_slip.observation_into`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (8,)
+            State.
+
+        Returns
+        -------
+        hx : ndarray, shape (7,)
+        H : ndarray, shape (7, 8)
+        """
+        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
+
+    def h(self, x: np.ndarray) -> np.ndarray:
+        """Measurement ``[vel_l, vel_r, wz, slip_1, slip_2, ax, az]``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (8,)
+            State.
+
+        Returns
+        -------
+        ndarray, shape (7,)
+        """
+        return self.observation(x)[0]
+
+    def H(self, x: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`h`.
+
+        Parameters
+        ----------
+        x : ndarray, shape (8,)
+            State.
+
+        Returns
+        -------
+        ndarray, shape (7, 8)
+        """
+        return self.observation(x)[1]
+
+    @property
+    def R_diag(self) -> np.ndarray:
+        """``[s_w^2, s_w^2, s_g^2, s_s^2, s_s^2, s_a^2, s_a^2]``, shape (7,)."""
+        s = self.settings
+        return np.array([s.wheel_std_m_s ** 2] * 2 + [s.gyro_std_rad_s ** 2]
+                        + [s.slip_std ** 2] * 2 + [s.accel_std_m_s2 ** 2] * 2)
+
+    @property
+    def x0(self) -> np.ndarray:
+        """``[0, 0, 0, ln(chi0), 0, 0, 0, 0]``, shape (8,)."""
+        x = np.zeros(N_STATES)
+        x[3] = math.log(self.settings.chi0)
+        return x
+
+    @property
+    def P0(self) -> np.ndarray:
+        """Prior covariance, shape (8, 8)."""
+        s = self.settings
+        return np.diag([s.v0_std ** 2, s.yaw_rate0_std ** 2, s.bias0_std ** 2,
+                        s.log_chi0_std ** 2, s.slip0_std ** 2, s.slip0_std ** 2,
+                        s.accel0_std ** 2, s.pitch0_std ** 2])
+
+    def fast_kernel(self) -> FastKernel | None:
+        """The model's kernels for :mod:`terrain.estimation.fast`; None, because ``Q`` couples
+        ``v_bx`` and ``a_x`` (the compiled loop takes a diagonal ``Q``): the NumPy reference
+        loop runs this model.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
+
+def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSamples],
+                         settings: SkidSteerSlipSettings = SkidSteerSlipSettings(),
+                         pseudo_t_s: np.ndarray | None = None,
+                         pseudo_slip: np.ndarray | None = None,
+                         pseudo_std: np.ndarray | None = None, *,
+                         gate: Gate | None = None) -> EKFResult:
+    """Run :class:`SkidSteerSlipModel` with a slip pseudo-measurement whose variance varies.
+
+    The grid is cut after each pseudo-measurement time; segment ``j`` runs with
+    ``slip_std = pseudo_std[j]`` (the std of the one pseudo-measurement it holds) and starts
+    from the state and covariance of the previous segment predicted by one step.
+
+    Parameters
+    ----------
+    t_grid_s : ndarray, shape (N,)
+        Filter steps, s (:func:`terrain.estimation.runner.make_grid`).
+    samples : Mapping[str, SensorSamples]
+        ``wheels`` (``vel_l, vel_r`` m/s), ``gyro`` (``wz`` rad/s), ``accel`` (``ax, az``
+        m/s^2); any may be missing.
+    settings : SkidSteerSlipSettings
+        Tuning.
+    pseudo_t_s : ndarray, shape (k,), optional
+        Times of the slip model's outputs, s, increasing (None: no pseudo-measurement).
+    pseudo_slip : ndarray, shape (k, 2)
+        Slip of sides 1 and 2 from the slip model.
+    pseudo_std : ndarray, shape (k, 2) or (k,)
+        Its standard deviation (the larger of the two sides is used for both rows).
+    gate : Gate, optional
+        Chi-square gating per sensor.
+
+    Returns
+    -------
+    EKFResult
+        Over the whole grid (full covariance kept: ``P`` of shape (N, 8, 8)).
+
+    Raises
+    ------
+    ShapeError
+        Pseudo-measurement arrays of inconsistent shapes.
+    """
+    t_grid_s = np.asarray(t_grid_s, dtype=float)
+    base = dict(samples)
+    if pseudo_t_s is None or len(pseudo_t_s) == 0:
+        return run_filter(SkidSteerSlipModel(settings), t_grid_s, base, gate=gate,
+                          store_covariance=True, engine="numpy")
+    tp = np.asarray(pseudo_t_s, dtype=float)
+    sp = np.asarray(pseudo_slip, dtype=float)
+    sd = np.asarray(pseudo_std, dtype=float)
+    sd = sd.max(axis=1) if sd.ndim == 2 else sd
+    if sp.shape != (tp.size, 2) or sd.shape != (tp.size,):
+        raise ShapeError(f"pseudo-measurements need t (k,), slip (k, 2), std (k,) or (k, 2); "
+                         f"got {tp.shape}, {sp.shape}, {np.shape(pseudo_std)}")
+    ok = np.isfinite(sp).all(axis=1) & np.isfinite(sd) & (sd > 0)
+    tp, sp, sd = tp[ok], sp[ok], sd[ok]
+    base["slip_model"] = SensorSamples(tp, sp)
+    # segment ends: the grid step that receives each pseudo-measurement
+    ends = np.unique(np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1))
+    std_of_end = {int(e): float(s) for e, s in zip(
+        np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1), sd)}
+    cuts = [0] + [int(e) + 1 for e in ends if e + 1 < t_grid_s.size] + [t_grid_s.size]
+    cuts = sorted(set(cuts))
+    parts: list[EKFResult] = []
+    x0 = P0 = None
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        std = std_of_end.get(b - 1, settings.slip_std)
+        model = SkidSteerSlipModel(replace(settings, slip_std=std))
+        if parts:
+            prev = parts[-1]
+            dt = t_grid_s[a] - t_grid_s[a - 1]
+            fx, Fm = model.transition(prev.x[-1], dt)
+            P = Fm @ prev.P[-1] @ Fm.T + model.Q(dt)
+            x0, P0 = fx, 0.5 * (P + P.T)
+        parts.append(run_filter(model, t_grid_s[a:b], base, gate=gate, x0=x0, P0=P0,
+                                store_covariance=True, engine="numpy"))
+    return _concatenate(parts)
+
+
+def _concatenate(parts: list[EKFResult]) -> EKFResult:
+    first = parts[0]
+    counts: dict[str, dict[str, int]] = {}
+    for p in parts:
+        for name, c in p.counts.items():
+            agg = counts.setdefault(name, {k: 0 for k in c})
+            for k, v in c.items():
+                if k in ("used", "rejected", "non_finite", "superseded"):
+                    agg[k] = agg.get(k, 0) + v
+                else:
+                    agg[k] = v
+    for name in counts:      # samples outside every segment but the one holding them
+        counts[name]["outside"] = 0
+    cat = np.concatenate
+    meta = dict(first.meta)
+    meta.update(n_steps=int(sum(p.t_s.size for p in parts)), segments=len(parts))
+    return EKFResult(t_s=cat([p.t_s for p in parts]), x=cat([p.x for p in parts]),
+                     P_diag=cat([p.P_diag for p in parts]), P=cat([p.P for p in parts]),
+                     y=cat([p.y for p in parts]), S_diag=cat([p.S_diag for p in parts]),
+                     accepted=cat([p.accepted for p in parts]), nis=cat([p.nis for p in parts]),
+                     dof=cat([p.dof for p in parts]), state_names=first.state_names,
+                     measurement_names=first.measurement_names,
+                     sensor_rows=first.sensor_rows, counts=counts, meta=meta)
+
+
+__all__ = ["STATE_NAMES", "MEASUREMENT_NAMES", "SENSOR_ROWS", "SkidSteerSlipSettings",
+           "SkidSteerSlipModel", "run_with_pseudo_slip", "N_MEASUREMENTS"]

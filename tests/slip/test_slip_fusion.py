@@ -1,0 +1,101 @@
+"""Slip-augmented skid-steer EKF (issue 10 item 4) and ``terrain estimate --slip-model``
+(item 6) on short simulated Husky runs with truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.slip_outputs import slip_model_outputs
+from terrain.cli import main
+from terrain.estimation.consistency import chi2_test, nees
+from terrain.estimation.equations import skid_steer as base
+from terrain.estimation.equations import skid_steer_slip as eq
+from terrain.estimation.model import finite_difference_jacobian
+from terrain.io.measured import read_runs_dir
+from terrain.io.writer import write_run
+from terrain.sim import SimConfig, simulate
+from terrain.slip.estimate import estimate_skid_steer_slip_run
+from terrain.slip.physics import PhysicsSlipSettings
+
+X = np.array([0.8, 0.3, 0.01, np.log(1.4), 0.12, 0.07, 0.2, 0.05])
+
+
+def test_jacobians_match_finite_differences_and_wheel_rows_reduce_to_the_base_model():
+    p = eq.SkidSteerSlipEquationParams()
+    np.testing.assert_allclose(eq.H(X, p), finite_difference_jacobian(lambda x: eq.h(x, p), X),
+                               atol=1e-7)
+    np.testing.assert_allclose(eq.F(X, None, 0.01, p),
+                               finite_difference_jacobian(lambda x: eq.f(x, None, 0.01, p), X),
+                               atol=1e-9)
+    x0 = X.copy()
+    x0[4:6] = 0.0
+    np.testing.assert_allclose(eq.h(x0, p)[:3], base.h(x0[:4]), rtol=1e-12)
+    # rim speed = ground speed / (1 - s) (SAE driving slip)
+    np.testing.assert_allclose(eq.h(X, p)[:2] * (1 - X[4:6]), base.h(X[:4])[:2], rtol=1e-12)
+    # level ground at rest: the accelerometer reads (0, g)
+    np.testing.assert_allclose(eq.h(np.r_[X[:6], 0.0, 0.0], p)[5:], [0.0, p.gravity_m_s2])
+
+
+@pytest.fixture(scope="module")
+def sandy(tmp_path_factory):
+    root = tmp_path_factory.mktemp("fusion")
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                                 scenario="straight_accel", duration_s=20.0, seed=3)), root)
+    return root, read_runs_dir(root, dataset="fusion")[0]
+
+
+def _truth(run, t, cols):
+    tr = run.streams["truth"]
+    return np.column_stack([np.interp(t, tr["t_s"], tr[c]) for c in cols])
+
+
+def test_fused_slip_is_near_truth_where_the_plain_ekf_reads_zero(sandy):
+    _, run = sandy
+    outputs = slip_model_outputs(run)
+    plain = estimate_skid_steer_slip_run(run, "ekf")
+    fused = estimate_skid_steer_slip_run(run, "fused", outputs=outputs)
+    late = fused.ekf.t_s > 5.0
+    truth = np.median(_truth(run, fused.ekf.t_s, ["slip_1", "slip_2"])[late], axis=0)
+    assert truth.min() > 0.05                                      # soft ground slips
+    assert np.abs(np.median(plain.slip[plain.ekf.t_s > 5.0], axis=0)).max() < 0.01
+    np.testing.assert_allclose(np.median(fused.slip[late], axis=0), truth, atol=0.01)
+    assert np.all(fused.slip_std > 0) and np.all(np.isfinite(fused.slip_std))
+    assert "not observable" in fused.notes[0] and "physics" in fused.notes[0]
+
+
+def test_nees_inside_chi_square_bounds_with_the_simulation_noise_model(sandy):
+    """In simulation the motor and terrain constants are exact: the physics slip's only
+    error sources are the current noise and the window model, so its parameter
+    uncertainties are set small (0.02, 0.03 relative) rather than the field defaults."""
+    _, run = sandy
+    outputs = slip_model_outputs(run, None, PhysicsSlipSettings(efficiency_rel_std=0.02,
+                                                                hysteresis_rel_std=0.03))
+    est = estimate_skid_steer_slip_run(run, "physics", outputs=outputs)
+    f = est.ekf
+    names = ("slip_1", "slip_2")
+    idx = [f.state_names.index(n) for n in names]
+    late = f.t_s > 3.0
+    err = f.x[late][:, idx] - _truth(run, f.t_s[late], names)
+    test = chi2_test(nees(err, f.P[late][:, idx][:, :, idx]), 2)
+    assert test.inside, test
+
+
+def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_path, capsys,
+                                                                  monkeypatch):
+    root, _ = sandy
+    monkeypatch.chdir(tmp_path)           # no tracking store: the learned model is not found
+    out = tmp_path / "states.csv"
+    assert main(["estimate", str(root), "--out", str(out)]) == 0
+    frame = pd.read_csv(out)
+    cols = list(frame.columns)
+    assert cols.index("std_slip_1") == cols.index("slip_1") + 1
+    assert cols.index("std_slip_2") == cols.index("slip_2") + 1
+    assert (frame[["std_slip_1", "std_slip_2"]] > 0).all().all()
+    printed = capsys.readouterr().out
+    assert "no learned slip model" in printed
+    assert "is not observable from wheel speeds + IMU; supplied by the fused (physics only" \
+        in printed
+    assert main(["estimate", str(root), "--out", str(out), "--slip-model", "ekf"]) == 0
+    assert "no slip model is used" in capsys.readouterr().out
