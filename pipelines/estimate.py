@@ -29,7 +29,13 @@ from terrain.slip.estimate import SLIP_MODELS, estimate_skid_steer_slip_run
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain estimate`` (``parser``: the subcommand's parser)."""
+    """Arguments of ``terrain estimate``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Subparser to fill.
+    """
     parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
                                                    "folder of it)")
     parser.add_argument("--out", type=Path, required=True, help="output CSV file")
