@@ -26,7 +26,13 @@ from terrain.streaming.served import save_served_model, served_settings
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``terrain serve``."""
+    """Arguments of ``terrain serve``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     parser.add_argument("--model", type=Path, required=True,
                         help="model directory (terrain train --model-out, or a served model)")
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to bind")
@@ -45,7 +51,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def is_served_model(path: Path) -> bool:
-    """Whether ``path`` already holds the streaming pyfunc (its metadata kind)."""
+    """Whether ``path`` already holds the streaming pyfunc (its metadata kind).
+
+    Parameters
+    ----------
+    path : Path
+        Model directory.
+
+    Returns
+    -------
+    bool
+    """
     mlmodel = path / "MLmodel"
     meta = (yaml.safe_load(mlmodel.read_text()) or {}).get("metadata") or {} \
         if mlmodel.is_file() else {}
@@ -53,14 +69,42 @@ def is_served_model(path: Path) -> bool:
 
 
 def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
-    """Wrap a ``terrain train`` model into the streaming pyfunc at ``out``."""
+    """Wrap a ``terrain train`` model into the streaming pyfunc at ``out``.
+
+    Parameters
+    ----------
+    model_dir : Path
+        Model directory of ``terrain train --model-out``.
+    out : Path
+        New directory of the served model.
+    args : argparse.Namespace
+        ``hop_s``, ``dwell_s``, ``min_confidence``.
+
+    Returns
+    -------
+    Path
+        ``out``.
+    """
     model = load_stream_model(model_dir)
     settings = served_settings(model, args.hop_s, args.dwell_s or None, args.min_confidence)
     return save_served_model(out, model_dir, settings, pip_requirements(model.pipeline))
 
 
 def build_app(served_dir: Path, max_body_bytes: int):
-    """MLflow's scoring server app for ``served_dir`` with the request-size guard."""
+    """MLflow's scoring server app for ``served_dir`` with the request-size guard.
+
+    Parameters
+    ----------
+    served_dir : Path
+        Directory of the served streaming model.
+    max_body_bytes : int
+        Largest request body, bytes (larger: 413; no Content-Length: 411).
+
+    Returns
+    -------
+    fastapi.FastAPI
+        ``/ping``, ``/health``, ``/version``, ``/invocations``.
+    """
     import mlflow.pyfunc
     from fastapi.responses import JSONResponse
     from mlflow.pyfunc import scoring_server
@@ -83,7 +127,23 @@ def build_app(served_dir: Path, max_body_bytes: int):
 
 
 def main(args: argparse.Namespace) -> int:
-    """Wrap the model if needed and serve it until interrupted."""
+    """Wrap the model if needed and serve it until interrupted.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments (see :func:`add_arguments`).
+
+    Returns
+    -------
+    int
+        Exit status 0.
+
+    Raises
+    ------
+    ConfigError
+        ``--host`` is not a loopback address, or ``--model`` is not a terrain model.
+    """
     import uvicorn
 
     try:
