@@ -142,7 +142,8 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        ``--host`` is not a loopback address, or ``--model`` is not a terrain model.
+        ``--host`` is not a loopback address, or ``--model`` does not exist or is not a
+        terrain model.
     """
     import uvicorn
 
@@ -152,6 +153,8 @@ def main(args: argparse.Namespace) -> int:
         loopback = False
     if not loopback:
         raise ConfigError(f"--host {args.host} is not a loopback address (use 127.0.0.1)")
+    if not args.model.exists():
+        raise ConfigError(f"model directory {args.model} does not exist")
     with tempfile.TemporaryDirectory() as tmp:
         served = args.model
         if not is_served_model(args.model):

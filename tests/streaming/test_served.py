@@ -173,6 +173,12 @@ def test_row_limit(request_frame):
         parse_request(request_frame, {"wheels": WHEEL_CHANNELS}, 2.0, 10)
 
 
+def test_serve_refuses_a_non_loopback_host(model_dirs, capsys):
+    from terrain.cli import main
+    assert main(["serve", "--model", str(model_dirs[0]), "--host", "0.0.0.0"]) == 2
+    assert "not a loopback address" in capsys.readouterr().err
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
