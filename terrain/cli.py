@@ -39,6 +39,7 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "control-grid": "pipelines.control_grid",
     "stream": "pipelines.stream",
     "stream-eval": "pipelines.stream_eval",
+    "serve": "pipelines.serve",
 })
 
 

@@ -70,6 +70,7 @@ def _assert_one_line_error(capsys, command):
     ["stream", "--model", "nowhere", "missing_runs", "--out", "s.csv"],
     ["stream-eval", "--part", "streams"],
     ["compare", "--quick", "--models", "svm", "--n-jobs", "1", "--out", "cmp"],
+    ["serve", "--model", "nowhere", "--port", "1"],
 ])
 def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(
         workdir, capsys, monkeypatch, argv):
@@ -87,7 +88,7 @@ def test_the_parametrised_list_covers_every_subcommand():
     from terrain.cli import SUBCOMMANDS
     covered = {"cv", "train", "predict", "convert", "benchmark", "simulate", "audit",
                "estimate", "slip-table", "validate", "slip-fit", "control-sim",
-               "control-grid", "stream", "stream-eval", "compare"}
+               "control-grid", "stream", "stream-eval", "compare", "serve"}
     assert set(SUBCOMMANDS) <= covered, (
         f"add a missing-input case for {sorted(set(SUBCOMMANDS) - covered)} to "
         "test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2")

@@ -1,0 +1,147 @@
+"""Benchmark: bounded load test of the served streaming model on 127.0.0.1.
+
+A streaming model is fitted on BorealTC (the ``--kind`` recipe of
+:mod:`terrain.streaming.evaluation`, or read with ``--model DIR``), saved as ``terrain train
+--model-out`` would, and served by ``terrain serve`` (MLflow's scoring server app) on a free
+loopback port. ``--requests`` requests (default 2,000), ``--concurrency`` at a time (default
+4), each carrying ``--request-s`` seconds of raw logged streams of one run (long format,
+streams interleaved as logged, a different slice each time), are sent; any answer other than
+HTTP 200 with one decision row per due window counts as an error. Throughput, error count and
+request latency p50/p99 print and are logged to MLflow (experiment ``terrain-benchmark``).
+
+Run: ``python benchmarks/bench_served_load.py [--kind wheels|all] [--requests 2000]
+[--concurrency 4] [--no-mlflow]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from terrain.io.shipped import load_dataset
+from terrain.run import TIME
+from terrain.serving import save_model
+from terrain.streaming import load_stream_model
+from terrain.streaming.evaluation import RECIPES, fit_stream_model
+from terrain.tracking import tracked_run
+
+
+def request_bodies(runs, streams, request_s: float, count: int, seed: int = 0) -> list[bytes]:
+    """``count`` JSON bodies of ``request_s`` s slices of random runs (long format)."""
+    rng = np.random.default_rng(seed)
+    usable = [r for r in runs if all(s in r.streams for s in streams)
+              and r.duration_s > request_s + 1]
+    bodies = []
+    for _ in range(count):
+        run = usable[rng.integers(len(usable))]
+        t0 = rng.uniform(0, run.duration_s - request_s) + run.streams[streams[0]][TIME].iloc[0]
+        parts = [run.streams[s][(run.streams[s][TIME] >= t0)
+                                & (run.streams[s][TIME] < t0 + request_s)].assign(stream=s)
+                 for s in streams]
+        frame = pd.concat(parts, ignore_index=True).sort_values(TIME, kind="stable")
+        cols = ["stream", TIME] + [c for c in frame.columns if c not in ("stream", TIME)]
+        split = json.loads(frame[cols].to_json(orient="split", index=False))
+        bodies.append(json.dumps({"dataframe_split": split}).encode())
+    return bodies
+
+
+def _post(url: str, body: bytes) -> tuple[bool, float]:
+    start = time.perf_counter()
+    req = urllib.request.Request(url, body, {"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(req, timeout=30) as res:
+            ok = res.status == 200 and len(json.loads(res.read())["predictions"]) > 0
+    except (urllib.error.URLError, OSError, ValueError, KeyError):
+        ok = False
+    return ok, time.perf_counter() - start
+
+
+def _serve(model_dir: Path) -> tuple[subprocess.Popen, str]:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "terrain.cli", "serve", "--model",
+                             str(model_dir), "--host", "127.0.0.1", "--port", str(port)],
+                            stdout=subprocess.DEVNULL)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 120
+    while True:
+        if proc.poll() is not None:
+            raise RuntimeError("terrain serve exited before answering /ping")
+        try:
+            urllib.request.urlopen(base + "/ping", timeout=2).close()
+            return proc, base
+        except OSError:
+            if time.monotonic() > deadline:
+                proc.terminate()
+                raise RuntimeError("terrain serve did not start within 120 s")
+            time.sleep(0.3)
+
+
+def main() -> int:
+    """Run the benchmark; returns 0."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--kind", choices=list(RECIPES), default="wheels")
+    parser.add_argument("--model", type=Path, default=None,
+                        help="model directory of terrain train --model-out")
+    parser.add_argument("--requests", type=int, default=2000)
+    parser.add_argument("--concurrency", type=int, default=4)
+    parser.add_argument("--request-s", type=float, default=4.0,
+                        help="seconds of stream per request")
+    parser.add_argument("--no-mlflow", action="store_true")
+    args = parser.parse_args()
+    runs = load_dataset("borealtc")
+    streams = ("wheels",) if RECIPES[args.kind].signals == "wheels" else ("imu", "wheels")
+    with tempfile.TemporaryDirectory() as tmp:
+        model_dir = args.model
+        if model_dir is None:
+            m = fit_stream_model(RECIPES[args.kind], runs, seed=0)
+            model_dir = save_model(Path(tmp) / "model", m.pipeline, m.channels, m.window,
+                                   m.classes, {"dataset": "borealtc", "kind": args.kind})
+        window = load_stream_model(model_dir).window
+        request_s = max(args.request_s, window.window_s + 1.0)
+        bodies = request_bodies(runs, streams, request_s, args.requests)
+        proc, base = _serve(model_dir)
+        try:
+            _post(base + "/invocations", bodies[0])  # warm-up
+            start = time.perf_counter()
+            with ThreadPoolExecutor(args.concurrency) as pool:
+                results = list(pool.map(lambda b: _post(base + "/invocations", b), bodies))
+            wall = time.perf_counter() - start
+        finally:
+            proc.terminate()
+            proc.wait(timeout=20)
+    lat = np.array([r[1] for r in results]) * 1e3
+    errors = int(sum(not r[0] for r in results))
+    metrics = {"served_requests": len(results), "served_errors": errors,
+               "served_throughput_rps": len(results) / wall, "served_wall_s": wall,
+               "served_p50_ms": float(np.percentile(lat, 50)),
+               "served_p99_ms": float(np.percentile(lat, 99))}
+    print(f"served {args.kind} model ({window.window_s:g} s windows): {len(results)} requests "
+          f"of {request_s:g} s of stream, {args.concurrency} concurrent, in {wall:.1f} s: "
+          f"{metrics['served_throughput_rps']:.1f} req/s, {errors} errors; latency p50 "
+          f"{metrics['served_p50_ms']:.1f} ms, p99 {metrics['served_p99_ms']:.1f} ms")
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", run_name=f"served-load-{args.kind}",
+                         params={"kind": args.kind, "requests": args.requests,
+                                 "concurrency": args.concurrency,
+                                 "request_s": request_s}) as run:
+            run.log_metrics(metrics)
+        print(run.describe())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

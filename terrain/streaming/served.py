@@ -1,0 +1,378 @@
+"""The streaming service as one MLflow pyfunc: raw logged streams in, decisions out.
+
+:class:`ServedStreamModel` bundles the fitted window classifier (the ``pipeline.joblib`` of
+a model written by ``terrain train --model-out``), its windowing, the smoothing settings and
+the desired-slip table (:class:`~terrain.streaming.targets.TableTargets`). Each request is
+replayed through a fresh :class:`~terrain.streaming.service.StreamService` (samples in
+timestamp order, streams interleaved), so the served answer is exactly what the in-process
+service would have decided on the same samples; nothing is resampled by the client.
+
+Request (a pandas frame, e.g. the ``dataframe_split`` JSON of ``mlflow models serve``), either
+
+* **long**: one row per sample, ``stream`` (``imu`` / ``wheels``), ``t_s`` (s, the stream's
+  own clock) and the channels (SI units; a channel of another stream may be empty), or
+* **wide**: per-stream time columns ``<stream>_t_s`` next to that stream's channels; a
+  shorter stream leaves its trailing cells empty.
+
+Answer: one row per window, ``t_s, terrain, confidence, proba_<CLASS>...,
+target_slip_traction, target_slip_braking, target_slip_steady, window_age_s, flags,
+dropped``; ``dropped`` is true for a window that was not classified, and its reason is in
+``flags`` (``gap``, ``short``, ``stale``...).
+
+A malformed request raises :class:`ServedInputError`, an
+:class:`mlflow.exceptions.MlflowException` whose message is the project's typed message
+(:mod:`terrain.errors`, class name first) and which MLflow's scoring server answers with
+HTTP 400 and no stack trace; its message cannot be rewritten by the server (which would
+otherwise prepend a dump of the request frame).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from features.windows import WindowConfig
+from terrain.control import DesiredSlipConfig
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
+                            NonNumericError, TerrainError, TimestampError)
+from terrain.io.plausibility import NOMINAL_RATE_HZ, check_ranges, check_rate
+from terrain.run import TIME, Run
+from terrain.streaming.model import PIPELINE_ARTIFACT, StreamModel, load_stream_model
+from terrain.streaming.replay import replay_run
+from terrain.streaming.service import StreamConfig, StreamService, decisions_frame
+from terrain.streaming.smoothing import SmoothingConfig
+from terrain.streaming.targets import TableTargets
+
+try:  # mlflow is a hard dependency; the guard keeps the module importable for docs tools
+    from mlflow.exceptions import MlflowException
+    from mlflow.protos.databricks_pb2 import BAD_REQUEST, INTERNAL_ERROR
+    from mlflow.pyfunc import PythonModel
+except ImportError:  # pragma: no cover
+    PythonModel, MlflowException, BAD_REQUEST, INTERNAL_ERROR = object, Exception, 400, 500
+
+STREAM = "stream"
+#: consecutive non-finite samples of one channel the readers repair (longer: refused)
+MAX_REPAIR_RUN = 2
+#: flags of a window that was not classified
+DROP_FLAGS = ("gap", "short")
+_log = logging.getLogger(__name__)
+
+
+class ServedInputError(MlflowException):
+    """A request the served model refuses; HTTP 400 (or ``error_code``'s status).
+
+    Its ``message`` is fixed at construction: MLflow's scoring server assigns a new message
+    (the request frame followed by the error) to any MlflowException raised by a model, which
+    this class ignores, so the answer carries only the project's message.
+
+    Parameters
+    ----------
+    message : str
+        The project's typed message.
+    error_code : int
+        MLflow error code (:data:`BAD_REQUEST` -> HTTP 400, :data:`INTERNAL_ERROR` -> 500).
+    """
+
+    def __init__(self, message: str, error_code: int = BAD_REQUEST) -> None:
+        self._fixed = message
+        super().__init__(message, error_code=error_code)
+
+    @property
+    def message(self) -> str:
+        """The project's message (assignments are ignored, see class docstring)."""
+        return self._fixed
+
+    @message.setter
+    def message(self, value: str) -> None:
+        pass
+
+
+def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | None = 10.0,
+                    min_confidence: float = 0.5, max_rows: int = 200_000) -> dict:
+    """Settings of the served model (stored as its MLflow ``model_config``).
+
+    Parameters
+    ----------
+    model : StreamModel
+        The classifier and its window.
+    hop_s : float
+        Time between decisions, s.
+    dwell_s : float or None
+        Expected time on one terrain of the forward filter, s (None: no smoothing).
+    min_confidence : float
+        Smoothed probability below which the table's conservative target is used.
+    max_rows : int
+        Largest request, rows (a larger one is refused).
+
+    Returns
+    -------
+    dict
+        JSON-serialisable settings.
+    """
+    return {"kind": "terrain-stream", "channels": list(model.channels),
+            "classes": list(model.classes), "window_s": model.window.window_s,
+            "rate_hz": model.window.rate_hz, "hop_s": float(hop_s),
+            "dwell_s": None if dwell_s is None else float(dwell_s),
+            "min_confidence": float(min_confidence), "max_rows": int(max_rows)}
+
+
+def _numeric(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) -> np.ndarray:
+    """Column ``col`` at ``rows`` as float; NonNumericError naming the first bad row."""
+    raw = frame[col].to_numpy()[rows]
+    values = pd.to_numeric(pd.Series(raw), errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(np.isnan(values) & pd.notna(pd.Series(raw)).to_numpy())
+    if bad.size:
+        raise NonNumericError(f"non-numeric value {raw[bad[0]]!r} ({bad.size} such value(s))",
+                              where, col, int(rows[bad[0]]))
+    return values
+
+
+def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[str],
+                  rows: np.ndarray, window_s: float, where: str) -> None:
+    """The readers' rules on one stream of a request (time, rate, length, NaN bursts)."""
+    if not np.isfinite(t).all():
+        i = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise NonFiniteError(f"non-finite timestamp in stream {stream!r}", where, TIME,
+                             int(rows[i]))
+    dt = np.diff(t)
+    if (dt <= 0).any():
+        i = int(np.flatnonzero(dt <= 0)[0]) + 1
+        what = "duplicated" if dt[i - 1] == 0 else "decreasing"
+        raise TimestampError(f"stream {stream!r}: {what} timestamp {float(t[i])!r} after "
+                             f"{float(t[i - 1])!r}; timestamps must increase strictly (send each "
+                             "stream in time order)", where, TIME, int(rows[i]))
+    check_rate(t, stream, where)
+    if t.size >= 2 and stream in NOMINAL_RATE_HZ:
+        lo, hi = NOMINAL_RATE_HZ[stream]
+        rate = 1.0 / float(np.median(dt))
+        if not lo <= rate <= hi:
+            raise DataFormatError(f"stream {stream!r}: median step implies {rate:.4g} Hz, "
+                                  f"outside its nominal {lo:g}-{hi:g} Hz (timestamps in s?)",
+                                  where, TIME)
+    span = float(t[-1] - t[0]) if t.size else 0.0
+    if span < window_s:
+        raise DataFormatError(f"stream {stream!r} too short: it spans {span:.3g} s over "
+                              f"{t.size} sample(s); one window needs {window_s:g} s", where,
+                              TIME)
+    for j, col in enumerate(channels):
+        bad = ~np.isfinite(v[:, j])
+        if not bad.any():
+            continue
+        idx = np.flatnonzero(bad)
+        starts = np.r_[idx[0], idx[1:][np.diff(idx) > 1]]
+        ends = np.r_[idx[:-1][np.diff(idx) > 1], idx[-1]]
+        longest = int(np.argmax(ends - starts))
+        if ends[longest] - starts[longest] + 1 > MAX_REPAIR_RUN:
+            raise NonFiniteError(f"stream {stream!r}: burst of "
+                                 f"{ends[longest] - starts[longest] + 1} non-finite values "
+                                 f"(more than {MAX_REPAIR_RUN} are not repaired)", where, col,
+                                 int(rows[starts[longest]]))
+
+
+def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
+                  window_s: float, max_rows: int, where: str = "request") -> Run:
+    """Validate a request frame (long or wide, see module docstring) into a :class:`Run`.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The request.
+    streams : Mapping[str, sequence of str]
+        Stream name -> channels the model needs from it.
+    window_s : float
+        Window length, s (each stream must span at least this).
+    max_rows : int
+        Largest accepted request, rows.
+    where : str
+        Name of the input in messages.
+
+    Returns
+    -------
+    Run
+        One frame per needed stream (``t_s`` + channels), in the request's time order.
+
+    Raises
+    ------
+    DataFormatError
+        Too many rows, a stream that is too short or at an implausible rate.
+    MissingColumnError
+        A needed stream or channel is absent.
+    NonNumericError
+        A value that is not a number.
+    TimestampError
+        Unsorted or duplicated timestamps within a stream.
+    NonFiniteError
+        A non-finite timestamp or a burst of non-finite values.
+    ImplausibleValueError, UnitError
+        A value beyond its channel's plausibility range; timestamps in ms.
+    """
+    if not isinstance(frame, pd.DataFrame):
+        raise DataFormatError(f"expected a table of samples, got {type(frame).__name__}",
+                              where)
+    if len(frame) > max_rows:
+        raise DataFormatError(f"request of {len(frame)} rows exceeds the limit of {max_rows}; "
+                              "send the streams in shorter pieces", where)
+    long = STREAM in frame.columns
+    out = {}
+    for stream, channels in streams.items():
+        tcol = TIME if long else f"{stream}_{TIME}"
+        need = [tcol, *channels]
+        missing = [c for c in need if c not in frame.columns]
+        if long and STREAM not in missing and not (frame[STREAM] == stream).any():
+            missing = [f"{STREAM}={stream}"]
+        if missing:
+            form = ("long format: stream, t_s, channels" if long else
+                    "wide format: <stream>_t_s next to each stream's channels, or add a "
+                    "'stream' column for the long format")
+            raise MissingColumnError(f"the model needs stream {stream!r} with {need}; "
+                                     f"missing {missing} ({form})", where, missing[0])
+        rows = (np.flatnonzero((frame[STREAM] == stream).to_numpy()) if long
+                else np.flatnonzero(pd.notna(frame[tcol]).to_numpy()))
+        t = _numeric(frame, tcol, rows, where)
+        v = np.column_stack([_numeric(frame, c, rows, where) for c in channels])
+        _check_stream(stream, t, v, channels, rows, window_s, where)
+        part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
+        check_ranges(part, where, {c: c for c in channels})
+        out[stream] = part
+    return Run("request", "request", None, out)
+
+
+class ServedStreamModel(PythonModel):
+    """MLflow pyfunc of the streaming service (see module docstring).
+
+    Settings come from the model's ``model_config`` (:func:`served_settings`), the fitted
+    classifier from the ``pipeline`` artifact; the model is logged from code
+    (:mod:`terrain.streaming.served_entry`), so no Python object is pickled.
+    """
+
+    def __init__(self) -> None:
+        self.settings: dict = {}
+        self.model: StreamModel | None = None
+
+    def load_context(self, context: Any) -> None:
+        """Load the classifier and the settings.
+
+        Parameters
+        ----------
+        context : mlflow.pyfunc.PythonModelContext
+            ``artifacts["pipeline"]`` and ``model_config``.
+        """
+        import joblib
+
+        s = dict(context.model_config)
+        self.settings = s
+        self.model = StreamModel(joblib.load(context.artifacts["pipeline"]),
+                                 tuple(s["channels"]),
+                                 WindowConfig(window_s=float(s["window_s"]),
+                                              rate_hz=float(s["rate_hz"])),
+                                 tuple(s["classes"]))
+        self.targets = TableTargets(self.model.classes,
+                                    DesiredSlipConfig(min_confidence=s["min_confidence"]))
+        self.config = StreamConfig(hop_s=s["hop_s"], min_confidence=s["min_confidence"],
+                                   smoothing=SmoothingConfig(dwell_s=s["dwell_s"]))
+
+    def decide(self, frame: pd.DataFrame) -> pd.DataFrame:
+        """Decisions for one request (typed project errors propagate).
+
+        Parameters
+        ----------
+        frame : pandas.DataFrame
+            The request (see module docstring).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per window (see module docstring).
+        """
+        service = StreamService(self.model, self.targets, self.config)
+        streams = {s: service.streams[s] for s in service.needed_streams}
+        run = parse_request(frame, streams, self.model.window.window_s,
+                            int(self.settings["max_rows"]))
+        out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)
+        out["dropped"] = out["flags"].str.split("|").apply(
+            lambda f: any(x in DROP_FLAGS for x in f))
+        out["terrain"] = out["terrain"].fillna("")
+        return out
+
+    def predict(self, context: Any, model_input: pd.DataFrame,
+                params: dict | None = None) -> pd.DataFrame:
+        """MLflow entry: :meth:`decide`, errors mapped to :class:`ServedInputError`.
+
+        Parameters
+        ----------
+        context : mlflow.pyfunc.PythonModelContext
+            Unused (loaded in :meth:`load_context`).
+        model_input : pandas.DataFrame
+            The request.
+        params : dict, optional
+            Unused.
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        ServedInputError
+            400 with the typed message for a malformed request; 500 with a one-line message
+            (the traceback goes to the server log only) for an unexpected failure.
+        """
+        try:
+            return self.decide(model_input)
+        except TerrainError as exc:
+            raise ServedInputError(f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+                                   ) from None
+        except Exception as exc:  # the server must answer, never show a traceback
+            _log.exception("served model failed")
+            raise ServedInputError(f"internal error ({type(exc).__name__}); see the server "
+                                   "log", INTERNAL_ERROR) from None
+
+
+def save_served_model(path: str | Path, model_dir: str | Path, settings: dict | None = None,
+                      pip_requirements: Sequence[str] | None = None) -> Path:
+    """Wrap a model written by ``terrain train --model-out`` into the served pyfunc.
+
+    Parameters
+    ----------
+    path : str or Path
+        New MLflow model directory (must not exist or be empty).
+    model_dir : str or Path
+        Model directory of ``terrain train --model-out`` (its pipeline and metadata are read
+        with :func:`terrain.streaming.load_stream_model`).
+    settings : dict, optional
+        :func:`served_settings` (its defaults when omitted).
+    pip_requirements : sequence of str, optional
+        Pinned requirements of the classifier.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ConfigError
+        ``model_dir`` is not a terrain model, or ``path`` exists and is not empty.
+    """
+    import mlflow.pyfunc
+
+    model = load_stream_model(model_dir)
+    settings = settings or served_settings(model)
+    path = Path(path)
+    if path.exists() and any(path.iterdir()):
+        raise ConfigError(f"model directory {path} exists and is not empty")
+    if path.exists():
+        path.rmdir()
+    root = Path(__file__).resolve().parents[2]
+    mlflow.pyfunc.save_model(
+        path=str(path), python_model=str(Path(__file__).with_name("served_entry.py")),
+        model_config=settings,
+        artifacts={"pipeline": str(Path(model_dir) / PIPELINE_ARTIFACT)},
+        code_paths=[str(root / "terrain"), str(root / "features")],
+        pip_requirements=list(pip_requirements or ["numpy", "pandas", "scikit-learn"]),
+        metadata={**settings, "source_model": str(Path(model_dir).resolve())})
+    return path
