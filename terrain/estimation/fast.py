@@ -350,8 +350,8 @@ def _filter_loop(transition, observation, model, data, options, out):
                     nacc += 1
             if nacc > 0:
                 # Cholesky solve S_a [K^T | u] = [H_a P | y_a] (eq. 4.10 without S^-1)
-                for a in range(nacc):
-                    for b in range(nacc):
+                for a in range(nacc):             # (the lower triangle of S_a: all
+                    for b in range(a + 1):        # the factorisation reads)
                         Sa[a, b] = S[sel[a], sel[b]]
                     for c in range(n):
                         B[a, c] = HP[sel[a], c]
@@ -392,13 +392,20 @@ def _filter_loop(transition, observation, model, data, options, out):
                             j = h_nz[s_a, e]
                             g -= AP[i, j] * Ha[s_a, j]
                         BR[a, i] = g
-                for i in range(n):                # upper triangle, mirrored: symmetric
-                    for j in range(i, n):
-                        s = AP[i, j]
-                        for a in range(nacc):
-                            s += BR[a, i] * B[a, j]
-                        P[i, j] = s
-                        P[j, i] = s
+                # P = AP + G^T K^T as rank-one row updates (independent, vectorisable;
+                # per entry the same order: AP, then a = 0, 1, ...), then the upper
+                # triangle mirrored: symmetric
+                for i in range(n):
+                    for j in range(n):
+                        P[i, j] = AP[i, j]
+                for a in range(nacc):
+                    for i in range(n):
+                        g = BR[a, i]
+                        for j in range(n):
+                            P[i, j] += g * B[a, j]
+                for i in range(n):
+                    for j in range(i + 1, n):
+                        P[j, i] = P[i, j]
         for i in range(n):
             xs[k, i] = x[i]
             Pd[k, i] = P[i, i]
