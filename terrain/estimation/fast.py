@@ -40,6 +40,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, Callable
 
 import numba
@@ -52,6 +53,10 @@ from terrain.estimation.result import LoopArrays
 #: Status codes returned by the compiled loop.
 _OK, _S_NOT_PD, _NIS_NEGATIVE, _GATE_SINGULAR = 0, 1, 2, 3
 _VEC = types.float64[::1]
+#: Compilation options of the loop: no bounds checks, NumPy's error model (no Python
+#: ZeroDivisionError checks). No fast-math: the loop tests for NaN (missing samples, failed
+#: factorisations), and the reordering flags measured slower (benchmarks/bench_ekf.py).
+_JIT = MappingProxyType({"boundscheck": False, "error_model": "numpy", "fastmath": False})
 _MAT = types.float64[:, ::1]
 #: Signature of a model's process kernel ``transition_into(x, u, dt, p, fx, F)``.
 TRANSITION_SIGNATURE = types.void(_VEC, _VEC, types.float64, _VEC, _VEC, _MAT)
@@ -141,7 +146,7 @@ def _callback(function: Callable[..., Any], signature: Any) -> Any:
     return numba.cfunc(signature, cache=True)(getattr(function, "py_func", function))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **_JIT)
 def _cholesky(A, n, L):
     """Lower Cholesky factor of ``A[:n, :n]`` into ``L``; False when not positive definite."""
     for j in range(n):
@@ -161,29 +166,30 @@ def _cholesky(A, n, L):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **_JIT)
 def _cho_solve(L, n, B, ncols):
-    """Overwrite ``B[:n, :ncols]`` with ``(L L^T)^-1 B`` (forward, then back substitution;
-    one reciprocal per row, then multiplications)."""
-    for i in range(n):
-        for k in range(i):
+    """Overwrite ``B[:n, :ncols]`` with ``(L L^T)^-1 B`` (forward, then back substitution,
+    right-looking: each solved row is subtracted from the rows still to solve, one
+    reciprocal per row, then multiplications)."""
+    for k in range(n):
+        inv = 1.0 / L[k, k]
+        for c in range(ncols):
+            B[k, c] *= inv
+        for i in range(k + 1, n):
             lik = L[i, k]
             for c in range(ncols):
                 B[i, c] -= lik * B[k, c]
-        inv = 1.0 / L[i, i]
+    for k in range(n - 1, -1, -1):
+        inv = 1.0 / L[k, k]
         for c in range(ncols):
-            B[i, c] *= inv
-    for i in range(n - 1, -1, -1):
-        for k in range(i + 1, n):
+            B[k, c] *= inv
+        for i in range(k):
             lki = L[k, i]
             for c in range(ncols):
                 B[i, c] -= lki * B[k, c]
-        inv = 1.0 / L[i, i]
-        for c in range(ncols):
-            B[i, c] *= inv
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", **_JIT)
 def _row_nonzeros(M, i, nz, cnt):
     """Column indices of the non-zeros of row ``i`` of ``M`` into ``nz[i, :cnt[i]]`` (the
     sparsity the loop exploits in ``F`` and ``H``)."""
@@ -195,7 +201,7 @@ def _row_nonzeros(M, i, nz, cnt):
     cnt[i] = c
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", **_JIT)
 def _sparse_row_times(M, i, nz, cnt, P, out):
     """``out[i, :] = M[i, :] P`` through the non-zeros ``nz[i, :cnt[i]]`` of row ``i``."""
     n = P.shape[1]
@@ -208,7 +214,7 @@ def _sparse_row_times(M, i, nz, cnt, P, out):
             out[i, c] += mij * P[j, c]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", **_JIT)
 def _dot_row_nonzeros(X, i, M, j, nz, cnt):
     """``X[i, :] . M[j, :]`` over the non-zeros ``nz[j, :cnt[j]]`` of row ``j`` of ``M``."""
     s = 0.0
@@ -218,7 +224,7 @@ def _dot_row_nonzeros(X, i, M, j, nz, cnt):
     return s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **_JIT)
 def _filter_loop(transition, observation, model, data, options, out):
     """The whole run on the grid; writes ``out`` in place and returns ``(status, step)``
     (status 0 = ok; otherwise the step where it failed).
@@ -239,7 +245,6 @@ def _filter_loop(transition, observation, model, data, options, out):
     fx = np.empty(n)
     F = np.empty((n, n))
     T = np.empty((n, n))
-    U = np.empty((n, n))
     f_nz = np.empty((n, n), dtype=np.int64)       # column indices of the non-zeros of a row
     f_cnt = np.empty(n, dtype=np.int64)
     hx = np.empty(m)
@@ -272,19 +277,22 @@ def _filter_loop(transition, observation, model, data, options, out):
                 _row_nonzeros(F, i, f_nz, f_cnt)
             for i in range(n):                    # T = F P
                 _sparse_row_times(F, i, f_nz, f_cnt, P, T)
-            for i in range(n):                    # U = T F^T
-                for j in range(n):
-                    U[i, j] = _dot_row_nonzeros(T, i, F, j, f_nz, f_cnt)
-            for i in range(n):
-                U[i, i] += q_diag[i] * dt if q_per_second else q_diag[i]
-            for i in range(n):
-                for j in range(i, n):
-                    v = 0.5 * (U[i, j] + U[j, i])
+            for i in range(n):                    # P = T F^T + Q: the upper triangle,
+                for j in range(i, n):             # mirrored (symmetric by construction)
+                    v = _dot_row_nonzeros(T, i, F, j, f_nz, f_cnt)
                     P[i, j] = v
                     P[j, i] = v
+                P[i, i] += q_diag[i] * dt if q_per_second else q_diag[i]
             for i in range(n):
                 x[i] = fx[i]
-        # -- update (eqs. 4.7-4.11) with the rows that have a sample at this step
+        # -- update (eqs. 4.7-4.11) with the rows that have a sample at this step; the
+        # outputs of the step start as "no sample" (written here, not pre-filled)
+        for r in range(m):
+            Y[k, r] = np.nan
+            Sd[k, r] = np.nan
+            accepted[k, r] = False
+        nis[k] = np.nan
+        dof[k] = 0
         na = 0
         for r in range(m):
             if math.isfinite(Z[k, r]):
@@ -342,8 +350,8 @@ def _filter_loop(transition, observation, model, data, options, out):
                     nacc += 1
             if nacc > 0:
                 # Cholesky solve S_a [K^T | u] = [H_a P | y_a] (eq. 4.10 without S^-1)
-                for a in range(nacc):
-                    for b in range(nacc):
+                for a in range(nacc):             # (the lower triangle of S_a: all
+                    for b in range(a + 1):        # the factorisation reads)
                         Sa[a, b] = S[sel[a], sel[b]]
                     for c in range(n):
                         B[a, c] = HP[sel[a], c]
@@ -384,13 +392,20 @@ def _filter_loop(transition, observation, model, data, options, out):
                             j = h_nz[s_a, e]
                             g -= AP[i, j] * Ha[s_a, j]
                         BR[a, i] = g
-                for i in range(n):                # upper triangle, mirrored: symmetric
-                    for j in range(i, n):
-                        s = AP[i, j]
-                        for a in range(nacc):
-                            s += BR[a, i] * B[a, j]
-                        P[i, j] = s
-                        P[j, i] = s
+                # P = AP + G^T K^T as rank-one row updates (independent, vectorisable;
+                # per entry the same order: AP, then a = 0, 1, ...), then the upper
+                # triangle mirrored: symmetric
+                for i in range(n):
+                    for j in range(n):
+                        P[i, j] = AP[i, j]
+                for a in range(nacc):
+                    for i in range(n):
+                        g = BR[a, i]
+                        for j in range(n):
+                            P[i, j] += g * B[a, j]
+                for i in range(n):
+                    for j in range(i + 1, n):
+                        P[j, i] = P[i, j]
         for i in range(n):
             xs[k, i] = x[i]
             Pd[k, i] = P[i, i]
@@ -459,9 +474,9 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     gate_on = thresholds is not None
     thr = np.ones(1) if thresholds is None else np.ascontiguousarray(thresholds, np.float64)
     out = (np.empty((N, n)), np.empty((N, n)),
-           np.empty((N if store_covariance else 0, n, n)), np.full((N, m), np.nan),
-           np.full((N, m), np.nan), np.zeros((N, m), dtype=np.bool_), np.full(N, np.nan),
-           np.zeros(N, dtype=np.int64))
+           np.empty((N if store_covariance else 0, n, n)), np.empty((N, m)),
+           np.empty((N, m)), np.empty((N, m), dtype=np.bool_), np.empty(N),
+           np.empty(N, dtype=np.int64))            # every entry written by the loop
     model = (np.asarray(kernel.params, dtype=np.float64), np.zeros(0),
              np.asarray(kernel.q_diag, dtype=np.float64),
              np.ascontiguousarray(R_diag, dtype=np.float64), is_angle)

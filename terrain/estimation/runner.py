@@ -121,7 +121,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
 
     Two engines compute the same result (to round-off, ~1e-12 relative): the NumPy reference
     loop (:func:`~terrain.estimation.correct` at every step) and the compiled loop of
-    :mod:`terrain.estimation.fast` (numba; 4 us instead of 31 us per AgriMaRo step), which
+    :mod:`terrain.estimation.fast` (numba; 3.2 us instead of 28 us per AgriMaRo step), which
     runs models that provide a ``fast_kernel()``
     (:class:`~terrain.estimation.agrimaro.AgriMaRoModel`,
     :class:`~terrain.estimation.skid_steer.SkidSteerModel`).
