@@ -39,9 +39,8 @@ from terrain.errors import ConfigError, ShapeError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer_slip import (N_MEASUREMENTS, N_STATES,
                                                           SkidSteerSlipEquationParams,
-                                                          observation_into, observation_pair,
-                                                          transition_into)
-from terrain.estimation.equations.skid_steer import NO_INPUT
+                                                          observation_into, transition_into)
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import SensorSamples, run_filter
@@ -201,10 +200,7 @@ class SkidSteerSlipModel(StateSpaceModel):
         fx : ndarray, shape (8,)
         F : ndarray, shape (8, 8)
         """
-        x = np.ascontiguousarray(x, dtype=np.float64)
-        fx, Fm = np.empty(N_STATES), np.empty((N_STATES, N_STATES))
-        transition_into(x, NO_INPUT, float(dt), self._p, fx, Fm)
-        return fx, Fm
+        return transition_pair(transition_into, x, NO_INPUT, dt, self._p)
 
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
         """Next state.
@@ -271,7 +267,7 @@ class SkidSteerSlipModel(StateSpaceModel):
         hx : ndarray, shape (7,)
         H : ndarray, shape (7, 8)
         """
-        return observation_pair(np.ascontiguousarray(x, dtype=np.float64), self._p)
+        return observation_pair(observation_into, x, self._p, N_MEASUREMENTS)
 
     def h(self, x: np.ndarray) -> np.ndarray:
         """Measurement ``[vel_l, vel_r, wz, slip_1, slip_2, ax, az]``.

@@ -33,6 +33,7 @@ import numba
 import numpy as np
 
 from terrain.estimation.equations import skid_steer as _base
+from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.vehicles.skid_steer import HUSKY
 
 #: Number of states and measurement rows.
@@ -149,28 +150,6 @@ def observation_into(x, p, hx, H):
     H[6, 7] = -g * math.sin(th)
 
 
-@numba.njit(cache=True)
-def observation_pair(x, p):
-    """``(h(x), H(x))`` of :func:`observation_into` in new arrays (for the NumPy engine).
-
-    Parameters
-    ----------
-    x : ndarray, shape (8,)
-        State (C-contiguous float64).
-    p : ndarray, shape (3,)
-        :meth:`SkidSteerSlipEquationParams.as_array`.
-
-    Returns
-    -------
-    hx : ndarray, shape (7,)
-    H : ndarray, shape (7, 8)
-    """
-    hx = np.empty(N_MEASUREMENTS)
-    H = np.empty((N_MEASUREMENTS, N_STATES))
-    observation_into(x, p, hx, H)
-    return hx, H
-
-
 def f(x: np.ndarray, u: np.ndarray | None, dt: float,
       params: SkidSteerSlipEquationParams = SkidSteerSlipEquationParams()) -> np.ndarray:
     """Next state (:func:`transition_into`).
@@ -190,10 +169,7 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (8,)
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    fx, Fm = np.empty(N_STATES), np.empty((N_STATES, N_STATES))
-    transition_into(x, _base.NO_INPUT, float(dt), params.as_array(), fx, Fm)
-    return fx
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -215,10 +191,7 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (8, 8)
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    fx, Fm = np.empty(N_STATES), np.empty((N_STATES, N_STATES))
-    transition_into(x, _base.NO_INPUT, float(dt), params.as_array(), fx, Fm)
-    return Fm
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
 
 
 def h(x: np.ndarray,
@@ -236,7 +209,7 @@ def h(x: np.ndarray,
     -------
     ndarray, shape (7,)
     """
-    return observation_pair(np.ascontiguousarray(x, dtype=np.float64), params.as_array())[0]
+    return observation_pair(observation_into, x, params.as_array(), N_MEASUREMENTS)[0]
 
 
 def H(x: np.ndarray,
@@ -254,9 +227,9 @@ def H(x: np.ndarray,
     -------
     ndarray, shape (7, 8)
     """
-    return observation_pair(np.ascontiguousarray(x, dtype=np.float64), params.as_array())[1]
+    return observation_pair(observation_into, x, params.as_array(), N_MEASUREMENTS)[1]
 
 
 __all__ = ["SkidSteerSlipEquationParams", "N_STATES", "N_MEASUREMENTS", "STANDARD_GRAVITY_M_S2",
-           "MAX_SLIP", "transition_into", "observation_into", "observation_pair", "f", "F", "h",
+           "MAX_SLIP", "transition_into", "observation_into", "f", "F", "h",
            "H"]
