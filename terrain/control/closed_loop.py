@@ -39,11 +39,12 @@ import numpy as np
 from terrain.control.desired_slip import SlipTable, select_target
 from terrain.control.traction import TractionControlConfig, TractionController
 from terrain.errors import ConfigError
-from terrain.estimation.agrimaro import AgriMaRoModel, noise_derived_settings
+from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
 from terrain.estimation.ekf import ExtendedKalmanFilter
 from terrain.sim.closed_loop import Observation
 from terrain.sim.simulate import Simulation, motor_currents
 from terrain.vehicles import get_vehicle
+from terrain.vehicles.swerve import wheel_rim_speed
 
 #: DC bus voltage of each vehicle, V (sources in the module docstring).
 BUS_VOLTAGE_V: Mapping[str, float] = MappingProxyType({"agrimaro": 48.0, "husky": 24.0})
@@ -134,8 +135,11 @@ class AgriMaRoVisualOdometryEKF:
         self.t = 0.0
         self.t_cam = -math.inf
         self.omega = np.zeros(3)
-        self.rows = MappingProxyType({"imu": (3, 4, 5), "wheels": (0, 1, 2),
-                                      "steer": (7, 8, 9), "cam": (10, 11, 12)})
+        # the model's rows of each stream, less the yaw angles (yaw_imu, yaw_c) the loop
+        # does not feed
+        self.rows = MappingProxyType({stream: SENSOR_ROWS[sensor][:3] for stream, sensor in
+                                      (("imu", "imu"), ("wheels", "omega"), ("steer", "steer"),
+                                       ("cam", "cam"))})
 
     def update(self, obs: Observation) -> VelocityEstimate:
         """See :meth:`SlipEstimator.update`.
@@ -164,9 +168,8 @@ class AgriMaRoVisualOdometryEKF:
         vx, vy, w, ax, ay = x[3], x[4], x[5], x[6], x[7]
         pos = np.asarray(self.vehicle.wheel_positions_m)
         d = x[8:11]
-        c, s = np.cos(d), np.sin(d)
-        v_long = (vx - w * pos[:, 1]) * c + (vy + w * pos[:, 0]) * s
-        a_long = ax * c + ay * s
+        v_long = wheel_rim_speed(vx, vy, w, pos[:, 0], pos[:, 1], d)   # eq. 4.20
+        a_long = ax * np.cos(d) + ay * np.sin(d)
         return VelocityEstimate(self.omega.copy(), v_long, a_long, float(math.hypot(vx, vy)),
                                 float(obs.t_s - self.t_cam))
 
