@@ -4,6 +4,10 @@
   :class:`terrain.streaming.StreamService`; every ``push`` that completes exactly one
   decision is timed (alignment of the window, features, classifier, forward filter, slip
   target), after ``--warmup`` decisions. p50 / p99 / max are reported (target p99 < 1 ms).
+  After each timed decision the model's own pipeline (features + classifier) is timed on
+  one batch window of the same run, so the share of the decision that is the model's
+  (``pipeline_*``) and the rest, the service's own work (``service_overhead_*``, the paired
+  difference), are reported side by side under the same load.
 * Soak: held-out-style runs are strung into one stream of >= ``--minutes`` minutes
   (:func:`terrain.streaming.evaluation.concatenated_streams`, seeded) and replayed faster
   than real time; resident set size (RSS) is sampled every 1000 pushes; peak RSS and its
@@ -30,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
+from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
 from terrain.streaming import (CataloguePeakTargets, StreamConfig, StreamService,
@@ -58,11 +63,14 @@ def _reference() -> float:
     return time.perf_counter() - start
 
 
-def latency(model, run, warmup: int) -> tuple[np.ndarray, np.ndarray]:
-    """Seconds of every push that completed exactly one decision, after ``warmup``, and of
-    the reference workload timed right after each of them."""
+def latency(model, run, warmup: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Seconds of every push that completed exactly one decision, after ``warmup``; of the
+    model's own pipeline (features + classifier, ``predict_proba``) on one batch window of
+    the same run, timed right after each decision; and of the reference workload."""
     svc = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(hop_s=0.5))
-    times, ref, n = [], [], 0
+    windows = make_windows([run], model.channels, WindowConfig(
+        window_s=model.window.window_s, hop_s=0.5, rate_hz=model.window.rate_hz)).X
+    times, pipe, ref, n = [], [], [], 0
     for stream, t, v in _pushes(svc, run):
         start = time.perf_counter()
         out = svc.push(stream, t, v)
@@ -71,8 +79,12 @@ def latency(model, run, warmup: int) -> tuple[np.ndarray, np.ndarray]:
             n += 1
             if n > warmup:
                 times.append(elapsed)
+                x = windows[n % len(windows)][None]
+                start = time.perf_counter()
+                model.pipeline.predict_proba(x)
+                pipe.append(time.perf_counter() - start)
                 ref.append(_reference())
-    return np.asarray(times), np.asarray(ref)
+    return np.asarray(times), np.asarray(pipe), np.asarray(ref)
 
 
 def soak(model, run, sample_every: int = 1000) -> dict:
@@ -112,10 +124,14 @@ def main() -> int:
              else fit_stream_model(recipe, runs, seed=0))
     usable = [r for r in runs if all(s in r.streams for s in need)]
     longest = max(usable, key=lambda r: r.duration_s)
-    lat, ref = (x * 1e3 for x in latency(model, longest, args.warmup))
+    lat, pipe, ref = (x * 1e3 for x in latency(model, longest, args.warmup))
     metrics = {"decision_p50_ms": float(np.percentile(lat, 50)),
                "decision_p99_ms": float(np.percentile(lat, 99)),
                "decision_max_ms": float(lat.max()), "decisions_timed": int(lat.size),
+               "pipeline_p50_ms": float(np.percentile(pipe, 50)),
+               "pipeline_p99_ms": float(np.percentile(pipe, 99)),
+               "service_overhead_p50_ms": float(np.percentile(lat - pipe, 50)),
+               "service_overhead_p99_ms": float(np.percentile(lat - pipe, 99)),
                "reference_p50_ms": float(np.percentile(ref, 50)),
                "reference_p99_ms": float(np.percentile(ref, 99))}
     metrics["decision_p50_over_reference"] = metrics["decision_p50_ms"] / metrics[
@@ -126,7 +142,11 @@ def main() -> int:
           f"at {model.window.rate_hz:g} Hz); latency of one decision on {longest.run_id}: "
           f"p50 {metrics['decision_p50_ms']:.3f} ms, p99 {metrics['decision_p99_ms']:.3f} ms, "
           f"max {metrics['decision_max_ms']:.3f} ms ({lat.size} decisions after "
-          f"{args.warmup} warm-up); reference (sort of 4096 floats) p50 "
+          f"{args.warmup} warm-up); of which the model's pipeline (features + classifier "
+          f"predict_proba, one window) p50 {metrics['pipeline_p50_ms']:.3f} ms, p99 "
+          f"{metrics['pipeline_p99_ms']:.3f} ms; service without it (decision - pipeline) "
+          f"p50 {metrics['service_overhead_p50_ms']:.3f} ms, p99 "
+          f"{metrics['service_overhead_p99_ms']:.3f} ms; reference (sort of 4096 floats) p50 "
           f"{metrics['reference_p50_ms']:.4f} ms, p99 {metrics['reference_p99_ms']:.4f} ms; "
           f"ratio p50 {metrics['decision_p50_over_reference']:.1f}, p99 "
           f"{metrics['decision_p99_over_reference']:.1f}; load average "

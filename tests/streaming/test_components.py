@@ -15,10 +15,11 @@ from terrain.terramechanics import get_terrain, steady_slip
 
 def test_ring_buffer_keeps_newest_samples_in_order_and_never_grows():
     buf = RingBuffer(2, capacity=50)
+    shape = buf._t.shape, buf._v.shape  # fixed at construction (a mirrored ring: 2 x 50)
     t = np.arange(1000) * 0.01
     for a in range(0, 1000, 7):  # odd chunk size: wraps at every position
         buf.append(t[a:a + 7], np.column_stack([t[a:a + 7], -t[a:a + 7]]))
-    assert len(buf) == 50 and buf._t.shape == (50,)
+    assert len(buf) == 50 and (buf._t.shape, buf._v.shape) == shape == ((100,), (100, 2))
     ts, vs = buf.since(-np.inf)
     np.testing.assert_array_equal(ts, t[-50:])
     np.testing.assert_array_equal(vs[:, 1], -t[-50:])
