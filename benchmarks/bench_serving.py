@@ -1,7 +1,7 @@
 """Benchmark: in-process decision latency and a 30-minute soak of the streaming service.
 
 * Latency: a BorealTC run (IMU + wheels) is replayed sample by sample through
-  :class:`terrain.streaming.StreamService`; every ``push`` that completes exactly one
+  :class:`terrain.serving.StreamService`; every ``push`` that completes exactly one
   decision is timed (alignment of the window, features, classifier, forward filter, slip
   target), after ``--warmup`` decisions. p50 / p99 / max are reported (target p99 < 1 ms).
   After each timed decision the model's own pipeline (features + classifier) is timed on
@@ -9,7 +9,7 @@
   (``pipeline_*``) and the rest, the service's own work (``service_overhead_*``, the paired
   difference), are reported side by side under the same load.
 * Soak: held-out-style runs are strung into one stream of >= ``--minutes`` minutes
-  (:func:`terrain.streaming.evaluation.concatenated_streams`, seeded) and replayed faster
+  (:func:`terrain.serving.evaluation.concatenated_streams`, seeded) and replayed faster
   than real time; resident set size (RSS) is sampled every 1000 pushes; peak RSS and its
   growth after the first 2 minutes of stream are reported (target growth < 20 MB).
 
@@ -37,9 +37,9 @@ import psutil
 from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
-from terrain.streaming import (CataloguePeakTargets, StreamConfig, StreamService,
-                               interleave, load_stream_model)
-from terrain.streaming.evaluation import RECIPES, concatenated_streams, fit_stream_model
+from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
+                             interleave, load_stream_model)
+from terrain.serving.evaluation import RECIPES, concatenated_streams, fit_stream_model
 from terrain.tracking import tracked_run
 
 

@@ -23,10 +23,10 @@ import numpy as np
 import pandas as pd
 
 from terrain.io.shipped import load_dataset
-from terrain.serving import save_model
-from terrain.streaming.evaluation import (RECIPES, fit_stream_model, held_out_streams,
-                                          window_cv)
-from terrain.streaming.smoothing import SmoothingConfig
+from terrain.serving.pyfunc import save_model
+from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_streams,
+                                        window_cv)
+from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-stream-eval"

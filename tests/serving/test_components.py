@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.streaming.buffers import RingBuffer
-from terrain.streaming.rules import finite_values, plausible_gyro, time_increasing
-from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig, forward_step
-from terrain.streaming.targets import CataloguePeakTargets
+from terrain.serving.buffers import RingBuffer
+from terrain.serving.rules import finite_values, plausible_gyro, time_increasing
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig, forward_step
+from terrain.serving.targets import CataloguePeakTargets
 from terrain.terramechanics import get_terrain, steady_slip
 
 
@@ -110,7 +110,7 @@ def test_catalogue_targets_are_the_curve_peaks_and_the_fallback_the_slipperiest(
 
 def test_table_targets_follow_the_desired_slip_table_and_its_fallback():
     from terrain.control import build_slip_table, select_target
-    from terrain.streaming.targets import TableTargets
+    from terrain.serving.targets import TableTargets
 
     classes = ["ASPHALT", "ICE", "SNOW"]
     targets = TableTargets(classes)

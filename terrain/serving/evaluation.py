@@ -32,11 +32,11 @@ from terrain.errors import ConfigError
 from terrain.models.cv import iter_splits
 from terrain.models.svm import SVMConfig, make_svm
 from terrain.run import TIME, Run
-from terrain.streaming.model import StreamModel
-from terrain.streaming.replay import replay_run
-from terrain.streaming.service import StreamConfig, StreamService
-from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
-from terrain.streaming.targets import CataloguePeakTargets
+from terrain.serving.model import StreamModel
+from terrain.serving.replay import replay_run
+from terrain.serving.service import StreamConfig, StreamService
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+from terrain.serving.targets import CataloguePeakTargets
 
 
 def wheel_features(channels: tuple[str, ...], rate_hz: float,

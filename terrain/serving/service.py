@@ -2,7 +2,7 @@
 
 Samples of each stream arrive one by one or in chunks, each stream at its own rate and on
 its own clock (an optional per-stream offset maps it onto the service clock). Each stream
-keeps a bounded :class:`~terrain.streaming.buffers.RingBuffer`, so memory is fixed for an
+keeps a bounded :class:`~terrain.serving.buffers.RingBuffer`, so memory is fixed for an
 unbounded stream. Every ``hop_s`` of service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
@@ -12,8 +12,8 @@ unbounded stream. Every ``hop_s`` of service time the service
    derived wheel channels (:func:`features.windows.derived_wheel_arrays`); the whole
    per-decision path works on arrays, no data frame,
 3. classifies it with the fitted pipeline (the model's own feature code),
-4. folds the probabilities into the forward filter (:mod:`terrain.streaming.smoothing`),
-5. asks the injected :class:`~terrain.streaming.targets.TargetProvider` for the slip
+4. folds the probabilities into the forward filter (:mod:`terrain.serving.smoothing`),
+5. asks the injected :class:`~terrain.serving.targets.TargetProvider` for the slip
    targets, passing ``terrain=None`` (the conservative fallback) below ``min_confidence``.
 
 A decision is due at service time ``t`` once every needed stream has reached ``t``, or once
@@ -23,7 +23,7 @@ some stream is ``stale_s`` past ``t`` while another lags (the decision is then f
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
 ``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` (samples rejected by the
-rules of :mod:`terrain.streaming.rules` inside the window), ``low_confidence`` (fallback
+rules of :mod:`terrain.serving.rules` inside the window), ``low_confidence`` (fallback
 target).
 """
 
@@ -41,11 +41,11 @@ from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_arrays, overlap_grid
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
-from terrain.streaming.buffers import RingBuffer
-from terrain.streaming.model import StreamModel
-from terrain.streaming.rules import DEFAULT_RULES, SampleRule
-from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
-from terrain.streaming.targets import TargetProvider
+from terrain.serving.buffers import RingBuffer
+from terrain.serving.model import StreamModel
+from terrain.serving.rules import DEFAULT_RULES, SampleRule
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+from terrain.serving.targets import TargetProvider
 
 #: Stream name -> channels, as the readers name them (``terrain.io.measured``).
 KNOWN_STREAMS: Mapping[str, tuple[str, ...]] = MappingProxyType(

@@ -7,8 +7,8 @@ import pytest
 
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from terrain.errors import ConfigError
-from terrain.streaming.evaluation import (concatenated_streams, score_stream,
-                                          switching_delays, truth_at)
+from terrain.serving.evaluation import (concatenated_streams, score_stream,
+                                        switching_delays, truth_at)
 
 RATE = 10.0
 

@@ -11,9 +11,9 @@ from features.windows import add_derived_channels, window_frame
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
-from terrain.streaming import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
-                               StreamService, decisions_frame, replay_run)
-from terrain.streaming.service import MAX_EVENTS
+from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
+                             StreamService, decisions_frame, replay_run)
+from terrain.serving.service import MAX_EVENTS
 
 RAW = SmoothingConfig(dwell_s=None)
 
