@@ -36,7 +36,8 @@ TUNING_SEEDS: tuple[int, ...] = (1000, 1001)
 def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
                ki_grid: Sequence[float], duration_s: float = 10.0,
                seeds: Sequence[int] = TUNING_SEEDS, time_weight: float = 0.5,
-               log: Callable[[dict], None] | None = None) -> tuple[tuple[float, float], pd.DataFrame]:
+               log: Callable[[dict], None] | None = None, estimator: str | None = None
+               ) -> tuple[tuple[float, float], pd.DataFrame]:
     """Grid search of ``(kp, ki)`` on simulated ``straight_accel`` runs of the tuning seeds.
 
     Parameters
@@ -55,6 +56,9 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
         Weight of the relative time-to-cruise increase in the cost.
     log : callable, optional
         Called with each candidate's row (e.g. to log it to MLflow).
+    estimator : str, optional
+        Estimator kind (:func:`terrain.control.closed_loop.estimator_for`); None: the
+        vehicle's default.
 
     Returns
     -------
@@ -66,13 +70,13 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     base = {}
     for ter, seed in itertools.product(terrains, seeds):
         base[ter, seed] = run_closed_loop(vehicle, ter, "straight_accel", False, seed,
-                                          duration_s)[2]
+                                          duration_s, estimator=estimator)[2]
     rows = []
     for kp, ki in itertools.product(kp_grid, ki_grid):
         rmse, dt = [], []
         for ter, seed in itertools.product(terrains, seeds):
             m = run_closed_loop(vehicle, ter, "straight_accel", True, seed, duration_s,
-                                (kp, ki))[2]
+                                (kp, ki), estimator=estimator)[2]
             t0, t1 = base[ter, seed]["time_to_speed_s"], m["time_to_speed_s"]
             rmse.append(m["slip_rmse"] if m["slip_rmse"] is not None else 1.0)
             dt.append(1.0 if (t1 is None or not t0) else max(t1 / t0 - 1.0, 0.0))
@@ -88,8 +92,8 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
 
 
 def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
-             seeds: Sequence[int], gains: dict, duration_s: float = 20.0
-             ) -> tuple[pd.DataFrame, dict]:
+             seeds: Sequence[int], gains: dict, duration_s: float = 20.0,
+             estimators: dict | None = None) -> tuple[pd.DataFrame, dict]:
     """Run the evaluation grid (controller off and on for every cell).
 
     Parameters
@@ -102,6 +106,9 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
         Vehicle -> ``(kp, ki)``.
     duration_s : float
         Simulated time per run, s.
+    estimators : dict, optional
+        Vehicle -> estimator kind (:func:`terrain.control.closed_loop.estimator_for`);
+        missing vehicles use their default.
 
     Returns
     -------
@@ -124,7 +131,8 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     rows, traces = [], {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                    (False, True)):
-        sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh])
+        sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh],
+                                       estimator=(estimators or {}).get(veh))
         ctrl = "traction" if on else "off"
         rows.append({"vehicle": veh, "terrain": ter, "scenario": sc, "seed": seed,
                      "controller": ctrl, **{k: v for k, v in m.items()
