@@ -50,7 +50,7 @@ from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
 from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict
 from terrain.estimation.skid_steer_slip import SENSOR_ROWS as SLIP_SENSOR_ROWS
-from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
+from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, SkidSteerSlipSettings
 from terrain.sim.closed_loop import Observation
 from terrain.sim.simulate import Simulation, motor_currents
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
@@ -252,6 +252,15 @@ class WheelImuObserver:
                                 np.array([self.a, self.a]), abs(self.v), age)
 
 
+#: Fusion settings of the online adaptor: issue 10's defaults (:class:`FusionSettings`) with
+#: the slip random-walk density raised from 6e-6 to 0.01 1/s. Replayed open-loop Husky runs
+#: (``straight_accel``, seed 0, 8 s, steady part t > 3 s, docs/control_validation.md): with
+#: 6e-6 the slip state needs tens of seconds to follow the 0.2 s pseudo-measurements (steady
+#: slip RMSE 0.126 on SNOW, 0.032 on SANDY_LOAM); with 0.01 it is 0.003-0.004 on both and
+#: unchanged (0.001-0.002) on ICE and TILES; 0.1 and 1.0 give no further steady gain.
+CONTROL_FUSION = FusionSettings(filter=SkidSteerSlipSettings(slip_psd=0.01))
+
+
 class FusedSlipObserver:
     """Online adaptor of the fused slip estimate of issue 10 (the Husky's slip estimator).
 
@@ -272,8 +281,13 @@ class FusedSlipObserver:
       current and wheel samples, every ``period_s``, with its std floored by
       :func:`terrain.slip.estimate.pseudo_measurement`; the terrain is the loop's decision
       (no pseudo-measurement without a catalogued decision);
-    * the controller's inputs: each side's ground speed ``h_i(x) (1 - s_i)`` from the
-      model's own wheel row, its acceleration ``a_x`` and the chassis speed ``|v_bx|``.
+    * the controller's inputs: each side's ground speed ``omega_i r (1 - s_i)`` implied by
+      the measured wheel speed and the estimated slip through the model's wheel row
+      (``rim = ground / (1 - s)``), so the controller regulates the filter's slip state; the
+      acceleration ``a_x``; the chassis speed ``|v_bx|``. The estimate is *stale* (its age
+      grows, the controller's safe output applies) when no pseudo-measurement arrived in the
+      last ``period_s`` (plus the wheel sample's own age): without its slip model the slip
+      common to both sides is not observable and the filter drifts.
 
     Differences from the batch estimate (``limits``): causal windows (the batch centres a
     2 s window on the estimate, i.e. uses 1 s of future data), no learned model (the
@@ -291,7 +305,8 @@ class FusedSlipObserver:
     period_s : float
         Interval between pseudo-measurements, s (> 0).
     settings : FusionSettings
-        Std floors and EKF tuning (issue 10's defaults).
+        Std floors and EKF tuning (:data:`CONTROL_FUSION`: issue 10's defaults with a
+        faster slip random walk).
     physics_settings : PhysicsSlipSettings
         Uncertainties of the physics slip.
 
@@ -306,7 +321,7 @@ class FusedSlipObserver:
     def __init__(self, vehicle: str = "husky",
                  terrain_decision: Callable[[float], tuple] | None = None,
                  window_s: float = 0.5, period_s: float = 0.2,
-                 settings: FusionSettings = FusionSettings(),
+                 settings: FusionSettings = CONTROL_FUSION,
                  physics_settings: PhysicsSlipSettings = PhysicsSlipSettings()) -> None:
         if not (window_s > 0 and period_s > 0):
             raise ConfigError(f"window_s and period_s must be > 0, got {window_s}, {period_s}")
@@ -326,6 +341,7 @@ class FusedSlipObserver:
         self.t: float | None = None
         self.t_wheel: float | None = None
         self.t_pseudo = -math.inf
+        self.t_pseudo_ok = -math.inf
         self.omega = np.zeros(2)
         self.wheel_rows: list[np.ndarray] = []
         self.current_rows: list[np.ndarray] = []
@@ -359,6 +375,7 @@ class FusedSlipObserver:
         if np.all(np.isfinite(slip)) and np.all(np.isfinite(std)):
             self._correct(slip[0], SLIP_SENSOR_ROWS["slip_model"], std[0] ** 2)
             self.pseudo_count += 1
+            self.t_pseudo_ok = t
         self.t_pseudo = t
 
     def update(self, obs: Observation) -> VelocityEstimate:
@@ -397,10 +414,13 @@ class FusedSlipObserver:
         self.current_rows = [c for c in self.current_rows if c[0] >= keep]
         if self.current_rows and obs.t_s - self.t_pseudo >= self.period_s - 1e-9:
             self._pseudo(obs.t_s)
-        hx = self.model.h(self.x)
+        # the ground speed the measured wheel speed and the estimated slip imply, through the
+        # model's own wheel row (rim = ground / (1 - s)): the controller's slip is the state's
         slip = np.clip(self.x[4:6], -0.99, 0.99)
-        ground = hx[list(rows["wheels"])] * (1.0 - slip)
+        ground = self.omega * r * (1.0 - slip)
         age = math.inf if self.t_wheel is None else float(obs.t_s - self.t_wheel)
+        # without its slip model the common slip is unobservable: stale with no recent one
+        age = max(age, float(obs.t_s - self.t_pseudo_ok) - self.period_s)
         return VelocityEstimate(self.omega.copy(), ground, np.full(2, self.x[6]),
                                 abs(float(self.x[0])), age)
 

@@ -68,10 +68,12 @@ def test_stale_estimate_gives_no_correction():
                                   simulate_with_physics(cfg).physics.omega_cmd)
 
 
-@pytest.mark.parametrize("vehicle", ["agrimaro", "husky"])
-def test_traction_control_cuts_slip_on_ice_same_seed(vehicle):
-    off = run_closed_loop(vehicle, "ICE", "straight_accel", False, 3, duration_s=5.0)[2]
-    on = run_closed_loop(vehicle, "ICE", "straight_accel", True, 3, duration_s=5.0)[2]
+@pytest.mark.parametrize("vehicle,estimator", [("agrimaro", None), ("husky", "observer")])
+def test_traction_control_cuts_slip_on_ice_same_seed(vehicle, estimator):
+    off = run_closed_loop(vehicle, "ICE", "straight_accel", False, 3, duration_s=5.0,
+                          estimator=estimator)[2]
+    on = run_closed_loop(vehicle, "ICE", "straight_accel", True, 3, duration_s=5.0,
+                         estimator=estimator)[2]
     assert on["peak_slip"] < off["peak_slip"]
     assert on["slip_rmse"] < off["slip_rmse"]
     assert off["terrain_accuracy"] == 1.0 and on["bus_voltage_v"] == BUS_VOLTAGE_V[vehicle]
@@ -173,9 +175,11 @@ def test_fused_estimator_with_currents_beats_the_interim_observer_in_steady_driv
     observer, _ = _replayed_slip_error("ICE", "observer")
     assert n_pseudo >= 20                       # one every 0.2 s once currents arrive
     assert fused < 0.01 < observer
-    fused_sl, _ = _replayed_slip_error("SANDY_LOAM", "fused")
-    observer_sl, _ = _replayed_slip_error("SANDY_LOAM", "observer")
-    assert fused_sl < observer_sl
+    # on a soft soil the steady slip (0.167 on SNOW) is all common slip: the observer's
+    # wheel-pull loses it, the physics pseudo-measurement finds it
+    fused_sn, _ = _replayed_slip_error("SNOW", "fused")
+    observer_sn, _ = _replayed_slip_error("SNOW", "observer")
+    assert fused_sn < 0.02 and observer_sn > 0.1
 
 
 def test_current_channel_follows_the_snapshot():
@@ -201,3 +205,14 @@ def test_estimator_kinds():
     assert estimator_for("agrimaro").name == "agrimaro-ekf-vo"
     with pytest.raises(ConfigError, match="not available"):
         estimator_for("agrimaro", kind="fused")
+
+
+def test_fused_estimate_without_currents_is_stale_and_the_loop_does_not_act():
+    """The integrator's snapshot has no wheel torque, so no currents reach the fused
+    estimator: its common slip is unobservable, it reports itself stale, the safe output
+    applies and the run equals the uncontrolled one."""
+    sim, loop, m = run_closed_loop("husky", "ICE", "straight_accel", True, 3, duration_s=3.0)
+    assert m["estimator"] == "husky-fused-slip-ekf" and m["estimator_pseudo_measurements"] == 0
+    assert all(r["safe"].all() for r in loop.log)
+    plain = simulate_with_physics(_config("husky", "ICE", 3.0, 3)).physics
+    np.testing.assert_array_equal(sim.physics.omega_cmd, plain.omega_cmd)
