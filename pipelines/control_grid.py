@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-grid``: vehicles, terrains, scenarios, evaluation seeds,
     ``--duration-s`` (simulated time per run, s), ``--no-tune``, the proportional
     (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids,
-    ``--husky-estimator`` and ``--out``.
+    ``--husky-estimator``, ``--no-feed-forward`` and ``--out``.
 
     Parameters
     ----------
@@ -45,6 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--husky-estimator", choices=ESTIMATORS["husky"],
                         default=ESTIMATORS["husky"][0],
                         help="the Husky's slip estimator (default: the fused slip estimate)")
+    parser.add_argument("--no-feed-forward", action="store_true",
+                        help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--out", required=True, help="output folder")
 
 
@@ -113,11 +115,12 @@ def main(args: argparse.Namespace) -> int:
                     veh, ["ICE"], args.kp_grid, args.ki_grid,
                     log=lambda r, v=veh: run.log_metrics(
                         {f"tune_{v}_cost": r["cost"]}, step=next(step)),
-                    estimator=estimators.get(veh))
+                    estimator=estimators.get(veh), feed_forward=not args.no_feed_forward)
                 tuning[veh].to_csv(out / f"tuning_{veh}.csv", index=False)
                 run.log_table(tuning[veh], f"tuning_{veh}.json")
         results, traces = run_grid(args.vehicles, args.terrains, args.scenarios, args.seeds,
-                                   gains, args.duration_s, estimators)
+                                   gains, args.duration_s, estimators,
+                                   not args.no_feed_forward)
         table = compare(results)
         results.to_csv(out / "runs.csv", index=False)
         table.to_csv(out / "comparison.csv", index=False, float_format="%.4f")

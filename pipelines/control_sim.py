@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-sim``: vehicle, terrain, scenario, controller
     (``off`` or ``traction``), seed, ``--duration-s`` (s), gains ``--kp`` (rad/s per unit
     slip) and ``--ki`` (rad/s per unit slip and s), an optional classifier ``--model``, the
-    slip ``--estimator`` and the ``--json`` / ``--csv`` outputs.
+    slip ``--estimator``, ``--no-feed-forward`` and the ``--json`` / ``--csv`` outputs.
 
     Parameters
     ----------
@@ -61,6 +61,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}),
                         help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo, Husky "
                              "fused)")
+    parser.add_argument("--no-feed-forward", action="store_true",
+                        help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--json", required=True, help="output JSON file")
     parser.add_argument("--csv", default=None, help="optional per-step trace CSV")
 
@@ -96,7 +98,7 @@ def main(args: argparse.Namespace) -> int:
     sim, loop, metrics = run_closed_loop(args.vehicle, terrain, args.scenario,
                                          args.controller == "traction", args.seed,
                                          args.duration_s, gains, table, decide,
-                                         args.estimator)
+                                         args.estimator, not args.no_feed_forward)
     out = {"vehicle": args.vehicle, "terrain": args.terrain.upper(),
            "scenario": args.scenario, "controller": args.controller, "seed": args.seed,
            "duration_s": args.duration_s, "terrain_source": note, **metrics}

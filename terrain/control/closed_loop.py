@@ -45,6 +45,7 @@ from typing import Callable, Mapping, NamedTuple, Protocol
 import numpy as np
 
 from terrain.control.desired_slip import SlipTable, select_target
+from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import TractionControlConfig, TractionController
 from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
@@ -55,7 +56,7 @@ from terrain.sim.closed_loop import Observation
 from terrain.sim.simulate import Simulation, motor_currents
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.physics import PhysicsSlipSettings, physics_slip
-from terrain.terramechanics.catalogue import TERRAIN_NAMES
+from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -494,6 +495,11 @@ class TractionLoop:
         ``Power_state`` (eq. 8.6) classifies traction / braking / steady, s (>= 0; 0 = off).
         Without it the mode follows the acceleration the correction itself causes and the
         loop limit-cycles between traction and braking at the control rate (seen on SNOW).
+    feed_forward : bool
+        Also apply the feed-forward slip limit of :mod:`terrain.control.feedforward` (the
+        decided terrain's largest acceleration at the traction target; no estimate of the
+        slip in it), from standstill on, where the decision is a catalogued terrain and the
+        estimate is not stale; the correction applied is the one that slows the wheel more.
 
     Attributes
     ----------
@@ -503,8 +509,12 @@ class TractionLoop:
 
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
                  table: SlipTable, terrain_decision: Callable[[float], tuple],
-                 apply: bool = True, accel_tau_s: float = 0.3) -> None:
+                 apply: bool = True, accel_tau_s: float = 0.3,
+                 feed_forward: bool = True) -> None:
         self.controller = TractionController(config, n_units)
+        self.feed_forward = bool(feed_forward)
+        self.v_ref = np.zeros(n_units)
+        self._accel_limit: dict[tuple[str, float], float] = {}
         self.estimator = estimator
         self.table = table
         self.terrain_decision = terrain_decision
@@ -543,13 +553,26 @@ class TractionLoop:
         out = self.controller.step(targets, obs.omega_low_level, est.omega_meas_rad_s,
                                    est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
                                    max(dt, 1e-6), est.age_s)
+        correction = out.correction_rad_s
+        if self.feed_forward and targets.terrain in TERRAIN_NAMES:
+            key = (targets.terrain, float(targets.traction))
+            if key not in self._accel_limit:
+                self._accel_limit[key] = traction_acceleration_limit(
+                    get_terrain(targets.terrain), targets.traction)
+            ff = feedforward_step(self.v_ref, est.v_long_m_s, obs.omega_low_level,
+                                  self._accel_limit[key], targets.traction,
+                                  self.controller.config.wheel_radius_m, max(dt, 0.0))
+            self.v_ref = ff.v_ref_m_s
+            low = obs.omega_low_level
+            use_ff = (~out.safe) & (np.abs(low + ff.correction_rad_s) < np.abs(low + correction))
+            correction = np.where(use_ff, ff.correction_rad_s, correction)
         self.log.append({"t_s": obs.t_s, "omega_low_level": obs.omega_low_level,
                          "v_long": est.v_long_m_s, "slip_est": out.slip,
                          "desired": out.desired_slip, "enabled": out.enabled,
                          "safe": out.safe, "mode": out.mode,
-                         "correction": out.correction_rad_s, "terrain": label,
+                         "correction": correction, "terrain": label,
                          "target_traction": targets.traction})
-        return out.correction_rad_s if self.apply else np.zeros_like(out.correction_rad_s)
+        return correction if self.apply else np.zeros_like(correction)
 
 
 def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
@@ -677,7 +700,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
                     duration_s: float = 20.0, gains: tuple[float, float] | None = None,
                     table: SlipTable | None = None,
                     terrain_decision: Callable[[float], tuple] | None = None,
-                    estimator: str | None = None
+                    estimator: str | None = None, feed_forward: bool = True
                     ) -> tuple[Simulation, TractionLoop, dict]:
     """Simulate one closed-loop run and score it.
 
@@ -704,6 +727,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
         (the ground truth: see the pipelines for when this applies).
     estimator : str, optional
         Estimator kind (:func:`estimator_for`); None: the vehicle's default.
+    feed_forward : bool
+        Feed-forward slip limit in the loop (:class:`TractionLoop`).
 
     Returns
     -------
@@ -729,14 +754,15 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     table = table or build_slip_table([terrain])
     decision = terrain_decision or (lambda t: (terrain, 1.0))
     estimator = estimator_for(vehicle, decision, estimator)
-    loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on)
+    loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on,
+                        feed_forward=feed_forward)
     sim = simulate_closed_loop(SimConfig(vehicle=vehicle, terrains=(terrain,),
                                          scenario=scenario, duration_s=duration_s,
                                          seed=seed), loop)
     metrics = loop_metrics(sim, loop, BUS_VOLTAGE_V[vehicle])
     metrics.update(estimator=estimator.name, estimator_limits=estimator.limits,
                    estimator_pseudo_measurements=getattr(estimator, "pseudo_count", None),
-                   kp=float(kp), ki=float(ki))
+                   kp=float(kp), ki=float(ki), feed_forward=bool(feed_forward))
     return sim, loop, metrics
 
 

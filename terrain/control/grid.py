@@ -24,10 +24,10 @@ import numpy as np
 import pandas as pd
 
 from terrain.control.closed_loop import run_closed_loop
+from terrain.control.feedforward import traction_acceleration_limit
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain, steady_slip
-from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
-from terrain.terramechanics.traction import traction_coefficient
 
 #: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
 TUNING_SEEDS: tuple[int, ...] = (1000, 1001)
@@ -36,8 +36,8 @@ TUNING_SEEDS: tuple[int, ...] = (1000, 1001)
 def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
                ki_grid: Sequence[float], duration_s: float = 10.0,
                seeds: Sequence[int] = TUNING_SEEDS, time_weight: float = 0.5,
-               log: Callable[[dict], None] | None = None, estimator: str | None = None
-               ) -> tuple[tuple[float, float], pd.DataFrame]:
+               log: Callable[[dict], None] | None = None, estimator: str | None = None,
+               feed_forward: bool = True) -> tuple[tuple[float, float], pd.DataFrame]:
     """Grid search of ``(kp, ki)`` on simulated ``straight_accel`` runs of the tuning seeds.
 
     Parameters
@@ -59,6 +59,8 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     estimator : str, optional
         Estimator kind (:func:`terrain.control.closed_loop.estimator_for`); None: the
         vehicle's default.
+    feed_forward : bool
+        Feed-forward slip limit in the loop.
 
     Returns
     -------
@@ -76,7 +78,7 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
         rmse, dt = [], []
         for ter, seed in itertools.product(terrains, seeds):
             m = run_closed_loop(vehicle, ter, "straight_accel", True, seed, duration_s,
-                                (kp, ki), estimator=estimator)[2]
+                                (kp, ki), estimator=estimator, feed_forward=feed_forward)[2]
             t0, t1 = base[ter, seed]["time_to_speed_s"], m["time_to_speed_s"]
             rmse.append(m["slip_rmse"] if m["slip_rmse"] is not None else 1.0)
             dt.append(1.0 if (t1 is None or not t0) else max(t1 / t0 - 1.0, 0.0))
@@ -93,7 +95,8 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
 
 def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
              seeds: Sequence[int], gains: dict, duration_s: float = 20.0,
-             estimators: dict | None = None) -> tuple[pd.DataFrame, dict]:
+             estimators: dict | None = None, feed_forward: bool = True
+             ) -> tuple[pd.DataFrame, dict]:
     """Run the evaluation grid (controller off and on for every cell).
 
     Parameters
@@ -109,6 +112,8 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     estimators : dict, optional
         Vehicle -> estimator kind (:func:`terrain.control.closed_loop.estimator_for`);
         missing vehicles use their default.
+    feed_forward : bool
+        Feed-forward slip limit in the loop.
 
     Returns
     -------
@@ -132,7 +137,8 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                    (False, True)):
         sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh],
-                                       estimator=(estimators or {}).get(veh))
+                                       estimator=(estimators or {}).get(veh),
+                                       feed_forward=feed_forward)
         ctrl = "traction" if on else "off"
         rows.append({"vehicle": veh, "terrain": ter, "scenario": sc, "seed": seed,
                      "controller": ctrl, **{k: v for k, v in m.items()
@@ -201,8 +207,7 @@ def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
     """
     ter = get_terrain(terrain)
     s_lim = (1.0 - cut) * float(peak_slip_open)
-    a_lim = G_M_S2 * float(traction_coefficient(ter.curve, s_lim)
-                           - soil_resistance_coefficient(ter, s_lim))
+    a_lim = traction_acceleration_limit(ter, s_lim)
     t_min = cruise_m_s / min(a_lim, accel_m_s2) if a_lim > 0 else math.inf
     return {"terrain": terrain, "peak_slip_open": float(peak_slip_open), "slip_limit": s_lim,
             "steady_slip": steady_slip(ter), "slip_for_command": steady_slip(
