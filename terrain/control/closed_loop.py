@@ -690,10 +690,12 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
     "husky": MappingProxyType({"max_input_age_s": 0.25}),
 })
 
-#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by
-#: ``terrain control-grid --tune`` on the tuning seeds (docs/control_validation.md).
+#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by the tuning of
+#: ``terrain control-grid`` on the tuning seeds, feed-forward on (docs/control_validation.md);
+#: the Husky's with the interim observer (with the fused estimate and no currents every
+#: candidate ties).
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
-    "agrimaro": (10.0, 0.0), "husky": (2.0, 0.0)})
+    "agrimaro": (5.0, 10.0), "husky": (5.0, 10.0)})
 
 
 def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,

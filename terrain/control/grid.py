@@ -5,7 +5,8 @@ Tuning (:func:`tune_gains`): an exhaustive search over a small ``(kp, ki)`` grid
 scored by simulated ``straight_accel`` runs on the tuning terrains and *tuning seeds* only
 (:data:`TUNING_SEEDS`, disjoint from the evaluation seeds, which :func:`run_grid` refuses to
 share), cost = mean slip RMSE against the target while enabled + ``time_weight`` x the mean
-relative increase of the time to cruise against no control.
+relative increase of the time to cruise against no control + ``steady_weight`` x the mean share
+of steady control steps more than 0.02 from the target.
 
 Quasi-static bound (:func:`slip_limit_bound`): with the wheel slip held at or below ``s``,
 the largest forward acceleration on flat ground is
@@ -36,6 +37,7 @@ TUNING_SEEDS: tuple[int, ...] = (1000, 1001)
 def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
                ki_grid: Sequence[float], duration_s: float = 10.0,
                seeds: Sequence[int] = TUNING_SEEDS, time_weight: float = 0.5,
+               steady_weight: float = 0.5,
                log: Callable[[dict], None] | None = None, estimator: str | None = None,
                feed_forward: bool = True) -> tuple[tuple[float, float], pd.DataFrame]:
     """Grid search of ``(kp, ki)`` on simulated ``straight_accel`` runs of the tuning seeds.
@@ -54,6 +56,9 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
         Tuning seeds.
     time_weight : float
         Weight of the relative time-to-cruise increase in the cost.
+    steady_weight : float
+        Weight of the share of steady control steps with ``|slip - target| > 0.02`` (the
+        issue's steady-driving target; a run without steady samples counts as 1).
     log : callable, optional
         Called with each candidate's row (e.g. to log it to MLflow).
     estimator : str, optional
@@ -67,7 +72,7 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     best : tuple of float
         ``(kp, ki)`` of the lowest cost.
     table : pandas.DataFrame
-        ``kp, ki, slip_rmse, time_increase, cost`` per candidate.
+        ``kp, ki, slip_rmse, time_increase, steady_miss, cost`` per candidate.
     """
     base = {}
     for ter, seed in itertools.product(terrains, seeds):
@@ -75,16 +80,19 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
                                           duration_s, estimator=estimator)[2]
     rows = []
     for kp, ki in itertools.product(kp_grid, ki_grid):
-        rmse, dt = [], []
+        rmse, dt, miss = [], [], []
         for ter, seed in itertools.product(terrains, seeds):
             m = run_closed_loop(vehicle, ter, "straight_accel", True, seed, duration_s,
                                 (kp, ki), estimator=estimator, feed_forward=feed_forward)[2]
             t0, t1 = base[ter, seed]["time_to_speed_s"], m["time_to_speed_s"]
             rmse.append(m["slip_rmse"] if m["slip_rmse"] is not None else 1.0)
             dt.append(1.0 if (t1 is None or not t0) else max(t1 / t0 - 1.0, 0.0))
+            within = m["steady_slip_within_0_02"]
+            miss.append(1.0 if within is None else 1.0 - within)
         row = {"kp": kp, "ki": ki, "slip_rmse": float(np.mean(rmse)),
-               "time_increase": float(np.mean(dt))}
-        row["cost"] = row["slip_rmse"] + time_weight * row["time_increase"]
+               "time_increase": float(np.mean(dt)), "steady_miss": float(np.mean(miss))}
+        row["cost"] = (row["slip_rmse"] + time_weight * row["time_increase"]
+                       + steady_weight * row["steady_miss"])
         rows.append(row)
         if log is not None:
             log(row)
