@@ -78,6 +78,11 @@ class SoilParams:
         Specific weight of the soil gamma_s, N/m^3 (bulldozing).
     source : str
         Where every number comes from (ASSUMED / ANALOGY stated).
+    lateral_shear_modulus_m : float or None
+        Shear deformation modulus K_y of the lateral shear, m; None = ``shear_modulus_m``
+        (isotropic). Anisotropic moduli as in Ishigami et al., "Terramechanics-based model
+        for steering maneuver of planetary exploration rovers on loose soil", J. Field
+        Robotics 24(3), 2007 (separate K_x, K_y, K_y below K_x on sand).
     """
 
     name: str
@@ -89,6 +94,13 @@ class SoilParams:
     shear_modulus_m: float
     unit_weight_n_m3: float
     source: str
+    lateral_shear_modulus_m: float | None = None
+
+    @property
+    def shear_modulus_y_m(self) -> float:
+        """Shear deformation modulus of the lateral shear K_y, m."""
+        return (self.shear_modulus_m if self.lateral_shear_modulus_m is None
+                else self.lateral_shear_modulus_m)
 
 
 #: Soils of the physics-v2 lateral model, by catalogue terrain (read-only).
@@ -326,7 +338,7 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
     v = np.asarray(v_lateral_m_s, dtype=float)
     roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
-    scale = length / (contact.soil.shear_modulus_m * roll)     # a = scale |v|
+    scale = length / (contact.soil.shear_modulus_y_m * roll)     # a = scale |v|
     a = scale * np.abs(v)
     g = shear_mobilisation(a)
     x_l = v / slide_speed_m_s

@@ -153,3 +153,31 @@ def test_v1_is_the_default_and_unchanged_on_rigid_ground_without_acceleration():
 def test_unknown_physics_is_a_config_error():
     with pytest.raises(ConfigError, match="v1, v2"):
         SimConfig(physics="v3")
+
+
+def test_velocity_maps_are_the_rim_speed_kinematics_of_eq_4_20():
+    """velocity_maps calls vehicles.swerve.wheel_rim_speed (the one home of eq. 4.20); its
+    maps equal the closed-form rows ``(cos d, sin d, -y cos d + x sin d)`` and, across the
+    wheel, ``(-sin d, cos d, y sin d + x cos d)``, and map a twist onto the rim speeds."""
+    from terrain.sim.forces import contact_layout, velocity_maps
+    from terrain.vehicles.swerve import wheel_rim_speed
+    for name, chi in (("husky", 1.4), ("agrimaro", 1.0)):
+        veh = get_vehicle(name)
+        layout = contact_layout(veh.contact_geometry(), veh.mass_kg, 0.0, chi)
+        rng = np.random.default_rng(3)
+        d = rng.uniform(-np.pi, np.pi, len(layout.x_m)) if layout.steered else np.zeros(
+            len(layout.x_m))
+        maps = velocity_maps(layout, d)
+        x, y, yk = layout.x_m, layout.y_m, layout.y_kinematic_m
+        c, s = np.cos(d), np.sin(d)
+        np.testing.assert_allclose(maps.long_kinematic, np.column_stack([c, s, -yk * c + x * s]),
+                                   atol=1e-15)
+        np.testing.assert_allclose(maps.long_force, np.column_stack([c, s, -y * c + x * s]),
+                                   atol=1e-15)
+        np.testing.assert_allclose(maps.lateral, np.column_stack([-s, c, y * s + x * c]),
+                                   atol=1e-15)
+        twist = np.array([0.4, -0.1, 0.7])
+        np.testing.assert_allclose(maps.long_force @ twist,
+                                   wheel_rim_speed(*twist, x, y, d), atol=1e-15)
+        if not layout.steered:      # skid-steer: kinematic lines at chi y (Mandow 2007)
+            np.testing.assert_allclose(maps.long_kinematic[:, 2], -chi * y)
