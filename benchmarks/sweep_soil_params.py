@@ -27,7 +27,8 @@ import numpy as np
 
 import terrain.sim.dynamics as dynamics
 from terrain.audit.frames import MANOEUVRES, prepare_frame
-from terrain.audit.physics import _errors, _on
+from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, gain_table,
+                                   per_run_errors)
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
 from terrain.sim import SimConfig
@@ -71,13 +72,64 @@ def sim_chi(terrain, scenario, duration):
     return icr_expansion_factor(ph.twist[m, 2], x[m])
 
 
+def per_run_chi(terrain: str) -> int:
+    """Per run and manoeuvre: chi of the measured yaw rate and of both replays, currents."""
+    for r in sorted((r for r in load_dataset("borealtc") if r.terrain == terrain),
+                    key=lambda r: r.run_id):
+        f = prepare_frame(r, replay_run(r, ReplaySettings(physics="v1")))
+        rep = replay_run(r, ReplaySettings(physics="v2"))
+        wz2 = _on(f, rep.yaw_rate)
+        cur2 = np.column_stack([_on(f, rep.cur[:, 0]), _on(f, rep.cur[:, 1])])
+        for scope in ("curve", "spin"):
+            m = (f.score_imu & np.isfinite(f.wz) & (f.manoeuvre == MANOEUVRES.index(scope))
+                 & (np.abs(f.commanded_yaw_rate) > 0.1))
+            if m.sum() < 20:
+                continue
+            x = f.commanded_yaw_rate[m]
+            print(f"{r.run_id} {scope}: n {m.sum()}, |x| {np.mean(np.abs(x)):.2f} rad/s, chi "
+                  f"measured {icr_expansion_factor(f.wz[m], x):.3g} v1 "
+                  f"{icr_expansion_factor(f.sim_wz[m], x):.3g} v2 "
+                  f"{icr_expansion_factor(wz2[m], x):.3g}; current measured "
+                  f"{f.cur[m].mean():.1f} v1 {f.sim_cur[m].mean():.1f} v2 {cur2[m].mean():.1f} A")
+    return 0
+
+
+def heldout_table(path: str) -> int:
+    """Gain of v2 over v1 on the held-out runs only (see ``--heldout-table``)."""
+    runs = load_dataset("borealtc")
+    held = []
+    for terrain in sorted({r.terrain for r in runs}):
+        group = [r for r in runs if r.terrain == terrain]
+        held += split(group)[1] if terrain in SOILS else group
+    settings = PhysicsComparisonSettings()
+    per_run, _ = per_run_errors(held, settings)
+    table = gain_table(per_run, settings)
+    table.to_csv(path, index=False)
+    keep = table.signal.isin(["wz", "cur"]) & table.scope.isin(["moving", "curve", "spin"])
+    print(table[keep].round(4).to_string(index=False))
+    return 0
+
+
 def main() -> int:
     """Run the sweep; returns 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--terrain", required=True)
     ap.add_argument("--variants", default="[{}]", help="JSON list of SoilParams overrides")
     ap.add_argument("--no-chi", action="store_true")
+    ap.add_argument("--heldout-table", metavar="CSV",
+                    help="instead of a sweep: v2 (shipped parameters) against v1 on the runs no "
+                         "parameter was chosen on (every run of the terrains without a swept "
+                         "soil, the held-out half of SANDY_LOAM and SNOW), the gain table of "
+                         "terrain.audit.physics written to CSV")
+    ap.add_argument("--per-run-chi", action="store_true",
+                    help="instead of a sweep: per run of --terrain and manoeuvre (curve, spin), "
+                         "the chi of the measured gyro, the v1 and the v2 replay and the mean "
+                         "measured and replayed currents")
     args = ap.parse_args()
+    if args.per_run_chi:
+        return per_run_chi(args.terrain)
+    if args.heldout_table:
+        return heldout_table(args.heldout_table)
     variants = json.loads(args.variants)
     runs = [r for r in load_dataset("borealtc") if r.terrain == args.terrain]
     train, held = split(runs)
