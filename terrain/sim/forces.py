@@ -132,15 +132,17 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
     ndarray, shape (c,)
         N.
     """
-    sx = float(np.sum(x_m * x_m))
-    sy = float(np.sum(y_m * y_m))
-    d_n = np.zeros_like(static_load_n)
+    # dot products and ndarray.sum instead of np.sum: this runs once per integrator step
+    sx = float(x_m @ x_m)
+    sy = float(y_m @ y_m)
+    mh = mass_kg * cog_height_m
+    loads = static_load_n
     if sx > 0:
-        d_n = d_n - mass_kg * cog_height_m * accel_x_m_s2 * x_m / sx
+        loads = loads - (mh * accel_x_m_s2 / sx) * x_m
     if sy > 0:
-        d_n = d_n - mass_kg * cog_height_m * accel_y_m_s2 * y_m / sy
-    loads = np.maximum(static_load_n + d_n, MIN_LOAD_FRACTION * static_load_n)
-    return loads * (np.sum(static_load_n) / np.sum(loads))
+        loads = loads - (mh * accel_y_m_s2 / sy) * y_m
+    loads = np.maximum(loads, MIN_LOAD_FRACTION * static_load_n)
+    return loads * (static_load_n.sum() / loads.sum())
 
 
 @dataclass(frozen=True)
