@@ -41,13 +41,39 @@ SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
 
 
 def split(runs):
-    """Training and held-out runs of one terrain (alternating in run-id order)."""
+    """Training and held-out runs of one terrain (alternating in run-id order).
+
+    Parameters
+    ----------
+    runs : list of Run
+        Runs of one terrain.
+
+    Returns
+    -------
+    train, held : list of Run
+        Positions 0, 2, 4, ... and 1, 3, 5, ... of the runs sorted by run id.
+    """
     runs = sorted(runs, key=lambda r: r.run_id)
     return runs[0::2], runs[1::2]
 
 
 def rmse(errs, sig, scope):
-    """Pooled RMSE of one signal within a manoeuvre scope over runs' error dicts."""
+    """Pooled RMSE of one signal within a manoeuvre scope over runs' error dicts.
+
+    Parameters
+    ----------
+    errs : list of dict
+        Per run, :func:`terrain.audit.physics._errors` (signal -> squared errors, manoeuvre).
+    sig : str
+        Signal (``wz``, ``cur``, ...).
+    scope : str or None
+        Manoeuvre name, or None for every moving sample.
+
+    Returns
+    -------
+    float
+        RMSE in the signal's unit (NaN without samples).
+    """
     s, n = 0.0, 0
     for e in errs:
         if sig not in e:
@@ -61,7 +87,22 @@ def rmse(errs, sig, scope):
 
 
 def sim_chi(terrain, scenario, duration):
-    """chi and mean current per side of a simulated Husky manoeuvre (physics v2)."""
+    """chi of a simulated Husky manoeuvre with physics v2 (docs/physics_v2.md, chi table).
+
+    Parameters
+    ----------
+    terrain : str
+        Catalogue terrain.
+    scenario : str
+        ``spin`` or ``orchard`` (headland turns).
+    duration : float
+        Simulated time, s.
+
+    Returns
+    -------
+    float
+        Least-squares chi of the yaw rate on ``(v_R - v_L) / B`` where ``|x| > 0.1 rad/s``.
+    """
     sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,),
                                           scenario=scenario, duration_s=duration, seed=1,
                                           physics="v2"))
@@ -73,7 +114,18 @@ def sim_chi(terrain, scenario, duration):
 
 
 def per_run_chi(terrain: str) -> int:
-    """Per run and manoeuvre: chi of the measured yaw rate and of both replays, currents."""
+    """Per run and manoeuvre: chi of the measured yaw rate and of both replays, currents.
+
+    Parameters
+    ----------
+    terrain : str
+        BorealTC terrain.
+
+    Returns
+    -------
+    int
+        0 (the table is printed).
+    """
     for r in sorted((r for r in load_dataset("borealtc") if r.terrain == terrain),
                     key=lambda r: r.run_id):
         f = prepare_frame(r, replay_run(r, ReplaySettings(physics="v1")))
@@ -95,7 +147,18 @@ def per_run_chi(terrain: str) -> int:
 
 
 def heldout_table(path: str) -> int:
-    """Gain of v2 over v1 on the held-out runs only (see ``--heldout-table``)."""
+    """Gain of v2 over v1 on the held-out runs only (see ``--heldout-table``).
+
+    Parameters
+    ----------
+    path : str
+        CSV written with :func:`terrain.audit.physics.gain_table`'s columns.
+
+    Returns
+    -------
+    int
+        0.
+    """
     runs = load_dataset("borealtc")
     held = []
     for terrain in sorted({r.terrain for r in runs}):
