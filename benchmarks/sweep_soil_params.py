@@ -211,8 +211,9 @@ def main() -> int:
                                 for s in ("wz", "cur") for sc in SCOPES))
     try:
         for var in variants:
-            soil = replace(SOILS[args.terrain], **var)
-            dynamics.SOILS = MappingProxyType({**SOILS, args.terrain: soil})
+            if args.terrain in SOILS:
+                soil = replace(SOILS[args.terrain], **var)
+                dynamics.SOILS = MappingProxyType({**SOILS, args.terrain: soil})
             errs = {}
             for k, rs in (("train", train), ("held", held)):
                 errs[k] = []
