@@ -335,8 +335,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     delta = delta_cmd[0].copy()
     dist = 0.0
     n_terr = len(terrains)
-    fixed_maps = None if layout.steered else velocity_maps(
-        layout, np.ones_like(layout.x_m), np.zeros_like(layout.x_m))
+    fixed_maps = None if layout.steered else velocity_maps(layout, np.zeros_like(layout.x_m))
     for k in range(n):
         ti = int(dist // segment_length_m) % n_terr
         ter = terrains[ti]
@@ -345,7 +344,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             step = (delta_cmd[k] - delta + np.pi) % (2 * np.pi) - np.pi
             delta = delta + np.minimum(np.maximum(step, -steer_rate), steer_rate)
             d_c = delta[motor_of]
-            maps = velocity_maps(layout, np.cos(d_c), np.sin(d_c))
+            maps = velocity_maps(layout, d_c)
         else:
             maps = fixed_maps
         omega_prev = omega
