@@ -22,7 +22,8 @@ from features.slip_features import (one_hot_probabilities, slip_features, slip_t
 from terrain.io.shipped import load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
-                                     measured_checks, odometry_errors, steady_straight)
+                                     measured_checks, odometry_errors, std_calibration_table,
+                                     steady_straight)
 from terrain.slip.figures import error_figure, odometry_figure
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -65,7 +66,8 @@ def main(args: argparse.Namespace) -> int:
     """Simulate (cached), fit, evaluate, log and register.
 
     Fits :class:`terrain.slip.learned.SlipRegressor` on the Husky runs of the training seeds,
-    compares it with the baselines on the held-out seeds (median absolute slip error, steady
+    calibrates its slip std on grouped out-of-fold residuals of the training runs (held-out
+    coverage in ``std_calibration.csv``), compares it with the baselines on the held-out seeds (median absolute slip error, steady
     straight and all windows), leave-one-scenario-out and (unless ``args.no_loto``)
     leave-one-terrain-out, and the odometry error with and without slip compensation (% of
     distance); writes tables, ``summary.json`` and figures to ``args.out``, logs them to the
@@ -96,8 +98,17 @@ def main(args: argparse.Namespace) -> int:
     params = {"n_runs": len(runs), "n_windows": len(X), **{k: str(v) for k, v in vars(
         args).items() if k not in ("out", "cache_dir")}}
     with threadpool_limits(1, "openmp"), tracked_run(EXPERIMENT, "slip-husky", params) as run:
-        model = SlipRegressor().fit(X[train], Y[train])
+        model = SlipRegressor().fit(X[train], Y[train],
+                                    groups=meta["run_id"].to_numpy()[train])
         preds = {"learned": model.predict(X)}
+        calib = pd.concat([std_calibration_table(preds["learned"], model.predict_std(X), Y,
+                                                 meta, m, by).assign(windows=name)
+                           for name, m, by in (("all", test, ("scenario",)),
+                                               ("steady_straight", steady & test, ("terrain",)))],
+                          ignore_index=True)
+        calib.to_csv(args.out / "std_calibration.csv", index=False)
+        run.log_table(calib, "std_calibration.csv")
+        run.log_metrics({f"calibration.train_oof.{k}": v for k, v in model.calibration_.items()})
         preds.update(baseline_predictions(X, Y, meta, train, runs, vehicle.track_m))
         tables = []
         for name, p in preds.items():

@@ -486,21 +486,24 @@ class FusionSettings:
     Parameters
     ----------
     learned_std_floor : float
-        Smallest standard deviation of the learned model's slip (ASSUMED 0.01: the largest
-        held-out median error of the registered model on steady straight driving is 0.0072,
-        ``docs/slip_learning.md``). The learned model gives no variance of its own; its std is
-        ``sqrt(floor^2 + (learned - physics)^2)``: where the two models disagree, at least one
-        is wrong by about that much.
+        Only for a learned model without a calibrated std (fitted before the calibration, or
+        without groups): its std is then the heuristic ``sqrt(floor^2 + (learned -
+        physics)^2)`` (ASSUMED 0.01, the largest held-out median error of the first registered
+        model on steady straight driving, 0.0072). A calibrated model supplies its own std
+        (:meth:`terrain.slip.learned.SlipRegressor.predict_std`, from grouped out-of-fold
+        residuals of the training runs).
     min_std : float
-        Floor of every pseudo-measurement std, dimensionless (the physics std is 1e-4 on firm
-        ground, where the error of a 2 s window mean in a transient is larger; 0.003 gave
-        NEES inside its bounds on simulated SANDY_LOAM and SNOW, ``docs/slip_learning.md``).
+        Floor of every pseudo-measurement std, dimensionless (0.001: it only guards against a
+        vanishing std, e.g. the physics std of ~1e-4 on firm ground, where the error of a 2 s
+        window mean in a transient is larger; with the calibrated learned std, 0.001 gave NEES
+        inside its bounds on simulated GRASS and SNOW, 0.003 on SNOW only,
+        ``docs/slip_learning.md``).
     filter : SkidSteerSlipSettings
         Tuning of the slip-augmented EKF.
     """
 
     learned_std_floor: float = 0.01
-    min_std: float = 0.003
+    min_std: float = 0.001
     filter: SkidSteerSlipSettings = field(default_factory=SkidSteerSlipSettings)
 
 
@@ -543,8 +546,9 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
         return t, sp, vp
     if "learned" not in outputs:
         raise ConfigError("the learned slip model is not available")
-    sl = outputs["learned"][1]
-    vl = np.maximum(np.hypot(settings.learned_std_floor, sl - sp), settings.min_std)
+    _, sl, cal = outputs["learned"]
+    heuristic = np.hypot(settings.learned_std_floor, sl - sp)   # a model without calibration
+    vl = np.maximum(np.where(np.isfinite(cal), cal, heuristic), settings.min_std)
     if source == "learned":
         return t, sl, vl
     wp, wl = vp ** -2, vl ** -2

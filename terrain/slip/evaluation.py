@@ -117,6 +117,53 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     return pd.DataFrame(rows)
 
 
+def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
+                          meta: pd.DataFrame, mask: np.ndarray,
+                          by: Sequence[str] = ("scenario",)) -> pd.DataFrame:
+    """How well a predicted slip std describes the errors (held-out windows).
+
+    Parameters
+    ----------
+    pred : ndarray, shape (n, >=2)
+        Predicted ``slip_1, slip_2`` in the first two columns.
+    std : ndarray, shape (n, 2)
+        Their standard deviations (dimensionless slip).
+    truth : ndarray, shape (n, >=2)
+        True ``slip_1, slip_2``.
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance with the ``by`` columns.
+    mask : ndarray of bool, shape (n,)
+        Windows to score.
+    by : sequence of str
+        Grouping columns of ``meta``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per group: ``n_windows``, ``coverage_1std`` and ``coverage_2std`` (fraction of
+        side-windows with ``|error| <= k std``; Gaussian 0.683, 0.954),
+        ``median_normalised_sq`` (Gaussian 0.455), ``mean_normalised_sq`` (Gaussian 1),
+        ``median_std``, ``median_abs_err``.
+    """
+    err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
+    std = np.asarray(std, float)
+    u = err / std
+    pos = np.flatnonzero(np.asarray(mask, bool))
+    keys = meta[list(by)].iloc[pos].reset_index(drop=True)
+    rows = []
+    for key, g in keys.groupby(list(by)):
+        sel = pos[g.index.to_numpy()]
+        uu = u[sel].ravel()
+        rows.append({**dict(zip(by, key if isinstance(key, tuple) else (key,))),
+                     "n_windows": len(sel), "coverage_1std": float(np.mean(uu <= 1)),
+                     "coverage_2std": float(np.mean(uu <= 2)),
+                     "median_normalised_sq": float(np.median(uu ** 2)),
+                     "mean_normalised_sq": float(np.mean(uu ** 2)),
+                     "median_std": float(np.median(std[sel])),
+                     "median_abs_err": float(np.median(err[sel]))})
+    return pd.DataFrame(rows)
+
+
 def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
                          ) -> np.ndarray:
     """Window means of the seed 000 observer slip (yaw-only, gyro heading) per run.

@@ -99,3 +99,35 @@ def test_slip_regressor_compiled_predict_equals_reference(one_run):
     assert model.chi_model_ is None
     assert np.array_equal(model.predict(X), model.predict_reference(X))
     assert np.all(model.predict(X)[:, 2] == model.chi_default_)
+
+
+def test_calibrated_std_recovers_planted_heteroscedastic_noise():
+    """Slip noise planted 0.004 where feature 0 < 0 and 0.02 where > 0: the std calibrated on
+    grouped out-of-fold residuals follows it (and is NaN without groups)."""
+    rng = np.random.default_rng(3)
+    n = 4000
+    X = rng.normal(size=(n, 5))
+    sigma = np.where(X[:, 0] > 0, 0.02, 0.004)
+    base = 0.1 + 0.05 * np.tanh(X[:, 1])
+    y = np.column_stack([base + sigma * rng.normal(size=n), base + sigma * rng.normal(size=n),
+                         np.full(n, np.nan), np.zeros(n)])
+    groups = np.arange(n) // 40                      # 100 "runs" of 40 windows
+    model = SlipRegressor(max_iter=60, learning_rate=0.1, max_leaf_nodes=7,
+                          min_samples_leaf=40).fit(X, y, groups=groups)
+    Xt = rng.normal(size=(2000, 5))
+    sd = model.predict_std(Xt)
+    assert sd.shape == (2000, 2) and np.all(sd >= model.std_floor)
+    hi, lo = np.median(sd[Xt[:, 0] > 0.3, 0]), np.median(sd[Xt[:, 0] < -0.3, 0])
+    assert 0.6 * 0.02 < hi < 1.5 * 0.02, hi            # the planted levels, within the
+    assert 0.6 * 0.004 < lo < 1.7 * 0.004, lo          # fold models' own estimation error
+    cal = model.calibration_
+    assert 0.55 < cal["coverage_1std"] < 0.8 and 0.88 < cal["coverage_2std"] < 0.99
+    # held-out planted data: about 68 % within 1 std
+    yt = 0.1 + 0.05 * np.tanh(Xt[:, 1]) + np.where(Xt[:, 0] > 0, 0.02, 0.004) * rng.normal(
+        size=2000)
+    cover = np.mean(np.abs(model.predict(Xt)[:, 0] - yt) <= sd[:, 0])
+    assert 0.55 < cover < 0.8, cover
+    plain = SlipRegressor(max_iter=20).fit(X, y)
+    assert np.isnan(plain.predict_std(Xt)).all()
+    with pytest.raises(ShapeError):
+        SlipRegressor(max_iter=5).fit(X, y, groups=groups[:10])
