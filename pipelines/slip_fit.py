@@ -40,7 +40,8 @@ TRUSTED = ("terrain.slip.learned.SlipRegressor",
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain slip-fit``: terrains, scenarios, training and held-out test
-    seeds, ``--duration-s`` (simulated time per run, s), ``--cache-dir``, ``--out``,
+    seeds, ``--duration-s`` (simulated time per run, s), ``--orchard-duration-s`` (held-out
+    orchard runs for the odometry, s), ``--cache-dir``, ``--out``,
     ``--no-loto``, ``--measured`` dataset and ``--no-register``.
 
     Parameters
@@ -54,6 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-seeds", nargs="+", type=int, default=[0, 1])
     parser.add_argument("--test-seeds", nargs="+", type=int, default=[100])
     parser.add_argument("--duration-s", type=float, default=40.0)
+    parser.add_argument("--orchard-duration-s", type=float, default=120.0,
+                        help="held-out orchard runs of this length for the odometry (a 40 s "
+                             "run ends before the first headland turn); <= --duration-s: none")
     parser.add_argument("--cache-dir", type=Path, default=Path("out/slip_cache"))
     parser.add_argument("--out", type=Path, default=Path("out/slip_fit"))
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
@@ -131,6 +135,8 @@ def main(args: argparse.Namespace) -> int:
         truth_in = np.where(np.isnan(Y), 1.0, Y)        # chi = 1 where the robot does not turn
         odo["oracle_err_pct"] = odometry_errors(runs, meta, truth_in, vehicle.track_m,
                                                 odo_runs)["compensated_err_pct"]
+        if args.orchard_duration_s > args.duration_s:
+            odo = pd.concat([odo, _long_orchard(args, vehicle, model)], ignore_index=True)
         summary = _summary(errors, odo)
         (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
         run.log_metrics(summary)
@@ -157,6 +163,19 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def _long_orchard(args: argparse.Namespace, vehicle, model: SlipRegressor) -> pd.DataFrame:
+    spec = SlipDataSpec(tuple(args.terrains), ("orchard",), tuple(args.test_seeds),
+                        args.orchard_duration_s)
+    runs = simulated_runs(spec, args.cache_dir)
+    X, Yf, meta = slip_table(runs, vehicle, TERRAIN_NAMES)
+    Y = Yf[list(SLIP_OUTPUTS)].to_numpy()
+    ids = meta["run_id"].unique()
+    odo = odometry_errors(runs, meta, model.predict(X), vehicle.track_m, ids)
+    odo["oracle_err_pct"] = odometry_errors(runs, meta, np.where(np.isnan(Y), 1.0, Y),
+                                            vehicle.track_m, ids)["compensated_err_pct"]
+    return odo.assign(scenario=f"orchard_{args.orchard_duration_s:g}s")
+
+
 def _measured(dataset: str, model: SlipRegressor, vehicle) -> pd.DataFrame:
     ws = slip_windows(load_dataset(dataset))
     X = slip_features(ws, vehicle, one_hot_probabilities(ws.labels.astype(str), TERRAIN_NAMES))
@@ -175,6 +194,10 @@ def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:
         out[f"odometry.{scen}.plain_err_pct"] = plain
         out[f"odometry.{scen}.compensated_err_pct"] = comp
         out[f"odometry.{scen}.reduction_of_median_pct"] = 100 * (1 - comp / plain)
+        gyro = float(g["compensated_gyro_err_pct"].median())
+        out[f"odometry.{scen}.compensated_gyro_err_pct"] = gyro
+        out[f"odometry.{scen}.gyro_heading_err_pct"] = float(g["gyro_heading_err_pct"].median())
+        out[f"odometry.{scen}.gyro_reduction_of_median_pct"] = 100 * (1 - gyro / plain)
         slipping = g[g["plain_err_pct"] > 2.0]       # beyond the 0.8 % speed-quantum floor
         out[f"odometry.{scen}.slipping_runs"] = float(len(slipping))
         out[f"odometry.{scen}.slipping_median_reduction_pct"] = float(

@@ -222,8 +222,12 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     Returns
     -------
     pandas.DataFrame
-        One row per run: ``run_id, terrain, scenario, distance_m, slid_off, plain_err_pct,
-        compensated_err_pct, reduction_pct``. ``slid_off``: the body travelled more than
+        One row per run: ``run_id, terrain, scenario, distance_m, duration_s, slid_off,
+        plain_err_pct`` (wheel speeds and wheel yaw), ``compensated_err_pct`` (predicted slip,
+        chi and lateral velocity), ``reduction_pct`` (of compensated against plain),
+        ``gyro_heading_err_pct`` (wheel speeds, heading from the gyro) and
+        ``compensated_gyro_err_pct`` (predicted slip and lateral velocity, gyro heading; NaN
+        without an IMU). ``slid_off``: the body travelled more than
         :data:`SLID_OFF_FACTOR` x the wheels' path (it slid down the slope, e.g. the Husky on a
         15 deg icy slope, which no wheel odometry can follow).
     """
@@ -242,20 +246,33 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         vl, vr = wh["vel_l"].to_numpy(), wh["vel_r"].to_numpy()
         plain = dead_reckon(t, vl, vr, track_m)
         comp = dead_reckon(t, vl, vr, track_m, s1, s2, np.clip(chi, 0.5, 5.0), v_by)
+        imu = run.streams.get("imu")
+        wz = None if imu is None else np.interp(t, imu[TIME].to_numpy(), imu["wz"].to_numpy())
         xy = tr[["x", "y"]].to_numpy()
         end = np.array([np.interp(t[-1], tr[TIME], tr["x"]), np.interp(t[-1], tr[TIME], tr["y"])])
         dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
         e_plain = 100 * float(np.hypot(*(plain[-1, :2] - end))) / dist
         e_comp = 100 * float(np.hypot(*(comp[-1, :2] - end))) / dist
+        if wz is not None:
+            gyro = dead_reckon(t, vl, vr, track_m, yaw_rate_rad_s=wz)
+            comp_gyro = dead_reckon(t, vl, vr, track_m, s1, s2, lateral_m_s=v_by,
+                                    yaw_rate_rad_s=wz)
+            e_gyro = 100 * float(np.hypot(*(gyro[-1, :2] - end))) / dist
+            e_comp_gyro = 100 * float(np.hypot(*(comp_gyro[-1, :2] - end))) / dist
+        else:
+            e_gyro = e_comp_gyro = np.nan
         wheel_path = float(np.sum(np.hypot(*np.diff(plain[:, :2], axis=0).T)))
         rows.append({"run_id": rid, "terrain": run.terrain,
                      "scenario": run.meta.get("scenario"), "distance_m": dist,
                      "slid_off": dist > SLID_OFF_FACTOR * max(wheel_path, 1e-9),
+                     "duration_s": float(t[-1] - t[0]),
                      "plain_err_pct": e_plain, "compensated_err_pct": e_comp,
-                     "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan})
+                     "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan,
+                     "gyro_heading_err_pct": e_gyro, "compensated_gyro_err_pct": e_comp_gyro})
     return pd.DataFrame(rows, columns=["run_id", "terrain", "scenario", "distance_m",
-                                       "slid_off", "plain_err_pct", "compensated_err_pct",
-                                       "reduction_pct"])
+                                       "duration_s", "slid_off", "plain_err_pct",
+                                       "compensated_err_pct", "reduction_pct",
+                                       "gyro_heading_err_pct", "compensated_gyro_err_pct"])
 
 
 def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
