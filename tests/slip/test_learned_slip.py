@@ -156,6 +156,7 @@ def test_slip_fit_command(tmp_path, monkeypatch):
     assert summary["held-out_seeds.learned.SNOW.median_abs_err"] < 0.02
     assert summary["held-out_seeds.zero.SNOW.median_abs_err"] > 0.1
     errors = pd.read_csv(out / "slip_errors.csv")
-    assert {"held-out seeds", "leave-one-scenario-out", "leave-one-terrain-out"} <= set(
+    assert {"held-out seeds", "leave-one-scenario-out", "leave-one-terrain-out",
+            "leave-one-terrain-out-physics"} <= set(
         errors["split"])
     assert (tmp_path / "mlflow.db").exists()
