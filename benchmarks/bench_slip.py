@@ -15,7 +15,9 @@ the same process and run:
 * ``features_ms_per_window``: feature table of a run (:func:`features.slip_features.slip_features`,
   physics slip included) per window; ``single_features_ms``: the NumPy single-window path
   (:func:`features.slip_features.window_feature_vector`) for one window;
-  ``single_end_to_end_ms``: single-window features + ``predict``.
+  ``single_end_to_end_ms``: single-window features + ``predict``;
+  ``single_std_ms_per_window``: the calibrated std (:meth:`SlipRegressor.predict_std`) of one
+  window.
 
 The outputs of the compiled and reference paths are checked to be identical before timing.
 
@@ -56,8 +58,9 @@ def main() -> None:
                         seeds=(0, 1))
     runs = simulated_runs(spec, args.cache_dir)
     with threadpool_limits(1, "openmp"):
-        X, Y, _ = slip_table(runs, HUSKY, TERRAIN_NAMES)
-        model = SlipRegressor().fit(X, Y[list(SLIP_OUTPUTS)].to_numpy())
+        X, Y, meta = slip_table(runs, HUSKY, TERRAIN_NAMES)
+        model = SlipRegressor().fit(X, Y[list(SLIP_OUTPUTS)].to_numpy(),
+                                    groups=meta["run_id"].to_numpy())
         n = len(X)
         Xa = X.to_numpy(float)
         if not np.array_equal(model.predict(Xa), model.predict_reference(Xa)):
@@ -70,6 +73,8 @@ def main() -> None:
             single = float(np.median([_timed(lambda i=i: fn(Xa[i:i + 1])) for i in rows[:k]]))
             result[f"{name}batch_ms_per_window"] = 1e3 * batch
             result[f"{name}single_ms_per_window"] = 1e3 * single
+        result["single_std_ms_per_window"] = 1e3 * float(np.median(
+            [_timed(lambda i=i: model.predict_std(Xa[i:i + 1])) for i in rows]))
         ws = slip_windows(runs[:4])
         probs = one_hot_probabilities(["ASPHALT"] * len(ws), TERRAIN_NAMES)
         p1 = {t: float(t == "ASPHALT") for t in TERRAIN_NAMES}
