@@ -141,6 +141,8 @@ def test_compensated_odometry_beats_plain_with_true_slip(tiny_table):
 @pytest.mark.slow
 def test_slip_fit_command(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
+    # an earlier CLI call in this process exported its store (mlflow.set_tracking_uri)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
     out = tmp_path / "out"
     rc = cli_main(["slip-fit", "--terrains", "SANDY_LOAM", "SNOW", "--scenarios",
                    "straight_accel", "random", "--train-seeds", "0", "1", "--test-seeds",

@@ -86,6 +86,7 @@ def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_p
                                                                   monkeypatch):
     root, _ = sandy
     monkeypatch.chdir(tmp_path)           # no tracking store: the learned model is not found
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)   # exported by an earlier CLI call
     out = tmp_path / "states.csv"
     assert main(["estimate", str(root), "--out", str(out)]) == 0
     frame = pd.read_csv(out)
