@@ -83,8 +83,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         the variance over the feature space, and a scale ``c`` sets its level so that the median
         normalised squared residual ``r^2 / (c exp(z))`` is the chi-square(1) median on
         residuals the variance model did not see (cross-fitted over the same folds): 68 % of
-        the bulk within 1 std; the tails stay heavier than Gaussian (``calibration_``). :meth:`predict_std` returns
-        ``max(std_floor, sqrt(c exp(z(x))))``.
+        the bulk within 1 std; the tails stay heavier than Gaussian (``calibration_``).
+        :meth:`predict_std` returns ``max(std_floor, sqrt(c exp(z(x))))``.
 
         Parameters
         ----------

@@ -52,8 +52,8 @@ def pack_trees(estimators: Sequence, n_features: int) -> dict[str, np.ndarray]:
     Raises
     ------
     ConfigError
-        No estimator, or an estimator is unfitted, has a loss other than squared error, more than one tree per
-        iteration, or a categorical split.
+        No estimator, or an estimator is unfitted, has a loss other than squared error,
+        more than one tree per iteration, or a categorical split.
     """
     nodes, tree_start, model_start, baseline = [], [0], [0], []
     n_nodes = n_trees = 0

@@ -107,7 +107,7 @@ def test_pseudo_measurement_takes_the_calibrated_learned_std():
     t = np.arange(3.0)
     phys = (t, np.full((3, 2), 0.10), np.full((3, 2), 0.004))
     learned = (t, np.full((3, 2), 0.12), np.array([[0.002] * 2, [np.nan] * 2, [1e-5] * 2]))
-    s = FusionSettings()
+    s = FusionSettings(min_std=0.001)
     _, sl, vl = pseudo_measurement({"physics": phys, "learned": learned}, "learned", s)
     np.testing.assert_allclose(sl, 0.12)
     np.testing.assert_allclose(vl[0], 0.002)                        # calibrated std
