@@ -104,7 +104,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Raises
         ------
         ShapeError
-            ``y`` is not ``(n_windows, 4)``.
+            ``y`` is not ``(n_windows, 4)``, or ``groups`` has another length than ``X``.
         """
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
