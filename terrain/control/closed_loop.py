@@ -514,6 +514,7 @@ class TractionLoop:
         self.controller = TractionController(config, n_units)
         self.feed_forward = bool(feed_forward)
         self.v_ref = np.zeros(n_units)
+        self.ff_engaged = np.zeros(n_units, dtype=bool)
         self._accel_limit: dict[tuple[str, float], float] = {}
         self.estimator = estimator
         self.table = table
@@ -561,8 +562,9 @@ class TractionLoop:
                     get_terrain(targets.terrain), targets.traction)
             ff = feedforward_step(self.v_ref, est.v_long_m_s, obs.omega_low_level,
                                   self._accel_limit[key], targets.traction,
-                                  self.controller.config.wheel_radius_m, max(dt, 0.0))
-            self.v_ref = ff.v_ref_m_s
+                                  self.controller.config.wheel_radius_m, max(dt, 0.0),
+                                  self.ff_engaged)
+            self.v_ref, self.ff_engaged = ff.v_ref_m_s, ff.engaged
             low = obs.omega_low_level
             use_ff = (~out.safe) & (np.abs(low + ff.correction_rad_s) < np.abs(low + correction))
             correction = np.where(use_ff, ff.correction_rad_s, correction)
