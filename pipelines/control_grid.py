@@ -5,7 +5,8 @@ quasi-static slip-limit bound, log everything to MLflow (experiment terrain-cont
 Default (small, about a minute on a loaded core): both vehicles, TILES GRASS SANDY_LOAM SNOW
 ICE, straight_accel, seed 0, 20 s. Full grid (docs/control_validation.md):
   terrain control-grid --scenarios straight_accel orchard slope_turn --seeds 0 1 2 --out OUT
---no-tune uses terrain.control.closed_loop.DEFAULT_GAINS instead of tuning.
+--no-tune uses terrain.control.closed_loop.default_gains (per vehicle and estimator) instead of
+tuning.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.control.closed_loop import DEFAULT_GAINS, ESTIMATORS
+from terrain.control.closed_loop import ESTIMATORS, default_gains
 from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
                                   slip_limit_bound, tune_gains)
 
@@ -106,8 +107,9 @@ def main(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     params = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
-        gains, tuning = dict(DEFAULT_GAINS), {}
         estimators = {"husky": args.husky_estimator}
+        gains = {v: default_gains(v, estimators.get(v)) for v in args.vehicles}
+        tuning = {}
         if not args.no_tune:
             for veh in args.vehicles:
                 step = iter(range(10_000))

@@ -22,7 +22,7 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.control.closed_loop import (DEFAULT_GAINS, ESTIMATORS, run_closed_loop,
+from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
 from terrain.control.desired_slip import build_slip_table
 
@@ -70,7 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run one closed-loop simulation and write its metrics.
 
-    Gains not given default to :data:`terrain.control.closed_loop.DEFAULT_GAINS`. With
+    Gains not given default to :func:`terrain.control.closed_loop.default_gains` of the
+    vehicle and estimator. With
     ``args.model`` the controller's terrain comes from the classifier's decisions on the
     simulated run (:func:`pipelines.live_terrain.classifier_decisions`), else the true
     terrain is used. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
@@ -86,7 +87,7 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status, 0.
     """
-    kp, ki = DEFAULT_GAINS[args.vehicle]
+    kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, decide, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
     if args.model:

@@ -692,12 +692,45 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
     "husky": MappingProxyType({"max_input_age_s": 0.25}),
 })
 
-#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by the tuning of
-#: ``terrain control-grid`` on the tuning seeds, feed-forward on (docs/control_validation.md);
-#: the Husky's with the interim observer (with the fused estimate and no currents every
-#: candidate ties).
+#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) of each vehicle with its
+#: default estimator (the first of :data:`ESTIMATORS`), found by the tuning of
+#: ``terrain control-grid`` on the tuning seeds, feed-forward on (docs/control_validation.md):
+#: AgriMaRo with its EKF + VO; Husky with the fused slip estimate, motor currents in the loop
+#: (kp = 2, ki = 0: with ki = 10 the integral of the estimate's end-of-ramp overshoot holds
+#: the wheels back and the time to cruise doubles).
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
-    "agrimaro": (5.0, 10.0), "husky": (5.0, 10.0)})
+    "agrimaro": (5.0, 10.0), "husky": (2.0, 0.0)})
+
+#: Gains of the non-default estimators ``(vehicle, kind) -> (kp, ki)``, same tuning: the
+#: Husky's interim wheel + IMU observer.
+ESTIMATOR_GAINS: Mapping[tuple[str, str], tuple[float, float]] = MappingProxyType({
+    ("husky", "observer"): (5.0, 10.0)})
+
+
+def default_gains(vehicle: str, estimator: str | None = None) -> tuple[float, float]:
+    """Tuned ``(kp, ki)`` of a vehicle with an estimator kind.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` or ``husky``.
+    estimator : str, optional
+        Estimator kind (:data:`ESTIMATORS`); None: the vehicle's default.
+
+    Returns
+    -------
+    tuple of float
+        :data:`ESTIMATOR_GAINS` of the pair where listed, else :data:`DEFAULT_GAINS` of the
+        vehicle (kp in rad/s per unit slip, ki in rad/s per unit slip and second).
+
+    Raises
+    ------
+    ConfigError
+        Vehicle without closed-loop gains.
+    """
+    if vehicle not in DEFAULT_GAINS:
+        raise ConfigError(f"control-sim supports {', '.join(DEFAULT_GAINS)}, got {vehicle!r}")
+    return ESTIMATOR_GAINS.get((vehicle, estimator or ""), DEFAULT_GAINS[vehicle])
 
 
 def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,
@@ -723,7 +756,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     duration_s : float
         Simulated time, s.
     gains : tuple of float, optional
-        ``(kp, ki)``; None: :data:`DEFAULT_GAINS`.
+        ``(kp, ki)``; None: :func:`default_gains` of the vehicle and estimator.
     table : SlipTable, optional
         Desired-slip table; None: built for ``terrain`` alone.
     terrain_decision : callable, optional
@@ -753,7 +786,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
 
     if vehicle not in LOOP_SETTINGS:
         raise ConfigError(f"control-sim supports agrimaro and husky, got {vehicle!r}")
-    kp, ki = gains or DEFAULT_GAINS[vehicle]
+    kp, ki = gains or default_gains(vehicle, estimator)
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
     table = table or build_slip_table([terrain])
     decision = terrain_decision or (lambda t: (terrain, 1.0))
