@@ -22,7 +22,6 @@ from types import MappingProxyType
 from typing import Mapping, Sequence
 
 import numpy as np
-from sklearn.pipeline import Pipeline
 
 from features.transformers import WindowFeatures
 from features.windows import DERIVED_WHEEL_CHANNELS
@@ -30,7 +29,7 @@ from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket
-from terrain.models.svm import SVMConfig, make_svm
+from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 from terrain.run import WHEEL_CHANNELS
 
 MODELS = ("svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble")
@@ -127,8 +126,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     kind = config.kind
     if kind == "svm":
         svm = make_svm(replace(config.svm, probability=probability), random_state)
-        return Pipeline([("features", WindowFeatures(channels=tuple(channels),
-                                                     rate_hz=rate_hz))] + svm.steps)
+        return SVMPipeline([("features", WindowFeatures(channels=tuple(channels),
+                                                        rate_hz=rate_hz))] + svm.steps)
     if kind == "cnn":
         return RawCNNClassifier(max_epochs=config.max_epochs, random_state=random_state,
                                 n_threads=config.n_threads)
