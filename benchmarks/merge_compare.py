@@ -33,7 +33,10 @@ def main() -> int:
     args = parser.parse_args()
     cells = pd.concat([pd.read_csv(d / "compare_cells.csv") for d in args.dirs])
     preds = pd.concat([pd.read_csv(d / "predictions.csv") for d in args.dirs])
-    keys = ["dataset", "signals", "window_s", "seed"]
+    for frame in (cells, preds):
+        if "protocol" not in frame:
+            frame["protocol"] = "grouped"       # folders written before the protocol column
+    keys = ["protocol", "dataset", "signals", "window_s", "seed"]
     rows = [cells]
     name = "vote(" + "+".join(args.vote) + ")"
     for key, frame in preds.groupby(keys):

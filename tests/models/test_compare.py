@@ -104,3 +104,28 @@ def test_soft_vote_of_cv_predictions_equals_the_fixed_weight_ensemble():
     assert (voted["predicted"].to_numpy() == ref["predicted"].to_numpy()).all()
     with pytest.raises(ConfigError, match="same folds"):
         soft_vote([single[0], single[1].iloc[1:]], ["A", "B"])
+
+
+def test_paper_protocol_is_explicit_and_labelled_leaky():
+    from terrain.models.compare import markdown_table, run_cell, summary_table
+
+    with pytest.raises(ConfigError, match="unknown protocol"):
+        CompareConfig(protocol="random")
+    with pytest.raises(ConfigError, match="1.7 s windows"):
+        CompareConfig(protocol="paper", windows_s=(2.0,))
+    assert CompareConfig().protocol == "grouped"                     # never the default
+    config = CompareConfig(models=("svm",), signals=("all",), windows_s=(1.7,),
+                           datasets=("vulpi",), seeds=(0,), history=(1,), n_splits=2,
+                           protocol="paper")
+    (cell,) = config.cells()
+    res = run_cell(cell, config)
+    pred = res["predictions"]
+    assert (pred["protocol"] == "paper").all()
+    # split units are 5 s partitions, and runs do land on both sides: the protocol leaks
+    assert pred["group"].str.contains("#").all()
+    folds_per_run = pred.groupby("run")["fold"].nunique()
+    assert (folds_per_run > 1).any()
+    assert (pred["t_end_s"] - pred["t_start_s"]).round(3).eq(1.7).all()
+    table = summary_table(pd.DataFrame(res["rows"]))
+    assert "paper (LEAKY)" in markdown_table(table)
+    assert res["rows"][0]["accuracy"] > 0.8
