@@ -43,8 +43,8 @@ def test_refit_renews_the_arrays_and_a_replaced_step_falls_back(fitted):
     labels = np.array(sorted(model.classes_))
     y = labels[rng.integers(0, len(labels), len(X_test))]
     twin.fit(X_test, y)
-    np.testing.assert_allclose(twin.predict_proba(X_test), Pipeline(twin.steps).predict_proba(X_test),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(twin.predict_proba(X_test),
+                               Pipeline(twin.steps).predict_proba(X_test), rtol=0, atol=1e-12)
     assert twin._fast() is not model._fast()
     # a final step swapped in after fitting is not the one the arrays came from
     twin.steps[-1] = ("svc", model.steps[-1][1])
