@@ -49,6 +49,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="grouped: run-grouped StratifiedGroupKFold (headline); paper: the "
                              "BorealTC/Vulpi papers' LEAKY 5 s partition protocol (needs "
                              "--windows-s 1.7; partitions of one run on both sides of a split)")
+    parser.add_argument("--early-stopping", action="store_true",
+                        help="CNNs stop on the loss of whole training runs held out of each "
+                             "fit (--max-epochs is the upper bound); default: fixed budget")
     parser.add_argument("--quick", action="store_true", help="small grid (smoke test)")
     parser.add_argument("--backend", choices=BACKENDS, default="loky")
     parser.add_argument("--address", default=None,
@@ -79,7 +82,7 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
                          windows_s=tuple(args.windows_s), datasets=tuple(args.datasets),
                          seeds=tuple(args.seeds), history=tuple(args.history),
                          max_epochs=args.max_epochs, n_threads=args.threads,
-                         protocol=args.protocol)
+                         protocol=args.protocol, early_stopping=args.early_stopping)
 
 
 def main(args: argparse.Namespace) -> int:

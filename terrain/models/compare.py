@@ -97,6 +97,8 @@ class CompareConfig:
     protocol : {"grouped", "paper"}
         Split protocol of every cell (``paper`` is leaky and needs ``windows_s == (1.7,)``,
         the papers' window).
+    early_stopping : bool
+        CNNs stop on whole held-out training runs (``max_epochs`` is the upper bound).
     """
 
     models: tuple[str, ...] = MODELS
@@ -110,6 +112,7 @@ class CompareConfig:
     n_threads: int | None = None
     single_run_blocks: int = 5
     protocol: str = "grouped"
+    early_stopping: bool = False
 
     def __post_init__(self) -> None:
         if self.protocol not in COMPARE_PROTOCOLS:
@@ -278,7 +281,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     """
     ws, labels, groups = _windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
-                     n_threads=config.n_threads)
+                     n_threads=config.n_threads, early_stopping=config.early_stopping)
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
     t0 = time.perf_counter()
     report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,
@@ -289,7 +292,9 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     rows = score_rows(pred, report.classes, config.history,
                       {**asdict(cell), "fit_s_per_fold": float(report.folds["fit_s"].mean()),
                        "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
-                       "cell_wall_s": wall_s})
+                       "cell_wall_s": wall_s,
+                       **({"epochs_per_fold": float(report.folds["n_epochs"].mean())}
+                          if "n_epochs" in report.folds else {})})
     return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),
             "predictions": pred.assign(**asdict(cell))}
 
