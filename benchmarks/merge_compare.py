@@ -43,7 +43,9 @@ def main() -> int:
         members = [frame[frame["model"] == m] for m in args.vote]
         if any(m.empty for m in members):
             continue
-        classes = [c[6:] for c in frame.columns if c.startswith("proba_")]
+        # folders of several datasets: only this dataset's probability columns are filled
+        classes = [c[6:] for c in frame.columns
+                   if c.startswith("proba_") and frame[c].notna().all()]
         voted = soft_vote(members, classes)
         sub = cells[(cells[keys] == pd.Series(key, index=keys)).all(axis=1)
                     & cells["model"].isin(args.vote) & (cells["history"] == args.history[0])]
