@@ -14,7 +14,7 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.control.closed_loop import DEFAULT_GAINS
+from terrain.control.closed_loop import DEFAULT_GAINS, ESTIMATORS
 from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
                                   slip_limit_bound, tune_gains)
 
@@ -25,7 +25,8 @@ SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-grid``: vehicles, terrains, scenarios, evaluation seeds,
     ``--duration-s`` (simulated time per run, s), ``--no-tune``, the proportional
-    (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids and ``--out``.
+    (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids,
+    ``--husky-estimator``, ``--no-feed-forward`` and ``--out``.
 
     Parameters
     ----------
@@ -41,6 +42,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-tune", action="store_true", help="use the default gains")
     parser.add_argument("--kp-grid", nargs="+", type=float, default=[2.0, 5.0, 10.0, 20.0])
     parser.add_argument("--ki-grid", nargs="+", type=float, default=[0.0, 10.0])
+    parser.add_argument("--husky-estimator", choices=ESTIMATORS["husky"],
+                        default=ESTIMATORS["husky"][0],
+                        help="the Husky's slip estimator (default: the fused slip estimate)")
+    parser.add_argument("--no-feed-forward", action="store_true",
+                        help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--out", required=True, help="output folder")
 
 
@@ -101,17 +107,20 @@ def main(args: argparse.Namespace) -> int:
     params = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
         gains, tuning = dict(DEFAULT_GAINS), {}
+        estimators = {"husky": args.husky_estimator}
         if not args.no_tune:
             for veh in args.vehicles:
                 step = iter(range(10_000))
                 gains[veh], tuning[veh] = tune_gains(
                     veh, ["ICE"], args.kp_grid, args.ki_grid,
                     log=lambda r, v=veh: run.log_metrics(
-                        {f"tune_{v}_cost": r["cost"]}, step=next(step)))
+                        {f"tune_{v}_cost": r["cost"]}, step=next(step)),
+                    estimator=estimators.get(veh), feed_forward=not args.no_feed_forward)
                 tuning[veh].to_csv(out / f"tuning_{veh}.csv", index=False)
                 run.log_table(tuning[veh], f"tuning_{veh}.json")
         results, traces = run_grid(args.vehicles, args.terrains, args.scenarios, args.seeds,
-                                   gains, args.duration_s)
+                                   gains, args.duration_s, estimators,
+                                   not args.no_feed_forward)
         table = compare(results)
         results.to_csv(out / "runs.csv", index=False)
         table.to_csv(out / "comparison.csv", index=False, float_format="%.4f")

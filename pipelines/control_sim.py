@@ -2,8 +2,9 @@
 
 The simulator (terrain.sim) with the controller of terrain.control called at 50 Hz on the
 robot's own sensor samples: the slip comes from the vehicle's estimator (AgriMaRo: the
-streaming EKF with the T265 visual odometry; Husky: an interim wheel + IMU observer, its
-limits stated in the JSON), the target from the desired-slip table. --controller off runs the
+streaming EKF with the T265 visual odometry; Husky: the fused slip estimate of issue 10 run
+online, --estimator observer for the earlier wheel + IMU observer; limits stated in the JSON),
+the target from the desired-slip table. --controller off runs the
 same loop in shadow mode (no correction), scored against the same targets.
 
 Terrain decisions: with --model DIR (a model saved by `terrain train --model-out DIR`) from
@@ -21,7 +22,8 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.control.closed_loop import DEFAULT_GAINS, run_closed_loop, trace_frame
+from terrain.control.closed_loop import (DEFAULT_GAINS, ESTIMATORS, run_closed_loop,
+                                         trace_frame)
 from terrain.control.desired_slip import build_slip_table
 
 VEHICLES = ("agrimaro", "husky")
@@ -35,8 +37,8 @@ TERRAIN_SOURCE_NOTE = ("label: terrain decisions are the run's ground-truth labe
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-sim``: vehicle, terrain, scenario, controller
     (``off`` or ``traction``), seed, ``--duration-s`` (s), gains ``--kp`` (rad/s per unit
-    slip) and ``--ki`` (rad/s per unit slip and s), an optional classifier ``--model``, and the
-    ``--json`` / ``--csv`` outputs.
+    slip) and ``--ki`` (rad/s per unit slip and s), an optional classifier ``--model``, the
+    slip ``--estimator``, ``--no-feed-forward`` and the ``--json`` / ``--csv`` outputs.
 
     Parameters
     ----------
@@ -55,6 +57,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="integral gain, rad/s per unit slip and s (default: tuned)")
     parser.add_argument("--model", default=None,
                         help="terrain classifier saved by `terrain train --model-out DIR`")
+    parser.add_argument("--estimator", default=None,
+                        choices=sorted({k for v in ESTIMATORS.values() for k in v}),
+                        help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo, Husky "
+                             "fused)")
+    parser.add_argument("--no-feed-forward", action="store_true",
+                        help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--json", required=True, help="output JSON file")
     parser.add_argument("--csv", default=None, help="optional per-step trace CSV")
 
@@ -89,7 +97,8 @@ def main(args: argparse.Namespace) -> int:
             table = build_slip_table(classes)
     sim, loop, metrics = run_closed_loop(args.vehicle, terrain, args.scenario,
                                          args.controller == "traction", args.seed,
-                                         args.duration_s, gains, table, decide)
+                                         args.duration_s, gains, table, decide,
+                                         args.estimator, not args.no_feed_forward)
     out = {"vehicle": args.vehicle, "terrain": args.terrain.upper(),
            "scenario": args.scenario, "controller": args.controller, "seed": args.seed,
            "duration_s": args.duration_s, "terrain_source": note, **metrics}

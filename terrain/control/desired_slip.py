@@ -5,18 +5,20 @@ slip" that the traction PID of ch. 8.3.2 regulates to, one value per dynamic con
 (eqs. 8.7-8.9). Every target here is **computed** from the terrain's traction-slip curve in the
 catalogue (:mod:`terrain.terramechanics.catalogue`), never typed in:
 
-Rigid surfaces (Burckhardt friction curves: paved, tiled, icy, snow-covered road)
+Rigid surfaces (no slip-producing soil resistance, :func:`is_deformable`; the catalogue's
+Burckhardt friction curves: paved, tiled, icy, snow-covered road)
     *traction*: the slip where ``mu`` first reaches ``traction_fraction`` (95 %) of its peak,
-    i.e. on the stable side of the friction peak; the peak of a Burckhardt curve lies at
-    ``ln(c1 c2 / c3) / c2`` (:func:`~terrain.terramechanics.traction_peak`), a curve without
-    interior peak (ice, ``c3 = 0``) uses its maximum on [0, 1];
+    i.e. on the stable side of the friction peak
+    (:func:`terrain.terramechanics.inverse.slip_at_peak_fraction`); the peak of a Burckhardt
+    curve lies at ``ln(c1 c2 / c3) / c2`` (:func:`~terrain.terramechanics.traction_peak`), a
+    curve without interior peak (ice, ``c3 = 0``) uses its maximum on [0, 1];
     *braking*: ch. 8.3.2 puts it at the peak of the braking curve; we take the stable-side slip
     at ``braking_fraction`` (99 %) of the peak, negative (the catalogue's curves are odd, so
     this is larger in magnitude than the traction target, as the thesis expects).
-Deformable soils (Janosi-Hanamoto and Brixius curves: snow, sandy loam, grass, gravel, dirt,
-ploughed and unploughed fields)
+Deformable soils (slip-producing soil resistance > 0; the catalogue's Janosi-Hanamoto and
+Brixius curves: snow, sandy loam, grass, gravel, dirt, ploughed and unploughed fields)
     *traction*: the slip of maximum tractive efficiency
-    (:func:`terrain.terramechanics.efficiency.tractive_efficiency`), capped at
+    (:func:`terrain.terramechanics.efficiency.max_tractive_efficiency`), capped at
     ``deformable_cap``: their net-pull maximum lies at 40-60 % slip and is no usable set point;
     *braking*: the stable-side slip at ``braking_fraction`` of the braking peak, capped at
     ``-deformable_cap``.
@@ -24,7 +26,7 @@ Every terrain, *steady*: the slip at which traction balances the slip-producing 
     (:func:`terrain.terramechanics.steady_slip`; ch. 8.3.2: "exactly what we need to balance
     external resistances"), never above the traction target.
 
-The family decides the rule, not the name: the catalogue models BorealTC's deep forest
+The physics of the entry decides the rule, not its name or curve type: the catalogue models BorealTC's deep forest
 ``SNOW`` as a deformable soil (Janosi-Hanamoto), so it gets the tractive-efficiency rule; a
 snow-covered *road* (``PACKED_SNOW``, Burckhardt) would get the friction-peak rule.
 
@@ -44,12 +46,12 @@ from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import brentq, minimize_scalar
 
 from terrain.errors import ConfigError
-from terrain.terramechanics import (BurckhardtCurve, TerrainParams, get_terrain, steady_slip,
-                                    traction_coefficient, traction_peak)
-from terrain.terramechanics.efficiency import tractive_efficiency
+from terrain.terramechanics import (TerrainParams, get_terrain, soil_resistance_coefficient,
+                                    steady_slip, traction_peak)
+from terrain.terramechanics.efficiency import max_tractive_efficiency
+from terrain.terramechanics.inverse import slip_at_peak_fraction
 
 #: Terrain classes of the thesis's own AgriMaRo tests (seed 001 ch. 7.2.3), emitted by a
 #: classifier trained on them besides the nine measured BorealTC / Vulpi classes.
@@ -149,52 +151,26 @@ def classifier_classes(measured: Sequence[str]) -> tuple[str, ...]:
     return tuple(upper) + tuple(c for c in THESIS_CLASSES if c not in upper)
 
 
-def stable_side_slip(curve, fraction: float) -> float:
-    """Smallest slip where ``mu`` reaches ``fraction`` of its peak (stable side of the peak).
+def is_deformable(terrain: TerrainParams) -> bool:
+    """Whether the ground itself deforms: slip-producing soil resistance anywhere on [0, 1].
 
-    Parameters
-    ----------
-    curve : TractionCurve
-        Catalogue traction-slip curve.
-    fraction : float
-        In (0, 1).
-
-    Returns
-    -------
-    float
-        Slip in (0, peak slip] (dimensionless); the peak is the interior maximum of a Burckhardt
-        curve (``ln(c1 c2 / c3) / c2``) or the maximum on [0, 1] for a rising curve.
-    """
-    peak = traction_peak(curve)
-    if peak.monotonic:
-        s_peak, mu_peak = 1.0, float(traction_coefficient(curve, 1.0))
-    else:
-        s_peak, mu_peak = peak.slip, peak.mu
-    level = fraction * mu_peak
-    return float(brentq(lambda s: float(traction_coefficient(curve, s)) - level, 0.0, s_peak,
-                        xtol=1e-12))
-
-
-def max_efficiency_slip(terrain: TerrainParams) -> tuple[float, float]:
-    """Slip of maximum tractive efficiency on [0, 1] and that efficiency.
+    Decides the target rule (module docstring) from the physics of the entry, not from the
+    curve's type: compaction / bulldozing resistance
+    (:func:`~terrain.terramechanics.soil_resistance_coefficient`) > 0 marks a deformable soil
+    (Janosi-Hanamoto and Brixius entries of the catalogue), none a rigid surface (Burckhardt
+    road curves, including ice).
 
     Parameters
     ----------
     terrain : TerrainParams
+        Catalogue entry.
 
     Returns
     -------
-    slip : float
-        Dimensionless.
-    efficiency : float
-        :func:`~terrain.terramechanics.efficiency.tractive_efficiency` there.
+    bool
     """
-    grid = np.linspace(0.0, 1.0, 2001)
-    i = int(np.argmax(tractive_efficiency(terrain, grid)))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    res = minimize_scalar(lambda s: -float(tractive_efficiency(terrain, s)), bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-9})
-    return float(res.x), float(-res.fun)
+    rho = soil_resistance_coefficient(terrain, np.linspace(0.0, 1.0, 101))
+    return bool(np.any(rho > 0.0))
 
 
 def _basis(terrain: TerrainParams) -> str:
@@ -224,17 +200,18 @@ def desired_slip(terrain: TerrainParams, config: DesiredSlipConfig = DesiredSlip
     DesiredSlip
     """
     curve = terrain.curve
-    braking_peak = stable_side_slip(curve, config.braking_fraction)
+    braking_peak = slip_at_peak_fraction(curve, config.braking_fraction)
     head = terrain.source.split(";")[0]
-    if isinstance(curve, BurckhardtCurve):
-        traction = stable_side_slip(curve, config.traction_fraction)
+    if not is_deformable(terrain):
+        traction = slip_at_peak_fraction(curve, config.traction_fraction)
         braking = -braking_peak
         rule = (f"traction: {config.traction_fraction:.0%} of the friction peak (stable side); "
                 f"braking: {config.braking_fraction:.0%} of the peak")
-        relation = ("Burckhardt peak ln(c1 c2/c3)/c2" if curve.c3 > 0 else
-                    "Burckhardt curve without interior peak (c3 = 0): peak = max on [0, 1]")
+        relation = ("interior friction peak (Burckhardt: ln(c1 c2/c3)/c2)"
+                    if not traction_peak(curve).monotonic else
+                    "curve without interior peak: peak = max on [0, 1]")
     else:
-        s_eff, _ = max_efficiency_slip(terrain)
+        s_eff, _ = max_tractive_efficiency(terrain)
         traction = min(s_eff, config.deformable_cap)
         braking = -min(braking_peak, config.deformable_cap)
         capped = " (capped)" if s_eff > config.deformable_cap else ""

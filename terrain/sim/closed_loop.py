@@ -26,11 +26,13 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.sim.dynamics import ControlHook, PlantSnapshot
+from terrain.sim.forces import reported_current_a
 from terrain.sim.sensors import SensorSettings
 from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulate_with_physics
 from terrain.vehicles import get_vehicle
 
-__all__ = ["Observation", "OnlineSensors", "make_hook", "simulate_closed_loop"]
+__all__ = ["Observation", "OnlineSensors", "ReplaySnapshot", "make_hook", "replay_observations",
+           "simulate_closed_loop"]
 
 
 class Observation(NamedTuple):
@@ -50,6 +52,10 @@ class Observation(NamedTuple):
         ``t_s, delta_1..m`` steering encoders, rad (empty for skid-steer).
     cam : ndarray, shape (k, 5)
         ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` camera (empty without a camera or in outages).
+    currents : ndarray, shape (k, 1 + m)
+        ``t_s, I_1..m`` motor current magnitudes as the drive reports them, A, at the wheel
+        rate (empty when the plant snapshot carries no wheel torque, see
+        :class:`OnlineSensors`).
     """
 
     t_s: float
@@ -58,6 +64,7 @@ class Observation(NamedTuple):
     wheels: np.ndarray
     steer: np.ndarray
     cam: np.ndarray
+    currents: np.ndarray
 
 
 @dataclass
@@ -80,11 +87,24 @@ class OnlineSensors:
         Seed of the sensors' own generator (>= 0).
     duration_s : float
         Run length, s (for the camera outages, drawn at start as in the batch model).
+    physics : str
+        Physics version of the run (the current report of
+        :func:`terrain.sim.forces.reported_current_a`).
+
+    Notes
+    -----
+    Motor currents are sampled at the wheel rate from the snapshot's wheel torque with the
+    drive's report (:func:`terrain.sim.forces.reported_current_a`), white noise
+    ``current_noise_a`` and the quantum ``current_quantum_a``, when the plant's
+    :class:`~terrain.sim.dynamics.PlantSnapshot` has a ``torque`` field; the integrator of
+    this branch does not hand it over yet, so the current channel stays empty (the planted
+    current effects of the batch model are not applied either way).
     """
 
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
-                 duration_s: float) -> None:
+                 duration_s: float, physics: str = "v1") -> None:
         self.vehicle = get_vehicle(vehicle)
+        self.physics = physics
         self.settings = sensors
         self.steered = self.vehicle.contact_geometry().steered
         self.rng = np.random.default_rng([int(seed), 11])
@@ -93,7 +113,10 @@ class OnlineSensors:
         self.ch = {"imu": _Channel(1.0 / s.imu_rate_hz, 0.0, []),
                    "wheels": _Channel(1.0 / s.wheel_rate_hz, 0.0, []),
                    "steer": _Channel(1.0 / s.steer_rate_hz, 0.0, []),
-                   "cam": _Channel(1.0 / s.cam_rate_hz, 0.0, [])}
+                   "cam": _Channel(1.0 / s.cam_rate_hz, 0.0, []),
+                   "currents": _Channel(1.0 / s.wheel_rate_hz, 0.0, [])}
+        # own generator for the currents: adding them leaves every other draw unchanged
+        self.rng_current = np.random.default_rng([int(seed), 12])
         n_out = self.rng.poisson(s.cam_outage_rate_hz * duration_s)
         self.outages = [(a, a + b) for a, b in zip(self.rng.uniform(0, duration_s, n_out),
                                                    self.rng.uniform(0.5, 2.0, n_out))]
@@ -148,6 +171,16 @@ class OnlineSensors:
                 om = np.round(om * r / s.speed_quantum_m_s) * s.speed_quantum_m_s / r
             c.rows.append((t, *om.tolist()))
             c.next_t += c.period_s
+        torque = getattr(snap, "torque", None)
+        c = self.ch["currents"]
+        if torque is not None and t + eps >= c.next_t:
+            cur = reported_current_a(motor, np.asarray(torque, dtype=float), snap.omega,
+                                     self.physics)
+            cur = np.abs(cur + s.current_noise_a * self.rng_current.standard_normal(cur.size))
+            if s.current_quantum_a > 0:
+                cur = np.round(cur / s.current_quantum_a) * s.current_quantum_a
+            c.rows.append((t, *cur.tolist()))
+            c.next_t += c.period_s
         if not self.steered:
             return
         c = self.ch["steer"]
@@ -182,7 +215,7 @@ class OnlineSensors:
         Observation
         """
         m = len(omega_low_level)
-        widths = {"imu": 4, "wheels": 1 + m, "steer": 1 + m, "cam": 5}
+        widths = {"imu": 4, "wheels": 1 + m, "steer": 1 + m, "cam": 5, "currents": 1 + m}
         out = {}
         for name, c in self.ch.items():
             out[name] = (np.array(c.rows, dtype=float) if c.rows
@@ -254,5 +287,82 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
         Bad configuration or rate.
     """
     sensors = OnlineSensors(config.vehicle, config.sensors or DEFAULT_SENSORS[config.vehicle],
-                            config.seed, config.duration_s)
+                            config.seed, config.duration_s, config.physics)
     return simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))
+
+
+class ReplaySnapshot(NamedTuple):
+    """A :class:`~terrain.sim.dynamics.PlantSnapshot` of a finished run, with its wheel torque.
+
+    Parameters
+    ----------
+    step : int
+        Step index.
+    t_s : float
+        Time, s.
+    pose : ndarray, shape (3,)
+        x, y (m), yaw (rad).
+    twist : ndarray, shape (3,)
+        v_x, v_y (m/s), yaw rate (rad/s), body frame.
+    accel_body : ndarray, shape (2,)
+        Body-frame acceleration, m/s^2.
+    omega : ndarray, shape (m,)
+        Wheel speeds, rad/s.
+    delta : ndarray, shape (m,)
+        Steering angles, rad.
+    omega_low_level : ndarray, shape (m,)
+        Wheel speed command of the next step, rad/s.
+    torque : ndarray, shape (m,)
+        Wheel torque of each motor, N m (what the drive's current sensor sees).
+    """
+
+    step: int
+    t_s: float
+    pose: np.ndarray
+    twist: np.ndarray
+    accel_body: np.ndarray
+    omega: np.ndarray
+    delta: np.ndarray
+    omega_low_level: np.ndarray
+    torque: np.ndarray
+
+
+def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
+    """Observations of a finished (open-loop) run, as a controller at ``control_rate_hz``
+    would have received them, motor currents included.
+
+    Replays the stored ground truth step by step through :class:`OnlineSensors` (same seed
+    and sensors as :func:`simulate_closed_loop`); used to score estimators open loop, and to
+    exercise the current channel that the integrator's snapshot does not carry yet.
+
+    Parameters
+    ----------
+    sim : Simulation
+        A run of :func:`terrain.sim.simulate.simulate_with_physics`.
+    control_rate_hz : float
+        Call rate, Hz (> 0).
+
+    Yields
+    ------
+    Observation
+        Samples since the previous call.
+
+    Raises
+    ------
+    ConfigError
+        Non-positive rate.
+    """
+    if not control_rate_hz > 0:
+        raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
+    cfg, phys = sim.config, sim.physics
+    sensors = OnlineSensors(cfg.vehicle, cfg.sensors or DEFAULT_SENSORS[cfg.vehicle], cfg.seed,
+                            cfg.duration_s, cfg.physics)
+    period, next_t, n = 1.0 / control_rate_hz, 0.0, len(phys.t_s)
+    for k in range(n):
+        snap = ReplaySnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
+                              phys.accel_body[k], phys.omega[k], phys.delta[k],
+                              phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k])
+        sensors.record(snap)
+        if snap.t_s + 1e-9 >= next_t:
+            next_t += period
+            yield sensors.take(snap.t_s, snap.omega_low_level)

@@ -22,6 +22,7 @@ term in ``h``, so ``GT = mu + h`` and ``NT = mu - rho``).
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from terrain.terramechanics.resistance import soil_resistance_coefficient
 from terrain.terramechanics.traction import traction_coefficient
@@ -56,3 +57,35 @@ def tractive_efficiency(terrain, slip: np.ndarray | float) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         eta = np.where(gross > 0.0, (mu - rho) / np.where(gross > 0.0, gross, 1.0), 0.0)
     return np.clip(eta, 0.0, None) * (1.0 - s)
+
+
+def max_tractive_efficiency(terrain, points: int = 2001) -> tuple[float, float]:
+    """Slip of maximum tractive efficiency on [0, 1] and that efficiency.
+
+    Grid search over :func:`tractive_efficiency`, refined by a bounded scalar minimisation
+    between the grid neighbours of the best point.
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+        Catalogue entry (curve, soil resistance, hysteresis).
+    points : int
+        Points of the coarse grid on [0, 1] (>= 3).
+
+    Returns
+    -------
+    slip : float
+        Slip of the maximum, dimensionless.
+    efficiency : float
+        :func:`tractive_efficiency` there, dimensionless.
+
+    References
+    ----------
+    Wong (2008) ch. 4.2; Zoz & Grisso (2003), see the module docstring.
+    """
+    grid = np.linspace(0.0, 1.0, int(points))
+    i = int(np.argmax(tractive_efficiency(terrain, grid)))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    res = minimize_scalar(lambda s: -float(tractive_efficiency(terrain, s)), bounds=(lo, hi),
+                          method="bounded", options={"xatol": 1e-9})
+    return float(res.x), float(-res.fun)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from scipy.optimize import brentq
 
 from terrain.terramechanics.traction import (TractionCurve, traction_coefficient,
                                              traction_peak)
@@ -36,6 +37,67 @@ class StableSlip(NamedTuple):
     saturated: np.ndarray
 
 
+def stable_side_end(curve: TractionCurve) -> tuple[float, float]:
+    """End of the stable side of a curve: the peak slip and the traction coefficient there.
+
+    The interior maximum of a curve that falls after its peak (Burckhardt with ``c3 > 0``:
+    ``ln(c1 c2 / c3) / c2``), found by :func:`~terrain.terramechanics.traction.traction_peak`;
+    ``(1, mu(1))`` for a curve rising up to ``s = 1`` (Janosi, Brixius, Burckhardt with
+    ``c3 = 0``), whose whole ``[0, 1]`` is stable.
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Traction-slip curve (catalogue entry's ``curve``).
+
+    Returns
+    -------
+    slip : float
+        Peak slip, dimensionless, in (0, 1].
+    mu : float
+        Traction coefficient at that slip, dimensionless.
+    """
+    peak = traction_peak(curve)
+    if peak.monotonic:
+        return 1.0, float(traction_coefficient(curve, 1.0))
+    return float(peak.slip), float(peak.mu)
+
+
+def slip_at_peak_fraction(curve: TractionCurve, fraction: float) -> float:
+    """Smallest slip at which ``mu`` reaches ``fraction`` of its peak (stable side).
+
+    The exact (root-found, not tabulated) inverse of
+    :func:`~terrain.terramechanics.traction.traction_coefficient` at the level
+    ``fraction * mu_peak`` on ``[0, s_peak]`` (:func:`stable_side_end`); used for set points
+    "on the stable side of the friction peak" (issue 11, seed 001 ch. 8.3.2).
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Traction-slip curve.
+    fraction : float
+        Fraction of the peak, in (0, 1].
+
+    Returns
+    -------
+    float
+        Slip in (0, s_peak] (dimensionless).
+
+    Raises
+    ------
+    ValueError
+        ``fraction`` outside (0, 1].
+    """
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must be in (0, 1], got {fraction}")
+    s_peak, mu_peak = stable_side_end(curve)
+    level = fraction * mu_peak
+    if fraction == 1.0:
+        return s_peak
+    return float(brentq(lambda s: float(traction_coefficient(curve, s)) - level, 0.0, s_peak,
+                        xtol=1e-12))
+
+
 def stable_side(curve: TractionCurve, points: int = INVERSE_GRID_POINTS
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Tabulated stable side ``(s, mu(s))`` of a curve, ``0 <= s <= s_peak``.
@@ -57,8 +119,7 @@ def stable_side(curve: TractionCurve, points: int = INVERSE_GRID_POINTS
     mu : ndarray, shape (points,)
         ``mu`` on the grid, strictly increasing.
     """
-    peak = traction_peak(curve)
-    s_end = 1.0 if peak.monotonic else peak.slip
+    s_end, _ = stable_side_end(curve)
     s = np.linspace(0.0, s_end, int(points))
     mu = traction_coefficient(curve, s)
     # keep the strictly increasing part (flat tails of saturated curves add no information)

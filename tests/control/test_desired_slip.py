@@ -9,13 +9,16 @@ import pytest
 
 from terrain.control.desired_slip import (FALLBACK_LABEL, THESIS_CLASSES, DesiredSlipConfig,
                                           build_slip_table, classifier_classes, desired_slip,
-                                          max_efficiency_slip, select_target)
+                                          is_deformable, select_target)
 from terrain.errors import ConfigError
 from terrain.io.shipped import read_manifest
 from terrain.terramechanics import (BrixiusCurve, BurckhardtCurve, get_terrain,
                                     soil_resistance_coefficient, traction_coefficient,
                                     traction_curve_and_slope)
-from terrain.terramechanics.efficiency import tractive_efficiency
+from terrain.terramechanics.catalogue import TERRAINS
+from terrain.terramechanics.efficiency import max_tractive_efficiency, tractive_efficiency
+from terrain.terramechanics.inverse import (slip_at_peak_fraction, slip_from_traction,
+                                            stable_side_end)
 
 CFG = DesiredSlipConfig()
 
@@ -146,5 +149,46 @@ def test_tractive_efficiency_matches_brixius_textbook_form():
     np.testing.assert_allclose(tractive_efficiency(terrain, s), (gt - mr) / gt * (1 - s),
                                rtol=1e-12)
     assert tractive_efficiency(terrain, -0.2) == pytest.approx(tractive_efficiency(terrain, 0.2))
-    s_best, eta = max_efficiency_slip(terrain)
+    s_best, eta = max_tractive_efficiency(terrain)
     assert 0.05 < s_best < 0.3 and 0.0 < eta < 1.0
+
+
+def test_rule_follows_soil_resistance_not_curve_type():
+    """Rigid = no slip-producing resistance; over the catalogue that is exactly Burckhardt."""
+    for name, terrain in TERRAINS.items():
+        assert is_deformable(terrain) == (not isinstance(terrain.curve, BurckhardtCurve)), name
+
+
+def test_peak_fraction_inverse_is_exact_and_agrees_with_the_tabulated_inverse():
+    for name in ("ASPHALT", "ICE", "PACKED_SNOW", "SNOW", "UNPLOUGHED"):
+        curve = get_terrain(name).curve
+        s_peak, mu_peak = stable_side_end(curve)
+        for frac in (0.5, 0.95, 0.99):
+            s = slip_at_peak_fraction(curve, frac)
+            assert 0.0 < s < s_peak
+            assert float(traction_coefficient(curve, s)) == pytest.approx(frac * mu_peak,
+                                                                           rel=1e-9)
+            # the table's inverse (4001-point grid) lands on the same slip
+            assert float(slip_from_traction(curve, frac * mu_peak).slip) == pytest.approx(
+                s, abs=2e-3), (name, frac)
+        assert slip_at_peak_fraction(curve, 1.0) == s_peak
+    with pytest.raises(ValueError):
+        slip_at_peak_fraction(get_terrain("ICE").curve, 0.0)
+
+
+def test_soft_soil_efficiency_optimum_above_the_cap_comes_from_the_curves():
+    """Wong's eta = (mu - rho)/(mu + h)(1 - s); with the catalogue's short contact patches
+    (k = K / L = 0.31-0.37) mu rises slowly, so the optimum lies at 0.34-0.46 slip; without
+    the torque-only hysteresis h it moves lower but stays above 0.25."""
+    from dataclasses import replace
+    expected = {"SANDY_LOAM": 0.341, "SNOW": 0.460, "GRASS": 0.363}
+    for name, s_opt in expected.items():
+        terrain = get_terrain(name)
+        s_best, eta = max_tractive_efficiency(terrain)
+        assert s_best == pytest.approx(s_opt, abs=2e-3), name
+        mu, rho = (float(traction_coefficient(terrain.curve, s_best)),
+                   float(soil_resistance_coefficient(terrain, s_best)))
+        assert eta == pytest.approx((mu - rho) / (mu + terrain.hysteresis) * (1 - s_best))
+        assert max_tractive_efficiency(replace(terrain, hysteresis=0.0))[0] > 0.25, name
+    # a Brixius soil (strong tyre, stiff soil) peaks at low slip, as in Zoz & Grisso (2003)
+    assert 0.1 < max_tractive_efficiency(get_terrain("UNPLOUGHED"))[0] < 0.13

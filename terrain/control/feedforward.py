@@ -1,0 +1,117 @@
+"""Feed-forward slip limit: a wheel may not outrun the ground speed its terrain can give.
+
+The feedback controller (:mod:`terrain.control.traction`) acts on the *estimated* slip, which
+reaches it late during a start-up: the AgriMaRo's encoder driver filter (0.12 s, seed 001
+ch. 7.2.2) and the Husky's 6.5 Hz wheel stream make the measured wheel speed lag, and the
+peak slip of a start on ice is over within 0.5 s (docs/control_validation.md). This module is
+the latency remedy: a limit computed from the robot's own command and the terrain's curve,
+with no estimate of the slip in it.
+
+With the wheel slip held at the traction target ``s_t`` on flat ground the net pull of the
+terrain is ``(mu(s_t) - rho(s_t)) N`` (gross traction minus slip-producing soil resistance,
+the balance of :func:`terrain.terramechanics.steady_slip`), so the chassis accelerates at most
+at ``a_max = g (mu(s_t) - rho(s_t))`` (:func:`traction_acceleration_limit`). A reference
+ground speed that grows at ``a_max`` from the estimated one, never beyond the commanded rim
+speed, gives each wheel the speed limit ``omega_lim = v_ref / (r (1 - s_t))`` (SAE traction
+slip ``s = 1 - v / (omega r)``, seed 001 eq. 7.1) (:func:`feedforward_step`).
+
+Limits: ``a_max`` assumes flat ground (on a grade the real acceleration is lower and the
+feedback controller has to catch the rest) and the mass of the vehicle on its wheels (no
+drawbar load); the reference is only as good as the terrain decision.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from terrain.terramechanics import TerrainParams, traction_coefficient
+from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
+
+
+def traction_acceleration_limit(terrain: TerrainParams, slip: float) -> float:
+    """Largest chassis acceleration with the wheel slip held at ``slip`` on flat ground.
+
+    ``a = g (mu(s) - rho(s))``: gross traction coefficient
+    (:func:`terrain.terramechanics.traction_coefficient`) minus slip-producing soil resistance
+    (:func:`terrain.terramechanics.soil_resistance_coefficient`), times g (quasi-static
+    traction balance; Wong, *Theory of Ground Vehicles*, 4th ed., ch. 4.2, net thrust =
+    thrust - motion resistance).
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+        Catalogue entry.
+    slip : float
+        Held slip magnitude, dimensionless, in [0, 1].
+
+    Returns
+    -------
+    float
+        Acceleration, m/s^2; negative when the soil resistance exceeds the traction there
+        (the robot cannot accelerate at that slip).
+    """
+    s = abs(float(slip))
+    return G_M_S2 * float(traction_coefficient(terrain.curve, s)
+                          - soil_resistance_coefficient(terrain, s))
+
+
+class FeedForward(NamedTuple):
+    """Result of one feed-forward step.
+
+    Attributes
+    ----------
+    correction_rad_s : ndarray, shape (n,)
+        Wheel speed correction that brings each wheel down to its limit, rad/s (0 where the
+        command is below it; opposite in sign to the command otherwise).
+    v_ref_m_s : ndarray, shape (n,)
+        Reference ground speed magnitude of each unit after the step, m/s.
+    omega_limit_rad_s : ndarray, shape (n,)
+        Wheel speed magnitude limit, rad/s.
+    """
+
+    correction_rad_s: np.ndarray
+    v_ref_m_s: np.ndarray
+    omega_limit_rad_s: np.ndarray
+
+
+def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
+                     omega_low_level_rad_s: np.ndarray, accel_limit_m_s2: float,
+                     target_slip: float, wheel_radius_m: float, dt_s: float) -> FeedForward:
+    """One step of the feed-forward slip limit (module docstring).
+
+    ``v_ref <- max(|v_est|, min(v_ref + max(a_max, 0) dt, |omega_ll| r))``;
+    ``omega_lim = v_ref / (r (1 - s_t))``; the correction lowers ``|omega_ll|`` to
+    ``omega_lim`` where it is above, keeping its sign.
+
+    Parameters
+    ----------
+    v_ref_m_s : ndarray, shape (n,)
+        Reference ground speed magnitudes of the previous step, m/s (0 at rest).
+    v_est_m_s : ndarray, shape (n,)
+        Estimated longitudinal ground speed of each unit, m/s (NaN counts as 0).
+    omega_low_level_rad_s : ndarray, shape (n,)
+        Low-level wheel speed command, rad/s.
+    accel_limit_m_s2 : float
+        ``a_max`` of :func:`traction_acceleration_limit`, m/s^2.
+    target_slip : float
+        Traction target slip magnitude ``s_t``, dimensionless, in [0, 1).
+    wheel_radius_m : float
+        Wheel radius r, m (> 0).
+    dt_s : float
+        Time since the previous step, s (>= 0).
+
+    Returns
+    -------
+    FeedForward
+    """
+    omega = np.asarray(omega_low_level_rad_s, dtype=float)
+    rim = np.abs(omega) * wheel_radius_m
+    v_est = np.nan_to_num(np.abs(np.asarray(v_est_m_s, dtype=float)))
+    grown = np.asarray(v_ref_m_s, dtype=float) + max(float(accel_limit_m_s2), 0.0) * dt_s
+    v_ref = np.maximum(v_est, np.minimum(grown, rim))
+    limit = v_ref / (wheel_radius_m * (1.0 - min(abs(float(target_slip)), 0.99)))
+    over = np.abs(omega) > limit
+    corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
+    return FeedForward(corr, v_ref, limit)
