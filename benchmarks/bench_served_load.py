@@ -1,7 +1,7 @@
 """Benchmark: bounded load test of the served streaming model on 127.0.0.1.
 
 A streaming model is fitted on BorealTC (the ``--kind`` recipe of
-:mod:`terrain.streaming.evaluation`, or read with ``--model DIR``), saved as ``terrain train
+:mod:`terrain.serving.evaluation`, or read with ``--model DIR``), saved as ``terrain train
 --model-out`` would, and served by ``terrain serve`` (MLflow's scoring server app) on a free
 loopback port. ``--requests`` requests (default 2,000), ``--concurrency`` at a time (default
 4), each carrying ``--request-s`` seconds of raw logged streams of one run (long format,
@@ -32,9 +32,9 @@ import pandas as pd
 
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
-from terrain.serving import save_model
-from terrain.streaming import load_stream_model
-from terrain.streaming.evaluation import RECIPES, fit_stream_model
+from terrain.serving.pyfunc import save_model
+from terrain.serving import load_stream_model
+from terrain.serving.evaluation import RECIPES, fit_stream_model
 from terrain.tracking import tracked_run
 
 

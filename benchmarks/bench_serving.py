@@ -1,11 +1,15 @@
 """Benchmark: in-process decision latency and a 30-minute soak of the streaming service.
 
 * Latency: a BorealTC run (IMU + wheels) is replayed sample by sample through
-  :class:`terrain.streaming.StreamService`; every ``push`` that completes exactly one
+  :class:`terrain.serving.StreamService`; every ``push`` that completes exactly one
   decision is timed (alignment of the window, features, classifier, forward filter, slip
   target), after ``--warmup`` decisions. p50 / p99 / max are reported (target p99 < 1 ms).
+  After each timed decision the model's own pipeline (features + classifier) is timed on
+  one batch window of the same run, so the share of the decision that is the model's
+  (``pipeline_*``) and the rest, the service's own work (``service_overhead_*``, the paired
+  difference), are reported side by side under the same load.
 * Soak: held-out-style runs are strung into one stream of >= ``--minutes`` minutes
-  (:func:`terrain.streaming.evaluation.concatenated_streams`, seeded) and replayed faster
+  (:func:`terrain.serving.evaluation.concatenated_streams`, seeded) and replayed faster
   than real time; resident set size (RSS) is sampled every 1000 pushes; peak RSS and its
   growth after the first 2 minutes of stream are reported (target growth < 20 MB).
 
@@ -13,23 +17,29 @@ Both models are trained here on BorealTC (or read with ``--model DIR``), the all
 recipe unless ``--kind wheels``. Results print and are logged to MLflow (experiment
 ``terrain-benchmark``).
 
+Every timed decision is followed by a fixed NumPy reference workload (a sort of 4096
+floats); the ratio of the decision's p50 / p99 to the reference's is printed and logged,
+so runs on a shared, loaded machine can be compared.
+
 Run: ``python benchmarks/bench_serving.py [--kind all|wheels] [--minutes 30] [--no-mlflow]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
 import numpy as np
 import psutil
 
+from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
-from terrain.streaming import (CataloguePeakTargets, StreamConfig, StreamService,
-                               interleave, load_stream_model)
-from terrain.streaming.evaluation import RECIPES, concatenated_streams, fit_stream_model
+from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
+                             interleave, load_stream_model)
+from terrain.serving.evaluation import RECIPES, concatenated_streams, fit_stream_model
 from terrain.tracking import tracked_run
 
 
@@ -40,10 +50,27 @@ def _pushes(service, run):
         yield stream, t, dict(zip(cols[stream], v.T))
 
 
-def latency(model, run, warmup: int) -> np.ndarray:
-    """Seconds of every push that completed exactly one decision, after ``warmup``."""
+#: Fixed NumPy workload timed next to every decision (sorting 4096 floats): on a shared,
+#: loaded machine the ratio decision / reference is comparable between runs, the absolute
+#: times are not.
+_REFERENCE = np.random.default_rng(0).standard_normal(4096)
+
+
+def _reference() -> float:
+    """Seconds of one run of the reference workload."""
+    start = time.perf_counter()
+    np.sort(_REFERENCE)
+    return time.perf_counter() - start
+
+
+def latency(model, run, warmup: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Seconds of every push that completed exactly one decision, after ``warmup``; of the
+    model's own pipeline (features + classifier, ``predict_proba``) on one batch window of
+    the same run, timed right after each decision; and of the reference workload."""
     svc = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(hop_s=0.5))
-    times, n = [], 0
+    windows = make_windows([run], model.channels, WindowConfig(
+        window_s=model.window.window_s, hop_s=0.5, rate_hz=model.window.rate_hz)).X
+    times, pipe, ref, n = [], [], [], 0
     for stream, t, v in _pushes(svc, run):
         start = time.perf_counter()
         out = svc.push(stream, t, v)
@@ -52,7 +79,12 @@ def latency(model, run, warmup: int) -> np.ndarray:
             n += 1
             if n > warmup:
                 times.append(elapsed)
-    return np.asarray(times)
+                x = windows[n % len(windows)][None]
+                start = time.perf_counter()
+                model.pipeline.predict_proba(x)
+                pipe.append(time.perf_counter() - start)
+                ref.append(_reference())
+    return np.asarray(times), np.asarray(pipe), np.asarray(ref)
 
 
 def soak(model, run, sample_every: int = 1000) -> dict:
@@ -80,7 +112,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--kind", choices=list(RECIPES), default="all")
     parser.add_argument("--model", type=Path, default=None, help="model directory to use")
-    parser.add_argument("--minutes", type=float, default=30.0, help="soak stream length")
+    parser.add_argument("--minutes", type=float, default=30.0,
+                        help="soak stream length (0: no soak)")
     parser.add_argument("--warmup", type=int, default=20, help="decisions not timed")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
@@ -91,33 +124,58 @@ def main() -> int:
              else fit_stream_model(recipe, runs, seed=0))
     usable = [r for r in runs if all(s in r.streams for s in need)]
     longest = max(usable, key=lambda r: r.duration_s)
-    lat = latency(model, longest, args.warmup) * 1e3
-    stream, segments, seed = None, [], 0
-    while stream is None or sum(s.duration_s for s in segments) < 60 * args.minutes:
-        piece, segs = concatenated_streams(usable, need, seed)
-        stream = piece if stream is None else _append(stream, piece)
-        segments += segs
-        seed += 1
-    result = soak(model, stream)
+    lat, pipe, ref = (x * 1e3 for x in latency(model, longest, args.warmup))
     metrics = {"decision_p50_ms": float(np.percentile(lat, 50)),
                "decision_p99_ms": float(np.percentile(lat, 99)),
                "decision_max_ms": float(lat.max()), "decisions_timed": int(lat.size),
-               **{f"soak_{k}": v for k, v in result.items()}}
+               "pipeline_p50_ms": float(np.percentile(pipe, 50)),
+               "pipeline_p99_ms": float(np.percentile(pipe, 99)),
+               "service_overhead_p50_ms": float(np.percentile(lat - pipe, 50)),
+               "service_overhead_p99_ms": float(np.percentile(lat - pipe, 99)),
+               "reference_p50_ms": float(np.percentile(ref, 50)),
+               "reference_p99_ms": float(np.percentile(ref, 99))}
+    metrics["decision_p50_over_reference"] = metrics["decision_p50_ms"] / metrics[
+        "reference_p50_ms"]
+    metrics["decision_p99_over_reference"] = metrics["decision_p99_ms"] / metrics[
+        "reference_p99_ms"]
     print(f"model {args.kind} ({len(model.channels)} channels, {model.window.window_s:g} s "
           f"at {model.window.rate_hz:g} Hz); latency of one decision on {longest.run_id}: "
           f"p50 {metrics['decision_p50_ms']:.3f} ms, p99 {metrics['decision_p99_ms']:.3f} ms, "
           f"max {metrics['decision_max_ms']:.3f} ms ({lat.size} decisions after "
-          f"{args.warmup} warm-up)")
-    print(f"soak: {result['stream_s'] / 60:.1f} min stream in {result['wall_s']:.0f} s "
-          f"({result['speedup_x']:.1f}x real time), {result['decisions']} decisions; RSS "
-          f"peak {result['rss_peak_mb']:.1f} MB, growth after 2 min "
-          f"{result['rss_growth_mb']:.2f} MB")
+          f"{args.warmup} warm-up); of which the model's pipeline (features + classifier "
+          f"predict_proba, one window) p50 {metrics['pipeline_p50_ms']:.3f} ms, p99 "
+          f"{metrics['pipeline_p99_ms']:.3f} ms; service without it (decision - pipeline) "
+          f"p50 {metrics['service_overhead_p50_ms']:.3f} ms, p99 "
+          f"{metrics['service_overhead_p99_ms']:.3f} ms; reference (sort of 4096 floats) p50 "
+          f"{metrics['reference_p50_ms']:.4f} ms, p99 {metrics['reference_p99_ms']:.4f} ms; "
+          f"ratio p50 {metrics['decision_p50_over_reference']:.1f}, p99 "
+          f"{metrics['decision_p99_over_reference']:.1f}; load average "
+          f"{os.getloadavg()[0]:.1f}")
+    if args.minutes > 0:
+        metrics.update({f"soak_{k}": v for k, v in _soak(model, usable, need,
+                                                          args.minutes).items()})
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name=f"serving-{args.kind}",
                          params={"kind": args.kind, "minutes": args.minutes}) as run:
             run.log_metrics(metrics)
         print(run.describe())
     return 0
+
+
+def _soak(model, usable, need, minutes: float) -> dict:
+    """Soak of a concatenated stream of at least ``minutes``; prints and returns the result."""
+    stream, segments, seed = None, [], 0
+    while stream is None or sum(s.duration_s for s in segments) < 60 * minutes:
+        piece, segs = concatenated_streams(usable, need, seed)
+        stream = piece if stream is None else _append(stream, piece)
+        segments += segs
+        seed += 1
+    result = soak(model, stream)
+    print(f"soak: {result['stream_s'] / 60:.1f} min stream in {result['wall_s']:.0f} s "
+          f"({result['speedup_x']:.1f}x real time), {result['decisions']} decisions; RSS "
+          f"peak {result['rss_peak_mb']:.1f} MB, growth after 2 min "
+          f"{result['rss_growth_mb']:.2f} MB")
+    return result
 
 
 def _append(a, b):

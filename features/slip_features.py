@@ -89,18 +89,108 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
         A channel of :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
         number of rows.
     """
-    missing = [c for c in SLIP_CHANNELS if c not in ws.channels]
+    probs = None
+    if terrain_probabilities is not None:
+        if len(terrain_probabilities) != len(ws):
+            raise ConfigError(f"{len(terrain_probabilities)} probability rows for {len(ws)} "
+                              f"windows")
+        probs = {str(k): terrain_probabilities[k].to_numpy(float)
+                 for k in terrain_probabilities.columns}
+    names, values = slip_feature_matrix(ws.X, ws.channels, ws.rate_hz, vehicle, probs,
+                                        current_rate_hz)
+    return pd.DataFrame(values, columns=list(names))
+
+
+def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float, vehicle,
+                          terrain_probabilities: Mapping[str, float] | None = None,
+                          current_rate_hz: float = SensorSettings.wheel_rate_hz) -> np.ndarray:
+    """Features of ONE window, NumPy only (the streaming / closed-loop path).
+
+    The same computation as :func:`slip_features` (both call :func:`slip_feature_matrix`), so
+    the vector equals that table's row for the same window, without a ``WindowSet`` or a
+    ``DataFrame``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_channels, n_samples)
+        One window on the aligned clock (channels as in ``channels``; SI units of
+        :data:`SLIP_CHANNELS`: A, m/s, rad/s, m/s^2).
+    channels : sequence of str
+        Channel names of the rows of ``x`` (must include :data:`SLIP_CHANNELS`).
+    rate_hz : float
+        Sample rate of ``x``, Hz.
+    vehicle : HuskyParams or TrackedParams
+        Skid-steer vehicle.
+    terrain_probabilities : mapping of str to float, optional
+        Probability of each catalogue terrain (the column order of the fitted model's
+        ``p__*`` features); None leaves the terrain and physics features out.
+    current_rate_hz : float
+        Rate of independent current samples, Hz.
+
+    Returns
+    -------
+    ndarray, shape (n_features,)
+        In the column order of :func:`slip_features`.
+
+    Raises
+    ------
+    ConfigError
+        ``x`` is not 2-D with one row per channel, or a channel is missing.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 2 or x.shape[0] != len(channels):
+        raise ConfigError(f"one window must have shape ({len(channels)}, n_samples), "
+                          f"got {x.shape}")
+    probs = (None if terrain_probabilities is None else
+             {str(k): np.asarray([v], dtype=float) for k, v in terrain_probabilities.items()})
+    return slip_feature_matrix(x[None], channels, rate_hz, vehicle, probs,
+                               current_rate_hz)[1][0]
+
+
+def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, vehicle,
+                        probabilities: Mapping[str, np.ndarray] | None = None,
+                        current_rate_hz: float = SensorSettings.wheel_rate_hz
+                        ) -> tuple[tuple[str, ...], np.ndarray]:
+    """Feature names and values of windows (the core of :func:`slip_features`).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_windows, n_channels, n_samples)
+        Windows (``WindowSet.X``).
+    channels : sequence of str
+        Channel names of axis 1.
+    rate_hz : float
+        Sample rate, Hz.
+    vehicle : HuskyParams or TrackedParams
+        Skid-steer vehicle.
+    probabilities : mapping of str to ndarray, shape (n_windows,), optional
+        Probability of each terrain per window; None leaves the terrain and physics columns
+        out.
+    current_rate_hz : float
+        Rate of independent current samples, Hz.
+
+    Returns
+    -------
+    names : tuple of str
+        Column names (module docstring).
+    values : ndarray, shape (n_windows, n_features)
+
+    Raises
+    ------
+    ConfigError
+        A channel of :data:`SLIP_CHANNELS` is missing.
+    """
+    missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
         raise ConfigError(f"slip features need channels {missing}")
-    x = ws.X
-    ch = {c: i for i, c in enumerate(ws.channels)}
+    ch = {c: i for i, c in enumerate(channels)}
     cols: dict[str, np.ndarray] = {}
     means, stds = mean(x), std(x)
     for c in SLIP_CHANNELS:
         cols[f"{c}__mean"] = means[:, ch[c]]
         cols[f"{c}__std"] = stds[:, ch[c]]
     n_s = x.shape[-1]
-    tc = (np.arange(n_s) - 0.5 * (n_s - 1)) / ws.rate_hz
+    tc = (np.arange(n_s) - 0.5 * (n_s - 1)) / rate_hz
     v_mean = 0.5 * (x[:, ch["vel_l"]] + x[:, ch["vel_r"]])
     slope = (v_mean * tc).sum(axis=-1) / (tc ** 2).sum()
     cols["vel_mean__slope"] = slope
@@ -108,24 +198,23 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
     cols["pitch"] = pitch
     cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["yaw_rate_wheels"]],
                                       INV_CHI_FLOOR_RAD_S)
-    if terrain_probabilities is not None:
-        if len(terrain_probabilities) != len(ws):
-            raise ConfigError(f"{len(terrain_probabilities)} probability rows for {len(ws)} "
-                              f"windows")
-        probs = {str(k): terrain_probabilities[k].to_numpy(float)
-                 for k in terrain_probabilities.columns}
-        for k, p in probs.items():
+    if probabilities is not None:
+        for k, p in probabilities.items():
             cols[f"p__{k}"] = p
         cur = np.column_stack([cols["cur_l__mean"], cols["cur_r__mean"]])
         rim = np.column_stack([cols["vel_l__mean"], cols["vel_r__mean"]])
         r_w = vehicle.contact_geometry().wheel_radius_m
         wheel_acc = np.column_stack([slope, slope]) / r_w
-        n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(current_rate_hz, ws.rate_hz))
-        phys = physics_slip(vehicle, probs, cur, rim, pitch, wheel_acc, n_averaged=n_cur)
+        n_cur = max(1.0, n_s / rate_hz * min(current_rate_hz, rate_hz))
+        phys = physics_slip(vehicle, dict(probabilities), cur, rim, pitch, wheel_acc,
+                            n_averaged=n_cur)
         cols["phys_slip_l"] = phys.slip[:, 0]
         cols["phys_slip_r"] = phys.slip[:, 1]
         cols["phys_std"] = phys.std.mean(axis=1)
-    return pd.DataFrame(cols)
+    values = np.empty((x.shape[0], len(cols)))
+    for j, v in enumerate(cols.values()):
+        values[:, j] = v
+    return tuple(cols), values
 
 
 def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.DataFrame:

@@ -45,7 +45,9 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     -------
     dict or None
         ``{"physics": (t_s, slip (k, 2), std (k, 2)), "learned": ...}`` with ``t_s`` the window
-        centres, s (the time a window mean describes; the estimate is therefore not causal:
+        centres, s; the learned std is the model's calibrated one
+        (:meth:`terrain.slip.learned.SlipRegressor.predict_std`; NaN for a model without a
+        calibration) (the time a window mean describes; the estimate is therefore not causal:
         a filter step uses up to half a window, 1 s, of later data). None when the run lacks
         currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
     """
@@ -76,8 +78,11 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     t_mid = 0.5 * (ws.t_start_s + ws.t_end_s).astype(float)
     out = {"physics": (t_mid, phys, phys_std)}
     if learned_model is not None:
-        pred = np.asarray(learned_model.predict(X), dtype=float)[:, :2]
-        out["learned"] = (t_mid, pred, np.full_like(pred, np.nan))
+        Xa = X.to_numpy(float)
+        pred = np.asarray(learned_model.predict(Xa), dtype=float)[:, :2]
+        std = (np.asarray(learned_model.predict_std(Xa), dtype=float)
+               if hasattr(learned_model, "predict_std") else np.full_like(pred, np.nan))
+        out["learned"] = (t_mid, pred, std)
     return out
 
 

@@ -82,6 +82,34 @@ def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
     return tuple(out)
 
 
+def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
+                         cur_r: np.ndarray, track_m: float = HUSKY_TRACK_M
+                         ) -> dict[str, np.ndarray]:
+    """The :data:`DERIVED_WHEEL_CHANNELS` of aligned wheel samples (NumPy only).
+
+    Parameters
+    ----------
+    vel_l, vel_r : numpy.ndarray
+        ``(n,)`` left and right wheel (track) speeds, m/s.
+    cur_l, cur_r : numpy.ndarray
+        ``(n,)`` left and right motor currents, A.
+    track_m : float
+        Track width B of the skid-steer vehicle, m.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``vel_mean = (vel_l + vel_r)/2`` and ``vel_diff = vel_r - vel_l`` (m/s),
+        ``cur_sum`` and ``cur_diff = cur_r - cur_l`` (A), and the skid-steer kinematic
+        (no-slip) yaw rate ``yaw_rate_wheels = vel_diff / track_m`` (rad/s;
+        seeds/000_f24201ff985633bf.txt, Tazzari et al., eq. 2 with ``2d = track_m``), each
+        ``(n,)``, in the order of :data:`DERIVED_WHEEL_CHANNELS`.
+    """
+    vel_diff = vel_r - vel_l
+    return {"vel_mean": 0.5 * (vel_l + vel_r), "vel_diff": vel_diff, "cur_sum": cur_l + cur_r,
+            "cur_diff": cur_r - cur_l, "yaw_rate_wheels": vel_diff / track_m}
+
+
 def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) -> pd.DataFrame:
     """Add :data:`DERIVED_WHEEL_CHANNELS` to an aligned frame that has wheel channels.
 
@@ -95,20 +123,15 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
     Returns
     -------
     pandas.DataFrame
-        A copy of ``frame`` with ``vel_mean = (vel_l + vel_r)/2`` and
-        ``vel_diff = vel_r - vel_l`` (m/s), ``cur_sum`` and ``cur_diff = cur_r - cur_l`` (A),
-        and the skid-steer kinematic (no-slip) yaw rate ``yaw_rate_wheels = vel_diff /
-        track_m`` (rad/s; seeds/000_f24201ff985633bf.txt, Tazzari et al., eq. 2 with
-        ``2d = track_m``); ``frame`` itself, unchanged, when a wheel channel is missing.
+        A copy of ``frame`` with the channels of :func:`derived_wheel_arrays` added;
+        ``frame`` itself, unchanged, when a wheel channel is missing.
     """
     if not set(WHEEL_CHANNELS) <= set(frame.columns):
         return frame
     out = frame.copy()
-    out["vel_mean"] = 0.5 * (frame["vel_l"] + frame["vel_r"])
-    out["vel_diff"] = frame["vel_r"] - frame["vel_l"]
-    out["cur_sum"] = frame["cur_l"] + frame["cur_r"]
-    out["cur_diff"] = frame["cur_r"] - frame["cur_l"]
-    out["yaw_rate_wheels"] = out["vel_diff"] / track_m
+    for name, values in derived_wheel_arrays(
+            *(frame[c].to_numpy(dtype=float) for c in WHEEL_CHANNELS), track_m).items():
+        out[name] = values
     return out
 
 

@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from terrain.serving import load_model, runs_to_model_input
+from terrain.serving.pyfunc import load_model, runs_to_model_input
 from terrain.sim.simulate import SimConfig, simulate
 
 #: Shipped dataset of each vehicle (the robot that recorded it).

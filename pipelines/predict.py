@@ -17,7 +17,7 @@ from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
 from terrain.io.report import input_report
-from terrain.serving import load_model, runs_to_model_input
+from terrain.serving.pyfunc import load_model, runs_to_model_input
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-predict"

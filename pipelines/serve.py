@@ -1,7 +1,7 @@
 """Serve live terrain -> target-slip decisions over HTTP (MLflow scoring server, loopback).
 
 --model is a model directory written by ``terrain train --model-out`` (it is wrapped into
-the streaming pyfunc :mod:`terrain.streaming.served`, kept in --served-out when given) or an
+the streaming pyfunc :mod:`terrain.serving.served`, kept in --served-out when given) or an
 already wrapped one. The server is MLflow's own scoring server app (``/ping``,
 ``/invocations``), the same one ``mlflow models serve -m SERVED_DIR --env-manager local``
 runs, plus a request-size guard: a body over --max-body-bytes is answered 413. Requests
@@ -20,9 +20,9 @@ from pathlib import Path
 import yaml
 
 from terrain.errors import ConfigError
-from terrain.serving import pip_requirements
-from terrain.streaming import load_stream_model
-from terrain.streaming.served import save_served_model, served_settings
+from terrain.serving.pyfunc import pip_requirements
+from terrain.serving import load_stream_model
+from terrain.serving.served import save_served_model, served_settings
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

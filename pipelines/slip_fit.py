@@ -3,7 +3,8 @@
 Simulates (once; cached under --cache-dir) a grid terrains x scenarios x seeds, cuts 2 s
 windows, fits the learned model (terrain.slip.learned) on the --train-seeds and scores every
 model on the --test-seeds, grouped by run: held out by seed, leave-one-scenario-out and
-leave-one-terrain-out (proprioceptive features only, no terrain knowledge). Also reports
+leave-one-terrain-out (proprioceptive features only, no terrain knowledge; and with the physics
+slip kept: the unseen ground's catalogue curve known, no data from it). Also reports
 slip-compensated dead reckoning on the held-out orchard and slope_turn runs. Everything is
 logged to MLflow (experiment terrain-slip-fit); the model is registered as slip-<vehicle>.
 """
@@ -22,7 +23,8 @@ from features.slip_features import (one_hot_probabilities, slip_features, slip_t
 from terrain.io.shipped import load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
-                                     measured_checks, odometry_errors, steady_straight)
+                                     measured_checks, odometry_errors, std_calibration_table,
+                                     steady_straight)
 from terrain.slip.figures import error_figure, odometry_figure
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -39,7 +41,8 @@ TRUSTED = ("terrain.slip.learned.SlipRegressor",
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain slip-fit``: terrains, scenarios, training and held-out test
-    seeds, ``--duration-s`` (simulated time per run, s), ``--cache-dir``, ``--out``,
+    seeds, ``--duration-s`` (simulated time per run, s), ``--orchard-duration-s`` (held-out
+    orchard runs for the odometry, s), ``--cache-dir``, ``--out``,
     ``--no-loto``, ``--measured`` dataset and ``--no-register``.
 
     Parameters
@@ -53,6 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-seeds", nargs="+", type=int, default=[0, 1])
     parser.add_argument("--test-seeds", nargs="+", type=int, default=[100])
     parser.add_argument("--duration-s", type=float, default=40.0)
+    parser.add_argument("--orchard-duration-s", type=float, default=120.0,
+                        help="held-out orchard runs of this length for the odometry (a 40 s "
+                             "run ends before the first headland turn); <= --duration-s: none")
     parser.add_argument("--cache-dir", type=Path, default=Path("out/slip_cache"))
     parser.add_argument("--out", type=Path, default=Path("out/slip_fit"))
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
@@ -65,12 +71,14 @@ def main(args: argparse.Namespace) -> int:
     """Simulate (cached), fit, evaluate, log and register.
 
     Fits :class:`terrain.slip.learned.SlipRegressor` on the Husky runs of the training seeds,
-    compares it with the baselines on the held-out seeds (median absolute slip error, steady
-    straight and all windows), leave-one-scenario-out and (unless ``args.no_loto``)
-    leave-one-terrain-out, and the odometry error with and without slip compensation (% of
-    distance); writes tables, ``summary.json`` and figures to ``args.out``, logs them to the
-    MLflow experiment ``terrain-slip-fit`` and registers the model as ``slip-husky`` unless
-    ``args.no_register``.
+    calibrates its slip std on grouped out-of-fold residuals of the training runs (held-out
+    coverage in ``std_calibration.csv``), compares it with the baselines on the held-out seeds
+    (median absolute slip error, steady straight and all windows), leave-one-scenario-out and
+    (unless ``args.no_loto``) leave-one-terrain-out (without and with the physics features),
+    and the odometry error with and without slip compensation (% of distance; plus held-out
+    orchard runs of ``args.orchard_duration_s``); writes tables, ``summary.json`` and figures
+    to ``args.out``, logs them to the MLflow experiment ``terrain-slip-fit`` and registers the
+    model as ``slip-husky`` unless ``args.no_register``.
 
     Parameters
     ----------
@@ -96,8 +104,17 @@ def main(args: argparse.Namespace) -> int:
     params = {"n_runs": len(runs), "n_windows": len(X), **{k: str(v) for k, v in vars(
         args).items() if k not in ("out", "cache_dir")}}
     with threadpool_limits(1, "openmp"), tracked_run(EXPERIMENT, "slip-husky", params) as run:
-        model = SlipRegressor().fit(X[train], Y[train])
+        model = SlipRegressor().fit(X[train], Y[train],
+                                    groups=meta["run_id"].to_numpy()[train])
         preds = {"learned": model.predict(X)}
+        calib = pd.concat([std_calibration_table(preds["learned"], model.predict_std(X), Y,
+                                                 meta, m, by).assign(windows=name)
+                           for name, m, by in (("all", test, ("scenario",)),
+                                               ("steady_straight", steady & test, ("terrain",)))],
+                          ignore_index=True)
+        calib.to_csv(args.out / "std_calibration.csv", index=False)
+        run.log_table(calib, "std_calibration.csv")
+        run.log_metrics({f"calibration.train_oof.{k}": v for k, v in model.calibration_.items()})
         preds.update(baseline_predictions(X, Y, meta, train, runs, vehicle.track_m))
         tables = []
         for name, p in preds.items():
@@ -107,12 +124,17 @@ def main(args: argparse.Namespace) -> int:
         loso = leave_one_out(SlipRegressor, X, Y, meta["scenario"].to_numpy(), train, test)
         tables.append(error_table(loso, Y, meta, test, ("scenario",)).assign(
             model="learned", windows="all", split="leave-one-scenario-out"))
-        if not args.no_loto:          # no terrain knowledge: probabilities and physics dropped
-            loto = leave_one_out(SlipRegressor, X.drop(columns=terrain_columns(X.columns)), Y,
+        # leave-one-terrain-out: no terrain knowledge (probabilities and physics dropped), and
+        # with the physics slip kept (the unseen ground's catalogue curve known, no data)
+        for split, drop in ((("leave-one-terrain-out", terrain_columns(X.columns)),
+                             ("leave-one-terrain-out-physics",
+                              [c for c in X.columns if c.startswith("p__")]))
+                            if not args.no_loto else ()):
+            loto = leave_one_out(SlipRegressor, X.drop(columns=drop), Y,
                                  meta["terrain"].to_numpy(), train, test)
             for cond, mask in (("steady_straight", steady & test), ("all", test)):
                 tables.append(error_table(loto, Y, meta, mask).assign(
-                    model="learned", windows=cond, split="leave-one-terrain-out"))
+                    model="learned", windows=cond, split=split))
         errors = pd.concat(tables, ignore_index=True)
         odo_runs = meta.loc[test & meta["scenario"].isin(["orchard", "slope_turn"]).to_numpy(),
                             "run_id"].unique()
@@ -120,6 +142,8 @@ def main(args: argparse.Namespace) -> int:
         truth_in = np.where(np.isnan(Y), 1.0, Y)        # chi = 1 where the robot does not turn
         odo["oracle_err_pct"] = odometry_errors(runs, meta, truth_in, vehicle.track_m,
                                                 odo_runs)["compensated_err_pct"]
+        if args.orchard_duration_s > args.duration_s:
+            odo = pd.concat([odo, _long_orchard(args, vehicle, model)], ignore_index=True)
         summary = _summary(errors, odo)
         (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
         run.log_metrics(summary)
@@ -146,6 +170,19 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def _long_orchard(args: argparse.Namespace, vehicle, model: SlipRegressor) -> pd.DataFrame:
+    spec = SlipDataSpec(tuple(args.terrains), ("orchard",), tuple(args.test_seeds),
+                        args.orchard_duration_s)
+    runs = simulated_runs(spec, args.cache_dir)
+    X, Yf, meta = slip_table(runs, vehicle, TERRAIN_NAMES)
+    Y = Yf[list(SLIP_OUTPUTS)].to_numpy()
+    ids = meta["run_id"].unique()
+    odo = odometry_errors(runs, meta, model.predict(X), vehicle.track_m, ids)
+    odo["oracle_err_pct"] = odometry_errors(runs, meta, np.where(np.isnan(Y), 1.0, Y),
+                                            vehicle.track_m, ids)["compensated_err_pct"]
+    return odo.assign(scenario=f"orchard_{args.orchard_duration_s:g}s")
+
+
 def _measured(dataset: str, model: SlipRegressor, vehicle) -> pd.DataFrame:
     ws = slip_windows(load_dataset(dataset))
     X = slip_features(ws, vehicle, one_hot_probabilities(ws.labels.astype(str), TERRAIN_NAMES))
@@ -164,6 +201,10 @@ def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:
         out[f"odometry.{scen}.plain_err_pct"] = plain
         out[f"odometry.{scen}.compensated_err_pct"] = comp
         out[f"odometry.{scen}.reduction_of_median_pct"] = 100 * (1 - comp / plain)
+        gyro = float(g["compensated_gyro_err_pct"].median())
+        out[f"odometry.{scen}.compensated_gyro_err_pct"] = gyro
+        out[f"odometry.{scen}.gyro_heading_err_pct"] = float(g["gyro_heading_err_pct"].median())
+        out[f"odometry.{scen}.gyro_reduction_of_median_pct"] = 100 * (1 - gyro / plain)
         slipping = g[g["plain_err_pct"] > 2.0]       # beyond the 0.8 % speed-quantum floor
         out[f"odometry.{scen}.slipping_runs"] = float(len(slipping))
         out[f"odometry.{scen}.slipping_median_reduction_pct"] = float(

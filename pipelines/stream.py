@@ -17,8 +17,8 @@ from pathlib import Path
 from terrain.errors import ConfigError
 from terrain.io.measured import list_run_files, read_run
 from terrain.control import DesiredSlipConfig
-from terrain.streaming import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
-                               decisions_frame, load_stream_model, replay_run)
+from terrain.serving import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
+                             decisions_frame, load_stream_model, replay_run)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

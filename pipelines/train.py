@@ -19,7 +19,7 @@ from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
 from terrain.models.registry import MODELS
-from terrain.serving import log_model, runs_to_model_input, save_model
+from terrain.serving.pyfunc import log_model, runs_to_model_input, save_model
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-train"

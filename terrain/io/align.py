@@ -14,11 +14,17 @@ Method (recorded in the returned frame's ``attrs``):
    ``gap_factor`` x its median step, see :mod:`terrain.io.measured`) are set to NaN, never
    interpolated across; the windowing step drops windows that contain them and counts them.
 
+The maths is NumPy-only (:func:`overlap_grid`, :func:`align_arrays`): the batch readers'
+path (:func:`align_streams`, a run's stream frames in, a frame out) and the streaming
+service (ring-buffer arrays in, one window out) call the same functions.
+
 Both files of a measured run start at ``time = 0`` (``shared/data/README.md``); no clock
 offset is applied here. An estimated lag between streams is the business of the audit.
 """
 
 from __future__ import annotations
+
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -32,9 +38,128 @@ from terrain.run import TIME, Run
 DEFAULT_RATE_HZ = 50.0
 
 
+#: Fewest samples of a gap-free segment that is anti-alias filtered: ``sosfiltfilt``'s
+#: default padding of a 4th-order section pair needs more than 3 x (2 x 4 + 1) = 27.
+MIN_FILTER_SAMPLES = 28
+
+
+def overlap_grid(times_s: Sequence[np.ndarray], rate_hz: float) -> np.ndarray:
+    """Uniform clock at ``rate_hz`` over the span every stream covers (step 1 of the method).
+
+    Parameters
+    ----------
+    times_s : sequence of numpy.ndarray
+        One ``(m_i,)`` increasing timestamp array per stream, s (each non-empty).
+    rate_hz : float
+        Rate of the clock, Hz (> 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` grid ``t0 + k / rate_hz`` from the latest first sample ``t0`` to the
+        earliest last sample, s; empty when the spans do not overlap.
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not positive.
+    """
+    if not rate_hz > 0:
+        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
+    t0 = max(float(t[0]) for t in times_s)
+    t1 = min(float(t[-1]) for t in times_s)
+    if t1 <= t0:
+        return np.zeros(0)
+    n = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
+    return t0 + np.arange(n) / rate_hz
+
+
+def median_step(t_s: np.ndarray) -> float:
+    """Median time step of increasing timestamps (the reference of the gap rule), s.
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        ``(m,)`` increasing timestamps, s (``m >= 2``).
+
+    Returns
+    -------
+    float
+        Median of ``diff(t_s)``, s (a partial sort: cheaper than ``numpy.median`` on the
+        short arrays of a streaming window).
+    """
+    d = np.diff(t_s)
+    k = d.size // 2
+    if d.size % 2:
+        return float(np.partition(d, k)[k])
+    p = np.partition(d, (k - 1, k))
+    return float(0.5 * (p[k - 1] + p[k]))
+
+
+def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
+                 grid_s: np.ndarray, rate_hz: float, gap_factor: float = 3.0,
+                 steps_s: Sequence[float] | None = None) -> np.ndarray:
+    """Resample streams onto grid points (steps 2-4 of the method); NumPy only.
+
+    ``grid_s`` may be any part of the stream's :func:`overlap_grid` (the streaming service
+    passes only the points of its window): each grid point's value depends only on the
+    stream samples, so a part of the grid gets exactly the values of the whole.
+
+    Parameters
+    ----------
+    times_s : sequence of numpy.ndarray
+        One ``(m_i,)`` strictly increasing timestamp array per stream, s (``m_i >= 2``).
+    values : sequence of numpy.ndarray
+        One ``(m_i, c_i)`` value array per stream, SI units.
+    grid_s : numpy.ndarray
+        ``(n,)`` grid points inside every stream's span, s.
+    rate_hz : float
+        Rate of the clock the grid belongs to, Hz; a stream faster than 1.5 x this is
+        anti-alias filtered first.
+    gap_factor : float
+        A step longer than ``gap_factor`` x the stream's median step is a gap.
+    steps_s : sequence of float or None
+        Each stream's usual (median) step, s, when the caller knows it better than the
+        samples given (the streaming service passes its ring buffers' recent median);
+        ``None``: the median step of each stream's samples (:func:`median_step`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, sum(c_i))``: the streams' channels side by side, in the order given; NaN at
+        grid points inside a gap of that stream.
+    """
+    out = np.empty((len(grid_s), sum(v.shape[1] for v in values)))
+    col = 0
+    for k, (t, v) in enumerate(zip(times_s, values)):
+        dt = np.diff(t)
+        step = median_step(t) if steps_s is None else float(steps_s[k])
+        is_gap = dt > gap_factor * step
+        native = 1.0 / step
+        if native > 1.5 * rate_hz:
+            sos = signal.butter(4, 0.4 * rate_hz, fs=native, output="sos")
+            v = v.copy()
+            gaps = np.flatnonzero(is_gap)
+            # filter each gap-free segment on its own: never smear across a gap
+            for a, b in zip(np.r_[0, gaps + 1], np.r_[gaps + 1, len(t)]):
+                if b - a >= MIN_FILTER_SAMPLES:
+                    v[a:b] = signal.sosfiltfilt(sos, v[a:b], axis=0)
+        for j in range(v.shape[1]):
+            out[:, col + j] = np.interp(grid_s, t, v[:, j])
+        # a grid point strictly inside a gap step (t[i], t[i + 1]) is never interpolated
+        i = np.searchsorted(t, grid_s, side="right") - 1
+        inside = (i >= 0) & (i < len(dt))
+        inside[inside] &= is_gap[i[inside]] & (grid_s[inside] > t[i[inside]])
+        out[inside, col:col + v.shape[1]] = np.nan
+        col += v.shape[1]
+    return out
+
+
 def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                   rate_hz: float = DEFAULT_RATE_HZ, gap_factor: float = 3.0) -> pd.DataFrame:
     """Put the named streams of ``run`` on one uniform clock.
+
+    The batch readers' wrapper of :func:`overlap_grid` and :func:`align_arrays`.
 
     Parameters
     ----------
@@ -67,41 +192,20 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     if not present:
         raise DataFormatError(f"run has none of the streams {list(streams)} "
                               f"(has {list(run.streams)})", run.source)
-    t0 = max(run.streams[s][TIME].iloc[0] for s in present)
-    t1 = min(run.streams[s][TIME].iloc[-1] for s in present)
-    if t1 <= t0:
+    frames = [run.streams[s] for s in present]
+    channels = [[c for c in f.columns if c != TIME and f[c].dtype.kind == "f"] for f in frames]
+    flat = [c for ch in channels for c in ch]
+    clash = sorted({c for c in flat if flat.count(c) > 1})
+    if clash:
+        raise ConfigError(f"streams {present} share channel name(s) {clash}; align them "
+                          "separately")
+    times = [f[TIME].to_numpy(dtype=float) for f in frames]
+    grid = overlap_grid(times, rate_hz)
+    if grid.size == 0:
         raise DataFormatError(f"streams {present} do not overlap in time", run.source)
-    n = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
-    grid = t0 + np.arange(n) / rate_hz
-    columns: dict[str, np.ndarray] = {TIME: grid}
-    for name in present:
-        frame = run.streams[name]
-        t = frame[TIME].to_numpy()
-        dt = np.diff(t)
-        step = float(np.median(dt))
-        channels = [c for c in frame.columns if c != TIME and frame[c].dtype.kind == "f"]
-        values = frame[channels].to_numpy(dtype=float)
-        clash = sorted(set(channels) & set(columns))
-        if clash:
-            raise ConfigError(f"streams {present} share channel name(s) {clash}; align them "
-                              "separately")
-        gaps = np.flatnonzero(dt > gap_factor * step)
-        native = 1.0 / step
-        if native > 1.5 * rate_hz:
-            sos = signal.butter(4, 0.4 * rate_hz, fs=native, output="sos")
-            values = values.copy()
-            # filter each gap-free segment on its own: never smear across a gap
-            for a, b in zip(np.r_[0, gaps + 1], np.r_[gaps + 1, len(t)]):
-                if b - a > 27:  # sosfiltfilt's default padding needs > 3 (2 x 4 + 1) samples
-                    values[a:b] = signal.sosfiltfilt(sos, values[a:b], axis=0)
-        in_gap = np.zeros(n, dtype=bool)
-        for i in gaps:
-            in_gap |= (grid > t[i]) & (grid < t[i + 1])
-        for j, c in enumerate(channels):
-            col = np.interp(grid, t, values[:, j])
-            col[in_gap] = np.nan
-            columns[c] = col
-    frame = pd.DataFrame(columns)
+    aligned = align_arrays(times, [f[ch].to_numpy(dtype=float) for f, ch in
+                                   zip(frames, channels)], grid, rate_hz, gap_factor)
+    frame = pd.DataFrame(np.column_stack([grid, aligned]), columns=[TIME] + flat)
     frame.attrs.update(rate_hz=float(rate_hz), streams=tuple(present),
                        method="anti-alias low-pass (Butterworth 4, 0.4 fs, zero phase) for "
                               "faster streams, then linear interpolation; NaN inside gaps")

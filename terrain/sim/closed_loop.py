@@ -54,8 +54,7 @@ class Observation(NamedTuple):
         ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` camera (empty without a camera or in outages).
     currents : ndarray, shape (k, 1 + m)
         ``t_s, I_1..m`` motor current magnitudes as the drive reports them, A, at the wheel
-        rate (empty when the plant snapshot carries no wheel torque, see
-        :class:`OnlineSensors`).
+        rate (from the snapshot's wheel torque, see :class:`OnlineSensors`).
     """
 
     t_s: float
@@ -95,10 +94,8 @@ class OnlineSensors:
     -----
     Motor currents are sampled at the wheel rate from the snapshot's wheel torque with the
     drive's report (:func:`terrain.sim.forces.reported_current_a`), white noise
-    ``current_noise_a`` and the quantum ``current_quantum_a``, when the plant's
-    :class:`~terrain.sim.dynamics.PlantSnapshot` has a ``torque`` field; the integrator of
-    this branch does not hand it over yet, so the current channel stays empty (the planted
-    current effects of the batch model are not applied either way).
+    ``current_noise_a`` and the quantum ``current_quantum_a`` (the planted current effects
+    of the batch model are not applied).
     """
 
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
@@ -171,10 +168,9 @@ class OnlineSensors:
                 om = np.round(om * r / s.speed_quantum_m_s) * s.speed_quantum_m_s / r
             c.rows.append((t, *om.tolist()))
             c.next_t += c.period_s
-        torque = getattr(snap, "torque", None)
         c = self.ch["currents"]
-        if torque is not None and t + eps >= c.next_t:
-            cur = reported_current_a(motor, np.asarray(torque, dtype=float), snap.omega,
+        if t + eps >= c.next_t:
+            cur = reported_current_a(motor, np.asarray(snap.torque, dtype=float), snap.omega,
                                      self.physics)
             cur = np.abs(cur + s.current_noise_a * self.rng_current.standard_normal(cur.size))
             if s.current_quantum_a > 0:
@@ -291,49 +287,13 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     return simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))
 
 
-class ReplaySnapshot(NamedTuple):
-    """A :class:`~terrain.sim.dynamics.PlantSnapshot` of a finished run, with its wheel torque.
-
-    Parameters
-    ----------
-    step : int
-        Step index.
-    t_s : float
-        Time, s.
-    pose : ndarray, shape (3,)
-        x, y (m), yaw (rad).
-    twist : ndarray, shape (3,)
-        v_x, v_y (m/s), yaw rate (rad/s), body frame.
-    accel_body : ndarray, shape (2,)
-        Body-frame acceleration, m/s^2.
-    omega : ndarray, shape (m,)
-        Wheel speeds, rad/s.
-    delta : ndarray, shape (m,)
-        Steering angles, rad.
-    omega_low_level : ndarray, shape (m,)
-        Wheel speed command of the next step, rad/s.
-    torque : ndarray, shape (m,)
-        Wheel torque of each motor, N m (what the drive's current sensor sees).
-    """
-
-    step: int
-    t_s: float
-    pose: np.ndarray
-    twist: np.ndarray
-    accel_body: np.ndarray
-    omega: np.ndarray
-    delta: np.ndarray
-    omega_low_level: np.ndarray
-    torque: np.ndarray
-
-
 def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     """Observations of a finished (open-loop) run, as a controller at ``control_rate_hz``
     would have received them, motor currents included.
 
     Replays the stored ground truth step by step through :class:`OnlineSensors` (same seed
     and sensors as :func:`simulate_closed_loop`); used to score estimators open loop, and to
-    exercise the current channel that the integrator's snapshot does not carry yet.
+    compare with the closed loop on the same seed.
 
     Parameters
     ----------
@@ -359,7 +319,7 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
                             cfg.duration_s, cfg.physics)
     period, next_t, n = 1.0 / control_rate_hz, 0.0, len(phys.t_s)
     for k in range(n):
-        snap = ReplaySnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
+        snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
                               phys.accel_body[k], phys.omega[k], phys.delta[k],
                               phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k])
         sensors.record(snap)

@@ -174,6 +174,9 @@ class PlantSnapshot(NamedTuple):
     omega_low_level : ndarray, shape (m,)
         Wheel speed command of the kinematic low level for the next step (before any
         correction), rad/s: known to the robot, it is its own command.
+    torque : ndarray, shape (m,)
+        Wheel torque of each motor over the step just completed, N m (what the drive's
+        current sensor sees, through :func:`terrain.sim.forces.reported_current_a`).
     """
 
     step: int
@@ -184,6 +187,7 @@ class PlantSnapshot(NamedTuple):
     omega: np.ndarray
     delta: np.ndarray
     omega_low_level: np.ndarray
+    torque: np.ndarray
 
 
 #: Closed-loop hook: called after every integrator step with the plant's state; returns a
@@ -335,8 +339,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     delta = delta_cmd[0].copy()
     dist = 0.0
     n_terr = len(terrains)
-    fixed_maps = None if layout.steered else velocity_maps(
-        layout, np.ones_like(layout.x_m), np.zeros_like(layout.x_m))
+    fixed_maps = None if layout.steered else velocity_maps(layout, np.zeros_like(layout.x_m))
     for k in range(n):
         ti = int(dist // segment_length_m) % n_terr
         ter = terrains[ti]
@@ -345,7 +348,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             step = (delta_cmd[k] - delta + np.pi) % (2 * np.pi) - np.pi
             delta = delta + np.minimum(np.maximum(step, -steer_rate), steer_rate)
             d_c = delta[motor_of]
-            maps = velocity_maps(layout, np.cos(d_c), np.sin(d_c))
+            maps = velocity_maps(layout, d_c)
         else:
             maps = fixed_maps
         omega_prev = omega
@@ -398,7 +401,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             nxt = omega_ll[min(k + 1, n - 1)]
             new = hook(PlantSnapshot(k, float(t_s[k]), pose.copy(), vel.copy(),
                                      acc_out[k].copy(), omega.copy(), delta_out[k].copy(),
-                                     nxt.copy()))
+                                     nxt.copy(), torque_out[k].copy()))
             if new is not None:
                 correction = np.asarray(new, dtype=float).reshape(nm)
     yaw = pose_out[:, 2]

@@ -44,6 +44,7 @@ from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_s
 from terrain.terramechanics.resistance import G_M_S2, lateral_force_and_slope
 from terrain.terramechanics.slip import sae_slip_and_velocity_slope
 from terrain.vehicles.common import ContactGeometry
+from terrain.vehicles.swerve import wheel_rim_speed
 
 #: Lateral regularisation speed of the contact friction, m/s (stands for the lateral
 #: compliance of tyre and soil).
@@ -131,15 +132,17 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
     ndarray, shape (c,)
         N.
     """
-    sx = float(np.sum(x_m * x_m))
-    sy = float(np.sum(y_m * y_m))
-    d_n = np.zeros_like(static_load_n)
+    # dot products and ndarray.sum instead of np.sum: this runs once per integrator step
+    sx = float(x_m @ x_m)
+    sy = float(y_m @ y_m)
+    mh = mass_kg * cog_height_m
+    loads = static_load_n
     if sx > 0:
-        d_n = d_n - mass_kg * cog_height_m * accel_x_m_s2 * x_m / sx
+        loads = loads - (mh * accel_x_m_s2 / sx) * x_m
     if sy > 0:
-        d_n = d_n - mass_kg * cog_height_m * accel_y_m_s2 * y_m / sy
-    loads = np.maximum(static_load_n + d_n, MIN_LOAD_FRACTION * static_load_n)
-    return loads * (np.sum(static_load_n) / np.sum(loads))
+        loads = loads - (mh * accel_y_m_s2 / sy) * y_m
+    loads = np.maximum(loads, MIN_LOAD_FRACTION * static_load_n)
+    return loads * (static_load_n.sum() / loads.sum())
 
 
 @dataclass(frozen=True)
@@ -224,32 +227,32 @@ class VelocityMaps(NamedTuple):
     lateral: np.ndarray
 
 
-def velocity_maps(layout: ContactLayout, cos_delta: np.ndarray, sin_delta: np.ndarray
-                  ) -> VelocityMaps:
+def velocity_maps(layout: ContactLayout, delta_rad: np.ndarray) -> VelocityMaps:
     """Contact velocity maps for the current steering angles.
+
+    The rim-speed kinematics (seed 001 eq. 4.20) have one home,
+    :func:`terrain.vehicles.swerve.wheel_rim_speed`; it is linear in the body twist, so its
+    value at the three unit twists gives the columns of each map: ``long_kinematic`` at the
+    kinematic contact lines ``(x, y_kinematic)`` along the rolling direction ``delta``,
+    ``long_force`` at the geometric contacts, ``lateral`` at the geometric contacts along
+    ``delta + pi / 2`` (the velocity across the wheel, ``-v_x sin delta + v_y cos delta``).
 
     Parameters
     ----------
     layout : ContactLayout
         Contacts.
-    cos_delta, sin_delta : ndarray, shape (c,)
-        Cosine and sine of each contact's steering angle (1 and 0 for fixed wheels).
+    delta_rad : ndarray, shape (c,)
+        Steering angle of each contact, rad (0 for fixed wheels).
 
     Returns
     -------
     VelocityMaps
     """
-    x_c, y_c = layout.x_m, layout.y_m
-    cd, sd = cos_delta, sin_delta
-    maps = np.empty((3, len(cd), 3))
-    maps[0, :, 0] = cd
-    maps[0, :, 1] = sd
-    maps[0, :, 2] = -layout.y_kinematic_m * cd + x_c * sd
-    maps[1, :, :2] = maps[0, :, :2]
-    maps[1, :, 2] = -y_c * cd + x_c * sd
-    maps[2, :, 0] = -sd
-    maps[2, :, 1] = cd
-    maps[2, :, 2] = y_c * sd + x_c * cd
+    d = np.asarray(delta_rad, dtype=float)
+    y = np.stack([layout.y_kinematic_m, layout.y_m, layout.y_m])[:, :, None]   # (3, c, 1)
+    ang = np.stack([d, d, d + 0.5 * np.pi])[:, :, None]
+    unit = np.eye(3)                                                           # columns
+    maps = wheel_rim_speed(unit[0], unit[1], unit[2], layout.x_m[None, :, None], y, ang)
     return VelocityMaps(maps[0], maps[1], maps[2])
 
 

@@ -486,15 +486,20 @@ class FusionSettings:
     Parameters
     ----------
     learned_std_floor : float
-        Smallest standard deviation of the learned model's slip (ASSUMED 0.01: the largest
-        held-out median error of the registered model on steady straight driving is 0.0072,
-        ``docs/slip_learning.md``). The learned model gives no variance of its own; its std is
-        ``sqrt(floor^2 + (learned - physics)^2)``: where the two models disagree, at least one
-        is wrong by about that much.
+        Only for a learned model without a calibrated std (fitted before the calibration, or
+        without groups): its std is then the heuristic ``sqrt(floor^2 + (learned -
+        physics)^2)`` (ASSUMED 0.01, the largest held-out median error of the first registered
+        model on steady straight driving, 0.0072). A calibrated model supplies its own std
+        (:meth:`terrain.slip.learned.SlipRegressor.predict_std`, from grouped out-of-fold
+        residuals of the training runs).
     min_std : float
-        Floor of every pseudo-measurement std, dimensionless (the physics std is 1e-4 on firm
-        ground, where the error of a 2 s window mean in a transient is larger; 0.003 gave
-        NEES inside its bounds on simulated SANDY_LOAM and SNOW, ``docs/slip_learning.md``).
+        Floor of every pseudo-measurement std, dimensionless (it guards against a vanishing
+        std, e.g. the physics std of ~1e-4 on firm ground, where the error of a 2 s window
+        mean in a transient is larger). Default 0.003, tuned with the earlier heuristic
+        learned std and used by the online observer of the control loop; the batch estimate
+        uses :data:`BATCH_FUSION` (0.001), which with the calibrated learned std gave NEES
+        inside its bounds on simulated GRASS and SNOW (0.003: SNOW only),
+        ``docs/slip_learning.md``.
     filter : SkidSteerSlipSettings
         Tuning of the slip-augmented EKF.
     """
@@ -502,6 +507,12 @@ class FusionSettings:
     learned_std_floor: float = 0.01
     min_std: float = 0.003
     filter: SkidSteerSlipSettings = field(default_factory=SkidSteerSlipSettings)
+
+
+#: Settings of the batch estimate (:func:`estimate_skid_steer_slip_run`, ``terrain estimate``):
+#: the defaults with the pseudo-measurement floor lowered to 0.001 for the calibrated learned
+#: std (:class:`FusionSettings`, ``docs/slip_learning.md`` section 5).
+BATCH_FUSION = FusionSettings(min_std=0.001)
 
 
 def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
@@ -543,8 +554,9 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
         return t, sp, vp
     if "learned" not in outputs:
         raise ConfigError("the learned slip model is not available")
-    sl = outputs["learned"][1]
-    vl = np.maximum(np.hypot(settings.learned_std_floor, sl - sp), settings.min_std)
+    _, sl, cal = outputs["learned"]
+    heuristic = np.hypot(settings.learned_std_floor, sl - sp)   # a model without calibration
+    vl = np.maximum(np.where(np.isfinite(cal), cal, heuristic), settings.min_std)
     if source == "learned":
         return t, sl, vl
     wp, wl = vp ** -2, vl ** -2
@@ -555,7 +567,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                                  outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
                                  | None = None, lag: str = "xcorr",
                                  gate: Gate | None = None, rate_hz: float | None = None,
-                                 settings: FusionSettings = FusionSettings()) -> RunEstimate:
+                                 settings: FusionSettings = BATCH_FUSION) -> RunEstimate:
     """States and side slips with standard deviations of a skid-steer run: the slip-augmented
     EKF of :mod:`terrain.estimation.skid_steer_slip` with the slip model as pseudo-measurement
     and the accelerometer.
@@ -577,7 +589,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate, else the wheel rate).
     settings : FusionSettings
-        Std floors and EKF tuning.
+        Std floors and EKF tuning (default :data:`BATCH_FUSION`).
 
     Returns
     -------

@@ -117,6 +117,53 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     return pd.DataFrame(rows)
 
 
+def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
+                          meta: pd.DataFrame, mask: np.ndarray,
+                          by: Sequence[str] = ("scenario",)) -> pd.DataFrame:
+    """How well a predicted slip std describes the errors (held-out windows).
+
+    Parameters
+    ----------
+    pred : ndarray, shape (n, >=2)
+        Predicted ``slip_1, slip_2`` in the first two columns.
+    std : ndarray, shape (n, 2)
+        Their standard deviations (dimensionless slip).
+    truth : ndarray, shape (n, >=2)
+        True ``slip_1, slip_2``.
+    meta : pandas.DataFrame, shape (n, ...)
+        Window provenance with the ``by`` columns.
+    mask : ndarray of bool, shape (n,)
+        Windows to score.
+    by : sequence of str
+        Grouping columns of ``meta``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per group: ``n_windows``, ``coverage_1std`` and ``coverage_2std`` (fraction of
+        side-windows with ``|error| <= k std``; Gaussian 0.683, 0.954),
+        ``median_normalised_sq`` (Gaussian 0.455), ``mean_normalised_sq`` (Gaussian 1),
+        ``median_std``, ``median_abs_err``.
+    """
+    err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
+    std = np.asarray(std, float)
+    u = err / std
+    pos = np.flatnonzero(np.asarray(mask, bool))
+    keys = meta[list(by)].iloc[pos].reset_index(drop=True)
+    rows = []
+    for key, g in keys.groupby(list(by)):
+        sel = pos[g.index.to_numpy()]
+        uu = u[sel].ravel()
+        rows.append({**dict(zip(by, key if isinstance(key, tuple) else (key,))),
+                     "n_windows": len(sel), "coverage_1std": float(np.mean(uu <= 1)),
+                     "coverage_2std": float(np.mean(uu <= 2)),
+                     "median_normalised_sq": float(np.median(uu ** 2)),
+                     "mean_normalised_sq": float(np.mean(uu ** 2)),
+                     "median_std": float(np.median(std[sel])),
+                     "median_abs_err": float(np.median(err[sel]))})
+    return pd.DataFrame(rows)
+
+
 def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
                          ) -> np.ndarray:
     """Window means of the seed 000 observer slip (yaw-only, gyro heading) per run.
@@ -175,8 +222,12 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     Returns
     -------
     pandas.DataFrame
-        One row per run: ``run_id, terrain, scenario, distance_m, slid_off, plain_err_pct,
-        compensated_err_pct, reduction_pct``. ``slid_off``: the body travelled more than
+        One row per run: ``run_id, terrain, scenario, distance_m, duration_s, slid_off,
+        plain_err_pct`` (wheel speeds and wheel yaw), ``compensated_err_pct`` (predicted slip,
+        chi and lateral velocity), ``reduction_pct`` (of compensated against plain),
+        ``gyro_heading_err_pct`` (wheel speeds, heading from the gyro) and
+        ``compensated_gyro_err_pct`` (predicted slip and lateral velocity, gyro heading; NaN
+        without an IMU). ``slid_off``: the body travelled more than
         :data:`SLID_OFF_FACTOR` x the wheels' path (it slid down the slope, e.g. the Husky on a
         15 deg icy slope, which no wheel odometry can follow).
     """
@@ -195,20 +246,33 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         vl, vr = wh["vel_l"].to_numpy(), wh["vel_r"].to_numpy()
         plain = dead_reckon(t, vl, vr, track_m)
         comp = dead_reckon(t, vl, vr, track_m, s1, s2, np.clip(chi, 0.5, 5.0), v_by)
+        imu = run.streams.get("imu")
+        wz = None if imu is None else np.interp(t, imu[TIME].to_numpy(), imu["wz"].to_numpy())
         xy = tr[["x", "y"]].to_numpy()
         end = np.array([np.interp(t[-1], tr[TIME], tr["x"]), np.interp(t[-1], tr[TIME], tr["y"])])
         dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
         e_plain = 100 * float(np.hypot(*(plain[-1, :2] - end))) / dist
         e_comp = 100 * float(np.hypot(*(comp[-1, :2] - end))) / dist
+        if wz is not None:
+            gyro = dead_reckon(t, vl, vr, track_m, yaw_rate_rad_s=wz)
+            comp_gyro = dead_reckon(t, vl, vr, track_m, s1, s2, lateral_m_s=v_by,
+                                    yaw_rate_rad_s=wz)
+            e_gyro = 100 * float(np.hypot(*(gyro[-1, :2] - end))) / dist
+            e_comp_gyro = 100 * float(np.hypot(*(comp_gyro[-1, :2] - end))) / dist
+        else:
+            e_gyro = e_comp_gyro = np.nan
         wheel_path = float(np.sum(np.hypot(*np.diff(plain[:, :2], axis=0).T)))
         rows.append({"run_id": rid, "terrain": run.terrain,
                      "scenario": run.meta.get("scenario"), "distance_m": dist,
                      "slid_off": dist > SLID_OFF_FACTOR * max(wheel_path, 1e-9),
+                     "duration_s": float(t[-1] - t[0]),
                      "plain_err_pct": e_plain, "compensated_err_pct": e_comp,
-                     "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan})
+                     "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan,
+                     "gyro_heading_err_pct": e_gyro, "compensated_gyro_err_pct": e_comp_gyro})
     return pd.DataFrame(rows, columns=["run_id", "terrain", "scenario", "distance_m",
-                                       "slid_off", "plain_err_pct", "compensated_err_pct",
-                                       "reduction_pct"])
+                                       "duration_s", "slid_off", "plain_err_pct",
+                                       "compensated_err_pct", "reduction_pct",
+                                       "gyro_heading_err_pct", "compensated_gyro_err_pct"])
 
 
 def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,

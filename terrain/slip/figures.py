@@ -61,12 +61,17 @@ def odometry_figure(odometry: pd.DataFrame):
     from matplotlib.figure import Figure
 
     odo = odometry[~odometry["slid_off"].astype(bool)]
-    fig = Figure(figsize=(9, 4))
-    for k, (scen, g) in enumerate(odo.groupby("scenario")):
-        ax = fig.add_subplot(1, 2, k + 1)
+    groups = list(odo.groupby("scenario"))
+    fig = Figure(figsize=(4.5 * max(1, len(groups)), 4))
+    bars = [("plain_err_pct", "wheel odometry"), ("compensated_err_pct", "slip + chi"),
+            ("compensated_gyro_err_pct", "slip + gyro heading")]
+    bars = [b for b in bars if b[0] in odo.columns]
+    w = 0.8 / len(bars)
+    for k, (scen, g) in enumerate(groups):
+        ax = fig.add_subplot(1, len(groups), k + 1)
         x = np.arange(len(g))
-        ax.bar(x - 0.2, g["plain_err_pct"], 0.4, label="wheel odometry")
-        ax.bar(x + 0.2, g["compensated_err_pct"], 0.4, label="slip-compensated")
+        for j, (col, label) in enumerate(bars):
+            ax.bar(x - 0.4 + (j + 0.5) * w, g[col], w, label=label)
         ax.set_xticks(x, g["terrain"], rotation=70, fontsize=7)
         ax.set_ylabel("final position error, % of distance")
         ax.set_title(scen)

@@ -7,6 +7,11 @@ one per output: ``slip_1`` (left), ``slip_2`` (right) and ``v_by`` (lateral body
 m/s: the sideways sliding that makes the slip angle ``atan(v_by / v_bx)`` of seed 003) on every
 window, ``chi`` on the windows where the robot turns (its target is undefined elsewhere; the
 prediction there is still defined and only matters when the robot turns).
+
+:meth:`SlipRegressor.predict` walks the fitted trees with the compiled adaptor
+:mod:`terrain.slip.tree_predict` (bit-identical to scikit-learn's ``predict``, which pays
+~10-20 us of Python per tree and call); :meth:`SlipRegressor.predict_reference` is
+scikit-learn's own path, kept as the reference.
 """
 
 from __future__ import annotations
@@ -14,9 +19,13 @@ from __future__ import annotations
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
+from sklearn.model_selection import GroupKFold
 
 from terrain.errors import ShapeError
+from terrain.slip.tree_predict import pack_trees, predict_packed
 
+#: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
+CHI2_1_MEDIAN = 0.454936423119572
 #: Output columns of :meth:`SlipRegressor.predict`.
 SLIP_OUTPUTS = ("slip_1", "slip_2", "chi", "v_by")
 
@@ -36,16 +45,27 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Minimum windows per leaf.
     random_state : int
         Seed (the trees are deterministic without early stopping; kept for clones).
+    calibration_folds : int
+        Grouped folds of the out-of-fold slip residuals the standard deviation is calibrated
+        on (:meth:`fit` with ``groups``; fewer than 2 disables the calibration).
+    std_floor : float
+        Documented floor of :meth:`predict_std`, dimensionless slip (0.0005: below it the
+        out-of-fold residuals of the training windows are at the level of the simulator's
+        window-mean truth on firm ground, where slip is ~1e-4, and a smaller std would let
+        one window dominate the filter).
     """
 
     def __init__(self, max_iter: int = 300, learning_rate: float = 0.1,
                  max_leaf_nodes: int = 31, min_samples_leaf: int = 20,
-                 random_state: int = 0) -> None:
+                 random_state: int = 0, calibration_folds: int = 3,
+                 std_floor: float = 0.0005) -> None:
         self.max_iter = max_iter
         self.learning_rate = learning_rate
         self.max_leaf_nodes = max_leaf_nodes
         self.min_samples_leaf = min_samples_leaf
         self.random_state = random_state
+        self.calibration_folds = calibration_folds
+        self.std_floor = std_floor
 
     def _tree(self) -> HistGradientBoostingRegressor:
         return HistGradientBoostingRegressor(
@@ -53,8 +73,18 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             max_leaf_nodes=self.max_leaf_nodes, min_samples_leaf=self.min_samples_leaf,
             early_stopping=False, random_state=self.random_state)
 
-    def fit(self, X, y) -> "SlipRegressor":
-        """Fit the four outputs.
+    def fit(self, X, y, groups=None) -> "SlipRegressor":
+        """Fit the four outputs and, with ``groups``, the calibrated slip standard deviation.
+
+        Calibration (inside the training data only): out-of-fold slip predictions over
+        ``calibration_folds`` folds grouped by ``groups`` (runs: overlapping windows of a run
+        never sit on both sides) give residuals ``r``; a small gradient-boosted model of
+        ``log(r^2 + floor^2)`` on the window features (both sides stacked) gives the shape of
+        the variance over the feature space, and a scale ``c`` sets its level so that the median
+        normalised squared residual ``r^2 / (c exp(z))`` is the chi-square(1) median on
+        residuals the variance model did not see (cross-fitted over the same folds): 68 % of
+        the bulk within 1 std; the tails stay heavier than Gaussian (``calibration_``).
+        :meth:`predict_std` returns ``max(std_floor, sqrt(c exp(z(x))))``.
 
         Parameters
         ----------
@@ -63,6 +93,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         y : array-like, shape (n_windows, 4)
             ``slip_1, slip_2`` (dimensionless), ``chi`` (NaN where undefined), ``v_by``
             (m/s).
+        groups : array-like, shape (n_windows,), optional
+            Run of each window (grouped calibration folds); None: no calibration
+            (:meth:`predict_std` then returns NaN).
 
         Returns
         -------
@@ -71,7 +104,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Raises
         ------
         ShapeError
-            ``y`` is not ``(n_windows, 4)``.
+            ``y`` is not ``(n_windows, 4)``, or ``groups`` has another length than ``X``.
         """
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
@@ -84,7 +117,87 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         self.chi_model_ = (self._tree().fit(X[turning], y[turning, 2])
                            if turning.sum() >= 2 * self.min_samples_leaf else None)
         self.lateral_model_ = self._tree().fit(X, y[:, 3])
+        self.packed_trees_ = pack_trees(self._estimators(), self.n_features_in_)
+        self.std_model_, self.std_scale_, self.calibration_ = None, float("nan"), {}
+        if groups is not None and self.calibration_folds >= 2:
+            groups = np.asarray(groups)
+            if len(groups) != len(X):
+                raise ShapeError(f"groups has {len(groups)} entries for {len(X)} windows")
+            if len(np.unique(groups)) >= self.calibration_folds:
+                self._calibrate(X, y[:, :2], groups)
         return self
+
+    def _std_tree(self) -> HistGradientBoostingRegressor:
+        return HistGradientBoostingRegressor(max_iter=100, learning_rate=0.1, max_leaf_nodes=15,
+                                             min_samples_leaf=50, early_stopping=False,
+                                             random_state=self.random_state)
+
+    def _calibrate(self, X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> None:
+        folds = list(GroupKFold(self.calibration_folds).split(X, groups=groups))
+        oof = np.full_like(y, np.nan)
+        for tr, te in folds:
+            for i in range(2):
+                oof[te, i] = self._tree().fit(X[tr], y[tr, i]).predict(X[te])
+        r = y - oof
+        z = np.log(r ** 2 + self.std_floor ** 2)
+        z_cf = np.full_like(z, np.nan)            # variance shape on unseen residuals
+        for tr, te in folds:
+            m = self._std_tree().fit(np.vstack([X[tr], X[tr]]), z[tr].T.ravel())
+            z_cf[te] = m.predict(X[te])[:, None]
+        # the bulk, not the tails: the median normalised squared residual is set to the
+        # chi-square(1) median (68 % of Gaussian residuals within 1 std); a mean would let
+        # the heavy tails of transients (random commands, wheels spinning on slopes) inflate
+        # the std of every window
+        self.std_scale_ = float(np.median(r ** 2 / np.exp(z_cf)) / CHI2_1_MEDIAN)
+        self.std_model_ = self._std_tree().fit(np.vstack([X, X]), z.T.ravel())
+        self.packed_std_ = pack_trees([self.std_model_], self.n_features_in_)
+        sd = np.maximum(self.std_floor, np.sqrt(self.std_scale_ * np.exp(z_cf)))
+        u = np.abs(r) / sd
+        self.calibration_ = {"n_windows": float(len(X)), "scale": self.std_scale_,
+                             "mean_normalised_sq": float(np.mean(u ** 2)),
+                             "median_normalised_sq": float(np.median(u ** 2)),
+                             "coverage_1std": float(np.mean(u <= 1.0)),
+                             "coverage_2std": float(np.mean(u <= 2.0)),
+                             "median_std": float(np.median(sd)),
+                             "median_abs_residual": float(np.median(np.abs(r)))}
+
+    def predict_std(self, X) -> np.ndarray:
+        """Calibrated standard deviation of the predicted ``slip_1, slip_2`` (see :meth:`fit`).
+
+        Parameters
+        ----------
+        X : array-like, shape (n_windows, n_features)
+            Window features (same columns as in :meth:`fit`).
+
+        Returns
+        -------
+        ndarray, shape (n_windows, 2)
+            Dimensionless slip std per side (the same for both sides), >= ``std_floor``; NaN
+            when the model was fitted without ``groups`` (no calibration).
+
+        Raises
+        ------
+        ShapeError
+            ``X`` has another number of columns than in :meth:`fit`.
+        """
+        X = self._check_X(X)
+        if getattr(self, "std_model_", None) is None:
+            return np.full((len(X), 2), np.nan)
+        z = predict_packed(self.packed_std_, X)[:, 0]
+        sd = np.maximum(self.std_floor, np.sqrt(self.std_scale_ * np.exp(z)))
+        return np.repeat(sd[:, None], 2, axis=1)
+
+    def _estimators(self) -> list[HistGradientBoostingRegressor]:
+        return [*self.slip_models_,
+                *([self.chi_model_] if self.chi_model_ is not None else []),
+                self.lateral_model_]
+
+    def _check_X(self, X) -> np.ndarray:
+        X = np.asarray(X, dtype=float)
+        if X.ndim != 2 or X.shape[1] != self.n_features_in_:
+            raise ShapeError(f"X must have shape (n_windows, {self.n_features_in_}), "
+                             f"got {X.shape}")
+        return X
 
     def predict(self, X) -> np.ndarray:
         """Predict ``slip_1, slip_2, chi, v_by``.
@@ -97,8 +210,44 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Returns
         -------
         ndarray, shape (n_windows, 4)
+            ``slip_1, slip_2`` (dimensionless), ``chi``, ``v_by`` (m/s); identical to
+            :meth:`predict_reference`.
+
+        Raises
+        ------
+        ShapeError
+            ``X`` has another number of columns than in :meth:`fit`.
         """
-        X = np.asarray(X, dtype=float)
+        X = self._check_X(X)
+        packed = getattr(self, "packed_trees_", None)
+        if packed is None:              # a model fitted before the adaptor existed
+            packed = pack_trees(self._estimators(), self.n_features_in_)
+        raw = predict_packed(packed, X)
+        if self.chi_model_ is None:
+            raw = np.insert(raw, 2, self.chi_default_, axis=1)
+        return raw
+
+    def predict_reference(self, X) -> np.ndarray:
+        """:meth:`predict` through scikit-learn's own ``predict`` of each tree ensemble.
+
+        The reference for the compiled path (identical output, ~100x slower per call).
+
+        Parameters
+        ----------
+        X : array-like, shape (n_windows, n_features)
+            Window features (same columns as in :meth:`fit`).
+
+        Returns
+        -------
+        ndarray, shape (n_windows, 4)
+            ``slip_1, slip_2, chi, v_by``.
+
+        Raises
+        ------
+        ShapeError
+            ``X`` has another number of columns than in :meth:`fit`.
+        """
+        X = self._check_X(X)
         chi = (self.chi_model_.predict(X) if self.chi_model_ is not None
                else np.full(len(X), self.chi_default_))
         return np.column_stack([m.predict(X) for m in self.slip_models_]

@@ -13,6 +13,10 @@ Mandow et al. 2007)::
 
 (``v_y``: the sideways sliding on a slope, which wheel speeds cannot see; learned).
 
+Heading from the gyro instead (``yaw_rate_rad_s``): the yaw rate is the measured one, not
+the wheels' (a skid-steer vehicle's wheel yaw rate overstates its turning by ``chi`` ~ 1.5-3,
+the dominant error of wheel odometry through headland turns).
+
 The pose is integrated with the midpoint heading (as the simulator does).
 """
 
@@ -51,7 +55,8 @@ def ground_speed_from_slip(rim_speed_m_s: np.ndarray, slip: np.ndarray) -> np.nd
 def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
                 track_m: float, slip_left: np.ndarray | None = None,
                 slip_right: np.ndarray | None = None, chi: np.ndarray | float = 1.0,
-                lateral_m_s: np.ndarray | float = 0.0) -> np.ndarray:
+                lateral_m_s: np.ndarray | float = 0.0,
+                yaw_rate_rad_s: np.ndarray | None = None) -> np.ndarray:
     """Pose from wheel speeds, optionally slip-compensated (module docstring).
 
     Parameters
@@ -68,6 +73,9 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         Turning factor (1 = plain odometry).
     lateral_m_s : float or ndarray, shape (N,)
         Lateral body velocity (sideways sliding), m/s (0 = plain odometry).
+    yaw_rate_rad_s : ndarray, shape (N,), optional
+        Measured yaw rate (gyro z at the wheel times), rad/s: the heading is integrated from
+        it and ``chi`` is not used; None = the wheels' yaw rate.
 
     Returns
     -------
@@ -93,7 +101,12 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     gr = vr if slip_right is None else ground_speed_from_slip(vr, slip_right)
     v = 0.5 * (gl + gr)
     vy = np.broadcast_to(np.asarray(lateral_m_s, dtype=float), t.shape)
-    yaw_rate = (vr - vl) / (np.asarray(chi, dtype=float) * track_m)
+    if yaw_rate_rad_s is None:
+        yaw_rate = (vr - vl) / (np.asarray(chi, dtype=float) * track_m)
+    else:
+        yaw_rate = np.asarray(yaw_rate_rad_s, dtype=float)
+        if yaw_rate.shape != t.shape:
+            raise ShapeError(f"yaw_rate_rad_s must have shape {t.shape}, got {yaw_rate.shape}")
     yaw_rate = np.broadcast_to(yaw_rate, t.shape)
     dt = np.diff(t)
     # trapezoidal in the speeds, midpoint heading

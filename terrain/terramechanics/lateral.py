@@ -28,7 +28,8 @@ over a frozen, cited :class:`SoilParams`:
    as the shear (ASSUMED: both need the soil to move).
 
 The longitudinal traction of the same contact is the Janosi-Hanamoto curve of the same soil
-on the sunk patch (:func:`longitudinal_curve`; one isotropic shear modulus K).
+on the sunk patch (:func:`longitudinal_curve`, shear modulus K_x; the lateral shear has its
+own K_y, :attr:`SoilParams.lateral_shear_modulus_m`).
 
 The lateral force of a contact is therefore
 ``F_lat = -tanh(v_lat / v_slide) [c A + N tan phi + R_b(z)] g(a)``; it is bounded by the
@@ -78,6 +79,11 @@ class SoilParams:
         Specific weight of the soil gamma_s, N/m^3 (bulldozing).
     source : str
         Where every number comes from (ASSUMED / ANALOGY stated).
+    lateral_shear_modulus_m : float or None
+        Shear deformation modulus K_y of the lateral shear, m; None = ``shear_modulus_m``
+        (isotropic). Anisotropic moduli as in Ishigami et al., "Terramechanics-based model
+        for steering maneuver of planetary exploration rovers on loose soil", J. Field
+        Robotics 24(3), 2007 (separate K_x, K_y, K_y below K_x on sand).
     """
 
     name: str
@@ -89,24 +95,39 @@ class SoilParams:
     shear_modulus_m: float
     unit_weight_n_m3: float
     source: str
+    lateral_shear_modulus_m: float | None = None
+
+    @property
+    def shear_modulus_y_m(self) -> float:
+        """Shear deformation modulus of the lateral shear K_y, m."""
+        return (self.shear_modulus_m if self.lateral_shear_modulus_m is None
+                else self.lateral_shear_modulus_m)
 
 
 #: Soils of the physics-v2 lateral model, by catalogue terrain (read-only).
 SOILS: Mapping[str, SoilParams] = MappingProxyType({
     "SANDY_LOAM": SoilParams(
-        "sandy loam (Hanamoto), 15 % moisture", n=0.3, k_c=5.27e3, k_phi=1515.04e3,
-        cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.025,
-        unit_weight_n_m3=15.7e3,
-        source=(f"n, k_c, k_phi, c, phi: sandy loam (Hanamoto) 15 % moisture, {_WONG_T23}; "
-                "K = 0.025 m ASSUMED (Wong ch. 2.4: 1-2.5 cm for firm sandy soils, the "
-                "catalogue's longitudinal value); gamma_s 15.7 kN/m^3 ASSUMED (bulk density "
-                "1.6 t/m^3 of a moist sandy loam)")),
+        "sandy loam (LLL), 15 % moisture", n=0.7, k_c=5.27e3, k_phi=1515.04e3,
+        cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.006,
+        unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010,
+        source=(f"n, k_c, k_phi, c, phi: sandy loam (Land Locomotion Lab) 15 % moisture, "
+                f"{_WONG_T23}; K_x = 0.006 m and K_y = 0.010 m chosen on the TRAINING runs "
+                "of benchmarks/sweep_soil_params.py (borealtc SANDY_LOAM 01, 03, 05, 07, 10, "
+                "13; scored on 02, 04, 06, 08, 11) inside Wong's range of K for mineral "
+                "soils (ch. 2.4: about 0.6 cm for compact clay to 2.5 cm for loose sand); "
+                "gamma_s 15.7 kN/m^3 ASSUMED (bulk density 1.6 t/m^3 of a moist sandy "
+                "loam)")),
     "SNOW": SoilParams(
-        "snow (U.S.)", n=1.6, k_c=4.37e3, k_phi=196.72e3, cohesion_pa=1.03e3,
-        friction_angle_deg=19.7, shear_modulus_m=0.04, unit_weight_n_m3=2.45e3,
-        source=(f"n, k_c, k_phi, c, phi: snow (U.S.), {_WONG_T23}; K = 0.04 m ASSUMED "
-                "(the catalogue's longitudinal value for snow); gamma_s 2.45 kN/m^3 ASSUMED "
-                "(fresh forest snow, density 250 kg/m^3)")),
+        "snow (U.S., Harrison)", n=1.6, k_c=2.49e3, k_phi=245.90e3, cohesion_pa=0.62e3,
+        friction_angle_deg=23.2, shear_modulus_m=0.02, unit_weight_n_m3=2.45e3,
+        lateral_shear_modulus_m=0.05,
+        source=(f"n, k_c, k_phi, c, phi: snow (U.S., Harrison), {_WONG_T23}, chosen over "
+                "Wong's snow (U.S.) and snow (Sweden) rows on the TRAINING runs of "
+                "benchmarks/sweep_soil_params.py (borealtc SNOW 01, 03, 05, 07, 10, 12, 16, "
+                "18, 20, 23, 25; scored on the other 11); K_x = 0.02 m, K_y = 0.05 m chosen "
+                "on the same runs, ASSUMED range 0.02-0.05 m (no snow K in the sources "
+                "here; the catalogue's longitudinal value is 0.04 m); gamma_s 2.45 kN/m^3 "
+                "ASSUMED (fresh forest snow, density 250 kg/m^3)")),
 })
 
 
@@ -326,7 +347,7 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
     v = np.asarray(v_lateral_m_s, dtype=float)
     roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
-    scale = length / (contact.soil.shear_modulus_m * roll)     # a = scale |v|
+    scale = length / (contact.soil.shear_modulus_y_m * roll)     # a = scale |v|
     a = scale * np.abs(v)
     g = shear_mobilisation(a)
     x_l = v / slide_speed_m_s
@@ -341,8 +362,8 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
 def longitudinal_curve(contact: SoilContact, load_n: float) -> JanosiCurve:
     """Longitudinal Janosi-Hanamoto traction curve of the same wheel-soil contact.
 
-    The same soil parameters as the lateral law (one parameter set per terrain, isotropic
-    shear modulus K) on the sunk contact patch at ``load_n``:
+    The same soil parameters as the lateral law (one parameter set per terrain; the
+    longitudinal shear modulus K_x) on the sunk contact patch at ``load_n``:
     :meth:`terrain.terramechanics.traction.JanosiCurve.from_soil` with ``A = b l(N)``,
     ``L = l(N)``.
 

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from terrain.errors import ConfigError, DataFormatError
-from terrain.io.align import align_streams
+from terrain.io.align import align_arrays, align_streams, median_step, overlap_grid
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
 
@@ -137,3 +137,34 @@ def test_anti_alias_filter_does_not_smear_across_a_gap(make_run):
     # right up to the gap edges the step has not leaked through the zero-phase filter
     np.testing.assert_allclose(wz[tt <= 5.0], 0.0, atol=1e-9)
     np.testing.assert_allclose(wz[tt >= 7.0], 1.0, atol=1e-9)
+
+
+def test_numpy_core_on_part_of_the_grid_gives_the_values_of_the_whole(make_run):
+    # the streaming service aligns only its window's grid points: with a filtered 100 Hz
+    # IMU, a gap in the wheels and a sine, each grid point must equal the batch frame's
+    rng = np.random.default_rng(3)
+    t_imu = np.arange(0, 1001) / 100.0
+    t_wh = np.r_[np.arange(0, 31) / 6.5, 6.0 + np.arange(0, 26) / 6.5]
+    run = make_run({"imu": _imu(t_imu, wz=np.sin(2 * np.pi * 3 * t_imu)
+                                + 0.1 * rng.standard_normal(t_imu.size)),
+                    "wheels": _wheels(t_wh, vel_l=np.cos(t_wh))})
+    whole = align_streams(run, rate_hz=50.0)
+    times = [run.streams[s][TIME].to_numpy() for s in ("imu", "wheels")]
+    values = [run.streams[s].drop(columns=TIME).to_numpy() for s in ("imu", "wheels")]
+    grid = overlap_grid(times, 50.0)
+    np.testing.assert_array_equal(grid, whole[TIME].to_numpy())
+    part = slice(120, 260)  # crosses the wheel gap (4.6-6 s)
+    got = align_arrays(times, values, grid[part], 50.0)
+    expected = whole.drop(columns=TIME).to_numpy()[part]
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(expected))
+    assert np.isnan(got).any() and np.isfinite(got[:, :6]).all()
+    np.testing.assert_array_equal(got[np.isfinite(got)], expected[np.isfinite(expected)])
+
+
+def test_overlap_grid_is_empty_without_overlap_and_median_step_is_the_median():
+    assert overlap_grid([np.arange(5.0), 10 + np.arange(5.0)], 10.0).size == 0
+    with pytest.raises(ConfigError):
+        overlap_grid([np.arange(5.0)], 0.0)
+    for n in (2, 3, 10, 11):
+        t = np.cumsum(np.random.default_rng(n).uniform(0.01, 0.2, n))
+        assert median_step(t) == pytest.approx(float(np.median(np.diff(t))), abs=0, rel=1e-15)

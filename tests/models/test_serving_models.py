@@ -7,7 +7,7 @@ import pytest
 
 from terrain.io.shipped import read_shipped
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
-from terrain.serving import load_model, pip_requirements, runs_to_model_input, save_model
+from terrain.serving.pyfunc import load_model, pip_requirements, runs_to_model_input, save_model
 
 RUNS = ("vulpi/CONCRETE/1", "vulpi/PLOUGHED/3", "vulpi/UNPLOUGHED/1")
 

@@ -231,7 +231,7 @@ def test_help_shows_defaults_and_choices(capsys):
 
 def test_served_model_refuses_a_huge_finite_value(saved_model, vulpi_runs):
     from terrain.errors import ImplausibleValueError
-    from terrain.serving import load_model, runs_to_model_input
+    from terrain.serving.pyfunc import load_model, runs_to_model_input
 
     model, meta = load_model(saved_model)
     samples, _ = runs_to_model_input(vulpi_runs[:1], meta["channels"], float(meta["rate_hz"]))

@@ -62,9 +62,13 @@ def test_bulldozing_grows_with_depth_and_vanishes_without_sinkage():
 def test_soil_lateral_force_bounded_odd_and_grows_with_slip_angle():
     c = soil_contact(SOILS["SANDY_LOAM"], 0.11, 0.08, 0.1651, 4 * W)
     strength = np.interp(W, c.load_grid_n, c.strength_grid_n)
-    # c A + W tan(phi), no bulldozing on firm loam
-    assert strength == pytest.approx(1720.0 * 0.11 * 0.08 + W * np.tan(np.radians(29.0)),
-                                     rel=0.01)
+    # c A + W tan(phi) plus the bulldozing of a ~1 mm sinkage wall (n = 0.7, Wong T. 2.3)
+    z, length = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, SOILS["SANDY_LOAM"])
+    assert 0.5e-3 < z < 2e-3 and length == pytest.approx(0.08)
+    bull = bulldozing_force_n(z, length, SOILS["SANDY_LOAM"])
+    assert 0 < bull < 0.05 * W
+    assert strength == pytest.approx(1720.0 * 0.11 * 0.08 + W * np.tan(np.radians(29.0))
+                                     + bull, rel=0.01)
     v = np.array([-0.3, -0.05, 0.0, 0.05, 0.3])
     f, k = soil_lateral_force_and_slope(c, np.full(5, W), v, np.full(5, 0.3))
     assert np.all(np.abs(f) <= strength + 1e-9)
@@ -76,12 +80,16 @@ def test_soil_lateral_force_bounded_odd_and_grows_with_slip_angle():
     assert abs(f_slow[0]) > abs(f[3])
 
 
-def test_longitudinal_curve_is_the_catalogue_curve_on_sandy_loam():
-    c = soil_contact(SOILS["SANDY_LOAM"], 0.11, 0.08, 0.1651, 4 * W)
+def test_longitudinal_curve_is_the_catalogue_strength_with_the_soils_k_x():
+    loam = SOILS["SANDY_LOAM"]
+    c = soil_contact(loam, 0.11, 0.08, 0.1651, 4 * W)
     curve = longitudinal_curve(c, W)
     cat = get_terrain("SANDY_LOAM").curve
+    # same Mohr-Coulomb strength on the same 0.11 x 0.08 m patch as the catalogue (v1) curve
     assert curve.mu_max == pytest.approx(cat.mu_max, rel=1e-6)
-    assert curve.shear_slip == pytest.approx(cat.shear_slip, rel=1e-6)
+    # Janosi shear slip K / L with the v2 soil's longitudinal K_x (the lateral K_y differs)
+    assert curve.shear_slip == pytest.approx(loam.shear_modulus_m / 0.08, rel=1e-6)
+    assert loam.shear_modulus_y_m != loam.shear_modulus_m
 
 
 def test_load_transfer_balances_forces_and_moments():
@@ -153,3 +161,31 @@ def test_v1_is_the_default_and_unchanged_on_rigid_ground_without_acceleration():
 def test_unknown_physics_is_a_config_error():
     with pytest.raises(ConfigError, match="v1, v2"):
         SimConfig(physics="v3")
+
+
+def test_velocity_maps_are_the_rim_speed_kinematics_of_eq_4_20():
+    """velocity_maps calls vehicles.swerve.wheel_rim_speed (the one home of eq. 4.20); its
+    maps equal the closed-form rows ``(cos d, sin d, -y cos d + x sin d)`` and, across the
+    wheel, ``(-sin d, cos d, y sin d + x cos d)``, and map a twist onto the rim speeds."""
+    from terrain.sim.forces import contact_layout, velocity_maps
+    from terrain.vehicles.swerve import wheel_rim_speed
+    for name, chi in (("husky", 1.4), ("agrimaro", 1.0)):
+        veh = get_vehicle(name)
+        layout = contact_layout(veh.contact_geometry(), veh.mass_kg, 0.0, chi)
+        rng = np.random.default_rng(3)
+        d = rng.uniform(-np.pi, np.pi, len(layout.x_m)) if layout.steered else np.zeros(
+            len(layout.x_m))
+        maps = velocity_maps(layout, d)
+        x, y, yk = layout.x_m, layout.y_m, layout.y_kinematic_m
+        c, s = np.cos(d), np.sin(d)
+        np.testing.assert_allclose(maps.long_kinematic, np.column_stack([c, s, -yk * c + x * s]),
+                                   atol=1e-15)
+        np.testing.assert_allclose(maps.long_force, np.column_stack([c, s, -y * c + x * s]),
+                                   atol=1e-15)
+        np.testing.assert_allclose(maps.lateral, np.column_stack([-s, c, y * s + x * c]),
+                                   atol=1e-15)
+        twist = np.array([0.4, -0.1, 0.7])
+        np.testing.assert_allclose(maps.long_force @ twist,
+                                   wheel_rim_speed(*twist, x, y, d), atol=1e-15)
+        if not layout.steered:      # skid-steer: kinematic lines at chi y (Mandow 2007)
+            np.testing.assert_allclose(maps.long_kinematic[:, 2], -chi * y)

@@ -54,6 +54,14 @@ def test_dead_reckon_straight_and_circle():
     np.testing.assert_allclose(pose[-1, :2], 0.0, atol=1e-6)
     pose2 = dead_reckon(t, np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m, chi=2.0)
     assert pose2[-1, 2] == pytest.approx(np.pi)
+    # a gyro reading the true yaw rate (wheels' / chi) gives the chi = 2 path without chi
+    gyro = np.full_like(t, (vr - vl) / (2.0 * HUSKY.track_m))
+    pose3 = dead_reckon(t, np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m,
+                        chi=5.0, yaw_rate_rad_s=gyro)
+    np.testing.assert_allclose(pose3, pose2, atol=1e-9)
+    with pytest.raises(ShapeError):
+        dead_reckon(t, np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m,
+                    yaw_rate_rad_s=gyro[:5])
     with pytest.raises(TimeStepError):
         dead_reckon(t[::-1], np.full_like(t, vl), np.full_like(t, vr), HUSKY.track_m)
     with pytest.raises(ShapeError):
@@ -133,16 +141,24 @@ def test_compensated_odometry_beats_plain_with_true_slip(tiny_table):
 @pytest.mark.slow
 def test_slip_fit_command(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
+    # an earlier CLI call in this process exported its store (mlflow.set_tracking_uri)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
     out = tmp_path / "out"
     rc = cli_main(["slip-fit", "--terrains", "SANDY_LOAM", "SNOW", "--scenarios",
                    "straight_accel", "random", "--train-seeds", "0", "1", "--test-seeds",
-                   "100", "--duration-s", "14", "--cache-dir", str(tmp_path / "cache"),
-                   "--out", str(out), "--no-register"])
+                   "100", "--duration-s", "14", "--orchard-duration-s", "70",
+                   "--cache-dir", str(tmp_path / "cache"), "--out", str(out), "--no-register"])
     assert rc == 0
     summary = json.loads((out / "summary.json").read_text())
+    odo = pd.read_csv(out / "odometry.csv")
+    assert set(odo["scenario"]) == {"orchard_70s"} and len(odo) == 2   # one headland turn
+    assert summary["odometry.orchard_70s.gyro_reduction_of_median_pct"] > 60
+    calib = pd.read_csv(out / "std_calibration.csv")
+    assert calib["coverage_2std"].between(0.3, 1.0).all()
     assert summary["held-out_seeds.learned.SNOW.median_abs_err"] < 0.02
     assert summary["held-out_seeds.zero.SNOW.median_abs_err"] > 0.1
     errors = pd.read_csv(out / "slip_errors.csv")
-    assert {"held-out seeds", "leave-one-scenario-out", "leave-one-terrain-out"} <= set(
+    assert {"held-out seeds", "leave-one-scenario-out", "leave-one-terrain-out",
+            "leave-one-terrain-out-physics"} <= set(
         errors["split"])
     assert (tmp_path / "mlflow.db").exists()

@@ -86,6 +86,7 @@ def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_p
                                                                   monkeypatch):
     root, _ = sandy
     monkeypatch.chdir(tmp_path)           # no tracking store: the learned model is not found
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)   # exported by an earlier CLI call
     out = tmp_path / "states.csv"
     assert main(["estimate", str(root), "--out", str(out)]) == 0
     frame = pd.read_csv(out)
@@ -99,3 +100,20 @@ def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_p
         in printed
     assert main(["estimate", str(root), "--out", str(out), "--slip-model", "ekf"]) == 0
     assert "no slip model is used" in capsys.readouterr().out
+
+
+def test_pseudo_measurement_takes_the_calibrated_learned_std():
+    from terrain.slip.estimate import FusionSettings, pseudo_measurement
+    t = np.arange(3.0)
+    phys = (t, np.full((3, 2), 0.10), np.full((3, 2), 0.004))
+    learned = (t, np.full((3, 2), 0.12), np.array([[0.002] * 2, [np.nan] * 2, [1e-5] * 2]))
+    s = FusionSettings(min_std=0.001)
+    _, sl, vl = pseudo_measurement({"physics": phys, "learned": learned}, "learned", s)
+    np.testing.assert_allclose(sl, 0.12)
+    np.testing.assert_allclose(vl[0], 0.002)                        # calibrated std
+    np.testing.assert_allclose(vl[1], np.hypot(s.learned_std_floor, 0.02))  # no calibration
+    np.testing.assert_allclose(vl[2], s.min_std)                    # floor
+    _, sf, vf = pseudo_measurement({"physics": phys, "learned": learned}, "fused", s)
+    w = 0.004 ** -2 / (0.004 ** -2 + 0.002 ** -2)                   # inverse-variance weights
+    np.testing.assert_allclose(sf[0], w * 0.10 + (1 - w) * 0.12)
+    np.testing.assert_allclose(vf[0], 0.002)                        # the better one's std

@@ -128,7 +128,7 @@ class TerrainModel(PythonModel):
 
     def load_context(self, context: Any) -> None:
         """Load the fitted scikit-learn pipeline; settings from ``context.model_config``
-        when the model was logged from code (:mod:`terrain.serving_entry`)."""
+        when the model was logged from code (:mod:`terrain.serving.pyfunc_entry`)."""
         import joblib
         config = getattr(context, "model_config", None) or {}
         if config:
@@ -314,9 +314,9 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     path = tmp / PIPELINE_FILE
     joblib.dump(pipeline, path)
     window_d = {"window_s": window.window_s, "hop_s": window.hop_s, "rate_hz": window.rate_hz}
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]  # the checkout: terrain/, features/
     return dict(
-        python_model=str(Path(__file__).with_name("serving_entry.py")),
+        python_model=str(Path(__file__).with_name("pyfunc_entry.py")),
         model_config={"channels": list(channels), "window": window_d,
                       "classes": list(classes)},
         artifacts={"pipeline": str(path)},

@@ -21,10 +21,10 @@ import pytest
 
 from terrain.errors import DataFormatError
 from terrain.run import WHEEL_CHANNELS
-from terrain.serving import save_model
-from terrain.streaming import (StreamConfig, StreamService, TableTargets, decisions_frame,
-                               replay_run)
-from terrain.streaming.served import parse_request, save_served_model, served_settings
+from terrain.serving.pyfunc import save_model
+from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
+                             replay_run)
+from terrain.serving.served import parse_request, save_served_model, served_settings
 from terrain.control import DesiredSlipConfig
 
 COLUMNS = ["stream", "t_s", *WHEEL_CHANNELS]

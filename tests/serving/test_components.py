@@ -6,19 +6,20 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.streaming.buffers import RingBuffer
-from terrain.streaming.rules import finite_values, plausible_gyro, time_increasing
-from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig, forward_step
-from terrain.streaming.targets import CataloguePeakTargets
+from terrain.serving.buffers import RingBuffer
+from terrain.serving.rules import finite_values, plausible_gyro, time_increasing
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig, forward_step
+from terrain.serving.targets import CataloguePeakTargets
 from terrain.terramechanics import get_terrain, steady_slip
 
 
 def test_ring_buffer_keeps_newest_samples_in_order_and_never_grows():
     buf = RingBuffer(2, capacity=50)
+    shape = buf._t.shape, buf._v.shape  # fixed at construction (a mirrored ring: 2 x 50)
     t = np.arange(1000) * 0.01
     for a in range(0, 1000, 7):  # odd chunk size: wraps at every position
         buf.append(t[a:a + 7], np.column_stack([t[a:a + 7], -t[a:a + 7]]))
-    assert len(buf) == 50 and buf._t.shape == (50,)
+    assert len(buf) == 50 and (buf._t.shape, buf._v.shape) == shape == ((100,), (100, 2))
     ts, vs = buf.since(-np.inf)
     np.testing.assert_array_equal(ts, t[-50:])
     np.testing.assert_array_equal(vs[:, 1], -t[-50:])
@@ -109,7 +110,7 @@ def test_catalogue_targets_are_the_curve_peaks_and_the_fallback_the_slipperiest(
 
 def test_table_targets_follow_the_desired_slip_table_and_its_fallback():
     from terrain.control import build_slip_table, select_target
-    from terrain.streaming.targets import TableTargets
+    from terrain.serving.targets import TableTargets
 
     classes = ["ASPHALT", "ICE", "SNOW"]
     targets = TableTargets(classes)

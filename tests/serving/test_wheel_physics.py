@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from terrain.errors import ConfigError
-from terrain.streaming.evaluation import (concatenated_streams, score_stream,
-                                          switching_delays, truth_at)
+from terrain.serving.evaluation import (concatenated_streams, pool_scores, score_stream,
+                                        switching_delays, truth_at)
 
 RATE = 10.0
 
@@ -85,6 +86,14 @@ def test_switching_delay_and_accuracy_of_known_decisions(borealtc_runs):
     changes = [s for p, s in zip(segs[:-1], segs[1:]) if s.terrain != p.terrain]
     assert len(delays) == len(changes)
     np.testing.assert_allclose(delays, 3.0, atol=0.5 + 1e-9)
-    score = score_stream(segs, t, decided)
+    score = score_stream(segs, t, decided, window_s=3.0)
     assert 0.9 < score.accuracy < 1.0 and score.median_delay_s == pytest.approx(
         np.median(delays))
+    # every wrong decision is within 3 s of a switch: the settled ones are all right
+    assert score.accuracy_settled == 1.0 and 0 < score.n_settled < score.n_decisions
+    assert sum(sum(r.values()) for r in score.confusion.values()) == score.n_decisions
+    pooled = pool_scores(pd.DataFrame([score.__dict__ | {"delays_s": list(score.delays_s)}
+                                       for _ in range(2)]))
+    assert pooled["accuracy"] == pytest.approx(score.accuracy)
+    assert pooled["n_switches"] == 2 * len(delays)
+    assert all(0.8 < r <= 1.0 for r in pooled["recall"].values())

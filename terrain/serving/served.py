@@ -2,8 +2,8 @@
 
 :class:`ServedStreamModel` bundles the fitted window classifier (the ``pipeline.joblib`` of
 a model written by ``terrain train --model-out``), its windowing, the smoothing settings and
-the desired-slip table (:class:`~terrain.streaming.targets.TableTargets`). Each request is
-replayed through a fresh :class:`~terrain.streaming.service.StreamService` (samples in
+the desired-slip table (:class:`~terrain.serving.targets.TableTargets`). Each request is
+replayed through a fresh :class:`~terrain.serving.service.StreamService` (samples in
 timestamp order, streams interleaved), so the served answer is exactly what the in-process
 service would have decided on the same samples; nothing is resampled by the client.
 
@@ -41,11 +41,11 @@ from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, No
                             NonNumericError, TerrainError, TimestampError)
 from terrain.io.plausibility import NOMINAL_RATE_HZ, check_ranges, check_rate
 from terrain.run import TIME, Run
-from terrain.streaming.model import PIPELINE_ARTIFACT, StreamModel, load_stream_model
-from terrain.streaming.replay import replay_run
-from terrain.streaming.service import StreamConfig, StreamService, decisions_frame
-from terrain.streaming.smoothing import SmoothingConfig
-from terrain.streaming.targets import TableTargets
+from terrain.serving.model import PIPELINE_ARTIFACT, StreamModel, load_stream_model
+from terrain.serving.replay import replay_run
+from terrain.serving.service import StreamConfig, StreamService, decisions_frame
+from terrain.serving.smoothing import SmoothingConfig
+from terrain.serving.targets import TableTargets
 
 try:  # mlflow is a hard dependency; the guard keeps the module importable for docs tools
     from mlflow.exceptions import MlflowException
@@ -246,7 +246,7 @@ class ServedStreamModel(PythonModel):
 
     Settings come from the model's ``model_config`` (:func:`served_settings`), the fitted
     classifier from the ``pipeline`` artifact; the model is logged from code
-    (:mod:`terrain.streaming.served_entry`), so no Python object is pickled.
+    (:mod:`terrain.serving.served_entry`), so no Python object is pickled.
     """
 
     def __init__(self) -> None:
@@ -342,7 +342,7 @@ def save_served_model(path: str | Path, model_dir: str | Path, settings: dict | 
         New MLflow model directory (must not exist or be empty).
     model_dir : str or Path
         Model directory of ``terrain train --model-out`` (its pipeline and metadata are read
-        with :func:`terrain.streaming.load_stream_model`).
+        with :func:`terrain.serving.load_stream_model`).
     settings : dict, optional
         :func:`served_settings` (its defaults when omitted).
     pip_requirements : sequence of str, optional

@@ -8,7 +8,7 @@ import pytest
 from features.windows import WindowConfig, make_windows
 from terrain.models.experiment import inference_pipeline
 from terrain.models.svm import SVMConfig
-from terrain.streaming import StreamModel
+from terrain.serving import StreamModel
 
 
 def _fit(runs, signals, rate_hz):

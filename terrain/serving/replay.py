@@ -3,7 +3,7 @@
 :func:`interleave` merges the streams of a run into one time-ordered sequence of chunks
 (consecutive samples of the same stream form one chunk, so the service sees exactly what a
 robot publishing each sample as it is measured would give it). :func:`replay_run` pushes
-them through a :class:`~terrain.streaming.service.StreamService`.
+them through a :class:`~terrain.serving.service.StreamService`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from terrain.run import TIME, Run
-from terrain.streaming.service import Decision, StreamService
+from terrain.serving.service import Decision, StreamService
 
 
 def interleave(run: Run, streams: Sequence[str], max_chunk: int = 1

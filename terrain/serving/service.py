@@ -2,16 +2,18 @@
 
 Samples of each stream arrive one by one or in chunks, each stream at its own rate and on
 its own clock (an optional per-stream offset maps it onto the service clock). Each stream
-keeps a bounded :class:`~terrain.streaming.buffers.RingBuffer`, so memory is fixed for an
+keeps a bounded :class:`~terrain.serving.buffers.RingBuffer`, so memory is fixed for an
 unbounded stream. Every ``hop_s`` of service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
-2. aligns them with the project's alignment step (:func:`terrain.io.align.align_streams`),
-   adds the derived wheel channels (:func:`features.windows.add_derived_channels`) and
-   keeps the last window of the model's length,
+2. aligns the last window of the model's length with the project's NumPy alignment core
+   (:func:`terrain.io.align.overlap_grid` and :func:`terrain.io.align.align_arrays`, the
+   step the batch readers' :func:`~terrain.io.align.align_streams` runs) and adds the
+   derived wheel channels (:func:`features.windows.derived_wheel_arrays`); the whole
+   per-decision path works on arrays, no data frame,
 3. classifies it with the fitted pipeline (the model's own feature code),
-4. folds the probabilities into the forward filter (:mod:`terrain.streaming.smoothing`),
-5. asks the injected :class:`~terrain.streaming.targets.TargetProvider` for the slip
+4. folds the probabilities into the forward filter (:mod:`terrain.serving.smoothing`),
+5. asks the injected :class:`~terrain.serving.targets.TargetProvider` for the slip
    targets, passing ``terrain=None`` (the conservative fallback) below ``min_confidence``.
 
 A decision is due at service time ``t`` once every needed stream has reached ``t``, or once
@@ -21,7 +23,7 @@ some stream is ``stale_s`` past ``t`` while another lags (the decision is then f
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
 ``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` (samples rejected by the
-rules of :mod:`terrain.streaming.rules` inside the window), ``low_confidence`` (fallback
+rules of :mod:`terrain.serving.rules` inside the window), ``low_confidence`` (fallback
 target).
 """
 
@@ -35,15 +37,15 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from features.windows import add_derived_channels
+from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
-from terrain.io.align import align_streams
-from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
-from terrain.streaming.buffers import RingBuffer
-from terrain.streaming.model import StreamModel
-from terrain.streaming.rules import DEFAULT_RULES, SampleRule
-from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
-from terrain.streaming.targets import TargetProvider
+from terrain.io.align import align_arrays, overlap_grid
+from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
+from terrain.serving.buffers import RingBuffer
+from terrain.serving.model import StreamModel
+from terrain.serving.rules import DEFAULT_RULES, SampleRule
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+from terrain.serving.targets import TargetProvider
 
 #: Stream name -> channels, as the readers name them (``terrain.io.measured``).
 KNOWN_STREAMS: Mapping[str, tuple[str, ...]] = MappingProxyType(
@@ -165,6 +167,13 @@ class StreamService:
         self._pipe_cols = [list(model.pipeline.classes_).index(c)
                            if c in list(model.pipeline.classes_) else -1
                            for c in model.classes]
+        # aligned columns: every stream's channels in order, then the derived wheel channels
+        flat = [c for ch in self.streams.values() for c in ch]
+        self._wheel_cols = [flat.index(c) for c in WHEEL_CHANNELS] \
+            if set(WHEEL_CHANNELS) <= set(flat) else None
+        if self._wheel_cols is not None:
+            flat += list(DERIVED_WHEEL_CHANNELS)
+        self._x_cols = np.array([flat.index(c) for c in model.channels])
 
     @property
     def needed_streams(self) -> tuple[str, ...]:
@@ -253,8 +262,8 @@ class StreamService:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
         w = self.model.window
         lo = t - w.window_s - 2.0 / w.rate_hz
-        frames, gap = {}, False
-        for s, buf in self._buffers.items():
+        times, values, steps, gap = [], [], [], False
+        for buf in self._buffers.values():
             ts, vs = buf.since(lo)
             cut = int(np.searchsorted(ts, t, side="right")) + 1  # one sample past t
             ts, vs = ts[:cut], vs[:cut]
@@ -262,25 +271,27 @@ class StreamService:
                 return None, np.inf, {"short"}
             # a gap is judged against the stream's usual step (the readers' rule), not the
             # few samples of one window, which a long gap would dominate
-            if (np.diff(ts) > self.config.gap_factor * buf.median_step()).any():
+            steps.append(buf.median_step())
+            if (np.diff(ts) > self.config.gap_factor * steps[-1]).any():
                 gap = True
-            frames[s] = pd.DataFrame({TIME: ts, **{c: vs[:, j]
-                                                   for j, c in enumerate(self.streams[s])}})
-        run = Run("stream", "stream", None, frames)
-        try:
-            aligned = align_streams(run, tuple(frames), w.rate_hz, self.config.gap_factor)
-        except DataFormatError:  # streams do not overlap inside the window
+            times.append(ts)
+            values.append(vs)
+        grid = overlap_grid(times, w.rate_hz)
+        if grid.size == 0:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s)
-        grid = aligned[TIME].to_numpy()
         end = int(np.searchsorted(grid, t - 1e-9, side="left"))
         period = 1.0 / w.rate_hz
         if end < self._n:
             age = max(0.0, t - float(grid[end - 1]) - period) if end else np.inf
             return None, age, {"short"}
-        aligned = add_derived_channels(aligned.iloc[end - self._n:end])
         age = max(0.0, t - float(grid[end - 1]) - period)
-        X = aligned[list(self.model.channels)].to_numpy(dtype=float).T[None]
+        aligned = align_arrays(times, values, grid[end - self._n:end], w.rate_hz,
+                               self.config.gap_factor, steps).T
+        if self._wheel_cols is not None:
+            derived = derived_wheel_arrays(*aligned[self._wheel_cols])
+            aligned = np.concatenate([aligned, np.stack(list(derived.values()))])
+        X = aligned[self._x_cols][None]
         if gap or not np.isfinite(X).all():
             return None, age, {"gap"}
         return X, age, set()

@@ -6,8 +6,8 @@ import pandas as pd
 import pytest
 
 from terrain.cli import main
-from terrain.serving import save_model
-from terrain.streaming import load_stream_model
+from terrain.serving.pyfunc import save_model
+from terrain.serving import load_stream_model
 
 COLUMNS_TAIL = ["target_slip_traction", "target_slip_braking", "target_slip_steady",
                 "window_age_s", "flags"]

@@ -9,6 +9,6 @@ avoids serializing a Python object with cloudpickle
 
 from mlflow.models import set_model
 
-from terrain.serving import TerrainModel
+from terrain.serving.pyfunc import TerrainModel
 
 set_model(TerrainModel())

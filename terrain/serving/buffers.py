@@ -1,7 +1,9 @@
 """Bounded ring buffer of one stream's samples: timestamps and channel values.
 
 Memory is fixed at construction (``capacity`` rows), so an unbounded stream never grows it:
-the oldest samples are overwritten.
+the oldest samples are overwritten. Every sample is stored twice, at its slot and at slot +
+``capacity`` (a mirrored ring), so the kept samples are always one contiguous slice: reading
+a window is a binary search and a slice, with no gather over the whole buffer.
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from terrain.errors import ConfigError
+from terrain.io.align import median_step
 
 
 class RingBuffer:
@@ -32,8 +35,8 @@ class RingBuffer:
             raise ConfigError(f"ring buffer needs n_channels > 0 and capacity > 0, got "
                               f"{n_channels}, {capacity}")
         self.capacity = int(capacity)
-        self._t = np.empty(self.capacity)
-        self._v = np.empty((self.capacity, n_channels))
+        self._t = np.empty(2 * self.capacity)
+        self._v = np.empty((2 * self.capacity, n_channels))
         self._next = 0  # slot the next sample goes to
         self._size = 0
 
@@ -43,12 +46,12 @@ class RingBuffer:
     @property
     def last_t(self) -> float:
         """Timestamp of the newest sample, s (``-inf`` when empty)."""
-        return float(self._t[(self._next - 1) % self.capacity]) if self._size else -np.inf
+        return float(self._t[self._next - 1 + self.capacity]) if self._size else -np.inf
 
     @property
     def first_t(self) -> float:
         """Timestamp of the oldest kept sample, s (``inf`` when empty)."""
-        return float(self._t[(self._next - self._size) % self.capacity]) if self._size \
+        return float(self._t[self._next - self._size + self.capacity]) if self._size \
             else np.inf
 
     def append(self, t_s: np.ndarray, values: np.ndarray) -> None:
@@ -67,6 +70,8 @@ class RingBuffer:
         idx = (self._next + np.arange(n)) % self.capacity
         self._t[idx] = t_s
         self._v[idx] = values
+        self._t[idx + self.capacity] = t_s
+        self._v[idx + self.capacity] = values
         self._next = (self._next + n) % self.capacity
         self._size = min(self.capacity, self._size + n)
 
@@ -88,12 +93,10 @@ class RingBuffer:
         values : numpy.ndarray
             ``(m, n_channels)``.
         """
-        if self._size == 0:
-            return self._t[:0].copy(), self._v[:0].copy()
-        idx = (self._next - self._size + np.arange(self._size)) % self.capacity
-        t = self._t[idx]
+        end = self._next + self.capacity
+        t = self._t[end - self._size:end]
         start = max(0, int(np.searchsorted(t, t_min_s, side="left")) - 1)
-        return t[start:], self._v[idx[start:]]
+        return t[start:].copy(), self._v[end - self._size + start:end].copy()
 
     def median_step(self, last: int = 64) -> float:
         """Median time step of the newest ``last`` samples, s (``nan`` with < 2 samples).
@@ -111,5 +114,5 @@ class RingBuffer:
         m = min(self._size, last)
         if m < 2:
             return float("nan")
-        idx = (self._next - m + np.arange(m)) % self.capacity
-        return float(np.median(np.diff(self._t[idx])))
+        end = self._next + self.capacity
+        return median_step(self._t[end - m:end])

@@ -16,7 +16,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Callable, Mapping, Sequence
 
@@ -32,11 +32,11 @@ from terrain.errors import ConfigError
 from terrain.models.cv import iter_splits
 from terrain.models.svm import SVMConfig, make_svm
 from terrain.run import TIME, Run
-from terrain.streaming.model import StreamModel
-from terrain.streaming.replay import replay_run
-from terrain.streaming.service import StreamConfig, StreamService
-from terrain.streaming.smoothing import ForwardFilter, SmoothingConfig
-from terrain.streaming.targets import CataloguePeakTargets
+from terrain.serving.model import StreamModel
+from terrain.serving.replay import replay_run
+from terrain.serving.service import StreamConfig, StreamService
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+from terrain.serving.targets import CataloguePeakTargets
 
 
 def wheel_features(channels: tuple[str, ...], rate_hz: float,
@@ -461,11 +461,22 @@ class StreamScore:
         Switching delay of every terrain switch, s (``inf``: never followed).
     n_decisions : int
         Decisions scored.
+    accuracy_settled : float
+        Accuracy of the decisions whose whole window (``window_s`` of history) lies inside
+        one piece, i.e. away from the switch transients (NaN when there are none).
+    n_settled : int
+        Decisions in ``accuracy_settled``.
+    confusion : Mapping[str, Mapping[str, int]]
+        True terrain -> decided terrain (``"none"`` before any decision) -> decisions.
     """
 
     accuracy: float
     delays_s: tuple[float, ...]
     n_decisions: int
+    accuracy_settled: float = float("nan")
+    n_settled: int = 0
+    confusion: Mapping[str, Mapping[str, int]] = field(
+        default_factory=lambda: MappingProxyType({}))
 
     @property
     def median_delay_s(self) -> float:
@@ -473,9 +484,9 @@ class StreamScore:
         return float(np.median(self.delays_s)) if self.delays_s else float("nan")
 
 
-def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarray
-                 ) -> StreamScore:
-    """Accuracy and switching delays of decisions on a concatenated stream.
+def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarray,
+                 window_s: float = 0.0) -> StreamScore:
+    """Accuracy, settled accuracy, confusion and switching delays of stream decisions.
 
     Parameters
     ----------
@@ -484,6 +495,9 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
         ``(n,)`` decision times, s.
     decided : numpy.ndarray
         ``(n,)`` decided terrain names (object; ``None`` before any decision).
+    window_s : float
+        History a decision rests on, s: a decision is settled when ``[t - window_s, t)``
+        lies inside its piece.
 
     Returns
     -------
@@ -491,8 +505,17 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
     """
     truth = truth_at(segments, t_s)
     sel = truth != None  # noqa: E711 (element-wise)
-    acc = float((decided[sel] == truth[sel]).mean()) if sel.any() else float("nan")
-    return StreamScore(acc, tuple(switching_delays(segments, t_s, decided)), int(sel.sum()))
+    ok = decided == truth
+    acc = float(ok[sel].mean()) if sel.any() else float("nan")
+    settled = sel & (truth_at(segments, t_s - window_s) == truth)
+    acc_settled = float(ok[settled].mean()) if settled.any() else float("nan")
+    confusion: dict[str, dict[str, int]] = {}
+    for true, got in zip(truth[sel], decided[sel]):
+        row = confusion.setdefault(str(true), {})
+        key = "none" if got is None else str(got)
+        row[key] = row.get(key, 0) + 1
+    return StreamScore(acc, tuple(switching_delays(segments, t_s, decided)), int(sel.sum()),
+                       acc_settled, int(settled.sum()), confusion)
 
 
 def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
@@ -522,7 +545,8 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
     -------
     pandas.DataFrame
         One row per fold and smoothing: ``fold, smoothing, accuracy, median_delay_s,
-        n_switches, n_decisions, delays_s``.
+        n_switches, n_decisions, accuracy_settled, n_settled, delays_s, confusion`` (see
+        :class:`StreamScore`).
     """
     need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
     usable = [r for r in runs if all(s in r.streams for s in need)]
@@ -537,12 +561,50 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
         names = np.array(list(model.classes) + [None], dtype=object)
         for name, config in smoothings.items():
             decided = names[filter_sequence(proba, hop_s, config)]
-            score = score_stream(segments, t, decided)
+            score = score_stream(segments, t, decided, recipe.window_s)
             rows.append({"fold": fold, "smoothing": name, "accuracy": score.accuracy,
                          "median_delay_s": score.median_delay_s,
                          "n_switches": len(score.delays_s), "n_decisions": score.n_decisions,
-                         "delays_s": list(score.delays_s)})
+                         "accuracy_settled": score.accuracy_settled,
+                         "n_settled": score.n_settled, "delays_s": list(score.delays_s),
+                         "confusion": score.confusion})
     return pd.DataFrame(rows)
+
+
+def pool_scores(rows: pd.DataFrame) -> dict:
+    """Rows of :func:`held_out_streams` (one smoothing, any folds and seeds) pooled.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        Rows with ``accuracy, n_decisions, accuracy_settled, n_settled, delays_s,
+        confusion``.
+
+    Returns
+    -------
+    dict
+        ``accuracy`` (weighted by decisions), ``accuracy_settled`` (weighted by settled
+        decisions), ``median_delay_s`` (median of every switching delay, s), ``n_switches``,
+        ``recall`` (true class -> share of its decisions naming it) and ``confusion`` (the
+        summed true -> decided counts).
+    """
+    delays = np.concatenate([np.asarray(d, float) for d in rows["delays_s"]])
+    confusion: dict[str, dict[str, int]] = {}
+    for conf in rows["confusion"]:
+        for true, row in conf.items():
+            out = confusion.setdefault(true, {})
+            for got, n in row.items():
+                out[got] = out.get(got, 0) + int(n)
+    settled = rows["n_settled"] > 0
+    return {"accuracy": float(np.average(rows["accuracy"], weights=rows["n_decisions"])),
+            "accuracy_settled": float(np.average(rows.loc[settled, "accuracy_settled"],
+                                                 weights=rows.loc[settled, "n_settled"]))
+            if settled.any() else float("nan"),
+            "median_delay_s": float(np.median(delays)) if delays.size else float("nan"),
+            "n_switches": int(delays.size),
+            "recall": {t: row.get(t, 0) / sum(row.values())
+                       for t, row in sorted(confusion.items())},
+            "confusion": confusion}
 
 
 def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Sequence[int],

@@ -10,10 +10,10 @@ import pytest
 from features.windows import add_derived_channels, window_frame
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_streams
-from terrain.run import TIME, WHEEL_CHANNELS
-from terrain.streaming import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
-                               StreamService, decisions_frame, replay_run)
-from terrain.streaming.service import MAX_EVENTS
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
+                             StreamService, decisions_frame, replay_run)
+from terrain.serving.service import MAX_EVENTS
 
 RAW = SmoothingConfig(dwell_s=None)
 
@@ -56,6 +56,30 @@ def test_windows_are_the_batch_windows_when_samples_sit_on_the_model_clock(
     order = [list(wheel_model.pipeline.classes_).index(c) for c in wheel_model.classes]
     np.testing.assert_allclose(got, expected[:, order], atol=1e-6)
     assert all(d.flags == "" and d.window_age_s < 1e-6 for d in decisions[:n])
+
+
+def test_imu_and_wheel_decisions_are_the_batch_predictions_on_the_model_clock(
+        all_model, unseen_run):
+    # both streams already on the model's clock (the batch alignment of the run), pushed
+    # as two interleaved streams: every streamed window, derived channels included, is the
+    # batch window of the same span and the service's probabilities are batch predict's
+    rate = all_model.window.rate_hz
+    frame = add_derived_channels(align_streams(unseen_run, ("imu", "wheels"), rate))
+    frame = frame.iloc[:int(30 * rate)]
+    svc = service(all_model, hop_s=all_model.window.window_s)
+    decisions = []
+    for row in frame.itertuples(index=False):
+        for stream, chans in (("imu", IMU_CHANNELS), ("wheels", WHEEL_CHANNELS)):
+            decisions += svc.push(stream, row.t_s, {c: getattr(row, c) for c in chans})
+    X, t0, t1, _, _ = window_frame(frame, all_model.channels, all_model.window)
+    n = min(len(decisions), len(X))
+    assert n >= len(X) - 1 >= 10
+    np.testing.assert_allclose([d.t_s for d in decisions[:n]], t1[:n], atol=1e-9)
+    order = [list(all_model.pipeline.classes_).index(c) for c in all_model.classes]
+    expected = all_model.pipeline.predict_proba(X[:n])[:, order]
+    np.testing.assert_allclose(np.array([d.proba for d in decisions[:n]]), expected,
+                               atol=1e-6)
+    assert all(d.flags == "" for d in decisions[:n])
 
 
 def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run):

@@ -1,0 +1,241 @@
+"""Sweep physics-v2 soil parameters on training runs; score them on held-out runs.
+
+Issue 14 allows parameters of the lateral wheel-soil model to be chosen on measured runs
+only inside the literature ranges and only on *training* runs. This script fixes the split
+(per terrain, runs in run-id order: positions 0, 2, 4, ... train, 1, 3, 5, ... held out),
+replays every run once with physics v1 (the reference clock of
+:func:`terrain.audit.physics.per_run_errors`) and, for each candidate
+:class:`terrain.terramechanics.lateral.SoilParams` (overrides of the shipped entry), with
+physics v2; it prints the yaw-rate and current RMSE of both versions on the training and the
+held-out runs, and the chi of a simulated spin and orchard headland turn (Husky, seed 1; the
+same manoeuvres as docs/physics_v2.md). Nothing is written to the repository.
+
+Run::
+
+    python benchmarks/sweep_soil_params.py --terrain SANDY_LOAM \\
+        --variants '[{}, {"lateral_shear_modulus_m": 0.01}]'
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+from types import MappingProxyType
+
+import numpy as np
+
+import terrain.sim.dynamics as dynamics
+from terrain.audit.frames import MANOEUVRES, prepare_frame
+from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, gain_table,
+                                   per_run_errors)
+from terrain.audit.replay import ReplaySettings, replay_run
+from terrain.io.shipped import load_dataset
+from terrain.sim import SimConfig
+from terrain.sim.simulate import simulate_with_physics
+from terrain.terramechanics.lateral import SOILS
+from terrain.vehicles import HUSKY
+from terrain.vehicles.icr import icr_expansion_factor
+
+SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
+
+
+def split(runs):
+    """Training and held-out runs of one terrain (alternating in run-id order).
+
+    Parameters
+    ----------
+    runs : list of Run
+        Runs of one terrain.
+
+    Returns
+    -------
+    train, held : list of Run
+        Positions 0, 2, 4, ... and 1, 3, 5, ... of the runs sorted by run id.
+    """
+    runs = sorted(runs, key=lambda r: r.run_id)
+    return runs[0::2], runs[1::2]
+
+
+def rmse(errs, sig, scope):
+    """Pooled RMSE of one signal within a manoeuvre scope over runs' error dicts.
+
+    Parameters
+    ----------
+    errs : list of dict
+        Per run, :func:`terrain.audit.physics._errors` (signal -> squared errors, manoeuvre).
+    sig : str
+        Signal (``wz``, ``cur``, ...).
+    scope : str or None
+        Manoeuvre name, or None for every moving sample.
+
+    Returns
+    -------
+    float
+        RMSE in the signal's unit (NaN without samples).
+    """
+    s, n = 0.0, 0
+    for e in errs:
+        if sig not in e:
+            continue
+        sq, man = e[sig]
+        keep = man != MANOEUVRES.index("stop") if scope is None else man == MANOEUVRES.index(
+            scope)
+        s += float(np.sum(sq[keep]))
+        n += int(np.count_nonzero(keep))
+    return np.sqrt(s / n) if n else np.nan
+
+
+def sim_chi(terrain, scenario, duration):
+    """chi of a simulated Husky manoeuvre with physics v2 (docs/physics_v2.md, chi table).
+
+    Parameters
+    ----------
+    terrain : str
+        Catalogue terrain.
+    scenario : str
+        ``spin`` or ``orchard`` (headland turns).
+    duration : float
+        Simulated time, s.
+
+    Returns
+    -------
+    float
+        Least-squares chi of the yaw rate on ``(v_R - v_L) / B`` where ``|x| > 0.1 rad/s``.
+    """
+    sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,),
+                                          scenario=scenario, duration_s=duration, seed=1,
+                                          physics="v2"))
+    ph = sim.physics
+    v = ph.omega * HUSKY.wheel_radius_m
+    x = (v[:, 1] - v[:, 0]) / HUSKY.track_m
+    m = np.abs(x) > 0.1
+    return icr_expansion_factor(ph.twist[m, 2], x[m])
+
+
+def per_run_chi(terrain: str) -> int:
+    """Per run and manoeuvre: chi of the measured yaw rate and of both replays, currents.
+
+    Parameters
+    ----------
+    terrain : str
+        BorealTC terrain.
+
+    Returns
+    -------
+    int
+        0 (the table is printed).
+    """
+    for r in sorted((r for r in load_dataset("borealtc") if r.terrain == terrain),
+                    key=lambda r: r.run_id):
+        f = prepare_frame(r, replay_run(r, ReplaySettings(physics="v1")))
+        rep = replay_run(r, ReplaySettings(physics="v2"))
+        wz2 = _on(f, rep.yaw_rate)
+        cur2 = np.column_stack([_on(f, rep.cur[:, 0]), _on(f, rep.cur[:, 1])])
+        for scope in ("curve", "spin"):
+            m = (f.score_imu & np.isfinite(f.wz) & (f.manoeuvre == MANOEUVRES.index(scope))
+                 & (np.abs(f.commanded_yaw_rate) > 0.1))
+            if m.sum() < 20:
+                continue
+            x = f.commanded_yaw_rate[m]
+            print(f"{r.run_id} {scope}: n {m.sum()}, |x| {np.mean(np.abs(x)):.2f} rad/s, chi "
+                  f"measured {icr_expansion_factor(f.wz[m], x):.3g} v1 "
+                  f"{icr_expansion_factor(f.sim_wz[m], x):.3g} v2 "
+                  f"{icr_expansion_factor(wz2[m], x):.3g}; current measured "
+                  f"{f.cur[m].mean():.1f} v1 {f.sim_cur[m].mean():.1f} v2 {cur2[m].mean():.1f} A")
+    return 0
+
+
+def heldout_table(path: str) -> int:
+    """Gain of v2 over v1 on the held-out runs only (see ``--heldout-table``).
+
+    Parameters
+    ----------
+    path : str
+        CSV written with :func:`terrain.audit.physics.gain_table`'s columns.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    runs = load_dataset("borealtc")
+    held = []
+    for terrain in sorted({r.terrain for r in runs}):
+        group = [r for r in runs if r.terrain == terrain]
+        held += split(group)[1] if terrain in SOILS else group
+    settings = PhysicsComparisonSettings()
+    per_run, _ = per_run_errors(held, settings)
+    table = gain_table(per_run, settings)
+    table.to_csv(path, index=False)
+    keep = table.signal.isin(["wz", "cur"]) & table.scope.isin(["moving", "curve", "spin"])
+    print(table[keep].round(4).to_string(index=False))
+    return 0
+
+
+def main() -> int:
+    """Run the sweep; returns 0."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--terrain", required=True)
+    ap.add_argument("--variants", default="[{}]", help="JSON list of SoilParams overrides")
+    ap.add_argument("--no-chi", action="store_true")
+    ap.add_argument("--heldout-table", metavar="CSV",
+                    help="instead of a sweep: v2 (shipped parameters) against v1 on the runs no "
+                         "parameter was chosen on (every run of the terrains without a swept "
+                         "soil, the held-out half of SANDY_LOAM and SNOW), the gain table of "
+                         "terrain.audit.physics written to CSV")
+    ap.add_argument("--per-run-chi", action="store_true",
+                    help="instead of a sweep: per run of --terrain and manoeuvre (curve, spin), "
+                         "the chi of the measured gyro, the v1 and the v2 replay and the mean "
+                         "measured and replayed currents")
+    args = ap.parse_args()
+    if args.per_run_chi:
+        return per_run_chi(args.terrain)
+    if args.heldout_table:
+        return heldout_table(args.heldout_table)
+    variants = json.loads(args.variants)
+    runs = [r for r in load_dataset("borealtc") if r.terrain == args.terrain]
+    train, held = split(runs)
+    print("training:", [r.run_id.split("/")[-1] for r in train])
+    print("held out:", [r.run_id.split("/")[-1] for r in held])
+    settings = ReplaySettings()
+    refs = {r.run_id: prepare_frame(r, replay_run(r, replace(settings, physics="v1")))
+            for r in runs}
+    base = {k: [_errors(refs[r.run_id], refs[r.run_id]) for r in rs]
+            for k, rs in (("train", train), ("held", held))}
+    original = dynamics.SOILS
+    cols = [f"{s}_{sc}" for s in ("wz", "cur") for sc in SCOPES]
+    print("variant | " + " | ".join(f"{k}:{c}" for k in ("train", "held") for c in cols)
+          + " | chi spin | chi headland")
+    print("v1 | " + " | ".join(f"{rmse(base[k], s, SCOPES[sc]):.4g}" for k in ("train", "held")
+                                for s in ("wz", "cur") for sc in SCOPES))
+    try:
+        for var in variants:
+            if args.terrain in SOILS:
+                soil = replace(SOILS[args.terrain], **var)
+                dynamics.SOILS = MappingProxyType({**SOILS, args.terrain: soil})
+            errs = {}
+            for k, rs in (("train", train), ("held", held)):
+                errs[k] = []
+                for r in rs:
+                    ref = refs[r.run_id]
+                    rep = replay_run(r, replace(settings, physics="v2"))
+                    new = replace(ref, sim_wz=_on(ref, rep.yaw_rate), sim_ax=_on(ref, rep.ax),
+                                  sim_ay=_on(ref, rep.ay), sim_vx=_on(ref, rep.v_x),
+                                  sim_cur=np.column_stack([_on(ref, rep.cur[:, 0]),
+                                                           _on(ref, rep.cur[:, 1])]))
+                    errs[k].append(_errors(ref, new))
+            chi = ("", "") if args.no_chi else (
+                f"{sim_chi(args.terrain, 'spin', 32.0):.3g}",
+                f"{sim_chi(args.terrain, 'orchard', 100.0):.3g}")
+            print(f"{json.dumps(var)} | " + " | ".join(
+                f"{rmse(errs[k], s, SCOPES[sc]):.4g}" for k in ("train", "held")
+                for s in ("wz", "cur") for sc in SCOPES) + f" | {chi[0]} | {chi[1]}",
+                flush=True)
+    finally:
+        dynamics.SOILS = original
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
