@@ -9,6 +9,13 @@ comparison: use ``terrain compare``). Targets of issue 13: one CNN fold < 120 s 
 CPU machine; < 1 ms per window for every model. Figures are printed and logged to MLflow
 (experiment ``terrain-benchmark``, run ``models``).
 
+The machine is shared, so the run also times references in the same process: the SVM
+through scikit-learn's own ``Pipeline.predict_proba`` on the same fitted steps
+(``svm_sklearn_infer_ms``, the path before the NumPy fast path of
+:class:`terrain.models.svm.SVMPipeline`) and a fixed NumPy workload (``reference_ms``: a
+256 x 256 matrix product, median of 200) whose ratio to the model figures is comparable
+between loaded and quiet runs.
+
 Run: ``python benchmarks/bench_models.py [--models cnn svm] [--threads 2] [--repeats 50]``.
 """
 
@@ -18,11 +25,23 @@ import argparse
 import time
 
 import numpy as np
+from sklearn.pipeline import Pipeline
 
 from terrain.models.cv import inference_ms_per_window, iter_splits
 from terrain.models.experiment import ExperimentConfig, load_windows
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.tracking import tracked_run
+
+
+def _reference_ms(repeats: int = 200) -> float:
+    """Median wall time of a fixed NumPy workload (256 x 256 float64 matrix product), ms."""
+    a = np.random.default_rng(0).standard_normal((256, 256))
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        a @ a
+        times.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(times))
 
 
 def main() -> int:
@@ -50,10 +69,20 @@ def main() -> int:
             fit_s = time.perf_counter() - t0
             infer_ms = inference_ms_per_window(model, ws.X[test], args.repeats)
             acc = float((model.predict(ws.X[test]) == y[test]).mean())
+            if kind == "svm":
+                ref_ms = inference_ms_per_window(Pipeline(model.steps), ws.X[test], args.repeats)
+                figures["svm_sklearn_infer_ms"] = ref_ms
+                print(f"  svm via sklearn Pipeline.predict_proba (reference) {ref_ms:7.3f} "
+                      f"ms/window: NumPy path {ref_ms / infer_ms:.1f}x faster", flush=True)
             figures.update({f"{kind}_fit_s": fit_s, f"{kind}_infer_ms": infer_ms,
                             f"{kind}_accuracy": acc})
             print(f"  {kind:16s} fit {fit_s:7.1f} s   infer {infer_ms:7.3f} ms/window   "
                   f"fold accuracy {acc:.3f}", flush=True)
+        figures["reference_ms"] = _reference_ms()
+        print(f"  reference workload (256x256 matmul) {figures['reference_ms']:.3f} ms; "
+              "model inference / reference: " + ", ".join(
+                  f"{k} {figures[f'{k}_infer_ms'] / figures['reference_ms']:.1f}"
+                  for k in args.models), flush=True)
         run.log_metrics(figures)
     for kind in args.models:
         fit_ok = figures[f"{kind}_fit_s"] < 120 or not kind.startswith("cnn")

@@ -33,14 +33,19 @@ def main() -> int:
     args = parser.parse_args()
     cells = pd.concat([pd.read_csv(d / "compare_cells.csv") for d in args.dirs])
     preds = pd.concat([pd.read_csv(d / "predictions.csv") for d in args.dirs])
-    keys = ["dataset", "signals", "window_s", "seed"]
+    for frame in (cells, preds):
+        if "protocol" not in frame:
+            frame["protocol"] = "grouped"       # folders written before the protocol column
+    keys = ["protocol", "dataset", "signals", "window_s", "seed"]
     rows = [cells]
     name = "vote(" + "+".join(args.vote) + ")"
     for key, frame in preds.groupby(keys):
         members = [frame[frame["model"] == m] for m in args.vote]
         if any(m.empty for m in members):
             continue
-        classes = [c[6:] for c in frame.columns if c.startswith("proba_")]
+        # folders of several datasets: only this dataset's probability columns are filled
+        classes = [c[6:] for c in frame.columns
+                   if c.startswith("proba_") and frame[c].notna().all()]
         voted = soft_vote(members, classes)
         sub = cells[(cells[keys] == pd.Series(key, index=keys)).all(axis=1)
                     & cells["model"].isin(args.vote) & (cells["history"] == args.history[0])]

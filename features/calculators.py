@@ -69,8 +69,11 @@ def _standardised_moment(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]
         ``(n_windows, n_channels)``, dimensionless (``m_2`` floored at 1e-12).
     """
     d = x - x.mean(axis=-1, keepdims=True)
-    m2 = (d ** 2).mean(axis=-1)
-    mk = (d ** k).mean(axis=-1)
+    d2 = d * d
+    m2 = d2.mean(axis=-1)
+    # integer powers as products: ``d ** 3`` goes through the general ``pow`` (about 30x
+    # slower per element); the results agree to a few ulp
+    mk = (d2 * d if k == 3 else d2 * d2 if k == 4 else d ** k).mean(axis=-1)
     return m2 > _EPS, mk / np.maximum(m2, _EPS) ** (k / 2)
 
 
@@ -178,8 +181,55 @@ STATISTICS: Mapping[str, Callable[[np.ndarray], np.ndarray]] = MappingProxyType(
 })
 
 
+def band_weights(n_samples: int, rate_hz: float,
+                 bands_hz: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """Averaging matrix from one-sided FFT bins to frequency bands.
+
+    Parameters
+    ----------
+    n_samples : int
+        Window length, samples.
+    rate_hz : float
+        Sampling rate, Hz.
+    bands_hz : tuple of (low, high)
+        Bands ``[low, high)`` in Hz; a band holding no FFT bin gets the nearest bin(s).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_samples // 2 + 1, n_bands)``; column ``k`` is ``1 / m`` on the ``m`` bins of
+        band ``k`` and 0 elsewhere, so ``psd @ W`` is the mean density of each band.
+    """
+    freqs = np.fft.rfftfreq(n_samples, d=1.0 / rate_hz)
+    weights = np.zeros((len(freqs), len(bands_hz)))
+    for k, (lo, hi) in enumerate(bands_hz):
+        sel = (freqs >= lo) & (freqs < hi)
+        if not sel.any():
+            sel = np.abs(freqs - 0.5 * (lo + hi)) == np.abs(freqs - 0.5 * (lo + hi)).min()
+        weights[sel, k] = 1.0 / sel.sum()
+    return weights
+
+
+def hann_taper(n_samples: int) -> np.ndarray:
+    """Periodic Hann taper, as ``scipy.signal.periodogram(window="hann")`` uses.
+
+    Parameters
+    ----------
+    n_samples : int
+        Window length, samples.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_samples,)`` dimensionless taper.
+    """
+    return signal.get_window("hann", n_samples)
+
+
 def band_log_power(x: np.ndarray, rate_hz: float,
-                   bands_hz: tuple[tuple[float, float], ...]) -> np.ndarray:
+                   bands_hz: tuple[tuple[float, float], ...],
+                   weights: np.ndarray | None = None,
+                   taper: np.ndarray | None = None) -> np.ndarray:
     """Log10 of the mean power spectral density in frequency bands.
 
     The window mean is removed and a periodic Hann taper applied before the FFT (one periodogram per
@@ -193,6 +243,11 @@ def band_log_power(x: np.ndarray, rate_hz: float,
         Sampling rate, Hz.
     bands_hz : tuple of (low, high)
         Bands ``[low, high)`` in Hz; a band holding no FFT bin gets the nearest bin.
+    weights : numpy.ndarray or None
+        ``band_weights(n_samples, rate_hz, bands_hz)``, precomputed by a caller that
+        transforms many batches (computed here when ``None``).
+    taper : numpy.ndarray or None
+        ``hann_taper(n_samples)``, precomputed likewise.
 
     Returns
     -------
@@ -200,18 +255,12 @@ def band_log_power(x: np.ndarray, rate_hz: float,
         ``(n_windows, n_channels, n_bands)``, log10(unit^2/Hz).
     """
     n = x.shape[-1]
-    taper = signal.get_window("hann", n)  # periodic Hann, as scipy.signal.periodogram
+    taper = hann_taper(n) if taper is None else taper
+    weights = band_weights(n, rate_hz, bands_hz) if weights is None else weights
     spec = np.fft.rfft((x - x.mean(axis=-1, keepdims=True)) * taper, axis=-1)
     psd = (np.abs(spec) ** 2) / (rate_hz * (taper ** 2).sum())
     psd[..., 1:] *= 2.0
-    freqs = np.fft.rfftfreq(n, d=1.0 / rate_hz)
-    out = np.empty(x.shape[:-1] + (len(bands_hz),))
-    for k, (lo, hi) in enumerate(bands_hz):
-        sel = (freqs >= lo) & (freqs < hi)
-        if not sel.any():
-            sel = np.abs(freqs - 0.5 * (lo + hi)) == np.abs(freqs - 0.5 * (lo + hi)).min()
-        out[..., k] = np.log10(psd[..., sel].mean(axis=-1) + _EPS)
-    return out
+    return np.log10(psd @ weights + _EPS)
 
 
 def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> np.ndarray:

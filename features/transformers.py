@@ -125,7 +125,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Returns
         -------
         WindowFeatures
-            ``self``, with ``feature_names_out_``, ``bands_`` (Hz) and ``n_samples_in_`` set.
+            ``self``, with ``feature_names_out_``, ``bands_`` (Hz), ``n_samples_in_`` and the
+            FFT helpers ``taper_`` / ``band_weights_`` of that window length set.
 
         Raises
         ------
@@ -147,6 +148,10 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         names += [name for name, _ in self._cross_terms()]
         self.feature_names_out_ = np.asarray(names, dtype=object)
         self.n_samples_in_ = X.shape[2]
+        # constant FFT helpers of this window length (derived from the settings, not the data)
+        self.taper_ = calculators.hann_taper(self.n_samples_in_)
+        self.band_weights_ = calculators.band_weights(self.n_samples_in_, self.rate_hz,
+                                                      self.bands_)
         return self
 
     def transform(self, X: np.ndarray) -> np.ndarray:
@@ -177,7 +182,11 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
                  .reshape(len(X), -1)]
         imu = [i for i, c in enumerate(self.channels) if c in IMU_CHANNELS]
         if imu and self.bands_:
-            bp = calculators.band_log_power(X[:, imu], self.rate_hz, self.bands_)
+            same_length = X.shape[2] == self.n_samples_in_ and hasattr(self, "taper_")
+            bp = calculators.band_log_power(
+                X[:, imu], self.rate_hz, self.bands_,
+                weights=self.band_weights_ if same_length else None,
+                taper=self.taper_ if same_length else None)
             parts.append(bp.reshape(len(X), -1))
         idx = {c: i for i, c in enumerate(self.channels)}
         for name, (a, b) in self._cross_terms():

@@ -5,6 +5,8 @@ StratifiedGroupKFold(5) CV grouped by run; decision history k (probabilities ave
 last k windows of a run) reported for every cell. Cells run through joblib: --backend dask
 --address tcp://HOST:8786 sends them to a Dask cluster, --backend ray to Ray, unchanged.
 Writes compare_table.md/.csv (mean and spread over seeds), compare_cells.csv and compare.png.
+--protocol paper runs the papers' LEAKY 5 s partition protocol instead (1.7 s windows; labelled
+as such in every table and run; never the default).
 """
 
 from __future__ import annotations
@@ -15,8 +17,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from terrain.models.compare import (BACKENDS, CompareConfig, joblib_backend, markdown_table,
-                                    plot_comparison, run_grid, summary_table)
+from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, joblib_backend,
+                                    markdown_table, plot_comparison, run_grid, summary_table)
 from terrain.models.registry import MODELS
 from terrain.tracking import tracked_run
 
@@ -43,6 +45,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--history", type=int, nargs="+", default=list(d.history))
     parser.add_argument("--max-epochs", type=int, default=d.max_epochs)
     parser.add_argument("--threads", type=int, default=None, help="torch threads per CNN fit")
+    parser.add_argument("--protocol", choices=COMPARE_PROTOCOLS, default=d.protocol,
+                        help="grouped: run-grouped StratifiedGroupKFold (headline); paper: the "
+                             "BorealTC/Vulpi papers' LEAKY 5 s partition protocol (needs "
+                             "--windows-s 1.7; partitions of one run on both sides of a split)")
+    parser.add_argument("--early-stopping", action="store_true",
+                        help="CNNs stop on the loss of whole training runs held out of each "
+                             "fit (--max-epochs is the upper bound); default: fixed budget")
     parser.add_argument("--quick", action="store_true", help="small grid (smoke test)")
     parser.add_argument("--backend", choices=BACKENDS, default="loky")
     parser.add_argument("--address", default=None,
@@ -67,11 +76,13 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
         The grid.
     """
     if args.quick:
-        return CompareConfig(**QUICK, history=tuple(args.history))
+        quick = {**QUICK, **({"windows_s": (1.7,)} if args.protocol == "paper" else {})}
+        return CompareConfig(**quick, history=tuple(args.history), protocol=args.protocol)
     return CompareConfig(models=tuple(args.models), signals=tuple(args.signals),
                          windows_s=tuple(args.windows_s), datasets=tuple(args.datasets),
                          seeds=tuple(args.seeds), history=tuple(args.history),
-                         max_epochs=args.max_epochs, n_threads=args.threads)
+                         max_epochs=args.max_epochs, n_threads=args.threads,
+                         protocol=args.protocol, early_stopping=args.early_stopping)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -99,7 +110,8 @@ def main(args: argparse.Namespace) -> int:
         experiment_id = mlflow.active_run().info.experiment_id
         for res in results:
             c = res["cell"]
-            name = f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
+            name = (f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
+                    + ("" if c["protocol"] == "grouped" else f"-{c['protocol']}-LEAKY"))
             with mlflow.start_run(run_name=name, nested=True, experiment_id=experiment_id):
                 mlflow.log_params(c)
                 mlflow.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in res["rows"]

@@ -7,6 +7,12 @@ A *cell* is one (model, signal set, window length, dataset, seed): a
 processes (``loky``), a Dask cluster (``joblib.parallel_config(backend="dask")`` with a
 ``distributed.Client``) or Ray (``ray.util.joblib``), with no other change.
 
+``protocol="paper"`` instead runs the papers' own partition protocol (BorealTC, Vulpi: 5 s
+partitions, ``StratifiedKFold(5, shuffle=True, random_state=21 + seed)`` over partitions,
+1.7 s windows at 0.1 s hop, :func:`terrain.models.cv.iter_splits`). Partitions of one run fall
+on both sides of a split, so it leaks run conditions: every row, table line and MLflow child
+run carries ``protocol`` and the tables label it ``paper (LEAKY)``. Never the default.
+
 The *decision history* is a reported dimension, not a cell: from the out-of-fold class
 probabilities of a cell, the decision at a window averages the probabilities of the last
 ``k`` windows of its run (causal, ``k`` in ``history``), see :func:`history_predictions`.
@@ -17,6 +23,7 @@ from __future__ import annotations
 import time
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
+from types import MappingProxyType
 from typing import Sequence
 
 import numpy as np
@@ -26,6 +33,11 @@ from terrain.errors import ConfigError
 from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, make_model
+
+#: Protocols of the comparison: the run-grouped headline and the papers' leaky partition one.
+COMPARE_PROTOCOLS = ("grouped", "paper")
+#: How each protocol is labelled in tables and figures.
+PROTOCOL_LABELS = MappingProxyType({"grouped": "grouped", "paper": "paper (LEAKY)"})
 
 #: Metrics of the comparison table (window level, then run-level majority vote).
 TABLE_METRICS = ("accuracy", "balanced_accuracy", "macro_f1", "run_vote_accuracy")
@@ -47,6 +59,9 @@ class Cell:
         Shipped dataset.
     seed : int
         Split and model seed.
+    protocol : {"grouped", "paper"}
+        ``grouped``: run-grouped ``StratifiedGroupKFold`` (headline); ``paper``: the papers'
+        leaky 5 s partition protocol (1.7 s windows, see the module docstring).
     """
 
     model: str
@@ -54,6 +69,7 @@ class Cell:
     window_s: float
     dataset: str
     seed: int
+    protocol: str = "grouped"
 
 
 @dataclass(frozen=True)
@@ -78,6 +94,11 @@ class CompareConfig:
         torch threads per CNN fit.
     single_run_blocks : int
         Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
+    protocol : {"grouped", "paper"}
+        Split protocol of every cell (``paper`` is leaky and needs ``windows_s == (1.7,)``,
+        the papers' window).
+    early_stopping : bool
+        CNNs stop on whole held-out training runs (``max_epochs`` is the upper bound).
     """
 
     models: tuple[str, ...] = MODELS
@@ -90,8 +111,20 @@ class CompareConfig:
     max_epochs: int = 30
     n_threads: int | None = None
     single_run_blocks: int = 5
+    protocol: str = "grouped"
+    early_stopping: bool = False
 
     def __post_init__(self) -> None:
+        if self.protocol not in COMPARE_PROTOCOLS:
+            raise ConfigError(f"unknown protocol {self.protocol!r}; valid: "
+                              f"{list(COMPARE_PROTOCOLS)}")
+        if self.protocol == "paper":
+            from terrain.models.experiment import PAPER_WINDOW
+
+            if tuple(self.windows_s) != (PAPER_WINDOW["window_s"],):
+                raise ConfigError(f"the paper protocol fixes {PAPER_WINDOW['window_s']:g} s "
+                                  f"windows at {PAPER_WINDOW['hop_s']:g} s hop; pass "
+                                  f"--windows-s {PAPER_WINDOW['window_s']:g}")
         bad = [m for m in self.models if m not in MODELS]
         if bad:
             raise ConfigError(f"unknown model(s) {bad}; valid: {list(MODELS)}")
@@ -107,7 +140,7 @@ class CompareConfig:
             ``len(datasets) * len(windows_s) * len(signals) * len(seeds) * len(models)``
             cells.
         """
-        return [Cell(m, s, w, d, seed) for d in self.datasets for w in self.windows_s
+        return [Cell(m, s, w, d, seed, self.protocol) for d in self.datasets for w in self.windows_s
                 for s in self.signals for seed in self.seeds for m in self.models]
 
 
@@ -215,12 +248,15 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
 
 
 def _windows(cell: Cell, n_blocks: int):
-    """Windows of a cell with single-run classes split into blocks (as ``terrain cv``)."""
+    """Windows of a cell with single-run classes split into blocks (as ``terrain cv``); under
+    the paper protocol its 1.7 s windows, grouped by 5 s partition."""
     from terrain.models.experiment import ExperimentConfig, load_windows
 
     ws = load_windows(ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
-                                       window_s=cell.window_s))
+                                       window_s=cell.window_s, protocol=cell.protocol))
     labels = ws.labels.astype(str)
+    if cell.protocol == "paper":
+        return ws, labels, ws.groups
     groups, _ = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
     keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
     return ws.subset(keep), labels[keep], groups[keep]
@@ -245,18 +281,20 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     """
     ws, labels, groups = _windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
-                     n_threads=config.n_threads)
+                     n_threads=config.n_threads, early_stopping=config.early_stopping)
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
     t0 = time.perf_counter()
     report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,
-                            ws.t_end_s, "grouped", (cell.seed,), config.n_splits,
+                            ws.t_end_s, cell.protocol, (cell.seed,), config.n_splits,
                             time_inference=20)
     wall_s = time.perf_counter() - t0
     pred = report.predictions
     rows = score_rows(pred, report.classes, config.history,
                       {**asdict(cell), "fit_s_per_fold": float(report.folds["fit_s"].mean()),
                        "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
-                       "cell_wall_s": wall_s})
+                       "cell_wall_s": wall_s,
+                       **({"epochs_per_fold": float(report.folds["n_epochs"].mean())}
+                          if "n_epochs" in report.folds else {})})
     return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),
             "predictions": pred.assign(**asdict(cell))}
 
@@ -297,7 +335,9 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
         One row per group: ``<metric>_mean``, ``<metric>_std`` for the table metrics,
         ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and ``n_seeds``.
     """
-    keys = ["dataset", "signals", "window_s", "history", "model"]
+    rows = rows.assign(protocol=rows["protocol"].fillna("grouped")) if "protocol" in rows \
+        else rows.assign(protocol="grouped")
+    keys = ["protocol", "dataset", "signals", "window_s", "history", "model"]
     g = rows.groupby(keys, sort=True)
     out = pd.concat([g[list(TABLE_METRICS)].mean().add_suffix("_mean"),
                      g[list(TABLE_METRICS)].std(ddof=0).add_suffix("_std"),
@@ -321,14 +361,15 @@ def markdown_table(table: pd.DataFrame) -> str:
     """
     head = ["dataset", "signals", "window s", "history k", "model", "accuracy",
             "balanced acc.", "macro-F1", "run vote acc.", "train s/fold", "infer ms/window",
-            "seeds"]
+            "seeds", "protocol"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, r in table.iterrows():
         cells = [r["dataset"], r["signals"], f"{r['window_s']:g}", str(int(r["history"])),
                  r["model"]]
         cells += [f"{r[m + '_mean']:.3f} ± {r[m + '_std']:.3f}" for m in TABLE_METRICS]
         cells += [f"{r['fit_s_per_fold']:.1f}", f"{r['infer_ms_per_window']:.2f}",
-                  str(int(r["n_seeds"]))]
+                  str(int(r["n_seeds"])),
+                  PROTOCOL_LABELS.get(r.get("protocol", "grouped"), r.get("protocol"))]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -348,11 +389,12 @@ def plot_comparison(table: pd.DataFrame):
     """
     import matplotlib.pyplot as plt
 
-    datasets = list(dict.fromkeys(table["dataset"]))
+    table = table if "protocol" in table else table.assign(protocol="grouped")
+    datasets = list(dict.fromkeys(zip(table["protocol"], table["dataset"])))
     fig, axes = plt.subplots(1, len(datasets), figsize=(5 * len(datasets), 3.8),
                              squeeze=False)
-    for ax, ds in zip(axes[0], datasets):
-        sub = table[table["dataset"] == ds]
+    for ax, (protocol, ds) in zip(axes[0], datasets):
+        sub = table[(table["dataset"] == ds) & (table["protocol"] == protocol)]
         labels = [f"{m}\n{s} {w:g}s" for m, s, w in
                   dict.fromkeys(zip(sub["model"], sub["signals"], sub["window_s"]))]
         histories = sorted(set(sub["history"]))
@@ -364,8 +406,9 @@ def plot_comparison(table: pd.DataFrame):
         ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, labels, rotation=60,
                       fontsize=7, ha="right")
         ax.set_ylim(0.0, 1.0)
-        ax.set_ylabel("accuracy (run-grouped CV)")
-        ax.set_title(ds)
+        ax.set_ylabel("accuracy (run-grouped CV)" if protocol == "grouped"
+                      else "accuracy (papers' LEAKY partition CV)")
+        ax.set_title(f"{ds} ({PROTOCOL_LABELS.get(protocol, protocol)})")
         ax.legend(title="history", fontsize=7)
     fig.tight_layout()
     return fig

@@ -249,7 +249,7 @@ def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:
 
 def _fold(estimator, X, y, groups, train, test, classes, search, time_inference):
     """Fit on ``train``, predict ``test``; (predictions, probabilities or None, fit s,
-    best parameters, inference ms per window or None)."""
+    best parameters (plus ``n_epochs`` run by a CNN), inference ms per window or None)."""
     t0 = time.perf_counter()
     est = fit_with_groups(estimator, X[train], y[train], groups[train], always=search)
     fit_s = time.perf_counter() - t0
@@ -266,7 +266,9 @@ def _fold(estimator, X, y, groups, train, test, classes, search, time_inference)
             for j, c in enumerate(est.classes_):
                 proba[:, classes.index(str(c))] = raw[:, j]
     p = np.asarray(est.predict(X[test])).astype(str)
-    best = getattr(est, "best_params_", None)
+    best = dict(getattr(est, "best_params_", None) or {})
+    if hasattr(est, "n_epochs_"):
+        best["n_epochs"] = float(est.n_epochs_)
     return p, proba, fit_s, best, infer_ms
 
 
@@ -346,7 +348,10 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
         if infer_ms is not None:
             row["infer_ms_per_window"] = infer_ms
         if best:
+            epochs = best.pop("n_epochs", None)
             row.update({f"best_{k}": v for k, v in best.items()})
+            if epochs is not None:
+                row["n_epochs"] = epochs
         rows.append(row)
         frame = pd.DataFrame({
             "seed": seed, "fold": fold, "run": run_ids[test], "group": groups[test],

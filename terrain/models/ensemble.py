@@ -140,7 +140,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             best, best_w = np.inf, None
             for w in simplex_grid(n, self.weight_step):
                 p = sum(wi * pi for wi, pi in zip(w, probas))
-                score = log_loss(y[va], np.clip(p, 1e-12, 1.0), labels=self.classes_)
+                p = np.clip(p, 1e-12, 1.0)
+                score = log_loss(y[va], p / p.sum(axis=1, keepdims=True), labels=self.classes_)
                 self.weight_scores_[tuple(np.round(w, 4))] = float(score)
                 if score < best - 1e-12:
                     best, best_w = score, w

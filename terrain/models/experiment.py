@@ -23,7 +23,7 @@ from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, cross_validate, fit_with_groups,
                                purge_block_overlaps, split_single_run_classes)
 from terrain.models.registry import MODELS, ModelConfig, make_model
-from terrain.models.svm import SVMConfig, make_search, make_svm
+from terrain.models.svm import SVMConfig, SVMPipeline, make_search, make_svm
 from terrain.run import Run
 
 #: Window settings of the papers' protocol (BorealTC, Vulpi): 1.7 s windows, 0.1 s hop,
@@ -182,13 +182,14 @@ def inference_pipeline(windows: WindowSet, svm: SVMConfig, random_state: int = 0
 
     Returns
     -------
-    sklearn.pipeline.Pipeline
+    terrain.models.svm.SVMPipeline
         ``features`` (:class:`features.windows.WindowFeatures`) followed by the steps of
-        :func:`terrain.models.svm.make_svm`; input ``(n_windows, n_channels, n_samples)``.
+        :func:`terrain.models.svm.make_svm`; input ``(n_windows, n_channels, n_samples)``;
+        a scikit-learn ``Pipeline`` with a NumPy ``predict_proba`` for the calibrated SVC.
     """
     model = make_svm(svm, random_state)
-    return Pipeline([("features", WindowFeatures(channels=windows.channels,
-                                                 rate_hz=windows.rate_hz))] + model.steps)
+    return SVMPipeline([("features", WindowFeatures(channels=windows.channels,
+                                                    rate_hz=windows.rate_hz))] + model.steps)
 
 
 @dataclass

@@ -22,7 +22,6 @@ from types import MappingProxyType
 from typing import Mapping, Sequence
 
 import numpy as np
-from sklearn.pipeline import Pipeline
 
 from features.transformers import WindowFeatures
 from features.windows import DERIVED_WHEEL_CHANNELS
@@ -30,7 +29,7 @@ from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket
-from terrain.models.svm import SVMConfig, make_svm
+from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 from terrain.run import WHEEL_CHANNELS
 
 MODELS = ("svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble")
@@ -62,6 +61,9 @@ class ModelConfig:
         Members of the ``ensemble`` model (other model names).
     tune_weights : bool
         Choose the ensemble weights on held-out training runs instead of equal weights.
+    early_stopping : bool
+        CNNs stop on the validation loss of whole training runs held out of the fit
+        (``max_epochs`` is then the upper bound); off by default (README "Model comparison").
     """
 
     kind: str = "svm"
@@ -71,6 +73,7 @@ class ModelConfig:
     svm: SVMConfig = SVMConfig()
     ensemble_members: tuple[str, ...] = ("svm", "cnn-spectrogram")
     tune_weights: bool = False
+    early_stopping: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
@@ -127,16 +130,18 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     kind = config.kind
     if kind == "svm":
         svm = make_svm(replace(config.svm, probability=probability), random_state)
-        return Pipeline([("features", WindowFeatures(channels=tuple(channels),
-                                                     rate_hz=rate_hz))] + svm.steps)
+        return SVMPipeline([("features", WindowFeatures(channels=tuple(channels),
+                                                        rate_hz=rate_hz))] + svm.steps)
     if kind == "cnn":
         return RawCNNClassifier(max_epochs=config.max_epochs, random_state=random_state,
-                                n_threads=config.n_threads)
+                                n_threads=config.n_threads,
+                                early_stopping=config.early_stopping)
     if kind == "cnn-spectrogram":
         return SpectrogramCNNClassifier(rate_hz=rate_hz,
                                         band_limits_hz=band_limits_hz(channels, dataset),
                                         max_epochs=config.max_epochs,
-                                        random_state=random_state, n_threads=config.n_threads)
+                                        random_state=random_state, n_threads=config.n_threads,
+                                        early_stopping=config.early_stopping)
     if kind == "minirocket":
         return make_minirocket(random_state, n_kernels=config.minirocket_kernels)
     members = [(k, make_model(replace(config, kind=k), channels, rate_hz, dataset,

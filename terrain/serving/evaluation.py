@@ -30,7 +30,7 @@ from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
 from terrain.errors import ConfigError
 from terrain.models.cv import iter_splits
-from terrain.models.svm import SVMConfig, make_svm
+from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
 from terrain.serving.replay import replay_run
@@ -387,8 +387,14 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
                           rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
-    pipe = Pipeline([("features", recipe_features(recipe, ws.channels)),
-                     ("classifier", recipe_classifier(recipe, seed))])
+    features = ("features", recipe_features(recipe, ws.channels))
+    classifier = recipe_classifier(recipe, seed)
+    if isinstance(classifier, Pipeline):
+        # the SVM: features -> scaler -> calibrated SVC flattened into the SVMPipeline of
+        # `terrain train`, whose predict_proba runs in NumPy (same probabilities)
+        pipe = SVMPipeline([features] + classifier.steps)
+    else:
+        pipe = Pipeline([features, ("classifier", classifier)])
     labels = ws.labels.astype(str)
     pipe.fit(ws.X, labels)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,

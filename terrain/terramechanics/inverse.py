@@ -10,6 +10,7 @@ it is re-typed here.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -119,12 +120,23 @@ def stable_side(curve: TractionCurve, points: int = INVERSE_GRID_POINTS
     mu : ndarray, shape (points,)
         ``mu`` on the grid, strictly increasing.
     """
+    return _stable_side_table(curve, int(points))
+
+
+@lru_cache(maxsize=128)
+def _stable_side_table(curve: TractionCurve, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`stable_side`, memoised per (frozen, hashable) curve: a pure function of its
+    arguments, so the table is built once per curve and handed out read-only (the per-window
+    physics slip inverts the same few catalogue curves thousands of times)."""
     s_end, _ = stable_side_end(curve)
-    s = np.linspace(0.0, s_end, int(points))
+    s = np.linspace(0.0, s_end, points)
     mu = traction_coefficient(curve, s)
     # keep the strictly increasing part (flat tails of saturated curves add no information)
     keep = np.concatenate([[True], np.diff(mu) > 0.0])
-    return s[keep], mu[keep]
+    s, mu = s[keep], mu[keep]
+    s.flags.writeable = False
+    mu.flags.writeable = False
+    return s, mu
 
 
 def slip_from_traction(curve: TractionCurve, mu: np.ndarray | float,

@@ -53,6 +53,9 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
     svm = table[table["model"] == "svm"].set_index("history")
     assert svm.loc[1, "accuracy_mean"] > 0.7            # the SVM does learn Vulpi's terrains
     assert (table["infer_ms_per_window"] > 0).all() and (table["fit_s_per_fold"] > 0).all()
+    cells = pd.read_csv(out / "compare_cells.csv")
+    assert (cells.loc[cells["model"] == "cnn", "epochs_per_fold"] == 1).all()  # --quick: 1 epoch
+    assert (cells["protocol"] == "grouped").all()
     activate_store()
     parent = mlflow.search_runs(experiment_names=["terrain-compare"],
                                 filter_string="attributes.run_name = 'compare'")
@@ -104,3 +107,40 @@ def test_soft_vote_of_cv_predictions_equals_the_fixed_weight_ensemble():
     assert (voted["predicted"].to_numpy() == ref["predicted"].to_numpy()).all()
     with pytest.raises(ConfigError, match="same folds"):
         soft_vote([single[0], single[1].iloc[1:]], ["A", "B"])
+
+
+def test_early_stopping_reaches_the_cnns():
+    from terrain.models.registry import ModelConfig, make_model
+
+    config = CompareConfig(models=("cnn-spectrogram",), early_stopping=True)
+    assert config.early_stopping and not CompareConfig().early_stopping
+    for kind in ("cnn", "cnn-spectrogram"):
+        model = make_model(ModelConfig(kind=kind, early_stopping=True), ("ax", "ay"), 50.0,
+                           "vulpi")
+        assert model.early_stopping is True
+    assert make_model(ModelConfig(kind="cnn"), ("ax",), 50.0, "vulpi").early_stopping is False
+
+
+def test_paper_protocol_is_explicit_and_labelled_leaky():
+    from terrain.models.compare import markdown_table, run_cell, summary_table
+
+    with pytest.raises(ConfigError, match="unknown protocol"):
+        CompareConfig(protocol="random")
+    with pytest.raises(ConfigError, match="1.7 s windows"):
+        CompareConfig(protocol="paper", windows_s=(2.0,))
+    assert CompareConfig().protocol == "grouped"                     # never the default
+    config = CompareConfig(models=("svm",), signals=("all",), windows_s=(1.7,),
+                           datasets=("vulpi",), seeds=(0,), history=(1,), n_splits=2,
+                           protocol="paper")
+    (cell,) = config.cells()
+    res = run_cell(cell, config)
+    pred = res["predictions"]
+    assert (pred["protocol"] == "paper").all()
+    # split units are 5 s partitions, and runs do land on both sides: the protocol leaks
+    assert pred["group"].str.contains("#").all()
+    folds_per_run = pred.groupby("run")["fold"].nunique()
+    assert (folds_per_run > 1).any()
+    assert (pred["t_end_s"] - pred["t_start_s"]).round(3).eq(1.7).all()
+    table = summary_table(pd.DataFrame(res["rows"]))
+    assert "paper (LEAKY)" in markdown_table(table)
+    assert res["rows"][0]["accuracy"] > 0.8

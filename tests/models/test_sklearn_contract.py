@@ -7,7 +7,7 @@ from sklearn.calibration import CalibratedClassifierCV
 from sklearn.pipeline import Pipeline
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from terrain.models.svm import SVMConfig, make_svm
+from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 
 #: check_supervised_y_no_nan feeds NaN labels on purpose; sklearn's cast warns before raising
 pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered in cast:RuntimeWarning")
@@ -35,7 +35,9 @@ def _expected_failed_checks(estimator):
 
 
 @parametrize_with_checks([make_svm(), make_svm(SVMConfig(C=1.0, gamma=0.01), random_state=3),
-                          make_svm(SVMConfig(probability=True))],  # the served variant
+                          make_svm(SVMConfig(probability=True)),
+                          # the served variant (NumPy predict_proba on multiclass data)
+                          SVMPipeline(make_svm(SVMConfig(probability=True)).steps)],
                          expected_failed_checks=_expected_failed_checks)
 def test_svm_follows_sklearn_contract(estimator, check):
     check(estimator)

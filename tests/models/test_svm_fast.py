@@ -1,0 +1,66 @@
+"""The NumPy prediction path of the served SVM equals scikit-learn's on real windows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.pipeline import Pipeline
+
+from features.windows import WindowConfig, make_windows
+from terrain.models.registry import ModelConfig, make_model
+from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
+
+
+@pytest.fixture(scope="module", params=["borealtc", "vulpi"])
+def fitted(request, borealtc_runs, vulpi_runs):
+    runs = borealtc_runs if request.param == "borealtc" else vulpi_runs
+    ws = make_windows(runs, "all", WindowConfig(window_s=2.0, rate_hz=50.0))
+    y = ws.labels.astype(str)
+    train = np.arange(len(y)) % 3 != 0
+    model = make_model(ModelConfig(kind="svm"), ws.channels, ws.rate_hz, request.param, 0)
+    model.fit(ws.X[train], y[train])
+    return model, ws.X[~train]
+
+
+def test_fast_proba_equals_sklearn_pipeline(fitted):
+    model, X_test = fitted
+    assert isinstance(model, SVMPipeline) and model._fast() is not None
+    reference = Pipeline(model.steps)              # scikit-learn's own path, same fitted steps
+    fast = model.predict_proba(X_test)
+    np.testing.assert_allclose(fast, reference.predict_proba(X_test), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(model.predict(X_test), reference.predict(X_test))
+    np.testing.assert_allclose(fast.sum(axis=1), 1.0)
+    single = np.concatenate([model.predict_proba(X_test[i:i + 1]) for i in range(20)])
+    np.testing.assert_allclose(single, fast[:20], rtol=0, atol=1e-12)
+
+
+def test_refit_renews_the_arrays_and_a_replaced_step_falls_back(fitted):
+    model, X_test = fitted
+    twin = clone(model)
+    assert "_fast_arrays" not in twin.__dict__ and twin._fast() is None
+    rng = np.random.default_rng(0)
+    labels = np.array(sorted(model.classes_))
+    y = labels[rng.integers(0, len(labels), len(X_test))]
+    twin.fit(X_test, y)
+    np.testing.assert_allclose(twin.predict_proba(X_test),
+                               Pipeline(twin.steps).predict_proba(X_test), rtol=0, atol=1e-12)
+    assert twin._fast() is not model._fast()
+    # a final step swapped in after fitting is not the one the arrays came from
+    twin.steps[-1] = ("svc", model.steps[-1][1])
+    assert twin._fast() is None
+    np.testing.assert_array_equal(twin.predict_proba(X_test),
+                                  Pipeline(twin.steps).predict_proba(X_test))
+
+
+def test_binary_and_uncalibrated_fall_back_to_sklearn():
+    rng = np.random.default_rng(1)
+    X = rng.standard_normal((60, 4))
+    y = np.where(X[:, 0] > 0, "a", "b")
+    binary = SVMPipeline(make_svm(SVMConfig(probability=True)).steps).fit(X, y)
+    assert binary._fast() is None
+    np.testing.assert_allclose(binary.predict_proba(X),
+                               Pipeline(binary.steps).predict_proba(X))
+    plain = SVMPipeline(make_svm(SVMConfig(probability=False)).steps).fit(X, y)
+    assert plain._fast() is None
+    np.testing.assert_array_equal(plain.predict(X), Pipeline(plain.steps).predict(X))
