@@ -23,6 +23,26 @@ from terrain.models.compare import (markdown_table, plot_comparison, score_rows,
                                     summary_table)
 
 
+def _read(path: Path) -> pd.DataFrame:
+    """Read one folder's CSV; folders written before the protocol column are ``grouped``.
+
+    Parameters
+    ----------
+    path : Path
+        ``compare_cells.csv`` or ``predictions.csv`` of one ``terrain compare`` folder.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The table with a ``protocol`` column (filled per folder, so that folders with and
+        without the column can be merged without NaN keys).
+    """
+    frame = pd.read_csv(path)
+    if "protocol" not in frame:
+        frame["protocol"] = "grouped"
+    return frame
+
+
 def main() -> int:
     """Merge the folders, add the vote, write the table and figure."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -31,11 +51,8 @@ def main() -> int:
     parser.add_argument("--history", type=int, nargs="+", default=[1, 5, 10])
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
-    cells = pd.concat([pd.read_csv(d / "compare_cells.csv") for d in args.dirs])
-    preds = pd.concat([pd.read_csv(d / "predictions.csv") for d in args.dirs])
-    for frame in (cells, preds):
-        if "protocol" not in frame:
-            frame["protocol"] = "grouped"       # folders written before the protocol column
+    cells = pd.concat([_read(d / "compare_cells.csv") for d in args.dirs])
+    preds = pd.concat([_read(d / "predictions.csv") for d in args.dirs])
     keys = ["protocol", "dataset", "signals", "window_s", "seed"]
     rows = [cells]
     name = "vote(" + "+".join(args.vote) + ")"
