@@ -27,7 +27,7 @@ import time
 import numpy as np
 from sklearn.pipeline import Pipeline
 
-from terrain.models.cv import inference_ms_per_window, iter_splits
+from terrain.models.cv import fit_with_groups, inference_ms_per_window, iter_splits
 from terrain.models.experiment import ExperimentConfig, load_windows
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.tracking import tracked_run
@@ -62,10 +62,7 @@ def main() -> int:
             model = make_model(ModelConfig(kind=kind, n_threads=args.threads), ws.channels,
                                ws.rate_hz, "borealtc", 0)
             t0 = time.perf_counter()
-            if kind == "ensemble":
-                model.fit(ws.X[train], y[train], groups=ws.groups[train])
-            else:
-                model.fit(ws.X[train], y[train])
+            fit_with_groups(model, ws.X[train], y[train], ws.groups[train])
             fit_s = time.perf_counter() - t0
             infer_ms = inference_ms_per_window(model, ws.X[test], args.repeats)
             acc = float((model.predict(ws.X[test]) == y[test]).mean())

@@ -62,7 +62,7 @@ class ExperimentConfig:
         Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
     svm : SVMConfig
         SVM hyperparameters and search grid (:class:`terrain.models.svm.SVMConfig`).
-    model : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble"}
+    model : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble", "ensemble3"}
         Classifier (see :mod:`terrain.models.registry`).
     max_epochs : int
         Fixed epoch budget of the CNNs.

@@ -20,21 +20,22 @@ def workdir(tmp_path, monkeypatch):
     return tmp_path
 
 
-def test_cnn_model_round_trip_raw_samples_in_probabilities_out(workdir):
+@pytest.mark.parametrize("kind", ["cnn", "ensemble3"])
+def test_cnn_model_round_trip_raw_samples_in_probabilities_out(workdir, kind):
     runs = [r for r in read_shipped("vulpi") if r.run_id in RUNS]
-    config = ExperimentConfig(dataset="vulpi", model="cnn", max_epochs=3, n_threads=1,
+    config = ExperimentConfig(dataset="vulpi", model=kind, max_epochs=3, n_threads=1,
                               seeds=(0,))
     model, ws, info = fit_pipeline(config, runs=runs)
-    assert info["model"] == "cnn"
+    assert info["model"] == kind
     classes = [str(c) for c in np.unique(ws.labels.astype(str))]
     window = config.window_config()
     path = save_model(workdir / "model", model, ws.channels, window, classes,
-                      {"model": "cnn", "dataset": "vulpi"})
+                      {"model": kind, "dataset": "vulpi"})
     reqs = pip_requirements(model)
     assert any(r.startswith("torch==") for r in reqs) and any(r.startswith("skorch==")
                                                               for r in reqs)
     served, meta = load_model(path)
-    assert meta["model"] == "cnn" and meta["channels"] == list(ws.channels)
+    assert meta["model"] == kind and meta["channels"] == list(ws.channels)
     samples, skipped = runs_to_model_input(runs, meta["channels"], float(meta["rate_hz"]))
     assert skipped == []
     pred = served.predict(samples)

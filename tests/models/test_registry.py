@@ -1,0 +1,56 @@
+"""The model registry: every kind by name, the three-member ensemble's fixed composition."""
+
+from __future__ import annotations
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
+from terrain.models.ensemble import SoftVotingEnsemble
+from terrain.models.registry import (ENSEMBLE3_MEMBERS, ENSEMBLES, MODELS, ModelConfig,
+                                     make_model)
+from terrain.models.svm import SVMPipeline
+
+CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az", "vel_l", "vel_r", "cur_l", "cur_r")
+
+
+def test_ensemble3_is_the_equal_weight_vote_of_svm_raw_cnn_and_spectrogram_cnn():
+    # ensemble_members configures the two-member "ensemble" only; ensemble3 is fixed
+    config = ModelConfig(kind="ensemble3", ensemble_members=("svm", "minirocket"),
+                         max_epochs=7)
+    model = make_model(config, CHANNELS, 50.0, "borealtc", random_state=3)
+    assert isinstance(model, SoftVotingEnsemble)
+    assert [name for name, _ in model.estimators] == list(ENSEMBLE3_MEMBERS)
+    assert [type(m) for _, m in model.estimators] == [SVMPipeline, RawCNNClassifier,
+                                                      SpectrogramCNNClassifier]
+    assert model.weights == (1.0, 1.0, 1.0) and model.random_state == 3
+    # members share the budget and seed; the spectrogram member keeps the wheel band limit
+    cnn, spec = model.estimators[1][1], model.estimators[2][1]
+    assert cnn.max_epochs == spec.max_epochs == 7
+    assert cnn.random_state == spec.random_state == 3
+    assert spec.band_limits_hz[CHANNELS.index("vel_l")] == pytest.approx(3.25)
+    two = make_model(ModelConfig(kind="ensemble"), CHANNELS, 50.0, "borealtc")
+    assert [name for name, _ in two.estimators] == ["svm", "cnn-spectrogram"]
+
+
+def test_tuned_weights_reach_ensemble3():
+    model = make_model(ModelConfig(kind="ensemble3", tune_weights=True), CHANNELS, 50.0,
+                       "vulpi")
+    assert model.weights is None
+
+
+@pytest.mark.parametrize("members", [("svm", "ensemble3"), ("ensemble",), (), ("knn",)])
+def test_ensemble_members_must_be_single_models(members):
+    with pytest.raises(ConfigError, match="ensemble members"):
+        ModelConfig(kind="ensemble", ensemble_members=members)
+
+
+def test_every_kind_is_built_and_ensembles_are_listed():
+    assert set(ENSEMBLES) <= set(MODELS) and "ensemble3" in MODELS
+    for kind in MODELS:
+        if kind == "minirocket":
+            continue  # optional extra (aeon), built in tests/models/test_ensemble_minirocket
+        assert hasattr(make_model(ModelConfig(kind=kind), CHANNELS, 50.0, "vulpi"),
+                       "predict_proba")
+    with pytest.raises(ConfigError, match="unknown model"):
+        ModelConfig(kind="ensemble4")
