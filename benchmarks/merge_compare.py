@@ -6,10 +6,12 @@ signals, window, seed) where all ``--vote`` members are present, their out-of-fo
 probabilities are averaged with equal weights (:func:`terrain.models.compare.soft_vote`,
 identical to the fixed-weight :class:`~terrain.models.ensemble.SoftVotingEnsemble` on the
 same folds) and scored as model ``vote(<members>)``; its train time is the members' sum and
-its inference time the sum of theirs. Writes ``compare_table.md/.csv`` and ``compare.png``
-to ``--out``.
+its inference time the sum of theirs. Writes ``compare_table.md/.csv``, ``compare.png`` and
+``compare_cells.csv`` (one row per cell, seed and history, the votes included) to ``--out``.
 
-Run: ``python benchmarks/merge_compare.py DIR... --vote svm cnn cnn-spectrogram --out DIR``.
+Run: ``python benchmarks/merge_compare.py DIR... --vote svm cnn cnn-spectrogram --out DIR``
+(repeat ``--vote`` for several member sets: ``--vote svm cnn-spectrogram --vote svm cnn
+cnn-spectrogram``).
 """
 
 from __future__ import annotations
@@ -47,7 +49,9 @@ def main() -> int:
     """Merge the folders, add the vote, write the table and figure."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dirs", nargs="+", type=Path)
-    parser.add_argument("--vote", nargs="+", default=["svm", "cnn", "cnn-spectrogram"])
+    parser.add_argument("--vote", nargs="+", action="append", default=None,
+                        help="members of one equal-weight vote; repeat for several votes "
+                             "(default: svm cnn cnn-spectrogram)")
     parser.add_argument("--history", type=int, nargs="+", default=[1, 5, 10])
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
@@ -55,23 +59,26 @@ def main() -> int:
     preds = pd.concat([_read(d / "predictions.csv") for d in args.dirs])
     keys = ["protocol", "dataset", "signals", "window_s", "seed"]
     rows = [cells]
-    name = "vote(" + "+".join(args.vote) + ")"
-    for key, frame in preds.groupby(keys):
-        members = [frame[frame["model"] == m] for m in args.vote]
-        if any(m.empty for m in members):
-            continue
-        # folders of several datasets: only this dataset's probability columns are filled
-        classes = [c[6:] for c in frame.columns
-                   if c.startswith("proba_") and frame[c].notna().all()]
-        voted = soft_vote(members, classes)
-        sub = cells[(cells[keys] == pd.Series(key, index=keys)).all(axis=1)
-                    & cells["model"].isin(args.vote) & (cells["history"] == args.history[0])]
-        fields = {**dict(zip(keys, key)), "model": name,
-                  "fit_s_per_fold": float(sub["fit_s_per_fold"].sum()),
-                  "infer_ms_per_window": float(sub["infer_ms_per_window"].sum())}
-        rows.append(pd.DataFrame(score_rows(voted, classes, args.history, fields)))
-    table = summary_table(pd.concat(rows, ignore_index=True))
+    for vote in args.vote or [["svm", "cnn", "cnn-spectrogram"]]:
+        name = "vote(" + "+".join(vote) + ")"
+        for key, frame in preds.groupby(keys):
+            members = [frame[frame["model"] == m] for m in vote]
+            if any(m.empty for m in members):
+                continue
+            # folders of several datasets: only this dataset's probability columns are filled
+            classes = [c[6:] for c in frame.columns
+                       if c.startswith("proba_") and frame[c].notna().all()]
+            voted = soft_vote(members, classes)
+            sub = cells[(cells[keys] == pd.Series(key, index=keys)).all(axis=1)
+                        & cells["model"].isin(vote) & (cells["history"] == args.history[0])]
+            fields = {**dict(zip(keys, key)), "model": name,
+                      "fit_s_per_fold": float(sub["fit_s_per_fold"].sum()),
+                      "infer_ms_per_window": float(sub["infer_ms_per_window"].sum())}
+            rows.append(pd.DataFrame(score_rows(voted, classes, args.history, fields)))
+    per_seed = pd.concat(rows, ignore_index=True)
+    table = summary_table(per_seed)
     args.out.mkdir(parents=True, exist_ok=True)
+    per_seed.to_csv(args.out / "compare_cells.csv", index=False)
     md = markdown_table(table)
     (args.out / "compare_table.md").write_text(md)
     table.to_csv(args.out / "compare_table.csv", index=False)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -144,3 +146,53 @@ def test_paper_protocol_is_explicit_and_labelled_leaky():
     table = summary_table(pd.DataFrame(res["rows"]))
     assert "paper (LEAKY)" in markdown_table(table)
     assert res["rows"][0]["accuracy"] > 0.8
+
+
+def _compare_folder(path, model, proba_b, with_protocol):
+    """A ``terrain compare`` output folder of one model (cells + predictions), 1 seed."""
+    runs = np.repeat(["A/1", "A/2", "B/1", "B/2"], 3)
+    true = np.array([r[0] for r in runs])
+    preds = pd.DataFrame({"seed": 0, "fold": np.repeat([0, 1, 0, 1], 3), "run": runs,
+                          "group": runs, "t_start_s": np.tile([0.0, 2.0, 4.0], 4),
+                          "t_end_s": np.tile([2.0, 4.0, 6.0], 4), "true": true,
+                          "predicted": np.where(proba_b > 0.5, "B", "A"),
+                          "proba_A": 1 - proba_b, "proba_B": proba_b, "model": model,
+                          "signals": "all", "window_s": 2.0, "dataset": "toy"})
+    acc = float((preds["predicted"] == preds["true"]).mean())
+    cells = pd.DataFrame([{"model": model, "signals": "all", "window_s": 2.0,
+                           "dataset": "toy", "seed": 0, "fit_s_per_fold": 1.0,
+                           "infer_ms_per_window": 0.5, "cell_wall_s": 2.0, "history": 1,
+                           "accuracy": acc, "balanced_accuracy": acc, "macro_f1": acc,
+                           "run_vote_accuracy": acc, "n_windows": 12}])
+    if with_protocol:
+        preds["protocol"] = cells["protocol"] = "grouped"
+    path.mkdir()
+    preds.to_csv(path / "predictions.csv", index=False)
+    cells.to_csv(path / "compare_cells.csv", index=False)
+
+
+def test_merge_compare_votes_across_folders_with_and_without_protocol(tmp_path, monkeypatch):
+    import runpy
+    import sys
+
+    # m1 is confidently wrong on run A/2, m2 mildly right there: the vote is right everywhere
+    m1 = np.array([0.1] * 3 + [0.9] * 3 + [0.8] * 6)
+    m2 = np.array([0.3] * 3 + [0.05] * 3 + [0.4] * 3 + [0.9] * 3)
+    _compare_folder(tmp_path / "old", "m1", m1, with_protocol=False)  # before the column
+    _compare_folder(tmp_path / "new", "m2", m2, with_protocol=True)
+    out = tmp_path / "merged"
+    monkeypatch.setattr(sys, "argv", [
+        "merge_compare.py", str(tmp_path / "old"), str(tmp_path / "new"), "--vote", "m1",
+        "m2", "--vote", "m2", "m1", "--history", "1", "--out", str(out)])
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
+                       run_name="__main__")
+    assert done.value.code == 0
+    cells = pd.read_csv(out / "compare_cells.csv").set_index("model")
+    assert cells.loc["m1", "accuracy"] == pytest.approx(0.75)
+    assert cells.loc["m2", "accuracy"] == pytest.approx(0.75)
+    for vote in ("vote(m1+m2)", "vote(m2+m1)"):
+        assert cells.loc[vote, "accuracy"] == pytest.approx(1.0)
+        assert cells.loc[vote, "fit_s_per_fold"] == pytest.approx(2.0)
+        assert cells.loc[vote, "protocol"] == "grouped"
+    assert "vote(m1+m2)" in (out / "compare_table.md").read_text()
