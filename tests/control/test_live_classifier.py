@@ -66,3 +66,19 @@ def test_label_source_has_no_classifier():
     assert provider is None and info == {"terrain_source": "label"}
     with pytest.raises(ConfigError, match="--model"):
         decision_source("model", "husky", ["ICE"], [0], 5.0)
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "agrimaro"])
+def test_undecided_loop_limits_the_start_up_on_the_fallbacks_terrain(vehicle):
+    from terrain.control import build_slip_table
+    from terrain.control.closed_loop import fallback_basis
+
+    table = build_slip_table(["SNOW", "ICE", "TILES"])
+    assert fallback_basis(table) == "ICE"   # ICE's traction target is the smallest
+    undecided = (lambda t: (None, 0.0))
+    off = run_closed_loop(vehicle, "ICE", "straight_accel", False, 3, 4.0, table=table,
+                          terrain_decision=undecided)[2]
+    on = run_closed_loop(vehicle, "ICE", "straight_accel", True, 3, 4.0, table=table,
+                         terrain_decision=undecided)[2]
+    assert on["terrain_accuracy"] == 0.0 and on["terrain_decisions"] == {"NONE": 201}
+    assert on["peak_slip"] < 0.6 * off["peak_slip"]   # feed-forward on ICE's curve acts
