@@ -84,16 +84,17 @@ class SkidSteerSlipSettings:
     slip_psd : float
         Drift density of each side's slip, 1/s (terrain and load changes; small: the slip
         follows the pseudo-measurement, one per second).
-    slip_psd_ref_std : float
-        When > 0, :func:`run_with_pseudo_slip` scales the slip drift density of each segment
-        with its pseudo-measurement variance: ``slip_psd * (std / slip_psd_ref_std)^2``
-        (``slip_psd`` is then the density at a pseudo-measurement std of
-        ``slip_psd_ref_std``). Reason: the physics std is the traction-coefficient std over
-        the slope of the terrain's traction-slip curve (:func:`terrain.slip.physics.physics_slip`),
-        and a change of the traction demand (load, grade, patchy ground) moves the slip by
-        that change over the same slope, so the slip's drift and the pseudo-measurement's std
-        shrink together on a stiff curve (asphalt, ice at low slip) and grow together on a
-        soft one. 0 (default): constant ``slip_psd`` (the online observer of the control loop).
+    slip_psd_rel : float
+        Drift density per unit pseudo-measurement variance, 1/s. When > 0,
+        :func:`run_with_pseudo_slip` runs each segment with the slip drift density
+        ``slip_psd + slip_psd_rel * std^2`` (``std``: that segment's pseudo-measurement std).
+        Reason: the physics std is the traction-coefficient std over the slope of the terrain's
+        traction-slip curve (:func:`terrain.slip.physics.physics_slip`), and a change of the
+        traction demand (load, grade, patchy ground) moves the slip by that change over the
+        same slope, so the slip's drift and the pseudo-measurement's std shrink together on a
+        stiff curve (asphalt, ice at low slip) and grow together on a soft one; ``slip_psd``
+        is then the terrain-independent part. 0 (default): constant ``slip_psd`` (the online
+        observer of the control loop).
     pitch_psd : float
         Drift density of the pitch, rad^2 / s (grade changes).
     chi0, log_chi0_std, bias0_std, v0_std, yaw_rate0_std : float
@@ -125,7 +126,7 @@ class SkidSteerSlipSettings:
     bias_psd: float = 1e-8
     log_chi_psd: float = 2e-3
     slip_psd: float = 6e-6
-    slip_psd_ref_std: float = 0.0
+    slip_psd_rel: float = 0.0
     pitch_psd: float = 1e-3
     chi0: float = 1.5
     log_chi0_std: float = 1.0
@@ -146,7 +147,7 @@ class SkidSteerSlipSettings:
             if not (np.isfinite(v) and v > 0):
                 raise ConfigError(f"{name} must be > 0 and finite, got {v}")
         for name in ("jerk_psd", "yaw_accel_psd", "bias_psd", "log_chi_psd", "slip_psd",
-                     "slip_psd_ref_std", "pitch_psd", "chi_min_yaw_rate_rad_s"):
+                     "slip_psd_rel", "pitch_psd", "chi_min_yaw_rate_rad_s"):
             v = float(getattr(self, name))
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigError(f"{name} must be >= 0 and finite, got {v}")
@@ -351,9 +352,9 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     """Run :class:`SkidSteerSlipModel` with a slip pseudo-measurement whose variance varies.
 
     The grid is cut after each pseudo-measurement time; segment ``j`` runs with
-    ``slip_std = pseudo_std[j]`` (the std of the one pseudo-measurement it holds) and, when
-    ``settings.slip_psd_ref_std > 0``, with the slip drift density scaled by
-    ``(pseudo_std[j] / slip_psd_ref_std)^2`` (:class:`SkidSteerSlipSettings`); it starts
+    ``slip_std = pseudo_std[j]`` (the std of the one pseudo-measurement it holds) and the slip
+    drift density ``slip_psd + slip_psd_rel * pseudo_std[j]^2`` (:class:`SkidSteerSlipSettings`);
+    it starts
     from the state and covariance of the previous segment predicted by one step.
 
     Parameters
@@ -409,9 +410,8 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     x0 = P0 = None
     for a, b in zip(cuts[:-1], cuts[1:]):
         std = std_of_end.get(b - 1, settings.slip_std)
-        psd = (settings.slip_psd * (std / settings.slip_psd_ref_std) ** 2
-               if settings.slip_psd_ref_std > 0 else settings.slip_psd)
-        model = SkidSteerSlipModel(replace(settings, slip_std=std, slip_psd=psd))
+        model = SkidSteerSlipModel(replace(settings, slip_std=std, slip_psd=settings.slip_psd
+                                           + settings.slip_psd_rel * std ** 2))
         if parts:
             prev = parts[-1]
             dt = t_grid_s[a] - t_grid_s[a - 1]
