@@ -16,7 +16,7 @@ from terrain.estimation.model import finite_difference_jacobian
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import write_run
 from terrain.sim import SimConfig, simulate
-from terrain.slip.estimate import estimate_skid_steer_slip_run
+from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
 from terrain.slip.physics import PhysicsSlipSettings
 
 X = np.array([0.8, 0.3, 0.01, np.log(1.4), 0.12, 0.07, 0.2, 0.05])
@@ -117,3 +117,24 @@ def test_pseudo_measurement_takes_the_calibrated_learned_std():
     w = 0.004 ** -2 / (0.004 ** -2 + 0.002 ** -2)                   # inverse-variance weights
     np.testing.assert_allclose(sf[0], w * 0.10 + (1 - w) * 0.12)
     np.testing.assert_allclose(vf[0], 0.002)                        # the better one's std
+
+
+def test_scaled_slip_drift_makes_the_filter_std_proportional_to_the_pseudo_std(sandy):
+    """``slip_psd_rel``: drift density ``slip_psd + slip_psd_rel std^2``. With no constant
+    part the steady slip variance is proportional to the pseudo-measurement variance, so a
+    100x smaller pseudo std gives a ~100x smaller filter std (the wheels and accelerometer
+    add little on the slip states); with the constant drift it does not scale."""
+    from dataclasses import replace
+
+    from terrain.slip.estimate import SCALED_DRIFT_FUSION
+    _, run = sandy
+    t, slip, _ = slip_model_outputs(run)["physics"]
+    late = {}
+    for name, fs in (("scaled", replace(SCALED_DRIFT_FUSION, filter=replace(
+            SCALED_DRIFT_FUSION.filter, slip_psd=0.0))), ("constant", BATCH_FUSION)):
+        for sd in (1e-2, 1e-4):
+            outs = {"physics": (t, slip, np.full_like(slip, sd))}
+            est = estimate_skid_steer_slip_run(run, "physics", outputs=outs, settings=fs)
+            late[name, sd] = np.median(est.slip_std[est.ekf.t_s > 10.0])
+    assert 80 < late["scaled", 1e-2] / late["scaled", 1e-4] < 120
+    assert late["constant", 1e-2] / late["constant", 1e-4] < 20
