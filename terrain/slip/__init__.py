@@ -7,7 +7,7 @@ Public API: :func:`sae_slip`, :func:`wheel_longitudinal_velocity`, :func:`wheel_
 (:func:`agrimaro_wheel_speeds`, :func:`agrimaro_encoder_lag`, :func:`skid_steer_encoder_lag`,
 :func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate`; the fused skid-steer slip :func:`estimate_skid_steer_slip_run`,
 :func:`pseudo_measurement`, :class:`FusionSettings`, :data:`BATCH_FUSION`,
-:data:`SCALED_DRIFT_FUSION`, :data:`SLIP_MODELS` (:mod:`.estimate`).
+:data:`SLIP_MODELS` (:mod:`.estimate`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from terrain.slip.estimate import (LAG_MODES, TUNINGS, RunEstimate, agrimaro_enc
                                    agrimaro_settings, agrimaro_wheel_speeds,
                                    estimate_agrimaro_run, estimate_run, estimate_skid_steer_run,
                                    resample, skid_steer_encoder_lag, with_camera_ema)
-from terrain.slip.estimate import (BATCH_FUSION, SCALED_DRIFT_FUSION, SLIP_MODELS,
+from terrain.slip.estimate import (BATCH_FUSION, SLIP_MODELS,
                                    FusionSettings, estimate_skid_steer_slip_run,
                                    pseudo_measurement)
 
@@ -28,5 +28,5 @@ __all__ = ["LagEstimate", "estimate_lag", "DEAD_BAND_M_S", "sae_slip", "skid_ste
            "agrimaro_settings", "estimate_run", "agrimaro_encoder_lag", "agrimaro_wheel_speeds",
            "estimate_agrimaro_run", "estimate_skid_steer_run", "resample",
            "skid_steer_encoder_lag", "with_camera_ema", "SLIP_MODELS", "BATCH_FUSION",
-           "SCALED_DRIFT_FUSION", "FusionSettings", "estimate_skid_steer_slip_run",
+           "FusionSettings", "estimate_skid_steer_slip_run",
            "pseudo_measurement"]
