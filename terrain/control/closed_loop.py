@@ -472,6 +472,28 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     return WheelImuObserver(vehicle)
 
 
+def fallback_basis(table: SlipTable) -> str | None:
+    """The catalogued terrain the table's fallback traction target comes from.
+
+    :func:`terrain.control.desired_slip.fallback_entry` takes the traction target of the
+    entry with the smallest magnitude; while no terrain is decided the loop assumes that
+    terrain's curve for the feed-forward limit and the slip model (the conservative case).
+
+    Parameters
+    ----------
+    table : SlipTable
+        Desired-slip table.
+
+    Returns
+    -------
+    str or None
+        Terrain name, None for a table without entries.
+    """
+    if not table.entries:
+        return None
+    return min(table.entries.values(), key=lambda e: abs(e.traction)).terrain
+
+
 class TractionLoop:
     """Controller callback: estimator -> target from the table -> traction step.
 
@@ -498,8 +520,10 @@ class TractionLoop:
     feed_forward : bool
         Also apply the feed-forward slip limit of :mod:`terrain.control.feedforward` (the
         decided terrain's largest acceleration at the traction target; no estimate of the
-        slip in it), from standstill on, where the decision is a catalogued terrain and the
-        estimate is not stale; the correction applied is the one that slows the wheel more.
+        slip in it), from standstill on, where the estimate is not stale; on the decided
+        catalogued terrain, or while the table's fallback applies (no, a low-confidence or a
+        stale decision) on the terrain the fallback's traction target comes from
+        (:func:`fallback_basis`); the correction applied is the one that slows the wheel more.
 
     Attributes
     ----------
@@ -518,6 +542,7 @@ class TractionLoop:
         self._accel_limit: dict[tuple[str, float], float] = {}
         self.estimator = estimator
         self.table = table
+        self._fallback_basis = fallback_basis(table)
         self.terrain_decision = terrain_decision
         self.apply = bool(apply)
         self.t_prev: float | None = None
@@ -555,11 +580,13 @@ class TractionLoop:
                                    est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
                                    max(dt, 1e-6), est.age_s)
         correction = out.correction_rad_s
-        if self.feed_forward and targets.terrain in TERRAIN_NAMES:
-            key = (targets.terrain, float(targets.traction))
+        ff_terrain = (targets.terrain if targets.terrain in TERRAIN_NAMES
+                      else self._fallback_basis)
+        if self.feed_forward and ff_terrain in TERRAIN_NAMES:
+            key = (ff_terrain, float(targets.traction))
             if key not in self._accel_limit:
                 self._accel_limit[key] = traction_acceleration_limit(
-                    get_terrain(targets.terrain), targets.traction)
+                    get_terrain(ff_terrain), targets.traction)
             ff = feedforward_step(self.v_ref, est.v_long_m_s, obs.omega_low_level,
                                   self._accel_limit[key], targets.traction,
                                   self.controller.config.wheel_radius_m, max(dt, 0.0),
@@ -760,8 +787,9 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     table : SlipTable, optional
         Desired-slip table; None: built for ``terrain`` alone.
     terrain_decision : callable, optional
-        ``f(t_s) -> (label, confidence)``; None: the run's terrain label with confidence 1
-        (the ground truth: see the pipelines for when this applies).
+        ``f(t_s) -> (label or None, confidence)``; None: the run's terrain label with
+        confidence 1 (the ground truth: see the pipelines for when this applies). While it
+        gives no label the estimator's slip model assumes the :func:`fallback_basis` terrain.
     estimator : str, optional
         Estimator kind (:func:`estimator_for`); None: the vehicle's default.
     feed_forward : bool
@@ -790,7 +818,13 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
     table = table or build_slip_table([terrain])
     decision = terrain_decision or (lambda t: (terrain, 1.0))
-    estimator = estimator_for(vehicle, decision, estimator)
+    basis = fallback_basis(table)
+
+    def assumed(t_s: float) -> tuple:   # the estimator's slip model: undecided -> basis
+        label, conf = decision(t_s)
+        return (label, conf) if label is not None else (basis, 0.0)
+
+    estimator = estimator_for(vehicle, assumed, estimator)
     loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on,
                         feed_forward=feed_forward)
     sim = simulate_closed_loop(SimConfig(vehicle=vehicle, terrains=(terrain,),
