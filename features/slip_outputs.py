@@ -8,6 +8,7 @@ The physics slip (:func:`terrain.slip.physics.physics_slip`, through the ``phys_
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -44,8 +45,12 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     Returns
     -------
     dict or None
-        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "learned": ...}`` with ``t_s`` the window
-        centres, s; the learned std is the model's calibrated one
+        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "physics_current": ..., "learned": ...}``
+        with ``t_s`` the window centres, s; ``physics_current`` is the physics slip with the
+        current noise as its only uncertainty (efficiency and rolling-loss uncertainties 0):
+        its std is the traction-coefficient noise over the slope of the terrain's
+        traction-slip curve, which sets the slip drift of
+        :data:`terrain.slip.estimate.BATCH_FUSION`; the learned std is the model's calibrated one
         (:meth:`terrain.slip.learned.SlipRegressor.predict_std`; NaN for a model without a
         calibration) (the time a window mean describes; the estimate is therefore not causal:
         a filter step uses up to half a window, 1 s, of later data). None when the run lacks
@@ -62,21 +67,29 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     vehicle = get_vehicle(run.vehicle)
     X = slip_features(ws, vehicle, one_hot_probabilities([str(run.terrain)] * len(ws),
                                                          TERRAIN_NAMES))
+    cur = X[["cur_l__mean", "cur_r__mean"]].to_numpy(float)
+    rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(float)
+    acc = np.repeat(X[["vel_mean__slope"]].to_numpy(float), 2, axis=1) / \
+        vehicle.contact_geometry().wheel_radius_m
+    n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(SensorSettings.wheel_rate_hz,
+                                                        ws.rate_hz))
+
+    def physics(settings: PhysicsSlipSettings):     # same inputs as the phys_* features
+        return physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
+                            acc, n_averaged=n_cur, settings=settings)
+
     if physics_settings == PhysicsSlipSettings():
         phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy(float)
         phys_std = np.repeat(X[["phys_std"]].to_numpy(float), 2, axis=1)
-    else:       # same inputs as the phys_* features, other uncertainties
-        cur = X[["cur_l__mean", "cur_r__mean"]].to_numpy(float)
-        rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(float)
-        acc = np.repeat(X[["vel_mean__slope"]].to_numpy(float), 2, axis=1) / \
-            vehicle.contact_geometry().wheel_radius_m
-        n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(SensorSettings.wheel_rate_hz,
-                                                            ws.rate_hz))
-        res = physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
-                           acc, n_averaged=n_cur, settings=physics_settings)
+    else:
+        res = physics(physics_settings)
         phys, phys_std = res.slip, res.std
+    # current noise alone: the traction noise over the slope of the terrain's curve
+    current_only = physics(replace(physics_settings, efficiency_rel_std=0.0,
+                                   hysteresis_rel_std=0.0))
     t_mid = 0.5 * (ws.t_start_s + ws.t_end_s).astype(float)
-    out = {"physics": (t_mid, phys, phys_std)}
+    out = {"physics": (t_mid, phys, phys_std),
+           "physics_current": (t_mid, current_only.slip, current_only.std)}
     if learned_model is not None:
         Xa = X.to_numpy(float)
         pred = np.asarray(learned_model.predict(Xa), dtype=float)[:, :2]

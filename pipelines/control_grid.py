@@ -5,7 +5,10 @@ quasi-static slip-limit bound, log everything to MLflow (experiment terrain-cont
 Default (small, about a minute on a loaded core): both vehicles, TILES GRASS SANDY_LOAM SNOW
 ICE, straight_accel, seed 0, 20 s. Full grid (docs/control_validation.md):
   terrain control-grid --scenarios straight_accel orchard slope_turn --seeds 0 1 2 --out OUT
---no-tune uses terrain.control.closed_loop.DEFAULT_GAINS instead of tuning.
+--no-tune uses terrain.control.closed_loop.default_gains (per vehicle and estimator) instead of
+tuning. --terrain-source live-sim takes the terrain decisions from the live classifier trained
+on simulated runs of each vehicle on the --classifier-seeds (pipelines/control_classifier.py;
+the gain tuning keeps the label); the default is the run's label.
 """
 
 from __future__ import annotations
@@ -14,7 +17,8 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.control.closed_loop import DEFAULT_GAINS, ESTIMATORS
+from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
+from terrain.control.closed_loop import ESTIMATORS, default_gains
 from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
                                   slip_limit_bound, tune_gains)
 
@@ -26,7 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-grid``: vehicles, terrains, scenarios, evaluation seeds,
     ``--duration-s`` (simulated time per run, s), ``--no-tune``, the proportional
     (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids,
-    ``--husky-estimator``, ``--no-feed-forward`` and ``--out``.
+    ``--husky-estimator``, ``--no-feed-forward``, the ``--terrain-source`` (with ``--model``
+    or the live-sim ``--classifier-seeds``) and ``--out``.
 
     Parameters
     ----------
@@ -47,6 +52,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the Husky's slip estimator (default: the fused slip estimate)")
     parser.add_argument("--no-feed-forward", action="store_true",
                         help="feedback only (no feed-forward slip limit)")
+    parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default="label",
+                        help="terrain decisions: label (default), live-sim (classifier "
+                             "trained on simulated runs) or model (--model)")
+    parser.add_argument("--model", default=None, help="classifier of --terrain-source model")
+    parser.add_argument("--classifier-seeds", nargs="+", type=int,
+                        default=list(CLASSIFIER_SEEDS),
+                        help="training seeds of the live-sim classifier")
     parser.add_argument("--out", required=True, help="output folder")
 
 
@@ -106,8 +118,9 @@ def main(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     params = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
-        gains, tuning = dict(DEFAULT_GAINS), {}
         estimators = {"husky": args.husky_estimator}
+        gains = {v: default_gains(v, estimators.get(v)) for v in args.vehicles}
+        tuning = {}
         if not args.no_tune:
             for veh in args.vehicles:
                 step = iter(range(10_000))
@@ -118,9 +131,15 @@ def main(args: argparse.Namespace) -> int:
                     estimator=estimators.get(veh), feed_forward=not args.no_feed_forward)
                 tuning[veh].to_csv(out / f"tuning_{veh}.csv", index=False)
                 run.log_table(tuning[veh], f"tuning_{veh}.json")
+        decisions, classifiers = {}, {}
+        for veh in args.vehicles:
+            decisions[veh], classifiers[veh] = decision_source(
+                args.terrain_source, veh, args.terrains, args.seeds, args.duration_s,
+                args.model, args.classifier_seeds)
+            run.log_dict(classifiers[veh], f"classifier_{veh}.json")
         results, traces = run_grid(args.vehicles, args.terrains, args.scenarios, args.seeds,
                                    gains, args.duration_s, estimators,
-                                   not args.no_feed_forward)
+                                   not args.no_feed_forward, decisions)
         table = compare(results)
         results.to_csv(out / "runs.csv", index=False)
         table.to_csv(out / "comparison.csv", index=False, float_format="%.4f")
@@ -129,7 +148,8 @@ def main(args: argparse.Namespace) -> int:
                  if r.terrain in SOFT and r.scenario == "straight_accel"]
         summary = {"gains": {v: list(g) for v, g in gains.items()},
                    "tuning_seeds": list(TUNING_SEEDS), "evaluation_seeds": args.seeds,
-                   "comparison": table.to_dict(orient="records"), "slip_limit_bound": bound}
+                   "comparison": table.to_dict(orient="records"), "slip_limit_bound": bound,
+                   "terrain_source": classifiers}
         (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
         for p in _plots(traces, table, out):
             run.log_artifact(p, "plots")

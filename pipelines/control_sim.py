@@ -7,10 +7,13 @@ online, --estimator observer for the earlier wheel + IMU observer; limits stated
 the target from the desired-slip table. --controller off runs the
 same loop in shadow mode (no correction), scored against the same targets.
 
-Terrain decisions: with --model DIR (a model saved by `terrain train --model-out DIR`) from
-that classifier, applied causally (pipelines/live_terrain.py), where it applies (the Husky
-with a BorealTC model on one of its classes); otherwise from the run's label, with the reason
-in the JSON (terrain_source).
+Terrain decisions (--terrain-source): `label` (default without --model) the run's label;
+`live-sim` the live classifier trained on simulated runs of the same vehicle on the
+--classifier-seeds (pipelines/control_classifier.py, cached under out/control_classifier);
+`model` (default with --model DIR, a model saved by `terrain train --model-out DIR`) that
+classifier. Classifier decisions are applied causally (pipelines/live_terrain.py) where the
+model applies (trained on the vehicle's data, the run's terrain among its classes); otherwise
+the label is used, with the reason in the JSON (terrain_source).
 
 JSON fields: slip_rmse, peak_slip, time_to_speed_s, energy_j_per_m (V_bus x motor currents),
 distance_m, mean_speed_m_s, terrain_accuracy and more (terrain.control.closed_loop.loop_metrics).
@@ -22,16 +25,16 @@ import argparse
 import json
 from pathlib import Path
 
-from terrain.control.closed_loop import (DEFAULT_GAINS, ESTIMATORS, run_closed_loop,
+from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
+from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
-from terrain.control.desired_slip import build_slip_table
 
 VEHICLES = ("agrimaro", "husky")
 SCENARIOS = ("straight_accel", "orchard", "slope_turn")
 TERRAIN_SOURCE_NOTE = ("label: terrain decisions are the run's ground-truth label (confidence "
-                       "1), terrain_accuracy is 1 by construction; no --model was given (a "
-                       "`terrain train` model is used where it applies: the Husky on BorealTC "
-                       "classes)")
+                       "1), terrain_accuracy is 1 by construction; --terrain-source label (live-sim: "
+                       "the classifier trained on simulated runs; model: a `terrain train` "
+                       "model where it applies)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -57,6 +60,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="integral gain, rad/s per unit slip and s (default: tuned)")
     parser.add_argument("--model", default=None,
                         help="terrain classifier saved by `terrain train --model-out DIR`")
+    parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default=None,
+                        help="terrain decisions: label, live-sim (classifier trained on "
+                             "simulated runs) or model (--model); default model with "
+                             "--model, else label")
+    parser.add_argument("--classifier-seeds", nargs="+", type=int,
+                        default=list(CLASSIFIER_SEEDS),
+                        help="training seeds of the live-sim classifier")
     parser.add_argument("--estimator", default=None,
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}),
                         help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo, Husky "
@@ -70,9 +80,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run one closed-loop simulation and write its metrics.
 
-    Gains not given default to :data:`terrain.control.closed_loop.DEFAULT_GAINS`. With
-    ``args.model`` the controller's terrain comes from the classifier's decisions on the
-    simulated run (:func:`pipelines.live_terrain.classifier_decisions`), else the true
+    Gains not given default to :func:`terrain.control.closed_loop.default_gains` of the
+    vehicle and estimator. With ``--terrain-source live-sim`` or ``model`` (default with
+    ``args.model``) the controller's terrain comes from the classifier's decisions on the
+    simulated run (:func:`pipelines.control_classifier.decision_source`), else the true
     terrain is used. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
     ``args.json`` and, if ``args.csv``, the per-step trace.
 
@@ -86,22 +97,22 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status, 0.
     """
-    kp, ki = DEFAULT_GAINS[args.vehicle]
+    kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, decide, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
-    if args.model:
-        from pipelines.live_terrain import classifier_decisions
-        decide, note, classes = classifier_decisions(args.model, args.vehicle, terrain,
-                                                     args.scenario, args.seed, args.duration_s)
-        if decide is not None:   # every class the model may emit needs a table entry
-            table = build_slip_table(classes)
+    source = args.terrain_source or ("model" if args.model else "label")
+    provider, info = decision_source(source, args.vehicle, [terrain], [args.seed],
+                                     args.duration_s, args.model, args.classifier_seeds)
+    if provider is not None:   # the table covers every class the model may emit
+        decide, table, note = provider(terrain, args.scenario, args.seed)
     sim, loop, metrics = run_closed_loop(args.vehicle, terrain, args.scenario,
                                          args.controller == "traction", args.seed,
                                          args.duration_s, gains, table, decide,
                                          args.estimator, not args.no_feed_forward)
     out = {"vehicle": args.vehicle, "terrain": args.terrain.upper(),
            "scenario": args.scenario, "controller": args.controller, "seed": args.seed,
-           "duration_s": args.duration_s, "terrain_source": note, **metrics}
+           "duration_s": args.duration_s, "terrain_source": note,
+           "classifier": info, **metrics}
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(out, indent=1) + "\n")
     if args.csv:

@@ -8,7 +8,9 @@ are cut from the sensor streams of the uncontrolled run of the same seed (``terr
 simulate``'s batch sensor model, IMU vibration included): the controller changes the wheel
 speeds slightly, not the terrain's vibration signature, and the online sensors of the loop
 carry no vibration band. Applies where the model's classes include the run's terrain and the
-model was trained on the vehicle's dataset (BorealTC: the Husky).
+model was trained on the vehicle's data: its shipped dataset (BorealTC: the Husky) or
+simulated runs of the vehicle (metadata ``vehicle``, the live-sim classifier of
+pipelines/control_classifier.py).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ VEHICLE_DATASET = {"husky": "borealtc"}
 
 
 def classifier_decisions(model_dir: str, vehicle: str, terrain: str, scenario: str, seed: int,
-                         duration_s: float
+                         duration_s: float, loaded: tuple | None = None
                          ) -> tuple[Callable[[float], tuple] | None, str, list[str]]:
     """A causal decision function from a trained model, or None with the reason.
 
@@ -39,6 +41,9 @@ def classifier_decisions(model_dir: str, vehicle: str, terrain: str, scenario: s
         Run seed.
     duration_s : float
         Simulated time, s.
+    loaded : tuple, optional
+        ``(model, metadata)`` of :func:`terrain.serving.pyfunc.load_model` for
+        ``model_dir``, already loaded (a grid loads it once).
 
     Returns
     -------
@@ -49,9 +54,12 @@ def classifier_decisions(model_dir: str, vehicle: str, terrain: str, scenario: s
     classes : list of str
         The model's classes.
     """
-    model, meta = load_model(model_dir)
+    model, meta = loaded or load_model(model_dir)
     classes = [str(c).upper() for c in meta.get("classes", [])]
-    if vehicle not in VEHICLE_DATASET or terrain not in classes:
+    own_data = meta.get("vehicle") == vehicle or (
+        vehicle in VEHICLE_DATASET and meta.get("dataset", VEHICLE_DATASET[vehicle])
+        == VEHICLE_DATASET[vehicle])
+    if not own_data or terrain not in classes:
         return None, (f"label: the model's classes {classes} do not include {terrain} or it was "
                       f"not trained on {vehicle} data, so the terrain comes from the label"),\
             classes

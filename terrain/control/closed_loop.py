@@ -472,6 +472,28 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     return WheelImuObserver(vehicle)
 
 
+def fallback_basis(table: SlipTable) -> str | None:
+    """The catalogued terrain the table's fallback traction target comes from.
+
+    :func:`terrain.control.desired_slip.fallback_entry` takes the traction target of the
+    entry with the smallest magnitude; while no terrain is decided the loop assumes that
+    terrain's curve for the feed-forward limit and the slip model (the conservative case).
+
+    Parameters
+    ----------
+    table : SlipTable
+        Desired-slip table.
+
+    Returns
+    -------
+    str or None
+        Terrain name, None for a table without entries.
+    """
+    if not table.entries:
+        return None
+    return min(table.entries.values(), key=lambda e: abs(e.traction)).terrain
+
+
 class TractionLoop:
     """Controller callback: estimator -> target from the table -> traction step.
 
@@ -498,8 +520,10 @@ class TractionLoop:
     feed_forward : bool
         Also apply the feed-forward slip limit of :mod:`terrain.control.feedforward` (the
         decided terrain's largest acceleration at the traction target; no estimate of the
-        slip in it), from standstill on, where the decision is a catalogued terrain and the
-        estimate is not stale; the correction applied is the one that slows the wheel more.
+        slip in it), from standstill on, where the estimate is not stale; on the decided
+        catalogued terrain, or while the table's fallback applies (no, a low-confidence or a
+        stale decision) on the terrain the fallback's traction target comes from
+        (:func:`fallback_basis`); the correction applied is the one that slows the wheel more.
 
     Attributes
     ----------
@@ -514,9 +538,11 @@ class TractionLoop:
         self.controller = TractionController(config, n_units)
         self.feed_forward = bool(feed_forward)
         self.v_ref = np.zeros(n_units)
+        self.ff_engaged = np.zeros(n_units, dtype=bool)
         self._accel_limit: dict[tuple[str, float], float] = {}
         self.estimator = estimator
         self.table = table
+        self._fallback_basis = fallback_basis(table)
         self.terrain_decision = terrain_decision
         self.apply = bool(apply)
         self.t_prev: float | None = None
@@ -554,15 +580,18 @@ class TractionLoop:
                                    est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
                                    max(dt, 1e-6), est.age_s)
         correction = out.correction_rad_s
-        if self.feed_forward and targets.terrain in TERRAIN_NAMES:
-            key = (targets.terrain, float(targets.traction))
+        ff_terrain = (targets.terrain if targets.terrain in TERRAIN_NAMES
+                      else self._fallback_basis)
+        if self.feed_forward and ff_terrain in TERRAIN_NAMES:
+            key = (ff_terrain, float(targets.traction))
             if key not in self._accel_limit:
                 self._accel_limit[key] = traction_acceleration_limit(
-                    get_terrain(targets.terrain), targets.traction)
+                    get_terrain(ff_terrain), targets.traction)
             ff = feedforward_step(self.v_ref, est.v_long_m_s, obs.omega_low_level,
                                   self._accel_limit[key], targets.traction,
-                                  self.controller.config.wheel_radius_m, max(dt, 0.0))
-            self.v_ref = ff.v_ref_m_s
+                                  self.controller.config.wheel_radius_m, max(dt, 0.0),
+                                  self.ff_engaged)
+            self.v_ref, self.ff_engaged = ff.v_ref_m_s, ff.engaged
             low = obs.omega_low_level
             use_ff = (~out.safe) & (np.abs(low + ff.correction_rad_s) < np.abs(low + correction))
             correction = np.where(use_ff, ff.correction_rad_s, correction)
@@ -690,12 +719,45 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
     "husky": MappingProxyType({"max_input_age_s": 0.25}),
 })
 
-#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) found by the tuning of
-#: ``terrain control-grid`` on the tuning seeds, feed-forward on (docs/control_validation.md);
-#: the Husky's with the interim observer (with the fused estimate and no currents every
-#: candidate ties).
+#: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) of each vehicle with its
+#: default estimator (the first of :data:`ESTIMATORS`), found by the tuning of
+#: ``terrain control-grid`` on the tuning seeds, feed-forward on (docs/control_validation.md):
+#: AgriMaRo with its EKF + VO; Husky with the fused slip estimate, motor currents in the loop
+#: (kp = 2, ki = 0: with ki = 10 the integral of the estimate's end-of-ramp overshoot holds
+#: the wheels back and the time to cruise doubles).
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
-    "agrimaro": (5.0, 10.0), "husky": (5.0, 10.0)})
+    "agrimaro": (5.0, 10.0), "husky": (2.0, 0.0)})
+
+#: Gains of the non-default estimators ``(vehicle, kind) -> (kp, ki)``, same tuning: the
+#: Husky's interim wheel + IMU observer.
+ESTIMATOR_GAINS: Mapping[tuple[str, str], tuple[float, float]] = MappingProxyType({
+    ("husky", "observer"): (5.0, 10.0)})
+
+
+def default_gains(vehicle: str, estimator: str | None = None) -> tuple[float, float]:
+    """Tuned ``(kp, ki)`` of a vehicle with an estimator kind.
+
+    Parameters
+    ----------
+    vehicle : str
+        ``agrimaro`` or ``husky``.
+    estimator : str, optional
+        Estimator kind (:data:`ESTIMATORS`); None: the vehicle's default.
+
+    Returns
+    -------
+    tuple of float
+        :data:`ESTIMATOR_GAINS` of the pair where listed, else :data:`DEFAULT_GAINS` of the
+        vehicle (kp in rad/s per unit slip, ki in rad/s per unit slip and second).
+
+    Raises
+    ------
+    ConfigError
+        Vehicle without closed-loop gains.
+    """
+    if vehicle not in DEFAULT_GAINS:
+        raise ConfigError(f"control-sim supports {', '.join(DEFAULT_GAINS)}, got {vehicle!r}")
+    return ESTIMATOR_GAINS.get((vehicle, estimator or ""), DEFAULT_GAINS[vehicle])
 
 
 def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,
@@ -721,12 +783,13 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     duration_s : float
         Simulated time, s.
     gains : tuple of float, optional
-        ``(kp, ki)``; None: :data:`DEFAULT_GAINS`.
+        ``(kp, ki)``; None: :func:`default_gains` of the vehicle and estimator.
     table : SlipTable, optional
         Desired-slip table; None: built for ``terrain`` alone.
     terrain_decision : callable, optional
-        ``f(t_s) -> (label, confidence)``; None: the run's terrain label with confidence 1
-        (the ground truth: see the pipelines for when this applies).
+        ``f(t_s) -> (label or None, confidence)``; None: the run's terrain label with
+        confidence 1 (the ground truth: see the pipelines for when this applies). While it
+        gives no label the estimator's slip model assumes the :func:`fallback_basis` terrain.
     estimator : str, optional
         Estimator kind (:func:`estimator_for`); None: the vehicle's default.
     feed_forward : bool
@@ -751,11 +814,17 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
 
     if vehicle not in LOOP_SETTINGS:
         raise ConfigError(f"control-sim supports agrimaro and husky, got {vehicle!r}")
-    kp, ki = gains or DEFAULT_GAINS[vehicle]
+    kp, ki = gains or default_gains(vehicle, estimator)
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
     table = table or build_slip_table([terrain])
     decision = terrain_decision or (lambda t: (terrain, 1.0))
-    estimator = estimator_for(vehicle, decision, estimator)
+    basis = fallback_basis(table)
+
+    def assumed(t_s: float) -> tuple:   # the estimator's slip model: undecided -> basis
+        label, conf = decision(t_s)
+        return (label, conf) if label is not None else (basis, 0.0)
+
+    estimator = estimator_for(vehicle, assumed, estimator)
     loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on,
                         feed_forward=feed_forward)
     sim = simulate_closed_loop(SimConfig(vehicle=vehicle, terrains=(terrain,),

@@ -13,7 +13,10 @@ the balance of :func:`terrain.terramechanics.steady_slip`), so the chassis accel
 at ``a_max = g (mu(s_t) - rho(s_t))`` (:func:`traction_acceleration_limit`). A reference
 ground speed that grows at ``a_max`` from the estimated one, never beyond the commanded rim
 speed, gives each wheel the speed limit ``omega_lim = v_ref / (r (1 - s_t))`` (SAE traction
-slip ``s = 1 - v / (omega r)``, seed 001 eq. 7.1) (:func:`feedforward_step`).
+slip ``s = 1 - v / (omega r)``, seed 001 eq. 7.1) (:func:`feedforward_step`). Once the
+limit binds, the estimate may lift the reference no faster than ``a_max`` either (rate-limited
+release): a lagging slip estimate overstates the ground speed ``omega r (1 - s)`` during a
+start-up, and lifting the reference to it released the limit in steps.
 
 Limits: ``a_max`` assumes flat ground (on a grade the real acceleration is lower and the
 feedback controller has to catch the rest) and the mass of the vehicle on its wheels (no
@@ -69,21 +72,32 @@ class FeedForward(NamedTuple):
         Reference ground speed magnitude of each unit after the step, m/s.
     omega_limit_rad_s : ndarray, shape (n,)
         Wheel speed magnitude limit, rad/s.
+    engaged : ndarray of bool, shape (n,)
+        Whether the limit binds (the command is above it); pass it to the next step.
     """
 
     correction_rad_s: np.ndarray
     v_ref_m_s: np.ndarray
     omega_limit_rad_s: np.ndarray
+    engaged: np.ndarray
 
 
 def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
                      omega_low_level_rad_s: np.ndarray, accel_limit_m_s2: float,
-                     target_slip: float, wheel_radius_m: float, dt_s: float) -> FeedForward:
+                     target_slip: float, wheel_radius_m: float, dt_s: float,
+                     engaged: np.ndarray | None = None) -> FeedForward:
     """One step of the feed-forward slip limit (module docstring).
 
-    ``v_ref <- max(|v_est|, min(v_ref + max(a_max, 0) dt, |omega_ll| r))``;
+    ``v_ref <- max(v_lift, min(v_ref + max(a_max, 0) dt, |omega_ll| r))``;
     ``omega_lim = v_ref / (r (1 - s_t))``; the correction lowers ``|omega_ll|`` to
-    ``omega_lim`` where it is above, keeping its sign.
+    ``omega_lim`` where it is above, keeping its sign. The estimate lifts the reference,
+    ``v_lift = |v_est|``, except where the limit was ``engaged`` at the previous step: there
+    ``v_lift = min(|v_est|, v_ref + max(a_max, 0) dt)``, so an engaged limit is released no
+    faster than the terrain can accelerate the robot. Reason: during a start-up the slip
+    estimate lags the true slip, so the ground speed derived from it (``omega r (1 - s)``)
+    runs ahead of the true one; lifting the reference to it released the limit in steps at
+    each wheel sample and let the wheels spin up again (Husky, fused estimate, SNOW: peak
+    slip 0.346 with control against 0.328 without, docs/control_validation.md).
 
     Parameters
     ----------
@@ -101,6 +115,9 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         Wheel radius r, m (> 0).
     dt_s : float
         Time since the previous step, s (>= 0).
+    engaged : ndarray of bool, shape (n,), optional
+        ``engaged`` of the previous step's result; None: not engaged anywhere (the estimate
+        lifts the reference freely).
 
     Returns
     -------
@@ -110,8 +127,9 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     rim = np.abs(omega) * wheel_radius_m
     v_est = np.nan_to_num(np.abs(np.asarray(v_est_m_s, dtype=float)))
     grown = np.asarray(v_ref_m_s, dtype=float) + max(float(accel_limit_m_s2), 0.0) * dt_s
-    v_ref = np.maximum(v_est, np.minimum(grown, rim))
+    lift = v_est if engaged is None else np.where(engaged, np.minimum(v_est, grown), v_est)
+    v_ref = np.maximum(lift, np.minimum(grown, rim))
     limit = v_ref / (wheel_radius_m * (1.0 - min(abs(float(target_slip)), 0.99)))
     over = np.abs(omega) > limit
     corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
-    return FeedForward(corr, v_ref, limit)
+    return FeedForward(corr, v_ref, limit, over)

@@ -103,8 +103,8 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
 
 def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
              seeds: Sequence[int], gains: dict, duration_s: float = 20.0,
-             estimators: dict | None = None, feed_forward: bool = True
-             ) -> tuple[pd.DataFrame, dict]:
+             estimators: dict | None = None, feed_forward: bool = True,
+             decisions: dict | None = None) -> tuple[pd.DataFrame, dict]:
     """Run the evaluation grid (controller off and on for every cell).
 
     Parameters
@@ -122,11 +122,16 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
         missing vehicles use their default.
     feed_forward : bool
         Feed-forward slip limit in the loop.
+    decisions : dict, optional
+        Vehicle -> ``provider(terrain, scenario, seed) -> (decide or None, table or None,
+        note)``: the terrain decisions of a live classifier (the controller off and on share
+        them); vehicles without a provider, or a provider returning no ``decide``, use the
+        run's label (``terrain_source`` says which).
 
     Returns
     -------
     results : pandas.DataFrame
-        One row per run: the axes, ``controller`` and the metrics of
+        One row per run: the axes, ``controller``, ``terrain_source`` and the metrics of
         :func:`terrain.control.closed_loop.loop_metrics`.
     traces : dict
         ``(vehicle, terrain, scenario, controller, seed)`` -> per-call trace frame.
@@ -141,16 +146,23 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     shared = sorted(set(seeds) & set(TUNING_SEEDS))
     if shared:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
-    rows, traces = [], {}
+    rows, traces, cell = [], {}, {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                    (False, True)):
+        provider = (decisions or {}).get(veh)
+        if (veh, ter, sc, seed) not in cell:
+            cell[veh, ter, sc, seed] = provider(ter, sc, seed) if provider else (None, None,
+                                                                                  "label")
+        decide, table, note = cell[veh, ter, sc, seed]
         sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh],
+                                       table=table, terrain_decision=decide,
                                        estimator=(estimators or {}).get(veh),
                                        feed_forward=feed_forward)
         ctrl = "traction" if on else "off"
         rows.append({"vehicle": veh, "terrain": ter, "scenario": sc, "seed": seed,
-                     "controller": ctrl, **{k: v for k, v in m.items()
-                                            if not isinstance(v, str)}})
+                     "controller": ctrl,
+                     "terrain_source": "label" if decide is None else "classifier",
+                     **{k: v for k, v in m.items() if not isinstance(v, str)}})
         traces[veh, ter, sc, ctrl, seed] = trace_frame(sim, loop)
     return pd.DataFrame(rows), traces
 
@@ -169,11 +181,12 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         ``peak_slip_off/on``, ``peak_slip_cut`` (fraction), ``energy_off/on`` (J/m),
         ``energy_cut`` (fraction), ``time_to_speed_off/on`` (s), ``time_increase``
         (fraction), ``slip_rmse_off/on``, ``steady_within_0_02_on`` (fraction of steady
-        samples with |slip - target| <= 0.02).
+        samples with |slip - target| <= 0.02), ``terrain_accuracy_on`` (share of control
+        steps whose terrain decision is the true terrain, controller on).
     """
     keys = ["vehicle", "terrain", "scenario"]
     cols = ["peak_slip", "energy_j_per_m", "time_to_speed_s", "slip_rmse",
-            "steady_slip_within_0_02", "mean_speed_m_s"]
+            "steady_slip_within_0_02", "mean_speed_m_s", "terrain_accuracy"]
     mean = results.groupby(keys + ["controller"])[cols].mean().unstack("controller")
     out = pd.DataFrame(index=mean.index)
     for c, short in (("peak_slip", "peak_slip"), ("energy_j_per_m", "energy"),
@@ -185,6 +198,7 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
     out["energy_cut"] = 1.0 - out["energy_on"] / out["energy_off"]
     out["time_increase"] = out["time_to_speed_on"] / out["time_to_speed_off"] - 1.0
     out["steady_within_0_02_on"] = mean[("steady_slip_within_0_02", "traction")]
+    out["terrain_accuracy_on"] = mean[("terrain_accuracy", "traction")]
     return out.reset_index()
 
 
@@ -236,11 +250,13 @@ def markdown_table(table: pd.DataFrame) -> str:
     -------
     str
         Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on, the
-        relative changes and the steady-slip share within 0.02 of the target.
+        relative changes, the steady-slip share within 0.02 of the target and the terrain
+        decisions' accuracy.
     """
     head = ("| vehicle | terrain | scenario | peak slip off -> on | cut | energy J/m off -> on "
             "| cut | time to cruise s off -> on | longer | slip RMSE off -> on "
-            "| steady within 0.02 (on) |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "| steady within 0.02 (on) | terrain accuracy |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|\n")
 
     def f(v, fmt):
         return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) \
@@ -252,5 +268,6 @@ def markdown_table(table: pd.DataFrame) -> str:
              f"{f(100 * r.energy_cut, '.1f')} % | {f(r.time_to_speed_off, '.2f')} -> "
              f"{f(r.time_to_speed_on, '.2f')} | {f(100 * r.time_increase, '.0f')} % | "
              f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')} | "
-             f"{f(r.steady_within_0_02_on, '.2f')} |" for r in table.itertuples()]
+             f"{f(r.steady_within_0_02_on, '.2f')} | {f(r.terrain_accuracy_on, '.2f')} |"
+             for r in table.itertuples()]
     return head + "\n".join(lines) + "\n"

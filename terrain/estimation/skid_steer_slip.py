@@ -84,6 +84,17 @@ class SkidSteerSlipSettings:
     slip_psd : float
         Drift density of each side's slip, 1/s (terrain and load changes; small: the slip
         follows the pseudo-measurement, one per second).
+    slip_psd_rel : float
+        Drift density per unit pseudo-measurement variance, 1/s. When > 0,
+        :func:`run_with_pseudo_slip` runs each segment with the slip drift density
+        ``slip_psd + slip_psd_rel * std^2`` (``std``: that segment's pseudo-measurement std).
+        Reason: the physics std is the traction-coefficient std over the slope of the terrain's
+        traction-slip curve (:func:`terrain.slip.physics.physics_slip`), and a change of the
+        traction demand (load, grade, patchy ground) moves the slip by that change over the
+        same slope, so the slip's drift and the pseudo-measurement's std shrink together on a
+        stiff curve (asphalt, ice at low slip) and grow together on a soft one; ``slip_psd``
+        is then the terrain-independent part. 0 (default): constant ``slip_psd`` (the online
+        observer of the control loop).
     pitch_psd : float
         Drift density of the pitch, rad^2 / s (grade changes).
     chi0, log_chi0_std, bias0_std, v0_std, yaw_rate0_std : float
@@ -115,6 +126,7 @@ class SkidSteerSlipSettings:
     bias_psd: float = 1e-8
     log_chi_psd: float = 2e-3
     slip_psd: float = 6e-6
+    slip_psd_rel: float = 0.0
     pitch_psd: float = 1e-3
     chi0: float = 1.5
     log_chi0_std: float = 1.0
@@ -135,7 +147,7 @@ class SkidSteerSlipSettings:
             if not (np.isfinite(v) and v > 0):
                 raise ConfigError(f"{name} must be > 0 and finite, got {v}")
         for name in ("jerk_psd", "yaw_accel_psd", "bias_psd", "log_chi_psd", "slip_psd",
-                     "pitch_psd", "chi_min_yaw_rate_rad_s"):
+                     "slip_psd_rel", "pitch_psd", "chi_min_yaw_rate_rad_s"):
             v = float(getattr(self, name))
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigError(f"{name} must be >= 0 and finite, got {v}")
@@ -336,11 +348,14 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
                          pseudo_t_s: np.ndarray | None = None,
                          pseudo_slip: np.ndarray | None = None,
                          pseudo_std: np.ndarray | None = None, *,
-                         gate: Gate | None = None) -> EKFResult:
+                         gate: Gate | None = None,
+                         drift_std: np.ndarray | None = None) -> EKFResult:
     """Run :class:`SkidSteerSlipModel` with a slip pseudo-measurement whose variance varies.
 
     The grid is cut after each pseudo-measurement time; segment ``j`` runs with
-    ``slip_std = pseudo_std[j]`` (the std of the one pseudo-measurement it holds) and starts
+    ``slip_std = pseudo_std[j]`` (the std of the one pseudo-measurement it holds) and the slip
+    drift density ``slip_psd + slip_psd_rel * drift_std[j]^2`` (:class:`SkidSteerSlipSettings`;
+    ``drift_std`` defaults to ``pseudo_std``); it starts
     from the state and covariance of the previous segment predicted by one step.
 
     Parameters
@@ -360,6 +375,9 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
         Its standard deviation (the larger of the two sides is used for both rows).
     gate : Gate, optional
         Chi-square gating per sensor.
+    drift_std : ndarray, shape (k, 2) or (k,), optional
+        Slip std that scales the drift density of segment ``j`` when
+        ``settings.slip_psd_rel > 0`` (the larger side; non-finite: ``pseudo_std[j]``).
 
     Returns
     -------
@@ -380,23 +398,28 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     sp = np.asarray(pseudo_slip, dtype=float)
     sd = np.asarray(pseudo_std, dtype=float)
     sd = sd.max(axis=1) if sd.ndim == 2 else sd
-    if sp.shape != (tp.size, 2) or sd.shape != (tp.size,):
-        raise ShapeError(f"pseudo-measurements need t (k,), slip (k, 2), std (k,) or (k, 2); "
-                         f"got {tp.shape}, {sp.shape}, {np.shape(pseudo_std)}")
+    dd = sd if drift_std is None else np.asarray(drift_std, dtype=float)
+    dd = dd.max(axis=1) if dd.ndim == 2 else dd
+    if sp.shape != (tp.size, 2) or sd.shape != (tp.size,) or dd.shape != (tp.size,):
+        raise ShapeError(f"pseudo-measurements need t (k,), slip (k, 2), std and drift std "
+                         f"(k,) or (k, 2); got {tp.shape}, {sp.shape}, {np.shape(pseudo_std)}, "
+                         f"{np.shape(drift_std)}")
     ok = np.isfinite(sp).all(axis=1) & np.isfinite(sd) & (sd > 0)
     tp, sp, sd = tp[ok], sp[ok], sd[ok]
+    dd = np.where(np.isfinite(dd[ok]), dd[ok], sd)
     base["slip_model"] = SensorSamples(tp, sp)
     # segment ends: the grid step that receives each pseudo-measurement
     ends = np.unique(np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1))
-    std_of_end = {int(e): float(s) for e, s in zip(
-        np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1), sd)}
+    std_of_end = {int(e): (float(s), float(d)) for e, s, d in zip(
+        np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1), sd, dd)}
     cuts = [0] + [int(e) + 1 for e in ends if e + 1 < t_grid_s.size] + [t_grid_s.size]
     cuts = sorted(set(cuts))
     parts: list[EKFResult] = []
     x0 = P0 = None
     for a, b in zip(cuts[:-1], cuts[1:]):
-        std = std_of_end.get(b - 1, settings.slip_std)
-        model = SkidSteerSlipModel(replace(settings, slip_std=std))
+        std, drift = std_of_end.get(b - 1, (settings.slip_std, settings.slip_std))
+        model = SkidSteerSlipModel(replace(settings, slip_std=std, slip_psd=settings.slip_psd
+                                           + settings.slip_psd_rel * drift ** 2))
         if parts:
             prev = parts[-1]
             dt = t_grid_s[a] - t_grid_s[a - 1]

@@ -19,12 +19,14 @@ from terrain.slip.estimate import (LAG_MODES, TUNINGS, RunEstimate, agrimaro_enc
                                    agrimaro_settings, agrimaro_wheel_speeds,
                                    estimate_agrimaro_run, estimate_run, estimate_skid_steer_run,
                                    resample, skid_steer_encoder_lag, with_camera_ema)
-from terrain.slip.estimate import (BATCH_FUSION, SLIP_MODELS, FusionSettings,
-                                   estimate_skid_steer_slip_run, pseudo_measurement)
+from terrain.slip.estimate import (BATCH_FUSION, SLIP_MODELS,
+                                   FusionSettings, estimate_skid_steer_slip_run,
+                                   pseudo_measurement)
 
 __all__ = ["LagEstimate", "estimate_lag", "DEAD_BAND_M_S", "sae_slip", "skid_steer_side_slip",
            "wheel_longitudinal_velocity", "wheel_slip", "LAG_MODES", "TUNINGS", "RunEstimate",
            "agrimaro_settings", "estimate_run", "agrimaro_encoder_lag", "agrimaro_wheel_speeds",
            "estimate_agrimaro_run", "estimate_skid_steer_run", "resample",
            "skid_steer_encoder_lag", "with_camera_ema", "SLIP_MODELS", "BATCH_FUSION",
-           "FusionSettings", "estimate_skid_steer_slip_run", "pseudo_measurement"]
+           "FusionSettings", "estimate_skid_steer_slip_run",
+           "pseudo_measurement"]

@@ -497,9 +497,8 @@ class FusionSettings:
         std, e.g. the physics std of ~1e-4 on firm ground, where the error of a 2 s window
         mean in a transient is larger). Default 0.003, tuned with the earlier heuristic
         learned std and used by the online observer of the control loop; the batch estimate
-        uses :data:`BATCH_FUSION` (0.001), which with the calibrated learned std gave NEES
-        inside its bounds on simulated GRASS and SNOW (0.003: SNOW only),
-        ``docs/slip_learning.md``.
+        uses :data:`BATCH_FUSION` (1e-5, with a slip drift scaled with the slope of the
+        traction curve), ``docs/slip_learning.md``.
     filter : SkidSteerSlipSettings
         Tuning of the slip-augmented EKF.
     """
@@ -510,9 +509,16 @@ class FusionSettings:
 
 
 #: Settings of the batch estimate (:func:`estimate_skid_steer_slip_run`, ``terrain estimate``):
-#: the defaults with the pseudo-measurement floor lowered to 0.001 for the calibrated learned
-#: std (:class:`FusionSettings`, ``docs/slip_learning.md`` section 5).
-BATCH_FUSION = FusionSettings(min_std=0.001)
+#: pseudo-measurement floor 1e-5 (a guard against a zero std only) and the slip drift density
+#: ``4e-9 + 1.2 * std_I^2`` /s, with ``std_I`` the physics slip std from the current noise
+#: alone (``physics_current`` of :func:`features.slip_outputs.slip_model_outputs`: the traction
+#: noise over the slope of the terrain's traction-slip curve; a stiff curve gives small slip
+#: variations), through :class:`~terrain.estimation.skid_steer_slip.SkidSteerSlipSettings`
+#: ``slip_psd_rel``. Tuned on seeds 200, 201 (``straight_accel``), neither the learned model's
+#: training seeds nor the evaluation seeds; NEES in ``docs/slip_learning.md`` section 5
+#: (before: floor 0.001 and a constant 6e-6 /s).
+BATCH_FUSION = FusionSettings(min_std=1e-5, filter=SkidSteerSlipSettings(slip_psd=4e-9,
+                                                                         slip_psd_rel=1.2))
 
 
 def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
@@ -580,8 +586,9 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         Pseudo-measurement source; ``ekf``: none (slip stays at its prior, std says so).
     outputs : dict, optional
         Window outputs of the slip models
-        (:func:`features.slip_outputs.slip_model_outputs`: ``physics`` and, with a learned
-        model, ``learned``); None when they could not be computed (then no pseudo-measurement).
+        (:func:`features.slip_outputs.slip_model_outputs`: ``physics``, ``physics_current``
+        (its std scales the slip drift when ``settings.filter.slip_psd_rel > 0``; without it
+        the pseudo-measurement std does) and, with a learned model, ``learned``); None when they could not be computed (then no pseudo-measurement).
     lag : {"xcorr", "ema", "none"}
         ``xcorr`` estimates the wheel-stream lag against the gyro.
     gate : Gate, optional
@@ -655,7 +662,10 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         pm = pseudo_measurement(outputs, source, settings)
     else:
         pm = (None, None, None)
-    ekf = run_with_pseudo_slip(grid, samples, fs, *pm, gate=gate)
+    # drift scaled with the slope of the traction curve: the physics std from current noise
+    drift = (outputs["physics_current"][2] if fs.slip_psd_rel > 0 and pm[0] is not None
+             and "physics_current" in outputs else None)
+    ekf = run_with_pseudo_slip(grid, samples, fs, *pm, gate=gate, drift_std=drift)
     names = ("slip_1", "slip_2")
     idx = [ekf.state_names.index(n) for n in names]
     supplier = ("nothing: slip_1, slip_2 stay at their prior 0, see std_slip_*"

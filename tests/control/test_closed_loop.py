@@ -139,8 +139,15 @@ def test_control_sim_command_writes_the_json_fields(tmp_path):
                 "mean_speed_m_s", "terrain_accuracy", "terrain_source", "estimator_limits"):
         assert key in r
     assert r["terrain_source"].startswith("label")
+    # default gains follow the estimator: the fused estimate's tuning, the observer's own
+    assert (r["estimator"], r["kp"], r["ki"]) == ("husky-fused-slip-ekf", 2.0, 0.0)
     assert 0.0 < r["peak_slip"] <= 1.0 and r["distance_m"] > 1.0
     assert trace.read_text().startswith("t_s,v_true_m_s,slip_true_1")
+    assert main(["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
+                 "straight_accel", "--controller", "traction", "--estimator", "observer",
+                 "--duration-s", "1", "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert (r["estimator"], r["kp"], r["ki"]) == ("wheel-imu-observer", 5.0, 10.0)
     assert main(["control-sim", "--vehicle", "husky", "--terrain", "MUD", "--scenario",
                  "straight_accel", "--controller", "off", "--json", str(out)]) == 2
 

@@ -16,7 +16,7 @@ from terrain.estimation.model import finite_difference_jacobian
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import write_run
 from terrain.sim import SimConfig, simulate
-from terrain.slip.estimate import estimate_skid_steer_slip_run
+from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
 from terrain.slip.physics import PhysicsSlipSettings
 
 X = np.array([0.8, 0.3, 0.01, np.log(1.4), 0.12, 0.07, 0.2, 0.05])
@@ -40,9 +40,11 @@ def test_jacobians_match_finite_differences_and_wheel_rows_reduce_to_the_base_mo
 
 @pytest.fixture(scope="module")
 def sandy(tmp_path_factory):
+    # 40 s as the NEES protocol of docs/slip_learning.md (at 20 s the start-up transient
+    # dominates: NEES 3.21 against an upper bound of 3.10 with BATCH_FUSION)
     root = tmp_path_factory.mktemp("fusion")
     write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
-                                 scenario="straight_accel", duration_s=20.0, seed=3)), root)
+                                 scenario="straight_accel", duration_s=40.0, seed=3)), root)
     return root, read_runs_dir(root, dataset="fusion")[0]
 
 
@@ -68,10 +70,11 @@ def test_fused_slip_is_near_truth_where_the_plain_ekf_reads_zero(sandy):
 def test_nees_inside_chi_square_bounds_with_the_simulation_noise_model(sandy):
     """In simulation the motor and terrain constants are exact: the physics slip's only
     error sources are the current noise and the window model, so its parameter
-    uncertainties are set small (0.02, 0.03 relative) rather than the field defaults."""
+    uncertainties are 0 rather than the field defaults (per-window RMS z 0.9 on the tuning
+    seeds, ``docs/slip_learning.md``)."""
     _, run = sandy
-    outputs = slip_model_outputs(run, None, PhysicsSlipSettings(efficiency_rel_std=0.02,
-                                                                hysteresis_rel_std=0.03))
+    outputs = slip_model_outputs(run, None, PhysicsSlipSettings(efficiency_rel_std=0.0,
+                                                                hysteresis_rel_std=0.0))
     est = estimate_skid_steer_slip_run(run, "physics", outputs=outputs)
     f = est.ekf
     names = ("slip_1", "slip_2")
@@ -117,3 +120,24 @@ def test_pseudo_measurement_takes_the_calibrated_learned_std():
     w = 0.004 ** -2 / (0.004 ** -2 + 0.002 ** -2)                   # inverse-variance weights
     np.testing.assert_allclose(sf[0], w * 0.10 + (1 - w) * 0.12)
     np.testing.assert_allclose(vf[0], 0.002)                        # the better one's std
+
+
+def test_scaled_slip_drift_makes_the_filter_std_proportional_to_the_pseudo_std(sandy):
+    """``slip_psd_rel``: drift density ``slip_psd + slip_psd_rel std^2``. With no constant
+    part the steady slip variance is proportional to the pseudo-measurement variance, so a
+    100x smaller pseudo std gives a ~100x smaller filter std (the wheels and accelerometer
+    add little on the slip states); with the constant drift it does not scale."""
+    from dataclasses import replace
+
+    from terrain.slip.estimate import FusionSettings
+    _, run = sandy
+    t, slip, _ = slip_model_outputs(run)["physics"]
+    late = {}
+    for name, fs in (("scaled", replace(BATCH_FUSION, filter=replace(
+            BATCH_FUSION.filter, slip_psd=0.0))), ("constant", FusionSettings(min_std=1e-5))):
+        for sd in (1e-2, 1e-4):
+            outs = {"physics": (t, slip, np.full_like(slip, sd))}   # drift std = pseudo std
+            est = estimate_skid_steer_slip_run(run, "physics", outputs=outs, settings=fs)
+            late[name, sd] = np.median(est.slip_std[est.ekf.t_s > 10.0])
+    assert 80 < late["scaled", 1e-2] / late["scaled", 1e-4] < 120
+    assert late["constant", 1e-2] / late["constant", 1e-4] < 20
