@@ -87,6 +87,32 @@ def latency(model, run, warmup: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return np.asarray(times), np.asarray(pipe), np.asarray(ref)
 
 
+def pipeline_parts(model, run, repeats: int = 7, number: int = 50) -> dict:
+    """Best-of-``repeats`` ms of the model pipeline's parts on one window of ``run`` (load
+    mostly drops out): features (``pipeline[:-1].transform``), classifier (the final step's
+    ``predict_proba`` on those features, scikit-learn's path) and the whole pipeline's
+    ``predict_proba`` (the path the service takes: compiled / NumPy where it applies). Empty
+    when the model is not a ``Pipeline`` (e.g. the ensemble)."""
+    import timeit
+
+    from sklearn.pipeline import Pipeline
+
+    pipe = model.pipeline
+    if not isinstance(pipe, Pipeline):
+        return {}
+    x = make_windows([run], model.channels, WindowConfig(
+        window_s=model.window.window_s, hop_s=0.5, rate_hz=model.window.rate_hz)).X[100][None]
+    features = pipe[:-1].transform(x)
+
+    def best(f, n=number):
+        return min(timeit.repeat(f, number=n, repeat=repeats)) / n * 1e3
+
+    return {"part_features_ms": best(lambda: pipe[:-1].transform(x)),
+            "part_classifier_sklearn_ms": best(lambda: pipe.steps[-1][1].predict_proba(
+                features), max(1, number // 10)),
+            "part_pipeline_ms": best(lambda: pipe.predict_proba(x))}
+
+
 def soak(model, run, sample_every: int = 1000) -> dict:
     """Replay ``run`` once; RSS samples, decisions and wall time."""
     proc = psutil.Process()
@@ -151,6 +177,11 @@ def main() -> int:
           f"ratio p50 {metrics['decision_p50_over_reference']:.1f}, p99 "
           f"{metrics['decision_p99_over_reference']:.1f}; load average "
           f"{os.getloadavg()[0]:.1f}")
+    parts = pipeline_parts(model, longest)
+    metrics.update(parts)
+    if parts:
+        print("model pipeline parts on one window (best of 7): "
+              + ", ".join(f"{k[5:]} {v:.4f}" for k, v in parts.items()))
     if args.minutes > 0:
         metrics.update({f"soak_{k}": v for k, v in _soak(model, usable, need,
                                                           args.minutes).items()})

@@ -56,8 +56,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also fit each --kinds recipe on every BorealTC run and save it "
                              "to DIR/<kind> (a model directory for terrain stream)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--kinds", nargs="+", choices=list(RECIPES), default=list(RECIPES),
-                        help="models of the held-out stream evaluation")
+    parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
+                        default=["all", "wheels"],
+                        help="models of the held-out stream evaluation (all-ensemble: the "
+                             "SVM + spectrogram-CNN soft vote on all signals, slow to train)")
     parser.add_argument("--window-s", type=float, default=RECIPES["wheels"].window_s,
                         help="wheel-cv window (history) length, s")
     parser.add_argument("--hop-s", type=float, default=2.0, help="wheel-cv hop, s")

@@ -30,6 +30,8 @@ from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
 from terrain.errors import ConfigError
 from terrain.models.cv import iter_splits
+from terrain.models.forest import ForestPipeline
+from terrain.models.registry import ModelConfig, make_model
 from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -266,7 +268,7 @@ def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
 
 #: Feature sets and classifiers a recipe may name.
 FEATURE_SETS = ("stats", "physics", "stats+physics")
-CLASSIFIERS = ("svm", "extra_trees")
+CLASSIFIERS = ("svm", "extra_trees", "ensemble")
 
 
 @dataclass(frozen=True)
@@ -286,9 +288,12 @@ class ModelRecipe:
     features : {"stats", "physics", "stats+physics"}
         Window statistics (:class:`~features.transformers.WindowFeatures`), the wheel
         physics features, or both.
-    classifier : {"svm", "extra_trees"}
-        The project's SVM (:func:`terrain.models.svm.make_svm`, Platt-calibrated) or
-        extremely randomised trees (:func:`extra_trees`).
+    classifier : {"svm", "extra_trees", "ensemble"}
+        The project's SVM (:func:`terrain.models.svm.make_svm`, Platt-calibrated),
+        extremely randomised trees (:func:`extra_trees`), or the ``ensemble`` model of
+        ``terrain train --model ensemble`` (:func:`terrain.models.registry.make_model`: equal-
+        weight soft vote of that SVM on window statistics and the spectrogram CNN; it takes
+        the raw windows, so ``features`` must be ``"stats"``, the SVM member's).
     n_trees : int
         Trees of ``extra_trees``.
     """
@@ -305,13 +310,18 @@ class ModelRecipe:
         if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
             raise ConfigError(f"recipe features must be one of {FEATURE_SETS} and classifier "
                               f"one of {CLASSIFIERS}")
+        if self.classifier == "ensemble" and self.features != "stats":
+            raise ConfigError("the ensemble recipe uses its SVM member's window statistics: "
+                              "features must be 'stats'")
 
 
-#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); wheels: 4 s of
-#: history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped, see
-#: docs/streaming.md).
+#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); all-ensemble:
+#: the same windows, the ``ensemble`` model (SVM + spectrogram CNN, soft vote); wheels: 4 s
+#: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
+#: see docs/streaming.md).
 RECIPES = MappingProxyType({
     "all": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "svm"),
+    "all-ensemble": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "ensemble"),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees"),
 })
 
@@ -363,9 +373,23 @@ def recipe_classifier(recipe: ModelRecipe, random_state: int = 0):
     recipe : ModelRecipe
     random_state : int
         Seed.
+
+    Returns
+    -------
+    sklearn estimator
+        Taking the output of :func:`recipe_features`.
+
+    Raises
+    ------
+    ConfigError
+        The ``ensemble`` recipe, whose estimator takes raw windows (see
+        :func:`fit_stream_model`).
     """
     if recipe.classifier == "extra_trees":
         return extra_trees(recipe.n_trees, random_state)
+    if recipe.classifier == "ensemble":
+        raise ConfigError("the ensemble takes raw windows, not window features: use "
+                          "fit_stream_model")
     return make_svm(SVMConfig(probability=True), random_state)
 
 
@@ -387,6 +411,15 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
                           rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
+    labels = ws.labels.astype(str)
+    if recipe.classifier == "ensemble":
+        # the `terrain train --model ensemble` estimator, raw windows in (no feature step)
+        pipe = make_model(ModelConfig(kind="ensemble"), ws.channels, recipe.rate_hz,
+                          "borealtc", random_state=seed)
+        pipe.fit(ws.X, labels)
+        return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
+                                                           rate_hz=recipe.rate_hz),
+                           tuple(sorted(np.unique(labels).tolist())))
     features = ("features", recipe_features(recipe, ws.channels))
     classifier = recipe_classifier(recipe, seed)
     if isinstance(classifier, Pipeline):
@@ -394,8 +427,9 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         # `terrain train`, whose predict_proba runs in NumPy (same probabilities)
         pipe = SVMPipeline([features] + classifier.steps)
     else:
-        pipe = Pipeline([features, ("classifier", classifier)])
-    labels = ws.labels.astype(str)
+        # extra trees: a Pipeline whose predict_proba walks the fitted trees in one compiled
+        # loop (terrain.tree_predict, same probabilities as scikit-learn's)
+        pipe = ForestPipeline([features, ("classifier", classifier)])
     pipe.fit(ws.X, labels)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
                                                        rate_hz=recipe.rate_hz),

@@ -1,0 +1,126 @@
+"""Tree-forest classifier pipeline whose single-window ``predict_proba`` is compiled.
+
+scikit-learn's ``ForestClassifier.predict_proba`` calls every tree from Python, so one
+window through the wheel-only streaming model (300 extremely randomised trees) costs
+~10-50 ms. :class:`ForestPipeline` is a :class:`sklearn.pipeline.Pipeline` that, when its
+final step is a fitted single-output random-forest / extra-trees classifier, runs the
+transform steps as usual and the forest through :func:`terrain.tree_predict.forest_proba`
+over the fitted trees' own node arrays (packed once, :func:`terrain.tree_predict.pack_forest`),
+which returns the same probabilities (tested to 1e-12, in practice bit-identical, in
+``tests/models/test_forest_predict.py``). It mirrors :class:`terrain.models.svm.SVMPipeline`
+(the NumPy path of the calibrated SVM).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.ensemble._forest import ForestClassifier
+from sklearn.pipeline import Pipeline
+
+from terrain.errors import ConfigError
+from terrain.tree_predict import forest_proba, pack_forest
+
+
+class ForestPipeline(Pipeline):
+    """``features -> forest classifier`` pipeline with a compiled ``predict_proba``.
+
+    A :class:`sklearn.pipeline.Pipeline` in every respect (parameters, fitting, cloning,
+    pickling). ``predict_proba`` and ``predict`` of a pipeline whose final step is a fitted
+    single-output ``ForestClassifier`` (``ExtraTreesClassifier``,
+    ``RandomForestClassifier``) walk the packed trees in one compiled loop; the packed arrays
+    are rebuilt whenever the final step was replaced or refitted. Any other final step uses
+    scikit-learn's path.
+
+    Parameters
+    ----------
+    steps : list of (str, estimator)
+        As for ``Pipeline``.
+    memory : None
+        As for ``Pipeline``.
+    transform_input : None
+        As for ``Pipeline``.
+    verbose : bool
+        As for ``Pipeline``.
+    """
+
+    def fit(self, X, y=None, **params):
+        """Fit every step (``Pipeline.fit``) and pack the fitted forest's trees.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` input of the first step.
+        y : array-like or None
+            ``(n_windows,)`` labels.
+        **params : dict
+            Fit parameters, routed as by ``Pipeline.fit``.
+
+        Returns
+        -------
+        ForestPipeline
+            ``self``.
+        """
+        super().fit(X, y, **params)
+        self.__dict__.pop("_packed_forest", None)
+        self._packed()
+        return self
+
+    def _packed(self) -> dict | None:
+        """Packed trees of the final step, or ``None`` (scikit-learn's path): the final step
+        is not a fitted single-output forest classifier."""
+        final = self.steps[-1][1]
+        trees = getattr(final, "estimators_", None)
+        if not isinstance(final, ForestClassifier) or not trees:
+            return None
+        cached = self.__dict__.get("_packed_forest")
+        if cached is None or cached[0] is not trees:
+            try:
+                cached = (trees, pack_forest(final))
+            except ConfigError:
+                cached = (trees, None)
+            self._packed_forest = cached
+        return cached[1]
+
+    def predict_proba(self, X, **params) -> np.ndarray:
+        """Class probabilities (compiled path when it applies, see the class docstring).
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` input of the first step (raw windows).
+        **params : dict
+            Routed as by ``Pipeline.predict_proba`` (forces scikit-learn's path).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+        """
+        packed = self._packed() if not params else None
+        if packed is None:
+            return super().predict_proba(X, **params)
+        Xt = X
+        for _, step in self.steps[:-1]:
+            if step is not None and step != "passthrough":
+                Xt = step.transform(Xt)
+        return forest_proba(packed, Xt)
+
+    def predict(self, X, **params) -> np.ndarray:
+        """Most probable class of each window (``classes_[argmax(predict_proba)]``, the rule
+        of ``ForestClassifier.predict``).
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` input of the first step (raw windows).
+        **params : dict
+            Routed as by ``Pipeline.predict`` (forces scikit-learn's path).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows,)`` labels.
+        """
+        if params or self._packed() is None:
+            return super().predict(X, **params)
+        return self.classes_[self.predict_proba(X).argmax(axis=1)]
