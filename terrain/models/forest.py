@@ -7,21 +7,21 @@ final step is a fitted single-output random-forest / extra-trees classifier, run
 transform steps as usual and the forest through :func:`terrain.tree_predict.forest_proba`
 over the fitted trees' own node arrays (packed once, :func:`terrain.tree_predict.pack_forest`),
 which returns the same probabilities (tested to 1e-12, in practice bit-identical, in
-``tests/models/test_forest_predict.py``). It mirrors :class:`terrain.models.svm.SVMPipeline`
-(the NumPy path of the calibrated SVM).
+``tests/models/test_forest_predict.py``). Like :class:`terrain.models.svm.SVMPipeline` (the
+NumPy path of the calibrated SVM), it is a :class:`terrain.models.compiled.CompiledPipeline`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from sklearn.ensemble._forest import ForestClassifier
-from sklearn.pipeline import Pipeline
 
 from terrain.errors import ConfigError
+from terrain.models.compiled import CompiledPipeline
 from terrain.tree_predict import forest_proba, pack_forest
 
 
-class ForestPipeline(Pipeline):
+class ForestPipeline(CompiledPipeline):
     """``features -> forest classifier`` pipeline with a compiled ``predict_proba``.
 
     A :class:`sklearn.pipeline.Pipeline` in every respect (parameters, fitting, cloning,
@@ -62,10 +62,10 @@ class ForestPipeline(Pipeline):
         """
         super().fit(X, y, **params)
         self.__dict__.pop("_packed_forest", None)
-        self._packed()
+        self._compiled()
         return self
 
-    def _packed(self) -> dict | None:
+    def _compiled(self) -> dict | None:
         """Packed trees of the final step, or ``None`` (scikit-learn's path): the final step
         is not a fitted single-output forest classifier."""
         final = self.steps[-1][1]
@@ -81,46 +81,6 @@ class ForestPipeline(Pipeline):
             self._packed_forest = cached
         return cached[1]
 
-    def predict_proba(self, X, **params) -> np.ndarray:
-        """Class probabilities (compiled path when it applies, see the class docstring).
-
-        Parameters
-        ----------
-        X : array-like
-            ``(n_windows, ...)`` input of the first step (raw windows).
-        **params : dict
-            Routed as by ``Pipeline.predict_proba`` (forces scikit-learn's path).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
-        """
-        packed = self._packed() if not params else None
-        if packed is None:
-            return super().predict_proba(X, **params)
-        Xt = X
-        for _, step in self.steps[:-1]:
-            if step is not None and step != "passthrough":
-                Xt = step.transform(Xt)
-        return forest_proba(packed, Xt)
-
-    def predict(self, X, **params) -> np.ndarray:
-        """Most probable class of each window (``classes_[argmax(predict_proba)]``, the rule
-        of ``ForestClassifier.predict``).
-
-        Parameters
-        ----------
-        X : array-like
-            ``(n_windows, ...)`` input of the first step (raw windows).
-        **params : dict
-            Routed as by ``Pipeline.predict`` (forces scikit-learn's path).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(n_windows,)`` labels.
-        """
-        if params or self._packed() is None:
-            return super().predict(X, **params)
-        return self.classes_[self.predict_proba(X).argmax(axis=1)]
+    def _compiled_proba(self, compiled: dict, Xt) -> np.ndarray:
+        """:func:`terrain.tree_predict.forest_proba` of the transformed features."""
+        return forest_proba(compiled, Xt)

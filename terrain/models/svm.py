@@ -18,6 +18,8 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
+from terrain.models.compiled import CompiledPipeline
+
 
 @dataclass(frozen=True)
 class SVMConfig:
@@ -201,7 +203,7 @@ def calibrated_rbf_proba(Xs: np.ndarray, arrays: _CalibratedRBF) -> np.ndarray:
     return proba
 
 
-class SVMPipeline(Pipeline):
+class SVMPipeline(CompiledPipeline):
     """``features -> scale -> calibrated SVC`` pipeline with a fast ``predict_proba``.
 
     A :class:`sklearn.pipeline.Pipeline` in every respect (parameters, fitting, cloning,
@@ -246,7 +248,7 @@ class SVMPipeline(Pipeline):
                              _calibrated_rbf_arrays(final))
         return self
 
-    def _fast(self) -> _CalibratedRBF | None:
+    def _compiled(self) -> _CalibratedRBF | None:
         """Arrays of the NumPy path, or ``None`` (scikit-learn's path): not fitted through
         this class, or the final step was replaced or refitted since."""
         cached = self.__dict__.get("_fast_arrays")
@@ -255,24 +257,9 @@ class SVMPipeline(Pipeline):
             return None
         return cached[1]
 
-    def predict_proba(self, X, **params) -> np.ndarray:
-        """Class probabilities (NumPy path when it applies, see the class docstring).
-
-        Parameters
-        ----------
-        X : array-like
-            ``(n_windows, ...)`` input of the first step (raw windows).
-        **params : dict
-            Routed as by ``Pipeline.predict_proba`` (forces scikit-learn's path).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
-        """
-        arrays = self._fast() if not params else None
-        if arrays is None:
-            return super().predict_proba(X, **params)
+    def _transform_head(self, X):
+        """The transform steps; a fitted standard scaler on a finite float matrix is applied
+        without scikit-learn's input checks (``StandardScaler.transform``'s arithmetic)."""
         Xt = X
         for _, step in self.steps[:-1]:
             arr = Xt if isinstance(Xt, np.ndarray) else None
@@ -283,23 +270,10 @@ class SVMPipeline(Pipeline):
                 Xt = (arr - step.mean_) / step.scale_     # StandardScaler.transform, unchecked
             elif step is not None and step != "passthrough":
                 Xt = step.transform(Xt)
-        return calibrated_rbf_proba(Xt, arrays)
+        return Xt
 
-    def predict(self, X, **params) -> np.ndarray:
-        """Most probable class of each window.
+    def _compiled_proba(self, compiled: _CalibratedRBF, Xt) -> np.ndarray:
+        """:func:`calibrated_rbf_proba` of the scaled features."""
+        return calibrated_rbf_proba(Xt, compiled)
 
-        Parameters
-        ----------
-        X : array-like
-            ``(n_windows, ...)`` input of the first step (raw windows).
-        **params : dict
-            Routed as by ``Pipeline.predict`` (forces scikit-learn's path).
 
-        Returns
-        -------
-        numpy.ndarray
-            ``(n_windows,)`` labels.
-        """
-        if params or self._fast() is None:
-            return super().predict(X, **params)
-        return self.classes_[self.predict_proba(X).argmax(axis=1)]

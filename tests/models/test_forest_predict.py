@@ -87,7 +87,7 @@ def test_forest_pipeline_uses_the_compiled_path_and_survives_pickling(wheel_wind
         ("classifier", ExtraTreesClassifier(50, min_samples_leaf=3, max_features=0.3,
                                             class_weight="balanced", random_state=0))])
     pipe.fit(train.X, labels)
-    assert pipe._packed() is not None
+    assert pipe._compiled() is not None
     ref = super(ForestPipeline, pipe).predict_proba(test.X)       # scikit-learn's path
     assert np.array_equal(pipe.predict_proba(test.X), ref)
     assert np.array_equal(pipe.predict(test.X), pipe.classes_[ref.argmax(axis=1)])
@@ -101,4 +101,4 @@ def test_forest_pipeline_uses_the_compiled_path_and_survives_pickling(wheel_wind
     other = ForestPipeline([("features", WheelPhysicsFeatures(channels=train.channels,
                                                               rate_hz=10.0)),
                             ("classifier", LogisticRegression(max_iter=50))])
-    assert other._packed() is None
+    assert other._compiled() is None

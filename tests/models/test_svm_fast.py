@@ -25,7 +25,7 @@ def fitted(request, borealtc_runs, vulpi_runs):
 
 def test_fast_proba_equals_sklearn_pipeline(fitted):
     model, X_test = fitted
-    assert isinstance(model, SVMPipeline) and model._fast() is not None
+    assert isinstance(model, SVMPipeline) and model._compiled() is not None
     reference = Pipeline(model.steps)              # scikit-learn's own path, same fitted steps
     fast = model.predict_proba(X_test)
     np.testing.assert_allclose(fast, reference.predict_proba(X_test), rtol=0, atol=1e-12)
@@ -38,17 +38,17 @@ def test_fast_proba_equals_sklearn_pipeline(fitted):
 def test_refit_renews_the_arrays_and_a_replaced_step_falls_back(fitted):
     model, X_test = fitted
     twin = clone(model)
-    assert "_fast_arrays" not in twin.__dict__ and twin._fast() is None
+    assert "_fast_arrays" not in twin.__dict__ and twin._compiled() is None
     rng = np.random.default_rng(0)
     labels = np.array(sorted(model.classes_))
     y = labels[rng.integers(0, len(labels), len(X_test))]
     twin.fit(X_test, y)
     np.testing.assert_allclose(twin.predict_proba(X_test),
                                Pipeline(twin.steps).predict_proba(X_test), rtol=0, atol=1e-12)
-    assert twin._fast() is not model._fast()
+    assert twin._compiled() is not model._compiled()
     # a final step swapped in after fitting is not the one the arrays came from
     twin.steps[-1] = ("svc", model.steps[-1][1])
-    assert twin._fast() is None
+    assert twin._compiled() is None
     np.testing.assert_array_equal(twin.predict_proba(X_test),
                                   Pipeline(twin.steps).predict_proba(X_test))
 
@@ -58,9 +58,9 @@ def test_binary_and_uncalibrated_fall_back_to_sklearn():
     X = rng.standard_normal((60, 4))
     y = np.where(X[:, 0] > 0, "a", "b")
     binary = SVMPipeline(make_svm(SVMConfig(probability=True)).steps).fit(X, y)
-    assert binary._fast() is None
+    assert binary._compiled() is None
     np.testing.assert_allclose(binary.predict_proba(X),
                                Pipeline(binary.steps).predict_proba(X))
     plain = SVMPipeline(make_svm(SVMConfig(probability=False)).steps).fit(X, y)
-    assert plain._fast() is None
+    assert plain._compiled() is None
     np.testing.assert_array_equal(plain.predict(X), Pipeline(plain.steps).predict(X))

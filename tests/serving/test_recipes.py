@@ -19,7 +19,7 @@ def test_wheel_recipe_serves_the_compiled_forest_with_sklearn_probabilities(trai
                                                                            borealtc_runs):
     recipe = replace(RECIPES["wheels"], n_trees=40)
     model = fit_stream_model(recipe, train_runs, seed=0)
-    assert isinstance(model.pipeline, ForestPipeline) and model.pipeline._packed() is not None
+    assert isinstance(model.pipeline, ForestPipeline) and model.pipeline._compiled() is not None
     unseen = [r for r in borealtc_runs if r not in train_runs and "wheels" in r.streams][:3]
     X = make_windows(unseen, model.channels, WindowConfig(window_s=recipe.window_s, hop_s=1.0,
                                                           rate_hz=recipe.rate_hz)).X
