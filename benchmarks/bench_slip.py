@@ -5,7 +5,7 @@ on the windows of a small cached simulated grid (:mod:`terrain.slip.dataset`), t
 the same process and run:
 
 * ``batch_ms_per_window``: ``predict`` (compiled tree adaptor,
-  :mod:`terrain.slip.tree_predict`) on all windows in one call, divided by their number (best
+  :mod:`terrain.tree_predict`) on all windows in one call, divided by their number (best
   of ``--repeats``); the cost per window when windows are scored together (a run, a buffer);
 * ``single_ms_per_window``: ``predict`` on one window (a 1-row array), median over
   ``--singles`` calls; the latency of scoring one new window alone;

@@ -23,7 +23,7 @@ from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, cross_validate, fit_with_groups,
                                purge_block_overlaps, split_single_run_classes)
 from terrain.models.registry import MODELS, ModelConfig, make_model
-from terrain.models.svm import SVMConfig, SVMPipeline, make_search, make_svm
+from terrain.models.svm import SVMConfig, make_search, make_svm, svm_window_pipeline
 from terrain.run import Run
 
 #: Window settings of the papers' protocol (BorealTC, Vulpi): 1.7 s windows, 0.1 s hop,
@@ -183,13 +183,11 @@ def inference_pipeline(windows: WindowSet, svm: SVMConfig, random_state: int = 0
     Returns
     -------
     terrain.models.svm.SVMPipeline
-        ``features`` (:class:`features.windows.WindowFeatures`) followed by the steps of
-        :func:`terrain.models.svm.make_svm`; input ``(n_windows, n_channels, n_samples)``;
+        :func:`terrain.models.svm.svm_window_pipeline` for these windows; input
+        ``(n_windows, n_channels, n_samples)``;
         a scikit-learn ``Pipeline`` with a NumPy ``predict_proba`` for the calibrated SVC.
     """
-    model = make_svm(svm, random_state)
-    return SVMPipeline([("features", WindowFeatures(channels=windows.channels,
-                                                    rate_hz=windows.rate_hz))] + model.steps)
+    return svm_window_pipeline(windows.channels, windows.rate_hz, svm, random_state)
 
 
 @dataclass

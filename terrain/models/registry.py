@@ -25,13 +25,12 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from features.transformers import WindowFeatures
 from features.windows import DERIVED_WHEEL_CHANNELS
 from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket
-from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
+from terrain.models.svm import SVMConfig, svm_window_pipeline
 from terrain.run import WHEEL_CHANNELS
 
 MODELS = ("svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble", "ensemble3")
@@ -142,9 +141,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     """
     kind = config.kind
     if kind == "svm":
-        svm = make_svm(replace(config.svm, probability=probability), random_state)
-        return SVMPipeline([("features", WindowFeatures(channels=tuple(channels),
-                                                        rate_hz=rate_hz))] + svm.steps)
+        return svm_window_pipeline(channels, rate_hz,
+                                   replace(config.svm, probability=probability), random_state)
     if kind == "cnn":
         return RawCNNClassifier(max_epochs=config.max_epochs, random_state=random_state,
                                 n_threads=config.n_threads,

@@ -9,6 +9,7 @@ search whose inner folds are grouped by run and see training runs only.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
+from features.transformers import WindowFeatures
 from terrain.models.compiled import CompiledPipeline
 
 
@@ -277,3 +279,30 @@ class SVMPipeline(CompiledPipeline):
         return calibrated_rbf_proba(Xt, compiled)
 
 
+def svm_window_pipeline(channels: Sequence[str], rate_hz: float, config: SVMConfig = SVMConfig(),
+                        random_state: int = 0) -> SVMPipeline:
+    """Unfitted ``features -> scaler -> SVC`` pipeline taking raw windows as input.
+
+    The one place the window SVM of ``terrain cv``, ``terrain train`` and the registry is
+    assembled.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channel order of the windows' axis 1.
+    rate_hz : float
+        Window sampling rate, Hz.
+    config : SVMConfig
+        SVM hyperparameters (see :func:`make_svm`).
+    random_state : int
+        Seed of the SVC.
+
+    Returns
+    -------
+    SVMPipeline
+        ``features`` (:class:`features.transformers.WindowFeatures`) followed by the steps of
+        :func:`make_svm`; input ``(n_windows, n_channels, n_samples)``; NumPy
+        ``predict_proba`` for the calibrated SVC.
+    """
+    features = WindowFeatures(channels=tuple(channels), rate_hz=rate_hz)
+    return SVMPipeline([("features", features)] + make_svm(config, random_state).steps)

@@ -9,7 +9,7 @@ window, ``chi`` on the windows where the robot turns (its target is undefined el
 prediction there is still defined and only matters when the robot turns).
 
 :meth:`SlipRegressor.predict` walks the fitted trees with the compiled adaptor
-:mod:`terrain.slip.tree_predict` (bit-identical to scikit-learn's ``predict``, which pays
+:mod:`terrain.tree_predict` (bit-identical to scikit-learn's ``predict``, which pays
 ~10-20 us of Python per tree and call); :meth:`SlipRegressor.predict_reference` is
 scikit-learn's own path, kept as the reference.
 """
@@ -22,7 +22,7 @@ from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.model_selection import GroupKFold
 
 from terrain.errors import ShapeError
-from terrain.slip.tree_predict import pack_trees, predict_packed
+from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
 CHI2_1_MEDIAN = 0.454936423119572

@@ -1,4 +1,4 @@
-"""Compiled tree adaptor (terrain.slip.tree_predict) and the single-window feature path: both
+"""Compiled tree adaptor (terrain.tree_predict) and the single-window feature path: both
 must reproduce the reference paths exactly (issue 10, single-window inference)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_fea
 from terrain.errors import ConfigError, ShapeError
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.learned import SlipRegressor
-from terrain.slip.tree_predict import pack_trees, predict_packed
+from terrain.tree_predict import pack_trees, predict_packed
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import HUSKY
 
