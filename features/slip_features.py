@@ -206,8 +206,9 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         r_w = vehicle.contact_geometry().wheel_radius_m
         wheel_acc = np.column_stack([slope, slope]) / r_w
         n_cur = max(1.0, n_s / rate_hz * min(current_rate_hz, rate_hz))
+        spread = np.column_stack([cols["cur_l__std"], cols["cur_r__std"]])
         phys = physics_slip(vehicle, dict(probabilities), cur, rim, pitch, wheel_acc,
-                            n_averaged=n_cur)
+                            n_averaged=n_cur, current_within_std_a=spread)
         cols["phys_slip_l"] = phys.slip[:, 0]
         cols["phys_slip_r"] = phys.slip[:, 1]
         cols["phys_std"] = phys.std.mean(axis=1)

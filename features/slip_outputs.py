@@ -45,15 +45,21 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     Returns
     -------
     dict or None
-        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "physics_current": ..., "learned": ...}``
+        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "physics_current": ...,
+        "physics_transient": ..., "learned": ...}``
         with ``t_s`` the window centres, s; ``physics_current`` is the physics slip with the
         current noise as its only uncertainty (efficiency and rolling-loss uncertainties 0):
         its std is the traction-coefficient noise over the slope of the terrain's
-        traction-slip curve, which sets the slip drift of
-        :data:`terrain.slip.estimate.BATCH_FUSION`; the learned std is the model's calibrated one
-        (:meth:`terrain.slip.learned.SlipRegressor.predict_std`; NaN for a model without a
-        calibration) (the time a window mean describes; the estimate is therefore not causal:
-        a filter step uses up to half a window, 1 s, of later data). None when the run lacks
+        traction-slip curve, which sets the steady slip drift of
+        :data:`terrain.slip.estimate.BATCH_FUSION`; ``physics_transient``'s std is the slip
+        change inside the window (the traction that changed beyond the current noise,
+        ``cur_*__std`` through :func:`terrain.slip.physics.within_window_current_std`), which
+        sets its transient slip drift; the ``physics`` std includes that change too. The
+        learned std is the model's variance-calibrated one
+        (:meth:`terrain.slip.learned.SlipRegressor.predict_std` with ``moment="variance"``;
+        NaN for a model without a calibration). ``t_s`` is the time a window mean describes;
+        the estimate is therefore not causal: a filter step uses up to half a window, 1 s, of
+        later data. None when the run lacks
         currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
     """
 
@@ -74,9 +80,13 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(SensorSettings.wheel_rate_hz,
                                                         ws.rate_hz))
 
-    def physics(settings: PhysicsSlipSettings):     # same inputs as the phys_* features
+    spread = X[["cur_l__std", "cur_r__std"]].to_numpy(float)
+
+    def physics(settings: PhysicsSlipSettings, within: np.ndarray | None = spread):
+        # same inputs as the phys_* features
         return physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
-                            acc, n_averaged=n_cur, settings=settings)
+                            acc, n_averaged=n_cur, settings=settings,
+                            current_within_std_a=within)
 
     if physics_settings == PhysicsSlipSettings():
         phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy(float)
@@ -84,16 +94,22 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     else:
         res = physics(physics_settings)
         phys, phys_std = res.slip, res.std
-    # current noise alone: the traction noise over the slope of the terrain's curve
-    current_only = physics(replace(physics_settings, efficiency_rel_std=0.0,
-                                   hysteresis_rel_std=0.0))
+    # current noise alone: the traction noise over the slope of the terrain's curve; and with
+    # the traction that changed inside the window: their quadrature difference is the slip
+    # change inside the window (the transient part of the slip drift of BATCH_FUSION)
+    noise_only = replace(physics_settings, efficiency_rel_std=0.0, hysteresis_rel_std=0.0)
+    current_only = physics(noise_only, None)
+    with_change = physics(noise_only)
+    change = np.sqrt(np.maximum(with_change.std ** 2 - current_only.std ** 2, 0.0))
     t_mid = 0.5 * (ws.t_start_s + ws.t_end_s).astype(float)
     out = {"physics": (t_mid, phys, phys_std),
-           "physics_current": (t_mid, current_only.slip, current_only.std)}
+           "physics_current": (t_mid, current_only.slip, current_only.std),
+           "physics_transient": (t_mid, with_change.slip, change)}
     if learned_model is not None:
         Xa = X.to_numpy(float)
         pred = np.asarray(learned_model.predict(Xa), dtype=float)[:, :2]
-        std = (np.asarray(learned_model.predict_std(Xa), dtype=float)
+        # the filter needs the error variance: the variance-calibrated std (heavy tails in)
+        std = (np.asarray(learned_model.predict_std(Xa, moment="variance"), dtype=float)
                if hasattr(learned_model, "predict_std") else np.full_like(pred, np.nan))
         out["learned"] = (t_mid, pred, std)
     return out

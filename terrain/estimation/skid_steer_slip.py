@@ -95,6 +95,14 @@ class SkidSteerSlipSettings:
         stiff curve (asphalt, ice at low slip) and grow together on a soft one; ``slip_psd``
         is then the terrain-independent part. 0 (default): constant ``slip_psd`` (the online
         observer of the control loop).
+    slip_psd_transient : float
+        Drift density per unit variance of the slip change inside the segment's window, 1/s
+        (``transient_std`` of :func:`run_with_pseudo_slip`: the traction that changed inside
+        the window beyond the current noise,
+        :func:`terrain.slip.physics.within_window_current_std`, over the slope of the curve).
+        A steady drive leaves the slip where it is (small ``slip_psd_rel``: the filter
+        averages many windows); a start, a spin or a step moves it, and this term lets the
+        filter follow. 0 (default): no such term.
     pitch_psd : float
         Drift density of the pitch, rad^2 / s (grade changes).
     chi0, log_chi0_std, bias0_std, v0_std, yaw_rate0_std : float
@@ -127,6 +135,7 @@ class SkidSteerSlipSettings:
     log_chi_psd: float = 2e-3
     slip_psd: float = 6e-6
     slip_psd_rel: float = 0.0
+    slip_psd_transient: float = 0.0
     pitch_psd: float = 1e-3
     chi0: float = 1.5
     log_chi0_std: float = 1.0
@@ -147,7 +156,8 @@ class SkidSteerSlipSettings:
             if not (np.isfinite(v) and v > 0):
                 raise ConfigError(f"{name} must be > 0 and finite, got {v}")
         for name in ("jerk_psd", "yaw_accel_psd", "bias_psd", "log_chi_psd", "slip_psd",
-                     "slip_psd_rel", "pitch_psd", "chi_min_yaw_rate_rad_s"):
+                     "slip_psd_rel", "slip_psd_transient", "pitch_psd",
+                     "chi_min_yaw_rate_rad_s"):
             v = float(getattr(self, name))
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigError(f"{name} must be >= 0 and finite, got {v}")
@@ -349,13 +359,15 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
                          pseudo_slip: np.ndarray | None = None,
                          pseudo_std: np.ndarray | None = None, *,
                          gate: Gate | None = None,
-                         drift_std: np.ndarray | None = None) -> EKFResult:
+                         drift_std: np.ndarray | None = None,
+                         transient_std: np.ndarray | None = None) -> EKFResult:
     """Run :class:`SkidSteerSlipModel` with a slip pseudo-measurement whose variance varies.
 
     The grid is cut after each pseudo-measurement time; segment ``j`` runs with
     ``slip_std = pseudo_std[j]`` (the std of the one pseudo-measurement it holds) and the slip
-    drift density ``slip_psd + slip_psd_rel * drift_std[j]^2`` (:class:`SkidSteerSlipSettings`;
-    ``drift_std`` defaults to ``pseudo_std``); it starts
+    drift density ``slip_psd + slip_psd_rel * drift_std[j]^2 + slip_psd_transient *
+    transient_std[j]^2`` (:class:`SkidSteerSlipSettings`; ``drift_std`` defaults to
+    ``pseudo_std``, ``transient_std`` to 0); it starts
     from the state and covariance of the previous segment predicted by one step.
 
     Parameters
@@ -378,6 +390,9 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     drift_std : ndarray, shape (k, 2) or (k,), optional
         Slip std that scales the drift density of segment ``j`` when
         ``settings.slip_psd_rel > 0`` (the larger side; non-finite: ``pseudo_std[j]``).
+    transient_std : ndarray, shape (k, 2) or (k,), optional
+        Slip change inside window ``j`` (std, the larger side; non-finite: 0) that scales
+        ``settings.slip_psd_transient``; None: 0.
 
     Returns
     -------
@@ -400,35 +415,60 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     sd = sd.max(axis=1) if sd.ndim == 2 else sd
     dd = sd if drift_std is None else np.asarray(drift_std, dtype=float)
     dd = dd.max(axis=1) if dd.ndim == 2 else dd
-    if sp.shape != (tp.size, 2) or sd.shape != (tp.size,) or dd.shape != (tp.size,):
+    ts = np.zeros(tp.size) if transient_std is None else np.asarray(transient_std, float)
+    ts = ts.max(axis=1) if ts.ndim == 2 else ts
+    if sp.shape != (tp.size, 2) or sd.shape != (tp.size,) or dd.shape != (tp.size,) \
+            or ts.shape != (tp.size,):
         raise ShapeError(f"pseudo-measurements need t (k,), slip (k, 2), std and drift std "
                          f"(k,) or (k, 2); got {tp.shape}, {sp.shape}, {np.shape(pseudo_std)}, "
-                         f"{np.shape(drift_std)}")
+                         f"{np.shape(drift_std)}, {np.shape(transient_std)}")
     ok = np.isfinite(sp).all(axis=1) & np.isfinite(sd) & (sd > 0)
     tp, sp, sd = tp[ok], sp[ok], sd[ok]
     dd = np.where(np.isfinite(dd[ok]), dd[ok], sd)
+    ts = np.where(np.isfinite(ts[ok]), ts[ok], 0.0)
     base["slip_model"] = SensorSamples(tp, sp)
     # segment ends: the grid step that receives each pseudo-measurement
     ends = np.unique(np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1))
-    std_of_end = {int(e): (float(s), float(d)) for e, s, d in zip(
-        np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1), sd, dd)}
+    std_of_end = {int(e): (float(s), float(d), float(x)) for e, s, d, x in zip(
+        np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1), sd, dd, ts)}
     cuts = [0] + [int(e) + 1 for e in ends if e + 1 < t_grid_s.size] + [t_grid_s.size]
     cuts = sorted(set(cuts))
     parts: list[EKFResult] = []
     x0 = P0 = None
     for a, b in zip(cuts[:-1], cuts[1:]):
-        std, drift = std_of_end.get(b - 1, (settings.slip_std, settings.slip_std))
-        model = SkidSteerSlipModel(replace(settings, slip_std=std, slip_psd=settings.slip_psd
-                                           + settings.slip_psd_rel * drift ** 2))
+        std, drift, change = std_of_end.get(b - 1, (settings.slip_std, settings.slip_std, 0.0))
+        model = SkidSteerSlipModel(replace(
+            settings, slip_std=std, slip_psd=settings.slip_psd + settings.slip_psd_rel
+            * drift ** 2 + settings.slip_psd_transient * change ** 2))
         if parts:
             prev = parts[-1]
             dt = t_grid_s[a] - t_grid_s[a - 1]
             fx, Fm = model.transition(prev.x[-1], dt)
             P = Fm @ prev.P[-1] @ Fm.T + model.Q(dt)
             x0, P0 = fx, 0.5 * (P + P.T)
-        parts.append(run_filter(model, t_grid_s[a:b], base, gate=gate, x0=x0, P0=P0,
-                                store_covariance=True, engine="numpy"))
+        parts.append(run_filter(model, t_grid_s[a:b], _own_samples(base, t_grid_s, a, b),
+                                gate=gate, x0=x0, P0=P0, store_covariance=True,
+                                engine="numpy"))
     return _concatenate(parts)
+
+
+def _own_samples(samples: Mapping[str, SensorSamples], t_grid_s: np.ndarray, a: int, b: int
+                 ) -> dict[str, SensorSamples]:
+    """The samples that the whole-grid filter would process at steps ``a .. b - 1``.
+
+    :func:`~terrain.estimation.runner.run_filter` places a sample on the first step at or
+    after its time and also accepts samples up to one step before its first step; on a
+    segment ``[a, b)`` of the grid that would process a sample lying on step ``a - 1`` (the
+    previous segment's last step, e.g. a pseudo-measurement at a window centre on the grid)
+    a second time, with the next segment's variance. Each segment gets only its own samples
+    (the first also those before the grid, the last those after it: counted as outside).
+    """
+    out = {}
+    for name, smp in samples.items():
+        idx = np.searchsorted(t_grid_s, np.asarray(smp.t_s, float) - 1e-9, side="left")
+        keep = ((idx >= a) | (a == 0)) & ((idx < b) | (b == t_grid_s.size))
+        out[name] = SensorSamples(smp.t_s[keep], smp.values[keep])
+    return out
 
 
 def _concatenate(parts: list[EKFResult]) -> EKFResult:
@@ -438,12 +478,10 @@ def _concatenate(parts: list[EKFResult]) -> EKFResult:
         for name, c in p.counts.items():
             agg = counts.setdefault(name, {k: 0 for k in c})
             for k, v in c.items():
-                if k in ("used", "rejected", "non_finite", "superseded"):
-                    agg[k] = agg.get(k, 0) + v
+                if k in ("samples", "used", "rejected", "non_finite", "superseded", "outside"):
+                    agg[k] = agg.get(k, 0) + v     # each segment holds its own samples
                 else:
                     agg[k] = v
-    for name in counts:      # samples outside every segment but the one holding them
-        counts[name]["outside"] = 0
     cat = np.concatenate
     meta = dict(first.meta)
     meta.update(n_steps=int(sum(p.t_s.size for p in parts)), segments=len(parts))

@@ -21,7 +21,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.model_selection import GroupKFold
 
-from terrain.errors import ShapeError
+from terrain.errors import ConfigError, ShapeError
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -161,13 +161,19 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                              "median_std": float(np.median(sd)),
                              "median_abs_residual": float(np.median(np.abs(r)))}
 
-    def predict_std(self, X) -> np.ndarray:
+    def predict_std(self, X, moment: str = "median") -> np.ndarray:
         """Calibrated standard deviation of the predicted ``slip_1, slip_2`` (see :meth:`fit`).
 
         Parameters
         ----------
         X : array-like, shape (n_windows, n_features)
             Window features (same columns as in :meth:`fit`).
+        moment : {"median", "variance"}
+            ``median``: the bulk calibration of :meth:`fit` (68 % of typical windows within
+            1 std). ``variance``: scaled by ``sqrt(mean normalised squared residual)`` of the
+            same out-of-fold calibration (``calibration_["mean_normalised_sq"]``), so that
+            the mean squared error over the training residuals equals the variance, as a
+            Kalman filter's measurement variance must (the heavy tails included).
 
         Returns
         -------
@@ -179,12 +185,18 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         ------
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
+        ConfigError
+            Unknown ``moment``.
         """
+        if moment not in ("median", "variance"):
+            raise ConfigError(f"unknown moment {moment!r}; valid: median, variance")
         X = self._check_X(X)
         if getattr(self, "std_model_", None) is None:
             return np.full((len(X), 2), np.nan)
         z = predict_packed(self.packed_std_, X)[:, 0]
         sd = np.maximum(self.std_floor, np.sqrt(self.std_scale_ * np.exp(z)))
+        if moment == "variance":
+            sd = sd * np.sqrt(max(1.0, self.calibration_.get("mean_normalised_sq", 1.0)))
         return np.repeat(sd[:, None], 2, axis=1)
 
     def _estimators(self) -> list[HistGradientBoostingRegressor]:

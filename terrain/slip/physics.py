@@ -28,7 +28,10 @@ posterior, and its interval widens honestly. With a confident classifier both co
 Uncertainty (first order, at ``coverage_sigma`` standard deviations): current noise, relative
 uncertainty of the gearbox efficiency (ASSUMED in the Husky motor parameters) and of the
 calibrated rolling loss; the interval on ``mu`` is mapped through the monotone inverse curve,
-so the slip interval is exact for that ``mu`` interval (asymmetric near the peak).
+so the slip interval is exact for that ``mu`` interval (asymmetric near the peak). An end
+of the ``mu`` interval at or past the curve's maximum traction maps to full slip (+-1): every
+slip past the peak delivers that traction, so a spinning wheel (e.g. a start on ice) gets a
+wide interval instead of the peak slip with a small std.
 """
 
 from __future__ import annotations
@@ -225,6 +228,73 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
     return (torque - inertia - a) / b, 1.0 / b, a / b
 
 
+def within_window_current_std(current_within_std_a: np.ndarray | None, noise_std_a: float,
+                              shape: tuple[int, ...]) -> np.ndarray:
+    """Spread of the current inside a window beyond the sensor noise, A.
+
+    ``sqrt(max(s^2 - sigma_n^2, 0))`` with ``s`` the std of the window's current samples and
+    ``sigma_n`` the std of one sample's noise: 0 for a steady window (the noise of the mean
+    is counted separately), about ``s`` in a transient. The traction-slip curve is
+    nonlinear (flat past the knee on ice, seed 001 ch. 8.2), so the slip at the window's
+    mean traction can be far from the window's mean slip when the traction varies inside
+    the window; this spread, mapped through the current-to-traction gain, bounds that error
+    to first order.
+
+    Parameters
+    ----------
+    current_within_std_a : ndarray, shape (n, m), or None
+        Std of the current samples inside each window, A; None: zeros.
+    noise_std_a : float
+        Std of one current sample's noise, A (:attr:`PhysicsSlipSettings.current_std_a`).
+    shape : tuple of int
+        ``(n, m)`` of the physics slip.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        Excess spread, A (>= 0).
+
+    Raises
+    ------
+    ShapeError
+        ``current_within_std_a`` does not have ``shape``.
+    """
+    if current_within_std_a is None:
+        return np.zeros(shape)
+    s = np.asarray(current_within_std_a, dtype=float)
+    if s.shape != tuple(shape):
+        raise ShapeError(f"current_within_std_a must be {tuple(shape)}, got {s.shape}")
+    return np.sqrt(np.maximum(np.nan_to_num(s) ** 2 - noise_std_a ** 2, 0.0))
+
+
+def _slip_interval(curve, mu_low: np.ndarray, mu_high: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Slip interval of a traction interval on the stable side, open past the peak.
+
+    Below the curve's maximum traction the stable-side inverse is exact. A traction at or
+    beyond the maximum is delivered by every slip past the peak (the wheel spins: the
+    traction-slip curve is flat or falling there, seed 001 ch. 8.2), so that end of the
+    interval is the full slip, +1 (or -1 when braking), not the peak slip.
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Terrain's traction-slip curve.
+    mu_low, mu_high : ndarray, shape (n, m)
+        Ends of the gross traction coefficient interval (dimensionless).
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (n, m)
+        Slip interval (dimensionless).
+    """
+    lo = slip_from_traction(curve, mu_low)
+    hi = slip_from_traction(curve, mu_high)
+    lower = np.where(lo.saturated & (mu_low < 0), -1.0, lo.slip)
+    upper = np.where(hi.saturated & (mu_high > 0), 1.0, hi.slip)
+    return lower, upper
+
+
 def _normalise(probabilities: Mapping[str, np.ndarray | float], n: int,
                min_p: float) -> dict[str, np.ndarray]:
     if not probabilities:
@@ -245,7 +315,8 @@ def _normalise(probabilities: Mapping[str, np.ndarray | float], n: int,
 def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float],
                  current_a: np.ndarray, rim_speed_m_s: np.ndarray, pitch_rad: np.ndarray,
                  wheel_accel_rad_s2: np.ndarray | None = None, n_averaged: np.ndarray | float = 1.0,
-                 settings: PhysicsSlipSettings = PhysicsSlipSettings()) -> PhysicsSlip:
+                 settings: PhysicsSlipSettings = PhysicsSlipSettings(),
+                 current_within_std_a: np.ndarray | None = None) -> PhysicsSlip:
     """Longitudinal slip of each drive side from motor currents (module docstring).
 
     Parameters
@@ -269,6 +340,12 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         its square root).
     settings : PhysicsSlipSettings
         Uncertainties and coverage.
+    current_within_std_a : ndarray, shape (n, m), optional
+        Standard deviation of the current samples inside each row's window, A (None: rows
+        are single samples or steady windows). Its part above the sensor noise is traction
+        that changed inside the window (a start, a spin, a step): the slip of the mean
+        traction is then not the mean slip, so that spread is added to the traction
+        interval (:func:`within_window_current_std`).
 
     Returns
     -------
@@ -296,6 +373,8 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     k = settings.coverage_sigma
     sd_i = settings.current_std_a / np.sqrt(np.broadcast_to(np.asarray(n_averaged, float),
                                                             (n,)))[:, None]
+    sd_within = within_window_current_std(current_within_std_a, settings.current_std_a,
+                                          cur.shape)
     mean = np.zeros_like(cur)
     second = np.zeros_like(cur)
     within = np.zeros_like(cur)
@@ -310,10 +389,10 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
                                                    wheel_accel_rad_s2)
         sd_mu = np.sqrt((dmu_dt * dtorque_di * sd_i) ** 2
                         + (dmu_dt * torque * settings.efficiency_rel_std) ** 2
-                        + (rolling * settings.hysteresis_rel_std) ** 2)
+                        + (rolling * settings.hysteresis_rel_std) ** 2
+                        + (dmu_dt * dtorque_di * sd_within) ** 2)
         est = slip_from_traction(terrain.curve, mu)
-        lo = slip_from_traction(terrain.curve, mu - k * sd_mu).slip
-        hi = slip_from_traction(terrain.curve, mu + k * sd_mu).slip
+        lo, hi = _slip_interval(terrain.curve, mu - k * sd_mu, mu + k * sd_mu)
         sd = (hi - lo) / (2.0 * k)
         w = p[:, None]
         mean += w * est.slip

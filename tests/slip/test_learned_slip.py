@@ -162,3 +162,18 @@ def test_slip_fit_command(tmp_path, monkeypatch):
             "leave-one-terrain-out-physics"} <= set(
         errors["split"])
     assert (tmp_path / "mlflow.db").exists()
+
+
+def test_variance_moment_of_the_calibrated_std(tiny_table):
+    """``predict_std(moment="variance")`` scales the bulk (median) calibration so the mean
+    normalised squared out-of-fold residual is 1: what a Kalman filter needs as variance."""
+    from terrain.errors import ConfigError
+    runs, X, Y, meta = tiny_table
+    y = Y[list(SLIP_OUTPUTS)].to_numpy()
+    model = SlipRegressor(max_iter=50).fit(X, y, groups=meta["run_id"].to_numpy())
+    median, var = model.predict_std(X[:20]), model.predict_std(X[:20], moment="variance")
+    k = model.calibration_["mean_normalised_sq"]
+    assert k > 1.0                        # heavy tails: the mean exceeds the chi2(1) median
+    np.testing.assert_allclose(var, median * np.sqrt(k))
+    with pytest.raises(ConfigError):
+        model.predict_std(X[:2], moment="mean")

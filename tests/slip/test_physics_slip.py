@@ -115,3 +115,33 @@ def test_planted_truth_on_simulated_straight_runs(name, seed):
     assert abs(np.median(out.slip) - true_slip) < 0.01
     inside = (out.lower <= true_slip) & (out.upper >= true_slip)
     assert inside.mean() > 0.8                            # the interval covers the truth
+
+
+def test_traction_at_the_curve_maximum_opens_the_slip_interval_to_full_spin():
+    """Past the peak every slip delivers the maximum traction, so a traction interval that
+    reaches it maps to a slip interval reaching +1 (or -1 braking), not the knee slip."""
+    from terrain.slip.physics import _slip_interval
+    from terrain.terramechanics.inverse import stable_side
+    curve = get_terrain("ICE").curve
+    mu_max = stable_side(curve)[1][-1]
+    lo, hi = _slip_interval(curve, np.array([[0.5 * mu_max, -1.1 * mu_max]]),
+                            np.array([[1.1 * mu_max, -0.5 * mu_max]]))
+    assert hi[0, 0] == 1.0 and lo[0, 1] == -1.0
+    assert 0 < lo[0, 0] < 0.05 and -0.05 < hi[0, 1] < 0
+
+
+def test_within_window_spread_counts_only_above_the_sensor_noise():
+    from terrain.slip.physics import within_window_current_std
+    got = within_window_current_std(np.array([[0.05, 0.08], [0.10, 0.5]]), 0.08, (2, 2))
+    np.testing.assert_allclose(got, [[0.0, 0.0], [0.06, np.sqrt(0.25 - 0.0064)]])
+    np.testing.assert_array_equal(within_window_current_std(None, 0.08, (3, 2)), 0.0)
+    with pytest.raises(ShapeError):
+        within_window_current_std(np.zeros((3, 1)), 0.08, (3, 2))
+    cur, rim = np.full((2, 2), 4.0), np.full((2, 2), 0.5)
+    exact = PhysicsSlipSettings(efficiency_rel_std=0.0, hysteresis_rel_std=0.0)
+    steady = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(2), settings=exact)
+    moving = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(2), settings=exact,
+                          current_within_std_a=np.array([[0.05, 0.05], [2.0, 2.0]]))
+    np.testing.assert_allclose(moving.std[0], steady.std[0])
+    assert np.all(moving.std[1] > 2 * steady.std[1])
+    np.testing.assert_allclose(moving.slip, steady.slip)

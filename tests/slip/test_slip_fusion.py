@@ -141,3 +141,53 @@ def test_scaled_slip_drift_makes_the_filter_std_proportional_to_the_pseudo_std(s
             late[name, sd] = np.median(est.slip_std[est.ekf.t_s > 10.0])
     assert 80 < late["scaled", 1e-2] / late["scaled", 1e-4] < 120
     assert late["constant", 1e-2] / late["constant", 1e-4] < 20
+
+
+def test_segments_process_each_pseudo_measurement_once(sandy):
+    """Window centres lie on the filter grid; a segment must not re-process the sample on the
+    previous segment's last step (it did, with the next window's variance). With one std and
+    one drift for every window the segmented filter is the plain whole-grid filter."""
+    from dataclasses import replace
+
+    from terrain.estimation.runner import SensorSamples, make_grid, run_filter
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, run_with_pseudo_slip
+    _, run = sandy
+    t, slip, _ = slip_model_outputs(run)["physics"]
+    imu, w = run.streams["imu"], run.streams["wheels"]
+    samples = {"wheels": SensorSamples(w["t_s"].to_numpy(float),
+                                       w[["vel_l", "vel_r"]].to_numpy(float)),
+               "gyro": SensorSamples(imu["t_s"].to_numpy(float), imu[["wz"]].to_numpy(float)),
+               "accel": SensorSamples(imu["t_s"].to_numpy(float),
+                                      imu[["ax", "az"]].to_numpy(float))}
+    grid = make_grid(0.0, 20.0, 100.0)
+    assert np.isin(np.round(t[t < 20] * 100), np.round(grid * 100)).all()   # on grid steps
+    fs = replace(BATCH_FUSION.filter, slip_psd=1e-6, slip_psd_rel=0.0, slip_psd_transient=0.0)
+    seg = run_with_pseudo_slip(grid, samples, fs, t, slip, np.full(len(t), 0.004))
+    whole = run_filter(SkidSteerSlipModel(replace(fs, slip_std=0.004)), grid,
+                       {**samples, "slip_model": SensorSamples(t, slip)},
+                       store_covariance=True, engine="numpy")
+    np.testing.assert_allclose(seg.x, whole.x, atol=1e-12)
+    np.testing.assert_allclose(seg.P_diag, whole.P_diag, atol=1e-15)
+    assert seg.counts["slip_model"]["used"] == whole.counts["slip_model"]["used"] \
+        == int(np.sum(t <= 20.0 + 1e-9))
+
+
+def test_a_spinning_start_gets_a_wide_physics_std_and_a_transient_drift():
+    """A start on ice spins the wheels (true slip ~0.5 for ~2 s) at the curve's flat
+    maximum traction: the window covering it must not claim the knee slip with a small std
+    (it did: 0.0045 +- 0.0004), while steady windows keep the current-noise std."""
+    run = simulate(SimConfig(vehicle="husky", terrains=("ICE",), scenario="straight_accel",
+                             duration_s=12.0, seed=200))
+    sim = PhysicsSlipSettings(efficiency_rel_std=0.0, hysteresis_rel_std=0.0)
+    out = slip_model_outputs(run, None, sim)
+    t, _, std = out["physics"]
+    _, _, change = out["physics_transient"]
+    _, _, noise = out["physics_current"]
+    truth = _truth(run, t, ["slip_1", "slip_2"])
+    start, steady = truth.max(axis=1) > 0.2, t > 5.0
+    assert start.any() and np.all(std[start] > 0.05)                 # spin: wide
+    assert np.all(change[start] > 0.05)                              # ... and a transient
+    np.testing.assert_allclose(std[steady], noise[steady], rtol=1e-9)   # steady: noise only
+    assert np.all(change[steady] == 0.0)
+    err = np.abs(truth[steady] - out["physics"][1][steady])
+    assert np.median(err / std[steady]) < 2.0
