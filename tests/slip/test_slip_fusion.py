@@ -191,3 +191,23 @@ def test_a_spinning_start_gets_a_wide_physics_std_and_a_transient_drift():
     assert np.all(change[steady] == 0.0)
     err = np.abs(truth[steady] - out["physics"][1][steady])
     assert np.median(err / std[steady]) < 2.0
+
+
+def test_fused_std_with_an_error_correlation():
+    """``error_correlation``: the std of the inverse-variance weighted mean; 1 gives back the
+    conservative bound (>= the better std), 0 the independent combination."""
+    from terrain.errors import ConfigError
+    from terrain.slip.estimate import FusionSettings, pseudo_measurement
+    t = np.arange(2.0)
+    outs = {"physics": (t, np.full((2, 2), 0.10), np.full((2, 2), 0.004)),
+            "learned": (t, np.full((2, 2), 0.12), np.full((2, 2), 0.003))}
+    _, _, v0 = pseudo_measurement(outs, "fused", FusionSettings(min_std=1e-6,
+                                                                error_correlation=0.0))
+    np.testing.assert_allclose(v0, (0.004 ** -2 + 0.003 ** -2) ** -0.5)
+    _, _, v1 = pseudo_measurement(outs, "fused", FusionSettings(min_std=1e-6,
+                                                                error_correlation=1.0))
+    wp = 0.004 ** -2 / (0.004 ** -2 + 0.003 ** -2)
+    np.testing.assert_allclose(v1, wp * 0.004 + (1 - wp) * 0.003)
+    assert np.all(v1 >= 0.003) and np.all(v0 < 0.003)
+    with pytest.raises(ConfigError):
+        FusionSettings(error_correlation=1.5)
