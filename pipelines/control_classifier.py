@@ -6,17 +6,31 @@ A classifier trained on the measured BorealTC runs calls every simulated Husky w
 docs/control_validation.md). The controller runs in the simulated world, so its classifier is
 trained there, as a robot engineer would train it on the robot's own runs: simulated runs of
 the vehicle on the given terrains and scenarios, on *classifier seeds* (default 2000-2002)
-disjoint from the evaluation seeds and the gain-tuning seeds (1000, 1001); windows from
+disjoint from the evaluation seeds and the gain-tuning seeds (1000, 1001). The robot's logged
+runs include runs with the traction controller on, so by default (``controlled_runs``) every
+terrain, scenario and seed gives two training runs: one uncontrolled (:func:`simulate`) and
+one closed loop with the traction controller on
+(:func:`terrain.control.closed_loop.run_closed_loop`, the grid's run: the label as the
+terrain decision, the controller's gains, estimator and feed-forward of the runs it will
+serve), whose windows come from the run's
+logged streams (the batch sensor model, as the uncontrolled runs). Trained on uncontrolled
+runs only, the classifier degraded under control (the slip the controller holds changes the
+wheel-speed and current signatures): docs/control_validation.md. Windows from
 :func:`features.windows.make_windows` (2 s, hop 0.5 s, 50 Hz, all IMU and wheel channels:
 ``terrain train``'s default signal set); the SVM of :func:`terrain.models.registry.make_model`
 (window features -> scaler -> RBF SVC with Platt probabilities); saved as the same MLflow
 model directory as ``terrain train --model-out`` (:func:`terrain.serving.pyfunc.save_model`),
-cached under ``out/control_classifier/<key>/model``, and applied by the same causal decision
-path as ``--model`` (:func:`pipelines.live_terrain.classifier_decisions`).
+cached under ``out/control_classifier/<vehicle>-<key>/model`` (the key hashes the settings,
+the controller of the closed-loop training runs (its full configuration with the gains, the
+estimator, the feed-forward flag) and the simulator's inputs that shape the training runs:
+physics version, sensor settings, vehicle and terrain parameters), and applied by the same
+causal decision path as ``--model``: a :class:`pipelines.live_terrain.LiveClassifier` per
+closed-loop run, fed with the loop's own sensor samples.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import shutil
@@ -26,12 +40,17 @@ from typing import Callable, Sequence
 import numpy as np
 
 from features.windows import WindowConfig, make_windows
-from terrain.control.desired_slip import build_slip_table
+from terrain.control.closed_loop import (ESTIMATORS, LOOP_SETTINGS, default_gains,
+                                         run_closed_loop)
 from terrain.control.grid import TUNING_SEEDS
+from terrain.control.traction import config_for_vehicle
 from terrain.errors import ConfigError
 from terrain.models.registry import ModelConfig, make_model
-from terrain.serving.pyfunc import load_model, runs_to_model_input, save_model
-from terrain.sim.simulate import SimConfig, simulate
+from terrain.serving.model import load_stream_model
+from terrain.serving.pyfunc import runs_to_model_input, save_model
+from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, simulate
+from terrain.terramechanics.catalogue import get_terrain
+from terrain.vehicles import get_vehicle
 
 #: Seeds of the classifier's training runs (disjoint from the evaluation and tuning seeds).
 CLASSIFIER_SEEDS: tuple[int, ...] = (2000, 2001, 2002)
@@ -42,14 +61,93 @@ GRID_TERRAINS: tuple[str, ...] = ("TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", 
 #: Windows of the classifier: 2 s (the project's window), a decision every 0.5 s, 50 Hz.
 CLASSIFIER_WINDOW = WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=50.0)
 TERRAIN_SOURCES = ("label", "live-sim", "model")
+#: Run-id suffix of the closed-loop training runs (the controller on).
+CONTROLLED_SUFFIX = "+traction"
+
+
+def simulator_digest(vehicle: str, terrains: Sequence[str]) -> str:
+    """Digest of the simulator's inputs that shape a vehicle's training runs.
+
+    The physics version of :class:`terrain.sim.simulate.SimConfig`, the vehicle's default
+    sensor settings (:data:`terrain.sim.simulate.DEFAULT_SENSORS`: rates, noise, vibration
+    bandwidth), and the catalogue parameters of the vehicle and of the terrains (traction
+    curves, vibration levels), as their dataclass ``repr``.
+
+    Parameters
+    ----------
+    vehicle : str
+        Simulated vehicle.
+    terrains : sequence of str
+        Catalogued terrain classes.
+
+    Returns
+    -------
+    str
+        SHA-1 hex digest, 10 characters.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle or terrain.
+    """
+    parts = [SimConfig().physics, repr(DEFAULT_SENSORS[vehicle]), repr(get_vehicle(vehicle))]
+    parts += [repr(get_terrain(t)) for t in sorted(str(t).upper() for t in terrains)]
+    return hashlib.sha1("\n".join(parts).encode()).hexdigest()[:10]
+
+
+def _controller_settings(vehicle: str, gains: tuple[float, float] | None,
+                         estimator: str | None, feed_forward: bool) -> dict:
+    """The controller of the closed-loop training runs, as the cache key sees it.
+
+    Parameters
+    ----------
+    vehicle : str
+        Simulated vehicle with a closed loop (:data:`terrain.control.closed_loop.ESTIMATORS`).
+    gains : tuple of float or None
+        ``(kp, ki)``; None: the tuned defaults of the vehicle and estimator.
+    estimator : str or None
+        Estimator kind; None: the vehicle's default.
+    feed_forward : bool
+        Feed-forward slip limit.
+
+    Returns
+    -------
+    dict
+        ``gains``, ``estimator`` (resolved), ``feed_forward`` and ``config`` (the ``repr`` of
+        the controller's full :class:`terrain.control.traction.TractionControlConfig`).
+
+    Raises
+    ------
+    ConfigError
+        A vehicle without a closed loop, or an estimator that is not one of its own.
+    """
+    if vehicle not in ESTIMATORS or vehicle not in LOOP_SETTINGS:
+        raise ConfigError(f"no closed loop for vehicle {vehicle!r} (controlled_runs=False "
+                          "trains on uncontrolled runs only)")
+    kind = estimator or ESTIMATORS[vehicle][0]
+    if kind not in ESTIMATORS[vehicle]:
+        raise ConfigError(f"estimator {kind!r} not available for {vehicle}; valid: "
+                          f"{', '.join(ESTIMATORS[vehicle])}")
+    kp, ki = gains or default_gains(vehicle, kind)
+    cfg, _ = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
+    return {"gains": [float(kp), float(ki)], "estimator": kind,
+            "feed_forward": bool(feed_forward), "config": repr(cfg)}
 
 
 def sim_classifier(vehicle: str, terrains: Sequence[str],
                    seeds: Sequence[int] = CLASSIFIER_SEEDS,
                    scenarios: Sequence[str] = CLASSIFIER_SCENARIOS, signals: str = "all",
                    duration_s: float = 20.0, cache_dir: str | Path = "out/control_classifier",
-                   reserved_seeds: Sequence[int] = ()) -> tuple[Path, dict]:
+                   reserved_seeds: Sequence[int] = (), controlled_runs: bool = True,
+                   gains: tuple[float, float] | None = None, estimator: str | None = None,
+                   feed_forward: bool = True) -> tuple[Path, dict]:
     """Train (or load from the cache) the SVM terrain classifier on simulated runs.
+
+    Per terrain, scenario and seed: an uncontrolled run, and with ``controlled_runs`` a
+    closed-loop run with the traction controller on
+    (:func:`terrain.control.closed_loop.run_closed_loop`, the run of the control grid with
+    the label as terrain decision); the windows of both come from the run's logged streams
+    (the batch sensor model).
 
     Parameters
     ----------
@@ -70,19 +168,37 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     reserved_seeds : sequence of int
         Seeds the training must not use (evaluation seeds); the tuning seeds
         (:data:`terrain.control.grid.TUNING_SEEDS`) are always reserved.
+    controlled_runs : bool
+        True (default): also train on closed-loop runs with the traction controller on, as a
+        robot's logged runs include them; False: uncontrolled runs only (the earlier
+        classifier, which degrades under control: docs/control_validation.md).
+    gains : tuple of float, optional
+        ``(kp, ki)`` of the controlled runs (rad/s per unit slip; rad/s per unit slip and
+        s); None: :func:`terrain.control.closed_loop.default_gains` of the vehicle and
+        estimator.
+    estimator : str, optional
+        Slip estimator of the controlled runs
+        (:func:`terrain.control.closed_loop.estimator_for`); None: the vehicle's default.
+    feed_forward : bool
+        Feed-forward slip limit in the controlled runs.
 
     Returns
     -------
     model_dir : pathlib.Path
         MLflow model directory (``terrain train --model-out`` format; metadata ``vehicle``,
-        ``dataset = sim``, ``seeds``, ``scenarios``, ``training_windows``).
+        ``dataset = sim``, ``seeds``, ``scenarios``, ``controlled_runs``,
+        ``training_windows``).
     info : dict
-        The settings, the training windows per class and the training accuracy.
+        The settings (``controller``: the controlled runs' configuration, None without
+        them), the training windows in all, per class and from controlled runs
+        (``controlled_windows``), and the training accuracy.
 
     Raises
     ------
     ConfigError
-        A training seed is an evaluation or tuning seed, or no terrain / seed is given.
+        A training seed is an evaluation or tuning seed, no terrain / seed is given, or
+        (``controlled_runs``) the vehicle has no closed loop or the estimator is not one of
+        its own.
     """
     shared = sorted(set(seeds) & (set(reserved_seeds) | set(TUNING_SEEDS)))
     if shared:
@@ -93,21 +209,39 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
                 "seeds": sorted(int(s) for s in seeds), "scenarios": list(scenarios),
                 "signals": signals, "duration_s": float(duration_s),
                 "window_s": CLASSIFIER_WINDOW.window_s, "hop_s": CLASSIFIER_WINDOW.hop_s,
-                "rate_hz": CLASSIFIER_WINDOW.rate_hz, "model": "svm"}
+                "rate_hz": CLASSIFIER_WINDOW.rate_hz, "model": "svm",
+                "simulator": simulator_digest(vehicle, terrains),
+                "controlled_runs": bool(controlled_runs),
+                "controller": (_controller_settings(vehicle, gains, estimator, feed_forward)
+                               if controlled_runs else None)}
     key = hashlib.sha1(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:10]
     folder = Path(cache_dir) / f"{vehicle}-{key}"
     model_dir, info_path = folder / "model", folder / "info.json"
     if (model_dir / "MLmodel").exists() and info_path.exists():
         return model_dir, {**json.loads(info_path.read_text()), "cached": True}
-    runs = [simulate(SimConfig(vehicle=vehicle, terrains=(t,), scenario=sc,
-                               duration_s=duration_s, seed=s))
-            for t in settings["terrains"] for sc in scenarios for s in settings["seeds"]]
+    ctrl = settings["controller"]
+    runs = []
+    for t in settings["terrains"]:
+        for sc in scenarios:
+            for s in settings["seeds"]:
+                runs.append(simulate(SimConfig(vehicle=vehicle, terrains=(t,), scenario=sc,
+                                               duration_s=duration_s, seed=s)))
+                if ctrl is not None:   # the robot's logged run with the controller on
+                    run = run_closed_loop(vehicle, t, sc, True, s, duration_s,
+                                          tuple(ctrl["gains"]), estimator=ctrl["estimator"],
+                                          feed_forward=ctrl["feed_forward"])[0].run
+                    runs.append(dataclasses.replace(
+                        run, run_id=f"{run.run_id}{CONTROLLED_SUFFIX}",
+                        meta={**run.meta, "controller": "traction"}))
     ws = make_windows(runs, signals, CLASSIFIER_WINDOW)
     y = ws.labels.astype(str)
+    from_controlled = np.array([str(r).endswith(CONTROLLED_SUFFIX) for r in ws.run_ids],
+                               dtype=bool)
     pipe = make_model(ModelConfig(kind="svm"), ws.channels, CLASSIFIER_WINDOW.rate_hz, "sim")
     pipe.fit(ws.X, y)
     classes = [str(c) for c in pipe.classes_]
     info = {**settings, "key": key, "training_windows": int(len(ws)),
+            "controlled_windows": int(np.sum(from_controlled)),
             "windows_per_class": {c: int(np.sum(y == c)) for c in classes},
             "training_accuracy": float(np.mean(pipe.predict(ws.X) == y))}
     tmp = folder / "model.tmp"
@@ -116,7 +250,7 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     save_model(tmp, pipe, ws.channels, CLASSIFIER_WINDOW, classes,
                {"dataset": "sim", "vehicle": vehicle, "seeds": settings["seeds"],
                 "scenarios": list(scenarios), "signals": signals,
-                "training_windows": int(len(ws))},
+                "controlled_runs": bool(controlled_runs), "training_windows": int(len(ws))},
                input_example=example.head(CLASSIFIER_WINDOW.n_samples))
     shutil.rmtree(model_dir, ignore_errors=True)
     tmp.rename(model_dir)
@@ -125,10 +259,11 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
 
 
 def decision_source(source: str, vehicle: str, terrains: Sequence[str],
-                    eval_seeds: Sequence[int], duration_s: float,
-                    model_dir: str | None = None,
+                    eval_seeds: Sequence[int], model_dir: str | None = None,
                     classifier_seeds: Sequence[int] = CLASSIFIER_SEEDS,
-                    cache_dir: str | Path = "out/control_classifier"
+                    cache_dir: str | Path = "out/control_classifier",
+                    controlled_runs: bool = True, gains: tuple[float, float] | None = None,
+                    estimator: str | None = None, feed_forward: bool = True
                     ) -> tuple[Callable | None, dict]:
     """Terrain decisions of one vehicle for the closed loop, per run.
 
@@ -145,21 +280,30 @@ def decision_source(source: str, vehicle: str, terrains: Sequence[str],
         :data:`GRID_TERRAINS`).
     eval_seeds : sequence of int
         Seeds of the closed-loop runs (reserved from the classifier's training).
-    duration_s : float
-        Simulated time of each closed-loop run, s.
     model_dir : str, optional
         Model directory for ``source = "model"``.
     classifier_seeds : sequence of int
         Training seeds of ``live-sim``.
     cache_dir : str or pathlib.Path
         Cache folder of ``live-sim`` models.
+    controlled_runs : bool
+        ``live-sim``: also train on closed-loop runs with the controller on (default; see
+        :func:`sim_classifier`).
+    gains : tuple of float, optional
+        ``live-sim``: ``(kp, ki)`` of those runs (the gains of the loops it will serve);
+        None: the vehicle's tuned defaults.
+    estimator : str, optional
+        ``live-sim``: slip estimator of those runs; None: the vehicle's default.
+    feed_forward : bool
+        ``live-sim``: feed-forward slip limit in those runs.
 
     Returns
     -------
     provider : callable or None
-        ``provider(terrain, scenario, seed) -> (decide or None, table or None, note)``:
-        the causal decision function of :func:`pipelines.live_terrain.classifier_decisions`
-        with a desired-slip table over the model's classes; None for ``label``.
+        ``provider(terrain) -> (live or None, table or None, note)``, to be called once per
+        closed-loop run: a fresh :class:`pipelines.live_terrain.LiveClassifier` (fed with
+        the run's own samples) and a desired-slip table over the model's classes, or None
+        and the reason where the model does not apply; None for ``label``.
     info : dict
         ``terrain_source``, the model directory and, for ``live-sim``, the training info.
 
@@ -167,9 +311,10 @@ def decision_source(source: str, vehicle: str, terrains: Sequence[str],
     ------
     ConfigError
         Unknown source, ``model`` without ``model_dir``, classifier seeds that are
-        evaluation or tuning seeds.
+        evaluation or tuning seeds, a vehicle without a closed loop or a foreign estimator
+        (``live-sim`` with ``controlled_runs``).
     """
-    from pipelines.live_terrain import classifier_decisions
+    from pipelines.live_terrain import live_decisions
 
     if source not in TERRAIN_SOURCES:
         raise ConfigError(f"unknown terrain source {source!r}; valid: {list(TERRAIN_SOURCES)}")
@@ -179,18 +324,18 @@ def decision_source(source: str, vehicle: str, terrains: Sequence[str],
     if source == "live-sim":
         terr = list(dict.fromkeys([*GRID_TERRAINS, *(t.upper() for t in terrains)]))
         path, train = sim_classifier(vehicle, terr, classifier_seeds, cache_dir=cache_dir,
-                                     reserved_seeds=eval_seeds)
+                                     reserved_seeds=eval_seeds,
+                                     controlled_runs=controlled_runs, gains=gains,
+                                     estimator=estimator, feed_forward=feed_forward)
         info.update(model_dir=str(path), classifier=train)
     elif not model_dir:
         raise ConfigError("--terrain-source model needs --model DIR")
     else:
         path = Path(model_dir)
         info.update(model_dir=str(path))
-    loaded = load_model(path)
+    model = load_stream_model(path)
 
-    def provider(terrain: str, scenario: str, seed: int):
-        decide, note, classes = classifier_decisions(str(path), vehicle, terrain, scenario,
-                                                     seed, duration_s, loaded=loaded)
-        return decide, (build_slip_table(classes) if decide is not None else None), note
+    def provider(terrain: str):
+        return live_decisions(model, vehicle, terrain)
 
     return provider, info

@@ -7,8 +7,12 @@ ICE, straight_accel, seed 0, 20 s. Full grid (docs/control_validation.md):
   terrain control-grid --scenarios straight_accel orchard slope_turn --seeds 0 1 2 --out OUT
 --no-tune uses terrain.control.closed_loop.default_gains (per vehicle and estimator) instead of
 tuning. --terrain-source live-sim takes the terrain decisions from the live classifier trained
-on simulated runs of each vehicle on the --classifier-seeds (pipelines/control_classifier.py;
-the gain tuning keeps the label); the default is the run's label.
+on simulated runs of each vehicle on the --classifier-seeds (pipelines/control_classifier.py),
+run on each closed loop's own sensor samples (pipelines/live_terrain.py; the gain tuning keeps
+the label); the default is the run's label. The live-sim classifier's training runs include
+closed-loop runs with the traction controller on (the grid's gains, estimator and
+feed-forward, the label as terrain decision); --classifier-uncontrolled-only trains it on
+uncontrolled runs only (the earlier classifier).
 """
 
 from __future__ import annotations
@@ -31,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     ``--duration-s`` (simulated time per run, s), ``--no-tune``, the proportional
     (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids,
     ``--husky-estimator``, ``--no-feed-forward``, the ``--terrain-source`` (with ``--model``
-    or the live-sim ``--classifier-seeds``) and ``--out``.
+    or the live-sim ``--classifier-seeds`` and ``--classifier-uncontrolled-only``) and
+    ``--out``.
 
     Parameters
     ----------
@@ -59,6 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--classifier-seeds", nargs="+", type=int,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
+    parser.add_argument("--classifier-uncontrolled-only", action="store_true",
+                        help="train the live-sim classifier on uncontrolled runs only "
+                             "(default: also on runs with the traction controller on)")
     parser.add_argument("--out", required=True, help="output folder")
 
 
@@ -134,8 +142,10 @@ def main(args: argparse.Namespace) -> int:
         decisions, classifiers = {}, {}
         for veh in args.vehicles:
             decisions[veh], classifiers[veh] = decision_source(
-                args.terrain_source, veh, args.terrains, args.seeds, args.duration_s,
-                args.model, args.classifier_seeds)
+                args.terrain_source, veh, args.terrains, args.seeds, args.model,
+                args.classifier_seeds, controlled_runs=not args.classifier_uncontrolled_only,
+                gains=gains[veh], estimator=estimators.get(veh),
+                feed_forward=not args.no_feed_forward)
             run.log_dict(classifiers[veh], f"classifier_{veh}.json")
         results, traces = run_grid(args.vehicles, args.terrains, args.scenarios, args.seeds,
                                    gains, args.duration_s, estimators,

@@ -9,11 +9,14 @@ same loop in shadow mode (no correction), scored against the same targets.
 
 Terrain decisions (--terrain-source): `label` (default without --model) the run's label;
 `live-sim` the live classifier trained on simulated runs of the same vehicle on the
---classifier-seeds (pipelines/control_classifier.py, cached under out/control_classifier);
+--classifier-seeds, uncontrolled and with the traction controller on (this run's gains,
+estimator and feed-forward; --classifier-uncontrolled-only: uncontrolled runs only)
+(pipelines/control_classifier.py, cached under out/control_classifier);
 `model` (default with --model DIR, a model saved by `terrain train --model-out DIR`) that
-classifier. Classifier decisions are applied causally (pipelines/live_terrain.py) where the
-model applies (trained on the vehicle's data, the run's terrain among its classes); otherwise
-the label is used, with the reason in the JSON (terrain_source).
+classifier. A classifier runs live on the loop's own sensor samples, causally
+(pipelines/live_terrain.py), where the model applies (trained on the vehicle's data, the
+run's terrain among its classes); otherwise the label is used, with the reason in the JSON
+(terrain_source).
 
 JSON fields: slip_rmse, peak_slip, time_to_speed_s, energy_j_per_m (V_bus x motor currents),
 distance_m, mean_speed_m_s, terrain_accuracy and more (terrain.control.closed_loop.loop_metrics).
@@ -41,7 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-sim``: vehicle, terrain, scenario, controller
     (``off`` or ``traction``), seed, ``--duration-s`` (s), gains ``--kp`` (rad/s per unit
     slip) and ``--ki`` (rad/s per unit slip and s), an optional classifier ``--model``, the
-    slip ``--estimator``, ``--no-feed-forward`` and the ``--json`` / ``--csv`` outputs.
+    slip ``--estimator``, ``--no-feed-forward``, the live-sim ``--classifier-seeds`` and
+    ``--classifier-uncontrolled-only`` and the ``--json`` / ``--csv`` outputs.
 
     Parameters
     ----------
@@ -67,6 +71,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--classifier-seeds", nargs="+", type=int,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
+    parser.add_argument("--classifier-uncontrolled-only", action="store_true",
+                        help="train the live-sim classifier on uncontrolled runs only "
+                             "(default: also on runs with the traction controller on)")
     parser.add_argument("--estimator", default=None,
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}),
                         help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo, Husky "
@@ -83,7 +90,7 @@ def main(args: argparse.Namespace) -> int:
     Gains not given default to :func:`terrain.control.closed_loop.default_gains` of the
     vehicle and estimator. With ``--terrain-source live-sim`` or ``model`` (default with
     ``args.model``) the controller's terrain comes from the classifier's decisions on the
-    simulated run (:func:`pipelines.control_classifier.decision_source`), else the true
+    loop's own samples (:func:`pipelines.control_classifier.decision_source`), else the true
     terrain is used. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
     ``args.json`` and, if ``args.csv``, the per-step trace.
 
@@ -99,16 +106,21 @@ def main(args: argparse.Namespace) -> int:
     """
     kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
-    terrain, decide, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
+    terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
     source = args.terrain_source or ("model" if args.model else "label")
     provider, info = decision_source(source, args.vehicle, [terrain], [args.seed],
-                                     args.duration_s, args.model, args.classifier_seeds)
+                                     args.model, args.classifier_seeds,
+                                     controlled_runs=not args.classifier_uncontrolled_only,
+                                     gains=gains, estimator=args.estimator,
+                                     feed_forward=not args.no_feed_forward)
     if provider is not None:   # the table covers every class the model may emit
-        decide, table, note = provider(terrain, args.scenario, args.seed)
+        live, table, note = provider(terrain)
     sim, loop, metrics = run_closed_loop(args.vehicle, terrain, args.scenario,
                                          args.controller == "traction", args.seed,
-                                         args.duration_s, gains, table, decide,
-                                         args.estimator, not args.no_feed_forward)
+                                         args.duration_s, gains, table,
+                                         estimator=args.estimator,
+                                         feed_forward=not args.no_feed_forward,
+                                         live_terrain=live)
     out = {"vehicle": args.vehicle, "terrain": args.terrain.upper(),
            "scenario": args.scenario, "controller": args.controller, "seed": args.seed,
            "duration_s": args.duration_s, "terrain_source": note,

@@ -1,79 +1,176 @@
-"""Terrain decisions of a trained classifier for the closed-loop simulation (helper of
-``terrain control-sim``; not a subcommand: no add_arguments/main).
+"""Terrain decisions of a trained classifier on the closed loop's own samples (helper of
+``terrain control-sim`` / ``control-grid``; not a subcommand: no add_arguments/main).
 
-The classifier (``terrain train --model-out DIR``) is applied causally: the decision at time
-t is the most recent window that *ended* by t (its class and probability); before the first
-window ends there is no decision and the desired-slip table's fallback applies. The windows
-are cut from the sensor streams of the uncontrolled run of the same seed (``terrain
-simulate``'s batch sensor model, IMU vibration included): the controller changes the wheel
-speeds slightly, not the terrain's vibration signature, and the online sensors of the loop
-carry no vibration band. Applies where the model's classes include the run's terrain and the
-model was trained on the vehicle's data: its shipped dataset (BorealTC: the Husky) or
-simulated runs of the vehicle (metadata ``vehicle``, the live-sim classifier of
-pipelines/control_classifier.py).
+The classifier (``terrain train --model-out DIR``, or the live-sim classifier of
+pipelines/control_classifier.py) runs in the project's streaming core,
+:class:`terrain.serving.StreamService` (bounded ring buffers, the readers' sample rules,
+alignment onto the model's clock with :mod:`terrain.io.align`, a window every hop, the
+model's own features), fed at every control call with the samples the loop's sensors took
+(:class:`terrain.sim.closed_loop.OnlineSensors`): the full IMU ``imu_full`` (terrain
+vibration and gravity, the batch sensor model's IMU generated online) and the wheel stream
+(motors 1 and 2 as ``vel_l = omega r``, ``vel_r`` and ``cur_l``, ``cur_r``: the batch
+model's ``pro`` mapping). A window ``[t_end - window_s, t_end)`` is classified once every
+stream has a sample at or after ``t_end`` (on the Husky's 6.5 Hz wheel stream up to 0.15 s
+later). The decision at loop time t is the latest one the service emitted from the samples
+taken by t: the class and probability of its window (no temporal smoothing, as the batch
+predictions); before the first, none, and the desired-slip table's fallback applies.
+
+Applies where the model's classes include the run's terrain and the model was trained on the
+vehicle's data: its shipped dataset (BorealTC: the Husky) or simulated runs of the vehicle
+(metadata ``vehicle``, the live-sim classifier).
 """
 
 from __future__ import annotations
 
-from typing import Callable
+from collections import deque
 
 import numpy as np
 
-from terrain.serving.pyfunc import load_model, runs_to_model_input
-from terrain.sim.simulate import SimConfig, simulate
+from terrain.control.desired_slip import build_slip_table
+from terrain.errors import DataFormatError
+from terrain.serving.model import StreamModel
+from terrain.serving.service import StreamConfig, StreamService
+from terrain.serving.smoothing import SmoothingConfig
+from terrain.serving.targets import TableTargets
+from terrain.sim.closed_loop import Observation
+from terrain.vehicles import get_vehicle
 
 #: Shipped dataset of each vehicle (the robot that recorded it).
 VEHICLE_DATASET = {"husky": "borealtc"}
+#: Decisions kept for look-ups (bounded; 64 hops of 0.5 s = 32 s of history).
+MAX_DECISIONS = 64
 
 
-def classifier_decisions(model_dir: str, vehicle: str, terrain: str, scenario: str, seed: int,
-                         duration_s: float, loaded: tuple | None = None
-                         ) -> tuple[Callable[[float], tuple] | None, str, list[str]]:
-    """A causal decision function from a trained model, or None with the reason.
+class LiveClassifier:
+    """Causal terrain decisions of a trained model on the loop's own samples.
+
+    The :class:`terrain.control.closed_loop.LiveTerrain` of the closed loop: ``update`` is
+    called with every observation, ``__call__`` gives the decision available at a time.
 
     Parameters
     ----------
-    model_dir : str
-        MLflow model directory of ``terrain train``.
-    vehicle, terrain, scenario : str
+    model : StreamModel
+        Fitted window classifier (:func:`terrain.serving.model.load_stream_model`).
+    vehicle : str
+        Simulated vehicle (wheel radius for the rim speeds).
+
+    Attributes
+    ----------
+    service : StreamService
+        The streaming core (hop ``model.metadata["hop_s"]``, default 0.5 s; no smoothing).
+    n_windows : int
+        Windows classified so far.
+    """
+
+    def __init__(self, model: StreamModel, vehicle: str) -> None:
+        hop = float(model.metadata.get("hop_s", model.window.hop_s))
+        config = StreamConfig(hop_s=hop, smoothing=SmoothingConfig(dwell_s=None))
+        self.service = StreamService(model, TableTargets(model.classes), config)
+        self.wheel_radius_m = get_vehicle(vehicle).wheel_radius_m
+        self._decisions: deque = deque(maxlen=MAX_DECISIONS)
+        self.n_windows = 0
+
+    def update(self, obs: Observation) -> None:
+        """Push the observation's IMU and wheel samples; keep the decisions they complete.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call (``imu_full``; ``wheels`` and ``currents`` at the
+            same times).
+
+        Raises
+        ------
+        DataFormatError
+            Wheel and current samples at different times.
+        """
+        out = []
+        if len(obs.imu_full):
+            out += self.service.push("imu", obs.imu_full[:, 0], obs.imu_full[:, 1:])
+        if len(obs.wheels):
+            if not np.array_equal(obs.wheels[:, 0], obs.currents[:, 0]):
+                raise DataFormatError("wheel and current samples at different times",
+                                      "closed-loop observation")
+            values = np.column_stack([obs.wheels[:, 1:3] * self.wheel_radius_m,
+                                      obs.currents[:, 1:3]])
+            out += self.service.push("wheels", obs.wheels[:, 0], values)
+        for d in out:
+            label = None if d.terrain is None else str(d.terrain).upper()
+            self._decisions.append((float(obs.t_s), label, float(d.confidence)))
+        self.n_windows += len(out)
+
+    def __call__(self, t_s: float) -> tuple:
+        """The latest decision emitted by ``t_s``.
+
+        Parameters
+        ----------
+        t_s : float
+            Loop time, s.
+
+        Returns
+        -------
+        tuple
+            ``(label, confidence)``; ``(None, 0.0)`` before the first decision (or before
+            the oldest one kept).
+        """
+        for t_avail, label, conf in reversed(self._decisions):
+            if t_avail <= t_s + 1e-9:
+                return (None, 0.0) if label is None else (label, conf)
+        return None, 0.0
+
+
+def classifier_applies(model: StreamModel, vehicle: str, terrain: str) -> tuple[bool, str]:
+    """Whether a model may decide the terrain of a simulated run, and the reason.
+
+    Parameters
+    ----------
+    model : StreamModel
+        The classifier with its directory's metadata.
+    vehicle, terrain : str
         The simulated run.
-    seed : int
-        Run seed.
-    duration_s : float
-        Simulated time, s.
-    loaded : tuple, optional
-        ``(model, metadata)`` of :func:`terrain.serving.pyfunc.load_model` for
-        ``model_dir``, already loaded (a grid loads it once).
 
     Returns
     -------
-    decide : callable or None
-        ``decide(t_s) -> (label or None, confidence)``.
+    applies : bool
+        True where the model was trained on the vehicle's data and knows ``terrain``.
     note : str
         Where the decisions come from, or why the label is used instead.
-    classes : list of str
-        The model's classes.
     """
-    model, meta = loaded or load_model(model_dir)
-    classes = [str(c).upper() for c in meta.get("classes", [])]
+    meta = model.metadata
+    classes = [str(c).upper() for c in model.classes]
     own_data = meta.get("vehicle") == vehicle or (
         vehicle in VEHICLE_DATASET and meta.get("dataset", VEHICLE_DATASET[vehicle])
         == VEHICLE_DATASET[vehicle])
-    if not own_data or terrain not in classes:
-        return None, (f"label: the model's classes {classes} do not include {terrain} or it was "
-                      f"not trained on {vehicle} data, so the terrain comes from the label"),\
-            classes
-    run = simulate(SimConfig(vehicle=vehicle, terrains=(terrain,), scenario=scenario,
-                             duration_s=duration_s, seed=seed))
-    samples, _ = runs_to_model_input([run], meta["channels"], float(meta["rate_hz"]))
-    pred = model.predict(samples)
-    t_end = pred["t_end_s"].to_numpy(dtype=float)
-    labels = pred["predicted"].astype(str).to_numpy()
-    conf = pred[[c for c in pred.columns if c.startswith("proba_")]].max(axis=1).to_numpy()
+    if not own_data or terrain.upper() not in classes:
+        return False, (f"label: the model's classes {classes} do not include {terrain} or it "
+                       f"was not trained on {vehicle} data, so the terrain comes from the label")
+    return True, (f"live classifier on the loop's own samples (streaming service, "
+                  f"{model.window.window_s:g} s windows, a decision every "
+                  f"{float(meta.get('hop_s', model.window.hop_s)):g} s, latest one emitted "
+                  f"by t); classes {classes}")
 
-    def decide(t_s: float) -> tuple:
-        i = int(np.searchsorted(t_end, t_s, side="right")) - 1
-        return (None, 0.0) if i < 0 else (labels[i], float(conf[i]))
 
-    return decide, (f"live classifier {model_dir} on the uncontrolled run's streams, windows "
-                    f"ending by t; {len(pred)} windows, classes {classes}"), classes
+def live_decisions(model: StreamModel, vehicle: str, terrain: str):
+    """A fresh live classifier for one closed-loop run, or None with the reason.
+
+    Parameters
+    ----------
+    model : StreamModel
+        The classifier (loaded once, shared read-only by the runs).
+    vehicle, terrain : str
+        The simulated run.
+
+    Returns
+    -------
+    live : LiveClassifier or None
+        None where the model does not apply (:func:`classifier_applies`).
+    table : SlipTable or None
+        Desired-slip table over the model's classes (None with ``live``).
+    note : str
+        Where the decisions come from, or why the label is used instead.
+    """
+    ok, note = classifier_applies(model, vehicle, terrain)
+    if not ok:
+        return None, None, note
+    return (LiveClassifier(model, vehicle),
+            build_slip_table([str(c).upper() for c in model.classes]), note)

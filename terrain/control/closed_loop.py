@@ -117,6 +117,39 @@ class SlipEstimator(Protocol):
         ...
 
 
+class LiveTerrain(Protocol):
+    """A terrain decision made on the loop's own samples (a live classifier).
+
+    The loop hands it every :class:`~terrain.sim.closed_loop.Observation` before it reads the
+    decision, so the decision at time t rests only on samples taken by t.
+    """
+
+    def update(self, obs: Observation) -> None:
+        """Fold in the samples since the previous call.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call.
+        """
+        ...
+
+    def __call__(self, t_s: float) -> tuple:
+        """The decision available at ``t_s``.
+
+        Parameters
+        ----------
+        t_s : float
+            Time, s.
+
+        Returns
+        -------
+        tuple
+            ``(label or None, confidence)``.
+        """
+        ...
+
+
 def _merged(obs: Observation) -> list[tuple[float, str, np.ndarray]]:
     rows = [(float(r[0]), name, r[1:]) for name in ("imu", "wheels", "steer", "cam", "currents")
             for r in getattr(obs, name)]
@@ -524,6 +557,9 @@ class TractionLoop:
         catalogued terrain, or while the table's fallback applies (no, a low-confidence or a
         stale decision) on the terrain the fallback's traction target comes from
         (:func:`fallback_basis`); the correction applied is the one that slows the wheel more.
+    observer : callable, optional
+        ``observer(obs)``, called with every observation before the estimator and the
+        terrain decision (the ``update`` of a :class:`LiveTerrain`); None: none.
 
     Attributes
     ----------
@@ -534,8 +570,10 @@ class TractionLoop:
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
                  table: SlipTable, terrain_decision: Callable[[float], tuple],
                  apply: bool = True, accel_tau_s: float = 0.3,
-                 feed_forward: bool = True) -> None:
+                 feed_forward: bool = True,
+                 observer: Callable[[Observation], None] | None = None) -> None:
         self.controller = TractionController(config, n_units)
+        self.observer = observer
         self.feed_forward = bool(feed_forward)
         self.v_ref = np.zeros(n_units)
         self.ff_engaged = np.zeros(n_units, dtype=bool)
@@ -563,6 +601,8 @@ class TractionLoop:
         ndarray, shape (n_units,)
             Wheel speed correction, rad/s (zeros in shadow mode).
         """
+        if self.observer is not None:
+            self.observer(obs)
         est = self.estimator.update(obs)
         label, conf = self.terrain_decision(obs.t_s)
         targets = select_target(self.table, label, conf)
@@ -764,7 +804,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
                     duration_s: float = 20.0, gains: tuple[float, float] | None = None,
                     table: SlipTable | None = None,
                     terrain_decision: Callable[[float], tuple] | None = None,
-                    estimator: str | None = None, feed_forward: bool = True
+                    estimator: str | None = None, feed_forward: bool = True,
+                    live_terrain: LiveTerrain | None = None
                     ) -> tuple[Simulation, TractionLoop, dict]:
     """Simulate one closed-loop run and score it.
 
@@ -794,6 +835,10 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
         Estimator kind (:func:`estimator_for`); None: the vehicle's default.
     feed_forward : bool
         Feed-forward slip limit in the loop (:class:`TractionLoop`).
+    live_terrain : LiveTerrain, optional
+        A live classifier fed with the loop's own observations (its ``update`` is the loop's
+        observer) whose decisions are used instead of ``terrain_decision``; a fresh one per
+        run (it keeps the run's samples).
 
     Returns
     -------
@@ -805,7 +850,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     Raises
     ------
     ConfigError
-        Unknown vehicle, terrain or scenario, bad gains.
+        Unknown vehicle, terrain or scenario, bad gains, or both ``terrain_decision`` and
+        ``live_terrain`` given.
     """
     from terrain.control.desired_slip import build_slip_table
     from terrain.control.traction import config_for_vehicle
@@ -816,8 +862,10 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
         raise ConfigError(f"control-sim supports agrimaro and husky, got {vehicle!r}")
     kp, ki = gains or default_gains(vehicle, estimator)
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
+    if live_terrain is not None and terrain_decision is not None:
+        raise ConfigError("give terrain_decision or live_terrain, not both")
     table = table or build_slip_table([terrain])
-    decision = terrain_decision or (lambda t: (terrain, 1.0))
+    decision = live_terrain or terrain_decision or (lambda t: (terrain, 1.0))
     basis = fallback_basis(table)
 
     def assumed(t_s: float) -> tuple:   # the estimator's slip model: undecided -> basis
@@ -826,7 +874,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
 
     estimator = estimator_for(vehicle, assumed, estimator)
     loop = TractionLoop(cfg, n, estimator, table, decision, apply=controller_on,
-                        feed_forward=feed_forward)
+                        feed_forward=feed_forward,
+                        observer=None if live_terrain is None else live_terrain.update)
     sim = simulate_closed_loop(SimConfig(vehicle=vehicle, terrains=(terrain,),
                                          scenario=scenario, duration_s=duration_s,
                                          seed=seed), loop)

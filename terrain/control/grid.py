@@ -123,10 +123,11 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     feed_forward : bool
         Feed-forward slip limit in the loop.
     decisions : dict, optional
-        Vehicle -> ``provider(terrain, scenario, seed) -> (decide or None, table or None,
-        note)``: the terrain decisions of a live classifier (the controller off and on share
-        them); vehicles without a provider, or a provider returning no ``decide``, use the
-        run's label (``terrain_source`` says which).
+        Vehicle -> ``provider(terrain) -> (live or None, table or None, note)``, called for
+        every run: a fresh live classifier (:class:`terrain.control.closed_loop.LiveTerrain`)
+        fed with that run's own samples (the controller off and on each get their own);
+        vehicles without a provider, or a provider returning no ``live``, use the run's
+        label (``terrain_source`` says which).
 
     Returns
     -------
@@ -146,22 +147,18 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     shared = sorted(set(seeds) & set(TUNING_SEEDS))
     if shared:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
-    rows, traces, cell = [], {}, {}
+    rows, traces = [], {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                    (False, True)):
         provider = (decisions or {}).get(veh)
-        if (veh, ter, sc, seed) not in cell:
-            cell[veh, ter, sc, seed] = provider(ter, sc, seed) if provider else (None, None,
-                                                                                  "label")
-        decide, table, note = cell[veh, ter, sc, seed]
+        live, table, _ = provider(ter) if provider else (None, None, "label")
         sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh],
-                                       table=table, terrain_decision=decide,
-                                       estimator=(estimators or {}).get(veh),
-                                       feed_forward=feed_forward)
+                                       table=table, estimator=(estimators or {}).get(veh),
+                                       feed_forward=feed_forward, live_terrain=live)
         ctrl = "traction" if on else "off"
         rows.append({"vehicle": veh, "terrain": ter, "scenario": sc, "seed": seed,
                      "controller": ctrl,
-                     "terrain_source": "label" if decide is None else "classifier",
+                     "terrain_source": "label" if live is None else "classifier",
                      **{k: v for k, v in m.items() if not isinstance(v, str)}})
         traces[veh, ter, sc, ctrl, seed] = trace_frame(sim, loop)
     return pd.DataFrame(rows), traces

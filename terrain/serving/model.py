@@ -9,9 +9,10 @@ directly, so the streaming service needs no MLflow server or pyfunc wrapper.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, Mapping
 
 import yaml
 
@@ -37,12 +38,17 @@ class StreamModel:
         Window length and aligned clock rate of the training windows.
     classes : tuple of str
         Terrain classes, in the order of the decision's ``proba_<CLASS>`` columns.
+    metadata : Mapping
+        The model directory's whole ``metadata`` (``dataset``, ``vehicle``, ...), read-only;
+        empty for a model built in memory. Not compared or hashed.
     """
 
     pipeline: Any
     channels: tuple[str, ...]
     window: WindowConfig
     classes: tuple[str, ...]
+    metadata: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}),
+                                        compare=False, hash=False)
 
     @property
     def raw_channels(self) -> tuple[str, ...]:
@@ -65,6 +71,7 @@ def load_stream_model(path: str | Path) -> StreamModel:
     Returns
     -------
     StreamModel
+        With the directory's whole metadata in ``metadata``.
 
     Raises
     ------
@@ -86,4 +93,4 @@ def load_stream_model(path: str | Path) -> StreamModel:
     return StreamModel(pipeline, tuple(meta["channels"]),
                        WindowConfig(window_s=float(meta["window_s"]),
                                     rate_hz=float(meta["rate_hz"])),
-                       tuple(str(c) for c in meta["classes"]))
+                       tuple(str(c) for c in meta["classes"]), MappingProxyType(dict(meta)))

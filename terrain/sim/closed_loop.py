@@ -3,32 +3,47 @@
 :func:`terrain.sim.dynamics.integrate` hands its hook the *plant* after every step
 (:class:`~terrain.sim.dynamics.PlantSnapshot`). :class:`OnlineSensors` turns that into what
 the robot measures, sample by sample at each sensor's rate (the vehicle's
-:class:`~terrain.sim.sensors.SensorSettings`): IMU ``ax, ay, wz`` with white noise and a
-constant accelerometer bias, encoder wheel speeds (count rate per physics step when the
-speed quantum is 0, the motor driver's first-order filter, the speed quantum), steering encoders quantised, and on the
-AgriMaRo the T265 camera velocity at its mount with noise and outages. :func:`make_hook`
-calls a controller at its own rate with only the samples taken since its previous call
-(:class:`Observation`) and the robot's own low-level command, and returns its correction.
+:class:`~terrain.sim.sensors.SensorSettings`): the IMU, encoder wheel speeds (count rate per
+physics step when the speed quantum is 0, the motor driver's first-order filter, the speed
+quantum), motor currents, steering encoders quantised, and on the AgriMaRo the T265 camera
+velocity at its mount with noise and outages. :func:`make_hook` calls a controller at its
+own rate with only the samples taken since its previous call (:class:`Observation`) and the
+robot's own low-level command, and returns its correction.
 
-Simplifications against the batch sensor model of :mod:`terrain.sim.simulate` (which still
-writes the run's logged streams from the physics): no vibration band on the IMU, no sensor
-lag; noise from a generator of its own (seeded from the run's seed), so the logged streams
-keep the open-loop run's noise draws.
+The IMU comes in two views of the same samples (same white noise and bias draws):
+
+* ``imu_full`` (``wx, wy, wz, ax, ay, az``): the batch model's IMU
+  (:func:`terrain.sim.sensors.imu`) generated online with the same functions: terrain
+  vibration band (:func:`~terrain.sim.sensors.coloured_noise` with its filter state carried
+  from sample to sample, :func:`~terrain.sim.sensors.vibration_level` from the plant's
+  speed, :func:`~terrain.sim.sensors.vibration_signals` of the terrain under the vehicle),
+  gravity on slopes (:func:`~terrain.sim.sensors.gravity_specific_force`), bias and white
+  noise. The live terrain classifier reads it (it was trained on batch runs).
+* ``imu`` (``ax, ay, wz``): the same samples with the vibration band and gravity left out,
+  what the estimators have been tuned on (a simplification: a real robot's estimators would
+  read the vibrating IMU).
+
+Other simplifications against the batch sensor model of :mod:`terrain.sim.simulate` (which
+still writes the run's logged streams from the physics): no sensor lag, no planted effects;
+noise from generators of their own (seeded from the run's seed), so the logged streams keep
+the open-loop run's noise draws.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.sim.dynamics import ControlHook, PlantSnapshot
 from terrain.sim.forces import reported_current_a
-from terrain.sim.sensors import SensorSettings
+from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specific_force,
+                                 vibration_level, vibration_pole, vibration_signals)
 from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulate_with_physics
+from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
 
 __all__ = ["Observation", "OnlineSensors", "ReplaySnapshot", "make_hook", "replay_observations",
@@ -45,7 +60,8 @@ class Observation(NamedTuple):
     omega_low_level : ndarray, shape (m,)
         The low-level wheel speed command the robot is about to apply, rad/s.
     imu : ndarray, shape (k, 4)
-        ``t_s, ax, ay, wz`` (s, m/s^2, m/s^2, rad/s).
+        ``t_s, ax, ay, wz`` (s, m/s^2, m/s^2, rad/s): ``imu_full`` without the vibration band
+        and gravity (see the module docstring).
     wheels : ndarray, shape (k, 1 + m)
         ``t_s, omega_1..m`` encoder wheel speeds, rad/s (skid-steer: left, right).
     steer : ndarray, shape (k, 1 + m)
@@ -55,6 +71,9 @@ class Observation(NamedTuple):
     currents : ndarray, shape (k, 1 + m)
         ``t_s, I_1..m`` motor current magnitudes as the drive reports them, A, at the wheel
         rate (from the snapshot's wheel torque, see :class:`OnlineSensors`).
+    imu_full : ndarray, shape (k, 7)
+        ``t_s, wx, wy, wz, ax, ay, az`` (s, rad/s, m/s^2): the IMU as the batch model writes
+        it (terrain vibration, gravity), same sample times as ``imu``.
     """
 
     t_s: float
@@ -64,6 +83,7 @@ class Observation(NamedTuple):
     steer: np.ndarray
     cam: np.ndarray
     currents: np.ndarray
+    imu_full: np.ndarray
 
 
 @dataclass
@@ -89,17 +109,27 @@ class OnlineSensors:
     physics : str
         Physics version of the run (the current report of
         :func:`terrain.sim.forces.reported_current_a`).
+    terrains : sequence of str
+        Terrains of the run, indexed by the snapshot's ``terrain_index`` (their catalogue
+        vibration levels shake ``imu_full``); empty: no vibration band.
 
     Notes
     -----
     Motor currents are sampled at the wheel rate from the snapshot's wheel torque with the
     drive's report (:func:`terrain.sim.forces.reported_current_a`), white noise
     ``current_noise_a`` and the quantum ``current_quantum_a`` (the planted current effects
-    of the batch model are not applied).
+    of the batch model are not applied). The IMU's vibration, ``wx, wy, az`` noise and the
+    ``az`` bias come from a third generator, so the other draws are those of the IMU without
+    them.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle or terrain.
     """
 
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
-                 duration_s: float, physics: str = "v1") -> None:
+                 duration_s: float, physics: str = "v1", terrains: Sequence[str] = ()) -> None:
         self.vehicle = get_vehicle(vehicle)
         self.physics = physics
         self.settings = sensors
@@ -114,6 +144,13 @@ class OnlineSensors:
                    "currents": _Channel(1.0 / s.wheel_rate_hz, 0.0, [])}
         # own generator for the currents: adding them leaves every other draw unchanged
         self.rng_current = np.random.default_rng([int(seed), 12])
+        # and one for the full IMU's vibration band, its wx, wy, az noise and az bias
+        self.rng_imu = np.random.default_rng([int(seed), 13])
+        self.terrains = tuple(get_terrain(t) for t in terrains)
+        self.vib_pole = vibration_pole(s.imu_rate_hz, s.vibration_bandwidth_hz)
+        self.vib_state: np.ndarray | None = None
+        self.accel_bias_z = s.accel_bias_std_m_s2 * self.rng_imu.standard_normal()
+        self.imu_full_rows: list = []
         n_out = self.rng.poisson(s.cam_outage_rate_hz * duration_s)
         self.outages = [(a, a + b) for a, b in zip(self.rng.uniform(0, duration_s, n_out),
                                                    self.rng.uniform(0.5, 2.0, n_out))]
@@ -139,7 +176,9 @@ class OnlineSensors:
         if t + eps >= c.next_t:
             n = self.rng.standard_normal(3)
             a = snap.accel_body + self.accel_bias + s.accel_noise_m_s2 * n[:2]
-            c.rows.append((t, a[0], a[1], snap.twist[2] + s.gyro_noise_rad_s * n[2]))
+            wz = snap.twist[2] + s.gyro_noise_rad_s * n[2]
+            c.rows.append((t, a[0], a[1], wz))
+            self.imu_full_rows.append((t, *self._full_imu(snap, a, wz)))
             c.next_t += c.period_s
         # encoders: count rate per physics step when the speed quantum is 0, then the motor
         # driver's first-order filter, sampled at the wheel rate (as the batch model)
@@ -196,6 +235,26 @@ class OnlineSensors:
                                w + s.cam_yaw_rate_noise_rad_s * n[2],
                                snap.pose[2] + s.cam_yaw_noise_rad * n[3]))
 
+    def _full_imu(self, snap: PlantSnapshot, a_xy: np.ndarray, wz: float) -> tuple:
+        """``wx, wy, wz, ax, ay, az`` of one sample: ``a_xy``, ``wz`` (the vibration-free
+        view's values) plus the batch model's vibration band and gravity."""
+        s = self.settings
+        w = self.rng_imu.standard_normal(8)
+        col, self.vib_state = coloured_noise(w[None, :5], self.vib_pole, self.vib_state)
+        if self.terrains:
+            ter = self.terrains[int(snap.terrain_index)]
+            vx, vy, r = (float(v) for v in snap.twist)
+            level = vibration_level(np.array([math.hypot(vx, vy)]), np.array([r]),
+                                    np.array([ter.vib_speed_m_s]))
+            vib = vibration_signals(col, level, np.array([ter.vib_gyro_rad_s]),
+                                    np.array([ter.vib_accel_m_s2]))[0]
+        else:
+            vib = np.zeros(5)
+        g_x, g_y, g_z = (float(g) for g in gravity_specific_force(snap.pitch, snap.roll))
+        return (vib[0] + s.gyro_noise_rad_s * w[5], vib[1] + s.gyro_noise_rad_s * w[6], wz,
+                a_xy[0] + g_x + vib[2], a_xy[1] + g_y + vib[3],
+                g_z + vib[4] + self.accel_bias_z + s.accel_noise_m_s2 * w[7])
+
     def take(self, t_s: float, omega_low_level: np.ndarray) -> Observation:
         """Samples since the previous call (and forget them).
 
@@ -217,7 +276,11 @@ class OnlineSensors:
             out[name] = (np.array(c.rows, dtype=float) if c.rows
                          else np.zeros((0, widths[name])))
             c.rows = []
-        return Observation(t_s, np.asarray(omega_low_level, dtype=float), **out)
+        full = (np.array(self.imu_full_rows, dtype=float) if self.imu_full_rows
+                else np.zeros((0, 7)))
+        self.imu_full_rows = []
+        return Observation(t_s, np.asarray(omega_low_level, dtype=float), **out,
+                           imu_full=full)
 
 
 def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.ndarray],
@@ -283,7 +346,7 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
         Bad configuration or rate.
     """
     sensors = OnlineSensors(config.vehicle, config.sensors or DEFAULT_SENSORS[config.vehicle],
-                            config.seed, config.duration_s, config.physics)
+                            config.seed, config.duration_s, config.physics, config.terrains)
     return simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))
 
 
@@ -316,12 +379,14 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
         raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
     cfg, phys = sim.config, sim.physics
     sensors = OnlineSensors(cfg.vehicle, cfg.sensors or DEFAULT_SENSORS[cfg.vehicle], cfg.seed,
-                            cfg.duration_s, cfg.physics)
+                            cfg.duration_s, cfg.physics, cfg.terrains)
     period, next_t, n = 1.0 / control_rate_hz, 0.0, len(phys.t_s)
     for k in range(n):
         snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
                               phys.accel_body[k], phys.omega[k], phys.delta[k],
-                              phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k])
+                              phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k],
+                              float(phys.pitch[k]), float(phys.roll[k]),
+                              int(phys.terrain_index[k]))
         sensors.record(snap)
         if snap.t_s + 1e-9 >= next_t:
             next_t += period

@@ -41,7 +41,8 @@ from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
 __all__ = ["PhysicsResult", "PlantSnapshot", "ControlHook", "integrate", "wheel_commands",
-           "SLIDE_SPEED_M_S", "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S", "soil_contacts"]
+           "slope_attitude", "SLIDE_SPEED_M_S", "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S",
+           "soil_contacts"]
 
 #: Time constant of the low-pass on the body acceleration that drives the v2 load transfer, s
 #: (ASSUMED: stands for the suspension / tyre compliance; also keeps the one-step-delayed
@@ -177,6 +178,13 @@ class PlantSnapshot(NamedTuple):
     torque : ndarray, shape (m,)
         Wheel torque of each motor over the step just completed, N m (what the drive's
         current sensor sees, through :func:`terrain.sim.forces.reported_current_a`).
+    pitch : float
+        Nose-up inclination (:func:`slope_attitude`), rad.
+    roll : float
+        Right-side-down inclination, rad.
+    terrain_index : int
+        Index of the terrain under the vehicle into the run's terrain tuple (what shakes the
+        IMU).
     """
 
     step: int
@@ -188,12 +196,37 @@ class PlantSnapshot(NamedTuple):
     delta: np.ndarray
     omega_low_level: np.ndarray
     torque: np.ndarray
+    pitch: float = 0.0
+    roll: float = 0.0
+    terrain_index: int = 0
 
 
 #: Closed-loop hook: called after every integrator step with the plant's state; returns a
 #: wheel speed correction (rad/s, shape (m,)) added to the low-level command from the next
 #: step on (held until the next non-None return), or None to keep the held one.
 ControlHook = Callable[[PlantSnapshot], "np.ndarray | None"]
+
+
+def slope_attitude(slope_rad: float, yaw_rad: np.ndarray | float
+                   ) -> tuple[np.ndarray | float, np.ndarray | float]:
+    """Pitch and roll of the vehicle on a plane rising along world +x.
+
+    ``pitch = slope cos(yaw)`` (nose-up positive), ``roll = -slope sin(yaw)`` (right side
+    down positive).
+
+    Parameters
+    ----------
+    slope_rad : float
+        Plane inclination, rad.
+    yaw_rad : float or ndarray, shape (n,)
+        Heading, rad.
+
+    Returns
+    -------
+    pitch, roll : float or ndarray, shape (n,)
+        rad.
+    """
+    return slope_rad * np.cos(yaw_rad), -slope_rad * np.sin(yaw_rad)
 
 
 def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
@@ -399,14 +432,15 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         terr_out[k] = ti
         if hook is not None:
             nxt = omega_ll[min(k + 1, n - 1)]
+            pitch_k, roll_k = slope_attitude(slope_rad, pose[2]) if slope_rad else (0.0, 0.0)
             new = hook(PlantSnapshot(k, float(t_s[k]), pose.copy(), vel.copy(),
                                      acc_out[k].copy(), omega.copy(), delta_out[k].copy(),
-                                     nxt.copy(), torque_out[k].copy()))
+                                     nxt.copy(), torque_out[k].copy(), float(pitch_k),
+                                     float(roll_k), ti))
             if new is not None:
                 correction = np.asarray(new, dtype=float).reshape(nm)
     yaw = pose_out[:, 2]
-    pitch = slope_rad * np.cos(yaw) if slope_rad else np.zeros(n)
-    roll = -slope_rad * np.sin(yaw) if slope_rad else np.zeros(n)
+    pitch, roll = slope_attitude(slope_rad, yaw) if slope_rad else (np.zeros(n), np.zeros(n))
     return PhysicsResult(t_s=t_s, pose=pose_out, twist=twist_out, accel_body=acc_out,
                          omega=omega_out, omega_cmd=omega_cmd, slip_motor=slip_out,
                          delta=delta_out, torque=torque_out, pitch=pitch, roll=roll,

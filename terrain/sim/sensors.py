@@ -101,12 +101,143 @@ def interp_columns(t_new: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.n
     return np.column_stack([np.interp(t_new, t, v[:, j]) for j in range(v.shape[1])])
 
 
-def _coloured(rng: np.random.Generator, n: int, k: int, rate_hz: float,
-              bandwidth_hz: float) -> np.ndarray:
-    """Unit-variance first-order low-pass noise, shape (n, k)."""
-    a = np.exp(-2.0 * np.pi * bandwidth_hz / rate_hz)
-    w = rng.standard_normal((n, k)) * np.sqrt(1.0 - a * a)
-    return lfilter([1.0], [1.0, -a], w, axis=0)
+def vibration_pole(rate_hz: float, bandwidth_hz: float) -> float:
+    """Pole of the first-order filter that shapes the terrain vibration.
+
+    ``a = exp(-2 pi f_c / f_s)``: the discrete pole of a first-order low-pass with corner
+    frequency ``f_c`` sampled at ``f_s``.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sampling rate ``f_s`` of the IMU, Hz (> 0).
+    bandwidth_hz : float
+        Corner frequency ``f_c`` (:attr:`SensorSettings.vibration_bandwidth_hz`), Hz.
+
+    Returns
+    -------
+    float
+        Pole ``a`` in (0, 1).
+    """
+    return float(np.exp(-2.0 * np.pi * bandwidth_hz / rate_hz))
+
+
+def coloured_noise(white: np.ndarray, pole: float, state: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-variance first-order low-pass noise from white noise, along axis 0.
+
+    ``y_k = a y_(k-1) + sqrt(1 - a^2) w_k`` (stationary variance 1 for unit white noise
+    ``w``), started from ``state`` (``y_(-1)``; zeros when None, as the batch model starts).
+    The batch IMU filters a whole run at once; the online IMU of the closed loop calls it one
+    sample at a time, carrying ``state``.
+
+    Parameters
+    ----------
+    white : ndarray, shape (n, k)
+        Standard normal draws, one row per IMU sample, one column per vibration axis.
+    pole : float
+        Filter pole ``a`` (:func:`vibration_pole`).
+    state : ndarray, shape (k,), optional
+        Previous output ``y_(-1)``; None: zeros.
+
+    Returns
+    -------
+    y : ndarray, shape (n, k)
+        Coloured noise, unit variance once stationary.
+    last : ndarray, shape (k,)
+        ``y`` of the last row (the state for the next call).
+    """
+    w = white * np.sqrt(1.0 - pole * pole)
+    if state is None:
+        y = lfilter([1.0], [1.0, -pole], w, axis=0)
+    else:
+        y, _ = lfilter([1.0], [1.0, -pole], w, axis=0, zi=pole * np.asarray(state)[None])
+    return y, y[-1].copy()
+
+
+def vibration_level(speed_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray,
+                    vib_speed_m_s: np.ndarray) -> np.ndarray:
+    """Scale of the terrain vibration with the motion: ``sqrt(min(|v| + 0.3 |r|, 3) / v_ref)``.
+
+    Parameters
+    ----------
+    speed_m_s : ndarray, shape (n,)
+        Chassis speed ``|v|``, m/s.
+    yaw_rate_rad_s : ndarray, shape (n,)
+        Yaw rate ``r``, rad/s (turning on the spot shakes too).
+    vib_speed_m_s : ndarray, shape (n,)
+        Terrain's reference speed ``v_ref`` of its vibration levels
+        (``TerrainParams.vib_speed_m_s``), m/s.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Dimensionless level (1 at ``v_ref`` straight ahead; capped at ``3 m/s``).
+    """
+    return np.sqrt(np.minimum(speed_m_s + 0.3 * np.abs(yaw_rate_rad_s), 3.0) / vib_speed_m_s)
+
+
+def vibration_signals(coloured: np.ndarray, level: np.ndarray, vib_gyro_rad_s: np.ndarray,
+                      vib_accel_m_s2: np.ndarray) -> np.ndarray:
+    """Terrain vibration added to the IMU axes ``wx, wy, ax, ay, az``.
+
+    Each axis is its own unit coloured noise (:func:`coloured_noise`) times the terrain's
+    vibration std (catalogue ``vib_gyro_rad_s`` for the gyro axes, ``vib_accel_m_s2`` for the
+    accelerometer axes) times the motion's :func:`vibration_level`.
+
+    Parameters
+    ----------
+    coloured : ndarray, shape (n, 5)
+        Unit coloured noise of ``wx, wy, ax, ay, az``.
+    level : ndarray, shape (n,)
+        :func:`vibration_level`.
+    vib_gyro_rad_s : ndarray, shape (n,)
+        Terrain's gyro vibration std at ``v_ref``, rad/s.
+    vib_accel_m_s2 : ndarray, shape (n,)
+        Terrain's accelerometer vibration std at ``v_ref``, m/s^2.
+
+    Returns
+    -------
+    ndarray, shape (n, 5)
+        Vibration of ``wx, wy`` (rad/s) and ``ax, ay, az`` (m/s^2).
+    """
+    out = np.empty(coloured.shape)
+    for j in range(2):
+        out[:, j] = vib_gyro_rad_s * level * coloured[:, j]
+    for j in range(2, 5):
+        out[:, j] = vib_accel_m_s2 * level * coloured[:, j]
+    return out
+
+
+def gravity_specific_force(pitch_rad: np.ndarray, roll_rad: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gravity part of the accelerometer's specific force on an inclined plane, body axes.
+
+    With inclination ``theta = hypot(pitch, roll)`` and the uphill direction
+    ``psi = atan2(-roll, pitch)`` in body axes: ``g_x = g sin(theta) cos(psi)``,
+    ``g_y = -g sin(theta) sin(psi)``, ``g_z = g cos(theta)`` (x forward, y left, z up;
+    pitch nose-up positive, roll right side down positive).
+
+    Parameters
+    ----------
+    pitch_rad : ndarray, shape (n,)
+        Nose-up inclination, rad.
+    roll_rad : ndarray, shape (n,)
+        Right-side-down inclination, rad.
+
+    Returns
+    -------
+    g_x, g_y, g_z : ndarray, shape (n,)
+        m/s^2.
+    """
+    pitch_rad, roll_rad = np.asarray(pitch_rad, float), np.asarray(roll_rad, float)
+    slope_sin = np.sin(np.hypot(pitch_rad, roll_rad))
+    heading_up = np.arctan2(-roll_rad, pitch_rad) if np.any(slope_sin) \
+        else np.zeros(np.shape(slope_sin))
+    g_x = G_M_S2 * slope_sin * np.cos(heading_up)
+    g_y = -G_M_S2 * slope_sin * np.sin(heading_up)
+    g_z = G_M_S2 * np.cos(np.hypot(pitch_rad, roll_rad))
+    return g_x, g_y, g_z
 
 
 def first_order_filter(x: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
@@ -143,8 +274,11 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
 
     Gyro: ``wz = yaw_rate + gyro_bias + noise``; ``wx, wy``: terrain vibration + noise.
     Accelerometer: specific force ``a_body - g_body`` (gravity along the inclined plane and
-    ``g cos(slope)`` on z), terrain vibration (std from the catalogue, scaled by
-    ``sqrt(|v| / v_ref)``), a constant per-run bias and white noise.
+    ``g cos(slope)`` on z, :func:`gravity_specific_force`), terrain vibration
+    (:func:`vibration_signals`: std from the catalogue, scaled by :func:`vibration_level`,
+    shaped by :func:`coloured_noise`), a constant per-run bias and white noise. The closed
+    loop's online IMU (:class:`terrain.sim.closed_loop.OnlineSensors`) calls the same
+    functions sample by sample.
 
     Parameters
     ----------
@@ -177,22 +311,20 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
     vib_a = np.array([terrains[i].vib_accel_m_s2 for i in range(len(terrains))])[ti]
     vib_g = np.array([terrains[i].vib_gyro_rad_s for i in range(len(terrains))])[ti]
     v_ref = np.array([terrains[i].vib_speed_m_s for i in range(len(terrains))])[ti]
-    level = np.sqrt(np.minimum(np.hypot(vx, vy) + 0.3 * np.abs(r), 3.0) / v_ref)
-    vib = _coloured(rng, n, 5, settings.imu_rate_hz, settings.vibration_bandwidth_hz)
-    slope_sin = np.sin(np.hypot(pitch, roll))
-    heading_up = np.arctan2(-roll, pitch) if np.any(slope_sin) else np.zeros(n)
-    g_x = G_M_S2 * slope_sin * np.cos(heading_up)
-    g_y = -G_M_S2 * slope_sin * np.sin(heading_up)
-    g_z = G_M_S2 * np.cos(np.hypot(pitch, roll))
+    level = vibration_level(np.hypot(vx, vy), r, v_ref)
+    vib, _ = coloured_noise(rng.standard_normal((n, 5)), vibration_pole(
+        settings.imu_rate_hz, settings.vibration_bandwidth_hz))
+    vib = vibration_signals(vib, level, vib_g, vib_a)
+    g_x, g_y, g_z = gravity_specific_force(pitch, roll)
     bias = rng.normal(0.0, settings.accel_bias_std_m_s2, 3)
     noise = rng.standard_normal((n, 6))
     data = np.empty((n, 6))
-    data[:, 0] = vib_g * level * vib[:, 0] + settings.gyro_noise_rad_s * noise[:, 0]
-    data[:, 1] = vib_g * level * vib[:, 1] + settings.gyro_noise_rad_s * noise[:, 1]
+    data[:, 0] = vib[:, 0] + settings.gyro_noise_rad_s * noise[:, 0]
+    data[:, 1] = vib[:, 1] + settings.gyro_noise_rad_s * noise[:, 1]
     data[:, 2] = r + gyro_bias_rad_s + settings.gyro_noise_rad_s * noise[:, 2]
-    data[:, 3] = abx + g_x + vib_a * level * vib[:, 2] + bias[0] + settings.accel_noise_m_s2 * noise[:, 3]
-    data[:, 4] = aby + g_y + vib_a * level * vib[:, 3] + bias[1] + settings.accel_noise_m_s2 * noise[:, 4]
-    data[:, 5] = g_z + vib_a * level * vib[:, 4] + bias[2] + settings.accel_noise_m_s2 * noise[:, 5]
+    data[:, 3] = abx + g_x + vib[:, 2] + bias[0] + settings.accel_noise_m_s2 * noise[:, 3]
+    data[:, 4] = aby + g_y + vib[:, 3] + bias[1] + settings.accel_noise_m_s2 * noise[:, 4]
+    data[:, 5] = g_z + vib[:, 4] + bias[2] + settings.accel_noise_m_s2 * noise[:, 5]
     return t, data
 
 
