@@ -7,13 +7,14 @@ online, --estimator observer for the earlier wheel + IMU observer; limits stated
 the target from the desired-slip table. --controller off runs the
 same loop in shadow mode (no correction), scored against the same targets.
 
-Terrain decisions (--terrain-source): `label` (default without --model) the run's label;
-`live-sim` the live classifier trained on simulated runs of the same vehicle on the
+Terrain decisions (--terrain-source): `live-sim` (default without --model) the live
+classifier trained on simulated runs of the same vehicle on the
 --classifier-seeds, uncontrolled and with the traction controller on (this run's gains,
 estimator and feed-forward; --classifier-uncontrolled-only: uncontrolled runs only)
 (pipelines/control_classifier.py, cached under out/control_classifier);
 `model` (default with --model DIR, a model saved by `terrain train --model-out DIR`) that
-classifier. A classifier runs live on the loop's own sensor samples, causally
+classifier; `label` the run's ground-truth label (the controller measured without
+classification errors, as `terrain control-grid` does by default). A classifier runs live on the loop's own sensor samples, causally
 (pipelines/live_terrain.py), where the model applies (trained on the vehicle's data, the
 run's terrain among its classes); otherwise the label is used, with the reason in the JSON
 (terrain_source).
@@ -31,6 +32,7 @@ from pathlib import Path
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
+from terrain.terramechanics.catalogue import get_terrain
 
 VEHICLES = ("agrimaro", "husky")
 SCENARIOS = ("straight_accel", "orchard", "slope_turn")
@@ -65,9 +67,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", default=None,
                         help="terrain classifier saved by `terrain train --model-out DIR`")
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default=None,
-                        help="terrain decisions: label, live-sim (classifier trained on "
-                             "simulated runs) or model (--model); default model with "
-                             "--model, else label")
+                        help="terrain decisions: live-sim (classifier trained on simulated "
+                             "runs, run live on the loop's samples; trained once, then "
+                             "cached), model (--model) or label (ground truth); default "
+                             "model with --model, else live-sim")
     parser.add_argument("--classifier-seeds", nargs="+", type=int,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
@@ -90,8 +93,8 @@ def main(args: argparse.Namespace) -> int:
     Gains not given default to :func:`terrain.control.closed_loop.default_gains` of the
     vehicle and estimator. With ``--terrain-source live-sim`` or ``model`` (default with
     ``args.model``) the controller's terrain comes from the classifier's decisions on the
-    loop's own samples (:func:`pipelines.control_classifier.decision_source`), else the true
-    terrain is used. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
+    loop's own samples (:func:`pipelines.control_classifier.decision_source`; ``live-sim`` is
+    the default without a model), with ``label`` the true terrain. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
     ``args.json`` and, if ``args.csv``, the per-step trace.
 
     Parameters
@@ -104,10 +107,11 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status, 0.
     """
+    get_terrain(args.terrain)         # an unknown terrain fails here, before any training
     kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
-    source = args.terrain_source or ("model" if args.model else "label")
+    source = args.terrain_source or ("model" if args.model else "live-sim")
     provider, info = decision_source(source, args.vehicle, [terrain], [args.seed],
                                      args.model, args.classifier_seeds,
                                      controlled_runs=not args.classifier_uncontrolled_only,

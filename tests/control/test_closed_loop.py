@@ -133,7 +133,8 @@ def test_control_sim_command_writes_the_json_fields(tmp_path):
     out, trace = tmp_path / "r.json", tmp_path / "t.csv"
     assert main(["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
                  "straight_accel", "--controller", "traction", "--seed", "2",
-                 "--duration-s", "3", "--json", str(out), "--csv", str(trace)]) == 0
+                 "--duration-s", "3", "--terrain-source", "label", "--json", str(out),
+                 "--csv", str(trace)]) == 0
     r = json.loads(out.read_text())
     for key in ("slip_rmse", "peak_slip", "time_to_speed_s", "energy_j_per_m", "distance_m",
                 "mean_speed_m_s", "terrain_accuracy", "terrain_source", "estimator_limits"):
@@ -145,7 +146,7 @@ def test_control_sim_command_writes_the_json_fields(tmp_path):
     assert trace.read_text().startswith("t_s,v_true_m_s,slip_true_1")
     assert main(["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
                  "straight_accel", "--controller", "traction", "--estimator", "observer",
-                 "--duration-s", "1", "--json", str(out)]) == 0
+                 "--duration-s", "1", "--terrain-source", "label", "--json", str(out)]) == 0
     r = json.loads(out.read_text())
     assert (r["estimator"], r["kp"], r["ki"]) == ("wheel-imu-observer", 5.0, 10.0)
     assert main(["control-sim", "--vehicle", "husky", "--terrain", "MUD", "--scenario",
