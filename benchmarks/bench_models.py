@@ -16,7 +16,12 @@ through scikit-learn's own ``Pipeline.predict_proba`` on the same fitted steps
 256 x 256 matrix product, median of 200) whose ratio to the model figures is comparable
 between loaded and quiet runs.
 
-Run: ``python benchmarks/bench_models.py [--models cnn svm] [--threads 2] [--repeats 50]``.
+``--minirocket-max-dilations`` sets MiniRocket's dilations per kernel (aeon's default 32, the
+library default); its single-window time grows with the number of dilations (see
+:mod:`terrain.models.minirocket`).
+
+Run: ``python benchmarks/bench_models.py [--models cnn svm] [--threads 2] [--repeats 50]
+[--minirocket-max-dilations 32]``.
 """
 
 from __future__ import annotations
@@ -50,6 +55,9 @@ def main() -> int:
     parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
     parser.add_argument("--threads", type=int, default=2, help="torch threads when training")
     parser.add_argument("--repeats", type=int, default=50, help="timed single windows")
+    parser.add_argument("--minirocket-max-dilations", type=int,
+                        default=ModelConfig().minirocket_max_dilations,
+                        help="MiniRocket dilations per kernel at most")
     args = parser.parse_args()
     ws = load_windows(ExperimentConfig(dataset="borealtc"))
     y = ws.labels.astype(str)
@@ -57,10 +65,12 @@ def main() -> int:
     figures = {}
     with tracked_run("terrain-benchmark", run_name="models",
                      params={"models": ",".join(args.models), "threads": args.threads,
+                             "minirocket_max_dilations": args.minirocket_max_dilations,
                              "n_train": len(train), "n_test": len(test)}) as run:
         for kind in args.models:
-            model = make_model(ModelConfig(kind=kind, n_threads=args.threads), ws.channels,
-                               ws.rate_hz, "borealtc", 0)
+            config = ModelConfig(kind=kind, n_threads=args.threads,
+                                 minirocket_max_dilations=args.minirocket_max_dilations)
+            model = make_model(config, ws.channels, ws.rate_hz, "borealtc", 0)
             t0 = time.perf_counter()
             fit_with_groups(model, ws.X[train], y[train], ws.groups[train])
             fit_s = time.perf_counter() - t0

@@ -126,7 +126,16 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
 
     @staticmethod
     def _check_windows(X) -> np.ndarray:
-        """Finite float32 windows, 2-D or 3-D, at least 2 of them (ValueError otherwise)."""
+        """Finite float32 windows, 2-D or 3-D, none empty (ValueError otherwise).
+
+        A non-empty float NumPy array that is finite in float32 is converted directly:
+        scikit-learn's ``check_array`` accepts it unchanged and costs 0.06-0.1 ms per call,
+        up to a tenth of the single-window budget. Anything else goes through ``check_array``.
+        """
+        if type(X) is np.ndarray and X.ndim in (2, 3) and X.dtype.kind == "f" and X.size:
+            X32 = X.astype(np.float32, copy=False)
+            if np.isfinite(X32).all():
+                return X32
         X = check_array(X, accept_sparse=False, ensure_2d=True, allow_nd=True,
                         dtype=np.float32)
         if X.ndim > 3:
@@ -246,7 +255,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         # thread synchronisation costs more than it saves
         torch.set_num_threads(1 if len(Z) <= 64 else (self.n_threads or threads))
         try:
-            with torch.no_grad():
+            with torch.inference_mode():
                 for start in range(0, len(Z), 1024):
                     logits = module(torch.as_tensor(Z[start:start + 1024], device=device))
                     out.append(torch.softmax(logits, dim=1).cpu().numpy())

@@ -62,10 +62,27 @@ def aligned_proba(estimator, X, classes: np.ndarray) -> np.ndarray:
     """
     proba = estimator.predict_proba(X)
     out = np.zeros((proba.shape[0], len(classes)))
-    index = {c: i for i, c in enumerate(classes)}
-    for j, c in enumerate(estimator.classes_):
-        out[:, index[c]] = proba[:, j]
+    out[:, class_columns(estimator.classes_, classes)] = proba
     return out
+
+
+def class_columns(member_classes: np.ndarray, classes: np.ndarray) -> np.ndarray:
+    """Column of each of a member's classes in the ensemble's class order.
+
+    Parameters
+    ----------
+    member_classes : numpy.ndarray
+        ``(n_member_classes,)`` a member's ``classes_``.
+    classes : numpy.ndarray
+        ``(n_classes,)`` target column order, containing every member class.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_member_classes,)`` integer indices into ``classes``.
+    """
+    index = {c: i for i, c in enumerate(classes)}
+    return np.array([index[c] for c in member_classes], dtype=np.intp)
 
 
 class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
@@ -94,6 +111,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         ``(n_members,)`` weights used.
     weight_scores_ : dict
         Held-out log loss of every weight vector tried (empty with fixed weights).
+    columns_ : list of numpy.ndarray
+        Column in ``classes_`` of each fitted member's classes (:func:`class_columns`).
     """
 
     def __init__(self, estimators: Sequence[tuple[str, object]], weights=None,
@@ -147,6 +166,7 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
                     best, best_w = score, w
             self.weights_ = best_w
         self.estimators_ = [fit_with_groups(clone(est), X, y, groups) for _, est in self.estimators]
+        self.columns_ = [class_columns(est.classes_, self.classes_) for est in self.estimators_]
         return self
 
     def predict_proba(self, X) -> np.ndarray:
@@ -163,8 +183,16 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             ``(n_windows, n_classes)``, columns in the order of ``classes_``.
         """
         check_is_fitted(self, "estimators_")
-        return sum(w * aligned_proba(est, X, self.classes_)
-                   for w, est in zip(self.weights_, self.estimators_))
+        columns = getattr(self, "columns_", None)
+        if columns is None:    # fitted before columns_ existed (unpickled)
+            columns = [class_columns(est.classes_, self.classes_) for est in self.estimators_]
+        out = None
+        for w, est, cols in zip(self.weights_, self.estimators_, columns):
+            proba = est.predict_proba(X)
+            if out is None:
+                out = np.zeros((proba.shape[0], len(self.classes_)))
+            out[:, cols] += w * proba
+        return out
 
     def predict(self, X) -> np.ndarray:
         """Label of the highest mean probability.

@@ -6,6 +6,13 @@ model on those features is a strong, cheap time-series baseline. The transform c
 aeon (a well-kept library); the classifier here is a class-balanced logistic regression on
 the standardised features (aeon's own ``MiniRocketClassifier`` uses a ridge classifier, which
 gives no probabilities). The kernels' biases are quantiles of the training windows only.
+
+Latency of one window (issue 13, ``benchmarks/bench_models.py``): aeon's numba transform costs
+in proportion to the number of *dilations* (each dilation convolves every channel
+combination once; the features of a dilation are cheap bias thresholds of that
+convolution), not of features, so ``n_kernels`` barely changes it while
+``max_dilations_per_kernel`` does. The scaler and the logistic regression are applied in NumPy
+on one window (:class:`MiniRocketPipeline`), with scikit-learn's arithmetic.
 """
 
 from __future__ import annotations
@@ -13,10 +20,10 @@ from __future__ import annotations
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.linear_model import LogisticRegression
-from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
 from terrain.errors import ConfigError
+from terrain.models.compiled import CompiledPipeline
 
 
 class MiniRocketFeatures(TransformerMixin, BaseEstimator):
@@ -29,14 +36,20 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
     ----------
     n_kernels : int
         Number of features (aeon rounds down to a multiple of 84).
+    max_dilations_per_kernel : int
+        Upper bound on the dilations of each of the 84 kernels (aeon's default 32; the
+        dilations are exponentially spaced up to ``(n_samples - 1) / 8`` samples and the
+        features shared among them).
     n_jobs : int
         Threads of the transform.
     random_state : int
         Seed of the bias sampling.
     """
 
-    def __init__(self, n_kernels: int = 10_000, n_jobs: int = 1, random_state: int = 0):
+    def __init__(self, n_kernels: int = 10_000, max_dilations_per_kernel: int = 32,
+                 n_jobs: int = 1, random_state: int = 0):
         self.n_kernels = n_kernels
+        self.max_dilations_per_kernel = max_dilations_per_kernel
         self.n_jobs = n_jobs
         self.random_state = random_state
 
@@ -64,8 +77,9 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
             raise ConfigError("the minirocket model needs aeon: pip install --no-deps "
                               "aeon==1.3.0 deprecated==1.3.1 (see README)") from exc
         X = np.asarray(X, dtype=np.float32)
-        self.rocket_ = MiniRocket(n_kernels=self.n_kernels, n_jobs=self.n_jobs,
-                                  random_state=self.random_state).fit(X)
+        self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
+                                  max_dilations_per_kernel=self.max_dilations_per_kernel,
+                                  n_jobs=self.n_jobs, random_state=self.random_state).fit(X)
         self.n_features_in_ = X.shape[1]
         return self
 
@@ -85,8 +99,70 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         return np.asarray(self.rocket_.transform(np.asarray(X, dtype=np.float32)))
 
 
+def softmax_logistic_proba(Z: np.ndarray, logreg: LogisticRegression) -> np.ndarray:
+    """Multinomial class probabilities of a fitted logistic regression, in NumPy.
+
+    ``LogisticRegression.predict_proba`` of scikit-learn 1.9 for three or more classes
+    (``Z @ coef_.T + intercept_``, then its in-place softmax: subtract the row maximum,
+    exponentiate, divide by the row sum) without its per-call input validation.
+
+    Parameters
+    ----------
+    Z : numpy.ndarray
+        ``(n_windows, n_features)`` standardised features.
+    logreg : sklearn.linear_model.LogisticRegression
+        Fitted, with three or more classes and a dense ``coef_``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_classes)`` probabilities, columns in the order of ``logreg.classes_``.
+    """
+    proba = Z @ logreg.coef_.T + logreg.intercept_
+    proba -= proba.max(axis=1).reshape(-1, 1)
+    np.exp(proba, out=proba)
+    proba /= proba.sum(axis=1).reshape(-1, 1)
+    return proba
+
+
+class MiniRocketPipeline(CompiledPipeline):
+    """``MiniRocket -> scaler -> logistic regression`` with a NumPy ``predict_proba``.
+
+    A :class:`sklearn.pipeline.Pipeline` in every respect (parameters, fitting, cloning,
+    pickling). When the final step is a fitted multiclass ``LogisticRegression`` with dense
+    coefficients, the scaler (:func:`terrain.models.compiled.scale_unchecked`) and the
+    regression (:func:`softmax_logistic_proba`) skip scikit-learn's per-call input checks,
+    with the same arithmetic (tested); otherwise scikit-learn's path runs. The MiniRocket
+    transform itself is aeon's.
+
+    Parameters
+    ----------
+    steps : list of (str, estimator)
+        As for ``Pipeline``.
+    memory : None
+        As for ``Pipeline``.
+    transform_input : None
+        As for ``Pipeline``.
+    verbose : bool
+        As for ``Pipeline``.
+    """
+
+    def _compiled(self) -> LogisticRegression | None:
+        """The fitted final logistic regression when the NumPy path applies, else ``None``."""
+        final = self.steps[-1][1]
+        if (isinstance(final, LogisticRegression)
+                and isinstance(getattr(final, "coef_", None), np.ndarray)
+                and len(final.classes_) >= 3 and final.coef_.shape[0] == len(final.classes_)):
+            return final
+        return None
+
+    def _compiled_proba(self, compiled: LogisticRegression, Xt) -> np.ndarray:
+        """:func:`softmax_logistic_proba` of the standardised features."""
+        return softmax_logistic_proba(Xt, compiled)
+
+
 def make_minirocket(random_state: int = 0, n_kernels: int = 10_000, C: float = 0.1,
-                    n_jobs: int = 1) -> Pipeline:
+                    n_jobs: int = 1, max_dilations_per_kernel: int = 32) -> MiniRocketPipeline:
     """Unfitted ``MiniRocket -> StandardScaler -> LogisticRegression`` pipeline.
 
     Parameters
@@ -99,17 +175,20 @@ def make_minirocket(random_state: int = 0, n_kernels: int = 10_000, C: float = 0
         Inverse L2 regularisation of the logistic regression.
     n_jobs : int
         Threads of the aeon transform.
+    max_dilations_per_kernel : int
+        Dilations per kernel at most (see :class:`MiniRocketFeatures`); the single-window
+        transform time grows with it.
 
     Returns
     -------
-    sklearn.pipeline.Pipeline
+    MiniRocketPipeline
         Input: raw windows ``(n_windows, n_channels, n_samples)``; ``predict_proba`` gives
         class probabilities.
-
     """
-    return Pipeline([
-        ("minirocket", MiniRocketFeatures(n_kernels=n_kernels, n_jobs=n_jobs,
-                                          random_state=random_state)),
+    return MiniRocketPipeline([
+        ("minirocket", MiniRocketFeatures(n_kernels=n_kernels,
+                                          max_dilations_per_kernel=max_dilations_per_kernel,
+                                          n_jobs=n_jobs, random_state=random_state)),
         ("scale", StandardScaler()),
         ("logreg", LogisticRegression(C=C, class_weight="balanced", max_iter=2000)),
     ])

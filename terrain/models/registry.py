@@ -63,6 +63,9 @@ class ModelConfig:
         torch threads while training a CNN (``None``: torch's default).
     minirocket_kernels : int
         MiniRocket features.
+    minirocket_max_dilations : int
+        MiniRocket dilations per kernel at most (its single-window time grows with it, see
+        :mod:`terrain.models.minirocket`).
     svm : SVMConfig
         SVM hyperparameters (also the SVM member of the ensemble).
     ensemble_members : tuple of str
@@ -80,6 +83,7 @@ class ModelConfig:
     max_epochs: int = 30
     n_threads: int | None = None
     minirocket_kernels: int = 10_000
+    minirocket_max_dilations: int = 32
     svm: SVMConfig = SVMConfig()
     ensemble_members: tuple[str, ...] = ("svm", "cnn-spectrogram")
     tune_weights: bool = False
@@ -154,7 +158,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
                                         random_state=random_state, n_threads=config.n_threads,
                                         early_stopping=config.early_stopping)
     if kind == "minirocket":
-        return make_minirocket(random_state, n_kernels=config.minirocket_kernels)
+        return make_minirocket(random_state, n_kernels=config.minirocket_kernels,
+                               max_dilations_per_kernel=config.minirocket_max_dilations)
     kinds = ENSEMBLE3_MEMBERS if kind == "ensemble3" else config.ensemble_members
     members = [(k, make_model(replace(config, kind=k), channels, rate_hz, dataset,
                               random_state, probability=True))

@@ -259,21 +259,6 @@ class SVMPipeline(CompiledPipeline):
             return None
         return cached[1]
 
-    def _transform_head(self, X):
-        """The transform steps; a fitted standard scaler on a finite float matrix is applied
-        without scikit-learn's input checks (``StandardScaler.transform``'s arithmetic)."""
-        Xt = X
-        for _, step in self.steps[:-1]:
-            arr = Xt if isinstance(Xt, np.ndarray) else None
-            if (isinstance(step, StandardScaler) and step.with_mean and step.with_std
-                    and hasattr(step, "scale_") and arr is not None and arr.ndim == 2
-                    and arr.shape[1] == step.n_features_in_ and arr.dtype.kind == "f"
-                    and np.isfinite(arr).all()):
-                Xt = (arr - step.mean_) / step.scale_     # StandardScaler.transform, unchecked
-            elif step is not None and step != "passthrough":
-                Xt = step.transform(Xt)
-        return Xt
-
     def _compiled_proba(self, compiled: _CalibratedRBF, Xt) -> np.ndarray:
         """:func:`calibrated_rbf_proba` of the scaled features."""
         return calibrated_rbf_proba(Xt, compiled)
