@@ -13,15 +13,17 @@
   than real time; resident set size (RSS) is sampled every 1000 pushes; peak RSS and its
   growth after the first 2 minutes of stream are reported (target growth < 20 MB).
 
-Both models are trained here on BorealTC (or read with ``--model DIR``), the all-signal
-recipe unless ``--kind wheels``. Results print and are logged to MLflow (experiment
-``terrain-benchmark``).
+The model is trained here on BorealTC with the ``--kind`` recipe
+(:data:`terrain.serving.evaluation.RECIPES`; default the default all-signal recipe,
+:data:`~terrain.serving.evaluation.DEFAULT_RECIPES`), or read with ``--model DIR``. Results
+print and are logged to MLflow (experiment ``terrain-benchmark``).
 
 Every timed decision is followed by a fixed NumPy reference workload (a sort of 4096
 floats); the ratio of the decision's p50 / p99 to the reference's is printed and logged,
 so runs on a shared, loaded machine can be compared.
 
-Run: ``python benchmarks/bench_serving.py [--kind all|wheels] [--minutes 30] [--no-mlflow]``.
+Run: ``python benchmarks/bench_serving.py [--kind all|all-ensemble|all-ensemble3|wheels]
+[--minutes 30] [--no-mlflow]``.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ from terrain.io.shipped import load_dataset
 from terrain.run import TIME
 from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
                              interleave, load_stream_model)
-from terrain.serving.evaluation import RECIPES, concatenated_streams, fit_stream_model
+from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, concatenated_streams,
+                                        fit_stream_model)
 from terrain.tracking import tracked_run
 
 
@@ -136,7 +139,7 @@ def soak(model, run, sample_every: int = 1000) -> dict:
 def main() -> int:
     """Run the benchmark; returns 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--kind", choices=list(RECIPES), default="all")
+    parser.add_argument("--kind", choices=list(RECIPES), default=DEFAULT_RECIPES["all"])
     parser.add_argument("--model", type=Path, default=None, help="model directory to use")
     parser.add_argument("--minutes", type=float, default=30.0,
                         help="soak stream length (0: no soak)")

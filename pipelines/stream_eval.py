@@ -6,8 +6,8 @@
   forward filter.
 * streams: for each fold, runs held out of training are strung into one stream of terrain
   switches every 30-120 s (seeded) and replayed sample by sample through the service;
-  per-decision accuracy and median switching delay for the wheel-only and the all-signal
-  model, for several smoothing settings.
+  per-decision accuracy and median switching delay for each --kinds recipe (default: the
+  default all-signal and wheel-only recipes), for several smoothing settings.
 Results are logged to MLflow (experiment terrain-stream-eval). --model-out saves the
 streaming models fitted on every run (model directories for ``terrain stream``).
 """
@@ -24,8 +24,8 @@ import pandas as pd
 
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
-from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_streams,
-                                        pool_scores, window_cv)
+from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, fit_stream_model,
+                                        held_out_streams, pool_scores, window_cv)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -57,9 +57,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "to DIR/<kind> (a model directory for terrain stream)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
-                        default=["all", "wheels"],
-                        help="models of the held-out stream evaluation (all-ensemble: the "
-                             "SVM + spectrogram-CNN soft vote on all signals, slow to train)")
+                        default=list(DEFAULT_RECIPES.values()),
+                        help="recipes of the held-out stream evaluation and of --model-out "
+                             "(all: window statistics + SVM; all-ensemble: + spectrogram CNN, "
+                             "soft vote; all-ensemble3: + raw CNN as well; wheels: physics "
+                             "features + extra trees; default: the default recipe per signal "
+                             "set)")
     parser.add_argument("--window-s", type=float, default=RECIPES["wheels"].window_s,
                         help="wheel-cv window (history) length, s")
     parser.add_argument("--hop-s", type=float, default=2.0, help="wheel-cv hop, s")

@@ -1,10 +1,11 @@
 """Evaluation of streaming terrain decisions, grouped by run.
 
 * :class:`ModelRecipe` / :data:`RECIPES` say how the streaming models are trained: the
-  all-signal model is the ``terrain train`` one (window statistics + SVM); the wheel-only
-  one uses the drive-physics features (:class:`features.wheel_physics.WheelPhysicsFeatures`)
-  with extremely randomised trees; :func:`fit_stream_model` fits one, :func:`window_cv`
-  scores one run-grouped.
+  all-signal models are ``terrain train`` ones (window statistics + SVM, or an ensemble of
+  it with CNNs on the raw windows); the wheel-only one uses the drive-physics features
+  (:class:`features.wheel_physics.WheelPhysicsFeatures`) with extremely randomised trees;
+  :data:`DEFAULT_RECIPES` names the default per signal set; :func:`fit_stream_model` fits
+  one, :func:`window_cv` scores one run-grouped.
 * :func:`grouped_oof_proba` gives out-of-fold class probabilities with
   ``StratifiedGroupKFold`` grouped by run (:func:`terrain.models.cv.iter_splits`), and
   :func:`smooth_runs` runs the causal forward filter along each run's windows, so per-window
@@ -28,10 +29,10 @@ from sklearn.pipeline import FeatureUnion, Pipeline
 from features.transformers import WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.models.cv import iter_splits
 from terrain.models.forest import ForestPipeline
-from terrain.models.registry import ModelConfig, make_model
+from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -64,8 +65,8 @@ def wheel_features(channels: tuple[str, ...], rate_hz: float,
 
 
 def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels: np.ndarray,
-                      groups: np.ndarray, seed: int, n_splits: int = 5
-                      ) -> tuple[np.ndarray, list[str]]:
+                      groups: np.ndarray, seed: int, n_splits: int = 5,
+                      run_balanced: bool = False) -> tuple[np.ndarray, list[str]]:
     """Out-of-fold probabilities with folds grouped by run.
 
     Parameters
@@ -80,6 +81,8 @@ def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels
         Fold shuffling seed.
     n_splits : int
         Folds.
+    run_balanced : bool
+        Fit with :func:`run_balanced_weights` of the training fold (``sample_weight``).
 
     Returns
     -------
@@ -92,7 +95,11 @@ def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels
     proba = np.zeros((len(labels), len(classes)))
     for train, test in iter_splits("grouped", labels, groups, seed, n_splits):
         model = make_model(seed)
-        model.fit(F[train], labels[train])
+        if run_balanced:
+            model.fit(F[train], labels[train],
+                      sample_weight=run_balanced_weights(labels[train], groups[train]))
+        else:
+            model.fit(F[train], labels[train])
         cols = [classes.index(c) for c in model.classes_]
         proba[np.ix_(test, cols)] = model.predict_proba(F[test])
     return proba, classes
@@ -268,7 +275,7 @@ def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
 
 #: Feature sets and classifiers a recipe may name.
 FEATURE_SETS = ("stats", "physics", "stats+physics")
-CLASSIFIERS = ("svm", "extra_trees", "ensemble")
+CLASSIFIERS = ("svm", "extra_trees") + ENSEMBLES
 
 
 @dataclass(frozen=True)
@@ -288,14 +295,21 @@ class ModelRecipe:
     features : {"stats", "physics", "stats+physics"}
         Window statistics (:class:`~features.transformers.WindowFeatures`), the wheel
         physics features, or both.
-    classifier : {"svm", "extra_trees", "ensemble"}
+    classifier : {"svm", "extra_trees", "ensemble", "ensemble3"}
         The project's SVM (:func:`terrain.models.svm.make_svm`, Platt-calibrated),
-        extremely randomised trees (:func:`extra_trees`), or the ``ensemble`` model of
-        ``terrain train --model ensemble`` (:func:`terrain.models.registry.make_model`: equal-
-        weight soft vote of that SVM on window statistics and the spectrogram CNN; it takes
-        the raw windows, so ``features`` must be ``"stats"``, the SVM member's).
+        extremely randomised trees (:func:`extra_trees`), or an ensemble model of
+        ``terrain train --model`` (:data:`terrain.models.registry.ENSEMBLES`, built by
+        :func:`terrain.models.registry.make_model`): ``ensemble``, the equal-weight soft vote
+        of that SVM on window statistics and the spectrogram CNN, or ``ensemble3``, the same
+        plus the raw 1-D CNN. An ensemble takes the raw windows, so ``features`` must be
+        ``"stats"``, the SVM member's.
     n_trees : int
         Trees of ``extra_trees``.
+    run_balanced : bool
+        Weight the training windows so that every class weighs the same and, inside a
+        class, every run weighs the same (:func:`run_balanced_weights`), instead of
+        class-balanced windows: one long run (BorealTC ICE/01, 716 of the 3063 wheel windows)
+        then does not make its class mean that run. Extra trees only.
     """
 
     signals: str
@@ -305,29 +319,45 @@ class ModelRecipe:
     features: str = "stats"
     classifier: str = "svm"
     n_trees: int = 300
+    run_balanced: bool = False
 
     def __post_init__(self) -> None:
         if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
             raise ConfigError(f"recipe features must be one of {FEATURE_SETS} and classifier "
                               f"one of {CLASSIFIERS}")
-        if self.classifier == "ensemble" and self.features != "stats":
+        if self.classifier in ENSEMBLES and self.features != "stats":
             raise ConfigError("the ensemble recipe uses its SVM member's window statistics: "
                               "features must be 'stats'")
+        if self.run_balanced and self.classifier != "extra_trees":
+            raise ConfigError("run_balanced weights are implemented for extra_trees only")
 
 
-#: all signals: the ``terrain train`` model (2 s at the BorealTC IMU rate); all-ensemble:
-#: the same windows, the ``ensemble`` model (SVM + spectrogram CNN, soft vote); wheels: 4 s
+#: all signals: the ``terrain train --model svm`` model (2 s at the BorealTC IMU rate);
+#: all-ensemble: the same windows, the ``ensemble`` model (SVM + spectrogram CNN, soft vote);
+#: all-ensemble3: the same windows, the ``ensemble3`` model (SVM + raw CNN + spectrogram
+#: CNN, soft vote; the BorealTC default of ``terrain train``); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
     "all": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "svm"),
     "all-ensemble": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "ensemble"),
-    "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees"),
+    "all-ensemble3": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "ensemble3"),
+    "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
+                          run_balanced=True),
 })
 
+#: Default streaming recipe per signal set (of ``terrain stream-eval --kinds`` and
+#: ``--model-out`` and of ``bench_serving.py --kind``): the most accurate recipe on the
+#: held-out concatenated streams whose in-process decision p99 stays under 1 ms
+#: (docs/streaming.md). All signals: ``all``, the SVM (``all-ensemble`` is more accurate on
+#: the streams but its decision costs about twice the SVM's, p99 over 1 ms:
+#: docs/streaming.md, Latency); wheel-only: ``wheels``.
+DEFAULT_RECIPES = MappingProxyType({"all": "all", "wheels": "wheels"})
 
-def extra_trees(n_trees: int = 300, random_state: int = 0) -> ExtraTreesClassifier:
-    """Extremely randomised trees (Geurts et al., Machine Learning 63, 2006), class-balanced.
+
+def extra_trees(n_trees: int = 300, random_state: int = 0,
+                class_weight: str | None = "balanced") -> ExtraTreesClassifier:
+    """Extremely randomised trees (Geurts et al., Machine Learning 63, 2006).
 
     Parameters
     ----------
@@ -335,14 +365,54 @@ def extra_trees(n_trees: int = 300, random_state: int = 0) -> ExtraTreesClassifi
         Number of trees.
     random_state : int
         Seed.
+    class_weight : {"balanced", None}
+        ``balanced``: class-balanced windows; None: the caller passes sample weights
+        (:func:`run_balanced_weights`).
 
     Returns
     -------
     sklearn.ensemble.ExtraTreesClassifier
-        ``min_samples_leaf=3``, ``max_features=0.3``, ``class_weight="balanced"``.
+        ``min_samples_leaf=3``, ``max_features=0.3``.
     """
     return ExtraTreesClassifier(n_trees, min_samples_leaf=3, max_features=0.3,
-                                class_weight="balanced", n_jobs=1, random_state=random_state)
+                                class_weight=class_weight, n_jobs=1,
+                                random_state=random_state)
+
+
+def run_balanced_weights(labels: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Window weights giving every class the same total weight and, inside a class, every
+    run the same share (mean weight 1).
+
+    The windows of one run are not independent samples of their terrain: a long run (one
+    surface patch, one speed profile) would otherwise dominate its class. ``w = 1 /
+    (n_runs(class) n_windows(run))``, rescaled to mean 1.
+
+    Parameters
+    ----------
+    labels, groups : numpy.ndarray
+        ``(n_windows,)`` class and run of each window.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` weights (> 0).
+
+    Raises
+    ------
+    ShapeError
+        ``labels`` and ``groups`` differ in length.
+    """
+    labels, groups = np.asarray(labels), np.asarray(groups)
+    if labels.shape != groups.shape:
+        raise ShapeError(f"labels {labels.shape} and groups {groups.shape} differ")
+    w = np.empty(labels.size)
+    for c in np.unique(labels):
+        in_class = labels == c
+        runs = np.unique(groups[in_class])
+        for r in runs:
+            rows = in_class & (groups == r)
+            w[rows] = 1.0 / (runs.size * rows.sum())
+    return w * (w.size / w.sum())
 
 
 def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...]):
@@ -382,12 +452,13 @@ def recipe_classifier(recipe: ModelRecipe, random_state: int = 0):
     Raises
     ------
     ConfigError
-        The ``ensemble`` recipe, whose estimator takes raw windows (see
+        An ensemble recipe, whose estimator takes raw windows (see
         :func:`fit_stream_model`).
     """
     if recipe.classifier == "extra_trees":
-        return extra_trees(recipe.n_trees, random_state)
-    if recipe.classifier == "ensemble":
+        return extra_trees(recipe.n_trees, random_state,
+                           None if recipe.run_balanced else "balanced")
+    if recipe.classifier in ENSEMBLES:
         raise ConfigError("the ensemble takes raw windows, not window features: use "
                           "fit_stream_model")
     return make_svm(SVMConfig(probability=True), random_state)
@@ -412,9 +483,9 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
                           rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
     labels = ws.labels.astype(str)
-    if recipe.classifier == "ensemble":
-        # the `terrain train --model ensemble` estimator, raw windows in (no feature step)
-        pipe = make_model(ModelConfig(kind="ensemble"), ws.channels, recipe.rate_hz,
+    if recipe.classifier in ENSEMBLES:
+        # the `terrain train --model <ensemble>` estimator, raw windows in (no feature step)
+        pipe = make_model(ModelConfig(kind=recipe.classifier), ws.channels, recipe.rate_hz,
                           "borealtc", random_state=seed)
         pipe.fit(ws.X, labels)
         return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
@@ -430,6 +501,12 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         # extra trees: a Pipeline whose predict_proba walks the fitted trees in one compiled
         # loop (terrain.tree_predict, same probabilities as scikit-learn's)
         pipe = ForestPipeline([features, ("classifier", classifier)])
+    if recipe.run_balanced:
+        pipe.fit(ws.X, labels,
+                 classifier__sample_weight=run_balanced_weights(labels, np.asarray(ws.run_ids)))
+        return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
+                                                           rate_hz=recipe.rate_hz),
+                           tuple(sorted(np.unique(labels).tolist())))
     pipe.fit(ws.X, labels)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
                                                        rate_hz=recipe.rate_hz),
@@ -685,7 +762,7 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
     by_run: dict[str, list[float]] = {name: [] for name in smoothings}
     for seed in seeds:
         proba, classes = grouped_oof_proba(lambda s: recipe_classifier(recipe, s), F, labels,
-                                           ws.run_ids, seed, n_splits)
+                                           ws.run_ids, seed, n_splits, recipe.run_balanced)
         names = np.asarray(classes, dtype=object)
         for name, config in smoothings.items():
             ok = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, hop_s, config)] == labels

@@ -1,18 +1,25 @@
 """Streaming model recipes: the wheel-only model's compiled forest path, the ensemble
-recipe's checks."""
+recipes' checks and an ensemble3 stream model deciding on a replayed run, the defaults."""
 
 from __future__ import annotations
 
+import argparse
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from features.windows import WindowConfig, make_windows
+from pipelines.stream_eval import add_arguments
 from terrain.errors import ConfigError
+from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.forest import ForestPipeline
-from terrain.serving.evaluation import (RECIPES, ModelRecipe, fit_stream_model,
-                                        recipe_classifier)
+from terrain.models.registry import ENSEMBLE3_MEMBERS
+from terrain.run import TIME
+from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
+                             decisions_frame, replay_run)
+from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, ModelRecipe,
+                                        fit_stream_model, recipe_classifier)
 
 
 def test_wheel_recipe_serves_the_compiled_forest_with_sklearn_probabilities(train_runs,
@@ -31,12 +38,56 @@ def test_wheel_recipe_serves_the_compiled_forest_with_sklearn_probabilities(trai
     assert tuple(model.pipeline.classes_) == model.classes
 
 
-def test_ensemble_recipe_takes_raw_windows_only():
-    assert RECIPES["all-ensemble"].classifier == "ensemble"
-    assert RECIPES["all-ensemble"].window_s == RECIPES["all"].window_s
+def _head(run, seconds):
+    """The first ``seconds`` of every stream of ``run``."""
+    return replace(run, streams={s: f[f[TIME] < f[TIME].iloc[0] + seconds]
+                                 for s, f in run.streams.items()})
+
+
+@pytest.mark.parametrize("kind", ["all-ensemble", "all-ensemble3"])
+def test_ensemble_recipes_take_raw_windows_only(kind):
+    recipe = RECIPES[kind]
+    assert recipe.classifier == kind.removeprefix("all-")
+    assert (recipe.window_s, recipe.rate_hz, recipe.train_hop_s) == (
+        RECIPES["all"].window_s, RECIPES["all"].rate_hz, RECIPES["all"].train_hop_s)
+    for features in ("physics", "stats+physics"):
+        with pytest.raises(ConfigError):
+            ModelRecipe("all", 2.0, 100.0, 2.0, features, recipe.classifier)
     with pytest.raises(ConfigError):
-        ModelRecipe("all", 2.0, 100.0, 2.0, "physics", "ensemble")
-    with pytest.raises(ConfigError):
-        recipe_classifier(RECIPES["all-ensemble"])
+        recipe_classifier(recipe)
     with pytest.raises(ConfigError):
         ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "boosting")
+
+
+def test_ensemble3_recipe_streams_decisions_with_the_service_columns(train_runs,
+                                                                     borealtc_runs):
+    # the all-ensemble3 recipe on a 20 Hz clock, the first 30 s of 10 runs (fast)
+    recipe = replace(RECIPES["all-ensemble3"], rate_hz=20.0)
+    model = fit_stream_model(recipe, [_head(r, 30.0) for r in train_runs], seed=0)
+    assert isinstance(model.pipeline, SoftVotingEnsemble)
+    assert tuple(name for name, _ in model.pipeline.estimators) == ENSEMBLE3_MEMBERS
+    assert model.window.window_s == recipe.window_s and model.window.rate_hz == 20.0
+    seen = {r.run_id for r in train_runs}
+    run = next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+               and r.duration_s > 20)
+    run = _head(run, 12.0)
+    service = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(hop_s=0.5))
+    frame = decisions_frame(replay_run(service, run), model.classes)
+    assert list(frame.columns) == (
+        ["t_s", "terrain", "confidence"] + [f"proba_{c}" for c in model.classes]
+        + ["target_slip_traction", "target_slip_braking", "target_slip_steady",
+           "window_age_s", "flags"])
+    assert len(frame) >= 15                        # ~10 s of decisions every 0.5 s
+    np.testing.assert_allclose(frame.filter(like="proba_").sum(axis=1), 1.0)
+    assert set(frame["terrain"]) <= set(model.classes)
+    assert np.isfinite(frame["target_slip_traction"]).all()
+
+
+def test_defaults_follow_the_default_recipes():
+    assert set(DEFAULT_RECIPES) == {"all", "wheels"}
+    assert all(RECIPES[k].signals == s for s, k in DEFAULT_RECIPES.items())
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    assert parser.parse_args([]).kinds == list(DEFAULT_RECIPES.values())
+    # the all-signal default is the SVM: the ensembles' decisions cost over 1 ms at p99
+    assert RECIPES[DEFAULT_RECIPES["all"]].classifier == "svm"
