@@ -14,6 +14,14 @@ Run::
 
     python benchmarks/sweep_soil_params.py --terrain SANDY_LOAM \\
         --variants '[{}, {"lateral_shear_modulus_m": 0.01}]'
+    python benchmarks/sweep_soil_params.py --terrain ASPHALT,FLOORING,ICE \\
+        --side-force-factors 0.5 0.6 0.7 0.8 1.0
+
+The second form sweeps the side-force factor of the Husky's combined-slip tyre law on rigid
+surfaces (:data:`terrain.sim.forces.COMBINED_SLIP`) over the listed terrains at once: per
+terrain and pooled over them (samples of all runs together), training and held-out RMSE of
+yaw rate and current, and the criterion the shipped value was chosen by, the sum of the
+pooled *training* yaw-rate and current RMSE ratios to v1.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, gain
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
 from terrain.sim import SimConfig
+from terrain.sim.forces import COMBINED_SLIP
 from terrain.sim.simulate import simulate_with_physics
 from terrain.terramechanics.lateral import SOILS
 from terrain.vehicles import HUSKY
@@ -173,12 +182,96 @@ def heldout_table(path: str) -> int:
     return 0
 
 
+
+def _v2_errors(runs, refs, settings):
+    """Per run, the error dicts of a v2 replay on the v1 reference clock."""
+    out = []
+    for r in runs:
+        ref = refs[r.run_id]
+        rep = replay_run(r, replace(settings, physics="v2"))
+        new = replace(ref, sim_wz=_on(ref, rep.yaw_rate), sim_ax=_on(ref, rep.ax),
+                      sim_ay=_on(ref, rep.ay), sim_vx=_on(ref, rep.v_x),
+                      sim_cur=np.column_stack([_on(ref, rep.cur[:, 0]),
+                                               _on(ref, rep.cur[:, 1])]))
+        out.append(_errors(ref, new))
+    return out
+
+
+def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True) -> int:
+    """Sweep the Husky tyre's side-force factor over rigid terrains (module docstring).
+
+    Parameters
+    ----------
+    terrains : list of str
+        BorealTC rigid terrains, each split into training and held-out runs by :func:`split`.
+    factors : list of float
+        Side-force factors to replay with (``k_S`` in (0, 1]).
+    chi : bool
+        Also print the chi of a simulated spin and headland turn per terrain.
+
+    Returns
+    -------
+    int
+        0 (the table is printed).
+    """
+    settings = ReplaySettings()
+    data = load_dataset("borealtc")
+    parts, refs = {}, {}
+    for terrain in terrains:
+        runs = [r for r in data if r.terrain == terrain]
+        parts[terrain] = dict(zip(("train", "held"), split(runs)))
+        print(f"{terrain} training:", [r.run_id.split("/")[-1] for r in parts[terrain]["train"]],
+              "held out:", [r.run_id.split("/")[-1] for r in parts[terrain]["held"]])
+        refs.update({r.run_id: prepare_frame(r, replay_run(r, replace(settings, physics="v1")))
+                     for r in runs})
+    base = {(t, k): [_errors(refs[r.run_id], refs[r.run_id]) for r in parts[t][k]]
+            for t in terrains for k in ("train", "held")}
+    cols = [f"{s}_{sc}" for s in ("wz", "cur") for sc in SCOPES]
+
+    def row(errs, label, ref=None):
+        pooled = {k: sum((errs[(t, k)] for t in terrains), []) for k in ("train", "held")}
+        cells = [rmse(pooled[k], s, SCOPES[sc]) for k in ("train", "held") for s in ("wz", "cur")
+                 for sc in SCOPES]
+        line = f"{label} | all | " + " | ".join(f"{c:.4g}" for c in cells)
+        if ref is not None:
+            crit = sum(rmse(pooled["train"], s, None) / rmse(ref["train"], s, None)
+                       for s in ("wz", "cur"))
+            line += f" | criterion {crit:.4f}"
+        print(line, flush=True)
+        for t in terrains:
+            print(f"{label} | {t} | " + " | ".join(
+                f"{rmse(errs[(t, k)], s, SCOPES[sc]):.4g}" for k in ("train", "held")
+                for s in ("wz", "cur") for sc in SCOPES), flush=True)
+        return pooled
+
+    print("k_S | terrain | " + " | ".join(f"{k}:{c}" for k in ("train", "held") for c in cols))
+    ref = row(base, "v1")
+    original = dynamics.COMBINED_SLIP
+    try:
+        for k_s in factors:
+            dynamics.COMBINED_SLIP = MappingProxyType(
+                {**original, "husky": replace(original["husky"], side_force_factor=k_s)})
+            errs = {(t, k): _v2_errors(parts[t][k], refs, settings)
+                    for t in terrains for k in ("train", "held")}
+            row(errs, f"{k_s:g}", ref)
+            if chi:
+                for t in terrains:
+                    print(f"{k_s:g} | {t} | chi spin {sim_chi(t, 'spin', 32.0):.3g} headland "
+                          f"{sim_chi(t, 'orchard', 100.0):.3g}", flush=True)
+    finally:
+        dynamics.COMBINED_SLIP = original
+    return 0
+
 def main() -> int:
     """Run the sweep; returns 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--terrain", required=True)
     ap.add_argument("--variants", default="[{}]", help="JSON list of SoilParams overrides")
     ap.add_argument("--no-chi", action="store_true")
+    ap.add_argument("--side-force-factors", type=float, nargs="+", metavar="K",
+                    help="instead of a soil sweep: the Husky tyre's side-force factor of the "
+                         "rigid-surface combined-slip law, over the comma-separated --terrain "
+                         "list (module docstring)")
     ap.add_argument("--heldout-table", metavar="CSV",
                     help="instead of a sweep: v2 (shipped parameters) against v1 on the runs no "
                          "parameter was chosen on (every run of the terrains without a swept "
@@ -189,6 +282,9 @@ def main() -> int:
                          "the chi of the measured gyro, the v1 and the v2 replay and the mean "
                          "measured and replayed currents")
     args = ap.parse_args()
+    if args.side_force_factors:
+        return sweep_side_force(args.terrain.split(","), args.side_force_factors,
+                                not args.no_chi)
     if args.per_run_chi:
         return per_run_chi(args.terrain)
     if args.heldout_table:
@@ -214,17 +310,8 @@ def main() -> int:
             if args.terrain in SOILS:
                 soil = replace(SOILS[args.terrain], **var)
                 dynamics.SOILS = MappingProxyType({**SOILS, args.terrain: soil})
-            errs = {}
-            for k, rs in (("train", train), ("held", held)):
-                errs[k] = []
-                for r in rs:
-                    ref = refs[r.run_id]
-                    rep = replay_run(r, replace(settings, physics="v2"))
-                    new = replace(ref, sim_wz=_on(ref, rep.yaw_rate), sim_ax=_on(ref, rep.ax),
-                                  sim_ay=_on(ref, rep.ay), sim_vx=_on(ref, rep.v_x),
-                                  sim_cur=np.column_stack([_on(ref, rep.cur[:, 0]),
-                                                           _on(ref, rep.cur[:, 1])]))
-                    errs[k].append(_errors(ref, new))
+            errs = {k: _v2_errors(rs, refs, settings)
+                    for k, rs in (("train", train), ("held", held))}
             chi = ("", "") if args.no_chi else (
                 f"{sim_chi(args.terrain, 'spin', 32.0):.3g}",
                 f"{sim_chi(args.terrain, 'orchard', 100.0):.3g}")

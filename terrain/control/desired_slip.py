@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError
-from terrain.terramechanics import (TerrainParams, get_terrain, soil_resistance_coefficient,
+from terrain.terramechanics import (TerrainParams, get_terrain, is_deformable,
                                     steady_slip, traction_peak)
 from terrain.terramechanics.efficiency import max_tractive_efficiency
 from terrain.terramechanics.inverse import slip_at_peak_fraction
@@ -149,28 +149,6 @@ def classifier_classes(measured: Sequence[str]) -> tuple[str, ...]:
     """
     upper = sorted({str(c).upper() for c in measured})
     return tuple(upper) + tuple(c for c in THESIS_CLASSES if c not in upper)
-
-
-def is_deformable(terrain: TerrainParams) -> bool:
-    """Whether the ground itself deforms: slip-producing soil resistance anywhere on [0, 1].
-
-    Decides the target rule (module docstring) from the physics of the entry, not from the
-    curve's type: compaction / bulldozing resistance
-    (:func:`~terrain.terramechanics.soil_resistance_coefficient`) > 0 marks a deformable soil
-    (Janosi-Hanamoto and Brixius entries of the catalogue), none a rigid surface (Burckhardt
-    road curves, including ice).
-
-    Parameters
-    ----------
-    terrain : TerrainParams
-        Catalogue entry.
-
-    Returns
-    -------
-    bool
-    """
-    rho = soil_resistance_coefficient(terrain, np.linspace(0.0, 1.0, 101))
-    return bool(np.any(rho > 0.0))
 
 
 def _basis(terrain: TerrainParams) -> str:

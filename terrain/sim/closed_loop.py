@@ -46,7 +46,7 @@ from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulat
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
 
-__all__ = ["Observation", "OnlineSensors", "ReplaySnapshot", "make_hook", "replay_observations",
+__all__ = ["Observation", "OnlineSensors", "make_hook", "replay_observations",
            "simulate_closed_loop"]
 
 

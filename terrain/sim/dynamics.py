@@ -16,8 +16,9 @@ puts the robot's sensors between the two); without a hook nothing changes.
 Simplifications (stated): mass concentrated at the body origin, speed-controlled motors as
 first-order lags with speed limits; physics ``v1``: static normal loads (no load transfer);
 physics ``v2``: quasi-static load transfer from the body acceleration of the previous step,
-low-passed with :data:`LOAD_TRANSFER_TIME_CONSTANT_S` (suspension and tyre compliance), and
-the lateral wheel-soil model on soils (:mod:`terrain.sim.forces`).
+low-passed with :data:`LOAD_TRANSFER_TIME_CONSTANT_S` (suspension and tyre compliance), the
+lateral wheel-soil model on soils and the tyre's combined-slip law on rigid surfaces
+(:mod:`terrain.sim.forces`).
 """
 
 from __future__ import annotations
@@ -29,12 +30,14 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from terrain.errors import ConfigError
-from terrain.sim.forces import (LOAD_TRANSFER, PHYSICS_VERSIONS, SLIDE_SPEED_M_S,
+from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, PHYSICS_VERSIONS,
+                                SLIDE_SPEED_M_S,
                                 SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
                                 transferred_normal_loads, velocity_maps)
 from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
                                             soil_contact)
+from terrain.terramechanics.resistance import is_deformable
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import swerve_inverse
@@ -336,6 +339,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     if soils:
         terrains = tuple(v2_terrain(t, soils[t.name], float(np.mean(layout.normal_load_n)))
                          if t.name in soils else t for t in terrains)
+    tyre = COMBINED_SLIP.get(vehicle.name) if v2 else None
+    # side-force factor per terrain index: the tyre's combined-slip law on rigid surfaces
+    side_factor = [tyre.side_force_factor if (tyre is not None and t.name not in soils
+                                              and not is_deformable(t)) else None
+                   for t in terrains]
     lt = LOAD_TRANSFER.get(vehicle.name)
     cog_h = lt.cog_height_m if (v2 and lt is not None) else 0.0
     alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)
@@ -395,7 +403,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         if cog_h > 0:
             normal = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m,
                                               mass, cog_h, acc_lt[0], acc_lt[1])
-        contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name))
+        contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
+                                 side_factor[ti])
         force = contact.force + gravity_force(mass, slope_rad, pose[2])
         force[0] += mass * vel[2] * vel[1]
         force[1] -= mass * vel[2] * vel[0]

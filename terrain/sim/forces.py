@@ -26,7 +26,13 @@ Physics ``v2`` (:data:`PHYSICS_VERSIONS`; ``v1`` is the model above, unchanged) 
 * on deformable soils with a :data:`terrain.terramechanics.lateral.SOILS` entry, the lateral
   wheel-soil law of :mod:`terrain.terramechanics.lateral` (Bekker sinkage, Janosi-Hanamoto
   lateral shear along the slip trajectory, bulldozing of the sinkage wall) instead of the
-  Coulomb lateral friction; rigid surfaces keep the Coulomb law.
+  Coulomb lateral friction;
+* on rigid surfaces (no slip-producing soil resistance,
+  :func:`terrain.terramechanics.resistance.is_deformable`), for a vehicle with a
+  :data:`COMBINED_SLIP` entry (the Husky), the tyre's combined-slip law
+  (:mod:`terrain.terramechanics.combined_slip`, friction ellipse): longitudinal and side
+  force share the friction of the resultant slip, instead of the longitudinal curve plus an
+  independent Coulomb lateral friction; other vehicles keep the Coulomb law.
 
 :func:`contact_forces` also returns the analytic Jacobian ``dF/dV`` that the linearly implicit
 integrator needs.
@@ -40,6 +46,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
+from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
 from terrain.terramechanics.resistance import G_M_S2, lateral_force_and_slope
 from terrain.terramechanics.slip import sae_slip_and_velocity_slope
@@ -60,7 +67,8 @@ SOIL_SPEED_M_S = 0.01
 #: Regularisation speed of the sign of the torque-only rolling loss, m/s.
 HYSTERESIS_SPEED_M_S = 0.05
 #: Physics versions of the simulator: ``v1`` static loads and Coulomb lateral friction on
-#: every terrain; ``v2`` load transfer and the lateral wheel-soil model on soils.
+#: every terrain; ``v2`` load transfer, the lateral wheel-soil model on soils and the tyre's
+#: combined-slip law on rigid surfaces.
 PHYSICS_VERSIONS = ("v1", "v2")
 #: Physics version the simulator and the audit use unless told otherwise (decided from the
 #: held-out comparison of docs/physics_v2.md).
@@ -144,6 +152,37 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
     loads = np.maximum(loads, MIN_LOAD_FRACTION * static_load_n)
     return loads * (static_load_n.sum() / loads.sum())
 
+
+
+@dataclass(frozen=True)
+class CombinedSlipParams:
+    """Tyre of the combined-slip law of physics v2 on rigid surfaces.
+
+    Parameters
+    ----------
+    side_force_factor : float
+        ``k_S`` of :func:`terrain.terramechanics.combined_slip.combined_slip_coefficients`,
+        in (0, 1]: side over longitudinal friction of the tyre at the same resultant slip.
+    source : str
+        Where the value comes from.
+    """
+
+    side_force_factor: float
+    source: str
+
+
+#: Tyres with the combined-slip law in physics v2, by vehicle (read-only); a vehicle without
+#: an entry keeps the Coulomb lateral friction on rigid surfaces. The Husky's side-force
+#: factor was chosen on the *training* half of the measured BorealTC rigid-surface runs
+#: (ASPHALT, FLOORING, ICE; docs/physics_v2.md, ``benchmarks/sweep_soil_params.py
+#: --side-force-factors``), one value for its tyres on every rigid surface.
+COMBINED_SLIP: Mapping[str, CombinedSlipParams] = MappingProxyType({
+    "husky": CombinedSlipParams(0.7, (
+        "CHOSEN on training runs: 0.7 of the grid 0.5-1.0 minimises the summed yaw-rate and "
+        "current RMSE ratios to v1 over the training halves of the BorealTC ASPHALT, "
+        "FLOORING and ICE runs (docs/physics_v2.md); Kiencke & Nielsen (2005) give "
+        "k_S below 1 for car tyres; lugged 13 in Husky tyres, no published value")),
+})
 
 @dataclass(frozen=True)
 class ContactLayout:
@@ -280,7 +319,8 @@ class ContactForces(NamedTuple):
 
 def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np.ndarray,
                    omega: np.ndarray, normal_load_n: np.ndarray | None = None,
-                   soil: SoilContact | None = None) -> ContactForces:
+                   soil: SoilContact | None = None,
+                   side_force_factor: float | None = None) -> ContactForces:
     """Contact forces of all wheels/tracks and their Jacobian (the force model).
 
     Parameters
@@ -302,6 +342,14 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
         Lateral wheel-soil contact of physics v2 on deformable soil
         (:func:`terrain.terramechanics.lateral.soil_lateral_force_and_slope`); None = the
         Coulomb lateral friction of the terrain (v1, and rigid surfaces in v2).
+    side_force_factor : float, optional
+        With ``soil`` None: the tyre's combined-slip law
+        (:func:`terrain.terramechanics.combined_slip.combined_slip_coefficients`, physics v2
+        on rigid surfaces, :data:`COMBINED_SLIP`) with this side-force factor: longitudinal
+        and lateral force from the terrain's curve at the resultant of the longitudinal slip
+        and the side slip ``v_lat / max(|omega r|, |v_long|, floor)``; the Jacobian keeps
+        each direction's own slope (tangent, or the secant where that is steeper, as for
+        the longitudinal law) and drops the cross terms. None: the laws above.
 
     Returns
     -------
@@ -327,7 +375,22 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     dmu = np.maximum(dmu, secant)
     k_long = normal * (dmu * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
     k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
-    if soil is None:
+    if soil is None and side_force_factor is not None:
+        den = np.maximum(np.maximum(np.abs(wr), np.abs(v_long)), SLIP_SPEED_FLOOR_M_S)
+        comb = combined_slip_coefficients(terrain.curve, slip, v_lat / den, side_force_factor)
+        mu = comb.mu_long
+        f_long = normal * (mu - f_soil * th_s)
+        # each direction's slope of the ellipse at the other's fixed slip,
+        # g + (s_i / s_res)^2 (mu' - g), floored at the secant g (no overshoot past the peak)
+        r2 = np.where(comb.resultant_slip > 1e-12, comb.resultant_slip, 1.0) ** 2
+        excess = comb.tangent - comb.secant
+        slope_long = comb.secant + np.maximum(slip * slip / r2 * excess, 0.0)
+        slope_side = comb.secant + np.maximum((v_lat / den) ** 2 / r2 * excess, 0.0)
+        k_long = normal * (slope_long * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
+        k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
+        f_lat = normal * comb.mu_side
+        k_lat = -normal * side_force_factor * slope_side / den
+    elif soil is None:
         f_lat, k_lat = lateral_force_and_slope(terrain.lateral_friction, normal, v_lat,
                                                SLIDE_SPEED_M_S)
     else:

@@ -38,7 +38,7 @@ from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
 from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
                                  encoder_count_rate, quantise, sample_times)
 from terrain.terramechanics.catalogue import get_terrain
-from terrain.vehicles import VEHICLE_NAMES, get_vehicle
+from terrain.vehicles import get_vehicle
 
 #: Sensor settings of each vehicle (read-only).
 DEFAULT_SENSORS: Mapping[str, SensorSettings] = MappingProxyType({

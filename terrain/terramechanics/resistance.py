@@ -42,6 +42,29 @@ def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray
     return terrain.curve.coefficients(s, terrain.soil_resistance).resistance
 
 
+
+def is_deformable(terrain) -> bool:
+    """Whether the ground itself deforms: slip-producing soil resistance anywhere on [0, 1].
+
+    Decides from the physics of the entry, not from the curve's type: compaction /
+    bulldozing resistance (:func:`soil_resistance_coefficient`) > 0 marks a deformable soil
+    (Janosi-Hanamoto and Brixius entries of the catalogue), none a rigid surface (Burckhardt
+    road curves, including ice). The desired-slip table
+    (:mod:`terrain.control.desired_slip`) picks its target rule by it, and physics v2 of the
+    simulator its rigid-surface tyre law (:mod:`terrain.sim.forces`).
+
+    Parameters
+    ----------
+    terrain : TerrainParams
+        Catalogue entry.
+
+    Returns
+    -------
+    bool
+    """
+    rho = soil_resistance_coefficient(terrain, np.linspace(0.0, 1.0, 101))
+    return bool(np.any(rho > 0.0))
+
 def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndarray:
     """Grade resistance ``m g sin(pitch)`` (seed 003 eq. 10 with zero roll).
 

@@ -1,0 +1,95 @@
+"""Combined-slip (friction ellipse) tyre law and what it does to a simulated skid-steer."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from types import MappingProxyType
+
+import numpy as np
+import pytest
+
+import terrain.sim.dynamics as dynamics
+from terrain.errors import ConfigError
+from terrain.sim import SimConfig
+from terrain.sim.forces import COMBINED_SLIP
+from terrain.sim.simulate import simulate_with_physics
+from terrain.terramechanics import get_terrain, is_deformable, traction_coefficient
+from terrain.terramechanics.combined_slip import combined_slip_coefficients
+from terrain.vehicles import HUSKY
+from terrain.vehicles.icr import icr_expansion_factor
+
+ASPHALT = get_terrain("ASPHALT").curve
+
+
+def test_without_side_slip_it_is_the_longitudinal_curve():
+    s = np.linspace(-1.0, 1.0, 41)
+    c = combined_slip_coefficients(ASPHALT, s, np.zeros_like(s), 0.7)
+    np.testing.assert_allclose(c.mu_long, traction_coefficient(ASPHALT, s), atol=1e-12)
+    np.testing.assert_array_equal(c.mu_side, 0.0)
+
+
+def test_pure_side_slip_gives_the_side_force_factor_times_the_curve_against_the_slip():
+    s_y = np.array([-0.8, -0.1, 0.05, 0.3, 1.0])
+    c = combined_slip_coefficients(ASPHALT, np.zeros_like(s_y), s_y, 0.6)
+    np.testing.assert_allclose(c.mu_side, -0.6 * traction_coefficient(ASPHALT, s_y),
+                               atol=1e-12)
+    np.testing.assert_array_equal(c.mu_long, 0.0)
+
+
+def test_force_lies_on_the_ellipse_of_the_resultant_slip_and_along_the_slip():
+    rng = np.random.default_rng(3)
+    s_x, s_y = rng.uniform(-0.7, 0.7, 200), rng.uniform(-0.7, 0.7, 200)
+    k = 0.7
+    c = combined_slip_coefficients(ASPHALT, s_x, s_y, k)
+    mu_res = traction_coefficient(ASPHALT, np.hypot(s_x, s_y))
+    np.testing.assert_allclose(np.hypot(c.mu_long, c.mu_side / k), mu_res, rtol=1e-12)
+    # same secant in both directions: the force points along (s_x, -k s_y)
+    np.testing.assert_allclose(c.mu_long * (-k * s_y), c.mu_side * s_x, atol=1e-12)
+    # past s_res = 1 the curve is held at its value at 1
+    far = combined_slip_coefficients(ASPHALT, np.array([1.0]), np.array([3.0]), 1.0)
+    assert np.hypot(far.mu_long, far.mu_side)[0] == pytest.approx(
+        float(traction_coefficient(ASPHALT, 1.0)))
+    assert far.tangent[0] == 0.0
+
+
+def test_side_force_factor_outside_0_1_is_refused():
+    for k in (0.0, -0.5, 1.2):
+        with pytest.raises(ConfigError, match="side_force_factor"):
+            combined_slip_coefficients(ASPHALT, np.zeros(1), np.zeros(1), k)
+
+
+def test_rigid_surfaces_are_the_non_deformable_entries():
+    assert not any(is_deformable(get_terrain(t)) for t in ("ASPHALT", "FLOORING", "ICE",
+                                                           "CONCRETE"))
+    assert all(is_deformable(get_terrain(t)) for t in ("SANDY_LOAM", "SNOW", "GRASS"))
+
+
+def _spin_chi(terrain: str, k_s: float) -> float:
+    """chi of a simulated v2 Husky spin with side-force factor ``k_s``."""
+    original = dynamics.COMBINED_SLIP
+    dynamics.COMBINED_SLIP = MappingProxyType(
+        {**original, "husky": replace(original["husky"], side_force_factor=k_s)})
+    try:
+        sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,),
+                                              scenario="spin", duration_s=16.0, seed=1,
+                                              physics="v2"))
+    finally:
+        dynamics.COMBINED_SLIP = original
+    p = sim.physics
+    x = (p.omega[:, 1] - p.omega[:, 0]) * HUSKY.wheel_radius_m / HUSKY.track_m
+    m = np.abs(x) > 0.1
+    return icr_expansion_factor(p.twist[m, 2], x[m])
+
+
+@pytest.mark.parametrize("terrain, k_s", [("ASPHALT", 1.0), ("ASPHALT", 0.7),
+                                          ("FLOORING", 0.7)])
+def test_simulated_spin_chi_is_the_moment_balance_of_sliding_contacts(terrain, k_s):
+    # every contact sliding at (+-a, +-b): b mu_L = a |mu_S|  =>  chi = 1 + k_S (a / b)^2,
+    # whatever the friction level of the surface (module docstring)
+    a, b = HUSKY.wheelbase_m / 2.0, HUSKY.track_m / 2.0
+    assert _spin_chi(terrain, k_s) == pytest.approx(1.0 + k_s * (a / b) ** 2, rel=0.01)
+
+
+def test_the_husky_tyre_entry_is_in_range_and_sourced():
+    tyre = COMBINED_SLIP["husky"]
+    assert 0.0 < tyre.side_force_factor <= 1.0 and "training" in tyre.source
