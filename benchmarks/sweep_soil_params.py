@@ -47,6 +47,11 @@ from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import icr_expansion_factor
 
 SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
+#: BorealTC terrains whose runs were split by :func:`split` to choose a physics-v2 parameter:
+#: the soils (:data:`terrain.terramechanics.lateral.SOILS`) and the rigid surfaces the Husky
+#: tyre's side-force factor was chosen on (:data:`terrain.sim.forces.COMBINED_SLIP`). Only
+#: their held-out halves enter ``--heldout-table``.
+TUNED_TERRAINS = frozenset(SOILS) | frozenset({"ASPHALT", "FLOORING", "ICE"})
 
 
 def split(runs):
@@ -172,7 +177,7 @@ def heldout_table(path: str) -> int:
     held = []
     for terrain in sorted({r.terrain for r in runs}):
         group = [r for r in runs if r.terrain == terrain]
-        held += split(group)[1] if terrain in SOILS else group
+        held += split(group)[1] if terrain in TUNED_TERRAINS else group
     settings = PhysicsComparisonSettings()
     per_run, _ = per_run_errors(held, settings)
     table = gain_table(per_run, settings)
@@ -274,9 +279,9 @@ def main() -> int:
                          "list (module docstring)")
     ap.add_argument("--heldout-table", metavar="CSV",
                     help="instead of a sweep: v2 (shipped parameters) against v1 on the runs no "
-                         "parameter was chosen on (every run of the terrains without a swept "
-                         "soil, the held-out half of SANDY_LOAM and SNOW), the gain table of "
-                         "terrain.audit.physics written to CSV")
+                         "parameter was chosen on (the held-out half of the TUNED_TERRAINS, "
+                         "every run of the others), the gain table of terrain.audit.physics "
+                         "written to CSV")
     ap.add_argument("--per-run-chi", action="store_true",
                     help="instead of a sweep: per run of --terrain and manoeuvre (curve, spin), "
                          "the chi of the measured gyro, the v1 and the v2 replay and the mean "

@@ -364,30 +364,31 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     abs_s = np.abs(slip)
     sign_s = np.sign(slip)
     coef = terrain.curve.coefficients(abs_s, terrain.soil_resistance)
-    mu = sign_s * coef.mu
-    dmu = coef.dmu_ds
     f_soil = coef.resistance
     th_s = np.tanh(v_long / SOIL_SPEED_M_S)
-    f_long = normal * (mu - f_soil * th_s)
-    # secant slope mu(s)/s where it exceeds the tangent: keeps the Newton step from
-    # overshooting past the traction peak (no limit cycles on stiff, peaked curves)
-    secant = np.where(abs_s > 1e-6, mu / np.where(abs_s > 1e-6, slip, 1.0), dmu)
-    dmu = np.maximum(dmu, secant)
-    k_long = normal * (dmu * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
-    k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
-    if soil is None and side_force_factor is not None:
+    combined = soil is None and side_force_factor is not None
+    if combined:
         den = np.maximum(np.maximum(np.abs(wr), np.abs(v_long)), SLIP_SPEED_FLOOR_M_S)
-        comb = combined_slip_coefficients(terrain.curve, slip, v_lat / den, side_force_factor)
+        slip_side = v_lat / den
+        comb = combined_slip_coefficients(terrain.curve, slip, slip_side, side_force_factor)
         mu = comb.mu_long
-        f_long = normal * (mu - f_soil * th_s)
         # each direction's slope of the ellipse at the other's fixed slip,
         # g + (s_i / s_res)^2 (mu' - g), floored at the secant g (no overshoot past the peak)
         r2 = np.where(comb.resultant_slip > 1e-12, comb.resultant_slip, 1.0) ** 2
-        excess = comb.tangent - comb.secant
-        slope_long = comb.secant + np.maximum(slip * slip / r2 * excess, 0.0)
-        slope_side = comb.secant + np.maximum((v_lat / den) ** 2 / r2 * excess, 0.0)
-        k_long = normal * (slope_long * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
-        k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
+        excess = (comb.tangent - comb.secant) / r2
+        dmu = comb.secant + np.maximum(slip * slip * excess, 0.0)
+        slope_side = comb.secant + np.maximum(slip_side * slip_side * excess, 0.0)
+    else:
+        mu = sign_s * coef.mu
+        dmu = coef.dmu_ds
+        # secant slope mu(s)/s where it exceeds the tangent: keeps the Newton step from
+        # overshooting past the traction peak (no limit cycles on stiff, peaked curves)
+        secant = np.where(abs_s > 1e-6, mu / np.where(abs_s > 1e-6, slip, 1.0), dmu)
+        dmu = np.maximum(dmu, secant)
+    f_long = normal * (mu - f_soil * th_s)
+    k_long = normal * (dmu * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
+    k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
+    if combined:
         f_lat = normal * comb.mu_side
         k_lat = -normal * side_force_factor * slope_side / den
     elif soil is None:
