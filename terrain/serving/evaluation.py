@@ -95,11 +95,9 @@ def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels
     proba = np.zeros((len(labels), len(classes)))
     for train, test in iter_splits("grouped", labels, groups, seed, n_splits):
         model = make_model(seed)
-        if run_balanced:
-            model.fit(F[train], labels[train],
-                      sample_weight=run_balanced_weights(labels[train], groups[train]))
-        else:
-            model.fit(F[train], labels[train])
+        weights = ({"sample_weight": run_balanced_weights(labels[train], groups[train])}
+                   if run_balanced else {})
+        model.fit(F[train], labels[train], **weights)
         cols = [classes.index(c) for c in model.classes_]
         proba[np.ix_(test, cols)] = model.predict_proba(F[test])
     return proba, classes
@@ -488,26 +486,20 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         pipe = make_model(ModelConfig(kind=recipe.classifier), ws.channels, recipe.rate_hz,
                           "borealtc", random_state=seed)
         pipe.fit(ws.X, labels)
-        return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
-                                                           rate_hz=recipe.rate_hz),
-                           tuple(sorted(np.unique(labels).tolist())))
-    features = ("features", recipe_features(recipe, ws.channels))
-    classifier = recipe_classifier(recipe, seed)
-    if isinstance(classifier, Pipeline):
-        # the SVM: features -> scaler -> calibrated SVC flattened into the SVMPipeline of
-        # `terrain train`, whose predict_proba runs in NumPy (same probabilities)
-        pipe = SVMPipeline([features] + classifier.steps)
     else:
-        # extra trees: a Pipeline whose predict_proba walks the fitted trees in one compiled
-        # loop (terrain.tree_predict, same probabilities as scikit-learn's)
-        pipe = ForestPipeline([features, ("classifier", classifier)])
-    if recipe.run_balanced:
-        pipe.fit(ws.X, labels,
-                 classifier__sample_weight=run_balanced_weights(labels, np.asarray(ws.run_ids)))
-        return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
-                                                           rate_hz=recipe.rate_hz),
-                           tuple(sorted(np.unique(labels).tolist())))
-    pipe.fit(ws.X, labels)
+        features = ("features", recipe_features(recipe, ws.channels))
+        classifier = recipe_classifier(recipe, seed)
+        if isinstance(classifier, Pipeline):
+            # the SVM: features -> scaler -> calibrated SVC flattened into the SVMPipeline of
+            # `terrain train`, whose predict_proba runs in NumPy (same probabilities)
+            pipe = SVMPipeline([features] + classifier.steps)
+        else:
+            # extra trees: a Pipeline whose predict_proba walks the fitted trees in one
+            # compiled loop (terrain.tree_predict, same probabilities as scikit-learn's)
+            pipe = ForestPipeline([features, ("classifier", classifier)])
+        weights = ({"classifier__sample_weight": run_balanced_weights(
+            labels, np.asarray(ws.run_ids))} if recipe.run_balanced else {})
+        pipe.fit(ws.X, labels, **weights)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
                                                        rate_hz=recipe.rate_hz),
                        tuple(sorted(np.unique(labels).tolist())))

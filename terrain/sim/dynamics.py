@@ -341,9 +341,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                          if t.name in soils else t for t in terrains)
     tyre = COMBINED_SLIP.get(vehicle.name) if v2 else None
     # side-force factor per terrain index: the tyre's combined-slip law on rigid surfaces
-    side_factor = [tyre.side_force_factor if (tyre is not None and t.name not in soils
-                                              and not is_deformable(t)) else None
-                   for t in terrains]
+    side_factor = [tyre.side_force_factor if (tyre is not None and not is_deformable(t))
+                   else None for t in terrains]
     lt = LOAD_TRANSFER.get(vehicle.name)
     cog_h = lt.cog_height_m if (v2 and lt is not None) else 0.0
     alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)
