@@ -32,7 +32,8 @@ from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_window
 from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.sim.sensors import SensorSettings
-from terrain.slip.physics import physics_slip, pitch_from_accelerometer
+from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
+                                  pitch_std_from_accelerometer)
 
 #: Channels whose window statistics feed the slip models.
 SLIP_CHANNELS = ("cur_l", "cur_r", "vel_l", "vel_r", "vel_diff", "cur_diff",
@@ -208,7 +209,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         n_cur = max(1.0, n_s / rate_hz * min(current_rate_hz, rate_hz))
         spread = np.column_stack([cols["cur_l__std"], cols["cur_r__std"]])
         phys = physics_slip(vehicle, dict(probabilities), cur, rim, pitch, wheel_acc,
-                            n_averaged=n_cur, current_within_std_a=spread)
+                            n_averaged=n_cur, current_within_std_a=spread,
+                            pitch_std_rad=pitch_std_from_accelerometer(x[:, ch["ax"]]))
         cols["phys_slip_l"] = phys.slip[:, 0]
         cols["phys_slip_r"] = phys.slip[:, 1]
         cols["phys_std"] = phys.std.mean(axis=1)

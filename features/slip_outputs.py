@@ -17,7 +17,8 @@ from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_f
                                     slip_windows)
 from terrain.run import Run
 from terrain.sim.sensors import SensorSettings
-from terrain.slip.physics import PhysicsSlipSettings, physics_slip
+from terrain.slip.physics import (PhysicsSlipSettings, physics_slip,
+                                  pitch_std_from_accelerometer)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import get_vehicle
 
@@ -81,12 +82,13 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
                                                         ws.rate_hz))
 
     spread = X[["cur_l__std", "cur_r__std"]].to_numpy(float)
+    pitch_std = pitch_std_from_accelerometer(ws.X[:, list(ws.channels).index("ax")])
 
     def physics(settings: PhysicsSlipSettings, within: np.ndarray | None = spread):
         # same inputs as the phys_* features
         return physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
                             acc, n_averaged=n_cur, settings=settings,
-                            current_within_std_a=within)
+                            current_within_std_a=within, pitch_std_rad=pitch_std)
 
     if physics_settings == PhysicsSlipSettings():
         phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy(float)

@@ -113,9 +113,48 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
     return (float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n))
 
 
+def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
+                                    threshold: float = 0.05) -> np.ndarray:
+    """Integrated autocorrelation time ``tau = 1 + 2 sum_k rho_k`` of each row, the sum
+    taken until ``rho_k`` first drops below ``threshold`` (Sokal's windowed estimator,
+    Sokal 1997, "Monte Carlo methods in statistical mechanics", eq. 3.19; the variance of
+    the mean of ``N`` correlated samples is ``tau var / N``).
+
+    Parameters
+    ----------
+    series : ndarray, shape (..., N)
+        Finite values along the last axis (e.g. NEES over time, or the accelerometer
+        samples of each window).
+    max_lag : int
+        Largest lag of the autocorrelation summed, samples.
+    threshold : float
+        The sum stops at the first lag whose autocorrelation is below it.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``tau`` (>= 1); 1 for a constant row or fewer than 3 samples.
+    """
+    x = np.asarray(series, dtype=float)
+    n = x.shape[-1]
+    if n < 3:
+        return np.ones(x.shape[:-1])
+    d = x - x.mean(axis=-1, keepdims=True)
+    var = np.einsum("...i,...i->...", d, d) / n
+    nfft = 1 << int(np.ceil(np.log2(2 * n)))
+    f = np.fft.rfft(d, nfft, axis=-1)
+    lags = min(n, max_lag)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        acf = np.fft.irfft(f * np.conj(f), nfft, axis=-1)[..., 1:lags] / (var[..., None] * n)
+    # keep the lags before the first one below the threshold
+    kept = np.cumprod(np.nan_to_num(acf, nan=-1.0) >= threshold, axis=-1, dtype=bool)
+    tau = 1.0 + 2.0 * np.where(kept, acf, 0.0).sum(axis=-1)
+    return np.where(var > 0, tau, 1.0)
+
+
 def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
-    """``N / tau`` with ``tau = 1 + 2 sum_k rho_k`` summed until ``rho_k`` first drops below
-    0.05 (integrated autocorrelation time); non-finite values are dropped.
+    """``N / tau`` with ``tau`` the integrated autocorrelation time
+    (:func:`integrated_autocorrelation_time`); non-finite values are dropped.
 
     Parameters
     ----------
@@ -134,18 +173,7 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     n = x.size
     if n < 3:
         return float(max(n, 1))
-    d = x - x.mean()
-    var = float(d @ d) / n
-    if var <= 0:
-        return float(n)
-    nfft = 1 << int(np.ceil(np.log2(2 * n)))
-    f = np.fft.rfft(d, nfft)
-    acf = np.fft.irfft(f * np.conj(f), nfft)[: min(n, max_lag)] / (var * n)
-    tau = 1.0
-    for k in range(1, acf.size):
-        if acf[k] < 0.05:
-            break
-        tau += 2.0 * acf[k]
+    tau = float(integrated_autocorrelation_time(x, max_lag))
     return float(np.clip(n / tau, 1.0, n))
 
 

@@ -42,8 +42,10 @@ from typing import Mapping, NamedTuple
 import numpy as np
 
 from terrain.errors import ConfigError, ShapeError
+from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.sim.sensors import SensorSettings
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.terramechanics.inverse import slip_from_traction
 
@@ -161,9 +163,74 @@ def pitch_from_accelerometer(ax_m_s2: np.ndarray, ay_m_s2: np.ndarray, az_m_s2: 
                                    np.asarray(az_m_s2, dtype=float)))
 
 
+def pitch_std_from_accelerometer(ax_samples_m_s2: np.ndarray) -> np.ndarray:
+    """Standard deviation of the window-mean pitch of :func:`pitch_from_accelerometer` that
+    the accelerometer's vibration leaves, rad.
+
+    ``sqrt(tau var(a_x) / N) / g``: the noise of the window mean of ``a_x`` (``N`` samples,
+    vibration correlated over ``tau`` samples, the integrated autocorrelation time of
+    :func:`terrain.estimation.consistency.integrated_autocorrelation_time`) over gravity,
+    the slope of ``arcsin(a_x / g)`` near level. On simulated level runs it matches the
+    spread of the window pitch within 4 % (SNOW 0.057 against 0.058 rad, SANDY_LOAM 0.026
+    against 0.027, GRASS 0.0076 against 0.0079; ``docs/slip_learning.md``).
+
+    Parameters
+    ----------
+    ax_samples_m_s2 : ndarray, shape (..., N)
+        Longitudinal accelerometer samples of each window, m/s^2.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Pitch std, rad (0 for a constant window).
+    """
+    x = np.asarray(ax_samples_m_s2, dtype=float)
+    n = x.shape[-1]
+    if n < 2:
+        return np.zeros(x.shape[:-1])
+    tau = integrated_autocorrelation_time(x, max_lag=max(n // 4, 2))
+    return np.sqrt(np.var(x, axis=-1) * tau / n) / G_M_S2
+
+
+def normal_load_factor(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray | None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Correction of the ``cos(pitch)`` normal load for a noisy pitch, and its relative std.
+
+    For a pitch estimate ``p + e`` with Gaussian ``e`` of std ``sigma``,
+    ``E[cos(p + e)] = cos(p) exp(-sigma^2 / 2)``: the load computed at the estimate is low
+    by that factor on average, so it is multiplied by ``exp(sigma^2 / 2)``, which makes it
+    unbiased; what is left is a relative error of std
+    ``sqrt(tan(p)^2 sigma^2 + sigma^4 / 2)`` (first order in ``e`` on a slope, second order
+    on level ground), with ``tan(p)^2`` estimated by ``max(tan(p + e)^2 - sigma^2, 0)``. Without it the slip from a vibrating accelerometer is biased high:
+    +0.001 on simulated SNOW, where the window pitch has a std of 0.058 rad
+    (``docs/slip_learning.md``).
+
+    Parameters
+    ----------
+    pitch_rad : ndarray, shape (n,)
+        Pitch estimate, rad.
+    pitch_std_rad : ndarray, shape (n,), or None
+        Its std (:func:`pitch_std_from_accelerometer`), rad; None: exact pitch.
+
+    Returns
+    -------
+    factor : ndarray, shape (n,)
+        Multiplier of the normal loads at ``pitch_rad``.
+    rel_std : ndarray, shape (n,)
+        Relative std of the corrected normal load.
+    """
+    p = np.asarray(pitch_rad, dtype=float)
+    if pitch_std_rad is None:
+        return np.ones_like(p), np.zeros_like(p)
+    s2 = np.broadcast_to(np.nan_to_num(np.asarray(pitch_std_rad, dtype=float)) ** 2, p.shape)
+    # tan(p)^2 from the estimate is itself high by sigma^2 on average: remove it
+    return np.exp(0.5 * s2), np.sqrt(np.maximum(np.tan(p) ** 2 - s2, 0.0) * s2 + 0.5 * s2 ** 2)
+
+
 def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
                          rim_speed_m_s: np.ndarray, pitch_rad: np.ndarray,
-                         wheel_accel_rad_s2: np.ndarray | None = None
+                         wheel_accel_rad_s2: np.ndarray | None = None,
+                         pitch_std_rad: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Gross traction coefficient of each drive side from its wheel torque.
 
@@ -185,6 +252,9 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
         Nose-up pitch, rad (normal loads scale with its cosine).
     wheel_accel_rad_s2 : ndarray, shape (n, m), optional
         Wheel angular acceleration, rad/s^2 (None = 0, steady driving).
+    pitch_std_rad : ndarray, shape (n,), optional
+        Std of the pitch estimate, rad: the normal loads are corrected by
+        :func:`normal_load_factor` (None: exact pitch).
 
     Returns
     -------
@@ -223,6 +293,10 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
         a[rows] = np.stack([t0[:, motor_of == j].sum(axis=1) for j in range(nm)], axis=1)
         b[rows] = np.stack([(t1 - t0)[:, motor_of == j].sum(axis=1) for j in range(nm)],
                            axis=1)
+    # torques are linear in the normal loads: scale both parts by the load correction
+    factor, _ = normal_load_factor(pitch, pitch_std_rad)
+    a *= factor[:, None]
+    b *= factor[:, None]
     inertia = 0.0 if wheel_accel_rad_s2 is None else (
         vehicle.motor.wheel_inertia_kg_m2 * counts * np.asarray(wheel_accel_rad_s2, float))
     return (torque - inertia - a) / b, 1.0 / b, a / b
@@ -316,7 +390,8 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
                  current_a: np.ndarray, rim_speed_m_s: np.ndarray, pitch_rad: np.ndarray,
                  wheel_accel_rad_s2: np.ndarray | None = None, n_averaged: np.ndarray | float = 1.0,
                  settings: PhysicsSlipSettings = PhysicsSlipSettings(),
-                 current_within_std_a: np.ndarray | None = None) -> PhysicsSlip:
+                 current_within_std_a: np.ndarray | None = None,
+                 pitch_std_rad: np.ndarray | None = None) -> PhysicsSlip:
     """Longitudinal slip of each drive side from motor currents (module docstring).
 
     Parameters
@@ -346,6 +421,10 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         that changed inside the window (a start, a spin, a step): the slip of the mean
         traction is then not the mean slip, so that spread is added to the traction
         interval (:func:`within_window_current_std`).
+    pitch_std_rad : ndarray, shape (n,), optional
+        Std of ``pitch_rad`` (:func:`pitch_std_from_accelerometer`), rad: the normal loads
+        are made unbiased and their remaining error is added to the traction uncertainty
+        (:func:`normal_load_factor`); None: exact pitch.
 
     Returns
     -------
@@ -383,14 +462,19 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     mu_w = np.zeros_like(cur)
     best = max(probs, key=lambda name: float(np.sum(probs[name])))
     saturated = np.zeros(cur.shape, dtype=bool)
+    # the traction is torque over normal load: a relative load error is a relative error of
+    # mu + rolling (= torque / d torque / d mu)
+    load_rel_std = normal_load_factor(np.asarray(pitch_rad, dtype=float),
+                                      pitch_std_rad)[1][:, None]
     for name, p in probs.items():
         terrain = get_terrain(name)
         mu, dmu_dt, rolling = traction_from_torque(vehicle, terrain, torque, rim, pitch_rad,
-                                                   wheel_accel_rad_s2)
+                                                   wheel_accel_rad_s2, pitch_std_rad)
         sd_mu = np.sqrt((dmu_dt * dtorque_di * sd_i) ** 2
                         + (dmu_dt * torque * settings.efficiency_rel_std) ** 2
                         + (rolling * settings.hysteresis_rel_std) ** 2
-                        + (dmu_dt * dtorque_di * sd_within) ** 2)
+                        + (dmu_dt * dtorque_di * sd_within) ** 2
+                        + ((mu + rolling) * load_rel_std) ** 2)
         est = slip_from_traction(terrain.curve, mu)
         lo, hi = _slip_interval(terrain.curve, mu - k * sd_mu, mu + k * sd_mu)
         sd = (hi - lo) / (2.0 * k)

@@ -7,8 +7,10 @@ import pytest
 
 from terrain.errors import ConfigError, ShapeError
 from terrain.sim.simulate import SimConfig, simulate_with_physics
-from terrain.slip.physics import (PhysicsSlipSettings, physics_slip, pitch_from_accelerometer,
+from terrain.slip.physics import (PhysicsSlipSettings, normal_load_factor, physics_slip,
+                                  pitch_from_accelerometer, pitch_std_from_accelerometer,
                                   traction_from_torque, wheel_torque_from_current)
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
 from terrain.terramechanics.inverse import slip_from_traction, stable_side
 from terrain.terramechanics.traction import traction_coefficient, traction_peak
@@ -145,3 +147,55 @@ def test_within_window_spread_counts_only_above_the_sensor_noise():
     np.testing.assert_allclose(moving.std[0], steady.std[0])
     assert np.all(moving.std[1] > 2 * steady.std[1])
     np.testing.assert_allclose(moving.slip, steady.slip)
+
+
+def test_pitch_std_matches_the_spread_of_window_means_of_coloured_vibration():
+    # AR(1) vibration (pole 0.6) of 2 m/s^2 on level ground, 100-sample windows: the std of
+    # the window-mean pitch predicted from each window alone against its actual spread
+    rng = np.random.default_rng(4)
+    n_w, n, a = 4000, 100, 0.6
+    w = rng.standard_normal((n_w, n + 200)) * 2.0 * np.sqrt(1 - a * a)
+    ax = np.zeros_like(w)
+    for k in range(1, w.shape[1]):
+        ax[:, k] = a * ax[:, k - 1] + w[:, k]
+    ax = ax[:, 200:]
+    pitch = pitch_from_accelerometer(ax.mean(axis=1), 0.0, G_M_S2)
+    predicted = np.sqrt(np.mean(pitch_std_from_accelerometer(ax) ** 2))
+    assert predicted == pytest.approx(pitch.std(), rel=0.08)
+    # white noise: tau ~ 1, the plain std of the mean
+    white = rng.standard_normal((n_w, n))
+    np.testing.assert_allclose(np.median(pitch_std_from_accelerometer(white)),
+                               1.0 / np.sqrt(n) / G_M_S2, rtol=0.1)
+    assert pitch_std_from_accelerometer(np.ones((2, 50))).tolist() == [0.0, 0.0]
+
+
+def test_normal_load_factor_makes_the_cosine_unbiased():
+    rng = np.random.default_rng(5)
+    for p, sigma in ((0.0, 0.06), (0.2, 0.05)):
+        est = p + sigma * rng.standard_normal(200_000)
+        factor, rel = normal_load_factor(est, np.full_like(est, sigma))
+        corrected = np.cos(est) * factor
+        assert np.mean(np.cos(est)) < np.cos(p) * (1 - 0.4 * sigma ** 2)   # biased low
+        assert np.mean(corrected) == pytest.approx(np.cos(p), rel=2e-4)
+        # the reported relative std covers the corrected load's spread: close to it on a
+        # slope, up to 1.45x on level ground (tan(p)^2 estimated by a clipped difference)
+        ratio = np.sqrt(np.mean(rel ** 2)) / (corrected.std() / np.cos(p))
+        assert 0.9 < ratio < (1.15 if p else 1.45)
+    f, r = normal_load_factor(np.array([0.1]), None)
+    assert f.tolist() == [1.0] and r.tolist() == [0.0]
+
+
+def test_noisy_pitch_no_longer_biases_the_physics_slip_on_snow():
+    # planted: the exact drive of a steady SNOW window, pitch read with 0.06 rad of noise
+    rng = np.random.default_rng(6)
+    n = 20_000
+    rim = np.full((n, 2), 0.95)
+    exact = physics_slip(HUSKY, {"SNOW": 1.0}, np.full((1, 2), 5.2), rim[:1], np.zeros(1))
+    pitch = 0.06 * rng.standard_normal(n)
+    cur = np.full((n, 2), 5.2)
+    plain = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, pitch)
+    fixed = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, pitch, pitch_std_rad=np.full(n, 0.06))
+    bias_plain = plain.slip.mean() - exact.slip.mean()
+    bias_fixed = fixed.slip.mean() - exact.slip.mean()
+    assert bias_plain > 5e-4                                  # cos(pitch) < 1: slip read high
+    assert abs(bias_fixed) < 0.1 * bias_plain
