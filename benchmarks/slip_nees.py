@@ -1,0 +1,91 @@
+"""NEES of the fused slip filter on simulated straight runs with truth (issue 10, item 4).
+
+For each terrain and seed, a 40 s ``straight_accel`` Husky run (simulated once, cached under
+``out/slip_cache``) is filtered by ``terrain estimate``'s batch estimator
+(:func:`terrain.slip.estimate.estimate_skid_steer_slip_run`, source ``fused``, the latest
+registered ``slip-husky`` model) with the simulation noise model of the physics slip (exact
+motor and terrain constants); the NEES of ``slip_1, slip_2`` after 3 s is tested with
+:func:`terrain.estimation.consistency.chi2_test` per triplet of seeds and over all runs.
+``--settings`` is a JSON list of ``SkidSteerSlipSettings`` overrides of
+:data:`terrain.slip.estimate.BATCH_FUSION` (``{}`` = the shipped setting; ``rho`` sets the
+error correlation). Figures are printed and logged to MLflow (experiment
+``terrain-benchmark``, run ``slip-nees``). ``docs/slip_learning.md`` section 5.
+
+Usage: ``python benchmarks/slip_nees.py --seeds 200-211 [--settings '[{}]']`` (after
+``terrain slip-fit``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+
+import numpy as np
+
+from features.slip_outputs import slip_model_outputs
+from pipelines.slip_model import resolve_slip_model
+from terrain.estimation.consistency import chi2_test, nees
+from terrain.slip.dataset import SlipDataSpec, simulated_runs
+from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
+from terrain.slip.physics import PhysicsSlipSettings
+from terrain.tracking import tracked_run
+
+TERRAINS = ("ASPHALT", "SANDY_LOAM", "SNOW", "ICE", "GRASS")
+
+
+def _seeds(spec: str) -> tuple[int, ...]:
+    out = []
+    for part in spec.split(","):
+        lo, _, hi = part.partition("-")
+        out += range(int(lo), int(hi or lo) + 1)
+    return tuple(out)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", default="200-211", help="e.g. 200-211 or 100-102,300-305")
+    parser.add_argument("--settings", default="[{}]", help="JSON list of filter overrides")
+    parser.add_argument("--cache-dir", default="out/slip_cache")
+    args = parser.parse_args()
+    model, _ = resolve_slip_model(None)
+    runs = simulated_runs(SlipDataSpec(terrains=TERRAINS, scenarios=("straight_accel",),
+                                       seeds=_seeds(args.seeds)), args.cache_dir)
+    sim = PhysicsSlipSettings(efficiency_rel_std=0.0, hysteresis_rel_std=0.0)
+    outputs = [slip_model_outputs(r, model, sim) for r in runs]
+    with tracked_run("terrain-benchmark", "slip-nees", {"seeds": args.seeds,
+                                                        "settings": args.settings}) as run:
+        for k, cfg in enumerate(json.loads(args.settings)):
+            rho = cfg.pop("rho", BATCH_FUSION.error_correlation)
+            fs = replace(BATCH_FUSION, error_correlation=rho,
+                         filter=replace(BATCH_FUSION.filter, **cfg))
+            per_run: dict[str, list[np.ndarray]] = {}
+            for r, out in zip(runs, outputs):
+                tr = r.streams["truth"]
+                f = estimate_skid_steer_slip_run(r, "fused", outputs=out, settings=fs).ekf
+                i = [f.state_names.index(n) for n in ("slip_1", "slip_2")]
+                late = f.t_s > 3.0
+                err = f.x[late][:, i] - np.column_stack(
+                    [np.interp(f.t_s[late], tr["t_s"], tr[c]) for c in ("slip_1", "slip_2")])
+                per_run.setdefault(str(r.terrain), []).append(
+                    nees(err, f.P[late][:, i][:, :, i]))
+            print(f"setting {k}: {cfg} rho {rho}")
+            for t, v in sorted(per_run.items()):
+                means = [float(np.nanmean(x)) for x in v]
+                trips = [chi2_test(np.concatenate(v[j:j + 3]), 2)
+                         for j in range(0, len(v) - 2, 3)]
+                inside = sum(tt.inside for tt in trips)
+                pooled = chi2_test(np.concatenate(v), 2)
+                print(f"  {t:11s} mean NEES {np.mean(means):.2f} +- "
+                      f"{np.std(means) / np.sqrt(len(means)):.2f} over {len(means)} runs; "
+                      f"triplets inside {inside}/{len(trips)}; all runs pooled "
+                      f"{pooled.mean:.2f} [{pooled.bounds[0]:.2f}, {pooled.bounds[1]:.2f}]",
+                      flush=True)
+                run.log_metrics({f"s{k}.{t}.mean_nees": float(np.mean(means)),
+                                 f"s{k}.{t}.triplets_inside": float(inside),
+                                 f"s{k}.{t}.n_triplets": float(len(trips))})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
