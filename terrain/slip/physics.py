@@ -45,9 +45,9 @@ from terrain.errors import ConfigError, ShapeError
 from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.sim.sensors import SensorSettings
-from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.terramechanics.inverse import slip_from_traction
+from terrain.terramechanics.resistance import G_M_S2
 
 
 @dataclass(frozen=True)
@@ -201,9 +201,9 @@ def normal_load_factor(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray | None
     by that factor on average, so it is multiplied by ``exp(sigma^2 / 2)``, which makes it
     unbiased; what is left is a relative error of std
     ``sqrt(tan(p)^2 sigma^2 + sigma^4 / 2)`` (first order in ``e`` on a slope, second order
-    on level ground), with ``tan(p)^2`` estimated by ``max(tan(p + e)^2 - sigma^2, 0)``. Without it the slip from a vibrating accelerometer is biased high:
-    +0.001 on simulated SNOW, where the window pitch has a std of 0.058 rad
-    (``docs/slip_learning.md``).
+    on level ground), with ``tan(p)^2`` estimated by ``max(tan(p + e)^2 - sigma^2, 0)``.
+    Without it the slip from a vibrating accelerometer is biased high: +0.001 on simulated
+    SNOW, where the window pitch has a std of 0.058 rad (``docs/slip_learning.md``).
 
     Parameters
     ----------
