@@ -30,6 +30,7 @@ import pandas as pd
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
 from terrain.errors import ConfigError
+from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
@@ -126,7 +127,8 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
         Probability of each catalogue terrain (the column order of the fitted model's
         ``p__*`` features); None leaves the terrain and physics features out.
     current_rate_hz : float
-        Rate of independent current samples, Hz.
+        Rate of independent current samples, Hz (the noise of a window's mean current is
+        that of :func:`terrain.io.align.interpolated_mean_count` samples).
 
     Returns
     -------
@@ -168,7 +170,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         Probability of each terrain per window; None leaves the terrain and physics columns
         out.
     current_rate_hz : float
-        Rate of independent current samples, Hz.
+        Rate of independent current samples, Hz (the noise of a window's mean current is
+        that of :func:`terrain.io.align.interpolated_mean_count` samples).
 
     Returns
     -------
@@ -206,7 +209,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         rim = np.column_stack([cols["vel_l__mean"], cols["vel_r__mean"]])
         r_w = vehicle.contact_geometry().wheel_radius_m
         wheel_acc = np.column_stack([slope, slope]) / r_w
-        n_cur = max(1.0, n_s / rate_hz * min(current_rate_hz, rate_hz))
+        # noise of the window-mean current: the current stream is interpolated
+        n_cur = interpolated_mean_count(n_s, rate_hz, current_rate_hz)
         spread = np.column_stack([cols["cur_l__std"], cols["cur_r__std"]])
         phys = physics_slip(vehicle, dict(probabilities), cur, rim, pitch, wheel_acc,
                             n_averaged=n_cur, current_within_std_a=spread,

@@ -15,6 +15,7 @@ import numpy as np
 
 from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_features,
                                     slip_windows)
+from terrain.io.align import interpolated_mean_count
 from terrain.run import Run
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (PhysicsSlipSettings, physics_slip,
@@ -78,8 +79,7 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(float)
     acc = np.repeat(X[["vel_mean__slope"]].to_numpy(float), 2, axis=1) / \
         vehicle.contact_geometry().wheel_radius_m
-    n_cur = max(1.0, ws.X.shape[-1] / ws.rate_hz * min(SensorSettings.wheel_rate_hz,
-                                                        ws.rate_hz))
+    n_cur = interpolated_mean_count(ws.X.shape[-1], ws.rate_hz, SensorSettings.wheel_rate_hz)
 
     spread = X[["cur_l__std", "cur_r__std"]].to_numpy(float)
     pitch_std = pitch_std_from_accelerometer(ws.X[:, list(ws.channels).index("ax")])

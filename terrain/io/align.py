@@ -155,6 +155,58 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
     return out
 
 
+def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: float,
+                            n_phases: int = 64) -> float:
+    """Effective number of independent stream samples in the mean of one aligned window.
+
+    A stream slower than the clock is linearly interpolated onto it (step 3 of the method),
+    so the ``n_samples`` window values are hat-weighted sums of the stream's own samples
+    ``e_j``: the window mean is ``sum_j w_j e_j`` and its noise variance is
+    ``sigma^2 sum_j w_j^2`` for white sample noise of variance ``sigma^2``. This returns
+    ``1 / E[sum_j w_j^2]``, the expectation taken over the offset of the stream's samples
+    against the window (uniform), so ``sigma / sqrt(count)`` is the noise std of the window
+    mean. It is slightly more than ``window length x native rate`` (13 for BorealTC's 6.5 Hz
+    wheel stream in 2 s): the samples just outside the window share its edge values. For a
+    stream at least as fast as the clock (anti-alias filtered, then interpolated) the count
+    is taken as ``n_samples`` (one independent value per clock sample, an approximation).
+
+    Parameters
+    ----------
+    n_samples : int
+        Window length in clock samples (>= 1).
+    rate_hz : float
+        Clock rate, Hz (> 0).
+    native_rate_hz : float
+        The stream's own sample rate, Hz (> 0).
+    n_phases : int
+        Offsets averaged over (evenly spaced over one stream step).
+
+    Returns
+    -------
+    float
+        Effective sample count (>= 1).
+
+    Raises
+    ------
+    ConfigError
+        A non-positive count or rate.
+    """
+    if n_samples < 1 or not rate_hz > 0 or not native_rate_hz > 0 or n_phases < 1:
+        raise ConfigError(f"interpolated_mean_count needs n_samples >= 1 and rates > 0, got "
+                          f"{n_samples}, {rate_hz}, {native_rate_hz}")
+    if native_rate_hz >= rate_hz:
+        return float(n_samples)
+    t = np.arange(n_samples) / rate_hz
+    sum_sq = 0.0
+    for phase in (np.arange(n_phases) + 0.5) / n_phases:
+        # stream samples bracketing the window, offset by `phase` of a step
+        tau = (np.arange(np.floor(-phase) - 1, np.ceil(t[-1] * native_rate_hz) + 2)
+               + phase) / native_rate_hz
+        hat = np.maximum(0.0, 1.0 - np.abs(t[:, None] - tau[None, :]) * native_rate_hz)
+        sum_sq += float(np.sum(hat.mean(axis=0) ** 2))
+    return max(1.0, n_phases / sum_sq)
+
+
 def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                   rate_hz: float = DEFAULT_RATE_HZ, gap_factor: float = 3.0) -> pd.DataFrame:
     """Put the named streams of ``run`` on one uniform clock.

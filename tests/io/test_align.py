@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from terrain.errors import ConfigError, DataFormatError
-from terrain.io.align import align_arrays, align_streams, median_step, overlap_grid
+from terrain.io.align import (align_arrays, align_streams, interpolated_mean_count, median_step,
+                              overlap_grid)
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
 
@@ -168,3 +169,29 @@ def test_overlap_grid_is_empty_without_overlap_and_median_step_is_the_median():
     for n in (2, 3, 10, 11):
         t = np.cumsum(np.random.default_rng(n).uniform(0.01, 0.2, n))
         assert median_step(t) == pytest.approx(float(np.median(np.diff(t))), abs=0, rel=1e-15)
+
+
+@pytest.mark.parametrize("native_hz,n_samples,rate_hz", [(1.0 / 0.1538, 100, 50.0),
+                                                        (15.0, 100, 50.0), (6.5, 200, 100.0)])
+def test_interpolated_mean_count_matches_monte_carlo(native_hz, n_samples, rate_hz):
+    """The noise of the mean of a linearly interpolated window (align_arrays) of white
+    samples has the variance sigma^2 / count."""
+    rng = np.random.default_rng(3)
+    grid = np.arange(n_samples) / rate_hz
+    means = []
+    for _ in range(4000):
+        t = (np.arange(-3, int(n_samples / rate_hz * native_hz) + 4) + rng.uniform()) / native_hz
+        e = rng.standard_normal((t.size, 1))
+        means.append(align_arrays([t], [e], grid, rate_hz)[:, 0].mean())
+    count = interpolated_mean_count(n_samples, rate_hz, native_hz)
+    assert np.var(means) * count == pytest.approx(1.0, abs=0.06)
+    # the interpolated window mean averages a little more than `duration x native rate`
+    assert n_samples / rate_hz * native_hz < count < n_samples / rate_hz * native_hz + 1.0
+
+
+def test_interpolated_mean_count_limits():
+    # a stream at least as fast as the clock: one independent value per clock sample
+    assert interpolated_mean_count(100, 50.0, 100.0) == 100.0
+    assert interpolated_mean_count(1, 50.0, 6.5) >= 1.0
+    with pytest.raises(ConfigError):
+        interpolated_mean_count(0, 50.0, 6.5)
