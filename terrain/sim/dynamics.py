@@ -343,6 +343,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     # side-force factor per terrain index: the tyre's combined-slip law on rigid surfaces
     side_factor = [tyre.side_force_factor if (tyre is not None and not is_deformable(t))
                    else None for t in terrains]
+    hold_slip = [tyre.hold_slip(t.curve) if f is not None else 1.0
+                 for t, f in zip(terrains, side_factor)]
     lt = LOAD_TRANSFER.get(vehicle.name)
     cog_h = lt.cog_height_m if (v2 and lt is not None) else 0.0
     alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)
@@ -403,7 +405,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             normal = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m,
                                               mass, cog_h, acc_lt[0], acc_lt[1])
         contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
-                                 side_factor[ti])
+                                 side_factor[ti], hold_slip[ti])
         force = contact.force + gravity_force(mass, slope_rad, pose[2])
         force[0] += mass * vel[2] * vel[1]
         force[1] -= mass * vel[2] * vel[0]

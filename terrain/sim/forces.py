@@ -50,6 +50,7 @@ from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
 from terrain.terramechanics.resistance import G_M_S2, lateral_force_and_slope
 from terrain.terramechanics.slip import sae_slip_and_velocity_slope
+from terrain.terramechanics.traction import traction_peak
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -165,10 +166,39 @@ class CombinedSlipParams:
         in (0, 1]: side over longitudinal friction of the tyre at the same resultant slip.
     source : str
         Where the value comes from.
+    hold_at_peak : bool
+        Hold the friction at the surface curve's peak past its peak slip (no falling branch;
+        ``hold_slip`` of ``combined_slip_coefficients`` = the peak slip of
+        :func:`terrain.terramechanics.traction.traction_peak`) instead of following the
+        curve to full slip. The falling branch of a Burckhardt curve is the locked wheel of a
+        car braking at road speed: rubber friction falls with the *sliding speed* past a peak
+        (K. A. Grosch, Proc. R. Soc. A 274, 1963; Burckhardt's velocity factor
+        ``exp(-c4 s v)``, Kiencke and Nielsen 2005), and a skid-steer robot turning at
+        walking speed slides at 0.1-0.5 m/s, where it has not fallen.
     """
 
     side_force_factor: float
     source: str
+    hold_at_peak: bool = False
+
+    def hold_slip(self, curve) -> float:
+        """Resultant slip at which the friction on ``curve`` is held (dimensionless).
+
+        Parameters
+        ----------
+        curve : TractionCurve
+            Surface traction-slip curve.
+
+        Returns
+        -------
+        float
+            The peak slip of a curve that falls past an interior peak when
+            ``hold_at_peak``; else 1.
+        """
+        if not self.hold_at_peak:
+            return 1.0
+        peak = traction_peak(curve)
+        return 1.0 if peak.monotonic else float(peak.slip)
 
 
 #: Tyres with the combined-slip law in physics v2, by vehicle (read-only); a vehicle without
@@ -177,11 +207,15 @@ class CombinedSlipParams:
 #: (ASPHALT, FLOORING, ICE; docs/physics_v2.md, ``benchmarks/sweep_soil_params.py
 #: --side-force-factors``), one value for its tyres on every rigid surface.
 COMBINED_SLIP: Mapping[str, CombinedSlipParams] = MappingProxyType({
-    "husky": CombinedSlipParams(0.7, (
-        "CHOSEN on training runs: 0.7 of the grid 0.5-1.0 minimises the summed yaw-rate and "
+    "husky": CombinedSlipParams(0.6, (
+        "CHOSEN on training runs: 0.6 of the grid 0.5-1.0 minimises the summed yaw-rate and "
         "current RMSE ratios to v1 over the training halves of the BorealTC ASPHALT, "
-        "FLOORING and ICE runs (docs/physics_v2.md); Kiencke & Nielsen (2005) give "
-        "k_S below 1 for car tyres; lugged 13 in Husky tyres, no published value")),
+        "FLOORING and ICE runs, with the friction held at the peak (docs/physics_v2.md; "
+        "0.7 without the hold); Kiencke & Nielsen (2005) give k_S below 1 for car tyres; "
+        "lugged 13 in Husky tyres, no published value. Held at the peak: rubber friction "
+        "falls with sliding speed only well above the 0.1-0.5 m/s of a turning robot "
+        "(Grosch 1963)"),
+        hold_at_peak=True),
 })
 
 @dataclass(frozen=True)
@@ -320,7 +354,8 @@ class ContactForces(NamedTuple):
 def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np.ndarray,
                    omega: np.ndarray, normal_load_n: np.ndarray | None = None,
                    soil: SoilContact | None = None,
-                   side_force_factor: float | None = None) -> ContactForces:
+                   side_force_factor: float | None = None,
+                   hold_slip: float = 1.0) -> ContactForces:
     """Contact forces of all wheels/tracks and their Jacobian (the force model).
 
     Parameters
@@ -350,6 +385,9 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
         and the side slip ``v_lat / max(|omega r|, |v_long|, floor)``; the Jacobian keeps
         each direction's own slope (tangent, or the secant where that is steeper, as for
         the longitudinal law) and drops the cross terms. None: the laws above.
+    hold_slip : float
+        Resultant slip past which the combined-slip friction is held
+        (:meth:`CombinedSlipParams.hold_slip`); 1 = the curve up to full slip.
 
     Returns
     -------
@@ -370,7 +408,8 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     if combined:
         den = np.maximum(np.maximum(np.abs(wr), np.abs(v_long)), SLIP_SPEED_FLOOR_M_S)
         slip_side = v_lat / den
-        comb = combined_slip_coefficients(terrain.curve, slip, slip_side, side_force_factor)
+        comb = combined_slip_coefficients(terrain.curve, slip, slip_side, side_force_factor,
+                                          hold_slip)
         mu = comb.mu_long
         # each direction's slope of the ellipse at the other's fixed slip,
         # g + (s_i / s_res)^2 (mu' - g), floored at the secant g (no overshoot past the peak)

@@ -47,8 +47,8 @@ class CombinedSlip(NamedTuple):
         ``mu(s_res) / s_res`` (the slope ``d mu / d s`` of the curve at 0 where
         ``s_res = 0``), >= 0: force coefficient per unit slip along the slip direction.
     tangent : ndarray
-        ``d mu / d s`` of the curve at ``s_res`` (0 beyond ``s_res = 1``, where the curve
-        is held at its value at 1).
+        ``d mu / d s`` of the curve at ``s_res`` (0 beyond the hold slip, 1 by default,
+        where the curve is held at its value there).
     resultant_slip : ndarray
         ``s_res``, >= 0 (dimensionless; may exceed 1 when the side slip is large).
     """
@@ -61,7 +61,8 @@ class CombinedSlip(NamedTuple):
 
 
 def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarray,
-                               side_force_factor: float) -> CombinedSlip:
+                               side_force_factor: float, hold_slip: float = 1.0
+                               ) -> CombinedSlip:
     """Longitudinal and side force coefficients of the friction ellipse (module docstring).
 
     Parameters
@@ -76,6 +77,11 @@ def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarr
         (dimensionless, any sign and size).
     side_force_factor : float
         ``k_S`` of the tyre, in (0, 1] (1: isotropic).
+    hold_slip : float
+        Resultant slip in (0, 1] beyond which the friction is held at its value there
+        (dimensionless). 1: the curve up to full slip, then constant. The curve's peak slip
+        (:func:`terrain.terramechanics.traction.traction_peak`): no falling branch, the
+        friction of a tyre sliding slowly (:data:`terrain.sim.forces.COMBINED_SLIP`).
 
     Returns
     -------
@@ -84,15 +90,17 @@ def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarr
     Raises
     ------
     ConfigError
-        ``side_force_factor`` outside (0, 1].
+        ``side_force_factor`` or ``hold_slip`` outside (0, 1].
     """
     if not 0.0 < side_force_factor <= 1.0:
         raise ConfigError(f"side_force_factor must be in (0, 1], got {side_force_factor}")
+    if not 0.0 < hold_slip <= 1.0:
+        raise ConfigError(f"hold_slip must be in (0, 1], got {hold_slip}")
     s_x = np.asarray(slip_long, dtype=float)
     s_y = np.asarray(slip_side, dtype=float)
     s_res = np.hypot(s_x, s_y)
-    mu_res, dmu = curve.coefficients(np.minimum(s_res, 1.0), 0.0)[:2]
+    mu_res, dmu = curve.coefficients(np.minimum(s_res, hold_slip), 0.0)[:2]
     at_zero = s_res < 1e-12
     secant = np.where(at_zero, dmu, mu_res / np.where(at_zero, 1.0, s_res))
-    tangent = np.where(s_res > 1.0, 0.0, dmu)
+    tangent = np.where(s_res > hold_slip, 0.0, dmu)
     return CombinedSlip(secant * s_x, -side_force_factor * secant * s_y, secant, tangent, s_res)

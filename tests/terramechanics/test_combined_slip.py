@@ -14,6 +14,7 @@ from terrain.sim import SimConfig
 from terrain.sim.forces import COMBINED_SLIP
 from terrain.sim.simulate import simulate_with_physics
 from terrain.terramechanics import get_terrain, is_deformable, traction_coefficient
+from terrain.terramechanics.traction import traction_peak
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import icr_expansion_factor
@@ -93,3 +94,62 @@ def test_simulated_spin_chi_is_the_moment_balance_of_sliding_contacts(terrain, k
 def test_the_husky_tyre_entry_is_in_range_and_sourced():
     tyre = COMBINED_SLIP["husky"]
     assert 0.0 < tyre.side_force_factor <= 1.0 and "training" in tyre.source
+
+
+def test_held_at_the_peak_there_is_no_falling_branch():
+    peak = traction_peak(ASPHALT)
+    s_x = np.array([0.05, 0.1, 0.5, 1.0])
+    s_y = np.array([0.02, 0.05, 2.0, 3.0])
+    held = combined_slip_coefficients(ASPHALT, s_x, s_y, 0.7, hold_slip=peak.slip)
+    full = combined_slip_coefficients(ASPHALT, s_x, s_y, 0.7)
+    below = np.hypot(s_x, s_y) < peak.slip
+    # below the peak slip nothing changes; past it the resultant friction is the peak's
+    np.testing.assert_allclose(held.mu_long[below], full.mu_long[below], rtol=1e-12)
+    np.testing.assert_allclose(np.hypot(held.mu_long, held.mu_side / 0.7)[~below], peak.mu,
+                               rtol=1e-9)
+    assert np.all(held.tangent[~below] == 0.0)
+    assert np.all(np.hypot(full.mu_long, full.mu_side)[~below]
+                  < np.hypot(held.mu_long, held.mu_side)[~below])
+    for bad in (0.0, 1.5):
+        with pytest.raises(ConfigError, match="hold_slip"):
+            combined_slip_coefficients(ASPHALT, s_x, s_y, 0.7, hold_slip=bad)
+
+
+def test_tyre_hold_slip_is_the_peak_of_a_falling_curve_only():
+    tyre = replace(COMBINED_SLIP["husky"], hold_at_peak=True)
+    flooring = get_terrain("FLOORING").curve
+    assert tyre.hold_slip(flooring) == pytest.approx(traction_peak(flooring).slip)
+    assert 0.05 < tyre.hold_slip(flooring) < 0.3
+    assert tyre.hold_slip(get_terrain("ICE").curve) == 1.0        # rises to full slip
+    assert replace(tyre, hold_at_peak=False).hold_slip(flooring) == 1.0
+
+
+def _spin_torque(hold_at_peak: bool) -> float:
+    """Mean drive torque magnitude of a simulated v2 Husky spin on FLOORING, N m."""
+    original = dynamics.COMBINED_SLIP
+    dynamics.COMBINED_SLIP = MappingProxyType(
+        {**original, "husky": replace(original["husky"], hold_at_peak=hold_at_peak)})
+    try:
+        sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=("FLOORING",),
+                                              scenario="spin", duration_s=16.0, seed=1,
+                                              physics="v2"))
+    finally:
+        dynamics.COMBINED_SLIP = original
+    turning = np.abs(sim.physics.twist[:, 2]) > 0.3
+    return float(np.mean(np.abs(sim.physics.torque[turning])))
+
+
+def test_spin_torque_follows_the_held_friction():
+    # sliding contacts: the drive torque of a spin is proportional to the friction at the
+    # contacts' resultant slip (s_L = (chi - 1) / chi, s_S = (a / b) / chi, past the peak),
+    # so holding the FLOORING curve at its peak raises it by mu_peak / mu(s_res)
+    flooring = get_terrain("FLOORING").curve
+    k_s = COMBINED_SLIP["husky"].side_force_factor
+    a, b = HUSKY.wheelbase_m / 2.0, HUSKY.track_m / 2.0
+    chi = 1.0 + k_s * (a / b) ** 2
+    s_res = np.hypot((chi - 1.0) / chi, (a / b) / chi)
+    assert s_res > traction_peak(flooring).slip
+    ratio = traction_peak(flooring).mu / float(traction_coefficient(flooring, s_res))
+    measured = _spin_torque(True) / _spin_torque(False)
+    assert measured == pytest.approx(ratio, rel=0.1)
+    assert measured > 1.15
