@@ -17,7 +17,9 @@ Run::
     python benchmarks/sweep_soil_params.py --terrain ASPHALT,FLOORING,ICE \\
         --side-force-factors 0.5 0.6 0.7 0.8 1.0
 
-The second form sweeps the side-force factor of the Husky's combined-slip tyre law on rigid
+``--friction-factors 1 2 3`` with ``--terrain ICE`` sweeps instead the factor on that surface's
+catalogue friction for the Husky tyre (``CombinedSlipParams.friction_scale``), same table and
+criterion. The second form sweeps the side-force factor of the Husky's combined-slip tyre law on rigid
 surfaces (:data:`terrain.sim.forces.COMBINED_SLIP`) over the listed terrains at once: per
 terrain and pooled over them (samples of all runs together), training and held-out RMSE of
 yaw rate and current, and the criterion the shipped value was chosen by, the sum of the
@@ -202,17 +204,22 @@ def _v2_errors(runs, refs, settings):
     return out
 
 
-def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True) -> int:
-    """Sweep the Husky tyre's side-force factor over rigid terrains (module docstring).
+def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True,
+                     friction: bool = False) -> int:
+    """Sweep the Husky tyre's side-force factor, or its friction factor, over rigid terrains.
 
     Parameters
     ----------
     terrains : list of str
         BorealTC rigid terrains, each split into training and held-out runs by :func:`split`.
     factors : list of float
-        Side-force factors to replay with (``k_S`` in (0, 1]).
+        Side-force factors to replay with (``k_S`` in (0, 1]); with ``friction``, factors on
+        the catalogue friction of every terrain in ``terrains``
+        (``CombinedSlipParams.friction_scale``), the shipped ``k_S`` kept.
     chi : bool
         Also print the chi of a simulated spin and headland turn per terrain.
+    friction : bool
+        Sweep the friction factor instead of ``k_S``.
 
     Returns
     -------
@@ -254,8 +261,10 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
     original = dynamics.COMBINED_SLIP
     try:
         for k_s in factors:
-            dynamics.COMBINED_SLIP = MappingProxyType(
-                {**original, "husky": replace(original["husky"], side_force_factor=k_s)})
+            tyre = (replace(original["husky"], friction_scale=MappingProxyType(
+                        {**original["husky"].friction_scale, **{t: k_s for t in terrains}}))
+                    if friction else replace(original["husky"], side_force_factor=k_s))
+            dynamics.COMBINED_SLIP = MappingProxyType({**original, "husky": tyre})
             errs = {(t, k): _v2_errors(parts[t][k], refs, settings)
                     for t in terrains for k in ("train", "held")}
             row(errs, f"{k_s:g}", ref)
@@ -277,6 +286,10 @@ def main() -> int:
                     help="instead of a soil sweep: the Husky tyre's side-force factor of the "
                          "rigid-surface combined-slip law, over the comma-separated --terrain "
                          "list (module docstring)")
+    ap.add_argument("--friction-factors", type=float, nargs="+", metavar="F",
+                    help="instead of a soil sweep: factors on the catalogue friction of the "
+                         "Husky tyre on the --terrain list (rigid; friction_scale of "
+                         "terrain.sim.forces.COMBINED_SLIP), the shipped k_S kept")
     ap.add_argument("--heldout-table", metavar="CSV",
                     help="instead of a sweep: v2 (shipped parameters) against v1 on the runs no "
                          "parameter was chosen on (the held-out half of the TUNED_TERRAINS, "
@@ -290,6 +303,9 @@ def main() -> int:
     if args.side_force_factors:
         return sweep_side_force(args.terrain.split(","), args.side_force_factors,
                                 not args.no_chi)
+    if args.friction_factors:
+        return sweep_side_force(args.terrain.split(","), args.friction_factors,
+                                not args.no_chi, friction=True)
     if args.per_run_chi:
         return per_run_chi(args.terrain)
     if args.heldout_table:

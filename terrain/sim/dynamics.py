@@ -340,6 +340,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         terrains = tuple(v2_terrain(t, soils[t.name], float(np.mean(layout.normal_load_n)))
                          if t.name in soils else t for t in terrains)
     tyre = COMBINED_SLIP.get(vehicle.name) if v2 else None
+    if tyre is not None:
+        # this tyre's friction on the rigid surfaces it has a factor for
+        terrains = tuple(t if is_deformable(t) else replace(t, curve=tyre.surface_curve(
+            t.name, t.curve)) for t in terrains)
     # side-force factor per terrain index: the tyre's combined-slip law on rigid surfaces
     side_factor = [tyre.side_force_factor if (tyre is not None and not is_deformable(t))
                    else None for t in terrains]

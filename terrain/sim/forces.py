@@ -40,17 +40,18 @@ integrator needs.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping, NamedTuple
 
 import numpy as np
 
+from terrain.errors import ConfigError
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
 from terrain.terramechanics.resistance import G_M_S2, lateral_force_and_slope
 from terrain.terramechanics.slip import sae_slip_and_velocity_slope
-from terrain.terramechanics.traction import traction_peak
+from terrain.terramechanics.traction import BurckhardtCurve, traction_peak
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -175,11 +176,47 @@ class CombinedSlipParams:
         (K. A. Grosch, Proc. R. Soc. A 274, 1963; Burckhardt's velocity factor
         ``exp(-c4 s v)``, Kiencke and Nielsen 2005), and a skid-steer robot turning at
         walking speed slides at 0.1-0.5 m/s, where it has not fallen.
+    friction_scale : Mapping[str, float]
+        Factor on the friction of the catalogue curve of a rigid surface for this tyre, by
+        terrain name (:meth:`surface_curve`; physics v2 only); surfaces without an entry
+        keep the catalogue curve.
     """
 
     side_force_factor: float
     source: str
     hold_at_peak: bool = False
+    friction_scale: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+
+    def surface_curve(self, terrain_name: str, curve):
+        """Traction-slip curve of this tyre on a rigid surface (``friction_scale`` applied).
+
+        Parameters
+        ----------
+        terrain_name : str
+            Catalogue terrain name.
+        curve : TractionCurve
+            The catalogue curve of that terrain.
+
+        Returns
+        -------
+        TractionCurve
+            ``curve`` itself without an entry; else a Burckhardt curve with ``c1`` and ``c3``
+            multiplied by the factor (the friction at every slip scaled, the peak slip kept).
+
+        Raises
+        ------
+        ConfigError
+            A factor for a curve that is not a Burckhardt curve, or a factor <= 0.
+        """
+        factor = self.friction_scale.get(terrain_name)
+        if factor is None:
+            return curve
+        if not isinstance(curve, BurckhardtCurve) or not factor > 0:
+            raise ConfigError(f"friction_scale of {terrain_name} needs a Burckhardt curve and "
+                              f"a factor > 0, got {type(curve).__name__}, {factor}")
+        return BurckhardtCurve(factor * curve.c1, curve.c2, factor * curve.c3,
+                               f"{curve.source}; friction x {factor:g} for this tyre "
+                               f"(terrain.sim.forces.COMBINED_SLIP)")
 
     def hold_slip(self, curve) -> float:
         """Resultant slip at which the friction on ``curve`` is held (dimensionless).
@@ -214,8 +251,11 @@ COMBINED_SLIP: Mapping[str, CombinedSlipParams] = MappingProxyType({
         "0.7 without the hold); Kiencke & Nielsen (2005) give k_S below 1 for car tyres; "
         "lugged 13 in Husky tyres, no published value. Held at the peak: rubber friction "
         "falls with sliding speed only well above the 0.1-0.5 m/s of a turning robot "
-        "(Grosch 1963)"),
-        hold_at_peak=True),
+        "(Grosch 1963). Friction on ICE x 5 (0.25 instead of Burckhardt's 0.05 for ice): "
+        "CHOSEN on the training half of the BorealTC ICE runs by the same criterion over the "
+        "factors 1-6 (docs/physics_v2.md, section 'ICE'); no measurement of that ice exists, "
+        "Burckhardt's value is a car tyre on ice at road speed"),
+        hold_at_peak=True, friction_scale=MappingProxyType({"ICE": 5.0})),
 })
 
 @dataclass(frozen=True)

@@ -65,21 +65,29 @@ def test_rigid_surfaces_are_the_non_deformable_entries():
     assert all(is_deformable(get_terrain(t)) for t in ("SANDY_LOAM", "SNOW", "GRASS"))
 
 
-def _spin_chi(terrain: str, k_s: float) -> float:
-    """chi of a simulated v2 Husky spin with side-force factor ``k_s``."""
+def _v2_spin(terrain: str, **tyre):
+    """Physics of a simulated 16 s v2 Husky spin with the tyre entry's fields ``tyre``."""
     original = dynamics.COMBINED_SLIP
     dynamics.COMBINED_SLIP = MappingProxyType(
-        {**original, "husky": replace(original["husky"], side_force_factor=k_s)})
+        {**original, "husky": replace(original["husky"], **tyre)})
     try:
-        sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,),
-                                              scenario="spin", duration_s=16.0, seed=1,
-                                              physics="v2"))
+        return simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,),
+                                               scenario="spin", duration_s=16.0, seed=1,
+                                               physics="v2")).physics
     finally:
         dynamics.COMBINED_SLIP = original
-    p = sim.physics
+
+
+def _chi(p) -> float:
+    """chi of a simulated run's physics (yaw rate on the wheel yaw rate, turning samples)."""
     x = (p.omega[:, 1] - p.omega[:, 0]) * HUSKY.wheel_radius_m / HUSKY.track_m
     m = np.abs(x) > 0.1
     return icr_expansion_factor(p.twist[m, 2], x[m])
+
+
+def _spin_chi(terrain: str, k_s: float) -> float:
+    """chi of a simulated v2 Husky spin with side-force factor ``k_s``."""
+    return _chi(_v2_spin(terrain, side_force_factor=k_s))
 
 
 @pytest.mark.parametrize("terrain, k_s", [("ASPHALT", 1.0), ("ASPHALT", 0.7),
@@ -124,19 +132,14 @@ def test_tyre_hold_slip_is_the_peak_of_a_falling_curve_only():
     assert replace(tyre, hold_at_peak=False).hold_slip(flooring) == 1.0
 
 
+def _turning_torque(p) -> float:
+    """Mean drive torque magnitude of a simulated run's turning samples, N m."""
+    return float(np.mean(np.abs(p.torque[np.abs(p.twist[:, 2]) > 0.3])))
+
+
 def _spin_torque(hold_at_peak: bool) -> float:
     """Mean drive torque magnitude of a simulated v2 Husky spin on FLOORING, N m."""
-    original = dynamics.COMBINED_SLIP
-    dynamics.COMBINED_SLIP = MappingProxyType(
-        {**original, "husky": replace(original["husky"], hold_at_peak=hold_at_peak)})
-    try:
-        sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=("FLOORING",),
-                                              scenario="spin", duration_s=16.0, seed=1,
-                                              physics="v2"))
-    finally:
-        dynamics.COMBINED_SLIP = original
-    turning = np.abs(sim.physics.twist[:, 2]) > 0.3
-    return float(np.mean(np.abs(sim.physics.torque[turning])))
+    return _turning_torque(_v2_spin("FLOORING", hold_at_peak=hold_at_peak))
 
 
 def test_spin_torque_follows_the_held_friction():
@@ -153,3 +156,35 @@ def test_spin_torque_follows_the_held_friction():
     measured = _spin_torque(True) / _spin_torque(False)
     assert measured == pytest.approx(ratio, rel=0.1)
     assert measured > 1.15
+
+
+def test_tyre_friction_scale_scales_the_burckhardt_friction_and_keeps_its_peak_slip():
+    ice = get_terrain("ICE").curve
+    asphalt = get_terrain("ASPHALT").curve
+    tyre = replace(COMBINED_SLIP["husky"], friction_scale=MappingProxyType({"ICE": 3.0,
+                                                                            "ASPHALT": 0.5}))
+    s = np.linspace(0.0, 1.0, 21)
+    np.testing.assert_allclose(traction_coefficient(tyre.surface_curve("ICE", ice), s),
+                               3.0 * traction_coefficient(ice, s), rtol=1e-12)
+    half = tyre.surface_curve("ASPHALT", asphalt)
+    assert traction_peak(half).slip == pytest.approx(traction_peak(asphalt).slip, rel=1e-6)
+    assert traction_peak(half).mu == pytest.approx(0.5 * traction_peak(asphalt).mu)
+    flooring = get_terrain("FLOORING").curve
+    assert tyre.surface_curve("FLOORING", flooring) is flooring        # no entry: catalogue
+    with pytest.raises(ConfigError, match="friction_scale"):
+        replace(tyre, friction_scale=MappingProxyType({"ICE": 0.0})).surface_curve("ICE", ice)
+    with pytest.raises(ConfigError, match="Burckhardt"):
+        tyre.surface_curve("ICE", get_terrain("SANDY_LOAM").curve)
+
+
+def test_simulated_ice_spin_current_rises_with_the_tyre_friction_and_chi_does_not():
+    def spin(scale):
+        p = _v2_spin("ICE", friction_scale=MappingProxyType({"ICE": scale}))
+        return _chi(p), _turning_torque(p)
+    (chi1, torque1), (chi2, torque2), (chi3, torque3) = spin(1.0), spin(2.0), spin(3.0)
+    assert chi3 == pytest.approx(chi1, rel=0.03)       # chi = 1 + k_S (a/b)^2 at any friction
+    assert chi2 == pytest.approx(chi1, rel=0.03)
+    # the sliding contacts' friction torque is linear in the friction level (the rolling
+    # resistance torque, most of it on ICE, is not): equal steps of the factor, equal steps
+    assert torque3 - torque1 == pytest.approx(2.0 * (torque2 - torque1), rel=0.1)
+    assert torque3 - torque1 > 0.1 * torque1
