@@ -19,7 +19,7 @@ from terrain.io.align import interpolated_mean_count
 from terrain.run import Run
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (PhysicsSlipSettings, physics_slip,
-                                  pitch_std_from_accelerometer)
+                                  pitch_std_from_accelerometer, run_pitch_prior)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import get_vehicle
 
@@ -42,7 +42,9 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
         :func:`features.slip_features.slip_features`.
     physics_settings : PhysicsSlipSettings
         Uncertainties of the physics slip of the pseudo-measurement (the learned model's
-        ``phys_*`` features keep the defaults it was trained with).
+        ``phys_*`` features keep the defaults it was trained with). The pseudo-measurement's
+        load uncertainty also uses the run's pitch prior
+        (:func:`terrain.slip.physics.run_pitch_prior`), which the per-window features do not.
 
     Returns
     -------
@@ -84,18 +86,18 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     spread = X[["cur_l__std", "cur_r__std"]].to_numpy(float)
     pitch_std = pitch_std_from_accelerometer(ws.X[:, list(ws.channels).index("ax")])
 
+    # the run's pitch (mean, spread beyond the window noise) for the load uncertainty
+    prior = run_pitch_prior(X["pitch"].to_numpy(float), pitch_std)
+
     def physics(settings: PhysicsSlipSettings, within: np.ndarray | None = spread):
-        # same inputs as the phys_* features
+        # the inputs of the phys_* features, plus the run's pitch prior
         return physics_slip(vehicle, {str(run.terrain): 1.0}, cur, rim, X["pitch"].to_numpy(),
                             acc, n_averaged=n_cur, settings=settings,
-                            current_within_std_a=within, pitch_std_rad=pitch_std)
+                            current_within_std_a=within, pitch_std_rad=pitch_std,
+                            pitch_prior=prior)
 
-    if physics_settings == PhysicsSlipSettings():
-        phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy(float)
-        phys_std = np.repeat(X[["phys_std"]].to_numpy(float), 2, axis=1)
-    else:
-        res = physics(physics_settings)
-        phys, phys_std = res.slip, res.std
+    res = physics(physics_settings)
+    phys, phys_std = res.slip, res.std
     # current noise alone: the traction noise over the slope of the terrain's curve; and with
     # the traction that changed inside the window: their quadrature difference is the slip
     # change inside the window (the transient part of the slip drift of BATCH_FUSION)

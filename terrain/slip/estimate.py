@@ -537,9 +537,10 @@ class FusionSettings:
 #: after the physics slip's normal load was corrected for the pitch noise
 #: (:func:`terrain.slip.physics.normal_load_factor`); evaluated once on fresh seeds 500-511
 #: (``docs/slip_learning.md`` section 5; before: ``1e-10 + 0.03 std_I^2``, tuned on two seeds,
-#: conservative on the fresh seeds), and later on two fresh blocks of 48 seeds (1000-1047,
-#: 2000-2047): pooled mean NEES 2.01-2.20 inside the bounds on ASPHALT, SANDY_LOAM, ICE and
-#: GRASS, 1.63 / 1.66 (conservative) on SNOW. The fused std assumes a correlation of 0.1 between the
+#: conservative on the fresh seeds), and later on blocks of 48 fresh seeds: 1000-1047 and
+#: 2000-2047 pooled mean NEES 2.01-2.20 on ASPHALT, SANDY_LOAM, ICE and GRASS (inside),
+#: SNOW 1.63 / 1.66 until the run's pitch prior (1.80); 3000-3047 SNOW 1.97 (inside), the
+#: others 2.24-2.34 (upper bounds 2.25-2.26). The fused std assumes a correlation of 0.1 between the
 #: physics and learned window errors (their normalised errors' correlation pooled over the
 #: five terrains of seeds 200, 201: 0.085; per run -0.03 to 0.13, GRASS 0.34-0.51).
 BATCH_FUSION = FusionSettings(min_std=1e-5, filter=SkidSteerSlipSettings(

@@ -192,7 +192,8 @@ def pitch_std_from_accelerometer(ax_samples_m_s2: np.ndarray) -> np.ndarray:
     return np.sqrt(np.var(x, axis=-1) * tau / n) / G_M_S2
 
 
-def normal_load_factor(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray | None
+def normal_load_factor(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray | None,
+                       pitch_prior: tuple[float, float] | None = None
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Correction of the ``cos(pitch)`` normal load for a noisy pitch, and its relative std.
 
@@ -205,12 +206,22 @@ def normal_load_factor(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray | None
     Without it the slip from a vibrating accelerometer is biased high: +0.001 on simulated
     SNOW, where the window pitch has a std of 0.058 rad (``docs/slip_learning.md``).
 
+    That positive part is itself high on level ground (it averages ``0.48 sigma^2`` where
+    ``p = 0``: the SNOW slip std about 10 % too wide). With ``pitch_prior`` (the true pitch's
+    mean and variance over the run, :func:`run_pitch_prior`) ``p^2`` is instead its
+    posterior mean under that Gaussian prior (small angles, empirical Bayes):
+    ``(m + k (p_hat - m))^2 + k sigma^2`` with ``k = tau^2 / (tau^2 + sigma^2)``; on level
+    ground ``tau^2 ~ 0`` and the estimate is ``m^2 ~ 0``, on a slope it follows ``p_hat``.
+
     Parameters
     ----------
     pitch_rad : ndarray, shape (n,)
         Pitch estimate, rad.
     pitch_std_rad : ndarray, shape (n,), or None
         Its std (:func:`pitch_std_from_accelerometer`), rad; None: exact pitch.
+    pitch_prior : (float, float) or None
+        Mean (rad) and variance (rad^2) of the true pitch over the run; None: the positive
+        part above.
 
     Returns
     -------
@@ -223,8 +234,48 @@ def normal_load_factor(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray | None
     if pitch_std_rad is None:
         return np.ones_like(p), np.zeros_like(p)
     s2 = np.broadcast_to(np.nan_to_num(np.asarray(pitch_std_rad, dtype=float)) ** 2, p.shape)
-    # tan(p)^2 from the estimate is itself high by sigma^2 on average: remove it
-    return np.exp(0.5 * s2), np.sqrt(np.maximum(np.tan(p) ** 2 - s2, 0.0) * s2 + 0.5 * s2 ** 2)
+    if pitch_prior is None:
+        # tan(p)^2 from the estimate is itself high by sigma^2 on average: remove it
+        tan2 = np.maximum(np.tan(p) ** 2 - s2, 0.0)
+    else:
+        m, tau2 = float(pitch_prior[0]), max(float(pitch_prior[1]), 0.0)
+        k = np.divide(tau2, tau2 + s2, out=np.ones_like(s2), where=(tau2 + s2) > 0)
+        tan2 = np.tan(m + k * (p - m)) ** 2 + k * s2
+    return np.exp(0.5 * s2), np.sqrt(tan2 * s2 + 0.5 * s2 ** 2)
+
+
+def run_pitch_prior(pitch_rad: np.ndarray, pitch_std_rad: np.ndarray) -> tuple[float, float]:
+    """Mean and variance of the true pitch over a run's windows (method of moments).
+
+    ``mean(p_hat)`` and ``max(var(p_hat) - mean(sigma^2), 0)``: the spread of the window
+    pitch estimates beyond their own noise (:func:`normal_load_factor`'s ``pitch_prior``).
+
+    Parameters
+    ----------
+    pitch_rad : ndarray, shape (n,)
+        Window pitch estimates of one run, rad.
+    pitch_std_rad : ndarray, shape (n,)
+        Their stds (:func:`pitch_std_from_accelerometer`), rad.
+
+    Returns
+    -------
+    tuple of float
+        Mean, rad, and variance, rad^2 (>= 0).
+
+    Raises
+    ------
+    ShapeError
+        The arrays differ in shape or hold no finite pair.
+    """
+    p = np.asarray(pitch_rad, dtype=float)
+    sd = np.asarray(pitch_std_rad, dtype=float)
+    if p.shape != sd.shape:
+        raise ShapeError(f"pitch {p.shape} and its std {sd.shape} differ in shape")
+    ok = np.isfinite(p) & np.isfinite(sd)
+    if not ok.any():
+        raise ShapeError("no finite window pitch to estimate the run's pitch from")
+    p, sd = p[ok], sd[ok]
+    return float(p.mean()), float(max(p.var() - np.mean(sd ** 2), 0.0))
 
 
 def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
@@ -391,7 +442,8 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
                  wheel_accel_rad_s2: np.ndarray | None = None, n_averaged: np.ndarray | float = 1.0,
                  settings: PhysicsSlipSettings = PhysicsSlipSettings(),
                  current_within_std_a: np.ndarray | None = None,
-                 pitch_std_rad: np.ndarray | None = None) -> PhysicsSlip:
+                 pitch_std_rad: np.ndarray | None = None,
+                 pitch_prior: tuple[float, float] | None = None) -> PhysicsSlip:
     """Longitudinal slip of each drive side from motor currents (module docstring).
 
     Parameters
@@ -425,6 +477,9 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         Std of ``pitch_rad`` (:func:`pitch_std_from_accelerometer`), rad: the normal loads
         are made unbiased and their remaining error is added to the traction uncertainty
         (:func:`normal_load_factor`); None: exact pitch.
+    pitch_prior : (float, float), optional
+        Mean (rad) and variance (rad^2) of the true pitch over the run
+        (:func:`run_pitch_prior`), for that remaining error; None: per window only.
 
     Returns
     -------
@@ -465,7 +520,7 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     # the traction is torque over normal load: a relative load error is a relative error of
     # mu + rolling (= torque / d torque / d mu)
     load_rel_std = normal_load_factor(np.asarray(pitch_rad, dtype=float),
-                                      pitch_std_rad)[1][:, None]
+                                      pitch_std_rad, pitch_prior)[1][:, None]
     for name, p in probs.items():
         terrain = get_terrain(name)
         mu, dmu_dt, rolling = traction_from_torque(vehicle, terrain, torque, rim, pitch_rad,

@@ -9,7 +9,8 @@ from terrain.errors import ConfigError, ShapeError
 from terrain.sim.simulate import SimConfig, simulate_with_physics
 from terrain.slip.physics import (PhysicsSlipSettings, normal_load_factor, physics_slip,
                                   pitch_from_accelerometer, pitch_std_from_accelerometer,
-                                  traction_from_torque, wheel_torque_from_current)
+                                  run_pitch_prior, traction_from_torque,
+                                  wheel_torque_from_current)
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
 from terrain.terramechanics.inverse import slip_from_traction, stable_side
@@ -183,6 +184,35 @@ def test_normal_load_factor_makes_the_cosine_unbiased():
         assert 0.9 < ratio < (1.15 if p else 1.45)
     f, r = normal_load_factor(np.array([0.1]), None)
     assert f.tolist() == [1.0] and r.tolist() == [0.0]
+
+
+def test_run_pitch_prior_makes_the_load_std_match_its_spread_on_level_ground_and_slopes():
+    # empirical Bayes: the run's pitch mean and its spread beyond the window noise replace
+    # the clipped per-window estimate of tan(p)^2, which is 1.4x too wide on level ground
+    rng = np.random.default_rng(7)
+    sigma = 0.06
+    for p in (0.0, 0.2):
+        est = p + sigma * rng.standard_normal(200_000)
+        sd = np.full_like(est, sigma)
+        prior = run_pitch_prior(est, sd)
+        assert prior[0] == pytest.approx(p, abs=1e-3) and prior[1] < 1e-5
+        factor, rel = normal_load_factor(est, sd, prior)
+        spread = (np.cos(est) * factor).std() / np.cos(p)
+        assert np.sqrt(np.mean(rel ** 2)) == pytest.approx(spread, rel=0.05)
+        # the mean correction does not depend on the prior
+        np.testing.assert_array_equal(factor, normal_load_factor(est, sd)[0])
+    # a run over varied slopes: the windows follow their own pitch
+    true = rng.uniform(-0.3, 0.3, 5000)
+    est = true + sigma * rng.standard_normal(true.size)
+    prior = run_pitch_prior(est, np.full_like(est, sigma))
+    assert prior[1] == pytest.approx(np.var(true), rel=0.1)
+    rel = normal_load_factor(est, np.full_like(est, sigma), prior)[1]
+    err = np.cos(est) * np.exp(0.5 * sigma ** 2) / np.cos(true) - 1.0
+    assert np.sqrt(np.mean(rel ** 2)) == pytest.approx(err.std(), rel=0.1)
+    with pytest.raises(ShapeError):
+        run_pitch_prior(np.zeros(3), np.zeros(2))
+    with pytest.raises(ShapeError):
+        run_pitch_prior(np.full(2, np.nan), np.ones(2))
 
 
 def test_noisy_pitch_no_longer_biases_the_physics_slip_on_snow():
