@@ -24,6 +24,7 @@ offset is applied here. An estimated lag between streams is the business of the 
 
 from __future__ import annotations
 
+import functools
 from typing import Sequence
 
 import numpy as np
@@ -155,6 +156,7 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
     return out
 
 
+@functools.lru_cache(maxsize=64)
 def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: float,
                             n_phases: int = 64) -> float:
     """Effective number of independent stream samples in the mean of one aligned window.
@@ -169,6 +171,8 @@ def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: floa
     wheel stream in 2 s): the samples just outside the window share its edge values. For a
     stream at least as fast as the clock (anti-alias filtered, then interpolated) the count
     is taken as ``n_samples`` (one independent value per clock sample, an approximation).
+    Memoised (it depends on its scalar arguments only): the single-window slip features call
+    it for every window.
 
     Parameters
     ----------
