@@ -37,8 +37,8 @@ import numpy as np
 
 import terrain.sim.dynamics as dynamics
 from terrain.audit.frames import MANOEUVRES, prepare_frame
-from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, gain_table,
-                                   per_run_errors)
+from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, alternate_split,
+                                   gain_table, per_run_errors)
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
 from terrain.sim import SimConfig
@@ -56,21 +56,8 @@ SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
 TUNED_TERRAINS = frozenset(SOILS) | frozenset({"ASPHALT", "FLOORING", "ICE"})
 
 
-def split(runs):
-    """Training and held-out runs of one terrain (alternating in run-id order).
-
-    Parameters
-    ----------
-    runs : list of Run
-        Runs of one terrain.
-
-    Returns
-    -------
-    train, held : list of Run
-        Positions 0, 2, 4, ... and 1, 3, 5, ... of the runs sorted by run id.
-    """
-    runs = sorted(runs, key=lambda r: r.run_id)
-    return runs[0::2], runs[1::2]
+#: the training / held-out split of every tuned terrain (alternating in run-id order)
+split = alternate_split
 
 
 def rmse(errs, sig, scope):

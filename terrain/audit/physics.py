@@ -91,6 +91,50 @@ def _sums(errors: dict, scope: str) -> dict[str, tuple[float, int]]:
     return res
 
 
+def paired_frames(runs: Sequence[Run], settings: PhysicsComparisonSettings,
+                  replay: ReplaySettings = ReplaySettings(),
+                  frames: FrameSettings = FrameSettings(), lag: LagSettings = LagSettings()
+                  ) -> tuple[list[tuple[AuditFrame, AuditFrame]], dict[str, str]]:
+    """Each run on the comparison clock, with the predictions of both versions.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Measured skid-steer runs with catalogue terrain labels.
+    settings : PhysicsComparisonSettings
+        Versions compared.
+    replay : ReplaySettings
+        Replay settings (its ``physics`` is replaced by each version).
+    frames : FrameSettings
+        Comparison clock and manoeuvres.
+    lag : LagSettings
+        Lag-track estimation (done once, on the reference version's replay).
+
+    Returns
+    -------
+    pairs : list of (AuditFrame, AuditFrame)
+        Per run, the reference version's frame and the same frame with the candidate's
+        predictions (``sim_*``) on the same samples, timing and lag track.
+    skipped : dict
+        Run id -> reason (a run the replay or the frame cannot take).
+    """
+    pairs, skipped = [], {}
+    for run in runs:
+        try:
+            ref = prepare_frame(run, replay_run(run, replace(replay, physics=settings.reference)),
+                                frames, lag)
+            new_rep = replay_run(run, replace(replay, physics=settings.candidate))
+        except (ConfigError, DataFormatError) as exc:
+            skipped[run.run_id] = str(exc)
+            continue
+        pairs.append((ref, replace(
+            ref, sim_wz=_on(ref, new_rep.yaw_rate), sim_ax=_on(ref, new_rep.ax),
+            sim_ay=_on(ref, new_rep.ay), sim_vx=_on(ref, new_rep.v_x),
+            sim_cur=np.column_stack([_on(ref, new_rep.cur[:, 0]),
+                                     _on(ref, new_rep.cur[:, 1])]))))
+    return pairs, skipped
+
+
 def per_run_errors(runs: Sequence[Run], settings: PhysicsComparisonSettings,
                    replay: ReplaySettings = ReplaySettings(),
                    frames: FrameSettings = FrameSettings(), lag: LagSettings = LagSettings()
@@ -117,27 +161,37 @@ def per_run_errors(runs: Sequence[Run], settings: PhysicsComparisonSettings,
     skipped : dict
         Run id -> reason.
     """
-    rows, skipped = [], {}
-    for run in runs:
-        try:
-            ref = prepare_frame(run, replay_run(run, replace(replay, physics=settings.reference)),
-                                frames, lag)
-            new_rep = replay_run(run, replace(replay, physics=settings.candidate))
-        except (ConfigError, DataFormatError) as exc:
-            skipped[run.run_id] = str(exc)
-            continue
-        new = replace(ref, sim_wz=_on(ref, new_rep.yaw_rate), sim_ax=_on(ref, new_rep.ax),
-                      sim_ay=_on(ref, new_rep.ay), sim_vx=_on(ref, new_rep.v_x),
-                      sim_cur=np.column_stack([_on(ref, new_rep.cur[:, 0]),
-                                               _on(ref, new_rep.cur[:, 1])]))
+    rows = []
+    pairs, skipped = paired_frames(runs, settings, replay, frames, lag)
+    for ref, new in pairs:
         e_ref, e_new = _errors(ref, ref), _errors(ref, new)
         for scope in SCOPES:
             s_ref, s_new = _sums(e_ref, scope), _sums(e_new, scope)
             for sig in s_ref:
-                rows.append((run.run_id, ref.terrain, sig, scope, s_ref[sig][1],
+                rows.append((ref.run_id, ref.terrain, sig, scope, s_ref[sig][1],
                              s_ref[sig][0], s_new[sig][0]))
     cols = ["run_id", "terrain", "signal", "scope", "n", "sse_ref", "sse_new"]
     return pd.DataFrame(rows, columns=cols), skipped
+
+
+def alternate_split(runs: Sequence[Run]) -> tuple[list[Run], list[Run]]:
+    """Training and held-out runs of one terrain, alternating in run-id order.
+
+    The split on which the physics-v2 parameters were chosen (training half) and scored
+    (held-out half): ``benchmarks/sweep_soil_params.py``, ``docs/physics_v2.md``.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Runs of one terrain.
+
+    Returns
+    -------
+    train, held : list of Run
+        Positions 0, 2, 4, ... and 1, 3, 5, ... of the runs sorted by run id.
+    """
+    runs = sorted(runs, key=lambda r: r.run_id)
+    return runs[0::2], runs[1::2]
 
 
 def _on(frame: AuditFrame, values: np.ndarray) -> np.ndarray:

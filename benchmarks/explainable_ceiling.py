@@ -1,0 +1,145 @@
+"""What one parameter set per terrain can reach on BorealTC: the ceilings of issue 14's targets.
+
+Replays every BorealTC run with physics v1 (reference) and v2 (candidate) on one comparison
+clock (:func:`terrain.audit.physics.paired_frames`), splits each terrain's runs as the
+physics-v2 parameters were chosen (:func:`terrain.audit.physics.alternate_split`: training
+half / held-out half) and computes, per terrain and pooled (every terrain with its own fit):
+
+* ``shared``: the best steady model with one parameter set per terrain, fitted on the
+  evaluated runs themselves (yaw rate: one ICR expansion factor per manoeuvre; current: an
+  affine recalibration of both physics' currents with side speed and yaw-rate terms);
+* ``per_run``: the same family fitted per run (the ground state of every run known);
+* ``learned``: a gradient-boosted map from the wheel-speed history and both physics'
+  predictions, trained on the training half, scored on the held-out half.
+
+(:mod:`terrain.audit.ceiling`.) Prints the tables, writes them as CSV and logs the gains to
+MLflow (experiment ``terrain-benchmark``, run ``explainable-ceiling``).
+``docs/physics_v2.md``, section "What one parameter set per terrain can reach".
+
+Usage: ``python benchmarks/explainable_ceiling.py [--out docs/physics_v2_ceiling.csv]``
+(about 4 min: two replays of 55 runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pandas as pd
+
+from terrain.audit.ceiling import (
+    ceiling_table,
+    current_ceiling_samples,
+    learned_transfer_samples,
+    yaw_rate_ceiling_samples,
+)
+from terrain.audit.physics import (
+    PhysicsComparisonSettings,
+    alternate_split,
+    paired_frames,
+)
+from terrain.errors import ConfigError
+from terrain.io.shipped import load_dataset
+from terrain.tracking import tracked_run
+
+
+def _tables(samples: dict[str, list[pd.DataFrame]], runs: str) -> list[pd.DataFrame]:
+    """Per terrain and pooled ("all"), the ceiling table of each signal's sample tables."""
+    out = []
+    for signal, parts in samples.items():
+        parts = [p for p in parts if not p.empty]
+        if not parts:
+            continue
+        groups = {t: [p for p in parts if p.terrain.iloc[0] == t]
+                  for t in sorted({p.terrain.iloc[0] for p in parts})}
+        groups["all"] = parts
+        for terrain, ps in groups.items():
+            tab = ceiling_table(pd.concat(ps, ignore_index=True))
+            tab.insert(0, "signal", signal)
+            tab.insert(0, "terrain", terrain)
+            tab.insert(0, "runs", runs)
+            out.append(tab)
+    return out
+
+
+def _merge_learned(base: list[pd.DataFrame], learned: list[pd.DataFrame]) -> pd.DataFrame:
+    """Add the learned columns to the held-out rows (same samples, same reference RMSE)."""
+    b = pd.concat(base, ignore_index=True)
+    if not learned:
+        return b
+    keys = ["runs", "terrain", "signal", "scope"]
+    lt = pd.concat(learned, ignore_index=True)[keys + ["n", "rmse_learned", "gain_learned"]]
+    m = b.merge(lt, on=keys, how="left", suffixes=("", "_learned"))
+    bad = m.n_learned.notna() & (m.n_learned != m.n)
+    if bad.any():
+        raise RuntimeError(f"learned and ceiling samples differ: {m[bad][keys]}")
+    return m.drop(columns="n_learned")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="docs/physics_v2_ceiling.csv", help="CSV of the tables")
+    ap.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
+    args = ap.parse_args()
+    runs = load_dataset("borealtc")
+    settings = PhysicsComparisonSettings()
+    pairs, skipped = paired_frames(runs, settings)
+    if skipped:
+        print(f"skipped {len(skipped)} run(s): {skipped}")
+    by_terrain: dict[str, list] = {}
+    for ref, cand in pairs:
+        by_terrain.setdefault(ref.terrain, []).append((ref, cand))
+    held: dict[str, list[pd.DataFrame]] = {"wz": [], "cur": []}
+    every: dict[str, list[pd.DataFrame]] = {"wz": [], "cur": []}
+    learned: dict[str, list[pd.DataFrame]] = {"wz": [], "cur": []}
+    chi_rows = []
+    for terrain, tp in sorted(by_terrain.items()):
+        ids_train, ids_held = ({r.run_id for r in half} for half in alternate_split(
+            [r for r in runs if r.terrain == terrain]))
+        train = [p for p in tp if p[0].run_id in ids_train]
+        test = [p for p in tp if p[0].run_id in ids_held]
+        for name, group, store in (("held-out", test, held), ("all", tp, every)):
+            f, c = [p[0] for p in group], [p[1] for p in group]
+            wz = yaw_rate_ceiling_samples(f, c)
+            store["wz"].append(wz)
+            store["cur"].append(current_ceiling_samples(f, c))
+            for man, chi in wz.attrs.get("chi_shared", {}).items():
+                chi_rows.append((name, terrain, man, chi))
+        tr_f, tr_c = [p[0] for p in train], [p[1] for p in train]
+        te_f, te_c = [p[0] for p in test], [p[1] for p in test]
+        try:
+            learned["wz"].append(learned_transfer_samples(tr_f, te_f, "wz", tr_c, te_c))
+        except ConfigError as exc:  # no IMU in the training half: reported, not fatal
+            print(f"{terrain}: learned yaw transfer not run ({exc})")
+        cur = [learned_transfer_samples(tr_f, te_f, s, tr_c, te_c) for s in ("cur_l", "cur_r")]
+        learned["cur"].append(pd.concat(cur, ignore_index=True))
+        print(f"{terrain}: {len(train)} training, {len(test)} held-out runs", flush=True)
+    table = _merge_learned(_tables(held, "held-out") + _tables(every, "all"),
+                           _tables(learned, "held-out"))
+    table.to_csv(args.out, index=False)
+    chi = pd.DataFrame(chi_rows, columns=["runs", "terrain", "manoeuvre", "chi_shared"])
+    pd.set_option("display.width", 200)
+    show = ["runs", "terrain", "signal", "scope", "n_runs", "rmse_reference", "gain_candidate",
+            "gain_shared", "gain_per_run", "gain_learned"]
+    print(table[show].round(3).to_string(index=False))
+    print(chi.round(2).to_string(index=False))
+    print(f"-> {args.out}")
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", "explainable-ceiling",
+                         {"dataset": "borealtc", "reference": settings.reference,
+                          "candidate": settings.candidate}) as run:
+            metrics = {}
+            for row in table.itertuples(index=False):
+                for col in ("gain_candidate", "gain_shared", "gain_per_run", "gain_learned"):
+                    v = getattr(row, col, np.nan)
+                    if np.isfinite(v):
+                        metrics[f"{row.runs}.{row.terrain}.{row.signal}.{row.scope}.{col}"] = \
+                            float(v)
+            run.log_metrics(metrics)
+            run.log_table(table, "explainable_ceiling.csv")
+            run.log_table(chi, "chi_shared.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

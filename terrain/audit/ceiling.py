@@ -1,0 +1,414 @@
+"""How much of the replay error any model of a given family could remove: the ceiling.
+
+The audit's physics targets ask a simulator with **one parameter set per terrain** to cut the
+replay error of measured runs by a given fraction. When a target is missed, this module
+measures whether it is reachable at all by such a model, from the measured runs alone:
+
+* **Yaw rate, steady kinematics.** The family ``wz = x / chi_m``: one ICR expansion factor
+  per manoeuvre ``m`` (straight, curve, spin; :mod:`terrain.audit.frames`), the steady-state
+  description of skid-steer turning (Mandow et al., IROS 2007; seed
+  ``000_f24201ff985633bf.txt`` eqs. 2-3). Its best member is fitted by least squares **on the
+  evaluated runs themselves** (``shared``): more generous than any parameter set chosen on
+  other runs, so a cut it cannot reach is out of reach of every model of that family.
+  Fitted per run as well (``per_run``: one ``chi_m`` for each run): the error left when the
+  ground state of every run is known. The difference between the two is what varies between
+  runs of one terrain and is not in the inputs.
+* **Motor current, recalibrated physics.** Per drive side, the measured current is fitted as
+  an affine function of the physics' own prediction(s) (the reference replay and, when given,
+  the candidate version on the same clock) and of the side speed ``|v_side|`` and the
+  commanded yaw rate ``|x|``, one coefficient set per manoeuvre; again on the evaluated runs
+  (``shared``) and per run (``per_run``).
+* **Learned transfer.** A gradient-boosted regressor (scikit-learn
+  ``HistGradientBoostingRegressor``) from the wheel-speed history (commanded speed and yaw
+  rate now and 1-12 wheel samples back, the time spent in the current manoeuvre, the pitch)
+  and the physics predictions is trained on *other* runs of the terrain and scored on the
+  evaluated ones (``learned``): whether a history-dependent behaviour that the steady family
+  misses (a rut that deepens while the wheels spin, say) is predictable from the inputs.
+
+All three are computed on the audit's comparison clock and samples (``score_imu`` /
+``score_cur``, moving samples only) so their RMSEs compare directly with the replay's
+(:mod:`terrain.audit.physics`). ``benchmarks/explainable_ceiling.py`` runs them on BorealTC
+(``docs/physics_v2.md``, section "What one parameter set per terrain can reach").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+from sklearn.ensemble import HistGradientBoostingRegressor
+
+from terrain.audit.frames import MANOEUVRES, STOP, AuditFrame
+from terrain.errors import ConfigError
+from terrain.vehicles import HUSKY
+from terrain.vehicles.icr import inverse_icr_factor
+
+#: moving manoeuvres, in the codes of :data:`terrain.audit.frames.MANOEUVRES`
+MOVING = tuple(k for k, name in enumerate(MANOEUVRES) if name != "stop")
+#: manoeuvre scopes of :func:`ceiling_table` (``moving`` pools the three others)
+SCOPES = ("moving", "straight", "curve", "spin")
+#: model columns a sample table may hold besides ``reference``
+MODELS = ("candidate", "shared", "per_run", "learned")
+#: lags of the learned transfer's history features, in wheel samples (BorealTC: ~0.15 s each)
+HISTORY_LAGS = (1, 2, 3, 4, 6, 8, 12)
+#: sample-table columns that identify a sample
+KEY_COLUMNS = ("run_id", "terrain", "side", "manoeuvre", "measured", "reference")
+
+
+@dataclass(frozen=True)
+class TransferSettings:
+    """Regressor of :func:`learned_transfer_samples`.
+
+    Parameters
+    ----------
+    max_iter : int
+        Boosting iterations.
+    learning_rate : float
+        Shrinkage.
+    min_samples_leaf : int
+        Smallest leaf, samples (the wheel clock of BorealTC is ~6.5 Hz: 40 samples ~ 6 s).
+    random_state : int
+        Seed of the regressor.
+    """
+
+    max_iter: int = 300
+    learning_rate: float = 0.05
+    min_samples_leaf: int = 40
+    random_state: int = 0
+
+    def __post_init__(self) -> None:
+        if self.max_iter < 1 or self.min_samples_leaf < 1 or not self.learning_rate > 0:
+            raise ConfigError("max_iter and min_samples_leaf must be >= 1, learning_rate > 0")
+
+
+def _check_pairs(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None):
+    if candidates is not None:
+        if len(candidates) != len(frames):
+            raise ConfigError(f"{len(candidates)} candidate frames for {len(frames)} frames")
+        for f, c in zip(frames, candidates):
+            if c.run_id != f.run_id or c.n != f.n:
+                raise ConfigError(f"candidate frame of {c.run_id} ({c.n} samples) is not on "
+                                  f"the clock of {f.run_id} ({f.n} samples)")
+
+
+def _yaw_mask(frame: AuditFrame) -> np.ndarray:
+    return frame.score_imu & np.isfinite(frame.wz) & (frame.manoeuvre != STOP)
+
+
+def _cur_mask(frame: AuditFrame) -> np.ndarray:
+    return frame.score_cur & (frame.manoeuvre != STOP)
+
+
+def _side_speed(frame: AuditFrame, side: int, track_m: float) -> np.ndarray:
+    """``|v_side|`` of one drive side, m/s: ``v -+ x B / 2`` (seed ``000`` eq. 2 inverted)."""
+    sign = -1.0 if side == 0 else 1.0
+    return np.abs(frame.commanded_speed + sign * 0.5 * track_m * frame.commanded_yaw_rate)
+
+
+def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
+                             candidates: Sequence[AuditFrame] | None = None) -> pd.DataFrame:
+    """Per scored sample: measured yaw rate, the replays' and the steady family's predictions.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        The evaluated runs on the comparison clock (:func:`terrain.audit.frames.prepare_frame`),
+        ``sim_wz`` the reference replay, rad/s; all of one terrain (one parameter set).
+    candidates : sequence of AuditFrame, optional
+        The same runs with another physics' predictions on the same clock
+        (:func:`terrain.audit.physics.paired_frames`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run_id, terrain, side`` (``-1``: not a side signal), ``manoeuvre`` (name),
+        ``measured, reference, candidate`` (NaN without candidates), ``shared`` (one
+        ``chi_m`` per manoeuvre fitted on all these samples), ``per_run`` (one per run and
+        manoeuvre), all in rad/s. ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi``.
+
+    Raises
+    ------
+    ConfigError
+        Candidate frames not matching the frames, or frames of more than one terrain.
+    """
+    _check_pairs(frames, candidates)
+    if len({f.terrain for f in frames}) > 1:
+        raise ConfigError("one terrain at a time: the family has one parameter set per terrain")
+    parts = []
+    for k, f in enumerate(frames):
+        m = _yaw_mask(f)
+        if not m.any():
+            continue
+        parts.append(pd.DataFrame({
+            "run_id": f.run_id, "terrain": f.terrain, "side": -1, "code": f.manoeuvre[m],
+            "x": f.commanded_yaw_rate[m], "measured": f.wz[m], "reference": f.sim_wz[m],
+            "candidate": candidates[k].sim_wz[m] if candidates is not None else np.nan}))
+    cols = list(KEY_COLUMNS) + ["candidate", "shared", "per_run"]
+    if not parts:
+        return pd.DataFrame(columns=cols)
+    tab = pd.concat(parts, ignore_index=True)
+    tab["shared"] = np.nan
+    tab["per_run"] = np.nan
+    chi = {}
+    for code, sub in tab.groupby("code"):
+        a = inverse_icr_factor(sub.measured.to_numpy(), sub.x.to_numpy())
+        a = 0.0 if not np.isfinite(a) else a
+        chi[MANOEUVRES[code]] = 1.0 / a if a > 0 else np.inf
+        tab.loc[sub.index, "shared"] = a * sub.x
+        for _, one in sub.groupby("run_id"):
+            b = inverse_icr_factor(one.measured.to_numpy(), one.x.to_numpy())
+            tab.loc[one.index, "per_run"] = (b if np.isfinite(b) else 0.0) * one.x
+    tab["manoeuvre"] = [MANOEUVRES[c] for c in tab.code]
+    out = tab[cols].copy()
+    out.attrs["chi_shared"] = chi
+    return out
+
+
+def _current_design(frame: AuditFrame, cand: AuditFrame | None, side: int,
+                    m: np.ndarray, track_m: float) -> np.ndarray:
+    cols = [np.ones(int(m.sum())), frame.sim_cur[m, side]]
+    if cand is not None:
+        cols.append(cand.sim_cur[m, side])
+    cols += [_side_speed(frame, side, track_m)[m], np.abs(frame.commanded_yaw_rate[m])]
+    return np.column_stack(cols)
+
+
+def current_ceiling_samples(frames: Sequence[AuditFrame],
+                            candidates: Sequence[AuditFrame] | None = None,
+                            track_m: float = HUSKY.track_m) -> pd.DataFrame:
+    """Per scored sample and side: measured current, the replays' and the recalibrations'.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        The evaluated runs (one terrain), ``sim_cur`` the reference replay, A.
+    candidates : sequence of AuditFrame, optional
+        The same runs with another physics' currents on the same clock; they enter the
+        recalibration as a regressor too.
+    track_m : float
+        Track width of the vehicle, m (default: the Husky A200's,
+        :data:`terrain.vehicles.HUSKY`), for the side speeds.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run_id, terrain, side`` (0 left, 1 right), ``manoeuvre``, ``measured,
+        reference, candidate, shared, per_run`` (A). ``shared``: per manoeuvre, least squares
+        of the measured current on ``[1, reference, (candidate), |v_side|, |x|]`` over all
+        these samples, both sides together (the physics is symmetric: one set for both);
+        ``per_run``: the same per run and manoeuvre (where a run has fewer than 3 rows,
+        samples times sides, per coefficient in a manoeuvre, its ``shared`` value is kept:
+        those rows are counted in ``attrs["per_run_fallback"]``).
+
+    Raises
+    ------
+    ConfigError
+        Candidate frames not matching the frames, or frames of more than one terrain.
+    """
+    _check_pairs(frames, candidates)
+    if len({f.terrain for f in frames}) > 1:
+        raise ConfigError("one terrain at a time: the family has one parameter set per terrain")
+    rows, designs = [], []
+    for k, f in enumerate(frames):
+        m = _cur_mask(f)
+        if not m.any():
+            continue
+        cand = candidates[k] if candidates is not None else None
+        for side in (0, 1):
+            rows.append(pd.DataFrame({
+                "run_id": f.run_id, "terrain": f.terrain, "side": side, "code": f.manoeuvre[m],
+                "measured": f.cur[m, side], "reference": f.sim_cur[m, side],
+                "candidate": cand.sim_cur[m, side] if cand is not None else np.nan}))
+            designs.append(_current_design(f, cand, side, m, track_m))
+    cols = list(KEY_COLUMNS) + ["candidate", "shared", "per_run"]
+    if not rows:
+        return pd.DataFrame(columns=cols)
+    tab = pd.concat(rows, ignore_index=True)
+    A = np.vstack(designs)
+    y = tab.measured.to_numpy(float)
+    shared = np.full(len(tab), np.nan)
+    per_run = np.full(len(tab), np.nan)
+    fallback = 0
+    need = 3 * A.shape[1]
+    for code, sub in tab.groupby("code"):
+        i = sub.index.to_numpy()
+        shared[i] = A[i] @ np.linalg.lstsq(A[i], y[i], rcond=None)[0]
+        for _, one in sub.groupby("run_id"):
+            j = one.index.to_numpy()
+            if len(j) < need:
+                per_run[j] = shared[j]
+                fallback += len(j)
+            else:
+                per_run[j] = A[j] @ np.linalg.lstsq(A[j], y[j], rcond=None)[0]
+    tab["shared"], tab["per_run"] = shared, per_run
+    tab["manoeuvre"] = [MANOEUVRES[c] for c in tab.code]
+    out = tab[cols].copy()
+    out.attrs["per_run_fallback"] = fallback
+    return out
+
+
+def history_features(frame: AuditFrame, prediction: np.ndarray,
+                     lags: Sequence[int] = HISTORY_LAGS) -> np.ndarray:
+    """Inputs of the learned transfer at every sample of a frame.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        A run on the comparison clock.
+    prediction : ndarray, shape (n,) or (n, k)
+        Physics prediction(s) of the target signal at the frame's samples.
+    lags : sequence of int
+        Past samples of the commanded speed and yaw rate included, in wheel samples.
+
+    Returns
+    -------
+    ndarray, shape (n, 6 + 2 len(lags) + k)
+        ``x, v, |x|, |v|``, ``x`` and ``v`` at every lag (the first sample repeated before
+        the run starts), the time in the current manoeuvre (s), the pitch (rad) and the
+        prediction(s).
+    """
+    x, v = frame.commanded_yaw_rate, frame.commanded_speed
+    cols = [x, v, np.abs(x), np.abs(v)]
+    for lag in lags:
+        cols += [np.r_[np.full(min(lag, len(x)), x[0]), x[:-lag]][:len(x)],
+                 np.r_[np.full(min(lag, len(v)), v[0]), v[:-lag]][:len(v)]]
+    # time since the manoeuvre last changed, s
+    change = np.r_[True, frame.manoeuvre[1:] != frame.manoeuvre[:-1]]
+    start = np.maximum.accumulate(np.where(change, np.arange(len(x)), 0))
+    cols += [frame.t_s - frame.t_s[start], frame.pitch]
+    pred = np.asarray(prediction, dtype=float)
+    return np.column_stack(cols + [pred.reshape(len(x), -1)])
+
+
+def _signal_samples(frame: AuditFrame, cand: AuditFrame | None, signal: str):
+    """(mask, target, predictions (n, k), reference, candidate) of one signal of one frame."""
+    if signal == "wz":
+        m = _yaw_mask(frame)
+        ref = frame.sim_wz
+        can = cand.sim_wz if cand is not None else None
+        y = frame.wz
+    else:
+        side = {"cur_l": 0, "cur_r": 1}[signal]
+        m = _cur_mask(frame)
+        ref = frame.sim_cur[:, side]
+        can = cand.sim_cur[:, side] if cand is not None else None
+        y = frame.cur[:, side]
+    pred = ref[:, None] if can is None else np.column_stack([ref, can])
+    return m, y, pred, ref, can
+
+
+def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFrame],
+                             signal: str,
+                             train_candidates: Sequence[AuditFrame] | None = None,
+                             test_candidates: Sequence[AuditFrame] | None = None,
+                             settings: TransferSettings = TransferSettings()) -> pd.DataFrame:
+    """Train a regressor on some runs of a terrain, predict a signal on the others.
+
+    Parameters
+    ----------
+    train, test : sequence of AuditFrame
+        Training and evaluated runs of one terrain (disjoint run ids).
+    signal : {"wz", "cur_l", "cur_r"}
+        Target: gyro yaw rate (rad/s) or one side's current (A).
+    train_candidates, test_candidates : sequence of AuditFrame, optional
+        The same runs with another physics' predictions (both or neither).
+    settings : TransferSettings
+        Regressor settings.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run_id, terrain, side, manoeuvre, measured, reference, candidate,
+        learned`` for the scored moving samples of ``test``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown signal, overlapping runs, candidates for one set only, or no training
+        sample.
+    """
+    if signal not in ("wz", "cur_l", "cur_r"):
+        raise ConfigError(f"signal must be wz, cur_l or cur_r, got {signal!r}")
+    if (train_candidates is None) != (test_candidates is None):
+        raise ConfigError("give candidate frames for both the training and the evaluated runs")
+    if {f.run_id for f in train} & {f.run_id for f in test}:
+        raise ConfigError("training and evaluated runs overlap")
+    _check_pairs(train, train_candidates)
+    _check_pairs(test, test_candidates)
+    X, y = [], []
+    for k, f in enumerate(train):
+        cand = train_candidates[k] if train_candidates is not None else None
+        m, target, pred, _, _ = _signal_samples(f, cand, signal)
+        if m.any():
+            X.append(history_features(f, pred)[m])
+            y.append(target[m])
+    if not X:
+        raise ConfigError(f"no scored training sample of {signal}")
+    model = HistGradientBoostingRegressor(
+        max_iter=settings.max_iter, learning_rate=settings.learning_rate,
+        min_samples_leaf=settings.min_samples_leaf, random_state=settings.random_state)
+    model.fit(np.vstack(X), np.concatenate(y))
+    side = {"wz": -1, "cur_l": 0, "cur_r": 1}[signal]
+    parts = []
+    for k, f in enumerate(test):
+        cand = test_candidates[k] if test_candidates is not None else None
+        m, target, pred, ref, can = _signal_samples(f, cand, signal)
+        if not m.any():
+            continue
+        parts.append(pd.DataFrame({
+            "run_id": f.run_id, "terrain": f.terrain, "side": side,
+            "manoeuvre": [MANOEUVRES[c] for c in f.manoeuvre[m]], "measured": target[m],
+            "reference": ref[m], "candidate": can[m] if can is not None else np.nan,
+            "learned": model.predict(history_features(f, pred)[m])}))
+    cols = list(KEY_COLUMNS) + ["candidate", "learned"]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
+
+
+def ceiling_table(samples: pd.DataFrame) -> pd.DataFrame:
+    """RMSE of the reference and of every model column, and its gain, per manoeuvre scope.
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Sample tables of this module (several terrains may be concatenated: each row keeps
+        the prediction its own terrain's fit made).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per scope with samples (``moving`` = straight, curve and spin): ``scope, n,
+        n_runs, rmse_reference`` and, for each model column present with finite values,
+        ``rmse_<model>`` and ``gain_<model> = 1 - rmse_<model> / rmse_reference``.
+    """
+    models = [c for c in MODELS if c in samples.columns and samples[c].notna().any()]
+    rows = []
+    for scope in SCOPES:
+        sub = samples if scope == "moving" else samples[samples.manoeuvre == scope]
+        if sub.empty:
+            continue
+        y = sub.measured.to_numpy(float)
+        ref = float(np.sqrt(np.mean((y - sub.reference.to_numpy(float)) ** 2)))
+        row = {"scope": scope, "n": len(sub), "n_runs": sub.run_id.nunique(),
+               "rmse_reference": ref}
+        for c in models:
+            r = float(np.sqrt(np.mean((y - sub[c].to_numpy(float)) ** 2)))
+            row[f"rmse_{c}"] = r
+            row[f"gain_{c}"] = 1.0 - r / ref if ref > 0 else np.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+__all__ = [
+    "HISTORY_LAGS",
+    "MODELS",
+    "MOVING",
+    "SCOPES",
+    "TransferSettings",
+    "ceiling_table",
+    "current_ceiling_samples",
+    "history_features",
+    "learned_transfer_samples",
+    "yaw_rate_ceiling_samples",
+]

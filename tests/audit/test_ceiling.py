@@ -1,0 +1,157 @@
+"""Ceilings of a model family with one parameter set per terrain (terrain.audit.ceiling)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from terrain.audit.ceiling import (
+    ceiling_table,
+    current_ceiling_samples,
+    history_features,
+    learned_transfer_samples,
+    yaw_rate_ceiling_samples,
+)
+from terrain.audit.frames import MANOEUVRES, AuditFrame
+from terrain.audit.physics import alternate_split
+from terrain.audit.timing import LagTrack
+from terrain.errors import ConfigError
+
+RATE_HZ = 6.5
+SPIN, STRAIGHT = MANOEUVRES.index("spin"), MANOEUVRES.index("straight")
+
+
+def _frame(run_id, wz_of, n_cycles=4, spin_s=12.0, straight_s=8.0, terrain="SNOW",
+           rng=None, noise=0.0):
+    """Alternating straight driving and spins in place; ``wz_of(x, t_in_spin)`` is the gyro."""
+    x, v, man, t_in = [], [], [], []
+    for k in range(n_cycles):
+        n_st, n_sp = int(straight_s * RATE_HZ), int(spin_s * RATE_HZ)
+        x += [0.0] * n_st + [(0.6 + 0.2 * k) * (-1) ** k] * n_sp
+        v += [0.5] * n_st + [0.0] * n_sp
+        man += [STRAIGHT] * n_st + [SPIN] * n_sp
+        t_in += list(np.arange(n_st) / RATE_HZ) + list(np.arange(n_sp) / RATE_HZ)
+    x, v, t_in = np.array(x), np.array(v), np.array(t_in)
+    n = len(x)
+    wz = wz_of(x, t_in)
+    if rng is not None:
+        wz = wz + noise * rng.standard_normal(n)
+    ones = np.ones(n, dtype=bool)
+    return AuditFrame(
+        run_id=run_id, group=run_id, terrain=terrain, t_s=np.arange(n) / RATE_HZ,
+        commanded_yaw_rate=x, commanded_speed=v, manoeuvre=np.array(man),
+        quiet=~ones, sim_wz=x / 3.0, sim_ax=np.zeros(n), sim_ay=np.zeros(n),
+        sim_vx=v.copy(), sim_cur=np.column_stack([2 + 3 * np.abs(x), 2 + 3 * np.abs(x)]),
+        cur=np.column_stack([3.5 + 6.5 * np.abs(x), 3.5 + 6.5 * np.abs(x)]), has_imu=True,
+        wz=wz, ax=np.zeros(n), ay=np.zeros(n), pitch=np.zeros(n), imu_t_s=np.arange(n) / RATE_HZ,
+        imu_wz=wz, score_imu=ones, score_cur=ones.copy(),
+        lag=LagTrack(np.empty(0), np.empty(0), np.empty(0), 0))
+
+
+def _row(tab, scope):
+    return tab[tab.scope == scope].iloc[0]
+
+
+def test_one_ground_state_per_terrain_reaches_the_per_run_fit():
+    rng = np.random.default_rng(0)
+    frames = [_frame(f"r{k}", lambda x, t: x / 2.0, rng=rng, noise=0.002) for k in range(3)]
+    tab = yaw_rate_ceiling_samples(frames)
+    assert tab.attrs["chi_shared"]["spin"] == pytest.approx(2.0, rel=0.01)
+    t = ceiling_table(tab)
+    spin = _row(t, "spin")
+    assert spin.n_runs == 3
+    # the replay's chi 3 against the true 2: the shared fit removes nearly all of it
+    assert spin.gain_shared > 0.95
+    assert spin.rmse_per_run <= spin.rmse_shared + 1e-12
+    assert spin.gain_shared == pytest.approx(spin.gain_per_run, abs=0.01)
+    assert set(t.scope) == {"moving", "straight", "spin"}
+
+
+def test_bimodal_runs_cap_the_shared_model_at_the_between_run_spread():
+    # half of the runs turn freely (chi 1.5), half dig in (chi 6): no single chi fits both
+    frames = [_frame(f"free{k}", lambda x, t: x / 1.5) for k in range(2)]
+    frames += [_frame(f"dug{k}", lambda x, t: x / 6.0) for k in range(2)]
+    tab = yaw_rate_ceiling_samples(frames)
+    x, y = np.concatenate([f.commanded_yaw_rate for f in frames]), \
+        np.concatenate([f.wz for f in frames])
+    spin = np.concatenate([f.manoeuvre for f in frames]) == SPIN
+    a = (x[spin] @ y[spin]) / (x[spin] @ x[spin])
+    assert tab.attrs["chi_shared"]["spin"] == pytest.approx(1.0 / a)
+    row = _row(ceiling_table(tab), "spin")
+    assert row.gain_per_run == pytest.approx(1.0, abs=1e-9)
+    # analytic: the residual of one slope on two groups of equal x^2 is |a1 - a2| / 2 |x|
+    resid = np.sqrt(np.mean((y[spin] - a * x[spin]) ** 2))
+    assert row.rmse_shared == pytest.approx(resid)
+    assert row.gain_shared < 0.2
+
+
+def test_current_recalibration_recovers_an_affine_law_and_counts_fallbacks():
+    frames = [_frame("a", lambda x, t: x / 2.0), _frame("b", lambda x, t: x / 2.0)]
+    tab = current_ceiling_samples(frames)
+    assert set(tab.side) == {0, 1}
+    # both sides draw 0.5 + 1.5 x the replay's current + 2 |x|: one affine law, recovered
+    np.testing.assert_allclose(tab.shared, tab.measured, atol=1e-9)
+    np.testing.assert_allclose(tab.per_run, tab.measured, atol=1e-9)
+    assert tab.attrs["per_run_fallback"] == 0
+    short = replace(frames[0], run_id="c", score_cur=np.arange(frames[0].n) < 5)
+    tab2 = current_ceiling_samples([frames[1], short])
+    assert tab2.attrs["per_run_fallback"] == 2 * 5  # both sides of the 5 samples of "c"
+    # a law that differs between the sides is not in the family (one set for both sides)
+    skew = replace(frames[0], cur=frames[0].cur * np.array([1.0, 1.5]))
+    row = _row(ceiling_table(current_ceiling_samples([skew])), "moving")
+    assert row.gain_per_run == pytest.approx(row.gain_shared) and row.rmse_shared > 0.5
+
+
+def test_learned_transfer_finds_a_planted_history_effect_the_steady_family_misses():
+    # a rut that deepens while the wheels spin: chi grows with the time spent spinning
+    def dig(x, t):
+        return x / (1.2 + 0.4 * t)
+    rng = np.random.default_rng(1)
+    train = [_frame(f"t{k}", dig, spin_s=10.0 + 2 * k, rng=rng, noise=0.002) for k in range(4)]
+    test = [_frame(f"h{k}", dig, spin_s=11.0 + 2 * k, rng=rng, noise=0.002) for k in range(2)]
+    learned = ceiling_table(learned_transfer_samples(train, test, "wz"))
+    steady = ceiling_table(yaw_rate_ceiling_samples(test))
+    assert _row(learned, "spin").gain_learned > 0.85
+    # even fitted on the evaluated runs, one chi per manoeuvre cannot follow it
+    assert _row(steady, "spin").gain_shared < _row(learned, "spin").gain_learned - 0.1
+    assert _row(learned, "spin").rmse_reference == pytest.approx(
+        _row(steady, "spin").rmse_reference)
+
+
+def test_history_features_look_back_and_time_the_manoeuvre():
+    f = _frame("a", lambda x, t: x, n_cycles=1, straight_s=2.0, spin_s=2.0)
+    X = history_features(f, f.sim_wz, lags=(1, 3))
+    assert X.shape == (f.n, 4 + 2 * 2 + 2 + 1)
+    x = f.commanded_yaw_rate
+    np.testing.assert_allclose(X[3:, 4], x[2:-1])       # x one sample back
+    np.testing.assert_allclose(X[5:, 6], x[2:-3])       # x three samples back
+    first_spin = int(np.argmax(f.manoeuvre == SPIN))
+    assert X[first_spin, 8] == 0.0 and X[first_spin - 1, 8] > 0.0
+    assert X[first_spin + 2, 8] == pytest.approx(2 / RATE_HZ)
+
+
+def test_inputs_are_checked():
+    a, b = _frame("a", lambda x, t: x), _frame("b", lambda x, t: x)
+    with pytest.raises(ConfigError, match="candidate"):
+        yaw_rate_ceiling_samples([a, b], [a])
+    with pytest.raises(ConfigError, match="clock"):
+        yaw_rate_ceiling_samples([a], [b])
+    with pytest.raises(ConfigError, match="one terrain"):
+        current_ceiling_samples([a, replace(b, terrain="ICE")])
+    with pytest.raises(ConfigError, match="overlap"):
+        learned_transfer_samples([a], [a], "wz")
+    with pytest.raises(ConfigError, match="signal"):
+        learned_transfer_samples([a], [b], "ax")
+    with pytest.raises(ConfigError, match="both"):
+        learned_transfer_samples([a], [b], "wz", train_candidates=[a])
+
+
+def test_alternate_split_takes_every_other_run_in_id_order():
+    class R:
+        def __init__(self, run_id):
+            self.run_id = run_id
+    train, held = alternate_split([R("S/03"), R("S/01"), R("S/02"), R("S/04"), R("S/05")])
+    assert [r.run_id for r in train] == ["S/01", "S/03", "S/05"]
+    assert [r.run_id for r in held] == ["S/02", "S/04"]
