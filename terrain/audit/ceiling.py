@@ -45,8 +45,6 @@ from terrain.errors import ConfigError
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import inverse_icr_factor
 
-#: moving manoeuvres, in the codes of :data:`terrain.audit.frames.MANOEUVRES`
-MOVING = tuple(k for k, name in enumerate(MANOEUVRES) if name != "stop")
 #: manoeuvre scopes of :func:`ceiling_table` (``moving`` pools the three others)
 SCOPES = ("moving", "straight", "curve", "spin")
 #: model columns a sample table may hold besides ``reference``
@@ -403,7 +401,6 @@ def ceiling_table(samples: pd.DataFrame) -> pd.DataFrame:
 __all__ = [
     "HISTORY_LAGS",
     "MODELS",
-    "MOVING",
     "SCOPES",
     "TransferSettings",
     "ceiling_table",

@@ -7,13 +7,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from terrain.audit.ceiling import (
-    ceiling_table,
-    current_ceiling_samples,
-    history_features,
-    learned_transfer_samples,
-    yaw_rate_ceiling_samples,
-)
+from terrain.audit.ceiling import (ceiling_table, current_ceiling_samples, history_features,
+                                   learned_transfer_samples, yaw_rate_ceiling_samples)
 from terrain.audit.frames import MANOEUVRES, AuditFrame
 from terrain.audit.physics import alternate_split
 from terrain.audit.timing import LagTrack
