@@ -14,7 +14,7 @@ half / held-out half) and computes, per terrain and pooled (every terrain with i
 
 (:mod:`terrain.audit.ceiling`.) Prints the tables, writes them as CSV, draws the figure
 (held-out yaw-rate gains per terrain; SNOW spin current per run against the commanded spin
-rate) and logs the gains, tables and figure to MLflow (experiment ``terrain-benchmark``, run
+rate), prints the outer and inner motor currents in curves per terrain, and logs the gains, tables and figure to MLflow (experiment ``terrain-benchmark``, run
 ``explainable-ceiling``).
 ``docs/physics_v2.md``, section "What one parameter set per terrain can reach".
 
@@ -89,6 +89,34 @@ def _spin_runs(pairs, terrain: str) -> pd.DataFrame:
                      float(cand.sim_cur[m].mean())))
     return pd.DataFrame(rows, columns=["run_id", "x_abs_rad_s", "chi_measured", "cur_measured_a",
                                        "cur_v1_a", "cur_v2_a"])
+
+
+def curve_current_split(pairs) -> pd.DataFrame:
+    """Per terrain, mean outer and inner motor current over forward-curve samples.
+
+    Runs with at least 30 scored forward-curve samples; outer = the faster side. Columns
+    ``terrain, runs`` and ``{outer,inner}_{measured,v1,v2}_a`` (A).
+    """
+    acc: dict[str, dict[str, list]] = {}
+    for ref, cand in pairs:
+        m = ref.score_cur & (ref.manoeuvre == MANOEUVRES.index("curve")) & \
+            (ref.commanded_speed > 0)
+        if m.sum() < 30:
+            continue
+        outer = (ref.commanded_yaw_rate[m] > 0).astype(int)   # turning left: right is outer
+        idx = np.arange(int(m.sum()))
+        d = acc.setdefault(ref.terrain, {"runs": []})
+        d["runs"].append(ref.run_id)
+        for name, cur in (("measured", ref.cur[m]), ("v1", ref.sim_cur[m]),
+                          ("v2", cand.sim_cur[m])):
+            d.setdefault(f"outer_{name}_a", []).append(cur[idx, outer])
+            d.setdefault(f"inner_{name}_a", []).append(cur[idx, 1 - outer])
+    rows = []
+    for terrain, d in sorted(acc.items()):
+        row = {"terrain": terrain, "runs": len(d.pop("runs"))}
+        row.update({k: float(np.concatenate(v).mean()) for k, v in d.items()})
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def ceiling_figure(table: pd.DataFrame, spins: pd.DataFrame) -> Figure:
@@ -177,6 +205,8 @@ def main() -> int:
             "gain_shared", "gain_per_run", "gain_learned"]
     print(table[show].round(3).to_string(index=False))
     print(chi.round(2).to_string(index=False))
+    split = curve_current_split(pairs)
+    print(split.round(1).to_string(index=False))
     spins = _spin_runs(pairs, "SNOW")
     print(spins.round(2).to_string(index=False))
     fig = ceiling_figure(table, spins)
@@ -197,6 +227,7 @@ def main() -> int:
             run.log_table(table, "explainable_ceiling.csv")
             run.log_table(chi, "chi_shared.csv")
             run.log_table(spins, "snow_spin_runs.csv")
+            run.log_table(split, "curve_current_split.csv")
             run.log_artifact(args.figure)
     return 0
 
