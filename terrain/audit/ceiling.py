@@ -24,8 +24,13 @@ measures whether it is reachable at all by such a model, from the measured runs 
   and the physics predictions is trained on *other* runs of the terrain and scored on the
   evaluated ones (``learned``): whether a history-dependent behaviour that the steady family
   misses (a rut that deepens while the wheels spin, say) is predictable from the inputs.
+* **Online ground state.** Each run's chi estimated causally from its own gyro (recursive
+  least squares with forgetting, shrunk towards the physics replay) and used to forecast the
+  yaw rate ``lead_s`` ahead (``online``): what estimating the ground state per run, instead
+  of simulating it from the terrain label, gives. It uses measured yaw rates, so it is not a
+  replay without fitted effects.
 
-All three are computed on the audit's comparison clock and samples (``score_imu`` /
+All of them are computed on the audit's comparison clock and samples (``score_imu`` /
 ``score_cur``, moving samples only) so their RMSEs compare directly with the replay's
 (:mod:`terrain.audit.physics`). ``benchmarks/explainable_ceiling.py`` runs them on BorealTC
 (``docs/physics_v2.md``, section "What one parameter set per terrain can reach").
@@ -48,7 +53,7 @@ from terrain.vehicles.icr import inverse_icr_factor
 #: manoeuvre scopes of :func:`ceiling_table` (``moving`` pools the three others)
 SCOPES = ("moving", "straight", "curve", "spin")
 #: model columns a sample table may hold besides ``reference``
-MODELS = ("candidate", "shared", "per_run", "learned")
+MODELS = ("candidate", "shared", "per_run", "online", "learned")
 #: lags of the learned transfer's history features, in wheel samples (BorealTC: ~0.15 s each)
 HISTORY_LAGS = (1, 2, 3, 4, 6, 8, 12)
 #: sample-table columns that identify a sample
@@ -364,6 +369,102 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
 
+def online_yaw_rate_samples(frames: Sequence[AuditFrame],
+                            candidates: Sequence[AuditFrame] | None = None,
+                            lead_s: float = 2.0, memory_s: float = 30.0,
+                            prior_s: float = 5.0) -> pd.DataFrame:
+    """Yaw rate forecast with each run's chi estimated causally from its own gyro.
+
+    The constructive answer to a ground state that varies between runs of one terrain
+    (:func:`yaw_rate_ceiling_samples`, ``per_run``). Per run and manoeuvre, the evidence is the
+    exponentially weighted sums ``S_xx = sum w x^2 dt`` and ``S_xy = sum w x wz dt`` over that
+    manoeuvre's earlier samples (forgetting time constant ``memory_s``); the forecast at ``t``
+    uses only the sums available at ``t - lead_s`` and shrinks the gyro's slope towards the
+    physics replay (the candidate's when given, else the reference's):
+
+        wz_hat(t) = (W0 sim_wz(t) + S_xy(t - lead) x(t)) / (W0 + S_xx(t - lead))
+
+    with ``W0 = 0.25 prior_s`` (the weight of ``prior_s`` seconds of turning at 0.5 rad/s).
+    With no evidence the forecast is the replay; with much, it is ``x / chi_run``.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        Runs on the comparison clock (``wz`` the gyro, ``sim_wz`` the reference replay,
+        rad/s).
+    candidates : sequence of AuditFrame, optional
+        The same runs with another physics' replay: used as the prior.
+    lead_s : float
+        Forecast horizon, s (>= 0): no sample within ``lead_s`` of ``t`` is used.
+    memory_s : float
+        Time constant of the exponential forgetting, s (> 0).
+    prior_s : float
+        Weight of the replay, in seconds of turning at 0.5 rad/s (>= 0; 0: the replay only
+        where there is no evidence yet).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run_id, terrain, side, manoeuvre, measured, reference, candidate, online``
+        (rad/s) for the scored moving samples, in the order of
+        :func:`yaw_rate_ceiling_samples`.
+
+    Raises
+    ------
+    ConfigError
+        ``lead_s < 0``, ``memory_s <= 0``, ``prior_s < 0`` or candidates not matching.
+
+    References
+    ----------
+    Recursive least squares with exponential forgetting (Ljung, *System Identification*,
+    2nd ed., 1999, ch. 11.2) of the ICR expansion model ``wz = x / chi`` (Mandow et al., IROS
+    2007; seed ``000_f24201ff985633bf.txt`` eqs. 2-3), with the replay as the prior.
+    """
+    if lead_s < 0 or not memory_s > 0 or prior_s < 0:
+        raise ConfigError("lead_s and prior_s must be >= 0 and memory_s > 0")
+    _check_pairs(frames, candidates)
+    w0 = 0.25 * prior_s
+    parts = []
+    for k, f in enumerate(frames):
+        m = _yaw_mask(f)
+        if not m.any():
+            continue
+        t, x, y, code = f.t_s[m], f.commanded_yaw_rate[m], f.wz[m], f.manoeuvre[m]
+        prior = (candidates[k] if candidates is not None else f).sim_wz[m]
+        dt = float(np.median(np.diff(f.t_s))) if f.n > 1 else 0.0
+        xx_at = np.zeros(len(t))
+        xy_at = np.zeros(len(t))
+        for c in np.unique(code):
+            i = np.flatnonzero(code == c)
+            sxx, sxy = np.zeros(len(i)), np.zeros(len(i))
+            acc_xx = acc_xy = 0.0
+            for n, j in enumerate(i):
+                if n:
+                    decay = np.exp(-(t[j] - t[i[n - 1]]) / memory_s)
+                    acc_xx, acc_xy = acc_xx * decay, acc_xy * decay
+                acc_xx += x[j] ** 2 * dt
+                acc_xy += x[j] * y[j] * dt
+                sxx[n], sxy[n] = acc_xx, acc_xy
+            # the sums at t - lead: those of the last sample of this manoeuvre at or before
+            # it, decayed to t - lead
+            avail = np.searchsorted(t[i], t[i] - lead_s, side="right") - 1
+            ok = avail >= 0
+            src = np.maximum(avail, 0)
+            decay = np.exp(-np.maximum(t[i] - lead_s - t[i[src]], 0.0) / memory_s)
+            xx_at[i] = np.where(ok, sxx[src] * decay, 0.0)
+            xy_at[i] = np.where(ok, sxy[src] * decay, 0.0)
+        den = w0 + xx_at
+        online = np.divide(w0 * prior + xy_at * x, den, out=prior.copy(), where=den > 0)
+        parts.append(pd.DataFrame({
+            "run_id": f.run_id, "terrain": f.terrain, "side": -1,
+            "manoeuvre": [MANOEUVRES[c] for c in code], "measured": y,
+            "reference": f.sim_wz[m],
+            "candidate": candidates[k].sim_wz[m] if candidates is not None else np.nan,
+            "online": online}))
+    cols = list(KEY_COLUMNS) + ["candidate", "online"]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
+
+
 def ceiling_table(samples: pd.DataFrame) -> pd.DataFrame:
     """RMSE of the reference and of every model column, and its gain, per manoeuvre scope.
 
@@ -407,5 +508,6 @@ __all__ = [
     "current_ceiling_samples",
     "history_features",
     "learned_transfer_samples",
+    "online_yaw_rate_samples",
     "yaw_rate_ceiling_samples",
 ]

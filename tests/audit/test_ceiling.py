@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from terrain.audit.ceiling import (ceiling_table, current_ceiling_samples, history_features,
-                                   learned_transfer_samples, yaw_rate_ceiling_samples)
+                                   learned_transfer_samples, online_yaw_rate_samples,
+                                   yaw_rate_ceiling_samples)
 from terrain.audit.frames import MANOEUVRES, AuditFrame
 from terrain.audit.physics import alternate_split
 from terrain.audit.timing import LagTrack
@@ -113,6 +114,42 @@ def test_learned_transfer_finds_a_planted_history_effect_the_steady_family_misse
     assert _row(steady, "spin").gain_shared < _row(learned, "spin").gain_learned - 0.1
     assert _row(learned, "spin").rmse_reference == pytest.approx(
         _row(steady, "spin").rmse_reference)
+
+
+def test_online_chi_recovers_each_runs_ground_state_where_one_chi_cannot():
+    # bimodal runs again: the online estimate learns each run's chi from its own gyro
+    frames = [_frame(f"free{k}", lambda x, t: x / 1.5) for k in range(2)]
+    frames += [_frame(f"dug{k}", lambda x, t: x / 6.0) for k in range(2)]
+    on = online_yaw_rate_samples(frames, lead_s=2.0, memory_s=30.0, prior_s=2.0)
+    shared = yaw_rate_ceiling_samples(frames)
+    np.testing.assert_array_equal(on.measured, shared.measured)   # same samples, same order
+    shared["online"] = on["online"].to_numpy()
+    row = _row(ceiling_table(shared), "spin")
+    assert row.gain_online > 0.8 > 0.2 > row.gain_shared
+    # before any evidence (the first spin's first lead_s) the forecast is the replay
+    first = frames[0]
+    spin = np.flatnonzero(first.manoeuvre[first.score_imu] == SPIN)
+    start = spin[: int(2.0 * RATE_HZ)]
+    np.testing.assert_allclose(on.online.to_numpy()[start], first.sim_wz[start])
+
+
+def test_online_chi_is_causal_and_shrinks_towards_the_replay():
+    base = _frame("a", lambda x, t: x / 2.0)
+    on = online_yaw_rate_samples([base], lead_s=2.0, memory_s=30.0, prior_s=2.0).online
+    # a different gyro after 40 s cannot change a forecast made before 42 s
+    late = base.t_s > 40.0
+    changed = replace(base, wz=np.where(late, 5 * base.wz, base.wz))
+    on2 = online_yaw_rate_samples([changed], lead_s=2.0, memory_s=30.0, prior_s=2.0).online
+    early = base.t_s[base.score_imu] <= 42.0 - 1e-9
+    np.testing.assert_allclose(on2.to_numpy()[early], on.to_numpy()[early])
+    assert not np.allclose(on2.to_numpy()[~early], on.to_numpy()[~early])
+    # a heavier prior keeps the forecast closer to the replay (x / 3 here, truth x / 2)
+    heavy = online_yaw_rate_samples([base], lead_s=2.0, memory_s=30.0, prior_s=500.0).online
+    spin = base.manoeuvre == SPIN
+    err = lambda p: np.abs(p.to_numpy()[spin] - base.wz[spin]).mean()  # noqa: E731
+    assert err(on) < err(heavy) < np.abs(base.sim_wz[spin] - base.wz[spin]).mean()
+    with pytest.raises(ConfigError):
+        online_yaw_rate_samples([base], memory_s=0.0)
 
 
 def test_history_features_look_back_and_time_the_manoeuvre():
