@@ -11,10 +11,13 @@ half / held-out half) and computes, per terrain and pooled (every terrain with i
 * ``per_run``: the same family fitted per run (the ground state of every run known);
 * ``learned``: a gradient-boosted map from the wheel-speed history and both physics'
   predictions, trained on the training half, scored on the held-out half;
-* ``online``: v2 with each run's chi estimated causally from its own gyro, forecast 2 s
-  ahead (:func:`terrain.audit.ceiling.online_yaw_rate_samples`; memory and prior weight
-  chosen on the training halves, all terrains pooled; also reported 5 and 10 s ahead). Not
-  a replay without fitted effects: it shows what estimating the ground state per run gives.
+* ``online``: v2 with each run's chi (yaw rate) or current offset (currents) estimated
+  causally from its own measurements, forecast 2 s ahead
+  (:func:`terrain.audit.ceiling.online_yaw_rate_samples`,
+  :func:`~terrain.audit.ceiling.online_current_samples`; memory and prior weight chosen on
+  the training halves per signal, all terrains pooled; the yaw rate also reported 5 and 10 s
+  ahead). Not a replay without fitted effects: it shows what estimating the ground state
+  per run gives.
 
 (:mod:`terrain.audit.ceiling`.) Prints the tables, writes them as CSV, draws the figure
 (held-out yaw-rate gains per terrain; SNOW spin current per run against the commanded spin
@@ -36,8 +39,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from terrain.audit.ceiling import (ceiling_table, current_ceiling_samples,
-                                   learned_transfer_samples, online_yaw_rate_samples,
-                                   yaw_rate_ceiling_samples)
+                                   learned_transfer_samples, online_current_samples,
+                                   online_yaw_rate_samples, yaw_rate_ceiling_samples)
 from terrain.audit.frames import MANOEUVRES
 from terrain.audit.physics import PhysicsComparisonSettings, alternate_split, paired_frames
 from terrain.errors import ConfigError
@@ -72,10 +75,16 @@ ONLINE_LEADS_REPORTED = (2.0, 5.0, 10.0)
 ONLINE_GRID = {"memory_s": (15.0, 30.0, 60.0, 120.0), "prior_s": (0.0, 2.0, 5.0, 10.0, 20.0)}
 
 
-def _online(groups, lead_s: float, memory_s: float, prior_s: float) -> list[pd.DataFrame]:
-    """Online-chi sample tables of several terrains' (frame, candidate) pairs."""
-    return [online_yaw_rate_samples([p[0] for p in g], [p[1] for p in g], lead_s=lead_s,
-                                    memory_s=memory_s, prior_s=prior_s) for g in groups]
+#: the online estimate of each signal group
+ONLINE = {"wz": online_yaw_rate_samples, "cur": online_current_samples}
+
+
+def _online(groups, lead_s: float, memory_s: float, prior_s: float,
+            signal: str = "wz") -> list[pd.DataFrame]:
+    """Online sample tables (chi or current offset) of several terrains' (frame, candidate)
+    pairs."""
+    return [ONLINE[signal]([p[0] for p in g], [p[1] for p in g], lead_s=lead_s,
+                           memory_s=memory_s, prior_s=prior_s) for g in groups]
 
 
 def _moving_gain(parts: list[pd.DataFrame]) -> float:
@@ -84,25 +93,27 @@ def _moving_gain(parts: list[pd.DataFrame]) -> float:
     return float(tab[tab.scope == "moving"].gain_online.iloc[0])
 
 
-def choose_online_settings(train_groups) -> tuple[dict, pd.DataFrame]:
-    """The online-chi setting with the best pooled yaw-rate gain on the training halves."""
+def choose_online_settings(train_groups, signal: str = "wz") -> tuple[dict, pd.DataFrame]:
+    """The online setting with the best pooled gain of ``signal`` on the training halves."""
     rows = []
     for memory_s in ONLINE_GRID["memory_s"]:
         for prior_s in ONLINE_GRID["prior_s"]:
-            gain = _moving_gain(_online(train_groups, ONLINE_LEAD_S, memory_s, prior_s))
-            rows.append({"memory_s": memory_s, "prior_s": prior_s, "train_gain": gain})
+            gain = _moving_gain(_online(train_groups, ONLINE_LEAD_S, memory_s, prior_s, signal))
+            rows.append({"signal": signal, "memory_s": memory_s, "prior_s": prior_s,
+                         "train_gain": gain})
     grid = pd.DataFrame(rows)
     best = grid.loc[grid.train_gain.idxmax()]
     return {"memory_s": float(best.memory_s), "prior_s": float(best.prior_s)}, grid
 
 
-def _add_online(samples: dict[str, list[pd.DataFrame]], online: list[pd.DataFrame]) -> None:
-    """Put the ``online`` column beside the yaw ceiling samples (same samples, same order)."""
-    for wz, on in zip(samples["wz"], online):
-        if len(wz) != len(on) or not np.array_equal(wz.measured.to_numpy(),
-                                                    on.measured.to_numpy()):
+def _add_online(samples: dict[str, list[pd.DataFrame]], online: list[pd.DataFrame],
+                signal: str = "wz") -> None:
+    """Put the ``online`` column beside the ceiling samples (same samples, same order)."""
+    for tab, on in zip(samples[signal], online):
+        if len(tab) != len(on) or not np.array_equal(tab.measured.to_numpy(),
+                                                     on.measured.to_numpy()):
             raise RuntimeError("online and ceiling samples differ")
-        wz["online"] = on["online"].to_numpy()
+        tab["online"] = on["online"].to_numpy()
 
 
 def _merge_learned(base: list[pd.DataFrame], learned: list[pd.DataFrame]) -> pd.DataFrame:
@@ -247,13 +258,19 @@ def main() -> int:
     terrains = sorted(by_terrain)
     groups = {name: [[p for p in by_terrain[t] if p[0].run_id in split_ids[t][k]]
                      for t in terrains] for k, name in enumerate(("train", "held-out"))}
-    online_settings, online_grid = choose_online_settings(groups["train"])
-    print("online chi, training halves (lead %.0f s):" % ONLINE_LEAD_S)
+    chosen, grids = {}, []
+    for signal in ("wz", "cur"):
+        chosen[signal], grid = choose_online_settings(groups["train"], signal)
+        grids.append(grid)
+        _add_online(held, _online(groups["held-out"], ONLINE_LEAD_S, **chosen[signal],
+                                  signal=signal), signal)
+        _add_online(every, _online([by_terrain[t] for t in terrains], ONLINE_LEAD_S,
+                                   **chosen[signal], signal=signal), signal)
+    online_grid = pd.concat(grids, ignore_index=True)
+    online_settings = chosen["wz"]
+    print("online estimates, training halves (lead %.0f s):" % ONLINE_LEAD_S)
     print(online_grid.round(3).to_string(index=False))
-    print(f"chosen: {online_settings}")
-    _add_online(held, _online(groups["held-out"], ONLINE_LEAD_S, **online_settings))
-    _add_online(every, _online([by_terrain[t] for t in terrains], ONLINE_LEAD_S,
-                               **online_settings))
+    print(f"chosen: {chosen}")
     leads = []
     for lead in ONLINE_LEADS_REPORTED:
         parts = _online(groups["held-out"], lead, **online_settings)
@@ -298,7 +315,8 @@ def main() -> int:
             run.log_table(split, "curve_current_split.csv")
             run.log_table(online_grid, "online_chi_grid.csv")
             run.log_table(leads, "online_chi_leads.csv")
-            run.log_params({f"online_{k}": v for k, v in online_settings.items()})
+            run.log_params({f"online_{sig}_{k}": v for sig, c in chosen.items()
+                            for k, v in c.items()})
             run.log_artifact(args.figure)
     return 0
 

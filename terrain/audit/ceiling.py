@@ -26,9 +26,10 @@ measures whether it is reachable at all by such a model, from the measured runs 
   misses (a rut that deepens while the wheels spin, say) is predictable from the inputs.
 * **Online ground state.** Each run's chi estimated causally from its own gyro (recursive
   least squares with forgetting, shrunk towards the physics replay) and used to forecast the
-  yaw rate ``lead_s`` ahead (``online``): what estimating the ground state per run, instead
-  of simulating it from the terrain label, gives. It uses measured yaw rates, so it is not a
-  replay without fitted effects.
+  yaw rate ``lead_s`` ahead; for the current, each run's offset from the replay estimated
+  the same way (``online``): what estimating the ground state per run, instead of
+  simulating it from the terrain label, gives. It uses measured yaw rates and currents, so
+  it is not a replay without fitted effects.
 
 All of them are computed on the audit's comparison clock and samples (``score_imu`` /
 ``score_cur``, moving samples only) so their RMSEs compare directly with the replay's
@@ -369,6 +370,34 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
 
+def _forgetting_sums(t: np.ndarray, code: np.ndarray, terms: Sequence[np.ndarray],
+                     lead_s: float, memory_s: float) -> list[np.ndarray]:
+    """Exponentially forgetting sums of ``terms`` over earlier samples of the same code.
+
+    For each sample ``k``: ``sum_j terms[j] exp(-(t_k - lead - t_j) / memory)`` over the
+    samples ``j`` of the same manoeuvre code with ``t_j <= t_k - lead`` (0 where none).
+    """
+    out = [np.zeros(len(t)) for _ in terms]
+    for c in np.unique(code):
+        i = np.flatnonzero(code == c)
+        sums = np.zeros((len(terms), len(i)))
+        acc = np.zeros(len(terms))
+        for n, j in enumerate(i):
+            if n:
+                acc *= np.exp(-(t[j] - t[i[n - 1]]) / memory_s)
+            acc += [term[j] for term in terms]
+            sums[:, n] = acc
+        # the sums at t - lead: those of the last sample of this manoeuvre at or before it,
+        # decayed to t - lead
+        avail = np.searchsorted(t[i], t[i] - lead_s, side="right") - 1
+        ok = avail >= 0
+        src = np.maximum(avail, 0)
+        decay = np.exp(-np.maximum(t[i] - lead_s - t[i[src]], 0.0) / memory_s)
+        for k in range(len(terms)):
+            out[k][i] = np.where(ok, sums[k, src] * decay, 0.0)
+    return out
+
+
 def online_yaw_rate_samples(frames: Sequence[AuditFrame],
                             candidates: Sequence[AuditFrame] | None = None,
                             lead_s: float = 2.0, memory_s: float = 30.0,
@@ -432,27 +461,7 @@ def online_yaw_rate_samples(frames: Sequence[AuditFrame],
         t, x, y, code = f.t_s[m], f.commanded_yaw_rate[m], f.wz[m], f.manoeuvre[m]
         prior = (candidates[k] if candidates is not None else f).sim_wz[m]
         dt = float(np.median(np.diff(f.t_s))) if f.n > 1 else 0.0
-        xx_at = np.zeros(len(t))
-        xy_at = np.zeros(len(t))
-        for c in np.unique(code):
-            i = np.flatnonzero(code == c)
-            sxx, sxy = np.zeros(len(i)), np.zeros(len(i))
-            acc_xx = acc_xy = 0.0
-            for n, j in enumerate(i):
-                if n:
-                    decay = np.exp(-(t[j] - t[i[n - 1]]) / memory_s)
-                    acc_xx, acc_xy = acc_xx * decay, acc_xy * decay
-                acc_xx += x[j] ** 2 * dt
-                acc_xy += x[j] * y[j] * dt
-                sxx[n], sxy[n] = acc_xx, acc_xy
-            # the sums at t - lead: those of the last sample of this manoeuvre at or before
-            # it, decayed to t - lead
-            avail = np.searchsorted(t[i], t[i] - lead_s, side="right") - 1
-            ok = avail >= 0
-            src = np.maximum(avail, 0)
-            decay = np.exp(-np.maximum(t[i] - lead_s - t[i[src]], 0.0) / memory_s)
-            xx_at[i] = np.where(ok, sxx[src] * decay, 0.0)
-            xy_at[i] = np.where(ok, sxy[src] * decay, 0.0)
+        xx_at, xy_at = _forgetting_sums(t, code, (x ** 2 * dt, x * y * dt), lead_s, memory_s)
         den = w0 + xx_at
         online = np.divide(w0 * prior + xy_at * x, den, out=prior.copy(), where=den > 0)
         parts.append(pd.DataFrame({
@@ -461,6 +470,74 @@ def online_yaw_rate_samples(frames: Sequence[AuditFrame],
             "reference": f.sim_wz[m],
             "candidate": candidates[k].sim_wz[m] if candidates is not None else np.nan,
             "online": online}))
+    cols = list(KEY_COLUMNS) + ["candidate", "online"]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
+
+
+def online_current_samples(frames: Sequence[AuditFrame],
+                           candidates: Sequence[AuditFrame] | None = None,
+                           lead_s: float = 2.0, memory_s: float = 15.0,
+                           prior_s: float = 2.0) -> pd.DataFrame:
+    """Motor current forecast with each run's current offset estimated causally.
+
+    The current counterpart of :func:`online_yaw_rate_samples`: per run, side and manoeuvre,
+    the physics replay (the candidate's when given) is corrected by the exponentially
+    weighted mean of its residual (measured minus replayed current) over earlier samples,
+    available at ``t - lead_s`` and shrunk towards zero by a prior of ``prior_s`` seconds:
+
+        I_hat(t) = sim(t) + R(t - lead) / (prior_s + W(t - lead))
+
+    with ``W = sum w dt`` and ``R = sum w (I - sim) dt`` (forgetting time constant
+    ``memory_s``). It uses measured currents, so it is not a replay without fitted effects.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        Runs on the comparison clock (``cur`` measured, ``sim_cur`` the reference replay, A).
+    candidates : sequence of AuditFrame, optional
+        The same runs with another physics' currents: the ones corrected.
+    lead_s : float
+        Forecast horizon, s (>= 0).
+    memory_s : float
+        Forgetting time constant, s (> 0).
+    prior_s : float
+        Weight of a zero correction, s (>= 0).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run_id, terrain, side, manoeuvre, measured, reference, candidate, online``
+        (A), rows in the order of :func:`current_ceiling_samples`.
+
+    Raises
+    ------
+    ConfigError
+        ``lead_s < 0``, ``memory_s <= 0``, ``prior_s < 0`` or candidates not matching.
+    """
+    if lead_s < 0 or not memory_s > 0 or prior_s < 0:
+        raise ConfigError("lead_s and prior_s must be >= 0 and memory_s > 0")
+    _check_pairs(frames, candidates)
+    parts = []
+    for k, f in enumerate(frames):
+        m = _cur_mask(f)
+        if not m.any():
+            continue
+        t, code = f.t_s[m], f.manoeuvre[m]
+        dt = float(np.median(np.diff(f.t_s))) if f.n > 1 else 0.0
+        base = (candidates[k] if candidates is not None else f).sim_cur[m]
+        for side in (0, 1):
+            y = f.cur[m, side]
+            w, r = _forgetting_sums(t, code, (np.full(len(t), dt), (y - base[:, side]) * dt),
+                                    lead_s, memory_s)
+            den = prior_s + w
+            correction = np.divide(r, den, out=np.zeros_like(r), where=den > 0)
+            parts.append(pd.DataFrame({
+                "run_id": f.run_id, "terrain": f.terrain, "side": side,
+                "manoeuvre": [MANOEUVRES[c] for c in code], "measured": y,
+                "reference": f.sim_cur[m, side],
+                "candidate": candidates[k].sim_cur[m, side] if candidates is not None
+                else np.nan,
+                "online": base[:, side] + correction}))
     cols = list(KEY_COLUMNS) + ["candidate", "online"]
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
@@ -508,6 +585,7 @@ __all__ = [
     "current_ceiling_samples",
     "history_features",
     "learned_transfer_samples",
+    "online_current_samples",
     "online_yaw_rate_samples",
     "yaw_rate_ceiling_samples",
 ]

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from terrain.audit.ceiling import (ceiling_table, current_ceiling_samples, history_features,
-                                   learned_transfer_samples, online_yaw_rate_samples,
-                                   yaw_rate_ceiling_samples)
+                                   learned_transfer_samples, online_current_samples,
+                                   online_yaw_rate_samples, yaw_rate_ceiling_samples)
 from terrain.audit.frames import MANOEUVRES, AuditFrame
 from terrain.audit.physics import alternate_split
 from terrain.audit.timing import LagTrack
@@ -150,6 +150,27 @@ def test_online_chi_is_causal_and_shrinks_towards_the_replay():
     assert err(on) < err(heavy) < np.abs(base.sim_wz[spin] - base.wz[spin]).mean()
     with pytest.raises(ConfigError):
         online_yaw_rate_samples([base], memory_s=0.0)
+
+
+def test_online_current_learns_a_per_run_offset_causally():
+    # two runs whose motors draw 1.5 A and 4 A above the replay: no shared offset fits both
+    base = _frame("a", lambda x, t: x)
+    runs = [replace(base, run_id="low", cur=base.sim_cur + 1.5),
+            replace(base, run_id="high", cur=base.sim_cur + 4.0)]
+    on = online_current_samples(runs, lead_s=2.0, memory_s=15.0, prior_s=0.5)
+    ce = current_ceiling_samples(runs)
+    np.testing.assert_array_equal(on.measured, ce.measured)       # same rows, same order
+    np.testing.assert_array_equal(on.side, ce.side)
+    ce["online"] = on["online"].to_numpy()
+    row = _row(ceiling_table(ce), "moving")
+    assert row.gain_per_run == pytest.approx(1.0)
+    assert row.gain_online > row.gain_shared + 0.15
+    # the first lead_s of each manoeuvre is the replay itself; later the offset is learned,
+    # shrunk by the prior: W / (prior + W) of it, W -> memory_s in steady state
+    low = on[(on.run_id == "low") & (on.side == 0)]
+    np.testing.assert_allclose(low.online.to_numpy()[:13], base.sim_cur[:13, 0])
+    learned = low.online.to_numpy()[-1] - base.sim_cur[-1, 0]
+    assert 1.5 * 0.85 < learned < 1.5 * 15.0 / 15.5 + 1e-9
 
 
 def test_history_features_look_back_and_time_the_manoeuvre():
