@@ -25,8 +25,8 @@ rate), prints the outer and inner motor currents in curves per terrain, and logs
 ``explainable-ceiling``).
 ``docs/physics_v2.md``, section "What one parameter set per terrain can reach".
 
-Usage: ``python benchmarks/explainable_ceiling.py [--out docs/physics_v2_ceiling.csv]
-[--figure docs/physics_v2_ceiling.png]``
+Usage: ``python benchmarks/explainable_ceiling.py [--dataset borealtc|vulpi]
+[--out docs/physics_v2_ceiling.csv] [--figure docs/physics_v2_ceiling.png]``
 (about 4 min: two replays of 55 runs).
 """
 
@@ -196,6 +196,11 @@ def ceiling_figure(table: pd.DataFrame, spins: pd.DataFrame) -> Figure:
     ax.set_title("(a) yaw rate, held-out runs")
     ax.set_ylim(top=115)
     ax.legend(fontsize=8, loc="upper right")
+    if spins.empty:
+        bx.text(0.5, 0.5, "no SNOW spins in this dataset", ha="center", transform=bx.transAxes)
+        bx.set_axis_off()
+        fig.tight_layout()
+        return fig
     dug = spins.chi_measured > 3
     bx.scatter(spins.x_abs_rad_s[dug], spins.cur_measured_a[dug], c="tab:red",
                label="measured, dug in (chi > 3)")
@@ -216,11 +221,18 @@ def ceiling_figure(table: pd.DataFrame, spins: pd.DataFrame) -> Figure:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="docs/physics_v2_ceiling.csv", help="CSV of the tables")
-    ap.add_argument("--figure", default="docs/physics_v2_ceiling.png", help="PNG of the figure")
+    ap.add_argument("--dataset", choices=("borealtc", "vulpi"), default="borealtc",
+                    help="shipped dataset (Husky runs)")
+    ap.add_argument("--out", default=None,
+                    help="CSV of the tables (default docs/physics_v2_ceiling[_vulpi].csv)")
+    ap.add_argument("--figure", default=None,
+                    help="PNG of the figure (default docs/physics_v2_ceiling[_vulpi].png)")
     ap.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
     args = ap.parse_args()
-    runs = load_dataset("borealtc")
+    suffix = "" if args.dataset == "borealtc" else f"_{args.dataset}"
+    args.out = args.out or f"docs/physics_v2_ceiling{suffix}.csv"
+    args.figure = args.figure or f"docs/physics_v2_ceiling{suffix}.png"
+    runs = load_dataset(args.dataset)
     settings = PhysicsComparisonSettings()
     pairs, skipped = paired_frames(runs, settings)
     if skipped:
@@ -291,14 +303,14 @@ def main() -> int:
     print(chi.round(2).to_string(index=False))
     split = curve_current_split(pairs)
     print(split.round(1).to_string(index=False))
-    spins = _spin_runs(pairs, "SNOW")
+    spins = _spin_runs(pairs, "SNOW")   # empty on datasets without snow
     print(spins.round(2).to_string(index=False))
     fig = ceiling_figure(table, spins)
     fig.savefig(args.figure, dpi=110)
     print(f"-> {args.out}, {args.figure}")
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", "explainable-ceiling",
-                         {"dataset": "borealtc", "reference": settings.reference,
+                         {"dataset": args.dataset, "reference": settings.reference,
                           "candidate": settings.candidate}) as run:
             metrics = {}
             for row in table.itertuples(index=False):
