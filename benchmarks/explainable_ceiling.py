@@ -270,12 +270,13 @@ def main() -> int:
     terrains = sorted(by_terrain)
     groups = {name: [[p for p in by_terrain[t] if p[0].run_id in split_ids[t][k]]
                      for t in terrains] for k, name in enumerate(("train", "held-out"))}
-    chosen, grids = {}, []
+    chosen, grids, held_online = {}, [], {}
     for signal in ("wz", "cur"):
         chosen[signal], grid = choose_online_settings(groups["train"], signal)
         grids.append(grid)
-        _add_online(held, _online(groups["held-out"], ONLINE_LEAD_S, **chosen[signal],
-                                  signal=signal), signal)
+        held_online[signal] = _online(groups["held-out"], ONLINE_LEAD_S, **chosen[signal],
+                                      signal=signal)
+        _add_online(held, held_online[signal], signal)
         _add_online(every, _online([by_terrain[t] for t in terrains], ONLINE_LEAD_S,
                                    **chosen[signal], signal=signal), signal)
     online_grid = pd.concat(grids, ignore_index=True)
@@ -285,7 +286,8 @@ def main() -> int:
     print(f"chosen: {chosen}")
     leads = []
     for lead in ONLINE_LEADS_REPORTED:
-        parts = _online(groups["held-out"], lead, **online_settings)
+        parts = (held_online["wz"] if lead == ONLINE_LEAD_S
+                 else _online(groups["held-out"], lead, **online_settings))
         snow = [p for p in parts if not p.empty and p.terrain.iloc[0] == "SNOW"]
         leads.append({"lead_s": lead, "all": _moving_gain(parts),
                       "SNOW": _moving_gain(snow) if snow else np.nan})

@@ -42,22 +42,17 @@ from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, alte
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
 from terrain.sim import SimConfig
-from terrain.sim.forces import COMBINED_SLIP
 from terrain.sim.simulate import simulate_with_physics
 from terrain.terramechanics.lateral import SOILS
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import icr_expansion_factor
 
 SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
-#: BorealTC terrains whose runs were split by :func:`split` to choose a physics-v2 parameter:
-#: the soils (:data:`terrain.terramechanics.lateral.SOILS`) and the rigid surfaces the Husky
+#: BorealTC terrains whose runs were split by :func:`~terrain.audit.physics.alternate_split`
+#: to choose a physics-v2 parameter: the soils (:data:`terrain.terramechanics.lateral.SOILS`) and the rigid surfaces the Husky
 #: tyre's side-force factor was chosen on (:data:`terrain.sim.forces.COMBINED_SLIP`). Only
 #: their held-out halves enter ``--heldout-table``.
 TUNED_TERRAINS = frozenset(SOILS) | frozenset({"ASPHALT", "FLOORING", "ICE"})
-
-
-#: the training / held-out split of every tuned terrain (alternating in run-id order)
-split = alternate_split
 
 
 def rmse(errs, sig, scope):
@@ -166,7 +161,7 @@ def heldout_table(path: str) -> int:
     held = []
     for terrain in sorted({r.terrain for r in runs}):
         group = [r for r in runs if r.terrain == terrain]
-        held += split(group)[1] if terrain in TUNED_TERRAINS else group
+        held += alternate_split(group)[1] if terrain in TUNED_TERRAINS else group
     settings = PhysicsComparisonSettings()
     per_run, _ = per_run_errors(held, settings)
     table = gain_table(per_run, settings)
@@ -198,7 +193,8 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
     Parameters
     ----------
     terrains : list of str
-        BorealTC rigid terrains, each split into training and held-out runs by :func:`split`.
+        BorealTC rigid terrains, each split into training and held-out runs by
+        :func:`~terrain.audit.physics.alternate_split`.
     factors : list of float
         Side-force factors to replay with (``k_S`` in (0, 1]); with ``friction``, factors on
         the catalogue friction of every terrain in ``terrains``
@@ -218,7 +214,7 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
     parts, refs = {}, {}
     for terrain in terrains:
         runs = [r for r in data if r.terrain == terrain]
-        parts[terrain] = dict(zip(("train", "held"), split(runs)))
+        parts[terrain] = dict(zip(("train", "held"), alternate_split(runs)))
         print(f"{terrain} training:", [r.run_id.split("/")[-1] for r in parts[terrain]["train"]],
               "held out:", [r.run_id.split("/")[-1] for r in parts[terrain]["held"]])
         refs.update({r.run_id: prepare_frame(r, replay_run(r, replace(settings, physics="v1")))
@@ -299,7 +295,7 @@ def main() -> int:
         return heldout_table(args.heldout_table)
     variants = json.loads(args.variants)
     runs = [r for r in load_dataset("borealtc") if r.terrain == args.terrain]
-    train, held = split(runs)
+    train, held = alternate_split(runs)
     print("training:", [r.run_id.split("/")[-1] for r in train])
     print("held out:", [r.run_id.split("/")[-1] for r in held])
     settings = ReplaySettings()

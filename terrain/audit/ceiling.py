@@ -87,7 +87,12 @@ class TransferSettings:
             raise ConfigError("max_iter and min_samples_leaf must be >= 1, learning_rate > 0")
 
 
-def _check_pairs(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None):
+def _check_pairs(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None,
+                 one_terrain: bool = False):
+    """Candidates on the frames' clocks; with ``one_terrain``, frames of a single terrain
+    (the families fitted here have one parameter set per terrain)."""
+    if one_terrain and len({f.terrain for f in frames}) > 1:
+        raise ConfigError("one terrain at a time: the family has one parameter set per terrain")
     if candidates is not None:
         if len(candidates) != len(frames):
             raise ConfigError(f"{len(candidates)} candidate frames for {len(frames)} frames")
@@ -137,9 +142,7 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
     ConfigError
         Candidate frames not matching the frames, or frames of more than one terrain.
     """
-    _check_pairs(frames, candidates)
-    if len({f.terrain for f in frames}) > 1:
-        raise ConfigError("one terrain at a time: the family has one parameter set per terrain")
+    _check_pairs(frames, candidates, one_terrain=True)
     parts = []
     for k, f in enumerate(frames):
         m = _yaw_mask(f)
@@ -211,9 +214,7 @@ def current_ceiling_samples(frames: Sequence[AuditFrame],
     ConfigError
         Candidate frames not matching the frames, or frames of more than one terrain.
     """
-    _check_pairs(frames, candidates)
-    if len({f.terrain for f in frames}) > 1:
-        raise ConfigError("one terrain at a time: the family has one parameter set per terrain")
+    _check_pairs(frames, candidates, one_terrain=True)
     rows, designs = [], []
     for k, f in enumerate(frames):
         m = _cur_mask(f)
@@ -370,6 +371,11 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
 
+def _sample_period_s(frame: AuditFrame) -> float:
+    """Median step of a frame's wheel clock, s (0 for a single sample)."""
+    return float(np.median(np.diff(frame.t_s))) if frame.n > 1 else 0.0
+
+
 def _forgetting_sums(t: np.ndarray, code: np.ndarray, terms: Sequence[np.ndarray],
                      lead_s: float, memory_s: float) -> list[np.ndarray]:
     """Exponentially forgetting sums of ``terms`` over earlier samples of the same code.
@@ -460,7 +466,7 @@ def online_yaw_rate_samples(frames: Sequence[AuditFrame],
             continue
         t, x, y, code = f.t_s[m], f.commanded_yaw_rate[m], f.wz[m], f.manoeuvre[m]
         prior = (candidates[k] if candidates is not None else f).sim_wz[m]
-        dt = float(np.median(np.diff(f.t_s))) if f.n > 1 else 0.0
+        dt = _sample_period_s(f)
         xx_at, xy_at = _forgetting_sums(t, code, (x ** 2 * dt, x * y * dt), lead_s, memory_s)
         den = w0 + xx_at
         online = np.divide(w0 * prior + xy_at * x, den, out=prior.copy(), where=den > 0)
@@ -523,7 +529,7 @@ def online_current_samples(frames: Sequence[AuditFrame],
         if not m.any():
             continue
         t, code = f.t_s[m], f.manoeuvre[m]
-        dt = float(np.median(np.diff(f.t_s))) if f.n > 1 else 0.0
+        dt = _sample_period_s(f)
         base = (candidates[k] if candidates is not None else f).sim_cur[m]
         for side in (0, 1):
             y = f.cur[m, side]
