@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from terrain.estimation import SensorSamples, make_grid, predict, run_filter, update
+from terrain.estimation import SensorSamples, predict, run_filter, update
 from terrain.estimation.agrimaro import AgriMaRoModel, estimate_agrimaro
 from pipelines.validation.harness import data_driven_settings, simulate_agrimaro
 from terrain.tracking import tracked_run

@@ -22,11 +22,12 @@ from pathlib import Path
 import pandas as pd
 
 from terrain.models.compare import (markdown_table, plot_comparison, score_rows, soft_vote,
-                                    summary_table)
+                                    summary_table, with_default_keys)
 
 
 def _read(path: Path) -> pd.DataFrame:
-    """Read one folder's CSV; folders written before the protocol column are ``grouped``.
+    """Read one folder's CSV; folders written before the protocol or training-hop columns
+    are ``grouped`` with non-overlapping training windows.
 
     Parameters
     ----------
@@ -36,13 +37,10 @@ def _read(path: Path) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        The table with a ``protocol`` column (filled per folder, so that folders with and
-        without the column can be merged without NaN keys).
+        The table with ``protocol`` and ``train_hop_s`` columns (filled per folder, so that
+        folders with and without them can be merged without NaN keys).
     """
-    frame = pd.read_csv(path)
-    if "protocol" not in frame:
-        frame["protocol"] = "grouped"
-    return frame
+    return with_default_keys(pd.read_csv(path))
 
 
 def main() -> int:
@@ -57,7 +55,7 @@ def main() -> int:
     args = parser.parse_args()
     cells = pd.concat([_read(d / "compare_cells.csv") for d in args.dirs])
     preds = pd.concat([_read(d / "predictions.csv") for d in args.dirs])
-    keys = ["protocol", "dataset", "signals", "window_s", "seed"]
+    keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "seed"]
     rows = [cells]
     for vote in args.vote or [["svm", "cnn", "cnn-spectrogram"]]:
         name = "vote(" + "+".join(vote) + ")"

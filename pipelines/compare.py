@@ -52,6 +52,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--early-stopping", action="store_true",
                         help="CNNs stop on the loss of whole training runs held out of each "
                              "fit (--max-epochs is the upper bound); default: fixed budget")
+    parser.add_argument("--train-hop-s", type=float, default=None,
+                        help="hop of the training windows, s: each fold trains on windows cut "
+                             "this often from its training runs; test windows unchanged "
+                             "(default: the non-overlapping test cut)")
     parser.add_argument("--quick", action="store_true", help="small grid (smoke test)")
     parser.add_argument("--backend", choices=BACKENDS, default="loky")
     parser.add_argument("--address", default=None,
@@ -77,12 +81,14 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
     """
     if args.quick:
         quick = {**QUICK, **({"windows_s": (1.7,)} if args.protocol == "paper" else {})}
-        return CompareConfig(**quick, history=tuple(args.history), protocol=args.protocol)
+        return CompareConfig(**quick, history=tuple(args.history), protocol=args.protocol,
+                             train_hop_s=args.train_hop_s)
     return CompareConfig(models=tuple(args.models), signals=tuple(args.signals),
                          windows_s=tuple(args.windows_s), datasets=tuple(args.datasets),
                          seeds=tuple(args.seeds), history=tuple(args.history),
                          max_epochs=args.max_epochs, n_threads=args.threads,
-                         protocol=args.protocol, early_stopping=args.early_stopping)
+                         protocol=args.protocol, early_stopping=args.early_stopping,
+                         train_hop_s=args.train_hop_s)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -111,7 +117,8 @@ def main(args: argparse.Namespace) -> int:
         for res in results:
             c = res["cell"]
             name = (f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
-                    + ("" if c["protocol"] == "grouped" else f"-{c['protocol']}-LEAKY"))
+                    + ("" if c["protocol"] == "grouped" else f"-{c['protocol']}-LEAKY")
+                    + ("" if c["train_hop_s"] is None else f"-trainhop{c['train_hop_s']:g}s"))
             with mlflow.start_run(run_name=name, nested=True, experiment_id=experiment_id):
                 mlflow.log_params(c)
                 mlflow.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in res["rows"]

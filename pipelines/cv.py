@@ -40,6 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
     parser.add_argument("--hop-s", type=float, default=None,
                         help="hop between windows, s (default: window length)")
+    parser.add_argument("--train-hop-s", type=float, default=None,
+                        help="hop of the training windows, s: each fold trains on windows cut "
+                             "this often from its training runs, tests on the usual ones "
+                             "(default: train on the test windows' cut)")
     parser.add_argument("--protocol", choices=PROTOCOLS, default="grouped")
     parser.add_argument("--seeds", type=int, nargs="+", default=None,
                         help="CV seeds (default: 0 1 2; loro: 0, it is deterministic; "
@@ -71,7 +75,8 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
     # leave-one-run-out is deterministic; the paper protocol's published split is seed 0
     seeds = args.seeds or ([0] if args.protocol in ("paper", "loro") else [0, 1, 2])
     return ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
-                            window_s=args.window_s, hop_s=args.hop_s, protocol=args.protocol,
+                            window_s=args.window_s, hop_s=args.hop_s,
+                            train_hop_s=args.train_hop_s, protocol=args.protocol,
                             seeds=tuple(seeds), search=args.search,
                             steady_only=args.steady_only, model=args.model)
 

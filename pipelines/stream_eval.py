@@ -19,7 +19,6 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from terrain.io.shipped import load_dataset

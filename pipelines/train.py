@@ -47,6 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--signals", nargs="+", default=["all"],
                         help="imu, wheels, all, or channel names (default: all)")
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
+    parser.add_argument("--train-hop-s", type=float, default=None,
+                        help="fit on windows cut this often, s (overlapping when shorter than "
+                             "the window; default: non-overlapping)")
     parser.add_argument("--search", action="store_true",
                         help="choose C and gamma by a grid search grouped by run")
     parser.add_argument("--model-out", type=Path, default=None,
@@ -103,13 +106,15 @@ def main(args: argparse.Namespace) -> int:
         Exit status, 0 on success.
     """
     config = ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
-                              window_s=args.window_s, search=args.search, seeds=(0,),
+                              window_s=args.window_s, train_hop_s=args.train_hop_s,
+                              search=args.search, seeds=(0,),
                               model=args.model or DEFAULT_MODELS.get(args.dataset, "ensemble3"))
     name = f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
     window = config.window_config()
     params = {"model": config.model, "dataset": config.dataset,
               "signals": ",".join(config.signals),
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
+              "train_hop_s": config.train_hop_s or window.hop_s or window.window_s,
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0]}
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:

@@ -265,7 +265,6 @@ def _filter_loop(transition, observation, model, data, options, out):
     Sa = np.empty((m, m))
     B = np.empty((m, n + 1))
     BR = np.empty((m, n))
-    A = np.empty((n, n))
     AP = np.empty((n, n))
     two_pi = 2.0 * math.pi
     for k in range(N):

@@ -30,7 +30,9 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError
-from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
+from features.windows import make_windows
+from terrain.models.cv import (TrainingWindows, cross_validate, purge_block_overlaps,
+                               split_single_run_classes, training_units)
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, make_model
 
@@ -62,6 +64,10 @@ class Cell:
     protocol : {"grouped", "paper"}
         ``grouped``: run-grouped ``StratifiedGroupKFold`` (headline); ``paper``: the papers'
         leaky 5 s partition protocol (1.7 s windows, see the module docstring).
+    train_hop_s : float or None
+        Hop of the training windows, s: each fold trains on windows cut this often from its
+        training runs (:class:`terrain.models.cv.TrainingWindows`); the test windows stay
+        the non-overlapping ones. ``None``: train on the non-overlapping windows.
     """
 
     model: str
@@ -70,6 +76,7 @@ class Cell:
     dataset: str
     seed: int
     protocol: str = "grouped"
+    train_hop_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -99,6 +106,9 @@ class CompareConfig:
         the papers' window).
     early_stopping : bool
         CNNs stop on whole held-out training runs (``max_epochs`` is the upper bound).
+    train_hop_s : float or None
+        Hop of the training windows of every cell, s (see :class:`Cell`); grouped protocol
+        only.
     """
 
     models: tuple[str, ...] = MODELS
@@ -113,11 +123,16 @@ class CompareConfig:
     single_run_blocks: int = 5
     protocol: str = "grouped"
     early_stopping: bool = False
+    train_hop_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.protocol not in COMPARE_PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: "
                               f"{list(COMPARE_PROTOCOLS)}")
+        if self.train_hop_s is not None and not (self.train_hop_s > 0
+                                                 and self.protocol == "grouped"):
+            raise ConfigError("train_hop_s must be > 0 s and needs the grouped protocol (the "
+                              f"paper protocol fixes its windows); got {self.train_hop_s}")
         if self.protocol == "paper":
             from terrain.models.experiment import PAPER_WINDOW
 
@@ -140,8 +155,9 @@ class CompareConfig:
             ``len(datasets) * len(windows_s) * len(signals) * len(seeds) * len(models)``
             cells.
         """
-        return [Cell(m, s, w, d, seed, self.protocol) for d in self.datasets for w in self.windows_s
-                for s in self.signals for seed in self.seeds for m in self.models]
+        return [Cell(m, s, w, d, seed, self.protocol, self.train_hop_s) for d in self.datasets
+                for w in self.windows_s for s in self.signals for seed in self.seeds
+                for m in self.models]
 
 
 def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: int
@@ -249,17 +265,30 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
 
 def _windows(cell: Cell, n_blocks: int):
     """Windows of a cell with single-run classes split into blocks (as ``terrain cv``); under
-    the paper protocol its 1.7 s windows, grouped by 5 s partition."""
+    the paper protocol its 1.7 s windows, grouped by 5 s partition. Also the cell's training
+    cut (:class:`~terrain.models.cv.TrainingWindows`) when it has a ``train_hop_s``, else
+    None."""
+    from terrain.io.shipped import load_dataset
     from terrain.models.experiment import ExperimentConfig, load_windows
 
-    ws = load_windows(ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
-                                       window_s=cell.window_s, protocol=cell.protocol))
+    config = ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
+                              window_s=cell.window_s, protocol=cell.protocol,
+                              train_hop_s=cell.train_hop_s)
+    runs = load_dataset(cell.dataset)
+    ws = load_windows(config, runs)
     labels = ws.labels.astype(str)
     if cell.protocol == "paper":
-        return ws, labels, ws.groups
+        return ws, labels, ws.groups, None
     groups, _ = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
     keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
-    return ws.subset(keep), labels[keep], groups[keep]
+    ws, labels, groups = ws.subset(keep), labels[keep], groups[keep]
+    training = None
+    if cell.train_hop_s is not None:
+        dense = make_windows(runs, (cell.signals,), config.train_window_config())
+        training = TrainingWindows(dense.X, dense.labels.astype(str), training_units(
+            ws.run_ids, ws.t_start_s, ws.t_end_s, groups, dense.run_ids, dense.t_start_s,
+            dense.t_end_s))
+    return ws, labels, groups, training
 
 
 def run_cell(cell: Cell, config: CompareConfig) -> dict:
@@ -279,14 +308,14 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
         ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``), ``folds`` (frame) and
         ``predictions`` (frame with probabilities).
     """
-    ws, labels, groups = _windows(cell, config.single_run_blocks)
+    ws, labels, groups, training = _windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
                      n_threads=config.n_threads, early_stopping=config.early_stopping)
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
     t0 = time.perf_counter()
     report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,
                             ws.t_end_s, cell.protocol, (cell.seed,), config.n_splits,
-                            time_inference=20)
+                            time_inference=20, training=training)
     wall_s = time.perf_counter() - t0
     pred = report.predictions
     rows = score_rows(pred, report.classes, config.history,
@@ -320,6 +349,26 @@ def run_grid(config: CompareConfig, n_jobs: int | None = None) -> list[dict]:
     return Parallel(n_jobs=n_jobs)(delayed(run_cell)(c, config) for c in config.cells())
 
 
+def with_default_keys(frame: pd.DataFrame) -> pd.DataFrame:
+    """Fill the keys that older rows lack: ``protocol`` (``grouped``) and ``train_hop_s``
+    (the window length, i.e. non-overlapping training windows).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Cells, rows or predictions with ``window_s``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with both columns filled.
+    """
+    protocol = frame["protocol"].fillna("grouped") if "protocol" in frame else "grouped"
+    hop = (frame["train_hop_s"].astype(float).fillna(frame["window_s"])
+           if "train_hop_s" in frame else frame["window_s"])
+    return frame.assign(protocol=protocol, train_hop_s=hop)
+
+
 def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
     """Mean and spread (std over seeds) of every metric per model x signals x window x
     dataset x history.
@@ -335,9 +384,8 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
         One row per group: ``<metric>_mean``, ``<metric>_std`` for the table metrics,
         ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and ``n_seeds``.
     """
-    rows = rows.assign(protocol=rows["protocol"].fillna("grouped")) if "protocol" in rows \
-        else rows.assign(protocol="grouped")
-    keys = ["protocol", "dataset", "signals", "window_s", "history", "model"]
+    rows = with_default_keys(rows)
+    keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "history", "model"]
     g = rows.groupby(keys, sort=True)
     out = pd.concat([g[list(TABLE_METRICS)].mean().add_suffix("_mean"),
                      g[list(TABLE_METRICS)].std(ddof=0).add_suffix("_std"),
@@ -359,13 +407,13 @@ def markdown_table(table: pd.DataFrame) -> str:
     str
         GitHub-flavoured Markdown.
     """
-    head = ["dataset", "signals", "window s", "history k", "model", "accuracy",
+    head = ["dataset", "signals", "window s", "train hop s", "history k", "model", "accuracy",
             "balanced acc.", "macro-F1", "run vote acc.", "train s/fold", "infer ms/window",
             "seeds", "protocol"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for _, r in table.iterrows():
-        cells = [r["dataset"], r["signals"], f"{r['window_s']:g}", str(int(r["history"])),
-                 r["model"]]
+        cells = [r["dataset"], r["signals"], f"{r['window_s']:g}",
+                 f"{r.get('train_hop_s', r['window_s']):g}", str(int(r["history"])), r["model"]]
         cells += [f"{r[m + '_mean']:.3f} ± {r[m + '_std']:.3f}" for m in TABLE_METRICS]
         cells += [f"{r['fit_s_per_fold']:.1f}", f"{r['infer_ms_per_window']:.2f}",
                   str(int(r["n_seeds"])),

@@ -99,6 +99,85 @@ def purge_block_overlaps(groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.
     return keep
 
 
+def training_units(run_ids: np.ndarray, t_start_s: np.ndarray, t_end_s: np.ndarray,
+                   groups: np.ndarray, train_run_ids: np.ndarray, train_t_start_s: np.ndarray,
+                   train_t_end_s: np.ndarray) -> np.ndarray:
+    """Split unit of every window of a denser training cut of the same runs.
+
+    The evaluation windows (one set, with their split units) define the folds; training may
+    use more, overlapping windows cut from the same runs at a finer hop. Each such window
+    belongs to the unit of its run when the run is one unit. When a run is cut into time
+    blocks (a single-run class), it belongs to the one block whose evaluation windows it
+    overlaps; a window overlapping two blocks or none, and every window of a run without
+    evaluation windows, gets no unit (``None``) and is never trained on. So a training window
+    never shares a sample with a test window of another unit.
+
+    Parameters
+    ----------
+    run_ids, t_start_s, t_end_s, groups : numpy.ndarray
+        ``(n_windows,)`` run, bounds (s) and split unit of the evaluation windows.
+    train_run_ids, train_t_start_s, train_t_end_s : numpy.ndarray
+        ``(n_train_windows,)`` run and bounds (s) of the training cut.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_train_windows,)`` object array of units, ``None`` where unusable.
+    """
+    run_ids, groups = np.asarray(run_ids), np.asarray(groups, dtype=object)
+    train_run_ids = np.asarray(train_run_ids)
+    units = np.full(len(train_run_ids), None, dtype=object)
+    for run in np.unique(train_run_ids):
+        dense = np.flatnonzero(train_run_ids == run)
+        own = np.flatnonzero(run_ids == run)
+        run_units = np.unique(groups[own])
+        if len(run_units) == 1:
+            units[dense] = run_units[0]
+            continue
+        for i in dense:
+            hit = own[(t_start_s[own] < train_t_end_s[i] - 1e-9)
+                      & (t_end_s[own] > train_t_start_s[i] + 1e-9)]
+            hit_units = np.unique(groups[hit])
+            if len(hit_units) == 1:
+                units[i] = hit_units[0]
+    return units
+
+
+@dataclass(frozen=True)
+class TrainingWindows:
+    """A denser training cut of the cross-validated runs (see :func:`training_units`).
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_train_windows, ...)`` model input (features or raw windows).
+    y : numpy.ndarray
+        ``(n_train_windows,)`` labels.
+    units : numpy.ndarray
+        ``(n_train_windows,)`` split unit of each window (``None``: never trained on).
+    """
+
+    X: np.ndarray
+    y: np.ndarray
+    units: np.ndarray
+
+    def rows_of(self, train_units) -> np.ndarray:
+        """Indices of the windows whose unit is among ``train_units``.
+
+        Parameters
+        ----------
+        train_units : array-like
+            Split units of a training fold.
+
+        Returns
+        -------
+        numpy.ndarray
+            Integer indices into :attr:`X`.
+        """
+        wanted = set(np.asarray(train_units, dtype=object).tolist())
+        return np.flatnonzero([u is not None and u in wanted for u in self.units])
+
+
 def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int,
                 n_splits: int = 5) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Train/test window indices of one protocol.
@@ -154,7 +233,7 @@ class CVReport:
         Sorted class labels of the windows.
     folds : pandas.DataFrame
         One row per (seed, fold): window metrics, ``run_majority_accuracy``, ``n_test``,
-        ``fit_s`` and the chosen hyperparameters when a search ran.
+        ``n_train`` (windows trained on), ``fit_s`` and the chosen hyperparameters when a search ran.
         ``run_majority_accuracy`` votes per split unit: the run under ``grouped``/``loro``
         (a time block for a single-run class), the 5 s partition under ``paper``.
     predictions : pandas.DataFrame
@@ -247,11 +326,14 @@ def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:
     return 1e3 * float(np.median(times))
 
 
-def _fold(estimator, X, y, groups, train, test, classes, search, time_inference):
-    """Fit on ``train``, predict ``test``; (predictions, probabilities or None, fit s,
-    best parameters (plus ``n_epochs`` run by a CNN), inference ms per window or None)."""
+def _fold(estimator, X_fit, y_fit, groups_fit, fit_rows, X, test, classes, search,
+          time_inference):
+    """Fit on rows ``fit_rows`` of ``X_fit``, predict rows ``test`` of ``X``; (predictions,
+    probabilities or None, fit s, best parameters (plus ``n_epochs`` run by a CNN), inference
+    ms per window or None)."""
     t0 = time.perf_counter()
-    est = fit_with_groups(estimator, X[train], y[train], groups[train], always=search)
+    est = fit_with_groups(estimator, X_fit[fit_rows], y_fit[fit_rows], groups_fit[fit_rows],
+                          always=search)
     fit_s = time.perf_counter() - t0
     infer_ms = (inference_ms_per_window(est, X[test], time_inference) if time_inference
                 else None)
@@ -277,7 +359,8 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
                    t_end_s: np.ndarray, protocol: str = "grouped",
                    seeds: Sequence[int] = (0, 1, 2), n_splits: int = 5,
                    search: bool = False, progress: bool = False,
-                   n_jobs: int | None = None, time_inference: int = 0) -> CVReport:
+                   n_jobs: int | None = None, time_inference: int = 0,
+                   training: TrainingWindows | None = None) -> CVReport:
     """Cross-validate a classifier on window features or raw windows.
 
     Folds of every seed are independent tasks run through :class:`joblib.Parallel`, so the
@@ -309,6 +392,10 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     time_inference : int
         When > 0, time that many test windows one by one per fold
         (``infer_ms_per_window`` column of ``folds``).
+    training : TrainingWindows or None
+        Train each fold on the windows of this denser cut whose unit is a training unit of
+        the fold, instead of the training windows of ``X``; the folds and the test windows
+        are those of ``X`` either way. ``None``: train on ``X``'s own windows.
 
     Returns
     -------
@@ -334,8 +421,15 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
             if np.intersect1d(groups[train], groups[test]).size:
                 raise RuntimeError("a split unit is on both sides of a split")  # invariant
             tasks.append((seed, fold, train, test))
-    jobs = (delayed(_fold)(clone(estimator_factory(seed)), X, y, groups, train, test, classes,
-                                    search, time_inference) for seed, _, train, test in tasks)
+    if training is None:
+        fit_on = (X, y, groups)
+        rows_for = (lambda train: train)
+    else:
+        fit_on = (training.X, np.asarray(training.y).astype(str), training.units)
+        rows_for = (lambda train: training.rows_of(np.unique(groups[train])))
+    jobs = (delayed(_fold)(clone(estimator_factory(seed)), *fit_on, rows_for(train), X, test,
+                           classes, search, time_inference)
+            for seed, _, train, test in tasks)
     if progress and n_jobs in (None, 1):
         from tqdm.auto import tqdm
         jobs = tqdm(jobs, total=len(tasks), desc=f"cv ({protocol})", unit="fold")
@@ -344,7 +438,8 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     for (seed, fold, train, test), (p, proba, fit_s, best, infer_ms) in zip(tasks, results):
         m = window_metrics(y[test], p, classes)
         m["run_majority_accuracy"] = run_majority_accuracy(y[test], p, groups[test])
-        row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)), "fit_s": fit_s}
+        row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)),
+               "n_train": float(len(rows_for(train))), "fit_s": fit_s}
         if infer_ms is not None:
             row["infer_ms_per_window"] = infer_ms
         if best:

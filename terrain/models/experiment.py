@@ -20,7 +20,8 @@ from features.transformers import WindowFeatures
 from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
 from terrain.errors import ConfigError
 from terrain.io.shipped import DATASET_SPECS, load_dataset
-from terrain.models.cv import (PROTOCOLS, CVReport, cross_validate, fit_with_groups,
+from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, cross_validate,
+                               fit_with_groups, training_units,
                                purge_block_overlaps, split_single_run_classes)
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, make_search, make_svm, svm_window_pipeline
@@ -46,6 +47,13 @@ class ExperimentConfig:
         Window length, s (the ``paper`` protocol fixes 1.7 s).
     hop_s : float or None
         Hop, s; ``None`` = non-overlapping (``paper`` fixes 0.1 s).
+    train_hop_s : float or None
+        Hop of the *training* windows, s: a finer hop cuts more, overlapping windows from the
+        training runs only (each fold trains on those of its training runs,
+        :func:`terrain.models.cv.training_units`; ``terrain train`` on those of every run),
+        while the folds and the test windows stay those of ``hop_s``. ``None``: train on the
+        evaluation windows. Not with the ``paper`` protocol (its windows already slide by
+        0.1 s).
     rate_hz : float or None
         Aligned clock rate, Hz; ``None`` = the dataset's IMU rate.
     steady_only : bool
@@ -72,14 +80,15 @@ class ExperimentConfig:
     Raises
     ------
     ConfigError
-        Unknown model, dataset, protocol or signal, or ``search`` with a model other than
-        the SVM.
+        Unknown model, dataset, protocol or signal, ``search`` with a model other than
+        the SVM, or a ``train_hop_s`` that is not positive or comes with ``paper``.
     """
 
     dataset: str = "borealtc"
     signals: tuple[str, ...] = ("all",)
     window_s: float = 2.0
     hop_s: float | None = None
+    train_hop_s: float | None = None
     rate_hz: float | None = None
     steady_only: bool = False
     protocol: str = "grouped"
@@ -102,6 +111,25 @@ class ExperimentConfig:
         if self.protocol not in PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: {list(PROTOCOLS)}")
         resolve_signals(self.signals)
+        if self.train_hop_s is not None:
+            if not self.train_hop_s > 0:
+                raise ConfigError(f"train_hop_s must be > 0 s, got {self.train_hop_s}")
+            if self.protocol == "paper":
+                raise ConfigError("the paper protocol fixes its windows (0.1 s hop): drop "
+                                  "--train-hop-s")
+
+    def train_window_config(self) -> WindowConfig | None:
+        """Window settings of the training cut, or None when training uses the evaluation
+        windows (``train_hop_s`` unset).
+
+        Returns
+        -------
+        WindowConfig or None
+            :meth:`window_config` with ``hop_s = train_hop_s``.
+        """
+        if self.train_hop_s is None:
+            return None
+        return replace(self.window_config(), hop_s=self.train_hop_s)
 
     def window_config(self) -> WindowConfig:
         """Window settings implied by the protocol and the dataset.
@@ -138,7 +166,8 @@ class ExperimentConfig:
         dict
             The fields, with ``svm`` flattened to ``svm_<field>``, ``signals`` and ``seeds``
             comma-joined, ``n_threads`` 0 for ``None``, and the effective window settings of
-            :meth:`window_config` (``window_s``, ``hop_s``, ``rate_hz``, ``partition_s``; s, Hz).
+            :meth:`window_config` (``window_s``, ``hop_s``, ``rate_hz``, ``partition_s``; s, Hz)
+            and the effective ``train_hop_s`` (``hop_s`` when unset), s.
         """
         d = asdict(self)
         svm = d.pop("svm")
@@ -149,6 +178,7 @@ class ExperimentConfig:
         d["n_threads"] = self.n_threads or 0
         d.update(window_s=w.window_s, hop_s=w.hop_s or w.window_s, rate_hz=w.rate_hz,
                  partition_s=w.partition_s)
+        d["train_hop_s"] = self.train_hop_s or d["hop_s"]
         return d
 
 
@@ -282,6 +312,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         If the selection leaves no window.
     """
     t0 = time.perf_counter()
+    runs = load_dataset(config.dataset, data_dir) if runs is None else runs
     ws = load_windows(config, runs, data_dir, progress)
     t1 = time.perf_counter()
     if len(ws) == 0:
@@ -309,6 +340,18 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     for key in ("dropped_gap", "dropped_unsteady"):
         if ws.counts[key]:
             notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
+    training = None
+    if config.train_window_config() is not None:
+        dense = make_windows(runs, config.signals, config.train_window_config(), progress)
+        units = training_units(ws.run_ids, ws.t_start_s, ws.t_end_s, groups, dense.run_ids,
+                               dense.t_start_s, dense.t_end_s)
+        unused = int(sum(u is None for u in units))
+        training = TrainingWindows(fx.transform(dense.X) if config.model == "svm" else dense.X,
+                                   dense.labels.astype(str), units)
+        notes.append(f"each fold trains on the windows cut every {config.train_hop_s:g} s "
+                     f"from its training runs ({len(dense)} windows in all; {unused} "
+                     "straddling a time-block boundary or outside every evaluation window "
+                     "not used); test windows unchanged")
     fold_jobs = None
     if config.search:
         factory = (lambda seed: make_search(config.svm, seed, n_jobs=n_jobs))
@@ -320,7 +363,8 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         fold_jobs = n_jobs
     report = cross_validate(factory, F, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s,
                             config.protocol, config.seeds, config.n_splits,
-                            search=config.search, progress=progress, n_jobs=fold_jobs)
+                            search=config.search, progress=progress, n_jobs=fold_jobs,
+                            training=training)
     report.notes.extend(notes)
     t3 = time.perf_counter()
     return ExperimentResult(config, report, len(ws), len(np.unique(ws.run_ids)), ws.counts,
@@ -341,7 +385,8 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     Parameters
     ----------
     config : ExperimentConfig
-        Dataset, windows, model (the first seed is the model seed).
+        Dataset, windows, model (the first seed is the model seed); with ``train_hop_s``
+        the model is fitted on the windows cut at that hop.
     runs : sequence of Run or None
         Already loaded runs (default: load ``config.dataset``).
     data_dir : str or Path or None
@@ -370,7 +415,9 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         raise ConfigError("EKF-derived channels are for cross-validation ablations only: the "
                           "served model takes raw aligned signals (choose imu, wheels, all or "
                           "raw channel names)")
-    ws = load_windows(config, runs, data_dir, progress)
+    # training uses every window of the training cut (train_hop_s), when one is set
+    ws = load_windows(config if config.train_hop_s is None
+                      else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)
     labels = ws.labels.astype(str)
     info: dict = {"model": config.model}
     if config.model != "svm":

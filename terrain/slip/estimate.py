@@ -355,7 +355,6 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     ekf = estimate_agrimaro(run, settings, rate_hz=rate_hz, gate=gate, time_offsets_s=offsets,
                             store_covariance=store_covariance)
     rim = resample(ekf.t_s, t_om - offsets.get("omega", 0.0), om) * params.wheel_radius_m
-    delta = ekf.x[:, [ekf.state_names.index(f"delta_{i}") for i in (1, 2, 3)]]
     names = ["v_bx", "v_by", "yaw_rate"] + [f"delta_{i}" for i in (1, 2, 3)]
     cols = [ekf.state_names.index(n) for n in names]
 

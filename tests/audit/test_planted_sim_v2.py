@@ -6,10 +6,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
 import pytest
 
-from audit_helpers import FAST, SIM_SEEDS, audit_folder, simulated_streams, write_signal_files
+from audit_helpers import FAST, audit_folder, simulated_streams, write_signal_files
 from terrain.audit.replay import ReplaySettings
 
 TERRAIN = "ASPHALT"

@@ -9,7 +9,7 @@ import pytest
 
 from terrain.control import build_slip_table, config_for_vehicle
 from terrain.control.closed_loop import (BUS_VOLTAGE_V, TractionLoop, VelocityEstimate,
-                                         estimator_for, loop_metrics, run_closed_loop)
+                                         estimator_for, run_closed_loop)
 from terrain.control.grid import TUNING_SEEDS, run_grid, slip_limit_bound
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop

@@ -51,7 +51,7 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
     table = pd.read_csv(out / "compare_table.csv")
     assert set(table["model"]) == {"svm", "cnn"} and set(table["history"]) == {1, 5, 10}
     assert (out / "compare.png").stat().st_size > 0
-    assert "| vulpi | all | 2 | 10 | svm |" in (out / "compare_table.md").read_text()
+    assert "| vulpi | all | 2 | 2 | 10 | svm |" in (out / "compare_table.md").read_text()
     svm = table[table["model"] == "svm"].set_index("history")
     assert svm.loc[1, "accuracy_mean"] > 0.7            # the SVM does learn Vulpi's terrains
     assert (table["infer_ms_per_window"] > 0).all() and (table["fit_s_per_fold"] > 0).all()

@@ -10,7 +10,6 @@ import pandas as pd
 import pytest
 
 from terrain.cli import main
-from terrain.io.shipped import read_shipped
 
 PRO = {"t_s": "time", "vel_l": "velL", "vel_r": "velR", "cur_l": "curL", "cur_r": "curR"}
 

@@ -1,0 +1,108 @@
+"""Training on a denser (overlapping) cut of the training runs: no test sample leaks in."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.base import BaseEstimator, ClassifierMixin
+
+from features.windows import WindowConfig, make_windows
+from terrain.errors import ConfigError
+from terrain.models.compare import CompareConfig
+from terrain.models.cv import (TrainingWindows, cross_validate, purge_block_overlaps,
+                               split_single_run_classes, training_units)
+from terrain.models.experiment import ExperimentConfig, run_cv
+
+
+class _Recorder(ClassifierMixin, BaseEstimator):
+    """Predicts the majority class; remembers the row ids (column 0) it was fitted on."""
+
+    seen: list = []
+
+    def fit(self, X, y):
+        type(self).seen.append(np.asarray(X)[:, 0].astype(int).copy())
+        self.classes_ = np.unique(y)
+        values, counts = np.unique(y, return_counts=True)
+        self.majority_ = values[np.argmax(counts)]
+        return self
+
+    def predict(self, X):
+        return np.full(len(X), self.majority_)
+
+
+@pytest.fixture(scope="module")
+def vulpi_cuts(vulpi_runs):
+    """Vulpi wheel windows: the non-overlapping evaluation cut (DIRT_ROAD, a single run, cut
+    into 5 time blocks) and a 0.5 s training cut of the same runs."""
+    ev = make_windows(vulpi_runs, "wheels", WindowConfig(window_s=2.0, rate_hz=15.0))
+    labels = ev.labels.astype(str)
+    groups, split = split_single_run_classes(labels, ev.groups, ev.t_start_s, 5)
+    keep = purge_block_overlaps(groups, ev.run_ids, ev.t_start_s, ev.t_end_s)
+    dense = make_windows(vulpi_runs, "wheels", WindowConfig(window_s=2.0, hop_s=0.5,
+                                                            rate_hz=15.0))
+    return ev.subset(keep), labels[keep], groups[keep], split, dense
+
+
+def test_units_follow_runs_and_blocks(vulpi_cuts):
+    ev, labels, groups, split, dense = vulpi_cuts
+    assert split == ["DIRT_ROAD"]
+    units = training_units(ev.run_ids, ev.t_start_s, ev.t_end_s, groups, dense.run_ids,
+                           dense.t_start_s, dense.t_end_s)
+    assert len(dense) > 3.5 * len(ev)                      # 4x the windows at a quarter hop
+    whole = ~np.char.startswith(np.asarray(dense.run_ids, dtype=str), "vulpi/DIRT_ROAD")
+    # a run that is one unit: every window of it, under the run's own unit
+    assert all(u == r for u, r in zip(units[whole], np.asarray(dense.run_ids)[whole]))
+    # the blocked run: each used window lies inside the span of its own block only
+    idx = np.flatnonzero(~whole)
+    used = [i for i in idx if units[i] is not None]
+    assert 0 < len(used) < len(idx)                        # the straddling ones are dropped
+    for i in used:
+        for block in np.unique(groups[groups != units[i]]):
+            other = groups == block
+            if not np.any(np.asarray(ev.run_ids)[other] == dense.run_ids[i]):
+                continue
+            overlap = ((ev.t_start_s[other] < dense.t_end_s[i] - 1e-9)
+                       & (ev.t_end_s[other] > dense.t_start_s[i] + 1e-9))
+            assert not overlap.any()
+
+
+def test_folds_train_only_on_training_units(vulpi_cuts):
+    ev, labels, groups, _, dense = vulpi_cuts
+    units = training_units(ev.run_ids, ev.t_start_s, ev.t_end_s, groups, dense.run_ids,
+                           dense.t_start_s, dense.t_end_s)
+    row_id = np.arange(len(dense), dtype=float)[:, None]
+    training = TrainingWindows(row_id, dense.labels.astype(str), units)
+    _Recorder.seen = []
+    report = cross_validate(lambda s: _Recorder(), np.zeros((len(ev), 1)), labels, groups,
+                            ev.run_ids, ev.t_start_s, ev.t_end_s, seeds=(0,), n_splits=3,
+                            training=training)
+    assert len(_Recorder.seen) == 3
+    for (_, fold), rows in zip(report.predictions.groupby("fold"), _Recorder.seen):
+        test_units = set(fold["group"])
+        assert not test_units & {units[i] for i in rows}   # nothing of a test unit
+        expected = {i for i, u in enumerate(units) if u is not None and u not in test_units}
+        assert set(rows.tolist()) == expected              # everything else that is usable
+    assert report.folds["n_train"].sum() == sum(len(r) for r in _Recorder.seen)
+    assert (report.folds["n_test"].sum() == len(ev))       # the test windows are unchanged
+
+
+def test_run_cv_with_a_training_cut(vulpi_runs):
+    plain = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,)),
+                   runs=vulpi_runs)
+    dense = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
+                                    train_hop_s=1.0), runs=vulpi_runs)
+    assert dense.n_windows == plain.n_windows             # same evaluation windows
+    ratio = dense.report.folds["n_train"].sum() / plain.report.folds["n_train"].sum()
+    assert 1.8 < ratio < 2.1                              # twice the windows at half the hop
+    assert any("cut every 1 s" in note for note in dense.report.notes)
+    assert dense.config.as_params()["train_hop_s"] == 1.0
+    assert plain.config.as_params()["train_hop_s"] == 2.0
+
+
+@pytest.mark.parametrize("bad", [dict(train_hop_s=0.0),
+                                 dict(train_hop_s=0.5, protocol="paper")])
+def test_training_cut_config_errors(bad):
+    with pytest.raises(ConfigError):
+        ExperimentConfig(**bad)
+    with pytest.raises(ConfigError):
+        CompareConfig(**({"windows_s": (1.7,)} if "protocol" in bad else {}), **bad)
