@@ -443,8 +443,10 @@ def plot_comparison(table: pd.DataFrame):
                              squeeze=False)
     for ax, (protocol, ds) in zip(axes[0], datasets):
         sub = table[(table["dataset"] == ds) & (table["protocol"] == protocol)]
-        labels = [f"{m}\n{s} {w:g}s" for m, s, w in
-                  dict.fromkeys(zip(sub["model"], sub["signals"], sub["window_s"]))]
+        hops = sub["train_hop_s"] if "train_hop_s" in sub else sub["window_s"]
+        labels = [f"{m}\n{s} {w:g}s" + (f" (train hop {h:g}s)" if h != w else "")
+                  for m, s, w, h in dict.fromkeys(zip(sub["model"], sub["signals"],
+                                                      sub["window_s"], hops))]
         histories = sorted(set(sub["history"]))
         width = 0.8 / len(histories)
         for i, k in enumerate(histories):
@@ -453,11 +455,13 @@ def plot_comparison(table: pd.DataFrame):
             ax.bar(x, h["accuracy_mean"], width, yerr=h["accuracy_std"], label=f"k={k}")
         ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, labels, rotation=60,
                       fontsize=7, ha="right")
-        ax.set_ylim(0.0, 1.0)
+        ax.set_ylim(0.6, 1.0)
+        ax.grid(axis="y", alpha=0.3)
         ax.set_ylabel("accuracy (run-grouped CV)" if protocol == "grouped"
                       else "accuracy (papers' LEAKY partition CV)")
         ax.set_title(f"{ds} ({PROTOCOL_LABELS.get(protocol, protocol)})")
-        ax.legend(title="history", fontsize=7)
+    axes[0, -1].legend(title="history", fontsize=7, loc="upper left",
+                       bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout()
     return fig
 

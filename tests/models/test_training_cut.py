@@ -106,3 +106,16 @@ def test_training_cut_config_errors(bad):
         ExperimentConfig(**bad)
     with pytest.raises(ConfigError):
         CompareConfig(**({"windows_s": (1.7,)} if "protocol" in bad else {}), **bad)
+
+
+def test_fit_pipeline_trains_on_the_training_cut(vulpi_runs):
+    from terrain.models.experiment import fit_pipeline
+
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,))
+    _, plain, _ = fit_pipeline(config, runs=vulpi_runs)
+    pipe, dense, _ = fit_pipeline(ExperimentConfig(dataset="vulpi", signals=("wheels",),
+                                                   seeds=(0,), train_hop_s=1.0),
+                                  runs=vulpi_runs)
+    assert 1.8 < len(dense) / len(plain) < 2.1
+    assert dense.X.shape[1:] == plain.X.shape[1:]          # same window, same served input
+    assert pipe.predict_proba(plain.X[:3]).shape == (3, len(np.unique(plain.labels)))
