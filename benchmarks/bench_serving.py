@@ -22,8 +22,9 @@ Every timed decision is followed by a fixed NumPy reference workload (a sort of 
 floats); the ratio of the decision's p50 / p99 to the reference's is printed and logged,
 so runs on a shared, loaded machine can be compared.
 
-Run: ``python benchmarks/bench_serving.py [--kind all|all-ensemble|all-ensemble3|wheels]
-[--minutes 30] [--no-mlflow]``.
+Run: ``python benchmarks/bench_serving.py [--kind KIND] [--minutes 30] [--no-mlflow]``, KIND
+one of ``all-dense`` (default), ``all``, ``all-ensemble``, ``all-ensemble-dense``,
+``all-ensemble3``, ``wheels``.
 """
 
 from __future__ import annotations

@@ -333,8 +333,9 @@ class ModelRecipe:
 #: all signals: the ``terrain train --model svm`` model (2 s at the BorealTC IMU rate);
 #: all-ensemble: the same windows, the ``ensemble`` model (SVM + spectrogram CNN, soft vote);
 #: all-ensemble3: the same windows, the ``ensemble3`` model (SVM + raw CNN + spectrogram
-#: CNN, soft vote; the BorealTC default of ``terrain train``); the ``-dense`` variants: the
-#: same models fitted on windows cut every 0.5 s (overlapping) from the training runs
+#: CNN, soft vote; the BorealTC default of ``terrain train``); ``all-dense`` and
+#: ``all-ensemble-dense``: the SVM and the ensemble fitted on windows cut every 0.5 s
+#: (overlapping) from the training runs
 #: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
@@ -344,7 +345,6 @@ RECIPES = MappingProxyType({
     "all-ensemble3": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "ensemble3"),
     "all-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm"),
     "all-ensemble-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble"),
-    "all-ensemble3-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble3"),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
