@@ -30,9 +30,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError
-from features.windows import make_windows
-from terrain.models.cv import (TrainingWindows, cross_validate, purge_block_overlaps,
-                               split_single_run_classes, training_units)
+from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, make_model
 
@@ -269,7 +267,7 @@ def _windows(cell: Cell, n_blocks: int):
     cut (:class:`~terrain.models.cv.TrainingWindows`) when it has a ``train_hop_s``, else
     None."""
     from terrain.io.shipped import load_dataset
-    from terrain.models.experiment import ExperimentConfig, load_windows
+    from terrain.models.experiment import ExperimentConfig, load_training_windows, load_windows
 
     config = ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
                               window_s=cell.window_s, protocol=cell.protocol,
@@ -282,13 +280,7 @@ def _windows(cell: Cell, n_blocks: int):
     groups, _ = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
     keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
     ws, labels, groups = ws.subset(keep), labels[keep], groups[keep]
-    training = None
-    if cell.train_hop_s is not None:
-        dense = make_windows(runs, (cell.signals,), config.train_window_config())
-        training = TrainingWindows(dense.X, dense.labels.astype(str), training_units(
-            ws.run_ids, ws.t_start_s, ws.t_end_s, groups, dense.run_ids, dense.t_start_s,
-            dense.t_end_s))
-    return ws, labels, groups, training
+    return ws, labels, groups, load_training_windows(config, runs, ws, groups)
 
 
 def run_cell(cell: Cell, config: CompareConfig) -> dict:

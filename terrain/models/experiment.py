@@ -277,6 +277,41 @@ def load_windows(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     return make_windows(runs, config.signals, config.window_config(), progress=progress)
 
 
+def load_training_windows(config: ExperimentConfig, runs: Sequence[Run], windows: WindowSet,
+                          groups: np.ndarray, transform=None,
+                          progress: bool = False) -> TrainingWindows | None:
+    """The training cut of an experiment (``config.train_hop_s``), or None without one.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        Signals, window and ``train_hop_s``.
+    runs : sequence of Run
+        The runs the evaluation windows were cut from.
+    windows : WindowSet
+        The evaluation windows (after any purge).
+    groups : numpy.ndarray
+        ``(len(windows),)`` their split units (runs, or time blocks of single-run classes).
+    transform : callable or None
+        Applied to the raw training windows (the SVM's feature extractor), else raw.
+    progress : bool
+        Show a progress bar over runs.
+
+    Returns
+    -------
+    TrainingWindows or None
+        Windows cut every ``train_hop_s`` with their units
+        (:func:`terrain.models.cv.training_units`).
+    """
+    if config.train_window_config() is None:
+        return None
+    dense = make_windows(runs, config.signals, config.train_window_config(), progress)
+    units = training_units(windows.run_ids, windows.t_start_s, windows.t_end_s, groups,
+                           dense.run_ids, dense.t_start_s, dense.t_end_s)
+    return TrainingWindows(dense.X if transform is None else transform(dense.X),
+                           dense.labels.astype(str), units)
+
+
 def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
            data_dir: str | Path | None = None, progress: bool = False,
            n_jobs: int | None = None) -> ExperimentResult:
@@ -340,16 +375,12 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     for key in ("dropped_gap", "dropped_unsteady"):
         if ws.counts[key]:
             notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
-    training = None
-    if config.train_window_config() is not None:
-        dense = make_windows(runs, config.signals, config.train_window_config(), progress)
-        units = training_units(ws.run_ids, ws.t_start_s, ws.t_end_s, groups, dense.run_ids,
-                               dense.t_start_s, dense.t_end_s)
-        unused = int(sum(u is None for u in units))
-        training = TrainingWindows(fx.transform(dense.X) if config.model == "svm" else dense.X,
-                                   dense.labels.astype(str), units)
+    training = load_training_windows(config, runs, ws, groups,
+                                     fx.transform if config.model == "svm" else None, progress)
+    if training is not None:
+        unused = int(sum(u is None for u in training.units))
         notes.append(f"each fold trains on the windows cut every {config.train_hop_s:g} s "
-                     f"from its training runs ({len(dense)} windows in all; {unused} "
+                     f"from its training runs ({len(training.y)} windows in all; {unused} "
                      "straddling a time-block boundary or outside every evaluation window "
                      "not used); test windows unchanged")
     fold_jobs = None

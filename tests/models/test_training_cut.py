@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from sklearn.base import BaseEstimator, ClassifierMixin
 
@@ -119,3 +120,16 @@ def test_fit_pipeline_trains_on_the_training_cut(vulpi_runs):
     assert 1.8 < len(dense) / len(plain) < 2.1
     assert dense.X.shape[1:] == plain.X.shape[1:]          # same window, same served input
     assert pipe.predict_proba(plain.X[:3]).shape == (3, len(np.unique(plain.labels)))
+
+
+def test_compare_cell_with_a_training_cut():
+    from terrain.models.compare import Cell, run_cell, summary_table
+
+    config = CompareConfig(models=("svm",), signals=("wheels",), windows_s=(2.0,),
+                           datasets=("vulpi",), seeds=(0,), n_splits=2, history=(1,))
+    plain = run_cell(Cell("svm", "wheels", 2.0, "vulpi", 0), config)
+    dense = run_cell(Cell("svm", "wheels", 2.0, "vulpi", 0, train_hop_s=1.0), config)
+    assert len(dense["predictions"]) == len(plain["predictions"])      # same test windows
+    assert 1.8 < dense["folds"]["n_train"].sum() / plain["folds"]["n_train"].sum() < 2.1
+    table = summary_table(pd.DataFrame(plain["rows"] + dense["rows"]))
+    assert sorted(table["train_hop_s"]) == [1.0, 2.0]                  # two rows, keyed
