@@ -7,8 +7,8 @@ itself. The runs of a dataset are split into 5 run-grouped folds
 run); for each fold, :func:`terrain.models.experiment.fit_pipeline` (what ``terrain train``
 calls) fits the default model (:data:`pipelines.train.DEFAULT_MODELS`, with the default
 training-window hop :data:`pipelines.train.DEFAULT_TRAIN_HOP_S`) and the SVM as it was
-trained before that hop existed (non-overlapping windows) on the *same* training runs, and both fitted inference pipelines classify every window of the
-held-out runs. A class with a single run (Vulpi DIRT_ROAD) always stays in training and is
+trained before that hop existed (non-overlapping windows) on the *same* training runs, and
+both fitted inference pipelines classify every window of the held-out runs. A class with a single run (Vulpi DIRT_ROAD) always stays in training and is
 never tested (its run cannot be unseen). Reported: window accuracy and macro-F1 over all
 held-out windows, run-majority accuracy, and the per-run paired comparison (runs where the
 default model is better / equal / worse than the SVM by window accuracy). Printed and logged

@@ -233,7 +233,8 @@ class CVReport:
         Sorted class labels of the windows.
     folds : pandas.DataFrame
         One row per (seed, fold): window metrics, ``run_majority_accuracy``, ``n_test``,
-        ``n_train`` (windows trained on), ``fit_s`` and the chosen hyperparameters when a search ran.
+        ``n_train`` (windows trained on), ``fit_s`` and the chosen hyperparameters when a
+        search ran.
         ``run_majority_accuracy`` votes per split unit: the run under ``grouped``/``loro``
         (a time block for a single-run class), the 5 s partition under ``paper``.
     predictions : pandas.DataFrame
@@ -423,23 +424,24 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
             tasks.append((seed, fold, train, test))
     if training is None:
         fit_on = (X, y, groups)
-        rows_for = (lambda train: train)
+        fit_rows = [train for _, _, train, _ in tasks]
     else:
         fit_on = (training.X, np.asarray(training.y).astype(str), training.units)
-        rows_for = (lambda train: training.rows_of(np.unique(groups[train])))
-    jobs = (delayed(_fold)(clone(estimator_factory(seed)), *fit_on, rows_for(train), X, test,
-                           classes, search, time_inference)
-            for seed, _, train, test in tasks)
+        fit_rows = [training.rows_of(np.unique(groups[train])) for _, _, train, _ in tasks]
+    jobs = (delayed(_fold)(clone(estimator_factory(seed)), *fit_on, fit_idx, X, test, classes,
+                           search, time_inference)
+            for (seed, _, _, test), fit_idx in zip(tasks, fit_rows))
     if progress and n_jobs in (None, 1):
         from tqdm.auto import tqdm
         jobs = tqdm(jobs, total=len(tasks), desc=f"cv ({protocol})", unit="fold")
     results = Parallel(n_jobs=n_jobs)(jobs)
     rows, preds = [], []
-    for (seed, fold, train, test), (p, proba, fit_s, best, infer_ms) in zip(tasks, results):
+    for (seed, fold, _, test), fit_idx, (p, proba, fit_s, best, infer_ms) in zip(
+            tasks, fit_rows, results):
         m = window_metrics(y[test], p, classes)
         m["run_majority_accuracy"] = run_majority_accuracy(y[test], p, groups[test])
         row = {"seed": seed, "fold": fold, **m, "n_test": float(len(test)),
-               "n_train": float(len(rows_for(train))), "fit_s": fit_s}
+               "n_train": float(len(fit_idx)), "fit_s": fit_s}
         if infer_ms is not None:
             row["infer_ms_per_window"] = infer_ms
         if best:

@@ -303,9 +303,10 @@ def load_training_windows(config: ExperimentConfig, runs: Sequence[Run], windows
         Windows cut every ``train_hop_s`` with their units
         (:func:`terrain.models.cv.training_units`).
     """
-    if config.train_window_config() is None:
+    window = config.train_window_config()
+    if window is None:
         return None
-    dense = make_windows(runs, config.signals, config.train_window_config(), progress)
+    dense = make_windows(runs, config.signals, window, progress)
     units = training_units(windows.run_ids, windows.t_start_s, windows.t_end_s, groups,
                            dense.run_ids, dense.t_start_s, dense.t_end_s)
     return TrainingWindows(dense.X if transform is None else transform(dense.X),
