@@ -89,6 +89,9 @@ def test_defaults_follow_the_default_recipes():
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     assert parser.parse_args([]).kinds == list(DEFAULT_RECIPES.values())
+    # held-out streams run on a continuous clock across switches unless a dropout is asked
+    assert parser.parse_args([]).switch_gap_s == 0.0
+    assert parser.parse_args(["--switch-gap-s", "0.1"]).switch_gap_s == 0.1
     # the all-signal default is the SVM: the ensembles' decisions cost over 1 ms at p99;
     # fitted on windows cut every 0.5 s, more accurate on the held-out streams
     assert RECIPES[DEFAULT_RECIPES["all"]].classifier == "svm"

@@ -74,6 +74,29 @@ def test_concatenated_streams_switch_terrain_and_are_reproducible(borealtc_runs)
     assert (truth != None).all()  # noqa: E711
 
 
+def _join_steps(stream: pd.DataFrame, segments) -> tuple[np.ndarray, float]:
+    """Steps across the switches of one stream, s, and its median step, s."""
+    t = stream["t_s"].to_numpy()
+    starts = [s.t_from_s + s.t_offset_s for s in segments[1:]]
+    first = np.searchsorted(t, starts)
+    return t[first] - t[first - 1], float(np.median(np.diff(t)))
+
+
+def test_concatenated_stream_clock_runs_on_across_a_switch(borealtc_runs):
+    # a robot driving onto the next terrain keeps logging: by default the step across a
+    # switch stays below two usual steps of every stream, so the service's gap rule (three
+    # usual steps) does not fire; an explicit dropout is a gap on the 100 Hz IMU
+    runs = [r for r in borealtc_runs if r.has_imu][:10]
+    cont, segs = concatenated_streams(runs, ("imu", "wheels"), seed=2)
+    gappy, segs_g = concatenated_streams(runs, ("imu", "wheels"), seed=2, gap_s=0.1)
+    assert [s.run_id for s in segs] == [s.run_id for s in segs_g] and len(segs) >= 4
+    for name in ("imu", "wheels"):
+        joins, step = _join_steps(cont.streams[name], segs)
+        assert (joins > 0).all() and (joins < 2.0 * step).all(), name
+    joins, step = _join_steps(gappy.streams["imu"], segs_g)
+    assert (joins > 3.0 * step).all()
+
+
 def test_switching_delay_and_accuracy_of_known_decisions(borealtc_runs):
     runs = [r for r in borealtc_runs if r.has_imu][:12]
     _, segs = concatenated_streams(runs, ("wheels",), seed=1)
