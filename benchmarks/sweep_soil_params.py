@@ -48,8 +48,9 @@ from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import icr_expansion_factor
 
 SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
-#: BorealTC terrains whose runs were split by :func:`~terrain.audit.physics.alternate_split`
-#: to choose a physics-v2 parameter: the soils (:data:`terrain.terramechanics.lateral.SOILS`) and the rigid surfaces the Husky
+#: Terrains whose runs were split by :func:`~terrain.audit.physics.alternate_split` to choose
+#: a physics-v2 parameter: the soils (:data:`terrain.terramechanics.lateral.SOILS`; BorealTC
+#: SANDY_LOAM and SNOW, Vulpi PLOUGHED) and the rigid surfaces the Husky
 #: tyre's side-force factor was chosen on (:data:`terrain.sim.forces.COMBINED_SLIP`). Only
 #: their held-out halves enter ``--heldout-table``.
 TUNED_TERRAINS = frozenset(SOILS) | frozenset({"ASPHALT", "FLOORING", "ICE"})
@@ -111,20 +112,22 @@ def sim_chi(terrain, scenario, duration):
     return icr_expansion_factor(ph.twist[m, 2], x[m])
 
 
-def per_run_chi(terrain: str) -> int:
+def per_run_chi(terrain: str, dataset: str = "borealtc") -> int:
     """Per run and manoeuvre: chi of the measured yaw rate and of both replays, currents.
 
     Parameters
     ----------
     terrain : str
-        BorealTC terrain.
+        Terrain of ``dataset``.
+    dataset : str
+        Shipped dataset (``borealtc`` or ``vulpi``).
 
     Returns
     -------
     int
         0 (the table is printed).
     """
-    for r in sorted((r for r in load_dataset("borealtc") if r.terrain == terrain),
+    for r in sorted((r for r in load_dataset(dataset) if r.terrain == terrain),
                     key=lambda r: r.run_id):
         f = prepare_frame(r, replay_run(r, ReplaySettings(physics="v1")))
         rep = replay_run(r, ReplaySettings(physics="v2"))
@@ -144,20 +147,22 @@ def per_run_chi(terrain: str) -> int:
     return 0
 
 
-def heldout_table(path: str) -> int:
+def heldout_table(path: str, dataset: str = "borealtc") -> int:
     """Gain of v2 over v1 on the held-out runs only (see ``--heldout-table``).
 
     Parameters
     ----------
     path : str
         CSV written with :func:`terrain.audit.physics.gain_table`'s columns.
+    dataset : str
+        Shipped dataset (``borealtc`` or ``vulpi``).
 
     Returns
     -------
     int
         0.
     """
-    runs = load_dataset("borealtc")
+    runs = load_dataset(dataset)
     held = []
     for terrain in sorted({r.terrain for r in runs}):
         group = [r for r in runs if r.terrain == terrain]
@@ -263,6 +268,12 @@ def main() -> int:
     """Run the sweep; returns 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--terrain", required=True)
+    ap.add_argument("--dataset", default="borealtc", choices=["borealtc", "vulpi"],
+                    help="shipped dataset of the --terrain runs (soil sweeps, --per-run-chi "
+                         "and --heldout-table)")
+    ap.add_argument("--base-soil", metavar="TERRAIN",
+                    help="soil sweep of a terrain without a SOILS entry: start every variant "
+                         "from this terrain's SoilParams")
     ap.add_argument("--variants", default="[{}]", help="JSON list of SoilParams overrides")
     ap.add_argument("--no-chi", action="store_true")
     ap.add_argument("--side-force-factors", type=float, nargs="+", metavar="K",
@@ -290,11 +301,11 @@ def main() -> int:
         return sweep_side_force(args.terrain.split(","), args.friction_factors,
                                 not args.no_chi, friction=True)
     if args.per_run_chi:
-        return per_run_chi(args.terrain)
+        return per_run_chi(args.terrain, args.dataset)
     if args.heldout_table:
-        return heldout_table(args.heldout_table)
+        return heldout_table(args.heldout_table, args.dataset)
     variants = json.loads(args.variants)
-    runs = [r for r in load_dataset("borealtc") if r.terrain == args.terrain]
+    runs = [r for r in load_dataset(args.dataset) if r.terrain == args.terrain]
     train, held = alternate_split(runs)
     print("training:", [r.run_id.split("/")[-1] for r in train])
     print("held out:", [r.run_id.split("/")[-1] for r in held])
@@ -311,8 +322,9 @@ def main() -> int:
                                 for s in ("wz", "cur") for sc in SCOPES))
     try:
         for var in variants:
-            if args.terrain in SOILS:
-                soil = replace(SOILS[args.terrain], **var)
+            base = args.base_soil if args.terrain not in SOILS else args.terrain
+            if base in SOILS:
+                soil = replace(SOILS[base], **var)
                 dynamics.SOILS = MappingProxyType({**SOILS, args.terrain: soil})
             errs = {k: _v2_errors(rs, refs, settings)
                     for k, rs in (("train", train), ("held", held))}

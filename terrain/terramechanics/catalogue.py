@@ -151,8 +151,10 @@ def _entries() -> dict[str, TerrainParams]:
     add("PLOUGHED", BrixiusCurve(brixius_mobility_number(0.1e6, **_HUSKY_TYRE)),
         0.0, 1.0, (0.52, 0.079, 0.50),
         f"{_BRIXIUS}, cone index 0.1 MPa ASSUMED for freshly tilled soil; lateral_friction 1.0 "
-        "ASSUMED (bulldozing of sunk wheels), chosen so the Husky digs in when turning as the "
-        "measured runs show (yaw rate about 8x below the kinematic one); "
+        "ASSUMED (bulldozing of sunk wheels; with it the physics-v1 Husky digs in when "
+        "turning, chi 9-10, while the measured vulpi PLOUGHED curves turn with chi 2.3-2.7: "
+        "physics v2 replaces this law by the soil entry "
+        "terrain.terramechanics.lateral.SOILS['PLOUGHED'], docs/physics_v2.md); "
         + _VIB.format("vulpi PLOUGHED"))
     add("GRASS", JanosiCurve(0.531, 0.373, "calibrated to seed 001 ch. 7.2.3"),
         0.08, 0.6, (0.53, 0.055, 0.50),

@@ -128,6 +128,17 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
                 "on the same runs, ASSUMED range 0.02-0.05 m (no snow K in the sources "
                 "here; the catalogue's longitudinal value is 0.04 m); gamma_s 2.45 kN/m^3 "
                 "ASSUMED (fresh forest snow, density 250 kg/m^3)")),
+    "PLOUGHED": SoilParams(
+        "ploughed field (sandy loam row by analogy)", n=0.7, k_c=5.27e3, k_phi=1515.04e3,
+        cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.010,
+        unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010,
+        source=(f"n, k_c, k_phi, c, phi and gamma_s: the SANDY_LOAM row above ({_WONG_T23}) "
+                "by ANALOGY: the Vulpi et al. (2021) PLOUGHED runs were driven on a tilled "
+                "agricultural field whose soil was not measured; K_x = K_y = 0.010 m chosen "
+                "on the TRAINING runs of benchmarks/sweep_soil_params.py --dataset vulpi "
+                "(vulpi PLOUGHED 1, 4, 6; scored on 3, 5) over K_x in {0.006, 0.01, 0.025} x "
+                "K_y in {0.004, 0.006, 0.01, 0.025} m, inside Wong's range of K for mineral "
+                "soils (ch. 2.4)")),
 })
 
 

@@ -195,3 +195,30 @@ def test_velocity_maps_are_the_rim_speed_kinematics_of_eq_4_20():
                                    wheel_rim_speed(*twist, x, y, d), atol=1e-15)
         if not layout.steered:      # skid-steer: kinematic lines at chi y (Mandow 2007)
             np.testing.assert_allclose(maps.long_kinematic[:, 2], -chi * y)
+
+
+def test_v2_ploughed_soil_reproduces_the_measured_turns_of_a_held_out_vulpi_run():
+    # vulpi PLOUGHED/5 is held out of the choice of the PLOUGHED soil's K (training runs 1,
+    # 4, 6): its curves turn with chi 2.3 (gyro on (v_R - v_L) / B); v1's Coulomb friction
+    # 1.0 digs the replayed robot in (chi about 9), the v2 soil contact follows the turn
+    from terrain.audit.frames import MANOEUVRES, prepare_frame
+    from terrain.audit.replay import ReplaySettings, replay_run
+    from terrain.io.shipped import load_dataset
+    from terrain.vehicles.icr import icr_expansion_factor
+
+    run = next(r for r in load_dataset("vulpi") if r.run_id == "vulpi/PLOUGHED/5")
+    chi, current = {}, {}
+    for physics in ("v1", "v2"):
+        f = prepare_frame(run, replay_run(run, ReplaySettings(physics=physics)))
+        m = (f.score_imu & np.isfinite(f.wz) & (f.manoeuvre == MANOEUVRES.index("curve"))
+             & (np.abs(f.commanded_yaw_rate) > 0.1))
+        assert m.sum() > 50
+        chi["measured"] = icr_expansion_factor(f.wz[m], f.commanded_yaw_rate[m])
+        chi[physics] = icr_expansion_factor(f.sim_wz[m], f.commanded_yaw_rate[m])
+        current["measured"], current[physics] = f.cur[m].mean(), f.sim_cur[m].mean()
+    assert 2.0 < chi["measured"] < 2.6
+    assert chi["v1"] > 3.0 * chi["measured"]
+    assert chi["v2"] == pytest.approx(chi["measured"], rel=0.10)
+    # and the turning current: v1 about 3 A too high, v2 within 1 A
+    assert current["v1"] - current["measured"] > 2.0
+    assert abs(current["v2"] - current["measured"]) < 1.0
