@@ -6,10 +6,11 @@ step-to-step std about 0.2 m/s while cruising at 0.5 m/s), the replayed motors f
 noise as real speed changes; every fluctuation costs inertia and braking torque, and the
 reported current is a magnitude, so the noise does not average out even though the
 predictions are low-passed afterwards. This probe low-passes the wheel-speed *input*
-(zero-phase 4th-order Butterworth, :func:`terrain.audit.replay.lowpass`) at each cut-off
-before the replay and prints the motor-current RMSE (both sides, moving samples on the
-audit's comparison clock, no fitted effect) per terrain and physics version. Nothing in the
-audit changes: it is a diagnostic, not a setting.
+(``ReplaySettings(input_cutoff_hz=...)``, zero-phase 4th-order Butterworth) at each cut-off
+and prints the motor-current RMSE (both sides, moving samples on the
+audit's comparison clock, no fitted effect) per terrain and physics version
+(``terrain audit --replay-input-lowpass-hz`` runs the whole audit that way; its default is
+the record as measured).
 
 Run::
 
@@ -19,13 +20,12 @@ Run::
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 
 from terrain.audit.frames import MANOEUVRES, prepare_frame
-from terrain.audit.replay import ReplaySettings, lowpass, replay_run
+from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
 
 
@@ -50,18 +50,10 @@ def current_errors(dataset: str, cutoffs_hz: list[float]) -> pd.DataFrame:
         wheels = run.streams.get("wheels")
         if wheels is None or len(wheels) < 20:
             continue
-        rate_hz = 1.0 / float(np.median(np.diff(wheels["t_s"].to_numpy())))
         for fc in cutoffs_hz:
-            replayed = run
-            if fc > 0:
-                smooth = wheels.copy()
-                for c in ("vel_l", "vel_r"):
-                    smooth[c] = lowpass(wheels[c].to_numpy(dtype=float), rate_hz, fc)
-                replayed = replace(run, streams={**run.streams, "wheels": smooth})
             for physics in ("v1", "v2"):
-                # the measured side (IMU, currents, manoeuvres) always comes from the run as
-                # recorded; only the replay's input is smoothed
-                f = prepare_frame(run, replay_run(replayed, ReplaySettings(physics=physics)))
+                settings = ReplaySettings(physics=physics, input_cutoff_hz=fc or None)
+                f = prepare_frame(run, replay_run(run, settings))
                 m = f.score_imu & (f.manoeuvre != MANOEUVRES.index("stop"))
                 e = (f.cur[m] - f.sim_cur[m]) ** 2
                 rows.append((run.terrain, run.run_id, fc, physics, float(e.sum()), e.size))

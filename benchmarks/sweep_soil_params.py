@@ -271,6 +271,9 @@ def main() -> int:
     ap.add_argument("--dataset", default="borealtc", choices=["borealtc", "vulpi"],
                     help="shipped dataset of the --terrain runs (soil sweeps, --per-run-chi "
                          "and --heldout-table)")
+    ap.add_argument("--replay-input-lowpass-hz", type=float, default=None, metavar="HZ",
+                    help="soil sweep with the replay's wheel-speed input low-passed at HZ "
+                         "(ReplaySettings.input_cutoff_hz; default: as recorded)")
     ap.add_argument("--base-soil", metavar="TERRAIN",
                     help="soil sweep of a terrain without a SOILS entry: start every variant "
                          "from this terrain's SoilParams")
@@ -309,7 +312,7 @@ def main() -> int:
     train, held = alternate_split(runs)
     print("training:", [r.run_id.split("/")[-1] for r in train])
     print("held out:", [r.run_id.split("/")[-1] for r in held])
-    settings = ReplaySettings()
+    settings = ReplaySettings(input_cutoff_hz=args.replay_input_lowpass_hz)
     refs = {r.run_id: prepare_frame(r, replay_run(r, replace(settings, physics="v1")))
             for r in runs}
     base = {k: [_errors(refs[r.run_id], refs[r.run_id]) for r in rs]

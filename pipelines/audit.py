@@ -74,6 +74,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--compare-physics", action="store_true",
                         help="also replay every run with v1 and v2 and report the gain of v2 "
                              "per terrain, signal and manoeuvre with run-bootstrap intervals")
+    parser.add_argument("--replay-input-lowpass-hz", type=float, default=None, metavar="HZ",
+                        help="low-pass the measured wheel speeds at HZ before they drive the "
+                             "replay (default: as recorded; for noisy speed records such as "
+                             "Vulpi's, see docs/physics_v2.md)")
     parser.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
@@ -99,6 +103,8 @@ def _command(args: argparse.Namespace) -> str:
     if args.physics != DEFAULT_PHYSICS:
         parts += ["--physics", args.physics]
     parts += ["--compare-physics"] * args.compare_physics
+    if getattr(args, "replay_input_lowpass_hz", None) is not None:
+        parts += ["--replay-input-lowpass-hz", f"{args.replay_input_lowpass_hz:g}"]
     parts += ["--no-pooled"] * args.no_pooled
     parts += ["--sweep-lateral-friction"] * args.sweep_lateral_friction
     return shlex.join(parts)
@@ -132,7 +138,8 @@ def main(args: argparse.Namespace) -> int:
     source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
     name = args.dataset or args.runs_dir.resolve().name
     settings = AuditSettings(
-        replay=ReplaySettings(physics=args.physics),
+        replay=ReplaySettings(physics=args.physics,
+                              input_cutoff_hz=getattr(args, "replay_input_lowpass_hz", None)),
         selection=SelectionSettings(n_bootstrap=args.bootstrap,
                                     n_param_bootstrap=args.param_bootstrap,
                                     min_gain=args.min_gain, seed=args.seed),

@@ -76,6 +76,18 @@ class ReplaySettings:
         speed where the two sides round to neighbouring steps (0.5 m/s is 63.5 steps of
         0.2/25.4 m/s), the replayed robot fights a fictitious 8 mm/s speed difference and its
         currents split by about +-0.9 A on asphalt.
+    input_cutoff_hz : float or None
+        Cut-off of a zero-phase 4th-order Butterworth low-pass applied to the measured wheel
+        speeds before they drive the replay, Hz (:func:`lowpass`, at the wheel stream's
+        median rate); ``None`` (default): the record as measured. The smoothed speeds are
+        then the replay's inputs everywhere (``Replay.vel_l``/``vel_r``, hence the commanded
+        yaw rate and the manoeuvres of the audit frame). A noisy speed record makes the
+        replayed motors brake and accelerate with the noise, and the reported current is a
+        magnitude, so the noise is rectified and survives ``output_cutoff_hz``: on the Vulpi
+        runs (15 Hz, rms wheel acceleration about 3 m/s^2 while cruising, against 0.04-0.57
+        on BorealTC) 2 Hz cuts the replay's current RMSE from 4.42 to 1.35 A (v1) and 2.63 to
+        1.28 A (v2), and changes BorealTC's by 0.02 A or less
+        (``benchmarks/replay_input_lowpass.py``, docs/physics_v2.md).
     """
 
     physics_rate_hz: float = 100.0
@@ -83,6 +95,7 @@ class ReplaySettings:
     speed_headroom: float = 1.5
     merge_subresolution: bool = True
     physics: str = DEFAULT_PHYSICS
+    input_cutoff_hz: float | None = None
 
     def __post_init__(self) -> None:
         if self.physics not in PHYSICS_VERSIONS:
@@ -95,6 +108,8 @@ class ReplaySettings:
                               f"{self.output_cutoff_hz}")
         if not float(self.speed_headroom) >= 1.0:
             raise ConfigError(f"speed_headroom must be >= 1, got {self.speed_headroom}")
+        if self.input_cutoff_hz is not None and not float(self.input_cutoff_hz) > 0.0:
+            raise ConfigError(f"input_cutoff_hz must be > 0 or None, got {self.input_cutoff_hz}")
 
 
 @dataclass(frozen=True)
@@ -113,7 +128,8 @@ class Replay:
         Wheel-stream timestamps, s.
     vel_l, vel_r : ndarray, shape (n,)
         Measured wheel (rim) speeds, m/s (the replay's inputs, before the sub-resolution
-        merge of :class:`ReplaySettings`).
+        merge of :class:`ReplaySettings`; after its ``input_cutoff_hz`` low-pass when set,
+        and a smoothed record is no longer quantised, so no merge applies then).
     yaw_rate : ndarray, shape (n,)
         Predicted yaw rate, rad/s.
     ax, ay : ndarray, shape (n,)
@@ -233,6 +249,10 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     t_w = wheels[TIME].to_numpy(dtype=float)
     vel_l = wheels["vel_l"].to_numpy(dtype=float)
     vel_r = wheels["vel_r"].to_numpy(dtype=float)
+    if settings.input_cutoff_hz is not None:
+        wheel_rate_hz = 1.0 / float(np.median(np.diff(t_w)))
+        vel_l = lowpass(vel_l, wheel_rate_hz, settings.input_cutoff_hz)
+        vel_r = lowpass(vel_r, wheel_rate_hz, settings.input_cutoff_hz)
     dt = 1.0 / float(settings.physics_rate_hz)
     t = t_w[0] + np.arange(int(np.floor((t_w[-1] - t_w[0]) / dt)) + 2) * dt
     in_l, in_r = vel_l, vel_r
