@@ -22,7 +22,8 @@ from typing import Mapping
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
-from terrain.audit.replay import ReplaySettings
+from terrain.audit.replay import (JITTER_ACCEL_M_S2, ReplaySettings,
+                                  cruise_wheel_acceleration_rms)
 from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -183,6 +184,18 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     print(inputs.text())
     report = to_dict(result, source)
     report["physics"] = settings.replay.physics
+    jitter = {r.run_id: round(a, 3) for r in runs
+              if (a := cruise_wheel_acceleration_rms(r)) > JITTER_ACCEL_M_S2}
+    report["jittery_wheel_records"] = {
+        "threshold_m_s2": JITTER_ACCEL_M_S2, "input_cutoff_hz": settings.replay.input_cutoff_hz,
+        "runs": jitter}
+    if jitter and settings.replay.input_cutoff_hz is None:
+        values = sorted(jitter.values())
+        print(f"  note: {len(jitter)} run(s) have a jittery wheel-speed record (rms wheel "
+              f"acceleration while cruising {values[0]:.2f}-{values[-1]:.2f} m/s^2, above "
+              f"{JITTER_ACCEL_M_S2:g}); the replay drives the motors with it, so their "
+              "simulated currents include the rectified jitter. --replay-input-lowpass-hz 2 "
+              "smooths it (docs/physics_v2.md)")
     comparison = None
     if args.compare_physics:
         cmp_settings = PhysicsComparisonSettings(n_bootstrap=args.bootstrap, seed=args.seed)

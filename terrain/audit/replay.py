@@ -178,6 +178,46 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
     return signal.sosfiltfilt(sos, values, axis=0)
 
 
+#: rms wheel acceleration while cruising above which a wheel-speed record is called jittery,
+#: m/s^2: ASSUMED between the shipped records, BorealTC 0.04-0.57 (6.5 Hz, quantised) and
+#: Vulpi 2.91-3.00 (15 Hz; about every 4th sample reads half the speed), see
+#: docs/physics_v2.md, "Vulpi runs"
+JITTER_ACCEL_M_S2 = 1.5
+
+
+def cruise_wheel_acceleration_rms(run: Run, min_speed_m_s: float = 0.3) -> float:
+    """RMS of the wheel-speed record's sample-to-sample acceleration while cruising, m/s^2.
+
+    A robot cruising under a constant command accelerates little; a record whose differences
+    are large there holds a counting or time-stamping artefact, which a replay imposing the
+    record on the motors turns into braking and driving current (see
+    :attr:`ReplaySettings.input_cutoff_hz`).
+
+    Parameters
+    ----------
+    run : Run
+        Needs a ``wheels`` stream (``t_s, vel_l, vel_r``).
+    min_speed_m_s : float
+        Samples whose mean wheel speed magnitude is at least this are cruising, m/s.
+
+    Returns
+    -------
+    float
+        RMS of ``diff(v) / diff(t)`` of the mean wheel speed over cruising samples, m/s^2;
+        NaN without a wheel stream or with fewer than 20 cruising samples.
+    """
+    wheels = run.streams.get("wheels")
+    if wheels is None or len(wheels) < 21:
+        return float("nan")
+    t = wheels[TIME].to_numpy(dtype=float)
+    v = 0.5 * (wheels["vel_l"].to_numpy(dtype=float) + wheels["vel_r"].to_numpy(dtype=float))
+    dt = np.diff(t)
+    ok = dt > 0
+    a = np.diff(v)[ok] / dt[ok]
+    cruising = (np.abs(0.5 * (v[1:] + v[:-1])) >= min_speed_m_s)[ok]
+    return float(np.sqrt(np.mean(a[cruising] ** 2))) if cruising.sum() >= 20 else float("nan")
+
+
 def speed_resolution(values: np.ndarray, tol: float = 0.01) -> float:
     """Resolution step of a quantised speed record (0 when it is not quantised).
 

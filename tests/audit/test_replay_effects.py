@@ -175,3 +175,22 @@ def test_make_units_cuts_few_runs_into_segments(sim_run):
     assert {u[0].group for u in units} == {f"{frame.run_id}#{k}" for k in range(4)}
     units, segmented = make_units([frame] * 5, 4, lambda f: True)
     assert not segmented and len(units) == 5
+
+
+def test_jittery_wheel_records_are_told_apart_from_clean_ones(shipped_borealtc):
+    # every shipped Vulpi record carries the every-4th-sample dropout, no BorealTC one does
+    from terrain.audit.replay import JITTER_ACCEL_M_S2, cruise_wheel_acceleration_rms
+    from terrain.io.shipped import load_dataset
+
+    boreal = [cruise_wheel_acceleration_rms(r) for r in shipped_borealtc.values()]
+    vulpi = [cruise_wheel_acceleration_rms(r) for r in load_dataset("vulpi")]
+    boreal = [a for a in boreal if np.isfinite(a)]
+    assert len(boreal) >= 15 and max(boreal) < JITTER_ACCEL_M_S2
+    assert len(vulpi) == 15 and min(vulpi) > JITTER_ACCEL_M_S2
+    # a clean cruise is far below the threshold; too little cruising gives NaN
+    t = np.arange(0.0, 20.0, 1.0 / 15.0)
+    v = np.minimum(t * 0.5, 0.57)
+    pro = pd.DataFrame({"time": t, "curL": 2.0, "curR": 2.0, "velL": v, "velR": v})
+    assert cruise_wheel_acceleration_rms(_run(None, pro)) < 0.1
+    slow = pro.assign(velL=0.1, velR=0.1)
+    assert np.isnan(cruise_wheel_acceleration_rms(_run(None, slow)))
