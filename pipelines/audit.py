@@ -104,7 +104,7 @@ def _command(args: argparse.Namespace) -> str:
     if args.physics != DEFAULT_PHYSICS:
         parts += ["--physics", args.physics]
     parts += ["--compare-physics"] * args.compare_physics
-    if getattr(args, "replay_input_lowpass_hz", None) is not None:
+    if args.replay_input_lowpass_hz is not None:
         parts += ["--replay-input-lowpass-hz", f"{args.replay_input_lowpass_hz:g}"]
     parts += ["--no-pooled"] * args.no_pooled
     parts += ["--sweep-lateral-friction"] * args.sweep_lateral_friction
@@ -140,7 +140,7 @@ def main(args: argparse.Namespace) -> int:
     name = args.dataset or args.runs_dir.resolve().name
     settings = AuditSettings(
         replay=ReplaySettings(physics=args.physics,
-                              input_cutoff_hz=getattr(args, "replay_input_lowpass_hz", None)),
+                              input_cutoff_hz=args.replay_input_lowpass_hz),
         selection=SelectionSettings(n_bootstrap=args.bootstrap,
                                     n_param_bootstrap=args.param_bootstrap,
                                     min_gain=args.min_gain, seed=args.seed),

@@ -43,7 +43,7 @@ Rigid surfaces keep the Coulomb law of
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Mapping
 
@@ -104,19 +104,22 @@ class SoilParams:
                 else self.lateral_shear_modulus_m)
 
 
+#: Sandy loam of the BorealTC runs (also the analogue of the Vulpi PLOUGHED field).
+_SANDY_LOAM = SoilParams(
+    "sandy loam (LLL), 15 % moisture", n=0.7, k_c=5.27e3, k_phi=1515.04e3,
+    cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.006,
+    unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010,
+    source=(f"n, k_c, k_phi, c, phi: sandy loam (Land Locomotion Lab) 15 % moisture, "
+            f"{_WONG_T23}; K_x = 0.006 m and K_y = 0.010 m chosen on the TRAINING runs "
+            "of benchmarks/sweep_soil_params.py (borealtc SANDY_LOAM 01, 03, 05, 07, 10, "
+            "13; scored on 02, 04, 06, 08, 11) inside Wong's range of K for mineral "
+            "soils (ch. 2.4: about 0.6 cm for compact clay to 2.5 cm for loose sand); "
+            "gamma_s 15.7 kN/m^3 ASSUMED (bulk density 1.6 t/m^3 of a moist sandy "
+            "loam)"))
+
 #: Soils of the physics-v2 lateral model, by catalogue terrain (read-only).
 SOILS: Mapping[str, SoilParams] = MappingProxyType({
-    "SANDY_LOAM": SoilParams(
-        "sandy loam (LLL), 15 % moisture", n=0.7, k_c=5.27e3, k_phi=1515.04e3,
-        cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.006,
-        unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010,
-        source=(f"n, k_c, k_phi, c, phi: sandy loam (Land Locomotion Lab) 15 % moisture, "
-                f"{_WONG_T23}; K_x = 0.006 m and K_y = 0.010 m chosen on the TRAINING runs "
-                "of benchmarks/sweep_soil_params.py (borealtc SANDY_LOAM 01, 03, 05, 07, 10, "
-                "13; scored on 02, 04, 06, 08, 11) inside Wong's range of K for mineral "
-                "soils (ch. 2.4: about 0.6 cm for compact clay to 2.5 cm for loose sand); "
-                "gamma_s 15.7 kN/m^3 ASSUMED (bulk density 1.6 t/m^3 of a moist sandy "
-                "loam)")),
+    "SANDY_LOAM": _SANDY_LOAM,
     "SNOW": SoilParams(
         "snow (U.S., Harrison)", n=1.6, k_c=2.49e3, k_phi=245.90e3, cohesion_pa=0.62e3,
         friction_angle_deg=23.2, shear_modulus_m=0.02, unit_weight_n_m3=2.45e3,
@@ -128,10 +131,9 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
                 "on the same runs, ASSUMED range 0.02-0.05 m (no snow K in the sources "
                 "here; the catalogue's longitudinal value is 0.04 m); gamma_s 2.45 kN/m^3 "
                 "ASSUMED (fresh forest snow, density 250 kg/m^3)")),
-    "PLOUGHED": SoilParams(
-        "ploughed field (sandy loam row by analogy)", n=0.7, k_c=5.27e3, k_phi=1515.04e3,
-        cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.010,
-        unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010,
+    "PLOUGHED": replace(
+        _SANDY_LOAM, name="ploughed field (sandy loam row by analogy)",
+        shear_modulus_m=0.010, lateral_shear_modulus_m=0.010,
         source=(f"n, k_c, k_phi, c, phi and gamma_s: the SANDY_LOAM row above ({_WONG_T23}) "
                 "by ANALOGY: the Vulpi et al. (2021) PLOUGHED runs were driven on a tilled "
                 "agricultural field whose soil was not measured; K_x = K_y = 0.010 m chosen "

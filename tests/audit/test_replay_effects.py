@@ -10,9 +10,11 @@ from audit_helpers import simulated_streams
 from terrain.audit.effects import (EffectSettings, NotIdentifiable, fit_current, fit_yaw,
                                    predict_current)
 from terrain.audit.frames import MANOEUVRES, classify_manoeuvres, prepare_frame
-from terrain.audit.replay import ReplaySettings, replay_run
+from terrain.audit.replay import (JITTER_ACCEL_M_S2, ReplaySettings,
+                                  cruise_wheel_acceleration_rms, replay_run)
 from terrain.audit.selection import bootstrap_gain, make_units
 from terrain.errors import ConfigError, DataFormatError
+from terrain.io.shipped import load_dataset
 from terrain.run import Run
 from terrain.io.writer import to_file_frames
 from terrain.sim import SimConfig, simulate
@@ -179,9 +181,6 @@ def test_make_units_cuts_few_runs_into_segments(sim_run):
 
 def test_jittery_wheel_records_are_told_apart_from_clean_ones(shipped_borealtc):
     # every shipped Vulpi record carries the every-4th-sample dropout, no BorealTC one does
-    from terrain.audit.replay import JITTER_ACCEL_M_S2, cruise_wheel_acceleration_rms
-    from terrain.io.shipped import load_dataset
-
     boreal = [cruise_wheel_acceleration_rms(r) for r in shipped_borealtc.values()]
     vulpi = [cruise_wheel_acceleration_rms(r) for r in load_dataset("vulpi")]
     boreal = [a for a in boreal if np.isfinite(a)]
