@@ -17,8 +17,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, joblib_backend,
-                                    markdown_table, plot_comparison, run_grid, summary_table)
+from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, iter_grid,
+                                    joblib_backend, markdown_table, plot_comparison,
+                                    summary_table)
 from terrain.models.registry import MODELS
 from terrain.tracking import tracked_run
 
@@ -64,6 +65,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--n-jobs", type=int, default=-1,
                         help="joblib workers (-1: all of the backend; 1: sequential here)")
     parser.add_argument("--out", type=Path, default=Path("compare"), help="output folder")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="hide the progress bar over grid cells")
 
 
 def config_from_args(args: argparse.Namespace) -> CompareConfig:
@@ -91,6 +94,31 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
                          train_hop_s=args.train_hop_s)
 
 
+def log_cell(result: dict, experiment_id: str) -> None:
+    """Log one finished cell as a child run of the active ``compare`` run.
+
+    Parameters
+    ----------
+    result : dict
+        A :func:`terrain.models.compare.run_cell` result.
+    experiment_id : str
+        MLflow experiment of the parent run.
+    """
+    import mlflow
+
+    c = result["cell"]
+    name = (f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
+            + ("" if c["protocol"] == "grouped" else f"-{c['protocol']}-LEAKY")
+            + ("" if c["train_hop_s"] is None else f"-trainhop{c['train_hop_s']:g}s"))
+    with mlflow.start_run(run_name=name, nested=True, experiment_id=experiment_id):
+        mlflow.log_params(c)
+        mlflow.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in result["rows"]
+                            for m in ("accuracy", "balanced_accuracy", "macro_f1",
+                                      "run_vote_accuracy")})
+        mlflow.log_metrics({k: float(result["rows"][0][k]) for k in
+                            ("fit_s_per_fold", "infer_ms_per_window")})
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the grid, log the parent and child runs, write the table and figure.
 
@@ -109,26 +137,26 @@ def main(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     params = {k: ",".join(map(str, v)) if isinstance(v, tuple) else v
               for k, v in asdict(config).items()}
+    cells = config.cells()
+    args.out.mkdir(parents=True, exist_ok=True)
     with tracked_run(EXPERIMENT, run_name="compare", params={**params,
                                                             "backend": args.backend}) as run:
-        with joblib_backend(args.backend, args.address) as n_jobs:
-            results = run_grid(config, n_jobs=n_jobs if args.n_jobs == -1 else args.n_jobs)
         experiment_id = mlflow.active_run().info.experiment_id
-        for res in results:
-            c = res["cell"]
-            name = (f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
-                    + ("" if c["protocol"] == "grouped" else f"-{c['protocol']}-LEAKY")
-                    + ("" if c["train_hop_s"] is None else f"-trainhop{c['train_hop_s']:g}s"))
-            with mlflow.start_run(run_name=name, nested=True, experiment_id=experiment_id):
-                mlflow.log_params(c)
-                mlflow.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in res["rows"]
-                                    for m in ("accuracy", "balanced_accuracy", "macro_f1",
-                                              "run_vote_accuracy")})
-                mlflow.log_metrics({k: float(res["rows"][0][k]) for k in
-                                    ("fit_s_per_fold", "infer_ms_per_window")})
+        results = []
+        with joblib_backend(args.backend, args.address) as n_jobs:
+            finished = iter_grid(config, n_jobs=n_jobs if args.n_jobs == -1 else args.n_jobs)
+            if not args.no_progress:
+                from tqdm.auto import tqdm
+                finished = tqdm(finished, total=len(cells), desc="compare", unit="cell")
+            for res in finished:
+                # each cell is logged and saved when it finishes, so a long grid that stops
+                # early keeps what it measured (child runs and compare_cells.csv)
+                log_cell(res, experiment_id)
+                results.append(res)
+                pd.DataFrame([r for done in results for r in done["rows"]]).to_csv(
+                    args.out / "compare_cells.csv", index=False)
         rows = pd.DataFrame([r for res in results for r in res["rows"]])
         table = summary_table(rows)
-        args.out.mkdir(parents=True, exist_ok=True)
         md = markdown_table(table)
         (args.out / "compare_table.md").write_text(md)
         table.to_csv(args.out / "compare_table.csv", index=False)

@@ -24,7 +24,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from types import MappingProxyType
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import pandas as pd
@@ -320,8 +320,35 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
             "predictions": pred.assign(**asdict(cell))}
 
 
+def iter_grid(config: CompareConfig, n_jobs: int | None = None) -> Iterator[dict]:
+    """Run every cell through :class:`joblib.Parallel` and yield each result as it is ready.
+
+    The active joblib backend decides where the cells run; results come back in
+    :meth:`CompareConfig.cells` order (``return_as="generator"``), so a caller can log,
+    save and show progress cell by cell instead of after the whole grid.
+
+    Parameters
+    ----------
+    config : CompareConfig
+        The grid.
+    n_jobs : int or None
+        joblib workers (``None``: sequential unless a backend context says otherwise;
+        ``-1``: every worker of the backend).
+
+    Yields
+    ------
+    dict
+        :func:`run_cell` results, in :meth:`CompareConfig.cells` order. An error of a cell
+        propagates when its result is reached.
+    """
+    from joblib import Parallel, delayed
+
+    yield from Parallel(n_jobs=n_jobs, return_as="generator")(
+        delayed(run_cell)(c, config) for c in config.cells())
+
+
 def run_grid(config: CompareConfig, n_jobs: int | None = None) -> list[dict]:
-    """Run every cell through :class:`joblib.Parallel` (the active backend decides where).
+    """Every cell's result (:func:`iter_grid`, collected).
 
     Parameters
     ----------
@@ -336,9 +363,7 @@ def run_grid(config: CompareConfig, n_jobs: int | None = None) -> list[dict]:
     list of dict
         :func:`run_cell` results, in :meth:`CompareConfig.cells` order.
     """
-    from joblib import Parallel, delayed
-
-    return Parallel(n_jobs=n_jobs)(delayed(run_cell)(c, config) for c in config.cells())
+    return list(iter_grid(config, n_jobs))
 
 
 def with_default_keys(frame: pd.DataFrame) -> pd.DataFrame:

@@ -196,3 +196,24 @@ def test_merge_compare_votes_across_folders_with_and_without_protocol(tmp_path, 
         assert cells.loc[vote, "fit_s_per_fold"] == pytest.approx(2.0)
         assert cells.loc[vote, "protocol"] == "grouped"
     assert "vote(m1+m2)" in (out / "compare_table.md").read_text()
+
+
+def test_a_failing_cell_leaves_the_finished_cells_logged_and_saved(workdir, capsys):
+    import mlflow
+
+    from terrain.tracking import activate_store
+
+    out = workdir / "cmp"
+    # the first cell (IMU) runs; the second names a channel no dataset has and fails
+    status = main(["compare", "--models", "svm", "--signals", "imu", "no_such_channel",
+                   "--windows-s", "2", "--datasets", "vulpi", "--seeds", "0",
+                   "--history", "1", "--n-jobs", "1", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status != 0 and "no_such_channel" in err and "Traceback" not in err
+    cells = pd.read_csv(out / "compare_cells.csv")
+    assert list(cells["signals"]) == ["imu"] and cells["accuracy"].iloc[0] > 0.5
+    activate_store()
+    children = mlflow.search_runs(experiment_names=["terrain-compare"],
+                                  filter_string="attributes.run_name = "
+                                                "'svm-vulpi-imu-2s-seed0'")
+    assert len(children) == 1
