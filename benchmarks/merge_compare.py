@@ -6,7 +6,8 @@ signals, window, seed) where all ``--vote`` members are present, their out-of-fo
 probabilities are averaged with equal weights (:func:`terrain.models.compare.soft_vote`,
 identical to the fixed-weight :class:`~terrain.models.ensemble.SoftVotingEnsemble` on the
 same folds) and scored as model ``vote(<members>)``; its train time is the members' sum and
-its inference time the sum of theirs. Writes ``compare_table.md/.csv``, ``compare.png`` and
+its inference time the sum of theirs. Writes ``compare_table.md/.csv``, ``compare.png``
+(and ``compare_grid.png`` when the folders span several signal sets or windows) and
 ``compare_cells.csv`` (one row per cell, seed and history, the votes included) to ``--out``.
 
 Run: ``python benchmarks/merge_compare.py DIR... --vote svm cnn cnn-spectrogram --out DIR``
@@ -21,8 +22,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from terrain.models.compare import (markdown_table, plot_comparison, score_rows, soft_vote,
-                                    summary_table, with_default_keys)
+from terrain.models.compare import (markdown_table, plot_comparison, plot_grid, score_rows,
+                                    soft_vote, spans_grid, summary_table, with_default_keys)
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -81,6 +82,8 @@ def main() -> int:
     (args.out / "compare_table.md").write_text(md)
     table.to_csv(args.out / "compare_table.csv", index=False)
     plot_comparison(table).savefig(args.out / "compare.png", dpi=120)
+    if spans_grid(table):
+        plot_grid(table).savefig(args.out / "compare_grid.png", dpi=120, bbox_inches="tight")
     print(md)
     return 0
 

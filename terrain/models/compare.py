@@ -483,6 +483,86 @@ def plot_comparison(table: pd.DataFrame):
     return fig
 
 
+def spans_grid(table: pd.DataFrame) -> bool:
+    """Whether a table holds more than one signal set or window length of some dataset.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`summary_table` output.
+
+    Returns
+    -------
+    bool
+        True when :func:`plot_grid` has something to show.
+    """
+    return bool((table.groupby("dataset")[["signals", "window_s"]].nunique() > 1)
+                .any(axis=None))
+
+
+def plot_grid(table: pd.DataFrame, history: int = 1):
+    """Accuracy over signal set x window length: one heatmap per dataset and model.
+
+    Each cell shows the mean accuracy over seeds at decision history ``history`` (colour and
+    first line) and macro-F1 (second line); a blank cell was not run.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`summary_table` output of one protocol.
+    history : int
+        Decision history k of the shown scores (windows).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ConfigError
+        The table has no row at that history.
+    """
+    import matplotlib.pyplot as plt
+
+    sub = table[table["history"] == history]
+    if sub.empty:
+        raise ConfigError(f"no row at history k = {history}; the table has "
+                          f"{sorted(set(table['history']))}")
+    datasets = list(dict.fromkeys(sub["dataset"]))
+    models = list(dict.fromkeys(sub["model"]))
+    signals = list(dict.fromkeys(sub["signals"]))
+    windows = sorted(set(sub["window_s"]))
+    fig, axes = plt.subplots(len(models), len(datasets),
+                             figsize=(1.1 * len(windows) * len(datasets) + 1.5,
+                                      0.55 * len(signals) * len(models) + 1.0),
+                             squeeze=False)
+    for i, model in enumerate(models):
+        for j, ds in enumerate(datasets):
+            ax = axes[i, j]
+            cells = sub[(sub["model"] == model) & (sub["dataset"] == ds)]
+            acc = (cells.pivot_table(index="signals", columns="window_s",
+                                     values="accuracy_mean")
+                   .reindex(index=signals, columns=windows))
+            f1 = (cells.pivot_table(index="signals", columns="window_s", values="macro_f1_mean")
+                  .reindex(index=signals, columns=windows))
+            image = ax.imshow(acc.to_numpy(dtype=float), vmin=0.5, vmax=1.0, cmap="viridis",
+                              aspect="auto")
+            for r in range(len(signals)):
+                for c in range(len(windows)):
+                    if np.isfinite(acc.iat[r, c]):
+                        ax.text(c, r, f"{acc.iat[r, c]:.3f}\n{f1.iat[r, c]:.3f}",
+                                ha="center", va="center", fontsize=7,
+                                color="white" if acc.iat[r, c] < 0.8 else "black")
+            ax.set_xticks(range(len(windows)), [f"{w:g} s" for w in windows], fontsize=7)
+            ax.set_yticks(range(len(signals)), signals, fontsize=7)
+            ax.set_title(f"{model} / {ds}", fontsize=8)
+    fig.subplots_adjust(wspace=0.45, hspace=0.45)
+    fig.colorbar(image, ax=axes, shrink=0.6, label=f"accuracy (k = {history})")
+    fig.suptitle(f"mean over seeds, decision history k = {history}; text: accuracy / macro-F1",
+                 fontsize=8)
+    return fig
+
+
 BACKENDS = ("loky", "dask", "ray")
 
 

@@ -217,3 +217,30 @@ def test_a_failing_cell_leaves_the_finished_cells_logged_and_saved(workdir, caps
                                   filter_string="attributes.run_name = "
                                                 "'svm-vulpi-imu-2s-seed0'")
     assert len(children) == 1
+
+
+def test_grid_figure_has_one_heatmap_per_model_and_dataset_with_blank_cells_not_run():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from terrain.models.compare import plot_grid, spans_grid
+
+    rows = [dict(dataset=d, model=m, signals=s, window_s=w, history=k,
+                 accuracy_mean=0.9 if s == "all" else 0.6, macro_f1_mean=0.85)
+            for d in ("borealtc", "vulpi") for m in ("svm", "cnn") for s in ("imu", "all")
+            for w in (1.0, 2.0) for k in (1, 10) if not (d == "vulpi" and s == "imu" and w == 1.0)]
+    table = pd.DataFrame(rows)
+    assert spans_grid(table) and not spans_grid(table[(table.signals == "all")
+                                                      & (table.window_s == 2.0)])
+    fig = plot_grid(table)
+    heatmaps = [ax for ax in fig.axes if ax.get_title()]
+    assert sorted(ax.get_title() for ax in heatmaps) == [
+        "cnn / borealtc", "cnn / vulpi", "svm / borealtc", "svm / vulpi"]
+    vulpi = next(ax for ax in heatmaps if ax.get_title() == "svm / vulpi")
+    image = vulpi.get_images()[0].get_array()
+    assert image.shape == (2, 2)
+    assert np.ma.is_masked(image[0, 0]) or np.isnan(image[0, 0])   # imu, 1 s: not run
+    assert image[1, 0] == pytest.approx(0.9)        # row "all", 1 s
+    assert len(vulpi.texts) == 3                    # the cell not run has no text
+    with pytest.raises(ConfigError, match="history"):
+        plot_grid(table, history=5)
