@@ -7,7 +7,8 @@ probabilities are averaged with equal weights (:func:`terrain.models.compare.sof
 identical to the fixed-weight :class:`~terrain.models.ensemble.SoftVotingEnsemble` on the
 same folds) and scored as model ``vote(<members>)``; its train time is the members' sum and
 its inference time the sum of theirs. Writes ``compare_table.md/.csv``, ``compare.png``
-(and ``compare_grid.png`` when the folders span several signal sets or windows) and
+(and ``compare_grid.png`` / ``compare_grid.md``, signal set x window, when the folders span
+several signal sets or windows) and
 ``compare_cells.csv`` (one row per cell, seed and history, the votes included) to ``--out``.
 
 Run: ``python benchmarks/merge_compare.py DIR... --vote svm cnn cnn-spectrogram --out DIR``
@@ -22,8 +23,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from terrain.models.compare import (markdown_table, plot_comparison, plot_grid, score_rows,
-                                    soft_vote, spans_grid, summary_table, with_default_keys)
+from terrain.models.compare import (grid_markdown, markdown_table, plot_comparison, plot_grid,
+                                    score_rows, soft_vote, spans_grid, summary_table,
+                                    with_default_keys)
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -84,6 +86,7 @@ def main() -> int:
     plot_comparison(table).savefig(args.out / "compare.png", dpi=120)
     if spans_grid(table):
         plot_grid(table).savefig(args.out / "compare_grid.png", dpi=120, bbox_inches="tight")
+        (args.out / "compare_grid.md").write_text(grid_markdown(table, args.history))
     print(md)
     return 0
 

@@ -5,7 +5,8 @@ StratifiedGroupKFold(5) CV grouped by run; decision history k (probabilities ave
 last k windows of a run) reported for every cell. Cells run through joblib: --backend dask
 --address tcp://HOST:8786 sends them to a Dask cluster, --backend ray to Ray, unchanged.
 Writes compare_table.md/.csv (mean and spread over seeds), compare_cells.csv and compare.png
-(and compare_grid.png, accuracy over signal set x window, when the grid spans several).
+(and compare_grid.png / compare_grid.md, accuracy over signal set x window, when the grid
+spans several).
 --protocol paper runs the papers' LEAKY 5 s partition protocol instead (1.7 s windows; labelled
 as such in every table and run; never the default).
 """
@@ -18,9 +19,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, iter_grid,
-                                    joblib_backend, markdown_table, plot_comparison,
-                                    plot_grid, spans_grid, summary_table)
+from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
+                                    iter_grid, joblib_backend, markdown_table,
+                                    plot_comparison, plot_grid, spans_grid, summary_table)
 from terrain.models.registry import MODELS
 from terrain.tracking import tracked_run
 
@@ -171,6 +172,8 @@ def main(args: argparse.Namespace) -> int:
             grid = plot_grid(table)
             grid.savefig(args.out / "compare_grid.png", dpi=120, bbox_inches="tight")
             run.log_figure(grid, "compare_grid.png")
+            (args.out / "compare_grid.md").write_text(grid_markdown(table, config.history))
+            run.log_artifact(args.out / "compare_grid.md")
         pd.concat([r["predictions"] for r in results]).to_csv(args.out / "predictions.csv",
                                                               index=False)
     print(md)

@@ -439,6 +439,54 @@ def markdown_table(table: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
+def grid_markdown(table: pd.DataFrame, history: Sequence[int] = (1, 10)) -> str:
+    """The grid as compact Markdown: per dataset, signal sets x window lengths x models.
+
+    One table per dataset; a row per signal set and model, a column per window length and
+    history; each cell ``accuracy / macro-F1`` (means over seeds), the best accuracy of each
+    column in bold, ``-`` where the cell was not run (a signal set and model never run is
+    left out).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`summary_table` output of one protocol.
+    history : sequence of int
+        Decision histories k to show (those the table holds).
+
+    Returns
+    -------
+    str
+        GitHub-flavoured Markdown, one ``#### <dataset>`` section per dataset.
+    """
+    history = [k for k in history if k in set(table["history"])]
+    windows = sorted(set(table["window_s"]))
+    columns = [(k, w) for k in history for w in windows]
+    out = []
+    for ds in dict.fromkeys(table["dataset"]):
+        sub = table[table["dataset"] == ds]
+        best = {(k, w): sub.loc[(sub["history"] == k) & (sub["window_s"] == w),
+                                "accuracy_mean"].max() for k, w in columns}
+        head = ["signals", "model"] + [f"{w:g} s, k = {k}" for k, w in columns]
+        lines = [f"#### {ds}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for sig in dict.fromkeys(sub["signals"]):
+            for model in dict.fromkeys(sub["model"]):
+                cells = []
+                for k, w in columns:
+                    r = sub[(sub["signals"] == sig) & (sub["model"] == model)
+                            & (sub["history"] == k) & (sub["window_s"] == w)]
+                    if r.empty:
+                        cells.append("-")
+                        continue
+                    acc, f1 = float(r["accuracy_mean"].iloc[0]), float(r["macro_f1_mean"].iloc[0])
+                    text = f"{acc:.3f} / {f1:.3f}"
+                    cells.append(f"**{text}**" if acc == best[(k, w)] else text)
+                if any(c != "-" for c in cells):
+                    lines.append("| " + " | ".join([sig, model] + cells) + " |")
+        out.append("\n".join(lines) + "\n")
+    return "\n".join(out)
+
+
 def plot_comparison(table: pd.DataFrame):
     """Accuracy (mean ± std over seeds) per model, one panel per dataset, one bar per
     history length.

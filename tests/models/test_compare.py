@@ -244,3 +244,20 @@ def test_grid_figure_has_one_heatmap_per_model_and_dataset_with_blank_cells_not_
     assert len(vulpi.texts) == 3                    # the cell not run has no text
     with pytest.raises(ConfigError, match="history"):
         plot_grid(table, history=5)
+
+
+def test_grid_markdown_bolds_the_best_of_each_column_and_marks_cells_not_run():
+    from terrain.models.compare import grid_markdown
+
+    table = pd.DataFrame([
+        dict(dataset="vulpi", model=m, signals=s, window_s=w, history=1,
+             accuracy_mean=acc, macro_f1_mean=acc - 0.01)
+        for m, s, w, acc in [("svm", "all", 2.0, 0.925), ("cnn", "all", 2.0, 0.85),
+                             ("svm", "imu", 2.0, 0.91), ("svm", "all", 4.0, 0.951)]])
+    md = grid_markdown(table, history=(1, 10))
+    lines = md.splitlines()
+    assert lines[0] == "#### vulpi" and "| signals | model | 2 s, k = 1 | 4 s, k = 1 |" in md
+    assert "| all | svm | **0.925 / 0.915** | **0.951 / 0.941** |" in lines
+    assert "| all | cnn | 0.850 / 0.840 | - |" in lines
+    assert "| imu | svm | 0.910 / 0.900 | - |" in lines
+    assert not any(line.startswith("| imu | cnn |") for line in lines)   # never run
