@@ -458,7 +458,13 @@ def grid_markdown(table: pd.DataFrame, history: Sequence[int] = (1, 10)) -> str:
     -------
     str
         GitHub-flavoured Markdown, one ``#### <dataset>`` section per dataset.
+
+    Raises
+    ------
+    ConfigError
+        The table mixes protocols or training-window hops.
     """
+    _one_setting(table)
     history = [k for k in history if k in set(table["history"])]
     windows = sorted(set(table["window_s"]))
     columns = [(k, w) for k in history for w in windows]
@@ -478,7 +484,8 @@ def grid_markdown(table: pd.DataFrame, history: Sequence[int] = (1, 10)) -> str:
                     if r.empty:
                         cells.append("-")
                         continue
-                    acc, f1 = float(r["accuracy_mean"].iloc[0]), float(r["macro_f1_mean"].iloc[0])
+                    acc = float(r["accuracy_mean"].iloc[0])
+                    f1 = float(r["macro_f1_mean"].iloc[0])
                     text = f"{acc:.3f} / {f1:.3f}"
                     cells.append(f"**{text}**" if acc == best[(k, w)] else text)
                 if any(c != "-" for c in cells):
@@ -532,7 +539,9 @@ def plot_comparison(table: pd.DataFrame):
 
 
 def spans_grid(table: pd.DataFrame) -> bool:
-    """Whether a table holds more than one signal set or window length of some dataset.
+    """Whether a table of one setting holds more than one signal set or window length of a
+    dataset (a table mixing protocols or training-window hops does not: see
+    :func:`n_settings`).
 
     Parameters
     ----------
@@ -544,8 +553,42 @@ def spans_grid(table: pd.DataFrame) -> bool:
     bool
         True when :func:`plot_grid` has something to show.
     """
+    if n_settings(table) > 1:
+        return False
     return bool((table.groupby("dataset")[["signals", "window_s"]].nunique() > 1)
                 .any(axis=None))
+
+
+def n_settings(table: pd.DataFrame) -> int:
+    """Distinct (protocol, training-window hop) settings among a table's rows.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`summary_table` output (``protocol`` / ``train_hop_s`` optional).
+
+    Returns
+    -------
+    int
+        1 for a table of one setting; the grid views need exactly one. A training hop
+        equal to the window length (or unset) counts as the non-overlapping cut.
+    """
+    protocol = table["protocol"] if "protocol" in table else pd.Series("grouped", table.index)
+    if "train_hop_s" in table:
+        hop = table["train_hop_s"].astype(float)
+        # a training hop equal to the window (or unset) is the non-overlapping cut
+        cut = np.where(hop.isna() | np.isclose(hop, table["window_s"].astype(float)),
+                       "non-overlapping", hop.astype(str))
+    else:
+        cut = np.full(len(table), "non-overlapping")
+    return len(set(zip(protocol.astype(str), cut)))
+
+
+def _one_setting(table: pd.DataFrame) -> None:
+    """Refuse a table that mixes protocols or training-window hops (cells would be averaged)."""
+    if n_settings(table) > 1:
+        raise ConfigError("the grid view needs rows of one protocol and one training-window "
+                          "hop; select them first (columns protocol, train_hop_s)")
 
 
 def plot_grid(table: pd.DataFrame, history: int = 1):
@@ -568,10 +611,11 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
     Raises
     ------
     ConfigError
-        The table has no row at that history.
+        The table has no row at that history, or mixes protocols or training-window hops.
     """
     import matplotlib.pyplot as plt
 
+    _one_setting(table)
     sub = table[table["history"] == history]
     if sub.empty:
         raise ConfigError(f"no row at history k = {history}; the table has "

@@ -244,6 +244,10 @@ def test_grid_figure_has_one_heatmap_per_model_and_dataset_with_blank_cells_not_
     assert len(vulpi.texts) == 3                    # the cell not run has no text
     with pytest.raises(ConfigError, match="history"):
         plot_grid(table, history=5)
+    mixed = pd.concat([table.assign(train_hop_s=np.nan), table.assign(train_hop_s=0.5)])
+    assert not spans_grid(mixed)                    # two training cuts: no grid view
+    with pytest.raises(ConfigError, match="one protocol and one training-window hop"):
+        plot_grid(mixed)
 
 
 def test_grid_markdown_bolds_the_best_of_each_column_and_marks_cells_not_run():
