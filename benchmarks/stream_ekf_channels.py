@@ -10,8 +10,10 @@ benchmark measures the effect *offline* on the same held-out streams as
 over runs, the same seeded concatenated streams on a continuous clock):
 
 * per fold, the equal-weight ``ensemble`` (SVM + spectrogram CNN, ``terrain train --model
-  ensemble``) is fitted on the training runs' non-overlapping 2 s windows, once on ``all``
-  and once on ``all+ekf``;
+  ensemble``) is fitted on the training runs' non-overlapping 2 s windows, once per arm:
+  ``all``, ``all+ekf`` and ``all+windowed-ekf`` (``all`` plus EKF channels computed from
+  each window's own samples, the filter started from its prior: no memory older than the
+  window, so nothing carries across a switch);
 * the held-out stream is aligned once and the EKF run causally over the *whole stream*
   (:func:`features.windows.make_windows` on the concatenated run), as an EKF inside the
   service would run across the switches; windows of 2 s end every 0.5 s (the service's
@@ -24,7 +26,14 @@ Both arms share this offline path, so their difference is the EKF channels'. The
 are not those of ``terrain stream-eval`` (which replays sample by sample through the
 service, with dense training windows).
 
-Run: ``python benchmarks/stream_ekf_channels.py [--seeds 0 1 2] [--no-mlflow]``.
+``--window-cv`` instead asks where the window-CV gain comes from: the spectrogram CNN in the
+run-grouped CV of ``terrain compare`` (BorealTC, 2 s windows) on ``all``, on ``all+ekf`` with
+the EKF run over each whole run (as ``terrain compare`` does), and on ``all`` plus EKF
+channels computed from each window's own samples only (the filter started from its prior at
+the window's start, so no state older than the window).
+
+Run: ``python benchmarks/stream_ekf_channels.py [--seeds 0 1 2] [--arms ARM ...] [--window-cv]
+[--no-mlflow]``.
 """
 
 from __future__ import annotations
@@ -35,9 +44,11 @@ import time
 import numpy as np
 import pandas as pd
 
+from features.ekf_signals import EKF_CHANNELS, ekf_channel_frame
 from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
-from terrain.models.cv import iter_splits
+from terrain.models.compare import Cell, _windows
+from terrain.models.cv import cross_validate, iter_splits
 from terrain.models.registry import ModelConfig, make_model
 from terrain.serving.evaluation import (concatenated_streams, filter_sequence, pool_scores,
                                         score_stream)
@@ -45,20 +56,50 @@ from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
 WINDOW_S, HOP_S, RATE_HZ = 2.0, 0.5, 100.0
-ARMS = ("all", "all+ekf")
+ARMS = ("all", "all+ekf", "all+windowed-ekf")
 
 
-def stream_proba(model, stream, signals: str, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
+def arm_windows(runs, arm: str, config: WindowConfig):
+    """Windows of an arm: ``all``, ``all+ekf`` (EKF over each whole run) or
+    ``all+windowed-ekf`` (``all`` plus EKF channels from each window's own samples).
+
+    Parameters
+    ----------
+    runs : sequence of Run
+    arm : str
+        One of :data:`ARMS`.
+    config : WindowConfig
+
+    Returns
+    -------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)``.
+    ws : WindowSet
+        The windows' book-keeping (run ids, bounds, labels).
+    channels : tuple of str
+        Channel names of axis 1 of ``X``.
+    """
+    if arm != "all+windowed-ekf":
+        ws = make_windows(runs, arm, config)
+        return ws.X, ws, tuple(ws.channels)
+    ws = make_windows(runs, "all", config)
+    wheel_hz = float(np.median([r.rate_hz("wheels") for r in runs if "wheels" in r.streams]))
+    ekf = windowed_ekf_channels(ws.X, tuple(ws.channels), config.rate_hz, wheel_hz)
+    return (np.concatenate([ws.X, ekf], axis=1), ws,
+            tuple(ws.channels) + tuple(EKF_CHANNELS))
+
+
+def stream_proba(model, stream, arm: str, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
     """Class probabilities of windows ending every ``HOP_S`` on a concatenated stream.
 
     Parameters
     ----------
     model : classifier
-        Fitted on raw windows of ``signals``.
+        Fitted on raw windows of ``arm``.
     stream : Run
         Concatenated run.
-    signals : str
-        Signal set (EKF channels are computed causally over the whole stream).
+    arm : str
+        One of :data:`ARMS` (``all+ekf``: the EKF runs causally over the whole stream).
     n_classes : int
         Columns of the result.
 
@@ -69,22 +110,90 @@ def stream_proba(model, stream, signals: str, n_classes: int) -> tuple[np.ndarra
     proba : numpy.ndarray
         ``(n, n_classes)``; NaN rows where no valid window ends (gaps).
     """
-    ws = make_windows([stream], signals, WindowConfig(window_s=WINDOW_S, hop_s=HOP_S,
-                                                      rate_hz=RATE_HZ))
+    X, ws, _ = arm_windows([stream], arm, WindowConfig(window_s=WINDOW_S, hop_s=HOP_S,
+                                                       rate_hz=RATE_HZ))
     t_end = ws.t_end_s
     grid = np.arange(t_end.min(), t_end.max() + HOP_S / 2, HOP_S)
     proba = np.full((len(grid), n_classes), np.nan)
     idx = np.rint((t_end - grid[0]) / HOP_S).astype(int)
-    proba[idx] = model.predict_proba(ws.X)
+    proba[idx] = model.predict_proba(X)
     return grid, proba
+
+
+def windowed_ekf_channels(X: np.ndarray, channels: tuple[str, ...], rate_hz: float,
+                          wheel_rate_hz: float) -> np.ndarray:
+    """EKF channels of each window from its own samples only (filter started at its prior).
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` aligned windows holding ``vel_l``, ``vel_r``
+        (m/s) and ``wz`` (rad/s).
+    channels : tuple of str
+        Channel names of axis 1.
+    rate_hz : float
+        Window sampling rate, Hz.
+    wheel_rate_hz : float
+        Native wheel rate, Hz (wheel variance inflation, see
+        :func:`features.ekf_signals.ekf_channel_frame`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, len(EKF_CHANNELS), n_samples)``.
+    """
+    ci = {c: i for i, c in enumerate(channels)}
+    t = np.arange(X.shape[2]) / rate_hz
+    out = np.empty((len(X), len(EKF_CHANNELS), X.shape[2]))
+    for i, x in enumerate(X):
+        frame = pd.DataFrame({"t_s": t, "vel_l": x[ci["vel_l"]], "vel_r": x[ci["vel_r"]],
+                              "wz": x[ci["wz"]]})
+        out[i] = ekf_channel_frame(frame, wheel_rate_hz=wheel_rate_hz).to_numpy().T
+    return out
+
+
+def window_cv(seeds, log: bool) -> int:
+    """Spectrogram CNN, run-grouped CV on BorealTC: all / all+ekf (whole run) / windowed EKF."""
+    rows = {}
+    for arm in ("all", "all+ekf", "all+windowed-ekf"):
+        cell = Cell("cnn-spectrogram", "all+ekf" if arm == "all+ekf" else "all", WINDOW_S,
+                    "borealtc", seeds[0], "grouped", None)
+        ws, labels, groups, _ = _windows(cell, 5)
+        X, channels = ws.X, tuple(ws.channels)
+        if arm == "all+windowed-ekf":
+            wheel_hz = float(np.median([r.rate_hz("wheels") for r in load_dataset("borealtc")
+                                        if "wheels" in r.streams]))
+            E = windowed_ekf_channels(X, channels, ws.rate_hz, wheel_hz)
+            X, channels = np.concatenate([X, E], axis=1), channels + tuple(EKF_CHANNELS)
+        report = cross_validate(
+            lambda s: make_model(ModelConfig(kind="cnn-spectrogram"), channels, ws.rate_hz,
+                                 "borealtc", s),
+            X, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s, "grouped", tuple(seeds), 5)
+        pooled = report.pooled.mean(numeric_only=True)
+        rows[arm] = (float(pooled["accuracy"]), float(pooled["macro_f1"]))
+        print(f"{arm:18s} accuracy {rows[arm][0]:.3f}  macro-F1 {rows[arm][1]:.3f}", flush=True)
+    if log:
+        with tracked_run("terrain-benchmark", run_name="window-cv-ekf-channels",
+                         params={"seeds": ",".join(map(str, seeds)), "window_s": WINDOW_S,
+                                 "model": "cnn-spectrogram"}) as run:
+            run.log_metrics({f"{m}_{arm.replace('+', '_').replace('-', '_')}": v
+                             for arm, (acc, f1) in rows.items()
+                             for m, v in (("accuracy", acc), ("macro_f1", f1))})
+    return 0
 
 
 def main() -> int:
     """Run the A/B over folds and seeds, print and log the pooled scores."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--window-cv", action="store_true",
+                        help="where the window-CV gain of the EKF channels comes from "
+                             "(spectrogram CNN: all / all+ekf / windowed EKF)")
+    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if args.window_cv:
+        return window_cv(args.seeds, not args.no_mlflow)
     runs = [r for r in load_dataset("borealtc") if {"imu", "wheels"} <= set(r.streams)]
     labels = np.array([r.terrain for r in runs], dtype=object)
     ids = np.array([r.run_id for r in runs], dtype=object)
@@ -95,12 +204,12 @@ def main() -> int:
         for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, 5)):
             stream, segments = concatenated_streams([runs[i] for i in test], ("imu", "wheels"),
                                                     seed * 100 + fold)
-            for arm in ARMS:
-                ws = make_windows([runs[i] for i in train], arm,
-                                  WindowConfig(window_s=WINDOW_S, rate_hz=RATE_HZ))
+            for arm in args.arms:
+                X, ws, channels = arm_windows([runs[i] for i in train], arm,
+                                              WindowConfig(window_s=WINDOW_S, rate_hz=RATE_HZ))
                 y = ws.labels.astype(str)
-                model = make_model(ModelConfig(kind="ensemble"), ws.channels, RATE_HZ,
-                                   "borealtc", random_state=seed).fit(ws.X, y)
+                model = make_model(ModelConfig(kind="ensemble"), channels, RATE_HZ,
+                                   "borealtc", random_state=seed).fit(X, y)
                 classes = np.asarray(model.classes_, dtype=object)
                 t, proba = stream_proba(model, stream, arm, len(classes))
                 names = np.array(list(classes) + [None], dtype=object)
@@ -122,17 +231,18 @@ def main() -> int:
                       f"(delay {rows[-1]['median_delay_s']:.1f} s)", flush=True)
     frame = pd.DataFrame(rows)
     pooled = {(arm, sm): pool_scores(frame[(frame.signals == arm) & (frame.smoothing == sm)])
-              for arm in ARMS for sm in ("raw", "default")}
+              for arm in args.arms for sm in ("raw", "default")}
     print(f"\nheld-out BorealTC streams, seeds {args.seeds}, {time.perf_counter() - t0:.0f} s")
-    print("signals   smoothing  accuracy  settled  median delay s  switches")
+    print("signals           smoothing  accuracy  settled  median delay s  switches")
     for (arm, sm), p in pooled.items():
-        print(f"{arm:9s} {sm:9s}  {p['accuracy']:.3f}     {p['accuracy_settled']:.3f}    "
+        print(f"{arm:17s} {sm:9s}  {p['accuracy']:.3f}     {p['accuracy_settled']:.3f}    "
               f"{p['median_delay_s']:.1f}            {p['n_switches']}")
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name="stream-ekf-channels",
                          params={"seeds": ",".join(map(str, args.seeds)), "window_s": WINDOW_S,
-                                 "hop_s": HOP_S, "model": "ensemble"}) as run:
-            run.log_metrics({f"{m}_{arm.replace('+', '_')}_{sm}": float(p[m])
+                                 "hop_s": HOP_S, "model": "ensemble",
+                                 "arms": ",".join(args.arms)}) as run:
+            run.log_metrics({f"{m}_{arm.replace('+', '_').replace('-', '_')}_{sm}": float(p[m])
                              for (arm, sm), p in pooled.items()
                              for m in ("accuracy", "accuracy_settled", "median_delay_s")})
     return 0
