@@ -83,10 +83,8 @@ def arm_windows(runs, arm: str, config: WindowConfig):
         ws = make_windows(runs, arm, config)
         return ws.X, ws, tuple(ws.channels)
     ws = make_windows(runs, "all", config)
-    wheel_hz = float(np.median([r.rate_hz("wheels") for r in runs if "wheels" in r.streams]))
-    ekf = windowed_ekf_channels(ws.X, tuple(ws.channels), config.rate_hz, wheel_hz)
-    return (np.concatenate([ws.X, ekf], axis=1), ws,
-            tuple(ws.channels) + tuple(EKF_CHANNELS))
+    X, channels = with_windowed_ekf(ws.X, tuple(ws.channels), config.rate_hz, runs)
+    return X, ws, channels
 
 
 def stream_proba(model, stream, arm: str, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -152,6 +150,34 @@ def windowed_ekf_channels(X: np.ndarray, channels: tuple[str, ...], rate_hz: flo
     return out
 
 
+def with_windowed_ekf(X: np.ndarray, channels: tuple[str, ...], rate_hz: float,
+                      runs) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Windows with :func:`windowed_ekf_channels` appended (wheel rate: the runs' median).
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` aligned windows (``vel_l, vel_r, wz`` among
+        them).
+    channels : tuple of str
+        Channel names of axis 1.
+    rate_hz : float
+        Window sampling rate, Hz.
+    runs : sequence of Run
+        The runs the windows come from (their median wheel-stream rate, Hz).
+
+    Returns
+    -------
+    X : numpy.ndarray
+        ``(n_windows, n_channels + len(EKF_CHANNELS), n_samples)``.
+    channels : tuple of str
+        ``channels`` then :data:`features.ekf_signals.EKF_CHANNELS`.
+    """
+    wheel_hz = float(np.median([r.rate_hz("wheels") for r in runs if "wheels" in r.streams]))
+    ekf = windowed_ekf_channels(X, channels, rate_hz, wheel_hz)
+    return np.concatenate([X, ekf], axis=1), channels + tuple(EKF_CHANNELS)
+
+
 def window_cv(seeds, log: bool) -> int:
     """Spectrogram CNN, run-grouped CV on BorealTC: all / all+ekf (whole run) / windowed EKF."""
     rows = {}
@@ -161,10 +187,7 @@ def window_cv(seeds, log: bool) -> int:
         ws, labels, groups, _ = _windows(cell, 5)
         X, channels = ws.X, tuple(ws.channels)
         if arm == "all+windowed-ekf":
-            wheel_hz = float(np.median([r.rate_hz("wheels") for r in load_dataset("borealtc")
-                                        if "wheels" in r.streams]))
-            E = windowed_ekf_channels(X, channels, ws.rate_hz, wheel_hz)
-            X, channels = np.concatenate([X, E], axis=1), channels + tuple(EKF_CHANNELS)
+            X, channels = with_windowed_ekf(X, channels, ws.rate_hz, load_dataset("borealtc"))
         report = cross_validate(
             lambda s: make_model(ModelConfig(kind="cnn-spectrogram"), channels, ws.rate_hz,
                                  "borealtc", s),
@@ -200,16 +223,20 @@ def main() -> int:
     smoothing = SmoothingConfig()
     rows = []
     t0 = time.perf_counter()
+    # every run's training windows of each arm, cut once (a run's windows do not depend on
+    # the other runs); each fold trains on those of its training runs
+    cut = {arm: arm_windows(runs, arm, WindowConfig(window_s=WINDOW_S, rate_hz=RATE_HZ))
+           for arm in args.arms}
     for seed in args.seeds:
         for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, 5)):
             stream, segments = concatenated_streams([runs[i] for i in test], ("imu", "wheels"),
                                                     seed * 100 + fold)
             for arm in args.arms:
-                X, ws, channels = arm_windows([runs[i] for i in train], arm,
-                                              WindowConfig(window_s=WINDOW_S, rate_hz=RATE_HZ))
-                y = ws.labels.astype(str)
+                X, ws, channels = cut[arm]
+                fit_rows = np.isin(ws.run_ids, ids[train])
                 model = make_model(ModelConfig(kind="ensemble"), channels, RATE_HZ,
-                                   "borealtc", random_state=seed).fit(X, y)
+                                   "borealtc", random_state=seed).fit(
+                    X[fit_rows], ws.labels[fit_rows].astype(str))
                 classes = np.asarray(model.classes_, dtype=object)
                 t, proba = stream_proba(model, stream, arm, len(classes))
                 names = np.array(list(classes) + [None], dtype=object)
@@ -218,14 +245,7 @@ def main() -> int:
                     decided = names[filter_sequence(proba, HOP_S, config)]
                     score = score_stream(segments, t, decided, WINDOW_S)
                     rows.append({"seed": seed, "fold": fold, "signals": arm, "smoothing": name,
-                                 "accuracy": score.accuracy,
-                                 "median_delay_s": score.median_delay_s,
-                                 "n_switches": len(score.delays_s),
-                                 "n_decisions": score.n_decisions,
-                                 "accuracy_settled": score.accuracy_settled,
-                                 "n_settled": score.n_settled,
-                                 "delays_s": list(score.delays_s),
-                                 "confusion": score.confusion})
+                                 **score.as_row()})
                 print(f"seed {seed} fold {fold} {arm:8s} raw {rows[-2]['accuracy']:.3f} "
                       f"default {rows[-1]['accuracy']:.3f} "
                       f"(delay {rows[-1]['median_delay_s']:.1f} s)", flush=True)

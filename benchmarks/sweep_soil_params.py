@@ -323,12 +323,13 @@ def main() -> int:
           + " | chi spin | chi headland")
     print("v1 | " + " | ".join(f"{rmse(base[k], s, SCOPES[sc]):.4g}" for k in ("train", "held")
                                 for s in ("wz", "cur") for sc in SCOPES))
+    # the soil every variant starts from: the terrain's own entry, else --base-soil's
+    start = args.terrain if args.terrain in SOILS else args.base_soil
     try:
         for var in variants:
-            base = args.base_soil if args.terrain not in SOILS else args.terrain
-            if base in SOILS:
-                soil = replace(SOILS[base], **var)
-                dynamics.SOILS = MappingProxyType({**SOILS, args.terrain: soil})
+            if start in SOILS:
+                dynamics.SOILS = MappingProxyType({**SOILS,
+                                                   args.terrain: replace(SOILS[start], **var)})
             errs = {k: _v2_errors(rs, refs, settings)
                     for k, rs in (("train", train), ("held", held))}
             chi = ("", "") if args.no_chi else (

@@ -162,7 +162,6 @@ def main(args: argparse.Namespace) -> int:
         md = markdown_table(table)
         (args.out / "compare_table.md").write_text(md)
         table.to_csv(args.out / "compare_table.csv", index=False)
-        rows.to_csv(args.out / "compare_cells.csv", index=False)
         fig = plot_comparison(table)
         fig.savefig(args.out / "compare.png", dpi=120)
         for name in ("compare_table.md", "compare_table.csv", "compare_cells.csv"):

@@ -471,23 +471,19 @@ def grid_markdown(table: pd.DataFrame, history: Sequence[int] = (1, 10)) -> str:
     out = []
     for ds in dict.fromkeys(table["dataset"]):
         sub = table[table["dataset"] == ds]
-        best = {(k, w): sub.loc[(sub["history"] == k) & (sub["window_s"] == w),
-                                "accuracy_mean"].max() for k, w in columns}
+        best = sub.groupby(["history", "window_s"])["accuracy_mean"].max()
+        scores = sub.set_index(["signals", "model", "history", "window_s"])
         head = ["signals", "model"] + [f"{w:g} s, k = {k}" for k, w in columns]
         lines = [f"#### {ds}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for sig in dict.fromkeys(sub["signals"]):
             for model in dict.fromkeys(sub["model"]):
-                cells = []
-                for k, w in columns:
-                    r = sub[(sub["signals"] == sig) & (sub["model"] == model)
-                            & (sub["history"] == k) & (sub["window_s"] == w)]
-                    if r.empty:
-                        cells.append("-")
-                        continue
-                    acc = float(r["accuracy_mean"].iloc[0])
-                    f1 = float(r["macro_f1_mean"].iloc[0])
-                    text = f"{acc:.3f} / {f1:.3f}"
-                    cells.append(f"**{text}**" if acc == best[(k, w)] else text)
+                cells = ["-"] * len(columns)
+                for i, (k, w) in enumerate(columns):
+                    if (sig, model, k, w) in scores.index:
+                        acc, f1 = scores.loc[(sig, model, k, w),
+                                             ["accuracy_mean", "macro_f1_mean"]]
+                        text = f"{acc:.3f} / {f1:.3f}"
+                        cells[i] = f"**{text}**" if acc == best[(k, w)] else text
                 if any(c != "-" for c in cells):
                     lines.append("| " + " | ".join([sig, model] + cells) + " |")
         out.append("\n".join(lines) + "\n")

@@ -603,6 +603,20 @@ class StreamScore:
         """Median switching delay, s."""
         return float(np.median(self.delays_s)) if self.delays_s else float("nan")
 
+    def as_row(self) -> dict:
+        """The score as one table row (the columns :func:`pool_scores` reads).
+
+        Returns
+        -------
+        dict
+            ``accuracy, median_delay_s`` (s), ``n_switches, n_decisions, accuracy_settled,
+            n_settled, delays_s`` (list, s) and ``confusion``.
+        """
+        return {"accuracy": self.accuracy, "median_delay_s": self.median_delay_s,
+                "n_switches": len(self.delays_s), "n_decisions": self.n_decisions,
+                "accuracy_settled": self.accuracy_settled, "n_settled": self.n_settled,
+                "delays_s": list(self.delays_s), "confusion": self.confusion}
+
 
 def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarray,
                  window_s: float = 0.0) -> StreamScore:
@@ -685,12 +699,7 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
         for name, config in smoothings.items():
             decided = names[filter_sequence(proba, hop_s, config)]
             score = score_stream(segments, t, decided, recipe.window_s)
-            rows.append({"fold": fold, "smoothing": name, "accuracy": score.accuracy,
-                         "median_delay_s": score.median_delay_s,
-                         "n_switches": len(score.delays_s), "n_decisions": score.n_decisions,
-                         "accuracy_settled": score.accuracy_settled,
-                         "n_settled": score.n_settled, "delays_s": list(score.delays_s),
-                         "confusion": score.confusion})
+            rows.append({"fold": fold, "smoothing": name, **score.as_row()})
     return pd.DataFrame(rows)
 
 
