@@ -10,21 +10,23 @@ benchmark measures the effect *offline* on the same held-out streams as
 over runs, the same seeded concatenated streams on a continuous clock):
 
 * per fold, the equal-weight ``ensemble`` (SVM + spectrogram CNN, ``terrain train --model
-  ensemble``) is fitted on the training runs' non-overlapping 2 s windows, once per arm:
+  ensemble``) is fitted on the training runs' 2 s windows (non-overlapping, or cut every
+  ``--train-hop-s``, 0.5 s for the dense recipes of ``terrain stream-eval``), once per arm:
   ``all``, ``all+ekf`` and ``all+windowed-ekf`` (``all`` plus EKF channels computed from
   each window's own samples, the filter started from its prior: no memory older than the
-  window, so nothing carries across a switch);
-* the held-out stream is aligned once and the EKF run causally over the *whole stream*
-  (:func:`features.windows.make_windows` on the concatenated run), as an EKF inside the
-  service would run across the switches; windows of 2 s end every 0.5 s (the service's
-  hop), each classified; a missing window is a prediction-only step;
+  window, so nothing carries across a switch; the model of ``terrain train --window-ekf``,
+  :class:`terrain.models.window_ekf.WindowEKFClassifier`, which computes them itself);
+* the held-out stream is aligned once; for ``all+ekf`` the EKF runs causally over the
+  *whole stream* (:func:`features.windows.make_windows` on the concatenated run), as an EKF
+  inside the service would run across the switches; windows of 2 s end every 0.5 s (the
+  service's hop), each classified; a missing window is a prediction-only step;
 * both arms go through the same forward filter (the service's default, dwell 10 s, power
   0.5) and are scored by :func:`terrain.serving.evaluation.score_stream` (per-decision
   accuracy, settled accuracy, median switching delay).
 
 Both arms share this offline path, so their difference is the EKF channels'. The figures
 are not those of ``terrain stream-eval`` (which replays sample by sample through the
-service, with dense training windows).
+service; its ``all-ensemble-dense-window-ekf`` recipe serves the windowed arm).
 
 ``--window-cv`` instead asks where the window-CV gain comes from: the spectrogram CNN in the
 run-grouped CV of ``terrain compare`` (BorealTC, 2 s windows) on ``all``, on ``all+ekf`` with
@@ -32,8 +34,8 @@ the EKF run over each whole run (as ``terrain compare`` does), and on ``all`` pl
 channels computed from each window's own samples only (the filter started from its prior at
 the window's start, so no state older than the window).
 
-Run: ``python benchmarks/stream_ekf_channels.py [--seeds 0 1 2] [--arms ARM ...] [--window-cv]
-[--no-mlflow]``.
+Run: ``python benchmarks/stream_ekf_channels.py [--seeds 0 1 2] [--arms ARM ...]
+[--train-hop-s 0.5] [--window-cv] [--no-mlflow]``.
 """
 
 from __future__ import annotations
@@ -44,7 +46,6 @@ import time
 import numpy as np
 import pandas as pd
 
-from features.ekf_signals import EKF_CHANNELS, ekf_channel_frame
 from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
 from terrain.models.compare import Cell, _windows
@@ -60,8 +61,9 @@ ARMS = ("all", "all+ekf", "all+windowed-ekf")
 
 
 def arm_windows(runs, arm: str, config: WindowConfig):
-    """Windows of an arm: ``all``, ``all+ekf`` (EKF over each whole run) or
-    ``all+windowed-ekf`` (``all`` plus EKF channels from each window's own samples).
+    """Windows of an arm: ``all+ekf`` (EKF over each whole run), else those of ``all``
+    (``all+windowed-ekf``: the model appends each window's EKF channels itself,
+    :class:`terrain.models.window_ekf.WindowEKFClassifier`).
 
     Parameters
     ----------
@@ -79,12 +81,8 @@ def arm_windows(runs, arm: str, config: WindowConfig):
     channels : tuple of str
         Channel names of axis 1 of ``X``.
     """
-    if arm != "all+windowed-ekf":
-        ws = make_windows(runs, arm, config)
-        return ws.X, ws, tuple(ws.channels)
-    ws = make_windows(runs, "all", config)
-    X, channels = with_windowed_ekf(ws.X, tuple(ws.channels), config.rate_hz, runs)
-    return X, ws, channels
+    ws = make_windows(runs, "all+ekf" if arm == "all+ekf" else "all", config)
+    return ws.X, ws, tuple(ws.channels)
 
 
 def stream_proba(model, stream, arm: str, n_classes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -118,66 +116,6 @@ def stream_proba(model, stream, arm: str, n_classes: int) -> tuple[np.ndarray, n
     return grid, proba
 
 
-def windowed_ekf_channels(X: np.ndarray, channels: tuple[str, ...], rate_hz: float,
-                          wheel_rate_hz: float) -> np.ndarray:
-    """EKF channels of each window from its own samples only (filter started at its prior).
-
-    Parameters
-    ----------
-    X : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)`` aligned windows holding ``vel_l``, ``vel_r``
-        (m/s) and ``wz`` (rad/s).
-    channels : tuple of str
-        Channel names of axis 1.
-    rate_hz : float
-        Window sampling rate, Hz.
-    wheel_rate_hz : float
-        Native wheel rate, Hz (wheel variance inflation, see
-        :func:`features.ekf_signals.ekf_channel_frame`).
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n_windows, len(EKF_CHANNELS), n_samples)``.
-    """
-    ci = {c: i for i, c in enumerate(channels)}
-    t = np.arange(X.shape[2]) / rate_hz
-    out = np.empty((len(X), len(EKF_CHANNELS), X.shape[2]))
-    for i, x in enumerate(X):
-        frame = pd.DataFrame({"t_s": t, "vel_l": x[ci["vel_l"]], "vel_r": x[ci["vel_r"]],
-                              "wz": x[ci["wz"]]})
-        out[i] = ekf_channel_frame(frame, wheel_rate_hz=wheel_rate_hz).to_numpy().T
-    return out
-
-
-def with_windowed_ekf(X: np.ndarray, channels: tuple[str, ...], rate_hz: float,
-                      runs) -> tuple[np.ndarray, tuple[str, ...]]:
-    """Windows with :func:`windowed_ekf_channels` appended (wheel rate: the runs' median).
-
-    Parameters
-    ----------
-    X : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)`` aligned windows (``vel_l, vel_r, wz`` among
-        them).
-    channels : tuple of str
-        Channel names of axis 1.
-    rate_hz : float
-        Window sampling rate, Hz.
-    runs : sequence of Run
-        The runs the windows come from (their median wheel-stream rate, Hz).
-
-    Returns
-    -------
-    X : numpy.ndarray
-        ``(n_windows, n_channels + len(EKF_CHANNELS), n_samples)``.
-    channels : tuple of str
-        ``channels`` then :data:`features.ekf_signals.EKF_CHANNELS`.
-    """
-    wheel_hz = float(np.median([r.rate_hz("wheels") for r in runs if "wheels" in r.streams]))
-    ekf = windowed_ekf_channels(X, channels, rate_hz, wheel_hz)
-    return np.concatenate([X, ekf], axis=1), channels + tuple(EKF_CHANNELS)
-
-
 def window_cv(seeds, log: bool) -> int:
     """Spectrogram CNN, run-grouped CV on BorealTC: all / all+ekf (whole run) / windowed EKF."""
     rows = {}
@@ -185,13 +123,10 @@ def window_cv(seeds, log: bool) -> int:
         cell = Cell("cnn-spectrogram", "all+ekf" if arm == "all+ekf" else "all", WINDOW_S,
                     "borealtc", seeds[0], "grouped", None)
         ws, labels, groups, _ = _windows(cell, 5)
-        X, channels = ws.X, tuple(ws.channels)
-        if arm == "all+windowed-ekf":
-            X, channels = with_windowed_ekf(X, channels, ws.rate_hz, load_dataset("borealtc"))
+        config = ModelConfig(kind="cnn-spectrogram", window_ekf=arm == "all+windowed-ekf")
         report = cross_validate(
-            lambda s: make_model(ModelConfig(kind="cnn-spectrogram"), channels, ws.rate_hz,
-                                 "borealtc", s),
-            X, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s, "grouped", tuple(seeds), 5)
+            lambda s: make_model(config, tuple(ws.channels), ws.rate_hz, "borealtc", s),
+            ws.X, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s, "grouped", tuple(seeds), 5)
         pooled = report.pooled.mean(numeric_only=True)
         rows[arm] = (float(pooled["accuracy"]), float(pooled["macro_f1"]))
         print(f"{arm:18s} accuracy {rows[arm][0]:.3f}  macro-F1 {rows[arm][1]:.3f}", flush=True)
@@ -213,6 +148,9 @@ def main() -> int:
                         help="where the window-CV gain of the EKF channels comes from "
                              "(spectrogram CNN: all / all+ekf / windowed EKF)")
     parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
+    parser.add_argument("--train-hop-s", type=float, default=None,
+                        help="hop of the training windows, s (default: the window, 2 s; "
+                             "0.5 trains as the dense recipes of terrain stream-eval)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     if args.window_cv:
@@ -225,8 +163,8 @@ def main() -> int:
     t0 = time.perf_counter()
     # every run's training windows of each arm, cut once (a run's windows do not depend on
     # the other runs); each fold trains on those of its training runs
-    cut = {arm: arm_windows(runs, arm, WindowConfig(window_s=WINDOW_S, rate_hz=RATE_HZ))
-           for arm in args.arms}
+    train_window = WindowConfig(window_s=WINDOW_S, hop_s=args.train_hop_s, rate_hz=RATE_HZ)
+    cut = {arm: arm_windows(runs, arm, train_window) for arm in args.arms}
     for seed in args.seeds:
         for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, 5)):
             stream, segments = concatenated_streams([runs[i] for i in test], ("imu", "wheels"),
@@ -234,7 +172,8 @@ def main() -> int:
             for arm in args.arms:
                 X, ws, channels = cut[arm]
                 fit_rows = np.isin(ws.run_ids, ids[train])
-                model = make_model(ModelConfig(kind="ensemble"), channels, RATE_HZ,
+                config = ModelConfig(kind="ensemble", window_ekf=arm == "all+windowed-ekf")
+                model = make_model(config, channels, RATE_HZ,
                                    "borealtc", random_state=seed).fit(
                     X[fit_rows], ws.labels[fit_rows].astype(str))
                 classes = np.asarray(model.classes_, dtype=object)
@@ -261,6 +200,7 @@ def main() -> int:
         with tracked_run("terrain-benchmark", run_name="stream-ekf-channels",
                          params={"seeds": ",".join(map(str, args.seeds)), "window_s": WINDOW_S,
                                  "hop_s": HOP_S, "model": "ensemble",
+                                 "train_hop_s": args.train_hop_s or WINDOW_S,
                                  "arms": ",".join(args.arms)}) as run:
             run.log_metrics({f"{m}_{arm.replace('+', '_').replace('-', '_')}_{sm}": float(p[m])
                              for (arm, sm), p in pooled.items()

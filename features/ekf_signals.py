@@ -27,10 +27,14 @@ drops the windows that contain them, as for the raw channels.
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 import pandas as pd
 
-from terrain.estimation.skid_steer import SkidSteerSettings, icr_chi, skid_steer_on_frame
+from terrain.errors import DataFormatError, ShapeError
+from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerSettings, skid_steer_on_frame,
+                                           skid_steer_on_windows)
 from terrain.run import TIME
 from terrain.slip import skid_steer_side_slip
 from terrain.vehicles import HUSKY
@@ -70,16 +74,84 @@ def ekf_channel_frame(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None
     """
     res = skid_steer_on_frame(frame, settings, wheel_rate_hz=wheel_rate_hz)
     gap = ~np.isfinite(frame[["vel_l", "vel_r", "wz"]].to_numpy(float)).all(axis=1)
-    slip = skid_steer_side_slip(frame[["vel_l", "vel_r"]].to_numpy(float), res.state("v_bx"),
-                                res.state("yaw_rate"), settings.track_m)
-    y = np.where(res.accepted, res.y, np.nan)
-    cols = {"ekf_v_bx": res.state("v_bx"), "ekf_yaw_rate": res.state("yaw_rate"),
-            "ekf_gyro_bias": res.state("gyro_bias"), "ekf_icr_chi": icr_chi(res),
-            "ekf_innov_vel_l": y[:, 0], "ekf_innov_vel_r": y[:, 1], "ekf_innov_wz": y[:, 2],
-            "ekf_nis": res.nis, "ekf_slip_l": slip[:, 0], "ekf_slip_r": slip[:, 1]}
+    cols = _channel_columns(frame[["vel_l", "vel_r"]].to_numpy(float), res.x,
+                            np.where(res.accepted, res.y, np.nan), res.nis, res.state_names,
+                            settings.track_m)
     out = pd.DataFrame(cols, index=frame.index)
     out.loc[gap, :] = np.nan
     return out[list(EKF_CHANNELS)]
+
+
+def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, *,
+                        wheel_rate_hz: float | None = None,
+                        settings: SkidSteerSettings = SkidSteerSettings(track_m=HUSKY.track_m)
+                        ) -> np.ndarray:
+    """The EKF channels of each window from its own samples only.
+
+    The filter starts from its prior at each window's first sample, so no state older than
+    the window enters (nothing carries across a terrain switch, unlike the filter over a
+    whole run of :func:`add_ekf_channels`). Each window gives what :func:`ekf_channel_frame`
+    gives on a frame holding only that window (equal to round-off, tested), through the
+    lean batch path :func:`~terrain.estimation.skid_steer.skid_steer_on_windows`.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` gap-free aligned windows holding ``vel_l``,
+        ``vel_r`` (m/s) and ``wz`` (rad/s) among their channels.
+    channels : sequence of str
+        Channel names of axis 1 of ``X``.
+    rate_hz : float
+        Sampling rate of the windows, Hz.
+    wheel_rate_hz : float, optional
+        Native rate of the wheel stream, Hz (wheel variance inflation).
+    settings : SkidSteerSettings
+        Husky geometry and tuning by default.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, len(EKF_CHANNELS), n_samples)``, channels in :data:`EKF_CHANNELS`
+        order.
+
+    Raises
+    ------
+    terrain.errors.DataFormatError
+        ``channels`` lacks ``vel_l``, ``vel_r`` or ``wz``.
+    terrain.errors.ShapeError, terrain.errors.NonFiniteInputError
+        ``X`` not 3-D, or a non-finite sample.
+    """
+    names = list(channels)
+    missing = [c for c in ("vel_l", "vel_r", "wz") if c not in names]
+    if missing:
+        raise DataFormatError(f"EKF channels need {missing} among the window channels "
+                              f"{names}", None, missing[0])
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 3 or X.shape[1] != len(names):
+        raise ShapeError(f"X must be (n_windows, {len(names)}, n_samples), got {X.shape}")
+    idx = [names.index(c) for c in ("vel_l", "vel_r", "wz")]
+    x, y, nis = skid_steer_on_windows(X[:, idx, :], rate_hz, settings,
+                                      wheel_rate_hz=wheel_rate_hz)
+    n_win, n = X.shape[0], X.shape[2]
+    vel = np.moveaxis(X[:, idx[:2], :], 1, 2).reshape(-1, 2)
+    cols = _channel_columns(vel, x.reshape(-1, x.shape[2]), y.reshape(-1, y.shape[2]),
+                            nis.reshape(-1), STATE_NAMES, settings.track_m)
+    return np.stack([cols[c].reshape(n_win, n) for c in EKF_CHANNELS], axis=1)
+
+
+def _channel_columns(vel: np.ndarray, x: np.ndarray, y: np.ndarray, nis: np.ndarray,
+                     state_names: Sequence[str], track_m: float) -> dict[str, np.ndarray]:
+    """:data:`EKF_CHANNELS` from the filter's per-step arrays (one equation for both paths).
+
+    ``vel`` ``(N, 2)`` wheel speeds m/s, ``x`` ``(N, 4)`` states, ``y`` ``(N, 3)`` innovations
+    (NaN where a row was not used), ``nis`` ``(N,)``; returns name -> ``(N,)`` array.
+    """
+    state = {name: x[:, i] for i, name in enumerate(state_names)}
+    slip = skid_steer_side_slip(vel, state["v_bx"], state["yaw_rate"], track_m)
+    return {"ekf_v_bx": state["v_bx"], "ekf_yaw_rate": state["yaw_rate"],
+            "ekf_gyro_bias": state["gyro_bias"], "ekf_icr_chi": np.exp(state["log_icr_chi"]),
+            "ekf_innov_vel_l": y[:, 0], "ekf_innov_vel_r": y[:, 1], "ekf_innov_wz": y[:, 2],
+            "ekf_nis": nis, "ekf_slip_l": slip[:, 0], "ekf_slip_r": slip[:, 1]}
 
 
 def add_ekf_channels(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None,

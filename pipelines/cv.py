@@ -50,6 +50,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "paper: 0, i.e. random_state 21)")
     parser.add_argument("--search", action="store_true",
                         help="nested grouped grid search of C and gamma in each training fold")
+    parser.add_argument("--window-ekf", action="store_true",
+                        help="the model also sees the skid-steer EKF's channels computed from "
+                             "each window's own samples (needs vel_l, vel_r, wz; nothing "
+                             "older than the window, so it streams: docs/streaming.md)")
     parser.add_argument("--steady-only", action="store_true",
                         help="keep steady-motion windows only (thesis ch. 8.1)")
     parser.add_argument("--json", type=Path, default=None, help="write the report as JSON")
@@ -78,7 +82,8 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
                             window_s=args.window_s, hop_s=args.hop_s,
                             train_hop_s=args.train_hop_s, protocol=args.protocol,
                             seeds=tuple(seeds), search=args.search,
-                            steady_only=args.steady_only, model=args.model)
+                            steady_only=args.steady_only, model=args.model,
+                            window_ekf=args.window_ekf)
 
 
 def result_dict(result: ExperimentResult) -> dict:
@@ -175,7 +180,8 @@ def main(args: argparse.Namespace) -> int:
         report["mlflow_run_id"] = run.run_id
         run.log_dict(report, "cv_report.json")
     line = "secondary (leaky) protocol" if config.protocol == "paper" else "headline"
-    print(f"{config.model} / {config.dataset} / {config.protocol} ({line}) / signals {','.join(config.signals)}: "
+    signals = ",".join(config.signals) + (" + EKF per window" if config.window_ekf else "")
+    print(f"{config.model} / {config.dataset} / {config.protocol} ({line}) / signals {signals}: "
           f"{result.n_windows} windows from {result.n_runs} runs, {len(rep.classes)} classes")
     pooled = rep.pooled
     print(f"  {'metric':24s} {'pooled out-of-fold':>22s}   {'per fold':>22s}")

@@ -57,6 +57,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the window; default: " + ", ".join(
                                  f"{d} {h:g}" for d, h in DEFAULT_TRAIN_HOP_S.items())
                              + ", the window length (non-overlapping) otherwise)")
+    parser.add_argument("--window-ekf", action="store_true",
+                        help="the model also sees the skid-steer EKF's channels computed from "
+                             "each window's own samples (needs vel_l, vel_r, wz; nothing "
+                             "older than the window, so it streams: docs/streaming.md)")
     parser.add_argument("--search", action="store_true",
                         help="choose C and gamma by a grid search grouped by run")
     parser.add_argument("--model-out", type=Path, default=None,
@@ -116,15 +120,17 @@ def main(args: argparse.Namespace) -> int:
                               window_s=args.window_s,
                               train_hop_s=(args.train_hop_s if args.train_hop_s is not None
                                            else DEFAULT_TRAIN_HOP_S.get(args.dataset)),
-                              search=args.search, seeds=(0,),
+                              search=args.search, seeds=(0,), window_ekf=args.window_ekf,
                               model=args.model or DEFAULT_MODELS.get(args.dataset, "ensemble3"))
-    name = f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
+    name = (f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
+            + ("+window-ekf" if config.window_ekf else ""))
     window = config.window_config()
     params = {"model": config.model, "dataset": config.dataset,
               "signals": ",".join(config.signals),
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
               "train_hop_s": config.train_hop_s or window.hop_s or window.window_s,
-              "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0]}
+              "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0],
+              "window_ekf": config.window_ekf}
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)

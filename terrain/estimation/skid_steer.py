@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, NonFiniteInputError, ShapeError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
@@ -318,6 +318,76 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     result = run_filter(SkidSteerModel(settings, wheel_r_scale=scale), t, samples, gate=gate)
     result.meta.update(model="skid-steer-4", track_m=settings.track_m, wheel_r_scale=scale)
     return result
+
+
+def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
+                          settings: SkidSteerSettings = SkidSteerSettings(), *,
+                          wheel_rate_hz: float | None = None) -> tuple[np.ndarray, ...]:
+    """Run the skid-steer EKF on each of many short, gap-free windows, each from the prior.
+
+    The same filter as :func:`skid_steer_on_frame` (no gate) on a frame holding one window,
+    without its scheduling and result assembly: the samples of a window are already on one
+    regular clock, so the compiled loop (:func:`terrain.estimation.fast.run_compiled`) runs
+    on them directly. About 0.2 ms per 200-sample window instead of about 3.5 ms for
+    :func:`skid_steer_on_frame` on the same window (one-window frames, where that function's
+    fixed cost dominates). Equal to it to round-off (tested).
+
+    Parameters
+    ----------
+    windows : ndarray, shape (n_windows, 3, n_samples)
+        ``vel_l``, ``vel_r`` (m/s) and ``wz`` (rad/s) of each window, every sample finite.
+    rate_hz : float
+        Sampling rate of the windows, Hz (> 0).
+    settings : SkidSteerSettings
+        Geometry and tuning.
+    wheel_rate_hz : float, optional
+        Native wheel rate, Hz: the wheel variance is multiplied by ``rate_hz / wheel_rate_hz``
+        (at least 1), as in :func:`skid_steer_on_frame`.
+
+    Returns
+    -------
+    x : ndarray, shape (n_windows, n_samples, 4)
+        Posterior states (:data:`STATE_NAMES`, SI units).
+    y : ndarray, shape (n_windows, n_samples, 3)
+        Innovations (:data:`MEASUREMENT_NAMES`; every row is used, no gate).
+    nis : ndarray, shape (n_windows, n_samples)
+        Normalised innovation squared of each step.
+
+    Raises
+    ------
+    ShapeError
+        ``windows`` not of shape ``(n, 3, n_samples)`` with ``n_samples >= 2``.
+    NonFiniteInputError
+        A non-finite sample (cut windows around gaps; :func:`skid_steer_on_frame` skips them).
+    ConfigError
+        ``rate_hz`` not positive.
+    """
+    W = np.asarray(windows, dtype=np.float64)
+    if W.ndim != 3 or W.shape[1] != 3 or W.shape[2] < 2:
+        raise ShapeError(f"windows must be (n_windows, 3, n_samples >= 2), got {W.shape}")
+    if not np.isfinite(W).all():
+        bad = int(np.argmax(~np.isfinite(W).all(axis=(1, 2))))
+        raise NonFiniteInputError(f"window {bad} holds a non-finite sample")
+    if not rate_hz > 0:
+        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
+    scale = max(1.0, rate_hz / float(wheel_rate_hz)) if wheel_rate_hz else 1.0
+    model = SkidSteerModel(settings, wheel_r_scale=scale)
+    n_win, _, n = W.shape
+    from terrain.estimation.fast import fast_kernel_of, run_compiled
+
+    kernel = fast_kernel_of(model)
+    dts = np.full(n - 1, 1.0 / float(rate_hz))
+    row_sensor = np.zeros(len(MEASUREMENT_NAMES), dtype=np.int64)
+    for j, rows in enumerate(SENSOR_ROWS.values()):
+        row_sensor[list(rows)] = j
+    x0, P0, R_diag = model.x0, model.P0, model.R_diag
+    x = np.empty((n_win, n, len(STATE_NAMES)))
+    y = np.empty((n_win, n, len(MEASUREMENT_NAMES)))
+    nis = np.empty((n_win, n))
+    for i in range(n_win):
+        loop = run_compiled(kernel, dts, W[i].T, x0, P0, R_diag, row_sensor, len(SENSOR_ROWS))
+        x[i], y[i], nis[i] = loop.x, loop.y, loop.nis
+    return x, y, nis
 
 
 def icr_chi(result: EKFResult) -> np.ndarray:

@@ -76,6 +76,10 @@ class ExperimentConfig:
         Fixed epoch budget of the CNNs.
     n_threads : int or None
         torch threads while training a CNN.
+    window_ekf : bool
+        The model appends the skid-steer EKF's channels computed from each window's own
+        samples (:class:`terrain.models.window_ekf.WindowEKFClassifier`); the signals must
+        hold ``vel_l``, ``vel_r`` and ``wz`` and no EKF channel.
 
     Raises
     ------
@@ -100,17 +104,25 @@ class ExperimentConfig:
     model: str = "svm"
     max_epochs: int = 30
     n_threads: int | None = None
+    window_ekf: bool = False
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:
             raise ConfigError(f"unknown model {self.model!r}; valid: {list(MODELS)}")
-        if self.search and self.model != "svm":
-            raise ConfigError("--search tunes the SVM only; drop it for other models")
+        if self.search and (self.model != "svm" or self.window_ekf):
+            raise ConfigError("--search tunes the SVM on raw-signal features only; drop it "
+                              "for other models and with --window-ekf")
         if self.dataset not in DATASET_SPECS:
             raise ConfigError(f"unknown dataset {self.dataset!r}; valid: {list(DATASET_SPECS)}")
         if self.protocol not in PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: {list(PROTOCOLS)}")
-        resolve_signals(self.signals)
+        channels = resolve_signals(self.signals)
+        if self.window_ekf:
+            missing = [c for c in ("vel_l", "vel_r", "wz") if c not in channels]
+            if missing or set(channels) & set(EKF_CHANNELS):
+                raise ConfigError("--window-ekf computes the EKF channels from each window's "
+                                  "vel_l, vel_r and wz: the signals must hold them "
+                                  f"(missing {missing}) and no EKF channel")
         if self.train_hop_s is not None:
             if not self.train_hop_s > 0:
                 raise ConfigError(f"train_hop_s must be > 0 s, got {self.train_hop_s}")
@@ -153,10 +165,10 @@ class ExperimentConfig:
         Returns
         -------
         ModelConfig
-            Model name, epoch budget, threads and SVM settings.
+            Model name, epoch budget, threads, SVM settings and ``window_ekf``.
         """
         return ModelConfig(kind=self.model, max_epochs=self.max_epochs,
-                           n_threads=self.n_threads, svm=self.svm)
+                           n_threads=self.n_threads, svm=self.svm, window_ekf=self.window_ekf)
 
     def as_params(self) -> dict:
         """Flat parameter dict for MLflow.
@@ -354,7 +366,10 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     if len(ws) == 0:
         raise ConfigError("no window left for this dataset, signal set and window")
     fx = feature_extractor(ws)
-    F = fx.transform(ws.X) if config.model == "svm" else ws.X
+    # the SVM on raw-signal features is cross-validated on features computed once; every
+    # other model (and the SVM with --window-ekf) takes the raw windows
+    on_features = config.model == "svm" and not config.window_ekf
+    F = fx.transform(ws.X) if on_features else ws.X
     t2 = time.perf_counter()
     labels = ws.labels.astype(str)
     notes = []
@@ -377,7 +392,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         if ws.counts[key]:
             notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
     training = load_training_windows(config, runs, ws, groups,
-                                     fx.transform if config.model == "svm" else None, progress)
+                                     fx.transform if on_features else None, progress)
     if training is not None:
         unused = int(sum(u is None for u in training.units))
         notes.append(f"each fold trains on the windows cut every {config.train_hop_s:g} s "
@@ -387,7 +402,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     fold_jobs = None
     if config.search:
         factory = (lambda seed: make_search(config.svm, seed, n_jobs=n_jobs))
-    elif config.model == "svm":
+    elif on_features:
         factory = (lambda seed: make_svm(config.svm, seed))
     else:
         mc = config.model_config()
@@ -446,19 +461,21 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     if set(resolve_signals(config.signals)) & set(EKF_CHANNELS):
         raise ConfigError("EKF-derived channels are for cross-validation ablations only: the "
                           "served model takes raw aligned signals (choose imu, wheels, all or "
-                          "raw channel names)")
+                          "raw channel names; --window-ekf gives the model EKF channels "
+                          "computed from each window)")
     # training uses every window of the training cut (train_hop_s), when one is set
     ws = load_windows(config if config.train_hop_s is None
                       else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)
     labels = ws.labels.astype(str)
     info: dict = {"model": config.model}
-    if config.model != "svm":
+    if config.model != "svm" or config.window_ekf:
         model = make_model(config.model_config(), ws.channels, ws.rate_hz, config.dataset,
                            config.seeds[0])
         model = fit_with_groups(model, ws.X, labels, ws.groups)
-        if hasattr(model, "weights_"):
+        vote = getattr(model, "estimator_", model)          # inside WindowEKFClassifier
+        if hasattr(vote, "weights_"):
             info.update({f"weight_{name}": float(w)
-                         for (name, _), w in zip(model.estimators, model.weights_)})
+                         for (name, _), w in zip(vote.estimators, vote.weights_)})
         return model, ws, info
     svm = replace(config.svm, probability=True)
     if config.search:

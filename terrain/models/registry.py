@@ -25,12 +25,14 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS
 from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket
 from terrain.models.svm import SVMConfig, svm_window_pipeline
+from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import WHEEL_CHANNELS
 
 MODELS = ("svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble", "ensemble3")
@@ -77,6 +79,10 @@ class ModelConfig:
     early_stopping : bool
         CNNs stop on the validation loss of whole training runs held out of the fit
         (``max_epochs`` is then the upper bound); off by default (README "Model comparison").
+    window_ekf : bool
+        Append the skid-steer EKF's channels computed from each window's own samples
+        (:class:`terrain.models.window_ekf.WindowEKFClassifier`); the windows need ``vel_l``,
+        ``vel_r`` and ``wz``.
     """
 
     kind: str = "svm"
@@ -88,6 +94,7 @@ class ModelConfig:
     ensemble_members: tuple[str, ...] = ("svm", "cnn-spectrogram")
     tune_weights: bool = False
     early_stopping: bool = False
+    window_ekf: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
@@ -141,9 +148,16 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     Returns
     -------
     estimator
-        scikit-learn classifier with ``predict_proba`` (the plain SVM excepted).
+        scikit-learn classifier with ``predict_proba`` (the plain SVM excepted); with
+        ``config.window_ekf`` a :class:`~terrain.models.window_ekf.WindowEKFClassifier`
+        around the model built for the augmented channels.
     """
     kind = config.kind
+    if config.window_ekf:
+        inner = make_model(replace(config, window_ekf=False),
+                           tuple(channels) + tuple(EKF_CHANNELS), rate_hz, dataset,
+                           random_state, probability)
+        return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset))
     if kind == "svm":
         return svm_window_pipeline(channels, rate_hz,
                                    replace(config.svm, probability=probability), random_state)

@@ -313,6 +313,10 @@ class ModelRecipe:
         class, every run weighs the same (:func:`run_balanced_weights`), instead of
         class-balanced windows: one long run (BorealTC ICE/01, 716 of the 3063 wheel windows)
         then does not make its class mean that run. Extra trees only.
+    window_ekf : bool
+        The model also sees the skid-steer EKF's channels computed from each window's own
+        samples (:class:`terrain.models.window_ekf.WindowEKFClassifier`, ``terrain train
+        --window-ekf``); ``svm`` and the ensembles on ``all`` signals only.
     """
 
     signals: str
@@ -323,6 +327,7 @@ class ModelRecipe:
     classifier: str = "svm"
     n_trees: int = 300
     run_balanced: bool = False
+    window_ekf: bool = False
 
     def __post_init__(self) -> None:
         if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
@@ -333,6 +338,10 @@ class ModelRecipe:
                               "features must be 'stats'")
         if self.run_balanced and self.classifier != "extra_trees":
             raise ConfigError("run_balanced weights are implemented for extra_trees only")
+        if self.window_ekf and (self.classifier == "extra_trees" or self.features != "stats"
+                                or self.signals != "all"):
+            raise ConfigError("window_ekf recipes use the models of terrain train --window-ekf "
+                              "(svm or an ensemble, window statistics, all signals)")
 
 
 #: all signals: the ``terrain train --model svm`` model (2 s at the BorealTC IMU rate);
@@ -341,7 +350,8 @@ class ModelRecipe:
 #: CNN, soft vote; the BorealTC default of ``terrain train``); ``all-dense`` and
 #: ``all-ensemble-dense``: the SVM and the ensemble fitted on windows cut every 0.5 s
 #: (overlapping) from the training runs
-#: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); wheels: 4 s
+#: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``...-window-ekf``: the same
+#: with the EKF channels of each window (``terrain train --window-ekf``); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -350,6 +360,10 @@ RECIPES = MappingProxyType({
     "all-ensemble3": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "ensemble3"),
     "all-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm"),
     "all-ensemble-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble"),
+    "all-dense-window-ekf": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm",
+                                        window_ekf=True),
+    "all-ensemble-dense-window-ekf": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble",
+                                                 window_ekf=True),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
@@ -492,10 +506,10 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
                           rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
     labels = ws.labels.astype(str)
-    if recipe.classifier in ENSEMBLES:
-        # the `terrain train --model <ensemble>` estimator, raw windows in (no feature step)
-        pipe = make_model(ModelConfig(kind=recipe.classifier), ws.channels, recipe.rate_hz,
-                          "borealtc", random_state=seed)
+    if recipe.classifier in ENSEMBLES or recipe.window_ekf:
+        # the `terrain train --model <ensemble> [--window-ekf]` estimator, raw windows in
+        pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf),
+                          ws.channels, recipe.rate_hz, "borealtc", random_state=seed)
         pipe.fit(ws.X, labels)
     else:
         features = ("features", recipe_features(recipe, ws.channels))

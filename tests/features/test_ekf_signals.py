@@ -7,11 +7,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from features.ekf_signals import EKF_CHANNELS, add_ekf_channels, ekf_channel_frame
+import pandas as pd
+
+from features.ekf_signals import (EKF_CHANNELS, add_ekf_channels, ekf_channel_frame,
+                                 window_ekf_channels)
 from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, SIGNAL_SETS, WindowConfig, make_windows,
                               required_streams, resolve_signals)
-from terrain.errors import ConfigError
+from terrain.estimation.skid_steer import SkidSteerSettings
+from terrain.errors import ConfigError, DataFormatError, NonFiniteInputError, ShapeError
 from pipelines.validation.harness import simulate_husky
 from terrain.io.align import align_streams
 from terrain.run import Run
@@ -61,3 +65,50 @@ def test_runs_without_imu_are_skipped_and_gaps_stay_nan(husky_run):
     assert ekf.loc[500:520].isna().all().all()
     assert np.isfinite(ekf.loc[530:].to_numpy()).all()                # the filter recovers
     assert add_ekf_channels(frame.drop(columns=["wz"])).shape[1] == frame.shape[1] - 1
+
+
+def test_window_channels_equal_the_frame_path_on_each_window(husky_run):
+    # the lean batch path is the frame path on a frame holding only that window
+    ws = make_windows([husky_run], "all", WindowConfig(window_s=2.0, hop_s=1.5, rate_hz=50.0))
+    X = ws.X[::4]
+    wheel_hz = husky_run.rate_hz("wheels")
+    out = window_ekf_channels(X, ws.channels, ws.rate_hz, wheel_rate_hz=wheel_hz)
+    assert out.shape == (len(X), len(EKF_CHANNELS), X.shape[2])
+    t = np.arange(X.shape[2]) / ws.rate_hz
+    idx = {c: ws.channels.index(c) for c in ("vel_l", "vel_r", "wz")}
+    for i, x in enumerate(X):
+        frame = pd.DataFrame({"t_s": t, **{c: x[j] for c, j in idx.items()}})
+        ref = ekf_channel_frame(frame, wheel_rate_hz=wheel_hz).to_numpy().T
+        np.testing.assert_allclose(out[i], ref, rtol=1e-9, atol=1e-12)
+    # each window from the prior: a window's channels do not depend on the others
+    np.testing.assert_array_equal(
+        window_ekf_channels(X[3:4], ws.channels, ws.rate_hz, wheel_rate_hz=wheel_hz), out[3:4])
+    assert np.isfinite(out).all()
+
+
+def test_window_channels_find_a_planted_icr_expansion_within_a_turning_window():
+    run = replace(simulate_husky("ASPHALT", seed=4, duration_s=40.0, icr_expansion=3.0).run,
+                  run_id="sim/ASPHALT/03")
+    ws = make_windows([run], "all", WindowConfig(window_s=2.0, rate_hz=50.0))
+    out = window_ekf_channels(ws.X, ws.channels, ws.rate_hz, wheel_rate_hz=run.rate_hz("wheels"))
+    chi_end = out[:, EKF_CHANNELS.index("ekf_icr_chi"), -1]
+    mean_yaw_rate = np.abs(ws.X[:, ws.channels.index("wz")]).mean(axis=1)
+    turning, straight = mean_yaw_rate > 0.1, mean_yaw_rate < 0.03
+    assert turning.sum() >= 4 and straight.sum() >= 4
+    # 2 s of turning suffice: chi ends within 5 % of the planted 3 (from the prior 1.5) ...
+    np.testing.assert_allclose(chi_end[turning], 3.0, rtol=0.05)
+    # ... while straight windows carry no information on it and keep the prior
+    np.testing.assert_allclose(chi_end[straight], SkidSteerSettings().chi0, rtol=0.01)
+
+
+def test_window_channels_reject_missing_channels_and_gaps(husky_run):
+    ws = make_windows([husky_run], "all", WindowConfig(window_s=2.0, rate_hz=50.0))
+    keep = [i for i, c in enumerate(ws.channels) if c != "wz"]
+    with pytest.raises(DataFormatError, match="wz"):
+        window_ekf_channels(ws.X[:, keep], [ws.channels[i] for i in keep], ws.rate_hz)
+    X = ws.X[:3].copy()
+    X[1, ws.channels.index("vel_l"), 7] = np.nan
+    with pytest.raises(NonFiniteInputError, match="window 1"):
+        window_ekf_channels(X, ws.channels, ws.rate_hz)
+    with pytest.raises(ShapeError, match="n_windows"):
+        window_ekf_channels(ws.X[0], ws.channels, ws.rate_hz)

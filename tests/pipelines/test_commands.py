@@ -132,3 +132,31 @@ def test_train_refuses_ekf_channels_the_served_model_cannot_compute(workdir, cap
     code = main(["train", "--dataset", "vulpi", "--signals", "all+ekf", "--no-progress"])
     assert code == 2
     assert "EKF-derived channels" in capsys.readouterr().err
+
+
+def test_train_with_window_ekf_serves_raw_signals(workdir, capsys):
+    model_dir = workdir / "model"
+    assert main(["train", "--dataset", "vulpi", "--model", "svm", "--window-ekf",
+                 "--model-out", str(model_dir), "--no-progress"]) == 0
+    from terrain.models.window_ekf import WindowEKFClassifier
+    from terrain.serving.model import load_stream_model
+
+    model = load_stream_model(model_dir)
+    # the served model takes the raw channels; the EKF channels are computed inside
+    assert isinstance(model.pipeline, WindowEKFClassifier)
+    assert not any(c.startswith("ekf_") for c in model.channels)
+    assert model.pipeline.estimator_.steps[0][1].channels[-1] == "ekf_slip_r"
+    runs = [r for r in read_shipped("vulpi") if r.run_id == "vulpi/PLOUGHED/3"]
+    write_runs_layout(runs, workdir / "runs")
+    out = workdir / "pred.csv"
+    assert main(["predict", "--model", str(model_dir), str(workdir / "runs"),
+                 "--out", str(out)]) == 0
+    pred = pd.read_csv(out)
+    assert len(pred) > 5 and pred["predicted"].value_counts().index[0] == "PLOUGHED"
+
+
+def test_window_ekf_needs_the_filter_inputs(workdir, capsys):
+    assert main(["train", "--dataset", "vulpi", "--signals", "wheels", "--window-ekf",
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "--window-ekf" in err and "wz" in err and "Traceback" not in err

@@ -15,6 +15,7 @@ from terrain.errors import ConfigError
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLE3_MEMBERS
+from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
 from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
                              decisions_frame, replay_run)
@@ -96,3 +97,24 @@ def test_defaults_follow_the_default_recipes():
     # fitted on windows cut every 0.5 s, more accurate on the held-out streams
     assert RECIPES[DEFAULT_RECIPES["all"]].classifier == "svm"
     assert RECIPES[DEFAULT_RECIPES["all"]].train_hop_s == 0.5
+
+
+def test_window_ekf_recipe_streams_decisions_from_raw_signals(train_runs, borealtc_runs):
+    # the service windows raw signals; the model computes each window's EKF channels itself
+    recipe = replace(RECIPES["all-dense-window-ekf"], rate_hz=20.0, train_hop_s=2.0)
+    assert RECIPES["all-ensemble-dense-window-ekf"].window_ekf
+    model = fit_stream_model(recipe, [_head(r, 30.0) for r in train_runs], seed=0)
+    assert isinstance(model.pipeline, WindowEKFClassifier)
+    assert not any(c.startswith("ekf_") for c in model.channels)
+    seen = {r.run_id for r in train_runs}
+    run = _head(next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+                     and r.duration_s > 20), 12.0)
+    service = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(hop_s=0.5))
+    frame = decisions_frame(replay_run(service, run), model.classes)
+    assert len(frame) >= 15
+    np.testing.assert_allclose(frame.filter(like="proba_").sum(axis=1), 1.0)
+    for bad in ({"classifier": "extra_trees", "features": "physics"}, {"signals": "wheels"}):
+        with pytest.raises(ConfigError, match="window_ekf"):
+            ModelRecipe(**{**dict(signals="all", window_s=2.0, rate_hz=100.0,
+                                  train_hop_s=0.5, features="stats", classifier="svm",
+                                  window_ekf=True), **bad})
