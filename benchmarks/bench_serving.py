@@ -39,6 +39,7 @@ import psutil
 
 from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
+from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
 from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
                              interleave, load_stream_model)
@@ -95,21 +96,27 @@ def pipeline_parts(model, run, repeats: int = 7, number: int = 50) -> dict:
     """Best-of-``repeats`` ms of the model pipeline's parts on one window of ``run`` (load
     mostly drops out): features (``pipeline[:-1].transform``), classifier (the final step's
     ``predict_proba`` on those features, scikit-learn's path) and the whole pipeline's
-    ``predict_proba`` (the path the service takes: compiled / NumPy where it applies). Empty
-    when the model is not a ``Pipeline`` (e.g. the ensemble)."""
+    ``predict_proba`` (the path the service takes: compiled / NumPy where it applies); for a
+    ``--window-ekf`` model the EKF channels (``augment``) and the whole ``predict_proba``.
+    Empty for other models that are not a ``Pipeline`` (e.g. the ensemble)."""
     import timeit
 
     from sklearn.pipeline import Pipeline
 
     pipe = model.pipeline
-    if not isinstance(pipe, Pipeline):
+    if not isinstance(pipe, (Pipeline, WindowEKFClassifier)):
         return {}
     x = make_windows([run], model.channels, WindowConfig(
         window_s=model.window.window_s, hop_s=0.5, rate_hz=model.window.rate_hz)).X[100][None]
-    features = pipe[:-1].transform(x)
 
     def best(f, n=number):
         return min(timeit.repeat(f, number=n, repeat=repeats)) / n * 1e3
+
+    if isinstance(pipe, WindowEKFClassifier):
+        # the EKF channels of the window, then the wrapped classifier
+        return {"part_window_ekf_ms": best(lambda: pipe.augment(x)),
+                "part_pipeline_ms": best(lambda: pipe.predict_proba(x))}
+    features = pipe[:-1].transform(x)
 
     return {"part_features_ms": best(lambda: pipe[:-1].transform(x)),
             "part_classifier_sklearn_ms": best(lambda: pipe.steps[-1][1].predict_proba(

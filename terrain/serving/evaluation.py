@@ -350,8 +350,8 @@ class ModelRecipe:
 #: CNN, soft vote; the BorealTC default of ``terrain train``); ``all-dense`` and
 #: ``all-ensemble-dense``: the SVM and the ensemble fitted on windows cut every 0.5 s
 #: (overlapping) from the training runs
-#: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``...-window-ekf``: the same
-#: with the EKF channels of each window (``terrain train --window-ekf``); wheels: 4 s
+#: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``all-ensemble-dense-window-ekf``:
+#: the latter with the EKF channels of each window (``terrain train --window-ekf``); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -360,8 +360,6 @@ RECIPES = MappingProxyType({
     "all-ensemble3": ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "ensemble3"),
     "all-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm"),
     "all-ensemble-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble"),
-    "all-dense-window-ekf": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm",
-                                        window_ekf=True),
     "all-ensemble-dense-window-ekf": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble",
                                                  window_ekf=True),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",

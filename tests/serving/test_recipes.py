@@ -101,7 +101,9 @@ def test_defaults_follow_the_default_recipes():
 
 def test_window_ekf_recipe_streams_decisions_from_raw_signals(train_runs, borealtc_runs):
     # the service windows raw signals; the model computes each window's EKF channels itself
-    recipe = replace(RECIPES["all-dense-window-ekf"], rate_hz=20.0, train_hop_s=2.0)
+    # the recipe's SVM member alone on a 20 Hz clock and non-overlapping windows (fast)
+    recipe = replace(RECIPES["all-ensemble-dense-window-ekf"], classifier="svm", rate_hz=20.0,
+                     train_hop_s=2.0)
     assert RECIPES["all-ensemble-dense-window-ekf"].window_ekf
     model = fit_stream_model(recipe, [_head(r, 30.0) for r in train_runs], seed=0)
     assert isinstance(model.pipeline, WindowEKFClassifier)
