@@ -19,6 +19,10 @@ channel                unit    meaning
 ``ekf_slip_r``         1       SAE slip of the right side
 =====================  ======  ==============================================================
 
+:func:`window_ekf_channels` computes the same channels from each window's own samples (the
+filter started from its prior at the window's first sample), for models that must not carry
+state across windows (:class:`terrain.models.window_ekf.WindowEKFClassifier`, ``--window-ekf``).
+
 The estimator is causal (each value depends on the run's past only) and uses no label, so
 the channels can be computed before a run-grouped split without leakage. Grid rows inside a
 gap (NaN) are skipped by the filter and stay NaN in every EKF channel, so the windowing step
@@ -149,7 +153,8 @@ def _channel_columns(vel: np.ndarray, x: np.ndarray, y: np.ndarray, nis: np.ndar
     state = {name: x[:, i] for i, name in enumerate(state_names)}
     slip = skid_steer_side_slip(vel, state["v_bx"], state["yaw_rate"], track_m)
     return {"ekf_v_bx": state["v_bx"], "ekf_yaw_rate": state["yaw_rate"],
-            "ekf_gyro_bias": state["gyro_bias"], "ekf_icr_chi": np.exp(state["log_icr_chi"]),
+            "ekf_gyro_bias": state["gyro_bias"],
+            "ekf_icr_chi": np.exp(state["log_icr_chi"]),      # the state is ln(chi)
             "ekf_innov_vel_l": y[:, 0], "ekf_innov_vel_r": y[:, 1], "ekf_innov_wz": y[:, 2],
             "ekf_nis": nis, "ekf_slip_l": slip[:, 0], "ekf_slip_r": slip[:, 1]}
 

@@ -112,3 +112,5 @@ def test_window_channels_reject_missing_channels_and_gaps(husky_run):
         window_ekf_channels(X, ws.channels, ws.rate_hz)
     with pytest.raises(ShapeError, match="n_windows"):
         window_ekf_channels(ws.X[0], ws.channels, ws.rate_hz)
+    with pytest.raises(ConfigError, match="rate_hz"):
+        window_ekf_channels(ws.X[:2], ws.channels, 0.0)
