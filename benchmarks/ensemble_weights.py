@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 
-from terrain.models.compare import Cell, CompareConfig, _windows, score_rows
+from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import fit_with_groups, iter_splits
 from terrain.models.ensemble import aligned_proba
 from terrain.models.registry import ModelConfig, make_model
@@ -66,8 +66,8 @@ def main() -> int:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     config = CompareConfig(datasets=(args.dataset,), signals=("all",), windows_s=(2.0,))
-    ws, labels, groups = _windows(Cell("ensemble", "all", 2.0, args.dataset, 0),
-                                  config.single_run_blocks)
+    ws, labels, groups, _ = cell_windows(Cell("ensemble", "all", 2.0, args.dataset, 0),
+                                         config.single_run_blocks)
     classes = sorted(np.unique(labels))
     tasks = [(seed, fold, tr, te) for seed in args.seeds
              for fold, (tr, te) in enumerate(iter_splits("grouped", labels, groups, seed))]

@@ -48,7 +48,7 @@ import pandas as pd
 
 from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
-from terrain.models.compare import Cell, _windows
+from terrain.models.compare import Cell, cell_windows
 from terrain.models.cv import cross_validate, iter_splits
 from terrain.models.registry import ModelConfig, make_model
 from terrain.serving.evaluation import (concatenated_streams, filter_sequence, pool_scores,
@@ -75,7 +75,7 @@ def arm_windows(runs, arm: str, config: WindowConfig):
     Returns
     -------
     X : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``.
+        ``(ncell_windows, n_channels, n_samples)``.
     ws : WindowSet
         The windows' book-keeping (run ids, bounds, labels).
     channels : tuple of str
@@ -122,7 +122,7 @@ def window_cv(seeds, log: bool) -> int:
     for arm in ("all", "all+ekf", "all+windowed-ekf"):
         cell = Cell("cnn-spectrogram", "all+ekf" if arm == "all+ekf" else "all", WINDOW_S,
                     "borealtc", seeds[0], "grouped", None)
-        ws, labels, groups, _ = _windows(cell, 5)
+        ws, labels, groups, _ = cell_windows(cell, 5)
         config = ModelConfig(kind="cnn-spectrogram", window_ekf=arm == "all+windowed-ekf")
         report = cross_validate(
             lambda s: make_model(config, tuple(ws.channels), ws.rate_hz, "borealtc", s),

@@ -261,11 +261,32 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     return out
 
 
-def _windows(cell: Cell, n_blocks: int):
-    """Windows of a cell with single-run classes split into blocks (as ``terrain cv``); under
-    the paper protocol its 1.7 s windows, grouped by 5 s partition. Also the cell's training
-    cut (:class:`~terrain.models.cv.TrainingWindows`) when it has a ``train_hop_s``, else
-    None."""
+def cell_windows(cell: Cell, n_blocks: int) -> tuple:
+    """The windows a cell is cross-validated on, as ``terrain cv`` cuts them.
+
+    Single-run classes are split into ``n_blocks`` contiguous time blocks used as groups and
+    windows straddling a block boundary dropped; under the paper protocol the 1.7 s windows
+    are grouped by 5 s partition.
+
+    Parameters
+    ----------
+    cell : Cell
+        The grid point (dataset, signals, window, protocol, training hop).
+    n_blocks : int
+        Blocks a single-run class is cut into.
+
+    Returns
+    -------
+    ws : WindowSet
+        The evaluation windows.
+    labels : numpy.ndarray
+        ``(n_windows,)`` class names.
+    groups : numpy.ndarray
+        ``(n_windows,)`` split units (runs, or blocks of a single-run class).
+    training : TrainingWindows or None
+        The cell's training cut when it has a ``train_hop_s``
+        (:class:`~terrain.models.cv.TrainingWindows`), else None.
+    """
     from terrain.io.shipped import load_dataset
     from terrain.models.experiment import ExperimentConfig, load_training_windows, load_windows
 
@@ -300,7 +321,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
         ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``), ``folds`` (frame) and
         ``predictions`` (frame with probabilities).
     """
-    ws, labels, groups, training = _windows(cell, config.single_run_blocks)
+    ws, labels, groups, training = cell_windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
                      n_threads=config.n_threads, early_stopping=config.early_stopping)
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
