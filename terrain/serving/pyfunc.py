@@ -274,17 +274,22 @@ def model_signature(channels: Sequence[str], classes: Sequence[str]):
 
 
 def _components(estimator: Any) -> list:
-    """The estimator and every estimator nested in it (pipeline steps, ensemble members)."""
+    """The estimator and every estimator nested in it (pipeline steps, ensemble members, the
+    fitted estimator a wrapper such as ``WindowEKFClassifier`` holds)."""
     out = [estimator]
     for _, step in getattr(estimator, "steps", []):
         out += _components(step)
     for member in getattr(estimator, "estimators_", []):
         out += _components(member)
+    inner = getattr(estimator, "estimator_", None)
+    if inner is not None:
+        out += _components(inner)
     return out
 
 
 def pip_requirements(pipeline: Any) -> list[str]:
-    """Pinned pip requirements of a fitted model (torch/skorch and aeon only where used).
+    """Pinned pip requirements of a fitted model (torch/skorch, aeon and numba only where
+    used).
 
     Parameters
     ----------
@@ -304,6 +309,8 @@ def pip_requirements(pipeline: Any) -> list[str]:
         reqs += [f"torch=={version('torch').split('+')[0]}", f"skorch=={version('skorch')}"]
     if "terrain.models.minirocket" in modules:
         reqs.append(f"aeon=={version('aeon')}")
+    if "terrain.models.window_ekf" in modules:     # the compiled EKF loop
+        reqs.append(f"numba=={version('numba')}")
     return reqs
 
 

@@ -20,11 +20,12 @@ def workdir(tmp_path, monkeypatch):
     return tmp_path
 
 
-@pytest.mark.parametrize("kind", ["cnn", "ensemble3"])
-def test_cnn_model_round_trip_raw_samples_in_probabilities_out(workdir, kind):
+@pytest.mark.parametrize("kind, window_ekf", [("cnn", False), ("ensemble3", False),
+                                              ("cnn-spectrogram", True)])
+def test_cnn_model_round_trip_raw_samples_in_probabilities_out(workdir, kind, window_ekf):
     runs = [r for r in read_shipped("vulpi") if r.run_id in RUNS]
     config = ExperimentConfig(dataset="vulpi", model=kind, max_epochs=3, n_threads=1,
-                              seeds=(0,))
+                              seeds=(0,), window_ekf=window_ekf)
     model, ws, info = fit_pipeline(config, runs=runs)
     assert info["model"] == kind
     classes = [str(c) for c in np.unique(ws.labels.astype(str))]
@@ -34,6 +35,8 @@ def test_cnn_model_round_trip_raw_samples_in_probabilities_out(workdir, kind):
     reqs = pip_requirements(model)
     assert any(r.startswith("torch==") for r in reqs) and any(r.startswith("skorch==")
                                                               for r in reqs)
+    # the window EKF's compiled loop needs numba; models without it do not list it
+    assert any(r.startswith("numba==") for r in reqs) == window_ekf
     served, meta = load_model(path)
     assert meta["model"] == kind and meta["channels"] == list(ws.channels)
     samples, skipped = runs_to_model_input(runs, meta["channels"], float(meta["rate_hz"]))
