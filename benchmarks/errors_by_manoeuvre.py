@@ -1,0 +1,94 @@
+"""Where does a cross-validated terrain classifier fail: straight driving or turning?
+
+Reads the out-of-fold predictions of a ``terrain cv`` run (its MLflow artifact
+``predictions.csv``: ``run``, ``t_start_s``, ``t_end_s``, ``true``, ``predicted``), computes
+each window's mean absolute yaw rate from the run's IMU (``wz``, rad/s) over the window, and
+prints the accuracy per true class for straight windows (mean ``|wz|`` at most
+``--turning-rad-s``) and turning ones, then the confusion of the straight windows. A terrain
+that differs from another only in its friction or its soil strength shows it when the robot
+demands traction or turns; driving straight at constant speed it may not.
+
+Run: ``python benchmarks/errors_by_manoeuvre.py RUN_ID [--dataset borealtc]
+[--turning-rad-s 0.1] [--out FILE.csv]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import mlflow
+import numpy as np
+import pandas as pd
+
+from terrain.io.shipped import load_dataset
+from terrain.tracking import activate_store
+
+
+def mean_abs_yaw_rate(predictions: pd.DataFrame, runs) -> np.ndarray:
+    """Mean ``|wz|`` of every window, rad/s (NaN for a run without IMU).
+
+    Parameters
+    ----------
+    predictions : pandas.DataFrame
+        ``run``, ``t_start_s``, ``t_end_s`` (s) per window.
+    runs : sequence of Run
+        The dataset's runs.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)``.
+    """
+    imu = {r.run_id: r.streams["imu"] for r in runs if "imu" in r.streams}
+    out = np.full(len(predictions), np.nan)
+    for run_id, rows in predictions.groupby("run").groups.items():
+        if run_id not in imu:
+            continue
+        t, wz = imu[run_id]["t_s"].to_numpy(), np.abs(imu[run_id]["wz"].to_numpy())
+        cum = np.r_[0.0, np.cumsum(wz)]
+        sub = predictions.loc[rows]
+        a = np.searchsorted(t, sub["t_start_s"].to_numpy(), side="left")
+        b = np.searchsorted(t, sub["t_end_s"].to_numpy(), side="left")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[predictions.index.get_indexer(rows)] = (cum[b] - cum[a]) / (b - a)
+    return out
+
+
+def main() -> int:
+    """Print accuracy by class and manoeuvre, and the straight windows' confusion."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run_id", help="MLflow run of terrain cv (experiment terrain-cv)")
+    parser.add_argument("--dataset", default="borealtc")
+    parser.add_argument("--turning-rad-s", type=float, default=0.1)
+    parser.add_argument("--out", type=Path, default=None, help="write the per-window table")
+    args = parser.parse_args()
+    activate_store()
+    path = mlflow.artifacts.download_artifacts(run_id=args.run_id,
+                                               artifact_path="predictions.csv")
+    pred = pd.read_csv(path).reset_index(drop=True)
+    pred["abs_wz_rad_s"] = mean_abs_yaw_rate(pred, load_dataset(args.dataset))
+    pred["correct"] = pred["true"] == pred["predicted"]
+    known = pred["abs_wz_rad_s"].notna()
+    pred["manoeuvre"] = np.where(pred["abs_wz_rad_s"] > args.turning_rad_s, "turning",
+                                 "straight")
+    table = (pred[known].groupby(["true", "manoeuvre"])["correct"].agg(["mean", "size"])
+             .unstack("manoeuvre"))
+    print(f"run {args.run_id}: {len(pred)} out-of-fold windows ({int((~known).sum())} "
+          f"without IMU), turning = mean |wz| > {args.turning_rad_s:g} rad/s")
+    print(table.round(3).to_string())
+    share = (pred.loc[known, "manoeuvre"] == "straight").mean()
+    overall = pred[known].groupby("manoeuvre")["correct"].mean()
+    print(f"straight windows {share:.3f} of all; accuracy straight {overall['straight']:.3f}, "
+          f"turning {overall['turning']:.3f}")
+    straight = pred[known & (pred["manoeuvre"] == "straight")]
+    print("straight windows, true (rows) -> predicted (share of the row):")
+    print(pd.crosstab(straight["true"], straight["predicted"], normalize="index").round(3)
+          .to_string())
+    if args.out is not None:
+        pred.to_csv(args.out, index=False)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,27 @@
+"""Windows split into straight and turning by benchmarks/errors_by_manoeuvre.py."""
+
+from __future__ import annotations
+
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from terrain.run import Run
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "errors_by_manoeuvre.py"
+
+
+def test_mean_abs_yaw_rate_of_each_window():
+    mean_abs_yaw_rate = runpy.run_path(str(SCRIPT))["mean_abs_yaw_rate"]
+    t = np.arange(0.0, 20.0, 0.01)
+    wz = np.where(t < 10.0, -0.3, 0.0)                    # a left spin, then straight
+    imu = pd.DataFrame({"t_s": t, "wz": wz})
+    runs = [Run("x/A/0", "x", "A", {"imu": imu}),
+            Run("x/A/1", "x", "A", {"wheels": imu.rename(columns={"wz": "vel_l"})})]
+    pred = pd.DataFrame({"run": ["x/A/0", "x/A/0", "x/A/0", "x/A/1"],
+                         "t_start_s": [2.0, 9.0, 14.0, 2.0], "t_end_s": [4.0, 11.0, 16.0, 4.0]})
+    out = mean_abs_yaw_rate(pred, runs)
+    np.testing.assert_allclose(out[:3], [0.3, 0.15, 0.0], atol=1e-12)
+    assert np.isnan(out[3])                                # no IMU: unknown, not straight
