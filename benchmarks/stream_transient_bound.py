@@ -9,12 +9,12 @@ in one of three classes by where its window lies:
 * mostly new: the window straddles a switch, more than half of it on the new terrain;
 * mostly old: the window straddles a switch, at least half of it on the previous terrain.
 
-A window classifier with accuracy ``a`` on settled windows that decides every straddling
-window by its majority terrain (better than any causal filter can do on average) scores at
-most ``a * settled + mostly_new`` per decision: the mostly-old decisions can only be right
-by chance. Turned around, a per-decision target ``A`` needs ``a >= (A - mostly_new) /
-settled`` on the settled windows, whatever the smoothing. No model is trained: only the
-streams are built.
+A decision rule (classifier and smoother) with accuracy ``a`` on the settled decisions that
+decides every straddling window by its majority terrain (better than any causal filter can
+do on average) scores at most ``a * settled + mostly_new`` per decision: the mostly-old
+decisions can only be right by chance. Turned around, a per-decision target ``A`` needs
+``a >= (A - mostly_new) / settled`` on the settled decisions, whatever happens at the
+switches. No model is trained: only the streams are built.
 
 Run: ``python benchmarks/stream_transient_bound.py [--seeds 0 1 2] [--target 0.92]
 [--settled-accuracy 0.922] [--no-mlflow]``.
