@@ -6,8 +6,9 @@ window. Part of that may be history: the filter runs over the whole run, and its
 (ICR expansion chi, gyro bias) carry the run's past. On a stream that switches terrain that
 memory could cost switching delay. The streaming service does not run the EKF, so this
 benchmark measures the effect *offline* on the same held-out streams as
-``terrain stream-eval`` (:func:`terrain.serving.evaluation.held_out_streams`: the same folds
-over runs, the same seeded concatenated streams on a continuous clock):
+``terrain stream-eval`` (:func:`terrain.serving.evaluation.held_out_folds`, which
+:func:`~terrain.serving.evaluation.held_out_streams` uses: the same folds over runs, the same
+seeded concatenated streams on a continuous clock):
 
 * per fold, the equal-weight ``ensemble`` (SVM + spectrogram CNN, ``terrain train --model
   ensemble``) is fitted on the training runs' 2 s windows (non-overlapping, or cut every
@@ -49,9 +50,9 @@ import pandas as pd
 from features.windows import WindowConfig, make_windows
 from terrain.io.shipped import load_dataset
 from terrain.models.compare import Cell, cell_windows
-from terrain.models.cv import cross_validate, iter_splits
+from terrain.models.cv import cross_validate
 from terrain.models.registry import ModelConfig, make_model
-from terrain.serving.evaluation import (concatenated_streams, filter_sequence, pool_scores,
+from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_scores,
                                         score_stream)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
@@ -156,8 +157,6 @@ def main() -> int:
     if args.window_cv:
         return window_cv(args.seeds, not args.no_mlflow)
     runs = [r for r in load_dataset("borealtc") if {"imu", "wheels"} <= set(r.streams)]
-    labels = np.array([r.terrain for r in runs], dtype=object)
-    ids = np.array([r.run_id for r in runs], dtype=object)
     smoothing = SmoothingConfig()
     rows = []
     t0 = time.perf_counter()
@@ -166,12 +165,11 @@ def main() -> int:
     train_window = WindowConfig(window_s=WINDOW_S, hop_s=args.train_hop_s, rate_hz=RATE_HZ)
     cut = {arm: arm_windows(runs, arm, train_window) for arm in args.arms}
     for seed in args.seeds:
-        for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, 5)):
-            stream, segments = concatenated_streams([runs[i] for i in test], ("imu", "wheels"),
-                                                    seed * 100 + fold)
+        for fold, train, stream, segments in held_out_folds(runs, ("imu", "wheels"), seed):
+            train_ids = [r.run_id for r in train]
             for arm in args.arms:
                 X, ws, channels = cut[arm]
-                fit_rows = np.isin(ws.run_ids, ids[train])
+                fit_rows = np.isin(ws.run_ids, train_ids)
                 config = ModelConfig(kind="ensemble", window_ekf=arm == "all+windowed-ekf")
                 model = make_model(config, channels, RATE_HZ,
                                    "borealtc", random_state=seed).fit(

@@ -1,7 +1,7 @@
 """How much of the held-out stream accuracy can switch transients cost at least?
 
 On the concatenated held-out streams of ``terrain stream-eval`` (the same folds over runs,
-the same seeded streams, :func:`terrain.serving.evaluation.concatenated_streams`), every
+the same seeded streams, :func:`terrain.serving.evaluation.held_out_folds`), every
 decision (one every ``--hop-s``, each resting on the last ``--window-s`` of samples) is put
 in one of three classes by where its window lies:
 
@@ -27,8 +27,7 @@ import argparse
 import numpy as np
 
 from terrain.io.shipped import load_dataset
-from terrain.models.cv import iter_splits
-from terrain.serving.evaluation import concatenated_streams, truth_at
+from terrain.serving.evaluation import held_out_folds, truth_at
 from terrain.tracking import tracked_run
 
 
@@ -74,15 +73,11 @@ def main() -> int:
                         help="a measured settled-window accuracy to bound (optional)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
-    runs = [r for r in load_dataset("borealtc") if {"imu", "wheels"} <= set(r.streams)]
-    labels = np.array([r.terrain for r in runs], dtype=object)
-    ids = np.array([r.run_id for r in runs], dtype=object)
+    runs = load_dataset("borealtc")
     totals = np.zeros(4, dtype=int)
     pieces = []
     for seed in args.seeds:
-        for fold, (_, test) in enumerate(iter_splits("grouped", labels, ids, seed, 5)):
-            _, segments = concatenated_streams([runs[i] for i in test], ("imu", "wheels"),
-                                               seed * 100 + fold)
+        for _, _, _, segments in held_out_folds(runs, ("imu", "wheels"), seed):
             totals += window_shares(segments, args.hop_s, args.window_s)
             pieces += [s.duration_s for s in segments]
     n, settled, new, old = totals

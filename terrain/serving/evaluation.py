@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -664,6 +664,49 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
                        acc_settled, int(settled.sum()), confusion)
 
 
+def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
+                   n_splits: int = 5, switch_gap_s: float = 0.0
+                   ) -> Iterator[tuple[int, list[Run], Run, list[Segment]]]:
+    """The folds of the held-out stream protocol: training runs and the held-out stream.
+
+    The runs holding every one of ``streams`` are split run-grouped
+    (:func:`terrain.models.cv.iter_splits`, ``grouped``); the test runs of fold ``f`` are
+    concatenated into one stream seeded ``100 seed + f`` (:func:`concatenated_streams`).
+    :func:`held_out_streams` and the offline benchmarks that score the same streams use it.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Labelled runs.
+    streams : sequence of str
+        Streams every used run must hold (and the stream keeps).
+    seed : int
+        Seed of the folds and the streams.
+    n_splits : int
+        Folds.
+    switch_gap_s : float
+        Dropout added at every switch of the stream, s (``gap_s`` of
+        :func:`concatenated_streams`).
+
+    Yields
+    ------
+    fold : int
+    train : list of Run
+        The fold's training runs.
+    stream : Run
+        Its held-out runs concatenated.
+    segments : list of Segment
+        The pieces of ``stream``.
+    """
+    usable = [r for r in runs if all(s in r.streams for s in streams)]
+    labels = np.array([r.terrain for r in usable], dtype=object)
+    ids = np.array([r.run_id for r in usable], dtype=object)
+    for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, n_splits)):
+        stream, segments = concatenated_streams([usable[i] for i in test], streams,
+                                                seed * 100 + fold, gap_s=switch_gap_s)
+        yield fold, [usable[i] for i in train], stream, segments
+
+
 def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
                      smoothings: Mapping[str, SmoothingConfig], hop_s: float = 0.5,
                      n_splits: int = 5, switch_gap_s: float = 0.0) -> pd.DataFrame:
@@ -698,14 +741,10 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
         :class:`StreamScore`).
     """
     need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
-    usable = [r for r in runs if all(s in r.streams for s in need)]
-    labels = np.array([r.terrain for r in usable], dtype=object)
-    ids = np.array([r.run_id for r in usable], dtype=object)
     rows = []
-    for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, n_splits)):
-        model = fit_stream_model(recipe, [usable[i] for i in train], seed)
-        stream, segments = concatenated_streams([usable[i] for i in test], need,
-                                                seed * 100 + fold, gap_s=switch_gap_s)
+    for fold, train, stream, segments in held_out_folds(runs, need, seed, n_splits,
+                                                        switch_gap_s):
+        model = fit_stream_model(recipe, train, seed)
         t, proba = raw_decisions(model, stream, hop_s)
         names = np.array(list(model.classes) + [None], dtype=object)
         for name, config in smoothings.items():
