@@ -590,15 +590,11 @@ def n_settings(table: pd.DataFrame) -> int:
         1 for a table of one setting; the grid views need exactly one. A training hop
         equal to the window length (or unset) counts as the non-overlapping cut.
     """
-    protocol = table["protocol"] if "protocol" in table else pd.Series("grouped", table.index)
-    if "train_hop_s" in table:
-        hop = table["train_hop_s"].astype(float)
-        # a training hop equal to the window (or unset) is the non-overlapping cut
-        cut = np.where(hop.isna() | np.isclose(hop, table["window_s"].astype(float)),
-                       "non-overlapping", hop.astype(str))
-    else:
-        cut = np.full(len(table), "non-overlapping")
-    return len(set(zip(protocol.astype(str), cut)))
+    keyed = with_default_keys(table)          # unset: grouped, a hop of the window length
+    hop = keyed["train_hop_s"].astype(float)
+    cut = np.where(np.isclose(hop, keyed["window_s"].astype(float)), "non-overlapping",
+                   hop.astype(str))
+    return len(set(zip(keyed["protocol"].astype(str), cut)))
 
 
 def _one_setting(table: pd.DataFrame) -> None:

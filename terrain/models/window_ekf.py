@@ -13,13 +13,12 @@ served unchanged by :mod:`terrain.serving`.
 
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
 from features.ekf_signals import EKF_CHANNELS, window_ekf_channels
+from terrain.models.cv import fit_with_groups
 
 
 class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
@@ -106,12 +105,7 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
         WindowEKFClassifier
             ``self``.
         """
-        est = clone(self.estimator)
-        Xa = self.augment(X)
-        if groups is not None and "groups" in inspect.signature(est.fit).parameters:
-            est.fit(Xa, y, groups=groups)
-        else:
-            est.fit(Xa, y)
+        est = fit_with_groups(clone(self.estimator), self.augment(X), y, groups)
         self.estimator_ = est
         self.classes_ = est.classes_
         return self
