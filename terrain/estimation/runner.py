@@ -19,7 +19,7 @@ Scheduling rule (explicit, recorded in :attr:`EKFResult.meta`):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -113,6 +113,28 @@ def _place(t_grid: np.ndarray, samples: SensorSamples, width: int
     return idx[rows], v[rows], counts
 
 
+def sensor_groups(sensor_rows: Mapping[str, Sequence[int]], n_measurements: int
+                  ) -> np.ndarray:
+    """Sensor group of each measurement row (the ``row_sensor`` of the filter loops).
+
+    Parameters
+    ----------
+    sensor_rows : Mapping[str, sequence of int]
+        Sensor name -> its measurement rows (a model's ``sensor_rows``), in group order.
+    n_measurements : int
+        Rows of the measurement vector.
+
+    Returns
+    -------
+    ndarray of int, shape (n_measurements,)
+        Index of the row's sensor in ``sensor_rows``; -1 for a row of no sensor.
+    """
+    row_sensor = np.full(n_measurements, -1)
+    for j, rows in enumerate(sensor_rows.values()):
+        row_sensor[list(rows)] = j
+    return row_sensor
+
+
 def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                samples: Mapping[str, SensorSamples], *, gate: Gate | None = None,
                x0: np.ndarray | None = None, P0: np.ndarray | None = None,
@@ -188,9 +210,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         Z[steps[:, None], np.asarray(rows)[None, :]] = values
         counts[name] = c
     avail = np.isfinite(Z)
-    row_sensor = np.full(m, -1)            # sensor group of each measurement row
-    for j, rows in enumerate(sensor_rows.values()):
-        row_sensor[list(rows)] = j
+    row_sensor = sensor_groups(sensor_rows, m)
     kernel = _fast_kernel(model, engine)
     if kernel is not None:
         from terrain.estimation.fast import run_compiled

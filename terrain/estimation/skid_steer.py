@@ -45,7 +45,7 @@ from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, ob
                                                      transition_into)
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import SensorSamples, make_grid, run_filter
+from terrain.estimation.runner import SensorSamples, make_grid, run_filter, sensor_groups
 from terrain.run import TIME, Run
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
@@ -378,9 +378,7 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
 
     kernel = fast_kernel_of(model)
     dts = np.full(n - 1, 1.0 / float(rate_hz))
-    row_sensor = np.zeros(len(MEASUREMENT_NAMES), dtype=np.int64)
-    for j, rows in enumerate(SENSOR_ROWS.values()):
-        row_sensor[list(rows)] = j
+    row_sensor = sensor_groups(SENSOR_ROWS, len(MEASUREMENT_NAMES))
     x0, P0, R_diag = model.x0, model.P0, model.R_diag
     x = np.empty((n_win, n, len(STATE_NAMES)))
     y = np.empty((n_win, n, len(MEASUREMENT_NAMES)))
