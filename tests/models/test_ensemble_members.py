@@ -1,0 +1,73 @@
+"""The member probe of benchmarks/ensemble_members.py: its votes and its drive-physics member."""
+
+from __future__ import annotations
+
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "ensemble_members.py"
+CLASSES = ["A", "B"]
+
+
+@pytest.fixture(scope="module")
+def script():
+    return runpy.run_path(str(SCRIPT))
+
+
+def _frame(p_a: list[float]) -> pd.DataFrame:
+    p_a = np.asarray(p_a, dtype=float)
+    return pd.DataFrame({"seed": 0, "fold": [0, 0, 1], "run": ["r0", "r0", "r1"],
+                         "group": ["r0", "r0", "r1"], "t_start_s": [0.0, 2.0, 0.0],
+                         "t_end_s": [2.0, 4.0, 2.0], "true": ["A", "A", "B"],
+                         "predicted": np.where(p_a >= 0.5, "A", "B"),
+                         "proba_A": p_a, "proba_B": 1.0 - p_a})
+
+
+def test_votes_average_initialisations_then_members(script):
+    members = {"svm": [_frame([0.9, 0.2, 0.4])],
+               "wheel-trees": [_frame([0.6, 0.6, 0.6])],
+               "cnn": [_frame([0.1, 0.3, 0.0]), _frame([0.5, 0.9, 0.2])],
+               "cnn-spectrogram": [_frame([0.2, 0.8, 0.9]), _frame([0.4, 0.4, 0.1])]}
+    votes = script["member_votes"](members, CLASSES)
+    p = {name: v.sort_values(["fold", "t_start_s"])["proba_A"].to_numpy()
+         for name, v in votes.items()}
+    np.testing.assert_allclose(p["cnn"], [0.1, 0.3, 0.0])                 # first init alone
+    np.testing.assert_allclose(p["cnn x2"], [0.3, 0.6, 0.1])               # mean of inits
+    np.testing.assert_allclose(p["ensemble"], [0.55, 0.5, 0.65])           # svm + spec
+    np.testing.assert_allclose(p["ensemble3"], [0.4, 0.43333333, 0.43333333])
+    # a seed-averaged CNN is one member: (svm + mean(cnn) + mean(spec)) / 3
+    np.testing.assert_allclose(p["ensemble3, CNNs x2"],
+                               [(0.9 + 0.3 + 0.3) / 3, (0.2 + 0.6 + 0.6) / 3, (0.4 + 0.1 + 0.5) / 3])
+    np.testing.assert_allclose(p["ensemble3, CNNs x2 + wheel-trees"],
+                               [(0.9 + 0.3 + 0.3 + 0.6) / 4, (0.2 + 0.6 + 0.6 + 0.6) / 4,
+                                (0.4 + 0.1 + 0.5 + 0.6) / 4])
+    assert (votes["ensemble3"].set_index(["fold", "t_start_s"]).sort_index()["predicted"]
+            .tolist() == ["B", "B", "B"])
+
+
+def test_wheel_trees_find_a_planted_current_per_speed(script):
+    """Two terrains that differ only in the drive current needed per unit speed (rolling
+    resistance) are told apart from the wheel channels alone, across runs."""
+    rng = np.random.default_rng(0)
+    channels = ("vel_l", "vel_r", "cur_l", "cur_r", "wz")
+    n, m = 240, 40
+    runs = np.repeat(np.arange(12), n // 12)
+    y = np.where(runs % 2 == 0, "soft", "hard")
+    v = rng.uniform(0.2, 1.0, (n, 1)) * np.ones((1, m)) + 0.01 * rng.standard_normal((n, m))
+    amps_per_m_s = np.where(y == "soft", 12.0, 6.0)[:, None]
+    cur = 2.0 + amps_per_m_s * v + rng.standard_normal((n, m))
+    X = np.stack([v, v, cur, cur + 0.3 * rng.standard_normal((n, m)),
+                  rng.standard_normal((n, m))], axis=1)
+    train = runs < 8
+    model = script["RunBalancedWheelTrees"](channels, rate_hz=10.0, n_trees=50,
+                                            random_state=0)
+    model.fit(X[train], y[train], groups=runs[train])
+    assert list(model.classes_) == ["hard", "soft"]
+    proba = model.predict_proba(X[~train])
+    assert proba.shape == (int((~train).sum()), 2)
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+    assert (model.predict(X[~train]) == y[~train]).mean() > 0.95
