@@ -83,6 +83,11 @@ def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(
                                    "no run files")), line
 
 
+def test_stream_eval_needs_two_folds(workdir, capsys):
+    assert main(["stream-eval", "--part", "streams", "--folds", "1"]) == 2
+    assert "--folds must be at least 2" in _assert_one_line_error(capsys, "stream-eval")
+
+
 def test_the_parametrised_list_covers_every_subcommand():
     from terrain.cli import SUBCOMMANDS
     covered = {"cv", "train", "predict", "convert", "benchmark", "simulate", "audit",
