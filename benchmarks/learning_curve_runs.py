@@ -13,7 +13,8 @@ CNN, ``ensemble3``: all three), scored at a decision history of 1 and 10 windows
 headline protocol of the README tables and reproduces them.
 
 Run: ``python benchmarks/learning_curve_runs.py [--dataset borealtc] [--splits 2 3 5 10]
-[--seeds 0 1 2] [--models svm cnn cnn-spectrogram] [--out CSV] [--no-mlflow]`` (BorealTC,
+[--seeds 0 1 2] [--models svm cnn cnn-spectrogram] [--out CSV] [--figure PNG]
+[--no-mlflow]`` (BorealTC,
 defaults: ~25 min on the 2-core machine).
 """
 
@@ -26,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
@@ -57,6 +59,39 @@ def training_run_share(groups: np.ndarray, folds: pd.DataFrame) -> float:
                           for _, g in folds.groupby(["seed", "fold"])]))
 
 
+def learning_curve_figure(table: pd.DataFrame, title: str = "") -> Figure:
+    """Accuracy against the share of runs trained on, one line per model and history.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The printed table: ``history``, ``model``, ``training_run_share``,
+        ``accuracy_mean``, ``accuracy_std``.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels (decision history 1 and 10 windows); error bars: spread over seeds.
+    """
+    fig = Figure(figsize=(10, 4.2))
+    histories = sorted(table["history"].unique())
+    axes = fig.subplots(1, len(histories), sharey=True, squeeze=False)[0]
+    for ax, k in zip(axes, histories):
+        for model, g in table[table["history"] == k].groupby("model", sort=False):
+            g = g.sort_values("training_run_share")
+            ax.errorbar(100 * g["training_run_share"], g["accuracy_mean"],
+                        yerr=g["accuracy_std"], marker="o", capsize=3, label=model)
+        ax.set_xlabel("runs trained on (% of the labelled runs)")
+        ax.set_title(f"decision history k = {k}")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("run-grouped accuracy on held-out runs")
+    axes[-1].legend(fontsize=8, loc="lower right")
+    fig.suptitle(title, fontsize=10)
+    return fig
+
+
 def main() -> int:
     """Cross-validate at every number of folds, print and log the learning curve."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -67,6 +102,7 @@ def main() -> int:
     parser.add_argument("--max-epochs", type=int, default=30)
     parser.add_argument("--threads", type=int, default=1, help="torch threads per CNN")
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
+    parser.add_argument("--figure", type=Path, default=None, help="write the figure (PNG)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     # with 10 folds some folds' test runs lack a class: their per-fold recall is undefined
@@ -115,6 +151,11 @@ def main() -> int:
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(args.out, index=False)
+    fig = learning_curve_figure(table, f"{args.dataset}: accuracy on unseen runs against the "
+                                       f"runs trained on (seeds {args.seeds})")
+    if args.figure is not None:
+        args.figure.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(args.figure, dpi=110, bbox_inches="tight")
     if not args.no_mlflow:
         params = {"dataset": args.dataset, "seeds": ",".join(map(str, args.seeds)),
                   "splits": ",".join(map(str, args.splits)), "models": ",".join(args.models),
@@ -125,6 +166,7 @@ def main() -> int:
                              r.accuracy_mean for r in table.itertuples()})
             run.log_table(table, "learning_curve_runs.csv")
             run.log_table(scores, "learning_curve_runs_seeds.csv")
+            run.log_figure(fig, "learning_curve_runs.png")
     return 0
 
 
