@@ -23,7 +23,7 @@ helps), or by information no member has (then a member built on other physics he
 
 Run: ``python benchmarks/ensemble_members.py [--dataset borealtc] [--seeds 0 1 2]
 [--model-seeds 3] [--max-epochs 30] [--out DIR] [--no-mlflow]`` (BorealTC, 3 seeds, 3
-initialisations: ~15 min on the 2-core machine).
+initialisations: ~18 min on the 2-core machine).
 """
 
 from __future__ import annotations

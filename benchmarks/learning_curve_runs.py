@@ -14,8 +14,7 @@ headline protocol of the README tables and reproduces them.
 
 Run: ``python benchmarks/learning_curve_runs.py [--dataset borealtc] [--splits 2 3 5 10]
 [--seeds 0 1 2] [--models svm cnn cnn-spectrogram] [--out CSV] [--figure PNG]
-[--no-mlflow]`` (BorealTC,
-defaults: ~25 min on the 2-core machine).
+[--no-mlflow]`` (BorealTC, defaults: ~15 min on the 2-core machine).
 """
 
 from __future__ import annotations
