@@ -118,6 +118,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             Z = Z * self.mask_
         return Z.astype(np.float32)
 
+    def _augmented(self, Z: np.ndarray, y_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Training inputs and labels as the network is fitted on them (here: unchanged)."""
+        return Z, y_idx
+
     def _fit_scaling(self, Z: np.ndarray) -> None:
         axes = (0,) + tuple(range(2 + self._per_bin, Z.ndim))
         self.mean_ = Z.mean(axis=axes, keepdims=True)[0]
@@ -217,7 +221,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     iterator_train__shuffle=True, iterator_train__generator=gen,
                     train_split=train_split, callbacks=callbacks, device=self._device(),
                     verbose=0, classes=np.arange(len(self.classes_)))
-                self.net_.fit(Z[fit_idx], y_idx[fit_idx])
+                self.net_.fit(*self._augmented(Z[fit_idx], y_idx[fit_idx]))
             finally:
                 torch.set_num_threads(threads)
         self.n_epochs_ = len(self.net_.history)
@@ -398,6 +402,14 @@ class SpectrogramCNNClassifier(_WindowCNN):
         ``"auto"`` (CUDA when available, else CPU), ``"cpu"`` or a torch device string.
     n_threads : int or None
         torch CPU threads during ``fit`` (restored afterwards); ``None`` keeps torch's.
+    augment_noise_std : float
+        When > 0, the network is fitted on every training window's standardised log
+        spectra plus one copy perturbed by white noise of this standard deviation per bin
+        (in units of the training standard deviation; the band mask applied after it), drawn
+        from ``random_state``. 0: no copy (the default). A probe on BorealTC run-grouped
+        found 0.3 lifting the SVM + spectrogram-CNN vote by about a point (README "More
+        members").
+
     Attributes
     ----------
     classes_ : numpy.ndarray
@@ -420,7 +432,8 @@ class SpectrogramCNNClassifier(_WindowCNN):
                  lr: float = 3e-3, weight_decay: float = 1e-2, batch_size: int = 64,
                  width: int = 16, dropout: float = 0.3, early_stopping: bool = False,
                  validation_splits: int = 5, patience: int = 5, random_state: int = 0,
-                 device: str = "auto", n_threads: int | None = None) -> None:
+                 device: str = "auto", n_threads: int | None = None,
+                 augment_noise_std: float = 0.0) -> None:
         self.rate_hz = rate_hz
         self.segment_s = segment_s
         self.hop_s = hop_s
@@ -437,9 +450,22 @@ class SpectrogramCNNClassifier(_WindowCNN):
         self.random_state = random_state
         self.device = device
         self.n_threads = n_threads
+        self.augment_noise_std = augment_noise_std
 
     def _inputs(self, X: np.ndarray) -> np.ndarray:
         return log_spectrogram(X, self.rate_hz, self.segment_s, self.hop_s)[0]
+
+    def _augmented(self, Z: np.ndarray, y_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The standardised spectra and one noise-perturbed copy (``augment_noise_std``)."""
+        if not self.augment_noise_std > 0:
+            if self.augment_noise_std != 0:
+                raise ConfigError(f"augment_noise_std must be >= 0, got {self.augment_noise_std}")
+            return Z, y_idx
+        rng = np.random.default_rng(self.random_state)
+        copy = Z + rng.normal(0.0, self.augment_noise_std, Z.shape).astype(np.float32)
+        if getattr(self, "mask_", None) is not None:
+            copy = copy * self.mask_
+        return np.concatenate([Z, copy.astype(np.float32)]), np.concatenate([y_idx, y_idx])
 
     def _band_mask(self, n_samples: int, shape) -> np.ndarray | None:
         seg = int(np.clip(round(self.segment_s * self.rate_hz), 2, n_samples))

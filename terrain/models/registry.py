@@ -83,6 +83,10 @@ class ModelConfig:
         Append the skid-steer EKF's channels computed from each window's own samples
         (:class:`terrain.models.window_ekf.WindowEKFClassifier`); the windows need ``vel_l``,
         ``vel_r`` and ``wz``.
+    spectrogram_noise_std : float
+        ``augment_noise_std`` of the spectrogram CNN (alone or as an ensemble member): fit
+        on the training spectra plus a copy perturbed by white noise of this many standard
+        deviations; 0 (default): no copy.
     """
 
     kind: str = "svm"
@@ -95,11 +99,15 @@ class ModelConfig:
     tune_weights: bool = False
     early_stopping: bool = False
     window_ekf: bool = False
+    spectrogram_noise_std: float = 0.0
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
             raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
         singles = [m for m in MODELS if m not in ENSEMBLES]
+        if not self.spectrogram_noise_std >= 0:
+            raise ConfigError(f"spectrogram_noise_std must be >= 0, got "
+                              f"{self.spectrogram_noise_std}")
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")
@@ -170,7 +178,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
                                         band_limits_hz=band_limits_hz(channels, dataset),
                                         max_epochs=config.max_epochs,
                                         random_state=random_state, n_threads=config.n_threads,
-                                        early_stopping=config.early_stopping)
+                                        early_stopping=config.early_stopping,
+                                        augment_noise_std=config.spectrogram_noise_std)
     if kind == "minirocket":
         return make_minirocket(random_state, n_kernels=config.minirocket_kernels,
                                max_dilations_per_kernel=config.minirocket_max_dilations)

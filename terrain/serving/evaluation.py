@@ -317,6 +317,10 @@ class ModelRecipe:
         The model also sees the skid-steer EKF's channels computed from each window's own
         samples (:class:`terrain.models.window_ekf.WindowEKFClassifier`, ``terrain train
         --window-ekf``); ``svm`` and the ensembles on ``all`` signals only.
+    spectrogram_noise_std : float
+        ``ModelConfig.spectrogram_noise_std`` of an ensemble's spectrogram CNN (its training
+        spectra plus a copy perturbed by white noise of this many standard deviations); 0:
+        no copy. Ensembles only.
     """
 
     signals: str
@@ -328,8 +332,12 @@ class ModelRecipe:
     n_trees: int = 300
     run_balanced: bool = False
     window_ekf: bool = False
+    spectrogram_noise_std: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.spectrogram_noise_std and self.classifier not in ENSEMBLES:
+            raise ConfigError("spectrogram_noise_std perturbs the spectrogram CNN of an "
+                              "ensemble recipe only")
         if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
             raise ConfigError(f"recipe features must be one of {FEATURE_SETS} and classifier "
                               f"one of {CLASSIFIERS}")
@@ -351,7 +359,10 @@ class ModelRecipe:
 #: ``all-ensemble-dense``: the SVM and the ensemble fitted on windows cut every 0.5 s
 #: (overlapping) from the training runs
 #: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``all-ensemble-dense-window-ekf``:
-#: the latter with the EKF channels of each window (``terrain train --window-ekf``); wheels: 4 s
+#: the latter with the EKF channels of each window (``terrain train --window-ekf``);
+#: ``all-ensemble-dense-augmented``: ``all-ensemble-dense`` whose spectrogram CNN also trains
+#: on a copy of its spectra perturbed by white noise of 0.3 standard deviations (README "More
+#: members", the probe); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -362,6 +373,8 @@ RECIPES = MappingProxyType({
     "all-ensemble-dense": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble"),
     "all-ensemble-dense-window-ekf": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble",
                                                  window_ekf=True),
+    "all-ensemble-dense-augmented": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble",
+                                                spectrogram_noise_std=0.3),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
@@ -506,7 +519,8 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     labels = ws.labels.astype(str)
     if recipe.classifier in ENSEMBLES or recipe.window_ekf:
         # the `terrain train --model <ensemble> [--window-ekf]` estimator, raw windows in
-        pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf),
+        pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf,
+                                      spectrogram_noise_std=recipe.spectrogram_noise_std),
                           ws.channels, recipe.rate_hz, "borealtc", random_state=seed)
         pipe.fit(ws.X, labels)
     else:

@@ -109,3 +109,36 @@ def test_band_limit_zeroes_bins_above_the_native_nyquist_of_low_rate_channels():
     assert not Z[:, 1, 2:].any()
     with pytest.raises(ConfigError, match="band_limits_hz"):
         SpectrogramCNNClassifier(**FAST, band_limits_hz=(1.0,)).fit(X, y)
+
+
+def test_noise_copy_of_the_training_spectra():
+    """augment_noise_std adds one perturbed copy per window: same labels, the original
+    spectra first, zero-mean noise of that standard deviation, masked bins kept at zero,
+    reproducible from the seed; 0 leaves the training set as it is."""
+    model = SpectrogramCNNClassifier(rate_hz=RATE_HZ, augment_noise_std=0.3, random_state=4)
+    rng = np.random.default_rng(1)
+    Z = rng.normal(size=(50, 3, 26, 8)).astype(np.float32)
+    y = np.arange(50) % 2
+    model.mask_ = np.ones((3, 26, 1), dtype=np.float32)
+    model.mask_[2, 13:] = 0.0                      # a low-rate channel's bins above Nyquist
+    Z = Z * model.mask_
+    Z2, y2 = model._augmented(Z, y)
+    assert Z2.shape == (100, 3, 26, 8) and Z2.dtype == np.float32
+    np.testing.assert_array_equal(Z2[:50], Z)
+    np.testing.assert_array_equal(y2, np.concatenate([y, y]))
+    noise = (Z2[50:] - Z)[:, :2]
+    assert abs(noise.mean()) < 0.01 and abs(noise.std() - 0.3) < 0.01
+    assert not Z2[50:, 2, 13:].any()
+    np.testing.assert_array_equal(model._augmented(Z, y)[0], Z2)
+    plain = SpectrogramCNNClassifier(rate_hz=RATE_HZ)
+    assert plain._augmented(Z, y)[0] is Z
+    with pytest.raises(ConfigError, match="augment_noise_std"):
+        SpectrogramCNNClassifier(augment_noise_std=-0.1)._augmented(Z, y)
+
+
+def test_noise_copy_still_learns_the_planted_vibration():
+    X, y, groups = _planted()
+    train = np.isin(groups, [f"run{r}" for r in range(6)])
+    model = SpectrogramCNNClassifier(rate_hz=RATE_HZ, augment_noise_std=0.3, random_state=0,
+                                     **FAST).fit(X[train], y[train])
+    assert (model.predict(X[~train]) == y[~train]).mean() > 0.9

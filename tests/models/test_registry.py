@@ -54,3 +54,16 @@ def test_every_kind_is_built_and_ensembles_are_listed():
                        "predict_proba")
     with pytest.raises(ConfigError, match="unknown model"):
         ModelConfig(kind="ensemble4")
+
+
+def test_spectrogram_noise_reaches_the_spectrogram_member_only():
+    from terrain.models.registry import ModelConfig, make_model
+    channels = ("wx", "wy", "wz", "ax", "ay", "az", "vel_l", "vel_r", "cur_l", "cur_r")
+    model = make_model(ModelConfig("ensemble", spectrogram_noise_std=0.3), channels, 100.0,
+                       "borealtc")
+    members = dict(model.estimators)
+    assert members["cnn-spectrogram"].augment_noise_std == 0.3
+    assert make_model(ModelConfig("cnn-spectrogram"), channels, 100.0,
+                      "borealtc").augment_noise_std == 0.0
+    with pytest.raises(ConfigError, match="spectrogram_noise_std"):
+        ModelConfig("ensemble", spectrogram_noise_std=-1.0)

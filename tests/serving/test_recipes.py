@@ -120,3 +120,11 @@ def test_window_ekf_recipe_streams_decisions_from_raw_signals(train_runs, boreal
             ModelRecipe(**{**dict(signals="all", window_s=2.0, rate_hz=100.0,
                                   train_hop_s=0.5, features="stats", classifier="svm",
                                   window_ekf=True), **bad})
+
+
+def test_augmented_recipe_is_the_dense_ensemble_with_noisy_spectra():
+    recipe = RECIPES["all-ensemble-dense-augmented"]
+    assert replace(recipe, spectrogram_noise_std=0.0) == RECIPES["all-ensemble-dense"]
+    assert recipe.spectrogram_noise_std == 0.3
+    with pytest.raises(ConfigError, match="ensemble recipe only"):
+        ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", spectrogram_noise_std=0.3)
