@@ -406,9 +406,10 @@ class SpectrogramCNNClassifier(_WindowCNN):
         When > 0, the network is fitted on every training window's standardised log
         spectra plus one copy perturbed by white noise of this standard deviation per bin
         (in units of the training standard deviation; the band mask applied after it), drawn
-        from ``random_state``. 0: no copy (the default). A probe on BorealTC run-grouped
-        found 0.3 lifting the SVM + spectrogram-CNN vote by about a point (README "More
-        members").
+        from ``random_state``. 0: no copy (the default). On BorealTC run-grouped, 0.3 lifts
+        the SVM + spectrogram-CNN vote by about a point with non-overlapping training
+        windows, and does nothing on the held-out streams with overlapping ones (README
+        "More members", docs/streaming.md).
 
     Attributes
     ----------
