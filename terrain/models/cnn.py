@@ -427,6 +427,8 @@ class SpectrogramCNNClassifier(_WindowCNN):
     """
 
     _per_bin = 1
+    #: models pickled before the parameter existed unpickle with no noise copy
+    augment_noise_std = 0.0
 
     def __init__(self, rate_hz: float = 100.0, segment_s: float = 0.5, hop_s: float = 0.2,
                  band_limits_hz: Sequence[float] | None = None, max_epochs: int = 30,
