@@ -76,7 +76,7 @@ def arm_windows(runs, arm: str, config: WindowConfig):
     Returns
     -------
     X : numpy.ndarray
-        ``(ncell_windows, n_channels, n_samples)``.
+        ``(n_windows, n_channels, n_samples)``.
     ws : WindowSet
         The windows' book-keeping (run ids, bounds, labels).
     channels : tuple of str
