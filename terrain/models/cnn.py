@@ -460,15 +460,15 @@ class SpectrogramCNNClassifier(_WindowCNN):
 
     def _augmented(self, Z: np.ndarray, y_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The standardised spectra and one noise-perturbed copy (``augment_noise_std``)."""
-        if not self.augment_noise_std > 0:
-            if self.augment_noise_std != 0:
-                raise ConfigError(f"augment_noise_std must be >= 0, got {self.augment_noise_std}")
+        if self.augment_noise_std == 0:
             return Z, y_idx
+        if not self.augment_noise_std > 0:
+            raise ConfigError(f"augment_noise_std must be >= 0, got {self.augment_noise_std}")
         rng = np.random.default_rng(self.random_state)
         copy = Z + rng.normal(0.0, self.augment_noise_std, Z.shape).astype(np.float32)
         if getattr(self, "mask_", None) is not None:
             copy = copy * self.mask_
-        return np.concatenate([Z, copy.astype(np.float32)]), np.concatenate([y_idx, y_idx])
+        return np.concatenate([Z, copy]), np.concatenate([y_idx, y_idx])
 
     def _band_mask(self, n_samples: int, shape) -> np.ndarray | None:
         seg = int(np.clip(round(self.segment_s * self.rate_hz), 2, n_samples))
