@@ -84,6 +84,13 @@ class SoilParams:
         (isotropic). Anisotropic moduli as in Ishigami et al., "Terramechanics-based model
         for steering maneuver of planetary exploration rovers on loose soil", J. Field
         Robotics 24(3), 2007 (separate K_x, K_y, K_y below K_x on sand).
+    layer_depth_m : float or None
+        Depth of a deformable layer over a firm base (snow on frozen ground), m: no wheel
+        sinks deeper (:func:`wheel_sinkage_m`; the limit of a pressure-sinkage relation
+        that stiffens as the sinkage approaches the base, Wong ch. 2.2, simplified to a
+        cap, ASSUMED). None: a layer deeper than any sinkage (every shipped soil; a SNOW
+        layer of 0.01-0.06 m was swept on training runs and not adopted,
+        docs/physics_v2.md).
     """
 
     name: str
@@ -96,6 +103,7 @@ class SoilParams:
     unit_weight_n_m3: float
     source: str
     lateral_shear_modulus_m: float | None = None
+    layer_depth_m: float | None = None
 
     @property
     def shear_modulus_y_m(self) -> float:
@@ -178,9 +186,11 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
         return 0.0, footprint_length_m
     length = footprint_length_m
     z = 0.0
+    z_max = wheel_radius_m if soil.layer_depth_m is None else min(wheel_radius_m,
+                                                                    soil.layer_depth_m)
     for _ in range(iterations):
         z = min(bekker_sinkage_m(load_n, width_m, length, soil.k_c, soil.k_phi, soil.n),
-                wheel_radius_m)
+                z_max)
         chord = 2.0 * np.sqrt(max(2.0 * wheel_radius_m * z - z * z, 0.0))
         length = 0.5 * length + 0.5 * max(footprint_length_m, chord)   # damped
     return float(z), float(length)

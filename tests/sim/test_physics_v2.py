@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from types import MappingProxyType
 
 import numpy as np
@@ -52,6 +53,23 @@ def test_sinkage_is_bekker_on_firm_soil_and_grows_on_snow():
     assert z_s == pytest.approx(bekker_sinkage_m(W, 0.11, l_s, snow.k_c, snow.k_phi, snow.n),
                                 rel=0.02)
     assert wheel_sinkage_m(2 * W, 0.11, 0.08, 0.1651, snow)[0] > z_s
+
+
+def test_layer_depth_caps_the_sinkage_and_weakens_the_lateral_strength():
+    snow = SOILS["SNOW"]
+    assert snow.layer_depth_m is None             # shipped: a layer deeper than any sinkage
+    deep, _ = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, snow)
+    shallow = replace(snow, layer_depth_m=0.03)
+    z, length = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, shallow)
+    assert deep > 0.05 and z == pytest.approx(0.03)
+    assert length == pytest.approx(2 * np.sqrt(2 * 0.1651 * 0.03 - 0.03 ** 2), rel=0.01)
+    # a layer deeper than the sinkage changes nothing
+    assert wheel_sinkage_m(W, 0.11, 0.08, 0.1651, replace(snow, layer_depth_m=0.5))[0] == deep
+    strength = {}
+    for name, soil in (("deep", snow), ("shallow", shallow)):
+        c = soil_contact(soil, 0.11, 0.08, 0.1651, 4 * W)
+        strength[name] = np.interp(W, c.load_grid_n, c.strength_grid_n)
+    assert strength["shallow"] < 0.8 * strength["deep"]   # a lower, shorter bulldozing wall
 
 
 def test_bulldozing_grows_with_depth_and_vanishes_without_sinkage():
