@@ -27,7 +27,9 @@ random validation split is disabled: training runs a fixed epoch budget, or, wit
 ``early_stopping=True``, validates on whole runs held out of the training data given to
 ``fit`` (``groups`` required). Weights, shuffling and dropout draw from ``random_state`` in
 a forked torch RNG, so CPU training is deterministic; a CUDA device is used when present
-(``device="auto"``) and nothing requires one.
+(``device="auto"``) and nothing requires one. skorch is handed the network's class and
+arguments, never an instance, so a net trained on a GPU loads and predicts on a CPU-only
+machine (skorch maps its ``module_`` to the available device; README, "Model comparison").
 """
 
 from __future__ import annotations
@@ -109,7 +111,15 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
     def _inputs(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def _module(self, n_inputs: int, n_classes: int):  # pragma: no cover - abstract
+    def _module_spec(self, n_inputs: int, n_classes: int
+                     ) -> tuple[type, dict]:  # pragma: no cover - abstract
+        """The network class and its constructor arguments.
+
+        skorch builds the module from them (``module__<arg>``) instead of being handed an
+        instance: a module instance would be pickled with the fitted net as a plain
+        parameter, so a net trained on a GPU could not be loaded where CUDA is absent,
+        whereas skorch's own ``module_`` is mapped to the available device on loading.
+        """
         raise NotImplementedError
 
     def _standardise(self, Z: np.ndarray) -> np.ndarray:
@@ -211,8 +221,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                 torch.set_num_threads(self.n_threads)
             try:
                 gen = torch.Generator().manual_seed(self.random_state)
+                module, module_args = self._module_spec(Z.shape[1], len(self.classes_))
                 self.net_ = NeuralNetClassifier(
-                    self._module(Z.shape[1], len(self.classes_)),
+                    module, **{f"module__{k}": v for k, v in module_args.items()},
                     criterion=torch.nn.CrossEntropyLoss,
                     criterion__weight=torch.as_tensor(weight),
                     optimizer=torch.optim.AdamW, lr=self.lr,
@@ -358,9 +369,10 @@ class RawCNNClassifier(_WindowCNN):
     def _inputs(self, X: np.ndarray) -> np.ndarray:
         return X
 
-    def _module(self, n_inputs: int, n_classes: int):
+    def _module_spec(self, n_inputs: int, n_classes: int) -> tuple[type, dict]:
         _, Raw1dNet, _ = _torch_modules()
-        return Raw1dNet(n_inputs, n_classes, self.width, self.dropout)
+        return Raw1dNet, {"n_channels": n_inputs, "n_classes": n_classes,
+                          "width": self.width, "dropout": self.dropout}
 
 
 class SpectrogramCNNClassifier(_WindowCNN):
@@ -481,6 +493,7 @@ class SpectrogramCNNClassifier(_WindowCNN):
                               "channels")
         return (self.freqs_hz_[None, :] <= limits[:, None]).astype(np.float32)[..., None]
 
-    def _module(self, n_inputs: int, n_classes: int):
+    def _module_spec(self, n_inputs: int, n_classes: int) -> tuple[type, dict]:
         _, _, Spectrogram2dNet = _torch_modules()
-        return Spectrogram2dNet(n_inputs, n_classes, self.width, self.dropout)
+        return Spectrogram2dNet, {"n_channels": n_inputs, "n_classes": n_classes,
+                                  "width": self.width, "dropout": self.dropout}

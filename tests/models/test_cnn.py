@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import pickle
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
@@ -67,6 +72,46 @@ def test_same_seed_same_model_other_seed_other_model():
          .predict_proba(X) for s in (0, 0, 1)]
     np.testing.assert_array_equal(p[0], p[1])
     assert np.abs(p[0] - p[2]).max() > 1e-4
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_fitted_net_holds_its_module_only_where_skorch_maps_devices(cls):
+    # the network is handed to skorch as a class, so its weights are pickled only as
+    # skorch's ``module_``, which skorch maps to the available device when loading: a
+    # net trained on a GPU then loads on a CPU-only robot (see the CUDA test below)
+    X, y, _ = _planted(n_runs=4)
+    model = cls(**{**FAST, "max_epochs": 2}).fit(X, y)
+    assert isinstance(model.net_.module, type)
+    assert isinstance(model.net_.module_, model.net_.module)
+    again = pickle.loads(pickle.dumps(model))
+    np.testing.assert_array_equal(again.predict_proba(X), model.predict_proba(X))
+
+
+def _cuda_available() -> bool:
+    import torch
+    return torch.cuda.is_available()
+
+
+@pytest.mark.skipif(not _cuda_available(), reason="needs a CUDA device")
+def test_gpu_trained_model_serves_on_a_cpu_only_machine(tmp_path):
+    X, y, groups = _planted()
+    test = np.isin(groups, ["run6", "run7"])
+    model = SpectrogramCNNClassifier(**{**FAST, "max_epochs": 40, "device": "auto"})
+    model.fit(X[~test], y[~test])
+    assert next(model.net_.module_.parameters()).device.type == "cuda"
+    on_gpu = model.predict_proba(X[test])
+    assert (model.classes_[on_gpu.argmax(axis=1)] == y[test]).mean() >= 0.9
+    (tmp_path / "model.pkl").write_bytes(pickle.dumps(model))
+    np.save(tmp_path / "x.npy", X[test])
+    code = ("import pickle, sys, warnings, numpy as np, torch; warnings.simplefilter('ignore');"
+            "assert not torch.cuda.is_available();"
+            "m = pickle.loads(open(sys.argv[1] + '/model.pkl', 'rb').read());"
+            "assert next(m.net_.module_.parameters()).device.type == 'cpu';"
+            "np.save(sys.argv[1] + '/p.npy', m.predict_proba(np.load(sys.argv[1] + '/x.npy')))")
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
+                          text=True, env={**os.environ, "CUDA_VISIBLE_DEVICES": ""})
+    assert done.returncode == 0, done.stderr[-2000:]
+    np.testing.assert_allclose(np.load(tmp_path / "p.npy"), on_gpu, atol=1e-4)
 
 
 def test_normalisation_statistics_come_from_the_training_windows_only():
