@@ -8,6 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from test_cnn import _planted  # same folder (pytest's default prepend import mode)
 
 from terrain.models.cnn import RawCNNClassifier
 
@@ -15,24 +16,11 @@ SCRIPT = Path(__file__).parents[2] / "benchmarks" / "cnn_device.py"
 
 
 def _planted_cell(cell, blocks):
-    """Windows of 10 runs, two terrains told apart by a 20 Hz vibration on channel 0."""
-    rng = np.random.default_rng(cell.seed)
-    t = np.arange(100) / 100.0
-    X, y, runs = [], [], []
-    for r in range(10):
-        label = "A" if r % 2 == 0 else "B"
-        for _ in range(8):
-            w = rng.normal(0.0, 1.0, (2, t.size))
-            if label == "B":
-                w[0] += 1.5 * np.sin(2 * np.pi * 20.0 * t + rng.uniform(0, 2 * np.pi))
-            X.append(w)
-            y.append(label)
-            runs.append(f"run{r}")
-    runs = np.asarray(runs)
-    ws = SimpleNamespace(X=np.asarray(X, dtype=np.float32), channels=("c0", "c1"),
-                         rate_hz=100.0, run_ids=runs, t_start_s=np.zeros(len(runs)),
-                         t_end_s=np.ones(len(runs)))
-    return ws, np.asarray(y), runs, None
+    """The planted two-terrain windows of test_cnn.py (a 20 Hz vibration), 10 runs."""
+    X, y, runs = _planted(n_runs=10, per_run=8, seed=cell.seed)
+    ws = SimpleNamespace(X=X, channels=("c0", "c1", "c2"), rate_hz=100.0, run_ids=runs,
+                         t_start_s=np.zeros(len(runs)), t_end_s=np.ones(len(runs)))
+    return ws, y, runs, None
 
 
 def test_device_rows_cross_validate_on_the_requested_device(monkeypatch):
