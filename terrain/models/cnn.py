@@ -420,8 +420,8 @@ class SpectrogramCNNClassifier(_WindowCNN):
         (in units of the training standard deviation; the band mask applied after it), drawn
         from ``random_state``. 0: no copy (the default). On BorealTC run-grouped, 0.3 lifts
         the SVM + spectrogram-CNN vote by about a point with non-overlapping training
-        windows, and does nothing on the held-out streams with overlapping ones (README
-        "More members", docs/streaming.md).
+        windows, and does nothing on the held-out streams with overlapping ones (docs/model_comparison.md,
+        "More members"; docs/streaming.md).
 
     Attributes
     ----------

@@ -361,8 +361,8 @@ class ModelRecipe:
 #: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``all-ensemble-dense-window-ekf``:
 #: the latter with the EKF channels of each window (``terrain train --window-ekf``);
 #: ``all-ensemble-dense-augmented``: ``all-ensemble-dense`` whose spectrogram CNN also trains
-#: on a copy of its spectra perturbed by white noise of 0.3 standard deviations (README "More
-#: members", the probe); wheels: 4 s
+#: on a copy of its spectra perturbed by white noise of 0.3 standard deviations (docs/model_comparison.md,
+#: "More members", the probe); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
