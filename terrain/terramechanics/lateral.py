@@ -49,6 +49,7 @@ from typing import Mapping
 
 import numpy as np
 
+from terrain.errors import ConfigError
 from terrain.terramechanics.resistance import bekker_sinkage_m
 from terrain.terramechanics.traction import JanosiCurve
 
@@ -91,6 +92,11 @@ class SoilParams:
         cap, ASSUMED). None: a layer deeper than any sinkage (every shipped soil; a SNOW
         layer of 0.01-0.06 m was swept on training runs and not adopted,
         docs/physics_v2.md).
+
+    Raises
+    ------
+    ConfigError
+        ``layer_depth_m`` is not positive.
     """
 
     name: str
@@ -104,6 +110,11 @@ class SoilParams:
     source: str
     lateral_shear_modulus_m: float | None = None
     layer_depth_m: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.layer_depth_m is not None and not self.layer_depth_m > 0:
+            raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
+                              f"{self.layer_depth_m}")
 
     @property
     def shear_modulus_y_m(self) -> float:

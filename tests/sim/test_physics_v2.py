@@ -70,6 +70,8 @@ def test_layer_depth_caps_the_sinkage_and_weakens_the_lateral_strength():
         c = soil_contact(soil, 0.11, 0.08, 0.1651, 4 * W)
         strength[name] = np.interp(W, c.load_grid_n, c.strength_grid_n)
     assert strength["shallow"] < 0.8 * strength["deep"]   # a lower, shorter bulldozing wall
+    with pytest.raises(ConfigError, match="layer_depth_m"):
+        replace(snow, layer_depth_m=0.0)
 
 
 def test_bulldozing_grows_with_depth_and_vanishes_without_sinkage():
