@@ -48,7 +48,7 @@ class DataFormatError(TerrainError, ValueError):
         if line is not None:
             where.append(f"line {line}")
         elif row is not None:
-            where.append(f"data row {row}")
+            where.append(f"data row {row} (0-based)")
         super().__init__(f"{message} ({', '.join(where)})" if where else message)
 
 
