@@ -40,7 +40,7 @@ from sklearn.pipeline import Pipeline
 from features.wheel_physics import WheelPhysicsFeatures
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
-from terrain.models.registry import ModelConfig, make_model
+from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
 from terrain.serving.evaluation import extra_trees, run_balanced_weights
 from terrain.tracking import tracked_run
 
@@ -125,8 +125,7 @@ def member_votes(members: dict[str, list[pd.DataFrame]], classes: list[str]
     votes = dict(one)
     for cnn in ("cnn", "cnn-spectrogram"):
         votes[f"{cnn} x{k}"] = avg[cnn]
-    sets = {"ensemble": ("svm", "cnn-spectrogram"),
-            "ensemble3": ("svm", "cnn", "cnn-spectrogram")}
+    sets = {kind: ensemble_member_kinds(ModelConfig(kind)) for kind in ENSEMBLES}
     for name, names in sets.items():
         votes[name] = soft_vote([one[m] for m in names], classes)
         votes[f"{name} + wheel-trees"] = soft_vote([one[m] for m in names]

@@ -30,11 +30,11 @@ from matplotlib.figure import Figure
 
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
-from terrain.models.registry import ModelConfig, make_model
+from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
 from terrain.tracking import tracked_run
 
 #: Equal-weight votes scored when all their members were cross-validated.
-VOTES = {"ensemble": ("svm", "cnn-spectrogram"), "ensemble3": ("svm", "cnn", "cnn-spectrogram")}
+VOTES = {kind: ensemble_member_kinds(ModelConfig(kind)) for kind in ENSEMBLES}
 
 
 def training_run_share(groups: np.ndarray, folds: pd.DataFrame) -> float:

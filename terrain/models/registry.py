@@ -133,6 +133,30 @@ def band_limits_hz(channels: Sequence[str], dataset: str) -> tuple[float, ...]:
     return tuple(float(nyquist) if c in wheel else float("inf") for c in channels)
 
 
+def ensemble_member_kinds(config: ModelConfig) -> tuple[str, ...]:
+    """The member models of an ensemble configuration, in vote order.
+
+    Parameters
+    ----------
+    config : ModelConfig
+        An ``ensemble`` or ``ensemble3`` configuration.
+
+    Returns
+    -------
+    tuple of str
+        :data:`ENSEMBLE3_MEMBERS` for ``ensemble3``, ``config.ensemble_members`` for
+        ``ensemble``.
+
+    Raises
+    ------
+    ConfigError
+        ``config.kind`` is not an ensemble.
+    """
+    if config.kind not in ENSEMBLES:
+        raise ConfigError(f"{config.kind!r} is not an ensemble; ensembles: {list(ENSEMBLES)}")
+    return ENSEMBLE3_MEMBERS if config.kind == "ensemble3" else tuple(config.ensemble_members)
+
+
 def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dataset: str,
                random_state: int = 0, probability: bool = True):
     """Unfitted classifier taking raw windows.
@@ -183,9 +207,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     if kind == "minirocket":
         return make_minirocket(random_state, n_kernels=config.minirocket_kernels,
                                max_dilations_per_kernel=config.minirocket_max_dilations)
-    kinds = ENSEMBLE3_MEMBERS if kind == "ensemble3" else config.ensemble_members
     members = [(k, make_model(replace(config, kind=k), channels, rate_hz, dataset,
                               random_state, probability=True))
-               for k in kinds]
+               for k in ensemble_member_kinds(config)]
     weights = None if config.tune_weights else (1.0,) * len(members)
     return SoftVotingEnsemble(members, weights=weights, random_state=random_state)

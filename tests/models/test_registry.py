@@ -8,7 +8,7 @@ from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.registry import (ENSEMBLE3_MEMBERS, ENSEMBLES, MODELS, ModelConfig,
-                                     make_model)
+                                     ensemble_member_kinds, make_model)
 from terrain.models.svm import SVMPipeline
 
 CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az", "vel_l", "vel_r", "cur_l", "cur_r")
@@ -31,6 +31,16 @@ def test_ensemble3_is_the_equal_weight_vote_of_svm_raw_cnn_and_spectrogram_cnn()
     assert spec.band_limits_hz[CHANNELS.index("vel_l")] == pytest.approx(3.25)
     two = make_model(ModelConfig(kind="ensemble"), CHANNELS, 50.0, "borealtc")
     assert [name for name, _ in two.estimators] == ["svm", "cnn-spectrogram"]
+
+
+def test_ensemble_member_kinds_are_the_members_make_model_builds():
+    for config in (ModelConfig(kind="ensemble"), ModelConfig(kind="ensemble3"),
+                   ModelConfig(kind="ensemble", ensemble_members=("svm", "cnn"))):
+        model = make_model(config, CHANNELS, 50.0, "borealtc")
+        assert ensemble_member_kinds(config) == tuple(name for name, _ in model.estimators)
+    assert ensemble_member_kinds(ModelConfig(kind="ensemble")) == ("svm", "cnn-spectrogram")
+    with pytest.raises(ConfigError, match="not an ensemble"):
+        ensemble_member_kinds(ModelConfig(kind="svm"))
 
 
 def test_tuned_weights_reach_ensemble3():
