@@ -478,7 +478,7 @@ class SpectrogramCNNClassifier(_WindowCNN):
             raise ConfigError(f"augment_noise_std must be >= 0, got {self.augment_noise_std}")
         rng = np.random.default_rng(self.random_state)
         copy = Z + rng.normal(0.0, self.augment_noise_std, Z.shape).astype(np.float32)
-        if getattr(self, "mask_", None) is not None:
+        if self.mask_ is not None:     # set by ``fit`` before it calls this
             copy = copy * self.mask_
         return np.concatenate([Z, copy]), np.concatenate([y_idx, y_idx])
 
