@@ -33,12 +33,22 @@ HUSKY_TRACK_M = HUSKY.track_m
 DERIVED_WHEEL_CHANNELS = ("vel_mean", "vel_diff", "cur_sum", "cur_diff", "yaw_rate_wheels")
 #: Every raw (measured or derived-from-measured) channel.
 ALL_CHANNELS = IMU_CHANNELS + WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS
+#: Forward wheel-speed channels, m/s: the speed the robot was driven at (its level and its
+#: profile), which an operator sets per recording session, not a response of the ground.
+SPEED_CHANNELS = ("vel_l", "vel_r", "vel_mean")
 #: Named signal sets. EKF-derived channels (:mod:`features.ekf_signals`): set ``ekf`` alone,
 #: ``all+ekf`` with every raw channel; kept out of ``all`` so the raw default is unchanged.
+#: ``all-no-speed``: ``all`` without :data:`SPEED_CHANNELS` (the IMU, the motor currents and
+#: the wheels' turning channels ``vel_diff``, ``yaw_rate_wheels``; the per-speed current
+#: features go with the speeds). On BorealTC the driven speed is a property of the recording
+#: session (0.79 m/s straight runs are all ASPHALT but one ICE run), so a classifier that
+#: sees it learns the sessions; without it, run-grouped accuracy on unseen runs rises
+#: (docs/model_comparison.md, "Without the wheel speeds").
 SIGNAL_SETS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "imu": IMU_CHANNELS,
     "wheels": WHEEL_CHANNELS + DERIVED_WHEEL_CHANNELS,
     "all": ALL_CHANNELS,
+    "all-no-speed": tuple(c for c in ALL_CHANNELS if c not in SPEED_CHANNELS),
     "ekf": EKF_CHANNELS,
     "all+ekf": ALL_CHANNELS + EKF_CHANNELS,
 })
@@ -53,8 +63,8 @@ def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
     Parameters
     ----------
     signals : str or sequence of str
-        A set name of :data:`SIGNAL_SETS` (``imu``, ``wheels``, ``all``, ``ekf``,
-        ``all+ekf``), a channel name of :data:`KNOWN_CHANNELS`, or a sequence of both.
+        A set name of :data:`SIGNAL_SETS` (``imu``, ``wheels``, ``all``, ``all-no-speed``,
+        ``ekf``, ``all+ekf``), a channel name of :data:`KNOWN_CHANNELS`, or a sequence of both.
 
     Returns
     -------

@@ -35,8 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", choices=MODELS, default="svm",
                         help="classifier (default: svm; see README 'Model comparison')")
     parser.add_argument("--signals", nargs="+", default=["all"],
-                        help="imu, wheels, all, ekf (EKF-derived channels), all+ekf, or "
-                             "channel names (default: all)")
+                        help="imu, wheels, all, all-no-speed (all but the forward wheel "
+                             "speeds), ekf (EKF-derived channels), all+ekf, or channel names "
+                             "(default: all)")
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
     parser.add_argument("--hop-s", type=float, default=None,
                         help="hop between windows, s (default: window length)")

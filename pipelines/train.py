@@ -50,7 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "for the dataset: " + ", ".join(f"{d} {m}" for d, m in
                                                              DEFAULT_MODELS.items()) + ")")
     parser.add_argument("--signals", nargs="+", default=["all"],
-                        help="imu, wheels, all, or channel names (default: all)")
+                        help="imu, wheels, all, all-no-speed (all but the forward wheel "
+                             "speeds), all+ekf, or channel names (default: all)")
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
     parser.add_argument("--train-hop-s", type=float, default=None,
                         help="fit on windows cut this often, s (overlapping when shorter than "

@@ -288,7 +288,8 @@ class ModelRecipe:
     Parameters
     ----------
     signals : str
-        Signal set (``all`` or ``wheels``).
+        Signal set of :data:`features.windows.SIGNAL_SETS` (``all``, ``all-no-speed`` or
+        ``wheels``).
     window_s : float
         Window (history) length, s.
     rate_hz : float
@@ -362,7 +363,9 @@ class ModelRecipe:
 #: the latter with the EKF channels of each window (``terrain train --window-ekf``);
 #: ``all-ensemble-dense-augmented``: ``all-ensemble-dense`` whose spectrogram CNN also trains
 #: on a copy of its spectra perturbed by white noise of 0.3 standard deviations (docs/model_comparison.md,
-#: "More members", the probe); wheels: 4 s
+#: "More members", the probe); ``all-dense-no-speed`` and ``all-ensemble-dense-no-speed``:
+#: ``all-dense`` and ``all-ensemble-dense`` on the ``all-no-speed`` signals (every channel
+#: but the forward wheel speeds, :data:`features.windows.SPEED_CHANNELS`); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -375,6 +378,9 @@ RECIPES = MappingProxyType({
                                                  window_ekf=True),
     "all-ensemble-dense-augmented": ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "ensemble",
                                                 spectrogram_noise_std=0.3),
+    "all-dense-no-speed": ModelRecipe("all-no-speed", 2.0, 100.0, 0.5, "stats", "svm"),
+    "all-ensemble-dense-no-speed": ModelRecipe("all-no-speed", 2.0, 100.0, 0.5, "stats",
+                                               "ensemble"),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })

@@ -6,9 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M,
-                              SIGNAL_SETS, WindowConfig, add_derived_channels, make_windows,
-                              required_streams, resolve_signals)
+                              SIGNAL_SETS, SPEED_CHANNELS, WindowConfig, add_derived_channels,
+                              make_windows, required_streams, resolve_signals)
 from terrain.errors import ConfigError
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
@@ -114,6 +115,24 @@ def test_steady_only_applies_to_imu_only_selection(make_run):
 ])
 def test_resolve_signals(signals, expected):
     assert resolve_signals(signals) == expected
+
+
+def test_all_no_speed_drops_the_forward_speeds_only(make_run):
+    """``all-no-speed`` is ``all`` without the forward wheel speeds (and so without the
+    per-speed current features); the windows still need the wheel stream, whose speeds make
+    the turning channels, and those equal the ``all`` windows' channels."""
+    channels = resolve_signals("all-no-speed")
+    assert channels == tuple(c for c in ALL_CHANNELS if c not in SPEED_CHANNELS)
+    assert not set(channels) & {"vel_l", "vel_r", "vel_mean"}
+    assert {"cur_l", "cur_r", "vel_diff", "yaw_rate_wheels"} <= set(channels)
+    assert required_streams(channels) == ("imu", "wheels")
+    run = make_run(_streams())
+    full = make_windows([run], "all", WindowConfig(window_s=2.0))
+    no_speed = make_windows([run], "all-no-speed", WindowConfig(window_s=2.0))
+    keep = [full.channels.index(c) for c in channels]
+    np.testing.assert_array_equal(no_speed.X, full.X[:, keep])
+    names = WindowFeatures(channels).fit(no_speed.X).feature_names_out_
+    assert not any("per_speed" in n or n.startswith("vel_l") for n in names)
 
 
 @pytest.mark.parametrize("signals", ["imus", ["imu", "speed"], ["WZ"], []])

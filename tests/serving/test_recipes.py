@@ -9,16 +9,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from features.windows import WindowConfig, make_windows
+from features.windows import WindowConfig, add_derived_channels, make_windows, window_frame
 from pipelines.stream_eval import add_arguments
 from terrain.errors import ConfigError
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLE3_MEMBERS
 from terrain.models.window_ekf import WindowEKFClassifier
-from terrain.run import TIME
-from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
-                             decisions_frame, replay_run)
+from terrain.io.align import align_streams
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
+                             StreamService, decisions_frame, replay_run)
 from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, ModelRecipe,
                                         fit_stream_model, recipe_classifier)
 
@@ -128,3 +129,33 @@ def test_augmented_recipe_is_the_dense_ensemble_with_noisy_spectra():
     assert recipe.spectrogram_noise_std == 0.3
     with pytest.raises(ConfigError, match="ensemble recipe only"):
         ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", spectrogram_noise_std=0.3)
+
+
+
+def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train_runs,
+                                                                          borealtc_runs):
+    # the SVM of all-dense-no-speed on a 20 Hz clock and non-overlapping windows (fast)
+    assert RECIPES["all-ensemble-dense-no-speed"].signals == "all-no-speed"
+    recipe = replace(RECIPES["all-dense-no-speed"], rate_hz=20.0, train_hop_s=2.0)
+    model = fit_stream_model(recipe, [_head(r, 30.0) for r in train_runs], seed=0)
+    assert not {"vel_l", "vel_r", "vel_mean"} & set(model.channels)
+    # the turning channels are derived from the speeds, so the service still asks for them
+    assert {"vel_l", "vel_r", "cur_l", "cur_r"} <= set(model.raw_channels)
+    seen = {r.run_id for r in train_runs}
+    run = next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+               and r.duration_s > 20)
+    # both streams on the model's clock, pushed interleaved, unsmoothed: every decision is
+    # the batch prediction of the window of the same span
+    frame = add_derived_channels(align_streams(run, ("imu", "wheels"), 20.0)).iloc[:400]
+    service = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(
+        hop_s=recipe.window_s, smoothing=SmoothingConfig(dwell_s=None)))
+    decisions = []
+    for row in frame.itertuples(index=False):
+        for stream, chans in (("imu", IMU_CHANNELS), ("wheels", WHEEL_CHANNELS)):
+            decisions += service.push(stream, row.t_s, {c: getattr(row, c) for c in chans})
+    X = window_frame(frame, model.channels, model.window)[0]
+    n = min(len(decisions), len(X))
+    assert n >= len(X) - 1 >= 8
+    order = [list(model.pipeline.classes_).index(c) for c in model.classes]
+    np.testing.assert_allclose(np.array([d.proba for d in decisions[:n]]),
+                               model.pipeline.predict_proba(X[:n])[:, order], atol=1e-6)
