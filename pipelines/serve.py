@@ -4,25 +4,53 @@
 the streaming pyfunc :mod:`terrain.serving.served`, kept in --served-out when given) or an
 already wrapped one. The server is MLflow's own scoring server app (``/ping``,
 ``/invocations``), the same one ``mlflow models serve -m SERVED_DIR --env-manager local``
-runs, plus a request-size guard: a body over --max-body-bytes is answered 413. Requests
-carry the raw streams as logged (``dataframe_split`` JSON or CSV, long format with a
-``stream`` column or wide format with ``<stream>_t_s`` columns); the answer is one decision
-per window. Only loopback addresses are served.
+runs, behind a request guard (:class:`RequestGuard`): a body over --max-body-bytes is
+answered 413, a request without Content-Type 415, and every error answer carries one
+line with the project's typed message (``<ErrorClass>: ...``), never a stack trace or a dump
+of the request. Requests carry the raw streams as logged (``dataframe_split`` JSON or CSV,
+long format with a ``stream`` column or wide format with ``<stream>_t_s`` columns); the
+answer is one decision per window. Only loopback addresses are served.
+
+The port is bound before anything is announced (a port in use is a one-line error, exit
+2; ``--port 0`` takes a free port and announces it). SIGTERM and SIGINT stop the server
+gracefully and remove the temporary wrapped model.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import ipaddress
+import json
+import logging
+import re
+import signal
+import socket
 import tempfile
 from pathlib import Path
+from typing import Any, Awaitable, Callable, MutableMapping
 
 import yaml
 
-from terrain.errors import ConfigError
+from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
+                            ImplausibleValueError, RaggedRowError, TerrainError)
 from terrain.serving.pyfunc import pip_requirements
 from terrain.serving import load_stream_model
-from terrain.serving.served import save_served_model, served_settings
+from terrain.serving.model import PIPELINE_ARTIFACT
+from terrain.serving.served import (MAX_DECISIONS, check_classifier, save_served_model,
+                                    served_settings)
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+
+#: request content types of MLflow's scoring server
+CONTENT_TYPES = ("text/csv", "application/json", "application/vnd.apache.parquet")
+#: longest message of an error answer, characters
+MAX_MESSAGE = 500
+_TYPED = re.compile(r"^([A-Z][A-Za-z]*Error): ")
+_log = logging.getLogger(__name__)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,11 +64,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", type=Path, required=True,
                         help="model directory (terrain train --model-out, or a served model)")
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to bind")
-    parser.add_argument("--port", type=int, default=5001, help="TCP port")
+    parser.add_argument("--port", type=int, default=5001,
+                        help="TCP port, 1-65535 (0: a free port, announced at start)")
     parser.add_argument("--served-out", type=Path, default=None,
                         help="keep the wrapped streaming model here (servable with "
                              "`mlflow models serve -m DIR --env-manager local`)")
-    parser.add_argument("--hop-s", type=float, default=0.5, help="time between decisions, s")
+    parser.add_argument("--hop-s", type=float, default=0.5,
+                        help="time between decisions, s (at least one period of the "
+                             "model's clock)")
     parser.add_argument("--dwell-s", type=float, default=10.0,
                         help="expected time on one terrain of the forward filter, s "
                              "(0 disables smoothing)")
@@ -48,6 +79,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="smoothed probability below which the fallback target is used")
     parser.add_argument("--max-body-bytes", type=int, default=8_000_000,
                         help="largest request body, bytes (larger: HTTP 413)")
+    parser.add_argument("--max-decisions", type=int, default=MAX_DECISIONS,
+                        help="most decisions one request may make, i.e. its time span over "
+                             "--hop-s (more: HTTP 400)")
 
 
 def is_served_model(path: Path) -> bool:
@@ -78,20 +112,235 @@ def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
     out : Path
         New directory of the served model.
     args : argparse.Namespace
-        ``hop_s``, ``dwell_s``, ``min_confidence``.
+        ``hop_s``, ``dwell_s``, ``min_confidence``, ``max_decisions``.
 
     Returns
     -------
     Path
         ``out``.
+
+    Raises
+    ------
+    ConfigError
+        The directory's pipeline is not a fitted classifier, or a setting is out of range.
     """
     model = load_stream_model(model_dir)
-    settings = served_settings(model, args.hop_s, args.dwell_s or None, args.min_confidence)
+    check_classifier(model.pipeline, str(model_dir / PIPELINE_ARTIFACT))
+    settings = served_settings(model, args.hop_s, args.dwell_s or None, args.min_confidence,
+                               max_decisions=getattr(args, "max_decisions", MAX_DECISIONS))
     return save_served_model(out, model_dir, settings, pip_requirements(model.pipeline))
 
 
+def project_message(status: int, text: str) -> str:
+    """One-line message of an error answer, in the project's ``<ErrorClass>: ...`` form.
+
+    MLflow's own messages (a body it cannot parse as CSV, JSON or Parquet, an unsupported
+    content type...) are turned into the matching :mod:`terrain.errors` message; the dump
+    of the request MLflow puts in some of them is dropped. A message that already starts
+    with an error class, and those of 5xx answers, are only made one line.
+
+    Parameters
+    ----------
+    status : int
+        HTTP status of the answer.
+    text : str
+        Message of the answer.
+
+    Returns
+    -------
+    str
+        At most :data:`MAX_MESSAGE` characters, one line.
+    """
+    text = re.sub(r"^Failed to predict data .*?\nError: ", "", text, flags=re.S)
+    text = text.split("\nInput:")[0]  # MLflow echoes the whole body after a JSON error
+    text = text.split("IMPORTANT: The MLflow Model scoring protocol")[0]  # MLflow 1 -> 2 notice
+    if status < 500 and not _TYPED.match(text.strip()):
+        text = _typed(_typed_error(status, text))
+    text = " ".join(text.split())
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 3] + "..."
+
+
+def _typed_error(status: int, text: str) -> TerrainError:
+    """The project's error for one of MLflow's request-parsing messages."""
+    found = re.search(r"Error: '(.*)'\s*$", text, flags=re.S)
+    detail = " ".join((found.group(1) if found else text).split())
+    where = "request"
+    if "CSV-formatted" in text:
+        ragged = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", detail)
+        if "No columns to parse" in detail:
+            return EmptyFileError("the request body holds no CSV table (not even a header "
+                                  "line)", where)
+        if ragged:
+            header, line, fields = ragged.groups()
+            return RaggedRowError(f"a row of {fields} fields under a header of {header} "
+                                  "(quote a field that holds a comma)", where,
+                                  line=int(line))
+        if "EOF inside string" in detail:
+            return DataFormatError(f"unterminated quote in the CSV body ({detail})", where)
+        return DataFormatError(f"the request body is not a readable CSV table ({detail})",
+                               where)
+    if "Parquet" in text and "Failed to parse" in text:
+        return DataFormatError("the request body is not a readable Parquet table "
+                               f"({detail[:200]})", where)
+    if "valid JSON" in text:
+        reason = re.search(r"JSONDecodeError\('(.*)'\)", detail)
+        return DataFormatError("the request body is not valid JSON "
+                               f"({reason.group(1) if reason else detail[:200]})", where)
+    if "UTF-8" in text and "UnicodeDecodeError" in text:
+        byte = re.search(r", (\d+), \d+, '([^']*)'\)", detail)
+        return EncodingError("the request body is not UTF-8 text"
+                             + (f" ({byte.group(2)} at byte {byte.group(1)})" if byte else ""),
+                             where)
+    if status == 415:
+        return DataFormatError(f"unsupported request content type: {text.strip()}", where)
+    return DataFormatError(re.sub(r"^Invalid input\.\s*", "", text.strip()), where)
+
+
+def _error_body(status: int, body: bytes) -> dict:
+    """An error answer's body as the project's JSON error: no ``stack_trace``, one line."""
+    try:
+        doc = json.loads(body)
+    except ValueError:
+        doc = None
+    if isinstance(doc, dict):
+        doc.pop("stack_trace", None)
+        if "message" in doc:
+            doc["message"] = project_message(status, str(doc["message"]))
+        return doc
+    code = {415: "BAD_REQUEST", 504: "DEADLINE_EXCEEDED"}.get(
+        status, "BAD_REQUEST" if status < 500 else "INTERNAL_ERROR")
+    return {"error_code": code,
+            "message": project_message(status, body.decode("utf-8", "replace"))}
+
+
+def _typed(error: TerrainError) -> str:
+    """``<ErrorClass>: message`` of a project error."""
+    return f"{type(error).__name__}: {error}"
+
+
+def _failure(exc: Exception) -> tuple[int, dict]:
+    """Answer to an exception that escaped MLflow's handler (it would be a bare 500)."""
+    if isinstance(exc, RecursionError):
+        return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
+            "the request body nests deeper than the JSON parser allows; send a "
+            "dataframe_split table {\"columns\": [...], \"data\": [[...], ...]}",
+            "request"))}
+    if isinstance(exc, ValueError) and "integer string conversion" in str(exc):
+        return 400, {"error_code": "BAD_REQUEST", "message": _typed(ImplausibleValueError(
+            "the request body holds an integer of more than 4300 digits", "request"))}
+    _log.error("request failed", exc_info=exc)
+    return 500, {"error_code": "INTERNAL_ERROR",
+                 "message": f"internal error ({type(exc).__name__}); see the server log"}
+
+
+async def _send_json(send: Send, status: int, doc: dict) -> None:
+    body = json.dumps(doc).encode()
+    await send({"type": "http.response.start", "status": status,
+                "headers": [(b"content-type", b"application/json"),
+                            (b"content-length", str(len(body)).encode())]})
+    await send({"type": "http.response.body", "body": body})
+
+
+class RequestGuard:
+    """ASGI middleware in front of MLflow's scoring server app.
+
+    * a POST without ``Content-Length`` is answered 411, one over ``max_body_bytes`` 413,
+      one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500);
+    * every error answer (status >= 400) is rewritten to the project's JSON error: MLflow's
+      ``stack_trace`` field is dropped and the message is one line, ``<ErrorClass>: ...``
+      (:func:`project_message`); a plain-text answer (MLflow's 415, its 504 timeout)
+      becomes JSON as well;
+    * an exception that escapes MLflow's handler (a JSON body nested 100,000 deep raises
+      ``RecursionError`` in the parser) is answered 400 when it is the request's fault,
+      else 500 with one line (the traceback goes to the server log); the server keeps
+      serving either way.
+
+    Success answers pass through untouched and unbuffered.
+
+    Parameters
+    ----------
+    app : ASGI app
+        MLflow's scoring server app (or what wraps it).
+    max_body_bytes : int
+        Largest request body, bytes.
+    """
+
+    def __init__(self, app: Callable, max_body_bytes: int) -> None:
+        self.app = app
+        self.max_body_bytes = int(max_body_bytes)
+
+    def refusal(self, path: str, headers: dict[bytes, bytes]) -> tuple[int, dict] | None:
+        """Status and body refusing a POST from its path and headers alone, or None.
+
+        Parameters
+        ----------
+        path : str
+            Request path (the Content-Type is required on ``/invocations``).
+        headers : dict
+            Lower-case header name -> value (bytes, as ASGI gives them).
+
+        Returns
+        -------
+        tuple of (int, dict) or None
+        """
+        size = headers.get(b"content-length")
+        tail = "; send the streams in shorter pieces"
+        if size is None:
+            return 411, {"error_code": "REQUEST_LIMIT_EXCEEDED",
+                         "message": "DataFormatError: request without Content-Length (a "
+                                    "chunked body is not accepted); send the body with its "
+                                    "length"}
+        try:
+            n = int(size)
+        except ValueError:
+            return 400, {"error_code": "BAD_REQUEST",
+                         "message": "DataFormatError: Content-Length is not a number"}
+        if n > self.max_body_bytes:
+            return 413, {"error_code": "REQUEST_LIMIT_EXCEEDED",
+                         "message": f"DataFormatError: request body of {n} bytes exceeds "
+                                    f"the limit of {self.max_body_bytes}{tail}"}
+        if path == "/invocations" and not headers.get(b"content-type", b"").strip():
+            return 415, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
+                f"request without Content-Type; send one of {', '.join(CONTENT_TYPES)} "
+                "(JSON: a dataframe_split table)", "request"))}
+        return None
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        if scope["method"] == "POST":
+            refused = self.refusal(scope.get("path", ""), dict(scope["headers"]))
+            if refused is not None:
+                await _send_json(send, *refused)
+                return
+        held: dict = {"start": None, "parts": [], "sent": False}
+
+        async def guarded_send(message: Message) -> None:
+            if message["type"] == "http.response.start" and message["status"] >= 400:
+                held["start"] = message  # an error answer: rewritten once complete
+                return
+            if message["type"] == "http.response.body" and held["start"] is not None:
+                held["parts"].append(message.get("body", b""))
+                if message.get("more_body", False):
+                    return
+                status = held["start"]["status"]
+                held["sent"] = True
+                await _send_json(send, status, _error_body(status, b"".join(held["parts"])))
+                return
+            held["sent"] = held["sent"] or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, receive, guarded_send)
+        except Exception as exc:  # the server answers and keeps serving
+            if held["sent"]:
+                raise
+            await _send_json(send, *_failure(exc))
+
+
 def build_app(served_dir: Path, max_body_bytes: int):
-    """MLflow's scoring server app for ``served_dir`` with the request-size guard.
+    """MLflow's scoring server app for ``served_dir`` behind :class:`RequestGuard`.
 
     Parameters
     ----------
@@ -104,30 +353,87 @@ def build_app(served_dir: Path, max_body_bytes: int):
     -------
     fastapi.FastAPI
         ``/ping``, ``/health``, ``/version``, ``/invocations``.
+
+    Raises
+    ------
+    ConfigError
+        The served model cannot be loaded (e.g. its pipeline is not a classifier).
     """
     import mlflow.pyfunc
-    from fastapi.responses import JSONResponse
     from mlflow.pyfunc import scoring_server
 
     app = scoring_server.init(mlflow.pyfunc.load_model(str(served_dir)))
-
-    @app.middleware("http")
-    async def limit_body(request, call_next):
-        size = request.headers.get("content-length")
-        if request.method == "POST" and (size is None or int(size) > max_body_bytes):
-            message = (f"request body of {size} bytes exceeds the limit of {max_body_bytes}"
-                       if size else "request without Content-Length")
-            return JSONResponse({"error_code": "REQUEST_LIMIT_EXCEEDED",
-                                 "message": f"DataFormatError: {message}; send the streams "
-                                            "in shorter pieces"},
-                                status_code=413 if size else 411)
-        return await call_next(request)
-
+    # outermost of the app's middleware (inside only Starlette's 500 handler), so that it
+    # sees the exceptions MLflow's handler lets escape
+    app.add_middleware(RequestGuard, max_body_bytes=max_body_bytes)
     return app
 
 
+def bind_port(host: str, port: int) -> socket.socket:
+    """Bind the server's socket now, so a port in use is reported before any announcement.
+
+    Parameters
+    ----------
+    host : str
+        Address to bind.
+    port : int
+        TCP port, 0-65535 (0: the system picks a free one).
+
+    Returns
+    -------
+    socket.socket
+        Bound (not yet listening); uvicorn listens on it.
+
+    Raises
+    ------
+    ConfigError
+        Port out of range, in use, or not bindable.
+    """
+    if not 0 <= port <= 65535:
+        raise ConfigError(f"--port {port} is outside 1-65535 (0 picks a free port)")
+    # the socket uvicorn itself would bind (IPv6 for an address with a colon)
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        hint = " (another server listens there; choose another --port)" \
+            if exc.errno == errno.EADDRINUSE else ""
+        raise ConfigError(f"cannot serve on {host}:{port}: "
+                          f"{exc.strerror or type(exc).__name__}{hint}") from None
+    return sock
+
+
+class _Stopped(BaseException):
+    """SIGTERM or SIGINT: unwinds ``main`` so the temporary wrapped model is removed."""
+
+
+def _stop(signum: int, frame: Any) -> None:
+    raise _Stopped(signal.Signals(signum).name)
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    """Refuse out-of-range numbers before anything is started (ConfigError)."""
+    if not 0 <= args.port <= 65535:
+        raise ConfigError(f"--port {args.port} is outside 1-65535 (0 picks a free port)")
+    for name in ("max_body_bytes", "max_decisions"):
+        value = getattr(args, name, 1)
+        if not value > 0:
+            raise ConfigError(f"--{name.replace('_', '-')} must be a positive number of "
+                              f"{'bytes' if name == 'max_body_bytes' else 'decisions'}, "
+                              f"got {value}")
+    if not args.hop_s > 0:
+        raise ConfigError(f"--hop-s must be > 0, got {args.hop_s:g}")
+    if not args.dwell_s >= 0:
+        raise ConfigError(f"--dwell-s must be >= 0 (0 disables smoothing), got "
+                          f"{args.dwell_s:g}")
+    if not 0 <= args.min_confidence <= 1:
+        raise ConfigError(f"--min-confidence must be in [0, 1], got {args.min_confidence:g}")
+
+
 def main(args: argparse.Namespace) -> int:
-    """Wrap the model if needed and serve it until interrupted.
+    """Wrap the model if needed and serve it until SIGTERM or SIGINT.
 
     Parameters
     ----------
@@ -137,13 +443,15 @@ def main(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        Exit status 0.
+        Exit status 0 (also after SIGTERM / SIGINT: the server stopped gracefully and the
+        temporary wrapped model was removed).
 
     Raises
     ------
     ConfigError
-        ``--host`` is not a loopback address, or ``--model`` does not exist or is not a
-        terrain model.
+        ``--host`` is not a loopback address, ``--port`` is out of range or in use, a
+        number is out of range, or ``--model`` does not exist or is not a terrain model
+        (its pipeline must be a fitted classifier).
     """
     import uvicorn
 
@@ -153,15 +461,32 @@ def main(args: argparse.Namespace) -> int:
         loopback = False
     if not loopback:
         raise ConfigError(f"--host {args.host} is not a loopback address (use 127.0.0.1)")
+    _check_args(args)
     if not args.model.exists():
         raise ConfigError(f"model directory {args.model} does not exist")
-    with tempfile.TemporaryDirectory() as tmp:
-        served = args.model
-        if not is_served_model(args.model):
-            served = wrap_model(args.model, args.served_out or Path(tmp) / "served", args)
-            print(f"wrapped {args.model} into the streaming model {served}")
-        app = build_app(served, args.max_body_bytes)
-        print(f"serving {served} on http://{args.host}:{args.port}/invocations "
-              "(Ctrl-C stops)", flush=True)
-        uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    previous = {sig: signal.signal(sig, _stop) for sig in (signal.SIGTERM, signal.SIGINT)}
+    sock = None
+    try:
+        sock = bind_port(args.host, args.port)
+        port = sock.getsockname()[1]
+        with tempfile.TemporaryDirectory(prefix="terrain-serve-") as tmp:
+            served = args.model
+            if not is_served_model(args.model):
+                served = wrap_model(args.model, args.served_out or Path(tmp) / "served", args)
+                print(f"wrapped {args.model} into the streaming model {served}")
+            app = build_app(served, args.max_body_bytes)
+            sock.listen(2048)  # connections wait in the backlog until uvicorn accepts
+            host = f"[{args.host}]" if ":" in args.host else args.host
+            print(f"serving {served} on http://{host}:{port}/invocations "
+                  "(Ctrl-C stops)", flush=True)
+            config = uvicorn.Config(app, host=args.host, port=port, log_level="warning",
+                                    timeout_graceful_shutdown=5)
+            uvicorn.Server(config).run(sockets=[sock])
+    except _Stopped as stop:
+        print(f"terrain serve: stopped ({stop})", flush=True)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if sock is not None:
+            sock.close()
     return 0

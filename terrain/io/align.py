@@ -75,6 +75,53 @@ def overlap_grid(times_s: Sequence[np.ndarray], rate_hz: float) -> np.ndarray:
     return t0 + np.arange(n) / rate_hz
 
 
+def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: float,
+                      n_last: int) -> tuple[np.ndarray, int]:
+    """The last points of :func:`overlap_grid` earlier than a time, without building it.
+
+    A stream service aligns one window at a time; building the whole grid over a long
+    timestamp gap costs its length times the rate, for every window inside the gap.
+
+    Parameters
+    ----------
+    times_s : sequence of numpy.ndarray
+        As for :func:`overlap_grid`.
+    rate_hz : float
+        Rate of the clock, Hz (> 0).
+    before_s : float
+        Only grid points ``< before_s`` count, s.
+    n_last : int
+        How many of them, at most, to return (the latest).
+
+    Returns
+    -------
+    tail : numpy.ndarray
+        ``(min(n_last, end),)`` the points ``grid[end - n_last:end]``, equal to the values
+        of ``overlap_grid(times_s, rate_hz)``, s.
+    end : int
+        Number of grid points ``< before_s`` (0 when the spans do not overlap).
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not positive.
+    """
+    if not rate_hz > 0:
+        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
+    t0 = max(float(t[0]) for t in times_s)
+    t1 = min(float(t[-1]) for t in times_s)
+    if t1 <= t0:
+        return np.zeros(0), 0
+    n = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
+    # first k with t0 + k / rate >= before_s, on the grid's own float arithmetic
+    end = min(max(int(np.ceil((before_s - t0) * rate_hz)), 0), n)
+    while end > 0 and t0 + (end - 1) / rate_hz >= before_s:
+        end -= 1
+    while end < n and t0 + end / rate_hz < before_s:
+        end += 1
+    return t0 + np.arange(max(end - n_last, 0), end) / rate_hz, end
+
+
 def median_step(t_s: np.ndarray) -> float:
     """Median time step of increasing timestamps (the reference of the gap rule), s.
 

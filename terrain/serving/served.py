@@ -17,7 +17,17 @@ Request (a pandas frame, e.g. the ``dataframe_split`` JSON of ``mlflow models se
 Answer: one row per window, ``t_s, terrain, confidence, proba_<CLASS>...,
 target_slip_traction, target_slip_braking, target_slip_steady, window_age_s, flags,
 dropped``; ``dropped`` is true for a window that was not classified, and its reason is in
-``flags`` (``gap``, ``short``, ``stale``...).
+``flags`` (``gap``, ``short``, ``stale``...). The readers' run-level plausibility rules
+(:func:`terrain.io.plausibility.check_run`) apply to the request: a certain finding (wheel
+speeds in km/h, gyro in deg/s, clocks that do not overlap) refuses it, a stuck channel flags
+the windows holding it (``stuck:<stream>.<channel>``, as ``terrain predict``) and a likely
+unit problem flags every window (``warning:<rule>``); neither drops a window.
+
+A window holding a timestamp gap costs the same as any other (the service aligns only its
+window's end of the streams' grid, :func:`terrain.io.align.overlap_grid_tail`; the window is
+a dropped ``gap`` row), and a request whose time span would make more than
+``max_decisions`` decisions is refused before any work, so the cost of a request is bounded
+by its rows and the limits, never by the length of a gap in it.
 
 A malformed request raises :class:`ServedInputError`, an
 :class:`mlflow.exceptions.MlflowException` whose message is the project's typed message
@@ -29,6 +39,9 @@ otherwise prepend a dump of the request frame).
 from __future__ import annotations
 
 import logging
+import math
+import re
+from numbers import Real
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -37,13 +50,16 @@ import pandas as pd
 
 from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
-from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
-                            NonNumericError, TerrainError, TimestampError)
-from terrain.io.plausibility import NOMINAL_RATE_HZ, check_ranges, check_rate
+from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
+                            MissingColumnError, NonFiniteError, NonNumericError, TerrainError,
+                            TimestampError, first_items)
+from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_ranges, check_rate, check_run,
+                                     stuck_window_flags)
 from terrain.run import TIME, Run
 from terrain.serving.model import PIPELINE_ARTIFACT, StreamModel, load_stream_model
 from terrain.serving.replay import replay_run
-from terrain.serving.service import StreamConfig, StreamService, decisions_frame
+from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
+                                     decisions_frame)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -59,6 +75,11 @@ STREAM = "stream"
 MAX_REPAIR_RUN = 2
 #: flags of a window that was not classified
 DROP_FLAGS = ("gap", "short")
+#: default limit of the decisions one request may make (its time span / hop_s)
+MAX_DECISIONS = 20_000
+#: vehicle whose datasheet bounds the run-level rules use when the model names none (the
+#: readers' default: the measured data is all Clearpath Husky)
+DEFAULT_VEHICLE = "husky"
 _log = logging.getLogger(__name__)
 
 
@@ -92,7 +113,8 @@ class ServedInputError(MlflowException):
 
 
 def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | None = 10.0,
-                    min_confidence: float = 0.5, max_rows: int = 200_000) -> dict:
+                    min_confidence: float = 0.5, max_rows: int = 200_000,
+                    max_decisions: int = MAX_DECISIONS) -> dict:
     """Settings of the served model (stored as its MLflow ``model_config``).
 
     Parameters
@@ -100,35 +122,155 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
     model : StreamModel
         The classifier and its window.
     hop_s : float
-        Time between decisions, s.
+        Time between decisions, s; at least one period of the model's clock
+        (``1 / rate_hz``): deciding more often gives no new sample to decide on.
     dwell_s : float or None
-        Expected time on one terrain of the forward filter, s (None: no smoothing).
+        Expected time on one terrain of the forward filter, s (> 0; None: no smoothing).
     min_confidence : float
-        Smoothed probability below which the table's conservative target is used.
+        Smoothed probability below which the table's conservative target is used, in [0, 1].
     max_rows : int
         Largest request, rows (a larger one is refused).
+    max_decisions : int
+        Most decisions one request may make (its time span over ``hop_s``; a request that
+        would make more is refused before any work).
 
     Returns
     -------
     dict
-        JSON-serialisable settings.
+        JSON-serialisable settings; ``vehicle`` is the model metadata's vehicle (the
+        readers' default ``husky`` when it names none), whose bounds the run-level
+        plausibility rules use.
+
+    Raises
+    ------
+    ConfigError
+        A setting out of its range.
     """
-    return {"kind": "terrain-stream", "channels": list(model.channels),
-            "classes": list(model.classes), "window_s": model.window.window_s,
-            "rate_hz": model.window.rate_hz, "hop_s": float(hop_s),
-            "dwell_s": None if dwell_s is None else float(dwell_s),
-            "min_confidence": float(min_confidence), "max_rows": int(max_rows)}
+    settings = {"kind": "terrain-stream", "channels": list(model.channels),
+                "classes": list(model.classes), "window_s": model.window.window_s,
+                "rate_hz": model.window.rate_hz, "hop_s": float(hop_s),
+                "dwell_s": None if dwell_s is None else float(dwell_s),
+                "min_confidence": float(min_confidence), "max_rows": int(max_rows),
+                "max_decisions": int(max_decisions),
+                "vehicle": str(model.metadata.get("vehicle") or DEFAULT_VEHICLE)}
+    check_settings(settings)
+    return settings
+
+
+def check_settings(settings: Mapping[str, Any]) -> None:
+    """Refuse served-model settings out of their range (see :func:`served_settings`).
+
+    Parameters
+    ----------
+    settings : Mapping
+        ``hop_s``, ``rate_hz``, ``dwell_s``, ``min_confidence``, ``max_rows`` and (optional,
+        absent in models wrapped before it existed) ``max_decisions``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the setting, its value and its range.
+    """
+    period = 1.0 / float(settings["rate_hz"])
+    hop, dwell = float(settings["hop_s"]), settings.get("dwell_s")
+    if not (math.isfinite(hop) and hop >= period):
+        raise ConfigError(f"hop_s {hop:g} s is shorter than one period of the model's "
+                          f"{float(settings['rate_hz']):g} Hz clock ({period:g} s) or not "
+                          "finite; decisions that often would decide on no new sample")
+    if dwell is not None and not (math.isfinite(float(dwell)) and float(dwell) > 0):
+        raise ConfigError(f"dwell_s must be > 0 (or none for no smoothing), got {dwell}")
+    conf = float(settings["min_confidence"])
+    if not 0.0 <= conf <= 1.0:
+        raise ConfigError(f"min_confidence must be in [0, 1], got {conf:g}")
+    for key in ("max_rows", "max_decisions"):
+        if key in settings and not int(settings[key]) > 0:
+            raise ConfigError(f"{key} must be a positive number, got {settings[key]}")
+
+
+def check_classifier(pipeline: Any, source: str) -> None:
+    """Refuse a loaded ``pipeline.joblib`` that is not a fitted probabilistic classifier.
+
+    A minimal local check (``predict_proba`` and ``classes_``), so that a model directory
+    holding something else fails when the server starts, not on every request.
+
+    Parameters
+    ----------
+    pipeline : object
+        What the model's ``pipeline.joblib`` holds.
+    source : str
+        The file or model it came from (for the message).
+
+    Raises
+    ------
+    ConfigError
+        When ``pipeline`` lacks ``predict_proba`` or ``classes_``.
+    """
+    lacks = [a for a in ("predict_proba", "classes_") if not hasattr(pipeline, a)]
+    if lacks or not callable(getattr(pipeline, "predict_proba", None)):
+        raise ConfigError(f"{source} holds a {type(pipeline).__name__}, not a fitted "
+                          f"classifier (it lacks {' and '.join(lacks) or 'predict_proba'}); "
+                          "write the model with `terrain train --model-out`")
 
 
 def _numeric(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) -> np.ndarray:
-    """Column ``col`` at ``rows`` as float; NonNumericError naming the first bad row."""
+    """Column ``col`` at ``rows`` as float; a typed error naming the first bad row.
+
+    Text (``NonNumericError``), a boolean (``NonNumericError``: JSON ``true`` is not 1.0)
+    and a number beyond the float range (``ImplausibleValueError``, e.g. an integer of 400
+    digits) are refused; empty cells are NaN.
+    """
     raw = frame[col].to_numpy()[rows]
-    values = pd.to_numeric(pd.Series(raw), errors="coerce").to_numpy(dtype=float)
+    if raw.dtype.kind in "iuf":
+        return raw.astype(float)
+    if raw.size == 0:
+        return np.zeros(0)
+    if raw.dtype.kind == "b":
+        is_bool = np.ones(raw.size, dtype=bool)
+    elif raw.dtype.kind != "O":  # dates, durations, complex numbers (e.g. from Parquet)
+        raise NonNumericError(f"{raw.dtype} value {_short(raw[0])} where a number is "
+                              "expected", where, col, int(rows[0]))
+    else:
+        is_bool = np.fromiter((isinstance(x, (bool, np.bool_)) for x in raw), bool, raw.size)
+    if is_bool.any():
+        i = int(np.flatnonzero(is_bool)[0])
+        raise NonNumericError(f"boolean value {bool(raw[i])} where a number is expected "
+                              f"({int(is_bool.sum())} such value(s))", where, col,
+                              int(rows[i]))
+    try:
+        values = pd.to_numeric(pd.Series(raw), errors="coerce").to_numpy(dtype=float)
+    except (OverflowError, TypeError, ValueError):  # a cell pandas cannot even coerce
+        values = np.array([_to_float(x, where, col, int(r)) for x, r in zip(raw, rows)])
     bad = np.flatnonzero(np.isnan(values) & pd.notna(pd.Series(raw)).to_numpy())
     if bad.size:
-        raise NonNumericError(f"non-numeric value {raw[bad[0]]!r} ({bad.size} such value(s))",
-                              where, col, int(rows[bad[0]]))
+        raise NonNumericError(f"non-numeric value {_short(raw[bad[0]])} ({bad.size} such "
+                              "value(s))", where, col, int(rows[bad[0]]))
     return values
+
+
+def _to_float(x: Any, where: str, col: str, row: int) -> float:
+    """One cell as float: NaN for text or an object (refused by the caller), an error for
+    a number beyond the float range."""
+    if isinstance(x, Real):
+        try:
+            return float(x)
+        except OverflowError:
+            size = (f": an integer of about {int(x.bit_length() * math.log10(2)) + 1} digits"
+                    if isinstance(x, int) else "")
+            raise ImplausibleValueError(
+                f"number beyond the float range (|x| < {np.finfo(float).max:.4g}){size}",
+                where, col, row) from None
+    if isinstance(x, str):
+        try:
+            return float(x)
+        except ValueError:
+            return float("nan")
+    return float("nan")
+
+
+def _short(value: Any, limit: int = 40) -> str:
+    """``repr`` of a cell, cut to ``limit`` characters for a message."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[str],
@@ -148,7 +290,9 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
     check_rate(t, stream, where)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]
-        rate = 1.0 / float(np.median(dt))
+        # judged on the rate as the message prints it (4 significant digits), so a stream at
+        # the nominal bound (float steps of 1 ms give 1000.0000000006 Hz) is inside it
+        rate = float(f"{1.0 / float(np.median(dt)):.4g}")
         if not lo <= rate <= hi:
             raise DataFormatError(f"stream {stream!r}: median step implies {rate:.4g} Hz, "
                                   f"outside its nominal {lo:g}-{hi:g} Hz (timestamps in s?)",
@@ -174,8 +318,18 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
 
 
 def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
-                  window_s: float, max_rows: int, where: str = "request") -> Run:
+                  window_s: float, max_rows: int, where: str = "request",
+                  known_streams: Sequence[str] = tuple(KNOWN_STREAMS),
+                  vehicle: str = DEFAULT_VEHICLE) -> Run:
     """Validate a request frame (long or wide, see module docstring) into a :class:`Run`.
+
+    In the long format every row's ``stream`` must be one of ``known_streams``: a row of an
+    unknown stream (``gps``, an empty cell, a number, or a typo such as ``wheel``) refuses
+    the whole request, naming the unknown values and the known ones. A typo would otherwise
+    lose that stream's samples without a word (the service ignores streams it does not
+    know), and the answer could only report it as fewer decisions. Rows of a known stream
+    that the model does not need (IMU rows sent to a wheel-only model) are ignored, as the
+    in-process service ignores them.
 
     Parameters
     ----------
@@ -189,26 +343,36 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         Largest accepted request, rows.
     where : str
         Name of the input in messages.
+    known_streams : sequence of str
+        Stream names a long-format request may hold.
+    vehicle : str
+        Vehicle whose bounds the run-level rules of
+        :func:`terrain.io.plausibility.check_run` use.
 
     Returns
     -------
     Run
-        One frame per needed stream (``t_s`` + channels), in the request's time order.
+        One frame per needed stream (``t_s`` + channels), in the request's time order;
+        ``meta`` holds the run-level findings (``stuck``, ``warnings``) of
+        :func:`~terrain.io.plausibility.check_run`.
 
     Raises
     ------
     DataFormatError
-        Too many rows, a stream that is too short or at an implausible rate.
+        Too many rows, an unknown stream name, a stream that is too short or at an
+        implausible rate.
     MissingColumnError
         A needed stream or channel is absent.
     NonNumericError
-        A value that is not a number.
+        A value that is not a number (text, a boolean).
     TimestampError
         Unsorted or duplicated timestamps within a stream.
     NonFiniteError
         A non-finite timestamp or a burst of non-finite values.
-    ImplausibleValueError, UnitError
-        A value beyond its channel's plausibility range; timestamps in ms.
+    ImplausibleValueError, UnitError, ClockError
+        A value beyond its channel's plausibility range or the float range; timestamps in
+        ms, wheel speeds in km/h or a gyro in deg/s (certain findings of the readers'
+        rules); streams whose clocks do not overlap.
     """
     if not isinstance(frame, pd.DataFrame):
         raise DataFormatError(f"expected a table of samples, got {type(frame).__name__}",
@@ -217,6 +381,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         raise DataFormatError(f"request of {len(frame)} rows exceeds the limit of {max_rows}; "
                               "send the streams in shorter pieces", where)
     long = STREAM in frame.columns
+    if long:
+        _check_stream_names(frame[STREAM].to_numpy(), known_streams, where)
     out = {}
     for stream, channels in streams.items():
         tcol = TIME if long else f"{stream}_{TIME}"
@@ -238,7 +404,75 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
         check_ranges(part, where, {c: c for c in channels})
         out[stream] = part
-    return Run("request", "request", None, out)
+    # the readers' run-level rules (units, clocks, stuck sensors); certain findings raise
+    checks = check_run(where, out, vehicle, {s: where for s in out})
+    return Run("request", "request", None, out, vehicle=vehicle, source=where, meta=checks)
+
+
+def _check_stream_names(names: np.ndarray, known: Sequence[str], where: str) -> None:
+    """Refuse rows whose ``stream`` is not a known stream name (see :func:`parse_request`)."""
+    known_set = set(known)
+    ok = np.fromiter((isinstance(x, str) and x in known_set for x in names), bool,
+                     names.size)
+    if ok.all():
+        return
+    bad = np.flatnonzero(~ok)
+    values: list[str] = []
+    for x in names[bad]:
+        text = "empty" if x is None or (isinstance(x, float) and math.isnan(x)) \
+            else _short(x, 30)
+        if text not in values:
+            values.append(text)
+    raise DataFormatError(
+        f"unknown stream {', '.join(values[:5])}"
+        + (f" and {len(values) - 5} more" if len(values) > 5 else "")
+        + f" in {bad.size} row(s), {first_items(bad, word='data row')} (0-based); the known "
+        f"streams are {', '.join(repr(k) for k in known)} (a misspelt stream would lose its "
+        "samples)", where, STREAM, int(bad[0]))
+
+
+def planned_decisions(run: Run, window_s: float, hop_s: float) -> int:
+    """Most decisions the service can make on ``run`` (one per ``hop_s`` of its time span).
+
+    The first decision is due one window after the streams start, the last at the newest
+    sample; this bounds the work of a request before any is done.
+
+    Parameters
+    ----------
+    run : Run
+        Validated request (non-empty streams).
+    window_s : float
+        Window length, s.
+    hop_s : float
+        Time between decisions, s.
+
+    Returns
+    -------
+    int
+        An upper bound of the number of decisions (0 when the span is shorter than a
+        window).
+    """
+    first = min(float(f[TIME].iloc[0]) for f in run.streams.values())
+    last = max(float(f[TIME].iloc[-1]) for f in run.streams.values())
+    span = last - first - window_s
+    return int(math.floor(span / hop_s)) + 1 if span >= 0 else 0
+
+
+def _plausibility_flags(flags: np.ndarray, t_s: np.ndarray, window_s: float,
+                        checks: Mapping[str, Any]) -> list[str]:
+    """Decision flags plus the run-level findings: ``stuck:<stream>.<channel>`` on the
+    windows ``[t - window_s, t)`` holding a stuck stretch, ``warning:<rule>`` on every
+    window when a rule found a likely problem (the service still decided)."""
+    stuck = stuck_window_flags(checks.get("stuck", {}), t_s - window_s, t_s)
+    rules = sorted({m.group(1) for w in checks.get("warnings", ())
+                    for m in [re.search(r"rule (\w+)", w)] if m})
+    out = []
+    for f, s in zip(flags, stuck):
+        parts = [x for x in str(f).split("|") if x]
+        parts += [s] if s else []
+        parts += [f"warning:{r}" for r in rules]
+        out.append("|".join(sorted(parts)))
+    return out
 
 
 class ServedStreamModel(PythonModel):
@@ -260,13 +494,22 @@ class ServedStreamModel(PythonModel):
         ----------
         context : mlflow.pyfunc.PythonModelContext
             ``artifacts["pipeline"]`` and ``model_config``.
+
+        Raises
+        ------
+        ConfigError
+            The pipeline artifact is not a fitted classifier, or a setting is out of range
+            (so a broken model fails when the server starts, not on every request).
         """
         import joblib
 
-        s = dict(context.model_config)
+        s = {"max_decisions": MAX_DECISIONS, "vehicle": DEFAULT_VEHICLE,
+             **dict(context.model_config)}
+        check_settings(s)
         self.settings = s
-        self.model = StreamModel(joblib.load(context.artifacts["pipeline"]),
-                                 tuple(s["channels"]),
+        pipeline = joblib.load(context.artifacts["pipeline"])
+        check_classifier(pipeline, f"pipeline artifact {context.artifacts['pipeline']}")
+        self.model = StreamModel(pipeline, tuple(s["channels"]),
                                  WindowConfig(window_s=float(s["window_s"]),
                                               rate_hz=float(s["rate_hz"])),
                                  tuple(s["classes"]))
@@ -287,12 +530,31 @@ class ServedStreamModel(PythonModel):
         -------
         pandas.DataFrame
             One row per window (see module docstring).
+
+        Raises
+        ------
+        DataFormatError
+            Besides :func:`parse_request`'s errors: a request whose time span would make
+            more than ``max_decisions`` decisions.
         """
         service = StreamService(self.model, self.targets, self.config)
         streams = {s: service.streams[s] for s in service.needed_streams}
-        run = parse_request(frame, streams, self.model.window.window_s,
-                            int(self.settings["max_rows"]))
+        window_s = self.model.window.window_s
+        run = parse_request(frame, streams, window_s, int(self.settings["max_rows"]),
+                            known_streams=tuple(self.config.streams),
+                            vehicle=str(self.settings["vehicle"]))
+        limit, hop = int(self.settings["max_decisions"]), float(self.config.hop_s)
+        planned = planned_decisions(run, window_s, hop)
+        if planned > limit:
+            span = (max(float(f[TIME].iloc[-1]) for f in run.streams.values())
+                    - min(float(f[TIME].iloc[0]) for f in run.streams.values()))
+            raise DataFormatError(f"request spanning {span:.6g} s would make {planned} "
+                                  f"decisions (one every {hop:g} s), above the limit of "
+                                  f"{limit}; send the streams in shorter pieces (a time jump "
+                                  "in a stream counts as its length)", "request", TIME)
         out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)
+        out["flags"] = _plausibility_flags(out["flags"].to_numpy(), out["t_s"].to_numpy(),
+                                           window_s, run.meta)
         out["dropped"] = out["flags"].str.split("|").apply(
             lambda f: any(x in DROP_FLAGS for x in f))
         out["terrain"] = out["terrain"].fillna("")

@@ -7,8 +7,8 @@ unbounded stream. Every ``hop_s`` of service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns the last window of the model's length with the project's NumPy alignment core
-   (:func:`terrain.io.align.overlap_grid` and :func:`terrain.io.align.align_arrays`, the
-   step the batch readers' :func:`~terrain.io.align.align_streams` runs) and adds the
+   (:func:`terrain.io.align.overlap_grid_tail`, the window's end of ``overlap_grid``, and
+   :func:`terrain.io.align.align_arrays`, the step the batch readers' :func:`~terrain.io.align.align_streams` runs) and adds the
    derived wheel channels (:func:`features.windows.derived_wheel_arrays`); the whole
    per-decision path works on arrays, no data frame,
 3. classifies it with the fitted pipeline (the model's own feature code),
@@ -39,7 +39,7 @@ import pandas as pd
 
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
-from terrain.io.align import align_arrays, overlap_grid
+from terrain.io.align import align_arrays, overlap_grid_tail
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
@@ -276,18 +276,17 @@ class StreamService:
                 gap = True
             times.append(ts)
             values.append(vs)
-        grid = overlap_grid(times, w.rate_hz)
-        if grid.size == 0:  # streams do not overlap inside the window
+        # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s):
+        # the last n points of the streams' common grid before t (only those are built, so
+        # a window inside a long timestamp gap costs no more than any other)
+        tail, end = overlap_grid_tail(times, w.rate_hz, t - 1e-9, self._n)
+        if end == 0:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
-        # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s)
-        end = int(np.searchsorted(grid, t - 1e-9, side="left"))
-        period = 1.0 / w.rate_hz
+        age = max(0.0, t - float(tail[-1]) - 1.0 / w.rate_hz)
         if end < self._n:
-            age = max(0.0, t - float(grid[end - 1]) - period) if end else np.inf
             return None, age, {"short"}
-        age = max(0.0, t - float(grid[end - 1]) - period)
-        aligned = align_arrays(times, values, grid[end - self._n:end], w.rate_hz,
-                               self.config.gap_factor, steps).T
+        aligned = align_arrays(times, values, tail, w.rate_hz, self.config.gap_factor,
+                               steps).T
         if self._wheel_cols is not None:
             derived = derived_wheel_arrays(*aligned[self._wheel_cols])
             aligned = np.concatenate([aligned, np.stack(list(derived.values()))])

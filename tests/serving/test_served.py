@@ -1,30 +1,40 @@
 """The served streaming model: raw streams in, the service's decisions out, typed 4xx errors.
 
 The in-process tests go through MLflow's own request handler
-(:func:`mlflow.pyfunc.scoring_server.invocations`, what ``/invocations`` runs); the last
-test starts a real ``terrain serve`` on 127.0.0.1 and checks it survives bad requests.
+(:func:`mlflow.pyfunc.scoring_server.invocations`, what ``/invocations`` runs); the tests of
+the HTTP layer share one real ``terrain serve`` on 127.0.0.1 (the ``server`` fixture): bodies
+MLflow's own parsers refuse, a missing Content-Type, a time jump, and SIGTERM (the last test,
+which stops it). The startup checks of ``terrain serve`` run in-process (they fail before
+serving).
 """
 
 from __future__ import annotations
 
+import http.client
 import json
+import re
+import shutil
+import signal
 import socket
 import subprocess
 import sys
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.run import WHEEL_CHANNELS
 from terrain.serving.pyfunc import save_model
 from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
                              replay_run)
-from terrain.serving.served import parse_request, save_served_model, served_settings
+from terrain.serving.served import (_plausibility_flags, check_classifier,
+                                    parse_request, planned_decisions, save_served_model,
+                                    served_settings)
 from terrain.control import DesiredSlipConfig
 
 COLUMNS = ["stream", "t_s", *WHEEL_CHANNELS]
@@ -179,10 +189,181 @@ def test_serve_refuses_a_non_loopback_host(model_dirs, capsys):
     assert "not a loopback address" in capsys.readouterr().err
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def _error(served, frame) -> str:
+    status, body = _call(served, frame)
+    assert status == 400, body
+    assert not body.get("stack_trace") and len(body["message"]) < 600
+    return body["message"]
+
+
+@pytest.mark.parametrize("value", ["gps", None, 7, "wheel"])
+def test_unknown_stream_is_a_typed_400(served, request_frame, value):
+    frame = request_frame.astype({"stream": object})
+    frame.loc[[3, 9], "stream"] = value
+    message = _error(served, frame)
+    assert message.startswith("DataFormatError: unknown stream ")
+    assert ("empty" if value is None else repr(value)) in message
+    assert "'imu', 'wheels'" in message and "data rows 3, 9" in message
+
+
+def test_boolean_in_a_number_column_is_a_typed_400(served, request_frame):
+    frame = request_frame.astype({"cur_r": object})
+    frame.loc[7, "cur_r"] = True  # JSON true, which pandas would read as 1.0
+    message = _error(served, frame)
+    assert message.startswith("NonNumericError: boolean value True")
+    assert "column 'cur_r', data row 7" in message
+
+
+def test_huge_integer_is_a_typed_400(served, request_frame):
+    from mlflow.exceptions import MlflowException
+    from mlflow.pyfunc import scoring_server
+
+    frame = request_frame.assign(t_s=request_frame["t_s"].astype(object))
+    frame.loc[2, "t_s"] = 123456.75
+    body = _body(frame).replace("123456.75", "1" + "0" * 400)
+    with pytest.raises(MlflowException) as info:
+        scoring_server.invocations(body, "application/json", served, None)
+    assert info.value.get_http_status_code() == 400
+    assert info.value.message.startswith("ImplausibleValueError: number beyond the float")
+    assert "column 't_s', data row 2" in info.value.message
+
+
+def test_wheel_speeds_in_kmh_are_refused_as_the_readers_do(served, request_frame):
+    """The readers' rule wheel_speed_units: above twice the Husky's top speed is certain."""
+    message = _error(served, request_frame.assign(vel_l=3.4, vel_r=-3.4))
+    assert message.startswith("UnitError: rule wheel_speed_units")
+    # likely (above 1.2 x top speed): decided, every window flagged
+    status, body = _call(served, request_frame.assign(vel_l=1.5, vel_r=-1.5))
+    assert status == 200
+    got = pd.DataFrame(body["predictions"])
+    assert got["flags"].str.contains("warning:wheel_speed_units").all()
+
+
+def test_plausibility_flags():
+    checks = {"stuck": {"wheels.cur_l": [[5.0, 6.0]]},
+              "warnings": ["request: rule gyro_units: gyro spread 0.5 rad/s ..."]}
+    flags = _plausibility_flags(np.array(["", "gap", ""]), np.array([4.0, 6.5, 9.0]), 2.0,
+                                checks)
+    assert flags == ["warning:gyro_units", "gap|stuck:wheels.cur_l|warning:gyro_units",
+                     "warning:gyro_units"]
+
+
+def _synthetic(step_s: float, n: int) -> pd.DataFrame:
+    rng = np.random.default_rng(0)
+    return pd.DataFrame({"stream": "wheels", "t_s": 10.0 + np.arange(n) * step_s,
+                         "vel_l": 0.2, "vel_r": 0.2, "cur_l": rng.uniform(5, 20, n),
+                         "cur_r": rng.uniform(5, 20, n)})
+
+
+def test_rate_at_the_nominal_bound_is_accepted_and_the_message_agrees():
+    streams = {"wheels": WHEEL_CHANNELS}
+    # 1 ms float steps imply 1000.0000000006 Hz: the nominal 1-1000 Hz (was refused)
+    parse_request(_synthetic(0.001, 2500), streams, 2.0, 10_000)
+    with pytest.raises(DataFormatError, match=r"implies 1010 Hz, outside its nominal "
+                                              r"1-1000 Hz"):
+        parse_request(_synthetic(0.00099, 2500), streams, 2.0, 10_000)
+
+
+def _replay(service_cls, model, frame):
+    service = service_cls(model, TableTargets(model.classes,
+                                              DesiredSlipConfig(min_confidence=0.5)),
+                          StreamConfig(hop_s=0.5))
+    run = parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 10_000)
+    return decisions_frame(replay_run(service, run, max_chunk=32), model.classes)
+
+
+def test_windows_over_a_gap_are_those_of_the_whole_grid_without_building_it(
+        wheel_model, request_frame, monkeypatch):
+    """The service aligns only its window's end of the streams' grid: the decisions over
+    gaps, short and long, are those of the whole grid (how it aligned before), and no window
+    builds more grid than its own (it built the whole gap, per window, so a request with
+    one large time jump took minutes)."""
+    from terrain.io.align import overlap_grid, overlap_grid_tail
+    from terrain.serving import service as service_module
+
+    frame = request_frame.drop(index=range(15, 25))  # a hole of ~1.5 s
+    frame.loc[frame.index >= frame.index[len(frame) // 2], "t_s"] += 40.0  # a jump of 40 s
+    sizes = []
+
+    def tail(times, rate_hz, before_s, n_last):
+        out = overlap_grid_tail(times, rate_hz, before_s, n_last)
+        sizes.append(out[0].size)
+        return out
+
+    monkeypatch.setattr(service_module, "overlap_grid_tail", tail)
+    got = _replay(StreamService, wheel_model, frame)
+
+    def whole_grid(times, rate_hz, before_s, n_last):
+        grid = overlap_grid(times, rate_hz)
+        end = int(np.searchsorted(grid, before_s, side="left"))
+        return grid[max(end - n_last, 0):end], end
+
+    monkeypatch.setattr(service_module, "overlap_grid_tail", whole_grid)
+    want = _replay(StreamService, wheel_model, frame)
+    pd.testing.assert_frame_equal(got, want)
+    assert want["flags"].str.contains("gap").sum() > 80
+    assert max(sizes) <= 2.0 * wheel_model.window.rate_hz
+
+
+def test_decisions_are_bounded_before_any_work(served, request_frame, wheel_model):
+    run = parse_request(request_frame, {"wheels": WHEEL_CHANNELS}, 2.0, 10_000)
+    status, body = _call(served, request_frame)
+    assert planned_decisions(run, 2.0, 0.5) - 1 <= len(body["predictions"]) \
+        <= planned_decisions(run, 2.0, 0.5)
+    frame = request_frame.copy()
+    frame.loc[50:, "t_s"] += 1e5
+    message = _error(served, frame)
+    assert message.startswith("DataFormatError: request spanning ")
+    assert "above the limit of 20000" in message and "column 't_s'" in message
+
+
+def test_settings_and_classifier_are_checked(wheel_model):
+    with pytest.raises(ConfigError, match="shorter than one period"):
+        served_settings(wheel_model, hop_s=1e-4)
+    with pytest.raises(ConfigError, match="max_decisions"):
+        served_settings(wheel_model, max_decisions=0)
+    with pytest.raises(ConfigError, match="lacks predict_proba and classes_"):
+        check_classifier({"a": 1}, "pipeline.joblib")
+    check_classifier(wheel_model.pipeline, "pipeline.joblib")
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--port", "70000"], "--port 70000 is outside 1-65535"),
+    (["--port", "-1"], "--port -1 is outside 1-65535"),
+    (["--max-body-bytes", "-1"], "--max-body-bytes must be a positive number"),
+    (["--max-decisions", "0"], "--max-decisions must be a positive number"),
+    (["--min-confidence", "1.5"], "--min-confidence must be in [0, 1]"),
+])
+def test_serve_refuses_bad_numbers_in_one_line(model_dirs, capsys, argv, words):
+    from terrain.cli import main
+    assert main(["serve", "--model", str(model_dirs[0]), *argv]) == 2
+    out, err = capsys.readouterr()
+    assert words in err and len(err.strip().splitlines()) == 1 and "serving" not in out
+
+
+def test_serve_refuses_a_port_in_use_before_announcing(model_dirs, capsys):
+    from terrain.cli import main
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert main(["serve", "--model", str(model_dirs[0]), "--port", str(port)]) == 2
+    out, err = capsys.readouterr()
+    assert f"127.0.0.1:{port}" in err and "in use" in err and "serving" not in out
+    assert len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("kind", ["train", "served"])
+def test_serve_refuses_a_model_that_is_not_a_classifier(model_dirs, tmp_path, capsys, kind):
+    import joblib
+    from terrain.cli import main
+
+    bad = tmp_path / kind
+    shutil.copytree(model_dirs[0] if kind == "train" else model_dirs[1], bad)
+    joblib.dump({"not": "a classifier"}, bad / "artifacts" / "pipeline.joblib")
+    assert main(["serve", "--model", str(bad), "--port", "0"]) == 2
+    out, err = capsys.readouterr()
+    assert "dict" in err and "not a fitted classifier" in err and "serving" not in out
 
 
 def _post(url: str, body: bytes) -> tuple[int, dict]:
@@ -194,34 +375,147 @@ def _post(url: str, body: bytes) -> tuple[int, dict]:
         return exc.code, json.loads(exc.read())
 
 
-def test_real_server_answers_and_survives_bad_requests(model_dirs, request_frame):
-    port = _free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "terrain.cli", "serve", "--model",
-                             str(model_dirs[0]), "--host", "127.0.0.1", "--port", str(port),
-                             "--max-body-bytes", "100000"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    base = f"http://127.0.0.1:{port}"
+def _raw(base: str, body: bytes, content_type: str | None,
+         timeout: float = 30) -> tuple[int, dict]:
+    """(status, JSON body) of a POST to /invocations with exactly this Content-Type (or
+    none at all: urllib would add one)."""
+    conn = http.client.HTTPConnection(base.removeprefix("http://"), timeout=timeout)
     try:
-        deadline = time.monotonic() + 45
-        while True:
-            assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
-            try:
-                urllib.request.urlopen(base + "/ping", timeout=2).close()
-                break
-            except OSError:
-                assert time.monotonic() < deadline, "server did not start within 45 s"
-                time.sleep(0.3)
-        good = _body(request_frame).encode()
-        status, body = _post(base + "/invocations", good)
-        assert status == 200 and len(body["predictions"]) >= 10
-        status, body = _post(base + "/invocations", _body(_dup(request_frame)).encode())
-        assert status == 400 and body["message"].startswith("TimestampError: ")
-        big = pd.concat([request_frame] * 40, ignore_index=True)
-        status, body = _post(base + "/invocations", _body(big).encode())
-        assert status == 413 and "exceeds the limit of 100000" in body["message"]
-        status, body = _post(base + "/invocations", b'{"dataframe_split": ')
-        assert 400 <= status < 500 and "Traceback" not in json.dumps(body)
-        assert _post(base + "/invocations", good)[0] == 200  # still up
+        headers = {"Content-Length": str(len(body))}
+        if content_type is not None:
+            headers["Content-Type"] = content_type
+        conn.request("POST", "/invocations", body, headers)
+        res = conn.getresponse()
+        return res.status, json.loads(res.read())
     finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+        conn.close()
+
+
+@pytest.fixture(scope="module")
+def server(model_dirs, tmp_path_factory):
+    """A real ``terrain serve`` of the wheel model on 127.0.0.1 (one for the module):
+    ``(process, base URL, wrapped model dir)``; the last test stops it with SIGTERM."""
+    log = tmp_path_factory.mktemp("serve_log") / "stderr.txt"
+    with open(log, "wb") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "terrain.cli", "serve", "--model",
+                                 str(model_dirs[0]), "--host", "127.0.0.1", "--port", "0",
+                                 "--max-body-bytes", "100000"],
+                                stdout=subprocess.PIPE, stderr=err, text=True)
+    try:
+        line, deadline = "", time.monotonic() + 60
+        while not line.startswith("serving "):
+            line = proc.stdout.readline()
+            assert line or proc.poll() is None, log.read_text()[-2000:]
+            assert time.monotonic() < deadline, "server did not start within 60 s"
+        found = re.search(r"^serving (\S+) on (http://127\.0\.0\.1:\d+)/invocations", line)
+        assert found, line
+        base = found.group(2)
+        # announced only once the port is bound and listening: no retry loop needed
+        urllib.request.urlopen(base + "/ping", timeout=20).close()
+        yield proc, base, Path(found.group(1))
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10)
+        proc.stdout.close()
+
+
+def test_real_server_answers_and_survives_bad_requests(server, request_frame):
+    proc, base, _ = server
+    good = _body(request_frame).encode()
+    status, body = _post(base + "/invocations", good)
+    assert status == 200 and len(body["predictions"]) >= 10
+    status, body = _post(base + "/invocations", _body(_dup(request_frame)).encode())
+    assert status == 400 and body["message"].startswith("TimestampError: ")
+    big = pd.concat([request_frame] * 40, ignore_index=True)
+    status, body = _post(base + "/invocations", _body(big).encode())
+    assert status == 413 and "exceeds the limit of 100000" in body["message"]
+    status, body = _post(base + "/invocations", b'{"dataframe_split": ')
+    assert 400 <= status < 500 and "Traceback" not in json.dumps(body)
+    assert _post(base + "/invocations", good)[0] == 200  # still up
+    assert proc.poll() is None
+
+
+def _one_line_typed(body: dict, error: str) -> None:
+    """The answer is the project's one-line typed message, with no stack trace or dump."""
+    assert body["message"].startswith(f"{error}: "), body
+    assert not body.get("stack_trace") and "Traceback" not in json.dumps(body)
+    assert "\n" not in body["message"] and len(body["message"]) <= 500
+
+
+_HEADER = ",".join(COLUMNS).encode() + b"\n"
+#: bodies MLflow's own parsers refuse, with the project's error each must answer
+UNPARSABLE = {
+    "empty csv": (b"", "text/csv", "EmptyFileError", "no CSV table"),
+    "extra field": (_HEADER + b"wheels,1,2,3,4,5\nwheels,1,2,3,4,5,6\n", "text/csv",
+                    "RaggedRowError", "line 3"),
+    "unterminated quote": (_HEADER + b'"wheels,1,2,3,4,5\n', "text/csv", "DataFormatError",
+                           "unterminated quote"),
+    "garbage parquet": (b"garbage", "application/vnd.apache.parquet", "DataFormatError",
+                        "Parquet"),
+    "invalid json": (b'{"dataframe_split": [1,', "application/json", "DataFormatError",
+                     "not valid JSON"),
+    "not utf-8": (b"\xff\xfe", "text/csv", "EncodingError", "UTF-8"),
+    "deeply nested json": (b'{"dataframe_split": ' + b"[" * 50_000, "application/json",
+                           "DataFormatError", "nests deeper"),
+    "integer of 5000 digits": (b'{"dataframe_split": {"columns": ["t_s"], "data": [[1'
+                               + b"0" * 5000 + b"]]}}", "application/json",
+                               "ImplausibleValueError", "4300 digits"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(UNPARSABLE))
+def test_real_server_unparsable_body_is_a_typed_400(server, case):
+    body, content_type, error, words = UNPARSABLE[case]
+    status, answer = _raw(server[1], body, content_type)
+    assert status == 400, answer
+    _one_line_typed(answer, error)
+    assert words in answer["message"]
+
+
+def test_real_server_without_content_type_is_a_415(server, request_frame):
+    status, body = _raw(server[1], request_frame.to_csv(index=False).encode(), None)
+    assert status == 415
+    _one_line_typed(body, "DataFormatError")
+    assert "Content-Type" in body["message"] and "text/csv" in body["message"]
+    status, body = _raw(server[1], b"x", "text/plain")  # MLflow's plain-text 415, as JSON
+    assert status == 415
+    _one_line_typed(body, "DataFormatError")
+
+
+def test_real_server_huge_integer_is_a_typed_400(server, request_frame):
+    frame = request_frame.assign(vel_l=request_frame["vel_l"].astype(object))
+    frame.loc[4, "vel_l"] = 123456.75
+    body = _body(frame).replace("123456.75", "1" + "0" * 400).encode()
+    status, answer = _raw(server[1], body, "application/json")
+    assert status == 400
+    _one_line_typed(answer, "ImplausibleValueError")
+    assert "'vel_l'" in answer["message"] and "data row 4" in answer["message"]
+
+
+def test_real_server_time_jump_is_bounded(server, request_frame):
+    """A small request with one large time jump answers at once: the windows over the
+    jump are dropped ``gap`` rows, and past the decision limit it is refused."""
+    jumped = request_frame.copy()
+    jumped.loc[40:, "t_s"] += 1000.0
+    start = time.monotonic()
+    status, body = _raw(server[1], jumped.to_csv(index=False).encode(), "text/csv")
+    assert status == 200
+    got = pd.DataFrame(body["predictions"])
+    assert len(got) >= 2000 and got["flags"].str.contains("gap").sum() >= 1990
+    assert (got["dropped"] == got["flags"].str.contains("gap|short")).all()
+    jumped.loc[40:, "t_s"] += 1e5
+    status, body = _raw(server[1], jumped.to_csv(index=False).encode(), "text/csv")
+    assert status == 400 and "above the limit of 20000" in body["message"]
+    _one_line_typed(body, "DataFormatError")
+    assert time.monotonic() - start < 20  # was > 60 s (504) for a 1e4 s jump
+
+
+def test_stopping_the_server_removes_its_wrapped_model(server):
+    """SIGTERM (what ``kill`` and service managers send) stops the server gracefully and
+    removes the temporary wrapped model. Last test of the module: it stops the server."""
+    proc, _, served_dir = server
+    assert served_dir.is_dir()
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=30) == 0
+    assert not served_dir.exists() and not served_dir.parent.exists()
