@@ -32,6 +32,7 @@ from pathlib import Path
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
+from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
 VEHICLES = ("agrimaro", "husky")
@@ -106,8 +107,18 @@ def main(args: argparse.Namespace) -> int:
     -------
     int
         Exit status, 0.
+
+    Raises
+    ------
+    ConfigError
+        Unknown terrain, or a duration or seed that :class:`terrain.sim.SimConfig` refuses
+        (checked before a classifier is trained).
     """
     get_terrain(args.terrain)         # an unknown terrain fails here, before any training
+    # so do a duration out of range (too short for two samples of every stream) and a bad
+    # seed: the same configuration run_closed_loop simulates
+    SimConfig(vehicle=args.vehicle, terrains=(args.terrain.upper(),), scenario=args.scenario,
+              duration_s=args.duration_s, seed=args.seed)
     kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None

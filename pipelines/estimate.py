@@ -10,18 +10,23 @@ Columns: t_s, states, std_<state>, slip_1.. with std_slip_1.. (simulator wheel n
 innov_<row>, nis, nis_dof. Skid-steer: the common longitudinal slip is not observable from
 wheels + IMU; --slip-model picks its source (fused default: physics + learned model as the
 EKF's pseudo-measurement; learned falls back to physics without a model; ekf: none) and a
-note says so.
+note says so. Without --slip-model-dir the registered model is looked up and its absence is a
+note (physics supplies the slip); a --slip-model-dir that cannot be loaded (missing folder,
+no MLmodel file, unreadable model) is an error. --gate is a probability in (0, 1) exclusive;
+--rate-hz a rate in (0, 10000] Hz, and the grid holds at most 5 million steps.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 from features.slip_outputs import slip_model_outputs
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
+from terrain.estimation.runner import MAX_RATE_HZ, check_rate_hz
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
@@ -47,15 +52,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="AgriMaRo EKF tuning: noise-derived (default) or thesis eqs. "
                              "6.9/6.13/6.14")
     parser.add_argument("--gate", type=float, default=None, metavar="P",
-                        help="chi-square gate probability per sensor (e.g. 0.999); off by "
-                             "default")
+                        help="chi-square gate probability per sensor, in (0, 1) exclusive "
+                             "(e.g. 0.999); off by default")
     parser.add_argument("--rate-hz", type=float, default=None,
-                        help="filter rate, Hz (default: the IMU rate)")
+                        help=f"filter rate, Hz, in (0, {MAX_RATE_HZ:g}] (default: the IMU "
+                             "rate)")
     parser.add_argument("--slip-model", choices=SLIP_MODELS, default="fused",
                         help="skid-steer slip source (default fused)")
     parser.add_argument("--slip-model-dir", type=Path, default=None,
-                        help="learned slip model (MLflow model dir; default: registered "
-                             "slip-husky)")
+                        help="learned slip model (MLflow model dir or model URI; an error "
+                             "when it cannot be loaded; default: registered slip-husky, "
+                             "physics with a note when there is none)")
 
 
 def _load(run_dir: Path, select: str | None):
@@ -74,6 +81,56 @@ def _load(run_dir: Path, select: str | None):
     return runs
 
 
+#: a model URI (``models:/name/1``, ``runs:/id/model``, ``file:///...``), not a folder
+_URI = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+:/")   # 2+ letters: not a drive (C:/)
+
+
+def explicit_slip_model(model_dir: Path):
+    """Load the learned slip model the user named with ``--slip-model-dir``.
+
+    A folder is checked first (it exists, is a folder, holds the ``MLmodel`` file that
+    ``terrain slip-fit`` writes) so the message says what is missing; a model URI is handed
+    to MLflow as it is.
+
+    Parameters
+    ----------
+    model_dir : Path
+        MLflow model folder or model URI.
+
+    Returns
+    -------
+    SlipRegressor
+        The loaded model.
+
+    Raises
+    ------
+    ConfigError
+        The folder does not exist, is not a folder, lacks ``MLmodel``, or the model cannot be
+        loaded (the message names the folder and the reason).
+    """
+    where = f"--slip-model-dir {model_dir}"
+    if not _URI.match(str(model_dir)):
+        if not model_dir.exists():
+            raise ConfigError(f"{where}: no such folder")
+        if not model_dir.is_dir():
+            raise ConfigError(f"{where}: not a folder (an MLflow model folder holds an "
+                              "MLmodel file)")
+        if not (model_dir / "MLmodel").is_file():
+            found = sorted(p.name for p in model_dir.iterdir())[:8]
+            raise ConfigError(f"{where}: no MLmodel file, not an MLflow model folder (found: "
+                              f"{', '.join(found) or 'nothing'}); give the artifacts folder "
+                              "of a `terrain slip-fit` run")
+    import mlflow.sklearn
+
+    try:
+        return mlflow.sklearn.load_model(str(model_dir))
+    except Exception as exc:        # noqa: BLE001 - any failure: the model is unusable
+        text = " ".join(str(exc).split())
+        text = text if len(text) <= 200 else text[:197] + "..."
+        raise ConfigError(f"{where}: the model cannot be loaded ({type(exc).__name__}"
+                          f"{': ' + text if text else ''})") from None
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the estimator on each selected run, write its table and print a summary line.
 
@@ -90,24 +147,36 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError, EstimationError, DataFormatError
-        ``--run`` names no run of RUN_DIR; a run lacks the streams its estimator needs.
+        ``--gate`` outside (0, 1), ``--rate-hz`` outside (0, 10 kHz], a ``--slip-model-dir``
+        that cannot be loaded (all checked before any run is read); ``--run`` names no run
+        of RUN_DIR; a run lacks the streams its estimator needs.
     """
+    gate = Gate(args.gate) if args.gate is not None else None
+    rate_hz = check_rate_hz(args.rate_hz, "--rate-hz")
     runs = _load(args.run_dir, args.run)
     print(input_report(runs).text())
-    gate = Gate(args.gate) if args.gate is not None else None
     learned = None
-    if args.slip_model in ("learned", "fused") and any(r.vehicle != "agrimaro" for r in runs):
-        learned, where = resolve_slip_model(args.slip_model_dir)
+    wants_model = (args.slip_model in ("learned", "fused")
+                   and any(r.vehicle != "agrimaro" for r in runs))
+    if wants_model and args.slip_model_dir is not None:
+        learned = explicit_slip_model(args.slip_model_dir)
+    elif wants_model:
+        learned, where = resolve_slip_model(None)
         if learned is None:
             print(f"note: no learned slip model ({where}); physics supplies the slip")
+    elif args.slip_model_dir is not None:
+        why = (f"--slip-model {args.slip_model} uses no learned model"
+               if args.slip_model not in ("learned", "fused")
+               else "no skid-steer run (the AgriMaRo EKF observes its slip)")
+        print(f"note: --slip-model-dir {args.slip_model_dir} not used: {why}")
     for run in runs:
         if run.vehicle == "agrimaro":
             est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,
-                               rate_hz=args.rate_hz)
+                               rate_hz=rate_hz)
         else:
             outputs = slip_model_outputs(run, learned) if args.slip_model != "ekf" else None
             est = estimate_skid_steer_slip_run(run, args.slip_model, outputs=outputs,
-                                               lag=args.lag, gate=gate, rate_hz=args.rate_hz)
+                                               lag=args.lag, gate=gate, rate_hz=rate_hz)
         for note in est.notes:
             print(note)
         if len(runs) == 1:

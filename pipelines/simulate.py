@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 
 from terrain.io.writer import write_run
-from terrain.sim import SCENARIO_NAMES, SimConfig, parse_effects, simulate
+from terrain.sim import (SCENARIO_NAMES, SimConfig, parse_effects, parse_terrain_list,
+                         simulate)
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import VEHICLE_NAMES
@@ -30,10 +31,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain class, or comma-separated classes along the path; one "
                              f"of {', '.join(TERRAIN_NAMES)}")
     parser.add_argument("--scenario", default="random", help=f"one of {', '.join(SCENARIO_NAMES)}")
-    parser.add_argument("--duration-s", type=float, default=60.0, help="simulated time, s")
+    parser.add_argument("--duration-s", type=float, default=60.0,
+                        help="simulated time, s (at most 7200; at least two samples of the "
+                             "slowest stream: husky 0.16, tracked 0.1, agrimaro 0.04)")
     parser.add_argument("--seed", type=int, default=0, help="random seed")
     parser.add_argument("--effect", action="append", default=[], metavar="NAME=VALUE",
-                        help="plant a named effect (repeatable)")
+                        help="plant a named effect (repeatable, each name once)")
     parser.add_argument("--segment-m", type=float, default=25.0,
                         help="distance between terrain changes, m")
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,
@@ -58,10 +61,11 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        Unknown vehicle, terrain, scenario or effect, or out-of-range settings.
+        Unknown vehicle, terrain, scenario or effect, an empty name in the terrain list, a
+        repeated effect, or out-of-range settings (a duration too short for two samples of
+        every stream).
     """
-    config = SimConfig(vehicle=args.vehicle.lower(),
-                       terrains=tuple(t.strip().upper() for t in args.terrain.split(",") if t),
+    config = SimConfig(vehicle=args.vehicle.lower(), terrains=parse_terrain_list(args.terrain),
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
                        effects=parse_effects(args.effect), segment_length_m=args.segment_m,
                        physics=args.physics)

@@ -22,7 +22,8 @@ Model (seed ``001_59da564c4b2d6a48.txt`` ch. 4.1, eqs. 4.1-4.12)::
 
 Arrays are plain vectors: states ``(n,)``, measurements ``(m,)``, covariances ``(n, n)`` and
 ``(m, m)`` (never ``(n, 1)`` column vectors). Functions return new arrays and never modify
-their inputs. Bad input raises a subclass of :class:`terrain.errors.EstimationError`.
+their inputs. Bad input raises a subclass of :class:`terrain.errors.EstimationError`; a bad
+setting (the gate probability) a :class:`terrain.errors.ConfigError`.
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ import numpy as np
 from scipy import stats
 from scipy.linalg import lapack
 
-from terrain.errors import CovarianceError, NonFiniteInputError, ShapeError, TimeStepError
+from terrain.errors import (ConfigError, CovarianceError, NonFiniteInputError, ShapeError,
+                            TimeStepError)
 
 #: Relative tolerance of the symmetry check of a covariance matrix.
 SYMMETRY_RTOL = 1e-6
@@ -165,9 +167,14 @@ class Gate:
     Parameters
     ----------
     probability : float
-        In (0, 1).
+        In (0, 1), exclusive (0 would reject every sample, 1 none).
     max_dof : int
-        Largest group size supported.
+        Largest group size supported (>= 1).
+
+    Raises
+    ------
+    ConfigError
+        ``probability`` not a number in (0, 1), or ``max_dof`` < 1 (a ``ValueError``).
     """
 
     probability: float = 0.999
@@ -175,8 +182,15 @@ class Gate:
     _thresholds: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        if not 0.0 < float(self.probability) < 1.0:
-            raise ValueError(f"gate probability must be in (0, 1), got {self.probability}")
+        try:
+            p = float(self.probability)
+        except (TypeError, ValueError):
+            p = float("nan")
+        if not 0.0 < p < 1.0:
+            raise ConfigError(f"gate probability must be in (0, 1) exclusive, e.g. 0.999, got "
+                              f"{self.probability}")
+        if int(self.max_dof) < 1:
+            raise ConfigError(f"gate max_dof must be >= 1, got {self.max_dof}")
         table = stats.chi2.ppf(float(self.probability), np.arange(1, int(self.max_dof) + 1))
         object.__setattr__(self, "_thresholds", table)
 

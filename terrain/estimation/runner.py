@@ -30,6 +30,46 @@ from terrain.estimation.result import EKFResult, LoopArrays
 
 #: Engines of :func:`run_filter`.
 ENGINES: tuple[str, ...] = ("auto", "numba", "numpy")
+#: Fastest filter grid, Hz: five times the fastest MEMS IMU rate the readers accept
+#: (2 kHz, :data:`terrain.io.plausibility.NOMINAL_RATE_HZ`); a faster grid only repeats
+#: predictions between samples.
+MAX_RATE_HZ = 10_000.0
+#: Most filter steps of one grid (27.8 h at 100 Hz, 500 s at 10 kHz): a step of the
+#: AgriMaRo EKF with its output table takes about 1.2 kB, so 6 GB at the bound.
+MAX_GRID_STEPS = 5_000_000
+
+
+def check_rate_hz(rate_hz: float | None, name: str = "rate_hz") -> float | None:
+    """Validate a filter rate given by a user (None: the estimator's default).
+
+    Parameters
+    ----------
+    rate_hz : float or None
+        Rate, Hz; None stands for the default (the IMU rate). ``0`` is not a default: it is
+        refused like any rate outside ``(0, MAX_RATE_HZ]``.
+    name : str
+        Name of the argument in the message (e.g. ``--rate-hz``).
+
+    Returns
+    -------
+    float or None
+        The rate as a float, or None.
+
+    Raises
+    ------
+    ConfigError
+        Not a finite number in ``(0, MAX_RATE_HZ]`` Hz.
+    """
+    if rate_hz is None:
+        return None
+    try:
+        rate = float(rate_hz)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be a number of Hz, got {rate_hz!r}") from None
+    if not (np.isfinite(rate) and 0.0 < rate <= MAX_RATE_HZ):
+        raise ConfigError(f"{name} must be in (0, {MAX_RATE_HZ:g}] Hz (omit it for the IMU "
+                          f"rate), got {rate_hz}")
+    return rate
 
 
 @dataclass(frozen=True)
@@ -70,22 +110,33 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     t_start_s, t_end_s : float
         First and last time, s.
     rate_hz : float
-        Grid rate, Hz (> 0).
+        Grid rate, Hz, in ``(0, MAX_RATE_HZ]``.
 
     Returns
     -------
     ndarray, shape (N,)
-        Times, s.
+        Times, s; ``N <= MAX_GRID_STEPS``.
 
     Raises
     ------
     TimeStepError
         ``rate_hz`` not > 0 or ``t_end <= t_start``.
+    ConfigError
+        ``rate_hz`` above :data:`MAX_RATE_HZ`, or a grid of more than :data:`MAX_GRID_STEPS`
+        steps (checked before any memory is taken).
     """
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise TimeStepError(f"rate must be > 0 Hz, got {rate_hz}")
+    if rate_hz > MAX_RATE_HZ:
+        raise ConfigError(f"filter rate {rate_hz:g} Hz is above the {MAX_RATE_HZ:g} Hz "
+                          "allowed (5 x the fastest IMU rate the readers accept)")
     if not t_end_s > t_start_s:
         raise TimeStepError(f"empty time span [{t_start_s}, {t_end_s}] s")
+    steps = (t_end_s - t_start_s) * rate_hz + 1.0
+    if not steps <= MAX_GRID_STEPS:
+        raise ConfigError(f"a grid at {rate_hz:g} Hz over {t_end_s - t_start_s:.6g} s would "
+                          f"have {steps:.4g} steps, more than the {MAX_GRID_STEPS:,} allowed "
+                          f"(about 1.2 kB each); lower the rate")
     n = int(np.floor((t_end_s - t_start_s) * rate_hz + 1e-9)) + 1
     return t_start_s + np.arange(n) / rate_hz
 

@@ -295,7 +295,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     segment_length_m : float
         Distance between terrain changes, m.
     t_s : ndarray, shape (n,)
-        Uniform time grid, s.
+        Uniform time grid, s (n >= 2: the step is ``t_s[1] - t_s[0]``).
     twist_cmd : ndarray, shape (n, 3)
         Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
     slope_rad : float
@@ -322,7 +322,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     Raises
     ------
     ConfigError
-        Unknown physics version.
+        Unknown physics version, or a time grid of fewer than two steps.
     numpy.linalg.LinAlgError
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).
@@ -330,6 +330,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     if physics not in PHYSICS_VERSIONS:
         raise ConfigError(f"unknown physics {physics!r}; valid choices: "
                           f"{', '.join(PHYSICS_VERSIONS)}")
+    if len(t_s) < 2:
+        raise ConfigError(f"the time grid needs at least 2 steps to integrate, got {len(t_s)} "
+                          "(a duration shorter than one physics step?)")
     dt = float(t_s[1] - t_s[0])
     n = len(t_s)
     nm = geometry.n_motors

@@ -130,7 +130,8 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     Parameters
     ----------
     items : iterable of str, mapping or None
-        ``NAME=VALUE`` strings, or name -> value; None = every effect off.
+        ``NAME=VALUE`` strings (each name at most once), or name -> value; None = every
+        effect off.
 
     Returns
     -------
@@ -139,7 +140,7 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     Raises
     ------
     ConfigError
-        Unknown name, malformed item, non-numeric or out-of-range value.
+        Unknown name, malformed item, a name given twice, non-numeric or out-of-range value.
     """
     if items is None:
         return Effects()
@@ -156,6 +157,9 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     for name, value in source:
         if name not in PLANTED_EFFECTS:
             raise ConfigError(f"unknown effect {name!r}; valid choices: {', '.join(EFFECT_NAMES)}")
+        if name in pairs:
+            raise ConfigError(f"effect {name} given twice ({name}={pairs[name]:g} and "
+                              f"{name}={value}); give each effect once")
         try:
             pairs[name] = float(value)
         except (TypeError, ValueError):

@@ -78,13 +78,17 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     Raises
     ------
     ConfigError
-        Unknown scenario or non-positive duration.
+        Unknown scenario, or a duration that is not positive or rounds to less than one
+        physics step.
     """
     if name not in SCENARIO_NAMES:
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
     if not duration_s > 0:
         raise ConfigError(f"duration must be > 0 s, got {duration_s}")
     n = int(round(duration_s / dt_s)) + 1
+    if n < 2:
+        raise ConfigError(f"duration {duration_s} s is shorter than one physics step "
+                          f"({dt_s:g} s)")
     t = np.arange(n) * dt_s
     tw = np.zeros((n, 3))
     slope = 0.0

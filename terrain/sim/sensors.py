@@ -6,12 +6,17 @@ and a :class:`numpy.random.Generator`, and return arrays.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy.signal import lfilter
 
+from terrain.errors import ConfigError
 from terrain.terramechanics.resistance import G_M_S2
+
+#: sampling-rate fields of :class:`SensorSettings`, Hz
+RATE_FIELDS = ("imu_rate_hz", "wheel_rate_hz", "steer_rate_hz", "cam_rate_hz", "truth_rate_hz")
 
 
 @dataclass(frozen=True)
@@ -41,6 +46,11 @@ class SensorSettings:
         T265 velocity, yaw-rate and yaw noise std.
     cam_outage_rate_hz : float
         Rate of visual-odometry outages (Poisson), 1/s; each lasts 0.5-2 s (rows dropped).
+
+    Raises
+    ------
+    ConfigError
+        A rate not finite and > 0, or another setting not finite and >= 0.
     """
 
     imu_rate_hz: float = 100.0
@@ -60,6 +70,23 @@ class SensorSettings:
     cam_yaw_rate_noise_rad_s: float = 0.01
     cam_yaw_noise_rad: float = 0.002
     cam_outage_rate_hz: float = 1.0 / 60.0
+
+    def __post_init__(self) -> None:
+        """Refuse a rate that is not finite and > 0 or a noise level, resolution or outage
+        rate that is not finite and >= 0 (:class:`~terrain.errors.ConfigError` naming the
+        field)."""
+        for name in RATE_FIELDS:
+            value = float(getattr(self, name))
+            if not (math.isfinite(value) and value > 0):
+                raise ConfigError(f"sensor setting {name} must be a finite rate > 0 Hz, "
+                                  f"got {getattr(self, name)}")
+        for f in fields(self):
+            if f.name in RATE_FIELDS:
+                continue
+            value = float(getattr(self, f.name))
+            if not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"sensor setting {f.name} must be finite and >= 0, got "
+                                  f"{getattr(self, f.name)}")
 
 
 def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:

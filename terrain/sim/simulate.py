@@ -22,6 +22,7 @@ Streams (file columns in brackets where the file names them differently):
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, is_dataclass
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -49,6 +50,117 @@ DEFAULT_SENSORS: Mapping[str, SensorSettings] = MappingProxyType({
 })
 
 
+#: longest simulated run, s
+MAX_DURATION_S = 7200.0
+#: samples every stream of a simulated run holds at least: the readers of :mod:`terrain.io`
+#: need two rows of a file to know its sample rate (:func:`terrain.io.measured.read_stream_csv`)
+MIN_STREAM_SAMPLES = 2
+
+
+def stream_rates_hz(vehicle: str, sensors: SensorSettings | None = None) -> dict[str, float]:
+    """Sample rate of every stream file a simulated run of ``vehicle`` writes.
+
+    Parameters
+    ----------
+    vehicle : str
+        Vehicle name (:data:`terrain.vehicles.VEHICLE_NAMES`).
+    sensors : SensorSettings or None
+        None = the vehicle's defaults (:data:`DEFAULT_SENSORS`).
+
+    Returns
+    -------
+    dict[str, float]
+        File prefix (``imu``, ``pro``, ``truth``; ``steer``, ``cam``, ``omega``, ``cur`` for
+        a steered vehicle) -> rate, Hz.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle.
+    """
+    params = get_vehicle(vehicle)
+    s = sensors or DEFAULT_SENSORS[params.name]
+    rates = {"imu": s.imu_rate_hz, "pro": s.wheel_rate_hz, "truth": s.truth_rate_hz}
+    if params.contact_geometry().steered:
+        rates.update(steer=s.steer_rate_hz, cam=s.cam_rate_hz, omega=s.wheel_rate_hz,
+                     cur=s.wheel_rate_hz)
+    return {k: float(v) for k, v in rates.items()}
+
+
+def minimum_duration_s(vehicle: str, sensors: SensorSettings | None = None,
+                       physics_rate_hz: float = 100.0) -> tuple[float, str]:
+    """Shortest duration whose run the project's readers accept.
+
+    Every stream file must hold :data:`MIN_STREAM_SAMPLES` samples (streams are sampled at
+    ``0, 1/rate, ...`` up to the duration), so the slowest stream sets the minimum: one of
+    its sample periods, rounded up to whole physics steps (the duration is a whole number of
+    steps). Husky 0.16 s (wheel reports at 6.5 Hz), tracked 0.1 s (wheels at 10 Hz),
+    AgriMaRo 0.04 s (camera at 30 Hz), with the default sensors and 100 Hz physics. The
+    AgriMaRo's simulated visual-odometry outages (0.5-2 s, :class:`SensorSettings`) may still
+    remove camera rows of a short run.
+
+    Parameters
+    ----------
+    vehicle : str
+        Vehicle name.
+    sensors : SensorSettings or None
+        None = the vehicle's defaults (:data:`DEFAULT_SENSORS`).
+    physics_rate_hz : float
+        Integrator rate, Hz.
+
+    Returns
+    -------
+    minimum_s : float
+        Shortest duration, s.
+    why : str
+        The slowest stream, its rate and the number of physics steps.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle.
+    """
+    rates = stream_rates_hz(vehicle, sensors)
+    slowest = min(rates, key=rates.get)
+    period = (MIN_STREAM_SAMPLES - 1) / rates[slowest]
+    rate = float(physics_rate_hz)
+    # sample_times keeps a sample within 1e-9 s of the end: the fewest whole steps whose
+    # span reaches the period to that tolerance
+    steps = max(1, math.floor((period - 1e-9) * rate) + 1)
+    minimum = steps / rate
+    why = (f"{MIN_STREAM_SAMPLES} samples of every stream file, which the readers need to "
+           f"know its rate; the slowest, {slowest} at {rates[slowest]:.4g} Hz, needs "
+           f"{period:.4g} s = {steps} physics steps at {rate:g} Hz")
+    return minimum, why
+
+
+def parse_terrain_list(text: str) -> tuple[str, ...]:
+    """Terrain names of a comma-separated list (``"SNOW"``, ``"ICE, SNOW"``), upper case.
+
+    Parameters
+    ----------
+    text : str
+        One terrain class, or classes separated by commas (spaces around them allowed).
+
+    Returns
+    -------
+    tuple of str
+        The names, stripped and upper case, in order (their validity is checked by
+        :class:`SimConfig`).
+
+    Raises
+    ------
+    ConfigError
+        An empty name (``"SNOW,"``, ``",SNOW"``, ``"ICE,,SNOW"``, ``""``).
+    """
+    names = tuple(t.strip().upper() for t in str(text).split(","))
+    empty = [i + 1 for i, t in enumerate(names) if not t]
+    if empty:
+        raise ConfigError(f"empty terrain name at position {', '.join(map(str, empty))} of "
+                          f"the terrain list {text!r}; give names separated by single commas")
+    return names
+
+
 @dataclass(frozen=True)
 class SimConfig:
     """What to simulate.
@@ -58,11 +170,15 @@ class SimConfig:
     vehicle : str
         ``agrimaro``, ``husky`` or ``tracked``.
     terrains : tuple of str
-        Terrain classes along the path (changing every ``segment_length_m``, cycling).
+        Terrain classes along the path (changing every ``segment_length_m``, cycling); a
+        sequence of names, not one string (:func:`parse_terrain_list` splits ``"A,B"``).
     scenario : str
         One of :data:`~terrain.sim.scenarios.SCENARIO_NAMES`.
     duration_s : float
-        Simulated time, s (0 < duration <= 7200).
+        Simulated time, s, at most 7200 and at least :func:`minimum_duration_s` (every stream
+        file must hold :data:`MIN_STREAM_SAMPLES` samples: 0.16 s for the Husky, 0.1 s for the
+        tracked vehicle, 0.04 s for the AgriMaRo at the default rates). Rounded to the
+        physics step.
     seed : int
         Seed of the run's :class:`numpy.random.Generator`.
     effects : Effects
@@ -82,7 +198,8 @@ class SimConfig:
     ------
     ConfigError
         Unknown vehicle, terrain, scenario or physics version (the message lists the valid choices), or a
-        duration, rate, segment length or seed out of range.
+        duration, rate, segment length or seed out of range (a duration too short for two
+        samples of every stream names the slowest stream and the minimum in seconds).
     """
 
     vehicle: str = "husky"
@@ -97,21 +214,37 @@ class SimConfig:
     physics: str = DEFAULT_PHYSICS
 
     def __post_init__(self) -> None:
-        get_vehicle(self.vehicle)
+        vehicle = get_vehicle(self.vehicle)
         if self.physics not in PHYSICS_VERSIONS:
             raise ConfigError(f"unknown physics {self.physics!r}; valid choices: "
                               f"{', '.join(PHYSICS_VERSIONS)}")
+        if isinstance(self.terrains, str):
+            raise ConfigError(f"terrains must be a sequence of terrain names, got the string "
+                              f"{self.terrains!r} (split a comma-separated list with "
+                              "parse_terrain_list)")
         if not self.terrains:
             raise ConfigError("at least one terrain is needed")
         for t in self.terrains:
+            if not str(t).strip():
+                raise ConfigError(f"empty terrain name in terrains {tuple(self.terrains)!r}")
             get_terrain(t)
         if self.scenario not in SCENARIO_NAMES:
             raise ConfigError(f"unknown scenario {self.scenario!r}; valid choices: "
                               f"{', '.join(SCENARIO_NAMES)}")
-        if not (0.0 < float(self.duration_s) <= 7200.0):
-            raise ConfigError(f"duration_s must be in (0, 7200] s, got {self.duration_s}")
         if not (50.0 <= float(self.physics_rate_hz) <= 1000.0):
             raise ConfigError(f"physics_rate_hz must be in [50, 1000], got {self.physics_rate_hz}")
+        if self.sensors is not None and not isinstance(self.sensors, SensorSettings):
+            raise ConfigError(f"sensors must be SensorSettings or None, got "
+                              f"{type(self.sensors).__name__}")
+        if not (0.0 < float(self.duration_s) <= MAX_DURATION_S):
+            raise ConfigError(f"duration_s must be in (0, {MAX_DURATION_S:g}] s, got "
+                              f"{self.duration_s}")
+        minimum, why = minimum_duration_s(vehicle.name, self.sensors, self.physics_rate_hz)
+        dt = 1.0 / float(self.physics_rate_hz)
+        # the step count of terrain.sim.scenarios.make_commands
+        if int(round(float(self.duration_s) / dt)) < int(round(minimum / dt)):
+            raise ConfigError(f"duration_s {self.duration_s} s is too short for the "
+                              f"{vehicle.name}: the minimum is {minimum:g} s ({why})")
         if not float(self.segment_length_m) > 0:
             raise ConfigError(f"segment_length_m must be > 0, got {self.segment_length_m}")
         if int(self.seed) < 0:

@@ -1,0 +1,132 @@
+"""Argument validation of ``terrain estimate`` and of the estimator settings behind it
+(fuzzing findings): the gate probability, the filter rate, an explicit learned-model folder."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.cli import main
+from terrain.errors import ConfigError, TerrainError, TimeStepError
+from terrain.estimation import Gate, make_grid
+from terrain.estimation.runner import MAX_GRID_STEPS, MAX_RATE_HZ, check_rate_hz
+from terrain.io.writer import write_run
+from terrain.sim import SimConfig, simulate
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SNOW",),
+                                 scenario="straight_accel", duration_s=3.0, seed=1)), root)
+    return root
+
+
+def _error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.startswith("terrain estimate: error:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.mark.parametrize("p", [0.0, 1.0, 1.5, -1.0, float("nan"), "x"])
+def test_gate_probability_outside_the_open_unit_interval_is_a_config_error(p):
+    with pytest.raises(ConfigError, match=r"gate probability must be in \(0, 1\)"):
+        Gate(p)
+
+
+def test_gate_config_error_is_still_a_value_error_and_max_dof_is_checked():
+    assert issubclass(ConfigError, ValueError) and issubclass(ConfigError, TerrainError)
+    with pytest.raises(ConfigError, match="max_dof"):
+        Gate(0.99, max_dof=0)
+    assert Gate(0.999).threshold(1) == pytest.approx(10.828, abs=1e-3)
+
+
+@pytest.mark.parametrize("gate", ["0", "1", "1.5", "-1"])
+def test_estimate_bad_gate_is_one_line_before_reading_runs(gate, tmp_path, capsys):
+    # the folder does not even exist: the argument is refused first
+    assert main(["estimate", str(tmp_path / "absent"), "--out", str(tmp_path / "s.csv"),
+                 "--gate", gate]) == 2
+    assert "gate probability must be in (0, 1)" in _error_line(capsys)
+
+
+@pytest.mark.parametrize("rate", ["1e9", "0", "-5", "inf", "nan", "20000"])
+def test_estimate_bad_rate_is_one_line(rate, tmp_path, capsys):
+    assert main(["estimate", str(tmp_path / "absent"), "--out", str(tmp_path / "s.csv"),
+                 "--rate-hz", rate]) == 2
+    line = _error_line(capsys)
+    assert "--rate-hz must be in (0, 10000] Hz" in line
+
+
+def test_check_rate_hz():
+    assert check_rate_hz(None) is None
+    assert check_rate_hz(200) == 200.0
+    assert check_rate_hz(MAX_RATE_HZ) == MAX_RATE_HZ
+    for bad in (0, 0.0, -1, MAX_RATE_HZ * 1.01, float("inf"), float("nan"), "fast"):
+        with pytest.raises(ConfigError, match="rate_hz"):
+            check_rate_hz(bad)
+
+
+def test_make_grid_refuses_a_grid_too_large_before_allocating_it():
+    with pytest.raises(ConfigError, match="above the 10000 Hz"):
+        make_grid(0.0, 10.0, 1e9)
+    # within the rate bound, but too many steps (a clock in ms: 1e6 s of "seconds")
+    with pytest.raises(ConfigError, match="more than the 5,000,000 allowed"):
+        make_grid(0.0, 1e6, 100.0)
+    with pytest.raises(TimeStepError):
+        make_grid(0.0, 10.0, 0.0)
+    grid = make_grid(0.0, (MAX_GRID_STEPS - 1) / 1e4, 1e4)
+    assert grid.size == MAX_GRID_STEPS and np.all(np.diff(grid) > 0)
+
+
+def test_estimate_rate_within_bounds_still_works(run_dir, tmp_path, capsys):
+    out = tmp_path / "s.csv"
+    assert main(["estimate", str(run_dir), "--out", str(out), "--slip-model", "physics",
+                 "--rate-hz", "50", "--gate", "0.999"]) == 0
+    assert "at 50.0 Hz" in capsys.readouterr().out and out.exists()
+
+
+def test_explicit_slip_model_dir_that_does_not_exist_is_an_error(run_dir, tmp_path, capsys):
+    missing = tmp_path / "no_model"
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model-dir", str(missing)]) == 2
+    line = _error_line(capsys)
+    assert f"--slip-model-dir {missing}: no such folder" in line
+    assert not (tmp_path / "s.csv").exists()       # no silent fall-back to physics
+
+
+def test_explicit_slip_model_dir_without_mlmodel_is_an_error(run_dir, tmp_path, capsys):
+    folder = tmp_path / "model"
+    folder.mkdir()
+    (folder / "model.pkl").write_bytes(b"\x80")
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model", "learned", "--slip-model-dir", str(folder)]) == 2
+    line = _error_line(capsys)
+    assert "no MLmodel file" in line and "model.pkl" in line
+
+
+def test_explicit_slip_model_dir_that_is_a_file_is_an_error(run_dir, tmp_path, capsys):
+    path = tmp_path / "model.pkl"
+    path.write_bytes(b"\x80")
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model-dir", str(path)]) == 2
+    assert "not a folder" in _error_line(capsys)
+
+
+def test_corrupt_slip_model_dir_is_an_error_saying_why(run_dir, tmp_path, capsys):
+    folder = tmp_path / "model"
+    folder.mkdir()
+    (folder / "MLmodel").write_text("flavors:\n  sklearn:\n    pickled_model: model.pkl\n"
+                                    "    serialization_format: cloudpickle\n")
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model-dir", str(folder)]) == 2
+    line = _error_line(capsys)
+    assert "the model cannot be loaded" in line and "model.pkl" in line
+
+
+def test_slip_model_dir_not_used_is_said(run_dir, tmp_path, capsys):
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model", "physics", "--slip-model-dir", str(tmp_path / "nope")]) == 0
+    out = capsys.readouterr().out
+    assert "--slip-model-dir" in out and "not used" in out

@@ -1,0 +1,134 @@
+"""Argument validation of ``terrain simulate`` and :class:`terrain.sim.SimConfig` (fuzzing
+findings): a too-short duration, an empty terrain name, a repeated effect."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.cli import main
+from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir
+from terrain.io.writer import write_run
+from terrain.sim import (SensorSettings, SimConfig, make_commands, minimum_duration_s,
+                         parse_effects, parse_terrain_list, simulate)
+from terrain.sim.dynamics import integrate
+from terrain.vehicles import get_vehicle
+
+#: shortest run per vehicle at the default sensors and 100 Hz physics (the slowest stream:
+#: Husky wheels 6.5 Hz, tracked wheels 10 Hz, AgriMaRo camera 30 Hz)
+MINIMUM_S = {"husky": 0.16, "tracked": 0.1, "agrimaro": 0.04}
+
+
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.startswith("terrain simulate: error:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "agrimaro"])
+@pytest.mark.parametrize("duration", ["0.001", "0.005"])
+def test_duration_below_one_physics_step_is_a_one_line_error(vehicle, duration, tmp_path,
+                                                            capsys):
+    code = main(["simulate", "--vehicle", vehicle, "--terrain", "SNOW", "--duration-s",
+                 duration, "--out", str(tmp_path)])
+    assert code == 2
+    line = _one_line_error(capsys)
+    assert "too short" in line and f"minimum is {MINIMUM_S[vehicle]:g} s" in line
+    assert not any(tmp_path.iterdir())          # nothing written
+
+
+def test_husky_run_of_one_wheel_sample_is_refused(tmp_path, capsys):
+    # 0.1 s used to write a 1-row pro_00.csv that `terrain estimate` then refused
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "SNOW", "--duration-s", "0.1",
+                 "--out", str(tmp_path)]) == 2
+    line = _one_line_error(capsys)
+    assert "pro at 6.502 Hz" in line and "minimum is 0.16 s" in line
+
+
+@pytest.mark.parametrize("vehicle", sorted(MINIMUM_S))
+def test_minimum_duration_is_the_shortest_run_the_readers_accept(vehicle, tmp_path):
+    minimum, why = minimum_duration_s(vehicle)
+    assert minimum == pytest.approx(MINIMUM_S[vehicle])
+    assert "physics steps" in why
+    step = 0.01
+    with pytest.raises(ConfigError, match=f"minimum is {MINIMUM_S[vehicle]:g} s"):
+        SimConfig(vehicle=vehicle, terrains=("SNOW",), duration_s=minimum - step)
+    run = simulate(SimConfig(vehicle=vehicle, terrains=("SNOW",), duration_s=minimum))
+    assert min(len(frame) for frame in run.streams.values()) >= 2
+    write_run(run, tmp_path)
+    (back,) = read_runs_dir(tmp_path)             # every stream file is accepted
+    assert set(back.streams) == set(run.streams)
+
+
+def test_minimum_duration_follows_the_sensor_settings():
+    slow = SensorSettings(wheel_rate_hz=2.0)
+    minimum, why = minimum_duration_s("husky", slow)
+    assert minimum == pytest.approx(0.5) and "pro at 2 Hz" in why
+    with pytest.raises(ConfigError, match="minimum is 0.5 s"):
+        SimConfig(vehicle="husky", duration_s=0.3, sensors=slow)
+    assert minimum_duration_s("husky", physics_rate_hz=50.0)[0] == pytest.approx(0.16)
+
+
+def test_duration_bounds_still_hold():
+    with pytest.raises(ConfigError, match=r"\(0, 7200\]"):
+        SimConfig(duration_s=0)
+    with pytest.raises(ConfigError, match=r"\(0, 7200\]"):
+        SimConfig(duration_s=7200.5)
+    with pytest.raises(ConfigError, match=r"\(0, 7200\]"):
+        SimConfig(duration_s=float("nan"))
+
+
+def test_library_steps_refuse_a_grid_of_one_step():
+    rng = np.random.default_rng(0)
+    with pytest.raises(ConfigError, match="shorter than one physics step"):
+        make_commands("straight_accel", 0.001, 0.01, rng, 1.0)
+    vehicle = get_vehicle("husky")
+    with pytest.raises(ConfigError, match="at least 2 steps"):
+        integrate(vehicle, vehicle.contact_geometry(), (), 25.0, np.zeros(1), np.zeros((1, 3)),
+                  0.0, 1.0)
+
+
+@pytest.mark.parametrize("field, value", [("wheel_rate_hz", 0.0), ("imu_rate_hz", -100.0),
+                                          ("cam_rate_hz", float("inf")),
+                                          ("gyro_noise_rad_s", -0.1),
+                                          ("current_noise_a", float("nan"))])
+def test_sensor_settings_refuse_bad_rates_and_noise(field, value):
+    with pytest.raises(ConfigError, match=field):
+        SensorSettings(**{field: value})
+
+
+@pytest.mark.parametrize("text", ["SNOW,", ",SNOW", "ICE,,SNOW", "", " , "])
+def test_empty_terrain_name_is_refused(text, tmp_path, capsys):
+    with pytest.raises(ConfigError, match="empty terrain name"):
+        parse_terrain_list(text)
+    assert main(["simulate", "--vehicle", "husky", "--terrain", text, "--duration-s", "1",
+                 "--out", str(tmp_path)]) == 2
+    assert "empty terrain name" in _one_line_error(capsys)
+
+
+def test_terrain_list_is_split_stripped_and_upper_cased():
+    assert parse_terrain_list("snow") == ("SNOW",)
+    assert parse_terrain_list(" ice , Snow") == ("ICE", "SNOW")
+
+
+def test_terrains_as_one_string_is_refused_not_split_into_letters():
+    with pytest.raises(ConfigError, match="sequence of terrain names"):
+        SimConfig(terrains="SNOW")
+    with pytest.raises(ConfigError, match="empty terrain name"):
+        SimConfig(terrains=("SNOW", ""))
+
+
+def test_repeated_effect_is_refused(tmp_path, capsys):
+    with pytest.raises(ConfigError, match="effect gyro_bias given twice"):
+        parse_effects(["gyro_bias=0.01", "gyro_bias=0.02"])
+    with pytest.raises(ConfigError, match="given twice"):
+        parse_effects(["icr_expansion=1.4", " icr_expansion = 1.4"])   # even the same value
+    assert parse_effects(["gyro_bias=0.01", "wheel_lag=0.1"]).gyro_bias == 0.01
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "SNOW", "--duration-s", "1",
+                 "--effect", "icr_expansion=1.2", "--effect", "icr_expansion=1.6",
+                 "--out", str(tmp_path)]) == 2
+    line = _one_line_error(capsys)
+    assert "icr_expansion given twice" in line
