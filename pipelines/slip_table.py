@@ -19,7 +19,7 @@ from pathlib import Path
 
 from terrain.control.desired_slip import build_slip_table, classifier_classes
 from terrain.errors import ConfigError, DataFormatError
-from terrain.io.shipped import default_data_dir, read_manifest
+from terrain.io.shipped import default_data_dir, manifest_terrains, read_manifest
 from terrain.terramechanics.catalogue import get_terrain
 
 
@@ -37,18 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: data/, or TERRAIN_DATA_DIR)")
 
 
-def _kind(value) -> str:
-    """JSON name of a parsed value's type, for messages."""
-    return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
-            int: "a number", float: "a number", type(None): "null"}.get(type(value),
-                                                                      type(value).__name__)
-
-
 def measured_terrains(manifest, path: str | Path) -> list[str]:
-    """Terrain classes of the measured datasets of a manifest, its structure checked.
-
-    The manifest must be a JSON object whose ``datasets`` object maps each dataset (at least
-    one) to an object whose ``terrains`` is a non-empty list of catalogue terrain names.
+    """Terrain classes of a manifest's measured datasets, each a catalogue terrain.
 
     Parameters
     ----------
@@ -60,53 +50,23 @@ def measured_terrains(manifest, path: str | Path) -> list[str]:
     Returns
     -------
     list of str
-        The terrain names of every dataset, in manifest order (a class of two datasets
-        appears twice).
+        :func:`terrain.io.shipped.manifest_terrains`, in manifest order.
 
     Raises
     ------
     DataFormatError
-        A structure other than the one above, or an unknown terrain name; names the file
-        and the offending key (e.g. ``datasets.vulpi.terrains[2]``).
+        A badly structured manifest (:func:`~terrain.io.shipped.manifest_terrains`) or a
+        terrain the catalogue does not know; names the file and the key.
     """
-    if not isinstance(manifest, dict):
-        raise DataFormatError(f"manifest must be a JSON object with a 'datasets' key, got "
-                              f"{_kind(manifest)}", path)
-    datasets = manifest.get("datasets")
-    if "datasets" not in manifest:
-        raise DataFormatError(f"manifest key 'datasets' is missing (found keys: "
-                              f"{', '.join(map(str, list(manifest)[:8])) or 'none'})", path)
-    if not isinstance(datasets, dict):
-        raise DataFormatError(f"manifest key 'datasets' must be an object of datasets, got "
-                              f"{_kind(datasets)}", path)
-    if not datasets:
-        raise DataFormatError("manifest key 'datasets' lists no dataset", path)
-    measured: list[str] = []
-    for name, entry in datasets.items():
-        key = f"datasets.{name}"
-        if not isinstance(entry, dict):
-            raise DataFormatError(f"manifest key {key!r} must be an object, got "
-                                  f"{_kind(entry)}", path)
-        if "terrains" not in entry:
-            raise DataFormatError(f"manifest key '{key}.terrains' is missing (the dataset's "
-                                  "terrain classes)", path)
-        terrains = entry["terrains"]
-        if not isinstance(terrains, list):
-            raise DataFormatError(f"manifest key '{key}.terrains' must be a list of terrain "
-                                  f"names, got {_kind(terrains)} {terrains!r}"[:300], path)
-        if not terrains:
-            raise DataFormatError(f"manifest key '{key}.terrains' is an empty list", path)
-        for i, t in enumerate(terrains):
-            if not isinstance(t, str) or not t.strip():
-                raise DataFormatError(f"manifest key '{key}.terrains[{i}]' must be a terrain "
-                                      f"name, got {t!r}", path)
+    names = manifest_terrains(manifest, path)
+    for key, entry in manifest["datasets"].items():
+        for i, t in enumerate(entry["terrains"]):
             try:
                 get_terrain(t)
             except ConfigError as exc:
-                raise DataFormatError(f"manifest key '{key}.terrains[{i}]': {exc}",
+                raise DataFormatError(f"manifest key 'datasets.{key}.terrains[{i}]': {exc}",
                                       path) from None
-        measured.extend(terrains)
-    return measured
+    return names
 
 
 def main(args: argparse.Namespace) -> int:

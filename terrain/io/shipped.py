@@ -188,6 +188,74 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
                               "with `terrain convert`", path) from None
 
 
+def _kind(value) -> str:
+    """JSON name of a parsed value's type, for messages."""
+    return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
+            int: "a number", float: "a number", type(None): "null"}.get(type(value),
+                                                                      type(value).__name__)
+
+
+def manifest_terrains(manifest, path: str | Path) -> list[str]:
+    """Terrain class names of the measured datasets of a manifest, its structure checked.
+
+    The manifest must be a JSON object whose ``datasets`` object maps each dataset (at least
+    one) to an object whose ``terrains`` is a non-empty list of terrain names (non-empty
+    strings; whether the catalogue knows them is the caller's check).
+
+    Parameters
+    ----------
+    manifest : object
+        Parsed ``manifest.json`` (:func:`read_manifest`).
+    path : str or Path
+        The manifest file (for the messages).
+
+    Returns
+    -------
+    list of str
+        The terrain names of every dataset, in manifest order (a class of two datasets
+        appears twice).
+
+    Raises
+    ------
+    DataFormatError
+        A structure other than the one above; names the file and the offending key (e.g.
+        ``datasets.vulpi.terrains[2]``).
+    """
+    if not isinstance(manifest, dict):
+        raise DataFormatError(f"manifest must be a JSON object with a 'datasets' key, got "
+                              f"{_kind(manifest)}", path)
+    datasets = manifest.get("datasets")
+    if "datasets" not in manifest:
+        raise DataFormatError(f"manifest key 'datasets' is missing (found keys: "
+                              f"{', '.join(map(str, list(manifest)[:8])) or 'none'})", path)
+    if not isinstance(datasets, dict):
+        raise DataFormatError(f"manifest key 'datasets' must be an object of datasets, got "
+                              f"{_kind(datasets)}", path)
+    if not datasets:
+        raise DataFormatError("manifest key 'datasets' lists no dataset", path)
+    measured: list[str] = []
+    for name, entry in datasets.items():
+        key = f"datasets.{name}"
+        if not isinstance(entry, dict):
+            raise DataFormatError(f"manifest key {key!r} must be an object, got "
+                                  f"{_kind(entry)}", path)
+        if "terrains" not in entry:
+            raise DataFormatError(f"manifest key '{key}.terrains' is missing (the dataset's "
+                                  "terrain classes)", path)
+        terrains = entry["terrains"]
+        if not isinstance(terrains, list):
+            raise DataFormatError(f"manifest key '{key}.terrains' must be a list of terrain "
+                                  f"names, got {_kind(terrains)} {terrains!r}"[:300], path)
+        if not terrains:
+            raise DataFormatError(f"manifest key '{key}.terrains' is an empty list", path)
+        for i, t in enumerate(terrains):
+            if not isinstance(t, str) or not t.strip():
+                raise DataFormatError(f"manifest key '{key}.terrains[{i}]' must be a terrain "
+                                      f"name, got {t!r}", path)
+        measured.extend(terrains)
+    return measured
+
+
 def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
     """Check the SHA-256 of every shipped file against the manifest.
 
