@@ -41,6 +41,33 @@ VEHICLE_DATASET = {"husky": "borealtc"}
 MAX_DECISIONS = 64
 
 
+def decision_hop_s(model: StreamModel) -> float:
+    """Time between the live classifier's decisions, s.
+
+    The model's ``metadata["hop_s"]`` (else ``model.window.hop_s``) where it is a number
+    (the live-sim classifier: 0.5 s).
+    A ``terrain train`` model stores ``hop_s: null`` (its batch windows back to back, as
+    :class:`features.windows.WindowConfig` reads None); a live decision period is a
+    streaming setting, so null (or no ``hop_s``) takes the streaming service's default,
+    :class:`terrain.serving.service.StreamConfig` ``hop_s`` (0.5 s, also ``terrain stream
+    --hop-s``'s default): a decision every 0.5 s, as the README states for control-sim.
+
+    Parameters
+    ----------
+    model : StreamModel
+        The classifier with its directory's metadata.
+
+    Returns
+    -------
+    float
+        Hop, s (> 0).
+    """
+    hop = model.metadata.get("hop_s")
+    if hop is None:
+        hop = model.window.hop_s  # a model built in memory carries its hop there
+    return float(StreamConfig().hop_s if hop is None else hop)
+
+
 class LiveClassifier:
     """Causal terrain decisions of a trained model on the loop's own samples.
 
@@ -57,14 +84,14 @@ class LiveClassifier:
     Attributes
     ----------
     service : StreamService
-        The streaming core (hop ``model.metadata["hop_s"]``, default 0.5 s; no smoothing).
+        The streaming core (hop :func:`decision_hop_s`; no smoothing).
     n_windows : int
         Windows classified so far.
     """
 
     def __init__(self, model: StreamModel, vehicle: str) -> None:
-        hop = float(model.metadata.get("hop_s", model.window.hop_s))
-        config = StreamConfig(hop_s=hop, smoothing=SmoothingConfig(dwell_s=None))
+        config = StreamConfig(hop_s=decision_hop_s(model),
+                              smoothing=SmoothingConfig(dwell_s=None))
         self.service = StreamService(model, TableTargets(model.classes), config)
         self.wheel_radius_m = get_vehicle(vehicle).wheel_radius_m
         self._decisions: deque = deque(maxlen=MAX_DECISIONS)
@@ -146,7 +173,7 @@ def classifier_applies(model: StreamModel, vehicle: str, terrain: str) -> tuple[
                        f"was not trained on {vehicle} data, so the terrain comes from the label")
     return True, (f"live classifier on the loop's own samples (streaming service, "
                   f"{model.window.window_s:g} s windows, a decision every "
-                  f"{float(meta.get('hop_s', model.window.hop_s)):g} s, latest one emitted "
+                  f"{decision_hop_s(model):g} s, latest one emitted "
                   f"by t); classes {classes}")
 
 

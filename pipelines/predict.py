@@ -17,7 +17,7 @@ from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
 from terrain.io.report import input_report
-from terrain.serving.pyfunc import load_model, runs_to_model_input
+from terrain.serving.pyfunc import load_model, local_model_dir, runs_to_model_input
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-predict"
@@ -40,16 +40,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 
-def _load(uri: str):
+def _load(uri: str, progress: bool):
     from mlflow.exceptions import MlflowException
 
+    in_store = local_model_dir(uri) is None  # an unsupported URI stops here, in its own words
+    hint = (" (a models:/ or runs:/ URI resolves in the tracking store in force: run where "
+            "`terrain train` ran or set MLFLOW_TRACKING_URI to its store)" if in_store else "")
     try:
-        return load_model(uri)
+        return load_model(uri, progress=progress)
+    except ConfigError as exc:
+        raise ConfigError(f"cannot load model {uri!r}: {exc}") from exc
     except (MlflowException, OSError) as exc:
         first = str(exc).strip().splitlines()[0][:300] if str(exc).strip() else type(exc).__name__
-        raise ConfigError(f"cannot load model {uri!r}: {first} (a models:/ URI resolves in the "
-                          "tracking store in force: run where `terrain train` ran or set "
-                          "MLFLOW_TRACKING_URI to its store)") from None
+        raise ConfigError(f"cannot load model {uri!r}: {first}{hint}") from None
 
 
 def main(args: argparse.Namespace) -> int:
@@ -68,14 +71,15 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        When the model at ``args.model`` cannot be loaded.
+        When the model at ``args.model`` cannot be loaded (checked before the runs are
+        read).
     DataFormatError
         When no run of ``args.runs_dir`` yields a single window (all skipped or shorter than
         the model's window); names the runs folder.
     """
     progress = not args.no_progress
+    model, meta = _load(args.model, progress)
     runs = read_runs_path(args.runs_dir, labelled=False, progress=progress)
-    model, meta = _load(args.model)
     window_s = float(meta["window_s"])
     counts: dict = {"per_run": {}, "skipped_runs": [], "too_short_runs": []}
     parts = []
@@ -92,7 +96,8 @@ def main(args: argparse.Namespace) -> int:
         pred["flags"] = stuck_window_flags(run.meta.get("stuck", {}), pred["t_start_s"],
                                            pred["t_end_s"])
         counts["per_run"][run.run_id] = {"windows": len(pred), "dropped_unsteady": 0,
-                                         "dropped_gap": int(pred.attrs.get("dropped_windows", 0))}
+                                         "dropped_gap": int(pred.attrs.get("dropped_windows", 0)),
+                                         "empty_gap": int(pred.attrs.get("empty_windows", 0))}
         if len(samples) / float(meta["rate_hz"]) < window_s:
             counts["too_short_runs"].append(run.run_id)
         parts.append(pred)

@@ -30,14 +30,12 @@ import tempfile
 from pathlib import Path
 from typing import Any, Awaitable, Callable, MutableMapping
 
-import yaml
-
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
                             ImplausibleValueError, RaggedRowError, TerrainError)
 from terrain.serving.pyfunc import pip_requirements
 from terrain.serving import load_stream_model
-from terrain.serving.model import PIPELINE_ARTIFACT
-from terrain.serving.served import (MAX_DECISIONS, check_classifier, save_served_model,
+from terrain.serving.model import read_mlmodel
+from terrain.serving.served import (MAX_DECISIONS, save_served_model,
                                     served_settings)
 
 Scope = MutableMapping[str, Any]
@@ -95,11 +93,15 @@ def is_served_model(path: Path) -> bool:
     Returns
     -------
     bool
+
+    Raises
+    ------
+    ConfigError
+        An ``MLmodel`` that is not a YAML mapping (:func:`terrain.serving.model.read_mlmodel`).
     """
     mlmodel = path / "MLmodel"
-    meta = (yaml.safe_load(mlmodel.read_text()) or {}).get("metadata") or {} \
-        if mlmodel.is_file() else {}
-    return meta.get("kind") == "terrain-stream"
+    meta = read_mlmodel(mlmodel).get("metadata") if mlmodel.is_file() else None
+    return isinstance(meta, dict) and meta.get("kind") == "terrain-stream"
 
 
 def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
@@ -125,7 +127,6 @@ def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
         The directory's pipeline is not a fitted classifier, or a setting is out of range.
     """
     model = load_stream_model(model_dir)
-    check_classifier(model.pipeline, str(model_dir / PIPELINE_ARTIFACT))
     settings = served_settings(model, args.hop_s, args.dwell_s or None, args.min_confidence,
                                max_decisions=getattr(args, "max_decisions", MAX_DECISIONS))
     return save_served_model(out, model_dir, settings, pip_requirements(model.pipeline))

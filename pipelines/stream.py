@@ -12,11 +12,17 @@ on stale input).
 from __future__ import annotations
 
 import argparse
+from collections import Counter
 from pathlib import Path
 
-from terrain.errors import ConfigError
+import pandas as pd
+
+from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import list_run_files, read_run
+from terrain.io.plausibility import stuck_window_flags
+from terrain.io.report import input_report
 from terrain.control import DesiredSlipConfig
+from terrain.run import TIME
 from terrain.serving import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
                              decisions_frame, load_stream_model, replay_run)
 
@@ -43,8 +49,55 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="smoothed probability below which the fallback target is used")
 
 
+def _run_files(run_dir: Path, index: str | None) -> tuple[str, dict]:
+    """Index and files of the chosen run of ``run_dir``; errors and file paths keep
+    ``run_dir`` as the user gave it."""
+    if not run_dir.is_dir():
+        raise ConfigError(f"run folder {run_dir} does not exist or is not a folder")
+    if run_dir.name in ("", ".", ".."):  # no name of its own in the path as given
+        run_dir = run_dir.resolve()
+    try:
+        indexed = list_run_files(run_dir.parent)
+    except DataFormatError:  # the parent holds no run file at all, so run_dir none either
+        indexed = {}
+    runs = {idx: files for (folder, idx), files in indexed.items() if folder == run_dir.name}
+    if not runs:
+        raise ConfigError(f"{run_dir} holds no run files (imu_XX.csv, pro_XX.csv)")
+    if index is None and len(runs) > 1:
+        raise ConfigError(f"{run_dir} holds runs {sorted(runs)}: choose one with --index")
+    index = index or next(iter(runs))
+    if index not in runs:
+        raise ConfigError(f"no run {index!r} in {run_dir}; available: {sorted(runs)}")
+    return index, runs[index]
+
+
+def _add_stuck_flags(frame: pd.DataFrame, stuck: dict, window_s: float) -> int:
+    """Append ``stuck:<stream>.<channel>`` to the flags of the decisions whose window
+    ``[t_s - window_age_s - window_s, t_s - window_age_s)`` overlaps a stuck stretch (as
+    ``terrain predict`` flags its windows); returns how many were flagged."""
+    if not stuck or frame.empty:
+        return 0
+    end = frame["t_s"].to_numpy(dtype=float) - frame["window_age_s"].to_numpy(dtype=float)
+    stuck_flags = stuck_window_flags(stuck, end - window_s, end)  # no window: age inf
+    frame["flags"] = ["|".join(f for f in (old, new) if f)
+                      for old, new in zip(frame["flags"], stuck_flags)]
+    return int(sum(f != "" for f in stuck_flags))
+
+
+def _overlap_s(streams: list[pd.DataFrame]) -> float:
+    """Time span covered by every one of ``streams``, s (0 when they do not overlap)."""
+    if not all(len(f) for f in streams):
+        return 0.0
+    starts = [float(f[TIME].iloc[0]) for f in streams]
+    ends = [float(f[TIME].iloc[-1]) for f in streams]
+    return max(0.0, min(ends) - max(starts))
+
+
 def main(args: argparse.Namespace) -> int:
     """Read the run, replay it, write and summarise the decisions.
+
+    Prints what the readers repaired and found (the input report of ``terrain predict``),
+    then one line: decisions, flags by kind, output file.
 
     Parameters
     ----------
@@ -59,22 +112,16 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        When ``args.run_dir`` holds no run files, holds several runs and ``--index`` is not
-        given, lacks the run ``--index``, or lacks a stream the model needs.
+        When the model cannot be loaded, ``args.run_dir`` is not a folder, holds no run
+        files, holds several runs and ``--index`` is not given, lacks the run ``--index``,
+        or lacks a stream the model needs.
+    DataFormatError
+        When the run gives no decision: its streams overlap for less than one window.
     """
-    run_dir = args.run_dir.resolve()
-    runs = {idx: files for (folder, idx), files in list_run_files(run_dir.parent).items()
-            if folder == run_dir.name}
-    if not runs:
-        raise ConfigError(f"{run_dir} holds no run files (imu_XX.csv, pro_XX.csv)")
-    if args.index is None and len(runs) > 1:
-        raise ConfigError(f"{run_dir} holds runs {sorted(runs)}: choose one with --index")
-    index = args.index or next(iter(runs))
-    if index not in runs:
-        raise ConfigError(f"no run {index!r} in {run_dir}; available: {sorted(runs)}")
-    run = read_run(runs[index], f"{run_dir.name}/{index}", run_dir.parent.name,
-                   run_dir.name.upper())
     model = load_stream_model(args.model)
+    index, files = _run_files(args.run_dir, args.index)
+    folder = args.run_dir.resolve()
+    run = read_run(files, f"{folder.name}/{index}", folder.parent.name, folder.name.upper())
     config = StreamConfig(hop_s=args.hop_s, min_confidence=args.min_confidence,
                           smoothing=SmoothingConfig(dwell_s=args.dwell_s or None))
     targets = TableTargets(model.classes, DesiredSlipConfig(min_confidence=args.min_confidence))
@@ -83,11 +130,25 @@ def main(args: argparse.Namespace) -> int:
     if missing:
         raise ConfigError(f"the model needs stream(s) {missing}, absent from run {run.run_id}")
     frame = decisions_frame(replay_run(service, run), model.classes)
+    window_s = model.window.window_s
+    n_stuck = _add_stuck_flags(frame, dict(run.meta.get("stuck", {})), window_s)
+    span = _overlap_s([run.streams[s] for s in service.needed_streams])
+    short = [run.run_id] if not len(frame) and span < window_s else []
+    counts = {"per_run": {} if short else {run.run_id: {
+        "windows": len(frame), "dropped_gap": 0, "dropped_unsteady": 0}},
+        "too_short_runs": short}
+    print(input_report([run], counts, window_s, {run.run_id: n_stuck}).text())
+    if not len(frame):
+        raise DataFormatError(f"no decision from run {run.run_id}: its streams "
+                              f"{list(service.needed_streams)} overlap for {span:.2f} s, "
+                              f"shorter than the model's {window_s:g} s window", args.run_dir)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     frame.to_csv(args.out, index=False)
+    kinds = Counter(k.split(":")[0] for f in frame["flags"] if f for k in f.split("|"))
     flagged = int((frame["flags"] != "").sum())
+    detail = f" ({', '.join(f'{k} {n}' for k, n in sorted(kinds.items()))})" if kinds else ""
     print(f"{run.run_id}: {len(frame)} decisions every {args.hop_s} s from streams "
-          f"{list(service.needed_streams)}; {flagged} flagged; written to {args.out}")
+          f"{list(service.needed_streams)}; {flagged} flagged{detail}; written to {args.out}")
     if len(frame) and run.terrain in model.classes:
         acc = float((frame["terrain"] == run.terrain).mean())
         print(f"  decided {run.terrain} (the folder's label) in {acc:.3f} of the decisions")

@@ -149,7 +149,8 @@ def main(args: argparse.Namespace) -> int:
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
         uri = log_model(pipe, ws.channels, window, classes, meta,
                         None if args.no_register else f"terrain-{config.dataset}",
-                        input_example=example.head(2 * window.n_samples))
+                        input_example=example.head(2 * window.n_samples),
+                        progress=not args.no_progress)
         print(f"trained on {len(ws)} windows of {len(np.unique(ws.run_ids))} runs, classes "
               f"{classes}; training accuracy {train_acc:.3f} (not a generalisation estimate: "
               f"use `terrain cv`)")
@@ -161,7 +162,8 @@ def main(args: argparse.Namespace) -> int:
                   "tracking store (MLFLOW_TRACKING_URI, see README)")
         if args.model_out:
             save_model(args.model_out, pipe, ws.channels, window, classes, meta,
-                       input_example=example.head(2 * window.n_samples))
+                       input_example=example.head(2 * window.n_samples),
+                       progress=not args.no_progress)
             print(f"saved model directory: {args.model_out}")
     print(run.describe())
     return 0

@@ -34,8 +34,9 @@ import pandas as pd
 
 from terrain.errors import (DataFormatError, EmptyFileError, EncodingError, MissingColumnError,
                             NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
-                            TimestampError, UnitError, UnreadableFileError, first_items)
-from terrain.io.plausibility import CHANNEL_LIMITS, check_ranges, check_rate, check_run
+                            TimestampError, UnreadableFileError, first_items)
+from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
+                                     check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, Run
 
 #: file column -> canonical name, per known file kind
@@ -285,7 +286,7 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
         bad = np.flatnonzero(dt <= 0) + 1
         row = int(bad[0])
         what = "duplicated" if dt[row - 1] == 0 else "decreasing"
-        raise TimestampError(f"{what} timestamp {t[row]!r} after {t[row - 1]!r} "
+        raise TimestampError(f"{what} timestamp {float(t[row])!r} after {float(t[row - 1])!r} "
                              f"({bad.size} such row(s), at {first_items(lines[bad])}); "
                              "timestamps must increase strictly", path, "time", row,
                              int(lines[row]))
@@ -296,11 +297,10 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
 
 
 def _check_imu_units(frame: pd.DataFrame, path: Path) -> None:
-    norm = np.linalg.norm(frame[["ax", "ay", "az"]].to_numpy(), axis=1)
-    if np.median(norm) < 3.0:
-        raise UnitError(f"rule accel_units: median specific force {np.median(norm):.2f} is "
-                        "far below 9.81 m/s^2; the file looks like units of g, expected "
-                        "m/s^2 (x 9.81)", path, "az")
+    """Rule ``accel_units`` (:func:`terrain.io.plausibility.check_accel_units`): a file in g
+    is refused; a dead accelerometer is left to the stuck-sensor warning of
+    :func:`terrain.io.plausibility.check_run`, or warned about when it reads noise near 0."""
+    check_accel_units(frame, path)
 
 
 def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:

@@ -54,6 +54,14 @@ Unit and clock rules (:func:`check_run`)
         slope of the wheel-speed derivative on the forward specific force (1 s averages) is
         about 1 in m/s (the shipped runs: at most 0.5, the IMU axes being tilted); when the
         correlation is >= 0.5 and the slope exceeds 2.5 the speeds are likely in km/h.
+    ``accel_units`` (:func:`check_accel_units`, on the IMU file alone)
+        The median norm of the specific force at rest and in motion is gravity: 9.81 in
+        m/s^2, 1 in g. Judged on the samples outside the accelerometer's stuck stretches
+        (rule ``stuck_sensor``; a dead, all-zero accelerometer is that rule's warning, not a
+        unit error). Certain (refuse) when the median is in
+        [:data:`DEAD_ACCEL_M_S2`, :data:`G_UNITS_BELOW_M_S2`) = [0.5, 3): the file is in g.
+        Below 0.5 the sensor sees no gravity in either unit: a dead or disconnected
+        accelerometer, a warning (assumed m/s^2).
     ``stuck_sensor``
         A channel that holds one exact value for long is a dead or stuck sensor: IMU channels
         for :data:`STUCK_IMU_S` (a live MEMS sensor never repeats a float for more than 2
@@ -158,6 +166,47 @@ MAX_GYRO_SPREAD_RAD_S = 0.3
 #: seconds of one exact repeated value after which a channel is stuck
 STUCK_IMU_S = 1.0
 STUCK_CURRENT_S = 20.0
+#: median specific-force norm below which an accelerometer is in g (gravity reads 1 in g,
+#: 9.81 in m/s^2), m/s^2
+G_UNITS_BELOW_M_S2 = 3.0
+#: median specific-force norm below which an accelerometer sees no gravity in either unit
+#: (half of gravity in g): a dead sensor, not a unit mistake, m/s^2
+DEAD_ACCEL_M_S2 = 0.5
+_ACCEL = ("ax", "ay", "az")
+
+
+def check_accel_units(frame: pd.DataFrame, path) -> None:
+    """Rule ``accel_units``: an accelerometer in g, told apart from a dead one.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        IMU frame (``t_s``, ``ax``, ``ay``, ``az`` in the file's units, supposedly m/s^2).
+    path : str or Path
+        File (for the message).
+
+    Raises
+    ------
+    UnitError
+        When the live samples' median specific force is in [0.5, 3) m/s^2: the file is in g.
+    """
+    acc = frame[list(_ACCEL)].to_numpy(dtype=float)
+    live = np.ones(len(frame), dtype=bool)
+    t = frame[TIME].to_numpy()
+    for spans in stuck_stretches({"imu": frame[[TIME, *_ACCEL]]}).values():
+        for a, b in spans:
+            live &= ~((t >= a) & (t <= b))
+    if not live.any():
+        return  # every sample in a stuck stretch: the stuck_sensor rule reports it
+    median = float(np.median(np.linalg.norm(acc[live], axis=1)))
+    if median < DEAD_ACCEL_M_S2:
+        _warn(f"{path}: rule accel_units: median specific force {median:.2f} over "
+              f"{int(live.sum())} sample(s) outside stuck stretches: the accelerometer sees "
+              "no gravity (9.81 m/s^2, or 1 in g): dead or disconnected sensor; assumed m/s^2")
+    elif median < G_UNITS_BELOW_M_S2:
+        raise UnitError(f"rule accel_units: median specific force {median:.2f} is far below "
+                        "9.81 m/s^2; the file looks like units of g, expected m/s^2 (x 9.81)",
+                        path, "az")
 
 
 def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],

@@ -19,8 +19,8 @@ from terrain.run import Run
 
 #: columns of :attr:`InputReport.table`
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
-           "skipped_lines", "stuck", "windows", "dropped_gap", "dropped_unsteady",
-           "flagged_windows", "warnings")
+           "gap_list", "skipped_lines", "stuck", "windows", "dropped_gap", "empty_gap",
+           "dropped_unsteady", "flagged_windows", "warnings")
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,7 @@ class InputReport:
             "skipped_lines": int(t["skipped_lines"].sum()),
             "stuck_channels": int(t["stuck"].str.count(",").add(t["stuck"] != "").sum()),
             "windows_dropped_gap": int(t.loc[windowed, "dropped_gap"].sum()),
+            "windows_empty_gap": int(t.loc[windowed, "empty_gap"].sum()),
             "windows_dropped_unsteady": int(t.loc[windowed, "dropped_unsteady"].sum()),
             "windows_flagged": int(t.loc[t["flagged_windows"] > 0, "flagged_windows"].sum()),
             "warnings": int(t["warnings"].sum()),
@@ -94,11 +95,18 @@ class InputReport:
             parts.append(f"  skipped {int(m['skipped_lines'])} blank/comment line(s): "
                          f"{ids(t['skipped_lines'] > 0)}")
         if m["gaps"]:
-            parts.append(f"  {int(m['gaps'])} timestamp gap(s) ({m['gap_s']:.1f} s) in "
+            lengths = [float(b) - float(a) for spans in t["gap_list"] if spans
+                       for a, b in (g.split("..") for g in spans.split(";"))]
+            sizes = _short([f"{x:.1f} s" for x in lengths], limit)
+            total = f"; {m['gap_s']:.1f} s in all" if len(lengths) > 1 else ""
+            parts.append(f"  {int(m['gaps'])} timestamp gap(s) ({sizes}{total}) in "
                          f"{ids(t['gaps'] > 0)}; never interpolated across")
         if m["windows_dropped_gap"] or m["windows_dropped_unsteady"]:
             parts.append(f"  dropped windows: {int(m['windows_dropped_gap'])} spanning a gap, "
                          f"{int(m['windows_dropped_unsteady'])} unsteady (--steady-only)")
+        if m["windows_empty_gap"]:
+            parts.append(f"  {int(m['windows_empty_gap'])} window position(s) wholly inside "
+                         "a gap of every stream: no data there, not counted as dropped")
         for status in ("skipped", "too_short"):
             for reason, group in t[t["status"] == status].groupby("reason", sort=False):
                 word = "skipped" if status == "skipped" else "too short"
@@ -128,8 +136,9 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         The runs read (their ``meta`` holds what the readers repaired and noticed).
     counts : Mapping, optional
         ``WindowSet.counts`` of :func:`features.windows.make_windows` (or the same keys:
-        ``per_run``, ``skipped_runs``, ``too_short_runs``). Without it the window columns
-        are -1.
+        ``per_run``, ``skipped_runs``, ``too_short_runs``; a ``per_run`` entry may add
+        ``empty_gap``, the window positions wholly inside a gap). Without it the window
+        columns are -1.
     window_s : float, optional
         Window length, s (for the too-short reason).
     flagged : Mapping[str, int], optional
@@ -148,7 +157,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
     for run in runs:
         meta = run.meta
         repaired = dict(meta.get("repaired", {}))
-        gaps = [g for spans in dict(meta.get("gaps", {})).values() for g in spans]
+        gaps = merged_gaps(dict(meta.get("gaps", {})))
         stuck = sorted(dict(meta.get("stuck", {})))
         w = per_run.get(run.run_id)
         status, reason = "used", ""
@@ -166,15 +175,43 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
             "repaired_cells": int(sum(repaired.values())),
             "repaired": ", ".join(f"{k}:{v}" for k, v in repaired.items()),
             "gaps": len(gaps), "gap_s": float(sum(b - a for a, b in gaps)),
+            "gap_list": ";".join(f"{a:.3f}..{b:.3f}" for a, b in gaps),
             "skipped_lines": int(sum(dict(meta.get("skipped_lines", {})).values())),
             "stuck": ",".join(stuck),
             "windows": int(w["windows"]) if w else -1,
             "dropped_gap": int(w["dropped_gap"]) if w else 0,
+            "empty_gap": int(w.get("empty_gap", 0)) if w else 0,
             "dropped_unsteady": int(w["dropped_unsteady"]) if w else 0,
             "flagged_windows": int(flagged.get(run.run_id, 0)),
             "warnings": len(meta.get("warnings", ())),
         })
     return InputReport(pd.DataFrame(rows, columns=list(COLUMNS)))
+
+
+def merged_gaps(gaps: Mapping[str, Sequence]) -> list[tuple[float, float]]:
+    """The timestamp gaps of a run's streams as one sorted list, overlapping ones merged.
+
+    A hole in the recording shows in every stream file; counted per stream it would count
+    (and sum) once per file.
+
+    Parameters
+    ----------
+    gaps : Mapping[str, sequence]
+        ``Run.meta["gaps"]``: stream -> ``[(t_start_s, t_end_s), ...]`` (s).
+
+    Returns
+    -------
+    list of tuple
+        ``(t_start_s, t_end_s)`` of each stretch in which at least one stream has a gap,
+        sorted, disjoint.
+    """
+    out: list[list[float]] = []
+    for a, b in sorted((float(a), float(b)) for spans in gaps.values() for a, b in spans):
+        if out and a <= out[-1][1]:
+            out[-1][1] = max(out[-1][1], b)
+        else:
+            out.append([a, b])
+    return [(a, b) for a, b in out]
 
 
 def _short(items: list[str], limit: int) -> str:

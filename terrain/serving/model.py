@@ -9,6 +9,7 @@ directly, so the streaming service needs no MLflow server or pyfunc wrapper.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -60,6 +61,155 @@ class StreamModel:
         return tuple(raw)
 
 
+#: Metadata keys every terrain model directory carries (``terrain train --model-out``).
+REQUIRED_METADATA = ("channels", "classes", "window_s", "rate_hz")
+
+
+def read_mlmodel(mlmodel: str | Path) -> dict:
+    """Parse an MLflow ``MLmodel`` file.
+
+    Parameters
+    ----------
+    mlmodel : str or Path
+        The ``MLmodel`` file.
+
+    Returns
+    -------
+    dict
+        Its YAML mapping (``flavors``, ``metadata``, ...).
+
+    Raises
+    ------
+    ConfigError
+        Not UTF-8 text, not valid YAML (the message gives the line and column), empty or
+        not a mapping; the message names the file.
+    OSError
+        The file is missing or unreadable.
+    """
+    mlmodel = Path(mlmodel)
+    try:
+        doc = yaml.safe_load(mlmodel.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{mlmodel}: not UTF-8 text (byte offset {exc.start})") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        raise ConfigError(f"{mlmodel}: not valid YAML ({problem}{where})") from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{mlmodel}: empty or not a YAML mapping (an MLflow MLmodel file "
+                          "maps flavors, metadata, ...)")
+    return doc
+
+
+def read_model_metadata(path: str | Path) -> dict:
+    """Check a terrain model directory's files and return its ``MLmodel`` metadata.
+
+    The one place where a model directory's settings are validated, shared by
+    :func:`load_stream_model` and :func:`terrain.serving.pyfunc.load_model`; the fitted
+    classifier itself is checked by :func:`load_pipeline`.
+
+    Parameters
+    ----------
+    path : str or Path
+        MLflow model directory.
+
+    Returns
+    -------
+    dict
+        The ``metadata`` mapping of ``MLmodel``: at least ``channels`` and ``classes``
+        (non-empty lists of names), ``window_s`` and ``rate_hz`` (positive numbers, s and
+        Hz); ``hop_s`` is a positive number or None (None, as :class:`WindowConfig` reads
+        it: windows one window length apart).
+
+    Raises
+    ------
+    ConfigError
+        No such directory, missing ``MLmodel`` or pipeline artifact, an ``MLmodel`` that is
+        not UTF-8 YAML text, is empty or not a mapping, or whose metadata lacks or mistypes
+        a setting; the message names the file (and the YAML line).
+    """
+    path = Path(path)
+    mlmodel, pipe_file = path / "MLmodel", path / PIPELINE_ARTIFACT
+    if not path.exists():
+        raise ConfigError(f"model directory {path} does not exist")
+    if not mlmodel.is_file() or not pipe_file.is_file():
+        raise ConfigError(f"{path} is not a terrain model directory (needs MLmodel and "
+                          f"{PIPELINE_ARTIFACT})")
+    meta = read_mlmodel(mlmodel).get("metadata")
+    if not isinstance(meta, dict):
+        raise ConfigError(f"{mlmodel}: no metadata mapping (a terrain model's MLmodel "
+                          f"carries {list(REQUIRED_METADATA)} in metadata)")
+    missing = [k for k in REQUIRED_METADATA if k not in meta]
+    if missing:
+        raise ConfigError(f"{mlmodel}: metadata lacks {missing}")
+    for key in ("channels", "classes"):
+        names = meta[key]
+        if not isinstance(names, list) or not names or \
+                not all(isinstance(c, (str, int)) and not isinstance(c, bool) for c in names):
+            raise ConfigError(f"{mlmodel}: metadata {key} must be a non-empty list of names, "
+                              f"got {names!r}"[:300])
+    for key in ("window_s", "rate_hz", "hop_s"):
+        value = meta.get(key)
+        if key == "hop_s" and value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+                not math.isfinite(value) or value <= 0:
+            raise ConfigError(f"{mlmodel}: metadata {key} must be a positive number"
+                              f"{' or null' if key == 'hop_s' else ''}, got {value!r}"[:300])
+    try:
+        WindowConfig(window_s=float(meta["window_s"]), rate_hz=float(meta["rate_hz"]))
+    except ConfigError as exc:
+        raise ConfigError(f"{mlmodel}: metadata window: {exc}") from None
+    return dict(meta)
+
+
+def load_pipeline(path: str | Path) -> Any:
+    """Read the fitted classifier of a model directory (its ``artifacts/pipeline.joblib``).
+
+    The one place where the joblib file of a model is loaded and checked, shared by
+    :func:`load_stream_model` and the pyfunc's
+    :meth:`terrain.serving.pyfunc.TerrainModel.load_context`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The joblib file.
+
+    Returns
+    -------
+    object
+        The fitted estimator: it has ``predict_proba`` and ``classes_``.
+
+    Raises
+    ------
+    ConfigError
+        The file cannot be unpickled (truncated, empty, not a joblib file, a class that no
+        longer imports: the message gives the exception), or it holds something other than
+        a fitted classifier (names the type found).
+    OSError
+        The file is missing or unreadable.
+    """
+    import joblib
+
+    path = Path(path)
+    try:
+        pipeline = joblib.load(path)
+    except OSError:
+        raise
+    except Exception as exc:  # unpickling arbitrary bytes raises anything (EOF, zlib, Key...)
+        kind = type(exc).__qualname__
+        if type(exc).__module__ != "builtins":  # e.g. zlib.error
+            kind = f"{type(exc).__module__}.{kind}"
+        text = " ".join(str(exc).split())[:200]
+        raise ConfigError(f"{path}: cannot be read as a fitted model ({kind}"
+                          f"{': ' + text if text else ''})") from exc
+    if not (hasattr(pipeline, "predict_proba") and hasattr(pipeline, "classes_")):
+        raise ConfigError(f"{path}: holds a {type(pipeline).__name__}, not a fitted "
+                          "classifier with predict_proba and classes_")
+    return pipeline
+
+
 def load_stream_model(path: str | Path) -> StreamModel:
     """Read a terrain model directory written by ``terrain train --model-out``.
 
@@ -76,21 +226,16 @@ def load_stream_model(path: str | Path) -> StreamModel:
     Raises
     ------
     ConfigError
-        Missing ``MLmodel`` or pipeline artifact, or metadata lacking the settings.
+        Missing or malformed ``MLmodel`` or pipeline artifact, metadata lacking the
+        settings (:func:`read_model_metadata`), or a pipeline file that does not hold a
+        fitted classifier (:func:`load_pipeline`).
+    OSError
+        The pipeline file is unreadable.
     """
-    import joblib
-
     path = Path(path)
-    mlmodel, pipe_file = path / "MLmodel", path / PIPELINE_ARTIFACT
-    if not mlmodel.is_file() or not pipe_file.is_file():
-        raise ConfigError(f"{path} is not a terrain model directory (needs MLmodel and "
-                          f"{PIPELINE_ARTIFACT})")
-    meta = (yaml.safe_load(mlmodel.read_text()) or {}).get("metadata") or {}
-    missing = [k for k in ("channels", "classes", "window_s", "rate_hz") if k not in meta]
-    if missing:
-        raise ConfigError(f"{mlmodel}: metadata lacks {missing}")
-    pipeline = joblib.load(pipe_file)
-    return StreamModel(pipeline, tuple(meta["channels"]),
+    meta = read_model_metadata(path)
+    pipeline = load_pipeline(path / PIPELINE_ARTIFACT)
+    return StreamModel(pipeline, tuple(str(c) for c in meta["channels"]),
                        WindowConfig(window_s=float(meta["window_s"]),
                                     rate_hz=float(meta["rate_hz"])),
                        tuple(str(c) for c in meta["classes"]), MappingProxyType(dict(meta)))

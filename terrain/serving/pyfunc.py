@@ -13,15 +13,21 @@ row per window::
 
     run, t_start_s, t_end_s, predicted, proba_<CLASS> ...
 
-Windows holding NaN (gaps) are dropped and counted in the ``dropped_windows`` attribute of
-the returned frame. The same model is served by ``mlflow models serve -m DIR``.
+Windows holding NaN (a timestamp gap) are dropped and counted in the ``dropped_windows``
+attribute of the returned frame; window positions wholly inside a gap of every stream (not a
+single sample in them: no data was dropped) are counted apart, in ``empty_windows``. The same
+model is served by ``mlflow models serve -m DIR``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import tempfile
 from pathlib import Path
+from urllib.parse import urlparse
+from urllib.request import url2pathname
 from typing import Any, Sequence
 
 import numpy as np
@@ -33,6 +39,7 @@ from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
+from terrain.serving.model import load_pipeline, read_model_metadata
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
     from mlflow.pyfunc import PythonModel
@@ -41,6 +48,12 @@ except ImportError:  # pragma: no cover
 
 PIPELINE_FILE = "pipeline.joblib"
 RUN = "run"
+#: Schemes of the model URIs :func:`load_model` resolves through MLflow's store.
+STORE_SCHEMES = ("models", "runs")
+#: What :func:`load_model` accepts, for error messages.
+SUPPORTED_URIS = ("a local model directory (terrain train --model-out DIR; or file:///DIR), "
+                  "models:/NAME/VERSION (or models:/NAME/latest) or runs:/RUN_ID/PATH, "
+                  "both resolved in the tracking store in force")
 
 
 def input_channels(channels: Sequence[str]) -> list[str]:
@@ -127,15 +140,30 @@ class TerrainModel(PythonModel):
         self._pipeline = None
 
     def load_context(self, context: Any) -> None:
-        """Load the fitted scikit-learn pipeline; settings from ``context.model_config``
-        when the model was logged from code (:mod:`terrain.serving.pyfunc_entry`)."""
-        import joblib
+        """Load the fitted classifier; settings from ``context.model_config`` when the model
+        was logged from code (:mod:`terrain.serving.pyfunc_entry`).
+
+        Parameters
+        ----------
+        context : mlflow.pyfunc.PythonModelContext
+            ``artifacts["pipeline"]`` (the joblib file) and ``model_config``.
+
+        Raises
+        ------
+        ConfigError
+            The model config lacks a setting, or the pipeline file does not hold a fitted
+            classifier (:func:`terrain.serving.model.load_pipeline`, which names the file).
+        """
         config = getattr(context, "model_config", None) or {}
         if config:
+            missing = [k for k in ("channels", "window", "classes") if k not in config]
+            if missing:
+                raise ConfigError(f"model config lacks {missing} (flavor python_function of "
+                                  "the model's MLmodel)")
             self.channels = list(config["channels"])
             self.window = dict(config["window"])
             self.classes = list(config["classes"])
-        self._pipeline = joblib.load(context.artifacts["pipeline"])
+        self._pipeline = load_pipeline(context.artifacts["pipeline"])
 
     def predict(self, context: Any, model_input: pd.DataFrame, params: dict | None = None
                 ) -> pd.DataFrame:
@@ -195,7 +223,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     -------
     pandas.DataFrame
         ``run, t_start_s, t_end_s`` (s), ``predicted`` and ``proba_<CLASS>`` per window; its
-        ``attrs["dropped_windows"]`` counts windows dropped for holding NaN.
+        ``attrs["dropped_windows"]`` counts windows of data dropped for holding NaN (a
+        timestamp gap), ``attrs["empty_windows"]`` the window positions wholly inside a gap
+        of every stream (no sample at all, so not counted as dropped).
 
     Raises
     ------
@@ -215,7 +245,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                  "model input", missing[0])
     # the readers' plausibility ranges also guard served input (1e300 would overflow features)
     check_ranges(samples, "model input", {c: c for c in cols[2:]})
-    out, dropped = [], 0
+    out, dropped, empty = [], 0, 0
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)
         t = frame[TIME].to_numpy(dtype=float)
@@ -230,7 +260,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                   f"model input, run {run_id}", TIME)
         frame = add_derived_channels(frame)
         X, t0, t1, _, counts = window_frame(frame, channels, config)
-        dropped += counts["dropped_gap"]
+        n_empty = _windows_without_data(frame, channels, config)
+        empty += n_empty
+        dropped += counts["dropped_gap"] - n_empty
         if len(X) == 0:
             continue
         proba = pipeline.predict_proba(X)
@@ -242,8 +274,22 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         out.append(part)
     columns = [RUN, "t_start_s", "t_end_s", "predicted"] + [f"proba_{c}" for c in classes]
     result = pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=columns)
-    result.attrs["dropped_windows"] = dropped
-    return result[columns]
+    result = result[columns]
+    result.attrs.update(dropped_windows=dropped, empty_windows=empty)
+    return result
+
+
+def _windows_without_data(frame: pd.DataFrame, channels: Sequence[str],
+                          config: WindowConfig) -> int:
+    """Window positions of ``frame`` in which no channel holds a value (inside a timestamp
+    gap of every stream): :func:`features.windows.window_frame` counts them among the
+    windows dropped for a gap, but they hold no data. Counted by windowing an indicator that
+    is finite exactly where a sample carries no value at all, so the positions are
+    ``window_frame``'s own."""
+    has_data = np.isfinite(frame[list(channels)].to_numpy(dtype=float)).any(axis=1)
+    probe = pd.DataFrame({TIME: frame[TIME].to_numpy(),
+                          "no_data": np.where(has_data, np.nan, 0.0)})
+    return len(window_frame(probe, ["no_data"], config)[0])
 
 
 def model_signature(channels: Sequence[str], classes: Sequence[str]):
@@ -337,7 +383,7 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
 
 def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
                window: WindowConfig, classes: Sequence[str], metadata: dict,
-               input_example: pd.DataFrame | None = None) -> Path:
+               input_example: pd.DataFrame | None = None, progress: bool = True) -> Path:
     """Save the inference pipeline as an MLflow model directory at ``path``.
 
     Parameters
@@ -357,6 +403,9 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
         are added to it.
     input_example : pandas.DataFrame, optional
         Aligned samples in the model's input format, stored with the model.
+    progress : bool
+        Let MLflow show its artifact progress bars (validating the input example downloads
+        the model).
 
     Returns
     -------
@@ -375,7 +424,7 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
         raise ConfigError(f"model directory {path} exists and is not empty")
     if path.exists():
         path.rmdir()
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, artifact_progress(progress):
         mlflow.pyfunc.save_model(path=str(path), input_example=input_example, **_model_kwargs(
             pipeline, channels, window, classes, metadata, Path(tmp)))
     return path
@@ -383,7 +432,7 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
 
 def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
               classes: Sequence[str], metadata: dict, registered_name: str | None,
-              input_example: pd.DataFrame | None = None) -> str:
+              input_example: pd.DataFrame | None = None, progress: bool = True) -> str:
     """Log (and register) the inference pipeline in the active MLflow run.
 
     Parameters
@@ -402,6 +451,8 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
         Registry name, or None not to register.
     input_example : pandas.DataFrame, optional
         Aligned samples in the model's input format (a few windows), stored with the model.
+    progress : bool
+        Let MLflow show its artifact progress bars (upload, input-example validation).
 
     Returns
     -------
@@ -410,7 +461,7 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     """
     import mlflow.pyfunc
 
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, artifact_progress(progress):
         info = mlflow.pyfunc.log_model(name="terrain-model", registered_model_name=registered_name,
                                        input_example=input_example,
                                        **_model_kwargs(pipeline, channels, window, classes,
@@ -418,15 +469,86 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     return info.model_uri
 
 
-def load_model(uri: str | Path) -> tuple[Any, dict]:
-    """Load a saved or logged terrain model; returns the pyfunc model and its metadata.
+@contextlib.contextmanager
+def artifact_progress(enabled: bool):
+    """Context in which MLflow shows (or hides) its artifact up/download progress bars.
+
+    MLflow reads ``MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR`` from the environment at every
+    transfer; it is set inside the context and restored after.
+
+    Parameters
+    ----------
+    enabled : bool
+        False hides the bars (a command's ``--no-progress``); True leaves the setting as is.
+
+    Yields
+    ------
+    None
+    """
+    key = "MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR"
+    if enabled:
+        yield
+        return
+    before = os.environ.get(key)
+    os.environ[key] = "false"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = before
+
+
+def local_model_dir(uri: str | Path) -> Path | None:
+    """The local directory a model URI names, or None for a URI of MLflow's store.
 
     Parameters
     ----------
     uri : str or pathlib.Path
-        Model directory or MLflow URI (``runs:/...``, ``models:/name/version``), resolved in
-        MLflow's process-wide store (set by the ``terrain`` entry point with
-        :func:`terrain.tracking.activate_store`).
+        A path, a ``file:`` URI, or a ``models:/`` / ``runs:/`` URI.
+
+    Returns
+    -------
+    pathlib.Path or None
+        The directory for an existing path, a path without a scheme or a ``file:`` URI (not
+        checked further here); None for ``models:/...`` and ``runs:/...``.
+
+    Raises
+    ------
+    ConfigError
+        Any other scheme (``http:``, ``s3:``, ...): the message lists the supported URIs.
+    """
+    if isinstance(uri, Path) or Path(uri).exists():
+        return Path(uri)
+    parsed = urlparse(uri)
+    scheme = parsed.scheme.lower()
+    if scheme == "" or len(scheme) == 1:  # a path (a Windows drive letter is no scheme)
+        return Path(uri)
+    if scheme == "file":
+        return Path(url2pathname(parsed.path))
+    if scheme in STORE_SCHEMES:
+        return None
+    raise ConfigError(f"unsupported model URI {uri!r} (scheme {scheme}:): give "
+                      f"{SUPPORTED_URIS}")
+
+
+def load_model(uri: str | Path, progress: bool = True) -> tuple[Any, dict]:
+    """Load a saved or logged terrain model; returns the pyfunc model and its metadata.
+
+    A ``models:/`` or ``runs:/`` model is first downloaded from the store; the directory is
+    then checked (:func:`terrain.serving.model.read_model_metadata`, and the fitted
+    classifier by :meth:`TerrainModel.load_context`) before MLflow loads it, so a corrupt
+    model gives a :class:`~terrain.errors.ConfigError` naming its file.
+
+    Parameters
+    ----------
+    uri : str or pathlib.Path
+        Model directory (or ``file:`` URI) or MLflow URI (``runs:/RUN_ID/PATH``,
+        ``models:/NAME/VERSION``), resolved in MLflow's process-wide store (set by the
+        ``terrain`` entry point with :func:`terrain.tracking.activate_store`).
+    progress : bool
+        Show MLflow's download progress bars (see :func:`artifact_progress`).
 
     Returns
     -------
@@ -439,14 +561,23 @@ def load_model(uri: str | Path) -> tuple[Any, dict]:
     Raises
     ------
     ConfigError
-        If the model is not a terrain model (no ``channels``/``rate_hz`` metadata).
+        An unsupported URI scheme (:func:`local_model_dir`); a directory that is not a
+        terrain model or holds a malformed ``MLmodel`` or pipeline file (names the file).
+    mlflow.exceptions.MlflowException
+        A ``models:/`` / ``runs:/`` URI the store does not resolve, or a model MLflow
+        refuses.
+    OSError
+        A file of the model that cannot be read.
     """
     import mlflow.pyfunc
 
-    model = mlflow.pyfunc.load_model(str(uri))
-    meta = dict(model.metadata.metadata or {})
-    if "channels" not in meta or "rate_hz" not in meta:
-        raise ConfigError(f"{uri} is not a terrain model (metadata lacks channels/rate_hz)")
+    local = local_model_dir(uri)
+    with artifact_progress(progress):
+        if local is None:
+            from mlflow.artifacts import download_artifacts
+            local = Path(download_artifacts(artifact_uri=str(uri)))
+        meta = read_model_metadata(local)
+        model = mlflow.pyfunc.load_model(str(local))
     return model, meta
 
 

@@ -56,7 +56,8 @@ from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_ranges, check_rate, check_run,
                                      stuck_window_flags)
 from terrain.run import TIME, Run
-from terrain.serving.model import PIPELINE_ARTIFACT, StreamModel, load_stream_model
+from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
+                                   load_stream_model)
 from terrain.serving.replay import replay_run
 from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
                                      decisions_frame)
@@ -185,31 +186,6 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     for key in ("max_rows", "max_decisions"):
         if key in settings and not int(settings[key]) > 0:
             raise ConfigError(f"{key} must be a positive number, got {settings[key]}")
-
-
-def check_classifier(pipeline: Any, source: str) -> None:
-    """Refuse a loaded ``pipeline.joblib`` that is not a fitted probabilistic classifier.
-
-    A minimal local check (``predict_proba`` and ``classes_``), so that a model directory
-    holding something else fails when the server starts, not on every request.
-
-    Parameters
-    ----------
-    pipeline : object
-        What the model's ``pipeline.joblib`` holds.
-    source : str
-        The file or model it came from (for the message).
-
-    Raises
-    ------
-    ConfigError
-        When ``pipeline`` lacks ``predict_proba`` or ``classes_``.
-    """
-    lacks = [a for a in ("predict_proba", "classes_") if not hasattr(pipeline, a)]
-    if lacks or not callable(getattr(pipeline, "predict_proba", None)):
-        raise ConfigError(f"{source} holds a {type(pipeline).__name__}, not a fitted "
-                          f"classifier (it lacks {' and '.join(lacks) or 'predict_proba'}); "
-                          "write the model with `terrain train --model-out`")
 
 
 def _numeric(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) -> np.ndarray:
@@ -501,14 +477,11 @@ class ServedStreamModel(PythonModel):
             The pipeline artifact is not a fitted classifier, or a setting is out of range
             (so a broken model fails when the server starts, not on every request).
         """
-        import joblib
-
         s = {"max_decisions": MAX_DECISIONS, "vehicle": DEFAULT_VEHICLE,
              **dict(context.model_config)}
         check_settings(s)
         self.settings = s
-        pipeline = joblib.load(context.artifacts["pipeline"])
-        check_classifier(pipeline, f"pipeline artifact {context.artifacts['pipeline']}")
+        pipeline = load_pipeline(context.artifacts["pipeline"])
         self.model = StreamModel(pipeline, tuple(s["channels"]),
                                  WindowConfig(window_s=float(s["window_s"]),
                                               rate_hz=float(s["rate_hz"])),

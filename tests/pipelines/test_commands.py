@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import json
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
 
+from features.windows import WindowConfig, make_windows
 from terrain.cli import SUBCOMMANDS, build_parser, main
 from terrain.io.shipped import read_shipped
+from terrain.models.experiment import inference_pipeline
+from terrain.models.svm import SVMConfig
+from terrain.serving.pyfunc import save_model
 
 
 @pytest.fixture
@@ -17,6 +23,19 @@ def workdir(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
     return tmp_path
+
+
+@pytest.fixture(scope="module")
+def small_model(tmp_path_factory):
+    """A wheel-only SVM fitted on six Vulpi runs, saved as a model directory (seconds)."""
+    runs = read_shipped("vulpi")[:6]
+    config = WindowConfig(window_s=2.0, rate_hz=50.0)
+    ws = make_windows(runs, "wheels", config)
+    pipe = inference_pipeline(ws, SVMConfig(probability=True)).fit(ws.X, ws.labels.astype(str))
+    path = tmp_path_factory.mktemp("small") / "model"
+    save_model(path, pipe, ws.channels, config, sorted({str(c) for c in ws.labels}),
+               {"dataset": "vulpi"}, progress=False)
+    return path
 
 
 def write_runs_layout(runs, root):
@@ -72,11 +91,14 @@ def test_cv_vulpi_reports_grouped_metrics_and_logs_mlflow(workdir, capsys):
     assert {"confusion_matrix.png", "confusion_matrix.csv", "predictions.csv"} <= arts
 
 
-def test_train_then_predict_on_measured_layout(workdir, capsys):
+def test_train_then_predict_on_measured_layout(workdir, capfd):
     model_dir = workdir / "model"
     assert main(["train", "--dataset", "vulpi", "--model-out", str(model_dir),
                  "--no-progress"]) == 0
     assert (model_dir / "MLmodel").exists()
+    # --no-progress also hides MLflow's artifact bars (logging and saving validate the
+    # input example by downloading the model)
+    assert "Downloading artifacts" not in capfd.readouterr().err
     runs = [r for r in read_shipped("vulpi") if r.run_id in
             ("vulpi/CONCRETE/1", "vulpi/PLOUGHED/3")]
     runs_dir = workdir / "runs"
@@ -119,13 +141,45 @@ def test_bad_dataset_is_rejected(capsys):
     assert "invalid choice" in capsys.readouterr().err
 
 
-def test_predict_on_folder_without_runs_is_a_clear_error(workdir, capsys):
+def test_predict_on_folder_without_runs_is_a_clear_error(workdir, capsys, small_model):
     (workdir / "empty").mkdir()
-    code = main(["predict", "--model", str(workdir / "nope"), str(workdir / "empty"),
+    code = main(["predict", "--model", str(small_model), str(workdir / "empty"),
                  "--out", "x.csv"])
     assert code == 2
     err = capsys.readouterr().err
     assert "no run files" in err and "empty" in err
+
+
+def test_predict_checks_the_model_before_reading_the_runs(workdir, capfd):
+    write_runs_layout(read_shipped("vulpi")[:2], workdir / "runs")
+    code = main(["predict", "--model", str(workdir / "nope"), str(workdir / "runs"),
+                 "--out", "x.csv"])   # progress bars on: reading the runs would show one
+    assert code == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and "reading runs" not in err
+    assert "cannot load model" in err and "nope does not exist" in err
+
+
+def test_predict_reports_one_hole_in_every_stream_once(workdir, capsys, small_model):
+    """A 1000 s hole in both files of a run: one gap of its length, at most the two windows
+    at its edges dropped, the window positions inside it said to hold no data."""
+    run = read_shipped("vulpi")[0]
+    write_runs_layout([run], workdir / "runs")
+    middle = run.duration_s / 2
+    for path in (workdir / "runs").rglob("*.csv"):
+        frame = pd.read_csv(path)
+        frame.loc[frame["time"] > middle, "time"] += 1000.0
+        frame.to_csv(path, index=False)
+    assert main(["predict", "--model", str(small_model), str(workdir / "runs"),
+                 "--out", "p.csv", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"  1 timestamp gap\(s\) \(100\d\.\d s\) in runs/", out)
+    dropped = int(re.search(r"dropped windows: (\d+) spanning a gap", out).group(1))
+    assert 1 <= dropped <= 2
+    inside = int(re.search(r"(\d+) window position\(s\) wholly inside a gap", out).group(1))
+    assert 495 <= inside <= 500   # 2 s windows back to back over ~1000 s
+    pred = pd.read_csv(workdir / "p.csv")
+    assert len(pred) + dropped + inside == pytest.approx((run.duration_s + 1000) / 2, abs=2)
 
 
 def test_train_refuses_ekf_channels_the_served_model_cannot_compute(workdir, capsys):

@@ -32,7 +32,7 @@ from terrain.run import WHEEL_CHANNELS
 from terrain.serving.pyfunc import save_model
 from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
                              replay_run)
-from terrain.serving.served import (_plausibility_flags, check_classifier,
+from terrain.serving.served import (_plausibility_flags,
                                     parse_request, planned_decisions, save_served_model,
                                     served_settings)
 from terrain.control import DesiredSlipConfig
@@ -317,14 +317,11 @@ def test_decisions_are_bounded_before_any_work(served, request_frame, wheel_mode
     assert "above the limit of 20000" in message and "column 't_s'" in message
 
 
-def test_settings_and_classifier_are_checked(wheel_model):
+def test_settings_are_checked(wheel_model):
     with pytest.raises(ConfigError, match="shorter than one period"):
         served_settings(wheel_model, hop_s=1e-4)
     with pytest.raises(ConfigError, match="max_decisions"):
         served_settings(wheel_model, max_decisions=0)
-    with pytest.raises(ConfigError, match="lacks predict_proba and classes_"):
-        check_classifier({"a": 1}, "pipeline.joblib")
-    check_classifier(wheel_model.pipeline, "pipeline.joblib")
 
 
 @pytest.mark.parametrize("argv, words", [

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 import pytest
 
@@ -31,7 +33,7 @@ def run_dir(tmp_path_factory, borealtc_runs, train_runs):
 
 def _saved(model, path):
     save_model(path, model.pipeline, model.channels, model.window, list(model.classes),
-               {"dataset": "borealtc-test"})
+               {"dataset": "borealtc-test"}, progress=False)
     loaded = load_stream_model(path)
     assert loaded.channels == model.channels and loaded.classes == model.classes
     return path
@@ -68,3 +70,108 @@ def test_stream_errors_are_typed_messages(run_dir, tmp_path, capsys, all_model, 
     assert main(["stream", "--model", str(model_dir), str(wheel_only), "--out",
                  str(tmp_path / "d.csv")]) == 2
     assert "needs stream(s) ['imu']" in capsys.readouterr().err
+
+
+def _edited_copy(run_dir, root, edit_pro=None, edit_imu=None):
+    """Copy of the run's folder under ``root``/SNOW with its files edited (frames of file
+    column names)."""
+    folder = root / "SNOW"
+    folder.mkdir(parents=True)
+    for name, edit in (("pro_07.csv", edit_pro), ("imu_07.csv", edit_imu)):
+        frame = pd.read_csv(run_dir / name)
+        (edit(frame) if edit else frame).to_csv(folder / name, index=False)
+    return folder
+
+
+def _stream(model_dir, folder, out):
+    return main(["stream", "--model", str(model_dir), str(folder), "--out", str(out),
+                 "--hop-s", "1.0"])
+
+
+def test_stream_errors_name_the_run_folder_given(tmp_path, capsys, wheel_model, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+    (tmp_path / "cases" / "EMPTY").mkdir(parents=True)
+    assert _stream(model_dir, "cases/NOPE", "d.csv") == 2
+    err = capsys.readouterr().err
+    assert "run folder cases/NOPE does not exist" in err and "(file" not in err
+    assert _stream(model_dir, "cases/EMPTY", "d.csv") == 2
+    assert "cases/EMPTY holds no run files" in capsys.readouterr().err
+
+
+def test_stream_reports_the_cells_the_reader_repaired(run_dir, tmp_path, capsys, wheel_model,
+                                                      monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+
+    def one_nan(frame):
+        frame.loc[40, "curL"] = float("nan")
+        return frame
+
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=one_nan)
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 0
+    out = capsys.readouterr().out
+    assert "repaired 1 isolated non-finite cell(s) by linear interpolation" in out
+    assert "wheels.cur_l:1" in out
+
+
+def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_path, capsys,
+                                                                   wheel_model, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+
+    def stuck(frame):  # a dead current sensor for 22 s (the rule needs 20 s)
+        frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
+        return frame
+
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=stuck)
+    out_csv = tmp_path / "d.csv"
+    assert _stream(model_dir, folder, out_csv) == 0
+    captured = capsys.readouterr()
+    assert "wheels.cur_l stuck at one value" in captured.err
+    frame = pd.read_csv(out_csv, keep_default_na=False)
+    has = frame["flags"].str.contains("stuck:wheels.cur_l")
+    pro = pd.read_csv(folder / "pro_07.csv")
+    a, b = pro.loc[pro["curL"] == 3.25, "time"].agg(["min", "max"])  # the stuck samples
+    end = frame["t_s"] - frame["window_age_s"]      # each decision's window [end - 2 s, end)
+    overlaps = (end - 2.0 <= b) & (end >= a)
+    assert has.sum() > 15 and (has == overlaps).all()
+    n = int(has.sum())
+    assert f"stuck or dead sensor channel(s): SNOW/07 (wheels.cur_l); {n} window(s)" \
+        in captured.out
+    assert f"stuck {n}" in captured.out and f"{int((frame['flags'] != '').sum())} flagged" \
+        in captured.out
+
+
+def test_stream_says_why_a_run_shorter_than_a_window_gives_no_decision(
+        run_dir, tmp_path, capsys, wheel_model, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+    head = (lambda f: f[f["time"] < 1.5])
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=head, edit_imu=head)
+    capsys.readouterr()
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 2
+    captured = capsys.readouterr()
+    assert "1 run(s) too short (shorter than one 2 s window): SNOW/07" in captured.out
+    err = captured.err.strip()
+    assert len(err.splitlines()) == 1
+    assert re.search(r"streams \['wheels'\] overlap for 1\.\d\d s, shorter than the model's "
+                     r"2 s window", err) and str(folder) in err
+    assert not (tmp_path / "d.csv").exists()
+
+
+def test_timestamp_errors_print_plain_numbers(run_dir, tmp_path, capsys, wheel_model,
+                                              monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+
+    def duplicate(frame):
+        frame.loc[30, "time"] = frame.loc[29, "time"]
+        return frame
+
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=duplicate)
+    t = float(pd.read_csv(folder / "pro_07.csv")["time"].iloc[29])
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 2
+    err = capsys.readouterr().err
+    assert f"duplicated timestamp {t!r} after {t!r} (1 such row(s), at line 32)" in err
+    assert "np." not in err and "pro_07.csv" in err

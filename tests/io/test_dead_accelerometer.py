@@ -1,0 +1,113 @@
+"""A dead (all-zero) accelerometer is a stuck-sensor warning, not a unit error (fuzzing
+finding); an accelerometer in g stays a :class:`UnitError` (README, "Bad input")."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.errors import DataWarning, UnitError
+from terrain.io.measured import read_runs_dir, read_stream_csv
+from terrain.io.plausibility import check_accel_units
+
+
+def _imu(n: int, rate_hz: float = 100.0, seed: int = 0) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / rate_hz
+    frame = pd.DataFrame({"time": t, "wx": 0.02 * rng.standard_normal(n),
+                          "wy": 0.02 * rng.standard_normal(n),
+                          "wz": 0.05 * rng.standard_normal(n),
+                          "ax": 0.3 * rng.standard_normal(n),
+                          "ay": 0.3 * rng.standard_normal(n),
+                          "az": 9.81 + 0.3 * rng.standard_normal(n)})
+    return frame
+
+
+def _pro(duration_s: float, rate_hz: float = 10.0, seed: int = 1) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    n = int(round(duration_s * rate_hz)) + 1
+    return pd.DataFrame({"time": np.arange(n) / rate_hz,
+                         "curL": 5.0 + rng.standard_normal(n),
+                         "curR": 7.0 + rng.standard_normal(n),
+                         "velL": 0.5 + 0.02 * rng.standard_normal(n),
+                         "velR": 0.5 + 0.02 * rng.standard_normal(n)})
+
+
+def _read(root):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        runs = read_runs_dir(root)
+    return runs, [str(w.message) for w in caught if issubclass(w.category, DataWarning)]
+
+
+def _write(root, imu, pro):
+    folder = root / "ASPHALT"
+    folder.mkdir(parents=True, exist_ok=True)
+    imu.to_csv(folder / "imu_00.csv", index=False)
+    pro.to_csv(folder / "pro_00.csv", index=False)
+    return folder / "imu_00.csv"
+
+
+def test_all_zero_imu_is_a_dead_sensor_warning_not_a_unit_error(tmp_path):
+    imu = _imu(1001)
+    imu.loc[:, ["wx", "wy", "wz", "ax", "ay", "az"]] = 0.0
+    _write(tmp_path, imu, _pro(10.0))
+    (run,), messages = _read(tmp_path)
+    assert set(run.meta["stuck"]) == {f"imu.{c}" for c in ("wx", "wy", "wz", "ax", "ay", "az")}
+    assert any("imu.az stuck" in m and "dead or stuck sensor" in m for m in messages)
+    assert not any("units of g" in m for m in messages)
+
+
+def test_dead_az_alone_is_not_taken_for_g_units(tmp_path):
+    imu = _imu(1001)
+    imu["az"] = 0.0                   # gravity axis dead, the others live
+    _write(tmp_path, imu, _pro(10.0))
+    (run,), messages = _read(tmp_path)
+    assert list(run.meta["stuck"]) == ["imu.az"]
+    assert not any("accel_units" in m for m in messages)
+
+
+def test_short_near_zero_accelerometer_is_a_warning(tmp_path):
+    # too short for the stuck rule (under 1 s), noise around 0: no gravity in any unit
+    imu = _imu(50)
+    rng = np.random.default_rng(3)
+    imu[["ax", "ay", "az"]] = 0.01 * rng.standard_normal((50, 3))
+    path = tmp_path / "imu_00.csv"
+    imu.to_csv(path, index=False)
+    with pytest.warns(DataWarning, match="rule accel_units.*dead or disconnected"):
+        read_stream_csv(path, "imu")
+
+
+def test_accelerometer_in_g_stays_a_unit_error(tmp_path):
+    imu = _imu(1001)
+    imu[["ax", "ay", "az"]] /= 9.81
+    path = _write(tmp_path, imu, _pro(10.0))
+    with pytest.raises(UnitError, match="rule accel_units.*units of g") as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(path) and info.value.column == "az"
+
+
+def test_accelerometer_in_g_with_a_dead_stretch_stays_a_unit_error(tmp_path):
+    imu = _imu(1001)
+    imu[["ax", "ay", "az"]] /= 9.81
+    imu.loc[imu["time"] < 6.0, ["ax", "ay", "az"]] = 0.0     # dead for 60 % of the run
+    _write(tmp_path, imu, _pro(10.0))
+    with pytest.raises(UnitError, match="units of g"):
+        read_runs_dir(tmp_path)
+
+
+def test_check_accel_units_on_frames():
+    ok = _imu(300).rename(columns={"time": "t_s"})
+    check_accel_units(ok, "f.csv")                       # m/s^2: nothing
+    dead = ok.copy()
+    dead[["ax", "ay", "az"]] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_accel_units(dead, "f.csv")                 # stuck everywhere: left to check_run
+    g = ok.copy()
+    g[["ax", "ay", "az"]] /= 9.81
+    with pytest.raises(UnitError):
+        check_accel_units(g, "f.csv")

@@ -1,0 +1,88 @@
+"""The input report tells the truth about timestamp gaps and the windows they cost, and the
+readers' timestamp errors print plain numbers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.windows import WindowConfig
+from terrain.errors import TimestampError
+from terrain.io.measured import read_stream_csv
+from terrain.io.report import input_report, merged_gaps
+from terrain.run import Run
+from terrain.serving.pyfunc import predict_windows
+
+CLASSES = ("A", "B")
+
+
+class _Constant:
+    """Fitted stand-in classifier: probability 0.75 for class A on every window."""
+
+    classes_ = np.array(CLASSES)
+
+    def predict_proba(self, X):
+        assert np.isfinite(X).all()          # never given a window holding a gap
+        return np.tile([0.75, 0.25], (len(X), 1))
+
+
+def _run(gaps: dict) -> Run:
+    return Run("runs/X/00", "runs", None, {}, meta={"gaps": gaps})
+
+
+def test_one_hole_seen_by_every_stream_is_one_gap():
+    gaps = {"imu": [(10.0, 1010.0)], "wheels": [(9.95, 1010.05)]}
+    assert merged_gaps(gaps) == [(9.95, 1010.05)]
+    report = input_report([_run(gaps)])
+    assert report.metrics()["input_gaps"] == 1
+    assert report.metrics()["input_gap_s"] == pytest.approx(1000.1)
+    assert "1 timestamp gap(s) (1000.1 s) in runs/X/00" in report.text()
+
+
+def test_several_gaps_are_listed_with_their_total():
+    gaps = {"imu": [(10.0, 13.0), (500.0, 1500.0)], "wheels": [(12.0, 14.0)]}
+    assert merged_gaps(gaps) == [(10.0, 14.0), (500.0, 1500.0)]
+    text = input_report([_run(gaps)]).text()
+    assert "2 timestamp gap(s) (4.0 s, 1000.0 s; 1004.0 s in all) in runs/X/00" in text
+
+
+def test_windows_inside_a_hole_of_every_stream_are_not_counted_as_dropped():
+    """Planted: 2 s windows at 10 Hz over 0-1040 s, every channel NaN strictly inside
+    (20 s, 1020 s). The window [20, 22) holds data and a gap: dropped. The 499 windows from
+    22 s to 1020 s hold no sample at all: empty, not dropped."""
+    t = np.round(np.arange(0.0, 1040.0, 0.1), 6)
+    hole = (t > 20.0) & (t < 1020.0)
+    values = {c: np.where(hole, np.nan, v) for c, v in
+              (("vel_l", 0.5), ("vel_r", 0.6), ("cur_l", 5.0), ("cur_r", 7.0))}
+    samples = pd.DataFrame({"run": "r", "t_s": t, **values})
+    config = WindowConfig(window_s=2.0, rate_hz=10.0)
+    out = predict_windows(_Constant(), samples, ["vel_l", "vel_r", "cur_l", "cur_r"], config,
+                          CLASSES)
+    assert out.attrs["dropped_windows"] == 1 and out.attrs["empty_windows"] == 499
+    assert len(out) == 10 + 10  # [0, 20) and [1020, 1040)
+    assert len(out) + 1 + 499 == 520  # every window position accounted for once
+    report = input_report([_run({"imu": [(20.0, 1020.0)]})],
+                          {"per_run": {"runs/X/00": {"windows": len(out), "dropped_gap": 1,
+                                                     "dropped_unsteady": 0,
+                                                     "empty_gap": 499}}}, 2.0)
+    text = report.text()
+    assert "dropped windows: 1 spanning a gap" in text
+    assert "499 window position(s) wholly inside a gap of every stream: no data there, not " \
+           "counted as dropped" in text
+    assert report.metrics()["input_windows_dropped_gap"] == 1
+
+
+@pytest.mark.parametrize("times, words", [
+    ([0.0, 0.1, 0.2, 0.2, 0.3], "duplicated timestamp 0.2 after 0.2"),
+    ([0.0, 0.1, 0.2, 0.15, 0.3], "decreasing timestamp 0.15 after 0.2"),
+])
+def test_timestamp_errors_print_plain_numbers(tmp_path, times, words):
+    path = tmp_path / "pro_00.csv"
+    n = len(times)
+    pd.DataFrame({"time": times, "velL": [0.5] * n, "velR": [0.5] * n, "curL": [5.0] * n,
+                  "curR": [5.0] * n}).to_csv(path, index=False)
+    with pytest.raises(TimestampError) as exc:
+        read_stream_csv(path, "pro")
+    assert words in str(exc.value) and "np." not in str(exc.value)
+    assert exc.value.line == 5 and exc.value.column == "time"
