@@ -65,7 +65,7 @@ from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, obser
 from terrain.estimation.model import KernelModel, StateSpaceModel, diagonal_process_noise
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import SensorSamples, make_grid, run_filter
+from terrain.estimation.runner import SensorSamples, check_rate_hz, make_grid, run_filter
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -425,15 +425,17 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     DataFormatError
         No IMU stream, or a stream lacks a column.
     ConfigError, ShapeError, CovarianceError
-        From :func:`~terrain.estimation.run_filter` (bad engine, shapes, or an innovation
-        covariance that is not positive definite).
+        ``rate_hz`` outside ``(0, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
+        check_rate_hz`); from :func:`~terrain.estimation.run_filter` (bad engine, shapes,
+        or an innovation covariance that is not positive definite).
     """
     samples = agrimaro_samples(run, settings, time_offsets_s, vehicle)
     model = model if model is not None else AgriMaRoModel(vehicle=vehicle, settings=settings)
     samples = {k: v for k, v in samples.items()
                if k in model.sensor_rows and (sensors is None or k in sensors)}
     t_imu = run.streams["imu"][TIME].to_numpy(dtype=float)
-    rate = float(rate_hz) if rate_hz else float(1.0 / np.median(np.diff(t_imu)))
+    rate = check_rate_hz(rate_hz)
+    rate = float(1.0 / np.median(np.diff(t_imu))) if rate is None else rate
     grid = make_grid(float(t_imu[0]), float(t_imu[-1]), rate)
     result = run_filter(model, grid, samples, gate=gate, store_covariance=store_covariance,
                         engine=engine)

@@ -45,7 +45,8 @@ from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, ob
                                                      transition_into)
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import SensorSamples, make_grid, run_filter, sensor_groups
+from terrain.estimation.runner import (SensorSamples, check_rate_hz, make_grid, run_filter,
+                                       sensor_groups)
 from terrain.run import TIME, Run
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
@@ -253,6 +254,9 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     ------
     DataFormatError
         No ``wheels`` stream.
+    ConfigError
+        ``rate_hz`` outside ``(0, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
+        check_rate_hz`).
     """
     if "wheels" not in run.streams:
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
@@ -267,7 +271,8 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
                                         imu[["wz"]].to_numpy(float))
         spans.append(samples["gyro"].t_s)
     fast = spans[-1]
-    rate = float(rate_hz) if rate_hz else float(1.0 / np.median(np.diff(fast)))
+    rate = check_rate_hz(rate_hz)
+    rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate
     t0 = max(s[0] for s in spans)
     t1 = min(s[-1] for s in spans)
     result = run_filter(SkidSteerModel(settings), make_grid(t0, t1, rate), samples, gate=gate,

@@ -35,6 +35,7 @@ from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, estimate_agrimaro,
 from terrain.estimation.ekf import Gate
 from terrain.estimation.prefilter import robust_noise_std
 from terrain.estimation.result import EKFResult
+from terrain.estimation.runner import check_rate_hz
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run
@@ -643,7 +644,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     EstimationError
         No ``wheels`` stream.
     ConfigError
-        Unknown slip model or vehicle.
+        Unknown slip model or vehicle; ``rate_hz`` outside ``(0, MAX_RATE_HZ]``
+        (:func:`~terrain.estimation.runner.check_rate_hz`).
     """
     from terrain.estimation.runner import SensorSamples, make_grid
     from terrain.estimation.skid_steer_slip import run_with_pseudo_slip
@@ -678,7 +680,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
             noise = np.nanmax(robust_noise_std(acc, float(1.0 / np.median(np.diff(t_imu)))))
             if np.isfinite(noise) and noise > 0:
                 fs = replace(fs, accel_std_m_s2=float(noise))
-    rate = float(rate_hz) if rate_hz else float(1.0 / np.median(np.diff(spans[-1])))
+    rate = check_rate_hz(rate_hz)
+    rate = float(1.0 / np.median(np.diff(spans[-1]))) if rate is None else rate
     grid = make_grid(max(s[0] for s in spans), min(s[-1] for s in spans), rate)
     notes: list[str] = []
     source = slip_model

@@ -130,3 +130,17 @@ def test_slip_model_dir_not_used_is_said(run_dir, tmp_path, capsys):
                  "--slip-model", "physics", "--slip-model-dir", str(tmp_path / "nope")]) == 0
     out = capsys.readouterr().out
     assert "--slip-model-dir" in out and "not used" in out
+
+
+@pytest.mark.parametrize("rate_hz", [0, 0.0, -5.0, float("nan"), 1e9])
+def test_library_estimators_refuse_a_rate_outside_the_bound(rate_hz):
+    """``rate_hz=0`` is not "the default" in the library either (None is)."""
+    from terrain.estimation.agrimaro import estimate_agrimaro
+    from terrain.estimation.skid_steer import estimate_skid_steer
+    from terrain.slip.estimate import estimate_skid_steer_slip_run
+    for vehicle, estimate in (("husky", estimate_skid_steer), ("agrimaro", estimate_agrimaro),
+                              ("husky", estimate_skid_steer_slip_run)):
+        run = simulate(SimConfig(vehicle=vehicle, terrains=("SNOW",),
+                                 scenario="straight_accel", duration_s=1.0, seed=1))
+        with pytest.raises(ConfigError, match="rate_hz"):
+            estimate(run, rate_hz=rate_hz)
