@@ -60,7 +60,7 @@ from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline
                                    load_stream_model)
 from terrain.serving.replay import replay_run
 from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
-                                     decisions_frame)
+                                     check_hop, decisions_frame)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -172,12 +172,8 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     ConfigError
         Naming the setting, its value and its range.
     """
-    period = 1.0 / float(settings["rate_hz"])
-    hop, dwell = float(settings["hop_s"]), settings.get("dwell_s")
-    if not (math.isfinite(hop) and hop >= period):
-        raise ConfigError(f"hop_s {hop:g} s is shorter than one period of the model's "
-                          f"{float(settings['rate_hz']):g} Hz clock ({period:g} s) or not "
-                          "finite; decisions that often would decide on no new sample")
+    check_hop(settings["hop_s"], settings["rate_hz"])
+    dwell = settings.get("dwell_s")
     if dwell is not None and not (math.isfinite(float(dwell)) and float(dwell) > 0):
         raise ConfigError(f"dwell_s must be > 0 (or none for no smoothing), got {dwell}")
     conf = float(settings["min_confidence"])

@@ -129,6 +129,38 @@ class Decision:
     flags: str
 
 
+def check_hop(hop_s: float, rate_hz: float) -> float:
+    """Refuse a decision hop shorter than one period of the model's clock.
+
+    Deciding more often than the model's clock gives no new aligned sample to decide on,
+    and a tiny hop makes a replay of minutes cost hours (one decision per hop).
+
+    Parameters
+    ----------
+    hop_s : float
+        Time between decisions, s.
+    rate_hz : float
+        The model's aligned clock, Hz.
+
+    Returns
+    -------
+    float
+        ``hop_s``.
+
+    Raises
+    ------
+    ConfigError
+        ``hop_s`` not finite or below ``1 / rate_hz``.
+    """
+    period = 1.0 / float(rate_hz)
+    hop = float(hop_s)
+    if not (np.isfinite(hop) and hop >= period):
+        raise ConfigError(f"hop_s {hop:g} s is shorter than one period of the model's "
+                          f"{float(rate_hz):g} Hz clock ({period:g} s) or not finite; "
+                          "decisions that often would decide on no new sample")
+    return hop
+
+
 class StreamService:
     """Streaming terrain classifier with bounded memory (see module docstring).
 
@@ -145,12 +177,14 @@ class StreamService:
     Raises
     ------
     ConfigError
-        A channel the model needs is in none of the configured streams.
+        A channel the model needs is in none of the configured streams, or the hop is
+        shorter than one period of the model's clock (:func:`check_hop`).
     """
 
     def __init__(self, model: StreamModel, targets: TargetProvider,
                  config: StreamConfig = StreamConfig(),
                  rules: Sequence[SampleRule] = DEFAULT_RULES) -> None:
+        check_hop(config.hop_s, model.window.rate_hz)
         self.model, self.targets, self.config, self.rules = model, targets, config, rules
         need = set(model.raw_channels)
         self.streams = {s: tuple(ch) for s, ch in config.streams.items() if need & set(ch)}

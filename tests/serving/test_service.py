@@ -192,3 +192,10 @@ def test_bad_calls_raise_typed_errors(wheel_model, all_model):
     with pytest.raises(ConfigError, match="none of the streams"):
         StreamService(all_model, CataloguePeakTargets(all_model.classes),
                       StreamConfig(streams={"wheels": WHEEL_CHANNELS}))
+
+
+def test_a_hop_shorter_than_the_model_clock_is_refused(wheel_model):
+    period = 1.0 / wheel_model.window.rate_hz
+    with pytest.raises(ConfigError, match="shorter than one period"):
+        service(wheel_model, hop_s=period / 2)
+    service(wheel_model, hop_s=period)          # one period is fine
