@@ -6,7 +6,8 @@ itself. The runs of a dataset are split into 5 run-grouped folds
 (``StratifiedGroupKFold(5, shuffle=True, random_state=seed)`` over the windows, grouped by
 run); for each fold, :func:`terrain.models.experiment.fit_pipeline` (what ``terrain train``
 calls) fits the default model (:data:`pipelines.train.DEFAULT_MODELS`, with the default
-training-window hop :data:`pipelines.train.DEFAULT_TRAIN_HOP_S`) and the SVM as it was
+signals :data:`pipelines.train.DEFAULT_SIGNALS` and training-window hop
+:data:`pipelines.train.DEFAULT_TRAIN_HOP_S`) and the SVM as it was
 trained before that hop existed (non-overlapping windows) on the *same* training runs, and
 both fitted inference pipelines classify every window of the held-out runs. A class with a single run (Vulpi DIRT_ROAD) always stays in training and is
 never tested (its run cannot be unseen). Reported: window accuracy and macro-F1 over all
@@ -27,7 +28,8 @@ import numpy as np
 import pandas as pd
 from sklearn.model_selection import StratifiedGroupKFold
 
-from pipelines.train import DEFAULT_MODELS, DEFAULT_TRAIN_HOP_S
+from features.windows import resolve_signals
+from pipelines.train import DEFAULT_MODELS, DEFAULT_SIGNALS, DEFAULT_TRAIN_HOP_S
 from terrain.io.shipped import load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline, load_windows
 from terrain.models.metrics import run_majority_accuracy, window_metrics
@@ -61,13 +63,17 @@ def main() -> int:
         frame = pd.DataFrame({"fold": fold, "run": test_ws.run_ids,
                               "true": test_ws.labels.astype(str)})
         for kind in models:
-            # the default with its training-window hop; the SVM reference non-overlapping
+            # the default with its signals and training-window hop; the SVM reference on all
+            # signals, non-overlapping (the same windows: a signal set only selects channels)
+            signals = DEFAULT_SIGNALS.get(args.dataset, ("all",)) if kind == default \
+                else ("all",)
             config = ExperimentConfig(dataset=args.dataset, model=kind, seeds=(args.seed,),
-                                      n_threads=args.threads,
+                                      n_threads=args.threads, signals=signals,
                                       train_hop_s=(DEFAULT_TRAIN_HOP_S.get(args.dataset)
                                                    if kind == default else None))
             pipe, _, _ = fit_pipeline(config, runs=train_runs)
-            frame[kind] = pipe.predict(test_ws.X)
+            keep = [list(test_ws.channels).index(c) for c in resolve_signals(signals)]
+            frame[kind] = pipe.predict(test_ws.X[:, keep])
         frames.append(frame)
         print(f"  fold {fold}: {len(test_ids)} held-out runs, "
               + ", ".join(f"{k} {(frame[k] == frame['true']).mean():.3f}" for k in models),
@@ -99,6 +105,8 @@ def main() -> int:
         print(f"  {k:28s} {v:.4f}" if isinstance(v, float) else f"  {k:28s} {v}")
     with tracked_run("terrain-train", run_name=f"unseen-runs-{args.dataset}",
                      params={"dataset": args.dataset, "default_model": default,
+                             "default_signals": "+".join(
+                                 DEFAULT_SIGNALS.get(args.dataset, ("all",))),
                              "default_train_hop_s": DEFAULT_TRAIN_HOP_S.get(args.dataset),
                              "seed": args.seed, "protocol": "leave-runs-out (5 run folds)"}
                      ) as run:

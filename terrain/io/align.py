@@ -65,14 +65,19 @@ def overlap_grid(times_s: Sequence[np.ndarray], rate_hz: float) -> np.ndarray:
     ConfigError
         If ``rate_hz`` is not positive.
     """
+    t0, n = _grid_span(times_s, rate_hz)
+    return t0 + np.arange(n) / rate_hz
+
+
+def _grid_span(times_s: Sequence[np.ndarray], rate_hz: float) -> tuple[float, int]:
+    """First point ``t0`` (s) and number of points of :func:`overlap_grid` (0: no overlap)."""
     if not rate_hz > 0:
         raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
     t0 = max(float(t[0]) for t in times_s)
     t1 = min(float(t[-1]) for t in times_s)
     if t1 <= t0:
-        return np.zeros(0)
-    n = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
-    return t0 + np.arange(n) / rate_hz
+        return t0, 0
+    return t0, int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
 
 
 def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: float,
@@ -106,13 +111,7 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     ConfigError
         If ``rate_hz`` is not positive.
     """
-    if not rate_hz > 0:
-        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
-    t0 = max(float(t[0]) for t in times_s)
-    t1 = min(float(t[-1]) for t in times_s)
-    if t1 <= t0:
-        return np.zeros(0), 0
-    n = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
+    t0, n = _grid_span(times_s, rate_hz)
     # first k with t0 + k / rate >= before_s, on the grid's own float arithmetic
     end = min(max(int(np.ceil((before_s - t0) * rate_hz)), 0), n)
     while end > 0 and t0 + (end - 1) / rate_hz >= before_s:
