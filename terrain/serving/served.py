@@ -54,7 +54,7 @@ from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
                             MissingColumnError, NonFiniteError, NonNumericError, TerrainError,
                             TimestampError, first_items)
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_ranges, check_rate, check_run,
-                                     stuck_window_flags)
+                                     implied_rate_hz, stuck_window_flags)
 from terrain.run import TIME, Run
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
                                    load_stream_model)
@@ -262,9 +262,7 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
     check_rate(t, stream, where)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]
-        # judged on the rate as the message prints it (4 significant digits), so a stream at
-        # the nominal bound (float steps of 1 ms give 1000.0000000006 Hz) is inside it
-        rate = float(f"{1.0 / float(np.median(dt)):.4g}")
+        rate = implied_rate_hz(t)   # as printed: 1 ms float steps are 1000 Hz, in range
         if not lo <= rate <= hi:
             raise DataFormatError(f"stream {stream!r}: median step implies {rate:.4g} Hz, "
                                   f"outside its nominal {lo:g}-{hi:g} Hz (timestamps in s?)",

@@ -111,3 +111,16 @@ def test_check_accel_units_on_frames():
     g[["ax", "ay", "az"]] /= 9.81
     with pytest.raises(UnitError):
         check_accel_units(g, "f.csv")
+
+
+def test_a_rate_at_the_nominal_bound_is_not_warned_and_the_message_agrees():
+    """1 ms float steps imply 1000.0000000006 Hz: at the wheels' nominal 1000 Hz bound, not
+    outside it (the warning used to say "1000 Hz outside the nominal 1-1000 Hz")."""
+    from terrain.io.plausibility import check_rate, implied_rate_hz
+    t = np.arange(2500) * 0.001
+    assert implied_rate_hz(t) == 1000.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_rate(t, "wheels", "f.csv")
+    with pytest.warns(UserWarning, match="1010 Hz outside the nominal 1-1000 Hz"):
+        check_rate(np.arange(2500) * 0.00099, "wheels", "f.csv")
