@@ -19,7 +19,6 @@ no MLmodel file, unreadable model) is an error. --gate is a probability in (0, 1
 from __future__ import annotations
 
 import argparse
-import re
 from pathlib import Path
 
 from features.slip_outputs import slip_model_outputs
@@ -81,56 +80,6 @@ def _load(run_dir: Path, select: str | None):
     return runs
 
 
-#: a model URI (``models:/name/1``, ``runs:/id/model``, ``file:///...``), not a folder
-_URI = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+:/")   # 2+ letters: not a drive (C:/)
-
-
-def explicit_slip_model(model_dir: Path):
-    """Load the learned slip model the user named with ``--slip-model-dir``.
-
-    A folder is checked first (it exists, is a folder, holds the ``MLmodel`` file that
-    ``terrain slip-fit`` writes) so the message says what is missing; a model URI is handed
-    to MLflow as it is.
-
-    Parameters
-    ----------
-    model_dir : Path
-        MLflow model folder or model URI.
-
-    Returns
-    -------
-    SlipRegressor
-        The loaded model.
-
-    Raises
-    ------
-    ConfigError
-        The folder does not exist, is not a folder, lacks ``MLmodel``, or the model cannot be
-        loaded (the message names the folder and the reason).
-    """
-    where = f"--slip-model-dir {model_dir}"
-    if not _URI.match(str(model_dir)):
-        if not model_dir.exists():
-            raise ConfigError(f"{where}: no such folder")
-        if not model_dir.is_dir():
-            raise ConfigError(f"{where}: not a folder (an MLflow model folder holds an "
-                              "MLmodel file)")
-        if not (model_dir / "MLmodel").is_file():
-            found = sorted(p.name for p in model_dir.iterdir())[:8]
-            raise ConfigError(f"{where}: no MLmodel file, not an MLflow model folder (found: "
-                              f"{', '.join(found) or 'nothing'}); give the artifacts folder "
-                              "of a `terrain slip-fit` run")
-    import mlflow.sklearn
-
-    try:
-        return mlflow.sklearn.load_model(str(model_dir))
-    except Exception as exc:        # noqa: BLE001 - any failure: the model is unusable
-        text = " ".join(str(exc).split())
-        text = text if len(text) <= 200 else text[:197] + "..."
-        raise ConfigError(f"{where}: the model cannot be loaded ({type(exc).__name__}"
-                          f"{': ' + text if text else ''})") from None
-
-
 def main(args: argparse.Namespace) -> int:
     """Run the estimator on each selected run, write its table and print a summary line.
 
@@ -147,9 +96,10 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError, EstimationError, DataFormatError
-        ``--gate`` outside (0, 1), ``--rate-hz`` outside (0, 10 kHz], a ``--slip-model-dir``
-        that cannot be loaded (all checked before any run is read); ``--run`` names no run
-        of RUN_DIR; a run lacks the streams its estimator needs.
+        ``--gate`` outside (0, 1), ``--rate-hz`` outside (0, 10 kHz] (both checked before
+        any run is read); a ``--slip-model-dir`` that cannot be loaded
+        (:func:`pipelines.slip_model.resolve_slip_model`); ``--run`` names no run of
+        RUN_DIR; a run lacks the streams its estimator needs.
     """
     gate = Gate(args.gate) if args.gate is not None else None
     rate_hz = check_rate_hz(args.rate_hz, "--rate-hz")
@@ -158,10 +108,8 @@ def main(args: argparse.Namespace) -> int:
     learned = None
     wants_model = (args.slip_model in ("learned", "fused")
                    and any(r.vehicle != "agrimaro" for r in runs))
-    if wants_model and args.slip_model_dir is not None:
-        learned = explicit_slip_model(args.slip_model_dir)
-    elif wants_model:
-        learned, where = resolve_slip_model(None)
+    if wants_model:
+        learned, where = resolve_slip_model(args.slip_model_dir)
         if learned is None:
             print(f"note: no learned slip model ({where}); physics supplies the slip")
     elif args.slip_model_dir is not None:
