@@ -217,9 +217,11 @@ class WindowSet:
     rate_hz : float
         Sampling rate of the windows, Hz.
     counts : dict
-        Book-keeping: windows kept, dropped for gaps or unsteady motion, runs skipped for a
+        Book-keeping: windows kept, dropped for gaps or unsteady motion, window positions
+        wholly inside a gap (``empty_gap``, see :func:`window_frame`), runs skipped for a
         missing stream and runs shorter than one window (with their ids), and ``per_run``:
-        run id -> ``windows``, ``dropped_gap``, ``dropped_unsteady``, ``aligned_s``.
+        run id -> ``windows``, ``dropped_gap``, ``empty_gap``, ``dropped_unsteady``,
+        ``aligned_s``.
     """
 
     X: np.ndarray
@@ -299,7 +301,10 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     partition : numpy.ndarray
         ``(n_windows,)`` partition index (0 when ``partition_s`` is None).
     counts : dict
-        ``dropped_gap``, ``dropped_unsteady``.
+        ``dropped_gap`` (windows of data holding a non-finite value: a timestamp gap),
+        ``empty_gap`` (window positions without a single finite value, wholly inside a gap
+        of every channel: not windows of data, so not counted as dropped; not returned
+        either), ``dropped_unsteady``.
     """
     n, hop = config.n_samples, config.hop_samples
     values = frame[list(channels)].to_numpy(dtype=float)
@@ -317,13 +322,16 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         parts.append(np.full(s.size, k))
     start = np.concatenate(starts) if starts else np.zeros(0, int)
     part = np.concatenate(parts) if parts else np.zeros(0, int)
-    counts = {"dropped_gap": 0, "dropped_unsteady": 0}
+    counts = {"dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0}
     if start.size == 0:
         return (np.zeros((0, len(channels), n)), np.zeros(0), np.zeros(0), part, counts)
     idx = start[:, None] + np.arange(n)[None, :]
     X = values[idx].transpose(0, 2, 1)  # (n_windows, n_channels, n_samples)
-    keep = np.isfinite(X).all(axis=(1, 2))
-    counts["dropped_gap"] = int((~keep).sum())
+    finite = np.isfinite(X)
+    keep = finite.all(axis=(1, 2))
+    empty = ~finite.any(axis=(1, 2))
+    counts["dropped_gap"] = int((~keep & ~empty).sum())
+    counts["empty_gap"] = int(empty.sum())
     if config.steady_only and {"vel_l", "vel_r"} <= set(frame.columns):
         v = 0.5 * (frame["vel_l"].to_numpy() + frame["vel_r"].to_numpy())[idx]
         steady = (np.abs(np.nanmean(v, axis=1)) >= config.min_speed_m_s) & \
@@ -358,7 +366,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     channels = resolve_signals(signals)
     need = required_streams(channels)
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
-    counts = {"windows": 0, "dropped_gap": 0, "dropped_unsteady": 0, "skipped_runs": [],
+    counts = {"windows": 0, "dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
+              "skipped_runs": [],
               "too_short_runs": [], "per_run": {}}
     iterator = runs
     if progress:
@@ -375,6 +384,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
             frame = add_ekf_channels(frame, wheel_rate_hz=run.rate_hz("wheels"))
         X, t0, t1, part, c = window_frame(frame, channels, config)
         counts["dropped_gap"] += c["dropped_gap"]
+        counts["empty_gap"] += c["empty_gap"]
         counts["dropped_unsteady"] += c["dropped_unsteady"]
         counts["per_run"][run.run_id] = {"windows": len(X), **c, "aligned_s": len(frame)
                                          / config.rate_hz}

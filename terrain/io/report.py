@@ -136,9 +136,9 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         The runs read (their ``meta`` holds what the readers repaired and noticed).
     counts : Mapping, optional
         ``WindowSet.counts`` of :func:`features.windows.make_windows` (or the same keys:
-        ``per_run``, ``skipped_runs``, ``too_short_runs``; a ``per_run`` entry may add
-        ``empty_gap``, the window positions wholly inside a gap). Without it the window
-        columns are -1.
+        ``per_run``, ``skipped_runs``, ``too_short_runs``; ``empty_gap``, the window
+        positions wholly inside a gap, may be absent from a ``per_run`` entry). Without it
+        the window columns are -1.
     window_s : float, optional
         Window length, s (for the too-short reason).
     flagged : Mapping[str, int], optional

@@ -391,6 +391,9 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     for key in ("dropped_gap", "dropped_unsteady"):
         if ws.counts[key]:
             notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
+    if ws.counts.get("empty_gap"):
+        notes.append(f"{ws.counts['empty_gap']} window position(s) wholly inside a gap of "
+                     "every stream (no data, not counted as dropped)")
     training = load_training_windows(config, runs, ws, groups,
                                      fx.transform if on_features else None, progress)
     if training is not None:

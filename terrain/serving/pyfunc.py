@@ -260,9 +260,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                   f"model input, run {run_id}", TIME)
         frame = add_derived_channels(frame)
         X, t0, t1, _, counts = window_frame(frame, channels, config)
-        n_empty = _windows_without_data(frame, channels, config)
-        empty += n_empty
-        dropped += counts["dropped_gap"] - n_empty
+        empty += counts["empty_gap"]
+        dropped += counts["dropped_gap"]
         if len(X) == 0:
             continue
         proba = pipeline.predict_proba(X)
@@ -277,19 +276,6 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     result = result[columns]
     result.attrs.update(dropped_windows=dropped, empty_windows=empty)
     return result
-
-
-def _windows_without_data(frame: pd.DataFrame, channels: Sequence[str],
-                          config: WindowConfig) -> int:
-    """Window positions of ``frame`` in which no channel holds a value (inside a timestamp
-    gap of every stream): :func:`features.windows.window_frame` counts them among the
-    windows dropped for a gap, but they hold no data. Counted by windowing an indicator that
-    is finite exactly where a sample carries no value at all, so the positions are
-    ``window_frame``'s own."""
-    has_data = np.isfinite(frame[list(channels)].to_numpy(dtype=float)).any(axis=1)
-    probe = pd.DataFrame({TIME: frame[TIME].to_numpy(),
-                          "no_data": np.where(has_data, np.nan, 0.0)})
-    return len(window_frame(probe, ["no_data"], config)[0])
 
 
 def model_signature(channels: Sequence[str], classes: Sequence[str]):

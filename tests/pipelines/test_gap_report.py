@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from features.windows import WindowConfig
+from features.windows import WindowConfig, window_frame
 from terrain.errors import TimestampError
 from terrain.io.measured import read_stream_csv
 from terrain.io.report import input_report, merged_gaps
@@ -71,6 +71,18 @@ def test_windows_inside_a_hole_of_every_stream_are_not_counted_as_dropped():
     assert "499 window position(s) wholly inside a gap of every stream: no data there, not " \
            "counted as dropped" in text
     assert report.metrics()["input_windows_dropped_gap"] == 1
+
+
+def test_window_frame_counts_the_hole_as_cv_and_train_report_it():
+    """The same planted hole through :func:`features.windows.window_frame`, the windowing of
+    ``terrain cv`` / ``train``: one window of data dropped, 499 empty positions apart."""
+    t = np.round(np.arange(0.0, 1040.0, 0.1), 6)
+    hole = (t > 20.0) & (t < 1020.0)
+    frame = pd.DataFrame({"t_s": t, "vel_l": np.where(hole, np.nan, 0.5),
+                          "cur_l": np.where(hole, np.nan, 5.0)})
+    X, _, _, _, counts = window_frame(frame, ["vel_l", "cur_l"],
+                                      WindowConfig(window_s=2.0, rate_hz=10.0))
+    assert len(X) == 20 and counts["dropped_gap"] == 1 and counts["empty_gap"] == 499
 
 
 @pytest.mark.parametrize("times, words", [
