@@ -19,12 +19,12 @@ import pandas as pd
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import list_run_files, read_run
-from terrain.io.plausibility import stuck_window_flags
 from terrain.io.report import input_report
 from terrain.control import DesiredSlipConfig
 from terrain.run import TIME
 from terrain.serving import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
                              decisions_frame, load_stream_model, replay_run)
+from terrain.serving.service import stuck_decision_flags
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -69,19 +69,6 @@ def _run_files(run_dir: Path, index: str | None) -> tuple[str, dict]:
     if index not in runs:
         raise ConfigError(f"no run {index!r} in {run_dir}; available: {sorted(runs)}")
     return index, runs[index]
-
-
-def _add_stuck_flags(frame: pd.DataFrame, stuck: dict, window_s: float) -> int:
-    """Append ``stuck:<stream>.<channel>`` to the flags of the decisions whose window
-    ``[t_s - window_age_s - window_s, t_s - window_age_s)`` overlaps a stuck stretch (as
-    ``terrain predict`` flags its windows); returns how many were flagged."""
-    if not stuck or frame.empty:
-        return 0
-    end = frame["t_s"].to_numpy(dtype=float) - frame["window_age_s"].to_numpy(dtype=float)
-    stuck_flags = stuck_window_flags(stuck, end - window_s, end)  # no window: age inf
-    frame["flags"] = ["|".join(f for f in (old, new) if f)
-                      for old, new in zip(frame["flags"], stuck_flags)]
-    return int(sum(f != "" for f in stuck_flags))
 
 
 def _overlap_s(streams: list[pd.DataFrame]) -> float:
@@ -131,7 +118,10 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError(f"the model needs stream(s) {missing}, absent from run {run.run_id}")
     frame = decisions_frame(replay_run(service, run), model.classes)
     window_s = model.window.window_s
-    n_stuck = _add_stuck_flags(frame, dict(run.meta.get("stuck", {})), window_s)
+    stuck = stuck_decision_flags(frame, dict(run.meta.get("stuck", {})), window_s)
+    frame["flags"] = ["|".join(f for f in (old, new) if f)
+                      for old, new in zip(frame["flags"], stuck)]
+    n_stuck = int((stuck != "").sum())
     span = _overlap_s([run.streams[s] for s in service.needed_streams])
     short = [run.run_id] if not len(frame) and span < window_s else []
     counts = {"per_run": {} if short else {run.run_id: {

@@ -54,13 +54,13 @@ from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
                             MissingColumnError, NonFiniteError, NonNumericError, TerrainError,
                             TimestampError, first_items)
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_ranges, check_rate, check_run,
-                                     implied_rate_hz, stuck_window_flags)
+                                     implied_rate_hz)
 from terrain.run import TIME, Run
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
                                    load_stream_model)
 from terrain.serving.replay import replay_run
 from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
-                                     check_hop, decisions_frame)
+                                     check_hop, decisions_frame, stuck_decision_flags)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -422,22 +422,27 @@ def planned_decisions(run: Run, window_s: float, hop_s: float) -> int:
         An upper bound of the number of decisions (0 when the span is shorter than a
         window).
     """
-    first = min(float(f[TIME].iloc[0]) for f in run.streams.values())
-    last = max(float(f[TIME].iloc[-1]) for f in run.streams.values())
-    span = last - first - window_s
+    span = _time_span_s(run) - window_s
     return int(math.floor(span / hop_s)) + 1 if span >= 0 else 0
 
 
-def _plausibility_flags(flags: np.ndarray, t_s: np.ndarray, window_s: float,
+def _time_span_s(run: Run) -> float:
+    """From the first sample of any stream of ``run`` to the last of any, s."""
+    return (max(float(f[TIME].iloc[-1]) for f in run.streams.values())
+            - min(float(f[TIME].iloc[0]) for f in run.streams.values()))
+
+
+def _plausibility_flags(frame: pd.DataFrame, window_s: float,
                         checks: Mapping[str, Any]) -> list[str]:
     """Decision flags plus the run-level findings: ``stuck:<stream>.<channel>`` on the
-    windows ``[t - window_s, t)`` holding a stuck stretch, ``warning:<rule>`` on every
-    window when a rule found a likely problem (the service still decided)."""
-    stuck = stuck_window_flags(checks.get("stuck", {}), t_s - window_s, t_s)
+    decisions whose window holds a stuck stretch (:func:`~terrain.serving.service.
+    stuck_decision_flags`), ``warning:<rule>`` on every window when a rule found a likely
+    problem (the service still decided)."""
+    stuck = stuck_decision_flags(frame, checks.get("stuck", {}), window_s)
     rules = sorted({m.group(1) for w in checks.get("warnings", ())
                     for m in [re.search(r"rule (\w+)", w)] if m})
     out = []
-    for f, s in zip(flags, stuck):
+    for f, s in zip(frame["flags"], stuck):
         parts = [x for x in str(f).split("|") if x]
         parts += [s] if s else []
         parts += [f"warning:{r}" for r in rules]
@@ -513,15 +518,12 @@ class ServedStreamModel(PythonModel):
         limit, hop = int(self.settings["max_decisions"]), float(self.config.hop_s)
         planned = planned_decisions(run, window_s, hop)
         if planned > limit:
-            span = (max(float(f[TIME].iloc[-1]) for f in run.streams.values())
-                    - min(float(f[TIME].iloc[0]) for f in run.streams.values()))
-            raise DataFormatError(f"request spanning {span:.6g} s would make {planned} "
+            raise DataFormatError(f"request spanning {_time_span_s(run):.6g} s would make {planned} "
                                   f"decisions (one every {hop:g} s), above the limit of "
                                   f"{limit}; send the streams in shorter pieces (a time jump "
                                   "in a stream counts as its length)", "request", TIME)
         out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)
-        out["flags"] = _plausibility_flags(out["flags"].to_numpy(), out["t_s"].to_numpy(),
-                                           window_s, run.meta)
+        out["flags"] = _plausibility_flags(out, window_s, run.meta)
         out["dropped"] = out["flags"].str.split("|").apply(
             lambda f: any(x in DROP_FLAGS for x in f))
         out["terrain"] = out["terrain"].fillna("")

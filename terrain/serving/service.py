@@ -40,6 +40,7 @@ import pandas as pd
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_arrays, overlap_grid_tail
+from terrain.io.plausibility import stuck_window_flags
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
@@ -350,6 +351,32 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
+
+
+def stuck_decision_flags(frame: pd.DataFrame, stuck: Mapping[str, list],
+                         window_s: float) -> np.ndarray:
+    """``stuck:<stream>.<channel>`` of each decision whose window holds a stuck stretch.
+
+    The window of a decision is ``[t_s - window_age_s - window_s, t_s - window_age_s)``
+    (a decision without a window has an infinite age and is never flagged), as
+    ``terrain predict`` flags its windows (:func:`terrain.io.plausibility.stuck_window_flags`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        :func:`decisions_frame` (``t_s``, ``window_age_s``; s).
+    stuck : Mapping[str, list]
+        ``Run.meta["stuck"]`` of the replayed run.
+    window_s : float
+        Window length of the model, s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_decisions,)`` strings, ``""`` where no stuck stretch is in the window.
+    """
+    end = frame["t_s"].to_numpy(dtype=float) - frame["window_age_s"].to_numpy(dtype=float)
+    return stuck_window_flags(stuck, end - window_s, end)
 
 
 def decisions_frame(decisions: Sequence[Decision], classes: Sequence[str]) -> pd.DataFrame:

@@ -242,8 +242,9 @@ def test_wheel_speeds_in_kmh_are_refused_as_the_readers_do(served, request_frame
 def test_plausibility_flags():
     checks = {"stuck": {"wheels.cur_l": [[5.0, 6.0]]},
               "warnings": ["request: rule gyro_units: gyro spread 0.5 rad/s ..."]}
-    flags = _plausibility_flags(np.array(["", "gap", ""]), np.array([4.0, 6.5, 9.0]), 2.0,
-                                checks)
+    frame = pd.DataFrame({"t_s": [4.0, 6.5, 9.0], "window_age_s": 0.0,
+                          "flags": ["", "gap", ""]})
+    flags = _plausibility_flags(frame, 2.0, checks)
     assert flags == ["warning:gyro_units", "gap|stuck:wheels.cur_l|warning:gyro_units",
                      "warning:gyro_units"]
 
