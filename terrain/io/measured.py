@@ -167,7 +167,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     check_rate(frame[TIME].to_numpy(), stream, path)
     check_ranges(frame, path, mapping, lines)
     if kind == "imu":
-        _check_imu_units(frame, path)
+        check_accel_units(frame, path)   # a file in g is refused, a dead sensor warned
     return frame, report
 
 
@@ -294,13 +294,6 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
         step = float(np.median(dt))
         for i in np.flatnonzero(dt > gap_factor * step):
             report.gaps.append((float(t[i]), float(t[i + 1])))
-
-
-def _check_imu_units(frame: pd.DataFrame, path: Path) -> None:
-    """Rule ``accel_units`` (:func:`terrain.io.plausibility.check_accel_units`): a file in g
-    is refused; a dead accelerometer is left to the stuck-sensor warning of
-    :func:`terrain.io.plausibility.check_run`, or warned about when it reads noise near 0."""
-    check_accel_units(frame, path)
 
 
 def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:
