@@ -52,6 +52,24 @@ def _rate_limit(x: np.ndarray, max_rate: float, dt: float) -> np.ndarray:
     return out
 
 
+def physics_steps(duration_s: float, dt_s: float) -> int:
+    """Whole physics steps of a simulated duration (the time grid has one sample more).
+
+    Parameters
+    ----------
+    duration_s : float
+        Simulated time, s.
+    dt_s : float
+        Physics step, s.
+
+    Returns
+    -------
+    int
+        ``round(duration_s / dt_s)``.
+    """
+    return int(round(float(duration_s) / float(dt_s)))
+
+
 def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Generator,
                   max_speed_m_s: float, omnidirectional: bool = False) -> Commands:
     """Commanded twist of a named scenario.
@@ -85,7 +103,7 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
     if not duration_s > 0:
         raise ConfigError(f"duration must be > 0 s, got {duration_s}")
-    n = int(round(duration_s / dt_s)) + 1
+    n = physics_steps(duration_s, dt_s) + 1
     if n < 2:
         raise ConfigError(f"duration {duration_s} s is shorter than one physics step "
                           f"({dt_s:g} s)")

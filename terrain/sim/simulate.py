@@ -35,7 +35,7 @@ from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
-from terrain.sim.scenarios import SCENARIO_NAMES, make_commands
+from terrain.sim.scenarios import SCENARIO_NAMES, make_commands, physics_steps
 from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
                                  encoder_count_rate, quantise, sample_times)
 from terrain.terramechanics.catalogue import get_terrain
@@ -241,8 +241,7 @@ class SimConfig:
                               f"{self.duration_s}")
         minimum, why = minimum_duration_s(vehicle.name, self.sensors, self.physics_rate_hz)
         dt = 1.0 / float(self.physics_rate_hz)
-        # the step count of terrain.sim.scenarios.make_commands
-        if int(round(float(self.duration_s) / dt)) < int(round(minimum / dt)):
+        if physics_steps(self.duration_s, dt) < physics_steps(minimum, dt):
             raise ConfigError(f"duration_s {self.duration_s} s is too short for the "
                               f"{vehicle.name}: the minimum is {minimum:g} s ({why})")
         if not float(self.segment_length_m) > 0:
