@@ -55,6 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--early-stopping", action="store_true",
                         help="CNNs stop on the loss of whole training runs held out of each "
                              "fit (--max-epochs is the upper bound); default: fixed budget")
+    parser.add_argument("--cnn-seeds", type=int, default=d.cnn_seeds,
+                        help="CNNs (alone or in an ensemble) average the probabilities of this many "
+                             "independently seeded networks (seed bagging; default 1)")
     parser.add_argument("--train-hop-s", type=float, default=None,
                         help="hop of the training windows, s: each fold trains on windows cut "
                              "this often from its training runs; test windows unchanged "
@@ -87,13 +90,13 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
     if args.quick:
         quick = {**QUICK, **({"windows_s": (1.7,)} if args.protocol == "paper" else {})}
         return CompareConfig(**quick, history=tuple(args.history), protocol=args.protocol,
-                             train_hop_s=args.train_hop_s)
+                             train_hop_s=args.train_hop_s, cnn_seeds=args.cnn_seeds)
     return CompareConfig(models=tuple(args.models), signals=tuple(args.signals),
                          windows_s=tuple(args.windows_s), datasets=tuple(args.datasets),
                          seeds=tuple(args.seeds), history=tuple(args.history),
                          max_epochs=args.max_epochs, n_threads=args.threads,
                          protocol=args.protocol, early_stopping=args.early_stopping,
-                         train_hop_s=args.train_hop_s)
+                         train_hop_s=args.train_hop_s, cnn_seeds=args.cnn_seeds)
 
 
 def log_cell(result: dict, experiment_id: str) -> None:

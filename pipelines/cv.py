@@ -51,6 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "paper: 0, i.e. random_state 21)")
     parser.add_argument("--search", action="store_true",
                         help="nested grouped grid search of C and gamma in each training fold")
+    parser.add_argument("--cnn-seeds", type=int, default=1,
+                        help="CNNs (alone or in an ensemble) average the probabilities of this many "
+                             "independently seeded networks (seed bagging; default 1)")
     parser.add_argument("--window-ekf", action="store_true",
                         help="the model also sees the skid-steer EKF's channels computed from "
                              "each window's own samples (needs vel_l, vel_r, wz; nothing "
@@ -84,7 +87,7 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
                             train_hop_s=args.train_hop_s, protocol=args.protocol,
                             seeds=tuple(seeds), search=args.search,
                             steady_only=args.steady_only, model=args.model,
-                            window_ekf=args.window_ekf)
+                            window_ekf=args.window_ekf, cnn_seeds=args.cnn_seeds)
 
 
 def result_dict(result: ExperimentResult) -> dict:

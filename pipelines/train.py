@@ -70,6 +70,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the window; default: " + ", ".join(
                                  f"{d} {h:g}" for d, h in DEFAULT_TRAIN_HOP_S.items())
                              + ", the window length (non-overlapping) otherwise)")
+    parser.add_argument("--cnn-seeds", type=int, default=1,
+                        help="CNNs (alone or in an ensemble) average the probabilities of this many "
+                             "independently seeded networks (seed bagging; default 1)")
     parser.add_argument("--window-ekf", action="store_true",
                         help="the model also sees the skid-steer EKF's channels computed from "
                              "each window's own samples (needs vel_l, vel_r, wz; nothing "
@@ -136,6 +139,7 @@ def main(args: argparse.Namespace) -> int:
                               train_hop_s=(args.train_hop_s if args.train_hop_s is not None
                                            else DEFAULT_TRAIN_HOP_S.get(args.dataset)),
                               search=args.search, seeds=(0,), window_ekf=args.window_ekf,
+                              cnn_seeds=args.cnn_seeds,
                               model=args.model or DEFAULT_MODELS.get(args.dataset, "ensemble3"))
     name = (f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
             + ("+window-ekf" if config.window_ekf else ""))
@@ -145,7 +149,7 @@ def main(args: argparse.Namespace) -> int:
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
               "train_hop_s": config.train_hop_s or window.hop_s or window.window_s,
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0],
-              "window_ekf": config.window_ekf}
+              "window_ekf": config.window_ekf, "cnn_seeds": config.cnn_seeds}
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)

@@ -107,6 +107,8 @@ class CompareConfig:
     train_hop_s : float or None
         Hop of the training windows of every cell, s (see :class:`Cell`); grouped protocol
         only.
+    cnn_seeds : int
+        Independently seeded networks averaged per CNN (``ModelConfig.cnn_seeds``).
     """
 
     models: tuple[str, ...] = MODELS
@@ -122,8 +124,12 @@ class CompareConfig:
     protocol: str = "grouped"
     early_stopping: bool = False
     train_hop_s: float | None = None
+    cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
+        if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
+                                                    and self.cnn_seeds >= 1):
+            raise ConfigError(f"cnn_seeds must be an integer >= 1, got {self.cnn_seeds!r}")
         if self.protocol not in COMPARE_PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: "
                               f"{list(COMPARE_PROTOCOLS)}")
@@ -323,7 +329,8 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     """
     ws, labels, groups, training = cell_windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
-                     n_threads=config.n_threads, early_stopping=config.early_stopping)
+                     n_threads=config.n_threads, early_stopping=config.early_stopping,
+                     cnn_seeds=config.cnn_seeds)
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
     t0 = time.perf_counter()
     report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,

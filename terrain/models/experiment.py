@@ -80,6 +80,8 @@ class ExperimentConfig:
         The model appends the skid-steer EKF's channels computed from each window's own
         samples (:class:`terrain.models.window_ekf.WindowEKFClassifier`); the signals must
         hold ``vel_l``, ``vel_r`` and ``wz`` and no EKF channel.
+    cnn_seeds : int
+        Independently seeded networks averaged per CNN (``ModelConfig.cnn_seeds``).
 
     Raises
     ------
@@ -105,6 +107,7 @@ class ExperimentConfig:
     max_epochs: int = 30
     n_threads: int | None = None
     window_ekf: bool = False
+    cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:
@@ -112,6 +115,7 @@ class ExperimentConfig:
         if self.search and (self.model != "svm" or self.window_ekf):
             raise ConfigError("--search tunes the SVM on raw-signal features only; drop it "
                               "for other models and with --window-ekf")
+        self.model_config()  # the classifier's own checks (e.g. cnn_seeds), before any data
         if self.dataset not in DATASET_SPECS:
             raise ConfigError(f"unknown dataset {self.dataset!r}; valid: {list(DATASET_SPECS)}")
         if self.protocol not in PROTOCOLS:
@@ -165,10 +169,12 @@ class ExperimentConfig:
         Returns
         -------
         ModelConfig
-            Model name, epoch budget, threads, SVM settings and ``window_ekf``.
+            Model name, epoch budget, threads, SVM settings, ``window_ekf`` and
+            ``cnn_seeds``.
         """
         return ModelConfig(kind=self.model, max_epochs=self.max_epochs,
-                           n_threads=self.n_threads, svm=self.svm, window_ekf=self.window_ekf)
+                           n_threads=self.n_threads, svm=self.svm, window_ekf=self.window_ekf,
+                           cnn_seeds=self.cnn_seeds)
 
     def as_params(self) -> dict:
         """Flat parameter dict for MLflow.

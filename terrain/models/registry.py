@@ -37,6 +37,9 @@ from terrain.run import WHEEL_CHANNELS
 
 MODELS = ("svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble", "ensemble3")
 
+#: Model kinds that are neural networks (seed-bagged with ``ModelConfig.cnn_seeds``).
+CNN_MODELS = ("cnn", "cnn-spectrogram")
+
 #: Model kinds that are soft-voting ensembles of other kinds.
 ENSEMBLES = ("ensemble", "ensemble3")
 
@@ -87,6 +90,10 @@ class ModelConfig:
         ``augment_noise_std`` of the spectrogram CNN (alone or as an ensemble member): fit
         on the training spectra plus a copy perturbed by white noise of this many standard
         deviations; 0 (default): no copy.
+    cnn_seeds : int
+        Independently seeded networks per CNN (alone or as an ensemble member) whose class
+        probabilities are averaged with equal weights (seed bagging: seeds ``random_state``,
+        ``random_state + 1``, ...); 1 (default): one network.
     """
 
     kind: str = "svm"
@@ -100,6 +107,7 @@ class ModelConfig:
     early_stopping: bool = False
     window_ekf: bool = False
     spectrogram_noise_std: float = 0.0
+    cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
@@ -108,6 +116,9 @@ class ModelConfig:
         if not self.spectrogram_noise_std >= 0:
             raise ConfigError(f"spectrogram_noise_std must be >= 0, got "
                               f"{self.spectrogram_noise_std}")
+        if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
+                                                    and self.cnn_seeds >= 1):
+            raise ConfigError(f"cnn_seeds must be an integer >= 1, got {self.cnn_seeds!r}")
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")
@@ -190,6 +201,12 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
                            tuple(channels) + tuple(EKF_CHANNELS), rate_hz, dataset,
                            random_state, probability)
         return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset))
+    if kind in CNN_MODELS and config.cnn_seeds > 1:
+        single = replace(config, cnn_seeds=1)
+        bag = [(f"{kind}-seed{random_state + i}",
+                make_model(single, channels, rate_hz, dataset, random_state + i, probability))
+               for i in range(config.cnn_seeds)]
+        return SoftVotingEnsemble(bag, weights=(1.0,) * len(bag), random_state=random_state)
     if kind == "svm":
         return svm_window_pipeline(channels, rate_hz,
                                    replace(config.svm, probability=probability), random_state)

@@ -322,6 +322,10 @@ class ModelRecipe:
         ``ModelConfig.spectrogram_noise_std`` of an ensemble's spectrogram CNN (its training
         spectra plus a copy perturbed by white noise of this many standard deviations); 0:
         no copy. Ensembles only.
+    cnn_seeds : int
+        ``ModelConfig.cnn_seeds`` of an ensemble's CNNs: each is the probability average of
+        this many independently seeded networks (seed bagging); 1: one network. Ensembles
+        only.
     """
 
     signals: str
@@ -334,11 +338,14 @@ class ModelRecipe:
     run_balanced: bool = False
     window_ekf: bool = False
     spectrogram_noise_std: float = 0.0
+    cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
         if self.spectrogram_noise_std and self.classifier not in ENSEMBLES:
             raise ConfigError("spectrogram_noise_std perturbs the spectrogram CNN of an "
                               "ensemble recipe only")
+        if self.cnn_seeds != 1 and self.classifier not in ENSEMBLES:
+            raise ConfigError("cnn_seeds bags the CNNs of an ensemble recipe only")
         if self.features not in FEATURE_SETS or self.classifier not in CLASSIFIERS:
             raise ConfigError(f"recipe features must be one of {FEATURE_SETS} and classifier "
                               f"one of {CLASSIFIERS}")
@@ -365,7 +372,9 @@ class ModelRecipe:
 #: on a copy of its spectra perturbed by white noise of 0.3 standard deviations (docs/model_comparison.md,
 #: "More members", the probe); ``all-dense-no-speed`` and ``all-ensemble-dense-no-speed``:
 #: ``all-dense`` and ``all-ensemble-dense`` on the ``all-no-speed`` signals (every channel
-#: but the forward wheel speeds, :data:`features.windows.SPEED_CHANNELS`); wheels: 4 s
+#: but the forward wheel speeds, :data:`features.windows.SPEED_CHANNELS`);
+#: ``all-ensemble-dense-no-speed-bagged``: the latter with its spectrogram CNN the average of
+#: three independently seeded networks (``ModelConfig.cnn_seeds``); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -381,6 +390,8 @@ RECIPES = MappingProxyType({
     "all-dense-no-speed": ModelRecipe("all-no-speed", 2.0, 100.0, 0.5, "stats", "svm"),
     "all-ensemble-dense-no-speed": ModelRecipe("all-no-speed", 2.0, 100.0, 0.5, "stats",
                                                "ensemble"),
+    "all-ensemble-dense-no-speed-bagged": ModelRecipe("all-no-speed", 2.0, 100.0, 0.5,
+                                                      "stats", "ensemble", cnn_seeds=3),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
@@ -526,7 +537,8 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     if recipe.classifier in ENSEMBLES or recipe.window_ekf:
         # the `terrain train --model <ensemble> [--window-ekf]` estimator, raw windows in
         pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf,
-                                      spectrogram_noise_std=recipe.spectrogram_noise_std),
+                                      spectrogram_noise_std=recipe.spectrogram_noise_std,
+                                      cnn_seeds=recipe.cnn_seeds),
                           ws.channels, recipe.rate_hz, "borealtc", random_state=seed)
         pipe.fit(ws.X, labels)
     else:

@@ -77,3 +77,32 @@ def test_spectrogram_noise_reaches_the_spectrogram_member_only():
                       "borealtc").augment_noise_std == 0.0
     with pytest.raises(ConfigError, match="spectrogram_noise_std"):
         ModelConfig("ensemble", spectrogram_noise_std=-1.0)
+
+
+def test_cnn_seeds_bag_independently_seeded_networks_with_equal_weights():
+    import numpy as np
+
+    config = ModelConfig(kind="ensemble", cnn_seeds=3, max_epochs=1, n_threads=1)
+    model = make_model(config, CHANNELS[:3], 50.0, "borealtc", random_state=4)
+    svm, bag = (m for _, m in model.estimators)
+    assert isinstance(svm, SVMPipeline)             # the SVM is not bagged
+    assert isinstance(bag, SoftVotingEnsemble) and bag.weights == (1.0, 1.0, 1.0)
+    assert [m.random_state for _, m in bag.estimators] == [4, 5, 6]
+    assert all(isinstance(m, SpectrogramCNNClassifier) for _, m in bag.estimators)
+    # the bag's probabilities are the mean of its networks', which differ by their seed
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(24, 3, 100)).astype(np.float32)
+    y = np.array(["A", "B", "C"] * 8)
+    bag.fit(X, y)
+    each = np.stack([m.predict_proba(X) for m in bag.estimators_])
+    assert np.allclose(bag.predict_proba(X), each.mean(axis=0))
+    assert not np.allclose(each[0], each[1])
+    # one network, the default, is the plain classifier
+    assert isinstance(make_model(ModelConfig(kind="cnn"), CHANNELS, 50.0, "vulpi"),
+                      RawCNNClassifier)
+
+
+@pytest.mark.parametrize("seeds", [0, -1, 1.5, True])
+def test_cnn_seeds_must_be_a_positive_integer(seeds):
+    with pytest.raises(ConfigError, match="cnn_seeds"):
+        ModelConfig(kind="cnn", cnn_seeds=seeds)

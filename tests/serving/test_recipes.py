@@ -131,6 +131,13 @@ def test_augmented_recipe_is_the_dense_ensemble_with_noisy_spectra():
         ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", spectrogram_noise_std=0.3)
 
 
+def test_bagged_recipe_is_the_no_speed_dense_ensemble_with_three_networks():
+    recipe = RECIPES["all-ensemble-dense-no-speed-bagged"]
+    assert replace(recipe, cnn_seeds=1) == RECIPES["all-ensemble-dense-no-speed"]
+    assert recipe.cnn_seeds == 3
+    with pytest.raises(ConfigError, match="ensemble recipe only"):
+        ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", cnn_seeds=3)
+
 
 def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train_runs,
                                                                           borealtc_runs):
