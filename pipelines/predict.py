@@ -18,7 +18,7 @@ from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
 from terrain.io.report import input_report
 from terrain.serving.pyfunc import load_model, local_model_dir, runs_to_model_input
-from terrain.tracking import tracked_run
+from terrain.tracking import store_errors, tracked_run
 
 EXPERIMENT = "terrain-predict"
 
@@ -41,8 +41,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _load(uri: str, progress: bool):
-    from mlflow.exceptions import MlflowException
-
     in_store = local_model_dir(uri) is None  # an unsupported URI stops here, in its own words
     hint = (" (a models:/ or runs:/ URI resolves in the tracking store in force: run where "
             "`terrain train` ran or set MLFLOW_TRACKING_URI to its store)" if in_store else "")
@@ -50,7 +48,7 @@ def _load(uri: str, progress: bool):
         return load_model(uri, progress=progress)
     except ConfigError as exc:
         raise ConfigError(f"cannot load model {uri!r}: {exc}") from exc
-    except (MlflowException, OSError) as exc:
+    except (OSError,) + store_errors() as exc:
         first = str(exc).strip().splitlines()[0][:300] if str(exc).strip() else type(exc).__name__
         raise ConfigError(f"cannot load model {uri!r}: {first}{hint}") from None
 

@@ -18,7 +18,7 @@ import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
-from terrain.tracking import activate_store
+from terrain.tracking import activate_store, store_errors
 from terrain.errors import DataWarning, TerrainError
 
 #: subcommand -> pipelines module implementing it
@@ -136,19 +136,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             # and ``models:/`` URIs read it); the library never sets it
             activate_store()
             return int(args._main(args) or 0)
-        except (TerrainError, OSError) + _store_errors() as exc:
+        except (TerrainError, OSError) + store_errors() as exc:
             if debug:
                 raise
             print(f"terrain {args.command}: error: {_one_line(exc)}", file=sys.stderr)
             return 2
-
-
-def _store_errors() -> tuple[type[BaseException], ...]:
-    try:
-        from mlflow.exceptions import MlflowException
-    except ImportError:  # pragma: no cover
-        return ()
-    return (MlflowException,)
 
 
 def _one_line(exc: BaseException) -> str:

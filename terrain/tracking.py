@@ -47,6 +47,33 @@ def tracking_uri() -> str:
     return f"sqlite:///{Path.cwd() / DB_FILE}"
 
 
+def store_errors() -> tuple[type[BaseException], ...]:
+    """The exceptions a model or run store answers with when it cannot serve a request.
+
+    MLflow's :class:`~mlflow.exceptions.MlflowException`, and the errors of the cloud SDK
+    that reads a remote artifact store where that SDK is installed (botocore's
+    ``BotoCoreError`` and ``ClientError`` for ``s3://`` artifacts, e.g. a ``models:/`` model
+    read without AWS credentials). Commands report them as one line.
+
+    Returns
+    -------
+    tuple of type
+        Exception classes (empty where MLflow is not installed).
+    """
+    errors: list[type[BaseException]] = []
+    try:
+        from mlflow.exceptions import MlflowException
+        errors.append(MlflowException)
+    except ImportError:  # pragma: no cover - mlflow is a dependency
+        pass
+    try:
+        from botocore.exceptions import BotoCoreError, ClientError
+        errors += [BotoCoreError, ClientError]
+    except ImportError:
+        pass
+    return tuple(errors)
+
+
 def activate_store() -> tuple[str, bool]:
     """For entry points only: make the store in force MLflow's process-wide default.
 

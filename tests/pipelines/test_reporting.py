@@ -260,3 +260,24 @@ def test_audit_of_a_run_with_a_dead_gyro_reports_instead_of_crashing(workdir, ca
     assert "imu.wz stuck" in captured.err
     assert "stuck or dead sensor channel(s): runs/ASPHALT/00 (imu.wz)" in captured.out
     assert "audited 1 runs" in captured.out
+
+
+def test_a_registered_model_on_s3_without_credentials_is_a_one_line_error(workdir, capsys,
+                                                                          monkeypatch):
+    # a registry entry whose artifacts live on S3, read with no AWS credentials: botocore's
+    # NoCredentialsError used to reach the user as a traceback
+    pytest.importorskip("botocore")
+    from mlflow import MlflowClient
+
+    for var in ("AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY", "AWS_SESSION_TOKEN",
+                "AWS_PROFILE"):
+        monkeypatch.delenv(var, raising=False)
+    for var in ("AWS_SHARED_CREDENTIALS_FILE", "AWS_CONFIG_FILE"):
+        monkeypatch.setenv(var, str(workdir / "none"))
+    monkeypatch.setenv("AWS_EC2_METADATA_DISABLED", "true")
+    client = MlflowClient(f"sqlite:///{workdir / 'mlflow.db'}")
+    client.create_registered_model("cloudy")
+    client.create_model_version("cloudy", "s3://no-such-bucket-terrain/model")
+    assert main(["predict", "--model", "models:/cloudy/1", "runs", "--out", "p.csv"]) == 2
+    line = _assert_one_line_error(capsys, "predict")
+    assert "models:/cloudy/1" in line and "credentials" in line, line
