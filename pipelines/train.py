@@ -142,7 +142,8 @@ def main(args: argparse.Namespace) -> int:
                               cnn_seeds=args.cnn_seeds,
                               model=args.model or DEFAULT_MODELS.get(args.dataset, "ensemble3"))
     name = (f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
-            + ("+window-ekf" if config.window_ekf else ""))
+            + ("+window-ekf" if config.window_ekf else "")
+            + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else ""))
     window = config.window_config()
     params = {"model": config.model, "dataset": config.dataset,
               "signals": ",".join(config.signals),

@@ -32,7 +32,7 @@ import pandas as pd
 from terrain.errors import ConfigError
 from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
 from terrain.models.metrics import run_majority_accuracy, window_metrics
-from terrain.models.registry import MODELS, ModelConfig, make_model
+from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, make_model
 
 #: Protocols of the comparison: the run-grouped headline and the papers' leaky partition one.
 COMPARE_PROTOCOLS = ("grouped", "paper")
@@ -108,7 +108,8 @@ class CompareConfig:
         Hop of the training windows of every cell, s (see :class:`Cell`); grouped protocol
         only.
     cnn_seeds : int
-        Independently seeded networks averaged per CNN (``ModelConfig.cnn_seeds``).
+        Independently seeded networks averaged per CNN (``ModelConfig.cnn_seeds``), for the
+        cells whose model holds a CNN (the others are unchanged).
     """
 
     models: tuple[str, ...] = MODELS
@@ -127,9 +128,11 @@ class CompareConfig:
     cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
-        if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
-                                                    and self.cnn_seeds >= 1):
-            raise ConfigError(f"cnn_seeds must be an integer >= 1, got {self.cnn_seeds!r}")
+        if self.cnn_seeds != 1:
+            ModelConfig(kind="cnn", cnn_seeds=self.cnn_seeds)    # ModelConfig's own rule
+            if not any(cnn_kinds(m) for m in self.models):
+                raise ConfigError(f"cnn_seeds={self.cnn_seeds} averages CNNs and none of the "
+                                  f"models {list(self.models)} has one")
         if self.protocol not in COMPARE_PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: "
                               f"{list(COMPARE_PROTOCOLS)}")
@@ -330,7 +333,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     ws, labels, groups, training = cell_windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
                      n_threads=config.n_threads, early_stopping=config.early_stopping,
-                     cnn_seeds=config.cnn_seeds)
+                     cnn_seeds=config.cnn_seeds if cnn_kinds(cell.model) else 1)
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
     t0 = time.perf_counter()
     report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,

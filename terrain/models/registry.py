@@ -116,12 +116,35 @@ class ModelConfig:
         if not self.spectrogram_noise_std >= 0:
             raise ConfigError(f"spectrogram_noise_std must be >= 0, got "
                               f"{self.spectrogram_noise_std}")
-        if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
-                                                    and self.cnn_seeds >= 1):
-            raise ConfigError(f"cnn_seeds must be an integer >= 1, got {self.cnn_seeds!r}")
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")
+        if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
+                                                    and self.cnn_seeds >= 1):
+            raise ConfigError(f"cnn_seeds must be an integer >= 1, got {self.cnn_seeds!r}")
+        if self.cnn_seeds > 1 and not cnn_kinds(self.kind, self.ensemble_members):
+            raise ConfigError(f"cnn_seeds={self.cnn_seeds} averages CNNs, and model "
+                              f"{self.kind!r} has none (CNN kinds: {list(CNN_MODELS)})")
+
+
+def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ("svm", "cnn-spectrogram")
+              ) -> tuple[str, ...]:
+    """The CNN kinds a model holds (those ``ModelConfig.cnn_seeds`` bags).
+
+    Parameters
+    ----------
+    kind : str
+        Model name (:data:`MODELS`).
+    ensemble_members : sequence of str
+        Members of an ``ensemble`` (``ModelConfig.ensemble_members``).
+
+    Returns
+    -------
+    tuple of str
+        ``(kind,)`` for a CNN, the CNN members of an ensemble, ``()`` otherwise.
+    """
+    members = {"ensemble": tuple(ensemble_members), "ensemble3": ENSEMBLE3_MEMBERS}
+    return tuple(k for k in members.get(kind, (kind,)) if k in CNN_MODELS)
 
 
 def band_limits_hz(channels: Sequence[str], dataset: str) -> tuple[float, ...]:
@@ -193,7 +216,9 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     estimator
         scikit-learn classifier with ``predict_proba`` (the plain SVM excepted); with
         ``config.window_ekf`` a :class:`~terrain.models.window_ekf.WindowEKFClassifier`
-        around the model built for the augmented channels.
+        around the model built for the augmented channels; with ``config.cnn_seeds > 1``
+        every CNN is a :class:`~terrain.models.ensemble.SoftVotingEnsemble` of that many
+        networks seeded ``random_state``, ``random_state + 1``, ... with equal weights.
     """
     kind = config.kind
     if config.window_ekf:
@@ -224,8 +249,9 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
     if kind == "minirocket":
         return make_minirocket(random_state, n_kernels=config.minirocket_kernels,
                                max_dilations_per_kernel=config.minirocket_max_dilations)
-    members = [(k, make_model(replace(config, kind=k), channels, rate_hz, dataset,
-                              random_state, probability=True))
+    members = [(k, make_model(replace(config, kind=k,
+                                      cnn_seeds=config.cnn_seeds if k in CNN_MODELS else 1),
+                              channels, rate_hz, dataset, random_state, probability=True))
                for k in ensemble_member_kinds(config)]
     weights = None if config.tune_weights else (1.0,) * len(members)
     return SoftVotingEnsemble(members, weights=weights, random_state=random_state)

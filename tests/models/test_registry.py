@@ -106,3 +106,21 @@ def test_cnn_seeds_bag_independently_seeded_networks_with_equal_weights():
 def test_cnn_seeds_must_be_a_positive_integer(seeds):
     with pytest.raises(ConfigError, match="cnn_seeds"):
         ModelConfig(kind="cnn", cnn_seeds=seeds)
+
+
+def test_cnn_seeds_need_a_model_that_holds_a_cnn():
+    from terrain.models.compare import CompareConfig
+    from terrain.models.registry import cnn_kinds
+
+    assert cnn_kinds("ensemble3") == ("cnn", "cnn-spectrogram")
+    assert cnn_kinds("ensemble", ("svm", "minirocket")) == () == cnn_kinds("svm")
+    for config in ({"kind": "svm"}, {"kind": "minirocket"},
+                   {"kind": "ensemble", "ensemble_members": ("svm", "minirocket")}):
+        with pytest.raises(ConfigError, match="has none"):
+            ModelConfig(cnn_seeds=3, **config)
+    # a comparison bags the cells whose model holds a CNN and refuses a grid without one
+    assert CompareConfig(models=("svm", "cnn"), cnn_seeds=3).cnn_seeds == 3
+    with pytest.raises(ConfigError, match="none of the models"):
+        CompareConfig(models=("svm", "minirocket"), cnn_seeds=3)
+    with pytest.raises(ConfigError, match="cnn_seeds must be"):
+        CompareConfig(models=("cnn",), cnn_seeds=0)
