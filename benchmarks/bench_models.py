@@ -34,7 +34,7 @@ from sklearn.pipeline import Pipeline
 
 from terrain.models.cv import fit_with_groups, inference_ms_per_window, iter_splits
 from terrain.models.experiment import ExperimentConfig, load_windows
-from terrain.models.registry import MODELS, ModelConfig, make_model
+from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, make_model
 from terrain.tracking import tracked_run
 
 
@@ -58,6 +58,8 @@ def main() -> int:
     parser.add_argument("--minirocket-max-dilations", type=int,
                         default=ModelConfig().minirocket_max_dilations,
                         help="MiniRocket dilations per kernel at most")
+    parser.add_argument("--cnn-seeds", type=int, default=1,
+                        help="networks averaged per CNN (models holding a CNN only)")
     args = parser.parse_args()
     ws = load_windows(ExperimentConfig(dataset="borealtc"))
     y = ws.labels.astype(str)
@@ -66,10 +68,12 @@ def main() -> int:
     with tracked_run("terrain-benchmark", run_name="models",
                      params={"models": ",".join(args.models), "threads": args.threads,
                              "minirocket_max_dilations": args.minirocket_max_dilations,
+                             "cnn_seeds": args.cnn_seeds,
                              "n_train": len(train), "n_test": len(test)}) as run:
         for kind in args.models:
             config = ModelConfig(kind=kind, n_threads=args.threads,
-                                 minirocket_max_dilations=args.minirocket_max_dilations)
+                                 minirocket_max_dilations=args.minirocket_max_dilations,
+                                 cnn_seeds=args.cnn_seeds if cnn_kinds(kind) else 1)
             model = make_model(config, ws.channels, ws.rate_hz, "borealtc", 0)
             t0 = time.perf_counter()
             fit_with_groups(model, ws.X[train], y[train], ws.groups[train])
