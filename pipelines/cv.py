@@ -156,7 +156,8 @@ def main(args: argparse.Namespace) -> int:
         raised while loading the dataset propagate to the CLI, which prints them on one line.
     """
     config = config_from_args(args)
-    name = f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
+    name = (f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
+            + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else ""))
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
         result = run_cv(config, runs=runs, progress=not args.no_progress)
@@ -185,7 +186,9 @@ def main(args: argparse.Namespace) -> int:
         run.log_dict(report, "cv_report.json")
     line = "secondary (leaky) protocol" if config.protocol == "paper" else "headline"
     signals = ",".join(config.signals) + (" + EKF per window" if config.window_ekf else "")
-    print(f"{config.model} / {config.dataset} / {config.protocol} ({line}) / signals {signals}: "
+    model = config.model + (f" ({config.cnn_seeds} networks per CNN)"
+                            if config.cnn_seeds > 1 else "")
+    print(f"{model} / {config.dataset} / {config.protocol} ({line}) / signals {signals}: "
           f"{result.n_windows} windows from {result.n_runs} runs, {len(rep.classes)} classes")
     pooled = rep.pooled
     print(f"  {'metric':24s} {'pooled out-of-fold':>22s}   {'per fold':>22s}")
