@@ -191,9 +191,8 @@ def _stop(signum: int, frame: Any) -> None:
 
 
 def _check_args(args: argparse.Namespace) -> None:
-    """Refuse out-of-range numbers before anything is started (ConfigError)."""
-    if not 0 <= args.port <= 65535:
-        raise ConfigError(f"--port {args.port} is outside 1-65535 (0 picks a free port)")
+    """Refuse out-of-range numbers before anything is started (ConfigError); the port's
+    range is :func:`bind_port`'s, the first thing started."""
     for name in ("max_body_bytes", "max_decisions"):
         value = getattr(args, name, 1)
         if not value > 0:
