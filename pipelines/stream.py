@@ -24,7 +24,7 @@ from terrain.control import DesiredSlipConfig
 from terrain.run import TIME
 from terrain.serving import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
                              decisions_frame, load_stream_model, replay_run)
-from terrain.serving.service import stuck_decision_flags
+from terrain.serving.service import join_flags, stuck_decision_flags
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -119,8 +119,7 @@ def main(args: argparse.Namespace) -> int:
     frame = decisions_frame(replay_run(service, run), model.classes)
     window_s = model.window.window_s
     stuck = stuck_decision_flags(frame, dict(run.meta.get("stuck", {})), window_s)
-    frame["flags"] = ["|".join(f for f in (old, new) if f)
-                      for old, new in zip(frame["flags"], stuck)]
+    frame["flags"] = join_flags(frame["flags"], stuck)
     n_stuck = int((stuck != "").sum())
     span = _overlap_s([run.streams[s] for s in service.needed_streams])
     short = [run.run_id] if not len(frame) and span < window_s else []

@@ -60,7 +60,8 @@ from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline
                                    load_stream_model)
 from terrain.serving.replay import replay_run
 from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
-                                     check_hop, decisions_frame, stuck_decision_flags)
+                                     check_hop, decisions_frame, join_flags,
+                                     stuck_decision_flags)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -439,15 +440,9 @@ def _plausibility_flags(frame: pd.DataFrame, window_s: float,
     stuck_decision_flags`), ``warning:<rule>`` on every window when a rule found a likely
     problem (the service still decided)."""
     stuck = stuck_decision_flags(frame, checks.get("stuck", {}), window_s)
-    rules = sorted({m.group(1) for w in checks.get("warnings", ())
-                    for m in [re.search(r"rule (\w+)", w)] if m})
-    out = []
-    for f, s in zip(frame["flags"], stuck):
-        parts = [x for x in str(f).split("|") if x]
-        parts += [s] if s else []
-        parts += [f"warning:{r}" for r in rules]
-        out.append("|".join(sorted(parts)))
-    return out
+    rules = "|".join(sorted({f"warning:{m.group(1)}" for w in checks.get("warnings", ())
+                             for m in [re.search(r"rule (\w+)", w)] if m}))
+    return join_flags(frame["flags"], stuck, [rules] * len(frame))
 
 
 class ServedStreamModel(PythonModel):

@@ -379,6 +379,25 @@ def stuck_decision_flags(frame: pd.DataFrame, stuck: Mapping[str, list],
     return stuck_window_flags(stuck, end - window_s, end)
 
 
+def join_flags(*columns: Sequence[str]) -> list[str]:
+    """Per decision, the union of several ``|``-separated flag strings, sorted as the
+    service writes its own flags.
+
+    Parameters
+    ----------
+    *columns : sequence of str
+        Equal-length flag columns (e.g. ``decisions_frame(...)["flags"]`` and
+        :func:`stuck_decision_flags`); ``""`` is no flag.
+
+    Returns
+    -------
+    list of str
+        ``(n_decisions,)`` joined flags.
+    """
+    return ["|".join(sorted({f for cell in cells for f in str(cell).split("|") if f}))
+            for cells in zip(*columns)]
+
+
 def decisions_frame(decisions: Sequence[Decision], classes: Sequence[str]) -> pd.DataFrame:
     """Decisions as a table with the service's column names.
 

@@ -199,3 +199,15 @@ def test_a_hop_shorter_than_the_model_clock_is_refused(wheel_model):
     with pytest.raises(ConfigError, match="shorter than one period"):
         service(wheel_model, hop_s=period / 2)
     service(wheel_model, hop_s=period)          # one period is fine
+
+
+def test_join_flags_is_the_sorted_union_of_each_decisions_flags():
+    from terrain.serving.service import join_flags
+
+    service = ["stale|gap", "", "low_confidence", ""]
+    stuck = ["stuck:imu.wz", "", "", "stuck:wheels.cur_l"]
+    warn = ["warning:clock_overlap"] * 4
+    assert join_flags(service, stuck) == ["gap|stale|stuck:imu.wz", "", "low_confidence",
+                                          "stuck:wheels.cur_l"]
+    assert join_flags(service, stuck, warn)[1] == "warning:clock_overlap"
+    assert join_flags(["gap|gap"], ["gap"]) == ["gap"]
