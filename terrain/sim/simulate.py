@@ -451,11 +451,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
             keep &= ~((t_c >= start) & (t_c < start + length))
         streams["cam"] = cam[keep].reset_index(drop=True)
 
-    rates = {"physics": float(config.physics_rate_hz), "imu": sensors.imu_rate_hz,
-             "pro": sensors.wheel_rate_hz, "truth": sensors.truth_rate_hz}
-    if geometry.steered:
-        rates.update(steer=sensors.steer_rate_hz, cam=sensors.cam_rate_hz,
-                     omega=sensors.wheel_rate_hz, cur=sensors.wheel_rate_hz)
+    rates = {"physics": float(config.physics_rate_hz), **stream_rates_hz(vehicle.name, sensors)}
     meta = {
         "vehicle": vehicle.name, "dataset": "sim", "scenario": config.scenario,
         "seed": int(config.seed), "duration_s": duration, "physics": config.physics,
