@@ -51,7 +51,7 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.terramechanics.resistance import bekker_sinkage_m
-from terrain.terramechanics.traction import JanosiCurve
+from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
 
@@ -92,11 +92,17 @@ class SoilParams:
         cap, ASSUMED). None: a layer deeper than any sinkage (every shipped soil; a SNOW
         layer of 0.01-0.06 m was swept on training runs and not adopted,
         docs/physics_v2.md).
+    residual_ratio : float or None
+        ``K_r``, residual over peak shear strength of Wong's hump-type shear curve (ch. 2.4:
+        snow covers and organic terrain), for the longitudinal and the lateral shear and
+        the bulldozing mobilisation alike
+        (:func:`terrain.terramechanics.traction.patch_mobilisation`); None = the
+        exponential Janosi-Hanamoto curve (every shipped soil).
 
     Raises
     ------
     ConfigError
-        ``layer_depth_m`` is not positive.
+        ``layer_depth_m`` is not positive, or ``residual_ratio`` is outside (0, 1).
     """
 
     name: str
@@ -110,11 +116,15 @@ class SoilParams:
     source: str
     lateral_shear_modulus_m: float | None = None
     layer_depth_m: float | None = None
+    residual_ratio: float | None = None
 
     def __post_init__(self) -> None:
         if self.layer_depth_m is not None and not self.layer_depth_m > 0:
             raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
                               f"{self.layer_depth_m}")
+        if self.residual_ratio is not None and not 0.0 < self.residual_ratio < 1.0:
+            raise ConfigError(f"{self.name}: residual_ratio must be in (0, 1) or None, got "
+                              f"{self.residual_ratio}")
 
     @property
     def shear_modulus_y_m(self) -> float:
@@ -142,14 +152,17 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
     "SNOW": SoilParams(
         "snow (U.S., Harrison)", n=1.6, k_c=2.49e3, k_phi=245.90e3, cohesion_pa=0.62e3,
         friction_angle_deg=23.2, shear_modulus_m=0.02, unit_weight_n_m3=2.45e3,
-        lateral_shear_modulus_m=0.05,
+        lateral_shear_modulus_m=0.05, residual_ratio=0.4,
         source=(f"n, k_c, k_phi, c, phi: snow (U.S., Harrison), {_WONG_T23}, chosen over "
                 "Wong's snow (U.S.) and snow (Sweden) rows on the TRAINING runs of "
                 "benchmarks/sweep_soil_params.py (borealtc SNOW 01, 03, 05, 07, 10, 12, 16, "
                 "18, 20, 23, 25; scored on the other 11); K_x = 0.02 m, K_y = 0.05 m chosen "
                 "on the same runs, ASSUMED range 0.02-0.05 m (no snow K in the sources "
-                "here; the catalogue's longitudinal value is 0.04 m); gamma_s 2.45 kN/m^3 "
-                "ASSUMED (fresh forest snow, density 250 kg/m^3)")),
+                "here; the catalogue's longitudinal value is 0.04 m); hump-type shear curve "
+                "(Wong ch. 2.4, snow covers) with residual ratio K_r = 0.4 chosen on the "
+                "same runs over {0.8, 0.6, 0.4, 0.3, 0.2} (no K_r of this snow in the "
+                "sources here; docs/physics_v2.md, 'Snow that softens when sheared'); "
+                "gamma_s 2.45 kN/m^3 ASSUMED (fresh forest snow, density 250 kg/m^3)")),
     "PLOUGHED": replace(
         _SANDY_LOAM, name="ploughed field (sandy loam row by analogy)",
         shear_modulus_m=0.010, lateral_shear_modulus_m=0.010,
@@ -257,25 +270,29 @@ def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) 
                                  + 0.5 * z * z * soil.unit_weight_n_m3 * k_pg))
 
 
-def shear_mobilisation(a: np.ndarray) -> np.ndarray:
-    """Mean Janosi-Hanamoto mobilisation over a patch sheared linearly from 0 to ``a K``.
+def shear_mobilisation(a: np.ndarray, residual_ratio: float | None = None) -> np.ndarray:
+    """Mean shear mobilisation over a patch sheared linearly from 0 to ``a K``.
 
     ``g(a) = (1 / l) int_0^l (1 - exp(-a x / l)) dx = 1 - (1 - exp(-a)) / a``
     (Wong eq. 2.56 integrated along the patch; ``g -> a / 2`` for small ``a``, ``-> 1`` for
-    large).
+    large), or the patch mean of Wong's hump-type curve with a ``residual_ratio``; both are
+    :func:`terrain.terramechanics.traction.patch_mobilisation`.
 
     Parameters
     ----------
     a : ndarray, shape (...)
         Shear displacement at the rear of the patch over K, ``l |tan beta| / K`` (>= 0).
+    residual_ratio : float or None
+        ``K_r`` of the hump-type curve (:attr:`SoilParams.residual_ratio`); None =
+        exponential.
 
     Returns
     -------
     ndarray, shape (...)
-        Dimensionless, in [0, 1).
+        Dimensionless, in [0, 1) for the exponential curve (up to ~1.02 near a hump's peak).
     """
     a = np.maximum(np.asarray(a, dtype=float), 1e-12)
-    return 1.0 + np.expm1(-a) / a
+    return patch_mobilisation(a, residual_ratio)[0]
 
 
 @dataclass(frozen=True)
@@ -383,7 +400,7 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
     scale = length / (contact.soil.shear_modulus_y_m * roll)     # a = scale |v|
     a = scale * np.abs(v)
-    g = shear_mobilisation(a)
+    g = shear_mobilisation(a, contact.soil.residual_ratio)
     x_l = v / slide_speed_m_s
     th = np.tanh(x_l)
     force = -th * strength * g
@@ -416,4 +433,5 @@ def longitudinal_curve(contact: SoilContact, load_n: float) -> JanosiCurve:
     soil = contact.soil
     return JanosiCurve.from_soil(soil.cohesion_pa, soil.friction_angle_deg,
                                  soil.shear_modulus_m, contact.width_m * length, length,
-                                 load_n, f"{soil.name}: {soil.source}")
+                                 load_n, f"{soil.name}: {soil.source}",
+                                 soil.residual_ratio)

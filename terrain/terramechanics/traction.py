@@ -15,7 +15,9 @@ Curve families
     ``j = s x`` integrated over a contact of length ``L`` (J. Y. Wong, *Theory of Ground
     Vehicles*, 4th ed., Wiley 2008, ch. 2.4-2.5; seed 003 eqs. 14-17):
     ``mu = mu_max (1 - (k / s)(1 - exp(-s / k)))`` with ``k = K / L`` and
-    ``mu_max = tan(phi) + c A / W`` (Mohr-Coulomb).
+    ``mu_max = tan(phi) + c A / W`` (Mohr-Coulomb). With a ``residual_ratio`` the shear
+    follows Wong's hump-type curve instead, which peaks and falls to a residual strength
+    (snow covers and organic terrain, Wong ch. 2.4; :func:`patch_mobilisation`).
 :class:`BrixiusCurve`
     Brixius (1987) traction equation for tyres on agricultural soils (ASAE paper 87-1622):
     gross traction ratio ``0.88 (1 - exp(-0.1 Bn)) (1 - exp(-7.5 s))`` with the mobility number
@@ -106,12 +108,13 @@ def burckhardt_traction(abs_slip: np.ndarray, c1: float, c2: float, c3: float
     return c1 * (1.0 - e) - c3 * abs_slip, c1 * c2 * e - c3
 
 
-def janosi_traction(abs_slip: np.ndarray, mu_max: float, shear_slip: float
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def janosi_traction(abs_slip: np.ndarray, mu_max: float, shear_slip: float,
+                    residual_ratio: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Janosi-Hanamoto traction averaged over the contact, ``mu = mu_max g(s / k)``.
 
     ``g(x) = 1 - (1 - e^-x) / x`` (Wong, *Theory of Ground Vehicles*, 4th ed., ch. 2.4-2.5;
-    seed 003 eqs. 14-17).
+    seed 003 eqs. 14-17), or the patch mean of Wong's hump-type shear curve when
+    ``residual_ratio`` is given (:func:`patch_mobilisation`).
 
     Parameters
     ----------
@@ -121,12 +124,15 @@ def janosi_traction(abs_slip: np.ndarray, mu_max: float, shear_slip: float
         Shear strength over normal load (dimensionless).
     shear_slip : float
         ``k = K / L`` (dimensionless), > 0.
+    residual_ratio : float or None
+        Residual over peak shear strength ``K_r`` in (0, 1) of the hump-type curve; None =
+        the exponential Janosi-Hanamoto curve.
 
     Returns
     -------
     mu, dmu_ds : ndarray, shape (...)
     """
-    g, dg = _janosi_g(abs_slip / shear_slip)
+    g, dg = patch_mobilisation(abs_slip / shear_slip, residual_ratio)
     return mu_max * g, mu_max * dg / shear_slip
 
 
@@ -223,11 +229,15 @@ class JanosiCurve:
         ``k = K / L``: shear deformation modulus over contact length (dimensionless).
     source : str
         Citation of the coefficients.
+    residual_ratio : float or None
+        ``K_r`` of Wong's hump-type shear curve (residual over peak strength, in (0, 1));
+        None = the exponential Janosi-Hanamoto curve (:func:`patch_mobilisation`).
     """
 
     mu_max: float
     shear_slip: float
     source: str = ""
+    residual_ratio: float | None = None
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """:func:`janosi_traction` with the terrain's constant resistance.
@@ -243,13 +253,15 @@ class JanosiCurve:
         -------
         CurveCoefficients
         """
-        return CurveCoefficients(*janosi_traction(abs_slip, self.mu_max, self.shear_slip),
+        return CurveCoefficients(*janosi_traction(abs_slip, self.mu_max, self.shear_slip,
+                                                  self.residual_ratio),
                                  *_constant(abs_slip, soil_resistance))
 
     @classmethod
     def from_soil(cls, cohesion_pa: float, friction_angle_deg: float,
                   shear_modulus_m: float, contact_area_m2: float, contact_length_m: float,
-                  load_n: float, source: str = "") -> "JanosiCurve":
+                  load_n: float, source: str = "",
+                  residual_ratio: float | None = None) -> "JanosiCurve":
         """Build the curve from Mohr-Coulomb / Janosi soil parameters and a contact patch.
 
         Parameters
@@ -268,6 +280,8 @@ class JanosiCurve:
             Normal load W on that contact, N.
         source : str
             Citation of the soil parameters.
+        residual_ratio : float or None
+            ``K_r`` of the hump-type shear curve; None = exponential (see the class).
 
         Returns
         -------
@@ -275,7 +289,7 @@ class JanosiCurve:
             ``mu_max = tan(phi) + c A / W``, ``shear_slip = K / L``.
         """
         mu_max = np.tan(np.radians(friction_angle_deg)) + cohesion_pa * contact_area_m2 / load_n
-        return cls(float(mu_max), shear_modulus_m / contact_length_m, source)
+        return cls(float(mu_max), shear_modulus_m / contact_length_m, source, residual_ratio)
 
 
 @dataclass(frozen=True)
@@ -364,10 +378,71 @@ def _janosi_g(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``g(x) = 1 - (1 - e^-x)/x`` and ``g'(x)`` for x >= 0, series near 0."""
     small = x < 1e-4
     xs = np.where(small, 1.0, x)
-    e = np.exp(-xs)
-    g = np.where(small, x / 2.0 - x * x / 6.0, 1.0 - (1.0 - e) / xs)
-    dg = np.where(small, 0.5 - x / 3.0, (1.0 - e) / (xs * xs) - e / xs)
+    one_minus_e = -np.expm1(-xs)
+    g = np.where(small, x / 2.0 - x * x / 6.0, 1.0 - one_minus_e / xs)
+    dg = np.where(small, 0.5 - x / 3.0, one_minus_e / (xs * xs) - (1.0 - one_minus_e) / xs)
     return g, dg
+
+
+def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Mean shear mobilisation over a patch sheared linearly from 0 to ``a K``, and its slope.
+
+    A soil element passing under a contact of length ``l`` is sheared by ``j(x) = a K x / l``
+    (``a = s l / K`` longitudinally, ``l tan(beta) / K`` laterally), so the contact's force is
+    ``tau_max`` times the patch mean of the shear curve ``tau(j) / tau_max``:
+
+    * ``residual_ratio`` None: Janosi-Hanamoto ``1 - exp(-j / K)`` (Wong, *Theory of Ground
+      Vehicles*, 4th ed., eq. 2.56), patch mean ``g(a) = 1 - (1 - e^-a) / a``;
+    * ``residual_ratio = K_r``: Wong's hump-type curve (ch. 2.4, the shear curve of snow
+      covers and organic terrain that peaks and falls to a residual strength)
+      ``f(u) = K_r {1 + [1 / (K_r (1 - 1/e)) - 1] e^(1 - u)} (1 - e^-u)``, ``u = j / K_w``,
+      which peaks near ``u = 1`` and tends to ``K_r``. ``K_w`` is set so that the initial
+      shear stiffness equals the exponential curve's, ``f'(0) / K_w = 1 / K``:
+      ``K_w = K K_r (1 + B e)`` with ``B = 1 / (K_r (1 - 1/e)) - 1`` (ASSUMED: the chosen
+      ``K`` keeps its meaning; the strength then peaks near where the exponential curve is
+      95 % mobilised). Patch mean, ``U = a K / K_w``:
+      ``K_r [U - (1 - e^-U) + B e ((1 - e^-U) - (1 - e^-2U) / 2)] / U``.
+
+    Parameters
+    ----------
+    a : ndarray, shape (...)
+        Shear displacement at the rear of the patch over K (>= 0).
+    residual_ratio : float or None
+        ``K_r`` in (0, 1), or None for the exponential curve.
+
+    Returns
+    -------
+    g : ndarray, shape (...)
+        Patch mean of ``tau / tau_max`` (dimensionless, >= 0).
+    dg_da : ndarray, shape (...)
+        Its derivative with respect to ``a`` (negative past the hump's peak).
+
+    Raises
+    ------
+    ValueError
+        ``residual_ratio`` outside (0, 1).
+    """
+    a = np.asarray(a, dtype=float)
+    if residual_ratio is None:
+        return _janosi_g(a)
+    kr = float(residual_ratio)
+    if not 0.0 < kr < 1.0:
+        raise ValueError(f"residual_ratio must be in (0, 1), got {residual_ratio}")
+    b = 1.0 / (kr * (1.0 - np.exp(-1.0))) - 1.0
+    s0 = kr * (1.0 + b * np.e)          # f'(0): K_w = s0 K
+    u = a / s0
+    small = u < 1e-4
+    us = np.where(small, 1.0, u)
+    e1, e2 = -np.expm1(-us), -np.expm1(-2.0 * us)      # 1 - e^-U, 1 - e^-2U
+    mean = kr * (us - e1 + b * np.e * (e1 - 0.5 * e2)) / us
+    f_u = kr * (1.0 + b * np.exp(1.0 - us)) * e1
+    dmean_du = (f_u - mean) / us
+    # series near 0: f(u) = s0 u - c u^2 + ..., mean = s0 u / 2 - c u^2 / 3, c = kr (1/2 + 3 b e / 2)
+    c2 = kr * (0.5 + 1.5 * b * np.e)
+    g = np.where(small, s0 * u / 2.0 - c2 * u * u / 3.0, mean)
+    dg_du = np.where(small, s0 / 2.0 - 2.0 * c2 * u / 3.0, dmean_du)
+    return g, dg_du / s0
 
 
 def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.ndarray:

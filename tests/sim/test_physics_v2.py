@@ -20,6 +20,7 @@ from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors,
                                             shear_mobilisation, soil_contact,
                                             soil_lateral_force_and_slope, wheel_sinkage_m)
 from terrain.terramechanics.resistance import bekker_sinkage_m
+from terrain.terramechanics.traction import patch_mobilisation, traction_curve_and_slope
 from terrain.vehicles import HUSKY, get_vehicle
 
 W = 50.0 * 9.80665 / 4.0          # static Husky wheel load, N
@@ -39,6 +40,66 @@ def test_shear_mobilisation_limits_and_monotone():
     assert g[2] == pytest.approx(0.05, rel=0.05)          # a / 2 for small a
     assert g[3] == pytest.approx(np.exp(-1.0), rel=1e-9)   # 1 - (1 - e^-1) = e^-1
     assert np.all(np.diff(g) > 0)
+
+
+def _wong_hump(u, k_r):
+    """Wong's hump-type shear curve tau / tau_max at u = j / K_w (Theory of Ground
+    Vehicles, ch. 2.4), written out independently of the library."""
+    b = 1.0 / (k_r * (1.0 - np.exp(-1.0))) - 1.0
+    return k_r * (1.0 + b * np.exp(1.0 - u)) * (1.0 - np.exp(-u))
+
+
+@pytest.mark.parametrize("k_r", [0.8, 0.4, 0.2])
+def test_hump_patch_mobilisation_is_wongs_curve_averaged_over_the_patch(k_r):
+    b = 1.0 / (k_r * (1.0 - np.exp(-1.0))) - 1.0
+    k_w = k_r * (1.0 + b * np.e)          # K_w / K: the exponential curve's initial stiffness
+    a = np.array([1e-6, 3e-5, 2e-4, 0.05, 0.7, 2.0, 6.0, 25.0])
+    g, dg = patch_mobilisation(a, k_r)
+    for a_i, g_i in zip(a, g):
+        j = np.linspace(0.0, a_i, 400_001)           # shear displacement over K
+        assert g_i == pytest.approx(np.trapezoid(_wong_hump(j / k_w, k_r), j) / a_i,
+                                    rel=1e-7, abs=1e-13)
+    h = 1e-6 * a
+    num = (patch_mobilisation(a + h, k_r)[0] - patch_mobilisation(a - h, k_r)[0]) / (2 * h)
+    np.testing.assert_allclose(dg, num, rtol=1e-5, atol=1e-9)
+    # the same initial shear stiffness as the exponential curve (g ~ a / 2) ...
+    assert g[0] == pytest.approx(a[0] / 2, rel=1e-5)
+    # ... a peak of the point curve near tau_max (exact at K_r ~ 0.66), the residual K_r
+    # far past it
+    u = np.linspace(0.0, 20.0, 20_001)
+    assert _wong_hump(u, k_r).max() == pytest.approx(1.0, abs=0.05)   # 1.04 at K_r 0.2
+    assert patch_mobilisation(np.array([1e5]), k_r)[0][0] == pytest.approx(k_r, rel=1e-3)
+    assert dg[-1] < 0                                  # softening: past the hump's peak
+
+
+def test_exponential_patch_mobilisation_and_invalid_residual_ratio():
+    a = np.array([1e-5, 1.0, 10.0])
+    g, _ = patch_mobilisation(a)
+    np.testing.assert_allclose(g, 1.0 + np.expm1(-a) / a, rtol=1e-9)
+    np.testing.assert_allclose(shear_mobilisation(a), g, rtol=0)
+    for bad in (0.0, 1.0, 1.5):
+        with pytest.raises(ValueError, match="residual_ratio"):
+            patch_mobilisation(a, bad)
+        with pytest.raises(ConfigError, match="residual_ratio"):
+            replace(SOILS["SNOW"], residual_ratio=bad)
+
+
+def test_snow_traction_softens_past_its_peak_and_the_loam_does_not():
+    snow, loam = SOILS["SNOW"], SOILS["SANDY_LOAM"]
+    assert snow.residual_ratio is not None and loam.residual_ratio is None
+    curves = {}
+    for name, soil in (("snow", snow), ("snow-exp", replace(snow, residual_ratio=None)),
+                       ("loam", loam)):
+        contact = soil_contact(soil, 0.11, 0.08, 0.1651, 4 * W)
+        curves[name] = longitudinal_curve(contact, W)
+    s = np.linspace(0.0, 1.0, 201)
+    mu_hump, dmu_hump = traction_curve_and_slope(curves["snow"], s)
+    mu_exp, _ = traction_curve_and_slope(curves["snow-exp"], s)
+    _, dmu_loam = traction_curve_and_slope(curves["loam"], s)
+    assert curves["snow"].mu_max == curves["snow-exp"].mu_max     # same peak strength
+    assert np.all(dmu_loam >= 0)                                   # exponential: monotone
+    assert dmu_hump[-1] < 0 and mu_hump[-1] < 0.9 * mu_exp[-1]     # a spinning wheel: less
+    assert mu_hump[1] == pytest.approx(mu_exp[1], rel=0.01)        # same initial stiffness
 
 
 def test_sinkage_is_bekker_on_firm_soil_and_grows_on_snow():
@@ -242,3 +303,37 @@ def test_v2_ploughed_soil_reproduces_the_measured_turns_of_a_held_out_vulpi_run(
     # and the turning current: v1 about 3 A too high, v2 within 1 A
     assert current["v1"] - current["measured"] > 2.0
     assert abs(current["v2"] - current["measured"]) < 1.0
+
+
+def test_snow_hump_lowers_the_replayed_spin_current_of_held_out_runs(monkeypatch):
+    # the held-out SNOW runs (alternate_split: the residual ratio was chosen on the other
+    # half) spin at 8 A on average where the exponential snow contact of v2 replays 11 A
+    # (docs/physics_v2.md): a wheel that shears the snow past its peak strength drives with
+    # the residual strength, so the hump-type curve must bring the spin current down
+    from terrain.audit.frames import MANOEUVRES, prepare_frame
+    from terrain.audit.physics import alternate_split
+    from terrain.audit.replay import ReplaySettings, replay_run
+    from terrain.io.shipped import load_dataset
+
+    held = alternate_split([r for r in load_dataset("borealtc") if r.terrain == "SNOW"])[1]
+    frames = {r.run_id: prepare_frame(r, replay_run(r, ReplaySettings(physics="v1")))
+              for r in held}
+    sq = {}
+    for name, soil in (("hump", SOILS["SNOW"]),
+                       ("exponential", replace(SOILS["SNOW"], residual_ratio=None))):
+        monkeypatch.setattr(dynamics, "SOILS", MappingProxyType({**SOILS, "SNOW": soil}))
+        errs, sim_mean, meas_mean = [], [], []
+        for r in held:
+            f = frames[r.run_id]
+            cur = replay_run(r, ReplaySettings(physics="v2")).cur[-f.n:]
+            m = (f.manoeuvre == MANOEUVRES.index("spin")) & np.isfinite(f.cur).all(axis=1)
+            errs.append((cur[m] - f.cur[m]).ravel())
+            sim_mean.append(cur[m].ravel())
+            meas_mean.append(f.cur[m].ravel())
+        sq[name] = float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
+        sq[name + "_sim"] = float(np.mean(np.concatenate(sim_mean)))
+    measured = float(np.mean(np.concatenate(meas_mean)))
+    assert len(np.concatenate(errs)) > 2000
+    assert sq["exponential_sim"] > measured + 2.0        # the exponential contact: too high
+    assert sq["hump_sim"] < sq["exponential_sim"] - 1.0  # the hump: lower spin current ...
+    assert sq["hump"] < 0.9 * sq["exponential"]          # ... and closer to the measurement
