@@ -1,0 +1,169 @@
+"""What would knowing the switch times be worth on the held-out streams, and does a causal
+reset rule get any of it?
+
+Replays the held-out concatenated streams of ``terrain stream-eval`` (same folds over runs,
+same seeded streams, :func:`terrain.serving.evaluation.held_out_folds`; one classifier per
+fold trained on the other runs with ``--kind``'s recipe) once, keeps the raw window
+probabilities, and scores decision rules on them (pooled over ``--seeds``):
+
+* ``raw``: each window's most probable class;
+* ``filter``: the service's forward filter (:class:`terrain.serving.smoothing.ForwardFilter`,
+  default settings), what ``terrain stream-eval`` reports;
+* ``oracle restart``: the same filter restarted from a uniform belief at the first decision
+  whose window lies wholly in the new piece (it is told the switch times);
+* ``oracle hybrid``: the raw decision on windows that straddle a switch, the restarted
+  filter elsewhere (told the switch times as well): an upper bound on what switch handling
+  can give this classifier;
+* ``reset(theta, m)``: a causal rule, the filter reset to the window's probabilities when
+  ``m`` consecutive windows name the same class other than the decided one with
+  probability >= ``theta`` (grid fixed beforehand: theta in {0.8, 0.9, 0.95}, m in
+  {1, 2, 3}; chosen on the first seed, reported on the others).
+
+Run: ``python benchmarks/stream_switch_oracle.py [--kind all-ensemble-dense-no-speed]
+[--seeds 0 1 2] [--no-mlflow]`` (5 min for the default on a 2-core machine; logged to MLflow,
+experiment ``terrain-benchmark``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import time
+
+import numpy as np
+from tqdm import tqdm
+
+from terrain.io.shipped import load_dataset
+from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_folds,
+                                        raw_decisions, score_stream, truth_at)
+from terrain.serving.smoothing import PROBA_FLOOR, ForwardFilter, SmoothingConfig
+from terrain.tracking import tracked_run
+
+HOP_S = 0.5
+THETAS = (0.8, 0.9, 0.95)
+STREAKS = (1, 2, 3)
+
+
+def decide(proba: np.ndarray, restart: np.ndarray | None = None,
+           reset: tuple[float, int] | None = None) -> np.ndarray:
+    """Decided class index of each step (``-1`` before any valid window).
+
+    Parameters
+    ----------
+    proba : numpy.ndarray
+        ``(n, n_classes)`` window probabilities; NaN rows are invalid windows.
+    restart : numpy.ndarray or None
+        ``(n,)`` bool: restart the filter from a uniform belief before this step (oracle).
+    reset : (float, int) or None
+        ``(theta, m)`` of the causal reset rule (module docstring).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` int.
+    """
+    n_classes = proba.shape[1]
+    filt = ForwardFilter(n_classes, HOP_S, SmoothingConfig())
+    out = np.full(len(proba), -1)
+    streak, last = 0, None
+    for i, q in enumerate(proba):
+        if restart is not None and restart[i]:
+            filt.p = np.full(n_classes, 1.0 / n_classes)
+        valid = not np.isnan(q).any()
+        decided, _ = filt.update(q if valid else None)
+        if reset is not None and valid:
+            top = int(np.argmax(q))
+            confident = q[top] >= reset[0] and decided is not None and top != decided
+            streak = (streak + 1 if top == last else 1) if confident else 0
+            last = top
+            if streak >= reset[1]:
+                floored = np.maximum(q, PROBA_FLOOR)
+                filt.p = floored / floored.sum()
+                filt.current = decided = top
+                streak = 0
+        out[i] = -1 if decided is None else decided
+    return out
+
+
+def rules(fold: dict) -> dict[str, np.ndarray]:
+    """Decided class indices of every rule of the module docstring on one stream."""
+    proba, t, segments = fold["proba"], fold["t"], fold["segments"]
+    truth = truth_at(segments, t)
+    settled = truth_at(segments, t - fold["window_s"]) == truth
+    restart = np.r_[False, settled[1:] & ~settled[:-1]]
+    raw = np.where(np.isnan(proba).any(axis=1), -1,
+                   np.argmax(np.nan_to_num(proba, nan=-1.0), axis=1))
+    oracle = decide(proba, restart=restart)
+    out = {"raw": raw, "filter": decide(proba), "oracle restart": oracle,
+           "oracle hybrid": np.where(settled, oracle, raw)}
+    for theta in THETAS:
+        for m in STREAKS:
+            out[f"reset({theta}, {m})"] = decide(proba, reset=(theta, m))
+    return out
+
+
+def pooled(folds: list[dict], rule: str) -> tuple[float, float, float]:
+    """Per-decision accuracy, settled accuracy and median switching delay (s) of a rule."""
+    ok = n = ok_s = n_s = 0.0
+    delays: list[float] = []
+    for fold in folds:
+        names = np.array(list(fold["classes"]) + [None], dtype=object)
+        score = score_stream(fold["segments"], fold["t"], names[fold["rules"][rule]],
+                             fold["window_s"])
+        ok += score.accuracy * score.n_decisions
+        n += score.n_decisions
+        ok_s += score.accuracy_settled * score.n_settled
+        n_s += score.n_settled
+        delays += list(score.delays_s)
+    return ok / n, ok_s / n_s, float(np.median(delays))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--kind", default="all-ensemble-dense-no-speed", choices=list(RECIPES))
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--no-mlflow", action="store_true")
+    args = ap.parse_args()
+    recipe = RECIPES[args.kind]
+    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    runs = load_dataset("borealtc")
+    start = time.perf_counter()
+    by_seed: dict[int, list[dict]] = {}
+    with tqdm(total=5 * len(args.seeds), desc="folds", unit="fold") as bar:
+        for seed in args.seeds:
+            by_seed[seed] = []
+            for _fold, train, stream, segments in held_out_folds(runs, need, seed):
+                model = fit_stream_model(recipe, train, seed)
+                t, proba = raw_decisions(model, stream, HOP_S)
+                fold = {"t": t, "proba": proba, "segments": segments,
+                        "classes": model.classes, "window_s": recipe.window_s}
+                fold["rules"] = rules(fold)
+                by_seed[seed].append(fold)
+                bar.update()
+    first, rest = args.seeds[:1], args.seeds[1:]
+    grid = [f"reset({th}, {m})" for th in THETAS for m in STREAKS]
+    chosen = max(grid, key=lambda r: pooled(by_seed[first[0]], r)[0])
+    metrics = {}
+    for label, seeds in (("all", args.seeds), ("first", first), ("rest", rest)):
+        folds = [f for s in seeds for f in by_seed[s]]
+        if not folds:
+            continue
+        print(f"seeds {seeds}:")
+        for rule in ("raw", "filter", "oracle restart", "oracle hybrid", chosen):
+            acc, settled, delay = pooled(folds, rule)
+            print(f"  {rule:<18} per decision {acc:.4f}  settled {settled:.4f}  "
+                  f"median delay {delay:.2f} s")
+            key = re.sub(r"[^A-Za-z0-9.]+", "_", rule).strip("_")
+            metrics[f"{label}_{key}_accuracy"] = acc
+    print(f"reset rule chosen on seed {first[0]}: {chosen}; "
+          f"{time.perf_counter() - start:.0f} s")
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", run_name="stream-switch-oracle",
+                         params={"kind": args.kind, "seeds": ",".join(map(str, args.seeds)),
+                                 "reset_rule": chosen}) as run:
+            run.log_metrics(metrics)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
