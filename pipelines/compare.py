@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pipelines.arguments import add_cnn_seeds
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
                                     iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
@@ -55,9 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--early-stopping", action="store_true",
                         help="CNNs stop on the loss of whole training runs held out of each "
                              "fit (--max-epochs is the upper bound); default: fixed budget")
-    parser.add_argument("--cnn-seeds", type=int, default=d.cnn_seeds,
-                        help="CNNs (alone or in an ensemble) average the probabilities of this many "
-                             "independently seeded networks (seed bagging; default 1)")
+    add_cnn_seeds(parser, d.cnn_seeds)
     parser.add_argument("--train-hop-s", type=float, default=None,
                         help="hop of the training windows, s: each fold trains on windows cut "
                              "this often from its training runs; test windows unchanged "

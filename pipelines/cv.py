@@ -11,6 +11,7 @@ import argparse
 import json
 from pathlib import Path
 
+from pipelines.arguments import add_cnn_seeds, add_window_ekf
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
@@ -51,13 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "paper: 0, i.e. random_state 21)")
     parser.add_argument("--search", action="store_true",
                         help="nested grouped grid search of C and gamma in each training fold")
-    parser.add_argument("--cnn-seeds", type=int, default=1,
-                        help="CNNs (alone or in an ensemble) average the probabilities of this many "
-                             "independently seeded networks (seed bagging; default 1)")
-    parser.add_argument("--window-ekf", action="store_true",
-                        help="the model also sees the skid-steer EKF's channels computed from "
-                             "each window's own samples (needs vel_l, vel_r, wz; nothing "
-                             "older than the window, so it streams: docs/streaming.md)")
+    add_cnn_seeds(parser)
+    add_window_ekf(parser)
     parser.add_argument("--steady-only", action="store_true",
                         help="keep steady-motion windows only (thesis ch. 8.1)")
     parser.add_argument("--json", type=Path, default=None, help="write the report as JSON")

@@ -15,6 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
+from pipelines.arguments import add_cnn_seeds, add_window_ekf
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
@@ -70,13 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the window; default: " + ", ".join(
                                  f"{d} {h:g}" for d, h in DEFAULT_TRAIN_HOP_S.items())
                              + ", the window length (non-overlapping) otherwise)")
-    parser.add_argument("--cnn-seeds", type=int, default=1,
-                        help="CNNs (alone or in an ensemble) average the probabilities of this many "
-                             "independently seeded networks (seed bagging; default 1)")
-    parser.add_argument("--window-ekf", action="store_true",
-                        help="the model also sees the skid-steer EKF's channels computed from "
-                             "each window's own samples (needs vel_l, vel_r, wz; nothing "
-                             "older than the window, so it streams: docs/streaming.md)")
+    add_cnn_seeds(parser)
+    add_window_ekf(parser)
     parser.add_argument("--search", action="store_true",
                         help="choose C and gamma by a grid search grouped by run")
     parser.add_argument("--model-out", type=Path, default=None,
