@@ -97,7 +97,8 @@ class SoilParams:
         snow covers and organic terrain), for the longitudinal and the lateral shear and
         the bulldozing mobilisation alike
         (:func:`terrain.terramechanics.traction.patch_mobilisation`); None = the
-        exponential Janosi-Hanamoto curve (every shipped soil).
+        exponential Janosi-Hanamoto curve (shipped: SNOW 0.4, SANDY_LOAM 0.9, PLOUGHED
+        None).
 
     Raises
     ------
@@ -137,14 +138,16 @@ class SoilParams:
 _SANDY_LOAM = SoilParams(
     "sandy loam (LLL), 15 % moisture", n=0.7, k_c=5.27e3, k_phi=1515.04e3,
     cohesion_pa=1.72e3, friction_angle_deg=29.0, shear_modulus_m=0.006,
-    unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010,
+    unit_weight_n_m3=15.7e3, lateral_shear_modulus_m=0.010, residual_ratio=0.9,
     source=(f"n, k_c, k_phi, c, phi: sandy loam (Land Locomotion Lab) 15 % moisture, "
             f"{_WONG_T23}; K_x = 0.006 m and K_y = 0.010 m chosen on the TRAINING runs "
             "of benchmarks/sweep_soil_params.py (borealtc SANDY_LOAM 01, 03, 05, 07, 10, "
             "13; scored on 02, 04, 06, 08, 11) inside Wong's range of K for mineral "
             "soils (ch. 2.4: about 0.6 cm for compact clay to 2.5 cm for loose sand); "
-            "gamma_s 15.7 kN/m^3 ASSUMED (bulk density 1.6 t/m^3 of a moist sandy "
-            "loam)"))
+            "hump-type shear curve (Wong ch. 2.4: dense, firm soils peak and soften) with "
+            "residual ratio K_r = 0.9 chosen on the same runs over {none, 0.9, 0.8, 0.7, "
+            "0.6, 0.4} (docs/physics_v2.md, 'Snow that softens when sheared'); gamma_s "
+            "15.7 kN/m^3 ASSUMED (bulk density 1.6 t/m^3 of a moist sandy loam)"))
 
 #: Soils of the physics-v2 lateral model, by catalogue terrain (read-only).
 SOILS: Mapping[str, SoilParams] = MappingProxyType({
@@ -165,7 +168,7 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
                 "gamma_s 2.45 kN/m^3 ASSUMED (fresh forest snow, density 250 kg/m^3)")),
     "PLOUGHED": replace(
         _SANDY_LOAM, name="ploughed field (sandy loam row by analogy)",
-        shear_modulus_m=0.010, lateral_shear_modulus_m=0.010,
+        shear_modulus_m=0.010, lateral_shear_modulus_m=0.010, residual_ratio=None,
         source=(f"n, k_c, k_phi, c, phi and gamma_s: the SANDY_LOAM row above ({_WONG_T23}) "
                 "by ANALOGY: the Vulpi et al. (2021) PLOUGHED runs were driven on a tilled "
                 "agricultural field whose soil was not measured; K_x = K_y = 0.010 m chosen "

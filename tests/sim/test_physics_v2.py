@@ -85,20 +85,22 @@ def test_exponential_patch_mobilisation_and_invalid_residual_ratio():
             replace(SOILS["SNOW"], residual_ratio=bad)
 
 
-def test_snow_traction_softens_past_its_peak_and_the_loam_does_not():
-    snow, loam = SOILS["SNOW"], SOILS["SANDY_LOAM"]
-    assert snow.residual_ratio is not None and loam.residual_ratio is None
+def test_snow_traction_softens_past_its_peak_and_the_ploughed_field_does_not():
+    snow, loam, field = SOILS["SNOW"], SOILS["SANDY_LOAM"], SOILS["PLOUGHED"]
+    # snow softens most, the firm sandy loam a little, the Vulpi field keeps the
+    # exponential law its K was chosen with
+    assert snow.residual_ratio < loam.residual_ratio < 1.0 and field.residual_ratio is None
     curves = {}
     for name, soil in (("snow", snow), ("snow-exp", replace(snow, residual_ratio=None)),
-                       ("loam", loam)):
+                       ("field", field)):
         contact = soil_contact(soil, 0.11, 0.08, 0.1651, 4 * W)
         curves[name] = longitudinal_curve(contact, W)
     s = np.linspace(0.0, 1.0, 201)
     mu_hump, dmu_hump = traction_curve_and_slope(curves["snow"], s)
     mu_exp, _ = traction_curve_and_slope(curves["snow-exp"], s)
-    _, dmu_loam = traction_curve_and_slope(curves["loam"], s)
+    _, dmu_field = traction_curve_and_slope(curves["field"], s)
     assert curves["snow"].mu_max == curves["snow-exp"].mu_max     # same peak strength
-    assert np.all(dmu_loam >= 0)                                   # exponential: monotone
+    assert np.all(dmu_field >= 0)                                  # exponential: monotone
     assert dmu_hump[-1] < 0 and mu_hump[-1] < 0.9 * mu_exp[-1]     # a spinning wheel: less
     assert mu_hump[1] == pytest.approx(mu_exp[1], rel=0.01)        # same initial stiffness
 
