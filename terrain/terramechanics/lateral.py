@@ -17,6 +17,10 @@ over a frozen, cited :class:`SoilParams`:
    tracks in skid-steering; the lateral slip angle ``tan beta = v_lat / (omega r)``). Over a
    patch of length ``l`` the mean mobilisation is
    ``g(a) = 1 - (1 - exp(-a)) / a``, ``a = l tan(beta) / K`` (:func:`shear_mobilisation`).
+   A soil with a :attr:`SoilParams.residual_ratio` follows Wong's hump-type shear curve
+   instead (ch. 2.4: the strength peaks, then falls to ``K_r`` of the peak as the shearing
+   goes on; SNOW and SANDY_LOAM), longitudinally and laterally alike
+   (:func:`terrain.terramechanics.traction.patch_mobilisation`).
 3. **Bulldozing** of the sinkage wall: the side of a sunk wheel pushes a wall of soil of
    depth ``z`` and width ``l`` sideways, the passive earth pressure of Wong eq. 2.61
    ``R_b = l (0.67 c z K_pc + 0.5 z^2 gamma_s K_pgamma)`` with
