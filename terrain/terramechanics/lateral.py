@@ -298,7 +298,6 @@ def shear_mobilisation(a: np.ndarray, residual_ratio: float | None = None) -> np
     ndarray, shape (...)
         Dimensionless, in [0, 1) for the exponential curve (up to ~1.02 near a hump's peak).
     """
-    a = np.maximum(np.asarray(a, dtype=float), 1e-12)
     return patch_mobilisation(a, residual_ratio)[0]
 
 
