@@ -35,7 +35,7 @@ from sklearn.pipeline import Pipeline
 from terrain.errors import ConfigError
 from terrain.models.cv import fit_with_groups, inference_ms_per_window, iter_splits
 from terrain.models.experiment import ExperimentConfig, load_windows
-from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, make_model
+from terrain.models.registry import MODELS, ModelConfig, cnn_seeds_for, make_model
 from terrain.tracking import tracked_run
 
 
@@ -75,7 +75,7 @@ def main() -> int:
         for kind in args.models:
             config = ModelConfig(kind=kind, n_threads=args.threads,
                                  minirocket_max_dilations=args.minirocket_max_dilations,
-                                 cnn_seeds=args.cnn_seeds if cnn_kinds(kind) else 1)
+                                 cnn_seeds=cnn_seeds_for(kind, args.cnn_seeds))
             model = make_model(config, ws.channels, ws.rate_hz, "borealtc", 0)
             t0 = time.perf_counter()
             try:

@@ -32,7 +32,7 @@ import pandas as pd
 from terrain.errors import ConfigError
 from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
 from terrain.models.metrics import run_majority_accuracy, window_metrics
-from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, make_model
+from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, cnn_seeds_for, make_model
 
 #: Protocols of the comparison: the run-grouped headline and the papers' leaky partition one.
 COMPARE_PROTOCOLS = ("grouped", "paper")
@@ -333,7 +333,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     ws, labels, groups, training = cell_windows(cell, config.single_run_blocks)
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
                      n_threads=config.n_threads, early_stopping=config.early_stopping,
-                     cnn_seeds=config.cnn_seeds if cnn_kinds(cell.model) else 1)
+                     cnn_seeds=cnn_seeds_for(cell.model, config.cnn_seeds))
     factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, cell.dataset, seed))
     t0 = time.perf_counter()
     report = cross_validate(factory, ws.X, labels, groups, ws.run_ids, ws.t_start_s,

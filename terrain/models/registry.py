@@ -147,6 +147,31 @@ def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ("svm", "cnn-spectrog
     return tuple(k for k in members.get(kind, (kind,)) if k in CNN_MODELS)
 
 
+def cnn_seeds_for(kind: str, cnn_seeds: int,
+                  ensemble_members: Sequence[str] = ("svm", "cnn-spectrogram")) -> int:
+    """``ModelConfig.cnn_seeds`` for a model of ``kind``: as asked when it holds a CNN, else 1.
+
+    One seed-bagging setting applied across several models (a comparison grid, a benchmark,
+    the members of an ensemble) bags only those that hold a CNN; ``ModelConfig`` refuses
+    ``cnn_seeds > 1`` for the others.
+
+    Parameters
+    ----------
+    kind : str
+        Model name (:data:`MODELS`).
+    cnn_seeds : int
+        Networks per CNN asked for (>= 1).
+    ensemble_members : sequence of str
+        Members of an ``ensemble`` (``ModelConfig.ensemble_members``).
+
+    Returns
+    -------
+    int
+        ``cnn_seeds`` when :func:`cnn_kinds` of the model is not empty, else 1.
+    """
+    return cnn_seeds if cnn_kinds(kind, ensemble_members) else 1
+
+
 def band_limits_hz(channels: Sequence[str], dataset: str) -> tuple[float, ...]:
     """Highest meaningful frequency of each channel, Hz (Nyquist of its native rate).
 
@@ -250,7 +275,7 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         return make_minirocket(random_state, n_kernels=config.minirocket_kernels,
                                max_dilations_per_kernel=config.minirocket_max_dilations)
     members = [(k, make_model(replace(config, kind=k,
-                                      cnn_seeds=config.cnn_seeds if k in CNN_MODELS else 1),
+                                      cnn_seeds=cnn_seeds_for(k, config.cnn_seeds)),
                               channels, rate_hz, dataset, random_state, probability=True))
                for k in ensemble_member_kinds(config)]
     weights = None if config.tune_weights else (1.0,) * len(members)
