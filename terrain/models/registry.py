@@ -43,6 +43,10 @@ CNN_MODELS = ("cnn", "cnn-spectrogram")
 #: Model kinds that are soft-voting ensembles of other kinds.
 ENSEMBLES = ("ensemble", "ensemble3")
 
+#: Default members of ``ensemble`` (``ModelConfig.ensemble_members``): the SVM and the
+#: spectrogram CNN.
+ENSEMBLE_MEMBERS = ("svm", "cnn-spectrogram")
+
 #: Members of ``ensemble3``: SVM + raw 1-D CNN + spectrogram CNN, equal weights (README
 #: "Model comparison", run-grouped StratifiedGroupKFold(5), seeds 0 1 2).
 ENSEMBLE3_MEMBERS = ("svm", "cnn", "cnn-spectrogram")
@@ -102,7 +106,7 @@ class ModelConfig:
     minirocket_kernels: int = 10_000
     minirocket_max_dilations: int = 32
     svm: SVMConfig = SVMConfig()
-    ensemble_members: tuple[str, ...] = ("svm", "cnn-spectrogram")
+    ensemble_members: tuple[str, ...] = ENSEMBLE_MEMBERS
     tune_weights: bool = False
     early_stopping: bool = False
     window_ekf: bool = False
@@ -127,8 +131,7 @@ class ModelConfig:
                               f"{self.kind!r} has none (CNN kinds: {list(CNN_MODELS)})")
 
 
-def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ("svm", "cnn-spectrogram")
-              ) -> tuple[str, ...]:
+def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ENSEMBLE_MEMBERS) -> tuple[str, ...]:
     """The CNN kinds a model holds (those ``ModelConfig.cnn_seeds`` bags).
 
     Parameters
@@ -148,7 +151,7 @@ def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ("svm", "cnn-spectrog
 
 
 def cnn_seeds_for(kind: str, cnn_seeds: int,
-                  ensemble_members: Sequence[str] = ("svm", "cnn-spectrogram")) -> int:
+                  ensemble_members: Sequence[str] = ENSEMBLE_MEMBERS) -> int:
     """``ModelConfig.cnn_seeds`` for a model of ``kind``: as asked when it holds a CNN, else 1.
 
     One seed-bagging setting applied across several models (a comparison grid, a benchmark,
