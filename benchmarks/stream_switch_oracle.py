@@ -31,11 +31,13 @@ import re
 import time
 
 import numpy as np
+import pandas as pd
 from tqdm import tqdm
 
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_folds,
-                                        raw_decisions, score_stream, truth_at)
+from terrain.serving.evaluation import (RECIPES, filter_sequence, fit_stream_model,
+                                        held_out_folds, pool_scores, raw_decisions,
+                                        score_stream, truth_at)
 from terrain.serving.smoothing import PROBA_FLOOR, ForwardFilter, SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -54,6 +56,8 @@ def decide(proba: np.ndarray, restart: np.ndarray | None = None,
         ``(n, n_classes)`` window probabilities; NaN rows are invalid windows.
     restart : numpy.ndarray or None
         ``(n,)`` bool: restart the filter from a uniform belief before this step (oracle).
+        Without ``restart`` and ``reset`` this is
+        :func:`terrain.serving.evaluation.filter_sequence` with the default settings.
     reset : (float, int) or None
         ``(theta, m)`` of the causal reset rule (module docstring).
 
@@ -91,11 +95,10 @@ def rules(fold: dict) -> dict[str, np.ndarray]:
     truth = truth_at(segments, t)
     settled = truth_at(segments, t - fold["window_s"]) == truth
     restart = np.r_[False, settled[1:] & ~settled[:-1]]
-    raw = np.where(np.isnan(proba).any(axis=1), -1,
-                   np.argmax(np.nan_to_num(proba, nan=-1.0), axis=1))
+    raw = filter_sequence(proba, HOP_S, SmoothingConfig(dwell_s=None))
     oracle = decide(proba, restart=restart)
-    out = {"raw": raw, "filter": decide(proba), "oracle restart": oracle,
-           "oracle hybrid": np.where(settled, oracle, raw)}
+    out = {"raw": raw, "filter": filter_sequence(proba, HOP_S, SmoothingConfig()),
+           "oracle restart": oracle, "oracle hybrid": np.where(settled, oracle, raw)}
     for theta in THETAS:
         for m in STREAKS:
             out[f"reset({theta}, {m})"] = decide(proba, reset=(theta, m))
@@ -103,19 +106,15 @@ def rules(fold: dict) -> dict[str, np.ndarray]:
 
 
 def pooled(folds: list[dict], rule: str) -> tuple[float, float, float]:
-    """Per-decision accuracy, settled accuracy and median switching delay (s) of a rule."""
-    ok = n = ok_s = n_s = 0.0
-    delays: list[float] = []
+    """Per-decision accuracy, settled accuracy and median switching delay (s) of a rule,
+    pooled over streams by :func:`terrain.serving.evaluation.pool_scores`."""
+    rows = []
     for fold in folds:
         names = np.array(list(fold["classes"]) + [None], dtype=object)
-        score = score_stream(fold["segments"], fold["t"], names[fold["rules"][rule]],
-                             fold["window_s"])
-        ok += score.accuracy * score.n_decisions
-        n += score.n_decisions
-        ok_s += score.accuracy_settled * score.n_settled
-        n_s += score.n_settled
-        delays += list(score.delays_s)
-    return ok / n, ok_s / n_s, float(np.median(delays))
+        rows.append(score_stream(fold["segments"], fold["t"], names[fold["rules"][rule]],
+                                 fold["window_s"]).as_row())
+    score = pool_scores(pd.DataFrame(rows))
+    return score["accuracy"], score["accuracy_settled"], score["median_delay_s"]
 
 
 def main() -> int:
