@@ -37,3 +37,19 @@ def add_window_ekf(parser: argparse.ArgumentParser) -> None:
                         help="the model also sees the skid-steer EKF's channels computed from "
                              "each window's own samples (needs vel_l, vel_r, wz; nothing "
                              "older than the window, so it streams: docs/streaming.md)")
+
+
+def add_train_hop(parser: argparse.ArgumentParser) -> None:
+    """Add ``--train-hop-s`` of the cross-validating commands (training windows' hop).
+
+    ``terrain train`` has its own, since its default depends on the dataset.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser (modified in place).
+    """
+    parser.add_argument("--train-hop-s", type=float, default=None,
+                        help="hop of the training windows, s: each fold trains on windows cut "
+                             "this often from its training runs; the test windows are "
+                             "unchanged (default: train on the test windows' cut)")

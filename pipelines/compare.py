@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import add_cnn_seeds
+from pipelines.arguments import add_cnn_seeds, add_train_hop
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
                                     iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
@@ -57,10 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="CNNs stop on the loss of whole training runs held out of each "
                              "fit (--max-epochs is the upper bound); default: fixed budget")
     add_cnn_seeds(parser, d.cnn_seeds)
-    parser.add_argument("--train-hop-s", type=float, default=None,
-                        help="hop of the training windows, s: each fold trains on windows cut "
-                             "this often from its training runs; test windows unchanged "
-                             "(default: the non-overlapping test cut)")
+    add_train_hop(parser)
     parser.add_argument("--quick", action="store_true", help="small grid (smoke test)")
     parser.add_argument("--backend", choices=BACKENDS, default="loky")
     parser.add_argument("--address", default=None,

@@ -11,7 +11,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import add_cnn_seeds, add_window_ekf
+from pipelines.arguments import add_cnn_seeds, add_train_hop, add_window_ekf
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
@@ -42,10 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
     parser.add_argument("--hop-s", type=float, default=None,
                         help="hop between windows, s (default: window length)")
-    parser.add_argument("--train-hop-s", type=float, default=None,
-                        help="hop of the training windows, s: each fold trains on windows cut "
-                             "this often from its training runs, tests on the usual ones "
-                             "(default: train on the test windows' cut)")
+    add_train_hop(parser)
     parser.add_argument("--protocol", choices=PROTOCOLS, default="grouped")
     parser.add_argument("--seeds", type=int, nargs="+", default=None,
                         help="CV seeds (default: 0 1 2; loro: 0, it is deterministic; "
