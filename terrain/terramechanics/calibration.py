@@ -14,7 +14,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
-from terrain.terramechanics.traction import JanosiCurve, _janosi_g, traction_coefficient
+from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
 
 
 def steady_slip(terrain, extra_demand: float = 0.0) -> float:
@@ -110,7 +110,7 @@ def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: flo
     ValueError
         No solution (the ratio ``(f + a/g)/f`` must be below ``slip_accel / slip_steady``).
     """
-    g = lambda x: float(_janosi_g(np.asarray(x, dtype=float))[0])  # noqa: E731
+    g = lambda x: float(patch_mobilisation(x)[0])  # noqa: E731
     target = (soil_resistance + accel_m_s2 / G_M_S2) / soil_resistance
     k = brentq(lambda k: g(slip_accel / k) / g(slip_steady / k) - target, 1e-3, 1e3)
     return JanosiCurve(soil_resistance / g(slip_steady / k), k,

@@ -453,7 +453,6 @@ def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.n
     curve : TractionCurve
         Traction-slip curve.
     slip : float or ndarray, shape (...)
-        SAE slip (dimensionless), clipped to [-1, 1].
         SAE slip, clipped to [-1, 1] (dimensionless).
 
     Returns
