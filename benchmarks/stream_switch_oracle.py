@@ -14,9 +14,10 @@ probabilities, and scores decision rules on them (pooled over ``--seeds``):
 * ``oracle hybrid``: the raw decision on windows that straddle a switch, the restarted
   filter elsewhere (told the switch times as well): an upper bound on what switch handling
   can give this classifier;
-* ``reset(theta, m)``: a causal rule, the filter reset to the window's probabilities when
-  ``m`` consecutive windows name the same class other than the decided one with
-  probability >= ``theta`` (grid fixed beforehand: theta in {0.8, 0.9, 0.95}, m in
+* ``reset(theta, m)``: a causal rule, the service's filter with its switch reset
+  (``SmoothingConfig(reset_confidence=theta, reset_windows=m)``: reset to the window's
+  probabilities when ``m`` consecutive windows name the same class other than the decided
+  one with probability >= ``theta``; grid fixed beforehand: theta in {0.8, 0.9, 0.95}, m in
   {1, 2, 3}; chosen on the first seed, reported on the others).
 
 Run: ``python benchmarks/stream_switch_oracle.py [--kind all-ensemble-dense-no-speed]
@@ -38,7 +39,7 @@ from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (RECIPES, filter_sequence, fit_stream_model,
                                         held_out_folds, pool_scores, raw_decisions,
                                         score_stream, truth_at)
-from terrain.serving.smoothing import PROBA_FLOOR, ForwardFilter, SmoothingConfig
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.tracking import tracked_run
 
 HOP_S = 0.5
@@ -46,20 +47,16 @@ THETAS = (0.8, 0.9, 0.95)
 STREAKS = (1, 2, 3)
 
 
-def decide(proba: np.ndarray, restart: np.ndarray | None = None,
-           reset: tuple[float, int] | None = None) -> np.ndarray:
-    """Decided class index of each step (``-1`` before any valid window).
+def decide(proba: np.ndarray, restart: np.ndarray) -> np.ndarray:
+    """Decided class index of each step (``-1`` before any valid window), the service's
+    default filter restarted from a uniform belief where ``restart`` is set (the oracle).
 
     Parameters
     ----------
     proba : numpy.ndarray
         ``(n, n_classes)`` window probabilities; NaN rows are invalid windows.
-    restart : numpy.ndarray or None
-        ``(n,)`` bool: restart the filter from a uniform belief before this step (oracle).
-        Without ``restart`` and ``reset`` this is
-        :func:`terrain.serving.evaluation.filter_sequence` with the default settings.
-    reset : (float, int) or None
-        ``(theta, m)`` of the causal reset rule (module docstring).
+    restart : numpy.ndarray
+        ``(n,)`` bool: restart the filter from a uniform belief before this step.
 
     Returns
     -------
@@ -69,22 +66,10 @@ def decide(proba: np.ndarray, restart: np.ndarray | None = None,
     n_classes = proba.shape[1]
     filt = ForwardFilter(n_classes, HOP_S, SmoothingConfig())
     out = np.full(len(proba), -1)
-    streak, last = 0, None
     for i, q in enumerate(proba):
-        if restart is not None and restart[i]:
+        if restart[i]:
             filt.p = np.full(n_classes, 1.0 / n_classes)
-        valid = not np.isnan(q).any()
-        decided, _ = filt.update(q if valid else None)
-        if reset is not None and valid:
-            top = int(np.argmax(q))
-            confident = q[top] >= reset[0] and decided is not None and top != decided
-            streak = (streak + 1 if top == last else 1) if confident else 0
-            last = top
-            if streak >= reset[1]:
-                floored = np.maximum(q, PROBA_FLOOR)
-                filt.p = floored / floored.sum()
-                filt.current = decided = top
-                streak = 0
+        decided, _ = filt.update(None if np.isnan(q).any() else q)
         out[i] = -1 if decided is None else decided
     return out
 
@@ -101,7 +86,8 @@ def rules(fold: dict) -> dict[str, np.ndarray]:
            "oracle restart": oracle, "oracle hybrid": np.where(settled, oracle, raw)}
     for theta in THETAS:
         for m in STREAKS:
-            out[f"reset({theta}, {m})"] = decide(proba, reset=(theta, m))
+            out[f"reset({theta}, {m})"] = filter_sequence(proba, HOP_S, SmoothingConfig(
+                reset_confidence=theta, reset_windows=m))
     return out
 
 

@@ -14,6 +14,13 @@ classifier's posterior ``q`` stands for the emission likelihood up to the class 
 
 The decided class then changes only when another class's filtered probability exceeds the
 current one's by ``hysteresis`` (0 disables it).
+
+Optional switch reset (``reset_confidence``, off by default): when ``reset_windows``
+consecutive valid windows all name the same class, other than the decided one, each with
+probability ``>= reset_confidence``, the filter restarts from the last window's
+probabilities (floored as above) and decides that class. It lets the filter follow a
+terrain switch as fast as the raw windows once the new terrain is unambiguous
+(docs/streaming.md, "A causal reset of the filter").
 """
 
 from __future__ import annotations
@@ -41,11 +48,19 @@ class SmoothingConfig:
         Exponent on the classifier probabilities, in (0, 1].
     hysteresis : float
         Margin of filtered probability a new class needs over the current one, in [0, 1).
+    reset_confidence : float or None
+        Window probability, in (0, 1], at or above which a window naming another class than
+        the decided one counts towards a reset of the filter (module docstring); None (the
+        default) disables the reset.
+    reset_windows : int
+        Consecutive such windows, naming the same class, that reset the filter (>= 1).
     """
 
     dwell_s: float | None = 10.0
     evidence_power: float = 0.5
     hysteresis: float = 0.0
+    reset_confidence: float | None = None
+    reset_windows: int = 2
 
     def __post_init__(self) -> None:
         if self.dwell_s is not None and not self.dwell_s > 0:
@@ -54,6 +69,15 @@ class SmoothingConfig:
             raise ConfigError(f"evidence_power must be in (0, 1], got {self.evidence_power}")
         if not 0 <= self.hysteresis < 1:
             raise ConfigError(f"hysteresis must be in [0, 1), got {self.hysteresis}")
+        if self.reset_confidence is not None:
+            if not 0 < self.reset_confidence <= 1:
+                raise ConfigError("reset_confidence must be in (0, 1] or None, got "
+                                  f"{self.reset_confidence}")
+            if self.dwell_s is None:
+                raise ConfigError("reset_confidence resets the forward filter; it needs "
+                                  "dwell_s (the filter on)")
+        if not (isinstance(self.reset_windows, int) and self.reset_windows >= 1):
+            raise ConfigError(f"reset_windows must be an integer >= 1, got {self.reset_windows}")
 
 
 def forward_step(p_prev: np.ndarray, q: np.ndarray | None, p_switch: float,
@@ -102,6 +126,8 @@ class ForwardFilter:
         self.p_switch = 1.0 if config.dwell_s is None else min(1.0, hop_s / config.dwell_s)
         self.p = np.full(n_classes, 1.0 / n_classes)
         self.current: int | None = None
+        self._streak = 0
+        self._last_top: int | None = None
 
     def update(self, q: np.ndarray | None) -> tuple[int | None, np.ndarray]:
         """Fold in one window's probabilities.
@@ -129,4 +155,19 @@ class ForwardFilter:
         if self.current is None or \
                 self.p[best] > self.p[self.current] + self.config.hysteresis:
             self.current = best
+        if q is not None and self.config.reset_confidence is not None:
+            self._reset_on_switch(np.asarray(q, dtype=float))
         return self.current, self.p.copy()
+
+    def _reset_on_switch(self, q: np.ndarray) -> None:
+        """Count confident windows naming another class; restart from ``q`` after enough."""
+        top = int(np.argmax(q))
+        confident = (q[top] >= self.config.reset_confidence and self.current is not None
+                     and top != self.current)
+        self._streak = (self._streak + 1 if top == self._last_top else 1) if confident else 0
+        self._last_top = top
+        if self._streak >= self.config.reset_windows:
+            floored = np.maximum(q, PROBA_FLOOR)
+            self.p = floored / floored.sum()
+            self.current = top
+            self._streak = 0

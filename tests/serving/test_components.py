@@ -77,6 +77,63 @@ def test_longer_dwell_and_hysteresis_delay_the_switch_but_it_happens():
     assert _switch_step(5.0, hysteresis=0.5) > short
 
 
+def test_reset_follows_a_confident_switch_within_its_window_count():
+    # after a long stretch of class 0 the filter needs many windows to follow class 1; with
+    # the reset it follows on the m-th confident window, and not on less confident ones
+    plain = _switch_step(60.0)
+    for m in (1, 2, 3):
+        filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=60.0, reset_confidence=0.7,
+                                                     reset_windows=m))
+        for _ in range(40):
+            filt.update(np.array([0.8, 0.1, 0.1]))
+        steps = [filt.update(np.array([0.2, 0.7, 0.1]))[0] for _ in range(m)]
+        assert steps[-1] == 1 and all(s == 0 for s in steps[:-1]) and m < plain
+        # restarted from the window's probabilities (floored, normalised)
+        np.testing.assert_allclose(filt.p, [0.2, 0.7, 0.1])
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=60.0, reset_confidence=0.75))
+    for _ in range(40):
+        filt.update(np.array([0.8, 0.1, 0.1]))
+    assert [filt.update(np.array([0.2, 0.7, 0.1]))[0] for _ in range(3)] == [0, 0, 0]
+
+
+def _reference_reset(proba, theta, m):
+    """The reset rule written out separately: default filter, then the streak count."""
+    filt = ForwardFilter(proba.shape[1], 0.5, SmoothingConfig())
+    out, streak, last = [], 0, None
+    for q in proba:
+        decided = filt.update(q)[0]
+        top = int(np.argmax(q))
+        if q[top] >= theta and top != decided:
+            streak = streak + 1 if top == last else 1
+        else:
+            streak = 0
+        last = top
+        if streak >= m:
+            filt.p = np.maximum(q, 1e-4) / np.maximum(q, 1e-4).sum()
+            filt.current = decided = top
+            streak = 0
+        out.append(decided)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_reset_equals_the_rule_written_out(seed):
+    rng = np.random.default_rng(seed)
+    # blocks of one dominant class with noisy, sometimes confidently wrong windows
+    labels = np.repeat(rng.integers(0, 4, 12), rng.integers(5, 40, 12))
+    logits = rng.normal(0.0, 1.5, (len(labels), 4))
+    logits[np.arange(len(labels)), labels] += 2.0
+    proba = np.exp(logits) / np.exp(logits).sum(axis=1, keepdims=True)
+    plain = _reference_reset(proba, 1.1, 1)                # theta > 1: never resets
+    acted = []
+    for theta, m in ((0.8, 1), (0.8, 2), (0.6, 3)):
+        filt = ForwardFilter(4, 0.5, SmoothingConfig(reset_confidence=theta, reset_windows=m))
+        got = [filt.update(q)[0] for q in proba]
+        assert got == _reference_reset(proba, theta, m)
+        acted.append(got != plain)
+    assert acted[0]                                         # the reset acts on these data
+
+
 def test_no_decision_before_a_valid_window_and_invalid_windows_only_predict():
     filt = ForwardFilter(2, 0.5, SmoothingConfig(dwell_s=10.0))
     assert filt.update(None)[0] is None
@@ -86,7 +143,9 @@ def test_no_decision_before_a_valid_window_and_invalid_windows_only_predict():
 
 
 @pytest.mark.parametrize("kwargs", [dict(dwell_s=0.0), dict(evidence_power=0.0),
-                                    dict(hysteresis=1.0)])
+                                    dict(hysteresis=1.0), dict(reset_confidence=0.0),
+                                    dict(reset_confidence=0.9, dwell_s=None),
+                                    dict(reset_windows=0)])
 def test_smoothing_config_is_checked(kwargs):
     with pytest.raises(ConfigError):
         SmoothingConfig(**kwargs)
