@@ -374,7 +374,10 @@ class ModelRecipe:
 #: ``all-dense`` and ``all-ensemble-dense`` on the ``all-no-speed`` signals (every channel
 #: but the forward wheel speeds, :data:`features.windows.SPEED_CHANNELS`);
 #: ``all-ensemble-dense-no-speed-bagged``: the latter with its spectrogram CNN the average of
-#: three independently seeded networks (``ModelConfig.cnn_seeds``); wheels: 4 s
+#: three independently seeded networks (``ModelConfig.cnn_seeds``);
+#: ``all-ensemble-dense-no-speed-1s``: ``all-ensemble-dense-no-speed`` on 1 s windows (a
+#: window clears a terrain switch 1 s sooner; run-grouped, 1 s windows over ten decisions
+#: carried as much as 2 s windows over five, docs/model_comparison_grid.csv); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -392,6 +395,8 @@ RECIPES = MappingProxyType({
                                                "ensemble"),
     "all-ensemble-dense-no-speed-bagged": ModelRecipe("all-no-speed", 2.0, 100.0, 0.5,
                                                       "stats", "ensemble", cnn_seeds=3),
+    "all-ensemble-dense-no-speed-1s": ModelRecipe("all-no-speed", 1.0, 100.0, 0.5, "stats",
+                                                  "ensemble"),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
