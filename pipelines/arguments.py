@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import argparse
 
+from terrain.errors import ConfigError
+from terrain.serving.smoothing import SmoothingConfig
+
 
 def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:
     """Add ``--cnn-seeds`` (seed bagging of every CNN; :attr:`ModelConfig.cnn_seeds`).
@@ -53,3 +56,50 @@ def add_train_hop(parser: argparse.ArgumentParser) -> None:
                         help="hop of the training windows, s: each fold trains on windows cut "
                              "this often from its training runs; the test windows are "
                              "unchanged (default: train on the test windows' cut)")
+
+
+def add_smoothing(parser: argparse.ArgumentParser) -> None:
+    """Add the forward filter's options of ``terrain stream`` and ``terrain serve``.
+
+    ``--dwell-s`` (0 disables smoothing), ``--reset-confidence`` and ``--reset-windows``
+    (the filter's switch reset, off by default; :class:`SmoothingConfig`).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser (modified in place).
+    """
+    parser.add_argument("--dwell-s", type=float, default=10.0,
+                        help="expected time on one terrain of the forward filter, s "
+                             "(0 disables smoothing)")
+    parser.add_argument("--reset-confidence", type=float, default=None,
+                        help="reset the filter to the window's probabilities when "
+                             "--reset-windows consecutive windows name the same other class "
+                             "with at least this probability (default: no reset; "
+                             "docs/streaming.md)")
+    parser.add_argument("--reset-windows", type=int, default=2,
+                        help="consecutive confident windows that reset the filter (default 2)")
+
+
+def smoothing_from_args(args: argparse.Namespace) -> SmoothingConfig:
+    """The :class:`SmoothingConfig` of :func:`add_smoothing`'s options.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``dwell_s``, ``reset_confidence``, ``reset_windows``.
+
+    Returns
+    -------
+    SmoothingConfig
+
+    Raises
+    ------
+    ConfigError
+        A value out of its range (a negative dwell, a reset without the filter...).
+    """
+    if not args.dwell_s >= 0:
+        raise ConfigError(f"--dwell-s must be >= 0 (0 disables smoothing), got {args.dwell_s:g}")
+    return SmoothingConfig(dwell_s=args.dwell_s or None,
+                           reset_confidence=args.reset_confidence,
+                           reset_windows=args.reset_windows)

@@ -27,6 +27,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from pipelines.arguments import add_smoothing, smoothing_from_args
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
 from terrain.serving.http import RequestGuard
@@ -54,9 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hop-s", type=float, default=0.5,
                         help="time between decisions, s (at least one period of the "
                              "model's clock)")
-    parser.add_argument("--dwell-s", type=float, default=10.0,
-                        help="expected time on one terrain of the forward filter, s "
-                             "(0 disables smoothing)")
+    add_smoothing(parser)
     parser.add_argument("--min-confidence", type=float, default=0.5,
                         help="smoothed probability below which the fallback target is used")
     parser.add_argument("--max-body-bytes", type=int, default=8_000_000,
@@ -98,7 +97,8 @@ def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
     out : Path
         New directory of the served model.
     args : argparse.Namespace
-        ``hop_s``, ``dwell_s``, ``min_confidence``, ``max_decisions``.
+        ``hop_s``, ``dwell_s``, ``reset_confidence``, ``reset_windows``,
+        ``min_confidence``, ``max_decisions``.
 
     Returns
     -------
@@ -111,8 +111,11 @@ def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
         The directory's pipeline is not a fitted classifier, or a setting is out of range.
     """
     model = load_stream_model(model_dir)
-    settings = served_settings(model, args.hop_s, args.dwell_s or None, args.min_confidence,
-                               max_decisions=getattr(args, "max_decisions", MAX_DECISIONS))
+    smoothing = smoothing_from_args(args)
+    settings = served_settings(model, args.hop_s, smoothing.dwell_s, args.min_confidence,
+                               max_decisions=getattr(args, "max_decisions", MAX_DECISIONS),
+                               reset_confidence=smoothing.reset_confidence,
+                               reset_windows=smoothing.reset_windows)
     return save_served_model(out, model_dir, settings, pip_requirements(model.pipeline))
 
 
@@ -201,9 +204,7 @@ def _check_args(args: argparse.Namespace) -> None:
                               f"got {value}")
     if not args.hop_s > 0:
         raise ConfigError(f"--hop-s must be > 0, got {args.hop_s:g}")
-    if not args.dwell_s >= 0:
-        raise ConfigError(f"--dwell-s must be >= 0 (0 disables smoothing), got "
-                          f"{args.dwell_s:g}")
+    smoothing_from_args(args)
     if not 0 <= args.min_confidence <= 1:
         raise ConfigError(f"--min-confidence must be in [0, 1], got {args.min_confidence:g}")
 

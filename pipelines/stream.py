@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pipelines.arguments import add_smoothing, smoothing_from_args
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import list_run_files, read_run
 from terrain.io.report import input_report
@@ -42,9 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--index", default=None, help="run index XX when RUN_DIR holds several")
     parser.add_argument("--out", type=Path, required=True, help="decisions CSV to write")
     parser.add_argument("--hop-s", type=float, default=0.5, help="time between decisions, s")
-    parser.add_argument("--dwell-s", type=float, default=10.0,
-                        help="expected time on one terrain of the forward filter, s "
-                             "(0 disables smoothing)")
+    add_smoothing(parser)
     parser.add_argument("--min-confidence", type=float, default=0.5,
                         help="smoothed probability below which the fallback target is used")
 
@@ -110,7 +109,7 @@ def main(args: argparse.Namespace) -> int:
     folder = args.run_dir.resolve()
     run = read_run(files, f"{folder.name}/{index}", folder.parent.name, folder.name.upper())
     config = StreamConfig(hop_s=args.hop_s, min_confidence=args.min_confidence,
-                          smoothing=SmoothingConfig(dwell_s=args.dwell_s or None))
+                          smoothing=smoothing_from_args(args))
     targets = TableTargets(model.classes, DesiredSlipConfig(min_confidence=args.min_confidence))
     service = StreamService(model, targets, config)
     missing = [s for s in service.needed_streams if s not in run.streams]

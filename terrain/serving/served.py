@@ -116,7 +116,8 @@ class ServedInputError(MlflowException):
 
 def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | None = 10.0,
                     min_confidence: float = 0.5, max_rows: int = 200_000,
-                    max_decisions: int = MAX_DECISIONS) -> dict:
+                    max_decisions: int = MAX_DECISIONS,
+                    reset_confidence: float | None = None, reset_windows: int = 2) -> dict:
     """Settings of the served model (stored as its MLflow ``model_config``).
 
     Parameters
@@ -135,6 +136,10 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
     max_decisions : int
         Most decisions one request may make (its time span over ``hop_s``; a request that
         would make more is refused before any work).
+    reset_confidence : float or None
+        The forward filter's switch reset (:class:`SmoothingConfig`); None: no reset.
+    reset_windows : int
+        Consecutive confident windows that reset it.
 
     Returns
     -------
@@ -152,6 +157,8 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
                 "classes": list(model.classes), "window_s": model.window.window_s,
                 "rate_hz": model.window.rate_hz, "hop_s": float(hop_s),
                 "dwell_s": None if dwell_s is None else float(dwell_s),
+                "reset_confidence": None if reset_confidence is None else float(reset_confidence),
+                "reset_windows": int(reset_windows),
                 "min_confidence": float(min_confidence), "max_rows": int(max_rows),
                 "max_decisions": int(max_decisions),
                 "vehicle": str(model.metadata.get("vehicle") or DEFAULT_VEHICLE)}
@@ -177,12 +184,37 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     dwell = settings.get("dwell_s")
     if dwell is not None and not (math.isfinite(float(dwell)) and float(dwell) > 0):
         raise ConfigError(f"dwell_s must be > 0 (or none for no smoothing), got {dwell}")
+    smoothing_of(settings)
     conf = float(settings["min_confidence"])
     if not 0.0 <= conf <= 1.0:
         raise ConfigError(f"min_confidence must be in [0, 1], got {conf:g}")
     for key in ("max_rows", "max_decisions"):
         if key in settings and not int(settings[key]) > 0:
             raise ConfigError(f"{key} must be a positive number, got {settings[key]}")
+
+
+def smoothing_of(settings: Mapping[str, Any]) -> SmoothingConfig:
+    """The forward filter's settings of a served model (``reset_*`` absent in models
+    wrapped before the reset existed: no reset).
+
+    Parameters
+    ----------
+    settings : Mapping
+        ``dwell_s`` and, optionally, ``reset_confidence``, ``reset_windows``.
+
+    Returns
+    -------
+    SmoothingConfig
+
+    Raises
+    ------
+    ConfigError
+        A value out of its range.
+    """
+    reset = settings.get("reset_confidence")
+    return SmoothingConfig(dwell_s=settings.get("dwell_s"),
+                           reset_confidence=None if reset is None else float(reset),
+                           reset_windows=int(settings.get("reset_windows", 2)))
 
 
 def _numeric(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) -> np.ndarray:
@@ -483,7 +515,7 @@ class ServedStreamModel(PythonModel):
         self.targets = TableTargets(self.model.classes,
                                     DesiredSlipConfig(min_confidence=s["min_confidence"]))
         self.config = StreamConfig(hop_s=s["hop_s"], min_confidence=s["min_confidence"],
-                                   smoothing=SmoothingConfig(dwell_s=s["dwell_s"]))
+                                   smoothing=smoothing_of(s))
 
     def decide(self, frame: pd.DataFrame) -> pd.DataFrame:
         """Decisions for one request (typed project errors propagate).

@@ -34,7 +34,8 @@ from terrain.serving import (StreamConfig, StreamService, TableTargets, decision
                              replay_run)
 from terrain.serving.served import (_plausibility_flags,
                                     parse_request, planned_decisions, save_served_model,
-                                    served_settings)
+                                    served_settings, smoothing_of)
+from terrain.serving.smoothing import SmoothingConfig
 from terrain.control import DesiredSlipConfig
 
 COLUMNS = ["stream", "t_s", *WHEEL_CHANNELS]
@@ -323,6 +324,17 @@ def test_settings_are_checked(wheel_model):
         served_settings(wheel_model, hop_s=1e-4)
     with pytest.raises(ConfigError, match="max_decisions"):
         served_settings(wheel_model, max_decisions=0)
+    with pytest.raises(ConfigError, match="reset_confidence"):
+        served_settings(wheel_model, reset_confidence=2.0)
+
+
+def test_reset_settings_round_trip_and_old_models_have_none(wheel_model):
+    settings = served_settings(wheel_model, reset_confidence=0.8, reset_windows=3)
+    assert smoothing_of(json.loads(json.dumps(settings))) == SmoothingConfig(
+        reset_confidence=0.8, reset_windows=3)
+    older = {k: v for k, v in served_settings(wheel_model).items()
+             if not k.startswith("reset_")}
+    assert smoothing_of(older) == SmoothingConfig()
 
 
 @pytest.mark.parametrize("argv, words", [

@@ -175,3 +175,30 @@ def test_timestamp_errors_print_plain_numbers(run_dir, tmp_path, capsys, wheel_m
     err = capsys.readouterr().err
     assert f"duplicated timestamp {t!r} after {t!r} (1 such row(s), at line 32)" in err
     assert "np." not in err and "pro_07.csv" in err
+
+
+def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_model,
+                                               monkeypatch):
+    # the reset at a confidence every window reaches decides each window's own class: the
+    # same decisions as no smoothing; an impossible confidence changes nothing
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+    frames = {}
+    for name, extra in {"raw": ["--dwell-s", "0"], "filter": [],
+                        "reset_any": ["--reset-confidence", "1e-9", "--reset-windows", "1"],
+                        "reset_never": ["--reset-confidence", "1.0"]}.items():
+        out = tmp_path / f"{name}.csv"
+        assert main(["stream", "--model", str(model_dir), str(run_dir), "--out", str(out),
+                     *extra]) == 0
+        frames[name] = pd.read_csv(out, keep_default_na=False)
+    assert (frames["reset_any"]["terrain"] == frames["raw"]["terrain"]).all()
+    assert (frames["reset_never"]["terrain"] == frames["filter"]["terrain"]).all()
+    assert (frames["filter"]["terrain"] != frames["raw"]["terrain"]).any()
+    capsys.readouterr()
+    for extra, words in ((["--reset-confidence", "1.5"], "reset_confidence must be in (0, 1]"),
+                         (["--reset-confidence", "0.9", "--dwell-s", "0"], "needs dwell_s"),
+                         (["--reset-windows", "0"], "reset_windows must be an integer >= 1")):
+        assert main(["stream", "--model", str(model_dir), str(run_dir), "--out",
+                     str(tmp_path / "bad.csv"), *extra]) == 2
+        err = capsys.readouterr().err
+        assert words in err and "Traceback" not in err
