@@ -1,0 +1,162 @@
+"""Is the forward filter's switch reset worth turning on? Chosen inside the training runs only.
+
+``benchmarks/stream_switch_oracle.py`` scores the reset rule
+(``SmoothingConfig(reset_confidence=theta, reset_windows=m)``) on the held-out streams and
+picks its parameters on the first seed's streams, so its figure on that seed is optimistic.
+Here every outer fold of ``terrain stream-eval``'s protocol (same folds over runs, same
+seeded held-out streams, :func:`terrain.serving.evaluation.held_out_folds`) chooses its
+decision rule from its own training runs: they are split again, run-grouped, into
+``--inner-folds`` folds whose held-out runs are strung into inner streams in the same way;
+one classifier per inner fold is trained with ``--kind``'s recipe, and the rule with the
+best pooled per-decision accuracy on the inner streams is chosen among
+
+* ``filter``: the service's default forward filter (no reset), and
+* ``reset(theta, m)``: the filter with the reset, theta in {0.8, 0.9, 0.95}, m in {1, 2, 3}
+  (the grid of ``stream_switch_oracle.py``, fixed before it was run).
+
+The classifier trained on the whole outer training fold then decides on the outer
+held-out stream with the chosen rule. Nothing of an outer stream takes part in its choice.
+The pooled per-decision accuracy, settled accuracy and median switching delay of the
+nested choice and of the default filter are printed, per seed and pooled, and logged to
+MLflow (experiment ``terrain-benchmark``, run ``stream-reset-nested``).
+
+Run: ``python benchmarks/stream_reset_nested.py [--kind all-ensemble-dense-no-speed-1s]
+[--seeds 0 1 2] [--no-mlflow]`` (five classifiers per outer fold: 25 min per seed with the
+three seeds run as three processes side by side on a 2-core machine, ``OMP_NUM_THREADS=1``).
+``--out DIR`` keeps one JSON file per seed, and ``--merge FILE ...`` pools such files
+(seeds run as separate processes) without training anything.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import time
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from terrain.io.shipped import load_dataset
+from terrain.serving.evaluation import (RECIPES, filter_sequence, fit_stream_model,
+                                        held_out_folds, pool_scores, raw_decisions,
+                                        score_stream)
+from terrain.serving.smoothing import SmoothingConfig
+from terrain.tracking import tracked_run
+
+HOP_S = 0.5
+RULES = {"filter": SmoothingConfig(),
+         **{f"reset({th}, {m})": SmoothingConfig(reset_confidence=th, reset_windows=m)
+            for th in (0.8, 0.9, 0.95) for m in (1, 2, 3)}}
+
+
+def score_rows(folds: list[dict], rule: str) -> list[dict]:
+    """Score rows (:meth:`StreamScore.as_row`) of one rule on replayed streams."""
+    rows = []
+    for fold in folds:
+        names = np.array(list(fold["classes"]) + [None], dtype=object)
+        decided = names[filter_sequence(fold["proba"], HOP_S, RULES[rule])]
+        rows.append(score_stream(fold["segments"], fold["t"], decided,
+                                 fold["window_s"]).as_row())
+    return rows
+
+
+def replay(recipe, train, stream, segments, seed: int) -> dict:
+    """Train on ``train``, replay ``stream``, keep the raw window probabilities."""
+    model = fit_stream_model(recipe, train, seed)
+    t, proba = raw_decisions(model, stream, HOP_S)
+    return {"t": t, "proba": proba, "segments": segments, "classes": model.classes,
+            "window_s": recipe.window_s}
+
+
+def run_seed(runs, recipe, seed: int, inner_folds: int, bar) -> list[dict]:
+    """One row per outer fold: the rule chosen inside it and both rules' outer scores."""
+    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    out = []
+    for fold, train, stream, segments in held_out_folds(runs, need, seed):
+        inner = [replay(recipe, itrain, istream, isegs, seed) for _f, itrain, istream, isegs
+                 in held_out_folds(train, need, seed, n_splits=inner_folds)]
+        inner_acc = {rule: pool_scores(pd.DataFrame(score_rows(inner, rule)))["accuracy"]
+                     for rule in RULES}
+        chosen = max(RULES, key=lambda r: (inner_acc[r], r == "filter"))
+        outer = replay(recipe, train, stream, segments, seed)
+        out.append({"seed": seed, "fold": fold, "chosen": chosen,
+                    "inner_accuracy": inner_acc,
+                    "filter": score_rows([outer], "filter")[0],
+                    "nested": score_rows([outer], chosen)[0]})
+        bar.update()
+    return out
+
+
+def _jsonable(obj):
+    """JSON form of the score rows' mappings and NumPy scalars."""
+    return dict(obj) if isinstance(obj, Mapping) else float(obj)
+
+
+def report(rows: list[dict]) -> dict[str, float]:
+    """Print the pooled scores (all seeds and per seed); return the MLflow metrics."""
+    metrics = {}
+    seeds = sorted({r["seed"] for r in rows})
+    for label, sel in [("all", seeds)] + [(f"seed{s}", [s]) for s in seeds]:
+        part = [r for r in rows if r["seed"] in sel]
+        print(f"seeds {sel}:")
+        for rule in ("filter", "nested"):
+            score = pool_scores(pd.DataFrame([r[rule] for r in part]))
+            print(f"  {rule:<7} per decision {score['accuracy']:.4f}  settled "
+                  f"{score['accuracy_settled']:.4f}  median delay {score['median_delay_s']:.2f} s")
+            for key in ("accuracy", "accuracy_settled", "median_delay_s"):
+                metrics[f"{label}_{rule}_{key}"] = score[key]
+    chosen = pd.Series([r["chosen"] for r in rows]).value_counts()
+    print("rule chosen inside the training runs (outer folds): "
+          + ", ".join(f"{k} x {v}" for k, v in chosen.items()))
+    for k, v in chosen.items():
+        metrics["chosen_" + re.sub(r"[^A-Za-z0-9.]+", "_", k).strip("_")] = float(v)
+    return metrics
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--kind", default="all-ensemble-dense-no-speed-1s", choices=list(RECIPES))
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--inner-folds", type=int, default=4)
+    ap.add_argument("--out", type=Path, default=None, help="keep one JSON file per seed here")
+    ap.add_argument("--merge", type=Path, nargs="+", default=None,
+                    help="pool these JSON files of earlier runs instead of training")
+    ap.add_argument("--no-mlflow", action="store_true")
+    args = ap.parse_args()
+    start = time.perf_counter()
+    if args.merge:
+        rows = [r for path in args.merge for r in json.loads(path.read_text())["rows"]]
+        kind = {json.loads(p.read_text())["kind"] for p in args.merge}
+        if len(kind) != 1:
+            raise SystemExit(f"the files mix recipes: {sorted(kind)}")
+        args.kind = kind.pop()
+    else:
+        recipe = RECIPES[args.kind]
+        runs = load_dataset("borealtc")
+        rows = []
+        with tqdm(total=5 * len(args.seeds), desc="outer folds", unit="fold") as bar:
+            for seed in args.seeds:
+                seed_rows = run_seed(runs, recipe, seed, args.inner_folds, bar)
+                rows += seed_rows
+                if args.out is not None:
+                    args.out.mkdir(parents=True, exist_ok=True)
+                    (args.out / f"{args.kind}_seed{seed}.json").write_text(json.dumps(
+                        {"kind": args.kind, "rows": seed_rows}, default=_jsonable))
+    metrics = report(rows)
+    print(f"{time.perf_counter() - start:.0f} s")
+    if not args.no_mlflow:
+        seeds = ",".join(str(s) for s in sorted({r["seed"] for r in rows}))
+        with tracked_run("terrain-benchmark", run_name="stream-reset-nested",
+                         params={"kind": args.kind, "seeds": seeds,
+                                 "inner_folds": args.inner_folds,
+                                 "rules": ",".join(RULES)}) as run:
+            run.log_metrics(metrics)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
