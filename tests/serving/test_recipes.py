@@ -139,6 +139,29 @@ def test_bagged_recipe_is_the_no_speed_dense_ensemble_with_three_networks():
         ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", cnn_seeds=3)
 
 
+def _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc_runs,
+                                                     n_rows, atol):
+    """Both streams of an unseen run on the model's 20 Hz clock, pushed interleaved,
+    unsmoothed, one decision per window length: every decision is the batch prediction of
+    the window of the same span."""
+    seen = {r.run_id for r in train_runs}
+    run = next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+               and r.duration_s > 20)
+    frame = add_derived_channels(align_streams(run, ("imu", "wheels"), 20.0)).iloc[:n_rows]
+    service = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(
+        hop_s=model.window.window_s, smoothing=SmoothingConfig(dwell_s=None)))
+    decisions = []
+    for row in frame.itertuples(index=False):
+        for stream, chans in (("imu", IMU_CHANNELS), ("wheels", WHEEL_CHANNELS)):
+            decisions += service.push(stream, row.t_s, {c: getattr(row, c) for c in chans})
+    X = window_frame(frame, model.channels, model.window)[0]
+    n = min(len(decisions), len(X))
+    assert n >= len(X) - 1 >= 8
+    order = [list(model.pipeline.classes_).index(c) for c in model.classes]
+    np.testing.assert_allclose(np.array([d.proba for d in decisions[:n]]),
+                               model.pipeline.predict_proba(X[:n])[:, order], atol=atol)
+
+
 def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train_runs,
                                                                           borealtc_runs):
     # the SVM of all-dense-no-speed on a 20 Hz clock and non-overlapping windows (fast)
@@ -148,24 +171,8 @@ def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train
     assert not {"vel_l", "vel_r", "vel_mean"} & set(model.channels)
     # the turning channels are derived from the speeds, so the service still asks for them
     assert {"vel_l", "vel_r", "cur_l", "cur_r"} <= set(model.raw_channels)
-    seen = {r.run_id for r in train_runs}
-    run = next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
-               and r.duration_s > 20)
-    # both streams on the model's clock, pushed interleaved, unsmoothed: every decision is
-    # the batch prediction of the window of the same span
-    frame = add_derived_channels(align_streams(run, ("imu", "wheels"), 20.0)).iloc[:400]
-    service = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(
-        hop_s=recipe.window_s, smoothing=SmoothingConfig(dwell_s=None)))
-    decisions = []
-    for row in frame.itertuples(index=False):
-        for stream, chans in (("imu", IMU_CHANNELS), ("wheels", WHEEL_CHANNELS)):
-            decisions += service.push(stream, row.t_s, {c: getattr(row, c) for c in chans})
-    X = window_frame(frame, model.channels, model.window)[0]
-    n = min(len(decisions), len(X))
-    assert n >= len(X) - 1 >= 8
-    order = [list(model.pipeline.classes_).index(c) for c in model.classes]
-    np.testing.assert_allclose(np.array([d.proba for d in decisions[:n]]),
-                               model.pipeline.predict_proba(X[:n])[:, order], atol=1e-6)
+    _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc_runs, 400,
+                                                     1e-6)
 
 
 def test_one_second_recipe_is_the_no_speed_dense_ensemble_on_shorter_windows(train_runs,
@@ -173,24 +180,10 @@ def test_one_second_recipe_is_the_no_speed_dense_ensemble_on_shorter_windows(tra
     recipe = RECIPES["all-ensemble-dense-no-speed-1s"]
     assert replace(recipe, window_s=2.0) == RECIPES["all-ensemble-dense-no-speed"]
     # the ensemble (spectrogram CNN of 0.5 s segments included) on 1 s windows of a 20 Hz
-    # clock: every streamed decision is the batch prediction of its 1 s window
+    # clock
     small = replace(recipe, rate_hz=20.0, train_hop_s=1.0)
     model = fit_stream_model(small, [_head(r, 30.0) for r in train_runs], seed=0)
     assert isinstance(model.pipeline, SoftVotingEnsemble)
     assert model.window.window_s == 1.0
-    seen = {r.run_id for r in train_runs}
-    run = next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
-               and r.duration_s > 20)
-    frame = add_derived_channels(align_streams(run, ("imu", "wheels"), 20.0)).iloc[:200]
-    service = StreamService(model, CataloguePeakTargets(model.classes), StreamConfig(
-        hop_s=small.window_s, smoothing=SmoothingConfig(dwell_s=None)))
-    decisions = []
-    for row in frame.itertuples(index=False):
-        for stream, chans in (("imu", IMU_CHANNELS), ("wheels", WHEEL_CHANNELS)):
-            decisions += service.push(stream, row.t_s, {c: getattr(row, c) for c in chans})
-    X = window_frame(frame, model.channels, model.window)[0]
-    n = min(len(decisions), len(X))
-    assert n >= len(X) - 1 >= 8
-    order = [list(model.pipeline.classes_).index(c) for c in model.classes]
-    np.testing.assert_allclose(np.array([d.proba for d in decisions[:n]]),
-                               model.pipeline.predict_proba(X[:n])[:, order], atol=1e-5)
+    _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc_runs, 200,
+                                                     1e-5)
