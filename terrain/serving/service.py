@@ -317,7 +317,10 @@ class StreamService:
         tail, end = overlap_grid_tail(times, w.rate_hz, t - 1e-9, self._n)
         if end == 0:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
-        age = max(0.0, t - float(tail[-1]) - 1.0 / w.rate_hz)
+        age = t - float(tail[-1]) - 1.0 / w.rate_hz
+        # the grid's rounding leaves ~1e-17 s on a fresh window: report it as 0 (1 ns is far
+        # below any clock period)
+        age = age if age > 1e-9 else 0.0
         if end < self._n:
             return None, age, {"short"}
         aligned = align_arrays(times, values, tail, w.rate_hz, self.config.gap_factor,

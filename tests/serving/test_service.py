@@ -55,7 +55,7 @@ def test_windows_are_the_batch_windows_when_samples_sit_on_the_model_clock(
     got = np.array([d.proba for d in decisions[:n]])
     order = [list(wheel_model.pipeline.classes_).index(c) for c in wheel_model.classes]
     np.testing.assert_allclose(got, expected[:, order], atol=1e-6)
-    assert all(d.flags == "" and d.window_age_s < 1e-6 for d in decisions[:n])
+    assert all(d.flags == "" and d.window_age_s == 0.0 for d in decisions[:n])
 
 
 def test_imu_and_wheel_decisions_are_the_batch_predictions_on_the_model_clock(
