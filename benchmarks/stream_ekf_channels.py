@@ -22,7 +22,7 @@ seeded concatenated streams on a continuous clock):
   inside the service would run across the switches; windows of 2 s end every 0.5 s (the
   service's hop), each classified; a missing window is a prediction-only step;
 * both arms go through the same forward filter (the service's default, dwell 10 s, power
-  0.5) and are scored by :func:`terrain.serving.evaluation.score_stream` (per-decision
+  0.5) and are scored by :func:`terrain.serving.evaluation.score_smoothing` (per-decision
   accuracy, settled accuracy, median switching delay).
 
 Both arms share this offline path, so their difference is the EKF channels'. The figures
@@ -52,8 +52,7 @@ from terrain.io.shipped import load_dataset
 from terrain.models.compare import Cell, cell_windows
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ModelConfig, make_model
-from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_scores,
-                                        score_stream)
+from terrain.serving.evaluation import held_out_folds, pool_scores, score_smoothing
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -176,11 +175,10 @@ def main() -> int:
                     X[fit_rows], ws.labels[fit_rows].astype(str))
                 classes = np.asarray(model.classes_, dtype=object)
                 t, proba = stream_proba(model, stream, arm, len(classes))
-                names = np.array(list(classes) + [None], dtype=object)
                 for name, config in (("raw", SmoothingConfig(dwell_s=None)),
                                      ("default", smoothing)):
-                    decided = names[filter_sequence(proba, HOP_S, config)]
-                    score = score_stream(segments, t, decided, WINDOW_S)
+                    score = score_smoothing(segments, t, proba, classes, config, HOP_S,
+                                            WINDOW_S)
                     rows.append({"seed": seed, "fold": fold, "signals": arm, "smoothing": name,
                                  **score.as_row()})
                 print(f"seed {seed} fold {fold} {arm:8s} raw {rows[-2]['accuracy']:.3f} "

@@ -36,14 +36,12 @@ import time
 from collections.abc import Mapping
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (RECIPES, filter_sequence, fit_stream_model,
-                                        held_out_folds, pool_scores, raw_decisions,
-                                        score_stream)
+from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_folds,
+                                        pool_scores, raw_decisions, score_smoothing)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -55,13 +53,8 @@ RULES = {"filter": SmoothingConfig(),
 
 def score_rows(folds: list[dict], rule: str) -> list[dict]:
     """Score rows (:meth:`StreamScore.as_row`) of one rule on replayed streams."""
-    rows = []
-    for fold in folds:
-        names = np.array(list(fold["classes"]) + [None], dtype=object)
-        decided = names[filter_sequence(fold["proba"], HOP_S, RULES[rule])]
-        rows.append(score_stream(fold["segments"], fold["t"], decided,
-                                 fold["window_s"]).as_row())
-    return rows
+    return [score_smoothing(fold["segments"], fold["t"], fold["proba"], fold["classes"],
+                            RULES[rule], HOP_S, fold["window_s"]).as_row() for fold in folds]
 
 
 def replay(recipe, train, stream, segments, seed: int) -> dict:
@@ -129,8 +122,9 @@ def main() -> int:
     args = ap.parse_args()
     start = time.perf_counter()
     if args.merge:
-        rows = [r for path in args.merge for r in json.loads(path.read_text())["rows"]]
-        kind = {json.loads(p.read_text())["kind"] for p in args.merge}
+        saved = [json.loads(path.read_text()) for path in args.merge]
+        rows = [r for doc in saved for r in doc["rows"]]
+        kind = {doc["kind"] for doc in saved}
         if len(kind) != 1:
             raise SystemExit(f"the files mix recipes: {sorted(kind)}")
         args.kind = kind.pop()

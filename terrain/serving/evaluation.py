@@ -618,6 +618,38 @@ def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) ->
     return out
 
 
+def score_smoothing(segments: Sequence[Segment], t_s: np.ndarray, proba: np.ndarray,
+                    classes: Sequence[str], config: SmoothingConfig, hop_s: float,
+                    window_s: float = 0.0) -> "StreamScore":
+    """Score one smoothing setting on a replayed stream's raw window probabilities.
+
+    :func:`filter_sequence` decides, :func:`score_stream` scores.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+        Pieces of the stream.
+    t_s : numpy.ndarray
+        ``(n,)`` decision times, s.
+    proba : numpy.ndarray
+        ``(n, n_classes)`` raw window probabilities (NaN rows: invalid windows), columns in
+        the order of ``classes``.
+    classes : sequence of str
+        Class names.
+    config : SmoothingConfig
+    hop_s : float
+        Step between decisions, s.
+    window_s : float
+        History a decision rests on, s (:func:`score_stream`).
+
+    Returns
+    -------
+    StreamScore
+    """
+    names = np.array(list(classes) + [None], dtype=object)
+    return score_stream(segments, t_s, names[filter_sequence(proba, hop_s, config)], window_s)
+
+
 @dataclass(frozen=True)
 class StreamScore:
     """Score of decisions on a concatenated stream.
@@ -783,10 +815,9 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
                                                         switch_gap_s):
         model = fit_stream_model(recipe, train, seed)
         t, proba = raw_decisions(model, stream, hop_s)
-        names = np.array(list(model.classes) + [None], dtype=object)
         for name, config in smoothings.items():
-            decided = names[filter_sequence(proba, hop_s, config)]
-            score = score_stream(segments, t, decided, recipe.window_s)
+            score = score_smoothing(segments, t, proba, model.classes, config, hop_s,
+                                    recipe.window_s)
             rows.append({"fold": fold, "smoothing": name, **score.as_row()})
     return pd.DataFrame(rows)
 
