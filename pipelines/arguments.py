@@ -1,7 +1,9 @@
 """Command-line options that several ``terrain`` subcommands share, defined once.
 
-Each function adds one option to a sub-command's parser with one help text, so ``terrain
-cv``, ``terrain train`` and ``terrain compare`` describe the same setting in the same words.
+Each ``add_*`` function adds an option (``add_smoothing``: the forward filter's three) to a
+sub-command's parser with one help text, so ``terrain cv``, ``train`` and ``compare``, and
+``terrain stream`` and ``serve``, describe the same setting in the same words;
+:func:`smoothing_from_args` reads the filter's options back as one :class:`SmoothingConfig`.
 """
 
 from __future__ import annotations

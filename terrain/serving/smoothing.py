@@ -20,7 +20,8 @@ consecutive valid windows all name the same class, other than the decided one, e
 probability ``>= reset_confidence``, the filter restarts from the last window's
 probabilities (floored as above) and decides that class. It lets the filter follow a
 terrain switch as fast as the raw windows once the new terrain is unambiguous
-(docs/streaming.md, "A causal reset of the filter").
+(measured in docs/streaming.md, "One-second windows": chosen inside the training runs it
+did not help on unseen streams, so it stays off).
 """
 
 from __future__ import annotations
