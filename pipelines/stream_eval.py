@@ -122,7 +122,8 @@ def main(args: argparse.Namespace) -> int:
             for kind in args.kinds:
                 frames = [held_out_streams(runs, RECIPES[kind], seed, SMOOTHINGS,
                                            n_splits=args.folds,
-                                           switch_gap_s=args.switch_gap_s)
+                                           switch_gap_s=args.switch_gap_s,
+                                           progress=True)
                           .assign(seed=seed) for seed in args.seeds]
                 res = pd.concat(frames, ignore_index=True)
                 run.log_table(res, f"held_out_streams_{kind}.csv")

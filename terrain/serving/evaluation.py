@@ -377,7 +377,9 @@ class ModelRecipe:
 #: three independently seeded networks (``ModelConfig.cnn_seeds``);
 #: ``all-ensemble-dense-no-speed-1s``: ``all-ensemble-dense-no-speed`` on 1 s windows (a
 #: window clears a terrain switch 1 s sooner; run-grouped, 1 s windows over ten decisions
-#: carried as much as 2 s windows over five, docs/model_comparison_grid.csv); wheels: 4 s
+#: carried as much as 2 s windows over five, docs/model_comparison_grid.csv);
+#: ``all-ensemble-dense-no-speed-1s-bagged``: the latter with three spectrogram CNNs averaged,
+#: as ``-bagged`` on 2 s windows; wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -397,6 +399,8 @@ RECIPES = MappingProxyType({
                                                       "stats", "ensemble", cnn_seeds=3),
     "all-ensemble-dense-no-speed-1s": ModelRecipe("all-no-speed", 1.0, 100.0, 0.5, "stats",
                                                   "ensemble"),
+    "all-ensemble-dense-no-speed-1s-bagged": ModelRecipe("all-no-speed", 1.0, 100.0, 0.5,
+                                                         "stats", "ensemble", cnn_seeds=3),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
@@ -778,7 +782,8 @@ def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
 
 def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
                      smoothings: Mapping[str, SmoothingConfig], hop_s: float = 0.5,
-                     n_splits: int = 5, switch_gap_s: float = 0.0) -> pd.DataFrame:
+                     n_splits: int = 5, switch_gap_s: float = 0.0,
+                     progress: bool = False) -> pd.DataFrame:
     """Train on 4/5 of the runs, replay the held-out fifth as one concatenated stream.
 
     Runs are split by ``StratifiedGroupKFold`` over runs (one group per run, seeded); each
@@ -801,6 +806,8 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
     switch_gap_s : float
         Dropout added at every switch of the stream, s (``gap_s`` of
         :func:`concatenated_streams`; default none, a continuous clock).
+    progress : bool
+        Show a progress bar over the folds (tqdm, on stderr).
 
     Returns
     -------
@@ -811,8 +818,12 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
     """
     need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
     rows = []
-    for fold, train, stream, segments in held_out_folds(runs, need, seed, n_splits,
-                                                        switch_gap_s):
+    folds = held_out_folds(runs, need, seed, n_splits, switch_gap_s)
+    if progress:
+        from tqdm.auto import tqdm
+        folds = tqdm(folds, total=n_splits, desc=f"held-out streams, seed {seed}",
+                     unit="fold")
+    for fold, train, stream, segments in folds:
         model = fit_stream_model(recipe, train, seed)
         t, proba = raw_decisions(model, stream, hop_s)
         for name, config in smoothings.items():

@@ -139,6 +139,12 @@ def test_bagged_recipe_is_the_no_speed_dense_ensemble_with_three_networks():
         ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", cnn_seeds=3)
 
 
+def test_bagged_one_second_recipe_is_the_one_second_ensemble_with_three_networks():
+    recipe = RECIPES["all-ensemble-dense-no-speed-1s-bagged"]
+    assert replace(recipe, cnn_seeds=1) == RECIPES["all-ensemble-dense-no-speed-1s"]
+    assert replace(recipe, window_s=2.0) == RECIPES["all-ensemble-dense-no-speed-bagged"]
+
+
 def _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc_runs,
                                                      n_rows, atol):
     """Both streams of an unseen run on the model's 20 Hz clock, pushed interleaved,
