@@ -738,7 +738,7 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
 
 
 def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
-                   n_splits: int = 5, switch_gap_s: float = 0.0
+                   n_splits: int = 5, switch_gap_s: float = 0.0, progress: bool = False
                    ) -> Iterator[tuple[int, list[Run], Run, list[Segment]]]:
     """The folds of the held-out stream protocol: training runs and the held-out stream.
 
@@ -760,6 +760,9 @@ def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
     switch_gap_s : float
         Dropout added at every switch of the stream, s (``gap_s`` of
         :func:`concatenated_streams`).
+    progress : bool
+        Show a progress bar over the folds (tqdm, on stderr): the work done per fold by the
+        caller (fitting, replaying) is what takes the time.
 
     Yields
     ------
@@ -774,7 +777,12 @@ def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
     usable = [r for r in runs if all(s in r.streams for s in streams)]
     labels = np.array([r.terrain for r in usable], dtype=object)
     ids = np.array([r.run_id for r in usable], dtype=object)
-    for fold, (train, test) in enumerate(iter_splits("grouped", labels, ids, seed, n_splits)):
+    splits = enumerate(iter_splits("grouped", labels, ids, seed, n_splits))
+    if progress:
+        from tqdm.auto import tqdm
+        splits = tqdm(splits, total=n_splits, desc=f"held-out streams, seed {seed}",
+                      unit="fold")
+    for fold, (train, test) in splits:
         stream, segments = concatenated_streams([usable[i] for i in test], streams,
                                                 seed * 100 + fold, gap_s=switch_gap_s)
         yield fold, [usable[i] for i in train], stream, segments
@@ -818,12 +826,8 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
     """
     need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
     rows = []
-    folds = held_out_folds(runs, need, seed, n_splits, switch_gap_s)
-    if progress:
-        from tqdm.auto import tqdm
-        folds = tqdm(folds, total=n_splits, desc=f"held-out streams, seed {seed}",
-                     unit="fold")
-    for fold, train, stream, segments in folds:
+    for fold, train, stream, segments in held_out_folds(runs, need, seed, n_splits,
+                                                        switch_gap_s, progress):
         model = fit_stream_model(recipe, train, seed)
         t, proba = raw_decisions(model, stream, hop_s)
         for name, config in smoothings.items():

@@ -8,8 +8,8 @@ import pytest
 
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from terrain.errors import ConfigError
-from terrain.serving.evaluation import (concatenated_streams, pool_scores, score_stream,
-                                        switching_delays, truth_at)
+from terrain.serving.evaluation import (concatenated_streams, held_out_folds, pool_scores,
+                                        score_stream, switching_delays, truth_at)
 
 RATE = 10.0
 
@@ -72,6 +72,23 @@ def test_concatenated_streams_switch_terrain_and_are_reproducible(borealtc_runs)
     # every sample carries the label of its source piece
     truth = truth_at(seg_a, t)
     assert (truth != None).all()  # noqa: E711
+
+
+def test_held_out_folds_hold_every_run_out_once_and_show_progress(borealtc_runs, capsys):
+    runs = [r for r in borealtc_runs if r.has_imu][:20]
+    quiet = list(held_out_folds(runs, ("imu", "wheels"), seed=1, n_splits=4))
+    assert "held-out streams" not in capsys.readouterr().err
+    shown = list(held_out_folds(runs, ("imu", "wheels"), seed=1, n_splits=4, progress=True))
+    assert "held-out streams, seed 1" in capsys.readouterr().err
+    every = {r.run_id for r in runs}
+    held = []
+    for (fold, train, _s, segs), (fold_p, train_p, _sp, segs_p) in zip(quiet, shown):
+        assert fold == fold_p and segs == segs_p
+        assert [r.run_id for r in train] == [r.run_id for r in train_p]
+        test_ids = every - {r.run_id for r in train}
+        assert {s.run_id for s in segs} <= test_ids and segs  # the stream: held-out runs only
+        held += list(test_ids)
+    assert sorted(held) == sorted(every)  # each run held out exactly once
 
 
 def _join_steps(stream: pd.DataFrame, segments) -> tuple[np.ndarray, float]:
