@@ -1,0 +1,114 @@
+"""Two window lengths in one decision: does averaging a 1 s and a 2 s classifier lift the
+held-out streams?
+
+On the held-out streams the 1 s recipe (``all-ensemble-dense-no-speed-1s``) follows a
+switch sooner (median delay 1.5 s against 2.2 s) and the 2 s recipe
+(``all-ensemble-dense-no-speed``) is right more often on settled windows (0.936 against
+0.931, docs/streaming.md). A model that takes the 2 s window and averages its 2 s classifier
+with a 1 s classifier on the window's last second would be servable unchanged (one window
+per decision). One variant, fixed before measuring: equal weights, the service's default
+forward filter.
+
+Replays the held-out concatenated streams of ``terrain stream-eval`` (same folds over runs,
+same seeded streams, :func:`terrain.serving.evaluation.held_out_folds`). Per fold both
+recipes are fitted on the training runs and replayed unsmoothed; at every decision time of
+the 2 s classifier the two window probabilities are averaged (the 1 s window is the last
+second of the 2 s window: both end at the decision time) and the forward filter decides.
+The two recipes alone are scored on the same replays, so their rows reproduce
+``terrain stream-eval``.
+
+Run: ``python benchmarks/stream_multiscale.py [--seeds 0 1 2] [--no-mlflow]`` (about 20 min
+on a 2-core machine; logged to MLflow, experiment ``terrain-benchmark``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import pandas as pd
+
+from terrain.io.shipped import load_dataset
+from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_folds,
+                                        pool_scores, raw_decisions, score_smoothing)
+from terrain.serving.smoothing import SmoothingConfig
+from terrain.tracking import tracked_run
+
+HOP_S = 0.5
+SHORT, LONG = "all-ensemble-dense-no-speed-1s", "all-ensemble-dense-no-speed"
+
+
+def at_times(t_from: np.ndarray, proba: np.ndarray, t_to: np.ndarray) -> np.ndarray:
+    """Rows of ``proba`` (decided at ``t_from``) at the times ``t_to`` (NaN where none).
+
+    Parameters
+    ----------
+    t_from : numpy.ndarray
+        ``(n,)`` increasing decision times, s.
+    proba : numpy.ndarray
+        ``(n, n_classes)`` window probabilities.
+    t_to : numpy.ndarray
+        ``(m,)`` decision times wanted, s (the same hop grid, matched to 1 ms).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(m, n_classes)``.
+    """
+    i = np.clip(np.searchsorted(t_from, t_to - 1e-3), 0, len(t_from) - 1)
+    out = proba[i].copy()
+    out[np.abs(t_from[i] - t_to) > 1e-3] = np.nan
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--no-mlflow", action="store_true")
+    args = ap.parse_args()
+    runs = load_dataset("borealtc")
+    config = SmoothingConfig()
+    start = time.perf_counter()
+    rows = []
+    for seed in args.seeds:
+        for fold, train, stream, segments in held_out_folds(runs, ("imu", "wheels"), seed,
+                                                            progress=True):
+            replays = {}
+            for kind in (SHORT, LONG):
+                model = fit_stream_model(RECIPES[kind], train, seed)
+                replays[kind] = (*raw_decisions(model, stream, HOP_S), model.classes)
+            (t1, p1, c1), (t2, p2, c2) = replays[SHORT], replays[LONG]
+            if list(c1) != list(c2):
+                raise RuntimeError(f"class orders differ: {c1} vs {c2}")
+            both = 0.5 * (p2 + at_times(t1, p1, t2))
+            arms = {SHORT: (t1, p1, 1.0), LONG: (t2, p2, 2.0), "average": (t2, both, 2.0)}
+            for arm, (t, p, window_s) in arms.items():
+                score = score_smoothing(segments, t, p, c1, config, HOP_S, window_s)
+                rows.append({"seed": seed, "fold": fold, "arm": arm, **score.as_row()})
+    frame = pd.DataFrame(rows)
+    metrics = {}
+    print(f"held-out BorealTC streams, seeds {args.seeds}, forward filter (default), "
+          f"{time.perf_counter() - start:.0f} s")
+    for arm, g in frame.groupby("arm", sort=False):
+        p = pool_scores(g)
+        per_seed = [np.average(s["accuracy"], weights=s["n_decisions"])
+                    for _, s in g.groupby("seed")]
+        print(f"  {arm:32s} per decision {p['accuracy']:.4f}  settled "
+              f"{p['accuracy_settled']:.4f}  median delay {p['median_delay_s']:.2f} s  "
+              f"per seed {' / '.join(f'{a:.3f}' for a in per_seed)}")
+        metrics.update({f"{arm}_accuracy": p["accuracy"],
+                        f"{arm}_accuracy_settled": p["accuracy_settled"],
+                        f"{arm}_median_delay_s": p["median_delay_s"]})
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", run_name="stream-multiscale",
+                         params={"short": SHORT, "long": LONG,
+                                 "seeds": ",".join(map(str, args.seeds))}) as run:
+            run.log_metrics(metrics)
+            run.log_table(frame.drop(columns=["delays_s", "confusion"]),
+                          "stream_multiscale_folds.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
