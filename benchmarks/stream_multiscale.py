@@ -92,8 +92,7 @@ def main() -> int:
           f"{time.perf_counter() - start:.0f} s")
     for arm, g in frame.groupby("arm", sort=False):
         p = pool_scores(g)
-        per_seed = [np.average(s["accuracy"], weights=s["n_decisions"])
-                    for _, s in g.groupby("seed")]
+        per_seed = [pool_scores(s)["accuracy"] for _, s in g.groupby("seed")]
         print(f"  {arm:32s} per decision {p['accuracy']:.4f}  settled "
               f"{p['accuracy_settled']:.4f}  median delay {p['median_delay_s']:.2f} s  "
               f"per seed {' / '.join(f'{a:.3f}' for a in per_seed)}")
