@@ -197,7 +197,8 @@ def main(args: argparse.Namespace) -> int:
     print(f"  per-class recall, mean over folds: {recalls}")
     print(inputs.text())
     for note in rep.notes:
-        print(f"  note: {note}")
+        if note not in result.input_notes:  # the input report above says these
+            print(f"  note: {note}")
     print(f"  timings: {', '.join(f'{k} {v:.1f}' for k, v in result.timings_s.items())}")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

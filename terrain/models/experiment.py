@@ -258,6 +258,11 @@ class ExperimentResult:
         Names of the window features (``get_feature_names_out`` of the extractor).
     timings_s : dict of str to float
         ``windowing_s``, ``features_s`` and ``cv_s``: wall-clock time of each stage, s.
+    input_notes : tuple of str
+        The notes of ``report.notes`` that restate the windowing's book-keeping (runs
+        skipped for a missing stream, windows dropped, window positions inside a gap), which
+        :func:`terrain.io.report.input_report` also states: a command that prints that
+        report leaves these out of its notes (the JSON report keeps every note).
     """
 
     config: ExperimentConfig
@@ -267,6 +272,7 @@ class ExperimentResult:
     counts: dict
     feature_names: list[str]
     timings_s: dict[str, float]
+    input_notes: tuple[str, ...] = ()
 
 
 def load_windows(config: ExperimentConfig, runs: Sequence[Run] | None = None,
@@ -391,15 +397,17 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
             notes.append(f"{int((~keep).sum())} window(s) straddling a time-block boundary "
                          "dropped")
             ws, F, labels, groups = ws.subset(keep), F[keep], labels[keep], groups[keep]
+    input_notes = []
     if ws.counts["skipped_runs"]:
-        notes.append(f"{len(ws.counts['skipped_runs'])} run(s) skipped for a missing stream: "
-                     f"{ws.counts['skipped_runs']}")
+        input_notes.append(f"{len(ws.counts['skipped_runs'])} run(s) skipped for a missing "
+                           f"stream: {ws.counts['skipped_runs']}")
     for key in ("dropped_gap", "dropped_unsteady"):
         if ws.counts[key]:
-            notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
+            input_notes.append(f"{ws.counts[key]} window(s) {key.replace('_', ' ')}")
     if ws.counts.get("empty_gap"):
-        notes.append(f"{ws.counts['empty_gap']} window position(s) wholly inside a gap of "
-                     "every stream (no data, not counted as dropped)")
+        input_notes.append(f"{ws.counts['empty_gap']} window position(s) wholly inside a gap "
+                           "of every stream (no data, not counted as dropped)")
+    notes += input_notes
     training = load_training_windows(config, runs, ws, groups,
                                      fx.transform if on_features else None, progress)
     if training is not None:
@@ -425,7 +433,8 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     t3 = time.perf_counter()
     return ExperimentResult(config, report, len(ws), len(np.unique(ws.run_ids)), ws.counts,
                             list(fx.get_feature_names_out()),
-                            {"windowing_s": t1 - t0, "features_s": t2 - t1, "cv_s": t3 - t2})
+                            {"windowing_s": t1 - t0, "features_s": t2 - t1, "cv_s": t3 - t2},
+                            tuple(input_notes))
 
 
 def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,

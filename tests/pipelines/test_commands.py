@@ -91,6 +91,25 @@ def test_cv_vulpi_reports_grouped_metrics_and_logs_mlflow(workdir, capsys):
     assert {"confusion_matrix.png", "confusion_matrix.csv", "predictions.csv"} <= arts
 
 
+def test_cv_names_each_skipped_run_once_and_keeps_the_note_in_json(workdir, capsys,
+                                                                   monkeypatch):
+    """Two FLOORING runs lack a stream: the printed input report says so once, not again as
+    a note; the JSON report keeps the note."""
+    import pipelines.cv
+    runs = [r for r in read_shipped("borealtc")
+            if r.run_id.split("/")[1] in ("ASPHALT", "FLOORING")]
+    monkeypatch.setattr(pipelines.cv, "load_dataset", lambda name: runs)
+    out = workdir / "cv.json"
+    assert main(["cv", "--dataset", "borealtc", "--seeds", "0", "--json", str(out),
+                 "--no-progress"]) == 0
+    report = json.loads(out.read_text())
+    skipped = [n for n in report["notes"] if "skipped for a missing stream" in n]
+    assert len(skipped) == 1 and "borealtc/FLOORING/04" in skipped[0]
+    printed = capsys.readouterr().out
+    assert printed.count("borealtc/FLOORING/04") == 1
+    assert "run(s) skipped" in printed
+
+
 def test_train_then_predict_on_measured_layout(workdir, capfd):
     model_dir = workdir / "model"
     assert main(["train", "--dataset", "vulpi", "--model-out", str(model_dir),
