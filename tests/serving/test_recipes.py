@@ -145,6 +145,16 @@ def test_bagged_one_second_recipe_is_the_one_second_ensemble_with_three_networks
     assert replace(recipe, window_s=2.0) == RECIPES["all-ensemble-dense-no-speed-bagged"]
 
 
+def test_quarter_second_hop_recipe_overlaps_its_training_windows_as_the_two_second_one():
+    recipe = RECIPES["all-ensemble-dense-no-speed-1s-hop025"]
+    one_second = RECIPES["all-ensemble-dense-no-speed-1s"]
+    two_second = RECIPES["all-ensemble-dense-no-speed"]
+    assert replace(recipe, train_hop_s=one_second.train_hop_s) == one_second
+    overlap = 1.0 - recipe.train_hop_s / recipe.window_s
+    assert overlap == pytest.approx(1.0 - two_second.train_hop_s / two_second.window_s)
+    assert overlap == pytest.approx(0.75)
+
+
 def _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc_runs,
                                                      n_rows, atol):
     """Both streams of an unseen run on the model's 20 Hz clock, pushed interleaved,
