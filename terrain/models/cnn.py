@@ -162,7 +162,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             return "cuda" if torch.cuda.is_available() else "cpu"
         return self.device
 
-    def fit(self, X, y, groups=None):
+    def fit(self, X, y, groups=None, sample_weight=None):
         """Standardise on the training windows and train the network.
 
         Parameters
@@ -174,6 +174,12 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         groups : array-like or None
             ``(n_windows,)`` run ids; required with ``early_stopping=True`` (the validation
             runs are held out whole).
+        sample_weight : array-like or None
+            ``(n_windows,)`` non-negative window weights. Each epoch then draws its
+            ``n_windows`` training windows with replacement, with probabilities proportional
+            to them (a seeded ``torch.utils.data.WeightedRandomSampler``), instead of
+            shuffling every window once; the loss keeps its class weights. ``None``: every
+            window once per epoch.
 
         Returns
         -------
@@ -183,6 +189,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         ------
         ConfigError
             ``early_stopping=True`` without ``groups``.
+        ValueError
+            ``sample_weight`` of another length than ``y``, negative, not finite, or all 0.
         """
         from skorch import NeuralNetClassifier
         from skorch.callbacks import EarlyStopping
@@ -203,6 +211,12 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         self.mask_ = self._band_mask(X.shape[-1], Z.shape)
         Z = self._standardise(Z)
         y_idx = y_idx.astype(np.int64)
+        if sample_weight is not None:
+            sample_weight = column_or_1d(sample_weight).astype(float)
+            check_consistent_length(y_idx, sample_weight)
+            if not (np.isfinite(sample_weight).all() and (sample_weight >= 0).all()
+                    and sample_weight.sum() > 0):
+                raise ValueError("sample_weight must be finite and >= 0, and the weights not all zero")
         counts = np.bincount(y_idx, minlength=len(self.classes_)).astype(np.float32)
         weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
         train_split, callbacks, fit_idx = None, [], np.arange(len(Z))
@@ -221,6 +235,16 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                 torch.set_num_threads(self.n_threads)
             try:
                 gen = torch.Generator().manual_seed(self.random_state)
+                Z_fit, y_fit = self._augmented(Z[fit_idx], y_idx[fit_idx])
+                if sample_weight is None:
+                    order = {"iterator_train__shuffle": True, "iterator_train__generator": gen}
+                else:   # an augmented copy repeats the windows: it repeats their weights
+                    w = np.tile(sample_weight[fit_idx], len(y_fit) // len(fit_idx))
+                    sampler = torch.utils.data.WeightedRandomSampler(
+                        torch.as_tensor(w, dtype=torch.double), len(y_fit), replacement=True,
+                        generator=gen)
+                    order = {"iterator_train__shuffle": False,
+                             "iterator_train__sampler": sampler}
                 module, module_args = self._module_spec(Z.shape[1], len(self.classes_))
                 self.net_ = NeuralNetClassifier(
                     module, **{f"module__{k}": v for k, v in module_args.items()},
@@ -228,11 +252,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     criterion__weight=torch.as_tensor(weight),
                     optimizer=torch.optim.AdamW, lr=self.lr,
                     optimizer__weight_decay=self.weight_decay,
-                    max_epochs=self.max_epochs, batch_size=self.batch_size,
-                    iterator_train__shuffle=True, iterator_train__generator=gen,
+                    max_epochs=self.max_epochs, batch_size=self.batch_size, **order,
                     train_split=train_split, callbacks=callbacks, device=self._device(),
                     verbose=0, classes=np.arange(len(self.classes_)))
-                self.net_.fit(*self._augmented(Z[fit_idx], y_idx[fit_idx]))
+                self.net_.fit(Z_fit, y_fit)
             finally:
                 torch.set_num_threads(threads)
         self.n_epochs_ = len(self.net_.history)

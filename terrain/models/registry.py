@@ -24,6 +24,7 @@ from types import MappingProxyType
 from typing import Mapping, Sequence
 
 import numpy as np
+from sklearn.pipeline import Pipeline
 
 from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS
@@ -32,6 +33,7 @@ from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket
 from terrain.models.svm import SVMConfig, svm_window_pipeline
+from terrain.models.weighting import RunBalancedClassifier
 from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import WHEEL_CHANNELS
 
@@ -98,6 +100,12 @@ class ModelConfig:
         Independently seeded networks per CNN (alone or as an ensemble member) whose class
         probabilities are averaged with equal weights (seed bagging: seeds ``random_state``,
         ``random_state + 1``, ...); 1 (default): one network.
+    run_balanced : bool
+        Fit every single model (alone, as an ensemble member or in a seed bag) with
+        :func:`terrain.models.weighting.within_class_run_weights` of its training windows,
+        so that every run of a class weighs the same
+        (:class:`terrain.models.weighting.RunBalancedClassifier`; ``fit`` then needs the
+        run of every window, ``groups``); False (default): every window the same.
     """
 
     kind: str = "svm"
@@ -112,10 +120,13 @@ class ModelConfig:
     window_ekf: bool = False
     spectrogram_noise_std: float = 0.0
     cnn_seeds: int = 1
+    run_balanced: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
             raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
+        if self.run_balanced and self.window_ekf:
+            raise ConfigError("run_balanced is not implemented with window_ekf")
         singles = [m for m in MODELS if m not in ENSEMBLES]
         if not self.spectrogram_noise_std >= 0:
             raise ConfigError(f"spectrogram_noise_std must be >= 0, got "
@@ -246,7 +257,9 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         ``config.window_ekf`` a :class:`~terrain.models.window_ekf.WindowEKFClassifier`
         around the model built for the augmented channels; with ``config.cnn_seeds > 1``
         every CNN is a :class:`~terrain.models.ensemble.SoftVotingEnsemble` of that many
-        networks seeded ``random_state``, ``random_state + 1``, ... with equal weights.
+        networks seeded ``random_state``, ``random_state + 1``, ... with equal weights; with
+        ``config.run_balanced`` every single model in it is a
+        :class:`~terrain.models.weighting.RunBalancedClassifier`.
     """
     kind = config.kind
     if config.window_ekf:
@@ -254,6 +267,13 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
                            tuple(channels) + tuple(EKF_CHANNELS), rate_hz, dataset,
                            random_state, probability)
         return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset))
+    if config.run_balanced and kind not in ENSEMBLES and not (kind in CNN_MODELS
+                                                                and config.cnn_seeds > 1):
+        single = make_model(replace(config, run_balanced=False), channels, rate_hz, dataset,
+                            random_state, probability)
+        param = (f"{single.steps[-1][0]}__sample_weight" if isinstance(single, Pipeline)
+                 else "sample_weight")
+        return RunBalancedClassifier(single, weight_param=param)
     if kind in CNN_MODELS and config.cnn_seeds > 1:
         single = replace(config, cnn_seeds=1)
         bag = [(f"{kind}-seed{random_state + i}",

@@ -29,11 +29,12 @@ from sklearn.pipeline import FeatureUnion, Pipeline
 from features.transformers import WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError
 from terrain.models.cv import iter_splits
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
+from terrain.models.weighting import run_shares
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
 from terrain.serving.replay import replay_run
@@ -313,7 +314,9 @@ class ModelRecipe:
         Weight the training windows so that every class weighs the same and, inside a
         class, every run weighs the same (:func:`run_balanced_weights`), instead of
         class-balanced windows: one long run (BorealTC ICE/01, 716 of the 3063 wheel windows)
-        then does not make its class mean that run. Extra trees only.
+        then does not make its class mean that run. Extra trees, and the ensembles, whose
+        every member keeps its own class balancing and weighs the runs of a class the same
+        (``ModelConfig.run_balanced``).
     window_ekf : bool
         The model also sees the skid-steer EKF's channels computed from each window's own
         samples (:class:`terrain.models.window_ekf.WindowEKFClassifier`, ``terrain train
@@ -352,8 +355,9 @@ class ModelRecipe:
         if self.classifier in ENSEMBLES and self.features != "stats":
             raise ConfigError("the ensemble recipe uses its SVM member's window statistics: "
                               "features must be 'stats'")
-        if self.run_balanced and self.classifier != "extra_trees":
-            raise ConfigError("run_balanced weights are implemented for extra_trees only")
+        if self.run_balanced and self.classifier not in ("extra_trees",) + ENSEMBLES:
+            raise ConfigError("run_balanced weights are implemented for extra_trees and the "
+                              "ensembles only")
         if self.window_ekf and (self.classifier == "extra_trees" or self.features != "stats"
                                 or self.signals != "all"):
             raise ConfigError("window_ekf recipes use the models of terrain train --window-ekf "
@@ -381,7 +385,9 @@ class ModelRecipe:
 #: ``all-ensemble-dense-no-speed-1s-bagged``: the latter with three spectrogram CNNs averaged,
 #: as ``-bagged`` on 2 s windows; ``all-ensemble-dense-no-speed-1s-hop025``: the 1 s recipe
 #: with its training windows cut every 0.25 s, so that they overlap by 75 % as the 2 s
-#: recipe's (every 0.5 s) do; wheels: 4 s
+#: recipe's (every 0.5 s) do; ``all-ensemble-dense-no-speed-1s-run-balanced``: the 1 s recipe
+#: with every run of a class weighing the same in both members' training (the held-out
+#: streams take a stretch of every run once, so they weigh the runs alike); wheels: 4 s
 #: of history at 10 Hz, physics features, extremely randomised trees (chosen run-grouped,
 #: see docs/streaming.md).
 RECIPES = MappingProxyType({
@@ -405,6 +411,8 @@ RECIPES = MappingProxyType({
                                                          "stats", "ensemble", cnn_seeds=3),
     "all-ensemble-dense-no-speed-1s-hop025": ModelRecipe("all-no-speed", 1.0, 100.0, 0.25,
                                                          "stats", "ensemble"),
+    "all-ensemble-dense-no-speed-1s-run-balanced": ModelRecipe(
+        "all-no-speed", 1.0, 100.0, 0.5, "stats", "ensemble", run_balanced=True),
     "wheels": ModelRecipe("wheels", 4.0, 10.0, 2.0, "physics", "extra_trees",
                           run_balanced=True),
 })
@@ -466,16 +474,7 @@ def run_balanced_weights(labels: np.ndarray, groups: np.ndarray) -> np.ndarray:
     ShapeError
         ``labels`` and ``groups`` differ in length.
     """
-    labels, groups = np.asarray(labels), np.asarray(groups)
-    if labels.shape != groups.shape:
-        raise ShapeError(f"labels {labels.shape} and groups {groups.shape} differ")
-    w = np.empty(labels.size)
-    for c in np.unique(labels):
-        in_class = labels == c
-        runs = np.unique(groups[in_class])
-        for r in runs:
-            rows = in_class & (groups == r)
-            w[rows] = 1.0 / (runs.size * rows.sum())
+    w = run_shares(labels, groups)     # every class sums to 1, its runs to equal shares
     return w * (w.size / w.sum())
 
 
@@ -551,9 +550,12 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         # the `terrain train --model <ensemble> [--window-ekf]` estimator, raw windows in
         pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf,
                                       spectrogram_noise_std=recipe.spectrogram_noise_std,
-                                      cnn_seeds=recipe.cnn_seeds),
+                                      cnn_seeds=recipe.cnn_seeds,
+                                      run_balanced=recipe.run_balanced),
                           ws.channels, recipe.rate_hz, "borealtc", random_state=seed)
-        pipe.fit(ws.X, labels)
+        # the runs reach the members only where they weigh them (fixed vote weights)
+        groups = {"groups": np.asarray(ws.run_ids)} if recipe.run_balanced else {}
+        pipe.fit(ws.X, labels, **groups)
     else:
         features = ("features", recipe_features(recipe, ws.channels))
         classifier = recipe_classifier(recipe, seed)

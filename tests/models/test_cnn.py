@@ -44,12 +44,19 @@ CONTRACT = dict(FAST, max_epochs=2, width=4)
 #: (learning is tested on planted signals below).
 NOT_A_TABULAR_MODEL = ("2 epochs of a CNN over time are not a model of 2-feature tabular "
                        "blobs; learning is tested on planted windows")
+#: sample weights set how often a window is drawn in an epoch (a seeded weighted sampler):
+#: a weight of 2 equals a duplicated window in expectation, not bit for bit
+WEIGHTS_ARE_DRAWS = ("weights are drawing probabilities of a seeded sampler, equal to "
+                     "duplicated windows in expectation only; tested in "
+                     "tests/models/test_run_balanced_models.py")
 
 
 @parametrize_with_checks([RawCNNClassifier(**CONTRACT),
                           SpectrogramCNNClassifier(segment_s=0.04, hop_s=0.02, **CONTRACT)],
                          expected_failed_checks=lambda est: {
-                             "check_classifiers_train": NOT_A_TABULAR_MODEL})
+                             "check_classifiers_train": NOT_A_TABULAR_MODEL,
+                             "check_sample_weight_equivalence_on_dense_data":
+                                 WEIGHTS_ARE_DRAWS})
 def test_cnns_follow_sklearn_contract(estimator, check):
     check(estimator)
 

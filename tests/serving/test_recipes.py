@@ -203,3 +203,33 @@ def test_one_second_recipe_is_the_no_speed_dense_ensemble_on_shorter_windows(tra
     assert model.window.window_s == 1.0
     _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc_runs, 200,
                                                      1e-5)
+
+
+def test_run_balanced_one_second_recipe_hands_the_runs_to_its_ensemble(train_runs,
+                                                                      monkeypatch):
+    """The recipe differs from the 1 s recipe in its weights only; its ensemble is built
+    with ``ModelConfig(run_balanced=True)`` and fitted with the run of every window."""
+    import terrain.serving.evaluation as evaluation
+    recipe = RECIPES["all-ensemble-dense-no-speed-1s-run-balanced"]
+    assert replace(recipe, run_balanced=False) == RECIPES["all-ensemble-dense-no-speed-1s"]
+    seen = {}
+
+    class Recorder:
+        def fit(self, X, y, groups=None):
+            seen.update(n=len(y), groups=groups)
+            self.classes_ = np.unique(y)
+            return self
+
+    def fake_make_model(config, *args, **kwargs):
+        seen["config"] = config
+        return Recorder()
+
+    monkeypatch.setattr(evaluation, "make_model", fake_make_model)
+    fit_stream_model(recipe, train_runs[:4], seed=0)
+    assert seen["config"].run_balanced and seen["config"].kind == "ensemble"
+    assert seen["groups"] is not None and len(seen["groups"]) == seen["n"]
+    assert set(seen["groups"]) == {r.run_id for r in train_runs[:4]}
+    fit_stream_model(RECIPES["all-ensemble-dense-no-speed-1s"], train_runs[:4], seed=0)
+    assert seen["groups"] is None and not seen["config"].run_balanced
+    with pytest.raises(ConfigError, match="run_balanced"):
+        ModelRecipe("all", 2.0, 100.0, 0.5, "stats", "svm", run_balanced=True)

@@ -1,0 +1,178 @@
+"""Training weights that give every run of a terrain the same share, and a wrapper that
+fits any classifier with them.
+
+The windows of one run are not independent samples of its terrain: one surface patch, one
+speed profile and one recording day. Cut at a fixed hop, a long run gives many more
+windows than a short one (BorealTC's ICE/01 holds 23 min of arcs, about a quarter of all
+windows), so it dominates what the classifier learns of its class. An unseen run, or a
+held-out stream that takes a stretch of every run once (docs/streaming.md), weighs the
+runs about equally instead. :func:`within_class_run_weights` gives every run of a class
+the same total weight and keeps the class totals as they are, so a classifier's own class
+balancing (``class_weight="balanced"``, the CNNs' weighted loss) stays in charge of the
+classes. :class:`RunBalancedClassifier` fits a classifier with these weights.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin, clone
+from sklearn.utils.validation import check_is_fitted
+
+from terrain.errors import ConfigError, ShapeError
+
+
+def run_shares(labels, groups) -> np.ndarray:
+    """Each window's share of its class when every run of the class counts the same.
+
+    ``1 / (n_runs(class) n(run))``: the windows of one class sum to 1, those of one run
+    to ``1 / n_runs(class)``.
+
+    Parameters
+    ----------
+    labels, groups : array-like
+        ``(n_windows,)`` class and run of each window.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` shares (> 0).
+
+    Raises
+    ------
+    ShapeError
+        ``labels`` and ``groups`` are not 1-D arrays of one length.
+    """
+    labels, groups = np.asarray(labels), np.asarray(groups)
+    if labels.ndim != 1 or labels.shape != groups.shape:
+        raise ShapeError(f"labels {labels.shape} and groups {groups.shape} must be 1-D "
+                         "arrays of one length")
+    share = np.empty(labels.size)
+    for c in np.unique(labels):
+        in_class = labels == c
+        runs = np.unique(groups[in_class])
+        for r in runs:
+            rows = in_class & (groups == r)
+            share[rows] = 1.0 / (runs.size * rows.sum())
+    return share
+
+
+def within_class_run_weights(labels, groups) -> np.ndarray:
+    """Window weights under which every run of a class has the same total weight.
+
+    ``w = n(class) / (n_runs(class) n(run))`` (:func:`run_shares` times the class's window
+    count): inside every class the weights have mean 1 and each run sums to
+    ``n(class) / n_runs(class)``, so every class keeps its window count as its total weight.
+
+    Parameters
+    ----------
+    labels, groups : array-like
+        ``(n_windows,)`` class and run of each window.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows,)`` weights (> 0, mean 1 within each class).
+
+    Raises
+    ------
+    ShapeError
+        ``labels`` and ``groups`` are not 1-D arrays of one length.
+    """
+    share = run_shares(labels, groups)
+    _, inverse, per_class = np.unique(np.asarray(labels), return_inverse=True,
+                                      return_counts=True)
+    return share * per_class[inverse]
+
+
+class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
+    """A classifier fitted with :func:`within_class_run_weights` of its training windows.
+
+    Parameters
+    ----------
+    estimator : classifier
+        Unfitted scikit-learn classifier whose ``fit`` takes the weights as the fit
+        parameter ``weight_param``.
+    weight_param : str
+        Name of that fit parameter: ``sample_weight``, or ``<step>__sample_weight`` for a
+        :class:`sklearn.pipeline.Pipeline` (e.g. ``svc__sample_weight``).
+
+    Attributes
+    ----------
+    estimator_ : classifier
+        The fitted copy of ``estimator``.
+    classes_ : numpy.ndarray
+        Its labels, in the order of ``predict_proba``.
+    """
+
+    def __init__(self, estimator, weight_param: str = "sample_weight") -> None:
+        self.estimator = estimator
+        self.weight_param = weight_param
+
+    def fit(self, X, y, groups=None):
+        """Fit a copy of ``estimator`` with every run of a class weighing the same.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` the estimator's input.
+        y : array-like
+            ``(n_windows,)`` labels.
+        groups : array-like
+            ``(n_windows,)`` run of every window; also handed on to an estimator whose
+            ``fit`` takes ``groups``.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ConfigError
+            ``groups`` is missing.
+        ShapeError
+            ``y`` and ``groups`` differ in length.
+        """
+        if groups is None:
+            raise ConfigError("run-balanced weights need the run of every window (groups)")
+        weights = within_class_run_weights(y, groups)
+        estimator = clone(self.estimator)
+        params = {self.weight_param: weights}
+        if "groups" in inspect.signature(estimator.fit).parameters:
+            params["groups"] = groups
+        self.estimator_ = estimator.fit(X, y, **params)
+        self.classes_ = self.estimator_.classes_
+        return self
+
+    def predict_proba(self, X) -> np.ndarray:
+        """Class probabilities of the fitted estimator.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` the estimator's input.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+        """
+        check_is_fitted(self, "estimator_")
+        return self.estimator_.predict_proba(X)
+
+    def predict(self, X) -> np.ndarray:
+        """Labels predicted by the fitted estimator.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, ...)`` the estimator's input.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_windows,)`` labels from ``classes_``.
+        """
+        check_is_fitted(self, "estimator_")
+        return self.estimator_.predict(X)

@@ -1,0 +1,132 @@
+"""Run-balanced training of the window models: every run of a class weighs the same, the
+class totals stay as they are, and the SVM and the CNNs really train with the weights."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.linear_model import LogisticRegression
+
+from terrain.errors import ConfigError, ShapeError
+from terrain.models.cnn import RawCNNClassifier
+from terrain.models.ensemble import SoftVotingEnsemble
+from terrain.models.registry import ModelConfig, make_model
+from terrain.models.weighting import (RunBalancedClassifier, run_shares,
+                                      within_class_run_weights)
+
+RATE_HZ = 100.0
+FAST = dict(max_epochs=15, width=8, batch_size=32, n_threads=1, device="cpu")
+
+
+def test_every_run_of_a_class_weighs_the_same_and_each_class_keeps_its_count():
+    labels = np.array(["ICE"] * 70 + ["ICE"] * 10 + ["SNOW"] * 5 + ["SNOW"] * 15 + ["SNOW"])
+    groups = np.array(["i1"] * 70 + ["i2"] * 10 + ["s1"] * 5 + ["s2"] * 15 + ["s3"])
+    w = within_class_run_weights(labels, groups)
+    assert np.all(w > 0)
+    for c, n in (("ICE", 80), ("SNOW", 21)):
+        assert np.isclose(w[labels == c].sum(), n) and np.isclose(w[labels == c].mean(), 1.0)
+        per_run = [w[groups == g].sum() for g in np.unique(groups[labels == c])]
+        assert np.allclose(per_run, per_run[0])
+    assert np.isclose(w[0], 80 / (2 * 70)) and np.isclose(w[-1], 21 / 3)
+    share = run_shares(labels, groups)
+    assert np.isclose(share[labels == "ICE"].sum(), 1.0)
+    assert np.isclose(share[labels == "SNOW"].sum(), 1.0)
+    with pytest.raises(ShapeError):
+        within_class_run_weights(labels, groups[:-1])
+
+
+def _tabular():
+    """Class B's long run r1 sits at x = 0, its short runs at x = 3; class A at x = -3."""
+    rng = np.random.default_rng(0)
+    X = np.concatenate([rng.normal(-3, 1, 40), rng.normal(0, 1, 200), rng.normal(3, 1, 40)])
+    y = np.array(["A"] * 40 + ["B"] * 240)
+    groups = np.array(["a0"] * 20 + ["a1"] * 20 + ["r1"] * 200 + ["r2"] * 20 + ["r3"] * 20)
+    return X[:, None], y, groups
+
+
+def test_wrapper_fits_its_estimator_with_the_within_class_run_weights():
+    X, y, groups = _tabular()
+    wrapped = RunBalancedClassifier(LogisticRegression()).fit(X, y, groups)
+    direct = LogisticRegression().fit(X, y, sample_weight=within_class_run_weights(y, groups))
+    np.testing.assert_allclose(wrapped.estimator_.coef_, direct.coef_)
+    np.testing.assert_allclose(wrapped.predict_proba(X), direct.predict_proba(X))
+    assert list(wrapped.classes_) == ["A", "B"]
+    # the long run no longer sets where class B begins: the boundary moves towards B's
+    # short runs
+    plain = LogisticRegression().fit(X, y)
+    boundary = (lambda m: -m.intercept_[0] / m.coef_[0, 0])
+    assert boundary(direct) > boundary(plain) + 0.2
+    with pytest.raises(ConfigError, match="groups"):
+        RunBalancedClassifier(LogisticRegression()).fit(X, y)
+
+
+class _Recorder(ClassifierMixin, BaseEstimator):
+    """Records what ``fit`` was handed."""
+
+    def fit(self, X, y, groups=None, sample_weight=None):
+        self.groups_, self.sample_weight_ = groups, sample_weight
+        self.classes_ = np.unique(y)
+        return self
+
+
+def test_wrapper_hands_the_runs_on_to_an_estimator_that_takes_them():
+    X, y, groups = _tabular()
+    fitted = RunBalancedClassifier(_Recorder()).fit(X, y, groups).estimator_
+    assert fitted.groups_ is groups
+    np.testing.assert_allclose(fitted.sample_weight_, within_class_run_weights(y, groups))
+
+
+def _planted_with_an_odd_long_run(seed: int = 0):
+    """Terrain B adds a 20 Hz vibration on channel 0, except its long run ``odd`` (60
+    windows without it, like A's); four short runs per class."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(200) / RATE_HZ
+    X, y, groups = [], [], []
+    runs = [("A", f"a{r}", 12, False) for r in range(4)] + \
+           [("B", f"b{r}", 12, True) for r in range(4)] + [("B", "odd", 60, False)]
+    for label, run, n, vibrates in runs:
+        for _ in range(n):
+            w = rng.normal(0.0, 1.0, (2, t.size))
+            if vibrates:
+                w[0] += 1.5 * np.sin(2 * np.pi * 20.0 * t + rng.uniform(0, 2 * np.pi))
+            X.append(w)
+            y.append(label)
+            groups.append(run)
+    return np.asarray(X, dtype=np.float32), np.asarray(y), np.asarray(groups)
+
+
+def test_cnn_draws_its_epochs_by_the_window_weights():
+    X, y, groups = _planted_with_an_odd_long_run()
+    test = np.isin(groups, ["a3", "b3"])
+    train = ~test
+    weight = np.where(groups[train] == "odd", 0.0, 1.0)      # the odd run is never drawn
+    fit = (lambda w, seed=0: RawCNNClassifier(**FAST, random_state=seed).fit(
+        X[train], y[train], sample_weight=w))
+    model = fit(weight)
+    assert (model.predict(X[test]) == y[test]).mean() >= 0.9
+    np.testing.assert_array_equal(model.predict_proba(X[test]),
+                                  fit(weight).predict_proba(X[test]))      # deterministic
+    uniform = fit(np.ones(train.sum()))
+    assert np.abs(uniform.predict_proba(X[test]) - model.predict_proba(X[test])).max() > 1e-3
+    # weight only on B's odd run: the vibration is never seen as B, unseen B is not found
+    blind = fit(np.where(np.isin(groups[train], ["b0", "b1", "b2"]), 0.0, 1.0))
+    assert (blind.predict(X[test]) == y[test]).mean() <= 0.7
+    for bad in (np.zeros(train.sum()), -weight, np.ones(3)):
+        with pytest.raises(ValueError):
+            fit(bad)
+
+
+def test_registry_wraps_every_single_model_of_a_run_balanced_ensemble():
+    channels = ("wx", "wy", "ax")
+    model = make_model(ModelConfig(kind="ensemble", run_balanced=True, cnn_seeds=2), channels,
+                       RATE_HZ, "borealtc")
+    svm, bag = (est for _, est in model.estimators)
+    assert isinstance(svm, RunBalancedClassifier) and svm.weight_param == "svc__sample_weight"
+    assert isinstance(bag, SoftVotingEnsemble)
+    assert all(isinstance(est, RunBalancedClassifier) and est.weight_param == "sample_weight"
+               for _, est in bag.estimators)
+    plain = make_model(ModelConfig(kind="ensemble"), channels, RATE_HZ, "borealtc")
+    assert not any(isinstance(est, RunBalancedClassifier) for _, est in plain.estimators)
+    with pytest.raises(ConfigError, match="window_ekf"):
+        ModelConfig(kind="svm", run_balanced=True, window_ekf=True)
