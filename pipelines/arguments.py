@@ -44,6 +44,21 @@ def add_window_ekf(parser: argparse.ArgumentParser) -> None:
                              "older than the window, so it streams: docs/streaming.md)")
 
 
+def add_run_balanced(parser: argparse.ArgumentParser) -> None:
+    """Add ``--run-balanced`` (every run of a class weighs the same in training;
+    :attr:`terrain.models.registry.ModelConfig.run_balanced`).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        Sub-command parser (modified in place).
+    """
+    parser.add_argument("--run-balanced", action="store_true",
+                        help="weigh the training windows so that every run of a class counts "
+                             "the same, instead of every window (a long run then does not "
+                             "stand for its terrain; docs/streaming.md)")
+
+
 def add_train_hop(parser: argparse.ArgumentParser) -> None:
     """Add ``--train-hop-s`` of the cross-validating commands (training windows' hop).
 

@@ -11,7 +11,8 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import add_cnn_seeds, add_train_hop, add_window_ekf
+from pipelines.arguments import (add_cnn_seeds, add_run_balanced, add_train_hop,
+                                 add_window_ekf)
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
@@ -51,6 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="nested grouped grid search of C and gamma in each training fold")
     add_cnn_seeds(parser)
     add_window_ekf(parser)
+    add_run_balanced(parser)
     parser.add_argument("--steady-only", action="store_true",
                         help="keep steady-motion windows only (thesis ch. 8.1)")
     parser.add_argument("--json", type=Path, default=None, help="write the report as JSON")
@@ -80,7 +82,8 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
                             train_hop_s=args.train_hop_s, protocol=args.protocol,
                             seeds=tuple(seeds), search=args.search,
                             steady_only=args.steady_only, model=args.model,
-                            window_ekf=args.window_ekf, cnn_seeds=args.cnn_seeds)
+                            window_ekf=args.window_ekf, cnn_seeds=args.cnn_seeds,
+                            run_balanced=args.run_balanced)
 
 
 def result_dict(result: ExperimentResult) -> dict:
@@ -150,7 +153,8 @@ def main(args: argparse.Namespace) -> int:
     """
     config = config_from_args(args)
     name = (f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
-            + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else ""))
+            + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else "")
+            + ("+run-balanced" if config.run_balanced else ""))
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
         result = run_cv(config, runs=runs, progress=not args.no_progress)
@@ -179,8 +183,9 @@ def main(args: argparse.Namespace) -> int:
         run.log_dict(report, "cv_report.json")
     line = "secondary (leaky) protocol" if config.protocol == "paper" else "headline"
     signals = ",".join(config.signals) + (" + EKF per window" if config.window_ekf else "")
-    model = config.model + (f" ({config.cnn_seeds} networks per CNN)"
-                            if config.cnn_seeds > 1 else "")
+    model = (config.model + (f" ({config.cnn_seeds} networks per CNN)"
+                             if config.cnn_seeds > 1 else "")
+             + (" (run-balanced)" if config.run_balanced else ""))
     print(f"{model} / {config.dataset} / {config.protocol} ({line}) / signals {signals}: "
           f"{result.n_windows} windows from {result.n_runs} runs, {len(rep.classes)} classes")
     pooled = rep.pooled

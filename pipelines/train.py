@@ -15,7 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
-from pipelines.arguments import add_cnn_seeds, add_window_ekf
+from pipelines.arguments import add_cnn_seeds, add_run_balanced, add_window_ekf
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
@@ -73,6 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              + ", the window length (non-overlapping) otherwise)")
     add_cnn_seeds(parser)
     add_window_ekf(parser)
+    add_run_balanced(parser)
     parser.add_argument("--search", action="store_true",
                         help="choose C and gamma by a grid search grouped by run")
     parser.add_argument("--model-out", type=Path, default=None,
@@ -135,18 +136,20 @@ def main(args: argparse.Namespace) -> int:
                               train_hop_s=(args.train_hop_s if args.train_hop_s is not None
                                            else DEFAULT_TRAIN_HOP_S.get(args.dataset)),
                               search=args.search, seeds=(0,), window_ekf=args.window_ekf,
-                              cnn_seeds=args.cnn_seeds,
+                              cnn_seeds=args.cnn_seeds, run_balanced=args.run_balanced,
                               model=args.model or DEFAULT_MODELS.get(args.dataset, "ensemble3"))
     name = (f"{config.model}-{config.dataset}-{'+'.join(config.signals)}"
             + ("+window-ekf" if config.window_ekf else "")
-            + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else ""))
+            + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else "")
+            + ("+run-balanced" if config.run_balanced else ""))
     window = config.window_config()
     params = {"model": config.model, "dataset": config.dataset,
               "signals": ",".join(config.signals),
               "window_s": window.window_s, "hop_s": window.hop_s or window.window_s,
               "train_hop_s": config.train_hop_s or window.hop_s or window.window_s,
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0],
-              "window_ekf": config.window_ekf, "cnn_seeds": config.cnn_seeds}
+              "window_ekf": config.window_ekf, "cnn_seeds": config.cnn_seeds,
+              "run_balanced": config.run_balanced}
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)

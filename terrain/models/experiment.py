@@ -25,6 +25,7 @@ from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, cross_valid
                                purge_block_overlaps, split_single_run_classes)
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, make_search, make_svm, svm_window_pipeline
+from terrain.models.weighting import RunBalancedClassifier
 from terrain.run import Run
 
 #: Window settings of the papers' protocol (BorealTC, Vulpi): 1.7 s windows, 0.1 s hop,
@@ -82,12 +83,16 @@ class ExperimentConfig:
         hold ``vel_l``, ``vel_r`` and ``wz`` and no EKF channel.
     cnn_seeds : int
         Independently seeded networks averaged per CNN (``ModelConfig.cnn_seeds``).
+    run_balanced : bool
+        Every model (every member of an ensemble) weighs the runs of a class the same in
+        training (``ModelConfig.run_balanced``, :mod:`terrain.models.weighting`).
 
     Raises
     ------
     ConfigError
         Unknown model, dataset, protocol or signal, ``search`` with a model other than
-        the SVM, or a ``train_hop_s`` that is not positive or comes with ``paper``.
+        the SVM or with ``run_balanced``, or a ``train_hop_s`` that is not positive or
+        comes with ``paper``.
     """
 
     dataset: str = "borealtc"
@@ -108,13 +113,14 @@ class ExperimentConfig:
     n_threads: int | None = None
     window_ekf: bool = False
     cnn_seeds: int = 1
+    run_balanced: bool = False
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:
             raise ConfigError(f"unknown model {self.model!r}; valid: {list(MODELS)}")
-        if self.search and (self.model != "svm" or self.window_ekf):
+        if self.search and (self.model != "svm" or self.window_ekf or self.run_balanced):
             raise ConfigError("--search tunes the SVM on raw-signal features only; drop it "
-                              "for other models and with --window-ekf")
+                              "for other models and with --window-ekf or --run-balanced")
         self.model_config()  # the classifier's own checks (e.g. cnn_seeds), before any data
         if self.dataset not in DATASET_SPECS:
             raise ConfigError(f"unknown dataset {self.dataset!r}; valid: {list(DATASET_SPECS)}")
@@ -169,12 +175,12 @@ class ExperimentConfig:
         Returns
         -------
         ModelConfig
-            Model name, epoch budget, threads, SVM settings, ``window_ekf`` and
-            ``cnn_seeds``.
+            Model name, epoch budget, threads, SVM settings, ``window_ekf``, ``cnn_seeds``
+            and ``run_balanced``.
         """
         return ModelConfig(kind=self.model, max_epochs=self.max_epochs,
                            n_threads=self.n_threads, svm=self.svm, window_ekf=self.window_ekf,
-                           cnn_seeds=self.cnn_seeds)
+                           cnn_seeds=self.cnn_seeds, run_balanced=self.run_balanced)
 
     def as_params(self) -> dict:
         """Flat parameter dict for MLflow.
@@ -419,6 +425,9 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     fold_jobs = None
     if config.search:
         factory = (lambda seed: make_search(config.svm, seed, n_jobs=n_jobs))
+    elif on_features and config.run_balanced:
+        factory = (lambda seed: RunBalancedClassifier(make_svm(config.svm, seed),
+                                                      weight_param="svc__sample_weight"))
     elif on_features:
         factory = (lambda seed: make_svm(config.svm, seed))
     else:
@@ -486,7 +495,7 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                       else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)
     labels = ws.labels.astype(str)
     info: dict = {"model": config.model}
-    if config.model != "svm" or config.window_ekf:
+    if config.model != "svm" or config.window_ekf or config.run_balanced:
         model = make_model(config.model_config(), ws.channels, ws.rate_hz, config.dataset,
                            config.seeds[0])
         model = fit_with_groups(model, ws.X, labels, ws.groups)

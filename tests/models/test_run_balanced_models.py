@@ -130,3 +130,32 @@ def test_registry_wraps_every_single_model_of_a_run_balanced_ensemble():
     assert not any(isinstance(est, RunBalancedClassifier) for _, est in plain.estimators)
     with pytest.raises(ConfigError, match="window_ekf"):
         ModelConfig(kind="svm", run_balanced=True, window_ekf=True)
+
+
+def test_experiment_config_hands_run_balance_to_the_model_and_refuses_it_with_search():
+    from terrain.models.experiment import ExperimentConfig
+    config = ExperimentConfig(model="ensemble", run_balanced=True)
+    assert config.model_config().run_balanced and config.as_params()["run_balanced"]
+    with pytest.raises(ConfigError, match="run-balanced"):
+        ExperimentConfig(model="svm", search=True, run_balanced=True)
+
+
+def test_window_svm_is_a_hard_margin_fit_that_window_weights_do_not_move():
+    """Why run balance reaches the ensemble through its CNN only: on the shipped Vulpi
+    windows the SVM (C = 30, balanced classes) keeps no support vector at its bound, so
+    weights, which scale C per window, leave its solution as it is."""
+    from features.transformers import WindowFeatures
+    from terrain.models.experiment import ExperimentConfig, load_windows
+    from terrain.models.svm import SVMConfig, make_svm
+    ws = load_windows(ExperimentConfig(dataset="vulpi"))
+    F = WindowFeatures(channels=ws.channels, rate_hz=ws.rate_hz).fit(ws.X).transform(ws.X)
+    y, groups = ws.labels.astype(str), np.asarray(ws.run_ids)
+    plain = make_svm(SVMConfig(), 0).fit(F, y)
+    svc = plain[-1]
+    bound = svc.C * svc.class_weight_[np.searchsorted(svc.classes_, y[svc.support_])]
+    assert (np.abs(svc.dual_coef_).max(axis=0) < 0.999 * bound).all()
+    weighted = RunBalancedClassifier(make_svm(SVMConfig(), 0),
+                                     weight_param="svc__sample_weight").fit(F, y, groups)
+    assert np.ptp(within_class_run_weights(y, groups)) > 1.0       # the weights do differ
+    np.testing.assert_allclose(weighted.estimator_.decision_function(F),
+                               plain.decision_function(F), atol=1e-9)

@@ -233,3 +233,27 @@ def test_window_ekf_needs_the_filter_inputs(workdir, capsys):
                  "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "--window-ekf" in err and "wz" in err and "Traceback" not in err
+
+
+def test_train_run_balanced_serves_the_wrapped_model(workdir, capsys):
+    model_dir = workdir / "model"
+    assert main(["train", "--dataset", "vulpi", "--model", "svm", "--run-balanced",
+                 "--model-out", str(model_dir), "--no-progress"]) == 0
+    from terrain.models.weighting import RunBalancedClassifier
+    from terrain.serving.model import load_stream_model
+
+    model = load_stream_model(model_dir)
+    assert isinstance(model.pipeline, RunBalancedClassifier)
+    import mlflow
+    mlflow.set_tracking_uri(f"sqlite:///{workdir / 'mlflow.db'}")
+    (train_run,) = mlflow.search_runs(experiment_names=["terrain-train"],
+                                      output_format="list")
+    assert train_run.data.params["run_balanced"] == "True"
+    assert train_run.info.run_name.endswith("+run-balanced")
+    runs = [r for r in read_shipped("vulpi") if r.run_id == "vulpi/PLOUGHED/3"]
+    write_runs_layout(runs, workdir / "runs")
+    out = workdir / "pred.csv"
+    assert main(["predict", "--model", str(model_dir), str(workdir / "runs"),
+                 "--out", str(out)]) == 0
+    pred = pd.read_csv(out)
+    assert len(pred) > 5 and pred["predicted"].value_counts().index[0] == "PLOUGHED"
