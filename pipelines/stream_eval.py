@@ -24,8 +24,9 @@ import pandas as pd
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
-from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, fit_stream_model,
-                                        held_out_streams, pool_scores, window_cv)
+from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, encode_stream_scores,
+                                        fit_stream_model, held_out_streams, pool_scores,
+                                        seed_accuracies, window_cv)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -126,17 +127,21 @@ def main(args: argparse.Namespace) -> int:
                                            progress=True)
                           .assign(seed=seed) for seed in args.seeds]
                 res = pd.concat(frames, ignore_index=True)
-                run.log_table(res, f"held_out_streams_{kind}.csv")
-                summary = {name: pool_scores(g) for name, g in res.groupby("smoothing")}
+                run.log_table(encode_stream_scores(res), f"held_out_streams_{kind}.csv")
+                summary = {name: {**pool_scores(g), "accuracy_per_seed": seed_accuracies(g)}
+                           for name, g in res.groupby("smoothing")}
                 for name, row in summary.items():
                     run.log_metrics({f"{kind}_{name}_{k}": v for k, v in row.items()
                                      if k in ("accuracy", "median_delay_s",
                                               "accuracy_settled")})
+                    run.log_metrics({f"{kind}_{name}_accuracy_seed{seed}": v
+                                     for seed, v in row["accuracy_per_seed"].items()})
+                    per_seed = " / ".join(f"{v:.3f}" for v in row["accuracy_per_seed"].values())
                     print(f"held-out streams, {kind}, {name}: per-decision accuracy "
                           f"{row['accuracy']:.3f} (settled windows {row['accuracy_settled']:.3f}),"
                           f" median switching delay {row['median_delay_s']:.1f} s "
                           f"({row['n_switches']} switches, {args.folds} folds, "
-                          f"{len(args.seeds)} seeds pooled); "
+                          f"{len(args.seeds)} seeds pooled; per seed {per_seed}); "
                           f"recall {_fmt(row['recall'])}")
                 report[f"streams_{kind}"] = summary
         for kind in args.kinds if args.model_out else []:

@@ -17,7 +17,11 @@
 
 from __future__ import annotations
 
+import ast
+import json
+import re
 from dataclasses import dataclass, field
+from pathlib import Path
 from types import MappingProxyType
 from typing import Callable, Iterator, Mapping, Sequence
 
@@ -29,7 +33,7 @@ from sklearn.pipeline import FeatureUnion, Pipeline
 from features.transformers import WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.models.cv import iter_splits
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
@@ -707,7 +711,9 @@ class StreamScore:
         return {"accuracy": self.accuracy, "median_delay_s": self.median_delay_s,
                 "n_switches": len(self.delays_s), "n_decisions": self.n_decisions,
                 "accuracy_settled": self.accuracy_settled, "n_settled": self.n_settled,
-                "delays_s": list(self.delays_s), "confusion": self.confusion}
+                "delays_s": [float(d) for d in self.delays_s],
+                "confusion": {str(t): {str(d): int(n) for d, n in row.items()}
+                              for t, row in self.confusion.items()}}
 
 
 def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarray,
@@ -842,6 +848,95 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
                                     recipe.window_s)
             rows.append({"fold": fold, "smoothing": name, **score.as_row()})
     return pd.DataFrame(rows)
+
+
+#: A number as the score tables write it: plain, ``np.float64(...)``-wrapped (tables
+#: written before :func:`encode_stream_scores`), ``inf`` or JSON's ``Infinity``.
+_NUMBER = re.compile(r"[-+]?(?:Infinity|inf|(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
+
+
+def encode_stream_scores(frame: pd.DataFrame) -> pd.DataFrame:
+    """Score rows (:func:`held_out_streams`, :meth:`StreamScore.as_row`) ready for a CSV.
+
+    The list and mapping columns, ``delays_s`` and ``confusion``, become JSON text, so
+    :func:`read_stream_scores` reads the written table back for :func:`pool_scores`.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Score rows; other columns are kept as they are.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy with those two columns as JSON strings.
+    """
+    out = frame.copy()
+    for column in ("delays_s", "confusion"):
+        if column in out:
+            out[column] = [json.dumps(v) for v in out[column]]
+    return out
+
+
+def read_stream_scores(path: str | Path) -> pd.DataFrame:
+    """Read a CSV of score rows (:func:`encode_stream_scores`; ``terrain stream-eval``'s
+    ``held_out_streams_<kind>.csv``, also those logged before that function existed).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        CSV file.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows, ``delays_s`` as lists of floats (s) and ``confusion`` as nested dicts, as
+        :func:`pool_scores` takes them.
+
+    Raises
+    ------
+    DataFormatError
+        A ``delays_s`` or ``confusion`` cell that is not a list of numbers or a mapping
+        (the error names the file, column and line).
+    """
+    frame = pd.read_csv(path)
+    delays, confusion = [], []
+    for row, (d, c) in enumerate(zip(frame.get("delays_s", []), frame.get("confusion", []))):
+        text = str(d).replace("np.float64(", "").replace(")", "")
+        if not (text.startswith("[") and text.endswith("]")):
+            raise DataFormatError(f"not a list of switching delays: {str(d)[:60]!r}",
+                                  path=str(path), column="delays_s", row=row, line=row + 2)
+        delays.append([float(x.replace("Infinity", "inf")) for x in _NUMBER.findall(text)])
+        try:
+            conf = ast.literal_eval(str(c))
+        except (ValueError, SyntaxError):
+            conf = None
+        if not isinstance(conf, dict):
+            raise DataFormatError(f"not a mapping of decision counts: {str(c)[:60]!r}",
+                                  path=str(path), column="confusion", row=row, line=row + 2)
+        confusion.append(conf)
+    if "delays_s" in frame:
+        frame["delays_s"] = delays
+    if "confusion" in frame:
+        frame["confusion"] = confusion
+    return frame
+
+
+def seed_accuracies(rows: pd.DataFrame) -> dict[int, float]:
+    """Per-decision accuracy of every seed, pooled over its folds.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        Score rows of one smoothing with a ``seed`` column.
+
+    Returns
+    -------
+    dict
+        Seed -> accuracy weighted by decisions.
+    """
+    return {int(seed): float(np.average(g["accuracy"], weights=g["n_decisions"]))
+            for seed, g in rows.groupby("seed")}
 
 
 def pool_scores(rows: pd.DataFrame) -> dict:
