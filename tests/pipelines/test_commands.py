@@ -207,6 +207,18 @@ def test_train_refuses_ekf_channels_the_served_model_cannot_compute(workdir, cap
     assert "EKF-derived channels" in capsys.readouterr().err
 
 
+def _assert_predicts_ploughed(model_dir, workdir):
+    """``terrain predict`` with the model on the measured layout of vulpi/PLOUGHED/3 names
+    PLOUGHED most often."""
+    runs = [r for r in read_shipped("vulpi") if r.run_id == "vulpi/PLOUGHED/3"]
+    write_runs_layout(runs, workdir / "runs")
+    out = workdir / "pred.csv"
+    assert main(["predict", "--model", str(model_dir), str(workdir / "runs"),
+                 "--out", str(out)]) == 0
+    pred = pd.read_csv(out)
+    assert len(pred) > 5 and pred["predicted"].value_counts().index[0] == "PLOUGHED"
+
+
 def test_train_with_window_ekf_serves_raw_signals(workdir, capsys):
     model_dir = workdir / "model"
     assert main(["train", "--dataset", "vulpi", "--model", "svm", "--window-ekf",
@@ -219,13 +231,7 @@ def test_train_with_window_ekf_serves_raw_signals(workdir, capsys):
     assert isinstance(model.pipeline, WindowEKFClassifier)
     assert not any(c.startswith("ekf_") for c in model.channels)
     assert model.pipeline.estimator_.steps[0][1].channels[-1] == "ekf_slip_r"
-    runs = [r for r in read_shipped("vulpi") if r.run_id == "vulpi/PLOUGHED/3"]
-    write_runs_layout(runs, workdir / "runs")
-    out = workdir / "pred.csv"
-    assert main(["predict", "--model", str(model_dir), str(workdir / "runs"),
-                 "--out", str(out)]) == 0
-    pred = pd.read_csv(out)
-    assert len(pred) > 5 and pred["predicted"].value_counts().index[0] == "PLOUGHED"
+    _assert_predicts_ploughed(model_dir, workdir)
 
 
 def test_window_ekf_needs_the_filter_inputs(workdir, capsys):
@@ -250,10 +256,4 @@ def test_train_run_balanced_serves_the_wrapped_model(workdir, capsys):
                                       output_format="list")
     assert train_run.data.params["run_balanced"] == "True"
     assert train_run.info.run_name.endswith("+run-balanced")
-    runs = [r for r in read_shipped("vulpi") if r.run_id == "vulpi/PLOUGHED/3"]
-    write_runs_layout(runs, workdir / "runs")
-    out = workdir / "pred.csv"
-    assert main(["predict", "--model", str(model_dir), str(workdir / "runs"),
-                 "--out", str(out)]) == 0
-    pred = pd.read_csv(out)
-    assert len(pred) > 5 and pred["predicted"].value_counts().index[0] == "PLOUGHED"
+    _assert_predicts_ploughed(model_dir, workdir)
