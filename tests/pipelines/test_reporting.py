@@ -281,3 +281,40 @@ def test_a_registered_model_on_s3_without_credentials_is_a_one_line_error(workdi
     assert main(["predict", "--model", "models:/cloudy/1", "runs", "--out", "p.csv"]) == 2
     line = _assert_one_line_error(capsys, "predict")
     assert "models:/cloudy/1" in line and "credentials" in line, line
+
+
+def test_stream_eval_prints_and_logs_per_seed_accuracy_and_a_readable_table(workdir, capsys,
+                                                                          monkeypatch):
+    """The held-out stream replay itself is replaced by two fixed score rows per seed: the
+    command pools them, prints and logs every seed's accuracy, and logs a score table that
+    reads back to the same pooled figures."""
+    import mlflow
+
+    import pipelines.stream_eval
+    from terrain.serving.evaluation import StreamScore, pool_scores, read_stream_scores
+
+    def fake(runs, recipe, seed, smoothings, **kwargs):
+        scores = [StreamScore(0.9 + 0.01 * seed, (1.0 + seed, np.inf), 100, 0.95, 80,
+                              {"SNOW": {"SNOW": 90 + seed, "ICE": 10 - seed}}),
+                  StreamScore(0.8, (0.5,), 300, 0.85, 200, {"ICE": {"ICE": 240}})]
+        return pd.DataFrame([{"fold": f, "smoothing": name, **s.as_row()}
+                             for name in smoothings for f, s in enumerate(scores)])
+
+    monkeypatch.setattr(pipelines.stream_eval, "held_out_streams", fake)
+    assert main(["stream-eval", "--part", "streams", "--kinds", "all-dense",
+                 "--seeds", "0", "2"]) == 0
+    out = capsys.readouterr().out
+    # seed 0: (0.90 * 100 + 0.8 * 300) / 400, seed 2: (0.92 * 100 + 0.8 * 300) / 400
+    assert "per seed 0.825 / 0.830" in out
+    mlflow.set_tracking_uri(f"sqlite:///{workdir / 'mlflow.db'}")
+    (run,) = mlflow.search_runs(experiment_names=["terrain-stream-eval"],
+                                output_format="list")
+    name = "all-dense_dwell10_power0.5"
+    assert run.data.metrics[f"{name}_accuracy_seed2"] == pytest.approx(0.83)
+    path = mlflow.artifacts.download_artifacts(
+        run_id=run.info.run_id, artifact_path="held_out_streams_all-dense.csv",
+        dst_path=str(workdir / "dl"))
+    table = read_stream_scores(path)
+    pooled = pool_scores(table[table["smoothing"] == "dwell10_power0.5"])
+    assert pooled["accuracy"] == pytest.approx(run.data.metrics[f"{name}_accuracy"])
+    assert pooled["n_switches"] == 6 and np.isinf(max(table["delays_s"].sum()))
