@@ -271,7 +271,7 @@ class CVReport:
                 for c in cols}
 
 
-def fit_with_groups(estimator, X, y, groups, always: bool = False):
+def fit_with_groups(estimator, X, y, groups, always: bool = False, **fit_params):
     """Fit, passing ``groups`` to estimators whose ``fit`` takes it (searches, ensembles, CNNs).
 
     Parameters
@@ -284,6 +284,8 @@ def fit_with_groups(estimator, X, y, groups, always: bool = False):
         ``(n_windows,)`` labels and split units (runs) of the training windows.
     always : bool
         Pass ``groups`` even if ``fit`` does not name it (``GridSearchCV.fit(**params)``).
+    **fit_params : dict
+        Further fit parameters, passed as they are (e.g. ``svc__sample_weight``).
 
     Returns
     -------
@@ -292,8 +294,8 @@ def fit_with_groups(estimator, X, y, groups, always: bool = False):
     """
     if groups is not None and (always
                                or "groups" in inspect.signature(estimator.fit).parameters):
-        return estimator.fit(X, y, groups=groups)
-    return estimator.fit(X, y)
+        return estimator.fit(X, y, groups=groups, **fit_params)
+    return estimator.fit(X, y, **fit_params)
 
 
 def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:

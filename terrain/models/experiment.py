@@ -25,7 +25,7 @@ from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, cross_valid
                                purge_block_overlaps, split_single_run_classes)
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, make_search, make_svm, svm_window_pipeline
-from terrain.models.weighting import RunBalancedClassifier
+from terrain.models.weighting import run_balanced
 from terrain.run import Run
 
 #: Window settings of the papers' protocol (BorealTC, Vulpi): 1.7 s windows, 0.1 s hop,
@@ -426,8 +426,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     if config.search:
         factory = (lambda seed: make_search(config.svm, seed, n_jobs=n_jobs))
     elif on_features and config.run_balanced:
-        factory = (lambda seed: RunBalancedClassifier(make_svm(config.svm, seed),
-                                                      weight_param="svc__sample_weight"))
+        factory = (lambda seed: run_balanced(make_svm(config.svm, seed)))
     elif on_features:
         factory = (lambda seed: make_svm(config.svm, seed))
     else:

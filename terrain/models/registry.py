@@ -24,7 +24,6 @@ from types import MappingProxyType
 from typing import Mapping, Sequence
 
 import numpy as np
-from sklearn.pipeline import Pipeline
 
 from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS
@@ -33,7 +32,7 @@ from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket
 from terrain.models.svm import SVMConfig, svm_window_pipeline
-from terrain.models.weighting import RunBalancedClassifier
+from terrain.models.weighting import run_balanced
 from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import WHEEL_CHANNELS
 
@@ -259,7 +258,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         every CNN is a :class:`~terrain.models.ensemble.SoftVotingEnsemble` of that many
         networks seeded ``random_state``, ``random_state + 1``, ... with equal weights; with
         ``config.run_balanced`` every single model in it is a
-        :class:`~terrain.models.weighting.RunBalancedClassifier`.
+        :class:`~terrain.models.weighting.RunBalancedClassifier`
+        (:func:`~terrain.models.weighting.run_balanced`).
     """
     kind = config.kind
     if config.window_ekf:
@@ -269,11 +269,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset))
     if config.run_balanced and kind not in ENSEMBLES and not (kind in CNN_MODELS
                                                                 and config.cnn_seeds > 1):
-        single = make_model(replace(config, run_balanced=False), channels, rate_hz, dataset,
-                            random_state, probability)
-        param = (f"{single.steps[-1][0]}__sample_weight" if isinstance(single, Pipeline)
-                 else "sample_weight")
-        return RunBalancedClassifier(single, weight_param=param)
+        return run_balanced(make_model(replace(config, run_balanced=False), channels,
+                                       rate_hz, dataset, random_state, probability))
     if kind in CNN_MODELS and config.cnn_seeds > 1:
         single = replace(config, cnn_seeds=1)
         bag = [(f"{kind}-seed{random_state + i}",

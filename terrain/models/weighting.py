@@ -15,13 +15,13 @@ classes. :class:`RunBalancedClassifier` fits a classifier with these weights.
 
 from __future__ import annotations
 
-import inspect
-
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
+from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError, ShapeError
+from terrain.models.cv import fit_with_groups
 
 
 def run_shares(labels, groups) -> np.ndarray:
@@ -87,6 +87,24 @@ def within_class_run_weights(labels, groups) -> np.ndarray:
     return share * per_class[inverse]
 
 
+def run_balanced(estimator) -> "RunBalancedClassifier":
+    """``estimator`` fitted with :func:`within_class_run_weights`, the weights routed to it.
+
+    Parameters
+    ----------
+    estimator : classifier
+        Unfitted; a :class:`sklearn.pipeline.Pipeline` gets the weights in its last step
+        (``<step>__sample_weight``), anything else as ``sample_weight``.
+
+    Returns
+    -------
+    RunBalancedClassifier
+    """
+    param = (f"{estimator.steps[-1][0]}__sample_weight" if isinstance(estimator, Pipeline)
+             else "sample_weight")
+    return RunBalancedClassifier(estimator, weight_param=param)
+
+
 class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
     """A classifier fitted with :func:`within_class_run_weights` of its training windows.
 
@@ -137,12 +155,8 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         """
         if groups is None:
             raise ConfigError("run-balanced weights need the run of every window (groups)")
-        weights = within_class_run_weights(y, groups)
-        estimator = clone(self.estimator)
-        params = {self.weight_param: weights}
-        if "groups" in inspect.signature(estimator.fit).parameters:
-            params["groups"] = groups
-        self.estimator_ = estimator.fit(X, y, **params)
+        self.estimator_ = fit_with_groups(clone(self.estimator), X, y, groups, **{
+            self.weight_param: within_class_run_weights(y, groups)})
         self.classes_ = self.estimator_.classes_
         return self
 
