@@ -32,7 +32,7 @@ import pandas as pd
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (RECIPES, encode_stream_scores, fit_stream_model,
                                         held_out_folds, pool_scores, raw_decisions,
-                                        score_smoothing)
+                                        score_smoothing, seed_accuracies)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
@@ -93,7 +93,7 @@ def main() -> int:
           f"{time.perf_counter() - start:.0f} s")
     for arm, g in frame.groupby("arm", sort=False):
         p = pool_scores(g)
-        per_seed = [pool_scores(s)["accuracy"] for _, s in g.groupby("seed")]
+        per_seed = seed_accuracies(g).values()
         print(f"  {arm:32s} per decision {p['accuracy']:.4f}  settled "
               f"{p['accuracy_settled']:.4f}  median delay {p['median_delay_s']:.2f} s  "
               f"per seed {' / '.join(f'{a:.3f}' for a in per_seed)}")

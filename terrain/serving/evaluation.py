@@ -900,24 +900,30 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
         (the error names the file, column and line).
     """
     frame = pd.read_csv(path)
-    delays, confusion = [], []
-    for row, (d, c) in enumerate(zip(frame.get("delays_s", []), frame.get("confusion", []))):
-        text = str(d).replace("np.float64(", "").replace(")", "")
-        if not (text.startswith("[") and text.endswith("]")):
-            raise DataFormatError(f"not a list of switching delays: {str(d)[:60]!r}",
-                                  path=str(path), column="delays_s", row=row, line=row + 2)
-        delays.append([float(x.replace("Infinity", "inf")) for x in _NUMBER.findall(text)])
-        try:
-            conf = ast.literal_eval(str(c))
-        except (ValueError, SyntaxError):
-            conf = None
-        if not isinstance(conf, dict):
-            raise DataFormatError(f"not a mapping of decision counts: {str(c)[:60]!r}",
-                                  path=str(path), column="confusion", row=row, line=row + 2)
-        confusion.append(conf)
+
+    def fail(column: str, row: int, what: str, cell) -> DataFormatError:
+        return DataFormatError(f"not {what}: {str(cell)[:60]!r}", path=str(path),
+                               column=column, row=row, line=row + 2)
+
     if "delays_s" in frame:
+        delays = []
+        for row, cell in enumerate(frame["delays_s"]):
+            text = str(cell).replace("np.float64(", "").replace(")", "")
+            if not (text.startswith("[") and text.endswith("]")):
+                raise fail("delays_s", row, "a list of switching delays", cell)
+            delays.append([float(x.replace("Infinity", "inf"))
+                           for x in _NUMBER.findall(text)])
         frame["delays_s"] = delays
     if "confusion" in frame:
+        confusion = []
+        for row, cell in enumerate(frame["confusion"]):
+            try:
+                conf = ast.literal_eval(str(cell))
+            except (ValueError, SyntaxError):
+                conf = None
+            if not isinstance(conf, dict):
+                raise fail("confusion", row, "a mapping of decision counts", cell)
+            confusion.append(conf)
         frame["confusion"] = confusion
     return frame
 
