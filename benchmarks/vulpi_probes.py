@@ -257,8 +257,9 @@ def main() -> int:
                   accuracy_per_seed=("accuracy", lambda a: " / ".join(f"{x:.3f}" for x in a)))
              .round(4).reset_index())
     pd.set_option("display.width", 160)
+    n_windows = scores.groupby("variant")["n_windows"].first().unique()
     print(f"Vulpi (and the BorealTC check), run-grouped StratifiedGroupKFold(5), seeds "
-          f"{args.seeds}; windows per seed: {scores.groupby('variant')['n_windows'].first().unique()}")
+          f"{args.seeds}; windows per seed: {n_windows}")
     print(table.to_string(index=False))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
