@@ -181,9 +181,6 @@ def check_settings(settings: Mapping[str, Any]) -> None:
         Naming the setting, its value and its range.
     """
     check_hop(settings["hop_s"], settings["rate_hz"])
-    dwell = settings.get("dwell_s")
-    if dwell is not None and not (math.isfinite(float(dwell)) and float(dwell) > 0):
-        raise ConfigError(f"dwell_s must be > 0 (or none for no smoothing), got {dwell}")
     smoothing_of(settings)
     conf = float(settings["min_confidence"])
     if not 0.0 <= conf <= 1.0:

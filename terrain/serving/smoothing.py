@@ -26,6 +26,7 @@ did not help on unseen streams, so it stays off).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,17 @@ from terrain.errors import ConfigError
 PROBA_FLOOR = 1e-4
 
 
+def _finite_positive(x) -> bool:
+    """Whether ``x`` is a real number, finite and > 0 (text and booleans are not)."""
+    if isinstance(x, (bool, str, bytes)):
+        return False
+    try:
+        value = float(x)
+    except (TypeError, ValueError):
+        return False
+    return math.isfinite(value) and value > 0
+
+
 @dataclass(frozen=True)
 class SmoothingConfig:
     """Settings of the forward filter.
@@ -43,7 +55,7 @@ class SmoothingConfig:
     Parameters
     ----------
     dwell_s : float or None
-        Expected time on one terrain, s (> 0); ``None`` disables the filter (each window's
+        Expected time on one terrain, s (finite, > 0); ``None`` disables the filter (each window's
         probabilities pass through unchanged).
     evidence_power : float
         Exponent on the classifier probabilities, in (0, 1].
@@ -64,8 +76,10 @@ class SmoothingConfig:
     reset_windows: int = 2
 
     def __post_init__(self) -> None:
-        if self.dwell_s is not None and not self.dwell_s > 0:
-            raise ConfigError(f"dwell_s must be > 0 or None, got {self.dwell_s}")
+        if self.dwell_s is not None and not _finite_positive(self.dwell_s):
+            # an infinite dwell would never leave the first terrain (p_switch = 0)
+            raise ConfigError(f"dwell_s must be a finite number > 0 (or None for no "
+                              f"smoothing), got {self.dwell_s}")
         if not 0 < self.evidence_power <= 1:
             raise ConfigError(f"evidence_power must be in (0, 1], got {self.evidence_power}")
         if not 0 <= self.hysteresis < 1:

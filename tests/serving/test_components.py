@@ -142,7 +142,9 @@ def test_no_decision_before_a_valid_window_and_invalid_windows_only_predict():
     assert decided == 0 and 0.5 < p[0] < 0.9 ** 0.5 / (0.9 ** 0.5 + 0.1 ** 0.5) + 1e-12
 
 
-@pytest.mark.parametrize("kwargs", [dict(dwell_s=0.0), dict(evidence_power=0.0),
+@pytest.mark.parametrize("kwargs", [dict(dwell_s=0.0), dict(dwell_s=float("inf")),
+                                    dict(dwell_s=float("nan")), dict(dwell_s="10"),
+                                    dict(evidence_power=0.0),
                                     dict(hysteresis=1.0), dict(reset_confidence=0.0),
                                     dict(reset_confidence=0.9, dwell_s=None),
                                     dict(reset_windows=0)])

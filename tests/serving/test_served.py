@@ -326,6 +326,8 @@ def test_settings_are_checked(wheel_model):
         served_settings(wheel_model, max_decisions=0)
     with pytest.raises(ConfigError, match="reset_confidence"):
         served_settings(wheel_model, reset_confidence=2.0)
+    with pytest.raises(ConfigError, match="dwell_s must be a finite number"):
+        served_settings(wheel_model, dwell_s=float("inf"))
 
 
 def test_reset_settings_round_trip_and_old_models_have_none(wheel_model):
