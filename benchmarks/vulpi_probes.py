@@ -46,7 +46,7 @@ from sklearn.svm import SVC
 
 from features import calculators
 from features.transformers import linear_bands
-from terrain.models.cv import iter_splits, purge_block_overlaps, split_single_run_classes
+from terrain.models.cv import grouped_units, iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
 from terrain.models.svm import make_svm
 from terrain.tracking import tracked_run
@@ -75,12 +75,7 @@ def probe_windows(dataset: str, rate_hz: float | None) -> dict:
         ``vulpi`` ``(n_windows,)`` bool mask of the Vulpi windows, ``config``.
     """
     config = ExperimentConfig(dataset=dataset, rate_hz=rate_hz)
-    ws = load_windows(config)
-    labels = ws.labels.astype(str)
-    groups, _ = split_single_run_classes(labels, ws.groups, ws.t_start_s,
-                                         config.single_run_blocks)
-    keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
-    ws, labels, groups = ws.subset(keep), labels[keep], groups[keep]
+    ws, labels, groups, _, _ = grouped_units(load_windows(config), config.single_run_blocks)
     F = feature_extractor(ws).transform(ws.X)
     vulpi = np.array([str(r).startswith("vulpi/") for r in ws.run_ids])
     return {"ws": ws, "F": F, "labels": labels, "groups": groups, "vulpi": vulpi,

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError
-from terrain.models.cv import cross_validate, purge_block_overlaps, split_single_run_classes
+from terrain.models.cv import cross_validate, grouped_units
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, cnn_seeds_for, make_model
 
@@ -304,12 +304,9 @@ def cell_windows(cell: Cell, n_blocks: int) -> tuple:
                               train_hop_s=cell.train_hop_s)
     runs = load_dataset(cell.dataset)
     ws = load_windows(config, runs)
-    labels = ws.labels.astype(str)
     if cell.protocol == "paper":
-        return ws, labels, ws.groups, None
-    groups, _ = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
-    keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
-    ws, labels, groups = ws.subset(keep), labels[keep], groups[keep]
+        return ws, ws.labels.astype(str), ws.groups, None
+    ws, labels, groups, _, _ = grouped_units(ws, n_blocks)
     return ws, labels, groups, load_training_windows(config, runs, ws, groups)
 
 

@@ -99,6 +99,41 @@ def purge_block_overlaps(groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.
     return keep
 
 
+def grouped_units(ws, n_blocks: int) -> tuple:
+    """Windows, labels and split units of the run-grouped protocols, as ``terrain cv`` cuts them.
+
+    Single-run classes are cut into ``n_blocks`` contiguous time blocks used as groups
+    (:func:`split_single_run_classes`) and windows straddling a block boundary are dropped
+    (:func:`purge_block_overlaps`).
+
+    Parameters
+    ----------
+    ws : features.windows.WindowSet
+        Windows with ``labels``, ``groups`` (run ids), ``run_ids`` and bounds (s).
+    n_blocks : int
+        Blocks per single-run class (>= 2).
+
+    Returns
+    -------
+    ws : features.windows.WindowSet
+        The kept windows.
+    labels : numpy.ndarray
+        ``(n_kept,)`` class names (str).
+    groups : numpy.ndarray
+        ``(n_kept,)`` split units (runs, or ``<run>@block<k>`` of a split class).
+    split_classes : list of str
+        Classes that were cut into blocks.
+    n_dropped : int
+        Windows dropped for straddling a block boundary.
+    """
+    labels = ws.labels.astype(str)
+    groups, split = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
+    keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
+    if keep.all():  # no copy of the windows when nothing is dropped
+        return ws, labels, groups, split, 0
+    return ws.subset(keep), labels[keep], groups[keep], split, int((~keep).sum())
+
+
 def training_units(run_ids: np.ndarray, t_start_s: np.ndarray, t_end_s: np.ndarray,
                    groups: np.ndarray, train_run_ids: np.ndarray, train_t_start_s: np.ndarray,
                    train_t_end_s: np.ndarray) -> np.ndarray:

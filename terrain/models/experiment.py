@@ -21,8 +21,7 @@ from features.windows import WindowConfig, WindowSet, make_windows, resolve_sign
 from terrain.errors import ConfigError
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, cross_validate,
-                               fit_with_groups, training_units,
-                               purge_block_overlaps, split_single_run_classes)
+                               fit_with_groups, grouped_units, training_units)
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, make_search, make_svm, svm_window_pipeline
 from terrain.models.weighting import run_balanced
@@ -383,26 +382,22 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     t1 = time.perf_counter()
     if len(ws) == 0:
         raise ConfigError("no window left for this dataset, signal set and window")
+    labels = ws.labels.astype(str)
+    notes = []
+    groups = ws.groups
+    if config.protocol != "paper":
+        ws, labels, groups, split, n_dropped = grouped_units(ws, config.single_run_blocks)
+        notes += [f"class {c} has a single run: cut into {config.single_run_blocks} contiguous "
+                  f"time blocks used as groups (its scores measure an unseen stretch of the "
+                  f"same run, not an unseen run)" for c in split]
+        if n_dropped:
+            notes.append(f"{n_dropped} window(s) straddling a time-block boundary dropped")
     fx = feature_extractor(ws)
     # the SVM on raw-signal features is cross-validated on features computed once; every
     # other model (and the SVM with --window-ekf) takes the raw windows
     on_features = config.model == "svm" and not config.window_ekf
     F = fx.transform(ws.X) if on_features else ws.X
     t2 = time.perf_counter()
-    labels = ws.labels.astype(str)
-    notes = []
-    groups = ws.groups
-    if config.protocol != "paper":
-        groups, split = split_single_run_classes(labels, ws.groups, ws.t_start_s,
-                                                 config.single_run_blocks)
-        notes += [f"class {c} has a single run: cut into {config.single_run_blocks} contiguous "
-                  f"time blocks used as groups (its scores measure an unseen stretch of the "
-                  f"same run, not an unseen run)" for c in split]
-        keep = purge_block_overlaps(groups, ws.run_ids, ws.t_start_s, ws.t_end_s)
-        if not keep.all():
-            notes.append(f"{int((~keep).sum())} window(s) straddling a time-block boundary "
-                         "dropped")
-            ws, F, labels, groups = ws.subset(keep), F[keep], labels[keep], groups[keep]
     input_notes = []
     if ws.counts["skipped_runs"]:
         input_notes.append(f"{len(ws.counts['skipped_runs'])} run(s) skipped for a missing "

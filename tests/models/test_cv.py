@@ -8,10 +8,10 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.model_selection import StratifiedKFold
 from sklearn.pipeline import Pipeline
 
-from features.windows import WindowConfig, make_windows
+from features.windows import WindowConfig, WindowSet, make_windows
 from terrain.errors import ConfigError
-from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, iter_splits,
-                               purge_block_overlaps, split_single_run_classes)
+from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, grouped_units,
+                               iter_splits, purge_block_overlaps, split_single_run_classes)
 from terrain.models.experiment import PAPER_WINDOW
 from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
                                     window_metrics)
@@ -280,3 +280,27 @@ def test_overlapping_windows_never_straddle_time_blocks_of_a_single_run_class():
     t0 = np.arange(0, 40, 2.0)
     groups, _ = split_single_run_classes(labels[:20], runs[:20].copy(), t0, n_blocks=4)
     assert purge_block_overlaps(groups, runs[:20], t0, t0 + 2.0).all()
+
+
+def _one_run_windows(hop_s: float) -> WindowSet:
+    t0 = np.arange(0, 40, hop_s)
+    n = t0.size
+    run = np.full(n, "v/DIRT_ROAD/1", dtype=object)
+    return WindowSet(np.zeros((n, 1, 4)), ("wz",), run, run.copy(), np.full(n, "DIRT_ROAD"),
+                     t0, t0 + 2.0, 2.0, {})
+
+
+def test_grouped_units_splits_and_purges_as_terrain_cv_does():
+    # the single run above as a WindowSet: blocks and the purge in one call
+    ws = _one_run_windows(0.5)
+    kept, labels, groups, split, n_dropped = grouped_units(ws, 4)
+    groups_all, _ = split_single_run_classes(ws.labels.astype(str), ws.groups, ws.t_start_s, 4)
+    keep = purge_block_overlaps(groups_all, ws.run_ids, ws.t_start_s, ws.t_end_s)
+    assert split == ["DIRT_ROAD"] and n_dropped == int((~keep).sum()) > 0
+    assert np.array_equal(kept.t_start_s, ws.t_start_s[keep])
+    assert np.array_equal(groups, groups_all[keep])
+    assert len(labels) == len(kept) and labels.dtype.kind == "U"
+    # non-overlapping windows: nothing dropped, the same WindowSet back rather than a copy
+    ws = _one_run_windows(2.0)
+    kept, _, _, _, n_dropped = grouped_units(ws, 4)
+    assert kept is ws and n_dropped == 0
