@@ -256,6 +256,14 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     train_split=train_split, callbacks=callbacks, device=self._device(),
                     verbose=0, classes=np.arange(len(self.classes_)))
                 self.net_.fit(Z_fit, y_fit)
+                # the sampler (it holds the training weights), the generator and the
+                # validation split (it holds the validation windows) only serve training;
+                # the fitted model does not carry them (skorch's set_params refuses
+                # iterator-only changes on a fitted net, hence setattr)
+                for key in ("iterator_train__sampler", "iterator_train__generator",
+                            "train_split"):
+                    if key in vars(self.net_):
+                        setattr(self.net_, key, None)
             finally:
                 torch.set_num_threads(threads)
         self.n_epochs_ = len(self.net_.history)

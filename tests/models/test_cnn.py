@@ -141,6 +141,8 @@ def test_early_stopping_validates_on_whole_held_out_runs():
     assert model.net_.history[0]["batches"][0]["train_batch_size"] == FAST["batch_size"]
     n_train = sum(b["train_batch_size"] for b in history[0]["batches"] if "train_batch_size" in b)
     assert n_train == 6 * 12
+    # the fitted model does not carry the validation windows with it
+    assert model.net_.train_split is None
 
 
 def test_log_spectrogram_peaks_at_the_tone_frequency():

@@ -3,6 +3,8 @@ class totals stay as they are, and the SVM and the CNNs really train with the we
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 from sklearn.base import BaseEstimator, ClassifierMixin
@@ -115,6 +117,22 @@ def test_cnn_draws_its_epochs_by_the_window_weights():
     for bad in (np.zeros(train.sum()), -weight, np.ones(3)):
         with pytest.raises(ValueError):
             fit(bad)
+
+
+def test_fitted_cnn_keeps_neither_its_training_weights_nor_its_draw_generator():
+    X, y, groups = _planted_with_an_odd_long_run()
+    weighted = RawCNNClassifier(**FAST).fit(X, y, sample_weight=np.linspace(0.5, 2.0, len(y)))
+    plain = RawCNNClassifier(**FAST).fit(X, y)
+    for model in (weighted, plain):
+        params = model.net_.get_params()
+        assert params.get("iterator_train__sampler") is None
+        assert params.get("iterator_train__generator") is None
+        copy = pickle.loads(pickle.dumps(model))
+        np.testing.assert_array_equal(copy.predict_proba(X), model.predict_proba(X))
+    # the same draws as before the clean-up: a refit gives the same network
+    np.testing.assert_array_equal(
+        RawCNNClassifier(**FAST).fit(X, y, sample_weight=np.linspace(0.5, 2.0, len(y)))
+        .predict_proba(X), weighted.predict_proba(X))
 
 
 def test_registry_wraps_every_single_model_of_a_run_balanced_ensemble():
