@@ -21,8 +21,10 @@ half / held-out half) and computes, per terrain and pooled (every terrain with i
 
 (:mod:`terrain.audit.ceiling`.) Prints the tables, writes them as CSV, draws the figure
 (held-out yaw-rate gains per terrain; SNOW spin current per run against the commanded spin
-rate), prints the outer and inner motor currents in curves per terrain, and logs the gains, tables and figure to MLflow (experiment ``terrain-benchmark``, run
-``explainable-ceiling``).
+rate), prints the outer and inner motor currents in curves per terrain and the
+least-squares chi per terrain and manoeuvre of the measured yaw rate and of both replays on
+the same samples (``chi_shared.csv``), and logs the gains, tables and figure to MLflow
+(experiment ``terrain-benchmark``, run ``explainable-ceiling``).
 ``docs/physics_v2.md``, section "What one parameter set per terrain can reach".
 
 Usage: ``python benchmarks/explainable_ceiling.py [--dataset borealtc|vulpi]
@@ -257,7 +259,8 @@ def main() -> int:
             store["wz"].append(wz)
             store["cur"].append(current_ceiling_samples(f, c))
             for man, chi in wz.attrs.get("chi_shared", {}).items():
-                chi_rows.append((name, terrain, man, chi))
+                chi_rows.append((name, terrain, man, chi, wz.attrs["chi_reference"][man],
+                                 wz.attrs["chi_candidate"][man]))
         tr_f, tr_c = [p[0] for p in train], [p[1] for p in train]
         te_f, te_c = [p[0] for p in test], [p[1] for p in test]
         try:
@@ -297,7 +300,9 @@ def main() -> int:
     table = _merge_learned(_tables(held, "held-out") + _tables(every, "all"),
                            _tables(learned, "held-out"))
     table.to_csv(args.out, index=False)
-    chi = pd.DataFrame(chi_rows, columns=["runs", "terrain", "manoeuvre", "chi_shared"])
+    chi = pd.DataFrame(chi_rows, columns=["runs", "terrain", "manoeuvre", "chi_shared",
+                                          f"chi_{settings.reference}_replay",
+                                          f"chi_{settings.candidate}_replay"])
     pd.set_option("display.width", 200)
     show = ["runs", "terrain", "signal", "scope", "n_runs", "rmse_reference", "gain_candidate",
             "gain_shared", "gain_per_run", "gain_online", "gain_learned"]

@@ -135,7 +135,11 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
         Columns ``run_id, terrain, side`` (``-1``: not a side signal), ``manoeuvre`` (name),
         ``measured, reference, candidate`` (NaN without candidates), ``shared`` (one
         ``chi_m`` per manoeuvre fitted on all these samples), ``per_run`` (one per run and
-        manoeuvre), all in rad/s. ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi``.
+        manoeuvre), all in rad/s. ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi`` of
+        the measured yaw rate; ``attrs["chi_reference"]`` and ``attrs["chi_candidate"]``
+        (the latter only with ``candidates``): the same least-squares chi of each replay's
+        yaw rate on the same samples, so the replays' chi per manoeuvre can be set against
+        the measured one on the same commanded turns.
 
     Raises
     ------
@@ -159,10 +163,14 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
     tab["shared"] = np.nan
     tab["per_run"] = np.nan
     chi = {}
+    replay_chi = {"reference": {}, "candidate": {}}
     for code, sub in tab.groupby("code"):
         a = inverse_icr_factor(sub.measured.to_numpy(), sub.x.to_numpy())
         a = 0.0 if not np.isfinite(a) else a
         chi[MANOEUVRES[code]] = 1.0 / a if a > 0 else np.inf
+        for name, found in replay_chi.items():
+            b = inverse_icr_factor(sub[name].to_numpy(), sub.x.to_numpy())
+            found[MANOEUVRES[code]] = (1.0 / b if b > 0 else np.inf) if np.isfinite(b) else np.nan
         tab.loc[sub.index, "shared"] = a * sub.x
         for _, one in sub.groupby("run_id"):
             b = inverse_icr_factor(one.measured.to_numpy(), one.x.to_numpy())
@@ -170,6 +178,9 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
     tab["manoeuvre"] = [MANOEUVRES[c] for c in tab.code]
     out = tab[cols].copy()
     out.attrs["chi_shared"] = chi
+    out.attrs["chi_reference"] = replay_chi["reference"]
+    if candidates is not None:
+        out.attrs["chi_candidate"] = replay_chi["candidate"]
     return out
 
 

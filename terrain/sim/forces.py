@@ -474,7 +474,8 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
         f_lat, k_lat = lateral_force_and_slope(terrain.lateral_friction, normal, v_lat,
                                                SLIDE_SPEED_M_S)
     else:
-        f_lat, k_lat = soil_lateral_force_and_slope(soil, normal, v_lat, wr, SLIDE_SPEED_M_S)
+        f_lat, k_lat = soil_lateral_force_and_slope(soil, normal, v_lat, wr, SLIDE_SPEED_M_S,
+                                                    slip_ratio=slip)
     force = a_force.T @ f_long + b_mat.T @ f_lat
     jac = (a_force.T * k_long) @ a_mat + (b_mat.T * k_lat) @ b_mat
     return ContactForces(force, jac, mu, wr)

@@ -103,11 +103,24 @@ class SoilParams:
         (:func:`terrain.terramechanics.traction.patch_mobilisation`); None = the
         exponential Janosi-Hanamoto curve (shipped: SNOW 0.4, SANDY_LOAM 0.9, PLOUGHED
         None).
+    slip_sinkage_ratio : float or None
+        ``k_s`` of slip sinkage: a wheel that slips sinks deeper than its static sinkage,
+        ``z(s) = z_0 (1 + k_s |s|)`` with ``s`` its longitudinal (SAE) slip ratio (capped
+        at the wheel radius or ``layer_depth_m``), which deepens the sinkage wall its side
+        bulldozes (:func:`soil_lateral_force_and_slope`). Ding et al., "Wheel slip-sinkage
+        and its prediction model of lunar rover", J. Cent. South Univ. Technol. 17 (2010)
+        129-135, measured 3-7 times the static sinkage at slip 0.6 (``k_s`` about 3-10) for
+        lugged wheels on lunar soil simulant; Lyasko, "Slip sinkage effect in soil-vehicle
+        mechanics", J. Terramechanics 47 (2010) 21-31, for agricultural soils. The linear
+        form is ASSUMED and any value for snow is by ANALOGY. None: static sinkage only
+        (every shipped soil; 2 and 5 on SNOW were tried on training runs and not adopted,
+        docs/physics_v2.md, "Measured chi per manoeuvre").
 
     Raises
     ------
     ConfigError
-        ``layer_depth_m`` is not positive, or ``residual_ratio`` is outside (0, 1).
+        ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1), or
+        ``slip_sinkage_ratio`` is negative or not finite.
     """
 
     name: str
@@ -122,8 +135,13 @@ class SoilParams:
     lateral_shear_modulus_m: float | None = None
     layer_depth_m: float | None = None
     residual_ratio: float | None = None
+    slip_sinkage_ratio: float | None = None
 
     def __post_init__(self) -> None:
+        if self.slip_sinkage_ratio is not None and not (
+                np.isfinite(self.slip_sinkage_ratio) and self.slip_sinkage_ratio >= 0.0):
+            raise ConfigError(f"{self.name}: slip_sinkage_ratio must be a finite value >= 0 "
+                              f"or None, got {self.slip_sinkage_ratio}")
         if self.layer_depth_m is not None and not self.layer_depth_m > 0:
             raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
                               f"{self.layer_depth_m}")
@@ -222,8 +240,8 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     for _ in range(iterations):
         z = min(bekker_sinkage_m(load_n, width_m, length, soil.k_c, soil.k_phi, soil.n),
                 z_max)
-        chord = 2.0 * np.sqrt(max(2.0 * wheel_radius_m * z - z * z, 0.0))
-        length = 0.5 * length + 0.5 * max(footprint_length_m, chord)   # damped
+        chord = float(contact_chord_m(z, wheel_radius_m, footprint_length_m))
+        length = 0.5 * length + 0.5 * chord   # damped
     return float(z), float(length)
 
 
@@ -255,26 +273,50 @@ def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) 
 
     Parameters
     ----------
-    sinkage_m : float
+    sinkage_m : float or ndarray, shape (c,)
         Depth of the wall z, m.
-    wall_width_m : float
+    wall_width_m : float or ndarray, shape (c,)
         Width of the wall w, m (the contact length for a wheel sliding sideways).
     soil : SoilParams
         Soil.
 
     Returns
     -------
-    float
-        N.
+    float or ndarray, shape (c,)
+        N (a float for scalar inputs).
     """
     phi = np.radians(soil.friction_angle_deg)
     n_c, _, n_g = bearing_capacity_factors(soil.friction_angle_deg)
     cos2 = np.cos(phi) ** 2
     k_pc = (n_c - np.tan(phi)) * cos2
     k_pg = (2.0 * n_g / np.tan(phi) + 1.0) * cos2
-    z = float(sinkage_m)
-    return float(wall_width_m * (0.67 * soil.cohesion_pa * z * k_pc
-                                 + 0.5 * z * z * soil.unit_weight_n_m3 * k_pg))
+    z = np.asarray(sinkage_m, dtype=float)
+    out = np.asarray(wall_width_m, dtype=float) * (0.67 * soil.cohesion_pa * z * k_pc
+                                                   + 0.5 * z * z * soil.unit_weight_n_m3 * k_pg)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def contact_chord_m(sinkage_m: np.ndarray, wheel_radius_m: float,
+                    footprint_length_m: float | np.ndarray) -> np.ndarray:
+    """Contact length of a rigid wheel sunk by ``z``: ``max(l_0, 2 sqrt(2 r z - z^2))``.
+
+    Parameters
+    ----------
+    sinkage_m : float or ndarray, shape (c,)
+        Sinkage z, m (``0 <= z <= r``).
+    wheel_radius_m : float
+        Wheel radius r, m.
+    footprint_length_m : float or ndarray, shape (c,)
+        Footprint length of the tyre on firm ground l_0, m.
+
+    Returns
+    -------
+    ndarray, shape (c,) (0-d for scalar inputs)
+        l, m (Wong ch. 2.2, the chord of the sunk rim).
+    """
+    z = np.asarray(sinkage_m, dtype=float)
+    chord = 2.0 * np.sqrt(np.maximum(2.0 * wheel_radius_m * z - z * z, 0.0))
+    return np.maximum(footprint_length_m, chord)
 
 
 def shear_mobilisation(a: np.ndarray, residual_ratio: float | None = None) -> np.ndarray:
@@ -368,14 +410,54 @@ def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
     return SoilContact(soil, width_m, wheel_radius_m, loads, strength, length, z)
 
 
+def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
+                         slip_ratio: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lateral strength and contact length of wheels sunk deeper by their slip.
+
+    ``z = min(z_0(N) (1 + k_s |s|), z_max)`` (:attr:`SoilParams.slip_sinkage_ratio`), the
+    chord ``l(z)`` (:func:`contact_chord_m`) and ``S = c b l + N tan phi + R_b(z, l)``
+    (:func:`bulldozing_force_n`), the same terms as :func:`soil_contact` at the deeper wall.
+
+    Parameters
+    ----------
+    contact : SoilContact
+        Tabulated contact; its soil has a ``slip_sinkage_ratio``.
+    normal_load_n : ndarray, shape (c,)
+        Normal loads, N (within the table).
+    slip_ratio : ndarray, shape (c,)
+        Longitudinal (SAE) slip ratio of each wheel, dimensionless.
+
+    Returns
+    -------
+    strength_n : ndarray, shape (c,)
+        ``S``, N (0 for an unloaded wheel).
+    contact_length_m : ndarray, shape (c,)
+        ``l``, m.
+    """
+    soil = contact.soil
+    z0 = np.interp(normal_load_n, contact.load_grid_n, contact.sinkage_grid_m)
+    z_max = contact.wheel_radius_m if soil.layer_depth_m is None else min(
+        contact.wheel_radius_m, soil.layer_depth_m)
+    z = np.minimum(z0 * (1.0 + soil.slip_sinkage_ratio * np.abs(slip_ratio)), z_max)
+    length = contact_chord_m(z, contact.wheel_radius_m, contact.length_grid_m[0])
+    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
+    strength = (soil.cohesion_pa * contact.width_m * length + normal_load_n * tan_phi
+                + bulldozing_force_n(z, length, soil))
+    return np.where(normal_load_n > 0, strength, 0.0), length
+
+
 def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray,
                                  v_lateral_m_s: np.ndarray, rim_speed_m_s: np.ndarray,
-                                 slide_speed_m_s: float = 0.02
+                                 slide_speed_m_s: float = 0.02,
+                                 slip_ratio: np.ndarray | None = None
                                  ) -> tuple[np.ndarray, np.ndarray]:
     """Lateral soil force of skid-steered wheels and its secant slope (module docstring).
 
     ``F = -tanh(v_lat / v_slide) S(N) g(l |v_lat| / (K max(|omega r|, v_slide)))`` with the
-    tabulated strength ``S(N)`` and contact length ``l(N)`` of :func:`soil_contact`.
+    tabulated strength ``S(N)`` and contact length ``l(N)`` of :func:`soil_contact`; on a
+    soil with slip sinkage, ``S`` and ``l`` of the wall deepened by each wheel's slip
+    (:func:`slip_sunk_strength_n`; the slope keeps ``S`` fixed, as the longitudinal slip
+    is not a lateral velocity).
 
     Parameters
     ----------
@@ -390,6 +472,9 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     slide_speed_m_s : float
         Regularisation speed, m/s: floor of the rim speed (a locked wheel shears the soil
         fully) and scale of the sign smoothing.
+    slip_ratio : ndarray, shape (c,), optional
+        Longitudinal (SAE) slip ratio of each wheel; used only by a soil with a
+        ``slip_sinkage_ratio`` (None: static sinkage).
 
     Returns
     -------
@@ -400,8 +485,12 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
         the tangent, which keeps the implicit integrator stable.
     """
     n_load = np.clip(np.asarray(normal_load_n, dtype=float), 0.0, contact.load_grid_n[-1])
-    strength = np.interp(n_load, contact.load_grid_n, contact.strength_grid_n)
-    length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
+    if contact.soil.slip_sinkage_ratio is not None and slip_ratio is not None:
+        strength, length = slip_sunk_strength_n(contact, n_load,
+                                                np.asarray(slip_ratio, dtype=float))
+    else:
+        strength = np.interp(n_load, contact.load_grid_n, contact.strength_grid_n)
+        length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
     v = np.asarray(v_lateral_m_s, dtype=float)
     roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
     scale = length / (contact.soil.shear_modulus_y_m * roll)     # a = scale |v|

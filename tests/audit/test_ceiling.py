@@ -55,6 +55,14 @@ def test_one_ground_state_per_terrain_reaches_the_per_run_fit():
     frames = [_frame(f"r{k}", lambda x, t: x / 2.0, rng=rng, noise=0.002) for k in range(3)]
     tab = yaw_rate_ceiling_samples(frames)
     assert tab.attrs["chi_shared"]["spin"] == pytest.approx(2.0, rel=0.01)
+    # the replay's own chi on the same commanded turns: the frames' sim_wz is x / 3
+    assert tab.attrs["chi_reference"]["spin"] == pytest.approx(3.0)
+    assert "chi_candidate" not in tab.attrs
+    candidates = [replace(f, sim_wz=f.commanded_yaw_rate / 1.5) for f in frames]
+    with_candidate = yaw_rate_ceiling_samples(frames, candidates)
+    assert with_candidate.attrs["chi_candidate"]["spin"] == pytest.approx(1.5)
+    # straight driving commands no turn: its chi is not defined
+    assert np.isnan(with_candidate.attrs["chi_candidate"]["straight"])
     t = ceiling_table(tab)
     spin = _row(t, "spin")
     assert spin.n_runs == 3

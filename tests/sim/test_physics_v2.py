@@ -19,7 +19,8 @@ from terrain.terramechanics.catalogue import get_terrain
 from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors,
                                             bulldozing_force_n, longitudinal_curve,
                                             shear_mobilisation, soil_contact,
-                                            soil_lateral_force_and_slope, wheel_sinkage_m)
+                                            slip_sunk_strength_n, soil_lateral_force_and_slope,
+                                            wheel_sinkage_m)
 from terrain.terramechanics.resistance import bekker_sinkage_m
 from terrain.terramechanics.traction import patch_mobilisation, traction_curve_and_slope
 from terrain.vehicles import HUSKY, get_vehicle
@@ -165,6 +166,49 @@ def test_soil_lateral_force_bounded_odd_and_grows_with_slip_angle():
     f_slow, _ = soil_lateral_force_and_slope(c, np.array([W]), np.array([0.05]),
                                              np.array([0.05]))
     assert abs(f_slow[0]) > abs(f[3])
+
+
+def test_slip_sinkage_deepens_the_wall_with_the_slip_and_keeps_the_static_contact_at_rest():
+    snow = replace(SOILS["SNOW"], slip_sinkage_ratio=1.0)
+    c = soil_contact(snow, 0.11, 0.08, 0.1651, 4 * W)
+    loads = np.array([0.0, W, W, W, W])
+    slips = np.array([0.5, 0.0, 0.2, 0.5, -0.5])
+    strength, length = slip_sunk_strength_n(c, loads, slips)
+    z0, l0 = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, snow)
+    # at rest: the tabulated static contact (the table is the same formula at z_0)
+    assert strength[1] == pytest.approx(np.interp(W, c.load_grid_n, c.strength_grid_n),
+                                        rel=1e-3)
+    assert length[1] == pytest.approx(l0, rel=1e-3)
+    # deeper with the slip, whichever its sign, as the bulldozing of Wong eq. 2.61 says
+    assert 0.05 < z0 < 0.1651 / 1.5        # the shipped snow: ~73 mm static sinkage
+    z = z0 * (1 + 1.0 * 0.2)
+    chord = 2 * np.sqrt(2 * 0.1651 * z - z * z)
+    assert strength[2] == pytest.approx(
+        620.0 * 0.11 * chord + W * np.tan(np.radians(23.2)) + bulldozing_force_n(z, chord, snow),
+        rel=1e-3)   # z_0 interpolated from the load table
+    assert strength[0] == 0.0 and strength[1] < strength[2] < strength[3] == strength[4]
+    # nor below a firm base under a shallow layer
+    layer = replace(c, soil=replace(snow, layer_depth_m=0.03))
+    capped, _ = slip_sunk_strength_n(layer, np.array([W, W]), np.array([0.0, 0.9]))
+    assert capped[0] == capped[1]
+    # nor below the wheel's rim
+    deep, _ = slip_sunk_strength_n(replace(c, soil=replace(snow, slip_sinkage_ratio=1e3)),
+                                   np.array([W]), np.array([1.0]))
+    z_r = 0.1651
+    assert deep[0] == pytest.approx(620.0 * 0.11 * 2 * z_r + W * np.tan(np.radians(23.2))
+                                    + bulldozing_force_n(z_r, 2 * z_r, snow))
+    # the force law uses the deepened strength only on a soil with slip sinkage
+    v = np.array([0.1])
+    f_static, _ = soil_lateral_force_and_slope(c, np.array([W]), v, np.array([0.2]))
+    f_slip, _ = soil_lateral_force_and_slope(c, np.array([W]), v, np.array([0.2]),
+                                             slip_ratio=np.array([0.5]))
+    plain = soil_contact(replace(snow, slip_sinkage_ratio=None), 0.11, 0.08, 0.1651, 4 * W)
+    f_plain, _ = soil_lateral_force_and_slope(plain, np.array([W]), v, np.array([0.2]),
+                                              slip_ratio=np.array([0.5]))
+    assert abs(f_slip[0]) > abs(f_static[0]) and f_plain[0] == pytest.approx(f_static[0])
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ConfigError, match="slip_sinkage_ratio"):
+            replace(snow, slip_sinkage_ratio=bad)
 
 
 def test_longitudinal_curve_is_the_catalogue_strength_with_the_soils_k_x():
