@@ -398,16 +398,41 @@ def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
     SoilContact
     """
     loads = np.linspace(0.0, max_load_n, n_grid)
-    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
     z = np.zeros(n_grid)
     length = np.full(n_grid, footprint_length_m)
-    strength = np.zeros(n_grid)
     for i, w in enumerate(loads):
         z[i], length[i] = wheel_sinkage_m(w, width_m, footprint_length_m, wheel_radius_m, soil)
-        area = width_m * length[i] if w > 0 else 0.0
-        strength[i] = (soil.cohesion_pa * area + w * tan_phi
-                       + (bulldozing_force_n(z[i], length[i], soil) if w > 0 else 0.0))
+    strength = lateral_strength_n(soil, width_m, loads, z, length)
     return SoilContact(soil, width_m, wheel_radius_m, loads, strength, length, z)
+
+
+def lateral_strength_n(soil: SoilParams, width_m: float, normal_load_n: np.ndarray,
+                       sinkage_m: np.ndarray, contact_length_m: np.ndarray) -> np.ndarray:
+    """Lateral strength of a sunk wheel: ``S = c b l + N tan phi + R_b(z, l)``.
+
+    Cohesion over the patch, friction of the load (Mohr-Coulomb, Wong eq. 2.56 at full
+    mobilisation) and the bulldozing of the sinkage wall (:func:`bulldozing_force_n`).
+
+    Parameters
+    ----------
+    soil : SoilParams
+        Soil.
+    width_m : float
+        Contact width b, m.
+    normal_load_n, sinkage_m, contact_length_m : ndarray, shape (c,)
+        Normal load N (N), sinkage z (m) and contact length l (m) of each wheel.
+
+    Returns
+    -------
+    ndarray, shape (c,)
+        ``S``, N (0 for an unloaded wheel).
+    """
+    load = np.asarray(normal_load_n, dtype=float)
+    length = np.asarray(contact_length_m, dtype=float)
+    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
+    strength = (soil.cohesion_pa * (width_m * length) + load * tan_phi
+                + bulldozing_force_n(sinkage_m, length, soil))
+    return np.where(load > 0, strength, 0.0)
 
 
 def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
@@ -415,8 +440,8 @@ def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
     """Lateral strength and contact length of wheels sunk deeper by their slip.
 
     ``z = min(z_0(N) (1 + k_s |s|), z_max)`` (:attr:`SoilParams.slip_sinkage_ratio`), the
-    chord ``l(z)`` (:func:`contact_chord_m`) and ``S = c b l + N tan phi + R_b(z, l)``
-    (:func:`bulldozing_force_n`), the same terms as :func:`soil_contact` at the deeper wall.
+    chord ``l(z)`` (:func:`contact_chord_m`) and :func:`lateral_strength_n` at the deeper
+    wall, as :func:`soil_contact` tabulates it at the static one.
 
     Parameters
     ----------
@@ -440,10 +465,7 @@ def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
         contact.wheel_radius_m, soil.layer_depth_m)
     z = np.minimum(z0 * (1.0 + soil.slip_sinkage_ratio * np.abs(slip_ratio)), z_max)
     length = contact_chord_m(z, contact.wheel_radius_m, contact.length_grid_m[0])
-    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
-    strength = (soil.cohesion_pa * contact.width_m * length + normal_load_n * tan_phi
-                + bulldozing_force_n(z, length, soil))
-    return np.where(normal_load_n > 0, strength, 0.0), length
+    return lateral_strength_n(soil, contact.width_m, normal_load_n, z, length), length
 
 
 def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray,
