@@ -121,12 +121,14 @@ def main(args: argparse.Namespace) -> int:
     frame["flags"] = join_flags(frame["flags"], stuck)
     n_stuck = int((stuck != "").sum())
     span = _overlap_s([run.streams[s] for s in service.needed_streams])
-    short = [run.run_id] if not len(frame) and span < window_s else []
+    # a run whose needed streams share less than one window is refused even where the
+    # service emitted (flagged) decisions from the longer stream alone
+    short = [run.run_id] if span < window_s else []
     counts = {"per_run": {} if short else {run.run_id: {
         "windows": len(frame), "dropped_gap": 0, "dropped_unsteady": 0}},
         "too_short_runs": short}
     print(input_report([run], counts, window_s, {run.run_id: n_stuck}).text())
-    if not len(frame):
+    if short or not len(frame):
         raise DataFormatError(f"no decision from run {run.run_id}: its streams "
                               f"{list(service.needed_streams)} overlap for {span:.2f} s, "
                               f"shorter than the model's {window_s:g} s window", args.run_dir)

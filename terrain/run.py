@@ -30,6 +30,9 @@ import pandas as pd
 TIME = "t_s"
 IMU_CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az")
 WHEEL_CHANNELS = ("vel_l", "vel_r", "cur_l", "cur_r")
+#: Vehicles a run may name (:attr:`Run.vehicle`); each has a default parameter set in
+#: :func:`terrain.vehicles.get_vehicle`, which takes the names from here
+VEHICLE_NAMES: tuple[str, ...] = ("agrimaro", "husky", "tracked")
 
 
 @dataclass(frozen=True)
@@ -48,7 +51,7 @@ class Run:
     streams : Mapping[str, pandas.DataFrame]
         Stream name -> frame with ``t_s`` first and canonical channel columns (SI units).
     vehicle : str
-        Vehicle name (``husky`` for the measured data).
+        Vehicle name, one of :data:`VEHICLE_NAMES` (``husky`` for the measured data).
     source : str
         Where the run came from (file path or description).
     meta : Mapping[str, Any]

@@ -37,7 +37,7 @@ from terrain.errors import (DataFormatError, EmptyFileError, EncodingError, Miss
                             TimestampError, UnreadableFileError, first_items)
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
-from terrain.run import IMU_CHANNELS, TIME, Run
+from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
 
 #: file column -> canonical name, per known file kind
 COLUMN_MAPS: Mapping[str, Mapping[str, str]] = MappingProxyType({
@@ -318,7 +318,9 @@ def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:
     """
     root = Path(root)
     if not root.is_dir():
-        raise DataFormatError("runs folder does not exist", root)
+        raise DataFormatError("runs folder is a file: give the folder that holds the terrain "
+                              "folders" if root.exists() else "runs folder does not exist",
+                              root)
     runs: dict[tuple[str, str], dict[str, Path]] = {}
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
         for f in sorted(folder.iterdir()):
@@ -362,7 +364,8 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     OrphanFileError
         If the run has stream files but no ``pro`` (wheel) file.
     DataFormatError
-        If ``meta_XX.json`` is not valid JSON or not a JSON object (names the file), or a
+        If ``meta_XX.json`` is not valid JSON or not a JSON object, or its ``vehicle`` is
+        not one of :data:`terrain.run.VEHICLE_NAMES` (names the file), or a
         stream file is malformed (raised by :func:`read_stream_csv`).
     """
     if "pro" not in files:
@@ -376,6 +379,13 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
             raise DataFormatError(f"invalid JSON: {exc}", files["meta"]) from None
         if not isinstance(meta, dict):
             raise DataFormatError("run metadata must be a JSON object", files["meta"])
+    vehicle = meta.get("vehicle", "husky")
+    if not isinstance(vehicle, str) or vehicle.lower() not in VEHICLE_NAMES:
+        # an unknown vehicle would also switch off the vehicle's plausibility rules
+        raise DataFormatError(f"key 'vehicle': unknown vehicle {vehicle!r}; valid: "
+                              f"{', '.join(VEHICLE_NAMES)} (leave the key out for the "
+                              "Husky)", files["meta"])
+    vehicle = vehicle.lower()
     streams: dict[str, pd.DataFrame] = {}
     repaired: dict[str, int] = {}
     gaps: dict[str, list] = {}
@@ -390,7 +400,6 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         skipped.update({f"{name}.{k}": n for k, n in report.skipped_lines.items() if n})
         if report.gaps:
             gaps[name] = report.gaps
-    vehicle = str(meta.get("vehicle", "husky"))
     checks = check_run(run_id, streams, vehicle,
                        {STREAM_NAMES.get(k, k): str(p) for k, p in files.items()})
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,

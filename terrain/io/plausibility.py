@@ -34,7 +34,11 @@ Unit and clock rules (:func:`check_run`)
     ``clock_overlap``
         The time spans of the streams of a run must overlap (both measured files start at
         ``time = 0``). Certain when they do not overlap at all (e.g. an epoch clock beside a
-        clock from 0); likely (warning) when they overlap for less than half of the shorter.
+        clock from 0); likely (warning) when they overlap for less than half of the shorter,
+        or when one stream runs on for more than :data:`MAX_UNUSED_SPAN_S` (or a tenth of the
+        overlap, whichever is longer) before or after the other (a truncated file): only the
+        overlap is used, and the message gives the seconds of each stream left out (the
+        shipped runs: at most 1.34 s).
     ``gyro_units``
         Yaw rate of the gyro against the difference of the wheel speeds (vehicles of
         :data:`VEHICLE_LIMITS`, skid-steer): for a skid-steer
@@ -151,6 +155,11 @@ VEHICLE_LIMITS: Mapping[str, VehicleLimits] = MappingProxyType({
                            "control.yaml (1.0 m/s, 2.0 rad/s); user manual 2014 p. 12 "
                            "(8 A continuous, spikes several times; 80 A ASSUMED)"),
 })
+
+#: longest stretch of one stream outside the overlap of a run's streams that passes without a
+#: ``clock_overlap`` warning, s (or a tenth of the overlap, whichever is longer); the shipped
+#: runs' streams end at most 1.34 s apart (BorealTC ICE/00)
+MAX_UNUSED_SPAN_S = 2.0
 
 #: stream -> (lowest, highest) nominal sample rate, Hz (MEMS IMUs 10-2000 Hz; Husky wheel
 #: reports 6.5-15 Hz in the shipped data, simulator streams up to 100 Hz)
@@ -397,10 +406,14 @@ def _check_clocks(imu, wheels, src, found) -> None:
                          "file's first timestamp, or fix the one in another unit or epoch)",
                          f"{src('imu')} and {src('wheels')}", "time")
     shorter = min(a1 - a0, b1 - b0)
-    if shorter > 0 and overlap < 0.5 * shorter:
+    unused = {"imu": (a1 - a0) - overlap, "wheels": (b1 - b0) - overlap}
+    left_out = {k: v for k, v in unused.items()
+                if v > max(MAX_UNUSED_SPAN_S, 0.1 * overlap)}
+    if (shorter > 0 and overlap < 0.5 * shorter) or left_out:
+        unused_text = ", ".join(f"{k} {v:.1f} s" for k, v in unused.items() if v > 0)
         found.append(f"{src('imu')}: rule clock_overlap: the IMU and wheel clocks overlap for "
                      f"{overlap:.1f} s only ({spans}); assumed one clock, only the overlap "
-                     "is used")
+                     f"is used (left out: {unused_text})")
 
 
 def _check_gyro(imu, wheels, vehicle, path, found) -> None:

@@ -280,6 +280,91 @@ def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
     return bad
 
 
+def _fail(key: str, expected: str, value, path: str | Path) -> DataFormatError:
+    """A manifest error naming the key, what it must be and what it holds."""
+    return DataFormatError(f"manifest key '{key}' must be {expected}, got {_kind(value)} "
+                           f"{value!r}"[:300], path)
+
+
+def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
+    """One dataset's manifest entry, its structure checked for :func:`read_shipped`.
+
+    Beyond :func:`manifest_terrains`: ``files`` maps relative paths to SHA-256 hex digests,
+    ``source`` is a string, and ``runs`` is a non-empty list of objects, each with a unique
+    ``run_id``, a ``terrain`` of the entry's ``terrains``, ``repaired`` (an object of counts)
+    and ``gaps`` (an object of lists of ``[t_start_s, t_end_s]`` pairs), as
+    :func:`convert_dataset` writes them.
+
+    Parameters
+    ----------
+    manifest : object
+        Parsed ``manifest.json`` (:func:`read_manifest`).
+    dataset : str
+        Dataset name.
+    path : str or Path
+        The manifest file (for the messages).
+
+    Returns
+    -------
+    dict
+        The entry.
+
+    Raises
+    ------
+    DataFormatError
+        The dataset is not in the manifest, or its entry has another structure; names the
+        file and the offending key (e.g. ``datasets.vulpi.runs[3].terrain``).
+    """
+    manifest_terrains(manifest, path)
+    entry = manifest["datasets"].get(dataset)
+    if entry is None:
+        raise DataFormatError(f"dataset {dataset!r} not in manifest (key 'datasets')", path)
+    key = f"datasets.{dataset}"
+    for name, kind in (("files", dict), ("source", str), ("runs", list)):
+        if name not in entry:
+            raise DataFormatError(f"manifest key '{key}.{name}' is missing", path)
+        if not isinstance(entry[name], kind) or not entry[name]:
+            raise _fail(f"{key}.{name}", {dict: "a non-empty object", str: "a string",
+                                          list: "a non-empty list"}[kind], entry[name], path)
+    for rel, digest in entry["files"].items():
+        if not (isinstance(digest, str) and len(digest) == 64
+                and all(c in "0123456789abcdef" for c in digest)):
+            raise _fail(f"{key}.files.{rel}", "a SHA-256 hex digest", digest, path)
+    seen: set[str] = set()
+    for i, info in enumerate(entry["runs"]):
+        k = f"{key}.runs[{i}]"
+        if not isinstance(info, dict):
+            raise _fail(k, "an object", info, path)
+        for name in ("run_id", "terrain", "repaired", "gaps"):
+            if name not in info:
+                raise DataFormatError(f"manifest key '{k}.{name}' is missing", path)
+        rid = info["run_id"]
+        if not isinstance(rid, str) or not rid:
+            raise _fail(f"{k}.run_id", "a run id", rid, path)
+        if rid in seen:
+            raise DataFormatError(f"manifest key '{k}.run_id': run {rid!r} is listed twice",
+                                  path)
+        seen.add(rid)
+        if info["terrain"] not in entry["terrains"]:
+            raise _fail(f"{k}.terrain", f"one of '{key}.terrains' {entry['terrains']}",
+                        info["terrain"], path)
+        repaired = info["repaired"]
+        if not isinstance(repaired, dict) or not all(
+                isinstance(n, int) and not isinstance(n, bool) and n >= 0
+                for n in repaired.values()):
+            raise _fail(f"{k}.repaired", "an object of counts", repaired, path)
+        gaps = info["gaps"]
+        if not isinstance(gaps, dict) or not all(
+                isinstance(v, list) and all(
+                    isinstance(g, list) and len(g) == 2
+                    and all(isinstance(t, (int, float)) and not isinstance(t, bool)
+                            for t in g) for g in v)
+                for v in gaps.values()):
+            raise _fail(f"{k}.gaps", "an object of lists of [t_start_s, t_end_s] pairs",
+                        gaps, path)
+    return entry
+
+
 def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     """Read one shipped dataset.
 
@@ -300,21 +385,31 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     ConfigError
         Unknown dataset.
     DataFormatError
-        Missing files.
+        A missing or unreadable file, a file whose SHA-256 differs from the manifest's
+        (edited after `terrain convert` wrote it), a manifest entry of another structure
+        (:func:`dataset_entry`), or runs of a file and of the manifest that differ; names
+        the file and the manifest key or column.
     """
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
     data_dir = Path(data_dir or default_data_dir())
-    entry = read_manifest(data_dir)["datasets"].get(dataset)
-    if entry is None:
-        raise DataFormatError(f"dataset {dataset!r} not in manifest", data_dir / "manifest.json")
+    manifest_path = data_dir / "manifest.json"
+    entry = dataset_entry(read_manifest(data_dir), dataset, manifest_path)
     tables = {}
     for name, fname in STREAM_FILES.items():
         path = data_dir / dataset / fname
-        if f"{dataset}/{fname}" not in entry["files"]:
+        rel = f"{dataset}/{fname}"
+        if rel not in entry["files"]:
             continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
+        if sha256(path) != entry["files"][rel]:
+            # the values were checked when `terrain convert` wrote the file; a changed file
+            # would skip every rule of the CSV reader
+            raise DataFormatError(f"contents differ from their SHA-256 in {manifest_path} "
+                                  f"(key 'datasets.{dataset}.files.{rel}'): shipped files are "
+                                  "written only by `terrain convert`, which checks every "
+                                  "value; regenerate data/ with it", path)
         try:
             table = pd.read_parquet(path)
         except (OSError, ValueError) as exc:  # pyarrow's errors derive from these
@@ -323,10 +418,20 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                                   path) from None
         tables[name] = {str(k): g.drop(columns=RUN_ID).reset_index(drop=True)
                         for k, g in table.groupby(RUN_ID, observed=True, sort=False)}
+    listed = {info["run_id"] for info in entry["runs"]}
+    for name, table in tables.items():
+        extra = sorted(set(table) - listed)
+        if extra:
+            raise DataFormatError(f"{len(extra)} run(s) not listed in {manifest_path} "
+                                  f"(key 'datasets.{dataset}.runs'): {extra[:5]}",
+                                  data_dir / dataset / STREAM_FILES[name], RUN_ID)
     runs = []
     for info in entry["runs"]:
         rid = info["run_id"]
         streams = {n: t[rid] for n, t in tables.items() if rid in t}
+        if "wheels" not in streams:
+            raise DataFormatError(f"run {rid!r} of key 'datasets.{dataset}.runs' has no rows "
+                                  f"in {STREAM_FILES['wheels']}", manifest_path)
         # the same plausibility rules as the CSV reader (ranges were checked on conversion)
         checks = check_run(rid, streams, "husky",
                            {n: f"{data_dir / dataset / STREAM_FILES[n]} run {rid}"

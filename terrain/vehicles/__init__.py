@@ -18,6 +18,7 @@ the simulator, so the simulator needs no per-vehicle branches for the ground con
 from __future__ import annotations
 
 from terrain.errors import ConfigError
+from terrain.run import VEHICLE_NAMES
 from terrain.vehicles.common import ContactGeometry, MotorParams
 from terrain.vehicles.skid_steer import (HUSKY, TRACKED, HuskyParams, TrackedParams,
                                          body_rates, endo_slip_ratio_ratio, side_speeds,
@@ -28,7 +29,6 @@ from terrain.vehicles.swerve import (AGRIMARO, AgriMaRoParams, camera_to_robot_v
                                      swerve_forward, swerve_inverse, t265_tracking_to_robot,
                                      wheel_contact_velocity, wheel_rim_speed)
 
-VEHICLE_NAMES: tuple[str, ...] = ("agrimaro", "husky", "tracked")
 
 
 def get_vehicle(name: str) -> AgriMaRoParams | HuskyParams | TrackedParams:

@@ -182,6 +182,22 @@ def test_epoch_imu_clock_beside_a_clock_from_zero_is_refused(turning):
     assert str(imu) in text and str(pro) in text and "do not overlap" in text
 
 
+
+def test_truncated_wheel_file_beside_a_full_imu_file_is_reported_with_what_is_left_out(
+        turning):
+    # both clocks start at 0, so the overlap is the whole wheel file: the IMU's tail past
+    # its end is not used, and the reader says how much
+    imu, pro = turning
+    _edit(pro, lambda f: f[f["time"] < 9.0])
+    (run,), caught = _read(imu.parent.parent)
+    assert len(caught) == 1
+    text = str(caught[0].message)
+    assert "clock_overlap" in text and str(imu) in text
+    imu_span = run.streams["imu"][TIME].iloc[-1] - run.streams["imu"][TIME].iloc[0]
+    left_out = imu_span - (run.streams["wheels"][TIME].iloc[-1] - 0.0)
+    assert left_out > 10.0 and f"left out: imu {left_out:.1f} s" in text
+    assert run.meta["warnings"] == [text]
+
 def test_dead_sensor_is_reported_and_its_windows_flagged(turning):
     imu, _ = turning
     _edit(imu, lambda f: f.__setitem__("wz", 0.0))

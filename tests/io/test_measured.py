@@ -351,3 +351,32 @@ def test_bad_run_metadata_is_a_typed_error(tmp_path, synth_pro, write_run, text)
     with pytest.raises(DataFormatError) as info:
         read_runs_dir(tmp_path)
     assert info.value.path == str(meta)
+
+
+@pytest.mark.parametrize("vehicle", ['"tank"', "5", "null"])
+def test_unknown_vehicle_in_run_metadata_is_refused_not_left_unchecked(tmp_path, synth_pro,
+                                                                       write_run, vehicle):
+    # an unknown vehicle has no plausibility limits: accepting it would switch the rules off
+    write_run(tmp_path, "ICE", "00", pro=synth_pro(duration_s=1.0))
+    meta = tmp_path / "ICE" / "meta_00.json"
+    meta.write_text('{"vehicle": %s}' % vehicle)
+    with pytest.raises(DataFormatError, match="key 'vehicle': unknown vehicle") as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(meta) and "husky" in str(info.value)
+
+
+def test_vehicle_name_in_run_metadata_is_case_insensitive(tmp_path, synth_pro, write_run):
+    write_run(tmp_path, "ICE", "00", pro=synth_pro(duration_s=1.0))
+    (tmp_path / "ICE" / "meta_00.json").write_text('{"vehicle": "Husky"}')
+    (run,) = read_runs_dir(tmp_path)
+    assert run.vehicle == "husky"
+
+
+def test_a_file_given_as_the_runs_folder_is_named_as_a_file(tmp_path):
+    path = tmp_path / "pro_00.csv"
+    path.write_text("time,velL\n")
+    with pytest.raises(DataFormatError, match="runs folder is a file") as info:
+        read_runs_dir(path)
+    assert info.value.path == str(path)
+    with pytest.raises(DataFormatError, match="runs folder does not exist"):
+        read_runs_dir(tmp_path / "absent")

@@ -9,7 +9,7 @@ import shutil
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_dir
 from terrain.io.shipped import (DATASET_INFO, DATASET_SPECS, convert_dataset, default_data_dir,
                                 load_dataset, read_manifest, read_shipped, runs_equal, sha256,
@@ -186,3 +186,70 @@ def test_dataset_without_any_imu_file_converts_and_reads_wheel_only(tmp_path, bo
     assert entry["runs_without_imu"] == ["borealtc/FLOORING/04", "borealtc/ICE/01"]
     runs = read_shipped("borealtc", tmp_path / "data")
     assert [set(r.streams) for r in runs] == [{"wheels"}, {"wheels"}]
+
+
+@pytest.fixture
+def vulpi_copy(tmp_path, data_dir):
+    """A copy of the shipped data/ whose Vulpi part the tests below edit."""
+    copy = tmp_path / "data"
+    shutil.copytree(data_dir, copy)
+    return copy
+
+
+def _edit_manifest(data_dir, fn):
+    path = data_dir / "manifest.json"
+    manifest = json.loads(path.read_text())
+    fn(manifest["datasets"]["vulpi"])
+    path.write_text(json.dumps(manifest))
+    return path
+
+
+def test_a_parquet_file_edited_after_conversion_is_refused_by_its_checksum(vulpi_copy):
+    # a valid Parquet file with a column dropped (or a duplicated timestamp, a NaN burst):
+    # none of the CSV reader's rules ran on it, so the reader refuses it by its checksum
+    import pandas as pd
+    path = vulpi_copy / "vulpi" / "wheels.parquet"
+    pd.read_parquet(path).drop(columns="cur_l").to_parquet(path)
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", vulpi_copy)
+    text = str(info.value)
+    assert info.value.path == str(path) and "SHA-256" in text and "terrain convert" in text
+    assert "datasets.vulpi.files.vulpi/wheels.parquet" in text
+    assert read_shipped("borealtc", vulpi_copy)  # the other dataset is untouched
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda e: e.pop("runs"), "datasets.vulpi.runs' is missing"),
+    (lambda e: e.__setitem__("runs", "x"), "datasets.vulpi.runs' must be a non-empty list"),
+    (lambda e: e.pop("files"), "datasets.vulpi.files' is missing"),
+    (lambda e: e["runs"][2].pop("terrain"), "datasets.vulpi.runs[2].terrain' is missing"),
+    (lambda e: e["runs"][2].__setitem__("terrain", "MARS"),
+     "datasets.vulpi.runs[2].terrain' must be one of"),
+    (lambda e: e["runs"][2].__setitem__("terrain", None),
+     "datasets.vulpi.runs[2].terrain' must be one of"),
+    (lambda e: e["runs"][1].__setitem__("gaps", None), "datasets.vulpi.runs[1].gaps' must be"),
+    (lambda e: e["runs"][1].__setitem__("gaps", {"wheels": [[1]]}),
+     "datasets.vulpi.runs[1].gaps' must be"),
+    (lambda e: e["runs"].append(dict(e["runs"][0])), "is listed twice"),
+    (lambda e: e["files"].__setitem__("vulpi/imu.parquet", "0" * 63),
+     "datasets.vulpi.files.vulpi/imu.parquet' must be a SHA-256"),
+])
+def test_a_manifest_entry_of_another_structure_names_its_key(vulpi_copy, edit, key):
+    path = _edit_manifest(vulpi_copy, edit)
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert info.value.path == str(path) and key in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_runs_of_the_files_and_of_the_manifest_must_agree(vulpi_copy):
+    dropped = {}
+    path = _edit_manifest(vulpi_copy, lambda e: dropped.update(e["runs"].pop(3)))
+    with pytest.raises(DataFormatError, match=r"1 run\(s\) not listed") as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert dropped["run_id"] in str(info.value) and info.value.column == "run_id"
+    _edit_manifest(vulpi_copy, lambda e: e["runs"].append({**dropped, "run_id": "vulpi/X/9"}))
+    _edit_manifest(vulpi_copy, lambda e: e["runs"].insert(3, dropped))
+    with pytest.raises(DataFormatError, match="'vulpi/X/9'.*has no rows") as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert info.value.path == str(path)

@@ -160,6 +160,23 @@ def test_stream_says_why_a_run_shorter_than_a_window_gives_no_decision(
     assert not (tmp_path / "d.csv").exists()
 
 
+def test_stream_refuses_a_run_whose_wheel_file_is_shorter_than_a_window_beside_a_full_imu(
+        run_dir, tmp_path, capsys, all_model, monkeypatch):
+    # the IMU alone fills windows, so the service emits decisions flagged short/stale; a
+    # replay of the run is still refused: its streams share less than one window
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(all_model, tmp_path / "model")
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=lambda f: f[f["time"] < 0.5])
+    capsys.readouterr()
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 2
+    captured = capsys.readouterr()
+    assert "1 run(s) too short" in captured.out and "1 plausibility warning" in captured.out
+    assert "rule clock_overlap" in captured.err and "left out: imu" in captured.err
+    assert re.search(r"overlap for 0\.\d\d s, shorter than the model's 2 s window",
+                     captured.err)
+    assert not (tmp_path / "d.csv").exists()
+
+
 def test_timestamp_errors_print_plain_numbers(run_dir, tmp_path, capsys, wheel_model,
                                               monkeypatch):
     monkeypatch.chdir(tmp_path)
