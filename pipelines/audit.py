@@ -127,18 +127,14 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        Neither or both of ``RUNS_DIR`` and ``--dataset`` given.
+        Neither or both of ``RUNS_DIR`` and ``--dataset`` given, or a setting out of range
+        (:class:`terrain.audit.selection.SelectionSettings`).
     DataFormatError
         No run could be audited (from the readers or :func:`terrain.audit.run_audit`).
     """
     if (args.runs_dir is None) == (args.dataset is None):
         raise ConfigError("give exactly one of RUNS_DIR or --dataset")
-    progress = not getattr(args, "no_progress", False)
-    runs = (read_runs_dir(args.runs_dir, progress=progress) if args.runs_dir
-            else load_dataset(args.dataset))
-    source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
-    name = args.dataset or args.runs_dir.resolve().name
-    settings = AuditSettings(
+    settings = AuditSettings(  # before reading: a bad setting fails fast
         replay=ReplaySettings(physics=args.physics,
                               input_cutoff_hz=args.replay_input_lowpass_hz),
         selection=SelectionSettings(n_bootstrap=args.bootstrap,
@@ -146,6 +142,11 @@ def main(args: argparse.Namespace) -> int:
                                     min_gain=args.min_gain, seed=args.seed),
         pooled=not args.no_pooled,
         sweep_factors=SWEEP_FACTORS if args.sweep_lateral_friction else ())
+    progress = not getattr(args, "no_progress", False)
+    runs = (read_runs_dir(args.runs_dir, progress=progress) if args.runs_dir
+            else load_dataset(args.dataset))
+    source = {"runs_dir": str(args.runs_dir)} if args.runs_dir else {"dataset": args.dataset}
+    name = args.dataset or args.runs_dir.resolve().name
     if args.no_mlflow:
         _audit(args, runs, settings, source, name, None)
     else:

@@ -201,15 +201,24 @@ def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings(
     -------
     frames : list of AuditFrame
     skipped : dict
-        Run id -> reason (no wheel stream, unknown terrain, not a skid-steer...).
+        Run id -> reason (no wheel stream, unknown terrain, not a skid-steer, no sample to
+        score...).
     """
     frames, skipped = [], {}
     for run in runs:
         try:
             rep = replay_run(run, settings.replay)
-            frames.append(prepare_frame(run, rep, settings.frames, settings.lag))
+            frame = prepare_frame(run, rep, settings.frames, settings.lag)
         except (ConfigError, DataFormatError) as exc:
             skipped[run.run_id] = str(exc)
+            continue
+        if not (frame.score_cur.any() or frame.score_imu.any()):
+            # every sample within the scored edges of the run's ends or in a gap
+            skipped[run.run_id] = (f"no sample to score: {run.duration_s:.1f} s long, and "
+                                   f"the first and last {settings.frames.edge_s:g} s of a "
+                                   "run and its timestamp gaps are not scored")
+            continue
+        frames.append(frame)
     return frames, skipped
 
 

@@ -68,6 +68,9 @@ def fig_yaw(result: AuditResult, max_points: int = 4000, seed: int = 0) -> Figur
             ax.set_title(f"{t}: no IMU")
             continue
         x = np.concatenate([f.commanded_yaw_rate[f.score_imu] for f in fs])
+        if not x.size:  # e.g. a run shorter than the settling time: nothing scored
+            ax.set_title(f"{t}: no scored IMU sample")
+            continue
         y = np.concatenate([f.wz[f.score_imu] for f in fs])
         s = np.concatenate([f.sim_wz[f.score_imu] for f in fs])
         idx = rng.permutation(len(x))[:max_points]
@@ -193,6 +196,9 @@ def fig_currents(result: AuditResult, n_bins: int = 8) -> Figure:
             rep.append(f.sim_cur[m].mean(axis=1))
             ext.append(predict_current(f, p)[m].mean(axis=1))
         x, meas, rep, ext = (np.concatenate(a) for a in (x, meas, rep, ext))
+        if not x.size:  # no scored moving sample (a short run, dead current sensors)
+            ax.set_title(f"{t}: no scored current sample")
+            continue
         edges = np.unique(np.quantile(x, np.linspace(0, 1, n_bins + 1)))
         if len(edges) < 3:
             edges = np.linspace(x.min(), x.max() + 1e-6, 3)

@@ -99,7 +99,8 @@ class SelectionSettings:
     Raises
     ------
     ConfigError
-        ``n_bootstrap < 10``, ``n_param_bootstrap < 0`` or ``min_units < 2``.
+        ``n_bootstrap < 10``, ``n_param_bootstrap < 0``, ``min_units < 2``, ``min_gain``
+        outside [0, 1) or NaN, or ``seed < 0``.
     """
 
     n_bootstrap: int = 1000
@@ -113,6 +114,11 @@ class SelectionSettings:
             raise ConfigError("n_bootstrap must be >= 10 and n_param_bootstrap >= 0")
         if self.min_units < 2:
             raise ConfigError(f"min_units must be >= 2, got {self.min_units}")
+        if not 0.0 <= self.min_gain < 1.0:  # NaN included: it would support no effect
+            raise ConfigError(f"min_gain must be in [0, 1) (a fraction of the baseline "
+                              f"RMSE), got {self.min_gain}")
+        if self.seed < 0:
+            raise ConfigError(f"seed must be >= 0, got {self.seed}")
 
 
 @dataclass(frozen=True, kw_only=True)

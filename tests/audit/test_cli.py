@@ -83,3 +83,27 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
     assert cli_main(["audit", str(tmp_path), "--json", str(tmp_path / "a.json"),
                      "--no-mlflow"]) == 2
     assert "no run could be audited" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag, value, message", [
+    ("--min-gain", "nan", "min_gain must be in [0, 1)"),
+    ("--min-gain", "-5", "min_gain must be in [0, 1)"),
+    ("--seed", "-1", "seed must be >= 0"),
+])
+def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tmp_path,
+                                                                    capsys, flag, value,
+                                                                    message):
+    # a NaN threshold supports no effect at all: the audit would answer "none"
+    assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow", flag, value)) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "a.json").exists()
+
+
+def test_cli_names_a_run_too_short_to_score(tmp_path, capsys):
+    # every sample of a 3 s run lies within the unscored 2 s at either end
+    write_signal_files(tmp_path, "ICE", 0, *simulated_streams(seeds=(5,), duration_s=3.0)[0])
+    assert cli_main(["audit", str(tmp_path), "--json", str(tmp_path / "a.json"),
+                     "--no-mlflow", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "no run could be audited" in err and "ICE/00: no sample to score: 2.9 s long" in err
