@@ -32,6 +32,7 @@ from pathlib import Path
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
+from terrain.errors import ConfigError
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -111,8 +112,9 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        Unknown terrain, or a duration or seed that :class:`terrain.sim.SimConfig` refuses
-        (checked before a classifier is trained).
+        Unknown terrain, or a duration or seed that :class:`terrain.sim.SimConfig` refuses,
+        or ``--model`` with a terrain source other than ``model`` (checked before a
+        classifier is trained).
     """
     get_terrain(args.terrain)         # an unknown terrain fails here, before any training
     # so do a duration out of range (too short for two samples of every stream) and a bad
@@ -123,6 +125,9 @@ def main(args: argparse.Namespace) -> int:
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
     source = args.terrain_source or ("model" if args.model else "live-sim")
+    if args.model and source != "model":
+        raise ConfigError(f"--model is used only with --terrain-source model, not "
+                          f"{source!r}: leave one of them out")
     provider, info = decision_source(source, args.vehicle, [terrain], [args.seed],
                                      args.model, args.classifier_seeds,
                                      controlled_runs=not args.classifier_uncontrolled_only,

@@ -13,7 +13,7 @@ EKF's pseudo-measurement; learned falls back to physics without a model; ekf: no
 note says so. Without --slip-model-dir the registered model is looked up and its absence is a
 note (physics supplies the slip); a --slip-model-dir that cannot be loaded (missing folder,
 no MLmodel file, unreadable model) is an error. --gate is a probability in (0, 1) exclusive;
---rate-hz a rate in (0, 10000] Hz, and the grid holds at most 5 million steps.
+--rate-hz a rate in [1, 10000] Hz, and the grid holds at most 5 million steps.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from terrain.estimation.ekf import Gate
 from terrain.estimation.runner import MAX_RATE_HZ, check_rate_hz
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
+from terrain.run import TIME
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
 from terrain.slip.estimate import SLIP_MODELS, estimate_skid_steer_slip_run
 
@@ -96,7 +97,7 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError, EstimationError, DataFormatError
-        ``--gate`` outside (0, 1), ``--rate-hz`` outside (0, 10 kHz] (both checked before
+        ``--gate`` outside (0, 1), ``--rate-hz`` outside [1 Hz, 10 kHz] (both checked before
         any run is read); a ``--slip-model-dir`` that cannot be loaded
         (:func:`pipelines.slip_model.resolve_slip_model`); ``--run`` names no run of
         RUN_DIR; a run lacks the streams its estimator needs.
@@ -133,6 +134,9 @@ def main(args: argparse.Namespace) -> int:
             _, terrain, index = run.run_id.split("/")
             out = args.out.with_name(f"{args.out.stem}_{terrain}_{index}{args.out.suffix}")
         out.parent.mkdir(parents=True, exist_ok=True)
-        est.to_frame().to_csv(out, index=False, float_format="%.9g")
+        frame = est.to_frame()
+        # the states to 9 digits; the time exactly (an epoch clock needs 10 before the point)
+        frame[TIME] = [repr(float(t)) for t in frame[TIME]]
+        frame.to_csv(out, index=False, float_format="%.9g")
         print(f"{est.summary()} -> {out}")
     return 0

@@ -425,7 +425,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     DataFormatError
         No IMU stream, or a stream lacks a column.
     ConfigError, ShapeError, CovarianceError
-        ``rate_hz`` outside ``(0, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
+        ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`); from :func:`~terrain.estimation.run_filter` (bad engine, shapes,
         or an innovation covariance that is not positive definite).
     """

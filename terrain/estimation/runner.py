@@ -34,6 +34,9 @@ ENGINES: tuple[str, ...] = ("auto", "numba", "numpy")
 #: (2 kHz, :data:`terrain.io.plausibility.NOMINAL_RATE_HZ`); a faster grid only repeats
 #: predictions between samples.
 MAX_RATE_HZ = 10_000.0
+#: Slowest filter grid, Hz: the slowest stream the readers accept (a wheel report at 1 Hz,
+#: :data:`terrain.io.plausibility.NOMINAL_RATE_HZ`); a slower grid would skip measurements.
+MIN_RATE_HZ = 1.0
 #: Most filter steps of one grid (27.8 h at 100 Hz, 500 s at 10 kHz): a step of the
 #: AgriMaRo EKF with its output table takes about 1.2 kB, so 6 GB at the bound.
 MAX_GRID_STEPS = 5_000_000
@@ -46,7 +49,7 @@ def check_rate_hz(rate_hz: float | None, name: str = "rate_hz") -> float | None:
     ----------
     rate_hz : float or None
         Rate, Hz; None stands for the default (the IMU rate). ``0`` is not a default: it is
-        refused like any rate outside ``(0, MAX_RATE_HZ]``.
+        refused like any rate outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``.
     name : str
         Name of the argument in the message (e.g. ``--rate-hz``).
 
@@ -58,7 +61,7 @@ def check_rate_hz(rate_hz: float | None, name: str = "rate_hz") -> float | None:
     Raises
     ------
     ConfigError
-        Not a finite number in ``(0, MAX_RATE_HZ]`` Hz.
+        Not a finite number in ``[MIN_RATE_HZ, MAX_RATE_HZ]`` Hz.
     """
     if rate_hz is None:
         return None
@@ -66,9 +69,9 @@ def check_rate_hz(rate_hz: float | None, name: str = "rate_hz") -> float | None:
         rate = float(rate_hz)
     except (TypeError, ValueError):
         raise ConfigError(f"{name} must be a number of Hz, got {rate_hz!r}") from None
-    if not (np.isfinite(rate) and 0.0 < rate <= MAX_RATE_HZ):
-        raise ConfigError(f"{name} must be in (0, {MAX_RATE_HZ:g}] Hz (omit it for the IMU "
-                          f"rate), got {rate_hz}")
+    if not (np.isfinite(rate) and MIN_RATE_HZ <= rate <= MAX_RATE_HZ):
+        raise ConfigError(f"{name} must be in [{MIN_RATE_HZ:g}, {MAX_RATE_HZ:g}] Hz (omit it "
+                          f"for the IMU rate), got {rate_hz}")
     return rate
 
 
@@ -120,7 +123,7 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     Raises
     ------
     TimeStepError
-        ``rate_hz`` not > 0 or ``t_end <= t_start``.
+        ``rate_hz`` not > 0, ``t_end <= t_start``, or fewer than 2 steps.
     ConfigError
         ``rate_hz`` above :data:`MAX_RATE_HZ`, or a grid of more than :data:`MAX_GRID_STEPS`
         steps (checked before any memory is taken).
@@ -138,6 +141,9 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
                           f"have {steps:.4g} steps, more than the {MAX_GRID_STEPS:,} allowed "
                           f"(about 1.2 kB each); lower the rate")
     n = int(np.floor((t_end_s - t_start_s) * rate_hz + 1e-9)) + 1
+    if n < 2:
+        raise TimeStepError(f"a grid at {rate_hz:g} Hz over {t_end_s - t_start_s:.6g} s has "
+                            f"{n} step: a filter needs at least 2")
     return t_start_s + np.arange(n) / rate_hz
 
 

@@ -255,7 +255,7 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     DataFormatError
         No ``wheels`` stream.
     ConfigError
-        ``rate_hz`` outside ``(0, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
+        ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`).
     """
     if "wheels" not in run.streams:

@@ -118,10 +118,12 @@ class RunEstimate:
         ekf = self.ekf
         nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
         std = self.slip_std if self.slip_std is not None else np.full_like(self.slip, np.nan)
-        slips = ", ".join(f"{n} {np.nanmedian(self.slip[:, j]):+.3f}"
-                          + (f" (std {np.nanmedian(std[:, j]):.3f})"
-                             if np.isfinite(std[:, j]).any() else "")
-                          for j, n in enumerate(self.slip_names))
+        slips = ", ".join(
+            (f"{n} {np.nanmedian(self.slip[:, j]):+.3f}"
+             + (f" (std {np.nanmedian(std[:, j]):.3f})" if np.isfinite(std[:, j]).any()
+                else "")) if np.isfinite(self.slip[:, j]).any()
+            else f"{n} none (no finite estimate)"
+            for j, n in enumerate(self.slip_names))
         lag = f"{self.lag.lag_s:.3f} s" if self.lag is not None else "not estimated"
         skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
         return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
@@ -370,10 +372,14 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
         xp = x.copy()
         xp[:, j] += sd
         var += (slip_at(xp) - slip) ** 2
+    notes = () if "omega" in run.streams else (
+        f"note: run {run.run_id} is an AgriMaRo run without an omega stream: wheels 1 and 2 "
+        "from its wheels stream (vel_l, vel_r), wheel 3 has no encoder, so slip_3 is not "
+        "estimated",)
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
-                       np.sqrt(var))
+                       np.sqrt(var), notes)
 
 
 def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None = None,
@@ -644,7 +650,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     EstimationError
         No ``wheels`` stream.
     ConfigError
-        Unknown slip model or vehicle; ``rate_hz`` outside ``(0, MAX_RATE_HZ]``
+        Unknown slip model or vehicle; ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``
         (:func:`~terrain.estimation.runner.check_rate_hz`).
     """
     from terrain.estimation.runner import SensorSamples, make_grid

@@ -38,6 +38,17 @@ def test_control_sim_too_short_duration_fails_before_any_training(vehicle, minim
     assert not (tmp_path / "m.json").exists()
 
 
+@pytest.mark.parametrize("source", ["label", "live-sim"])
+def test_control_sim_refuses_a_model_it_would_not_use(source, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(control_sim, "decision_source", lambda *a, **k: (None, {}))
+    code = main(["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario",
+                 "straight_accel", "--controller", "traction", "--terrain-source", source,
+                 "--model", str(tmp_path / "model"), "--json", str(tmp_path / "m.json")])
+    assert code == 2
+    line = _error_line(capsys, "control-sim")
+    assert f"--model is used only with --terrain-source model, not '{source}'" in line
+
+
 def test_control_sim_runs_at_the_minimum_duration(tmp_path, capsys):
     out = tmp_path / "m.json"
     assert main(["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario",

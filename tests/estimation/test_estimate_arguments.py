@@ -9,7 +9,8 @@ import pytest
 from terrain.cli import main
 from terrain.errors import ConfigError, TerrainError, TimeStepError
 from terrain.estimation import Gate, make_grid
-from terrain.estimation.runner import MAX_GRID_STEPS, MAX_RATE_HZ, check_rate_hz
+from terrain.estimation.runner import (MAX_GRID_STEPS, MAX_RATE_HZ, MIN_RATE_HZ,
+                                       check_rate_hz)
 from terrain.io.writer import write_run
 from terrain.sim import SimConfig, simulate
 
@@ -51,19 +52,22 @@ def test_estimate_bad_gate_is_one_line_before_reading_runs(gate, tmp_path, capsy
     assert "gate probability must be in (0, 1)" in _error_line(capsys)
 
 
-@pytest.mark.parametrize("rate", ["1e9", "0", "-5", "inf", "nan", "20000"])
+@pytest.mark.parametrize("rate", ["1e9", "0", "-5", "inf", "nan", "20000", "1e-9",
+                                  "0.05"])
 def test_estimate_bad_rate_is_one_line(rate, tmp_path, capsys):
     assert main(["estimate", str(tmp_path / "absent"), "--out", str(tmp_path / "s.csv"),
                  "--rate-hz", rate]) == 2
     line = _error_line(capsys)
-    assert "--rate-hz must be in (0, 10000] Hz" in line
+    assert "--rate-hz must be in [1, 10000] Hz" in line
 
 
 def test_check_rate_hz():
     assert check_rate_hz(None) is None
     assert check_rate_hz(200) == 200.0
     assert check_rate_hz(MAX_RATE_HZ) == MAX_RATE_HZ
-    for bad in (0, 0.0, -1, MAX_RATE_HZ * 1.01, float("inf"), float("nan"), "fast"):
+    assert check_rate_hz(MIN_RATE_HZ) == MIN_RATE_HZ
+    for bad in (0, 0.0, -1, 0.99 * MIN_RATE_HZ, MAX_RATE_HZ * 1.01, float("inf"),
+                float("nan"), "fast"):
         with pytest.raises(ConfigError, match="rate_hz"):
             check_rate_hz(bad)
 
@@ -76,6 +80,10 @@ def test_make_grid_refuses_a_grid_too_large_before_allocating_it():
         make_grid(0.0, 1e6, 100.0)
     with pytest.raises(TimeStepError):
         make_grid(0.0, 10.0, 0.0)
+    # a span shorter than one step gives one step: no filter runs on it
+    with pytest.raises(TimeStepError, match="has 1 step: a filter needs at least 2"):
+        make_grid(0.0, 0.005, 100.0)
+    assert make_grid(0.0, 0.01, 100.0).size == 2
     grid = make_grid(0.0, (MAX_GRID_STEPS - 1) / 1e4, 1e4)
     assert grid.size == MAX_GRID_STEPS and np.all(np.diff(grid) > 0)
 
@@ -144,3 +152,45 @@ def test_library_estimators_refuse_a_rate_outside_the_bound(rate_hz):
                                  scenario="straight_accel", duration_s=1.0, seed=1))
         with pytest.raises(ConfigError, match="rate_hz"):
             estimate(run, rate_hz=rate_hz)
+
+
+def test_estimate_keeps_every_digit_of_an_epoch_clock(run_dir, tmp_path, capsys):
+    # the readers accept a clock in epoch seconds (both files shifted alike); the output
+    # keeps its 10 digits before the point, so no two filter steps share a time
+    import pandas as pd
+    epoch = tmp_path / "epoch"
+    for src in run_dir.rglob("*.*"):
+        dst = epoch / src.relative_to(run_dir)
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        if src.suffix == ".csv":
+            frame = pd.read_csv(src)
+            frame["time"] = frame["time"] + 1.7e9
+            frame.to_csv(dst, index=False, float_format="%.17g")
+        else:
+            dst.write_bytes(src.read_bytes())
+    out = tmp_path / "s.csv"
+    assert main(["estimate", str(epoch), "--out", str(out),
+                 "--slip-model", "physics"]) == 0
+    t = pd.read_csv(out)["t_s"].to_numpy()
+    assert t.size > 100 and t[0] >= 1.7e9
+    assert np.all(np.diff(t) > 0)
+    np.testing.assert_allclose(np.diff(t), np.median(np.diff(t)), rtol=1e-3)
+
+
+def test_an_agrimaro_run_without_wheel_3_says_so_and_warns_nothing(run_dir, tmp_path, capsys):
+    # a run labelled agrimaro whose only wheel stream is vel_l / vel_r: wheels 1 and 2 come
+    # from it, wheel 3 has no encoder; said in a note, not in numpy's All-NaN warning
+    import json
+    import shutil
+    import warnings
+    copy = tmp_path / "agri"
+    shutil.copytree(run_dir, copy)
+    (meta,) = copy.rglob("meta_*.json")
+    meta.write_text(json.dumps({**json.loads(meta.read_text()), "vehicle": "agrimaro"}))
+    out = tmp_path / "s.csv"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert main(["estimate", str(copy), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "wheel 3 has no encoder, so slip_3 is not estimated" in printed
+    assert "slip_3 none (no finite estimate)" in printed and "(agrimaro)" in printed
