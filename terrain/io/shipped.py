@@ -286,6 +286,12 @@ def _fail(key: str, expected: str, value, path: str | Path) -> DataFormatError:
                            f"{value!r}"[:300], path)
 
 
+def _is_time_pair(value) -> bool:
+    """Whether a parsed JSON value is a ``[t_start_s, t_end_s]`` pair of numbers."""
+    return (isinstance(value, list) and len(value) == 2
+            and all(isinstance(t, (int, float)) and not isinstance(t, bool) for t in value))
+
+
 def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
     """One dataset's manifest entry, its structure checked for :func:`read_shipped`.
 
@@ -355,11 +361,7 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
             raise _fail(f"{k}.repaired", "an object of counts", repaired, path)
         gaps = info["gaps"]
         if not isinstance(gaps, dict) or not all(
-                isinstance(v, list) and all(
-                    isinstance(g, list) and len(g) == 2
-                    and all(isinstance(t, (int, float)) and not isinstance(t, bool)
-                            for t in g) for g in v)
-                for v in gaps.values()):
+                isinstance(v, list) and all(map(_is_time_pair, v)) for v in gaps.values()):
             raise _fail(f"{k}.gaps", "an object of lists of [t_start_s, t_end_s] pairs",
                         gaps, path)
     return entry

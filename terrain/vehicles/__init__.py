@@ -30,7 +30,6 @@ from terrain.vehicles.swerve import (AGRIMARO, AgriMaRoParams, camera_to_robot_v
                                      wheel_contact_velocity, wheel_rim_speed)
 
 
-
 def get_vehicle(name: str) -> AgriMaRoParams | HuskyParams | TrackedParams:
     """Default parameter set of a vehicle by name.
 
