@@ -4,14 +4,128 @@ Each ``add_*`` function adds an option (``add_smoothing``: the forward filter's 
 sub-command's parser with one help text, so ``terrain cv``, ``train`` and ``compare``, and
 ``terrain stream`` and ``serve``, describe the same setting in the same words;
 :func:`smoothing_from_args` reads the filter's options back as one :class:`SmoothingConfig`.
+:func:`output_file` and :func:`output_dir` are the argparse types of every output option:
+a path that cannot be written is refused before any work, not after it.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+from pathlib import Path
 
 from terrain.errors import ConfigError
 from terrain.serving.smoothing import SmoothingConfig
+
+
+def _blocking_ancestor(path: Path) -> Path | None:
+    """The first existing ancestor of ``path`` that is not a folder, or ``None``."""
+    for parent in reversed(path.parents):
+        if parent.exists() and not parent.is_dir():
+            return parent
+    return None
+
+
+def _nearest_existing(path: Path) -> Path:
+    """``path`` itself or its nearest existing ancestor (``.`` for a relative path)."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path(".")
+
+
+def output_file(value: str) -> Path:
+    """argparse ``type`` of an output file option: refuse, while the options are read and
+    before any work, a path that could not be written.
+
+    Parameters
+    ----------
+    value : str
+        The option's value (a file path; missing parent folders are created later).
+
+    Returns
+    -------
+    pathlib.Path
+        ``value`` as a path.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        An ancestor of the path is a file, the path is an existing folder, or the nearest
+        existing folder is not writable (argparse prints it as a one-line usage error).
+    """
+    path = Path(value)
+    blocker = _blocking_ancestor(path)
+    if blocker is not None:
+        raise argparse.ArgumentTypeError(
+            f"cannot write {value!r}: {str(blocker)!r} is a file, not a folder")
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"cannot write {value!r}: it is a folder (give a file name)")
+    base = path.parent if path.exists() else _nearest_existing(path.parent)
+    if not os.access(path if path.exists() else base, os.W_OK):
+        raise argparse.ArgumentTypeError(f"cannot write {value!r}: no write permission on "
+                                         f"{str(path if path.exists() else base)!r}")
+    return path
+
+
+def output_dir(value: str) -> Path:
+    """argparse ``type`` of an output folder option: refuse, while the options are read and
+    before any work, a folder that could not be created or written.
+
+    Parameters
+    ----------
+    value : str
+        The option's value (a folder; created later if missing).
+
+    Returns
+    -------
+    pathlib.Path
+        ``value`` as a path.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        The path or one of its ancestors is a file, or the nearest existing folder is not
+        writable (argparse prints it as a one-line usage error).
+    """
+    path = Path(value)
+    blocker = path if path.exists() and not path.is_dir() else _blocking_ancestor(path)
+    if blocker is not None:
+        raise argparse.ArgumentTypeError(
+            f"cannot use {value!r} as output folder: {str(blocker)!r} is a file")
+    base = _nearest_existing(path)
+    if not os.access(base, os.W_OK):
+        raise argparse.ArgumentTypeError(
+            f"cannot use {value!r} as output folder: no write permission on {str(base)!r}")
+    return path
+
+
+def model_dir(value: str) -> Path:
+    """argparse ``type`` of an option naming a model directory to create: as
+    :func:`output_dir`, and the folder must be absent or empty (MLflow writes a model only
+    there), checked before the model is trained rather than after.
+
+    Parameters
+    ----------
+    value : str
+        The option's value.
+
+    Returns
+    -------
+    pathlib.Path
+        ``value`` as a path.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        As :func:`output_dir`, or the folder exists and is not empty.
+    """
+    path = output_dir(value)
+    if path.is_dir() and any(path.iterdir()):
+        raise argparse.ArgumentTypeError(
+            f"model directory {value!r} exists and is not empty (give a new or empty one)")
+    return path
 
 
 def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:

@@ -19,6 +19,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
+from pipelines.arguments import output_file
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
@@ -54,8 +55,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default=None,
                         help="audit a shipped dataset instead of RUNS_DIR")
-    parser.add_argument("--json", type=Path, required=True, help="write the JSON report here")
-    parser.add_argument("--md", type=Path, default=None, help="write the Markdown report here")
+    parser.add_argument("--json", type=output_file, required=True,
+                        help="write the JSON report here")
+    parser.add_argument("--md", type=output_file, default=None,
+                        help="write the Markdown report here")
     parser.add_argument("--bootstrap", type=int, default=DEFAULTS["bootstrap"],
                         help="resamples of held-out runs for the gain interval")
     parser.add_argument("--param-bootstrap", type=int, default=DEFAULTS["param_bootstrap"],

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import add_cnn_seeds, add_train_hop
+from pipelines.arguments import add_cnn_seeds, add_train_hop, output_dir
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
                                     iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "default: a local cluster")
     parser.add_argument("--n-jobs", type=int, default=-1,
                         help="joblib workers (-1: all of the backend; 1: sequential here)")
-    parser.add_argument("--out", type=Path, default=Path("compare"), help="output folder")
+    parser.add_argument("--out", type=output_dir, default=Path("compare"), help="output folder")
     parser.add_argument("--no-progress", action="store_true",
                         help="hide the progress bar over grid cells")
 

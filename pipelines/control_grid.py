@@ -21,6 +21,7 @@ import argparse
 import json
 from pathlib import Path
 
+from pipelines.arguments import output_dir
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import ESTIMATORS, default_gains
 from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
@@ -67,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",
                         help="train the live-sim classifier on uncontrolled runs only "
                              "(default: also on runs with the traction controller on)")
-    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--out", type=output_dir, required=True, help="output folder")
 
 
 def _plots(traces: dict, table, out: Path) -> list[Path]:

@@ -29,6 +29,7 @@ import argparse
 import json
 from pathlib import Path
 
+from pipelines.arguments import output_file
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
@@ -85,8 +86,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "fused)")
     parser.add_argument("--no-feed-forward", action="store_true",
                         help="feedback only (no feed-forward slip limit)")
-    parser.add_argument("--json", required=True, help="output JSON file")
-    parser.add_argument("--csv", default=None, help="optional per-step trace CSV")
+    parser.add_argument("--json", type=output_file, required=True, help="output JSON file")
+    parser.add_argument("--csv", type=output_file, default=None, help="optional per-step trace CSV")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -9,10 +9,9 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from pipelines.arguments import (add_cnn_seeds, add_run_balanced, add_train_hop,
-                                 add_window_ekf)
+                                 add_window_ekf, output_file)
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
@@ -55,7 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_run_balanced(parser)
     parser.add_argument("--steady-only", action="store_true",
                         help="keep steady-motion windows only (thesis ch. 8.1)")
-    parser.add_argument("--json", type=Path, default=None, help="write the report as JSON")
+    parser.add_argument("--json", type=output_file, default=None,
+                        help="write the report as JSON")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
 
 

@@ -22,6 +22,7 @@ import argparse
 from pathlib import Path
 
 from features.slip_outputs import slip_model_outputs
+from pipelines.arguments import output_file
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
@@ -43,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """
     parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
                                                    "folder of it)")
-    parser.add_argument("--out", type=Path, required=True, help="output CSV file")
+    parser.add_argument("--out", type=output_file, required=True, help="output CSV file")
     parser.add_argument("--run", default=None, metavar="TERRAIN/XX",
                         help="select one run when RUN_DIR holds several")
     parser.add_argument("--lag", choices=LAG_MODES, default="xcorr",

@@ -27,7 +27,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from pipelines.arguments import add_smoothing, smoothing_from_args
+from pipelines.arguments import add_smoothing, model_dir, smoothing_from_args
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
 from terrain.serving.http import RequestGuard
@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to bind")
     parser.add_argument("--port", type=int, default=5001,
                         help="TCP port, 1-65535 (0: a free port, announced at start)")
-    parser.add_argument("--served-out", type=Path, default=None,
+    parser.add_argument("--served-out", type=model_dir, default=None,
                         help="keep the wrapped streaming model here (servable with "
                              "`mlflow models serve -m DIR --env-manager local`)")
     parser.add_argument("--hop-s", type=float, default=0.5,

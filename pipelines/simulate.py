@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 
+from pipelines.arguments import output_dir
 from terrain.io.writer import write_run
 from terrain.sim import (SCENARIO_NAMES, SimConfig, parse_effects, parse_terrain_list,
                          simulate)
@@ -42,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,
                         help="physics version (v2: load transfer, lateral wheel-soil model, "
                              "docs/physics_v2.md)")
-    parser.add_argument("--out", required=True, help="output root folder")
+    parser.add_argument("--out", type=output_dir, required=True, help="output root folder")
 
 
 def main(args: argparse.Namespace) -> int:

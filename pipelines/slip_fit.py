@@ -20,6 +20,7 @@ import pandas as pd
 
 from features.slip_features import (one_hot_probabilities, slip_features, slip_table,
                                     slip_windows, terrain_columns)
+from pipelines.arguments import output_dir
 from terrain.io.shipped import load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
@@ -59,8 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--orchard-duration-s", type=float, default=120.0,
                         help="held-out orchard runs of this length for the odometry (a 40 s "
                              "run ends before the first headland turn); <= --duration-s: none")
-    parser.add_argument("--cache-dir", type=Path, default=Path("out/slip_cache"))
-    parser.add_argument("--out", type=Path, default=Path("out/slip_fit"))
+    parser.add_argument("--cache-dir", type=output_dir, default=Path("out/slip_cache"))
+    parser.add_argument("--out", type=output_dir, default=Path("out/slip_fit"))
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
     parser.add_argument("--measured", default=None,
                         help="also check the model on a shipped measured dataset (borealtc)")

@@ -17,13 +17,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import add_smoothing, smoothing_from_args
+from pipelines.arguments import add_smoothing, output_file, smoothing_from_args
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import list_run_files, read_run
 from terrain.io.report import input_report
 from terrain.control import DesiredSlipConfig
 from terrain.run import TIME
-from terrain.serving import (SmoothingConfig, StreamConfig, StreamService, TableTargets,
+from terrain.serving import (StreamConfig, StreamService, TableTargets,
                              decisions_frame, load_stream_model, replay_run)
 from terrain.serving.service import join_flags, stuck_decision_flags
 
@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_dir", type=Path, metavar="RUN_DIR",
                         help="terrain folder holding the run's imu_XX.csv / pro_XX.csv")
     parser.add_argument("--index", default=None, help="run index XX when RUN_DIR holds several")
-    parser.add_argument("--out", type=Path, required=True, help="decisions CSV to write")
+    parser.add_argument("--out", type=output_file, required=True, help="decisions CSV to write")
     parser.add_argument("--hop-s", type=float, default=0.5, help="time between decisions, s")
     add_smoothing(parser)
     parser.add_argument("--min-confidence", type=float, default=0.5,
@@ -102,7 +102,9 @@ def main(args: argparse.Namespace) -> int:
         files, holds several runs and ``--index`` is not given, lacks the run ``--index``,
         or lacks a stream the model needs.
     DataFormatError
-        When the run gives no decision: its streams overlap for less than one window.
+        When the run gives no decision: its streams overlap for less than one window, or
+        the service's per-sample rules refused the samples it needed (the message counts
+        them per stream and reason).
     """
     model = load_stream_model(args.model)
     index, files = _run_files(args.run_dir, args.index)
@@ -128,10 +130,17 @@ def main(args: argparse.Namespace) -> int:
         "windows": len(frame), "dropped_gap": 0, "dropped_unsteady": 0}},
         "too_short_runs": short}
     print(input_report([run], counts, window_s, {run.run_id: n_stuck}).text())
-    if short or not len(frame):
+    if short:
         raise DataFormatError(f"no decision from run {run.run_id}: its streams "
                               f"{list(service.needed_streams)} overlap for {span:.2f} s, "
                               f"shorter than the model's {window_s:g} s window", args.run_dir)
+    if not len(frame):
+        refused = ", ".join(f"{n} of stream {s} ({r})"
+                            for (s, r), n in sorted(service.refused_samples.items()))
+        raise DataFormatError(f"no decision from run {run.run_id}: its streams "
+                              f"{list(service.needed_streams)} overlap for {span:.2f} s "
+                              f"(window {window_s:g} s), but the service's input rules left "
+                              f"too few samples; refused: {refused or 'none'}", args.run_dir)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     frame.to_csv(args.out, index=False)
     kinds = Counter(k.split(":")[0] for f in frame["flags"] if f for k in f.split("|"))

@@ -17,10 +17,10 @@ from __future__ import annotations
 import argparse
 import json
 from dataclasses import replace
-from pathlib import Path
 
 import pandas as pd
 
+from pipelines.arguments import output_dir
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
@@ -53,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """
     parser.add_argument("--part", choices=["wheel-cv", "streams", "both", "none"],
                         default="both")
-    parser.add_argument("--model-out", type=Path, default=None,
+    parser.add_argument("--model-out", type=output_dir, default=None,
                         help="also fit each --kinds recipe on every BorealTC run and save it "
                              "to DIR/<kind> (a model directory for terrain stream)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])

@@ -9,13 +9,12 @@ saved to --model-out as an MLflow model directory (servable with `mlflow models 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
 
-from pipelines.arguments import add_cnn_seeds, add_run_balanced, add_window_ekf
+from pipelines.arguments import add_cnn_seeds, add_run_balanced, add_window_ekf, model_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
@@ -76,7 +75,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_run_balanced(parser)
     parser.add_argument("--search", action="store_true",
                         help="choose C and gamma by a grid search grouped by run")
-    parser.add_argument("--model-out", type=Path, default=None,
+    parser.add_argument("--model-out", type=model_dir, default=None,
                         help="also save the model to this (new or empty) directory")
     parser.add_argument("--no-register", action="store_true",
                         help="log the model without registering it")

@@ -11,12 +11,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import time
-from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
 import pandas as pd
+
+from pipelines.arguments import output_file
 
 #: report name -> module with ``sections(quick)`` (read-only; imported when run, so that
 #: building the ``terrain`` parser stays light)
@@ -36,7 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("report", choices=sorted(REPORTS), help="which report")
     parser.add_argument("--quick", action="store_true",
                         help="fewer seeds / shorter runs (smoke run, not the published figures)")
-    parser.add_argument("--out", type=Path, default=None, help="also write the Markdown here")
+    parser.add_argument("--out", type=output_file, default=None,
+                        help="also write the Markdown here")
 
 
 def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:
@@ -86,5 +88,6 @@ def main(args: argparse.Namespace) -> int:
         print(block, flush=True)
         text.append(block)
     if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text("\n".join(text))
     return 0

@@ -68,12 +68,16 @@ class ReadReport:
         median sampling interval.
     skipped_lines : dict[str, int]
         ``blank`` and ``comment`` lines skipped.
+    ignored_columns : list[str]
+        Header columns of an ``imu`` or ``pro`` file that are not among its canonical
+        columns, in file order: present in the file, not read.
     """
 
     path: str
     repaired: dict[str, int] = field(default_factory=dict)
     gaps: list[tuple[float, float]] = field(default_factory=list)
     skipped_lines: dict[str, int] = field(default_factory=dict)
+    ignored_columns: list[str] = field(default_factory=list)
 
 
 def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
@@ -129,7 +133,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         raise MissingColumnError(
             f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}",
             path, missing[0], line=header_line)
-    report = ReadReport(str(path), skipped_lines=skipped)
+    report = ReadReport(str(path), skipped_lines=skipped,
+                        ignored_columns=[c for c in header if c not in mapping])
     # Python's float() also takes "1_000" and non-ASCII digits: those go the strict path
     plain = text.isascii() and "_" not in text
     numbers = _fast_numbers(rows, header, mapping) if plain else None
@@ -376,7 +381,8 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         try:
             meta = json.loads(_read_text(files["meta"]))
         except json.JSONDecodeError as exc:
-            raise DataFormatError(f"invalid JSON: {exc}", files["meta"]) from None
+            raise DataFormatError(f"invalid JSON: {exc.msg}, column {exc.colno}",
+                                  files["meta"], line=exc.lineno) from None
         if not isinstance(meta, dict):
             raise DataFormatError("run metadata must be a JSON object", files["meta"])
     vehicle = meta.get("vehicle", "husky")
@@ -390,6 +396,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     repaired: dict[str, int] = {}
     gaps: dict[str, list] = {}
     skipped: dict[str, int] = {}
+    ignored: dict[str, list[str]] = {}
     for kind, path in sorted(files.items()):
         if kind == "meta":
             continue
@@ -398,6 +405,8 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         streams[name] = frame
         repaired.update({f"{name}.{c}": n for c, n in report.repaired.items()})
         skipped.update({f"{name}.{k}": n for k, n in report.skipped_lines.items() if n})
+        if report.ignored_columns:
+            ignored[name] = report.ignored_columns
         if report.gaps:
             gaps[name] = report.gaps
     checks = check_run(run_id, streams, vehicle,
@@ -405,6 +414,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
                vehicle=vehicle, source=str(files["pro"].parent),
                meta={**meta, "repaired": repaired, "gaps": gaps, "skipped_lines": skipped,
+                     "ignored_columns": ignored,
                      **checks, "files": {k: str(p) for k, p in files.items()}})
 
 

@@ -19,8 +19,8 @@ from terrain.run import Run
 
 #: columns of :attr:`InputReport.table`
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
-           "gap_list", "skipped_lines", "stuck", "windows", "dropped_gap", "empty_gap",
-           "dropped_unsteady", "flagged_windows", "warnings")
+           "gap_list", "skipped_lines", "ignored_columns", "stuck", "windows", "dropped_gap",
+           "empty_gap", "dropped_unsteady", "flagged_windows", "warnings")
 
 
 @dataclass(frozen=True)
@@ -33,6 +33,7 @@ class InputReport:
         One row per run, columns :data:`COLUMNS`: ``status`` is ``used``, ``skipped`` or
         ``too_short`` with the ``reason``; ``repaired`` lists ``<stream>.<channel>:<cells>``;
         ``gaps`` / ``gap_s`` count the timestamp gaps and the time they span (s);
+        ``ignored_columns`` lists ``<stream>.<column>`` of file columns no reader reads;
         ``stuck`` lists stuck channels; window columns are empty (-1) when the command does
         not window.
     """
@@ -40,8 +41,8 @@ class InputReport:
     table: pd.DataFrame
 
     def metrics(self, prefix: str = "input_") -> dict[str, float]:
-        """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, windows
-        dropped and flagged, stuck channels, warnings.
+        """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, ignored
+        file columns, windows dropped and flagged, stuck channels, warnings.
 
         Parameters
         ----------
@@ -62,6 +63,8 @@ class InputReport:
             "repaired_cells": int(t["repaired_cells"].sum()), "gaps": int(t["gaps"].sum()),
             "gap_s": float(t["gap_s"].sum()),
             "skipped_lines": int(t["skipped_lines"].sum()),
+            "ignored_columns": int(t["ignored_columns"].str.count(",").add(
+                t["ignored_columns"] != "").sum()),
             "stuck_channels": int(t["stuck"].str.count(",").add(t["stuck"] != "").sum()),
             "windows_dropped_gap": int(t.loc[windowed, "dropped_gap"].sum()),
             "windows_empty_gap": int(t.loc[windowed, "empty_gap"].sum()),
@@ -94,6 +97,12 @@ class InputReport:
         if m["skipped_lines"]:
             parts.append(f"  skipped {int(m['skipped_lines'])} blank/comment line(s): "
                          f"{ids(t['skipped_lines'] > 0)}")
+        if m["ignored_columns"]:
+            names = sorted({c for cols in t["ignored_columns"] if cols
+                            for c in cols.split(",")})
+            parts.append(f"  ignored {int(m['ignored_columns'])} column(s) not read by the "
+                         f"readers ({_short(names, limit)}) in "
+                         f"{ids(t['ignored_columns'] != '')}")
         if m["gaps"]:
             lengths = [float(b) - float(a) for spans in t["gap_list"] if spans
                        for a, b in (g.split("..") for g in spans.split(";"))]
@@ -177,6 +186,9 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
             "gaps": len(gaps), "gap_s": float(sum(b - a for a, b in gaps)),
             "gap_list": ";".join(f"{a:.3f}..{b:.3f}" for a, b in gaps),
             "skipped_lines": int(sum(dict(meta.get("skipped_lines", {})).values())),
+            "ignored_columns": ",".join(f"{stream}.{c}" for stream, cols in
+                                        dict(meta.get("ignored_columns", {})).items()
+                                        for c in cols),
             "stuck": ",".join(stuck),
             "windows": int(w["windows"]) if w else -1,
             "dropped_gap": int(w["dropped_gap"]) if w else 0,

@@ -183,7 +183,11 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
                               path)
     try:
         return json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, OSError) as exc:  # JSONDecodeError and UnicodeDecodeError included
+    except json.JSONDecodeError as exc:  # where the parser stopped: line and column
+        raise DataFormatError(f"unreadable manifest (invalid JSON: {exc.msg}, column "
+                              f"{exc.colno}); regenerate data/ with `terrain convert`", path,
+                              line=exc.lineno) from None
+    except (ValueError, OSError) as exc:  # UnicodeDecodeError included
         raise DataFormatError(f"unreadable manifest ({type(exc).__name__}); regenerate data/ "
                               "with `terrain convert`", path) from None
 

@@ -29,7 +29,7 @@ target).
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping, Sequence
@@ -196,6 +196,7 @@ class StreamService:
         self._buffers = {s: RingBuffer(len(ch), config.buffer_samples)
                          for s, ch in self.streams.items()}
         self._events: dict[str, deque] = {s: deque(maxlen=MAX_EVENTS) for s in self.streams}
+        self._refused: Counter = Counter()
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -214,6 +215,13 @@ class StreamService:
     def needed_streams(self) -> tuple[str, ...]:
         """Streams the model needs (others pushed to the service are ignored)."""
         return tuple(self.streams)
+
+    @property
+    def refused_samples(self) -> dict[tuple[str, str], int]:
+        """Samples refused by the per-sample rules since the service started, by
+        ``(stream, reason)`` (the reason is the flag the rule raises); bounded by the number
+        of streams and rules."""
+        return dict(self._refused)
 
     def push(self, stream: str, t_s: np.ndarray | float,
              values: Mapping[str, np.ndarray] | np.ndarray) -> list[Decision]:
@@ -270,6 +278,7 @@ class StreamService:
             keep, reason = rule(channels, t, v, buf.last_t)
             if not keep.all():
                 bad_t = t[~keep]
+                self._refused[(stream, reason)] += len(bad_t)
                 self._events[stream].extend(
                     (bt if np.isfinite(bt) else buf.last_t, reason) for bt in bad_t)
                 t, v = t[keep], v[keep]

@@ -288,6 +288,26 @@ def test_blank_and_comment_lines_are_skipped_and_counted(turning):
     assert "skipped 2 blank/comment line(s)" in input_report([run]).text()
 
 
+def test_extra_columns_are_not_read_but_counted_and_named(turning):
+    imu, pro = turning
+    reference, _ = _read(imu.parent.parent)
+    _edit(imu, lambda f: f.insert(3, "temperature", 21.5))
+    _edit(pro, lambda f: f.assign(mode=1, gear=2))
+    (run,), caught = _read(imu.parent.parent)
+    assert not caught
+    assert run.meta["ignored_columns"] == {"imu": ["temperature"], "wheels": ["mode", "gear"]}
+    for name, frame in run.streams.items():  # the read channels are the same as without
+        pd.testing.assert_frame_equal(frame, reference[0].streams[name])
+    report = input_report([run])
+    assert report.table.loc[0, "ignored_columns"] == "imu.temperature,wheels.mode,wheels.gear"
+    assert report.metrics()["input_ignored_columns"] == 3.0
+    text = report.text()
+    assert ("ignored 3 column(s) not read by the readers (imu.temperature, wheels.gear, "
+            f"wheels.mode) in {run.run_id}" in text)
+    assert "nothing repaired" not in text
+    assert input_report(reference).metrics()["input_ignored_columns"] == 0.0
+
+
 def test_two_stray_quotes_289_rows_apart_give_a_short_message(turning):
     imu, _ = turning
     lines = _lines(imu)

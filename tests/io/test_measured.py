@@ -353,6 +353,15 @@ def test_bad_run_metadata_is_a_typed_error(tmp_path, synth_pro, write_run, text)
     assert info.value.path == str(meta)
 
 
+def test_invalid_run_metadata_json_names_its_line_and_column(tmp_path, synth_pro, write_run):
+    write_run(tmp_path, "ICE", "00", pro=synth_pro(duration_s=1.0))
+    meta = tmp_path / "ICE" / "meta_00.json"
+    meta.write_text('{\n "vehicle": "husky",\n "seed": 3,,\n}\n')
+    with pytest.raises(DataFormatError, match=r"invalid JSON: .*, column 12") as info:
+        read_runs_dir(tmp_path)
+    assert info.value.path == str(meta) and info.value.line == 3
+
+
 @pytest.mark.parametrize("vehicle", ['"tank"', "5", "null"])
 def test_unknown_vehicle_in_run_metadata_is_refused_not_left_unchecked(tmp_path, synth_pro,
                                                                        write_run, vehicle):

@@ -253,3 +253,19 @@ def test_runs_of_the_files_and_of_the_manifest_must_agree(vulpi_copy):
     with pytest.raises(DataFormatError, match="'vulpi/X/9'.*has no rows") as info:
         read_shipped("vulpi", vulpi_copy)
     assert info.value.path == str(path)
+
+
+def test_invalid_manifest_json_names_its_line_and_column(tmp_path, data_dir):
+    import shutil
+
+    copy = tmp_path / "data"
+    shutil.copytree(data_dir, copy)
+    path = copy / "manifest.json"
+    lines = path.read_text().splitlines()
+    lines[2] += ",,"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataFormatError, match=r"invalid JSON: .*, column \d+\).*terrain "
+                                              r"convert") as info:
+        read_manifest(copy)
+    assert info.value.path == str(path) and info.value.line == 3
+

@@ -136,6 +136,9 @@ def test_rejected_and_missing_samples_flag_the_windows_that_cover_them(wheel_mod
     clean = frame[(frame["t_s"] > t[0] + 26.0)]
     assert (clean["flags"] == "").all()
     assert any(ev[1] == "time_not_increasing" for ev in svc._events["wheels"])
+    # every refused sample is counted by stream and reason: the NaN current, the late one
+    assert svc.refused_samples == {("wheels", "non_finite"): 1,
+                                   ("wheels", "time_not_increasing"): 1}
 
 
 def test_low_confidence_uses_the_fallback_target(wheel_model, unseen_run):
@@ -159,6 +162,8 @@ def test_memory_is_bounded_for_an_unbounded_stream(wheel_model, unseen_run):
             n_dec += len(svc.push("wheels", t[a:a + 50] + k * span, values[a:a + 50]))
     assert len(svc._buffers["wheels"]) == 128
     assert len(svc._events["wheels"]) == MAX_EVENTS
+    # the counts keep every refusal while the event log keeps the last MAX_EVENTS
+    assert svc.refused_samples == {("wheels", "non_finite"): 6 * len(values[::7])}
     assert n_dec > 6 * (span - 5)
 
 

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pandas as pd
 import pytest
 
+import pipelines.stream as stream_pipeline
 from terrain.cli import main
 from terrain.serving.pyfunc import save_model
 from terrain.serving import load_stream_model
@@ -157,6 +159,29 @@ def test_stream_says_why_a_run_shorter_than_a_window_gives_no_decision(
     assert len(err.splitlines()) == 1
     assert re.search(r"streams \['wheels'\] overlap for 1\.\d\d s, shorter than the model's "
                      r"2 s window", err) and str(folder) in err
+    assert not (tmp_path / "d.csv").exists()
+
+
+def test_stream_says_which_samples_were_refused_when_long_streams_give_no_decision(
+        run_dir, tmp_path, capsys, wheel_model, monkeypatch):
+    """Streams that overlap for many windows but whose samples the service's input rules
+    all refuse: the message counts the refusals instead of claiming a short overlap."""
+    def refuse_all(channels, t_s, values, last_t_s):
+        return np.zeros(len(t_s), dtype=bool), "implausible_rate"
+
+    real = stream_pipeline.StreamService
+    monkeypatch.setattr(stream_pipeline, "StreamService",
+                        lambda *a, **k: real(*a, rules=(refuse_all,), **k))
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+    capsys.readouterr()
+    assert _stream(model_dir, run_dir, tmp_path / "d.csv") == 2
+    err = capsys.readouterr().err.strip()
+    n_wheels = len(pd.read_csv(run_dir / "pro_07.csv"))
+    assert len(err.splitlines()) == 1 and "shorter than" not in err
+    assert re.search(r"overlap for \d+\.\d\d s \(window 2 s\), but the service's input rules "
+                     rf"left too few samples; refused: {n_wheels} of stream wheels "
+                     r"\(implausible_rate\)", err), err
     assert not (tmp_path / "d.csv").exists()
 
 

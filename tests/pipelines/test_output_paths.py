@@ -1,0 +1,110 @@
+"""Output options are checked while the options are read, before any work is done."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+import pytest
+
+from pipelines.arguments import model_dir, output_dir, output_file
+from terrain.cli import build_parser, main
+
+
+@pytest.fixture
+def blocker(tmp_path):
+    """A plain file where a folder would have to be."""
+    path = tmp_path / "afile"
+    path.write_text("x")
+    return path
+
+
+def test_output_file_accepts_new_paths_under_missing_folders(tmp_path):
+    target = tmp_path / "a" / "b" / "out.csv"
+    assert output_file(str(target)) == target
+    existing = tmp_path / "old.csv"
+    existing.write_text("x")
+    assert output_file(str(existing)) == existing
+
+
+def test_output_file_refuses_a_file_as_folder_at_any_depth(blocker):
+    for target in (blocker / "out.csv", blocker / "deeper" / "out.csv"):
+        with pytest.raises(argparse.ArgumentTypeError, match="is a file, not a folder"):
+            output_file(str(target))
+
+
+def test_output_file_refuses_a_folder(tmp_path):
+    with pytest.raises(argparse.ArgumentTypeError, match="it is a folder"):
+        output_file(str(tmp_path))
+
+
+def test_output_dir_refuses_a_file_itself_or_above(blocker, tmp_path):
+    for target in (blocker, blocker / "sub"):
+        with pytest.raises(argparse.ArgumentTypeError, match="is a file"):
+            output_dir(str(target))
+    assert output_dir(str(tmp_path / "new" / "deep")) == tmp_path / "new" / "deep"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
+def test_unwritable_folder_refused(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        with pytest.raises(argparse.ArgumentTypeError, match="no write permission"):
+            output_file(str(locked / "out.csv"))
+        with pytest.raises(argparse.ArgumentTypeError, match="no write permission"):
+            output_dir(str(locked / "sub"))
+    finally:
+        locked.chmod(0o700)
+
+
+def test_model_dir_refuses_a_non_empty_folder(tmp_path):
+    assert model_dir(str(tmp_path / "m")) == tmp_path / "m"
+    (tmp_path / "empty").mkdir()
+    assert model_dir(str(tmp_path / "empty")) == tmp_path / "empty"
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "MLmodel").write_text("x")
+    with pytest.raises(argparse.ArgumentTypeError, match="not empty"):
+        model_dir(str(tmp_path / "full"))
+
+
+#: every output option of the CLI, as (argv without the output, the output option)
+_OUTPUT_OPTIONS = [
+    (["predict", "--model", "M", "RUNS"], "--out", "file"),
+    (["estimate", "RUNS"], "--out", "file"),
+    (["stream", "--model", "M", "RUN"], "--out", "file"),
+    (["cv", "--dataset", "vulpi"], "--json", "file"),
+    (["audit", "--dataset", "borealtc"], "--json", "file"),
+    (["audit", "--dataset", "borealtc", "--json", "ok.json"], "--md", "file"),
+    (["control-sim", "--terrain", "ICE"], "--json", "file"),
+    (["control-sim", "--terrain", "ICE", "--json", "ok.json"], "--csv", "file"),
+    (["validate", "sim"], "--out", "file"),
+    (["compare"], "--out", "dir"),
+    (["control-grid"], "--out", "dir"),
+    (["simulate"], "--out", "dir"),
+    (["slip-fit"], "--out", "dir"),
+    (["stream-eval"], "--model-out", "dir"),
+    (["train", "--dataset", "vulpi"], "--model-out", "dir"),
+    (["serve", "--model", "M"], "--served-out", "dir"),
+]
+
+
+@pytest.mark.parametrize("argv, option, kind", _OUTPUT_OPTIONS,
+                         ids=[f"{a[0]} {o}" for a, o, _ in _OUTPUT_OPTIONS])
+def test_cli_refuses_unwritable_output_before_any_work(argv, option, kind, blocker,
+                                                       monkeypatch, capsys):
+    """A file in the output's path is a one-line usage error (exit 2) naming the option,
+    from the parser itself: no run is read, no model trained, no MLflow run opened."""
+    parser = build_parser()
+    sub = parser._subparsers._group_actions[0].choices[argv[0]]
+    assert any(option in a.option_strings for a in sub._actions), (argv[0], option)
+    monkeypatch.chdir(blocker.parent)
+    target = "afile/out.csv" if kind == "file" else "afile/sub"
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, option, target])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}: cannot" in err and "'afile'" in err
+    assert "Traceback" not in err
+    assert not (blocker.parent / "mlflow.db").exists() and not (blocker.parent / "mlruns").exists()
