@@ -30,7 +30,7 @@ from typing import Any
 from pipelines.arguments import add_smoothing, model_dir, smoothing_from_args
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
-from terrain.serving.http import RequestGuard
+from terrain.serving.http import MAX_IN_FLIGHT, RequestGuard
 from terrain.serving.model import read_mlmodel
 from terrain.serving.pyfunc import pip_requirements
 from terrain.serving.served import MAX_DECISIONS, save_served_model, served_settings
@@ -63,6 +63,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-decisions", type=int, default=MAX_DECISIONS,
                         help="most decisions one request may make, i.e. its time span over "
                              "--hop-s (more: HTTP 400)")
+    parser.add_argument("--max-in-flight", type=int, default=MAX_IN_FLIGHT,
+                        help="requests answered at once (more: HTTP 503 at once, instead of "
+                             "queueing behind slow ones)")
 
 
 def is_served_model(path: Path) -> bool:
@@ -119,7 +122,7 @@ def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
     return save_served_model(out, model_dir, settings, pip_requirements(model.pipeline))
 
 
-def build_app(served_dir: Path, max_body_bytes: int):
+def build_app(served_dir: Path, max_body_bytes: int, max_in_flight: int = MAX_IN_FLIGHT):
     """MLflow's scoring server app for ``served_dir`` behind :class:`RequestGuard`.
 
     Parameters
@@ -128,6 +131,8 @@ def build_app(served_dir: Path, max_body_bytes: int):
         Directory of the served streaming model.
     max_body_bytes : int
         Largest request body, bytes (larger: 413; no Content-Length: 411).
+    max_in_flight : int
+        Requests to ``/invocations`` answered at once (more: 503).
 
     Returns
     -------
@@ -142,10 +147,13 @@ def build_app(served_dir: Path, max_body_bytes: int):
     import mlflow.pyfunc
     from mlflow.pyfunc import scoring_server
 
-    app = scoring_server.init(mlflow.pyfunc.load_model(str(served_dir)))
+    model = mlflow.pyfunc.load_model(str(served_dir))
+    app = scoring_server.init(model)
+    settings = getattr(model.unwrap_python_model(), "settings", {})
     # outermost of the app's middleware (inside only Starlette's 500 handler), so that it
     # sees the exceptions MLflow's handler lets escape
-    app.add_middleware(RequestGuard, max_body_bytes=max_body_bytes)
+    app.add_middleware(RequestGuard, max_body_bytes=max_body_bytes,
+                       max_rows=settings.get("max_rows"), max_in_flight=max_in_flight)
     return app
 
 
@@ -196,12 +204,13 @@ def _stop(signum: int, frame: Any) -> None:
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse out-of-range numbers before anything is started (ConfigError); the port's
     range is :func:`bind_port`'s, the first thing started."""
-    for name in ("max_body_bytes", "max_decisions"):
+    units = {"max_body_bytes": "bytes", "max_decisions": "decisions",
+             "max_in_flight": "requests"}
+    for name, unit in units.items():
         value = getattr(args, name, 1)
         if not value > 0:
             raise ConfigError(f"--{name.replace('_', '-')} must be a positive number of "
-                              f"{'bytes' if name == 'max_body_bytes' else 'decisions'}, "
-                              f"got {value}")
+                              f"{unit}, got {value}")
     if not args.hop_s > 0:
         raise ConfigError(f"--hop-s must be > 0, got {args.hop_s:g}")
     smoothing_from_args(args)
@@ -251,7 +260,8 @@ def main(args: argparse.Namespace) -> int:
             if not is_served_model(args.model):
                 served = wrap_model(args.model, args.served_out or Path(tmp) / "served", args)
                 print(f"wrapped {args.model} into the streaming model {served}")
-            app = build_app(served, args.max_body_bytes)
+            app = build_app(served, args.max_body_bytes,
+                            getattr(args, "max_in_flight", MAX_IN_FLIGHT))
             sock.listen(2048)  # connections wait in the backlog until uvicorn accepts
             host = f"[{args.host}]" if ":" in args.host else args.host
             print(f"serving {served} on http://{host}:{port}/invocations "

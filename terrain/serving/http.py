@@ -15,7 +15,7 @@ import logging
 import re
 from typing import Any, Awaitable, Callable, MutableMapping
 
-from terrain.errors import (DataFormatError, EmptyFileError, EncodingError,
+from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
                             ImplausibleValueError, RaggedRowError, TerrainError)
 
 Scope = MutableMapping[str, Any]
@@ -27,6 +27,13 @@ Send = Callable[[Message], Awaitable[None]]
 CONTENT_TYPES = ("text/csv", "application/json", "application/vnd.apache.parquet")
 #: longest message of an error answer, characters
 MAX_MESSAGE = 500
+#: default of the requests to ``/invocations`` answered at once; more are told 503 at once
+#: instead of queueing behind slow ones (MLflow's timeout answers 504 but cannot stop a
+#: prediction that runs on, so a queue would grow unbounded)
+MAX_IN_FLIGHT = 8
+#: largest uncompressed size of a Parquet body, as a multiple of the body-size limit (a
+#: small compressed body can decode to gigabytes)
+PARQUET_EXPANSION = 16
 _TYPED = re.compile(r"^([A-Z][A-Za-z]*Error): ")
 _log = logging.getLogger(__name__)
 
@@ -93,7 +100,13 @@ def _typed_error(status: int, text: str) -> TerrainError:
                              where)
     if status == 415:
         return DataFormatError(f"unsupported request content type: {text.strip()}", where)
-    return DataFormatError(re.sub(r"^Invalid input\.\s*", "", text.strip()), where)
+    text = re.sub(r"<class '([\w.]+)'>", r"\1", text.strip())  # Python type reprs
+    if re.search(r"DataFrame constructor|must be called with a collection|Got type|"
+                 r"unexpected input type|Failed to parse input", text):
+        return DataFormatError("the JSON body is not a table of samples; send "
+                               "{\"dataframe_split\": {\"columns\": [...], \"data\": [[...], "
+                               f"...]}}}} (MLflow: {text[:160]})", where)
+    return DataFormatError(re.sub(r"^Invalid input\.\s*", "", text), where)
 
 
 def _error_body(status: int, body: bytes) -> dict:
@@ -102,6 +115,11 @@ def _error_body(status: int, body: bytes) -> dict:
         doc = json.loads(body)
     except ValueError:
         doc = None
+    if isinstance(doc, dict) and "message" not in doc and status in (404, 405):
+        return {"error_code": "ENDPOINT_NOT_FOUND" if status == 404 else "BAD_REQUEST",
+                "message": _typed(ConfigError(
+                    f"{doc.get('detail', 'no such endpoint')}: the served model answers "
+                    "POST /invocations (the streams) and GET /ping, /health, /version"))}
     if isinstance(doc, dict):
         doc.pop("stack_trace", None)
         if "message" in doc:
@@ -141,11 +159,103 @@ async def _send_json(send: Send, status: int, doc: dict) -> None:
     await send({"type": "http.response.body", "body": body})
 
 
+def _header_names(body: bytes) -> list[str] | None:
+    """Column names of a CSV body's header line, or None when it cannot be split plainly
+    (quoted names are left to the CSV parser)."""
+    head = body.split(b"\n", 1)[0].rstrip(b"\r")
+    if b'"' in head:
+        return None
+    return [c.strip() for c in head.decode("utf-8", "replace").lstrip("\ufeff").split(",")]
+
+
+def _json_columns(body: bytes) -> list | None:
+    """The ``columns`` of a ``dataframe_split`` JSON body, or None (another shape, or a
+    body MLflow's parser will refuse with its own message)."""
+    try:
+        doc = json.loads(body)
+    except (ValueError, RecursionError):
+        return None
+    split = doc.get("dataframe_split") if isinstance(doc, dict) else None
+    columns = split.get("columns") if isinstance(split, dict) else None
+    return columns if isinstance(columns, list) else None
+
+
+def body_refusal(content_type: str, body: bytes, max_rows: int | None,
+                 max_body_bytes: int) -> tuple[int, dict] | None:
+    """Status and answer refusing a request body before MLflow parses it, or None.
+
+    * column names that are not text or appear twice (a ``dataframe_split`` JSON body or a
+      CSV header): MLflow would shift the channels after a repeated one, or fail on a list
+      used as a name;
+    * a Parquet body whose metadata announce more than ``max_rows`` rows, or rows x columns
+      x 8 bytes (the least it decodes to) over :data:`PARQUET_EXPANSION` x
+      ``max_body_bytes`` (a small compressed body can decode to gigabytes before the served
+      model could count its rows).
+
+    Parameters
+    ----------
+    content_type : str
+        The request's Content-Type (parameters such as ``charset`` ignored).
+    body : bytes
+        The whole body.
+    max_rows : int or None
+        Largest request the served model accepts, rows (None: not checked here).
+    max_body_bytes : int
+        The body-size limit, bytes.
+
+    Returns
+    -------
+    tuple of (int, dict) or None
+    """
+    kind = content_type.split(";")[0].strip().lower()
+    columns = (_json_columns(body) if kind == "application/json"
+               else _header_names(body) if kind == "text/csv" else None)
+    if columns is not None:
+        odd = [c for c in columns if not isinstance(c, str)]
+        dup = sorted({c for c in columns if isinstance(c, str) and columns.count(c) > 1})
+        if odd or dup:
+            what = (f"column names must be text, got {json.dumps(odd[0])[:40]}" if odd else
+                    f"duplicated column name(s) {dup}; send each column once")
+            return 400, {"error_code": "BAD_REQUEST",
+                         "message": _typed(DataFormatError(what, "request"))}
+    if kind == "application/vnd.apache.parquet":
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+            meta = pq.ParquetFile(pa.BufferReader(body)).metadata
+        except Exception:  # not Parquet: MLflow's parser answers with its own message
+            return None
+        # decoded, every cell takes at least 8 bytes (a float; text more); the metadata's
+        # own sizes are of the encoded pages (a dictionary-encoded column is a few bytes)
+        size = int(meta.num_rows) * int(meta.num_columns) * 8
+        if max_rows is not None and meta.num_rows > max_rows:
+            return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
+                f"request of {meta.num_rows} rows exceeds the limit of {max_rows}; send the "
+                "streams in shorter pieces", "request"))}
+        if size > PARQUET_EXPANSION * max_body_bytes:
+            return 413, {"error_code": "REQUEST_LIMIT_EXCEEDED",
+                         "message": _typed(DataFormatError(
+                             f"Parquet body decodes to at least {size} bytes, over "
+                             f"{PARQUET_EXPANSION} x the body limit of {max_body_bytes}; "
+                             "send the streams in shorter pieces", "request"))}
+    return None
+
+
+class _BodyTooLarge(Exception):
+    """The body sent is longer than its Content-Length or the limit."""
+
+
 class RequestGuard:
     """ASGI middleware in front of MLflow's scoring server app.
 
-    * a POST without ``Content-Length`` is answered 411, one over ``max_body_bytes`` 413,
+    * a POST without ``Content-Length`` is answered 411, one with ``Transfer-Encoding`` as
+      well 400 (the two disagree on where the body ends), one over ``max_body_bytes`` 413,
       one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500);
+    * the body of ``/invocations`` is read here, counting its bytes (longer than announced
+      or than the limit: 413), checked by :func:`body_refusal` (repeated or non-text column
+      names, a Parquet body that decodes past the limits) and then handed to MLflow;
+    * at most ``max_in_flight`` requests to ``/invocations`` are answered at once; one more
+      is answered 503 at once;
     * every error answer (status >= 400) is rewritten to the project's JSON error: MLflow's
       ``stack_trace`` field is dropped and the message is one line, ``<ErrorClass>: ...``
       (:func:`project_message`); a plain-text answer (MLflow's 415, its 504 timeout)
@@ -163,11 +273,19 @@ class RequestGuard:
         MLflow's scoring server app (or what wraps it).
     max_body_bytes : int
         Largest request body, bytes.
+    max_rows : int or None
+        Largest request of the served model, rows (checked here on Parquet metadata).
+    max_in_flight : int
+        Requests to ``/invocations`` answered at once.
     """
 
-    def __init__(self, app: Callable, max_body_bytes: int) -> None:
+    def __init__(self, app: Callable, max_body_bytes: int, max_rows: int | None = None,
+                 max_in_flight: int = MAX_IN_FLIGHT) -> None:
         self.app = app
         self.max_body_bytes = int(max_body_bytes)
+        self.max_rows = None if max_rows is None else int(max_rows)
+        self.max_in_flight = int(max_in_flight)
+        self.in_flight = 0
 
     def refusal(self, path: str, headers: dict[bytes, bytes]) -> tuple[int, dict] | None:
         """Status and body refusing a POST from its path and headers alone, or None.
@@ -185,6 +303,10 @@ class RequestGuard:
         """
         size = headers.get(b"content-length")
         tail = "; send the streams in shorter pieces"
+        if size is not None and b"transfer-encoding" in headers:
+            return 400, {"error_code": "BAD_REQUEST",
+                         "message": "DataFormatError: request with both Content-Length and "
+                                    "Transfer-Encoding; send the body with its length only"}
         if size is None:
             return 411, {"error_code": "REQUEST_LIMIT_EXCEEDED",
                          "message": "DataFormatError: request without Content-Length (a "
@@ -209,11 +331,58 @@ class RequestGuard:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        invocation = scope["method"] == "POST" and scope.get("path", "") == "/invocations"
         if scope["method"] == "POST":
-            refused = self.refusal(scope.get("path", ""), dict(scope["headers"]))
+            headers = dict(scope["headers"])
+            refused = self.refusal(scope.get("path", ""), headers)
+            if refused is None and invocation and self.in_flight >= self.max_in_flight:
+                refused = 503, {"error_code": "TEMPORARILY_UNAVAILABLE",
+                                "message": f"ConfigError: server busy with "
+                                           f"{self.in_flight} requests; retry shortly"}
+            if refused is None and invocation:
+                self.in_flight += 1
+                try:
+                    try:
+                        body = await self._read_body(receive, int(headers[b"content-length"]))
+                    except _BodyTooLarge as exc:
+                        await _send_json(send, 413, {"error_code": "REQUEST_LIMIT_EXCEEDED",
+                                                     "message": f"DataFormatError: {exc}"})
+                        return
+                    if body is None:  # the client went away
+                        return
+                    refused = body_refusal(headers.get(b"content-type", b"").decode(
+                        "latin-1"), body, self.max_rows, self.max_body_bytes)
+                    if refused is None:
+                        await self._answer(scope, _replay(body, receive), send)
+                        return
+                finally:
+                    self.in_flight -= 1
             if refused is not None:
                 await _send_json(send, *refused)
                 return
+        await self._answer(scope, receive, send)
+
+    async def _read_body(self, receive: Receive, length: int) -> bytes | None:
+        """The whole request body, or None when the client disconnected; raises
+        :class:`_BodyTooLarge` as soon as more bytes arrive than announced or allowed."""
+        limit = min(length, self.max_body_bytes)
+        parts, total = [], 0
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return None
+            chunk = message.get("body", b"")
+            total += len(chunk)
+            if total > limit:
+                raise _BodyTooLarge(f"request body longer than its Content-Length of {length} "
+                                    f"bytes or the limit of {self.max_body_bytes}; send the "
+                                    "streams in shorter pieces")
+            parts.append(chunk)
+            if not message.get("more_body", False):
+                return b"".join(parts)
+
+    async def _answer(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Run MLflow's app, rewriting its error answers (see the class docstring)."""
         held: dict = {"start": None, "parts": [], "sent": False}
 
         async def guarded_send(message: Message) -> None:
@@ -237,3 +406,17 @@ class RequestGuard:
             if held["sent"]:
                 raise
             await _send_json(send, *_failure(exc))
+
+
+def _replay(body: bytes, receive: Receive) -> Receive:
+    """An ASGI ``receive`` that gives the body already read, then waits on the client."""
+    given = False
+
+    async def replay() -> Message:
+        nonlocal given
+        if not given:
+            given = True
+            return {"type": "http.request", "body": body, "more_body": False}
+        return await receive()
+
+    return replay

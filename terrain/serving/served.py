@@ -53,8 +53,8 @@ from terrain.control import DesiredSlipConfig
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
                             MissingColumnError, NonFiniteError, NonNumericError, TerrainError,
                             TimestampError, first_items)
-from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_ranges, check_rate, check_run,
-                                     implied_rate_hz)
+from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_accel_units, check_ranges,
+                                     check_rate, check_run, implied_rate_hz)
 from terrain.run import TIME, Run
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
                                    load_stream_model)
@@ -77,8 +77,11 @@ STREAM = "stream"
 MAX_REPAIR_RUN = 2
 #: flags of a window that was not classified
 DROP_FLAGS = ("gap", "short")
-#: default limit of the decisions one request may make (its time span / hop_s)
-MAX_DECISIONS = 20_000
+#: default limit of the decisions one request may make (its time span / hop_s): 2000 at
+#: the 0.5 s hop is 1000 s of stream, and keeps one request's work near 1 s (about 0.2 ms
+#: per decision inside a timestamp gap, 0.6 ms on dense samples, measured with
+#: ``benchmarks/bench_served_load.py``'s machine); a live robot sends seconds at a time
+MAX_DECISIONS = 2_000
 #: vehicle whose datasheet bounds the run-level rules use when the model names none (the
 #: readers' default: the measured data is all Clearpath Husky)
 DEFAULT_VEHICLE = "husky"
@@ -270,8 +273,15 @@ def _to_float(x: Any, where: str, col: str, row: int) -> float:
 
 
 def _short(value: Any, limit: int = 40) -> str:
-    """``repr`` of a cell, cut to ``limit`` characters for a message."""
-    text = repr(value)
+    """A cell as a message shows it, cut to ``limit`` characters: ``repr`` of the plain
+    Python value (a NumPy scalar or array as the number, text or list it holds; a date or
+    duration as its ISO text), never a NumPy type name."""
+    if isinstance(value, (np.datetime64, np.timedelta64)):
+        text = str(value)
+    elif isinstance(value, (np.generic, np.ndarray)):
+        text = repr(value.tolist())
+    else:
+        text = repr(value)
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
@@ -315,6 +325,12 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
                                  f"{ends[longest] - starts[longest] + 1} non-finite values "
                                  f"(more than {MAX_REPAIR_RUN} are not repaired)", where, col,
                                  int(rows[starts[longest]]))
+        if bad[0] or bad[-1]:  # as the readers: only a sample between two finite ones
+            i = 0 if bad[0] else len(bad) - 1
+            raise NonFiniteError(f"stream {stream!r}: non-finite value in its "
+                                 f"{'first' if i == 0 else 'last'} sample; only samples "
+                                 "between two finite ones are repaired (the window grid "
+                                 "starts at the first sample)", where, col, int(rows[i]))
 
 
 def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
@@ -359,8 +375,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     Raises
     ------
     DataFormatError
-        Too many rows, an unknown stream name, a stream that is too short or at an
-        implausible rate.
+        Too many rows, a column name that is not text or appears twice, an unknown stream
+        name, a stream that is too short or at an implausible rate.
     MissingColumnError
         A needed stream or channel is absent.
     NonNumericError
@@ -368,11 +384,12 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     TimestampError
         Unsorted or duplicated timestamps within a stream.
     NonFiniteError
-        A non-finite timestamp or a burst of non-finite values.
+        A non-finite timestamp, a burst of non-finite values, or a non-finite value in a
+        stream's first or last sample.
     ImplausibleValueError, UnitError, ClockError
         A value beyond its channel's plausibility range or the float range; timestamps in
-        ms, wheel speeds in km/h or a gyro in deg/s (certain findings of the readers'
-        rules); streams whose clocks do not overlap.
+        ms, wheel speeds in km/h, a gyro in deg/s or an accelerometer in g (certain
+        findings of the readers' rules); streams whose clocks do not overlap.
     """
     if not isinstance(frame, pd.DataFrame):
         raise DataFormatError(f"expected a table of samples, got {type(frame).__name__}",
@@ -380,6 +397,14 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     if len(frame) > max_rows:
         raise DataFormatError(f"request of {len(frame)} rows exceeds the limit of {max_rows}; "
                               "send the streams in shorter pieces", where)
+    labels = list(frame.columns)
+    odd = [c for c in labels if not isinstance(c, str)]
+    if odd:
+        raise DataFormatError(f"column names must be text, got {_short(odd[0])}", where)
+    dup = sorted({c for c in labels if labels.count(c) > 1})
+    if dup:  # a repeated channel would shift the channels after it
+        raise DataFormatError(f"duplicated column name(s) {dup}; send each column once",
+                              where, dup[0])
     long = STREAM in frame.columns
     if long:
         _check_stream_names(frame[STREAM].to_numpy(), known_streams, where)
@@ -403,6 +428,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         _check_stream(stream, t, v, channels, rows, window_s, where)
         part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
         check_ranges(part, where, {c: c for c in channels})
+        if {"ax", "ay", "az"} <= set(channels):
+            check_accel_units(part, where)  # a stream in g is refused, as a file in g
         out[stream] = part
     # the readers' run-level rules (units, clocks, stuck sensors); certain findings raise
     checks = check_run(where, out, vehicle, {s: where for s in out})

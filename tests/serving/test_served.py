@@ -32,7 +32,7 @@ from terrain.run import WHEEL_CHANNELS
 from terrain.serving.pyfunc import save_model
 from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
                              replay_run)
-from terrain.serving.served import (_plausibility_flags,
+from terrain.serving.served import (MAX_DECISIONS, _plausibility_flags,
                                     parse_request, planned_decisions, save_served_model,
                                     served_settings, smoothing_of)
 from terrain.serving.smoothing import SmoothingConfig
@@ -316,7 +316,9 @@ def test_decisions_are_bounded_before_any_work(served, request_frame, wheel_mode
     frame.loc[50:, "t_s"] += 1e5
     message = _error(served, frame)
     assert message.startswith("DataFormatError: request spanning ")
-    assert "above the limit of 20000" in message and "column 't_s'" in message
+    assert f"above the limit of {MAX_DECISIONS}" in message and "column 't_s'" in message
+    # the default bounds one request's work: 1000 s of stream at the 0.5 s hop
+    assert MAX_DECISIONS == 2000
 
 
 def test_settings_are_checked(wheel_model):
@@ -509,18 +511,125 @@ def test_real_server_time_jump_is_bounded(server, request_frame):
     """A small request with one large time jump answers at once: the windows over the
     jump are dropped ``gap`` rows, and past the decision limit it is refused."""
     jumped = request_frame.copy()
-    jumped.loc[40:, "t_s"] += 1000.0
+    jumped.loc[40:, "t_s"] += 900.0
     start = time.monotonic()
     status, body = _raw(server[1], jumped.to_csv(index=False).encode(), "text/csv")
     assert status == 200
     got = pd.DataFrame(body["predictions"])
-    assert len(got) >= 2000 and got["flags"].str.contains("gap").sum() >= 1990
+    assert len(got) >= 1800 and got["flags"].str.contains("gap").sum() >= 1790
     assert (got["dropped"] == got["flags"].str.contains("gap|short")).all()
-    jumped.loc[40:, "t_s"] += 1e5
+    jumped.loc[40:, "t_s"] += 200.0  # past the default limit (1000 s at the 0.5 s hop)
     status, body = _raw(server[1], jumped.to_csv(index=False).encode(), "text/csv")
-    assert status == 400 and "above the limit of 20000" in body["message"]
+    assert status == 400 and f"above the limit of {MAX_DECISIONS}" in body["message"]
     _one_line_typed(body, "DataFormatError")
     assert time.monotonic() - start < 20  # was > 60 s (504) for a 1e4 s jump
+
+
+@pytest.mark.parametrize("columns, expected", [
+    (["stream", "t_s", "vel_l", "vel_r", "cur_l", "cur_l"], "duplicated column name(s) ['cur_l']"),
+    (["stream", "t_s", "vel_l", "vel_r", "cur_l", ["cur_r"]], "column names must be text"),
+])
+def test_real_server_refuses_repeated_or_non_text_column_names(server, request_frame,
+                                                               columns, expected):
+    """A repeated channel would shift the channels after it (a wrong answer with 200), a
+    list as a name made MLflow fail with 500: both are the typed 400, checked before
+    MLflow parses the body; the same CSV header too."""
+    split = json.loads(request_frame.to_json(orient="split", index=False))
+    body = json.dumps({"dataframe_split": {"columns": columns, "data": split["data"]}})
+    status, answer = _raw(server[1], body.encode(), "application/json")
+    assert status == 400 and expected in answer["message"], answer
+    _one_line_typed(answer, "DataFormatError")
+    csv = request_frame.to_csv(index=False).replace("cur_r", "cur_l", 1).encode()
+    status, answer = _raw(server[1], csv, "text/csv")
+    assert status == 400 and "duplicated column name(s) ['cur_l']" in answer["message"]
+
+
+def test_real_server_refuses_a_parquet_body_by_its_metadata(server, request_frame):
+    """300,000 rows compress to a few kB: refused from the file's metadata (rows over the
+    model's limit) before anything is decoded."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    n = 300_000
+    table = pa.table({"stream": pa.array(["wheels"] * n).dictionary_encode(),
+                      "t_s": np.zeros(n), **{c: np.full(n, 0.1) for c in
+                                                     WHEEL_CHANNELS}})
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink, compression="zstd")
+    body = sink.getvalue().to_pybytes()
+    assert len(body) < 100_000  # under the server's --max-body-bytes
+    start = time.monotonic()
+    status, answer = _raw(server[1], body, "application/vnd.apache.parquet")
+    assert status == 400 and "request of 300000 rows exceeds the limit" in answer["message"]
+    assert time.monotonic() - start < 5
+    _one_line_typed(answer, "DataFormatError")
+
+
+def test_real_server_refuses_a_chunked_body_that_also_claims_a_length(server):
+    """Transfer-Encoding beside Content-Length: the guard would count the announced length
+    while the body is read by its chunks (a way past --max-body-bytes)."""
+    host, port = server[1].removeprefix("http://").split(":")
+    with socket.create_connection((host, int(port)), timeout=10) as sock:
+        sock.sendall(b"POST /invocations HTTP/1.1\r\nHost: x\r\nContent-Type: text/csv\r\n"
+                     b"Content-Length: 10\r\nTransfer-Encoding: chunked\r\n\r\n"
+                     b"5\r\nhello\r\n0\r\n\r\n")
+        answer = b""
+        while b"}" not in answer:  # the JSON answer follows the headers
+            part = sock.recv(65536)
+            assert part, answer
+            answer += part
+        answer = answer.decode()
+    assert answer.startswith("HTTP/1.1 400") and "Content-Length and Transfer-Encoding" \
+        in answer
+
+
+@pytest.mark.parametrize("method, path, status", [("GET", "/invocations", 405),
+                                                  ("POST", "/predict", 404)])
+def test_real_server_wrong_endpoint_is_a_typed_answer(server, method, path, status):
+    conn = http.client.HTTPConnection(server[1].removeprefix("http://"), timeout=10)
+    try:
+        conn.request(method, path, b"x" if method == "POST" else None,
+                     {"Content-Type": "text/csv", "Content-Length": "1"}
+                     if method == "POST" else {})
+        res = conn.getresponse()
+        answer = json.loads(res.read())
+    finally:
+        conn.close()
+    assert res.status == status
+    _one_line_typed(answer, "ConfigError")
+    assert "POST /invocations" in answer["message"]
+
+
+@pytest.mark.parametrize("row", [0, -1])
+def test_a_non_finite_first_or_last_sample_is_refused(served, request_frame, row):
+    """As the readers: a sample is repaired only between two finite ones; dropped at the
+    edge it would move the decision grid and lose a decision without a word."""
+    frame = request_frame.copy()
+    frame.loc[frame.index[row], "cur_l"] = np.nan
+    message = _error(served, frame)
+    assert message.startswith("NonFiniteError: stream 'wheels': non-finite value in its "
+                              + ("first" if row == 0 else "last") + " sample")
+
+
+def test_an_accelerometer_in_g_is_refused_as_the_readers_do(borealtc_runs):
+    from terrain.errors import UnitError
+    from terrain.run import IMU_CHANNELS
+
+    run = next(r for r in borealtc_runs if r.has_imu)
+    imu = run.streams["imu"]
+    imu = imu[imu["t_s"] < imu["t_s"].iloc[0] + 5.0].assign(stream="imu")
+    streams = {"imu": IMU_CHANNELS}
+    parse_request(imu, streams, 2.0, 10_000)  # m/s^2: accepted
+    in_g = imu.assign(**{c: imu[c] / 9.81 for c in ("ax", "ay", "az")})
+    with pytest.raises(UnitError, match="looks like units of g"):
+        parse_request(in_g, streams, 2.0, 10_000)
+
+
+def test_messages_show_cells_as_plain_values(served, request_frame):
+    frame = request_frame.astype({"stream": object})
+    frame.loc[2, "stream"] = np.float64(1.5)
+    message = _error(served, frame)
+    assert "unknown stream 1.5 in 1 row(s)" in message and "np." not in message
 
 
 def test_stopping_the_server_removes_its_wrapped_model(server):
