@@ -9,6 +9,7 @@ partition (``partition_s``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Iterable, Mapping, Sequence
@@ -145,6 +146,11 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
     return out
 
 
+#: Most samples one window may hold (a 10 000 s window at 100 Hz): longer windows are a
+#: typo, not an experiment, and would allocate their whole grid before any run is cut.
+MAX_WINDOW_SAMPLES = 1_000_000
+
+
 @dataclass(frozen=True)
 class WindowConfig:
     """How runs are cut into windows.
@@ -152,7 +158,8 @@ class WindowConfig:
     Parameters
     ----------
     window_s : float
-        Window length, s (> 0).
+        Window length, s (finite, > 0; at most :data:`MAX_WINDOW_SAMPLES` samples at
+        ``rate_hz``).
     hop_s : float or None
         Step between window starts, s; ``None`` means ``window_s`` (no overlap).
     rate_hz : float
@@ -165,6 +172,13 @@ class WindowConfig:
         std(vel_mean) <= ``max_speed_std_m_s`` (thesis ch. 8.1 uses steady-motion windows).
     min_speed_m_s, max_speed_std_m_s : float
         Steady-motion thresholds, m/s.
+
+    Raises
+    ------
+    ConfigError
+        A length or rate that is not a finite positive number, ``partition_s`` shorter
+        than ``window_s``, a window of fewer than 4 or more than
+        :data:`MAX_WINDOW_SAMPLES` samples.
     """
 
     window_s: float = 2.0
@@ -176,12 +190,18 @@ class WindowConfig:
     max_speed_std_m_s: float = 0.1
 
     def __post_init__(self) -> None:
-        if not self.window_s > 0 or not self.rate_hz > 0:
-            raise ConfigError("window_s and rate_hz must be > 0")
-        if self.hop_s is not None and not self.hop_s > 0:
-            raise ConfigError("hop_s must be > 0")
-        if self.partition_s is not None and self.partition_s < self.window_s:
-            raise ConfigError("partition_s must be >= window_s")
+        if not (0 < self.window_s < math.inf and 0 < self.rate_hz < math.inf):
+            raise ConfigError(f"window_s and rate_hz must be finite numbers > 0, got "
+                              f"{self.window_s} s and {self.rate_hz} Hz")
+        if self.hop_s is not None and not 0 < self.hop_s < math.inf:
+            raise ConfigError(f"hop_s must be a finite number > 0 s, got {self.hop_s}")
+        if self.partition_s is not None and not self.window_s <= self.partition_s < math.inf:
+            raise ConfigError(f"partition_s must be finite and >= window_s, got "
+                              f"{self.partition_s} s")
+        if self.window_s * self.rate_hz > MAX_WINDOW_SAMPLES:
+            raise ConfigError(f"a window of {self.window_s:g} s at {self.rate_hz:g} Hz holds "
+                              f"{self.window_s * self.rate_hz:.3g} samples; at most "
+                              f"{MAX_WINDOW_SAMPLES:,} (a shorter window or a lower rate)")
         if round(self.window_s * self.rate_hz) < 4:
             raise ConfigError("a window must hold at least 4 samples")
 

@@ -5,7 +5,8 @@ sub-command's parser with one help text, so ``terrain cv``, ``train`` and ``comp
 ``terrain stream`` and ``serve``, describe the same setting in the same words;
 :func:`smoothing_from_args` reads the filter's options back as one :class:`SmoothingConfig`.
 :func:`output_file` and :func:`output_dir` are the argparse types of every output option:
-a path that cannot be written is refused before any work, not after it.
+a path that cannot be written is refused before any work, not after it; :func:`seed_value`
+is the type of every seed option.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import os
 from pathlib import Path
 
 from terrain.errors import ConfigError
+from terrain.models.experiment import MAX_SEED
 from terrain.serving.smoothing import SmoothingConfig
 
 
@@ -126,6 +128,36 @@ def model_dir(value: str) -> Path:
         raise argparse.ArgumentTypeError(
             f"model directory {value!r} exists and is not empty (give a new or empty one)")
     return path
+
+
+def seed_value(value: str) -> int:
+    """argparse ``type`` of a seed option: an integer in ``0..MAX_SEED``
+    (:data:`terrain.models.experiment.MAX_SEED`).
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    int
+        The seed.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not an integer, negative or above ``MAX_SEED`` (scikit-learn's splitters seed
+        ``numpy.random.RandomState``, which takes no other value).
+    """
+    try:
+        number = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is an integer, got {value!r}") from None
+    if not 0 <= number <= MAX_SEED:
+        raise argparse.ArgumentTypeError(
+            f"a seed is an integer in 0-{MAX_SEED} (NumPy's seed range), got {value}")
+    return number
 
 
 def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from pipelines.arguments import output_file
+from pipelines.arguments import output_file, seed_value
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="resamples of runs for the parameter intervals")
     parser.add_argument("--min-gain", type=float, default=DEFAULTS["min_gain"],
                         help="smallest held-out gain (fraction of baseline RMSE) to support")
-    parser.add_argument("--seed", type=int, default=DEFAULTS["seed"], help="bootstrap seed")
+    parser.add_argument("--seed", type=seed_value, default=DEFAULTS["seed"], help="bootstrap seed")
     parser.add_argument("--no-pooled", action="store_true",
                         help="skip the pooled fit over all terrains (terrain 'all')")
     parser.add_argument("--sweep-lateral-friction", action="store_true",

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import add_cnn_seeds, add_train_hop, output_dir
+from pipelines.arguments import add_cnn_seeds, add_train_hop, output_dir, seed_value
+from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
                                     iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
@@ -30,6 +31,35 @@ EXPERIMENT = "terrain-compare"
 #: --quick: a small grid (2 models, Vulpi, 2 folds, 1 CNN epoch) for smoke tests.
 QUICK = dict(models=("svm", "cnn"), signals=("all",), windows_s=(2.0,), datasets=("vulpi",),
              seeds=(0,), n_splits=2, max_epochs=1, n_threads=1)
+
+
+def _n_jobs(value: str) -> int:
+    """argparse ``type`` of ``--n-jobs``: joblib's worker count, any integer but 0 (-1:
+    every worker; -2: all but one).
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    int
+        The count.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not an integer, or 0 (joblib has no meaning for it).
+    """
+    try:
+        number = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"an integer, got {value!r}") from None
+    if number == 0:
+        raise argparse.ArgumentTypeError("0 workers cannot run a cell: give -1 (every "
+                                         "worker of the backend), 1 (sequential) or more")
+    return number
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,7 +75,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--signals", nargs="+", default=list(d.signals))
     parser.add_argument("--windows-s", type=float, nargs="+", default=list(d.windows_s))
     parser.add_argument("--datasets", nargs="+", default=list(d.datasets))
-    parser.add_argument("--seeds", type=int, nargs="+", default=list(d.seeds))
+    parser.add_argument("--seeds", type=seed_value, nargs="+", default=list(d.seeds))
     parser.add_argument("--history", type=int, nargs="+", default=list(d.history))
     parser.add_argument("--max-epochs", type=int, default=d.max_epochs)
     parser.add_argument("--threads", type=int, default=None, help="torch threads per CNN fit")
@@ -63,7 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--address", default=None,
                         help="Dask scheduler (tcp://host:8786) or Ray address; "
                              "default: a local cluster")
-    parser.add_argument("--n-jobs", type=int, default=-1,
+    parser.add_argument("--n-jobs", type=_n_jobs, default=-1,
                         help="joblib workers (-1: all of the backend; 1: sequential here)")
     parser.add_argument("--out", type=output_dir, default=Path("compare"), help="output folder")
     parser.add_argument("--no-progress", action="store_true",
@@ -71,7 +101,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> CompareConfig:
-    """The grid from parsed arguments (``--quick`` overrides the axes).
+    """The grid from parsed arguments (``--quick`` replaces the axes).
 
     Parameters
     ----------
@@ -82,8 +112,25 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
     -------
     CompareConfig
         The grid.
+
+    Raises
+    ------
+    ConfigError
+        ``--quick`` with a grid option it would ignore, or a grid
+        :class:`~terrain.models.compare.CompareConfig` refuses.
     """
     if args.quick:
+        d = CompareConfig()
+        given = [f"--{name.replace('_', '-')}" for name, value, default in (
+            ("models", args.models, d.models), ("signals", args.signals, d.signals),
+            ("windows_s", args.windows_s, d.windows_s), ("datasets", args.datasets,
+                                                          d.datasets),
+            ("seeds", args.seeds, d.seeds), ("max_epochs", args.max_epochs, d.max_epochs),
+            ("threads", args.threads, d.n_threads))
+            if (tuple(value) if isinstance(value, list) else value) != default]
+        if given:
+            raise ConfigError(f"--quick runs its own small grid and would ignore {given}: "
+                              "drop --quick or those options")
         quick = {**QUICK, **({"windows_s": (1.7,)} if args.protocol == "paper" else {})}
         return CompareConfig(**quick, history=tuple(args.history), protocol=args.protocol,
                              train_hop_s=args.train_hop_s, cnn_seeds=args.cnn_seeds)

@@ -21,11 +21,16 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import output_dir
+from pipelines.arguments import output_dir, seed_value
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
+from pipelines.control_sim import SCENARIOS
 from terrain.control.closed_loop import ESTIMATORS, default_gains
 from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
                                   slip_limit_bound, tune_gains)
+from terrain.control.traction import TractionControlConfig
+from terrain.errors import ConfigError
+from terrain.sim.simulate import SimConfig
+from terrain.terramechanics.catalogue import get_terrain
 
 EXPERIMENT = "terrain-control"
 SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
@@ -47,8 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--vehicles", nargs="+", default=["agrimaro", "husky"])
     parser.add_argument("--terrains", nargs="+",
                         default=["TILES", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
-    parser.add_argument("--scenarios", nargs="+", default=["straight_accel"])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0])
+    parser.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=["straight_accel"])
+    parser.add_argument("--seeds", nargs="+", type=seed_value, default=[0])
     parser.add_argument("--duration-s", type=float, default=20.0)
     parser.add_argument("--no-tune", action="store_true", help="use the default gains")
     parser.add_argument("--kp-grid", nargs="+", type=float, default=[2.0, 5.0, 10.0, 20.0])
@@ -62,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain decisions: label (default), live-sim (classifier "
                              "trained on simulated runs) or model (--model)")
     parser.add_argument("--model", default=None, help="classifier of --terrain-source model")
-    parser.add_argument("--classifier-seeds", nargs="+", type=int,
+    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",
@@ -102,6 +107,38 @@ def _plots(traces: dict, table, out: Path) -> list[Path]:
     return paths
 
 
+def check_grid(args: argparse.Namespace) -> None:
+    """Refuse, before any tuning run, an axis value the grid would fail on hours later.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Raises
+    ------
+    ConfigError
+        An unknown vehicle or terrain, a duration or seed :class:`terrain.sim.SimConfig`
+        refuses, a gain of the grids :class:`terrain.control.traction.TractionControlConfig`
+        refuses (negative or not finite), or an evaluation seed that is a tuning seed.
+    """
+    for vehicle in args.vehicles:
+        default_gains(vehicle)
+        for terrain in args.terrains:
+            get_terrain(terrain)
+            for scenario in args.scenarios:
+                for seed in args.seeds:
+                    SimConfig(vehicle=vehicle, terrains=(terrain.upper(),), scenario=scenario,
+                              duration_s=args.duration_s, seed=seed)
+    for kp in args.kp_grid:
+        for ki in args.ki_grid:
+            TractionControlConfig(kp=kp, ki=ki)
+    shared = sorted(set(args.seeds) & set(TUNING_SEEDS))
+    if shared:
+        raise ConfigError(f"evaluation seeds {shared} are tuning seeds {list(TUNING_SEEDS)}: "
+                          "choose others")
+
+
 def main(args: argparse.Namespace) -> int:
     """Tune, run the grid, write table/plots/JSON, log to MLflow.
 
@@ -123,6 +160,7 @@ def main(args: argparse.Namespace) -> int:
     """
     from terrain.tracking import tracked_run
 
+    check_grid(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     params = {k: v for k, v in vars(args).items() if not k.startswith("_")}

@@ -29,7 +29,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import output_file
+from pipelines.arguments import output_file, seed_value
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
                                          trace_frame)
@@ -61,7 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrain", required=True, help="catalogued terrain class")
     parser.add_argument("--scenario", required=True, choices=SCENARIOS)
     parser.add_argument("--controller", required=True, choices=("off", "traction"))
-    parser.add_argument("--seed", type=int, default=0, help="run seed")
+    parser.add_argument("--seed", type=seed_value, default=0, help="run seed")
     parser.add_argument("--duration-s", type=float, default=20.0, help="simulated time, s")
     parser.add_argument("--kp", type=float, default=None,
                         help="proportional gain, rad/s per unit slip (default: tuned)")
@@ -74,7 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "runs, run live on the loop's samples; trained once, then "
                              "cached), model (--model) or label (ground truth); default "
                              "model with --model, else live-sim")
-    parser.add_argument("--classifier-seeds", nargs="+", type=int,
+    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from pipelines.arguments import output_dir
+from pipelines.arguments import output_dir, seed_value
 from terrain.io.writer import write_run
 from terrain.sim import (SCENARIO_NAMES, SimConfig, parse_effects, parse_terrain_list,
                          simulate)
@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration-s", type=float, default=60.0,
                         help="simulated time, s (at most 7200; at least two samples of the "
                              "slowest stream: husky 0.16, tracked 0.1, agrimaro 0.04)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed")
+    parser.add_argument("--seed", type=seed_value, default=0, help="random seed")
     parser.add_argument("--effect", action="append", default=[], metavar="NAME=VALUE",
                         help="plant a named effect (repeatable, each name once)")
     parser.add_argument("--segment-m", type=float, default=25.0,

@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from dataclasses import replace
 
 import pandas as pd
 
-from pipelines.arguments import output_dir
+from features.windows import WindowConfig
+from pipelines.arguments import output_dir, seed_value
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
@@ -56,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model-out", type=output_dir, default=None,
                         help="also fit each --kinds recipe on every BorealTC run and save it "
                              "to DIR/<kind> (a model directory for terrain stream)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=seed_value, nargs="+", default=[0, 1, 2])
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
                         default=list(DEFAULT_RECIPES.values()),
                         help="recipes of the held-out stream evaluation and of --model-out "
@@ -95,11 +97,17 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        ``--folds`` below 2.
+        ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
+        :class:`~features.windows.WindowConfig` refuses, a negative or infinite
+        ``--switch-gap-s``; checked before any run is read.
     """
     if args.folds < 2:
         raise ConfigError(f"--folds must be at least 2 (a model needs runs to train on and "
                           f"runs held out), got {args.folds}")
+    WindowConfig(window_s=args.window_s, hop_s=args.hop_s)  # the wheel-cv windows' checks
+    if not 0 <= args.switch_gap_s < math.inf:
+        raise ConfigError(f"--switch-gap-s must be a finite number of seconds >= 0, got "
+                          f"{args.switch_gap_s}")
     runs = load_dataset("borealtc")
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",

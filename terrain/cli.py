@@ -112,8 +112,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``terrain`` command; returns the process exit code.
 
     A project error (:class:`~terrain.errors.TerrainError`), a missing or unreadable file,
-    or a model store error is printed as one line on stderr with exit status 2; ``--debug``
-    shows the traceback instead.
+    or a model store error is printed as one line on stderr with exit status 2. Anything
+    else (memory exhausted, a defect of terrain) is also one line, with exit status 1, and
+    Ctrl-C prints ``interrupted`` with status 130. ``--debug`` shows the traceback instead.
 
     Parameters
     ----------
@@ -123,8 +124,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: the sub-command's (0 on success) or 2 after a reported error
-        (argparse itself exits with 2 on a usage error).
+        Exit status: the sub-command's (0 on success), 2 after a reported error (argparse
+        itself exits with 2 on a usage error), 1 after an unexpected one, 130 after Ctrl-C.
     """
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -141,6 +142,26 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise
             print(f"terrain {args.command}: error: {_one_line(exc)}", file=sys.stderr)
             return 2
+        except KeyboardInterrupt:
+            if debug:
+                raise
+            print(f"terrain {args.command}: interrupted", file=sys.stderr)
+            return 130
+        except MemoryError as exc:
+            if debug:
+                raise
+            print(f"terrain {args.command}: error: not enough memory ({_one_line(exc)}); "
+                  "ask for less (a shorter window, fewer resamples or a smaller grid)",
+                  file=sys.stderr)
+            return 1
+        except Exception as exc:  # a defect of terrain itself: still one line, no traceback
+            if debug:
+                raise
+            print(f"terrain {args.command}: internal error: {type(exc).__name__}: "
+                  f"{_one_line(exc)} (a defect of terrain, not of your input as far as it "
+                  "could tell; rerun with --debug for the traceback and report it)",
+                  file=sys.stderr)
+            return 1
 
 
 def _one_line(exc: BaseException) -> str:

@@ -28,6 +28,7 @@ import pandas as pd
 
 from terrain.audit.frames import MANOEUVRES, AuditFrame, FrameSettings, prepare_frame
 from terrain.audit.replay import ReplaySettings, replay_run
+from terrain.audit.selection import MAX_BOOTSTRAP
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
@@ -49,15 +50,26 @@ class PhysicsComparisonSettings:
     candidate : str
         Physics version whose gain is measured (``v2``).
     n_bootstrap : int
-        Run-bootstrap resamples for the gain intervals.
+        Run-bootstrap resamples for the gain intervals (10 to
+        :data:`terrain.audit.selection.MAX_BOOTSTRAP`).
     seed : int
-        Bootstrap seed.
+        Bootstrap seed (>= 0).
+
+    Raises
+    ------
+    ConfigError
+        ``n_bootstrap`` or ``seed`` out of range.
     """
 
     reference: str = "v1"
     candidate: str = "v2"
     n_bootstrap: int = 1000
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 10 <= self.n_bootstrap <= MAX_BOOTSTRAP or self.seed < 0:
+            raise ConfigError(f"n_bootstrap must be in 10-{MAX_BOOTSTRAP:,} and seed >= 0, "
+                              f"got {self.n_bootstrap} and {self.seed}")
 
 
 def _errors(frame: AuditFrame, other: AuditFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:

@@ -79,6 +79,13 @@ def json_ready(v: Any, nd: int = 5) -> Any:
     return v
 
 
+#: Most bootstrap resamples of a gain interval: 100 times the default, far past where the
+#: interval's bounds stop moving; more only fills memory (resamples x units indices).
+MAX_BOOTSTRAP = 100_000
+#: Most parameter-interval resamples: each one refits every effect.
+MAX_PARAM_BOOTSTRAP = 10_000
+
+
 @dataclass(frozen=True)
 class SelectionSettings:
     """Settings of the held-out scoring.
@@ -99,8 +106,9 @@ class SelectionSettings:
     Raises
     ------
     ConfigError
-        ``n_bootstrap < 10``, ``n_param_bootstrap < 0``, ``min_units < 2``, ``min_gain``
-        outside [0, 1) or NaN, or ``seed < 0``.
+        ``n_bootstrap`` outside ``10..MAX_BOOTSTRAP``, ``n_param_bootstrap`` outside
+        ``0..MAX_PARAM_BOOTSTRAP``, ``min_units < 2``, ``min_gain`` outside [0, 1) or NaN,
+        or ``seed < 0``.
     """
 
     n_bootstrap: int = 1000
@@ -110,8 +118,11 @@ class SelectionSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        if self.n_bootstrap < 10 or self.n_param_bootstrap < 0:
-            raise ConfigError("n_bootstrap must be >= 10 and n_param_bootstrap >= 0")
+        if not (10 <= self.n_bootstrap <= MAX_BOOTSTRAP
+                and 0 <= self.n_param_bootstrap <= MAX_PARAM_BOOTSTRAP):
+            raise ConfigError(f"n_bootstrap must be in 10-{MAX_BOOTSTRAP:,} and "
+                              f"n_param_bootstrap in 0-{MAX_PARAM_BOOTSTRAP:,}, got "
+                              f"{self.n_bootstrap} and {self.n_param_bootstrap}")
         if self.min_units < 2:
             raise ConfigError(f"min_units must be >= 2, got {self.min_units}")
         if not 0.0 <= self.min_gain < 1.0:  # NaN included: it would support no effect

@@ -796,7 +796,8 @@ def default_gains(vehicle: str, estimator: str | None = None) -> tuple[float, fl
         Vehicle without closed-loop gains.
     """
     if vehicle not in DEFAULT_GAINS:
-        raise ConfigError(f"control-sim supports {', '.join(DEFAULT_GAINS)}, got {vehicle!r}")
+        raise ConfigError(f"the traction control loop supports vehicles "
+                          f"{', '.join(DEFAULT_GAINS)}, got {vehicle!r}")
     return ESTIMATOR_GAINS.get((vehicle, estimator or ""), DEFAULT_GAINS[vehicle])
 
 
@@ -859,7 +860,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     from terrain.sim.simulate import SimConfig
 
     if vehicle not in LOOP_SETTINGS:
-        raise ConfigError(f"control-sim supports agrimaro and husky, got {vehicle!r}")
+        raise ConfigError(f"the traction control loop supports vehicles agrimaro and husky, "
+                          f"got {vehicle!r}")
     kp, ki = gains or default_gains(vehicle, estimator)
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
     if live_terrain is not None and terrain_decision is not None:

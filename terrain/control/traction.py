@@ -123,9 +123,11 @@ class TractionControlConfig:
     one_sided: bool = True
 
     def __post_init__(self) -> None:
-        values = [float(getattr(self, f)) for f in self.__dataclass_fields__]
-        if not all(math.isfinite(v) for v in values):
-            raise ConfigError(f"traction control settings must be finite: {self}")
+        bad = {f: getattr(self, f) for f in self.__dataclass_fields__
+               if not math.isfinite(float(getattr(self, f)))}
+        if bad:
+            raise ConfigError("traction control settings must be finite, got "
+                              + ", ".join(f"{f}={v}" for f, v in bad.items()))
         if min(self.kp, self.ki, self.kd) < 0.0:
             raise ConfigError(f"gains must be >= 0, got kp={self.kp}, ki={self.ki}, kd={self.kd}")
         if min(self.wheel_radius_m, self.omega_max_rad_s, self.derivative_tau_s,

@@ -110,6 +110,15 @@ class CompareConfig:
     cnn_seeds : int
         Independently seeded networks averaged per CNN (``ModelConfig.cnn_seeds``), for the
         cells whose model holds a CNN (the others are unchanged).
+
+    Raises
+    ------
+    ConfigError
+        An unknown model, dataset, signal set or protocol; a window length, seed or
+        ``train_hop_s`` that :class:`~terrain.models.experiment.ExperimentConfig` refuses;
+        ``cnn_seeds`` without a CNN model; no seed, a history length below 1, fewer than
+        1 epoch or 2 folds; ``n_threads`` outside 1-``MAX_TORCH_THREADS``
+        (:class:`~terrain.models.registry.ModelConfig`'s rule).
     """
 
     models: tuple[str, ...] = MODELS
@@ -152,6 +161,20 @@ class CompareConfig:
             raise ConfigError(f"unknown model(s) {bad}; valid: {list(MODELS)}")
         if not self.seeds or min(self.history, default=0) < 1:
             raise ConfigError("need at least one seed and history lengths >= 1")
+        if self.max_epochs < 1 or self.n_splits < 2:
+            raise ConfigError(f"max_epochs must be >= 1 and n_splits >= 2, got "
+                              f"{self.max_epochs} and {self.n_splits}")
+        for model in self.models:  # the model's own rules (threads, ...)
+            ModelConfig(kind=model, n_threads=self.n_threads,
+                        cnn_seeds=cnn_seeds_for(model, self.cnn_seeds))
+        from terrain.models.experiment import ExperimentConfig
+
+        for dataset in self.datasets:  # every axis value's own checks, before any data
+            for signals in self.signals:
+                for window_s in self.windows_s:
+                    ExperimentConfig(dataset=dataset, signals=(signals,), window_s=window_s,
+                                     protocol=self.protocol, seeds=self.seeds,
+                                     train_hop_s=self.train_hop_s)
 
     def cells(self) -> list[Cell]:
         """Every cell of the grid (model varies fastest).

@@ -238,8 +238,14 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     Raises
     ------
     ConfigError
-        Unknown protocol.
+        Unknown protocol, or more folds than groups (``grouped``, ``paper``).
     """
+    n_groups = len(np.unique(groups))
+    if protocol in ("grouped", "paper") and not 2 <= n_splits <= n_groups:
+        units = ("runs, or blocks of a single-run class" if protocol == "grouped"
+                 else "5 s partitions")
+        raise ConfigError(f"{n_splits} folds over {n_groups} split units ({units}): every "
+                          "fold holds at least one unit out, and there are at least 2 folds")
     if protocol == "grouped":
         yield from StratifiedGroupKFold(n_splits, shuffle=True, random_state=seed).split(
             labels, labels, groups)

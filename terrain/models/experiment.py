@@ -6,6 +6,8 @@ and log the results; the composition itself lives here so it can be tested and r
 
 from __future__ import annotations
 
+import math
+
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -31,6 +33,10 @@ from terrain.run import Run
 #: inside non-overlapping 5 s partitions.
 PAPER_WINDOW: Mapping[str, float] = MappingProxyType(
     {"window_s": 1.7, "hop_s": 0.1, "partition_s": 5.0})
+
+
+#: Largest seed NumPy's legacy generator takes (scikit-learn's splitters seed it).
+MAX_SEED = 2 ** 32 - 1
 
 
 @dataclass(frozen=True)
@@ -90,8 +96,9 @@ class ExperimentConfig:
     ------
     ConfigError
         Unknown model, dataset, protocol or signal, ``search`` with a model other than
-        the SVM or with ``run_balanced``, or a ``train_hop_s`` that is not positive or
-        comes with ``paper``.
+        the SVM or with ``run_balanced``, a ``train_hop_s`` that is not a finite positive
+        number or comes with ``paper``, no seed or one outside ``0..MAX_SEED``, or window
+        settings :class:`~features.windows.WindowConfig` refuses.
     """
 
     dataset: str = "borealtc"
@@ -133,11 +140,18 @@ class ExperimentConfig:
                                   "vel_l, vel_r and wz: the signals must hold them "
                                   f"(missing {missing}) and no EKF channel")
         if self.train_hop_s is not None:
-            if not self.train_hop_s > 0:
-                raise ConfigError(f"train_hop_s must be > 0 s, got {self.train_hop_s}")
+            if not 0 < self.train_hop_s < math.inf:
+                raise ConfigError(f"train_hop_s must be a finite number > 0 s, got "
+                                  f"{self.train_hop_s}")
             if self.protocol == "paper":
                 raise ConfigError("the paper protocol fixes its windows (0.1 s hop): drop "
                                   "--train-hop-s")
+        bad_seeds = [s for s in self.seeds if isinstance(s, bool) or not isinstance(
+            s, (int, np.integer)) or not 0 <= s <= MAX_SEED]
+        if not self.seeds or bad_seeds:
+            raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
+                              f"seed range), got {list(self.seeds)}")
+        self.train_window_config() or self.window_config()  # WindowConfig's checks
 
     def train_window_config(self) -> WindowConfig | None:
         """Window settings of the training cut, or None when training uses the evaluation

@@ -52,11 +52,21 @@ ENSEMBLE_MEMBERS = ("svm", "cnn-spectrogram")
 #: "Model comparison", run-grouped StratifiedGroupKFold(5), seeds 0 1 2).
 ENSEMBLE3_MEMBERS = ("svm", "cnn", "cnn-spectrogram")
 
+#: Most networks one CNN may average (``ModelConfig.cnn_seeds``): each costs a whole
+#: training; three were measured (docs/model_comparison.md, "More members").
+MAX_CNN_SEEDS = 10
+
 #: Native rate of the wheel (``pro``) stream of each shipped dataset, Hz: median sample
 #: interval of the shipped parquet files (BorealTC 6.5 Hz, Vulpi 15 Hz); ``combined`` takes
 #: the lower one. Spectrogram bins of wheel channels above half of it are zeroed.
 WHEEL_RATE_HZ: Mapping[str, float] = MappingProxyType(
     {"borealtc": 6.5, "vulpi": 15.0, "combined": 6.5})
+
+
+#: torch threads per CNN fit at most: more threads than any machine's cores only cost
+#: memory, and torch 2.13 crashes (segmentation fault at exit) after
+#: ``torch.set_num_threads(10**6)``, measured here
+MAX_TORCH_THREADS = 1024
 
 
 @dataclass(frozen=True)
@@ -70,7 +80,8 @@ class ModelConfig:
     max_epochs : int
         Fixed epoch budget of the CNNs (no early stopping, see README "Model comparison").
     n_threads : int or None
-        torch threads while training a CNN (``None``: torch's default).
+        torch threads while training a CNN (``None``: torch's default); at most
+        :data:`MAX_TORCH_THREADS`.
     minirocket_kernels : int
         MiniRocket features.
     minirocket_max_dilations : int
@@ -98,7 +109,8 @@ class ModelConfig:
     cnn_seeds : int
         Independently seeded networks per CNN (alone or as an ensemble member) whose class
         probabilities are averaged with equal weights (seed bagging: seeds ``random_state``,
-        ``random_state + 1``, ...); 1 (default): one network.
+        ``random_state + 1``, ...); 1 (default): one network; at most
+        :data:`MAX_CNN_SEEDS`.
     run_balanced : bool
         Fit every single model (alone, as an ensemble member or in a seed bag) with
         :func:`terrain.models.weighting.within_class_run_weights` of its training windows,
@@ -134,8 +146,13 @@ class ModelConfig:
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")
         if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
-                                                    and self.cnn_seeds >= 1):
-            raise ConfigError(f"cnn_seeds must be an integer >= 1, got {self.cnn_seeds!r}")
+                                                    and 1 <= self.cnn_seeds <= MAX_CNN_SEEDS):
+            raise ConfigError(f"cnn_seeds must be an integer in 1-{MAX_CNN_SEEDS}, got "
+                              f"{self.cnn_seeds!r}")
+        if self.n_threads is not None and (isinstance(self.n_threads, bool) or not (
+                isinstance(self.n_threads, int) and 1 <= self.n_threads <= MAX_TORCH_THREADS)):
+            raise ConfigError(f"n_threads must be an integer in 1-{MAX_TORCH_THREADS} or "
+                              f"None, got {self.n_threads!r}")
         if self.cnn_seeds > 1 and not cnn_kinds(self.kind, self.ensemble_members):
             raise ConfigError(f"cnn_seeds={self.cnn_seeds} averages CNNs, and model "
                               f"{self.kind!r} has none (CNN kinds: {list(CNN_MODELS)})")

@@ -88,7 +88,6 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
 @pytest.mark.parametrize("flag, value, message", [
     ("--min-gain", "nan", "min_gain must be in [0, 1)"),
     ("--min-gain", "-5", "min_gain must be in [0, 1)"),
-    ("--seed", "-1", "seed must be >= 0"),
 ])
 def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tmp_path,
                                                                     capsys, flag, value,
@@ -97,6 +96,15 @@ def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tm
     assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow", flag, value)) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "a.json").exists()
+
+
+def test_cli_refuses_a_seed_outside_numpys_range_as_a_usage_error(runs_dir, tmp_path,
+                                                                  capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        cli_main(_args(runs_dir, tmp_path, "--no-mlflow", "--seed", "-1"))
+    assert exit_info.value.code == 2
+    assert "argument --seed: a seed is an integer in 0-4294967295" in capsys.readouterr().err
     assert not (tmp_path / "a.json").exists()
 
 

@@ -68,7 +68,7 @@ def _assert_one_line_error(capsys, command):
     pytest.param(["control-grid", "--terrains", "MUD", "--out", "g"], marks=pytest.mark.slow),
     ["stream", "--model", "nowhere", "missing_runs", "--out", "s.csv"],
     ["stream-eval", "--part", "streams"],
-    ["compare", "--quick", "--models", "svm", "--n-jobs", "1", "--out", "cmp"],
+    ["compare", "--quick", "--n-jobs", "1", "--out", "cmp"],
     ["serve", "--model", "nowhere", "--port", "1"],
 ])
 def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(

@@ -1,0 +1,178 @@
+"""Numeric options out of range are refused in one line before any work, and whatever
+still goes wrong inside a command reaches the user as one line, never a traceback.
+
+The values below are those a fuzz of every numeric option of the CLI found answered
+with a Python traceback (``OverflowError``, NumPy's seed ``ValueError``, a
+``MemoryError``) or accepted where they would run for ever (``--cnn-seeds 10**12``).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from features.windows import MAX_WINDOW_SAMPLES, WindowConfig
+from pipelines.arguments import seed_value
+from terrain.audit.physics import PhysicsComparisonSettings
+from terrain.audit.selection import MAX_BOOTSTRAP, SelectionSettings
+from terrain.cli import main
+from terrain.control.traction import TractionControlConfig
+from terrain.errors import ConfigError
+from terrain.models.compare import CompareConfig
+from terrain.models.experiment import MAX_SEED, ExperimentConfig
+from terrain.models.registry import MAX_CNN_SEEDS, MAX_TORCH_THREADS, ModelConfig
+
+
+def test_seed_type_takes_numpys_range_only():
+    assert seed_value("0") == 0 and seed_value(str(MAX_SEED)) == MAX_SEED
+    for bad in ("-1", str(MAX_SEED + 1), "1.5", "x"):
+        with pytest.raises(argparse.ArgumentTypeError, match="seed"):
+            seed_value(bad)
+
+
+@pytest.mark.parametrize("kwargs", [dict(window_s=float("inf")), dict(window_s=float("nan")),
+                                    dict(hop_s=float("inf")), dict(rate_hz=float("inf")),
+                                    dict(window_s=2.0, partition_s=float("inf")),
+                                    dict(window_s=MAX_WINDOW_SAMPLES / 100 + 1, rate_hz=100.0)])
+def test_window_config_refuses_infinite_or_huge_windows(kwargs):
+    with pytest.raises(ConfigError):
+        WindowConfig(**kwargs)
+
+
+def test_window_config_keeps_the_largest_window_it_allows():
+    assert WindowConfig(window_s=MAX_WINDOW_SAMPLES / 100, rate_hz=100.0).n_samples == \
+        MAX_WINDOW_SAMPLES
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(seeds=(-1,)), "seeds"), (dict(seeds=(MAX_SEED + 1,)), "seeds"),
+    (dict(seeds=()), "seeds"), (dict(train_hop_s=float("inf")), "train_hop_s"),
+    (dict(window_s=float("inf")), "window_s"), (dict(hop_s=float("inf")), "hop_s"),
+])
+def test_experiment_config_checks_seeds_and_windows_before_any_data(kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        ExperimentConfig(**kwargs)
+
+
+def test_limits_of_costly_repeats():
+    ModelConfig(kind="cnn", cnn_seeds=MAX_CNN_SEEDS)
+    with pytest.raises(ConfigError, match="cnn_seeds"):
+        ModelConfig(kind="cnn", cnn_seeds=MAX_CNN_SEEDS + 1)
+    # torch accepts a million threads and crashes at exit (segmentation fault)
+    ModelConfig(kind="cnn", n_threads=MAX_TORCH_THREADS)
+    for bad in (0, MAX_TORCH_THREADS + 1, 10 ** 6, True):
+        with pytest.raises(ConfigError, match="n_threads"):
+            ModelConfig(kind="cnn", n_threads=bad)
+    SelectionSettings(n_bootstrap=MAX_BOOTSTRAP)
+    with pytest.raises(ConfigError, match="n_bootstrap"):
+        SelectionSettings(n_bootstrap=MAX_BOOTSTRAP + 1)
+    with pytest.raises(ConfigError, match="n_param_bootstrap"):
+        SelectionSettings(n_param_bootstrap=10 ** 12)
+    with pytest.raises(ConfigError, match="n_bootstrap"):
+        PhysicsComparisonSettings(n_bootstrap=5)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(windows_s=(2.0, float("nan"))), "window_s"), (dict(signals=("bogus",)), "bogus"),
+    (dict(datasets=("x",)), "dataset"), (dict(max_epochs=0), "max_epochs"),
+    (dict(n_threads=0), "n_threads"), (dict(n_threads=10 ** 6), "n_threads"),
+    (dict(train_hop_s=float("inf")), "train_hop_s"),
+])
+def test_compare_config_checks_every_axis_value(kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        CompareConfig(**kwargs)
+
+
+def test_traction_config_names_the_non_finite_setting():
+    with pytest.raises(ConfigError, match=r"got kp=nan$"):
+        TractionControlConfig(kp=float("nan"))
+
+
+#: (argv, text the one-line message holds), each refused before any run is read
+_REFUSED = [
+    (["cv", "--window-s", "inf"], "window_s"),
+    (["cv", "--hop-s", "inf"], "hop_s"),
+    (["cv", "--train-hop-s", "inf"], "train_hop_s"),
+    (["cv", "--seeds", "-1"], "argument --seeds: a seed"),
+    (["cv", "--seeds", "1000000000000"], "argument --seeds: a seed"),
+    (["train", "--window-s", "1e12"], "at most 1,000,000"),
+    (["train", "--train-hop-s", "inf"], "train_hop_s"),
+    (["train", "--cnn-seeds", "1000000000000"], "cnn_seeds"),
+    (["compare", "--quick", "--signals", "imu"], "would ignore ['--signals']"),
+    (["compare", "--n-jobs", "0"], "argument --n-jobs"),
+    (["compare", "--windows-s", "nan"], "window_s"),
+    (["compare", "--max-epochs", "0"], "max_epochs"),
+    (["compare", "--threads", "1000000"], "n_threads must be an integer in 1-1024"),
+    (["benchmark", "--repeats", "1000000000000"], "--repeats"),
+    (["audit", "--dataset", "vulpi", "--json", "a.json", "--bootstrap", "1000000000000"],
+     "n_bootstrap"),
+    (["audit", "--dataset", "vulpi", "--json", "a.json", "--param-bootstrap",
+      "1000000000000"], "n_param_bootstrap"),
+    (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--seed", "-1"], "seed"),
+    (["control-grid", "--terrains", "BOGUS", "--out", "g"], "unknown terrain 'BOGUS'"),
+    (["control-grid", "--seeds", "1000", "--out", "g"], "are tuning seeds"),
+    (["control-grid", "--kp-grid", "2", "nan", "--out", "g"], "kp=nan"),
+    (["control-grid", "--vehicles", "tracked", "--out", "g"], "supports vehicles"),
+    (["slip-fit", "--orchard-duration-s", "nan"], "--orchard-duration-s"),
+    (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
+      "straight_accel", "--controller", "traction", "--json", "c.json", "--kp", "nan"],
+     "kp=nan"),
+]
+
+
+@pytest.mark.parametrize("argv, text", _REFUSED, ids=[" ".join(a) for a, _ in _REFUSED])
+def test_cli_refuses_out_of_range_values_in_one_line(argv, text, tmp_path, monkeypatch,
+                                                    capsys):
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse's own usage error
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert text in lines[-1] and lines[-1].startswith(f"terrain {argv[0]}: error:")
+    assert "Traceback" not in err
+    assert not (tmp_path / "mlflow.db").exists()  # no MLflow run was opened
+
+
+@pytest.mark.parametrize("exc, code, text", [
+    (RuntimeError("boom"), 1, "internal error: RuntimeError: boom"),
+    (MemoryError("Unable to allocate 8 TiB"), 1, "not enough memory (Unable to allocate"),
+    (KeyboardInterrupt(), 130, "interrupted"),
+])
+def test_unexpected_errors_reach_the_user_as_one_line(exc, code, text, monkeypatch, capsys):
+    import pipelines.slip_table as slip_table
+
+    def fail(args):
+        raise exc
+
+    monkeypatch.setattr(slip_table, "main", fail)
+    assert main(["slip-table"]) == code
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and text in err and "Traceback" not in err
+
+
+def test_debug_shows_the_unexpected_error_itself(monkeypatch):
+    import pipelines.slip_table as slip_table
+
+    def fail(args):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(slip_table, "main", fail)
+    with pytest.raises(RuntimeError, match="boom"):
+        main(["slip-table", "--debug"])
+
+
+def test_more_folds_than_runs_is_a_config_error_not_sklearns_value_error():
+    import numpy as np
+
+    from terrain.models.cv import iter_splits
+
+    groups = np.repeat([f"r{i}" for i in range(10)], 20)  # 10 runs of 20 windows
+    labels = np.where(np.arange(200) // 20 % 2 == 0, "A", "B")
+    assert len(list(iter_splits("grouped", labels, groups, 0, 10))) == 10
+    for n_splits in (1, 11):
+        with pytest.raises(ConfigError, match=f"{n_splits} folds over 10 split units"):
+            list(iter_splits("grouped", labels, groups, 0, n_splits))
