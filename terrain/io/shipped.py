@@ -15,6 +15,7 @@ CSV and of every shipped file; :func:`verify_manifest` checks the latter.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 from dataclasses import dataclass
@@ -409,7 +410,9 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
             continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
-        if sha256(path) != entry["files"][rel]:
+        # read once: the bytes hashed are the bytes parsed (and the file is read only once)
+        content = path.read_bytes()
+        if hashlib.sha256(content).hexdigest() != entry["files"][rel]:
             # the values were checked when `terrain convert` wrote the file; a changed file
             # would skip every rule of the CSV reader
             raise DataFormatError(f"contents differ from their SHA-256 in {manifest_path} "
@@ -417,7 +420,7 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                                   "written only by `terrain convert`, which checks every "
                                   "value; regenerate data/ with it", path)
         try:
-            table = pd.read_parquet(path)
+            table = pd.read_parquet(io.BytesIO(content))
         except (OSError, ValueError) as exc:  # pyarrow's errors derive from these
             raise DataFormatError(f"unreadable Parquet file ({type(exc).__name__}: "
                                   f"{str(exc)[:120]}); regenerate data/ with `terrain convert`",

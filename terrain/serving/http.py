@@ -10,6 +10,9 @@ body-size limit. ``terrain serve`` (:mod:`pipelines.serve`) adds it to the app.
 
 from __future__ import annotations
 
+import asyncio
+import csv
+import io
 import json
 import logging
 import re
@@ -31,6 +34,10 @@ MAX_MESSAGE = 500
 #: instead of queueing behind slow ones (MLflow's timeout answers 504 but cannot stop a
 #: prediction that runs on, so a queue would grow unbounded)
 MAX_IN_FLIGHT = 8
+#: seconds a client has, from its headers, to send the whole body of ``/invocations``: a
+#: client that stalls half-way would otherwise hold one of the ``MAX_IN_FLIGHT`` slots for
+#: ever (8 stalled clients would keep every other one out); 8 MB at 10 Mbit/s take 6.4 s
+BODY_TIMEOUT_S = 30.0
 #: largest uncompressed size of a Parquet body, as a multiple of the body-size limit (a
 #: small compressed body can decode to gigabytes)
 PARQUET_EXPANSION = 16
@@ -168,16 +175,50 @@ def _header_names(body: bytes) -> list[str] | None:
     return [c.strip() for c in head.decode("utf-8", "replace").lstrip("\ufeff").split(",")]
 
 
-def _json_columns(body: bytes) -> list | None:
-    """The ``columns`` of a ``dataframe_split`` JSON body, or None (another shape, or a
-    body MLflow's parser will refuse with its own message)."""
+def _short_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
+    """(1-based line, fields) of the first CSV data row with fewer fields than the header's
+    ``n_columns``, or None. pandas would fill the missing trailing fields with NaN, which
+    the served model cannot tell from a cell left empty on purpose; blank lines are skipped
+    as pandas skips them. A body with quotes is split by :mod:`csv` (a quoted field may
+    hold a comma or a line break), any other by its commas; a body with an unterminated
+    quote (an odd number of quote characters) is left to MLflow's parser, which refuses
+    it."""
+    if body.count(b'"') % 2:
+        return None
+    if b'"' in body:
+        reader = csv.reader(io.StringIO(body.decode("utf-8", "replace")))
+        next(reader, None)  # the header
+        for row in reader:
+            if row and len(row) < n_columns:
+                return reader.line_num, len(row)
+        return None
+    for number, line in enumerate(body.split(b"\n")[1:], start=2):
+        if line.strip() and line.count(b",") + 1 < n_columns:
+            return number, line.count(b",") + 1
+    return None
+
+
+def _json_split(body: bytes) -> tuple[list, Any] | None:
+    """The ``columns`` and ``data`` of a ``dataframe_split`` JSON body, or None (another
+    shape, or a body MLflow's parser will refuse with its own message)."""
     try:
         doc = json.loads(body)
     except (ValueError, RecursionError):
         return None
     split = doc.get("dataframe_split") if isinstance(doc, dict) else None
     columns = split.get("columns") if isinstance(split, dict) else None
-    return columns if isinstance(columns, list) else None
+    return (columns, split.get("data")) if isinstance(columns, list) else None
+
+
+def _short_json_row(columns: list, data: Any) -> tuple[int, int] | None:
+    """(0-based row, values) of the first ``dataframe_split`` data row holding fewer values
+    than there are columns (pandas would fill the rest with NaN), or None."""
+    if not isinstance(data, list):
+        return None
+    for number, row in enumerate(data):
+        if isinstance(row, list) and len(row) < len(columns):
+            return number, len(row)
+    return None
 
 
 def body_refusal(content_type: str, body: bytes, max_rows: int | None,
@@ -187,6 +228,8 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
     * column names that are not text or appear twice (a ``dataframe_split`` JSON body or a
       CSV header): MLflow would shift the channels after a repeated one, or fail on a list
       used as a name;
+    * a CSV row with fewer fields than the header, or a ``dataframe_split`` data row with
+      fewer values than columns: pandas would fill the rest with NaN, silently;
     * a Parquet body whose metadata announce more than ``max_rows`` rows, or rows x columns
       x 8 bytes (the least it decodes to) over :data:`PARQUET_EXPANSION` x
       ``max_body_bytes`` (a small compressed body can decode to gigabytes before the served
@@ -208,7 +251,8 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
     tuple of (int, dict) or None
     """
     kind = content_type.split(";")[0].strip().lower()
-    columns = (_json_columns(body) if kind == "application/json"
+    split = _json_split(body) if kind == "application/json" else None
+    columns = (split[0] if split is not None
                else _header_names(body) if kind == "text/csv" else None)
     if columns is not None:
         odd = [c for c in columns if not isinstance(c, str)]
@@ -218,6 +262,21 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
                     f"duplicated column name(s) {dup}; send each column once")
             return 400, {"error_code": "BAD_REQUEST",
                          "message": _typed(DataFormatError(what, "request"))}
+    if kind == "text/csv":
+        header = next(csv.reader(io.StringIO(
+            body.split(b"\n", 1)[0].decode("utf-8", "replace"))), [])
+        short = _short_csv_row(body, len(header)) if len(header) > 1 else None
+        if short is not None:
+            return 400, {"error_code": "BAD_REQUEST", "message": _typed(RaggedRowError(
+                f"a row of {short[1]} fields under a header of {len(header)} (write an "
+                "empty field for a missing value: the row would be filled with NaN)",
+                "request", line=short[0]))}
+    short = _short_json_row(*split) if split is not None else None
+    if short is not None:
+        return 400, {"error_code": "BAD_REQUEST", "message": _typed(RaggedRowError(
+            f"data row {short[0]} (0-based) holds {short[1]} values for {len(split[0])} "
+            "columns (send null for a missing value: the row would be filled with NaN)",
+            "request"))}
     if kind == "application/vnd.apache.parquet":
         try:
             import pyarrow as pa
@@ -245,6 +304,10 @@ class _BodyTooLarge(Exception):
     """The body sent is longer than its Content-Length or the limit."""
 
 
+class _BodyTimeout(Exception):
+    """The body did not arrive whole within the time allowed."""
+
+
 class RequestGuard:
     """ASGI middleware in front of MLflow's scoring server app.
 
@@ -254,6 +317,8 @@ class RequestGuard:
     * the body of ``/invocations`` is read here, counting its bytes (longer than announced
       or than the limit: 413), checked by :func:`body_refusal` (repeated or non-text column
       names, a Parquet body that decodes past the limits) and then handed to MLflow;
+    * a body that has not arrived whole ``body_timeout_s`` after the headers is answered
+      408 and its slot freed (a client stalled half-way would hold it for ever);
     * at most ``max_in_flight`` requests to ``/invocations`` are answered at once; one more
       is answered 503 at once;
     * every error answer (status >= 400) is rewritten to the project's JSON error: MLflow's
@@ -277,14 +342,18 @@ class RequestGuard:
         Largest request of the served model, rows (checked here on Parquet metadata).
     max_in_flight : int
         Requests to ``/invocations`` answered at once.
+    body_timeout_s : float
+        Seconds from the headers to the last byte of an ``/invocations`` body.
     """
 
     def __init__(self, app: Callable, max_body_bytes: int, max_rows: int | None = None,
-                 max_in_flight: int = MAX_IN_FLIGHT) -> None:
+                 max_in_flight: int = MAX_IN_FLIGHT,
+                 body_timeout_s: float = BODY_TIMEOUT_S) -> None:
         self.app = app
         self.max_body_bytes = int(max_body_bytes)
         self.max_rows = None if max_rows is None else int(max_rows)
         self.max_in_flight = int(max_in_flight)
+        self.body_timeout_s = float(body_timeout_s)
         self.in_flight = 0
 
     def refusal(self, path: str, headers: dict[bytes, bytes]) -> tuple[int, dict] | None:
@@ -348,6 +417,10 @@ class RequestGuard:
                         await _send_json(send, 413, {"error_code": "REQUEST_LIMIT_EXCEEDED",
                                                      "message": f"DataFormatError: {exc}"})
                         return
+                    except _BodyTimeout as exc:
+                        await _send_json(send, 408, {"error_code": "BAD_REQUEST",
+                                                     "message": f"DataFormatError: {exc}"})
+                        return
                     if body is None:  # the client went away
                         return
                     refused = body_refusal(headers.get(b"content-type", b"").decode(
@@ -364,11 +437,20 @@ class RequestGuard:
 
     async def _read_body(self, receive: Receive, length: int) -> bytes | None:
         """The whole request body, or None when the client disconnected; raises
-        :class:`_BodyTooLarge` as soon as more bytes arrive than announced or allowed."""
+        :class:`_BodyTooLarge` as soon as more bytes arrive than announced or allowed, and
+        :class:`_BodyTimeout` when the body is not whole ``body_timeout_s`` after the
+        headers."""
         limit = min(length, self.max_body_bytes)
         parts, total = [], 0
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + self.body_timeout_s
         while True:
-            message = await receive()
+            try:
+                message = await asyncio.wait_for(receive(), max(0.0, deadline - loop.time()))
+            except asyncio.TimeoutError:
+                raise _BodyTimeout(f"request body incomplete after {self.body_timeout_s:g} s "
+                                   f"({total} of {length} bytes); send the whole body at "
+                                   "once") from None
             if message["type"] == "http.disconnect":
                 return None
             chunk = message.get("body", b"")

@@ -133,3 +133,49 @@ def test_csv_and_json_column_names_are_checked_plainly():
     assert status == 400 and 'column names must be text, got {"b": 1}' in answer["message"]
     assert body_refusal("application/json", b"{not json", None, 100) is None
     assert body_refusal("application/json", b'{"inputs": [1, 2]}', None, 100) is None
+
+
+def test_short_rows_are_refused_with_their_line_instead_of_filled_with_nan():
+    """pandas fills the missing trailing fields of a short CSV row (or of a short
+    ``dataframe_split`` row) with NaN, which the served model cannot tell from a cell left
+    empty on purpose: such a body is refused, naming the line (CSV) or row (JSON)."""
+    good = b"stream,t_s,vel_l,wx\r\nwheels,0.0,0.5,\nimu,0.01,,0.1\n\n"
+    assert body_refusal("text/csv", good, None, 1000) is None
+    status, answer = body_refusal("text/csv", good + b"wheels,0.2,0.5\n", None, 1000)
+    assert status == 400
+    assert answer["message"].startswith("RaggedRowError: a row of 3 fields under a header "
+                                        "of 4") and answer["message"].endswith("line 5)")
+    quoted = b'stream,"t_s",vel_l,wx\nwheels,0.0,"0.5",\n"imu",0.01\n'
+    status, answer = body_refusal("text/csv", quoted, None, 1000)
+    assert status == 400 and "a row of 2 fields" in answer["message"] \
+        and "line 3" in answer["message"]
+    split = {"dataframe_split": {"columns": ["stream", "t_s", "vel_l"],
+                                 "data": [["wheels", 0.0, 0.5], ["wheels", 0.1]]}}
+    status, answer = body_refusal("application/json", json.dumps(split).encode(), None, 1000)
+    assert status == 400 and answer["message"].startswith(
+        "RaggedRowError: data row 1 (0-based) holds 2 values for 3 columns")
+    split["dataframe_split"]["data"][1].append(None)
+    assert body_refusal("application/json", json.dumps(split).encode(), None, 1000) is None
+
+
+def test_a_body_stalled_half_way_is_answered_408_and_frees_its_slot():
+    """A client that sends part of its body and stalls would hold one of the in-flight
+    slots for ever (8 of them keep every other client out): past the body deadline it is
+    answered 408 and the slot is free again."""
+    app, seen = _echo_app()
+    guard = RequestGuard(app, max_body_bytes=100, max_in_flight=1, body_timeout_s=0.2)
+    stalled = _Client([b"ab", b"cde"])  # announces 5 bytes, sends 2, then stalls
+
+    async def receive():
+        if len(stalled.chunks) == 1:
+            await asyncio.sleep(3600)
+        return await stalled.receive()
+
+    asyncio.run(guard(_scope(length=5), receive, stalled.send))
+    status, answer = stalled.answer()
+    assert status == 408 and seen == [] and guard.in_flight == 0
+    assert answer["message"] == ("DataFormatError: request body incomplete after 0.2 s (2 of "
+                                 "5 bytes); send the whole body at once")
+    client = _Client([b"ab"])
+    asyncio.run(guard(_scope(), client.receive, client.send))
+    assert client.answer() == (200, {"n": 2})
