@@ -146,8 +146,12 @@ def main(args: argparse.Namespace) -> int:
     kinds = Counter(k.split(":")[0] for f in frame["flags"] if f for k in f.split("|"))
     flagged = int((frame["flags"] != "").sum())
     detail = f" ({', '.join(f'{k} {n}' for k, n in sorted(kinds.items()))})" if kinds else ""
+    skipped = (f"; {service.skipped_decisions} skipped in silent stretches (no sample of "
+               f"any stream for over {config.max_backlog_s:g} s)"
+               if service.skipped_decisions else "")
     print(f"{run.run_id}: {len(frame)} decisions every {args.hop_s} s from streams "
-          f"{list(service.needed_streams)}; {flagged} flagged{detail}; written to {args.out}")
+          f"{list(service.needed_streams)}; {flagged} flagged{detail}{skipped}; written to "
+          f"{args.out}")
     if len(frame) and run.terrain in model.classes:
         acc = float((frame["terrain"] == run.terrain).mean())
         print(f"  decided {run.terrain} (the folder's label) in {acc:.3f} of the decisions")

@@ -75,6 +75,23 @@ class RingBuffer:
         self._next = (self._next + n) % self.capacity
         self._size = min(self.capacity, self._size + n)
 
+    def first_at_or_after(self, t_s: float) -> float:
+        """Timestamp of the oldest kept sample at or after ``t_s``, s (``inf`` if none).
+
+        Parameters
+        ----------
+        t_s : float
+            Time, s.
+
+        Returns
+        -------
+        float
+        """
+        end = self._next + self.capacity
+        t = self._t[end - self._size:end]
+        i = int(np.searchsorted(t, t_s, side="left"))
+        return float(t[i]) if i < len(t) else np.inf
+
     def since(self, t_min_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Samples with ``t >= t_min_s``, oldest first, plus the one just before (if kept).
 

@@ -9,7 +9,14 @@ applied sample by sample instead of file by file:
   interpolates linearly across it, which is the reader's repair of isolated non-finite
   samples; a longer burst leaves a timestamp gap that the alignment never bridges;
 * ``implausible_rate``: a gyro rate above
-  :data:`terrain.io.measured.MAX_PLAUSIBLE_RATE_RAD_S` (deg/s sent as rad/s); rejected.
+  :data:`terrain.io.measured.MAX_PLAUSIBLE_RATE_RAD_S` (deg/s sent as rad/s); rejected;
+* ``implausible_value``: an accelerometer, wheel-speed or motor-current value beyond the
+  readers' range (:data:`terrain.io.plausibility.CHANNEL_LIMITS`, the bound
+  :func:`terrain.io.plausibility.check_ranges` refuses a file beyond); rejected;
+* ``implausible_time``: a timestamp beyond :data:`MAX_PLAUSIBLE_TIME_S` (a clock in ms or
+  ns since an epoch, or a corrupted stamp); rejected. Beyond about ``1e16`` s adding one
+  hop to a float64 time no longer changes it, so such a stamp accepted would make the
+  service's decision clock stand still.
 
 A rule is any callable ``rule(channels, t_s, values, last_t_s) -> (keep, reason)``; the
 service takes a tuple of them, so a robot can add its own.
@@ -22,7 +29,13 @@ from typing import Callable, Sequence
 import numpy as np
 
 from terrain.io.measured import MAX_PLAUSIBLE_RATE_RAD_S
+from terrain.io.plausibility import CHANNEL_LIMITS
 from terrain.run import IMU_CHANNELS
+
+#: Largest plausible ``|timestamp|``, s: 1e11 s is 3,170 years, 55 times a Unix time of
+#: today (1.8e9 s), while a Unix time in ms is already 1.8e12; at 1e11 s a float64 still
+#: resolves 1.5e-5 s, far below the 2.5 ms period of a 400 Hz IMU.
+MAX_PLAUSIBLE_TIME_S = 1e11
 
 #: rule(channels, t_s (n,), values (n, n_channels), last_t_s) -> (keep (n,) bool, reason)
 SampleRule = Callable[[Sequence[str], np.ndarray, np.ndarray, float], tuple[np.ndarray, str]]
@@ -109,5 +122,64 @@ def plausible_gyro(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
     return ok, "implausible_rate"
 
 
+def plausible_values(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
+                     last_t_s: float) -> tuple[np.ndarray, str]:
+    """Keep samples whose accelerometer, wheel-speed and motor-current values lie within
+    the readers' ranges (the gyro has :func:`plausible_gyro`).
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channel names; those of :data:`terrain.io.plausibility.CHANNEL_LIMITS` other than
+        ``wx, wy, wz`` are checked.
+    t_s : numpy.ndarray
+        ``(n,)`` timestamps, s (unused).
+    values : numpy.ndarray
+        ``(n, n_channels)`` values in the units of ``CHANNEL_LIMITS`` (m/s^2, m/s, A).
+    last_t_s : float
+        Unused.
+
+    Returns
+    -------
+    keep : numpy.ndarray
+        ``(n,)`` bool.
+    reason : str
+        ``"implausible_value"``.
+    """
+    keep = np.ones(len(t_s), dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for i, c in enumerate(channels):
+            if c in CHANNEL_LIMITS and c not in IMU_CHANNELS[:3]:
+                keep &= ~(np.abs(values[:, i]) > CHANNEL_LIMITS[c].limit)
+    return keep, "implausible_value"
+
+
+def plausible_time(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
+                   last_t_s: float) -> tuple[np.ndarray, str]:
+    """Keep samples whose timestamp is within :data:`MAX_PLAUSIBLE_TIME_S` of 0.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Channel names (unused).
+    t_s : numpy.ndarray
+        ``(n,)`` timestamps on the service clock, s.
+    values : numpy.ndarray
+        ``(n, n_channels)`` values (unused).
+    last_t_s : float
+        Unused.
+
+    Returns
+    -------
+    keep : numpy.ndarray
+        ``(n,)`` bool.
+    reason : str
+        ``"implausible_time"``.
+    """
+    with np.errstate(invalid="ignore"):
+        return ~(np.abs(t_s) > MAX_PLAUSIBLE_TIME_S), "implausible_time"
+
+
 #: The readers' rules, in the order they are applied.
-DEFAULT_RULES: tuple[SampleRule, ...] = (finite_values, time_increasing, plausible_gyro)
+DEFAULT_RULES: tuple[SampleRule, ...] = (finite_values, plausible_time, time_increasing,
+                                         plausible_gyro, plausible_values)

@@ -538,8 +538,13 @@ class ServedStreamModel(PythonModel):
                                  tuple(s["classes"]))
         self.targets = TableTargets(self.model.classes,
                                     DesiredSlipConfig(min_confidence=s["min_confidence"]))
+        # a request makes at most max_decisions decisions, every one in the answer (a
+        # dropped one with its reason): the service's skipping of long silent stretches
+        # must never apply inside a request
         self.config = StreamConfig(hop_s=s["hop_s"], min_confidence=s["min_confidence"],
-                                   smoothing=smoothing_of(s))
+                                   smoothing=smoothing_of(s),
+                                   max_backlog_s=(int(s["max_decisions"]) + 1)
+                                   * float(s["hop_s"]))
 
     def decide(self, frame: pd.DataFrame) -> pd.DataFrame:
         """Decisions for one request (typed project errors propagate).

@@ -20,11 +20,19 @@ A decision is due at service time ``t`` once every needed stream has reached ``t
 some stream is ``stale_s`` past ``t`` while another lags (the decision is then flagged
 ``stale`` and rests on the data that did arrive; its ``window_age_s`` says how old).
 
+A sample that arrives after every stream has been silent for long (a paused robot, a
+clock jump) makes every hop of the silent stretch due at once. Decisions due more than
+``max_backlog_s`` before the newest sample whose window holds no sample of any stream are
+skipped rather than emitted (the forward filter still takes their prediction steps, in
+closed form, :meth:`~terrain.serving.smoothing.ForwardFilter.skip`); they are counted in
+:attr:`StreamService.skipped_decisions`. Without that, one sample a day late would cost
+172,800 decisions at a 0.5 s hop before the next one.
+
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
-``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` (samples rejected by the
-rules of :mod:`terrain.serving.rules` inside the window), ``low_confidence`` (fallback
-target).
+``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` / ``implausible_value`` /
+``implausible_time`` (samples rejected by the rules of :mod:`terrain.serving.rules` inside
+the window), ``low_confidence`` (fallback target).
 """
 
 from __future__ import annotations
@@ -78,6 +86,16 @@ class StreamConfig:
     clock_offsets_s : Mapping[str, float]
         Per-stream offset added to its timestamps to put them on the service clock, s.
     smoothing : SmoothingConfig
+    max_backlog_s : float
+        Decisions of a silent stretch (no sample of any stream in their window) due more
+        than this before the newest sample are skipped and counted, s (finite, > 0; module
+        docstring).
+
+    Raises
+    ------
+    ConfigError
+        A non-positive ``hop_s``, ``stale_s`` or ``max_backlog_s``, a non-finite
+        ``max_backlog_s`` or a ``min_confidence`` outside [0, 1].
     """
 
     hop_s: float = 0.5
@@ -88,10 +106,14 @@ class StreamConfig:
     streams: Mapping[str, tuple[str, ...]] = field(default_factory=lambda: KNOWN_STREAMS)
     clock_offsets_s: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
+    max_backlog_s: float = 60.0
 
     def __post_init__(self) -> None:
         if not self.hop_s > 0 or not self.stale_s > 0:
             raise ConfigError("hop_s and stale_s must be > 0")
+        if not 0 < self.max_backlog_s < np.inf:
+            raise ConfigError(f"max_backlog_s must be a finite number of seconds > 0, got "
+                              f"{self.max_backlog_s}")
         if not 0 <= self.min_confidence <= 1:
             raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
 
@@ -197,6 +219,7 @@ class StreamService:
                          for s, ch in self.streams.items()}
         self._events: dict[str, deque] = {s: deque(maxlen=MAX_EVENTS) for s in self.streams}
         self._refused: Counter = Counter()
+        self._skipped = 0
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -222,6 +245,12 @@ class StreamService:
         ``(stream, reason)`` (the reason is the flag the rule raises); bounded by the number
         of streams and rules."""
         return dict(self._refused)
+
+    @property
+    def skipped_decisions(self) -> int:
+        """Decisions skipped in silent stretches since the service started (module
+        docstring, ``StreamConfig.max_backlog_s``)."""
+        return self._skipped
 
     def push(self, stream: str, t_s: np.ndarray | float,
              values: Mapping[str, np.ndarray] | np.ndarray) -> list[Decision]:
@@ -249,7 +278,8 @@ class StreamService:
         MissingColumnError
             A channel of the stream is missing from ``values``.
         DataFormatError
-            ``values`` of the wrong shape.
+            ``values`` of the wrong shape, a channel's values and the timestamps of
+            different lengths, or a timestamp or value that is not a real number.
         """
         if stream not in self.config.streams:
             raise ConfigError(f"unknown stream {stream!r}; configured: "
@@ -257,18 +287,23 @@ class StreamService:
         if stream not in self.streams:
             return []
         channels = self.streams[stream]
-        t = np.atleast_1d(np.asarray(t_s, dtype=float)) \
-            + self.config.clock_offsets_s.get(stream, 0.0)
+        t = _real_array(t_s, stream, "t_s") + self.config.clock_offsets_s.get(stream, 0.0)
         if isinstance(values, Mapping):
             absent = [c for c in channels if c not in values]
             if absent:
                 raise MissingColumnError(f"stream {stream!r} sample lacks channel(s) {absent}",
                                          f"stream {stream}", absent[0])
-            v = np.column_stack([np.atleast_1d(np.asarray(values[c], dtype=float))
-                                 for c in channels])
+            columns = [_real_array(values[c], stream, c) for c in channels]
+            uneven = [c for c, col in zip(channels, columns) if col.shape != t.shape]
+            if uneven:
+                raise DataFormatError(f"stream {stream!r}: channel {uneven[0]!r} holds "
+                                      f"{columns[channels.index(uneven[0])].size} values for "
+                                      f"{t.size} timestamps", f"stream {stream}", uneven[0])
+            v = np.column_stack(columns) if len(t) else np.empty((0, len(channels)))
         else:
-            v = np.asarray(values, dtype=float).reshape(len(t), -1) \
-                if np.size(values) == len(t) * len(channels) else None
+            v = np.asarray(values)
+            v = _real_array(v, stream, "values").reshape(len(t), -1) \
+                if v.size == len(t) * len(channels) else None
         if v is None or v.shape != (len(t), len(channels)):
             raise DataFormatError(f"stream {stream!r}: expected values of shape "
                                   f"({len(t)}, {len(channels)}) for channels {channels}",
@@ -287,6 +322,7 @@ class StreamService:
 
     def _emit(self) -> list[Decision]:
         last = [b.last_t for b in self._buffers.values()]
+        newest = max(last)
         if self._next_t is None:
             filled = [b for b in self._buffers.values() if len(b)]
             if not filled:
@@ -297,10 +333,30 @@ class StreamService:
                 return []  # wait for the silent stream(s) for a while
             self._next_t = start + self.model.window.window_s
         out = []
-        while min(last) >= self._next_t or max(last) >= self._next_t + self.config.stale_s:
+        while min(last) >= self._next_t or newest >= self._next_t + self.config.stale_s:
+            if newest - self._next_t > self.config.max_backlog_s:
+                skip = self._silent_hops(newest)
+                if skip:
+                    self._filter.skip(skip)
+                    self._skipped += skip
+                    self._next_t += skip * self.config.hop_s
+                    continue
             out.append(self._decide(self._next_t))
             self._next_t += self.config.hop_s
         return out
+
+    def _silent_hops(self, newest: float) -> int:
+        """Hops from the next due time over which no stream has a sample in the window
+        (``_window``'s look-back), up to ``max_backlog_s`` before ``newest``; 0 if the next
+        window holds a sample."""
+        w = self.model.window
+        t = self._next_t
+        resume = min(b.first_at_or_after(t - w.window_s - 2.0 / w.rate_hz)
+                     for b in self._buffers.values())
+        if resume <= t:
+            return 0
+        until = min(resume, newest - self.config.max_backlog_s)
+        return max(0, int(np.ceil((until - t) / self.config.hop_s)))
 
     def _window(self, t: float) -> tuple[np.ndarray | None, float, set[str]]:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
@@ -363,6 +419,27 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
+
+
+def _real_array(x, stream: str, column: str) -> np.ndarray:
+    """``x`` as a float array, or a typed error naming the stream and column: text, a
+    complex number, or (for ``t_s`` and one channel's values, which are 1-D) more than one
+    dimension. ``column == "values"`` keeps the array's shape."""
+    try:
+        complex_input = np.iscomplexobj(x)
+        a = None if complex_input else np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers "
+                              f"({exc})", f"stream {stream}", column) from None
+    if a is None:
+        raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers, not "
+                              "complex ones", f"stream {stream}", column)
+    if column == "values":
+        return a
+    if a.ndim > 1:
+        raise DataFormatError(f"stream {stream!r}: {column} must be one number or a 1-D "
+                              f"array, got shape {a.shape}", f"stream {stream}", column)
+    return np.atleast_1d(a)
 
 
 def stuck_decision_flags(frame: pd.DataFrame, stuck: Mapping[str, list],

@@ -124,6 +124,37 @@ def forward_step(p_prev: np.ndarray, q: np.ndarray | None, p_switch: float,
     return post / post.sum()
 
 
+def predict_steps(p_prev: np.ndarray, n_steps: int, p_switch: float) -> np.ndarray:
+    """``n_steps`` prediction-only steps of :func:`forward_step` (no window) in closed form.
+
+    The prediction is affine and keeps the uniform distribution ``u = 1/K`` fixed:
+    ``prior - u = lambda (p - u)`` with ``lambda = 1 - p_switch K / (K - 1)``, so after
+    ``n`` steps ``p_n = u + lambda**n (p_0 - u)`` (for ``K = 1``, ``p`` stays as is). It costs
+    the same for a million steps as for one (a service skipping a long silent stretch).
+
+    Parameters
+    ----------
+    p_prev : numpy.ndarray
+        ``(K,)`` filtered class probabilities (sum 1).
+    n_steps : int
+        Steps without a window, >= 0.
+    p_switch : float
+        Probability of leaving the current class within one step, in [0, 1].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K,)`` probabilities after the steps.
+    """
+    p = np.asarray(p_prev, dtype=float)
+    k = len(p)
+    if k < 2 or n_steps <= 0:
+        return p.copy()
+    lam = 1.0 - p_switch * k / (k - 1)
+    u = 1.0 / k
+    return u + lam ** int(n_steps) * (p - u)
+
+
 class ForwardFilter:
     """Streaming forward filter with hysteresis on the decided class.
 
@@ -173,6 +204,24 @@ class ForwardFilter:
         if q is not None and self.config.reset_confidence is not None:
             self._reset_on_switch(np.asarray(q, dtype=float))
         return self.current, self.p.copy()
+
+    def skip(self, n_steps: int) -> None:
+        """Advance by ``n_steps`` hops without a window (:func:`predict_steps`), as that many
+        ``update(None)`` calls would move ``p``; the decided class is then re-checked once
+        against the hysteresis margin.
+
+        Parameters
+        ----------
+        n_steps : int
+            Hops skipped, >= 0.
+        """
+        if self.config.dwell_s is None or n_steps <= 0:
+            return
+        self.p = predict_steps(self.p, n_steps, self.p_switch)
+        if self.current is not None:
+            best = int(np.argmax(self.p))
+            if self.p[best] > self.p[self.current] + self.config.hysteresis:
+                self.current = best
 
     def _reset_on_switch(self, q: np.ndarray) -> None:
         """Count confident windows naming another class; restart from ``q`` after enough."""

@@ -7,8 +7,10 @@ import pytest
 
 from terrain.errors import ConfigError
 from terrain.serving.buffers import RingBuffer
-from terrain.serving.rules import finite_values, plausible_gyro, time_increasing
-from terrain.serving.smoothing import ForwardFilter, SmoothingConfig, forward_step
+from terrain.serving.rules import (finite_values, plausible_gyro, plausible_time,
+                                  plausible_values, time_increasing)
+from terrain.serving.smoothing import (ForwardFilter, SmoothingConfig, forward_step,
+                                      predict_steps)
 from terrain.serving.targets import CataloguePeakTargets
 from terrain.terramechanics import get_terrain, steady_slip
 
@@ -48,6 +50,17 @@ def test_rules_reject_what_the_readers_reject():
     np.testing.assert_array_equal(plausible_gyro(("wx", "wy", "wz"), np.arange(2.0), gyro,
                                                  -np.inf)[0], [True, False])
     assert plausible_gyro(("vel_l",), np.arange(2.0), 100 * np.ones((2, 1)), -np.inf)[0].all()
+    # the readers' ranges (terrain.io.plausibility.CHANNEL_LIMITS): 5 m/s, 1000 A, 24 g;
+    # the gyro is left to plausible_gyro
+    v = np.array([[4.9, -999.0, 230.0, 40.0], [5.1, 0.0, 0.0, 0.0],
+                  [0.0, -1001.0, 0.0, 0.0], [0.0, 0.0, -236.0, 0.0]])
+    keep, reason = plausible_values(("vel_l", "cur_r", "az", "wz"), np.arange(4.0), v, -np.inf)
+    assert reason == "implausible_value"
+    np.testing.assert_array_equal(keep, [True, False, False, False])
+    keep, reason = plausible_time(("vel_l",), np.array([1.8e9, -1e10, 1.8e12, 1e300]),
+                                  np.zeros((4, 1)), -np.inf)
+    assert reason == "implausible_time"
+    np.testing.assert_array_equal(keep, [True, True, False, False])
 
 
 def test_forward_step_is_a_normalised_sticky_markov_prediction():
@@ -68,6 +81,35 @@ def _switch_step(dwell_s, hysteresis=0.0):
         if filt.update(np.array([0.2, 0.7, 0.1]))[0] == 1:
             return k + 1
     return np.inf
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_predict_steps_is_n_prediction_only_forward_steps(seed):
+    # the closed form a skipped silent stretch uses must be the recursion written out
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(2, 10))
+    p = rng.dirichlet(np.ones(k))
+    p_switch, n = float(rng.uniform(0, 1)), int(rng.integers(0, 60))
+    expected = p
+    for _ in range(n):
+        expected = forward_step(expected, None, p_switch, 0.5)
+    got = predict_steps(p, n, p_switch)
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-12)
+    assert got.sum() == pytest.approx(1.0)
+    # a million steps forget the past: the uniform distribution, in one step of work
+    if 0 < p_switch < (k - 1) / k:
+        np.testing.assert_allclose(predict_steps(p, 10 ** 6, p_switch), 1 / k, atol=1e-12)
+
+
+def test_filter_skip_moves_p_as_repeated_updates_without_a_window():
+    a, b = (ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=5.0)) for _ in range(2))
+    for f in (a, b):
+        f.update(np.array([0.1, 0.8, 0.1]))
+    for _ in range(7):
+        decided, p = a.update(None)
+    b.skip(7)
+    np.testing.assert_allclose(b.p, p, rtol=1e-12)
+    assert b.current == decided == 1
 
 
 def test_longer_dwell_and_hysteresis_delay_the_switch_but_it_happens():

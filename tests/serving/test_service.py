@@ -199,6 +199,82 @@ def test_bad_calls_raise_typed_errors(wheel_model, all_model):
                       StreamConfig(streams={"wheels": WHEEL_CHANNELS}))
 
 
+@pytest.mark.parametrize("t_s, values, words", [
+    ("x", {c: 0.0 for c in WHEEL_CHANNELS}, "t_s must hold real numbers"),
+    (0.0, {**{c: 0.0 for c in WHEEL_CHANNELS}, "vel_l": "fast"}, "vel_l must hold real"),
+    (0.0, {**{c: 0.0 for c in WHEEL_CHANNELS}, "cur_l": 1 + 2j}, "not complex"),
+    ([0.0, 0.1], {**{c: [0.0, 0.0] for c in WHEEL_CHANNELS}, "vel_r": [0.0, 0.0, 0.0]},
+     "channel 'vel_r' holds 3 values for 2 timestamps"),
+    ([[0.0, 0.1]], {c: [0.0, 0.0] for c in WHEEL_CHANNELS}, "t_s must be one number or a 1-D"),
+    (0.0, np.array([["a", "b", "c", "d"]]), "values must hold real numbers"),
+])
+def test_values_that_are_not_real_numbers_raise_a_typed_error_naming_the_column(
+        wheel_model, t_s, values, words):
+    # a robot's Python code sending text, complex numbers or uneven channels gets the
+    # project's error naming the stream and column, not NumPy's ValueError or TypeError
+    with pytest.raises(DataFormatError, match=words) as info:
+        service(wheel_model).push("wheels", t_s, values)
+    assert "stream wheels" in str(info.value)
+
+
+def test_implausible_times_and_values_are_refused_as_the_readers_refuse_them(
+        wheel_model, unseen_run):
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:200]
+    svc = service(wheel_model)
+    good = push_wheels(svc, frame)
+    t = float(frame["t_s"].iloc[-1])
+    # a timestamp in ms since the epoch, and one so large that t + hop == t in float64
+    # (accepted, it stopped the decision clock: the service looped for ever)
+    assert svc.push("wheels", [1.8e12, 1e300], np.ones((2, 4))) == []
+    # 2,000 A, far above any motor, and 50 m/s of wheel speed
+    assert svc.push("wheels", [t + 0.05, t + 0.1],
+                    np.array([[0.5, 0.5, 2000.0, 1.0], [50.0, 0.5, 1.0, 1.0]])) == []
+    assert svc.refused_samples == {("wheels", "implausible_time"): 2,
+                                   ("wheels", "implausible_value"): 2}
+    later = push_wheels(svc, frame.assign(t_s=frame["t_s"] + (t - frame["t_s"].iloc[0]) + 0.2))
+    assert len(good) > 10 and len(later) > 10
+    flagged = [d for d in later if "implausible_value" in d.flags]
+    assert flagged and all(d.t_s - wheel_model.window.window_s <= t + 0.1 for d in flagged)
+
+
+def test_a_clock_jump_skips_the_silent_stretch_and_counts_it(wheel_model, unseen_run):
+    # one sample a day late made every 0.5 s hop of the day due at once: 172,800 decisions
+    # computed before push returned; now those more than max_backlog_s before the new
+    # sample are skipped and counted, and the service goes on from the new time
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:400]
+    svc = service(wheel_model, hop_s=0.5, max_backlog_s=30.0,
+                  smoothing=SmoothingConfig(dwell_s=10.0))
+    before = push_wheels(svc, frame)
+    day = 86_400.0
+    after = push_wheels(svc, frame.assign(t_s=frame["t_s"] + day))
+    assert svc.skipped_decisions > 0 and len(before) > 10
+    # every decision of the day is either emitted or skipped, none twice
+    times = np.array([d.t_s for d in before + after])
+    assert np.all(np.diff(times) > 0)
+    emitted_in_gap = ((times > frame["t_s"].iloc[-1] + 5) & (times < frame["t_s"].iloc[0]
+                                                              + day)).sum()
+    assert emitted_in_gap <= 30.0 / 0.5 + 2
+    expected = round((times[-1] - times[0]) / 0.5) + 1
+    assert len(times) + svc.skipped_decisions == expected
+    # the windows after the jump are classified again, as those before it
+    clean_after = [d for d in after if d.flags == ""]
+    assert len(clean_after) >= len([d for d in before if d.flags == ""]) - 2
+
+
+def test_a_stretch_of_refused_samples_shorter_than_the_backlog_is_still_emitted(
+        wheel_model, unseen_run):
+    # a 10 s NaN burst (every sample refused) is silent for the buffers but shorter than
+    # max_backlog_s: its decisions are emitted with their flags, none skipped
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:800]
+    t0 = float(frame["t_s"].iloc[0])
+    burst = (frame["t_s"] > t0 + 10) & (frame["t_s"] < t0 + 20)
+    svc = service(wheel_model)
+    out = push_wheels(svc, frame.assign(vel_l=frame["vel_l"].mask(burst)))
+    assert svc.skipped_decisions == 0
+    np.testing.assert_allclose(np.diff([d.t_s for d in out]), 0.5)
+    assert sum("non_finite" in d.flags for d in out) >= 10 / 0.5
+
+
 def test_a_hop_shorter_than_the_model_clock_is_refused(wheel_model):
     period = 1.0 / wheel_model.window.rate_hz
     with pytest.raises(ConfigError, match="shorter than one period"):
