@@ -28,11 +28,21 @@ closed form, :meth:`~terrain.serving.smoothing.ForwardFilter.skip`); they are co
 :attr:`StreamService.skipped_decisions`. Without that, one sample a day late would cost
 172,800 decisions at a 0.5 s hop before the next one.
 
+A stream whose samples keep arriving earlier than its newest accepted one (a looped log, a
+restarted driver or simulator) would have every later sample refused as
+``time_not_increasing``, and the service would decide nothing again. Such samples are
+held (bounded); once they run as a clock over ``clock_restart_s`` (increasing, no step
+longer than ``gap_factor`` of the stream's usual step) the clock has restarted: every buffer and the decision clock start again and the held samples of
+every stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
+that cover the restart carry ``clock_restart``). A single late sample is still refused.
+Streams on one clock restart together; a restart of one stream's clock alone leaves the
+streams apart (set ``clock_offsets_s``).
+
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
 ``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` / ``implausible_value`` /
 ``implausible_time`` (samples rejected by the rules of :mod:`terrain.serving.rules` inside
-the window), ``low_confidence`` (fallback target).
+the window), ``clock_restart``, ``low_confidence`` (fallback target).
 """
 
 from __future__ import annotations
@@ -61,6 +71,9 @@ KNOWN_STREAMS: Mapping[str, tuple[str, ...]] = MappingProxyType(
     {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS})
 #: Rejection events remembered per stream (bounded, for the flags).
 MAX_EVENTS = 256
+#: reason of the rule whose refusals may announce a clock restart
+#: (:func:`terrain.serving.rules.time_increasing`)
+TIME_RULE = "time_not_increasing"
 
 
 @dataclass(frozen=True)
@@ -90,12 +103,17 @@ class StreamConfig:
         Decisions of a silent stretch (no sample of any stream in their window) due more
         than this before the newest sample are skipped and counted, s (finite, > 0; module
         docstring).
+    clock_restart_s : float
+        A stream whose samples keep arriving earlier than its newest accepted one, increasing
+        among themselves over this span of their own time, has restarted its clock: the
+        service restarts on the new clocks (module docstring), s (finite, > 0).
 
     Raises
     ------
     ConfigError
-        A non-positive ``hop_s``, ``stale_s`` or ``max_backlog_s``, a non-finite
-        ``max_backlog_s`` or a ``min_confidence`` outside [0, 1].
+        A non-positive ``hop_s``, ``stale_s``, ``max_backlog_s`` or ``clock_restart_s``, a
+        non-finite ``max_backlog_s`` or ``clock_restart_s`` or a ``min_confidence`` outside
+        [0, 1].
     """
 
     hop_s: float = 0.5
@@ -107,13 +125,15 @@ class StreamConfig:
     clock_offsets_s: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     smoothing: SmoothingConfig = field(default_factory=SmoothingConfig)
     max_backlog_s: float = 60.0
+    clock_restart_s: float = 5.0
 
     def __post_init__(self) -> None:
         if not self.hop_s > 0 or not self.stale_s > 0:
             raise ConfigError("hop_s and stale_s must be > 0")
-        if not 0 < self.max_backlog_s < np.inf:
-            raise ConfigError(f"max_backlog_s must be a finite number of seconds > 0, got "
-                              f"{self.max_backlog_s}")
+        for name in ("max_backlog_s", "clock_restart_s"):
+            if not 0 < getattr(self, name) < np.inf:
+                raise ConfigError(f"{name} must be a finite number of seconds > 0, got "
+                                  f"{getattr(self, name)}")
         if not 0 <= self.min_confidence <= 1:
             raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
 
@@ -220,6 +240,9 @@ class StreamService:
         self._events: dict[str, deque] = {s: deque(maxlen=MAX_EVENTS) for s in self.streams}
         self._refused: Counter = Counter()
         self._skipped = 0
+        self._clock_restarts = 0
+        self._pending: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
+                                           for s in self.streams}
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -245,6 +268,12 @@ class StreamService:
         ``(stream, reason)`` (the reason is the flag the rule raises); bounded by the number
         of streams and rules."""
         return dict(self._refused)
+
+    @property
+    def clock_restarts(self) -> int:
+        """Clock restarts since the service started (module docstring,
+        ``StreamConfig.clock_restart_s``)."""
+        return self._clock_restarts
 
     @property
     def skipped_decisions(self) -> int:
@@ -308,7 +337,15 @@ class StreamService:
             raise DataFormatError(f"stream {stream!r}: expected values of shape "
                                   f"({len(t)}, {len(channels)}) for channels {channels}",
                                   f"stream {stream}")
-        buf = self._buffers[stream]
+        self._ingest(stream, t, v)
+        return self._emit()
+
+    def _ingest(self, stream: str, t: np.ndarray, v: np.ndarray) -> None:
+        """Apply the rules to a validated chunk, buffer what they keep and watch the
+        samples refused as earlier than the stream's newest for a clock restart."""
+        channels, buf = self.streams[stream], self._buffers[stream]
+        order = np.arange(len(t))  # arrival position of each sample still in play
+        late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         for rule in self.rules:
             keep, reason = rule(channels, t, v, buf.last_t)
             if not keep.all():
@@ -316,9 +353,55 @@ class StreamService:
                 self._refused[(stream, reason)] += len(bad_t)
                 self._events[stream].extend(
                     (bt if np.isfinite(bt) else buf.last_t, reason) for bt in bad_t)
-                t, v = t[keep], v[keep]
+                if reason == TIME_RULE:
+                    late = (t[~keep], v[~keep], order[~keep])
+                t, v, order = t[keep], v[keep], order[keep]
         buf.append(t, v)
-        return self._emit()
+        self._watch_restart(stream, late, order)
+
+    def _watch_restart(self, stream: str, late, kept_order: np.ndarray) -> None:
+        """Keep the samples of ``stream`` refused as not increasing since its last accepted
+        one; once they run as a clock (increasing, no gap) over ``clock_restart_s``,
+        restart."""
+        pending = self._pending[stream]
+        if late is None or (len(kept_order) and kept_order[-1] > late[2][-1]):
+            if len(kept_order) or late is not None:
+                pending.clear()   # the stream goes on on its clock: a stray late sample
+            return
+        lt, lv, lo = late
+        if len(kept_order):       # only those after the last accepted sample count
+            after = lo > kept_order[-1]
+            lt, lv = lt[after], lv[after]
+        # a new clock runs as the old one did: increasing, with no step longer than a gap
+        # (the readers' rule against the stream's usual step); anything else starts again
+        max_step = self.config.gap_factor * self._buffers[stream].median_step()
+        for ti, vi in zip(lt, lv):
+            if pending and not 0 < ti - pending[-1][0] <= max_step:
+                pending.clear()
+            pending.append((float(ti), vi))
+        if pending and pending[-1][0] - pending[0][0] >= self.config.clock_restart_s:
+            self._restart()
+
+    def _restart(self) -> None:
+        """Restart on new clocks: empty every buffer and the decision clock, then ingest
+        the samples each stream sent on its new clock (the forward filter is kept)."""
+        held = {s: list(p) for s, p in self._pending.items() if p}
+        for s, p in held.items():  # counted as refused when they came; they are used now
+            self._refused[(s, TIME_RULE)] -= len(p)
+            if self._refused[(s, TIME_RULE)] <= 0:
+                del self._refused[(s, TIME_RULE)]
+        self._buffers = {s: RingBuffer(len(ch), self.config.buffer_samples)
+                         for s, ch in self.streams.items()}
+        self._pending = {s: deque(maxlen=self.config.buffer_samples) for s in self.streams}
+        self._next_t = None
+        self._clock_restarts += 1
+        for s in self.streams:
+            self._events[s].clear()
+        for s, p in held.items():
+            t = np.array([ti for ti, _ in p])
+            v = np.array([vi for _, vi in p]).reshape(len(p), -1)
+            self._events[s].append((float(t[0]), "clock_restart"))
+            self._ingest(s, t, v)
 
     def _emit(self) -> list[Decision]:
         last = [b.last_t for b in self._buffers.values()]

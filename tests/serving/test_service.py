@@ -275,6 +275,41 @@ def test_a_stretch_of_refused_samples_shorter_than_the_backlog_is_still_emitted(
     assert sum("non_finite" in d.flags for d in out) >= 10 / 0.5
 
 
+def test_a_looped_log_restarts_the_clock_and_decides_again(all_model, unseen_run):
+    # a log played in a loop (rosbag play -l) or a restarted simulator sends its clock
+    # back to the start: every later sample was refused as time_not_increasing and the
+    # service never decided again (0 decisions on the second pass)
+    svc = service(all_model)
+    first = replay_run(svc, unseen_run)
+    second = replay_run(svc, unseen_run)
+    assert svc.clock_restarts == 1 and svc.refused_samples == {}
+    assert len(first) > 50 and len(second) == len(first)
+    np.testing.assert_allclose([d.t_s for d in second], [d.t_s for d in first])
+    # the first windows after the restart are cut with the held seconds already buffered
+    # (as from a chunk), which moves their probabilities by about 5e-5
+    np.testing.assert_allclose([d.proba for d in second], [d.proba for d in first],
+                               atol=1e-3)
+    assert [d.terrain for d in second] == [d.terrain for d in first]
+    assert "clock_restart" in second[0].flags
+    assert all("clock_restart" not in d.flags for d in second[5:])
+
+
+def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unseen_run):
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:400]
+    head, tail = frame.iloc[:200], frame.iloc[200:]
+    svc = service(wheel_model, clock_restart_s=2.0)
+    out = push_wheels(svc, head)
+    # one stray sample 100 s late, then the stream goes on: refused, no restart
+    out += push_wheels(svc, head.iloc[[5]])
+    # late samples in random order never run as a clock over 2 s: no restart either
+    rng = np.random.default_rng(0)
+    out += push_wheels(svc, head.iloc[rng.permutation(len(head))[:150]])
+    out += push_wheels(svc, tail)
+    assert svc.clock_restarts == 0
+    assert svc.refused_samples == {("wheels", "time_not_increasing"): 151}
+    np.testing.assert_allclose(np.diff([d.t_s for d in out]), 0.5)
+
+
 def test_a_hop_shorter_than_the_model_clock_is_refused(wheel_model):
     period = 1.0 / wheel_model.window.rate_hz
     with pytest.raises(ConfigError, match="shorter than one period"):
