@@ -112,8 +112,10 @@ class StreamConfig:
     ------
     ConfigError
         A non-positive ``hop_s``, ``stale_s``, ``max_backlog_s`` or ``clock_restart_s``, a
-        non-finite ``max_backlog_s`` or ``clock_restart_s`` or a ``min_confidence`` outside
-        [0, 1].
+        non-finite ``stale_s``, ``max_backlog_s`` or ``clock_restart_s``, a
+        ``min_confidence`` outside [0, 1], ``buffer_samples`` not an integer >= 2,
+        ``gap_factor`` not a finite number > 1, or a clock offset that is not finite or
+        names no configured stream.
     """
 
     hop_s: float = 0.5
@@ -128,14 +130,28 @@ class StreamConfig:
     clock_restart_s: float = 5.0
 
     def __post_init__(self) -> None:
-        if not self.hop_s > 0 or not self.stale_s > 0:
-            raise ConfigError("hop_s and stale_s must be > 0")
-        for name in ("max_backlog_s", "clock_restart_s"):
+        if not self.hop_s > 0:
+            raise ConfigError(f"hop_s must be > 0, got {self.hop_s}")
+        # an infinite stale_s waits for ever for a silent stream (no decision at all)
+        for name in ("stale_s", "max_backlog_s", "clock_restart_s"):
             if not 0 < getattr(self, name) < np.inf:
                 raise ConfigError(f"{name} must be a finite number of seconds > 0, got "
                                   f"{getattr(self, name)}")
         if not 0 <= self.min_confidence <= 1:
             raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
+        if isinstance(self.buffer_samples, bool) or not isinstance(self.buffer_samples, int) \
+                or self.buffer_samples < 2:
+            raise ConfigError(f"buffer_samples must be an integer >= 2, got "
+                              f"{self.buffer_samples!r}")
+        # a factor <= 1 calls half of all steps a gap (every window dropped); NaN none
+        if not 1 < self.gap_factor < np.inf:
+            raise ConfigError(f"gap_factor must be a finite number > 1, got {self.gap_factor}")
+        unknown = [s for s in self.clock_offsets_s if s not in self.streams]
+        bad = {s: o for s, o in self.clock_offsets_s.items() if not np.isfinite(o)}
+        if unknown or bad:
+            raise ConfigError(f"clock_offsets_s must be finite offsets of configured streams "
+                              f"{list(self.streams)}; got unknown stream(s) {unknown}, "
+                              f"non-finite {bad}")
 
 
 @dataclass(frozen=True)
@@ -220,14 +236,21 @@ class StreamService:
     Raises
     ------
     ConfigError
-        A channel the model needs is in none of the configured streams, or the hop is
-        shorter than one period of the model's clock (:func:`check_hop`).
+        A channel the model needs is in none of the configured streams, the hop is
+        shorter than one period of the model's clock (:func:`check_hop`), or
+        ``buffer_samples`` cannot hold one window of the model (plus 2 samples).
     """
 
     def __init__(self, model: StreamModel, targets: TargetProvider,
                  config: StreamConfig = StreamConfig(),
                  rules: Sequence[SampleRule] = DEFAULT_RULES) -> None:
         check_hop(config.hop_s, model.window.rate_hz)
+        if config.buffer_samples < model.window.n_samples + 2:
+            raise ConfigError(f"buffer_samples {config.buffer_samples} cannot hold one "
+                              f"{model.window.window_s:g} s window of the model "
+                              f"({model.window.n_samples} samples at "
+                              f"{model.window.rate_hz:g} Hz, plus 2 to interpolate): every "
+                              "window would be short")
         self.model, self.targets, self.config, self.rules = model, targets, config, rules
         need = set(model.raw_channels)
         self.streams = {s: tuple(ch) for s, ch in config.streams.items() if need & set(ch)}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -308,6 +309,29 @@ def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unse
     assert svc.clock_restarts == 0
     assert svc.refused_samples == {("wheels", "time_not_increasing"): 151}
     np.testing.assert_allclose(np.diff([d.t_s for d in out]), 0.5)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(stale_s=float("inf")), "stale_s must be a finite"),
+    (dict(buffer_samples=2.5), "buffer_samples must be an integer"),
+    (dict(buffer_samples=True), "buffer_samples must be an integer"),
+    (dict(gap_factor=float("nan")), "gap_factor"), (dict(gap_factor=0.5), "gap_factor"),
+    (dict(clock_offsets_s={"wheels": float("nan")}), "non-finite {'wheels': nan}"),
+    (dict(clock_offsets_s={"whels": 1.0}), "unknown stream(s) ['whels']"),
+    (dict(clock_restart_s=0.0), "clock_restart_s"),
+])
+def test_stream_config_refuses_settings_that_silence_the_service(kwargs, words):
+    # each was accepted: a NaN offset refused every sample (0 decisions), gap_factor 0.5
+    # dropped every window, NaN never saw a gap, an infinite stale_s waits for ever
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        StreamConfig(**kwargs)
+
+
+def test_a_buffer_shorter_than_one_window_is_refused(wheel_model):
+    n = wheel_model.window.n_samples
+    with pytest.raises(ConfigError, match=f"cannot hold one .* window .*{n} samples"):
+        service(wheel_model, buffer_samples=n)
+    service(wheel_model, buffer_samples=n + 2)
 
 
 def test_a_hop_shorter_than_the_model_clock_is_refused(wheel_model):
