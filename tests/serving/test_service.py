@@ -295,6 +295,28 @@ def test_a_looped_log_restarts_the_clock_and_decides_again(all_model, unseen_run
     assert all("clock_restart" not in d.flags for d in second[5:])
 
 
+def test_one_far_future_sample_costs_a_restart_not_the_service(all_model, unseen_run):
+    # one IMU stamp 10^6 s ahead: before, every later IMU sample was refused and the
+    # all-signal model never decided again; the skip bounds the junk decisions it makes
+    # due (flagged short), and the IMU samples that go on on the true clock restart it
+    imu = unseen_run.streams["imu"]
+    t_cut = float(imu["t_s"].iloc[0]) + 20.0
+    part = [replace(unseen_run, streams={k: v[(v["t_s"] >= t_cut) == after]
+                                         for k, v in unseen_run.streams.items()})
+            for after in (False, True)]
+    svc = service(all_model)
+    before = replay_run(svc, part[0])
+    row = imu[imu["t_s"] >= t_cut].iloc[0]
+    junk = svc.push("imu", float(row["t_s"]) + 1e6, row.drop("t_s").to_numpy()[None, :])
+    after = replay_run(svc, part[1])
+    assert len(before) > 20 and len(junk) <= 60.0 / 0.5 + 10
+    assert all("short" in d.flags or "stale" in d.flags for d in junk[-100:])
+    assert svc.clock_restarts == 1 and svc.skipped_decisions > 1_000_000
+    assert "clock_restart" in after[0].flags
+    clean = [d for d in after if d.flags == ""]
+    assert len(clean) >= 0.8 * len(after) and clean[-1].t_s > t_cut + 40
+
+
 def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unseen_run):
     frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:400]
     head, tail = frame.iloc[:200], frame.iloc[200:]
