@@ -11,7 +11,7 @@ from terrain.control.desired_slip import build_slip_table
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionController, TractionState,
                                       config_for_vehicle, traction_control_step)
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, DataFormatError, ImplausibleValueError, ShapeError
 
 #: Table 8.1 of seed 001 (case, v_long m/s, omega r m/s, manoeuvre, slip, desired, error, PID,
 #: omega_ODrive rad/s), as printed.
@@ -321,6 +321,31 @@ def test_mismatched_shapes_are_a_typed_error_naming_the_argument():
     with pytest.raises(ShapeError, match="slip"):
         traction_control_step(THESIS, TractionState.zeros(2), TARGETS, np.ones(2), np.ones(2),
                               np.ones(2), np.ones(2), 0.5, 0.01, slip=np.ones(3))
+
+
+def test_a_non_finite_command_is_refused_not_passed_to_the_motors():
+    # before, NaN or inf in the low-level command came out as the corrected command
+    for bad in (np.nan, np.inf):
+        with pytest.raises(ImplausibleValueError, match="omega_low_level_rad_s .*non-finite"):
+            traction_control_step(THESIS, TractionState.zeros(2), TARGETS,
+                                  np.array([5.0, bad]), np.ones(2), np.ones(2), np.zeros(2),
+                                  0.5, 0.01)
+    # a non-finite measurement only suspends the correction: the command passes unchanged
+    out, _ = traction_control_step(THESIS, TractionState.zeros(2), TARGETS,
+                                   np.array([5.0, 5.0]), np.array([np.nan, 6.0]),
+                                   np.ones(2), np.zeros(2), 0.5, 0.01)
+    assert np.isfinite(out.omega_cmd_rad_s).all() and out.omega_cmd_rad_s[0] == 5.0
+
+
+@pytest.mark.parametrize("position, name", [(3, "omega_low_level_rad_s"),
+                                            (4, "omega_meas_rad_s"), (6, "a_local_m_s2"),
+                                            (7, "chassis_speed_m_s"), (8, "dt_s")])
+def test_text_inputs_are_a_typed_error_naming_the_argument(position, name):
+    args = [THESIS, TractionState.zeros(2), TARGETS, np.ones(2), np.ones(2), np.ones(2),
+            np.zeros(2), 0.5, 0.01]
+    args[position] = np.array(["fast", "1"]) if position < 7 else "fast"
+    with pytest.raises(DataFormatError, match=f"{name} must hold real numbers"):
+        traction_control_step(*args)
 
 
 def test_config_for_vehicle_uses_its_radius_speed_limit_and_motors():
