@@ -300,8 +300,9 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     terrain : str or None
         Decided class (case-insensitive); None or a class not in the table -> fallback.
     confidence : float
-        Probability of the decided class, in [0, 1]; below ``table.config.min_confidence``
-        or non-finite -> fallback.
+        Probability of the decided class, in [0, 1]; below ``table.config.min_confidence``,
+        above 1 (a percentage: 45 would have passed a 0.5 threshold) or non-finite ->
+        fallback.
     decision_age_s : float
         Time since the decision, s; above ``table.config.max_decision_age_s`` or non-finite
         -> fallback.
@@ -313,6 +314,6 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
     trusted = (key in table.entries and np.isfinite(confidence)
-               and confidence >= cfg.min_confidence and np.isfinite(decision_age_s)
+               and cfg.min_confidence <= confidence <= 1.0 and np.isfinite(decision_age_s)
                and 0.0 <= decision_age_s <= cfg.max_decision_age_s)
     return table.entries[key] if trusted else table.fallback

@@ -10,9 +10,12 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.optimize import brentq
 
+from terrain.errors import ConfigError
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
 
@@ -32,7 +35,14 @@ def steady_slip(terrain, extra_demand: float = 0.0) -> float:
     -------
     float
         Slip in [0, 1]; 1.0 when the demand exceeds the available traction.
+
+    Raises
+    ------
+    ConfigError
+        A non-finite ``extra_demand`` (NaN came out as 1.0, full spin).
     """
+    if not math.isfinite(extra_demand):
+        raise ConfigError(f"steady_slip: extra_demand must be finite, got {extra_demand}")
     f = lambda s: float(traction_coefficient(terrain.curve, s)  # noqa: E731
                         - soil_resistance_coefficient(terrain, s) - extra_demand)
     if f(0.0) >= 0.0:

@@ -124,6 +124,8 @@ def test_fallback_is_the_most_conservative_entry(table):
     ("MARS_REGOLITH", 0.9, 0.0, FALLBACK_LABEL), (None, 1.0, 0.0, FALLBACK_LABEL),
     ("GRASS", 0.3, 0.0, FALLBACK_LABEL), ("GRASS", float("nan"), 0.0, FALLBACK_LABEL),
     ("GRASS", 0.9, 10.0, FALLBACK_LABEL), ("GRASS", 0.9, float("inf"), FALLBACK_LABEL),
+    ("GRASS", 1.0, 0.0, "GRASS"),
+    ("GRASS", 45.0, 0.0, FALLBACK_LABEL),   # a percentage: 45 % is below the threshold
 ])
 def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
     assert select_target(table, terrain, confidence, age).terrain == expect

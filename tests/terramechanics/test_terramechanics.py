@@ -68,6 +68,14 @@ def test_thesis_steady_slip_reproduced():
     assert 0.122 <= steady_slip(get_terrain("GRAVEL")) <= 0.146
 
 
+def test_steady_slip_refuses_a_non_finite_demand():
+    # NaN made every comparison false and came out as 1.0 (full spin)
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ConfigError, match="extra_demand must be finite"):
+            steady_slip(get_terrain("SNOW"), bad)
+    assert steady_slip(get_terrain("SNOW"), 10.0) == 1.0   # a finite demand beyond the peak
+
+
 def test_calibrate_janosi_reproduces_catalogue_grass():
     c = calibrate_janosi(0.08, 0.1255, 0.339)
     g = get_terrain("GRASS").curve
