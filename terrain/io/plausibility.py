@@ -184,6 +184,23 @@ DEAD_ACCEL_M_S2 = 0.5
 _ACCEL = ("ax", "ay", "az")
 
 
+def accel_in_g(median_specific_force: float) -> bool:
+    """Whether a median specific force, m/s^2, says the accelerometer is in g (rule
+    ``accel_units``): in [:data:`DEAD_ACCEL_M_S2`, :data:`G_UNITS_BELOW_M_S2`), far below
+    gravity's 9.81 but above a dead sensor's.
+
+    Parameters
+    ----------
+    median_specific_force : float
+        Median of ``|(ax, ay, az)|`` over live samples, in the stream's units.
+
+    Returns
+    -------
+    bool
+    """
+    return DEAD_ACCEL_M_S2 <= median_specific_force < G_UNITS_BELOW_M_S2
+
+
 def check_accel_units(frame: pd.DataFrame, path) -> None:
     """Rule ``accel_units``: an accelerometer in g, told apart from a dead one.
 
@@ -212,7 +229,7 @@ def check_accel_units(frame: pd.DataFrame, path) -> None:
         _warn(f"{path}: rule accel_units: median specific force {median:.2f} over "
               f"{int(live.sum())} sample(s) outside stuck stretches: the accelerometer sees "
               "no gravity (9.81 m/s^2, or 1 in g): dead or disconnected sensor; assumed m/s^2")
-    elif median < G_UNITS_BELOW_M_S2:
+    elif accel_in_g(median):
         raise UnitError(f"rule accel_units: median specific force {median:.2f} is far below "
                         "9.81 m/s^2; the file looks like units of g, expected m/s^2 (x 9.81)",
                         path, "az")

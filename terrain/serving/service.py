@@ -42,11 +42,14 @@ streams apart (set ``clock_offsets_s``).
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
 ``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` / ``implausible_value`` /
 ``implausible_time`` (samples rejected by the rules of :mod:`terrain.serving.rules` inside
-the window), ``clock_restart``, ``low_confidence`` (fallback target).
+the window), ``accel_units`` (the window's median specific force says the accelerometer
+is in g, the readers' rule :func:`terrain.io.plausibility.check_accel_units`: not
+classified), ``clock_restart``, ``low_confidence`` (fallback target).
 """
 
 from __future__ import annotations
 
+import math
 from collections import Counter, deque
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -58,7 +61,7 @@ import pandas as pd
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_arrays, overlap_grid_tail
-from terrain.io.plausibility import stuck_window_flags
+from terrain.io.plausibility import accel_in_g, stuck_window_flags
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
@@ -279,6 +282,13 @@ class StreamService:
         if self._wheel_cols is not None:
             flat += list(DERIVED_WHEEL_CHANNELS)
         self._x_cols = np.array([flat.index(c) for c in model.channels])
+        accel = ("ax", "ay", "az")
+        # the accelerometer-units rule needs all three axes; it matters when one is used
+        self._accel_cols = None
+        if set(accel) <= set(flat) and set(accel) & set(model.raw_channels):
+            cols = [flat.index(c) for c in accel]     # a slice (no copy) when adjacent
+            self._accel_cols = slice(cols[0], cols[0] + 3) \
+                if cols == list(range(cols[0], cols[0] + 3)) else cols
 
     @property
     def needed_streams(self) -> tuple[str, ...]:
@@ -502,6 +512,11 @@ class StreamService:
         X = aligned[self._x_cols][None]
         if gap or not np.isfinite(X).all():
             return None, age, {"gap"}
+        if self._accel_cols is not None:  # the readers' rule on the window's median |a|
+            acc = aligned[self._accel_cols]
+            sq = np.einsum("ij,ij->j", acc, acc)    # 5 us; np.median of the norm took 31
+            if accel_in_g(math.sqrt(float(np.partition(sq, len(sq) // 2)[len(sq) // 2]))):
+                return None, age, {"accel_units"}
         return X, age, set()
 
     def _decide(self, t: float) -> Decision:

@@ -98,6 +98,20 @@ def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run)
     assert set(frame["terrain"]) <= set(all_model.classes)
 
 
+def test_an_accelerometer_in_g_is_flagged_and_not_classified(all_model, unseen_run):
+    # the readers refuse a file in g (rule accel_units); the service classified such a
+    # stream as if gravity were 1 m/s^2: now every window is flagged and only predicted
+    imu = unseen_run.streams["imu"]
+    in_g = imu.assign(**{c: imu[c] / 9.80665 for c in ("ax", "ay", "az")})
+    run = replace(unseen_run, streams={**unseen_run.streams, "imu": in_g})
+    svc = service(all_model)
+    got = replay_run(svc, run)
+    assert len(got) > 50 and all("accel_units" in d.flags or d.flags == "short" for d in got)
+    assert all(d.terrain is None for d in got)      # no window was ever classified
+    clean = replay_run(service(all_model), unseen_run)
+    assert not any("accel_units" in d.flags for d in clean)
+
+
 def test_a_silent_stream_makes_decisions_stale_with_the_fallback_target(all_model, unseen_run):
     imu = unseen_run.streams["imu"]
     cut = float(imu[TIME].iloc[0]) + 10.0
