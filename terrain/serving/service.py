@@ -31,9 +31,10 @@ closed form, :meth:`~terrain.serving.smoothing.ForwardFilter.skip`); they are co
 A stream whose samples keep arriving earlier than its newest accepted one (a looped log, a
 restarted driver or simulator) would have every later sample refused as
 ``time_not_increasing``, and the service would decide nothing again. Such samples are
-held (bounded); once they run as a clock over ``clock_restart_s`` (increasing, no step
-longer than ``gap_factor`` of the stream's usual step) the clock has restarted: every buffer and the decision clock start again and the held samples of
-every stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
+held (the newest ``buffer_samples``); once they run as a clock over ``clock_restart_s``
+(increasing, no step longer than ``gap_factor`` of the stream's usual step) the clock has
+restarted: every buffer and the decision clock start again and the held samples of every
+stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
 that cover the restart carry ``clock_restart``). A single late sample is still refused.
 Streams on one clock restart together; a restart of one stream's clock alone leaves the
 streams apart (set ``clock_offsets_s``).
@@ -107,9 +108,10 @@ class StreamConfig:
         than this before the newest sample are skipped and counted, s (finite, > 0; module
         docstring).
     clock_restart_s : float
-        A stream whose samples keep arriving earlier than its newest accepted one, increasing
-        among themselves over this span of their own time, has restarted its clock: the
-        service restarts on the new clocks (module docstring), s (finite, > 0).
+        A stream whose samples keep arriving earlier than its newest accepted one,
+        increasing among themselves with no gap over this span of their own time, has
+        restarted its clock: the service restarts on the new clocks (module docstring), s
+        (finite, > 0).
 
     Raises
     ------
@@ -269,6 +271,7 @@ class StreamService:
         self._clock_restarts = 0
         self._pending: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
                                            for s in self.streams}
+        self._pending_t0: dict[str, float] = {}
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -411,8 +414,10 @@ class StreamService:
         for ti, vi in zip(lt, lv):
             if pending and not 0 < ti - pending[-1][0] <= max_step:
                 pending.clear()
+            if not pending:       # the run's start, kept when maxlen drops its first samples
+                self._pending_t0[stream] = float(ti)
             pending.append((float(ti), vi))
-        if pending and pending[-1][0] - pending[0][0] >= self.config.clock_restart_s:
+        if pending and pending[-1][0] - self._pending_t0[stream] >= self.config.clock_restart_s:
             self._restart()
 
     def _restart(self) -> None:

@@ -309,6 +309,21 @@ def test_a_looped_log_restarts_the_clock_and_decides_again(all_model, unseen_run
     assert all("clock_restart" not in d.flags for d in second[5:])
 
 
+def test_a_restart_is_seen_when_the_buffer_holds_less_than_clock_restart_s(wheel_model,
+                                                                         unseen_run):
+    # 50 samples at 20 Hz hold 2.5 s: the held run's start must not be forgotten when the
+    # bounded hold drops its first samples, or a 5 s restart is never seen
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:300]
+    svc = service(wheel_model, buffer_samples=50, clock_restart_s=5.0)
+    first = push_wheels(svc, frame)
+    second = push_wheels(svc, frame)
+    assert svc.clock_restarts == 1 and len(first) > 20
+    assert len(second) >= len(first) - 12     # the 5 s held, minus what the hold dropped
+    # the decision clock starts again from the first held sample: the same hop, the same end
+    np.testing.assert_allclose(np.diff([d.t_s for d in second]), 0.5)
+    assert abs(second[-1].t_s - first[-1].t_s) < 0.5
+
+
 def test_one_far_future_sample_costs_a_restart_not_the_service(all_model, unseen_run):
     # one IMU stamp 10^6 s ahead: before, every later IMU sample was refused and the
     # all-signal model never decided again; the skip bounds the junk decisions it makes
