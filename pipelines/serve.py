@@ -30,7 +30,8 @@ from typing import Any
 from pipelines.arguments import add_smoothing, model_dir, smoothing_from_args
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
-from terrain.serving.http import MAX_IN_FLIGHT, RequestGuard
+from terrain.serving.http import (MAX_CONNECTIONS, MAX_IN_FLIGHT, RESERVED_FILES,
+                                  RequestGuard, bounded_connections_protocol)
 from terrain.serving.model import read_mlmodel
 from terrain.serving.pyfunc import pip_requirements
 from terrain.serving.served import MAX_DECISIONS, save_served_model, served_settings
@@ -66,6 +67,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-in-flight", type=int, default=MAX_IN_FLIGHT,
                         help="requests answered at once (more: HTTP 503 at once, instead of "
                              "queueing behind slow ones)")
+    parser.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS,
+                        help="connections kept open (more: the oldest idle one is closed); "
+                             "at most the open-file limit (ulimit -n) minus "
+                             f"{RESERVED_FILES}")
 
 
 def is_served_model(path: Path) -> bool:
@@ -205,17 +210,65 @@ def _check_args(args: argparse.Namespace) -> None:
     """Refuse out-of-range numbers before anything is started (ConfigError); the port's
     range is :func:`bind_port`'s, the first thing started."""
     units = {"max_body_bytes": "bytes", "max_decisions": "decisions",
-             "max_in_flight": "requests"}
+             "max_in_flight": "requests", "max_connections": "connections"}
     for name, unit in units.items():
         value = getattr(args, name, 1)
         if not value > 0:
             raise ConfigError(f"--{name.replace('_', '-')} must be a positive number of "
                               f"{unit}, got {value}")
+    limit = _open_file_limit()
+    connections = getattr(args, "max_connections", MAX_CONNECTIONS)
+    if limit is not None and connections > limit - RESERVED_FILES:
+        raise ConfigError(f"--max-connections {connections} does not fit the open-file limit "
+                          f"{limit} (ulimit -n) less {RESERVED_FILES} for the server's own "
+                          f"files: pass at most {max(limit - RESERVED_FILES, 1)} or raise "
+                          "the limit")
     if not args.hop_s > 0:
         raise ConfigError(f"--hop-s must be > 0, got {args.hop_s:g}")
     smoothing_from_args(args)
     if not 0 <= args.min_confidence <= 1:
         raise ConfigError(f"--min-confidence must be in [0, 1], got {args.min_confidence:g}")
+
+
+#: listen backlog of ``terrain serve`` where the open-file limit leaves room for it
+MAX_BACKLOG = 2048
+
+
+def accept_backlog(max_connections: int) -> int:
+    """Listen backlog of ``terrain serve``: :data:`MAX_BACKLOG`, or less under a tight
+    open-file limit.
+
+    asyncio accepts up to ``backlog`` connections in one pass of its loop before any of
+    them can be closed, so the connections kept open plus about two passes must fit the
+    open-file limit (measured: with 2,048 under a limit of 1,024, a burst of 1,100 idle
+    connections still made ``accept`` fail with EMFILE while the oldest were being
+    closed).
+
+    Parameters
+    ----------
+    max_connections : int
+        ``--max-connections``.
+
+    Returns
+    -------
+    int
+        Between 16 and :data:`MAX_BACKLOG`.
+    """
+    limit = _open_file_limit()
+    if limit is None:
+        return MAX_BACKLOG
+    return int(min(MAX_BACKLOG, max(16, (limit - RESERVED_FILES - max_connections) // 3)))
+
+
+def _open_file_limit() -> int | None:
+    """The process's soft open-file limit (``ulimit -n``), or None where unknown or
+    unlimited."""
+    try:
+        import resource
+        soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
+    except (ImportError, OSError, ValueError):
+        return None
+    return None if soft < 0 or soft == getattr(resource, "RLIM_INFINITY", -1) else int(soft)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -262,13 +315,22 @@ def main(args: argparse.Namespace) -> int:
                 print(f"wrapped {args.model} into the streaming model {served}")
             app = build_app(served, args.max_body_bytes,
                             getattr(args, "max_in_flight", MAX_IN_FLIGHT))
-            sock.listen(2048)  # connections wait in the backlog until uvicorn accepts
+            backlog = accept_backlog(getattr(args, "max_connections", MAX_CONNECTIONS))
+            sock.listen(backlog)  # connections wait in the backlog until uvicorn accepts
             host = f"[{args.host}]" if ":" in args.host else args.host
             print(f"serving {served} on http://{host}:{port}/invocations "
                   "(Ctrl-C stops)", flush=True)
+            protocol = bounded_connections_protocol(
+                getattr(args, "max_connections", MAX_CONNECTIONS))
             config = uvicorn.Config(app, host=args.host, port=port, log_level="warning",
-                                    timeout_graceful_shutdown=5)
-            uvicorn.Server(config).run(sockets=[sock])
+                                    timeout_graceful_shutdown=5, http=protocol,
+                                    backlog=backlog)
+            try:
+                uvicorn.Server(config).run(sockets=[sock])
+            finally:
+                if protocol.closed:
+                    print(f"terrain serve: closed {protocol.closed} idle connection(s) "
+                          f"beyond --max-connections {protocol.limit}", flush=True)
     except _Stopped as stop:
         print(f"terrain serve: stopped ({stop})", flush=True)
     finally:

@@ -347,6 +347,8 @@ def test_reset_settings_round_trip_and_old_models_have_none(wheel_model):
     (["--max-body-bytes", "-1"], "--max-body-bytes must be a positive number"),
     (["--max-decisions", "0"], "--max-decisions must be a positive number"),
     (["--min-confidence", "1.5"], "--min-confidence must be in [0, 1]"),
+    (["--max-connections", "0"], "--max-connections must be a positive number"),
+    (["--max-connections", "100000000"], "does not fit the open-file limit"),
 ])
 def test_serve_refuses_bad_numbers_in_one_line(model_dirs, capsys, argv, words):
     from terrain.cli import main
@@ -413,7 +415,7 @@ def server(model_dirs, tmp_path_factory):
     with open(log, "wb") as err:
         proc = subprocess.Popen([sys.executable, "-m", "terrain.cli", "serve", "--model",
                                  str(model_dirs[0]), "--host", "127.0.0.1", "--port", "0",
-                                 "--max-body-bytes", "100000"],
+                                 "--max-body-bytes", "100000", "--max-connections", "20"],
                                 stdout=subprocess.PIPE, stderr=err, text=True)
     try:
         line, deadline = "", time.monotonic() + 60
@@ -630,6 +632,43 @@ def test_messages_show_cells_as_plain_values(served, request_frame):
     frame.loc[2, "stream"] = np.float64(1.5)
     message = _error(served, frame)
     assert "unknown stream 1.5 in 1 row(s)" in message and "np." not in message
+
+
+def test_connections_that_never_send_a_byte_cannot_take_the_server_down(server,
+                                                                         request_frame):
+    # uvicorn times out no connection before its first request: 1,100 such connections
+    # took a server with the common 1,024 open-file limit down (accept failed with EMFILE,
+    # /ping timed out); beyond --max-connections (20 here) the oldest idle one is closed
+    import socket
+
+    host, port = server[1].removeprefix("http://").split(":")
+    idle = [socket.create_connection((host, int(port)), timeout=5) for _ in range(60)]
+    try:
+        status, body = _raw(server[1], request_frame.to_csv(index=False).encode(),
+                            "text/csv", timeout=20)
+        assert status == 200 and len(body["predictions"]) >= 10
+        closed = 0
+        for sock in idle[:20]:          # the oldest were closed by the server
+            sock.settimeout(2.0)
+            try:
+                closed += sock.recv(1) == b""
+            except (socket.timeout, ConnectionResetError):
+                closed += isinstance(sys.exc_info()[1], ConnectionResetError)
+        assert closed >= 15
+        sock = idle[-1]                 # the newest is still served
+        sock.sendall(b"GET /ping HTTP/1.1\r\nHost: x\r\n\r\n")
+        assert sock.recv(100).startswith(b"HTTP/1.1 200")
+    finally:
+        for sock in idle:
+            sock.close()
+
+
+def test_bounded_connections_protocol_takes_a_positive_bound():
+    from terrain.serving.http import bounded_connections_protocol
+    assert bounded_connections_protocol(1).limit == 1
+    for bad in (0, -5, True, 2.5):
+        with pytest.raises(ConfigError, match="max_connections"):
+            bounded_connections_protocol(bad)
 
 
 def test_stopping_the_server_removes_its_wrapped_model(server):
