@@ -7,7 +7,6 @@ and log the results; the composition itself lives here so it can be tested and r
 from __future__ import annotations
 
 import math
-
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -151,7 +150,8 @@ class ExperimentConfig:
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
                               f"seed range), got {list(self.seeds)}")
-        self.train_window_config() or self.window_config()  # WindowConfig's checks
+        # WindowConfig's checks: train_window_config builds window_config, then sets its hop
+        self.train_window_config() if self.train_hop_s is not None else self.window_config()
 
     def train_window_config(self) -> WindowConfig | None:
         """Window settings of the training cut, or None when training uses the evaluation

@@ -28,7 +28,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from terrain.io.measured import MAX_PLAUSIBLE_RATE_RAD_S
 from terrain.io.plausibility import CHANNEL_LIMITS
 from terrain.run import IMU_CHANNELS
 
@@ -114,12 +113,7 @@ def plausible_gyro(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
     reason : str
         ``"implausible_rate"``.
     """
-    cols = [i for i, c in enumerate(channels) if c in IMU_CHANNELS[:3]]
-    if not cols:
-        return np.ones(len(t_s), dtype=bool), "implausible_rate"
-    with np.errstate(invalid="ignore"):
-        ok = ~(np.abs(values[:, cols]) > MAX_PLAUSIBLE_RATE_RAD_S).any(axis=1)
-    return ok, "implausible_rate"
+    return _within_ranges(channels, values, gyro=True), "implausible_rate"
 
 
 def plausible_values(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
@@ -146,12 +140,19 @@ def plausible_values(channels: Sequence[str], t_s: np.ndarray, values: np.ndarra
     reason : str
         ``"implausible_value"``.
     """
-    keep = np.ones(len(t_s), dtype=bool)
+    return _within_ranges(channels, values, gyro=False), "implausible_value"
+
+
+def _within_ranges(channels: Sequence[str], values: np.ndarray, gyro: bool) -> np.ndarray:
+    """``(n,)`` bool: rows whose gyro channels (``gyro``) or other channels of
+    :data:`terrain.io.plausibility.CHANNEL_LIMITS` (not ``gyro``) lie within their range; a
+    NaN is left to :func:`finite_values`."""
+    keep = np.ones(len(values), dtype=bool)
     with np.errstate(invalid="ignore"):
         for i, c in enumerate(channels):
-            if c in CHANNEL_LIMITS and c not in IMU_CHANNELS[:3]:
+            if c in CHANNEL_LIMITS and (c in IMU_CHANNELS[:3]) == gyro:
                 keep &= ~(np.abs(values[:, i]) > CHANNEL_LIMITS[c].limit)
-    return keep, "implausible_value"
+    return keep
 
 
 def plausible_time(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,

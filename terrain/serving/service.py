@@ -450,7 +450,7 @@ class StreamService:
                 return []
             start = max(b.first_t for b in filled)
             if len(filled) < len(self._buffers) and \
-                    max(last) < start + self.model.window.window_s + self.config.stale_s:
+                    newest < start + self.model.window.window_s + self.config.stale_s:
                 return []  # wait for the silent stream(s) for a while
             self._next_t = start + self.model.window.window_s
         out = []
