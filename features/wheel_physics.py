@@ -28,12 +28,13 @@ currents in context. Every feature is computed over the whole window and over it
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from features.windows import HUSKY_TRACK_M
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
@@ -48,30 +49,129 @@ PHYSICS_FEATURES = (
 )
 
 
-def ridge_fit(y: np.ndarray, A: np.ndarray, ridge: float) -> tuple[np.ndarray, np.ndarray]:
-    """Batched ridge least squares ``y ~ A b`` per window.
+@numba.njit(cache=True, nogil=True)
+def _ridge_fit(y, A, ridge, coef):   # pragma: no cover - compiled
+    """Ridge least squares ``y ~ A coef`` of one window (``A`` n x k); fills ``coef`` and
+    returns the residual's standard deviation. The normal equations
+    ``(A^T A + ridge n I) coef = A^T y`` are solved by LAPACK as :func:`numpy.linalg.solve`
+    solves them (``ridge > 0`` keeps them regular)."""
+    n, k = A.shape
+    G = np.empty((k, k))
+    rhs = np.empty(k)
+    for i in range(k):
+        for j in range(k):
+            g = 0.0
+            for s in range(n):
+                g += A[s, i] * A[s, j]
+            G[i, j] = g
+        G[i, i] += ridge * n
+        r = 0.0
+        for s in range(n):
+            r += A[s, i] * y[s]
+        rhs[i] = r
+    coef[:] = np.linalg.solve(G, rhs)
+    mean = 0.0
+    resid = np.empty(n)
+    for s in range(n):
+        r = y[s]
+        for i in range(k):
+            r -= A[s, i] * coef[i]
+        resid[s] = r
+        mean += r
+    return _std(resid, mean / n)
 
-    Parameters
-    ----------
-    y : numpy.ndarray
-        ``(n_windows, n_samples)`` responses.
-    A : numpy.ndarray
-        ``(n_windows, n_samples, n_terms)`` regressors.
-    ridge : float
-        Ridge weight per sample (>= 0), in squared regressor units.
 
-    Returns
-    -------
-    coef : numpy.ndarray
-        ``(n_windows, n_terms)``.
-    resid_std : numpy.ndarray
-        ``(n_windows,)`` standard deviation of the residual.
-    """
-    n = A.shape[1]
-    G = np.einsum("wsi,wsj->wij", A, A) + ridge * n * np.eye(A.shape[2])[None]
-    coef = np.linalg.solve(G, np.einsum("wsi,ws->wi", A, y)[..., None])[..., 0]
-    resid = y - np.einsum("wsi,wi->ws", A, coef)
-    return coef, resid.std(axis=1)
+@numba.njit(cache=True, nogil=True)
+def _std(x, mean):   # pragma: no cover - compiled
+    """Population standard deviation (``ddof=0``) of ``x`` about its ``mean``."""
+    ss = 0.0
+    for s in range(x.shape[0]):
+        ss += (x[s] - mean) ** 2
+    return np.sqrt(ss / x.shape[0])
+
+
+@numba.njit(cache=True, nogil=True)
+def _quantile(sorted_x, q):   # pragma: no cover - compiled
+    """``numpy.quantile(x, q)`` (method ``linear``, its two-sided interpolation) of sorted
+    ``x``."""
+    pos = q * (sorted_x.shape[0] - 1)
+    lo = int(np.floor(pos))
+    hi = min(lo + 1, sorted_x.shape[0] - 1)
+    t = pos - lo
+    a, b = sorted_x[lo], sorted_x[hi]
+    return b - (b - a) * (1.0 - t) if t >= 0.5 else a + (b - a) * t
+
+
+@numba.njit(cache=True, nogil=True)
+def _physics_kernel(vel_l, vel_r, cur_l, cur_r, dt, track_m, v0, w0, ridge,
+                    out):   # pragma: no cover - compiled
+    n_windows, n = vel_l.shape
+    v, om, i_sum, i_diff = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    acc = np.empty(n)
+    A4, A2 = np.empty((n, 4)), np.empty((n, 2))
+    c, d = np.empty(4), np.empty(2)
+    for w in range(n_windows):
+        for s in range(n):
+            v[s] = 0.5 * (vel_l[w, s] + vel_r[w, s])
+            om[s] = (vel_r[w, s] - vel_l[w, s]) / track_m
+            i_sum[s] = cur_l[w, s] + cur_r[w, s]
+            i_diff[s] = cur_r[w, s] - cur_l[w, s]
+        if n > 1:                        # numpy.gradient: central inside, one-sided ends
+            acc[0] = (v[1] - v[0]) / dt
+            acc[n - 1] = (v[n - 1] - v[n - 2]) / dt
+            for s in range(1, n - 1):
+                acc[s] = (v[s + 1] - v[s - 1]) / (2.0 * dt)
+        else:
+            acc[0] = 0.0
+        sum_i = sum_v = sum_av = sum_o = sum_ao = sum_aa = 0.0
+        n_moving = n_turning = 0
+        for s in range(n):
+            m_v, m_w = np.tanh(abs(v[s]) / v0), np.tanh(abs(om[s]) / w0)
+            A4[s, 0], A4[s, 1], A4[s, 2], A4[s, 3] = 1.0, m_v, abs(acc[s]), m_w
+            A2[s, 0], A2[s, 1] = np.sign(om[s]) * m_v, om[s]
+            sum_i += i_sum[s]
+            sum_v += v[s]
+            sum_av += abs(v[s])
+            sum_o += om[s]
+            sum_ao += abs(om[s])
+            sum_aa += abs(acc[s])
+            n_moving += abs(v[s]) > v0
+            n_turning += abs(om[s]) > w0
+        e_sum = _ridge_fit(i_sum, A4, ridge, c)
+        e_diff = _ridge_fit(i_diff, A2, ridge, d)
+        # mean current while turning / while driving straight, shrunk to the window mean
+        # when the window holds (almost) none of that motion (1 sample's weight)
+        mean_all = sum_i / n
+        wt = wi_t = ws = wi_s = 0.0
+        for s in range(n):
+            w_turn, w_straight = A4[s, 3], A4[s, 1] * (1.0 - A4[s, 3])
+            wt += w_turn
+            wi_t += w_turn * i_sum[s]
+            ws += w_straight
+            wi_s += w_straight * i_sum[s]
+        ripple = 0.0
+        if n > 2:
+            dif = np.empty(n - 1)
+            for s in range(n - 1):
+                dif[s] = i_sum[s + 1] - i_sum[s]
+            ripple = _std(dif, (i_sum[n - 1] - i_sum[0]) / (n - 1))
+        q_sum = np.sort(i_sum)
+        q_diff = np.sort(np.abs(i_diff))
+        o = out[w]
+        o[0], o[1], o[2], o[3], o[4] = c[0], c[1], c[2], c[3], e_sum
+        o[5], o[6], o[7] = d[0], d[1], e_diff
+        o[8] = (wi_t + mean_all) / (wt + 1.0)
+        o[9] = (wi_s + mean_all) / (ws + 1.0)
+        o[10] = mean_all / max(sum_av / n, v0)
+        o[11] = mean_all / max(sum_ao / n, w0)
+        o[12], o[13], o[14] = (_quantile(q_sum, 0.1), _quantile(q_sum, 0.5),
+                               _quantile(q_sum, 0.9))
+        o[15], o[16] = _quantile(q_diff, 0.5), _quantile(q_diff, 0.9)
+        o[17] = ripple
+        o[18], o[19] = sum_av / n, _std(v, sum_v / n)
+        o[20], o[21] = sum_ao / n, _std(om, sum_o / n)
+        o[22] = sum_aa / n
+        o[23], o[24] = n_moving / n, n_turning / n
 
 
 def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
@@ -80,6 +180,15 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
                      ridge: float = 1e-3) -> np.ndarray:
     """Physics features of wheel windows (see module docstring), one time scale.
 
+    One compiled loop over the windows (numba): the ~40 NumPy calls the features would take
+    cost ~1 ms for a single window, most of a wheel-only streaming decision
+    (``benchmarks/bench_serving.py --kind wheels``). The acceleration is
+    :func:`numpy.gradient`'s (central differences inside, one-sided at the ends), the
+    quantiles :func:`numpy.quantile`'s (``linear``), the spreads population standard
+    deviations; the fits solve the ridge normal equations ``(A^T A + ridge n I) b = A^T y``
+    with :func:`numpy.linalg.solve` (the equality with a NumPy formulation is tested,
+    ``tests/serving/test_wheel_physics.py``).
+
     Parameters
     ----------
     vel_l, vel_r : numpy.ndarray
@@ -87,47 +196,45 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     cur_l, cur_r : numpy.ndarray
         ``(n_windows, n_samples)`` motor currents, A.
     rate_hz : float
-        Sampling rate, Hz.
+        Sampling rate, Hz (> 0).
     track_m : float
-        Track width B, m (Husky A200 by default).
+        Track width B, m (Husky A200 by default; > 0).
     speed_scale_m_s : float
-        Speed scale ``v0`` of ``m_v``; below it the robot counts as standing, m/s.
+        Speed scale ``v0`` of ``m_v``; below it the robot counts as standing, m/s (> 0).
     yaw_scale_rad_s : float
         Yaw-rate scale ``w0`` of ``m_w``; below it the robot counts as going straight,
-        rad/s.
+        rad/s (> 0).
     ridge : float
-        Ridge weight of the fits (per sample, squared regressor units).
+        Ridge weight of the fits (per sample, squared regressor units; > 0, so that a
+        window without motion still has one solution).
 
     Returns
     -------
     numpy.ndarray
         ``(n_windows, len(PHYSICS_FEATURES))``.
+
+    Raises
+    ------
+    ConfigError
+        A non-positive or non-finite rate, track, scale or ridge.
+    ShapeError
+        The four inputs are not 2-D arrays of one shape with at least one sample.
     """
-    v = 0.5 * (vel_l + vel_r)
-    omega = (vel_r - vel_l) / track_m
-    i_sum, i_diff = cur_l + cur_r, cur_r - cur_l
-    acc = np.gradient(v, 1.0 / rate_hz, axis=1) if v.shape[1] > 1 else np.zeros_like(v)
-    abs_v, abs_o = np.abs(v), np.abs(omega)
-    m_v, m_w = np.tanh(abs_v / speed_scale_m_s), np.tanh(abs_o / yaw_scale_rad_s)
-    c, e_sum = ridge_fit(i_sum, np.stack([np.ones_like(v), m_v, np.abs(acc), m_w], axis=-1),
-                         ridge)
-    d, e_diff = ridge_fit(i_diff, np.stack([np.sign(omega) * m_v, omega], axis=-1), ridge)
-    # mean current while turning / while driving straight, shrunk to the window mean when
-    # the window holds (almost) none of that motion (1 sample's weight)
-    w_turn, w_straight = m_w, m_v * (1.0 - m_w)
-    mean_all = i_sum.mean(1)
-    turning = ((w_turn * i_sum).sum(1) + mean_all) / (w_turn.sum(1) + 1.0)
-    straight = ((w_straight * i_sum).sum(1) + mean_all) / (w_straight.sum(1) + 1.0)
-    per_speed = mean_all / np.maximum(abs_v.mean(1), speed_scale_m_s)
-    per_yaw = mean_all / np.maximum(abs_o.mean(1), yaw_scale_rad_s)
-    q_sum = np.quantile(i_sum, [0.1, 0.5, 0.9], axis=1)
-    q_diff = np.quantile(np.abs(i_diff), [0.5, 0.9], axis=1)
-    ripple = np.diff(i_sum, axis=1).std(axis=1) if i_sum.shape[1] > 2 else np.zeros(len(v))
-    cols = [c[:, 0], c[:, 1], c[:, 2], c[:, 3], e_sum, d[:, 0], d[:, 1], e_diff, turning,
-            straight, per_speed, per_yaw, q_sum[0], q_sum[1], q_sum[2], q_diff[0], q_diff[1],
-            ripple, abs_v.mean(1), v.std(1), abs_o.mean(1), omega.std(1), np.abs(acc).mean(1),
-            (abs_v > speed_scale_m_s).mean(1), (abs_o > yaw_scale_rad_s).mean(1)]
-    return np.stack(cols, axis=1)
+    for name, value in (("rate_hz", rate_hz), ("track_m", track_m),
+                        ("speed_scale_m_s", speed_scale_m_s),
+                        ("yaw_scale_rad_s", yaw_scale_rad_s), ("ridge", ridge)):
+        if not (np.isfinite(value) and value > 0):
+            raise ConfigError(f"physics_features: {name} must be finite and > 0, got {value!r}")
+    arrays = [np.ascontiguousarray(a, dtype=float) for a in (vel_l, vel_r, cur_l, cur_r)]
+    shape = arrays[0].shape
+    if len(shape) != 2 or shape[1] < 1 or any(a.shape != shape for a in arrays):
+        raise ShapeError("physics_features: vel_l, vel_r, cur_l, cur_r must be "
+                         f"(n_windows, n_samples >= 1) arrays of one shape, got "
+                         f"{[a.shape for a in arrays]}")
+    out = np.empty((shape[0], len(PHYSICS_FEATURES)))
+    _physics_kernel(*arrays, 1.0 / float(rate_hz), float(track_m), float(speed_scale_m_s),
+                    float(yaw_scale_rad_s), float(ridge), out)
+    return out
 
 
 class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
@@ -144,7 +251,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
     track_m : float
         Track width B, m.
     ridge : float
-        Ridge weight of the current-balance fits.
+        Ridge weight of the current-balance fits (> 0).
 
     Attributes
     ----------
@@ -216,6 +323,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         ------
         ValueError
             ``X`` of another window length than at fit, or non-finite.
+        ConfigError
+            A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
         """
         check_is_fitted(self, "feature_names_out_")
         X = np.asarray(X, dtype=float)

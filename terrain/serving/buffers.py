@@ -65,6 +65,13 @@ class RingBuffer:
             ``(n, n_channels)`` values, SI units.
         """
         n = len(t_s)
+        if n == 1:  # the usual push: one sample, no index arrays
+            i = self._next
+            self._t[i] = self._t[i + self.capacity] = t_s[0]
+            self._v[i] = self._v[i + self.capacity] = values[0]
+            self._next = (i + 1) % self.capacity
+            self._size = min(self.capacity, self._size + 1)
+            return
         if n >= self.capacity:  # only the newest ``capacity`` samples survive
             t_s, values, n = t_s[-self.capacity:], values[-self.capacity:], self.capacity
         idx = (self._next + np.arange(n)) % self.capacity

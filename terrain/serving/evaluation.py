@@ -28,9 +28,9 @@ from typing import Callable, Iterator, Mapping, Sequence
 import numpy as np
 import pandas as pd
 from sklearn.ensemble import ExtraTreesClassifier
-from sklearn.pipeline import FeatureUnion, Pipeline
+from sklearn.pipeline import Pipeline
 
-from features.transformers import WindowFeatures
+from features.transformers import SerialFeatureUnion, WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
 from terrain.errors import ConfigError, DataFormatError
@@ -48,7 +48,7 @@ from terrain.serving.targets import CataloguePeakTargets
 
 
 def wheel_features(channels: tuple[str, ...], rate_hz: float,
-                   short_s: float | None = 2.0) -> FeatureUnion:
+                   short_s: float | None = 2.0) -> SerialFeatureUnion:
     """Statistics + physics features of wheel windows (stateless).
 
     Parameters
@@ -62,11 +62,13 @@ def wheel_features(channels: tuple[str, ...], rate_hz: float,
 
     Returns
     -------
-    sklearn.pipeline.FeatureUnion
+    features.transformers.SerialFeatureUnion
+        A ``FeatureUnion`` whose single-process ``transform`` skips joblib.
     """
-    return FeatureUnion([("stats", WindowFeatures(channels=channels, rate_hz=rate_hz)),
-                         ("physics", WheelPhysicsFeatures(channels=channels, rate_hz=rate_hz,
-                                                          short_s=short_s))])
+    return SerialFeatureUnion([
+        ("stats", WindowFeatures(channels=channels, rate_hz=rate_hz)),
+        ("physics", WheelPhysicsFeatures(channels=channels, rate_hz=rate_hz,
+                                         short_s=short_s))])
 
 
 def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels: np.ndarray,

@@ -24,6 +24,7 @@ service takes a tuple of them, so a robot can add its own.
 
 from __future__ import annotations
 
+import functools
 from typing import Callable, Sequence
 
 import numpy as np
@@ -62,7 +63,7 @@ def time_increasing(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray
     reason : str
         ``"time_not_increasing"``.
     """
-    running = np.maximum.accumulate(np.r_[last_t_s, t_s])
+    running = np.maximum.accumulate(np.concatenate(((last_t_s,), t_s)))
     return t_s > running[:-1], "time_not_increasing"
 
 
@@ -147,12 +148,22 @@ def _within_ranges(channels: Sequence[str], values: np.ndarray, gyro: bool) -> n
     """``(n,)`` bool: rows whose gyro channels (``gyro``) or other channels of
     :data:`terrain.io.plausibility.CHANNEL_LIMITS` (not ``gyro``) lie within their range; a
     NaN is left to :func:`finite_values`."""
-    keep = np.ones(len(values), dtype=bool)
-    with np.errstate(invalid="ignore"):
-        for i, c in enumerate(channels):
-            if c in CHANNEL_LIMITS and (c in IMU_CHANNELS[:3]) == gyro:
-                keep &= ~(np.abs(values[:, i]) > CHANNEL_LIMITS[c].limit)
-    return keep
+    limits = _range_limits(tuple(channels), gyro)
+    if limits is None:
+        return np.ones(len(values), dtype=bool)
+    return ~(np.abs(values) > limits).any(axis=1)   # NaN > limit is False: kept here
+
+
+@functools.lru_cache(maxsize=256)
+def _range_limits(channels: tuple[str, ...], gyro: bool) -> np.ndarray | None:
+    """``(n_channels,)`` bound of each channel checked by :func:`_within_ranges` (inf for
+    the others), or None when none is checked; computed once per channel tuple (one
+    comparison per sample instead of one per channel: the rules run on every push)."""
+    limits = np.array([CHANNEL_LIMITS[c].limit
+                       if c in CHANNEL_LIMITS and (c in IMU_CHANNELS[:3]) == gyro else np.inf
+                       for c in channels], dtype=float)
+    limits.flags.writeable = False
+    return limits if np.isfinite(limits).any() else None
 
 
 def plausible_time(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,

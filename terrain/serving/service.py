@@ -551,6 +551,11 @@ def _real_array(x, stream: str, column: str) -> np.ndarray:
     """``x`` as a float array, or a typed error naming the stream and column: text, a
     complex number, or (for ``t_s`` and one channel's values, which are 1-D) more than one
     dimension. ``column == "values"`` keeps the array's shape."""
+    # the usual push (a float64 array or one float): the same result without the checks
+    if type(x) is np.ndarray and x.dtype == np.float64 and (x.ndim == 1 or column == "values"):
+        return x
+    if type(x) is float:
+        return np.array(x) if column == "values" else np.array((x,))
     try:
         complex_input = np.iscomplexobj(x)
         a = None if complex_input else np.asarray(x, dtype=float)

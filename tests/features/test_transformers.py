@@ -163,3 +163,33 @@ def test_band_weights_average_the_bins_of_each_band():
     np.testing.assert_allclose(W.sum(axis=0), 1.0)
     assert np.count_nonzero(W[:, 0]) == 5          # 0, 0.5, ..., 2.0 Hz
     assert np.flatnonzero(W[:, 2]).tolist() == [14]  # empty band: nearest bin, 7.0 Hz
+
+
+def test_serial_feature_union_equals_feature_union(shipped_windows):
+    """The serial union gives FeatureUnion's output bit for bit (weights and dropped parts
+    included) and keeps its names, parameters and pickling."""
+    import pickle
+
+    from sklearn.pipeline import FeatureUnion
+
+    from features.transformers import SerialFeatureUnion
+    from features.wheel_physics import WheelPhysicsFeatures
+
+    ws = shipped_windows[0]
+    parts = lambda: [("stats", WindowFeatures(channels=ws.channels, rate_hz=ws.rate_hz)),  # noqa: E731
+                     ("physics", WheelPhysicsFeatures(channels=ws.channels,
+                                                      rate_hz=ws.rate_hz)),
+                     ("off", "drop")]
+    X = ws.X[:50]
+    for weights in (None, {"stats": 2.0}):
+        ref = FeatureUnion(parts(), transformer_weights=weights).fit(X)
+        ser = SerialFeatureUnion(parts(), transformer_weights=weights).fit(X)
+        assert np.array_equal(ser.transform(X), ref.transform(X))
+        assert np.array_equal(ser.transform(X[:1]), ref.transform(X[:1]))
+        assert list(ser.get_feature_names_out()) == list(ref.get_feature_names_out())
+    again = pickle.loads(pickle.dumps(ser))
+    assert np.array_equal(again.transform(X), ser.transform(X))
+    assert clone(ser).get_params()["transformer_weights"] == {"stats": 2.0}
+    # parallel settings go through FeatureUnion's own path, same result
+    assert np.array_equal(SerialFeatureUnion(parts(), n_jobs=2).fit(X).transform(X),
+                          FeatureUnion(parts(), n_jobs=2).fit(X).transform(X))

@@ -36,6 +36,22 @@ def test_ring_buffer_chunk_larger_than_capacity_keeps_its_tail():
     assert buf.first_t == 6 and buf.last_t == 9
 
 
+def test_ring_buffer_single_samples_equal_chunks_across_the_wrap():
+    """The one-sample path of ``append`` (the usual push) stores what a chunk stores."""
+    t = np.arange(37) * 0.1
+    v = np.column_stack([t, t ** 2, -t])
+    one, chunk = RingBuffer(3, capacity=8), RingBuffer(3, capacity=8)
+    for k in range(37):
+        one.append(t[k:k + 1], v[k:k + 1])
+        if k % 5 == 4 or k == 36:
+            chunk.append(t[k - k % 5:k + 1], v[k - k % 5:k + 1])
+            for a, b in zip(one.since(-np.inf), chunk.since(-np.inf)):
+                np.testing.assert_array_equal(a, b)
+            assert (len(one), one.first_t, one.last_t) == (len(chunk), chunk.first_t,
+                                                          chunk.last_t)
+    np.testing.assert_array_equal(one.since(-np.inf)[0], t[-8:])
+
+
 def test_rules_reject_what_the_readers_reject():
     t = np.array([1.0, 2.0, 2.0, 1.5, 3.0])
     keep, reason = time_increasing(("vel_l",), t, np.zeros((5, 1)), 0.5)

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.serving.evaluation import (concatenated_streams, held_out_folds, pool_scores,
                                         score_stream, switching_delays, truth_at)
 
@@ -39,6 +39,76 @@ def test_current_balance_coefficients_recover_the_planted_terrain_currents():
     F2 = physics_features(*_planted(c_turn=12.0), RATE, ridge=1e-6)
     turn2 = F2[:, PHYSICS_FEATURES.index("cur_sum__turn_a")]
     np.testing.assert_allclose(np.median(turn2), 12.0, atol=0.5)
+
+
+def _numpy_physics_features(vel_l, vel_r, cur_l, cur_r, rate_hz, track_m=0.5708,
+                            v0=0.05, w0=0.1, ridge=1e-3):
+    """The features written with NumPy's own functions (the formulation the compiled kernel
+    of ``physics_features`` must reproduce)."""
+    def ridge_fit(y, A):
+        n = A.shape[1]
+        G = np.einsum("wsi,wsj->wij", A, A) + ridge * n * np.eye(A.shape[2])[None]
+        coef = np.linalg.solve(G, np.einsum("wsi,ws->wi", A, y)[..., None])[..., 0]
+        return coef, (y - np.einsum("wsi,wi->ws", A, coef)).std(axis=1)
+
+    v, omega = 0.5 * (vel_l + vel_r), (vel_r - vel_l) / track_m
+    i_sum, i_diff = cur_l + cur_r, cur_r - cur_l
+    acc = np.gradient(v, 1.0 / rate_hz, axis=1) if v.shape[1] > 1 else np.zeros_like(v)
+    abs_v, abs_o = np.abs(v), np.abs(omega)
+    m_v, m_w = np.tanh(abs_v / v0), np.tanh(abs_o / w0)
+    c, e_sum = ridge_fit(i_sum, np.stack([np.ones_like(v), m_v, np.abs(acc), m_w], axis=-1))
+    d, e_diff = ridge_fit(i_diff, np.stack([np.sign(omega) * m_v, omega], axis=-1))
+    w_turn, w_straight = m_w, m_v * (1.0 - m_w)
+    mean_all = i_sum.mean(1)
+    q_sum = np.quantile(i_sum, [0.1, 0.5, 0.9], axis=1)
+    q_diff = np.quantile(np.abs(i_diff), [0.5, 0.9], axis=1)
+    ripple = np.diff(i_sum, axis=1).std(axis=1) if i_sum.shape[1] > 2 else np.zeros(len(v))
+    cols = [c[:, 0], c[:, 1], c[:, 2], c[:, 3], e_sum, d[:, 0], d[:, 1], e_diff,
+            ((w_turn * i_sum).sum(1) + mean_all) / (w_turn.sum(1) + 1.0),
+            ((w_straight * i_sum).sum(1) + mean_all) / (w_straight.sum(1) + 1.0),
+            mean_all / np.maximum(abs_v.mean(1), v0), mean_all / np.maximum(abs_o.mean(1), w0),
+            q_sum[0], q_sum[1], q_sum[2], q_diff[0], q_diff[1], ripple, abs_v.mean(1),
+            v.std(1), abs_o.mean(1), omega.std(1), np.abs(acc).mean(1),
+            (abs_v > v0).mean(1), (abs_o > w0).mean(1)]
+    return np.stack(cols, axis=1)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 20, 40])
+def test_compiled_features_equal_the_numpy_formulation(n):
+    vel_l, vel_r, cur_l, cur_r = _planted(n_windows=30, n=max(n, 3), seed=n)
+    parts = [a[:, :n].copy() for a in (vel_l, vel_r, cur_l, cur_r)]
+    parts[0][:3] = 0.0                                   # standing windows: m_v = 0, acc = 0
+    parts[1][:3] = 0.0
+    parts[1][3:6] = parts[0][3:6]                        # straight: omega = 0, sign 0
+    parts[2][6] = 4.0                                    # constant current, tied quantiles
+    got = physics_features(*parts, RATE)
+    want = _numpy_physics_features(*parts, RATE)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
+
+
+def test_compiled_features_equal_the_numpy_formulation_on_real_windows(borealtc_runs):
+    from features.windows import WindowConfig, make_windows
+    ws = make_windows(borealtc_runs[:6], "wheels", WindowConfig(window_s=4.0, rate_hz=10.0,
+                                                                   hop_s=2.0))
+    idx = [list(ws.channels).index(c) for c in ("vel_l", "vel_r", "cur_l", "cur_r")]
+    parts = [ws.X[:, i, :] for i in idx]
+    assert len(parts[0]) > 100
+    np.testing.assert_allclose(physics_features(*parts, 10.0),
+                               _numpy_physics_features(*parts, 10.0), rtol=1e-9, atol=1e-9)
+
+
+def test_physics_features_refuse_bad_settings_and_shapes():
+    parts = _planted(n_windows=2, n=10)
+    for bad in ({"ridge": 0.0}, {"rate_hz": np.nan}, {"track_m": -1.0},
+                {"speed_scale_m_s": np.inf}):
+        kw = {"rate_hz": RATE, **bad}
+        rate = kw.pop("rate_hz")
+        with pytest.raises(ConfigError, match=next(iter(bad))):
+            physics_features(*parts, rate, **kw)
+    with pytest.raises(ShapeError):
+        physics_features(parts[0], parts[1], parts[2], parts[3][:, :5], RATE)
+    with pytest.raises(ShapeError):
+        physics_features(*(p[0] for p in parts), RATE)
 
 
 def test_transformer_names_and_two_time_scales():
