@@ -9,170 +9,282 @@ discovery by introspection).
 from __future__ import annotations
 
 from types import MappingProxyType
-from typing import Callable, Mapping
+from typing import Callable, Mapping, Sequence
 
+import numba
 import numpy as np
 from scipy import signal
 
+from terrain.errors import ConfigError, ShapeError
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
 
 
-def mean(x: np.ndarray) -> np.ndarray:
-    """Mean over samples.
+#: Statistic names in the order of their codes in :func:`_statistics_kernel`.
+_STATISTIC_NAMES = ("mean", "std", "skewness", "kurtosis", "rms", "min", "max",
+                    "mean_abs_diff")
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _statistics_kernel(x, codes, out):   # pragma: no cover - compiled
+    """The statistics of every row of ``x`` (``(m, n)``), one pass for the sums, extremes
+    and first differences and one for the central moments; ``out[r, k]`` is the statistic
+    of code ``codes[k]`` (the order of :data:`_STATISTIC_NAMES`) of row ``r``.
+
+    Definitions (population moments, ``d = x - mean``): ``std = sqrt(mean(d^2))``;
+    skewness ``mean(d^3) / m2^1.5`` and excess kurtosis ``mean(d^4) / m2^2 - 3`` with
+    ``m2 = mean(d^2)``, both 0 when ``m2 <= 1e-12`` (a constant window); ``rms =
+    sqrt(mean(x^2))``; ``mean_abs_diff = mean(|x[i+1] - x[i]|)`` (NaN for one sample). A
+    NaN sample makes every statistic of its row NaN."""
+    m, n = x.shape
+    for r in range(m):
+        total = total_sq = total_abs_diff = 0.0
+        lo = hi = x[r, 0]
+        has_nan = False
+        for i in range(n):
+            v = x[r, i]
+            total += v
+            total_sq += v * v
+            if v < lo:
+                lo = v
+            if v > hi:
+                hi = v
+            if v != v:
+                has_nan = True
+            if i > 0:
+                total_abs_diff += abs(v - x[r, i - 1])
+        mu = total / n
+        m2 = m3 = m4 = 0.0
+        for i in range(n):
+            d = x[r, i] - mu
+            d2 = d * d
+            m2 += d2
+            m3 += d2 * d
+            m4 += d2 * d2
+        m2, m3, m4 = m2 / n, m3 / n, m4 / n
+        varies = m2 > _EPS
+        for k in range(codes.shape[0]):
+            c = codes[k]
+            if c == 0:
+                val = mu
+            elif c == 1:
+                val = np.sqrt(m2)
+            elif c == 2:
+                val = m3 / max(m2, _EPS) ** 1.5 if varies or m2 != m2 else 0.0
+            elif c == 3:
+                val = m4 / max(m2, _EPS) ** 2 - 3.0 if varies or m2 != m2 else 0.0
+            elif c == 4:
+                val = np.sqrt(total_sq / n)
+            elif c == 5:
+                val = np.nan if has_nan else lo
+            elif c == 6:
+                val = np.nan if has_nan else hi
+            else:
+                val = total_abs_diff / (n - 1)
+            out[r, k] = val
+
+
+def statistics(x: np.ndarray, names: Sequence[str]) -> np.ndarray:
+    """Several statistics of every window and channel at once (one compiled pass).
+
+    The one implementation of the statistics of :data:`STATISTICS` (each of those functions
+    is this with one name): population moments over the last axis, ``d = x - mean``:
+
+    * ``mean``; ``std`` ``sqrt(mean(d^2))``; ``rms`` ``sqrt(mean(x^2))``; ``min``; ``max``;
+    * ``skewness`` (Fisher, biased) ``m3 / m2^1.5`` and ``kurtosis`` (excess, biased)
+      ``m4 / m2^2 - 3``, ``m_k = mean(d^k)``, both 0 for a constant window
+      (``m2 <= 1e-12``), as ``scipy.stats.skew`` / ``kurtosis`` with ``bias=True`` give them
+      otherwise (tested against scipy, ``features/reference.py``);
+    * ``mean_abs_diff``: ``mean(|x[i+1] - x[i]|)``, NaN for a one-sample window.
+
+    A NaN sample makes every statistic of its window and channel NaN.
 
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(..., n_samples)``, e.g. ``(n_windows, n_channels, n_samples)``, each channel in
+        its SI unit; ``n_samples >= 1``.
+    names : sequence of str
+        Statistic names (keys of :data:`STATISTICS`), in output order.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, unit of the channel.
+        ``(..., len(names))`` float64: the statistics of each row of ``x`` in the order of
+        ``names``; unit of the channel (``mean``, ``std``, ``rms``, ``min``, ``max``), per
+        sample (``mean_abs_diff``) or dimensionless (``skewness``, ``kurtosis``).
+
+    Raises
+    ------
+    ConfigError
+        An unknown statistic name.
+    ShapeError
+        ``x`` is a scalar or holds no sample per row.
     """
-    return x.mean(axis=-1)
+    unknown = [s for s in names if s not in _STATISTIC_NAMES]
+    if unknown:
+        raise ConfigError(f"unknown statistics {unknown}; valid: {list(_STATISTIC_NAMES)}")
+    x = np.asarray(x, dtype=float)
+    if x.ndim < 1 or x.shape[-1] < 1:
+        raise ShapeError(f"statistics need at least one sample per row, got shape {x.shape}")
+    rows = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))
+    out = np.empty((len(rows), len(names)))
+    _statistics_kernel(rows, np.array([_STATISTIC_NAMES.index(s) for s in names],
+                                      dtype=np.int64), out)
+    return out.reshape(x.shape[:-1] + (len(names),))
+
+
+def mean(x: np.ndarray) -> np.ndarray:
+    """Mean over samples.
+
+    :func:`statistics` with ``names=("mean",)``, where the definition lives.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), unit of the channel.
+    """
+    return statistics(x, ("mean",))[..., 0]
 
 
 def std(x: np.ndarray) -> np.ndarray:
     """Population standard deviation over samples.
 
+    :func:`statistics` with ``names=("std",)``, where the definition lives.
+
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, unit of the channel.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), unit of the channel.
     """
-    return x.std(axis=-1)
-
-
-def _standardised_moment(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Standardised central moment ``m_k / m_2^(k/2)`` over samples.
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
-    k : int
-        Order of the moment (3: skewness, 4: kurtosis).
-
-    Returns
-    -------
-    varies : numpy.ndarray of bool
-        ``(n_windows, n_channels)``, ``m_2 > 1e-12`` (the window is not constant).
-    moment : numpy.ndarray
-        ``(n_windows, n_channels)``, dimensionless (``m_2`` floored at 1e-12).
-    """
-    d = x - x.mean(axis=-1, keepdims=True)
-    d2 = d * d
-    m2 = d2.mean(axis=-1)
-    # integer powers as products: ``d ** 3`` goes through the general ``pow`` (about 30x
-    # slower per element); the results agree to a few ulp
-    mk = (d2 * d if k == 3 else d2 * d2 if k == 4 else d ** k).mean(axis=-1)
-    return m2 > _EPS, mk / np.maximum(m2, _EPS) ** (k / 2)
+    return statistics(x, ("std",))[..., 0]
 
 
 def skewness(x: np.ndarray) -> np.ndarray:
     """Fisher skewness m3 / m2^1.5 (0 for a constant window).
 
+    :func:`statistics` with ``names=("skewness",)``, where the definition lives.
+
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, dimensionless.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), dimensionless.
     """
-    varies, moment = _standardised_moment(x, 3)
-    return np.where(varies, moment, 0.0)
+    return statistics(x, ("skewness",))[..., 0]
 
 
 def kurtosis(x: np.ndarray) -> np.ndarray:
     """Excess kurtosis m4 / m2^2 - 3 (0 for a constant window).
 
+    :func:`statistics` with ``names=("kurtosis",)``, where the definition lives.
+
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, dimensionless.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), dimensionless.
     """
-    varies, moment = _standardised_moment(x, 4)
-    return np.where(varies, moment - 3.0, 0.0)
+    return statistics(x, ("kurtosis",))[..., 0]
 
 
 def rms(x: np.ndarray) -> np.ndarray:
     """Root mean square over samples.
 
+    :func:`statistics` with ``names=("rms",)``, where the definition lives.
+
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, unit of the channel.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), unit of the channel.
     """
-    return np.sqrt((x ** 2).mean(axis=-1))
+    return statistics(x, ("rms",))[..., 0]
 
 
 def minimum(x: np.ndarray) -> np.ndarray:
     """Minimum over samples.
 
+    :func:`statistics` with ``names=("min",)``, where the definition lives.
+
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, unit of the channel.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), unit of the channel.
     """
-    return x.min(axis=-1)
+    return statistics(x, ("min",))[..., 0]
 
 
 def maximum(x: np.ndarray) -> np.ndarray:
     """Maximum over samples.
 
+    :func:`statistics` with ``names=("max",)``, where the definition lives.
+
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, unit of the channel.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), unit of the channel.
     """
-    return x.max(axis=-1)
+    return statistics(x, ("max",))[..., 0]
 
 
 def mean_abs_diff(x: np.ndarray) -> np.ndarray:
-    """Mean absolute first difference over samples.
+    """Mean absolute first difference over samples (NaN for one sample).
+
+    :func:`statistics` with ``names=("mean_abs_diff",)``, where the definition lives.
 
     Parameters
     ----------
     x : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)``, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` (or any ``(..., n_samples)``), each channel
+        in its SI unit.
 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels)``, unit of the channel per sample.
+        ``(n_windows, n_channels)`` (``x.shape[:-1]``), unit of the channel per sample.
     """
-    return np.abs(np.diff(x, axis=-1)).mean(axis=-1)
+    return statistics(x, ("mean_abs_diff",))[..., 0]
 
 
 STATISTICS: Mapping[str, Callable[[np.ndarray], np.ndarray]] = MappingProxyType({

@@ -179,8 +179,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         """
         check_is_fitted(self, "feature_names_out_")
         X = self._check(X)
-        parts = [np.stack([calculators.STATISTICS[s](X) for s in self.stats], axis=-1)
-                 .reshape(len(X), -1)]
+        parts = [calculators.statistics(X, self.stats).reshape(len(X), -1)]
         imu = [i for i, c in enumerate(self.channels) if c in IMU_CHANNELS]
         if imu and self.bands_:
             same_length = X.shape[2] == self.n_samples_in_ and hasattr(self, "taper_")

@@ -27,6 +27,7 @@ from __future__ import annotations
 import functools
 from typing import Sequence
 
+import numba
 import numpy as np
 import pandas as pd
 from scipy import signal
@@ -191,15 +192,53 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
             for a, b in zip(np.r_[0, gaps + 1], np.r_[gaps + 1, len(t)]):
                 if b - a >= MIN_FILTER_SAMPLES:
                     v[a:b] = signal.sosfiltfilt(sos, v[a:b], axis=0)
-        for j in range(v.shape[1]):
-            out[:, col + j] = np.interp(grid_s, t, v[:, j])
-        # a grid point strictly inside a gap step (t[i], t[i + 1]) is never interpolated
-        i = np.searchsorted(t, grid_s, side="right") - 1
-        inside = (i >= 0) & (i < len(dt))
-        inside[inside] &= is_gap[i[inside]] & (grid_s[inside] > t[i[inside]])
-        out[inside, col:col + v.shape[1]] = np.nan
+        _interp_into(np.asarray(grid_s, dtype=float), np.asarray(t, dtype=float),
+                     np.asarray(v, dtype=float), is_gap, out, col)
         col += v.shape[1]
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _interp_into(grid, t, v, is_gap, out, col):   # pragma: no cover - compiled
+    """Linear interpolation of every column of ``v`` (``(m, c)``, at increasing ``t``) onto
+    ``grid`` into ``out[:, col:col + c]``, NaN at a grid point strictly inside a gap step
+    ``(t[j], t[j + 1])`` (``is_gap[j]``); outside ``[t[0], t[-1]]`` the end values.
+
+    The arithmetic is :func:`numpy.interp`'s, operation for operation (``slope * (x -
+    t[j]) + v[j]``, the sample value on a sample time, the right end's value at ``t[-1]``,
+    and its retries when the result is NaN), so the values are bit-identical to it (tested,
+    ``tests/io/test_align.py``)."""
+    m, c = v.shape
+    j = 0
+    for i in range(grid.shape[0]):
+        x = grid[i]
+        if not x >= t[0]:       # left of the samples (or NaN): numpy's left value
+            for k in range(c):
+                out[i, col + k] = v[0, k] if x < t[0] else np.nan
+            continue
+        if x >= t[m - 1]:
+            for k in range(c):
+                out[i, col + k] = v[m - 1, k]
+            continue
+        if t[j] > x:            # a grid out of order: search from the start again
+            j = 0
+        while t[j + 1] <= x:    # t[j] <= x < t[j + 1]
+            j += 1
+        if is_gap[j] and x > t[j]:
+            for k in range(c):
+                out[i, col + k] = np.nan
+            continue
+        for k in range(c):
+            if t[j] == x:
+                out[i, col + k] = v[j, k]
+                continue
+            slope = (v[j + 1, k] - v[j, k]) / (t[j + 1] - t[j])
+            r = slope * (x - t[j]) + v[j, k]
+            if np.isnan(r):
+                r = slope * (x - t[j + 1]) + v[j + 1, k]
+                if np.isnan(r) and v[j, k] == v[j + 1, k]:
+                    r = v[j, k]
+            out[i, col + k] = r
 
 
 @functools.lru_cache(maxsize=64)

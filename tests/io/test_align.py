@@ -210,3 +210,38 @@ def test_overlap_grid_tail_is_the_whole_grids_tail(t0, span, rate_hz, before_s, 
     assert end == want_end
     np.testing.assert_array_equal(tail, grid[max(want_end - n_last, 0):want_end])
     assert overlap_grid_tail([np.arange(5.0), 10 + np.arange(5.0)], 10.0, 20.0, 3)[1] == 0
+
+
+def _numpy_align_oracle(t, v, grid, gap_s):
+    """The NumPy resampling ``align_arrays`` had before its compiled loop: ``numpy.interp``
+    per column, NaN at grid points strictly inside a gap step."""
+    out = np.column_stack([np.interp(grid, t, v[:, j]) for j in range(v.shape[1])])
+    i = np.searchsorted(t, grid, side="right") - 1
+    inside = (i >= 0) & (i < len(t) - 1)
+    inside[inside] &= (np.diff(t) > gap_s)[i[inside]] & (grid[inside] > t[i[inside]])
+    out[inside] = np.nan
+    return out
+
+
+@given(st.integers(2, 40), st.integers(1, 120), st.integers(0, 2**32 - 1),
+       st.sampled_from(["inside", "around", "on_samples", "shuffled"]))
+@settings(max_examples=300, deadline=None)
+def test_compiled_resampling_is_bit_identical_to_numpy_interp(m, n, seed, where):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.choice([0.01, 0.15, 0.1538, 0.6], m)) + rng.uniform(-1, 1)
+    v = rng.standard_normal((m, 3)) * rng.choice([1e-3, 1.0, 1e6], 3)
+    v[rng.uniform(size=v.shape) < 0.05] = np.nan             # a NaN sample stays NaN-local
+    v[:, 2] = np.where(rng.uniform(size=m) < 0.5, 7.0, v[:, 2])   # flat runs
+    if where == "on_samples":
+        grid = np.sort(rng.choice(t, n))
+    else:
+        span = (t[0], t[-1]) if where == "inside" else (t[0] - 1.0, t[-1] + 1.0)
+        grid = np.sort(rng.uniform(*span, n))
+        if where == "shuffled":
+            rng.shuffle(grid)
+    grid = np.r_[grid, t[-1]] if n % 2 else grid              # the last sample's own time
+    step = float(np.median(np.diff(t)))
+    got = align_arrays([t], [v], grid, rate_hz=1000.0, gap_factor=3.0, steps_s=[step])
+    expected = _numpy_align_oracle(t, v, grid, 3.0 * step)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(expected))
+    assert np.array_equal(got, expected, equal_nan=True)
