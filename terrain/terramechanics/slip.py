@@ -21,14 +21,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import EstimationError
+from terrain.errors import DataFormatError, EstimationError, ShapeError
 
 #: Dead band of seed 001 ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
 THESIS_DEAD_BAND_M_S = 0.05
 
 
 def _check(speed_floor_m_s: float, dead_band_m_s: float, saturation: float) -> None:
-    if not (speed_floor_m_s >= 0 and dead_band_m_s >= 0 and saturation > 0):
+    try:
+        valid = bool(speed_floor_m_s >= 0 and dead_band_m_s >= 0 and saturation > 0)
+    except (TypeError, ValueError):  # text, None or an array given for a scalar option
+        valid = False
+    if not valid:
         raise EstimationError(
             f"sae_slip: speed floor and dead band must be >= 0 and saturation > 0, got "
             f"speed_floor_m_s={speed_floor_m_s}, dead band {dead_band_m_s}, saturation "
@@ -76,11 +80,27 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
     Raises
     ------
     EstimationError
-        Negative speed floor or dead band, or non-positive saturation.
+        Negative, NaN or non-numeric speed floor or dead band, or non-positive saturation.
+    DataFormatError
+        A speed that is not a number (text, None).
+    ShapeError
+        Speeds whose shapes do not broadcast.
     """
     _check(speed_floor_m_s, dead_band_m_s, saturation)
-    rim = np.asarray(rim_speed_m_s, dtype=float)
-    v = np.asarray(v_long_m_s, dtype=float)
+    try:
+        if rim_speed_m_s is None or v_long_m_s is None:  # asarray would make it NaN
+            raise TypeError("got None")
+        rim = np.asarray(rim_speed_m_s, dtype=float)
+        v = np.asarray(v_long_m_s, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DataFormatError(f"sae_slip: rim_speed_m_s and v_long_m_s must be numbers or "
+                              f"numeric arrays ({exc})") from None
+    if rim.shape != v.shape and rim.ndim and v.ndim:
+        try:
+            np.broadcast_shapes(rim.shape, v.shape)
+        except ValueError:
+            raise ShapeError(f"sae_slip: rim_speed_m_s of shape {rim.shape} and v_long_m_s "
+                             f"of shape {v.shape} do not broadcast") from None
     if speed_floor_m_s > 0:
         # minimum/maximum: same values as np.clip, less call overhead (simulator inner loop)
         s = np.minimum(np.maximum(_ratio(rim, v, speed_floor_m_s)[0], -saturation), saturation)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError, EstimationError, ShapeError
 from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BurckhardtCurve,
                                     calibrate_janosi, can_turn_in_place, get_terrain,
                                     husky_hysteresis_for_current, sae_slip, steady_slip,
@@ -132,3 +132,24 @@ def test_curve_coefficients_slopes_match_finite_differences(name):
     np.testing.assert_allclose(c.dmu_ds, (up.mu - dn.mu) / (2 * h), rtol=1e-5, atol=1e-7)
     np.testing.assert_allclose(c.dresistance_ds, (up.resistance - dn.resistance) / (2 * h),
                                rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("rim, v, error", [
+    ("fast", 1.0, DataFormatError), (None, 1.0, DataFormatError), (1.0, [1.0, "x"], DataFormatError),
+    (np.ones(3), np.ones(4), ShapeError), (np.ones((2, 3)), np.ones(2), ShapeError)])
+def test_sae_slip_refuses_non_numeric_or_unbroadcastable_speeds(rim, v, error):
+    with pytest.raises(error, match="sae_slip"):
+        sae_slip(rim, v)
+
+
+@pytest.mark.parametrize("option", [{"saturation": "1"}, {"dead_band_m_s": float("nan")},
+                                    {"speed_floor_m_s": None}])
+def test_sae_slip_refuses_non_numeric_options(option):
+    with pytest.raises(EstimationError, match="sae_slip"):
+        sae_slip(1.0, 0.5, **option)
+
+
+def test_sae_slip_broadcasts_compatible_shapes():
+    s = sae_slip(np.array([[1.0], [0.5]]), np.array([0.5, 1.0, 0.25]))
+    assert s.shape == (2, 3)
+    assert s[0, 0] == pytest.approx(0.5) and s[1, 1] == pytest.approx(-0.5)
