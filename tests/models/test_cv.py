@@ -138,6 +138,23 @@ def test_window_metrics_on_a_known_confusion():
     assert list(cm.index) == ["A", "B", "C"] and cm.index.name == "true"
 
 
+def test_balanced_accuracy_equals_scikit_learn_without_its_warning():
+    # a fold whose predictions hold a class its truth lacks (D): scikit-learn warns and drops
+    # D; window_metrics gives the same figure silently
+    import warnings
+
+    from sklearn.metrics import balanced_accuracy_score
+    y_true = ["A", "A", "A", "B", "B", "C", "C"]
+    y_pred = ["A", "D", "B", "B", "C", "C", "D"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = window_metrics(y_true, y_pred, ["A", "B", "C", "D"])
+    with pytest.warns(UserWarning, match="y_pred contains classes not in y_true"):
+        expected = balanced_accuracy_score(y_true, y_pred)
+    assert m["balanced_accuracy"] == pytest.approx(expected, abs=1e-15)
+    assert m["balanced_accuracy"] == pytest.approx((1 / 3 + 1 / 2 + 1 / 2) / 3)
+
+
 def test_run_majority_accuracy_on_a_hand_example():
     groups = ["r1", "r1", "r1", "r2", "r2", "r2", "r3", "r3"]
     y_true = ["A", "A", "A", "B", "B", "B", "C", "C"]
