@@ -137,7 +137,8 @@ def main() -> int:
         with tracked_run("terrain-benchmark", run_name=f"served-load-{args.kind}",
                          params={"kind": args.kind, "requests": args.requests,
                                  "concurrency": args.concurrency,
-                                 "request_s": request_s}) as run:
+                                 "request_s": request_s},
+                         announce=False) as run:
             run.log_metrics(metrics)
         print(run.describe())
     return 0

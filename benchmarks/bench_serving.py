@@ -198,7 +198,8 @@ def main() -> int:
                                                           args.minutes).items()})
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name=f"serving-{args.kind}",
-                         params={"kind": args.kind, "minutes": args.minutes}) as run:
+                         params={"kind": args.kind, "minutes": args.minutes},
+                         announce=False) as run:
             run.log_metrics(metrics)
         print(run.describe())
     return 0

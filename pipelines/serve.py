@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import errno
 import ipaddress
+import math
 import signal
 import socket
 import tempfile
@@ -30,8 +31,8 @@ from typing import Any
 from pipelines.arguments import add_smoothing, model_dir, smoothing_from_args
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
-from terrain.serving.http import (MAX_CONNECTIONS, MAX_IN_FLIGHT, RESERVED_FILES,
-                                  RequestGuard, bounded_connections_protocol)
+from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT,
+                                  RESERVED_FILES, RequestGuard, bounded_connections_protocol)
 from terrain.serving.model import read_mlmodel
 from terrain.serving.pyfunc import pip_requirements
 from terrain.serving.served import MAX_DECISIONS, save_served_model, served_settings
@@ -67,6 +68,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-in-flight", type=int, default=MAX_IN_FLIGHT,
                         help="requests answered at once (more: HTTP 503 at once, instead of "
                              "queueing behind slow ones)")
+    parser.add_argument("--header-timeout-s", type=float, default=HEADER_TIMEOUT_S,
+                        help="seconds a connection may go without starting a request while "
+                             "none is in progress (a client stalled in its headers) before "
+                             "it is answered 408 and closed")
     parser.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS,
                         help="connections kept open (more: the oldest idle one is closed); "
                              "at most the open-file limit (ulimit -n) minus "
@@ -223,6 +228,10 @@ def _check_args(args: argparse.Namespace) -> None:
                           f"{limit} (ulimit -n) less {RESERVED_FILES} for the server's own "
                           f"files: pass at most {max(limit - RESERVED_FILES, 1)} or raise "
                           "the limit")
+    header_timeout = getattr(args, "header_timeout_s", HEADER_TIMEOUT_S)
+    if not (math.isfinite(header_timeout) and header_timeout > 0):
+        raise ConfigError(f"--header-timeout-s must be a finite number of seconds > 0, got "
+                          f"{header_timeout:g}")
     if not args.hop_s > 0:
         raise ConfigError(f"--hop-s must be > 0, got {args.hop_s:g}")
     smoothing_from_args(args)
@@ -321,13 +330,19 @@ def main(args: argparse.Namespace) -> int:
             print(f"serving {served} on http://{host}:{port}/invocations "
                   "(Ctrl-C stops)", flush=True)
             protocol = bounded_connections_protocol(
-                getattr(args, "max_connections", MAX_CONNECTIONS))
+                getattr(args, "max_connections", MAX_CONNECTIONS),
+                getattr(args, "header_timeout_s", HEADER_TIMEOUT_S))
             config = uvicorn.Config(app, host=args.host, port=port, log_level="warning",
                                     timeout_graceful_shutdown=5, http=protocol,
                                     backlog=backlog)
             try:
                 uvicorn.Server(config).run(sockets=[sock])
             finally:
+                if protocol.timed_out:
+                    print(f"terrain serve: closed {protocol.timed_out} connection(s) that "
+                          f"started no request within --header-timeout-s "
+                          f"{getattr(args, 'header_timeout_s', HEADER_TIMEOUT_S):g}",
+                          flush=True)
                 if protocol.closed:
                     print(f"terrain serve: closed {protocol.closed} idle connection(s) "
                           f"beyond --max-connections {protocol.limit}", flush=True)

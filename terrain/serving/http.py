@@ -38,6 +38,10 @@ MAX_IN_FLIGHT = 8
 #: client that stalls half-way would otherwise hold one of the ``MAX_IN_FLIGHT`` slots for
 #: ever (8 stalled clients would keep every other one out); 8 MB at 10 Mbit/s take 6.4 s
 BODY_TIMEOUT_S = 30.0
+#: seconds a connection may go without starting a request while none is in progress, before
+#: it is answered 408 and closed: uvicorn times out no connection before its first request,
+#: nor one stalled inside a request's headers (its keep-alive timer stops at the first byte)
+HEADER_TIMEOUT_S = 30.0
 #: default of the connections ``terrain serve`` keeps open: beyond, the oldest idle one is
 #: closed. Measured: 1,100 connections that never sent a byte took a served model down
 #: under the common 1,024 open-file limit (``accept`` failed with EMFILE, /ping timed out,
@@ -512,8 +516,10 @@ def _replay(body: bytes, receive: Receive) -> Receive:
     return replay
 
 
-def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS) -> type:
-    """uvicorn HTTP protocol class keeping at most ``max_connections`` connections open.
+def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
+                                 header_timeout_s: float = HEADER_TIMEOUT_S) -> type:
+    """uvicorn HTTP protocol class keeping at most ``max_connections`` connections open and
+    timing out connections that start no request.
 
     uvicorn accepts every connection and times none out before its first request, so
     connections that never send a byte (a leaking client, a port scanner holding sockets)
@@ -522,23 +528,34 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS) -> type
     one (no request in progress) or, when every other one is mid-request, is closed
     itself. A request in progress is never cut.
 
+    A connection that starts no request for ``header_timeout_s`` while none of its requests
+    is in progress (it never sent a byte, or it stalled inside a request line or headers,
+    which stops uvicorn's keep-alive timer) is answered ``408`` with the project's JSON
+    error and closed, like a web server's client-header timeout; it is checked every
+    ``header_timeout_s``, so such a connection lives between one and two timeouts. A
+    stalled *body* is :class:`RequestGuard`'s to time out.
+
     Parameters
     ----------
     max_connections : int
         Connections kept open at most (>= 1).
+    header_timeout_s : float
+        Seconds without a new request, none in progress, before a connection is closed
+        (finite, > 0).
 
     Returns
     -------
     type
         A subclass of uvicorn's default HTTP protocol, for ``uvicorn.Config(http=...)``;
-        its ``closed`` attribute counts the connections it closed, ``limit`` is
-        ``max_connections``.
+        its ``closed`` attribute counts the connections it closed beyond the bound,
+        ``timed_out`` those closed by the header timeout, ``limit`` is ``max_connections``.
 
     Raises
     ------
     ConfigError
-        ``max_connections`` below 1.
+        ``max_connections`` below 1, or ``header_timeout_s`` not a finite number > 0.
     """
+    import math
     from collections import OrderedDict
 
     from uvicorn.protocols.http.auto import AutoHTTPProtocol
@@ -546,15 +563,28 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS) -> type
     if isinstance(max_connections, bool) or not (isinstance(max_connections, int)
                                                  and max_connections >= 1):
         raise ConfigError(f"max_connections must be an integer >= 1, got {max_connections!r}")
+    if isinstance(header_timeout_s, bool) or not (
+            isinstance(header_timeout_s, (int, float)) and math.isfinite(header_timeout_s)
+            and header_timeout_s > 0):
+        raise ConfigError(f"header_timeout_s must be a finite number of seconds > 0, got "
+                          f"{header_timeout_s!r}")
     opened: OrderedDict = OrderedDict()   # open connections, oldest first
+    timeout_body = json.dumps({"error_code": "BAD_REQUEST", "message": (
+        f"DataFormatError: no complete request within {header_timeout_s:g} s; send the "
+        "request line and headers at once")}).encode()
+    timeout_answer = (b"HTTP/1.1 408 Request Timeout\r\ncontent-type: application/json\r\n"
+                      b"connection: close\r\ncontent-length: %d\r\n\r\n" % len(timeout_body)
+                      + timeout_body)
 
     class BoundedConnections(AutoHTTPProtocol):  # type: ignore[misc, valid-type]
         closed = 0
+        timed_out = 0
         limit = max_connections
 
         def connection_made(self, transport) -> None:
             super().connection_made(transport)
             opened[self] = None
+            self._watch_requests(None, True)
             if len(opened) <= max_connections:
                 return
             idle = next((c for c in opened if c is not self and _is_idle(c)), self)
@@ -567,7 +597,26 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS) -> type
 
         def connection_lost(self, exc) -> None:
             opened.pop(self, None)
+            self._header_timer.cancel()
             super().connection_lost(exc)
+
+        def _watch_requests(self, seen, idle: bool = True) -> None:
+            """Look again in ``header_timeout_s``: ``seen`` is the request-response cycle
+            current now (None before the first request), ``idle`` whether none runs."""
+            self._header_timer = self.loop.call_later(
+                header_timeout_s, self._header_timeout, seen, idle)
+
+        def _header_timeout(self, seen, was_idle: bool) -> None:
+            if self.transport.is_closing():
+                return
+            idle = _is_idle(self)
+            if not (was_idle and idle and self.cycle is seen):
+                self._watch_requests(self.cycle, idle)  # a request began or ran meanwhile
+                return
+            BoundedConnections.timed_out += 1   # idle for a whole timeout: no request began
+            opened.pop(self, None)
+            self.transport.write(timeout_answer)
+            self.transport.close()
 
     return BoundedConnections
 

@@ -349,6 +349,8 @@ def test_reset_settings_round_trip_and_old_models_have_none(wheel_model):
     (["--min-confidence", "1.5"], "--min-confidence must be in [0, 1]"),
     (["--max-connections", "0"], "--max-connections must be a positive number"),
     (["--max-connections", "100000000"], "does not fit the open-file limit"),
+    (["--header-timeout-s", "0"], "--header-timeout-s must be a finite number of seconds > 0"),
+    (["--header-timeout-s", "nan"], "--header-timeout-s must be a finite number"),
 ])
 def test_serve_refuses_bad_numbers_in_one_line(model_dirs, capsys, argv, words):
     from terrain.cli import main

@@ -1,0 +1,99 @@
+"""The header timeout of ``terrain serve``'s connection class, on a real uvicorn server on
+127.0.0.1 (a trivial ASGI app, so the test needs no model): connections that start no
+request are answered 408 and closed; requests in progress and keep-alive reuse are not."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import socket
+import threading
+import time
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.serving.http import bounded_connections_protocol
+
+TIMEOUT_S = 0.4
+
+
+async def _app(scope, receive, send):
+    if scope["type"] != "http":
+        return
+    if scope["path"] == "/slow":   # runs for more than two header timeouts
+        await asyncio.sleep(3 * TIMEOUT_S)
+    await send({"type": "http.response.start", "status": 200,
+                "headers": [(b"content-type", b"text/plain"), (b"content-length", b"2")]})
+    await send({"type": "http.response.body", "body": b"ok"})
+
+
+@pytest.fixture(scope="module")
+def server():
+    import uvicorn
+
+    protocol = bounded_connections_protocol(50, header_timeout_s=TIMEOUT_S)
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    config = uvicorn.Config(_app, log_level="warning", http=protocol, lifespan="off")
+    srv = uvicorn.Server(config)
+    thread = threading.Thread(target=srv.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not srv.started:
+        assert time.monotonic() < deadline, "uvicorn did not start"
+        time.sleep(0.01)
+    yield sock.getsockname(), protocol
+    srv.should_exit = True
+    thread.join(10)
+    sock.close()
+
+
+def _read_all(conn: socket.socket, limit_s: float) -> tuple[bytes, float]:
+    """Bytes until the server closes the connection, and the seconds that took."""
+    start, data = time.monotonic(), b""
+    conn.settimeout(limit_s)
+    while True:
+        chunk = conn.recv(4096)
+        if not chunk:
+            return data, time.monotonic() - start
+        data += chunk
+
+
+@pytest.mark.parametrize("sent", [b"", b"POST /invocations HTTP/1.1\r\nHost: x\r\nContent-Le"])
+def test_a_connection_that_starts_no_request_is_answered_408_and_closed(server, sent):
+    address, protocol = server
+    before = protocol.timed_out
+    with socket.create_connection(address, timeout=5) as conn:
+        conn.sendall(sent)
+        data, waited = _read_all(conn, 10 * TIMEOUT_S)
+    assert data.startswith(b"HTTP/1.1 408 ")
+    body = json.loads(data.split(b"\r\n\r\n", 1)[1])
+    assert body["message"].startswith("DataFormatError: no complete request within 0.4 s")
+    assert TIMEOUT_S * 0.9 <= waited <= 2 * TIMEOUT_S + 1.0
+    assert protocol.timed_out == before + 1
+
+
+def test_a_request_in_progress_and_keep_alive_reuse_are_not_cut(server):
+    address, protocol = server
+    before = protocol.timed_out
+    with socket.create_connection(address, timeout=10) as conn:
+        conn.sendall(b"GET /slow HTTP/1.1\r\nHost: x\r\n\r\n")
+        answer = b""
+        while not answer.endswith(b"ok"):
+            answer += conn.recv(4096)
+        assert answer.startswith(b"HTTP/1.1 200")     # 3 timeouts long, answered whole
+        for _ in range(3):                              # reused within the timeout
+            time.sleep(TIMEOUT_S / 2)
+            conn.sendall(b"GET /fast HTTP/1.1\r\nHost: x\r\n\r\n")
+            answer = b""
+            while not answer.endswith(b"ok"):
+                answer += conn.recv(4096)
+            assert answer.startswith(b"HTTP/1.1 200")
+    assert protocol.timed_out == before
+
+
+@pytest.mark.parametrize("bad", [0, -1.0, float("nan"), float("inf"), True, "30"])
+def test_the_header_timeout_must_be_a_finite_positive_number(bad):
+    with pytest.raises(ConfigError, match="header_timeout_s"):
+        bounded_connections_protocol(10, header_timeout_s=bad)
