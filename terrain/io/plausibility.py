@@ -461,10 +461,30 @@ def _check_gyro(imu, wheels, vehicle, path, found) -> None:
                      "is probably in deg/s; assumed rad/s as the format requires")
 
 
+def wheel_speed_in_kmh(p99_speed: float, limits: VehicleLimits) -> bool:
+    """Whether a 99th-percentile wheel speed says the wheel speeds are in km/h (rule
+    ``wheel_speed_units``, its certain case): more than twice the vehicle's top speed.
+
+    Parameters
+    ----------
+    p99_speed : float
+        99th percentile of ``|vel_l|`` and ``|vel_r|`` together, in the stream's units
+        (supposedly m/s).
+    limits : VehicleLimits
+        The vehicle's datasheet bounds (:data:`VEHICLE_LIMITS`).
+
+    Returns
+    -------
+    bool
+        True when ``p99_speed > 2 * limits.top_speed_m_s`` (km/h is 3.6 x m/s).
+    """
+    return p99_speed > 2.0 * limits.top_speed_m_s
+
+
 def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found) -> None:
     speed = np.abs(np.r_[wheels["vel_l"].to_numpy(), wheels["vel_r"].to_numpy()])
     p99 = float(np.percentile(speed, 99))
-    if p99 > 2.0 * lim.top_speed_m_s:
+    if wheel_speed_in_kmh(p99, lim):
         raise UnitError(
             f"rule wheel_speed_units: 99th-percentile wheel speed {p99:.3g} is more than twice "
             f"the top speed {lim.top_speed_m_s:g} m/s ({lim.source}); km/h is 3.6 x m/s: "

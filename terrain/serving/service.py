@@ -45,7 +45,11 @@ timestamp gap, so it was not classified), ``short`` (not enough aligned history)
 ``implausible_time`` (samples rejected by the rules of :mod:`terrain.serving.rules` inside
 the window), ``accel_units`` (the window's median specific force says the accelerometer
 is in g, the readers' rule :func:`terrain.io.plausibility.check_accel_units`: not
-classified), ``clock_restart``, ``low_confidence`` (fallback target).
+classified), ``wheel_speed_units`` (the 99th percentile of the window's wheel speeds is
+over twice the top speed of the model's vehicle, so they are in km/h: the readers' rule
+:func:`terrain.io.plausibility.wheel_speed_in_kmh` on one window; not classified; only for
+a model whose metadata names a vehicle of :data:`terrain.io.plausibility.VEHICLE_LIMITS`
+and that uses the wheel speeds), ``clock_restart``, ``low_confidence`` (fallback target).
 """
 
 from __future__ import annotations
@@ -62,7 +66,8 @@ import pandas as pd
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_arrays, overlap_grid_tail
-from terrain.io.plausibility import accel_in_g, stuck_window_flags
+from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_window_flags,
+                                     wheel_speed_in_kmh)
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
@@ -292,6 +297,13 @@ class StreamService:
             cols = [flat.index(c) for c in accel]     # a slice (no copy) when adjacent
             self._accel_cols = slice(cols[0], cols[0] + 3) \
                 if cols == list(range(cols[0], cols[0] + 3)) else cols
+        # the wheel-speed-units rule needs the vehicle's top speed (the model's metadata)
+        # and matters when the model uses the wheel speeds, directly or derived
+        self._speed_limits = VEHICLE_LIMITS.get(str(model.metadata.get("vehicle", "")))
+        self._speed_cols = None
+        if self._speed_limits is not None and {"vel_l", "vel_r"} <= set(flat) and \
+                {"vel_l", "vel_r"} & set(model.raw_channels):
+            self._speed_cols = [flat.index("vel_l"), flat.index("vel_r")]
 
     @property
     def needed_streams(self) -> tuple[str, ...]:
@@ -522,6 +534,9 @@ class StreamService:
             sq = np.einsum("ij,ij->j", acc, acc)    # 5 us; np.median of the norm took 31
             if accel_in_g(math.sqrt(float(np.partition(sq, len(sq) // 2)[len(sq) // 2]))):
                 return None, age, {"accel_units"}
+        if self._speed_cols is not None and wheel_speed_in_kmh(
+                _p99(np.abs(aligned[self._speed_cols]).ravel()), self._speed_limits):
+            return None, age, {"wheel_speed_units"}
         return X, age, set()
 
     def _decide(self, t: float) -> Decision:
@@ -545,6 +560,16 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
+
+
+def _p99(x: np.ndarray) -> float:
+    """``numpy.percentile(x, 99)`` (linear interpolation) by a partial sort: a few us
+    instead of ~20 on one window's samples; ``x`` is reordered."""
+    pos = 0.99 * (x.size - 1)
+    lo = int(pos)
+    hi = min(lo + 1, x.size - 1)
+    x.partition((lo, hi))
+    return float(x[lo] + (x[hi] - x[lo]) * (pos - lo))
 
 
 def _real_array(x, stream: str, column: str) -> np.ndarray:

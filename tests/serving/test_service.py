@@ -402,3 +402,35 @@ def test_join_flags_is_the_sorted_union_of_each_decisions_flags():
                                           "stuck:wheels.cur_l"]
     assert join_flags(service, stuck, warn)[1] == "warning:clock_overlap"
     assert join_flags(["gap|gap"], ["gap"]) == ["gap"]
+
+
+def test_wheel_speeds_in_kmh_are_flagged_and_not_classified(wheel_model, unseen_run):
+    # the readers refuse a run whose wheel speeds are certainly km/h (rule
+    # wheel_speed_units); the service now applies the rule to each window when the model's
+    # metadata names the vehicle (Husky top speed 1.0 m/s: km/h values over 2 = over 0.56 m/s)
+    from types import MappingProxyType
+
+    from terrain.serving.service import _p99
+    husky = replace(wheel_model, metadata=MappingProxyType({"vehicle": "husky"}))
+    wheels = unseen_run.streams["wheels"]
+    kmh = wheels.assign(vel_l=wheels["vel_l"] * 3.6, vel_r=wheels["vel_r"] * 3.6)
+    got = push_wheels(service(husky), kmh)
+    flagged = [d for d in got if "wheel_speed_units" in d.flags]
+    assert len(flagged) > 100                                   # the run is mostly fast
+    # never classified: without smoothing a flagged window leaves the probabilities as
+    # they were (None before the first classified window)
+    for prev, d in zip(got, got[1:]):
+        if "wheel_speed_units" in d.flags:
+            np.testing.assert_array_equal(d.proba, prev.proba)
+    assert got[0].terrain is None and "wheel_speed_units" in got[0].flags
+    # the flagged windows are those whose true speed exceeds 2 / 3.6 m/s at the 99th pct
+    t, v = wheels[TIME].to_numpy(), np.abs(wheels[["vel_l", "vel_r"]].to_numpy())
+    for d in flagged:
+        inside = (t >= d.t_s - 2.2) & (t < d.t_s + 0.2)
+        assert v[inside].max() > 2.0 / 3.6
+    clean = push_wheels(service(husky), wheels)                  # the same run in m/s
+    assert not any("wheel_speed_units" in d.flags for d in clean)
+    unknown = push_wheels(service(wheel_model), kmh)             # no vehicle: no rule
+    assert not any("wheel_speed_units" in d.flags for d in unknown)
+    x = np.random.default_rng(0).normal(size=400)
+    assert _p99(x.copy()) == pytest.approx(np.percentile(x, 99), abs=1e-15)
