@@ -341,8 +341,7 @@ def main(args: argparse.Namespace) -> int:
                 if protocol.timed_out:
                     print(f"terrain serve: closed {protocol.timed_out} connection(s) that "
                           f"started no request within --header-timeout-s "
-                          f"{getattr(args, 'header_timeout_s', HEADER_TIMEOUT_S):g}",
-                          flush=True)
+                          f"{protocol.header_timeout_s:g}", flush=True)
                 if protocol.closed:
                     print(f"terrain serve: closed {protocol.closed} idle connection(s) "
                           f"beyond --max-connections {protocol.limit}", flush=True)

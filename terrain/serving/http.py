@@ -15,6 +15,7 @@ import csv
 import io
 import json
 import logging
+import math
 import re
 from typing import Any, Awaitable, Callable, MutableMapping
 
@@ -548,14 +549,14 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
     type
         A subclass of uvicorn's default HTTP protocol, for ``uvicorn.Config(http=...)``;
         its ``closed`` attribute counts the connections it closed beyond the bound,
-        ``timed_out`` those closed by the header timeout, ``limit`` is ``max_connections``.
+        ``timed_out`` those closed by the header timeout, ``limit`` is ``max_connections``
+        and ``header_timeout_s`` the timeout.
 
     Raises
     ------
     ConfigError
         ``max_connections`` below 1, or ``header_timeout_s`` not a finite number > 0.
     """
-    import math
     from collections import OrderedDict
 
     from uvicorn.protocols.http.auto import AutoHTTPProtocol
@@ -618,6 +619,8 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
             self.transport.write(timeout_answer)
             self.transport.close()
 
+    # set here: inside the class body the name would not see this function's argument
+    BoundedConnections.header_timeout_s = header_timeout_s
     return BoundedConnections
 
 

@@ -97,3 +97,7 @@ def test_a_request_in_progress_and_keep_alive_reuse_are_not_cut(server):
 def test_the_header_timeout_must_be_a_finite_positive_number(bad):
     with pytest.raises(ConfigError, match="header_timeout_s"):
         bounded_connections_protocol(10, header_timeout_s=bad)
+
+
+def test_the_protocol_class_reports_its_timeout():
+    assert bounded_connections_protocol(10, header_timeout_s=2.5).header_timeout_s == 2.5
