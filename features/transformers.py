@@ -212,8 +212,10 @@ class SerialFeatureUnion(FeatureUnion):
     wheel-physics features of a single window take (``benchmarks/bench_serving.py --kind
     wheels``). Here, when there is nothing to route (no transform parameters, metadata
     routing off) and ``n_jobs`` asks for no parallelism, the parts are called in order and
-    their (weighted) outputs stacked as ``FeatureUnion`` stacks them; otherwise, and for
-    ``fit`` / ``fit_transform``, ``FeatureUnion`` runs unchanged. Equality with
+    their (weighted) outputs stacked as ``FeatureUnion`` stacks them (each part runs once,
+    whatever it returns: dense arrays are stacked directly, pandas or sparse outputs by
+    ``FeatureUnion``'s own stacking); otherwise, and for ``fit`` / ``fit_transform``,
+    ``FeatureUnion`` runs unchanged. Equality with
     ``FeatureUnion.transform`` is tested (``tests/features/test_transformers.py``).
 
     Parameters
@@ -243,19 +245,18 @@ class SerialFeatureUnion(FeatureUnion):
         Returns
         -------
         numpy.ndarray
-            ``(n_windows, sum of the parts' features)``.
+            ``(n_windows, sum of the parts' features)`` (a ``pandas.DataFrame`` or a sparse
+            matrix where the parts' output is, as ``FeatureUnion`` stacks them).
         """
         from sklearn.utils.metadata_routing import _routing_enabled
 
         if params or _routing_enabled() or self.n_jobs not in (None, 1):
             return super().transform(X, **params)
-        weights = self.transformer_weights or {}
-        Xs = []
-        for name, part in self.transformer_list:
-            if part is None or part == "drop":
-                continue
-            Xt = part.transform(X)
-            Xs.append(Xt if weights.get(name) is None else Xt * weights[name])
-        if not Xs or not all(isinstance(Xt, np.ndarray) and Xt.ndim == 2 for Xt in Xs):
-            return super().transform(X)
-        return np.hstack(Xs)
+        # FeatureUnion's own iteration ("drop" skipped, "passthrough" as identity, weights)
+        Xs = [part.transform(X) if weight is None else part.transform(X) * weight
+              for _, part, weight in self._iter()]
+        if not Xs:
+            return np.zeros((len(X), 0))
+        if all(isinstance(Xt, np.ndarray) and Xt.ndim == 2 for Xt in Xs):
+            return np.hstack(Xs)
+        return self._hstack(Xs)   # FeatureUnion's stacking: pandas or sparse output

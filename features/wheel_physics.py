@@ -33,6 +33,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
+from features.calculators import quantile_sorted
 from features.windows import HUSKY_TRACK_M
 from terrain.errors import ConfigError, ShapeError
 from terrain.run import WHEEL_CHANNELS
@@ -88,18 +89,6 @@ def _std(x, mean):   # pragma: no cover - compiled
     for s in range(x.shape[0]):
         ss += (x[s] - mean) ** 2
     return np.sqrt(ss / x.shape[0])
-
-
-@numba.njit(cache=True, nogil=True)
-def _quantile(sorted_x, q):   # pragma: no cover - compiled
-    """``numpy.quantile(x, q)`` (method ``linear``, its two-sided interpolation) of sorted
-    ``x``."""
-    pos = q * (sorted_x.shape[0] - 1)
-    lo = int(np.floor(pos))
-    hi = min(lo + 1, sorted_x.shape[0] - 1)
-    t = pos - lo
-    a, b = sorted_x[lo], sorted_x[hi]
-    return b - (b - a) * (1.0 - t) if t >= 0.5 else a + (b - a) * t
 
 
 @numba.njit(cache=True, nogil=True)
@@ -164,9 +153,9 @@ def _physics_kernel(vel_l, vel_r, cur_l, cur_r, dt, track_m, v0, w0, ridge,
         o[9] = (wi_s + mean_all) / (ws + 1.0)
         o[10] = mean_all / max(sum_av / n, v0)
         o[11] = mean_all / max(sum_ao / n, w0)
-        o[12], o[13], o[14] = (_quantile(q_sum, 0.1), _quantile(q_sum, 0.5),
-                               _quantile(q_sum, 0.9))
-        o[15], o[16] = _quantile(q_diff, 0.5), _quantile(q_diff, 0.9)
+        o[12], o[13], o[14] = (quantile_sorted(q_sum, 0.1), quantile_sorted(q_sum, 0.5),
+                               quantile_sorted(q_sum, 0.9))
+        o[15], o[16] = quantile_sorted(q_diff, 0.5), quantile_sorted(q_diff, 0.9)
         o[17] = ripple
         o[18], o[19] = sum_av / n, _std(v, sum_v / n)
         o[20], o[21] = sum_ao / n, _std(om, sum_o / n)

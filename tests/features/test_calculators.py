@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 from scipy import stats as sps
 
 from features import calculators as calc
@@ -140,3 +143,15 @@ def test_regression_gain_recovers_inverse_icr_expansion(chi):
 def test_regression_gain_goes_to_zero_when_not_turning():
     x = np.full((1, 100), 1e-4)
     assert abs(calc.regression_gain(x / 1.5, x, 0.05)[0]) < 1e-4
+
+
+@settings(max_examples=300, deadline=None)
+@given(hnp.arrays(np.float64, st.integers(1, 60),
+                  elements=st.floats(-1e6, 1e6, allow_nan=False)),
+       st.floats(0.0, 1.0))
+def test_quantile_sorted_equals_numpy_quantile_bit_for_bit(x, q):
+    """The compiled quantile is numpy.quantile's default (linear) method exactly, for any
+    length, quantile and values (the service's 99th-percentile wheel-speed rule and the
+    wheel-physics features rely on it)."""
+    got = calc.quantile_sorted(np.sort(x), q)
+    assert got == np.quantile(x, q)

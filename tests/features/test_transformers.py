@@ -193,3 +193,37 @@ def test_serial_feature_union_equals_feature_union(shipped_windows):
     # parallel settings go through FeatureUnion's own path, same result
     assert np.array_equal(SerialFeatureUnion(parts(), n_jobs=2).fit(X).transform(X),
                           FeatureUnion(parts(), n_jobs=2).fit(X).transform(X))
+
+
+def test_serial_feature_union_runs_each_part_once_whatever_it_returns():
+    """Parts with pandas output (``set_output``) or a passthrough part are stacked as
+    FeatureUnion stacks them, and each part's transform still runs exactly once per call
+    (it used to run everything a second time through FeatureUnion)."""
+    import pandas as pd
+    from sklearn.pipeline import FeatureUnion
+    from sklearn.preprocessing import FunctionTransformer, StandardScaler
+
+    from features.transformers import SerialFeatureUnion
+
+    calls = []
+
+    def counted(X):
+        calls.append(len(X))
+        return 2.0 * X
+
+    X = np.random.default_rng(0).normal(size=(12, 3))
+    parts = lambda: [("scale", StandardScaler()),  # noqa: E731
+                     ("double", FunctionTransformer(counted, feature_names_out="one-to-one")),
+                     ("raw", "passthrough"), ("off", "drop")]
+    ref = FeatureUnion(parts()).set_output(transform="pandas").fit(X)
+    ser = SerialFeatureUnion(parts()).set_output(transform="pandas").fit(X)
+    calls.clear()
+    got = ser.transform(X)
+    assert calls == [12]
+    assert isinstance(got, pd.DataFrame)
+    pd.testing.assert_frame_equal(got, ref.transform(X))
+    dense = SerialFeatureUnion(parts(), transformer_weights={"raw": 3.0}).fit(X)
+    np.testing.assert_array_equal(
+        dense.transform(X), FeatureUnion(parts(), transformer_weights={"raw": 3.0}).fit(X)
+        .transform(X))
+    assert SerialFeatureUnion([("off", "drop")]).fit(X).transform(X).shape == (12, 0)
