@@ -36,8 +36,15 @@ held (the newest ``buffer_samples``); once they run as a clock over ``clock_rest
 restarted: every buffer and the decision clock start again and the held samples of every
 stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
 that cover the restart carry ``clock_restart``). A single late sample is still refused.
-Streams on one clock restart together; a restart of one stream's clock alone leaves the
-streams apart (set ``clock_offsets_s``).
+Streams on one clock restart together. When one stream restarts alone (a restarted IMU
+driver whose device clock starts again while the wheel stream goes on), the others are the
+time reference: the restarted stream's first held sample is placed half a step after the
+newest sample the streams still running had when it arrived (arrival order is the only
+link between two clocks, so the offset is good to half their step), unless its new clock already agrees with theirs within a gap
+(then it is not moved: a stamp far ahead followed by samples on the true clock); that
+stream's buffer starts again, its offset is kept for its later samples and reported in
+:attr:`StreamService.clock_offsets_s`, and the decision clock goes on (it starts again only
+when it ran ahead of every stream).
 
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
@@ -278,6 +285,10 @@ class StreamService:
         self._pending: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
                                            for s in self.streams}
         self._pending_t0: dict[str, float] = {}
+        # newest time of every other stream when a stream's held run began (the reference
+        # of a restart of that stream alone)
+        self._pending_others: dict[str, dict[str, float]] = {}
+        self._offsets = {s: float(config.clock_offsets_s.get(s, 0.0)) for s in self.streams}
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -325,6 +336,12 @@ class StreamService:
         return self._clock_restarts
 
     @property
+    def clock_offsets_s(self) -> dict[str, float]:
+        """Offset added to each stream's timestamps, s: ``StreamConfig.clock_offsets_s``
+        plus the shift of every restart of that stream's clock alone (module docstring)."""
+        return dict(self._offsets)
+
+    @property
     def skipped_decisions(self) -> int:
         """Decisions skipped in silent stretches since the service started (module
         docstring, ``StreamConfig.max_backlog_s``)."""
@@ -365,7 +382,7 @@ class StreamService:
         if stream not in self.streams:
             return []
         channels = self.streams[stream]
-        t = _real_array(t_s, stream, "t_s") + self.config.clock_offsets_s.get(stream, 0.0)
+        t = _real_array(t_s, stream, "t_s") + self._offsets[stream]
         if isinstance(values, Mapping):
             absent = [c for c in channels if c not in values]
             if absent:
@@ -429,9 +446,18 @@ class StreamService:
                 pending.clear()
             if not pending:       # the run's start, kept when maxlen drops its first samples
                 self._pending_t0[stream] = float(ti)
+                self._pending_others[stream] = {
+                    s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)}
             pending.append((float(ti), vi))
         if pending and pending[-1][0] - self._pending_t0[stream] >= self.config.clock_restart_s:
-            self._restart()
+            # streams that went on accepting samples on the old clock meanwhile
+            others = self._pending_others.get(stream, {})
+            running = [s for s, last in others.items()
+                       if not self._pending[s] and self._buffers[s].last_t > last]
+            if running:
+                self._restart_alone(stream, running)
+            else:
+                self._restart()
 
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
@@ -453,6 +479,38 @@ class StreamService:
             v = np.array([vi for _, vi in p]).reshape(len(p), -1)
             self._events[s].append((float(t[0]), "clock_restart"))
             self._ingest(s, t, v)
+
+    def _restart_alone(self, stream: str, running: list[str]) -> None:
+        """Put the held samples of ``stream`` on the clock of the ``running`` streams
+        (module docstring): its buffer starts again, its offset changes by the shift."""
+        held = list(self._pending[stream])
+        self._pending[stream].clear()
+        # the first held sample arrived after the newest sample of the running streams and
+        # before their next one: half a step after it, unbiased for a uniform phase
+        steps = [self._buffers[s].median_step() for s in running]
+        reference = max(self._pending_others[stream][s] + 0.5 * np.nan_to_num(step)
+                        for s, step in zip(running, steps))
+        shift = reference - self._pending_t0[stream]
+        # within a gap of the running streams' clock: the same clock, not moved
+        if abs(shift) <= self.config.gap_factor * float(np.nanmax(steps + [0.0])):
+            shift = 0.0
+        self._refused[(stream, TIME_RULE)] -= len(held)
+        if self._refused[(stream, TIME_RULE)] <= 0:
+            del self._refused[(stream, TIME_RULE)]
+        self._offsets[stream] += float(shift)
+        self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
+        self._events[stream].clear()
+        self._clock_restarts += 1
+        t = np.array([ti for ti, _ in held]) + shift
+        v = np.array([vi for _, vi in held]).reshape(len(held), -1)
+        self._ingest(stream, t, v)
+        newest = max(b.last_t for b in self._buffers.values())
+        if self._next_t is not None and self._next_t > newest + self.config.max_backlog_s:
+            self._next_t = None    # it ran ahead of every stream (a stamp far ahead)
+        # the windows that hold the restart carry it: from the first held sample when the
+        # decision clock starts again, else from the newest (those before are emitted)
+        self._events[stream].append((float(t[0] if self._next_t is None else t[-1]),
+                                     "clock_restart"))
 
     def _emit(self) -> list[Decision]:
         last = [b.last_t for b in self._buffers.values()]
