@@ -26,10 +26,11 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
+                            NonNumericError, TimestampError)
 from terrain.io.measured import list_run_files, read_run
 from terrain.io.plausibility import check_run
-from terrain.run import TIME, Run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 
 #: Citation and license of each dataset (from ``shared/data/README.md``).
 DATASET_INFO: Mapping[str, Mapping[str, str]] = MappingProxyType({
@@ -55,6 +56,9 @@ DATASETS = tuple(DATASET_INFO)
 STREAM_FILES: Mapping[str, str] = MappingProxyType({"imu": "imu.parquet",
                                                    "wheels": "wheels.parquet"})
 RUN_ID = "run_id"
+#: Columns of each shipped stream file besides ``run_id`` (what ``terrain convert`` writes).
+STREAM_COLUMNS: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    "imu": (TIME, *IMU_CHANNELS), "wheels": (TIME, *WHEEL_CHANNELS)})
 
 
 def default_data_dir() -> Path:
@@ -372,6 +376,44 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
     return entry
 
 
+def _check_table(table: pd.DataFrame, stream: str, path: Path) -> None:
+    """The columns of a shipped stream file: ``run_id`` and :data:`STREAM_COLUMNS`, numeric.
+
+    The SHA-256 of the manifest guards the values; this guards a file and manifest both
+    edited by hand (every later step indexes these columns and does arithmetic on them)."""
+    for column in (RUN_ID, *STREAM_COLUMNS[stream]):
+        if column not in table.columns:
+            raise MissingColumnError(f"shipped {stream} file lacks column {column!r} (has "
+                                     f"{[str(c) for c in table.columns]}); regenerate data/ "
+                                     "with `terrain convert`", path, column)
+        if column != RUN_ID and not pd.api.types.is_float_dtype(table[column]) \
+                and not pd.api.types.is_integer_dtype(table[column]):
+            raise NonNumericError(f"shipped {stream} column holds {table[column].dtype} "
+                                  "values, not numbers; regenerate data/ with `terrain "
+                                  "convert`", path, column)
+
+
+def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path) -> None:
+    """The rules of the CSV reader that ``terrain convert`` applied, rechecked per run:
+    strictly increasing, finite timestamps and finite values (no repair here)."""
+    t = frame[TIME].to_numpy(dtype=float)
+    bad_t = np.flatnonzero(~(np.diff(t) > 0))
+    if len(bad_t) or (len(t) and not np.isfinite(t).all()):
+        row = int(bad_t[0]) + 1 if len(bad_t) else int(np.flatnonzero(~np.isfinite(t))[0])
+        raise TimestampError(f"run {run_id}: timestamps must increase strictly and be "
+                             f"finite, got {t[row]!r} after {t[row - 1]!r}" if row else
+                             f"run {run_id}: timestamp {t[row]!r} is not finite", path, TIME,
+                             row)
+    values = frame.drop(columns=TIME).to_numpy(dtype=float)
+    bad = np.argwhere(~np.isfinite(values))
+    if len(bad):
+        row, col = (int(i) for i in bad[0])
+        raise NonFiniteError(f"run {run_id}: {len(bad)} non-finite value(s), the first "
+                             f"{values[row, col]!r}; the shipped files hold only repaired, "
+                             "finite values: regenerate data/ with `terrain convert`", path,
+                             str(frame.columns.drop(TIME)[col]), row)
+
+
 def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     """Read one shipped dataset.
 
@@ -394,8 +436,12 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     DataFormatError
         A missing or unreadable file, a file whose SHA-256 differs from the manifest's
         (edited after `terrain convert` wrote it), a manifest entry of another structure
-        (:func:`dataset_entry`), or runs of a file and of the manifest that differ; names
-        the file and the manifest key or column.
+        (:func:`dataset_entry`), runs of a file and of the manifest that differ, a missing
+        or non-numeric column, timestamps that do not increase strictly or a non-finite
+        value (subclasses :class:`~terrain.errors.MissingColumnError`,
+        :class:`~terrain.errors.NonNumericError`, :class:`~terrain.errors.TimestampError`,
+        :class:`~terrain.errors.NonFiniteError`); names the file and the manifest key or
+        column, with the run and its 0-based row.
     """
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
@@ -425,8 +471,11 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
             raise DataFormatError(f"unreadable Parquet file ({type(exc).__name__}: "
                                   f"{str(exc)[:120]}); regenerate data/ with `terrain convert`",
                                   path) from None
+        _check_table(table, name, path)
         tables[name] = {str(k): g.drop(columns=RUN_ID).reset_index(drop=True)
                         for k, g in table.groupby(RUN_ID, observed=True, sort=False)}
+        for rid, frame in tables[name].items():
+            _check_run_rows(frame, rid, path)
     listed = {info["run_id"] for info in entry["runs"]}
     for name, table in tables.items():
         extra = sorted(set(table) - listed)

@@ -320,13 +320,15 @@ def cell_windows(cell: Cell, n_blocks: int) -> tuple:
         (:class:`~terrain.models.cv.TrainingWindows`), else None.
     """
     from terrain.io.shipped import load_dataset
-    from terrain.models.experiment import ExperimentConfig, load_training_windows, load_windows
+    from terrain.models.experiment import (ExperimentConfig, check_two_classes,
+                                           load_training_windows, load_windows)
 
     config = ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
                               window_s=cell.window_s, protocol=cell.protocol,
                               train_hop_s=cell.train_hop_s)
     runs = load_dataset(cell.dataset)
     ws = load_windows(config, runs)
+    check_two_classes(ws.labels.astype(str), cell.dataset, ws.run_ids)
     if cell.protocol == "paper":
         return ws, ws.labels.astype(str), ws.groups, None
     ws, labels, groups, _, _ = grouped_units(ws, n_blocks)

@@ -294,6 +294,35 @@ class ExperimentResult:
     input_notes: tuple[str, ...] = ()
 
 
+def check_two_classes(labels: np.ndarray, dataset: str, run_ids: np.ndarray) -> None:
+    """Refuse windows of fewer than two terrain classes, naming the class and its runs.
+
+    scikit-learn's own ``ValueError`` ("the number of classes has to be greater than one")
+    names neither; a dataset converted from one terrain folder is the usual cause.
+
+    Parameters
+    ----------
+    labels : numpy.ndarray
+        ``(n_windows,)`` terrain class of each window.
+    dataset : str
+        Dataset name, for the message.
+    run_ids : numpy.ndarray
+        ``(n_windows,)`` run id of each window.
+
+    Raises
+    ------
+    ConfigError
+        Fewer than two distinct classes in ``labels``.
+    """
+    classes = np.unique(labels)
+    if len(classes) < 2:
+        ids = sorted({str(r) for r in run_ids})
+        raise ConfigError(f"dataset {dataset!r} holds windows of {len(classes)} terrain "
+                          f"class(es) {[str(c) for c in classes]} (runs {ids[:5]}"
+                          f"{' ...' if len(ids) > 5 else ''}); a terrain classifier needs "
+                          "two at least: add runs of another terrain folder")
+
+
 def load_windows(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                  data_dir: str | Path | None = None, progress: bool = False) -> WindowSet:
     """Load the dataset (unless ``runs`` is given) and cut it into windows.
@@ -388,7 +417,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     Raises
     ------
     ConfigError
-        If the selection leaves no window.
+        If the selection leaves no window, or windows of one terrain class only.
     """
     t0 = time.perf_counter()
     runs = load_dataset(config.dataset, data_dir) if runs is None else runs
@@ -397,6 +426,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     if len(ws) == 0:
         raise ConfigError("no window left for this dataset, signal set and window")
     labels = ws.labels.astype(str)
+    check_two_classes(labels, config.dataset, ws.run_ids)
     notes = []
     groups = ws.groups
     if config.protocol != "paper":
@@ -481,7 +511,8 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     Raises
     ------
     ConfigError
-        If the signals include EKF-derived channels (not computed by the served model).
+        If the signals include EKF-derived channels (not computed by the served model), or
+        the windows hold one terrain class only.
 
     Returns
     -------
@@ -502,6 +533,7 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     ws = load_windows(config if config.train_hop_s is None
                       else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)
     labels = ws.labels.astype(str)
+    check_two_classes(labels, config.dataset, ws.run_ids)
     info: dict = {"model": config.model}
     if config.model != "svm" or config.window_ekf or config.run_balanced:
         model = make_model(config.model_config(), ws.channels, ws.rate_hz, config.dataset,

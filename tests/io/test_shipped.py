@@ -218,6 +218,47 @@ def test_a_parquet_file_edited_after_conversion_is_refused_by_its_checksum(vulpi
     assert read_shipped("borealtc", vulpi_copy)  # the other dataset is untouched
 
 
+def _bad_wz_strings(t):
+    t["wz"] = t["wz"].astype(str)
+    return t
+
+
+def _nan_burst(t):
+    t.loc[t.index[100:121], "wx"] = np.nan
+    return t
+
+
+def _swapped_rows(t):
+    t.loc[t.index[[50, 51]], "t_s"] = t.loc[t.index[[51, 50]], "t_s"].to_numpy()
+    return t
+
+
+@pytest.mark.parametrize("edit, error, column, words", [
+    (lambda t: t.drop(columns="wz"), "MissingColumnError", "wz", "lacks column 'wz'"),
+    (_bad_wz_strings, "NonNumericError", "wz", "not numbers"),
+    (_nan_burst, "NonFiniteError", "wx", "21 non-finite value(s)"),
+    (_swapped_rows, "TimestampError", "t_s", "increase strictly"),
+])
+def test_a_parquet_file_and_its_checksum_both_edited_are_refused_by_the_readers_rules(
+        vulpi_copy, edit, error, column, words):
+    # editing the manifest's SHA-256 with the file skipped every rule: a dropped column
+    # or text in it reached cv and the audit as a KeyError / TypeError, a NaN burst or
+    # swapped rows were accepted silently
+    import pandas as pd
+    from terrain.io.shipped import sha256 as digest
+    path = vulpi_copy / "vulpi" / "imu.parquet"
+    edit(pd.read_parquet(path)).to_parquet(path)
+    _edit_manifest(vulpi_copy, lambda e: e["files"].__setitem__("vulpi/imu.parquet",
+                                                               digest(path)))
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert type(info.value).__name__ == error
+    assert info.value.path == str(path) and info.value.column == column
+    assert words in str(info.value) and "\n" not in str(info.value)
+    if error in ("NonFiniteError", "TimestampError"):
+        assert "run vulpi/CONCRETE/1" in str(info.value) and info.value.row is not None
+
+
 @pytest.mark.parametrize("edit, key", [
     (lambda e: e.pop("runs"), "datasets.vulpi.runs' is missing"),
     (lambda e: e.__setitem__("runs", "x"), "datasets.vulpi.runs' must be a non-empty list"),

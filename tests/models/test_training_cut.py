@@ -133,3 +133,16 @@ def test_compare_cell_with_a_training_cut():
     assert 1.8 < dense["folds"]["n_train"].sum() / plain["folds"]["n_train"].sum() < 2.1
     table = summary_table(pd.DataFrame(plain["rows"] + dense["rows"]))
     assert sorted(table["train_hop_s"]) == [1.0, 2.0]                  # two rows, keyed
+
+
+def test_one_terrain_class_is_a_typed_error_naming_it(vulpi_runs):
+    # a dataset converted from one terrain folder: scikit-learn's "number of classes has
+    # to be greater than one" reached the CLI as an internal error
+    from terrain.models.experiment import fit_pipeline
+
+    one = [r for r in vulpi_runs if r.terrain == "PLOUGHED"]
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,))
+    for call in (run_cv, fit_pipeline):
+        with pytest.raises(ConfigError, match=r"1 terrain class\(es\) \['PLOUGHED'\] "
+                                              r"\(runs \['vulpi/PLOUGHED/1'.*two at least"):
+            call(config, runs=one)
