@@ -19,7 +19,7 @@ import pandas as pd
 
 from pipelines.arguments import add_smoothing, output_file, smoothing_from_args
 from terrain.errors import ConfigError, DataFormatError
-from terrain.io.measured import list_run_files, read_run
+from terrain.io.measured import folder_run_files, read_run
 from terrain.io.report import input_report
 from terrain.control import DesiredSlipConfig
 from terrain.run import TIME
@@ -55,11 +55,7 @@ def _run_files(run_dir: Path, index: str | None) -> tuple[str, dict]:
         raise ConfigError(f"run folder {run_dir} does not exist or is not a folder")
     if run_dir.name in ("", ".", ".."):  # no name of its own in the path as given
         run_dir = run_dir.resolve()
-    try:
-        indexed = list_run_files(run_dir.parent)
-    except DataFormatError:  # the parent holds no run file at all, so run_dir none either
-        indexed = {}
-    runs = {idx: files for (folder, idx), files in indexed.items() if folder == run_dir.name}
+    runs = folder_run_files(run_dir)
     if not runs:
         raise ConfigError(f"{run_dir} holds no run files (imu_XX.csv, pro_XX.csv)")
     if index is None and len(runs) > 1:

@@ -51,6 +51,7 @@ STREAM_NAMES: Mapping[str, str] = MappingProxyType({"imu": "imu", "pro": "wheels
 #: plausibility range of the angular rates (:data:`terrain.io.plausibility.CHANNEL_LIMITS`)
 MAX_PLAUSIBLE_RATE_RAD_S = CHANNEL_LIMITS["wz"].limit
 _FILE_RE = re.compile(r"^(?P<kind>[a-z][a-z0-9]*)_(?P<index>\d+)\.csv$")
+_META_RE = re.compile(r"^meta_(?P<index>.+)\.json$")
 
 
 @dataclass
@@ -301,6 +302,57 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
             report.gaps.append((float(t[i]), float(t[i + 1])))
 
 
+#: Compression suffixes of a run file that the readers do not open (named in the error).
+_COMPRESSED = (".gz", ".bz2", ".xz", ".zip", ".zst")
+
+
+def _near_miss(name: str) -> str | None:
+    """Why ``name`` looks like a run file but is not read, or None."""
+    lower = name.lower()
+    plain = next((lower[:-len(z)] for z in _COMPRESSED if lower.endswith(z)), None)
+    if plain is not None and (_FILE_RE.match(plain) or _META_RE.match(plain)):
+        return f"compressed run files are not read: decompress it to {name[:len(plain)]}"
+    if lower != name and (_FILE_RE.match(lower) or _META_RE.match(lower)):
+        return f"run file names are lower case: rename it to {lower}"
+    return None
+
+
+def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
+    """Index the run files directly inside one folder.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        A terrain folder (``imu_XX.csv``, ``pro_XX.csv``, optional ``meta_XX.json``).
+
+    Returns
+    -------
+    dict
+        ``index -> {kind: path}``; empty when the folder holds no run file.
+
+    Raises
+    ------
+    DataFormatError
+        A file named like a run file that the readers would not read (upper case, or
+        compressed), naming the file: it would otherwise be left out silently (an IMU
+        file named ``IMU_04.csv`` made its run wheel-only).
+    """
+    runs: dict[str, dict[str, Path]] = {}
+    for f in sorted(Path(folder).iterdir()):
+        meta = _META_RE.match(f.name)
+        if meta:
+            runs.setdefault(meta["index"], {})["meta"] = f
+            continue
+        m = _FILE_RE.match(f.name)
+        if m:
+            runs.setdefault(m["index"], {})[m["kind"]] = f
+            continue
+        why = _near_miss(f.name)
+        if why:
+            raise DataFormatError(f"file named like a run file is not read ({why})", f)
+    return runs
+
+
 def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:
     """Index the stream files under ``root``.
 
@@ -319,25 +371,37 @@ def list_run_files(root: str | Path) -> dict[tuple[str, str], dict[str, Path]]:
     Raises
     ------
     DataFormatError
-        If ``root`` is not a directory or holds no run file.
+        If ``root`` is not a directory or holds no run file in its terrain folders, holds
+        run files at its top level beside terrain folders with runs (one of the two would
+        be left out), or a file named like a run file that is not read
+        (:func:`folder_run_files`).
     """
     root = Path(root)
     if not root.is_dir():
         raise DataFormatError("runs folder is a file: give the folder that holds the terrain "
                               "folders" if root.exists() else "runs folder does not exist",
                               root)
-    runs: dict[tuple[str, str], dict[str, Path]] = {}
-    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
-        for f in sorted(folder.iterdir()):
-            if f.suffix == ".json" and f.name.startswith("meta_"):
-                runs.setdefault((folder.name, f.stem[5:]), {})["meta"] = f
-                continue
-            m = _FILE_RE.match(f.name)
-            if m:
-                runs.setdefault((folder.name, m["index"]), {})[m["kind"]] = f
+    runs = {(folder.name, index): files
+            for folder in sorted(p for p in root.iterdir() if p.is_dir())
+            for index, files in folder_run_files(folder).items()}
+    top = folder_run_files(root)
+    if top and runs:
+        raise _mixed_layout(root, top, {folder for folder, _ in runs})
     if not runs:
-        raise DataFormatError("no run files (<TERRAIN>/imu_XX.csv, pro_XX.csv) found", root)
+        hint = (": its run files lie at its top level; give the folder that holds it (its "
+                "name is the terrain label) or move them into a <TERRAIN> folder") if top else ""
+        raise DataFormatError(f"no run files (<TERRAIN>/imu_XX.csv, pro_XX.csv) found{hint}",
+                              root)
     return runs
+
+
+def _mixed_layout(root: Path, top: dict, folders) -> DataFormatError:
+    """The error for run files at the top of ``root`` beside terrain folders with runs."""
+    names = sorted(p.name for files in top.values() for p in files.values())
+    return DataFormatError(f"holds run files itself ({first_items(names, word='file')}) and "
+                           f"terrain folders with runs ({', '.join(sorted(folders))}): one "
+                           "of the two would be left out; move the top-level files into "
+                           "their terrain folder", root)
 
 
 def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | None,
@@ -442,11 +506,15 @@ def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = 
     Raises
     ------
     DataFormatError
-        If ``path`` is not a folder or holds no run file.
+        If ``path`` is not a folder, holds no run file, holds run files itself beside
+        terrain folders with runs, or a file named like a run file that is not read.
     """
     path = Path(path)
     root, only = path, None
-    if path.is_dir() and any(_FILE_RE.match(p.name) for p in path.iterdir()):
+    if path.is_dir() and folder_run_files(path):
+        sub = {d.name for d in path.iterdir() if d.is_dir() and folder_run_files(d)}
+        if sub:
+            raise _mixed_layout(path, folder_run_files(path), sub)
         root, only = path.parent, path.name
     return read_runs_dir(root, root.resolve().name, labelled=labelled, progress=progress,
                          only=only, **reader_options)

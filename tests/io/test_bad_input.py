@@ -346,6 +346,47 @@ def test_a_terrain_folder_reads_like_its_runs_folder(turning):
     assert a.run_id == b.run_id and a.streams["imu"].equals(b.streams["imu"])
 
 
+def test_run_files_beside_terrain_folders_are_refused_not_half_read(turning):
+    # a runs folder with stray run files at its top level beside ASPHALT/: predict and
+    # estimate read only the top-level run (labelled with the folder's name), the audit
+    # and convert only ASPHALT/00, each saying "nothing dropped"
+    import shutil
+    imu, pro = turning
+    root = imu.parent.parent
+    shutil.copy(pro, root / "pro_09.csv")
+    shutil.copy(imu, root / "imu_09.csv")
+    for read in (read_runs_dir, read_runs_path):
+        with pytest.raises(DataFormatError) as info:
+            read(root)
+        text = _one_line(info.value)
+        assert info.value.path == str(root) and "imu_09.csv, pro_09.csv" in text
+        assert "terrain folders with runs (ASPHALT)" in text
+    # the top-level files alone: read as a terrain folder by read_runs_path, and the
+    # runs-folder reader says where the files are
+    shutil.rmtree(imu.parent)
+    (only,) = read_runs_path(root)
+    assert only.run_id.endswith(f"{root.name}/09")
+    with pytest.raises(DataFormatError, match="lie at its top level"):
+        read_runs_dir(root)
+
+
+@pytest.mark.parametrize("name, words", [
+    ("IMU_00.csv", "lower case: rename it to imu_00.csv"),
+    ("imu_00.csv.gz", "compressed run files are not read: decompress it to imu_00.csv"),
+    ("Meta_00.json", "rename it to meta_00.json"),
+])
+def test_a_file_named_like_a_run_file_that_is_not_read_is_named(turning, name, words):
+    # an IMU file named IMU_04.csv or imu_04.csv.gz was left out without a word: the run
+    # was read as wheel-only ("nothing repaired, dropped or skipped")
+    imu, _ = turning
+    target = imu.with_name(name)
+    imu.rename(target)
+    for read in (read_runs_dir, read_runs_path):
+        with pytest.raises(DataFormatError) as info:
+            read(imu.parent.parent)
+        assert info.value.path == str(target) and words in _one_line(info.value)
+
+
 def test_data_format_error_message_names_line_not_row():
     err = DataFormatError("bad", "f.csv", "wz", row=3, line=7)
     assert str(err) == "bad (file f.csv, column 'wz', line 7)" and err.row == 3
