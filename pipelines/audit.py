@@ -200,6 +200,13 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
               f"{JITTER_ACCEL_M_S2:g}); the replay drives the motors with it, so their "
               "simulated currents include the rectified jitter. --replay-input-lowpass-hz 2 "
               "smooths it (docs/physics_v2.md)")
+    with_imu = {r.run_id for r in runs if r.has_imu}
+    no_imu = sorted(f.run_id for f in result.frames if f.run_id not in with_imu)
+    if no_imu:
+        print(f"  note: {len(no_imu)} of {len(result.frames)} audited run(s) have no IMU "
+              f"stream ({', '.join(no_imu[:5])}{' ...' if len(no_imu) > 5 else ''}): only "
+              "their motor currents are compared; the yaw-rate and acceleration checks and "
+              "the clock lag use the runs with an IMU")
     comparison = None
     if args.compare_physics:
         cmp_settings = PhysicsComparisonSettings(n_bootstrap=args.bootstrap, seed=args.seed)

@@ -318,3 +318,20 @@ def test_stream_eval_prints_and_logs_per_seed_accuracy_and_a_readable_table(work
     pooled = pool_scores(table[table["smoothing"] == "dwell10_power0.5"])
     assert pooled["accuracy"] == pytest.approx(run.data.metrics[f"{name}_accuracy"])
     assert pooled["n_switches"] == 6 and np.isinf(max(table["delays_s"].sum()))
+
+
+def test_audit_says_which_checks_a_run_without_imu_misses(workdir, capsys, borealtc_runs):
+    # a wheel-only run was "audited 1 runs, skipped 0" without a word that only its
+    # currents were compared
+    run = next(r for r in borealtc_runs if r.run_id == "borealtc/FLOORING/04")
+    assert not run.has_imu
+    folder = workdir / "runs" / "FLOORING"
+    folder.mkdir(parents=True)
+    run.streams["wheels"].iloc[:200].rename(columns=PRO).to_csv(folder / "pro_04.csv",
+                                                                index=False)
+    assert main(["audit", "runs", "--json", "a.json", "--no-mlflow", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "1 of 1 audited run(s) have no IMU stream (runs/FLOORING/04)" in out
+    assert "only their motor currents are compared" in out
+    signals = {s["signal"] for s in json.loads((workdir / "a.json").read_text())["signals"]}
+    assert signals == {"cur_l", "cur_r"}
