@@ -24,6 +24,7 @@ from __future__ import annotations
 import csv
 import json
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -32,9 +33,10 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (DataFormatError, EmptyFileError, EncodingError, MissingColumnError,
-                            NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
-                            TimestampError, UnreadableFileError, first_items)
+from terrain.errors import (DataFormatError, DataWarning, EmptyFileError, EncodingError,
+                            MissingColumnError, NonFiniteError, NonNumericError,
+                            OrphanFileError, RaggedRowError, TimestampError,
+                            UnreadableFileError, first_items)
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
@@ -72,6 +74,10 @@ class ReadReport:
     ignored_columns : list[str]
         Header columns of an ``imu`` or ``pro`` file that are not among its canonical
         columns, in file order: present in the file, not read.
+    warnings : list[str]
+        What the file itself makes likely but not certain (rule ``last_line``: no line
+        break after the last line, which may then have been cut off while being written),
+        each naming the file; :func:`read_run` adds them to the run's warnings.
     """
 
     path: str
@@ -79,6 +85,7 @@ class ReadReport:
     gaps: list[tuple[float, float]] = field(default_factory=list)
     skipped_lines: dict[str, int] = field(default_factory=dict)
     ignored_columns: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
 def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
@@ -136,6 +143,13 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             path, missing[0], line=header_line)
     report = ReadReport(str(path), skipped_lines=skipped,
                         ignored_columns=[c for c in header if c not in mapping])
+    if not text.endswith("\n"):
+        # a writer interrupted mid-line leaves a partial last value ("-0.0" of "-0.0731")
+        # that parses as a number: said, not dropped (many tools end files this way too)
+        report.warnings.append(
+            f"{path}: rule last_line: no line break after the last line (line "
+            f"{text.count(chr(10)) + 1}), so it may have been cut off while the file was "
+            "written; kept as read")
     # Python's float() also takes "1_000" and non-ASCII digits: those go the strict path
     plain = text.isascii() and "_" not in text
     numbers = _fast_numbers(rows, header, mapping) if plain else None
@@ -461,6 +475,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     gaps: dict[str, list] = {}
     skipped: dict[str, int] = {}
     ignored: dict[str, list[str]] = {}
+    file_warnings: list[str] = []
     for kind, path in sorted(files.items()):
         if kind == "meta":
             continue
@@ -471,10 +486,14 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         skipped.update({f"{name}.{k}": n for k, n in report.skipped_lines.items() if n})
         if report.ignored_columns:
             ignored[name] = report.ignored_columns
+        file_warnings += report.warnings
         if report.gaps:
             gaps[name] = report.gaps
     checks = check_run(run_id, streams, vehicle,
                        {STREAM_NAMES.get(k, k): str(p) for k, p in files.items()})
+    for msg in file_warnings:
+        warnings.warn(msg, DataWarning, stacklevel=2)
+    checks["warnings"] = file_warnings + checks["warnings"]
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
                vehicle=vehicle, source=str(files["pro"].parent),
                meta={**meta, "repaired": repaired, "gaps": gaps, "skipped_lines": skipped,

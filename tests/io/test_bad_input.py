@@ -387,6 +387,24 @@ def test_a_file_named_like_a_run_file_that_is_not_read_is_named(turning, name, w
         assert info.value.path == str(target) and words in _one_line(info.value)
 
 
+def test_a_last_line_without_a_line_break_is_a_warning_naming_it(turning):
+    # a file cut while being written ("...,-0." of "...,-0.0731"): the partial value
+    # parses as a number and was read without a word
+    from terrain.errors import DataWarning
+    _, pro = turning
+    text = pro.read_text()
+    n_lines = text.count("\n")
+    last = text.rstrip("\n").rsplit(",", 1)[1]
+    assert len(last) >= 3                      # a value with digits to cut
+    pro.write_text(text.rstrip("\n")[:-2])
+    with pytest.warns(DataWarning, match=rf"pro_00.csv: rule last_line: .*line {n_lines}\)"):
+        (run,) = read_runs_dir(pro.parent.parent)
+    assert any("rule last_line" in w for w in run.meta["warnings"])
+    pro.write_text(text)                       # a complete file: no such warning
+    (run,) = read_runs_dir(pro.parent.parent)
+    assert not any("rule last_line" in w for w in run.meta["warnings"])
+
+
 def test_data_format_error_message_names_line_not_row():
     err = DataFormatError("bad", "f.csv", "wz", row=3, line=7)
     assert str(err) == "bad (file f.csv, column 'wz', line 7)" and err.row == 3
