@@ -312,10 +312,11 @@ def check_two_classes(labels: np.ndarray, dataset: str, run_ids: np.ndarray) -> 
     Raises
     ------
     ConfigError
-        Fewer than two distinct classes in ``labels``.
+        One class only in ``labels`` (no window at all is left to the caller, whose
+        message says why none was cut).
     """
     classes = np.unique(labels)
-    if len(classes) < 2:
+    if len(classes) == 1:
         ids = sorted({str(r) for r in run_ids})
         raise ConfigError(f"dataset {dataset!r} holds windows of {len(classes)} terrain "
                           f"class(es) {[str(c) for c in classes]} (runs {ids[:5]}"
