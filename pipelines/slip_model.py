@@ -37,8 +37,9 @@ def load_slip_model_dir(model_dir: Path) -> Any:
     Raises
     ------
     ConfigError
-        The folder does not exist, is not a folder, lacks ``MLmodel``, or the model cannot be
-        loaded (the message names the folder and the reason).
+        The folder does not exist, is not a folder, lacks ``MLmodel``, its ``MLmodel`` is
+        not a YAML mapping (:func:`terrain.serving.model.read_mlmodel`), or the model cannot
+        be loaded (the message names the folder and the reason).
     """
     where = f"--slip-model-dir {model_dir}"
     if not _URI.match(str(model_dir)):
@@ -52,6 +53,9 @@ def load_slip_model_dir(model_dir: Path) -> Any:
             raise ConfigError(f"{where}: no MLmodel file, not an MLflow model folder (found: "
                               f"{', '.join(found) or 'nothing'}); give the artifacts folder "
                               "of a `terrain slip-fit` run")
+        from terrain.serving.model import read_mlmodel
+
+        read_mlmodel(model_dir / "MLmodel")   # not YAML / not a mapping: named, typed
     import mlflow.sklearn
 
     try:

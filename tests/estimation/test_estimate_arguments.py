@@ -133,6 +133,18 @@ def test_corrupt_slip_model_dir_is_an_error_saying_why(run_dir, tmp_path, capsys
     assert "the model cannot be loaded" in line and "model.pkl" in line
 
 
+def test_slip_model_dir_whose_mlmodel_is_not_yaml_says_so(run_dir, tmp_path, capsys):
+    # an MLmodel holding the word "junk" leaked "AttributeError: 'str' object has no
+    # attribute 'copy'" from MLflow's loader
+    folder = tmp_path / "model"
+    folder.mkdir()
+    (folder / "MLmodel").write_text("junk\n")
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model-dir", str(folder)]) == 2
+    line = _error_line(capsys)
+    assert str(folder / "MLmodel") in line and "AttributeError" not in line
+
+
 def test_slip_model_dir_not_used_is_said(run_dir, tmp_path, capsys):
     assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
                  "--slip-model", "physics", "--slip-model-dir", str(tmp_path / "nope")]) == 0
