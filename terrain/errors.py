@@ -129,6 +129,26 @@ def first_items(items, limit: int = 3, word: str = "line") -> str:
     return f"{word}{'s' if len(items) > 1 else ''} {shown}{more}"
 
 
+def duplicated(items) -> list:
+    """The items that occur more than once, sorted (linear time: a request of 50 000 column
+    names took 45 s with ``list.count`` per name).
+
+    Parameters
+    ----------
+    items : iterable of hashable
+        Names, e.g. a header's columns (unhashable or mixed types are the caller's to
+        refuse first).
+
+    Returns
+    -------
+    list
+        Each repeated item once, sorted.
+    """
+    from collections import Counter
+
+    return sorted(c for c, n in Counter(items).items() if n > 1)
+
+
 class ConfigError(TerrainError, ValueError):
     """An unknown name or an out-of-range parameter in a configuration.
 

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, duplicated
 from terrain.run import TIME, Run
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -336,7 +336,7 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     frames = [run.streams[s] for s in present]
     channels = [[c for c in f.columns if c != TIME and f[c].dtype.kind == "f"] for f in frames]
     flat = [c for ch in channels for c in ch]
-    clash = sorted({c for c in flat if flat.count(c) > 1})
+    clash = duplicated(flat)
     if clash:
         raise ConfigError(f"streams {present} share channel name(s) {clash}; align them "
                           "separately")

@@ -36,7 +36,7 @@ import pandas as pd
 from terrain.errors import (DataFormatError, DataWarning, EmptyFileError, EncodingError,
                             MissingColumnError, NonFiniteError, NonNumericError,
                             OrphanFileError, RaggedRowError, TimestampError,
-                            UnreadableFileError, first_items)
+                            UnreadableFileError, duplicated, first_items)
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
@@ -129,7 +129,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     header, rows, lines, skipped = _split_lines(text, path)
     header_line = skipped.pop("header_line")
     if len(set(header)) < len(header):
-        dup = sorted({c for c in header if header.count(c) > 1})
+        dup = duplicated(header)
         raise DataFormatError(f"duplicated column name(s) {dup} in the header", path, dup[0],
                               line=header_line)
     mapping = COLUMN_MAPS.get(kind)

@@ -20,7 +20,7 @@ import re
 from typing import Any, Awaitable, Callable, MutableMapping
 
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
-                            ImplausibleValueError, RaggedRowError, TerrainError)
+                            ImplausibleValueError, RaggedRowError, TerrainError, duplicated)
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -269,7 +269,7 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
                else _header_names(body) if kind == "text/csv" else None)
     if columns is not None:
         odd = [c for c in columns if not isinstance(c, str)]
-        dup = sorted({c for c in columns if isinstance(c, str) and columns.count(c) > 1})
+        dup = duplicated(c for c in columns if isinstance(c, str))
         if odd or dup:
             what = (f"column names must be text, got {json.dumps(odd[0])[:40]}" if odd else
                     f"duplicated column name(s) {dup}; send each column once")

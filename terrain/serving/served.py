@@ -41,6 +41,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+from dataclasses import replace
 from numbers import Real
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -52,7 +53,7 @@ from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
                             MissingColumnError, NonFiniteError, NonNumericError, TerrainError,
-                            TimestampError, first_items)
+                            TimestampError, duplicated, first_items)
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_accel_units, check_ranges,
                                      check_rate, check_run, implied_rate_hz)
 from terrain.run import TIME, Run
@@ -299,6 +300,16 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
         raise TimestampError(f"stream {stream!r}: {what} timestamp {float(t[i])!r} after "
                              f"{float(t[i - 1])!r}; timestamps must increase strictly (send each "
                              "stream in time order)", where, TIME, int(rows[i]))
+    if t.size >= 2:
+        # epoch-like stamps: at 1e13 s a float64 holds 2 ms steps, at 1e15 s 0.125 s, so
+        # the stream's own step (and the window grid on it) is no longer represented
+        step, ulp = float(np.median(dt)), float(np.spacing(np.abs(t).max()))
+        if ulp > 0.01 * step:
+            raise TimestampError(f"stream {stream!r}: timestamps near "
+                                 f"{float(np.abs(t).max()):.3g} s have a float64 resolution "
+                                 f"of {ulp:.3g} s, over a hundredth of the stream's "
+                                 f"{step:.3g} s step; send times from a recent epoch (e.g. "
+                                 "seconds since the start of the log)", where, TIME)
     check_rate(t, stream, where)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]
@@ -401,7 +412,7 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     odd = [c for c in labels if not isinstance(c, str)]
     if odd:
         raise DataFormatError(f"column names must be text, got {_short(odd[0])}", where)
-    dup = sorted({c for c in labels if labels.count(c) > 1})
+    dup = duplicated(labels)
     if dup:  # a repeated channel would shift the channels after it
         raise DataFormatError(f"duplicated column name(s) {dup}; send each column once",
                               where, dup[0])
@@ -578,10 +589,17 @@ class ServedStreamModel(PythonModel):
                                   f"decisions (one every {hop:g} s), above the limit of "
                                   f"{limit}; send the streams in shorter pieces (a time jump "
                                   "in a stream counts as its length)", "request", TIME)
-        out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)
+        # the service runs on times from the request's first whole second: far from 0 (an
+        # epoch clock) its window grid and gap tests lose the digits they compare (at 1e11 s
+        # every window came out empty); the answer is on the request's clock again
+        epoch = math.floor(min(float(f[TIME].iloc[0]) for f in run.streams.values()))
+        shifted = replace(run, streams={k: f.assign(**{TIME: f[TIME] - epoch})
+                                        for k, f in run.streams.items()})
+        out = decisions_frame(replay_run(service, shifted, max_chunk=32), self.model.classes)
+        out["t_s"] = out["t_s"] + epoch
         out["flags"] = _plausibility_flags(out, window_s, run.meta)
-        out["dropped"] = out["flags"].str.split("|").apply(
-            lambda f: any(x in DROP_FLAGS for x in f))
+        # (a list, not the .str accessor: an answer without decisions has no text dtype)
+        out["dropped"] = [any(x in DROP_FLAGS for x in f.split("|")) for f in out["flags"]]
         out["terrain"] = out["terrain"].fillna("")
         return out
 

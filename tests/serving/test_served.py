@@ -681,3 +681,47 @@ def test_stopping_the_server_removes_its_wrapped_model(server):
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=30) == 0
     assert not served_dir.exists() and not served_dir.parent.exists()
+
+
+@pytest.mark.parametrize("offset_s", [1e9, 1e11, 1e12, 1e13, 1e15])
+def test_timestamps_far_from_zero_are_decided_or_refused_never_a_crash(
+        served, request_frame, offset_s):
+    # epoch-like stamps: at 1e11-1e12 s the service's window grid lost its digits and the
+    # answer was empty; at 1e13-1e15 s (float64 steps of 2 ms to 0.125 s against the
+    # 0.154 s wheel step) the empty decisions crashed the answer (500, AttributeError)
+    t0 = request_frame["t_s"].iloc[0]
+    status, base = _call(served, request_frame.assign(t_s=request_frame["t_s"] - t0))
+    frame = request_frame.assign(t_s=request_frame["t_s"] - t0 + offset_s)
+    status, body = _call(served, frame)
+    if offset_s <= 1e12:
+        assert status == 200
+        got, want = pd.DataFrame(body["predictions"]), pd.DataFrame(base["predictions"])
+        assert len(got) == len(want) >= 10
+        np.testing.assert_allclose(got["t_s"] - offset_s, want["t_s"], atol=1e-3)
+        assert list(got["terrain"]) == list(want["terrain"])
+        proba = [c for c in want.columns if c.startswith("proba_")]
+        # the request's own stamps hold 1e-4 s at 1e12 s: probabilities move by 2e-5
+        np.testing.assert_allclose(got[proba], want[proba], atol=1e-4)
+    else:
+        assert status == 400
+        assert "TimestampError" in body["message"] and "float64 resolution" in body["message"]
+
+
+def test_a_request_of_50_000_columns_is_refused_in_linear_time(served):
+    # the duplicate-name check counted every name in the whole list (quadratic): 50 000
+    # columns held the server for ~45 s, so /ping timed out behind it
+    from mlflow.exceptions import MlflowException
+    from mlflow.pyfunc import scoring_server
+
+    names = [f"c{i}" for i in range(50_000)]   # (pandas' to_json of it alone takes ~4 s)
+    request = json.dumps({"dataframe_split": {"columns": names, "data": [[1.0] * 50_000] * 3}})
+    start = time.perf_counter()
+    with pytest.raises(MlflowException) as info:
+        scoring_server.invocations(request, "application/json", served, None)
+    elapsed = time.perf_counter() - start
+    assert info.value.get_http_status_code() == 400
+    assert "MissingColumnError" in str(info.value)
+    assert elapsed < 15.0, elapsed       # a quadratic check takes ~45 s here; linear < 1 s
+    dup = pd.DataFrame([[1.0] * 4] * 3, columns=["stream", "t_s", "vel_l", "vel_l"])
+    status, body = _call(served, dup)
+    assert status == 400 and "duplicated column name(s) ['vel_l']" in body["message"]
