@@ -41,7 +41,6 @@ from __future__ import annotations
 import logging
 import math
 import re
-from dataclasses import replace
 from numbers import Real
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -60,6 +59,7 @@ from terrain.run import TIME, Run
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
                                    load_stream_model)
 from terrain.serving.replay import replay_run
+from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
 from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
                                      check_hop, decisions_frame, join_flags,
                                      stuck_decision_flags)
@@ -300,16 +300,14 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
         raise TimestampError(f"stream {stream!r}: {what} timestamp {float(t[i])!r} after "
                              f"{float(t[i - 1])!r}; timestamps must increase strictly (send each "
                              "stream in time order)", where, TIME, int(rows[i]))
-    if t.size >= 2:
-        # epoch-like stamps: at 1e13 s a float64 holds 2 ms steps, at 1e15 s 0.125 s, so
-        # the stream's own step (and the window grid on it) is no longer represented
-        step, ulp = float(np.median(dt)), float(np.spacing(np.abs(t).max()))
-        if ulp > 0.01 * step:
-            raise TimestampError(f"stream {stream!r}: timestamps near "
-                                 f"{float(np.abs(t).max()):.3g} s have a float64 resolution "
-                                 f"of {ulp:.3g} s, over a hundredth of the stream's "
-                                 f"{step:.3g} s step; send times from a recent epoch (e.g. "
-                                 "seconds since the start of the log)", where, TIME)
+    beyond = np.flatnonzero(np.abs(t) > MAX_PLAUSIBLE_TIME_S)
+    if beyond.size:
+        # the service's rule plausible_time would refuse every such sample one by one and
+        # the answer would hold no decision and no reason
+        raise TimestampError(f"stream {stream!r}: {beyond.size} timestamp(s) beyond "
+                             f"{MAX_PLAUSIBLE_TIME_S:g} s, the first {float(t[beyond[0]])!r} "
+                             "(a clock in ms or ns since an epoch?); send seconds, e.g. since "
+                             "the start of the log", where, TIME, int(rows[beyond[0]]))
     check_rate(t, stream, where)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]
@@ -393,7 +391,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     NonNumericError
         A value that is not a number (text, a boolean).
     TimestampError
-        Unsorted or duplicated timestamps within a stream.
+        Unsorted or duplicated timestamps within a stream, or a timestamp beyond
+        :data:`terrain.serving.rules.MAX_PLAUSIBLE_TIME_S` (the service's own bound).
     NonFiniteError
         A non-finite timestamp, a burst of non-finite values, or a non-finite value in a
         stream's first or last sample.
@@ -589,14 +588,7 @@ class ServedStreamModel(PythonModel):
                                   f"decisions (one every {hop:g} s), above the limit of "
                                   f"{limit}; send the streams in shorter pieces (a time jump "
                                   "in a stream counts as its length)", "request", TIME)
-        # the service runs on times from the request's first whole second: far from 0 (an
-        # epoch clock) its window grid and gap tests lose the digits they compare (at 1e11 s
-        # every window came out empty); the answer is on the request's clock again
-        epoch = math.floor(min(float(f[TIME].iloc[0]) for f in run.streams.values()))
-        shifted = replace(run, streams={k: f.assign(**{TIME: f[TIME] - epoch})
-                                        for k, f in run.streams.items()})
-        out = decisions_frame(replay_run(service, shifted, max_chunk=32), self.model.classes)
-        out["t_s"] = out["t_s"] + epoch
+        out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)
         out["flags"] = _plausibility_flags(out, window_s, run.meta)
         # (a list, not the .str accessor: an answer without decisions has no text dtype)
         out["dropped"] = [any(x in DROP_FLAGS for x in f.split("|")) for f in out["flags"]]
