@@ -18,6 +18,7 @@ import hashlib
 import io
 import json
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -26,8 +27,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
-                            NonNumericError, TimestampError)
+from terrain.errors import (ConfigError, DataFormatError, DataWarning, MissingColumnError,
+                            NonFiniteError, NonNumericError, TimestampError)
 from terrain.io.measured import list_run_files, read_run
 from terrain.io.plausibility import check_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -118,6 +119,12 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         Unknown dataset name.
     DataFormatError
         Any reader error in the source files.
+
+    Warns
+    -----
+    DataWarning
+        The IMU rate of the converted runs is more than 10 % from the dataset's native rate
+        (:data:`DATASET_SPECS`), at which its windows are aligned.
     """
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
@@ -151,6 +158,14 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         shipped[f"{dataset}/{STREAM_FILES[name]}"] = sha256(path)
         dt = table.groupby(RUN_ID, observed=True)[TIME].diff().median()
         rates[name] = round(float(1.0 / dt), 3)
+    native = DATASET_SPECS[dataset].rate_hz
+    if "imu" in rates and abs(rates["imu"] / native - 1.0) > 0.1:
+        # every window of this dataset is cut on its native clock: a 100 Hz IMU converted
+        # as vulpi (50 Hz) loses its 25-50 Hz band without a word otherwise
+        warnings.warn(f"{src}: the IMU runs at {rates['imu']:g} Hz, dataset {dataset!r} at "
+                      f"{native:g} Hz: its windows will be aligned at {native:g} Hz (the "
+                      "IMU resampled); convert the runs under the dataset they come from",
+                      DataWarning, stacklevel=2)
     entry = {**DATASET_INFO[dataset], "sampling_rates_hz": rates,
              "terrains": sorted({r["terrain"] for r in runs_info}),
              "runs_without_imu": [r["run_id"] for r in runs_info if not r["has_imu"]],

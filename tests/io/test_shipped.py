@@ -310,3 +310,16 @@ def test_invalid_manifest_json_names_its_line_and_column(tmp_path, data_dir):
         read_manifest(copy)
     assert info.value.path == str(path) and info.value.line == 3
 
+
+
+def test_converting_runs_under_a_dataset_of_another_imu_rate_warns(tmp_path, csv_tree):
+    # BorealTC's 100 Hz IMU converted as vulpi (50 Hz) would be aligned at 50 Hz and lose
+    # its 25-50 Hz band without a word
+    from terrain.errors import DataWarning
+    with pytest.warns(DataWarning, match=r"IMU runs at 100 Hz, dataset 'vulpi' at 50 Hz"):
+        convert_dataset(csv_tree, "vulpi", tmp_path / "as_vulpi")
+    import warnings
+    with warnings.catch_warnings(record=True) as seen:   # its own dataset: no such warning
+        warnings.simplefilter("always")
+        convert_dataset(csv_tree, "borealtc", tmp_path / "as_borealtc")
+    assert not [w for w in seen if "IMU runs at" in str(w.message)]
