@@ -109,15 +109,17 @@ def _typed_error(status: int, text: str) -> TerrainError:
     if "Parquet" in text and "Failed to parse" in text:
         return DataFormatError("the request body is not a readable Parquet table "
                                f"({detail[:200]})", where)
-    if "valid JSON" in text:
-        reason = re.search(r"JSONDecodeError\('(.*)'\)", detail)
-        return DataFormatError("the request body is not valid JSON "
-                               f"({reason.group(1) if reason else detail[:200]})", where)
-    if "UTF-8" in text and "UnicodeDecodeError" in text:
+    # before the JSON branch: MLflow's JSON parse error of a non-UTF-8 body holds the
+    # UnicodeDecodeError's repr, with the request's bytes in it
+    if "UnicodeDecodeError" in text and ("UTF-8" in text or "valid JSON" in text):
         byte = re.search(r", (\d+), \d+, '([^']*)'\)", detail)
         return EncodingError("the request body is not UTF-8 text"
                              + (f" ({byte.group(2)} at byte {byte.group(1)})" if byte else ""),
                              where)
+    if "valid JSON" in text:
+        reason = re.search(r"JSONDecodeError\('(.*)'\)", detail)
+        return DataFormatError("the request body is not valid JSON "
+                               f"({reason.group(1) if reason else detail[:200]})", where)
     if status == 415:
         return DataFormatError(f"unsupported request content type: {text.strip()}", where)
     text = re.sub(r"<class '([\w.]+)'>", r"\1", text.strip())  # Python type reprs

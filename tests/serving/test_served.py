@@ -474,6 +474,10 @@ UNPARSABLE = {
     "invalid json": (b'{"dataframe_split": [1,', "application/json", "DataFormatError",
                      "not valid JSON"),
     "not utf-8": (b"\xff\xfe", "text/csv", "EncodingError", "UTF-8"),
+    # was "not valid JSON (UnicodeDecodeError('utf-8', b'{...the request's bytes...'"
+    "not utf-8 json": (b'{"dataframe_split": {"columns": ["stream"], "data": [["wh\xff\xfe'
+                       b'els"]]}}', "application/json", "EncodingError",
+                       "not UTF-8 text (invalid start byte at byte 57)"),
     "deeply nested json": (b'{"dataframe_split": ' + b"[" * 50_000, "application/json",
                            "DataFormatError", "nests deeper"),
     "integer of 5000 digits": (b'{"dataframe_split": {"columns": ["t_s"], "data": [[1'
