@@ -54,6 +54,9 @@ RESERVED_FILES = 64
 #: largest uncompressed size of a Parquet body, as a multiple of the body-size limit (a
 #: small compressed body can decode to gigabytes)
 PARQUET_EXPANSION = 16
+#: the served model's endpoints; any other path is answered 404 here (FastAPI would serve its
+#: ``/docs`` and ``/openapi.json`` pages, and redirect ``/invocations/`` with an empty 307)
+ENDPOINTS = ("/invocations", "/ping", "/health", "/version")
 _TYPED = re.compile(r"^([A-Z][A-Za-z]*Error): ")
 _log = logging.getLogger(__name__)
 
@@ -138,10 +141,7 @@ def _error_body(status: int, body: bytes) -> dict:
     except ValueError:
         doc = None
     if isinstance(doc, dict) and "message" not in doc and status in (404, 405):
-        return {"error_code": "ENDPOINT_NOT_FOUND" if status == 404 else "BAD_REQUEST",
-                "message": _typed(ConfigError(
-                    f"{doc.get('detail', 'no such endpoint')}: the served model answers "
-                    "POST /invocations (the streams) and GET /ping, /health, /version"))}
+        return _endpoint_error(status, str(doc.get("detail", "no such endpoint")))
     if isinstance(doc, dict):
         doc.pop("stack_trace", None)
         if "message" in doc:
@@ -151,6 +151,14 @@ def _error_body(status: int, body: bytes) -> dict:
         status, "BAD_REQUEST" if status < 500 else "INTERNAL_ERROR")
     return {"error_code": code,
             "message": project_message(status, body.decode("utf-8", "replace"))}
+
+
+def _endpoint_error(status: int, detail: str) -> dict:
+    """The JSON error of a request to an unknown endpoint (404) or with a wrong method (405)."""
+    return {"error_code": "ENDPOINT_NOT_FOUND" if status == 404 else "BAD_REQUEST",
+            "message": _typed(ConfigError(
+                f"{detail}: the served model answers POST /invocations (the streams) and "
+                "GET /ping, /health, /version"))}
 
 
 def _typed(error: TerrainError) -> str:
@@ -326,6 +334,8 @@ class _BodyTimeout(Exception):
 class RequestGuard:
     """ASGI middleware in front of MLflow's scoring server app.
 
+    * a path other than :data:`ENDPOINTS` is answered 404 (``/invocations/`` included: a
+      redirect would lose the body of a client that does not follow it);
     * a POST without ``Content-Length`` is answered 411, one with ``Transfer-Encoding`` as
       well 400 (the two disagree on where the body ends), one over ``max_body_bytes`` 413,
       one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500);
@@ -415,7 +425,14 @@ class RequestGuard:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        invocation = scope["method"] == "POST" and scope.get("path", "") == "/invocations"
+        path = scope.get("path", "")
+        if path not in ENDPOINTS:
+            detail = (f"no endpoint {_short_path(path)}"
+                      + (" (send it without the trailing slash)"
+                         if path.rstrip("/") in ENDPOINTS else ""))
+            await _send_json(send, 404, _endpoint_error(404, detail))
+            return
+        invocation = scope["method"] == "POST" and path == "/invocations"
         if scope["method"] == "POST":
             headers = dict(scope["headers"])
             refused = self.refusal(scope.get("path", ""), headers)
@@ -503,6 +520,12 @@ class RequestGuard:
             if held["sent"]:
                 raise
             await _send_json(send, *_failure(exc))
+
+
+def _short_path(path: str, limit: int = 60) -> str:
+    """``path`` quoted for a message, cut at ``limit`` characters (printable ASCII kept)."""
+    text = "".join(c if " " <= c <= "~" else "?" for c in path)
+    return repr(text if len(text) <= limit else text[:limit] + "...")
 
 
 def _replay(body: bytes, receive: Receive) -> Receive:

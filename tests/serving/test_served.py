@@ -592,8 +592,14 @@ def test_real_server_refuses_a_chunked_body_that_also_claims_a_length(server):
 
 
 @pytest.mark.parametrize("method, path, status", [("GET", "/invocations", 405),
-                                                  ("POST", "/predict", 404)])
+                                                  ("POST", "/predict", 404),
+                                                  # FastAPI's own pages and its 307 redirect
+                                                  ("GET", "/docs", 404),
+                                                  ("GET", "/openapi.json", 404),
+                                                  ("POST", "/invocations/", 404)])
 def test_real_server_wrong_endpoint_is_a_typed_answer(server, method, path, status):
+    """Only the endpoints the message names answer (the redirect of ``/invocations/`` was
+    an empty 307 that a client not following it read as no answer)."""
     conn = http.client.HTTPConnection(server[1].removeprefix("http://"), timeout=10)
     try:
         conn.request(method, path, b"x" if method == "POST" else None,
@@ -606,6 +612,7 @@ def test_real_server_wrong_endpoint_is_a_typed_answer(server, method, path, stat
     assert res.status == status
     _one_line_typed(answer, "ConfigError")
     assert "POST /invocations" in answer["message"]
+    assert ("trailing slash" in answer["message"]) == path.endswith("/")
 
 
 @pytest.mark.parametrize("row", [0, -1])
