@@ -131,7 +131,10 @@ def _typed_error(status: int, text: str) -> TerrainError:
         return DataFormatError("the JSON body is not a table of samples; send "
                                "{\"dataframe_split\": {\"columns\": [...], \"data\": [[...], "
                                f"...]}}}} (MLflow: {text[:160]})", where)
-    return DataFormatError(re.sub(r"^Invalid input\.\s*", "", text), where)
+    text = re.sub(r"^Invalid input\.\s*", "", text)
+    if text.count("'") % 2:  # MLflow's "... Got {'columns'}.'" ends on a stray quote
+        text = re.sub(r"'$", "", text)
+    return DataFormatError(text, where)
 
 
 def _error_body(status: int, body: bytes) -> dict:

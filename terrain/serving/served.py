@@ -21,7 +21,9 @@ dropped``; ``dropped`` is true for a window that was not classified, and its rea
 (:func:`terrain.io.plausibility.check_run`) apply to the request: a certain finding (wheel
 speeds in km/h, gyro in deg/s, clocks that do not overlap) refuses it, a stuck channel flags
 the windows holding it (``stuck:<stream>.<channel>``, as ``terrain predict``) and a likely
-unit problem flags every window (``warning:<rule>``); neither drops a window.
+unit problem flags every window (``warning:<rule>``); neither drops a window. Rows of a
+known stream the model does not use (IMU rows sent to a wheel-only model) are not read, so
+not checked: every window says so (``unused:<stream>``).
 
 A window holding a timestamp gap costs the same as any other (the service aligns only its
 window's end of the streams' grid, :func:`terrain.io.align.overlap_grid_tail`; the window is
@@ -318,7 +320,10 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
                                   where, TIME)
     span = float(t[-1] - t[0]) if t.size else 0.0
     if span < window_s:
-        raise DataFormatError(f"stream {stream!r} too short: it spans {span:.3g} s over "
+        shown = f"{span:.3g}"
+        if float(shown) >= window_s:  # 1.9999999 s would read "spans 2 s ... needs 2 s"
+            shown = f"{span:.10g}"
+        raise DataFormatError(f"stream {stream!r} too short: it spans {shown} s over "
                               f"{t.size} sample(s); one window needs {window_s:g} s", where,
                               TIME)
     for j, col in enumerate(channels):
@@ -353,8 +358,9 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     the whole request, naming the unknown values and the known ones. A typo would otherwise
     lose that stream's samples without a word (the service ignores streams it does not
     know), and the answer could only report it as fewer decisions. Rows of a known stream
-    that the model does not need (IMU rows sent to a wheel-only model) are ignored, as the
-    in-process service ignores them.
+    that the model does not need (IMU rows sent to a wheel-only model) are not read, as the
+    in-process service ignores them; ``meta["unused"]`` counts them per stream, and the
+    served answer flags every window ``unused:<stream>``.
 
     Parameters
     ----------
@@ -379,7 +385,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     Run
         One frame per needed stream (``t_s`` + channels), in the request's time order;
         ``meta`` holds the run-level findings (``stuck``, ``warnings``) of
-        :func:`~terrain.io.plausibility.check_run`.
+        :func:`~terrain.io.plausibility.check_run` and ``unused`` (stream -> rows of a
+        known stream the model does not need).
 
     Raises
     ------
@@ -402,8 +409,10 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         findings of the readers' rules); streams whose clocks do not overlap.
     """
     if not isinstance(frame, pd.DataFrame):
-        raise DataFormatError(f"expected a table of samples, got {type(frame).__name__}",
-                              where)
+        raise DataFormatError(
+            f"expected a table of samples, got {type(frame).__name__} (MLflow's 'inputs' "
+            "and 'instances' tensor formats are not taken: send JSON as {\"dataframe_split\": "
+            "{\"columns\": [...], \"data\": [[...], ...]}}, or CSV or Parquet)", where)
     if len(frame) > max_rows:
         raise DataFormatError(f"request of {len(frame)} rows exceeds the limit of {max_rows}; "
                               "send the streams in shorter pieces", where)
@@ -443,7 +452,25 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         out[stream] = part
     # the readers' run-level rules (units, clocks, stuck sensors); certain findings raise
     checks = check_run(where, out, vehicle, {s: where for s in out})
+    checks["unused"] = _unused_rows(frame, long,
+                                    [s for s in known_streams if s not in streams])
     return Run("request", "request", None, out, vehicle=vehicle, source=where, meta=checks)
+
+
+def _unused_rows(frame: pd.DataFrame, long: bool, others: Sequence[str]) -> dict[str, int]:
+    """Rows of each known stream the model does not need (``others``) that the request holds
+    (long format: rows of that ``stream``; wide: non-empty cells of its ``<stream>_t_s``);
+    those rows are not read, so not checked either, and the answer says so."""
+    counts = {}
+    for stream in others:
+        if long:
+            n = int((frame[STREAM] == stream).sum())
+        else:
+            tcol = f"{stream}_{TIME}"
+            n = int(pd.notna(frame[tcol]).sum()) if tcol in frame.columns else 0
+        if n:
+            counts[stream] = n
+    return counts
 
 
 def _check_stream_names(names: np.ndarray, known: Sequence[str], where: str) -> None:
@@ -456,8 +483,9 @@ def _check_stream_names(names: np.ndarray, known: Sequence[str], where: str) -> 
     bad = np.flatnonzero(~ok)
     values: list[str] = []
     for x in names[bad]:
-        text = "empty" if x is None or (isinstance(x, float) and math.isnan(x)) \
-            else _short(x, 30)
+        text = ("empty" if x is None or (isinstance(x, float) and math.isnan(x))
+                else f"{type(x).__name__} {_short(x, 30)}"
+                if isinstance(x, (list, tuple, dict, np.ndarray)) else _short(x, 30))
         if text not in values:
             values.append(text)
     raise DataFormatError(
@@ -504,10 +532,12 @@ def _plausibility_flags(frame: pd.DataFrame, window_s: float,
     """Decision flags plus the run-level findings: ``stuck:<stream>.<channel>`` on the
     decisions whose window holds a stuck stretch (:func:`~terrain.serving.service.
     stuck_decision_flags`), ``warning:<rule>`` on every window when a rule found a likely
-    problem (the service still decided)."""
+    problem (the service still decided), ``unused:<stream>`` on every window when the
+    request held rows of a stream the model does not use (not read, not checked)."""
     stuck = stuck_decision_flags(frame, checks.get("stuck", {}), window_s)
     rules = "|".join(sorted({f"warning:{m.group(1)}" for w in checks.get("warnings", ())
-                             for m in [re.search(r"rule (\w+)", w)] if m}))
+                             for m in [re.search(r"rule (\w+)", w)] if m}
+                            | {f"unused:{s}" for s in checks.get("unused", {})}))
     return join_flags(frame["flags"], stuck, [rules] * len(frame))
 
 

@@ -106,6 +106,25 @@ def test_answer_is_the_in_process_service(served, request_frame, wheel_model):
     assert not got["dropped"].any()
 
 
+@pytest.mark.parametrize("wide", [False, True])
+def test_rows_of_a_stream_the_model_does_not_use_are_flagged_not_checked(served, request_frame,
+                                                                          wide):
+    """IMU rows sent to a wheel-only model are not read (even unsorted or as text): the
+    answer is the wheels' and every window says the IMU was unused (it said nothing)."""
+    status, plain = _call(served, request_frame)
+    imu = pd.DataFrame({"stream": "imu", "t_s": ["9", "8", "x"], "ax": 0.1})
+    frame = pd.concat([request_frame.astype({"t_s": object}), imu], ignore_index=True)
+    if wide:
+        frame = request_frame.drop(columns="stream").rename(columns={"t_s": "wheels_t_s"})
+        frame["imu_t_s"] = np.nan
+        frame.loc[:2, "imu_t_s"] = [9.0, 8.0, 7.0]
+    status, body = _call(served, frame)
+    assert status == 200, body
+    got, want = pd.DataFrame(body["predictions"]), pd.DataFrame(plain["predictions"])
+    assert (got["flags"] == "unused:imu").all() and (want["flags"] == "").all()
+    pd.testing.assert_frame_equal(got.drop(columns="flags"), want.drop(columns="flags"))
+
+
 def test_wide_format_gives_the_same_answer(served, request_frame):
     wide = request_frame.drop(columns="stream").rename(columns={"t_s": "wheels_t_s"})
     assert _call(served, wide) == _call(served, request_frame)
@@ -264,6 +283,17 @@ def test_rate_at_the_nominal_bound_is_accepted_and_the_message_agrees():
     with pytest.raises(DataFormatError, match=r"implies 1010 Hz, outside its nominal "
                                               r"1-1000 Hz"):
         parse_request(_synthetic(0.00099, 2500), streams, 2.0, 10_000)
+
+
+@pytest.mark.parametrize("span_s, shown", [(1.9999999, "spans 1.9999999 s"),
+                                           (1.5, "spans 1.5 s")])
+def test_a_stream_just_short_of_a_window_says_by_how_much(span_s, shown):
+    """A span under the window rounded to 3 digits read "spans 2 s ... needs 2 s"."""
+    frame = _synthetic(0.1, 11)
+    frame["t_s"] = np.linspace(10.0, 10.0 + span_s, 11)
+    with pytest.raises(DataFormatError, match=rf"too short: it {shown} over 11 sample\(s\); "
+                                              r"one window needs 2 s"):
+        parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 10_000)
 
 
 def _replay(service_cls, model, frame):
@@ -478,6 +508,17 @@ UNPARSABLE = {
     "not utf-8 json": (b'{"dataframe_split": {"columns": ["stream"], "data": [["wh\xff\xfe'
                        b'els"]]}}', "application/json", "EncodingError",
                        "not UTF-8 text (invalid start byte at byte 57)"),
+    # MLflow's tensor formats: the message said only "got ndarray" / "got dict"
+    "mlflow inputs tensor": (b'{"inputs": [[1, 2]]}', "application/json", "DataFormatError",
+                             "got ndarray (MLflow's 'inputs' and 'instances' tensor formats"),
+    "mlflow instances records": (b'{"instances": [{"t_s": 1}]}', "application/json",
+                                 "DataFormatError", "got dict (MLflow's 'inputs'"),
+    # MLflow's own message, which ends on a stray quote
+    "split without data": (b'{"dataframe_split": {"columns": ["stream"]}}', "application/json",
+                           "DataFormatError", "Got {'columns'}. (file request)"),
+    "stream cell holding a list": (b'{"dataframe_split": {"columns": ["stream", "t_s"], '
+                                   b'"data": [[["wheels"], 1]]}}', "application/json",
+                                   "DataFormatError", "unknown stream list ['wheels'] in 1 row"),
     "deeply nested json": (b'{"dataframe_split": ' + b"[" * 50_000, "application/json",
                            "DataFormatError", "nests deeper"),
     "integer of 5000 digits": (b'{"dataframe_split": {"columns": ["t_s"], "data": [[1'
