@@ -560,7 +560,9 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
     A connection that starts no request for ``header_timeout_s`` while none of its requests
     is in progress (it never sent a byte, or it stalled inside a request line or headers,
     which stops uvicorn's keep-alive timer) is answered ``408`` with the project's JSON
-    error and closed, like a web server's client-header timeout; it is checked every
+    error and closed, like a web server's client-header timeout; bytes uvicorn's parser
+    refuses (a garbage request line, a non-numeric Content-Length, bad chunk framing) are
+    answered ``400`` in the same JSON form instead of uvicorn's plain text; it is checked every
     ``header_timeout_s``, so such a connection lives between one and two timeouts. A
     stalled *body* is :class:`RequestGuard`'s to time out.
 
@@ -605,6 +607,14 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
                       b"connection: close\r\ncontent-length: %d\r\n\r\n" % len(timeout_body)
                       + timeout_body)
 
+    bad_http_body = json.dumps({"error_code": "BAD_REQUEST", "message": (
+        "DataFormatError: malformed HTTP request (its request line, a header, its "
+        "Content-Length or its chunk framing is not HTTP/1.1); send a well-formed HTTP/1.1 "
+        "request")}).encode()
+    bad_http_answer = (b"HTTP/1.1 400 Bad Request\r\ncontent-type: application/json\r\n"
+                       b"connection: close\r\ncontent-length: %d\r\n\r\n" % len(bad_http_body)
+                       + bad_http_body)
+
     class BoundedConnections(AutoHTTPProtocol):  # type: ignore[misc, valid-type]
         closed = 0
         timed_out = 0
@@ -628,6 +638,12 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
             opened.pop(self, None)
             self._header_timer.cancel()
             super().connection_lost(exc)
+
+        def send_400_response(self, msg: str) -> None:
+            """uvicorn's answer to bytes its parser refuses, in the project's JSON form
+            (uvicorn's own is a plain-text ``Invalid HTTP request received.``)."""
+            self.transport.write(bad_http_answer)
+            self.transport.close()
 
         def _watch_requests(self, seen, idle: bool = True) -> None:
             """Look again in ``header_timeout_s``: ``seen`` is the request-response cycle

@@ -1,6 +1,7 @@
 """The header timeout of ``terrain serve``'s connection class, on a real uvicorn server on
 127.0.0.1 (a trivial ASGI app, so the test needs no model): connections that start no
-request are answered 408 and closed; requests in progress and keep-alive reuse are not."""
+request are answered 408 and closed; requests in progress and keep-alive reuse are not;
+malformed HTTP is answered in the project's JSON form."""
 
 from __future__ import annotations
 
@@ -72,6 +73,25 @@ def test_a_connection_that_starts_no_request_is_answered_408_and_closed(server, 
     assert body["message"].startswith("DataFormatError: no complete request within 0.4 s")
     assert TIMEOUT_S * 0.9 <= waited <= 2 * TIMEOUT_S + 1.0
     assert protocol.timed_out == before + 1
+
+
+@pytest.mark.parametrize("sent", [b"GARBAGE\r\n\r\n",
+                                  b"POST /x HTTP/1.1\r\nHost: x\r\nContent-Length: ten\r\n\r\n",
+                                  b"POST /x HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked"
+                                  b"\r\n\r\nzz\r\nhello\r\n0\r\n\r\n",
+                                  b"GET /x HTTP/1.1\r\n\r\n"])   # no Host
+def test_malformed_http_is_answered_in_the_project_json_form(server, sent):
+    """uvicorn answered these with a plain-text "Invalid HTTP request received."."""
+    address, _ = server
+    with socket.create_connection(address, timeout=5) as conn:
+        conn.sendall(sent)
+        data, _ = _read_all(conn, 5)
+    assert data.startswith(b"HTTP/1.1 400 ")
+    head, body = data.split(b"\r\n\r\n", 1)
+    assert b"application/json" in head
+    answer = json.loads(body)
+    assert answer["error_code"] == "BAD_REQUEST"
+    assert answer["message"].startswith("DataFormatError: malformed HTTP request")
 
 
 def test_a_request_in_progress_and_keep_alive_reuse_are_not_cut(server):
