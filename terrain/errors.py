@@ -156,6 +156,41 @@ class ConfigError(TerrainError, ValueError):
     """
 
 
+def config_numbers(owner: str, optional: tuple = (), **values) -> None:
+    """Refuse configuration values that are not real numbers, before any range check.
+
+    A range check such as ``0 < x <= 1`` raises Python's own ``TypeError`` on text, ``None``
+    or a list, and an array of two numbers raises NumPy's "truth value is ambiguous";
+    ``True`` passes it as 1. This names the field instead.
+
+    Parameters
+    ----------
+    owner : str
+        The configuration's name, for the message (e.g. ``"StreamConfig"``).
+    optional : tuple of str
+        Fields that may be ``None`` (an optional setting left out).
+    **values
+        Field name -> value.
+
+    Raises
+    ------
+    ConfigError
+        A value that is ``None`` (unless ``optional``), a boolean, text, bytes, complex, or
+        not one real number (a list, an array of several numbers, an object).
+    """
+    import numbers
+
+    for name, value in values.items():
+        if value is None and name in optional:
+            continue
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        if not ok and type(value).__module__ == "numpy" and getattr(value, "shape", None) == ():
+            ok = value.dtype.kind in "iuf"  # a NumPy scalar or 0-d array of a real number
+        if not ok:
+            raise ConfigError(f"{owner}.{name} must be a real number, got "
+                              f"{type(value).__name__} {value!r:.60}")
+
+
 class EstimationError(TerrainError, ValueError):
     """Bad input to a state estimator (:mod:`terrain.estimation`, :mod:`terrain.slip`).
 

@@ -47,7 +47,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import (TerrainParams, get_terrain, is_deformable,
                                     steady_slip, traction_peak)
 from terrain.terramechanics.efficiency import max_tractive_efficiency
@@ -87,6 +87,12 @@ class DesiredSlipConfig:
     max_decision_age_s : float
         Decisions older than this (s) use the fallback (4.0: ASSUMED, two 2 s classification
         windows of the default feature set).
+
+    Raises
+    ------
+    ConfigError
+        A field that is not a real number (text, a boolean, ``None``, a list) or outside
+        its range.
     """
 
     traction_fraction: float = 0.95
@@ -96,6 +102,10 @@ class DesiredSlipConfig:
     max_decision_age_s: float = 4.0
 
     def __post_init__(self) -> None:
+        config_numbers("DesiredSlipConfig", traction_fraction=self.traction_fraction,
+                       braking_fraction=self.braking_fraction,
+                       deformable_cap=self.deformable_cap, min_confidence=self.min_confidence,
+                       max_decision_age_s=self.max_decision_age_s)
         if not (0.0 < self.traction_fraction <= self.braking_fraction < 1.0):
             raise ConfigError("need 0 < traction_fraction <= braking_fraction < 1, got "
                               f"{self.traction_fraction}, {self.braking_fraction}")

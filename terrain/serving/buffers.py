@@ -82,6 +82,32 @@ class RingBuffer:
         self._next = (self._next + n) % self.capacity
         self._size = min(self.capacity, self._size + n)
 
+    def evicted(self, t_s: np.ndarray, since_s: float) -> int:
+        """Samples that appending ``t_s`` would push out (the oldest held ones, then the
+        chunk's own first ones when it is longer than the buffer) with a time at or after
+        ``since_s``.
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` timestamps about to be appended, s.
+        since_s : float
+            Samples before this time are no longer needed, s (``-inf``: all are).
+
+        Returns
+        -------
+        int
+        """
+        k = self._size + len(t_s) - self.capacity
+        if k <= 0:
+            return 0
+        if len(t_s) == 1:  # the usual push on a full buffer: its oldest sample goes
+            return int(self.first_t >= since_s)
+        end = self._next + self.capacity
+        held = self._t[end - self._size:end][:k]
+        own = t_s[:max(0, k - self._size)]
+        return int(np.count_nonzero(held >= since_s) + np.count_nonzero(own >= since_s))
+
     def first_at_or_after(self, t_s: float) -> float:
         """Timestamp of the oldest kept sample at or after ``t_s``, s (``inf`` if none).
 

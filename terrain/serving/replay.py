@@ -12,6 +12,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
+from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.serving.service import Decision, StreamService
 
@@ -36,7 +37,16 @@ def interleave(run: Run, streams: Sequence[str], max_chunk: int = 1
         ``(n,)`` timestamps, s.
     values : numpy.ndarray
         ``(n, n_channels)`` in the stream frame's channel order.
+
+    Raises
+    ------
+    ConfigError
+        ``max_chunk`` not an integer >= 1 (0 raised Python's ``range`` error, -1 replayed
+        nothing without a word).
     """
+    if isinstance(max_chunk, bool) or not isinstance(max_chunk, (int, np.integer)) \
+            or max_chunk < 1:
+        raise ConfigError(f"max_chunk must be an integer >= 1, got {max_chunk!r}")
     names = [s for s in streams if s in run.streams]
     times = [run.streams[s][TIME].to_numpy(dtype=float) for s in names]
     vals = [run.streams[s].drop(columns=TIME).to_numpy(dtype=float) for s in names]
@@ -67,6 +77,11 @@ def replay_run(service: StreamService, run: Run, max_chunk: int = 1) -> list[Dec
     Returns
     -------
     list of Decision
+
+    Raises
+    ------
+    ConfigError
+        ``max_chunk`` not an integer >= 1.
     """
     out: list[Decision] = []
     for stream, t, v in interleave(run, service.needed_streams, max_chunk):

@@ -3,7 +3,10 @@
 Samples of each stream arrive one by one or in chunks, each stream at its own rate and on
 its own clock (an optional per-stream offset maps it onto the service clock). Each stream
 keeps a bounded :class:`~terrain.serving.buffers.RingBuffer`, so memory is fixed for an
-unbounded stream. Every ``hop_s`` of service time the service
+unbounded stream. A chunk longer than half the buffer is taken in pieces, deciding after
+each; a sample pushed out of its buffer before any decision could read it (a backlog of one
+stream while another lags) is counted as ``buffer_overflow`` in
+:attr:`StreamService.refused_samples` and flags the windows after it. Every ``hop_s`` of service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns the last window of the model's length with the project's NumPy alignment core
@@ -72,7 +75,8 @@ import pandas as pd
 
 from features.calculators import quantile_sorted
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
-from terrain.errors import ConfigError, DataFormatError, MissingColumnError
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, config_numbers,
+                            duplicated)
 from terrain.io.align import align_arrays, overlap_grid_tail
 from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_window_flags,
                                      wheel_speed_in_kmh)
@@ -88,6 +92,13 @@ KNOWN_STREAMS: Mapping[str, tuple[str, ...]] = MappingProxyType(
     {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS})
 #: Rejection events remembered per stream (bounded, for the flags).
 MAX_EVENTS = 256
+#: Largest ``StreamConfig.buffer_samples``: 10 000 s at 100 Hz, ~110 MB per 6-channel
+#: stream (the buffer stores every sample twice); 10**9 asked NumPy for 60 GB at the first
+#: buffer
+MAX_BUFFER_SAMPLES = 1_000_000
+#: reason of a sample a chunk pushed out of its stream's buffer before any decision used it
+#: (a chunk longer than the buffer, or a backlog while another stream lags)
+OVERFLOW = "buffer_overflow"
 #: reason of the rule whose refusals may announce a clock restart
 #: (:func:`terrain.serving.rules.time_increasing`)
 TIME_RULE = "time_not_increasing"
@@ -133,7 +144,10 @@ class StreamConfig:
         non-finite ``stale_s``, ``max_backlog_s`` or ``clock_restart_s``, a
         ``min_confidence`` outside [0, 1], ``buffer_samples`` not an integer >= 2,
         ``gap_factor`` not a finite number > 1, or a clock offset that is not finite or
-        names no configured stream.
+        names no configured stream; a number field given as text, a boolean, a list or
+        ``None``; ``buffer_samples`` above :data:`MAX_BUFFER_SAMPLES`; ``streams`` that is
+        not a mapping of names to channel names, or names a channel twice; ``smoothing``
+        that is not a :class:`SmoothingConfig`.
     """
 
     hop_s: float = 0.5
@@ -148,6 +162,18 @@ class StreamConfig:
     clock_restart_s: float = 5.0
 
     def __post_init__(self) -> None:
+        config_numbers("StreamConfig", hop_s=self.hop_s, stale_s=self.stale_s,
+                       min_confidence=self.min_confidence, gap_factor=self.gap_factor,
+                       max_backlog_s=self.max_backlog_s, clock_restart_s=self.clock_restart_s)
+        _check_streams(self.streams)
+        if not isinstance(self.clock_offsets_s, Mapping):
+            raise ConfigError("StreamConfig.clock_offsets_s must be a mapping of stream name "
+                              f"-> offset in s, got {type(self.clock_offsets_s).__name__}")
+        offsets = {str(k): v for k, v in self.clock_offsets_s.items()}
+        config_numbers("StreamConfig.clock_offsets_s", **offsets)
+        if not isinstance(self.smoothing, SmoothingConfig):
+            raise ConfigError("StreamConfig.smoothing must be a SmoothingConfig, got "
+                              f"{type(self.smoothing).__name__}")
         if not self.hop_s > 0:
             raise ConfigError(f"hop_s must be > 0, got {self.hop_s}")
         # an infinite stale_s waits for ever for a silent stream (no decision at all)
@@ -158,9 +184,9 @@ class StreamConfig:
         if not 0 <= self.min_confidence <= 1:
             raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
         if isinstance(self.buffer_samples, bool) or not isinstance(self.buffer_samples, int) \
-                or self.buffer_samples < 2:
-            raise ConfigError(f"buffer_samples must be an integer >= 2, got "
-                              f"{self.buffer_samples!r}")
+                or not 2 <= self.buffer_samples <= MAX_BUFFER_SAMPLES:
+            raise ConfigError(f"buffer_samples must be an integer in [2, {MAX_BUFFER_SAMPLES}], "
+                              f"got {self.buffer_samples!r}")
         # a factor <= 1 calls half of all steps a gap (every window dropped); NaN none
         if not 1 < self.gap_factor < np.inf:
             raise ConfigError(f"gap_factor must be a finite number > 1, got {self.gap_factor}")
@@ -170,6 +196,26 @@ class StreamConfig:
             raise ConfigError(f"clock_offsets_s must be finite offsets of configured streams "
                               f"{list(self.streams)}; got unknown stream(s) {unknown}, "
                               f"non-finite {bad}")
+
+
+def _check_streams(streams) -> None:
+    """Refuse a ``StreamConfig.streams`` that is not stream name -> distinct channel names
+    (a channel named twice, in one stream or two, would be read from one place only)."""
+    if not isinstance(streams, Mapping) or not streams:
+        raise ConfigError("StreamConfig.streams must be a non-empty mapping of stream name -> "
+                          f"channel names, got {type(streams).__name__} {streams!r:.60}")
+    names = []
+    for stream, channels in streams.items():
+        if not isinstance(stream, str) or isinstance(channels, str) or not all(
+                isinstance(c, str) for c in channels) or not channels:
+            raise ConfigError("StreamConfig.streams must map stream names (text) to "
+                              f"non-empty sequences of channel names, got {stream!r}: "
+                              f"{channels!r:.60}")
+        names.extend(channels)
+    dup = duplicated(names)
+    if dup:
+        raise ConfigError(f"StreamConfig.streams names channel(s) {dup} more than once; each "
+                          "channel belongs to one stream, once")
 
 
 @dataclass(frozen=True)
@@ -254,7 +300,8 @@ class StreamService:
     Raises
     ------
     ConfigError
-        A channel the model needs is in none of the configured streams, the hop is
+        ``model``, ``config``, ``targets`` or ``rules`` of the wrong kind (e.g. ``None``),
+        a channel the model needs is in none of the configured streams, the hop is
         shorter than one period of the model's clock (:func:`check_hop`), or
         ``buffer_samples`` cannot hold one window of the model (plus 2 samples).
     """
@@ -262,6 +309,18 @@ class StreamService:
     def __init__(self, model: StreamModel, targets: TargetProvider,
                  config: StreamConfig = StreamConfig(),
                  rules: Sequence[SampleRule] = DEFAULT_RULES) -> None:
+        for name, value, kind in (("model", model, StreamModel),
+                                  ("config", config, StreamConfig)):
+            if not isinstance(value, kind):
+                raise ConfigError(f"StreamService {name} must be a {kind.__name__}, got "
+                                  f"{type(value).__name__}")
+        if not callable(getattr(targets, "target_for", None)):
+            raise ConfigError("StreamService targets must be a TargetProvider (e.g. "
+                              f"TableTargets), got {type(targets).__name__}")
+        if isinstance(rules, (str, bytes)) or not all(callable(r) for r in _iterable(rules)):
+            raise ConfigError("StreamService rules must be a sequence of SampleRule "
+                              f"functions, got {type(rules).__name__} {rules!r:.60}")
+        rules = tuple(rules)
         check_hop(config.hop_s, model.window.rate_hz)
         if config.buffer_samples < model.window.n_samples + 2:
             raise ConfigError(f"buffer_samples {config.buffer_samples} cannot hold one "
@@ -357,9 +416,11 @@ class StreamService:
             Stream name (a key of ``config.streams``).
         t_s : float or numpy.ndarray
             ``(n,)`` timestamps on the stream's own clock, s.
-        values : Mapping[str, array] or numpy.ndarray
-            Channel -> ``(n,)`` values, or ``(n, n_channels)`` in the stream's channel
-            order; SI units.
+        values : Mapping[str, array], pandas.DataFrame or numpy.ndarray
+            Channel -> ``(n,)`` values (a DataFrame is read by its column names, a Series
+            as one sample), or ``(n, n_channels)`` in the stream's channel order (one
+            sample may be a 1-D row, one channel a 1-D column); SI units. Masked values
+            are missing (NaN).
 
         Returns
         -------
@@ -373,16 +434,22 @@ class StreamService:
         MissingColumnError
             A channel of the stream is missing from ``values``.
         DataFormatError
-            ``values`` of the wrong shape, a channel's values and the timestamps of
-            different lengths, or a timestamp or value that is not a real number.
+            ``values`` of any other shape (a transposed chunk included), a channel's values
+            and the timestamps of different lengths, or a timestamp or value that is not a
+            real number (text, complex, booleans, NumPy datetime or timedelta, an integer
+            beyond the float range, ragged lists).
         """
-        if stream not in self.config.streams:
-            raise ConfigError(f"unknown stream {stream!r}; configured: "
+        if not isinstance(stream, str) or stream not in self.config.streams:
+            raise ConfigError(f"unknown stream {stream!r:.60}; configured: "
                               f"{list(self.config.streams)}")
         if stream not in self.streams:
             return []
         channels = self.streams[stream]
         t = _real_array(t_s, stream, "t_s") + self._offsets[stream]
+        if isinstance(values, pd.DataFrame):  # by its column names, not their order
+            values = {c: values[c].to_numpy() for c in values.columns if c in channels}
+        elif isinstance(values, pd.Series):   # one sample, channel -> value
+            values = values.to_dict()
         if isinstance(values, Mapping):
             absent = [c for c in channels if c not in values]
             if absent:
@@ -396,15 +463,20 @@ class StreamService:
                                       f"{t.size} timestamps", f"stream {stream}", uneven[0])
             v = np.column_stack(columns) if len(t) else np.empty((0, len(channels)))
         else:
-            v = np.asarray(values)
-            v = _real_array(v, stream, "values").reshape(len(t), -1) \
-                if v.size == len(t) * len(channels) else None
-        if v is None or v.shape != (len(t), len(channels)):
-            raise DataFormatError(f"stream {stream!r}: expected values of shape "
-                                  f"({len(t)}, {len(channels)}) for channels {channels}",
-                                  f"stream {stream}")
-        self._ingest(stream, t, v)
-        return self._emit()
+            v = _values_matrix(_real_array(values, stream, "values"), len(t), channels, stream)
+        if not len(t):
+            return []
+        # a chunk longer than half the buffer goes in pieces, deciding after each: in one
+        # piece the buffer would keep only its newest samples and the rest be lost
+        piece = max(1, self.config.buffer_samples // 2)
+        if len(t) <= piece:
+            self._ingest(stream, t, v)
+            return self._emit()
+        out = []
+        for i in range(0, len(t), piece):
+            self._ingest(stream, t[i:i + piece], v[i:i + piece])
+            out.extend(self._emit())
+        return out
 
     def _ingest(self, stream: str, t: np.ndarray, v: np.ndarray) -> None:
         """Apply the rules to a validated chunk, buffer what they keep and watch the
@@ -422,8 +494,22 @@ class StreamService:
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
+        if len(t):
+            # samples the chunk pushes out of the buffer before a decision used them
+            lost = buf.evicted(t, self._needed_since())
+            if lost:
+                self._refused[(stream, OVERFLOW)] += lost
+                self._events[stream].append((float(t[0]), OVERFLOW))
         buf.append(t, v)
         self._watch_restart(stream, late, order)
+
+    def _needed_since(self) -> float:
+        """Oldest time a coming decision's window may still read, s (``-inf`` before the
+        first decision: every sample may be)."""
+        if self._next_t is None:
+            return -np.inf
+        w = self.model.window
+        return self._next_t - w.window_s - 2.0 / w.rate_hz
 
     def _watch_restart(self, stream: str, late, kept_order: np.ndarray) -> None:
         """Keep the samples of ``stream`` refused as not increasing since its last accepted
@@ -622,6 +708,33 @@ class StreamService:
                         float(steady), float(age), "|".join(sorted(flags)))
 
 
+def _values_matrix(v: np.ndarray, n: int, channels: Sequence[str],
+                   stream: str) -> np.ndarray:
+    """``(n, n_channels)`` values of a chunk of ``n`` samples: that shape, one sample as a
+    1-D ``(n_channels,)`` row, or one channel as a 1-D ``(n,)`` column; any other shape (a
+    transposed ``(n_channels, n)`` chunk) is a :class:`DataFormatError`, never reshaped."""
+    want = (n, len(channels))
+    if v.shape == want:
+        return v
+    if n == 0 and v.size == 0:  # an empty chunk, e.g. [] or np.empty(0)
+        return np.empty(want)
+    if (v.ndim == 1 and (n == 1 and v.size == len(channels)
+                         or len(channels) == 1 and v.size == n)) or (v.ndim == 0 and want == (1, 1)):
+        return v.reshape(want)
+    raise DataFormatError(f"stream {stream!r}: expected values of shape {want} (samples x "
+                          f"channels {list(channels)}), got {v.shape}"
+                          + (" (transposed?)" if v.shape == want[::-1] else ""),
+                          f"stream {stream}", "values")
+
+
+def _iterable(x) -> tuple:
+    """``x`` as a tuple, or ``(None,)`` (not callable) when it cannot be iterated."""
+    try:
+        return tuple(x)
+    except TypeError:
+        return (None,)
+
+
 def _real_array(x, stream: str, column: str) -> np.ndarray:
     """``x`` as a float array, or a typed error naming the stream and column: text, a
     complex number, or (for ``t_s`` and one channel's values, which are 1-D) more than one
@@ -631,10 +744,20 @@ def _real_array(x, stream: str, column: str) -> np.ndarray:
         return x
     if type(x) is float:
         return np.array(x) if column == "values" else np.array((x,))
+    if isinstance(x, np.ma.MaskedArray):  # a masked sample is a missing one, not its data
+        x = np.ma.filled(x.astype(float), np.nan) if x.dtype.kind in "biuf" else x.filled()
     try:
-        complex_input = np.iscomplexobj(x)
-        a = None if complex_input else np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
+        raw = x if isinstance(x, np.ndarray) else np.asarray(x)
+        kind = raw.dtype.kind
+        if kind in "bmM":
+            # True would be 1.0; a timedelta64 or datetime64 its count of ms or us as s
+            raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers (s and "
+                                  f"SI units), got {'booleans' if kind == 'b' else 'NumPy times'}"
+                                  f" ({raw.dtype})", f"stream {stream}", column)
+        a = None if kind == "c" else np.asarray(raw, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, DataFormatError):
+            raise
         raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers "
                               f"({exc})", f"stream {stream}", column) from None
     if a is None:

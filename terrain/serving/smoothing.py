@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 
 #: floor on classifier probabilities so one window can never veto a class for good
 PROBA_FLOOR = 1e-4
@@ -67,6 +67,13 @@ class SmoothingConfig:
         default) disables the reset.
     reset_windows : int
         Consecutive such windows, naming the same class, that reset the filter (>= 1).
+
+    Raises
+    ------
+    ConfigError
+        A field that is not a real number (text, a boolean, a list; ``dwell_s`` and
+        ``reset_confidence`` may be ``None``), outside its range, or ``reset_confidence``
+        without ``dwell_s``.
     """
 
     dwell_s: float | None = 10.0
@@ -76,6 +83,9 @@ class SmoothingConfig:
     reset_windows: int = 2
 
     def __post_init__(self) -> None:
+        config_numbers("SmoothingConfig", ("reset_confidence",),
+                       evidence_power=self.evidence_power,
+                       hysteresis=self.hysteresis, reset_confidence=self.reset_confidence)
         if self.dwell_s is not None and not _finite_positive(self.dwell_s):
             # an infinite dwell would never leave the first terrain (p_switch = 0)
             raise ConfigError(f"dwell_s must be a finite number > 0 (or None for no "
@@ -91,7 +101,8 @@ class SmoothingConfig:
             if self.dwell_s is None:
                 raise ConfigError("reset_confidence resets the forward filter; it needs "
                                   "dwell_s (the filter on)")
-        if not (isinstance(self.reset_windows, int) and self.reset_windows >= 1):
+        if isinstance(self.reset_windows, bool) or not (isinstance(self.reset_windows, int)
+                                                        and self.reset_windows >= 1):
             raise ConfigError(f"reset_windows must be an integer >= 1, got {self.reset_windows}")
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from features.windows import add_derived_channels, window_frame
+from terrain.control import DesiredSlipConfig
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
 from terrain.io.align import align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
@@ -413,6 +414,129 @@ def test_stream_config_refuses_settings_that_silence_the_service(kwargs, words):
     # dropped every window, NaN never saw a gap, an infinite stale_s waits for ever
     with pytest.raises(ConfigError, match=re.escape(words)):
         StreamConfig(**kwargs)
+
+
+@pytest.mark.parametrize("cls, kwargs, words", [
+    # each raised Python's TypeError / NumPy's ValueError, or was accepted (True as 1)
+    (StreamConfig, dict(hop_s="0.5"), "StreamConfig.hop_s must be a real number, got str"),
+    (StreamConfig, dict(min_confidence=True), "StreamConfig.min_confidence must be a real"),
+    (StreamConfig, dict(stale_s=np.array([1.0, 2.0])), "StreamConfig.stale_s must be a real"),
+    (StreamConfig, dict(clock_offsets_s={"imu": "1.0"}), "clock_offsets_s.imu must be a real"),
+    (StreamConfig, dict(clock_offsets_s={"imu": None}), "clock_offsets_s.imu must be a real"),
+    (StreamConfig, dict(clock_offsets_s=None), "clock_offsets_s must be a mapping"),
+    (StreamConfig, dict(streams=None), "streams must be a non-empty mapping"),
+    (StreamConfig, dict(smoothing=None), "smoothing must be a SmoothingConfig"),
+    (StreamConfig, dict(buffer_samples=10**9), "buffer_samples must be an integer in [2, "),
+    # a channel named twice was read from one place only, the other copy ignored
+    (StreamConfig, dict(streams={"wheels": (*WHEEL_CHANNELS, "vel_l")}), "['vel_l'] more than"),
+    (StreamConfig, dict(streams={"wheels": WHEEL_CHANNELS, "odo": ("vel_l",)}), "['vel_l']"),
+    (SmoothingConfig, dict(hysteresis="0"), "SmoothingConfig.hysteresis must be a real"),
+    (SmoothingConfig, dict(evidence_power=None), "SmoothingConfig.evidence_power must be"),
+    (SmoothingConfig, dict(reset_windows=True), "reset_windows must be an integer"),
+    (DesiredSlipConfig, dict(min_confidence="0.5"), "DesiredSlipConfig.min_confidence"),
+    (DesiredSlipConfig, dict(max_decision_age_s=True), "max_decision_age_s must be a real"),
+])
+def test_configs_refuse_values_that_are_not_numbers_by_name(cls, kwargs, words):
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        cls(**kwargs)
+
+
+def test_the_service_refuses_arguments_of_the_wrong_kind(wheel_model):
+    targets = CataloguePeakTargets(wheel_model.classes)
+    with pytest.raises(ConfigError, match="targets must be a TargetProvider"):
+        StreamService(wheel_model, None)            # was an AttributeError at a decision
+    with pytest.raises(ConfigError, match="rules must be a sequence of SampleRule"):
+        StreamService(wheel_model, targets, StreamConfig(), None)   # was a TypeError at push
+    with pytest.raises(ConfigError, match="config must be a StreamConfig"):
+        StreamService(wheel_model, targets, {"hop_s": 0.5})
+
+
+def _wheel_chunk(n, t0=10.0, step=0.1):
+    t = t0 + step * np.arange(n)
+    return t, np.column_stack([np.full(n, 0.3), np.full(n, 0.3), np.full(n, 8.0),
+                               np.full(n, 8.0)])
+
+
+@pytest.mark.parametrize("values, words", [
+    # a transposed chunk of 2 samples x 4 channels was reshaped row by row: speeds became
+    # currents without a word
+    (lambda v: v.T, "expected values of shape (2, 4)"),
+    (lambda v: v.reshape(1, 2, 4), "got (1, 2, 4)"),
+    (lambda v: [list(v[0]), list(v[1][:3])], "values must hold real numbers"),  # ragged
+    (lambda v: v > 0, "got booleans"),
+])
+def test_values_of_any_other_shape_than_samples_by_channels_are_refused(wheel_model, values,
+                                                                        words):
+    t, v = _wheel_chunk(2)
+    with pytest.raises(DataFormatError, match=re.escape(words)):
+        service(wheel_model).push("wheels", t, values(v))
+
+
+@pytest.mark.parametrize("t_s, words", [
+    (np.array([10], dtype="timedelta64[ms]"), "got NumPy times"),    # was read as 10 s
+    (np.datetime64("1970-01-01T00:00:10"), "got NumPy times"),
+    (True, "got booleans"),                                         # was t = 1 s
+    (10 ** 400, "int too large"),                                   # was an OverflowError
+])
+def test_timestamps_that_are_not_seconds_are_refused(wheel_model, t_s, words):
+    with pytest.raises(DataFormatError, match=words):
+        service(wheel_model).push("wheels", t_s, _wheel_chunk(1)[1])
+
+
+def test_an_unhashable_stream_name_and_an_empty_chunk(wheel_model):
+    svc = service(wheel_model)
+    with pytest.raises(ConfigError, match="unknown stream"):
+        svc.push(["wheels"], 0.0, _wheel_chunk(1)[1])               # was a TypeError
+    for empty in ([], np.empty(0), np.empty((0, 4))):                 # was NumPy's ValueError
+        assert svc.push("wheels", [], empty) == []
+    assert svc.refused_samples == {}
+
+
+def test_a_dataframe_is_read_by_its_column_names_and_a_mask_is_missing_data(wheel_model):
+    import pandas as pd
+
+    t, v = _wheel_chunk(3)
+    frame = pd.DataFrame(v, columns=WHEEL_CHANNELS)
+    frame["vel_l"] = 0.5
+    svc = service(wheel_model)
+    svc.push("wheels", t, frame[["cur_r", "vel_l", "cur_l", "vel_r"]])  # was by position
+    np.testing.assert_array_equal(svc._buffers["wheels"].since(-np.inf)[1],
+                                  frame[list(WHEEL_CHANNELS)].to_numpy())
+    masked = np.ma.masked_array(v, mask=np.zeros_like(v, bool))
+    masked.mask[1, 2] = True                                         # its 8.0 was used
+    svc = service(wheel_model)
+    svc.push("wheels", t, masked)
+    assert svc.refused_samples == {("wheels", "non_finite"): 1}
+
+
+def test_a_chunk_longer_than_the_buffer_loses_no_decision(wheel_model):
+    """10 000 wheel samples in one push, buffer 4096: the buffer kept only the newest and the
+    first 590 s made no decision and no count."""
+    t, v = _wheel_chunk(10_000)
+    whole = service(wheel_model).push("wheels", t, v)
+    svc = service(wheel_model)
+    pieces = [d for i in range(0, 10_000, 500) for d in svc.push("wheels", t[i:i + 500],
+                                                                   v[i:i + 500])]
+    assert len(whole) == len(pieces) > 1900
+    np.testing.assert_allclose([d.t_s for d in whole], [d.t_s for d in pieces])
+    assert whole[0].t_s == pytest.approx(t[0] + wheel_model.window.window_s)
+
+
+def test_samples_pushed_out_of_the_buffer_before_any_decision_are_counted(all_model):
+    """IMU samples held while the wheel stream lags: those the buffer cannot keep until the
+    wheels arrive are counted and the first decision after them says so."""
+    cfg = dict(buffer_samples=600, stale_s=1000.0, max_backlog_s=1000.0)
+    svc = service(all_model, **cfg)
+    rate = all_model.window.rate_hz
+    n = 1000
+    t = 10.0 + np.arange(n) / 100.0
+    imu = np.column_stack([np.zeros(n), np.zeros(n), np.full(n, 9.81), np.zeros((n, 3))])
+    assert svc.push("imu", t, imu) == []
+    tw, vw = _wheel_chunk(int(10 * 6.5), t0=10.0, step=1 / 6.5)
+    out = svc.push("wheels", tw, vw)
+    lost = svc.refused_samples.get(("imu", "buffer_overflow"), 0)
+    assert lost == n - 600 and rate > 0
+    assert out and any("buffer_overflow" in d.flags for d in out)
 
 
 def test_a_buffer_shorter_than_one_window_is_refused(wheel_model):
