@@ -226,12 +226,16 @@ def load_stream_model(path: str | Path) -> StreamModel:
     Raises
     ------
     ConfigError
-        Missing or malformed ``MLmodel`` or pipeline artifact, metadata lacking the
+        ``path`` not a path (e.g. ``None``), a missing or malformed ``MLmodel`` or pipeline
+        artifact, metadata lacking the
         settings (:func:`read_model_metadata`), or a pipeline file that does not hold a
         fitted classifier (:func:`load_pipeline`).
     OSError
         The pipeline file is unreadable.
     """
+    if not isinstance(path, (str, Path)):
+        raise ConfigError(f"load_stream_model needs a model directory path, got "
+                          f"{type(path).__name__} {path!r:.60}")
     path = Path(path)
     meta = read_model_metadata(path)
     pipeline = load_pipeline(path / PIPELINE_ARTIFACT)

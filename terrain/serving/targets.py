@@ -12,7 +12,7 @@ from __future__ import annotations
 from types import MappingProxyType
 from typing import Mapping, NamedTuple, Protocol, Sequence
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import get_terrain, steady_slip, traction_peak
 
 
@@ -80,10 +80,16 @@ class CataloguePeakTargets:
     Raises
     ------
     ConfigError
-        A class unknown to the catalogue.
+        A class unknown to the catalogue, ``classes`` not a sequence of text labels, or
+        ``min_confidence`` not a number in [0, 1].
     """
 
     def __init__(self, classes: Sequence[str], min_confidence: float = 0.5) -> None:
+        classes = _class_names(classes, "CataloguePeakTargets")
+        config_numbers("CataloguePeakTargets", min_confidence=min_confidence)
+        if not 0.0 <= float(min_confidence) <= 1.0:  # NaN would never take the fallback
+            raise ConfigError(f"CataloguePeakTargets.min_confidence must be in [0, 1], got "
+                              f"{min_confidence}")
         table = {}
         for name in classes:
             params = get_terrain(name)
@@ -135,11 +141,17 @@ class TableTargets:
     Raises
     ------
     ConfigError
-        A class missing from the terrain catalogue.
+        A class missing from the terrain catalogue, ``classes`` not a sequence of text
+        labels, or ``config`` not a DesiredSlipConfig.
     """
 
     def __init__(self, classes: Sequence[str], config=None) -> None:
         from terrain.control import DesiredSlipConfig, build_slip_table
+
+        classes = _class_names(classes, "TableTargets")
+        if config is not None and not isinstance(config, DesiredSlipConfig):
+            raise ConfigError("TableTargets config must be a DesiredSlipConfig, got "
+                              f"{type(config).__name__}")
 
         self.table = build_slip_table(classes, config or DesiredSlipConfig())
         fb = self.table.fallback
@@ -166,3 +178,14 @@ class TableTargets:
         age = 2.0 * self.table.config.max_decision_age_s if stale else 0.0
         e = select_target(self.table, terrain, confidence, age)
         return SlipTargets(e.traction, e.braking, e.steady)
+
+
+def _class_names(classes, owner: str) -> tuple[str, ...]:
+    """``classes`` as a tuple of text labels, or a :class:`ConfigError` naming ``owner``."""
+    if isinstance(classes, (str, bytes)) or not hasattr(classes, "__iter__"):
+        raise ConfigError(f"{owner} needs a sequence of class names, got "
+                          f"{type(classes).__name__} {classes!r:.60}")
+    classes = tuple(classes)
+    if not all(isinstance(c, str) for c in classes):
+        raise ConfigError(f"{owner} class names must be text, got {classes!r:.80}")
+    return classes

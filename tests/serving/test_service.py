@@ -451,6 +451,21 @@ def test_the_service_refuses_arguments_of_the_wrong_kind(wheel_model):
         StreamService(wheel_model, targets, {"hop_s": 0.5})
 
 
+def test_target_providers_and_the_model_loader_refuse_bad_arguments(wheel_model):
+    from terrain.serving import TableTargets, load_stream_model
+
+    with pytest.raises(ConfigError, match="needs a sequence of class names"):
+        TableTargets(None)                                          # was a TypeError
+    with pytest.raises(ConfigError, match="config must be a DesiredSlipConfig"):
+        TableTargets(wheel_model.classes, {"min_confidence": 0.5})  # was an AttributeError
+    with pytest.raises(ConfigError, match="min_confidence must be a real number"):
+        CataloguePeakTargets(wheel_model.classes, "x")              # was a ValueError
+    with pytest.raises(ConfigError, match=r"min_confidence must be in \[0, 1\], got nan"):
+        CataloguePeakTargets(wheel_model.classes, float("nan"))     # never took the fallback
+    with pytest.raises(ConfigError, match="needs a model directory path"):
+        load_stream_model(None)                                     # was a TypeError
+
+
 def _wheel_chunk(n, t0=10.0, step=0.1):
     t = t0 + step * np.arange(n)
     return t, np.column_stack([np.full(n, 0.3), np.full(n, 0.3), np.full(n, 8.0),
