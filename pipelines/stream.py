@@ -25,7 +25,7 @@ from terrain.control import DesiredSlipConfig
 from terrain.run import TIME
 from terrain.serving import (StreamConfig, StreamService, TableTargets,
                              decisions_frame, load_stream_model, replay_run)
-from terrain.serving.service import join_flags, stuck_decision_flags
+from terrain.serving.service import join_flags, stuck_decision_flags, without_stuck
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -116,7 +116,7 @@ def main(args: argparse.Namespace) -> int:
     frame = decisions_frame(replay_run(service, run), model.classes)
     window_s = model.window.window_s
     stuck = stuck_decision_flags(frame, dict(run.meta.get("stuck", {})), window_s)
-    frame["flags"] = join_flags(frame["flags"], stuck)
+    frame["flags"] = join_flags(without_stuck(frame["flags"]), stuck)
     n_stuck = int((stuck != "").sum())
     span = _overlap_s([run.streams[s] for s in service.needed_streams])
     # a run whose needed streams share less than one window is refused even where the

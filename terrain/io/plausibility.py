@@ -88,7 +88,7 @@ import pandas as pd
 
 from terrain.errors import (ClockError, DataWarning, ImplausibleValueError, UnitError,
                             first_items)
-from terrain.run import TIME
+from terrain.run import IMU_CHANNELS, TIME
 
 
 @dataclass(frozen=True)
@@ -175,6 +175,56 @@ MAX_GYRO_SPREAD_RAD_S = 0.3
 #: seconds of one exact repeated value after which a channel is stuck
 STUCK_IMU_S = 1.0
 STUCK_CURRENT_S = 20.0
+#: samples of one exact value a stuck stretch needs besides its duration (a slow stream's
+#: few repeats are not one)
+STUCK_MIN_SAMPLES = 10
+
+
+def stuck_limit_s(stream: str, channel: str) -> float | None:
+    """Seconds of one repeated value after which ``channel`` is stuck (rule
+    ``stuck_sensor``), or None when the rule does not judge it.
+
+    Parameters
+    ----------
+    stream : str
+        Stream name: only ``imu`` channels and ``wheels`` currents are judged by the readers;
+        a stream of another name (a regrouping in the streaming service) is judged by its
+        channel names alone.
+    channel : str
+        Channel name.
+
+    Returns
+    -------
+    float or None
+        :data:`STUCK_IMU_S` for the IMU channels, :data:`STUCK_CURRENT_S` for the motor
+        currents, None otherwise (wheel speeds hold quantised values for minutes).
+    """
+    if channel in IMU_CHANNELS and stream != "wheels":
+        return STUCK_IMU_S
+    if channel in ("cur_l", "cur_r") and stream != "imu":
+        return STUCK_CURRENT_S
+    return None
+
+
+def is_stuck(duration_s: float, n_samples: int, limit_s: float) -> bool:
+    """Whether a stretch of one exact value is a stuck sensor (rule ``stuck_sensor``).
+
+    Parameters
+    ----------
+    duration_s : float or numpy.ndarray
+        From the stretch's first to its last sample, s (one per stretch).
+    n_samples : int or numpy.ndarray
+        Samples in the stretch (one per stretch).
+    limit_s : float
+        :func:`stuck_limit_s` of the channel, s.
+
+    Returns
+    -------
+    bool or numpy.ndarray
+        ``duration_s >= limit_s`` and at least :data:`STUCK_MIN_SAMPLES` samples, per
+        stretch.
+    """
+    return (np.asarray(duration_s) >= limit_s) & (np.asarray(n_samples) >= STUCK_MIN_SAMPLES)
 #: median specific-force norm below which an accelerometer is in g (gravity reads 1 in g,
 #: 9.81 in m/s^2), m/s^2
 G_UNITS_BELOW_M_S2 = 3.0
@@ -385,23 +435,21 @@ def stuck_stretches(streams: Mapping[str, pd.DataFrame]) -> dict[str, list[list[
     dict
         ``"<stream>.<channel>" -> [[t_start_s, t_end_s], ...]`` (only stuck channels).
     """
-    judged = {"imu": (("wx", "wy", "wz", "ax", "ay", "az"), STUCK_IMU_S),
-              "wheels": (("cur_l", "cur_r"), STUCK_CURRENT_S)}
     out: dict[str, list[list[float]]] = {}
-    for stream, (channels, min_s) in judged.items():
+    for stream in ("imu", "wheels"):
         frame = streams.get(stream)
         if frame is None or len(frame) < 3:
             continue
         t = frame[TIME].to_numpy()
-        for c in channels:
-            if c not in frame.columns:
+        for c in frame.columns:
+            min_s = stuck_limit_s(stream, c)
+            if min_s is None:
                 continue
             x = frame[c].to_numpy()
             change = np.flatnonzero(np.diff(x) != 0)
             starts = np.r_[0, change + 1]
             ends = np.r_[change, x.size - 1]
-            # a stuck stretch also needs >= 10 samples (a slow stream's few repeats are not)
-            long = (t[ends] - t[starts] >= min_s) & (ends - starts >= 9)
+            long = is_stuck(t[ends] - t[starts], ends - starts + 1, min_s)
             if long.any():
                 out[f"{stream}.{c}"] = [[float(t[a]), float(t[b])]
                                         for a, b in zip(starts[long], ends[long])]

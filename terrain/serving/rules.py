@@ -20,16 +20,22 @@ applied sample by sample instead of file by file:
 
 A rule is any callable ``rule(channels, t_s, values, last_t_s) -> (keep, reason)``; the
 service takes a tuple of them, so a robot can add its own.
+
+One rule judges a stretch of samples rather than each one: ``stuck_sensor``
+(:class:`StuckWatch`), a channel repeating one exact value for long (the readers'
+:func:`terrain.io.plausibility.stuck_stretches`); it flags the windows holding the stretch
+(``stuck:<stream>.<channel>[,...]``, the readers' flag) and drops nothing, as the readers and the served model do.
 """
 
 from __future__ import annotations
 
 import functools
+from collections import deque
 from typing import Callable, Sequence
 
 import numpy as np
 
-from terrain.io.plausibility import CHANNEL_LIMITS
+from terrain.io.plausibility import CHANNEL_LIMITS, is_stuck, stuck_limit_s
 from terrain.run import IMU_CHANNELS
 
 #: Largest plausible ``|timestamp|``, s: 1e11 s is 3,170 years, 55 times a Unix time of
@@ -195,3 +201,107 @@ def plausible_time(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
 #: The readers' rules, in the order they are applied.
 DEFAULT_RULES: tuple[SampleRule, ...] = (finite_values, plausible_time, time_increasing,
                                          plausible_gyro, plausible_values)
+
+
+class StuckWatch:
+    """Rule ``stuck_sensor`` on a live stream: stretches of one exact repeated value.
+
+    The readers' rule (:func:`terrain.io.plausibility.stuck_stretches`, criterion
+    :func:`terrain.io.plausibility.is_stuck`, judged channels
+    :func:`terrain.io.plausibility.stuck_limit_s`) followed sample by sample with constant
+    memory: per judged channel, the value and start of its current stretch, plus the last
+    ``max_stretches`` ended stuck stretches.
+
+    Parameters
+    ----------
+    stream : str
+        Stream name (for the flags).
+    channels : sequence of str
+        The stream's channels, in its value order.
+    max_stretches : int
+        Ended stuck stretches remembered per channel (older ones no longer flag anything).
+    """
+
+    def __init__(self, stream: str, channels: Sequence[str], max_stretches: int = 16) -> None:
+        limits = [(j, c, stuck_limit_s(stream, c)) for j, c in enumerate(channels)]
+        judged = [(j, c, lim) for j, c, lim in limits if lim is not None]
+        self.columns = np.array([j for j, _, _ in judged], dtype=int)
+        self.keys = [f"{stream}.{c}" for _, c, _ in judged]
+        self.limits_s = np.array([lim for _, _, lim in judged], dtype=float)
+        self.value = np.full(len(judged), np.nan)   # value of the current stretch
+        self.start_t = np.full(len(judged), np.nan)  # time of its first sample, s
+        self.count = np.zeros(len(judged), dtype=int)
+        self.last_t = -np.inf
+        self.ended: list[deque] = [deque(maxlen=max_stretches) for _ in judged]
+        self._repeats = False   # whether a channel's current stretch holds > 1 sample
+
+    def update(self, t_s: np.ndarray, values: np.ndarray) -> None:
+        """Follow accepted samples (in increasing time).
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` timestamps, s.
+        values : numpy.ndarray
+            ``(n, n_channels)`` values in the stream's channel order.
+        """
+        if not len(t_s) or not self.columns.size:
+            return
+        if len(t_s) == 1:  # the usual push: all channels at once, no loop over samples
+            x = values[0, self.columns]
+            changed = x != self.value                     # NaN (the start): changed
+            if not self._repeats and changed.all():       # a live sensor: ~4 us
+                self.start_t[:] = t_s[0]
+                self.count[:] = 1
+                self.value = x
+                self.last_t = float(t_s[0])
+                return
+            ended = changed & is_stuck(self.last_t - self.start_t, self.count, self.limits_s)
+            for k in np.flatnonzero(ended):
+                self.ended[k].append((float(self.start_t[k]), self.last_t))
+            self.start_t[changed] = t_s[0]
+            self.count = np.where(changed, 1, self.count + 1)
+            self.value = x.astype(float)
+            self.last_t = float(t_s[0])
+            self._repeats = bool(self.count.max() > 1)
+            return
+        x = values[:, self.columns]
+        for k in range(self.columns.size):
+            col = x[:, k]
+            change = np.flatnonzero(np.diff(np.r_[self.value[k], col]) != 0)  # NaN: change
+            if change.size:
+                end_t = float(t_s[change[0] - 1]) if change[0] > 0 else self.last_t
+                n = self.count[k] + change[0]
+                if is_stuck(end_t - self.start_t[k], n, self.limits_s[k]):
+                    self.ended[k].append((float(self.start_t[k]), end_t))
+                # stretches that start and end inside the chunk
+                starts, ends = change[:-1], change[1:] - 1
+                long = is_stuck(t_s[ends] - t_s[starts], ends - starts + 1, self.limits_s[k])
+                self.ended[k].extend((float(t_s[a]), float(t_s[b]))
+                                     for a, b in zip(starts[long], ends[long]))
+                self.start_t[k], self.count[k] = t_s[change[-1]], len(col) - change[-1]
+            else:
+                self.count[k] += len(col)
+            self.value[k] = col[-1]
+        self.last_t = float(t_s[-1])
+        self._repeats = bool(self.count.max() > 1)
+
+    def stuck_between(self, t_lo_s: float, t_hi_s: float) -> list[str]:
+        """The judged channels stuck somewhere in ``[t_lo_s, t_hi_s)``.
+
+        Parameters
+        ----------
+        t_lo_s, t_hi_s : float
+            A decision's window, s.
+
+        Returns
+        -------
+        list of str
+            ``<stream>.<channel>`` of each such channel, in the stream's channel order (the
+            keys of :func:`terrain.io.plausibility.stuck_stretches`).
+        """
+        now = (is_stuck(self.last_t - self.start_t, self.count, self.limits_s)
+               & (self.start_t < t_hi_s)) if self._repeats and self.last_t >= t_lo_s else ()
+        return [key for k, key in enumerate(self.keys)
+                if (len(now) and now[k]) or any(a < t_hi_s and b >= t_lo_s
+                                                for a, b in self.ended[k])]

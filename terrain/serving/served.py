@@ -64,7 +64,7 @@ from terrain.serving.replay import replay_run
 from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
 from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
                                      check_hop, decisions_frame, join_flags,
-                                     stuck_decision_flags)
+                                     stuck_decision_flags, without_stuck)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -538,7 +538,7 @@ def _plausibility_flags(frame: pd.DataFrame, window_s: float,
     rules = "|".join(sorted({f"warning:{m.group(1)}" for w in checks.get("warnings", ())
                              for m in [re.search(r"rule (\w+)", w)] if m}
                             | {f"unused:{s}" for s in checks.get("unused", {})}))
-    return join_flags(frame["flags"], stuck, [rules] * len(frame))
+    return join_flags(without_stuck(frame["flags"]), stuck, [rules] * len(frame))
 
 
 class ServedStreamModel(PythonModel):

@@ -83,7 +83,7 @@ from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_window_fl
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
-from terrain.serving.rules import DEFAULT_RULES, SampleRule
+from terrain.serving.rules import DEFAULT_RULES, SampleRule, StuckWatch
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.serving.targets import TargetProvider
 
@@ -338,6 +338,7 @@ class StreamService:
         self._buffers = {s: RingBuffer(len(ch), config.buffer_samples)
                          for s, ch in self.streams.items()}
         self._events: dict[str, deque] = {s: deque(maxlen=MAX_EVENTS) for s in self.streams}
+        self._stuck = {s: StuckWatch(s, ch) for s, ch in self.streams.items()}
         self._refused: Counter = Counter()
         self._skipped = 0
         self._clock_restarts = 0
@@ -500,6 +501,7 @@ class StreamService:
             if lost:
                 self._refused[(stream, OVERFLOW)] += lost
                 self._events[stream].append((float(t[0]), OVERFLOW))
+            self._stuck[stream].update(t, v)
         buf.append(t, v)
         self._watch_restart(stream, late, order)
 
@@ -555,6 +557,7 @@ class StreamService:
                 del self._refused[(s, TIME_RULE)]
         self._buffers = {s: RingBuffer(len(ch), self.config.buffer_samples)
                          for s, ch in self.streams.items()}
+        self._stuck = {s: StuckWatch(s, ch) for s, ch in self.streams.items()}
         self._pending = {s: deque(maxlen=self.config.buffer_samples) for s in self.streams}
         self._next_t = None
         self._clock_restarts += 1
@@ -585,6 +588,7 @@ class StreamService:
             del self._refused[(stream, TIME_RULE)]
         self._offsets[stream] += float(shift)
         self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
+        self._stuck[stream] = StuckWatch(stream, self.streams[stream])
         self._events[stream].clear()
         self._clock_restarts += 1
         t = np.array([ti for ti, _ in held]) + shift
@@ -693,6 +697,9 @@ class StreamService:
         t_lo = t - self.model.window.window_s
         for ev in self._events.values():
             flags.update(reason for et, reason in ev if t_lo <= et < t)
+        stuck = [key for watch in self._stuck.values() for key in watch.stuck_between(t_lo, t)]
+        if stuck:   # one flag, as the readers' stuck_window_flags writes it
+            flags.add("stuck:" + ",".join(stuck))
         q = None
         if X is not None:
             raw = self.model.pipeline.predict_proba(X)[0]
@@ -795,6 +802,24 @@ def stuck_decision_flags(frame: pd.DataFrame, stuck: Mapping[str, list],
     """
     end = frame["t_s"].to_numpy(dtype=float) - frame["window_age_s"].to_numpy(dtype=float)
     return stuck_window_flags(stuck, end - window_s, end)
+
+
+def without_stuck(flags: Sequence[str]) -> list[str]:
+    """Flags with the service's live ``stuck:`` flag removed, for a replay that adds the
+    whole run's (:func:`stuck_decision_flags`: known in hindsight from a stretch's first
+    sample, where the live rule knows it only once the stretch has lasted its limit).
+
+    Parameters
+    ----------
+    flags : sequence of str
+        ``(n_decisions,)`` ``|``-separated flags.
+
+    Returns
+    -------
+    list of str
+    """
+    return ["|".join(f for f in str(cell).split("|") if f and not f.startswith("stuck:"))
+            for cell in flags]
 
 
 def join_flags(*columns: Sequence[str]) -> list[str]:
