@@ -191,6 +191,37 @@ def config_numbers(owner: str, optional: tuple = (), **values) -> None:
                               f"{type(value).__name__} {value!r:.60}")
 
 
+def config_integer(name: str, value, lo: int, hi: int | None = None) -> None:
+    """Refuse a configuration value that is not an integer in ``[lo, hi]``.
+
+    ``True`` is refused although Python counts it as the integer 1, and a float such as
+    ``2.0`` is refused too (a count is given as one).
+
+    Parameters
+    ----------
+    name : str
+        The setting's name, for the message.
+    value : object
+        The value given.
+    lo : int
+        Smallest accepted value.
+    hi : int, optional
+        Largest accepted value (no bound when omitted).
+
+    Raises
+    ------
+    ConfigError
+        ``value`` a boolean, not an integer (Python or NumPy), or outside ``[lo, hi]``.
+    """
+    import numbers
+
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool) \
+        and lo <= value and (hi is None or value <= hi)   # (NumPy's bool is not Integral)
+    if not ok:
+        bound = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        raise ConfigError(f"{name} must be an integer {bound}, got {value!r}")
+
+
 class EstimationError(TerrainError, ValueError):
     """Bad input to a state estimator (:mod:`terrain.estimation`, :mod:`terrain.slip`).
 

@@ -81,7 +81,7 @@ import math
 import warnings
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -602,4 +602,20 @@ def stuck_window_flags(stuck: Mapping[str, list], t_start_s: np.ndarray,
             hit |= (t0 <= b) & (t1 >= a)
         for i in np.flatnonzero(hit):
             names[i].append(key)
-    return np.array(["stuck:" + ",".join(n) if n else "" for n in names], dtype=object)
+    return np.array([stuck_flag(n) for n in names], dtype=object)
+
+
+def stuck_flag(keys: Sequence[str]) -> str:
+    """The flag of a window holding stuck channels: ``"stuck:<stream>.<channel>[,...]"``.
+
+    Parameters
+    ----------
+    keys : sequence of str
+        ``<stream>.<channel>`` of the stuck channels, in order.
+
+    Returns
+    -------
+    str
+        ``""`` when ``keys`` is empty.
+    """
+    return "stuck:" + ",".join(keys) if keys else ""

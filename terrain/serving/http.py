@@ -20,7 +20,8 @@ import re
 from typing import Any, Awaitable, Callable, MutableMapping
 
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
-                            ImplausibleValueError, RaggedRowError, TerrainError, duplicated)
+                            ImplausibleValueError, RaggedRowError, TerrainError, config_integer,
+                            duplicated)
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -438,7 +439,7 @@ class RequestGuard:
         invocation = scope["method"] == "POST" and path == "/invocations"
         if scope["method"] == "POST":
             headers = dict(scope["headers"])
-            refused = self.refusal(scope.get("path", ""), headers)
+            refused = self.refusal(path, headers)
             if refused is None and invocation and self.in_flight >= self.max_in_flight:
                 refused = 503, {"error_code": "TEMPORARILY_UNAVAILABLE",
                                 "message": f"ConfigError: server busy with "
@@ -560,11 +561,11 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
     A connection that starts no request for ``header_timeout_s`` while none of its requests
     is in progress (it never sent a byte, or it stalled inside a request line or headers,
     which stops uvicorn's keep-alive timer) is answered ``408`` with the project's JSON
-    error and closed, like a web server's client-header timeout; bytes uvicorn's parser
-    refuses (a garbage request line, a non-numeric Content-Length, bad chunk framing) are
-    answered ``400`` in the same JSON form instead of uvicorn's plain text; it is checked every
+    error and closed, like a web server's client-header timeout; it is checked every
     ``header_timeout_s``, so such a connection lives between one and two timeouts. A
-    stalled *body* is :class:`RequestGuard`'s to time out.
+    stalled *body* is :class:`RequestGuard`'s to time out. Bytes uvicorn's parser refuses (a
+    garbage request line, a non-numeric Content-Length, bad chunk framing) are answered
+    ``400`` in the same JSON form instead of uvicorn's plain text.
 
     Parameters
     ----------
@@ -591,29 +592,20 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
 
     from uvicorn.protocols.http.auto import AutoHTTPProtocol
 
-    if isinstance(max_connections, bool) or not (isinstance(max_connections, int)
-                                                 and max_connections >= 1):
-        raise ConfigError(f"max_connections must be an integer >= 1, got {max_connections!r}")
+    config_integer("max_connections", max_connections, 1)
     if isinstance(header_timeout_s, bool) or not (
             isinstance(header_timeout_s, (int, float)) and math.isfinite(header_timeout_s)
             and header_timeout_s > 0):
         raise ConfigError(f"header_timeout_s must be a finite number of seconds > 0, got "
                           f"{header_timeout_s!r}")
     opened: OrderedDict = OrderedDict()   # open connections, oldest first
-    timeout_body = json.dumps({"error_code": "BAD_REQUEST", "message": (
+    timeout_answer = _closing_answer(b"408 Request Timeout", (
         f"DataFormatError: no complete request within {header_timeout_s:g} s; send the "
-        "request line and headers at once")}).encode()
-    timeout_answer = (b"HTTP/1.1 408 Request Timeout\r\ncontent-type: application/json\r\n"
-                      b"connection: close\r\ncontent-length: %d\r\n\r\n" % len(timeout_body)
-                      + timeout_body)
-
-    bad_http_body = json.dumps({"error_code": "BAD_REQUEST", "message": (
+        "request line and headers at once"))
+    bad_http_answer = _closing_answer(b"400 Bad Request", (
         "DataFormatError: malformed HTTP request (its request line, a header, its "
         "Content-Length or its chunk framing is not HTTP/1.1); send a well-formed HTTP/1.1 "
-        "request")}).encode()
-    bad_http_answer = (b"HTTP/1.1 400 Bad Request\r\ncontent-type: application/json\r\n"
-                       b"connection: close\r\ncontent-length: %d\r\n\r\n" % len(bad_http_body)
-                       + bad_http_body)
+        "request"))
 
     class BoundedConnections(AutoHTTPProtocol):  # type: ignore[misc, valid-type]
         closed = 0
@@ -666,6 +658,14 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
     # set here: inside the class body the name would not see this function's argument
     BoundedConnections.header_timeout_s = header_timeout_s
     return BoundedConnections
+
+
+def _closing_answer(status: bytes, message: str) -> bytes:
+    """A whole HTTP/1.1 answer written straight to a connection that is then closed (no
+    ASGI cycle runs): ``status`` line, the project's JSON error with ``message``."""
+    body = json.dumps({"error_code": "BAD_REQUEST", "message": message}).encode()
+    return (b"HTTP/1.1 %s\r\ncontent-type: application/json\r\nconnection: close\r\n"
+            b"content-length: %d\r\n\r\n" % (status, len(body)) + body)
 
 
 def _is_idle(connection) -> bool:

@@ -12,7 +12,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import config_integer
 from terrain.run import TIME, Run
 from terrain.serving.service import Decision, StreamService
 
@@ -44,9 +44,7 @@ def interleave(run: Run, streams: Sequence[str], max_chunk: int = 1
         ``max_chunk`` not an integer >= 1 (0 raised Python's ``range`` error, -1 replayed
         nothing without a word).
     """
-    if isinstance(max_chunk, bool) or not isinstance(max_chunk, (int, np.integer)) \
-            or max_chunk < 1:
-        raise ConfigError(f"max_chunk must be an integer >= 1, got {max_chunk!r}")
+    config_integer("max_chunk", max_chunk, 1)
     names = [s for s in streams if s in run.streams]
     times = [run.streams[s][TIME].to_numpy(dtype=float) for s in names]
     vals = [run.streams[s].drop(columns=TIME).to_numpy(dtype=float) for s in names]

@@ -24,7 +24,8 @@ service takes a tuple of them, so a robot can add its own.
 One rule judges a stretch of samples rather than each one: ``stuck_sensor``
 (:class:`StuckWatch`), a channel repeating one exact value for long (the readers'
 :func:`terrain.io.plausibility.stuck_stretches`); it flags the windows holding the stretch
-(``stuck:<stream>.<channel>[,...]``, the readers' flag) and drops nothing, as the readers and the served model do.
+(``stuck:<stream>.<channel>[,...]``, the readers' flag) and drops nothing, as the readers
+and the served model do.
 """
 
 from __future__ import annotations

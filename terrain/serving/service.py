@@ -6,7 +6,8 @@ keeps a bounded :class:`~terrain.serving.buffers.RingBuffer`, so memory is fixed
 unbounded stream. A chunk longer than half the buffer is taken in pieces, deciding after
 each; a sample pushed out of its buffer before any decision could read it (a backlog of one
 stream while another lags) is counted as ``buffer_overflow`` in
-:attr:`StreamService.refused_samples` and flags the windows after it. Every ``hop_s`` of service time the service
+:attr:`StreamService.refused_samples` and flags the windows after it. Every ``hop_s`` of
+service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns the last window of the model's length with the project's NumPy alignment core
@@ -75,11 +76,11 @@ import pandas as pd
 
 from features.calculators import quantile_sorted
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
-from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, config_numbers,
-                            duplicated)
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, config_integer,
+                            config_numbers, duplicated)
 from terrain.io.align import align_arrays, overlap_grid_tail
-from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_window_flags,
-                                     wheel_speed_in_kmh)
+from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_flag,
+                                     stuck_window_flags, wheel_speed_in_kmh)
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
@@ -183,10 +184,7 @@ class StreamConfig:
                                   f"{getattr(self, name)}")
         if not 0 <= self.min_confidence <= 1:
             raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
-        if isinstance(self.buffer_samples, bool) or not isinstance(self.buffer_samples, int) \
-                or not 2 <= self.buffer_samples <= MAX_BUFFER_SAMPLES:
-            raise ConfigError(f"buffer_samples must be an integer in [2, {MAX_BUFFER_SAMPLES}], "
-                              f"got {self.buffer_samples!r}")
+        config_integer("buffer_samples", self.buffer_samples, 2, MAX_BUFFER_SAMPLES)
         # a factor <= 1 calls half of all steps a gap (every window dropped); NaN none
         if not 1 < self.gap_factor < np.inf:
             raise ConfigError(f"gap_factor must be a finite number > 1, got {self.gap_factor}")
@@ -317,10 +315,14 @@ class StreamService:
         if not callable(getattr(targets, "target_for", None)):
             raise ConfigError("StreamService targets must be a TargetProvider (e.g. "
                               f"TableTargets), got {type(targets).__name__}")
-        if isinstance(rules, (str, bytes)) or not all(callable(r) for r in _iterable(rules)):
+        try:
+            given = None if isinstance(rules, (str, bytes)) else tuple(rules)
+        except TypeError:   # not iterable (None)
+            given = None
+        if given is None or not all(callable(r) for r in given):
             raise ConfigError("StreamService rules must be a sequence of SampleRule "
                               f"functions, got {type(rules).__name__} {rules!r:.60}")
-        rules = tuple(rules)
+        rules = given
         check_hop(config.hop_s, model.window.rate_hz)
         if config.buffer_samples < model.window.n_samples + 2:
             raise ConfigError(f"buffer_samples {config.buffer_samples} cannot hold one "
@@ -698,8 +700,8 @@ class StreamService:
         for ev in self._events.values():
             flags.update(reason for et, reason in ev if t_lo <= et < t)
         stuck = [key for watch in self._stuck.values() for key in watch.stuck_between(t_lo, t)]
-        if stuck:   # one flag, as the readers' stuck_window_flags writes it
-            flags.add("stuck:" + ",".join(stuck))
+        if stuck:   # one flag, as the readers write it
+            flags.add(stuck_flag(stuck))
         q = None
         if X is not None:
             raw = self.model.pipeline.predict_proba(X)[0]
@@ -725,21 +727,14 @@ def _values_matrix(v: np.ndarray, n: int, channels: Sequence[str],
         return v
     if n == 0 and v.size == 0:  # an empty chunk, e.g. [] or np.empty(0)
         return np.empty(want)
-    if (v.ndim == 1 and (n == 1 and v.size == len(channels)
-                         or len(channels) == 1 and v.size == n)) or (v.ndim == 0 and want == (1, 1)):
+    one_row = v.ndim == 1 and n == 1 and v.size == len(channels)
+    one_column = v.ndim == 1 and len(channels) == 1 and v.size == n
+    if one_row or one_column or (v.ndim == 0 and want == (1, 1)):
         return v.reshape(want)
     raise DataFormatError(f"stream {stream!r}: expected values of shape {want} (samples x "
                           f"channels {list(channels)}), got {v.shape}"
                           + (" (transposed?)" if v.shape == want[::-1] else ""),
                           f"stream {stream}", "values")
-
-
-def _iterable(x) -> tuple:
-    """``x`` as a tuple, or ``(None,)`` (not callable) when it cannot be iterated."""
-    try:
-        return tuple(x)
-    except TypeError:
-        return (None,)
 
 
 def _real_array(x, stream: str, column: str) -> np.ndarray:

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_integer, config_numbers
 
 #: floor on classifier probabilities so one window can never veto a class for good
 PROBA_FLOOR = 1e-4
@@ -101,9 +101,7 @@ class SmoothingConfig:
             if self.dwell_s is None:
                 raise ConfigError("reset_confidence resets the forward filter; it needs "
                                   "dwell_s (the filter on)")
-        if isinstance(self.reset_windows, bool) or not (isinstance(self.reset_windows, int)
-                                                        and self.reset_windows >= 1):
-            raise ConfigError(f"reset_windows must be an integer >= 1, got {self.reset_windows}")
+        config_integer("reset_windows", self.reset_windows, 1)
 
 
 def forward_step(p_prev: np.ndarray, q: np.ndarray | None, p_switch: float,
