@@ -40,6 +40,10 @@ held (the newest ``buffer_samples``); once they run as a clock over ``clock_rest
 restarted: every buffer and the decision clock start again and the held samples of every
 stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
 that cover the restart carry ``clock_restart``). A single late sample is still refused.
+A late sample that repeats one the stream already gave (the same stamp and values: a
+reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and dropped
+without a flag, never held for a restart, unless it is the stream's oldest buffered sample
+or continues a held run (a log played again from its start is a loop).
 Streams on one clock restart together. When one stream restarts alone (a restarted IMU
 driver whose device clock starts again while the wheel stream goes on), the others are the
 time reference: the restarted stream's first held sample is placed half a step after the
@@ -103,6 +107,14 @@ OVERFLOW = "buffer_overflow"
 #: reason of the rule whose refusals may announce a clock restart
 #: (:func:`terrain.serving.rules.time_increasing`)
 TIME_RULE = "time_not_increasing"
+#: reason of a sample sent again: the stamp (within :data:`DUPLICATE_TOL_S`) and values
+#: (to float32 precision) of a sample the stream already gave (a reconnecting publisher
+#: re-sending its buffer); refused without a flag, the decisions already had it
+DUPLICATE = "duplicate"
+#: stamps this close are one stamp when telling a re-sent sample, s (1 us: far below the
+#: 0.5 ms period of a 2 kHz IMU, above the rounding of a stamp sent as float32 seconds of
+#: a clock from 0 over a few s only; stamps are mostly re-sent exactly)
+DUPLICATE_TOL_S = 1e-6
 
 
 @dataclass(frozen=True)
@@ -386,9 +398,10 @@ class StreamService:
 
     @property
     def refused_samples(self) -> dict[tuple[str, str], int]:
-        """Samples refused by the per-sample rules since the service started, by
-        ``(stream, reason)`` (the reason is the flag the rule raises); bounded by the number
-        of streams and rules."""
+        """Samples refused since the service started, by ``(stream, reason)``: the reason
+        is the flag the per-sample rule raises, ``buffer_overflow`` or ``duplicate`` (a
+        sample sent again, module docstring); bounded by the number of streams and
+        reasons."""
         return dict(self._refused)
 
     @property
@@ -485,6 +498,15 @@ class StreamService:
         """Apply the rules to a validated chunk, buffer what they keep and watch the
         samples refused as earlier than the stream's newest for a clock restart."""
         channels, buf = self.streams[stream], self._buffers[stream]
+        # a sample at or before the stream's newest may be one sent again (checked only
+        # then: the usual increasing push costs one comparison)
+        if t[0] <= buf.last_t or (len(t) > 1 and not (t[1:] > t[:-1]).all()):
+            resent = self._resent(stream, t, v)
+            if resent.any():
+                self._refused[(stream, DUPLICATE)] += int(resent.sum())
+                t, v = t[~resent], v[~resent]
+                if not len(t):
+                    return
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         for rule in self.rules:
@@ -506,6 +528,45 @@ class StreamService:
             self._stuck[stream].update(t, v)
         buf.append(t, v)
         self._watch_restart(stream, late, order)
+
+    def _resent(self, stream: str, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``(n,)`` bool: the samples of a chunk that the stream already gave (same stamp
+        and values as a buffered sample or an earlier one of the chunk) and that start no
+        new clock.
+
+        A re-sent stretch is not a restarted clock: taken for one, a reconnecting publisher
+        re-sending its last 10 s shifted that stream by 10 s for good (two streams) or
+        emitted the decisions of those 10 s twice (one stream). A log played again from the
+        stream's oldest buffered sample is a loop, not a re-send (its first sample and the
+        run it starts are held for a restart as before), and so is a run that continues
+        samples already held."""
+        buf = self._buffers[stream]
+        bt, bv = buf.since(float(np.nanmin(t)) - DUPLICATE_TOL_S)
+        pending = self._pending[stream]
+        last_held = pending[-1][0] if pending else None
+        max_step = self.config.gap_factor * buf.median_step()
+        newest = buf.last_t
+        out = np.zeros(len(t), dtype=bool)
+        for i, ti in enumerate(t):
+            if not ti <= newest:               # increasing (or not finite): the rules judge
+                newest = ti if ti > newest else newest
+                continue
+            if last_held is not None and 0 < ti - last_held <= max_step:
+                last_held = ti                 # continues a held run (a loop or a restart)
+                continue
+            j = int(np.searchsorted(bt, ti - DUPLICATE_TOL_S))
+            same = [k for k in range(j, len(bt)) if bt[k] - ti <= DUPLICATE_TOL_S]
+            earlier = np.flatnonzero(np.abs(t[:i] - ti) <= DUPLICATE_TOL_S)
+            in_buffer = [k for k in same if _same_values(bv[k], v[i])]
+            in_chunk = [k for k in earlier if _same_values(v[k], v[i])]
+            # the stream's oldest sample again: a loop starts (not a re-send)
+            loop = (bool(in_buffer) and bt[in_buffer[0]] == buf.first_t) or \
+                (not len(buf) and bool(in_chunk) and in_chunk[0] == 0)
+            if (in_buffer or in_chunk) and not loop:
+                out[i] = True
+            else:
+                last_held = ti                 # late and held: a possible new clock
+        return out
 
     def _needed_since(self) -> float:
         """Oldest time a coming decision's window may still read, s (``-inf`` before the
@@ -715,6 +776,11 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
+
+
+def _same_values(a: np.ndarray, b: np.ndarray) -> bool:
+    """Two samples' values equal to float32 precision (NaN equal to NaN)."""
+    return bool(np.allclose(a, b, rtol=1e-6, atol=0.0, equal_nan=True))
 
 
 def _values_matrix(v: np.ndarray, n: int, channels: Sequence[str],

@@ -389,15 +389,63 @@ def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unse
     head, tail = frame.iloc[:200], frame.iloc[200:]
     svc = service(wheel_model, clock_restart_s=2.0)
     out = push_wheels(svc, head)
+    # late samples with other values than those sent at their stamps (not sent again)
+    other = head.assign(cur_l=head["cur_l"] + 0.5)
     # one stray sample 100 s late, then the stream goes on: refused, no restart
-    out += push_wheels(svc, head.iloc[[5]])
+    out += push_wheels(svc, other.iloc[[5]])
     # late samples in random order never run as a clock over 2 s: no restart either
     rng = np.random.default_rng(0)
-    out += push_wheels(svc, head.iloc[rng.permutation(len(head))[:150]])
+    out += push_wheels(svc, other.iloc[rng.permutation(len(head))[:150]])
     out += push_wheels(svc, tail)
     assert svc.clock_restarts == 0
     assert svc.refused_samples == {("wheels", "time_not_increasing"): 151}
     np.testing.assert_allclose(np.diff([d.t_s for d in out]), 0.5)
+
+
+def test_samples_sent_again_are_refused_as_duplicates_not_taken_for_a_new_clock(
+        wheel_model, all_model, unseen_run):
+    # a reconnecting publisher re-sends its last 10 s. One stream: it was taken for a
+    # restarted clock and the decisions of those 10 s were emitted twice (191 for 175)
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz)
+    t0 = float(frame["t_s"].iloc[0])
+    cut = int(np.searchsorted(frame["t_s"], t0 + 40.0))
+    resent = frame[(frame["t_s"] >= t0 + 30.0) & (frame["t_s"] < t0 + 40.0)]
+    reference = push_wheels(service(wheel_model), frame)
+    svc = service(wheel_model)
+    assert len(resent) == 200
+    got = push_wheels(svc, frame.iloc[:cut])
+    got += svc.push("wheels", resent["t_s"].to_numpy(), resent[list(WHEEL_CHANNELS)])
+    got += push_wheels(svc, frame.iloc[cut:])
+    assert svc.clock_restarts == 0
+    assert svc.refused_samples == {("wheels", "duplicate"): len(resent)}
+    assert [(d.t_s, d.terrain, d.flags) for d in got] == \
+        [(d.t_s, d.terrain, d.flags) for d in reference]
+    # two streams: the wheels re-send 10 s at their own rate while the IMU goes on, then go
+    # on live. The re-sent run was a restart of the wheel clock alone: the wheels were moved
+    # 10 s for good and every later decision was short and stale (66 of 66)
+    from terrain.serving.replay import interleave
+    wheels = unseen_run.streams["wheels"]
+    t_w = wheels[TIME].to_numpy()
+    t_re = float(t_w[0]) + 40.0
+    again = wheels[(t_w >= t_re - 10.0) & (t_w < t_re)]
+    events = [(float(t[0]), 0, s, t, v) for s, t, v in interleave(unseen_run, ("imu", "wheels"))
+              if s == "imu" or t[0] < t_re or t[0] >= t_re + 10.0]
+    events += [(t + 10.0, 1, "wheels", np.array([t]), row[None, :]) for t, row in
+               zip(again[TIME].to_numpy(), again.drop(columns=TIME).to_numpy())]
+    events.sort(key=lambda e: e[:2])
+    svc = service(all_model)
+    got = []
+    for _, _, stream, t, v in events:
+        cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
+        got += svc.push(stream, t, dict(zip(cols, v.T)))
+    assert svc.clock_restarts == 0 and svc.clock_offsets_s == {"imu": 0.0, "wheels": 0.0}
+    assert svc.refused_samples == {("wheels", "duplicate"): len(again)}
+    later = [d for d in got if d.t_s > t_re + 10.0 + all_model.window.window_s + 1.0]
+    assert len(later) > 40 and sum(d.flags == "" for d in later) >= 0.9 * len(later)
+    # while the wheels only re-sent, the decisions say their input is stale (then the
+    # windows holding the 10 s without a new wheel sample say gap)
+    quiet = [d for d in got if t_re + 2.0 < d.t_s < t_re + 9.0]
+    assert quiet and all("stale" in d.flags for d in quiet)
 
 
 @pytest.mark.parametrize("kwargs, words", [
