@@ -40,6 +40,19 @@ held (the newest ``buffer_samples``); once they run as a clock over ``clock_rest
 restarted: every buffer and the decision clock start again and the held samples of every
 stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
 that cover the restart carry ``clock_restart``). A single late sample is still refused.
+A stream whose clock steps forward alone (an NTP step on the computer of one sensor) puts
+its samples ahead of every other stream, which never catch up: every later decision was
+short and stale. A sample more than ``clock_restart_s`` after its stream's newest and ahead
+of every other stream's newest by as much is held (bounded, counted as ``buffer_overflow``
+beyond ``buffer_samples``); the held run is taken as it is once another stream catches up
+with it (the others lagged, or every stream was silent, a paused robot), put on the others'
+clock once it has run as a clock for ``clock_restart_s`` while they went on (one usual
+step after the stream's last sample before the step, kept inside the step of the others
+in which it arrived; offset, counter and ``clock_restart`` as for a restart alone), and
+taken as it is after ``max_backlog_s`` with the others silent. A sample that breaks the
+held run (the stream going on on its old clock: the held ones were a stray stamp ahead)
+drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more
+than ``max_backlog_s`` after the step, is taken as it is (the skip above).
 A late sample that repeats one the stream already gave (the same stamp and values: a
 reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and dropped
 without a flag, never held for a restart, unless it is the stream's oldest buffered sample
@@ -58,8 +71,9 @@ when it ran ahead of every stream).
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
 ``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` / ``implausible_value`` /
 ``implausible_time`` (samples rejected by the rules of :mod:`terrain.serving.rules` inside
-the window), ``accel_units`` (the window's median specific force says the accelerometer
-is in g, the readers' rule :func:`terrain.io.plausibility.check_accel_units`: not
+the window), ``time_ahead`` (a stray stamp ahead of the other streams refused),
+``accel_units`` (the window's median specific force says the accelerometer is in g, the
+readers' rule :func:`terrain.io.plausibility.check_accel_units`: not
 classified), ``wheel_speed_units`` (the 99th percentile of the window's wheel speeds is
 over twice the top speed of the model's vehicle, so they are in km/h: the readers' rule
 :func:`terrain.io.plausibility.wheel_speed_in_kmh` on one window; not classified; only for
@@ -111,6 +125,9 @@ TIME_RULE = "time_not_increasing"
 #: (to float32 precision) of a sample the stream already gave (a reconnecting publisher
 #: re-sending its buffer); refused without a flag, the decisions already had it
 DUPLICATE = "duplicate"
+#: reason of samples of one stream stamped far ahead of every other stream's clock that
+#: then did not run on as a clock (a stray stamp ahead; module docstring)
+AHEAD = "time_ahead"
 #: stamps this close are one stamp when telling a re-sent sample, s (1 us: far below the
 #: 0.5 ms period of a 2 kHz IMU, above the rounding of a stamp sent as float32 seconds of
 #: a clock from 0 over a few s only; stamps are mostly re-sent exactly)
@@ -363,6 +380,13 @@ class StreamService:
         # of a restart of that stream alone)
         self._pending_others: dict[str, dict[str, float]] = {}
         self._offsets = {s: float(config.clock_offsets_s.get(s, 0.0)) for s in self.streams}
+        # samples of a stream whose clock stepped ahead of every other stream's, held until
+        # the others catch up or the step is known to be its clock's alone; with the
+        # others' buffered newest times when the hold began
+        self._ahead: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
+                                         for s in self.streams}
+        self._ahead_others: dict[str, dict[str, float]] = {}
+        self._ahead_t0: dict[str, float] = {}   # first held sample (the hold may drop it)
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -399,9 +423,9 @@ class StreamService:
     @property
     def refused_samples(self) -> dict[tuple[str, str], int]:
         """Samples refused since the service started, by ``(stream, reason)``: the reason
-        is the flag the per-sample rule raises, ``buffer_overflow`` or ``duplicate`` (a
-        sample sent again, module docstring); bounded by the number of streams and
-        reasons."""
+        is the flag the per-sample rule raises, ``buffer_overflow``, ``duplicate`` (a
+        sample sent again) or ``time_ahead`` (a stray stamp ahead of the other streams;
+        module docstring); bounded by the number of streams and reasons."""
         return dict(self._refused)
 
     @property
@@ -494,9 +518,10 @@ class StreamService:
             out.extend(self._emit())
         return out
 
-    def _ingest(self, stream: str, t: np.ndarray, v: np.ndarray) -> None:
-        """Apply the rules to a validated chunk, buffer what they keep and watch the
-        samples refused as earlier than the stream's newest for a clock restart."""
+    def _ingest(self, stream: str, t: np.ndarray, v: np.ndarray, hold: bool = True) -> None:
+        """Apply the rules to a validated chunk, buffer what they keep, hold the samples
+        of a forward step of the stream's clock alone (unless ``hold`` is false) and watch
+        the samples refused as earlier than the stream's newest for a clock restart."""
         channels, buf = self.streams[stream], self._buffers[stream]
         # a sample at or before the stream's newest may be one sent again (checked only
         # then: the usual increasing push costs one comparison)
@@ -519,6 +544,10 @@ class StreamService:
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
+        # a step forward longer than clock_restart_s (one comparison on the usual push)
+        if hold and len(t) and (self._ahead[stream] or (
+                len(buf) and t[-1] - buf.last_t > self.config.clock_restart_s)):
+            t, v = self._hold_ahead(stream, t, v)
         if len(t):
             # samples the chunk pushes out of the buffer before a decision used them
             lost = buf.evicted(t, self._needed_since())
@@ -528,6 +557,103 @@ class StreamService:
             self._stuck[stream].update(t, v)
         buf.append(t, v)
         self._watch_restart(stream, late, order)
+        if self._ahead_others:
+            self._resolve_ahead()
+
+    def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Hold the samples of ``stream`` from a forward step of its clock that puts them
+        more than ``clock_restart_s`` ahead of every other stream's; return the samples to
+        take now.
+
+        A held run goes on while its samples run as a clock (increasing, no step over a
+        gap); a sample that breaks it (the stream going on on its old clock: the held ones
+        were a stray stamp far ahead) drops the held ones, counted as ``time_ahead``."""
+        buf, held = self._buffers[stream], self._ahead[stream]
+        jump = self.config.clock_restart_s
+        max_step = self.config.gap_factor * buf.median_step()
+        for i, ti in enumerate(t):
+            if held:
+                if 0 < ti - held[-1][0] <= max_step:
+                    if len(held) == held.maxlen:   # the hold is bounded: count the loss
+                        self._refused[(stream, OVERFLOW)] += 1
+                    held.append((float(ti), v[i]))
+                    continue
+                self._drop_ahead(stream)
+            prev = t[i - 1] if i else buf.last_t
+            others = {s: b.last_t for s, b in self._buffers.items()
+                      if s != stream and len(b) and not self._ahead[s]}
+            if ti - prev > jump and others and all(ti - o > jump for o in others.values()):
+                self._ahead_others[stream] = others
+                self._ahead_t0[stream] = float(ti)
+                held.append((float(ti), v[i]))
+                continue
+            # the stream goes on on its clock: the rest of the chunk is taken as it is
+            # (a later step of it is judged at the next push)
+            keep = np.ones(len(t), dtype=bool)
+            keep[:i] = False
+            return t[keep], v[keep]
+        return t[:0], v[:0]
+
+    def _drop_ahead(self, stream: str) -> None:
+        """Refuse the held run of ``stream`` (a stray stamp ahead), counted and flagged as
+        ``time_ahead``."""
+        held = self._ahead[stream]
+        self._refused[(stream, AHEAD)] += len(held)
+        # flagged from the service's newest time on: the stream's own newest may be long
+        # before every coming window (a clock in ms whose every sample steps ahead)
+        self._events[stream].append((max(b.last_t for b in self._buffers.values()), AHEAD))
+        held.clear()
+        self._ahead_others.pop(stream, None)
+
+    def _resolve_ahead(self) -> None:
+        """Take the held run of a stream ahead as it is once another stream catches up
+        with it (the others lagged, or every stream was silent); once it has run as a
+        clock for ``clock_restart_s`` while the others went on, put it on their clock (its
+        clock stepped alone); once it has run for ``max_backlog_s`` with the others silent,
+        take it as it is."""
+        jump = self.config.clock_restart_s
+        for stream, at_start in list(self._ahead_others.items()):
+            if stream not in self._ahead_others:   # released by a release before it
+                continue
+            t0, t1 = self._ahead_t0[stream], self._ahead[stream][-1][0]
+            now = {s: self._buffers[s].last_t for s in at_start}
+            went_on = [s for s in at_start if now[s] > at_start[s]]
+            if any(last >= t0 - jump for last in now.values()):
+                self._release_ahead(stream, 0.0)
+            elif went_on and t1 - t0 >= jump:
+                self._release_ahead(stream, self._ahead_shift(stream, went_on))
+            elif t1 - t0 >= self.config.max_backlog_s:
+                self._release_ahead(stream, 0.0)
+
+    def _ahead_shift(self, stream: str, running: list[str]) -> float:
+        """Shift that puts the first held sample of ``stream`` on the clock of the
+        ``running`` streams, s: one usual step after the stream's last sample before its
+        clock stepped, kept between the newest sample the running streams had when it
+        arrived and their next one (arrival order, as for a restart of one clock alone)."""
+        buf = self._buffers[stream]
+        at_start = self._ahead_others[stream]
+        lower = max(at_start[s] for s in running)
+        steps = [np.nan_to_num(self._buffers[s].median_step()) for s in running]
+        upper = max(lower, min(at_start[s] + step for s, step in zip(running, steps)))
+        step = np.nan_to_num(buf.median_step())
+        first = max(min(max(buf.last_t + step, lower), upper), buf.last_t + 0.5 * step)
+        return float(first - self._ahead_t0[stream])
+
+    def _release_ahead(self, stream: str, shift: float) -> None:
+        """Ingest the held run of ``stream`` moved by ``shift`` (s; a shift is a restart of
+        that stream's clock alone: offset, counter and flag)."""
+        held = list(self._ahead[stream])
+        self._ahead[stream].clear()
+        del self._ahead_others[stream]
+        t = np.array([ti for ti, _ in held]) + shift
+        v = np.array([vi for _, vi in held]).reshape(len(held), -1)
+        if shift:
+            self._offsets[stream] += shift
+            self._clock_restarts += 1
+        self._ingest(stream, t, v, hold=False)
+        if shift:
+            self._events[stream].append((float(t[-1]), "clock_restart"))
 
     def _resent(self, stream: str, t: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``(n,)`` bool: the samples of a chunk that the stream already gave (same stamp
@@ -614,6 +740,8 @@ class StreamService:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
         the samples each stream sent on its new clock (the forward filter is kept)."""
         held = {s: list(p) for s, p in self._pending.items() if p}
+        for s in list(self._ahead_others):   # a run held ahead of the old clocks
+            self._drop_ahead(s)
         for s, p in held.items():  # counted as refused when they came; they are used now
             self._refused[(s, TIME_RULE)] -= len(p)
             if self._refused[(s, TIME_RULE)] <= 0:

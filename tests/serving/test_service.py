@@ -325,10 +325,12 @@ def test_a_restart_is_seen_when_the_buffer_holds_less_than_clock_restart_s(wheel
     assert abs(second[-1].t_s - first[-1].t_s) < 0.5
 
 
-def test_one_far_future_sample_costs_a_restart_not_the_service(all_model, unseen_run):
+def test_one_far_future_sample_costs_a_restart_not_the_service(all_model, wheel_model,
+                                                                unseen_run):
     # one IMU stamp 10^6 s ahead: before, every later IMU sample was refused and the
-    # all-signal model never decided again; the skip bounds the junk decisions it makes
-    # due (flagged short), and the IMU samples that go on on the true clock restart it
+    # all-signal model never decided again. It is ahead of the wheel clock too, so it is
+    # held, and the next IMU sample on the true clock refuses it (time_ahead): no junk
+    # decision, no restart (it cost a restart, ~120 junk decisions and 2 million skipped)
     imu = unseen_run.streams["imu"]
     t_cut = float(imu["t_s"].iloc[0]) + 20.0
     part = [replace(unseen_run, streams={k: v[(v["t_s"] >= t_cut) == after]
@@ -339,12 +341,78 @@ def test_one_far_future_sample_costs_a_restart_not_the_service(all_model, unseen
     row = imu[imu["t_s"] >= t_cut].iloc[0]
     junk = svc.push("imu", float(row["t_s"]) + 1e6, row.drop("t_s").to_numpy()[None, :])
     after = replay_run(svc, part[1])
+    assert len(before) > 20 and junk == []
+    assert svc.clock_restarts == 0 and svc.skipped_decisions == 0
+    assert svc.refused_samples == {("imu", "time_ahead"): 1}
+    assert "time_ahead" in after[0].flags
+    np.testing.assert_allclose(np.diff([d.t_s for d in before + after]), 0.5)
+    clean = [d for d in after if d.flags == ""]
+    assert len(clean) >= 0.8 * len(after) and clean[-1].t_s > t_cut + 40
+    # one stream has no other clock to compare with: the stamp is taken, the skip bounds
+    # the junk decisions it makes due (flagged gap) and the samples that go on on the
+    # true clock restart it
+    svc = service(wheel_model)
+    before = replay_run(svc, part[0])
+    row = unseen_run.streams["wheels"]
+    row = row[row["t_s"] >= t_cut].iloc[0]
+    junk = svc.push("wheels", float(row["t_s"]) + 1e6, row.drop("t_s").to_numpy()[None, :])
+    after = replay_run(svc, part[1])
     assert len(before) > 20 and len(junk) <= 60.0 / 0.5 + 10
-    assert all("short" in d.flags or "stale" in d.flags for d in junk[-100:])
+    assert all("gap" in d.flags for d in junk)
     assert svc.clock_restarts == 1 and svc.skipped_decisions > 1_000_000
     assert "clock_restart" in after[0].flags
     clean = [d for d in after if d.flags == ""]
     assert len(clean) >= 0.8 * len(after) and clean[-1].t_s > t_cut + 40
+
+
+def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clock(
+        all_model, unseen_run):
+    # the wheel clock steps 1 h ahead after 25 s (an NTP step on the wheel computer) while
+    # the IMU goes on: before, the IMU never reached the wheels' time again and every later
+    # decision was short and stale (246 of 246), with no counter moved
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams["wheels"][TIME].iloc[0]) + 25.0
+    reference = replay_run(service(all_model), unseen_run)
+    svc, got = service(all_model), []
+    for stream, t, v in interleave(unseen_run, svc.needed_streams):
+        moved = t + 3600.0 if stream == "wheels" and t[0] >= t_cut else t
+        cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
+        got += svc.push(stream, moved, dict(zip(cols, v.T)))
+    assert svc.clock_restarts == 1 and svc.refused_samples == {}
+    # the wheels are put one usual step after their last sample, inside the IMU step
+    # their first stepped sample arrived in
+    assert svc.clock_offsets_s["imu"] == 0.0
+    assert abs(svc.clock_offsets_s["wheels"] + 3600.0) < 0.011
+    times = np.array([d.t_s for d in got])
+    assert np.all(np.diff(times) > 0) and svc.skipped_decisions == 0
+    ref = {round(d.t_s, 6): d for d in reference}
+    after = [d for d in got if d.t_s > t_cut + 5.5 + all_model.window.window_s]
+    same = [ref[round(d.t_s, 6)] for d in after]
+    assert len(after) > 40 and [d.flags for d in after] == [r.flags for r in same]
+    assert np.mean([d.terrain == r.terrain for d, r in zip(after, same)]) >= 0.95
+    # the held seconds are stale (no wheel sample), then the windows holding the step say
+    # clock_restart
+    held = [d for d in got if t_cut + 1.5 < d.t_s <= t_cut + 4.0]
+    assert held and all("stale" in d.flags for d in held)
+    assert any("clock_restart" in d.flags for d in got)
+
+
+def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen_run):
+    # every stream silent for 100 s (a paused robot), the IMU resumes first: its samples
+    # are ahead of the wheel clock until the wheels resume, but no clock stepped
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams["wheels"][TIME].iloc[0]) + 25.0
+    svc, got = service(all_model), []
+    events = [(t[0] + (100.0 if t[0] >= t_cut else 0.0)
+               + (0.5 if stream == "wheels" and t[0] >= t_cut else 0.0), stream, t, v)
+              for stream, t, v in interleave(unseen_run, svc.needed_streams)]
+    for _, stream, t, v in sorted(events, key=lambda e: e[0]):
+        cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
+        got += svc.push(stream, t + (100.0 if t[0] >= t_cut else 0.0), dict(zip(cols, v.T)))
+    assert svc.clock_restarts == 0 and svc.refused_samples == {}
+    assert svc.clock_offsets_s == {"imu": 0.0, "wheels": 0.0}
+    late = [d for d in got if d.t_s > t_cut + 100.0 + all_model.window.window_s + 1.0]
+    assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
 def test_one_stream_restarting_its_clock_alone_is_put_back_on_the_others_clock(
