@@ -344,6 +344,28 @@ def implied_rate_hz(t_s: np.ndarray) -> float:
     return float(f"{1.0 / float(np.median(np.diff(t_s))):.4g}")
 
 
+def timestamps_in_ms(rate_hz: float, stream: str) -> bool:
+    """Rule ``timestamp_units``'s certain case: timestamps in ms read as s.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sample rate implied by the median time step (:func:`implied_rate_hz`), Hz.
+    stream : str
+        Stream name (``imu``, ``wheels``; any other is never judged).
+
+    Returns
+    -------
+    bool
+        True when the rate is ten times below the stream's nominal range
+        (:data:`NOMINAL_RATE_HZ`) and 1000 times it falls inside.
+    """
+    if stream not in NOMINAL_RATE_HZ:
+        return False
+    lo, hi = NOMINAL_RATE_HZ[stream]
+    return bool(rate_hz < lo / 10.0 and lo <= 1000.0 * rate_hz <= hi)
+
+
 def check_rate(t_s: np.ndarray, stream: str, path) -> None:
     """Rule ``timestamp_units``: implied sample rate against the stream's nominal rate.
 
@@ -365,7 +387,7 @@ def check_rate(t_s: np.ndarray, stream: str, path) -> None:
         return
     lo, hi = NOMINAL_RATE_HZ[stream]
     rate = implied_rate_hz(t_s)
-    if rate < lo / 10.0 and lo <= 1000.0 * rate <= hi:
+    if timestamps_in_ms(rate, stream):
         raise UnitError(
             f"rule timestamp_units: median step implies {rate:.4g} Hz, far below the "
             f"{lo:g}-{hi:g} Hz of the {stream} stream; x1000 gives {1000 * rate:.4g} Hz: the "

@@ -53,6 +53,12 @@ taken as it is after ``max_backlog_s`` with the others silent. A sample that bre
 held run (the stream going on on its old clock: the held ones were a stray stamp ahead)
 drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more
 than ``max_backlog_s`` after the step, is taken as it is (the skip above).
+A stream whose clock is in ms (the readers' rule ``timestamp_units``,
+:func:`terrain.io.plausibility.timestamps_in_ms`, on the median of its newest
+:data:`UNITS_STEPS` steps, judged only when a step may say so) has what it gave purged and
+every sample refused as ``timestamp_units`` (counted, flagged from the service's newest
+time on) until its steps are in s again: an IMU in ms beside wheels in s made every 0.5
+"s" of its clock a decision.
 A late sample that repeats one the stream already gave (the same stamp and values: a
 reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and dropped
 without a flag, never held for a restart, unless it is the stream's oldest buffered sample
@@ -72,6 +78,7 @@ timestamp gap, so it was not classified), ``short`` (not enough aligned history)
 ``non_finite`` / ``time_not_increasing`` / ``implausible_rate`` / ``implausible_value`` /
 ``implausible_time`` (samples rejected by the rules of :mod:`terrain.serving.rules` inside
 the window), ``time_ahead`` (a stray stamp ahead of the other streams refused),
+``timestamp_units`` (a stream on a clock in ms refused),
 ``accel_units`` (the window's median specific force says the accelerometer is in g, the
 readers' rule :func:`terrain.io.plausibility.check_accel_units`: not
 classified), ``wheel_speed_units`` (the 99th percentile of the window's wheel speeds is
@@ -97,8 +104,9 @@ from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, config_integer,
                             config_numbers, duplicated)
 from terrain.io.align import align_arrays, overlap_grid_tail
-from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_flag,
-                                     stuck_window_flags, wheel_speed_in_kmh)
+from terrain.io.plausibility import (NOMINAL_RATE_HZ, VEHICLE_LIMITS, accel_in_g,
+                                     implied_rate_hz, stuck_flag, stuck_window_flags,
+                                     timestamps_in_ms, wheel_speed_in_kmh)
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.model import StreamModel
@@ -128,6 +136,11 @@ DUPLICATE = "duplicate"
 #: reason of samples of one stream stamped far ahead of every other stream's clock that
 #: then did not run on as a clock (a stray stamp ahead; module docstring)
 AHEAD = "time_ahead"
+#: reason of the samples of a stream whose clock is in ms (the readers' rule
+#: ``timestamp_units``, :func:`terrain.io.plausibility.timestamps_in_ms`)
+UNITS = "timestamp_units"
+#: time steps the ``timestamp_units`` rule judges a live stream on (its newest ones)
+UNITS_STEPS = 8
 #: stamps this close are one stamp when telling a re-sent sample, s (1 us: far below the
 #: 0.5 ms period of a 2 kHz IMU, above the rounding of a stamp sent as float32 seconds of
 #: a clock from 0 over a few s only; stamps are mostly re-sent exactly)
@@ -387,6 +400,16 @@ class StreamService:
                                          for s in self.streams}
         self._ahead_others: dict[str, dict[str, float]] = {}
         self._ahead_t0: dict[str, float] = {}   # first held sample (the hold may drop it)
+        # rule timestamp_units: the readers' nominal rate range of each stream, by its
+        # channels, its newest arrival stamps, and the streams found on a clock in ms
+        self._rate_kind = {s: next((k for k, known in KNOWN_STREAMS.items()
+                                    if set(ch) <= set(known)), None)
+                           for s, ch in self.streams.items()}
+        # a rate ten times below the range is a mean step over 10 / lowest rate (1 s, IMU)
+        self._ms_step = {s: None if k is None else 10.0 / NOMINAL_RATE_HZ[k][0]
+                         for s, k in self._rate_kind.items()}
+        self._recent_t = {s: deque(maxlen=UNITS_STEPS + 1) for s in self.streams}
+        self._ms_clock: set[str] = set()
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -424,8 +447,9 @@ class StreamService:
     def refused_samples(self) -> dict[tuple[str, str], int]:
         """Samples refused since the service started, by ``(stream, reason)``: the reason
         is the flag the per-sample rule raises, ``buffer_overflow``, ``duplicate`` (a
-        sample sent again) or ``time_ahead`` (a stray stamp ahead of the other streams;
-        module docstring); bounded by the number of streams and reasons."""
+        sample sent again), ``time_ahead`` (a stray stamp ahead of the other streams) or
+        ``timestamp_units`` (a clock in ms; module docstring); bounded by the number of
+        streams and reasons."""
         return dict(self._refused)
 
     @property
@@ -532,6 +556,19 @@ class StreamService:
                 t, v = t[~resent], v[~resent]
                 if not len(t):
                     return
+        slowest = self._ms_step[stream]
+        if slowest is not None:   # rule timestamp_units: the usual push is one comparison
+            recent = self._recent_t[stream]
+            suspect = stream in self._ms_clock or \
+                t[-1] - (recent[-1] if recent else -np.inf) > len(t) * slowest
+            if len(t) == 1:
+                recent.append(float(t[0]))
+            else:
+                recent.extend(t[-recent.maxlen:].tolist())
+            if suspect and self._in_ms(stream):
+                self._refused[(stream, UNITS)] += len(t)
+                self._events[stream].append((self._newest(), UNITS))
+                return
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         for rule in self.rules:
@@ -602,7 +639,7 @@ class StreamService:
         self._refused[(stream, AHEAD)] += len(held)
         # flagged from the service's newest time on: the stream's own newest may be long
         # before every coming window (a clock in ms whose every sample steps ahead)
-        self._events[stream].append((max(b.last_t for b in self._buffers.values()), AHEAD))
+        self._events[stream].append((self._newest(), AHEAD))
         held.clear()
         self._ahead_others.pop(stream, None)
 
@@ -693,6 +730,43 @@ class StreamService:
             else:
                 last_held = ti                 # late and held: a possible new clock
         return out
+
+    def _newest(self) -> float:
+        """Newest buffered time of any stream, s (the service's now)."""
+        return max(b.last_t for b in self._buffers.values())
+
+    def _in_ms(self, stream: str) -> bool:
+        """Rule ``timestamp_units`` live: whether the stream's clock is in ms, judged on the
+        median of its newest :data:`UNITS_STEPS` arrival steps (asked only when a push's
+        mean step may say so); a stream found in ms has its samples purged (counted) and
+        stays refused until its steps are in s again."""
+        stamps = np.array([x for x in self._recent_t[stream] if math.isfinite(x)])
+        steps = np.diff(stamps)
+        if len(steps) < UNITS_STEPS or not np.median(steps) > 0:
+            return stream in self._ms_clock
+        in_ms = timestamps_in_ms(implied_rate_hz(stamps), self._rate_kind[stream])
+        if in_ms and stream not in self._ms_clock:
+            self._ms_clock.add(stream)
+            self._purge(stream)
+        elif not in_ms:
+            self._ms_clock.discard(stream)
+        return in_ms
+
+    def _purge(self, stream: str) -> None:
+        """Refuse every sample of ``stream`` kept so far (buffered or held), counted as
+        ``timestamp_units``; its buffer starts again, and the decision clock too when it
+        ran ahead of every other stream on the stream's stamps."""
+        n = len(self._buffers[stream]) + len(self._pending[stream]) + len(self._ahead[stream])
+        if n:
+            self._refused[(stream, UNITS)] += n
+        self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
+        self._stuck[stream] = StuckWatch(stream, self.streams[stream])
+        self._pending[stream].clear()
+        self._ahead[stream].clear()
+        self._ahead_others.pop(stream, None)
+        if self._next_t is not None and \
+                self._next_t > self._newest() + self.config.max_backlog_s:
+            self._next_t = None
 
     def _needed_since(self) -> float:
         """Oldest time a coming decision's window may still read, s (``-inf`` before the
@@ -785,7 +859,7 @@ class StreamService:
         t = np.array([ti for ti, _ in held]) + shift
         v = np.array([vi for _, vi in held]).reshape(len(held), -1)
         self._ingest(stream, t, v)
-        newest = max(b.last_t for b in self._buffers.values())
+        newest = self._newest()
         if self._next_t is not None and self._next_t > newest + self.config.max_backlog_s:
             self._next_t = None    # it ran ahead of every stream (a stamp far ahead)
         # the windows that hold the restart carry it: from the first held sample when the

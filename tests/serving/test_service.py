@@ -470,6 +470,35 @@ def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unse
     np.testing.assert_allclose(np.diff([d.t_s for d in out]), 0.5)
 
 
+@pytest.mark.parametrize("max_chunk", [1, 100])
+def test_an_imu_clock_in_ms_is_refused_as_the_readers_refuse_it(all_model, unseen_run,
+                                                                 max_chunk):
+    # IMU stamps in ms beside wheel stamps in s (the readers' UnitError): every 0.5 "s" of
+    # the IMU's clock was a decision, 175,655 short|stale ones for an 89 s run pushed
+    # sample by sample, 50,582 in chunks of 100, with no word of why. For the first 30 s;
+    # then the IMU driver is fixed and sends s again
+    from terrain.serving.replay import interleave
+    t0 = float(unseen_run.streams["imu"][TIME].iloc[0])
+    svc, got = service(all_model), []
+    for stream, t, v in interleave(unseen_run, svc.needed_streams, max_chunk=max_chunk):
+        in_ms = (stream == "imu") & (t < t0 + 30.0)
+        cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
+        got += svc.push(stream, np.where(in_ms, t * 1000.0, t), dict(zip(cols, v.T)))
+    n_ms = int((unseen_run.streams["imu"][TIME] < t0 + 30.0).sum())
+    refused = svc.refused_samples
+    # every IMU sample in ms is refused (a few as stamps ahead of the wheels, before the
+    # rule has its 8 steps), and the IMU's first 8 samples in s with them
+    assert set(refused) <= {("imu", "timestamp_units"), ("imu", "time_ahead")}
+    assert n_ms <= sum(refused.values()) <= n_ms + max(max_chunk, 8) + 1
+    assert refused[("imu", "timestamp_units")] >= n_ms - 10
+    times = np.array([d.t_s for d in got])
+    assert np.all(np.diff(times) > 0) and times[-1] - times[0] < unseen_run.duration_s
+    early = [d for d in got if t0 + all_model.window.window_s < d.t_s < t0 + 29.0]
+    assert early and all("timestamp_units" in d.flags and "short" in d.flags for d in early)
+    late = [d for d in got if d.t_s > t0 + 30.0 + all_model.window.window_s + 1.0]
+    assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
+
+
 def test_samples_sent_again_are_refused_as_duplicates_not_taken_for_a_new_clock(
         wheel_model, all_model, unseen_run):
     # a reconnecting publisher re-sends its last 10 s. One stream: it was taken for a
