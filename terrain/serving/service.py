@@ -52,7 +52,12 @@ in which it arrived; offset, counter and ``clock_restart`` as for a restart alon
 taken as it is after ``max_backlog_s`` with the others silent. A sample that breaks the
 held run (the stream going on on its old clock: the held ones were a stray stamp ahead)
 drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more
-than ``max_backlog_s`` after the step, is taken as it is (the skip above).
+than ``max_backlog_s`` after the step, is taken as it is (the skip above). A stream's first
+sample more than ``clock_restart_s`` from every other stream's newest, ahead or behind
+(two computers whose clocks were never synchronised), is held the same way and put on the
+clock of the streams that came first (the middle of the step in which it arrived); a run
+sent faster than the others go on (a backlog: they advanced by less than half its span) is
+never moved.
 A stream whose clock is in ms (the readers' rule ``timestamp_units``,
 :func:`terrain.io.plausibility.timestamps_in_ms`, on the median of its newest
 :data:`UNITS_STEPS` steps, judged only when a step may say so) has what it gave purged and
@@ -581,9 +586,10 @@ class StreamService:
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
-        # a step forward longer than clock_restart_s (one comparison on the usual push)
-        if hold and len(t) and (self._ahead[stream] or (
-                len(buf) and t[-1] - buf.last_t > self.config.clock_restart_s)):
+        # a step forward longer than clock_restart_s, or a stream's first samples (one
+        # comparison on the usual push)
+        if hold and len(t) and (self._ahead[stream] or
+                                t[-1] - buf.last_t > self.config.clock_restart_s):
             t, v = self._hold_ahead(stream, t, v)
         if len(t):
             # samples the chunk pushes out of the buffer before a decision used them
@@ -600,15 +606,18 @@ class StreamService:
     def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Hold the samples of ``stream`` from a forward step of its clock that puts them
-        more than ``clock_restart_s`` ahead of every other stream's; return the samples to
-        take now.
+        more than ``clock_restart_s`` ahead of every other stream's, or from its first
+        sample when that is as far from every other stream's (ahead or behind: another
+        clock from the start); return the samples to take now.
 
         A held run goes on while its samples run as a clock (increasing, no step over a
-        gap); a sample that breaks it (the stream going on on its old clock: the held ones
-        were a stray stamp far ahead) drops the held ones, counted as ``time_ahead``."""
+        gap, or over ``clock_restart_s`` before the stream has a usual step); a sample that
+        breaks it (the stream going on on its old clock: the held ones were a stray stamp
+        far ahead) drops the held ones, counted as ``time_ahead``."""
         buf, held = self._buffers[stream], self._ahead[stream]
         jump = self.config.clock_restart_s
-        max_step = self.config.gap_factor * buf.median_step()
+        step = buf.median_step()
+        max_step = self.config.gap_factor * step if np.isfinite(step) else jump
         for i, ti in enumerate(t):
             if held:
                 if 0 < ti - held[-1][0] <= max_step:
@@ -620,7 +629,9 @@ class StreamService:
             prev = t[i - 1] if i else buf.last_t
             others = {s: b.last_t for s, b in self._buffers.items()
                       if s != stream and len(b) and not self._ahead[s]}
-            if ti - prev > jump and others and all(ti - o > jump for o in others.values()):
+            # the first sample may be behind the others too
+            off = [ti - o if prev > -np.inf else abs(ti - o) for o in others.values()]
+            if ti - prev > jump and others and min(off) > jump:
                 self._ahead_others[stream] = others
                 self._ahead_t0[stream] = float(ti)
                 held.append((float(ti), v[i]))
@@ -655,9 +666,12 @@ class StreamService:
                 continue
             t0, t1 = self._ahead_t0[stream], self._ahead[stream][-1][0]
             now = {s: self._buffers[s].last_t for s in at_start}
-            went_on = [s for s in at_start if now[s] > at_start[s]]
-            if any(last >= t0 - jump for last in now.values()):
-                self._release_ahead(stream, 0.0)
+            # went on live: by at least half the held run's span (a backlog sent at once
+            # runs faster than the others)
+            went_on = [s for s in at_start if now[s] - at_start[s] >= 0.5 * (t1 - t0)
+                       and now[s] > at_start[s]]
+            if any(last >= t0 - jump and t1 >= last - jump for last in now.values()):
+                self._release_ahead(stream, 0.0)   # the clocks meet (one of them lagged)
             elif went_on and t1 - t0 >= jump:
                 self._release_ahead(stream, self._ahead_shift(stream, went_on))
             elif t1 - t0 >= self.config.max_backlog_s:
@@ -673,6 +687,8 @@ class StreamService:
         lower = max(at_start[s] for s in running)
         steps = [np.nan_to_num(self._buffers[s].median_step()) for s in running]
         upper = max(lower, min(at_start[s] + step for s, step in zip(running, steps)))
+        if not len(buf):   # its first sample: no step of its own, the middle
+            return float(0.5 * (lower + upper) - self._ahead_t0[stream])
         step = np.nan_to_num(buf.median_step())
         first = max(min(max(buf.last_t + step, lower), upper), buf.last_t + 0.5 * step)
         return float(first - self._ahead_t0[stream])

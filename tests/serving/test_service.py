@@ -397,6 +397,35 @@ def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clo
     assert any("clock_restart" in d.flags for d in got)
 
 
+@pytest.mark.parametrize("other_clock", ["imu", "wheels"])
+def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_clock(
+        all_model, unseen_run, other_clock):
+    # one stream's clock 1000 s ahead of the other's from the first sample (two computers
+    # whose clocks were never synchronised; the readers refuse such files): every decision
+    # was short|stale (170 of 170). The stream arriving second is moved onto the clock of
+    # the first by arrival order
+    from terrain.serving.replay import interleave
+    reference = replay_run(service(all_model), unseen_run)
+    svc, got, first = service(all_model), [], None
+    for stream, t, v in interleave(unseen_run, svc.needed_streams):
+        first = first or stream
+        cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
+        got += svc.push(stream, t + (1000.0 if stream == other_clock else 0.0),
+                        dict(zip(cols, v.T)))
+    second = "wheels" if first == "imu" else "imu"
+    moved = 1000.0 if other_clock == first else -1000.0
+    assert svc.clock_restarts == 1 and svc.refused_samples == {}
+    assert svc.clock_offsets_s[first] == 0.0
+    assert abs(svc.clock_offsets_s[second] - moved) < 0.08   # half a wheel step
+    # decisions on the first stream's clock: the uninterrupted replay's from ~6 s on
+    clock = 1000.0 if other_clock == first else 0.0
+    ref = {round(d.t_s + clock, 6): d for d in reference}
+    after = [d for d in got if d.t_s > clock + float(reference[0].t_s) + 6.0]
+    same = [ref[round(d.t_s, 6)] for d in after]
+    assert len(after) > 100 and sum(d.flags == "" for d in after) >= 0.95 * len(after)
+    assert np.mean([d.terrain == r.terrain for d, r in zip(after, same)]) >= 0.95
+
+
 def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen_run):
     # every stream silent for 100 s (a paused robot), the IMU resumes first: its samples
     # are ahead of the wheel clock until the wheels resume, but no clock stepped
