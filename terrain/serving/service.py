@@ -720,12 +720,15 @@ class StreamService:
         run it starts are held for a restart as before), and so is a run that continues
         samples already held."""
         buf = self._buffers[stream]
-        bt, bv = buf.since(float(np.nanmin(t)) - DUPLICATE_TOL_S)
+        out = np.zeros(len(t), dtype=bool)
+        finite = t[np.isfinite(t)]
+        if not len(finite):       # no stamp to match (the rules refuse them)
+            return out
+        bt, bv = buf.since(float(finite.min()) - DUPLICATE_TOL_S)
         pending = self._pending[stream]
         last_held = pending[-1][0] if pending else None
         max_step = self.config.gap_factor * buf.median_step()
         newest = buf.last_t
-        out = np.zeros(len(t), dtype=bool)
         for i, ti in enumerate(t):
             if not ti <= newest:               # increasing (or not finite): the rules judge
                 newest = ti if ti > newest else newest
