@@ -25,7 +25,7 @@ from terrain.control import DesiredSlipConfig
 from terrain.run import TIME
 from terrain.serving import (StreamConfig, StreamService, TableTargets,
                              decisions_frame, load_stream_model, replay_run)
-from terrain.serving.service import join_flags, stuck_decision_flags, without_stuck
+from terrain.serving.decisions import join_flags, stuck_decision_flags, without_stuck
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

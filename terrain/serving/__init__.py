@@ -3,7 +3,9 @@
 One responsibility per module:
 
 * the in-process streaming service for the robot: :mod:`~terrain.serving.service`
-  (:class:`StreamService`), :mod:`~terrain.serving.buffers` (bounded ring buffers),
+  (:class:`StreamService`: buffers, clocks, windows, decisions), :mod:`~terrain.serving.inputs`
+  (a pushed chunk as checked arrays), :mod:`~terrain.serving.decisions` (a decision, the
+  decisions table and its flags), :mod:`~terrain.serving.buffers` (bounded ring buffers),
   :mod:`~terrain.serving.rules` (per-sample plausibility rules),
   :mod:`~terrain.serving.smoothing` (forward filter and hysteresis),
   :mod:`~terrain.serving.targets` (slip-target providers), :mod:`~terrain.serving.model`
@@ -24,8 +26,8 @@ Public API of the package: :class:`StreamService`, :class:`StreamConfig`, :class
 
 from terrain.serving.model import StreamModel, load_stream_model
 from terrain.serving.replay import interleave, replay_run
-from terrain.serving.service import (Decision, StreamConfig, StreamService,
-                                     decisions_frame)
+from terrain.serving.decisions import Decision, decisions_frame
+from terrain.serving.service import StreamConfig, StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import (CataloguePeakTargets, SlipTargets, TableTargets,
                                      TargetProvider)

@@ -14,7 +14,8 @@ import numpy as np
 
 from terrain.errors import config_integer
 from terrain.run import TIME, Run
-from terrain.serving.service import Decision, StreamService
+from terrain.serving.decisions import Decision
+from terrain.serving.service import StreamService
 
 
 def interleave(run: Run, streams: Sequence[str], max_chunk: int = 1

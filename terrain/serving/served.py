@@ -62,9 +62,9 @@ from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline
                                    load_stream_model)
 from terrain.serving.replay import replay_run
 from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
-from terrain.serving.service import (KNOWN_STREAMS, StreamConfig, StreamService,
-                                     check_hop, decisions_frame, join_flags,
-                                     stuck_decision_flags, without_stuck)
+from terrain.serving.decisions import (decisions_frame, join_flags, stuck_decision_flags,
+                                       without_stuck)
+from terrain.serving.service import KNOWN_STREAMS, StreamConfig, StreamService, check_hop
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -530,7 +530,7 @@ def _time_span_s(run: Run) -> float:
 def _plausibility_flags(frame: pd.DataFrame, window_s: float,
                         checks: Mapping[str, Any]) -> list[str]:
     """Decision flags plus the run-level findings: ``stuck:<stream>.<channel>`` on the
-    decisions whose window holds a stuck stretch (:func:`~terrain.serving.service.
+    decisions whose window holds a stuck stretch (:func:`~terrain.serving.decisions.
     stuck_decision_flags`), ``warning:<rule>`` on every window when a rule found a likely
     problem (the service still decided), ``unused:<stream>`` on every window when the
     request held rows of a stream the model does not use (not read, not checked)."""

@@ -102,18 +102,18 @@ from types import MappingProxyType
 from typing import Mapping, Sequence
 
 import numpy as np
-import pandas as pd
 
 from features.calculators import quantile_sorted
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
-from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, config_integer,
-                            config_numbers, duplicated)
+from terrain.errors import ConfigError, config_integer, config_numbers, duplicated
 from terrain.io.align import align_arrays, overlap_grid_tail
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, VEHICLE_LIMITS, accel_in_g,
-                                     implied_rate_hz, stuck_flag, stuck_window_flags,
-                                     timestamps_in_ms, wheel_speed_in_kmh)
+                                     implied_rate_hz, stuck_flag, timestamps_in_ms,
+                                     wheel_speed_in_kmh)
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
+from terrain.serving.decisions import Decision
+from terrain.serving.inputs import chunk_values, real_array, same_values
 from terrain.serving.model import StreamModel
 from terrain.serving.rules import DEFAULT_RULES, SampleRule, StuckWatch
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
@@ -261,40 +261,6 @@ def _check_streams(streams) -> None:
     if dup:
         raise ConfigError(f"StreamConfig.streams names channel(s) {dup} more than once; each "
                           "channel belongs to one stream, once")
-
-
-@dataclass(frozen=True)
-class Decision:
-    """One decision of the service.
-
-    Parameters
-    ----------
-    t_s : float
-        Decision time on the service clock, s.
-    terrain : str or None
-        Decided (smoothed) terrain; ``None`` before the first valid window.
-    confidence : float
-        Smoothed probability of ``terrain``.
-    proba : numpy.ndarray
-        ``(n_classes,)`` smoothed class probabilities, in the model's class order.
-    target_slip_traction, target_slip_braking, target_slip_steady : float
-        Slip targets from the provider (dimensionless SAE slip).
-    window_age_s : float
-        ``t_s`` minus the end of the window the decision rests on (its last aligned sample
-        plus one period), s; 0 when the window reaches ``t_s``.
-    flags : str
-        ``|``-separated flags (see module docstring); empty when clean.
-    """
-
-    t_s: float
-    terrain: str | None
-    confidence: float
-    proba: np.ndarray
-    target_slip_traction: float
-    target_slip_braking: float
-    target_slip_steady: float
-    window_age_s: float
-    flags: str
 
 
 def check_hop(hop_s: float, rate_hz: float) -> float:
@@ -514,25 +480,8 @@ class StreamService:
         if stream not in self.streams:
             return []
         channels = self.streams[stream]
-        t = _real_array(t_s, stream, "t_s") + self._offsets[stream]
-        if isinstance(values, pd.DataFrame):  # by its column names, not their order
-            values = {c: values[c].to_numpy() for c in values.columns if c in channels}
-        elif isinstance(values, pd.Series):   # one sample, channel -> value
-            values = values.to_dict()
-        if isinstance(values, Mapping):
-            absent = [c for c in channels if c not in values]
-            if absent:
-                raise MissingColumnError(f"stream {stream!r} sample lacks channel(s) {absent}",
-                                         f"stream {stream}", absent[0])
-            columns = [_real_array(values[c], stream, c) for c in channels]
-            uneven = [c for c, col in zip(channels, columns) if col.shape != t.shape]
-            if uneven:
-                raise DataFormatError(f"stream {stream!r}: channel {uneven[0]!r} holds "
-                                      f"{columns[channels.index(uneven[0])].size} values for "
-                                      f"{t.size} timestamps", f"stream {stream}", uneven[0])
-            v = np.column_stack(columns) if len(t) else np.empty((0, len(channels)))
-        else:
-            v = _values_matrix(_real_array(values, stream, "values"), len(t), channels, stream)
+        t = real_array(t_s, stream, "t_s") + self._offsets[stream]
+        v = chunk_values(values, t, channels, stream)
         if not len(t):
             return []
         # a chunk longer than half the buffer goes in pieces, deciding after each: in one
@@ -739,8 +688,8 @@ class StreamService:
             j = int(np.searchsorted(bt, ti - DUPLICATE_TOL_S))
             same = [k for k in range(j, len(bt)) if bt[k] - ti <= DUPLICATE_TOL_S]
             earlier = np.flatnonzero(np.abs(t[:i] - ti) <= DUPLICATE_TOL_S)
-            in_buffer = [k for k in same if _same_values(bv[k], v[i])]
-            in_chunk = [k for k in earlier if _same_values(v[k], v[i])]
+            in_buffer = [k for k in same if same_values(bv[k], v[i])]
+            in_chunk = [k for k in earlier if same_values(v[k], v[i])]
             # the stream's oldest sample again: a loop starts (not a re-send)
             loop = (bool(in_buffer) and bt[in_buffer[0]] == buf.first_t) or \
                 (not len(buf) and bool(in_chunk) and in_chunk[0] == 0)
@@ -997,151 +946,3 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
-
-
-def _same_values(a: np.ndarray, b: np.ndarray) -> bool:
-    """Two samples' values equal to float32 precision (NaN equal to NaN)."""
-    return bool(np.allclose(a, b, rtol=1e-6, atol=0.0, equal_nan=True))
-
-
-def _values_matrix(v: np.ndarray, n: int, channels: Sequence[str],
-                   stream: str) -> np.ndarray:
-    """``(n, n_channels)`` values of a chunk of ``n`` samples: that shape, one sample as a
-    1-D ``(n_channels,)`` row, or one channel as a 1-D ``(n,)`` column; any other shape (a
-    transposed ``(n_channels, n)`` chunk) is a :class:`DataFormatError`, never reshaped."""
-    want = (n, len(channels))
-    if v.shape == want:
-        return v
-    if n == 0 and v.size == 0:  # an empty chunk, e.g. [] or np.empty(0)
-        return np.empty(want)
-    one_row = v.ndim == 1 and n == 1 and v.size == len(channels)
-    one_column = v.ndim == 1 and len(channels) == 1 and v.size == n
-    if one_row or one_column or (v.ndim == 0 and want == (1, 1)):
-        return v.reshape(want)
-    raise DataFormatError(f"stream {stream!r}: expected values of shape {want} (samples x "
-                          f"channels {list(channels)}), got {v.shape}"
-                          + (" (transposed?)" if v.shape == want[::-1] else ""),
-                          f"stream {stream}", "values")
-
-
-def _real_array(x, stream: str, column: str) -> np.ndarray:
-    """``x`` as a float array, or a typed error naming the stream and column: text, a
-    complex number, or (for ``t_s`` and one channel's values, which are 1-D) more than one
-    dimension. ``column == "values"`` keeps the array's shape."""
-    # the usual push (a float64 array or one float): the same result without the checks
-    if type(x) is np.ndarray and x.dtype == np.float64 and (x.ndim == 1 or column == "values"):
-        return x
-    if type(x) is float:
-        return np.array(x) if column == "values" else np.array((x,))
-    if isinstance(x, np.ma.MaskedArray):  # a masked sample is a missing one, not its data
-        x = np.ma.filled(x.astype(float), np.nan) if x.dtype.kind in "biuf" else x.filled()
-    try:
-        raw = x if isinstance(x, np.ndarray) else np.asarray(x)
-        kind = raw.dtype.kind
-        if kind in "bmM":
-            # True would be 1.0; a timedelta64 or datetime64 its count of ms or us as s
-            raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers (s and "
-                                  f"SI units), got {'booleans' if kind == 'b' else 'NumPy times'}"
-                                  f" ({raw.dtype})", f"stream {stream}", column)
-        a = None if kind == "c" else np.asarray(raw, dtype=float)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, DataFormatError):
-            raise
-        raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers "
-                              f"({exc})", f"stream {stream}", column) from None
-    if a is None:
-        raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers, not "
-                              "complex ones", f"stream {stream}", column)
-    if column == "values":
-        return a
-    if a.ndim > 1:
-        raise DataFormatError(f"stream {stream!r}: {column} must be one number or a 1-D "
-                              f"array, got shape {a.shape}", f"stream {stream}", column)
-    return np.atleast_1d(a)
-
-
-def stuck_decision_flags(frame: pd.DataFrame, stuck: Mapping[str, list],
-                         window_s: float) -> np.ndarray:
-    """``stuck:<stream>.<channel>`` of each decision whose window holds a stuck stretch.
-
-    The window of a decision is ``[t_s - window_age_s - window_s, t_s - window_age_s)``
-    (a decision without a window has an infinite age and is never flagged), as
-    ``terrain predict`` flags its windows (:func:`terrain.io.plausibility.stuck_window_flags`).
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        :func:`decisions_frame` (``t_s``, ``window_age_s``; s).
-    stuck : Mapping[str, list]
-        ``Run.meta["stuck"]`` of the replayed run.
-    window_s : float
-        Window length of the model, s.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n_decisions,)`` strings, ``""`` where no stuck stretch is in the window.
-    """
-    end = frame["t_s"].to_numpy(dtype=float) - frame["window_age_s"].to_numpy(dtype=float)
-    return stuck_window_flags(stuck, end - window_s, end)
-
-
-def without_stuck(flags: Sequence[str]) -> list[str]:
-    """Flags with the service's live ``stuck:`` flag removed, for a replay that adds the
-    whole run's (:func:`stuck_decision_flags`: known in hindsight from a stretch's first
-    sample, where the live rule knows it only once the stretch has lasted its limit).
-
-    Parameters
-    ----------
-    flags : sequence of str
-        ``(n_decisions,)`` ``|``-separated flags.
-
-    Returns
-    -------
-    list of str
-    """
-    return ["|".join(f for f in str(cell).split("|") if f and not f.startswith("stuck:"))
-            for cell in flags]
-
-
-def join_flags(*columns: Sequence[str]) -> list[str]:
-    """Per decision, the union of several ``|``-separated flag strings, sorted as the
-    service writes its own flags.
-
-    Parameters
-    ----------
-    *columns : sequence of str
-        Equal-length flag columns (e.g. ``decisions_frame(...)["flags"]`` and
-        :func:`stuck_decision_flags`); ``""`` is no flag.
-
-    Returns
-    -------
-    list of str
-        ``(n_decisions,)`` joined flags.
-    """
-    return ["|".join(sorted({f for cell in cells for f in str(cell).split("|") if f}))
-            for cells in zip(*columns)]
-
-
-def decisions_frame(decisions: Sequence[Decision], classes: Sequence[str]) -> pd.DataFrame:
-    """Decisions as a table with the service's column names.
-
-    Parameters
-    ----------
-    decisions : sequence of Decision
-    classes : sequence of str
-        Class order of ``Decision.proba``.
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``t_s, terrain, confidence, proba_<CLASS>..., target_slip_traction,
-        target_slip_braking, target_slip_steady, window_age_s, flags``.
-    """
-    cols = (["t_s", "terrain", "confidence"] + [f"proba_{c}" for c in classes]
-            + ["target_slip_traction", "target_slip_braking", "target_slip_steady",
-               "window_age_s", "flags"])
-    rows = [[d.t_s, d.terrain, d.confidence, *d.proba, d.target_slip_traction,
-             d.target_slip_braking, d.target_slip_steady, d.window_age_s, d.flags]
-            for d in decisions]
-    return pd.DataFrame(rows, columns=cols)

@@ -652,7 +652,7 @@ def test_a_stuck_sensor_flags_the_windows_the_readers_rule_flags(all_model, unse
     from dataclasses import replace as dc_replace
 
     from terrain.io.plausibility import stuck_stretches
-    from terrain.serving.service import stuck_decision_flags
+    from terrain.serving.decisions import stuck_decision_flags
 
     imu = unseen_run.streams["imu"].copy()
     wheels = unseen_run.streams["wheels"].copy()
@@ -789,7 +789,7 @@ def test_a_hop_shorter_than_the_model_clock_is_refused(wheel_model):
 
 
 def test_join_flags_is_the_sorted_union_of_each_decisions_flags():
-    from terrain.serving.service import join_flags
+    from terrain.serving.decisions import join_flags
 
     service = ["stale|gap", "", "low_confidence", ""]
     stuck = ["stuck:imu.wz", "", "", "stuck:wheels.cur_l"]
