@@ -42,8 +42,9 @@ stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
 that cover the restart carry ``clock_restart``). A single late sample is still refused.
 A stream whose clock steps forward alone (an NTP step on the computer of one sensor) puts
 its samples ahead of every other stream, which never catch up: every later decision was
-short and stale. A sample more than ``clock_restart_s`` after its stream's newest and ahead
-of every other stream's newest by as much is held (bounded, counted as ``buffer_overflow``
+short and stale. A sample more than ``clock_restart_s`` (and ``stale_s``: a lag the config
+tolerates is never a clock) after its stream's newest and ahead of every other stream's
+newest by as much is held (bounded, counted as ``buffer_overflow``
 beyond ``buffer_samples``); the held run is taken as it is once another stream catches up
 with it (the others lagged, or every stream was silent, a paused robot), put on the others'
 clock once it has run as a clock for ``clock_restart_s`` while they went on (one usual
@@ -53,8 +54,9 @@ taken as it is after ``max_backlog_s`` with the others silent. A sample that bre
 held run (the stream going on on its old clock: the held ones were a stray stamp ahead)
 drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more
 than ``max_backlog_s`` after the step, is taken as it is (the skip above). A stream's first
-sample more than ``clock_restart_s`` from every other stream's newest, ahead or behind
-(two computers whose clocks were never synchronised), is held the same way and put on the
+sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind (two
+computers whose clocks were never synchronised; a stream delivered late is never that
+late), is held the same way and put on the
 clock of the streams that came first (the middle of the step in which it arrived); a run
 sent faster than the others go on (a backlog: they advanced by less than half its span) is
 never moved.
@@ -371,6 +373,8 @@ class StreamService:
                                          for s in self.streams}
         self._ahead_others: dict[str, dict[str, float]] = {}
         self._ahead_t0: dict[str, float] = {}   # first held sample (the hold may drop it)
+        # a step ahead of the others by less than stale_s is a lag the config tolerates
+        self._step_s = max(config.clock_restart_s, config.stale_s)
         # rule timestamp_units: the readers' nominal rate range of each stream, by its
         # channels, its newest arrival stamps, and the streams found on a clock in ms
         self._rate_kind = {s: next((k for k, known in KNOWN_STREAMS.items()
@@ -535,10 +539,9 @@ class StreamService:
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
-        # a step forward longer than clock_restart_s, or a stream's first samples (one
-        # comparison on the usual push)
-        if hold and len(t) and (self._ahead[stream] or
-                                t[-1] - buf.last_t > self.config.clock_restart_s):
+        # a step forward longer than clock_restart_s and stale_s, or a stream's first
+        # samples (one comparison on the usual push)
+        if hold and len(t) and (self._ahead[stream] or t[-1] - buf.last_t > self._step_s):
             t, v = self._hold_ahead(stream, t, v)
         if len(t):
             # samples the chunk pushes out of the buffer before a decision used them
@@ -555,16 +558,19 @@ class StreamService:
     def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Hold the samples of ``stream`` from a forward step of its clock that puts them
-        more than ``clock_restart_s`` ahead of every other stream's, or from its first
-        sample when that is as far from every other stream's (ahead or behind: another
-        clock from the start); return the samples to take now.
+        more than ``clock_restart_s`` and ``stale_s`` ahead of every other stream's, or
+        from its first sample when that is more than ``max_backlog_s`` from every other
+        stream's (ahead or behind: another clock from the start); return the samples to
+        take now.
 
         A held run goes on while its samples run as a clock (increasing, no step over a
         gap, or over ``clock_restart_s`` before the stream has a usual step); a sample that
         breaks it (the stream going on on its old clock: the held ones were a stray stamp
         far ahead) drops the held ones, counted as ``time_ahead``."""
         buf, held = self._buffers[stream], self._ahead[stream]
-        jump = self.config.clock_restart_s
+        jump = self._step_s
+        # another clock from the first sample: by more than a delivery lag could be
+        first_jump = max(jump, self.config.max_backlog_s)
         step = buf.median_step()
         max_step = self.config.gap_factor * step if np.isfinite(step) else jump
         for i, ti in enumerate(t):
@@ -579,8 +585,11 @@ class StreamService:
             others = {s: b.last_t for s, b in self._buffers.items()
                       if s != stream and len(b) and not self._ahead[s]}
             # the first sample may be behind the others too
-            off = [ti - o if prev > -np.inf else abs(ti - o) for o in others.values()]
-            if ti - prev > jump and others and min(off) > jump:
+            if prev > -np.inf:
+                far = others and min(ti - o for o in others.values()) > jump
+            else:
+                far = others and min(abs(ti - o) for o in others.values()) > first_jump
+            if ti - prev > jump and far:
                 self._ahead_others[stream] = others
                 self._ahead_t0[stream] = float(ti)
                 held.append((float(ti), v[i]))
@@ -609,7 +618,7 @@ class StreamService:
         clock for ``clock_restart_s`` while the others went on, put it on their clock (its
         clock stepped alone); once it has run for ``max_backlog_s`` with the others silent,
         take it as it is."""
-        jump = self.config.clock_restart_s
+        jump = self._step_s
         for stream, at_start in list(self._ahead_others.items()):
             if stream not in self._ahead_others:   # released by a release before it
                 continue
@@ -621,7 +630,7 @@ class StreamService:
                        and now[s] > at_start[s]]
             if any(last >= t0 - jump and t1 >= last - jump for last in now.values()):
                 self._release_ahead(stream, 0.0)   # the clocks meet (one of them lagged)
-            elif went_on and t1 - t0 >= jump:
+            elif went_on and t1 - t0 >= self.config.clock_restart_s:
                 self._release_ahead(stream, self._ahead_shift(stream, went_on))
             elif t1 - t0 >= self.config.max_backlog_s:
                 self._release_ahead(stream, 0.0)

@@ -426,6 +426,28 @@ def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_cl
     assert np.mean([d.terrain == r.terrain for d, r in zip(after, same)]) >= 0.95
 
 
+def test_a_stream_delivered_late_in_chunks_is_never_moved(all_model, unseen_run):
+    # the IMU arrives in 1 s chunks 6 s late (a slow bridge), which stale_s = 8 s
+    # tolerates: its first sample, 6 s behind the wheels, was taken for another clock and
+    # the IMU moved 7 s onto the wheels (restart, clean-looking decisions on windows 7 s
+    # apart). A lag within stale_s is never a clock; nor a wheel dropout of 10 s meanwhile
+    imu, wheels = (unseen_run.streams[s] for s in ("imu", "wheels"))
+    t_i, t_w = imu[TIME].to_numpy(), wheels[TIME].to_numpy()
+    v_i, v_w = imu.drop(columns=TIME), wheels.drop(columns=TIME)
+    events = [(t_i[sel][-1] + 6.0, "imu", t_i[sel], v_i[sel])
+              for k in range(int(t_i[-1]) + 1)
+              if (sel := (t_i >= k) & (t_i < k + 1)).any()]
+    events += [(t, "wheels", t_w[[i]], v_w.iloc[[i]]) for i, t in enumerate(t_w)
+               if not 30.0 < t - t_w[0] < 40.0]
+    svc, got = service(all_model, stale_s=8.0), []
+    for _, stream, t, v in sorted(events, key=lambda e: e[0]):
+        got += svc.push(stream, t, v)
+    assert svc.clock_restarts == 0 and svc.refused_samples == {}
+    assert svc.clock_offsets_s == {"imu": 0.0, "wheels": 0.0}
+    late = [d for d in got if d.t_s > t_w[0] + 45.0]
+    assert len(late) > 40 and all(d.flags == "" for d in late)
+
+
 def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen_run):
     # every stream silent for 100 s (a paused robot), the IMU resumes first: its samples
     # are ahead of the wheel clock until the wheels resume, but no clock stepped
