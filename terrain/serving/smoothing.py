@@ -37,17 +37,6 @@ from terrain.errors import ConfigError, config_integer, config_numbers
 PROBA_FLOOR = 1e-4
 
 
-def _finite_positive(x) -> bool:
-    """Whether ``x`` is a real number, finite and > 0 (text and booleans are not)."""
-    if isinstance(x, (bool, str, bytes)):
-        return False
-    try:
-        value = float(x)
-    except (TypeError, ValueError):
-        return False
-    return math.isfinite(value) and value > 0
-
-
 @dataclass(frozen=True)
 class SmoothingConfig:
     """Settings of the forward filter.
@@ -83,10 +72,10 @@ class SmoothingConfig:
     reset_windows: int = 2
 
     def __post_init__(self) -> None:
-        config_numbers("SmoothingConfig", ("reset_confidence",),
-                       evidence_power=self.evidence_power,
+        config_numbers("SmoothingConfig", ("reset_confidence", "dwell_s"),
+                       dwell_s=self.dwell_s, evidence_power=self.evidence_power,
                        hysteresis=self.hysteresis, reset_confidence=self.reset_confidence)
-        if self.dwell_s is not None and not _finite_positive(self.dwell_s):
+        if self.dwell_s is not None and not (math.isfinite(self.dwell_s) and self.dwell_s > 0):
             # an infinite dwell would never leave the first terrain (p_switch = 0)
             raise ConfigError(f"dwell_s must be a finite number > 0 (or None for no "
                               f"smoothing), got {self.dwell_s}")

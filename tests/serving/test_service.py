@@ -628,6 +628,8 @@ def test_stream_config_refuses_settings_that_silence_the_service(kwargs, words):
     (StreamConfig, dict(streams={"wheels": WHEEL_CHANNELS, "odo": ("vel_l",)}), "['vel_l']"),
     (SmoothingConfig, dict(hysteresis="0"), "SmoothingConfig.hysteresis must be a real"),
     (SmoothingConfig, dict(evidence_power=None), "SmoothingConfig.evidence_power must be"),
+    (SmoothingConfig, dict(dwell_s="5"), "SmoothingConfig.dwell_s must be a real"),
+    (SmoothingConfig, dict(dwell_s=True), "SmoothingConfig.dwell_s must be a real"),
     (SmoothingConfig, dict(reset_windows=True), "reset_windows must be an integer"),
     (DesiredSlipConfig, dict(min_confidence="0.5"), "DesiredSlipConfig.min_confidence"),
     (DesiredSlipConfig, dict(max_decision_age_s=True), "max_decision_age_s must be a real"),
