@@ -385,6 +385,8 @@ class StreamService:
                          for s, k in self._rate_kind.items()}
         self._recent_t = {s: deque(maxlen=UNITS_STEPS + 1) for s in self.streams}
         self._ms_clock: set[str] = set()
+        # (stream, reason) of samples refused without a stamp before any stream had one
+        self._unplaced: set[tuple[str, str]] = set()
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
         self._next_t: float | None = None
         self._n = model.window.n_samples
@@ -534,8 +536,14 @@ class StreamService:
             if not keep.all():
                 bad_t = t[~keep]
                 self._refused[(stream, reason)] += len(bad_t)
+                # a sample without a usable stamp is flagged at the stream's newest time
+                # (the service's before the stream's first sample; the first window's
+                # start before any sample at all)
+                at = buf.last_t if len(buf) else self._newest()
+                if not np.isfinite(bad_t).all() and at == -np.inf:
+                    self._unplaced.add((stream, reason))
                 self._events[stream].extend(
-                    (bt if np.isfinite(bt) else buf.last_t, reason) for bt in bad_t)
+                    (bt if np.isfinite(bt) else at, reason) for bt in bad_t)
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
@@ -856,6 +864,9 @@ class StreamService:
                     newest < start + self.model.window.window_s + self.config.stale_s:
                 return []  # wait for the silent stream(s) for a while
             self._next_t = start + self.model.window.window_s
+            for stream, reason in self._unplaced:   # refused before any sample
+                self._events[stream].append((start, reason))
+            self._unplaced.clear()
         out = []
         while min(last) >= self._next_t or newest >= self._next_t + self.config.stale_s:
             if newest - self._next_t > self.config.max_backlog_s:

@@ -503,6 +503,19 @@ def test_one_stream_restarting_its_clock_alone_is_put_back_on_the_others_clock(
     assert held and all("stale" in d.flags for d in held)
 
 
+def test_samples_without_a_stamp_before_any_sample_flag_the_first_window(wheel_model,
+                                                                           unseen_run):
+    # two wheel samples with NaN stamps before the first valid one were counted but no
+    # window said so (their flag was placed at -inf)
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:200]
+    svc = service(wheel_model)
+    svc.push("wheels", np.array([np.nan, np.nan]), frame[list(WHEEL_CHANNELS)].iloc[:2])
+    out = push_wheels(svc, frame)
+    assert svc.refused_samples == {("wheels", "non_finite"): 2}
+    assert "non_finite" in out[0].flags
+    assert all("non_finite" not in d.flags for d in out[1:] if d.t_s > out[0].t_s + 2.0)
+
+
 def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unseen_run):
     frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:400]
     head, tail = frame.iloc[:200], frame.iloc[200:]
