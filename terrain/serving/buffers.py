@@ -82,6 +82,29 @@ class RingBuffer:
         self._next = (self._next + n) % self.capacity
         self._size = min(self.capacity, self._size + n)
 
+    def drop_newest(self, n: int) -> None:
+        """Forget the newest ``n`` samples (all of them when ``n`` exceeds the size).
+
+        Parameters
+        ----------
+        n : int
+            Samples to drop (>= 0).
+        """
+        n = min(max(int(n), 0), self._size)
+        self._next = (self._next - n) % self.capacity
+        self._size -= n
+
+    def times(self) -> np.ndarray:
+        """Timestamps of the kept samples, oldest first, s (a view: read, do not keep).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(len(self),)``.
+        """
+        end = self._next + self.capacity
+        return self._t[end - self._size:end]
+
     def evicted(self, t_s: np.ndarray, since_s: float) -> int:
         """Samples that appending ``t_s`` would push out (the oldest held ones, then the
         chunk's own first ones when it is longer than the buffer) with a time at or after

@@ -39,12 +39,18 @@ held (the newest ``buffer_samples``); once they run as a clock over ``clock_rest
 (increasing, no step longer than ``gap_factor`` of the stream's usual step) the clock has
 restarted: every buffer and the decision clock start again and the held samples of every
 stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
-that cover the restart carry ``clock_restart``). A single late sample is still refused.
+that cover the restart carry ``clock_restart``). A single late sample is still refused,
+and so is a late run inside one hole of its stream's buffer no longer than
+``max_backlog_s`` (the backlog of a dropout sent after the live samples by a
+store-and-forward link: on the stream's own clock, it cannot be put back in order, and it
+is no new clock), when the sample after the hole is on another stream's clock or followed
+by more.
 A stream whose clock steps forward alone (an NTP step on the computer of one sensor) puts
 its samples ahead of every other stream, which never catch up: every later decision was
 short and stale. A sample more than ``clock_restart_s`` (and ``stale_s``: a lag the config
 tolerates is never a clock) after its stream's newest and ahead of every other stream's
-newest by as much is held (bounded, counted as ``buffer_overflow``
+newest by as much, those streams having been in step with it just before (a dead or
+lagging stream is no clock to judge by), is held (bounded, counted as ``buffer_overflow``
 beyond ``buffer_samples``); the held run is taken as it is once another stream catches up
 with it (the others lagged, or every stream was silent, a paused robot), put on the others'
 clock once it has run as a clock for ``clock_restart_s`` while they went on (one usual
@@ -62,8 +68,9 @@ sent faster than the others go on (a backlog: they advanced by less than half it
 never moved.
 A stream whose clock is in ms (the readers' rule ``timestamp_units``,
 :func:`terrain.io.plausibility.timestamps_in_ms`, on the median of its newest
-:data:`UNITS_STEPS` steps, judged only when a step may say so) has what it gave purged and
-every sample refused as ``timestamp_units`` (counted, flagged from the service's newest
+finite :data:`UNITS_STEPS` steps, judged only when a step may say so) has what it gave on
+that clock purged (the samples before a switch stay) and every sample refused as
+``timestamp_units`` (counted, flagged from the service's newest
 time on) until its steps are in s again: an IMU in ms beside wheels in s made every 0.5
 "s" of its clock a decision.
 A late sample that repeats one the stream already gave (the same stamp and values: a
@@ -522,9 +529,10 @@ class StreamService:
             suspect = stream in self._ms_clock or \
                 t[-1] - (recent[-1] if recent else -np.inf) > len(t) * slowest
             if len(t) == 1:
-                recent.append(float(t[0]))
-            else:
-                recent.extend(t[-recent.maxlen:].tolist())
+                if math.isfinite(t[0]):
+                    recent.append(float(t[0]))
+            else:   # the newest finite stamps (a NaN one left too few steps to judge)
+                recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
             if suspect and self._in_ms(stream):
                 self._refused[(stream, UNITS)] += len(t)
                 self._events[stream].append((self._newest(), UNITS))
@@ -592,9 +600,12 @@ class StreamService:
             prev = t[i - 1] if i else buf.last_t
             others = {s: b.last_t for s, b in self._buffers.items()
                       if s != stream and len(b) and not self._ahead[s]}
-            # the first sample may be behind the others too
+            # the first sample may be behind the others too; a later one steps ahead of
+            # others that were in step with the stream just before (a dead or lagging
+            # stream is no clock to judge by)
             if prev > -np.inf:
-                far = others and min(ti - o for o in others.values()) > jump
+                far = others and min(ti - o for o in others.values()) > jump and \
+                    max(abs(prev - o) for o in others.values()) <= jump
             else:
                 far = others and min(abs(ti - o) for o in others.values()) > first_jump
             if ti - prev > jump and far:
@@ -725,7 +736,7 @@ class StreamService:
         median of its newest :data:`UNITS_STEPS` arrival steps (asked only when a push's
         mean step may say so); a stream found in ms has its samples purged (counted) and
         stays refused until its steps are in s again."""
-        stamps = np.array([x for x in self._recent_t[stream] if math.isfinite(x)])
+        stamps = np.array(self._recent_t[stream])
         steps = np.diff(stamps)
         if len(steps) < UNITS_STEPS or not np.median(steps) > 0:
             return stream in self._ms_clock
@@ -738,13 +749,19 @@ class StreamService:
         return in_ms
 
     def _purge(self, stream: str) -> None:
-        """Refuse every sample of ``stream`` kept so far (buffered or held), counted as
-        ``timestamp_units``; its buffer starts again, and the decision clock too when it
-        ran ahead of every other stream on the stream's stamps."""
-        n = len(self._buffers[stream]) + len(self._pending[stream]) + len(self._ahead[stream])
+        """Refuse the samples of ``stream`` buffered on its ms clock (the newest ones, each
+        a step over ten nominal periods after the one before; those before the switch were
+        good and stay) and those it holds, counted as ``timestamp_units``; the decision
+        clock starts again when it ran ahead of every other stream on their stamps."""
+        buf = self._buffers[stream]
+        steps = np.diff(buf.times())
+        slow = steps > self._ms_step[stream]
+        # no step on a clock in s at all: nothing it gave is known good
+        k = len(slow) - int(np.flatnonzero(~slow)[-1]) - 1 if (~slow).any() else len(buf)
+        n = k + len(self._pending[stream]) + len(self._ahead[stream])
         if n:
             self._refused[(stream, UNITS)] += n
-        self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
+        buf.drop_newest(k)
         self._stuck[stream] = StuckWatch(stream, self.streams[stream])
         self._pending[stream].clear()
         self._ahead[stream].clear()
@@ -790,10 +807,30 @@ class StreamService:
             others = self._pending_others.get(stream, {})
             running = [s for s, last in others.items()
                        if not self._pending[s] and self._buffers[s].last_t > last]
+            if self._in_a_gap(stream, self._pending_t0[stream], pending[-1][0]):
+                pending.clear()   # a late backlog of the stream's own gap: no new clock
+                return
             if running:
                 self._restart_alone(stream, running)
             else:
                 self._restart()
+
+    def _in_a_gap(self, stream: str, t_first: float, t_last: float) -> bool:
+        """Whether ``[t_first, t_last]`` (s) falls inside one hole of the stream's buffer
+        no longer than ``max_backlog_s``: buffered samples before and after it and none
+        within. Late samples there are the backlog of a dropout sent after the live ones
+        (a store-and-forward link), on the stream's own clock: refused (they cannot be put
+        back in order), never a restart. A restarted or looped clock runs before the buffer
+        or over its samples. The sample after the hole must be on the clock of another
+        stream (its newest within ``clock_restart_s`` and ``stale_s``) or be followed by
+        more: one stray stamp ahead (the newest sample, nothing after it) makes no dropout,
+        and a restart is what puts that stream back."""
+        ts, _ = self._buffers[stream].since(t_first)
+        if not (len(ts) >= 2 and ts[0] < t_first and ts[1] > t_last
+                and ts[1] - ts[0] <= self.config.max_backlog_s):
+            return False
+        return len(ts) >= 3 or any(b.last_t >= ts[1] - self._step_s
+                                   for s, b in self._buffers.items() if s != stream)
 
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest

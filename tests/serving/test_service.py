@@ -448,6 +448,106 @@ def test_a_stream_delivered_late_in_chunks_is_never_moved(all_model, unseen_run)
     assert len(late) > 40 and all(d.flags == "" for d in late)
 
 
+def _sample_events(run, keep=None, arrival=None):
+    """(arrival s, stream, t (1,), values (1, n)) of every sample of ``run``, sample by
+    sample; ``keep(stream, t)`` selects, ``arrival(stream, t)`` delays."""
+    out = []
+    for stream in ("imu", "wheels"):
+        frame = run.streams[stream]
+        t, v = frame[TIME].to_numpy(), frame.drop(columns=TIME)
+        sel = np.ones(len(t), bool) if keep is None else np.broadcast_to(keep(stream, t),
+                                                                          t.shape)
+        at = t if arrival is None else arrival(stream, t)
+        out += [(at[i], stream, t[[i]], v.iloc[[i]]) for i in np.flatnonzero(sel)]
+    return sorted(out, key=lambda e: e[0])
+
+
+def test_a_dead_or_lagging_stream_is_no_clock_to_judge_a_dropout_by(all_model, unseen_run):
+    # the IMU dies at 20 s and the wheels drop out for 6 s at 40 s: their return was held
+    # as a clock step ahead of the dead IMU, and no decision came for 66 s, then 125 at
+    # once. With the IMU's link 12 s late meanwhile (30-60 s), the wheels were moved 6 s
+    # for good (every decision after 75 s short|stale). A stream steps ahead only of
+    # streams that were in step with it just before
+    t0 = float(unseen_run.streams["wheels"][TIME].iloc[0])
+    cases = {"dead imu": (lambda s, t: (s == "wheels") | (t < t0 + 20.0), None),
+             "late imu": (None, lambda s, t: np.where((s == "imu") & (t > t0 + 30.0)
+                                                      & (t < t0 + 60.0), t + 12.0, t))}
+    for name, (keep, arrival) in cases.items():
+        dropout = (lambda s, t, k=keep: ((s == "imu") | (t < t0 + 40.0) | (t >= t0 + 46.0))
+                   & (True if k is None else k(s, t)))
+        svc, got, silent, last = service(all_model), [], 0.0, t0
+        for at, stream, t, v in _sample_events(unseen_run, dropout, arrival):
+            out = svc.push(stream, t, v)
+            if out:
+                silent, last = max(silent, at - last), at
+            got += out
+        assert svc.clock_offsets_s == {"imu": 0.0, "wheels": 0.0}, name
+        assert svc.clock_restarts == 0 and silent < 8.0, name
+        assert np.all(np.diff([d.t_s for d in got]) > 0), name
+        if name == "late imu":
+            late = [d for d in got if d.t_s > t0 + 75.0]
+            assert late and sum(d.flags == "" for d in late) >= 0.9 * len(late)
+
+
+@pytest.mark.parametrize("stream", ["imu", "wheels"])
+@pytest.mark.parametrize("trickled", [False, True])
+def test_a_backlog_sent_after_the_live_samples_is_refused_not_a_new_clock(
+        all_model, unseen_run, stream, trickled):
+    # a link drops 20-30 s; a store-and-forward bridge sends the first live sample, then
+    # the 10 s backlog (at once, or at 5x real time before the queued live samples). It
+    # was taken for a new clock: every stream restarted and decisions went back (at once),
+    # or the stream was moved 10 s for good (every later decision short|stale). A late run
+    # inside a hole of the stream's buffer is refused and counted, never a clock
+    t0 = float(unseen_run.streams["wheels"][TIME].iloc[0])
+    t_live = float(unseen_run.streams[stream][TIME].pipe(lambda x: x[x >= t0 + 30.0]).iloc[0])
+
+    def arrival(s, t):
+        late = (s == stream) & (t >= t0 + 20.0) & (t < t0 + 30.0)
+        if not trickled:
+            return np.where(late, t_live + 0.05, t)
+        queued = (s == stream) & (t > t_live) & (t < t_live + 2.2)
+        return np.where(late, t_live + 0.01 + (t - t0 - 20.0) / 5.0,
+                        np.where(queued, t_live + 2.1 + (t - t_live) / 100.0, t))
+    events = _sample_events(unseen_run, arrival=arrival)
+    svc, got = service(all_model), []
+    for _, s, t, v in events:
+        got += svc.push(s, t, v)
+    frame = unseen_run.streams[stream]
+    n_late = int(((frame[TIME] >= t0 + 20.0) & (frame[TIME] < t0 + 30.0)).sum())
+    assert svc.clock_restarts == 0 and svc.clock_offsets_s == {"imu": 0.0, "wheels": 0.0}
+    assert svc.refused_samples == {(stream, "time_not_increasing"): n_late}
+    assert np.all(np.diff([d.t_s for d in got]) > 0)
+    after = [d for d in got if d.t_s > t0 + 45.0]
+    assert len(after) > 40 and sum(d.flags == "" for d in after) >= 0.95 * len(after)
+
+
+def test_a_clock_switching_to_ms_refuses_what_is_in_ms_only(all_model, unseen_run):
+    # the IMU driver switches its clock to ms at 40 s, the IMU arriving in 1 s chunks, one
+    # stamp of the switching chunk missing (NaN): the NaN left 7 steps, the chunk was not
+    # judged and the decision clock ran to ~27000 "s"; and the purge counted the 4000 good
+    # samples of 0-40 s (used by clean decisions) as refused
+    t0 = float(unseen_run.streams["imu"][TIME].iloc[0])
+    imu = unseen_run.streams["imu"]
+    t_i = imu[TIME].to_numpy().copy()
+    in_ms = t_i >= t0 + 40.0
+    t_sent = np.where(in_ms, t_i * 1000.0, t_i)
+    t_sent[int(np.flatnonzero(in_ms)[0]) + 3] = np.nan
+    chunks = [(t_i[sel][-1], "imu", t_sent[sel], imu.drop(columns=TIME)[sel])
+              for k in range(int(t_i[-1]) + 1) if (sel := (t_i >= k) & (t_i < k + 1)).any()]
+    events = sorted(chunks + _sample_events(unseen_run, lambda s, t: s == "wheels"),
+                    key=lambda e: e[0])
+    svc, got = service(all_model), []
+    for _, s, t, v in events:
+        got += svc.push(s, t, v)
+    refused = svc.refused_samples
+    assert set(refused) <= {("imu", "timestamp_units"), ("imu", "time_ahead")}
+    assert sum(refused.values()) == int(in_ms.sum())
+    times = np.array([d.t_s for d in got])
+    assert np.all(np.diff(times) > 0) and times[-1] < t0 + unseen_run.duration_s + 1.0
+    assert sum(d.flags == "" for d in got if d.t_s < t0 + 39.0) >= 60
+    assert all("timestamp_units" in d.flags for d in got if d.t_s > t0 + 43.0)
+
+
 def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen_run):
     # every stream silent for 100 s (a paused robot), the IMU resumes first: its samples
     # are ahead of the wheel clock until the wheels resume, but no clock stepped
