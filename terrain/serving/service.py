@@ -49,13 +49,13 @@ A stream whose clock steps forward alone (an NTP step on the computer of one sen
 its samples ahead of every other stream, which never catch up: every later decision was
 short and stale. A sample more than ``clock_restart_s`` (and ``stale_s``: a lag the config
 tolerates is never a clock) after its stream's newest and ahead of every other stream's
-newest by as much, those streams having been in step with it just before (a dead or
-lagging stream is no clock to judge by), is held (bounded, counted as ``buffer_overflow``
+newest by as much, those streams not having been behind it just before (a dead or
+lagging stream is no clock to judge by), is held (a step inside a pushed chunk too) (bounded, counted as ``buffer_overflow``
 beyond ``buffer_samples``); the held run is taken as it is once another stream catches up
 with it (the others lagged, or every stream was silent, a paused robot), put on the others'
 clock once it has run as a clock for ``clock_restart_s`` while they went on (one usual
 step after the stream's last sample before the step, kept inside the step of the others
-in which it arrived; offset, counter and ``clock_restart`` as for a restart alone), and
+in which it arrived, a chunk arriving with its newest sample; offset, counter and ``clock_restart`` as for a restart alone), and
 taken as it is after ``max_backlog_s`` with the others silent. A sample that breaks the
 held run (the stream going on on its old clock: the held ones were a stray stamp ahead)
 drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more
@@ -369,6 +369,7 @@ class StreamService:
         self._pending: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
                                            for s in self.streams}
         self._pending_t0: dict[str, float] = {}
+        self._pending_lead: dict[str, float] = {}   # its chunk's newest stamp past it, s
         # newest time of every other stream when a stream's held run began (the reference
         # of a restart of that stream alone)
         self._pending_others: dict[str, dict[str, float]] = {}
@@ -380,6 +381,7 @@ class StreamService:
                                          for s in self.streams}
         self._ahead_others: dict[str, dict[str, float]] = {}
         self._ahead_t0: dict[str, float] = {}   # first held sample (the hold may drop it)
+        self._ahead_lead: dict[str, float] = {}  # its chunk's newest stamp past it, s
         # a step ahead of the others by less than stale_s is a lag the config tolerates
         self._step_s = max(config.clock_restart_s, config.stale_s)
         # rule timestamp_units: the readers' nominal rate range of each stream, by its
@@ -589,36 +591,38 @@ class StreamService:
         first_jump = max(jump, self.config.max_backlog_s)
         step = buf.median_step()
         max_step = self.config.gap_factor * step if np.isfinite(step) else jump
+        taken = np.ones(len(t), dtype=bool)
+        prev = buf.last_t        # the stream's newest sample taken
         for i, ti in enumerate(t):
             if held:
                 if 0 < ti - held[-1][0] <= max_step:
                     if len(held) == held.maxlen:   # the hold is bounded: count the loss
                         self._refused[(stream, OVERFLOW)] += 1
                     held.append((float(ti), v[i]))
+                    taken[i] = False
                     continue
                 self._drop_ahead(stream)
-            prev = t[i - 1] if i else buf.last_t
             others = {s: b.last_t for s, b in self._buffers.items()
                       if s != stream and len(b) and not self._ahead[s]}
             # the first sample may be behind the others too; a later one steps ahead of
-            # others that were in step with the stream just before (a dead or lagging
-            # stream is no clock to judge by)
+            # others that were not behind the stream just before (a dead or lagging stream
+            # is no clock to judge by)
             if prev > -np.inf:
                 far = others and min(ti - o for o in others.values()) > jump and \
-                    max(abs(prev - o) for o in others.values()) <= jump
+                    max(prev - o for o in others.values()) <= jump
             else:
                 far = others and min(abs(ti - o) for o in others.values()) > first_jump
             if ti - prev > jump and far:
                 self._ahead_others[stream] = others
                 self._ahead_t0[stream] = float(ti)
+                # the chunk arrived with its newest sample: the others' clock then is that
+                # sample's, not the first held one's
+                self._ahead_lead[stream] = float(t[-1] - ti)
                 held.append((float(ti), v[i]))
+                taken[i] = False
                 continue
-            # the stream goes on on its clock: the rest of the chunk is taken as it is
-            # (a later step of it is judged at the next push)
-            keep = np.ones(len(t), dtype=bool)
-            keep[:i] = False
-            return t[keep], v[keep]
-        return t[:0], v[:0]
+            prev = ti
+        return t[taken], v[taken]
 
     def _drop_ahead(self, stream: str) -> None:
         """Refuse the held run of ``stream`` (a stray stamp ahead), counted and flagged as
@@ -661,9 +665,10 @@ class StreamService:
         arrived and their next one (arrival order, as for a restart of one clock alone)."""
         buf = self._buffers[stream]
         at_start = self._ahead_others[stream]
-        lower = max(at_start[s] for s in running)
+        lead = self._ahead_lead[stream]
+        lower = max(at_start[s] for s in running) - lead
         steps = [np.nan_to_num(self._buffers[s].median_step()) for s in running]
-        upper = max(lower, min(at_start[s] + step for s, step in zip(running, steps)))
+        upper = max(lower, min(at_start[s] + step for s, step in zip(running, steps)) - lead)
         if not len(buf):   # its first sample: no step of its own, the middle
             return float(0.5 * (lower + upper) - self._ahead_t0[stream])
         step = np.nan_to_num(buf.median_step())
@@ -799,6 +804,8 @@ class StreamService:
                 pending.clear()
             if not pending:       # the run's start, kept when maxlen drops its first samples
                 self._pending_t0[stream] = float(ti)
+                # the chunk arrived with its newest sample, that far past the run's start
+                self._pending_lead[stream] = float(lt[-1] - ti)
                 self._pending_others[stream] = {
                     s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)}
             pending.append((float(ti), vi))
@@ -861,11 +868,12 @@ class StreamService:
         (module docstring): its buffer starts again, its offset changes by the shift."""
         held = list(self._pending[stream])
         self._pending[stream].clear()
-        # the first held sample arrived after the newest sample of the running streams and
-        # before their next one: half a step after it, unbiased for a uniform phase
+        # the first held sample arrived (with its chunk's newest, lead s later) after the
+        # newest sample of the running streams and before their next one: half a step
+        # after it, unbiased for a uniform phase
         steps = [self._buffers[s].median_step() for s in running]
         reference = max(self._pending_others[stream][s] + 0.5 * np.nan_to_num(step)
-                        for s, step in zip(running, steps))
+                        for s, step in zip(running, steps)) - self._pending_lead[stream]
         shift = reference - self._pending_t0[stream]
         # within a gap of the running streams' clock: the same clock, not moved
         if abs(shift) <= self.config.gap_factor * float(np.nanmax(steps + [0.0])):

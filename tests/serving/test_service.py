@@ -548,6 +548,56 @@ def test_a_clock_switching_to_ms_refuses_what_is_in_ms_only(all_model, unseen_ru
     assert all("timestamp_units" in d.flags for d in got if d.t_s > t0 + 43.0)
 
 
+def _imu_chunks(run, chunk_s, stamp):
+    """IMU chunks of ``chunk_s`` s, each arriving with its newest sample, stamped by
+    ``stamp(t)``."""
+    imu = run.streams["imu"]
+    t = imu[TIME].to_numpy()
+    edges = np.arange(t[0], t[-1] + chunk_s, chunk_s)
+    return [(t[sel][-1], "imu", stamp(t[sel]), imu.drop(columns=TIME)[sel])
+            for lo, hi in zip(edges[:-1], edges[1:]) if (sel := (t >= lo) & (t < hi)).any()]
+
+
+@pytest.mark.parametrize("case", ["step inside a chunk", "step after a dropout",
+                                  "restart, 2 s chunks", "clock in us"])
+def test_clock_changes_of_a_chunked_imu_are_placed_within_half_a_step(all_model, unseen_run,
+                                                                      case):
+    # the IMU in 0.5 s (or 2 s) chunks: a step +3600 s inside a chunk was never held (0 of
+    # 232 later decisions clean); after a 6 s IMU dropout the step was no longer held (the
+    # IMU was "no clock to judge by"); a restart placed by the chunk's first sample was off
+    # by the chunk's length (1.92 s for 2 s chunks, decisions still clean-looking); an IMU
+    # clock in us gave 1,024,274 decisions for 88 s
+    t0 = float(unseen_run.streams["imu"][TIME].iloc[0])
+    step = {"step inside a chunk": (0.5, lambda t: np.where(t >= t0 + 30.25, t + 3600.0, t),
+                                    -3600.0),
+            "step after a dropout": (0.5, lambda t: np.where(t >= t0 + 46.0, t + 3600.0, t),
+                                     -3600.0),
+            "restart, 2 s chunks": (2.0, lambda t: np.where(t >= t0 + 40.0, t - 40.0, t),
+                                    40.0),
+            "clock in us": (0.5, lambda t: t * 1e6, None)}
+    chunk_s, stamp, offset = step[case]
+    chunks = _imu_chunks(unseen_run, chunk_s, stamp)
+    if case == "step after a dropout":
+        chunks = [c for c in chunks if not t0 + 40.0 <= c[0] < t0 + 46.0]
+    events = sorted(chunks + _sample_events(unseen_run, lambda s, t: s == "wheels"),
+                    key=lambda e: e[0])
+    svc, got = service(all_model), []
+    for _, s, t, v in events:
+        got += svc.push(s, t, v)
+    times = np.array([d.t_s for d in got])
+    assert np.all(np.diff(times) > 0) and times[-1] < t0 + unseen_run.duration_s + 1.0
+    assert svc.clock_offsets_s["wheels"] == 0.0
+    if offset is None:    # nothing of the IMU taken: ~one decision per hop of real data
+        assert len(got) <= unseen_run.duration_s / 0.5 + 2
+        assert sum(svc.refused_samples.values()) >= len(unseen_run.streams["imu"]) - 2
+    else:                 # within half a wheel step of the truth
+        assert svc.clock_restarts == 1
+        assert abs(svc.clock_offsets_s["imu"] - offset) < 0.08 + 0.1 * (case == "step after "
+                                                                          "a dropout")
+        late = [d for d in got if d.t_s > t0 + 55.0]
+        assert late and sum(d.flags in ("", "short") for d in late) >= 0.95 * len(late)
+
+
 def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen_run):
     # every stream silent for 100 s (a paused robot), the IMU resumes first: its samples
     # are ahead of the wheel clock until the wheels resume, but no clock stepped
