@@ -593,6 +593,8 @@ class StreamService:
         max_step = self.config.gap_factor * step if np.isfinite(step) else jump
         taken = np.ones(len(t), dtype=bool)
         prev = buf.last_t        # the stream's newest sample taken
+        others = {s: b.last_t for s, b in self._buffers.items()
+                  if s != stream and len(b) and not self._ahead[s]}
         for i, ti in enumerate(t):
             if held:
                 if 0 < ti - held[-1][0] <= max_step:
@@ -602,8 +604,6 @@ class StreamService:
                     taken[i] = False
                     continue
                 self._drop_ahead(stream)
-            others = {s: b.last_t for s, b in self._buffers.items()
-                      if s != stream and len(b) and not self._ahead[s]}
             # the first sample may be behind the others too; a later one steps ahead of
             # others that were not behind the stream just before (a dead or lagging stream
             # is no clock to judge by)
@@ -678,11 +678,10 @@ class StreamService:
     def _release_ahead(self, stream: str, shift: float) -> None:
         """Ingest the held run of ``stream`` moved by ``shift`` (s; a shift is a restart of
         that stream's clock alone: offset, counter and flag)."""
-        held = list(self._ahead[stream])
+        t, v = _held_arrays(self._ahead[stream])
+        t += shift
         self._ahead[stream].clear()
         del self._ahead_others[stream]
-        t = np.array([ti for ti, _ in held]) + shift
-        v = np.array([vi for _, vi in held]).reshape(len(held), -1)
         if shift:
             self._offsets[stream] += shift
             self._clock_restarts += 1
@@ -718,8 +717,8 @@ class StreamService:
             if last_held is not None and 0 < ti - last_held <= max_step:
                 last_held = ti                 # continues a held run (a loop or a restart)
                 continue
-            j = int(np.searchsorted(bt, ti - DUPLICATE_TOL_S))
-            same = [k for k in range(j, len(bt)) if bt[k] - ti <= DUPLICATE_TOL_S]
+            same = range(int(np.searchsorted(bt, ti - DUPLICATE_TOL_S)),
+                         int(np.searchsorted(bt, ti + DUPLICATE_TOL_S, side="right")))
             earlier = np.flatnonzero(np.abs(t[:i] - ti) <= DUPLICATE_TOL_S)
             in_buffer = [k for k in same if same_values(bv[k], v[i])]
             in_chunk = [k for k in earlier if same_values(v[k], v[i])]
@@ -771,9 +770,21 @@ class StreamService:
         self._pending[stream].clear()
         self._ahead[stream].clear()
         self._ahead_others.pop(stream, None)
+        self._rewind_decision_clock()
+
+    def _rewind_decision_clock(self) -> None:
+        """Start the decision clock again when it ran more than ``max_backlog_s`` ahead of
+        every stream (on a stamp far ahead, or a clock in ms, since taken back)."""
         if self._next_t is not None and \
                 self._next_t > self._newest() + self.config.max_backlog_s:
             self._next_t = None
+
+    def _uncount(self, stream: str, reason: str, n: int) -> None:
+        """Take back ``n`` refusals of ``stream`` for ``reason`` (held samples used after
+        all)."""
+        self._refused[(stream, reason)] -= n
+        if self._refused[(stream, reason)] <= 0:
+            del self._refused[(stream, reason)]
 
     def _needed_since(self) -> float:
         """Oldest time a coming decision's window may still read, s (``-inf`` before the
@@ -810,13 +821,13 @@ class StreamService:
                     s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)}
             pending.append((float(ti), vi))
         if pending and pending[-1][0] - self._pending_t0[stream] >= self.config.clock_restart_s:
+            if self._in_a_gap(stream, self._pending_t0[stream], pending[-1][0]):
+                pending.clear()   # a late backlog of the stream's own gap: no new clock
+                return
             # streams that went on accepting samples on the old clock meanwhile
             others = self._pending_others.get(stream, {})
             running = [s for s, last in others.items()
                        if not self._pending[s] and self._buffers[s].last_t > last]
-            if self._in_a_gap(stream, self._pending_t0[stream], pending[-1][0]):
-                pending.clear()   # a late backlog of the stream's own gap: no new clock
-                return
             if running:
                 self._restart_alone(stream, running)
             else:
@@ -846,9 +857,7 @@ class StreamService:
         for s in list(self._ahead_others):   # a run held ahead of the old clocks
             self._drop_ahead(s)
         for s, p in held.items():  # counted as refused when they came; they are used now
-            self._refused[(s, TIME_RULE)] -= len(p)
-            if self._refused[(s, TIME_RULE)] <= 0:
-                del self._refused[(s, TIME_RULE)]
+            self._uncount(s, TIME_RULE, len(p))
         self._buffers = {s: RingBuffer(len(ch), self.config.buffer_samples)
                          for s, ch in self.streams.items()}
         self._stuck = {s: StuckWatch(s, ch) for s, ch in self.streams.items()}
@@ -858,15 +867,14 @@ class StreamService:
         for s in self.streams:
             self._events[s].clear()
         for s, p in held.items():
-            t = np.array([ti for ti, _ in p])
-            v = np.array([vi for _, vi in p]).reshape(len(p), -1)
+            t, v = _held_arrays(p)
             self._events[s].append((float(t[0]), "clock_restart"))
             self._ingest(s, t, v)
 
     def _restart_alone(self, stream: str, running: list[str]) -> None:
         """Put the held samples of ``stream`` on the clock of the ``running`` streams
         (module docstring): its buffer starts again, its offset changes by the shift."""
-        held = list(self._pending[stream])
+        t, v = _held_arrays(self._pending[stream])
         self._pending[stream].clear()
         # the first held sample arrived (with its chunk's newest, lead s later) after the
         # newest sample of the running streams and before their next one: half a step
@@ -878,20 +886,15 @@ class StreamService:
         # within a gap of the running streams' clock: the same clock, not moved
         if abs(shift) <= self.config.gap_factor * float(np.nanmax(steps + [0.0])):
             shift = 0.0
-        self._refused[(stream, TIME_RULE)] -= len(held)
-        if self._refused[(stream, TIME_RULE)] <= 0:
-            del self._refused[(stream, TIME_RULE)]
+        self._uncount(stream, TIME_RULE, len(t))
         self._offsets[stream] += float(shift)
         self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
         self._stuck[stream] = StuckWatch(stream, self.streams[stream])
         self._events[stream].clear()
         self._clock_restarts += 1
-        t = np.array([ti for ti, _ in held]) + shift
-        v = np.array([vi for _, vi in held]).reshape(len(held), -1)
+        t += shift
         self._ingest(stream, t, v)
-        newest = self._newest()
-        if self._next_t is not None and self._next_t > newest + self.config.max_backlog_s:
-            self._next_t = None    # it ran ahead of every stream (a stamp far ahead)
+        self._rewind_decision_clock()
         # the windows that hold the restart carry it: from the first held sample when the
         # decision clock starts again, else from the newest (those before are emitted)
         self._events[stream].append((float(t[0] if self._next_t is None else t[-1]),
@@ -1011,3 +1014,10 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
+
+
+def _held_arrays(held) -> tuple[np.ndarray, np.ndarray]:
+    """Held ``(t, values)`` samples as ``(n,)`` times (a new array) and ``(n, n_channels)``
+    values."""
+    return (np.array([ti for ti, _ in held], dtype=float),
+            np.array([vi for _, vi in held]).reshape(len(held), -1))
