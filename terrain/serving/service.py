@@ -32,60 +32,12 @@ closed form, :meth:`~terrain.serving.smoothing.ForwardFilter.skip`); they are co
 :attr:`StreamService.skipped_decisions`. Without that, one sample a day late would cost
 172,800 decisions at a 0.5 s hop before the next one.
 
-A stream whose samples keep arriving earlier than its newest accepted one (a looped log, a
-restarted driver or simulator) would have every later sample refused as
-``time_not_increasing``, and the service would decide nothing again. Such samples are
-held (the newest ``buffer_samples``); once they run as a clock over ``clock_restart_s``
-(increasing, no step longer than ``gap_factor`` of the stream's usual step) the clock has
-restarted: every buffer and the decision clock start again and the held samples of every
-stream are ingested (:attr:`StreamService.clock_restarts` counts it, the windows
-that cover the restart carry ``clock_restart``). A single late sample is still refused,
-and so is a late run inside one hole of its stream's buffer no longer than
-``max_backlog_s`` (the backlog of a dropout sent after the live samples by a
-store-and-forward link: on the stream's own clock, it cannot be put back in order, and it
-is no new clock), when the sample after the hole is on another stream's clock or followed
-by more.
-A stream whose clock steps forward alone (an NTP step on the computer of one sensor) puts
-its samples ahead of every other stream, which never catch up: every later decision was
-short and stale. A sample more than ``clock_restart_s`` (and ``stale_s``: a lag the config
-tolerates is never a clock) after its stream's newest and ahead of every other stream's
-newest by as much, those streams not having been behind it just before (a dead or
-lagging stream is no clock to judge by), is held (a step inside a pushed chunk too) (bounded, counted as ``buffer_overflow``
-beyond ``buffer_samples``); the held run is taken as it is once another stream catches up
-with it (the others lagged, or every stream was silent, a paused robot), put on the others'
-clock once it has run as a clock for ``clock_restart_s`` while they went on (one usual
-step after the stream's last sample before the step, kept inside the step of the others
-in which it arrived, a chunk arriving with its newest sample; offset, counter and ``clock_restart`` as for a restart alone), and
-taken as it is after ``max_backlog_s`` with the others silent. A sample that breaks the
-held run (the stream going on on its old clock: the held ones were a stray stamp ahead)
-drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more
-than ``max_backlog_s`` after the step, is taken as it is (the skip above). A stream's first
-sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind (two
-computers whose clocks were never synchronised; a stream delivered late is never that
-late), is held the same way and put on the
-clock of the streams that came first (the middle of the step in which it arrived); a run
-sent faster than the others go on (a backlog: they advanced by less than half its span) is
-never moved.
-A stream whose clock is in ms (the readers' rule ``timestamp_units``,
-:func:`terrain.io.plausibility.timestamps_in_ms`, on the median of its newest
-finite :data:`UNITS_STEPS` steps, judged only when a step may say so) has what it gave on
-that clock purged (the samples before a switch stay) and every sample refused as
-``timestamp_units`` (counted, flagged from the service's newest
-time on) until its steps are in s again: an IMU in ms beside wheels in s made every 0.5
-"s" of its clock a decision.
-A late sample that repeats one the stream already gave (the same stamp and values: a
-reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and dropped
-without a flag, never held for a restart, unless it is the stream's oldest buffered sample
-or continues a held run (a log played again from its start is a loop).
-Streams on one clock restart together. When one stream restarts alone (a restarted IMU
-driver whose device clock starts again while the wheel stream goes on), the others are the
-time reference: the restarted stream's first held sample is placed half a step after the
-newest sample the streams still running had when it arrived (arrival order is the only
-link between two clocks, so the offset is good to half their step), unless its new clock already agrees with theirs within a gap
-(then it is not moved: a stamp far ahead followed by samples on the true clock); that
-stream's buffer starts again, its offset is kept for its later samples and reported in
-:attr:`StreamService.clock_offsets_s`, and the decision clock goes on (it starts again only
-when it ran ahead of every stream).
+The streams' clocks are judged by the rules of :mod:`terrain.serving.clocks`: a clock that
+restarts (all streams together, or one alone: its offset is reported in
+:attr:`StreamService.clock_offsets_s`), a forward step of one stream's clock, a stream's
+first sample on another clock, a clock in ms (refused as ``timestamp_units``) and samples
+sent again (refused as ``duplicate``). The service holds the samples those rules hold
+(bounded, :class:`~terrain.serving.clocks.HeldRun`) and applies their verdicts.
 
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
@@ -117,12 +69,15 @@ from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, config_integer, config_numbers, duplicated
 from terrain.io.align import align_arrays, overlap_grid_tail
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, VEHICLE_LIMITS, accel_in_g,
-                                     implied_rate_hz, stuck_flag, timestamps_in_ms,
-                                     wheel_speed_in_kmh)
+                                     stuck_flag, wheel_speed_in_kmh)
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
+from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE, UNITS,
+                                    UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
+                                    continues_run, in_a_gap, newest_on_ms_clock,
+                                    resent_mask, resolve_hold, restart_shift, steps_ahead)
 from terrain.serving.decisions import Decision
-from terrain.serving.inputs import chunk_values, real_array, same_values
+from terrain.serving.inputs import chunk_values, real_array
 from terrain.serving.model import StreamModel
 from terrain.serving.rules import DEFAULT_RULES, SampleRule, StuckWatch
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
@@ -140,26 +95,6 @@ MAX_BUFFER_SAMPLES = 1_000_000
 #: reason of a sample a chunk pushed out of its stream's buffer before any decision used it
 #: (a chunk longer than the buffer, or a backlog while another stream lags)
 OVERFLOW = "buffer_overflow"
-#: reason of the rule whose refusals may announce a clock restart
-#: (:func:`terrain.serving.rules.time_increasing`)
-TIME_RULE = "time_not_increasing"
-#: reason of a sample sent again: the stamp (within :data:`DUPLICATE_TOL_S`) and values
-#: (to float32 precision) of a sample the stream already gave (a reconnecting publisher
-#: re-sending its buffer); refused without a flag, the decisions already had it
-DUPLICATE = "duplicate"
-#: reason of samples of one stream stamped far ahead of every other stream's clock that
-#: then did not run on as a clock (a stray stamp ahead; module docstring)
-AHEAD = "time_ahead"
-#: reason of the samples of a stream whose clock is in ms (the readers' rule
-#: ``timestamp_units``, :func:`terrain.io.plausibility.timestamps_in_ms`)
-UNITS = "timestamp_units"
-#: time steps the ``timestamp_units`` rule judges a live stream on (its newest ones)
-UNITS_STEPS = 8
-#: stamps this close are one stamp when telling a re-sent sample, s (1 us: far below the
-#: 0.5 ms period of a 2 kHz IMU, above the rounding of a stamp sent as float32 seconds of
-#: a clock from 0 over a few s only; stamps are mostly re-sent exactly)
-DUPLICATE_TOL_S = 1e-6
-
 
 @dataclass(frozen=True)
 class StreamConfig:
@@ -191,8 +126,8 @@ class StreamConfig:
     clock_restart_s : float
         A stream whose samples keep arriving earlier than its newest accepted one,
         increasing among themselves with no gap over this span of their own time, has
-        restarted its clock: the service restarts on the new clocks (module docstring), s
-        (finite, > 0).
+        restarted its clock: the service restarts on the new clocks
+        (:mod:`terrain.serving.clocks`), s (finite, > 0).
 
     Raises
     ------
@@ -366,22 +301,13 @@ class StreamService:
         self._refused: Counter = Counter()
         self._skipped = 0
         self._clock_restarts = 0
-        self._pending: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
-                                           for s in self.streams}
-        self._pending_t0: dict[str, float] = {}
-        self._pending_lead: dict[str, float] = {}   # its chunk's newest stamp past it, s
-        # newest time of every other stream when a stream's held run began (the reference
-        # of a restart of that stream alone)
-        self._pending_others: dict[str, dict[str, float]] = {}
+        # late samples of each stream that may run as a restarted clock (clocks.py)
+        self._late = {s: HeldRun(config.buffer_samples) for s in self.streams}
         self._offsets = {s: float(config.clock_offsets_s.get(s, 0.0)) for s in self.streams}
-        # samples of a stream whose clock stepped ahead of every other stream's, held until
-        # the others catch up or the step is known to be its clock's alone; with the
-        # others' buffered newest times when the hold began
-        self._ahead: dict[str, deque] = {s: deque(maxlen=config.buffer_samples)
-                                         for s in self.streams}
-        self._ahead_others: dict[str, dict[str, float]] = {}
-        self._ahead_t0: dict[str, float] = {}   # first held sample (the hold may drop it)
-        self._ahead_lead: dict[str, float] = {}  # its chunk's newest stamp past it, s
+        # the runs of streams whose clock stepped ahead of every other stream's, held
+        # until the others catch up or the step is known to be its clock's alone; a stream
+        # is a key only while it holds one (in the order the holds began)
+        self._ahead: dict[str, HeldRun] = {}
         # a step ahead of the others by less than stale_s is a lag the config tolerates
         self._step_s = max(config.clock_restart_s, config.stale_s)
         # rule timestamp_units: the readers' nominal rate range of each stream, by its
@@ -434,20 +360,21 @@ class StreamService:
         """Samples refused since the service started, by ``(stream, reason)``: the reason
         is the flag the per-sample rule raises, ``buffer_overflow``, ``duplicate`` (a
         sample sent again), ``time_ahead`` (a stray stamp ahead of the other streams) or
-        ``timestamp_units`` (a clock in ms; module docstring); bounded by the number of
-        streams and reasons."""
+        ``timestamp_units`` (a clock in ms; :mod:`terrain.serving.clocks`); bounded by the
+        number of streams and reasons."""
         return dict(self._refused)
 
     @property
     def clock_restarts(self) -> int:
-        """Clock restarts since the service started (module docstring,
+        """Clock restarts since the service started (:mod:`terrain.serving.clocks`,
         ``StreamConfig.clock_restart_s``)."""
         return self._clock_restarts
 
     @property
     def clock_offsets_s(self) -> dict[str, float]:
         """Offset added to each stream's timestamps, s: ``StreamConfig.clock_offsets_s``
-        plus the shift of every restart of that stream's clock alone (module docstring)."""
+        plus the shift of every restart of that stream's clock alone
+        (:mod:`terrain.serving.clocks`)."""
         return dict(self._offsets)
 
     @property
@@ -559,7 +486,7 @@ class StreamService:
                 t, v, order = t[keep], v[keep], order[keep]
         # a step forward longer than clock_restart_s and stale_s, or a stream's first
         # samples (one comparison on the usual push)
-        if hold and len(t) and (self._ahead[stream] or t[-1] - buf.last_t > self._step_s):
+        if hold and len(t) and (stream in self._ahead or t[-1] - buf.last_t > self._step_s):
             t, v = self._hold_ahead(stream, t, v)
         if len(t):
             # samples the chunk pushes out of the buffer before a decision used them
@@ -570,55 +497,41 @@ class StreamService:
             self._stuck[stream].update(t, v)
         buf.append(t, v)
         self._watch_restart(stream, late, order)
-        if self._ahead_others:
+        if self._ahead:
             self._resolve_ahead()
 
     def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
-        """Hold the samples of ``stream`` from a forward step of its clock that puts them
-        more than ``clock_restart_s`` and ``stale_s`` ahead of every other stream's, or
-        from its first sample when that is more than ``max_backlog_s`` from every other
-        stream's (ahead or behind: another clock from the start); return the samples to
-        take now.
-
-        A held run goes on while its samples run as a clock (increasing, no step over a
-        gap, or over ``clock_restart_s`` before the stream has a usual step); a sample that
-        breaks it (the stream going on on its old clock: the held ones were a stray stamp
-        far ahead) drops the held ones, counted as ``time_ahead``."""
-        buf, held = self._buffers[stream], self._ahead[stream]
-        jump = self._step_s
+        """Hold the samples of ``stream`` that step its clock ahead of every other stream's
+        (:func:`~terrain.serving.clocks.steps_ahead`) and those that run on from them as a
+        clock; return the samples to take now. A sample that breaks a held run (the stream
+        going on on its old clock: the held ones were a stray stamp far ahead) drops the
+        held ones, counted as ``time_ahead``."""
+        buf, held = self._buffers[stream], self._ahead.get(stream)
         # another clock from the first sample: by more than a delivery lag could be
-        first_jump = max(jump, self.config.max_backlog_s)
+        first_jump = max(self._step_s, self.config.max_backlog_s)
         step = buf.median_step()
-        max_step = self.config.gap_factor * step if np.isfinite(step) else jump
+        max_step = self.config.gap_factor * step if np.isfinite(step) else self._step_s
         taken = np.ones(len(t), dtype=bool)
         prev = buf.last_t        # the stream's newest sample taken
         others = {s: b.last_t for s, b in self._buffers.items()
-                  if s != stream and len(b) and not self._ahead[s]}
+                  if s != stream and len(b) and s not in self._ahead}
         for i, ti in enumerate(t):
-            if held:
-                if 0 < ti - held[-1][0] <= max_step:
-                    if len(held) == held.maxlen:   # the hold is bounded: count the loss
+            if held is not None:
+                if continues_run(ti, held.last_t, max_step):
+                    if held.full:   # the hold is bounded: count the loss
                         self._refused[(stream, OVERFLOW)] += 1
-                    held.append((float(ti), v[i]))
+                    held.append(ti, v[i])
                     taken[i] = False
                     continue
                 self._drop_ahead(stream)
-            # the first sample may be behind the others too; a later one steps ahead of
-            # others that were not behind the stream just before (a dead or lagging stream
-            # is no clock to judge by)
-            if prev > -np.inf:
-                far = others and min(ti - o for o in others.values()) > jump and \
-                    max(prev - o for o in others.values()) <= jump
-            else:
-                far = others and min(abs(ti - o) for o in others.values()) > first_jump
-            if ti - prev > jump and far:
-                self._ahead_others[stream] = others
-                self._ahead_t0[stream] = float(ti)
+                held = None
+            if steps_ahead(ti, prev, others.values(), self._step_s, first_jump):
+                held = self._ahead[stream] = HeldRun(self.config.buffer_samples)
                 # the chunk arrived with its newest sample: the others' clock then is that
                 # sample's, not the first held one's
-                self._ahead_lead[stream] = float(t[-1] - ti)
-                held.append((float(ti), v[i]))
+                held.begin(ti, t[-1] - ti, others)
+                held.append(ti, v[i])
                 taken[i] = False
                 continue
             prev = ti
@@ -627,61 +540,36 @@ class StreamService:
     def _drop_ahead(self, stream: str) -> None:
         """Refuse the held run of ``stream`` (a stray stamp ahead), counted and flagged as
         ``time_ahead``."""
-        held = self._ahead[stream]
+        held = self._ahead.pop(stream)
         self._refused[(stream, AHEAD)] += len(held)
         # flagged from the service's newest time on: the stream's own newest may be long
         # before every coming window (a clock in ms whose every sample steps ahead)
         self._events[stream].append((self._newest(), AHEAD))
-        held.clear()
-        self._ahead_others.pop(stream, None)
 
     def _resolve_ahead(self) -> None:
-        """Take the held run of a stream ahead as it is once another stream catches up
-        with it (the others lagged, or every stream was silent); once it has run as a
-        clock for ``clock_restart_s`` while the others went on, put it on their clock (its
-        clock stepped alone); once it has run for ``max_backlog_s`` with the others silent,
-        take it as it is."""
-        jump = self._step_s
-        for stream, at_start in list(self._ahead_others.items()):
-            if stream not in self._ahead_others:   # released by a release before it
+        """Release the runs held ahead that :func:`~terrain.serving.clocks.resolve_hold`
+        settles: as they are, or on the clock of the streams that went on."""
+        for stream, held in list(self._ahead.items()):
+            if stream not in self._ahead:   # released by a release before it
                 continue
-            t0, t1 = self._ahead_t0[stream], self._ahead[stream][-1][0]
-            now = {s: self._buffers[s].last_t for s in at_start}
-            # went on live: by at least half the held run's span (a backlog sent at once
-            # runs faster than the others)
-            went_on = [s for s in at_start if now[s] - at_start[s] >= 0.5 * (t1 - t0)
-                       and now[s] > at_start[s]]
-            if any(last >= t0 - jump and t1 >= last - jump for last in now.values()):
-                self._release_ahead(stream, 0.0)   # the clocks meet (one of them lagged)
-            elif went_on and t1 - t0 >= self.config.clock_restart_s:
-                self._release_ahead(stream, self._ahead_shift(stream, went_on))
-            elif t1 - t0 >= self.config.max_backlog_s:
-                self._release_ahead(stream, 0.0)
-
-    def _ahead_shift(self, stream: str, running: list[str]) -> float:
-        """Shift that puts the first held sample of ``stream`` on the clock of the
-        ``running`` streams, s: one usual step after the stream's last sample before its
-        clock stepped, kept between the newest sample the running streams had when it
-        arrived and their next one (arrival order, as for a restart of one clock alone)."""
-        buf = self._buffers[stream]
-        at_start = self._ahead_others[stream]
-        lead = self._ahead_lead[stream]
-        lower = max(at_start[s] for s in running) - lead
-        steps = [np.nan_to_num(self._buffers[s].median_step()) for s in running]
-        upper = max(lower, min(at_start[s] + step for s, step in zip(running, steps)) - lead)
-        if not len(buf):   # its first sample: no step of its own, the middle
-            return float(0.5 * (lower + upper) - self._ahead_t0[stream])
-        step = np.nan_to_num(buf.median_step())
-        first = max(min(max(buf.last_t + step, lower), upper), buf.last_t + 0.5 * step)
-        return float(first - self._ahead_t0[stream])
+            at_start = held.others_newest_s
+            running = resolve_hold(held.t0_s, held.last_t, at_start,
+                                   {s: self._buffers[s].last_t for s in at_start},
+                                   self._step_s, self.config.clock_restart_s,
+                                   self.config.max_backlog_s)
+            if running is None:
+                continue
+            shift = 0.0 if not running else ahead_shift(
+                held.t0_s, held.lead_s, [at_start[s] for s in running],
+                [self._buffers[s].median_step() for s in running],
+                self._buffers[stream].last_t, self._buffers[stream].median_step())
+            self._release_ahead(stream, shift)
 
     def _release_ahead(self, stream: str, shift: float) -> None:
         """Ingest the held run of ``stream`` moved by ``shift`` (s; a shift is a restart of
         that stream's clock alone: offset, counter and flag)."""
-        t, v = _held_arrays(self._ahead[stream])
+        t, v = self._ahead.pop(stream).arrays()
         t += shift
-        self._ahead[stream].clear()
-        del self._ahead_others[stream]
         if shift:
             self._offsets[stream] += shift
             self._clock_restarts += 1
@@ -690,61 +578,29 @@ class StreamService:
             self._events[stream].append((float(t[-1]), "clock_restart"))
 
     def _resent(self, stream: str, t: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``(n,)`` bool: the samples of a chunk that the stream already gave (same stamp
-        and values as a buffered sample or an earlier one of the chunk) and that start no
-        new clock.
-
-        A re-sent stretch is not a restarted clock: taken for one, a reconnecting publisher
-        re-sending its last 10 s shifted that stream by 10 s for good (two streams) or
-        emitted the decisions of those 10 s twice (one stream). A log played again from the
-        stream's oldest buffered sample is a loop, not a re-send (its first sample and the
-        run it starts are held for a restart as before), and so is a run that continues
-        samples already held."""
-        buf = self._buffers[stream]
-        out = np.zeros(len(t), dtype=bool)
+        """``(n,)`` bool: the samples of a chunk that the stream already gave
+        (:func:`~terrain.serving.clocks.resent_mask`)."""
         finite = t[np.isfinite(t)]
         if not len(finite):       # no stamp to match (the rules refuse them)
-            return out
+            return np.zeros(len(t), dtype=bool)
+        buf, late = self._buffers[stream], self._late[stream]
         bt, bv = buf.since(float(finite.min()) - DUPLICATE_TOL_S)
-        pending = self._pending[stream]
-        last_held = pending[-1][0] if pending else None
-        max_step = self.config.gap_factor * buf.median_step()
-        newest = buf.last_t
-        for i, ti in enumerate(t):
-            if not ti <= newest:               # increasing (or not finite): the rules judge
-                newest = ti if ti > newest else newest
-                continue
-            if last_held is not None and 0 < ti - last_held <= max_step:
-                last_held = ti                 # continues a held run (a loop or a restart)
-                continue
-            same = range(int(np.searchsorted(bt, ti - DUPLICATE_TOL_S)),
-                         int(np.searchsorted(bt, ti + DUPLICATE_TOL_S, side="right")))
-            earlier = np.flatnonzero(np.abs(t[:i] - ti) <= DUPLICATE_TOL_S)
-            in_buffer = [k for k in same if same_values(bv[k], v[i])]
-            in_chunk = [k for k in earlier if same_values(v[k], v[i])]
-            # the stream's oldest sample again: a loop starts (not a re-send)
-            loop = (bool(in_buffer) and bt[in_buffer[0]] == buf.first_t) or \
-                (not len(buf) and bool(in_chunk) and in_chunk[0] == 0)
-            if (in_buffer or in_chunk) and not loop:
-                out[i] = True
-            else:
-                last_held = ti                 # late and held: a possible new clock
-        return out
+        return resent_mask(t, v, bt, bv, buf.first_t, buf.last_t,
+                           late.last_t if len(late) else None,
+                           self.config.gap_factor * buf.median_step())
 
     def _newest(self) -> float:
         """Newest buffered time of any stream, s (the service's now)."""
         return max(b.last_t for b in self._buffers.values())
 
     def _in_ms(self, stream: str) -> bool:
-        """Rule ``timestamp_units`` live: whether the stream's clock is in ms, judged on the
-        median of its newest :data:`UNITS_STEPS` arrival steps (asked only when a push's
-        mean step may say so); a stream found in ms has its samples purged (counted) and
-        stays refused until its steps are in s again."""
-        stamps = np.array(self._recent_t[stream])
-        steps = np.diff(stamps)
-        if len(steps) < UNITS_STEPS or not np.median(steps) > 0:
+        """Rule ``timestamp_units`` live (:func:`~terrain.serving.clocks.clock_in_ms` on the
+        stream's newest arrival stamps; asked only when a push's mean step may say so); a
+        stream found in ms has its samples purged (counted) and stays refused until its
+        steps are in s again."""
+        in_ms = clock_in_ms(np.array(self._recent_t[stream]), self._rate_kind[stream])
+        if in_ms is None:
             return stream in self._ms_clock
-        in_ms = timestamps_in_ms(implied_rate_hz(stamps), self._rate_kind[stream])
         if in_ms and stream not in self._ms_clock:
             self._ms_clock.add(stream)
             self._purge(stream)
@@ -758,18 +614,13 @@ class StreamService:
         good and stay) and those it holds, counted as ``timestamp_units``; the decision
         clock starts again when it ran ahead of every other stream on their stamps."""
         buf = self._buffers[stream]
-        steps = np.diff(buf.times())
-        slow = steps > self._ms_step[stream]
-        # no step on a clock in s at all: nothing it gave is known good
-        k = len(slow) - int(np.flatnonzero(~slow)[-1]) - 1 if (~slow).any() else len(buf)
-        n = k + len(self._pending[stream]) + len(self._ahead[stream])
+        k = newest_on_ms_clock(buf.times(), self._ms_step[stream])
+        n = k + len(self._late[stream]) + len(self._ahead.pop(stream, ()))
         if n:
             self._refused[(stream, UNITS)] += n
         buf.drop_newest(k)
         self._stuck[stream] = StuckWatch(stream, self.streams[stream])
-        self._pending[stream].clear()
-        self._ahead[stream].clear()
-        self._ahead_others.pop(stream, None)
+        self._late[stream].clear()
         self._rewind_decision_clock()
 
     def _rewind_decision_clock(self) -> None:
@@ -795,13 +646,14 @@ class StreamService:
         return self._next_t - w.window_s - 2.0 / w.rate_hz
 
     def _watch_restart(self, stream: str, late, kept_order: np.ndarray) -> None:
-        """Keep the samples of ``stream`` refused as not increasing since its last accepted
-        one; once they run as a clock (increasing, no gap) over ``clock_restart_s``,
-        restart."""
-        pending = self._pending[stream]
+        """Hold the samples of ``stream`` refused as not increasing since its last accepted
+        one; once they run as a clock over ``clock_restart_s``, restart (all streams, or
+        ``stream`` alone when others went on meanwhile), unless they fill a hole of its
+        buffer (:func:`~terrain.serving.clocks.in_a_gap`)."""
+        held = self._late[stream]
         if late is None or (len(kept_order) and kept_order[-1] > late[2][-1]):
             if len(kept_order) or late is not None:
-                pending.clear()   # the stream goes on on its clock: a stray late sample
+                held.clear()   # the stream goes on on its clock: a stray late sample
             return
         lt, lv, lo = late
         if len(kept_order):       # only those after the last accepted sample count
@@ -809,83 +661,56 @@ class StreamService:
             lt, lv = lt[after], lv[after]
         # a new clock runs as the old one did: increasing, with no step longer than a gap
         # (the readers' rule against the stream's usual step); anything else starts again
-        max_step = self.config.gap_factor * self._buffers[stream].median_step()
-        for ti, vi in zip(lt, lv):
-            if pending and not 0 < ti - pending[-1][0] <= max_step:
-                pending.clear()
-            if not pending:       # the run's start, kept when maxlen drops its first samples
-                self._pending_t0[stream] = float(ti)
-                # the chunk arrived with its newest sample, that far past the run's start
-                self._pending_lead[stream] = float(lt[-1] - ti)
-                self._pending_others[stream] = {
-                    s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)}
-            pending.append((float(ti), vi))
-        if pending and pending[-1][0] - self._pending_t0[stream] >= self.config.clock_restart_s:
-            if self._in_a_gap(stream, self._pending_t0[stream], pending[-1][0]):
-                pending.clear()   # a late backlog of the stream's own gap: no new clock
-                return
-            # streams that went on accepting samples on the old clock meanwhile
-            others = self._pending_others.get(stream, {})
-            running = [s for s, last in others.items()
-                       if not self._pending[s] and self._buffers[s].last_t > last]
-            if running:
-                self._restart_alone(stream, running)
-            else:
-                self._restart()
-
-    def _in_a_gap(self, stream: str, t_first: float, t_last: float) -> bool:
-        """Whether ``[t_first, t_last]`` (s) falls inside one hole of the stream's buffer
-        no longer than ``max_backlog_s``: buffered samples before and after it and none
-        within. Late samples there are the backlog of a dropout sent after the live ones
-        (a store-and-forward link), on the stream's own clock: refused (they cannot be put
-        back in order), never a restart. A restarted or looped clock runs before the buffer
-        or over its samples. The sample after the hole must be on the clock of another
-        stream (its newest within ``clock_restart_s`` and ``stale_s``) or be followed by
-        more: one stray stamp ahead (the newest sample, nothing after it) makes no dropout,
-        and a restart is what puts that stream back."""
-        ts, _ = self._buffers[stream].since(t_first)
-        if not (len(ts) >= 2 and ts[0] < t_first and ts[1] > t_last
-                and ts[1] - ts[0] <= self.config.max_backlog_s):
-            return False
-        return len(ts) >= 3 or any(b.last_t >= ts[1] - self._step_s
-                                   for s, b in self._buffers.items() if s != stream)
+        held.extend_clock(lt, lv, self.config.gap_factor * self._buffers[stream].median_step(),
+                          {s: b.last_t for s, b in self._buffers.items()
+                           if s != stream and len(b)})
+        if not (len(held) and held.last_t - held.t0_s >= self.config.clock_restart_s):
+            return
+        if in_a_gap(self._buffers[stream].since(held.t0_s)[0], held.t0_s, held.last_t,
+                    self.config.max_backlog_s,
+                    [b.last_t for s, b in self._buffers.items() if s != stream],
+                    self._step_s):
+            held.clear()   # a late backlog of the stream's own gap: no new clock
+            return
+        # streams that went on accepting samples on the old clock meanwhile
+        running = [s for s, last in held.others_newest_s.items()
+                   if not self._late[s] and self._buffers[s].last_t > last]
+        if running:
+            self._restart_alone(stream, running)
+        else:
+            self._restart()
 
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
         the samples each stream sent on its new clock (the forward filter is kept)."""
-        held = {s: list(p) for s, p in self._pending.items() if p}
-        for s in list(self._ahead_others):   # a run held ahead of the old clocks
+        held = {s: run.arrays() for s, run in self._late.items() if len(run)}
+        for s in list(self._ahead):   # a run held ahead of the old clocks
             self._drop_ahead(s)
-        for s, p in held.items():  # counted as refused when they came; they are used now
-            self._uncount(s, TIME_RULE, len(p))
+        for s, (t, _) in held.items():  # counted as refused when they came; used now
+            self._uncount(s, TIME_RULE, len(t))
         self._buffers = {s: RingBuffer(len(ch), self.config.buffer_samples)
                          for s, ch in self.streams.items()}
         self._stuck = {s: StuckWatch(s, ch) for s, ch in self.streams.items()}
-        self._pending = {s: deque(maxlen=self.config.buffer_samples) for s in self.streams}
+        self._late = {s: HeldRun(self.config.buffer_samples) for s in self.streams}
         self._next_t = None
         self._clock_restarts += 1
         for s in self.streams:
             self._events[s].clear()
-        for s, p in held.items():
-            t, v = _held_arrays(p)
+        for s, (t, v) in held.items():
             self._events[s].append((float(t[0]), "clock_restart"))
             self._ingest(s, t, v)
 
     def _restart_alone(self, stream: str, running: list[str]) -> None:
         """Put the held samples of ``stream`` on the clock of the ``running`` streams
-        (module docstring): its buffer starts again, its offset changes by the shift."""
-        t, v = _held_arrays(self._pending[stream])
-        self._pending[stream].clear()
-        # the first held sample arrived (with its chunk's newest, lead s later) after the
-        # newest sample of the running streams and before their next one: half a step
-        # after it, unbiased for a uniform phase
-        steps = [self._buffers[s].median_step() for s in running]
-        reference = max(self._pending_others[stream][s] + 0.5 * np.nan_to_num(step)
-                        for s, step in zip(running, steps)) - self._pending_lead[stream]
-        shift = reference - self._pending_t0[stream]
-        # within a gap of the running streams' clock: the same clock, not moved
-        if abs(shift) <= self.config.gap_factor * float(np.nanmax(steps + [0.0])):
-            shift = 0.0
+        (:func:`~terrain.serving.clocks.restart_shift`): its buffer starts again, its
+        offset changes by the shift."""
+        held = self._late[stream]
+        t, v = held.arrays()
+        held.clear()
+        shift = restart_shift(held.t0_s, held.lead_s,
+                              [held.others_newest_s[s] for s in running],
+                              [self._buffers[s].median_step() for s in running],
+                              self.config.gap_factor)
         self._uncount(stream, TIME_RULE, len(t))
         self._offsets[stream] += float(shift)
         self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
@@ -1015,9 +840,3 @@ class StreamService:
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
 
-
-def _held_arrays(held) -> tuple[np.ndarray, np.ndarray]:
-    """Held ``(t, values)`` samples as ``(n,)`` times (a new array) and ``(n, n_channels)``
-    values."""
-    return (np.array([ti for ti, _ in held], dtype=float),
-            np.array([vi for _, vi in held]).reshape(len(held), -1))

@@ -1,0 +1,204 @@
+"""The clock rules of the streaming service as pure functions (terrain.serving.clocks).
+
+Values are worked out by hand from the rules' definitions (module docstring of
+terrain.serving.clocks); the service-level scenarios (a restarted driver, an NTP step, a
+re-sending publisher) are in test_service.py.
+"""
+
+import numpy as np
+import pytest
+
+from terrain.serving.clocks import (UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
+                                    continues_run, in_a_gap, newest_on_ms_clock,
+                                    resent_mask, resolve_hold, restart_shift, steps_ahead)
+
+
+def _values(n, start=0.0):
+    """(n, 2) distinct sample values."""
+    return np.column_stack([start + np.arange(n, dtype=float), -np.arange(n, dtype=float)])
+
+
+# --- HeldRun -----------------------------------------------------------------------------
+
+def test_held_run_is_bounded_and_keeps_its_start():
+    held = HeldRun(3)
+    held.begin(10.0, 0.4, {"wheels": 9.9})
+    for i in range(5):
+        held.append(10.0 + 0.1 * i, _values(1, i)[0])
+    t, v = held.arrays()
+    assert len(held) == 3 and held.full
+    np.testing.assert_allclose(t, [10.2, 10.3, 10.4])
+    assert v.shape == (3, 2) and v[0, 0] == 2.0
+    assert held.t0_s == 10.0 and held.lead_s == 0.4          # the start outlives the bound
+    assert held.others_newest_s == {"wheels": 9.9}
+    held.clear()
+    assert len(held) == 0 and held.last_t == -np.inf and held.arrays()[1].shape[0] == 0
+
+
+def test_extend_clock_begins_a_new_run_at_a_break():
+    held = HeldRun(100)
+    t = np.array([1.0, 1.1, 1.2, 5.0, 5.1])     # a step of 3.8 s breaks a 0.3 s max step
+    held.extend_clock(t, _values(5), 0.3, {"imu": 7.0})
+    run_t, run_v = held.arrays()
+    np.testing.assert_allclose(run_t, [5.0, 5.1])
+    np.testing.assert_allclose(run_v[:, 0], [3.0, 4.0])
+    assert held.t0_s == 5.0
+    assert held.lead_s == pytest.approx(0.1)     # the chunk's newest (5.1) past the start
+    assert held.others_newest_s == {"imu": 7.0}
+    # a later chunk that continues the run keeps its start and lead
+    held.extend_clock(np.array([5.2, 5.3]), _values(2), 0.3, {"imu": 8.0})
+    assert len(held) == 4 and held.t0_s == 5.0 and held.others_newest_s == {"imu": 7.0}
+
+
+def test_extend_clock_with_no_usual_step_holds_one_sample():
+    held = HeldRun(10)      # a NaN max step (the stream has no usual step) continues nothing
+    held.extend_clock(np.array([1.0, 1.1, 1.2]), _values(3), np.nan, {})
+    assert len(held) == 1 and held.t0_s == 1.2 and held.lead_s == 0.0
+
+
+def test_continues_run():
+    assert continues_run(1.1, 1.0, 0.2)
+    assert not continues_run(1.0, 1.0, 0.2)      # the same stamp is no step forward
+    assert not continues_run(0.9, 1.0, 0.2)
+    assert not continues_run(1.3, 1.0, 0.2)
+    assert not continues_run(1.1, 1.0, np.nan)
+
+
+# --- a forward step of one clock ----------------------------------------------------------
+
+def test_steps_ahead():
+    # the IMU steps 100 s ahead of wheels that were with it just before
+    assert steps_ahead(200.0, 100.0, [100.0], 5.0, 60.0)
+    # a step of 3 s is within the 5 s a lag may take
+    assert not steps_ahead(103.0, 100.0, [100.0], 5.0, 60.0)
+    # ahead of its own newest but not of the other stream
+    assert not steps_ahead(200.0, 100.0, [198.0], 5.0, 60.0)
+    # the wheels were 50 s behind already (dead or lagging): no clock to judge by
+    assert not steps_ahead(200.0, 100.0, [50.0], 5.0, 60.0)
+    # one stream alone steps nowhere
+    assert not steps_ahead(200.0, 100.0, [], 5.0, 60.0)
+
+
+def test_steps_ahead_of_a_first_sample():
+    # more than max_backlog_s from every other stream, ahead or behind: another clock
+    assert steps_ahead(1000.0, -np.inf, [100.0], 5.0, 60.0)
+    assert steps_ahead(100.0, -np.inf, [1000.0], 5.0, 60.0)
+    # 30 s behind is a late delivery, not another clock
+    assert not steps_ahead(70.0, -np.inf, [100.0], 5.0, 60.0)
+
+
+def test_resolve_hold():
+    args = (5.0, 5.0, 60.0)   # step_s, clock_restart_s, max_backlog_s
+    # the wheels caught up with the held run (they lagged): take it as it is
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 199.0}, *args) == []
+    # the wheels went on live for the run's span: its clock stepped alone
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 110.0}, *args) \
+        == ["wheels"]
+    # they went on by less than half the span (a backlog sent at once): keep holding
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 101.0}, *args) is None
+    # ... until the run has lasted max_backlog_s: take it as it is
+    assert resolve_hold(200.0, 261.0, {"wheels": 100.0}, {"wheels": 101.0}, *args) == []
+    # a run shorter than clock_restart_s is no clock yet
+    assert resolve_hold(200.0, 202.0, {"wheels": 100.0}, {"wheels": 102.0}, *args) is None
+
+
+def test_ahead_shift_after_the_streams_last_sample():
+    # the IMU's last sample before the step at 99.95 s, its step 0.05 s; the wheels were at
+    # 100.0 s (step 0.1 s) when the first held sample (500 s) came: one step after 99.95,
+    # i.e. 100.0, which lies inside the wheels' step [100.0, 100.1]
+    assert ahead_shift(500.0, 0.0, [100.0], [0.1], 99.95, 0.05) == pytest.approx(-400.0)
+    # the chunk arrived 0.5 s after its first sample: the window moves 0.5 s earlier,
+    # [99.5, 99.6], but never before half a step after the stream's own last sample
+    assert ahead_shift(500.0, 0.5, [100.0], [0.1], 99.95, 0.05) == pytest.approx(-400.025)
+
+
+def test_ahead_shift_of_a_first_sample_is_the_middle_of_the_step():
+    assert ahead_shift(500.0, 0.0, [100.0], [0.1], -np.inf, np.nan) \
+        == pytest.approx(100.05 - 500.0)
+    # no usual step of the others (one sample): the step is taken as 0
+    assert ahead_shift(500.0, 0.0, [100.0], [np.nan], -np.inf, np.nan) \
+        == pytest.approx(-400.0)
+
+
+# --- a restart of one stream alone --------------------------------------------------------
+
+def test_restart_shift_is_half_a_step_after_the_running_streams():
+    # an IMU driver restarts its clock at 0 while the wheels (step 0.01 s) are at 73.4 s
+    assert restart_shift(0.0, 0.0, [73.4], [0.01], 3.0) == pytest.approx(73.405)
+    # its chunk's newest arrived 0.2 s after its first sample
+    assert restart_shift(0.0, 0.2, [73.4], [0.01], 3.0) == pytest.approx(73.205)
+    # the newest running stream sets the reference
+    assert restart_shift(0.0, 0.0, [73.4, 73.0], [0.01, 0.1], 3.0) == pytest.approx(73.405)
+
+
+def test_restart_shift_within_a_gap_is_none():
+    # the new clock agrees with the running one within 3 of its steps: not moved
+    assert restart_shift(73.41, 0.0, [73.4], [0.01], 3.0) == 0.0
+    assert restart_shift(73.45, 0.0, [73.4], [0.01], 3.0) == pytest.approx(-0.045)
+
+
+# --- a late backlog of a dropout ----------------------------------------------------------
+
+def test_in_a_gap():
+    # a dropout 10..20 s; its backlog 12..18 s comes after the live samples
+    assert in_a_gap(np.array([10.0, 20.0, 20.1]), 12.0, 18.0, 60.0, [], 5.0)
+    # the sample after the hole is the stream's newest: on another stream's clock it is
+    # live, a dropout; far ahead of every other stream it is one stray stamp
+    assert in_a_gap(np.array([10.0, 20.0]), 12.0, 18.0, 60.0, [19.9], 5.0)
+    assert not in_a_gap(np.array([10.0, 20.0]), 12.0, 18.0, 60.0, [11.0], 5.0)
+    # a hole longer than max_backlog_s, a run past the hole or before the buffer: no gap
+    assert not in_a_gap(np.array([10.0, 100.0, 100.1]), 12.0, 18.0, 60.0, [], 5.0)
+    assert not in_a_gap(np.array([10.0, 20.0, 20.1]), 12.0, 20.05, 60.0, [], 5.0)
+    assert not in_a_gap(np.array([10.0, 20.0, 20.1]), 5.0, 8.0, 60.0, [], 5.0)
+
+
+# --- re-sent samples -----------------------------------------------------------------------
+
+def test_resent_mask_tells_a_resend_from_a_loop():
+    bt, bv = np.array([1.0, 1.1, 1.2, 1.3]), _values(4)
+    kw = dict(oldest_t_s=1.0, newest_t_s=1.3, last_held_t_s=None, max_step_s=0.3)
+    # the publisher re-sends 1.1 and 1.2 with the same values: duplicates
+    assert resent_mask(bt[1:3], bv[1:3], bt, bv, **kw).tolist() == [True, True]
+    # the same stamps with other values are a new clock's samples: held, not refused
+    assert resent_mask(bt[1:3], bv[1:3] + 5.0, bt, bv, **kw).tolist() == [False, False]
+    # played again from the oldest buffered sample: a loop (held for a restart)
+    assert resent_mask(bt, bv, bt, bv, **kw).tolist() == [False] * 4
+    # samples past the newest are the rules' to judge
+    assert resent_mask(np.array([1.4, 1.5]), _values(2, 9), bt, bv, **kw).tolist() \
+        == [False, False]
+
+
+def test_resent_mask_within_one_chunk():
+    empty = (np.empty(0), np.empty((0, 2)))
+    kw = dict(oldest_t_s=np.inf, newest_t_s=-np.inf, last_held_t_s=None, max_step_s=0.3)
+    t, v = np.array([1.0, 1.1, 1.1]), _values(3)
+    v[2] = v[1]                      # the chunk repeats its second sample
+    assert resent_mask(t, v, *empty, **kw).tolist() == [False, False, True]
+    t, v = np.array([1.0, 1.1, 1.0]), _values(3)
+    v[2] = v[0]                      # ... or starts again from its first: a loop
+    assert resent_mask(t, v, *empty, **kw).tolist() == [False, False, False]
+
+
+def test_resent_mask_continuing_a_held_run_is_no_resend():
+    bt, bv = np.array([1.0, 1.1, 1.2, 1.3]), _values(4)
+    # a held late run ends at 1.05; 1.2 (a buffered sample) continues it
+    mask = resent_mask(bt[2:3], bv[2:3], bt, bv, 1.0, 1.3, 1.05, 0.3)
+    assert mask.tolist() == [False]
+
+
+# --- a clock in ms ---------------------------------------------------------------------------
+
+def test_clock_in_ms():
+    ms = np.arange(UNITS_STEPS + 1) * 10.0     # a 100 Hz IMU stamped in ms: 0.1 "Hz"
+    assert clock_in_ms(ms, "imu") is True
+    assert clock_in_ms(ms / 1000.0, "imu") is False
+    assert clock_in_ms(ms[:UNITS_STEPS], "imu") is None      # too few steps to judge
+    assert clock_in_ms(np.full(UNITS_STEPS + 1, 5.0), "imu") is None   # no step forward
+
+
+def test_newest_on_ms_clock():
+    # samples 0.01 s apart, then the clock switches to ms: 20, 30, 40 "s"
+    times = np.array([0.0, 0.01, 0.02, 20.0, 30.0, 40.0])
+    assert newest_on_ms_clock(times, 1.0) == 3
+    assert newest_on_ms_clock(np.array([0.0, 10.0, 20.0]), 1.0) == 3   # none known good
+    assert newest_on_ms_clock(np.array([0.0, 0.01, 0.02]), 1.0) == 0
