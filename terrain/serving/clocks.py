@@ -63,6 +63,9 @@ only when a step may say so) has what it gave on that clock purged
 (:func:`newest_on_ms_clock`; the samples before a switch stay) and every sample refused as
 ``timestamp_units`` (counted, flagged from the service's newest time on) until its steps
 are in s again: an IMU in ms beside wheels in s made every 0.5 "s" of its clock a decision.
+A stream's first samples whose mean step is over ten periods of its slowest nominal rate
+are held (bounded) until it has :data:`UNITS_STEPS` steps to judge, then purged or taken
+in order: every stream in ms from its first sample ran the decision clock in ms before.
 
 **Re-sent samples.** A late sample that repeats one the stream already gave (the same stamp
 and values: a reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and

@@ -319,6 +319,9 @@ class StreamService:
         self._ms_step = {s: None if k is None else 10.0 / NOMINAL_RATE_HZ[k][0]
                          for s, k in self._rate_kind.items()}
         self._recent_t = {s: deque(maxlen=UNITS_STEPS + 1) for s in self.streams}
+        # samples of a stream's first steps that may be on a clock in ms, held until its
+        # steps are enough to judge
+        self._unjudged = {s: HeldRun(config.buffer_samples) for s in self.streams}
         self._ms_clock: set[str] = set()
         # (stream, reason) of samples refused without a stamp before any stream had one
         self._unplaced: set[tuple[str, str]] = set()
@@ -438,10 +441,12 @@ class StreamService:
             out.extend(self._emit())
         return out
 
-    def _ingest(self, stream: str, t: np.ndarray, v: np.ndarray, hold: bool = True) -> None:
+    def _ingest(self, stream: str, t: np.ndarray, v: np.ndarray, hold: bool = True,
+                judged: bool = False) -> None:
         """Apply the rules to a validated chunk, buffer what they keep, hold the samples
         of a forward step of the stream's clock alone (unless ``hold`` is false) and watch
-        the samples refused as earlier than the stream's newest for a clock restart."""
+        the samples refused as earlier than the stream's newest for a clock restart.
+        ``judged``: samples held before, whose clock's units were judged when they came."""
         channels, buf = self.streams[stream], self._buffers[stream]
         # a sample at or before the stream's newest may be one sent again (checked only
         # then: the usual increasing push costs one comparison)
@@ -453,19 +458,35 @@ class StreamService:
                 if not len(t):
                     return
         slowest = self._ms_step[stream]
-        if slowest is not None:   # rule timestamp_units: the usual push is one comparison
-            recent = self._recent_t[stream]
-            suspect = stream in self._ms_clock or \
-                t[-1] - (recent[-1] if recent else -np.inf) > len(t) * slowest
+        if slowest is not None and not judged:
+            # rule timestamp_units: the usual push is one comparison
+            recent, unjudged = self._recent_t[stream], self._unjudged[stream]
+            # a mean step over ten nominal periods (a stream's first push: its own steps)
+            suspect = stream in self._ms_clock or (
+                t[-1] - recent[-1] > len(t) * slowest if recent
+                else t[-1] - t[0] > (len(t) - 1) * slowest)
             if len(t) == 1:
                 if math.isfinite(t[0]):
                     recent.append(float(t[0]))
             else:   # the newest finite stamps (a NaN one left too few steps to judge)
                 recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
-            if suspect and self._in_ms(stream):
-                self._refused[(stream, UNITS)] += len(t)
-                self._events[stream].append((self._newest(), UNITS))
-                return
+            if suspect or len(unjudged):
+                if len(recent) <= UNITS_STEPS:
+                    # too few steps to judge: held, so that a clock in ms from the stream's
+                    # first samples never runs the decision clock
+                    for ti, vi in zip(t, v):
+                        if unjudged.full:   # bounded: count the loss
+                            self._refused[(stream, OVERFLOW)] += 1
+                        unjudged.append(ti, vi)
+                    return
+                if self._in_ms(stream):
+                    self._refused[(stream, UNITS)] += len(t)
+                    self._events[stream].append((self._newest(), UNITS))
+                    return
+                if len(unjudged):   # a clock in s: the held samples go first
+                    held_t, held_v = unjudged.arrays()
+                    unjudged.clear()
+                    t, v = np.concatenate([held_t, t]), np.concatenate([held_v, v])
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         for rule in self.rules:
@@ -573,7 +594,7 @@ class StreamService:
         if shift:
             self._offsets[stream] += shift
             self._clock_restarts += 1
-        self._ingest(stream, t, v, hold=False)
+        self._ingest(stream, t, v, hold=False, judged=True)
         if shift:
             self._events[stream].append((float(t[-1]), "clock_restart"))
 
@@ -615,12 +636,14 @@ class StreamService:
         clock starts again when it ran ahead of every other stream on their stamps."""
         buf = self._buffers[stream]
         k = newest_on_ms_clock(buf.times(), self._ms_step[stream])
-        n = k + len(self._late[stream]) + len(self._ahead.pop(stream, ()))
+        n = k + len(self._late[stream]) + len(self._ahead.pop(stream, ())) + \
+            len(self._unjudged[stream])
         if n:
             self._refused[(stream, UNITS)] += n
         buf.drop_newest(k)
         self._stuck[stream] = StuckWatch(stream, self.streams[stream])
         self._late[stream].clear()
+        self._unjudged[stream].clear()
         self._rewind_decision_clock()
 
     def _rewind_decision_clock(self) -> None:
@@ -698,7 +721,7 @@ class StreamService:
             self._events[s].clear()
         for s, (t, v) in held.items():
             self._events[s].append((float(t[0]), "clock_restart"))
-            self._ingest(s, t, v)
+            self._ingest(s, t, v, judged=True)
 
     def _restart_alone(self, stream: str, running: list[str]) -> None:
         """Put the held samples of ``stream`` on the clock of the ``running`` streams
@@ -718,7 +741,7 @@ class StreamService:
         self._events[stream].clear()
         self._clock_restarts += 1
         t += shift
-        self._ingest(stream, t, v)
+        self._ingest(stream, t, v, judged=True)
         self._rewind_decision_clock()
         # the windows that hold the restart carry it: from the first held sample when the
         # decision clock starts again, else from the newest (those before are emitted)

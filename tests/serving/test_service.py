@@ -713,6 +713,50 @@ def test_an_imu_clock_in_ms_is_refused_as_the_readers_refuse_it(all_model, unsee
     assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
+@pytest.mark.parametrize("model_name", ["all_model", "wheel_model"])
+def test_every_stream_on_a_clock_in_ms_from_the_start_makes_no_decision(request, model_name,
+                                                                      unseen_run):
+    # every stream's clock in ms from its first sample for 30 s, then the drivers send s.
+    # Before the rule had its 8 steps, the streams' first samples ran the decision clock
+    # in ms: 851 decisions (IMU + wheels) and 865 (wheel-only) out of the first 1.2 s of
+    # data, stamped up to 1076 "s", most of them stale
+    from terrain.serving.replay import interleave
+    model = request.getfixturevalue(model_name)
+    t0 = min(float(f[TIME].iloc[0]) for f in unseen_run.streams.values())
+    svc, got = service(model), []
+    for stream, t, v in interleave(unseen_run, svc.needed_streams, max_chunk=1):
+        cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
+        got += svc.push(stream, np.where(t < t0 + 30.0, t * 1000.0, t), dict(zip(cols, v.T)))
+    n_ms = sum(int((unseen_run.streams[s][TIME] < t0 + 30.0).sum())
+               for s in svc.needed_streams)
+    refused = svc.refused_samples
+    # every sample in ms is refused, and at most the first 8 of each stream in s with them
+    # (the rule needs 8 steps in s to say the clock is in s again)
+    assert {reason for _, reason in refused} == {"timestamp_units"}
+    assert n_ms <= sum(refused.values()) <= n_ms + 8 * len(svc.needed_streams)
+    times = np.array([d.t_s for d in got])
+    assert times.min() > t0 + 30.0 and np.all(np.diff(times) > 0)
+    assert times[-1] < t0 + unseen_run.duration_s + 1.0
+    late = [d for d in got if d.t_s > t0 + 30.0 + model.window.window_s + 2.0]
+    assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
+
+
+def test_a_long_step_in_a_streams_first_samples_is_held_then_taken(wheel_model, unseen_run):
+    # a dropout of the wheels right after their first sample looks like a clock in ms
+    # until the rule has its 8 steps: the samples are held meanwhile, then taken, none lost
+    frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz)
+    t0 = float(frame["t_s"].iloc[0])
+    after = frame[frame["t_s"] >= t0 + 15.0]
+    svc = service(wheel_model)
+    got = push_wheels(svc, frame.iloc[:1]) + push_wheels(svc, after)
+    reference = push_wheels(service(wheel_model), after)
+    assert svc.refused_samples == {}
+    # after the dropout the decisions are those of the stream started after it
+    assert [(d.t_s, d.terrain) for d in got if d.t_s > t0 + 20.0] == \
+        [(d.t_s, d.terrain) for d in reference if d.t_s > t0 + 20.0]
+    assert len([d for d in got if d.t_s > t0 + 20.0]) > 100
+
+
 def test_samples_sent_again_are_refused_as_duplicates_not_taken_for_a_new_clock(
         wheel_model, all_model, unseen_run):
     # a reconnecting publisher re-sends its last 10 s. One stream: it was taken for a
