@@ -68,6 +68,49 @@ def chunk_values(values, t_s: np.ndarray, channels: Sequence[str],
     return np.column_stack(columns) if len(t_s) else np.empty((0, len(channels)))
 
 
+def check_same_index(t_s, values, stream: str) -> None:
+    """Refuse pandas inputs of one chunk whose indexes differ: they are read by position.
+
+    A channel filtered or sorted apart from the others (a Series with its own index) was
+    paired with the other channels' samples row by row, silently; pandas itself would have
+    aligned them by index.
+
+    Parameters
+    ----------
+    t_s : float, array-like or pandas.Series
+        Timestamps of the chunk as pushed, s.
+    values : Mapping[str, array], pandas.DataFrame, pandas.Series or array-like
+        Values of the chunk as pushed (:func:`chunk_values`); a Series is one sample, whose
+        index holds the channel names.
+    stream : str
+        Stream name (for the message).
+
+    Raises
+    ------
+    DataFormatError
+        ``t_s``, a DataFrame of values or a mapping's Series carry indexes that are not all
+        equal; the message names the first channel (or ``t_s``) that differs.
+    """
+    indexed = [("t_s", t_s.index)] if isinstance(t_s, pd.Series) else []
+    if isinstance(values, pd.DataFrame):
+        indexed.append(("values", values.index))
+    elif isinstance(values, Mapping):
+        indexed += [(c, x.index) for c, x in values.items() if isinstance(x, pd.Series)]
+    if len(indexed) < 2:
+        return
+    # the index most of them share is the reference: the message names the odd one out
+    shared = max((sum(index.equals(other) for _, other in indexed), -k)
+                 for k, (_, index) in enumerate(indexed))
+    ref_name, ref_index = indexed[-shared[1]]
+    for name, index in indexed:
+        if not index.equals(ref_index):
+            raise DataFormatError(
+                f"stream {stream!r}: {name!r} carries another pandas index than "
+                f"{ref_name!r}; values are read by position, so its samples would be "
+                "paired with other samples' stamps: align them (e.g. DataFrame.join or "
+                "reindex) or pass arrays", f"stream {stream}", name)
+
+
 def values_matrix(v: np.ndarray, n: int, channels: Sequence[str],
                   stream: str) -> np.ndarray:
     """``(n, n_channels)`` values of a chunk of ``n`` samples, never reshaped on a guess.

@@ -77,7 +77,7 @@ from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE
                                     continues_run, in_a_gap, newest_on_ms_clock,
                                     resent_mask, resolve_hold, restart_shift, steps_ahead)
 from terrain.serving.decisions import Decision
-from terrain.serving.inputs import chunk_values, real_array
+from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.model import StreamModel
 from terrain.serving.rules import DEFAULT_RULES, SampleRule, StuckWatch
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
@@ -417,7 +417,8 @@ class StreamService:
             ``values`` of any other shape (a transposed chunk included), a channel's values
             and the timestamps of different lengths, or a timestamp or value that is not a
             real number (text, complex, booleans, NumPy datetime or timedelta, an integer
-            beyond the float range, ragged lists).
+            beyond the float range, ragged lists), or pandas timestamps and values whose
+            indexes differ (:func:`~terrain.serving.inputs.check_same_index`).
         """
         if not isinstance(stream, str) or stream not in self.config.streams:
             raise ConfigError(f"unknown stream {stream!r:.60}; configured: "
@@ -425,6 +426,8 @@ class StreamService:
         if stream not in self.streams:
             return []
         channels = self.streams[stream]
+        if not isinstance(values, np.ndarray):   # the usual push: nothing read by index
+            check_same_index(t_s, values, stream)
         t = real_array(t_s, stream, "t_s") + self._offsets[stream]
         v = chunk_values(values, t, channels, stream)
         if not len(t):

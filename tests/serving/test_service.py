@@ -975,6 +975,27 @@ def test_a_dataframe_is_read_by_its_column_names_and_a_mask_is_missing_data(whee
     assert svc.refused_samples == {("wheels", "non_finite"): 1}
 
 
+def test_pandas_inputs_with_different_indexes_are_refused_not_read_by_position(wheel_model):
+    # a channel sorted apart from the others (its own index) was paired with the other
+    # channels' samples row by row: vel_l of sample 2 went with the stamp of sample 0
+    import pandas as pd
+
+    t, v = _wheel_chunk(3)
+    frame = pd.DataFrame(v, columns=WHEEL_CHANNELS)
+    columns = {c: frame[c] for c in WHEEL_CHANNELS}
+    columns["vel_l"] = frame["vel_l"].iloc[::-1]
+    svc = service(wheel_model)
+    with pytest.raises(DataFormatError, match="'vel_l' carries another pandas index than 'vel_r'"):
+        svc.push("wheels", t, columns)
+    stamps = pd.Series(t, index=[5, 6, 7])
+    with pytest.raises(DataFormatError, match="'values' carries another pandas index than 't_s'"):
+        svc.push("wheels", stamps, frame)
+    assert len(svc._buffers["wheels"]) == 0 and svc.refused_samples == {}
+    # the same index everywhere (or arrays) is read as before
+    svc.push("wheels", pd.Series(t), {c: frame[c] for c in WHEEL_CHANNELS})
+    np.testing.assert_array_equal(svc._buffers["wheels"].since(-np.inf)[1], v)
+
+
 def test_a_chunk_longer_than_the_buffer_loses_no_decision(wheel_model):
     """10 000 wheel samples in one push, buffer 4096: the buffer kept only the newest and the
     first 590 s made no decision and no count."""
