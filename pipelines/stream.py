@@ -145,6 +145,11 @@ def main(args: argparse.Namespace) -> int:
     skipped = (f"; {service.skipped_decisions} skipped in silent stretches (no sample of "
                f"any stream for over {config.max_backlog_s:g} s)"
                if service.skipped_decisions else "")
+    held = service.held_samples
+    if held:
+        skipped += "; " + ", ".join(f"{n} samples of stream {s} still held at the end "
+                                    f"({r}: their clock not yet told)"
+                                    for (s, r), n in sorted(held.items()))
     print(f"{run.run_id}: {len(frame)} decisions every {args.hop_s} s from streams "
           f"{list(service.needed_streams)}; {flagged} flagged{detail}{skipped}; written to "
           f"{args.out}")

@@ -63,9 +63,17 @@ only when a step may say so) has what it gave on that clock purged
 (:func:`newest_on_ms_clock`; the samples before a switch stay) and every sample refused as
 ``timestamp_units`` (counted, flagged from the service's newest time on) until its steps
 are in s again: an IMU in ms beside wheels in s made every 0.5 "s" of its clock a decision.
-A stream's first samples whose mean step is over ten periods of its slowest nominal rate
-are held (bounded) until it has :data:`UNITS_STEPS` steps to judge, then purged or taken
-in order: every stream in ms from its first sample ran the decision clock in ms before.
+A step over ten periods of the stream's slowest nominal rate (a switch to ms, or a
+dropout; :func:`first_long_step`) that no hold ahead takes (no other stream in step to
+judge it by: one stream, every stream switching, the others lagging) opens a hold
+(bounded): the chunks from it on are held until :data:`UNITS_STEPS` steps after it are
+known, then purged or taken as they came, so the rule never judges across the switch and
+no sample on a clock in ms reaches the decision clock (a stream switching to ms, or in ms
+from its first sample, ran it to 1000 times its time first, and back again after the
+purge); a dropout costs that many samples of delay. A sample back before the step ends
+the hold: on the stream's old clock after a step longer than ``max_backlog_s`` (no
+dropout's backlog is that late) the held samples were a stray stamp ahead, refused as
+``time_ahead``; otherwise they are taken as they came.
 
 **Re-sent samples.** A late sample that repeats one the stream already gave (the same stamp
 and values: a reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and
@@ -473,6 +481,33 @@ def resent_mask(t_s: np.ndarray, values: np.ndarray, buffered_t_s: np.ndarray,
         else:
             last_held = ti                 # late and held: a possible new clock
     return out
+
+
+def first_long_step(t_s: np.ndarray, prev_t_s: float | None, max_step_s: float) -> int:
+    """Where in a chunk a stream's clock first steps by more than ``max_step_s``.
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        ``(n,)`` stamps of the chunk, s (NaN ones are skipped: a step runs from the finite
+        stamp before).
+    prev_t_s : float or None
+        The stream's newest stamp before the chunk, s (None: its first chunk, whose first
+        sample has no step).
+    max_step_s : float
+        Longest ordinary step, s.
+
+    Returns
+    -------
+    int
+        Index of the first sample more than ``max_step_s`` after the finite stamp before
+        it; 0 when none is.
+    """
+    finite = np.flatnonzero(np.isfinite(t_s))
+    stamps = t_s[finite]
+    before = np.concatenate([[np.nan if prev_t_s is None else prev_t_s], stamps[:-1]])
+    long = np.flatnonzero(stamps - before > max_step_s)
+    return int(finite[long[0]]) if len(long) else 0
 
 
 def clock_in_ms(stamps_s: np.ndarray, rate_kind: str) -> bool | None:

@@ -74,12 +74,14 @@ from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE, UNITS,
                                     UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
-                                    continues_run, in_a_gap, newest_on_ms_clock,
-                                    resent_mask, resolve_hold, restart_shift, steps_ahead)
+                                    continues_run, first_long_step, in_a_gap,
+                                    newest_on_ms_clock, resent_mask, resolve_hold,
+                                    restart_shift, steps_ahead)
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.model import StreamModel
-from terrain.serving.rules import DEFAULT_RULES, SampleRule, StuckWatch
+from terrain.serving.rules import (DEFAULT_RULES, MAX_PLAUSIBLE_TIME_S, SampleRule,
+                                   StuckWatch)
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.serving.targets import TargetProvider
 
@@ -319,9 +321,11 @@ class StreamService:
         self._ms_step = {s: None if k is None else 10.0 / NOMINAL_RATE_HZ[k][0]
                          for s, k in self._rate_kind.items()}
         self._recent_t = {s: deque(maxlen=UNITS_STEPS + 1) for s in self.streams}
-        # samples of a stream's first steps that may be on a clock in ms, held until its
-        # steps are enough to judge
-        self._unjudged = {s: HeldRun(config.buffer_samples) for s in self.streams}
+        # samples from a stream's step long enough to be a switch to ms, held until the
+        # steps after it are enough to judge (_judge_units)
+        self._unjudged: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {
+            s: [] for s in self.streams}    # the chunks as they came
+        self._unjudged_t0: dict[str, float] = {}   # the long step's stamp, s
         self._ms_clock: set[str] = set()
         # (stream, reason) of samples refused without a stamp before any stream had one
         self._unplaced: set[tuple[str, str]] = set()
@@ -366,6 +370,19 @@ class StreamService:
         ``timestamp_units`` (a clock in ms; :mod:`terrain.serving.clocks`); bounded by the
         number of streams and reasons."""
         return dict(self._refused)
+
+    @property
+    def held_samples(self) -> dict[tuple[str, str], int]:
+        """Samples held at this moment and counted nowhere yet, by ``(stream, reason)``:
+        ``time_ahead`` (a run ahead of every other stream's clock) and ``timestamp_units``
+        (samples after a long step, awaiting the units rule) (:mod:`terrain.serving.clocks`).
+        They reach the decisions, or ``refused_samples``, once their clock is told; at the
+        end of a replay they are what the last decisions never saw. (Late samples held as a
+        possible restarted clock are in ``refused_samples`` until a restart uses them.)"""
+        held = {(s, AHEAD): len(run) for s, run in self._ahead.items()}
+        held.update({(s, UNITS): sum(len(c) for c, _ in chunks)
+                     for s, chunks in self._unjudged.items() if chunks})
+        return held
 
     @property
     def clock_restarts(self) -> int:
@@ -461,35 +478,12 @@ class StreamService:
                 if not len(t):
                     return
         slowest = self._ms_step[stream]
-        if slowest is not None and not judged:
-            # rule timestamp_units: the usual push is one comparison
-            recent, unjudged = self._recent_t[stream], self._unjudged[stream]
-            # a mean step over ten nominal periods (a stream's first push: its own steps)
-            suspect = stream in self._ms_clock or (
-                t[-1] - recent[-1] > len(t) * slowest if recent
-                else t[-1] - t[0] > (len(t) - 1) * slowest)
-            if len(t) == 1:
-                if math.isfinite(t[0]):
-                    recent.append(float(t[0]))
-            else:   # the newest finite stamps (a NaN one left too few steps to judge)
-                recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
-            if suspect or len(unjudged):
-                if len(recent) <= UNITS_STEPS:
-                    # too few steps to judge: held, so that a clock in ms from the stream's
-                    # first samples never runs the decision clock
-                    for ti, vi in zip(t, v):
-                        if unjudged.full:   # bounded: count the loss
-                            self._refused[(stream, OVERFLOW)] += 1
-                        unjudged.append(ti, vi)
-                    return
-                if self._in_ms(stream):
-                    self._refused[(stream, UNITS)] += len(t)
-                    self._events[stream].append((self._newest(), UNITS))
-                    return
-                if len(unjudged):   # a clock in s: the held samples go first
-                    held_t, held_v = unjudged.arrays()
-                    unjudged.clear()
-                    t, v = np.concatenate([held_t, t]), np.concatenate([held_v, v])
+        if slowest is not None and not judged:   # rule timestamp_units
+            taken = self._judge_units(stream, t, v, slowest)
+            if taken is None:
+                return
+            t, v = taken
+            buf = self._buffers[stream]   # (held samples taken meanwhile may restart)
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         for rule in self.rules:
@@ -524,6 +518,89 @@ class StreamService:
         if self._ahead:
             self._resolve_ahead()
 
+    def _judge_units(self, stream: str, t: np.ndarray, v: np.ndarray, slowest: float
+                     ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Rule ``timestamp_units`` on a chunk of ``stream``: the samples to take now, or
+        None (refused, held until they can be judged, or taken here).
+
+        A push whose mean step is over ``slowest`` (s: ten periods of the stream's slowest
+        nominal rate; a stream's first push, over its own steps) opens a hold at its first
+        step that long (the samples before it are taken): the chunks from it on are held
+        until :data:`~terrain.serving.clocks.UNITS_STEPS` steps after it are known, then
+        purged with what the stream gave in ms (counted) or taken chunk by chunk as they
+        came. A clock that switches to ms thus never runs the decision clock; a dropout
+        costs the stream a delay of that many samples. A sample back before the step ends
+        the hold: one that continues the stream's old clock after a step longer than
+        ``max_backlog_s`` (no dropout's backlog is that late) drops the held samples as a
+        stray stamp ahead (``time_ahead``); otherwise they are taken as they came. A stream
+        found in ms is judged at every push and its samples refused until its steps are in
+        s again. The usual push costs one comparison."""
+        recent, held = self._recent_t[stream], self._unjudged[stream]
+        prev = recent[-1] if recent else None
+        # (a stamp the readers' rule implausible_time refuses opens no hold)
+        suspect = abs(t[-1]) <= MAX_PLAUSIBLE_TIME_S and (
+            t[-1] - prev > len(t) * slowest if prev is not None
+            else t[-1] - t[0] > (len(t) - 1) * slowest)
+        if len(t) == 1:
+            if math.isfinite(t[0]):
+                recent.append(float(t[0]))
+        else:   # the newest finite stamps (a NaN one left too few steps to judge)
+            recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
+        if stream in self._ms_clock or (suspect and not held):
+            if self._in_ms(stream):   # its newest steps say so already
+                self._refused[(stream, UNITS)] += len(t)
+                self._events[stream].append((self._newest(), UNITS))
+                return None
+            if not suspect:
+                return t, v
+        if held:
+            t0, last = self._unjudged_t0[stream], self._buffers[stream].last_t
+            back = np.flatnonzero(t < t0)
+            if len(back):   # back before the step: no clock from it
+                i = int(back[0])
+                if last < t[i] and t0 - last > self.config.max_backlog_s:
+                    self._refused[(stream, AHEAD)] += sum(len(c) for c, _ in held) + i
+                    self._events[stream].append((self._newest(), AHEAD))
+                    held.clear()
+                    return t[i:], v[i:]
+                self._release_unjudged(stream)
+                return t, v
+        elif not suspect:
+            return t, v
+        else:   # the hold begins at the chunk's first long step
+            k = first_long_step(np.where(np.abs(t) <= MAX_PLAUSIBLE_TIME_S, t, np.nan), prev,
+                                slowest)
+            if k:
+                self._ingest(stream, t[:k], v[:k], judged=True)
+                t, v = t[k:], v[k:]
+            last = self._buffers[stream].last_t
+            # a long step from a late or stray stamp but not past the stream's newest taken
+            # is no switch (a restarted clock goes on); a step ahead of every other stream
+            # in step is held (and judged) as one
+            if not t[0] - last > slowest or steps_ahead(
+                    t[0], last, self._others_newest(stream).values(), self._step_s,
+                    max(self._step_s, self.config.max_backlog_s)):
+                return t, v
+            finite = t[np.isfinite(t)]
+            self._unjudged_t0[stream] = float(finite[0]) if len(finite) else -np.inf
+        held.append((t, v))
+        n_finite = sum(int(np.isfinite(c).sum()) for c, _ in held)
+        if n_finite <= UNITS_STEPS and sum(len(c) for c, _ in held) < self.config.buffer_samples:
+            return None
+        if n_finite > UNITS_STEPS and self._in_ms(stream):   # purged with what is held
+            self._events[stream].append((self._newest(), UNITS))
+            return None
+        self._release_unjudged(stream)   # a clock in s (a dropout)
+        return None
+
+    def _release_unjudged(self, stream: str) -> None:
+        """Take the chunks of ``stream`` held for the ``timestamp_units`` rule, one by one
+        as they came (their units judged)."""
+        chunks = list(self._unjudged[stream])
+        self._unjudged[stream].clear()
+        for t, v in chunks:
+            self._ingest(stream, t, v, judged=True)
+
     def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Hold the samples of ``stream`` that step its clock ahead of every other stream's
@@ -538,8 +615,7 @@ class StreamService:
         max_step = self.config.gap_factor * step if np.isfinite(step) else self._step_s
         taken = np.ones(len(t), dtype=bool)
         prev = buf.last_t        # the stream's newest sample taken
-        others = {s: b.last_t for s, b in self._buffers.items()
-                  if s != stream and len(b) and s not in self._ahead}
+        others = self._others_newest(stream)
         for i, ti in enumerate(t):
             if held is not None:
                 if continues_run(ti, held.last_t, max_step):
@@ -560,6 +636,12 @@ class StreamService:
                 continue
             prev = ti
         return t[taken], v[taken]
+
+    def _others_newest(self, stream: str) -> dict[str, float]:
+        """Newest buffered time of every other stream with samples and no run held ahead,
+        s (the clocks a step of ``stream`` is judged against)."""
+        return {s: b.last_t for s, b in self._buffers.items()
+                if s != stream and len(b) and s not in self._ahead}
 
     def _drop_ahead(self, stream: str) -> None:
         """Refuse the held run of ``stream`` (a stray stamp ahead), counted and flagged as
@@ -597,6 +679,7 @@ class StreamService:
         if shift:
             self._offsets[stream] += shift
             self._clock_restarts += 1
+            self._restamp_recent(stream, t)
         self._ingest(stream, t, v, hold=False, judged=True)
         if shift:
             self._events[stream].append((float(t[-1]), "clock_restart"))
@@ -612,6 +695,15 @@ class StreamService:
         return resent_mask(t, v, bt, bv, buf.first_t, buf.last_t,
                            late.last_t if len(late) else None,
                            self.config.gap_factor * buf.median_step())
+
+    def _restamp_recent(self, stream: str, t: np.ndarray) -> None:
+        """The ``timestamp_units`` rule's newest stamps of ``stream`` become ``t`` (s, its
+        held samples moved onto the service clock with its new offset): its later samples
+        come with that offset, and a step from the stamps before the move would look like a
+        clock in ms."""
+        recent = self._recent_t[stream]
+        recent.clear()
+        recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
 
     def _newest(self) -> float:
         """Newest buffered time of any stream, s (the service's now)."""
@@ -640,7 +732,7 @@ class StreamService:
         buf = self._buffers[stream]
         k = newest_on_ms_clock(buf.times(), self._ms_step[stream])
         n = k + len(self._late[stream]) + len(self._ahead.pop(stream, ())) + \
-            len(self._unjudged[stream])
+            sum(len(c) for c, _ in self._unjudged[stream])
         if n:
             self._refused[(stream, UNITS)] += n
         buf.drop_newest(k)
@@ -744,6 +836,7 @@ class StreamService:
         self._events[stream].clear()
         self._clock_restarts += 1
         t += shift
+        self._restamp_recent(stream, t)
         self._ingest(stream, t, v, judged=True)
         self._rewind_decision_clock()
         # the windows that hold the restart carry it: from the first held sample when the

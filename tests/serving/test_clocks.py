@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from terrain.serving.clocks import (UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
-                                    continues_run, in_a_gap, newest_on_ms_clock,
-                                    resent_mask, resolve_hold, restart_shift, steps_ahead)
+                                    continues_run, first_long_step, in_a_gap,
+                                    newest_on_ms_clock, resent_mask, resolve_hold,
+                                    restart_shift, steps_ahead)
 
 
 def _values(n, start=0.0):
@@ -202,3 +203,16 @@ def test_newest_on_ms_clock():
     assert newest_on_ms_clock(times, 1.0) == 3
     assert newest_on_ms_clock(np.array([0.0, 10.0, 20.0]), 1.0) == 3   # none known good
     assert newest_on_ms_clock(np.array([0.0, 0.01, 0.02]), 1.0) == 0
+
+
+def test_first_long_step():
+    # an IMU chunk switching to ms after its third sample
+    t = np.array([40.97, 40.98, 40.99, 41000.0, 41010.0])
+    assert first_long_step(t, 40.96, 1.0) == 3
+    # the step into the chunk's first sample is long: 0, as when none is
+    assert first_long_step(t[3:], 40.99, 1.0) == 0
+    assert first_long_step(t[:3], 40.96, 1.0) == 0
+    # a NaN stamp is skipped: the step runs from the finite stamp before it
+    assert first_long_step(np.array([1.0, np.nan, 5.0]), 0.9, 1.0) == 2
+    # a first chunk: its first sample has no step
+    assert first_long_step(np.array([0.0, 10.0]), None, 1.0) == 1
