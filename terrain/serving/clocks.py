@@ -53,8 +53,10 @@ flagged as ``time_ahead``. One stream alone, or a chunk holding more than ``max_
 after the step, is taken as it is (the service skips silent decisions). A stream's first
 sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind (two
 computers whose clocks were never synchronised; a stream delivered late is never that
-late), is held the same way and put on the clock of the streams that came first (the
-middle of the step in which it arrived); a run sent faster than the others go on (a
+late; for a stream silent through a restart of every other clock, more than
+``clock_restart_s`` and ``stale_s``: its old clock is no longer theirs), is held the same
+way and put on the clock of the streams that came first (the middle of the step in which
+it arrived); a run sent faster than the others go on (a
 backlog: they advanced by less than half its span) is never moved.
 
 **A clock in ms.** A stream whose clock is in ms (the readers' rule ``timestamp_units``,
@@ -266,7 +268,8 @@ def steps_ahead(t_s: float, prev_t_s: float, others_newest_s: Iterable[float],
         Shortest step that is a clock's, s (``max(clock_restart_s, stale_s)``).
     first_step_s : float
         Shortest distance of a stream's first sample from every other stream that is
-        another clock, s (``max(step_s, max_backlog_s)``).
+        another clock, s (``max(step_s, max_backlog_s)``; ``step_s`` for a stream silent
+        through a restart of the others' clock).
 
     Returns
     -------

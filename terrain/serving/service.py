@@ -326,6 +326,8 @@ class StreamService:
         self._unjudged: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {
             s: [] for s in self.streams}    # the chunks as they came
         self._unjudged_t0: dict[str, float] = {}   # the long step's stamp, s
+        # streams silent through a restart of every clock, until their next sample
+        self._rejoining: set[str] = set()
         self._ms_clock: set[str] = set()
         # (stream, reason) of samples refused without a stamp before any stream had one
         self._unplaced: set[tuple[str, str]] = set()
@@ -513,6 +515,8 @@ class StreamService:
                 self._refused[(stream, OVERFLOW)] += lost
                 self._events[stream].append((float(t[0]), OVERFLOW))
             self._stuck[stream].update(t, v)
+            if self._rejoining:
+                self._rejoining.discard(stream)
         buf.append(t, v)
         self._watch_restart(stream, late, order)
         if self._ahead:
@@ -579,7 +583,7 @@ class StreamService:
             # in step is held (and judged) as one
             if not t[0] - last > slowest or steps_ahead(
                     t[0], last, self._others_newest(stream).values(), self._step_s,
-                    max(self._step_s, self.config.max_backlog_s)):
+                    self._first_step_s(stream)):
                 return t, v
             finite = t[np.isfinite(t)]
             self._unjudged_t0[stream] = float(finite[0]) if len(finite) else -np.inf
@@ -609,8 +613,7 @@ class StreamService:
         going on on its old clock: the held ones were a stray stamp far ahead) drops the
         held ones, counted as ``time_ahead``."""
         buf, held = self._buffers[stream], self._ahead.get(stream)
-        # another clock from the first sample: by more than a delivery lag could be
-        first_jump = max(self._step_s, self.config.max_backlog_s)
+        first_jump = self._first_step_s(stream)
         step = buf.median_step()
         max_step = self.config.gap_factor * step if np.isfinite(step) else self._step_s
         taken = np.ones(len(t), dtype=bool)
@@ -636,6 +639,16 @@ class StreamService:
                 continue
             prev = ti
         return t[taken], v[taken]
+
+    def _first_step_s(self, stream: str) -> float:
+        """How far a stream's first sample must be from every other stream's newest to be
+        on another clock, s: more than a delivery lag could be (``max_backlog_s``), or,
+        for a stream silent through a restart of the others' clock (its old clock is no
+        longer theirs), more than a lag the config tolerates (``clock_restart_s``,
+        ``stale_s``)."""
+        if stream in self._rejoining:
+            return self._step_s
+        return max(self._step_s, self.config.max_backlog_s)
 
     def _others_newest(self, stream: str) -> dict[str, float]:
         """Newest buffered time of every other stream with samples and no run held ahead,
@@ -802,6 +815,9 @@ class StreamService:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
         the samples each stream sent on its new clock (the forward filter is kept)."""
         held = {s: run.arrays() for s, run in self._late.items() if len(run)}
+        # streams that sent nothing on the new clocks: their next sample may still be on
+        # the old one
+        self._rejoining = {s for s, b in self._buffers.items() if len(b) and s not in held}
         for s in list(self._ahead):   # a run held ahead of the old clocks
             self._drop_ahead(s)
         for s, (t, _) in held.items():  # counted as refused when they came; used now

@@ -466,6 +466,26 @@ def _sample_events(run, keep=None, arrival=None):
     return sorted(out, key=lambda e: e[0])
 
 
+def test_a_stream_silent_through_a_restart_is_put_on_the_new_clock(all_model, unseen_run):
+    # the IMU driver restarts its clock at 40 s while the wheels are silent (35-50 s): no
+    # stream went on, so every clock restarted; the wheels then came back on their old
+    # clock, 40 s ahead of the IMU's new one but within max_backlog_s (60 s) of it, and
+    # every later decision was short|stale (60 of the last 60). A stream silent through a
+    # restart is now judged as a step ahead: put on the IMU's new clock
+    t0 = float(unseen_run.streams["imu"][TIME].iloc[0])
+    events = _sample_events(unseen_run,
+                            keep=lambda s, t: (s == "imu") | (t < t0 + 35.0) | (t >= t0 + 50.0))
+    svc, got = service(all_model), []
+    for _, stream, t, v in events:
+        restarted = stream == "imu" and t[0] >= t0 + 40.0
+        got += svc.push(stream, t - (t0 + 40.0) if restarted else t, v)
+    assert svc.clock_restarts == 2 and svc.refused_samples == {}
+    assert svc.clock_offsets_s["imu"] == 0.0
+    assert abs(svc.clock_offsets_s["wheels"] + (t0 + 40.0)) < 0.08   # half a wheel step
+    last = got[-60:]
+    assert sum(d.flags == "" for d in last) >= 55
+
+
 def test_a_dead_or_lagging_stream_is_no_clock_to_judge_a_dropout_by(all_model, unseen_run):
     # the IMU dies at 20 s and the wheels drop out for 6 s at 40 s: their return was held
     # as a clock step ahead of the dead IMU, and no decision came for 66 s, then 125 at
