@@ -32,7 +32,10 @@ offset is good to half their step), unless its new clock already agrees with the
 a gap (then it is not moved: a stamp far ahead followed by samples on the true clock); that
 stream's buffer starts again, its offset is kept for its later samples and reported in
 :attr:`~terrain.serving.service.StreamService.clock_offsets_s`, and the decision clock goes
-on (it starts again only when it ran ahead of every stream).
+on (it starts again only when it ran ahead of every stream). A run sent faster than the
+others went on meanwhile (:func:`sent_in_a_burst`: they advanced by less than half its
+span; a reconnecting publisher re-sending more than the buffer holds) is no live clock: it
+stays refused and moves nothing (such a re-send moved the stream by its length for good).
 
 **A forward step of one clock.** A stream whose clock steps forward alone (an NTP step on
 the computer of one sensor) puts its samples ahead of every other stream, which never catch
@@ -326,6 +329,26 @@ def resolve_hold(t0_s: float, t1_s: float, newest_at_start_s: Mapping[str, float
     if span >= max_backlog_s:
         return []
     return None
+
+
+def sent_in_a_burst(span_s: float, others_advance_s: Sequence[float]) -> bool:
+    """Whether a held run came faster than the streams that went on meanwhile: a backlog
+    or a re-send sent at once, not a live clock (module docstring).
+
+    Parameters
+    ----------
+    span_s : float
+        Time its stamps span, s.
+    others_advance_s : sequence of float
+        How far each stream that went on advanced while the run came, s.
+
+    Returns
+    -------
+    bool
+        Every such stream advanced by less than half the span (a live clock runs at their
+        pace; a 60 s re-send sent in 6 s does not).
+    """
+    return max(others_advance_s) < 0.5 * span_s
 
 
 def ahead_shift(t0_s: float, lead_s: float, running_newest_s: Sequence[float],

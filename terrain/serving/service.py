@@ -76,7 +76,7 @@ from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE
                                     UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
                                     continues_run, first_long_step, in_a_gap,
                                     newest_on_ms_clock, resent_mask, resolve_hold,
-                                    restart_shift, steps_ahead)
+                                    restart_shift, sent_in_a_burst, steps_ahead)
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.model import StreamModel
@@ -806,10 +806,12 @@ class StreamService:
         # streams that went on accepting samples on the old clock meanwhile
         running = [s for s, last in held.others_newest_s.items()
                    if not self._late[s] and self._buffers[s].last_t > last]
-        if running:
-            self._restart_alone(stream, running)
-        else:
+        if not running:
             self._restart()
+        elif not sent_in_a_burst(held.last_t - held.t0_s,
+                                 [self._buffers[s].last_t - held.others_newest_s[s]
+                                  for s in running]):
+            self._restart_alone(stream, running)
 
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest

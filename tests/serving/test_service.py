@@ -466,6 +466,44 @@ def _sample_events(run, keep=None, arrival=None):
     return sorted(out, key=lambda e: e[0])
 
 
+@pytest.mark.parametrize("reach", ["beyond_the_buffer", "its_oldest_sample"])
+def test_a_resend_reaching_back_to_the_buffers_start_or_beyond_moves_no_clock(
+        all_model, unseen_run, reach):
+    # at 70 s the IMU publisher reconnects and re-sends its last 60 s at once (1000 samples
+    # per s), then goes on live; its buffer (4096 samples) holds 41 s. The 19 s before
+    # the buffer matched nothing, ran as a clock over clock_restart_s and restarted the
+    # IMU alone: moved 60.08 s for good, 0 of the next 143 decisions clean. Re-sending
+    # exactly the 4096 buffered samples was taken for a loop (it starts at the oldest one):
+    # moved 41.04 s, 0 of 105 clean. A run sent faster than the wheels went on meanwhile
+    # is no live clock: it is refused, nothing moves
+    t0 = float(unseen_run.streams["imu"][TIME].iloc[0])
+    imu = unseen_run.streams["imu"]
+    t_i = imu[TIME].to_numpy()
+    again = imu[(t_i >= t0 + 10.0) & (t_i < t0 + 70.0)]
+    if reach == "its_oldest_sample":
+        again = again.iloc[-4096:]
+    burst_s = len(again) / 1000.0
+
+    def arrival(s, t):   # live IMU samples queued behind the burst
+        return np.where((s == "imu") & (t >= t0 + 70.0),
+                        np.maximum(t, t0 + 70.0 + burst_s + 1e-6), t)
+    events = _sample_events(unseen_run, arrival=arrival)
+    events += [(t0 + 70.0 + i / 1000.0, "imu", again[TIME].to_numpy()[[i]],
+                again.drop(columns=TIME).iloc[[i]]) for i in range(len(again))]
+    events.sort(key=lambda e: e[0])
+    svc, got = service(all_model), []
+    for _, s, t, v in events:
+        got += svc.push(s, t, v)
+    assert len(again) == (6000 if reach == "beyond_the_buffer" else 4096)
+    assert svc.clock_restarts == 0 and svc.clock_offsets_s == {"imu": 0.0, "wheels": 0.0}
+    assert sum(svc.refused_samples.values()) == len(again)
+    assert set(svc.refused_samples) <= {("imu", "time_not_increasing"), ("imu", "duplicate")}
+    times = np.array([d.t_s for d in got])
+    assert np.all(np.diff(times) > 0)
+    after = [d for d in got if d.t_s > t0 + 75.0]
+    assert len(after) > 20 and sum(d.flags == "" for d in after) >= 0.9 * len(after)
+
+
 def test_a_stream_silent_through_a_restart_is_put_on_the_new_clock(all_model, unseen_run):
     # the IMU driver restarts its clock at 40 s while the wheels are silent (35-50 s): no
     # stream went on, so every clock restarted; the wheels then came back on their old
