@@ -187,9 +187,9 @@ class HeldRun:
         t_s : float
             Its stamp, s.
         values : numpy.ndarray
-            ``(n_channels,)`` its values.
+            ``(n_channels,)`` its values, copied (a robot may reuse the array it pushed).
         """
-        self._samples.append((float(t_s), values))
+        self._samples.append((float(t_s), np.array(values, dtype=float)))
 
     def extend_clock(self, t_s: np.ndarray, values: np.ndarray, max_step_s: float,
                      others_newest_s: Mapping[str, float]) -> None:

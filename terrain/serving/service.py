@@ -587,7 +587,7 @@ class StreamService:
                 return t, v
             finite = t[np.isfinite(t)]
             self._unjudged_t0[stream] = float(finite[0]) if len(finite) else -np.inf
-        held.append((t, v))
+        held.append((t.copy(), v.copy()))   # (a robot may reuse the array it pushed)
         n_finite = sum(int(np.isfinite(c).sum()) for c, _ in held)
         if n_finite <= UNITS_STEPS and sum(len(c) for c, _ in held) < self.config.buffer_samples:
             return None

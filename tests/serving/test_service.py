@@ -401,6 +401,30 @@ def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clo
     assert any("clock_restart" in d.flags for d in got)
 
 
+def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unseen_run):
+    # a robot loop that fills one preallocated array per stream and pushes it each time:
+    # the samples held while the wheel clock's step ahead was told kept views of that
+    # array, so all of them took the values of the newest push
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams["wheels"][TIME].iloc[0]) + 25.0
+
+    def replay(reuse):
+        svc, got = service(all_model), []
+        arrays = {s: np.empty((1, len(svc.streams[s]))) for s in svc.needed_streams}
+        for stream, t, v in interleave(unseen_run, svc.needed_streams):
+            moved = t + 3600.0 if stream == "wheels" and t[0] >= t_cut else t
+            if reuse:
+                arrays[stream][:] = v
+                v = arrays[stream]
+            got += svc.push(stream, moved, np.array(v) if not reuse else v)
+        return svc, got
+
+    (svc_fresh, fresh), (svc_reused, reused) = replay(False), replay(True)
+    assert svc_reused.clock_restarts == svc_fresh.clock_restarts == 1
+    assert [(d.t_s, d.terrain, d.confidence, d.flags) for d in reused] == \
+        [(d.t_s, d.terrain, d.confidence, d.flags) for d in fresh]
+
+
 @pytest.mark.parametrize("other_clock", ["imu", "wheels"])
 def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_clock(
         all_model, unseen_run, other_clock):
