@@ -193,6 +193,9 @@ def test_clock_in_ms():
     ms = np.arange(UNITS_STEPS + 1) * 10.0     # a 100 Hz IMU stamped in ms: 0.1 "Hz"
     assert clock_in_ms(ms, "imu") is True
     assert clock_in_ms(ms / 1000.0, "imu") is False
+    assert clock_in_ms(ms * 1000.0, "imu") is True          # in us: 1e-4 "Hz"
+    assert clock_in_ms(ms * 1e6, "imu") is True             # in ns
+    assert clock_in_ms(ms * 1e9, "imu") is False            # no unit makes it 100 Hz
     assert clock_in_ms(ms[:UNITS_STEPS], "imu") is None      # too few steps to judge
     assert clock_in_ms(np.full(UNITS_STEPS + 1, 5.0), "imu") is None   # no step forward
 

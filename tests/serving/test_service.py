@@ -830,20 +830,22 @@ def test_every_stream_on_a_clock_in_ms_from_the_start_makes_no_decision(request,
     assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
+@pytest.mark.parametrize("scale", [1e3, 1e6])
 @pytest.mark.parametrize("streams", [("wheels",), ("imu", "wheels")])
 def test_a_clock_switching_to_ms_with_no_stream_to_judge_it_by_runs_no_decision(
-        wheel_model, all_model, unseen_run, streams):
+        wheel_model, all_model, unseen_run, streams, scale):
     # every stream's clock switches to ms at 40 s (a driver update), so no stream in s is
     # left to hold a stamp ahead against: the first samples in ms ran the decision clock to
     # 40,307 "s" (~440 decisions out of 0.6 s of data, 80,163 skipped) before the rule had
-    # 4 of its 8 steps in ms, and after the purge the decision clock went back to 40 s
+    # 4 of its 8 steps in ms, and after the purge the decision clock went back to 40 s. A
+    # clock in us was taken as s: 5561 decisions, 176 million skipped (wheel-only)
     from terrain.serving.replay import interleave
     model = wheel_model if streams == ("wheels",) else all_model
     t0 = min(float(unseen_run.streams[s][TIME].iloc[0]) for s in streams)
     svc, got = service(model), []
     for stream, t, v in interleave(unseen_run, svc.needed_streams, max_chunk=1):
         cols = [c for c in unseen_run.streams[stream].columns if c != TIME]
-        got += svc.push(stream, np.where(t >= t0 + 40.0, t * 1000.0, t), dict(zip(cols, v.T)))
+        got += svc.push(stream, np.where(t >= t0 + 40.0, t * scale, t), dict(zip(cols, v.T)))
     refused = svc.refused_samples
     # every sample in ms is refused, none in s (a few IMU ones as stamps ahead of the
     # wheels, whose clock switches a little later)
