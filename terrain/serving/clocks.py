@@ -33,7 +33,7 @@ a gap (then it is not moved: a stamp far ahead followed by samples on the true c
 stream's buffer starts again, its offset is kept for its later samples and reported in
 :attr:`~terrain.serving.service.StreamService.clock_offsets_s`, and the decision clock goes
 on (it starts again only when it ran ahead of every stream). A run sent faster than the
-others went on meanwhile (:func:`sent_in_a_burst`: they advanced by less than half its
+others went on meanwhile (none :func:`went_on_live`: they advanced by less than half its
 span; a reconnecting publisher re-sending more than the buffer holds) is no live clock: it
 stays refused and moves nothing (such a re-send moved the stream by its length for good).
 
@@ -234,6 +234,65 @@ class HeldRun:
                 np.array([vi for _, vi in self._samples]).reshape(len(self._samples), -1))
 
 
+class HeldChunks:
+    """Chunks of one stream held whole, as they came, until the ``timestamp_units`` rule
+    can judge the long step they start at (module docstring, "A clock in ms").
+
+    Attributes
+    ----------
+    t0_s : float
+        Stamp of the long step's sample, s (``-inf`` when the first chunk has no finite
+        stamp).
+    n_samples, n_finite : int
+        Held samples, and those with a finite stamp.
+    """
+
+    __slots__ = ("_chunks", "t0_s", "n_samples", "n_finite")
+
+    def __init__(self) -> None:
+        self._chunks: list[tuple[np.ndarray, np.ndarray]] = []
+        self.t0_s = -np.inf
+        self.n_samples = self.n_finite = 0
+
+    def __len__(self) -> int:
+        return self.n_samples
+
+    def append(self, t_s: np.ndarray, values: np.ndarray) -> None:
+        """Hold one chunk (copied: a robot may reuse the arrays it pushed); the first one
+        sets :attr:`t0_s`.
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` stamps of the chunk as pushed (NaN ones included), s.
+        values : numpy.ndarray
+            ``(n, n_channels)`` its values.
+        """
+        finite = np.isfinite(t_s)
+        if not self._chunks:
+            self.t0_s = float(t_s[finite][0]) if finite.any() else -np.inf
+        self._chunks.append((t_s.copy(), values.copy()))
+        self.n_samples += len(t_s)
+        self.n_finite += int(finite.sum())
+
+    def take(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The held chunks in the order they came; the hold is empty after.
+
+        Returns
+        -------
+        list of (numpy.ndarray, numpy.ndarray)
+            ``(n,)`` stamps (s) and ``(n, n_channels)`` values of each chunk.
+        """
+        chunks = self._chunks
+        self.clear()
+        return chunks
+
+    def clear(self) -> None:
+        """Drop every held chunk."""
+        self._chunks = []
+        self.n_samples = self.n_finite = 0
+
+
 def continues_run(t_s: float, last_t_s: float, max_step_s: float) -> bool:
     """Whether a sample continues a run as a clock would.
 
@@ -323,7 +382,7 @@ def resolve_hold(t0_s: float, t1_s: float, newest_at_start_s: Mapping[str, float
     if any(last >= t0_s - step_s and t1_s >= last - step_s for last in newest_now_s.values()):
         return []   # the clocks meet (one of them lagged)
     went_on = [s for s, at in newest_at_start_s.items()
-               if newest_now_s[s] - at >= 0.5 * span and newest_now_s[s] > at]
+               if went_on_live(span, newest_now_s[s] - at)]
     if went_on and span >= clock_restart_s:
         return went_on
     if span >= max_backlog_s:
@@ -331,24 +390,24 @@ def resolve_hold(t0_s: float, t1_s: float, newest_at_start_s: Mapping[str, float
     return None
 
 
-def sent_in_a_burst(span_s: float, others_advance_s: Sequence[float]) -> bool:
-    """Whether a held run came faster than the streams that went on meanwhile: a backlog
-    or a re-send sent at once, not a live clock (module docstring).
+def went_on_live(span_s: float, advance_s: float) -> bool:
+    """Whether another stream went on live beside a held run: it advanced, by at least
+    half the run's span while the run came. A run that every other stream fell that far
+    behind came faster than live (a backlog or a re-send sent at once: a 60 s re-send sent
+    in 6 s) and is no live clock (module docstring).
 
     Parameters
     ----------
     span_s : float
-        Time its stamps span, s.
-    others_advance_s : sequence of float
-        How far each stream that went on advanced while the run came, s.
+        Time the held run's stamps span, s.
+    advance_s : float
+        How far the other stream's newest sample advanced while the run came, s.
 
     Returns
     -------
     bool
-        Every such stream advanced by less than half the span (a live clock runs at their
-        pace; a 60 s re-send sent in 6 s does not).
     """
-    return max(others_advance_s) < 0.5 * span_s
+    return advance_s > 0 and advance_s >= 0.5 * span_s
 
 
 def ahead_shift(t0_s: float, lead_s: float, running_newest_s: Sequence[float],

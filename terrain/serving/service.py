@@ -73,10 +73,10 @@ from terrain.io.plausibility import (NOMINAL_RATE_HZ, VEHICLE_LIMITS, accel_in_g
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE, UNITS,
-                                    UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
-                                    continues_run, first_long_step, in_a_gap,
+                                    UNITS_STEPS, HeldChunks, HeldRun, ahead_shift,
+                                    clock_in_ms, continues_run, first_long_step, in_a_gap,
                                     newest_on_ms_clock, resent_mask, resolve_hold,
-                                    restart_shift, sent_in_a_burst, steps_ahead)
+                                    restart_shift, steps_ahead, went_on_live)
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.model import StreamModel
@@ -323,9 +323,7 @@ class StreamService:
         self._recent_t = {s: deque(maxlen=UNITS_STEPS + 1) for s in self.streams}
         # samples from a stream's step long enough to be a switch to ms, held until the
         # steps after it are enough to judge (_judge_units)
-        self._unjudged: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {
-            s: [] for s in self.streams}    # the chunks as they came
-        self._unjudged_t0: dict[str, float] = {}   # the long step's stamp, s
+        self._unjudged = {s: HeldChunks() for s in self.streams}
         # streams silent through a restart of every clock, until their next sample
         self._rejoining: set[str] = set()
         self._ms_clock: set[str] = set()
@@ -382,8 +380,8 @@ class StreamService:
         end of a replay they are what the last decisions never saw. (Late samples held as a
         possible restarted clock are in ``refused_samples`` until a restart uses them.)"""
         held = {(s, AHEAD): len(run) for s, run in self._ahead.items()}
-        held.update({(s, UNITS): sum(len(c) for c, _ in chunks)
-                     for s, chunks in self._unjudged.items() if chunks})
+        held.update({(s, UNITS): len(chunks) for s, chunks in self._unjudged.items()
+                     if chunks})
         return held
 
     @property
@@ -545,11 +543,7 @@ class StreamService:
         suspect = abs(t[-1]) <= MAX_PLAUSIBLE_TIME_S and (
             t[-1] - prev > len(t) * slowest if prev is not None
             else t[-1] - t[0] > (len(t) - 1) * slowest)
-        if len(t) == 1:
-            if math.isfinite(t[0]):
-                recent.append(float(t[0]))
-        else:   # the newest finite stamps (a NaN one left too few steps to judge)
-            recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
+        _remember_stamps(recent, t)
         if stream in self._ms_clock or (suspect and not held):
             if self._in_ms(stream):   # its newest steps say so already
                 self._refused[(stream, UNITS)] += len(t)
@@ -558,12 +552,12 @@ class StreamService:
             if not suspect:
                 return t, v
         if held:
-            t0, last = self._unjudged_t0[stream], self._buffers[stream].last_t
+            t0, last = held.t0_s, self._buffers[stream].last_t
             back = np.flatnonzero(t < t0)
             if len(back):   # back before the step: no clock from it
                 i = int(back[0])
                 if last < t[i] and t0 - last > self.config.max_backlog_s:
-                    self._refused[(stream, AHEAD)] += sum(len(c) for c, _ in held) + i
+                    self._refused[(stream, AHEAD)] += len(held) + i
                     self._events[stream].append((self._newest(), AHEAD))
                     held.clear()
                     return t[i:], v[i:]
@@ -585,13 +579,10 @@ class StreamService:
                     t[0], last, self._others_newest(stream).values(), self._step_s,
                     self._first_step_s(stream)):
                 return t, v
-            finite = t[np.isfinite(t)]
-            self._unjudged_t0[stream] = float(finite[0]) if len(finite) else -np.inf
-        held.append((t.copy(), v.copy()))   # (a robot may reuse the array it pushed)
-        n_finite = sum(int(np.isfinite(c).sum()) for c, _ in held)
-        if n_finite <= UNITS_STEPS and sum(len(c) for c, _ in held) < self.config.buffer_samples:
+        held.append(t, v)
+        if held.n_finite <= UNITS_STEPS and len(held) < self.config.buffer_samples:
             return None
-        if n_finite > UNITS_STEPS and self._in_ms(stream):   # purged with what is held
+        if held.n_finite > UNITS_STEPS and self._in_ms(stream):   # purged with what is held
             self._events[stream].append((self._newest(), UNITS))
             return None
         self._release_unjudged(stream)   # a clock in s (a dropout)
@@ -600,9 +591,7 @@ class StreamService:
     def _release_unjudged(self, stream: str) -> None:
         """Take the chunks of ``stream`` held for the ``timestamp_units`` rule, one by one
         as they came (their units judged)."""
-        chunks = list(self._unjudged[stream])
-        self._unjudged[stream].clear()
-        for t, v in chunks:
+        for t, v in self._unjudged[stream].take():
             self._ingest(stream, t, v, judged=True)
 
     def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
@@ -714,9 +703,8 @@ class StreamService:
         held samples moved onto the service clock with its new offset): its later samples
         come with that offset, and a step from the stamps before the move would look like a
         clock in ms."""
-        recent = self._recent_t[stream]
-        recent.clear()
-        recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())
+        self._recent_t[stream].clear()
+        _remember_stamps(self._recent_t[stream], t)
 
     def _newest(self) -> float:
         """Newest buffered time of any stream, s (the service's now)."""
@@ -745,7 +733,7 @@ class StreamService:
         buf = self._buffers[stream]
         k = newest_on_ms_clock(buf.times(), self._ms_step[stream])
         n = k + len(self._late[stream]) + len(self._ahead.pop(stream, ())) + \
-            sum(len(c) for c, _ in self._unjudged[stream])
+            len(self._unjudged[stream])
         if n:
             self._refused[(stream, UNITS)] += n
         buf.drop_newest(k)
@@ -808,9 +796,9 @@ class StreamService:
                    if not self._late[s] and self._buffers[s].last_t > last]
         if not running:
             self._restart()
-        elif not sent_in_a_burst(held.last_t - held.t0_s,
-                                 [self._buffers[s].last_t - held.others_newest_s[s]
-                                  for s in running]):
+        elif any(went_on_live(held.last_t - held.t0_s,
+                              self._buffers[s].last_t - held.others_newest_s[s])
+                 for s in running):   # (else a run sent at once: a backlog, no clock)
             self._restart_alone(stream, running)
 
     def _restart(self) -> None:
@@ -977,3 +965,13 @@ class StreamService:
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
 
+
+def _remember_stamps(recent: deque, t: np.ndarray) -> None:
+    """Append a chunk's newest finite stamps (s) to the ``timestamp_units`` rule's
+    ``recent`` (a NaN stamp leaves too few steps to judge); one float for the usual
+    one-sample push."""
+    if len(t) == 1:
+        if math.isfinite(t[0]):
+            recent.append(float(t[0]))
+    else:
+        recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())

@@ -8,10 +8,10 @@ re-sending publisher) are in test_service.py.
 import numpy as np
 import pytest
 
-from terrain.serving.clocks import (UNITS_STEPS, HeldRun, ahead_shift, clock_in_ms,
-                                    continues_run, first_long_step, in_a_gap,
+from terrain.serving.clocks import (UNITS_STEPS, HeldChunks, HeldRun, ahead_shift,
+                                    clock_in_ms, continues_run, first_long_step, in_a_gap,
                                     newest_on_ms_clock, resent_mask, resolve_hold,
-                                    restart_shift, steps_ahead)
+                                    restart_shift, steps_ahead, went_on_live)
 
 
 def _values(n, start=0.0):
@@ -219,3 +219,24 @@ def test_first_long_step():
     assert first_long_step(np.array([1.0, np.nan, 5.0]), 0.9, 1.0) == 2
     # a first chunk: its first sample has no step
     assert first_long_step(np.array([0.0, 10.0]), None, 1.0) == 1
+
+
+def test_held_chunks_keep_copies_in_order_and_count_finite_stamps():
+    held = HeldChunks()
+    t, v = np.array([np.nan, 50.0, 60.0]), _values(3)
+    held.append(t, v)
+    held.append(np.array([70.0]), _values(1, 9))
+    t[1], v[:] = -1.0, -1.0               # the robot reuses its arrays
+    assert held.t0_s == 50.0 and len(held) == 4 and held.n_finite == 3
+    chunks = held.take()
+    assert [c[0][1] for c in chunks[:1]] == [50.0] and chunks[0][1][0, 0] == 0.0
+    assert chunks[1][0].tolist() == [70.0]
+    assert len(held) == 0 and held.n_finite == 0 and held.take() == []
+
+
+def test_went_on_live():
+    # a run spanning 10 s: a stream that advanced 5 s or more went on at its pace
+    assert went_on_live(10.0, 5.0) and went_on_live(10.0, 12.0)
+    # one that advanced 1 s fell behind a run sent at once (a backlog or a re-send)
+    assert not went_on_live(10.0, 1.0)
+    assert not went_on_live(0.0, 0.0)          # a stream that did not advance at all
