@@ -3,10 +3,11 @@
 Each stream arrives on its own clock, and clocks misbehave: a driver restarts, a log loops,
 one computer's clock steps forward, a publisher re-sends its buffer, a clock runs in ms. The
 rules below tell these apart from the arrival order and the stamps alone. They are pure
-functions over the times the service gives them, plus :class:`HeldRun`, the record of the
-samples a stream holds while their clock is told; the service
-(:class:`terrain.serving.service.StreamService`) keeps the buffers and applies the verdicts
-(which samples it refuses, holds, moves or takes).
+functions over the times the service gives them, plus the records of what the service knows
+of one stream's clock (:class:`StreamClock`: its offset, the samples it holds while their
+clock is told, :class:`HeldRun` and :class:`HeldChunks`, and the units rule's stamps); the
+service (:class:`terrain.serving.service.StreamService`) keeps the buffers and applies the
+verdicts (which samples it refuses, holds, moves or takes).
 
 **Restarts.** A stream whose samples keep arriving earlier than its newest accepted one (a
 looped log, a restarted driver or simulator) would have every later sample refused as
@@ -89,12 +90,13 @@ sample or continues a held run (a log played again from its start is a loop;
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from terrain.io.plausibility import implied_rate_hz, timestamps_in_ms
+from terrain.io.plausibility import NOMINAL_RATE_HZ, implied_rate_hz, timestamps_in_ms
 from terrain.serving.inputs import same_values
 
 #: reason of the rule whose refusals may announce a clock restart
@@ -291,6 +293,137 @@ class HeldChunks:
         """Drop every held chunk."""
         self._chunks = []
         self.n_samples = self.n_finite = 0
+
+
+class StreamClock:
+    """What the service knows of one stream's clock: its offset, the samples it holds while
+    the clock is told, and the ``timestamp_units`` rule's state (module docstring).
+
+    Parameters
+    ----------
+    capacity : int
+        Samples a held run keeps (> 0; the service's ``buffer_samples``).
+    rate_kind : str or None
+        Key of :data:`terrain.io.plausibility.NOMINAL_RATE_HZ` whose channels the stream
+        carries (``"imu"``, ``"wheels"``); None: no nominal rate, no ``timestamp_units``
+        rule.
+    offset_s : float, default 0.0
+        Offset added to the stream's stamps, s (the configured one).
+
+    Attributes
+    ----------
+    offset_s : float
+        Offset added to the stream's stamps, s: the configured one plus the shift of every
+        restart of this clock alone.
+    ms_step_s : float or None
+        Longest step of a clock in s, s: ten periods of the slowest nominal rate of
+        ``rate_kind`` (1 s for an IMU; a step that long may be a switch to ms); None
+        without ``rate_kind``.
+    late : HeldRun
+        Samples refused as earlier than the stream's newest, held as a possible restarted
+        clock.
+    ahead : HeldRun or None
+        The run held since the clock stepped ahead of every other stream's; None when none
+        is held.
+    ahead_rank : int
+        Order in which the run held ahead began among the streams' (they are resolved in
+        that order).
+    unjudged : HeldChunks
+        Chunks from a step long enough to be a switch to ms, held until the steps after it
+        are enough to judge.
+    on_ms_clock : bool
+        Whether the stream was found on a clock in ms (its samples refused until its
+        steps are in s again).
+    rejoining : bool
+        Whether the stream was silent through a restart of every other clock and has sent
+        nothing since (its next sample may still be on the old clock).
+    """
+
+    __slots__ = ("offset_s", "rate_kind", "ms_step_s", "late", "ahead", "ahead_rank",
+                 "unjudged", "on_ms_clock", "rejoining", "_recent_t")
+
+    def __init__(self, capacity: int, rate_kind: str | None, offset_s: float = 0.0) -> None:
+        self.offset_s = float(offset_s)
+        self.rate_kind = rate_kind
+        self.ms_step_s = None if rate_kind is None else 10.0 / NOMINAL_RATE_HZ[rate_kind][0]
+        self.late = HeldRun(capacity)
+        self.ahead: HeldRun | None = None
+        self.ahead_rank = 0
+        self.unjudged = HeldChunks()
+        self.on_ms_clock = False
+        self.rejoining = False
+        self._recent_t: deque = deque(maxlen=UNITS_STEPS + 1)
+
+    @property
+    def newest_stamp_s(self) -> float | None:
+        """The newest arrival stamp the ``timestamp_units`` rule remembers, s (None before
+        any)."""
+        return self._recent_t[-1] if self._recent_t else None
+
+    def remember(self, t_s: np.ndarray) -> None:
+        """Remember a chunk's newest finite stamps for the ``timestamp_units`` rule (a NaN
+        stamp leaves too few steps to judge; one float for the usual one-sample push).
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` stamps of the chunk as it arrived, s.
+        """
+        recent = self._recent_t
+        if len(t_s) == 1:
+            if math.isfinite(t_s[0]):
+                recent.append(float(t_s[0]))
+        else:
+            recent.extend(t_s[np.isfinite(t_s)][-recent.maxlen:].tolist())
+
+    def restamp(self, t_s: np.ndarray) -> None:
+        """The remembered stamps become ``t_s`` (held samples moved onto another clock with
+        a new offset): later samples come with that offset, and a step from the stamps
+        before the move would look like a clock in ms.
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` the moved stamps, s.
+        """
+        self._recent_t.clear()
+        self.remember(t_s)
+
+    def judge_ms(self) -> tuple[bool, bool]:
+        """The ``timestamp_units`` rule on the remembered stamps (:func:`clock_in_ms`),
+        updating :attr:`on_ms_clock`.
+
+        Returns
+        -------
+        in_ms : bool
+            Whether the clock is in ms now (as before when too little to judge).
+        switched : bool
+            Whether this judgement found it in ms, and it was not before.
+        """
+        if self.rate_kind is None:
+            return False, False
+        in_ms = clock_in_ms(np.array(self._recent_t), self.rate_kind)
+        if in_ms is None:
+            return self.on_ms_clock, False
+        switched = in_ms and not self.on_ms_clock
+        self.on_ms_clock = in_ms
+        return in_ms, switched
+
+    def held(self) -> dict[str, int]:
+        """Samples held and counted nowhere yet, by reason: :data:`AHEAD` (a run ahead of
+        every other clock) and :data:`UNITS` (awaiting the units rule).
+
+        Returns
+        -------
+        dict of str to int
+            Only the reasons with held samples.
+        """
+        out = {}
+        if self.ahead is not None:
+            out[AHEAD] = len(self.ahead)
+        if self.unjudged:
+            out[UNITS] = len(self.unjudged)
+        return out
 
 
 def continues_run(t_s: float, last_t_s: float, max_step_s: float) -> bool:

@@ -36,8 +36,9 @@ The streams' clocks are judged by the rules of :mod:`terrain.serving.clocks`: a 
 restarts (all streams together, or one alone: its offset is reported in
 :attr:`StreamService.clock_offsets_s`), a forward step of one stream's clock, a stream's
 first sample on another clock, a clock in ms (refused as ``timestamp_units``) and samples
-sent again (refused as ``duplicate``). The service holds the samples those rules hold
-(bounded, :class:`~terrain.serving.clocks.HeldRun`) and applies their verdicts.
+sent again (refused as ``duplicate``). The service keeps one
+:class:`~terrain.serving.clocks.StreamClock` per stream (its offset and the samples the
+rules hold, bounded) and applies the rules' verdicts.
 
 ``flags`` (``|``-separated, empty when clean): ``stale``, ``gap`` (the window holds a
 timestamp gap, so it was not classified), ``short`` (not enough aligned history),
@@ -68,13 +69,13 @@ from features.calculators import quantile_sorted
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError, config_integer, config_numbers, duplicated
 from terrain.io.align import align_arrays, overlap_grid_tail
-from terrain.io.plausibility import (NOMINAL_RATE_HZ, VEHICLE_LIMITS, accel_in_g,
-                                     stuck_flag, wheel_speed_in_kmh)
+from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_flag,
+                                     wheel_speed_in_kmh)
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE, UNITS,
-                                    UNITS_STEPS, HeldChunks, HeldRun, ahead_shift,
-                                    clock_in_ms, continues_run, first_long_step, in_a_gap,
+                                    UNITS_STEPS, HeldRun, StreamClock, ahead_shift,
+                                    continues_run, first_long_step, in_a_gap,
                                     newest_on_ms_clock, resent_mask, resolve_hold,
                                     restart_shift, steps_ahead, went_on_live)
 from terrain.serving.decisions import Decision
@@ -303,30 +304,17 @@ class StreamService:
         self._refused: Counter = Counter()
         self._skipped = 0
         self._clock_restarts = 0
-        # late samples of each stream that may run as a restarted clock (clocks.py)
-        self._late = {s: HeldRun(config.buffer_samples) for s in self.streams}
-        self._offsets = {s: float(config.clock_offsets_s.get(s, 0.0)) for s in self.streams}
-        # the runs of streams whose clock stepped ahead of every other stream's, held
-        # until the others catch up or the step is known to be its clock's alone; a stream
-        # is a key only while it holds one (in the order the holds began)
-        self._ahead: dict[str, HeldRun] = {}
+        # each stream's clock: offset, held samples, the timestamp_units rule (clocks.py);
+        # the rule knows a stream's nominal rate range by its channels
+        self._clocks = {s: StreamClock(config.buffer_samples,
+                                       next((k for k, known in KNOWN_STREAMS.items()
+                                             if set(ch) <= set(known)), None),
+                                       config.clock_offsets_s.get(s, 0.0))
+                        for s, ch in self.streams.items()}
+        # runs held ahead so far (their order: StreamClock.ahead_rank)
+        self._holds_begun = 0
         # a step ahead of the others by less than stale_s is a lag the config tolerates
         self._step_s = max(config.clock_restart_s, config.stale_s)
-        # rule timestamp_units: the readers' nominal rate range of each stream, by its
-        # channels, its newest arrival stamps, and the streams found on a clock in ms
-        self._rate_kind = {s: next((k for k, known in KNOWN_STREAMS.items()
-                                    if set(ch) <= set(known)), None)
-                           for s, ch in self.streams.items()}
-        # a rate ten times below the range is a mean step over 10 / lowest rate (1 s, IMU)
-        self._ms_step = {s: None if k is None else 10.0 / NOMINAL_RATE_HZ[k][0]
-                         for s, k in self._rate_kind.items()}
-        self._recent_t = {s: deque(maxlen=UNITS_STEPS + 1) for s in self.streams}
-        # samples from a stream's step long enough to be a switch to ms, held until the
-        # steps after it are enough to judge (_judge_units)
-        self._unjudged = {s: HeldChunks() for s in self.streams}
-        # streams silent through a restart of every clock, until their next sample
-        self._rejoining: set[str] = set()
-        self._ms_clock: set[str] = set()
         # (stream, reason) of samples refused without a stamp before any stream had one
         self._unplaced: set[tuple[str, str]] = set()
         self._filter = ForwardFilter(len(model.classes), config.hop_s, config.smoothing)
@@ -379,10 +367,8 @@ class StreamService:
         They reach the decisions, or ``refused_samples``, once their clock is told; at the
         end of a replay they are what the last decisions never saw. (Late samples held as a
         possible restarted clock are in ``refused_samples`` until a restart uses them.)"""
-        held = {(s, AHEAD): len(run) for s, run in self._ahead.items()}
-        held.update({(s, UNITS): len(chunks) for s, chunks in self._unjudged.items()
-                     if chunks})
-        return held
+        return {(s, reason): n for s, clock in self._clocks.items()
+                for reason, n in clock.held().items()}
 
     @property
     def clock_restarts(self) -> int:
@@ -395,7 +381,7 @@ class StreamService:
         """Offset added to each stream's timestamps, s: ``StreamConfig.clock_offsets_s``
         plus the shift of every restart of that stream's clock alone
         (:mod:`terrain.serving.clocks`)."""
-        return dict(self._offsets)
+        return {s: clock.offset_s for s, clock in self._clocks.items()}
 
     @property
     def skipped_decisions(self) -> int:
@@ -445,7 +431,7 @@ class StreamService:
         channels = self.streams[stream]
         if not isinstance(values, np.ndarray):   # the usual push: nothing read by index
             check_same_index(t_s, values, stream)
-        t = real_array(t_s, stream, "t_s") + self._offsets[stream]
+        t = real_array(t_s, stream, "t_s") + self._clocks[stream].offset_s
         v = chunk_values(values, t, channels, stream)
         if not len(t):
             return []
@@ -477,7 +463,8 @@ class StreamService:
                 t, v = t[~resent], v[~resent]
                 if not len(t):
                     return
-        slowest = self._ms_step[stream]
+        clock = self._clocks[stream]
+        slowest = clock.ms_step_s
         if slowest is not None and not judged:   # rule timestamp_units
             taken = self._judge_units(stream, t, v, slowest)
             if taken is None:
@@ -504,7 +491,7 @@ class StreamService:
                 t, v, order = t[keep], v[keep], order[keep]
         # a step forward longer than clock_restart_s and stale_s, or a stream's first
         # samples (one comparison on the usual push)
-        if hold and len(t) and (stream in self._ahead or t[-1] - buf.last_t > self._step_s):
+        if hold and len(t) and (clock.ahead is not None or t[-1] - buf.last_t > self._step_s):
             t, v = self._hold_ahead(stream, t, v)
         if len(t):
             # samples the chunk pushes out of the buffer before a decision used them
@@ -513,11 +500,10 @@ class StreamService:
                 self._refused[(stream, OVERFLOW)] += lost
                 self._events[stream].append((float(t[0]), OVERFLOW))
             self._stuck[stream].update(t, v)
-            if self._rejoining:
-                self._rejoining.discard(stream)
+            clock.rejoining = False
         buf.append(t, v)
         self._watch_restart(stream, late, order)
-        if self._ahead:
+        if any(c.ahead is not None for c in self._clocks.values()):
             self._resolve_ahead()
 
     def _judge_units(self, stream: str, t: np.ndarray, v: np.ndarray, slowest: float
@@ -537,14 +523,14 @@ class StreamService:
         stray stamp ahead (``time_ahead``); otherwise they are taken as they came. A stream
         found in ms is judged at every push and its samples refused until its steps are in
         s again. The usual push costs one comparison."""
-        recent, held = self._recent_t[stream], self._unjudged[stream]
-        prev = recent[-1] if recent else None
+        clock = self._clocks[stream]
+        held, prev = clock.unjudged, clock.newest_stamp_s
         # (a stamp the readers' rule implausible_time refuses opens no hold)
         suspect = abs(t[-1]) <= MAX_PLAUSIBLE_TIME_S and (
             t[-1] - prev > len(t) * slowest if prev is not None
             else t[-1] - t[0] > (len(t) - 1) * slowest)
-        _remember_stamps(recent, t)
-        if stream in self._ms_clock or (suspect and not held):
+        clock.remember(t)
+        if clock.on_ms_clock or (suspect and not held):
             if self._in_ms(stream):   # its newest steps say so already
                 self._refused[(stream, UNITS)] += len(t)
                 self._events[stream].append((self._newest(), UNITS))
@@ -591,7 +577,7 @@ class StreamService:
     def _release_unjudged(self, stream: str) -> None:
         """Take the chunks of ``stream`` held for the ``timestamp_units`` rule, one by one
         as they came (their units judged)."""
-        for t, v in self._unjudged[stream].take():
+        for t, v in self._clocks[stream].unjudged.take():
             self._ingest(stream, t, v, judged=True)
 
     def _hold_ahead(self, stream: str, t: np.ndarray, v: np.ndarray
@@ -601,7 +587,8 @@ class StreamService:
         clock; return the samples to take now. A sample that breaks a held run (the stream
         going on on its old clock: the held ones were a stray stamp far ahead) drops the
         held ones, counted as ``time_ahead``."""
-        buf, held = self._buffers[stream], self._ahead.get(stream)
+        buf, clock = self._buffers[stream], self._clocks[stream]
+        held = clock.ahead
         first_jump = self._first_step_s(stream)
         step = buf.median_step()
         max_step = self.config.gap_factor * step if np.isfinite(step) else self._step_s
@@ -619,7 +606,9 @@ class StreamService:
                 self._drop_ahead(stream)
                 held = None
             if steps_ahead(ti, prev, others.values(), self._step_s, first_jump):
-                held = self._ahead[stream] = HeldRun(self.config.buffer_samples)
+                held = clock.ahead = HeldRun(self.config.buffer_samples)
+                clock.ahead_rank = self._holds_begun
+                self._holds_begun += 1
                 # the chunk arrived with its newest sample: the others' clock then is that
                 # sample's, not the first held one's
                 held.begin(ti, t[-1] - ti, others)
@@ -635,7 +624,7 @@ class StreamService:
         for a stream silent through a restart of the others' clock (its old clock is no
         longer theirs), more than a lag the config tolerates (``clock_restart_s``,
         ``stale_s``)."""
-        if stream in self._rejoining:
+        if self._clocks[stream].rejoining:
             return self._step_s
         return max(self._step_s, self.config.max_backlog_s)
 
@@ -643,13 +632,12 @@ class StreamService:
         """Newest buffered time of every other stream with samples and no run held ahead,
         s (the clocks a step of ``stream`` is judged against)."""
         return {s: b.last_t for s, b in self._buffers.items()
-                if s != stream and len(b) and s not in self._ahead}
+                if s != stream and len(b) and self._clocks[s].ahead is None}
 
     def _drop_ahead(self, stream: str) -> None:
         """Refuse the held run of ``stream`` (a stray stamp ahead), counted and flagged as
         ``time_ahead``."""
-        held = self._ahead.pop(stream)
-        self._refused[(stream, AHEAD)] += len(held)
+        self._refused[(stream, AHEAD)] += len(self._take_ahead(stream))
         # flagged from the service's newest time on: the stream's own newest may be long
         # before every coming window (a clock in ms whose every sample steps ahead)
         self._events[stream].append((self._newest(), AHEAD))
@@ -657,8 +645,11 @@ class StreamService:
     def _resolve_ahead(self) -> None:
         """Release the runs held ahead that :func:`~terrain.serving.clocks.resolve_hold`
         settles: as they are, or on the clock of the streams that went on."""
-        for stream, held in list(self._ahead.items()):
-            if stream not in self._ahead:   # released by a release before it
+        holding = sorted((c.ahead_rank, s) for s, c in self._clocks.items()
+                         if c.ahead is not None)
+        for _, stream in holding:
+            held = self._clocks[stream].ahead
+            if held is None:   # released by a release before it
                 continue
             at_start = held.others_newest_s
             running = resolve_hold(held.t0_s, held.last_t, at_start,
@@ -676,12 +667,12 @@ class StreamService:
     def _release_ahead(self, stream: str, shift: float) -> None:
         """Ingest the held run of ``stream`` moved by ``shift`` (s; a shift is a restart of
         that stream's clock alone: offset, counter and flag)."""
-        t, v = self._ahead.pop(stream).arrays()
+        t, v = self._take_ahead(stream).arrays()
         t += shift
         if shift:
-            self._offsets[stream] += shift
+            self._clocks[stream].offset_s += shift
             self._clock_restarts += 1
-            self._restamp_recent(stream, t)
+            self._clocks[stream].restamp(t)
         self._ingest(stream, t, v, hold=False, judged=True)
         if shift:
             self._events[stream].append((float(t[-1]), "clock_restart"))
@@ -692,19 +683,17 @@ class StreamService:
         finite = t[np.isfinite(t)]
         if not len(finite):       # no stamp to match (the rules refuse them)
             return np.zeros(len(t), dtype=bool)
-        buf, late = self._buffers[stream], self._late[stream]
+        buf, late = self._buffers[stream], self._clocks[stream].late
         bt, bv = buf.since(float(finite.min()) - DUPLICATE_TOL_S)
         return resent_mask(t, v, bt, bv, buf.first_t, buf.last_t,
                            late.last_t if len(late) else None,
                            self.config.gap_factor * buf.median_step())
 
-    def _restamp_recent(self, stream: str, t: np.ndarray) -> None:
-        """The ``timestamp_units`` rule's newest stamps of ``stream`` become ``t`` (s, its
-        held samples moved onto the service clock with its new offset): its later samples
-        come with that offset, and a step from the stamps before the move would look like a
-        clock in ms."""
-        self._recent_t[stream].clear()
-        _remember_stamps(self._recent_t[stream], t)
+    def _take_ahead(self, stream: str) -> HeldRun:
+        """The run held ahead by ``stream``, which holds none after."""
+        clock = self._clocks[stream]
+        held, clock.ahead = clock.ahead, None
+        return held
 
     def _newest(self) -> float:
         """Newest buffered time of any stream, s (the service's now)."""
@@ -715,14 +704,9 @@ class StreamService:
         stream's newest arrival stamps; asked only when a push's mean step may say so); a
         stream found in ms has its samples purged (counted) and stays refused until its
         steps are in s again."""
-        in_ms = clock_in_ms(np.array(self._recent_t[stream]), self._rate_kind[stream])
-        if in_ms is None:
-            return stream in self._ms_clock
-        if in_ms and stream not in self._ms_clock:
-            self._ms_clock.add(stream)
+        in_ms, switched = self._clocks[stream].judge_ms()
+        if switched:
             self._purge(stream)
-        elif not in_ms:
-            self._ms_clock.discard(stream)
         return in_ms
 
     def _purge(self, stream: str) -> None:
@@ -730,16 +714,16 @@ class StreamService:
         a step over ten nominal periods after the one before; those before the switch were
         good and stay) and those it holds, counted as ``timestamp_units``; the decision
         clock starts again when it ran ahead of every other stream on their stamps."""
-        buf = self._buffers[stream]
-        k = newest_on_ms_clock(buf.times(), self._ms_step[stream])
-        n = k + len(self._late[stream]) + len(self._ahead.pop(stream, ())) + \
-            len(self._unjudged[stream])
+        buf, clock = self._buffers[stream], self._clocks[stream]
+        k = newest_on_ms_clock(buf.times(), clock.ms_step_s)
+        n = k + len(clock.late) + len(clock.unjudged) + \
+            (len(self._take_ahead(stream)) if clock.ahead is not None else 0)
         if n:
             self._refused[(stream, UNITS)] += n
         buf.drop_newest(k)
         self._stuck[stream] = StuckWatch(stream, self.streams[stream])
-        self._late[stream].clear()
-        self._unjudged[stream].clear()
+        clock.late.clear()
+        clock.unjudged.clear()
         self._rewind_decision_clock()
 
     def _rewind_decision_clock(self) -> None:
@@ -769,7 +753,7 @@ class StreamService:
         one; once they run as a clock over ``clock_restart_s``, restart (all streams, or
         ``stream`` alone when others went on meanwhile), unless they fill a hole of its
         buffer (:func:`~terrain.serving.clocks.in_a_gap`)."""
-        held = self._late[stream]
+        held = self._clocks[stream].late
         if late is None or (len(kept_order) and kept_order[-1] > late[2][-1]):
             if len(kept_order) or late is not None:
                 held.clear()   # the stream goes on on its clock: a stray late sample
@@ -793,7 +777,7 @@ class StreamService:
             return
         # streams that went on accepting samples on the old clock meanwhile
         running = [s for s, last in held.others_newest_s.items()
-                   if not self._late[s] and self._buffers[s].last_t > last]
+                   if not self._clocks[s].late and self._buffers[s].last_t > last]
         if not running:
             self._restart()
         elif any(went_on_live(held.last_t - held.t0_s,
@@ -804,18 +788,20 @@ class StreamService:
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
         the samples each stream sent on its new clock (the forward filter is kept)."""
-        held = {s: run.arrays() for s, run in self._late.items() if len(run)}
-        # streams that sent nothing on the new clocks: their next sample may still be on
-        # the old one
-        self._rejoining = {s for s, b in self._buffers.items() if len(b) and s not in held}
-        for s in list(self._ahead):   # a run held ahead of the old clocks
+        held = {s: c.late.arrays() for s, c in self._clocks.items() if len(c.late)}
+        for s, clock in self._clocks.items():
+            # streams that sent nothing on the new clocks: their next sample may still be
+            # on the old one
+            clock.rejoining = bool(len(self._buffers[s])) and s not in held
+            clock.late.clear()
+        for _, s in sorted((c.ahead_rank, s) for s, c in self._clocks.items()
+                           if c.ahead is not None):   # a run held ahead of the old clocks
             self._drop_ahead(s)
         for s, (t, _) in held.items():  # counted as refused when they came; used now
             self._uncount(s, TIME_RULE, len(t))
         self._buffers = {s: RingBuffer(len(ch), self.config.buffer_samples)
                          for s, ch in self.streams.items()}
         self._stuck = {s: StuckWatch(s, ch) for s, ch in self.streams.items()}
-        self._late = {s: HeldRun(self.config.buffer_samples) for s in self.streams}
         self._next_t = None
         self._clock_restarts += 1
         for s in self.streams:
@@ -828,7 +814,8 @@ class StreamService:
         """Put the held samples of ``stream`` on the clock of the ``running`` streams
         (:func:`~terrain.serving.clocks.restart_shift`): its buffer starts again, its
         offset changes by the shift."""
-        held = self._late[stream]
+        clock = self._clocks[stream]
+        held = clock.late
         t, v = held.arrays()
         held.clear()
         shift = restart_shift(held.t0_s, held.lead_s,
@@ -836,13 +823,13 @@ class StreamService:
                               [self._buffers[s].median_step() for s in running],
                               self.config.gap_factor)
         self._uncount(stream, TIME_RULE, len(t))
-        self._offsets[stream] += float(shift)
+        clock.offset_s += float(shift)
         self._buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
         self._stuck[stream] = StuckWatch(stream, self.streams[stream])
         self._events[stream].clear()
         self._clock_restarts += 1
         t += shift
-        self._restamp_recent(stream, t)
+        clock.restamp(t)
         self._ingest(stream, t, v, judged=True)
         self._rewind_decision_clock()
         # the windows that hold the restart carry it: from the first held sample when the
@@ -965,13 +952,3 @@ class StreamService:
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
 
-
-def _remember_stamps(recent: deque, t: np.ndarray) -> None:
-    """Append a chunk's newest finite stamps (s) to the ``timestamp_units`` rule's
-    ``recent`` (a NaN stamp leaves too few steps to judge); one float for the usual
-    one-sample push."""
-    if len(t) == 1:
-        if math.isfinite(t[0]):
-            recent.append(float(t[0]))
-    else:
-        recent.extend(t[np.isfinite(t)][-recent.maxlen:].tolist())

@@ -8,8 +8,8 @@ re-sending publisher) are in test_service.py.
 import numpy as np
 import pytest
 
-from terrain.serving.clocks import (UNITS_STEPS, HeldChunks, HeldRun, ahead_shift,
-                                    clock_in_ms, continues_run, first_long_step, in_a_gap,
+from terrain.serving.clocks import (AHEAD, UNITS, UNITS_STEPS, HeldChunks, HeldRun,
+                                    StreamClock, ahead_shift, clock_in_ms, continues_run, first_long_step, in_a_gap,
                                     newest_on_ms_clock, resent_mask, resolve_hold,
                                     restart_shift, steps_ahead, went_on_live)
 
@@ -240,3 +240,51 @@ def test_went_on_live():
     # one that advanced 1 s fell behind a run sent at once (a backlog or a re-send)
     assert not went_on_live(10.0, 1.0)
     assert not went_on_live(0.0, 0.0)          # a stream that did not advance at all
+
+
+# --- StreamClock -------------------------------------------------------------------------
+
+def test_stream_clock_threshold_is_ten_periods_of_the_slowest_nominal_rate():
+    # the readers' nominal ranges (terrain.io.plausibility.NOMINAL_RATE_HZ): IMU from
+    # 10 Hz (1 s), wheels from 1 Hz (10 s); a stream of unknown channels has no rule
+    assert StreamClock(10, "imu").ms_step_s == pytest.approx(1.0)
+    assert StreamClock(10, "wheels").ms_step_s == pytest.approx(10.0)
+    unknown = StreamClock(10, None, offset_s=-2.5)
+    assert unknown.ms_step_s is None and unknown.offset_s == -2.5
+    assert unknown.judge_ms() == (False, False)
+    assert len(unknown.late) == 0 and unknown.ahead is None and not unknown.held()
+
+
+def test_stream_clock_remembers_the_newest_finite_stamps():
+    clock = StreamClock(10, "imu")
+    assert clock.newest_stamp_s is None
+    clock.remember(np.array([0.5]))
+    clock.remember(np.array([np.nan]))             # a NaN stamp is no step
+    assert clock.newest_stamp_s == 0.5
+    clock.remember(np.arange(1.0, 30.0))           # a long chunk: its newest ones only
+    assert clock.newest_stamp_s == 29.0
+    # a 100 Hz IMU in s after the ms stamps above: judged on the newest steps only
+    clock.remember(30.0 + 0.01 * np.arange(1, UNITS_STEPS + 2))
+    assert clock.judge_ms() == (False, False)
+
+
+def test_stream_clock_judges_a_switch_to_ms_once():
+    clock = StreamClock(10, "imu")
+    clock.remember(np.arange(UNITS_STEPS) * 10.0)  # too few steps: as before (in s)
+    assert clock.judge_ms() == (False, False) and not clock.on_ms_clock
+    clock.remember(np.array([UNITS_STEPS * 10.0]))  # 100 Hz stamped in ms: 0.1 "Hz"
+    assert clock.judge_ms() == (True, True) and clock.on_ms_clock
+    assert clock.judge_ms() == (True, False)        # still in ms: no new switch
+    # moved onto a clock in s (a restart placed it): the stamps before no longer count
+    clock.restamp(40.0 + 0.01 * np.arange(UNITS_STEPS + 1))
+    assert clock.judge_ms() == (False, False) and not clock.on_ms_clock
+
+
+def test_stream_clock_reports_what_it_holds():
+    clock = StreamClock(10, "wheels")
+    clock.ahead = HeldRun(10)
+    clock.ahead.begin(100.0, 0.0, {})
+    clock.ahead.append(100.0, _values(1)[0])
+    clock.unjudged.append(np.array([200.0, 210.0]), _values(2))
+    clock.late.append(5.0, _values(1)[0])           # refused and counted already
+    assert clock.held() == {AHEAD: 1, UNITS: 2}
