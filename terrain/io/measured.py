@@ -33,7 +33,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (DataFormatError, DataWarning, EmptyFileError, EncodingError,
+from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFileError, EncodingError,
                             MissingColumnError, NonFiniteError, NonNumericError,
                             OrphanFileError, RaggedRowError, TimestampError,
                             UnreadableFileError, duplicated, first_items)
@@ -499,6 +499,49 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
                meta={**meta, "repaired": repaired, "gaps": gaps, "skipped_lines": skipped,
                      "ignored_columns": ignored,
                      **checks, "files": {k: str(p) for k, p in files.items()}})
+
+
+def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
+    """Read one run of one terrain folder (``terrain stream``'s RUN_DIR).
+
+    Parameters
+    ----------
+    run_dir : str or pathlib.Path
+        A terrain folder of the measured-run layout (``imu_XX.csv``, ``pro_XX.csv``,
+        optional ``meta_XX.json``); its name is the terrain label, its parent's the
+        dataset's.
+    index : str, optional
+        Run index ``XX``; may be left out when the folder holds one run.
+
+    Returns
+    -------
+    Run
+        Run id ``<TERRAIN>/<index>``, labelled with the folder's name in upper case.
+
+    Raises
+    ------
+    ConfigError
+        ``run_dir`` is not a folder, holds no run files, holds several runs and ``index``
+        is not given, or lacks the run ``index`` (the message lists those it holds).
+    DataFormatError, OrphanFileError
+        As :func:`folder_run_files` and :func:`read_run` (a file that cannot be read).
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise ConfigError(f"run folder {run_dir} does not exist or is not a folder")
+    folder = run_dir.resolve()
+    # errors name the folder as given, unless it has no name of its own (".")
+    shown = folder if run_dir.name in ("", ".", "..") else run_dir
+    runs = folder_run_files(shown)
+    if not runs:
+        raise ConfigError(f"{shown} holds no run files (imu_XX.csv, pro_XX.csv)")
+    if index is None and len(runs) > 1:
+        raise ConfigError(f"{shown} holds runs {sorted(runs)}: choose one with --index")
+    index = index or next(iter(runs))
+    if index not in runs:
+        raise ConfigError(f"no run {index!r} in {shown}; available: {sorted(runs)}")
+    return read_run(runs[index], f"{folder.name}/{index}", folder.parent.name,
+                    folder.name.upper())
 
 
 def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = False,

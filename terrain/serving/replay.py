@@ -3,18 +3,26 @@
 :func:`interleave` merges the streams of a run into one time-ordered sequence of chunks
 (consecutive samples of the same stream form one chunk, so the service sees exactly what a
 robot publishing each sample as it is measured would give it). :func:`replay_run` pushes
-them through a :class:`~terrain.serving.service.StreamService`.
+them through a :class:`~terrain.serving.service.StreamService`; :func:`replay_recorded`
+does so for ``terrain stream`` and keeps what a user is told of the replay
+(:class:`RunReplay`).
 """
 
 from __future__ import annotations
 
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Iterator, Sequence
 
 import numpy as np
+import pandas as pd
 
-from terrain.errors import config_integer
+from terrain.errors import ConfigError, DataFormatError, config_integer
+from terrain.io.report import InputReport, input_report
 from terrain.run import TIME, Run
-from terrain.serving.decisions import Decision
+from terrain.serving.decisions import (Decision, decisions_frame, join_flags,
+                                       stuck_decision_flags, without_stuck)
 from terrain.serving.service import StreamService
 
 
@@ -87,3 +95,178 @@ def replay_run(service: StreamService, run: Run, max_chunk: int = 1) -> list[Dec
         cols = [c for c in run.streams[stream].columns if c != TIME]
         out.extend(service.push(stream, t, dict(zip(cols, v.T))))
     return out
+
+
+@dataclass(frozen=True)
+class RunReplay:
+    """The decisions of one recorded run replayed as a live stream, and what the service
+    did with its samples (:func:`replay_recorded`).
+
+    Attributes
+    ----------
+    run : Run
+        The replayed run.
+    frame : pandas.DataFrame
+        Decisions (:func:`~terrain.serving.decisions.decisions_frame` columns), whose
+        ``flags`` carry the readers' stuck-sensor flags of the run's ``meta`` as the batch
+        windows do.
+    n_stuck : int
+        Decisions flagged for a stuck sensor.
+    overlap_s : float
+        Time span covered by every stream the model needs, s (0 when they do not
+        overlap).
+    window_s, hop_s, max_backlog_s : float
+        The model's window length, the time between decisions and the service's silent
+        stretch (decisions skipped beyond it), s.
+    streams : tuple of str
+        Streams the model needs.
+    refused, held : dict of (str, str) to int
+        Samples refused, and those still held at the end, by ``(stream, reason)``
+        (:attr:`StreamService.refused_samples`, :attr:`StreamService.held_samples`).
+    skipped : int
+        Decisions skipped in silent stretches.
+    """
+
+    run: Run
+    frame: pd.DataFrame
+    n_stuck: int
+    overlap_s: float
+    window_s: float
+    hop_s: float
+    max_backlog_s: float
+    streams: tuple
+    refused: dict
+    held: dict
+    skipped: int
+
+    @property
+    def too_short(self) -> bool:
+        """Whether the needed streams share less than one window (the run is refused even
+        where the service emitted flagged decisions from the longer stream alone)."""
+        return self.overlap_s < self.window_s
+
+    def input_report(self) -> InputReport:
+        """The readers' report of the run (what they repaired and found), with its window
+        counts as ``terrain predict`` gives them.
+
+        Returns
+        -------
+        InputReport
+        """
+        run_id = self.run.run_id
+        counts = {"per_run": {} if self.too_short else {run_id: {
+            "windows": len(self.frame), "dropped_gap": 0, "dropped_unsteady": 0}},
+            "too_short_runs": [run_id] if self.too_short else []}
+        return input_report([self.run], counts, self.window_s, {run_id: self.n_stuck})
+
+    def check(self, path: str | Path) -> None:
+        """Refuse a replay that gave no decision.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The run's folder, named in the error.
+
+        Raises
+        ------
+        DataFormatError
+            The needed streams overlap for less than one window, or the service's
+            per-sample rules refused the samples it needed (the message counts them per
+            stream and reason).
+        """
+        run_id, streams = self.run.run_id, list(self.streams)
+        if self.too_short:
+            raise DataFormatError(f"no decision from run {run_id}: its streams {streams} "
+                                  f"overlap for {self.overlap_s:.2f} s, shorter than the "
+                                  f"model's {self.window_s:g} s window", path)
+        if not len(self.frame):
+            refused = ", ".join(f"{n} of stream {s} ({r})"
+                                for (s, r), n in sorted(self.refused.items()))
+            raise DataFormatError(f"no decision from run {run_id}: its streams {streams} "
+                                  f"overlap for {self.overlap_s:.2f} s (window "
+                                  f"{self.window_s:g} s), but the service's input rules "
+                                  f"left too few samples; refused: {refused or 'none'}",
+                                  path)
+
+    def summary(self, out: str | Path) -> str:
+        """What a user is told of the replay: decisions, flags by kind, decisions skipped,
+        samples still held, where they were written, and the share decided as the run's
+        label.
+
+        Parameters
+        ----------
+        out : str or pathlib.Path
+            The decisions file written.
+
+        Returns
+        -------
+        str
+            One line, plus one more when the run's label is a class of the model.
+        """
+        frame = self.frame
+        kinds = Counter(k.split(":")[0] for f in frame["flags"] if f for k in f.split("|"))
+        flagged = int((frame["flags"] != "").sum())
+        detail = f" ({', '.join(f'{k} {n}' for k, n in sorted(kinds.items()))})" \
+            if kinds else ""
+        skipped = (f"; {self.skipped} skipped in silent stretches (no sample of any stream "
+                   f"for over {self.max_backlog_s:g} s)" if self.skipped else "")
+        if self.held:
+            skipped += "; " + ", ".join(f"{n} samples of stream {s} still held at the end "
+                                        f"({r}: their clock not yet told)"
+                                        for (s, r), n in sorted(self.held.items()))
+        text = (f"{self.run.run_id}: {len(frame)} decisions every {self.hop_s} s from "
+                f"streams {list(self.streams)}; {flagged} flagged{detail}{skipped}; "
+                f"written to {out}")
+        classes = [c[len("proba_"):] for c in frame.columns if c.startswith("proba_")]
+        if len(frame) and self.run.terrain in classes:
+            acc = float((frame["terrain"] == self.run.terrain).mean())
+            text += (f"\n  decided {self.run.terrain} (the folder's label) in {acc:.3f} of "
+                     "the decisions")
+        return text
+
+
+def replay_recorded(service: StreamService, run: Run) -> RunReplay:
+    """Replay a recorded run through ``service`` as ``terrain stream`` does.
+
+    Every sample is pushed one by one in timestamp order (:func:`replay_run`); the
+    decisions carry the readers' stuck-sensor flags of the run.
+
+    Parameters
+    ----------
+    service : StreamService
+        A fresh service (its counters are reported as the replay's).
+    run : Run
+        Recorded run, read by :mod:`terrain.io`.
+
+    Returns
+    -------
+    RunReplay
+
+    Raises
+    ------
+    ConfigError
+        ``run`` lacks a stream the model needs.
+    """
+    streams = service.needed_streams
+    missing = [s for s in streams if s not in run.streams]
+    if missing:
+        raise ConfigError(f"the model needs stream(s) {missing}, absent from run {run.run_id}")
+    model = service.model
+    frame = decisions_frame(replay_run(service, run), model.classes)
+    window_s = model.window.window_s
+    stuck = stuck_decision_flags(frame, dict(run.meta.get("stuck", {})), window_s)
+    frame["flags"] = join_flags(without_stuck(frame["flags"]), stuck)
+    return RunReplay(run, frame, int((stuck != "").sum()),
+                     _overlap_s([run.streams[s] for s in streams]), window_s,
+                     service.config.hop_s, service.config.max_backlog_s, streams,
+                     service.refused_samples, service.held_samples,
+                     service.skipped_decisions)
+
+
+def _overlap_s(streams: list[pd.DataFrame]) -> float:
+    """Time span covered by every one of ``streams``, s (0 when they do not overlap)."""
+    if not all(len(f) for f in streams):
+        return 0.0
+    starts = [float(f[TIME].iloc[0]) for f in streams]
+    ends = [float(f[TIME].iloc[-1]) for f in streams]
+    return max(0.0, min(ends) - max(starts))

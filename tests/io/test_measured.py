@@ -7,10 +7,11 @@ import pandas as pd
 import pytest
 
 from features.windows import WindowConfig, make_windows
-from terrain.errors import (DataFormatError, EmptyFileError, MissingColumnError,
+from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, MissingColumnError,
                             NonFiniteError, NonNumericError, OrphanFileError, TimestampError)
 from terrain.io.align import align_streams
-from terrain.io.measured import list_run_files, read_runs_dir, read_stream_csv
+from terrain.io.measured import (list_run_files, read_folder_run, read_runs_dir,
+                                 read_stream_csv)
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
 BOREALTC_PRO = ["time", "curL", "curR", "velL", "velR"]
@@ -257,6 +258,24 @@ def test_list_run_files_indexes_by_terrain_and_index(tmp_path, synth_imu, synth_
     files = list_run_files(tmp_path)
     assert set(files) == {("ICE", "01")}
     assert set(files[("ICE", "01")]) == {"imu", "pro"}
+
+
+def test_read_folder_run_reads_the_chosen_run_labelled_by_its_folder(tmp_path, synth_imu,
+                                                                     synth_pro, write_run):
+    for index in ("01", "02"):
+        write_run(tmp_path / "husky", "ICE", index, synth_imu(duration_s=1.0 + int(index)),
+                  synth_pro(duration_s=1.0 + int(index)))
+    run = read_folder_run(tmp_path / "husky" / "ICE", "02")
+    assert run.run_id == "ICE/02" and run.terrain == "ICE" and run.dataset == "husky"
+    assert run.streams["imu"]["t_s"].iloc[-1] > 2.5        # run 02, not 01 (1 s longer)
+    with pytest.raises(ConfigError, match=r"holds runs \['01', '02'\]: choose one"):
+        read_folder_run(tmp_path / "husky" / "ICE")
+    with pytest.raises(ConfigError, match=r"no run '03' in .*available: \['01', '02'\]"):
+        read_folder_run(tmp_path / "husky" / "ICE", "03")
+    with pytest.raises(ConfigError, match="holds no run files"):
+        read_folder_run(tmp_path / "husky")
+    with pytest.raises(ConfigError, match="does not exist or is not a folder"):
+        read_folder_run(tmp_path / "husky" / "SNOW")
 
 
 def test_empty_runs_folder_is_rejected(tmp_path):

@@ -244,3 +244,36 @@ def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_
                      str(tmp_path / "bad.csv"), *extra]) == 2
         err = capsys.readouterr().err
         assert words in err and "Traceback" not in err
+
+
+def test_replay_recorded_reports_what_the_service_did(borealtc_runs, train_runs, wheel_model,
+                                                      all_model):
+    """The library side of ``terrain stream``: overlap, label share and refusals."""
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError, DataFormatError
+    from terrain.serving import StreamConfig, StreamService, TableTargets
+    from terrain.serving.replay import replay_recorded
+
+    seen = {r.run_id for r in train_runs}
+    run = next(r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+               and r.duration_s > 30)
+    wheels = run.streams["wheels"]["t_s"]
+    replay = replay_recorded(StreamService(wheel_model, TableTargets(wheel_model.classes),
+                                           StreamConfig(hop_s=1.0)), run)
+    assert replay.overlap_s == pytest.approx(wheels.iloc[-1] - wheels.iloc[0])
+    assert not replay.too_short and replay.streams == ("wheels",)
+    replay.check(".")                                   # decisions: nothing raised
+    share = float((replay.frame["terrain"] == run.terrain).mean())
+    lines = replay.summary("d.csv").splitlines()
+    assert lines[0].startswith(f"{run.run_id}: {len(replay.frame)} decisions every 1.0 s")
+    assert lines[1] == (f"  decided {run.terrain} (the folder's label) in {share:.3f} of "
+                        "the decisions")
+    # the same replay with no decision: the refusals are named, not a short overlap
+    empty = replace(replay, frame=replay.frame.iloc[:0], refused={("wheels", "duplicate"): 7})
+    with pytest.raises(DataFormatError, match=r"refused: 7 of stream wheels \(duplicate\)"):
+        empty.check(".")
+    # an IMU + wheel model cannot replay the wheels alone
+    wheel_only = replace(run, streams={"wheels": run.streams["wheels"]})
+    with pytest.raises(ConfigError, match=r"needs stream\(s\) \['imu'\], absent from run"):
+        replay_recorded(StreamService(all_model, TableTargets(all_model.classes)), wheel_only)
