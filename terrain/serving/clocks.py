@@ -51,9 +51,12 @@ put on the others' clock once it has run as a clock for ``clock_restart_s`` whil
 on (:func:`ahead_shift`: one usual step after the stream's last sample before the step, kept
 inside the step of the others in which it arrived, a chunk arriving with its newest sample;
 offset, counter and ``clock_restart`` as for a restart alone), and taken as it is after
-``max_backlog_s`` with the others silent. A sample that breaks the held run (the stream
-going on on its old clock: the held ones were a stray stamp ahead) drops it, counted and
-flagged as ``time_ahead``. One stream alone, or a chunk holding more than ``max_backlog_s``
+``max_backlog_s`` with the others silent. A sample before the newest held one but itself
+ahead of every other stream is late on the held clock (a link that reorders): it is refused
+as ``time_not_increasing``, as on a clock taken (it broke the run, refused as a stray: a
+reordered wheel stream on another clock from its start lost 574 of 580 samples). A sample
+that breaks the held run otherwise (the stream going on on its old clock: the held ones
+were a stray stamp ahead) drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more than ``max_backlog_s``
 after the step, is taken as it is (the service skips silent decisions). A stream's first
 sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind (two
 computers whose clocks were never synchronised; a stream delivered late is never that
@@ -85,7 +88,9 @@ dropout's backlog is that late) the held samples were a stray stamp ahead, refus
 and values: a reconnecting publisher re-sending its buffer) is counted as ``duplicate`` and
 dropped without a flag, never held for a restart, unless it is the stream's oldest buffered
 sample or continues a held run (a log played again from its start is a loop;
-:func:`resent_mask`).
+:func:`resent_mask`). A sample that repeats one of a run held ahead is counted the same way
+and the run goes on (:meth:`HeldRun.repeats`; before, such a re-send broke the run, which
+was refused as a stray stamp ahead).
 """
 
 from __future__ import annotations
@@ -192,6 +197,29 @@ class HeldRun:
             ``(n_channels,)`` its values, copied (a robot may reuse the array it pushed).
         """
         self._samples.append((float(t_s), np.array(values, dtype=float)))
+
+    def repeats(self, t_s: float, values: np.ndarray) -> bool:
+        """Whether a sample repeats a held one: its stamp within :data:`DUPLICATE_TOL_S`
+        and the same values (:func:`~terrain.serving.inputs.same_values`; a publisher
+        re-sending its buffer while the run is held).
+
+        Parameters
+        ----------
+        t_s : float
+            The sample's stamp, s.
+        values : numpy.ndarray
+            ``(n_channels,)`` its values.
+
+        Returns
+        -------
+        bool
+        """
+        for held_t, held_v in reversed(self._samples):   # increasing: newest first
+            if held_t < t_s - DUPLICATE_TOL_S:
+                return False
+            if held_t <= t_s + DUPLICATE_TOL_S and same_values(held_v, values):
+                return True
+        return False
 
     def extend_clock(self, t_s: np.ndarray, values: np.ndarray, max_step_s: float,
                      others_newest_s: Mapping[str, float]) -> None:

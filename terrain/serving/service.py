@@ -454,9 +454,11 @@ class StreamService:
         the samples refused as earlier than the stream's newest for a clock restart.
         ``judged``: samples held before, whose clock's units were judged when they came."""
         channels, buf = self.streams[stream], self._buffers[stream]
-        # a sample at or before the stream's newest may be one sent again (checked only
-        # then: the usual increasing push costs one comparison)
-        if t[0] <= buf.last_t or (len(t) > 1 and not (t[1:] > t[:-1]).all()):
+        # a sample at or before the stream's newest, buffered or held ahead, may be one
+        # sent again (checked only then: the usual increasing push costs two comparisons)
+        ahead = self._clocks[stream].ahead
+        if t[0] <= buf.last_t or (ahead is not None and t[0] <= ahead.last_t) or \
+                (len(t) > 1 and not (t[1:] > t[:-1]).all()):
             resent = self._resent(stream, t, v)
             if resent.any():
                 self._refused[(stream, DUPLICATE)] += int(resent.sum())
@@ -584,9 +586,12 @@ class StreamService:
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Hold the samples of ``stream`` that step its clock ahead of every other stream's
         (:func:`~terrain.serving.clocks.steps_ahead`) and those that run on from them as a
-        clock; return the samples to take now. A sample that breaks a held run (the stream
-        going on on its old clock: the held ones were a stray stamp far ahead) drops the
-        held ones, counted as ``time_ahead``."""
+        clock; return the samples to take now. A sample before the newest held one but
+        itself ahead of every other stream (on the held clock, delivered out of order) is
+        refused as ``time_not_increasing``, as a late sample on a clock taken is; one that
+        breaks a held run otherwise (the stream going on on its old clock: the held ones
+        were a stray stamp far ahead) drops the held ones, counted as ``time_ahead`` (one
+        that repeats a held sample never comes here: :meth:`_resent`)."""
         buf, clock = self._buffers[stream], self._clocks[stream]
         held = clock.ahead
         first_jump = self._first_step_s(stream)
@@ -603,9 +608,17 @@ class StreamService:
                     held.append(ti, v[i])
                     taken[i] = False
                     continue
+                ahead = steps_ahead(ti, prev, others.values(), self._step_s, first_jump)
+                if ahead and ti <= held.last_t:   # late on the held clock: out of order
+                    self._refused[(stream, TIME_RULE)] += 1
+                    self._events[stream].append((self._newest(), TIME_RULE))
+                    taken[i] = False
+                    continue
                 self._drop_ahead(stream)
                 held = None
-            if steps_ahead(ti, prev, others.values(), self._step_s, first_jump):
+            else:
+                ahead = steps_ahead(ti, prev, others.values(), self._step_s, first_jump)
+            if ahead:
                 held = clock.ahead = HeldRun(self.config.buffer_samples)
                 clock.ahead_rank = self._holds_begun
                 self._holds_begun += 1
@@ -678,16 +691,20 @@ class StreamService:
             self._events[stream].append((float(t[-1]), "clock_restart"))
 
     def _resent(self, stream: str, t: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``(n,)`` bool: the samples of a chunk that the stream already gave
-        (:func:`~terrain.serving.clocks.resent_mask`)."""
+        """``(n,)`` bool: the samples of a chunk that the stream already gave, buffered
+        (:func:`~terrain.serving.clocks.resent_mask`) or held ahead
+        (:meth:`~terrain.serving.clocks.HeldRun.repeats`)."""
         finite = t[np.isfinite(t)]
         if not len(finite):       # no stamp to match (the rules refuse them)
             return np.zeros(len(t), dtype=bool)
-        buf, late = self._buffers[stream], self._clocks[stream].late
+        buf, clock = self._buffers[stream], self._clocks[stream]
         bt, bv = buf.since(float(finite.min()) - DUPLICATE_TOL_S)
-        return resent_mask(t, v, bt, bv, buf.first_t, buf.last_t,
-                           late.last_t if len(late) else None,
-                           self.config.gap_factor * buf.median_step())
+        out = resent_mask(t, v, bt, bv, buf.first_t, buf.last_t,
+                          clock.late.last_t if len(clock.late) else None,
+                          self.config.gap_factor * buf.median_step())
+        if clock.ahead is not None:   # a re-send while a step ahead is told
+            out |= [clock.ahead.repeats(ti, vi) for ti, vi in zip(t, v)]
+        return out
 
     def _take_ahead(self, stream: str) -> HeldRun:
         """The run held ahead by ``stream``, which holds none after."""

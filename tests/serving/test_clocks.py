@@ -187,6 +187,18 @@ def test_resent_mask_continuing_a_held_run_is_no_resend():
     assert mask.tolist() == [False]
 
 
+
+def test_a_held_run_knows_the_samples_it_holds():
+    held = HeldRun(8)
+    held.begin(100.0, 0.0, {})
+    for i, (ti, vi) in enumerate(zip(100.0 + 0.01 * np.arange(5), _values(5))):
+        held.append(ti, vi)
+    t, v = held.arrays()
+    assert held.repeats(t[2], v[2]) and held.repeats(t[4] + 1e-7, v[4])
+    assert not held.repeats(t[2], v[2] + 1.0)       # the stamp again, other values
+    assert not held.repeats(t[2] + 0.005, v[2])     # other stamp
+    assert not held.repeats(99.0, v[0]) and not HeldRun(4).repeats(t[0], v[0])
+
 # --- a clock in ms ---------------------------------------------------------------------------
 
 def test_clock_in_ms():

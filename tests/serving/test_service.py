@@ -401,6 +401,33 @@ def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clo
     assert any("clock_restart" in d.flags for d in got)
 
 
+
+def test_a_resend_while_a_step_ahead_is_held_keeps_the_held_run(all_model, unseen_run):
+    # the IMU clock steps 847.5 s ahead after 10 s and, 3 s later, its publisher re-sends
+    # its newest 14 samples: the re-sent ones broke the held run, whose 313 samples (3 s
+    # of IMU) were refused as a stray stamp ahead and held again from the next one
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams["imu"][TIME].iloc[0]) + 10.0
+
+    def replay(resend):
+        svc, got, sent = service(all_model), [], []
+        for stream, t, v in interleave(unseen_run, svc.needed_streams):
+            if stream == "imu" and t[0] >= t_cut:
+                t = t + 847.5
+                sent.append((t, v))
+                if resend and len(sent) == 300:
+                    for t_old, v_old in sent[-14:]:
+                        got += svc.push(stream, t_old, v_old)
+            got += svc.push(stream, t, v)
+        return svc, got
+
+    (svc, got), (svc_ref, ref) = replay(True), replay(False)
+    assert svc_ref.refused_samples == {} and svc_ref.clock_restarts == 1
+    assert svc.refused_samples == {("imu", "duplicate"): 14}
+    assert svc.clock_offsets_s == svc_ref.clock_offsets_s == {"imu": -847.5, "wheels": 0.0}
+    assert [(d.t_s, d.terrain, d.flags) for d in got] == \
+        [(d.t_s, d.terrain, d.flags) for d in ref]
+
 def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unseen_run):
     # a robot loop that fills one preallocated array per stream and pushes it each time:
     # the samples held while the wheel clock's step ahead was told kept views of that
@@ -453,6 +480,31 @@ def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_cl
     assert len(after) > 100 and sum(d.flags == "" for d in after) >= 0.95 * len(after)
     assert np.mean([d.terrain == r.terrain for d, r in zip(after, same)]) >= 0.95
 
+
+
+def test_a_stream_on_another_clock_delivered_out_of_order_is_still_moved(all_model,
+                                                                        unseen_run):
+    # the stream arriving second on a clock 1000 s ahead from its first sample, and every
+    # 10th of its samples delivered after the one that follows it (a reordering link):
+    # each late one broke the run held ahead, which was refused as a stray stamp and held
+    # again: the stream was never moved (time_ahead: 574 of 580 wheel samples; all 170
+    # decisions stale)
+    from terrain.serving.replay import interleave
+    events = list(interleave(unseen_run, ("imu", "wheels")))
+    second = "wheels" if events[0][0] == "imu" else "imu"
+    at = [i for i, (s, _, _) in enumerate(events) if s == second]
+    swapped = 0
+    for k in range(3, len(at) - 1, 10):
+        events[at[k]], events[at[k + 1]] = events[at[k + 1]], events[at[k]]
+        swapped += 1
+    svc, got = service(all_model), []
+    for stream, t, v in events:
+        got += svc.push(stream, t + (1000.0 if stream == second else 0.0), v)
+    assert svc.clock_restarts == 1
+    assert svc.refused_samples == {(second, "time_not_increasing"): swapped}
+    assert abs(svc.clock_offsets_s[second] + 1000.0) < 0.08   # half a wheel step
+    late = [d for d in got if d.t_s > float(got[0].t_s) + 8.0]
+    assert len(late) > 100 and sum("stale" not in d.flags for d in late) >= 0.95 * len(late)
 
 def test_a_stream_delivered_late_in_chunks_is_never_moved(all_model, unseen_run):
     # the IMU arrives in 1 s chunks 6 s late (a slow bridge), which stale_s = 8 s
