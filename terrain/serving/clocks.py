@@ -51,9 +51,10 @@ put on the others' clock once it has run as a clock for ``clock_restart_s`` whil
 on (:func:`ahead_shift`: one usual step after the stream's last sample before the step, kept
 inside the step of the others in which it arrived, a chunk arriving with its newest sample;
 offset, counter and ``clock_restart`` as for a restart alone), and taken as it is after
-``max_backlog_s`` with the others silent. A sample before the newest held one but itself
-ahead of every other stream is late on the held clock (a link that reorders): it is refused
-as ``time_not_increasing``, as on a clock taken (it broke the run, refused as a stray: a
+``max_backlog_s`` with the others silent. A sample before the newest held one by no more
+than ``clock_restart_s`` and ``stale_s`` but itself ahead of every other stream is late on
+the held clock (a link that reorders): it is refused as ``time_not_increasing``, as on a
+clock taken (it broke the run, refused as a stray: a
 reordered wheel stream on another clock from its start lost 574 of 580 samples). A sample
 that breaks the held run otherwise (the stream going on on its old clock: the held ones
 were a stray stamp ahead) drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more than ``max_backlog_s``

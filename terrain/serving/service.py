@@ -586,9 +586,10 @@ class StreamService:
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Hold the samples of ``stream`` that step its clock ahead of every other stream's
         (:func:`~terrain.serving.clocks.steps_ahead`) and those that run on from them as a
-        clock; return the samples to take now. A sample before the newest held one but
-        itself ahead of every other stream (on the held clock, delivered out of order) is
-        refused as ``time_not_increasing``, as a late sample on a clock taken is; one that
+        clock; return the samples to take now. A sample before the newest held one by no
+        more than a clock's step (``clock_restart_s``, ``stale_s``) but itself ahead of
+        every other stream (on the held clock, delivered out of order) is refused as
+        ``time_not_increasing``, as a late sample on a clock taken is; one that
         breaks a held run otherwise (the stream going on on its old clock: the held ones
         were a stray stamp far ahead) drops the held ones, counted as ``time_ahead`` (one
         that repeats a held sample never comes here: :meth:`_resent`)."""
@@ -609,7 +610,8 @@ class StreamService:
                     taken[i] = False
                     continue
                 ahead = steps_ahead(ti, prev, others.values(), self._step_s, first_jump)
-                if ahead and ti <= held.last_t:   # late on the held clock: out of order
+                # late on the held clock by less than a clock's step: out of order
+                if ahead and 0.0 <= held.last_t - ti <= self._step_s:
                     self._refused[(stream, TIME_RULE)] += 1
                     self._events[stream].append((self._newest(), TIME_RULE))
                     taken[i] = False
