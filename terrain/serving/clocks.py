@@ -46,7 +46,8 @@ ahead of every other stream's newest by as much, those streams not having been b
 just before (a dead or lagging stream is no clock to judge by; :func:`steps_ahead`), is held
 (a step inside a pushed chunk too; bounded, counted as ``buffer_overflow`` beyond
 ``buffer_samples``). The held run (:func:`resolve_hold`) is taken as it is once another
-stream catches up with it (the others lagged, or every stream was silent, a paused robot),
+stream catches up with it, to within ``stale_s`` (the others lagged, or every stream was
+silent, a paused robot),
 put on the others' clock once it has run as a clock for ``clock_restart_s`` while they went
 on (:func:`ahead_shift`: one usual step after the stream's last sample before the step, kept
 inside the step of the others in which it arrived, a chunk arriving with its newest sample;
@@ -513,7 +514,7 @@ def steps_ahead(t_s: float, prev_t_s: float, others_newest_s: Iterable[float],
 
 
 def resolve_hold(t0_s: float, t1_s: float, newest_at_start_s: Mapping[str, float],
-                 newest_now_s: Mapping[str, float], step_s: float, clock_restart_s: float,
+                 newest_now_s: Mapping[str, float], lag_s: float, clock_restart_s: float,
                  max_backlog_s: float) -> list[str] | None:
     """What becomes of a run held ahead of the other streams (module docstring, "A forward
     step of one clock").
@@ -525,8 +526,10 @@ def resolve_hold(t0_s: float, t1_s: float, newest_at_start_s: Mapping[str, float
     newest_at_start_s, newest_now_s : Mapping[str, float]
         Newest buffered time of each other stream when the hold began and now, s (same
         keys).
-    step_s : float
-        Shortest step that is a clock's, s.
+    lag_s : float
+        Delivery lag of two clocks that meet, s (``stale_s``: the lag the config
+        tolerates; a clock's step of 5 to 10 s, the shortest step told, was taken for a
+        lag once the others came within 5 s of it).
     clock_restart_s : float
         Run length that makes a clock, s.
     max_backlog_s : float
@@ -541,7 +544,7 @@ def resolve_hold(t0_s: float, t1_s: float, newest_at_start_s: Mapping[str, float
         faster), onto whose clock the run is put.
     """
     span = t1_s - t0_s
-    if any(last >= t0_s - step_s and t1_s >= last - step_s for last in newest_now_s.values()):
+    if any(last >= t0_s - lag_s and t1_s >= last - lag_s for last in newest_now_s.values()):
         return []   # the clocks meet (one of them lagged)
     went_on = [s for s, at in newest_at_start_s.items()
                if went_on_live(span, newest_now_s[s] - at)]

@@ -669,7 +669,7 @@ class StreamService:
             at_start = held.others_newest_s
             running = resolve_hold(held.t0_s, held.last_t, at_start,
                                    {s: self._buffers[s].last_t for s in at_start},
-                                   self._step_s, self.config.clock_restart_s,
+                                   self.config.stale_s, self.config.clock_restart_s,
                                    self.config.max_backlog_s)
             if running is None:
                 continue

@@ -89,9 +89,14 @@ def test_steps_ahead_of_a_first_sample():
 
 
 def test_resolve_hold():
-    args = (5.0, 5.0, 60.0)   # step_s, clock_restart_s, max_backlog_s
+    args = (1.0, 5.0, 60.0)   # lag_s, clock_restart_s, max_backlog_s
     # the wheels caught up with the held run (they lagged): take it as it is
     assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 199.0}, *args) == []
+    # a step of 6.5 s: the wheels, 6.5 s behind when it began, went on for 5 s; 1.5 s
+    # short of the run, they have not met it (a tolerance of clock_restart_s took it as
+    # it was)
+    assert resolve_hold(200.0, 205.0, {"wheels": 193.5}, {"wheels": 198.5}, *args) \
+        == ["wheels"]
     # the wheels went on live for the run's span: its clock stepped alone
     assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 110.0}, *args) \
         == ["wheels"]

@@ -428,6 +428,24 @@ def test_a_resend_while_a_step_ahead_is_held_keeps_the_held_run(all_model, unsee
     assert [(d.t_s, d.terrain, d.flags) for d in got] == \
         [(d.t_s, d.terrain, d.flags) for d in ref]
 
+
+def test_a_clock_step_just_longer_than_clock_restart_s_is_put_back(all_model, unseen_run):
+    # the wheel clock steps 7 s ahead after 25 s: held (over clock_restart_s ahead), but
+    # taken as it was once the IMU came within clock_restart_s of it, 2 s later, so every
+    # later decision was short|stale (the wheels 7 s ahead of the IMU)
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams["wheels"][TIME].iloc[0]) + 25.0
+    reference = replay_run(service(all_model), unseen_run)
+    svc, got = service(all_model), []
+    for stream, t, v in interleave(unseen_run, svc.needed_streams):
+        got += svc.push(stream, t + 7.0 if stream == "wheels" and t[0] >= t_cut else t, v)
+    assert svc.clock_restarts == 1 and svc.refused_samples == {}
+    assert abs(svc.clock_offsets_s["wheels"] + 7.0) < 0.011
+    ref = {round(d.t_s, 6): d for d in reference}
+    after = [d for d in got if d.t_s > t_cut + 5.5 + all_model.window.window_s]
+    assert len(after) > 40 and [d.flags for d in after] == \
+        [ref[round(d.t_s, 6)].flags for d in after]
+
 def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unseen_run):
     # a robot loop that fills one preallocated array per stream and pushes it each time:
     # the samples held while the wheel clock's step ahead was told kept views of that
