@@ -22,7 +22,11 @@ is a late run inside one hole of its stream's buffer no longer than ``max_backlo
 (:func:`in_a_gap`: the backlog of a dropout sent after the live samples by a
 store-and-forward link: on the stream's own clock, it cannot be put back in order, and it
 is no new clock), when the sample after the hole is on another stream's clock or followed
-by more.
+by more. A clock stepped back by less than ``clock_restart_s`` never ran that long
+before its samples passed the stream's old newest and were taken, the stream left behind the
+others by the step for good: a held run that the stream's next accepted sample continues,
+spanning ``stale_s`` (a shorter step is a lag the config tolerates) beside another stream
+that went on live, is a restart of that stream alone as well.
 
 **A restart of one stream alone.** Streams on one clock restart together. When one stream
 restarts alone (a restarted IMU driver whose device clock starts again while the wheel

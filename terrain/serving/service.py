@@ -504,7 +504,7 @@ class StreamService:
             self._stuck[stream].update(t, v)
             clock.rejoining = False
         buf.append(t, v)
-        self._watch_restart(stream, late, order)
+        self._watch_restart(stream, late, order, t, v)
         if any(c.ahead is not None for c in self._clocks.values()):
             self._resolve_ahead()
 
@@ -767,13 +767,28 @@ class StreamService:
         w = self.model.window
         return self._next_t - w.window_s - 2.0 / w.rate_hz
 
-    def _watch_restart(self, stream: str, late, kept_order: np.ndarray) -> None:
+    def _watch_restart(self, stream: str, late, kept_order: np.ndarray,
+                       kept_t: np.ndarray, kept_v: np.ndarray) -> None:
         """Hold the samples of ``stream`` refused as not increasing since its last accepted
         one; once they run as a clock over ``clock_restart_s``, restart (all streams, or
         ``stream`` alone when others went on meanwhile), unless they fill a hole of its
-        buffer (:func:`~terrain.serving.clocks.in_a_gap`)."""
+        buffer (:func:`~terrain.serving.clocks.in_a_gap`). A held run that the stream's
+        accepted samples continue (its clock stepped back by less than ``clock_restart_s``
+        and ran on past its old newest) is a restart of that stream alone too, once it
+        spans ``stale_s``; ``kept_t``, ``kept_v``: the chunk's samples taken (``kept_order``
+        their arrival positions)."""
         held = self._clocks[stream].late
+        max_step = self.config.gap_factor * self._buffers[stream].median_step()
+        others = {s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)}
         if late is None or (len(kept_order) and kept_order[-1] > late[2][-1]):
+            if late is not None:   # this chunk's late samples before its last taken one
+                held.extend_clock(late[0], late[1], max_step, others)
+            if len(kept_order) == len(kept_t) > 0 and len(held):
+                after = kept_order > (late[2][-1] if late is not None else -1)
+                if after.any() and self._stepped_back(stream, kept_t[after][0]):
+                    shift = self._restart_alone(stream, self._running(stream))
+                    self._ingest(stream, kept_t[after] + shift, kept_v[after], judged=True)
+                    return
             if len(kept_order) or late is not None:
                 held.clear()   # the stream goes on on its clock: a stray late sample
             return
@@ -783,26 +798,51 @@ class StreamService:
             lt, lv = lt[after], lv[after]
         # a new clock runs as the old one did: increasing, with no step longer than a gap
         # (the readers' rule against the stream's usual step); anything else starts again
-        held.extend_clock(lt, lv, self.config.gap_factor * self._buffers[stream].median_step(),
-                          {s: b.last_t for s, b in self._buffers.items()
-                           if s != stream and len(b)})
+        held.extend_clock(lt, lv, max_step, others)
         if not (len(held) and held.last_t - held.t0_s >= self.config.clock_restart_s):
             return
-        if in_a_gap(self._buffers[stream].since(held.t0_s)[0], held.t0_s, held.last_t,
-                    self.config.max_backlog_s,
-                    [b.last_t for s, b in self._buffers.items() if s != stream],
-                    self._step_s):
+        if self._in_own_gap(stream):
             held.clear()   # a late backlog of the stream's own gap: no new clock
             return
         # streams that went on accepting samples on the old clock meanwhile
-        running = [s for s, last in held.others_newest_s.items()
-                   if not self._clocks[s].late and self._buffers[s].last_t > last]
+        running = self._running(stream)
         if not running:
             self._restart()
         elif any(went_on_live(held.last_t - held.t0_s,
                               self._buffers[s].last_t - held.others_newest_s[s])
                  for s in running):   # (else a run sent at once: a backlog, no clock)
             self._restart_alone(stream, running)
+
+    def _in_own_gap(self, stream: str) -> bool:
+        """Whether the late run held by ``stream`` fills a hole of its buffer
+        (:func:`~terrain.serving.clocks.in_a_gap`)."""
+        held = self._clocks[stream].late
+        return in_a_gap(self._buffers[stream].since(held.t0_s)[0], held.t0_s, held.last_t,
+                        self.config.max_backlog_s,
+                        [b.last_t for s, b in self._buffers.items() if s != stream],
+                        self._step_s)
+
+    def _running(self, stream: str) -> list[str]:
+        """Streams that went on accepting samples on the old clock while ``stream``'s late
+        run was held."""
+        held = self._clocks[stream].late
+        return [s for s, last in held.others_newest_s.items()
+                if not self._clocks[s].late and self._buffers[s].last_t > last]
+
+    def _stepped_back(self, stream: str, next_t: float) -> bool:
+        """Whether the late run held by ``stream`` is its clock stepped back by less than
+        ``clock_restart_s``: ``next_t`` (s, its first sample taken after the run)
+        continues it, it spans at least ``stale_s`` (a shorter step is a lag the config
+        tolerates), fills no hole of its buffer and another stream went on live beside
+        it."""
+        held = self._clocks[stream].late
+        span = held.last_t - held.t0_s
+        if not (span >= self.config.stale_s and continues_run(
+                next_t, held.last_t, self.config.gap_factor *
+                self._buffers[stream].median_step())) or self._in_own_gap(stream):
+            return False
+        return any(went_on_live(span, self._buffers[s].last_t - held.others_newest_s[s])
+                   for s in self._running(stream))
 
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
@@ -829,10 +869,10 @@ class StreamService:
             self._events[s].append((float(t[0]), "clock_restart"))
             self._ingest(s, t, v, judged=True)
 
-    def _restart_alone(self, stream: str, running: list[str]) -> None:
+    def _restart_alone(self, stream: str, running: list[str]) -> float:
         """Put the held samples of ``stream`` on the clock of the ``running`` streams
         (:func:`~terrain.serving.clocks.restart_shift`): its buffer starts again, its
-        offset changes by the shift."""
+        offset changes by the shift, which is returned (s)."""
         clock = self._clocks[stream]
         held = clock.late
         t, v = held.arrays()
@@ -855,6 +895,7 @@ class StreamService:
         # decision clock starts again, else from the newest (those before are emitted)
         self._events[stream].append((float(t[0] if self._next_t is None else t[-1]),
                                      "clock_restart"))
+        return float(shift)
 
     def _emit(self) -> list[Decision]:
         last = [b.last_t for b in self._buffers.values()]

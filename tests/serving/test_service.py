@@ -446,6 +446,28 @@ def test_a_clock_step_just_longer_than_clock_restart_s_is_put_back(all_model, un
     assert len(after) > 40 and [d.flags for d in after] == \
         [ref[round(d.t_s, 6)].flags for d in after]
 
+
+@pytest.mark.parametrize("stream", ["imu", "wheels"])
+def test_a_clock_stepping_back_less_than_clock_restart_s_is_put_back(all_model, unseen_run,
+                                                                    stream):
+    # one stream's clock steps back 3 s after 25 s (under clock_restart_s): its next 3 s
+    # were refused as late (300 IMU or 19 wheel samples) and then taken 3 s behind the
+    # other stream for good: every later decision stale (102 of 102, 99 of 99). The late
+    # run continued past the stream's old newest is a restart of that stream alone
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams[stream][TIME].iloc[0]) + 25.0
+    reference = replay_run(service(all_model), unseen_run)
+    svc, got = service(all_model), []
+    for s, t, v in interleave(unseen_run, svc.needed_streams):
+        got += svc.push(s, t - 3.0 if s == stream and t[0] >= t_cut else t, v)
+    assert svc.clock_restarts == 1 and svc.refused_samples == {}
+    assert abs(svc.clock_offsets_s[stream] - 3.0) < 0.08   # half a wheel step
+    ref = {round(d.t_s, 6): d for d in reference}
+    after = [d for d in got if d.t_s > t_cut + 3.0 + all_model.window.window_s]
+    assert len(after) > 40 and sum(d.flags == "" for d in after) >= 0.95 * len(after)
+    assert np.mean([d.terrain == ref[round(d.t_s, 6)].terrain for d in after
+                    if round(d.t_s, 6) in ref]) >= 0.95
+
 def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unseen_run):
     # a robot loop that fills one preallocated array per stream and pushes it each time:
     # the samples held while the wheel clock's step ahead was told kept views of that
