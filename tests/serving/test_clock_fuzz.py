@@ -1,0 +1,56 @@
+"""benchmarks/stream_clock_fuzz.py on a few seeds: faults are applied as drawn, and no
+random clock fault makes the service raise."""
+
+from __future__ import annotations
+
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "stream_clock_fuzz.py"
+
+
+@pytest.fixture(scope="module")
+def fuzz():
+    return runpy.run_path(str(SCRIPT))
+
+
+def test_perturb_applies_the_drawn_faults(fuzz):
+    t = np.arange(1000) * 0.01
+    v = np.ones((1000, 2))
+    for seed in range(40):
+        log = []
+        tp, vp, arrival = fuzz["perturb"](np.random.default_rng(seed), t, v, t, "imu", log, 1)
+        assert len(tp) == len(vp) == len(arrival)
+        if not log:
+            assert np.array_equal(tp, t) and np.array_equal(arrival, t)
+            continue
+        (_, fault, k), = log
+        if fault == "step_back":
+            assert tp[k] < tp[k - 1]
+        elif fault == "step_fwd":
+            assert tp[k] - tp[k - 1] >= 2.0
+        elif fault == "pause":
+            assert len(tp) < len(t) and tp[k] - tp[k - 1] > 0.04
+        elif fault == "resend":
+            assert len(tp) > len(t) and tp[k] <= tp[k - 1]
+        elif fault == "lag":
+            assert arrival[k] > t[k] and np.array_equal(tp, t)
+        elif fault == "nan":
+            assert np.isnan(vp[k]).all()
+
+
+def test_random_clock_faults_never_raise(fuzz, borealtc_runs, wheel_model, all_model,
+                                         train_runs):
+    seen = {r.run_id for r in train_runs}
+    runs = [r for r in borealtc_runs if r.has_imu and r.run_id not in seen
+            and r.duration_s > 40][:6]
+    models = {"all": all_model, "wheel": wheel_model}
+    for seed in range(6):
+        log, out, (refused, held, restarts, offsets, skipped) = fuzz["scenario"](
+            seed, models, runs)
+        assert not [c for c in out if isinstance(c, tuple)], (seed, log)
+        n, good = fuzz["good_decisions"]((log, out))
+        assert n > 0 and 0 <= good <= n and restarts >= 0 and skipped >= 0
