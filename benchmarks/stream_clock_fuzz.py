@@ -123,6 +123,8 @@ def scenario(seed, models, runs, clean=False):
         data[s] = (t + offset, v, t) if clean else faulty
         if offset:
             log.append((s, "offset", offset))
+    if reorder:
+        log.append(("chunks", "reordered", 0))
     chunking = np.random.default_rng(seed + 10**6)
     jitter = np.random.default_rng(seed + 2 * 10**6)
     events = []
