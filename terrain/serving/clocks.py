@@ -59,11 +59,11 @@ offset, counter and ``clock_restart`` as for a restart alone), and taken as it i
 ``max_backlog_s`` with the others silent. A sample before the newest held one by no more
 than ``clock_restart_s`` and ``stale_s`` but itself ahead of every other stream is late on
 the held clock (a link that reorders): it is refused as ``time_not_increasing``, as on a
-clock taken (it broke the run, refused as a stray: a
-reordered wheel stream on another clock from its start lost 574 of 580 samples). A sample
-that breaks the held run otherwise (the stream going on on its old clock: the held ones
-were a stray stamp ahead) drops it, counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more than ``max_backlog_s``
-after the step, is taken as it is (the service skips silent decisions). A stream's first
+clock taken (it broke the run, refused as a stray: a reordered wheel stream on another
+clock from its start lost 574 of 580 samples). A sample that breaks the held run otherwise
+(the stream going on on its old clock: the held ones were a stray stamp ahead) drops it,
+counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more than
+``max_backlog_s`` after the step, is taken as it is (the service skips silent decisions). A stream's first
 sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind (two
 computers whose clocks were never synchronised; a stream delivered late is never that
 late; for a stream silent through a restart of every other clock, more than

@@ -453,10 +453,10 @@ class StreamService:
         of a forward step of the stream's clock alone (unless ``hold`` is false) and watch
         the samples refused as earlier than the stream's newest for a clock restart.
         ``judged``: samples held before, whose clock's units were judged when they came."""
-        channels, buf = self.streams[stream], self._buffers[stream]
+        channels, buf, clock = self.streams[stream], self._buffers[stream], self._clocks[stream]
         # a sample at or before the stream's newest, buffered or held ahead, may be one
         # sent again (checked only then: the usual increasing push costs two comparisons)
-        ahead = self._clocks[stream].ahead
+        ahead = clock.ahead
         if t[0] <= buf.last_t or (ahead is not None and t[0] <= ahead.last_t) or \
                 (len(t) > 1 and not (t[1:] > t[:-1]).all()):
             resent = self._resent(stream, t, v)
@@ -465,7 +465,6 @@ class StreamService:
                 t, v = t[~resent], v[~resent]
                 if not len(t):
                     return
-        clock = self._clocks[stream]
         slowest = clock.ms_step_s
         if slowest is not None and not judged:   # rule timestamp_units
             taken = self._judge_units(stream, t, v, slowest)
@@ -602,14 +601,14 @@ class StreamService:
         prev = buf.last_t        # the stream's newest sample taken
         others = self._others_newest(stream)
         for i, ti in enumerate(t):
+            if held is not None and continues_run(ti, held.last_t, max_step):
+                if held.full:   # the hold is bounded: count the loss
+                    self._refused[(stream, OVERFLOW)] += 1
+                held.append(ti, v[i])
+                taken[i] = False
+                continue
+            ahead = steps_ahead(ti, prev, others.values(), self._step_s, first_jump)
             if held is not None:
-                if continues_run(ti, held.last_t, max_step):
-                    if held.full:   # the hold is bounded: count the loss
-                        self._refused[(stream, OVERFLOW)] += 1
-                    held.append(ti, v[i])
-                    taken[i] = False
-                    continue
-                ahead = steps_ahead(ti, prev, others.values(), self._step_s, first_jump)
                 # late on the held clock by less than a clock's step: out of order
                 if ahead and 0.0 <= held.last_t - ti <= self._step_s:
                     self._refused[(stream, TIME_RULE)] += 1
@@ -618,8 +617,6 @@ class StreamService:
                     continue
                 self._drop_ahead(stream)
                 held = None
-            else:
-                ahead = steps_ahead(ti, prev, others.values(), self._step_s, first_jump)
             if ahead:
                 held = clock.ahead = HeldRun(self.config.buffer_samples)
                 clock.ahead_rank = self._holds_begun
@@ -778,11 +775,9 @@ class StreamService:
         spans ``stale_s``; ``kept_t``, ``kept_v``: the chunk's samples taken (``kept_order``
         their arrival positions)."""
         held = self._clocks[stream].late
-        max_step = self.config.gap_factor * self._buffers[stream].median_step()
-        others = {s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)}
         if late is None or (len(kept_order) and kept_order[-1] > late[2][-1]):
             if late is not None:   # this chunk's late samples before its last taken one
-                held.extend_clock(late[0], late[1], max_step, others)
+                self._extend_late(stream, late[0], late[1])
             if len(kept_order) == len(kept_t) > 0 and len(held):
                 after = kept_order > (late[2][-1] if late is not None else -1)
                 if after.any() and self._stepped_back(stream, kept_t[after][0]):
@@ -796,9 +791,7 @@ class StreamService:
         if len(kept_order):       # only those after the last accepted sample count
             after = lo > kept_order[-1]
             lt, lv = lt[after], lv[after]
-        # a new clock runs as the old one did: increasing, with no step longer than a gap
-        # (the readers' rule against the stream's usual step); anything else starts again
-        held.extend_clock(lt, lv, max_step, others)
+        self._extend_late(stream, lt, lv)
         if not (len(held) and held.last_t - held.t0_s >= self.config.clock_restart_s):
             return
         if self._in_own_gap(stream):
@@ -808,10 +801,25 @@ class StreamService:
         running = self._running(stream)
         if not running:
             self._restart()
-        elif any(went_on_live(held.last_t - held.t0_s,
-                              self._buffers[s].last_t - held.others_newest_s[s])
-                 for s in running):   # (else a run sent at once: a backlog, no clock)
+        elif self._went_on_beside(stream, running):   # (else a backlog sent at once)
             self._restart_alone(stream, running)
+
+    def _extend_late(self, stream: str, t: np.ndarray, v: np.ndarray) -> None:
+        """Hold late samples of ``stream`` as a possible new clock: it runs as the old one
+        did, increasing, with no step longer than a gap (the readers' rule against the
+        stream's usual step); anything else starts the run again."""
+        self._clocks[stream].late.extend_clock(
+            t, v, self.config.gap_factor * self._buffers[stream].median_step(),
+            {s: b.last_t for s, b in self._buffers.items() if s != stream and len(b)})
+
+    def _went_on_beside(self, stream: str, running: list[str]) -> bool:
+        """Whether one of the ``running`` streams went on live beside the late run held by
+        ``stream`` (:func:`~terrain.serving.clocks.went_on_live`; else the run came at
+        once: a backlog or a re-send, no clock)."""
+        held = self._clocks[stream].late
+        return any(went_on_live(held.last_t - held.t0_s,
+                                self._buffers[s].last_t - held.others_newest_s[s])
+                   for s in running)
 
     def _in_own_gap(self, stream: str) -> bool:
         """Whether the late run held by ``stream`` fills a hole of its buffer
@@ -836,13 +844,11 @@ class StreamService:
         tolerates), fills no hole of its buffer and another stream went on live beside
         it."""
         held = self._clocks[stream].late
-        span = held.last_t - held.t0_s
-        if not (span >= self.config.stale_s and continues_run(
-                next_t, held.last_t, self.config.gap_factor *
-                self._buffers[stream].median_step())) or self._in_own_gap(stream):
+        max_step = self.config.gap_factor * self._buffers[stream].median_step()
+        if not (held.last_t - held.t0_s >= self.config.stale_s and
+                continues_run(next_t, held.last_t, max_step)) or self._in_own_gap(stream):
             return False
-        return any(went_on_live(span, self._buffers[s].last_t - held.others_newest_s[s])
-                   for s in self._running(stream))
+        return self._went_on_beside(stream, self._running(stream))
 
     def _restart(self) -> None:
         """Restart on new clocks: empty every buffer and the decision clock, then ingest
