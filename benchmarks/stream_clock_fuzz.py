@@ -16,8 +16,8 @@ clean replay, or of its own decisions (a pause makes fewer), without a ms/us clo
 samples are refused by design), is listed, and so are any exception and any sample still
 held at the end. ``--out`` saves every decision and counter,
 ``--compare`` lists the seeds whose outcome differs from a saved file (a differential check
-of a change to :mod:`terrain.serving.clocks` or :mod:`terrain.serving.service`: run it
-before and after on the same seeds).
+of a change to :mod:`terrain.serving.clocks`, :mod:`terrain.serving.intake` or
+:mod:`terrain.serving.service`: run it before and after on the same seeds).
 
 Run: ``python benchmarks/stream_clock_fuzz.py [--seeds 0 300] [--out F.pkl]
 [--compare OLD.pkl]`` (about 2.5 min per 300 seeds on a 2-core machine; nothing is logged

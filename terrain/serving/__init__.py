@@ -3,7 +3,10 @@
 One responsibility per module:
 
 * the in-process streaming service for the robot: :mod:`~terrain.serving.service`
-  (:class:`StreamService`: buffers, clocks, windows, decisions), :mod:`~terrain.serving.inputs`
+  (:class:`StreamService`: windows, decisions), :mod:`~terrain.serving.config` (its settings,
+  :class:`StreamConfig`), :mod:`~terrain.serving.intake` (what it keeps of each stream:
+  buffers, rejection events, the clocks, applying the clock rules of
+  :mod:`~terrain.serving.clocks`), :mod:`~terrain.serving.inputs`
   (a pushed chunk as checked arrays), :mod:`~terrain.serving.decisions` (a decision, the
   decisions table and its flags), :mod:`~terrain.serving.buffers` (bounded ring buffers),
   :mod:`~terrain.serving.rules` (per-sample plausibility rules),

@@ -6,8 +6,8 @@ rules below tell these apart from the arrival order and the stamps alone. They a
 functions over the times the service gives them, plus the records of what the service knows
 of one stream's clock (:class:`StreamClock`: its offset, the samples it holds while their
 clock is told, :class:`HeldRun` and :class:`HeldChunks`, and the units rule's stamps); the
-service (:class:`terrain.serving.service.StreamService`) keeps the buffers and applies the
-verdicts (which samples it refuses, holds, moves or takes).
+service's intake (:class:`terrain.serving.intake.StreamIntake`) keeps the buffers and applies
+the verdicts (which samples it refuses, holds, moves or takes).
 
 **Restarts.** A stream whose samples keep arriving earlier than its newest accepted one (a
 looped log, a restarted driver or simulator) would have every later sample refused as

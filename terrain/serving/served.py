@@ -64,7 +64,8 @@ from terrain.serving.replay import replay_run
 from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
 from terrain.serving.decisions import (decisions_frame, join_flags, stuck_decision_flags,
                                        without_stuck)
-from terrain.serving.service import KNOWN_STREAMS, StreamConfig, StreamService, check_hop
+from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
+from terrain.serving.service import StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 

@@ -15,7 +15,7 @@ from terrain.io.align import align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
                              StreamService, decisions_frame, replay_run)
-from terrain.serving.service import MAX_EVENTS
+from terrain.serving.intake import MAX_EVENTS
 
 RAW = SmoothingConfig(dwell_s=None)
 
@@ -140,9 +140,9 @@ def test_rejected_and_missing_samples_flag_the_windows_that_cover_them(wheel_mod
     svc = service(wheel_model, hop_s=0.5)
     decisions = push_wheels(svc, wheels)
     # an old timestamp sent after the run: rejected, the buffer is unchanged
-    before = len(svc._buffers["wheels"])
+    before = len(svc._intake.buffers["wheels"])
     late = svc.push("wheels", t[5], {c: 0.0 for c in WHEEL_CHANNELS})
-    assert len(svc._buffers["wheels"]) == before and late == []
+    assert len(svc._intake.buffers["wheels"]) == before and late == []
     frame = decisions_frame(decisions, wheel_model.classes)
     covers_nan = (frame["t_s"] > t[i_nan]) & (frame["t_s"] - 2.0 <= t[i_nan])
     assert frame.loc[covers_nan, "flags"].str.contains("non_finite").all()
@@ -151,7 +151,7 @@ def test_rejected_and_missing_samples_flag_the_windows_that_cover_them(wheel_mod
     assert frame.loc[in_gap, "flags"].str.contains("gap").all()
     clean = frame[(frame["t_s"] > t[0] + 26.0)]
     assert (clean["flags"] == "").all()
-    assert any(ev[1] == "time_not_increasing" for ev in svc._events["wheels"])
+    assert any(ev[1] == "time_not_increasing" for ev in svc._intake.events["wheels"])
     # every refused sample is counted by stream and reason: the NaN current, the late one
     assert svc.refused_samples == {("wheels", "non_finite"): 1,
                                    ("wheels", "time_not_increasing"): 1}
@@ -176,8 +176,8 @@ def test_memory_is_bounded_for_an_unbounded_stream(wheel_model, unseen_run):
     for k in range(6):
         for a in range(0, len(t), 50):
             n_dec += len(svc.push("wheels", t[a:a + 50] + k * span, values[a:a + 50]))
-    assert len(svc._buffers["wheels"]) == 128
-    assert len(svc._events["wheels"]) == MAX_EVENTS
+    assert len(svc._intake.buffers["wheels"]) == 128
+    assert len(svc._intake.events["wheels"]) == MAX_EVENTS
     # the counts keep every refusal while the event log keeps the last MAX_EVENTS
     assert svc.refused_samples == {("wheels", "non_finite"): 6 * len(values[::7])}
     assert n_dec > 6 * (span - 5)
@@ -1191,7 +1191,7 @@ def test_a_dataframe_is_read_by_its_column_names_and_a_mask_is_missing_data(whee
     frame["vel_l"] = 0.5
     svc = service(wheel_model)
     svc.push("wheels", t, frame[["cur_r", "vel_l", "cur_l", "vel_r"]])  # was by position
-    np.testing.assert_array_equal(svc._buffers["wheels"].since(-np.inf)[1],
+    np.testing.assert_array_equal(svc._intake.buffers["wheels"].since(-np.inf)[1],
                                   frame[list(WHEEL_CHANNELS)].to_numpy())
     masked = np.ma.masked_array(v, mask=np.zeros_like(v, bool))
     masked.mask[1, 2] = True                                         # its 8.0 was used
@@ -1215,10 +1215,10 @@ def test_pandas_inputs_with_different_indexes_are_refused_not_read_by_position(w
     stamps = pd.Series(t, index=[5, 6, 7])
     with pytest.raises(DataFormatError, match="'values' carries another pandas index than 't_s'"):
         svc.push("wheels", stamps, frame)
-    assert len(svc._buffers["wheels"]) == 0 and svc.refused_samples == {}
+    assert len(svc._intake.buffers["wheels"]) == 0 and svc.refused_samples == {}
     # the same index everywhere (or arrays) is read as before
     svc.push("wheels", pd.Series(t), {c: frame[c] for c in WHEEL_CHANNELS})
-    np.testing.assert_array_equal(svc._buffers["wheels"].since(-np.inf)[1], v)
+    np.testing.assert_array_equal(svc._intake.buffers["wheels"].since(-np.inf)[1], v)
 
 
 def test_a_chunk_longer_than_the_buffer_loses_no_decision(wheel_model):
