@@ -1,0 +1,103 @@
+"""The service's intake on its own: the decision clock it shares with the service, and what
+it keeps, counts and holds of a stream (without a model)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.run import WHEEL_CHANNELS
+from terrain.serving.clocks import AHEAD, DUPLICATE, TIME_RULE
+from terrain.serving.config import StreamConfig
+from terrain.serving.intake import OVERFLOW, DecisionClock, StreamIntake
+from terrain.serving.rules import DEFAULT_RULES
+
+
+def test_decision_clock_look_back_rewind_and_reset():
+    clock = DecisionClock(window_s=2.0, rate_hz=50.0)
+    assert clock.needed_since() == -np.inf           # before the first decision: every sample
+    clock.next_t = 10.0
+    # the window [8, 10) plus two periods of the 50 Hz clock to interpolate from
+    assert clock.needed_since() == pytest.approx(10.0 - 2.0 - 0.04, abs=1e-12)
+    clock.rewind(newest_s=9.0, max_backlog_s=60.0)   # 1 s ahead: a hop, not a stray stamp
+    assert clock.next_t == 10.0
+    clock.rewind(newest_s=-51.0, max_backlog_s=60.0)  # 61 s ahead of every stream: again
+    assert clock.next_t is None
+    clock.next_t = 3.0
+    clock.reset()
+    assert clock.next_t is None and clock.needed_since() == -np.inf
+
+
+def _intake(buffer_samples=64, **config):
+    cfg = StreamConfig(streams={"wheels": WHEEL_CHANNELS}, buffer_samples=buffer_samples,
+                       **config)
+    clock = DecisionClock(window_s=2.0, rate_hz=10.0)
+    return StreamIntake({"wheels": WHEEL_CHANNELS}, cfg, DEFAULT_RULES, clock), clock
+
+
+def _chunk(t0, n, step=0.1):
+    t = t0 + step * np.arange(n)
+    v = np.column_stack([np.full(n, 0.5), np.full(n, 0.5), np.full(n, 2.0), np.full(n, 2.0)])
+    return t, v
+
+
+def test_increasing_samples_are_buffered_and_a_resend_counted_as_duplicate():
+    intake, _ = _intake()
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v)
+    assert len(intake.buffers["wheels"]) == 20 and intake.newest() == pytest.approx(1.9)
+    intake.ingest("wheels", t[10:], v[10:])           # the publisher sends its last 10 again
+    assert intake.refused == {("wheels", DUPLICATE): 10}
+    assert len(intake.buffers["wheels"]) == 20
+
+
+def test_a_late_sample_is_refused_and_flagged_at_its_stamp():
+    intake, _ = _intake()
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v)
+    late_t = np.array([1.05])                          # before the newest, no sample of it
+    intake.ingest("wheels", late_t, v[:1] + 0.1)
+    assert intake.refused == {("wheels", TIME_RULE): 1}
+    assert (1.05, TIME_RULE) in intake.events["wheels"]
+
+
+def test_samples_pushed_out_before_the_decision_clock_read_them_are_counted():
+    """A chunk longer than the buffer while the decision clock still needs the old samples:
+    what it pushes out is counted as buffer_overflow (the intake asks the shared clock)."""
+    intake, clock = _intake(buffer_samples=32)
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v)
+    clock.next_t = 2.0                                  # the next window reads from -0.2 s on
+    t2, v2 = _chunk(2.0, 30)
+    intake.ingest("wheels", t2, v2)
+    assert intake.refused.get(("wheels", OVERFLOW), 0) == 20 + 30 - 32
+    # a decision clock already past them (its next window reads from 7.8 s on): they were
+    # read, nothing is lost
+    fresh, fresh_clock = _intake(buffer_samples=32)
+    fresh.ingest("wheels", t, v)
+    fresh_clock.next_t = 10.0
+    fresh.ingest("wheels", t2, v2)
+    assert ("wheels", OVERFLOW) not in fresh.refused
+    # before the first decision every sample may still be read: all 18 count
+    first, _ = _intake(buffer_samples=32)
+    first.ingest("wheels", t, v)
+    first.ingest("wheels", t2, v2)
+    assert first.refused[("wheels", OVERFLOW)] == 18
+
+
+def test_a_clock_offset_of_the_config_is_the_clocks_start():
+    intake, _ = _intake(clock_offsets_s={"wheels": -100.0})
+    assert intake.clocks["wheels"].offset_s == -100.0 and intake.restarts == 0
+
+
+def test_a_lone_stream_stepping_ahead_is_taken_there_is_no_other_clock():
+    """With one stream there is no other clock to be ahead of: a forward step is a gap of
+    that stream, nothing is held or refused as time_ahead."""
+    intake, _ = _intake()
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v)
+    t2, v2 = _chunk(30.0, 20)
+    intake.ingest("wheels", t2, v2)
+    assert ("wheels", AHEAD) not in intake.refused
+    assert intake.clocks["wheels"].held() == {}
+    assert intake.newest() == pytest.approx(31.9)
