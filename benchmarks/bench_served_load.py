@@ -34,7 +34,7 @@ from terrain.io.shipped import load_dataset
 from terrain.run import TIME
 from terrain.serving.pyfunc import save_model
 from terrain.serving import load_stream_model
-from terrain.serving.evaluation import RECIPES, fit_stream_model
+from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.tracking import tracked_run
 
 

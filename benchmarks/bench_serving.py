@@ -17,8 +17,8 @@
   growth after the first 2 minutes of stream are reported (target growth < 20 MB).
 
 The model is trained here on BorealTC with the ``--kind`` recipe
-(:data:`terrain.serving.evaluation.RECIPES`; default the default all-signal recipe,
-:data:`~terrain.serving.evaluation.DEFAULT_RECIPES`), or read with ``--model DIR``. Results
+(:data:`terrain.serving.recipes.RECIPES`; default the default all-signal recipe,
+:data:`~terrain.serving.recipes.DEFAULT_RECIPES`), or read with ``--model DIR``. Results
 print and are logged to MLflow (experiment ``terrain-benchmark``).
 
 Every timed decision is followed by a fixed NumPy reference workload (a sort of 4096
@@ -47,8 +47,8 @@ from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
 from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
                              interleave, load_stream_model)
-from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, concatenated_streams,
-                                        fit_stream_model)
+from terrain.serving.evaluation import concatenated_streams
+from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.tracking import tracked_run
 
 

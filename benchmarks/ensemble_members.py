@@ -41,7 +41,7 @@ from features.wheel_physics import WheelPhysicsFeatures
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
-from terrain.serving.evaluation import extra_trees, run_balanced_weights
+from terrain.serving.recipes import extra_trees, run_balanced_weights
 from terrain.tracking import tracked_run
 
 

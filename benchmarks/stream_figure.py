@@ -28,9 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, fit_stream_model,
-                                        held_out_folds, raw_decisions, score_stream,
-                                        truth_at)
+from terrain.serving.evaluation import held_out_folds, raw_decisions, score_stream, truth_at
+from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.serving.replay import replay_run
 from terrain.serving.service import StreamConfig, StreamService
 from terrain.serving.smoothing import SmoothingConfig
@@ -46,7 +45,7 @@ def replay(kind: str, seed: int, fold: int, runs) -> dict:
     Parameters
     ----------
     kind : str
-        Recipe name (:data:`terrain.serving.evaluation.RECIPES`).
+        Recipe name (:data:`terrain.serving.recipes.RECIPES`).
     seed : int
         Seed of the folds, the stream and the classifier.
     fold : int

@@ -30,9 +30,9 @@ import numpy as np
 import pandas as pd
 
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (RECIPES, encode_stream_scores, fit_stream_model,
-                                        held_out_folds, pool_scores, raw_decisions,
-                                        score_smoothing, seed_accuracies)
+from terrain.serving.evaluation import (encode_stream_scores, held_out_folds, pool_scores,
+                                        raw_decisions, score_smoothing, seed_accuracies)
+from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 

@@ -40,8 +40,8 @@ import pandas as pd
 from tqdm import tqdm
 
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (RECIPES, fit_stream_model, held_out_folds,
-                                        pool_scores, raw_decisions, score_smoothing)
+from terrain.serving.evaluation import held_out_folds, pool_scores, raw_decisions, score_smoothing
+from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 

@@ -36,9 +36,9 @@ import pandas as pd
 from tqdm import tqdm
 
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (RECIPES, filter_sequence, fit_stream_model,
-                                        held_out_folds, pool_scores, raw_decisions,
-                                        score_stream, truth_at)
+from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_scores,
+                                        raw_decisions, score_stream, truth_at)
+from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.tracking import tracked_run
 

@@ -26,9 +26,9 @@ from pipelines.arguments import output_dir, seed_value
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
-from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, encode_stream_scores,
-                                        fit_stream_model, held_out_streams, pool_scores,
+from terrain.serving.evaluation import (encode_stream_scores, held_out_streams, pool_scores,
                                         seed_accuracies, window_cv)
+from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 

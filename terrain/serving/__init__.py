@@ -13,7 +13,8 @@ One responsibility per module:
   :mod:`~terrain.serving.smoothing` (forward filter and hysteresis),
   :mod:`~terrain.serving.targets` (slip-target providers), :mod:`~terrain.serving.model`
   (reading a trained model directory), :mod:`~terrain.serving.replay` (recorded runs as a
-  live stream), :mod:`~terrain.serving.evaluation` (held-out streams, switching delay);
+  live stream), :mod:`~terrain.serving.recipes` (how each streaming model is trained),
+  :mod:`~terrain.serving.evaluation` (held-out streams, switching delay);
 * MLflow pyfuncs: :mod:`~terrain.serving.pyfunc` (the inference pipeline of ``terrain
   train`` / ``terrain predict`` on aligned samples, entry
   :mod:`~terrain.serving.pyfunc_entry`) and :mod:`~terrain.serving.served` (the raw-stream

@@ -20,8 +20,8 @@ from terrain.io.align import align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
                              StreamService, decisions_frame, replay_run)
-from terrain.serving.evaluation import (DEFAULT_RECIPES, RECIPES, ModelRecipe,
-                                        fit_stream_model, recipe_classifier)
+from terrain.serving.recipes import (DEFAULT_RECIPES, RECIPES, ModelRecipe, fit_stream_model,
+                                     recipe_classifier)
 
 
 def test_wheel_recipe_serves_the_compiled_forest_with_sklearn_probabilities(train_runs,
@@ -209,7 +209,7 @@ def test_run_balanced_one_second_recipe_hands_the_runs_to_its_ensemble(train_run
                                                                       monkeypatch):
     """The recipe differs from the 1 s recipe in its weights only; its ensemble is built
     with ``ModelConfig(run_balanced=True)`` and fitted with the run of every window."""
-    import terrain.serving.evaluation as evaluation
+    import terrain.serving.recipes as recipes
     recipe = RECIPES["all-ensemble-dense-no-speed-1s-run-balanced"]
     assert replace(recipe, run_balanced=False) == RECIPES["all-ensemble-dense-no-speed-1s"]
     seen = {}
@@ -224,7 +224,7 @@ def test_run_balanced_one_second_recipe_hands_the_runs_to_its_ensemble(train_run
         seen["config"] = config
         return Recorder()
 
-    monkeypatch.setattr(evaluation, "make_model", fake_make_model)
+    monkeypatch.setattr(recipes, "make_model", fake_make_model)
     fit_stream_model(recipe, train_runs[:4], seed=0)
     assert seen["config"].run_balanced and seen["config"].kind == "ensemble"
     assert seen["groups"] is not None and len(seen["groups"]) == seen["n"]

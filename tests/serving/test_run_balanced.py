@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError, ShapeError
-from terrain.serving.evaluation import (RECIPES, ModelRecipe, fit_stream_model,
-                                        grouped_oof_proba, recipe_classifier,
-                                        run_balanced_weights)
+from terrain.serving.evaluation import grouped_oof_proba
+from terrain.serving.recipes import (RECIPES, ModelRecipe, fit_stream_model, recipe_classifier,
+                                     run_balanced_weights)
 
 
 def test_every_class_and_every_run_inside_it_weighs_the_same():
