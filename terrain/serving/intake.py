@@ -132,8 +132,7 @@ class StreamIntake:
                  rules: Sequence[SampleRule], decisions: DecisionClock) -> None:
         self.streams, self.config, self.rules = streams, config, rules
         self._decisions = decisions
-        self.buffers = {s: RingBuffer(len(ch), config.buffer_samples)
-                        for s, ch in streams.items()}
+        self.buffers = {s: self._new_buffer(s) for s in streams}
         self.events: dict[str, deque] = {s: deque(maxlen=MAX_EVENTS) for s in streams}
         self.stuck = {s: StuckWatch(s, ch) for s, ch in streams.items()}
         self.refused: Counter = Counter()
@@ -316,8 +315,8 @@ class StreamIntake:
         buf, clock = self.buffers[stream], self.clocks[stream]
         held = clock.ahead
         first_jump = self._first_step_s(stream)
-        step = buf.median_step()
-        max_step = self.config.gap_factor * step if np.isfinite(step) else self._step_s
+        max_step = self._gap_step_s(stream)
+        max_step = max_step if np.isfinite(max_step) else self._step_s
         taken = np.ones(len(t), dtype=bool)
         prev = buf.last_t        # the stream's newest sample taken
         others = self._others_newest(stream)
@@ -378,9 +377,7 @@ class StreamIntake:
     def _resolve_ahead(self) -> None:
         """Release the runs held ahead that :func:`~terrain.serving.clocks.resolve_hold`
         settles: as they are, or on the clock of the streams that went on."""
-        holding = sorted((c.ahead_rank, s) for s, c in self.clocks.items()
-                         if c.ahead is not None)
-        for _, stream in holding:
+        for stream in self._holding_ahead():
             held = self.clocks[stream].ahead
             if held is None:   # released by a release before it
                 continue
@@ -401,11 +398,8 @@ class StreamIntake:
         """Ingest the held run of ``stream`` moved by ``shift`` (s; a shift is a restart of
         that stream's clock alone: offset, counter and flag)."""
         t, v = self._take_ahead(stream).arrays()
-        t += shift
         if shift:
-            self.clocks[stream].offset_s += shift
-            self.restarts += 1
-            self.clocks[stream].restamp(t)
+            self._move_clock(stream, t, shift)
         self.ingest(stream, t, v, hold=False, judged=True)
         if shift:
             self.events[stream].append((float(t[-1]), "clock_restart"))
@@ -421,7 +415,7 @@ class StreamIntake:
         bt, bv = buf.since(float(finite.min()) - DUPLICATE_TOL_S)
         out = resent_mask(t, v, bt, bv, buf.first_t, buf.last_t,
                           clock.late.last_t if len(clock.late) else None,
-                          self.config.gap_factor * buf.median_step())
+                          self._gap_step_s(stream))
         if clock.ahead is not None:   # a re-send while a step ahead is told
             out |= [clock.ahead.repeats(ti, vi) for ti, vi in zip(t, v)]
         return out
@@ -431,6 +425,30 @@ class StreamIntake:
         clock = self.clocks[stream]
         held, clock.ahead = clock.ahead, None
         return held
+
+    def _holding_ahead(self) -> list[str]:
+        """Streams holding a run ahead, in the order their runs began
+        (:attr:`~terrain.serving.clocks.StreamClock.ahead_rank`)."""
+        return [s for _, s in sorted((c.ahead_rank, s) for s, c in self.clocks.items()
+                                     if c.ahead is not None)]
+
+    def _new_buffer(self, stream: str) -> RingBuffer:
+        """An empty buffer for ``stream`` (``buffer_samples`` of its channels)."""
+        return RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
+
+    def _gap_step_s(self, stream: str) -> float:
+        """Longest step of ``stream`` that is no gap, s: ``gap_factor`` times its usual
+        (median) step, the readers' rule (``nan`` with fewer than 2 samples buffered)."""
+        return self.config.gap_factor * self.buffers[stream].median_step()
+
+    def _move_clock(self, stream: str, t: np.ndarray, shift: float) -> None:
+        """Restart the clock of ``stream`` alone: its held stamps ``t`` (s) move by
+        ``shift`` (s, in place), its offset changes by it and the restart is counted."""
+        clock = self.clocks[stream]
+        t += shift
+        clock.offset_s += float(shift)
+        clock.restamp(t)
+        self.restarts += 1
 
     def newest(self) -> float:
         """Newest buffered time of any stream (the service's now).
@@ -521,7 +539,7 @@ class StreamIntake:
         did, increasing, with no step longer than a gap (the readers' rule against the
         stream's usual step); anything else starts the run again."""
         self.clocks[stream].late.extend_clock(
-            t, v, self.config.gap_factor * self.buffers[stream].median_step(),
+            t, v, self._gap_step_s(stream),
             {s: b.last_t for s, b in self.buffers.items() if s != stream and len(b)})
 
     def _went_on_beside(self, stream: str, running: list[str]) -> bool:
@@ -556,7 +574,7 @@ class StreamIntake:
         tolerates), fills no hole of its buffer and another stream went on live beside
         it."""
         held = self.clocks[stream].late
-        max_step = self.config.gap_factor * self.buffers[stream].median_step()
+        max_step = self._gap_step_s(stream)
         if not (held.last_t - held.t0_s >= self.config.stale_s and
                 continues_run(next_t, held.last_t, max_step)) or self._in_own_gap(stream):
             return False
@@ -571,13 +589,11 @@ class StreamIntake:
             # on the old one
             clock.rejoining = bool(len(self.buffers[s])) and s not in held
             clock.late.clear()
-        for _, s in sorted((c.ahead_rank, s) for s, c in self.clocks.items()
-                           if c.ahead is not None):   # a run held ahead of the old clocks
+        for s in self._holding_ahead():   # a run held ahead of the old clocks
             self._drop_ahead(s)
         for s, (t, _) in held.items():  # counted as refused when they came; used now
             self._uncount(s, TIME_RULE, len(t))
-        self.buffers = {s: RingBuffer(len(ch), self.config.buffer_samples)
-                         for s, ch in self.streams.items()}
+        self.buffers = {s: self._new_buffer(s) for s in self.streams}
         self.stuck = {s: StuckWatch(s, ch) for s, ch in self.streams.items()}
         self._decisions.reset()
         self.restarts += 1
@@ -600,13 +616,10 @@ class StreamIntake:
                               [self.buffers[s].median_step() for s in running],
                               self.config.gap_factor)
         self._uncount(stream, TIME_RULE, len(t))
-        clock.offset_s += float(shift)
-        self.buffers[stream] = RingBuffer(len(self.streams[stream]), self.config.buffer_samples)
+        self.buffers[stream] = self._new_buffer(stream)
         self.stuck[stream] = StuckWatch(stream, self.streams[stream])
         self.events[stream].clear()
-        self.restarts += 1
-        t += shift
-        clock.restamp(t)
+        self._move_clock(stream, t, shift)
         self.ingest(stream, t, v, judged=True)
         self._decisions.rewind(self.newest(), self.config.max_backlog_s)
         # the windows that hold the restart carry it: from the first held sample when the
