@@ -33,8 +33,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFileError, EncodingError,
-                            MissingColumnError, NonFiniteError, NonNumericError,
+from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFileError,
+                            EncodingError, MissingColumnError, NonFiniteError, NonNumericError,
                             OrphanFileError, RaggedRowError, TimestampError,
                             UnreadableFileError, duplicated, first_items)
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
