@@ -40,8 +40,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from features.windows import WindowConfig, make_windows
-from terrain.control.closed_loop import (ESTIMATORS, LOOP_SETTINGS, default_gains,
-                                         run_closed_loop)
+from terrain.control.closed_loop import LOOP_SETTINGS, default_gains, run_closed_loop
+from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import TUNING_SEEDS
 from terrain.control.traction import config_for_vehicle
 from terrain.errors import ConfigError
@@ -102,7 +102,7 @@ def _controller_settings(vehicle: str, gains: tuple[float, float] | None,
     Parameters
     ----------
     vehicle : str
-        Simulated vehicle with a closed loop (:data:`terrain.control.closed_loop.ESTIMATORS`).
+        Simulated vehicle with a closed loop (:data:`terrain.control.estimators.ESTIMATORS`).
     gains : tuple of float or None
         ``(kp, ki)``; None: the tuned defaults of the vehicle and estimator.
     estimator : str or None
@@ -178,7 +178,7 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
         estimator.
     estimator : str, optional
         Slip estimator of the controlled runs
-        (:func:`terrain.control.closed_loop.estimator_for`); None: the vehicle's default.
+        (:func:`terrain.control.estimators.estimator_for`); None: the vehicle's default.
     feed_forward : bool
         Feed-forward slip limit in the controlled runs.
 

@@ -24,7 +24,8 @@ from pathlib import Path
 from pipelines.arguments import output_dir, seed_value
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from pipelines.control_sim import SCENARIOS
-from terrain.control.closed_loop import ESTIMATORS, default_gains
+from terrain.control.closed_loop import default_gains
+from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
                                   slip_limit_bound, tune_gains)
 from terrain.control.traction import TractionControlConfig

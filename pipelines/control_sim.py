@@ -31,8 +31,8 @@ from pathlib import Path
 
 from pipelines.arguments import output_file, seed_value
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
-from terrain.control.closed_loop import (ESTIMATORS, default_gains, run_closed_loop,
-                                         trace_frame)
+from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
+from terrain.control.estimators import ESTIMATORS
 from terrain.errors import ConfigError
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain

@@ -62,7 +62,7 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     log : callable, optional
         Called with each candidate's row (e.g. to log it to MLflow).
     estimator : str, optional
-        Estimator kind (:func:`terrain.control.closed_loop.estimator_for`); None: the
+        Estimator kind (:func:`terrain.control.estimators.estimator_for`); None: the
         vehicle's default.
     feed_forward : bool
         Feed-forward slip limit in the loop.
@@ -118,7 +118,7 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     duration_s : float
         Simulated time per run, s.
     estimators : dict, optional
-        Vehicle -> estimator kind (:func:`terrain.control.closed_loop.estimator_for`);
+        Vehicle -> estimator kind (:func:`terrain.control.estimators.estimator_for`);
         missing vehicles use their default.
     feed_forward : bool
         Feed-forward slip limit in the loop.

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from terrain.control import build_slip_table, config_for_vehicle
-from terrain.control.closed_loop import (BUS_VOLTAGE_V, TractionLoop, VelocityEstimate,
-                                         estimator_for, run_closed_loop)
+from terrain.control.closed_loop import BUS_VOLTAGE_V, TractionLoop, run_closed_loop
+from terrain.control.estimators import VelocityEstimate, estimator_for
 from terrain.control.grid import TUNING_SEEDS, run_grid, slip_limit_bound
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
