@@ -230,7 +230,7 @@ def main() -> int:
               + ", ".join(f"{k[5:]} {v:.4f}" for k, v in parts.items()))
     if args.minutes > 0:
         metrics.update({f"soak_{k}": v for k, v in _soak(model, usable, need,
-                                                          args.minutes).items()})
+                                                         args.minutes).items()})
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name=f"serving-{args.kind}",
                          params={"kind": args.kind, "minutes": args.minutes},

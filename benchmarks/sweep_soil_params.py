@@ -19,8 +19,8 @@ Run::
 
 ``--friction-factors 1 2 3`` with ``--terrain ICE`` sweeps instead the factor on that surface's
 catalogue friction for the Husky tyre (``CombinedSlipParams.friction_scale``), same table and
-criterion. The second form sweeps the side-force factor of the Husky's combined-slip tyre law on rigid
-surfaces (:data:`terrain.sim.forces.COMBINED_SLIP`) over the listed terrains at once: per
+criterion. The second form sweeps the side-force factor of the Husky's combined-slip tyre law on
+rigid surfaces (:data:`terrain.sim.forces.COMBINED_SLIP`) over the listed terrains at once: per
 terrain and pooled over them (samples of all runs together), training and held-out RMSE of
 yaw rate and current, and the criterion the shipped value was chosen by, the sum of the
 pooled *training* yaw-rate and current RMSE ratios to v1.
@@ -176,7 +176,6 @@ def heldout_table(path: str, dataset: str = "borealtc") -> int:
     return 0
 
 
-
 def _v2_errors(runs, refs, settings):
     """Per run, the error dicts of a v2 replay on the v1 reference clock."""
     out = []
@@ -249,8 +248,8 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
     original = dynamics.COMBINED_SLIP
     try:
         for k_s in factors:
-            tyre = (replace(original["husky"], friction_scale=MappingProxyType(
-                        {**original["husky"].friction_scale, **{t: k_s for t in terrains}}))
+            scale = {**original["husky"].friction_scale, **{t: k_s for t in terrains}}
+            tyre = (replace(original["husky"], friction_scale=MappingProxyType(scale))
                     if friction else replace(original["husky"], side_force_factor=k_s))
             dynamics.COMBINED_SLIP = MappingProxyType({**original, "husky": tyre})
             errs = {(t, k): _v2_errors(parts[t][k], refs, settings)
@@ -263,6 +262,7 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
     finally:
         dynamics.COMBINED_SLIP = original
     return 0
+
 
 def main() -> int:
     """Run the sweep; returns 0."""
@@ -322,7 +322,7 @@ def main() -> int:
     print("variant | " + " | ".join(f"{k}:{c}" for k in ("train", "held") for c in cols)
           + " | chi spin | chi headland")
     print("v1 | " + " | ".join(f"{rmse(base[k], s, SCOPES[sc]):.4g}" for k in ("train", "held")
-                                for s in ("wz", "cur") for sc in SCOPES))
+                               for s in ("wz", "cur") for sc in SCOPES))
     # the soil every variant starts from: the terrain's own entry, else --base-soil's
     start = args.terrain if args.terrain in SOILS else args.base_soil
     try:

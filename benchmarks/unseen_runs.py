@@ -9,11 +9,12 @@ calls) fits the default model (:data:`pipelines.train.DEFAULT_MODELS`, with the 
 signals :data:`pipelines.train.DEFAULT_SIGNALS` and training-window hop
 :data:`pipelines.train.DEFAULT_TRAIN_HOP_S`) and the SVM as it was
 trained before that hop existed (non-overlapping windows) on the *same* training runs, and
-both fitted inference pipelines classify every window of the held-out runs. A class with a single run (Vulpi DIRT_ROAD) always stays in training and is
-never tested (its run cannot be unseen). Reported: window accuracy and macro-F1 over all
-held-out windows, run-majority accuracy, and the per-run paired comparison (runs where the
-default model is better / equal / worse than the SVM by window accuracy). Printed and logged
-to MLflow (experiment ``terrain-train``, run ``unseen-runs-<dataset>``).
+both fitted inference pipelines classify every window of the held-out runs. A class with a single
+run (Vulpi DIRT_ROAD) always stays in training and is never tested (its run cannot be unseen).
+Reported: window accuracy and macro-F1 over all held-out windows, run-majority accuracy, and the
+per-run paired comparison (runs where the default model is better / equal / worse than the SVM by
+window accuracy). Printed and logged to MLflow (experiment ``terrain-train``, run
+``unseen-runs-<dataset>``).
 
 Run: ``python benchmarks/unseen_runs.py --dataset borealtc [--seed 0] --out DIR``.
 """

@@ -124,7 +124,7 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
         given = [f"--{name.replace('_', '-')}" for name, value, default in (
             ("models", args.models, d.models), ("signals", args.signals, d.signals),
             ("windows_s", args.windows_s, d.windows_s), ("datasets", args.datasets,
-                                                          d.datasets),
+                                                         d.datasets),
             ("seeds", args.seeds, d.seeds), ("max_epochs", args.max_epochs, d.max_epochs),
             ("threads", args.threads, d.n_threads))
             if (tuple(value) if isinstance(value, list) else value) != default]
@@ -188,7 +188,7 @@ def main(args: argparse.Namespace) -> int:
     cells = config.cells()
     args.out.mkdir(parents=True, exist_ok=True)
     with tracked_run(EXPERIMENT, run_name="compare", params={**params,
-                                                            "backend": args.backend}) as run:
+                                                             "backend": args.backend}) as run:
         experiment_id = mlflow.active_run().info.experiment_id
         results = []
         with joblib_backend(args.backend, args.address) as n_jobs:

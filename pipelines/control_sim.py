@@ -14,10 +14,10 @@ estimator and feed-forward; --classifier-uncontrolled-only: uncontrolled runs on
 (pipelines/control_classifier.py, cached under out/control_classifier);
 `model` (default with --model DIR, a model saved by `terrain train --model-out DIR`) that
 classifier; `label` the run's ground-truth label (the controller measured without
-classification errors, as `terrain control-grid` does by default). A classifier runs live on the loop's own sensor samples, causally
-(pipelines/live_terrain.py), where the model applies (trained on the vehicle's data, the
-run's terrain among its classes); otherwise the label is used, with the reason in the JSON
-(terrain_source).
+classification errors, as `terrain control-grid` does by default). A classifier runs live on the
+loop's own sensor samples, causally (pipelines/live_terrain.py), where the model applies (trained on
+the vehicle's data, the run's terrain among its classes); otherwise the label is used, with the
+reason in the JSON (terrain_source).
 
 JSON fields: slip_rmse, peak_slip, time_to_speed_s, energy_j_per_m (V_bus x motor currents),
 distance_m, mean_speed_m_s, terrain_accuracy and more (terrain.control.closed_loop.loop_metrics).
@@ -40,9 +40,9 @@ from terrain.terramechanics.catalogue import get_terrain
 VEHICLES = ("agrimaro", "husky")
 SCENARIOS = ("straight_accel", "orchard", "slope_turn")
 TERRAIN_SOURCE_NOTE = ("label: terrain decisions are the run's ground-truth label (confidence "
-                       "1), terrain_accuracy is 1 by construction; --terrain-source label (live-sim: "
-                       "the classifier trained on simulated runs; model: a `terrain train` "
-                       "model where it applies)")
+                       "1), terrain_accuracy is 1 by construction; --terrain-source label "
+                       "(live-sim: the classifier trained on simulated runs; model: a "
+                       "`terrain train` model where it applies)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -97,8 +97,8 @@ def main(args: argparse.Namespace) -> int:
     vehicle and estimator. With ``--terrain-source live-sim`` or ``model`` (default with
     ``args.model``) the controller's terrain comes from the classifier's decisions on the
     loop's own samples (:func:`pipelines.control_classifier.decision_source`; ``live-sim`` is
-    the default without a model), with ``label`` the true terrain. Writes the metrics (peak slip, energy in J/m, ...) as JSON to
-    ``args.json`` and, if ``args.csv``, the per-step trace.
+    the default without a model), with ``label`` the true terrain. Writes the metrics (peak slip,
+    energy in J/m, ...) as JSON to ``args.json`` and, if ``args.csv``, the per-step trace.
 
     Parameters
     ----------

@@ -7,8 +7,8 @@ already wrapped one. The server is MLflow's own scoring server app (``/ping``,
 runs, behind a request guard (:class:`terrain.serving.http.RequestGuard`): a body over
 --max-body-bytes is answered 413, a request without Content-Type 415, and every error answer
 carries one line with the project's typed message (``<ErrorClass>: ...``), never a stack
-trace or a dump of the request. Requests carry the raw streams as logged (``dataframe_split`` JSON or CSV,
-long format with a ``stream`` column or wide format with ``<stream>_t_s`` columns); the
+trace or a dump of the request. Requests carry the raw streams as logged (``dataframe_split`` JSON
+or CSV, long format with a ``stream`` column or wide format with ``<stream>_t_s`` columns); the
 answer is one decision per window. Only loopback addresses are served.
 
 The port is bound before anything is announced (a port in use is a one-line error, exit

@@ -1,4 +1,4 @@
-"""Fit the learned slip model on simulated Husky runs and compare it with the physics and seed models.
+"""Fit the learned slip model on simulated Husky runs; compare it with the physics and seed models.
 
 Simulates (once; cached under --cache-dir) a grid terrains x scenarios x seeds, cuts 2 s
 windows, fits the learned model (terrain.slip.learned) on the --train-seeds and scores every

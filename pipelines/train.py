@@ -89,7 +89,7 @@ def _structure(est) -> str:
     members = getattr(est, "estimators", None)
     if members is not None and not hasattr(est, "estimator"):
         return f"{type(est).__name__}(" + ", ".join(f"{n}:{_structure(e)}"
-                                                     for n, e in members) + ")"
+                                                    for n, e in members) + ")"
     inner = getattr(est, "estimator", None)
     return type(est).__name__ + (f"({type(inner).__name__})" if inner is not None else "")
 

@@ -53,8 +53,8 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = (action.help or "").replace(_NO_HELP, "")
-        if action.choices is not None and action.metavar is not None and "{" not in text and not isinstance(
-                action, argparse._SubParsersAction):
+        if (action.choices is not None and action.metavar is not None and "{" not in text
+                and not isinstance(action, argparse._SubParsersAction)):
             text += f" (choices: {', '.join(map(str, action.choices))})"
         flag = isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction))
         if (action.option_strings and not flag and "default" not in text

@@ -116,7 +116,7 @@ def _public_callables() -> Iterator[tuple[str, Callable, str]]:
     for pkg_name in PACKAGES:
         pkg = importlib.import_module(pkg_name)
         modules = [pkg_name] + [i.name for i in pkgutil.walk_packages(pkg.__path__,
-                                                                       prefix=pkg_name + ".")]
+                                                                      prefix=pkg_name + ".")]
         for mod_name in modules:
             module = importlib.import_module(mod_name)
             for name, obj in sorted(vars(module).items()):

@@ -92,9 +92,9 @@ def simulate_agrimaro(terrain: str, seed: int, duration_s: float = 20.0,
     -------
     Simulation
     """
-    return simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=(terrain,), scenario=scenario,
-                              duration_s=duration_s, seed=seed, effects=effects,
-                              sensors=sensors))
+    return simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=(terrain,),
+                                           scenario=scenario, duration_s=duration_s, seed=seed,
+                                           effects=effects, sensors=sensors))
 
 
 def agrimaro_truth_states(result: Simulation, t_grid: np.ndarray) -> np.ndarray:
@@ -343,9 +343,9 @@ def simulate_husky(terrain: str, seed: int, duration_s: float = 60.0, scenario: 
     Simulation
     """
     return simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,), scenario=scenario,
-                              duration_s=duration_s, seed=seed,
-                              effects=Effects(icr_expansion=icr_expansion,
-                                              gyro_bias=gyro_bias)))
+                                           duration_s=duration_s, seed=seed,
+                                           effects=Effects(icr_expansion=icr_expansion,
+                                                           gyro_bias=gyro_bias)))
 
 
 def steady_turn_mask(t_s: np.ndarray, yaw_rate: np.ndarray, min_rate: float = 0.15,
@@ -429,7 +429,8 @@ def _conv_time(t: np.ndarray, rel_err: np.ndarray, tol: float = 0.05) -> float:
     return float(t[bad[-1]]) if bad.size else float(t[0]) if t.size else float("nan")
 
 
-def husky_comparison(result: Simulation, observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
+def husky_comparison(result: Simulation,
+                     observer: AdaptiveObserverSettings = AdaptiveObserverSettings(),
                      settings: SkidSteerSettings = SkidSteerSettings(),
                      pose_noise: tuple[float, float] = (0.01, 0.002),
                      rng: np.random.Generator | None = None) -> HuskyComparison:

@@ -86,6 +86,7 @@ from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
 from terrain.errors import TerrainError
 from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
+
 @dataclass(frozen=True)
 class EffectSpec:
     """One effect of the audit's fixed vocabulary (module docstring).

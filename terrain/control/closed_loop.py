@@ -246,7 +246,8 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``), ``distance_m``,
         ``mean_speed_m_s``, ``steady_slip_error_max`` / ``steady_slip_within_0_02``
         (|slip - target| in steady driving after cruise, where enabled), ``safe_fraction``,
-        ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control steps whose decision
+        ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control
+        steps whose decision
         equals the true terrain; no decision counts as wrong), ``terrain_decisions`` (control
         steps per decided class, ``NONE`` = no decision yet).
     """
@@ -329,10 +330,10 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
 
 #: Gains (kp rad/s per unit slip, ki rad/s per unit slip and second) of each vehicle with its
 #: default estimator (the first of :data:`terrain.control.estimators.ESTIMATORS`), found by
-#: the tuning of ``terrain control-grid`` on the tuning seeds, feed-forward on (docs/control_validation.md):
-#: AgriMaRo with its EKF + VO; Husky with the fused slip estimate, motor currents in the loop
-#: (kp = 2, ki = 0: with ki = 10 the integral of the estimate's end-of-ramp overshoot holds
-#: the wheels back and the time to cruise doubles).
+#: the tuning of ``terrain control-grid`` on the tuning seeds, feed-forward on
+#: (docs/control_validation.md): AgriMaRo with its EKF + VO; Husky with the fused slip estimate,
+#: motor currents in the loop (kp = 2, ki = 0: with ki = 10 the integral of the estimate's
+#: end-of-ramp overshoot holds the wheels back and the time to cruise doubles).
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "agrimaro": (5.0, 10.0), "husky": (2.0, 0.0)})
 
@@ -401,7 +402,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
         confidence 1 (the ground truth: see the pipelines for when this applies). While it
         gives no label the estimator's slip model assumes the :func:`fallback_basis` terrain.
     estimator : str, optional
-        Estimator kind (:func:`terrain.control.estimators.estimator_for`); None: the vehicle's default.
+        Estimator kind (:func:`terrain.control.estimators.estimator_for`); None: the vehicle's
+        default.
     feed_forward : bool
         Feed-forward slip limit in the loop (:class:`TractionLoop`).
     live_terrain : LiveTerrain, optional

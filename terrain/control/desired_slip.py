@@ -26,9 +26,10 @@ Every terrain, *steady*: the slip at which traction balances the slip-producing 
     (:func:`terrain.terramechanics.steady_slip`; ch. 8.3.2: "exactly what we need to balance
     external resistances"), never above the traction target.
 
-The physics of the entry decides the rule, not its name or curve type: the catalogue models BorealTC's deep forest
-``SNOW`` as a deformable soil (Janosi-Hanamoto), so it gets the tractive-efficiency rule; a
-snow-covered *road* (``PACKED_SNOW``, Burckhardt) would get the friction-peak rule.
+The physics of the entry decides the rule, not its name or curve type: the catalogue models
+BorealTC's deep forest ``SNOW`` as a deformable soil (Janosi-Hanamoto), so it gets the
+tractive-efficiency rule; a snow-covered *road* (``PACKED_SNOW``, Burckhardt) would get the
+friction-peak rule.
 
 Fallback (:func:`select_target`): an unknown class, a decision below ``min_confidence`` or
 older than ``max_decision_age_s`` gets the most conservative entry of the table: the smallest

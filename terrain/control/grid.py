@@ -149,7 +149,7 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
     rows, traces = [], {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
-                                                   (False, True)):
+                                                    (False, True)):
         provider = (decisions or {}).get(veh)
         live, table, _ = provider(ter) if provider else (None, None, "label")
         sim, loop, m = run_closed_loop(veh, ter, sc, on, seed, duration_s, gains[veh],

@@ -620,4 +620,3 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
         runs.append(read_run(files, f"{dataset}/{folder}/{index}", dataset,
                              folder.upper() if labelled else None, **reader_options))
     return runs
-

@@ -225,6 +225,8 @@ def is_stuck(duration_s: float, n_samples: int, limit_s: float) -> bool:
         stretch.
     """
     return (np.asarray(duration_s) >= limit_s) & (np.asarray(n_samples) >= STUCK_MIN_SAMPLES)
+
+
 #: median specific-force norm below which an accelerometer is in g (gravity reads 1 in g,
 #: 9.81 in m/s^2), m/s^2
 G_UNITS_BELOW_M_S2 = 3.0

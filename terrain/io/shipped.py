@@ -216,7 +216,7 @@ def _kind(value) -> str:
     """JSON name of a parsed value's type, for messages."""
     return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
             int: "a number", float: "a number", type(None): "null"}.get(type(value),
-                                                                      type(value).__name__)
+                                                                        type(value).__name__)
 
 
 def manifest_terrains(manifest, path: str | Path) -> list[str]:

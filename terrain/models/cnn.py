@@ -216,7 +216,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             check_consistent_length(y_idx, sample_weight)
             if not (np.isfinite(sample_weight).all() and (sample_weight >= 0).all()
                     and sample_weight.sum() > 0):
-                raise ValueError("sample_weight must be finite and >= 0, and the weights not all zero")
+                raise ValueError("sample_weight must be finite and >= 0, and the weights not "
+                                 "all zero")
         counts = np.bincount(y_idx, minlength=len(self.classes_)).astype(np.float32)
         weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
         train_split, callbacks, fit_idx = None, [], np.arange(len(Z))
@@ -334,8 +335,6 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         return tags
 
 
-
-
 class RawCNNClassifier(_WindowCNN):
     """1-D CNN over the raw, per-channel standardised window signals.
 
@@ -365,6 +364,7 @@ class RawCNNClassifier(_WindowCNN):
         ``"auto"`` (CUDA when available, else CPU), ``"cpu"`` or a torch device string.
     n_threads : int or None
         torch CPU threads during ``fit`` (restored afterwards); ``None`` keeps torch's.
+
     Attributes
     ----------
     classes_ : numpy.ndarray
@@ -451,8 +451,8 @@ class SpectrogramCNNClassifier(_WindowCNN):
         (in units of the training standard deviation; the band mask applied after it), drawn
         from ``random_state``. 0: no copy (the default). On BorealTC run-grouped, 0.3 lifts
         the SVM + spectrogram-CNN vote by about a point with non-overlapping training
-        windows, and does nothing on the held-out streams with overlapping ones (docs/model_comparison.md,
-        "More members"; docs/streaming.md).
+        windows, and does nothing on the held-out streams with overlapping ones
+        (docs/model_comparison.md, "More members"; docs/streaming.md).
 
     Attributes
     ----------

@@ -285,7 +285,7 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
                            random_state, probability)
         return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset))
     if config.run_balanced and kind not in ENSEMBLES and not (kind in CNN_MODELS
-                                                                and config.cnn_seeds > 1):
+                                                              and config.cnn_seeds > 1):
         return run_balanced(make_model(replace(config, run_balanced=False), channels,
                                        rate_hz, dataset, random_state, probability))
     if kind in CNN_MODELS and config.cnn_seeds > 1:

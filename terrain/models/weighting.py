@@ -5,8 +5,8 @@ The windows of one run are not independent samples of its terrain: one surface p
 speed profile and one recording day. Cut at a fixed hop, a long run gives many more
 windows than a short one (of the BorealTC runs with an IMU, ASPHALT/01 holds 56 % of the
 ASPHALT recordings and ICE/00 38 % of the ICE ones; with the wheels only, ICE/01 holds about a
-quarter of all windows), so it dominates what the classifier learns of its class. An unseen run, or a
-held-out stream that takes a stretch of every run once (docs/streaming.md), weighs the
+quarter of all windows), so it dominates what the classifier learns of its class. An unseen run, or
+a held-out stream that takes a stretch of every run once (docs/streaming.md), weighs the
 runs about equally instead. :func:`within_class_run_weights` gives every run of a class
 the same total weight and keeps the class totals as they are, so a classifier's own class
 balancing (``class_weight="balanced"``, the CNNs' weighted loss) stays in charge of the

@@ -63,9 +63,9 @@ clock taken (it broke the run, refused as a stray: a reordered wheel stream on a
 clock from its start lost 574 of 580 samples). A sample that breaks the held run otherwise
 (the stream going on on its old clock: the held ones were a stray stamp ahead) drops it,
 counted and flagged as ``time_ahead``. One stream alone, or a chunk holding more than
-``max_backlog_s`` after the step, is taken as it is (the service skips silent decisions). A stream's first
-sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind (two
-computers whose clocks were never synchronised; a stream delivered late is never that
+``max_backlog_s`` after the step, is taken as it is (the service skips silent decisions). A
+stream's first sample more than ``max_backlog_s`` from every other stream's newest, ahead or behind
+(two computers whose clocks were never synchronised; a stream delivered late is never that
 late; for a stream silent through a restart of every other clock, more than
 ``clock_restart_s`` and ``stale_s``: its old clock is no longer theirs), is held the same
 way and put on the clock of the streams that came first (the middle of the step in which

@@ -25,6 +25,7 @@ KNOWN_STREAMS: Mapping[str, tuple[str, ...]] = MappingProxyType(
 #: buffer
 MAX_BUFFER_SAMPLES = 1_000_000
 
+
 @dataclass(frozen=True)
 class StreamConfig:
     """Settings of the streaming service.

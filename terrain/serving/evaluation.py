@@ -1,6 +1,7 @@
 """Evaluation of streaming terrain decisions, grouped by run.
 
-The models evaluated are those of :mod:`terrain.serving.recipes` (:class:`~terrain.serving.recipes.ModelRecipe`,
+The models evaluated are those of :mod:`terrain.serving.recipes`
+(:class:`~terrain.serving.recipes.ModelRecipe`,
 :data:`RECIPES`, :func:`fit_stream_model`); :func:`window_cv` scores one run-grouped.
 
 * :func:`grouped_oof_proba` gives out-of-fold class probabilities with
@@ -36,8 +37,6 @@ from terrain.serving.replay import replay_run
 from terrain.serving.service import StreamConfig, StreamService
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.serving.targets import CataloguePeakTargets
-
-
 
 
 def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels: np.ndarray,
@@ -250,8 +249,6 @@ def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
         sel = (t_s >= a) & (t_s < a + seg.duration_s) & (decided == seg.terrain)
         delays.append(float(t_s[sel][0] - a) if sel.any() else np.inf)
     return np.asarray(delays)
-
-
 
 
 def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarray, np.ndarray]:

@@ -672,4 +672,3 @@ def _is_idle(connection) -> bool:
     """Whether a uvicorn HTTP connection has no request in progress."""
     cycle = getattr(connection, "cycle", None)
     return cycle is None or bool(getattr(cycle, "response_complete", True))
-

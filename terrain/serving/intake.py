@@ -151,7 +151,7 @@ class StreamIntake:
         self.unplaced: set[tuple[str, str]] = set()
 
     def ingest(self, stream: str, t: np.ndarray, v: np.ndarray, hold: bool = True,
-                judged: bool = False) -> None:
+               judged: bool = False) -> None:
         """Take a validated chunk of one stream: the rules, the clock rules, the buffer.
 
         Applies the sample rules, buffers what they keep, holds the samples of a forward
@@ -625,5 +625,5 @@ class StreamIntake:
         # the windows that hold the restart carry it: from the first held sample when the
         # decision clock starts again, else from the newest (those before are emitted)
         self.events[stream].append((float(t[0] if self._decisions.next_t is None else t[-1]),
-                                     "clock_restart"))
+                                    "clock_restart"))
         return float(shift)

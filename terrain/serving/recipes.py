@@ -151,7 +151,8 @@ class ModelRecipe:
 #: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``all-ensemble-dense-window-ekf``:
 #: the latter with the EKF channels of each window (``terrain train --window-ekf``);
 #: ``all-ensemble-dense-augmented``: ``all-ensemble-dense`` whose spectrogram CNN also trains
-#: on a copy of its spectra perturbed by white noise of 0.3 standard deviations (docs/model_comparison.md,
+#: on a copy of its spectra perturbed by white noise of 0.3 standard deviations
+#: (docs/model_comparison.md,
 #: "More members", the probe); ``all-dense-no-speed`` and ``all-ensemble-dense-no-speed``:
 #: ``all-dense`` and ``all-ensemble-dense`` on the ``all-no-speed`` signals (every channel
 #: but the forward wheel speeds, :data:`features.windows.SPEED_CHANNELS`);

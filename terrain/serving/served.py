@@ -615,8 +615,8 @@ class ServedStreamModel(PythonModel):
         limit, hop = int(self.settings["max_decisions"]), float(self.config.hop_s)
         planned = planned_decisions(run, window_s, hop)
         if planned > limit:
-            raise DataFormatError(f"request spanning {_time_span_s(run):.6g} s would make {planned} "
-                                  f"decisions (one every {hop:g} s), above the limit of "
+            raise DataFormatError(f"request spanning {_time_span_s(run):.6g} s would make "
+                                  f"{planned} decisions (one every {hop:g} s), above the limit of "
                                   f"{limit}; send the streams in shorter pieces (a time jump "
                                   "in a stream counts as its length)", "request", TIME)
         out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)

@@ -12,7 +12,8 @@ service time the service
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns the last window of the model's length with the project's NumPy alignment core
    (:func:`terrain.io.align.overlap_grid_tail`, the window's end of ``overlap_grid``, and
-   :func:`terrain.io.align.align_arrays`, the step the batch readers' :func:`~terrain.io.align.align_streams` runs) and adds the
+   :func:`terrain.io.align.align_arrays`, the step the batch readers'
+   :func:`~terrain.io.align.align_streams` runs) and adds the
    derived wheel channels (:func:`features.windows.derived_wheel_arrays`); the whole
    per-decision path works on arrays, no data frame,
 3. classifies it with the fitted pipeline (the model's own feature code),
@@ -387,4 +388,3 @@ class StreamService:
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
-

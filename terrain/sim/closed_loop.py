@@ -383,10 +383,10 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     period, next_t, n = 1.0 / control_rate_hz, 0.0, len(phys.t_s)
     for k in range(n):
         snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
-                              phys.accel_body[k], phys.omega[k], phys.delta[k],
-                              phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k],
-                              float(phys.pitch[k]), float(phys.roll[k]),
-                              int(phys.terrain_index[k]))
+                             phys.accel_body[k], phys.omega[k], phys.delta[k],
+                             phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k],
+                             float(phys.pitch[k]), float(phys.roll[k]),
+                             int(phys.terrain_index[k]))
         sensors.record(snap)
         if snap.t_s + 1e-9 >= next_t:
             next_t += period

@@ -155,7 +155,6 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
     return loads * (static_load_n.sum() / loads.sum())
 
 
-
 @dataclass(frozen=True)
 class CombinedSlipParams:
     """Tyre of the combined-slip law of physics v2 on rigid surfaces.
@@ -257,6 +256,7 @@ COMBINED_SLIP: Mapping[str, CombinedSlipParams] = MappingProxyType({
         "Burckhardt's value is a car tyre on ice at road speed"),
         hold_at_peak=True, friction_scale=MappingProxyType({"ICE": 5.0})),
 })
+
 
 @dataclass(frozen=True)
 class ContactLayout:

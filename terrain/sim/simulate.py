@@ -1,4 +1,4 @@
-"""Run a simulation: vehicle + terrain(s) + scenario + motors + sensors -> :class:`~terrain.run.Run`.
+"""Run a simulation: vehicle, terrains, scenario, motors, sensors -> :class:`~terrain.run.Run`.
 
 The simulated run follows the :mod:`terrain.run` contract (``t_s`` first, canonical channel
 names, SI units); writing it in the measured-file layout is :func:`terrain.io.writer.write_run`.
@@ -197,9 +197,9 @@ class SimConfig:
     Raises
     ------
     ConfigError
-        Unknown vehicle, terrain, scenario or physics version (the message lists the valid choices), or a
-        duration, rate, segment length or seed out of range (a duration too short for two
-        samples of every stream names the slowest stream and the minimum in seconds).
+        Unknown vehicle, terrain, scenario or physics version (the message lists the valid
+        choices), or a duration, rate, segment length or seed out of range (a duration too short for
+        two samples of every stream names the slowest stream and the minimum in seconds).
     """
 
     vehicle: str = "husky"

@@ -5,7 +5,8 @@ Public API: :func:`sae_slip`, :func:`wheel_longitudinal_velocity`, :func:`wheel_
 :class:`LagEstimate` (:mod:`.alignment`); :func:`estimate_run` (vehicle dispatch),
 :func:`estimate_agrimaro_run`, :func:`estimate_skid_steer_run` and their pieces
 (:func:`agrimaro_wheel_speeds`, :func:`agrimaro_encoder_lag`, :func:`skid_steer_encoder_lag`,
-:func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate`; the fused skid-steer slip :func:`estimate_skid_steer_slip_run`,
+:func:`with_camera_ema`, :func:`resample`), :class:`RunEstimate`; the fused skid-steer slip
+:func:`estimate_skid_steer_slip_run`,
 :func:`pseudo_measurement`, :class:`FusionSettings`, :data:`BATCH_FUSION`,
 :data:`SLIP_MODELS` (:mod:`.estimate`).
 """

@@ -548,9 +548,9 @@ class FusionSettings:
 #: SNOW 1.63 / 1.66 until the run's pitch prior (1.80); 3000-3047 SNOW 1.97 (inside), the
 #: others 2.24-2.34 (upper bounds 2.25-2.26). ``slip_psd_rel`` then 0.01 -> 0.015, chosen on
 #: those 144 seeds pooled (4 of 5 terrains inside, against 1), and checked once on fresh
-#: seeds 4000-4047: all five terrains inside (1.84-2.12). The fused std assumes a correlation of 0.1 between the
-#: physics and learned window errors (their normalised errors' correlation pooled over the
-#: five terrains of seeds 200, 201: 0.085; per run -0.03 to 0.13, GRASS 0.34-0.51).
+#: seeds 4000-4047: all five terrains inside (1.84-2.12). The fused std assumes a correlation of
+#: 0.1 between the physics and learned window errors (their normalised errors' correlation pooled
+#: over the five terrains of seeds 200, 201: 0.085; per run -0.03 to 0.13, GRASS 0.34-0.51).
 BATCH_FUSION = FusionSettings(min_std=1e-5, filter=SkidSteerSlipSettings(
     slip_psd=1e-11, slip_psd_rel=0.015, slip_psd_transient=1.0), error_correlation=0.1)
 
@@ -629,7 +629,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         Window outputs of the slip models
         (:func:`features.slip_outputs.slip_model_outputs`: ``physics``, ``physics_current``
         (its std scales the slip drift when ``settings.filter.slip_psd_rel > 0``; without it
-        the pseudo-measurement std does) and, with a learned model, ``learned``); None when they could not be computed (then no pseudo-measurement).
+        the pseudo-measurement std does) and, with a learned model, ``learned``); None when they
+        could not be computed (then no pseudo-measurement).
     lag : {"xcorr", "ema", "none"}
         ``xcorr`` estimates the wheel-stream lag against the gyro.
     gate : Gate, optional

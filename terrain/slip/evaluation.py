@@ -282,7 +282,8 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
 
     ``zero`` (what the EKF reports for the common slip today), ``physics``
     (:mod:`terrain.slip.physics`, columns ``phys_slip_l/r`` of ``X``), ``pitch-linear`` (eq. 22
-    fitted on the straight-driving ``train`` windows, gyro |yaw rate| < 0.05 rad/s), ``endo`` (eq. 27 with the gyro), ``observer`` (seed 000).
+    fitted on the straight-driving ``train`` windows, gyro |yaw rate| < 0.05 rad/s), ``endo`` (eq.
+    27 with the gyro), ``observer`` (seed 000).
 
     Parameters
     ----------

@@ -2,7 +2,8 @@
 
 A scikit-learn estimator (:class:`SlipRegressor`) over the feature table of
 :func:`features.slip_features.slip_features`, trained on simulated runs with truth
-(``terrain slip-fit``). Gradient-boosted trees (:class:`sklearn.ensemble.HistGradientBoostingRegressor`),
+(``terrain slip-fit``). Gradient-boosted trees
+(:class:`sklearn.ensemble.HistGradientBoostingRegressor`),
 one per output: ``slip_1`` (left), ``slip_2`` (right) and ``v_by`` (lateral body velocity,
 m/s: the sideways sliding that makes the slip angle ``atan(v_by / v_bx)`` of seed 003) on every
 window, ``chi`` on the windows where the robot turns (its target is undefined elsewhere; the

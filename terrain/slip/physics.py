@@ -5,7 +5,8 @@ The chain, every relation called from where it is defined (nothing re-typed):
 1. motor current -> wheel torque: the vehicle's motor law
    :meth:`terrain.vehicles.MotorParams.current_from_torque` (``I = I_0 sgn(omega) +
    T / (G k_t eta)``, Husky A200 constants in :mod:`terrain.vehicles.skid_steer`) is affine in
-   the torque, so it is inverted by evaluating it at two torques (:func:`wheel_torque_from_current`);
+   the torque, so it is inverted by evaluating it at two torques
+   (:func:`wheel_torque_from_current`);
 2. wheel torque -> gross traction coefficient: the simulator's torque law
    :func:`terrain.sim.forces.contact_torque_nm` (``T_i = r N_i (mu + h tanh(omega r / v_h))``,
    torque-only rolling loss ``h`` of the terrain), again affine in ``mu``, with the normal loads
@@ -547,4 +548,3 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     std = np.sqrt(within + between ** 2)
     return PhysicsSlip(mean, std, np.clip(lower - k * between, -1, 1),
                        np.clip(upper + k * between, -1, 1), mu_w, saturated)
-

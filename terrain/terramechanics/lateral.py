@@ -236,7 +236,7 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     length = footprint_length_m
     z = 0.0
     z_max = wheel_radius_m if soil.layer_depth_m is None else min(wheel_radius_m,
-                                                                    soil.layer_depth_m)
+                                                                  soil.layer_depth_m)
     for _ in range(iterations):
         z = min(bekker_sinkage_m(load_n, width_m, length, soil.k_c, soil.k_phi, soil.n),
                 z_max)

@@ -42,7 +42,6 @@ def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray
     return terrain.curve.coefficients(s, terrain.soil_resistance).resistance
 
 
-
 def is_deformable(terrain) -> bool:
     """Whether the ground itself deforms: slip-producing soil resistance anywhere on [0, 1].
 
@@ -64,6 +63,7 @@ def is_deformable(terrain) -> bool:
     """
     rho = soil_resistance_coefficient(terrain, np.linspace(0.0, 1.0, 101))
     return bool(np.any(rho > 0.0))
+
 
 def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndarray:
     """Grade resistance ``m g sin(pitch)`` (seed 003 eq. 10 with zero roll).

@@ -438,7 +438,8 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     mean = kr * (us - e1 + b * np.e * (e1 - 0.5 * e2)) / us
     f_u = kr * (1.0 + b * np.exp(1.0 - us)) * e1
     dmean_du = (f_u - mean) / us
-    # series near 0: f(u) = s0 u - c u^2 + ..., mean = s0 u / 2 - c u^2 / 3, c = kr (1/2 + 3 b e / 2)
+    # series near 0: f(u) = s0 u - c u^2 + ..., mean = s0 u / 2 - c u^2 / 3,
+    # c = kr (1/2 + 3 b e / 2)
     c2 = kr * (0.5 + 1.5 * b * np.e)
     g = np.where(small, s0 * u / 2.0 - c2 * u * u / 3.0, mean)
     dg_du = np.where(small, s0 / 2.0 - 2.0 * c2 * u / 3.0, dmean_du)

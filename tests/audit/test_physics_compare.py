@@ -42,7 +42,7 @@ def test_v2_cuts_the_sandy_loam_yaw_error(loam_runs):
 
 def test_replay_physics_is_selectable_and_checked(loam_runs):
     run = max(loam_runs, key=lambda r: float(np.abs(r.streams["wheels"].vel_r
-                                                     - r.streams["wheels"].vel_l).max()))
+                                                    - r.streams["wheels"].vel_l).max()))
     a = replay_run(run, ReplaySettings(physics="v1"))
     b = replay_run(run, ReplaySettings(physics="v2"))
     assert np.max(np.abs(a.yaw_rate - b.yaw_rate)) > 0.01

@@ -64,6 +64,7 @@ def test_planted_wheel_lag_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     result = _write(audit_tmp, shipped_borealtc, "real_lag", modify)
     delta = _param(result, "wheel_lag", "lag_s") - _param(real_base, "wheel_lag", "lag_s")
     assert delta == pytest.approx(0.5, abs=0.15)
+
     def per_run(res):                                # run ids carry the folder name
         lags = res.lags.assign(run=res.lags.run_id.str.split("/", n=1).str[1])
         return lags.set_index("run").lag_s

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from audit_helpers import (SIM_SEEDS, audit_folder, plant_grade, plant_immobilised,
-                      simulated_streams, write_signal_files)
+                           simulated_streams, write_signal_files)
 from terrain.audit import EFFECT_NAMES
 
 TERRAIN = "ASPHALT"

@@ -24,7 +24,7 @@ def _error_line(capsys, command: str) -> str:
 
 @pytest.mark.parametrize("vehicle, minimum", [("husky", "0.16"), ("agrimaro", "0.04")])
 def test_control_sim_too_short_duration_fails_before_any_training(vehicle, minimum, tmp_path,
-                                                                   capsys, monkeypatch):
+                                                                  capsys, monkeypatch):
     def no_training(*args, **kwargs):
         raise AssertionError("the classifier must not be trained for a bad duration")
 

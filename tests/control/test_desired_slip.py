@@ -83,7 +83,7 @@ def test_deformable_soils_at_max_tractive_efficiency_capped(table):
         assert e.traction == pytest.approx(min(s_best, CFG.deformable_cap), abs=1e-3), name
         # the net-pull peak lies far beyond the target: no usable set point there
         net = traction_coefficient(terrain.curve, grid) - soil_resistance_coefficient(terrain,
-                                                                                       grid)
+                                                                                      grid)
         assert grid[np.argmax(net)] > e.traction + 0.1, name
     assert table.entries["SANDY_LOAM"].traction == CFG.deformable_cap   # its optimum is 0.34
 
@@ -169,7 +169,7 @@ def test_peak_fraction_inverse_is_exact_and_agrees_with_the_tabulated_inverse():
             s = slip_at_peak_fraction(curve, frac)
             assert 0.0 < s < s_peak
             assert float(traction_coefficient(curve, s)) == pytest.approx(frac * mu_peak,
-                                                                           rel=1e-9)
+                                                                          rel=1e-9)
             # the table's inverse (4001-point grid) lands on the same slip
             assert float(slip_from_traction(curve, frac * mu_peak).slip) == pytest.approx(
                 s, abs=2e-3), (name, frac)

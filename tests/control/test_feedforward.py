@@ -17,7 +17,7 @@ def test_acceleration_limit_from_the_curve():
     ice = get_terrain("ICE")
     s_t = desired_slip(ice).traction                 # 95 % of the (saturated) ice friction
     assert traction_acceleration_limit(ice, s_t) == pytest.approx(G_M_S2 * 0.95 * 0.05,
-                                                                   rel=1e-6)
+                                                                  rel=1e-6)
     snow = get_terrain("SNOW")                       # at the steady slip mu = soil resistance
     assert traction_acceleration_limit(snow, steady_slip(snow)) == pytest.approx(0.0, abs=1e-6)
     assert traction_acceleration_limit(snow, 0.05) < 0.0          # cannot accelerate there

@@ -61,7 +61,7 @@ def test_model_classes_call_the_equations():
     x = rng.uniform(-1.0, 1.0, 12)
     model = AgriMaRoModel()
     np.testing.assert_array_equal(model.f(x, 0.01), agrimaro.f(x, None, 0.01,
-                                                                model.equation_params))
+                                                               model.equation_params))
     np.testing.assert_array_equal(model.H(x), agrimaro.H(x, model.equation_params))
     skid = SkidSteerModel(SkidSteerSettings(track_m=0.6))
     xs = np.array([0.5, 0.3, 0.01, math.log(1.5)])

@@ -20,8 +20,8 @@ def _states(n, rng, count=20):
 
 
 @pytest.mark.parametrize("kernel, p, n", [(agrimaro.transition_into, AGRI_P, 12),
-                                         (agrimaro.transition_into, AGRI_P, 14),
-                                         (skid_steer.transition_into, SKID_P, 4)])
+                                          (agrimaro.transition_into, AGRI_P, 14),
+                                          (skid_steer.transition_into, SKID_P, 4)])
 def test_cached_transition_kernels_equal_their_source(kernel, p, n):
     rng = np.random.default_rng(0)
     for x in _states(n, rng):
@@ -33,9 +33,9 @@ def test_cached_transition_kernels_equal_their_source(kernel, p, n):
 
 
 @pytest.mark.parametrize("kernel, p, n, m", [(agrimaro.observation_into, AGRI_P, 12, 14),
-                                            (agrimaro.slip_state_observation_into, AGRI_P, 14,
+                                             (agrimaro.slip_state_observation_into, AGRI_P, 14,
                                              14),
-                                            (skid_steer.observation_into, SKID_P, 4, 3)])
+                                             (skid_steer.observation_into, SKID_P, 4, 3)])
 def test_cached_observation_kernels_equal_their_source(kernel, p, n, m):
     rng = np.random.default_rng(1)
     for x in _states(n, rng):

@@ -10,7 +10,7 @@ import pytest
 import pandas as pd
 
 from features.ekf_signals import (EKF_CHANNELS, add_ekf_channels, ekf_channel_frame,
-                                 window_ekf_channels)
+                                  window_ekf_channels)
 from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, SIGNAL_SETS, WindowConfig, make_windows,
                               required_streams, resolve_signals)

@@ -174,7 +174,7 @@ def test_overlap_grid_is_empty_without_overlap_and_median_step_is_the_median():
 
 
 @pytest.mark.parametrize("native_hz,n_samples,rate_hz", [(1.0 / 0.1538, 100, 50.0),
-                                                        (15.0, 100, 50.0), (6.5, 200, 100.0)])
+                                                         (15.0, 100, 50.0), (6.5, 200, 100.0)])
 def test_interpolated_mean_count_matches_monte_carlo(native_hz, n_samples, rate_hz):
     """The noise of the mean of a linearly interpolated window (align_arrays) of white
     samples has the variance sigma^2 / count."""

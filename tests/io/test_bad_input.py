@@ -182,7 +182,6 @@ def test_epoch_imu_clock_beside_a_clock_from_zero_is_refused(turning):
     assert str(imu) in text and str(pro) in text and "do not overlap" in text
 
 
-
 def test_truncated_wheel_file_beside_a_full_imu_file_is_reported_with_what_is_left_out(
         turning):
     # both clocks start at 0, so the overlap is the whole wheel file: the IMU's tail past
@@ -197,6 +196,7 @@ def test_truncated_wheel_file_beside_a_full_imu_file_is_reported_with_what_is_le
     left_out = imu_span - (run.streams["wheels"][TIME].iloc[-1] - 0.0)
     assert left_out > 10.0 and f"left out: imu {left_out:.1f} s" in text
     assert run.meta["warnings"] == [text]
+
 
 def test_dead_sensor_is_reported_and_its_windows_flagged(turning):
     imu, _ = turning

@@ -230,7 +230,7 @@ def test_both_pro_column_orders_give_identical_canonical_frames(tmp_path, synth_
 
 
 def test_real_rows_of_both_datasets_read_back_by_name(tmp_path, borealtc_runs, vulpi_runs,
-                                                     to_file_frame):
+                                                      to_file_frame):
     for runs, order in ((borealtc_runs, BOREALTC_PRO), (vulpi_runs, VULPI_PRO)):
         wheels = runs[0].streams["wheels"].iloc[:200]
         path = _write(tmp_path, to_file_frame(wheels, order), "pro_00.csv")

@@ -30,7 +30,7 @@ def csv_tree(tmp_path, borealtc_runs, to_file_frame, write_run):
         imu = None
         if run.has_imu:
             imu = to_file_frame(run.streams["imu"].iloc[:300], ["time", "wx", "wy", "wz",
-                                                                 "ax", "ay", "az"])
+                                                                "ax", "ay", "az"])
         if rid.endswith("SNOW/01"):
             imu = imu.astype(object)
             imu.loc[100, "wz"] = "nan"  # repaired on reading, counted in the manifest
@@ -90,7 +90,7 @@ def test_manifest_records_provenance_rates_checksums(tmp_path, csv_tree):
 
 
 def test_convert_twice_merges_datasets_in_manifest(tmp_path, csv_tree, vulpi_runs,
-                                                    to_file_frame, write_run):
+                                                   to_file_frame, write_run):
     out = tmp_path / "data"
     convert_dataset(csv_tree, "borealtc", out)
     vroot = tmp_path / "csv" / "vulpi"
@@ -149,7 +149,7 @@ def test_combined_dataset_has_nine_classes_and_seventy_runs(data_dir):
 
 def test_borealtc_classes_and_runs_without_imu(borealtc_runs, data_dir):
     assert sorted({r.terrain for r in borealtc_runs}) == ["ASPHALT", "FLOORING", "ICE",
-                                                           "SANDY_LOAM", "SNOW"]
+                                                          "SANDY_LOAM", "SNOW"]
     no_imu = sorted(r.run_id for r in borealtc_runs if not r.has_imu)
     assert no_imu == ["borealtc/FLOORING/04", "borealtc/FLOORING/06", "borealtc/ICE/01"]
     assert read_manifest(data_dir)["datasets"]["borealtc"]["runs_without_imu"] == no_imu
@@ -159,7 +159,7 @@ def test_borealtc_classes_and_runs_without_imu(borealtc_runs, data_dir):
 
 def test_vulpi_classes(vulpi_runs):
     assert sorted({r.terrain for r in vulpi_runs}) == ["CONCRETE", "DIRT_ROAD", "PLOUGHED",
-                                                        "UNPLOUGHED"]
+                                                       "UNPLOUGHED"]
     assert all(r.has_imu for r in vulpi_runs)
     assert [r.run_id for r in vulpi_runs if r.terrain == "DIRT_ROAD"] == ["vulpi/DIRT_ROAD/1"]
 
@@ -174,7 +174,7 @@ def test_unknown_dataset_lists_valid_names(data_dir):
 
 
 def test_dataset_without_any_imu_file_converts_and_reads_wheel_only(tmp_path, borealtc_runs,
-                                                                     to_file_frame, write_run):
+                                                                    to_file_frame, write_run):
     root = tmp_path / "csv"
     by_id = {r.run_id: r for r in borealtc_runs}
     for rid in ("borealtc/FLOORING/04", "borealtc/ICE/01"):
@@ -249,7 +249,7 @@ def test_a_parquet_file_and_its_checksum_both_edited_are_refused_by_the_readers_
     path = vulpi_copy / "vulpi" / "imu.parquet"
     edit(pd.read_parquet(path)).to_parquet(path)
     _edit_manifest(vulpi_copy, lambda e: e["files"].__setitem__("vulpi/imu.parquet",
-                                                               digest(path)))
+                                                                digest(path)))
     with pytest.raises(DataFormatError) as info:
         read_shipped("vulpi", vulpi_copy)
     assert type(info.value).__name__ == error
@@ -309,7 +309,6 @@ def test_invalid_manifest_json_names_its_line_and_column(tmp_path, data_dir):
                                               r"convert") as info:
         read_manifest(copy)
     assert info.value.path == str(path) and info.value.line == 3
-
 
 
 def test_converting_runs_under_a_dataset_of_another_imu_rate_warns(tmp_path, csv_tree):

@@ -61,8 +61,9 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
     activate_store()
     parent = mlflow.search_runs(experiment_names=["terrain-compare"],
                                 filter_string="attributes.run_name = 'compare'")
-    children = mlflow.search_runs(experiment_names=["terrain-compare"], filter_string=
-                                  f"tags.mlflow.parentRunId = '{parent.run_id.iloc[0]}'")
+    children = mlflow.search_runs(
+        experiment_names=["terrain-compare"],
+        filter_string=f"tags.mlflow.parentRunId = '{parent.run_id.iloc[0]}'")
     assert len(children) == 2 and "metrics.accuracy_k10" in children.columns
 
 

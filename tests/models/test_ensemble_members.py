@@ -41,7 +41,8 @@ def test_votes_average_initialisations_then_members(script):
     np.testing.assert_allclose(p["ensemble3"], [0.4, 0.43333333, 0.43333333])
     # a seed-averaged CNN is one member: (svm + mean(cnn) + mean(spec)) / 3
     np.testing.assert_allclose(p["ensemble3, CNNs x2"],
-                               [(0.9 + 0.3 + 0.3) / 3, (0.2 + 0.6 + 0.6) / 3, (0.4 + 0.1 + 0.5) / 3])
+                               [(0.9 + 0.3 + 0.3) / 3, (0.2 + 0.6 + 0.6) / 3,
+                                (0.4 + 0.1 + 0.5) / 3])
     np.testing.assert_allclose(p["ensemble3, CNNs x2 + wheel-trees"],
                                [(0.9 + 0.3 + 0.3 + 0.6) / 4, (0.2 + 0.6 + 0.6 + 0.6) / 4,
                                 (0.4 + 0.1 + 0.5 + 0.6) / 4])

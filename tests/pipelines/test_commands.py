@@ -48,7 +48,7 @@ def write_runs_layout(runs, root):
                                                   "vel_r": "velR", "cur_l": "curL",
                                                   "cur_r": "curR"})
         w[["time", "velL", "velR", "curL", "curR"]].to_csv(folder / f"pro_{index}.csv",
-                                                             index=False)
+                                                           index=False)
         if "imu" in run.streams:
             run.streams["imu"].rename(columns={"t_s": "time"}).to_csv(
                 folder / f"imu_{index}.csv", index=False)

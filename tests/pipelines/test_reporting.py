@@ -248,7 +248,7 @@ def test_served_model_refuses_a_huge_finite_value(saved_model, vulpi_runs):
 
 
 def test_audit_of_a_run_with_a_dead_gyro_reports_instead_of_crashing(workdir, capsys,
-                                                                    borealtc_runs):
+                                                                     borealtc_runs):
     run = next(r for r in borealtc_runs if r.run_id == "borealtc/ASPHALT/00")
     imu = _write(run, workdir / "runs")
     frame = pd.read_csv(imu)
@@ -284,7 +284,7 @@ def test_a_registered_model_on_s3_without_credentials_is_a_one_line_error(workdi
 
 
 def test_stream_eval_prints_and_logs_per_seed_accuracy_and_a_readable_table(workdir, capsys,
-                                                                          monkeypatch):
+                                                                            monkeypatch):
     """The held-out stream replay itself is replaced by two fixed score rows per seed: the
     command pools them, prints and logs every seed's accuracy, and logs a score table that
     reads back to the same pooled figures."""

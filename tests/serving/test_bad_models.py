@@ -97,7 +97,7 @@ def test_commands_answer_a_corrupt_model_in_one_line(command, corrupt, tmp_path,
 
 
 def test_control_sim_answers_a_corrupt_model_in_one_line(model_dir, tmp_path, capsys,
-                                                        monkeypatch):
+                                                         monkeypatch):
     monkeypatch.chdir(tmp_path)
     path = tmp_path / "model"
     shutil.copytree(model_dir, path)

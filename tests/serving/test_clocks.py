@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from terrain.serving.clocks import (AHEAD, UNITS, UNITS_STEPS, HeldChunks, HeldRun,
-                                    StreamClock, ahead_shift, clock_in_ms, continues_run, first_long_step, in_a_gap,
-                                    newest_on_ms_clock, resent_mask, resolve_hold,
+                                    StreamClock, ahead_shift, clock_in_ms, continues_run,
+                                    first_long_step, in_a_gap, newest_on_ms_clock, resent_mask,
+                                    resolve_hold,
                                     restart_shift, steps_ahead, went_on_live)
 
 
@@ -192,7 +193,6 @@ def test_resent_mask_continuing_a_held_run_is_no_resend():
     assert mask.tolist() == [False]
 
 
-
 def test_a_held_run_knows_the_samples_it_holds():
     held = HeldRun(8)
     held.begin(100.0, 0.0, {})
@@ -205,6 +205,7 @@ def test_a_held_run_knows_the_samples_it_holds():
     assert not held.repeats(99.0, v[0]) and not HeldRun(4).repeats(t[0], v[0])
 
 # --- a clock in ms ---------------------------------------------------------------------------
+
 
 def test_clock_in_ms():
     ms = np.arange(UNITS_STEPS + 1) * 10.0     # a 100 Hz IMU stamped in ms: 0.1 "Hz"

@@ -8,9 +8,9 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.rules import (finite_values, plausible_gyro, plausible_time,
-                                  plausible_values, time_increasing)
+                                   plausible_values, time_increasing)
 from terrain.serving.smoothing import (ForwardFilter, SmoothingConfig, forward_step,
-                                      predict_steps)
+                                       predict_steps)
 from terrain.serving.targets import CataloguePeakTargets
 from terrain.terramechanics import get_terrain, steady_slip
 
@@ -48,7 +48,7 @@ def test_ring_buffer_single_samples_equal_chunks_across_the_wrap():
             for a, b in zip(one.since(-np.inf), chunk.since(-np.inf)):
                 np.testing.assert_array_equal(a, b)
             assert (len(one), one.first_t, one.last_t) == (len(chunk), chunk.first_t,
-                                                          chunk.last_t)
+                                                           chunk.last_t)
     np.testing.assert_array_equal(one.since(-np.inf)[0], t[-8:])
 
 

@@ -25,7 +25,7 @@ from terrain.serving.recipes import (DEFAULT_RECIPES, RECIPES, ModelRecipe, fit_
 
 
 def test_wheel_recipe_serves_the_compiled_forest_with_sklearn_probabilities(train_runs,
-                                                                           borealtc_runs):
+                                                                            borealtc_runs):
     recipe = replace(RECIPES["wheels"], n_trees=40)
     model = fit_stream_model(recipe, train_runs, seed=0)
     assert isinstance(model.pipeline, ForestPipeline) and model.pipeline._compiled() is not None
@@ -179,7 +179,7 @@ def _assert_streamed_decisions_are_batch_predictions(model, train_runs, borealtc
 
 
 def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train_runs,
-                                                                          borealtc_runs):
+                                                                           borealtc_runs):
     # the SVM of all-dense-no-speed on a 20 Hz clock and non-overlapping windows (fast)
     assert RECIPES["all-ensemble-dense-no-speed"].signals == "all-no-speed"
     recipe = replace(RECIPES["all-dense-no-speed"], rate_hz=20.0, train_hop_s=2.0)
@@ -192,7 +192,7 @@ def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train
 
 
 def test_one_second_recipe_is_the_no_speed_dense_ensemble_on_shorter_windows(train_runs,
-                                                                           borealtc_runs):
+                                                                             borealtc_runs):
     recipe = RECIPES["all-ensemble-dense-no-speed-1s"]
     assert replace(recipe, window_s=2.0) == RECIPES["all-ensemble-dense-no-speed"]
     # the ensemble (spectrogram CNN of 0.5 s segments included) on 1 s windows of a 20 Hz
@@ -206,7 +206,7 @@ def test_one_second_recipe_is_the_no_speed_dense_ensemble_on_shorter_windows(tra
 
 
 def test_run_balanced_one_second_recipe_hands_the_runs_to_its_ensemble(train_runs,
-                                                                      monkeypatch):
+                                                                       monkeypatch):
     """The recipe differs from the 1 s recipe in its weights only; its ensemble is built
     with ``ModelConfig(run_balanced=True)`` and fitted with the run of every window."""
     import terrain.serving.recipes as recipes

@@ -108,7 +108,7 @@ def test_answer_is_the_in_process_service(served, request_frame, wheel_model):
 
 @pytest.mark.parametrize("wide", [False, True])
 def test_rows_of_a_stream_the_model_does_not_use_are_flagged_not_checked(served, request_frame,
-                                                                          wide):
+                                                                         wide):
     """IMU rows sent to a wheel-only model are not read (even unsorted or as text): the
     answer is the wheels' and every window says the IMU was unused (it said nothing)."""
     status, plain = _call(served, request_frame)
@@ -602,7 +602,7 @@ def test_real_server_refuses_a_parquet_body_by_its_metadata(server, request_fram
     n = 300_000
     table = pa.table({"stream": pa.array(["wheels"] * n).dictionary_encode(),
                       "t_s": np.zeros(n), **{c: np.full(n, 0.1) for c in
-                                                     WHEEL_CHANNELS}})
+                                             WHEEL_CHANNELS}})
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink, compression="zstd")
     body = sink.getvalue().to_pybytes()
@@ -689,7 +689,7 @@ def test_messages_show_cells_as_plain_values(served, request_frame):
 
 
 def test_connections_that_never_send_a_byte_cannot_take_the_server_down(server,
-                                                                         request_frame):
+                                                                        request_frame):
     # uvicorn times out no connection before its first request: 1,100 such connections
     # took a server with the common 1,024 open-file limit down (accept failed with EMFILE,
     # /ping timed out); beyond --max-connections (20 here) the oldest idle one is closed

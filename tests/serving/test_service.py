@@ -268,7 +268,7 @@ def test_a_clock_jump_skips_the_silent_stretch_and_counts_it(wheel_model, unseen
     times = np.array([d.t_s for d in before + after])
     assert np.all(np.diff(times) > 0)
     emitted_in_gap = ((times > frame["t_s"].iloc[-1] + 5) & (times < frame["t_s"].iloc[0]
-                                                              + day)).sum()
+                                                             + day)).sum()
     assert emitted_in_gap <= 30.0 / 0.5 + 2
     expected = round((times[-1] - times[0]) / 0.5) + 1
     assert len(times) + svc.skipped_decisions == expected
@@ -311,7 +311,7 @@ def test_a_looped_log_restarts_the_clock_and_decides_again(all_model, unseen_run
 
 
 def test_a_restart_is_seen_when_the_buffer_holds_less_than_clock_restart_s(wheel_model,
-                                                                         unseen_run):
+                                                                           unseen_run):
     # 50 samples at 20 Hz hold 2.5 s: the held run's start must not be forgotten when the
     # bounded hold drops its first samples, or a 5 s restart is never seen
     frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:300]
@@ -401,7 +401,6 @@ def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clo
     assert any("clock_restart" in d.flags for d in got)
 
 
-
 def test_a_resend_while_a_step_ahead_is_held_keeps_the_held_run(all_model, unseen_run):
     # the IMU clock steps 847.5 s ahead after 10 s and, 3 s later, its publisher re-sends
     # its newest 14 samples: the re-sent ones broke the held run, whose 313 samples (3 s
@@ -449,7 +448,7 @@ def test_a_clock_step_just_longer_than_clock_restart_s_is_put_back(all_model, un
 
 @pytest.mark.parametrize("stream", ["imu", "wheels"])
 def test_a_clock_stepping_back_less_than_clock_restart_s_is_put_back(all_model, unseen_run,
-                                                                    stream):
+                                                                     stream):
     # one stream's clock steps back 3 s after 25 s (under clock_restart_s): its next 3 s
     # were refused as late (300 IMU or 19 wheel samples) and then taken 3 s behind the
     # other stream for good: every later decision stale (102 of 102, 99 of 99). The late
@@ -467,6 +466,7 @@ def test_a_clock_stepping_back_less_than_clock_restart_s_is_put_back(all_model, 
     assert len(after) > 40 and sum(d.flags == "" for d in after) >= 0.95 * len(after)
     assert np.mean([d.terrain == ref[round(d.t_s, 6)].terrain for d in after
                     if round(d.t_s, 6) in ref]) >= 0.95
+
 
 def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unseen_run):
     # a robot loop that fills one preallocated array per stream and pushes it each time:
@@ -521,9 +521,8 @@ def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_cl
     assert np.mean([d.terrain == r.terrain for d, r in zip(after, same)]) >= 0.95
 
 
-
 def test_a_stream_on_another_clock_delivered_out_of_order_is_still_moved(all_model,
-                                                                        unseen_run):
+                                                                         unseen_run):
     # the stream arriving second on a clock 1000 s ahead from its first sample, and every
     # 10th of its samples delivered after the one that follows it (a reordering link):
     # each late one broke the run held ahead, which was refused as a stray stamp and held
@@ -545,6 +544,7 @@ def test_a_stream_on_another_clock_delivered_out_of_order_is_still_moved(all_mod
     assert abs(svc.clock_offsets_s[second] + 1000.0) < 0.08   # half a wheel step
     late = [d for d in got if d.t_s > float(got[0].t_s) + 8.0]
     assert len(late) > 100 and sum("stale" not in d.flags for d in late) >= 0.95 * len(late)
+
 
 def test_a_stream_delivered_late_in_chunks_is_never_moved(all_model, unseen_run):
     # the IMU arrives in 1 s chunks 6 s late (a slow bridge), which stale_s = 8 s
@@ -576,7 +576,7 @@ def _sample_events(run, keep=None, arrival=None):
         frame = run.streams[stream]
         t, v = frame[TIME].to_numpy(), frame.drop(columns=TIME)
         sel = np.ones(len(t), bool) if keep is None else np.broadcast_to(keep(stream, t),
-                                                                          t.shape)
+                                                                         t.shape)
         at = t if arrival is None else arrival(stream, t)
         out += [(at[i], stream, t[[i]], v.iloc[[i]]) for i in np.flatnonzero(sel)]
     return sorted(out, key=lambda e: e[0])
@@ -771,7 +771,7 @@ def test_clock_changes_of_a_chunked_imu_are_placed_within_half_a_step(all_model,
     else:                 # within half a wheel step of the truth
         assert svc.clock_restarts == 1
         assert abs(svc.clock_offsets_s["imu"] - offset) < 0.08 + 0.1 * (case == "step after "
-                                                                          "a dropout")
+                                                                        "a dropout")
         late = [d for d in got if d.t_s > t0 + 55.0]
         assert late and sum(d.flags in ("", "short") for d in late) >= 0.95 * len(late)
 
@@ -832,7 +832,7 @@ def test_one_stream_restarting_its_clock_alone_is_put_back_on_the_others_clock(
 
 
 def test_samples_without_a_stamp_before_any_sample_flag_the_first_window(wheel_model,
-                                                                           unseen_run):
+                                                                         unseen_run):
     # two wheel samples with NaN stamps before the first valid one were counted but no
     # window said so (their flag was placed at -inf)
     frame = align_streams(unseen_run, ("wheels",), wheel_model.window.rate_hz).iloc[:200]
@@ -864,7 +864,7 @@ def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unse
 
 @pytest.mark.parametrize("max_chunk", [1, 100])
 def test_an_imu_clock_in_ms_is_refused_as_the_readers_refuse_it(all_model, unseen_run,
-                                                                 max_chunk):
+                                                                max_chunk):
     # IMU stamps in ms beside wheel stamps in s (the readers' UnitError): every 0.5 "s" of
     # the IMU's clock was a decision, 175,655 short|stale ones for an 89 s run pushed
     # sample by sample, 50,582 in chunks of 100, with no word of why. For the first 30 s;
@@ -893,7 +893,7 @@ def test_an_imu_clock_in_ms_is_refused_as_the_readers_refuse_it(all_model, unsee
 
 @pytest.mark.parametrize("model_name", ["all_model", "wheel_model"])
 def test_every_stream_on_a_clock_in_ms_from_the_start_makes_no_decision(request, model_name,
-                                                                      unseen_run):
+                                                                        unseen_run):
     # every stream's clock in ms from its first sample for 30 s, then the drivers send s.
     # Before the rule had its 8 steps, the streams' first samples ran the decision clock
     # in ms: 851 decisions (IMU + wheels) and 865 (wheel-only) out of the first 1.2 s of
@@ -1123,6 +1123,7 @@ def test_a_stuck_sensor_flags_the_windows_the_readers_rule_flags(all_model, unse
                             all_model.classes)
     fresh = frame[frame["window_age_s"] == 0.0]
     want = stuck_decision_flags(fresh, stuck, all_model.window.window_s)
+
     def keys(flags):
         token = [f for f in flags.split("|") if f.startswith("stuck:")]
         assert len(token) <= 1                   # one flag, "stuck:<key>[,<key>...]"
@@ -1228,7 +1229,7 @@ def test_a_chunk_longer_than_the_buffer_loses_no_decision(wheel_model):
     whole = service(wheel_model).push("wheels", t, v)
     svc = service(wheel_model)
     pieces = [d for i in range(0, 10_000, 500) for d in svc.push("wheels", t[i:i + 500],
-                                                                   v[i:i + 500])]
+                                                                 v[i:i + 500])]
     assert len(whole) == len(pieces) > 1900
     np.testing.assert_allclose([d.t_s for d in whole], [d.t_s for d in pieces])
     assert whole[0].t_s == pytest.approx(t[0] + wheel_model.window.window_s)

@@ -118,7 +118,7 @@ def test_stream_reports_the_cells_the_reader_repaired(run_dir, tmp_path, capsys,
 
 
 def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_path, capsys,
-                                                                   wheel_model, monkeypatch):
+                                                                  wheel_model, monkeypatch):
     monkeypatch.chdir(tmp_path)
     model_dir = _saved(wheel_model, tmp_path / "model")
 

@@ -89,7 +89,7 @@ def test_compiled_features_equal_the_numpy_formulation(n):
 def test_compiled_features_equal_the_numpy_formulation_on_real_windows(borealtc_runs):
     from features.windows import WindowConfig, make_windows
     ws = make_windows(borealtc_runs[:6], "wheels", WindowConfig(window_s=4.0, rate_hz=10.0,
-                                                                   hop_s=2.0))
+                                                                hop_s=2.0))
     idx = [list(ws.channels).index(c) for c in ("vel_l", "vel_r", "cur_l", "cur_r")]
     parts = [ws.X[:, i, :] for i in idx]
     assert len(parts[0]) > 100

@@ -108,9 +108,9 @@ def test_snow_traction_softens_past_its_peak_and_the_ploughed_field_does_not():
 
 def test_sinkage_is_bekker_on_firm_soil_and_grows_on_snow():
     loam, snow = SOILS["SANDY_LOAM"], SOILS["SNOW"]
-    z, l = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, loam)
+    z, length = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, loam)
     # on sandy loam the chord stays inside the tyre footprint: the plate formula itself
-    assert l == pytest.approx(0.08)
+    assert length == pytest.approx(0.08)
     assert z == pytest.approx(bekker_sinkage_m(W, 0.11, 0.08, loam.k_c, loam.k_phi, loam.n))
     z_s, l_s = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, snow)
     assert 0.02 < z_s < 0.1651 and l_s > 0.08

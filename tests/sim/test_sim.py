@@ -307,7 +307,6 @@ def test_written_run_reads_back_as_the_simulated_run(tmp_path, husky_orchard):
     assert back.meta["effects"] == husky_orchard.meta["effects"]
 
 
-
 def test_validate_sim_command_prints_the_documented_tables(tmp_path, capsys):
     """`terrain validate sim` prints the tables of docs/sim_validation.md."""
     out = tmp_path / "sim.md"

@@ -31,7 +31,7 @@ def _one_line_error(capsys) -> str:
 @pytest.mark.parametrize("vehicle", ["husky", "agrimaro"])
 @pytest.mark.parametrize("duration", ["0.001", "0.005"])
 def test_duration_below_one_physics_step_is_a_one_line_error(vehicle, duration, tmp_path,
-                                                            capsys):
+                                                             capsys):
     code = main(["simulate", "--vehicle", vehicle, "--terrain", "SNOW", "--duration-s",
                  duration, "--out", str(tmp_path)])
     assert code == 2

@@ -86,7 +86,7 @@ def test_nees_inside_chi_square_bounds_with_the_simulation_noise_model(sandy):
 
 
 def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_path, capsys,
-                                                                  monkeypatch):
+                                                                    monkeypatch):
     root, _ = sandy
     monkeypatch.chdir(tmp_path)           # no tracking store: the learned model is not found
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)   # exported by an earlier CLI call

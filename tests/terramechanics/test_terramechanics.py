@@ -135,7 +135,8 @@ def test_curve_coefficients_slopes_match_finite_differences(name):
 
 
 @pytest.mark.parametrize("rim, v, error", [
-    ("fast", 1.0, DataFormatError), (None, 1.0, DataFormatError), (1.0, [1.0, "x"], DataFormatError),
+    ("fast", 1.0, DataFormatError), (None, 1.0, DataFormatError),
+    (1.0, [1.0, "x"], DataFormatError),
     (np.ones(3), np.ones(4), ShapeError), (np.ones((2, 3)), np.ones(2), ShapeError)])
 def test_sae_slip_refuses_non_numeric_or_unbroadcastable_speeds(rim, v, error):
     with pytest.raises(error, match="sae_slip"):
