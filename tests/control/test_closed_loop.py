@@ -1,4 +1,4 @@
-"""Closed loop in simulation: hook, online sensors, estimators, traction loop, grid rules."""
+"""Closed loop in simulation: hook, online sensors, traction loop, grid rules."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from terrain.control import build_slip_table, config_for_vehicle
 from terrain.control.closed_loop import BUS_VOLTAGE_V, TractionLoop, run_closed_loop
-from terrain.control.estimators import VelocityEstimate, estimator_for
+from terrain.control.estimators import VelocityEstimate
 from terrain.control.grid import TUNING_SEEDS, run_grid, slip_limit_bound
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
@@ -117,12 +117,10 @@ def test_slip_limit_bound_snow_leaves_no_acceleration():
     assert tiles["min_time_to_cruise_s"] == pytest.approx(1.0)  # no limit on a firm surface
 
 
-def test_bad_rate_and_vehicle():
+def test_bad_control_rate():
     sensors = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0)
     with pytest.raises(ConfigError):
         make_hook(sensors, lambda o: None, 0.0)
-    with pytest.raises(ConfigError):
-        estimator_for("tracked")
 
 
 def test_control_sim_command_writes_the_json_fields(tmp_path):
@@ -153,43 +151,6 @@ def test_control_sim_command_writes_the_json_fields(tmp_path):
                  "straight_accel", "--controller", "off", "--json", str(out)]) == 2
 
 
-def _replayed_slip_error(terrain, kind, duration=6.0, seed=0):
-    """Steady (t > 3 s) slip error of an estimator fed the replayed sensors of an open-loop
-    Husky run, currents included; and its pseudo-measurement count."""
-    from terrain.sim.closed_loop import replay_observations
-    from terrain.vehicles import get_vehicle
-
-    sim = simulate_with_physics(SimConfig(vehicle="husky", terrains=(terrain,),
-                                          scenario="straight_accel", duration_s=duration,
-                                          seed=seed))
-    est = estimator_for("husky", lambda t: (terrain, 1.0), kind)
-    r = get_vehicle("husky").wheel_radius_m
-    err = []
-    for obs in replay_observations(sim):
-        e = est.update(obs)
-        if obs.t_s > 3.0:
-            rim = e.omega_meas_rad_s * r
-            slip = (rim - e.v_long_m_s) / np.maximum(np.abs(rim), np.abs(e.v_long_m_s))
-            k = np.searchsorted(sim.physics.t_s, obs.t_s - 1e-9)
-            err.append(slip - sim.physics.slip_motor[k])
-    return float(np.sqrt(np.mean(np.square(err)))), getattr(est, "pseudo_count", None)
-
-
-def test_fused_estimator_with_currents_beats_the_interim_observer_in_steady_driving():
-    """Issue 10's fused slip (physics-slip pseudo-measurement from the motor currents) on the
-    replayed sensors: on ICE the steady slip is ~0.005 and the fused estimate finds it; the
-    observer's wheel-pull leaves a bias."""
-    fused, n_pseudo = _replayed_slip_error("ICE", "fused")
-    observer, _ = _replayed_slip_error("ICE", "observer")
-    assert n_pseudo >= 20                       # one every 0.2 s once currents arrive
-    assert fused < 0.01 < observer
-    # on a soft soil the steady slip (0.167 on SNOW) is all common slip: the observer's
-    # wheel-pull loses it, the physics pseudo-measurement finds it
-    fused_sn, _ = _replayed_slip_error("SNOW", "fused")
-    observer_sn, _ = _replayed_slip_error("SNOW", "observer")
-    assert fused_sn < 0.02 and observer_sn > 0.1
-
-
 def test_current_channel_follows_the_snapshot():
     """The integrator's snapshot carries the wheel torque: the closed loop's current sensor
     samples it at the wheel rate, and with no correction it reads exactly what the replay of
@@ -206,14 +167,6 @@ def test_current_channel_follows_the_snapshot():
     assert cur.shape[1] == 3 and abs(len(cur) - 2.0 * rate) <= 1
     np.testing.assert_allclose(live, cur, rtol=0, atol=1e-12)
     assert np.all(cur[len(cur) // 2:, 1:] > 1.0)          # driving through snow draws current
-
-
-def test_estimator_kinds():
-    assert estimator_for("husky").name == "husky-fused-slip-ekf"
-    assert estimator_for("husky", kind="observer").name == "wheel-imu-observer"
-    assert estimator_for("agrimaro").name == "agrimaro-ekf-vo"
-    with pytest.raises(ConfigError, match="not available"):
-        estimator_for("agrimaro", kind="fused")
 
 
 def test_fused_estimate_with_currents_drives_the_loop_on_ice():
