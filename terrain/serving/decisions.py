@@ -4,7 +4,7 @@
 :func:`decisions_frame` writes decisions with the service's column names (``terrain
 stream``, the served model); the flag helpers join the service's live flags with the
 stuck-sensor flags a replay knows in hindsight (:func:`stuck_decision_flags`,
-:func:`without_stuck`, :func:`join_flags`).
+:func:`with_run_stuck_flags`, :func:`join_flags`).
 """
 
 from __future__ import annotations
@@ -78,22 +78,37 @@ def stuck_decision_flags(frame: pd.DataFrame, stuck: Mapping[str, list],
     return stuck_window_flags(stuck, end - window_s, end)
 
 
-def without_stuck(flags: Sequence[str]) -> list[str]:
-    """Flags with the service's live ``stuck:`` flag removed, for a replay that adds the
-    whole run's (:func:`stuck_decision_flags`: known in hindsight from a stretch's first
-    sample, where the live rule knows it only once the stretch has lasted its limit).
+def with_run_stuck_flags(frame: pd.DataFrame, stuck: Mapping[str, list], window_s: float,
+                         *extra: Sequence[str]) -> tuple[list[str], int]:
+    """The decisions' flags with the service's live ``stuck:`` flag replaced by the run's.
+
+    A replay of a whole run knows a stuck stretch in hindsight from its first sample
+    (:func:`stuck_decision_flags`), where the live rule knows it only once the stretch has
+    lasted its limit; so the live flag is dropped and the run's is joined in
+    (:func:`join_flags`), with any further flag columns.
 
     Parameters
     ----------
-    flags : sequence of str
-        ``(n_decisions,)`` ``|``-separated flags.
+    frame : pandas.DataFrame
+        :func:`decisions_frame` (``t_s``, ``window_age_s`` in s, ``flags``).
+    stuck : Mapping[str, list]
+        ``Run.meta["stuck"]`` of the replayed run.
+    window_s : float
+        Window length of the model, s.
+    *extra : sequence of str
+        More ``(n_decisions,)`` flag columns to join; ``""`` is no flag.
 
     Returns
     -------
-    list of str
+    flags : list of str
+        ``(n_decisions,)`` joined flags.
+    n_stuck : int
+        Decisions whose window holds a stuck stretch.
     """
-    return ["|".join(f for f in str(cell).split("|") if f and not f.startswith("stuck:"))
-            for cell in flags]
+    run_stuck = stuck_decision_flags(frame, stuck, window_s)
+    live = ["|".join(f for f in str(cell).split("|") if f and not f.startswith("stuck:"))
+            for cell in frame["flags"]]
+    return join_flags(live, run_stuck, *extra), int((run_stuck != "").sum())
 
 
 def join_flags(*columns: Sequence[str]) -> list[str]:

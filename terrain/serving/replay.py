@@ -21,8 +21,7 @@ import pandas as pd
 from terrain.errors import ConfigError, DataFormatError, config_integer
 from terrain.io.report import InputReport, input_report
 from terrain.run import TIME, Run
-from terrain.serving.decisions import (Decision, decisions_frame, join_flags,
-                                       stuck_decision_flags, without_stuck)
+from terrain.serving.decisions import Decision, decisions_frame, with_run_stuck_flags
 from terrain.serving.service import StreamService
 
 
@@ -254,9 +253,9 @@ def replay_recorded(service: StreamService, run: Run) -> RunReplay:
     model = service.model
     frame = decisions_frame(replay_run(service, run), model.classes)
     window_s = model.window.window_s
-    stuck = stuck_decision_flags(frame, dict(run.meta.get("stuck", {})), window_s)
-    frame["flags"] = join_flags(without_stuck(frame["flags"]), stuck)
-    return RunReplay(run, frame, int((stuck != "").sum()),
+    frame["flags"], n_stuck = with_run_stuck_flags(frame, dict(run.meta.get("stuck", {})),
+                                                   window_s)
+    return RunReplay(run, frame, n_stuck,
                      _overlap_s([run.streams[s] for s in streams]), window_s,
                      service.config.hop_s, service.config.max_backlog_s, streams,
                      service.refused_samples, service.held_samples,

@@ -58,13 +58,12 @@ from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_accel_units, check_ranges,
                                      check_rate, check_run, implied_rate_hz)
 from terrain.run import TIME, Run
+from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
+from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
                                    load_stream_model)
 from terrain.serving.replay import replay_run
 from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
-from terrain.serving.decisions import (decisions_frame, join_flags, stuck_decision_flags,
-                                       without_stuck)
-from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
 from terrain.serving.service import StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
@@ -535,11 +534,11 @@ def _plausibility_flags(frame: pd.DataFrame, window_s: float,
     stuck_decision_flags`), ``warning:<rule>`` on every window when a rule found a likely
     problem (the service still decided), ``unused:<stream>`` on every window when the
     request held rows of a stream the model does not use (not read, not checked)."""
-    stuck = stuck_decision_flags(frame, checks.get("stuck", {}), window_s)
     rules = "|".join(sorted({f"warning:{m.group(1)}" for w in checks.get("warnings", ())
                              for m in [re.search(r"rule (\w+)", w)] if m}
                             | {f"unused:{s}" for s in checks.get("unused", {})}))
-    return join_flags(without_stuck(frame["flags"]), stuck, [rules] * len(frame))
+    return with_run_stuck_flags(frame, checks.get("stuck", {}), window_s,
+                                [rules] * len(frame))[0]
 
 
 class ServedStreamModel(PythonModel):
