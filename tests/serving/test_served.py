@@ -32,8 +32,8 @@ from terrain.run import WHEEL_CHANNELS
 from terrain.serving.pyfunc import save_model
 from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
                              replay_run)
-from terrain.serving.served import (MAX_DECISIONS, _plausibility_flags,
-                                    parse_request, planned_decisions, save_served_model,
+from terrain.serving.request import parse_request, planned_decisions
+from terrain.serving.served import (MAX_DECISIONS, _plausibility_flags, save_served_model,
                                     served_settings, smoothing_of)
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.control import DesiredSlipConfig
