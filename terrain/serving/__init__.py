@@ -18,8 +18,9 @@ One responsibility per module:
 * MLflow pyfuncs: :mod:`~terrain.serving.pyfunc` (the inference pipeline of ``terrain
   train`` / ``terrain predict`` on aligned samples, entry
   :mod:`~terrain.serving.pyfunc_entry`) and :mod:`~terrain.serving.served` (the raw-stream
-  service of ``terrain serve``, entry :mod:`~terrain.serving.served_entry`). They import
-  MLflow, so they are not imported here: the robot's service loads without it.
+  service of ``terrain serve``, entry :mod:`~terrain.serving.served_entry`; its requests
+  validated by :mod:`~terrain.serving.request`). They import MLflow, so they are not
+  imported here: the robot's service loads without it.
 
 Public API of the package: :class:`StreamService`, :class:`StreamConfig`, :class:`Decision`,
 :func:`decisions_frame`, :class:`StreamModel`, :func:`load_stream_model`,
