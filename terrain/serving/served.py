@@ -21,7 +21,10 @@ speeds in km/h, gyro in deg/s, clocks that do not overlap) refuses it, a stuck c
 the windows holding it (``stuck:<stream>.<channel>``, as ``terrain predict``) and a likely
 unit problem flags every window (``warning:<rule>``); neither drops a window. Rows of a
 known stream the model does not use (IMU rows sent to a wheel-only model) are not read, so
-not checked: every window says so (``unused:<stream>``).
+not checked: every window says so (``unused:<stream>``). Samples the service still held
+when the request ended (a stream stepping far ahead of the others' clock, held until they
+catch up; :attr:`~terrain.serving.service.StreamService.held_samples`) reached no decision:
+every window says so (``held:<stream>``).
 
 A window holding a timestamp gap costs the same as any other (the service aligns only its
 window's end of the streams' grid, :func:`terrain.io.align.overlap_grid_tail`; the window is
@@ -206,16 +209,20 @@ def smoothing_of(settings: Mapping[str, Any]) -> SmoothingConfig:
                            reset_windows=int(settings.get("reset_windows", 2)))
 
 
-def _plausibility_flags(frame: pd.DataFrame, window_s: float,
-                        checks: Mapping[str, Any]) -> list[str]:
+def _plausibility_flags(frame: pd.DataFrame, window_s: float, checks: Mapping[str, Any],
+                        held: Mapping[tuple[str, str], int] | None = None) -> list[str]:
     """Decision flags plus the run-level findings: ``stuck:<stream>.<channel>`` on the
     decisions whose window holds a stuck stretch (:func:`~terrain.serving.decisions.
     stuck_decision_flags`), ``warning:<rule>`` on every window when a rule found a likely
     problem (the service still decided), ``unused:<stream>`` on every window when the
-    request held rows of a stream the model does not use (not read, not checked)."""
+    request held rows of a stream the model does not use (not read, not checked), and
+    ``held:<stream>`` on every window when samples of that stream were still held by the
+    service when the request ended (``held``: :attr:`StreamService.held_samples`), so that
+    no decision saw them."""
     rules = "|".join(sorted({f"warning:{m.group(1)}" for w in checks.get("warnings", ())
                              for m in [re.search(r"rule (\w+)", w)] if m}
-                            | {f"unused:{s}" for s in checks.get("unused", {})}))
+                            | {f"unused:{s}" for s in checks.get("unused", {})}
+                            | {f"held:{s}" for s, _ in (held or {})}))
     return with_run_stuck_flags(frame, checks.get("stuck", {}), window_s,
                                 [rules] * len(frame))[0]
 
@@ -282,7 +289,8 @@ class ServedStreamModel(PythonModel):
         ------
         DataFormatError
             Besides :func:`parse_request`'s errors: a request whose time span would make
-            more than ``max_decisions`` decisions.
+            more than ``max_decisions`` decisions, or one that gave no decision while the
+            service still held samples of it when it ended.
         """
         service = StreamService(self.model, self.targets, self.config)
         streams = {s: service.streams[s] for s in service.needed_streams}
@@ -297,8 +305,16 @@ class ServedStreamModel(PythonModel):
                                   f"{planned} decisions (one every {hop:g} s), above the limit of "
                                   f"{limit}; send the streams in shorter pieces (a time jump "
                                   "in a stream counts as its length)", "request", TIME)
-        out = decisions_frame(replay_run(service, run, max_chunk=32), self.model.classes)
-        out["flags"] = _plausibility_flags(out, window_s, run.meta)
+        decisions = replay_run(service, run, max_chunk=32)
+        held = service.held_samples
+        if held and not decisions:
+            raise DataFormatError(
+                "no decision: " + ", ".join(f"{n} sample(s) of stream {s!r} held ({r})"
+                                            for (s, r), n in sorted(held.items()))
+                + " when the request ended; send the other streams' samples of that time "
+                "in the same request", "request", TIME)
+        out = decisions_frame(decisions, self.model.classes)
+        out["flags"] = _plausibility_flags(out, window_s, run.meta, held)
         # (a list, not the .str accessor: an answer without decisions has no text dtype)
         out["dropped"] = [any(x in DROP_FLAGS for x in f.split("|")) for f in out["flags"]]
         out["terrain"] = out["terrain"].fillna("")

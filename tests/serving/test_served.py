@@ -267,6 +267,48 @@ def test_plausibility_flags():
     flags = _plausibility_flags(frame, 2.0, checks)
     assert flags == ["warning:gyro_units", "gap|stuck:wheels.cur_l|warning:gyro_units",
                      "warning:gyro_units"]
+    held = _plausibility_flags(frame, 2.0, {}, {("wheels", "time_ahead"): 4})
+    assert held == ["held:wheels", "gap|held:wheels", "held:wheels"]
+
+
+def test_samples_still_held_when_the_request_ends_are_named_on_every_window(
+        all_model, borealtc_runs, train_runs, tmp_path):
+    """A wheel stream that steps 20 s ahead of the IMU's clock near the end of a request is
+    held until the IMU catches up, which it never does: the answer says so on every window
+    (``held:wheels``) instead of ending early without a word; its decisions are those of the
+    request without the stepped samples, as far as they go."""
+    import mlflow.pyfunc
+
+    m = all_model
+    save_model(tmp_path / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
+    save_served_model(tmp_path / "served", tmp_path / "train", served_settings(m))
+    served = mlflow.pyfunc.load_model(str(tmp_path / "served"))
+    seen = {r.run_id for r in train_runs}
+    run = next(r for r in borealtc_runs if r.run_id not in seen and r.has_imu
+               and float(r.streams["wheels"]["t_s"].iloc[-1] - r.streams["imu"]["t_s"].iloc[0])
+               > 31.0)
+    imu, wheels = run.streams["imu"], run.streams["wheels"]
+    t0 = float(imu["t_s"].iloc[0])
+    imu = imu[imu["t_s"] < t0 + 10.0].assign(stream="imu")
+    near = wheels[wheels["t_s"] < t0 + 9.0].assign(stream="wheels")
+    ahead = wheels[(wheels["t_s"] >= t0 + 29.3) & (wheels["t_s"] < t0 + 30.0)]
+    assert len(ahead) >= 3
+    plain_req = pd.concat([imu, near], ignore_index=True)
+    held_req = pd.concat([plain_req, ahead.assign(stream="wheels")], ignore_index=True)
+    status, plain = _call(served, plain_req)
+    assert status == 200, plain
+    status, held = _call(served, held_req)
+    assert status == 200, held
+    plain, held = pd.DataFrame(plain["predictions"]), pd.DataFrame(held["predictions"])
+    assert not plain["flags"].str.contains("held:").any()
+    assert len(held) >= 10 and held["flags"].str.contains("held:wheels").all()
+    cut = plain.iloc[:len(held)]
+    pd.testing.assert_frame_equal(held.drop(columns="flags"), cut.drop(columns="flags"))
+    # the request's clocks no longer overlap well either: the readers' rule says so too
+    added = {"held:wheels", "warning:clock_overlap"}
+    assert all(added <= set(x.split("|")) for x in held["flags"])
+    strip = ["|".join(f for f in x.split("|") if f not in added) for x in held["flags"]]
+    assert strip == list(cut["flags"])
 
 
 def _synthetic(step_s: float, n: int) -> pd.DataFrame:
