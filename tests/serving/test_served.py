@@ -271,23 +271,34 @@ def test_plausibility_flags():
     assert held == ["held:wheels", "gap|held:wheels", "held:wheels"]
 
 
-def test_samples_still_held_when_the_request_ends_are_named_on_every_window(
-        all_model, borealtc_runs, train_runs, tmp_path):
+@pytest.fixture(scope="module")
+def served_all(all_model, tmp_path_factory):
+    """The session's IMU + wheel model, served (loaded as ``mlflow models serve`` does)."""
+    import mlflow.pyfunc
+
+    root, m = tmp_path_factory.mktemp("served_all"), all_model
+    save_model(root / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
+    save_served_model(root / "served", root / "train", served_settings(m))
+    return mlflow.pyfunc.load_model(str(root / "served"))
+
+
+@pytest.fixture(scope="module")
+def long_unseen_run(borealtc_runs, train_runs):
+    """An unseen run with an IMU whose wheel stream lasts over 31 s."""
+    seen = {r.run_id for r in train_runs}
+    return next(r for r in borealtc_runs if r.run_id not in seen and r.has_imu
+                and float(r.streams["wheels"]["t_s"].iloc[-1]
+                          - r.streams["imu"]["t_s"].iloc[0]) > 31.0)
+
+
+def test_samples_still_held_when_the_request_ends_are_named_on_every_window(served_all,
+                                                                            long_unseen_run):
     """A wheel stream that steps 20 s ahead of the IMU's clock near the end of a request is
     held until the IMU catches up, which it never does: the answer says so on every window
     (``held:wheels``) instead of ending early without a word; its decisions are those of the
     request without the stepped samples, as far as they go."""
-    import mlflow.pyfunc
-
-    m = all_model
-    save_model(tmp_path / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
-    save_served_model(tmp_path / "served", tmp_path / "train", served_settings(m))
-    served = mlflow.pyfunc.load_model(str(tmp_path / "served"))
-    seen = {r.run_id for r in train_runs}
-    run = next(r for r in borealtc_runs if r.run_id not in seen and r.has_imu
-               and float(r.streams["wheels"]["t_s"].iloc[-1] - r.streams["imu"]["t_s"].iloc[0])
-               > 31.0)
-    imu, wheels = run.streams["imu"], run.streams["wheels"]
+    served = served_all
+    imu, wheels = long_unseen_run.streams["imu"], long_unseen_run.streams["wheels"]
     t0 = float(imu["t_s"].iloc[0])
     imu = imu[imu["t_s"] < t0 + 10.0].assign(stream="imu")
     near = wheels[wheels["t_s"] < t0 + 9.0].assign(stream="wheels")
@@ -309,6 +320,22 @@ def test_samples_still_held_when_the_request_ends_are_named_on_every_window(
     assert all(added <= set(x.split("|")) for x in held["flags"])
     strip = ["|".join(f for f in x.split("|") if f not in added) for x in held["flags"]]
     assert strip == list(cut["flags"])
+
+
+def test_a_request_whose_only_decisions_would_need_held_samples_is_a_typed_400(
+        served_all, long_unseen_run):
+    """2.5 s of IMU and 1 s of wheels, then 1.5 s of wheels 20 s on: the wheels never reach
+    the first decision's time before their step ahead, which is held for the IMU to catch
+    up. Before, the answer was an empty 200; now a 400 names the held samples."""
+    imu, wheels = long_unseen_run.streams["imu"], long_unseen_run.streams["wheels"]
+    t0 = float(imu["t_s"].iloc[0])
+    w = pd.concat([wheels[wheels["t_s"] < t0 + 1.0],
+                   wheels[(wheels["t_s"] >= t0 + 20.0) & (wheels["t_s"] < t0 + 21.5)]])
+    frame = pd.concat([imu[imu["t_s"] < t0 + 2.5].assign(stream="imu"),
+                       w.assign(stream="wheels")], ignore_index=True)
+    message = _error(served_all, frame)
+    assert message.startswith("DataFormatError: no decision: ")
+    assert "sample(s) of stream 'wheels' held (time_ahead) when the request ended" in message
 
 
 def _synthetic(step_s: float, n: int) -> pd.DataFrame:
