@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_features,
-                                    slip_windows)
+from features.slip_features import (SLIP_CHANNELS, SLIP_WINDOW, one_hot_probabilities,
+                                    slip_features, slip_windows)
+from features.windows import WindowSet
 from terrain.io.align import interpolated_mean_count
 from terrain.run import Run
 from terrain.sim.sensors import SensorSettings
@@ -67,12 +68,8 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
         currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
     """
 
-    w = run.streams.get("wheels")
-    if w is None or "imu" not in run.streams or not {"cur_l", "cur_r"} <= set(w.columns) \
-            or str(run.terrain) not in TERRAIN_NAMES:
-        return None
-    ws = slip_windows([run])
-    if len(ws) == 0 or set(SLIP_CHANNELS) - set(ws.channels):
+    ws, missing = _slip_windows(run)
+    if missing is not None:
         return None
     vehicle = get_vehicle(run.vehicle)
     X = slip_features(ws, vehicle, one_hot_probabilities([str(run.terrain)] * len(ws),
@@ -119,4 +116,41 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     return out
 
 
-__all__ = ["slip_model_outputs"]
+def missing_slip_inputs(run: Run) -> str | None:
+    """Why :func:`slip_model_outputs` gives None for a run, or None when it gives outputs.
+
+    Parameters
+    ----------
+    run : Run
+        Skid-steer run.
+
+    Returns
+    -------
+    str or None
+        The first input the slip models lack, in words (no wheel stream, no motor currents,
+        no IMU, a terrain outside the catalogue, no complete window of
+        :data:`features.slip_features.SLIP_WINDOW`), for the user's note; None when every
+        input is there.
+    """
+    return _slip_windows(run)[1]
+
+
+def _slip_windows(run: Run) -> tuple[WindowSet | None, str | None]:
+    # the slip windows of the run, or the first missing input in words
+    w = run.streams.get("wheels")
+    if w is None:
+        return None, "no wheel stream"
+    if not {"cur_l", "cur_r"} <= set(w.columns):
+        return None, "no motor currents (cur_l, cur_r)"
+    if "imu" not in run.streams:
+        return None, "no IMU stream"
+    if str(run.terrain) not in TERRAIN_NAMES:
+        return None, f"terrain {str(run.terrain)!r} not in the terrain catalogue"
+    ws = slip_windows([run])
+    if len(ws) == 0 or set(SLIP_CHANNELS) - set(ws.channels):
+        return None, (f"no complete {SLIP_WINDOW.window_s:g} s window of IMU and wheel "
+                      "samples (run too short or gappy)")
+    return ws, None
+
+
+__all__ = ["missing_slip_inputs", "slip_model_outputs"]

@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from features.slip_outputs import slip_model_outputs
+from features.slip_outputs import missing_slip_inputs, slip_model_outputs
 from pipelines.arguments import output_file
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
@@ -125,8 +125,10 @@ def main(args: argparse.Namespace) -> int:
                                rate_hz=rate_hz)
         else:
             outputs = slip_model_outputs(run, learned) if args.slip_model != "ekf" else None
+            missing = missing_slip_inputs(run) if outputs is None else None
             est = estimate_skid_steer_slip_run(run, args.slip_model, outputs=outputs,
-                                               lag=args.lag, gate=gate, rate_hz=rate_hz)
+                                               missing=missing, lag=args.lag, gate=gate,
+                                               rate_hz=rate_hz)
         for note in est.notes:
             print(note)
         if len(runs) == 1:

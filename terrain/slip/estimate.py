@@ -612,7 +612,8 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
 
 def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                                  outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
-                                 | None = None, lag: str = "xcorr",
+                                 | None = None, missing: str | None = None,
+                                 lag: str = "xcorr",
                                  gate: Gate | None = None, rate_hz: float | None = None,
                                  settings: FusionSettings = BATCH_FUSION) -> RunEstimate:
     """States and side slips with standard deviations of a skid-steer run: the slip-augmented
@@ -631,6 +632,9 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         (its std scales the slip drift when ``settings.filter.slip_psd_rel > 0``; without it
         the pseudo-measurement std does) and, with a learned model, ``learned``); None when they
         could not be computed (then no pseudo-measurement).
+    missing : str, optional
+        Why ``outputs`` is None, in words (:func:`features.slip_outputs.missing_slip_inputs`),
+        for the note that says no slip model supplied the common slip.
     lag : {"xcorr", "ema", "none"}
         ``xcorr`` estimates the wheel-stream lag against the gyro.
     gate : Gate, optional
@@ -696,8 +700,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         notes.append("no learned slip model available: falling back to physics")
         source = "physics"
     if outputs is None and source != "ekf":
-        notes.append(f"{source} slip model needs motor currents, an IMU and a catalogue "
-                     f"terrain (run terrain {run.terrain!r}): none used")
+        why = missing or "its window outputs were not given"
+        notes.append(f"{source} slip model not used for run {run.run_id}: {why}")
         source = "ekf"
     if source == "fused" and "learned" not in outputs:
         source = "fused (physics only: no learned model)"

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -150,6 +152,36 @@ def test_slip_model_dir_not_used_is_said(run_dir, tmp_path, capsys):
                  "--slip-model", "physics", "--slip-model-dir", str(tmp_path / "nope")]) == 0
     out = capsys.readouterr().out
     assert "--slip-model-dir" in out and "not used" in out
+
+
+def test_a_run_shorter_than_a_slip_window_names_that_reason(tmp_path, capsys):
+    # 1.5 s of a run with currents, IMU and a catalogue terrain: the physics slip has no 2 s
+    # window; the note said "needs motor currents, an IMU and a catalogue terrain" before
+    root = tmp_path / "short"
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SNOW",),
+                                 scenario="straight_accel", duration_s=1.5, seed=1)), root)
+    assert main(["estimate", str(root), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model", "physics"]) == 0
+    out = capsys.readouterr().out
+    (note,) = [line for line in out.splitlines() if "slip model not used" in line]
+    assert "no complete 2 s window" in note and "SNOW/00" in note
+    assert "catalogue" not in note and "supplied by nothing" in out
+
+
+def test_missing_slip_inputs_names_the_first_input_the_slip_models_lack():
+    from features.slip_outputs import missing_slip_inputs, slip_model_outputs
+    run = simulate(SimConfig(vehicle="husky", terrains=("SNOW",),
+                             scenario="straight_accel", duration_s=3.0, seed=1))
+    assert missing_slip_inputs(run) is None and slip_model_outputs(run) is not None
+    wheels = run.streams["wheels"]
+    cases = {"no IMU stream": {"wheels": wheels},
+             "no motor currents": {**run.streams,
+                                   "wheels": wheels.drop(columns=["cur_l", "cur_r"])}}
+    for reason, streams in cases.items():
+        other = replace(run, streams=streams)
+        assert reason in missing_slip_inputs(other) and slip_model_outputs(other) is None
+    mud = replace(run, terrain="MUD")
+    assert "'MUD' not in the terrain catalogue" in missing_slip_inputs(mud)
 
 
 @pytest.mark.parametrize("rate_hz", [0, 0.0, -5.0, float("nan"), 1e9])
