@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from pipelines.arguments import output_dir, seed_value
 from terrain.io.writer import write_run
+from terrain.run import Run
 from terrain.sim import (SCENARIO_NAMES, SimConfig, parse_effects, parse_terrain_list,
                          simulate)
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -70,6 +73,42 @@ def main(args: argparse.Namespace) -> int:
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
                        effects=parse_effects(args.effect), segment_length_m=args.segment_m,
                        physics=args.physics)
-    paths = write_run(simulate(config), args.out)
+    run = simulate(config)
+    paths = write_run(run, args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")
+    note = unreached_terrains_note(run, config)
+    if note:
+        print(note)
     return 0
+
+
+def unreached_terrains_note(run: Run, config: SimConfig) -> str | None:
+    """A note naming the listed terrains a simulated run never reached, or None.
+
+    The terrain changes every ``config.segment_length_m`` of travelled distance, so a short or
+    slow run, or a spin in place, may end on the first terrains of the list.
+
+    Parameters
+    ----------
+    run : Run
+        The simulated run; its ``truth`` stream holds ``x``, ``y`` (m) and ``terrain`` per
+        physics step.
+    config : SimConfig
+        Its configuration (``terrains``, ``segment_length_m``).
+
+    Returns
+    -------
+    str or None
+        ``note: ...`` with the terrains never reached, the distance the path covers and
+        the terrains the run holds; None when every listed terrain is in the run.
+    """
+    truth = run.streams["truth"]
+    reached = list(dict.fromkeys(truth["terrain"].astype(str)))
+    unreached = [t for t in dict.fromkeys(config.terrains) if t not in reached]
+    if not unreached:
+        return None
+    path_m = float(np.hypot(np.diff(truth["x"].to_numpy(float)),
+                            np.diff(truth["y"].to_numpy(float))).sum())
+    return (f"note: terrain(s) {', '.join(unreached)} never reached: the path covers "
+            f"{path_m:.1f} m and the terrain changes every {config.segment_length_m:g} m "
+            f"(--segment-m); the run holds {', '.join(reached)} only")

@@ -132,3 +132,20 @@ def test_repeated_effect_is_refused(tmp_path, capsys):
                  "--out", str(tmp_path)]) == 2
     line = _one_line_error(capsys)
     assert "icr_expansion given twice" in line
+
+
+def test_a_listed_terrain_the_path_never_reaches_is_named(tmp_path, capsys):
+    # a spin in place covers no distance: the second terrain of the list never comes, and the
+    # run (folder MIXED, meta "terrains" as listed) holds the first only; said in a note
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--scenario",
+                 "spin", "--duration-s", "5", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "note: terrain(s) SNOW never reached: the path covers 0.0 m" in out
+    assert "the run holds ICE only" in out
+    (run,) = read_runs_dir(tmp_path)
+    assert set(run.streams["truth"]["terrain"]) == {"ICE"}
+    # a path long enough for both: no note
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--segment-m",
+                 "2", "--scenario", "straight_accel", "--duration-s", "10", "--out",
+                 str(tmp_path / "both")]) == 0
+    assert "never reached" not in capsys.readouterr().out
