@@ -521,8 +521,9 @@ def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
     Raises
     ------
     ConfigError
-        ``run_dir`` is not a folder, holds no run files, holds several runs and ``index``
-        is not given, or lacks the run ``index`` (the message lists those it holds).
+        ``run_dir`` is not a folder, holds no run files (the message names its terrain
+        folders that do, when it is a runs folder), holds several runs and ``index`` is not
+        given, or lacks the run ``index`` (the message lists those it holds).
     DataFormatError, OrphanFileError
         As :func:`folder_run_files` and :func:`read_run` (a file that cannot be read).
     """
@@ -534,7 +535,12 @@ def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
     shown = folder if run_dir.name in ("", ".", "..") else run_dir
     runs = folder_run_files(shown)
     if not runs:
-        raise ConfigError(f"{shown} holds no run files (imu_XX.csv, pro_XX.csv)")
+        # a runs folder one level up (<root>/<TERRAIN>/...): name its terrain folders
+        inner = sorted(d.name for d in folder.iterdir()
+                       if d.is_dir() and any(d.glob("pro_*.csv")) | any(d.glob("imu_*.csv")))
+        hint = (f"; its terrain folder(s) {', '.join(inner)} do: pass one of them, e.g. "
+                f"{shown / inner[0]}" if inner else "")
+        raise ConfigError(f"{shown} holds no run files (imu_XX.csv, pro_XX.csv){hint}")
     if index is None and len(runs) > 1:
         raise ConfigError(f"{shown} holds runs {sorted(runs)}: choose one with --index")
     index = index or next(iter(runs))

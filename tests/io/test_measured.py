@@ -272,8 +272,12 @@ def test_read_folder_run_reads_the_chosen_run_labelled_by_its_folder(tmp_path, s
         read_folder_run(tmp_path / "husky" / "ICE")
     with pytest.raises(ConfigError, match=r"no run '03' in .*available: \['01', '02'\]"):
         read_folder_run(tmp_path / "husky" / "ICE", "03")
-    with pytest.raises(ConfigError, match="holds no run files"):
+    # the runs folder one level up: the message names the terrain folder to pass
+    with pytest.raises(ConfigError, match=r"holds no run files .*; its terrain folder\(s\) "
+                                          r"ICE do: pass one of them, e.g. .*husky/ICE"):
         read_folder_run(tmp_path / "husky")
+    with pytest.raises(ConfigError, match=r"holds no run files \(imu_XX.csv, pro_XX.csv\)$"):
+        read_folder_run(tmp_path)
     with pytest.raises(ConfigError, match="does not exist or is not a folder"):
         read_folder_run(tmp_path / "husky" / "SNOW")
 
