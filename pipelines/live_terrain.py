@@ -16,8 +16,9 @@ taken by t: the class and probability of its window (no temporal smoothing, as t
 predictions); before the first, none, and the desired-slip table's fallback applies.
 
 Applies where the model's classes include the run's terrain and the model was trained on the
-vehicle's data: its shipped dataset (BorealTC: the Husky) or simulated runs of the vehicle
-(metadata ``vehicle``, the live-sim classifier).
+vehicle's data (:func:`terrain.serving.model.model_vehicle`: its metadata ``vehicle``, as
+``terrain train`` and the live-sim classifier write it, else its shipped dataset's: BorealTC
+and Vulpi were recorded by the Husky).
 """
 
 from __future__ import annotations
@@ -28,15 +29,13 @@ import numpy as np
 
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import DataFormatError
-from terrain.serving.model import StreamModel
+from terrain.serving.model import StreamModel, model_vehicle
 from terrain.serving.service import StreamConfig, StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 from terrain.sim.closed_loop import Observation
 from terrain.vehicles import get_vehicle
 
-#: Shipped dataset of each vehicle (the robot that recorded it).
-VEHICLE_DATASET = {"husky": "borealtc"}
 #: Decisions kept for look-ups (bounded; 64 hops of 0.5 s = 32 s of history).
 MAX_DECISIONS = 64
 
@@ -163,11 +162,8 @@ def classifier_applies(model: StreamModel, vehicle: str, terrain: str) -> tuple[
     note : str
         Where the decisions come from, or why the label is used instead.
     """
-    meta = model.metadata
     classes = [str(c).upper() for c in model.classes]
-    own_data = meta.get("vehicle") == vehicle or (
-        vehicle in VEHICLE_DATASET and meta.get("dataset", VEHICLE_DATASET[vehicle])
-        == VEHICLE_DATASET[vehicle])
+    own_data = model_vehicle(model.metadata) == vehicle
     if not own_data or terrain.upper() not in classes:
         return False, (f"label: the model's classes {classes} do not include {terrain} or it "
                        f"was not trained on {vehicle} data, so the terrain comes from the label")

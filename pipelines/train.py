@@ -161,7 +161,9 @@ def main(args: argparse.Namespace) -> int:
         run.log_table(inputs.table, "input_report.csv")
         used = [r for r in runs if r.run_id in set(ws.run_ids)]
         example = runs_to_model_input(used[:1], ws.channels, window.rate_hz)[0]
+        vehicles = sorted({r.vehicle for r in used})
         meta = {"model": config.model, "dataset": config.dataset,
+                "vehicle": vehicles[0] if len(vehicles) == 1 else None,
                 "signals": list(config.signals),
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
         uri = log_model(pipe, ws.channels, window, classes, meta,

@@ -54,6 +54,9 @@ DATASET_INFO: Mapping[str, Mapping[str, str]] = MappingProxyType({
     }),
 })
 DATASETS = tuple(DATASET_INFO)
+#: Vehicle (:data:`terrain.vehicles.VEHICLE_NAMES`) that recorded each shipped dataset: both
+#: are the Clearpath Husky A200 of :data:`DATASET_INFO` ``robot``.
+DATASET_VEHICLE: Mapping[str, str] = MappingProxyType({"borealtc": "husky", "vulpi": "husky"})
 STREAM_FILES: Mapping[str, str] = MappingProxyType({"imu": "imu.parquet",
                                                    "wheels": "wheels.parquet"})
 RUN_ID = "run_id"
@@ -545,6 +548,25 @@ DATASET_SPECS: Mapping[str, DatasetSpec] = MappingProxyType({
     "vulpi": DatasetSpec("vulpi", ("vulpi",), 50.0),
     "combined": DatasetSpec("combined", ("borealtc", "vulpi"), 100.0),
 })
+
+
+def dataset_vehicle(name: str) -> str | None:
+    """The vehicle that recorded a training set of :data:`DATASET_SPECS`.
+
+    Parameters
+    ----------
+    name : str
+        ``borealtc``, ``vulpi`` or ``combined``.
+
+    Returns
+    -------
+    str or None
+        The one vehicle of its shipped parts (:data:`DATASET_VEHICLE`); None for a name
+        that is not a training set, or one whose parts were recorded by different vehicles.
+    """
+    spec = DATASET_SPECS.get(str(name))
+    vehicles = {DATASET_VEHICLE.get(part) for part in spec.parts} if spec else set()
+    return vehicles.pop() if len(vehicles) == 1 else None
 
 
 def load_dataset(name: str, data_dir: str | Path | None = None) -> list[Run]:

@@ -19,6 +19,7 @@ import yaml
 
 from features.windows import DERIVED_WHEEL_CHANNELS, WindowConfig
 from terrain.errors import ConfigError
+from terrain.io.shipped import dataset_vehicle
 from terrain.run import WHEEL_CHANNELS
 
 PIPELINE_ARTIFACT = Path("artifacts") / "pipeline.joblib"
@@ -59,6 +60,60 @@ class StreamModel:
         if any(c in DERIVED_WHEEL_CHANNELS for c in self.channels):
             raw += [c for c in WHEEL_CHANNELS if c not in raw]
         return tuple(raw)
+
+
+def model_vehicle(metadata: Mapping[str, Any]) -> str | None:
+    """The vehicle whose runs trained a model.
+
+    Parameters
+    ----------
+    metadata : Mapping
+        The model directory's ``metadata``: its ``vehicle`` (``terrain train`` writes the
+        training runs' vehicle; the live-sim classifier the simulated one), else the vehicle
+        of its shipped ``dataset`` (:func:`terrain.io.shipped.dataset_vehicle`; models saved
+        before the key existed).
+
+    Returns
+    -------
+    str or None
+        A name of :data:`terrain.vehicles.VEHICLE_NAMES`; None when the metadata names
+        neither.
+    """
+    vehicle = metadata.get("vehicle")
+    if isinstance(vehicle, str) and vehicle:
+        return vehicle.lower()
+    return dataset_vehicle(str(metadata.get("dataset", "")))
+
+
+def other_vehicle_note(metadata: Mapping[str, Any], run_vehicle: str, run_id: str) -> str | None:
+    """A note for a run recorded by another vehicle than the one whose runs trained the model.
+
+    The classifier's features (motor currents in A, wheel speeds, vibration) belong to the
+    vehicle that recorded its training runs; on another vehicle its decisions are a transfer
+    that nothing here has measured, and the user is told so.
+
+    Parameters
+    ----------
+    metadata : Mapping
+        The model directory's ``metadata`` (:func:`model_vehicle`).
+    run_vehicle : str
+        The run's vehicle (``meta_XX.json`` ``vehicle``; the readers' default is the Husky).
+    run_id : str
+        The run, named in the note.
+
+    Returns
+    -------
+    str or None
+        ``note: ...``; None when the vehicles agree or the model names none.
+    """
+    trained = model_vehicle(metadata)
+    if trained is None or trained == str(run_vehicle).lower():
+        return None
+    dataset = metadata.get("dataset")
+    where = f" (dataset {dataset})" if dataset else ""
+    return (f"note: run {run_id} was recorded by vehicle {run_vehicle!r} (its meta_XX.json), "
+            f"the model was trained on {trained!r} runs{where}: its decisions carry the "
+            "model to another vehicle, which nothing here has measured")
 
 
 #: Metadata keys every terrain model directory carries (``terrain train --model-out``).

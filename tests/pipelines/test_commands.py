@@ -139,6 +139,14 @@ def test_train_then_predict_on_measured_layout(workdir, capfd):
     vote = pred.groupby("run")["predicted"].agg(lambda s: s.value_counts().index[0])
     assert vote["runs/UNKNOWN_A/1"] == "CONCRETE"
     assert vote["runs/UNKNOWN_B/3"] == "PLOUGHED"
+    # the model names the vehicle of its training runs; a run of another one is said
+    from terrain.serving.model import read_model_metadata
+    assert read_model_metadata(model_dir)["vehicle"] == "husky"
+    assert "another vehicle" not in capfd.readouterr().out
+    (runs_dir / "UNKNOWN_A" / "meta_1.json").write_text('{"vehicle": "agrimaro"}')
+    assert main(["predict", "--model", str(model_dir), str(runs_dir), "--out", str(out)]) == 0
+    notes = [line for line in capfd.readouterr().out.splitlines() if "another vehicle" in line]
+    assert len(notes) == 1 and "runs/UNKNOWN_A/1" in notes[0] and "'agrimaro'" in notes[0]
 
 
 def test_convert_regenerates_identical_data(workdir):

@@ -101,6 +101,36 @@ def test_stream_errors_name_the_run_folder_given(tmp_path, capsys, wheel_model, 
     assert "cases/EMPTY holds no run files" in capsys.readouterr().err
 
 
+def test_stream_names_a_run_of_another_vehicle_than_the_models(run_dir, tmp_path, capsys,
+                                                               wheel_model, monkeypatch):
+    # a Husky model (dataset borealtc, no vehicle key: a model saved before train wrote one)
+    # on a run whose meta_XX.json names the tracked vehicle: decided, and said
+    monkeypatch.chdir(tmp_path)
+    model_dir = tmp_path / "model"
+    save_model(model_dir, wheel_model.pipeline, wheel_model.channels, wheel_model.window,
+               list(wheel_model.classes), {"dataset": "borealtc"}, progress=False)
+    folder = _edited_copy(run_dir, tmp_path / "runs")
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 0
+    assert "another vehicle" not in capsys.readouterr().out      # no meta: the Husky
+    (folder / "meta_07.json").write_text('{"vehicle": "tracked"}')
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 0
+    out = capsys.readouterr().out
+    assert ("note: run SNOW/07 was recorded by vehicle 'tracked' (its meta_XX.json), the "
+            "model was trained on 'husky' runs (dataset borealtc)") in out
+    assert len(pd.read_csv(tmp_path / "d.csv")) > 20
+
+
+def test_model_vehicle_reads_the_key_else_the_shipped_dataset():
+    from terrain.serving.model import model_vehicle, other_vehicle_note
+    assert model_vehicle({"vehicle": "Tracked", "dataset": "borealtc"}) == "tracked"
+    assert [model_vehicle({"dataset": d}) for d in ("borealtc", "vulpi", "combined")] == \
+        ["husky"] * 3
+    assert model_vehicle({"dataset": "sim"}) is None and model_vehicle({}) is None
+    assert model_vehicle({"vehicle": None, "dataset": "vulpi"}) == "husky"
+    assert other_vehicle_note({}, "tracked", "r") is None
+    assert other_vehicle_note({"dataset": "vulpi"}, "HUSKY", "r") is None
+
+
 def test_stream_reports_the_cells_the_reader_repaired(run_dir, tmp_path, capsys, wheel_model,
                                                       monkeypatch):
     monkeypatch.chdir(tmp_path)
