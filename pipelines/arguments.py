@@ -160,6 +160,25 @@ def seed_value(value: str) -> int:
     return number
 
 
+class DistinctSeeds(argparse.Action):
+    """argparse action of a seed-list option (``nargs="+"``, ``type=seed_value``): each seed
+    at most once.
+
+    A repeated seed would run the same split or simulation twice and count it as two: the
+    spread over seeds would shrink and the pooled counts double one split. argparse reports
+    the error as a usage error naming the option.
+    """
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        seen: set[int] = set()
+        for seed in values:
+            if seed in seen:
+                parser.error(f"argument {option_string or self.dest}: seed {seed} given twice "
+                             f"(each seed once: a repeated seed counts one run of it twice)")
+            seen.add(seed)
+        setattr(namespace, self.dest, list(values))
+
+
 def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:
     """Add ``--cnn-seeds`` (seed bagging of every CNN; :attr:`ModelConfig.cnn_seeds`).
 

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import add_cnn_seeds, add_train_hop, output_dir, seed_value
+from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, output_dir,
+                                 seed_value)
 from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
                                     iter_grid, joblib_backend, markdown_table,
@@ -75,7 +76,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--signals", nargs="+", default=list(d.signals))
     parser.add_argument("--windows-s", type=float, nargs="+", default=list(d.windows_s))
     parser.add_argument("--datasets", nargs="+", default=list(d.datasets))
-    parser.add_argument("--seeds", type=seed_value, nargs="+", default=list(d.seeds))
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=list(d.seeds))
     parser.add_argument("--history", type=int, nargs="+", default=list(d.history))
     parser.add_argument("--max-epochs", type=int, default=d.max_epochs)
     parser.add_argument("--threads", type=int, default=None, help="torch threads per CNN fit")

@@ -21,7 +21,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, output_dir, seed_value
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from pipelines.control_sim import SCENARIOS
 from terrain.control.closed_loop import default_gains
@@ -54,7 +54,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrains", nargs="+",
                         default=["TILES", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
     parser.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=["straight_accel"])
-    parser.add_argument("--seeds", nargs="+", type=seed_value, default=[0])
+    parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=[0])
     parser.add_argument("--duration-s", type=float, default=20.0)
     parser.add_argument("--no-tune", action="store_true", help="use the default gains")
     parser.add_argument("--kp-grid", nargs="+", type=float, default=[2.0, 5.0, 10.0, 20.0])
@@ -68,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain decisions: label (default), live-sim (classifier "
                              "trained on simulated runs) or model (--model)")
     parser.add_argument("--model", default=None, help="classifier of --terrain-source model")
-    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value,
+    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",

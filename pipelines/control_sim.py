@@ -29,7 +29,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import output_file, seed_value
+from pipelines.arguments import DistinctSeeds, output_file, seed_value
 from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
 from terrain.control.estimators import ESTIMATORS
@@ -74,7 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "runs, run live on the loop's samples; trained once, then "
                              "cached), model (--model) or label (ground truth); default "
                              "model with --model, else live-sim")
-    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value,
+    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=list(CLASSIFIER_SEEDS),
                         help="training seeds of the live-sim classifier")
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",

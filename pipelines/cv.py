@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from pipelines.arguments import (add_cnn_seeds, add_run_balanced, add_train_hop,
-                                 add_window_ekf, output_file, seed_value)
+from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced,
+                                 add_train_hop, add_window_ekf, output_file, seed_value)
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
@@ -44,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="hop between windows, s (default: window length)")
     add_train_hop(parser)
     parser.add_argument("--protocol", choices=PROTOCOLS, default="grouped")
-    parser.add_argument("--seeds", type=seed_value, nargs="+", default=None,
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds, default=None,
                         help="CV seeds (default: 0 1 2; loro: 0, it is deterministic; "
                              "paper: 0, i.e. random_state 21)")
     parser.add_argument("--search", action="store_true",

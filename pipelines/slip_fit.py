@@ -20,7 +20,7 @@ import pandas as pd
 
 from features.slip_features import (one_hot_probabilities, slip_features, slip_table,
                                     slip_windows, terrain_columns)
-from pipelines.arguments import output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, output_dir, seed_value
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
@@ -55,8 +55,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrains", nargs="+", default=list(TERRAIN_NAMES))
     parser.add_argument("--scenarios", nargs="+",
                         default=["straight_accel", "orchard", "slope_turn", "random"])
-    parser.add_argument("--train-seeds", nargs="+", type=seed_value, default=[0, 1])
-    parser.add_argument("--test-seeds", nargs="+", type=seed_value, default=[100])
+    parser.add_argument("--train-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=[0, 1])
+    parser.add_argument("--test-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=[100])
     parser.add_argument("--duration-s", type=float, default=40.0)
     parser.add_argument("--orchard-duration-s", type=float, default=120.0,
                         help="held-out orchard runs of this length for the odometry (a 40 s "
@@ -95,11 +97,16 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        An unknown terrain or scenario, or a duration (``--duration-s``, or an
+        A seed in both ``--train-seeds`` and ``--test-seeds``, an unknown terrain or
+        scenario, or a duration (``--duration-s``, or an
         ``--orchard-duration-s`` longer than it or NaN) the simulation refuses; checked
         before any run is simulated.
     """
     from threadpoolctl import threadpool_limits
+    both = sorted(set(args.train_seeds) & set(args.test_seeds))
+    if both:  # a seed in both would be scored as held out and silently left out of training
+        raise ConfigError(f"seed(s) {both} in both --train-seeds and --test-seeds: the held-out "
+                          "runs are those of seeds the model was not fitted on")
     if not args.orchard_duration_s <= args.duration_s:  # NaN, or an orchard run to simulate
         try:  # the simulation's own checks, before hours of fitting
             SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.orchard_duration_s)

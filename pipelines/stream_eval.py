@@ -22,7 +22,7 @@ from dataclasses import replace
 import pandas as pd
 
 from features.windows import WindowConfig
-from pipelines.arguments import output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, output_dir, seed_value
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
@@ -58,7 +58,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model-out", type=output_dir, default=None,
                         help="also fit each --kinds recipe on every BorealTC run and save it "
                              "to DIR/<kind> (a model directory for terrain stream)")
-    parser.add_argument("--seeds", type=seed_value, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
                         default=list(DEFAULT_RECIPES.values()),
                         help="recipes of the held-out stream evaluation and of --model-out "

@@ -66,7 +66,7 @@ class ExperimentConfig:
     protocol : {"grouped", "loro", "paper"}
         Split protocol (:func:`terrain.models.cv.iter_splits`); ``grouped`` is the headline.
     seeds : tuple of int
-        Split and model seeds; one CV per seed.
+        Split and model seeds, distinct; one CV per seed.
     n_splits : int
         Outer folds (not used by ``loro``).
     search : bool
@@ -96,7 +96,8 @@ class ExperimentConfig:
     ConfigError
         Unknown model, dataset, protocol or signal, ``search`` with a model other than
         the SVM or with ``run_balanced``, a ``train_hop_s`` that is not a finite positive
-        number or comes with ``paper``, no seed or one outside ``0..MAX_SEED``, or window
+        number or comes with ``paper``, no seed, one outside ``0..MAX_SEED`` or a repeated
+        one, or window
         settings :class:`~features.windows.WindowConfig` refuses.
     """
 
@@ -150,6 +151,9 @@ class ExperimentConfig:
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
                               f"seed range), got {list(self.seeds)}")
+        if len(set(int(s) for s in self.seeds)) < len(self.seeds):
+            raise ConfigError(f"seeds must be distinct (a repeated seed counts one split "
+                              f"twice), got {list(self.seeds)}")
         # WindowConfig's checks: train_window_config builds window_config, then sets its hop
         self.train_window_config() if self.train_hop_s is not None else self.window_config()
 

@@ -47,12 +47,42 @@ def test_window_config_keeps_the_largest_window_it_allows():
 
 @pytest.mark.parametrize("kwargs, match", [
     (dict(seeds=(-1,)), "seeds"), (dict(seeds=(MAX_SEED + 1,)), "seeds"),
-    (dict(seeds=()), "seeds"), (dict(train_hop_s=float("inf")), "train_hop_s"),
+    (dict(seeds=()), "seeds"), (dict(seeds=(1, 2, 1)), "seeds must be distinct"),
+    (dict(train_hop_s=float("inf")), "train_hop_s"),
     (dict(window_s=float("inf")), "window_s"), (dict(hop_s=float("inf")), "hop_s"),
 ])
 def test_experiment_config_checks_seeds_and_windows_before_any_data(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         ExperimentConfig(**kwargs)
+
+
+@pytest.mark.parametrize("argv", [
+    ["cv", "--dataset", "vulpi", "--seeds", "0", "1", "0"],
+    ["compare", "--quick", "--seeds", "2", "2"],
+    ["stream-eval", "--seeds", "0", "0", "--out", "x"],
+    ["control-grid", "--seeds", "3", "3", "--out", "x"],
+    ["slip-fit", "--train-seeds", "0", "0"],
+    ["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
+     "--controller", "off", "--json", "x.json", "--classifier-seeds", "5", "5"],
+])
+def test_a_seed_given_twice_is_a_usage_error(argv, capsys, tmp_path, monkeypatch):
+    # it would run one split (or simulation) twice and count it as two seeds
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "given twice" in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())
+
+
+def test_slip_fit_refuses_a_seed_in_training_and_held_out(capsys, tmp_path):
+    # the held-out mask would take seed 1 and leave it out of training without a word
+    assert main(["slip-fit", "--train-seeds", "0", "1", "--test-seeds", "1", "--out",
+                 str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert "seed(s) [1] in both --train-seeds and --test-seeds" in err
+    assert not (tmp_path / "c").exists()
 
 
 def test_limits_of_costly_repeats():
