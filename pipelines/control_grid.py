@@ -26,10 +26,10 @@ from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, deci
 from pipelines.control_sim import SCENARIOS
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
-from terrain.control.grid import (TUNING_SEEDS, compare, markdown_table, run_grid,
-                                  slip_limit_bound, tune_gains)
+from terrain.control.grid import (TUNING_SEEDS, check_grid_axes, compare, markdown_table,
+                                  run_grid, slip_limit_bound, tune_gains)
 from terrain.control.traction import TractionControlConfig
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -122,7 +122,8 @@ def check_grid(args: argparse.Namespace) -> None:
     ConfigError
         An unknown vehicle or terrain, a duration or seed :class:`terrain.sim.SimConfig`
         refuses, a gain of the grids :class:`terrain.control.traction.TractionControlConfig`
-        refuses (negative or not finite), or an evaluation seed that is a tuning seed.
+        refuses (negative or not finite), an evaluation seed that is a tuning seed, or a
+        value repeated on an axis or in a gain grid.
     """
     for vehicle in args.vehicles:
         default_gains(vehicle)
@@ -139,6 +140,11 @@ def check_grid(args: argparse.Namespace) -> None:
     if shared:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds {list(TUNING_SEEDS)}: "
                           "choose others")
+    check_grid_axes(args.vehicles, args.terrains, args.scenarios, args.seeds)
+    for option, values in (("--kp-grid", args.kp_grid), ("--ki-grid", args.ki_grid)):
+        if duplicated(values):
+            raise ConfigError(f"{option}: {duplicated(values)} given more than once (each "
+                              "gain once)")
 
 
 def main(args: argparse.Namespace) -> int:

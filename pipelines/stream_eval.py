@@ -23,7 +23,7 @@ import pandas as pd
 
 from features.windows import WindowConfig
 from pipelines.arguments import DistinctSeeds, output_dir, seed_value
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
 from terrain.serving.evaluation import (encode_stream_scores, held_out_streams, pool_scores,
@@ -98,10 +98,12 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
+        A recipe repeated in ``--kinds``, ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
         :class:`~features.windows.WindowConfig` refuses, a negative or infinite
         ``--switch-gap-s``; checked before any run is read.
     """
+    if duplicated(args.kinds):  # each would be fitted and logged twice under one name
+        raise ConfigError(f"--kinds: {duplicated(args.kinds)} given more than once")
     if args.folds < 2:
         raise ConfigError(f"--folds must be at least 2 (a model needs runs to train on and "
                           f"runs held out), got {args.folds}")

@@ -27,7 +27,7 @@ import pandas as pd
 from terrain.control.closed_loop import run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.terramechanics import get_terrain, steady_slip
 
 #: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
@@ -101,6 +101,34 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     return (float(best["kp"]), float(best["ki"])), table
 
 
+def check_grid_axes(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
+                    seeds: Sequence[int]) -> None:
+    """Refuse a value repeated on an axis of the evaluation grid.
+
+    A repeated value would run its cells twice: the results table would hold them twice
+    and the traces keep one of each.
+
+    Parameters
+    ----------
+    vehicles, terrains, scenarios : sequence of str
+        Grid axes (terrain names compared in upper case, as the catalogue reads them).
+    seeds : sequence of int
+        Evaluation seeds.
+
+    Raises
+    ------
+    ConfigError
+        A value given more than once, naming the axis.
+    """
+    axes = {"vehicles": [str(v).lower() for v in vehicles],
+            "terrains": [str(t).upper() for t in terrains],
+            "scenarios": list(scenarios), "seeds": [int(s) for s in seeds]}
+    for axis, values in axes.items():
+        if duplicated(values):
+            raise ConfigError(f"{axis}: {duplicated(values)} given more than once (each value "
+                              "of a grid axis once)")
+
+
 def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
              seeds: Sequence[int], gains: dict, duration_s: float = 20.0,
              estimators: dict | None = None, feed_forward: bool = True,
@@ -140,13 +168,15 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     Raises
     ------
     ConfigError
-        An evaluation seed is a tuning seed.
+        An evaluation seed is a tuning seed, or a value repeated on an axis
+        (:func:`check_grid_axes`).
     """
     from terrain.control.closed_loop import trace_frame
 
     shared = sorted(set(seeds) & set(TUNING_SEEDS))
     if shared:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
+    check_grid_axes(vehicles, terrains, scenarios, seeds)
     rows, traces = [], {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                     (False, True)):

@@ -29,7 +29,7 @@ from typing import Iterator, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.models.cv import cross_validate, grouped_units
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, cnn_seeds_for, make_model
@@ -116,7 +116,8 @@ class CompareConfig:
     ConfigError
         An unknown model, dataset, signal set or protocol; a window length, seed or
         ``train_hop_s`` that :class:`~terrain.models.experiment.ExperimentConfig` refuses;
-        ``cnn_seeds`` without a CNN model; no seed, a history length below 1, fewer than
+        ``cnn_seeds`` without a CNN model; a value repeated on an axis (models, signals,
+        windows_s, datasets, seeds, history); no seed, a history length below 1, fewer than
         1 epoch or 2 folds; ``n_threads`` outside 1-``MAX_TORCH_THREADS``
         (:class:`~terrain.models.registry.ModelConfig`'s rule).
     """
@@ -159,6 +160,10 @@ class CompareConfig:
         bad = [m for m in self.models if m not in MODELS]
         if bad:
             raise ConfigError(f"unknown model(s) {bad}; valid: {list(MODELS)}")
+        for axis in ("models", "signals", "windows_s", "datasets", "seeds", "history"):
+            repeated = duplicated(getattr(self, axis))
+            if repeated:  # a repeated value would fit its cells twice and count them as two
+                raise ConfigError(f"{axis} must be distinct: {repeated} given more than once")
         if not self.seeds or min(self.history, default=0) < 1:
             raise ConfigError("need at least one seed and history lengths >= 1")
         if self.max_epochs < 1 or self.n_splits < 2:

@@ -19,7 +19,7 @@ from sklearn.pipeline import Pipeline
 from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, cross_validate,
                                fit_with_groups, grouped_units, training_units)
@@ -151,7 +151,7 @@ class ExperimentConfig:
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
                               f"seed range), got {list(self.seeds)}")
-        if len(set(int(s) for s in self.seeds)) < len(self.seeds):
+        if duplicated(int(s) for s in self.seeds):
             raise ConfigError(f"seeds must be distinct (a repeated seed counts one split "
                               f"twice), got {list(self.seeds)}")
         # WindowConfig's checks: train_window_config builds window_config, then sets its hop

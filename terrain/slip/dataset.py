@@ -14,7 +14,7 @@ from typing import Iterator
 
 import joblib
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.run import Run
 from terrain.sim.scenarios import SCENARIO_NAMES
 from terrain.sim.simulate import SimConfig, simulate
@@ -44,7 +44,8 @@ class SlipDataSpec:
     Raises
     ------
     ConfigError
-        Unknown terrain or scenario, empty grid, non-positive duration.
+        Unknown terrain or scenario, a value repeated on an axis, empty grid, non-positive
+        duration.
     """
 
     terrains: tuple[str, ...] = TERRAIN_NAMES
@@ -61,6 +62,10 @@ class SlipDataSpec:
                               f"{list(TERRAIN_NAMES)}, scenarios {list(SCENARIO_NAMES)}")
         if not (self.terrains and self.scenarios and self.seeds):
             raise ConfigError("the run grid is empty")
+        for axis in ("terrains", "scenarios", "seeds"):
+            if duplicated(getattr(self, axis)):  # a run simulated and counted twice
+                raise ConfigError(f"{axis}: {duplicated(getattr(self, axis))} given more than "
+                                  "once (each value of the run grid once)")
         if not self.duration_s > 0:
             raise ConfigError(f"duration_s must be > 0, got {self.duration_s}")
 

@@ -59,7 +59,7 @@ def test_experiment_config_checks_seeds_and_windows_before_any_data(kwargs, matc
 @pytest.mark.parametrize("argv", [
     ["cv", "--dataset", "vulpi", "--seeds", "0", "1", "0"],
     ["compare", "--quick", "--seeds", "2", "2"],
-    ["stream-eval", "--seeds", "0", "0", "--out", "x"],
+    ["stream-eval", "--seeds", "0", "0"],
     ["control-grid", "--seeds", "3", "3", "--out", "x"],
     ["slip-fit", "--train-seeds", "0", "0"],
     ["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
@@ -73,6 +73,26 @@ def test_a_seed_given_twice_is_a_usage_error(argv, capsys, tmp_path, monkeypatch
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "given twice" in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["compare", "--models", "svm", "svm"], "models must be distinct: ['svm']"),
+    (["compare", "--windows-s", "2", "2.0"], "windows_s must be distinct: [2.0]"),
+    (["compare", "--history", "1", "5", "1"], "history must be distinct: [1]"),
+    (["stream-eval", "--kinds", "wheels", "wheels"], "--kinds: ['wheels'] given more"),
+    (["control-grid", "--terrains", "ICE", "ice", "--out", "g"], "terrains: ['ICE'] given"),
+    (["control-grid", "--vehicles", "husky", "husky", "--out", "g"], "vehicles: ['husky']"),
+    (["control-grid", "--ki-grid", "0", "0", "--out", "g"], "--ki-grid: [0.0] given"),
+    (["slip-fit", "--scenarios", "orchard", "orchard", "--out", "s"], "scenarios: ['orchard']"),
+])
+def test_a_value_repeated_on_a_grid_axis_is_refused_before_any_work(argv, message, capsys,
+                                                                    tmp_path, monkeypatch):
+    # each would fit or simulate its cells twice and count them twice in the tables
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
     assert not any(tmp_path.iterdir())
 
 
