@@ -55,7 +55,7 @@ from terrain.run import TIME
 from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
-                                   load_stream_model)
+                                   load_stream_model, model_vehicle)
 from terrain.serving.replay import replay_run
 from terrain.serving.request import (DEFAULT_VEHICLE, parse_request, planned_decisions,
                                      time_span_s)
@@ -139,8 +139,9 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
     Returns
     -------
     dict
-        JSON-serialisable settings; ``vehicle`` is the model metadata's vehicle (the
-        readers' default ``husky`` when it names none), whose bounds the run-level
+        JSON-serialisable settings; ``vehicle`` is the model's vehicle
+        (:func:`~terrain.serving.model.model_vehicle`; the readers' default ``husky`` when
+        it names none), whose bounds the run-level
         plausibility rules use.
 
     Raises
@@ -156,7 +157,7 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
                 "reset_windows": int(reset_windows),
                 "min_confidence": float(min_confidence), "max_rows": int(max_rows),
                 "max_decisions": int(max_decisions),
-                "vehicle": str(model.metadata.get("vehicle") or DEFAULT_VEHICLE)}
+                "vehicle": str(model_vehicle(model.metadata) or DEFAULT_VEHICLE)}
     check_settings(settings)
     return settings
 

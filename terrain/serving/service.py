@@ -53,8 +53,9 @@ readers' rule :func:`terrain.io.plausibility.check_accel_units`: not
 classified), ``wheel_speed_units`` (the 99th percentile of the window's wheel speeds is
 over twice the top speed of the model's vehicle, so they are in km/h: the readers' rule
 :func:`terrain.io.plausibility.wheel_speed_in_kmh` on one window; not classified; only for
-a model whose metadata names a vehicle of :data:`terrain.io.plausibility.VEHICLE_LIMITS`
-and that uses the wheel speeds), ``clock_restart``, ``low_confidence`` (fallback target).
+a model whose metadata names a vehicle of :data:`terrain.io.plausibility.VEHICLE_LIMITS`,
+directly or through its shipped dataset (:func:`terrain.serving.model.model_vehicle`), and
+that uses the wheel speeds), ``clock_restart``, ``low_confidence`` (fallback target).
 """
 
 from __future__ import annotations
@@ -75,7 +76,7 @@ from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.intake import DecisionClock, StreamIntake
-from terrain.serving.model import StreamModel
+from terrain.serving.model import StreamModel, model_vehicle
 from terrain.serving.rules import DEFAULT_RULES, SampleRule
 from terrain.serving.smoothing import ForwardFilter
 from terrain.serving.targets import TargetProvider
@@ -163,7 +164,7 @@ class StreamService:
                 if cols == list(range(cols[0], cols[0] + 3)) else cols
         # the wheel-speed-units rule needs the vehicle's top speed (the model's metadata)
         # and matters when the model uses the wheel speeds, directly or derived
-        self._speed_limits = VEHICLE_LIMITS.get(str(model.metadata.get("vehicle", "")))
+        self._speed_limits = VEHICLE_LIMITS.get(str(model_vehicle(model.metadata)))
         self._speed_cols = None
         if self._speed_limits is not None and {"vel_l", "vel_r"} <= set(flat) and \
                 {"vel_l", "vel_r"} & set(model.raw_channels):

@@ -1305,3 +1305,7 @@ def test_wheel_speeds_in_kmh_are_flagged_and_not_classified(wheel_model, unseen_
     assert not any("wheel_speed_units" in d.flags for d in clean)
     unknown = push_wheels(service(wheel_model), kmh)             # no vehicle: no rule
     assert not any("wheel_speed_units" in d.flags for d in unknown)
+    # a model saved before terrain train wrote its vehicle: the shipped dataset's (the
+    # Husky's); the rule was off for such models before
+    shipped = replace(wheel_model, metadata=MappingProxyType({"dataset": "borealtc"}))
+    assert [d.flags for d in push_wheels(service(shipped), kmh)] == [d.flags for d in got]
