@@ -27,6 +27,7 @@ from typing import Any, Iterator, Mapping
 import pandas as pd
 
 import terrain
+from terrain.errors import ConfigError
 
 DB_FILE = "mlflow.db"
 ARTIFACT_DIR = "mlartifacts"
@@ -72,6 +73,57 @@ def store_errors() -> tuple[type[BaseException], ...]:
     except ImportError:
         pass
     return tuple(errors)
+
+
+#: Seconds a remote tracking server has to answer :func:`check_store`'s request.
+STORE_CHECK_TIMEOUT_S = 5.0
+
+
+def check_store(uri: str) -> None:
+    """Refuse, in one line and at once, a tracking store MLflow could not use.
+
+    MLflow itself retries a SQLite file it cannot open for about 100 s and then raises a
+    database error, and retries an unreachable server for minutes. Checked here instead: a
+    ``sqlite:///`` file must open (its folder is created, as MLflow does), an ``http(s)://``
+    server must answer (any HTTP status) within :data:`STORE_CHECK_TIMEOUT_S`. Other
+    schemes are left to MLflow.
+
+    Parameters
+    ----------
+    uri : str
+        Tracking URI (:func:`tracking_uri`).
+
+    Raises
+    ------
+    ConfigError
+        The SQLite file cannot be created or opened, or the server does not answer; the
+        message names the URI and says how to choose another store.
+    """
+    hint = ("set MLFLOW_TRACKING_URI to a store that can be used, or unset it for "
+            "sqlite:///<current folder>/mlflow.db")
+    scheme, _, rest = uri.partition("://")
+    if scheme == "sqlite" and rest.startswith("/") and rest != "/:memory:":
+        import sqlite3
+
+        path = Path(rest[1:])
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            sqlite3.connect(path).close()
+        except (OSError, sqlite3.Error) as exc:
+            raise ConfigError(f"MLflow tracking store {uri} cannot be opened: {exc}; "
+                              f"{hint}") from None
+    elif scheme in ("http", "https"):
+        from urllib.error import HTTPError
+        from urllib.request import urlopen
+
+        try:
+            urlopen(f"{uri.rstrip('/')}/health", timeout=STORE_CHECK_TIMEOUT_S).close()
+        except HTTPError:
+            pass                      # it answered: what it thinks of /health is MLflow's to say
+        except (OSError, ValueError) as exc:
+            reason = getattr(exc, "reason", None) or type(exc).__name__
+            raise ConfigError(f"MLflow tracking server {uri} does not answer ({reason}; "
+                              f"waited up to {STORE_CHECK_TIMEOUT_S:g} s); {hint}") from None
 
 
 def activate_store() -> tuple[str, bool]:
@@ -329,10 +381,16 @@ def tracked_run(experiment: str, run_name: str | None = None,
     Yields
     ------
     TrackedRun
+
+    Raises
+    ------
+    ConfigError
+        A store that cannot be used (:func:`check_store`), before any run is opened.
     """
     import mlflow
 
     uri = tracking_uri()
+    check_store(uri)
     embedded = not os.environ.get("MLFLOW_TRACKING_URI")
     client = mlflow.MlflowClient(tracking_uri=uri)
     exp_id = _experiment_id(client, experiment, embedded)

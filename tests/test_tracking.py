@@ -41,3 +41,59 @@ def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     with tracked_run("terrain-test", announce=False):
         pass
     assert other.exists() and not (tmp_path / "mlflow.db").exists()
+
+
+def test_a_store_that_cannot_be_used_is_one_line_at_once(tmp_path, monkeypatch, capsys):
+    # MLflow retried an unopenable SQLite file for ~100 s and then raised a database error
+    # that the CLI called a defect of terrain; an unreachable server for minutes
+    import socket
+    import time
+
+    import pytest
+
+    from terrain.cli import main
+    from terrain.errors import ConfigError
+    from terrain.tracking import check_store
+
+    monkeypatch.chdir(tmp_path)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    with socket.socket() as sock:                   # a port nothing listens on
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    for uri, match in ((f"sqlite:///{blocker}/mlflow.db", "cannot be opened"),
+                       (f"http://127.0.0.1:{port}", "does not answer")):
+        with pytest.raises(ConfigError, match=match):
+            check_store(uri)
+        monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+        start = time.monotonic()
+        assert main(["cv", "--dataset", "vulpi", "--seeds", "0", "--no-progress"]) == 2
+        assert time.monotonic() - start < 60
+        err = capsys.readouterr().err
+        assert "terrain cv: error: MLflow tracking s" in err and uri in err
+        assert "internal error" not in err and "Traceback" not in err
+    check_store(f"sqlite:///{tmp_path}/new/folder/mlflow.db")   # created, as MLflow does
+    assert (tmp_path / "new" / "folder" / "mlflow.db").exists()
+
+
+def test_a_server_that_answers_any_status_passes_the_check():
+    # a proxy or an MLflow server without /health: answering is enough, MLflow says the rest
+    import http.server
+    import threading
+
+    from terrain.tracking import check_store
+
+    class NotFound(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            self.send_error(404)
+
+        def log_message(self, *args):
+            pass
+
+    server = http.server.HTTPServer(("127.0.0.1", 0), NotFound)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        check_store(f"http://127.0.0.1:{server.server_address[1]}")
+    finally:
+        server.shutdown()
