@@ -93,7 +93,7 @@ def resolve_slip_model(model_dir: Path | None) -> tuple[Any | None, str]:
     import mlflow
     import mlflow.sklearn
 
-    from terrain.tracking import tracking_uri
+    from terrain.tracking import check_store, tracking_uri
 
     if model_dir is not None:
         return load_slip_model_dir(model_dir), str(model_dir)
@@ -101,6 +101,10 @@ def resolve_slip_model(model_dir: Path | None) -> tuple[Any | None, str]:
     store = tracking_uri()
     if store.startswith("sqlite:///") and not Path(store[len("sqlite:///"):]).exists():
         return None, f"no tracking store at {store}"     # do not create an empty one
+    try:        # an unreachable server: at once, not after MLflow's minutes of retries
+        check_store(store)
+    except ConfigError as exc:
+        return None, f"tracking store not usable: {str(exc).split('; ')[0]}"
     mlflow.set_tracking_uri(tracking_uri())
     mlflow.set_registry_uri(tracking_uri())
     try:

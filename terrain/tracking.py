@@ -122,8 +122,8 @@ def check_store(uri: str) -> None:
             pass                      # it answered: what it thinks of /health is MLflow's to say
         except (OSError, ValueError) as exc:
             reason = getattr(exc, "reason", None) or type(exc).__name__
-            raise ConfigError(f"MLflow tracking server {uri} does not answer ({reason}; "
-                              f"waited up to {STORE_CHECK_TIMEOUT_S:g} s); {hint}") from None
+            raise ConfigError(f"MLflow tracking server {uri} does not answer: {reason} "
+                              f"(waited up to {STORE_CHECK_TIMEOUT_S:g} s); {hint}") from None
 
 
 def activate_store() -> tuple[str, bool]:

@@ -97,3 +97,23 @@ def test_a_server_that_answers_any_status_passes_the_check():
         check_store(f"http://127.0.0.1:{server.server_address[1]}")
     finally:
         server.shutdown()
+
+
+def test_the_slip_model_lookup_falls_back_at_once_when_the_server_does_not_answer(
+        monkeypatch):
+    # terrain estimate's default lookup of the registered slip model waited minutes on
+    # MLflow's retries before falling back to physics
+    import socket
+    import time
+
+    from pipelines.slip_model import resolve_slip_model
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"http://127.0.0.1:{port}")
+    start = time.monotonic()
+    model, where = resolve_slip_model(None)
+    assert model is None and time.monotonic() - start < 30
+    assert where.startswith("tracking store not usable: MLflow tracking server") and \
+        "does not answer" in where
