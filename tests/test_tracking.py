@@ -117,3 +117,24 @@ def test_the_slip_model_lookup_falls_back_at_once_when_the_server_does_not_answe
     assert model is None and time.monotonic() - start < 30
     assert where.startswith("tracking store not usable: MLflow tracking server") and \
         "does not answer" in where
+
+
+def test_a_registry_model_on_a_server_that_does_not_answer_is_one_line_at_once(
+        tmp_path, monkeypatch, capsys):
+    import socket
+    import time
+
+    from terrain.cli import main
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"http://127.0.0.1:{port}")
+    start = time.monotonic()
+    assert main(["predict", "--model", "models:/terrain-borealtc/latest", str(tmp_path),
+                 "--out", "p.csv", "--no-progress"]) == 2
+    assert time.monotonic() - start < 30
+    err = capsys.readouterr().err
+    assert "cannot load model 'models:/terrain-borealtc/latest'" in err
+    assert "does not answer" in err and "Traceback" not in err

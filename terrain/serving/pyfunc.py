@@ -547,8 +547,10 @@ def load_model(uri: str | Path, progress: bool = True) -> tuple[Any, dict]:
     Raises
     ------
     ConfigError
-        An unsupported URI scheme (:func:`local_model_dir`); a directory that is not a
-        terrain model or holds a malformed ``MLmodel`` or pipeline file (names the file).
+        An unsupported URI scheme (:func:`local_model_dir`); a ``models:/`` / ``runs:/``
+        URI whose store cannot be used (:func:`terrain.tracking.check_store`); a directory
+        that is not a terrain model or holds a malformed ``MLmodel`` or pipeline file
+        (names the file).
     mlflow.exceptions.MlflowException
         A ``models:/`` / ``runs:/`` URI the store does not resolve, or a model MLflow
         refuses.
@@ -561,6 +563,9 @@ def load_model(uri: str | Path, progress: bool = True) -> tuple[Any, dict]:
     with artifact_progress(progress):
         if local is None:
             from mlflow.artifacts import download_artifacts
+
+            from terrain.tracking import check_store
+            check_store(mlflow.get_tracking_uri())   # at once, not after MLflow's retries
             local = Path(download_artifacts(artifact_uri=str(uri)))
         meta = read_model_metadata(local)
         model = mlflow.pyfunc.load_model(str(local))
