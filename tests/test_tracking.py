@@ -2,11 +2,27 @@
 
 from __future__ import annotations
 
+import http.server
 import os
+import socket
+import threading
+import time
 
 import mlflow
+import pytest
 
-from terrain.tracking import code_version, tracked_run, tracking_uri
+from pipelines.slip_model import resolve_slip_model
+from terrain.cli import main
+from terrain.errors import ConfigError
+from terrain.tracking import check_store, code_version, tracked_run, tracking_uri
+
+
+@pytest.fixture
+def closed_port() -> int:
+    """A loopback port nothing listens on."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
 
 
 def test_embedded_store_lives_in_the_working_directory(tmp_path, monkeypatch, capsys):
@@ -43,26 +59,15 @@ def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     assert other.exists() and not (tmp_path / "mlflow.db").exists()
 
 
-def test_a_store_that_cannot_be_used_is_one_line_at_once(tmp_path, monkeypatch, capsys):
+def test_a_store_that_cannot_be_used_is_one_line_at_once(tmp_path, monkeypatch, capsys,
+                                                         closed_port):
     # MLflow retried an unopenable SQLite file for ~100 s and then raised a database error
     # that the CLI called a defect of terrain; an unreachable server for minutes
-    import socket
-    import time
-
-    import pytest
-
-    from terrain.cli import main
-    from terrain.errors import ConfigError
-    from terrain.tracking import check_store
-
     monkeypatch.chdir(tmp_path)
     blocker = tmp_path / "a_file"
     blocker.write_text("not a folder")
-    with socket.socket() as sock:                   # a port nothing listens on
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
     for uri, match in ((f"sqlite:///{blocker}/mlflow.db", "cannot be opened"),
-                       (f"http://127.0.0.1:{port}", "does not answer")):
+                       (f"http://127.0.0.1:{closed_port}", "does not answer")):
         with pytest.raises(ConfigError, match=match):
             check_store(uri)
         monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
@@ -78,11 +83,6 @@ def test_a_store_that_cannot_be_used_is_one_line_at_once(tmp_path, monkeypatch, 
 
 def test_a_server_that_answers_any_status_passes_the_check():
     # a proxy or an MLflow server without /health: answering is enough, MLflow says the rest
-    import http.server
-    import threading
-
-    from terrain.tracking import check_store
-
     class NotFound(http.server.BaseHTTPRequestHandler):
         def do_GET(self):
             self.send_error(404)
@@ -100,18 +100,10 @@ def test_a_server_that_answers_any_status_passes_the_check():
 
 
 def test_the_slip_model_lookup_falls_back_at_once_when_the_server_does_not_answer(
-        monkeypatch):
+        monkeypatch, closed_port):
     # terrain estimate's default lookup of the registered slip model waited minutes on
     # MLflow's retries before falling back to physics
-    import socket
-    import time
-
-    from pipelines.slip_model import resolve_slip_model
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"http://127.0.0.1:{port}")
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"http://127.0.0.1:{closed_port}")
     start = time.monotonic()
     model, where = resolve_slip_model(None)
     assert model is None and time.monotonic() - start < 30
@@ -120,17 +112,9 @@ def test_the_slip_model_lookup_falls_back_at_once_when_the_server_does_not_answe
 
 
 def test_a_registry_model_on_a_server_that_does_not_answer_is_one_line_at_once(
-        tmp_path, monkeypatch, capsys):
-    import socket
-    import time
-
-    from terrain.cli import main
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
+        tmp_path, monkeypatch, capsys, closed_port):
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"http://127.0.0.1:{port}")
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"http://127.0.0.1:{closed_port}")
     start = time.monotonic()
     assert main(["predict", "--model", "models:/terrain-borealtc/latest", str(tmp_path),
                  "--out", "p.csv", "--no-progress"]) == 2
