@@ -20,6 +20,7 @@ from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
 from terrain.models.registry import MODELS
 from terrain.serving.pyfunc import log_model, runs_to_model_input, save_model
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-train"
@@ -173,6 +174,11 @@ def main(args: argparse.Namespace) -> int:
         print(f"trained on {len(ws)} windows of {len(np.unique(ws.run_ids))} runs, classes "
               f"{classes}; training accuracy {train_acc:.3f} (not a generalisation estimate: "
               f"use `terrain cv`)")
+        outside = [c for c in classes if c.upper() not in TERRAIN_NAMES]
+        if outside:
+            print(f"note: class(es) {outside} not in the terrain catalogue: `terrain predict` "
+                  "takes this model, `terrain stream` and `terrain serve` (desired-slip "
+                  "targets per class) refuse it")
         print(inputs.text())
         print(f"logged model: {uri}")
         if not args.no_register:

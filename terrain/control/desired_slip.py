@@ -51,6 +51,7 @@ import pandas as pd
 from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import (TerrainParams, get_terrain, is_deformable,
                                     steady_slip, traction_peak)
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.terramechanics.efficiency import max_tractive_efficiency
 from terrain.terramechanics.inverse import slip_at_peak_fraction
 
@@ -297,6 +298,12 @@ def build_slip_table(classes: Sequence[str],
     ConfigError
         A class missing from the catalogue (the message lists the valid ones).
     """
+    missing = [c for c in classes if str(c).upper() not in TERRAIN_NAMES]
+    if missing:
+        raise ConfigError(f"no desired slip for class(es) {missing}: a target comes from the "
+                          "class's traction-slip curve in the terrain catalogue, which has "
+                          f"{', '.join(TERRAIN_NAMES)} (a model must be trained on catalogue "
+                          "classes to give slip targets)")
     entries = {c.upper(): desired_slip(get_terrain(c), config) for c in classes}
     return SlipTable(MappingProxyType(entries), fallback_entry(list(entries.values())), config)
 

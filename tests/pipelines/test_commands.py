@@ -149,6 +149,28 @@ def test_train_then_predict_on_measured_layout(workdir, capfd):
     assert len(notes) == 1 and "runs/UNKNOWN_A/1" in notes[0] and "'agrimaro'" in notes[0]
 
 
+def test_train_names_classes_without_slip_targets_and_stream_says_why(workdir, capsys,
+                                                                      monkeypatch):
+    # runs converted from folders of the user's own names: train takes any label; stream
+    # needs a desired slip per class (the catalogue's curves) and said only "unknown terrain"
+    from dataclasses import replace
+
+    import pipelines.train
+
+    runs = [r if r.terrain != "CONCRETE" else replace(r, terrain="MY_YARD")
+            for r in read_shipped("vulpi")]
+    monkeypatch.setattr(pipelines.train, "load_dataset", lambda name: runs)
+    assert main(["train", "--dataset", "vulpi", "--model", "svm", "--model-out", "m",
+                 "--no-progress", "--no-register"]) == 0
+    out = capsys.readouterr().out
+    assert "note: class(es) ['MY_YARD'] not in the terrain catalogue" in out
+    write_runs_layout([runs[0]], workdir / "runs")
+    (folder,) = (workdir / "runs").iterdir()
+    assert main(["stream", "--model", "m", str(folder), "--out", "d.csv"]) == 2
+    err = capsys.readouterr().err
+    assert "no desired slip for class(es) ['MY_YARD']" in err and "Traceback" not in err
+
+
 def test_convert_regenerates_identical_data(workdir):
     runs = read_shipped("vulpi")[:4]
     src = workdir / "src"
