@@ -309,6 +309,37 @@ def agrimaro_settings(run: Run, tuning: str = "noise") -> AgriMaRoEKFSettings:
     return noise_derived_settings(accel_std_m_s2=acc)
 
 
+def agrimaro_missing_stream_notes(run: Run) -> tuple[str, ...]:
+    """Notes for the AgriMaRo sensors a run lacks, and what the estimate loses with each.
+
+    Parameters
+    ----------
+    run : Run
+        AgriMaRo run.
+
+    Returns
+    -------
+    tuple of str
+        One ``note: ...`` per missing ``omega`` (wheel 3), ``cam`` (visual odometry, the
+        only measurement of the speed over ground: thesis ch. 6.1) and ``steer`` (steering
+        encoders) stream; empty when all are there.
+    """
+    notes = []
+    if "omega" not in run.streams:
+        notes.append(f"note: run {run.run_id} is an AgriMaRo run without an omega stream: "
+                     "wheels 1 and 2 from its wheels stream (vel_l, vel_r), wheel 3 has no "
+                     "encoder, so slip_3 is not estimated")
+    if "cam" not in run.streams:
+        notes.append(f"note: run {run.run_id} has no cam stream (the T265 visual odometry, "
+                     "the only measurement of the speed over ground): slip_* rests on the "
+                     "process model and the wheel speeds, see std_slip_*; the encoder lag is "
+                     "not estimated (the camera speed is its reference)")
+    if "steer" not in run.streams:
+        notes.append(f"note: run {run.run_id} has no steer stream: the steering angles "
+                     "delta_1..3 (and the slip of a steered wheel) rest on the process model")
+    return tuple(notes)
+
+
 def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
                           gate: Gate | None = None, rate_hz: float | None = None,
                           store_covariance: bool = False,
@@ -372,10 +403,7 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
         xp = x.copy()
         xp[:, j] += sd
         var += (slip_at(xp) - slip) ** 2
-    notes = () if "omega" in run.streams else (
-        f"note: run {run.run_id} is an AgriMaRo run without an omega stream: wheels 1 and 2 "
-        "from its wheels stream (vel_l, vel_r), wheel 3 has no encoder, so slip_3 is not "
-        "estimated",)
+    notes = agrimaro_missing_stream_notes(run)
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},

@@ -238,3 +238,23 @@ def test_an_agrimaro_run_without_wheel_3_says_so_and_warns_nothing(run_dir, tmp_
     printed = capsys.readouterr().out
     assert "wheel 3 has no encoder, so slip_3 is not estimated" in printed
     assert "slip_3 none (no finite estimate)" in printed and "(agrimaro)" in printed
+
+
+def test_an_agrimaro_run_without_camera_or_steering_encoders_says_what_rests_on_the_model(
+        tmp_path, capsys):
+    # without the camera the speed over ground is measured by nothing: the slip of a 20 s
+    # orchard run came out +0.05 (std 0.19) against a true +0.17, and nothing said why
+    root = tmp_path / "agri"
+    write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("SNOW",), scenario="orchard",
+                                 duration_s=8.0, seed=0)), root)
+    assert main(["estimate", str(root), "--out", str(tmp_path / "all.csv")]) == 0
+    assert "note:" not in capsys.readouterr().out                 # every sensor there
+    (cam,) = root.rglob("cam_*.csv")
+    (steer,) = root.rglob("steer_*.csv")
+    cam.unlink()
+    steer.unlink()
+    assert main(["estimate", str(root), "--out", str(tmp_path / "s.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "has no cam stream (the T265 visual odometry" in out
+    assert "the encoder lag is not estimated" in out and "encoder lag not estimated" in out
+    assert "has no steer stream: the steering angles delta_1..3" in out
