@@ -88,6 +88,17 @@ class ReadReport:
     warnings: list[str] = field(default_factory=list)
 
 
+def _header_format_hint(header: list[str]) -> str:
+    # a header that is another CSV dialect: say which, since the readers take one
+    joined = ",".join(header)
+    for sep, name in (("\t", "tabs"), (";", "semicolons"), ("|", "bars")):
+        if sep in joined:
+            return f" (the header is separated by {name}; the readers take commas only)"
+    if any(len(c) > 1 and c[0] == c[-1] and c[0] in "\"'" for c in header):
+        return " (the names are quoted; the readers take them unquoted)"
+    return ""
+
+
 def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
                     gap_factor: float = 3.0) -> tuple[pd.DataFrame, ReadReport]:
     """Read and validate one stream file.
@@ -139,8 +150,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     missing = [c for c in mapping if c not in header]
     if missing:
         raise MissingColumnError(
-            f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}",
-            path, missing[0], line=header_line)
+            f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}"
+            f"{_header_format_hint(header)}", path, missing[0], line=header_line)
     report = ReadReport(str(path), skipped_lines=skipped,
                         ignored_columns=[c for c in header if c not in mapping])
     if not text.endswith("\n"):

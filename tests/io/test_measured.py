@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -65,6 +67,26 @@ def test_dropped_column_raises_missing_column(tmp_path, synth_imu):
     with pytest.raises(MissingColumnError) as info:
         read_stream_csv(path, "imu")
     assert (info.value.path, info.value.column) == (str(path), "ay")
+
+
+@pytest.mark.parametrize("sep, quoting, hint", [
+    ("\t", 0, "separated by tabs; the readers take commas only"),
+    (";", 0, "separated by semicolons; the readers take commas only"),
+    (",", 1, "the names are quoted; the readers take them unquoted"),
+])
+def test_another_csv_dialect_is_named_in_the_missing_column_error(tmp_path, synth_pro, sep,
+                                                                   quoting, hint):
+    # a spreadsheet export (semicolons), a tab-separated log, or quoted names: the error
+    # listed the one long "column" it found and left the user to see why
+    path = tmp_path / "pro_00.csv"
+    synth_pro(duration_s=1.0).to_csv(path, index=False, sep=sep, quoting=quoting)
+    with pytest.raises(MissingColumnError, match=re.escape(hint)):
+        read_stream_csv(path, "pro")
+    plain = tmp_path / "plain.csv"
+    synth_pro(duration_s=1.0).rename(columns={"curR": "cur_R"}).to_csv(plain, index=False)
+    with pytest.raises(MissingColumnError) as info:
+        read_stream_csv(plain, "pro")
+    assert "readers take" not in str(info.value)
 
 
 # --- values --------------------------------------------------------------------------------
