@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="select one run when RUN_DIR holds several")
     parser.add_argument("--lag", choices=LAG_MODES, default="xcorr",
                         help="encoder lag handling (default: xcorr, estimated from data)")
-    parser.add_argument("--tuning", choices=TUNINGS, default="noise",
+    parser.add_argument("--tuning", choices=TUNINGS, default=None,
                         help="AgriMaRo EKF tuning: noise-derived (default) or thesis eqs. "
                              "6.9/6.13/6.14")
     parser.add_argument("--gate", type=float, default=None, metavar="P",
@@ -58,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate-hz", type=float, default=None,
                         help=f"filter rate, Hz, in (0, {MAX_RATE_HZ:g}] (default: the IMU "
                              "rate)")
-    parser.add_argument("--slip-model", choices=SLIP_MODELS, default="fused",
+    parser.add_argument("--slip-model", choices=SLIP_MODELS, default=None,
                         help="skid-steer slip source (default fused)")
     parser.add_argument("--slip-model-dir", type=Path, default=None,
                         help="learned slip model (MLflow model dir or model URI; an error "
@@ -107,26 +107,37 @@ def main(args: argparse.Namespace) -> int:
     rate_hz = check_rate_hz(args.rate_hz, "--rate-hz")
     runs = _load(args.run_dir, args.run)
     print(input_report(runs).text())
+    # an option for the other vehicle kind than every run's is said, not silently ignored
+    skid = any(r.vehicle != "agrimaro" for r in runs)
+    agrimaro = any(r.vehicle == "agrimaro" for r in runs)
+    if args.slip_model is not None and not skid:
+        print(f"note: --slip-model {args.slip_model} not used: no skid-steer run (the AgriMaRo "
+              "EKF observes its slip with the camera)")
+    if args.tuning is not None and not agrimaro:
+        print(f"note: --tuning {args.tuning} not used: it tunes the AgriMaRo EKF and no run is "
+              "an AgriMaRo's")
+    slip_model = args.slip_model or "fused"
+    tuning = args.tuning or "noise"
     learned = None
-    wants_model = (args.slip_model in ("learned", "fused")
+    wants_model = (slip_model in ("learned", "fused")
                    and any(r.vehicle != "agrimaro" for r in runs))
     if wants_model:
         learned, where = resolve_slip_model(args.slip_model_dir)
         if learned is None:
             print(f"note: no learned slip model ({where}); physics supplies the slip")
     elif args.slip_model_dir is not None:
-        why = (f"--slip-model {args.slip_model} uses no learned model"
-               if args.slip_model not in ("learned", "fused")
+        why = (f"--slip-model {slip_model} uses no learned model"
+               if slip_model not in ("learned", "fused")
                else "no skid-steer run (the AgriMaRo EKF observes its slip)")
         print(f"note: --slip-model-dir {args.slip_model_dir} not used: {why}")
     for run in runs:
         if run.vehicle == "agrimaro":
-            est = estimate_run(run, lag=args.lag, tuning=args.tuning, gate=gate,
+            est = estimate_run(run, lag=args.lag, tuning=tuning, gate=gate,
                                rate_hz=rate_hz)
         else:
-            outputs = slip_model_outputs(run, learned) if args.slip_model != "ekf" else None
+            outputs = slip_model_outputs(run, learned) if slip_model != "ekf" else None
             missing = missing_slip_inputs(run) if outputs is None else None
-            est = estimate_skid_steer_slip_run(run, args.slip_model, outputs=outputs,
+            est = estimate_skid_steer_slip_run(run, slip_model, outputs=outputs,
                                                missing=missing, lag=args.lag, gate=gate,
                                                rate_hz=rate_hz)
         for note in est.notes:

@@ -147,6 +147,25 @@ def test_slip_model_dir_whose_mlmodel_is_not_yaml_says_so(run_dir, tmp_path, cap
     assert str(folder / "MLmodel") in line and "AttributeError" not in line
 
 
+def test_an_option_of_the_other_vehicle_kind_is_said_not_silently_ignored(run_dir, tmp_path,
+                                                                          capsys):
+    # --tuning tunes the AgriMaRo EKF, --slip-model the skid-steer one's slip source
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--tuning", "thesis"]) == 0
+    assert ("note: --tuning thesis not used: it tunes the AgriMaRo EKF"
+            in capsys.readouterr().out)
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv")]) == 0
+    assert "not used" not in capsys.readouterr().out           # defaults say nothing
+    agri = tmp_path / "agri"
+    write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("SNOW",),
+                                 scenario="straight_accel", duration_s=3.0, seed=1)), agri)
+    assert main(["estimate", str(agri), "--out", str(tmp_path / "a.csv"),
+                 "--slip-model", "physics", "--tuning", "thesis"]) == 0
+    out = capsys.readouterr().out
+    assert "note: --slip-model physics not used: no skid-steer run" in out
+    assert "--tuning" not in out
+
+
 def test_slip_model_dir_not_used_is_said(run_dir, tmp_path, capsys):
     assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
                  "--slip-model", "physics", "--slip-model-dir", str(tmp_path / "nope")]) == 0
