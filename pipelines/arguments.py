@@ -259,8 +259,9 @@ def add_smoothing(parser: argparse.ArgumentParser) -> None:
                              "--reset-windows consecutive windows name the same other class "
                              "with at least this probability (default: no reset; "
                              "docs/streaming.md)")
-    parser.add_argument("--reset-windows", type=int, default=2,
-                        help="consecutive confident windows that reset the filter (default 2)")
+    parser.add_argument("--reset-windows", type=int, default=None,
+                        help="consecutive confident windows that reset the filter (default 2; "
+                             "needs --reset-confidence)")
 
 
 def smoothing_from_args(args: argparse.Namespace) -> SmoothingConfig:
@@ -278,10 +279,15 @@ def smoothing_from_args(args: argparse.Namespace) -> SmoothingConfig:
     Raises
     ------
     ConfigError
-        A value out of its range (a negative dwell, a reset without the filter...).
+        A value out of its range (a negative dwell, a reset without the filter...), or
+        ``--reset-windows`` without ``--reset-confidence``.
     """
     if not args.dwell_s >= 0:
         raise ConfigError(f"--dwell-s must be >= 0 (0 disables smoothing), got {args.dwell_s:g}")
+    if args.reset_windows is not None and args.reset_confidence is None:
+        # the reset is off without a confidence: the count alone would change nothing
+        raise ConfigError(f"--reset-windows {args.reset_windows} needs --reset-confidence (the "
+                          "filter's switch reset is off without it)")
+    windows = {} if args.reset_windows is None else {"reset_windows": args.reset_windows}
     return SmoothingConfig(dwell_s=args.dwell_s or None,
-                           reset_confidence=args.reset_confidence,
-                           reset_windows=args.reset_windows)
+                           reset_confidence=args.reset_confidence, **windows)

@@ -269,7 +269,11 @@ def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_
     capsys.readouterr()
     for extra, words in ((["--reset-confidence", "1.5"], "reset_confidence must be in (0, 1]"),
                          (["--reset-confidence", "0.9", "--dwell-s", "0"], "needs dwell_s"),
-                         (["--reset-windows", "0"], "reset_windows must be an integer >= 1")):
+                         (["--reset-confidence", "0.9", "--reset-windows", "0"],
+                          "reset_windows must be an integer >= 1"),
+                         # a count alone changed nothing (the reset is off) and said nothing
+                         (["--reset-windows", "3"], "--reset-windows 3 needs "
+                                                    "--reset-confidence")):
         assert main(["stream", "--model", str(model_dir), str(run_dir), "--out",
                      str(tmp_path / "bad.csv"), *extra]) == 2
         err = capsys.readouterr().err
