@@ -19,11 +19,13 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
+import numpy as np
+
 from pipelines.arguments import output_file, seed_value
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
-from terrain.audit.replay import (JITTER_ACCEL_M_S2, ReplaySettings,
+from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, ReplaySettings,
                                   cruise_wheel_acceleration_rms)
 from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
@@ -32,6 +34,7 @@ from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
+from terrain.run import TIME
 
 EXPERIMENT = "terrain-audit"
 #: multipliers of the catalogue lateral friction in the what-if sweep
@@ -200,6 +203,20 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
               f"{JITTER_ACCEL_M_S2:g}); the replay drives the motors with it, so their "
               "simulated currents include the rectified jitter. --replay-input-lowpass-hz 2 "
               "smooths it (docs/physics_v2.md)")
+    cutoff = settings.replay.input_cutoff_hz
+    if cutoff is not None:
+        rates = [1.0 / float(np.median(np.diff(r.streams["wheels"][TIME].to_numpy(float))))
+                 for r in runs if "wheels" in r.streams and len(r.streams["wheels"]) > 1]
+        clipped = [rate for rate in rates if cutoff > MAX_CUTOFF_FRACTION * rate]
+        if clipped:
+            def span(scale: float) -> str:
+                low, high = (f"{scale * min(clipped):.3g}", f"{scale * max(clipped):.3g}")
+                return f"{low} Hz" if low == high else f"{low}-{high} Hz"
+
+            print(f"  note: --replay-input-lowpass-hz {cutoff:g} is above "
+                  f"{MAX_CUTOFF_FRACTION:g} of the wheel rate of {len(clipped)} run(s) "
+                  f"({span(1.0)}): their low-pass is clipped to {MAX_CUTOFF_FRACTION:g} of "
+                  f"each run's rate ({span(MAX_CUTOFF_FRACTION)})")
     with_imu = {r.run_id for r in runs if r.has_imu}
     no_imu = sorted(f.run_id for f in result.frames if f.run_id not in with_imu)
     if no_imu:

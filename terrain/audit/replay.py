@@ -154,6 +154,11 @@ class Replay:
     cur: np.ndarray
 
 
+#: Highest low-pass cut-off of :func:`lowpass` as a fraction of the sampling rate (below the
+#: Nyquist frequency, 0.5, where a Butterworth design fails).
+MAX_CUTOFF_FRACTION = 0.45
+
+
 def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
     """Zero-phase 4th-order Butterworth low-pass along axis 0.
 
@@ -163,7 +168,7 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
     rate_hz : float
         Sampling rate of ``values``, Hz.
     cutoff_hz : float
-        Cut-off, Hz; clipped to 0.45 ``rate_hz``.
+        Cut-off, Hz; clipped to :data:`MAX_CUTOFF_FRACTION` of ``rate_hz``.
 
     Returns
     -------
@@ -171,7 +176,7 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
         Filtered values (unchanged when the series is too short to filter).
     """
     values = np.asarray(values, dtype=float)
-    fc = min(float(cutoff_hz), 0.45 * float(rate_hz))
+    fc = min(float(cutoff_hz), MAX_CUTOFF_FRACTION * float(rate_hz))
     sos = signal.butter(4, fc, fs=float(rate_hz), output="sos")
     if values.shape[0] <= 3 * (2 * len(sos) + 1):
         return values

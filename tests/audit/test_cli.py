@@ -99,6 +99,21 @@ def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tm
     assert not (tmp_path / "a.json").exists()
 
 
+def test_cli_names_a_replay_low_pass_clipped_below_the_asked_cut_off(runs_dir, tmp_path,
+                                                                    capsys):
+    # 1000 Hz asks for no smoothing of the 6.5 Hz wheel record; the filter is clipped to
+    # 0.45 of the rate (2.93 Hz), which smooths it, and nothing said so
+    assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow", "--replay-input-lowpass-hz",
+                          "1000")) == 0
+    out = capsys.readouterr().out
+    assert ("note: --replay-input-lowpass-hz 1000 is above 0.45 of the wheel rate of 4 "
+            "run(s) (6.5 Hz): their low-pass is clipped to 0.45 of each run's rate "
+            "(2.93 Hz)") in out
+    assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow", "--replay-input-lowpass-hz",
+                          "2")) == 0
+    assert "clipped" not in capsys.readouterr().out
+
+
 def test_cli_refuses_a_seed_outside_numpys_range_as_a_usage_error(runs_dir, tmp_path,
                                                                   capsys):
     with pytest.raises(SystemExit) as exit_info:
