@@ -199,7 +199,8 @@ class SimConfig:
     ConfigError
         Unknown vehicle, terrain, scenario or physics version (the message lists the valid
         choices), or a duration, rate, segment length or seed out of range (a duration too short for
-        two samples of every stream names the slowest stream and the minimum in seconds).
+        two samples of every stream names the slowest stream and the minimum in seconds),
+        or ``icr_expansion`` planted on a steered vehicle (it would change nothing).
     """
 
     vehicle: str = "husky"
@@ -248,6 +249,12 @@ class SimConfig:
             raise ConfigError(f"segment_length_m must be > 0, got {self.segment_length_m}")
         if int(self.seed) < 0:
             raise ConfigError(f"seed must be >= 0, got {self.seed}")
+        if self.effects.icr_expansion != 1.0 and vehicle.contact_geometry().steered:
+            # simulate() applies chi to skid-steered vehicles only: planted on a steered one
+            # it would be listed as active in the run's metadata and change nothing
+            raise ConfigError(f"icr_expansion is a skid-steer effect (yaw rate (v_R - v_L) / "
+                              f"(chi B)); the {vehicle.name} is steered, so it would change "
+                              "nothing: leave it out")
 
 
 @dataclass(frozen=True)

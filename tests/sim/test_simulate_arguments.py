@@ -149,3 +149,16 @@ def test_a_listed_terrain_the_path_never_reaches_is_named(tmp_path, capsys):
                  "2", "--scenario", "straight_accel", "--duration-s", "10", "--out",
                  str(tmp_path / "both")]) == 0
     assert "never reached" not in capsys.readouterr().out
+
+
+def test_icr_expansion_on_a_steered_vehicle_is_refused(tmp_path, capsys):
+    # simulate() applies chi to skid-steered vehicles only: on the AgriMaRo the run's
+    # metadata listed it as active and every stream came out identical to the run without
+    with pytest.raises(ConfigError, match="icr_expansion is a skid-steer effect"):
+        SimConfig(vehicle="agrimaro", effects=parse_effects(["icr_expansion=1.5"]))
+    SimConfig(vehicle="agrimaro", effects=parse_effects(["gyro_bias=0.03"]))
+    SimConfig(vehicle="tracked", effects=parse_effects(["icr_expansion=1.5"]))
+    assert main(["simulate", "--vehicle", "agrimaro", "--terrain", "SNOW", "--effect",
+                 "icr_expansion=1.5", "--out", str(tmp_path)]) == 2
+    assert "the agrimaro is steered" in _one_line_error(capsys)
+    assert not any(tmp_path.iterdir())
