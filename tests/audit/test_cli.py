@@ -100,7 +100,7 @@ def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tm
 
 
 def test_cli_names_a_replay_low_pass_clipped_below_the_asked_cut_off(runs_dir, tmp_path,
-                                                                    capsys):
+                                                                     capsys):
     # 1000 Hz asks for no smoothing of the 6.5 Hz wheel record; the filter is clipped to
     # 0.45 of the rate (2.93 Hz), which smooths it, and nothing said so
     assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow", "--replay-input-lowpass-hz",

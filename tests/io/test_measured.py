@@ -75,7 +75,7 @@ def test_dropped_column_raises_missing_column(tmp_path, synth_imu):
     (",", 1, "the names are quoted; the readers take them unquoted"),
 ])
 def test_another_csv_dialect_is_named_in_the_missing_column_error(tmp_path, synth_pro, sep,
-                                                                   quoting, hint):
+                                                                  quoting, hint):
     # a spreadsheet export (semicolons), a tab-separated log, or quoted names: the error
     # listed the one long "column" it found and left the user to see why
     path = tmp_path / "pro_00.csv"
