@@ -119,7 +119,8 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     Raises
     ------
     ConfigError
-        Unknown dataset name.
+        Unknown dataset name; a run whose ``meta_XX.json`` names another vehicle than the
+        dataset's (:data:`DATASET_VEHICLE`).
     DataFormatError
         Any reader error in the source files.
 
@@ -127,7 +128,9 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     -----
     DataWarning
         The IMU rate of the converted runs is more than 10 % from the dataset's native rate
-        (:data:`DATASET_SPECS`), at which its windows are aligned.
+        (:data:`DATASET_SPECS`), at which its windows are aligned; stream files other than
+        the IMU and wheel ones (``truth``, the AgriMaRo's ``cam``, ``steer``...) that the
+        shipped format leaves out, counted per kind.
     """
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
@@ -135,9 +138,18 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     out.mkdir(parents=True, exist_ok=True)
     frames: dict[str, list[pd.DataFrame]] = {s: [] for s in STREAM_FILES}
     runs_info = []
+    left_out: dict[str, int] = {}
     for (folder, index), files in sorted(list_run_files(src).items()):
         run_id = f"{dataset}/{folder}/{index}"
         run = read_run(files, run_id, dataset, folder.upper())
+        if run.vehicle != DATASET_VEHICLE[dataset]:
+            raise ConfigError(f"run {folder}/{index} of {src} was recorded by vehicle "
+                              f"{run.vehicle!r} (its meta_{index}.json); dataset {dataset!r} "
+                              f"is the {DATASET_VEHICLE[dataset]}'s, and its models, rules "
+                              "and notes assume that robot")
+        for name in run.streams:
+            if name not in STREAM_FILES:
+                left_out[name] = left_out.get(name, 0) + 1
         for name in STREAM_FILES:
             if name in run.streams:
                 frames[name].append(run.streams[name].assign(**{RUN_ID: run_id}))
@@ -161,6 +173,10 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         shipped[f"{dataset}/{STREAM_FILES[name]}"] = sha256(path)
         dt = table.groupby(RUN_ID, observed=True)[TIME].diff().median()
         rates[name] = round(float(1.0 / dt), 3)
+    if left_out:
+        kinds = ", ".join(f"{k} ({n} run(s))" for k, n in sorted(left_out.items()))
+        warnings.warn(f"{src}: stream file(s) left out, the shipped format keeps the IMU and "
+                      f"wheel streams only: {kinds}", DataWarning, stacklevel=2)
     native = DATASET_SPECS[dataset].rate_hz
     if "imu" in rates and abs(rates["imu"] / native - 1.0) > 0.1:
         # every window of this dataset is cut on its native clock: a 100 Hz IMU converted

@@ -184,6 +184,31 @@ def test_convert_regenerates_identical_data(workdir):
             pd.testing.assert_frame_equal(a.streams[name], b.streams[name])
 
 
+def test_convert_names_what_the_shipped_format_leaves_out_and_refuses_another_robot(
+        workdir, capsys):
+    # simulated runs carry a truth stream (the AgriMaRo's also cam, steer, omega, cur): the
+    # shipped format keeps the IMU and wheels only, and both datasets are the Husky's; the
+    # conversion said "nothing repaired, dropped or skipped" and dropped them
+    from terrain.io.writer import write_run
+    from terrain.sim import SimConfig, simulate
+
+    husky, agri = workdir / "husky", workdir / "agri"
+    for seed in (1, 2):
+        write_run(simulate(SimConfig(vehicle="husky", terrains=("SNOW",),
+                                     scenario="straight_accel", duration_s=3.0, seed=seed)),
+                  husky)
+    assert main(["convert", str(husky), "--dataset", "borealtc", "--data-dir",
+                 str(workdir / "data")]) == 0
+    assert ("stream file(s) left out, the shipped format keeps the IMU and wheel streams "
+            "only: truth (2 run(s))") in capsys.readouterr().err
+    write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("SNOW",),
+                                 scenario="straight_accel", duration_s=3.0, seed=1)), agri)
+    assert main(["convert", str(agri), "--dataset", "vulpi", "--data-dir",
+                 str(workdir / "data2")]) == 2
+    err = capsys.readouterr().err
+    assert "recorded by vehicle 'agrimaro'" in err and "dataset 'vulpi' is the husky's" in err
+
+
 def test_bad_dataset_is_rejected(capsys):
     with pytest.raises(SystemExit):
         main(["cv", "--dataset", "mars"])
