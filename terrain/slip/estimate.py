@@ -109,7 +109,8 @@ class RunEstimate:
 
     def summary(self) -> str:
         """One line for the log: steps and rate, mean NIS and dof, median slip of each wheel,
-        encoder lag, non-finite samples skipped.
+        encoder lag, non-finite samples skipped, samples a later one in the same filter step
+        superseded (a ``rate_hz`` below a sensor's rate).
 
         Returns
         -------
@@ -126,10 +127,15 @@ class RunEstimate:
             for j, n in enumerate(self.slip_names))
         lag = f"{self.lag.lag_s:.3f} s" if self.lag is not None else "not estimated"
         skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
+        # a filter slower than a sensor keeps the latest of its samples in each step
+        superseded = {k: f"{v['superseded']} of {v['samples']}"
+                      for k, v in ekf.counts.items() if v.get("superseded")}
         return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
                 f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
                 f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
-                + (f", non-finite samples skipped {skipped}" if skipped else ""))
+                + (f", non-finite samples skipped {skipped}" if skipped else "")
+                + (f", samples unused (a later one in the same filter step wins) "
+                   f"{superseded}" if superseded else ""))
 
 
 def resample(t_grid_s: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:

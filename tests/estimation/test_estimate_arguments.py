@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -94,7 +95,15 @@ def test_estimate_rate_within_bounds_still_works(run_dir, tmp_path, capsys):
     out = tmp_path / "s.csv"
     assert main(["estimate", str(run_dir), "--out", str(out), "--slip-model", "physics",
                  "--rate-hz", "50", "--gate", "0.999"]) == 0
-    assert "at 50.0 Hz" in capsys.readouterr().out and out.exists()
+    printed = capsys.readouterr().out
+    assert "at 50.0 Hz" in printed and out.exists()
+    # the 100 Hz IMU on a 50 Hz filter: every other sample unused (latest wins), counted;
+    # at 1 Hz 94 % of them went unused without a word before
+    unused = re.search(r"samples unused \(a later one in the same filter step wins\) "
+                       r"\{'gyro': '(\d+) of (\d+)'", printed)
+    assert unused and abs(int(unused[1]) / int(unused[2]) - 0.5) < 0.02
+    assert main(["estimate", str(run_dir), "--out", str(out), "--slip-model", "physics"]) == 0
+    assert "samples unused" not in capsys.readouterr().out      # the IMU rate: none
 
 
 def test_explicit_slip_model_dir_that_does_not_exist_is_an_error(run_dir, tmp_path, capsys):
