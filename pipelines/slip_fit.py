@@ -22,7 +22,7 @@ from features.slip_features import (one_hot_probabilities, slip_features, slip_t
                                     slip_windows, terrain_columns)
 from pipelines.arguments import DistinctSeeds, output_dir, seed_value
 from terrain.errors import ConfigError
-from terrain.io.shipped import load_dataset
+from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
                                      measured_checks, odometry_errors, std_calibration_table,
@@ -66,7 +66,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cache-dir", type=output_dir, default=Path("out/slip_cache"))
     parser.add_argument("--out", type=output_dir, default=Path("out/slip_fit"))
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
-    parser.add_argument("--measured", default=None,
+    parser.add_argument("--measured", default=None, choices=list(DATASET_SPECS),
                         help="also check the model on a shipped measured dataset (borealtc)")
     parser.add_argument("--no-register", action="store_true")
 

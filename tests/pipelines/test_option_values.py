@@ -96,6 +96,15 @@ def test_a_value_repeated_on_a_grid_axis_is_refused_before_any_work(argv, messag
     assert not any(tmp_path.iterdir())
 
 
+def test_slip_fit_refuses_an_unknown_measured_dataset_before_simulating(capsys, tmp_path):
+    # it simulated and fitted for minutes and then failed on the dataset name
+    with pytest.raises(SystemExit) as exc:
+        main(["slip-fit", "--measured", "mars", "--out", str(tmp_path / "o"), "--cache-dir",
+              str(tmp_path / "c")])
+    assert exc.value.code == 2 and "invalid choice: 'mars'" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
+
+
 def test_slip_fit_refuses_a_seed_in_training_and_held_out(capsys, tmp_path):
     # the held-out mask would take seed 1 and leave it out of training without a word
     assert main(["slip-fit", "--train-seeds", "0", "1", "--test-seeds", "1", "--out",
