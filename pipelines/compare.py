@@ -22,8 +22,8 @@ import pandas as pd
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, output_dir,
                                  seed_value)
 from terrain.errors import ConfigError
-from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, grid_markdown,
-                                    iter_grid, joblib_backend, markdown_table,
+from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
+                                    grid_markdown, iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
 from terrain.models.registry import MODELS
 from terrain.tracking import tracked_run
@@ -184,6 +184,7 @@ def main(args: argparse.Namespace) -> int:
     """
     import mlflow
 
+    check_backend(args.backend, args.address)      # before any run opens
     config = config_from_args(args)
     params = {k: ",".join(map(str, v)) if isinstance(v, tuple) else v
               for k, v in asdict(config).items()}

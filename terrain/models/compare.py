@@ -708,6 +708,29 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
 BACKENDS = ("loky", "dask", "ray")
 
 
+def check_backend(backend: str, address: str | None) -> None:
+    """Refuse a backend and address that :func:`joblib_backend` would not use together.
+
+    Parameters
+    ----------
+    backend : str
+        ``loky``, ``dask`` or ``ray``.
+    address : str or None
+        Scheduler / cluster address.
+
+    Raises
+    ------
+    ConfigError
+        Unknown backend, or an address with ``loky`` (local processes: the address would be
+        ignored and the grid run here).
+    """
+    if backend not in BACKENDS:
+        raise ConfigError(f"unknown backend {backend!r}; valid: {list(BACKENDS)}")
+    if backend == "loky" and address is not None:
+        raise ConfigError(f"--address {address} needs --backend dask or ray: the loky backend "
+                          "runs the grid in local processes and would ignore it")
+
+
 @contextmanager
 def joblib_backend(backend: str = "loky", address: str | None = None):
     """Route :class:`joblib.Parallel` calls to local processes, a Dask or a Ray cluster.
@@ -729,9 +752,12 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
     Raises
     ------
     ConfigError
-        Unknown backend, or the backend's library is not installed.
+        Unknown backend, an address with ``loky`` (:func:`check_backend`), or the
+        backend's library is not installed.
     """
     from joblib import parallel_config
+
+    check_backend(backend, address)
 
     if backend == "loky":
         with parallel_config(backend="loky"):
@@ -745,7 +771,7 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
             client.close()
         if cluster is not None:
             cluster.close()
-    elif backend == "ray":
+    else:                                   # ray (check_backend refused any other name)
         try:
             import ray
             from ray.util.joblib import register_ray
@@ -759,5 +785,3 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
                 yield -1
         finally:
             ray.shutdown()
-    else:
-        raise ConfigError(f"unknown backend {backend!r}; valid: {list(BACKENDS)}")

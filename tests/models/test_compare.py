@@ -83,6 +83,25 @@ def test_dask_local_cluster_gives_the_same_cells_as_local_runs():
         pd.testing.assert_frame_equal(a["predictions"], b["predictions"])
 
 
+def test_an_address_with_the_local_backend_is_refused_before_any_run(tmp_path, capsys,
+                                                                     monkeypatch):
+    # loky runs the grid here: an address (a cluster the user meant to use) was ignored
+    from terrain.cli import main
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="needs --backend dask or ray"):
+        with joblib_backend("loky", "tcp://scheduler:8786"):
+            pass
+    with pytest.raises(ConfigError, match="unknown backend"):
+        with joblib_backend("spark"):
+            pass
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", "--address", "tcp://scheduler:8786", "--out", "c"]) == 2
+    assert "--address tcp://scheduler:8786 needs --backend dask or ray" in \
+        capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
 def test_soft_vote_of_cv_predictions_equals_the_fixed_weight_ensemble():
     from sklearn.linear_model import LogisticRegression
     from sklearn.pipeline import make_pipeline
