@@ -258,6 +258,43 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     return model_dir, {**info, "cached": False}
 
 
+def check_decision_options(source: str, model_dir: str | None,
+                           classifier_seeds: Sequence[int] | None,
+                           uncontrolled_only: bool) -> None:
+    """Refuse, before any run, options the chosen terrain source would ignore.
+
+    Parameters
+    ----------
+    source : {"label", "live-sim", "model"}
+        The terrain source (``--terrain-source``).
+    model_dir : str or None
+        ``--model``: used by ``model`` only.
+    classifier_seeds : sequence of int or None
+        ``--classifier-seeds`` as given (None: not given); used by ``live-sim`` only.
+    uncontrolled_only : bool
+        ``--classifier-uncontrolled-only``; used by ``live-sim`` only.
+
+    Raises
+    ------
+    ConfigError
+        ``--model`` with another source than ``model``, ``model`` without ``--model``, or a
+        live-sim classifier option with another source than ``live-sim``.
+    """
+    if model_dir and source != "model":
+        raise ConfigError(f"--model is used only with --terrain-source model, not "
+                          f"{source!r}: leave one of them out")
+    if source == "model" and not model_dir:
+        raise ConfigError("--terrain-source model needs --model DIR")
+    given = [name for name, on in (("--classifier-seeds", classifier_seeds is not None),
+                                   ("--classifier-uncontrolled-only", uncontrolled_only))
+             if on]
+    if given and source != "live-sim":
+        verb = "train" if len(given) > 1 else "trains"
+        raise ConfigError(f"{' and '.join(given)} {verb} the live-sim classifier; "
+                          f"--terrain-source {source} uses none: leave "
+                          f"{'them' if len(given) > 1 else 'it'} out")
+
+
 def decision_source(source: str, vehicle: str, terrains: Sequence[str],
                     eval_seeds: Sequence[int], model_dir: str | None = None,
                     classifier_seeds: Sequence[int] = CLASSIFIER_SEEDS,

@@ -22,7 +22,8 @@ import json
 from pathlib import Path
 
 from pipelines.arguments import DistinctSeeds, output_dir, seed_value
-from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
+from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
+                                          check_decision_options, decision_source)
 from pipelines.control_sim import SCENARIOS
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
@@ -70,8 +71,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "trained on simulated runs) or model (--model)")
     parser.add_argument("--model", default=None, help="classifier of --terrain-source model")
     parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
-                        default=list(CLASSIFIER_SEEDS),
-                        help="training seeds of the live-sim classifier")
+                        default=None,
+                        help="training seeds of the live-sim classifier (default: "
+                             f"{' '.join(map(str, CLASSIFIER_SEEDS))})")
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",
                         help="train the live-sim classifier on uncontrolled runs only "
                              "(default: also on runs with the traction controller on)")
@@ -122,8 +124,9 @@ def check_grid(args: argparse.Namespace) -> None:
     ConfigError
         An unknown vehicle or terrain, a duration or seed :class:`terrain.sim.SimConfig`
         refuses, a gain of the grids :class:`terrain.control.traction.TractionControlConfig`
-        refuses (negative or not finite), an evaluation seed that is a tuning seed, or a
-        value repeated on an axis or in a gain grid.
+        refuses (negative or not finite), an evaluation seed that is a tuning seed, a
+        value repeated on an axis or in a gain grid, or a terrain-source option the source
+        would ignore (:func:`pipelines.control_classifier.check_decision_options`).
     """
     for vehicle in args.vehicles:
         default_gains(vehicle)
@@ -141,6 +144,8 @@ def check_grid(args: argparse.Namespace) -> None:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds {list(TUNING_SEEDS)}: "
                           "choose others")
     check_grid_axes(args.vehicles, args.terrains, args.scenarios, args.seeds)
+    check_decision_options(args.terrain_source, args.model, args.classifier_seeds,
+                           args.classifier_uncontrolled_only)
     for option, values in (("--kp-grid", args.kp_grid), ("--ki-grid", args.ki_grid)):
         if duplicated(values):
             raise ConfigError(f"{option}: {duplicated(values)} given more than once (each "
@@ -190,7 +195,8 @@ def main(args: argparse.Namespace) -> int:
         for veh in args.vehicles:
             decisions[veh], classifiers[veh] = decision_source(
                 args.terrain_source, veh, args.terrains, args.seeds, args.model,
-                args.classifier_seeds, controlled_runs=not args.classifier_uncontrolled_only,
+                args.classifier_seeds or CLASSIFIER_SEEDS,
+                controlled_runs=not args.classifier_uncontrolled_only,
                 gains=gains[veh], estimator=estimators.get(veh),
                 feed_forward=not args.no_feed_forward)
             run.log_dict(classifiers[veh], f"classifier_{veh}.json")

@@ -30,10 +30,10 @@ import json
 from pathlib import Path
 
 from pipelines.arguments import DistinctSeeds, output_file, seed_value
-from pipelines.control_classifier import CLASSIFIER_SEEDS, TERRAIN_SOURCES, decision_source
+from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
+                                          check_decision_options, decision_source)
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
 from terrain.control.estimators import ESTIMATORS
-from terrain.errors import ConfigError
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -75,8 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "cached), model (--model) or label (ground truth); default "
                              "model with --model, else live-sim")
     parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
-                        default=list(CLASSIFIER_SEEDS),
-                        help="training seeds of the live-sim classifier")
+                        default=None,
+                        help="training seeds of the live-sim classifier (default: "
+                             f"{' '.join(map(str, CLASSIFIER_SEEDS))})")
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",
                         help="train the live-sim classifier on uncontrolled runs only "
                              "(default: also on runs with the traction controller on)")
@@ -126,11 +127,10 @@ def main(args: argparse.Namespace) -> int:
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None
     source = args.terrain_source or ("model" if args.model else "live-sim")
-    if args.model and source != "model":
-        raise ConfigError(f"--model is used only with --terrain-source model, not "
-                          f"{source!r}: leave one of them out")
+    check_decision_options(source, args.model, args.classifier_seeds,
+                           args.classifier_uncontrolled_only)
     provider, info = decision_source(source, args.vehicle, [terrain], [args.seed],
-                                     args.model, args.classifier_seeds,
+                                     args.model, args.classifier_seeds or CLASSIFIER_SEEDS,
                                      controlled_runs=not args.classifier_uncontrolled_only,
                                      gains=gains, estimator=args.estimator,
                                      feed_forward=not args.no_feed_forward)

@@ -96,6 +96,26 @@ def test_a_value_repeated_on_a_grid_axis_is_refused_before_any_work(argv, messag
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("argv, message", [
+    (["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
+      "--controller", "traction", "--json", "c.json", "--terrain-source", "label",
+      "--classifier-seeds", "5", "6"],
+     "--classifier-seeds trains the live-sim classifier; --terrain-source label uses none"),
+    (["control-grid", "--out", "g", "--classifier-uncontrolled-only"],
+     "--classifier-uncontrolled-only trains the live-sim classifier"),
+    (["control-grid", "--out", "g", "--model", "m"],
+     "--model is used only with --terrain-source model, not 'label'"),
+])
+def test_a_terrain_source_option_the_source_ignores_is_refused(argv, message, capsys,
+                                                               tmp_path, monkeypatch):
+    # with the label as terrain source these ran and changed nothing (control-grid also
+    # took --model without a word)
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
 def test_slip_fit_refuses_an_unknown_measured_dataset_before_simulating(capsys, tmp_path):
     # it simulated and fitted for minutes and then failed on the dataset name
     with pytest.raises(SystemExit) as exc:
