@@ -119,8 +119,7 @@ def main(args: argparse.Namespace) -> int:
     slip_model = args.slip_model or "fused"
     tuning = args.tuning or "noise"
     learned = None
-    wants_model = (slip_model in ("learned", "fused")
-                   and any(r.vehicle != "agrimaro" for r in runs))
+    wants_model = slip_model in ("learned", "fused") and skid
     if wants_model:
         learned, where = resolve_slip_model(args.slip_model_dir)
         if learned is None:
@@ -136,7 +135,8 @@ def main(args: argparse.Namespace) -> int:
                                rate_hz=rate_hz)
         else:
             outputs = slip_model_outputs(run, learned) if slip_model != "ekf" else None
-            missing = missing_slip_inputs(run) if outputs is None else None
+            missing = (missing_slip_inputs(run) if outputs is None and slip_model != "ekf"
+                       else None)
             est = estimate_skid_steer_slip_run(run, slip_model, outputs=outputs,
                                                missing=missing, lag=args.lag, gate=gate,
                                                rate_hz=rate_hz)
