@@ -548,7 +548,7 @@ def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
     if not runs:
         # a runs folder one level up (<root>/<TERRAIN>/...): name its terrain folders
         inner = sorted(d.name for d in folder.iterdir()
-                       if d.is_dir() and any(d.glob("pro_*.csv")) | any(d.glob("imu_*.csv")))
+                       if d.is_dir() and (any(d.glob("pro_*.csv")) or any(d.glob("imu_*.csv"))))
         hint = (f"; its terrain folder(s) {', '.join(inner)} do: pass one of them, e.g. "
                 f"{shown / inner[0]}" if inner else "")
         raise ConfigError(f"{shown} holds no run files (imu_XX.csv, pro_XX.csv){hint}")
