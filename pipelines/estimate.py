@@ -113,6 +113,9 @@ def main(args: argparse.Namespace) -> int:
     if args.slip_model is not None and not skid:
         print(f"note: --slip-model {args.slip_model} not used: no skid-steer run (the AgriMaRo "
               "EKF observes its slip with the camera)")
+    if args.lag == "ema" and not agrimaro:
+        print("note: --lag ema filters the AgriMaRo camera (thesis ch. 7.2.2) and no run is an "
+              "AgriMaRo's: the encoder lag is neither estimated nor compensated (as --lag none)")
     if args.tuning is not None and not agrimaro:
         print(f"note: --tuning {args.tuning} not used: it tunes the AgriMaRo EKF and no run is "
               "an AgriMaRo's")

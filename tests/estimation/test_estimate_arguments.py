@@ -163,8 +163,12 @@ def test_an_option_of_the_other_vehicle_kind_is_said_not_silently_ignored(run_di
                  "--tuning", "thesis"]) == 0
     assert ("note: --tuning thesis not used: it tunes the AgriMaRo EKF"
             in capsys.readouterr().out)
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--lag", "ema"]) == 0
+    assert "note: --lag ema filters the AgriMaRo camera" in capsys.readouterr().out
     assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv")]) == 0
-    assert "not used" not in capsys.readouterr().out           # defaults say nothing
+    out = capsys.readouterr().out
+    assert "not used" not in out and "--lag" not in out        # defaults say nothing
     agri = tmp_path / "agri"
     write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("SNOW",),
                                  scenario="straight_accel", duration_s=3.0, seed=1)), agri)
