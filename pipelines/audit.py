@@ -19,14 +19,12 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-import numpy as np
-
 from pipelines.arguments import output_file, seed_value
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
 from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, ReplaySettings,
-                                  cruise_wheel_acceleration_rms)
+                                  cruise_wheel_acceleration_rms, lowpass_cutoff_hz)
 from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -34,7 +32,6 @@ from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
-from terrain.run import TIME
 
 EXPERIMENT = "terrain-audit"
 #: multipliers of the catalogue lateral friction in the what-if sweep
@@ -205,18 +202,20 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
               "smooths it (docs/physics_v2.md)")
     cutoff = settings.replay.input_cutoff_hz
     if cutoff is not None:
-        rates = [1.0 / float(np.median(np.diff(r.streams["wheels"][TIME].to_numpy(float))))
-                 for r in runs if "wheels" in r.streams and len(r.streams["wheels"]) > 1]
-        clipped = [rate for rate in rates if cutoff > MAX_CUTOFF_FRACTION * rate]
+        rates = [r.rate_hz("wheels") for r in runs
+                 if "wheels" in r.streams and len(r.streams["wheels"]) > 1]
+        clipped = [(rate, lowpass_cutoff_hz(rate, cutoff)) for rate in rates
+                   if lowpass_cutoff_hz(rate, cutoff) < cutoff]
         if clipped:
-            def span(scale: float) -> str:
-                low, high = (f"{scale * min(clipped):.3g}", f"{scale * max(clipped):.3g}")
+            def span(values) -> str:
+                low, high = f"{min(values):.3g}", f"{max(values):.3g}"
                 return f"{low} Hz" if low == high else f"{low}-{high} Hz"
 
+            used_rates, used_cutoffs = zip(*clipped)
             print(f"  note: --replay-input-lowpass-hz {cutoff:g} is above "
                   f"{MAX_CUTOFF_FRACTION:g} of the wheel rate of {len(clipped)} run(s) "
-                  f"({span(1.0)}): their low-pass is clipped to {MAX_CUTOFF_FRACTION:g} of "
-                  f"each run's rate ({span(MAX_CUTOFF_FRACTION)})")
+                  f"({span(used_rates)}): their low-pass is clipped to {MAX_CUTOFF_FRACTION:g} "
+                  f"of each run's rate ({span(used_cutoffs)})")
     with_imu = {r.run_id for r in runs if r.has_imu}
     no_imu = sorted(f.run_id for f in result.frames if f.run_id not in with_imu)
     if no_imu:

@@ -147,9 +147,9 @@ def check_grid(args: argparse.Namespace) -> None:
     check_decision_options(args.terrain_source, args.model, args.classifier_seeds,
                            args.classifier_uncontrolled_only)
     for option, values in (("--kp-grid", args.kp_grid), ("--ki-grid", args.ki_grid)):
-        if duplicated(values):
-            raise ConfigError(f"{option}: {duplicated(values)} given more than once (each "
-                              "gain once)")
+        repeated = duplicated(values)
+        if repeated:
+            raise ConfigError(f"{option}: {repeated} given more than once (each gain once)")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -159,6 +159,25 @@ class Replay:
 MAX_CUTOFF_FRACTION = 0.45
 
 
+def lowpass_cutoff_hz(rate_hz: float, cutoff_hz: float) -> float:
+    """The cut-off :func:`lowpass` uses: the one asked, clipped to
+    :data:`MAX_CUTOFF_FRACTION` of the sampling rate.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sampling rate, Hz.
+    cutoff_hz : float
+        Cut-off asked for, Hz.
+
+    Returns
+    -------
+    float
+        Cut-off used, Hz.
+    """
+    return min(float(cutoff_hz), MAX_CUTOFF_FRACTION * float(rate_hz))
+
+
 def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
     """Zero-phase 4th-order Butterworth low-pass along axis 0.
 
@@ -176,7 +195,7 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
         Filtered values (unchanged when the series is too short to filter).
     """
     values = np.asarray(values, dtype=float)
-    fc = min(float(cutoff_hz), MAX_CUTOFF_FRACTION * float(rate_hz))
+    fc = lowpass_cutoff_hz(rate_hz, cutoff_hz)
     sos = signal.butter(4, fc, fs=float(rate_hz), output="sos")
     if values.shape[0] <= 3 * (2 * len(sos) + 1):
         return values

@@ -124,9 +124,10 @@ def check_grid_axes(vehicles: Sequence[str], terrains: Sequence[str], scenarios:
             "terrains": [str(t).upper() for t in terrains],
             "scenarios": list(scenarios), "seeds": [int(s) for s in seeds]}
     for axis, values in axes.items():
-        if duplicated(values):
-            raise ConfigError(f"{axis}: {duplicated(values)} given more than once (each value "
-                              "of a grid axis once)")
+        repeated = duplicated(values)
+        if repeated:
+            raise ConfigError(f"{axis}: {repeated} given more than once (each value of a grid "
+                              "axis once)")
 
 
 def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],

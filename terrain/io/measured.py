@@ -547,8 +547,7 @@ def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
     runs = folder_run_files(shown)
     if not runs:
         # a runs folder one level up (<root>/<TERRAIN>/...): name its terrain folders
-        inner = sorted(d.name for d in folder.iterdir()
-                       if d.is_dir() and (any(d.glob("pro_*.csv")) or any(d.glob("imu_*.csv"))))
+        inner = sorted(d.name for d in folder.iterdir() if d.is_dir() and folder_run_files(d))
         hint = (f"; its terrain folder(s) {', '.join(inner)} do: pass one of them, e.g. "
                 f"{shown / inner[0]}" if inner else "")
         raise ConfigError(f"{shown} holds no run files (imu_XX.csv, pro_XX.csv){hint}")

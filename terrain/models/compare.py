@@ -117,7 +117,8 @@ class CompareConfig:
         An unknown model, dataset, signal set or protocol; a window length, seed or
         ``train_hop_s`` that :class:`~terrain.models.experiment.ExperimentConfig` refuses;
         ``cnn_seeds`` without a CNN model; a value repeated on an axis (models, signals,
-        windows_s, datasets, seeds, history); no seed, a history length below 1, fewer than
+        windows_s, datasets, history; a repeated seed is ExperimentConfig's refusal); no
+        seed, a history length below 1, fewer than
         1 epoch or 2 folds; ``n_threads`` outside 1-``MAX_TORCH_THREADS``
         (:class:`~terrain.models.registry.ModelConfig`'s rule).
     """
@@ -160,7 +161,8 @@ class CompareConfig:
         bad = [m for m in self.models if m not in MODELS]
         if bad:
             raise ConfigError(f"unknown model(s) {bad}; valid: {list(MODELS)}")
-        for axis in ("models", "signals", "windows_s", "datasets", "seeds", "history"):
+        # (repeated seeds: ExperimentConfig's own check, run below for every cell)
+        for axis in ("models", "signals", "windows_s", "datasets", "history"):
             repeated = duplicated(getattr(self, axis))
             if repeated:  # a repeated value would fit its cells twice and count them as two
                 raise ConfigError(f"{axis} must be distinct: {repeated} given more than once")

@@ -63,9 +63,10 @@ class SlipDataSpec:
         if not (self.terrains and self.scenarios and self.seeds):
             raise ConfigError("the run grid is empty")
         for axis in ("terrains", "scenarios", "seeds"):
-            if duplicated(getattr(self, axis)):  # a run simulated and counted twice
-                raise ConfigError(f"{axis}: {duplicated(getattr(self, axis))} given more than "
-                                  "once (each value of the run grid once)")
+            repeated = duplicated(getattr(self, axis))
+            if repeated:  # a run simulated and counted twice
+                raise ConfigError(f"{axis}: {repeated} given more than once (each value of "
+                                  "the run grid once)")
         if not self.duration_s > 0:
             raise ConfigError(f"duration_s must be > 0, got {self.duration_s}")
 
