@@ -26,7 +26,7 @@ from pipelines.arguments import output_file
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
-from terrain.estimation.runner import MAX_RATE_HZ, check_rate_hz
+from terrain.estimation.runner import MAX_RATE_HZ, MIN_RATE_HZ, check_rate_hz
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.run import TIME
@@ -56,8 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="chi-square gate probability per sensor, in (0, 1) exclusive "
                              "(e.g. 0.999); off by default")
     parser.add_argument("--rate-hz", type=float, default=None,
-                        help=f"filter rate, Hz, in (0, {MAX_RATE_HZ:g}] (default: the IMU "
-                             "rate)")
+                        help=f"filter rate, Hz, in [{MIN_RATE_HZ:g}, {MAX_RATE_HZ:g}] (default: "
+                             "the IMU rate)")
     parser.add_argument("--slip-model", choices=SLIP_MODELS, default=None,
                         help="skid-steer slip source (default fused)")
     parser.add_argument("--slip-model-dir", type=Path, default=None,

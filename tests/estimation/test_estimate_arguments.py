@@ -64,6 +64,13 @@ def test_estimate_bad_rate_is_one_line(rate, tmp_path, capsys):
     assert "--rate-hz must be in [1, 10000] Hz" in line
 
 
+def test_estimate_help_states_the_rate_range_the_check_enforces(capsys):
+    with pytest.raises(SystemExit):
+        main(["estimate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"in [{MIN_RATE_HZ:g}, {MAX_RATE_HZ:g}]" in text
+
+
 def test_check_rate_hz():
     assert check_rate_hz(None) is None
     assert check_rate_hz(200) == 200.0
