@@ -77,6 +77,9 @@ STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_
 MEASUREMENT_NAMES: tuple[str, ...] = ("omega_1", "omega_2", "omega_3", "ax", "ay", "wz",
                                       "yaw_imu", "delta_1", "delta_2", "delta_3", "v_cx",
                                       "v_cy", "yaw_rate_c", "yaw_c")
+#: Rows of :data:`MEASUREMENT_NAMES` that are angles (``yaw_imu``, ``yaw_c``), rad: wrapped
+#: in the innovation and averaged unwrapped by the pre-filter (:func:`ema_filter`).
+ANGLE_ROWS: tuple[int, ...] = (6, 13)
 SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
     {"omega": (0, 1, 2), "imu": (3, 4, 5, 6), "steer": (7, 8, 9), "cam": (10, 11, 12, 13)})
 #: Columns of each sensor in a :class:`~terrain.run.Run` (stream, columns); ``yaw_imu`` is
@@ -250,7 +253,7 @@ class AgriMaRoModel(KernelModel):
     settings: AgriMaRoEKFSettings = field(default_factory=AgriMaRoEKFSettings)
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
-    angle_rows: tuple[int, ...] = field(default=(6, 13), init=False)
+    angle_rows: tuple[int, ...] = field(default=ANGLE_ROWS, init=False)
     transition_kernel = staticmethod(transition_into)
     observation_kernel = staticmethod(observation_into)
 
@@ -375,7 +378,9 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
                     raise DataFormatError(f"stream {stream!r} lacks columns {missing}",
                                           run.source, missing[0])
                 vals = frame[list(cols)].to_numpy(dtype=float)
-        vals = ema_filter(vals, settings.alpha(sensor))
+        angles = [j for j, name in enumerate(SENSOR_COLUMNS[sensor][1])
+                  if MEASUREMENT_NAMES.index(name) in ANGLE_ROWS]
+        vals = ema_filter(vals, settings.alpha(sensor), angles)
         out[sensor] = SensorSamples(t - float(offsets.get(sensor, 0.0)), vals)
     return out
 

@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
@@ -16,12 +18,20 @@ from scipy.signal import lfilter
 from terrain.errors import EstimationError
 
 
-def ema_filter(values: np.ndarray, alpha: float) -> np.ndarray:
+def ema_filter(values: np.ndarray, alpha: float,
+               angle_columns: Sequence[int] = ()) -> np.ndarray:
     """Exponential moving average along axis 0 (seed 001 eq. 6.12).
 
     ``y_0 = z_0``, ``y_k = alpha y_{k-1} + (1 - alpha) z_k``. ``alpha = 0`` returns the input
     unchanged. Non-finite samples are held over (the previous output is repeated) and stay
     non-finite in the output, so the EKF still skips and counts them.
+
+    Angles (``angle_columns``) are averaged along their unwrapped sequence (``numpy.unwrap``
+    over the held-over samples): a heading reported in [-pi, pi) jumps by 2 pi where it
+    crosses pi, and averaging across the jump would invent headings in between. Their
+    output is left unwrapped (within 2 pi k of the input; the EKF wraps the innovation,
+    :func:`terrain.estimation.model.wrap_angle`); a sequence with no step over pi comes out
+    as if it were not an angle.
 
     Parameters
     ----------
@@ -29,6 +39,8 @@ def ema_filter(values: np.ndarray, alpha: float) -> np.ndarray:
         Samples of one sensor, in time order.
     alpha : float
         Smoothing coefficient in [0, 1) (0.1 in eq. 6.12; 0.2 for the camera, ch. 7.2.2).
+    angle_columns : sequence of int
+        Columns of ``values`` (``(k, d)`` input) that are angles in rad.
 
     Returns
     -------
@@ -37,11 +49,15 @@ def ema_filter(values: np.ndarray, alpha: float) -> np.ndarray:
     Raises
     ------
     EstimationError
-        ``alpha`` outside [0, 1).
+        ``alpha`` outside [0, 1), or an angle column outside the values' columns.
     """
     if not 0.0 <= float(alpha) < 1.0:
         raise EstimationError(f"EMA alpha must be in [0, 1), got {alpha}")
     v = np.asarray(values, dtype=float)
+    n_columns = v.shape[1] if v.ndim == 2 else 1
+    if any(not 0 <= int(c) < n_columns for c in angle_columns):
+        raise EstimationError(f"EMA angle columns {list(angle_columns)} outside the "
+                              f"{n_columns} column(s) of the values")
     if alpha == 0.0 or v.shape[0] == 0:
         return v.copy()
     flat = v.reshape(v.shape[0], -1)
@@ -56,6 +72,9 @@ def ema_filter(values: np.ndarray, alpha: float) -> np.ndarray:
             col[:] = col[idx] if first.size else 0.0
             if first.size:
                 col[: first[0]] = col[first[0]]
+    angles = list(angle_columns)
+    if angles:
+        filled[:, angles] = np.unwrap(filled[:, angles], axis=0)
     a = float(alpha)
     out, _ = lfilter([1.0 - a], [1.0, -a], filled, axis=0, zi=a * filled[:1])
     out[bad] = np.nan

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from terrain.estimation.agrimaro import AgriMaRoEKFSettings, estimate_agrimaro
+from terrain.errors import EstimationError
+from terrain.estimation import ema_filter, wrap_angle
+from terrain.estimation.agrimaro import STATE_NAMES, AgriMaRoEKFSettings, estimate_agrimaro
 from terrain.estimation.consistency import mean_chi2_bounds
 from terrain.estimation.slip_state import SlipStateModel
 from pipelines.validation.harness import (THESIS_TERRAINS, agrimaro_consistency,
@@ -72,3 +76,44 @@ def test_slip_state_design_of_chapter_4_3_is_badly_behaved():
     cam = estimate_agrimaro(run, model=SlipStateModel(accel="direct", camera=True))
     cam_err = np.abs(cam.state("slip_1")[steady] - tr["slip_1"][steady]).mean()
     assert cam_err < slip_err
+
+
+def _with_camera_yaw(run, yaw_c):
+    cam = run.streams["cam"].copy()
+    cam["yaw_c"] = yaw_c
+    return replace(run, streams={**run.streams, "cam": cam})
+
+
+@pytest.mark.parametrize("settings", [AgriMaRoEKFSettings(),
+                                      AgriMaRoEKFSettings(ema_alpha=(("cam", 0.2),))],
+                         ids=["thesis", "camera-ema"])
+def test_camera_heading_wrapped_at_pi_gives_the_same_estimate(turning_run, settings):
+    # a T265 reports its yaw in [-pi, pi): the EMA of eq. 6.12 / 7.8 must not average across
+    # the 2 pi jump (it invented headings in between: innovations of 1.26 rad, NIS x20)
+    run = turning_run.run
+    yaw = run.streams["cam"]["yaw_c"].to_numpy()
+    crossing = yaw + (np.pi - yaw[len(yaw) // 2])          # crosses +pi half-way
+    wrapped = wrap_angle(crossing)
+    assert np.ptp(wrapped) > 6.0                           # the jump is in the data
+    base = estimate_agrimaro(_with_camera_yaw(run, crossing), settings)
+    other = estimate_agrimaro(_with_camera_yaw(run, wrapped), settings)
+    assert np.isfinite(other.x).all()
+    yaw_col = STATE_NAMES.index("yaw")
+    rest = [j for j in range(len(STATE_NAMES)) if j != yaw_col]
+    np.testing.assert_allclose(other.x[:, rest], base.x[:, rest], atol=1e-9)
+    np.testing.assert_allclose(wrap_angle(other.x[:, yaw_col] - base.x[:, yaw_col]), 0.0,
+                               atol=1e-9)
+    np.testing.assert_allclose(other.nis, base.nis, rtol=1e-7, atol=1e-9)
+
+
+def test_ema_filter_averages_angles_along_their_unwrapped_sequence():
+    t = np.linspace(0.0, 1.0, 101)
+    heading = 3.0 + 0.5 * t                                # passes pi at t = 0.28
+    smooth = ema_filter(wrap_angle(heading)[:, None], 0.5, angle_columns=[0])[:, 0]
+    plain = ema_filter(heading, 0.5)
+    np.testing.assert_allclose(wrap_angle(smooth - plain), 0.0, atol=1e-12)
+    # a non-angle column, or no angle column given, is averaged as before
+    both = ema_filter(np.column_stack([heading, heading]), 0.5, angle_columns=[1])
+    np.testing.assert_array_equal(both[:, 0], plain)
+    with pytest.raises(EstimationError, match="angle columns"):
+        ema_filter(heading, 0.5, angle_columns=[1])
