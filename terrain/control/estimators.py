@@ -39,11 +39,13 @@ from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
 from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict
 from terrain.estimation.skid_steer_slip import SENSOR_ROWS as SLIP_SENSOR_ROWS
+from terrain.estimation.equations.skid_steer_slip import MAX_SLIP
 from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, SkidSteerSlipSettings
 from terrain.sim.closed_loop import Observation
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.physics import PhysicsSlipSettings, physics_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
+from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -266,9 +268,10 @@ class FusedSlipObserver:
       current and wheel samples, every ``period_s``, with its std floored by
       :func:`terrain.slip.estimate.pseudo_measurement`; the terrain is the loop's decision
       (no pseudo-measurement without a catalogued decision);
-    * the controller's inputs: each side's ground speed ``omega_i r (1 - s_i)`` implied by
-      the measured wheel speed and the estimated slip through the model's wheel row
-      (``rim = ground / (1 - s)``), so the controller regulates the filter's slip state; the
+    * the controller's inputs: each side's ground speed implied by the measured wheel speed
+      and the estimated slip through the model's wheel row
+      (:func:`terrain.terramechanics.slip.ground_speed_from_slip`, ``omega_i r (1 - s_i)`` in
+      traction), so the controller regulates the filter's slip state; the
       acceleration ``a_x``; the chassis speed ``|v_bx|``. The estimate is *stale* (its age
       grows, the controller's safe output applies) when no pseudo-measurement arrived in the
       last ``period_s`` (plus the wheel sample's own age): without its slip model the slip
@@ -400,9 +403,9 @@ class FusedSlipObserver:
         if self.current_rows and obs.t_s - self.t_pseudo >= self.period_s - 1e-9:
             self._pseudo(obs.t_s)
         # the ground speed the measured wheel speed and the estimated slip imply, through the
-        # model's own wheel row (rim = ground / (1 - s)): the controller's slip is the state's
-        slip = np.clip(self.x[4:6], -0.99, 0.99)
-        ground = self.omega * r * (1.0 - slip)
+        # model's own wheel row (rim_speed_from_slip): the controller's slip is the state's
+        slip = np.clip(self.x[4:6], -MAX_SLIP, MAX_SLIP)
+        ground = ground_speed_from_slip(self.omega * r, slip)
         age = math.inf if self.t_wheel is None else float(obs.t_s - self.t_wheel)
         # without its slip model the common slip is unobservable: stale with no recent one
         age = max(age, float(obs.t_s - self.t_pseudo_ok) - self.period_s)

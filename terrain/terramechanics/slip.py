@@ -15,10 +15,17 @@ only in its conditioning options:
 
 :func:`sae_slip_and_velocity_slope` also returns ``d s / d v_long``, which the simulator's
 linearly implicit integrator needs.
+
+Its inverse, for the estimators that carry the slip as a state: :func:`rim_speed_from_slip`
+(compiled, with its derivatives: the EKF's wheel row) and :func:`ground_speed_from_slip`.
+With ``q = sign(speed) s`` (``q >= 0``: the rim is the faster, traction forward or reverse;
+``q < 0``: braking), eq. 7.1 solved for the rim speed gives ``omega r = v / (1 - q)`` and
+eq. 7.2 gives ``omega r = v (1 + q)``.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from terrain.errors import DataFormatError, EstimationError, ShapeError
@@ -155,3 +162,65 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
                      -rim_speed_m_s * np.sign(v) / np.maximum(v * v, 1e-6), -1.0 / den)
     ds_dv = np.where(np.abs(ratio) >= 1.0, 0.0, ds_dv)
     return np.minimum(np.maximum(ratio, -1.0), 1.0), ds_dv
+
+
+@numba.njit(cache=True)
+def rim_speed_from_slip(ground_speed_m_s: float, slip: float) -> tuple[float, float, float]:
+    """Rim speed of a wheel at a given ground speed and SAE slip, and its derivatives.
+
+    The inverse of :func:`sae_slip` (no floor, no dead band) on ``|slip| < 1``, with
+    ``q = sign(v) slip`` (``sign(0) = +1``): ``omega r = v / (1 - q)`` where ``q >= 0`` (the
+    rim is the faster: eq. 7.1, ``s = (omega r - v) / (omega r)``, solved for ``omega r``)
+    and ``omega r = v (1 + q)`` where ``q < 0`` (the ground is the faster: eq. 7.2,
+    ``s = (omega r - v) / v``), seed ``001_59da564c4b2d6a48.txt``. Both branches meet at
+    ``q = 0`` with the same slope, ``d(omega r)/ds = |v|``.
+
+    Parameters
+    ----------
+    ground_speed_m_s : float
+        Longitudinal ground speed ``v`` of the wheel's contact, m/s.
+    slip : float
+        SAE slip ``s``, dimensionless, ``|s| < 1``.
+
+    Returns
+    -------
+    rim_speed_m_s : float
+        ``omega r``, m/s.
+    d_rim_d_ground : float
+        ``d(omega r) / dv`` at fixed slip, dimensionless.
+    d_rim_d_slip : float
+        ``d(omega r) / ds`` at fixed ground speed, m/s.
+    """
+    sign = 1.0 if ground_speed_m_s >= 0.0 else -1.0
+    q = sign * slip
+    if q >= 0.0:
+        k = 1.0 / (1.0 - q)
+        return ground_speed_m_s * k, k, abs(ground_speed_m_s) * k * k
+    k = 1.0 + q
+    return ground_speed_m_s * k, k, abs(ground_speed_m_s)
+
+
+def ground_speed_from_slip(rim_speed_m_s: np.ndarray | float, slip: np.ndarray | float
+                           ) -> np.ndarray:
+    """Ground speed of a wheel's contact that a rim speed and an SAE slip imply.
+
+    The other inverse of :func:`sae_slip` (no floor, no dead band) on ``|slip| < 1``, with
+    ``q = sign(omega r) slip`` (``sign(0) = +1``): ``v = omega r (1 - q)`` where ``q >= 0``
+    (eq. 7.1) and ``v = omega r / (1 + q)`` where ``q < 0`` (eq. 7.2), seed
+    ``001_59da564c4b2d6a48.txt``; :func:`rim_speed_from_slip` undone.
+
+    Parameters
+    ----------
+    rim_speed_m_s : float or ndarray, shape (...)
+        Rim speed ``omega r``, m/s.
+    slip : float or ndarray, shape (...)
+        SAE slip, dimensionless, ``|slip| < 1``; broadcast with ``rim_speed_m_s``.
+
+    Returns
+    -------
+    ndarray, broadcast shape of the inputs
+        Ground speed, m/s.
+    """
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    q = np.where(rim >= 0.0, 1.0, -1.0) * np.asarray(slip, dtype=float)
+    return np.where(q >= 0.0, rim * (1.0 - q), rim / (1.0 + np.maximum(q, -1.0 + 1e-12)))

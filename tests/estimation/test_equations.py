@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from terrain.estimation.agrimaro import AgriMaRoModel
-from terrain.estimation.equations import agrimaro, skid_steer
+from terrain.estimation.equations import agrimaro, skid_steer, skid_steer_slip
 from terrain.estimation.model import finite_difference_jacobian
 from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
 from terrain.vehicles.swerve import AGRIMARO
@@ -74,3 +74,29 @@ def test_wheel_rim_speed_is_eq_4_20():
     v = agrimaro.wheel_rim_speed(1.0, 0.2, 0.5, 0.3, -0.4, 0.1)
     expected = (1.0 - 0.5 * -0.4) * math.cos(0.1) + (0.2 + 0.5 * 0.3) * math.sin(0.1)
     assert v == pytest.approx(expected, rel=1e-15)
+
+
+def test_slip_augmented_wheel_row_is_the_sae_slip_of_its_state():
+    # the rim speed the model predicts has the SAE slip of its state in traction and in
+    # braking (seed 001 eqs. 7.1-7.2); 1 / (1 - s) in braking gave -0.167 for a state -0.2
+    from terrain.slip import sae_slip
+    params = skid_steer_slip.SkidSteerSlipEquationParams()
+    x = np.array([1.0, 0.0, 0.0, 0.0, -0.2, 0.2, 0.0, 0.0])
+    rims = skid_steer_slip.h(x, params)[:2]
+    np.testing.assert_allclose(rims, [0.8, 1.25])
+    np.testing.assert_allclose(sae_slip(rims, [1.0, 1.0], dead_band_m_s=0.0), [-0.2, 0.2])
+
+
+@pytest.mark.parametrize("slips", [(0.3, -0.4), (-0.1, 0.05), (0.97, -0.97)],
+                         ids=["traction-braking", "small", "clipped"])
+def test_slip_augmented_jacobians_match_finite_differences(slips):
+    params = skid_steer_slip.SkidSteerSlipEquationParams()
+    for v_bx in (1.2, -0.8):
+        x = np.array([v_bx, 0.4, 0.01, math.log(1.5), *slips, 0.3, 0.05])
+        num_F = finite_difference_jacobian(lambda v: skid_steer_slip.f(v, None, 0.02, params),
+                                           x)
+        num_H = finite_difference_jacobian(lambda v: skid_steer_slip.h(v, params), x)
+        np.testing.assert_allclose(skid_steer_slip.F(x, None, 0.02, params), num_F, atol=1e-7)
+        np.testing.assert_allclose(skid_steer_slip.H(x, params), num_H, atol=1e-6)
+    if abs(slips[0]) > skid_steer_slip.MAX_SLIP:           # h ignores a clipped slip
+        assert skid_steer_slip.H(x, params)[0, 4] == 0.0

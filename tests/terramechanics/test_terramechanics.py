@@ -1,8 +1,12 @@
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataFormatError, EstimationError, ShapeError
 from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BurckhardtCurve,
+                                    JanosiCurve, TractionAndResistance,
+                                    brixius_motion_resistance, brixius_traction,
                                     calibrate_janosi, can_turn_in_place, get_terrain,
                                     husky_hysteresis_for_current, sae_slip, steady_slip,
                                     traction_coefficient, traction_curve_and_slope,
@@ -154,3 +158,56 @@ def test_sae_slip_broadcasts_compatible_shapes():
     s = sae_slip(np.array([[1.0], [0.5]]), np.array([0.5, 1.0, 0.25]))
     assert s.shape == (2, 3)
     assert s[0, 0] == pytest.approx(0.5) and s[1, 1] == pytest.approx(-0.5)
+
+
+@given(v=st.floats(-3.0, 3.0).filter(lambda v: abs(v) > 1e-3), s=st.floats(-0.95, 0.95))
+def test_rim_and_ground_speed_from_slip_invert_sae_slip(v, s):
+    # eqs. 7.1-7.2 solved for the rim speed, traction and braking, forward and reverse
+    from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip
+    rim, d_ground, d_slip = rim_speed_from_slip(v, s)
+    assert float(sae_slip(rim, v, dead_band_m_s=0.0)) == pytest.approx(s, abs=1e-9)
+    assert float(ground_speed_from_slip(rim, s)) == pytest.approx(v, rel=1e-9)
+    h = 1e-7
+    assert d_slip == pytest.approx((rim_speed_from_slip(v, s + h)[0]
+                                    - rim_speed_from_slip(v, s - h)[0]) / (2 * h), rel=1e-5)
+    assert d_ground == pytest.approx(rim / v, rel=1e-9)
+
+
+def test_rim_speed_from_slip_braking_is_eq_7_2():
+    from terrain.terramechanics.slip import rim_speed_from_slip
+    assert rim_speed_from_slip(1.0, -0.2)[0] == pytest.approx(0.8)      # not 1 / 1.2
+    assert rim_speed_from_slip(1.0, 0.2)[0] == pytest.approx(1.25)
+    assert rim_speed_from_slip(-1.0, -0.2)[0] == pytest.approx(-1.25)   # reverse traction
+
+
+def test_traction_and_resistance_takes_mu_from_one_curve_and_resistance_from_the_other():
+    janosi = JanosiCurve(0.6, 0.1)
+    brixius = get_terrain("PLOUGHED").curve
+    s = np.linspace(0.0, 1.0, 21)
+    both = TractionAndResistance(janosi, brixius).coefficients(s, 0.0)
+    j, b = janosi.coefficients(s, 0.0), brixius.coefficients(s, 0.0)
+    np.testing.assert_array_equal(both.mu, j.mu)
+    np.testing.assert_array_equal(both.dmu_ds, j.dmu_ds)
+    np.testing.assert_array_equal(both.resistance, b.resistance)
+    np.testing.assert_array_equal(both.dresistance_ds, b.dresistance_ds)
+    assert both.resistance[0] > 0.0                    # Brixius 1/Bn at zero slip
+    # a constant-resistance curve passes the terrain's soil_resistance through
+    back = TractionAndResistance(brixius, janosi).coefficients(s, 0.08)
+    np.testing.assert_array_equal(back.resistance, np.full_like(s, 0.08))
+
+
+@pytest.mark.parametrize("name", ["DIRT_ROAD", "UNPLOUGHED", "PLOUGHED"])
+def test_brixius_net_traction_is_the_source_form_and_its_hysteresis_holds_the_0_04(name):
+    # Brixius (1987): GT = 0.88 (1 - e^-0.1Bn)(1 - e^-7.5s) + 0.04,
+    # MR = 1/Bn + 0.04 + 0.5 s / sqrt(Bn); the code drops the 0.04 from both
+    terrain = get_terrain(name)
+    bn = terrain.curve.mobility_number
+    s = np.linspace(0.0, 1.0, 41)
+    gt = 0.88 * (1 - np.exp(-0.1 * bn)) * (1 - np.exp(-7.5 * s)) + 0.04
+    mr = 1 / bn + 0.04 + 0.5 * s / np.sqrt(bn)
+    mu, _ = brixius_traction(s, bn)
+    rho, _ = brixius_motion_resistance(s, bn)
+    np.testing.assert_allclose(mu - rho, gt - mr, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(mu, gt - 0.04, rtol=0, atol=1e-12)
+    # the torque-only loss the wheel torque adds back is at least Brixius's 0.04
+    assert terrain.hysteresis >= 0.04

@@ -11,11 +11,12 @@ Process (constant acceleration for the forward speed, every other state a random
 Measurements: the wheel and gyro rows of :mod:`terrain.estimation.equations.skid_steer`
 (ICR model, Mandow et al. 2007; seed ``000_f24201ff985633bf.txt`` eq. 3), evaluated by calling
 :func:`terrain.estimation.equations.skid_steer.observation_into`, give the ground speed of each
-side's contact line ``g_i = v_bx -+ chi B yaw_rate / 2``; the rim speed is that ground speed
-over ``1 - s_i`` (SAE driving slip ``s = (omega r - v) / (omega r)``, seed
-``001_59da564c4b2d6a48.txt`` eq. 7.1, solved for ``omega r``)::
+side's contact line ``g_i = v_bx -+ chi B yaw_rate / 2``; the rim speed is the one whose SAE
+slip over that ground speed is ``s_i`` (seed ``001_59da564c4b2d6a48.txt`` eqs. 7.1-7.2 solved
+for ``omega r``, :func:`terrain.terramechanics.slip.rim_speed_from_slip`: ``g / (1 - s)`` in
+traction, ``g (1 + s)`` in braking, driving forward)::
 
-    vel_l = g_l / (1 - s_1),   vel_r = g_r / (1 - s_2),   wz = yaw_rate + b_g
+    vel_l = rim(g_l, s_1),   vel_r = rim(g_r, s_2),   wz = yaw_rate + b_g
     slip_1 = s_1,  slip_2 = s_2                     (pseudo-measurement of a slip model)
     ax = a_x + g sin(pitch),   az = g cos(pitch)    (accelerometer specific force, body axes)
 
@@ -34,13 +35,15 @@ import numpy as np
 
 from terrain.estimation.equations import skid_steer as _base
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+from terrain.terramechanics.slip import rim_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
 
 #: Number of states and measurement rows.
 N_STATES, N_MEASUREMENTS = 8, 7
 #: Standard gravity, m/s^2 (ISO 80000-3).
 STANDARD_GRAVITY_M_S2 = 9.80665
-#: Largest |slip| the rim equation divides by ``1 - s`` with (keeps it finite), dimensionless.
+#: Largest |slip| the rim equation takes (``1 - s`` stays >= 0.05); a state beyond it is
+#: clipped there, with no slip column in the Jacobian, dimensionless.
 MAX_SLIP = 0.95
 
 
@@ -132,12 +135,13 @@ def observation_into(x, p, hx, H):
         for j in range(8):
             H[i, j] = 0.0
     for side in range(2):
-        s = min(max(x[4 + side], -MAX_SLIP), MAX_SLIP)
-        k = 1.0 / (1.0 - s)
-        hx[side] = hb[side] * k
+        s = x[4 + side]
+        clipped = abs(s) > MAX_SLIP
+        rim, k, d_slip = rim_speed_from_slip(hb[side], min(max(s, -MAX_SLIP), MAX_SLIP))
+        hx[side] = rim
         for j in range(4):
             H[side, j] = Hb[side, j] * k
-        H[side, 4 + side] = hb[side] * k * k
+        H[side, 4 + side] = 0.0 if clipped else d_slip
     hx[2] = hb[2]
     for j in range(4):
         H[2, j] = Hb[2, j]
