@@ -275,7 +275,8 @@ def test_a_registered_model_on_s3_without_credentials_is_a_one_line_error(workdi
     for var in ("AWS_SHARED_CREDENTIALS_FILE", "AWS_CONFIG_FILE"):
         monkeypatch.setenv(var, str(workdir / "none"))
     monkeypatch.setenv("AWS_EC2_METADATA_DISABLED", "true")
-    client = MlflowClient(f"sqlite:///{workdir / 'mlflow.db'}")
+    store = f"sqlite:///{workdir / 'mlflow.db'}"
+    client = MlflowClient(tracking_uri=store, registry_uri=store)   # not a process-wide one
     client.create_registered_model("cloudy")
     client.create_model_version("cloudy", "s3://no-such-bucket-terrain/model")
     assert main(["predict", "--model", "models:/cloudy/1", "runs", "--out", "p.csv"]) == 2
