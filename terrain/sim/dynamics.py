@@ -15,8 +15,10 @@ puts the robot's sensors between the two); without a hook nothing changes.
 
 Simplifications (stated): mass concentrated at the body origin, speed-controlled motors as
 first-order lags with speed limits; physics ``v1``: static normal loads (no load transfer);
-physics ``v2``: quasi-static load transfer from the body acceleration of the previous step,
-low-passed with :data:`LOAD_TRANSFER_TIME_CONSTANT_S` (suspension and tyre compliance), the
+physics ``v2``: quasi-static load transfer from the specific force of the previous step (body
+acceleration less gravity along the plane, so a grade shifts load too,
+:func:`terrain.sim.forces.specific_force_m_s2`), low-passed with
+:data:`LOAD_TRANSFER_TIME_CONSTANT_S` (suspension and tyre compliance), the
 lateral wheel-soil model on soils and the tyre's combined-slip law on rigid surfaces
 (:mod:`terrain.sim.forces`).
 """
@@ -34,11 +36,13 @@ from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, PHYSICS_VERSIONS,
                                 SLIDE_SPEED_M_S,
                                 SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
-                                transferred_normal_loads, velocity_maps)
+                                specific_force_m_s2, transferred_normal_loads,
+                                velocity_maps)
 from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
                                             soil_contact)
 from terrain.terramechanics.resistance import is_deformable
 from terrain.terramechanics.slip import sae_slip
+from terrain.terramechanics.traction import TractionAndResistance
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
@@ -47,7 +51,7 @@ __all__ = ["PhysicsResult", "PlantSnapshot", "ControlHook", "integrate", "wheel_
            "slope_attitude", "SLIDE_SPEED_M_S", "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S",
            "soil_contacts"]
 
-#: Time constant of the low-pass on the body acceleration that drives the v2 load transfer, s
+#: Time constant of the low-pass on the specific force that drives the v2 load transfer, s
 #: (ASSUMED: stands for the suspension / tyre compliance; also keeps the one-step-delayed
 #: transfer from feeding back on the integrator's step-to-step acceleration).
 LOAD_TRANSFER_TIME_CONSTANT_S = 0.05
@@ -55,6 +59,12 @@ LOAD_TRANSFER_TIME_CONSTANT_S = 0.05
 
 def v2_terrain(terrain, contact: SoilContact, load_n: float):
     """Terrain of physics v2 on a soil: the longitudinal curve from the same soil parameters.
+
+    Only the gross traction ``mu(s)`` changes. The motion resistance stays the catalogue
+    terrain's own law, whether that is the constant ``soil_resistance`` (Janosi entries) or a
+    law inside the catalogue curve (Brixius entries such as PLOUGHED, whose
+    ``soil_resistance`` is 0): :class:`terrain.terramechanics.traction.TractionAndResistance`
+    takes the resistance from the catalogue curve.
 
     Parameters
     ----------
@@ -69,9 +79,14 @@ def v2_terrain(terrain, contact: SoilContact, load_n: float):
     Returns
     -------
     TerrainParams
-        ``terrain`` with ``curve`` = :func:`terrain.terramechanics.lateral.longitudinal_curve`.
+        ``terrain`` with ``curve`` = the traction of
+        :func:`terrain.terramechanics.lateral.longitudinal_curve` and the motion resistance of
+        ``terrain.curve``.
     """
-    return replace(terrain, curve=longitudinal_curve(contact, load_n))
+    soil_curve = longitudinal_curve(contact, load_n)
+    return replace(terrain, curve=TractionAndResistance(
+        soil_curve, terrain.curve,
+        f"traction: {soil_curve.source}; motion resistance: {terrain.source}"))
 
 
 def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
@@ -80,7 +95,7 @@ def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
     Parameters
     ----------
     vehicle : HuskyParams or TrackedParams or AgriMaRoParams
-        Vehicle (contact width and length, mass).
+        Vehicle (contact width and length, wheels per motor, mass).
     geometry : ContactGeometry
         Its contact geometry.
     terrains : tuple of TerrainParams
@@ -96,8 +111,7 @@ def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
     if geometry.steered:
         return {}
     per_side = len(geometry.motor_of_contact) // geometry.n_motors
-    wheels_per_side = 2 if vehicle.name == "husky" else 1
-    footprint = float(vehicle.contact_length_m) * wheels_per_side / per_side
+    footprint = float(vehicle.contact_length_m) * vehicle.wheels_per_motor / per_side
     max_load = 4.0 * float(vehicle.mass_kg) * 9.80665 * float(np.max(geometry.load_share))
     return {t.name: soil_contact(SOILS[t.name], float(vehicle.contact_width_m), footprint,
                                  geometry.wheel_radius_m, max_load)
@@ -286,7 +300,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     Parameters
     ----------
     vehicle : AgriMaRoParams or HuskyParams or TrackedParams
-        Vehicle (mass, yaw inertia, motor, steering rate).
+        Vehicle (mass, yaw inertia, motor, wheels per motor, steering rate).
     geometry : ContactGeometry
         Its contact geometry.
     terrains : tuple of TerrainParams
@@ -352,17 +366,21 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                    else None for t in terrains]
     hold_slip = [tyre.hold_slip(t.curve) if f is not None else 1.0
                  for t, f in zip(terrains, side_factor)]
+    mass = vehicle.mass_kg
     lt = LOAD_TRANSFER.get(vehicle.name)
     cog_h = lt.cog_height_m if (v2 and lt is not None) else 0.0
     alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)
-    acc_lt = np.zeros(2)
+    # low-passed specific force of the load transfer, started at rest on the plane (yaw 0):
+    # gravity alone, so a vehicle that starts on a grade starts with its static transfer
+    acc_lt = specific_force_m_s2(np.zeros(2), gravity_force(mass, slope_rad, 0.0), mass)
     normal = None
     motor_of = layout.motor_of
-    mass = vehicle.mass_kg
     m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
     motor = vehicle.motor
     alpha_m = min(1.0, dt / motor.speed_time_constant_s)
     counts = np.bincount(motor_of, minlength=nm).astype(float)
+    # inertia each motor turns: its physical wheels (or sprocket), not its contact points
+    drive_inertia = motor.wheel_inertia_kg_m2 * vehicle.wheels_per_motor
     steer_rate = getattr(vehicle, "steering_rate_rad_s", 0.0) * dt
 
     omega_cmd, delta_cmd = wheel_commands(vehicle, geometry, twist_cmd)
@@ -413,7 +431,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                               mass, cog_h, acc_lt[0], acc_lt[1])
         contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
                                  side_factor[ti], hold_slip[ti])
-        force = contact.force + gravity_force(mass, slope_rad, pose[2])
+        gravity = gravity_force(mass, slope_rad, pose[2])
+        force = contact.force + gravity
         force[0] += mass * vel[2] * vel[1]
         force[1] -= mass * vel[2] * vel[0]
         # one Newton step of the linearly implicit Euler scheme (LAPACK gesv, LU with partial
@@ -426,7 +445,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         acc_out[k] = [(vel_new[0] - vel[0]) / dt - vel[2] * vel[1],
                       (vel_new[1] - vel[1]) / dt + vel[2] * vel[0]]
         vel = vel_new
-        acc_lt = acc_lt + alpha_lt * (acc_out[k] - acc_lt)
+        acc_lt = acc_lt + alpha_lt * (specific_force_m_s2(acc_out[k], gravity, mass) - acc_lt)
         # pose on the plane
         yaw_mid = pose[2] + 0.5 * dt * vel[2]
         cm, sm = np.cos(yaw_mid), np.sin(yaw_mid)
@@ -435,8 +454,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         dist += dt * float(np.hypot(vel[0], vel[1]))
         # motor torque: traction plus torque-only hysteresis, plus wheel inertia
         t_contact = contact_torque_nm(layout, ter, contact.mu, contact.rim_speed_m_s, normal)
-        torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + (
-            motor.wheel_inertia_kg_m2 * counts * dw)
+        torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + drive_inertia * dw
         pose_out[k] = pose
         twist_out[k] = vel
         omega_out[k] = omega

@@ -19,8 +19,10 @@ One point of contact per wheel, several per track; for each contact ``i`` with n
 
 Physics ``v2`` (:data:`PHYSICS_VERSIONS`; ``v1`` is the model above, unchanged) adds
 
-* load transfer: per-contact normal loads from the body accelerations and the height of the
-  centre of gravity (:func:`transferred_normal_loads`, :class:`LoadTransferParams`), used by
+* load transfer: per-contact normal loads from the specific force on the body (its
+  acceleration less gravity along the plane, :func:`specific_force_m_s2`: accelerating and
+  standing on a grade both shift load) and the height of the centre of gravity
+  (:func:`transferred_normal_loads`, :class:`LoadTransferParams`), used by
   the longitudinal, lateral and torque laws; the per-side motor current split in curves
   follows from it;
 * on deformable soils with a :data:`terrain.terramechanics.lateral.SOILS` entry, the lateral
@@ -115,14 +117,18 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
                              accel_y_m_s2: float) -> np.ndarray:
     """Normal loads with longitudinal and lateral load transfer (quasi-static).
 
-    The inertial force ``-m a`` acting at the centre of gravity, height ``h``, is balanced by
-    normal-load changes ``dN_i`` with ``sum dN_i = 0``, ``sum dN_i x_i = -m h a_x`` and
-    ``sum dN_i y_i = -m h a_y`` (Wong, *Theory of Ground Vehicles*, ch. 3.1 longitudinal and
-    ch. 6.1 lateral load transfer); for a layout symmetric in x and y the minimum-norm
-    solution is ``dN_i = -m h (a_x x_i / sum x_j^2 + a_y y_i / sum y_j^2)``: under forward
-    acceleration the rear wheels gain load, in a left turn (``a_y > 0``) the right (outer)
-    wheels. Loads are floored at :data:`MIN_LOAD_FRACTION` of the static load and rescaled
-    to the static total.
+    The in-plane force ``-m f`` acting at the centre of gravity, height ``h``, with the
+    specific force ``f = a - g_plane`` (:func:`specific_force_m_s2`: the inertial force and
+    the component of gravity along the plane together), is balanced by normal-load changes
+    ``dN_i`` with ``sum dN_i = 0``, ``sum dN_i x_i = -m h f_x`` and
+    ``sum dN_i y_i = -m h f_y`` (Wong, *Theory of Ground Vehicles*, ch. 3.1 longitudinal
+    load transfer, whose axle loads on a grade include ``h W sin(theta)``, and ch. 6.1 lateral
+    load transfer); for a layout symmetric in x and y the minimum-norm solution is
+    ``dN_i = -m h (f_x x_i / sum x_j^2 + f_y y_i / sum y_j^2)``: under forward acceleration
+    and when facing uphill the rear wheels gain load, in a left turn (``f_y > 0``) the right
+    (outer) wheels. For two axles at ``x = +-L/2`` at rest on a grade this is Wong's shift
+    ``m g sin(theta) h / L`` per axle. Loads are floored at :data:`MIN_LOAD_FRACTION` of the
+    static load and rescaled to the static total.
 
     Parameters
     ----------
@@ -135,7 +141,8 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
     cog_height_m : float
         Height of the centre of gravity, m.
     accel_x_m_s2, accel_y_m_s2 : float
-        Body-frame acceleration of the centre of gravity, m/s^2.
+        Body-frame specific force at the centre of gravity (acceleration less gravity along
+        the plane, :func:`specific_force_m_s2`), m/s^2.
 
     Returns
     -------
@@ -503,6 +510,34 @@ def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float) -> np.ndarra
     g_plane = G_M_S2 * np.sin(slope_rad)
     cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
     return np.array([-mass_kg * g_plane * cy, mass_kg * g_plane * sy, 0.0])
+
+
+def specific_force_m_s2(accel_body_m_s2: np.ndarray, gravity_force_n: np.ndarray,
+                        mass_kg: float) -> np.ndarray:
+    """In-plane specific force on the body: its acceleration less gravity, body axes.
+
+    ``f = a - F_g / m`` with the gravity force along the plane ``F_g`` of
+    :func:`gravity_force`: what an accelerometer on the body senses in the plane (the same
+    quantity :func:`terrain.sim.sensors.gravity_specific_force` adds to the simulated IMU),
+    and what drives the load transfer (:func:`transferred_normal_loads`). At rest facing
+    uphill on a grade ``theta`` it is ``(g sin(theta), 0)``.
+
+    Parameters
+    ----------
+    accel_body_m_s2 : ndarray, shape (2,)
+        Body-frame kinematic acceleration ``dV/dt + r x V``, m/s^2.
+    gravity_force_n : ndarray, shape (2,) or (3,)
+        Gravity along the plane in the body frame (:func:`gravity_force`; a yaw moment, if
+        given, is ignored), N.
+    mass_kg : float
+        Vehicle mass, kg.
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        m/s^2.
+    """
+    return accel_body_m_s2 - gravity_force_n[:2] / mass_kg
 
 
 def contact_torque_nm(layout: ContactLayout, terrain, mu: np.ndarray,

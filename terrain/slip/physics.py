@@ -288,7 +288,8 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
 
     Inverts :func:`terrain.sim.forces.contact_torque_nm` (affine in ``mu``), all contacts
     of a side sharing one ``mu``; the wheel inertia torque
-    ``J n_side d omega / dt`` (:attr:`MotorParams.wheel_inertia_kg_m2`) is removed first.
+    ``J n d omega / dt`` (:attr:`MotorParams.wheel_inertia_kg_m2`, ``n`` the vehicle's
+    ``wheels_per_motor``, not its contact points) is removed first.
 
     Parameters
     ----------
@@ -332,7 +333,6 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
         raise ShapeError(f"torque and rim speed must be (n, {nm}) and pitch (n,), got "
                          f"{torque.shape}, {rim.shape}, {pitch.shape}")
     motor_of = geometry.motor_of_contact
-    counts = np.bincount(motor_of, minlength=nm).astype(float)
     a = np.empty_like(torque)
     b = np.empty_like(torque)
     # normal loads scale with cos(pitch): one layout per distinct pitch value
@@ -350,7 +350,8 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
     a *= factor[:, None]
     b *= factor[:, None]
     inertia = 0.0 if wheel_accel_rad_s2 is None else (
-        vehicle.motor.wheel_inertia_kg_m2 * counts * np.asarray(wheel_accel_rad_s2, float))
+        vehicle.motor.wheel_inertia_kg_m2 * vehicle.wheels_per_motor
+        * np.asarray(wheel_accel_rad_s2, float))
     return (torque - inertia - a) / b, 1.0 / b, a / b
 
 

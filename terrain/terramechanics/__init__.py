@@ -22,7 +22,8 @@ from terrain.terramechanics.resistance import (G_M_S2, bekker_compaction_coeffic
 from terrain.terramechanics.slip import (THESIS_DEAD_BAND_M_S, sae_slip,
                                          sae_slip_and_velocity_slope)
 from terrain.terramechanics.traction import (BrixiusCurve, BurckhardtCurve, CurveCoefficients,
-                                             JanosiCurve, TractionCurve, TractionPeak,
+                                             JanosiCurve, TractionAndResistance, TractionCurve,
+                                             TractionPeak,
                                              brixius_mobility_number, brixius_motion_resistance,
                                              brixius_traction, burckhardt_traction,
                                              janosi_traction, traction_coefficient,
@@ -30,7 +31,8 @@ from terrain.terramechanics.traction import (BrixiusCurve, BurckhardtCurve, Curv
 
 __all__ = [
     "MEASURED_HUSKY_STRAIGHT", "TERRAIN_NAMES", "TERRAINS", "TerrainParams", "get_terrain",
-    "BrixiusCurve", "BurckhardtCurve", "JanosiCurve", "TractionCurve", "TractionPeak",
+    "BrixiusCurve", "BurckhardtCurve", "JanosiCurve", "TractionAndResistance",
+    "TractionCurve", "TractionPeak",
     "brixius_mobility_number", "sae_slip", "sae_slip_and_velocity_slope",
     "THESIS_DEAD_BAND_M_S", "CurveCoefficients", "brixius_motion_resistance",
     "brixius_traction", "burckhardt_traction", "janosi_traction", "traction_coefficient",

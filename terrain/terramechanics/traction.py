@@ -19,14 +19,18 @@ Curve families
     follows Wong's hump-type curve instead, which peaks and falls to a residual strength
     (snow covers and organic terrain, Wong ch. 2.4; :func:`patch_mobilisation`).
 :class:`BrixiusCurve`
-    Brixius (1987) traction equation for tyres on agricultural soils (ASAE paper 87-1622):
-    gross traction ratio ``0.88 (1 - exp(-0.1 Bn)) (1 - exp(-7.5 s))`` with the mobility number
-    ``Bn`` and the motion resistance ratio ``1/Bn + 0.5 s / sqrt(Bn)``.
+    Brixius (1987) traction equations for tyres on agricultural soils (ASAE paper 87-1622):
+    gross traction ratio ``0.88 (1 - exp(-0.1 Bn)) (1 - exp(-7.5 s)) + 0.04`` and motion
+    resistance ratio ``1/Bn + 0.04 + 0.5 s / sqrt(Bn)`` with the mobility number ``Bn``; the
+    curve uses both without their 0.04 tyre-hysteresis term, which cancels in the net
+    traction and is part of the terrain's torque-only ``hysteresis``
+    (:func:`brixius_traction`).
 
 Each relation is one function (:func:`burckhardt_traction`, :func:`janosi_traction`,
 :func:`brixius_traction`, :func:`brixius_motion_resistance`); each curve is a frozen parameter
 dataclass satisfying the :class:`TractionCurve` protocol (one method, ``coefficients``), so
-callers never dispatch on the curve type.
+callers never dispatch on the curve type. :class:`TractionAndResistance` pairs the traction
+of one curve with the motion resistance of another (physics v2 of the simulator).
 """
 
 from __future__ import annotations
@@ -138,7 +142,18 @@ def janosi_traction(abs_slip: np.ndarray, mu_max: float, shear_slip: float,
 
 def brixius_traction(abs_slip: np.ndarray, mobility_number: float
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Brixius (1987) gross traction ratio ``0.88 (1 - e^(-0.1 Bn)) (1 - e^(-7.5 s))``.
+    """Brixius (1987) gross traction ratio less its tyre-hysteresis term.
+
+    Source form (Brixius, ASAE paper 87-1622): gross traction ratio
+    ``GT = 0.88 (1 - e^(-0.1 Bn)) (1 - e^(-7.5 s)) + 0.04`` and motion resistance ratio
+    ``MR = 1/Bn + 0.04 + 0.5 s / sqrt(Bn)``, net traction ratio ``NT = GT - MR``. This
+    function returns ``GT - 0.04 = 0.88 (1 - e^(-0.1 Bn)) (1 - e^(-7.5 s))`` and
+    :func:`brixius_motion_resistance` returns ``MR - 0.04``: the 0.04 is the tyre's rolling
+    (hysteresis) loss, present in both, so it cancels in the net traction, which is Brixius's
+    ``NT`` exactly. It reappears in the wheel torque ``r W (GT - 0.04 + h)`` through the
+    terrain's torque-only ``hysteresis`` ``h``, calibrated to the measured Husky currents
+    (0.12-0.21 on the catalogue's Brixius terrains, so it holds Brixius's 0.04 plus drive-train
+    losses; :mod:`terrain.terramechanics.calibration`).
 
     Parameters
     ----------
@@ -160,8 +175,9 @@ def brixius_motion_resistance(abs_slip: np.ndarray, mobility_number: float
                               ) -> tuple[np.ndarray, np.ndarray]:
     """Soil part of the Brixius (1987) motion resistance ratio ``1/Bn + 0.5 s / sqrt(Bn)``.
 
-    The 0.04 tyre-hysteresis term of Brixius is part of :attr:`TerrainParams.hysteresis`
-    (torque only, no slip).
+    Brixius's ratio is ``1/Bn + 0.04 + 0.5 s / sqrt(Bn)``; its 0.04 tyre-hysteresis term is
+    left out here and in :func:`brixius_traction` alike (it cancels in the net traction) and
+    is part of :attr:`TerrainParams.hysteresis` (torque only, no slip).
 
     Parameters
     ----------
@@ -323,6 +339,52 @@ class BrixiusCurve:
         """
         return CurveCoefficients(*brixius_traction(abs_slip, self.mobility_number),
                                  *brixius_motion_resistance(abs_slip, self.mobility_number))
+
+
+@dataclass(frozen=True)
+class TractionAndResistance:
+    """Gross traction of one curve with the motion-resistance law of another.
+
+    Physics v2 of the simulator replaces a catalogue terrain's traction curve by the
+    Janosi-Hanamoto curve of its soil (:func:`terrain.terramechanics.lateral.longitudinal_curve`)
+    but keeps the terrain's motion resistance. When that resistance lives inside the catalogue
+    curve (Brixius: ``1/Bn + 0.5 s / sqrt(Bn)``, :func:`brixius_motion_resistance`) rather than
+    in the terrain's constant ``soil_resistance``, swapping the curve alone would drop it; this
+    curve takes ``mu`` and ``d mu / d|s|`` from ``traction`` and the resistance terms from
+    ``resistance``, each curve applying its own law (no equation here).
+
+    Parameters
+    ----------
+    traction : TractionCurve
+        Curve giving the gross traction coefficient and its slope.
+    resistance : TractionCurve
+        Curve giving the motion resistance coefficient and its slope (with the terrain's
+        constant ``soil_resistance`` where its law is that constant).
+    source : str
+        Citation (the two curves' sources).
+    """
+
+    traction: TractionCurve
+    resistance: TractionCurve
+    source: str = ""
+
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """``mu`` of :attr:`traction`, resistance of :attr:`resistance`.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain, passed to both curves.
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        mu, dmu_ds = self.traction.coefficients(abs_slip, soil_resistance)[:2]
+        return CurveCoefficients(mu, dmu_ds,
+                                 *self.resistance.coefficients(abs_slip, soil_resistance)[2:])
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,14 @@ def _husky_motor() -> MotorParams:
                 "a 1 m/s wheel speed is about 4500 motor rpm), gearbox efficiency 0.8, "
                 "no-load current 1.0 A per side (the currents of the measured runs fall to "
                 "about 1 A when the robot coasts). The reported speed is the instantaneous one "
-                "(no driver filter) so the baseline simulator has no wheel-stream lag."))
+                "(no driver filter) so the baseline simulator has no wheel-stream lag. "
+                "wheel_inertia_kg_m2 0.06 ASSUMED: a 13 in wheel of 2.637 kg with principal "
+                "inertias 0.025 and 0.044 kg m^2 (husky_description URDF, wheel.urdf.xacro) plus "
+                "about 0.015 kg m^2 per wheel of motor rotor and gear train reflected through "
+                "78.71:1 (a rotor of about 5e-6 kg m^2, shared by the two chained wheels). "
+                "encoder_counts_per_rev 78000 ASSUMED (no source found): the order of a "
+                "1024-cycle encoder on the motor shaft through the 78.71:1 gearbox (80600 "
+                "cycles per wheel turn); a quantum of 8e-5 rad either way."))
 
 
 @dataclass(frozen=True)
@@ -59,6 +66,10 @@ class HuskyParams:
         multiples of 0.2 / 25.4 m/s.
     current_quantum_a : float
         Resolution of the reported current, A (two decimals in the measured files).
+    wheels_per_motor : int
+        Wheels turned by each motor, each of inertia ``motor.wheel_inertia_kg_m2``: 2 (one
+        motor per side, both wheels of the side chained together, Clearpath Husky
+        datasheet; see ``MotorParams.source``).
     """
 
     name: str = "husky"
@@ -72,6 +83,7 @@ class HuskyParams:
     contact_width_m: float = 0.11
     speed_quantum_m_s: float = 0.2 / 25.4
     current_quantum_a: float = 0.01
+    wheels_per_motor: int = 2
 
     def contact_geometry(self) -> ContactGeometry:
         """Four wheels at ``(+-L/2, +-B/2)``; motor 0 = left side (y > 0), motor 1 = right
@@ -99,7 +111,11 @@ def _tracked_motor() -> MotorParams:
         encoder_counts_per_rev=2048, wheel_inertia_kg_m2=0.01,
         source=("ASSUMED: seed 003 gives no drive data for the Patako test bed; small 24 V DC "
                 "gear motors (k_t 0.03 N m/A, 50:1, efficiency 0.7 with track losses), "
-                "0.5 m/s top speed (the seed's tests run at 0.05 m/s)."))
+                "0.5 m/s top speed (the seed's tests run at 0.05 m/s); wheel_inertia_kg_m2 0.01 "
+                "per track: a track belt of about 1.5 kg moving at the 0.05 m sprocket radius "
+                "(m r^2 = 0.004 kg m^2), sprocket and idlers (0.001) and a motor rotor of about "
+                "2e-6 kg m^2 through 50:1 (0.005); encoder_counts_per_rev 2048: a 512-line "
+                "encoder read in quadrature on the sprocket shaft."))
 
 
 @dataclass(frozen=True)
@@ -127,9 +143,13 @@ class TrackedParams:
     yaw_inertia_kg_m2 : float
         ``m (l^2 + B^2) / 12`` (uniform plate over the footprint).
     n_segments : int
-        Contact points per track used to discretise the track-ground contact.
+        Contact points per track used to discretise the track-ground contact (a numerical
+        choice: no physical quantity depends on it).
     motor : MotorParams
         Drive motor of each side / wheel (sources in ``MotorParams.source``).
+    wheels_per_motor : int
+        Rotating bodies of inertia ``motor.wheel_inertia_kg_m2`` turned by each motor: 1, the
+        drive sprocket of its track (that inertia lumps sprocket, idlers and track).
     """
 
     name: str = "tracked"
@@ -143,6 +163,7 @@ class TrackedParams:
     yaw_inertia_kg_m2: float = 25.0 * (0.6 ** 2 + 0.393 ** 2) / 12.0
     n_segments: int = 5
     motor: MotorParams = field(default_factory=_tracked_motor)
+    wheels_per_motor: int = 1
 
     @property
     def wheel_radius_m(self) -> float:

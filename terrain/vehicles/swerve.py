@@ -40,7 +40,9 @@ def _agrimaro_motor() -> MotorParams:
                 "hub-motor phase current); I_0 = 0.6 A; speed loop 0.08 s; ODrive Hall-encoder "
                 "filter 0.12 s, the order of the phase delay of ch. 7.2.2; 90 counts/rev = "
                 "15 pole pairs x 6 Hall states; speed limit 1.6 m/s at the rim (the thesis "
-                "tests run at 1 m/s, ch. 7.2.3)."))
+                "tests run at 1 m/s, ch. 7.2.3). wheel_inertia_kg_m2 0.12 ASSUMED: hub motor "
+                "and 13 in tyre of about 6 kg with a radius of gyration of 0.14 m (wheel radius "
+                "0.165 m)."))
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,9 @@ class AgriMaRoParams:
         Drive motor of each side / wheel (sources in ``MotorParams.source``).
     contact_length_m, contact_width_m : float
         Tyre contact patch (ASSUMED 0.10 m x 0.12 m).
+    wheels_per_motor : int
+        Wheels turned by each motor, each of inertia ``motor.wheel_inertia_kg_m2``: 1 (a hub
+        motor in each wheel, seed 001 ch. 2.2).
     """
 
     name: str = "agrimaro"
@@ -85,6 +90,7 @@ class AgriMaRoParams:
     motor: MotorParams = field(default_factory=_agrimaro_motor)
     contact_length_m: float = 0.10
     contact_width_m: float = 0.12
+    wheels_per_motor: int = 1
 
     @property
     def positions(self) -> np.ndarray:

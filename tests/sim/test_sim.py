@@ -1,4 +1,5 @@
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -11,7 +12,7 @@ from terrain.sim import Effects, SimConfig, parse_effects, simulate
 from terrain.sim.dynamics import integrate
 from terrain.sim.simulate import motor_currents
 from terrain.terramechanics import MEASURED_HUSKY_STRAIGHT, get_terrain
-from terrain.vehicles import HUSKY, get_vehicle
+from terrain.vehicles import HUSKY, TRACKED, get_vehicle
 
 B = HUSKY.track_m
 
@@ -319,3 +320,23 @@ def test_validate_sim_command_prints_the_documented_tables(tmp_path, capsys):
     assert 0.116 <= grass[0] <= 0.135 and grass[1] > grass[0]   # thesis steady slip, peak above
     asphalt = [float(v) for v in rows["ASPHALT"].strip("| ").split("|")[1:]]
     assert asphalt[1] == pytest.approx(asphalt[0], rel=0.05)      # current matches measured
+
+
+def test_tracked_wheel_inertia_torque_does_not_depend_on_the_track_discretisation():
+    # each motor turns its vehicle's wheels_per_motor rotating bodies (one sprocket per
+    # track), however many contact points n_segments puts along the track
+    t = np.arange(0.0, 4.0, 0.01)
+    tw = np.zeros((len(t), 3))
+    tw[:, 0] = np.minimum(t * 1.0, 0.4)                 # 1 m/s^2 ramp to 0.4 m/s
+    torque = {}
+    for n_segments in (1, 5, 10, 20):
+        veh = replace(TRACKED, n_segments=n_segments)
+        p = integrate(veh, veh.contact_geometry(), (get_terrain("ASPHALT"),), 1e9, t, tw, 0.0,
+                      1.0)
+        torque[n_segments] = p.torque[int(round(0.2 / 0.01))].mean(), p.torque[-1].mean()
+    transient = [v[0] for v in torque.values()]
+    steady = [v[1] for v in torque.values()]
+    assert np.ptp(transient) < 0.01 * np.mean(transient)
+    assert np.ptp(steady) < 1e-3 * np.mean(steady)
+    # the count comes from the vehicle's parameters, not from its contact points
+    assert TRACKED.wheels_per_motor == 1 and HUSKY.wheels_per_motor == 2
