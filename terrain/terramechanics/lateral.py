@@ -190,14 +190,15 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
                 "gamma_s 2.45 kN/m^3 ASSUMED (fresh forest snow, density 250 kg/m^3)")),
     "PLOUGHED": replace(
         _SANDY_LOAM, name="ploughed field (sandy loam row by analogy)",
-        shear_modulus_m=0.010, lateral_shear_modulus_m=0.010, residual_ratio=None,
+        shear_modulus_m=0.025, lateral_shear_modulus_m=0.025, residual_ratio=None,
         source=(f"n, k_c, k_phi, c, phi and gamma_s: the SANDY_LOAM row above ({_WONG_T23}) "
                 "by ANALOGY: the Vulpi et al. (2021) PLOUGHED runs were driven on a tilled "
-                "agricultural field whose soil was not measured; K_x = K_y = 0.010 m chosen "
+                "agricultural field whose soil was not measured; K_x = K_y = 0.025 m chosen "
                 "on the TRAINING runs of benchmarks/sweep_soil_params.py --dataset vulpi "
                 "(vulpi PLOUGHED 1, 4, 6; scored on 3, 5) over K_x in {0.006, 0.01, 0.025} x "
                 "K_y in {0.004, 0.006, 0.01, 0.025} m, inside Wong's range of K for mineral "
-                "soils (ch. 2.4)")),
+                "soils (ch. 2.4); chosen again 2026-11-25 once v2 kept the catalogue's "
+                "Brixius motion resistance (0.010 m before, docs/physics_v2.md)")),
 })
 
 

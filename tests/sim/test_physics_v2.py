@@ -364,8 +364,9 @@ def test_v2_ploughed_soil_follows_the_measured_turns_of_a_held_out_vulpi_run(
 
 @pytest.mark.xfail(strict=True, reason=(
     "issue 14's 10 % chi target, missed since v2 keeps PLOUGHED's Brixius motion "
-    "resistance (2026-11-25): 2.58 against 2.29 measured (+12 %); it was 2.38 (+4 %) while "
-    "v2 dropped that resistance, with which the soil's K was chosen (docs/physics_v2.md)"))
+    "resistance and the soil's K was chosen again on the training runs (2026-11-25): 2.68 "
+    "against 2.30 measured (+17 %); it was 2.38 (+4 %) while v2 dropped that resistance "
+    "(docs/physics_v2.md, 'PLOUGHED re-measured')"))
 def test_v2_ploughed_held_out_turn_chi_within_10_percent(ploughed_held_out_turns):
     chi, _ = ploughed_held_out_turns
     assert chi["v2"] == pytest.approx(chi["measured"], rel=0.10)
@@ -426,7 +427,10 @@ def test_v2_soil_keeps_the_catalogue_motion_resistance_and_the_calibrated_curren
         current[physics] = cur[t > 6.0].mean()
         assert p.slip_motor[t > 6.0].mean() > 1e-3          # the soil's resistance costs slip
     assert current["v2"] == pytest.approx(target, rel=0.05)
-    assert current["v2"] == pytest.approx(current["v1"], rel=0.01)
+    # equal on the Janosi soils; on PLOUGHED the Brixius resistance grows with slip
+    # (0.5 s / sqrt(Bn)) and the soil curve needs more slip than v1's: 4.76 against 4.70 A
+    assert current["v2"] == pytest.approx(current["v1"], rel=0.02)
+    assert current["v2"] >= current["v1"] - 1e-3
     layout = contact_layout(geo, HUSKY.mass_kg, 0.0, 1.55)
     soil = soil_contacts(HUSKY, geo, (get_terrain(name),))[name]
     entry = dynamics.v2_terrain(get_terrain(name), soil, float(np.mean(layout.normal_load_n)))
