@@ -12,10 +12,11 @@ import json
 
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced,
                                  add_train_hop, add_window_ekf, output_file, seed_value)
+from terrain.errors import ConfigError
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
-from terrain.models.experiment import ExperimentConfig, ExperimentResult, run_cv
+from terrain.models.experiment import PAPER_WINDOW, ExperimentConfig, ExperimentResult, run_cv
 from terrain.models.metrics import plot_confusion
 from terrain.models.registry import MODELS
 from terrain.tracking import tracked_run
@@ -39,7 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="imu, wheels, all, all-no-speed (all but the forward wheel "
                              "speeds), ekf (EKF-derived channels), all+ekf, or channel names "
                              "(default: all)")
-    parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
+    parser.add_argument("--window-s", type=float, default=None,
+                        help="window length, s (default 2.0; the paper protocol fixes 1.7)")
     parser.add_argument("--hop-s", type=float, default=None,
                         help="hop between windows, s (default: window length)")
     add_train_hop(parser)
@@ -75,10 +77,15 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
     ExperimentConfig
         The configuration handed to :func:`terrain.models.experiment.run_cv`.
     """
+    if args.protocol == "paper" and (args.window_s not in (None, PAPER_WINDOW["window_s"])
+                                     or args.hop_s not in (None, PAPER_WINDOW["hop_s"])):
+        raise ConfigError(f"the paper protocol fixes its windows ({PAPER_WINDOW['window_s']:g}"
+                          f" s every {PAPER_WINDOW['hop_s']:g} s): drop --window-s / --hop-s")
     # leave-one-run-out is deterministic; the paper protocol's published split is seed 0
     seeds = args.seeds or ([0] if args.protocol in ("paper", "loro") else [0, 1, 2])
     return ExperimentConfig(dataset=args.dataset, signals=tuple(args.signals),
-                            window_s=args.window_s, hop_s=args.hop_s,
+                            window_s=2.0 if args.window_s is None else args.window_s,
+                            hop_s=args.hop_s,
                             train_hop_s=args.train_hop_s, protocol=args.protocol,
                             seeds=tuple(seeds), search=args.search,
                             steady_only=args.steady_only, model=args.model,

@@ -146,6 +146,14 @@ class ExperimentConfig:
             if self.protocol == "paper":
                 raise ConfigError("the paper protocol fixes its windows (0.1 s hop): drop "
                                   "--train-hop-s")
+        if self.protocol == "paper" and (
+                self.window_s not in (2.0, PAPER_WINDOW["window_s"])
+                or self.hop_s not in (None, PAPER_WINDOW["hop_s"])):
+            # it would run the paper's windows anyway: the options would be ignored
+            raise ConfigError(f"the paper protocol fixes its windows "
+                              f"({PAPER_WINDOW['window_s']:g} s every "
+                              f"{PAPER_WINDOW['hop_s']:g} s): drop --window-s / --hop-s "
+                              f"(got {self.window_s:g} s, hop {self.hop_s})")
         bad_seeds = [s for s in self.seeds if isinstance(s, bool) or not isinstance(
             s, (int, np.integer)) or not 0 <= s <= MAX_SEED]
         if not self.seeds or bad_seeds:
@@ -441,6 +449,10 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                   f"same run, not an unseen run)" for c in split]
         if n_dropped:
             notes.append(f"{n_dropped} window(s) straddling a time-block boundary dropped")
+    else:
+        notes.append(f"paper protocol: run_majority_accuracy votes per "
+                     f"{PAPER_WINDOW['partition_s']:g} s partition (its split unit), not per "
+                     f"run")
     fx = feature_extractor(ws)
     # the SVM on raw-signal features is cross-validated on features computed once; every
     # other model (and the SVM with --window-ekf) takes the raw windows

@@ -20,18 +20,20 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
     y_pred : sequence of str
         ``(n_windows,)`` predicted label of each window.
     classes : sequence of str
-        All class labels of the task; the metrics are taken over those present in
-        ``y_true``.
+        All class labels of the task (see Returns for which each metric counts).
 
     Returns
     -------
     dict
-        ``accuracy``, ``balanced_accuracy``, ``macro_f1`` (over ``classes``, a class absent
-        from both ``y_true`` and ``y_pred`` counts as 0 only if it is in ``y_true``) and
-        ``recall_<CLASS>`` for each class present in ``y_true``.
+        ``accuracy``, ``balanced_accuracy`` (mean recall over the classes present in
+        ``y_true``), ``macro_f1`` (over the classes present in ``y_true`` or ``y_pred``, as
+        scikit-learn's ``f1_score(average="macro")``: a class predicted in a fold whose
+        truth lacks it counts with F1 = 0) and ``recall_<CLASS>`` for each class present in
+        ``y_true``.
     """
     y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
     present = [c for c in classes if (y_true == c).any()]
+    scored = [c for c in classes if (y_true == c).any() or (y_pred == c).any()]
     recalls = recall_score(y_true, y_pred, labels=present, average=None, zero_division=0)
     out = {
         "accuracy": float(accuracy_score(y_true, y_pred)),
@@ -39,7 +41,7 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
         # y_true; balanced_accuracy_score also warns when a fold's predictions hold a class
         # its truth lacks (a Vulpi fold), which is not a fault of anything
         "balanced_accuracy": float(np.mean(recalls)),
-        "macro_f1": float(f1_score(y_true, y_pred, labels=present, average="macro",
+        "macro_f1": float(f1_score(y_true, y_pred, labels=scored, average="macro",
                                    zero_division=0)),
     }
     out.update({f"recall_{c}": float(r) for c, r in zip(present, recalls)})

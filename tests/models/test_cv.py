@@ -153,6 +153,12 @@ def test_balanced_accuracy_equals_scikit_learn_without_its_warning():
         expected = balanced_accuracy_score(y_true, y_pred)
     assert m["balanced_accuracy"] == pytest.approx(expected, abs=1e-15)
     assert m["balanced_accuracy"] == pytest.approx((1 / 3 + 1 / 2 + 1 / 2) / 3)
+    # macro-F1 counts the predicted-only class D with F1 = 0, as scikit-learn's default does
+    # (leaving it out put a Vulpi fold at 0.931 where scikit-learn says 0.698)
+    from sklearn.metrics import f1_score
+    assert m["macro_f1"] == pytest.approx(f1_score(y_true, y_pred, average="macro"),
+                                          abs=1e-15)
+    assert m["macro_f1"] == pytest.approx((0.5 + 0.5 + 0.5 + 0.0) / 4)
 
 
 def test_run_majority_accuracy_on_a_hand_example():

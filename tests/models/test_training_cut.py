@@ -146,3 +146,26 @@ def test_one_terrain_class_is_a_typed_error_naming_it(vulpi_runs):
         with pytest.raises(ConfigError, match=r"1 terrain class\(es\) \['PLOUGHED'\] "
                                               r"\(runs \['vulpi/PLOUGHED/1'.*two at least"):
             call(config, runs=one)
+
+
+@pytest.mark.parametrize("given", [dict(window_s=3.0), dict(hop_s=1.0), dict(window_s=1.0,
+                                                                             hop_s=0.1)])
+def test_paper_protocol_refuses_window_options_it_would_ignore(given):
+    # the paper protocol always cuts 1.7 s windows every 0.1 s: a --window-s 3 --hop-s 1 ran
+    # on those and printed its results without a word
+    with pytest.raises(ConfigError, match="paper protocol fixes its windows"):
+        ExperimentConfig(protocol="paper", **given)
+    assert ExperimentConfig(protocol="paper", window_s=1.7, hop_s=0.1).window_config() \
+        == ExperimentConfig(protocol="paper").window_config()
+
+
+def test_cv_paper_protocol_refuses_an_explicit_window_length(capsys):
+    from terrain.cli import main
+    assert main(["cv", "--dataset", "vulpi", "--protocol", "paper", "--window-s", "2"]) == 2
+    assert "paper protocol fixes its windows" in capsys.readouterr().err
+
+
+def test_paper_protocol_says_its_vote_is_per_partition(vulpi_runs):
+    res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
+                                  protocol="paper"), runs=vulpi_runs, progress=False)
+    assert any("votes per 5 s partition" in note for note in res.report.notes)
