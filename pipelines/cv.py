@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "speeds), ekf (EKF-derived channels), all+ekf, or channel names "
                              "(default: all)")
     parser.add_argument("--window-s", type=float, default=None,
-                        help="window length, s (default 2.0; the paper protocol fixes 1.7)")
+                        help="window length, s (default: 2.0); the paper protocol fixes 1.7")
     parser.add_argument("--hop-s", type=float, default=None,
                         help="hop between windows, s (default: window length)")
     add_train_hop(parser)
