@@ -400,7 +400,8 @@ def lag_table(frames: Sequence[AuditFrame]) -> pd.DataFrame:
 
 
 def _turning_forms(group: GroupResult, settings: AuditSettings) -> dict:
-    """Held-out RMSE (A) of the current model with each turning form forced."""
+    """Held-out RMSE (A) of the current model with each turning form forced (NaN where the
+    units hold no turning sample: nothing to score, not a perfect fit)."""
     spec = list(group.selected)
     if "turning_resistance" not in spec:
         spec.append("turning_resistance")
@@ -410,7 +411,8 @@ def _turning_forms(group: GroupResult, settings: AuditSettings) -> dict:
                       [x for x in spec if x != "turning_resistance"], settings.effects,
                       form=form)
         s, n = unit_errors(group.units, "current", params, "turning")
-        out[f"heldout_rmse_turning_{form}"] = float(np.sqrt(s.sum() / max(n.sum(), 1)))
+        out[f"heldout_rmse_turning_{form}"] = (float(np.sqrt(s.sum() / n.sum()))
+                                               if n.sum() > 0 else float("nan"))
     return out
 
 

@@ -963,3 +963,30 @@ def effect_details(name: str, params: LagParams | YawParams | CurrentParams) -> 
         return {"offset_left_a": params.offset_left_a, "offset_right_a": params.offset_right_a,
                 "common_a": params.common_a}
     return {}
+
+
+def effect_cause(name: str, params: LagParams | YawParams | CurrentParams) -> str:
+    """The plain-language cause of a fitted effect, in the direction it was fitted.
+
+    :attr:`EffectSpec.cause`, except for a ``turning_resistance`` fitted below zero: the
+    measured turns then draw *less* current than the simulated contact model gives, and the
+    vocabulary's cause (the current rises by more than the model gives) would contradict
+    the fit.
+
+    Parameters
+    ----------
+    name : str
+        Effect name (a key of :data:`EFFECT_VOCABULARY`).
+    params : LagParams or YawParams or CurrentParams
+        Fitted model of the effect's group.
+
+    Returns
+    -------
+    str
+    """
+    if name == "turning_resistance" and params.k_a < 0:
+        return ("While turning, the tyres slide sideways against the ground (skid-steer "
+                "lateral friction) and the motors supply that scrub torque. Here the "
+                "measured turns draw less current than the simulated contact model gives "
+                "(k_a < 0): its lateral friction or scrub torque is too high for this ground.")
+    return EFFECT_VOCABULARY[name].cause

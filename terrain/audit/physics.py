@@ -228,7 +228,8 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
     -------
     pandas.DataFrame
         Columns ``terrain, signal, scope, n_runs, n, rmse_ref, rmse_new, gain, gain_lo,
-        gain_hi`` (gain = ``1 - rmse_new / rmse_ref``; NaN where no sample).
+        gain_hi`` (gain = ``1 - rmse_new / rmse_ref``; NaN where no sample; the interval
+        NaN where one run holds every sample: resampling it says nothing).
     """
     rng = np.random.default_rng(settings.seed)
     rows = []
@@ -246,9 +247,11 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
             ra = np.sqrt(a[idx].sum(1) / n[idx].sum(1))
             rb = np.sqrt(b[idx].sum(1) / n[idx].sum(1))
             g = 1.0 - rb / np.where(ra > 0, ra, np.nan)
+            # one run has no run-to-run spread to resample: no interval, not a zero-width one
+            lo, hi = ((float(np.nanpercentile(g, 2.5)), float(np.nanpercentile(g, 97.5)))
+                      if len(sub) > 1 else (np.nan, np.nan))
             rows.append((terrain, sig, scope, len(sub), int(n.sum()), r_ref, r_new,
-                         1.0 - r_new / r_ref if r_ref > 0 else np.nan,
-                         float(np.nanpercentile(g, 2.5)), float(np.nanpercentile(g, 97.5))))
+                         1.0 - r_new / r_ref if r_ref > 0 else np.nan, lo, hi))
     return pd.DataFrame(rows, columns=["terrain", "signal", "scope", "n_runs", "n", "rmse_ref",
                                        "rmse_new", "gain", "gain_lo", "gain_hi"])
 
@@ -280,7 +283,8 @@ def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
     for r in table.itertuples():
         if r.scope == "stop":
             continue
+        interval = (f"[{r.gain_lo:+.3f}, {r.gain_hi:+.3f}]" if np.isfinite(r.gain_lo)
+                    else "(one run: no interval)")
         lines.append(f"| {r.terrain} | {r.signal} | {r.scope} | {r.n_runs} | {r.n} | "
-                     f"{r.rmse_ref:.3g} | {r.rmse_new:.3g} | {r.gain:+.3f} "
-                     f"[{r.gain_lo:+.3f}, {r.gain_hi:+.3f}] |")
+                     f"{r.rmse_ref:.3g} | {r.rmse_new:.3g} | {r.gain:+.3f} {interval} |")
     return "\n".join(lines) + "\n"

@@ -331,10 +331,12 @@ def to_markdown(report: Mapping, figures: Mapping[str, str] | None = None,
         found.sort(key=lambda e: (e["group"], e["step"] or 0))
         findings.append((t, found))
     causes = []
-    for name in EFFECT_VOCABULARY:
-        cause = next((e["cause"] for e in effects if e["name"] == name), None)
-        if cause:
-            causes.append((name, cause))
+    for name, spec in EFFECT_VOCABULARY.items():
+        if any(e["name"] == name for e in effects):
+            causes.append((name, spec.cause))
+        # a supported effect fitted the other way round says so (effects.effect_cause)
+        causes += [(f"{name} on {e['terrain']}", e["cause"]) for e in effects
+                   if e["name"] == name and e["supported"] and e["cause"] != spec.cause]
     segmented = sorted({f"{g['terrain']} ({g['group']})" for g in report["groups"]
                         if g.get("segmented")})
     sweep_rows, sweep_header = _sweep_table(report)

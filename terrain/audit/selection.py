@@ -38,7 +38,7 @@ import numpy as np
 
 from terrain.audit.effects import (EFFECT_VOCABULARY, GROUP_MODELS, GROUPS, CurrentParams,
                                    EffectSettings, LagParams, NotIdentifiable, YawParams,
-                                   effect_details, effect_params)
+                                   effect_cause, effect_details, effect_params)
 from terrain.audit.frames import AuditFrame, split_frame
 from terrain.errors import ConfigError
 
@@ -745,8 +745,8 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
         name=name, terrain=terrain, group=group, params=effect_params(name, params), ci95=ci,
         heldout_gain=None if trial is None else trial.gain,
         heldout_gain_ci95=None if trial is None else trial.gain_ci95,
-        supported=supported, step=path.step(name), details=details, cause=spec.cause,
-        n_units=len(units), n_runs=n_runs)
+        supported=supported, step=path.step(name), details=details,
+        cause=effect_cause(name, params), n_units=len(units), n_runs=n_runs)
 
 
 def select_group(units: Units, group: str, terrain: str,

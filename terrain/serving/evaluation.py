@@ -34,7 +34,7 @@ from terrain.serving.model import StreamModel
 from terrain.serving.recipes import (ModelRecipe, fit_stream_model, recipe_classifier,
                                      recipe_features, run_balanced_weights)
 from terrain.serving.replay import replay_run
-from terrain.serving.service import StreamConfig, StreamService
+from terrain.serving.service import UNCLASSIFIED_FLAGS, StreamConfig, StreamService
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.serving.targets import CataloguePeakTargets
 
@@ -266,16 +266,18 @@ def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarra
     t_s : numpy.ndarray
         ``(n,)`` decision times, s.
     proba : numpy.ndarray
-        ``(n, n_classes)`` classifier probabilities; NaN rows where the window was invalid
-        (gap, too short), which the filter treats as prediction-only steps.
+        ``(n, n_classes)`` classifier probabilities; NaN rows where the service did not
+        classify the window (:data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: a gap, too
+        short, or a units rule), which the filter treats as prediction-only steps, as the
+        live service does (the unsmoothed service repeats the last probabilities there).
     """
     svc = StreamService(model, CataloguePeakTargets(model.classes),
                         StreamConfig(hop_s=hop_s, smoothing=SmoothingConfig(dwell_s=None)))
     decisions = replay_run(svc, run)
     t = np.array([d.t_s for d in decisions])
     proba = np.array([d.proba for d in decisions]).reshape(len(decisions), -1)
-    invalid = np.array([("gap" in d.flags) or ("short" in d.flags) for d in decisions],
-                       dtype=bool)
+    invalid = np.array([not UNCLASSIFIED_FLAGS.isdisjoint(d.flags.split("|"))
+                        for d in decisions], dtype=bool)
     proba[invalid] = np.nan
     return t, proba
 

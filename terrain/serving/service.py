@@ -82,7 +82,12 @@ from terrain.serving.smoothing import ForwardFilter
 from terrain.serving.targets import TargetProvider
 
 # StreamConfig is the service's settings (terrain.serving.config), imported from here too
-__all__ = ["StreamService", "StreamConfig"]
+__all__ = ["StreamService", "StreamConfig", "UNCLASSIFIED_FLAGS"]
+
+#: Flags of a window the service does not classify (the filter takes a prediction-only
+#: step there; see the module docstring).
+UNCLASSIFIED_FLAGS: frozenset[str] = frozenset({"gap", "short", "accel_units",
+                                                "wheel_speed_units"})
 
 
 class StreamService:

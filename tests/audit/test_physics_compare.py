@@ -49,3 +49,28 @@ def test_replay_physics_is_selectable_and_checked(loam_runs):
     assert ReplaySettings().physics == "v1"
     with pytest.raises(ConfigError):
         ReplaySettings(physics="v0")
+
+
+def test_a_single_run_gets_no_bootstrap_interval():
+    # resampling one run always draws that run: a zero-width "95 % interval" claimed a
+    # certainty there is no run-to-run information for (vulpi DIRT_ROAD, one run)
+    import pandas as pd
+    tab = pd.DataFrame({"run_id": ["a/X/0", "a/Y/0", "a/Y/1"], "terrain": ["X", "Y", "Y"],
+                        "signal": "cur", "scope": "moving", "n": [100, 100, 100],
+                        "sse_ref": [400.0, 400.0, 300.0], "sse_new": [100.0, 200.0, 90.0]})
+    g = gain_table(tab, PhysicsComparisonSettings(n_bootstrap=200)).set_index("terrain")
+    assert g.loc["X", "gain"] == pytest.approx(0.5)
+    assert np.isnan(g.loc["X", "gain_lo"]) and np.isnan(g.loc["X", "gain_hi"])
+    assert g.loc["Y", "gain_lo"] < g.loc["Y", "gain_hi"]
+    md = comparison_markdown(g.reset_index(), {"reference": "v1", "candidate": "v2"})
+    assert "| X | cur | moving | 1 | 100 | 2 | 1 | +0.500 (one run: no interval) |" in md
+
+
+def test_a_negative_turning_resistance_is_explained_in_its_direction():
+    from terrain.audit.effects import EFFECT_VOCABULARY, CurrentParams, effect_cause
+    assert effect_cause("turning_resistance", CurrentParams(k_a=1.5)) == \
+        EFFECT_VOCABULARY["turning_resistance"].cause
+    assert "less current than the simulated" in effect_cause("turning_resistance",
+                                                             CurrentParams(k_a=-3.18))
+    assert effect_cause("current_offset", CurrentParams(k_a=-3.18)) == \
+        EFFECT_VOCABULARY["current_offset"].cause

@@ -59,3 +59,18 @@ def test_effect_results_are_built_by_keyword_and_frozen():
     assert e.as_dict()["ci95"] == {"chi": [1.4, 1.6]}
     with pytest.raises(AttributeError):
         e.supported = False
+
+
+def test_a_supported_effect_fitted_the_other_way_round_gets_its_own_cause(shipped_report):
+    # vulpi PLOUGHED: turning_resistance supported at k_a = -3.18 A; the causes listed only
+    # the vocabulary's "the current rises in every turn by more than the model gives"
+    from terrain.audit.effects import CurrentParams, effect_cause
+    report, md = shipped_report
+    title, commands, figures = _page_inputs(md)
+    changed = copy.deepcopy(report)
+    e = next(e for e in changed["effects"] if e["name"] == "turning_resistance")
+    e["supported"], e["params"] = True, {"k_a": -3.18}
+    e["cause"] = effect_cause("turning_resistance", CurrentParams(k_a=-3.18))
+    page = to_markdown(changed, figures, commands, title)
+    assert f"- `turning_resistance on {e['terrain']}`: {e['cause']}" in page
+    assert "- `turning_resistance`: While turning" in page         # the vocabulary's, once

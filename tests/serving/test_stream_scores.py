@@ -54,3 +54,57 @@ def test_a_broken_cell_names_file_column_and_line(tmp_path, column, bad):
     with pytest.raises(DataFormatError, match=rf"{column}.*line 3") as err:
         read_stream_scores(path)
     assert err.value.path == str(path) and err.value.column == column
+
+
+class _WzClassifier:
+    """Deterministic probabilities from a window's mean yaw rate (three classes)."""
+
+    classes_ = np.array(("ASPHALT", "ICE", "SNOW"))
+
+    def predict_proba(self, X):
+        k = np.floor(X[:, 0, :].mean(axis=1) * 10).astype(int) % 3
+        out = np.full((len(X), 3), 0.1)
+        out[np.arange(len(X)), k] = 0.8
+        return out
+
+
+def test_offline_scoring_takes_unclassified_windows_as_the_live_service_does():
+    # a 20 s stretch of accelerometer in g is not classified live (accel_units: the filter
+    # only predicts); stream-eval's unsmoothed replay repeated the last probabilities there
+    # and the offline filter folded them in again as fresh evidence
+    from features.windows import WindowConfig
+    from terrain.run import TIME, Run
+    from terrain.serving.evaluation import filter_sequence, raw_decisions
+    from terrain.serving.model import StreamModel
+    from terrain.serving.replay import replay_run
+    from terrain.serving.service import StreamConfig, StreamService
+    from terrain.serving.smoothing import SmoothingConfig
+    from terrain.serving.targets import CataloguePeakTargets
+
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 120.0, 0.01)
+    acc = np.column_stack([0.2 * rng.standard_normal(len(t)), 0.2 * rng.standard_normal(len(t)),
+                           9.81 + 0.2 * rng.standard_normal(len(t))])
+    acc[(t > 50) & (t < 70)] /= 9.81
+    imu = pd.DataFrame({TIME: t, "wx": 0 * t, "wy": 0 * t,
+                        "wz": 0.5 + 0.5 * np.sin(2 * np.pi * t / 37.0)
+                        + 0.01 * rng.standard_normal(len(t)),
+                        "ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2]})
+    tw = np.arange(0.0, 120.0, 0.1)
+    wheels = pd.DataFrame({TIME: tw, "vel_l": 0.5 + 0 * tw, "vel_r": 0.5 + 0 * tw,
+                           "cur_l": 2.0 + 0 * tw, "cur_r": 2.0 + 0 * tw})
+    run = Run("probe/ASPHALT/0", "probe", "ASPHALT", {"imu": imu, "wheels": wheels})
+    classes = tuple(_WzClassifier.classes_)
+    model = StreamModel(_WzClassifier(), ("wz", "ax", "ay", "az"),
+                        WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=100.0), classes)
+    config = SmoothingConfig()
+    live = replay_run(StreamService(model, CataloguePeakTargets(classes),
+                                    StreamConfig(hop_s=0.5, smoothing=config)), run)
+    unclassified = np.array(["accel_units" in d.flags.split("|") for d in live])
+    assert unclassified.sum() > 30
+    t_s, proba = raw_decisions(model, run, 0.5)
+    np.testing.assert_array_equal(t_s, [d.t_s for d in live])
+    np.testing.assert_array_equal(np.isnan(proba).all(axis=1), unclassified)
+    names = np.array(list(classes) + [None], dtype=object)
+    np.testing.assert_array_equal(names[filter_sequence(proba, 0.5, config)],
+                                  np.array([d.terrain for d in live], dtype=object))
