@@ -76,6 +76,12 @@ def config_from_args(args: argparse.Namespace) -> ExperimentConfig:
     -------
     ExperimentConfig
         The configuration handed to :func:`terrain.models.experiment.run_cv`.
+
+    Raises
+    ------
+    ConfigError
+        ``--window-s`` or ``--hop-s`` given with the paper protocol (it fixes its windows),
+        or any check of :class:`~terrain.models.experiment.ExperimentConfig`.
     """
     if args.protocol == "paper" and (args.window_s not in (None, PAPER_WINDOW["window_s"])
                                      or args.hop_s not in (None, PAPER_WINDOW["hop_s"])):
