@@ -243,7 +243,10 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
         the chassis speed exceeds the enabling threshold), ``time_to_speed_s`` (None if never),
         ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law),
-        ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``), ``distance_m``,
+        ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``),
+        ``drive_energy_j_per_m`` (``sum k_t G |omega| |I| dt / distance``: what a PWM drive
+        passes to the motors, :meth:`terrain.vehicles.MotorParams.drive_power_w`; the bus
+        figure above ignores the duty cycle), ``distance_m``,
         ``mean_speed_m_s``, ``steady_slip_error_max`` / ``steady_slip_within_0_02``
         (|slip - target| in steady driving after cruise, where enabled), ``safe_fraction``,
         ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control
@@ -259,6 +262,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     duration = float(phys.t_s[-1] - phys.t_s[0] + dt)
     cur = motor_currents(phys, vehicle, sim.config.effects)
     energy = bus_voltage_v * float(np.sum(cur) * dt)
+    drive = float(np.sum(vehicle.motor.drive_power_w(cur, phys.omega)) * dt)
     mech = float(np.sum(np.maximum(phys.torque * phys.omega, 0.0)) * dt)
     log = loop.log
     omega_ll = np.array([r["omega_low_level"] for r in log])
@@ -305,6 +309,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "final_speed_m_s": final,
         "energy_j_per_m": energy / distance if distance > 0 else None,
         "mech_energy_j_per_m": mech / distance if distance > 0 else None,
+        "drive_energy_j_per_m": drive / distance if distance > 0 else None,
         "distance_m": distance,
         "mean_speed_m_s": distance / duration,
         "steady_slip_error_max": float(np.max(s_err)) if s_err.size else None,

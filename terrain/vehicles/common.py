@@ -72,6 +72,31 @@ class MotorParams:
         return (self.no_load_current_a * direction
                 + torque / (self.gear_ratio * self.torque_constant_nm_per_a * self.efficiency))
 
+    def drive_power_w(self, current_a: np.ndarray, omega_rad_s: np.ndarray) -> np.ndarray:
+        """Electrical power a PWM drive delivers to the motor, W.
+
+        The back-EMF ``k_t G |omega|`` (SI units: the back-EMF constant equals ``k_t``)
+        times the current magnitude: with no winding resistance in this motor law, that is
+        what the drive's duty cycle passes from the bus, ``|omega T| / eta`` plus the
+        no-load loss ``k_t G |omega| I_0``. The bus current times the bus voltage is larger
+        by ``V_bus / (k_t G |omega|)`` (it ignores the duty cycle).
+
+        Parameters
+        ----------
+        current_a : ndarray, shape (...)
+            Motor current (signed or magnitude), A.
+        omega_rad_s : ndarray, shape (...)
+            Wheel angular speed, rad/s; broadcast with ``current_a``.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Power, W (>= 0).
+        """
+        return (self.torque_constant_nm_per_a * self.gear_ratio
+                * np.abs(np.asarray(omega_rad_s, dtype=float))
+                * np.abs(np.asarray(current_a, dtype=float)))
+
 
 @dataclass(frozen=True)
 class ContactGeometry:

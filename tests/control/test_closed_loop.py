@@ -100,6 +100,11 @@ def test_metrics_energy_from_currents_and_bus_voltage():
     cur = motor_currents(sim.physics, get_vehicle("husky"), sim.config.effects)
     dt = sim.physics.t_s[1] - sim.physics.t_s[0]
     assert m["energy_j_per_m"] * m["distance_m"] == pytest.approx(24.0 * cur.sum() * dt)
+    motor = get_vehicle("husky").motor
+    drive = motor.drive_power_w(cur, sim.physics.omega).sum() * dt
+    assert m["drive_energy_j_per_m"] * m["distance_m"] == pytest.approx(drive)
+    # the drive passes the shaft power plus losses: between the mechanical and bus figures
+    assert m["mech_energy_j_per_m"] < m["drive_energy_j_per_m"] < m["energy_j_per_m"]
 
 
 def test_grid_refuses_tuning_seeds():

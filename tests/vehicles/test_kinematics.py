@@ -94,3 +94,21 @@ def test_contact_geometry_loads_sum_to_one():
         g = get_vehicle(name).contact_geometry()
         assert g.load_share.sum() == pytest.approx(1.0)
         assert len(g.positions_m) == len(g.motor_of_contact)
+
+
+@pytest.mark.parametrize("name", ["husky", "agrimaro", "tracked"])
+def test_drive_power_is_the_shaft_power_over_efficiency_plus_the_no_load_loss(name):
+    # back-EMF k_t G |omega| times the motor-law current (no winding resistance): what a PWM
+    # drive passes to the motor, far below V_bus |I| at low speed
+    from terrain.vehicles import get_vehicle
+    motor = get_vehicle(name).motor
+    omega = np.array([0.5, 3.0, 6.0, -4.0])
+    torque = np.array([2.0, 5.0, 1.0, -3.0])
+    current = motor.current_from_torque(torque, omega)
+    expected = (np.abs(omega * torque) / motor.efficiency
+                + motor.torque_constant_nm_per_a * motor.gear_ratio * np.abs(omega)
+                * motor.no_load_current_a * np.abs(np.tanh(omega / 0.05)))
+    np.testing.assert_allclose(motor.drive_power_w(current, omega), expected, rtol=1e-12)
+    assert (motor.drive_power_w(current, omega) >= 0).all()
+    assert motor.drive_power_w(np.abs(current), omega) == pytest.approx(
+        motor.drive_power_w(current, omega))
