@@ -414,7 +414,9 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
         xp[:, j] += sd
         var += (slip_at(xp) - slip) ** 2
     # ... and of the raw rim speed's own noise (it enters the slip unfiltered, ch. 7.2)
-    rim_sd = robust_noise_std(rim, 1.0 / float(np.median(np.diff(ekf.t_s))))
+    steps = np.diff(ekf.t_s)
+    rim_sd = (robust_noise_std(rim, 1.0 / float(np.median(steps))) if steps.size
+              else np.zeros(rim.shape[1]))
     var += (wheel_slip(rim + np.nan_to_num(rim_sd), x[:, 0], x[:, 1], x[:, 2],
                        params.positions, x[:, 3:]) - slip) ** 2
     notes = agrimaro_missing_stream_notes(run)
