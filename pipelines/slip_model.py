@@ -105,10 +105,20 @@ def resolve_slip_model(model_dir: Path | None) -> tuple[Any | None, str]:
         check_store(store)
     except ConfigError as exc:
         return None, f"tracking store not usable: {str(exc).split('; ')[0]}"
-    mlflow.set_tracking_uri(tracking_uri())
-    mlflow.set_registry_uri(tracking_uri())
+    # an explicit client on this store: setting MLflow's process-wide tracking and registry
+    # URIs here (set_registry_uri also writes MLFLOW_REGISTRY_URI into the environment)
+    # pinned every later registry lookup of the process to this store
+    from mlflow import MlflowClient
+    from mlflow.artifacts import download_artifacts
     try:
-        return mlflow.sklearn.load_model(uri), uri
+        client = MlflowClient(tracking_uri=store, registry_uri=store)
+        versions = client.search_model_versions(f"name='{REGISTERED_SLIP_MODEL}'")
+        if not versions:
+            return None, f"{uri} not registered in {store}"
+        latest = max(versions, key=lambda v: int(v.version))
+        source = client.get_model_version_download_uri(REGISTERED_SLIP_MODEL, latest.version)
+        local = download_artifacts(artifact_uri=source, tracking_uri=store)
+        return mlflow.sklearn.load_model(local), uri
     except Exception as exc:        # noqa: BLE001 - any failure means "no learned model"
         return None, f"{uri} not loadable ({type(exc).__name__})"
 

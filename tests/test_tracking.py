@@ -122,3 +122,34 @@ def test_a_registry_model_on_a_server_that_does_not_answer_is_one_line_at_once(
     err = capsys.readouterr().err
     assert "cannot load model 'models:/terrain-borealtc/latest'" in err
     assert "does not answer" in err and "Traceback" not in err
+
+
+def test_the_slip_model_lookup_loads_the_latest_version_and_leaves_mlflow_as_it_was(
+        tmp_path, monkeypatch):
+    # the lookup used to set MLflow's process-wide tracking and registry URIs (the latter
+    # also as MLFLOW_REGISTRY_URI in the environment), pinning every later registry lookup
+    # of the process to this store
+    import mlflow.sklearn
+    from sklearn.dummy import DummyRegressor
+
+    from pipelines.slip_model import REGISTERED_SLIP_MODEL
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_REGISTRY_URI", raising=False)
+    store = f"sqlite:///{tmp_path / 'slip.db'}"
+    before = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(store)
+    try:
+        for constant in (0.1, 0.2):
+            with mlflow.start_run():
+                mlflow.sklearn.log_model(
+                    DummyRegressor(strategy="constant", constant=constant).fit([[0.0]], [0.0]),
+                    name="m", registered_model_name=REGISTERED_SLIP_MODEL)
+    finally:
+        mlflow.set_tracking_uri(before)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", store)
+    model, where = resolve_slip_model(None)
+    assert where == f"models:/{REGISTERED_SLIP_MODEL}/latest"
+    assert model.predict([[0.0]])[0] == pytest.approx(0.2)            # version 2
+    assert "MLFLOW_REGISTRY_URI" not in os.environ
+    assert mlflow.get_tracking_uri() == before

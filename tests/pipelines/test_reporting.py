@@ -19,6 +19,7 @@ def workdir(tmp_path, monkeypatch):
     """Run commands in an empty folder with the embedded MLflow store."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    monkeypatch.delenv("MLFLOW_REGISTRY_URI", raising=False)
     return tmp_path
 
 
