@@ -27,7 +27,7 @@ from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.runner import MAX_RATE_HZ, MIN_RATE_HZ, check_rate_hz
-from terrain.io.measured import read_runs_dir
+from terrain.io.measured import read_runs_path
 from terrain.io.report import input_report
 from terrain.run import TIME
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
@@ -67,12 +67,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _load(run_dir: Path, select: str | None):
-    root, only = run_dir, None
-    if run_dir.is_dir() and any(p.suffix == ".csv" for p in run_dir.iterdir()):
-        root, only = run_dir.parent, run_dir.name
-    runs = read_runs_dir(root, dataset=root.resolve().name)
-    if only is not None:
-        runs = [r for r in runs if r.run_id.split("/")[1] == only]
+    # one terrain folder reads that folder only (its siblings are not read or checked)
+    runs = read_runs_path(run_dir)
     if select is not None:
         chosen = [r for r in runs if "/".join(r.run_id.split("/")[1:]) == select]
         if not chosen:

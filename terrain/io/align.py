@@ -4,10 +4,15 @@ Method (recorded in the returned frame's ``attrs``):
 
 1. The common clock is a uniform grid at ``rate_hz`` over the time span covered by *every*
    requested stream (latest start to earliest end), so no value is extrapolated.
-2. A stream sampled faster than the grid (the 100 Hz BorealTC IMU on a 50 Hz grid) is first
-   low-pass filtered (4th-order Butterworth, zero phase, cut-off 0.4 x ``rate_hz``), each
-   gap-free segment on its own, so that resampling does not alias vibration into the band of
-   interest. Segments too short to filter (<= 27 samples) are interpolated unfiltered.
+2. A stream sampled more than 1.5 times faster than the grid (the 100 Hz BorealTC IMU on a
+   50 Hz grid) is first low-pass filtered (4th-order Butterworth, zero phase, cut-off 0.4 x
+   ``rate_hz``), each gap-free segment on its own, so that resampling does not alias
+   vibration into the band of interest. Segments too short to filter (<= 27 samples) are
+   interpolated unfiltered. A stream between 1 and 1.5 times the grid rate is NOT filtered
+   (the margin keeps a clock's jitter about the grid rate from filtering a stream sampled at
+   it); no shipped or simulated stream falls there, but content of such a stream between
+   0.5 x ``rate_hz`` and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream
+   reads as 20 Hz on a 50 Hz grid): resample it at its own rate or at under 2/3 of it.
 3. Every stream is then linearly interpolated onto the grid. The ~6.5 Hz (BorealTC) or
    ~15 Hz (Vulpi) wheel stream is thus interpolated between its samples.
 4. Grid points that fall inside a timestamp gap of any stream (a step longer than

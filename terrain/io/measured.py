@@ -178,7 +178,9 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             continue
         text = pd.Series(cells[:, header.index(col)]).str.strip()
         values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
-        is_nan_word = text.str.lower().isin(["nan", "inf", "-inf", "+inf", "infinity", ""])
+        # the words NumPy's fast path reads as non-finite too (C's printf writes -nan)
+        is_nan_word = text.str.lower().isin(["nan", "-nan", "+nan", "inf", "-inf", "+inf",
+                                             "infinity", "-infinity", "+infinity", ""])
         bad = np.isnan(values) & ~is_nan_word.to_numpy()
         if bad.any():
             if kind not in COLUMN_MAPS and name != TIME and bad.all():
@@ -463,7 +465,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         stream file is malformed (raised by :func:`read_stream_csv`).
     """
     if "pro" not in files:
-        other = next(iter(p for k, p in files.items() if k != "meta"), None)
+        other = next(iter(p for k, p in files.items() if k != "meta"), files.get("meta"))
         raise OrphanFileError("run has no wheel file pro_XX.csv beside it", other)
     meta: dict = {}
     if "meta" in files:
@@ -588,6 +590,8 @@ def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = 
         terrain folders with runs, or a file named like a run file that is not read.
     """
     path = Path(path)
+    if path.name in ("", ".", ".."):     # "." has no name and "." as parent
+        path = path.resolve()
     root, only = path, None
     if path.is_dir() and folder_run_files(path):
         sub = {d.name for d in path.iterdir() if d.is_dir() and folder_run_files(d)}

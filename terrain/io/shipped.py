@@ -159,6 +159,10 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
             "samples": {k: len(v) for k, v in run.streams.items()},
             "repaired": dict(run.meta["repaired"]), "gaps": run.meta["gaps"],
             "source_files": {p.name: sha256(p) for k, p in files.items()},
+            # what the reader skipped or ignored in the CSV files (kept when there is any:
+            # the shipped runs report it as the CSV runs did)
+            **{key: dict(run.meta[key]) for key in ("skipped_lines", "ignored_columns")
+               if run.meta.get(key)},
         })
     shipped = {}
     rates = {}
@@ -533,7 +537,10 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                         meta={"repaired": info["repaired"],
                               # JSON has no tuples: restore the reader's (t_start_s, t_end_s)
                               "gaps": {k: [tuple(g) for g in v]
-                                       for k, v in info["gaps"].items()}, **checks}))
+                                       for k, v in info["gaps"].items()},
+                              "skipped_lines": dict(info.get("skipped_lines", {})),
+                              "ignored_columns": dict(info.get("ignored_columns", {})),
+                              **checks}))
     return runs
 
 

@@ -14,6 +14,7 @@ Converting a run's canonical streams back to the file dialect is the inverse of
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -68,6 +69,28 @@ def to_file_frames(run: Run) -> dict[str, pd.DataFrame]:
     return frames
 
 
+def used_indexes(folder: str | Path) -> set[int]:
+    """Run indexes ``XX`` of the ``*_XX.*`` files of ``folder``.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Terrain folder (need not exist).
+
+    Returns
+    -------
+    set of int
+    """
+    folder = Path(folder)
+    used = set()
+    if folder.is_dir():
+        for p in folder.iterdir():
+            stem = p.stem
+            if "_" in stem and stem.rsplit("_", 1)[1].isdigit():
+                used.add(int(stem.rsplit("_", 1)[1]))
+    return used
+
+
 def next_index(folder: str | Path) -> int:
     """Smallest index ``XX`` not used by any ``*_XX.*`` file of ``folder``.
 
@@ -81,13 +104,7 @@ def next_index(folder: str | Path) -> int:
     int
         >= 0.
     """
-    folder = Path(folder)
-    used = set()
-    if folder.is_dir():
-        for p in folder.iterdir():
-            stem = p.stem
-            if "_" in stem and stem.rsplit("_", 1)[1].isdigit():
-                used.add(int(stem.rsplit("_", 1)[1]))
+    used = used_indexes(folder)
     i = 0
     while i in used:
         i += 1
@@ -116,21 +133,29 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     Raises
     ------
     ConfigError
-        Index out of range [0, 99] or already used.
+        Index out of range [0, 99] or already used by a file of the folder (any
+        ``*_XX.*``, measured runs have no ``meta_XX.json``), or a stream name the readers
+        would not read back.
     """
     folder = Path(out_dir) / str(run.terrain or "UNLABELLED")
     folder.mkdir(parents=True, exist_ok=True)
     idx = next_index(folder) if index is None else int(index)
     if not 0 <= idx <= 99:
         raise ConfigError(f"run index must be in [0, 99], got {idx}")
-    if (folder / f"meta_{idx:02d}.json").exists():
+    if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
+    odd = [k for k in to_file_frames(run) if not re.fullmatch(r"[a-z][a-z0-9]*", k)]
+    if odd:     # the readers take <kind>_XX.csv with kind [a-z][a-z0-9]* only
+        raise ConfigError(f"stream names {odd} would be written but never read back: a "
+                          f"stream name is lower-case letters and digits, starting with a "
+                          f"letter")
     paths: dict[str, Path] = {}
     for kind, frame in to_file_frames(run).items():
         path = folder / f"{kind}_{idx:02d}.csv"
         frame.to_csv(path, index=False, float_format=FLOAT_FORMAT)
         paths[kind] = path
     meta = dict(run.meta)
+    meta.setdefault("vehicle", run.vehicle)   # read back as this vehicle, not the default
     meta["index"] = f"{idx:02d}"
     meta["files"] = {k: p.name for k, p in paths.items()}
     path = folder / f"meta_{idx:02d}.json"

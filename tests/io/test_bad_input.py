@@ -435,3 +435,42 @@ def test_corrupted_shipped_parquet_is_a_typed_error(tmp_path, data_dir):
     with pytest.raises(DataFormatError) as info:
         read_shipped("vulpi", copy)
     assert info.value.path == str(path) and "terrain convert" in _one_line(info.value)
+
+
+# --- found by the 2026-11-25 review -----------------------------------------------------------
+
+def test_a_terrain_folder_given_as_dot_is_read(turning, tmp_path, monkeypatch):
+    # "." has no name and "." as parent: it was refused as a runs folder with run files
+    monkeypatch.chdir(turning[0].parent)
+    assert [r.run_id for r in read_runs_path(".")] == [f"{tmp_path.name}/ASPHALT/00"]
+
+
+def test_estimate_reads_the_given_terrain_folder_only(turning, tmp_path):
+    # a bad file in a sibling terrain folder aborted terrain estimate on the good one
+    from terrain.cli import main
+    (tmp_path / "BAD").mkdir()
+    (tmp_path / "BAD" / "pro_00.csv").write_text("time,velL,velR,curL,curR\n0,abc,1,1,1\n")
+    assert main(["estimate", str(turning[0].parent), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model", "ekf"]) == 0
+
+
+def test_a_meta_file_without_its_run_is_named(turning, tmp_path):
+    (turning[0].parent / "meta_05.json").write_text("{}")
+    with pytest.raises(DataFormatError) as info:
+        read_runs_dir(tmp_path)
+    assert "meta_05.json" in _one_line(info.value)
+
+
+@pytest.mark.parametrize("word", ["-nan", "+nan", "-infinity"])
+def test_signed_nan_words_are_repaired_whatever_else_the_file_holds(turning, word):
+    # C's printf writes -nan: the fast path read it as NaN, the strict one (taken for an
+    # extra column or a comment with '_') refused it
+    _, pro = turning
+    lines = _lines(pro)
+    head, first = lines[0].split(","), lines[2].split(",")
+    first[head.index("curL")] = word
+    lines[2] = ",".join(first)
+    lines = [lines[0] + ",extra_col"] + [x + ",1" if x else x for x in lines[1:]]
+    pro.write_text("\n".join(lines))
+    runs, _ = _read(pro.parent.parent)
+    assert runs[0].meta["repaired"] == {"wheels.cur_l": 1}

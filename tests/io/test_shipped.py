@@ -322,3 +322,23 @@ def test_converting_runs_under_a_dataset_of_another_imu_rate_warns(tmp_path, csv
         warnings.simplefilter("always")
         convert_dataset(csv_tree, "borealtc", tmp_path / "as_borealtc")
     assert not [w for w in seen if "IMU runs at" in str(w.message)]
+
+
+def test_convert_keeps_the_count_of_skipped_lines_and_ignored_columns(tmp_path, csv_tree):
+    # a column the readers do not read and comment / blank lines vanished in conversion, and
+    # terrain convert's report of the shipped runs said "nothing repaired, dropped or skipped"
+    from terrain.io.report import input_report
+    pro = csv_tree / "ASPHALT" / "pro_00.csv"
+    lines = pro.read_text().splitlines()
+    pro.write_text("\n".join([lines[0] + ",batt", "# logged by the robot", lines[1] + ",24",
+                              ""] + [x + ",24" for x in lines[2:]]) + "\n")
+    out = tmp_path / "data"
+    convert_dataset(csv_tree, "borealtc", out)
+    shipped = {r.run_id: r for r in read_shipped("borealtc", out)}
+    from_csv = {r.run_id: r for r in read_runs_dir(csv_tree, "borealtc")}
+    run = "borealtc/ASPHALT/00"
+    for key in ("skipped_lines", "ignored_columns"):
+        assert shipped[run].meta[key] == from_csv[run].meta[key] != {}
+    text = input_report(list(shipped.values())).text()
+    assert "ignored 1 column(s)" in text and "wheels.batt" in text
+    assert "skipped 2 blank/comment line(s)" in text

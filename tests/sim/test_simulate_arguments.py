@@ -162,3 +162,22 @@ def test_icr_expansion_on_a_steered_vehicle_is_refused(tmp_path, capsys):
                  "icr_expansion=1.5", "--out", str(tmp_path)]) == 2
     assert "the agrimaro is steered" in _one_line_error(capsys)
     assert not any(tmp_path.iterdir())
+
+
+def test_write_run_refuses_an_index_of_a_measured_run_and_unreadable_stream_names(tmp_path):
+    # measured runs have no meta_XX.json: index 3 overwrote their pro_03.csv
+    from dataclasses import replace
+    run = simulate(SimConfig(vehicle="tracked", terrains=("ASPHALT",), duration_s=3.0))
+    folder = tmp_path / "ASPHALT"
+    folder.mkdir()
+    (folder / "pro_03.csv").write_text("measured\n")
+    with pytest.raises(ConfigError, match="already used"):
+        write_run(run, tmp_path, index=3)
+    assert (folder / "pro_03.csv").read_text() == "measured\n"
+    odd = replace(run, streams={**run.streams, "vis_odom": run.streams["imu"]})
+    with pytest.raises(ConfigError, match="never read back"):
+        write_run(odd, tmp_path, index=4)
+    # the vehicle comes back even when the run's meta does not name it
+    write_run(replace(run, meta={}), tmp_path / "other", index=5)
+    (back,) = read_runs_dir(tmp_path / "other")
+    assert back.vehicle == "tracked"
