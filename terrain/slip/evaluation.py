@@ -141,7 +141,8 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     -------
     pandas.DataFrame
         Per group: ``n_windows``, ``coverage_1std`` and ``coverage_2std`` (fraction of
-        side-windows with ``|error| <= k std``; Gaussian 0.683, 0.954),
+        side-windows with ``|error| <= k std``; Gaussian 0.683, 0.954; NaN where the model
+        gives no std),
         ``median_normalised_sq`` (Gaussian 0.455), ``mean_normalised_sq`` (Gaussian 1),
         ``median_std``, ``median_abs_err``.
     """
@@ -154,9 +155,11 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     for key, g in keys.groupby(list(by)):
         sel = pos[g.index.to_numpy()]
         uu = u[sel].ravel()
+        finite = uu[~np.isnan(uu)]     # a model without a std covers nothing: NaN, not 0
         rows.append({**dict(zip(by, key if isinstance(key, tuple) else (key,))),
-                     "n_windows": len(sel), "coverage_1std": float(np.mean(uu <= 1)),
-                     "coverage_2std": float(np.mean(uu <= 2)),
+                     "n_windows": len(sel),
+                     "coverage_1std": float(np.mean(finite <= 1)) if finite.size else np.nan,
+                     "coverage_2std": float(np.mean(finite <= 2)) if finite.size else np.nan,
                      "median_normalised_sq": float(np.median(uu ** 2)),
                      "mean_normalised_sq": float(np.mean(uu ** 2)),
                      "median_std": float(np.median(std[sel])),

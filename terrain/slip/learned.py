@@ -17,12 +17,14 @@ scikit-learn's own path, kept as the reference.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.model_selection import GroupKFold
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, DataWarning, ShapeError
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -124,8 +126,13 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             groups = np.asarray(groups)
             if len(groups) != len(X):
                 raise ShapeError(f"groups has {len(groups)} entries for {len(X)} windows")
-            if len(np.unique(groups)) >= self.calibration_folds:
+            n_groups = len(np.unique(groups))
+            if n_groups >= self.calibration_folds:
                 self._calibrate(X, y[:, :2], groups)
+            else:   # the model has no std: said, not left to a NaN downstream
+                warnings.warn(f"slip model std not calibrated: {n_groups} training run(s) "
+                              f"for {self.calibration_folds} calibration folds; predict_std "
+                              f"gives NaN (train on more runs)", DataWarning, stacklevel=2)
         return self
 
     def _std_tree(self) -> HistGradientBoostingRegressor:

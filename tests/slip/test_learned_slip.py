@@ -180,3 +180,30 @@ def test_variance_moment_of_the_calibrated_std(tiny_table):
     np.testing.assert_allclose(var, median * np.sqrt(k))
     with pytest.raises(ConfigError):
         model.predict_std(X[:2], moment="mean")
+
+
+def test_too_few_runs_to_calibrate_the_std_is_said_and_scored_as_unknown():
+    # 2 training runs for 3 calibration folds: the std was skipped without a word and the
+    # coverage table read 0.0 (as if the std were badly over-confident) instead of unknown
+    import warnings
+
+    import pandas as pd
+
+    from terrain.errors import DataWarning
+    from terrain.slip.evaluation import std_calibration_table
+    from terrain.slip.learned import SlipRegressor
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(200, 4))
+    y = np.column_stack([0.1 * X[:, 0], 0.1 * X[:, 1], 1.0 + 0 * X[:, 0], 0 * X[:, 0]])
+    model = SlipRegressor(calibration_folds=3)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.fit(X, y, groups=np.repeat(["run0", "run1"], 100))
+    assert any(issubclass(w.category, DataWarning) and "not calibrated" in str(w.message)
+               for w in caught)
+    std = model.predict_std(X)
+    assert np.isnan(std).all()
+    table = std_calibration_table(model.predict(X), std, y, pd.DataFrame({"scenario": "a"},
+                                  index=range(200)), np.ones(200, bool))
+    assert np.isnan(table.loc[0, "coverage_1std"]) and np.isnan(table.loc[0, "coverage_2std"])
