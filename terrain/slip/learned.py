@@ -181,7 +181,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             1 std). ``variance``: scaled by ``sqrt(mean normalised squared residual)`` of the
             same out-of-fold calibration (``calibration_["mean_normalised_sq"]``), so that
             the mean squared error over the training residuals equals the variance, as a
-            Kalman filter's measurement variance must (the heavy tails included).
+            Kalman filter's measurement variance must (the heavy tails included); never
+            below the median std (the factor is floored at 1: a mean below the median's
+            would make the filter's measurement more certain than the bulk of the errors).
 
         Returns
         -------

@@ -100,7 +100,8 @@ class PhysicsSlip(NamedTuple):
     mu : ndarray, shape (n, m)
         Probability-weighted gross traction coefficient.
     saturated : ndarray of bool, shape (n, m)
-        The most probable terrain's curve was asked for its maximum traction or more.
+        The curve of each row's most probable terrain was asked for its maximum traction or
+        more.
     """
 
     slip: np.ndarray
@@ -517,8 +518,8 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     lower = np.zeros_like(cur)
     upper = np.zeros_like(cur)
     mu_w = np.zeros_like(cur)
-    best = max(probs, key=lambda name: float(np.sum(probs[name])))
     saturated = np.zeros(cur.shape, dtype=bool)
+    best_p = np.full(cur.shape[0], -np.inf)   # each row's most probable terrain so far
     # the traction is torque over normal load: a relative load error is a relative error of
     # mu + rolling (= torque / d torque / d mu)
     load_rel_std = normal_load_factor(np.asarray(pitch_rad, dtype=float),
@@ -542,8 +543,9 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         lower += w * lo
         upper += w * hi
         mu_w += w * mu
-        if name == best:
-            saturated = est.saturated
+        better = np.asarray(p, dtype=float) > best_p
+        saturated[better] = est.saturated[better]
+        best_p[better] = np.asarray(p, dtype=float)[better]
     # law of total variance: within-terrain variance + spread of the terrain-wise slips
     between = np.sqrt(np.maximum(second - mean ** 2, 0.0))
     std = np.sqrt(within + between ** 2)

@@ -229,3 +229,18 @@ def test_noisy_pitch_no_longer_biases_the_physics_slip_on_snow():
     bias_fixed = fixed.slip.mean() - exact.slip.mean()
     assert bias_plain > 5e-4                                  # cos(pitch) < 1: slip read high
     assert abs(bias_fixed) < 0.1 * bias_plain
+
+
+def test_saturated_follows_each_rows_most_probable_terrain():
+    # the terrain was chosen once over all rows (by summed probability): an ICE row asking
+    # for more than ice can give read as unsaturated among ASPHALT rows
+    cur = np.full((3, 2), 8.0)
+    rim = np.full((3, 2), 0.5)
+    probs = {"ASPHALT": np.array([1.0, 1.0, 0.0]), "ICE": np.array([0.0, 0.0, 1.0])}
+    batch = physics_slip(HUSKY, probs, cur, rim, np.zeros(3))
+    alone = physics_slip(HUSKY, {"ICE": 1.0}, cur[2:], rim[2:], np.zeros(1))
+    np.testing.assert_array_equal(batch.saturated[2], alone.saturated[0])
+    assert alone.saturated[0].all()
+    np.testing.assert_array_equal(
+        batch.saturated[:2], physics_slip(HUSKY, {"ASPHALT": 1.0}, cur[:2], rim[:2],
+                                          np.zeros(2)).saturated)
