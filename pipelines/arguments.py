@@ -15,7 +15,7 @@ import argparse
 import os
 from pathlib import Path
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.models.experiment import MAX_SEED
 from terrain.serving.smoothing import SmoothingConfig
 
@@ -170,12 +170,11 @@ class DistinctSeeds(argparse.Action):
     """
 
     def __call__(self, parser, namespace, values, option_string=None):
-        seen: set[int] = set()
-        for seed in values:
-            if seed in seen:
-                parser.error(f"argument {option_string or self.dest}: seed {seed} given twice "
-                             f"(each seed once: a repeated seed counts one run of it twice)")
-            seen.add(seed)
+        repeated = duplicated(values)
+        if repeated:
+            parser.error(f"argument {option_string or self.dest}: seed(s) "
+                         f"{', '.join(map(str, repeated))} given twice (each seed once: a "
+                         f"repeated seed counts one run of it twice)")
         setattr(namespace, self.dest, list(values))
 
 

@@ -204,8 +204,8 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     if cutoff is not None:
         rates = [r.rate_hz("wheels") for r in runs
                  if "wheels" in r.streams and len(r.streams["wheels"]) > 1]
-        clipped = [(rate, lowpass_cutoff_hz(rate, cutoff)) for rate in rates
-                   if lowpass_cutoff_hz(rate, cutoff) < cutoff]
+        clipped = [(rate, used) for rate in rates
+                   if (used := lowpass_cutoff_hz(rate, cutoff)) < cutoff]
         if clipped:
             def span(values) -> str:
                 low, high = f"{min(values):.3g}", f"{max(values):.3g}"

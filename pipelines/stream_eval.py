@@ -102,8 +102,9 @@ def main(args: argparse.Namespace) -> int:
         :class:`~features.windows.WindowConfig` refuses, a negative or infinite
         ``--switch-gap-s``; checked before any run is read.
     """
-    if duplicated(args.kinds):  # each would be fitted and logged twice under one name
-        raise ConfigError(f"--kinds: {duplicated(args.kinds)} given more than once")
+    repeated = duplicated(args.kinds)
+    if repeated:  # each would be fitted and logged twice under one name
+        raise ConfigError(f"--kinds: {repeated} given more than once")
     if args.folds < 2:
         raise ConfigError(f"--folds must be at least 2 (a model needs runs to train on and "
                           f"runs held out), got {args.folds}")
