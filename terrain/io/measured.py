@@ -52,7 +52,9 @@ STREAM_NAMES: Mapping[str, str] = MappingProxyType({"imu": "imu", "pro": "wheels
 #: gyro rates above this (rad/s) are beyond a MEMS gyro's 2000 deg/s full scale: the reader's
 #: plausibility range of the angular rates (:data:`terrain.io.plausibility.CHANNEL_LIMITS`)
 MAX_PLAUSIBLE_RATE_RAD_S = CHANNEL_LIMITS["wz"].limit
-_FILE_RE = re.compile(r"^(?P<kind>[a-z][a-z0-9]*)_(?P<index>\d+)\.csv$")
+#: the ``<kind>`` of a run file ``<kind>_XX.csv`` the readers take (the stream's file prefix)
+FILE_KIND_PATTERN = r"[a-z][a-z0-9]*"
+_FILE_RE = re.compile(rf"^(?P<kind>{FILE_KIND_PATTERN})_(?P<index>\d+)\.csv$")
 _META_RE = re.compile(r"^meta_(?P<index>.+)\.json$")
 
 

@@ -529,11 +529,12 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
             raise DataFormatError(f"run {rid!r} of key 'datasets.{dataset}.runs' has no rows "
                                   f"in {STREAM_FILES['wheels']}", manifest_path)
         # the same plausibility rules as the CSV reader (ranges were checked on conversion)
-        checks = check_run(rid, streams, "husky",
+        checks = check_run(rid, streams, DATASET_VEHICLE[dataset],
                            {n: f"{data_dir / dataset / STREAM_FILES[n]} run {rid}"
                             for n in streams})
         runs.append(Run(run_id=rid, dataset=dataset, terrain=info["terrain"], streams=streams,
-                        vehicle="husky", source=f"{data_dir / dataset} ({entry['source']})",
+                        vehicle=DATASET_VEHICLE[dataset],
+                        source=f"{data_dir / dataset} ({entry['source']})",
                         meta={"repaired": info["repaired"],
                               # JSON has no tuples: restore the reader's (t_start_s, t_end_s)
                               "gaps": {k: [tuple(g) for g in v]

@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from terrain.errors import ConfigError
-from terrain.io.measured import COLUMN_MAPS, STREAM_NAMES
+from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES
 from terrain.run import TIME, Run
 
 #: Number format of the written CSV files.
@@ -144,13 +144,14 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         raise ConfigError(f"run index must be in [0, 99], got {idx}")
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
-    odd = [k for k in to_file_frames(run) if not re.fullmatch(r"[a-z][a-z0-9]*", k)]
-    if odd:     # the readers take <kind>_XX.csv with kind [a-z][a-z0-9]* only
+    frames = to_file_frames(run)
+    odd = [k for k in frames if not re.fullmatch(FILE_KIND_PATTERN, k)]
+    if odd:     # the readers take <kind>_XX.csv with that kind only
         raise ConfigError(f"stream names {odd} would be written but never read back: a "
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter")
     paths: dict[str, Path] = {}
-    for kind, frame in to_file_frames(run).items():
+    for kind, frame in frames.items():
         path = folder / f"{kind}_{idx:02d}.csv"
         frame.to_csv(path, index=False, float_format=FLOAT_FORMAT)
         paths[kind] = path
