@@ -43,7 +43,7 @@ from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_cur
 from terrain.terramechanics.resistance import is_deformable
 from terrain.terramechanics.slip import sae_slip
 from terrain.terramechanics.traction import TractionAndResistance
-from terrain.vehicles.common import ContactGeometry
+from terrain.vehicles.common import ContactGeometry, drive_inertia_kg_m2
 from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
@@ -380,7 +380,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     alpha_m = min(1.0, dt / motor.speed_time_constant_s)
     counts = np.bincount(motor_of, minlength=nm).astype(float)
     # inertia each motor turns: its physical wheels (or sprocket), not its contact points
-    drive_inertia = motor.wheel_inertia_kg_m2 * vehicle.wheels_per_motor
+    drive_inertia = drive_inertia_kg_m2(vehicle)
     steer_rate = getattr(vehicle, "steering_rate_rad_s", 0.0) * dt
 
     omega_cmd, delta_cmd = wheel_commands(vehicle, geometry, twist_cmd)

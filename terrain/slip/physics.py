@@ -49,6 +49,7 @@ from terrain.sim.sensors import SensorSettings
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.terramechanics.inverse import slip_from_traction
 from terrain.terramechanics.resistance import G_M_S2
+from terrain.vehicles.common import drive_inertia_kg_m2
 
 
 @dataclass(frozen=True)
@@ -289,8 +290,8 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
 
     Inverts :func:`terrain.sim.forces.contact_torque_nm` (affine in ``mu``), all contacts
     of a side sharing one ``mu``; the wheel inertia torque
-    ``J n d omega / dt`` (:attr:`MotorParams.wheel_inertia_kg_m2`, ``n`` the vehicle's
-    ``wheels_per_motor``, not its contact points) is removed first.
+    ``J d omega / dt`` (:func:`terrain.vehicles.common.drive_inertia_kg_m2`) is removed
+    first.
 
     Parameters
     ----------
@@ -351,8 +352,7 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
     a *= factor[:, None]
     b *= factor[:, None]
     inertia = 0.0 if wheel_accel_rad_s2 is None else (
-        vehicle.motor.wheel_inertia_kg_m2 * vehicle.wheels_per_motor
-        * np.asarray(wheel_accel_rad_s2, float))
+        drive_inertia_kg_m2(vehicle) * np.asarray(wheel_accel_rad_s2, float))
     return (torque - inertia - a) / b, 1.0 / b, a / b
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from terrain.errors import ConfigError
 from terrain.run import VEHICLE_NAMES
-from terrain.vehicles.common import ContactGeometry, MotorParams
+from terrain.vehicles.common import ContactGeometry, MotorParams, drive_inertia_kg_m2
 from terrain.vehicles.skid_steer import (HUSKY, TRACKED, HuskyParams, TrackedParams,
                                          body_rates, endo_slip_ratio_ratio, side_speeds,
                                          skid_steer_forward,
@@ -72,7 +72,8 @@ def contact_geometry(params: AgriMaRoParams | HuskyParams | TrackedParams) -> Co
 
 __all__ = [
     "AGRIMARO", "HUSKY", "TRACKED", "AgriMaRoParams", "HuskyParams", "TrackedParams",
-    "ContactGeometry", "MotorParams", "VEHICLE_NAMES", "get_vehicle", "contact_geometry",
+    "ContactGeometry", "MotorParams", "drive_inertia_kg_m2", "VEHICLE_NAMES", "get_vehicle",
+    "contact_geometry",
     "swerve_forward", "swerve_inverse", "wheel_contact_velocity", "camera_to_robot_velocity",
     "robot_to_camera_velocity", "t265_tracking_to_robot", "skid_steer_forward",
     "skid_steer_inverse", "skid_steer_pose_rates", "endo_slip_ratio_ratio", "side_speeds",

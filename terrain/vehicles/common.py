@@ -98,6 +98,25 @@ class MotorParams:
                 * np.abs(np.asarray(current_a, dtype=float)))
 
 
+def drive_inertia_kg_m2(vehicle) -> float:
+    """Rotational inertia one drive motor turns, at the wheel, kg m^2.
+
+    ``MotorParams.wheel_inertia_kg_m2`` times the vehicle's ``wheels_per_motor`` (its
+    physical wheels or sprocket, not its contact points: a track discretised into segments
+    still turns one sprocket).
+
+    Parameters
+    ----------
+    vehicle : HuskyParams or TrackedParams or AgriMaRoParams
+        Vehicle (``motor``, ``wheels_per_motor``).
+
+    Returns
+    -------
+    float
+    """
+    return float(vehicle.motor.wheel_inertia_kg_m2) * int(vehicle.wheels_per_motor)
+
+
 @dataclass(frozen=True)
 class ContactGeometry:
     """Ground contact of a vehicle as a set of points in the body frame.
