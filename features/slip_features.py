@@ -78,8 +78,9 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
         Classifier probability of each catalogue terrain per window (columns = terrain
         names); None leaves the terrain and physics columns out.
     current_rate_hz : float
-        Rate of independent current samples, Hz (the wheel stream's; default the Husky's
-        simulated and measured rate), for the noise of the window-mean current.
+        Rate of independent current samples, Hz (the wheel stream's; default the simulated
+        Husky's and BorealTC's 6.5 Hz, the rate the learned slip models are trained on;
+        Vulpi's Husky logs 15 Hz), for the noise of the window-mean current.
 
     Returns
     -------

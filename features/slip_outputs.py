@@ -18,7 +18,6 @@ from features.slip_features import (SLIP_CHANNELS, SLIP_WINDOW, one_hot_probabil
 from features.windows import WindowSet
 from terrain.io.align import interpolated_mean_count
 from terrain.run import Run
-from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (PhysicsSlipSettings, physics_slip,
                                   pitch_std_from_accelerometer, run_pitch_prior)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -78,7 +77,10 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(float)
     acc = np.repeat(X[["vel_mean__slope"]].to_numpy(float), 2, axis=1) / \
         vehicle.contact_geometry().wheel_radius_m
-    n_cur = interpolated_mean_count(ws.X.shape[-1], ws.rate_hz, SensorSettings.wheel_rate_hz)
+    # the pseudo-measurement averages the run's own current samples (15 Hz on Vulpi's Husky,
+    # 6.5 Hz on BorealTC's and the simulator's); the learned model's phys_* features keep the
+    # simulator's rate they were trained with
+    n_cur = interpolated_mean_count(ws.X.shape[-1], ws.rate_hz, run.rate_hz("wheels"))
 
     spread = X[["cur_l__std", "cur_r__std"]].to_numpy(float)
     pitch_std = pitch_std_from_accelerometer(ws.X[:, list(ws.channels).index("ax")])

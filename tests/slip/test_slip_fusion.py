@@ -211,3 +211,28 @@ def test_fused_std_with_an_error_correlation():
     assert np.all(v1 >= 0.003) and np.all(v0 < 0.003)
     with pytest.raises(ConfigError):
         FusionSettings(error_correlation=1.5)
+
+
+def test_physics_slip_noise_averages_the_runs_own_wheel_rate(tmp_path):
+    # a window mean of 15 Hz currents averages 30.5 samples, of 6.5 Hz ones 13.5
+    # (terrain.io.align.interpolated_mean_count): the current-noise std of the physics slip
+    # scales with 1 / sqrt(count), as on Vulpi's 15 Hz Husky against BorealTC's 6.5 Hz
+    import dataclasses
+
+    from features.slip_features import SLIP_WINDOW
+    from terrain.io.align import interpolated_mean_count
+    from terrain.sim.sensors import SensorSettings
+
+    std = {}
+    for rate in (6.5, 15.0):
+        root = tmp_path / str(rate)
+        sensors = dataclasses.replace(SensorSettings(), wheel_rate_hz=rate)
+        write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                                     scenario="straight_accel", duration_s=20.0, seed=3,
+                                     sensors=sensors)), root)
+        run = read_runs_dir(root, dataset="rates")[0]
+        std[rate] = np.nanmedian(slip_model_outputs(run)["physics_current"][2], axis=0)
+    n, rate = round(SLIP_WINDOW.window_s * SLIP_WINDOW.rate_hz), SLIP_WINDOW.rate_hz
+    expected = np.sqrt(interpolated_mean_count(n, rate, 6.5)
+                       / interpolated_mean_count(n, rate, 15.0))
+    np.testing.assert_allclose(std[15.0] / std[6.5], expected, rtol=0.03)
