@@ -371,7 +371,8 @@ def band_log_power(x: np.ndarray, rate_hz: float,
     weights = band_weights(n, rate_hz, bands_hz) if weights is None else weights
     spec = np.fft.rfft((x - x.mean(axis=-1, keepdims=True)) * taper, axis=-1)
     psd = (np.abs(spec) ** 2) / (rate_hz * (taper ** 2).sum())
-    psd[..., 1:] *= 2.0
+    # one-sided: every bin but DC and, for an even length, Nyquist holds its mirror's power
+    psd[..., 1:(n - 1) // 2 + 1] *= 2.0
     return np.log10(psd @ weights + _EPS)
 
 

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
+from scipy import signal
 from scipy import stats as sps
 
 from features import calculators as calc
@@ -109,6 +110,17 @@ def test_band_power_parseval_noise():
     np.testing.assert_allclose(psd.sum(axis=-1) * df, tapered_var, rtol=0.05)
     # and on average it is the signal variance
     assert (psd.sum(axis=-1) * df).mean() == pytest.approx(1.5 ** 2, rel=0.1)
+
+
+@pytest.mark.parametrize("n", [100, 101])
+def test_band_power_per_bin_equals_scipy_periodogram(n):
+    # one band per bin, DC and (n even) Nyquist included: the one-sided density of
+    # scipy.signal.periodogram, which doubles neither of them
+    x = np.random.default_rng(1).normal(0.0, 1.0, (3, 2, n))
+    bands, _ = _bin_bands(n, RATE)
+    psd = 10 ** calc.band_log_power(x, RATE, bands)
+    _, ref = signal.periodogram(x, fs=RATE, window="hann", detrend="constant", axis=-1)
+    np.testing.assert_allclose(psd[..., 1:], ref[..., 1:], rtol=1e-9, atol=2e-12)  # _EPS
 
 
 def test_band_without_bin_uses_nearest_bin():
