@@ -7,12 +7,14 @@ Method (recorded in the returned frame's ``attrs``):
 2. A stream sampled more than 1.5 times faster than the grid (the 100 Hz BorealTC IMU on a
    50 Hz grid) is first low-pass filtered (4th-order Butterworth, zero phase, cut-off 0.4 x
    ``rate_hz``), each gap-free segment on its own, so that resampling does not alias
-   vibration into the band of interest. Segments too short to filter (<= 27 samples) are
-   interpolated unfiltered. A stream between 1 and 1.5 times the grid rate is NOT filtered
-   (the margin keeps a clock's jitter about the grid rate from filtering a stream sampled at
-   it); no shipped or simulated stream falls there, but content of such a stream between
-   0.5 x ``rate_hz`` and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream
-   reads as 20 Hz on a 50 Hz grid): resample it at its own rate or at under 2/3 of it.
+   vibration into the band of interest. A segment of 15 samples or fewer is padded by
+   fewer samples than the filter's default (all but one), so it is filtered too; the odd
+   extension keeps a segment's end samples, short or long; a one-sample segment is kept as
+   it is. A stream between 1 and 1.5 times the grid rate is NOT filtered (the margin keeps
+   a clock's jitter about the grid rate from filtering a stream sampled at it); no shipped
+   or simulated stream falls there, but content of such a stream between 0.5 x ``rate_hz``
+   and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on
+   a 50 Hz grid): resample it at its own rate or at under 2/3 of it.
 3. Every stream is then linearly interpolated onto the grid. The ~6.5 Hz (BorealTC) or
    ~15 Hz (Vulpi) wheel stream is thus interpolated between its samples.
 4. Grid points that fall inside a timestamp gap of any stream (a step longer than
@@ -45,9 +47,10 @@ from terrain.run import TIME, Run
 DEFAULT_RATE_HZ = 50.0
 
 
-#: Fewest samples of a gap-free segment that is anti-alias filtered: ``sosfiltfilt``'s
-#: default padding of a 4th-order section pair needs more than 3 x (2 x 4 + 1) = 27.
-MIN_FILTER_SAMPLES = 28
+#: Samples of odd extension at each end of a gap-free segment for the zero-phase anti-alias
+#: filter: ``scipy.signal.sosfiltfilt``'s default for the filter's two second-order sections
+#: (3 x (2 x 2 + 1)); a shorter segment is padded by all its samples but one.
+FILTER_PAD_SAMPLES = 15
 
 
 def overlap_grid(times_s: Sequence[np.ndarray], rate_hz: float) -> np.ndarray:
@@ -195,8 +198,9 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
             gaps = np.flatnonzero(is_gap)
             # filter each gap-free segment on its own: never smear across a gap
             for a, b in zip(np.r_[0, gaps + 1], np.r_[gaps + 1, len(t)]):
-                if b - a >= MIN_FILTER_SAMPLES:
-                    v[a:b] = signal.sosfiltfilt(sos, v[a:b], axis=0)
+                if b - a > 1:
+                    v[a:b] = signal.sosfiltfilt(sos, v[a:b], axis=0,
+                                                padlen=min(FILTER_PAD_SAMPLES, b - a - 1))
         _interp_into(np.asarray(grid_s, dtype=float), np.asarray(t, dtype=float),
                      np.asarray(v, dtype=float), is_gap, out, col)
         col += v.shape[1]

@@ -142,6 +142,32 @@ def test_anti_alias_filter_does_not_smear_across_a_gap(make_run):
     np.testing.assert_allclose(wz[tt >= 7.0], 1.0, atol=1e-9)
 
 
+@pytest.mark.parametrize("n_segment", [5, 8, 16, 22])
+@pytest.mark.parametrize("phase", [0.0, 0.3, 1.2])
+def test_short_segment_between_gaps_is_anti_alias_filtered_too(n_segment, phase):
+    # a 30 Hz tone of a 100 Hz stream folds onto 20 Hz of a 50 Hz grid at full amplitude
+    # unless filtered; a segment between two gaps shorter than the filter's padding is
+    # filtered with a shorter one (it was left unfiltered below 28 samples). The zero-phase
+    # filter's odd extension keeps a segment's end samples, short or long; inside, the tone
+    # is cut
+    t = np.r_[np.arange(0, 300), 400 + np.arange(n_segment), 522 + np.arange(300)] / 100.0
+    v = np.sin(2 * np.pi * 30.0 * t + phase)[:, None]
+    grid = np.arange(0, 8.2, 0.02)
+    out = align_arrays([t], [v], grid, 50.0)[:, 0]
+    inside = (grid > 4.0) & (grid < 4.0 + (n_segment - 1) / 100.0 - 1e-9)
+    long = (grid >= 1.0) & (grid <= 2.0)
+    assert np.abs(out[long]).max() < 0.01
+    raw = np.sin(2 * np.pi * 30.0 * grid[inside] + phase)
+    assert _rms(out[inside]) < 0.5 * _rms(raw)
+
+
+def test_one_sample_segment_keeps_its_value():
+    t = np.r_[np.arange(0, 300), 400, 500 + np.arange(300)] / 100.0
+    v = np.sin(2 * np.pi * 1.0 * t)[:, None]
+    out = align_arrays([t], [v], np.array([4.0]), 50.0)
+    np.testing.assert_allclose(out[0, 0], v[300, 0])
+
+
 def test_numpy_core_on_part_of_the_grid_gives_the_values_of_the_whole(make_run):
     # the streaming service aligns only its window's grid points: with a filtered 100 Hz
     # IMU, a gap in the wheels and a sine, each grid point must equal the batch frame's
