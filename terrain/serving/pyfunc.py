@@ -35,7 +35,8 @@ import pandas as pd
 
 from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_channels,
                               required_streams, window_frame)
-from terrain.errors import ConfigError, DataFormatError, MissingColumnError
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
+                            TimestampError)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
@@ -234,9 +235,14 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     ImplausibleValueError
         A value beyond its channel's plausibility range (:func:`terrain.io.plausibility.
         check_ranges`).
+    NonFiniteError
+        A NaN or infinite timestamp (names the run and row).
+    TimestampError
+        Timestamps not strictly increasing within a run, or a step longer than 1.5 sample
+        periods (a hole without rows: a gap must be NaN rows on the uniform clock); names
+        the run and row.
     DataFormatError
-        Timestamps not strictly increasing within a run (names the run and row), or a
-        median sample rate more than 1 % off ``config.rate_hz``.
+        A median sample rate more than 1 % off ``config.rate_hz``.
     """
     cols = [RUN, TIME] + input_channels(channels)
     missing = [c for c in cols if c not in samples.columns]
@@ -249,15 +255,29 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)
         t = frame[TIME].to_numpy(dtype=float)
+        if not np.isfinite(t).all():
+            row = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise NonFiniteError(f"non-finite timestamp {t[row]}",
+                                 f"model input, run {run_id}", TIME, row)
         dt = np.diff(t)
         if (dt <= 0).any():
             row = int(np.flatnonzero(dt <= 0)[0]) + 1
-            raise DataFormatError("timestamps must increase strictly within a run",
-                                  f"model input, run {run_id}", TIME, row)
+            raise TimestampError("timestamps must increase strictly within a run",
+                                 f"model input, run {run_id}", TIME, row)
         if dt.size and abs(np.median(dt) * config.rate_hz - 1.0) > 0.01:
             raise DataFormatError(f"samples at {1 / np.median(dt):.3f} Hz; the model expects "
                                   f"{config.rate_hz} Hz (align with align_streams)",
                                   f"model input, run {run_id}", TIME)
+        # windows are cut by row: a missing row would put both sides of a time hole in one
+        # window (align_streams keeps the clock uniform and marks a gap by NaN values)
+        hole = dt * config.rate_hz > 1.5
+        if hole.any():
+            row = int(np.flatnonzero(hole)[0]) + 1
+            raise TimestampError(f"a step of {dt[row - 1]:.6g} s, {hole.sum()} step(s) longer "
+                                 f"than 1.5 sample periods; aligned samples are on a uniform "
+                                 f"{config.rate_hz:g} Hz clock, a gap being rows of NaN "
+                                 f"(align with align_streams)",
+                                 f"model input, run {run_id}", TIME, row)
         frame = add_derived_channels(frame)
         X, t0, t1, _, counts = window_frame(frame, channels, config)
         empty += counts["empty_gap"]

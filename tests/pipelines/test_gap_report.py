@@ -98,3 +98,30 @@ def test_timestamp_errors_print_plain_numbers(tmp_path, times, words):
         read_stream_csv(path, "pro")
     assert words in str(exc.value) and "np." not in str(exc.value)
     assert exc.value.line == 5 and exc.value.column == "time"
+
+
+def _samples(t):
+    n = len(t)
+    return pd.DataFrame({"run": "r", "t_s": t, "vel_l": [0.5] * n, "vel_r": [0.6] * n,
+                         "cur_l": [5.0] * n, "cur_r": [7.0] * n})
+
+
+@pytest.mark.parametrize("where, value", [(30, np.nan), (59, np.inf)])
+def test_served_model_refuses_a_non_finite_timestamp(where, value):
+    from terrain.errors import NonFiniteError
+    t = np.round(np.arange(0.0, 6.0, 0.1), 6)
+    t[where] = value
+    with pytest.raises(NonFiniteError) as exc:
+        predict_windows(_Constant(), _samples(t), ["vel_l", "vel_r", "cur_l", "cur_r"],
+                        WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
+    assert exc.value.row == where and "run r" in str(exc.value)
+
+
+def test_served_model_refuses_a_time_hole_without_rows():
+    # rows cut out of the uniform clock: a window by row would span 0.0-101.9 s as one
+    # 2 s window (a gap is NaN rows on the clock, as align_streams gives)
+    t = np.round(np.r_[np.arange(0.0, 5.0, 0.1), 100.0 + np.arange(0.0, 5.0, 0.1)], 6)
+    with pytest.raises(TimestampError) as exc:
+        predict_windows(_Constant(), _samples(t), ["vel_l", "vel_r", "cur_l", "cur_r"],
+                        WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
+    assert exc.value.row == 50 and "1 step(s) longer than 1.5 sample periods" in str(exc.value)
