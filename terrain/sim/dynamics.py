@@ -36,6 +36,7 @@ from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, PHYSICS_VERSIONS,
                                 SLIDE_SPEED_M_S,
                                 SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
+                                step_traction_coefficient,
                                 specific_force_m_s2, transferred_normal_loads,
                                 velocity_maps)
 from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
@@ -453,7 +454,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                      vel[2]])
         dist += dt * float(np.hypot(vel[0], vel[1]))
         # motor torque: traction plus torque-only hysteresis, plus wheel inertia
-        t_contact = contact_torque_nm(layout, ter, contact.mu, contact.rim_speed_m_s, normal)
+        # (the traction the body received over the step, as the implicit step linearised it)
+        t_contact = contact_torque_nm(layout, ter, step_traction_coefficient(contact, maps, dv),
+                                      contact.rim_speed_m_s, normal)
         torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + drive_inertia * dw
         pose_out[k] = pose
         twist_out[k] = vel

@@ -387,15 +387,21 @@ class ContactForces(NamedTuple):
         ``d force / d V``, the analytic Jacobian (secant slopes where the tangent would let
         a Newton step overshoot).
     mu : ndarray, shape (c,)
-        Traction coefficient of each contact (signed).
+        Traction coefficient of each contact (signed), at the twist given.
     rim_speed_m_s : ndarray, shape (c,)
         ``omega r`` of each contact, m/s.
+    dmu_dv_s_m : ndarray, shape (c,)
+        ``d mu / d v_long`` of each contact along the slope the Jacobian uses, s/m: the
+        linearly implicit step gives the body ``force + jacobian dV``, whose traction
+        coefficients are ``mu + dmu_dv_s_m (long_kinematic dV)``
+        (:func:`step_traction_coefficient`).
     """
 
     force: np.ndarray
     jacobian: np.ndarray
     mu: np.ndarray
     rim_speed_m_s: np.ndarray
+    dmu_dv_s_m: np.ndarray
 
 
 def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np.ndarray,
@@ -485,7 +491,36 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
                                                     slip_ratio=slip)
     force = a_force.T @ f_long + b_mat.T @ f_lat
     jac = (a_force.T * k_long) @ a_mat + (b_mat.T * k_lat) @ b_mat
-    return ContactForces(force, jac, mu, wr)
+    return ContactForces(force, jac, mu, wr, dmu * ds_dv)
+
+
+def step_traction_coefficient(contact: ContactForces, maps: VelocityMaps,
+                              dv: np.ndarray) -> np.ndarray:
+    """Traction coefficient of each contact over a linearly implicit step.
+
+    The step gives the body the contact force linearised at the start of the step,
+    ``force + jacobian dV``; the traction the motors pay for is the same linearisation,
+    ``mu + (d mu / d v_long) dv_long`` with ``dv_long = long_kinematic dV``. The coefficient
+    at the start of the step (:attr:`ContactForces.mu`) is evaluated with the new wheel
+    speed and the old body velocity: in an acceleration it charges the motors for slip the
+    body never sees (a Husky ramping at 0.5 m/s^2 on ASPHALT: 264 N of traction for a
+    25 N body force at 100 Hz physics, 31 N at 5 kHz).
+
+    Parameters
+    ----------
+    contact : ContactForces
+        Contact forces at the start of the step (:func:`contact_forces`).
+    maps : VelocityMaps
+        The maps they were computed with.
+    dv : ndarray, shape (3,)
+        Twist change of the step, ``(dv_x, dv_y, d yaw_rate)``, m/s, m/s, rad/s.
+
+    Returns
+    -------
+    ndarray, shape (c,)
+        Signed traction coefficients.
+    """
+    return contact.mu + contact.dmu_dv_s_m * (maps.long_kinematic @ dv)
 
 
 def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float) -> np.ndarray:

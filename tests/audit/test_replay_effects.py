@@ -78,8 +78,9 @@ def test_input_lowpass_removes_the_noise_a_replay_rectifies_into_current():
     # a 0.57 m/s cruise recorded at 15 Hz whose every 4th sample reads about half (the
     # pattern of the Vulpi wheel-speed record, e.g. vulpi/CONCRETE/1: 0.57 0.57 0.57 0.29
     # ...): as recorded, the replayed motors brake and accelerate with it and the reported
-    # current magnitude rises far above the steady cruise current; with the input low-pass
-    # it is back within 0.3 A of a clean cruise at the record's mean speed
+    # current magnitude rises far above the steady cruise current (4.4 A against 1.9 A; 10.3 A
+    # while the integrator charged the motors for traction the body never received); with
+    # the input low-pass it is back within 0.3 A of a clean cruise at the record's mean speed
     t = np.arange(0.0, 30.0, 1.0 / 15.0)
     ramp = np.minimum(t * 0.5, 1.0)
     dropout = np.where(np.arange(t.size) % 4 == 3, 0.5, 1.0)
@@ -92,7 +93,7 @@ def test_input_lowpass_removes_the_noise_a_replay_rectifies_into_current():
         return rep.cur[(t > 5.0) & (t < 25.0)].mean(), rep
 
     steady = cur(cruise)[0]
-    assert cur(record)[0] > steady + 3.0
+    assert cur(record)[0] > steady + 2.0
     smoothed, rep = cur(record, input_cutoff_hz=2.0)
     assert smoothed == pytest.approx(steady, abs=0.3)
     # the smoothed speeds are the replay's inputs (hence the frame's commanded yaw rate)
