@@ -61,9 +61,11 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     """Torque-only rolling loss giving a target per-side current in straight driving.
 
     At constant speed on flat ground each side supplies the torque
-    ``r (W/2) (mu(s) + h)``, with ``mu(s)`` balancing the soil resistance, and draws
-    ``I = I_0 + torque / (G k_t eta)`` (:class:`terrain.vehicles.MotorParams`). Solving for
-    ``h`` gives the calibrated hysteresis coefficient.
+    ``r (W/2) (mu(s) + h tanh(omega r / 0.05 m/s))``, with ``mu(s)`` balancing the soil
+    resistance and ``omega r = v / (1 - s)`` (the torque law of
+    :func:`terrain.sim.forces.contact_torque_nm`), and draws
+    ``I = I_0 tanh(omega / 0.05) + torque / (G k_t eta)`` (:class:`terrain.vehicles.MotorParams`).
+    Solving for ``h`` gives the calibrated hysteresis coefficient.
 
     Parameters
     ----------
@@ -72,8 +74,9 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     current_a : float
         Target mean current per side, A.
     speed_m_s : float
-        Speed at which it was measured, m/s (sets the sign term only: the loss model is
-        speed-independent).
+        Speed at which it was measured, m/s, > 0 (sets the smooth sign terms only: the loss
+        model is otherwise speed-independent; at 0.2 m/s the loss term is 0.07 % short of
+        its full value).
     husky : HuskyParams, optional
         Vehicle (default :data:`terrain.vehicles.HUSKY`).
 
@@ -81,18 +84,28 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     -------
     float
         Hysteresis coefficient (dimensionless), >= 0.
+
+    Raises
+    ------
+    ConfigError
+        ``speed_m_s`` not positive and finite (the loss has no sign to calibrate).
     """
     from terrain.vehicles.skid_steer import HUSKY
+
+    if not (math.isfinite(speed_m_s) and speed_m_s > 0.0):
+        raise ConfigError(f"husky_hysteresis_for_current: speed_m_s must be positive and "
+                          f"finite, got {speed_m_s}")
 
     h = HUSKY if husky is None else husky
     m = h.motor
     side_load = h.mass_kg * G_M_S2 / 2.0
     s = steady_slip(terrain)
     mu = float(traction_coefficient(terrain.curve, s))
-    direction = np.tanh(speed_m_s / h.wheel_radius_m / 0.05)
+    rim = speed_m_s / (1.0 - s) if s < 1.0 else math.inf
+    direction = np.tanh(rim / h.wheel_radius_m / 0.05)
     torque = (current_a - m.no_load_current_a * direction) * (
         m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency)
-    return max(0.0, torque / (h.wheel_radius_m * side_load) - mu)
+    return max(0.0, (torque / (h.wheel_radius_m * side_load) - mu) / np.tanh(rim / 0.05))
 
 
 def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: float,

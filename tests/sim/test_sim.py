@@ -140,7 +140,9 @@ def test_husky_straight_current_matches_measured(terrain):
     tw[:, 0] = np.minimum(t * 0.5, speed)
     phys = integrate(HUSKY, g, (get_terrain(terrain),), 25.0, t, tw, 0.0, 1.55)
     cur = motor_currents(phys, HUSKY, Effects(icr_expansion=1.55))
-    assert cur[t > 6.0].mean() == pytest.approx(target, rel=0.05)
+    # the calibration solves the simulator's own torque and motor laws: it reaches the
+    # target within 4e-7 (1.1 x the hysteresis misses it by more than 2e-3 on every terrain)
+    assert cur[t > 6.0].mean() == pytest.approx(target, rel=2e-3)
 
 
 def test_thesis_straight_line_steady_slip():

@@ -1,9 +1,12 @@
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataFormatError, EstimationError, ShapeError
+from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BurckhardtCurve,
                                     JanosiCurve, TractionAndResistance,
                                     brixius_motion_resistance, brixius_traction,
@@ -88,14 +91,28 @@ def test_calibrate_janosi_reproduces_catalogue_grass():
 
 
 def test_husky_hysteresis_reproduces_target_current():
+    # rebuild the per-side current from the hysteresis by the simulator's contact torque law
+    # and the motor law, independently of the calibration's algebra
+    layout = contact_layout(HUSKY.contact_geometry(), HUSKY.mass_kg, 0.0, 1.0)
     for name, (cur, v) in MEASURED_HUSKY_STRAIGHT.items():
         t = get_terrain(name)
         h = husky_hysteresis_for_current(t, cur, v)
         assert h == pytest.approx(t.hysteresis)
         assert 0.0 < h < 0.4
+        s = steady_slip(t)
+        mu = np.full(len(layout.x_m), float(traction_coefficient(t.curve, s)))
+        rim = np.full(len(layout.x_m), v / (1.0 - s))
+        contact = contact_torque_nm(layout, dataclasses.replace(t, hysteresis=h), mu, rim)
+        torque = np.bincount(layout.motor_of, weights=contact, minlength=layout.n_motors)
+        omega = np.full(layout.n_motors, v / (1.0 - s) / layout.wheel_radius_m)
+        side_current = HUSKY.motor.current_from_torque(torque, omega)
+        assert side_current == pytest.approx(np.full(layout.n_motors, cur), rel=1e-6), name
     # a higher target needs more loss
     t = get_terrain("ASPHALT")
     assert husky_hysteresis_for_current(t, 3.0, 0.5) > husky_hysteresis_for_current(t, 2.0, 0.5)
+    for speed in (0.0, -0.5, float("nan")):
+        with pytest.raises(ConfigError, match="speed_m_s must be positive"):
+            husky_hysteresis_for_current(t, 2.0, speed)
 
 
 def test_dig_in_prediction():
