@@ -40,6 +40,16 @@ def test_biased_filter_fails_the_test():
     assert not chi2_test(v, 3).inside
 
 
+def test_pessimistic_filter_fails_the_test():
+    # the lower bound: a covariance overestimated by 2 halves the NEES
+    rng = np.random.default_rng(2)
+    v = rng.chisquare(3, 3000) * 0.5
+    test = chi2_test(v, 3)
+    assert test.mean < test.bounds[0]
+    assert not test.inside
+    assert chi2_test(rng.chisquare(3, 3000), 3).inside      # a consistent one passes
+
+
 def test_state_errors_wrap_angles_and_shapes():
     e = state_errors(np.array([[3.1, 1.0]]), np.array([[-3.1, 0.5]]), angle_columns=(0,))
     assert e[0, 0] == pytest.approx(6.2 - 2 * np.pi)
