@@ -93,6 +93,8 @@ def _public_members():
             for name, obj in vars(module).items():
                 if name.startswith("_") or getattr(obj, "__module__", None) != info.name:
                     continue
+                # the Python function under numba.njit / vectorize or functools.lru_cache
+                obj = getattr(obj, "py_func", None) or getattr(obj, "__wrapped__", obj)
                 if inspect.isfunction(obj) or inspect.isclass(obj):
                     yield f"{info.name}.{name}", obj
 
@@ -101,3 +103,12 @@ def _public_members():
                          ids=lambda v: v if isinstance(v, str) else "")
 def test_public_functions_and_classes_have_docstrings(qualname, obj):
     assert inspect.getdoc(obj), f"{qualname} has no docstring"
+
+
+def test_wrapped_functions_are_among_the_public_members():
+    # numba.njit, numba.vectorize, functools.lru_cache
+    members = {q for q, _ in _public_members()}
+    wrapped = {"terrain.terramechanics.slip.rim_speed_from_slip",
+               "terrain.vehicles.swerve.wheel_rim_speed",
+               "terrain.io.align.interpolated_mean_count"}
+    assert wrapped - members == set()

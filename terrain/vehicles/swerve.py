@@ -296,8 +296,10 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     Returns
     -------
     delta_rad : ndarray, shape (..., 3)
+        Steering angles, rad.
     omega_rad_s : ndarray, shape (..., 3)
-        Body angular velocity, rad/s.
+        Wheel angular speeds, rad/s: contact speed over the wheel radius, negative on a
+        flipped unit, 0 on a unit that keeps its angle.
     """
     vel = wheel_contact_velocity(params.positions, twist)
     speed = np.hypot(vel[..., 0], vel[..., 1])
