@@ -59,6 +59,37 @@ def test_unwritable_folder_refused(tmp_path):
         locked.chmod(0o700)
 
 
+def test_unwritable_folder_refused_whatever_the_user(tmp_path, monkeypatch):
+    # root writes anywhere (CI runs as root), so the permission is denied by os.access, the
+    # call pipelines.arguments asks
+    import pipelines.arguments as arguments
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    (locked / "old.csv").write_text("x")
+    real_access = os.access
+    asked = []
+
+    def access(path, mode, *args, **kwargs):
+        path = os.path.abspath(path)
+        asked.append(path)
+        if path == str(locked) or path.startswith(str(locked) + os.sep):
+            return False
+        return real_access(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(arguments.os, "access", access)
+    for target in (locked / "out.csv", locked / "new" / "out.csv", locked / "old.csv"):
+        with pytest.raises(argparse.ArgumentTypeError, match="no write permission"):
+            output_file(str(target))
+    for target in (locked, locked / "sub", locked / "sub" / "deeper"):
+        with pytest.raises(argparse.ArgumentTypeError, match="no write permission"):
+            output_dir(str(target))
+    with pytest.raises(argparse.ArgumentTypeError, match="no write permission"):
+        model_dir(str(locked / "m"))
+    assert asked                                   # the branch was reached through os.access
+    assert output_file(str(tmp_path / "free" / "out.csv")) == tmp_path / "free" / "out.csv"
+    assert output_dir(str(tmp_path / "free")) == tmp_path / "free"
+
+
 def test_model_dir_refuses_a_non_empty_folder(tmp_path):
     assert model_dir(str(tmp_path / "m")) == tmp_path / "m"
     (tmp_path / "empty").mkdir()
