@@ -2,7 +2,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataFormatError, EstimationError, ShapeError
@@ -177,6 +177,7 @@ def test_sae_slip_broadcasts_compatible_shapes():
     assert s[0, 0] == pytest.approx(0.5) and s[1, 1] == pytest.approx(-0.5)
 
 
+@settings(deadline=None)  # the first call compiles the numba kernel (~0.4 s)
 @given(v=st.floats(-3.0, 3.0).filter(lambda v: abs(v) > 1e-3), s=st.floats(-0.95, 0.95))
 def test_rim_and_ground_speed_from_slip_invert_sae_slip(v, s):
     # eqs. 7.1-7.2 solved for the rim speed, traction and braking, forward and reverse
