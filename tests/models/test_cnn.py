@@ -82,6 +82,22 @@ def test_same_seed_same_model_other_seed_other_model():
 
 
 @pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+@pytest.mark.parametrize("layout", ["fortran", "transposed view"])
+def test_memory_layout_of_the_windows_does_not_change_the_model(cls, layout):
+    # the windowing hands out a transposed view, a joblib worker a C-contiguous memmap:
+    # the same values must train the same network (float32 sums follow the layout)
+    X, y, _ = _planted(n_runs=4)
+    other = (np.asfortranarray(X) if layout == "fortran"
+             else np.ascontiguousarray(X.transpose(0, 2, 1)).transpose(0, 2, 1))
+    assert np.array_equal(other, X) and not other.flags.c_contiguous
+    a = cls(**{**FAST, "max_epochs": 1}).fit(X, y)
+    b = cls(**{**FAST, "max_epochs": 1}).fit(other, y)
+    np.testing.assert_array_equal(b.mean_, a.mean_)
+    np.testing.assert_array_equal(b.predict_proba(X), a.predict_proba(X))
+    np.testing.assert_array_equal(a.predict_proba(other), a.predict_proba(X))
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
 def test_fitted_net_holds_its_module_only_where_skorch_maps_devices(cls):
     # the network is handed to skorch as a class, so its weights are pickled only as
     # skorch's ``module_``, which skorch maps to the available device when loading: a
