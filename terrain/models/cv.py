@@ -44,7 +44,8 @@ def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: 
     labels, groups, t_start_s : numpy.ndarray
         ``(n_windows,)`` label, group (run id) and start time (s) of each window.
     n_blocks : int
-        Blocks per single-run class (>= 2).
+        Blocks per single-run class (>= 2). A class with fewer windows gets one block per
+        window (no empty block): count them in the returned groups.
 
     Returns
     -------

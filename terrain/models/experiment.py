@@ -444,9 +444,17 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     groups = ws.groups
     if config.protocol != "paper":
         ws, labels, groups, split, n_dropped = grouped_units(ws, config.single_run_blocks)
-        notes += [f"class {c} has a single run: cut into {config.single_run_blocks} contiguous "
-                  f"time blocks used as groups (its scores measure an unseen stretch of the "
-                  f"same run, not an unseen run)" for c in split]
+        for c in split:
+            # a class with fewer windows than blocks gets fewer (non-empty) blocks
+            n_units = len(np.unique(groups[labels == c]))
+            note = (f"class {c} has a single run: cut into {n_units} contiguous time "
+                    f"block(s) (of {config.single_run_blocks} asked) used as groups (its "
+                    f"scores measure an unseen stretch of the same run, not an unseen run)")
+            if n_units < 2:
+                note += (f"; WARNING: with fewer than 2 blocks, {c} is never in training "
+                         f"when it is tested (its recall is 0 by construction): its scores "
+                         f"do not measure generalisation")
+            notes.append(note)
         if n_dropped:
             notes.append(f"{n_dropped} window(s) straddling a time-block boundary dropped")
     else:

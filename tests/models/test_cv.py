@@ -12,7 +12,7 @@ from features.windows import WindowConfig, WindowSet, make_windows
 from terrain.errors import ConfigError
 from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, grouped_units,
                                iter_splits, purge_block_overlaps, split_single_run_classes)
-from terrain.models.experiment import PAPER_WINDOW
+from terrain.models.experiment import PAPER_WINDOW, ExperimentConfig, run_cv
 from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
                                     window_metrics)
 from terrain.models.svm import SVMConfig, make_search, make_svm
@@ -117,6 +117,20 @@ def test_single_dirt_road_run_is_cut_into_contiguous_blocks(vulpi_runs):
               ws.t_end_s[groups == f"vulpi/DIRT_ROAD/1@block{k}"].max()) for k in range(5)]
     for (_, end), (start, _) in zip(spans, spans[1:]):
         assert end <= start + 1e-9  # blocks follow each other in time, never interleave
+
+
+def test_cv_notes_the_blocks_actually_made_and_warns_below_two(vulpi_runs):
+    # 30 s windows: the one CONCRETE run gives 1 window, DIRT_ROAD's gives 2 (of 5 blocks
+    # asked); np.array_split's empty blocks are not blocks
+    res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), window_s=30.0,
+                                  seeds=(0,)), vulpi_runs)
+    notes = {c: [n for n in res.report.notes if n.startswith(f"class {c} has a single run")]
+             for c in ("CONCRETE", "DIRT_ROAD")}
+    assert len(notes["CONCRETE"]) == 1 and len(notes["DIRT_ROAD"]) == 1
+    assert "cut into 1 contiguous time block(s) (of 5 asked)" in notes["CONCRETE"][0]
+    assert "WARNING" in notes["CONCRETE"][0] and "generalisation" in notes["CONCRETE"][0]
+    assert "cut into 2 contiguous time block(s) (of 5 asked)" in notes["DIRT_ROAD"][0]
+    assert "WARNING" not in notes["DIRT_ROAD"][0]
 
 
 # --- metrics ---------------------------------------------------------------------------------
