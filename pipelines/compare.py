@@ -90,7 +90,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "fit (--max-epochs is the upper bound); default: fixed budget")
     add_cnn_seeds(parser, d.cnn_seeds)
     add_train_hop(parser)
-    parser.add_argument("--quick", action="store_true", help="small grid (smoke test)")
+    parser.add_argument("--quick", action="store_true",
+                        help="small grid (smoke test: 2 models, Vulpi, 2 folds, 1 CNN epoch); "
+                             "refuses the grid and training options it replaces")
     parser.add_argument("--backend", choices=BACKENDS, default="loky")
     parser.add_argument("--address", default=None,
                         help="Dask scheduler (tcp://host:8786) or Ray address; "
@@ -128,7 +130,9 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
             ("windows_s", args.windows_s, d.windows_s), ("datasets", args.datasets,
                                                          d.datasets),
             ("seeds", args.seeds, d.seeds), ("max_epochs", args.max_epochs, d.max_epochs),
-            ("threads", args.threads, d.n_threads))
+            ("threads", args.threads, d.n_threads),
+            # the quick grid's CNNs train its fixed 1-epoch budget
+            ("early_stopping", args.early_stopping, d.early_stopping))
             if (tuple(value) if isinstance(value, list) else value) != default]
         if given:
             raise ConfigError(f"--quick runs its own small grid and would ignore {given}: "

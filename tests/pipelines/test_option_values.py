@@ -179,6 +179,7 @@ _REFUSED = [
     (["train", "--train-hop-s", "inf"], "train_hop_s"),
     (["train", "--cnn-seeds", "1000000000000"], "cnn_seeds"),
     (["compare", "--quick", "--signals", "imu"], "would ignore ['--signals']"),
+    (["compare", "--quick", "--early-stopping"], "would ignore ['--early-stopping']"),
     (["compare", "--n-jobs", "0"], "argument --n-jobs"),
     (["compare", "--windows-s", "nan"], "window_s"),
     (["compare", "--max-epochs", "0"], "max_epochs"),
