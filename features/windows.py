@@ -238,10 +238,11 @@ class WindowSet:
         Sampling rate of the windows, Hz.
     counts : dict
         Book-keeping: windows kept, dropped for gaps or unsteady motion, window positions
-        wholly inside a gap (``empty_gap``, see :func:`window_frame`), runs skipped for a
-        missing stream and runs shorter than one window (with their ids), and ``per_run``:
-        run id -> ``windows``, ``dropped_gap``, ``empty_gap``, ``dropped_unsteady``,
-        ``aligned_s``.
+        wholly inside a gap (``empty_gap``, see :func:`window_frame`), time after the last
+        full partition (``partition_tail_s``, s), runs skipped for a missing stream and runs
+        shorter than one window or partition (with their ids; ``reasons``: run id -> why),
+        and ``per_run``: run id -> ``windows``, ``dropped_gap``, ``empty_gap``,
+        ``dropped_unsteady``, ``partition_tail_s``, ``aligned_s``.
     """
 
     X: np.ndarray
@@ -324,17 +325,21 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         ``dropped_gap`` (windows of data holding a non-finite value: a timestamp gap),
         ``empty_gap`` (window positions without a single finite value, wholly inside a gap
         of every channel: not windows of data, so not counted as dropped; not returned
-        either), ``dropped_unsteady``.
+        either), ``dropped_unsteady``, and ``partition_tail_s``: the time after the last
+        full partition (s; the whole frame when it holds none), which no window is cut
+        from (0 when ``partition_s`` is None).
     """
     n, hop = config.n_samples, config.hop_samples
     values = frame[list(channels)].to_numpy(dtype=float)
     t = frame[TIME].to_numpy()
     total = len(t)
+    tail = 0
     if config.partition_s is None:
         bounds = [(0, total)]
     else:
         p = int(round(config.partition_s * config.rate_hz))
         bounds = [(s, s + p) for s in range(0, total - p + 1, p)]
+        tail = total - p * len(bounds)
     starts, parts = [], []
     for k, (a, b) in enumerate(bounds):
         s = np.arange(a, b - n + 1, hop)
@@ -342,7 +347,8 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         parts.append(np.full(s.size, k))
     start = np.concatenate(starts) if starts else np.zeros(0, int)
     part = np.concatenate(parts) if parts else np.zeros(0, int)
-    counts = {"dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0}
+    counts = {"dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
+              "partition_tail_s": tail / config.rate_hz}
     if start.size == 0:
         return (np.zeros((0, len(channels), n)), np.zeros(0), np.zeros(0), part, counts)
     idx = start[:, None] + np.arange(n)[None, :]
@@ -368,7 +374,11 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
 
     Runs lacking a stream that the signal selection needs (e.g. the BorealTC runs without
     an IMU file when ``signals`` includes IMU channels) are skipped and listed in
-    ``counts["skipped_runs"]``; nothing is dropped silently.
+    ``counts["skipped_runs"]``; runs shorter than one window, or with ``partition_s``
+    shorter than one partition, are listed in ``counts["too_short_runs"]``, the reason of
+    each in ``counts["reasons"]``; with ``partition_s``, the time after the last full
+    partition of each run, which no window is cut from, is counted in
+    ``counts["partition_tail_s"]`` (s, in total and per run). Nothing is dropped silently.
 
     Parameters
     ----------
@@ -387,8 +397,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     need = required_streams(channels)
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
     counts = {"windows": 0, "dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
-              "skipped_runs": [],
-              "too_short_runs": [], "per_run": {}}
+              "partition_tail_s": 0.0, "skipped_runs": [],
+              "too_short_runs": [], "reasons": {}, "per_run": {}}
     iterator = runs
     if progress:
         from tqdm.auto import tqdm
@@ -406,10 +416,17 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         counts["dropped_gap"] += c["dropped_gap"]
         counts["empty_gap"] += c["empty_gap"]
         counts["dropped_unsteady"] += c["dropped_unsteady"]
+        counts["partition_tail_s"] += c["partition_tail_s"]
         counts["per_run"][run.run_id] = {"windows": len(X), **c, "aligned_s": len(frame)
                                          / config.rate_hz}
         if len(frame) < config.n_samples:
             counts["too_short_runs"].append(run.run_id)
+            counts["reasons"][run.run_id] = f"shorter than one {config.window_s:g} s window"
+        elif (config.partition_s is not None
+              and len(frame) < int(round(config.partition_s * config.rate_hz))):
+            counts["too_short_runs"].append(run.run_id)
+            counts["reasons"][run.run_id] = (f"shorter than one {config.partition_s:g} s "
+                                             "partition")
         Xs.append(X)
         t0s.append(t0)
         t1s.append(t1)

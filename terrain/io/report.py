@@ -20,7 +20,7 @@ from terrain.run import Run
 #: columns of :attr:`InputReport.table`
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
            "gap_list", "skipped_lines", "ignored_columns", "stuck", "windows", "dropped_gap",
-           "empty_gap", "dropped_unsteady", "flagged_windows", "warnings")
+           "empty_gap", "dropped_unsteady", "partition_tail_s", "flagged_windows", "warnings")
 
 
 @dataclass(frozen=True)
@@ -34,15 +34,17 @@ class InputReport:
         ``too_short`` with the ``reason``; ``repaired`` lists ``<stream>.<channel>:<cells>``;
         ``gaps`` / ``gap_s`` count the timestamp gaps and the time they span (s);
         ``ignored_columns`` lists ``<stream>.<column>`` of file columns no reader reads;
-        ``stuck`` lists stuck channels; window columns are empty (-1) when the command does
-        not window.
+        ``stuck`` lists stuck channels; ``partition_tail_s`` is the time after a run's last
+        full partition, which no window is cut from (s; 0 without partitions); window columns
+        are empty (-1) when the command does not window.
     """
 
     table: pd.DataFrame
 
     def metrics(self, prefix: str = "input_") -> dict[str, float]:
         """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, ignored
-        file columns, windows dropped and flagged, stuck channels, warnings.
+        file columns, windows dropped and flagged, partition tails not windowed (s), stuck
+        channels, warnings.
 
         Parameters
         ----------
@@ -69,6 +71,7 @@ class InputReport:
             "windows_dropped_gap": int(t.loc[windowed, "dropped_gap"].sum()),
             "windows_empty_gap": int(t.loc[windowed, "empty_gap"].sum()),
             "windows_dropped_unsteady": int(t.loc[windowed, "dropped_unsteady"].sum()),
+            "partition_tail_s": float(t.loc[windowed, "partition_tail_s"].sum()),
             "windows_flagged": int(t.loc[t["flagged_windows"] > 0, "flagged_windows"].sum()),
             "warnings": int(t["warnings"].sum()),
         }.items()}
@@ -113,6 +116,10 @@ class InputReport:
         if m["windows_dropped_gap"] or m["windows_dropped_unsteady"]:
             parts.append(f"  dropped windows: {int(m['windows_dropped_gap'])} spanning a gap, "
                          f"{int(m['windows_dropped_unsteady'])} unsteady (--steady-only)")
+        if m["partition_tail_s"]:
+            parts.append(f"  not windowed: {m['partition_tail_s']:.1f} s of run tails after "
+                         f"the last full partition (partition protocol) in "
+                         f"{ids(t['partition_tail_s'] > 0)}")
         if m["windows_empty_gap"]:
             parts.append(f"  {int(m['windows_empty_gap'])} window position(s) wholly inside "
                          "a gap of every stream: no data there, not counted as dropped")
@@ -146,10 +153,11 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
     counts : Mapping, optional
         ``WindowSet.counts`` of :func:`features.windows.make_windows` (or the same keys:
         ``per_run``, ``skipped_runs``, ``too_short_runs``; ``empty_gap``, the window
-        positions wholly inside a gap, may be absent from a ``per_run`` entry). Without it
-        the window columns are -1.
+        positions wholly inside a gap, and ``partition_tail_s`` may be absent from a
+        ``per_run`` entry, and ``reasons``, run id -> why it was skipped or is too short,
+        from ``counts``). Without it the window columns are -1.
     window_s : float, optional
-        Window length, s (for the too-short reason).
+        Window length, s (for the too-short reason where ``counts`` gives none).
     flagged : Mapping[str, int], optional
         Run id -> windows flagged for holding a stuck sensor.
 
@@ -161,6 +169,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
     per_run = counts.get("per_run", {})
     skipped = set(counts.get("skipped_runs", ()))
     short = set(counts.get("too_short_runs", ()))
+    reasons = dict(counts.get("reasons", {}))
     flagged = flagged or {}
     rows = []
     for run in runs:
@@ -173,12 +182,13 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         if run.run_id in skipped:
             missing = sorted({"imu", "wheels"} - set(run.streams))
             status = "skipped"
-            reason = (f"no {' or '.join(missing)} stream" if missing
-                      else "lacks a stream the signals need")
+            reason = reasons.get(run.run_id) or (f"no {' or '.join(missing)} stream"
+                                                 if missing
+                                                 else "lacks a stream the signals need")
         elif run.run_id in short:
             status = "too_short"
-            reason = ("shorter than one window" if window_s is None
-                      else f"shorter than one {window_s:g} s window")
+            reason = reasons.get(run.run_id) or ("shorter than one window" if window_s is None
+                                                 else f"shorter than one {window_s:g} s window")
         rows.append({
             "run_id": run.run_id, "status": status, "reason": reason,
             "repaired_cells": int(sum(repaired.values())),
@@ -194,6 +204,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
             "dropped_gap": int(w["dropped_gap"]) if w else 0,
             "empty_gap": int(w.get("empty_gap", 0)) if w else 0,
             "dropped_unsteady": int(w["dropped_unsteady"]) if w else 0,
+            "partition_tail_s": float(w.get("partition_tail_s", 0.0)) if w else 0.0,
             "flagged_windows": int(flagged.get(run.run_id, 0)),
             "warnings": len(meta.get("warnings", ())),
         })

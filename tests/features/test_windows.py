@@ -75,6 +75,25 @@ def test_partitions_are_never_crossed(make_run):
     assert ws.t_end_s.max() <= 20.0 + 1e-9  # trailing partial partition dropped
 
 
+def test_partition_tail_and_runs_without_a_full_partition_are_counted(make_run):
+    config = WindowConfig(window_s=1.7, hop_s=0.1, rate_hz=50.0, partition_s=5.0)
+    runs = [make_run(_streams(duration_s=21.0), "t/ICE/00", "ICE"),
+            make_run(_streams(duration_s=4.0), "t/ICE/01", "ICE"),    # > 1 window, < 1 part.
+            make_run(_streams(duration_s=1.0), "t/ICE/02", "ICE")]    # < 1 window
+    ws = make_windows(runs, "all", config)
+    per_run = ws.counts["per_run"]
+    # 1051 grid points: 4 partitions of 250 and a 51-sample tail; 201 and 51 points: all tail
+    assert per_run["t/ICE/00"]["partition_tail_s"] == pytest.approx(1.02)
+    assert per_run["t/ICE/01"]["partition_tail_s"] == pytest.approx(4.02)
+    assert per_run["t/ICE/01"]["windows"] == 0
+    assert ws.counts["partition_tail_s"] == pytest.approx(1.02 + 4.02 + 1.02)
+    assert ws.counts["too_short_runs"] == ["t/ICE/01", "t/ICE/02"]
+    assert ws.counts["reasons"] == {"t/ICE/01": "shorter than one 5 s partition",
+                                    "t/ICE/02": "shorter than one 1.7 s window"}
+    plain = make_windows(runs[:1], "all", WindowConfig(window_s=2.0, rate_hz=50.0))
+    assert plain.counts["partition_tail_s"] == 0.0 and plain.counts["too_short_runs"] == []
+
+
 def test_steady_only_drops_windows_with_speed_changes(make_run):
     # steady 0.5 m/s until 10 s, then a 1 Hz +-0.4 m/s oscillation
     vel = (lambda t: np.where(t < 10.0, 0.5, 0.5 + 0.4 * np.sin(2 * np.pi * (t - 10.0))))

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from features.windows import WindowConfig, window_frame
+from features.windows import WindowConfig, make_windows, window_frame
 from terrain.errors import TimestampError
 from terrain.io.measured import read_stream_csv
 from terrain.io.report import input_report, merged_gaps
@@ -83,6 +83,24 @@ def test_window_frame_counts_the_hole_as_cv_and_train_report_it():
     X, _, _, _, counts = window_frame(frame, ["vel_l", "cur_l"],
                                       WindowConfig(window_s=2.0, rate_hz=10.0))
     assert len(X) == 20 and counts["dropped_gap"] == 1 and counts["empty_gap"] == 499
+
+
+def test_partition_tails_and_runs_without_a_full_partition_are_reported(make_run):
+    """The papers' protocol windows whole 5 s partitions only: the rest of each run is
+    reported, and a run longer than a window but shorter than a partition is too short."""
+    t = np.round(np.arange(0.0, 12.0, 0.1), 6)
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6, "cur_l": 5.0, "cur_r": 6.0})
+    runs = [make_run({"wheels": wheels}, "t/ICE/00", "ICE"),
+            make_run({"wheels": wheels[t < 3.0]}, "t/ICE/01", "ICE")]
+    ws = make_windows(runs, "wheels", WindowConfig(window_s=1.7, hop_s=0.1, rate_hz=10.0,
+                                                   partition_s=5.0))
+    report = input_report(runs, ws.counts, 1.7)
+    text = report.text()
+    assert ("not windowed: 5.0 s of run tails after the last full partition (partition "
+            "protocol) in t/ICE/00, t/ICE/01") in text
+    assert "1 run(s) too short (shorter than one 5 s partition): t/ICE/01" in text
+    assert report.metrics()["input_partition_tail_s"] == pytest.approx(2.0 + 3.0)
+    assert list(report.table["partition_tail_s"]) == pytest.approx([2.0, 3.0])
 
 
 @pytest.mark.parametrize("times, words", [
