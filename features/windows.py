@@ -170,6 +170,8 @@ class WindowConfig:
     steady_only : bool
         Keep only windows in steady motion: mean |vel_mean| >= ``min_speed_m_s`` and
         std(vel_mean) <= ``max_speed_std_m_s`` (thesis ch. 8.1 uses steady-motion windows).
+        It needs the wheel stream whatever the signals: runs without it are skipped, and a
+        window whose wheel speeds are not all finite is dropped as a gap.
     min_speed_m_s, max_speed_std_m_s : float
         Steady-motion thresholds, m/s.
 
@@ -322,12 +324,18 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     partition : numpy.ndarray
         ``(n_windows,)`` partition index (0 when ``partition_s`` is None).
     counts : dict
-        ``dropped_gap`` (windows of data holding a non-finite value: a timestamp gap),
+        ``dropped_gap`` (windows of data holding a non-finite value: a timestamp gap; with
+        ``steady_only``, also a non-finite wheel speed outside the selected channels),
         ``empty_gap`` (window positions without a single finite value, wholly inside a gap
         of every channel: not windows of data, so not counted as dropped; not returned
         either), ``dropped_unsteady``, and ``partition_tail_s``: the time after the last
         full partition (s; the whole frame when it holds none), which no window is cut
         from (0 when ``partition_s`` is None).
+
+    Raises
+    ------
+    ConfigError
+        ``config.steady_only`` and the frame has no ``vel_l`` or ``vel_r`` column.
     """
     n, hop = config.n_samples, config.hop_samples
     values = frame[list(channels)].to_numpy(dtype=float)
@@ -358,10 +366,20 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     empty = ~finite.any(axis=(1, 2))
     counts["dropped_gap"] = int((~keep & ~empty).sum())
     counts["empty_gap"] = int(empty.sum())
-    if config.steady_only and {"vel_l", "vel_r"} <= set(frame.columns):
+    if config.steady_only:
+        missing = sorted({"vel_l", "vel_r"} - set(frame.columns))
+        if missing:
+            raise ConfigError(f"steady_only needs the wheel speeds; the frame has no "
+                              f"{missing} column(s)")
         v = 0.5 * (frame["vel_l"].to_numpy() + frame["vel_r"].to_numpy())[idx]
-        steady = (np.abs(np.nanmean(v, axis=1)) >= config.min_speed_m_s) & \
-                 (np.nanstd(v, axis=1) <= config.max_speed_std_m_s)
+        # a wheel gap inside windows of finite selected channels (an IMU-only selection)
+        # is a gap, not unsteady motion
+        v_gap = keep & ~np.isfinite(v).all(axis=1)
+        counts["dropped_gap"] += int(v_gap.sum())
+        keep &= ~v_gap
+        steady = np.zeros(len(keep), dtype=bool)
+        steady[keep] = ((np.abs(v[keep].mean(axis=1)) >= config.min_speed_m_s)
+                        & (v[keep].std(axis=1) <= config.max_speed_std_m_s))
         counts["dropped_unsteady"] = int((keep & ~steady).sum())
         keep &= steady
     t0 = t[start]
@@ -373,7 +391,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     """Align every run and cut it into windows.
 
     Runs lacking a stream that the signal selection needs (e.g. the BorealTC runs without
-    an IMU file when ``signals`` includes IMU channels) are skipped and listed in
+    an IMU file when ``signals`` includes IMU channels; with ``config.steady_only``, runs
+    without the wheel stream, whatever the signals) are skipped and listed in
     ``counts["skipped_runs"]``; runs shorter than one window, or with ``partition_s``
     shorter than one partition, are listed in ``counts["too_short_runs"]``, the reason of
     each in ``counts["reasons"]``; with ``partition_s``, the time after the last full
@@ -403,12 +422,14 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     if progress:
         from tqdm.auto import tqdm
         iterator = tqdm(runs, desc="windowing runs", unit="run")
+    # steady-motion selection needs the wheel speeds even for IMU-only signal sets
+    streams = tuple(dict.fromkeys(need + (("wheels",) if config.steady_only else ())))
     for run in iterator:
-        if any(s not in run.streams for s in need):
+        if any(s not in run.streams for s in streams):
             counts["skipped_runs"].append(run.run_id)
+            if "wheels" not in need and "wheels" not in run.streams:
+                counts["reasons"][run.run_id] = "no wheels stream, which steady_only needs"
             continue
-        # steady-motion selection needs the wheel speeds even for IMU-only signal sets
-        streams = tuple(dict.fromkeys(need + (("wheels",) if config.steady_only else ())))
         frame = add_derived_channels(align_streams(run, streams, config.rate_hz))
         if set(channels) & set(EKF_CHANNELS):
             frame = add_ekf_channels(frame, wheel_rate_hz=run.rate_hz("wheels"))

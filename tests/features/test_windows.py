@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -9,8 +11,10 @@ import pytest
 from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M,
                               SIGNAL_SETS, SPEED_CHANNELS, WindowConfig, add_derived_channels,
-                              make_windows, required_streams, resolve_signals)
+                              make_windows, required_streams, resolve_signals,
+                              window_frame)
 from terrain.errors import ConfigError
+from terrain.io.report import input_report
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
 
@@ -122,6 +126,37 @@ def test_steady_only_applies_to_imu_only_selection(make_run):
     moving = make_run(_streams(vel=lambda t: np.full_like(t, 0.5)))
     ws = make_windows([moving], "imu", WindowConfig(window_s=2.0, steady_only=True))
     assert len(ws) == 10 and ws.channels == IMU_CHANNELS
+
+
+def test_steady_only_skips_a_run_without_wheels_even_for_imu_signals(make_run):
+    imu_only = make_run({"imu": _streams()["imu"]}, "t/ICE/00", "ICE")
+    ws = make_windows([imu_only], "imu", WindowConfig(window_s=2.0, steady_only=True))
+    assert len(ws) == 0 and ws.counts["skipped_runs"] == ["t/ICE/00"]
+    assert ws.counts["reasons"] == {"t/ICE/00": "no wheels stream, which steady_only needs"}
+    assert ("1 run(s) skipped (no wheels stream, which steady_only needs): t/ICE/00"
+            in input_report([imu_only], ws.counts, 2.0).text())
+    assert len(make_windows([imu_only], "imu", WindowConfig(window_s=2.0))) == 10
+    with pytest.raises(ConfigError, match="vel_l"):
+        window_frame(pd.DataFrame({TIME: np.arange(300) / 50.0, "wz": 0.0}), ["wz"],
+                     WindowConfig(window_s=2.0, rate_hz=50.0, steady_only=True))
+
+
+def test_steady_only_counts_a_wheel_gap_as_a_gap_for_imu_signals(make_run):
+    # standing still before 10 s, 0.5 m/s after; the wheel stream has a hole over (4, 8) s
+    streams = _streams(vel=lambda t: np.where(t < 10.0, 0.0, 0.5))
+    wheels = streams["wheels"]
+    streams["wheels"] = wheels[(wheels[TIME] < 4.0) | (wheels[TIME] > 8.0)]
+    run = make_run(streams, "t/ICE/00", "ICE")
+    config = WindowConfig(window_s=2.0, steady_only=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # no "Mean of empty slice" from the hole
+        imu = make_windows([run], "imu", config)
+    every = make_windows([run], "all", config)
+    # the 4 windows holding the hole are gaps, as with the wheel channels selected; the
+    # other standing-still window is unsteady
+    for ws in (imu, every):
+        assert ws.counts["dropped_gap"] == 4 and ws.counts["dropped_unsteady"] == 1
+        np.testing.assert_allclose(ws.t_start_s, [10.0, 12.0, 14.0, 16.0, 18.0])
 
 
 @pytest.mark.parametrize("signals, expected", [
