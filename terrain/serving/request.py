@@ -170,6 +170,34 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
                                  "starts at the first sample)", where, col, int(rows[i]))
 
 
+def _wide_rows(frame: pd.DataFrame, stream: str, tcol: str, channels: Sequence[str],
+               where: str) -> np.ndarray:
+    """Rows of ``stream`` in a wide request: those whose ``tcol`` cell is not empty.
+
+    Only a shorter stream's trailing cells may be empty: an empty stamp before a stamped
+    row, or next to a value in one of ``channels``, is a non-finite timestamp (refused as
+    the long format refuses it), never a row skipped without a word.
+
+    Raises
+    ------
+    NonFiniteError
+        Naming ``tcol``, the first such row (0-based) and their count.
+    """
+    stamped = pd.notna(frame[tcol]).to_numpy()
+    rows = np.flatnonzero(stamped)
+    holds_value = frame[list(channels)].notna().to_numpy().any(axis=1)
+    before_last = np.arange(len(frame)) < (rows[-1] if rows.size else 0)
+    bad = np.flatnonzero(~stamped & (holds_value | before_last))
+    if bad.size:
+        why = ("holds values of the stream's channels" if holds_value[bad[0]] else
+               "comes before a stamped row")
+        raise NonFiniteError(f"non-finite timestamp in stream {stream!r}: {tcol} is empty "
+                             f"in a row that {why} ({bad.size} such row(s), "
+                             f"{first_items(bad, word='data row')}); only a shorter stream's "
+                             "trailing cells may be empty", where, tcol, int(bad[0]))
+    return rows
+
+
 def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
                   window_s: float, max_rows: int, where: str = "request",
                   known_streams: Sequence[str] = tuple(KNOWN_STREAMS),
@@ -224,8 +252,9 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         Unsorted or duplicated timestamps within a stream, or a timestamp beyond
         :data:`terrain.serving.rules.MAX_PLAUSIBLE_TIME_S` (the service's own bound).
     NonFiniteError
-        A non-finite timestamp, a burst of non-finite values, or a non-finite value in a
-        stream's first or last sample.
+        A non-finite timestamp (in the wide format also an empty ``<stream>_t_s`` cell
+        before the stream's last stamped row or beside a value of its channels), a burst
+        of non-finite values, or a non-finite value in a stream's first or last sample.
     ImplausibleValueError, UnitError, ClockError
         A value beyond its channel's plausibility range or the float range; timestamps in
         ms, wheel speeds in km/h, a gyro in deg/s or an accelerometer in g (certain
@@ -264,7 +293,7 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
             raise MissingColumnError(f"the model needs stream {stream!r} with {need}; "
                                      f"missing {missing} ({form})", where, missing[0])
         rows = (np.flatnonzero((frame[STREAM] == stream).to_numpy()) if long
-                else np.flatnonzero(pd.notna(frame[tcol]).to_numpy()))
+                else _wide_rows(frame, stream, tcol, channels, where))
         t = _numeric(frame, tcol, rows, where)
         v = np.column_stack([_numeric(frame, c, rows, where) for c in channels])
         _check_stream(stream, t, v, channels, rows, window_s, where)

@@ -130,6 +130,41 @@ def test_wide_format_gives_the_same_answer(served, request_frame):
     assert _call(served, wide) == _call(served, request_frame)
 
 
+@pytest.mark.parametrize("rows, words", [
+    ([30], "holds values of the stream's channels"),         # stamp empty, values kept
+    ([30, 31], "holds values of the stream's channels"),
+    (["30 all"], "comes before a stamped row"),              # the whole row empty
+])
+def test_wide_format_empty_stamp_inside_a_stream_is_refused(served, request_frame, rows,
+                                                            words):
+    """An empty ``<stream>_t_s`` cell is refused as the long format refuses a null ``t_s``
+    (it was skipped without a word: the row's values were lost and the answer changed);
+    only a shorter stream's trailing cells may be empty."""
+    wide = request_frame.drop(columns="stream").rename(columns={"t_s": "wheels_t_s"})
+    for row in rows:
+        if isinstance(row, str):
+            wide.loc[int(row.split()[0])] = np.nan
+        else:
+            wide.loc[row, "wheels_t_s"] = np.nan
+    status, body = _call(served, wide)
+    assert status == 400, body
+    msg = body["message"]
+    assert msg.startswith("NonFiniteError: non-finite timestamp in stream 'wheels'"), msg
+    assert words in msg and "column 'wheels_t_s', data row 30" in msg, msg
+    # the long format's refusal of the same sample
+    long = request_frame.copy()
+    long.loc[30, "t_s"] = np.nan
+    long_msg = _call(served, long)[1]["message"]
+    assert long_msg.startswith("NonFiniteError: non-finite timestamp in stream 'wheels'")
+
+
+def test_wide_format_trailing_empty_cells_are_accepted(served, request_frame):
+    wide = request_frame.drop(columns="stream").rename(columns={"t_s": "wheels_t_s"})
+    longer = pd.concat([wide, pd.DataFrame(np.nan, index=range(5), columns=wide.columns)],
+                       ignore_index=True)
+    assert _call(served, longer) == _call(served, wide)
+
+
 def test_gap_and_isolated_nan_are_flagged_not_refused(served, request_frame):
     frame = request_frame.copy()
     frame.loc[20, "cur_l"] = np.nan  # isolated: the service drops the sample
