@@ -298,7 +298,9 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         v = np.column_stack([_numeric(frame, c, rows, where) for c in channels])
         _check_stream(stream, t, v, channels, rows, window_s, where)
         part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
-        check_ranges(part, where, {c: c for c in channels})
+        # finite values only: an isolated inf is a non-finite sample as a NaN is (the
+        # service flags it non_finite; a burst was refused above), not a value out of range
+        check_ranges(part.where(np.isfinite(part)), where, {c: c for c in channels})
         if {"ax", "ay", "az"} <= set(channels):
             check_accel_units(part, where)  # a stream in g is refused, as a file in g
         out[stream] = part

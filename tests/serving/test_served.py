@@ -177,6 +177,29 @@ def test_gap_and_isolated_nan_are_flagged_not_refused(served, request_frame):
     assert len(dropped) and dropped["flags"].str.contains("gap").all()
 
 
+@pytest.mark.parametrize("value", [np.inf, -np.inf])
+def test_isolated_inf_is_flagged_as_a_nan_is_not_refused(served, request_frame, value):
+    """An isolated inf is a non-finite sample, as a NaN: the windows holding it are flagged
+    ``non_finite``; it was refused as a value beyond the channel's range."""
+    from mlflow.pyfunc import scoring_server
+
+    answers = []
+    for bad in (np.nan, value):
+        frame = request_frame.copy()
+        frame.loc[20, "cur_l"] = bad
+        # CSV: JSON from pandas would write the inf as null
+        res = scoring_server.invocations(frame.to_csv(index=False), "text/csv", served, None)
+        assert res.status == 200, res.response
+        answers.append(pd.DataFrame(json.loads(res.response)["predictions"]))
+    assert answers[1]["flags"].str.contains("non_finite").any()
+    pd.testing.assert_frame_equal(answers[1], answers[0])
+    # a finite value beyond the range is still refused
+    frame = request_frame.copy()
+    frame.loc[20, "cur_l"] = 1e6
+    status, body = _call(served, frame)
+    assert status == 400 and body["message"].startswith("ImplausibleValueError"), body
+
+
 def _swap(f):
     f = f.copy()
     f.iloc[[5, 6]] = f.iloc[[6, 5]].to_numpy()
