@@ -15,11 +15,13 @@ described in :mod:`terrain.serving.request`).
 Answer: one row per window, ``t_s, terrain, confidence, proba_<CLASS>...,
 target_slip_traction, target_slip_braking, target_slip_steady, window_age_s, flags,
 dropped``; ``dropped`` is true for a window that was not classified, and its reason is in
-``flags`` (``gap``, ``short``, ``stale``...). The readers' run-level plausibility rules
-(:func:`terrain.io.plausibility.check_run`) apply to the request: a certain finding (wheel
-speeds in km/h, gyro in deg/s, clocks that do not overlap) refuses it, a stuck channel flags
-the windows holding it (``stuck:<stream>.<channel>``, as ``terrain predict``) and a likely
-unit problem flags every window (``warning:<rule>``); neither drops a window. Rows of a
+``flags`` (``gap``, ``short``, ``stale``...); ``window_age_s`` is null where no window was
+built (``short``; the in-process service says inf, which JSON cannot hold). The readers'
+run-level plausibility rules (:func:`terrain.io.plausibility.check_run`) apply to the
+request: a certain finding (wheel speeds in km/h, gyro in deg/s, clocks that do not overlap)
+refuses it, a stuck channel flags the windows holding it (``stuck:<stream>.<channel>``, as
+``terrain predict``) and a likely unit problem flags every window (``warning:<rule>``);
+neither drops a window. Rows of a
 known stream the model does not use (IMU rows sent to a wheel-only model) are not read, so
 not checked: every window says so (``unused:<stream>``). Samples the service still held
 when the request ended (a stream stepping far ahead of the others' clock, held until they
@@ -46,6 +48,7 @@ import re
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import numpy as np
 import pandas as pd
 
 from features.windows import WindowConfig
@@ -284,7 +287,8 @@ class ServedStreamModel(PythonModel):
         Returns
         -------
         pandas.DataFrame
-            One row per window (see module docstring).
+            One row per window (see module docstring); ``window_age_s`` (s) is None (JSON
+            null) where no window was built (``short``: its age is infinite).
 
         Raises
         ------
@@ -319,6 +323,10 @@ class ServedStreamModel(PythonModel):
         # (a list, not the .str accessor: an answer without decisions has no text dtype)
         out["dropped"] = [any(x in DROP_FLAGS for x in f.split("|")) for f in out["flags"]]
         out["terrain"] = out["terrain"].fillna("")
+        # no window was built (``short``): its age is infinite, which JSON cannot hold
+        # (MLflow would write the bare token Infinity): null instead
+        age = out["window_age_s"].astype(object)
+        out["window_age_s"] = age.where(np.isfinite(out["window_age_s"].to_numpy(float)), None)
         return out
 
     def predict(self, context: Any, model_input: pd.DataFrame,

@@ -349,6 +349,33 @@ def long_unseen_run(borealtc_runs, train_runs):
                           - r.streams["imu"]["t_s"].iloc[0]) > 31.0)
 
 
+def test_answer_is_strict_json_null_age_where_no_window_was_built(
+        served_all, long_unseen_run):
+    """A ``short`` decision (no window built: the streams do not overlap in it) has an
+    infinite age in-process; the served answer writes it as null, never the bare token
+    Infinity (not JSON, RFC 8259, which strict parsers refuse)."""
+    from mlflow.pyfunc import scoring_server
+
+    imu, wheels = long_unseen_run.streams["imu"], long_unseen_run.streams["wheels"]
+    t0 = float(imu["t_s"].iloc[0])
+    imu = imu[imu["t_s"] < t0 + 8.0].assign(stream="imu")
+    wheels = wheels[wheels["t_s"] < t0 + 8.0].assign(stream="wheels")
+    wheels["t_s"] += 6.0  # the first windows hold IMU samples only
+    frame = pd.concat([imu, wheels], ignore_index=True)
+    res = scoring_server.invocations(_body(frame), "application/json", served_all, None)
+    assert res.status == 200, res.response
+
+    def refuse(token):
+        raise ValueError(f"non-standard JSON constant {token}")
+
+    got = pd.DataFrame(json.loads(res.response, parse_constant=refuse)["predictions"])
+    short = got["flags"].str.split("|").apply(lambda f: "short" in f)
+    null = got["window_age_s"].isna()
+    assert null.any() and short[null].all() and got.loc[null, "dropped"].all()
+    age = got.loc[~null, "window_age_s"].astype(float)   # a short window may have an age
+    assert len(age) and np.isfinite(age).all() and (age >= 0).all()
+
+
 def test_samples_still_held_when_the_request_ends_are_named_on_every_window(served_all,
                                                                             long_unseen_run):
     """A wheel stream that steps 20 s ahead of the IMU's clock near the end of a request is
