@@ -59,6 +59,8 @@ PARQUET_EXPANSION = 16
 #: ``/docs`` and ``/openapi.json`` pages, and redirect ``/invocations/`` with an empty 307)
 ENDPOINTS = ("/invocations", "/ping", "/health", "/version")
 _TYPED = re.compile(r"^([A-Z][A-Za-z]*Error): ")
+#: line ends of a CSV body: pandas (MLflow's CSV parser) reads CR LF, LF and a lone CR
+_LINE_END = re.compile(rb"\r\n|\r|\n")
 _log = logging.getLogger(__name__)
 
 
@@ -194,9 +196,10 @@ async def _send_json(send: Send, status: int, doc: dict) -> None:
 
 
 def _header_names(body: bytes) -> list[str] | None:
-    """Column names of a CSV body's header line, or None when it cannot be split plainly
-    (quoted names are left to the CSV parser)."""
-    head = body.split(b"\n", 1)[0].rstrip(b"\r")
+    """Column names of a CSV body's header line (ended by CR LF, LF or a lone CR, as pandas
+    reads it), or None when it cannot be split plainly (quoted names are left to the CSV
+    parser)."""
+    head = _LINE_END.split(body, 1)[0]
     if b'"' in head:
         return None
     return [c.strip() for c in head.decode("utf-8", "replace").lstrip("\ufeff").split(",")]
@@ -212,14 +215,14 @@ def _short_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
     it."""
     if body.count(b'"') % 2:
         return None
-    if b'"' in body:
-        reader = csv.reader(io.StringIO(body.decode("utf-8", "replace")))
+    if b'"' in body:  # newline="": the csv module then takes any of the line ends
+        reader = csv.reader(io.StringIO(body.decode("utf-8", "replace"), newline=""))
         next(reader, None)  # the header
         for row in reader:
             if row and len(row) < n_columns:
                 return reader.line_num, len(row)
         return None
-    for number, line in enumerate(body.split(b"\n")[1:], start=2):
+    for number, line in enumerate(_LINE_END.split(body)[1:], start=2):
         if line.strip() and line.count(b",") + 1 < n_columns:
             return number, line.count(b",") + 1
     return None
@@ -291,7 +294,7 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
                          "message": _typed(DataFormatError(what, "request"))}
     if kind == "text/csv":
         header = next(csv.reader(io.StringIO(
-            body.split(b"\n", 1)[0].decode("utf-8", "replace"))), [])
+            _LINE_END.split(body, 1)[0].decode("utf-8", "replace"))), [])
         short = _short_csv_row(body, len(header)) if len(header) > 1 else None
         if short is not None:
             return 400, {"error_code": "BAD_REQUEST", "message": _typed(RaggedRowError(

@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
+import pytest
 
 from terrain.serving.http import PARQUET_EXPANSION, RequestGuard, body_refusal
 
@@ -156,6 +157,27 @@ def test_short_rows_are_refused_with_their_line_instead_of_filled_with_nan():
         "RaggedRowError: data row 1 (0-based) holds 2 values for 3 columns")
     split["dataframe_split"]["data"][1].append(None)
     assert body_refusal("application/json", json.dumps(split).encode(), None, 1000) is None
+
+
+@pytest.mark.parametrize("end", [b"\r", b"\r\n", b"\n"])
+def test_csv_lines_may_end_in_a_lone_cr_as_pandas_reads_them(end):
+    """pandas (MLflow's CSV parser) reads CR-only line ends: such a body was refused with a
+    false "duplicated column name(s)" (the header ran on through the data rows), and its
+    short rows were not seen."""
+    lines = [b"stream,t_s,vel_l,wx", b"wheels,0.0,0.5,", b"wheels,0.0,0.5,", b"imu,0.01,,0.1"]
+    good = end.join(lines) + end
+    assert body_refusal("text/csv", good, None, 1000) is None
+    status, answer = body_refusal("text/csv", good + b"wheels,0.2,0.5" + end, None, 1000)
+    assert status == 400 and answer["message"].startswith(
+        "RaggedRowError: a row of 3 fields under a header of 4"), answer
+    assert answer["message"].endswith("line 5)")
+    quoted = end.join([b'stream,"t_s",vel_l', b'wheels,0.0,"0.5"', b'"imu",0.01']) + end
+    status, answer = body_refusal("text/csv", quoted, None, 1000)
+    assert status == 400 and "a row of 2 fields" in answer["message"] \
+        and "line 3" in answer["message"], answer
+    dup = end.join([b"stream,t_s,t_s", b"wheels,1,2"])
+    status, answer = body_refusal("text/csv", dup, None, 1000)
+    assert status == 400 and "duplicated column name(s) ['t_s']" in answer["message"]
 
 
 def test_a_body_stalled_half_way_is_answered_408_and_frees_its_slot():
