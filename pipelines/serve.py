@@ -2,11 +2,13 @@
 
 --model is a model directory written by ``terrain train --model-out`` (it is wrapped into
 the streaming pyfunc :mod:`terrain.serving.served`, kept in --served-out when given) or an
-already wrapped one. The server is MLflow's own scoring server app (``/ping``,
-``/invocations``), the same one ``mlflow models serve -m SERVED_DIR --env-manager local``
-runs, behind a request guard (:class:`terrain.serving.http.RequestGuard`): a body over
---max-body-bytes is answered 413, a request without Content-Type 415, and every error answer
-carries one line with the project's typed message (``<ErrorClass>: ...``), never a stack
+already wrapped one, which carries its own settings (the options that set them, --hop-s,
+--dwell-s, --min-confidence, --reset-*, --max-decisions, are refused for it). The server is
+MLflow's own scoring server app (``/ping``, ``/invocations``), the same one ``mlflow
+models serve -m SERVED_DIR --env-manager local`` runs, behind a request guard
+(:class:`terrain.serving.http.RequestGuard`): a body over --max-body-bytes is answered 413,
+a request without Content-Type 415, and every error answer carries one line with the
+project's typed message (``<ErrorClass>: ...``), never a stack
 trace or a dump of the request. Requests carry the raw streams as logged (``dataframe_split`` JSON
 or CSV, long format with a ``stream`` column or wide format with ``<stream>_t_s`` columns); the
 answer is one decision per window. Only loopback addresses are served.
@@ -98,6 +100,44 @@ def is_served_model(path: Path) -> bool:
     mlmodel = path / "MLmodel"
     meta = read_mlmodel(mlmodel).get("metadata") if mlmodel.is_file() else None
     return isinstance(meta, dict) and meta.get("kind") == "terrain-stream"
+
+
+#: options that set the wrapped model (:func:`wrap_model`); an already wrapped one carries
+#: its own
+WRAP_OPTIONS = ("hop_s", "dwell_s", "min_confidence", "reset_confidence", "reset_windows",
+                "max_decisions")
+
+
+def check_no_wrap_options(served_dir: Path, args: argparse.Namespace) -> None:
+    """Refuse the wrapping options given to an already wrapped model (they would be ignored).
+
+    Parameters
+    ----------
+    served_dir : Path
+        Directory of a served streaming model (:func:`is_served_model`).
+    args : argparse.Namespace
+        Parsed arguments; an option of :data:`WRAP_OPTIONS` at its default is not refused.
+
+    Raises
+    ------
+    ConfigError
+        Naming the options given, the model's own settings and how to wrap it again.
+    """
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    given = {name: getattr(args, name) for name in WRAP_OPTIONS
+             if getattr(args, name, parser.get_default(name)) != parser.get_default(name)}
+    if not given:
+        return
+    meta = read_mlmodel(served_dir / "MLmodel").get("metadata") or {}
+    options = ", ".join(f"--{name.replace('_', '-')} {value:g}"
+                        for name, value in given.items())
+    own = ", ".join(f"{name} {meta.get(name, 'unset')}" for name in given)
+    source = meta.get("source_model") or "TRAIN_MODEL_DIR"
+    raise ConfigError(f"{options}: {served_dir} is an already wrapped model, which carries its "
+                      f"own settings ({own}); to change them, wrap the `terrain train "
+                      f"--model-out` directory again: terrain serve --model {source} with "
+                      "these options")
 
 
 def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:
@@ -298,8 +338,9 @@ def main(args: argparse.Namespace) -> int:
     ------
     ConfigError
         ``--host`` is not a loopback address, ``--port`` is out of range or in use, a
-        number is out of range, or ``--model`` does not exist or is not a terrain model
-        (its pipeline must be a fitted classifier).
+        number is out of range, ``--model`` does not exist or is not a terrain model
+        (its pipeline must be a fitted classifier), or it is an already wrapped model and
+        an option setting the wrapped model (:data:`WRAP_OPTIONS`) is given.
     """
     import uvicorn
 
@@ -312,6 +353,9 @@ def main(args: argparse.Namespace) -> int:
     _check_args(args)
     if not args.model.exists():
         raise ConfigError(f"model directory {args.model} does not exist")
+    wrapped = is_served_model(args.model)
+    if wrapped:
+        check_no_wrap_options(args.model, args)
     previous = {sig: signal.signal(sig, _stop) for sig in (signal.SIGTERM, signal.SIGINT)}
     sock = None
     try:
@@ -319,7 +363,7 @@ def main(args: argparse.Namespace) -> int:
         port = sock.getsockname()[1]
         with tempfile.TemporaryDirectory(prefix="terrain-serve-") as tmp:
             served = args.model
-            if not is_served_model(args.model):
+            if not wrapped:
                 served = wrap_model(args.model, args.served_out or Path(tmp) / "served", args)
                 print(f"wrapped {args.model} into the streaming model {served}")
             app = build_app(served, args.max_body_bytes,

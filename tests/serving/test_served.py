@@ -555,6 +555,49 @@ def test_serve_refuses_a_port_in_use_before_announcing(model_dirs, capsys):
     assert len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("argv, shown", [
+    (["--hop-s", "0.25"], "--hop-s 0.25"),
+    (["--dwell-s", "0"], "--dwell-s 0"),
+    (["--min-confidence", "0.8"], "--min-confidence 0.8"),
+    (["--reset-confidence", "0.9"], "--reset-confidence 0.9"),
+    (["--reset-confidence", "0.9", "--reset-windows", "3"],
+     "--reset-confidence 0.9, --reset-windows 3"),
+    (["--max-decisions", "10"], "--max-decisions 10"),
+])
+def test_serve_refuses_wrapping_options_for_an_already_wrapped_model(model_dirs, capsys,
+                                                                     argv, shown):
+    """A served (wrapped) model carries its own settings: the options that set them were
+    ignored without a word (--hop-s 0.25 served decisions every 0.5 s). Refused before the
+    port is bound (one in use here, so that the command cannot go on to serve)."""
+    from terrain.cli import main
+    train, served = model_dirs
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert main(["serve", "--model", str(served), "--port", str(port), *argv]) == 2
+    out, err = capsys.readouterr()
+    assert f"{shown}: {served} is an already wrapped model" in err, err
+    assert "carries its own settings" in err and f"--model {train.resolve()}" in err
+    assert len(err.strip().splitlines()) == 1 and "serving" not in out
+
+
+def test_serve_takes_an_already_wrapped_model_with_options_at_their_defaults(model_dirs,
+                                                                             capsys):
+    """Given at their defaults, the options are no change: the server goes on to bind its
+    port (here one in use, so that it stops there)."""
+    from terrain.cli import main
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert main(["serve", "--model", str(model_dirs[1]), "--port", str(port),
+                     "--hop-s", "0.5", "--dwell-s", "10", "--max-decisions",
+                     str(MAX_DECISIONS)]) == 2
+    out, err = capsys.readouterr()
+    assert "in use" in err and "already wrapped" not in err
+
+
 @pytest.mark.parametrize("kind", ["train", "served"])
 def test_serve_refuses_a_model_that_is_not_a_classifier(model_dirs, tmp_path, capsys, kind):
     import joblib
