@@ -84,9 +84,9 @@ def check_store(uri: str) -> None:
 
     MLflow itself retries a SQLite file it cannot open for about 100 s and then raises a
     database error, and retries an unreachable server for minutes. Checked here instead: a
-    ``sqlite:///`` file must open (its folder is created, as MLflow does), an ``http(s)://``
-    server must answer (any HTTP status) within :data:`STORE_CHECK_TIMEOUT_S`. Other
-    schemes are left to MLflow.
+    ``sqlite:///`` file must open and read as a SQLite database (its folder is created, as
+    MLflow does), an ``http(s)://`` server must answer (any HTTP status) within
+    :data:`STORE_CHECK_TIMEOUT_S`. Other schemes are left to MLflow.
 
     Parameters
     ----------
@@ -96,8 +96,9 @@ def check_store(uri: str) -> None:
     Raises
     ------
     ConfigError
-        The SQLite file cannot be created or opened, or the server does not answer; the
-        message names the URI and says how to choose another store.
+        The SQLite file cannot be created or opened or is not a SQLite database, or the
+        server does not answer; the message names the URI and says how to choose another
+        store.
     """
     hint = ("set MLFLOW_TRACKING_URI to a store that can be used, or unset it for "
             "sqlite:///<current folder>/mlflow.db")
@@ -108,7 +109,13 @@ def check_store(uri: str) -> None:
         path = Path(rest[1:])
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            sqlite3.connect(path).close()
+            con = sqlite3.connect(path)
+            try:
+                # connect() opens lazily: a file that is not a database passes it; a read
+                # of the header does not
+                con.execute("PRAGMA schema_version").fetchone()
+            finally:
+                con.close()
         except (OSError, sqlite3.Error) as exc:
             raise ConfigError(f"MLflow tracking store {uri} cannot be opened: {exc}; "
                               f"{hint}") from None

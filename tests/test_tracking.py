@@ -81,6 +81,27 @@ def test_a_store_that_cannot_be_used_is_one_line_at_once(tmp_path, monkeypatch, 
     assert (tmp_path / "new" / "folder" / "mlflow.db").exists()
 
 
+def test_a_file_that_is_not_a_sqlite_database_is_refused_at_once(
+        tmp_path, monkeypatch, capsys):
+    # sqlite3.connect opens lazily, so such a file passed the check; MLflow then raised
+    # SQLAlchemy's DatabaseError, which the CLI called a defect of terrain (exit 1)
+    monkeypatch.chdir(tmp_path)
+    not_a_db = tmp_path / "notadb.db"
+    not_a_db.write_text("not a database\n")
+    uri = f"sqlite:///{not_a_db}"
+    with pytest.raises(ConfigError, match="cannot be opened: file is not a database"):
+        check_store(uri)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+    assert main(["cv", "--dataset", "vulpi", "--seeds", "0", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "terrain cv: error: MLflow tracking store" in err and uri in err
+    assert "internal error" not in err and "Traceback" not in err
+    assert not_a_db.read_text() == "not a database\n"          # left as it was
+    empty = tmp_path / "empty.db"
+    empty.touch()
+    check_store(f"sqlite:///{empty}")                             # an empty file is a database
+
+
 def test_a_server_that_answers_any_status_passes_the_check():
     # a proxy or an MLflow server without /health: answering is enough, MLflow says the rest
     class NotFound(http.server.BaseHTTPRequestHandler):
