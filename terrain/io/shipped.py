@@ -122,7 +122,11 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         Unknown dataset name; a run whose ``meta_XX.json`` names another vehicle than the
         dataset's (:data:`DATASET_VEHICLE`).
     DataFormatError
-        Any reader error in the source files.
+        Any reader error in the source files; an existing ``<data_dir>/manifest.json``
+        that does not parse (its line and column named) or is not a JSON object whose
+        ``datasets``, if present, is an object. The manifest is checked before anything
+        is written, and the Parquet files are written under temporary names and swapped in
+        with the manifest, so a failed conversion leaves ``data_dir`` as it was.
 
     Warns
     -----
@@ -135,7 +139,10 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
     src, out = Path(src), Path(data_dir) / dataset
-    out.mkdir(parents=True, exist_ok=True)
+    manifest_path = Path(data_dir) / "manifest.json"
+    # read before anything is written: new Parquet files beside a manifest that cannot take
+    # their checksums would leave the dataset unreadable
+    manifest = _manifest_to_update(manifest_path)
     frames: dict[str, list[pd.DataFrame]] = {s: [] for s in STREAM_FILES}
     runs_info = []
     left_out: dict[str, int] = {}
@@ -164,7 +171,7 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
             **{key: dict(run.meta[key]) for key in ("skipped_lines", "ignored_columns")
                if run.meta.get(key)},
         })
-    shipped = {}
+    tables: dict[str, pd.DataFrame] = {}
     rates = {}
     for name, parts in frames.items():
         if not parts:  # e.g. a dataset with no IMU recording at all: no file for it
@@ -172,9 +179,7 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         table = pd.concat(parts, ignore_index=True)
         table = table[[RUN_ID] + [c for c in table.columns if c != RUN_ID]]
         table[RUN_ID] = table[RUN_ID].astype("category")
-        path = out / STREAM_FILES[name]
-        table.to_parquet(path, compression="zstd", index=False)
-        shipped[f"{dataset}/{STREAM_FILES[name]}"] = sha256(path)
+        tables[STREAM_FILES[name]] = table
         dt = table.groupby(RUN_ID, observed=True)[TIME].diff().median()
         rates[name] = round(float(1.0 / dt), 3)
     if left_out:
@@ -189,16 +194,64 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
                       f"{native:g} Hz: its windows will be aligned at {native:g} Hz (the "
                       "IMU resampled); convert the runs under the dataset they come from",
                       DataWarning, stacklevel=2)
-    entry = {**DATASET_INFO[dataset], "sampling_rates_hz": rates,
-             "terrains": sorted({r["terrain"] for r in runs_info}),
-             "runs_without_imu": [r["run_id"] for r in runs_info if not r["has_imu"]],
-             "files": shipped, "runs": runs_info}
-    manifest_path = Path(data_dir) / "manifest.json"
-    manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
-    manifest.setdefault("datasets", {})[dataset] = entry
-    manifest["format"] = __doc__.strip().splitlines()[0]
-    manifest_path.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    # every file is written under a temporary name and swapped in, the manifest last, once
+    # all are written: a failure leaves the old files and their checksums
+    pending: dict[Path, Path] = {}    # temporary file -> the file it replaces
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        shipped = {}
+        for file_name, table in tables.items():
+            tmp = out / f".{file_name}.converting"
+            pending[tmp] = out / file_name
+            table.to_parquet(tmp, compression="zstd", index=False)
+            shipped[f"{dataset}/{file_name}"] = sha256(tmp)
+        entry = {**DATASET_INFO[dataset], "sampling_rates_hz": rates,
+                 "terrains": sorted({r["terrain"] for r in runs_info}),
+                 "runs_without_imu": [r["run_id"] for r in runs_info if not r["has_imu"]],
+                 "files": shipped, "runs": runs_info}
+        manifest.setdefault("datasets", {})[dataset] = entry
+        manifest["format"] = __doc__.strip().splitlines()[0]
+        tmp = manifest_path.with_name(f".{manifest_path.name}.converting")
+        pending[tmp] = manifest_path
+        tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+        for tmp, path in pending.items():
+            os.replace(tmp, path)
+    finally:
+        for tmp in pending:               # left only when the conversion failed
+            tmp.unlink(missing_ok=True)
     return entry
+
+
+def _manifest_to_update(path: Path) -> dict:
+    """The manifest :func:`convert_dataset` merges its entry into, checked first.
+
+    Parameters
+    ----------
+    path : Path
+        ``<data_dir>/manifest.json``; need not exist.
+
+    Returns
+    -------
+    dict
+        The parsed manifest (empty when there is none).
+
+    Raises
+    ------
+    DataFormatError
+        It does not parse (line and column named), or is not a JSON object whose
+        ``datasets``, if present, is an object; nothing has been written then.
+    """
+    if not path.exists():
+        return {}
+    hint = "fix it or move it away (nothing was converted)"
+    manifest = _parse_manifest(path, hint)
+    if not isinstance(manifest, dict):
+        raise DataFormatError(f"manifest must be a JSON object with a 'datasets' key, got "
+                              f"{_kind(manifest)}; {hint}", path)
+    if not isinstance(manifest.get("datasets", {}), dict):
+        raise DataFormatError(f"manifest key 'datasets' must be an object of datasets, got "
+                              f"{_kind(manifest['datasets'])}; {hint}", path)
+    return manifest
 
 
 def read_manifest(data_dir: str | Path | None = None) -> dict:
@@ -224,15 +277,19 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
     if not path.exists():
         raise DataFormatError("manifest not found; regenerate data/ with `terrain convert`",
                               path)
+    return _parse_manifest(path, "regenerate data/ with `terrain convert`")
+
+
+def _parse_manifest(path: Path, hint: str):
+    """Parse a manifest file, a failure named with its line and column and ``hint``."""
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:  # where the parser stopped: line and column
         raise DataFormatError(f"unreadable manifest (invalid JSON: {exc.msg}, column "
-                              f"{exc.colno}); regenerate data/ with `terrain convert`", path,
-                              line=exc.lineno) from None
+                              f"{exc.colno}); {hint}", path, line=exc.lineno) from None
     except (ValueError, OSError) as exc:  # UnicodeDecodeError included
-        raise DataFormatError(f"unreadable manifest ({type(exc).__name__}); regenerate data/ "
-                              "with `terrain convert`", path) from None
+        raise DataFormatError(f"unreadable manifest ({type(exc).__name__}); {hint}",
+                              path) from None
 
 
 def _kind(value) -> str:

@@ -342,3 +342,67 @@ def test_convert_keeps_the_count_of_skipped_lines_and_ignored_columns(tmp_path, 
     text = input_report(list(shipped.values())).text()
     assert "ignored 1 column(s)" in text and "wheels.batt" in text
     assert "skipped 2 blank/comment line(s)" in text
+
+
+def _data_dir_state(out):
+    """Name and SHA-256 of every file under a data folder (hidden temporary files included)."""
+    return {str(p.relative_to(out)): sha256(p) for p in sorted(out.rglob("*")) if p.is_file()}
+
+
+def test_convert_refuses_a_manifest_it_cannot_update_before_writing_anything(tmp_path,
+                                                                             csv_tree):
+    # the Parquet files were written first and the manifest read afterwards with a bare
+    # json.loads: a trailing comma was an internal error (JSONDecodeError, exit 1), a list an
+    # AttributeError, and the new files stayed beside the old checksums: dataset unreadable
+    from terrain.cli import main
+    out = tmp_path / "data"
+    convert_dataset(csv_tree, "borealtc", out)
+    manifest = out / "manifest.json"
+    good = manifest.read_text()
+    shutil.rmtree(csv_tree / "SNOW")               # another conversion would change files
+    comma = good.rstrip()[:-1] + ",}\n"            # a hand edit left a trailing comma
+    for text, match, line in (
+            (comma, r"invalid JSON: .*column 2\); fix it", comma.count("\n")),
+            ("[1, 2]\n", "must be a JSON object with a 'datasets' key, got a list", None),
+            ('{"datasets": [1]}\n', "key 'datasets' must be an object of datasets", None)):
+        manifest.write_text(text)
+        before = _data_dir_state(out)
+        with pytest.raises(DataFormatError, match=match) as info:
+            convert_dataset(csv_tree, "borealtc", out)
+        assert info.value.path == str(manifest) and info.value.line == line
+        assert "nothing was converted" in str(info.value)
+        assert _data_dir_state(out) == before
+        assert main(["convert", str(csv_tree), "--dataset", "borealtc", "--data-dir",
+                     str(out)]) == 2
+        assert _data_dir_state(out) == before
+    manifest.write_text(good)                      # the user fixes the comma: data intact
+    assert len(read_shipped("borealtc", out)) == 3 and verify_manifest(out) == []
+
+
+def test_a_conversion_that_fails_while_writing_leaves_the_data_as_it_was(tmp_path, csv_tree,
+                                                                         monkeypatch):
+    import pandas as pd
+    out = tmp_path / "data"
+    convert_dataset(csv_tree, "borealtc", out)
+    before = _data_dir_state(out)
+    shutil.rmtree(csv_tree / "SNOW")
+    written = []
+    to_parquet = pd.DataFrame.to_parquet
+
+    def fail_on_the_second(self, path, *args, **kwargs):
+        written.append(path)
+        if len(written) == 2:
+            raise OSError(28, "No space left on device")
+        return to_parquet(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", fail_on_the_second)
+    with pytest.raises(OSError, match="No space left"):
+        convert_dataset(csv_tree, "borealtc", out)
+    assert len(written) == 2
+    assert _data_dir_state(out) == before           # no new file, no temporary file left
+    monkeypatch.undo()
+    assert len(read_shipped("borealtc", out)) == 3
+    convert_dataset(csv_tree, "borealtc", out)      # and a conversion that succeeds
+    assert [r.run_id for r in read_shipped("borealtc", out)] == [
+        "borealtc/ASPHALT/00", "borealtc/FLOORING/04"]
+    assert not [p for p in out.rglob(".*")]
