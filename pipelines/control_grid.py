@@ -36,6 +36,10 @@ from terrain.terramechanics.catalogue import get_terrain
 
 EXPERIMENT = "terrain-control"
 SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
+#: Default tuning grids: proportional gain, rad/s per unit slip; integral gain, rad/s per
+#: unit slip and s.
+KP_GRID = (2.0, 5.0, 10.0, 20.0)
+KI_GRID = (0.0, 10.0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -59,8 +63,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=[0])
     parser.add_argument("--duration-s", type=float, default=20.0)
     parser.add_argument("--no-tune", action="store_true", help="use the default gains")
-    parser.add_argument("--kp-grid", nargs="+", type=float, default=[2.0, 5.0, 10.0, 20.0])
-    parser.add_argument("--ki-grid", nargs="+", type=float, default=[0.0, 10.0])
+    parser.add_argument("--kp-grid", nargs="+", type=float, default=list(KP_GRID))
+    parser.add_argument("--ki-grid", nargs="+", type=float, default=list(KI_GRID))
     parser.add_argument("--husky-estimator", choices=ESTIMATORS["husky"],
                         default=ESTIMATORS["husky"][0],
                         help="the Husky's slip estimator (default: the fused slip estimate)")
@@ -125,8 +129,11 @@ def check_grid(args: argparse.Namespace) -> None:
         An unknown vehicle or terrain, a duration or seed :class:`terrain.sim.SimConfig`
         refuses, a gain of the grids :class:`terrain.control.traction.TractionControlConfig`
         refuses (negative or not finite), an evaluation seed that is a tuning seed, a
-        value repeated on an axis or in a gain grid, or a terrain-source option the source
-        would ignore (:func:`pipelines.control_classifier.check_decision_options`).
+        value repeated on an axis or in a gain grid, a terrain-source option the source
+        would ignore (:func:`pipelines.control_classifier.check_decision_options`), gain
+        grids other than the default with ``--no-tune``, or a ``--husky-estimator`` other
+        than the default with no husky in ``--vehicles`` (both would be ignored, and logged
+        to MLflow as if used).
     """
     for vehicle in args.vehicles:
         default_gains(vehicle)
@@ -150,6 +157,17 @@ def check_grid(args: argparse.Namespace) -> None:
         repeated = duplicated(values)
         if repeated:
             raise ConfigError(f"{option}: {repeated} given more than once (each gain once)")
+    grids = [option for option, values, default in (("--kp-grid", args.kp_grid, KP_GRID),
+                                                    ("--ki-grid", args.ki_grid, KI_GRID))
+             if tuple(values) != default]
+    if args.no_tune and grids:
+        raise ConfigError(f"{' and '.join(grids)} {'are' if len(grids) > 1 else 'is a'} "
+                          f"tuning grid{'s' if len(grids) > 1 else ''}; --no-tune uses the "
+                          f"default gains: leave {'them' if len(grids) > 1 else 'it'} or "
+                          "--no-tune out")
+    if "husky" not in args.vehicles and args.husky_estimator != ESTIMATORS["husky"][0]:
+        raise ConfigError(f"--husky-estimator is the Husky's slip estimator; --vehicles "
+                          f"{' '.join(args.vehicles)} has no husky: leave it out")
 
 
 def main(args: argparse.Namespace) -> int:

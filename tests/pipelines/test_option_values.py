@@ -116,6 +116,25 @@ def test_a_terrain_source_option_the_source_ignores_is_refused(argv, message, ca
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("argv, message", [
+    (["control-grid", "--out", "g", "--no-tune", "--kp-grid", "2", "--ki-grid", "7"],
+     "--kp-grid and --ki-grid are tuning grids; --no-tune uses the default gains"),
+    (["control-grid", "--out", "g", "--ki-grid", "3", "--no-tune"],
+     "--ki-grid is a tuning grid; --no-tune uses the default gains: leave it or --no-tune"),
+    (["control-grid", "--out", "g", "--vehicles", "agrimaro", "--husky-estimator",
+      "observer"], "--husky-estimator is the Husky's slip estimator; --vehicles agrimaro has "
+                   "no husky: leave it out"),
+])
+def test_a_control_grid_option_the_grid_ignores_is_refused(argv, message, capsys, tmp_path,
+                                                           monkeypatch):
+    # the grid ran, ignored them and logged them to MLflow as parameters of the run
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())
+
+
 def test_slip_fit_refuses_an_unknown_measured_dataset_before_simulating(capsys, tmp_path):
     # it simulated and fitted for minutes and then failed on the dataset name
     with pytest.raises(SystemExit) as exc:
