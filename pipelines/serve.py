@@ -3,7 +3,8 @@
 --model is a model directory written by ``terrain train --model-out`` (it is wrapped into
 the streaming pyfunc :mod:`terrain.serving.served`, kept in --served-out when given) or an
 already wrapped one, which carries its own settings (the options that set them, --hop-s,
---dwell-s, --min-confidence, --reset-*, --max-decisions, are refused for it). The server is
+--dwell-s, --min-confidence, --reset-*, --max-decisions, and --served-out, are refused for
+it). The server is
 MLflow's own scoring server app (``/ping``, ``/invocations``), the same one ``mlflow
 models serve -m SERVED_DIR --env-manager local`` runs, behind a request guard
 (:class:`terrain.serving.http.RequestGuard`): a body over --max-body-bytes is answered 413,
@@ -116,7 +117,8 @@ def check_no_wrap_options(served_dir: Path, args: argparse.Namespace) -> None:
     served_dir : Path
         Directory of a served streaming model (:func:`is_served_model`).
     args : argparse.Namespace
-        Parsed arguments; an option of :data:`WRAP_OPTIONS` at its default is not refused.
+        Parsed arguments; an option of :data:`WRAP_OPTIONS` at its default is not refused;
+        ``--served-out`` (where a wrapped copy would be kept) is refused whenever given.
 
     Raises
     ------
@@ -127,17 +129,19 @@ def check_no_wrap_options(served_dir: Path, args: argparse.Namespace) -> None:
     add_arguments(parser)
     given = {name: getattr(args, name) for name in WRAP_OPTIONS
              if getattr(args, name, parser.get_default(name)) != parser.get_default(name)}
-    if not given:
+    served_out = getattr(args, "served_out", None)
+    if not given and served_out is None:
         return
     meta = read_mlmodel(served_dir / "MLmodel").get("metadata") or {}
-    options = ", ".join(f"--{name.replace('_', '-')} {value:g}"
-                        for name, value in given.items())
-    own = ", ".join(f"{name} {meta.get(name, 'unset')}" for name in given)
+    options = ", ".join([f"--{name.replace('_', '-')} {value:g}"
+                         for name, value in given.items()]
+                        + ([f"--served-out {served_out}"] if served_out is not None else []))
+    own = ", ".join(f"{name} {meta.get(name, 'unset')}" for name in (given or WRAP_OPTIONS))
     source = meta.get("source_model") or "TRAIN_MODEL_DIR"
     raise ConfigError(f"{options}: {served_dir} is an already wrapped model, which carries its "
-                      f"own settings ({own}); to change them, wrap the `terrain train "
-                      f"--model-out` directory again: terrain serve --model {source} with "
-                      "these options")
+                      f"own settings ({own}) and is served as it is; to change them or keep "
+                      f"a wrapped copy, wrap the `terrain train --model-out` directory again: "
+                      f"terrain serve --model {source} with these options")
 
 
 def wrap_model(model_dir: Path, out: Path, args: argparse.Namespace) -> Path:

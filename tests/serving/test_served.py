@@ -563,14 +563,18 @@ def test_serve_refuses_a_port_in_use_before_announcing(model_dirs, capsys):
     (["--reset-confidence", "0.9", "--reset-windows", "3"],
      "--reset-confidence 0.9, --reset-windows 3"),
     (["--max-decisions", "10"], "--max-decisions 10"),
+    (["--served-out", "SERVED_COPY"], "--served-out SERVED_COPY"),
 ])
 def test_serve_refuses_wrapping_options_for_an_already_wrapped_model(model_dirs, capsys,
-                                                                     argv, shown):
+                                                                     tmp_path, argv, shown):
     """A served (wrapped) model carries its own settings: the options that set them were
     ignored without a word (--hop-s 0.25 served decisions every 0.5 s). Refused before the
     port is bound (one in use here, so that the command cannot go on to serve)."""
     from terrain.cli import main
     train, served = model_dirs
+    copy = tmp_path / "copy"
+    argv = [str(copy) if a == "SERVED_COPY" else a for a in argv]
+    shown = shown.replace("SERVED_COPY", str(copy))
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
@@ -578,6 +582,7 @@ def test_serve_refuses_wrapping_options_for_an_already_wrapped_model(model_dirs,
         assert main(["serve", "--model", str(served), "--port", str(port), *argv]) == 2
     out, err = capsys.readouterr()
     assert f"{shown}: {served} is an already wrapped model" in err, err
+    assert not copy.exists()  # nothing wrapped, nothing written
     assert "carries its own settings" in err and f"--model {train.resolve()}" in err
     assert len(err.strip().splitlines()) == 1 and "serving" not in out
 
