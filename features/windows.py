@@ -217,6 +217,11 @@ class WindowConfig:
         """Samples between window starts."""
         return max(1, int(round((self.hop_s or self.window_s) * self.rate_hz)))
 
+    @property
+    def partition_samples(self) -> int | None:
+        """Samples per partition (None without ``partition_s``)."""
+        return None if self.partition_s is None else int(round(self.partition_s * self.rate_hz))
+
 
 @dataclass
 class WindowSet:
@@ -345,7 +350,7 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     if config.partition_s is None:
         bounds = [(0, total)]
     else:
-        p = int(round(config.partition_s * config.rate_hz))
+        p = config.partition_samples
         bounds = [(s, s + p) for s in range(0, total - p + 1, p)]
         tail = total - p * len(bounds)
     starts, parts = [], []
@@ -443,8 +448,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         if len(frame) < config.n_samples:
             counts["too_short_runs"].append(run.run_id)
             counts["reasons"][run.run_id] = f"shorter than one {config.window_s:g} s window"
-        elif (config.partition_s is not None
-              and len(frame) < int(round(config.partition_s * config.rate_hz))):
+        elif config.partition_s is not None and len(frame) < config.partition_samples:
             counts["too_short_runs"].append(run.run_id)
             counts["reasons"][run.run_id] = (f"shorter than one {config.partition_s:g} s "
                                              "partition")
