@@ -245,12 +245,7 @@ def _manifest_to_update(path: Path) -> dict:
         return {}
     hint = "fix it or move it away (nothing was converted)"
     manifest = _parse_manifest(path, hint)
-    if not isinstance(manifest, dict):
-        raise DataFormatError(f"manifest must be a JSON object with a 'datasets' key, got "
-                              f"{_kind(manifest)}; {hint}", path)
-    if not isinstance(manifest.get("datasets", {}), dict):
-        raise DataFormatError(f"manifest key 'datasets' must be an object of datasets, got "
-                              f"{_kind(manifest['datasets'])}; {hint}", path)
+    _check_manifest_object(manifest, path, f"; {hint}")
     return manifest
 
 
@@ -292,6 +287,18 @@ def _parse_manifest(path: Path, hint: str):
                               path) from None
 
 
+def _check_manifest_object(manifest, path: str | Path, suffix: str = "") -> None:
+    """Refuse a parsed manifest that is not a JSON object, or whose ``datasets``, where
+    present, is not an object (DataFormatError naming ``path``; ``suffix`` ends the
+    message)."""
+    if not isinstance(manifest, dict):
+        raise DataFormatError(f"manifest must be a JSON object with a 'datasets' key, got "
+                              f"{_kind(manifest)}{suffix}", path)
+    if not isinstance(manifest.get("datasets", {}), dict):
+        raise DataFormatError(f"manifest key 'datasets' must be an object of datasets, got "
+                              f"{_kind(manifest['datasets'])}{suffix}", path)
+
+
 def _kind(value) -> str:
     """JSON name of a parsed value's type, for messages."""
     return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
@@ -325,16 +332,11 @@ def manifest_terrains(manifest, path: str | Path) -> list[str]:
         A structure other than the one above; names the file and the offending key (e.g.
         ``datasets.vulpi.terrains[2]``).
     """
-    if not isinstance(manifest, dict):
-        raise DataFormatError(f"manifest must be a JSON object with a 'datasets' key, got "
-                              f"{_kind(manifest)}", path)
-    datasets = manifest.get("datasets")
+    _check_manifest_object(manifest, path)
     if "datasets" not in manifest:
         raise DataFormatError(f"manifest key 'datasets' is missing (found keys: "
                               f"{', '.join(map(str, list(manifest)[:8])) or 'none'})", path)
-    if not isinstance(datasets, dict):
-        raise DataFormatError(f"manifest key 'datasets' must be an object of datasets, got "
-                              f"{_kind(datasets)}", path)
+    datasets = manifest["datasets"]
     if not datasets:
         raise DataFormatError("manifest key 'datasets' lists no dataset", path)
     measured: list[str] = []
