@@ -51,7 +51,8 @@ import numpy as np
 from terrain.errors import ConfigError
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
-from terrain.terramechanics.resistance import G_M_S2, lateral_force_and_slope
+from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
+                                               lateral_force_and_slope)
 from terrain.terramechanics.slip import sae_slip_and_velocity_slope
 from terrain.terramechanics.traction import BurckhardtCurve, traction_peak
 from terrain.vehicles.common import ContactGeometry
@@ -68,8 +69,6 @@ SLIDE_SPEED_M_S = 0.02
 SLIP_SPEED_FLOOR_M_S = 0.02
 #: Regularisation speed of the sign of the soil resistance, m/s.
 SOIL_SPEED_M_S = 0.01
-#: Regularisation speed of the sign of the torque-only rolling loss, m/s.
-HYSTERESIS_SPEED_M_S = 0.05
 #: Physics versions of the simulator: ``v1`` static loads and Coulomb lateral friction on
 #: every terrain; ``v2`` load transfer, the lateral wheel-soil model on soils and the tyre's
 #: combined-slip law on rigid surfaces.

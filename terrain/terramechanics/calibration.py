@@ -16,7 +16,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from terrain.errors import ConfigError
-from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
+from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
+                                               soil_resistance_coefficient)
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
 
 
@@ -102,10 +103,11 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     s = steady_slip(terrain)
     mu = float(traction_coefficient(terrain.curve, s))
     rim = speed_m_s / (1.0 - s) if s < 1.0 else math.inf
-    direction = np.tanh(rim / h.wheel_radius_m / 0.05)
-    torque = (current_a - m.no_load_current_a * direction) * (
-        m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency)
-    return max(0.0, (torque / (h.wheel_radius_m * side_load) - mu) / np.tanh(rim / 0.05))
+    # the motor law is affine in the torque: the current above its no-load part buys torque
+    no_load = float(m.current_from_torque(0.0, rim / h.wheel_radius_m))
+    torque = (current_a - no_load) * (m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency)
+    return max(0.0, (torque / (h.wheel_radius_m * side_load) - mu)
+               / np.tanh(rim / HYSTERESIS_SPEED_M_S))
 
 
 def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: float,

@@ -16,6 +16,11 @@ import numpy as np
 from terrain.terramechanics.traction import traction_peak
 
 G_M_S2 = 9.80665
+#: Regularisation speed of the sign of the torque-only rolling loss (hysteresis), m/s: the
+#: loss torque is ``r N h tanh(omega r / HYSTERESIS_SPEED_M_S)``
+#: (:func:`terrain.sim.forces.contact_torque_nm`, inverted by
+#: :func:`terrain.terramechanics.calibration.husky_hysteresis_for_current`).
+HYSTERESIS_SPEED_M_S = 0.05
 
 
 def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray:
