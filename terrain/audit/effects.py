@@ -58,7 +58,8 @@ Fitting rules (all closed form, no optimiser):
   calibrated to the mean of both sides (``MEASURED_HUSKY_STRAIGHT``), so on the measured runs
   the two offsets come out of opposite sign.
 * ``k_a``, ``k_a_per_rad``: least squares of the mean-of-sides current residual over moving
-  samples (the turning term acts on turning samples only), alternated with the offsets.
+  samples (the turning term acts on turning samples only), alternated with the offsets until
+  they converge; without the offsets, with a nuisance level column (:func:`fit_current`).
 
 Scoring scopes (:attr:`EffectSpec.scope`): each effect's held-out gain is measured where it acts:
 ``icr_expansion``, ``immobilised`` and ``turning_resistance`` on turning samples,
@@ -228,6 +229,9 @@ class EffectSettings:
         ``grade_resistance`` is identifiable only when the std of ``|pitch|`` exceeds this, rad.
     robust_iterations : int
         Iterations of the mobile/immobile classification.
+    max_alternations : int
+        Most alternations of the current fit's offset and coefficient steps
+        (:func:`fit_current`); they stop earlier once the coefficients no longer change.
     min_turn_samples, min_straight_samples, min_quiet_samples : int
         Fewer samples than these make the effect not identifiable.
     threshold_quantiles : tuple of float
@@ -249,6 +253,7 @@ class EffectSettings:
     immobile_smooth_s: float = 1.0
     min_pitch_spread_rad: float = 0.01
     robust_iterations: int = 6
+    max_alternations: int = 500
     min_turn_samples: int = 20
     min_straight_samples: int = 20
     min_quiet_samples: int = 10
@@ -656,9 +661,14 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     The model adds, on moving samples, ``offset_left_a`` / ``offset_right_a`` to each side
     (``current_offset``), ``k_a g(|x|)`` to both sides on turning samples
     (``turning_resistance``) and ``k_a_per_rad |pitch|`` to both sides
-    (``grade_resistance``). Offsets are the mean residuals of straight driving; the turning
+    (``grade_resistance``). Offsets are the median residuals of straight driving; the turning
     and grade coefficients are least squares over moving samples; the two steps alternate
-    three times.
+    until the coefficients stop changing (relative 1e-9, at most
+    ``settings.max_alternations``; a grade column, nonzero on straight samples too, couples
+    them). Without ``current_offset``, the grade coefficient's least squares carries a
+    constant column for the level of the moving currents, not part of the model: ``|pitch|``
+    is never negative, so on level ground a least squares through the origin would report
+    ``mean residual / mean |pitch|`` as a grade.
 
     Parameters
     ----------
@@ -708,14 +718,22 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
         design = np.column_stack(cols) if cols else np.zeros((len(d.x), 0))
         coef = np.zeros(design.shape[1])
         off = np.zeros(2)
-        for _ in range(3 if (offset_on and cols) else 1):
+        # without the offsets, a level of the moving currents is a nuisance column of the
+        # least squares (not part of the model): |pitch| >= 0 would otherwise absorb it
+        level = grade_on and not offset_on
+        ls_design = np.column_stack([design, np.ones(len(d.x))]) if level else design
+        for _ in range(settings.max_alternations if (offset_on and cols) else 1):
             common = design @ coef
             if offset_on:
                 st = d.straight
                 off = np.median(d.res[st] - common[st, None], axis=0)
             if cols:
                 target = (d.res - off[None, :] * mv[:, None]).mean(axis=1)
-                coef = np.linalg.lstsq(design[mv], target[mv], rcond=None)[0]
+                new = np.linalg.lstsq(ls_design[mv], target[mv], rcond=None)[0][:len(coef)]
+                converged = np.all(np.abs(new - coef) <= 1e-9 * (1.0 + np.abs(new)))
+                coef = new
+                if converged:
+                    break
         fitted = (design @ coef)[:, None] + off[None, :] * mv[:, None]
         sse = float(np.sum((d.res[mv] - fitted[mv]) ** 2))
         if best is None or sse < best[0]:

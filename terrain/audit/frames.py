@@ -21,7 +21,10 @@ Manoeuvre of each sample, from the measured wheel speeds (``x = (v_R - v_L) / B`
 Pitch (for ``grade_resistance``) is estimated from the accelerometer:
 ``pitch = asin((ax - ax_pred) / g)`` with both low-passed at ``pitch_cutoff_hz`` (seed
 ``003`` eq. 10 writes grade resistance with the pitch angle; a level IMU reads
-``g sin(pitch)`` on x when the vehicle is pitched nose-up).
+``g sin(pitch)`` on x when the vehicle is pitched nose-up). Both low-passes mirror the series
+at its ends, and the replay's ``ax_pred`` is low-passed within the scored span only (``edge_s``
+from either end, held outside): the replay starts from rest, and its first samples (up to
+7 m/s^2 on shipped runs) would otherwise lean on the slow trend for several seconds.
 """
 
 from __future__ import annotations
@@ -198,6 +201,30 @@ def _quiet(t: np.ndarray, x: np.ndarray, settings: FrameSettings) -> np.ndarray:
     return quiet
 
 
+def _slow_within_edges(t: np.ndarray, values: np.ndarray, settings: FrameSettings
+                       ) -> np.ndarray:
+    """Low-pass at ``pitch_cutoff_hz`` of the samples at least ``edge_s`` from either end,
+    held at the filtered end values outside (the whole series when that span is empty).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Sample times, s.
+    values : ndarray, shape (n,)
+    settings : FrameSettings
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    rate = 1.0 / max(float(np.median(np.diff(t))), 1e-3)
+    inner = (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
+    if inner.sum() < 2:
+        inner = np.ones(len(t), dtype=bool)
+    slow = lowpass(values[inner], rate, settings.pitch_cutoff_hz, padtype="even")
+    return np.interp(t, t[inner], slow)
+
+
 def _in_gaps(t: np.ndarray, gaps) -> np.ndarray:
     bad = np.zeros(len(t), dtype=bool)
     for g in gaps or []:
@@ -243,9 +270,8 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         t_imu = t - lag.at(t)
         wz, ax, ay = (np.interp(t_imu, ti, chans[:, j]) for j in range(3))
         ax_slow = np.interp(t_imu, ti, lowpass(imu["ax"].to_numpy(dtype=float), rate,
-                                               settings.pitch_cutoff_hz))
-        sim_ax_slow = lowpass(replay.ax, 1.0 / max(float(np.median(np.diff(t))), 1e-3),
-                              settings.pitch_cutoff_hz)
+                                               settings.pitch_cutoff_hz, padtype="even"))
+        sim_ax_slow = _slow_within_edges(t, replay.ax, settings)
         pitch = np.arcsin(np.clip((ax_slow - sim_ax_slow) / G_M_S2, -1.0, 1.0))
         score_imu = (score & (t_imu >= ti[0] + settings.edge_s)
                      & (t_imu <= ti[-1] - settings.edge_s)

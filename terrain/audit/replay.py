@@ -178,7 +178,8 @@ def lowpass_cutoff_hz(rate_hz: float, cutoff_hz: float) -> float:
     return min(float(cutoff_hz), MAX_CUTOFF_FRACTION * float(rate_hz))
 
 
-def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
+def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float, padtype: str = "odd"
+            ) -> np.ndarray:
     """Zero-phase 4th-order Butterworth low-pass along axis 0.
 
     Parameters
@@ -188,6 +189,10 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
         Sampling rate of ``values``, Hz.
     cutoff_hz : float
         Cut-off, Hz; clipped to :data:`MAX_CUTOFF_FRACTION` of ``rate_hz``.
+    padtype : {"odd", "even"}
+        Extension of the series at its ends (``scipy.signal.sosfiltfilt``): ``odd`` keeps
+        the end values (and a trend) exactly, ``even`` mirrors the series, so a noisy end
+        sample weighs no more than any other (for a slow trend of a noisy signal).
 
     Returns
     -------
@@ -199,7 +204,7 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float) -> np.ndarray:
     sos = signal.butter(4, fc, fs=float(rate_hz), output="sos")
     if values.shape[0] <= 3 * (2 * len(sos) + 1):
         return values
-    return signal.sosfiltfilt(sos, values, axis=0)
+    return signal.sosfiltfilt(sos, values, axis=0, padtype=padtype)
 
 
 #: rms wheel acceleration while cruising above which a wheel-speed record is called jittery,

@@ -116,14 +116,6 @@ def test_planted_immobilised_on_real_runs(audit_tmp, shipped_borealtc, real_base
     assert delta == pytest.approx(expected, abs=0.1)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "missed since the integrator charges the motors for the traction the body received "
-    "(2026-11-25): the alone fit k |pitch| has no intercept, so on level ASPHALT it takes the "
-    "runs' mean current residual through |pitch| > 0; the replay's spurious transient "
-    "currents made that residual negative (base k -1.55 A/rad, planted 7.76: change 9.3), "
-    "with the consistent torque it is positive (base 1.95, planted 8.54: change 6.6 of 10). "
-    "The joint fit with current_offset does not find the plant either (change 0.2): its "
-    "three alternations do not converge on the near-collinear offset and |pitch| columns"))
 def test_planted_grade_resistance_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
         phase = rng.uniform(0, 2 * np.pi)
@@ -137,6 +129,9 @@ def test_planted_grade_resistance_on_real_runs(audit_tmp, shipped_borealtc, real
     result = _write(audit_tmp, shipped_borealtc, "real_grade", modify)
     delta = (_param(result, "grade_resistance", "k_a_per_rad")
              - _param(real_base, "grade_resistance", "k_a_per_rad"))
+    # 8.0 since the pitch estimate ignores the replay's start-up transient and the fit
+    # carries a level column (both needed: -1.4 without the first): below 10 by the
+    # pitch estimate's own error (errors in variables), within the tolerance
     assert delta == pytest.approx(10.0, abs=3.0)
 
 
