@@ -15,8 +15,10 @@ described in :mod:`terrain.serving.request`).
 Answer: one row per window, ``t_s, terrain, confidence, proba_<CLASS>...,
 target_slip_traction, target_slip_braking, target_slip_steady, window_age_s, flags,
 dropped``; ``dropped`` is true for a window that was not classified, and its reason is in
-``flags`` (``gap``, ``short``, ``stale``...); ``window_age_s`` is null where no window was
-built (``short``; the in-process service says inf, which JSON cannot hold). The readers'
+``flags`` (one of :data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: ``gap``, ``short``,
+or a unit rule the service applies per window, ``accel_units``, ``wheel_speed_units``);
+``window_age_s`` is null where no window was built (``short``; the in-process service says
+inf, which JSON cannot hold). The readers'
 run-level plausibility rules (:func:`terrain.io.plausibility.check_run`) apply to the
 request: a certain finding (wheel speeds in km/h, gyro in deg/s, clocks that do not overlap)
 refuses it, a stuck channel flags the windows holding it (``stuck:<stream>.<channel>``, as
@@ -62,7 +64,7 @@ from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline
 from terrain.serving.replay import replay_run
 from terrain.serving.request import (DEFAULT_VEHICLE, parse_request, planned_decisions,
                                      time_span_s)
-from terrain.serving.service import StreamService
+from terrain.serving.service import UNCLASSIFIED_FLAGS, StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 
@@ -73,8 +75,6 @@ try:  # mlflow is a hard dependency; the guard keeps the module importable for d
 except ImportError:  # pragma: no cover
     PythonModel, MlflowException, BAD_REQUEST, INTERNAL_ERROR = object, Exception, 400, 500
 
-#: flags of a window that was not classified
-DROP_FLAGS = ("gap", "short")
 #: default limit of the decisions one request may make (its time span / hop_s): 2000 at
 #: the 0.5 s hop is 1000 s of stream, and keeps one request's work near 1 s (about 0.2 ms
 #: per decision inside a timestamp gap, 0.6 ms on dense samples, measured with
@@ -321,7 +321,7 @@ class ServedStreamModel(PythonModel):
         out = decisions_frame(decisions, self.model.classes)
         out["flags"] = _plausibility_flags(out, window_s, run.meta, held)
         # (a list, not the .str accessor: an answer without decisions has no text dtype)
-        out["dropped"] = [any(x in DROP_FLAGS for x in f.split("|")) for f in out["flags"]]
+        out["dropped"] = [not UNCLASSIFIED_FLAGS.isdisjoint(f.split("|")) for f in out["flags"]]
         out["terrain"] = out["terrain"].fillna("")
         # no window was built (``short``): its age is infinite, which JSON cannot hold
         # (MLflow would write the bare token Infinity): null instead

@@ -376,6 +376,32 @@ def test_answer_is_strict_json_null_age_where_no_window_was_built(
     assert len(age) and np.isfinite(age).all() and (age >= 0).all()
 
 
+def test_windows_a_unit_rule_kept_from_the_classifier_are_dropped(served_all,
+                                                                  long_unseen_run):
+    """The service does not classify a window whose accelerometer reads in g
+    (``accel_units``; the last 8 s of 30 here, so the request as a whole passes the
+    readers' rule); the answer called such windows not dropped (only ``gap`` and ``short``
+    counted), against its own definition of ``dropped``."""
+    from mlflow.pyfunc import scoring_server
+
+    imu, wheels = long_unseen_run.streams["imu"], long_unseen_run.streams["wheels"]
+    t0 = float(imu["t_s"].iloc[0])
+    imu = imu[imu["t_s"] < t0 + 30.0].assign(stream="imu")
+    late = imu["t_s"] >= t0 + 22.0
+    for c in ("ax", "ay", "az"):
+        imu.loc[late, c] = imu.loc[late, c] / 9.80665
+    wheels = wheels[wheels["t_s"] < t0 + 30.0].assign(stream="wheels")
+    frame = pd.concat([imu, wheels], ignore_index=True)
+    res = scoring_server.invocations(_body(frame), "application/json", served_all, None)
+    assert res.status == 200, res.response
+    got = pd.DataFrame(json.loads(res.response)["predictions"])
+    units = got["flags"].str.split("|").apply(lambda f: "accel_units" in f)
+    assert units.sum() >= 10
+    assert got.loc[units, "dropped"].all()
+    plain = got["flags"] == ""
+    assert plain.sum() >= 10 and not got.loc[plain, "dropped"].any()
+
+
 def test_samples_still_held_when_the_request_ends_are_named_on_every_window(served_all,
                                                                             long_unseen_run):
     """A wheel stream that steps 20 s ahead of the IMU's clock near the end of a request is
