@@ -138,7 +138,8 @@ class PhysicsResult:
     omega_cmd : ndarray, shape (n, m)
         Commanded wheel speeds, rad/s.
     slip_motor : ndarray, shape (n, m)
-        Mean SAE slip of the contacts of each motor (dimensionless).
+        Mean SAE slip of the contacts of each motor, ``(omega r - v) / max(|omega r|, |v|,
+        SLIP_SPEED_FLOOR_M_S)`` (dimensionless).
     delta : ndarray, shape (n, m)
         Steering angles (zeros for skid-steer), rad.
     torque : ndarray, shape (n, m)

@@ -11,7 +11,10 @@ Streams (file columns in brackets where the file names them differently):
            r = wheel 2 (d_2 = [0.5075, 0]); all three wheels are in ``omega`` and ``cur``.
 ``truth``  ``t_s, x, y, yaw, v_bx, v_by, yaw_rate, slip_1.., omega_1.., pitch, roll, terrain``
            slip_i per motor (husky/tracked: 1 = left, 2 = right), SAE sign convention
-           ``(omega r - v) / max(|omega r|, |v|)``; pitch nose-up positive; terrain label.
+           ``(omega r - v) / max(|omega r|, |v|, 0.02 m/s)`` (the floor,
+           :data:`terrain.sim.forces.SLIP_SPEED_FLOOR_M_S`, keeps it linear near standstill:
+           a 0.01 m/s speed difference at rest is slip 0.5, not 1); pitch nose-up positive;
+           terrain label.
 ``steer``  ``t_s, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro)
 ``cam``    ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
            point in robot axes (x forward, y left; before the eq. 5.4 lever-arm correction),
