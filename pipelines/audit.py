@@ -27,6 +27,7 @@ from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, Replay
                                   cruise_wheel_acceleration_rms, lowpass_cutoff_hz)
 from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
+from terrain.audit.selection import json_ready
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
@@ -161,6 +162,29 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def report_json(report: Mapping) -> str:
+    """The JSON text of a report; strict JSON, so a non-finite number fails here.
+
+    Parameters
+    ----------
+    report : mapping
+        The report (:func:`terrain.audit.to_dict` and the pipeline's additions, every one
+        made JSON-ready: non-finite floats as ``None``).
+
+    Returns
+    -------
+    str
+        Indented JSON ending with a newline.
+
+    Raises
+    ------
+    ValueError
+        A NaN or infinite float left in ``report`` (``NaN`` is not JSON: ``JSON.parse``
+        and other strict readers reject the whole file).
+    """
+    return json.dumps(report, indent=1, allow_nan=False) + "\n"
+
+
 def _run_with_progress(runs, settings, progress: bool):
     """``run_audit`` with a progress bar over the replay of the runs (the slow step)."""
     if not progress:
@@ -231,7 +255,7 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
         comparison = gain_table(per_run, cmp_settings)
         report["physics_comparison"] = {
             "reference": cmp_settings.reference, "candidate": cmp_settings.candidate,
-            "records": comparison.to_dict(orient="records")}
+            "records": [json_ready(r) for r in comparison.to_dict(orient="records")]}
     if tracked is not None:
         report["mlflow_run_id"] = tracked.run_id
     figures = make_figures(result)
@@ -240,7 +264,7 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
         commands.append(f"# the same runs in the CSV layout give identical results: "
                         f"terrain audit <folder>/{args.dataset} --json ...")
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(report, indent=1) + "\n")
+    args.json.write_text(report_json(report))
     if args.md:
         write_markdown(args.md, report, figures, commands, title)
         if comparison is not None:

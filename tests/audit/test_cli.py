@@ -130,3 +130,37 @@ def test_cli_names_a_run_too_short_to_score(tmp_path, capsys):
                      "--no-mlflow", "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "no run could be audited" in err and "ICE/00: no sample to score: 2.9 s long" in err
+
+
+def _strict_json(text: str):
+    """``text`` parsed as strict JSON (``json.loads`` accepts NaN and Infinity by default;
+    JavaScript's JSON.parse and most other readers do not)."""
+    def refuse(name):
+        raise ValueError(f"{name} is not JSON")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_cli_physics_comparison_of_a_one_run_terrain_is_strict_json(tmp_path):
+    # one run: its gain has no run-bootstrap interval (gain_lo/gain_hi NaN in the table);
+    # the records skipped json_ready and went out as bare NaN (before: 96 NaN in this file,
+    # gain_lo and gain_hi of all 48 records; json.loads read them, JSON.parse does not)
+    write_signal_files(tmp_path, "ASPHALT", 0, *simulated_streams(seeds=(65,),
+                                                                  duration_s=40.0)[0])
+    out = tmp_path / "out"
+    assert cli_main(["audit", str(tmp_path), "--json", str(out / "a.json"), "--bootstrap",
+                     "50", "--param-bootstrap", "0", "--compare-physics", "--no-pooled",
+                     "--no-mlflow", "--no-progress"]) == 0
+    report = _strict_json((out / "a.json").read_text())
+    records = report["physics_comparison"]["records"]
+    assert records and all(r["n_runs"] == 1 for r in records)
+    assert all(r["gain_lo"] is None and r["gain_hi"] is None for r in records)
+    assert all(isinstance(r["gain"], float) for r in records)
+
+
+def test_report_json_refuses_non_finite_numbers():
+    from pipelines.audit import report_json
+
+    assert _strict_json(report_json({"gain": 0.5, "lo": None})) == {"gain": 0.5, "lo": None}
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ValueError):
+            report_json({"records": [{"gain_lo": bad}]})
