@@ -18,9 +18,11 @@ runs pooled):
    errors; the effect is supported when the lower end of the 95 % percentile interval is
    above 0 *and* the gain is at least ``min_gain`` *and* its fitted size is not negligible
    (:func:`negligible`) *and* it does not contradict its physics (:func:`unphysical`).
-   The best supported candidate joins the model and step 3 repeats; when the best candidate
-   is not supported, selection stops and every remaining candidate is reported with its
-   increment over the final model and ``supported = false``.
+   The supported candidate with the largest gain joins the model and step 3 repeats (a
+   larger gain that misses the rule, e.g. a noisy one whose interval reaches 0, does not
+   stop a supported one from joining); when no candidate is supported, selection stops and
+   every remaining candidate is reported with its increment over the final model and
+   ``supported = false``.
 5. Parameters are fitted on all units with the final model (an unsupported effect: final
    model plus that effect); their 95 % intervals come from refitting on units resampled with
    replacement (``n_param_bootstrap`` times; the functional form is kept fixed).
@@ -615,7 +617,7 @@ def is_supported(trial: Trial, settings: SelectionSettings) -> bool:
     Parameters
     ----------
     trial : Trial
-        The best admissible candidate of a round.
+        A candidate of a round.
     settings : SelectionSettings
         ``min_gain``.
 
@@ -633,10 +635,10 @@ def forward_selection(units: Units, group: str, settings: SelectionSettings,
                       rng: np.random.Generator) -> SelectionPath:
     """Forward selection of the effects of one group (module docstring, steps 2-4).
 
-    Each round scores every remaining candidate (:func:`score_candidate`); the admissible
-    one with the largest gain joins the model when it is supported (:func:`is_supported`),
-    otherwise the selection ends. Every round accepts one effect or ends, so there are at
-    most as many rounds as effects in the group.
+    Each round scores every remaining candidate (:func:`score_candidate`); among those
+    that are supported (:func:`is_supported`), the one with the largest gain joins the
+    model; when none is supported the selection ends. Every round accepts one effect or
+    ends, so there are at most as many rounds as effects in the group.
 
     Parameters
     ----------
@@ -671,11 +673,11 @@ def forward_selection(units: Units, group: str, settings: SelectionSettings,
                                                effect_settings, rng, settings.n_bootstrap)
             except NotIdentifiable as exc:
                 reasons[name] = str(exc)
-        admissible = [t for t in trials.values() if t.admissible]
-        best = max(admissible, key=lambda t: t.gain) if admissible else None
-        if best is None or not is_supported(best, settings):
+        supported = [t for t in trials.values() if is_supported(t, settings)]
+        if not supported:
             final_round = trials
             break
+        best = max(supported, key=lambda t: t.gain)
         accepted.append(best)
         before = best.heldout_params
     return SelectionPath(accepted=tuple(accepted), final_round=final_round,

@@ -12,7 +12,8 @@ from terrain.audit.effects import (EffectSettings, NotIdentifiable, _current_dat
 from terrain.audit.frames import MANOEUVRES, classify_manoeuvres, prepare_frame
 from terrain.audit.replay import (JITTER_ACCEL_M_S2, ReplaySettings,
                                   cruise_wheel_acceleration_rms, replay_run)
-from terrain.audit.selection import bootstrap_gain, make_units
+from terrain.audit import selection
+from terrain.audit.selection import SelectionSettings, bootstrap_gain, make_units
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.shipped import load_dataset
 from terrain.run import Run
@@ -230,6 +231,31 @@ def test_bootstrap_gain():
     assert ci[0] == pytest.approx(0.5) and ci[1] == pytest.approx(0.5)
     gain, ci = bootstrap_gain(ref, ref, ref, rng, 200)
     assert gain == 0.0 and ci == [0.0, 0.0]
+
+
+def test_forward_selection_takes_the_best_supported_candidate(monkeypatch):
+    # the round's largest gain is noisy (interval reaches below 0: not supported); a smaller
+    # gain whose interval lies above 0 meets the stated rule and must join. Before, the
+    # round looked only at the largest admissible gain, found it unsupported and stopped:
+    # selected () with turning_resistance (0.08 [0.05, 0.11]) reported as unsupported
+    trials = {"current_offset": (0.10, (-0.05, 0.30)),
+              "turning_resistance": (0.08, (0.05, 0.11)),
+              "grade_resistance": (0.0, (-0.01, 0.01))}
+
+    def fake(units, group, spec, name, before, es, rng, n_bootstrap):
+        gain, ci = trials[name]
+        return selection.Trial(name=name, scope="all", heldout_params=tuple(before),
+                               gain=gain, gain_ci95=ci, rmse_baseline=1.0, rmse_before=1.0,
+                               rmse_with=1.0 - gain, sse_per_unit=np.zeros(len(units)),
+                               unphysical=None, negligible=None)
+
+    monkeypatch.setattr(selection, "score_candidate", fake)
+    settings = SelectionSettings()
+    path = selection.forward_selection([[None]] * 5, "current", settings, EffectSettings(),
+                                       np.random.default_rng(0))
+    assert path.selected == ("turning_resistance",)
+    assert set(path.final_round) == {"current_offset", "grade_resistance"}
+    assert not any(selection.is_supported(t, settings) for t in path.final_round.values())
 
 
 def test_make_units_cuts_few_runs_into_segments(sim_run):
