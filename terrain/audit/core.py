@@ -466,7 +466,7 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
             else:
                 def needs(f):
                     return bool(f.has_imu and f.score_imu.any())
-            units, segmented = make_units(fs, min_units, needs)
+            units, segmented = make_units(fs, min_units, needs, settings.lag)
             if len(units) < 2:
                 what = "current" if group == "current" else "IMU"
                 groups[(scope, group)] = unscored_group(

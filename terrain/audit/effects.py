@@ -824,7 +824,9 @@ class LagParams:
     lag_s : float
         Lag, s (positive = wheel data late; 0 = raw timestamps).
     per_run : mapping of str to float
-        Run id -> the run's own median lag, s (runs with an identifiable lag).
+        Cross-validation unit (:attr:`~terrain.audit.frames.AuditFrame.group`: the run id,
+        or ``<run_id>#<k>`` for a segment) -> its own median lag, s (units with an
+        identifiable lag).
     """
 
     lag_s: float = 0.0
@@ -833,7 +835,8 @@ class LagParams:
 
 def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
             settings: EffectSettings = EffectSettings(), form: str | None = None) -> LagParams:
-    """Fit the timing model: the median of the runs' own median lags.
+    """Fit the timing model: the median of the units' own median lags (one per run, or one
+    per segment, each from the segment's own span: :func:`~terrain.audit.frames.split_frame`).
 
     Parameters
     ----------
@@ -853,9 +856,9 @@ def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
     Raises
     ------
     NotIdentifiable
-        No run with an identifiable lag.
+        No unit with an identifiable lag.
     """
-    per_run = {f.run_id: f.lag.median_s for f in frames if f.has_imu and f.lag.identifiable}
+    per_run = {f.group: f.lag.median_s for f in frames if f.has_imu and f.lag.identifiable}
     if "wheel_lag" not in spec:
         return LagParams(0.0, per_run)
     if not per_run:

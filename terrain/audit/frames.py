@@ -294,11 +294,50 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         score_cur=score_cur, lag=lag)
 
 
-def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
+def segment_lag(frame: AuditFrame, start: int, stop: int,
+                lag_settings: LagSettings = LagSettings()) -> LagTrack:
+    """The lag track of one segment, estimated from the segment's own samples only.
+
+    The wheel samples ``start:stop`` and the gyro samples stamped within their time span
+    (:func:`~terrain.audit.timing.estimate_lag_track`, against the commanded yaw rate or the
+    replayed one, as for the whole run): a segment left out in cross-validation then
+    contributes nothing to the lag of the segments the ``wheel_lag`` fit is trained on.
+
+    Parameters
+    ----------
+    frame : AuditFrame
+        One run on the comparison clock.
+    start, stop : int
+        Sample range of the segment (``stop`` excluded).
+    lag_settings : LagSettings
+        Window-by-window lag estimation (the run's own settings).
+
+    Returns
+    -------
+    LagTrack
+        Empty (not identifiable) without an IMU or with fewer than 2 gyro samples in the span.
+    """
+    empty = LagTrack(np.empty(0), np.empty(0), np.empty(0), 0)
+    t = frame.t_s[start:stop]
+    if not frame.has_imu or len(t) < 2:
+        return empty
+    inside = (frame.imu_t_s >= t[0]) & (frame.imu_t_s <= t[-1])
+    if inside.sum() < 2:
+        return empty
+    return estimate_lag_track(t, frame.commanded_yaw_rate[start:stop], frame.imu_t_s[inside],
+                              frame.imu_wz[inside], lag_settings,
+                              alternative=frame.sim_wz[start:stop])
+
+
+def split_frame(frame: AuditFrame, n_parts: int,
+                lag_settings: LagSettings = LagSettings()) -> list[AuditFrame]:
     """Cut a frame into ``n_parts`` contiguous segments of equal sample count.
 
     Used when a terrain has too few runs for leave-one-run-out: the segments become the
-    cross-validation units (``group = <run_id>#<k>``).
+    cross-validation units (``group = <run_id>#<k>``). Each segment's ``lag`` is its own
+    (:func:`segment_lag`), not the whole run's, so the ``wheel_lag`` fit of a fold never
+    sees the left-out segment; the measured channels stay on the run's own lag track (the
+    clock alignment of every comparison, :func:`prepare_frame`).
 
     Parameters
     ----------
@@ -306,6 +345,8 @@ def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
         One run on the comparison clock.
     n_parts : int
         Number of segments (1 or less: the frame itself).
+    lag_settings : LagSettings
+        Lag estimation of each segment (those the run's track was estimated with).
 
     Returns
     -------
@@ -322,5 +363,6 @@ def split_frame(frame: AuditFrame, n_parts: int) -> list[AuditFrame]:
             continue
         sl = slice(int(idx[0]), int(idx[-1]) + 1)
         parts.append(replace(frame, group=f"{frame.run_id}#{k}",
+                             lag=segment_lag(frame, sl.start, sl.stop, lag_settings),
                              **{name: getattr(frame, name)[sl] for name in per_sample}))
     return parts

@@ -219,7 +219,10 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
 
 
 def _timing_finding(report: Mapping) -> dict | None:
-    """Numbers of the timing finding (None without any identifiable lag)."""
+    """Numbers of the timing finding (None without any identifiable lag): ``constant``
+    lists the terrains where a constant ``wheel_lag`` is supported across runs,
+    ``constant_one_run`` those where it is supported between segments of a single run
+    (nothing is known there about other runs)."""
     lags = [x for x in report["lags"] if x["identifiable"]]
     if not lags:
         return None
@@ -231,7 +234,11 @@ def _timing_finding(report: Mapping) -> dict | None:
             "median_max_s": max(x["lag_s"] for x in lags),
             "max_drift_s_per_min": max(drifts) if drifts else None,
             "constant": [e["terrain"] for e in report["effects"]
-                         if e["name"] == "wheel_lag" and e["supported"]]}
+                         if e["name"] == "wheel_lag" and e["supported"]
+                         and e["n_runs"] >= 2],
+            "constant_one_run": [e["terrain"] for e in report["effects"]
+                                 if e["name"] == "wheel_lag" and e["supported"]
+                                 and e["n_runs"] < 2]}
 
 
 def _standstill_finding(report: Mapping) -> dict | None:

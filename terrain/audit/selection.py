@@ -5,7 +5,9 @@ runs pooled):
 
 1. Cross-validation units are the runs; when a terrain has fewer than ``min_units`` runs with
    the needed signals, each run is cut into contiguous segments that serve as units
-   (leave-one-segment-out, reported as such).
+   (leave-one-segment-out, reported as such; each segment carries the lag estimated on its
+   own span, :func:`~terrain.audit.frames.split_frame`). Intervals over the segments of a
+   single run say nothing about run-to-run spread; the report labels them so.
 2. The baseline (the replay, no effect) is scored on every unit: squared errors summed per
    unit.
 3. Forward selection: every effect not yet in the model is added in turn; the extended model
@@ -42,6 +44,7 @@ from terrain.audit.effects import (EFFECT_VOCABULARY, GROUP_MODELS, GROUPS, Curr
                                    EffectSettings, LagParams, NotIdentifiable, YawParams,
                                    effect_cause, effect_details, effect_params)
 from terrain.audit.frames import AuditFrame, split_frame
+from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError
 
 #: fitted model of one group
@@ -839,7 +842,9 @@ def unscored_group(group: str, terrain: str, reason: str, n_runs: int) -> GroupR
 
 
 def make_units(frames: Sequence[AuditFrame], min_units: int,
-               needs: Callable[[AuditFrame], bool]) -> tuple[list[list[AuditFrame]], bool]:
+               needs: Callable[[AuditFrame], bool],
+               lag_settings: LagSettings = LagSettings()
+               ) -> tuple[list[list[AuditFrame]], bool]:
     """Cross-validation units from frames that have the needed signals.
 
     Parameters
@@ -851,6 +856,9 @@ def make_units(frames: Sequence[AuditFrame], min_units: int,
         ``ceil(min_units / n_runs)`` contiguous segments.
     needs : callable
         ``needs(frame)`` is True when the frame can be scored.
+    lag_settings : LagSettings
+        Lag estimation of each segment (:func:`~terrain.audit.frames.split_frame`: a
+        segment carries its own lag, not its run's).
 
     Returns
     -------
@@ -865,5 +873,6 @@ def make_units(frames: Sequence[AuditFrame], min_units: int,
     if len(usable) >= min_units:
         return [[f] for f in usable], False
     parts = int(np.ceil(min_units / len(usable)))
-    units = [[p] for f in usable for p in split_frame(f, parts) if needs(p)]
+    units = [[p] for f in usable for p in split_frame(f, parts, lag_settings)
+             if needs(p)]
     return units, True

@@ -269,6 +269,42 @@ def test_make_units_cuts_few_runs_into_segments(sim_run):
     assert not segmented and len(units) == 5
 
 
+def test_segments_carry_their_own_lag_and_the_held_out_one_stays_out(sim_run):
+    # one run cut in two halves; the gyro of the second half is read 0.8 s late. The fold
+    # that leaves that half out must fit the same lag whatever its gyro does. Before, every
+    # segment carried the whole run's track (windows centred 15, 30, 45 s), so the training
+    # half's lag was the whole-run median: 0.0013 s, and -0.33 s with the second half
+    # delayed; now 0.0017 s in both (the first half's own 30 s window), and the delayed half
+    # carries its own -0.80 s
+    from dataclasses import replace
+
+    from terrain.audit.effects import fit_lag
+    from terrain.audit.timing import estimate_lag_track
+
+    _, run = sim_run
+    frame = prepare_frame(run, replay_run(run))
+    late = frame.imu_t_s > frame.t_s[frame.n // 2]
+    wz = frame.imu_wz.copy()
+    wz[late] = np.interp(frame.imu_t_s[late] - 0.8, frame.imu_t_s, frame.imu_wz)
+    delayed = replace(frame, imu_wz=wz, lag=estimate_lag_track(
+        frame.t_s, frame.commanded_yaw_rate, frame.imu_t_s, wz, alternative=frame.sim_wz))
+    assert delayed.lag.median_s == pytest.approx(-0.33, abs=0.05)   # the run's own track
+    fits = []
+    for f in (frame, delayed):
+        units, segmented = make_units([f], 2, lambda f: True)
+        assert segmented and [u[0].group for u in units] == [f"{f.run_id}#0", f"{f.run_id}#1"]
+        for u in units:                        # each segment's windows lie in its own span
+            assert u[0].lag.identifiable
+            assert np.all((u[0].lag.centres_s >= u[0].t_s[0])
+                          & (u[0].lag.centres_s <= u[0].t_s[-1]))
+        fit = fit_lag(units[0], ["wheel_lag"])            # the fold leaving out #1
+        assert set(fit.per_run) == {f"{f.run_id}#0"}
+        fits.append(fit.lag_s)
+        assert units[1][0].lag.median_s == pytest.approx(0.0 if f is frame else -0.8,
+                                                         abs=0.05)
+    assert fits[0] == fits[1] == pytest.approx(0.0, abs=0.01)
+
+
 def test_jittery_wheel_records_are_told_apart_from_clean_ones(shipped_borealtc):
     # every shipped Vulpi record carries the every-4th-sample dropout, no BorealTC one does
     boreal = [cruise_wheel_acceleration_rms(r) for r in shipped_borealtc.values()]

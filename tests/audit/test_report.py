@@ -74,3 +74,35 @@ def test_a_supported_effect_fitted_the_other_way_round_gets_its_own_cause(shippe
     page = to_markdown(changed, figures, commands, title)
     assert f"- `turning_resistance on {e['terrain']}`: {e['cause']}" in page
     assert "- `turning_resistance`: While turning" in page         # the vocabulary's, once
+
+
+def test_a_lag_fitted_on_segments_of_one_run_is_not_said_to_transfer_between_runs(
+        shipped_report):
+    # a terrain with one run is cut into segments: its wheel_lag can only hold from segment
+    # to segment of that run, and its intervals resample those segments. Before, the page
+    # said "a constant lag transfers between runs on ASPHALT" and "... s late on every run"
+    # and printed the interval as if runs had been resampled
+    report, md = shipped_report
+    title, commands, figures = _page_inputs(md)
+    changed = copy.deepcopy(report)
+    lag = next(e for e in changed["effects"]
+               if e["name"] == "wheel_lag" and e["terrain"] == "ASPHALT")
+    lag.update(supported=True, step=1, params={"lag_s": 0.5}, heldout_gain=0.965,
+               heldout_gain_ci95=[0.951, 0.975])
+    for e in changed["effects"]:
+        if e["terrain"] == "ASPHALT":
+            e["n_runs"], e["n_units"] = 1, 4
+    changed["supported"]["ASPHALT"] = ["wheel_lag"]
+    page = to_markdown(changed, figures, commands, title)
+    assert "transfers between runs" not in page
+    assert ("on ASPHALT (one run, cut into segments) a constant lag holds from segment to "
+            "segment of that run, which says nothing about other runs") in page
+    assert "0.50 s late throughout its one run (held-out gain 96 %)" in page
+    assert "| 0.965 [0.951, 0.975] within one run |" in page
+    # the same effect over two runs transfers between them
+    for e in changed["effects"]:
+        if e["terrain"] == "ASPHALT":
+            e["n_runs"] = 2
+    page = to_markdown(changed, figures, commands, title)
+    assert "a constant lag transfers between runs on ASPHALT" in page
+    assert "0.50 s late on every run" in page and "within one run" not in page
