@@ -231,6 +231,17 @@ def test_bootstrap_gain():
     assert ci[0] == pytest.approx(0.5) and ci[1] == pytest.approx(0.5)
     gain, ci = bootstrap_gain(ref, ref, ref, rng, 200)
     assert gain == 0.0 and ci == [0.0, 0.0]
+    # the cases above have the same gain on every unit, so a 'bootstrap' that never
+    # resamples (every draw = all units, or every draw = unit 0) passes them too. Here half
+    # the units gain 0.5 and half nothing: the point is 1 - sqrt(6.25 / 10) = 0.209 and the
+    # unit resamples spread it ([0.078, 0.368] with seed 0); the never-resampling variants
+    # give [0.209, 0.209] or [0.5, 0.5]
+    ones = np.ones(10)
+    new = np.r_[np.full(5, 0.25), np.ones(5)]
+    gain, ci = bootstrap_gain(ones, new, ones, np.random.default_rng(0), 200)
+    assert gain == pytest.approx(1.0 - np.sqrt(6.25 / 10.0))
+    assert ci[0] < gain < ci[1] and ci[1] - ci[0] > 0.15
+    assert 0.0 < ci[0] and ci[1] < 0.5
 
 
 def test_forward_selection_takes_the_best_supported_candidate(monkeypatch):
