@@ -24,8 +24,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.audit.effects import (EffectSettings, effect_params, predict_current,
-                                   predict_yaw)
+from terrain.audit.effects import (EffectSettings, YawParams, effect_params,
+                                   predict_current, predict_yaw)
 from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
                                   FrameSettings, prepare_frame)
 from terrain.audit.replay import ReplaySettings, replay_run
@@ -472,12 +472,9 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
                 groups[(scope, group)] = unscored_group(
                     group, scope, f"no run with {what} samples to score", len(fs))
                 continue
-            refs = None
-            if group == "yaw":
-                ideal = np.array([sum(float(np.sum((f.wz[f.score_imu]
-                                                    - f.commanded_yaw_rate[f.score_imu]) ** 2))
-                                      for f in u) for u in units])
-                refs = {"ideal": ideal}
+            # ideal differential drive: wz = (v_R - v_L) / B (seed 000 eq. 2)
+            refs = ({"ideal": YawParams(kinematic=True, inverse_chi=1.0)} if group == "yaw"
+                    else None)
             res = select_group(units, group, scope, settings.selection, settings.effects,
                                segmented, refs)
             if group == "current":

@@ -228,8 +228,10 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
     -------
     pandas.DataFrame
         Columns ``terrain, signal, scope, n_runs, n, rmse_ref, rmse_new, gain, gain_lo,
-        gain_hi`` (gain = ``1 - rmse_new / rmse_ref``; NaN where no sample; the interval
-        NaN where one run holds every sample: resampling it says nothing).
+        gain_hi`` (gain = ``1 - rmse_new / rmse_ref``, NaN where ``rmse_ref`` is 0; the
+        interval NaN where one run holds every sample: resampling it says nothing). A
+        signal and scope without any sample (e.g. ``stop`` on runs that never stop) gets
+        no row; ``n_runs`` counts the runs with samples in it.
     """
     rng = np.random.default_rng(settings.seed)
     rows = []

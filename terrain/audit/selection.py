@@ -169,7 +169,7 @@ class EffectResult:
         ``scope``, the effect's secondary quantities
         (:func:`~terrain.audit.effects.effect_details`), ``unphysical`` / ``negligible``
         when a rule rejected it, held-out RMSE before / with it / of the baseline and its gain
-        against reference models (``heldout_gain_vs_<reference>``).
+        against reference models (``heldout_gain_vs_<reference>``), all on its scope.
     cause : str
         Plain-language cause (:attr:`~terrain.audit.effects.EffectSpec.cause`).
     reason : str or None
@@ -274,8 +274,6 @@ class Trial:
     rmse_baseline, rmse_before, rmse_with : float
         Held-out RMSE in ``scope`` of the replay, of the model before and of the model with the
         candidate (rad/s or A).
-    sse_per_unit : ndarray, shape (n_units,)
-        Held-out squared errors of the model with the candidate over all scored samples.
     unphysical : str or None
         Why the fitted effect contradicts its physics (:func:`unphysical`).
     negligible : str or None
@@ -290,7 +288,6 @@ class Trial:
     rmse_baseline: float
     rmse_before: float
     rmse_with: float
-    sse_per_unit: np.ndarray
     unphysical: str | None
     negligible: str | None
 
@@ -609,7 +606,6 @@ def score_candidate(units: Units, group: str, spec: Sequence[str], name: str,
                  rmse_baseline=float(np.sqrt(base.sum() / n_all)),
                  rmse_before=float(np.sqrt(ref.sum() / n_all)),
                  rmse_with=float(np.sqrt(new.sum() / n_all)),
-                 sse_per_unit=unit_errors(units, group, with_params)[0],
                  unphysical=unphysical(name, full),
                  negligible=negligible(name, full, effect_settings))
 
@@ -690,7 +686,7 @@ def forward_selection(units: Units, group: str, settings: SelectionSettings,
 def effect_result(name: str, terrain: str, group: str, units: Units, path: SelectionPath,
                   final_params: GroupParams, effect_settings: EffectSettings,
                   rng: np.random.Generator, n_param_bootstrap: int,
-                  references: Mapping[str, np.ndarray] | None = None) -> EffectResult:
+                  references: Mapping[str, GroupParams] | None = None) -> EffectResult:
     """The reported result of one effect after forward selection (module docstring, step 5).
 
     Parameters
@@ -713,8 +709,11 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
         Draws the unit resamples of the parameter interval.
     n_param_bootstrap : int
         Number of resamples.
-    references : mapping of str to ndarray, optional
-        Reference name -> per-unit squared-error sums, shape (n_units,).
+    references : mapping of str to parameters, optional
+        Reference name -> a fixed model of ``group`` (e.g. ``ideal`` kinematics for the yaw
+        rate); the effect's held-out gain against it, ``heldout_gain_vs_<name>``, is
+        ``1 - RMSE_with / RMSE_reference`` on the effect's scope (the samples its
+        ``heldout_gain`` is scored on).
 
     Returns
     -------
@@ -741,9 +740,12 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
         details["heldout_rmse_baseline"] = trial.rmse_baseline
         details["heldout_rmse_before"] = trial.rmse_before
         details["heldout_rmse_with"] = trial.rmse_with
-        for rname, rsse in (references or {}).items():
+        if references:
+            with_sse = unit_errors(units, group, trial.heldout_params, spec.scope)[0].sum()
+        for rname, rparams in (references or {}).items():
+            rsse = unit_errors(units, group, [rparams] * len(units), spec.scope)[0].sum()
             details[f"heldout_gain_vs_{rname}"] = float(
-                1.0 - np.sqrt(trial.sse_per_unit.sum() / max(rsse.sum(), 1e-300)))
+                1.0 - np.sqrt(with_sse / max(rsse, 1e-300)))
     ci = _param_ci(units, group, model, name, _form_of(name, params), effect_settings, rng,
                    n_param_bootstrap)
     return EffectResult(
@@ -757,7 +759,7 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
 def select_group(units: Units, group: str, terrain: str,
                  settings: SelectionSettings = SelectionSettings(),
                  effect_settings: EffectSettings = EffectSettings(), segmented: bool = False,
-                 references: Mapping[str, np.ndarray] | None = None) -> GroupResult:
+                 references: Mapping[str, GroupParams] | None = None) -> GroupResult:
     """Forward selection of the effects of one group, and every effect's result.
 
     Parameters
@@ -774,10 +776,11 @@ def select_group(units: Units, group: str, terrain: str,
         Constants of the effect models.
     segmented : bool
         Whether units are segments of runs (reported).
-    references : mapping of str to ndarray, optional
-        Name -> per-unit squared-error sums, shape (n_units,), of extra reference models
-        (e.g. ``ideal`` kinematics for the yaw rate); each effect's details then carry its
-        held-out gain relative to them.
+    references : mapping of str to parameters, optional
+        Name -> a fixed model of ``group`` (e.g. ``ideal`` kinematics for the yaw rate,
+        ``YawParams(kinematic=True, inverse_chi=1.0)``): its RMSE over all scored samples is
+        reported (``reference_rmse``) and each effect's details carry its held-out gain
+        relative to it on the effect's scope (:func:`effect_result`).
 
     Returns
     -------
@@ -809,7 +812,8 @@ def select_group(units: Units, group: str, terrain: str,
         final_rmse=float(np.sqrt(final_all.sum() / n_tot)),
         units=tuple(tuple(u) for u in units), heldout_params=path.heldout_params,
         segmented=segmented,
-        reference_rmse={k: float(np.sqrt(v.sum() / n_tot)) for k, v in (references or {}).items()})
+        reference_rmse={k: float(np.sqrt(unit_errors(units, group, [v] * len(units))[0].sum()
+                                         / n_tot)) for k, v in (references or {}).items()})
 
 
 def unscored_group(group: str, terrain: str, reason: str, n_runs: int) -> GroupResult:

@@ -66,6 +66,18 @@ def test_a_single_run_gets_no_bootstrap_interval():
     assert "| X | cur | moving | 1 | 100 | 2 | 1 | +0.500 (one run: no interval) |" in md
 
 
+def test_a_scope_without_samples_gets_no_row():
+    # the docstring said the gain is NaN where there is no sample; such a scope has no row
+    # (behaviour unchanged, docstring corrected; this passed before too)
+    import pandas as pd
+    tab = pd.DataFrame({"run_id": ["a/X/0", "a/X/0", "a/X/1"], "terrain": "X",
+                        "signal": "cur", "scope": ["moving", "stop", "stop"],
+                        "n": [100, 0, 0], "sse_ref": [400.0, 0.0, 0.0],
+                        "sse_new": [100.0, 0.0, 0.0]})
+    g = gain_table(tab, PhysicsComparisonSettings(n_bootstrap=200))
+    assert set(g.scope) == {"moving"} and set(g.terrain) == {"X", "all"}
+
+
 def test_a_negative_turning_resistance_is_explained_in_its_direction():
     from terrain.audit.effects import EFFECT_VOCABULARY, CurrentParams, effect_cause
     assert effect_cause("turning_resistance", CurrentParams(k_a=1.5)) == \
