@@ -124,7 +124,9 @@ class TractionLoop:
         slip in it), from standstill on, where the estimate is not stale; on the decided
         catalogued terrain, or while the table's fallback applies (no, a low-confidence or a
         stale decision) on the terrain the fallback's traction target comes from
-        (:func:`fallback_basis`); the correction applied is the one that slows the wheel more.
+        (:func:`fallback_basis`). Where the limit binds (``engaged``) the correction applied
+        is the one that slows the wheel more; elsewhere the feedback's, so a braking
+        correction (which speeds a locking wheel up) is never replaced by the feed-forward's 0.
     observer : callable, optional
         ``observer(obs)``, called with every observation before the estimator and the
         terrain decision (the ``update`` of a :class:`LiveTerrain`); None: none.
@@ -200,8 +202,12 @@ class TractionLoop:
                                   self.controller.config.wheel_radius_m, max(dt, 0.0),
                                   self.ff_engaged)
             self.v_ref, self.ff_engaged = ff.v_ref_m_s, ff.engaged
+            # the feed-forward replaces the feedback only where its limit binds (engaged) and
+            # it slows the wheel more; elsewhere its correction is 0, and a "smaller |command|"
+            # rule alone would discard every braking correction (those speed the wheel up)
             low = obs.omega_low_level
-            use_ff = (~out.safe) & (np.abs(low + ff.correction_rad_s) < np.abs(low + correction))
+            use_ff = (~out.safe) & ff.engaged & (
+                np.abs(low + ff.correction_rad_s) < np.abs(low + correction))
             correction = np.where(use_ff, ff.correction_rad_s, correction)
         self.log.append({"t_s": obs.t_s, "omega_low_level": obs.omega_low_level,
                          "v_long": est.v_long_m_s, "slip_est": out.slip,
