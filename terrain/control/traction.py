@@ -19,7 +19,12 @@ Beyond the thesis (their settings in :class:`TractionControlConfig`):
 
 * anti-windup by conditional integration: while the output is saturated in the direction of
   the error the integral grows only up to the value that just reaches the limit, and it always
-  stays within the output limit;
+  stays within the room the output has at that step (the output limit, the wheel speed limit,
+  the command's half-line and, with ``one_sided``, the limiter's side; widened to hold 0),
+  clamped there before and after integrating. So a traction -> braking change starts the
+  braking correction from an integral of 0, not from the traction integral unwinding at
+  ``ki e dt`` (AgriMaRo gains 5 / 10: 15 steps with no correction for a locking wheel after
+  1 s of traction, when the integral was clamped to the static +-limit only);
 * output saturation: ``|PID_out| <= output_fraction * omega_max``, the command stays within
   ``[-omega_max, omega_max]`` and never crosses zero (slip control modulates the wheel speed,
   it never reverses a wheel nor moves one the low level holds still);
@@ -411,6 +416,13 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
             deriv = 0.0
         # bumpless enable: a unit becoming active starts its integral from the held correction
         integral = i_prev if act else (c_prev if ki_dt > 0.0 else 0.0)
+        # the room moves (a mode change flips the limiter's side, the command moves the wheel
+        # speed limit): an integral beyond this step's room is dropped before integrating,
+        # so it never has to unwind through a range the output cannot reach. The room of the
+        # integral always holds 0: a command above omega_max forces a correction (hi < 0)
+        # that the clamp of the output gives, not the integral.
+        i_lo, i_hi = min(lo, 0.0), max(hi, 0.0)
+        integral = min(max(integral, i_lo), i_hi)
         p_term, d_term = kp * error, -kd * deriv
         candidate = integral + ki_dt * error
         unsat = p_term + candidate + d_term
@@ -420,7 +432,7 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
             integral = max(candidate, min(integral, lo - p_term - d_term))
         else:
             integral = candidate
-        integral = min(max(integral, -limit), limit)
+        integral = min(max(integral, i_lo), i_hi)
         if chassis_on:
             correction = min(max(p_term + integral + d_term, lo), hi)     # eq. 8.2
         else:  # bumpless disable: the held correction decays

@@ -357,3 +357,46 @@ def test_config_for_vehicle_uses_its_radius_speed_limit_and_motors():
     assert config_for_vehicle("husky")[1] == 2
     with pytest.raises(ConfigError, match="unknown vehicle"):
         config_for_vehicle("rover")
+
+
+def test_integral_stays_on_the_limiters_side_across_a_mode_change():
+    """One-sided limiter, AgriMaRo gains kp 5 / ki 10: 1 s of traction with the wheel
+    slipping 0.3 (> 0.1) winds the integral to -2.0 rad/s (slowing the wheel), then the robot
+    brakes with the wheel locking (slip -0.4 beyond -0.15), where the limiter only lets the
+    correction speed the wheel up. Before, the integral was clamped to the static +-limit and
+    had to unwind at ki e dt: 15 steps with correction 0. Now the first braking step gives
+    what a fresh controller gives (1.30 rad/s = kp e + ki e dt)."""
+    cfg, _ = config_for_vehicle("agrimaro", kp=5.0, ki=10.0)
+    r, dt = cfg.wheel_radius_m, 0.02
+    targets = SlipTargets(0.1, -0.15, 0.0)
+
+    def step(state, omega_ll, slip, accel):
+        wheel = 1.0 / (1.0 - slip) / r if slip >= 0 else (1.0 + slip) / r   # ground 1 m/s
+        return _step(cfg, state, omega_ll, wheel, 1.0, accel, chassis=1.0, dt=dt,
+                     targets=targets)
+
+    state = TractionState.zeros(1)
+    for _ in range(50):
+        out, state = step(state, 8.0, 0.3, 1.0)
+    assert out.mode[0] == TRACTION and state.integral[0] == pytest.approx(-2.0)
+    out, state = step(state, 5.0, -0.4, -1.0)
+    fresh, _ = step(TractionState.zeros(1), 5.0, -0.4, -1.0)
+    assert out.mode[0] == BRAKING and fresh.correction_rad_s[0] == pytest.approx(1.30)
+    assert out.correction_rad_s[0] == pytest.approx(fresh.correction_rad_s[0])   # was 0.0
+    assert state.integral[0] >= 0.0
+
+
+def test_integral_never_on_the_forbidden_side():
+    """Random inputs, one-sided: the integral always lies on the side the limiter lets the
+    correction take (traction / steady: slowing the wheel, braking: speeding it up)."""
+    cfg = TractionControlConfig(kp=5.0, ki=10.0, omega_max_rad_s=20.0, output_fraction=0.25)
+    rng = np.random.default_rng(5)
+    state = TractionState.zeros(4)
+    for _ in range(1000):
+        omega_ll = rng.uniform(-20, 20, 4)
+        omega = omega_ll + rng.normal(0, 2, 4)
+        v = omega * 0.1 * rng.uniform(0.3, 1.2, 4)
+        out, state = _step(cfg, state, omega_ll, omega, v, rng.normal(0, 2, 4),
+                           chassis=abs(rng.normal(0.5, 0.5)))
+        towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
+        assert np.all(state.integral * towards >= -1e-12)
