@@ -177,9 +177,23 @@ class AgriMaRoVisualOdometryEKF:
 class WheelImuObserver:
     """Interim skid-steer estimator: integrated accelerometer pulled to the slower side.
 
-    ``v <- v + dt a_x`` at every IMU sample; at every encoder sample
-    ``v <- v + (1 - exp(-dt_w / tau_s)) (v_ref - v)`` with ``v_ref`` the side speed
-    ``omega r`` of smaller magnitude; side speeds ``v -/+ yaw_rate B / 2`` (gyro, track B).
+    ``v <- v + dt a_x`` at every IMU sample (``v``: the chassis centre's speed); at every
+    encoder sample ``v <- v + (1 - exp(-dt_w / tau_s)) (v_ref - v)`` with ``v_ref`` the centre
+    speed a side's wheel implies, ``omega_l r + yaw_rate B / 2`` (left) or
+    ``omega_r r - yaw_rate B / 2`` (right), whichever has the smaller magnitude (the side that
+    slips less while driving); side speeds ``v -/+ yaw_rate B / 2`` (gyro, track B, left
+    first, yaw rate positive counter-clockwise). In a steady turn without slip both sides
+    imply the true centre speed; pulling the centre to a side's own speed (as before
+    2026-11-26) read the inner side's speed as the centre's (0.5 m/s, 0.5 rad/s on the Husky:
+    side speeds 0.215 / 0.500 m/s against the true 0.357 / 0.643).
+
+    Known error in turns (``limits``): the accelerometer reads ``a_x = dv_x/dt - yaw_rate v_y``
+    and the observer integrates it as ``dv_x/dt``; a skid-steer vehicle slides outwards in a
+    turn (``v_y`` of the other sign than the yaw rate), so the estimate runs high by about
+    ``|yaw_rate v_y| tau_s`` (simulated Husky on TILES, ``random`` seed 0: 0.66 rad/s turn,
+    ``v_y`` -0.145 m/s, estimate 0.757 against 0.612 m/s). The old pull to the inner side's
+    speed happened to cancel most of it on that run (speed RMSE over 15 s 0.034 m/s, now
+    0.086; straight runs unchanged).
 
     Parameters
     ----------
@@ -197,9 +211,12 @@ class WheelImuObserver:
         self.vehicle = get_vehicle(vehicle)
         self.tau_s = float(tau_s)
         self.limits = (f"interim until the fused slip estimate: integrated accelerometer "
-                       f"pulled to the slower side's wheel speed (tau = {tau_s:g} s); a slip "
+                       f"pulled to the centre speed the slower side's wheel implies "
+                       f"(tau = {tau_s:g} s); a slip "
                        f"common to both sides is seen only for times short against tau, "
-                       f"steady slip converges to 0 in the estimate")
+                       f"steady slip converges to 0 in the estimate; in turns the "
+                       f"accelerometer's yaw_rate v_y term (outward slide) is integrated as "
+                       f"acceleration and the estimate runs high")
         self.v = 0.0
         self.a = 0.0
         self.w = 0.0
@@ -227,7 +244,10 @@ class WheelImuObserver:
                 self.t_imu, self.a, self.w = t, float(z[0]), float(z[2])
             elif name == "wheels" and np.all(np.isfinite(z)):
                 self.omega = z.copy()
-                v_ref = float(z[np.argmin(np.abs(z))]) * r
+                # centre speed each side implies (left + B w / 2, right - B w / 2)
+                half_w = 0.5 * self.vehicle.track_m * self.w
+                centre = z[:2] * r + np.array([half_w, -half_w])
+                v_ref = float(centre[np.argmin(np.abs(centre))])
                 dt_w = 0.0 if self.t_wheel is None else t - self.t_wheel
                 self.v += (1.0 - math.exp(-dt_w / self.tau_s)) * (v_ref - self.v)
                 if np.all(z == 0.0) and np.all(obs.omega_low_level == 0.0):

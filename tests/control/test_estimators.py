@@ -55,3 +55,24 @@ def test_estimator_kinds():
         estimator_for("agrimaro", kind="fused")
     with pytest.raises(ConfigError, match="no closed-loop estimator"):
         estimator_for("tracked")
+
+
+def test_wheel_imu_observer_in_a_steady_turn_without_slip():
+    """Husky turning steadily at 0.5 m/s and 0.5 rad/s, no slip: each side's wheel implies
+    the true centre speed (left + B w / 2, right - B w / 2). Before, the centre was pulled to
+    the inner side's own speed: side speeds [0.215, 0.500] against the true [0.357, 0.643],
+    chassis 0.357 against 0.5."""
+    from terrain.sim.closed_loop import Observation
+
+    est = estimator_for("husky", kind="observer")
+    r, track = est.vehicle.wheel_radius_m, est.vehicle.track_m
+    v, w = 0.5, 0.5
+    sides = np.array([v - w * track / 2, v + w * track / 2])      # left, right: 0.357, 0.643
+    empty = np.zeros((0, 5))
+    for k in range(1, 1001):                                      # 10 s, tau = 2 s
+        t = k * 0.01
+        e = est.update(Observation(t, sides / r, np.array([[t, 0.0, 0.0, w]]),
+                                   np.array([[t, *(sides / r)]]), np.zeros((0, 4)), empty,
+                                   np.zeros((0, 3)), np.zeros((0, 7))))
+    np.testing.assert_allclose(e.v_long_m_s, sides, atol=0.005)
+    assert e.chassis_speed_m_s == pytest.approx(v, abs=0.005)
