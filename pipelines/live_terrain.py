@@ -136,12 +136,15 @@ class LiveClassifier:
         Returns
         -------
         tuple
-            ``(label, confidence)``; ``(None, 0.0)`` before the first decision (or before
-            the oldest one kept).
+            ``(label, confidence, t_decided_s)``: the decision with the loop time at which it
+            was emitted, s (the loop takes the decision's age from it, so a classifier that
+            stops deciding leaves the table's fallback after ``max_decision_age_s``);
+            ``(None, 0.0)`` before the first decision (or before the oldest one kept) and for
+            a window the service did not classify.
         """
         for t_avail, label, conf in reversed(self._decisions):
             if t_avail <= t_s + 1e-9:
-                return (None, 0.0) if label is None else (label, conf)
+                return (None, 0.0) if label is None else (label, conf, t_avail)
         return None, 0.0
 
 

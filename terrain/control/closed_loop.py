@@ -68,7 +68,9 @@ class LiveTerrain(Protocol):
         Returns
         -------
         tuple
-            ``(label or None, confidence)``.
+            ``(label or None, confidence)``, or ``(label, confidence, t_decided_s)`` with the
+            time the decision was made (s), from which the loop takes its age: decisions
+            older than the table's ``max_decision_age_s`` then get the fallback.
         """
         ...
 
@@ -110,7 +112,10 @@ class TractionLoop:
         Desired-slip table.
     terrain_decision : callable
         ``terrain_decision(t_s) -> (label or None, confidence)``: the terrain decision
-        available at time ``t_s`` (s).
+        available at time ``t_s`` (s), taken as current (age 0); or
+        ``(label, confidence, t_decided_s)``: the decision with the time it was made (s), its
+        age ``t_s - t_decided_s`` goes to :func:`~terrain.control.desired_slip.select_target`
+        (a decision older than the table's ``max_decision_age_s`` gets the fallback).
     apply : bool
         True: return the correction; False: shadow mode (return zeros, log everything).
     accel_tau_s : float
@@ -174,8 +179,10 @@ class TractionLoop:
         if self.observer is not None:
             self.observer(obs)
         est = self.estimator.update(obs)
-        label, conf = self.terrain_decision(obs.t_s)
-        targets = select_target(self.table, label, conf)
+        decision = self.terrain_decision(obs.t_s)
+        label, conf = decision[0], decision[1]
+        age = obs.t_s - float(decision[2]) if len(decision) > 2 else 0.0
+        targets = select_target(self.table, label, conf, decision_age_s=age)
         dt = obs.t_s - self.t_prev if self.t_prev is not None else 0.02
         self.t_prev = obs.t_s
         a = np.asarray(est.a_local_m_s2, dtype=float)
@@ -214,7 +221,7 @@ class TractionLoop:
                          "desired": out.desired_slip, "enabled": out.enabled,
                          "safe": out.safe, "mode": out.mode,
                          "correction": correction, "terrain": label,
-                         "target_traction": targets.traction})
+                         "decision_age_s": age, "target_traction": targets.traction})
         return correction if self.apply else np.zeros_like(correction)
 
 
@@ -409,9 +416,10 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     table : SlipTable, optional
         Desired-slip table; None: built for ``terrain`` alone.
     terrain_decision : callable, optional
-        ``f(t_s) -> (label or None, confidence)``; None: the run's terrain label with
-        confidence 1 (the ground truth: see the pipelines for when this applies). While it
-        gives no label the estimator's slip model assumes the :func:`fallback_basis` terrain.
+        ``f(t_s) -> (label or None, confidence)`` or ``(label, confidence, t_decided_s)``
+        (:class:`TractionLoop`); None: the run's terrain label with confidence 1 (the ground
+        truth: see the pipelines for when this applies). While it gives no label the
+        estimator's slip model assumes the :func:`fallback_basis` terrain.
     estimator : str, optional
         Estimator kind (:func:`terrain.control.estimators.estimator_for`); None: the vehicle's
         default.
@@ -452,7 +460,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     basis = fallback_basis(table)
 
     def assumed(t_s: float) -> tuple:   # the estimator's slip model: undecided -> basis
-        label, conf = decision(t_s)
+        label, conf = decision(t_s)[:2]
         return (label, conf) if label is not None else (basis, 0.0)
 
     estimator = estimator_for(vehicle, assumed, estimator)

@@ -306,8 +306,8 @@ class FusedSlipObserver:
     vehicle : str
         Skid-steer vehicle name.
     terrain_decision : callable, optional
-        ``f(t_s) -> (label or None, confidence)``, the loop's terrain decision; None: no
-        pseudo-measurement.
+        ``f(t_s) -> (label or None, confidence, ...)``, the loop's terrain decision (its
+        label is used); None: no pseudo-measurement.
     window_s : float
         Length of the current / wheel window of one physics slip, s (> 0).
     period_s : float
@@ -362,7 +362,7 @@ class FusedSlipObserver:
                                     h_jac[idx], np.asarray(r_diag, float), check=False)
 
     def _pseudo(self, t: float) -> None:
-        label, _ = self.terrain_decision(t) if self.terrain_decision else (None, 0.0)
+        label = self.terrain_decision(t)[0] if self.terrain_decision else None
         if label is None or str(label).upper() not in TERRAIN_NAMES:
             return
         t0 = t - self.window_s

@@ -161,3 +161,39 @@ def test_undecided_loop_limits_the_start_up_on_the_fallbacks_terrain(vehicle):
                          terrain_decision=undecided)[2]
     assert on["terrain_accuracy"] == 0.0 and on["terrain_decisions"] == {"NONE": 201}
     assert on["peak_slip"] < 0.6 * off["peak_slip"]   # feed-forward on ICE's curve acts
+
+
+def test_a_stale_live_decision_falls_back():
+    """A classifier that decided SNOW (confidence 0.9) at t = 0 and nothing since: at
+    t = 60 s the decision is 60 s old, beyond the table's max_decision_age_s (4 s), so the
+    loop must use the fallback. Before, LiveClassifier gave no decision time and the loop
+    called select_target without an age: the loop used SNOW's 0.30 traction target."""
+    from collections import deque
+
+    from terrain.control.closed_loop import TractionLoop
+    from terrain.control.desired_slip import build_slip_table
+    from terrain.control.estimators import VelocityEstimate
+    from terrain.control.traction import config_for_vehicle
+    from terrain.sim.closed_loop import Observation
+
+    live = object.__new__(LiveClassifier)      # no model needed: only the decision memory
+    live._decisions = deque([(0.0, "SNOW", 0.9)])
+    assert live(1.0) == ("SNOW", 0.9, 0.0) and live(-1.0) == (None, 0.0)
+
+    class Fixed:
+        name = limits = "stub"
+
+        def update(self, obs):
+            return VelocityEstimate(np.full(2, 10.0), np.full(2, 1.0), np.zeros(2), 1.0, 0.0)
+
+    table = build_slip_table(["SNOW", "ICE"])
+    cfg, n = config_for_vehicle("husky")
+    loop = TractionLoop(cfg, n, Fixed(), table, live, feed_forward=False)
+    empty = np.zeros((0, 3))
+    for t in (2.0, 60.0):
+        loop(Observation(t, np.full(2, 10.0), np.zeros((0, 4)), empty, empty,
+                         np.zeros((0, 5)), empty, np.zeros((0, 7))))
+    fresh, stale = loop.log
+    assert fresh["target_traction"] == table.entries["SNOW"].traction == pytest.approx(0.30)
+    assert stale["decision_age_s"] == 60.0
+    assert stale["target_traction"] == table.fallback.traction < 0.01     # ICE's, was 0.30
