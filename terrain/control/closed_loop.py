@@ -33,6 +33,7 @@ from terrain.control.traction import TractionControlConfig, TractionController
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import Observation
 from terrain.sim.simulate import Simulation, motor_currents
+from terrain.terramechanics.calibration import steady_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -239,18 +240,24 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     bus_voltage_v : float
         DC bus voltage, V (:data:`BUS_VOLTAGE_V`).
     cruise_fraction : float
-        ``time_to_speed_s``: first time the true speed reaches this fraction of the cruise
-        speed reached on the terrain (``final_speed_m_s``, below).
+        ``time_to_speed_s``: first time the true speed reaches this fraction of the
+        reference speed ``reference_speed_m_s`` (below).
     steady_after_s : float
         Steady-driving slip error counted only this long after the cruise speed is reached, s.
     final_window_s : float
-        ``final_speed_m_s``: the mean true speed over the last ``final_window_s`` of the run
-        (with steady slip the commanded speed is never reached), s.
+        ``final_speed_m_s``: the mean true speed over the last ``final_window_s`` of the run,
+        s (reported; not the reference of ``time_to_speed_s``).
 
     Returns
     -------
     dict
         ``cruise_speed_m_s`` (largest mean low-level wheel command times the radius),
+        ``reference_speed_m_s`` (``cruise_speed_m_s (1 - s_ss)``, ``s_ss`` the largest
+        :func:`terrain.terramechanics.steady_slip` of the catalogued terrains driven on: the
+        speed the command holds on flat ground once the resistances balance; it depends on
+        the command and the true terrain only, so a controlled run and an uncontrolled one
+        are timed against the same speed; a run whose controller holds the robot below it
+        never reaches it, ``time_to_speed_s`` None),
         ``final_speed_m_s``,
         ``slip_rmse`` (true slip against the signed target, controller enabled),
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
@@ -280,9 +287,14 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     log = loop.log
     omega_ll = np.array([r["omega_low_level"] for r in log])
     cruise = float(np.max(np.abs(omega_ll).mean(axis=1))) * vehicle.wheel_radius_m
-    # cruise as reached on this terrain: the mean true speed of the last final_window_s
     final = float(np.mean(speed[phys.t_s >= phys.t_s[-1] - final_window_s]))
-    reached = np.flatnonzero(speed >= cruise_fraction * final) if final > 0.05 \
+    # reference common to the controlled and uncontrolled runs: the command less the steady
+    # slip of the true terrain (with steady slip the command itself is never reached)
+    driven = np.asarray(phys.terrain_names)[np.unique(phys.terrain_index)]
+    s_ss = max((steady_slip(get_terrain(str(n))) for n in driven
+                if str(n).upper() in TERRAIN_NAMES), default=0.0)
+    reference = cruise * (1.0 - s_ss)
+    reached = np.flatnonzero(speed >= cruise_fraction * reference) if reference > 0.05 \
         else np.array([], dtype=int)
     t_speed = float(phys.t_s[reached[0]]) if reached.size else None
     t_log = np.array([r["t_s"] for r in log])
@@ -319,6 +331,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "peak_slip_gated": float(np.max(np.abs(phys.slip_motor[gate]))) if gate.any() else 0.0,
         "time_to_speed_s": t_speed,
         "cruise_speed_m_s": cruise,
+        "reference_speed_m_s": reference,
         "final_speed_m_s": final,
         "energy_j_per_m": energy / distance if distance > 0 else None,
         "mech_energy_j_per_m": mech / distance if distance > 0 else None,

@@ -239,3 +239,22 @@ def test_engaged_feed_forward_still_slows_a_spinning_wheel():
     assert loop.ff_engaged.all()
     limit = 0.2 / (r * (1 - build_slip_table(["ICE"]).entries["ICE"].traction))
     np.testing.assert_allclose(1.0 / r + c, limit, rtol=1e-9)
+
+
+def test_time_to_speed_is_timed_against_one_reference_for_on_and_off():
+    """AgriMaRo on SNOW with the terrain decided TILES: the controller holds the wheels at
+    TILES's 0.1 traction limit and the robot creeps. Timed against each run's own final
+    speed the controlled run looked faster (off 1.40 s at 0.832 m/s final, on 0.80 s at
+    0.485 m/s). Both are now timed against the command less SNOW's steady slip (0.167):
+    off still 1.40 s, on never reaches it in 6 s."""
+    from terrain.control.desired_slip import build_slip_table as table_for
+
+    table = table_for(["SNOW", "TILES"])
+    off, on = (run_closed_loop("agrimaro", "SNOW", "straight_accel", c, 0, 6.0, table=table,
+                               terrain_decision=lambda t: ("TILES", 1.0))[2]
+               for c in (False, True))
+    assert off["time_to_speed_s"] == pytest.approx(1.40, abs=0.05)
+    assert on["time_to_speed_s"] is None             # was 2.41 s here (0.80 s in 10 s)
+    assert off["reference_speed_m_s"] == on["reference_speed_m_s"]
+    assert off["reference_speed_m_s"] == pytest.approx(
+        off["cruise_speed_m_s"] * (1 - 0.1668), abs=1e-3)
