@@ -29,7 +29,7 @@ import numpy as np
 from terrain.control.desired_slip import SlipTable, select_target
 from terrain.control.estimators import SlipEstimator, estimator_for
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
-from terrain.control.traction import TractionControlConfig, TractionController
+from terrain.control.traction import STEADY, TractionControlConfig, TractionController
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import Observation
 from terrain.sim.simulate import Simulation, motor_currents
@@ -219,7 +219,10 @@ class TractionLoop:
             correction = np.where(use_ff, ff.correction_rad_s, correction)
         self.log.append({"t_s": obs.t_s, "omega_low_level": obs.omega_low_level,
                          "v_long": est.v_long_m_s, "slip_est": out.slip,
-                         "desired": out.desired_slip, "enabled": out.enabled,
+                         "desired": out.desired_slip,
+                         "steady_target": np.sign(np.asarray(est.v_long_m_s, dtype=float))
+                         * float(targets.steady),
+                         "enabled": out.enabled,
                          "safe": out.safe, "mode": out.mode,
                          "correction": correction, "terrain": label,
                          "decision_age_s": age, "target_traction": targets.traction})
@@ -259,7 +262,13 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         are timed against the same speed; a run whose controller holds the robot below it
         never reaches it, ``time_to_speed_s`` None),
         ``final_speed_m_s``,
-        ``slip_rmse`` (true slip against the signed target, controller enabled),
+        ``slip_rmse`` (true slip against the signed set point of eqs. 8.7-8.9, the table's
+        traction, braking or steady target by the mode, where the controller is enabled;
+        with the one-sided limiter the steady mode's *limit* is the traction target, but
+        the set point scored is the steady target),
+        ``slip_excess_rmse`` (one-sided: RMSE of ``max(0, sgn(limit) (slip - limit))`` with
+        the limit the controller enforced, the ``desired`` of the log, where enabled: only
+        slip beyond the limit counts),
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
         the chassis speed exceeds the enabling threshold), ``time_to_speed_s`` (None if never),
         ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law),
@@ -267,8 +276,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``drive_energy_j_per_m`` (``sum k_t G |omega| |I| dt / distance``: what a PWM drive
         passes to the motors, :meth:`terrain.vehicles.MotorParams.drive_power_w`; the bus
         figure above ignores the duty cycle), ``distance_m``,
-        ``mean_speed_m_s``, ``steady_slip_error_max`` / ``steady_slip_within_0_02``
-        (|slip - target| in steady driving after cruise, where enabled), ``safe_fraction``,
+        ``mean_speed_m_s``, ``steady_slip_error_max`` / ``steady_slip_error_mean`` /
+        ``steady_slip_within_0_02`` (|slip - the table's steady target| in steady mode,
+        ``steady_after_s`` after ``time_to_speed_s``, where enabled), ``safe_fraction``,
         ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control
         steps whose decision
         equals the true terrain; no decision counts as wrong), ``terrain_decisions`` (control
@@ -304,14 +314,17 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     enabled = np.array([r["enabled"] for r in log])
     safe = np.array([r["safe"] for r in log])
     mode = np.array([r["mode"] for r in log])
-    err = (slip_true - desired)[enabled]
+    # set point of eqs. 8.7-8.9 (the one-sided limiter's steady limit is the traction target)
+    setpoint = np.where(mode == STEADY, np.array([r["steady_target"] for r in log]), desired)
+    err = (slip_true - setpoint)[enabled]
+    excess = np.maximum(np.sign(desired) * (slip_true - desired), 0.0)[enabled]
     gate = speed > loop.controller.config.chassis_speed_threshold_m_s
-    steady = enabled & (mode == 0)
+    steady = enabled & (mode == STEADY)
     if t_speed is not None:
         steady &= (t_log >= t_speed + steady_after_s)[:, None]
     else:
         steady &= False
-    s_err = np.abs(slip_true - desired)[steady]
+    s_err = np.abs(slip_true - setpoint)[steady]
     v_est = np.array([r["v_long"] for r in log])
     geo = vehicle.contact_geometry()
     if geo.steered:
@@ -327,6 +340,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     decided = np.array([str(r["terrain"]).upper() for r in log])
     return {
         "slip_rmse": float(np.sqrt(np.mean(err ** 2))) if err.size else None,
+        "slip_excess_rmse": float(np.sqrt(np.mean(excess ** 2))) if excess.size else None,
         "peak_slip": float(np.max(np.abs(phys.slip_motor))),
         "peak_slip_gated": float(np.max(np.abs(phys.slip_motor[gate]))) if gate.any() else 0.0,
         "time_to_speed_s": t_speed,

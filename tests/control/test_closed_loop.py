@@ -258,3 +258,27 @@ def test_time_to_speed_is_timed_against_one_reference_for_on_and_off():
     assert off["reference_speed_m_s"] == on["reference_speed_m_s"]
     assert off["reference_speed_m_s"] == pytest.approx(
         off["cruise_speed_m_s"] * (1 - 0.1668), abs=1e-3)
+
+
+def test_steady_metrics_score_the_steady_target_and_excess_the_limit():
+    """One-sided limiter: in steady mode the limit is the traction target (TILES 0.10) but
+    the set point is the table's steady target (TILES 0.0). The Husky on TILES cruises at
+    slip 0.000; scored against the limit its steady steps read 0.00 within 0.02 (an artefact)
+    and its slip RMSE 0.100. Now: within 0.02 in every steady step, slip RMSE from the
+    traction-mode steps only (0.05), and no slip beyond the enforced limit (excess 0)."""
+    sim, loop, m = run_closed_loop("husky", "TILES", "straight_accel", True, 0, 6.0)
+    assert m["steady_slip_within_0_02"] == 1.0                   # was 0.0
+    assert m["steady_slip_error_mean"] < 0.005                   # was 0.0999
+    assert m["slip_rmse"] < 0.07                                 # was 0.100
+    assert m["slip_excess_rmse"] == 0.0
+    # the excess counts only slip beyond the enforced limit, with the limit's sign
+    from terrain.control.closed_loop import loop_metrics
+
+    last = loop.log[-1]
+    assert last["enabled"].all()
+    last["desired"] = np.array([0.1, -0.1])
+    k = np.searchsorted(sim.physics.t_s, last["t_s"] - 1e-9)
+    sim.physics.slip_motor[k] = [0.4, -0.2]              # 0.3 and 0.1 beyond the limits
+    n = sum(int(r["enabled"].sum()) for r in loop.log)
+    assert loop_metrics(sim, loop, 24.0)["slip_excess_rmse"] == pytest.approx(
+        math.sqrt((0.3 ** 2 + 0.1 ** 2) / n))
