@@ -95,7 +95,8 @@ class ImplausibleValueError(DataFormatError):
 
 class UnitError(DataFormatError):
     """A plausibility rule is certain that a channel is in the wrong unit (deg/s for rad/s,
-    km/h for m/s, ms for s). The message names the rule, its evidence and the likely fix."""
+    km/h for m/s, ms, us or ns for s). The message names the rule, its evidence and the
+    likely fix."""
 
 
 class ClockError(DataFormatError):

@@ -29,8 +29,10 @@ Unit and clock rules (:func:`check_run`)
     ``timestamp_units``
         The sample rate implied by the median time step against the nominal rate range of
         the stream (:data:`NOMINAL_RATE_HZ`). Certain (refuse) when the implied rate is ten
-        times below the range and 1000 x the implied rate falls inside it: the timestamps are
-        in ms.
+        times below the range and 1000, 10^6 or 10^9 x the implied rate falls inside it: the
+        timestamps are in ms, us or ns (:func:`timestamp_unit`; us and ns were once only
+        warned about and read as s, and ``terrain predict`` then ran out of memory); likely
+        (warning, assumed s) when the rate is outside the range otherwise.
     ``clock_overlap``
         The time spans of the streams of a run must overlap (both measured files start at
         ``time = 0``). Certain when they do not overlap at all (e.g. an epoch clock beside a
@@ -165,6 +167,11 @@ MAX_UNUSED_SPAN_S = 2.0
 #: reports 6.5-15 Hz in the shipped data, simulator streams up to 100 Hz)
 NOMINAL_RATE_HZ: Mapping[str, tuple[float, float]] = MappingProxyType({
     "imu": (10.0, 2000.0), "wheels": (1.0, 1000.0)})
+#: units a clock read as s may be in (rule ``timestamp_units``): unit -> (units per second,
+#: name, the divisor as the messages print it); tried in this order
+TIME_UNITS: Mapping[str, tuple[float, str, str]] = MappingProxyType({
+    "ms": (1e3, "milliseconds", "1000"), "us": (1e6, "microseconds", "1e6"),
+    "ns": (1e9, "nanoseconds", "1e9")})
 #: largest plausible slope of wz on v_R - v_L, 1/m (1 / (chi B) with B >= 0.2 m, chi >= 1)
 MAX_YAW_SLOPE_PER_M = 5.0
 #: slope beyond which the gyro is certainly in deg/s (57.3 x the smallest rad/s slope seen,
@@ -346,8 +353,10 @@ def implied_rate_hz(t_s: np.ndarray) -> float:
     return float(f"{1.0 / float(np.median(np.diff(t_s))):.4g}")
 
 
-def timestamps_in_ms(rate_hz: float, stream: str) -> bool:
-    """Rule ``timestamp_units``'s certain case: timestamps in ms read as s.
+def timestamp_unit(rate_hz: float, stream: str) -> str | None:
+    """Rule ``timestamp_units``'s certain case: the unit of timestamps read as s that are
+    not (ms, us or ns). The one place the readers (:func:`check_rate`) and the streaming
+    service (:func:`terrain.serving.clocks.clock_in_ms`) judge it.
 
     Parameters
     ----------
@@ -358,14 +367,19 @@ def timestamps_in_ms(rate_hz: float, stream: str) -> bool:
 
     Returns
     -------
-    bool
-        True when the rate is ten times below the stream's nominal range
-        (:data:`NOMINAL_RATE_HZ`) and 1000 times it falls inside.
+    str or None
+        The first key of :data:`TIME_UNITS` (``"ms"``, ``"us"``, ``"ns"``) whose units per
+        second times the rate fall inside the stream's nominal range
+        (:data:`NOMINAL_RATE_HZ`, judged to 4 significant digits, as printed), when the
+        rate is ten times below that range; None otherwise (s, or no unit explains it).
     """
     if stream not in NOMINAL_RATE_HZ:
-        return False
+        return None
     lo, hi = NOMINAL_RATE_HZ[stream]
-    return bool(rate_hz < lo / 10.0 and lo <= 1000.0 * rate_hz <= hi)
+    if not rate_hz < lo / 10.0:
+        return None
+    return next((unit for unit, (per_s, _, _) in TIME_UNITS.items()
+                 if lo <= float(f"{per_s * rate_hz:.4g}") <= hi), None)
 
 
 def check_rate(t_s: np.ndarray, stream: str, path) -> None:
@@ -383,17 +397,21 @@ def check_rate(t_s: np.ndarray, stream: str, path) -> None:
     Raises
     ------
     UnitError
-        When the timestamps are certainly in ms.
+        When the timestamps are certainly in ms, us or ns (:func:`timestamp_unit`), naming
+        the file, the column ``time`` and the unit.
     """
     if stream not in NOMINAL_RATE_HZ or t_s.size < 2:
         return
     lo, hi = NOMINAL_RATE_HZ[stream]
     rate = implied_rate_hz(t_s)
-    if timestamps_in_ms(rate, stream):
+    unit = timestamp_unit(rate, stream)
+    if unit is not None:
+        per_s, word, factor = TIME_UNITS[unit]
         raise UnitError(
             f"rule timestamp_units: median step implies {rate:.4g} Hz, far below the "
-            f"{lo:g}-{hi:g} Hz of the {stream} stream; x1000 gives {1000 * rate:.4g} Hz: the "
-            "timestamps look like milliseconds; divide the time column by 1000", path, "time")
+            f"{lo:g}-{hi:g} Hz of the {stream} stream; x{factor} gives {per_s * rate:.4g} Hz: "
+            f"the timestamps look like {word} ({unit}); divide the time column by {factor}",
+            path, "time")
     if not lo <= rate <= hi:
         _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
               f"Hz of the {stream} stream; timestamps assumed in s")

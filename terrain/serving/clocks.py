@@ -72,9 +72,9 @@ way and put on the clock of the streams that came first (the middle of the step 
 it arrived); a run sent faster than the others go on (a
 backlog: they advanced by less than half its span) is never moved.
 
-**A clock in ms.** A stream whose clock is in ms (the readers' rule ``timestamp_units``,
-:func:`clock_in_ms` on the median of its newest finite :data:`UNITS_STEPS` steps, judged
-only when a step may say so) has what it gave on that clock purged
+**A clock in ms.** A stream whose clock is in ms (or us, ns; the readers' rule
+``timestamp_units``, :func:`clock_in_ms` on the median of its newest finite
+:data:`UNITS_STEPS` steps, judged only when a step may say so) has what it gave on that clock purged
 (:func:`newest_on_ms_clock`; the samples before a switch stay) and every sample refused as
 ``timestamp_units`` (counted, flagged from the service's newest time on) until its steps
 are in s again: an IMU in ms beside wheels in s made every 0.5 "s" of its clock a decision.
@@ -107,7 +107,7 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from terrain.io.plausibility import NOMINAL_RATE_HZ, implied_rate_hz, timestamps_in_ms
+from terrain.io.plausibility import NOMINAL_RATE_HZ, implied_rate_hz, timestamp_unit
 from terrain.serving.inputs import same_values
 
 #: reason of the rule whose refusals may announce a clock restart
@@ -120,8 +120,8 @@ DUPLICATE = "duplicate"
 #: reason of samples of one stream stamped far ahead of every other stream's clock that
 #: then did not run on as a clock (a stray stamp ahead; module docstring)
 AHEAD = "time_ahead"
-#: reason of the samples of a stream whose clock is in ms (the readers' rule
-#: ``timestamp_units``, :func:`terrain.io.plausibility.timestamps_in_ms`)
+#: reason of the samples of a stream whose clock is in ms, us or ns (the readers' rule
+#: ``timestamp_units``, :func:`terrain.io.plausibility.timestamp_unit`)
 UNITS = "timestamp_units"
 #: time steps the ``timestamp_units`` rule judges a live stream on (its newest ones)
 UNITS_STEPS = 8
@@ -777,18 +777,16 @@ def clock_in_ms(stamps_s: np.ndarray, rate_kind: str) -> bool | None:
     Returns
     -------
     bool or None
-        Whether the median step says the clock is in ms
-        (:func:`terrain.io.plausibility.timestamps_in_ms`), or in us or ns (the same rule
-        on a rate 1000 or 10^6 times lower still: a wheel clock in us ran 5561 decisions
-        and skipped 176 million over 88 s of a wheel-only replay, taken as s); None with
-        fewer than :data:`UNITS_STEPS` steps or a median step that is not positive (too
-        little to judge).
+        Whether the median step says the clock is in ms, us or ns
+        (:func:`terrain.io.plausibility.timestamp_unit`, the readers' rule itself: a wheel
+        clock in us ran 5561 decisions and skipped 176 million over 88 s of a wheel-only
+        replay, taken as s); None with fewer than :data:`UNITS_STEPS` steps or a median
+        step that is not positive (too little to judge).
     """
     steps = np.diff(stamps_s)
     if len(steps) < UNITS_STEPS or not np.median(steps) > 0:
         return None
-    rate_hz = implied_rate_hz(stamps_s)
-    return any(timestamps_in_ms(rate_hz * scale, rate_kind) for scale in (1.0, 1e3, 1e6))
+    return timestamp_unit(implied_rate_hz(stamps_s), rate_kind) is not None
 
 
 def newest_on_ms_clock(times_s: np.ndarray, ms_step_s: float) -> int:

@@ -173,6 +173,23 @@ def test_timestamps_in_ms_are_refused(turning, which):
     assert info.value.column == "time" and "milliseconds" in _one_line(info.value)
 
 
+@pytest.mark.parametrize("unit, per_s, word",
+                         [("us", 1e6, "microseconds"), ("ns", 1e9, "nanoseconds")])
+@pytest.mark.parametrize("which", ["imu", "pro"])
+def test_timestamps_in_us_or_ns_are_refused_naming_the_unit(turning, which, unit, per_s, word):
+    """An IMU file in us implies 1e-4 Hz (in ns 1e-7 Hz): before, a warning only, the
+    timestamps read as s (an IMU in us then spanned 1e6 "s" and ``terrain predict`` ran out
+    of memory); now the rule timestamp_units refuses it as it refuses ms."""
+    imu, pro = turning
+    path = {"imu": imu, "pro": pro}[which]
+    _edit(path, lambda f: f.__setitem__("time", per_s * f["time"]))
+    with pytest.raises(UnitError) as info:
+        read_runs_dir(imu.parent.parent)
+    text = _one_line(info.value)
+    assert info.value.path == str(path) and info.value.column == "time"
+    assert f"{word} ({unit})" in text and "timestamp_units" in text
+
+
 def test_epoch_imu_clock_beside_a_clock_from_zero_is_refused(turning):
     imu, pro = turning
     _edit(imu, lambda f: f.__setitem__("time", f["time"] + 1.7e9))

@@ -1,9 +1,12 @@
-"""Property test of the readers: random perturbations of real files.
+"""Property tests of the readers: random perturbations of real files, and clocks in s, ms, us
+or ns.
 
 For any mix of cell corruption, byte flips, dropped, duplicated or shuffled rows, blank lines
 and ragged rows applied to real rows of a shipped run, :func:`read_runs_dir` returns a valid
 :class:`~terrain.run.Run` or raises the project's own :class:`~terrain.errors.TerrainError`,
-never anything else (no ``UnicodeDecodeError``, ``IndexError``, pandas or numpy error).
+never anything else (no ``UnicodeDecodeError``, ``IndexError``, pandas or numpy error). For
+any stream clock at any rate and in any unit, the readers refuse it exactly when the
+streaming service does (rule ``timestamp_units``).
 """
 
 from __future__ import annotations
@@ -17,8 +20,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import TerrainError
+from terrain.errors import TerrainError, UnitError
 from terrain.io.measured import read_runs_dir
+from terrain.io.plausibility import NOMINAL_RATE_HZ, TIME_UNITS, check_rate
+from terrain.serving.clocks import UNITS_STEPS, clock_in_ms
 from terrain.run import TIME, Run
 
 N_ROWS = {"imu": 300, "pro": 40}  # 3 s of IMU, 6 s of wheel reports: small and quick
@@ -102,3 +107,33 @@ def test_perturbed_real_files_give_a_run_or_a_project_error(real_files, ops):
                 return
     assert len(runs) == 1
     _check_valid(runs[0])
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(stream=st.sampled_from(sorted(NOMINAL_RATE_HZ)),
+       rate_hz=st.floats(0.5, 3000.0),
+       unit=st.sampled_from(["s", *TIME_UNITS]),
+       t0=st.sampled_from([0.0, 12.5, 1.7e9]),
+       n=st.integers(UNITS_STEPS + 1, 60))
+def test_readers_and_service_refuse_the_same_clock_units(stream, rate_hz, unit, t0, n):
+    """``check_rate`` (readers) raises UnitError exactly when ``clock_in_ms`` (service) finds
+    the clock in another unit, and a clock at a nominal rate in ms, us or ns is refused naming
+    its unit. Before, the readers judged ms only: an IMU at 100 Hz in us (1e-4 Hz read as s)
+    or ns (1e-7 Hz) was a warning, while the service refused it."""
+    per_s = TIME_UNITS[unit][0] if unit in TIME_UNITS else 1.0
+    t = (t0 + np.arange(n) / rate_hz) * per_s
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # rates outside the range are warnings
+        try:
+            check_rate(t, stream, "f.csv")
+            refused = None
+        except UnitError as exc:
+            assert exc.path == "f.csv" and exc.column == "time"
+            refused = str(exc)
+    assert (refused is not None) == clock_in_ms(t, stream)
+    lo, hi = NOMINAL_RATE_HZ[stream]
+    fits = [u for u, (k, _, _) in TIME_UNITS.items() if lo <= k * rate_hz / per_s <= hi]
+    if unit in TIME_UNITS and lo * 1.01 <= rate_hz <= hi * 0.99 and rate_hz / per_s < lo / 10:
+        assert refused is not None, (rate_hz, unit)
+        if fits == [unit]:   # a wheel clock at 1000 Hz in us is also one at 1 Hz in ms
+            assert f"({unit})" in refused

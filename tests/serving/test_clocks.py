@@ -214,6 +214,10 @@ def test_clock_in_ms():
     assert clock_in_ms(ms * 1000.0, "imu") is True          # in us: 1e-4 "Hz"
     assert clock_in_ms(ms * 1e6, "imu") is True             # in ns
     assert clock_in_ms(ms * 1e9, "imu") is False            # no unit makes it 100 Hz
+    # a 2000 Hz IMU in us: 0.002 "Hz", 2 Hz in ms (below the range), 2000 Hz in us; the
+    # scaled ms rule missed it (the ms test at x1000 needs a rate under 1 Hz), the readers'
+    # rule itself (timestamp_unit) does not
+    assert clock_in_ms(np.arange(UNITS_STEPS + 1) * 500.0, "imu") is True
     assert clock_in_ms(ms[:UNITS_STEPS], "imu") is None      # too few steps to judge
     assert clock_in_ms(np.full(UNITS_STEPS + 1, 5.0), "imu") is None   # no step forward
 
