@@ -1,7 +1,8 @@
 """What the readers and the windowing step repaired, dropped or skipped, and why.
 
 Every command builds one :class:`InputReport` from the runs it read (their ``meta``: repaired
-cells, gaps, skipped blank/comment lines, stuck sensors, plausibility warnings) and the
+cells, gaps, skipped blank/comment lines, seconds of one stream outside the other's span,
+stuck sensors, plausibility warnings) and the
 book-keeping of :func:`features.windows.make_windows` (windows kept and dropped per run,
 runs skipped for a missing stream, runs shorter than one window). The command prints
 :meth:`InputReport.text` (a few lines), logs :meth:`InputReport.metrics` to MLflow and the
@@ -19,8 +20,11 @@ from terrain.run import Run
 
 #: columns of :attr:`InputReport.table`
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
-           "gap_list", "skipped_lines", "ignored_columns", "stuck", "windows", "dropped_gap",
-           "empty_gap", "dropped_unsteady", "partition_tail_s", "flagged_windows", "warnings")
+           "gap_list", "skipped_lines", "ignored_columns", "unused_imu_s", "unused_wheels_s",
+           "stuck", "windows", "dropped_gap", "empty_gap", "dropped_unsteady",
+           "partition_tail_s", "flagged_windows", "warnings")
+#: streams whose seconds outside the other's span the report counts (rule clock_overlap)
+UNUSED_STREAMS = ("imu", "wheels")
 
 
 @dataclass(frozen=True)
@@ -34,6 +38,10 @@ class InputReport:
         ``too_short`` with the ``reason``; ``repaired`` lists ``<stream>.<channel>:<cells>``;
         ``gaps`` / ``gap_s`` count the timestamp gaps and the time they span (s);
         ``ignored_columns`` lists ``<stream>.<column>`` of file columns no reader reads;
+        ``unused_imu_s`` / ``unused_wheels_s`` are the seconds of that stream before or
+        after the other stream's span (``Run.meta["unused_s"]``, rule ``clock_overlap``),
+        left out wherever both streams are aligned, warned about only beyond 2 s and a
+        tenth of the overlap;
         ``stuck`` lists stuck channels; ``partition_tail_s`` is the time after a run's last
         full partition, which no window is cut from (s; 0 without partitions); window columns
         are empty (-1) when the command does not window.
@@ -43,8 +51,8 @@ class InputReport:
 
     def metrics(self, prefix: str = "input_") -> dict[str, float]:
         """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, ignored
-        file columns, windows dropped and flagged, partition tails not windowed (s), stuck
-        channels, warnings.
+        file columns, seconds of each stream outside the other's span, windows dropped and
+        flagged, partition tails not windowed (s), stuck channels, warnings.
 
         Parameters
         ----------
@@ -67,6 +75,7 @@ class InputReport:
             "skipped_lines": int(t["skipped_lines"].sum()),
             "ignored_columns": int(t["ignored_columns"].str.count(",").add(
                 t["ignored_columns"] != "").sum()),
+            **{f"unused_{k}_s": float(t[f"unused_{k}_s"].sum()) for k in UNUSED_STREAMS},
             "stuck_channels": int(t["stuck"].str.count(",").add(t["stuck"] != "").sum()),
             "windows_dropped_gap": int(t.loc[windowed, "dropped_gap"].sum()),
             "windows_empty_gap": int(t.loc[windowed, "empty_gap"].sum()),
@@ -106,6 +115,13 @@ class InputReport:
             parts.append(f"  ignored {int(m['ignored_columns'])} column(s) not read by the "
                          f"readers ({_short(names, limit)}) in "
                          f"{ids(t['ignored_columns'] != '')}")
+        unused = {k: m[f"unused_{k}_s"] for k in UNUSED_STREAMS if m[f"unused_{k}_s"] > 0}
+        if unused:
+            mask = t[[f"unused_{k}_s" for k in UNUSED_STREAMS]].sum(axis=1) > 0
+            parts.append("  not used: " + ", ".join(f"{v:.1f} s of {k}" for k, v in
+                                                    unused.items())
+                         + " outside the other stream's span (only the overlap is aligned) "
+                         f"in {ids(mask)}")
         if m["gaps"]:
             lengths = [float(b) - float(a) for spans in t["gap_list"] if spans
                        for a, b in (g.split("..") for g in spans.split(";"))]
@@ -177,6 +193,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         repaired = dict(meta.get("repaired", {}))
         gaps = merged_gaps(dict(meta.get("gaps", {})))
         stuck = sorted(dict(meta.get("stuck", {})))
+        unused = dict(meta.get("unused_s", {}))
         w = per_run.get(run.run_id)
         status, reason = "used", ""
         if run.run_id in skipped:
@@ -199,6 +216,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
             "ignored_columns": ",".join(f"{stream}.{c}" for stream, cols in
                                         dict(meta.get("ignored_columns", {})).items()
                                         for c in cols),
+            **{f"unused_{k}_s": float(unused.get(k, 0.0)) for k in UNUSED_STREAMS},
             "stuck": ",".join(stuck),
             "windows": int(w["windows"]) if w else -1,
             "dropped_gap": int(w["dropped_gap"]) if w else 0,

@@ -215,6 +215,30 @@ def test_truncated_wheel_file_beside_a_full_imu_file_is_reported_with_what_is_le
     assert run.meta["warnings"] == [text]
 
 
+def test_seconds_of_a_stream_left_out_without_a_warning_are_in_the_input_report(turning):
+    # ASPHALT/00 runs 51.85 s: a wheel file cut at 49 s leaves 2.9 s of IMU outside the
+    # overlap, over 2 s but under a tenth of the 49 s overlap, so no clock_overlap warning
+    # (the rule as it is); before, nothing said those seconds were unused (the report read
+    # "nothing repaired, dropped or skipped"; ASPHALT/01 cut at 236 s: 20.4 s of IMU)
+    imu, pro = turning
+    _edit(pro, lambda f: f[f["time"] < 49.0])
+    (run,), caught = _read(imu.parent.parent)
+    assert [str(w.message) for w in caught] == [] and run.meta["warnings"] == []
+    t_imu, t_wheels = (run.streams[k][TIME].to_numpy() for k in ("imu", "wheels"))
+    left_out = t_imu[-1] - t_wheels[-1]
+    assert 2.5 < left_out < 3.0 and set(run.meta["unused_s"]) == {"imu"}
+    assert run.meta["unused_s"]["imu"] == pytest.approx(left_out, abs=1e-9)
+    ws = make_windows([run], "all", WindowConfig(rate_hz=50.0))
+    assert ws.t_end_s.max() <= t_wheels[-1] + 1e-9       # those seconds are in no window
+    report = input_report([run], ws.counts, 2.0)
+    row = report.table.iloc[0]
+    assert row["unused_imu_s"] == pytest.approx(left_out) and row["unused_wheels_s"] == 0.0
+    assert report.metrics()["input_unused_imu_s"] == pytest.approx(left_out)
+    assert f"not used: {left_out:.1f} s of imu outside the other stream's span" \
+        in report.text()
+    assert "nothing repaired, dropped or skipped" not in report.text()
+
+
 def test_dead_sensor_is_reported_and_its_windows_flagged(turning):
     imu, _ = turning
     _edit(imu, lambda f: f.__setitem__("wz", 0.0))
