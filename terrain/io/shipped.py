@@ -374,15 +374,18 @@ def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
     Returns
     -------
     list of str
-        Relative paths whose checksum differs or that are missing (empty when all match).
+        Relative paths whose checksum differs or that are missing, and shipped stream files
+        (:data:`STREAM_FILES`) that exist but are not listed (empty when all match).
     """
     data_dir = Path(data_dir or default_data_dir())
     bad = []
-    for entry in read_manifest(data_dir)["datasets"].values():
+    for dataset, entry in read_manifest(data_dir)["datasets"].items():
         for rel, digest in entry["files"].items():
             p = data_dir / rel
             if not p.exists() or sha256(p) != digest:
                 bad.append(rel)
+        bad += [f"{dataset}/{f}" for f in STREAM_FILES.values()
+                if f"{dataset}/{f}" not in entry["files"] and (data_dir / dataset / f).exists()]
     return bad
 
 
@@ -402,9 +405,10 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
     """One dataset's manifest entry, its structure checked for :func:`read_shipped`.
 
     Beyond :func:`manifest_terrains`: ``files`` maps relative paths to SHA-256 hex digests,
-    ``source`` is a string, and ``runs`` is a non-empty list of objects, each with a unique
-    ``run_id``, a ``terrain`` of the entry's ``terrains``, ``repaired`` (an object of counts)
-    and ``gaps`` (an object of lists of ``[t_start_s, t_end_s]`` pairs), as
+    ``source`` is a string, ``runs_without_imu``, where present, a list of run ids, and
+    ``runs`` is a non-empty list of objects, each with a unique ``run_id``, a ``terrain`` of
+    the entry's ``terrains``, ``repaired`` (an object of counts), ``gaps`` (an object of
+    lists of ``[t_start_s, t_end_s]`` pairs) and, where present, a boolean ``has_imu``, as
     :func:`convert_dataset` writes them.
 
     Parameters
@@ -442,6 +446,9 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
         if not (isinstance(digest, str) and len(digest) == 64
                 and all(c in "0123456789abcdef" for c in digest)):
             raise _fail(f"{key}.files.{rel}", "a SHA-256 hex digest", digest, path)
+    without = entry.get("runs_without_imu", [])
+    if not isinstance(without, list) or not all(isinstance(r, str) for r in without):
+        raise _fail(f"{key}.runs_without_imu", "a list of run ids", without, path)
     seen: set[str] = set()
     for i, info in enumerate(entry["runs"]):
         k = f"{key}.runs[{i}]"
@@ -453,6 +460,8 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
         rid = info["run_id"]
         if not isinstance(rid, str) or not rid:
             raise _fail(f"{k}.run_id", "a run id", rid, path)
+        if not isinstance(info.get("has_imu", False), bool):
+            raise _fail(f"{k}.has_imu", "a boolean", info["has_imu"], path)
         if rid in seen:
             raise DataFormatError(f"manifest key '{k}.run_id': run {rid!r} is listed twice",
                                   path)
@@ -532,8 +541,11 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         Unknown dataset.
     DataFormatError
         A missing or unreadable file, a file whose SHA-256 differs from the manifest's
-        (edited after `terrain convert` wrote it), a manifest entry of another structure
-        (:func:`dataset_entry`), runs of a file and of the manifest that differ, a missing
+        (edited after `terrain convert` wrote it), a stream file that exists but that the
+        manifest's ``files`` does not list (its runs would silently lack that stream), a
+        manifest entry of another structure (:func:`dataset_entry`), runs of a file and of
+        the manifest that differ (run ids; a run's ``has_imu`` and the entry's
+        ``runs_without_imu`` against the IMU rows the files hold), a missing
         or non-numeric column, timestamps that do not increase strictly or a non-finite
         value (subclasses :class:`~terrain.errors.MissingColumnError`,
         :class:`~terrain.errors.NonNumericError`, :class:`~terrain.errors.TimestampError`,
@@ -550,6 +562,12 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         path = data_dir / dataset / fname
         rel = f"{dataset}/{fname}"
         if rel not in entry["files"]:
+            if path.exists():
+                # left out, every run of the dataset would be read without this stream
+                raise DataFormatError(
+                    f"key 'datasets.{dataset}.files' does not list {rel}, which exists "
+                    f"({path}): its runs would be read without their {name} stream; "
+                    "regenerate data/ with `terrain convert`", manifest_path)
             continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
@@ -581,12 +599,18 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                                   f"(key 'datasets.{dataset}.runs'): {extra[:5]}",
                                   data_dir / dataset / STREAM_FILES[name], RUN_ID)
     runs = []
-    for info in entry["runs"]:
+    for i, info in enumerate(entry["runs"]):
         rid = info["run_id"]
         streams = {n: t[rid] for n, t in tables.items() if rid in t}
         if "wheels" not in streams:
             raise DataFormatError(f"run {rid!r} of key 'datasets.{dataset}.runs' has no rows "
                                   f"in {STREAM_FILES['wheels']}", manifest_path)
+        if "has_imu" in info and info["has_imu"] != ("imu" in streams):
+            raise DataFormatError(
+                f"key 'datasets.{dataset}.runs[{i}].has_imu' is "
+                f"{json.dumps(info['has_imu'])} but {STREAM_FILES['imu']} holds "
+                f"{'rows' if 'imu' in streams else 'no row'} of run {rid!r}; regenerate data/ "
+                "with `terrain convert`", manifest_path)
         # the same plausibility rules as the CSV reader (ranges were checked on conversion)
         checks = check_run(rid, streams, DATASET_VEHICLE[dataset],
                            {n: f"{data_dir / dataset / STREAM_FILES[n]} run {rid}"
@@ -601,6 +625,16 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                               "skipped_lines": dict(info.get("skipped_lines", {})),
                               "ignored_columns": dict(info.get("ignored_columns", {})),
                               **checks}))
+    if "runs_without_imu" in entry:
+        without = {r.run_id for r in runs if "imu" not in r.streams}
+        listed_without = set(entry["runs_without_imu"])
+        extra, missing = sorted(listed_without - without), sorted(without - listed_without)
+        wrong = ([f"lists {extra[:5]}, which are not runs without rows"] if extra else []) + \
+            ([f"omits {missing[:5]}, which have none"] if missing else [])
+        if wrong:
+            raise DataFormatError(f"key 'datasets.{dataset}.runs_without_imu' "
+                                  f"{' and '.join(wrong)} in {STREAM_FILES['imu']}; "
+                                  "regenerate data/ with `terrain convert`", manifest_path)
     return runs
 
 

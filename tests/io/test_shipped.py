@@ -274,6 +274,10 @@ def test_a_parquet_file_and_its_checksum_both_edited_are_refused_by_the_readers_
     (lambda e: e["runs"].append(dict(e["runs"][0])), "is listed twice"),
     (lambda e: e["files"].__setitem__("vulpi/imu.parquet", "0" * 63),
      "datasets.vulpi.files.vulpi/imu.parquet' must be a SHA-256"),
+    (lambda e: e["runs"][1].__setitem__("has_imu", "yes"),
+     "datasets.vulpi.runs[1].has_imu' must be a boolean"),
+    (lambda e: e.__setitem__("runs_without_imu", "none"),
+     "datasets.vulpi.runs_without_imu' must be a list of run ids"),
 ])
 def test_a_manifest_entry_of_another_structure_names_its_key(vulpi_copy, edit, key):
     path = _edit_manifest(vulpi_copy, edit)
@@ -294,6 +298,49 @@ def test_runs_of_the_files_and_of_the_manifest_must_agree(vulpi_copy):
     with pytest.raises(DataFormatError, match="'vulpi/X/9'.*has no rows") as info:
         read_shipped("vulpi", vulpi_copy)
     assert info.value.path == str(path)
+
+
+def test_a_manifest_that_omits_a_stream_file_that_exists_is_refused(vulpi_copy):
+    # a manifest whose 'files' lacked vulpi/imu.parquet made all 15 Vulpi runs wheel-only
+    # without a word (the IMU file was skipped as "no run of the dataset has this stream")
+    imu = vulpi_copy / "vulpi" / "imu.parquet"
+    assert all("imu" in r.streams for r in read_shipped("vulpi", vulpi_copy))
+    path = _edit_manifest(vulpi_copy, lambda e: e["files"].pop("vulpi/imu.parquet"))
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", vulpi_copy)
+    text = str(info.value)
+    assert info.value.path == str(path) and str(imu) in text and "\n" not in text
+    assert "'datasets.vulpi.files' does not list vulpi/imu.parquet" in text
+    assert verify_manifest(vulpi_copy) == ["vulpi/imu.parquet"]
+    # the file gone as well: the runs still say they have an IMU (has_imu), refused
+    imu.unlink()
+    assert verify_manifest(vulpi_copy) == []
+    with pytest.raises(DataFormatError, match=r"'datasets.vulpi.runs\[0\].has_imu' is true "
+                                              r"but imu.parquet holds no row of run"):
+        read_shipped("vulpi", vulpi_copy)
+
+
+def test_has_imu_and_runs_without_imu_must_agree_with_the_imu_rows(vulpi_copy, data_dir):
+    import shutil
+    path = _edit_manifest(vulpi_copy, lambda e: e["runs"][4].__setitem__("has_imu", False))
+    with pytest.raises(DataFormatError, match=r"runs\[4\].has_imu' is false but imu.parquet "
+                                              "holds rows") as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert info.value.path == str(path)
+    _edit_manifest(vulpi_copy, lambda e: e["runs"][4].__setitem__("has_imu", True))
+    assert read_shipped("vulpi", vulpi_copy)
+    _edit_manifest(vulpi_copy, lambda e: e["runs_without_imu"].append(e["runs"][4]["run_id"]))
+    with pytest.raises(DataFormatError, match=r"'datasets.vulpi.runs_without_imu' lists "
+                                              r"\['vulpi/"):
+        read_shipped("vulpi", vulpi_copy)
+    # BorealTC lists its three runs without an IMU: dropping one is refused too
+    shutil.copy(data_dir / "manifest.json", vulpi_copy / "manifest.json")
+    manifest = json.loads(path.read_text())
+    manifest["datasets"]["borealtc"]["runs_without_imu"].remove("borealtc/FLOORING/04")
+    path.write_text(json.dumps(manifest))
+    with pytest.raises(DataFormatError, match=r"without_imu' omits \['borealtc/FLOORING/04'\], "
+                                              "which have none in imu.parquet"):
+        read_shipped("borealtc", vulpi_copy)
 
 
 def test_invalid_manifest_json_names_its_line_and_column(tmp_path, data_dir):
