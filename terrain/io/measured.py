@@ -589,7 +589,8 @@ def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = 
     ------
     DataFormatError
         If ``path`` is not a folder, holds no run file, holds run files itself beside
-        terrain folders with runs, or a file named like a run file that is not read.
+        terrain folders with runs, or a file named like a run file that is not read (in
+        the folders read: a terrain folder's sibling folders are not looked at).
     """
     path = Path(path)
     if path.name in ("", ".", ".."):     # "." has no name and "." as parent
@@ -621,7 +622,9 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     progress : bool
         Show a progress bar (tqdm, on stderr) over runs.
     only : str, optional
-        Read the runs of this terrain folder only.
+        Read the runs of this terrain folder only: only that folder is indexed
+        (:func:`folder_run_files`), so a badly named file in another folder of ``root``
+        does not stop it.
     **reader_options
         Passed to :func:`read_stream_csv`.
 
@@ -629,12 +632,25 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     -------
     list of Run
         Sorted by run id, ``<dataset>/<TERRAIN>/<index>``.
+
+    Raises
+    ------
+    DataFormatError
+        As :func:`list_run_files` (with ``only``: the folder holds no run file, or a file
+        named like a run file that is not read), or a file that cannot be read
+        (:func:`read_run`).
     """
     root = Path(root)
     dataset = dataset or root.resolve().name
     runs = []
-    items = sorted((k, v) for k, v in list_run_files(root).items()
-                   if only is None or k[0] == only)
+    if only is None:
+        found = list_run_files(root)
+    else:
+        found = {(only, index): files
+                 for index, files in folder_run_files(root / only).items()}
+        if not found:
+            raise DataFormatError("no run files (imu_XX.csv, pro_XX.csv) found", root / only)
+    items = sorted(found.items())
     if progress:
         from tqdm.auto import tqdm
         items = tqdm(items, desc="reading runs", unit="run")

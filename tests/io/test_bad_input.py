@@ -428,6 +428,25 @@ def test_a_file_named_like_a_run_file_that_is_not_read_is_named(turning, name, w
         assert info.value.path == str(target) and words in _one_line(info.value)
 
 
+def test_one_terrain_folder_is_read_whatever_its_sibling_folders_hold(turning):
+    # read_runs_path(<root>/ASPHALT) indexed every folder of <root>: an IMU_01.csv in a
+    # sibling folder refused the ASPHALT run it never reads ("run file names are lower case")
+    imu, _ = turning
+    other = imu.parent.parent / "OTHER"
+    other.mkdir()
+    (other / "IMU_01.csv").write_text(imu.read_text())
+    (run,) = read_runs_path(imu.parent)
+    assert run.run_id == f"{imu.parent.parent.name}/ASPHALT/00" and set(run.streams) == {
+        "imu", "wheels"}
+    with pytest.raises(DataFormatError) as info:   # the whole runs folder: still refused
+        read_runs_path(imu.parent.parent)
+    assert info.value.path == str(other / "IMU_01.csv")
+    (imu.parent.parent / "EMPTY").mkdir()
+    with pytest.raises(DataFormatError, match="no run files") as info:
+        read_runs_dir(imu.parent.parent, only="EMPTY")
+    assert info.value.path == str(imu.parent.parent / "EMPTY")
+
+
 def test_a_last_line_without_a_line_break_is_a_warning_naming_it(turning):
     # a file cut while being written ("...,-0." of "...,-0.0731"): the partial value
     # parses as a number and was read without a word
