@@ -14,9 +14,10 @@ Validation rules: every problem raises a subclass of :class:`terrain.errors.Data
 naming file, column and 1-based file line; the plausibility rules (ranges, units, clocks,
 stuck sensors) are those of :mod:`terrain.io.plausibility`. The only
 repair is documented in :func:`read_stream_csv`: isolated non-finite samples (at most
-``max_repair_run`` consecutive rows in one channel) are linearly interpolated and counted;
-longer bursts are rejected. Timestamp gaps are never interpolated across: they are listed in
-``Run.meta["gaps"]`` and the windowing step drops every window that spans one.
+``max_repair_run`` consecutive rows in one channel) are linearly interpolated in time and
+counted; longer bursts are rejected. Timestamp gaps are never interpolated across: they are
+listed in ``Run.meta["gaps"]``, the windowing step drops every window that spans one, and a
+non-finite sample next to one is rejected (its repair would interpolate across it).
 """
 
 from __future__ import annotations
@@ -119,8 +120,10 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         ``pro`` require their canonical columns; other kinds only require ``time``.
     max_repair_run : int
         Longest run of consecutive non-finite samples in one channel that is repaired by
-        linear interpolation between its finite neighbours (counted in the report). Longer
-        bursts, and non-finite values at the first or last row, raise :class:`NonFiniteError`.
+        linear interpolation in time between its finite neighbours (counted in the report).
+        Longer bursts, non-finite values at the first or last row, and those whose finite
+        neighbours lie across a timestamp gap (a step of more than ``gap_factor`` median
+        steps) raise :class:`NonFiniteError`.
     gap_factor : float
         A timestamp step larger than ``gap_factor`` times the median step is reported as a gap.
 
@@ -174,9 +177,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     out: dict[str, np.ndarray] = {}
     for col, name in mapping.items():
         if numbers is not None:
-            values = numbers[:, header.index(col)]
-            out[name] = _repair_non_finite(values, path, col, max_repair_run, report, name,
-                                           lines)
+            out[name] = numbers[:, header.index(col)]
             continue
         text = pd.Series(cells[:, header.index(col)]).str.strip()
         values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
@@ -194,10 +195,16 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             raise NonNumericError(f"{idx.size} non-numeric value(s), first {shown!r} at "
                                   f"{first_items(lines[idx])}", path, col, int(idx[0]),
                                   int(lines[idx[0]]))
-        values = _repair_non_finite(values, path, col, max_repair_run, report, name, lines)
         out[name] = values
+    # the clock first (finite, increasing, its gaps): channels are repaired on it
+    t = out[TIME]
+    _refuse_non_finite_time(t, path, next(c for c, n in mapping.items() if n == TIME), lines)
+    gap_steps = _check_time(t, path, gap_factor, report, lines)
+    for col, name in mapping.items():
+        if name != TIME and out[name].dtype != object:
+            out[name] = _repair_non_finite(out[name], t, gap_steps, path, col, max_repair_run,
+                                           report, name, lines)
     frame = pd.DataFrame(out)
-    _check_time(frame[TIME].to_numpy(), path, gap_factor, report, lines)
     stream = STREAM_NAMES.get(kind, kind)
     check_rate(frame[TIME].to_numpy(), stream, path)
     check_ranges(frame, path, mapping, lines)
@@ -286,15 +293,24 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     return header, cells, lines, skipped
 
 
-def _repair_non_finite(values: np.ndarray, path: Path, col: str, max_run: int,
-                       report: ReadReport, name: str, lines: np.ndarray) -> np.ndarray:
+def _refuse_non_finite_time(t: np.ndarray, path: Path, col: str, lines: np.ndarray) -> None:
+    """A non-finite timestamp is never repaired (NonFiniteError naming the first)."""
+    idx = np.flatnonzero(~np.isfinite(t))
+    if idx.size:
+        raise NonFiniteError(f"{idx.size} non-finite timestamp(s) at {first_items(lines[idx])}",
+                             path, col, int(idx[0]), int(lines[idx[0]]))
+
+
+def _repair_non_finite(values: np.ndarray, t: np.ndarray, gap_steps: np.ndarray, path: Path,
+                       col: str, max_run: int, report: ReadReport, name: str,
+                       lines: np.ndarray) -> np.ndarray:
+    """Isolated non-finite samples of one channel, interpolated linearly in time between
+    their finite neighbours; a burst, a run at the file's edge or one next to a timestamp gap
+    (``gap_steps``, :func:`_check_time`) is refused."""
     finite = np.isfinite(values)
     if finite.all():
         return values
     idx = np.flatnonzero(~finite)
-    if name == TIME:
-        raise NonFiniteError(f"{idx.size} non-finite timestamp(s) at {first_items(lines[idx])}",
-                             path, col, int(idx[0]), int(lines[idx[0]]))
     # runs of consecutive non-finite rows
     breaks = np.flatnonzero(np.diff(idx) > 1)
     starts = np.r_[idx[0], idx[breaks + 1]]
@@ -307,15 +323,28 @@ def _repair_non_finite(values: np.ndarray, path: Path, col: str, max_run: int,
         if s == 0 or e == len(values) - 1:
             raise NonFiniteError("non-finite value at the edge of the file cannot be "
                                  "interpolated", path, col, int(s), int(lines[s]))
+        # steps s-1 -> s ... e -> e+1: the neighbours the repair interpolates between
+        if gap_steps[s - 1:e + 1].any():
+            k = s - 1 + int(np.flatnonzero(gap_steps[s - 1:e + 1])[0])
+            raise NonFiniteError(f"non-finite value next to a timestamp gap ({t[k]:.10g} -> "
+                                 f"{t[k + 1]:.10g} s) cannot be interpolated: gaps are never "
+                                 "interpolated across", path, col, int(s), int(lines[s]))
     good = np.flatnonzero(finite)
     repaired = values.copy()
-    repaired[idx] = np.interp(idx, good, values[good])
+    repaired[idx] = np.interp(t[idx], t[good], values[good])
     report.repaired[name] = int(idx.size)
     return repaired
 
 
 def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport,
-                lines: np.ndarray) -> None:
+                lines: np.ndarray) -> np.ndarray:
+    """Refuse timestamps that do not increase strictly; list the gaps in ``report``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n - 1,)`` bool: whether each step is a gap (over ``gap_factor`` x the median).
+    """
     dt = np.diff(t)
     if dt.size and (dt <= 0).any():
         bad = np.flatnonzero(dt <= 0) + 1
@@ -325,10 +354,10 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
                              f"({bad.size} such row(s), at {first_items(lines[bad])}); "
                              "timestamps must increase strictly", path, "time", row,
                              int(lines[row]))
-    if dt.size:
-        step = float(np.median(dt))
-        for i in np.flatnonzero(dt > gap_factor * step):
-            report.gaps.append((float(t[i]), float(t[i + 1])))
+    gap_steps = dt > gap_factor * float(np.median(dt)) if dt.size else np.zeros(0, bool)
+    for i in np.flatnonzero(gap_steps):
+        report.gaps.append((float(t[i]), float(t[i + 1])))
+    return gap_steps
 
 
 #: Compression suffixes of a run file that the readers do not open (named in the error).

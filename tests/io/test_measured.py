@@ -7,6 +7,8 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from features.windows import WindowConfig, make_windows
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, MissingColumnError,
@@ -178,6 +180,54 @@ def test_isolated_nan_is_interpolated_and_counted_in_run_meta(tmp_path, synth_im
     assert vel_r[7] == pytest.approx(0.5 * (pro["velR"][6] + pro["velR"][8]))
     assert vel_r[12] == pytest.approx(0.5 * (pro["velR"][11] + pro["velR"][13]))
     assert run.meta["repaired"] == {"imu.wz": 1, "wheels.vel_r": 2}
+
+
+def _wheel_file(tmp_path, t, vel, name="pro_00.csv"):
+    """A pro file with timestamps ``t``, both wheel speeds ``vel`` (text cells allowed)."""
+    frame = pd.DataFrame({"time": t, "curL": 5.0, "curR": 5.0, "velL": vel, "velR": 0.5})
+    return _write(tmp_path, frame, name)
+
+
+def test_a_non_finite_sample_next_to_a_timestamp_gap_is_refused(tmp_path):
+    # 10 Hz wheels with a gap 4.9 -> 10.0 s, speed 0.2 m/s before and 0.9 after; a NaN at
+    # the first sample after the gap was "repaired" to 0.55 from the row before the gap
+    # and the row after it (by row index, across the 5.1 s gap)
+    t = np.r_[np.arange(0, 5, 0.1), np.arange(10, 15, 0.1)].round(3)
+    vel = np.where(t < 7, 0.2, 0.9).astype(object)
+    for row in (49, 50):                  # last before the gap, first after it
+        cells = vel.copy()
+        cells[row] = "nan"
+        path = _wheel_file(tmp_path, t, cells)
+        with pytest.raises(NonFiniteError) as info:
+            read_stream_csv(path, "pro")
+        err = info.value
+        assert (err.column, err.row, err.line) == ("velL", row, row + 2)
+        assert "timestamp gap (4.9 -> 10 s)" in str(err)
+    cells = vel.copy()
+    cells[60] = "nan"                     # inside the second stretch: repaired
+    frame, report = read_stream_csv(_wheel_file(tmp_path, t, cells), "pro")
+    assert frame["vel_l"][60] == 0.9 and report.repaired == {"vel_l": 1}
+    assert report.gaps == [(4.9, 10.0)]
+
+
+@settings(max_examples=60, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(steps=st.lists(st.floats(0.06, 0.14), min_size=8, max_size=40),
+       picks=st.sets(st.integers(1, 38), min_size=1, max_size=6),
+       a=st.floats(-1.0, 1.0), b=st.floats(-0.5, 0.5))
+def test_isolated_non_finite_samples_are_interpolated_in_time(tmp_path, steps, picks, a, b):
+    """A wheel speed linear in time, sampled with uneven steps (0.06-0.14 s: no gap at 3 x
+    the median) and isolated NaN: the repair gives the line itself. Before, it interpolated
+    by row index: at t = 0, 0.06, 0.2 (NaN), 0.26 the repair was off by 0.04 x b."""
+    t = np.r_[0.0, np.cumsum(steps)].round(6)
+    rows = sorted(i for i in picks if i < len(t) - 1 and i - 1 not in picks)
+    vel = (a + b * t).round(9)
+    cells = vel.astype(object)
+    cells[rows] = "nan"
+    frame, report = read_stream_csv(_wheel_file(tmp_path, t, cells), "pro",
+                                    max_repair_run=1)
+    np.testing.assert_allclose(frame["vel_l"].to_numpy(), vel, rtol=0, atol=1e-8)
+    assert report.repaired == ({"vel_l": len(rows)} if rows else {}) and report.gaps == []
 
 
 # --- empty files ---------------------------------------------------------------------------
