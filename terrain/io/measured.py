@@ -107,7 +107,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     """Read and validate one stream file.
 
     The file is parsed strictly: UTF-8 text (a BOM is allowed), comma separated, no quoting,
-    one header line then one data row per line. Blank lines and ``#`` comment lines are
+    one header line then one data row per line, lines ended by LF, CR LF or a lone CR (as
+    the streaming service reads CSV bodies). Blank lines and ``#`` comment lines are
     skipped and counted in the report; every other line must have as many fields as the
     header. Errors name the 1-based file line (what an editor shows).
 
@@ -142,6 +143,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     """
     path = Path(path)
     text = _read_text(path)
+    if "\r" in text:   # CR LF and a lone CR (classic Mac OS) end a line as LF does
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
     header, rows, lines, skipped = _split_lines(text, path)
     header_line = skipped.pop("header_line")
     if len(set(header)) < len(header):
@@ -241,7 +244,8 @@ def _read_text(path: Path) -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
+        head = data[:exc.start]   # lines end in LF, CR LF or a lone CR
+        line = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
         raise EncodingError(f"undecodable byte 0x{data[exc.start]:02x} at byte offset "
                             f"{exc.start}; expected UTF-8 text", path,
                             line=line) from None
@@ -255,7 +259,6 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     skipped = {"blank": 0, "comment": 0}
     header, rows, lines = None, [], []
     for i, line in enumerate(raw):
-        line = line.rstrip("\r")
         stripped = line.strip()
         if not stripped:
             skipped["blank"] += 1

@@ -11,8 +11,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from features.windows import WindowConfig, make_windows
-from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, MissingColumnError,
-                            NonFiniteError, NonNumericError, OrphanFileError, TimestampError)
+from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
+                            MissingColumnError, NonFiniteError, NonNumericError,
+                            OrphanFileError, TimestampError)
 from terrain.io.align import align_streams
 from terrain.io.measured import (list_run_files, read_folder_run, read_runs_dir,
                                  read_stream_csv)
@@ -228,6 +229,37 @@ def test_isolated_non_finite_samples_are_interpolated_in_time(tmp_path, steps, p
                                     max_repair_run=1)
     np.testing.assert_allclose(frame["vel_l"].to_numpy(), vel, rtol=0, atol=1e-8)
     assert report.repaired == ({"vel_l": len(rows)} if rows else {}) and report.gaps == []
+
+
+@pytest.mark.parametrize("end", ["\r\n", "\r"])
+def test_cr_lf_and_lone_cr_line_ends_read_as_lf(tmp_path, synth_imu, end):
+    # a CR-only file (classic Mac OS) was one line: "file has a header but no data rows",
+    # while the streaming service reads CR-only CSV bodies
+    lf = _write(tmp_path, synth_imu(duration_s=1.0), "lf.csv")
+    text = lf.read_text()
+    want, _ = read_stream_csv(lf, "imu")
+    other = tmp_path / "other.csv"
+    other.write_bytes(text.replace("\n", end).encode())
+    got, report = read_stream_csv(other, "imu")
+    pd.testing.assert_frame_equal(got, want)
+    assert len(got) == 101 and report.warnings == []
+    # errors name the line an editor shows: file line 31 is data row 29
+    lines = text.split("\n")
+    lines[30] = lines[30].replace(",", ",x", 1)
+    other.write_bytes(end.join(lines).encode())
+    with pytest.raises(NonNumericError) as info:
+        read_stream_csv(other, "imu")
+    assert (info.value.row, info.value.line) == (29, 31)
+    lines = text.split("\n")
+    lines[40] += "\xe9"
+    other.write_bytes(end.join(lines).encode("latin-1"))
+    with pytest.raises(EncodingError) as info:
+        read_stream_csv(other, "imu")
+    assert info.value.line == 41
+    other.write_bytes(text.rstrip("\n").replace("\n", end).encode())   # no line end last
+    _, report = read_stream_csv(other, "imu")
+    assert [w.split(": ", 1)[1][:38] for w in report.warnings] == [
+        "rule last_line: no line break after th"] and "(line 102)" in report.warnings[0]
 
 
 # --- empty files ---------------------------------------------------------------------------
