@@ -76,7 +76,9 @@ class ReadReport:
         ``blank`` and ``comment`` lines skipped.
     ignored_columns : list[str]
         Header columns of an ``imu`` or ``pro`` file that are not among its canonical
-        columns, in file order: present in the file, not read.
+        columns, in file order: present in the file, not read. One with an empty name is
+        ``<unnamed column N>`` (N its 1-based position; the last one's name adds ``a
+        trailing comma?``).
     warnings : list[str]
         What the file itself makes likely but not certain (rule ``last_line``: no line
         break after the last line, which may then have been cut off while being written),
@@ -161,7 +163,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             f"missing column(s) {missing}; found {header[:12]}, expected {list(mapping)}"
             f"{_header_format_hint(header)}", path, missing[0], line=header_line)
     report = ReadReport(str(path), skipped_lines=skipped,
-                        ignored_columns=[c for c in header if c not in mapping])
+                        ignored_columns=[_column_label(header, k) for k, c in enumerate(header)
+                                         if c not in mapping])
     if not text.endswith("\n"):
         # a writer interrupted mid-line leaves a partial last value ("-0.0" of "-0.0731")
         # that parses as a number: said, not dropped (many tools end files this way too)
@@ -214,6 +217,16 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     if kind == "imu":
         check_accel_units(frame, path)   # a file in g is refused, a dead sensor warned
     return frame, report
+
+
+def _column_label(header: list[str], k: int) -> str:
+    """The name of header column ``k`` for the report: a column without one (a trailing
+    comma on every line, header included) is named by its position, since an empty name
+    read as nothing ("ignored 1 column(s) not read by the readers ()")."""
+    if header[k]:
+        return header[k]
+    last = "; a trailing comma?" if k == len(header) - 1 else ""
+    return f"<unnamed column {k + 1}{last}>"
 
 
 def _fast_numbers(rows: list[list[str]], header: list[str],

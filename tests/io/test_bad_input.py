@@ -349,6 +349,22 @@ def test_extra_columns_are_not_read_but_counted_and_named(turning):
     assert input_report(reference).metrics()["input_ignored_columns"] == 0.0
 
 
+def test_a_column_without_a_name_is_named_by_its_position_in_the_report(turning):
+    # a trailing comma on every line, header included: an eighth column with an empty
+    # name, reported as "ignored 1 column(s) not read by the readers (imu.)"
+    imu, _ = turning
+    reference, _ = _read(imu.parent.parent)
+    imu.write_text("".join(line + ",\n" for line in imu.read_text().splitlines()))
+    (run,), caught = _read(imu.parent.parent)
+    assert not caught
+    pd.testing.assert_frame_equal(run.streams["imu"], reference[0].streams["imu"])
+    assert run.meta["ignored_columns"] == {"imu": ["<unnamed column 8; a trailing comma?>"]}
+    report = input_report([run])
+    assert report.metrics()["input_ignored_columns"] == 1.0
+    assert ("ignored 1 column(s) not read by the readers (imu.<unnamed column 8; a trailing "
+            f"comma?>) in {run.run_id}" in report.text())
+
+
 def test_two_stray_quotes_289_rows_apart_give_a_short_message(turning):
     imu, _ = turning
     lines = _lines(imu)
