@@ -49,12 +49,15 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     Returns
     -------
     dict or None
-        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "physics_current": ...,
-        "physics_transient": ..., "learned": ...}``
-        with ``t_s`` the window centres, s; ``physics_current`` is the physics slip with the
-        current noise as its only uncertainty (efficiency and rolling-loss uncertainties 0):
-        its std is the traction-coefficient noise over the slope of the terrain's
-        traction-slip curve, which sets the steady slip drift of
+        ``{"physics": (t_s, slip (k, 2), std (k, 2)), "physics_interval": (t_s, lower (k, 2),
+        upper (k, 2)), "physics_current": ..., "physics_transient": ..., "learned": ...}``
+        with ``t_s`` the window centres, s; ``physics_interval`` is the physics slip's interval
+        (:class:`terrain.slip.physics.PhysicsSlip` ``lower``, ``upper``), whose centre
+        replaces a full-slip (+-1) window-side in the pseudo-measurement
+        (:func:`terrain.slip.estimate.estimate_skid_steer_slip_run`); ``physics_current`` is
+        the physics slip with the current noise as its only uncertainty (efficiency and
+        rolling-loss uncertainties 0): its std is the traction-coefficient noise over the
+        slope of the terrain's traction-slip curve, which sets the steady slip drift of
         :data:`terrain.slip.estimate.BATCH_FUSION`; ``physics_transient``'s std is the slip
         change inside the window (the traction that changed beyond the current noise,
         ``cur_*__std`` through :func:`terrain.slip.physics.within_window_current_std`), which
@@ -106,6 +109,7 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
     change = np.sqrt(np.maximum(with_change.std ** 2 - current_only.std ** 2, 0.0))
     t_mid = 0.5 * (ws.t_start_s + ws.t_end_s).astype(float)
     out = {"physics": (t_mid, phys, phys_std),
+           "physics_interval": (t_mid, res.lower, res.upper),
            "physics_current": (t_mid, current_only.slip, current_only.std),
            "physics_transient": (t_mid, with_change.slip, change)}
     if learned_model is not None:

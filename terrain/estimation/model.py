@@ -155,6 +155,19 @@ class StateSpaceModel:
         raise NotImplementedError
 
     @property
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Physical range of each state, or None (default) for an unbounded state.
+
+        Returns
+        -------
+        (lower, upper) of ndarray, shape (n,), or None
+            :func:`terrain.estimation.runner.run_filter` clips the state mean into this box
+            after every update (the covariance is left as it is); ``-inf`` / ``inf`` for a
+            state without a bound. None: no clipping.
+        """
+        return None
+
+    @property
     def x0(self) -> np.ndarray:  # pragma: no cover - interface
         """Initial state, ``(n,)``."""
         raise NotImplementedError

@@ -227,7 +227,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         ``fast_kernel()``); ``auto``: the compiled loop when the model provides a kernel and
         numba is importable, else the reference. The first compiled call on a machine
         compiles the loop (about 4.5 s, then cached on disk). The engine used is recorded in
-        ``meta["engine"]``.
+        ``meta["engine"]``. A model with ``state_bounds`` (its states clipped into their
+        physical range after every update) runs on the reference loop.
 
     Returns
     -------
@@ -240,7 +241,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
     TimeStepError
         Grid not strictly increasing.
     ConfigError
-        Unknown ``engine``, or ``engine="numba"`` for a model without a kernel.
+        Unknown ``engine``, or ``engine="numba"`` for a model without a kernel or with
+        ``state_bounds``.
     """
     if engine not in ENGINES:
         raise ConfigError(f"unknown engine {engine!r}; valid: {', '.join(ENGINES)}")
@@ -268,7 +270,11 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         counts[name] = c
     avail = np.isfinite(Z)
     row_sensor = sensor_groups(sensor_rows, m)
-    kernel = _fast_kernel(model, engine)
+    bounds = getattr(model, "state_bounds", None)
+    if bounds is not None and engine == "numba":
+        raise ConfigError(f"{type(model).__name__} bounds its states, which only the NumPy "
+                          "reference loop applies; use engine='numpy' or 'auto'")
+    kernel = None if bounds is not None else _fast_kernel(model, engine)
     if kernel is not None:
         from terrain.estimation.fast import run_compiled
 
@@ -278,7 +284,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                             thresholds=thresholds, store_covariance=store_covariance)
     else:
         loop = _reference_loop(model, dts, Z, avail, x, P, R_diag, row_sensor,
-                               len(sensor_rows), gate, store_covariance)
+                               len(sensor_rows), gate, store_covariance, bounds)
     accepted = loop.accepted
     for name, rows in sensor_rows.items():
         if name in counts:
@@ -324,9 +330,13 @@ def _fast_kernel(model: StateSpaceModel, engine: str) -> Any:
 
 def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avail: np.ndarray,
                     x: np.ndarray, P: np.ndarray, R_diag: np.ndarray, row_sensor: np.ndarray,
-                    n_sensors: int, gate: Gate | None, store_covariance: bool) -> LoopArrays:
+                    n_sensors: int, gate: Gate | None, store_covariance: bool,
+                    bounds: tuple[np.ndarray, np.ndarray] | None = None) -> LoopArrays:
     """The NumPy reference loop of :func:`run_filter` (predict, then :func:`correct` with the
-    rows available at each step)."""
+    rows available at each step, then the mean clipped into ``bounds``, the model's
+    ``state_bounds``, when given)."""
+    if bounds is not None:
+        lower, upper = (np.asarray(b, dtype=float) for b in bounds)
     N, m = Z.shape
     n = x.shape[0]
     weights = np.left_shift(np.int64(1), np.arange(m, dtype=np.int64))
@@ -380,6 +390,8 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
                 accepted[k, rows] = inn.accepted
             nis[k] = inn.nis
             dof[k] = inn.dof
+            if bounds is not None:
+                x = np.clip(x, lower, upper)
         xs[k] = x
         Pd[k] = P.diagonal()
         if Ps is not None:

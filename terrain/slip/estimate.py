@@ -675,7 +675,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         Window outputs of the slip models
         (:func:`features.slip_outputs.slip_model_outputs`: ``physics``, ``physics_current``
         (its std scales the slip drift when ``settings.filter.slip_psd_rel > 0``; without it
-        the pseudo-measurement std does) and, with a learned model, ``learned``); None when they
+        the pseudo-measurement std does), ``physics_interval`` (the physics slip's interval,
+        for windows at full slip) and, with a learned model, ``learned``); None when they
         could not be computed: then the plain EKF answers, as for ``ekf`` (with no
         pseudo-measurement the slip-augmented EKF has only the accelerometer to tie the
         speed to, drifts and calls the drift certain), and a note says why.
@@ -694,9 +695,17 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     Returns
     -------
     RunEstimate
-        ``slip`` and ``slip_std`` from the EKF states ``slip_1, slip_2`` (the plain EKF's
-        turning slip and no std without a slip model); ``notes`` say which source supplied
-        the unobservable common slip (and any fallback).
+        ``slip`` and ``slip_std`` from the EKF states ``slip_1, slip_2``, in [-1, 1] (the
+        model's ``state_bounds``; the plain EKF's turning slip and no std without a slip
+        model); ``notes`` say which source supplied the unobservable common slip (and any
+        fallback). With the ``physics`` or ``fused`` source a window-side whose physics slip
+        is full slip (+-1: the current asks for at least the curve's maximum traction, which
+        bounds the slip without measuring it) enters as the centre of its physics interval
+        (``physics_interval`` of the outputs) with the physics std, not as +-1; without
+        ``physics_interval`` it is skipped (a run with every window-side at full slip then
+        gets the plain EKF's answer). A note and ``meta["pseudo_full_slip"]`` (of
+        ``meta["pseudo_window_sides"]``; ``meta["pseudo_full_slip_use"]``: ``"interval
+        centre"``, ``"skipped"`` or ``"none"``) count them.
 
     Raises
     ------
@@ -760,6 +769,42 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         pm = pseudo_measurement(outputs, "physics", settings)
     else:
         pm = pseudo_measurement(outputs, source, settings)
+    full = np.zeros(pm[1].shape, dtype=bool)
+    full_use = "none"
+    if source != "learned":
+        # physics slip at full slip: the current asks for at least the most traction the
+        # terrain's curve gives, which a curve rising up to full slip (SNOW, SANDY_LOAM,
+        # GRASS) reaches only there: it bounds the slip (terrain.slip.physics, module
+        # docstring) and, taken as a measurement of +-1 (std 1e-5 where the interval
+        # collapsed), pinned the states at the bound and past it
+        t_p, s_p, sd_p = outputs["physics"]
+        full = np.abs(np.nan_to_num(s_p)) >= 1.0
+        if full.any() and "physics_interval" in outputs:
+            lo, up = outputs["physics_interval"][1:]
+            centred = dict(outputs, physics=(t_p, np.where(full, 0.5 * (lo + up), s_p), sd_p))
+            pm = pseudo_measurement(centred, "physics" if source.startswith("fused (")
+                                    else source, settings)
+            full_use = "interval centre"
+            notes.append(
+                f"note: physics slip at full slip (+-1) on {int(full.sum())} of {full.size} "
+                "window-sides (the current asks for at least the most traction the "
+                f"{run.terrain} curve gives: the slip is bounded, not measured); their "
+                "pseudo-measurement is the centre of the physics interval with its std")
+        elif full.all():
+            return estimate_skid_steer_slip_run(
+                run, slip_model, outputs=None, lag=lag, gate=gate, rate_hz=rate_hz,
+                settings=settings, missing=(
+                    f"the physics slip is full slip (+-1) on every window-side ({full.size}):"
+                    f" the current asks for at least the most traction the {run.terrain} "
+                    "curve gives, which bounds the slip without measuring it"))
+        elif full.any():
+            pm = (pm[0], np.where(full, np.nan, pm[1]), pm[2])
+            full_use = "skipped"
+            notes.append(
+                f"note: physics slip at full slip (+-1) on {int(full.sum())} of {full.size} "
+                "window-sides (the current asks for at least the most traction the "
+                f"{run.terrain} curve gives: the slip is bounded, not measured); their "
+                "pseudo-measurement is skipped (no physics_interval in the outputs)")
     # drift scaled with the slope of the traction curve: the physics std from current noise
     drift = (outputs["physics_current"][2] if fs.slip_psd_rel > 0 and pm[0] is not None
              and "physics_current" in outputs else None)
@@ -777,5 +822,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                     time_offsets_s={"wheels": off} if lag_est is not None else {})
     return RunEstimate(run.run_id, params.name, ekf, ekf.x[:, idx], names, lag_est,
                        {"tuning": "skid-steer-slip default", "lag_mode": lag,
-                        "slip_model": source, "dead_band_m_s": DEAD_BAND_M_S},
+                        "slip_model": source, "dead_band_m_s": DEAD_BAND_M_S,
+                        "pseudo_full_slip": int(full.sum()),
+                        "pseudo_full_slip_use": full_use,
+                        "pseudo_window_sides": int(full.size)},
                        np.sqrt(ekf.P_diag[:, idx]), tuple(notes))

@@ -32,7 +32,15 @@ calibrated rolling loss; the interval on ``mu`` is mapped through the monotone i
 so the slip interval is exact for that ``mu`` interval (asymmetric near the peak). An end
 of the ``mu`` interval at or past the curve's maximum traction maps to full slip (+-1): every
 slip past the peak delivers that traction, so a spinning wheel (e.g. a start on ice) gets a
-wide interval instead of the peak slip with a small std.
+wide interval instead of the peak slip with a small std. A curve that rises up to full slip
+(Janosi: SNOW, SANDY_LOAM, GRASS, GRAVEL; Brixius) has no slip past its peak, so a ``mu``
+interval lying wholly at or above its maximum would map to the single point +-1 (std 0); its
+other end is then the slip at the maximum less the interval's width (the traction both the
+current and the curve allow is the top of the curve), so that interval is wide too
+(:func:`_slip_interval`). The slip estimate itself is then full slip (+-1): the current asks
+for at least the most the curve gives, so the slip is not measured, only bounded (the batch
+estimate skips such a pseudo-measurement,
+:func:`terrain.slip.estimate.estimate_skid_steer_slip_run`).
 """
 
 from __future__ import annotations
@@ -47,7 +55,7 @@ from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.sim.sensors import SensorSettings
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
-from terrain.terramechanics.inverse import slip_from_traction
+from terrain.terramechanics.inverse import slip_from_traction, stable_side
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles.common import drive_inertia_kg_m2
 
@@ -404,6 +412,15 @@ def _slip_interval(curve, mu_low: np.ndarray, mu_high: np.ndarray
     traction-slip curve is flat or falling there, seed 001 ch. 8.2), so that end of the
     interval is the full slip, +1 (or -1 when braking), not the peak slip.
 
+    When both ends are at or beyond the maximum on the same side and the stable side of the
+    curve ends at full slip (a curve rising up to ``|s| = 1``: Janosi, Brixius), there is no
+    slip past the peak and the interval would collapse to +-1 with width 0. The traction
+    that both the current and the curve allow is then the top of the curve, an interval of
+    the same width ending at the maximum: the other end is the slip at
+    ``mu_max - (mu_high - mu_low)`` (mirrored when braking). A curve with slip past its
+    table's end (ICE's flat top, Burckhardt with a falling side) keeps the end of its
+    stable side there.
+
     Parameters
     ----------
     curve : TractionCurve
@@ -420,6 +437,13 @@ def _slip_interval(curve, mu_low: np.ndarray, mu_high: np.ndarray
     hi = slip_from_traction(curve, mu_high)
     lower = np.where(lo.saturated & (mu_low < 0), -1.0, lo.slip)
     upper = np.where(hi.saturated & (mu_high > 0), 1.0, hi.slip)
+    s_grid, mu_grid = stable_side(curve)
+    if s_grid[-1] >= 1.0:
+        # no slip past the peak: the top of the curve, of the interval's width
+        top = mu_grid[-1] - (np.asarray(mu_high, float) - np.asarray(mu_low, float))
+        at_top = slip_from_traction(curve, top).slip
+        lower = np.where(lo.saturated & (mu_low > 0), np.minimum(at_top, lower), lower)
+        upper = np.where(hi.saturated & (mu_high < 0), np.maximum(-at_top, upper), upper)
     return lower, upper
 
 

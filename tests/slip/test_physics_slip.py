@@ -133,6 +133,34 @@ def test_traction_at_the_curve_maximum_opens_the_slip_interval_to_full_spin():
     assert 0 < lo[0, 0] < 0.05 and -0.05 < hi[0, 1] < 0
 
 
+@pytest.mark.parametrize("name", ["SNOW", "SANDY_LOAM", "GRASS", "PLOUGHED"])
+def test_traction_above_a_curve_rising_to_full_slip_gives_a_wide_interval(name):
+    """Janosi (SNOW, SANDY_LOAM, GRASS) and Brixius (PLOUGHED) curves rise up to full slip:
+    no slip lies past their peak, so a traction interval wholly at or above the maximum used
+    to map to the single point +-1 (std 0: 161 window-sides of 15 BorealTC SANDY_LOAM / SNOW
+    runs). The other end is now the slip at the maximum less the interval's width."""
+    from terrain.slip.physics import _slip_interval
+    curve = get_terrain(name).curve
+    s_grid, mu_grid = stable_side(curve)
+    assert s_grid[-1] == 1.0                              # the curve rises up to full slip
+    m = mu_grid[-1]
+    lo, hi = _slip_interval(curve, np.array([[1.05 * m, -1.25 * m]]),
+                            np.array([[1.25 * m, -1.05 * m]]))
+    # top of the curve 0.2 m wide: SNOW 0.62, SANDY_LOAM 0.61, GRASS 0.64, PLOUGHED 0.21
+    # (before: 1.0 and -1.0, an interval of width 0)
+    assert hi[0, 0] == 1.0 and lo[0, 1] == -1.0
+    assert 0.1 < lo[0, 0] < 0.8 and -0.8 < hi[0, 1] < -0.1
+    np.testing.assert_allclose(traction_coefficient(curve, lo[0, 0]), 0.8 * m, rtol=1e-3)
+    # the physics slip of a current far above what the curve can take: full slip, with a
+    # wide interval (20 A on level ground at 0.5 m/s: std SNOW 0.36, SANDY_LOAM 0.26, GRASS
+    # 0.33, PLOUGHED 0.24; before: 0)
+    out = physics_slip(HUSKY, {name: 1.0}, np.full((1, 2), 20.0), np.full((1, 2), 0.5),
+                       np.zeros(1))
+    assert out.saturated.all()
+    np.testing.assert_array_equal(out.slip, 1.0)
+    assert np.all(out.std > 0.1) and np.all(out.lower < 0.6) and np.all(out.upper == 1.0)
+
+
 def test_within_window_spread_counts_only_above_the_sensor_noise():
     from terrain.slip.physics import within_window_current_std
     got = within_window_current_std(np.array([[0.05, 0.08], [0.10, 0.5]]), 0.08, (2, 2))

@@ -236,3 +236,58 @@ def test_physics_slip_noise_averages_the_runs_own_wheel_rate(tmp_path):
     expected = np.sqrt(interpolated_mean_count(n, rate, 6.5)
                        / interpolated_mean_count(n, rate, 15.0))
     np.testing.assert_allclose(std[15.0] / std[6.5], expected, rtol=0.03)
+
+
+@pytest.mark.parametrize("key,n_full", [("SANDY_LOAM/07", 90), ("SNOW/05", 42)])
+def test_full_slip_windows_of_measured_soft_ground_keep_the_slip_in_range(borealtc_runs, key,
+                                                                          n_full):
+    """On measured SANDY_LOAM and SNOW the current often asks for more traction than the
+    terrain's curve (rising up to full slip) gives: the physics slip is +-1. It used to
+    enter the EKF as +-1 with std 1e-5 where its interval collapsed, and the slip states,
+    unbounded, went past +-1 (before: |slip| > 1 in 43 % of SANDY_LOAM/07's steps, max 1.05,
+    and 70 % of SNOW/05's, max 1.45). Now such a window-side enters as the centre of its
+    physics interval, and the states are clipped into [-1, 1] after every update."""
+    run = next(r for r in borealtc_runs if r.run_id == f"borealtc/{key}")
+    out = slip_model_outputs(run)
+    _, slip, std = out["physics"]
+    full = np.abs(slip) >= 1.0
+    assert full.sum() == n_full                          # of 94 and 108 window-sides
+    assert not np.any(full & (std < 1e-3))               # before: 9 and 2 with std ~0
+    lo, up = out["physics_interval"][1:]
+    assert np.all(up[full] - lo[full] > 0.01)
+    est = estimate_skid_steer_slip_run(run, "physics", outputs=out, lag="none")
+    assert np.abs(est.slip).max() <= 1.0      # before: 44 % / 70 % of the steps above 1
+    assert est.meta["pseudo_full_slip"] == n_full
+    assert est.meta["pseudo_full_slip_use"] == "interval centre"
+    assert any("full slip" in n for n in est.notes)
+    if key == "SNOW/05":
+        # the speed stays near the rims (0.54 m/s): 0.56 m/s; skipping those window-sides
+        # instead left the speed to the accelerometer, 2.27 m/s
+        assert np.abs(est.ekf.state("v_bx")).max() < 1.0
+    # without the interval the full-slip window-sides are skipped, and said so
+    out.pop("physics_interval")
+    skipped = estimate_skid_steer_slip_run(run, "physics", outputs=out, lag="none")
+    assert skipped.meta["pseudo_full_slip_use"] == "skipped"
+    assert np.abs(skipped.slip).max() <= 1.0
+
+
+def test_slip_states_are_clipped_into_their_physical_range_after_each_update():
+    """A slip pseudo-measurement beyond +-1 (or at +-1 with a tiny std, which the wheel rows
+    push past) used to leave the states outside [-1, 1]; the model's ``state_bounds`` clip
+    them after every update (the compiled loop does not apply bounds: refused)."""
+    from terrain.errors import ConfigError
+    from terrain.estimation.runner import SensorSamples, run_filter
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, SkidSteerSlipSettings
+    model = SkidSteerSlipModel(SkidSteerSlipSettings(slip_std=1e-5))
+    lower, upper = model.state_bounds
+    np.testing.assert_array_equal(lower[4:6], -1.0)
+    np.testing.assert_array_equal(upper[4:6], 1.0)
+    assert np.all(np.isinf(np.r_[lower[:4], lower[6:], upper[:4], upper[6:]]))
+    t = np.arange(0.0, 2.0, 0.01)
+    samples = {"wheels": SensorSamples(t, np.full((t.size, 2), 0.3)),
+               "slip_model": SensorSamples(t[::50], np.tile([1.3, -1.2], (4, 1)))}
+    res = run_filter(model, t, samples, engine="numpy")
+    # before: slip_1 1.3, slip_2 -1.2 after the first update
+    assert res.state("slip_1").max() == 1.0 and res.state("slip_2").min() == -1.0
+    with pytest.raises(ConfigError, match="bounds"):
+        run_filter(model, t, samples, engine="numba")
