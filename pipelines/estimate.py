@@ -13,7 +13,9 @@ EKF's pseudo-measurement; learned falls back to physics without a model; ekf: no
 note says so. Without --slip-model-dir the registered model is looked up and its absence is a
 note (physics supplies the slip); a --slip-model-dir that cannot be loaded (missing folder,
 no MLmodel file, unreadable model) is an error. --gate is a probability in (0, 1) exclusive;
---rate-hz a rate in [1, 10000] Hz, and the grid holds at most 5 million steps.
+--rate-hz a rate in [1, 10000] Hz, and the grid holds at most 5 million steps. --lag xcorr
+applies the cross-correlation lag only for a clear peak (terrain.slip.alignment.gated_lag): a
+run without one gets no lag and a note, and a last note counts the runs of each kind.
 """
 
 from __future__ import annotations
@@ -48,7 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--run", default=None, metavar="TERRAIN/XX",
                         help="select one run when RUN_DIR holds several")
     parser.add_argument("--lag", choices=LAG_MODES, default="xcorr",
-                        help="encoder lag handling (default: xcorr, estimated from data)")
+                        help="encoder lag handling (default: xcorr, estimated from data and "
+                             "applied only for a clear cross-correlation peak)")
     parser.add_argument("--tuning", choices=TUNINGS, default=None,
                         help="AgriMaRo EKF tuning: noise-derived (default) or thesis eqs. "
                              "6.9/6.13/6.14")
@@ -128,6 +131,7 @@ def main(args: argparse.Namespace) -> int:
                if slip_model not in ("learned", "fused")
                else "no skid-steer run (the AgriMaRo EKF observes its slip)")
         print(f"note: --slip-model-dir {args.slip_model_dir} not used: {why}")
+    lags = {"applied": 0, "not applied": 0, "not estimated": 0}
     for run in runs:
         if run.vehicle == "agrimaro":
             est = estimate_run(run, lag=args.lag, tuning=tuning, gate=gate,
@@ -141,6 +145,8 @@ def main(args: argparse.Namespace) -> int:
                                                rate_hz=rate_hz)
         for note in est.notes:
             print(note)
+        lags["not estimated" if est.lag is None else "applied" if est.lag.applied
+             else "not applied"] += 1
         if len(runs) == 1:
             out = args.out
         else:
@@ -152,4 +158,9 @@ def main(args: argparse.Namespace) -> int:
         frame[TIME] = [repr(float(t)) for t in frame[TIME]]
         frame.to_csv(out, index=False, float_format="%.9g")
         print(f"{est.summary()} -> {out}")
+    if lags["not applied"]:
+        # a cross-correlation lag is applied only for a clear peak (terrain.slip.alignment)
+        print(f"note: encoder lag applied on {lags['applied']} of {len(runs)} runs, not "
+              f"applied on {lags['not applied']} (no clear cross-correlation peak), not "
+              f"estimated on {lags['not estimated']}")
     return 0

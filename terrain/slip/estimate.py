@@ -15,8 +15,9 @@
   pseudo-measurement and the accelerometer, reporting ``slip_i`` with ``std_slip_i``.
 
 Encoder lag (``lag``): ``"xcorr"`` (default) estimates it from the data
-(:func:`terrain.slip.alignment.estimate_lag`: camera speed vs rim speed for AgriMaRo, gyro
-vs wheel yaw rate for skid-steer) and subtracts it from the encoder timestamps; ``"ema"``
+(:func:`terrain.slip.alignment.gated_lag`: camera speed vs rim speed for AgriMaRo, gyro
+vs wheel yaw rate for skid-steer) and, where the cross-correlation has a clear peak,
+subtracts it from the encoder timestamps (otherwise no lag, and a note says why); ``"ema"``
 applies the thesis's remedy (camera EMA alpha = 0.2, encoders unfiltered, ch. 7.2.2);
 ``"none"`` does neither.
 """
@@ -39,7 +40,7 @@ from terrain.estimation.runner import check_rate_hz
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run
-from terrain.slip.alignment import LagEstimate, estimate_lag
+from terrain.slip.alignment import LagEstimate, gated_lag
 from terrain.slip.core import DEAD_BAND_M_S, skid_steer_side_slip, wheel_slip
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
@@ -65,7 +66,8 @@ class RunEstimate:
     slip_names : tuple of str
         ``slip_1``... (simulator numbering).
     lag : LagEstimate or None
-        Estimated encoder lag (``lag="xcorr"``).
+        Estimated encoder lag (``lag="xcorr"``); applied only where ``lag.applied``
+        (:func:`~terrain.slip.alignment.gated_lag`).
     meta : dict
         Tuning, lag mode and offsets, dead band.
     slip_std : ndarray, shape (N, k), optional
@@ -109,8 +111,8 @@ class RunEstimate:
 
     def summary(self) -> str:
         """One line for the log: steps and rate, mean NIS and dof, median slip of each wheel,
-        encoder lag, non-finite samples skipped, samples a later one in the same filter step
-        superseded (a ``rate_hz`` below a sensor's rate).
+        encoder lag (or that it was not applied), non-finite samples skipped, samples a later
+        one in the same filter step superseded (a ``rate_hz`` below a sensor's rate).
 
         Returns
         -------
@@ -125,7 +127,8 @@ class RunEstimate:
                 else "")) if np.isfinite(self.slip[:, j]).any()
             else f"{n} none (no finite estimate)"
             for j, n in enumerate(self.slip_names))
-        lag = f"{self.lag.lag_s:.3f} s" if self.lag is not None else "not estimated"
+        lag = ("not estimated" if self.lag is None else f"{self.lag.lag_s:.3f} s"
+               if self.lag.applied else f"not applied (no clear peak: {self.lag.lag_s:+.3f} s)")
         skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
         # a filter slower than a sensor keeps the latest of its samples in each step
         superseded = {k: f"{v['superseded']} of {v['samples']}"
@@ -204,7 +207,7 @@ def agrimaro_wheel_speeds(run: Run, vehicle: AgriMaRoParams = AGRIMARO
 def agrimaro_encoder_lag(run: Run, t_s: np.ndarray, omega_rad_s: np.ndarray,
                          vehicle: AgriMaRoParams = AGRIMARO) -> LagEstimate | None:
     """Encoder lag of an AgriMaRo run: camera speed ``|v_c|`` against the mean rim speed
-    (:func:`~terrain.slip.alignment.estimate_lag`).
+    (:func:`~terrain.slip.alignment.gated_lag`: applied only for a clear peak).
 
     Parameters
     ----------
@@ -220,7 +223,8 @@ def agrimaro_encoder_lag(run: Run, t_s: np.ndarray, omega_rad_s: np.ndarray,
     Returns
     -------
     LagEstimate or None
-        None without a camera stream or when no lag can be estimated.
+        None without a camera stream or when no lag can be estimated; ``applied`` False (and
+        ``reason``) when the peak is not clear.
     """
     cam = run.streams.get("cam")
     if cam is None:
@@ -228,14 +232,15 @@ def agrimaro_encoder_lag(run: Run, t_s: np.ndarray, omega_rad_s: np.ndarray,
     ref = np.hypot(cam["v_cx"].to_numpy(float), cam["v_cy"].to_numpy(float))
     rim = np.nanmean(np.abs(omega_rad_s), axis=1) * vehicle.wheel_radius_m
     try:
-        return estimate_lag(cam[TIME].to_numpy(float), ref, t_s, rim)
+        return gated_lag(cam[TIME].to_numpy(float), ref, t_s, rim)
     except EstimationError:
         return None
 
 
 def skid_steer_encoder_lag(run: Run, track_m: float) -> LagEstimate | None:
     """Wheel-stream lag of a skid-steer run: gyro yaw rate against the wheel yaw rate
-    ``(vel_r - vel_l) / B`` (:func:`~terrain.slip.alignment.estimate_lag`, up to 1 s, 50 Hz).
+    ``(vel_r - vel_l) / B`` (:func:`~terrain.slip.alignment.gated_lag`, up to 1 s, 50 Hz:
+    applied only for a clear peak).
 
     Parameters
     ----------
@@ -247,18 +252,42 @@ def skid_steer_encoder_lag(run: Run, track_m: float) -> LagEstimate | None:
     Returns
     -------
     LagEstimate or None
-        None without both streams or when no lag can be estimated.
+        None without both streams or when no lag can be estimated; ``applied`` False (and
+        ``reason``) when the peak is not clear.
     """
     w, imu = run.streams.get("wheels"), run.streams.get("imu")
     if w is None or imu is None:
         return None
     vel = w[["vel_l", "vel_r"]].to_numpy(float)
     try:
-        return estimate_lag(imu[TIME].to_numpy(float), imu["wz"].to_numpy(float),
-                            w[TIME].to_numpy(float), (vel[:, 1] - vel[:, 0]) / track_m,
-                            max_lag_s=1.0, rate_hz=50.0)
+        return gated_lag(imu[TIME].to_numpy(float), imu["wz"].to_numpy(float),
+                         w[TIME].to_numpy(float), (vel[:, 1] - vel[:, 0]) / track_m,
+                         max_lag_s=1.0, rate_hz=50.0)
     except EstimationError:
         return None
+
+
+def lag_notes(run: Run, lag_est: LagEstimate | None) -> tuple[str, ...]:
+    """The note for a cross-correlation lag that was estimated but not applied.
+
+    Parameters
+    ----------
+    run : Run
+        The run (its id names it).
+    lag_est : LagEstimate or None
+        :func:`agrimaro_encoder_lag` or :func:`skid_steer_encoder_lag`.
+
+    Returns
+    -------
+    tuple of str
+        One ``note: ...`` when ``lag_est.applied`` is False (with its estimate and why);
+        empty otherwise.
+    """
+    if lag_est is None or lag_est.applied:
+        return ()
+    return (f"note: encoder lag of run {run.run_id} not applied (no lag): the "
+            f"cross-correlation peak at {lag_est.lag_s:+.3f} s is not clear "
+            f"({lag_est.reason})",)
 
 
 def with_camera_ema(settings: AgriMaRoEKFSettings) -> AgriMaRoEKFSettings:
@@ -395,7 +424,7 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
         settings = with_camera_ema(settings)
     t_om, om = agrimaro_wheel_speeds(run, params)
     lag_est = agrimaro_encoder_lag(run, t_om, om, params) if lag == "xcorr" else None
-    offsets = {"omega": lag_est.lag_s} if lag_est is not None else {}
+    offsets = {"omega": lag_est.lag_s} if lag_est is not None and lag_est.applied else {}
     ekf = estimate_agrimaro(run, settings, rate_hz=rate_hz, gate=gate, time_offsets_s=offsets,
                             store_covariance=store_covariance)
     rim = resample(ekf.t_s, t_om - offsets.get("omega", 0.0), om) * params.wheel_radius_m
@@ -419,7 +448,7 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
               else np.zeros(rim.shape[1]))
     var += (wheel_slip(rim + np.nan_to_num(rim_sd), x[:, 0], x[:, 1], x[:, 2],
                        params.positions, x[:, 3:]) - slip) ** 2
-    notes = agrimaro_missing_stream_notes(run)
+    notes = agrimaro_missing_stream_notes(run) + lag_notes(run, lag_est)
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
@@ -465,7 +494,7 @@ def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None =
     if w is None:
         raise EstimationError(f"run {run.run_id} has no wheels stream")
     lag_est = skid_steer_encoder_lag(run, settings.track_m) if lag == "xcorr" else None
-    offsets = {"wheels": lag_est.lag_s} if lag_est is not None else {}
+    offsets = {"wheels": lag_est.lag_s} if lag_est is not None and lag_est.applied else {}
     ekf = estimate_skid_steer(run, settings, rate_hz=rate_hz, gate=gate, time_offsets_s=offsets,
                               store_covariance=store_covariance)
     rim = resample(ekf.t_s, w[TIME].to_numpy(float) - offsets.get("wheels", 0.0),
@@ -473,7 +502,8 @@ def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None =
     slip = skid_steer_side_slip(rim, ekf.state("v_bx"), ekf.state("yaw_rate"), settings.track_m)
     return RunEstimate(run.run_id, params.name, ekf, slip, ("slip_1", "slip_2"), lag_est,
                        {"tuning": "skid-steer default", "lag_mode": lag,
-                        "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S})
+                        "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
+                       notes=lag_notes(run, lag_est))
 
 
 def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
@@ -729,7 +759,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         why = "--slip-model ekf" if slip_model == "ekf" else "none could be used"
         est.notes = ("note: longitudinal slip common to both sides (slip_1, slip_2) is not "
                      f"observable from wheel speeds + IMU and no slip model is used ({why}): "
-                     "slip_* is the turning part only, std_slip_* not available",)
+                     "slip_* is the turning part only, std_slip_* not available",) + est.notes
         if slip_model != "ekf":
             est.notes += (f"{slip_model} slip model not used for run {run.run_id}: "
                           f"{missing or 'its window outputs were not given'}",)
@@ -741,7 +771,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     if w is None:
         raise EstimationError(f"run {run.run_id} has no wheels stream")
     lag_est = skid_steer_encoder_lag(run, fs.track_m) if lag == "xcorr" else None
-    off = lag_est.lag_s if lag_est is not None else 0.0
+    applied = lag_est is not None and lag_est.applied
+    off = lag_est.lag_s if applied else 0.0
     samples = {"wheels": SensorSamples(w[TIME].to_numpy(float) - off,
                                        w[["vel_l", "vel_r"]].to_numpy(float))}
     spans = [samples["wheels"].t_s]
@@ -759,7 +790,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     rate = check_rate_hz(rate_hz)
     rate = float(1.0 / np.median(np.diff(spans[-1]))) if rate is None else rate
     grid = make_grid(max(s[0] for s in spans), min(s[-1] for s in spans), rate)
-    notes: list[str] = []
+    notes: list[str] = list(lag_notes(run, lag_est))
     source = slip_model
     if slip_model == "learned" and outputs is not None and "learned" not in outputs:
         notes.append("no learned slip model available: falling back to physics")
@@ -819,7 +850,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                     "observable from wheel speeds + IMU; supplied by the "
                     f"{source} slip model (pseudo-measurement)")
     ekf.meta.update(model="skid-steer-slip-8", track_m=fs.track_m,
-                    time_offsets_s={"wheels": off} if lag_est is not None else {})
+                    time_offsets_s={"wheels": off} if applied else {})
     return RunEstimate(run.run_id, params.name, ekf, ekf.x[:, idx], names, lag_est,
                        {"tuning": "skid-steer-slip default", "lag_mode": lag,
                         "slip_model": source, "dead_band_m_s": DEAD_BAND_M_S,

@@ -308,7 +308,10 @@ def test_an_agrimaro_run_without_camera_or_steering_encoders_says_what_rests_on_
     write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("SNOW",), scenario="orchard",
                                  duration_s=8.0, seed=0)), root)
     assert main(["estimate", str(root), "--out", str(tmp_path / "all.csv")]) == 0
-    assert "note:" not in capsys.readouterr().out                 # every sensor there
+    # every sensor there: no note but the lag's (an 8 s SNOW run's camera / rim speed peak,
+    # 0.14, is not a clear one: no lag applied, terrain.slip.alignment.gated_lag)
+    notes = [ln for ln in capsys.readouterr().out.splitlines() if "note:" in ln]
+    assert all("encoder lag" in ln for ln in notes)
     (cam,) = root.rglob("cam_*.csv")
     (steer,) = root.rglob("steer_*.csv")
     cam.unlink()

@@ -75,6 +75,48 @@ def test_estimate_lag_recovers_a_planted_delay():
         estimate_lag(t[:30], ref[:30], t[:30], ref[:30])
 
 
+def test_gated_lag_applies_only_a_clear_peak():
+    """A cross-correlation always has a maximum; gated_lag applies it only when the peak is
+    strong, inside the searched range and the same in both halves of the run."""
+    from terrain.slip import LagGate, gated_lag
+    t = np.arange(0, 40, 0.01)
+    steps = np.clip(t - 2.0, 0, 1) + 0.5 * np.clip(t - 8.0, 0, 1) * (t < 12) \
+        - 0.7 * np.clip(t - 25.0, 0, 1) + 0.4 * np.clip(t - 31.0, 0, 1) * (t < 35)
+    clear = gated_lag(t, steps, t, np.interp(t - 0.37, t, steps))
+    assert clear.applied and clear.reason == "" and clear.lag_s == pytest.approx(0.37, abs=0.01)
+    # unrelated noise: a maximum of 0.04-0.1, not a peak
+    rng = np.random.default_rng(0)
+    noise = gated_lag(t, rng.standard_normal(t.size).cumsum(), t,
+                      rng.standard_normal(t.size).cumsum())
+    assert not noise.applied and "below 0.3" in noise.reason
+    # the true delay lies beyond the searched range: the maximum sits on its end
+    beyond = gated_lag(t, steps, t, np.interp(t - 1.5, t, steps), max_lag_s=1.0)
+    assert abs(beyond.lag_s) >= 0.99 and "end of the searched range" in beyond.reason
+    # the first half delayed by 0.3 s, the second by 0.6 s: each half has a clear peak
+    half = np.where(t < 20, np.interp(t - 0.3, t, steps), np.interp(t - 0.6, t, steps))
+    split = gated_lag(t, steps, t, half)
+    assert not split.applied and "halves of the run disagree" in split.reason
+    assert gated_lag(t, steps, t, half, gate=LagGate(halves_tolerance_s=None)).applied
+    # estimate_lag itself does not judge the peak
+    assert estimate_lag(t, steps, t, half).applied
+
+
+def test_no_lag_is_applied_on_the_shipped_borealtc_runs_without_a_clear_peak(borealtc_runs):
+    """The wheel yaw rate of BorealTC takes a handful of quantised values: its correlation
+    with the gyro peaks at 0.02-0.26 and the lags span -1.000 s (the search bound) to
+    +0.909 s, halves of one run disagreeing (SNOW/11: -0.665 and +0.553 s). Before, the
+    whole-run maximum was applied anyway (SNOW/11: +0.552 s, correlation 0.092); now no
+    shipped BorealTC run keeps a lag (0 of the 36 with an estimate), and a note says why."""
+    from terrain.slip import estimate_skid_steer_run
+    runs = {r.run_id: r for r in borealtc_runs}
+    for key, why in (("SNOW/11", "below 0.3"), ("SNOW/06", "end of the searched range")):
+        est = estimate_skid_steer_run(runs[f"borealtc/{key}"])
+        assert est.lag is not None and not est.lag.applied and why in est.lag.reason
+        assert est.meta["time_offsets_s"] == {}
+        assert any("not applied" in n for n in est.notes)
+        assert "not applied" in est.summary()
+
+
 @pytest.mark.parametrize("terrain", ["GRASS"])
 def test_steady_slip_error_below_001_per_wheel(terrain):
     result = simulate_agrimaro(terrain, seed=1, duration_s=15.0)
