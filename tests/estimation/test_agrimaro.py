@@ -33,11 +33,19 @@ def test_coriolis_signs_of_eqs_4_33_4_34_match_simulated_truth(turning_run):
     assert rmse["body"]["v_by"] < 0.8 * rmse["eq6.2"]["v_by"]
 
 
-def test_mean_nees_inside_chi_square_bounds_on_grass():
+def test_mean_nees_against_the_bounds_of_a_time_average_on_grass():
+    """The ANEES is a time average of the run-averaged NEES: its bounds are those of
+    ``M n_eff`` chi-square(12) values, not one step's ``chi2(12 M) / M``, which the check
+    used before (4 runs: [7.69, 17.26], about 4x wider here)."""
     row = agrimaro_consistency("GRASS", seeds=range(4), duration_s=12.0)
     lo, hi = mean_chi2_bounds(12, 4)
-    assert row.nees_bounds == pytest.approx((lo, hi))
-    assert lo <= row.anees <= hi, row.as_dict()
+    assert row.nees_step_bounds == pytest.approx((lo, hi))
+    assert 5 < row.nees_n_eff < 100                        # 14 of 1201 steps
+    assert row.nees_bounds == pytest.approx(mean_chi2_bounds(12, 4 * row.nees_n_eff))
+    assert row.nees_bounds[1] - row.nees_bounds[0] < 0.5 * (hi - lo)
+    # 12 s runs: the start-up transient lifts the mean to 12.59, inside [10.76, 13.31]; the
+    # 20 s runs of the slow test below are conservative (ANEES 9.4-10.1, below n = 12)
+    assert row.nees_bounds[0] <= row.anees <= row.nees_bounds[1], row.as_dict()
     assert row.rmse["v_bx"] < 0.03 and row.rmse["yaw_rate"] < 0.01
     # NIS is reported but conservative on nearly every row (docs/estimation_validation.md:
     # the predicted covariance dominates S, and R sits above the simulated noise on some rows)
@@ -46,9 +54,14 @@ def test_mean_nees_inside_chi_square_bounds_on_grass():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("terrain", THESIS_TERRAINS)
-def test_mean_nees_inside_bounds_on_thesis_terrains_ten_runs(terrain):
+def test_mean_nees_is_conservative_on_thesis_terrains_ten_runs(terrain):
+    """10 runs of 20 s: the ANEES (TILES 10.09, GRASS 9.49, GRAVEL 9.37) lies below n = 12
+    and below the lower bound of the time average (TILES [11.67, 12.34], GRASS [11.89,
+    12.11], GRAVEL [11.93, 12.07]): the filter is conservative, the consistency target is
+    not met. (Against one step's bounds [9.16, 15.22] it read as inside, "target met".)"""
     row = agrimaro_consistency(terrain, seeds=range(10), duration_s=20.0)
-    assert row.nees_bounds[0] <= row.anees <= row.nees_bounds[1], row.as_dict()
+    assert row.nees_step_bounds[0] <= row.anees <= row.nees_step_bounds[1]
+    assert row.anees < row.nees_bounds[0] < 12.0 < row.nees_bounds[1], row.as_dict()
 
 
 def test_thesis_tuning_runs_and_tracks_velocity(turning_run):
