@@ -110,9 +110,10 @@ class RunEstimate:
         return frame
 
     def summary(self) -> str:
-        """One line for the log: steps and rate, mean NIS and dof, median slip of each wheel,
-        encoder lag (or that it was not applied), non-finite samples skipped, samples a later
-        one in the same filter step superseded (a ``rate_hz`` below a sensor's rate).
+        """One line for the log: steps and rate, mean NIS and dof (both over the steps with an
+        update), median slip of each wheel, encoder lag (or that it was not applied),
+        non-finite samples skipped, samples a later one in the same filter step superseded
+        (a ``rate_hz`` below a sensor's rate).
 
         Returns
         -------
@@ -120,6 +121,9 @@ class RunEstimate:
         """
         ekf = self.ekf
         nis = np.nanmean(ekf.nis) if np.isfinite(ekf.nis).any() else float("nan")
+        # both over the steps with an update (a step without one has NIS NaN and dof 0)
+        updated = np.asarray(ekf.dof) > 0
+        dof = float(np.mean(ekf.dof[updated])) if updated.any() else float("nan")
         std = self.slip_std if self.slip_std is not None else np.full_like(self.slip, np.nan)
         slips = ", ".join(
             (f"{n} {np.nanmedian(self.slip[:, j]):+.3f}"
@@ -135,7 +139,7 @@ class RunEstimate:
                       for k, v in ekf.counts.items() if v.get("superseded")}
         return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
                 f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
-                f"{ekf.dof.mean():.2f}), median {slips}, encoder lag {lag}"
+                f"{dof:.2f}), median {slips}, encoder lag {lag}"
                 + (f", non-finite samples skipped {skipped}" if skipped else "")
                 + (f", samples unused (a later one in the same filter step wins) "
                    f"{superseded}" if superseded else ""))

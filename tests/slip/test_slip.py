@@ -194,6 +194,22 @@ def test_husky_run_gives_side_slips_and_recovers_wheel_lag():
     assert est_lag.lag.lag_s == pytest.approx(0.4, abs=0.05)
 
 
+def test_summary_mean_dof_counts_only_steps_with_an_update():
+    """The summary's NIS is averaged over the steps with an update; its 'mean dof' averaged
+    over every step, those without one counting 0: at twice the IMU rate half the steps have
+    no sample and the line read about half the rows (here 0.57 against 1.09)."""
+    import re
+    result = simulate_husky("ASPHALT", seed=2, duration_s=5.0)
+    imu = result.run.streams["imu"]["t_s"].to_numpy()
+    rate = 2.0 / float(np.median(np.diff(imu)))
+    est = estimate_run(result.run, lag="none", rate_hz=rate)
+    dof = est.ekf.dof
+    assert (dof == 0).mean() > 0.4                       # steps without an update
+    shown = float(re.search(r"mean dof ([0-9.]+)", est.summary()).group(1))
+    assert shown == pytest.approx(dof[dof > 0].mean(), abs=0.005)
+    assert shown > 1.5 * dof.mean()
+
+
 def test_bad_options():
     result = simulate_husky("ASPHALT", seed=2, duration_s=5.0)
     run = result.run
