@@ -23,8 +23,11 @@ def ema_filter(values: np.ndarray, alpha: float,
     """Exponential moving average along axis 0 (seed 001 eq. 6.12).
 
     ``y_0 = z_0``, ``y_k = alpha y_{k-1} + (1 - alpha) z_k``. ``alpha = 0`` returns the input
-    unchanged. Non-finite samples are held over (the previous output is repeated) and stay
-    non-finite in the output, so the EKF still skips and counts them.
+    unchanged. A non-finite sample is replaced, inside the recursion, by the previous finite
+    *input* sample (held over; leading ones by the first finite sample), so the average keeps
+    moving towards it, and stays non-finite in the output, so the EKF still skips and counts
+    it: ``[0, 10, nan, 10]`` with ``alpha = 0.5`` gives ``[0, 5, nan, 8.75]`` (repeating the
+    previous output instead would give 7.5 at the end).
 
     Angles (``angle_columns``) are averaged along their unwrapped sequence (``numpy.unwrap``
     over the held-over samples): a heading reported in [-pi, pi) jumps by 2 pi where it
@@ -50,6 +53,11 @@ def ema_filter(values: np.ndarray, alpha: float,
     ------
     EstimationError
         ``alpha`` outside [0, 1), or an angle column outside the values' columns.
+
+    Examples
+    --------
+    >>> ema_filter(np.array([0.0, 10.0, np.nan, 10.0]), 0.5).tolist()
+    [0.0, 5.0, nan, 8.75]
     """
     if not 0.0 <= float(alpha) < 1.0:
         raise EstimationError(f"EMA alpha must be in [0, 1), got {alpha}")

@@ -655,7 +655,7 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
     Returns
     -------
     t_s : ndarray, shape (k,)
-        Window ends, s.
+        Window centres, s (the ``t_s`` of ``outputs``: the time a window mean describes).
     slip : ndarray, shape (k, 2)
         Sides 1, 2.
     std : ndarray, shape (k, 2)

@@ -131,3 +131,21 @@ def test_ema_filter_averages_angles_along_their_unwrapped_sequence():
     np.testing.assert_array_equal(both[:, 0], plain)
     with pytest.raises(EstimationError, match="angle columns"):
         ema_filter(heading, 0.5, angle_columns=[1])
+
+
+def test_ema_filter_holds_the_previous_input_over_a_non_finite_sample():
+    """The docstring said a non-finite sample repeats the previous *output*; the recursion
+    holds the previous finite *input* (0, 5, nan, 8.75; repeating the output would end at
+    7.5). Docstring-only fix: this pins the behaviour and runs the docstring's example."""
+    import doctest
+
+    import terrain.estimation.prefilter as prefilter
+    out = ema_filter(np.array([0.0, 10.0, np.nan, 10.0]), 0.5)
+    np.testing.assert_allclose(out, [0.0, 5.0, np.nan, 8.75])
+    lead = ema_filter(np.array([np.nan, 4.0, 8.0]), 0.5)     # leading: the first finite one
+    np.testing.assert_allclose(lead, [np.nan, 4.0, 6.0])
+    finder = doctest.DocTestFinder()
+    (test,) = [t for t in finder.find(prefilter) if t.name.endswith(".ema_filter")]
+    assert test.examples                                    # the example is in the docstring
+    result = doctest.DocTestRunner().run(test, out=lambda _: None)
+    assert result.failed == 0 and result.attempted >= 1

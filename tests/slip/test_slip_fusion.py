@@ -291,3 +291,16 @@ def test_slip_states_are_clipped_into_their_physical_range_after_each_update():
     assert res.state("slip_1").max() == 1.0 and res.state("slip_2").min() == -1.0
     with pytest.raises(ConfigError, match="bounds"):
         run_filter(model, t, samples, engine="numba")
+
+
+def test_pseudo_measurement_times_are_the_window_centres(sandy):
+    """pseudo_measurement's docstring said its t_s were the window ends; they are the window
+    centres of slip_model_outputs (1 s, 2 s, ... for 2 s windows hopped by 1 s), the time a
+    window mean describes. Docstring-only fix: this pins the behaviour."""
+    from features.slip_features import slip_windows
+    from terrain.slip.estimate import pseudo_measurement
+    _, run = sandy
+    ws = slip_windows([run])
+    t, slip, std = pseudo_measurement(slip_model_outputs(run), "physics", BATCH_FUSION)
+    np.testing.assert_allclose(t, 0.5 * (ws.t_start_s + ws.t_end_s))
+    assert np.all(t < ws.t_end_s) and slip.shape == std.shape == (t.size, 2)
