@@ -151,7 +151,7 @@ def test_control_sim_command_writes_the_json_fields(tmp_path):
                  "straight_accel", "--controller", "traction", "--estimator", "observer",
                  "--duration-s", "1", "--terrain-source", "label", "--json", str(out)]) == 0
     r = json.loads(out.read_text())
-    assert (r["estimator"], r["kp"], r["ki"]) == ("wheel-imu-observer", 5.0, 10.0)
+    assert (r["estimator"], r["kp"], r["ki"]) == ("wheel-imu-observer", 5.0, 0.0)
     assert main(["control-sim", "--vehicle", "husky", "--terrain", "MUD", "--scenario",
                  "straight_accel", "--controller", "off", "--json", str(out)]) == 2
 
