@@ -39,7 +39,8 @@ other end is then the slip at the maximum less the interval's width (the tractio
 current and the curve allow is the top of the curve), so that interval is wide too
 (:func:`_slip_interval`). The slip estimate itself is then full slip (+-1): the current asks
 for at least the most the curve gives, so the slip is not measured, only bounded (the batch
-estimate skips such a pseudo-measurement,
+estimate uses the interval's centre with the physics std instead of +-1, or skips the
+window-side when the interval is not given, and counts them:
 :func:`terrain.slip.estimate.estimate_skid_steer_slip_run`).
 """
 
