@@ -201,16 +201,19 @@ def _quiet(t: np.ndarray, x: np.ndarray, settings: FrameSettings) -> np.ndarray:
     return quiet
 
 
-def _slow_within_edges(t: np.ndarray, values: np.ndarray, settings: FrameSettings
-                       ) -> np.ndarray:
-    """Low-pass at ``pitch_cutoff_hz`` of the samples at least ``edge_s`` from either end,
-    held at the filtered end values outside (the whole series when that span is empty).
+def _slow_within_edges(t: np.ndarray, values: np.ndarray, inner: np.ndarray,
+                       settings: FrameSettings) -> np.ndarray:
+    """Low-pass at ``pitch_cutoff_hz`` of the samples of ``inner``, held at the filtered end
+    values outside (the whole series when ``inner`` holds fewer than 2 samples).
 
     Parameters
     ----------
     t : ndarray, shape (n,)
         Sample times, s.
     values : ndarray, shape (n,)
+    inner : ndarray of bool, shape (n,)
+        The samples at least ``edge_s`` from either end (the scored span of
+        :func:`prepare_frame`).
     settings : FrameSettings
 
     Returns
@@ -218,7 +221,6 @@ def _slow_within_edges(t: np.ndarray, values: np.ndarray, settings: FrameSetting
     ndarray, shape (n,)
     """
     rate = 1.0 / max(float(np.median(np.diff(t))), 1e-3)
-    inner = (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
     if inner.sum() < 2:
         inner = np.ones(len(t), dtype=bool)
     slow = lowpass(values[inner], rate, settings.pitch_cutoff_hz, padtype="even")
@@ -271,7 +273,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         wz, ax, ay = (np.interp(t_imu, ti, chans[:, j]) for j in range(3))
         ax_slow = np.interp(t_imu, ti, lowpass(imu["ax"].to_numpy(dtype=float), rate,
                                                settings.pitch_cutoff_hz, padtype="even"))
-        sim_ax_slow = _slow_within_edges(t, replay.ax, settings)
+        sim_ax_slow = _slow_within_edges(t, replay.ax, score, settings)
         pitch = np.arcsin(np.clip((ax_slow - sim_ax_slow) / G_M_S2, -1.0, 1.0))
         score_imu = (score & (t_imu >= ti[0] + settings.edge_s)
                      & (t_imu <= ti[-1] - settings.edge_s)

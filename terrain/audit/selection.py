@@ -740,12 +740,12 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
         details["heldout_rmse_baseline"] = trial.rmse_baseline
         details["heldout_rmse_before"] = trial.rmse_before
         details["heldout_rmse_with"] = trial.rmse_with
-        if references:
-            with_sse = unit_errors(units, group, trial.heldout_params, spec.scope)[0].sum()
         for rname, rparams in (references or {}).items():
-            rsse = unit_errors(units, group, [rparams] * len(units), spec.scope)[0].sum()
+            # on the trial's own samples: its rmse_with is scored on the effect's scope
+            rsse, rn = unit_errors(units, group, [rparams] * len(units), spec.scope)
+            rmse_ref = float(np.sqrt(rsse.sum() / max(rn.sum(), 1)))
             details[f"heldout_gain_vs_{rname}"] = float(
-                1.0 - np.sqrt(with_sse / max(rsse, 1e-300)))
+                1.0 - trial.rmse_with / max(rmse_ref, 1e-300))
     ci = _param_ci(units, group, model, name, _form_of(name, params), effect_settings, rng,
                    n_param_bootstrap)
     return EffectResult(
