@@ -10,6 +10,9 @@ at the physics rate and the inclination of the ground plane.
                     slope (the plane rises along world +x).
 ``spin``            spin in place at 0.6 rad/s, reversing every 8 s.
 ``random``          piecewise-constant random commands (2-6 s segments), acceleration-limited.
+
+Every command but ``straight_accel``'s ramp (which starts at 0 by itself) is rate-limited from
+rest: the vehicle starts standing and the command at t = 0 is 0.
 """
 
 from __future__ import annotations
@@ -43,8 +46,28 @@ class Commands:
 
 
 def _rate_limit(x: np.ndarray, max_rate: float, dt: float) -> np.ndarray:
+    """``x`` followed at no more than ``max_rate`` per second, starting from rest (0).
+
+    Every scenario starts with the vehicle at rest, so the limited command starts at 0 too
+    (it started at ``x[0]``: a step to the first segment's speed at t = 0, e.g. 0.5 m/s for
+    ``orchard``, 0.6 rad/s for ``spin``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Command before limiting, one sample per physics step (unit u).
+    max_rate : float
+        Largest change per second, u/s.
+    dt : float
+        Physics step, s.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Limited command, u; ``out[0]`` is 0 or within ``max_rate dt`` of it.
+    """
     out = np.empty_like(x)
-    acc = x[0]
+    acc = 0.0
     step = max_rate * dt
     for i, target in enumerate(x):
         acc += min(max(target - acc, -step), step)
