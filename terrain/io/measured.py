@@ -76,9 +76,9 @@ class ReadReport:
         ``blank`` and ``comment`` lines skipped.
     ignored_columns : list[str]
         Header columns of an ``imu`` or ``pro`` file that are not among its canonical
-        columns, in file order: present in the file, not read. One with an empty name is
-        ``<unnamed column N>`` (N its 1-based position; the last one's name adds ``a
-        trailing comma?``).
+        columns, and header columns of any stream file that have no name, in file order:
+        present in the file, not read. One with an empty name is ``<unnamed column N>`` (N
+        its 1-based position; the last one's name adds ``a trailing comma?``).
     warnings : list[str]
         What the file itself makes likely but not certain (rule ``last_line``: no line
         break after the last line, which may then have been cut off while being written),
@@ -155,8 +155,9 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
                               line=header_line)
     mapping = COLUMN_MAPS.get(kind)
     if mapping is None:
-        # extra stream: ``time`` is required and comes first, other columns keep their names
-        mapping = {"time": TIME, **{c: c for c in header if c != "time"}}
+        # extra stream: ``time`` is required and comes first, other columns keep their names;
+        # a column without a name (a trailing comma) is not read but reported, as for imu/pro
+        mapping = {"time": TIME, **{c: c for c in header if c and c != "time"}}
     missing = [c for c in mapping if c not in header]
     if missing:
         raise MissingColumnError(

@@ -1,0 +1,62 @@
+"""Header edge cases of the measured-data CSV reader, for every stream kind it reads.
+
+A trailing comma on every line (header included) adds a column without a name: the file is
+still read and the column is reported by position in ``ReadReport.ignored_columns``, the
+same for ``imu``, ``pro`` and the extra streams (``truth``, ``steer``...). Two trailing
+commas give two such columns, told apart by position. A header-only file is an
+:class:`EmptyFileError` that points at a header ending in a comma.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from terrain.io.measured import read_stream_csv
+
+N_ROWS = 120
+#: kind -> (header, one data row at time t); imu and pro are the canonical kinds, truth and
+#: steer extra streams (read_run loads any <kind>_XX.csv)
+STREAMS = {
+    "imu": ("time,wx,wy,wz,ax,ay,az", "{t:.2f},0.01,0.02,0.03,0.1,0.2,9.81"),
+    "pro": ("time,curL,curR,velL,velR", "{t:.2f},1.0,1.1,0.5,0.5"),
+    "truth": ("time,slip_l,slip_r", "{t:.2f},0.1,0.2"),
+    "steer": ("time,angle", "{t:.2f},0.05"),
+}
+KINDS = list(STREAMS)
+
+
+def _text(kind, suffix="", rows=N_ROWS):
+    """A stream file of ``kind``, each line ending in ``suffix``."""
+    header, row = STREAMS[kind]
+    lines = [header] + [row.format(t=0.01 * i) for i in range(rows)]
+    return "".join(line + suffix + "\n" for line in lines)
+
+
+def _write(folder, kind, suffix="", rows=N_ROWS, index="00"):
+    path = folder / f"{kind}_{index}.csv"
+    path.write_text(_text(kind, suffix, rows))
+    return path
+
+
+def _n_columns(kind):
+    return len(STREAMS[kind][0].split(","))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_trailing_comma_on_every_line_is_read_and_its_column_reported(tmp_path, kind):
+    want, _ = read_stream_csv(_write(tmp_path, kind), kind)
+    path = _write(tmp_path, kind, ",", index="01")
+    got, report = read_stream_csv(path, kind)
+    pd.testing.assert_frame_equal(got, want)
+    n = _n_columns(kind) + 1
+    assert report.ignored_columns == [f"<unnamed column {n}; a trailing comma?>"]
+    assert report.warnings == [] and report.repaired == {}
+
+
+def test_an_unnamed_column_inside_an_extra_stream_is_reported_not_read(tmp_path):
+    path = tmp_path / "truth_00.csv"
+    path.write_text("time,,slip\n" + "".join(f"{0.1 * i:.1f},,0.{i}\n" for i in range(5)))
+    frame, report = read_stream_csv(path, "truth")
+    assert list(frame.columns) == ["t_s", "slip"]
+    assert report.ignored_columns == ["<unnamed column 2>"]
