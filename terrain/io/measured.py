@@ -149,8 +149,10 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         text = text.replace("\r\n", "\n").replace("\r", "\n")
     header, rows, lines, skipped = _split_lines(text, path)
     header_line = skipped.pop("header_line")
-    if len(set(header)) < len(header):
-        dup = duplicated(header)
+    # columns without a name (trailing commas) are told apart by position, not refused
+    named = [c for c in header if c]
+    if len(set(named)) < len(named):
+        dup = duplicated(named)
         raise DataFormatError(f"duplicated column name(s) {dup} in the header", path, dup[0],
                               line=header_line)
     mapping = COLUMN_MAPS.get(kind)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
+from terrain.errors import DataFormatError
 from terrain.io.measured import read_stream_csv
 
 N_ROWS = 120
@@ -54,9 +55,33 @@ def test_a_trailing_comma_on_every_line_is_read_and_its_column_reported(tmp_path
     assert report.warnings == [] and report.repaired == {}
 
 
+@pytest.mark.parametrize("kind", KINDS)
+def test_two_trailing_commas_give_two_unnamed_columns_told_apart(tmp_path, kind):
+    want, _ = read_stream_csv(_write(tmp_path, kind), kind)
+    got, report = read_stream_csv(_write(tmp_path, kind, ",,", index="01"), kind)
+    pd.testing.assert_frame_equal(got, want)
+    n = _n_columns(kind) + 1
+    assert report.ignored_columns == [f"<unnamed column {n}>",
+                                      f"<unnamed column {n + 1}; a trailing comma?>"]
+    assert not any("Unnamed" in c for c in report.ignored_columns)
+
+
 def test_an_unnamed_column_inside_an_extra_stream_is_reported_not_read(tmp_path):
     path = tmp_path / "truth_00.csv"
     path.write_text("time,,slip\n" + "".join(f"{0.1 * i:.1f},,0.{i}\n" for i in range(5)))
     frame, report = read_stream_csv(path, "truth")
     assert list(frame.columns) == ["t_s", "slip"]
     assert report.ignored_columns == ["<unnamed column 2>"]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_duplicated_names_are_still_refused_beside_unnamed_columns(tmp_path, kind):
+    header, row = STREAMS[kind]
+    name = header.split(",")[1]
+    path = tmp_path / f"{kind}_00.csv"
+    path.write_text(f"{header},{name},,\n"
+                    + "".join(row.format(t=0.01 * i) + ",1,,\n" for i in range(5)))
+    with pytest.raises(DataFormatError, match=rf"duplicated column name\(s\) \['{name}'\]") \
+            as info:
+        read_stream_csv(path, kind)
+    assert (info.value.column, info.value.line) == (name, 1)
