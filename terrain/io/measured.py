@@ -291,6 +291,11 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     if header is None:
         raise EmptyFileError("file is empty", path)
     if not rows:
+        trailing = next((k for k, c in enumerate(reversed(header)) if c), len(header))
+        if trailing:   # the header line shows the trailing-comma problem: say so
+            raise EmptyFileError(f"file has a header but no data rows; the header ends in "
+                                 f"{trailing} unnamed column(s) (a trailing comma?)", path,
+                                 line=skipped["header_line"])
         raise EmptyFileError("file has a header but no data rows", path)
     lines = np.asarray(lines)
     # a quoted field (``"1,5"``) is parsed as CSV within its own line only: an unbalanced

@@ -9,11 +9,13 @@ commas give two such columns, told apart by position. A header-only file is an
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError
-from terrain.io.measured import read_stream_csv
+from terrain.errors import DataFormatError, EmptyFileError
+from terrain.io.measured import read_runs_dir, read_stream_csv
+from terrain.io.report import input_report
 
 N_ROWS = 120
 #: kind -> (header, one data row at time t); imu and pro are the canonical kinds, truth and
@@ -85,3 +87,45 @@ def test_duplicated_names_are_still_refused_beside_unnamed_columns(tmp_path, kin
             as info:
         read_stream_csv(path, kind)
     assert (info.value.column, info.value.line) == (name, 1)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("suffix", [",", ",,"])
+def test_a_header_only_file_ending_in_a_comma_says_so(tmp_path, kind, suffix):
+    path = _write(tmp_path, kind, suffix, rows=0)
+    with pytest.raises(EmptyFileError) as info:
+        read_stream_csv(path, kind)
+    text = str(info.value)
+    assert "file has a header but no data rows" in text and "\n" not in text
+    assert "trailing comma?" in text and f"{len(suffix)} unnamed column" in text
+    assert (info.value.path, info.value.line) == (str(path), 1)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_header_only_file_without_a_trailing_comma_gets_no_hint(tmp_path, kind):
+    path = _write(tmp_path, kind, rows=0)
+    with pytest.raises(EmptyFileError) as info:
+        read_stream_csv(path, kind)
+    assert str(info.value) == f"file has a header but no data rows (file {path})"
+
+
+@pytest.mark.filterwarnings("ignore:.*stuck at one value")   # the synthetic IMU is constant
+def test_every_stream_of_a_run_reports_its_unnamed_columns(tmp_path):
+    folder = tmp_path / "ICE"
+    folder.mkdir()
+    for kind in KINDS:
+        _write(folder, kind, ",,")
+    (run,) = read_runs_dir(tmp_path, "sim")
+    assert set(run.streams) == {"imu", "wheels", "truth", "steer"}
+    ignored = run.meta["ignored_columns"]
+    for kind, stream in (("imu", "imu"), ("pro", "wheels"), ("truth", "truth"),
+                         ("steer", "steer")):
+        n = _n_columns(kind) + 1
+        assert ignored[stream] == [f"<unnamed column {n}>",
+                                   f"<unnamed column {n + 1}; a trailing comma?>"]
+        assert "" not in run.streams[stream].columns
+    np.testing.assert_array_equal(run.streams["truth"]["slip_r"], np.full(N_ROWS, 0.2))
+    report = input_report([run])
+    assert report.metrics()["input_ignored_columns"] == 8.0
+    assert "truth.<unnamed column 5; a trailing comma?>" in report.table.loc[0, "ignored_columns"]
+    assert "ignored 8 column(s) not read by the readers (imu.<unnamed column 8>" in report.text()
