@@ -306,7 +306,9 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     if ragged.size:
         k = int(ragged[0])
         hint = ("; a trailing comma?" if rows[k].rstrip().endswith(",")
-                else "; an unbalanced quote?" if rows[k].count('"') % 2 else "")
+                else "; an unbalanced quote?" if rows[k].count('"') % 2
+                else f"; the header ends in a comma, line {lines[k]} does not: a trailing comma?"
+                if not header[-1] and n_fields[k] < len(header) else "")
         raise RaggedRowError(f"{ragged.size} of {len(rows)} data rows have a field count "
                              f"other than the header's {len(header)} (first: {n_fields[k]} "
                              f"fields) at {first_items(lines[ragged])}{hint}", path,

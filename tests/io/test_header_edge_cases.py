@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError, EmptyFileError
+from terrain.errors import DataFormatError, EmptyFileError, RaggedRowError
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report
 
@@ -129,3 +129,15 @@ def test_every_stream_of_a_run_reports_its_unnamed_columns(tmp_path):
     assert report.metrics()["input_ignored_columns"] == 8.0
     assert "truth.<unnamed column 5; a trailing comma?>" in report.table.loc[0, "ignored_columns"]
     assert "ignored 8 column(s) not read by the readers (imu.<unnamed column 8>" in report.text()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_comma_ending_the_header_only_is_named_in_the_ragged_row_error(tmp_path, kind):
+    path = _write(tmp_path, kind)
+    lines = path.read_text().split("\n")
+    path.write_text("\n".join([lines[0] + ","] + lines[1:]))
+    with pytest.raises(RaggedRowError) as info:
+        read_stream_csv(path, kind)
+    text = str(info.value)
+    assert info.value.line == 2 and "\n" not in text
+    assert "the header ends in a comma, line 2 does not: a trailing comma?" in text
