@@ -385,8 +385,16 @@ def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
             if not p.exists() or sha256(p) != digest:
                 bad.append(rel)
         bad += [f"{dataset}/{f}" for f in STREAM_FILES.values()
-                if f"{dataset}/{f}" not in entry["files"] and (data_dir / dataset / f).exists()]
+                if _unlisted_stream_file(data_dir, dataset, entry, f)]
     return bad
+
+
+def _unlisted_stream_file(data_dir: Path, dataset: str, entry: dict, file_name: str) -> bool:
+    """Whether the shipped stream file ``<data_dir>/<dataset>/<file_name>`` exists but the
+    dataset's manifest ``entry`` does not list it in ``files`` (its runs would be read
+    without that stream)."""
+    return (f"{dataset}/{file_name}" not in entry["files"]
+            and (data_dir / dataset / file_name).exists())
 
 
 def _fail(key: str, expected: str, value, path: str | Path) -> DataFormatError:
@@ -561,13 +569,13 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     for name, fname in STREAM_FILES.items():
         path = data_dir / dataset / fname
         rel = f"{dataset}/{fname}"
+        if _unlisted_stream_file(data_dir, dataset, entry, fname):
+            # left out, every run of the dataset would be read without this stream
+            raise DataFormatError(
+                f"key 'datasets.{dataset}.files' does not list {rel}, which exists "
+                f"({path}): its runs would be read without their {name} stream; "
+                "regenerate data/ with `terrain convert`", manifest_path)
         if rel not in entry["files"]:
-            if path.exists():
-                # left out, every run of the dataset would be read without this stream
-                raise DataFormatError(
-                    f"key 'datasets.{dataset}.files' does not list {rel}, which exists "
-                    f"({path}): its runs would be read without their {name} stream; "
-                    "regenerate data/ with `terrain convert`", manifest_path)
             continue  # no run of the dataset has this stream
         if not path.exists():
             raise DataFormatError("shipped file missing", path)
