@@ -345,6 +345,10 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     cur = reported_current_a(vehicle.motor, phys.torque, phys.omega, settings.physics)
     out = np.column_stack([phys.twist[:, 2], phys.accel_body, phys.twist[:, 0], cur])
     out = lowpass(out, settings.physics_rate_hz, settings.output_cutoff_hz)
+    # the currents are magnitudes: the zero-phase filter's ringing (and its odd extension at
+    # the ends) dips below 0 where a current rises from rest; that dip is the filter's, not
+    # the motor's
+    out[:, 4:6] = np.maximum(out[:, 4:6], 0.0)
     sampled = np.column_stack([np.interp(t_w, t, out[:, j]) for j in range(out.shape[1])])
     return Replay(run_id=run.run_id, terrain=terrain.name, vehicle=vehicle_name, track_m=b,
                   t_s=t_w, vel_l=vel_l, vel_r=vel_r, yaw_rate=sampled[:, 0],
