@@ -1,6 +1,8 @@
-"""Closed-loop validation grid: tune the traction gains on tuning seeds, then run vehicles x
-terrains x scenarios x controller off/on x evaluation seeds; write a table, plots and the
-quasi-static slip-limit bound, log everything to MLflow (experiment terrain-control).
+"""Closed-loop validation grid of the traction controller: tune, run, tabulate (MLflow-tracked).
+
+Tunes the traction gains on tuning seeds, then runs vehicles x terrains x scenarios x
+controller off/on x evaluation seeds; writes a table, plots and the quasi-static slip-limit
+bound, and logs everything to MLflow (experiment terrain-control).
 
 Default (small, about a minute on a loaded core): both vehicles, TILES GRASS SANDY_LOAM SNOW
 ICE, straight_accel, seed 0, 20 s. Full grid (docs/control_validation.md):
