@@ -25,7 +25,7 @@ from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
                                     grid_markdown, iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
-from terrain.models.registry import MODELS
+from terrain.models.registry import MODELS, check_dependencies
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-compare"
@@ -190,6 +190,8 @@ def main(args: argparse.Namespace) -> int:
 
     check_backend(args.backend, args.address)      # before any run opens
     config = config_from_args(args)
+    for model in config.models:               # optional extras, before any run opens
+        check_dependencies(model)
     params = {k: ",".join(map(str, v)) if isinstance(v, tuple) else v
               for k, v in asdict(config).items()}
     cells = config.cells()

@@ -18,7 +18,7 @@ from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
 from terrain.models.experiment import PAPER_WINDOW, ExperimentConfig, ExperimentResult, run_cv
 from terrain.models.metrics import plot_confusion
-from terrain.models.registry import MODELS
+from terrain.models.registry import MODELS, check_dependencies
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-cv"
@@ -168,6 +168,7 @@ def main(args: argparse.Namespace) -> int:
     name = (f"{config.model}-{config.dataset}-{config.protocol}-{'+'.join(config.signals)}"
             + (f"+cnn-seeds{config.cnn_seeds}" if config.cnn_seeds > 1 else "")
             + ("+run-balanced" if config.run_balanced else ""))
+    check_dependencies(config.model)     # an optional extra missing: before any data
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=config.as_params()) as run:
         result = run_cv(config, runs=runs, progress=not args.no_progress)

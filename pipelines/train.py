@@ -18,7 +18,7 @@ from pipelines.arguments import add_cnn_seeds, add_run_balanced, add_window_ekf,
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline
-from terrain.models.registry import MODELS
+from terrain.models.registry import MODELS, check_dependencies
 from terrain.serving.pyfunc import log_model, runs_to_model_input, save_model
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.tracking import tracked_run
@@ -150,6 +150,7 @@ def main(args: argparse.Namespace) -> int:
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0],
               "window_ekf": config.window_ekf, "cnn_seeds": config.cnn_seeds,
               "run_balanced": config.run_balanced}
+    check_dependencies(config.model)     # an optional extra missing: before any data
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:
         pipe, ws, info = fit_pipeline(config, runs=runs, progress=not args.no_progress)

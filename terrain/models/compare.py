@@ -20,6 +20,7 @@ probabilities of a cell, the decision at a window averages the probabilities of 
 
 from __future__ import annotations
 
+import importlib.util
 import time
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -708,6 +709,8 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
 
 
 BACKENDS = ("loky", "dask", "ray")
+#: Message of a ``ray`` backend asked for without the optional extra.
+RAY_MISSING = "the ray backend needs the optional extra: pip install 'terrain[ray]'"
 
 
 def check_backend(backend: str, address: str | None) -> None:
@@ -723,11 +726,13 @@ def check_backend(backend: str, address: str | None) -> None:
     Raises
     ------
     ConfigError
-        Unknown backend, or an address with ``loky`` (local processes: the address would be
-        ignored and the grid run here).
+        Unknown backend, an address with ``loky`` (local processes: the address would be
+        ignored and the grid run here), or ``ray`` without its optional extra installed.
     """
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; valid: {list(BACKENDS)}")
+    if backend == "ray" and importlib.util.find_spec("ray") is None:
+        raise ConfigError(RAY_MISSING)
     if backend == "loky" and address is not None:
         raise ConfigError(f"--address {address} needs --backend dask or ray: the loky backend "
                           "runs the grid in local processes and would ignore it")
@@ -778,8 +783,7 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
             import ray
             from ray.util.joblib import register_ray
         except ImportError as exc:
-            raise ConfigError("the ray backend needs the optional extra: "
-                              "pip install 'terrain[ray]'") from exc
+            raise ConfigError(RAY_MISSING) from exc
         register_ray()
         ray.init(address=address, ignore_reinit_error=True)
         try:

@@ -17,6 +17,8 @@ on one window (:class:`MiniRocketPipeline`), with scikit-learn's arithmetic.
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.linear_model import LogisticRegression
@@ -24,6 +26,23 @@ from sklearn.preprocessing import StandardScaler
 
 from terrain.errors import ConfigError
 from terrain.models.compiled import CompiledPipeline
+
+
+def require_aeon() -> None:
+    """Refuse the ``minirocket`` model where its optional extra, aeon, is not installed.
+
+    Called by :meth:`MiniRocketFeatures.fit` and, through
+    :func:`terrain.models.registry.check_dependencies`, by the pipelines before any data is
+    read or any MLflow run opens.
+
+    Raises
+    ------
+    ConfigError
+        aeon cannot be imported (with the command that installs it).
+    """
+    if importlib.util.find_spec("aeon") is None:
+        raise ConfigError("the minirocket model needs aeon: pip install --no-deps "
+                          "aeon==1.3.0 deprecated==1.3.1 (see README)")
 
 
 class MiniRocketFeatures(TransformerMixin, BaseEstimator):
@@ -71,11 +90,12 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             aeon is not installed.
         """
+        require_aeon()
         try:
             from aeon.transformations.collection.convolution_based import MiniRocket
-        except ImportError as exc:  # optional extra
-            raise ConfigError("the minirocket model needs aeon: pip install --no-deps "
-                              "aeon==1.3.0 deprecated==1.3.1 (see README)") from exc
+        except ImportError as exc:  # installed, but it or one of its imports is broken
+            raise ConfigError(f"the minirocket model needs aeon, which does not import: "
+                              f"{exc}") from exc
         X = np.asarray(X, dtype=np.float32)
         self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
                                   max_dilations_per_kernel=self.max_dilations_per_kernel,

@@ -30,7 +30,7 @@ from features.windows import DERIVED_WHEEL_CHANNELS
 from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
-from terrain.models.minirocket import make_minirocket
+from terrain.models.minirocket import make_minirocket, require_aeon
 from terrain.models.svm import SVMConfig, svm_window_pipeline
 from terrain.models.weighting import run_balanced
 from terrain.models.window_ekf import WindowEKFClassifier
@@ -244,6 +244,27 @@ def ensemble_member_kinds(config: ModelConfig) -> tuple[str, ...]:
     if config.kind not in ENSEMBLES:
         raise ConfigError(f"{config.kind!r} is not an ensemble; ensembles: {list(ENSEMBLES)}")
     return ENSEMBLE3_MEMBERS if config.kind == "ensemble3" else tuple(config.ensemble_members)
+
+
+def check_dependencies(kind: str, ensemble_members: Sequence[str] = ENSEMBLE_MEMBERS) -> None:
+    """Refuse a model whose optional extra is not installed, before any data is read.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`MODELS`.
+    ensemble_members : sequence of str
+        Members of an ``ensemble`` (``ModelConfig.ensemble_members``).
+
+    Raises
+    ------
+    ConfigError
+        ``minirocket`` (alone or as an ensemble member) without aeon
+        (:func:`terrain.models.minirocket.require_aeon`).
+    """
+    members = {"ensemble": tuple(ensemble_members), "ensemble3": ENSEMBLE3_MEMBERS}
+    if "minirocket" in members.get(kind, (kind,)):
+        require_aeon()
 
 
 def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dataset: str,

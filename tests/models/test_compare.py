@@ -287,3 +287,29 @@ def test_grid_markdown_bolds_the_best_of_each_column_and_marks_cells_not_run():
     assert "| all | cnn | 0.850 / 0.840 | - |" in lines
     assert "| imu | svm | 0.910 / 0.900 | - |" in lines
     assert not any(line.startswith("| imu | cnn |") for line in lines)   # never run
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["cv", "--dataset", "borealtc", "--model", "minirocket"], "the minirocket model needs aeon"),
+    (["train", "--dataset", "borealtc", "--model", "minirocket", "--model-out", "m"],
+     "the minirocket model needs aeon"),
+    (["compare", "--models", "svm", "minirocket", "--out", "c"], "the minirocket model needs aeon"),
+    (["compare", "--backend", "ray", "--out", "c"], "the ray backend needs the optional extra"),
+])
+def test_a_missing_optional_extra_is_refused_before_any_run(argv, message, tmp_path, capsys,
+                                                             monkeypatch):
+    # aeon and ray are optional extras: without them the command stops with the install hint
+    # before it reads data or opens an MLflow run (it used to open one, then fail)
+    import importlib.util
+
+    from terrain.cli import main
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in ("aeon", "ray") else real(name, *a))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())     # no mlflow.db, no mlruns, no output folder
