@@ -296,8 +296,8 @@ def test_grid_markdown_bolds_the_best_of_each_column_and_marks_cells_not_run():
     (["compare", "--models", "svm", "minirocket", "--out", "c"], "the minirocket model needs aeon"),
     (["compare", "--backend", "ray", "--out", "c"], "the ray backend needs the optional extra"),
 ])
-def test_a_missing_optional_extra_is_refused_before_any_run(argv, message, tmp_path, capsys,
-                                                             monkeypatch):
+def test_a_missing_optional_extra_is_refused_before_any_run(argv, message, tmp_path,
+                                                            capsys, monkeypatch):
     # aeon and ray are optional extras: without them the command stops with the install hint
     # before it reads data or opens an MLflow run (it used to open one, then fail)
     import importlib.util
