@@ -270,7 +270,8 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         the limit the controller enforced, the ``desired`` of the log, where enabled: only
         slip beyond the limit counts),
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
-        the chassis speed exceeds the enabling threshold), ``time_to_speed_s`` (None if never),
+        the chassis speed exceeds the enabling threshold; None if it never does),
+        ``time_to_speed_s`` (None if never),
         ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law),
         ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``),
         ``drive_energy_j_per_m`` (``sum k_t G |omega| |I| dt / distance``: what a PWM drive
@@ -342,7 +343,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "slip_rmse": float(np.sqrt(np.mean(err ** 2))) if err.size else None,
         "slip_excess_rmse": float(np.sqrt(np.mean(excess ** 2))) if excess.size else None,
         "peak_slip": float(np.max(np.abs(phys.slip_motor))),
-        "peak_slip_gated": float(np.max(np.abs(phys.slip_motor[gate]))) if gate.any() else 0.0,
+        "peak_slip_gated": float(np.max(np.abs(phys.slip_motor[gate]))) if gate.any() else None,
         "time_to_speed_s": t_speed,
         "cruise_speed_m_s": cruise,
         "reference_speed_m_s": reference,
