@@ -400,3 +400,35 @@ def test_integral_never_on_the_forbidden_side():
                            chassis=abs(rng.normal(0.5, 0.5)))
         towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
         assert np.all(state.integral * towards >= -1e-12)
+
+
+def test_the_enabling_wheel_speed_follows_the_encoder_resolution():
+    # one count of the AgriMaRo's 90-count Hall encoder per 0.12 s filter time constant is a
+    # quarter of the wheel speed at r q / (tau 0.25) = 0.165 * (2 pi / 90) / 0.03 = 0.384 m/s
+    from terrain.control.traction import encoder_resolution_speed_m_s
+    from terrain.vehicles import get_vehicle
+
+    agri = get_vehicle("agrimaro")
+    v = encoder_resolution_speed_m_s(agri.motor, 0.165)
+    assert v == pytest.approx(0.165 * (2 * np.pi / 90) / (0.12 * 0.25))
+    # halving the tolerated slip error doubles the speed; a drive without a filter has no bound
+    assert encoder_resolution_speed_m_s(agri.motor, 0.165, 0.125) == pytest.approx(2 * v)
+    assert encoder_resolution_speed_m_s(get_vehicle("husky").motor, 0.165) == 0.0
+    assert config_for_vehicle("agrimaro")[0].wheel_speed_threshold_m_s == pytest.approx(v)
+    assert config_for_vehicle("husky")[0].wheel_speed_threshold_m_s == 0.05   # ch. 8.3.2
+    # an explicit threshold wins
+    assert config_for_vehicle("agrimaro", wheel_speed_threshold_m_s=0.05)[0] \
+        .wheel_speed_threshold_m_s == 0.05
+    with pytest.raises(ConfigError):
+        encoder_resolution_speed_m_s(agri.motor, 0.165, 0.0)
+
+
+def test_the_agrimaro_controller_no_longer_acts_on_encoder_noise_on_the_slope():
+    # 15 deg slope_turn at 0.05-0.2 m/s on TILES: with the thesis's 0.05 m/s threshold the
+    # controller raised the slip above 0.05 m/s from 0.034 to 0.479 (seeds 0-2) acting on the
+    # encoder's quantisation; with the encoder-resolution threshold it leaves the run alone
+    from terrain.control.closed_loop import run_closed_loop
+
+    _, _, off = run_closed_loop("agrimaro", "TILES", "slope_turn", False, 0, duration_s=12.0)
+    _, _, on = run_closed_loop("agrimaro", "TILES", "slope_turn", True, 0, duration_s=12.0)
+    assert on["peak_slip_gated"] <= off["peak_slip_gated"] + 0.01
