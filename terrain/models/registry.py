@@ -173,8 +173,14 @@ def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ENSEMBLE_MEMBERS) -> 
     tuple of str
         ``(kind,)`` for a CNN, the CNN members of an ensemble, ``()`` otherwise.
     """
+    return tuple(k for k in _component_kinds(kind, ensemble_members) if k in CNN_MODELS)
+
+
+def _component_kinds(kind: str, ensemble_members: Sequence[str]) -> tuple[str, ...]:
+    """The single models a model is made of: an ensemble's members (``ensemble``:
+    ``ensemble_members``, ``ensemble3``: :data:`ENSEMBLE3_MEMBERS`), else ``(kind,)``."""
     members = {"ensemble": tuple(ensemble_members), "ensemble3": ENSEMBLE3_MEMBERS}
-    return tuple(k for k in members.get(kind, (kind,)) if k in CNN_MODELS)
+    return members.get(kind, (kind,))
 
 
 def cnn_seeds_for(kind: str, cnn_seeds: int,
@@ -262,8 +268,7 @@ def check_dependencies(kind: str, ensemble_members: Sequence[str] = ENSEMBLE_MEM
         ``minirocket`` (alone or as an ensemble member) without aeon
         (:func:`terrain.models.minirocket.require_aeon`).
     """
-    members = {"ensemble": tuple(ensemble_members), "ensemble3": ENSEMBLE3_MEMBERS}
-    if "minirocket" in members.get(kind, (kind,)):
+    if "minirocket" in _component_kinds(kind, ensemble_members):
         require_aeon()
 
 
