@@ -231,8 +231,7 @@ def encoder_resolution_speed_m_s(motor, wheel_radius_m: float,
     tau = float(motor.encoder_filter_s)
     if tau <= 0:
         return 0.0
-    quantum = 2.0 * math.pi / float(motor.encoder_counts_per_rev)
-    return float(wheel_radius_m) * quantum / (tau * float(slip_resolution))
+    return float(wheel_radius_m) * motor.encoder_quantum_rad / (tau * float(slip_resolution))
 
 
 @dataclass(frozen=True)

@@ -185,7 +185,7 @@ class OnlineSensors:
         motor = self.vehicle.motor
         if s.speed_quantum_m_s == 0 and dt > 0:
             self._angle = self._angle + 0.5 * dt * (snap.omega + self._omega_prev)
-            q = 2 * math.pi / motor.encoder_counts_per_rev
+            q = motor.encoder_quantum_rad
             counts = np.floor(self._angle / q)
             raw = (counts - self._counts) * q / dt
             self._counts = counts

@@ -51,6 +51,11 @@ class MotorParams:
     wheel_inertia_kg_m2: float
     source: str
 
+    @property
+    def encoder_quantum_rad(self) -> float:
+        """Wheel angle of one encoder count, ``2 pi / encoder_counts_per_rev``, rad."""
+        return 2.0 * np.pi / float(self.encoder_counts_per_rev)
+
     def current_from_torque(self, wheel_torque_nm: np.ndarray,
                             omega_rad_s: np.ndarray) -> np.ndarray:
         """Motor current from the wheel torque it delivers.
