@@ -33,7 +33,8 @@ from terrain.io.measured import read_runs_path
 from terrain.io.report import input_report
 from terrain.run import TIME
 from terrain.slip import LAG_MODES, TUNINGS, estimate_run
-from terrain.slip.estimate import SLIP_MODELS, estimate_skid_steer_slip_run
+from terrain.slip.estimate import (LEARNED_FALLBACK_NOTE, SLIP_MODELS,
+                                   estimate_skid_steer_slip_run)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -144,6 +145,8 @@ def main(args: argparse.Namespace) -> int:
                                                missing=missing, lag=args.lag, gate=gate,
                                                rate_hz=rate_hz)
         for note in est.notes:
+            if note == LEARNED_FALLBACK_NOTE and wants_model and learned is None:
+                continue        # said once above, with where the model was looked for
             print(note)
         lags["not estimated" if est.lag is None else "applied" if est.lag.applied
              else "not applied"] += 1

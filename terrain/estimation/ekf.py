@@ -459,6 +459,78 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, h: Callable[..., np.ndar
     return correct(x, P, y, Hm, R, gate=gate, groups=groups, check=check)
 
 
+def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Project an estimate onto box constraints ``lower <= x <= upper`` in the metric of its
+    covariance (estimate projection).
+
+    The constrained estimate minimises ``(x_c - x)^T P^-1 (x_c - x)`` subject to the
+    constraints that ``x`` violates, each taken as an equality at its bound: with ``D`` the
+    rows of the identity of the active states and ``d`` their bounds,
+    ``x_c = x - P D^T (D P D^T)^-1 (D x - d)`` (Simon & Chia, "Kalman filtering with state
+    equality constraints", IEEE Trans. Aerosp. Electron. Syst. 38(1), 2002, eq. 13 with
+    ``W = P^-1``; Simon, "Kalman filtering with state constraints: a survey of linear and
+    nonlinear algorithms", IET Control Theory Appl. 4(8), 2010, sec. 2.4). Unlike clipping,
+    the projection also moves every state correlated with a violated one: a speed pushed
+    back into its bound takes the slips that moved with it along. A state that the
+    projection pushes past its own bound joins the active set and the projection is redone
+    (active set method; at most ``n`` rounds). A violated state with no variance is set to
+    its bound and moves nothing else. The covariance is returned unchanged: the bounds say
+    where the state cannot be, not where it is (Simon 2010, sec. 2.4, the estimate
+    projection with the unconstrained covariance), so no variance collapses onto a bound.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Estimate, in the states' units.
+    P : ndarray, shape (n, n)
+        Its covariance.
+    lower, upper : ndarray, shape (n,)
+        Bounds, the states' units (``-inf`` / ``inf``: none); ``lower <= upper``.
+
+    Returns
+    -------
+    x_c : ndarray, shape (n,)
+        The projected estimate, inside the bounds (``x`` itself, copied, when it already was).
+    active : ndarray of bool, shape (n,)
+        The states held at a bound.
+
+    Raises
+    ------
+    ShapeError
+        Shapes that do not match, or ``lower > upper`` somewhere.
+    """
+    x = np.asarray(x, dtype=float)
+    n = x.shape[0]
+    lower = np.broadcast_to(np.asarray(lower, dtype=float), (n,))
+    upper = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    if np.shape(P) != (n, n):
+        raise ShapeError(f"P must have shape ({n}, {n}) for a state of {n}; got {np.shape(P)}")
+    if (lower > upper).any():
+        raise ShapeError(f"lower bound above upper bound at state(s) "
+                         f"{np.flatnonzero(lower > upper).tolist()}")
+    active = np.zeros(n, dtype=bool)
+    xc = x.copy()
+    bound = np.zeros(n)
+    for _ in range(n):
+        below, above = xc < lower, xc > upper
+        new = (below | above) & ~active
+        if not new.any():
+            break
+        bound[below & new] = lower[below & new]
+        bound[above & new] = upper[above & new]
+        active |= new
+        idx = np.flatnonzero(active)
+        Paa = P[np.ix_(idx, idx)]
+        var = Paa.diagonal()
+        if (var <= 0).any() or np.linalg.cond(Paa) > 1e12:
+            xc = np.clip(xc, lower, upper)    # no metric to project in: clip
+            break
+        xc = x - P[:, idx] @ np.linalg.solve(Paa, x[idx] - bound[idx])
+        xc[idx] = bound[idx]                  # exact, free of round-off
+    return xc, active
+
+
 class ExtendedKalmanFilter:
     """Thin stateful wrapper over :func:`predict` and :func:`update` for streaming use.
 

@@ -34,6 +34,9 @@ class LoopArrays:
         NIS over the accepted rows (NaN when none).
     dof : ndarray of int, shape (N,)
         Its degrees of freedom.
+    bound_active : ndarray of bool, shape (N,) or None
+        Steps whose estimate was projected onto ``step_bounds``
+        (:func:`terrain.estimation.runner.run_filter`); None when the loop had none.
     """
 
     x: np.ndarray
@@ -44,6 +47,7 @@ class LoopArrays:
     accepted: np.ndarray
     nis: np.ndarray
     dof: np.ndarray
+    bound_active: np.ndarray | None = None
 
 
 @dataclass

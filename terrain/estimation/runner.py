@@ -24,7 +24,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from terrain.errors import ConfigError, ShapeError, TimeStepError
-from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct
+from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, project_to_bounds
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
 
@@ -195,7 +195,8 @@ def sensor_groups(sensor_rows: Mapping[str, Sequence[int]], n_measurements: int
 def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                samples: Mapping[str, SensorSamples], *, gate: Gate | None = None,
                x0: np.ndarray | None = None, P0: np.ndarray | None = None,
-               store_covariance: bool = False, engine: str = "auto") -> EKFResult:
+               store_covariance: bool = False, engine: str = "auto",
+               step_bounds: tuple[np.ndarray, np.ndarray] | None = None) -> EKFResult:
     """Filter a recording with ``model`` on the grid ``t_grid``.
 
     Two engines compute the same result (to round-off, ~1e-12 relative): the NumPy reference
@@ -228,7 +229,17 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         numba is importable, else the reference. The first compiled call on a machine
         compiles the loop (about 4.5 s, then cached on disk). The engine used is recorded in
         ``meta["engine"]``. A model with ``state_bounds`` (its states clipped into their
-        physical range after every update) runs on the reference loop.
+        physical range after every update) runs on the reference loop, as does a filter with
+        ``step_bounds``.
+    step_bounds : (lower, upper), each ndarray of shape (N, n), optional
+        Bounds of the state at each step, the states' units (``-inf`` / ``inf``: none),
+        from measurements rather than from the model (e.g. the speed bound of
+        :func:`terrain.estimation.skid_steer_slip.speed_bounds_m_s`). After each step's
+        update (or prediction, at a step with no sample) an estimate outside them is
+        projected onto them in the metric of its covariance
+        (:func:`~terrain.estimation.ekf.project_to_bounds`), so the states correlated with
+        a bounded one move with it; then the model's ``state_bounds`` clip. The steps where
+        a bound was active are counted in ``meta["step_bounds_active"]``.
 
     Returns
     -------
@@ -242,7 +253,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         Grid not strictly increasing.
     ConfigError
         Unknown ``engine``, or ``engine="numba"`` for a model without a kernel or with
-        ``state_bounds``.
+        ``state_bounds``, or with ``step_bounds``.
     """
     if engine not in ENGINES:
         raise ConfigError(f"unknown engine {engine!r}; valid: {', '.join(ENGINES)}")
@@ -271,10 +282,21 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
     avail = np.isfinite(Z)
     row_sensor = sensor_groups(sensor_rows, m)
     bounds = getattr(model, "state_bounds", None)
-    if bounds is not None and engine == "numba":
+    if (bounds is not None or step_bounds is not None) and engine == "numba":
         raise ConfigError(f"{type(model).__name__} bounds its states, which only the NumPy "
                           "reference loop applies; use engine='numpy' or 'auto'")
-    kernel = None if bounds is not None else _fast_kernel(model, engine)
+    if step_bounds is not None:
+        try:
+            lo_b, up_b = (np.broadcast_to(np.asarray(b, dtype=float), (N, n))
+                          for b in step_bounds)
+        except ValueError as exc:
+            raise ShapeError(f"step_bounds must be (lower, upper), each of shape ({N}, {n}): "
+                             f"{exc}") from None
+        if np.isnan(lo_b).any() or np.isnan(up_b).any() or (lo_b > up_b).any():
+            raise ShapeError("step_bounds hold NaN or a lower bound above its upper bound")
+        step_bounds = (lo_b, up_b)
+    kernel = (None if bounds is not None or step_bounds is not None
+              else _fast_kernel(model, engine))
     if kernel is not None:
         from terrain.estimation.fast import run_compiled
 
@@ -284,7 +306,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                             thresholds=thresholds, store_covariance=store_covariance)
     else:
         loop = _reference_loop(model, dts, Z, avail, x, P, R_diag, row_sensor,
-                               len(sensor_rows), gate, store_covariance, bounds)
+                               len(sensor_rows), gate, store_covariance, bounds, step_bounds)
     accepted = loop.accepted
     for name, rows in sensor_rows.items():
         if name in counts:
@@ -298,6 +320,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
             "gate_probability": None if gate is None else gate.probability,
             "n_steps": int(N),
             "rate_hz": float(1.0 / np.median(dts)) if dts.size else float("nan")}
+    if step_bounds is not None:
+        meta["step_bounds_active"] = int(loop.bound_active.sum())
     return EKFResult(t_s=t_grid, x=loop.x, P_diag=loop.P_diag, P=loop.P, y=loop.y,
                      S_diag=loop.S_diag, accepted=accepted, nis=loop.nis, dof=loop.dof,
                      state_names=tuple(model.state_names),
@@ -331,10 +355,11 @@ def _fast_kernel(model: StateSpaceModel, engine: str) -> Any:
 def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avail: np.ndarray,
                     x: np.ndarray, P: np.ndarray, R_diag: np.ndarray, row_sensor: np.ndarray,
                     n_sensors: int, gate: Gate | None, store_covariance: bool,
-                    bounds: tuple[np.ndarray, np.ndarray] | None = None) -> LoopArrays:
+                    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                    step_bounds: tuple[np.ndarray, np.ndarray] | None = None) -> LoopArrays:
     """The NumPy reference loop of :func:`run_filter` (predict, then :func:`correct` with the
-    rows available at each step, then the mean clipped into ``bounds``, the model's
-    ``state_bounds``, when given)."""
+    rows available at each step, then the mean projected onto ``step_bounds`` and clipped
+    into ``bounds``, the model's ``state_bounds``, when given)."""
     if bounds is not None:
         lower, upper = (np.asarray(b, dtype=float) for b in bounds)
     N, m = Z.shape
@@ -358,6 +383,7 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
     accepted = np.zeros((N, m), dtype=bool)
     nis = np.full(N, np.nan)
     dof = np.zeros(N, dtype=int)
+    bound_active = np.zeros(N, dtype=bool)
     residual = model.residual
     transition, observation = model.transition, model.observation
     q_dt, Qk = None, None
@@ -390,10 +416,16 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
                 accepted[k, rows] = inn.accepted
             nis[k] = inn.nis
             dof[k] = inn.dof
-            if bounds is not None:
-                x = np.clip(x, lower, upper)
+        if step_bounds is not None:
+            lo_k, up_k = step_bounds[0][k], step_bounds[1][k]
+            if (x < lo_k).any() or (x > up_k).any():
+                x, active = project_to_bounds(x, P, lo_k, up_k)
+                bound_active[k] = active.any()
+        if bounds is not None and (key or step_bounds is not None):
+            x = np.clip(x, lower, upper)
         xs[k] = x
         Pd[k] = P.diagonal()
         if Ps is not None:
             Ps[k] = P
-    return LoopArrays(x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=accepted, nis=nis, dof=dof)
+    return LoopArrays(x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=accepted, nis=nis, dof=dof,
+                      bound_active=bound_active)

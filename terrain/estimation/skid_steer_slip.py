@@ -36,6 +36,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
+import pandas as pd
 
 from terrain.errors import ConfigError, ShapeError
 from terrain.estimation.ekf import Gate
@@ -46,6 +47,7 @@ from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, tr
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import SensorSamples, run_filter
+from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
 
 if TYPE_CHECKING:
@@ -56,6 +58,9 @@ STATE_NAMES: tuple[str, ...] = ("v_bx", "yaw_rate", "gyro_bias", "log_icr_chi", 
 MEASUREMENT_NAMES: tuple[str, ...] = ("vel_l", "vel_r", "wz", "slip_1", "slip_2", "ax", "az")
 SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
     {"wheels": (0, 1), "gyro": (2,), "slip_model": (3, 4), "accel": (5, 6)})
+#: Rim-speed noise margin of the speed bound (:func:`speed_bounds_m_s`), in wheel noise
+#: standard deviations (``SkidSteerSlipSettings.wheel_std_m_s``): 3, two-sided 99.7 %.
+SPEED_BOUND_NOISE_STDS = 3.0
 
 
 @dataclass(frozen=True)
@@ -120,6 +125,28 @@ class SkidSteerSlipSettings:
     slip_std : float
         Standard deviation of the slip pseudo-measurement rows (set per segment by
         :func:`run_with_pseudo_slip` from the slip model's own std).
+    speed_bound_braking_slip : float or None
+        Deepest SAE braking slip, in (-1, 0], that :func:`speed_bounds_m_s` allows: the
+        forward speed is kept within the range the recent rim speeds and this slip imply
+        (:func:`run_with_pseudo_slip`, by estimate projection; the rim equation alone
+        allows -0.95, a contact 20 times as fast as its rim). -0.3: the braking slip that
+        holds the Husky on the scenarios' steepest grade, 15 deg, on the softest curve of
+        the catalogue, Wong's snow (``mu = 0.469 (1 - exp(-s / 0.333))`` equals
+        ``tan 15 deg = 0.268`` at ``|s| = 0.28``; :mod:`terrain.terramechanics.catalogue`);
+        on simulated Husky runs with truth (seeds 0-2) it cut the speed RMSE more than -0.5
+        did (``benchmarks/speed_bound.py``, ``docs/slip_learning.md`` "A bound on the
+        forward speed"). None: no bound.
+        Only :func:`run_with_pseudo_slip` (``terrain estimate``'s batch filter) applies it;
+        the online observer of the control loop
+        (:mod:`terrain.control.estimators`) steps the model itself and does not.
+    speed_bound_hold_s : float
+        Window over which the bound keeps the widest range of the rim speeds, s (``hold_s``
+        of :func:`speed_bounds_m_s`). 1.0: with the latest rim speeds alone (0) the
+        simulated truth left the bound in stops on the catalogue's ice (friction 0.05: up
+        to 2.9 % of a run's steps, by up to 0.20 m/s), with a 1 s hold on no simulated run
+        that did not slide off; the shipped runs' wheel stream is not aligned to the IMU to
+        better than a fraction of a second either (``terrain.slip.alignment.gated_lag``: no
+        clear lag on any BorealTC run).
 
     Raises
     ------
@@ -149,6 +176,8 @@ class SkidSteerSlipSettings:
     pitch0_std: float = 0.3
     chi_min_yaw_rate_rad_s: float = 0.05
     slip_std: float = 0.1
+    speed_bound_braking_slip: float | None = -0.3
+    speed_bound_hold_s: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("track_m", "wheel_std_m_s", "gyro_std_rad_s", "accel_std_m_s2", "chi0",
@@ -159,10 +188,13 @@ class SkidSteerSlipSettings:
                 raise ConfigError(f"{name} must be > 0 and finite, got {v}")
         for name in ("jerk_psd", "yaw_accel_psd", "bias_psd", "log_chi_psd", "slip_psd",
                      "slip_psd_rel", "slip_psd_transient", "pitch_psd",
-                     "chi_min_yaw_rate_rad_s"):
+                     "chi_min_yaw_rate_rad_s", "speed_bound_hold_s"):
             v = float(getattr(self, name))
             if not (np.isfinite(v) and v >= 0):
                 raise ConfigError(f"{name} must be >= 0 and finite, got {v}")
+        b = self.speed_bound_braking_slip
+        if b is not None and not (-1.0 < float(b) <= 0.0):
+            raise ConfigError(f"speed_bound_braking_slip must be in (-1, 0] or None, got {b}")
 
     @property
     def q_diag(self) -> tuple[float, ...]:
@@ -373,6 +405,89 @@ class SkidSteerSlipModel(StateSpaceModel):
         return None
 
 
+def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
+                     braking_slip: float, rim_margin_m_s: float, hold_s: float = 0.0
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Range of the forward speed that the recent rim speeds allow at each filter step.
+
+    In the model of this module each side's contact moves in the direction of its rim
+    (``omega r = g / (1 - q)`` or ``g (1 + q)``, ``|q| < 1``: seed
+    ``001_59da564c4b2d6a48.txt`` eqs. 7.1-7.2, :mod:`terrain.estimation.equations.skid_steer_slip`)
+    and is at most as fast as the ground speed that the deepest braking slip ``s_b``
+    allows, ``|omega r| / (1 + s_b)``
+    (:func:`terrain.terramechanics.slip.ground_speed_from_slip`); the forward speed is the
+    mean of the two sides' ground speeds (``g_{l,r} = v_bx -+ chi B yaw_rate / 2``). So, with
+    each side's rim speed widened by ``rim_margin_m_s`` for its noise,
+    ``v_bx`` lies in ``[(min(0, a_l) + min(0, a_r)), (max(0, b_l) + max(0, b_r))] / (2 (1 +
+    s_b))``, ``a = omega r - margin``, ``b = omega r + margin``, each end widened to its
+    extreme over the last ``hold_s`` seconds (a body that the wheels stop keeps going until
+    the traction has braked it, and the wheel record may lag the body). The EKF's linearised
+    update does not keep its estimate there: along the direction the wheels cannot see
+    (``v (1 - s) = omega r``) the speed and the slips can run off together; on BorealTC
+    SNOW/06 the speed reached 6.1 m/s where the rims never passed 0.56 m/s, the slip
+    reading a reversal as braking at ``q = -0.95`` (``docs/slip_learning.md``).
+
+    Parameters
+    ----------
+    t_grid_s : ndarray, shape (N,)
+        Filter steps, s, increasing.
+    wheels : SensorSamples or None
+        ``vel_l, vel_r`` rim speeds, m/s, shape (k, 2); each sample holds from the first
+        step at or after its time (where :func:`~terrain.estimation.runner.run_filter`
+        places it) to the next sample's; a sample with a non-finite side is skipped.
+    braking_slip : float
+        Deepest SAE braking slip allowed, in (-1, 0].
+    rim_margin_m_s : float
+        Widening of each rim speed for its noise, m/s, >= 0.
+    hold_s : float
+        Each step's range also covers the ranges of the steps of the last ``hold_s``
+        seconds, s, >= 0 (0: the latest sample's alone).
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (N,)
+        Speed range, m/s (``lower <= 0 <= upper``); ``-inf, inf`` before the first wheel
+        sample (everywhere without one).
+
+    Raises
+    ------
+    ConfigError
+        ``braking_slip`` outside (-1, 0], ``rim_margin_m_s`` or ``hold_s`` negative or not
+        finite.
+    """
+    if not -1.0 < float(braking_slip) <= 0.0:
+        raise ConfigError(f"braking_slip must be in (-1, 0], got {braking_slip}")
+    for name, value in (("rim_margin_m_s", rim_margin_m_s), ("hold_s", hold_s)):
+        if not (np.isfinite(value) and value >= 0):
+            raise ConfigError(f"{name} must be >= 0 and finite, got {value}")
+    t_grid_s = np.asarray(t_grid_s, dtype=float)
+    lower = np.full(t_grid_s.size, -np.inf)
+    upper = np.full(t_grid_s.size, np.inf)
+    if wheels is None or not len(wheels.t_s):
+        return lower, upper
+    rim = np.asarray(wheels.values, dtype=float).reshape(len(wheels.t_s), 2)
+    ok = np.isfinite(rim).all(axis=1)
+    steps = np.searchsorted(t_grid_s, np.asarray(wheels.t_s, dtype=float)[ok] - 1e-9)
+    rim = rim[ok]
+    if not rim.size:
+        return lower, upper
+    # the latest sample placed at or before each step
+    latest = np.searchsorted(steps, np.arange(t_grid_s.size), side="right") - 1
+    held = latest >= 0
+    r = rim[latest[held]]
+    back = ground_speed_from_slip(np.maximum(rim_margin_m_s - r, 0.0), braking_slip)
+    ahead = ground_speed_from_slip(np.maximum(r + rim_margin_m_s, 0.0), braking_slip)
+    lower[held] = -back.mean(axis=1)
+    upper[held] = ahead.mean(axis=1)
+    if hold_s > 0:
+        # the widest range over the window (t - hold_s, t] of each step
+        clock = pd.to_timedelta(t_grid_s - t_grid_s[0], unit="s")
+        window = pd.DataFrame({"back": -lower, "ahead": upper}, index=clock).rolling(
+            pd.Timedelta(seconds=hold_s)).max()
+        lower, upper = -window["back"].to_numpy(), window["ahead"].to_numpy()
+    return lower, upper
+
+
 def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSamples],
                          settings: SkidSteerSlipSettings = SkidSteerSlipSettings(),
                          pseudo_t_s: np.ndarray | None = None,
@@ -427,9 +542,10 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     """
     t_grid_s = np.asarray(t_grid_s, dtype=float)
     base = dict(samples)
+    bounds = _speed_bounds(t_grid_s, base.get("wheels"), settings)
     if pseudo_t_s is None or len(pseudo_t_s) == 0:
         return run_filter(SkidSteerSlipModel(settings), t_grid_s, base, gate=gate,
-                          store_covariance=True, engine="numpy")
+                          store_covariance=True, engine="numpy", step_bounds=bounds)
     tp = np.asarray(pseudo_t_s, dtype=float)
     sp = np.asarray(pseudo_slip, dtype=float)
     sd = np.asarray(pseudo_std, dtype=float)
@@ -476,8 +592,26 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
             x0, P0 = fx, 0.5 * (P + P.T)
         parts.append(run_filter(model, t_grid_s[a:b], _own_samples(base, t_grid_s, a, b),
                                 gate=gate, x0=x0, P0=P0, store_covariance=True,
-                                engine="numpy"))
+                                engine="numpy", step_bounds=None if bounds is None
+                                else (bounds[0][a:b], bounds[1][a:b])))
     return _concatenate(parts)
+
+
+def _speed_bounds(t_grid_s: np.ndarray, wheels: SensorSamples | None,
+                  settings: SkidSteerSlipSettings) -> tuple[np.ndarray, np.ndarray] | None:
+    """``step_bounds`` of :func:`~terrain.estimation.runner.run_filter` holding ``v_bx``
+    within :func:`speed_bounds_m_s`, each rim widened by :data:`SPEED_BOUND_NOISE_STDS`
+    times the wheel noise (None when ``settings.speed_bound_braking_slip`` is None)."""
+    if settings.speed_bound_braking_slip is None:
+        return None
+    lo, up = speed_bounds_m_s(t_grid_s, wheels, settings.speed_bound_braking_slip,
+                              SPEED_BOUND_NOISE_STDS * settings.wheel_std_m_s,
+                              settings.speed_bound_hold_s)
+    lower = np.full((t_grid_s.size, N_STATES), -np.inf)
+    upper = np.full((t_grid_s.size, N_STATES), np.inf)
+    v = STATE_NAMES.index("v_bx")
+    lower[:, v], upper[:, v] = lo, up
+    return lower, upper
 
 
 def _own_samples(samples: Mapping[str, SensorSamples], t_grid_s: np.ndarray, a: int, b: int
@@ -513,6 +647,8 @@ def _concatenate(parts: list[EKFResult]) -> EKFResult:
     cat = np.concatenate
     meta = dict(first.meta)
     meta.update(n_steps=int(sum(p.t_s.size for p in parts)), segments=len(parts))
+    if "step_bounds_active" in meta:
+        meta["step_bounds_active"] = int(sum(p.meta["step_bounds_active"] for p in parts))
     return EKFResult(t_s=cat([p.t_s for p in parts]), x=cat([p.x for p in parts]),
                      P_diag=cat([p.P_diag for p in parts]), P=cat([p.P for p in parts]),
                      y=cat([p.y for p in parts]), S_diag=cat([p.S_diag for p in parts]),
@@ -523,4 +659,4 @@ def _concatenate(parts: list[EKFResult]) -> EKFResult:
 
 
 __all__ = ["STATE_NAMES", "MEASUREMENT_NAMES", "SENSOR_ROWS", "SkidSteerSlipSettings",
-           "SkidSteerSlipModel", "run_with_pseudo_slip", "N_MEASUREMENTS"]
+           "SkidSteerSlipModel", "run_with_pseudo_slip", "speed_bounds_m_s", "N_MEASUREMENTS"]

@@ -561,6 +561,8 @@ def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
 
 #: Slip sources of :func:`estimate_skid_steer_slip_run` (``terrain estimate --slip-model``).
 SLIP_MODELS = ("ekf", "physics", "learned", "fused")
+#: Note of a run whose ``learned`` source fell back to the physics slip (no learned output).
+LEARNED_FALLBACK_NOTE = "note: no learned slip model available: falling back to physics"
 
 
 @dataclass(frozen=True)
@@ -739,7 +741,10 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         ``physics_interval`` it is skipped (a run with every window-side at full slip then
         gets the plain EKF's answer). A note and ``meta["pseudo_full_slip"]`` (of
         ``meta["pseudo_window_sides"]``; ``meta["pseudo_full_slip_use"]``: ``"interval
-        centre"``, ``"skipped"`` or ``"none"``) count them.
+        centre"``, ``"skipped"`` or ``"none"``) count them. The forward speed is held within
+        what the recent rim speeds allow (``settings.filter.speed_bound_braking_slip``,
+        :func:`terrain.estimation.skid_steer_slip.speed_bounds_m_s`); the steps where the
+        estimate was projected back are ``meta["speed_bound_active_steps"]`` and a note.
 
     Raises
     ------
@@ -797,7 +802,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     notes: list[str] = list(lag_notes(run, lag_est))
     source = slip_model
     if slip_model == "learned" and outputs is not None and "learned" not in outputs:
-        notes.append("no learned slip model available: falling back to physics")
+        notes.append(LEARNED_FALLBACK_NOTE)
         source = "physics"
     if source == "fused" and "learned" not in outputs:
         source = "fused (physics only: no learned model)"
@@ -853,12 +858,22 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     notes.insert(0, "note: longitudinal slip common to both sides (slip_1, slip_2) is not "
                     "observable from wheel speeds + IMU; supplied by the "
                     f"{source} slip model (pseudo-measurement)")
+    held = int(ekf.meta.get("step_bounds_active", 0))
+    if held:
+        # the speed and the slips ran off along the direction the wheels cannot see
+        notes.append(
+            f"note: forward speed projected back into the range the rim speeds allow "
+            f"(braking slip down to {fs.speed_bound_braking_slip:+.2f}, "
+            "terrain.estimation.skid_steer_slip.speed_bounds_m_s) on "
+            f"{held} of {grid.size} steps ({100.0 * held / grid.size:.1f} %) of run "
+            f"{run.run_id}; the slips moved with it")
     ekf.meta.update(model="skid-steer-slip-8", track_m=fs.track_m,
                     time_offsets_s={"wheels": off} if applied else {})
     return RunEstimate(run.run_id, params.name, ekf, ekf.x[:, idx], names, lag_est,
                        {"tuning": "skid-steer-slip default", "lag_mode": lag,
                         "slip_model": source, "dead_band_m_s": DEAD_BAND_M_S,
                         "pseudo_full_slip": int(full.sum()),
+                        "speed_bound_active_steps": held,
                         "pseudo_full_slip_use": full_use,
                         "pseudo_window_sides": int(full.size)},
                        np.sqrt(ekf.P_diag[:, idx]), tuple(notes))

@@ -176,3 +176,61 @@ def test_bad_shapes_non_finite_and_covariances_raise_typed_errors():
     assert issubclass(CovarianceError, EstimationError)
     with pytest.raises(ValueError):
         Gate(1.5)
+
+
+# -- estimate projection onto bounds --------------------------------------------------------
+
+def test_projection_leaves_an_estimate_inside_its_bounds_alone():
+    from terrain.estimation.ekf import project_to_bounds
+    rng = np.random.default_rng(0)
+    P = _random_spd(4, rng)
+    x = np.array([0.2, -0.1, 3.0, 0.0])
+    xc, active = project_to_bounds(x, P, [-1, -1, -np.inf, -1], [1, 1, np.inf, 1])
+    np.testing.assert_array_equal(xc, x)
+    assert not active.any()
+    xc[0] = 9.0
+    assert x[0] == 0.2                     # a copy, the input untouched
+
+
+def test_projection_moves_the_correlated_states_along_with_the_bounded_one():
+    """Speed and slip anti-correlated as along the direction the wheels cannot see (the
+    speed falls as the slip climbs, v (1 - s) = omega r): pushing the speed back onto its
+    bound moves the slip by P_sv / P_vv times the speed's change (Simon & Chia 2002 eq. 13),
+    where clipping would leave the slip where it ran off to."""
+    from terrain.estimation.ekf import project_to_bounds
+    P = np.array([[0.04, -0.018], [-0.018, 0.01]])         # correlation -0.9
+    x = np.array([-3.3, 0.85])
+    xc, active = project_to_bounds(x, P, [-1.1, -1.0], [1.1, 1.0])
+    assert xc[0] == -1.1 and active.tolist() == [True, False]
+    np.testing.assert_allclose(xc[1], 0.85 - 0.45 * 2.2)  # -0.14
+    # correlated the other way the slip is pushed to 1.84, past its own bound: it joins
+    # the active set and both are held
+    xc, active = project_to_bounds(x, np.abs(P), [-1.1, -1.0], [1.1, 1.0])
+    assert active.tolist() == [True, True] and xc.tolist() == [-1.1, 1.0]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_projection_is_the_closest_point_on_the_active_bounds_in_the_covariance_metric(seed):
+    """KKT of min (x_c - x)^T P^-1 (x_c - x) with the active states held at their bounds:
+    the gradient P^-1 (x_c - x) vanishes on every free state, and the result is inside."""
+    from terrain.estimation.ekf import project_to_bounds
+    rng = np.random.default_rng(seed)
+    n = 6
+    P = _random_spd(n, rng)
+    x = rng.normal(scale=3.0, size=n)
+    lower, upper = np.full(n, -1.0), np.full(n, 1.0)
+    lower[::3], upper[::3] = -np.inf, np.inf               # some states free
+    xc, active = project_to_bounds(x, P, lower, upper)
+    assert np.all(xc >= lower - 1e-12) and np.all(xc <= upper + 1e-12)
+    assert active.any()
+    grad = np.linalg.solve(P, xc - x)
+    np.testing.assert_allclose(grad[~active], 0.0, atol=1e-9)
+    assert np.all(np.isclose(xc[active], lower[active]) | np.isclose(xc[active], upper[active]))
+
+
+def test_projection_refuses_crossed_bounds_and_a_wrong_covariance():
+    from terrain.estimation.ekf import project_to_bounds
+    with pytest.raises(ShapeError, match="above upper"):
+        project_to_bounds(np.zeros(2), np.eye(2), [0.0, 1.0], [1.0, 0.0])
+    with pytest.raises(ShapeError, match="shape"):
+        project_to_bounds(np.zeros(2), np.eye(3), [-1.0, -1.0], [1.0, 1.0])

@@ -101,3 +101,33 @@ def test_camera_outage_covariance_grows_and_recovers(grass_random):
     assert err[idle].max() < 0.3
     assert (err[idle] < 3.0 * dropped.std("v_bx")[idle]).mean() > 0.75
     assert err[(t > 12.0)].mean() < 2.0 * err[(t > 5.0) & (t < 8.0)].mean() + 0.005
+
+
+def test_step_bounds_hold_every_estimate_and_are_counted():
+    """Bounds from measurements (per step) are applied after every step by estimate
+    projection, the steps where one was active are counted, and the compiled loop, which
+    does not apply them, is refused, as are bounds of the wrong shape."""
+    from terrain.errors import ConfigError
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, SkidSteerSlipSettings
+    model = SkidSteerSlipModel(SkidSteerSlipSettings(slip_std=0.01))
+    t = np.arange(0.0, 4.0, 0.01)
+    # rims at 0.3 m/s and a pseudo slip of -0.6 (braking): the speed the rows ask is 0.75 m/s
+    samples = {"wheels": SensorSamples(t[::15], np.full((t[::15].size, 2), 0.3)),
+               "slip_model": SensorSamples(t[50::100], np.full((4, 2), -0.6))}
+    free = run_filter(model, t, samples, engine="numpy")
+    assert free.state("v_bx").max() > 0.6
+    upper = np.full((t.size, 8), np.inf)
+    upper[:, 0] = 0.45
+    held = run_filter(model, t, samples, engine="numpy", step_bounds=(-upper, upper))
+    assert held.state("v_bx").max() <= 0.45
+    n = held.meta["step_bounds_active"]
+    assert 0 < n <= t.size
+    # the slips moved with the speed (anti-correlated along v (1 - s) = omega r)
+    assert held.state("slip_1")[-1] > free.state("slip_1")[-1]
+    assert "step_bounds_active" not in free.meta
+    with pytest.raises(ConfigError, match="bounds"):
+        run_filter(model, t, samples, engine="numba", step_bounds=(-upper, upper))
+    with pytest.raises(ShapeError, match="step_bounds"):
+        run_filter(model, t, samples, step_bounds=(-upper[:, :3], upper[:, :3]))
+    with pytest.raises(ShapeError, match="above"):
+        run_filter(model, t, samples, step_bounds=(upper, -upper))

@@ -103,6 +103,12 @@ def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_p
         in printed
     assert main(["estimate", str(root), "--out", str(out), "--slip-model", "ekf"]) == 0
     assert "no slip model is used" in capsys.readouterr().out
+    # --slip-model learned without a model: the fallback is said once (the run's own note
+    # repeated the command's, which says where the model was looked for)
+    assert main(["estimate", str(root), "--out", str(out), "--slip-model", "learned"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("no learned slip model") == 1
+    assert "physics supplies the slip" in printed
 
 
 def test_pseudo_measurement_takes_the_calibrated_learned_std():
@@ -150,7 +156,9 @@ def test_segments_process_each_pseudo_measurement_once(sandy):
     from dataclasses import replace
 
     from terrain.estimation.runner import SensorSamples, make_grid, run_filter
-    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, run_with_pseudo_slip
+    from terrain.estimation.skid_steer_slip import (SPEED_BOUND_NOISE_STDS,
+                                                    SkidSteerSlipModel, run_with_pseudo_slip,
+                                                    speed_bounds_m_s)
     _, run = sandy
     t, slip, _ = slip_model_outputs(run)["physics"]
     imu, w = run.streams["imu"], run.streams["wheels"]
@@ -163,10 +171,16 @@ def test_segments_process_each_pseudo_measurement_once(sandy):
     assert np.isin(np.round(t[t < 20] * 100), np.round(grid * 100)).all()   # on grid steps
     fs = replace(BATCH_FUSION.filter, slip_psd=1e-6, slip_psd_rel=0.0, slip_psd_transient=0.0)
     seg = run_with_pseudo_slip(grid, samples, fs, t, slip, np.full(len(t), 0.004))
+    # the segments hand the speed bound on, step for step
+    lo, up = speed_bounds_m_s(grid, samples["wheels"], fs.speed_bound_braking_slip,
+                              SPEED_BOUND_NOISE_STDS * fs.wheel_std_m_s, fs.speed_bound_hold_s)
+    lower, upper = np.full((grid.size, 8), -np.inf), np.full((grid.size, 8), np.inf)
+    lower[:, 0], upper[:, 0] = lo, up
     whole = run_filter(SkidSteerSlipModel(replace(fs, slip_std=0.004)), grid,
                        {**samples, "slip_model": SensorSamples(t, slip)},
-                       store_covariance=True, engine="numpy")
+                       store_covariance=True, engine="numpy", step_bounds=(lower, upper))
     np.testing.assert_allclose(seg.x, whole.x, atol=1e-12)
+    assert seg.meta["step_bounds_active"] == whole.meta["step_bounds_active"]
     np.testing.assert_allclose(seg.P_diag, whole.P_diag, atol=1e-15)
     assert seg.counts["slip_model"]["used"] == whole.counts["slip_model"]["used"] \
         == int(np.sum(t <= 20.0 + 1e-9))
@@ -304,3 +318,56 @@ def test_pseudo_measurement_times_are_the_window_centres(sandy):
     t, slip, std = pseudo_measurement(slip_model_outputs(run), "physics", BATCH_FUSION)
     np.testing.assert_allclose(t, 0.5 * (ws.t_start_s + ws.t_end_s))
     assert np.all(t < ws.t_end_s) and slip.shape == std.shape == (t.size, 2)
+
+
+def test_speed_bounds_are_the_ground_speeds_the_held_rim_speeds_allow():
+    """Each side's contact moves with its rim (|q| < 1 in eqs. 7.1-7.2) and at most
+    |omega r| / (1 + s_b) fast; the forward speed is the mean of the sides."""
+    from terrain.errors import ConfigError
+    from terrain.estimation.runner import SensorSamples
+    from terrain.estimation.skid_steer_slip import speed_bounds_m_s
+    t = np.arange(0.0, 1.0, 0.1)
+    wheels = SensorSamples(np.array([0.2, 0.5, 0.7]),
+                           np.array([[0.4, 0.2], [-0.4, 0.2], [np.nan, 1.0]]))
+    lo, up = speed_bounds_m_s(t, wheels, -0.5, 0.0)
+    # no wheel sample yet: unbounded; then held until the next (the NaN one is skipped)
+    assert np.all(np.isinf(lo[:2])) and np.all(np.isinf(up[:2]))
+    np.testing.assert_allclose(lo[2:5], 0.0)
+    np.testing.assert_allclose(up[2:5], (0.8 + 0.4) / 2)
+    np.testing.assert_allclose(lo[5:], -0.8 / 2)            # the left side reverses
+    np.testing.assert_allclose(up[5:], 0.4 / 2)
+    # the noise margin widens each rim before the slip's factor
+    lo, up = speed_bounds_m_s(t, wheels, 0.0, 0.1)
+    np.testing.assert_allclose(up[3], (0.5 + 0.3) / 2)
+    np.testing.assert_allclose(lo[3], 0.0)
+    np.testing.assert_allclose(lo[6], -(0.5 + 0.0) / 2)
+    assert np.all(np.isinf(speed_bounds_m_s(t, None, -0.5, 0.1)[1]))
+    with pytest.raises(ConfigError, match="braking_slip"):
+        speed_bounds_m_s(t, wheels, -1.0, 0.1)
+
+
+def test_the_speed_no_longer_runs_off_on_a_measured_snow_reversal(borealtc_runs):
+    """BorealTC SNOW/06: at its two reversals the speed and the slips ran off together along
+    the direction the wheels cannot see (v (1 - s) = omega r), the slip reading the reverse
+    drive as braking: 6.13 m/s where the rims never passed 0.56 m/s
+    (docs/slip_learning.md). With the speed projected back into the range the rims allow at
+    a braking slip down to -0.3, it stays within that range and a note counts the steps."""
+    from dataclasses import replace
+    run = next(r for r in borealtc_runs if r.run_id == "borealtc/SNOW/06")
+    out = slip_model_outputs(run)
+    rim = np.abs(run.streams["wheels"][["vel_l", "vel_r"]].to_numpy()).max()
+    est = estimate_skid_steer_slip_run(run, "fused", outputs=out)
+    v = np.abs(est.ekf.state("v_bx"))
+    fs = BATCH_FUSION.filter
+    assert fs.speed_bound_braking_slip == -0.3
+    assert v.max() <= (rim + 3 * fs.wheel_std_m_s) / (1 + fs.speed_bound_braking_slip) + 1e-9
+    assert v.max() < 0.9                                   # 0.80; before: 6.13
+    held = est.meta["speed_bound_active_steps"]
+    assert 0 < held < 0.05 * v.size
+    assert any("projected back" in n and f"on {held} of" in n for n in est.notes)
+    free = replace(BATCH_FUSION, filter=replace(BATCH_FUSION.filter,
+                                                speed_bound_braking_slip=None))
+    off = estimate_skid_steer_slip_run(run, "fused", outputs=out, settings=free)
+    assert np.abs(off.ekf.state("v_bx")).max() > 5.0       # the run-off, without the bound
+    assert off.meta["speed_bound_active_steps"] == 0
+    assert not any("projected back" in n for n in off.notes)
