@@ -1004,3 +1004,36 @@ def test_a_request_of_50_000_columns_is_refused_in_linear_time(served):
     dup = pd.DataFrame([[1.0] * 4] * 3, columns=["stream", "t_s", "vel_l", "vel_l"])
     status, body = _call(served, dup)
     assert status == 400 and "duplicated column name(s) ['vel_l']" in body["message"]
+
+
+def test_wrapping_says_nothing_of_the_signature_it_leaves_out(wheel_model, tmp_path):
+    """The served model has no MLflow signature (a request is either layout, checked by
+    parse_request with the project's typed errors); MLflow warned at every wrap that it
+    could not infer one, which `terrain serve` printed before its first line. The warning
+    is dropped for that save only: other records of the logger still pass, and the filter
+    is gone afterwards."""
+    import logging
+    m = wheel_model
+    save_model(tmp_path / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
+    log = logging.getLogger("mlflow.pyfunc")     # MLflow's loggers do not propagate
+    filters = list(log.filters)
+    records: list[logging.LogRecord] = []
+    handler = logging.Handler(logging.INFO)
+    handler.emit = records.append
+    log.addHandler(handler)
+    try:
+        save_served_model(tmp_path / "served", tmp_path / "train", served_settings(m))
+        log.warning("another warning")
+        assert log.filters == filters          # the filter is gone after the save ...
+        # ... so a plain save of the same entry point says it (the warning is real)
+        import mlflow.pyfunc
+        from terrain.serving import served
+        mlflow.pyfunc.save_model(path=str(tmp_path / "bare"), python_model=str(
+            Path(served.__file__).with_name("served_entry.py")))
+    finally:
+        log.removeHandler(handler)
+    messages = [r.getMessage() for r in records]
+    said = [i for i, t in enumerate(messages) if "infer model signature" in t]
+    assert len(said) == 1 and messages.index("another warning") < said[0]
+    assert (tmp_path / "served" / "MLmodel").exists()
+    assert "signature" not in (tmp_path / "served" / "MLmodel").read_text()
