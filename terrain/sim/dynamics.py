@@ -36,7 +36,7 @@ from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, PHYSICS_VERSIONS,
                                 SLIDE_SPEED_M_S,
                                 SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
-                                step_traction_coefficient,
+                                reach_chord_contact, step_traction_coefficient,
                                 specific_force_m_s2, transferred_normal_loads,
                                 velocity_maps)
 from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
@@ -378,6 +378,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     normal = None
     motor_of = layout.motor_of
     m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
+    m_inv = np.diag(1.0 / np.diag(m_mat))
+    # the tyre's combined-slip law (v2, rigid surfaces) keeps its own slopes
+    chord = [soils.get(t.name) is not None or f is None for t, f in zip(terrains, side_factor)]
     motor = vehicle.motor
     alpha_m = min(1.0, dt / motor.speed_time_constant_s)
     counts = np.bincount(motor_of, minlength=nm).astype(float)
@@ -437,6 +440,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         force = contact.force + gravity
         force[0] += mass * vel[2] * vel[1]
         force[1] -= mass * vel[2] * vel[0]
+        if chord[ti]:
+            # traction slopes over the slip the step can reach (the explicit step's)
+            contact = reach_chord_contact(contact, layout, maps, ter, vel,
+                                          dt * (m_inv @ force), normal)
         # one Newton step of the linearly implicit Euler scheme (LAPACK gesv, LU with partial
         # pivoting, as numpy.linalg.solve, without its per-call overhead)
         _, _, dv, info = dgesv(m_mat - dt * contact.jacobian, dt * force)

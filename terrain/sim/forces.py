@@ -493,6 +493,79 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     return ContactForces(force, jac, mu, wr, dmu * ds_dv)
 
 
+def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: VelocityMaps,
+                        terrain, twist: np.ndarray, dv_reach: np.ndarray,
+                        normal_load_n: np.ndarray | None = None) -> ContactForces:
+    """The contact forces with each traction slope taken over the slip the step can reach.
+
+    :func:`contact_forces` linearises the longitudinal law with the larger of the tangent and
+    the secant ``mu(s) / s`` of the traction curve: the secant line passes through zero slip,
+    so a linearly implicit step cannot carry the body past the rim speed, but where the curve
+    is flat it also brakes every step. On ice (Burckhardt, ``c2`` = 306: flat beyond 2 %
+    slip) a Husky held at the friction limit while its rims ramp at 0.5 m/s^2 accelerated at
+    0.44 m/s^2 with 100 Hz physics and 0.47 with 1 kHz, and its slip was 0.13-0.17 against
+    0.05: the secant's damping ``dt N mu / (s omega r)`` adds 10-20 % to the mass there.
+
+    Here the slope is the chord of the curve over the slip interval the step can reach: from
+    the slip at ``twist`` to the slip at ``twist + dv_reach``, where ``dv_reach`` is the
+    explicit step (the forces held at their start values: as far as the step can carry a
+    contact whose force falls as its slip falls). Where that interval reaches or crosses zero
+    slip the secant is kept (no overshoot past the rim speed, as before); elsewhere the chord
+    is floored at 0 (a falling branch past a peak would make the step anti-damped). On a
+    concave curve the chord lies between the tangent and the secant, equals the tangent as
+    the step shrinks, and is the exact slope of a step that ends at the interval's far end.
+    Only the longitudinal traction slope changes (the soil resistance, the lateral law and the
+    forces themselves do not); the tyre's combined-slip law of physics v2 on rigid surfaces
+    keeps its own slopes (call this for the other contacts only).
+
+    Parameters
+    ----------
+    contact : ContactForces
+        :func:`contact_forces` at ``twist`` with the same maps, terrain and loads.
+    layout : ContactLayout
+        Contacts.
+    maps : VelocityMaps
+        Contact velocity maps of the step.
+    terrain : TerrainParams
+        Terrain under the vehicle (its traction curve).
+    twist : ndarray, shape (3,)
+        Body twist at the start of the step, ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
+    dv_reach : ndarray, shape (3,)
+        Twist change of the explicit step, ``dt M^-1 (force + gravity + Coriolis)``, same
+        units.
+    normal_load_n : ndarray, shape (c,), optional
+        Normal loads used for ``contact`` (None: the static loads of ``layout``), N.
+
+    Returns
+    -------
+    ContactForces
+        ``contact`` with the Jacobian and ``dmu_dv_s_m`` of the chord slopes.
+    """
+    normal = layout.normal_load_n if normal_load_n is None else normal_load_n
+    a_mat, a_force, _ = maps
+    wr = contact.rim_speed_m_s
+    v_long = a_mat @ twist
+    slip, ds_dv = sae_slip_and_velocity_slope(wr, v_long, SLIP_SPEED_FLOOR_M_S)
+    reach, _ = sae_slip_and_velocity_slope(wr, v_long + a_mat @ dv_reach,
+                                           SLIP_SPEED_FLOOR_M_S)
+    abs_s, abs_r = np.abs(slip), np.abs(reach)
+    coef = terrain.curve.coefficients(abs_s, terrain.soil_resistance)
+    mu_r = terrain.curve.coefficients(abs_r, terrain.soil_resistance).mu
+    tangent = coef.dmu_ds
+    live = abs_s > 1e-6
+    secant = np.where(live, coef.mu / np.where(live, abs_s, 1.0), tangent)
+    old = np.maximum(tangent, secant)              # the slope contact_forces used
+    gap = abs_s - abs_r
+    wide = np.abs(gap) > 1e-9
+    chord = np.where(wide, (coef.mu - mu_r) / np.where(wide, gap, 1.0), tangent)
+    # the reach meets or crosses zero slip: the secant keeps the step on this side of it
+    to_zero = (abs_r <= 1e-9) | (np.sign(reach) != np.sign(slip))
+    dmu = np.where(to_zero, old, np.maximum(chord, 0.0))
+    dk = normal * (dmu - old) * ds_dv
+    jacobian = contact.jacobian + (a_force.T * dk) @ a_mat
+    return contact._replace(jacobian=jacobian, dmu_dv_s_m=dmu * ds_dv)
+
+
 def step_traction_coefficient(contact: ContactForces, maps: VelocityMaps,
                               dv: np.ndarray) -> np.ndarray:
     """Traction coefficient of each contact over a linearly implicit step.

@@ -10,7 +10,7 @@ from terrain.errors import ConfigError
 from terrain.io.writer import to_file_frames, write_run
 from terrain.sim import Effects, SimConfig, parse_effects, simulate
 from terrain.sim.dynamics import integrate
-from terrain.sim.simulate import motor_currents
+from terrain.sim.simulate import motor_currents, simulate_with_physics
 from terrain.terramechanics import MEASURED_HUSKY_STRAIGHT, get_terrain
 from terrain.vehicles import HUSKY, TRACKED, get_vehicle
 
@@ -370,3 +370,25 @@ def test_motor_torque_pays_for_the_traction_the_body_receives(rate_hz, physics):
     m = (t > 0.3) & (t < 0.9)
     assert body[m].mean() == pytest.approx(0.5 * HUSKY.mass_kg, rel=0.05)
     np.testing.assert_allclose(traction[m], body[m], atol=0.01 * body[m].mean())
+
+
+def test_a_vehicle_held_at_the_friction_limit_accelerates_at_mu_g_at_the_default_rate():
+    """Husky on the catalogue's ice (Burckhardt c1 = 0.05, flat beyond ~2 % slip) while its
+    rims ramp at 0.5 m/s^2 (the orchard start), a little above the ice's mu g = 0.49 m/s^2:
+    the body accelerates at the friction limit and the slip stays at the ratio of the two
+    accelerations (a few per cent). The implicit step used to take the traction slope as the
+    secant mu(s) / s, which on the flat part of the curve damps the step like 10-20 % more
+    mass: 0.437 m/s^2 and slip 0.13-0.17 at 100 Hz, 0.471 and 0.05 at 1 kHz. With the chord
+    over the slip the step can reach both rates agree."""
+    mu_g = 9.80665 * get_terrain("ICE").curve.c1
+    acc, slip = {}, {}
+    for rate in (100.0, 1000.0):
+        p = simulate_with_physics(SimConfig(
+            vehicle="husky", terrains=("ICE",), scenario="orchard", duration_s=1.2, seed=0,
+            physics_rate_hz=rate)).physics
+        i, j = np.searchsorted(p.t_s, [0.3, 0.9])
+        acc[rate] = (p.twist[j, 0] - p.twist[i, 0]) / (p.t_s[j] - p.t_s[i])
+        slip[rate] = p.slip_motor[i:j + 1].max()
+    assert acc[100.0] == pytest.approx(mu_g, rel=0.015)          # before: -11 %
+    assert acc[100.0] == pytest.approx(acc[1000.0], rel=0.005)
+    assert slip[100.0] < 0.03 and slip[1000.0] < 0.03             # before: 0.17 / 0.05
