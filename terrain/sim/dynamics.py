@@ -442,7 +442,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         force[1] -= mass * vel[2] * vel[0]
         if chord[ti]:
             # traction slopes over the slip the step can reach (the explicit step's)
-            contact = reach_chord_contact(contact, layout, maps, ter, vel,
+            contact = reach_chord_contact(contact, layout, maps, ter,
                                           dt * (m_inv @ force), normal)
         # one Newton step of the linearly implicit Euler scheme (LAPACK gesv, LU with partial
         # pivoting, as numpy.linalg.solve, without its per-call overhead)

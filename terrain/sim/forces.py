@@ -53,7 +53,7 @@ from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                lateral_force_and_slope)
-from terrain.terramechanics.slip import sae_slip_and_velocity_slope
+from terrain.terramechanics.slip import sae_slip, sae_slip_and_velocity_slope
 from terrain.terramechanics.traction import BurckhardtCurve, traction_peak
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import wheel_rim_speed
@@ -67,6 +67,10 @@ SLIDE_SPEED_M_S = 0.02
 #: speed while the body creeps makes the contact force chatter; found by the audit, see
 #: docs/audit_report.md). Same order as the lateral regularisation speed above.
 SLIP_SPEED_FLOOR_M_S = 0.02
+#: A contact's traction slope becomes the chord over the slip its step can reach
+#: (:func:`reach_chord_contact`) where the curve's tangent is below this fraction of the
+#: slope in use (the secant on a concave curve): the curve has flattened there.
+FLAT_SLOPE_RATIO = 0.5
 #: Regularisation speed of the sign of the soil resistance, m/s.
 SOIL_SPEED_M_S = 0.01
 #: Physics versions of the simulator: ``v1`` static loads and Coulomb lateral friction on
@@ -394,6 +398,11 @@ class ContactForces(NamedTuple):
         linearly implicit step gives the body ``force + jacobian dV``, whose traction
         coefficients are ``mu + dmu_dv_s_m (long_kinematic dV)``
         (:func:`step_traction_coefficient`).
+    v_long_m_s, slip, dslip_dv_s_m, dmu_ds_tangent, dmu_ds : ndarray, shape (c,) or None
+        The longitudinal law's intermediate values, for :func:`reach_chord_contact`:
+        longitudinal contact speed (m/s), SAE slip and its ``d / d v_long`` (s/m), the
+        traction curve's tangent at ``|slip|`` and the slope the Jacobian uses
+        (dimensionless). None under the tyre's combined-slip law (its own slopes).
     """
 
     force: np.ndarray
@@ -401,6 +410,11 @@ class ContactForces(NamedTuple):
     mu: np.ndarray
     rim_speed_m_s: np.ndarray
     dmu_dv_s_m: np.ndarray
+    v_long_m_s: np.ndarray | None = None
+    slip: np.ndarray | None = None
+    dslip_dv_s_m: np.ndarray | None = None
+    dmu_ds_tangent: np.ndarray | None = None
+    dmu_ds: np.ndarray | None = None
 
 
 def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np.ndarray,
@@ -490,11 +504,13 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
                                                     slip_ratio=slip)
     force = a_force.T @ f_long + b_mat.T @ f_lat
     jac = (a_force.T * k_long) @ a_mat + (b_mat.T * k_lat) @ b_mat
-    return ContactForces(force, jac, mu, wr, dmu * ds_dv)
+    if combined:
+        return ContactForces(force, jac, mu, wr, dmu * ds_dv)
+    return ContactForces(force, jac, mu, wr, dmu * ds_dv, v_long, slip, ds_dv, coef.dmu_ds, dmu)
 
 
 def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: VelocityMaps,
-                        terrain, twist: np.ndarray, dv_reach: np.ndarray,
+                        terrain, dv_reach: np.ndarray,
                         normal_load_n: np.ndarray | None = None) -> ContactForces:
     """The contact forces with each traction slope taken over the slip the step can reach.
 
@@ -507,63 +523,66 @@ def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: Vel
     0.05: the secant's damping ``dt N mu / (s omega r)`` adds 10-20 % to the mass there.
 
     Here the slope is the chord of the curve over the slip interval the step can reach: from
-    the slip at ``twist`` to the slip at ``twist + dv_reach``, where ``dv_reach`` is the
-    explicit step (the forces held at their start values: as far as the step can carry a
-    contact whose force falls as its slip falls). Where that interval reaches or crosses zero
-    slip the secant is kept (no overshoot past the rim speed, as before); elsewhere the chord
-    is floored at 0 (a falling branch past a peak would make the step anti-damped). On a
-    concave curve the chord lies between the tangent and the secant, equals the tangent as
-    the step shrinks, and is the exact slope of a step that ends at the interval's far end.
-    Only the longitudinal traction slope changes (the soil resistance, the lateral law and the
-    forces themselves do not); the tyre's combined-slip law of physics v2 on rigid surfaces
-    keeps its own slopes (call this for the other contacts only).
+    the slip at the start of the step to the slip after ``dv_reach``, the explicit step (the
+    forces held at their start values: as far as the step can carry a contact whose force
+    falls as its slip falls). Where that interval reaches or crosses zero slip the secant is
+    kept (no overshoot past the rim speed, as before); elsewhere the chord is floored at 0 (a
+    falling branch past a peak would make the step anti-damped). On a concave curve the chord
+    lies between the tangent and the secant, equals the tangent as the step shrinks, and is
+    the exact slope of a step that ends at the interval's far end. It is applied where the
+    curve has flattened, its tangent below :data:`FLAT_SLOPE_RATIO` of the slope in use (ice
+    beyond 0.5 % slip, Wong's snow beyond 53 %): where the tangent is within a factor of 2 of
+    the secant the curve itself pulls the slip back to its balance and the secant only slows
+    the way there (the soils' start-ups moved by at most 0.004 of slip with the chord applied
+    everywhere, at 30 % more time per step on v2's soils). Only the longitudinal traction
+    slope changes (the soil resistance, the lateral law and the forces themselves do not); the
+    tyre's combined-slip law of physics v2 on rigid surfaces keeps its own slopes.
 
     Parameters
     ----------
     contact : ContactForces
-        :func:`contact_forces` at ``twist`` with the same maps, terrain and loads.
+        :func:`contact_forces` at the start of the step, with the same maps, terrain and loads.
     layout : ContactLayout
         Contacts.
     maps : VelocityMaps
         Contact velocity maps of the step.
     terrain : TerrainParams
         Terrain under the vehicle (its traction curve).
-    twist : ndarray, shape (3,)
-        Body twist at the start of the step, ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
     dv_reach : ndarray, shape (3,)
-        Twist change of the explicit step, ``dt M^-1 (force + gravity + Coriolis)``, same
-        units.
+        Twist change of the explicit step, ``dt M^-1 (force + gravity + Coriolis)``,
+        ``(dv_x, dv_y, d yaw_rate)``, m/s, m/s, rad/s.
     normal_load_n : ndarray, shape (c,), optional
         Normal loads used for ``contact`` (None: the static loads of ``layout``), N.
 
     Returns
     -------
     ContactForces
-        ``contact`` with the Jacobian and ``dmu_dv_s_m`` of the chord slopes.
+        ``contact`` with the Jacobian, ``dmu_dv_s_m`` and ``dmu_ds`` of the chord slopes.
     """
+    if contact.slip is None:
+        return contact
+    old = contact.dmu_ds
+    tangent = contact.dmu_ds_tangent
+    flat = tangent < FLAT_SLOPE_RATIO * old
+    if not flat.any():                        # no contact where the curve has flattened
+        return contact
     normal = layout.normal_load_n if normal_load_n is None else normal_load_n
     a_mat, a_force, _ = maps
-    wr = contact.rim_speed_m_s
-    v_long = a_mat @ twist
-    slip, ds_dv = sae_slip_and_velocity_slope(wr, v_long, SLIP_SPEED_FLOOR_M_S)
-    reach, _ = sae_slip_and_velocity_slope(wr, v_long + a_mat @ dv_reach,
-                                           SLIP_SPEED_FLOOR_M_S)
+    slip, ds_dv = contact.slip, contact.dslip_dv_s_m
+    reach = sae_slip(contact.rim_speed_m_s, contact.v_long_m_s + a_mat @ dv_reach,
+                     speed_floor_m_s=SLIP_SPEED_FLOOR_M_S, dead_band_m_s=0.0)
     abs_s, abs_r = np.abs(slip), np.abs(reach)
-    coef = terrain.curve.coefficients(abs_s, terrain.soil_resistance)
+    mu_s = np.abs(contact.mu)
     mu_r = terrain.curve.coefficients(abs_r, terrain.soil_resistance).mu
-    tangent = coef.dmu_ds
-    live = abs_s > 1e-6
-    secant = np.where(live, coef.mu / np.where(live, abs_s, 1.0), tangent)
-    old = np.maximum(tangent, secant)              # the slope contact_forces used
     gap = abs_s - abs_r
     wide = np.abs(gap) > 1e-9
-    chord = np.where(wide, (coef.mu - mu_r) / np.where(wide, gap, 1.0), tangent)
+    chord = np.where(wide, (mu_s - mu_r) / np.where(wide, gap, 1.0), tangent)
     # the reach meets or crosses zero slip: the secant keeps the step on this side of it
     to_zero = (abs_r <= 1e-9) | (np.sign(reach) != np.sign(slip))
-    dmu = np.where(to_zero, old, np.maximum(chord, 0.0))
+    dmu = np.where(to_zero | ~flat, old, np.maximum(chord, 0.0))
     dk = normal * (dmu - old) * ds_dv
     jacobian = contact.jacobian + (a_force.T * dk) @ a_mat
-    return contact._replace(jacobian=jacobian, dmu_dv_s_m=dmu * ds_dv)
+    return contact._replace(jacobian=jacobian, dmu_dv_s_m=dmu * ds_dv, dmu_ds=dmu)
 
 
 def step_traction_coefficient(contact: ContactForces, maps: VelocityMaps,

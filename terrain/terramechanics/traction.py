@@ -35,6 +35,8 @@ of one curve with the motion resistance of another (physics v2 of the simulator)
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
@@ -446,6 +448,16 @@ def _janosi_g(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return g, dg
 
 
+@functools.lru_cache(maxsize=32)
+def _hump_constants(kr: float) -> tuple[float, float, float]:
+    """``(B, s0, c)`` of the hump-type curve with residual ratio ``kr``
+    (:func:`patch_mobilisation`): ``B = 1 / (K_r (1 - 1/e)) - 1``, ``f'(0) = s0 =
+    K_r (1 + B e)`` and the series coefficient near 0, ``f(u) = s0 u - c u^2 + ...``,
+    ``c = K_r (1/2 + 3 B e / 2)``."""
+    b = 1.0 / (kr * (1.0 - np.exp(-1.0))) - 1.0
+    return b, kr * (1.0 + b * np.e), kr * (0.5 + 1.5 * b * np.e)
+
+
 def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Mean shear mobilisation over a patch sheared linearly from 0 to ``a K``, and its slope.
@@ -491,8 +503,7 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     kr = float(residual_ratio)
     if not 0.0 < kr < 1.0:
         raise ValueError(f"residual_ratio must be in (0, 1), got {residual_ratio}")
-    b = 1.0 / (kr * (1.0 - np.exp(-1.0))) - 1.0
-    s0 = kr * (1.0 + b * np.e)          # f'(0): K_w = s0 K
+    b, s0, c2 = _hump_constants(kr)
     u = a / s0
     small = u < 1e-4
     us = np.where(small, 1.0, u)
@@ -500,9 +511,6 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     mean = kr * (us - e1 + b * np.e * (e1 - 0.5 * e2)) / us
     f_u = kr * (1.0 + b * np.exp(1.0 - us)) * e1
     dmean_du = (f_u - mean) / us
-    # series near 0: f(u) = s0 u - c u^2 + ..., mean = s0 u / 2 - c u^2 / 3,
-    # c = kr (1/2 + 3 b e / 2)
-    c2 = kr * (0.5 + 1.5 * b * np.e)
     g = np.where(small, s0 * u / 2.0 - c2 * u * u / 3.0, mean)
     dg_du = np.where(small, s0 / 2.0 - 2.0 * c2 * u / 3.0, dmean_du)
     return g, dg_du / s0
