@@ -15,7 +15,10 @@ note (physics supplies the slip); a --slip-model-dir that cannot be loaded (miss
 no MLmodel file, unreadable model) is an error. --gate is a probability in (0, 1) exclusive;
 --rate-hz a rate in [1, 10000] Hz, and the grid holds at most 5 million steps. --lag xcorr
 applies the cross-correlation lag only for a clear peak (terrain.slip.alignment.gated_lag): a
-run without one gets no lag and a note, and a last note counts the runs of each kind.
+run without one gets no lag and a note, and a last note counts the runs of each kind. The
+skid-steer slip filter keeps its forward speed within what the recent rim speeds allow
+(braking slip down to -0.3; terrain.estimation.skid_steer_slip.speed_bounds_m_s); a note
+counts the steps where it was held there.
 """
 
 from __future__ import annotations
