@@ -147,6 +147,28 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     return t_start_s + np.arange(n) / rate_hz
 
 
+def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
+    """Grid step that receives each sample: the first step at or after its time.
+
+    The placement rule of :func:`run_filter` (to 1e-9 s, so a sample on a step belongs to
+    that step), shared by the code that must agree with it step for step (the segments and
+    the speed bound of :mod:`terrain.estimation.skid_steer_slip`).
+
+    Parameters
+    ----------
+    t_grid : ndarray, shape (N,)
+        Filter steps, s, increasing.
+    t_s : ndarray, shape (k,)
+        Sample times, s.
+
+    Returns
+    -------
+    ndarray of int, shape (k,)
+        Step index in ``0 .. N``; ``N`` for a sample after the last step.
+    """
+    return np.searchsorted(t_grid, np.asarray(t_s, dtype=float) - 1e-9, side="left")
+
+
 def _place(t_grid: np.ndarray, samples: SensorSamples, width: int
            ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
     """Step index of each kept sample and the counts of one sensor."""
@@ -156,7 +178,7 @@ def _place(t_grid: np.ndarray, samples: SensorSamples, width: int
         raise ShapeError(f"sensor has {v.shape[1]} columns, the model expects {width}")
     step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
     inside = (t > t_grid[0] - step0 - 1e-9) & (t <= t_grid[-1] + 1e-9)
-    idx = np.searchsorted(t_grid, t - 1e-9, side="left")
+    idx = sample_steps(t_grid, t)
     finite_any = np.isfinite(v).any(axis=1)
     non_finite = int((~np.isfinite(v).all(axis=1) & inside).sum())
     keep = inside & finite_any

@@ -46,7 +46,7 @@ from terrain.estimation.equations.skid_steer_slip import (N_MEASUREMENTS, N_STAT
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import SensorSamples, run_filter
+from terrain.estimation.runner import SensorSamples, run_filter, sample_steps
 from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
 
@@ -467,7 +467,7 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
         return lower, upper
     rim = np.asarray(wheels.values, dtype=float).reshape(len(wheels.t_s), 2)
     ok = np.isfinite(rim).all(axis=1)
-    steps = np.searchsorted(t_grid_s, np.asarray(wheels.t_s, dtype=float)[ok] - 1e-9)
+    steps = sample_steps(t_grid_s, np.asarray(wheels.t_s, dtype=float)[ok])
     rim = rim[ok]
     if not rim.size:
         return lower, upper
@@ -572,9 +572,10 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     ts = np.where(np.isfinite(ts[ok]), ts[ok], 0.0)
     base["slip_model"] = SensorSamples(tp, sp)
     # segment ends: the grid step that receives each pseudo-measurement
-    ends = np.unique(np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1))
-    std_of_end = {int(e): (float(s), float(d), float(x)) for e, s, d, x in zip(
-        np.clip(np.searchsorted(t_grid_s, tp - 1e-9), 0, t_grid_s.size - 1), sd, dd, ts)}
+    steps = np.clip(sample_steps(t_grid_s, tp), 0, t_grid_s.size - 1)
+    ends = np.unique(steps)
+    std_of_end = {int(e): (float(s), float(d), float(x))
+                  for e, s, d, x in zip(steps, sd, dd, ts)}
     cuts = [0] + [int(e) + 1 for e in ends if e + 1 < t_grid_s.size] + [t_grid_s.size]
     cuts = sorted(set(cuts))
     parts: list[EKFResult] = []
@@ -627,7 +628,7 @@ def _own_samples(samples: Mapping[str, SensorSamples], t_grid_s: np.ndarray, a: 
     """
     out = {}
     for name, smp in samples.items():
-        idx = np.searchsorted(t_grid_s, np.asarray(smp.t_s, float) - 1e-9, side="left")
+        idx = sample_steps(t_grid_s, smp.t_s)
         keep = ((idx >= a) | (a == 0)) & ((idx < b) | (b == t_grid_s.size))
         out[name] = SensorSamples(smp.t_s[keep], smp.values[keep])
     return out

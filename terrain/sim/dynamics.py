@@ -379,8 +379,6 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     motor_of = layout.motor_of
     m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
     m_inv = np.diag(1.0 / np.diag(m_mat))
-    # the tyre's combined-slip law (v2, rigid surfaces) keeps its own slopes
-    chord = [soils.get(t.name) is not None or f is None for t, f in zip(terrains, side_factor)]
     motor = vehicle.motor
     alpha_m = min(1.0, dt / motor.speed_time_constant_s)
     counts = np.bincount(motor_of, minlength=nm).astype(float)
@@ -440,8 +438,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         force = contact.force + gravity
         force[0] += mass * vel[2] * vel[1]
         force[1] -= mass * vel[2] * vel[0]
-        if chord[ti]:
-            # traction slopes over the slip the step can reach (the explicit step's)
+        # traction slopes over the slip the step can reach (the explicit step's) where the
+        # curve has flattened; the tyre's combined-slip law keeps its own (contact.slip None)
+        if contact.slip is not None:
             contact = reach_chord_contact(contact, layout, maps, ter,
                                           dt * (m_inv @ force), normal)
         # one Newton step of the linearly implicit Euler scheme (LAPACK gesv, LU with partial

@@ -36,7 +36,6 @@ of one curve with the motion resistance of another (physics v2 of the simulator)
 from __future__ import annotations
 
 import functools
-
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
