@@ -32,6 +32,7 @@ from terrain.control.feedforward import feedforward_step, traction_acceleration_
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import Observation
+from terrain.sim.sensors import physics_step_index
 from terrain.sim.simulate import Simulation, motor_currents
 from terrain.terramechanics.calibration import steady_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
@@ -309,7 +310,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         else np.array([], dtype=int)
     t_speed = float(phys.t_s[reached[0]]) if reached.size else None
     t_log = np.array([r["t_s"] for r in log])
-    idx = np.clip(np.searchsorted(phys.t_s, t_log - 1e-9), 0, len(phys.t_s) - 1)
+    idx = physics_step_index(phys.t_s, t_log)
     slip_true = phys.slip_motor[idx]
     desired = np.array([r["desired"] for r in log])
     enabled = np.array([r["enabled"] for r in log])
@@ -528,7 +529,7 @@ def trace_frame(sim: Simulation, loop: TractionLoop):
 
     phys = sim.physics
     t = np.array([r["t_s"] for r in loop.log])
-    idx = np.clip(np.searchsorted(phys.t_s, t - 1e-9), 0, len(phys.t_s) - 1)
+    idx = physics_step_index(phys.t_s, t)
     cols = {"t_s": t, "v_true_m_s": phys.twist[idx, 0]}
     for i in range(phys.slip_motor.shape[1]):
         cols[f"slip_true_{i + 1}"] = phys.slip_motor[idx, i]

@@ -107,6 +107,30 @@ def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
     return np.arange(0.0, duration_s + 1e-9, 1.0 / rate_hz)
 
 
+def physics_step_index(t_phys_s: np.ndarray, t_s: np.ndarray) -> np.ndarray:
+    """Physics step each sample time reads: the first step at or after it.
+
+    A sample at ``t`` takes the state of the first physics step whose time is ``>= t``,
+    within 1e-9 s (so a sample on the grid reads that step despite rounding); samples past
+    the last step read the last one. The simulated sensors, the ground truth and the
+    closed-loop logs place their samples by this one rule.
+
+    Parameters
+    ----------
+    t_phys_s : ndarray, shape (n,)
+        Physics step times, s, increasing (``n >= 1``).
+    t_s : ndarray, shape (m,)
+        Sample times, s.
+
+    Returns
+    -------
+    ndarray of int, shape (m,)
+        Step index in ``0 .. n - 1``.
+    """
+    idx = np.searchsorted(t_phys_s, np.asarray(t_s, dtype=float) - 1e-9, side="left")
+    return np.clip(idx, 0, len(t_phys_s) - 1)
+
+
 def interp_columns(t_new: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
     """Linear interpolation of each column of ``values`` at new times.
 
@@ -334,7 +358,7 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
                             phys.roll, phys.terrain_index])
     s = interp_columns(t, phys.t_s, cols)
     vx, vy, r, abx, aby, yaw, pitch, roll = (s[:, i] for i in range(8))
-    ti = phys.terrain_index[np.clip(np.searchsorted(phys.t_s, t), 0, len(phys.t_s) - 1)]
+    ti = phys.terrain_index[physics_step_index(phys.t_s, t)]
     vib_a = np.array([terrains[i].vib_accel_m_s2 for i in range(len(terrains))])[ti]
     vib_g = np.array([terrains[i].vib_gyro_rad_s for i in range(len(terrains))])[ti]
     v_ref = np.array([terrains[i].vib_speed_m_s for i in range(len(terrains))])[ti]

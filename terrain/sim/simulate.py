@@ -39,8 +39,8 @@ from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands, physics_steps
-from terrain.sim.sensors import (SensorSettings, first_order_filter, imu, interp_columns,
-                                 encoder_count_rate, quantise, sample_times)
+from terrain.sim.sensors import (SensorSettings, encoder_count_rate, first_order_filter, imu,
+                                 interp_columns, physics_step_index, quantise, sample_times)
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -427,7 +427,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
 
     # ground truth
     t_tr = sample_times(duration, sensors.truth_rate_hz)
-    idx = np.clip(np.searchsorted(phys.t_s, t_tr - 1e-9), 0, len(phys.t_s) - 1)
+    idx = physics_step_index(phys.t_s, t_tr)
     truth = {TIME: t_tr, "x": phys.pose[idx, 0], "y": phys.pose[idx, 1],
              "yaw": phys.pose[idx, 2], "v_bx": phys.twist[idx, 0], "v_by": phys.twist[idx, 1],
              "yaw_rate": phys.twist[idx, 2]}

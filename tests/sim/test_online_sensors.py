@@ -102,3 +102,14 @@ def test_adding_the_full_imu_leaves_the_estimators_draws_unchanged():
     full_a = np.concatenate([o.imu_full for o in shaking])
     full_b = np.concatenate([o.imu_full for o in seen])
     assert np.std(full_a[full_a[:, 0] > 0.5, 4]) > 3 * np.std(full_b[full_b[:, 0] > 0.5, 4])
+
+
+def test_a_sample_reads_the_first_physics_step_at_or_after_it():
+    from terrain.sim.sensors import physics_step_index, sample_times
+    t_phys = np.arange(0, 500) * 0.01        # 100 Hz grid, accumulated rounding
+    t_imu = sample_times(4.99, 50.0)          # every other grid step, computed differently
+    idx = physics_step_index(t_phys, t_imu)
+    np.testing.assert_array_equal(idx, 2 * np.arange(len(t_imu)))   # on the grid: that step
+    # between steps: the next one; before the first: the first; past the last: the last
+    np.testing.assert_array_equal(physics_step_index(t_phys, [0.0149, -1.0, 4.985, 9.0]),
+                                  [2, 0, 499, 499])
