@@ -459,8 +459,8 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, h: Callable[..., np.ndar
     return correct(x, P, y, Hm, R, gate=gate, groups=groups, check=check)
 
 
-def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                      movable: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Project an estimate onto box constraints ``lower <= x <= upper`` in the metric of its
     covariance (estimate projection).
 
@@ -479,6 +479,13 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     where the state cannot be, not where it is (Simon 2010, sec. 2.4, the estimate
     projection with the unconstrained covariance), so no variance collapses onto a bound.
 
+    With ``movable`` only those states move: the same distance is minimised with the others
+    held, i.e. the projection runs in the metric of the movable states' covariance
+    *conditioned* on the held ones (the Schur complement ``P_MM - P_MH P_HH^-1 P_HM``, the
+    inverse of the movable block of ``P^-1``). A bound that says nothing about a state, such
+    as a kinematic speed range about an attitude, then cannot move it through a correlation
+    that the linearisation made.
+
     Parameters
     ----------
     x : ndarray, shape (n,)
@@ -487,11 +494,14 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
         Its covariance.
     lower, upper : ndarray, shape (n,)
         Bounds, the states' units (``-inf`` / ``inf``: none); ``lower <= upper``.
+    movable : ndarray of bool, shape (n,), optional
+        States the projection may move (default: all). Bounds of held states are not applied.
 
     Returns
     -------
     x_c : ndarray, shape (n,)
-        The projected estimate, inside the bounds (``x`` itself, copied, when it already was).
+        The projected estimate, inside the bounds of the movable states (``x`` itself,
+        copied, when it already was).
     active : ndarray of bool, shape (n,)
         The states held at a bound.
 
@@ -509,6 +519,20 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     if (lower > upper).any():
         raise ShapeError(f"lower bound above upper bound at state(s) "
                          f"{np.flatnonzero(lower > upper).tolist()}")
+    if movable is not None:
+        movable = np.asarray(movable, dtype=bool)
+        if movable.shape != (n,):
+            raise ShapeError(f"movable must have shape ({n},); got {movable.shape}")
+        held = np.flatnonzero(~movable)
+        if held.size:
+            lower = np.where(movable, lower, -np.inf)
+            upper = np.where(movable, upper, np.inf)
+            mov = np.flatnonzero(movable)
+            P = np.asarray(P, dtype=float)
+            cond = np.zeros((n, n))
+            cond[np.ix_(mov, mov)] = (P[np.ix_(mov, mov)] - P[np.ix_(mov, held)] @ np.linalg.lstsq(
+                P[np.ix_(held, held)], P[np.ix_(held, mov)], rcond=None)[0])
+            P = cond
     active = np.zeros(n, dtype=bool)
     xc = x.copy()
     bound = np.zeros(n)

@@ -218,7 +218,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                samples: Mapping[str, SensorSamples], *, gate: Gate | None = None,
                x0: np.ndarray | None = None, P0: np.ndarray | None = None,
                store_covariance: bool = False, engine: str = "auto",
-               step_bounds: tuple[np.ndarray, np.ndarray] | None = None) -> EKFResult:
+               step_bounds: tuple[np.ndarray, np.ndarray] | None = None,
+               step_bound_movable: np.ndarray | None = None) -> EKFResult:
     """Filter a recording with ``model`` on the grid ``t_grid``.
 
     Two engines compute the same result (to round-off, ~1e-12 relative): the NumPy reference
@@ -262,6 +263,9 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         (:func:`~terrain.estimation.ekf.project_to_bounds`), so the states correlated with
         a bounded one move with it; then the model's ``state_bounds`` clip. The steps where
         a bound was active are counted in ``meta["step_bounds_active"]``.
+    step_bound_movable : ndarray of bool, shape (n,), optional
+        The states the projection onto ``step_bounds`` may move (``movable`` of
+        :func:`~terrain.estimation.ekf.project_to_bounds`; default: all).
 
     Returns
     -------
@@ -328,7 +332,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                             thresholds=thresholds, store_covariance=store_covariance)
     else:
         loop = _reference_loop(model, dts, Z, avail, x, P, R_diag, row_sensor,
-                               len(sensor_rows), gate, store_covariance, bounds, step_bounds)
+                               len(sensor_rows), gate, store_covariance, bounds, step_bounds,
+                               step_bound_movable)
     accepted = loop.accepted
     for name, rows in sensor_rows.items():
         if name in counts:
@@ -378,9 +383,11 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
                     x: np.ndarray, P: np.ndarray, R_diag: np.ndarray, row_sensor: np.ndarray,
                     n_sensors: int, gate: Gate | None, store_covariance: bool,
                     bounds: tuple[np.ndarray, np.ndarray] | None = None,
-                    step_bounds: tuple[np.ndarray, np.ndarray] | None = None) -> LoopArrays:
+                    step_bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                    step_bound_movable: np.ndarray | None = None) -> LoopArrays:
     """The NumPy reference loop of :func:`run_filter` (predict, then :func:`correct` with the
-    rows available at each step, then the mean projected onto ``step_bounds`` and clipped
+    rows available at each step, then the mean projected onto ``step_bounds`` (moving the
+    ``step_bound_movable`` states) and clipped
     into ``bounds``, the model's ``state_bounds``, when given)."""
     if bounds is not None:
         lower, upper = (np.asarray(b, dtype=float) for b in bounds)
@@ -441,7 +448,7 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
         if step_bounds is not None:
             lo_k, up_k = step_bounds[0][k], step_bounds[1][k]
             if (x < lo_k).any() or (x > up_k).any():
-                x, active = project_to_bounds(x, P, lo_k, up_k)
+                x, active = project_to_bounds(x, P, lo_k, up_k, step_bound_movable)
                 bound_active[k] = active.any()
         if bounds is not None and (key or step_bounds is not None):
             x = np.clip(x, lower, upper)

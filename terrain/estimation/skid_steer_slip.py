@@ -61,6 +61,13 @@ SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
 #: Rim-speed noise margin of the speed bound (:func:`speed_bounds_m_s`), in wheel noise
 #: standard deviations (``SkidSteerSlipSettings.wheel_std_m_s``): 3, two-sided 99.7 %.
 SPEED_BOUND_NOISE_STDS = 3.0
+#: States the speed bound may move: the forward speed and the two side slips, the states along
+#: the direction the wheels cannot see (``v (1 - s) = omega r``); the projection holds the
+#: others (yaw rate, gyro bias, ``ln chi``, acceleration, pitch), which a kinematic speed
+#: range says nothing about (:func:`terrain.estimation.ekf.project_to_bounds`, ``movable``)
+SPEED_BOUND_STATES: tuple[str, ...] = ("v_bx", "slip_1", "slip_2")
+SPEED_BOUND_MOVABLE = np.isin(STATE_NAMES, SPEED_BOUND_STATES)
+SPEED_BOUND_MOVABLE.flags.writeable = False
 
 
 @dataclass(frozen=True)
@@ -405,6 +412,37 @@ class SkidSteerSlipModel(StateSpaceModel):
         return None
 
 
+def rim_speed_range_m_s(rim_m_s: np.ndarray, braking_slip: float, rim_margin_m_s: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Range of the forward speed that one pair of rim speeds allows (no hold).
+
+    ``[(min(0, a_l) + min(0, a_r)), (max(0, b_l) + max(0, b_r))] / (2 (1 + s_b))`` with
+    ``a = omega r - margin``, ``b = omega r + margin``: each side's contact moves in the
+    direction of its rim and at most at the ground speed that the braking slip ``s_b``
+    allows (:func:`speed_bounds_m_s` gives the model and the sources; it applies this to
+    the latest sample at every filter step, the online slip observer of the closed loop to
+    every wheel sample as it arrives).
+
+    Parameters
+    ----------
+    rim_m_s : ndarray, shape (k, 2)
+        Left and right rim speeds ``omega r``, m/s, finite.
+    braking_slip : float
+        Deepest SAE braking slip allowed, in (-1, 0] (not checked here).
+    rim_margin_m_s : float
+        Widening of each rim speed for its noise, m/s, >= 0.
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (k,)
+        Speed range, m/s, ``lower <= 0 <= upper``.
+    """
+    r = np.asarray(rim_m_s, dtype=float).reshape(-1, 2)
+    back = ground_speed_from_slip(np.maximum(rim_margin_m_s - r, 0.0), braking_slip)
+    ahead = ground_speed_from_slip(np.maximum(r + rim_margin_m_s, 0.0), braking_slip)
+    return -back.mean(axis=1), ahead.mean(axis=1)
+
+
 def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
                      braking_slip: float, rim_margin_m_s: float, hold_s: float = 0.0
                      ) -> tuple[np.ndarray, np.ndarray]:
@@ -474,11 +512,8 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
     # the latest sample placed at or before each step
     latest = np.searchsorted(steps, np.arange(t_grid_s.size), side="right") - 1
     held = latest >= 0
-    r = rim[latest[held]]
-    back = ground_speed_from_slip(np.maximum(rim_margin_m_s - r, 0.0), braking_slip)
-    ahead = ground_speed_from_slip(np.maximum(r + rim_margin_m_s, 0.0), braking_slip)
-    lower[held] = -back.mean(axis=1)
-    upper[held] = ahead.mean(axis=1)
+    lower[held], upper[held] = rim_speed_range_m_s(rim[latest[held]], braking_slip,
+                                                   rim_margin_m_s)
     if hold_s > 0:
         # the widest range over the window (t - hold_s, t] of each step
         clock = pd.to_timedelta(t_grid_s - t_grid_s[0], unit="s")
@@ -545,7 +580,8 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     bounds = _speed_bounds(t_grid_s, base.get("wheels"), settings)
     if pseudo_t_s is None or len(pseudo_t_s) == 0:
         return run_filter(SkidSteerSlipModel(settings), t_grid_s, base, gate=gate,
-                          store_covariance=True, engine="numpy", step_bounds=bounds)
+                          store_covariance=True, engine="numpy", step_bounds=bounds,
+                          step_bound_movable=SPEED_BOUND_MOVABLE)
     tp = np.asarray(pseudo_t_s, dtype=float)
     sp = np.asarray(pseudo_slip, dtype=float)
     sd = np.asarray(pseudo_std, dtype=float)
@@ -594,7 +630,8 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
         parts.append(run_filter(model, t_grid_s[a:b], _own_samples(base, t_grid_s, a, b),
                                 gate=gate, x0=x0, P0=P0, store_covariance=True,
                                 engine="numpy", step_bounds=None if bounds is None
-                                else (bounds[0][a:b], bounds[1][a:b])))
+                                else (bounds[0][a:b], bounds[1][a:b]),
+                                step_bound_movable=SPEED_BOUND_MOVABLE))
     return _concatenate(parts)
 
 
@@ -660,4 +697,5 @@ def _concatenate(parts: list[EKFResult]) -> EKFResult:
 
 
 __all__ = ["STATE_NAMES", "MEASUREMENT_NAMES", "SENSOR_ROWS", "SkidSteerSlipSettings",
-           "SkidSteerSlipModel", "run_with_pseudo_slip", "speed_bounds_m_s", "N_MEASUREMENTS"]
+           "SkidSteerSlipModel", "run_with_pseudo_slip", "speed_bounds_m_s", "rim_speed_range_m_s",
+           "SPEED_BOUND_NOISE_STDS", "SPEED_BOUND_STATES", "N_MEASUREMENTS"]

@@ -228,6 +228,37 @@ def test_projection_is_the_closest_point_on_the_active_bounds_in_the_covariance_
     assert np.all(np.isclose(xc[active], lower[active]) | np.isclose(xc[active], upper[active]))
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_a_projection_restricted_to_some_states_holds_the_others_and_is_closest(seed):
+    """With ``movable`` the held states stay exactly where they were, the movable ones
+    satisfy their bounds, and the result is the closest such point in the covariance
+    metric: the gradient P^-1 (x_c - x) vanishes on every movable state not at a bound
+    (KKT with the held states as equality constraints). Bounds of held states are not
+    applied."""
+    from terrain.estimation.ekf import project_to_bounds
+    rng = np.random.default_rng(seed)
+    n = 6
+    P = _random_spd(n, rng)
+    x = rng.normal(scale=3.0, size=n)
+    x[0] = 4.0                                              # violates its bound
+    movable = np.array([True, True, False, True, False, True])
+    lower, upper = np.full(n, -1.0), np.full(n, 1.0)
+    lower[3], upper[3] = -np.inf, np.inf
+    xc, active = project_to_bounds(x, P, lower, upper, movable)
+    np.testing.assert_array_equal(xc[~movable], x[~movable])
+    assert not active[~movable].any() and active[0]
+    m = movable
+    assert np.all(xc[m] >= lower[m] - 1e-12) and np.all(xc[m] <= upper[m] + 1e-12)
+    grad = np.linalg.solve(P, xc - x)
+    np.testing.assert_allclose(grad[m & ~active], 0.0, atol=1e-9)
+    # all states movable: the unrestricted projection
+    full, _ = project_to_bounds(x, P, lower, upper)
+    np.testing.assert_array_equal(project_to_bounds(x, P, lower, upper, np.ones(n, bool))[0],
+                                  full)
+    with pytest.raises(ShapeError, match="movable"):
+        project_to_bounds(x, P, lower, upper, movable[:3])
+
+
 def test_projection_refuses_crossed_bounds_and_a_wrong_covariance():
     from terrain.estimation.ekf import project_to_bounds
     with pytest.raises(ShapeError, match="above upper"):

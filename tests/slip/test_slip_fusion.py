@@ -156,7 +156,7 @@ def test_segments_process_each_pseudo_measurement_once(sandy):
     from dataclasses import replace
 
     from terrain.estimation.runner import SensorSamples, make_grid, run_filter
-    from terrain.estimation.skid_steer_slip import (SPEED_BOUND_NOISE_STDS,
+    from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, SPEED_BOUND_NOISE_STDS,
                                                     SkidSteerSlipModel, run_with_pseudo_slip,
                                                     speed_bounds_m_s)
     _, run = sandy
@@ -178,7 +178,8 @@ def test_segments_process_each_pseudo_measurement_once(sandy):
     lower[:, 0], upper[:, 0] = lo, up
     whole = run_filter(SkidSteerSlipModel(replace(fs, slip_std=0.004)), grid,
                        {**samples, "slip_model": SensorSamples(t, slip)},
-                       store_covariance=True, engine="numpy", step_bounds=(lower, upper))
+                       store_covariance=True, engine="numpy", step_bounds=(lower, upper),
+                       step_bound_movable=SPEED_BOUND_MOVABLE)
     np.testing.assert_allclose(seg.x, whole.x, atol=1e-12)
     assert seg.meta["step_bounds_active"] == whole.meta["step_bounds_active"]
     np.testing.assert_allclose(seg.P_diag, whole.P_diag, atol=1e-15)
