@@ -14,6 +14,12 @@ shipped setting and with the bound off, on
   ``|v_bx|`` against the largest rim speed of the run, and the share of steps the bound
   held.
 
+``--online`` instead replays the same measured runs through the closed loop's online
+observer (:class:`terrain.control.estimators.FusedSlipObserver`, 50 Hz calls of
+:func:`terrain.control.replay.measured_observations`, the run's label as terrain decision),
+which applies the same bound sample by sample; figures per run as above, the share of
+held samples counted per projected sample (MLflow run ``speed-bound-online``).
+
 Simulated runs where the body slid off (went more than ``SLID_OFF_FACTOR`` times as far as
 its fastest wheel: the Husky on the 15 deg icy slope) are listed and left out of the means.
 
@@ -21,8 +27,8 @@ Figures are printed and logged to MLflow (experiment ``terrain-benchmark``, run
 ``speed-bound``); ``docs/slip_learning.md``, "A bound on the forward speed".
 
 Usage: ``python benchmarks/speed_bound.py [--bounds 0.3:1 0.5:0] [--seeds 0 1 2]
-[--measured-terrains SNOW ...] [--skip-measured]`` (about 3 min with the defaults on 2
-cores).
+[--measured-terrains SNOW ...] [--skip-measured | --online]`` (about 3 min with the defaults
+on 2 cores; ``--online`` about 5 min).
 """
 
 from __future__ import annotations
@@ -114,6 +120,60 @@ def measured(terrains, fusions) -> list[dict]:
     return rows
 
 
+def measured_online(terrains, bounds) -> list[dict]:
+    """Per shipped BorealTC run with an IMU and bound (and none): the online observer's
+    largest |v_bx| (from the streams' common start), the run's largest rim speed, the share of
+    calls above 1.5 times it, and the projected samples."""
+    from terrain.control.estimators import CONTROL_FUSION, FusedSlipObserver
+    from terrain.control.replay import measured_observations
+    from terrain.vehicles import get_vehicle
+
+    fusions = {f"bound {b:+.2f} hold {h:g} s": replace(CONTROL_FUSION, filter=replace(
+        CONTROL_FUSION.filter, speed_bound_braking_slip=b, speed_bound_hold_s=h))
+        for b, h in bounds}
+    fusions["no bound"] = replace(CONTROL_FUSION, filter=replace(
+        CONTROL_FUSION.filter, speed_bound_braking_slip=None))
+    radius = get_vehicle("husky").wheel_radius_m
+    runs = [r for r in read_shipped("borealtc")
+            if "imu" in r.streams and (not terrains or r.terrain in terrains)]
+    rows = []
+    for run in tqdm(runs, desc="measured runs, online", unit="run"):
+        rim = float(np.nanmax(np.abs(run.streams["wheels"][["vel_l", "vel_r"]].to_numpy())))
+        for name, fusion in fusions.items():
+            est = FusedSlipObserver("husky", lambda t, label=run.terrain: (label, 1.0),
+                                    settings=fusion)
+            v = np.abs([est.update(obs).chassis_speed_m_s
+                        for obs in measured_observations(run, radius)])
+            rows.append({"run": run.run_id, "terrain": run.terrain, "setting": name,
+                         "v_max": float(v.max()), "rim_max": rim,
+                         "over_1_5_rim_pct": 100.0 * float(np.mean(v > 1.5 * rim)),
+                         "held_samples": est.bound_count})
+    return rows
+
+
+def online(args) -> int:
+    """The ``--online`` comparison: print and log it."""
+    import pandas as pd
+
+    with tracked_run("terrain-benchmark", "speed-bound-online", vars(args)) as run:
+        meas = pd.DataFrame(measured_online(args.measured_terrains, args.bounds))
+        wide = meas.pivot(index="run", columns="setting",
+                          values=["v_max", "over_1_5_rim_pct", "held_samples"])
+        wide[("rim_max", "")] = meas.groupby("run")["rim_max"].first()
+        print("measured BorealTC runs through the online observer (no truth): largest "
+              "|v_bx| and rim speed, m/s")
+        print(wide.round(3).to_markdown())
+        by_setting = meas.groupby("setting")[["v_max", "over_1_5_rim_pct", "held_samples"]]
+        print(by_setting.agg(["mean", "max"]).round(3).to_markdown())
+        for name, g in meas.groupby("setting"):
+            key = name.replace(" ", "_").replace("+", "").replace(":", "")
+            run.log_metrics({f"online.{key}.v_max_max": float(g["v_max"].max()),
+                             f"online.{key}.over_1_5_rim_pct_mean":
+                                 float(g["over_1_5_rim_pct"].mean()),
+                             f"online.{key}.held_samples_mean": float(g["held_samples"].mean())})
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--terrains", nargs="+",
@@ -130,8 +190,13 @@ def main() -> int:
                              "and the hold, e.g. 0.3:1 0.5:0 (default: the shipped one)")
     parser.add_argument("--skip-measured", action="store_true",
                         help="simulated runs only")
+    parser.add_argument("--online", action="store_true",
+                        help="only the measured runs, through the closed loop's online "
+                             "observer")
     parser.add_argument("--cache-dir", default="out/slip_cache")
     args = parser.parse_args()
+    if args.online:
+        return online(args)
     import pandas as pd
 
     with tracked_run("terrain-benchmark", "speed-bound", vars(args)) as run:

@@ -505,6 +505,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     metrics = loop_metrics(sim, loop, BUS_VOLTAGE_V[vehicle])
     metrics.update(estimator=estimator.name, estimator_limits=estimator.limits,
                    estimator_pseudo_measurements=getattr(estimator, "pseudo_count", None),
+                   estimator_speed_bound_samples=getattr(estimator, "bound_count", None),
                    kp=float(kp), ki=float(ki), feed_forward=bool(feed_forward))
     return sim, loop, metrics
 

@@ -37,10 +37,12 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
-from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict
+from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict, project_to_bounds
 from terrain.estimation.skid_steer_slip import SENSOR_ROWS as SLIP_SENSOR_ROWS
 from terrain.estimation.equations.skid_steer_slip import MAX_SLIP
-from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, SkidSteerSlipSettings
+from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, SPEED_BOUND_NOISE_STDS,
+                                                STATE_NAMES, SkidSteerSlipModel,
+                                                SkidSteerSlipSettings, rim_speed_range_m_s)
 from terrain.sim.closed_loop import Observation
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.physics import PhysicsSlipSettings, physics_slip
@@ -295,7 +297,16 @@ class FusedSlipObserver:
       acceleration ``a_x``; the chassis speed ``|v_bx|``. The estimate is *stale* (its age
       grows, the controller's safe output applies) when no pseudo-measurement arrived in the
       last ``period_s`` (plus the wheel sample's own age): without its slip model the slip
-      common to both sides is not observable and the filter drifts.
+      common to both sides is not observable and the filter drifts;
+    * the speed bound of the batch estimate (``settings.filter.speed_bound_braking_slip``,
+      ``speed_bound_hold_s``): after every sample the estimate is projected in its
+      covariance's metric (:func:`terrain.estimation.ekf.project_to_bounds`) into the
+      forward-speed range that the wheel samples of the last ``speed_bound_hold_s`` allow
+      (:func:`terrain.estimation.skid_steer_slip.rim_speed_range_m_s`, each rim widened by
+      :data:`~terrain.estimation.skid_steer_slip.SPEED_BOUND_NOISE_STDS` times the wheel
+      noise), moving only the speed and the slips
+      (:data:`~terrain.estimation.skid_steer_slip.SPEED_BOUND_STATES`); ``bound_count``
+      counts the projected samples.
 
     Differences from the batch estimate (``limits``): causal windows (the batch centres a
     2 s window on the estimate, i.e. uses 1 s of future data), no learned model (the
@@ -342,10 +353,15 @@ class FusedSlipObserver:
         self.r_diag = self.model.R_diag
         self.terrain_decision = terrain_decision
         self.window_s, self.period_s = float(window_s), float(period_s)
+        braking = settings.filter.speed_bound_braking_slip
+        bound = ("no speed bound" if braking is None else
+                 f"forward speed held within what the wheel samples of the last "
+                 f"{settings.filter.speed_bound_hold_s:g} s allow (braking slip down to "
+                 f"{braking:+.2f})")
         self.limits = (f"fused slip EKF of issue 10 run online (adaptor): wheels, gyro, ax; "
                        f"physics-slip pseudo-measurement from motor currents over causal "
                        f"{window_s:g} s windows every {period_s:g} s under the loop's terrain "
-                       f"decision; no learned model, no lag estimation")
+                       f"decision; {bound}; no learned model, no lag estimation")
         self.t: float | None = None
         self.t_wheel: float | None = None
         self.t_pseudo = -math.inf
@@ -354,12 +370,37 @@ class FusedSlipObserver:
         self.wheel_rows: list[np.ndarray] = []
         self.current_rows: list[np.ndarray] = []
         self.pseudo_count = 0
+        # speed bound: (t, lower, upper) of the wheel samples that can still hold it
+        self.bound_rows: list[tuple[float, float, float]] = []
+        self.bound_count = 0
+        self._v = STATE_NAMES.index("v_bx")
 
     def _correct(self, z: np.ndarray, rows: tuple[int, ...], r_diag: np.ndarray) -> None:
         idx = list(rows)
         hx, h_jac = self.model.observation(self.x)
         self.x, self.P, _ = correct(self.x, self.P, np.asarray(z, float) - hx[idx],
                                     h_jac[idx], np.asarray(r_diag, float), check=False)
+
+    def _bound_speed(self, t: float) -> None:
+        """Project the estimate into the speed range the recent wheel samples allow."""
+        if not self.bound_rows:   # no wheel sample yet, or no bound (braking slip None)
+            return
+        # the range of a wheel sample holds until the next one; each end is held at its widest
+        # over the last hold_s: every sample after t - hold_s and the one current then
+        start = t - self.settings.filter.speed_bound_hold_s
+        first = max((i for i, row in enumerate(self.bound_rows) if row[0] <= start),
+                    default=0)
+        self.bound_rows = self.bound_rows[first:]
+        lo = min(row[1] for row in self.bound_rows)
+        up = max(row[2] for row in self.bound_rows)
+        v = float(self.x[self._v])
+        if lo <= v <= up:
+            return
+        lower = np.full(self.x.size, -np.inf)
+        upper = np.full(self.x.size, np.inf)
+        lower[self._v], upper[self._v] = lo, up
+        self.x, _ = project_to_bounds(self.x, self.P, lower, upper, SPEED_BOUND_MOVABLE)
+        self.bound_count += 1
 
     def _pseudo(self, t: float) -> None:
         label = self.terrain_decision(t)[0] if self.terrain_decision else None
@@ -415,13 +456,20 @@ class FusedSlipObserver:
                 self.t_wheel = t
                 self.wheel_rows.append(np.concatenate([[t], z]))
                 self._correct(z * r, rows["wheels"], self.r_diag[list(rows["wheels"])])
+                braking = self.settings.filter.speed_bound_braking_slip
+                if braking is not None:
+                    lo, up = rim_speed_range_m_s(
+                        z * r, braking, SPEED_BOUND_NOISE_STDS * self.settings.filter.wheel_std_m_s)
+                    self.bound_rows.append((t, float(lo[0]), float(up[0])))
             elif name == "currents":
                 self.current_rows.append(np.concatenate([[t], z]))
+            self._bound_speed(t)
         keep = obs.t_s - self.window_s - 1.0
         self.wheel_rows = [w for w in self.wheel_rows if w[0] >= keep]
         self.current_rows = [c for c in self.current_rows if c[0] >= keep]
         if self.current_rows and obs.t_s - self.t_pseudo >= self.period_s - 1e-9:
             self._pseudo(obs.t_s)
+            self._bound_speed(obs.t_s)
         # the ground speed the measured wheel speed and the estimated slip imply, through the
         # model's own wheel row (rim_speed_from_slip): the controller's slip is the state's
         slip = np.clip(self.x[4:6], -MAX_SLIP, MAX_SLIP)

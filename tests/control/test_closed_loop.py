@@ -180,6 +180,7 @@ def test_fused_estimate_with_currents_drives_the_loop_on_ice():
     cuts the start-up slip on ICE against the uncontrolled run of the same seed."""
     sim, loop, m = run_closed_loop("husky", "ICE", "straight_accel", True, 3, duration_s=3.0)
     assert m["estimator"] == "husky-fused-slip-ekf" and m["estimator_pseudo_measurements"] >= 10
+    assert m["estimator_speed_bound_samples"] == 0      # the speed bound reported, not acting
     assert not all(r["safe"].all() for r in loop.log)
     _, _, off = run_closed_loop("husky", "ICE", "straight_accel", False, 3, duration_s=3.0)
     assert m["peak_slip"] < 0.6 * off["peak_slip"]

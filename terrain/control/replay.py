@@ -1,0 +1,85 @@
+"""A measured run fed to the closed loop's online estimators, call by call.
+
+:func:`terrain.sim.closed_loop.replay_observations` replays a *simulated* run through the
+loop's sensor model; :func:`measured_observations` does the same for a *recorded* skid-steer
+run: its logged IMU, wheel-speed and motor-current samples, in time order, cut into the
+:class:`~terrain.sim.closed_loop.Observation` s a controller at ``control_rate_hz`` would
+have received. It is what the online estimators (:mod:`terrain.control.estimators`) see on
+a real robot: the accelerometer with gravity and the terrain's vibration, the wheel stream
+at its own rate (about 6.5 Hz on BorealTC's Husky), no camera.
+"""
+
+from __future__ import annotations
+
+from typing import Iterator
+
+import numpy as np
+
+from terrain.errors import ConfigError, MissingColumnError
+from terrain.run import TIME, Run
+from terrain.sim.closed_loop import Observation
+
+
+def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: float = 50.0
+                          ) -> Iterator[Observation]:
+    """Observations of a recorded skid-steer run, as a controller at ``control_rate_hz``
+    would have received them.
+
+    Calls are at ``t0, t0 + 1/rate, ...`` from the later of the two streams' first samples
+    (``t0``) to the earlier of their last; each call carries the samples after the previous
+    call up to and including its own time (the first call also those at ``t0``). Wheel
+    speeds become encoder rates ``vel / r``; currents are reported as magnitudes, as the
+    loop's drives report them. The low-level command is not logged and is given as zeros.
+
+    Parameters
+    ----------
+    run : Run
+        A run with an ``imu`` stream (``t_s, ax, ay, wz``, m/s^2 and rad/s) and a ``wheels``
+        stream (``t_s, vel_l, vel_r, cur_l, cur_r``, m/s and A), e.g. a BorealTC run of
+        :func:`terrain.io.shipped.read_shipped`.
+    wheel_radius_m : float
+        Wheel radius, m (> 0): rim speed to encoder rate.
+    control_rate_hz : float
+        Call rate, Hz (> 0).
+
+    Yields
+    ------
+    Observation
+        Samples since the previous call (``steer``, ``cam`` and ``imu_full`` empty).
+
+    Raises
+    ------
+    ConfigError
+        Non-positive radius or rate.
+    MissingColumnError
+        A stream or channel missing (named, with the run).
+    """
+    if not (wheel_radius_m > 0 and control_rate_hz > 0):
+        raise ConfigError(f"wheel_radius_m and control_rate_hz must be > 0, got "
+                          f"{wheel_radius_m}, {control_rate_hz}")
+    need = {"imu": (TIME, "ax", "ay", "wz"), "wheels": (TIME, "vel_l", "vel_r", "cur_l", "cur_r")}
+    for stream, cols in need.items():
+        frame = run.streams.get(stream)
+        missing = [c for c in cols if frame is None or c not in frame.columns]
+        if missing:
+            raise MissingColumnError(f"run {run.run_id} has no {stream} channel(s) "
+                                     f"{', '.join(missing)}", path=run.source or None,
+                                     column=missing[0])
+    imu = run.streams["imu"][list(need["imu"])].to_numpy(dtype=float)
+    wh = run.streams["wheels"][list(need["wheels"])].to_numpy(dtype=float)
+    wheels = np.column_stack([wh[:, 0], wh[:, 1:3] / wheel_radius_m])
+    currents = np.column_stack([wh[:, 0], np.abs(wh[:, 3:5])])
+    t0, t1 = max(imu[0, 0], wh[0, 0]), min(imu[-1, 0], wh[-1, 0])
+    period = 1.0 / control_rate_hz
+    cuts = {name: 0 for name in ("imu", "wheels", "currents")}
+    data = {"imu": imu, "wheels": wheels, "currents": currents}
+    for k in range(int(np.floor((t1 - t0) / period + 1e-9)) + 1):
+        t = t0 + k * period
+        taken = {}
+        for name, rows in data.items():
+            start = cuts[name] if k else int(np.searchsorted(rows[:, 0], t0, side="left"))
+            stop = int(np.searchsorted(rows[:, 0], t, side="right"))
+            taken[name], cuts[name] = rows[start:stop], stop
+        yield Observation(float(t), np.zeros(2), taken["imu"], taken["wheels"],
+                          np.zeros((0, 3)), np.zeros((0, 5)), taken["currents"],
+                          np.zeros((0, 7)))

@@ -1,0 +1,56 @@
+"""A recorded run cut into the closed loop's observations (terrain.control.replay)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.control.replay import measured_observations
+from terrain.errors import ConfigError, MissingColumnError
+from terrain.run import Run
+
+
+def _run(imu_t, wheel_t):
+    imu = pd.DataFrame({"t_s": imu_t, "wx": 0.0, "wy": 0.0, "wz": np.arange(len(imu_t)) * 1.0,
+                        "ax": 0.5, "ay": 0.0, "az": 9.81})
+    wheels = pd.DataFrame({"t_s": wheel_t, "vel_l": 0.2, "vel_r": -0.4, "cur_l": -3.0,
+                           "cur_r": 2.0})
+    return Run("test/SNOW/00", "test", "SNOW", {"imu": imu, "wheels": wheels}, source="mem")
+
+
+def test_every_sample_in_the_common_span_arrives_once_in_time_order():
+    imu_t = np.arange(0.0, 3.0, 0.01)            # 100 Hz from 0 s
+    wheel_t = 0.25 + np.arange(0, 17) / 6.5      # 6.5 Hz from 0.25 s
+    obs = list(measured_observations(_run(imu_t, wheel_t), wheel_radius_m=0.2,
+                                     control_rate_hz=20.0))
+    t = np.array([o.t_s for o in obs])
+    np.testing.assert_allclose(np.diff(t), 0.05)
+    assert t[0] == 0.25 and t[-1] <= 2.71
+    for name, times in (("imu", imu_t), ("wheels", wheel_t), ("currents", wheel_t)):
+        got = np.concatenate([getattr(o, name)[:, 0] for o in obs])
+        expect = times[(times >= 0.25 - 1e-12) & (times <= t[-1] + 1e-12)]
+        np.testing.assert_array_equal(got, expect)          # once each, in order
+        for o in obs:                                       # none from the call's future
+            assert np.all(getattr(o, name)[:, 0] <= o.t_s)
+    w = np.concatenate([o.wheels for o in obs])
+    np.testing.assert_allclose(w[:, 1:], [[1.0, -2.0]] * len(w))   # rim speed / radius
+    c = np.concatenate([o.currents for o in obs])
+    np.testing.assert_allclose(c[:, 1:], [[3.0, 2.0]] * len(c))    # magnitudes
+    i = np.concatenate([o.imu for o in obs])
+    np.testing.assert_allclose(i[:, 1], 0.5)                       # ax, ay, wz as logged
+    assert all(o.cam.shape == (0, 5) and o.steer.shape[0] == 0 for o in obs)
+
+
+def test_a_run_without_currents_or_with_bad_settings_is_refused_by_name():
+    run = _run(np.arange(0.0, 1.0, 0.01), np.arange(0.0, 1.0, 0.15))
+    bare = Run(run.run_id, run.dataset, run.terrain,
+               {"imu": run.streams["imu"],
+                "wheels": run.streams["wheels"].drop(columns=["cur_r"])}, source="x.csv")
+    with pytest.raises(MissingColumnError, match="cur_r") as err:
+        next(measured_observations(bare, 0.2))
+    assert "test/SNOW/00" in str(err.value) and err.value.path == "x.csv"
+    with pytest.raises(MissingColumnError, match="imu"):
+        next(measured_observations(Run("r", "t", None, {"wheels": run.streams["wheels"]}), 0.2))
+    with pytest.raises(ConfigError):
+        next(measured_observations(run, 0.0))
