@@ -105,8 +105,8 @@ class SlipEstimator(Protocol):
         ...
 
 
-def _merged(obs: Observation) -> list[tuple[float, str, np.ndarray]]:
-    rows = [(float(r[0]), name, r[1:]) for name in ("imu", "wheels", "steer", "cam", "currents")
+def _merged(obs: Observation, imu: str = "imu") -> list[tuple[float, str, np.ndarray]]:
+    rows = [(float(r[0]), name, r[1:]) for name in (imu, "wheels", "steer", "cam", "currents")
             for r in getattr(obs, name)]
     rows.sort(key=lambda x: x[0])
     return rows
@@ -269,6 +269,12 @@ class WheelImuObserver:
 #: unchanged (0.001-0.002) on ICE and TILES; 0.1 and 1.0 give no further steady gain.
 CONTROL_FUSION = FusionSettings(filter=SkidSteerSlipSettings(slip_psd=0.01))
 
+#: What the fused observer reads of the IMU (:class:`FusedSlipObserver`, ``imu``): ``clean``
+#: the loop's simplified IMU (``Observation.imu``: no vibration band, no gravity) with its
+#: gyro and ``ax`` rows; ``full`` the full IMU (``Observation.imu_full``, what a robot
+#: logs) with its gyro and the ``ax, az`` rows; ``full-gyro`` the full IMU's gyro only
+IMU_VIEWS: tuple[str, ...] = ("clean", "full", "full-gyro")
+
 
 class FusedSlipObserver:
     """Online adaptor of the fused slip estimate of issue 10 (the Husky's slip estimator).
@@ -328,22 +334,29 @@ class FusedSlipObserver:
         faster slip random walk).
     physics_settings : PhysicsSlipSettings
         Uncertainties of the physics slip.
+    imu : str
+        What it reads of the IMU, one of :data:`IMU_VIEWS` (default ``clean``, the view the
+        control figures of docs/control_validation.md were made with; a robot has only the
+        full IMU, see its section "The Husky's observer on the full IMU").
 
     Raises
     ------
     ConfigError
-        Non-positive window or period.
+        Non-positive window or period; an unknown ``imu`` view.
     """
-
-    name = "husky-fused-slip-ekf"
 
     def __init__(self, vehicle: str = "husky",
                  terrain_decision: Callable[[float], tuple] | None = None,
                  window_s: float = 0.5, period_s: float = 0.2,
                  settings: FusionSettings = CONTROL_FUSION,
-                 physics_settings: PhysicsSlipSettings = PhysicsSlipSettings()) -> None:
+                 physics_settings: PhysicsSlipSettings = PhysicsSlipSettings(),
+                 imu: str = "clean") -> None:
         if not (window_s > 0 and period_s > 0):
             raise ConfigError(f"window_s and period_s must be > 0, got {window_s}, {period_s}")
+        if imu not in IMU_VIEWS:
+            raise ConfigError(f"imu must be one of {', '.join(IMU_VIEWS)}, got {imu!r}")
+        self.imu = imu
+        self.name = "husky-fused-slip-ekf" + ("" if imu == "clean" else f"-{imu}-imu")
         self.vehicle = get_vehicle(vehicle)
         self.settings = settings
         self.physics_settings = physics_settings
@@ -358,7 +371,10 @@ class FusedSlipObserver:
                  f"forward speed held within what the wheel samples of the last "
                  f"{settings.filter.speed_bound_hold_s:g} s allow (braking slip down to "
                  f"{braking:+.2f})")
-        self.limits = (f"fused slip EKF of issue 10 run online (adaptor): wheels, gyro, ax; "
+        rows_used = {"clean": "gyro, ax of the loop's IMU without vibration and gravity",
+                     "full": "gyro, ax, az of the full (vibrating) IMU",
+                     "full-gyro": "gyro of the full (vibrating) IMU, no accelerometer"}[imu]
+        self.limits = (f"fused slip EKF of issue 10 run online (adaptor): wheels, {rows_used}; "
                        f"physics-slip pseudo-measurement from motor currents over causal "
                        f"{window_s:g} s windows every {period_s:g} s under the loop's terrain "
                        f"decision; {bound}; no learned model, no lag estimation")
@@ -441,7 +457,7 @@ class FusedSlipObserver:
         """
         r = self.vehicle.wheel_radius_m
         rows = SLIP_SENSOR_ROWS
-        for t, name, z in _merged(obs):
+        for t, name, z in _merged(obs, "imu" if self.imu == "clean" else "imu_full"):
             if self.t is not None and t > self.t:
                 self.x, self.P = predict(self.x, self.P, t - self.t, self.model.f,
                                          self.model.F, self.model.Q, check=False)
@@ -451,6 +467,10 @@ class FusedSlipObserver:
             if name == "imu":
                 self._correct(z[[2]], rows["gyro"], self.r_diag[list(rows["gyro"])])
                 self._correct(z[[0]], rows["accel"][:1], self.r_diag[[rows["accel"][0]]])
+            elif name == "imu_full":    # wx wy wz ax ay az: the vibrating IMU
+                self._correct(z[[2]], rows["gyro"], self.r_diag[list(rows["gyro"])])
+                if self.imu == "full":
+                    self._correct(z[[3, 5]], rows["accel"], self.r_diag[list(rows["accel"])])
             elif name == "wheels":
                 self.omega = z.copy()
                 self.t_wheel = t
@@ -484,7 +504,8 @@ class FusedSlipObserver:
 #: Estimators of :func:`estimator_for` per vehicle; the first is the default (the one the
 #: vehicle would really have, issue 11).
 ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    "agrimaro": ("ekf-vo",), "husky": ("fused", "observer")})
+    "agrimaro": ("ekf-vo",), "husky": ("fused", "observer", "fused-full-imu",
+                                       "fused-full-imu-gyro")})
 
 
 def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | None = None,
@@ -501,8 +522,11 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     kind : str, optional
         One of :data:`ESTIMATORS` of the vehicle: AgriMaRo ``ekf-vo``
         (:class:`AgriMaRoVisualOdometryEKF`); Husky ``fused`` (:class:`FusedSlipObserver`,
-        issue 10's fused slip estimate) or ``observer`` (:class:`WheelImuObserver`, the
-        earlier interim estimator, kept for comparison). None: the first (default).
+        issue 10's fused slip estimate), ``observer`` (:class:`WheelImuObserver`, the
+        earlier interim estimator, kept for comparison), ``fused-full-imu`` and
+        ``fused-full-imu-gyro`` (the fused estimate on the full, vibrating IMU, with and
+        without its accelerometer rows: ``imu`` ``full`` and ``full-gyro``). None: the
+        first (default).
 
     Returns
     -------
@@ -524,4 +548,7 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
         return AgriMaRoVisualOdometryEKF()
     if kind == "fused":
         return FusedSlipObserver(vehicle, terrain_decision)
+    if kind.startswith("fused-full-imu"):
+        return FusedSlipObserver(vehicle, terrain_decision,
+                                 imu="full-gyro" if kind.endswith("-gyro") else "full")
     return WheelImuObserver(vehicle)

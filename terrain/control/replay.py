@@ -29,7 +29,10 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     (``t0``) to the earlier of their last; each call carries the samples after the previous
     call up to and including its own time (the first call also those at ``t0``). Wheel
     speeds become encoder rates ``vel / r``; currents are reported as magnitudes, as the
-    loop's drives report them. The low-level command is not logged and is given as zeros.
+    loop's drives report them. Both IMU views carry the logged samples: ``imu_full`` all six
+    channels, ``imu`` its ``ax, ay, wz``, with the gravity and the vibration that the
+    simulated loop's ``imu`` leaves out (a real IMU has no clean view). The low-level
+    command is not logged and is given as zeros.
 
     Parameters
     ----------
@@ -45,7 +48,7 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     Yields
     ------
     Observation
-        Samples since the previous call (``steer``, ``cam`` and ``imu_full`` empty).
+        Samples since the previous call (``steer`` and ``cam`` empty).
 
     Raises
     ------
@@ -57,7 +60,8 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     if not (wheel_radius_m > 0 and control_rate_hz > 0):
         raise ConfigError(f"wheel_radius_m and control_rate_hz must be > 0, got "
                           f"{wheel_radius_m}, {control_rate_hz}")
-    need = {"imu": (TIME, "ax", "ay", "wz"), "wheels": (TIME, "vel_l", "vel_r", "cur_l", "cur_r")}
+    need = {"imu": (TIME, "wx", "wy", "wz", "ax", "ay", "az"),
+            "wheels": (TIME, "vel_l", "vel_r", "cur_l", "cur_r")}
     for stream, cols in need.items():
         frame = run.streams.get(stream)
         missing = [c for c in cols if frame is None or c not in frame.columns]
@@ -65,14 +69,15 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
             raise MissingColumnError(f"run {run.run_id} has no {stream} channel(s) "
                                      f"{', '.join(missing)}", path=run.source or None,
                                      column=missing[0])
-    imu = run.streams["imu"][list(need["imu"])].to_numpy(dtype=float)
+    full = run.streams["imu"][list(need["imu"])].to_numpy(dtype=float)
+    imu = full[:, [0, 4, 5, 3]]                   # t, ax, ay, wz
     wh = run.streams["wheels"][list(need["wheels"])].to_numpy(dtype=float)
     wheels = np.column_stack([wh[:, 0], wh[:, 1:3] / wheel_radius_m])
     currents = np.column_stack([wh[:, 0], np.abs(wh[:, 3:5])])
     t0, t1 = max(imu[0, 0], wh[0, 0]), min(imu[-1, 0], wh[-1, 0])
     period = 1.0 / control_rate_hz
-    cuts = {name: 0 for name in ("imu", "wheels", "currents")}
-    data = {"imu": imu, "wheels": wheels, "currents": currents}
+    cuts = {name: 0 for name in ("imu", "wheels", "currents", "imu_full")}
+    data = {"imu": imu, "wheels": wheels, "currents": currents, "imu_full": full}
     for k in range(int(np.floor((t1 - t0) / period + 1e-9)) + 1):
         t = t0 + k * period
         taken = {}
@@ -82,4 +87,4 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
             taken[name], cuts[name] = rows[start:stop], stop
         yield Observation(float(t), np.zeros(2), taken["imu"], taken["wheels"],
                           np.zeros((0, 3)), np.zeros((0, 5)), taken["currents"],
-                          np.zeros((0, 7)))
+                          taken["imu_full"])

@@ -39,6 +39,10 @@ def test_every_sample_in_the_common_span_arrives_once_in_time_order():
     np.testing.assert_allclose(c[:, 1:], [[3.0, 2.0]] * len(c))    # magnitudes
     i = np.concatenate([o.imu for o in obs])
     np.testing.assert_allclose(i[:, 1], 0.5)                       # ax, ay, wz as logged
+    np.testing.assert_array_equal(i[:, 3], np.round(i[:, 0] / 0.01))
+    full = np.concatenate([o.imu_full for o in obs])               # wx wy wz ax ay az
+    np.testing.assert_array_equal(full[:, [0, 4, 5, 3]], i)
+    np.testing.assert_allclose(full[:, 6], 9.81)
     assert all(o.cam.shape == (0, 5) and o.steer.shape[0] == 0 for o in obs)
 
 
