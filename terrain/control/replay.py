@@ -37,9 +37,9 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     Parameters
     ----------
     run : Run
-        A run with an ``imu`` stream (``t_s, ax, ay, wz``, m/s^2 and rad/s) and a ``wheels``
-        stream (``t_s, vel_l, vel_r, cur_l, cur_r``, m/s and A), e.g. a BorealTC run of
-        :func:`terrain.io.shipped.read_shipped`.
+        A run with an ``imu`` stream (``t_s, wx, wy, wz, ax, ay, az``, rad/s and m/s^2) and
+        a ``wheels`` stream (``t_s, vel_l, vel_r, cur_l, cur_r``, m/s and A), e.g. a BorealTC
+        run of :func:`terrain.io.shipped.read_shipped`.
     wheel_radius_m : float
         Wheel radius, m (> 0): rim speed to encoder rate.
     control_rate_hz : float
