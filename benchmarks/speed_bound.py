@@ -120,7 +120,7 @@ def measured(terrains, fusions) -> list[dict]:
     return rows
 
 
-def measured_online(terrains, bounds, imu: str = "clean") -> list[dict]:
+def measured_online(terrains, bounds, imu: str = "full-gyro") -> list[dict]:
     """Per shipped BorealTC run with an IMU and bound (and none): the online observer's
     largest |v_bx| (from the streams' common start), the run's largest rim speed, the share of
     calls above 1.5 times it, and the projected samples."""
@@ -202,9 +202,10 @@ def main() -> int:
     parser.add_argument("--online", action="store_true",
                         help="only the measured runs, through the closed loop's online "
                              "observer")
-    parser.add_argument("--imu", default="clean", choices=("clean", "full", "full-gyro"),
-                        help="--online: what the observer reads of the IMU (its imu view; "
-                             "on a measured run clean is the logged ax, ay, wz)")
+    parser.add_argument("--imu", default="full-gyro", choices=("clean", "full", "full-gyro"),
+                        help="--online: what the observer reads of the IMU (its imu view, "
+                             "default its default; on a measured run clean is the logged "
+                             "ax, ay, wz)")
     parser.add_argument("--cache-dir", default="out/slip_cache")
     args = parser.parse_args()
     if args.online:

@@ -12,12 +12,14 @@ builds the one a vehicle has (:data:`ESTIMATORS`).
   velocity reference, so the estimate is *stale* during camera outages (its age is the time
   since the last camera sample).
 * :class:`FusedSlipObserver` (the Husky's default): the fused slip estimate of the
-  slip-learning work (issue 10) run online: the slip-augmented skid-steer EKF on wheels, gyro
-  and accelerometer with the physics slip from the motor currents as pseudo-measurement of
-  the side slips. It needs the motor currents, which the closed loop's sensors sample from
-  the plant's wheel torque (:class:`terrain.sim.closed_loop.OnlineSensors`); without them
-  the common slip of both sides is unobservable and the estimate drifts (stated in results
-  as ``estimator_pseudo_measurements`` = 0).
+  slip-learning work (issue 10) run online: the slip-augmented skid-steer EKF on wheels and
+  the gyro of the full IMU (its accelerometer only with ``imu="full"``, which takes the
+  terrain's vibration for acceleration) with the physics slip from the motor currents as
+  pseudo-measurement of the side slips. It needs the motor currents, which the closed
+  loop's sensors sample from the plant's wheel torque
+  (:class:`terrain.sim.closed_loop.OnlineSensors`); without them the common slip of both
+  sides is unobservable and the estimate drifts (stated in results as
+  ``estimator_pseudo_measurements`` = 0).
 * :class:`WheelImuObserver` (``--estimator observer``): the earlier interim estimator:
   forward speed from the integrated accelerometer, pulled towards the *slower* side's wheel
   speed with time constant ``tau_s``. Limits: a slip common to both sides is observable only
@@ -272,7 +274,8 @@ CONTROL_FUSION = FusionSettings(filter=SkidSteerSlipSettings(slip_psd=0.01))
 #: What the fused observer reads of the IMU (:class:`FusedSlipObserver`, ``imu``): ``clean``
 #: the loop's simplified IMU (``Observation.imu``: no vibration band, no gravity) with its
 #: gyro and ``ax`` rows; ``full`` the full IMU (``Observation.imu_full``, what a robot
-#: logs) with its gyro and the ``ax, az`` rows; ``full-gyro`` the full IMU's gyro only
+#: logs) with its gyro and the ``ax, az`` rows; ``full-gyro`` (the default) the full IMU's
+#: gyro only
 IMU_VIEWS: tuple[str, ...] = ("clean", "full", "full-gyro")
 
 
@@ -288,8 +291,11 @@ class FusedSlipObserver:
       :class:`terrain.slip.estimate.FusionSettings` (``filter``, track of the vehicle),
       stepped with :func:`terrain.estimation.ekf.predict` / :func:`~terrain.estimation.ekf.correct`
       at every sample: wheel rows ``vel_l, vel_r`` (encoder speed times the radius), gyro
-      row ``wz`` and accelerometer row ``ax`` (the loop's IMU has no ``az``: the pitch state
-      is then observed only through ``ax`` and the wheels);
+      row ``wz``, and with ``imu`` ``full`` or ``clean`` the accelerometer rows (``ax, az``
+      of the full IMU, or ``ax`` of the loop's simplified IMU, which has no ``az``: the pitch
+      state is then observed only through ``ax`` and the wheels; with the gyro alone the
+      acceleration and pitch states are not observed and the speed follows the wheels and
+      the pseudo-measurements);
     * the pseudo-measurement of the side slips: the physics slip
       (:func:`terrain.slip.physics.physics_slip`: motor current -> torque -> traction ->
       stable-side inverse of the decided terrain's curve) of the last ``window_s`` of
@@ -335,9 +341,10 @@ class FusedSlipObserver:
     physics_settings : PhysicsSlipSettings
         Uncertainties of the physics slip.
     imu : str
-        What it reads of the IMU, one of :data:`IMU_VIEWS` (default ``clean``, the view the
-        control figures of docs/control_validation.md were made with; a robot has only the
-        full IMU, see its section "The Husky's observer on the full IMU").
+        What it reads of the IMU, one of :data:`IMU_VIEWS`: default ``full-gyro``, the gyro
+        of the IMU a robot has (docs/control_validation.md, "The Husky's observer on the
+        full IMU": its accelerometer rows would take the terrain's vibration for
+        acceleration); ``clean`` the view of the control figures before 2026-11-26.
 
     Raises
     ------
@@ -350,13 +357,13 @@ class FusedSlipObserver:
                  window_s: float = 0.5, period_s: float = 0.2,
                  settings: FusionSettings = CONTROL_FUSION,
                  physics_settings: PhysicsSlipSettings = PhysicsSlipSettings(),
-                 imu: str = "clean") -> None:
+                 imu: str = "full-gyro") -> None:
         if not (window_s > 0 and period_s > 0):
             raise ConfigError(f"window_s and period_s must be > 0, got {window_s}, {period_s}")
         if imu not in IMU_VIEWS:
             raise ConfigError(f"imu must be one of {', '.join(IMU_VIEWS)}, got {imu!r}")
         self.imu = imu
-        self.name = "husky-fused-slip-ekf" + ("" if imu == "clean" else f"-{imu}-imu")
+        self.name = "husky-fused-slip-ekf" + ("" if imu == "full-gyro" else f"-{imu}-imu")
         self.vehicle = get_vehicle(vehicle)
         self.settings = settings
         self.physics_settings = physics_settings
@@ -505,7 +512,7 @@ class FusedSlipObserver:
 #: vehicle would really have, issue 11).
 ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "agrimaro": ("ekf-vo",), "husky": ("fused", "observer", "fused-full-imu",
-                                       "fused-full-imu-gyro")})
+                                       "fused-clean-imu")})
 
 
 def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | None = None,
@@ -522,11 +529,12 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     kind : str, optional
         One of :data:`ESTIMATORS` of the vehicle: AgriMaRo ``ekf-vo``
         (:class:`AgriMaRoVisualOdometryEKF`); Husky ``fused`` (:class:`FusedSlipObserver`,
-        issue 10's fused slip estimate), ``observer`` (:class:`WheelImuObserver`, the
-        earlier interim estimator, kept for comparison), ``fused-full-imu`` and
-        ``fused-full-imu-gyro`` (the fused estimate on the full, vibrating IMU, with and
-        without its accelerometer rows: ``imu`` ``full`` and ``full-gyro``). None: the
-        first (default).
+        issue 10's fused slip estimate on the gyro of the full IMU), ``observer``
+        (:class:`WheelImuObserver`, the earlier interim estimator, kept for comparison),
+        ``fused-full-imu`` (the fused estimate with the full IMU's accelerometer rows too:
+        ``imu`` ``full``) and ``fused-clean-imu`` (on the loop's IMU without vibration and
+        gravity, ``imu`` ``clean``: the control figures before 2026-11-26). None: the first
+        (default).
 
     Returns
     -------
@@ -546,9 +554,7 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
                           f"{', '.join(ESTIMATORS[vehicle])}")
     if kind == "ekf-vo":
         return AgriMaRoVisualOdometryEKF()
-    if kind == "fused":
-        return FusedSlipObserver(vehicle, terrain_decision)
-    if kind.startswith("fused-full-imu"):
-        return FusedSlipObserver(vehicle, terrain_decision,
-                                 imu="full-gyro" if kind.endswith("-gyro") else "full")
+    if kind.startswith("fused"):
+        return FusedSlipObserver(vehicle, terrain_decision, imu={
+            "fused": "full-gyro", "fused-full-imu": "full", "fused-clean-imu": "clean"}[kind])
     return WheelImuObserver(vehicle)

@@ -20,8 +20,9 @@ The IMU comes in two views of the same samples (same white noise and bias draws)
   gravity on slopes (:func:`~terrain.sim.sensors.gravity_specific_force`), bias and white
   noise. The live terrain classifier reads it (it was trained on batch runs).
 * ``imu`` (``ax, ay, wz``): the same samples with the vibration band and gravity left out,
-  what the estimators have been tuned on (a simplification: a real robot's estimators would
-  read the vibrating IMU).
+  what the AgriMaRo's EKF and the Husky's interim observer read (a simplification: a real
+  robot's estimators would read the vibrating IMU). The Husky's fused observer reads the
+  gyro of ``imu_full`` (:data:`terrain.control.estimators.IMU_VIEWS`).
 
 Other simplifications against the batch sensor model of :mod:`terrain.sim.simulate` (which
 still writes the run's logged streams from the physics): no sensor lag, no planted effects;

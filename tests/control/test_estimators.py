@@ -51,22 +51,22 @@ def test_on_the_vibrating_imu_the_fused_estimate_needs_its_gyro_only():
     """The loop's simplified IMU (no vibration band, no gravity) does not exist on a robot.
     Fed the full IMU, the fused estimate's accelerometer rows take the snow's vibration for
     acceleration (steady slip error 0.17 on SNOW against 0.004); with the full IMU's gyro
-    alone it is as good as on the simplified one (docs/control_validation.md, "The Husky's
-    observer on the full IMU")."""
-    clean, _ = _replayed_slip_error("SNOW", "fused")
+    alone (the default since) it is as good as on the simplified one
+    (docs/control_validation.md, "The Husky's observer on the full IMU")."""
+    clean, _ = _replayed_slip_error("SNOW", "fused-clean-imu")
     full, _ = _replayed_slip_error("SNOW", "fused-full-imu")
-    gyro, n_pseudo = _replayed_slip_error("SNOW", "fused-full-imu-gyro")
+    gyro, n_pseudo = _replayed_slip_error("SNOW", "fused")             # the default
     assert n_pseudo >= 20
     assert clean < 0.01 and gyro < 0.01 and full > 0.1
 
 
 def test_estimator_kinds():
-    assert estimator_for("husky").name == "husky-fused-slip-ekf"
-    assert estimator_for("husky").imu == "clean"
-    gyro = estimator_for("husky", kind="fused-full-imu-gyro")
-    assert (gyro.imu, gyro.name) == ("full-gyro", "husky-fused-slip-ekf-full-gyro-imu")
+    gyro = estimator_for("husky")
+    assert (gyro.imu, gyro.name) == ("full-gyro", "husky-fused-slip-ekf")
     assert "no accelerometer" in gyro.limits
-    assert estimator_for("husky", kind="fused-full-imu").imu == "full"
+    full = estimator_for("husky", kind="fused-full-imu")
+    assert (full.imu, full.name) == ("full", "husky-fused-slip-ekf-full-imu")
+    assert estimator_for("husky", kind="fused-clean-imu").imu == "clean"
     with pytest.raises(ConfigError, match="imu must be one of"):
         FusedSlipObserver(imu="raw")
     assert estimator_for("husky", kind="observer").name == "wheel-imu-observer"
@@ -106,7 +106,8 @@ def _replay_measured(run, settings):
     from terrain.vehicles import get_vehicle
 
     r = get_vehicle("husky").wheel_radius_m
-    est = FusedSlipObserver("husky", lambda t: (run.terrain, 1.0), settings=settings)
+    est = FusedSlipObserver("husky", lambda t: (run.terrain, 1.0), settings=settings,
+                            imu="clean")     # the logged ax, vibration included
     speeds = []
     for obs in measured_observations(run, r):
         est.update(obs)
