@@ -122,6 +122,16 @@ class AgriMaRoVisualOdometryEKF:
     accel_std_m_s2 : float
         Accelerometer noise for :func:`terrain.estimation.agrimaro.noise_derived_settings`,
         m/s^2 (its default 0.8: vibration included).
+    imu : {"clean", "full"}
+        IMU view (:data:`IMU_VIEWS`): ``clean`` the loop's IMU without the vibration band and
+        gravity (default, the figures of docs/control_validation.md), ``full`` the full IMU
+        a robot logs (its ``ax, ay, wz``). The model's IMU rows are the accelerometer and the
+        gyro together, so there is no gyro-only view.
+
+    Raises
+    ------
+    ConfigError
+        Another ``imu`` view.
     """
 
     name = "agrimaro-ekf-vo"
@@ -130,7 +140,12 @@ class AgriMaRoVisualOdometryEKF:
               "camera sample the velocity drifts with the slipping wheels, so the estimate is "
               "reported stale (age = time since the last camera sample)")
 
-    def __init__(self, accel_std_m_s2: float = 0.8) -> None:
+    def __init__(self, accel_std_m_s2: float = 0.8, imu: str = "clean") -> None:
+        if imu not in ("clean", "full"):
+            raise ConfigError(f"imu must be clean or full for the AgriMaRo EKF, got {imu!r}")
+        self.imu = imu
+        if imu == "full":
+            self.name = "agrimaro-ekf-vo-full-imu"
         self.vehicle = get_vehicle("agrimaro")
         self.model = AgriMaRoModel(self.vehicle, noise_derived_settings(
             accel_std_m_s2=accel_std_m_s2))
@@ -157,12 +172,14 @@ class AgriMaRoVisualOdometryEKF:
         -------
         VelocityEstimate
         """
-        for t, name, z in _merged(obs):
+        for t, name, z in _merged(obs, "imu" if self.imu == "clean" else "imu_full"):
             if t > self.t:
                 self.ekf.predict(t - self.t)
                 self.t = t
             if name == "wheels":
                 self.omega = z.copy()
+            if name == "imu_full":      # wx wy wz ax ay az -> the model's ax, ay, wz
+                name, z = "imu", z[[3, 4, 2]]
             z = z[:3]
             if name in self.rows and np.all(np.isfinite(z)):
                 self.ekf.update(z, rows=self.rows[name])
@@ -511,8 +528,8 @@ class FusedSlipObserver:
 #: Estimators of :func:`estimator_for` per vehicle; the first is the default (the one the
 #: vehicle would really have, issue 11).
 ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    "agrimaro": ("ekf-vo",), "husky": ("fused", "observer", "fused-full-imu",
-                                       "fused-clean-imu")})
+    "agrimaro": ("ekf-vo", "ekf-vo-full-imu"),
+    "husky": ("fused", "observer", "fused-full-imu", "fused-clean-imu")})
 
 
 def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | None = None,
@@ -528,9 +545,10 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
         estimator needs the terrain's curve for its physics slip).
     kind : str, optional
         One of :data:`ESTIMATORS` of the vehicle: AgriMaRo ``ekf-vo``
-        (:class:`AgriMaRoVisualOdometryEKF`); Husky ``fused`` (:class:`FusedSlipObserver`,
-        issue 10's fused slip estimate on the gyro of the full IMU), ``observer``
-        (:class:`WheelImuObserver`, the earlier interim estimator, kept for comparison),
+        (:class:`AgriMaRoVisualOdometryEKF`; ``ekf-vo-full-imu`` on the full IMU); Husky
+        ``fused`` (:class:`FusedSlipObserver`, issue 10's fused slip estimate on the gyro of
+        the full IMU), ``observer`` (:class:`WheelImuObserver`, the earlier interim
+        estimator, kept for comparison),
         ``fused-full-imu`` (the fused estimate with the full IMU's accelerometer rows too:
         ``imu`` ``full``) and ``fused-clean-imu`` (on the loop's IMU without vibration and
         gravity, ``imu`` ``clean``: the control figures before 2026-11-26). None: the first
@@ -552,8 +570,8 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     if kind not in ESTIMATORS[vehicle]:
         raise ConfigError(f"estimator {kind!r} not available for {vehicle}; valid: "
                           f"{', '.join(ESTIMATORS[vehicle])}")
-    if kind == "ekf-vo":
-        return AgriMaRoVisualOdometryEKF()
+    if kind.startswith("ekf-vo"):
+        return AgriMaRoVisualOdometryEKF(imu="full" if kind.endswith("full-imu") else "clean")
     if kind.startswith("fused"):
         return FusedSlipObserver(vehicle, terrain_decision, imu={
             "fused": "full-gyro", "fused-full-imu": "full", "fused-clean-imu": "clean"}[kind])

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain.control.estimators import FusedSlipObserver, estimator_for
+from terrain.control.estimators import (AgriMaRoVisualOdometryEKF, FusedSlipObserver,
+                                        estimator_for)
 from terrain.errors import ConfigError
 from terrain.sim.simulate import SimConfig, simulate_with_physics
 
@@ -71,6 +72,10 @@ def test_estimator_kinds():
         FusedSlipObserver(imu="raw")
     assert estimator_for("husky", kind="observer").name == "wheel-imu-observer"
     assert estimator_for("agrimaro").name == "agrimaro-ekf-vo"
+    full_vo = estimator_for("agrimaro", kind="ekf-vo-full-imu")
+    assert (full_vo.imu, full_vo.name) == ("full", "agrimaro-ekf-vo-full-imu")
+    with pytest.raises(ConfigError, match="clean or full"):
+        AgriMaRoVisualOdometryEKF(imu="full-gyro")
     with pytest.raises(ConfigError, match="not available"):
         estimator_for("agrimaro", kind="fused")
     with pytest.raises(ConfigError, match="no closed-loop estimator"):

@@ -1,0 +1,73 @@
+"""What the closed loop's estimators lose on the full, vibrating IMU.
+
+The simulated closed loop hands its estimators two views of the same IMU samples
+(:mod:`terrain.sim.closed_loop`): ``imu`` without the terrain's vibration band and gravity,
+and ``imu_full``, what a robot logs. This script runs the control grid
+(:func:`terrain.control.grid.run_grid`, ``DEFAULT_GAINS``, feed-forward on, the run's label
+as terrain decision) once per estimator kind and IMU view
+(:data:`terrain.control.estimators.ESTIMATORS`): the AgriMaRo's EKF with visual odometry on
+the simplified (``ekf-vo``) and the full IMU (``ekf-vo-full-imu``), the Husky's fused
+estimate on the full IMU's gyro (``fused``, the default), with its accelerometer rows too
+(``fused-full-imu``) and on the simplified IMU (``fused-clean-imu``). It prints the slip
+RMSE under control (true slip against the set point, controller on) and the peak slip per
+terrain and scenario, and their means per kind, and logs them to MLflow (experiment
+``terrain-benchmark``, run ``control-imu-views``). ``docs/control_validation.md``, "The
+Husky's observer on the full IMU".
+
+Usage: ``python benchmarks/control_imu_views.py [--kinds ekf-vo ekf-vo-full-imu ...]
+[--terrains ...] [--scenarios ...] [--seeds 0 1 2]`` (about 8 min with the defaults on one
+core).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import pandas as pd
+
+from terrain.control.closed_loop import default_gains
+from terrain.control.estimators import ESTIMATORS
+from terrain.control.grid import compare, run_grid
+from terrain.tracking import tracked_run
+
+#: (vehicle, kind) compared by default: every IMU view of the two vehicles' estimators
+KINDS = (("agrimaro", "ekf-vo"), ("agrimaro", "ekf-vo-full-imu"), ("husky", "fused"),
+         ("husky", "fused-full-imu"), ("husky", "fused-clean-imu"))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--kinds", nargs="+", default=[k for _, k in KINDS],
+                        choices=sorted({k for v in ESTIMATORS.values() for k in v}))
+    parser.add_argument("--terrains", nargs="+",
+                        default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])
+    parser.add_argument("--scenarios", nargs="+",
+                        default=["straight_accel", "orchard", "slope_turn"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    args = parser.parse_args()
+    vehicle_of = {k: v for v, ks in ESTIMATORS.items() for k in ks}
+    with tracked_run("terrain-benchmark", "control-imu-views", vars(args)) as run:
+        tables = []
+        for kind in args.kinds:
+            vehicle = vehicle_of[kind]
+            results, _ = run_grid([vehicle], args.terrains, args.scenarios, args.seeds,
+                                  {vehicle: default_gains(vehicle, kind)},
+                                  estimators={vehicle: kind})
+            table = compare(results)[["vehicle", "terrain", "scenario", "slip_rmse_on",
+                                      "peak_slip_on"]].assign(kind=kind)
+            tables.append(table)
+            run.log_metrics({f"{kind}.slip_rmse_on_mean": float(table["slip_rmse_on"].mean()),
+                             f"{kind}.peak_slip_on_mean": float(table["peak_slip_on"].mean())})
+        both = pd.concat(tables)
+        wide = both.pivot_table(index=["vehicle", "terrain", "scenario"], columns="kind",
+                                values="slip_rmse_on")
+        print("slip RMSE under control (controller on, mean over seeds):")
+        print(wide.round(3).to_markdown())
+        means = both.groupby(["vehicle", "kind"])[["slip_rmse_on", "peak_slip_on"]].mean()
+        print(means.round(4).to_markdown())
+        run.log_table(wide.round(4).reset_index(), "slip_rmse_on.csv")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
