@@ -125,8 +125,9 @@ class AgriMaRoVisualOdometryEKF:
     imu : {"clean", "full"}
         IMU view (:data:`IMU_VIEWS`): ``clean`` the loop's IMU without the vibration band and
         gravity (default, the figures of docs/control_validation.md), ``full`` the full IMU
-        a robot logs (its ``ax, ay, wz``). The model's IMU rows are the accelerometer and the
-        gyro together, so there is no gyro-only view.
+        a robot logs (its ``ax, ay, wz``). No gyro-only view: without the accelerometer
+        rows the acceleration states are observed only through the camera and the encoders
+        (docs/control_validation.md, "The AgriMaRo's EKF on the full IMU").
 
     Raises
     ------
