@@ -47,14 +47,28 @@ from terrain.slip.evaluation import SLID_OFF_FACTOR
 from terrain.tracking import tracked_run
 
 
-def settings(bounds) -> dict:
-    """The shipped fusion setting with each (braking slip, hold s) bound, and with none."""
-    out = {f"bound {b:+.2f} hold {h:g} s": replace(BATCH_FUSION, filter=replace(
-        BATCH_FUSION.filter, speed_bound_braking_slip=b, speed_bound_hold_s=h))
+def settings(bounds, base=BATCH_FUSION) -> dict:
+    """The fusion setting ``base`` (default: the batch estimate's) with each (braking slip,
+    hold s) bound, and with none."""
+    out = {f"bound {b:+.2f} hold {h:g} s": replace(base, filter=replace(
+        base.filter, speed_bound_braking_slip=b, speed_bound_hold_s=h))
         for b, h in bounds}
-    out["no bound"] = replace(BATCH_FUSION, filter=replace(BATCH_FUSION.filter,
-                                                           speed_bound_braking_slip=None))
+    out["no bound"] = replace(base, filter=replace(base.filter, speed_bound_braking_slip=None))
     return out
+
+
+def _metric_key(setting: str) -> str:
+    """A setting's name as an MLflow metric key."""
+    return setting.replace(" ", "_").replace("+", "").replace(":", "")
+
+
+def _measured_runs(terrains):
+    """The shipped BorealTC runs with an IMU (of ``terrains``, all when empty), each with its
+    largest rim speed, m/s."""
+    for run in read_shipped("borealtc"):
+        if "imu" in run.streams and (not terrains or run.terrain in terrains):
+            wheels = run.streams["wheels"][["vel_l", "vel_r"]].to_numpy()
+            yield run, float(np.nanmax(np.abs(wheels)))
 
 
 def _bound(text: str) -> tuple[float, float]:
@@ -104,12 +118,9 @@ def simulated(terrains, scenarios, seeds, cache_dir, fusions) -> list[dict]:
 def measured(terrains, fusions) -> list[dict]:
     """Per shipped BorealTC run with an IMU and setting: largest |v_bx|, largest rim speed,
     share of steps held."""
-    runs = [r for r in read_shipped("borealtc")
-            if "imu" in r.streams and (not terrains or r.terrain in terrains)]
     rows = []
-    for run in tqdm(runs, desc="measured runs", unit="run"):
+    for run, rim in tqdm(list(_measured_runs(terrains)), desc="measured runs", unit="run"):
         outputs = slip_model_outputs(run, None)
-        rim = float(np.nanmax(np.abs(run.streams["wheels"][["vel_l", "vel_r"]].to_numpy())))
         for name, fusion in fusions.items():
             f, held = _estimate(run, outputs, fusion)
             v = np.abs(f.x[:, f.state_names.index("v_bx")])
@@ -128,18 +139,11 @@ def measured_online(terrains, bounds, imu: str = "full-gyro") -> list[dict]:
     from terrain.control.replay import measured_observations
     from terrain.vehicles import get_vehicle
 
-    fusions = {f"bound {b:+.2f} hold {h:g} s": replace(CONTROL_FUSION, filter=replace(
-        CONTROL_FUSION.filter, speed_bound_braking_slip=b, speed_bound_hold_s=h))
-        for b, h in bounds}
-    fusions["no bound"] = replace(CONTROL_FUSION, filter=replace(
-        CONTROL_FUSION.filter, speed_bound_braking_slip=None))
     radius = get_vehicle("husky").wheel_radius_m
-    runs = [r for r in read_shipped("borealtc")
-            if "imu" in r.streams and (not terrains or r.terrain in terrains)]
     rows = []
-    for run in tqdm(runs, desc="measured runs, online", unit="run"):
-        rim = float(np.nanmax(np.abs(run.streams["wheels"][["vel_l", "vel_r"]].to_numpy())))
-        for name, fusion in fusions.items():
+    for run, rim in tqdm(list(_measured_runs(terrains)), desc="measured runs, online",
+                         unit="run"):
+        for name, fusion in settings(bounds, CONTROL_FUSION).items():
             est = FusedSlipObserver("husky", lambda t, label=run.terrain: (label, 1.0),
                                     settings=fusion, imu=imu)
             pitch = []
@@ -171,7 +175,7 @@ def online(args) -> int:
                                               "pitch_max"]]
         print(by_setting.agg(["mean", "max"]).round(3).to_markdown())
         for name, g in meas.groupby("setting"):
-            key = name.replace(" ", "_").replace("+", "").replace(":", "")
+            key = _metric_key(name)
             print(f"{name}: pitch state beyond 0.5 rad on {int((g['pitch_max'] > 0.5).sum())} "
                   f"of {len(g)} runs")
             run.log_metrics({f"online.{key}.v_max_max": float(g["v_max"].max()),
@@ -227,7 +231,7 @@ def main() -> int:
             ["v_rmse", "v_max_err", "slip_rmse", "held_pct"]].mean()
         print(overall.round(4).to_markdown())
         for name, r in overall.iterrows():
-            key = name.replace(" ", "_").replace("+", "").replace(":", "")
+            key = _metric_key(name)
             run.log_metrics({f"sim.{key}.{c}": float(r[c]) for c in overall.columns})
         if args.skip_measured:
             return 0
@@ -240,7 +244,7 @@ def main() -> int:
         by_setting = meas.groupby("setting")[["v_max", "over_1_5_rim_pct", "held_pct"]]
         print(by_setting.agg(["mean", "max"]).round(3).to_markdown())
         for name, g in meas.groupby("setting"):
-            key = name.replace(" ", "_").replace("+", "").replace(":", "")
+            key = _metric_key(name)
             run.log_metrics({f"measured.{key}.v_max_max": float(g["v_max"].max()),
                              f"measured.{key}.over_1_5_rim_pct_mean":
                                  float(g["over_1_5_rim_pct"].mean()),

@@ -42,9 +42,9 @@ from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derive
 from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict, project_to_bounds
 from terrain.estimation.skid_steer_slip import SENSOR_ROWS as SLIP_SENSOR_ROWS
 from terrain.estimation.equations.skid_steer_slip import MAX_SLIP
-from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, SPEED_BOUND_NOISE_STDS,
-                                                STATE_NAMES, SkidSteerSlipModel,
-                                                SkidSteerSlipSettings, rim_speed_range_m_s)
+from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, STATE_NAMES,
+                                                SkidSteerSlipModel, SkidSteerSlipSettings,
+                                                rim_speed_range_m_s)
 from terrain.sim.closed_loop import Observation
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.physics import PhysicsSlipSettings, physics_slip
@@ -504,7 +504,7 @@ class FusedSlipObserver:
                 braking = self.settings.filter.speed_bound_braking_slip
                 if braking is not None:
                     lo, up = rim_speed_range_m_s(
-                        z * r, braking, SPEED_BOUND_NOISE_STDS * self.settings.filter.wheel_std_m_s)
+                        z * r, braking, self.settings.filter.speed_bound_rim_margin_m_s)
                     self.bound_rows.append((t, float(lo[0]), float(up[0])))
             elif name == "currents":
                 self.current_rows.append(np.concatenate([[t], z]))
@@ -531,6 +531,12 @@ class FusedSlipObserver:
 ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "agrimaro": ("ekf-vo", "ekf-vo-full-imu"),
     "husky": ("fused", "observer", "fused-full-imu", "fused-clean-imu")})
+
+
+#: IMU view (:data:`IMU_VIEWS`) of each estimator kind that has one
+IMU_VIEW_OF_KIND: Mapping[str, str] = MappingProxyType({
+    "ekf-vo": "clean", "ekf-vo-full-imu": "full", "fused": "full-gyro",
+    "fused-full-imu": "full", "fused-clean-imu": "clean"})
 
 
 def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | None = None,
@@ -571,9 +577,8 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     if kind not in ESTIMATORS[vehicle]:
         raise ConfigError(f"estimator {kind!r} not available for {vehicle}; valid: "
                           f"{', '.join(ESTIMATORS[vehicle])}")
+    if kind == "observer":
+        return WheelImuObserver(vehicle)
     if kind.startswith("ekf-vo"):
-        return AgriMaRoVisualOdometryEKF(imu="full" if kind.endswith("full-imu") else "clean")
-    if kind.startswith("fused"):
-        return FusedSlipObserver(vehicle, terrain_decision, imu={
-            "fused": "full-gyro", "fused-full-imu": "full", "fused-clean-imu": "clean"}[kind])
-    return WheelImuObserver(vehicle)
+        return AgriMaRoVisualOdometryEKF(imu=IMU_VIEW_OF_KIND[kind])
+    return FusedSlipObserver(vehicle, terrain_decision, imu=IMU_VIEW_OF_KIND[kind])

@@ -76,8 +76,8 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     currents = np.column_stack([wh[:, 0], np.abs(wh[:, 3:5])])
     t0, t1 = max(imu[0, 0], wh[0, 0]), min(imu[-1, 0], wh[-1, 0])
     period = 1.0 / control_rate_hz
-    cuts = {name: 0 for name in ("imu", "wheels", "currents", "imu_full")}
     data = {"imu": imu, "wheels": wheels, "currents": currents, "imu_full": full}
+    cuts = dict.fromkeys(data, 0)
     for k in range(int(np.floor((t1 - t0) / period + 1e-9)) + 1):
         t = t0 + k * period
         taken = {}

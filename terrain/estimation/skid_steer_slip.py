@@ -143,9 +143,9 @@ class SkidSteerSlipSettings:
         on simulated Husky runs with truth (seeds 0-2) it cut the speed RMSE more than -0.5
         did (``benchmarks/speed_bound.py``, ``docs/slip_learning.md`` "A bound on the
         forward speed"). None: no bound.
-        Only :func:`run_with_pseudo_slip` (``terrain estimate``'s batch filter) applies it;
-        the online observer of the control loop
-        (:mod:`terrain.control.estimators`) steps the model itself and does not.
+        :func:`run_with_pseudo_slip` (``terrain estimate``'s batch filter) and the online
+        observer of the control loop (:class:`terrain.control.estimators.FusedSlipObserver`,
+        sample by sample) apply it.
     speed_bound_hold_s : float
         Window over which the bound keeps the widest range of the rim speeds, s (``hold_s``
         of :func:`speed_bounds_m_s`). 1.0: with the latest rim speeds alone (0) the
@@ -202,6 +202,12 @@ class SkidSteerSlipSettings:
         b = self.speed_bound_braking_slip
         if b is not None and not (-1.0 < float(b) <= 0.0):
             raise ConfigError(f"speed_bound_braking_slip must be in (-1, 0] or None, got {b}")
+
+    @property
+    def speed_bound_rim_margin_m_s(self) -> float:
+        """Widening of each rim speed in the speed bound, m/s:
+        :data:`SPEED_BOUND_NOISE_STDS` times ``wheel_std_m_s``."""
+        return SPEED_BOUND_NOISE_STDS * self.wheel_std_m_s
 
     @property
     def q_diag(self) -> tuple[float, ...]:
@@ -643,8 +649,7 @@ def _speed_bounds(t_grid_s: np.ndarray, wheels: SensorSamples | None,
     if settings.speed_bound_braking_slip is None:
         return None
     lo, up = speed_bounds_m_s(t_grid_s, wheels, settings.speed_bound_braking_slip,
-                              SPEED_BOUND_NOISE_STDS * settings.wheel_std_m_s,
-                              settings.speed_bound_hold_s)
+                              settings.speed_bound_rim_margin_m_s, settings.speed_bound_hold_s)
     lower = np.full((t_grid_s.size, N_STATES), -np.inf)
     upper = np.full((t_grid_s.size, N_STATES), np.inf)
     v = STATE_NAMES.index("v_bx")
