@@ -22,8 +22,11 @@ wheel-speed and current signatures): docs/control_validation.md. Windows from
 model directory as ``terrain train --model-out`` (:func:`terrain.serving.pyfunc.save_model`),
 cached under ``out/control_classifier/<vehicle>-<key>/model`` (the key hashes the settings,
 the controller of the closed-loop training runs (its full configuration with the gains, the
-estimator, the feed-forward flag) and the simulator's inputs that shape the training runs:
-physics version, sensor settings, vehicle and terrain parameters), and applied by the same
+estimator, the feed-forward flag), the simulator's inputs that shape the training runs
+(physics version, sensor settings, vehicle and terrain parameters, and the simulator's source
+code: :func:`terrain.sim.digest.simulator_digest`) and the source of the modules that build
+the model and drive the controlled runs (:data:`CLASSIFIER_MODULES`), so a cached model is
+never reused after the code that made it changed), and applied by the same
 causal decision path as ``--model``: a :class:`pipelines.live_terrain.LiveClassifier` per
 closed-loop run, fed with the loop's own sensor samples.
 """
@@ -48,9 +51,8 @@ from terrain.errors import ConfigError
 from terrain.models.registry import ModelConfig, make_model
 from terrain.serving.model import load_stream_model
 from terrain.serving.pyfunc import runs_to_model_input, save_model
-from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, simulate
-from terrain.terramechanics.catalogue import get_terrain
-from terrain.vehicles import get_vehicle
+from terrain.sim.digest import simulator_digest, source_digest
+from terrain.sim.simulate import SimConfig, simulate
 
 #: Seeds of the classifier's training runs (disjoint from the evaluation and tuning seeds).
 CLASSIFIER_SEEDS: tuple[int, ...] = (2000, 2001, 2002)
@@ -63,36 +65,11 @@ CLASSIFIER_WINDOW = WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=50.0)
 TERRAIN_SOURCES = ("label", "live-sim", "model")
 #: Run-id suffix of the closed-loop training runs (the controller on).
 CONTROLLED_SUFFIX = "+traction"
-
-
-def simulator_digest(vehicle: str, terrains: Sequence[str]) -> str:
-    """Digest of the simulator's inputs that shape a vehicle's training runs.
-
-    The physics version of :class:`terrain.sim.simulate.SimConfig`, the vehicle's default
-    sensor settings (:data:`terrain.sim.simulate.DEFAULT_SENSORS`: rates, noise, vibration
-    bandwidth), and the catalogue parameters of the vehicle and of the terrains (traction
-    curves, vibration levels), as their dataclass ``repr``.
-
-    Parameters
-    ----------
-    vehicle : str
-        Simulated vehicle.
-    terrains : sequence of str
-        Catalogued terrain classes.
-
-    Returns
-    -------
-    str
-        SHA-1 hex digest, 10 characters.
-
-    Raises
-    ------
-    ConfigError
-        Unknown vehicle or terrain.
-    """
-    parts = [SimConfig().physics, repr(DEFAULT_SENSORS[vehicle]), repr(get_vehicle(vehicle))]
-    parts += [repr(get_terrain(t)) for t in sorted(str(t).upper() for t in terrains)]
-    return hashlib.sha1("\n".join(parts).encode()).hexdigest()[:10]
+#: Modules besides the simulator's whose code shapes a cached classifier: the window
+#: features and models it is built from, the MLflow model it is saved as, and the closed
+#: loop (controller and estimators) that drives its controlled training runs.
+CLASSIFIER_MODULES: tuple[str, ...] = ("features", "terrain.models", "terrain.serving",
+                                       "terrain.control", "terrain.estimation")
 
 
 def _controller_settings(vehicle: str, gains: tuple[float, float] | None,
@@ -211,6 +188,7 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
                 "window_s": CLASSIFIER_WINDOW.window_s, "hop_s": CLASSIFIER_WINDOW.hop_s,
                 "rate_hz": CLASSIFIER_WINDOW.rate_hz, "model": "svm",
                 "simulator": simulator_digest(vehicle, terrains),
+                "code": source_digest(CLASSIFIER_MODULES),
                 "controlled_runs": bool(controlled_runs),
                 "controller": (_controller_settings(vehicle, gains, estimator, feed_forward)
                                if controlled_runs else None)}

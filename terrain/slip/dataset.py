@@ -2,8 +2,10 @@
 
 A :class:`SlipDataSpec` names a grid terrains x scenarios x seeds; :func:`simulated_runs`
 simulates each cell once (:func:`terrain.sim.simulate.simulate`) and keeps the
-:class:`~terrain.run.Run` in a cache folder (joblib files keyed by every setting and a cache
-version), so repeated ``terrain slip-fit`` calls on the shared machine cost no simulation.
+:class:`~terrain.run.Run` in a cache folder (joblib files keyed by every setting of the run
+and by :func:`terrain.sim.digest.simulator_digest`, which covers the simulator's parameters
+and source code), so repeated ``terrain slip-fit`` calls on the shared machine cost no
+simulation, and a run simulated before a change of the simulator is never reused.
 """
 
 from __future__ import annotations
@@ -12,16 +14,16 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
 
+import hashlib
+
 import joblib
 
 from terrain.errors import ConfigError, duplicated
 from terrain.run import Run
+from terrain.sim.digest import simulator_digest
 from terrain.sim.scenarios import SCENARIO_NAMES
 from terrain.sim.simulate import SimConfig, simulate
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
-
-#: Bump when the simulator changes in a way that invalidates cached runs.
-CACHE_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -87,9 +89,31 @@ class SlipDataSpec:
                                     seed=int(seed))
 
 
-def _key(config: SimConfig) -> str:
-    return (f"v{CACHE_VERSION}_{config.vehicle}_{config.terrains[0]}_{config.scenario}_"
-            f"s{config.seed}_{config.duration_s:g}s.joblib")
+def cache_key(config: SimConfig) -> str:
+    """File name of a simulated run in the cache.
+
+    Parameters
+    ----------
+    config : SimConfig
+        One run's settings.
+
+    Returns
+    -------
+    str
+        ``<vehicle>_<TERRAIN>_<scenario>_s<seed>_<duration>s_<digest>.joblib``; the digest
+        (10 hex characters) hashes every field of ``config`` (its ``repr``) and
+        :func:`terrain.sim.digest.simulator_digest` of its vehicle and terrains, so another
+        setting, parameter or simulator source gives another file.
+
+    Raises
+    ------
+    ConfigError
+        Unknown vehicle or terrain.
+    """
+    text = f"{config!r}\n{simulator_digest(config.vehicle, config.terrains)}"
+    digest = hashlib.sha1(text.encode()).hexdigest()[:10]
+    return (f"{config.vehicle}_{config.terrains[0]}_{config.scenario}_s{config.seed}_"
+            f"{config.duration_s:g}s_{digest}.joblib")
 
 
 def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run:
@@ -109,7 +133,7 @@ def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run
     -------
     Run
     """
-    path = None if cache_dir is None else Path(cache_dir) / _key(config)
+    path = None if cache_dir is None else Path(cache_dir) / cache_key(config)
     if path is not None and path.exists():
         return joblib.load(path)
     run = simulate(config)

@@ -7,12 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipelines.control_classifier import decision_source, sim_classifier, simulator_digest
+from pipelines.control_classifier import CLASSIFIER_MODULES, decision_source, sim_classifier
 from pipelines.live_terrain import LiveClassifier
 from terrain.control.closed_loop import default_gains, run_closed_loop
 from terrain.errors import ConfigError
 from terrain.serving.model import load_stream_model
 from terrain.sim.closed_loop import replay_observations
+from terrain.sim.digest import simulator_digest, source_digest
 from terrain.sim.simulate import SimConfig, simulate_with_physics
 
 TERRAINS = ("SNOW", "ICE")
@@ -38,6 +39,8 @@ def test_sim_classifier_is_trained_once_and_cached(husky_classifier):
     # the key covers the simulator's inputs that shape the training runs
     assert info["simulator"] == simulator_digest("husky", TERRAINS)
     assert simulator_digest("husky", TERRAINS) != simulator_digest("agrimaro", TERRAINS)
+    # ... and the code that builds the model and drives its controlled runs
+    assert info["code"] == source_digest(CLASSIFIER_MODULES)
     again, info2 = sim_classifier("husky", TERRAINS, seeds=(2000,),
                                   scenarios=("straight_accel",), duration_s=10.0,
                                   cache_dir=cache)

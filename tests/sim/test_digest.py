@@ -1,0 +1,67 @@
+"""Digests of the simulator (terrain/sim/digest.py) and the slip-fit cache keyed by them: a run
+simulated before a change of the simulator's code or parameters is never reused."""
+
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+import terrain.slip.dataset as dataset
+from terrain.errors import ConfigError
+from terrain.sim.digest import SIMULATOR_MODULES, simulator_digest, source_digest
+from terrain.sim.simulate import SimConfig
+
+
+def _package(root, name, body):
+    pkg = root / name
+    pkg.mkdir(exist_ok=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "physics.py").write_text(body)
+    importlib.invalidate_caches()
+    return pkg
+
+
+def test_source_digest_follows_every_byte_of_a_package(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(tmp_path))
+    pkg = _package(tmp_path, "digest_probe_pkg", "MU = 0.8\n")
+    before = source_digest(["digest_probe_pkg"])
+    assert len(before) == 40 and source_digest(["digest_probe_pkg"]) == before
+    (pkg / "physics.py").write_text("MU = 0.8  # peak friction\n")   # a comment counts
+    assert source_digest(["digest_probe_pkg"]) != before
+    (pkg / "physics.py").write_text("MU = 0.8\n")
+    assert source_digest(["digest_probe_pkg"]) == before
+    (pkg / "sub").mkdir()
+    (pkg / "sub" / "more.py").write_text("")   # a new file below the package counts
+    assert source_digest(["digest_probe_pkg"]) != before
+
+
+def test_source_digest_of_an_unknown_module_is_a_config_error():
+    with pytest.raises(ConfigError, match="no_such_module_xyz"):
+        source_digest(["no_such_module_xyz"])
+
+
+def test_simulator_digest_separates_vehicles_and_terrains_not_their_order():
+    a = simulator_digest("husky", ("SNOW", "ICE"))
+    assert a == simulator_digest("husky", ("ice", "snow"))
+    assert a != simulator_digest("agrimaro", ("SNOW", "ICE"))
+    assert a != simulator_digest("husky", ("SNOW",))
+    assert set(SIMULATOR_MODULES) >= {"terrain.sim", "terrain.terramechanics"}
+    with pytest.raises(ConfigError, match="unknown vehicle"):
+        simulator_digest("tractor", ("SNOW",))
+
+
+def test_slip_cache_reuses_a_run_only_while_the_simulator_is_unchanged(tmp_path, monkeypatch):
+    config = SimConfig(terrains=("SNOW",), scenario="straight_accel", duration_s=2.0, seed=5)
+    first = dataset.simulated_run(config, tmp_path)
+    files = sorted(tmp_path.iterdir())
+    assert [f.name for f in files] == [dataset.cache_key(config)]
+    again = dataset.simulated_run(config, tmp_path)        # read back, not simulated
+    assert again.run_id == first.run_id == "sim/SNOW/straight_accel/5"
+    assert again.streams["imu"].equals(first.streams["imu"])
+    assert dataset.cache_key(config) != dataset.cache_key(SimConfig(
+        terrains=("SNOW",), scenario="straight_accel", duration_s=2.0, seed=6))
+    # another simulator (code or parameters) gives another key: the old run is not reused
+    monkeypatch.setattr(dataset, "simulator_digest", lambda vehicle, terrains: "changed")
+    dataset.simulated_run(config, tmp_path)
+    assert len(list(tmp_path.iterdir())) == 2
