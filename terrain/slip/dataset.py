@@ -10,11 +10,10 @@ simulation, and a run simulated before a change of the simulator is never reused
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
-
-import hashlib
 
 import joblib
 
@@ -89,6 +88,13 @@ class SlipDataSpec:
                                     seed=int(seed))
 
 
+def _cell(config: SimConfig) -> str:
+    """Readable name of a run's cell plus a digest of all its settings (``repr``)."""
+    settings = hashlib.sha1(repr(config).encode()).hexdigest()[:8]
+    return (f"{config.vehicle}_{config.terrains[0]}_{config.scenario}_s{config.seed}_"
+            f"{config.duration_s:g}s_{settings}")
+
+
 def cache_key(config: SimConfig) -> str:
     """File name of a simulated run in the cache.
 
@@ -100,20 +106,18 @@ def cache_key(config: SimConfig) -> str:
     Returns
     -------
     str
-        ``<vehicle>_<TERRAIN>_<scenario>_s<seed>_<duration>s_<digest>.joblib``; the digest
-        (10 hex characters) hashes every field of ``config`` (its ``repr``) and
-        :func:`terrain.sim.digest.simulator_digest` of its vehicle and terrains, so another
-        setting, parameter or simulator source gives another file.
+        ``<vehicle>_<TERRAIN>_<scenario>_s<seed>_<duration>s_<settings>_<simulator>.joblib``:
+        ``settings`` (8 hex characters) hashes every field of ``config`` (its ``repr``),
+        ``simulator`` is :func:`terrain.sim.digest.simulator_digest` of its vehicle and
+        terrains (parameters and source code), so another setting, parameter or simulator
+        source gives another file.
 
     Raises
     ------
     ConfigError
         Unknown vehicle or terrain.
     """
-    text = f"{config!r}\n{simulator_digest(config.vehicle, config.terrains)}"
-    digest = hashlib.sha1(text.encode()).hexdigest()[:10]
-    return (f"{config.vehicle}_{config.terrains[0]}_{config.scenario}_s{config.seed}_"
-            f"{config.duration_s:g}s_{digest}.joblib")
+    return f"{_cell(config)}_{simulator_digest(config.vehicle, config.terrains)}.joblib"
 
 
 def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run:
@@ -127,7 +131,9 @@ def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run
     config : SimConfig
         One terrain, default effects and sensors.
     cache_dir : str or Path, optional
-        Cache folder (created); None = no cache.
+        Cache folder (created); None = no cache. A run of the same settings cached by an
+        earlier simulator (another :func:`terrain.sim.digest.simulator_digest`) is replaced,
+        so the folder holds one file per cell and settings.
 
     Returns
     -------
@@ -143,6 +149,9 @@ def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run
         tmp = path.with_suffix(".tmp")
         joblib.dump(run, tmp)
         tmp.replace(path)
+        for stale in path.parent.glob(f"{_cell(config)}_*.joblib"):
+            if stale != path:   # the same run from an earlier simulator
+                stale.unlink()
     return run
 
 

@@ -61,7 +61,15 @@ def test_slip_cache_reuses_a_run_only_while_the_simulator_is_unchanged(tmp_path,
     assert again.streams["imu"].equals(first.streams["imu"])
     assert dataset.cache_key(config) != dataset.cache_key(SimConfig(
         terrains=("SNOW",), scenario="straight_accel", duration_s=2.0, seed=6))
-    # another simulator (code or parameters) gives another key: the old run is not reused
-    monkeypatch.setattr(dataset, "simulator_digest", lambda vehicle, terrains: "changed")
-    dataset.simulated_run(config, tmp_path)
+    other_seed = SimConfig(terrains=("SNOW",), scenario="straight_accel", duration_s=2.0,
+                           seed=15)
+    dataset.simulated_run(other_seed, tmp_path)
     assert len(list(tmp_path.iterdir())) == 2
+    # another simulator (code or parameters) gives another key: the old run is not reused,
+    # it is replaced (one file per cell and settings), and the other cell is kept
+    monkeypatch.setattr(dataset, "simulator_digest", lambda vehicle, terrains: "changed")
+    new_key = dataset.cache_key(config)
+    assert new_key != files[0].name and new_key.endswith("_changed.joblib")
+    dataset.simulated_run(config, tmp_path)
+    names = {f.name for f in tmp_path.iterdir()}
+    assert new_key in names and files[0].name not in names and len(names) == 2
