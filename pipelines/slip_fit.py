@@ -63,7 +63,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--orchard-duration-s", type=float, default=120.0,
                         help="held-out orchard runs of this length for the odometry (a 40 s "
                              "run ends before the first headland turn); <= --duration-s: none")
-    parser.add_argument("--cache-dir", type=output_dir, default=Path("out/slip_cache"))
+    parser.add_argument("--cache-dir", type=output_dir, default=Path("out/slip_cache"),
+                        help="simulated runs, one file per run, keyed by its settings and by "
+                             "the simulator's parameters and code (a run cached by an "
+                             "earlier simulator is simulated again and replaced)")
     parser.add_argument("--out", type=output_dir, default=Path("out/slip_fit"))
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
     parser.add_argument("--measured", default=None, choices=list(DATASET_SPECS),
