@@ -628,7 +628,10 @@ class FusionSettings:
 #: SNOW 1.63 / 1.66 until the run's pitch prior (1.80); 3000-3047 SNOW 1.97 (inside), the
 #: others 2.24-2.34 (upper bounds 2.25-2.26). ``slip_psd_rel`` then 0.01 -> 0.015, chosen on
 #: those 144 seeds pooled (4 of 5 terrains inside, against 1), and checked once on fresh
-#: seeds 4000-4047: all five terrains inside (1.84-2.12). The fused std assumes a correlation of
+#: seeds 4000-4047: all five terrains inside (1.84-2.12); rechecked on the simulator of
+#: 2026-11-26: 4000-4047 still all five inside, the 144 seeds would now pick 0.02 (GRASS 2.19
+#: at 0.015), a fresh block 5000-5047 keeps 0.015 (4 inside for both, triplets 63 vs 58;
+#: ``docs/slip_learning.md`` section 5). The fused std assumes a correlation of
 #: 0.1 between the physics and learned window errors (their normalised errors' correlation pooled
 #: over the five terrains of seeds 200, 201: 0.085; per run -0.03 to 0.13, GRASS 0.34-0.51).
 BATCH_FUSION = FusionSettings(min_std=1e-5, filter=SkidSteerSlipSettings(
