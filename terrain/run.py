@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+import numpy as np
 import pandas as pd
 
 TIME = "t_s"
@@ -33,6 +34,35 @@ WHEEL_CHANNELS = ("vel_l", "vel_r", "cur_l", "cur_r")
 #: Vehicles a run may name (:attr:`Run.vehicle`); each has a default parameter set in
 #: :func:`terrain.vehicles.get_vehicle`, which takes the names from here
 VEHICLE_NAMES: tuple[str, ...] = ("agrimaro", "husky", "tracked")
+
+
+def step_index(t_grid_s: np.ndarray, t_s, clip: bool = False) -> np.ndarray:
+    """Step of a time grid each sample time belongs to: the first step at or after it.
+
+    A sample at ``t`` belongs to the first grid time ``>= t``, within 1e-9 s (so a sample on
+    a step belongs to that step despite rounding). The project's one placement rule: the
+    filters place their measurements on their steps by it
+    (:func:`terrain.estimation.runner.sample_steps`), and the simulator's sensors, truth and
+    closed-loop logs read the physics step of each sample by it
+    (:func:`terrain.sim.sensors.physics_step_index`).
+
+    Parameters
+    ----------
+    t_grid_s : ndarray, shape (n,)
+        Step times, s, increasing (``n >= 1`` when ``clip``).
+    t_s : array-like, shape (m,)
+        Sample times, s.
+    clip : bool
+        False: a sample after the last step gets ``n``. True: indices clipped to
+        ``0 .. n - 1`` (a sample past the last step reads the last one).
+
+    Returns
+    -------
+    ndarray of int, shape (m,)
+        Step index of each sample.
+    """
+    idx = np.searchsorted(t_grid_s, np.asarray(t_s, dtype=float) - 1e-9, side="left")
+    return np.clip(idx, 0, len(t_grid_s) - 1) if clip else idx
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from terrain.errors import ConfigError, ShapeError, TimeStepError
 from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, project_to_bounds
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
+from terrain.run import step_index
 
 #: Engines of :func:`run_filter`.
 ENGINES: tuple[str, ...] = ("auto", "numba", "numpy")
@@ -150,8 +151,9 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
 def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     """Grid step that receives each sample: the first step at or after its time.
 
-    The placement rule of :func:`run_filter` (to 1e-9 s, so a sample on a step belongs to
-    that step), shared by the code that must agree with it step for step (the segments and
+    The placement rule of :func:`run_filter` (:func:`terrain.run.step_index`: to 1e-9 s, so
+    a sample on a step belongs to that step; the simulator reads its steps by the same rule),
+    shared by the code that must agree with it step for step (the segments and
     the speed bound of :mod:`terrain.estimation.skid_steer_slip`).
 
     Parameters
@@ -166,7 +168,7 @@ def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     ndarray of int, shape (k,)
         Step index in ``0 .. N``; ``N`` for a sample after the last step.
     """
-    return np.searchsorted(t_grid, np.asarray(t_s, dtype=float) - 1e-9, side="left")
+    return step_index(t_grid, t_s)
 
 
 def _place(t_grid: np.ndarray, samples: SensorSamples, width: int

@@ -47,6 +47,7 @@ from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, tr
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import SensorSamples, run_filter, sample_steps
+from terrain.run import step_index
 from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
 
@@ -614,7 +615,7 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     ts = np.where(np.isfinite(ts[ok]), ts[ok], 0.0)
     base["slip_model"] = SensorSamples(tp, sp)
     # segment ends: the grid step that receives each pseudo-measurement
-    steps = np.clip(sample_steps(t_grid_s, tp), 0, t_grid_s.size - 1)
+    steps = step_index(t_grid_s, tp, clip=True)
     ends = np.unique(steps)
     std_of_end = {int(e): (float(s), float(d), float(x))
                   for e, s, d, x in zip(steps, sd, dd, ts)}

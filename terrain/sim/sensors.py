@@ -13,6 +13,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from terrain.errors import ConfigError
+from terrain.run import step_index
 from terrain.terramechanics.resistance import G_M_S2
 
 #: sampling-rate fields of :class:`SensorSettings`, Hz
@@ -112,8 +113,9 @@ def physics_step_index(t_phys_s: np.ndarray, t_s: np.ndarray) -> np.ndarray:
 
     A sample at ``t`` takes the state of the first physics step whose time is ``>= t``,
     within 1e-9 s (so a sample on the grid reads that step despite rounding); samples past
-    the last step read the last one. The simulated sensors, the ground truth and the
-    closed-loop logs place their samples by this one rule.
+    the last step read the last one (:func:`terrain.run.step_index`, clipped, the rule the
+    filters place their measurements by). The simulated sensors, the ground truth and the
+    closed-loop logs place their samples by it.
 
     Parameters
     ----------
@@ -127,8 +129,7 @@ def physics_step_index(t_phys_s: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     ndarray of int, shape (m,)
         Step index in ``0 .. n - 1``.
     """
-    idx = np.searchsorted(t_phys_s, np.asarray(t_s, dtype=float) - 1e-9, side="left")
-    return np.clip(idx, 0, len(t_phys_s) - 1)
+    return step_index(t_phys_s, t_s, clip=True)
 
 
 def interp_columns(t_new: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
