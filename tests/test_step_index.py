@@ -1,0 +1,29 @@
+"""The project's one sample-to-step rule (terrain.run.step_index), used by the filters and the
+simulator alike."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.estimation.runner import sample_steps
+from terrain.run import step_index
+from terrain.sim.sensors import physics_step_index
+
+
+def test_a_sample_belongs_to_the_first_step_at_or_after_it():
+    grid = np.arange(5) * 0.01                       # 0, 0.01, ..., 0.04 s
+    t = np.array([-0.5, 0.0, 0.004, 0.01, 0.03 - 1e-12, 0.03 + 1e-12, 0.0400001, 7.0])
+    np.testing.assert_array_equal(step_index(grid, t), [0, 0, 1, 1, 3, 3, 5, 5])
+    # clipped: a sample past the last step reads the last one
+    np.testing.assert_array_equal(step_index(grid, t, clip=True), [0, 0, 1, 1, 3, 3, 4, 4])
+    # the rounding tolerance is 1e-9 s, not more
+    assert step_index(grid, [0.02 + 2e-9])[0] == 3
+
+
+def test_the_filters_and_the_simulator_share_the_rule():
+    rng = np.random.default_rng(0)
+    grid = np.cumsum(rng.uniform(0.005, 0.02, 200))
+    t = np.sort(rng.uniform(grid[0] - 0.1, grid[-1] + 0.1, 500))
+    t[::7] = grid[rng.integers(0, grid.size, t[::7].size)]   # samples on steps
+    np.testing.assert_array_equal(sample_steps(grid, t), step_index(grid, t))
+    np.testing.assert_array_equal(physics_step_index(grid, t), step_index(grid, t, clip=True))
