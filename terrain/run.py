@@ -17,7 +17,8 @@ stream      channels                                                    units
 ==========  ==========================================================  ==============
 
 Streams keep their own time base. Putting them on one clock is the explicit step
-:func:`terrain.io.align.align_streams`.
+:func:`terrain.io.align.align_streams`; placing sample times on a uniform step grid (a
+filter's or the simulator's) is :func:`step_index`, the one rule both use.
 """
 
 from __future__ import annotations
