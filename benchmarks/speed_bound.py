@@ -40,6 +40,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from features.slip_outputs import slip_model_outputs
+from terrain.control.estimators import IMU_VIEWS
+from terrain.estimation.skid_steer_slip import STATE_NAMES
 from terrain.io.shipped import read_shipped
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
@@ -150,7 +152,7 @@ def measured_online(terrains, bounds, imu: str = "full-gyro") -> list[dict]:
             v = []
             for obs in measured_observations(run, radius):
                 v.append(est.update(obs).chassis_speed_m_s)
-                pitch.append(abs(float(est.x[-1])))
+                pitch.append(abs(float(est.x[STATE_NAMES.index("pitch")])))
             v = np.abs(v)
             rows.append({"run": run.run_id, "terrain": run.terrain, "setting": name,
                          "v_max": float(v.max()), "rim_max": rim,
@@ -206,7 +208,7 @@ def main() -> int:
     parser.add_argument("--online", action="store_true",
                         help="only the measured runs, through the closed loop's online "
                              "observer")
-    parser.add_argument("--imu", default="full-gyro", choices=("clean", "full", "full-gyro"),
+    parser.add_argument("--imu", default="full-gyro", choices=IMU_VIEWS,
                         help="--online: what the observer reads of the IMU (its imu view, "
                              "default its default; on a measured run clean is the logged "
                              "ax, ay, wz)")

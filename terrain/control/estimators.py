@@ -107,7 +107,10 @@ class SlipEstimator(Protocol):
         ...
 
 
-def _merged(obs: Observation, imu: str = "imu") -> list[tuple[float, str, np.ndarray]]:
+def _merged(obs: Observation, imu_view: str = "clean") -> list[tuple[float, str, np.ndarray]]:
+    """Every sample of an observation in time order, as ``(t, stream, values)``; the IMU
+    stream of the view (:data:`IMU_VIEWS`): ``imu`` for ``clean``, ``imu_full`` otherwise."""
+    imu = "imu" if imu_view == "clean" else "imu_full"
     rows = [(float(r[0]), name, r[1:]) for name in (imu, "wheels", "steer", "cam", "currents")
             for r in getattr(obs, name)]
     rows.sort(key=lambda x: x[0])
@@ -173,7 +176,7 @@ class AgriMaRoVisualOdometryEKF:
         -------
         VelocityEstimate
         """
-        for t, name, z in _merged(obs, "imu" if self.imu == "clean" else "imu_full"):
+        for t, name, z in _merged(obs, self.imu):
             if t > self.t:
                 self.ekf.predict(t - self.t)
                 self.t = t
@@ -482,7 +485,7 @@ class FusedSlipObserver:
         """
         r = self.vehicle.wheel_radius_m
         rows = SLIP_SENSOR_ROWS
-        for t, name, z in _merged(obs, "imu" if self.imu == "clean" else "imu_full"):
+        for t, name, z in _merged(obs, self.imu):
             if self.t is not None and t > self.t:
                 self.x, self.P = predict(self.x, self.P, t - self.t, self.model.f,
                                          self.model.F, self.model.Q, check=False)
