@@ -17,8 +17,15 @@ second of the 2 s window: both end at the decision time) and the forward filter 
 The two recipes alone are scored on the same replays, so their rows reproduce
 ``terrain stream-eval``.
 
-Run: ``python benchmarks/stream_multiscale.py [--seeds 0 1 2] [--no-mlflow]`` (about 20 min
-on a 2-core machine; logged to MLflow, experiment ``terrain-benchmark``).
+``--members SHORT LONG`` averages two other recipes of :data:`RECIPES` the same way, at the
+decision times of the second (give the one with the longer window second): e.g. the 1 s
+all-signal ensemble with the wheel-only model (``--members
+all-ensemble-dense-no-speed-1s-run-balanced wheels``), whose drive-physics features on 4 s of
+wheel history are evidence the all-signal members do not compute.
+
+Run: ``python benchmarks/stream_multiscale.py [--seeds 0 1 2] [--members SHORT LONG]
+[--no-mlflow]`` (about 20 min on a 2-core machine; logged to MLflow, experiment
+``terrain-benchmark``).
 """
 
 from __future__ import annotations
@@ -66,8 +73,12 @@ def at_times(t_from: np.ndarray, proba: np.ndarray, t_to: np.ndarray) -> np.ndar
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--members", nargs=2, default=[SHORT, LONG], choices=sorted(RECIPES),
+                    metavar="RECIPE", help="the two recipes averaged; the second's decision "
+                    "times are used (default: %(default)s)")
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
+    short, long = args.members
     runs = load_dataset("borealtc")
     config = SmoothingConfig()
     start = time.perf_counter()
@@ -76,14 +87,15 @@ def main() -> int:
         for fold, train, stream, segments in held_out_folds(runs, ("imu", "wheels"), seed,
                                                             progress=True):
             replays = {}
-            for kind in (SHORT, LONG):
+            for kind in (short, long):
                 model = fit_stream_model(RECIPES[kind], train, seed)
                 replays[kind] = (*raw_decisions(model, stream, HOP_S), model.classes)
-            (t1, p1, c1), (t2, p2, c2) = replays[SHORT], replays[LONG]
+            (t1, p1, c1), (t2, p2, c2) = replays[short], replays[long]
             if list(c1) != list(c2):
                 raise RuntimeError(f"class orders differ: {c1} vs {c2}")
             both = 0.5 * (p2 + at_times(t1, p1, t2))
-            arms = {SHORT: (t1, p1, 1.0), LONG: (t2, p2, 2.0), "average": (t2, both, 2.0)}
+            w1, w2 = RECIPES[short].window_s, RECIPES[long].window_s
+            arms = {short: (t1, p1, w1), long: (t2, p2, w2), "average": (t2, both, max(w1, w2))}
             for arm, (t, p, window_s) in arms.items():
                 score = score_smoothing(segments, t, p, c1, config, HOP_S, window_s)
                 rows.append({"seed": seed, "fold": fold, "arm": arm, **score.as_row()})
@@ -102,7 +114,7 @@ def main() -> int:
                         f"{arm}_median_delay_s": p["median_delay_s"]})
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name="stream-multiscale",
-                         params={"short": SHORT, "long": LONG,
+                         params={"short": short, "long": long,
                                  "seeds": ",".join(map(str, args.seeds))}) as run:
             run.log_metrics(metrics)
             # delays and confusion as JSON: read_stream_scores reads the table back
