@@ -6,7 +6,9 @@ and ``imu_full``, what a robot logs. This script runs the control grid
 (:func:`terrain.control.grid.run_grid`, ``DEFAULT_GAINS``, feed-forward on, the run's label
 as terrain decision) once per estimator kind and IMU view
 (:data:`terrain.control.estimators.ESTIMATORS`): the AgriMaRo's EKF with visual odometry on
-the simplified (``ekf-vo``) and the full IMU (``ekf-vo-full-imu``), the Husky's fused
+the simplified (``ekf-vo``) and the full IMU (``ekf-vo-full-imu``; its accelerometer rows
+as block means with their measured noise, ``ekf-vo-full-imu-averaged``; its gyro only,
+``ekf-vo-full-gyro``), the Husky's fused
 estimate on the full IMU's gyro (``fused``, the default), with its accelerometer rows too
 (``fused-full-imu``) and on the simplified IMU (``fused-clean-imu``). It prints the slip
 RMSE under control (true slip against the set point, controller on) and the peak slip per
@@ -15,7 +17,7 @@ terrain and scenario, and their means per kind, and logs them to MLflow (experim
 Husky's observer on the full IMU".
 
 Usage: ``python benchmarks/control_imu_views.py [--kinds ekf-vo ekf-vo-full-imu ...]
-[--terrains ...] [--scenarios ...] [--seeds 0 1 2]`` (about 8 min with the defaults on one
+[--terrains ...] [--scenarios ...] [--seeds 0 1 2]`` (about 11 min with the defaults on one
 core).
 """
 
@@ -31,7 +33,9 @@ from terrain.control.grid import compare, run_grid
 from terrain.tracking import tracked_run
 
 #: (vehicle, kind) compared by default: every IMU view of the two vehicles' estimators
-KINDS = (("agrimaro", "ekf-vo"), ("agrimaro", "ekf-vo-full-imu"), ("husky", "fused"),
+KINDS = (("agrimaro", "ekf-vo"), ("agrimaro", "ekf-vo-full-imu"),
+         ("agrimaro", "ekf-vo-full-imu-averaged"), ("agrimaro", "ekf-vo-full-gyro"),
+         ("husky", "fused"),
          ("husky", "fused-full-imu"), ("husky", "fused-clean-imu"))
 
 

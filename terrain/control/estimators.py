@@ -31,6 +31,7 @@ builds the one a vehicle has (:data:`ESTIMATORS`).
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import replace
 from types import MappingProxyType
 from typing import Callable, Mapping, NamedTuple, Protocol
@@ -117,6 +118,10 @@ def _merged(obs: Observation, imu_view: str = "clean") -> list[tuple[float, str,
     return rows
 
 
+#: IMU views of the AgriMaRo EKF (:class:`AgriMaRoVisualOdometryEKF`, ``imu``)
+AGRIMARO_IMU_VIEWS: tuple[str, ...] = ("clean", "full", "full-averaged", "full-gyro")
+
+
 class AgriMaRoVisualOdometryEKF:
     """Streaming AgriMaRo EKF (seed 001 ch. 6.1) on IMU, encoders, steering and camera.
 
@@ -125,17 +130,25 @@ class AgriMaRoVisualOdometryEKF:
     accel_std_m_s2 : float
         Accelerometer noise for :func:`terrain.estimation.agrimaro.noise_derived_settings`,
         m/s^2 (its default 0.8: vibration included).
-    imu : {"clean", "full"}
-        IMU view (:data:`IMU_VIEWS`): ``clean`` the loop's IMU without the vibration band and
-        gravity (default, the figures of docs/control_validation.md), ``full`` the full IMU
-        a robot logs (its ``ax, ay, wz``). No gyro-only view: without the accelerometer
-        rows the acceleration states are observed only through the camera and the encoders
-        (docs/control_validation.md, "The AgriMaRo's EKF on the full IMU").
+    imu : {"clean", "full", "full-averaged", "full-gyro"}
+        IMU view (:data:`AGRIMARO_IMU_VIEWS`): ``clean`` the loop's IMU without the vibration
+        band and gravity (default, the figures of docs/control_validation.md); the others
+        read the full IMU a robot logs: ``full`` its ``ax, ay, wz`` at every sample,
+        ``full-averaged`` its gyro at every sample and the accelerometer rows once per block
+        of ``accel_block_s`` as the block mean, with a noise variance measured online
+        (:meth:`_full_imu_sample`), ``full-gyro`` its gyro only (the acceleration states
+        are then observed only through the camera and the encoders). On the simulated
+        control grid the gyro alone does best of the three (docs/control_validation.md,
+        "The AgriMaRo's EKF on the full IMU").
+    accel_block_s : float
+        Block of the ``full-averaged`` view's accelerometer rows, s (> 0).
+    adapt_blocks : int
+        Blocks over which that view's noise variance is averaged (>= 2).
 
     Raises
     ------
     ConfigError
-        Another ``imu`` view.
+        Another ``imu`` view; a non-positive block or fewer than 2 blocks.
     """
 
     name = "agrimaro-ekf-vo"
@@ -144,12 +157,29 @@ class AgriMaRoVisualOdometryEKF:
               "camera sample the velocity drifts with the slipping wheels, so the estimate is "
               "reported stale (age = time since the last camera sample)")
 
-    def __init__(self, accel_std_m_s2: float = 0.8, imu: str = "clean") -> None:
-        if imu not in ("clean", "full"):
-            raise ConfigError(f"imu must be clean or full for the AgriMaRo EKF, got {imu!r}")
+    def __init__(self, accel_std_m_s2: float = 0.8, imu: str = "clean",
+                 accel_block_s: float = 0.1, adapt_blocks: int = 20) -> None:
+        if imu not in AGRIMARO_IMU_VIEWS:
+            raise ConfigError(f"imu must be one of {', '.join(AGRIMARO_IMU_VIEWS)} for the "
+                              f"AgriMaRo EKF, got {imu!r}")
+        if not (accel_block_s > 0 and int(adapt_blocks) >= 2):
+            raise ConfigError(f"accel_block_s must be > 0 and adapt_blocks >= 2, got "
+                              f"{accel_block_s}, {adapt_blocks}")
         self.imu = imu
-        if imu == "full":
-            self.name = "agrimaro-ekf-vo-full-imu"
+        self.name = {"clean": "agrimaro-ekf-vo", "full": "agrimaro-ekf-vo-full-imu",
+                     "full-averaged": "agrimaro-ekf-vo-full-imu-averaged",
+                     "full-gyro": "agrimaro-ekf-vo-full-gyro"}[imu]
+        self.accel_std_m_s2 = float(accel_std_m_s2)
+        self.accel_block_s = float(accel_block_s)
+        # the accelerometer block being averaged: sum, count, start; the previous block mean
+        self._block_sum = np.zeros(2)
+        self._block_n = 0
+        self._block_t0 = math.nan
+        self._last_block_mean: np.ndarray | None = None
+        # (M_k - M_k-1)^2 / 2 of the last blocks' means: variance of a block mean
+        self._block_var: deque[np.ndarray] = deque(maxlen=int(adapt_blocks))
+        #: accelerometer std of the last block mean used, m/s^2 (``full-averaged``)
+        self.accel_block_std_m_s2 = np.full(2, math.nan)
         self.vehicle = get_vehicle("agrimaro")
         self.model = AgriMaRoModel(self.vehicle, noise_derived_settings(
             accel_std_m_s2=accel_std_m_s2))
@@ -182,6 +212,9 @@ class AgriMaRoVisualOdometryEKF:
                 self.t = t
             if name == "wheels":
                 self.omega = z.copy()
+            if name == "imu_full" and self.imu in ("full-averaged", "full-gyro"):
+                self._full_imu_sample(t, z)
+                continue
             if name == "imu_full":      # wx wy wz ax ay az -> the model's ax, ay, wz
                 name, z = "imu", z[[3, 4, 2]]
             z = z[:3]
@@ -197,6 +230,52 @@ class AgriMaRoVisualOdometryEKF:
         a_long = ax * np.cos(d) + ay * np.sin(d)
         return VelocityEstimate(self.omega.copy(), v_long, a_long, float(math.hypot(vx, vy)),
                                 float(obs.t_s - self.t_cam))
+
+    def _full_imu_sample(self, t: float, z: np.ndarray) -> None:
+        """One full-IMU sample of the ``full-averaged`` or ``full-gyro`` view.
+
+        The gyro row at once; with ``full-averaged`` the accelerometer rows once per block of
+        ``accel_block_s``, as the block mean. The terrain's vibration band is coloured (a
+        15 Hz first-order band in the simulator, :mod:`terrain.sim.sensors`) and its level
+        follows the terrain and the speed, so no fixed white-noise std fits it. A block
+        mean's noise is close to white at the block rate, and its variance is measured
+        online without a noise model: the vehicle's own acceleration hardly changes from one
+        block to the next, so ``(M_k - M_{k-1})^2 / 2`` of consecutive block means (the
+        two-sample or Allan variance at the block length, IEEE Std 952-1997, annex C)
+        estimates the variance of a block mean, whatever the noise's colour, as long as its
+        correlation time is short against a block. It is averaged over the last
+        ``adapt_blocks`` blocks and floored at the white-noise variance of a block mean,
+        ``accel_std_m_s2^2 / n``.
+
+        Parameters
+        ----------
+        t : float
+            Sample time, s.
+        z : ndarray, shape (6,)
+            ``wx, wy, wz, ax, ay, az`` (rad/s, m/s^2).
+        """
+        wz, a_xy = z[2], z[3:5]
+        rows = self.rows["imu"]             # the model's ax, ay, wz rows
+        if math.isfinite(wz):
+            self.ekf.update(np.array([wz]), rows=rows[2:3])
+        if self.imu == "full-gyro" or not np.all(np.isfinite(a_xy)):
+            return
+        if self._block_n == 0:
+            self._block_t0 = t
+        self._block_sum = self._block_sum + a_xy
+        self._block_n += 1
+        if t - self._block_t0 < self.accel_block_s - 1e-9:
+            return
+        n, mean = self._block_n, self._block_sum / self._block_n
+        self._block_sum, self._block_n = np.zeros(2), 0
+        if self._last_block_mean is not None:
+            self._block_var.append((mean - self._last_block_mean) ** 2 / 2.0)
+        self._last_block_mean = mean
+        r = np.full(2, self.accel_std_m_s2 ** 2 / n)
+        if len(self._block_var) >= 2:
+            r = np.maximum(r, np.mean(self._block_var, axis=0))
+        self.ekf.update(mean, rows=rows[:2], R=r)
+        self.accel_block_std_m_s2 = np.sqrt(r)
 
 
 class WheelImuObserver:
@@ -532,13 +611,15 @@ class FusedSlipObserver:
 #: Estimators of :func:`estimator_for` per vehicle; the first is the default (the one the
 #: vehicle would really have, issue 11).
 ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    "agrimaro": ("ekf-vo", "ekf-vo-full-imu"),
+    "agrimaro": ("ekf-vo", "ekf-vo-full-imu", "ekf-vo-full-imu-averaged", "ekf-vo-full-gyro"),
     "husky": ("fused", "observer", "fused-full-imu", "fused-clean-imu")})
 
 
 #: IMU view (:data:`IMU_VIEWS`) of each estimator kind that has one
 IMU_VIEW_OF_KIND: Mapping[str, str] = MappingProxyType({
-    "ekf-vo": "clean", "ekf-vo-full-imu": "full", "fused": "full-gyro",
+    "ekf-vo": "clean", "ekf-vo-full-imu": "full", "ekf-vo-full-imu-averaged": "full-averaged",
+    "ekf-vo-full-gyro": "full-gyro",
+    "fused": "full-gyro",
     "fused-full-imu": "full", "fused-clean-imu": "clean"})
 
 
@@ -555,7 +636,9 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
         estimator needs the terrain's curve for its physics slip).
     kind : str, optional
         One of :data:`ESTIMATORS` of the vehicle: AgriMaRo ``ekf-vo``
-        (:class:`AgriMaRoVisualOdometryEKF`; ``ekf-vo-full-imu`` on the full IMU); Husky
+        (:class:`AgriMaRoVisualOdometryEKF`; on the full IMU ``ekf-vo-full-imu`` with every
+        sample's accelerometer rows, ``ekf-vo-full-imu-averaged`` with block means and their
+        measured noise, ``ekf-vo-full-gyro`` its gyro only); Husky
         ``fused`` (:class:`FusedSlipObserver`, issue 10's fused slip estimate on the gyro of
         the full IMU), ``observer`` (:class:`WheelImuObserver`, the earlier interim
         estimator, kept for comparison),

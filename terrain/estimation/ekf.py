@@ -640,8 +640,8 @@ class ExtendedKalmanFilter:
         self._x, self._P = predict(self._x, self._P, dt, self._f, self._F, self._Q,
                                    args=args, check=False)
 
-    def update(self, z: np.ndarray, *args: Any, rows: Sequence[int] | None = None
-               ) -> Innovation:
+    def update(self, z: np.ndarray, *args: Any, rows: Sequence[int] | None = None,
+               R: np.ndarray | None = None) -> Innovation:
         """Correct with measurement ``z``.
 
         Parameters
@@ -652,6 +652,9 @@ class ExtendedKalmanFilter:
             Extra arguments passed to ``h``, ``H``.
         rows : sequence of int, optional
             Rows of the full measurement vector present in ``z``.
+        R : ndarray, shape (len(z),) or (len(z), len(z)), optional
+            Measurement noise of this update only (e.g. of a block-averaged or adaptively
+            weighted row), units of ``z`` squared; None: the filter's ``R`` of these rows.
 
         Returns
         -------
@@ -673,11 +676,16 @@ class ExtendedKalmanFilter:
             z_full = hx.copy()
             z_full[idx] = z
             y = self._residual(z_full, hx)[idx]
+        if R is not None:
+            R = np.asarray(R, dtype=float)
+            checked = as_covariance(R, idx.size, "R", definite=True)
+            R = R if R.ndim == 1 else checked
         if rows is None:
-            R = self._R
+            R = self._R if R is None else R
             groups = self._groups
         else:
-            R = self._R[idx] if self._R.ndim == 1 else self._R[np.ix_(idx, idx)]
+            if R is None:
+                R = self._R[idx] if self._R.ndim == 1 else self._R[np.ix_(idx, idx)]
             groups = None
             if self._groups is not None:
                 pos = {int(r): i for i, r in enumerate(idx)}

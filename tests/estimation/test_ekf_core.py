@@ -265,3 +265,25 @@ def test_projection_refuses_crossed_bounds_and_a_wrong_covariance():
         project_to_bounds(np.zeros(2), np.eye(2), [0.0, 1.0], [1.0, 0.0])
     with pytest.raises(ShapeError, match="shape"):
         project_to_bounds(np.zeros(2), np.eye(3), [-1.0, -1.0], [1.0, 1.0])
+
+
+def test_update_with_its_own_noise_equals_a_filter_built_with_it():
+    """``update(..., R=...)`` (a block-averaged or adaptively weighted row) is the update of
+    a filter whose ``R`` holds that noise; the filter's own ``R`` is untouched, and a
+    noise that is not positive definite is a typed error."""
+    f, F, h, H, Q = _cv_model()
+    rng = np.random.default_rng(5)
+    own = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, Q, np.array([1.0]))
+    ref = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, Q, np.array([0.04]))
+    for _ in range(20):
+        z = rng.standard_normal(1)
+        own.predict(0.1)
+        ref.predict(0.1)
+        a = own.update(z, rows=[0], R=np.array([0.04]))
+        b = ref.update(z)
+        np.testing.assert_allclose(own.x, ref.x, rtol=1e-12)
+        np.testing.assert_allclose(own.P, ref.P, rtol=1e-12)
+        assert a.nis == pytest.approx(b.nis)
+    assert own.update(np.zeros(1)).S[0, 0] > 1.0          # its own R (1.0) again
+    with pytest.raises(CovarianceError):
+        own.update(np.zeros(1), R=np.array([-0.1]))
