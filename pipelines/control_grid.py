@@ -48,9 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``terrain control-grid``: vehicles, terrains, scenarios, evaluation seeds,
     ``--duration-s`` (simulated time per run, s), ``--no-tune``, the proportional
     (rad/s per unit slip) and integral (rad/s per unit slip and s) gain grids,
-    ``--husky-estimator``, ``--no-feed-forward``, the ``--terrain-source`` (with ``--model``
-    or the live-sim ``--classifier-seeds`` and ``--classifier-uncontrolled-only``) and
-    ``--out``.
+    ``--husky-estimator``, ``--agrimaro-estimator``, ``--no-feed-forward``, the
+    ``--terrain-source`` (with ``--model`` or the live-sim ``--classifier-seeds`` and
+    ``--classifier-uncontrolled-only``) and ``--out``.
 
     Parameters
     ----------
@@ -70,6 +70,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--husky-estimator", choices=ESTIMATORS["husky"],
                         default=ESTIMATORS["husky"][0],
                         help="the Husky's slip estimator (default: the fused slip estimate)")
+    parser.add_argument("--agrimaro-estimator", choices=ESTIMATORS["agrimaro"],
+                        default=ESTIMATORS["agrimaro"][0],
+                        help="the AgriMaRo's slip estimator (default: its EKF with visual "
+                             "odometry on the loop's simplified IMU; ekf-vo-full-gyro and "
+                             "ekf-vo-full-imu-averaged read the full IMU a robot logs)")
     parser.add_argument("--no-feed-forward", action="store_true",
                         help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default="label",
@@ -133,9 +138,9 @@ def check_grid(args: argparse.Namespace) -> None:
         refuses (negative or not finite), an evaluation seed that is a tuning seed, a
         value repeated on an axis or in a gain grid, a terrain-source option the source
         would ignore (:func:`pipelines.control_classifier.check_decision_options`), gain
-        grids other than the default with ``--no-tune``, or a ``--husky-estimator`` other
-        than the default with no husky in ``--vehicles`` (both would be ignored, and logged
-        to MLflow as if used).
+        grids other than the default with ``--no-tune``, or a ``--husky-estimator`` or
+        ``--agrimaro-estimator`` other than the default with no such vehicle in
+        ``--vehicles`` (both would be ignored, and logged to MLflow as if used).
     """
     for vehicle in args.vehicles:
         default_gains(vehicle)
@@ -167,9 +172,13 @@ def check_grid(args: argparse.Namespace) -> None:
                           f"tuning grid{'s' if len(grids) > 1 else ''}; --no-tune uses the "
                           f"default gains: leave {'them' if len(grids) > 1 else 'it'} or "
                           "--no-tune out")
-    if "husky" not in args.vehicles and args.husky_estimator != ESTIMATORS["husky"][0]:
-        raise ConfigError(f"--husky-estimator is the Husky's slip estimator; --vehicles "
-                          f"{' '.join(args.vehicles)} has no husky: leave it out")
+    for vehicle in ("husky", "agrimaro"):
+        option = f"--{vehicle}-estimator"
+        if vehicle not in args.vehicles and (getattr(args, f"{vehicle}_estimator")
+                                             != ESTIMATORS[vehicle][0]):
+            name = {"husky": "Husky", "agrimaro": "AgriMaRo"}[vehicle]
+            raise ConfigError(f"{option} is the {name}'s slip estimator; --vehicles "
+                              f"{' '.join(args.vehicles)} has no {vehicle}: leave it out")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -198,7 +207,7 @@ def main(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     params = {k: v for k, v in vars(args).items() if not k.startswith("_")}
     with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
-        estimators = {"husky": args.husky_estimator}
+        estimators = {"husky": args.husky_estimator, "agrimaro": args.agrimaro_estimator}
         gains = {v: default_gains(v, estimators.get(v)) for v in args.vehicles}
         tuning = {}
         if not args.no_tune:
