@@ -79,6 +79,8 @@ def main() -> int:
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
     short, long = args.members
+    if short == long:
+        ap.error(f"--members: two different recipes, got {short} twice")
     runs = load_dataset("borealtc")
     config = SmoothingConfig()
     start = time.perf_counter()
