@@ -172,13 +172,12 @@ def check_grid(args: argparse.Namespace) -> None:
                           f"tuning grid{'s' if len(grids) > 1 else ''}; --no-tune uses the "
                           f"default gains: leave {'them' if len(grids) > 1 else 'it'} or "
                           "--no-tune out")
-    for vehicle in ("husky", "agrimaro"):
-        option = f"--{vehicle}-estimator"
+    for vehicle, name in (("husky", "Husky"), ("agrimaro", "AgriMaRo")):
         if vehicle not in args.vehicles and (getattr(args, f"{vehicle}_estimator")
                                              != ESTIMATORS[vehicle][0]):
-            name = {"husky": "Husky", "agrimaro": "AgriMaRo"}[vehicle]
-            raise ConfigError(f"{option} is the {name}'s slip estimator; --vehicles "
-                              f"{' '.join(args.vehicles)} has no {vehicle}: leave it out")
+            raise ConfigError(f"--{vehicle}-estimator is the {name}'s slip estimator; "
+                              f"--vehicles {' '.join(args.vehicles)} has no {vehicle}: "
+                              "leave it out")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -213,11 +213,11 @@ class AgriMaRoVisualOdometryEKF:
                 self.t = t
             if name == "wheels":
                 self.omega = z.copy()
-            if name == "imu_full" and self.imu in ("full-averaged", "full-gyro"):
-                self._full_imu_sample(t, z)
-                continue
-            if name == "imu_full":      # wx wy wz ax ay az -> the model's ax, ay, wz
-                name, z = "imu", z[[3, 4, 2]]
+            if name == "imu_full":      # wx wy wz ax ay az
+                if self.imu != "full":
+                    self._full_imu_sample(t, z)
+                    continue
+                name, z = "imu", z[[3, 4, 2]]   # the model's ax, ay, wz
             z = z[:3]
             if name in self.rows and np.all(np.isfinite(z)):
                 self.ekf.update(z, rows=self.rows[name])

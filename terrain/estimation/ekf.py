@@ -676,16 +676,16 @@ class ExtendedKalmanFilter:
             z_full = hx.copy()
             z_full[idx] = z
             y = self._residual(z_full, hx)[idx]
-        if R is not None:
+        if R is None:
+            R = (self._R if rows is None else self._R[idx] if self._R.ndim == 1
+                 else self._R[np.ix_(idx, idx)])
+        else:
             R = np.asarray(R, dtype=float)
             checked = as_covariance(R, idx.size, "R", definite=True)
             R = R if R.ndim == 1 else checked
         if rows is None:
-            R = self._R if R is None else R
             groups = self._groups
         else:
-            if R is None:
-                R = self._R[idx] if self._R.ndim == 1 else self._R[np.ix_(idx, idx)]
             groups = None
             if self._groups is not None:
                 pos = {int(r): i for i, r in enumerate(idx)}
