@@ -73,8 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--agrimaro-estimator", choices=ESTIMATORS["agrimaro"],
                         default=ESTIMATORS["agrimaro"][0],
                         help="the AgriMaRo's slip estimator (default: its EKF with visual "
-                             "odometry on the loop's simplified IMU; ekf-vo-full-gyro and "
-                             "ekf-vo-full-imu-averaged read the full IMU a robot logs)")
+                             "odometry on the gyro of the full IMU a robot logs; ekf-vo on "
+                             "the loop's simplified IMU without vibration and gravity)")
     parser.add_argument("--no-feed-forward", action="store_true",
                         help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default="label",

@@ -83,8 +83,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: also on runs with the traction controller on)")
     parser.add_argument("--estimator", default=None,
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}),
-                        help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo, Husky "
-                             "fused)")
+                        help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo-full-gyro, "
+                             "Husky fused, both on the gyro of the IMU a robot logs)")
     parser.add_argument("--no-feed-forward", action="store_true",
                         help="feedback only (no feed-forward slip limit)")
     parser.add_argument("--json", type=output_file, required=True, help="output JSON file")

@@ -130,17 +130,18 @@ class AgriMaRoVisualOdometryEKF:
     accel_std_m_s2 : float
         Accelerometer noise for :func:`terrain.estimation.agrimaro.noise_derived_settings`,
         m/s^2 (its default 0.8: vibration included).
-    imu : {"clean", "full", "full-averaged", "full-gyro"}
+    imu : {"full-gyro", "clean", "full", "full-averaged"}
         IMU view (:data:`AGRIMARO_IMU_VIEWS`): ``clean`` the loop's IMU without the vibration
-        band and gravity (default, the figures of docs/control_validation.md); the others
+        band and gravity (the AgriMaRo's control figures before 2026-11-26); the others
         read the full IMU a robot logs: ``full`` its ``ax, ay, wz`` at every sample,
         ``full-averaged`` its gyro at every sample and the accelerometer rows once per block
         of ``accel_block_s`` as the block mean, with a noise variance measured online
         (:meth:`_full_imu_sample`), ``full-gyro`` its gyro only (the acceleration states
-        are then observed only through the camera and the encoders). On the simulated
-        control grid's level cells the two last give the same speed error (0.015 m/s,
-        against 0.024 for ``full``) and the gyro alone the steadier acceleration
-        (docs/control_validation.md, "The AgriMaRo's EKF on the full IMU").
+        are then observed only through the camera and the encoders; the default). On the
+        simulated control grid's level cells the two last give the same speed error (0.015
+        m/s, against 0.024 for ``full``) and the gyro alone the steadier acceleration; on
+        every cell the robot can drive, sloped or level, the gyro view holds the slip limit
+        as ``clean`` does (docs/control_validation.md, "The AgriMaRo's EKF on the full IMU").
     accel_block_s : float
         Block of the ``full-averaged`` view's accelerometer rows, s (> 0).
     adapt_blocks : int
@@ -152,13 +153,13 @@ class AgriMaRoVisualOdometryEKF:
         Another ``imu`` view; a non-positive block or fewer than 2 blocks.
     """
 
-    name = "agrimaro-ekf-vo"
+    name = "agrimaro-ekf-vo-full-gyro"
     limits = ("12-state EKF of seed 001 ch. 6.1 with the T265 velocity (rows v_cx, v_cy, "
               "yaw_rate_c; yaw_c and the IMU yaw left out); noise-derived tuning; without a "
               "camera sample the velocity drifts with the slipping wheels, so the estimate is "
               "reported stale (age = time since the last camera sample)")
 
-    def __init__(self, accel_std_m_s2: float = 0.8, imu: str = "clean",
+    def __init__(self, accel_std_m_s2: float = 0.8, imu: str = "full-gyro",
                  accel_block_s: float = 0.1, adapt_blocks: int = 20) -> None:
         if imu not in AGRIMARO_IMU_VIEWS:
             raise ConfigError(f"imu must be one of {', '.join(AGRIMARO_IMU_VIEWS)} for the "
@@ -612,7 +613,7 @@ class FusedSlipObserver:
 #: Estimators of :func:`estimator_for` per vehicle; the first is the default (the one the
 #: vehicle would really have, issue 11).
 ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    "agrimaro": ("ekf-vo", "ekf-vo-full-imu", "ekf-vo-full-imu-averaged", "ekf-vo-full-gyro"),
+    "agrimaro": ("ekf-vo-full-gyro", "ekf-vo", "ekf-vo-full-imu", "ekf-vo-full-imu-averaged"),
     "husky": ("fused", "observer", "fused-full-imu", "fused-clean-imu")})
 
 
@@ -636,10 +637,11 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
         ``f(t_s) -> (label, confidence)``: the loop's terrain decision (the Husky's fused
         estimator needs the terrain's curve for its physics slip).
     kind : str, optional
-        One of :data:`ESTIMATORS` of the vehicle: AgriMaRo ``ekf-vo``
-        (:class:`AgriMaRoVisualOdometryEKF`; on the full IMU ``ekf-vo-full-imu`` with every
-        sample's accelerometer rows, ``ekf-vo-full-imu-averaged`` with block means and their
-        measured noise, ``ekf-vo-full-gyro`` its gyro only); Husky
+        One of :data:`ESTIMATORS` of the vehicle: AgriMaRo ``ekf-vo-full-gyro``
+        (:class:`AgriMaRoVisualOdometryEKF` on the gyro of the full IMU a robot logs; ``ekf-vo``
+        on the loop's simplified IMU without vibration and gravity, the control figures before
+        2026-11-26; on the full IMU ``ekf-vo-full-imu`` with every sample's accelerometer rows,
+        ``ekf-vo-full-imu-averaged`` with block means and their measured noise); Husky
         ``fused`` (:class:`FusedSlipObserver`, issue 10's fused slip estimate on the gyro of
         the full IMU), ``observer`` (:class:`WheelImuObserver`, the earlier interim
         estimator, kept for comparison),

@@ -71,7 +71,9 @@ def test_estimator_kinds():
     with pytest.raises(ConfigError, match="imu must be one of"):
         FusedSlipObserver(imu="raw")
     assert estimator_for("husky", kind="observer").name == "wheel-imu-observer"
-    assert estimator_for("agrimaro").name == "agrimaro-ekf-vo"
+    default = estimator_for("agrimaro")
+    assert (default.imu, default.name) == ("full-gyro", "agrimaro-ekf-vo-full-gyro")
+    assert estimator_for("agrimaro", kind="ekf-vo").imu == "clean"
     full_vo = estimator_for("agrimaro", kind="ekf-vo-full-imu")
     assert (full_vo.imu, full_vo.name) == ("full", "agrimaro-ekf-vo-full-imu")
     for kind, view in (("ekf-vo-full-imu-averaged", "full-averaged"),

@@ -125,8 +125,8 @@ def test_a_terrain_source_option_the_source_ignores_is_refused(argv, message, ca
       "observer"], "--husky-estimator is the Husky's slip estimator; --vehicles agrimaro has "
                    "no husky: leave it out"),
     (["control-grid", "--out", "g", "--vehicles", "husky", "--agrimaro-estimator",
-      "ekf-vo-full-gyro"], "--agrimaro-estimator is the AgriMaRo's slip estimator; --vehicles "
-                           "husky has no agrimaro: leave it out"),
+      "ekf-vo"], "--agrimaro-estimator is the AgriMaRo's slip estimator; --vehicles "
+                 "husky has no agrimaro: leave it out"),
 ])
 def test_a_control_grid_option_the_grid_ignores_is_refused(argv, message, capsys, tmp_path,
                                                            monkeypatch):
