@@ -8,7 +8,7 @@ as terrain decision) once per estimator kind and IMU view
 (:data:`terrain.control.estimators.ESTIMATORS`): the AgriMaRo's EKF with visual odometry on
 the simplified (``ekf-vo``) and the full IMU (``ekf-vo-full-imu``; its accelerometer rows
 as block means with their measured noise, ``ekf-vo-full-imu-averaged``; its gyro only,
-``ekf-vo-full-gyro``), the Husky's fused
+``ekf-vo-full-gyro``, the default since 2026-11-26), the Husky's fused
 estimate on the full IMU's gyro (``fused``, the default), with its accelerometer rows too
 (``fused-full-imu``) and on the simplified IMU (``fused-clean-imu``). It prints the slip
 RMSE under control (true slip against the set point, controller on) and the peak slip per
