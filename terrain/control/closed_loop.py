@@ -385,8 +385,8 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
 #: acts on the tuning runs: the feed-forward limit holds the slip and the estimate no longer
 #: overshoots at the end of the ramp; the smallest gains are kept). The AgriMaRo's default
 #: estimator reads the gyro of the full IMU since 2026-11-26 (``ekf-vo-full-gyro``); with it
-#: the same search gives kp 2 to 10 within 1e-4 of each other (0.0638; kp 20 0.075), so the
-#: gains stay (5, 0), now also those of ``ekf-vo``.
+#: the same search gives kp 2 and 5 within 1e-4 of each other (0.0622, 0.0623; kp 10 0.0628,
+#: kp 20 0.109), so the gains stay (5, 0), now also those of ``ekf-vo``.
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "agrimaro": (5.0, 0.0), "husky": (2.0, 0.0)})
 
