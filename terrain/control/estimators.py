@@ -257,7 +257,8 @@ class AgriMaRoVisualOdometryEKF:
 
     def _speed_slope(self, t: float, v_long: np.ndarray, a_state: np.ndarray) -> np.ndarray:
         """Least-squares slope of the estimated speeds of the last ``speed_slope_s``, m/s^2
-        per unit (:func:`numpy.polyfit`, degree 1); ``a_state`` for the first two calls.
+        per unit (:func:`numpy.polyfit`, degree 1); ``a_state`` while fewer than three calls
+        at two distinct times are in the window.
 
         Parameters
         ----------
@@ -276,9 +277,9 @@ class AgriMaRoVisualOdometryEKF:
         speeds.append((t, np.asarray(v_long, dtype=float).copy()))
         while speeds[0][0] < t - self.speed_slope_s - 1e-9:
             speeds.popleft()
-        if len(speeds) < 3:
-            return a_state
         times = np.array([s[0] for s in speeds])
+        if len(speeds) < 3 or times[0] == times[-1]:
+            return a_state
         return np.polyfit(times - t, np.array([s[1] for s in speeds]), 1)[0]
 
     def _full_imu_sample(self, t: float, z: np.ndarray) -> None:
