@@ -188,9 +188,9 @@ class AgriMaRoVisualOdometryEKF:
         # (t, v_long) of the calls within speed_slope_s (``full-gyro``)
         self._speeds: deque[tuple[float, np.ndarray]] = deque()
         self.imu = imu
-        self.name = {"clean": "agrimaro-ekf-vo", "full": "agrimaro-ekf-vo-full-imu",
-                     "full-averaged": "agrimaro-ekf-vo-full-imu-averaged",
-                     "full-gyro": "agrimaro-ekf-vo-full-gyro"}[imu]
+        # "agrimaro-" and the estimator kind of this view (IMU_VIEW_OF_KIND, the one table)
+        self.name = "agrimaro-" + next(kind for kind, view in IMU_VIEW_OF_KIND.items()
+                                       if kind.startswith("ekf-vo") and view == imu)
         self.accel_std_m_s2 = float(accel_std_m_s2)
         self.accel_block_s = float(accel_block_s)
         # the accelerometer block being averaged: sum, count, start; the previous block mean
