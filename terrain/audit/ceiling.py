@@ -13,11 +13,16 @@ measures whether it is reachable at all by such a model, from the measured runs 
   Fitted per run as well (``per_run``: one ``chi_m`` for each run): the error left when the
   ground state of every run is known. The difference between the two is what varies between
   runs of one terrain and is not in the inputs.
+  Fitted on *other* runs of the terrain and applied to the evaluated ones (``trained``, when
+  training runs are given): what the family's parameter set gives on unseen runs when it is
+  chosen as the targets' own parameters are, on training runs. The ``shared`` fit bounds it
+  from above on the evaluated samples (least squares on them is the smallest error of the
+  family there).
 * **Motor current, recalibrated physics.** Per drive side, the measured current is fitted as
   an affine function of the physics' own prediction(s) (the reference replay and, when given,
   the candidate version on the same clock) and of the side speed ``|v_side|`` and the
   commanded yaw rate ``|x|``, one coefficient set per manoeuvre; again on the evaluated runs
-  (``shared``) and per run (``per_run``).
+  (``shared``), per run (``per_run``) and, when given, on training runs (``trained``).
 * **Learned transfer.** A gradient-boosted regressor (scikit-learn
   ``HistGradientBoostingRegressor``) from the wheel-speed history (commanded speed and yaw
   rate now and 1-12 wheel samples back, the time spent in the current manoeuvre, the pitch)
@@ -54,9 +59,16 @@ from terrain.vehicles.icr import inverse_icr_factor
 #: manoeuvre scopes of :func:`ceiling_table` (``moving`` pools the three others)
 SCOPES = ("moving", "straight", "curve", "spin")
 #: model columns a sample table may hold besides ``reference``
-MODELS = ("candidate", "shared", "per_run", "online", "learned")
+MODELS = ("candidate", "shared", "per_run", "trained", "online", "learned")
 #: lags of the learned transfer's history features, in wheel samples (BorealTC: ~0.15 s each)
 HISTORY_LAGS = (1, 2, 3, 4, 6, 8, 12)
+#: relative singular-value cutoff of the ``trained`` current recalibration: directions the
+#: training samples do not determine are left out (truncated least squares). Steady runs
+#: make the replays' currents nearly constant within a manoeuvre (SANDY_LOAM's training
+#: spins: singular values 1e-7 of the largest), and untruncated least squares then returns
+#: coefficients of 1e4-1e5 that cancel on the training samples only (held-out SANDY_LOAM
+#: current RMSE 1 700 A against the replay's 3.6 A).
+TRAINED_RCOND = 1e-4
 #: sample-table columns that identify a sample
 KEY_COLUMNS = ("run_id", "terrain", "side", "manoeuvre", "measured", "reference")
 
@@ -116,8 +128,49 @@ def _side_speed(frame: AuditFrame, side: int, track_m: float) -> np.ndarray:
     return np.abs(frame.commanded_speed + sign * 0.5 * track_m * frame.commanded_yaw_rate)
 
 
+def _yaw_rows(frames: Sequence[AuditFrame],
+              candidates: Sequence[AuditFrame] | None) -> pd.DataFrame | None:
+    """Scored yaw-rate samples of the frames (None where there is none)."""
+    parts = []
+    for k, f in enumerate(frames):
+        m = _yaw_mask(f)
+        if not m.any():
+            continue
+        parts.append(pd.DataFrame({
+            "run_id": f.run_id, "terrain": f.terrain, "side": -1, "code": f.manoeuvre[m],
+            "x": f.commanded_yaw_rate[m], "measured": f.wz[m], "reference": f.sim_wz[m],
+            "candidate": candidates[k].sim_wz[m] if candidates is not None else np.nan}))
+    return pd.concat(parts, ignore_index=True) if parts else None
+
+
+def _inverse_chi(measured: np.ndarray, x: np.ndarray) -> float:
+    """Least-squares ``1 / chi`` of ``measured = x / chi`` (0 where it is not defined)."""
+    a = inverse_icr_factor(measured, x)
+    return a if np.isfinite(a) else 0.0
+
+
+def _check_training(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None,
+                    train_frames: Sequence[AuditFrame] | None,
+                    train_candidates: Sequence[AuditFrame] | None) -> None:
+    """Training runs of the evaluated runs' terrain, disjoint from them, candidates alike."""
+    if train_frames is None:
+        if train_candidates is not None:
+            raise ConfigError("train_candidates without train_frames")
+        return
+    if (candidates is None) != (train_candidates is None):
+        raise ConfigError("give candidate frames for both the training and the evaluated runs, "
+                          "or for neither")
+    _check_pairs(train_frames, train_candidates, one_terrain=True)
+    if {f.terrain for f in train_frames} - {f.terrain for f in frames}:
+        raise ConfigError("training runs of another terrain: the family has one parameter set "
+                          "per terrain")
+    if {f.run_id for f in train_frames} & {f.run_id for f in frames}:
+        raise ConfigError("training and evaluated runs overlap")
+
+
 def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
-                             candidates: Sequence[AuditFrame] | None = None) -> pd.DataFrame:
+                             candidates: Sequence[AuditFrame] | None = None,
+                             train_frames: Sequence[AuditFrame] | None = None) -> pd.DataFrame:
     """Per scored sample: measured yaw rate, the replays' and the steady family's predictions.
 
     Parameters
@@ -128,6 +181,9 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
     candidates : sequence of AuditFrame, optional
         The same runs with another physics' predictions on the same clock
         (:func:`terrain.audit.physics.paired_frames`).
+    train_frames : sequence of AuditFrame, optional
+        Other runs of the same terrain (disjoint run ids): the ``trained`` column's chi per
+        manoeuvre is fitted on them.
 
     Returns
     -------
@@ -135,52 +191,65 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
         Columns ``run_id, terrain, side`` (``-1``: not a side signal), ``manoeuvre`` (name),
         ``measured, reference, candidate`` (NaN without candidates), ``shared`` (one
         ``chi_m`` per manoeuvre fitted on all these samples), ``per_run`` (one per run and
-        manoeuvre), all in rad/s. ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi`` of
-        the measured yaw rate; ``attrs["chi_reference"]`` and ``attrs["chi_candidate"]``
-        (the latter only with ``candidates``): the same least-squares chi of each replay's
-        yaw rate on the same samples, so the replays' chi per manoeuvre can be set against
-        the measured one on the same commanded turns.
+        manoeuvre), ``trained`` (one ``chi_m`` per manoeuvre fitted on ``train_frames``;
+        NaN without them; where the training runs hold no sample of a manoeuvre, the
+        reference replay, counted in ``attrs["trained_fallback"]``), all in rad/s.
+        ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi`` of the measured yaw rate;
+        ``attrs["chi_trained"]`` (only with ``train_frames``): the same on the training runs;
+        ``attrs["chi_reference"]`` and ``attrs["chi_candidate"]`` (the latter only with
+        ``candidates``): the same least-squares chi of each replay's yaw rate on the same
+        samples, so the replays' chi per manoeuvre can be set against the measured one on
+        the same commanded turns.
 
     Raises
     ------
     ConfigError
-        Candidate frames not matching the frames, or frames of more than one terrain.
+        Candidate frames not matching the frames, frames of more than one terrain, or
+        training runs of another terrain or overlapping the evaluated ones.
     """
     _check_pairs(frames, candidates, one_terrain=True)
-    parts = []
-    for k, f in enumerate(frames):
-        m = _yaw_mask(f)
-        if not m.any():
-            continue
-        parts.append(pd.DataFrame({
-            "run_id": f.run_id, "terrain": f.terrain, "side": -1, "code": f.manoeuvre[m],
-            "x": f.commanded_yaw_rate[m], "measured": f.wz[m], "reference": f.sim_wz[m],
-            "candidate": candidates[k].sim_wz[m] if candidates is not None else np.nan}))
-    cols = list(KEY_COLUMNS) + ["candidate", "shared", "per_run"]
-    if not parts:
+    _check_training(frames, None, train_frames, None)
+    cols = list(KEY_COLUMNS) + ["candidate", "shared", "per_run", "trained"]
+    tab = _yaw_rows(frames, candidates)
+    if tab is None:
         return pd.DataFrame(columns=cols)
-    tab = pd.concat(parts, ignore_index=True)
     tab["shared"] = np.nan
     tab["per_run"] = np.nan
+    tab["trained"] = np.nan
     chi = {}
     replay_chi = {"reference": {}, "candidate": {}}
+    trained_a, fallback = None, 0
+    if train_frames is not None:
+        train = _yaw_rows(train_frames, None)
+        trained_a = ({} if train is None else
+                     {code: _inverse_chi(s.measured.to_numpy(), s.x.to_numpy())
+                      for code, s in train.groupby("code")})
     for code, sub in tab.groupby("code"):
-        a = inverse_icr_factor(sub.measured.to_numpy(), sub.x.to_numpy())
-        a = 0.0 if not np.isfinite(a) else a
+        a = _inverse_chi(sub.measured.to_numpy(), sub.x.to_numpy())
         chi[MANOEUVRES[code]] = 1.0 / a if a > 0 else np.inf
         for name, found in replay_chi.items():
             b = inverse_icr_factor(sub[name].to_numpy(), sub.x.to_numpy())
             found[MANOEUVRES[code]] = (1.0 / b if b > 0 else np.inf) if np.isfinite(b) else np.nan
         tab.loc[sub.index, "shared"] = a * sub.x
         for _, one in sub.groupby("run_id"):
-            b = inverse_icr_factor(one.measured.to_numpy(), one.x.to_numpy())
-            tab.loc[one.index, "per_run"] = (b if np.isfinite(b) else 0.0) * one.x
+            b = _inverse_chi(one.measured.to_numpy(), one.x.to_numpy())
+            tab.loc[one.index, "per_run"] = b * one.x
+        if trained_a is not None:
+            if code in trained_a:
+                tab.loc[sub.index, "trained"] = trained_a[code] * sub.x
+            else:
+                tab.loc[sub.index, "trained"] = sub.reference
+                fallback += len(sub)
     tab["manoeuvre"] = [MANOEUVRES[c] for c in tab.code]
     out = tab[cols].copy()
     out.attrs["chi_shared"] = chi
     out.attrs["chi_reference"] = replay_chi["reference"]
     if candidates is not None:
         out.attrs["chi_candidate"] = replay_chi["candidate"]
+    if trained_a is not None:
+        out.attrs["chi_trained"] = {MANOEUVRES[c]: 1.0 / a if a > 0 else np.inf
+                                    for c, a in trained_a.items()}
+        out.attrs["trained_fallback"] = fallback
     return out
 
 
@@ -193,39 +262,9 @@ def _current_design(frame: AuditFrame, cand: AuditFrame | None, side: int,
     return np.column_stack(cols)
 
 
-def current_ceiling_samples(frames: Sequence[AuditFrame],
-                            candidates: Sequence[AuditFrame] | None = None,
-                            track_m: float = HUSKY.track_m) -> pd.DataFrame:
-    """Per scored sample and side: measured current, the replays' and the recalibrations'.
-
-    Parameters
-    ----------
-    frames : sequence of AuditFrame
-        The evaluated runs (one terrain), ``sim_cur`` the reference replay, A.
-    candidates : sequence of AuditFrame, optional
-        The same runs with another physics' currents on the same clock; they enter the
-        recalibration as a regressor too.
-    track_m : float
-        Track width of the vehicle, m (default: the Husky A200's,
-        :data:`terrain.vehicles.HUSKY`), for the side speeds.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``run_id, terrain, side`` (0 left, 1 right), ``manoeuvre``, ``measured,
-        reference, candidate, shared, per_run`` (A). ``shared``: per manoeuvre, least squares
-        of the measured current on ``[1, reference, (candidate), |v_side|, |x|]`` over all
-        these samples, both sides together (the physics is symmetric: one set for both);
-        ``per_run``: the same per run and manoeuvre (where a run has fewer than 3 rows,
-        samples times sides, per coefficient in a manoeuvre, its ``shared`` value is kept:
-        those rows are counted in ``attrs["per_run_fallback"]``).
-
-    Raises
-    ------
-    ConfigError
-        Candidate frames not matching the frames, or frames of more than one terrain.
-    """
-    _check_pairs(frames, candidates, one_terrain=True)
+def _current_rows(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None,
+                  track_m: float) -> tuple[pd.DataFrame, np.ndarray] | None:
+    """Scored current samples of both sides and their recalibration design matrix."""
     rows, designs = [], []
     for k, f in enumerate(frames):
         m = _cur_mask(f)
@@ -238,16 +277,102 @@ def current_ceiling_samples(frames: Sequence[AuditFrame],
                 "measured": f.cur[m, side], "reference": f.sim_cur[m, side],
                 "candidate": cand.sim_cur[m, side] if cand is not None else np.nan}))
             designs.append(_current_design(f, cand, side, m, track_m))
-    cols = list(KEY_COLUMNS) + ["candidate", "shared", "per_run"]
     if not rows:
+        return None
+    return pd.concat(rows, ignore_index=True), np.vstack(designs)
+
+
+def _trained_coefficients(A: np.ndarray, y: np.ndarray, base: int) -> np.ndarray:
+    """Recalibration coefficients fitted on training samples, well-posed for unseen runs.
+
+    The same affine family as ``shared`` (``y ~ A c``, ``A[:, 0]`` the intercept), fitted as
+    a correction of the physics column ``base`` (the candidate replay, else the reference):
+    ``y - A[:, base]`` by least squares on the centred other columns, truncated at
+    :data:`TRAINED_RCOND`. A direction the training samples do not determine (a replay
+    current that is constant within a manoeuvre, or two replays that move together) gets no
+    correction, so the physics is kept there instead of an arbitrary split between
+    collinear columns.
+    """
+    res = y - A[:, base]
+    X = A[:, 1:]
+    mu = X.mean(axis=0)
+    beta = np.linalg.lstsq(X - mu, res - res.mean(), rcond=TRAINED_RCOND)[0]
+    coef = np.concatenate([[res.mean() - mu @ beta], beta])
+    coef[base] += 1.0
+    return coef
+
+
+def current_ceiling_samples(frames: Sequence[AuditFrame],
+                            candidates: Sequence[AuditFrame] | None = None,
+                            track_m: float = HUSKY.track_m,
+                            train_frames: Sequence[AuditFrame] | None = None,
+                            train_candidates: Sequence[AuditFrame] | None = None
+                            ) -> pd.DataFrame:
+    """Per scored sample and side: measured current, the replays' and the recalibrations'.
+
+    Parameters
+    ----------
+    frames : sequence of AuditFrame
+        The evaluated runs (one terrain), ``sim_cur`` the reference replay, A.
+    candidates : sequence of AuditFrame, optional
+        The same runs with another physics' currents on the same clock; they enter the
+        recalibration as a regressor too.
+    track_m : float
+        Track width of the vehicle, m (default: the Husky A200's,
+        :data:`terrain.vehicles.HUSKY`), for the side speeds.
+    train_frames, train_candidates : sequence of AuditFrame, optional
+        Other runs of the same terrain (disjoint run ids) and, exactly when ``candidates``
+        are given, their candidate frames: the ``trained`` column's coefficients are fitted
+        on them.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``run_id, terrain, side`` (0 left, 1 right), ``manoeuvre``, ``measured,
+        reference, candidate, shared, per_run, trained`` (A). ``shared``: per manoeuvre,
+        least squares of the measured current on ``[1, reference, (candidate), |v_side|,
+        |x|]`` over all these samples, both sides together (the physics is symmetric: one
+        set for both); ``per_run``: the same per run and manoeuvre (where a run has fewer
+        than 3 rows, samples times sides, per coefficient in a manoeuvre, its ``shared``
+        value is kept: those rows are counted in ``attrs["per_run_fallback"]``);
+        ``trained``: the family of ``shared`` fitted on the training runs instead, as a
+        correction of the candidate replay (the reference without candidates) by truncated
+        least squares (:data:`TRAINED_RCOND`), and applied here (NaN without training
+        runs; where they hold fewer than 3 rows per coefficient of a manoeuvre, the
+        reference replay, counted in ``attrs["trained_fallback"]``).
+
+    Raises
+    ------
+    ConfigError
+        Candidate frames not matching the frames, frames of more than one terrain, or
+        training runs of another terrain, overlapping the evaluated ones, or with
+        candidates where the evaluated runs have none (or the reverse).
+    """
+    _check_pairs(frames, candidates, one_terrain=True)
+    _check_training(frames, candidates, train_frames, train_candidates)
+    cols = list(KEY_COLUMNS) + ["candidate", "shared", "per_run", "trained"]
+    found = _current_rows(frames, candidates, track_m)
+    if found is None:
         return pd.DataFrame(columns=cols)
-    tab = pd.concat(rows, ignore_index=True)
-    A = np.vstack(designs)
+    tab, A = found
     y = tab.measured.to_numpy(float)
     shared = np.full(len(tab), np.nan)
     per_run = np.full(len(tab), np.nan)
-    fallback = 0
+    trained = np.full(len(tab), np.nan)
+    fallback = trained_fallback = 0
     need = 3 * A.shape[1]
+    coef_trained = None
+    if train_frames is not None:
+        train = _current_rows(train_frames, train_candidates, track_m)
+        coef_trained = {}
+        if train is not None:
+            t_tab, t_A = train
+            t_y = t_tab.measured.to_numpy(float)
+            base = 2 if candidates is not None else 1
+            for code, sub in t_tab.groupby("code"):
+                i = sub.index.to_numpy()
+                if len(i) >= need:
+                    coef_trained[code] = _trained_coefficients(t_A[i], t_y[i], base)
     for code, sub in tab.groupby("code"):
         i = sub.index.to_numpy()
         shared[i] = A[i] @ np.linalg.lstsq(A[i], y[i], rcond=None)[0]
@@ -258,10 +383,18 @@ def current_ceiling_samples(frames: Sequence[AuditFrame],
                 fallback += len(j)
             else:
                 per_run[j] = A[j] @ np.linalg.lstsq(A[j], y[j], rcond=None)[0]
-    tab["shared"], tab["per_run"] = shared, per_run
+        if coef_trained is not None:
+            if code in coef_trained:
+                trained[i] = A[i] @ coef_trained[code]
+            else:
+                trained[i] = sub.reference.to_numpy(float)
+                trained_fallback += len(i)
+    tab["shared"], tab["per_run"], tab["trained"] = shared, per_run, trained
     tab["manoeuvre"] = [MANOEUVRES[c] for c in tab.code]
     out = tab[cols].copy()
     out.attrs["per_run_fallback"] = fallback
+    if coef_trained is not None:
+        out.attrs["trained_fallback"] = trained_fallback
     return out
 
 
@@ -597,6 +730,7 @@ __all__ = [
     "HISTORY_LAGS",
     "MODELS",
     "SCOPES",
+    "TRAINED_RCOND",
     "TransferSettings",
     "ceiling_table",
     "current_ceiling_samples",

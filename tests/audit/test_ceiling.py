@@ -108,6 +108,76 @@ def test_current_recalibration_recovers_an_affine_law_and_counts_fallbacks():
     assert row.gain_per_run == pytest.approx(row.gain_shared) and row.rmse_shared > 0.5
 
 
+def test_the_family_fitted_on_training_runs_carries_over_only_what_the_runs_share():
+    # training runs and held-out runs of one ground state: the trained chi is the shared one
+    train = [_frame(f"t{k}", lambda x, t: x / 2.0) for k in range(2)]
+    held = [_frame(f"h{k}", lambda x, t: x / 2.0, spin_s=10.0) for k in range(2)]
+    tab = yaw_rate_ceiling_samples(held, train_frames=train)
+    assert tab.attrs["chi_trained"]["spin"] == pytest.approx(2.0)
+    assert tab.attrs["trained_fallback"] == 0
+    np.testing.assert_allclose(tab.trained, tab.measured, atol=1e-12)
+    # the training runs turn freely (chi 1.5), the held-out ones dig in (chi 6): what the
+    # training runs teach is worse than the replay's chi 3, while the shared fit is exact
+    free = [_frame(f"t{k}", lambda x, t: x / 1.5) for k in range(2)]
+    dug = [_frame(f"h{k}", lambda x, t: x / 6.0) for k in range(2)]
+    row = _row(ceiling_table(yaw_rate_ceiling_samples(dug, train_frames=free)), "spin")
+    assert row.gain_shared == pytest.approx(1.0)
+    assert row.gain_trained < 0.0
+    # x / 1.5 against x / 6: the error is 3 times the replay's (x / 3 against x / 6)
+    assert row.rmse_trained == pytest.approx(3.0 * row.rmse_reference)
+    # no curve in the training runs: the held-out curve samples keep the replay, counted
+    curve = MANOEUVRES.index("curve")
+    bent = replace(dug[0], manoeuvre=np.where(dug[0].manoeuvre == SPIN, curve, STRAIGHT))
+    tab = yaw_rate_ceiling_samples([bent], train_frames=free)
+    n_curve = int((bent.manoeuvre == curve).sum())
+    assert tab.attrs["trained_fallback"] == n_curve
+    on_curve = (tab.manoeuvre == "curve").to_numpy()
+    np.testing.assert_array_equal(tab.trained[on_curve], tab.reference[on_curve])
+    # without training runs the column is empty and ceiling_table leaves it out
+    assert tab.shape[0] and yaw_rate_ceiling_samples(dug).trained.isna().all()
+    assert "gain_trained" not in ceiling_table(yaw_rate_ceiling_samples(dug)).columns
+
+
+def test_current_recalibration_fitted_on_training_runs_is_applied_to_the_held_out_ones():
+    train = [_frame("t0", lambda x, t: x), _frame("t1", lambda x, t: x)]
+    held = [_frame("h0", lambda x, t: x, spin_s=9.0)]
+    cand = [replace(f, sim_cur=0.5 * f.sim_cur) for f in held]
+    train_cand = [replace(f, sim_cur=0.5 * f.sim_cur) for f in train]
+    # the held-out run draws 2 A more than the training runs, on both sides
+    shifted = [replace(held[0], cur=held[0].cur + 2.0)]
+    tab = current_ceiling_samples(shifted, cand, train_frames=train, train_candidates=train_cand)
+    assert tab.attrs["trained_fallback"] == 0
+    # the affine law of the training runs, applied: exactly 2 A short everywhere
+    np.testing.assert_allclose(tab.measured - tab.trained, 2.0, atol=1e-9)
+    np.testing.assert_allclose(tab.shared, tab.measured, atol=1e-9)
+    row = _row(ceiling_table(tab), "moving")
+    assert row.rmse_trained == pytest.approx(2.0)
+    # steady runs: the replay's current is constant within a manoeuvre but for 1e-7 A of
+    # rounding, the measured one noisy; the fit must not read a law out of the rounding
+    # (untruncated least squares fits the noise with coefficients of ~1e5 that cancel on
+    # the training samples only)
+    rng = np.random.default_rng(2)
+
+    def flat(f, spin_a=4.0):
+        return replace(f, sim_cur=np.where(f.manoeuvre[:, None] == SPIN, spin_a, 2.0)
+                       + 1e-7 * rng.standard_normal(f.sim_cur.shape),
+                       cur=f.cur + 0.1 * rng.standard_normal(f.cur.shape))
+    # the held-out run's replay spins 0.2 A higher: the physics it is a correction of keeps
+    # that step, where an undetermined coefficient would multiply it
+    tab = current_ceiling_samples([flat(held[0], 4.2)], train_frames=[flat(f) for f in train])
+    law = 3.5 + 6.5 * np.abs(np.concatenate([held[0].commanded_yaw_rate] * 2))
+    step = np.where(tab.manoeuvre == "spin", 0.2, 0.0)
+    assert np.sqrt(np.mean((tab.trained - law - step) ** 2)) < 0.02
+    with pytest.raises(ConfigError, match="both"):
+        current_ceiling_samples(held, cand, train_frames=train)
+    with pytest.raises(ConfigError, match="overlap"):
+        current_ceiling_samples(held, train_frames=held)
+    with pytest.raises(ConfigError, match="another terrain"):
+        current_ceiling_samples(held, train_frames=[replace(train[0], terrain="ICE")])
+    with pytest.raises(ConfigError, match="train_frames"):
+        current_ceiling_samples(held, cand, train_candidates=train_cand)
+
+
 def test_learned_transfer_finds_a_planted_history_effect_the_steady_family_misses():
     # a rut that deepens while the wheels spin: chi grows with the time spent spinning
     def dig(x, t):
