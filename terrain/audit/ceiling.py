@@ -161,7 +161,7 @@ def _check_training(frames: Sequence[AuditFrame], candidates: Sequence[AuditFram
         raise ConfigError("give candidate frames for both the training and the evaluated runs, "
                           "or for neither")
     _check_pairs(train_frames, train_candidates, one_terrain=True)
-    if {f.terrain for f in train_frames} - {f.terrain for f in frames}:
+    if frames and {f.terrain for f in train_frames} - {f.terrain for f in frames}:
         raise ConfigError("training runs of another terrain: the family has one parameter set "
                           "per terrain")
     if {f.run_id for f in train_frames} & {f.run_id for f in frames}:

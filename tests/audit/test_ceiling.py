@@ -176,6 +176,9 @@ def test_current_recalibration_fitted_on_training_runs_is_applied_to_the_held_ou
         current_ceiling_samples(held, train_frames=[replace(train[0], terrain="ICE")])
     with pytest.raises(ConfigError, match="train_frames"):
         current_ceiling_samples(held, cand, train_candidates=train_cand)
+    # a terrain with training runs only (Vulpi's single DIRT_ROAD run): nothing to evaluate
+    assert current_ceiling_samples([], train_frames=train).empty
+    assert yaw_rate_ceiling_samples([], train_frames=train).empty
 
 
 def test_learned_transfer_finds_a_planted_history_effect_the_steady_family_misses():
