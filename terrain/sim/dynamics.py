@@ -442,7 +442,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         # curve has flattened; the tyre's combined-slip law keeps its own (contact.slip None)
         if contact.slip is not None:
             contact = reach_chord_contact(contact, layout, maps, ter,
-                                          dt * (m_inv @ force), normal)
+                                          dt * (m_inv @ force), normal, soils.get(ter.name))
         # one Newton step of the linearly implicit Euler scheme (LAPACK gesv, LU with partial
         # pivoting, as numpy.linalg.solve, without its per-call overhead)
         _, _, dv, info = dgesv(m_mat - dt * contact.jacobian, dt * force)

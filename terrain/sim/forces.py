@@ -50,7 +50,8 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
-from terrain.terramechanics.lateral import SoilContact, soil_lateral_force_and_slope
+from terrain.terramechanics.lateral import (SoilContact, rate_weakening_factor,
+                                            soil_lateral_force_and_slope)
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                lateral_force_and_slope)
 from terrain.terramechanics.slip import sae_slip, sae_slip_and_velocity_slope
@@ -468,6 +469,8 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     abs_s = np.abs(slip)
     sign_s = np.sign(slip)
     coef = terrain.curve.coefficients(abs_s, terrain.soil_resistance)
+    if soil is not None and soil.soil.rate_weakening_speed_m_s is not None:
+        coef = _rate_weakened(coef, wr, v_long, soil.soil)
     f_soil = coef.resistance
     th_s = np.tanh(v_long / SOIL_SPEED_M_S)
     combined = soil is None and side_force_factor is not None
@@ -509,9 +512,23 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     return ContactForces(force, jac, mu, wr, dmu * ds_dv, v_long, slip, ds_dv, coef.dmu_ds, dmu)
 
 
+def _rate_weakened(coef, rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, soil):
+    """Traction coefficients of a velocity-weakening soil at the contacts' slip speeds.
+
+    ``mu f(u)`` with ``u = |omega r - v_long|`` (:func:`terrain.terramechanics.lateral.
+    rate_weakening_factor`); the slope in ``|s|`` adds ``mu f'(u) du/d|s|``, ``du/d|s| =
+    max(|omega r|, |v_long|, floor)`` (the SAE denominator held fixed).
+    """
+    u = np.abs(rim_speed_m_s - v_long_m_s)
+    f, df_du = rate_weakening_factor(u, soil)
+    den = np.maximum(np.maximum(np.abs(rim_speed_m_s), np.abs(v_long_m_s)), SLIP_SPEED_FLOOR_M_S)
+    return coef._replace(mu=coef.mu * f, dmu_ds=coef.dmu_ds * f + coef.mu * df_du * den)
+
+
 def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: VelocityMaps,
                         terrain, dv_reach: np.ndarray,
-                        normal_load_n: np.ndarray | None = None) -> ContactForces:
+                        normal_load_n: np.ndarray | None = None,
+                        soil: SoilContact | None = None) -> ContactForces:
     """The contact forces with each traction slope taken over the slip the step can reach.
 
     :func:`contact_forces` linearises the longitudinal law with the larger of the tangent and
@@ -553,6 +570,9 @@ def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: Vel
         ``(dv_x, dv_y, d yaw_rate)``, m/s, m/s, rad/s.
     normal_load_n : ndarray, shape (c,), optional
         Normal loads used for ``contact`` (None: the static loads of ``layout``), N.
+    soil : SoilContact, optional
+        The soil contact ``contact`` was computed with (a velocity-weakening soil's curve
+        is weakened at the reached slip speed too).
 
     Returns
     -------
@@ -573,7 +593,11 @@ def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: Vel
                      speed_floor_m_s=SLIP_SPEED_FLOOR_M_S, dead_band_m_s=0.0)
     abs_s, abs_r = np.abs(slip), np.abs(reach)
     mu_s = np.abs(contact.mu)
-    mu_r = terrain.curve.coefficients(abs_r, terrain.soil_resistance).mu
+    coef_r = terrain.curve.coefficients(abs_r, terrain.soil_resistance)
+    if soil is not None and soil.soil.rate_weakening_speed_m_s is not None:
+        coef_r = _rate_weakened(coef_r, contact.rim_speed_m_s,
+                                contact.v_long_m_s + a_mat @ dv_reach, soil.soil)
+    mu_r = coef_r.mu
     gap = abs_s - abs_r
     wide = np.abs(gap) > 1e-9
     chord = np.where(wide, (mu_s - mu_r) / np.where(wide, gap, 1.0), tangent)

@@ -115,12 +115,23 @@ class SoilParams:
         form is ASSUMED and any value for snow is by ANALOGY. None: static sinkage only
         (every shipped soil; 2 and 5 on SNOW were tried on training runs and not adopted,
         docs/physics_v2.md, "Measured chi per manoeuvre").
+    rate_weakening_speed_m_s : float or None
+        ``u_c`` of a shear strength that falls with the slip speed ``u`` of the contact
+        (velocity weakening), ``tau(u) = tau / (1 + u / u_c)``
+        (:func:`rate_weakening_factor`): longitudinally ``u = |omega r - v_long|``,
+        laterally ``u = |v_lat|``. The friction of snow falls with the sliding speed as
+        frictional melting lubricates the contact (Bowden and Hughes, "The mechanism of
+        sliding on ice and snow", Proc. R. Soc. A 172 (1939) 280-298); the form is
+        ASSUMED, with no constant for this snow in the sources here. None: no weakening
+        (every shipped soil; 0.05-1 m/s on SNOW were tried on training runs and not
+        adopted, docs/physics_v2.md, "Measured chi per manoeuvre").
 
     Raises
     ------
     ConfigError
-        ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1), or
-        ``slip_sinkage_ratio`` is negative or not finite.
+        ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
+        ``slip_sinkage_ratio`` is negative or not finite, or ``rate_weakening_speed_m_s``
+        is not a finite positive speed.
     """
 
     name: str
@@ -136,8 +147,14 @@ class SoilParams:
     layer_depth_m: float | None = None
     residual_ratio: float | None = None
     slip_sinkage_ratio: float | None = None
+    rate_weakening_speed_m_s: float | None = None
 
     def __post_init__(self) -> None:
+        if self.rate_weakening_speed_m_s is not None and not (
+                np.isfinite(self.rate_weakening_speed_m_s)
+                and self.rate_weakening_speed_m_s > 0.0):
+            raise ConfigError(f"{self.name}: rate_weakening_speed_m_s must be a finite "
+                              f"speed > 0 m/s or None, got {self.rate_weakening_speed_m_s}")
         if self.slip_sinkage_ratio is not None and not (
                 np.isfinite(self.slip_sinkage_ratio) and self.slip_sinkage_ratio >= 0.0):
             raise ConfigError(f"{self.name}: slip_sinkage_ratio must be a finite value >= 0 "
@@ -469,6 +486,34 @@ def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
     return lateral_strength_n(soil, contact.width_m, normal_load_n, z, length), length
 
 
+def rate_weakening_factor(slip_speed_m_s: np.ndarray, soil: SoilParams
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Share of the shear strength left at a slip speed (velocity weakening), and its slope.
+
+    ``f(u) = 1 / (1 + |u| / u_c)`` with ``u_c`` = :attr:`SoilParams.rate_weakening_speed_m_s`
+    (``f = 1`` at standstill, ``1/2`` at ``u_c``); a soil without it gives ``f = 1``.
+
+    Parameters
+    ----------
+    slip_speed_m_s : ndarray, shape (c,)
+        Slip speed of each contact, m/s (its sign is ignored).
+    soil : SoilParams
+        Soil.
+
+    Returns
+    -------
+    factor : ndarray, shape (c,)
+        ``f``, in (0, 1].
+    dfactor_du_s_m : ndarray, shape (c,)
+        ``d f / d|u|``, s/m (<= 0).
+    """
+    u = np.abs(np.asarray(slip_speed_m_s, dtype=float))
+    if soil.rate_weakening_speed_m_s is None:
+        return np.ones_like(u), np.zeros_like(u)
+    f = 1.0 / (1.0 + u / soil.rate_weakening_speed_m_s)
+    return f, -f * f / soil.rate_weakening_speed_m_s
+
+
 def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray,
                                  v_lateral_m_s: np.ndarray, rim_speed_m_s: np.ndarray,
                                  slide_speed_m_s: float = 0.02,
@@ -480,7 +525,8 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     tabulated strength ``S(N)`` and contact length ``l(N)`` of :func:`soil_contact`; on a
     soil with slip sinkage, ``S`` and ``l`` of the wall deepened by each wheel's slip
     (:func:`slip_sunk_strength_n`; the slope keeps ``S`` fixed, as the longitudinal slip
-    is not a lateral velocity).
+    is not a lateral velocity); on a soil with velocity weakening, ``S`` times
+    :func:`rate_weakening_factor` of ``v_lat`` (the secant slope includes it).
 
     Parameters
     ----------
@@ -515,6 +561,8 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
         strength = np.interp(n_load, contact.load_grid_n, contact.strength_grid_n)
         length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
     v = np.asarray(v_lateral_m_s, dtype=float)
+    if contact.soil.rate_weakening_speed_m_s is not None:
+        strength = strength * rate_weakening_factor(v, contact.soil)[0]
     roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
     scale = length / (contact.soil.shear_modulus_y_m * roll)     # a = scale |v|
     a = scale * np.abs(v)

@@ -13,13 +13,15 @@ import terrain.sim.dynamics as dynamics
 from terrain.errors import ConfigError
 from terrain.sim import Effects, SimConfig
 from terrain.sim.dynamics import integrate, soil_contacts
-from terrain.sim.forces import (LOAD_TRANSFER, contact_layout, gravity_force,
-                                specific_force_m_s2, transferred_normal_loads)
+from terrain.sim.forces import (LOAD_TRANSFER, contact_forces, contact_layout, gravity_force,
+                                reach_chord_contact, specific_force_m_s2,
+                                transferred_normal_loads, velocity_maps)
 from terrain.sim.simulate import motor_currents, simulate_with_physics
 from terrain.terramechanics.catalogue import MEASURED_HUSKY_STRAIGHT, get_terrain
 from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors,
                                             bulldozing_force_n, longitudinal_curve,
-                                            shear_mobilisation, soil_contact,
+                                            rate_weakening_factor, shear_mobilisation,
+                                            soil_contact,
                                             slip_sunk_strength_n, soil_lateral_force_and_slope,
                                             wheel_sinkage_m)
 from terrain.terramechanics.resistance import (bekker_sinkage_m, is_deformable,
@@ -211,6 +213,45 @@ def test_slip_sinkage_deepens_the_wall_with_the_slip_and_keeps_the_static_contac
     for bad in (-1.0, float("nan"), float("inf")):
         with pytest.raises(ConfigError, match="slip_sinkage_ratio"):
             replace(snow, slip_sinkage_ratio=bad)
+
+
+def test_velocity_weakening_scales_both_directions_by_their_own_slip_speed():
+    snow = SOILS["SNOW"]
+    assert snow.rate_weakening_speed_m_s is None          # shipped: no weakening
+    f, df = rate_weakening_factor(np.array([0.0, 0.2, -0.2, 0.6]), snow)
+    np.testing.assert_array_equal(f, 1.0)
+    np.testing.assert_array_equal(df, 0.0)
+    weak = replace(snow, rate_weakening_speed_m_s=0.2)
+    f, df = rate_weakening_factor(np.array([0.0, 0.2, -0.2, 0.6]), weak)
+    np.testing.assert_allclose(f, [1.0, 0.5, 0.5, 0.25])
+    np.testing.assert_allclose(df, [-5.0, -1.25, -1.25, -0.3125])
+    for bad in (0.0, -0.1, float("nan"), float("inf")):
+        with pytest.raises(ConfigError, match="rate_weakening_speed_m_s"):
+            replace(snow, rate_weakening_speed_m_s=bad)
+    # lateral: the strength at the lateral slip speed, the force and its secant alike
+    plain = soil_contact(snow, 0.11, 0.08, 0.1651, 4 * W)
+    weak_c = replace(plain, soil=weak)
+    v = np.array([0.05, 0.2, -0.4])
+    f_p, k_p = soil_lateral_force_and_slope(plain, np.full(3, W), v, np.full(3, 0.3))
+    f_w, k_w = soil_lateral_force_and_slope(weak_c, np.full(3, W), v, np.full(3, 0.3))
+    scale = 1.0 / (1.0 + np.abs(v) / 0.2)
+    np.testing.assert_allclose(f_w, f_p * scale)
+    np.testing.assert_allclose(k_w, k_p * scale)
+    # longitudinal: a wheel spinning at 0.3 m/s on a body at rest, slip 1, slip speed 0.3 m/s
+    geo = HUSKY.contact_geometry()
+    layout = contact_layout(geo, HUSKY.mass_kg, 0.0, 1.0)
+    maps = velocity_maps(layout, np.zeros_like(layout.x_m))
+    ter = dynamics.v2_terrain(get_terrain("SNOW"), plain, W)
+    omega = np.full(geo.n_motors, 0.3 / geo.wheel_radius_m)
+    still = np.zeros(3)
+    c_p = contact_forces(layout, maps, ter, still, omega, soil=plain)
+    c_w = contact_forces(layout, maps, ter, still, omega, soil=weak_c)
+    np.testing.assert_allclose(c_w.mu, c_p.mu / (1.0 + 0.3 / 0.2))
+    assert c_w.force[0] < c_p.force[0]
+    # the reach of the implicit step weakens its curve as the contact did (no slip change
+    # here: the same contact back)
+    r_w = reach_chord_contact(c_w, layout, maps, ter, np.zeros(3), soil=weak_c)
+    np.testing.assert_allclose(r_w.mu, c_w.mu)
 
 
 def test_longitudinal_curve_is_the_catalogue_strength_with_the_soils_k_x():
