@@ -36,9 +36,11 @@ of one curve with the motion resistance of another (physics v2 of the simulator)
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
+import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
@@ -437,13 +439,40 @@ def brixius_mobility_number(cone_index_pa: float, section_width_m: float,
             * (1.0 + 5.0 * deflection_ratio) / (1.0 + 3.0 * section_width_m / diameter_m))
 
 
-def _janosi_g(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``g(x) = 1 - (1 - e^-x)/x`` and ``g'(x)`` for x >= 0, series near 0."""
-    small = x < 1e-4
-    xs = np.where(small, 1.0, x)
-    one_minus_e = -np.expm1(-xs)
-    g = np.where(small, x / 2.0 - x * x / 6.0, 1.0 - one_minus_e / xs)
-    dg = np.where(small, 0.5 - x / 3.0, one_minus_e / (xs * xs) - (1.0 - one_minus_e) / xs)
+@numba.njit(cache=True)
+def _mobilisation_kernel(a: np.ndarray, kr: float, b: float, s0: float,
+                         c2: float) -> tuple[np.ndarray, np.ndarray]:
+    """Patch means and slopes of :func:`patch_mobilisation`, element by element (compiled).
+
+    ``kr <= 0``: the exponential curve, ``g(x) = 1 - (1 - e^-x) / x``, ``g'(x)``; else the
+    hump-type curve with the constants of :func:`_hump_constants`. Below ``1e-4`` (of
+    ``a``, resp. ``U``) the second-order series, where the closed forms lose their digits.
+    """
+    n = a.size
+    g = np.empty(n)
+    dg = np.empty(n)
+    for i in range(n):
+        x = a[i]
+        if kr <= 0.0:
+            if x < 1e-4:
+                g[i] = x / 2.0 - x * x / 6.0
+                dg[i] = 0.5 - x / 3.0
+            else:
+                one_minus_e = -math.expm1(-x)
+                g[i] = 1.0 - one_minus_e / x
+                dg[i] = one_minus_e / (x * x) - (1.0 - one_minus_e) / x
+            continue
+        u = x / s0
+        if u < 1e-4:
+            g[i] = s0 * u / 2.0 - c2 * u * u / 3.0
+            dg[i] = (s0 / 2.0 - 2.0 * c2 * u / 3.0) / s0
+        else:
+            e1 = -math.expm1(-u)                     # 1 - e^-U
+            e2 = -math.expm1(-2.0 * u)               # 1 - e^-2U
+            mean = kr * (u - e1 + b * math.e * (e1 - 0.5 * e2)) / u
+            f_u = kr * (1.0 + b * math.exp(1.0 - u)) * e1
+            g[i] = mean
+            dg[i] = (f_u - mean) / u / s0
     return g, dg
 
 
@@ -498,21 +527,14 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     """
     a = np.asarray(a, dtype=float)
     if residual_ratio is None:
-        return _janosi_g(a)
-    kr = float(residual_ratio)
-    if not 0.0 < kr < 1.0:
-        raise ValueError(f"residual_ratio must be in (0, 1), got {residual_ratio}")
-    b, s0, c2 = _hump_constants(kr)
-    u = a / s0
-    small = u < 1e-4
-    us = np.where(small, 1.0, u)
-    e1, e2 = -np.expm1(-us), -np.expm1(-2.0 * us)      # 1 - e^-U, 1 - e^-2U
-    mean = kr * (us - e1 + b * np.e * (e1 - 0.5 * e2)) / us
-    f_u = kr * (1.0 + b * np.exp(1.0 - us)) * e1
-    dmean_du = (f_u - mean) / us
-    g = np.where(small, s0 * u / 2.0 - c2 * u * u / 3.0, mean)
-    dg_du = np.where(small, s0 / 2.0 - 2.0 * c2 * u / 3.0, dmean_du)
-    return g, dg_du / s0
+        kr, b, s0, c2 = 0.0, 0.0, 1.0, 0.0
+    else:
+        kr = float(residual_ratio)
+        if not 0.0 < kr < 1.0:
+            raise ValueError(f"residual_ratio must be in (0, 1), got {residual_ratio}")
+        b, s0, c2 = _hump_constants(kr)
+    g, dg = _mobilisation_kernel(np.ascontiguousarray(a).reshape(-1), kr, b, s0, c2)
+    return g.reshape(a.shape), dg.reshape(a.shape)
 
 
 def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.ndarray:

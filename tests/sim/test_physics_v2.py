@@ -83,6 +83,14 @@ def test_exponential_patch_mobilisation_and_invalid_residual_ratio():
     g, _ = patch_mobilisation(a)
     np.testing.assert_allclose(g, 1.0 + np.expm1(-a) / a, rtol=1e-9)
     np.testing.assert_allclose(shear_mobilisation(a), g, rtol=0)
+    # the compiled kernel keeps the input's shape: a number, a strided view, a grid
+    g0, dg0 = patch_mobilisation(1.0, 0.4)
+    assert g0.shape == () and dg0.shape == ()
+    grid = np.linspace(0.0, 8.0, 24).reshape(4, 6)
+    g2, dg2 = patch_mobilisation(grid[:, ::2], 0.4)
+    assert g2.shape == (4, 3)
+    np.testing.assert_array_equal(g2, patch_mobilisation(grid, 0.4)[0][:, ::2])
+    np.testing.assert_array_equal(dg2[0, 0], patch_mobilisation(0.0, 0.4)[1])
     for bad in (0.0, 1.0, 1.5):
         with pytest.raises(ValueError, match="residual_ratio"):
             patch_mobilisation(a, bad)
