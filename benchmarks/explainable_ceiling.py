@@ -260,12 +260,12 @@ def main() -> int:
         te_f, te_c = [p[0] for p in test], [p[1] for p in test]
         for name, group, store in (("held-out", test, held), ("all", tp, every)):
             f, c = [p[0] for p in group], [p[1] for p in group]
-            fit = ({"train_frames": tr_f} if name == "held-out" else {})
-            wz = yaw_rate_ceiling_samples(f, c, **fit)
+            held_out = name == "held-out"     # the `trained` column: fitted on the training half
+            wz = yaw_rate_ceiling_samples(f, c, train_frames=tr_f if held_out else None)
             store["wz"].append(wz)
-            if fit:
-                fit["train_candidates"] = tr_c
-            store["cur"].append(current_ceiling_samples(f, c, **fit))
+            store["cur"].append(current_ceiling_samples(
+                f, c, train_frames=tr_f if held_out else None,
+                train_candidates=tr_c if held_out else None))
             for man, chi in wz.attrs.get("chi_shared", {}).items():
                 chi_rows.append((name, terrain, man, chi,
                                  wz.attrs.get("chi_trained", {}).get(man, np.nan),
