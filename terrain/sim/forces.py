@@ -54,7 +54,8 @@ from terrain.terramechanics.lateral import (SoilContact, rate_weakening_factor,
                                             soil_lateral_force_and_slope)
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                lateral_force_and_slope)
-from terrain.terramechanics.slip import sae_slip, sae_slip_and_velocity_slope
+from terrain.terramechanics.slip import (sae_slip, sae_slip_and_velocity_slope,
+                                         sae_slip_denominator)
 from terrain.terramechanics.traction import BurckhardtCurve, traction_peak
 from terrain.vehicles.common import ContactGeometry
 from terrain.vehicles.swerve import wheel_rim_speed
@@ -475,7 +476,7 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     th_s = np.tanh(v_long / SOIL_SPEED_M_S)
     combined = soil is None and side_force_factor is not None
     if combined:
-        den = np.maximum(np.maximum(np.abs(wr), np.abs(v_long)), SLIP_SPEED_FLOOR_M_S)
+        den = sae_slip_denominator(wr, v_long, SLIP_SPEED_FLOOR_M_S)
         slip_side = v_lat / den
         comb = combined_slip_coefficients(terrain.curve, slip, slip_side, side_force_factor,
                                           hold_slip)
@@ -521,7 +522,7 @@ def _rate_weakened(coef, rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, soil
     """
     u = np.abs(rim_speed_m_s - v_long_m_s)
     f, df_du = rate_weakening_factor(u, soil)
-    den = np.maximum(np.maximum(np.abs(rim_speed_m_s), np.abs(v_long_m_s)), SLIP_SPEED_FLOOR_M_S)
+    den = sae_slip_denominator(rim_speed_m_s, v_long_m_s, SLIP_SPEED_FLOOR_M_S)
     return coef._replace(mu=coef.mu * f, dmu_ds=coef.dmu_ds * f + coef.mu * df_du * den)
 
 

@@ -46,10 +46,36 @@ def _check(speed_floor_m_s: float, dead_band_m_s: float, saturation: float) -> N
             f"{saturation}")
 
 
+def sae_slip_denominator(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float,
+                         speed_floor_m_s: float) -> np.ndarray:
+    """Denominator of the SAE slip, ``max(|omega r|, |v_long|, speed_floor_m_s)``, m/s.
+
+    Seed ``001_59da564c4b2d6a48.txt`` eqs. 7.1-7.2 (the larger of the two speeds) with the
+    simulator's low-speed floor. The simulator's side slip of the tyre's combined-slip law
+    and the slope of a rate-weakening soil divide by the same speed
+    (:func:`terrain.sim.forces.contact_forces`).
+
+    Parameters
+    ----------
+    rim_speed_m_s : float or ndarray, shape (...)
+        Rim speed ``omega r``, m/s.
+    v_long_m_s : float or ndarray, shape (...)
+        Longitudinal contact velocity, m/s; broadcast with ``rim_speed_m_s``.
+    speed_floor_m_s : float
+        Floor of the denominator, m/s (> 0 keeps it away from 0).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The denominator, m/s.
+    """
+    return np.maximum(np.maximum(np.abs(rim_speed_m_s), np.abs(v_long_m_s)), speed_floor_m_s)
+
+
 def _ratio(rim: np.ndarray, v: np.ndarray, speed_floor_m_s: float
            ) -> tuple[np.ndarray, np.ndarray]:
     """Unsaturated slip and its denominator (eqs. 7.1-7.2); needs ``speed_floor_m_s > 0``."""
-    den = np.maximum(np.maximum(np.abs(rim), np.abs(v)), speed_floor_m_s)
+    den = sae_slip_denominator(rim, v, speed_floor_m_s)
     return (rim - v) / den, den
 
 

@@ -142,6 +142,18 @@ def test_one_sae_slip_with_the_simulator_and_thesis_conditioning():
     np.testing.assert_allclose(dsdv, fd, rtol=1e-5, atol=1e-6)
 
 
+def test_sae_slip_denominator_is_the_slips_own():
+    from terrain.terramechanics.slip import sae_slip_denominator
+
+    wr = np.array([1.0, 1.0, 0.01, 0.5, 0.0])
+    v = np.array([0.8, 1.2, 0.0, -0.6, 0.005])
+    den = sae_slip_denominator(wr, v, 0.02)
+    np.testing.assert_allclose(den, [1.0, 1.2, 0.02, 0.6, 0.02])
+    # the slip is the speed difference over it (eqs. 7.1-7.2), saturated to [-1, 1]
+    np.testing.assert_allclose(np.clip((wr - v) / den, -1.0, 1.0),
+                               sae_slip(wr, v, speed_floor_m_s=0.02, dead_band_m_s=0.0))
+
+
 @pytest.mark.parametrize("name", ["ASPHALT", "GRASS", "DIRT_ROAD"])
 def test_curve_coefficients_slopes_match_finite_differences(name):
     terrain = TERRAINS[name]
