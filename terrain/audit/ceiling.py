@@ -69,6 +69,13 @@ HISTORY_LAGS = (1, 2, 3, 4, 6, 8, 12)
 #: coefficients of 1e4-1e5 that cancel on the training samples only (held-out SANDY_LOAM
 #: current RMSE 1 700 A against the replay's 3.6 A).
 TRAINED_RCOND = 1e-4
+#: decimals the learned transfer's inputs are rounded to, in their units (m/s, rad/s, A, s,
+#: rad): far below any sensor's resolution, and far above the last-place differences
+#: (1e-15-1e-7) by which two builds of the same physics differ. Unrounded, the
+#: histogram-binned trees split on those differences: replays constant to 1e-7 within a
+#: manoeuvre get bin edges inside that noise, and a change of the compiled kernel's
+#: floating-point order (2026-11-26) moved the held-out gains by up to 7 points.
+LEARNED_INPUT_DECIMALS = 4
 #: sample-table columns that identify a sample
 KEY_COLUMNS = ("run_id", "terrain", "side", "manoeuvre", "measured", "reference")
 
@@ -491,7 +498,7 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
         cand = train_candidates[k] if train_candidates is not None else None
         m, target, pred, _, _ = _signal_samples(f, cand, signal)
         if m.any():
-            X.append(history_features(f, pred)[m])
+            X.append(np.round(history_features(f, pred)[m], LEARNED_INPUT_DECIMALS))
             y.append(target[m])
     if not X:
         raise ConfigError(f"no scored training sample of {signal}")
@@ -510,7 +517,8 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
             "run_id": f.run_id, "terrain": f.terrain, "side": side,
             "manoeuvre": [MANOEUVRES[c] for c in f.manoeuvre[m]], "measured": target[m],
             "reference": ref[m], "candidate": can[m] if can is not None else np.nan,
-            "learned": model.predict(history_features(f, pred)[m])}))
+            "learned": model.predict(np.round(history_features(f, pred)[m],
+                                              LEARNED_INPUT_DECIMALS))}))
     cols = list(KEY_COLUMNS) + ["candidate", "learned"]
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
