@@ -395,7 +395,7 @@ def test_a_vehicle_held_at_the_friction_limit_accelerates_at_mu_g_at_the_default
 
 
 def _parked_on_slope(terrain, physics, duration_s=5.0):
-    """Husky parked (wheels held at 0 rad/s) facing up a 15 deg slope: body speed, m/s."""
+    """Husky parked (wheels held at 0 rad/s) facing up a 15 deg slope: time (s), speed (m/s)."""
     husky = get_vehicle("husky")
     t = np.arange(0.0, duration_s, 0.01)
     p = integrate(husky, husky.contact_geometry(), (get_terrain(terrain),), 1e9, t,
