@@ -14,7 +14,17 @@ name                     unit      meaning (value when off)
 ``grade_resistance``     A/rad     extra current on both sides ``value * |pitch|`` on slopes (0)
 =======================  ========  ============================================================
 
-With every effect off the simulator is ideal in each named respect.
+With every effect off the simulator is ideal in each named respect, but for the ICR
+expansion that its own physics produces: a skid-steer's wheels skid sideways in a turn, so
+with ``icr_expansion`` 1 the yaw rate is already below ``(v_R - v_L) / B`` wherever the
+contact model resists that skid (physics v1: chi 1.04 on ASPHALT, 2.8 for a sandy-loam spin;
+physics v2, whose combined-slip tyre law and lateral soil model explain the expansion: 1.50
+on ASPHALT). The planted ``icr_expansion`` moves the skid-steer's kinematic contact lines to
+``chi y`` (:func:`terrain.sim.forces.contact_layout`) on top of that, so it multiplies the
+yaw response only where the physics' own chi is near 1: on ASPHALT, ``random`` scenario
+(seeds 31-33, 60 s; the truth stream), a planted 1.5 raises chi from 1.043 to 1.564 on v1
+(x1.50) and from 1.499 to 2.006 on v2 (x1.34), because on v2 the wheels that roll along the
+expanded lines also skid less sideways (``tests/audit/test_planted_sim_v2.py``).
 """
 
 from __future__ import annotations

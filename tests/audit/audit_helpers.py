@@ -20,6 +20,7 @@ from terrain.run import Run
 from terrain.io.writer import to_file_frames
 from terrain.sim import SimConfig, parse_effects, simulate
 from terrain.vehicles import HUSKY
+from terrain.vehicles.icr import icr_expansion_factor
 
 G = 9.80665
 B = HUSKY.track_m
@@ -55,6 +56,25 @@ def simulated_streams(effects: dict | None = None, seeds=SIM_SEEDS, terrain: str
             seed=seed, effects=parse_effects(effects or {}), physics=physics)))
         out.append((res["imu"].copy(), res["pro"].copy()))
     return out
+
+
+def simulated_truth_chi(effects: dict | None = None, seeds=SIM_SEEDS,
+                        terrain: str = "ASPHALT", scenario: str = "random",
+                        duration_s: float = SIM_DURATION_S, physics: str = "v1",
+                        min_yaw_rate_rad_s: float = 0.1) -> float:
+    """ICR expansion chi of the same simulated runs as :func:`simulated_streams`, from their
+    ground truth: least squares of the true yaw rate on the true wheels' ``(v_R - v_L) / B``
+    over the samples turning faster than ``min_yaw_rate_rad_s`` (rad/s)."""
+    ys, xs = [], []
+    for seed in seeds:
+        truth = simulate(SimConfig(
+            vehicle="husky", terrains=(terrain,), scenario=scenario, duration_s=duration_s,
+            seed=seed, effects=parse_effects(effects or {}), physics=physics)).streams["truth"]
+        x = (truth.omega_2 - truth.omega_1).to_numpy() * HUSKY.wheel_radius_m / B
+        turning = np.abs(x) > min_yaw_rate_rad_s
+        ys.append(truth.yaw_rate.to_numpy()[turning])
+        xs.append(x[turning])
+    return icr_expansion_factor(np.concatenate(ys), np.concatenate(xs))
 
 
 def run_to_files(run: Run) -> tuple[pd.DataFrame | None, pd.DataFrame]:
