@@ -438,6 +438,12 @@ def history_features(frame: AuditFrame, prediction: np.ndarray,
     return np.column_stack(cols + [pred.reshape(len(x), -1)])
 
 
+def _learner_inputs(frame: AuditFrame, prediction: np.ndarray) -> np.ndarray:
+    """:func:`history_features` rounded to :data:`LEARNED_INPUT_DECIMALS`: the learned
+    transfer's inputs, the same for fitting and predicting."""
+    return np.round(history_features(frame, prediction), LEARNED_INPUT_DECIMALS)
+
+
 def _signal_samples(frame: AuditFrame, cand: AuditFrame | None, signal: str):
     """(mask, target, predictions (n, k), reference, candidate) of one signal of one frame."""
     if signal == "wz":
@@ -498,7 +504,7 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
         cand = train_candidates[k] if train_candidates is not None else None
         m, target, pred, _, _ = _signal_samples(f, cand, signal)
         if m.any():
-            X.append(np.round(history_features(f, pred)[m], LEARNED_INPUT_DECIMALS))
+            X.append(_learner_inputs(f, pred)[m])
             y.append(target[m])
     if not X:
         raise ConfigError(f"no scored training sample of {signal}")
@@ -517,8 +523,7 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
             "run_id": f.run_id, "terrain": f.terrain, "side": side,
             "manoeuvre": [MANOEUVRES[c] for c in f.manoeuvre[m]], "measured": target[m],
             "reference": ref[m], "candidate": can[m] if can is not None else np.nan,
-            "learned": model.predict(np.round(history_features(f, pred)[m],
-                                              LEARNED_INPUT_DECIMALS))}))
+            "learned": model.predict(_learner_inputs(f, pred)[m])}))
     cols = list(KEY_COLUMNS) + ["candidate", "learned"]
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=cols)
 
