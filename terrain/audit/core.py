@@ -222,13 +222,28 @@ def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings(
     return frames, skipped
 
 
+CONSTANT_SPREAD_TOL = 1e-9
+"""Standard deviation (signal unit: rad/s, m/s^2, A) at or below which a series counts as
+constant and its correlation is undefined (NaN).
+
+A replay that does not excite a signal (the body acceleration of a spin in place) is zero
+up to floating-point noise of about 1e-19; a Pearson correlation with that noise is a
+number between -1 and 1 that changes with the last bits of the integrator. 1e-9 is six
+orders below any sensor resolution of the shipped data (IMU about 1e-3)."""
+
+
 def _stats(meas: np.ndarray, pred: np.ndarray) -> tuple[int, float, float, float]:
+    """Sample count, RMSE, bias (measured - predicted) and Pearson correlation.
+
+    The correlation is NaN with fewer than three samples or when either series is constant
+    to :data:`CONSTANT_SPREAD_TOL`.
+    """
     r = meas - pred
     n = int(len(r))
     if n == 0:
         return 0, float("nan"), float("nan"), float("nan")
     corr = float("nan")
-    if n > 2 and np.std(meas) > 0 and np.std(pred) > 0:
+    if n > 2 and np.std(meas) > CONSTANT_SPREAD_TOL and np.std(pred) > CONSTANT_SPREAD_TOL:
         corr = float(np.corrcoef(meas, pred)[0, 1])
     return n, float(np.sqrt(np.mean(r * r))), float(np.mean(r)), corr
 
