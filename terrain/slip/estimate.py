@@ -41,7 +41,8 @@ from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run
 from terrain.slip.alignment import LagEstimate, gated_lag
-from terrain.slip.core import DEAD_BAND_M_S, skid_steer_side_slip, wheel_slip
+from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_side_slip,
+                               wheel_longitudinal_velocity, wheel_slip)
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -392,7 +393,13 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     of the raw rim speed itself, which enters the slip unfiltered (ch. 7.2): its
     :func:`~terrain.estimation.prefilter.robust_noise_std` on the filter's grid, where the
     slip is computed (on a simulated AgriMaRo run about 0.035 m/s, 0.08 of slip at 0.45 m/s;
-    without it the std was half the error).
+    without it the std was half the error). In the dead band (both the rim speed and the
+    wheel's velocity below :data:`~terrain.slip.DEAD_BAND_M_S`) the slip is 0 by the
+    thesis's convention (ch. 7.2.1), not an estimate, so ``slip_std`` is NaN there (it was
+    0, which claimed certainty: at the start of a simulated spin the physics' slip is up to
+    1.0 there); a note counts those samples. The propagation runs through the unclipped
+    SAE ratio, so a slip at the +-1 clip keeps a std (clipped, its finite differences were
+    0 while the estimate was off by up to 1.0 at a spin's reversal).
 
     Parameters
     ----------
@@ -435,28 +442,60 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     names = ["v_bx", "v_by", "yaw_rate"] + [f"delta_{i}" for i in (1, 2, 3)]
     cols = [ekf.state_names.index(n) for n in names]
 
-    def slip_at(x: np.ndarray) -> np.ndarray:
-        return wheel_slip(rim, x[:, 0], x[:, 1], x[:, 2], params.positions, x[:, 3:])
+    def v_long_at(x: np.ndarray) -> np.ndarray:
+        return wheel_longitudinal_velocity(x[:, 0], x[:, 1], x[:, 2], params.positions,
+                                           x[:, 3:])
+
+    def unclipped(rim_m_s: np.ndarray, v_long_m_s: np.ndarray) -> np.ndarray:
+        # |s| <= 2 by construction: saturation 2 clips nothing, so a slip at the +-1 clip
+        # keeps its sensitivity (clipped, its finite differences would be 0)
+        return sae_slip(rim_m_s, v_long_m_s, dead_band_m_s=DEAD_BAND_M_S, saturation=2.0)
 
     x = ekf.x[:, cols]
-    slip = slip_at(x)
+    slip = wheel_slip(rim, x[:, 0], x[:, 1], x[:, 2], params.positions, x[:, 3:])
+    v_long = v_long_at(x)
+    base = unclipped(rim, v_long)
     # first-order propagation of the EKF's marginal variances (correlations ignored)
     var = np.zeros_like(slip)
     for j, sd in enumerate(np.sqrt(ekf.P_diag[:, cols]).T):
         xp = x.copy()
         xp[:, j] += sd
-        var += (slip_at(xp) - slip) ** 2
+        var += (unclipped(rim, v_long_at(xp)) - base) ** 2
     # ... and of the raw rim speed's own noise (it enters the slip unfiltered, ch. 7.2)
     steps = np.diff(ekf.t_s)
     rim_sd = (robust_noise_std(rim, 1.0 / float(np.median(steps))) if steps.size
               else np.zeros(rim.shape[1]))
-    var += (wheel_slip(rim + np.nan_to_num(rim_sd), x[:, 0], x[:, 1], x[:, 2],
-                       params.positions, x[:, 3:]) - slip) ** 2
-    notes = agrimaro_missing_stream_notes(run) + lag_notes(run, lag_est)
+    var += (unclipped(rim + np.nan_to_num(rim_sd), v_long) - base) ** 2
+    # in the dead band the slip is 0 by convention (ch. 7.2.1), not an estimate: no std
+    in_band = (np.abs(rim) < DEAD_BAND_M_S) & (np.abs(v_long) < DEAD_BAND_M_S)
+    std = np.where(in_band, np.nan, np.sqrt(var))
+    notes = (agrimaro_missing_stream_notes(run) + lag_notes(run, lag_est)
+             + dead_band_notes(in_band))
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
-                       np.sqrt(var), notes)
+                       std, notes)
+
+
+def dead_band_notes(in_band: np.ndarray) -> tuple[str, ...]:
+    """A note counting the slip samples set to 0 by the dead band (seed 001 ch. 7.2.1).
+
+    Parameters
+    ----------
+    in_band : ndarray of bool, shape (N, k)
+        Where both the rim speed and the wheel's longitudinal velocity are below
+        :data:`~terrain.slip.DEAD_BAND_M_S`.
+
+    Returns
+    -------
+    tuple of str
+        One note, or none when no sample is in the dead band.
+    """
+    n = int(np.count_nonzero(in_band))
+    if n == 0:
+        return ()
+    return (f"{n} of {in_band.size} wheel slip samples in the {DEAD_BAND_M_S} m/s dead band "
+            f"(both speeds below it, ch. 7.2.1): slip 0 by convention, std_slip NaN",)
 
 
 def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None = None,

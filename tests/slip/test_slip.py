@@ -232,7 +232,40 @@ def test_agrimaro_slip_std_covers_the_error_with_the_encoder_noise(scenario):
         err = est.slip[:, j] - tr[f"slip_{j + 1}"].to_numpy()
         z = err / est.slip_std[:, j]
         ok = (est.ekf.t_s > 5.0) & np.isfinite(z)
+        # a std is positive where it exists: never a claim of certainty (0)
+        assert np.all(est.slip_std[np.isfinite(est.slip_std)] > 0)
         assert ok.sum() > 1000
         # a Gaussian has 0.674 and 95 % within 2 std; spins bring heavy tails
         assert 0.3 < np.median(np.abs(z[ok])) < 0.9, j
         assert np.mean(np.abs(z[ok]) < 2.0) > 0.85, j
+
+
+def test_agrimaro_slip_in_the_dead_band_has_no_std_and_is_counted():
+    # at the start of the run both speeds are below the 0.05 m/s dead band: the slip is 0
+    # by the thesis's convention (ch. 7.2.1) while the physics' slip reaches 0.2 there, so
+    # a std of 0 would claim certainty about a convention
+    result = simulate_agrimaro("GRASS", seed=1, duration_s=20.0, scenario="orchard",
+                               sensors=DEFAULT_SENSORS["agrimaro"])
+    est = estimate_run(result.run)
+    tr = truth_on_grid(result, est.ekf.t_s)
+    no_std = np.isnan(est.slip_std)
+    assert 0 < no_std.sum() < 0.05 * no_std.size
+    assert np.all(est.slip[no_std] == 0.0)
+    err = np.abs(est.slip - tr[["slip_1", "slip_2", "slip_3"]].to_numpy())
+    assert err[no_std].max() > 0.1                 # the convention is not the physics
+    note = [n for n in est.notes if "dead band" in n]
+    assert len(note) == 1 and note[0].startswith(f"{no_std.sum()} of {no_std.size} ")
+    assert "std_slip NaN" in note[0]
+    frame = est.to_frame()
+    assert frame["std_slip_1"].isna().sum() == no_std[:, 0].sum()
+
+
+def test_agrimaro_slip_at_the_clip_keeps_a_std():
+    # a spin's reversals put the estimated slip at the +-1 clip for a few steps; the
+    # propagation runs through the unclipped ratio, so the std there is not 0 (it was)
+    result = simulate_agrimaro("TILES", seed=1, duration_s=20.0, scenario="spin",
+                               sensors=DEFAULT_SENSORS["agrimaro"])
+    est = estimate_run(result.run)
+    clipped = np.abs(est.slip) == 1.0
+    assert clipped.sum() > 10
+    assert np.all(est.slip_std[clipped] > 0.05)
