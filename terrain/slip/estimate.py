@@ -72,7 +72,8 @@ class RunEstimate:
     meta : dict
         Tuning, lag mode and offsets, dead band.
     slip_std : ndarray, shape (N, k), optional
-        Standard deviation of each slip column (``std_slip_i``); NaN where not propagated.
+        Standard deviation of each slip column (``std_slip_i``); NaN where not propagated
+        and, for the AgriMaRo, in the dead band, where the slip is 0 by convention.
     notes : tuple of str
         One-line notes for the user (e.g. which model supplies an unobservable slip).
     """
@@ -396,8 +397,8 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     without it the std was half the error). In the dead band (both the rim speed and the
     wheel's velocity below :data:`~terrain.slip.DEAD_BAND_M_S`) the slip is 0 by the
     thesis's convention (ch. 7.2.1), not an estimate, so ``slip_std`` is NaN there (it was
-    0, which claimed certainty: at the start of a simulated spin the physics' slip is up to
-    1.0 there); a note counts those samples. The propagation runs through the unclipped
+    0, which claimed certainty: at the start of a simulated GRASS orchard run the physics'
+    slip reaches 0.21 there); a note counts those samples. The propagation runs through the unclipped
     SAE ratio, so a slip at the +-1 clip keeps a std (clipped, its finite differences were
     0 while the estimate was off by up to 1.0 at a spin's reversal).
 
