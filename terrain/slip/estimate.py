@@ -398,9 +398,9 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     wheel's velocity below :data:`~terrain.slip.DEAD_BAND_M_S`) the slip is 0 by the
     thesis's convention (ch. 7.2.1), not an estimate, so ``slip_std`` is NaN there (it was
     0, which claimed certainty: at the start of a simulated GRASS orchard run the physics'
-    slip reaches 0.21 there); a note counts those samples. The propagation runs through the unclipped
-    SAE ratio, so a slip at the +-1 clip keeps a std (clipped, its finite differences were
-    0 while the estimate was off by up to 1.0 at a spin's reversal).
+    slip reaches 0.21 there); a note counts those samples. The propagation runs through the
+    unclipped SAE ratio, so a slip at the +-1 clip keeps a std (clipped, its finite
+    differences were 0 while the estimate was off by up to 1.0 at a spin's reversal).
 
     Parameters
     ----------
