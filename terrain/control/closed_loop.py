@@ -386,7 +386,10 @@ LOOP_SETTINGS: Mapping[str, Mapping[str, float]] = MappingProxyType({
 #: overshoots at the end of the ramp; the smallest gains are kept). The AgriMaRo's default
 #: estimator reads the gyro of the full IMU since 2026-11-26 (``ekf-vo-full-gyro``); with it
 #: the same search gives kp 2 and 5 within 1e-4 of each other (0.0622, 0.0623; kp 10 0.0628,
-#: kp 20 0.109), so the gains stay (5, 0), now also those of ``ekf-vo``.
+#: kp 20 0.109), so the gains stay (5, 0), now also those of ``ekf-vo``. Since the
+#: simulator's implicit-step fix the Husky's candidates all cost 0.0470-0.0484 (kp 0.5-20):
+#: on level ground the feed-forward does all the work and the feedback acts only on slopes
+#: (``benchmarks/feedback_contribution.py``, docs/control_validation.md).
 DEFAULT_GAINS: Mapping[str, tuple[float, float]] = MappingProxyType({
     "agrimaro": (5.0, 0.0), "husky": (2.0, 0.0)})
 
