@@ -11,10 +11,15 @@ slip of each setting with the controller off as reference, and the share of runs
 default gains change the slip RMSE by more than 1e-4. Logged to MLflow (experiment
 ``terrain-benchmark``, run ``feedback-contribution``) with the per-run CSV.
 
+``--decided PLANT=LABEL ...`` runs, instead of ``--terrains``, each plant terrain with the
+loop told it drives on LABEL (target, feed-forward curve and the estimator's slip model of
+LABEL): a ground off the curve the controller assumes, the case the feedback is for (MLflow
+run ``feedback-contribution-decided``).
+
 Run: ``python benchmarks/feedback_contribution.py [--vehicles agrimaro husky] [--terrains
 TILES GRASS UNPLOUGHED SANDY_LOAM SNOW ICE] [--scenarios straight_accel orchard slope_turn]
-[--seeds 0 1 2] [--duration-s 20] [--strong-kp 20] [--out DIR] [--no-mlflow]`` (about 6 min
-on 2 cores for the default grid).
+[--seeds 0 1 2] [--duration-s 20] [--strong-kp 20] [--decided ICE=TILES ...] [--out DIR]
+[--no-mlflow]`` (about 6 min on 2 cores for the default grid).
 """
 
 from __future__ import annotations
@@ -27,6 +32,8 @@ import pandas as pd
 from tqdm import tqdm
 
 from terrain.control.closed_loop import default_gains, run_closed_loop
+from terrain.control.desired_slip import build_slip_table
+from terrain.errors import ConfigError
 from terrain.tracking import tracked_run
 
 #: metrics of :func:`terrain.control.closed_loop.loop_metrics` kept per run
@@ -53,6 +60,36 @@ def settings(vehicle: str, strong_kp: float) -> dict[str, tuple[bool, tuple[floa
             "default": (True, default_gains(vehicle)), "strong": (True, (strong_kp, 0.0))}
 
 
+def decided_labels(pairs: list[str]) -> list[tuple[str, str]]:
+    """``PLANT=LABEL`` arguments as (plant terrain, terrain the loop is told) pairs.
+
+    Parameters
+    ----------
+    pairs : list of str
+        ``PLANT=LABEL`` items (catalogue terrain names, any case).
+
+    Returns
+    -------
+    list of (str, str)
+        Upper-case (plant, label) pairs, in the order given.
+
+    Raises
+    ------
+    ConfigError
+        An item without ``=`` or a pair given twice.
+    """
+    out: list[tuple[str, str]] = []
+    for item in pairs:
+        plant, sep, label = item.partition("=")
+        if not sep or not plant or not label:
+            raise ConfigError(f"--decided takes PLANT=LABEL items, got {item!r}")
+        pair = (plant.upper(), label.upper())
+        if pair in out:
+            raise ConfigError(f"--decided: {pair[0]}={pair[1]} given twice")
+        out.append(pair)
+    return out
+
+
 def main() -> int:
     """Run the grid, print the table, log it; returns 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -64,15 +101,21 @@ def main() -> int:
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--duration-s", type=float, default=20.0)
     parser.add_argument("--strong-kp", type=float, default=20.0)
+    parser.add_argument("--decided", nargs="+", default=[], metavar="PLANT=LABEL")
     parser.add_argument("--out", type=Path, default=Path("out/feedback_contribution"))
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
-    cells = list(itertools.product(args.vehicles, args.scenarios, args.terrains, args.seeds))
+    decided = decided_labels(args.decided) or [(t, t) for t in args.terrains]
+    cells = list(itertools.product(args.vehicles, args.scenarios, decided, args.seeds))
     rows = []
-    for vehicle, scenario, terrain, seed in tqdm(cells, desc="closed loops", unit="cell"):
+    for vehicle, scenario, pair, seed in tqdm(cells, desc="closed loops", unit="cell"):
+        terrain, label = pair
         for name, (apply, gains) in settings(vehicle, args.strong_kp).items():
-            m = run_closed_loop(vehicle, terrain, scenario, apply, seed, args.duration_s, gains)[2]
-            rows.append({"vehicle": vehicle, "scenario": scenario, "terrain": terrain,
+            m = run_closed_loop(vehicle, terrain, scenario, apply, seed, args.duration_s, gains,
+                                table=build_slip_table(sorted({terrain, label})),
+                                terrain_decision=lambda t_s, lab=label: (lab, 1.0))[2]
+            rows.append({"vehicle": vehicle, "scenario": scenario,
+                         "terrain": terrain if label == terrain else f"{terrain}={label}",
                          "seed": seed, "setting": name, "kp": gains[0], "ki": gains[1],
                          **{k: m[k] for k in KEPT}})
     runs = pd.DataFrame(rows)
@@ -104,12 +147,13 @@ def main() -> int:
             metrics[f"{vehicle}_slip_rmse_{s}"] = float(g[f"slip_rmse_{s}"].mean())
         metrics[f"{vehicle}_default_changes_rmse"] = float(g["default_changes_rmse"].mean())
     if not args.no_mlflow:
-        params = {"vehicles": " ".join(args.vehicles), "terrains": " ".join(args.terrains),
+        params = {"vehicles": " ".join(args.vehicles),
+                  "terrains": " ".join(f"{p}={lab}" for p, lab in decided),
                   "scenarios": " ".join(args.scenarios),
                   "seeds": " ".join(map(str, args.seeds)), "duration_s": args.duration_s,
                   "strong_kp": args.strong_kp}
-        with tracked_run("terrain-benchmark", run_name="feedback-contribution",
-                         params=params) as run:
+        name = "feedback-contribution" + ("-decided" if args.decided else "")
+        with tracked_run("terrain-benchmark", run_name=name, params=params) as run:
             run.log_metrics(metrics)
             run.log_artifact(str(args.out / "runs.csv"))
             run.log_artifact(str(args.out / "table.csv"))
