@@ -6,19 +6,21 @@ The vehicle comes from meta_XX.json ("vehicle", default husky): agrimaro -> 12-s
 thesis ch. 6.1; husky/tracked -> skid-steer EKF (speed, yaw rate, gyro bias, ICR factor).
 With one run the table goes to --out. With several, --run TERRAIN/XX selects one; without
 --run one file per run is written next to --out as <stem>_<TERRAIN>_<XX><suffix>.
-Columns: t_s, states, std_<state>, slip_1.. with std_slip_1.. (simulator wheel numbering),
-innov_<row>, nis, nis_dof. Skid-steer: the common longitudinal slip is not observable from
-wheels + IMU; --slip-model picks its source (fused default: physics + learned model as the
-EKF's pseudo-measurement; learned falls back to physics without a model; ekf: none) and a
-note says so. Without --slip-model-dir the registered model is looked up and its absence is a
-note (physics supplies the slip); a --slip-model-dir that cannot be loaded (missing folder,
-no MLmodel file, unreadable model) is an error. --gate is a probability in (0, 1) exclusive;
---rate-hz a rate in [1, 10000] Hz, and the grid holds at most 5 million steps. --lag xcorr
-applies the cross-correlation lag only for a clear peak (terrain.slip.alignment.gated_lag): a
-run without one gets no lag and a note, and a last note counts the runs of each kind. The
-skid-steer slip filter keeps its forward speed within what the recent rim speeds allow
-(braking slip down to -0.3; terrain.estimation.skid_steer_slip.speed_bounds_m_s); a note
-counts the steps where it was held there.
+Columns: t_s, states, std_<state>, slip_1.. with std_slip_1.. (simulator wheel numbering;
+AgriMaRo: std_slip_i NaN in the 0.05 m/s dead band, where slip_i is 0 by convention, and a
+note counts those samples), innov_<row>, nis, nis_dof. Skid-steer: the common longitudinal
+slip is not observable from wheels + IMU; --slip-model picks its source (fused default:
+physics + learned model as the EKF's pseudo-measurement; learned falls back to physics without
+a model; ekf: none) and a note says so. Without --slip-model-dir the registered model is
+looked up and its absence is a note (physics supplies the slip); a --slip-model-dir that
+cannot be loaded (missing folder, no MLmodel file, unreadable model) is an error. --gate is a
+probability in (0, 1) exclusive; --rate-hz a rate in [1, 10000] Hz, and the grid holds at most
+5 million steps. --lag xcorr applies the cross-correlation lag only for a clear peak
+(terrain.slip.alignment.gated_lag): a run without one gets no lag and a note, and a last note
+counts the runs of each kind. The skid-steer slip filter keeps its forward speed within what
+the recent rim speeds allow (braking slip down to -0.3;
+terrain.estimation.skid_steer_slip.speed_bounds_m_s); a note counts the steps where it was
+held there.
 """
 
 from __future__ import annotations
