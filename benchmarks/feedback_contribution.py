@@ -34,6 +34,7 @@ from tqdm import tqdm
 from terrain.control.closed_loop import default_gains, run_closed_loop
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import ConfigError
+from terrain.terramechanics import get_terrain
 from terrain.tracking import tracked_run
 
 #: metrics of :func:`terrain.control.closed_loop.loop_metrics` kept per run
@@ -105,7 +106,12 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=Path("out/feedback_contribution"))
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
-    decided = decided_labels(args.decided) or [(t, t) for t in args.terrains]
+    try:
+        decided = decided_labels(args.decided) or [(t, t) for t in args.terrains]
+        for name in {t for pair in decided for t in pair}:
+            get_terrain(name)               # an unknown name fails before any run
+    except ConfigError as exc:
+        parser.error(str(exc))
     cells = list(itertools.product(args.vehicles, args.scenarios, decided, args.seeds))
     rows = []
     for vehicle, scenario, pair, seed in tqdm(cells, desc="closed loops", unit="cell"):
