@@ -40,6 +40,15 @@ from terrain.vehicles.icr import icr_expansion_factor
 SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r")
 POOLED = "all"
 
+CONSTANT_SPREAD_TOL = 1e-9
+"""Standard deviation (signal unit: rad/s, m/s^2, A) at or below which a series counts as
+constant and its correlation is undefined (NaN).
+
+A replay that does not excite a signal (the body acceleration of a spin in place) is zero
+up to floating-point noise of about 1e-19; a Pearson correlation with that noise is a
+number between -1 and 1 that changes with the last bits of the integrator. 1e-9 is six
+orders below any sensor resolution of the shipped data (IMU about 1e-3)."""
+
 
 @dataclass(frozen=True)
 class AuditSettings:
@@ -220,16 +229,6 @@ def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings(
             continue
         frames.append(frame)
     return frames, skipped
-
-
-CONSTANT_SPREAD_TOL = 1e-9
-"""Standard deviation (signal unit: rad/s, m/s^2, A) at or below which a series counts as
-constant and its correlation is undefined (NaN).
-
-A replay that does not excite a signal (the body acceleration of a spin in place) is zero
-up to floating-point noise of about 1e-19; a Pearson correlation with that noise is a
-number between -1 and 1 that changes with the last bits of the integrator. 1e-9 is six
-orders below any sensor resolution of the shipped data (IMU about 1e-3)."""
 
 
 def _stats(meas: np.ndarray, pred: np.ndarray) -> tuple[int, float, float, float]:

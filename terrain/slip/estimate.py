@@ -42,7 +42,8 @@ from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run
 from terrain.slip.alignment import LagEstimate, gated_lag
 from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_side_slip,
-                               wheel_longitudinal_velocity, wheel_slip)
+                               wheel_longitudinal_velocity)
+from terrain.terramechanics.slip import in_dead_band
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -453,8 +454,8 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
         return sae_slip(rim_m_s, v_long_m_s, dead_band_m_s=DEAD_BAND_M_S, saturation=2.0)
 
     x = ekf.x[:, cols]
-    slip = wheel_slip(rim, x[:, 0], x[:, 1], x[:, 2], params.positions, x[:, 3:])
     v_long = v_long_at(x)
+    slip = sae_slip(rim, v_long, dead_band_m_s=DEAD_BAND_M_S)    # wheel_slip on these inputs
     base = unclipped(rim, v_long)
     # first-order propagation of the EKF's marginal variances (correlations ignored)
     var = np.zeros_like(slip)
@@ -468,7 +469,7 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
               else np.zeros(rim.shape[1]))
     var += (unclipped(rim + np.nan_to_num(rim_sd), v_long) - base) ** 2
     # in the dead band the slip is 0 by convention (ch. 7.2.1), not an estimate: no std
-    in_band = (np.abs(rim) < DEAD_BAND_M_S) & (np.abs(v_long) < DEAD_BAND_M_S)
+    in_band = in_dead_band(rim, v_long, DEAD_BAND_M_S)
     std = np.where(in_band, np.nan, np.sqrt(var))
     notes = (agrimaro_missing_stream_notes(run) + lag_notes(run, lag_est)
              + dead_band_notes(in_band))

@@ -8,7 +8,7 @@ only in its conditioning options:
 
 * ``saturation``: the slip is clipped to ``[-saturation, saturation]`` (1 in ch. 7.2.1);
 * ``dead_band_m_s``: slip forced to 0 when both speeds are below it (0.05 m/s in ch. 7.2.1,
-  :data:`THESIS_DEAD_BAND_M_S`);
+  :data:`THESIS_DEAD_BAND_M_S`; where: :func:`in_dead_band`);
 * ``speed_floor_m_s``: the denominator is floored at this speed, so near standstill the slip
   is linear in the speed difference instead of jumping between -1 and 1 (the simulator's
   low-speed regularisation, 0.02 m/s, :data:`terrain.sim.dynamics.SLIP_SPEED_FLOOR_M_S`).
@@ -79,6 +79,25 @@ def _ratio(rim: np.ndarray, v: np.ndarray, speed_floor_m_s: float
     return (rim - v) / den, den
 
 
+def in_dead_band(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray,
+                 dead_band_m_s: float = THESIS_DEAD_BAND_M_S) -> np.ndarray:
+    """Where both speeds are below the dead band, so :func:`sae_slip` sets the slip to 0
+    (seed 001 ch. 7.2.1).
+
+    Parameters
+    ----------
+    rim_speed_m_s, v_long_m_s : ndarray, broadcastable shapes
+        Rim speed ``omega r`` and longitudinal wheel velocity, m/s.
+    dead_band_m_s : float, optional
+        Dead band, m/s, >= 0 (0: no sample is in it).
+
+    Returns
+    -------
+    ndarray of bool, broadcast shape of the inputs
+    """
+    return (np.abs(rim_speed_m_s) < dead_band_m_s) & (np.abs(v_long_m_s) < dead_band_m_s)
+
+
 def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, *,
              speed_floor_m_s: float = 0.0, dead_band_m_s: float = THESIS_DEAD_BAND_M_S,
              saturation: float = 1.0) -> np.ndarray:
@@ -144,7 +163,7 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
         s = np.clip(s, -saturation, saturation)
         s = np.where(np.isnan(rim) | np.isnan(v), np.nan, s)
     if dead_band_m_s > 0:
-        s = np.where((np.abs(rim) < dead_band_m_s) & (np.abs(v) < dead_band_m_s), 0.0, s)
+        s = np.where(in_dead_band(rim, v, dead_band_m_s), 0.0, s)
     return s
 
 

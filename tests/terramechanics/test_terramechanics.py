@@ -154,6 +154,20 @@ def test_sae_slip_denominator_is_the_slips_own():
                                sae_slip(wr, v, speed_floor_m_s=0.02, dead_band_m_s=0.0))
 
 
+def test_the_dead_band_is_where_sae_slip_is_zero_by_convention():
+    from terrain.terramechanics.slip import in_dead_band
+
+    wr = np.array([0.04, 0.04, 0.06, 0.0, -0.049, 0.3])
+    v = np.array([0.0, 0.049, 0.0, -0.03, 0.01, 0.04])
+    band = in_dead_band(wr, v, 0.05)
+    np.testing.assert_array_equal(band, [True, True, False, True, True, False])
+    # inside it sae_slip is 0 although the ratio is not; outside it is the ratio
+    assert np.all(sae_slip(wr, v, dead_band_m_s=0.05)[band] == 0.0)
+    np.testing.assert_allclose(sae_slip(wr, v, dead_band_m_s=0.05)[~band],
+                               sae_slip(wr, v, dead_band_m_s=0.0)[~band])
+    assert not in_dead_band(wr, v, 0.0).any()
+
+
 @pytest.mark.parametrize("name", ["ASPHALT", "GRASS", "DIRT_ROAD"])
 def test_curve_coefficients_slopes_match_finite_differences(name):
     terrain = TERRAINS[name]
