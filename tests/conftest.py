@@ -6,6 +6,7 @@ shipped copy in ``data/`` (:func:`terrain.io.shipped.read_shipped`).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,14 @@ import pytest
 
 from terrain.io.shipped import default_data_dir, read_shipped
 from terrain.run import IMU_CHANNELS, TIME, Run
+
+# One OpenMP thread per pool for the test session (a value set by the user wins). torch,
+# imported later and only where a test needs it, reads this when it loads. The tests train
+# tiny CNNs in one process with NumPy's BLAS and numba: with two OpenMP threads torch's
+# threads wait on each other whenever a core is busy, and one small fit took 3.8-5.5 s
+# instead of 0.15-0.2 s on this 2-core machine (measured 2026-11-26). Library defaults
+# outside the tests are unchanged.
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 #: Column orders of the measured files (``shared/data/README.md``).
 IMU_FILE_COLUMNS = ["time", *IMU_CHANNELS]

@@ -31,7 +31,7 @@ def test_device_rows_cross_validate_on_the_requested_device(monkeypatch):
         # a device torch cannot use: the script must replace it by the requested one
         made.append(config)
         return RawCNNClassifier(max_epochs=15, width=8, batch_size=32, random_state=seed,
-                                device="no-such-device")
+                                device="no-such-device", n_threads=config.n_threads)
 
     monkeypatch.setitem(rows_of.__globals__, "cell_windows", _planted_cell)
     monkeypatch.setitem(rows_of.__globals__, "make_model", small_cnn)
