@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import tempfile
 from pathlib import Path
 
 from terrain.errors import ConfigError, duplicated
@@ -36,6 +37,24 @@ def _nearest_existing(path: Path) -> Path:
     return Path(".")
 
 
+def _cannot_create_in(folder: Path) -> str | None:
+    """Why no file can be created in the existing ``folder``, or ``None`` if one can.
+
+    A permission test alone (``os.access``) says yes to root everywhere, also in a
+    read-only or virtual file system (``/proc``) where nothing can be created; so a
+    scratch file is created and removed.
+    """
+    if not os.access(folder, os.W_OK):
+        return "no write permission"
+    try:
+        handle, name = tempfile.mkstemp(prefix=".terrain-write-test-", dir=folder)
+    except OSError as exc:
+        return exc.strerror or type(exc).__name__
+    os.close(handle)
+    os.unlink(name)
+    return None
+
+
 def output_file(value: str) -> Path:
     """argparse ``type`` of an output file option: refuse, while the options are read and
     before any work, a path that could not be written.
@@ -53,9 +72,13 @@ def output_file(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        An ancestor of the path is a file, the path is an existing folder, or the nearest
-        existing folder is not writable (argparse prints it as a one-line usage error).
+        The value is empty, an ancestor of the path is a file, the path is an existing
+        folder or a file without write permission, or no file can be created in the
+        nearest existing folder (tried with a scratch file, removed at once; argparse
+        prints the error as a one-line usage error).
     """
+    if not value.strip():
+        raise argparse.ArgumentTypeError("an empty path (give a file name)")
     path = Path(value)
     blocker = _blocking_ancestor(path)
     if blocker is not None:
@@ -64,10 +87,16 @@ def output_file(value: str) -> Path:
     if path.is_dir():
         raise argparse.ArgumentTypeError(
             f"cannot write {value!r}: it is a folder (give a file name)")
-    base = path.parent if path.exists() else _nearest_existing(path.parent)
-    if not os.access(path if path.exists() else base, os.W_OK):
-        raise argparse.ArgumentTypeError(f"cannot write {value!r}: no write permission on "
-                                         f"{str(path if path.exists() else base)!r}")
+    if path.exists():
+        if not os.access(path, os.W_OK):
+            raise argparse.ArgumentTypeError(
+                f"cannot write {value!r}: no write permission on {value!r}")
+        return path
+    base = _nearest_existing(path.parent)
+    why = _cannot_create_in(base)
+    if why is not None:
+        raise argparse.ArgumentTypeError(
+            f"cannot write {value!r}: cannot create a file in {str(base)!r} ({why})")
     return path
 
 
@@ -88,18 +117,23 @@ def output_dir(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        The path or one of its ancestors is a file, or the nearest existing folder is not
-        writable (argparse prints it as a one-line usage error).
+        The value is empty, the path or one of its ancestors is a file, or no file can be
+        created in the nearest existing folder (tried with a scratch file, removed at
+        once; argparse prints the error as a one-line usage error).
     """
+    if not value.strip():
+        raise argparse.ArgumentTypeError("an empty path (give a folder name)")
     path = Path(value)
     blocker = path if path.exists() and not path.is_dir() else _blocking_ancestor(path)
     if blocker is not None:
         raise argparse.ArgumentTypeError(
             f"cannot use {value!r} as output folder: {str(blocker)!r} is a file")
     base = _nearest_existing(path)
-    if not os.access(base, os.W_OK):
+    why = _cannot_create_in(base)
+    if why is not None:
         raise argparse.ArgumentTypeError(
-            f"cannot use {value!r} as output folder: no write permission on {str(base)!r}")
+            f"cannot use {value!r} as output folder: cannot create a file in {str(base)!r} "
+            f"({why})")
     return path
 
 

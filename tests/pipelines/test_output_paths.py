@@ -139,3 +139,38 @@ def test_cli_refuses_unwritable_output_before_any_work(argv, option, kind, block
     assert f"argument {option}: cannot" in err and "'afile'" in err
     assert "Traceback" not in err
     assert not (blocker.parent / "mlflow.db").exists() and not (blocker.parent / "mlruns").exists()
+
+
+def test_empty_output_path_refused():
+    # Path("") is the working folder: `simulate --out ""` wrote into it without a word
+    for check in (output_file, output_dir, model_dir):
+        with pytest.raises(argparse.ArgumentTypeError, match="an empty path"):
+            check("")
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+def test_a_folder_where_nothing_can_be_created_is_refused_even_for_root(tmp_path):
+    # os.access says yes to root in /proc; the scratch file tells the truth
+    for check, target in ((output_file, "/proc/terrain-out.csv"),
+                          (output_dir, "/proc/terrain-out"), (model_dir, "/proc/m")):
+        with pytest.raises(argparse.ArgumentTypeError, match="cannot create a file in '/proc'"):
+            check(target)
+    # the scratch file of a writable folder is removed again
+    assert output_file(str(tmp_path / "new.csv")) == tmp_path / "new.csv"
+    assert output_dir(str(tmp_path / "sub")) == tmp_path / "sub"
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+@pytest.mark.parametrize("argv, option, kind", _OUTPUT_OPTIONS,
+                         ids=[f"{a[0]} {o}" for a, o, _ in _OUTPUT_OPTIONS])
+def test_cli_refuses_an_output_under_proc_before_any_work(argv, option, kind, tmp_path,
+                                                          monkeypatch, capsys):
+    """`cv --json /proc/x.json` ran the whole CV before failing (found by a CLI fuzz)."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, option, "/proc/terrain-out" + (".csv" if kind == "file" else "")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}: cannot" in err and "'/proc'" in err
+    assert "Traceback" not in err and list(tmp_path.iterdir()) == []
