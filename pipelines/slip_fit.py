@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from features.slip_features import (one_hot_probabilities, slip_features, slip_table,
-                                    slip_windows, terrain_columns)
+from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_features,
+                                    slip_table, slip_windows, terrain_columns)
 from pipelines.arguments import DistinctSeeds, output_dir, seed_value
 from terrain.errors import ConfigError
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -101,7 +101,8 @@ def main(args: argparse.Namespace) -> int:
     ------
     ConfigError
         A seed in both ``--train-seeds`` and ``--test-seeds``, an unknown terrain or
-        scenario, or a duration (``--duration-s``, or an
+        scenario, a ``--duration-s`` shorter than one slip window
+        (:data:`features.slip_features.SLIP_WINDOW`, 2 s), or a duration (``--duration-s``, or an
         ``--orchard-duration-s`` longer than it or NaN) the simulation refuses; checked
         before any run is simulated.
     """
@@ -110,6 +111,9 @@ def main(args: argparse.Namespace) -> int:
     if both:  # a seed in both would be scored as held out and silently left out of training
         raise ConfigError(f"seed(s) {both} in both --train-seeds and --test-seeds: the held-out "
                           "runs are those of seeds the model was not fitted on")
+    if not args.duration_s >= SLIP_WINDOW.window_s:  # runs without a window: nothing to fit
+        raise ConfigError(f"--duration-s must be at least one slip window "
+                          f"({SLIP_WINDOW.window_s:g} s), got {args.duration_s:g}")
     if not args.orchard_duration_s <= args.duration_s:  # NaN, or an orchard run to simulate
         try:  # the simulation's own checks, before hours of fitting
             SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.orchard_duration_s)

@@ -22,12 +22,13 @@ from dataclasses import replace
 import pandas as pd
 
 from features.windows import WindowConfig
-from pipelines.arguments import DistinctSeeds, output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, model_dir, output_dir, seed_value
 from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
 from terrain.serving.evaluation import (encode_stream_scores, held_out_streams, pool_scores,
-                                        seed_accuracies, window_cv)
+                                        recipe_stream_names, runs_holding, seed_accuracies,
+                                        window_cv)
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
@@ -100,7 +101,9 @@ def main(args: argparse.Namespace) -> int:
     ConfigError
         A recipe repeated in ``--kinds``, ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
         :class:`~features.windows.WindowConfig` refuses, a negative or infinite
-        ``--switch-gap-s``; checked before any run is read.
+        ``--switch-gap-s``, a ``--model-out`` folder of a recipe that is not empty: checked
+        before any run is read; more ``--folds`` than runs to cut the streams from: checked
+        once the runs are read, before any model is fitted.
     """
     repeated = duplicated(args.kinds)
     if repeated:  # each would be fitted and logged twice under one name
@@ -112,7 +115,17 @@ def main(args: argparse.Namespace) -> int:
     if not 0 <= args.switch_gap_s < math.inf:
         raise ConfigError(f"--switch-gap-s must be a finite number of seconds >= 0, got "
                           f"{args.switch_gap_s}")
+    for kind in args.kinds if args.model_out else []:  # before hours of evaluation
+        try:
+            model_dir(str(args.model_out / kind))
+        except argparse.ArgumentTypeError as exc:
+            raise ConfigError(f"--model-out: {exc}") from None
     runs = load_dataset("borealtc")
+    for kind in args.kinds if args.part in ("streams", "both") else []:
+        n_runs = len(runs_holding(runs, recipe_stream_names(RECIPES[kind])))
+        if args.folds > n_runs:  # iter_splits' own check, before the wheel CV and any fit
+            raise ConfigError(f"--folds {args.folds} over the {n_runs} runs the {kind} "
+                              "streams are cut from: every fold holds at least one run out")
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",
                      params={"part": args.part, "seeds": ",".join(map(str, args.seeds)),

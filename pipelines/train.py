@@ -17,7 +17,7 @@ import numpy as np
 from pipelines.arguments import add_cnn_seeds, add_run_balanced, add_window_ekf, model_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
-from terrain.models.experiment import ExperimentConfig, fit_pipeline
+from terrain.models.experiment import ExperimentConfig, check_servable_signals, fit_pipeline
 from terrain.models.registry import MODELS, check_dependencies
 from terrain.serving.pyfunc import log_model, runs_to_model_input, save_model
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -62,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                              DEFAULT_MODELS.items()) + ")")
     parser.add_argument("--signals", nargs="+", default=None,
                         help="imu, wheels, all, all-no-speed (all but the forward wheel "
-                             "speeds), all+ekf, or channel names (default: " + ", ".join(
+                             "speeds), or raw channel names (default: " + ", ".join(
                                  f"{d} {'+'.join(s)}" for d, s in DEFAULT_SIGNALS.items())
                              + ", all otherwise)")
     parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
@@ -150,6 +150,7 @@ def main(args: argparse.Namespace) -> int:
               "rate_hz": window.rate_hz, "search": config.search, "seed": config.seeds[0],
               "window_ekf": config.window_ekf, "cnn_seeds": config.cnn_seeds,
               "run_balanced": config.run_balanced}
+    check_servable_signals(config.signals)  # EKF channels: before any data or MLflow run
     check_dependencies(config.model)     # an optional extra missing: before any data
     runs = load_dataset(config.dataset)  # a data error stops here, before any MLflow run
     with tracked_run(EXPERIMENT, run_name=name, params=params) as run:

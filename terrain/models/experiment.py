@@ -509,6 +509,28 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                             tuple(input_notes))
 
 
+def check_servable_signals(signals: Sequence[str]) -> None:
+    """Refuse a signal set a served model could not be given: EKF-derived channels.
+
+    Parameters
+    ----------
+    signals : sequence of str
+        Signal sets or channel names (:func:`resolve_signals`).
+
+    Raises
+    ------
+    ConfigError
+        A set or name that resolves to an EKF channel (``ekf``, ``all+ekf``,
+        :data:`EKF_CHANNELS`): those come from a causal EKF over the whole run, for
+        cross-validation ablations; the served model takes raw aligned signals.
+    """
+    if set(resolve_signals(signals)) & set(EKF_CHANNELS):
+        raise ConfigError("EKF-derived channels are for cross-validation ablations only: the "
+                          "served model takes raw aligned signals (choose imu, wheels, all or "
+                          "raw channel names; --window-ekf gives the model EKF channels "
+                          "computed from each window)")
+
+
 def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
                  data_dir: str | Path | None = None, progress: bool = False,
                  n_jobs: int | None = None) -> tuple[Pipeline, WindowSet, dict]:
@@ -549,11 +571,7 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     info : dict
         Chosen hyperparameters.
     """
-    if set(resolve_signals(config.signals)) & set(EKF_CHANNELS):
-        raise ConfigError("EKF-derived channels are for cross-validation ablations only: the "
-                          "served model takes raw aligned signals (choose imu, wheels, all or "
-                          "raw channel names; --window-ekf gives the model EKF channels "
-                          "computed from each window)")
+    check_servable_signals(config.signals)
     # training uses every window of the training cut (train_hop_s), when one is set
     ws = load_windows(config if config.train_hop_s is None
                       else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)

@@ -423,6 +423,40 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
                        acc_settled, int(settled.sum()), confusion)
 
 
+def runs_holding(runs: Sequence[Run], streams: Sequence[str]) -> list[Run]:
+    """The runs holding every one of ``streams``: the split units of the held-out streams.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Labelled runs.
+    streams : sequence of str
+        Stream names (``imu``, ``wheels``; :func:`recipe_stream_names`).
+
+    Returns
+    -------
+    list of Run
+        The runs holding them, in the given order.
+    """
+    return [r for r in runs if all(s in r.streams for s in streams)]
+
+
+def recipe_stream_names(recipe: ModelRecipe) -> tuple[str, ...]:
+    """Streams every run of a recipe's held-out streams must hold.
+
+    Parameters
+    ----------
+    recipe : ModelRecipe
+        The streaming recipe.
+
+    Returns
+    -------
+    tuple of str
+        ``("wheels",)`` for a wheel-only recipe, else ``("imu", "wheels")``.
+    """
+    return ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+
+
 def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
                    n_splits: int = 5, switch_gap_s: float = 0.0, progress: bool = False
                    ) -> Iterator[tuple[int, list[Run], Run, list[Segment]]]:
@@ -460,7 +494,7 @@ def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
     segments : list of Segment
         The pieces of ``stream``.
     """
-    usable = [r for r in runs if all(s in r.streams for s in streams)]
+    usable = runs_holding(runs, streams)
     labels = np.array([r.terrain for r in usable], dtype=object)
     ids = np.array([r.run_id for r in usable], dtype=object)
     splits = enumerate(iter_splits("grouped", labels, ids, seed, n_splits))
@@ -510,7 +544,7 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
         n_switches, n_decisions, accuracy_settled, n_settled, delays_s, confusion`` (see
         :class:`StreamScore`).
     """
-    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    need = recipe_stream_names(recipe)
     rows = []
     for fold, train, stream, segments in held_out_folds(runs, need, seed, n_splits,
                                                         switch_gap_s, progress):

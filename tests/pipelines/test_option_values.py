@@ -217,6 +217,13 @@ _REFUSED = [
     (["control-grid", "--kp-grid", "2", "nan", "--out", "g"], "kp=nan"),
     (["control-grid", "--vehicles", "tracked", "--out", "g"], "supports vehicles"),
     (["slip-fit", "--orchard-duration-s", "nan"], "--orchard-duration-s"),
+    # shorter than one 2 s slip window: scikit-learn's 0-sample error after the simulation
+    (["slip-fit", "--duration-s", "1.9"], "at least one slip window (2 s)"),
+    (["slip-fit", "--duration-s", "nan"], "at least one slip window (2 s)"),
+    # refused after an MLflow run had been opened (and offered by train's --help)
+    (["train", "--signals", "all+ekf"], "EKF-derived channels are for cross-validation"),
+    # refused after the wheel-only CV had run (found by a CLI fuzz)
+    (["stream-eval", "--folds", "1000"], "--folds 1000 over the"),
     (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
       "straight_accel", "--controller", "traction", "--json", "c.json", "--kp", "nan"],
      "kp=nan"),
@@ -278,3 +285,17 @@ def test_more_folds_than_runs_is_a_config_error_not_sklearns_value_error():
     for n_splits in (1, 11):
         with pytest.raises(ConfigError, match=f"{n_splits} folds over 10 split units"):
             list(iter_splits("grouped", labels, groups, 0, n_splits))
+
+
+def test_stream_eval_refuses_a_full_model_folder_before_any_evaluation(
+        tmp_path, monkeypatch, capsys):
+    # the check came after the whole evaluation and the fit of the earlier recipes' models
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mo" / "wheels").mkdir(parents=True)
+    (tmp_path / "mo" / "wheels" / "MLmodel").write_text("x")
+    assert main(["stream-eval", "--part", "streams", "--kinds", "all", "wheels",
+                 "--model-out", "mo"]) == 2
+    err = capsys.readouterr().err
+    assert "--model-out: model directory 'mo/wheels' exists and is not empty" in err
+    assert "Traceback" not in err and not (tmp_path / "mlflow.db").exists()
+    assert sorted(p.name for p in (tmp_path / "mo").iterdir()) == ["wheels"]
