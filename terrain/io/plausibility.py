@@ -93,6 +93,7 @@ import pandas as pd
 
 from terrain.errors import (ClockError, DataWarning, ImplausibleValueError, UnitError,
                             first_items)
+from terrain.io.report import seconds_text
 from terrain.run import IMU_CHANNELS, TIME
 
 
@@ -525,7 +526,7 @@ def _check_clocks(imu, wheels, src, found) -> dict[str, float]:
     left_out = {k: v for k, v in unused.items()
                 if v > max(MAX_UNUSED_SPAN_S, 0.1 * overlap)}
     if (shorter > 0 and overlap < 0.5 * shorter) or left_out:
-        unused_text = ", ".join(f"{k} {v:.1f} s" for k, v in unused.items() if v > 0)
+        unused_text = ", ".join(f"{k} {seconds_text(v)}" for k, v in unused.items() if v > 0)
         found.append(f"{src('imu')}: rule clock_overlap: the IMU and wheel clocks overlap for "
                      f"{overlap:.1f} s only ({spans}); assumed one clock, only the overlap "
                      f"is used (left out: {unused_text})")

@@ -18,6 +18,25 @@ import pandas as pd
 
 from terrain.run import Run
 
+
+def seconds_text(seconds: float) -> str:
+    """A duration for a message: one decimal, or three significant digits beyond 1e6 s.
+
+    A corrupt timestamp (``-1e300``) made a 300-digit gap in the input report.
+
+    Parameters
+    ----------
+    seconds : float
+        Duration, s.
+
+    Returns
+    -------
+    str
+        ``"12.3 s"`` or ``"1e+300 s"``.
+    """
+    return f"{seconds:.1f} s" if abs(seconds) < 1e6 else f"{seconds:.3g} s"
+
+
 #: columns of :attr:`InputReport.table`
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
            "gap_list", "skipped_lines", "ignored_columns", "unused_imu_s", "unused_wheels_s",
@@ -118,15 +137,15 @@ class InputReport:
         unused = {k: m[f"unused_{k}_s"] for k in UNUSED_STREAMS if m[f"unused_{k}_s"] > 0}
         if unused:
             mask = t[[f"unused_{k}_s" for k in UNUSED_STREAMS]].sum(axis=1) > 0
-            parts.append("  not used: " + ", ".join(f"{v:.1f} s of {k}" for k, v in
+            parts.append("  not used: " + ", ".join(f"{seconds_text(v)} of {k}" for k, v in
                                                     unused.items())
                          + " outside the other stream's span (only the overlap is aligned) "
                          f"in {ids(mask)}")
         if m["gaps"]:
             lengths = [float(b) - float(a) for spans in t["gap_list"] if spans
                        for a, b in (g.split("..") for g in spans.split(";"))]
-            sizes = _short([f"{x:.1f} s" for x in lengths], limit)
-            total = f"; {m['gap_s']:.1f} s in all" if len(lengths) > 1 else ""
+            sizes = _short([seconds_text(x) for x in lengths], limit)
+            total = f"; {seconds_text(m['gap_s'])} in all" if len(lengths) > 1 else ""
             parts.append(f"  {int(m['gaps'])} timestamp gap(s) ({sizes}{total}) in "
                          f"{ids(t['gaps'] > 0)}; never interpolated across")
         if m["windows_dropped_gap"] or m["windows_dropped_unsteady"]:

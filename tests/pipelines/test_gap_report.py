@@ -47,6 +47,12 @@ def test_several_gaps_are_listed_with_their_total():
     assert "2 timestamp gap(s) (4.0 s, 1000.0 s; 1004.0 s in all) in runs/X/00" in text
 
 
+def test_a_corrupt_timestamp_gap_prints_as_a_short_number():
+    # a wheel file whose first timestamp read -1e300 printed a 300-digit gap (CLI fuzz)
+    text = input_report([_run({"wheels": [(-1e300, 0.0)]})]).text()
+    assert "1 timestamp gap(s) (1e+300 s) in runs/X/00" in text and len(text) < 200
+
+
 def test_windows_inside_a_hole_of_every_stream_are_not_counted_as_dropped():
     """Planted: 2 s windows at 10 Hz over 0-1040 s, every channel NaN strictly inside
     (20 s, 1020 s). The window [20, 22) holds data and a gap: dropped. The 499 windows from
