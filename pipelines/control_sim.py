@@ -34,6 +34,7 @@ from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
 from terrain.control.estimators import ESTIMATORS
+from terrain.errors import ConfigError
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -115,8 +116,9 @@ def main(args: argparse.Namespace) -> int:
     ------
     ConfigError
         Unknown terrain, or a duration or seed that :class:`terrain.sim.SimConfig` refuses,
-        or ``--model`` with a terrain source other than ``model`` (checked before a
-        classifier is trained).
+        or ``--model`` with a terrain source other than ``model``, or ``--kp``, ``--ki`` or
+        ``--no-feed-forward`` with ``--controller off`` where no controlled classifier
+        training run uses them (checked before a classifier is trained).
     """
     get_terrain(args.terrain)         # an unknown terrain fails here, before any training
     # so do a duration out of range (too short for two samples of every stream) and a bad
@@ -129,6 +131,17 @@ def main(args: argparse.Namespace) -> int:
     source = args.terrain_source or ("model" if args.model else "live-sim")
     check_decision_options(source, args.model, args.classifier_seeds,
                            args.classifier_uncontrolled_only)
+    # with the controller off, the gains and the feed-forward act only on the live-sim
+    # classifier's controlled training runs; anywhere else they would be ignored unsaid
+    controlled_training = source == "live-sim" and not args.classifier_uncontrolled_only
+    unused = [name for name, given in (("--kp", args.kp is not None),
+                                       ("--ki", args.ki is not None),
+                                       ("--no-feed-forward", args.no_feed_forward)) if given]
+    if args.controller == "off" and unused and not controlled_training:
+        raise ConfigError(f"{', '.join(unused)} act on the traction controller, which "
+                          f"--controller off does not run (terrain source {source!r}"
+                          + (", uncontrolled classifier runs" if source == "live-sim" else "")
+                          + "): leave them out")
     provider, info = decision_source(source, args.vehicle, [terrain], [args.seed],
                                      args.model, args.classifier_seeds or CLASSIFIER_SEEDS,
                                      controlled_runs=not args.classifier_uncontrolled_only,

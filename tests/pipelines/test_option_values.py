@@ -105,6 +105,15 @@ def test_a_value_repeated_on_a_grid_axis_is_refused_before_any_work(argv, messag
      "--classifier-uncontrolled-only trains the live-sim classifier"),
     (["control-grid", "--out", "g", "--model", "m"],
      "--model is used only with --terrain-source model, not 'label'"),
+    # ran and ignored --kp without a word (CLI fuzz)
+    (["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
+      "--controller", "off", "--json", "c.json", "--terrain-source", "label", "--kp", "5"],
+     "--kp act on the traction controller, which --controller off does not run"),
+    (["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
+      "--controller", "off", "--json", "c.json", "--classifier-uncontrolled-only", "--ki",
+      "1", "--no-feed-forward"],
+     "--ki, --no-feed-forward act on the traction controller, which --controller off does "
+     "not run (terrain source 'live-sim', uncontrolled classifier runs)"),
 ])
 def test_a_terrain_source_option_the_source_ignores_is_refused(argv, message, capsys,
                                                                tmp_path, monkeypatch):
