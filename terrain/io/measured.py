@@ -252,7 +252,7 @@ def _read_text(path: Path) -> str:
     try:
         data = path.read_bytes()
     except IsADirectoryError:
-        raise UnreadableFileError("is a directory, expected a CSV file", path) from None
+        raise UnreadableFileError("is a directory, expected a file", path) from None
     except FileNotFoundError:
         raise UnreadableFileError("file not found (a dangling symlink?)", path) from None
     except OSError as exc:  # ELOOP (symlink loop), EACCES...
