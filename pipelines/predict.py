@@ -18,7 +18,7 @@ from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
 from terrain.io.report import input_report
-from terrain.serving.model import other_vehicle_note
+from terrain.serving.model import imu_rate_note, other_vehicle_note
 from terrain.serving.pyfunc import load_model, local_model_dir, runs_to_model_input
 from terrain.tracking import store_errors, tracked_run
 
@@ -87,11 +87,14 @@ def main(args: argparse.Namespace) -> int:
     if progress:
         from tqdm.auto import tqdm
         items = tqdm(runs, desc="predicting runs", unit="run")
-    other_vehicle = []
+    other_vehicle, slower_imu = [], []
     for run in items:
         note = other_vehicle_note(meta, run.vehicle, run.run_id)
         if note:
             other_vehicle.append(note)
+        note = imu_rate_note(meta["channels"], float(meta["rate_hz"]), run)
+        if note:
+            slower_imu.append(note)
         samples, skipped = runs_to_model_input([run], meta["channels"], float(meta["rate_hz"]))
         if skipped:
             counts["skipped_runs"].append(run.run_id)
@@ -109,7 +112,7 @@ def main(args: argparse.Namespace) -> int:
                zip(counts["per_run"], parts)}
     inputs = input_report(runs, counts, window_s, flagged)
     print(inputs.text())
-    for note in other_vehicle:
+    for note in other_vehicle + slower_imu:
         print(note)
     if not parts or not sum(len(p) for p in parts):
         raise DataFormatError(f"no window to predict in {len(runs)} run(s) (see above; a "
@@ -124,6 +127,7 @@ def main(args: argparse.Namespace) -> int:
                          "n_runs_skipped": len(counts["skipped_runs"]),
                          "n_windows_flagged": int((pred["flags"] != "").sum()),
                          "n_runs_other_vehicle": len(other_vehicle),
+                         "n_runs_slower_imu": len(slower_imu),
                          **inputs.metrics()})
         run.log_table(pred, "predictions.csv")
         run.log_table(inputs.table, "input_report.csv")

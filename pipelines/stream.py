@@ -18,7 +18,7 @@ from pipelines.arguments import add_smoothing, output_file, smoothing_from_args
 from terrain.control import DesiredSlipConfig
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
-from terrain.serving.model import other_vehicle_note
+from terrain.serving.model import imu_rate_note, other_vehicle_note
 from terrain.serving.replay import replay_recorded
 
 
@@ -76,9 +76,10 @@ def main(args: argparse.Namespace) -> int:
     targets = TableTargets(model.classes, DesiredSlipConfig(min_confidence=args.min_confidence))
     replay = replay_recorded(StreamService(model, targets, config), run)
     print(replay.input_report().text())
-    note = other_vehicle_note(model.metadata, run.vehicle, run.run_id)
-    if note:
-        print(note)
+    for note in (other_vehicle_note(model.metadata, run.vehicle, run.run_id),
+                 imu_rate_note(model.channels, model.window.rate_hz, run)):
+        if note:
+            print(note)
     replay.check(args.run_dir)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     replay.frame.to_csv(args.out, index=False)

@@ -20,7 +20,7 @@ import yaml
 from features.windows import DERIVED_WHEEL_CHANNELS, WindowConfig
 from terrain.errors import ConfigError
 from terrain.io.shipped import dataset_vehicle
-from terrain.run import WHEEL_CHANNELS
+from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS, Run
 
 PIPELINE_ARTIFACT = Path("artifacts") / "pipeline.joblib"
 
@@ -83,6 +83,41 @@ def model_vehicle(metadata: Mapping[str, Any]) -> str | None:
     if isinstance(vehicle, str) and vehicle:
         return vehicle.lower()
     return dataset_vehicle(str(metadata.get("dataset", "")))
+
+
+def imu_rate_note(channels, model_rate_hz: float, run: Run) -> str | None:
+    """A note for a run whose IMU is sampled slower than the model's windows.
+
+    The windows are aligned to the model's rate, so a slower IMU is interpolated up: its
+    windows hold nothing above the run's Nyquist frequency, where a model trained on
+    faster IMU windows found part of its evidence (a 50 Hz Vulpi run before a 100 Hz
+    BorealTC model ran without a word; a CLI fuzz found it). The wheel stream is slower
+    than the model's rate by design (~6.5 Hz in BorealTC, interpolated in training too)
+    and is not named.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The model's input channels.
+    model_rate_hz : float
+        The model's window rate, Hz.
+    run : Run
+        The run given to it.
+
+    Returns
+    -------
+    str or None
+        ``note: ...``; None when the model reads no IMU channel, the run has no IMU, or
+        the run's IMU rate is within 5 % of the model's or above it.
+    """
+    if not (set(channels) & set(IMU_CHANNELS)) or not run.has_imu:
+        return None
+    rate_hz = run.rate_hz("imu")
+    if not rate_hz < 0.95 * model_rate_hz:
+        return None
+    return (f"note: run {run.run_id}'s IMU is sampled at {rate_hz:.3g} Hz, the model's windows "
+            f"at {model_rate_hz:g} Hz: its IMU is interpolated up and holds nothing above "
+            f"{rate_hz / 2:.3g} Hz, where the model may have learned from its training runs")
 
 
 def other_vehicle_note(metadata: Mapping[str, Any], run_vehicle: str, run_id: str) -> str | None:

@@ -120,6 +120,29 @@ def test_stream_names_a_run_of_another_vehicle_than_the_models(run_dir, tmp_path
     assert len(pd.read_csv(tmp_path / "d.csv")) > 20
 
 
+def test_stream_and_predict_name_an_imu_slower_than_the_models_windows(
+        run_dir, tmp_path, capsys, all_model, wheel_model, monkeypatch):
+    # a 50 Hz IMU before a 100 Hz model was interpolated up without a word (CLI fuzz);
+    # here the fixture's 50 Hz model and the run's 100 Hz IMU kept every 4th sample
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(all_model, tmp_path / "model")
+    assert all_model.window.rate_hz == 50.0
+    note = "IMU is sampled at 25 Hz, the model's windows at 50 Hz"
+    assert _stream(model_dir, run_dir, tmp_path / "d.csv") == 0
+    assert "is sampled at" not in capsys.readouterr().out           # the run's own 100 Hz
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_imu=lambda f: f.iloc[::4])
+    assert _stream(model_dir, folder, tmp_path / "d.csv") == 0
+    out = capsys.readouterr().out
+    assert f"note: run SNOW/07's {note}" in out and "nothing above 12.5 Hz" in out
+    assert main(["predict", "--model", str(model_dir), str(folder.parent), "--out",
+                 str(tmp_path / "p.csv"), "--no-progress"]) == 0
+    assert note in capsys.readouterr().out
+    # a wheel-only model reads no IMU channel: nothing to say
+    wheels_dir = _saved(wheel_model, tmp_path / "wheels")
+    assert _stream(wheels_dir, folder, tmp_path / "d.csv") == 0
+    assert "is sampled at" not in capsys.readouterr().out
+
+
 def test_model_vehicle_reads_the_key_else_the_shipped_dataset():
     from terrain.serving.model import model_vehicle, other_vehicle_note
     assert model_vehicle({"vehicle": "Tracked", "dataset": "borealtc"}) == "tracked"
