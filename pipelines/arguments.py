@@ -12,6 +12,7 @@ is the type of every seed option.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -315,8 +316,9 @@ def smoothing_from_args(args: argparse.Namespace) -> SmoothingConfig:
         A value out of its range (a negative dwell, a reset without the filter...), or
         ``--reset-windows`` without ``--reset-confidence``.
     """
-    if not args.dwell_s >= 0:
-        raise ConfigError(f"--dwell-s must be >= 0 (0 disables smoothing), got {args.dwell_s:g}")
+    if not 0 <= args.dwell_s < math.inf:   # inf reached SmoothingConfig's own message
+        raise ConfigError(f"--dwell-s must be a finite number >= 0 (0 disables smoothing), "
+                          f"got {args.dwell_s:g}")
     if args.reset_windows is not None and args.reset_confidence is None:
         # the reset is off without a confidence: the count alone would change nothing
         raise ConfigError(f"--reset-windows {args.reset_windows} needs --reset-confidence (the "

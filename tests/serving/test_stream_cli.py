@@ -292,6 +292,7 @@ def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_
     capsys.readouterr()
     for extra, words in ((["--reset-confidence", "1.5"], "reset_confidence must be in (0, 1]"),
                          (["--reset-confidence", "0.9", "--dwell-s", "0"], "needs dwell_s"),
+                         (["--dwell-s", "inf"], "--dwell-s must be a finite number >= 0"),
                          (["--reset-confidence", "0.9", "--reset-windows", "0"],
                           "reset_windows must be an integer >= 1"),
                          # a count alone changed nothing (the reset is off) and said nothing
