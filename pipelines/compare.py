@@ -98,7 +98,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="Dask scheduler (tcp://host:8786) or Ray address; "
                              "default: a local cluster")
     parser.add_argument("--n-jobs", type=_n_jobs, default=-1,
-                        help="joblib workers (-1: all of the backend; 1: sequential here)")
+                        help="joblib workers, any integer but 0 (-1: all of the backend; -2: "
+                             "all but one, and so on; 1: sequential here)")
     parser.add_argument("--out", type=output_dir, default=Path("compare"), help="output folder")
     parser.add_argument("--no-progress", action="store_true",
                         help="hide the progress bar over grid cells")
