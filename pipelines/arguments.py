@@ -165,6 +165,60 @@ def model_dir(value: str) -> Path:
     return path
 
 
+def positive_number(value: str) -> float:
+    """argparse ``type`` of an option that takes a finite number > 0 (a window length, hop or
+    cut-off), so a bad value is refused with the option's name rather than the name of the
+    configuration field it fills.
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a number, or not finite and > 0.
+    """
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
+    if not 0 < number < math.inf:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {value}")
+    return number
+
+
+def positive_integer(value: str) -> int:
+    """argparse ``type`` of an option that takes an integer >= 1 (threads, epochs, a count).
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not an integer, or below 1.
+    """
+    try:
+        number = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {value!r}") from None
+    if number < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
+    return number
+
+
 def seed_value(value: str) -> int:
     """argparse ``type`` of a seed option: an integer in ``0..MAX_SEED``
     (:data:`terrain.models.experiment.MAX_SEED`).
@@ -223,7 +277,7 @@ def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:
     default : int
         Networks per CNN when the option is not given (>= 1).
     """
-    parser.add_argument("--cnn-seeds", type=int, default=default,
+    parser.add_argument("--cnn-seeds", type=positive_integer, default=default,
                         help="CNNs (alone or in an ensemble) average the probabilities of this "
                              "many independently seeded networks (seed bagging; default "
                              f"{default})")
@@ -268,7 +322,7 @@ def add_train_hop(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Sub-command parser (modified in place).
     """
-    parser.add_argument("--train-hop-s", type=float, default=None,
+    parser.add_argument("--train-hop-s", type=positive_number, default=None,
                         help="hop of the training windows, s: each fold trains on windows cut "
                              "this often from its training runs; the test windows are "
                              "unchanged (default: train on the test windows' cut)")
@@ -293,7 +347,7 @@ def add_smoothing(parser: argparse.ArgumentParser) -> None:
                              "--reset-windows consecutive windows name the same other class "
                              "with at least this probability (default: no reset; "
                              "docs/streaming.md)")
-    parser.add_argument("--reset-windows", type=int, default=None,
+    parser.add_argument("--reset-windows", type=positive_integer, default=None,
                         help="consecutive confident windows that reset the filter (default 2; "
                              "needs --reset-confidence)")
 

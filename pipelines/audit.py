@@ -19,7 +19,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from pipelines.arguments import output_file, seed_value
+from pipelines.arguments import output_file, positive_number, seed_value
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
@@ -79,7 +79,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--compare-physics", action="store_true",
                         help="also replay every run with v1 and v2 and report the gain of v2 "
                              "per terrain, signal and manoeuvre with run-bootstrap intervals")
-    parser.add_argument("--replay-input-lowpass-hz", type=float, default=None, metavar="HZ",
+    parser.add_argument("--replay-input-lowpass-hz", type=positive_number, default=None,
+                        metavar="HZ",
                         help="low-pass the measured wheel speeds at HZ before they drive the "
                              "replay (default: as recorded; for noisy speed records such as "
                              "Vulpi's, see docs/physics_v2.md)")

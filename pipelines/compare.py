@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, output_dir,
-                                 seed_value)
+                                 positive_integer, positive_number, seed_value)
 from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
                                     grid_markdown, iter_grid, joblib_backend, markdown_table,
@@ -74,13 +74,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     d = CompareConfig()
     parser.add_argument("--models", nargs="+", choices=MODELS, default=list(d.models))
     parser.add_argument("--signals", nargs="+", default=list(d.signals))
-    parser.add_argument("--windows-s", type=float, nargs="+", default=list(d.windows_s))
+    parser.add_argument("--windows-s", type=positive_number, nargs="+",
+                        default=list(d.windows_s))
     parser.add_argument("--datasets", nargs="+", default=list(d.datasets))
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=list(d.seeds))
     parser.add_argument("--history", type=int, nargs="+", default=list(d.history))
-    parser.add_argument("--max-epochs", type=int, default=d.max_epochs)
-    parser.add_argument("--threads", type=int, default=None, help="torch threads per CNN fit")
+    parser.add_argument("--max-epochs", type=positive_integer, default=d.max_epochs)
+    parser.add_argument("--threads", type=positive_integer, default=None,
+                        help="torch threads per CNN fit")
     parser.add_argument("--protocol", choices=COMPARE_PROTOCOLS, default=d.protocol,
                         help="grouped: run-grouped StratifiedGroupKFold (headline); paper: the "
                              "BorealTC/Vulpi papers' LEAKY 5 s partition protocol (needs "

@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced,
-                                 add_train_hop, add_window_ekf, output_file, seed_value)
+from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced, add_train_hop,
+                                 add_window_ekf, output_file, positive_number, seed_value)
 from terrain.errors import ConfigError
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -40,9 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="imu, wheels, all, all-no-speed (all but the forward wheel "
                              "speeds), ekf (EKF-derived channels), all+ekf, or channel names "
                              "(default: all)")
-    parser.add_argument("--window-s", type=float, default=None,
+    parser.add_argument("--window-s", type=positive_number, default=None,
                         help="window length, s (default: 2.0); the paper protocol fixes 1.7")
-    parser.add_argument("--hop-s", type=float, default=None,
+    parser.add_argument("--hop-s", type=positive_number, default=None,
                         help="hop between windows, s (default: window length)")
     add_train_hop(parser)
     parser.add_argument("--protocol", choices=PROTOCOLS, default="grouped")

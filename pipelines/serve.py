@@ -31,7 +31,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from pipelines.arguments import add_smoothing, model_dir, smoothing_from_args
+from pipelines.arguments import add_smoothing, model_dir, positive_number, smoothing_from_args
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
 from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT,
@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--served-out", type=model_dir, default=None,
                         help="keep the wrapped streaming model here (servable with "
                              "`mlflow models serve -m DIR --env-manager local`)")
-    parser.add_argument("--hop-s", type=float, default=0.5,
+    parser.add_argument("--hop-s", type=positive_number, default=0.5,
                         help="time between decisions, s (at least one period of the "
                              "model's clock)")
     add_smoothing(parser)

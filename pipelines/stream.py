@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import add_smoothing, output_file, smoothing_from_args
+from pipelines.arguments import add_smoothing, output_file, positive_number, smoothing_from_args
 from terrain.control import DesiredSlipConfig
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
@@ -36,7 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain folder holding the run's imu_XX.csv / pro_XX.csv")
     parser.add_argument("--index", default=None, help="run index XX when RUN_DIR holds several")
     parser.add_argument("--out", type=output_file, required=True, help="decisions CSV to write")
-    parser.add_argument("--hop-s", type=float, default=0.5, help="time between decisions, s")
+    parser.add_argument("--hop-s", type=positive_number, default=0.5,
+                        help="time between decisions, s")
     add_smoothing(parser)
     parser.add_argument("--min-confidence", type=float, default=0.5,
                         help="smoothed probability below which the fallback target is used")

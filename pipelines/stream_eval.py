@@ -22,7 +22,7 @@ from dataclasses import replace
 import pandas as pd
 
 from features.windows import WindowConfig
-from pipelines.arguments import DistinctSeeds, model_dir, output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, model_dir, output_dir, positive_number, seed_value
 from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
@@ -68,9 +68,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "soft vote; all-ensemble3: + raw CNN as well; wheels: physics "
                              "features + extra trees; default: the default recipe per signal "
                              "set)")
-    parser.add_argument("--window-s", type=float, default=RECIPES["wheels"].window_s,
+    parser.add_argument("--window-s", type=positive_number, default=RECIPES["wheels"].window_s,
                         help="wheel-cv window (history) length, s")
-    parser.add_argument("--hop-s", type=float, default=2.0, help="wheel-cv hop, s")
+    parser.add_argument("--hop-s", type=positive_number, default=2.0, help="wheel-cv hop, s")
     parser.add_argument("--folds", type=int, default=5,
                         help="folds over runs of the held-out streams: each fold's model is "
                              "trained on (N-1)/N of the runs and its held-out runs are one "

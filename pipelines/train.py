@@ -14,7 +14,8 @@ from typing import Mapping
 
 import numpy as np
 
-from pipelines.arguments import add_cnn_seeds, add_run_balanced, add_window_ekf, model_dir
+from pipelines.arguments import (add_cnn_seeds, add_run_balanced, add_window_ekf, model_dir,
+                                 positive_number)
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, check_servable_signals, fit_pipeline
@@ -65,8 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "speeds), or raw channel names (default: " + ", ".join(
                                  f"{d} {'+'.join(s)}" for d, s in DEFAULT_SIGNALS.items())
                              + ", all otherwise)")
-    parser.add_argument("--window-s", type=float, default=2.0, help="window length, s")
-    parser.add_argument("--train-hop-s", type=float, default=None,
+    parser.add_argument("--window-s", type=positive_number, default=2.0, help="window length, s")
+    parser.add_argument("--train-hop-s", type=positive_number, default=None,
                         help="fit on windows cut this often, s (overlapping when shorter than "
                              "the window; default: " + ", ".join(
                                  f"{d} {h:g}" for d, h in DEFAULT_TRAIN_HOP_S.items())

@@ -294,12 +294,17 @@ def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_
                          (["--reset-confidence", "0.9", "--dwell-s", "0"], "needs dwell_s"),
                          (["--dwell-s", "inf"], "--dwell-s must be a finite number >= 0"),
                          (["--reset-confidence", "0.9", "--reset-windows", "0"],
-                          "reset_windows must be an integer >= 1"),
+                          "argument --reset-windows: must be an integer >= 1"),
+                         (["--hop-s", "0"], "argument --hop-s: must be a finite number > 0"),
                          # a count alone changed nothing (the reset is off) and said nothing
                          (["--reset-windows", "3"], "--reset-windows 3 needs "
                                                     "--reset-confidence")):
-        assert main(["stream", "--model", str(model_dir), str(run_dir), "--out",
-                     str(tmp_path / "bad.csv"), *extra]) == 2
+        try:
+            code = main(["stream", "--model", str(model_dir), str(run_dir), "--out",
+                         str(tmp_path / "bad.csv"), *extra])
+        except SystemExit as exc:     # argparse's own usage error (an option's type)
+            code = exc.code
+        assert code == 2
         err = capsys.readouterr().err
         assert words in err and "Traceback" not in err
 
