@@ -293,9 +293,14 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
             return 400, {"error_code": "BAD_REQUEST",
                          "message": _typed(DataFormatError(what, "request"))}
     if kind == "text/csv":
-        header = next(csv.reader(io.StringIO(
-            _LINE_END.split(body, 1)[0].decode("utf-8", "replace"))), [])
-        short = _short_csv_row(body, len(header)) if len(header) > 1 else None
+        try:
+            header = next(csv.reader(io.StringIO(
+                _LINE_END.split(body, 1)[0].decode("utf-8", "replace"))), [])
+            short = _short_csv_row(body, len(header)) if len(header) > 1 else None
+        except csv.Error as exc:  # a field over csv's 131 072 characters: a 500 before
+            return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
+                f"unreadable CSV ({exc}); a channel value or name is a number or a short "
+                "name", "request"))}
         if short is not None:
             return 400, {"error_code": "BAD_REQUEST", "message": _typed(RaggedRowError(
                 f"a row of {short[1]} fields under a header of {len(header)} (write an "
