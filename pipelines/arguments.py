@@ -19,6 +19,7 @@ from pathlib import Path
 
 from terrain.errors import ConfigError, duplicated
 from terrain.models.experiment import MAX_SEED
+from terrain.models.registry import MAX_CNN_SEEDS
 from terrain.serving.smoothing import SmoothingConfig
 
 
@@ -219,6 +220,58 @@ def positive_integer(value: str) -> int:
     return number
 
 
+def integer_up_to(high: int):
+    """argparse ``type`` of an option that takes an integer in ``1..high``, so the upper limit
+    (kept with its configuration field, e.g. :data:`terrain.models.registry.MAX_CNN_SEEDS`) is
+    refused with the option's name rather than the field's.
+
+    Parameters
+    ----------
+    high : int
+        Largest value accepted (>= 1).
+
+    Returns
+    -------
+    callable
+        ``str -> int``; raises ``argparse.ArgumentTypeError`` for text that is not an integer
+        or an integer outside ``1..high``.
+    """
+    def parse(value: str) -> int:
+        number = positive_integer(value)
+        if number > high:
+            raise argparse.ArgumentTypeError(f"must be an integer in 1-{high}, got {value}")
+        return number
+
+    parse.__name__ = f"integer_up_to_{high}"
+    return parse
+
+
+def probability(value: str) -> float:
+    """argparse ``type`` of an option that takes a probability in [0, 1] (a confidence).
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a number, or outside [0, 1] (NaN included).
+    """
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
+    if not 0 <= number <= 1:
+        raise argparse.ArgumentTypeError(f"must be a probability in [0, 1], got {value}")
+    return number
+
+
 def seed_value(value: str) -> int:
     """argparse ``type`` of a seed option: an integer in ``0..MAX_SEED``
     (:data:`terrain.models.experiment.MAX_SEED`).
@@ -277,7 +330,7 @@ def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:
     default : int
         Networks per CNN when the option is not given (>= 1).
     """
-    parser.add_argument("--cnn-seeds", type=positive_integer, default=default,
+    parser.add_argument("--cnn-seeds", type=integer_up_to(MAX_CNN_SEEDS), default=default,
                         help="CNNs (alone or in an ensemble) average the probabilities of this "
                              "many independently seeded networks (seed bagging; default "
                              f"{default})")
@@ -342,7 +395,7 @@ def add_smoothing(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dwell-s", type=float, default=10.0,
                         help="expected time on one terrain of the forward filter, s "
                              "(0 disables smoothing)")
-    parser.add_argument("--reset-confidence", type=float, default=None,
+    parser.add_argument("--reset-confidence", type=probability, default=None,
                         help="reset the filter to the window's probabilities when "
                              "--reset-windows consecutive windows name the same other class "
                              "with at least this probability (default: no reset; "
@@ -377,6 +430,14 @@ def smoothing_from_args(args: argparse.Namespace) -> SmoothingConfig:
         # the reset is off without a confidence: the count alone would change nothing
         raise ConfigError(f"--reset-windows {args.reset_windows} needs --reset-confidence (the "
                           "filter's switch reset is off without it)")
+    if args.reset_confidence is not None:
+        if args.reset_confidence == 0:
+            # every window would reset the filter: no smoothing, said the wrong way
+            raise ConfigError("--reset-confidence must be > 0 (at 0 every window resets the "
+                              "filter; --dwell-s 0 turns smoothing off)")
+        if args.dwell_s == 0:
+            raise ConfigError("--reset-confidence resets the forward filter, which --dwell-s 0 "
+                              "turns off")
     windows = {} if args.reset_windows is None else {"reset_windows": args.reset_windows}
     return SmoothingConfig(dwell_s=args.dwell_s or None,
                            reset_confidence=args.reset_confidence, **windows)

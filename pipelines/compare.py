@@ -19,13 +19,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, output_dir,
-                                 positive_integer, positive_number, seed_value)
+from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, integer_up_to,
+                                 output_dir, positive_integer, positive_number, seed_value)
 from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
                                     grid_markdown, iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
-from terrain.models.registry import MODELS, check_dependencies
+from terrain.models.registry import MAX_TORCH_THREADS, MODELS, check_dependencies
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-compare"
@@ -81,7 +81,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=list(d.seeds))
     parser.add_argument("--history", type=int, nargs="+", default=list(d.history))
     parser.add_argument("--max-epochs", type=positive_integer, default=d.max_epochs)
-    parser.add_argument("--threads", type=positive_integer, default=None,
+    parser.add_argument("--threads", type=integer_up_to(MAX_TORCH_THREADS), default=None,
                         help="torch threads per CNN fit")
     parser.add_argument("--protocol", choices=COMPARE_PROTOCOLS, default=d.protocol,
                         help="grouped: run-grouped StratifiedGroupKFold (headline); paper: the "

@@ -31,7 +31,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from pipelines.arguments import add_smoothing, model_dir, positive_number, smoothing_from_args
+from pipelines.arguments import (add_smoothing, model_dir, positive_number, probability,
+                                 smoothing_from_args)
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
 from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT,
@@ -61,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="time between decisions, s (at least one period of the "
                              "model's clock)")
     add_smoothing(parser)
-    parser.add_argument("--min-confidence", type=float, default=0.5,
+    parser.add_argument("--min-confidence", type=probability, default=0.5,
                         help="smoothed probability below which the fallback target is used")
     parser.add_argument("--max-body-bytes", type=int, default=8_000_000,
                         help="largest request body, bytes (larger: HTTP 413)")
@@ -279,8 +280,6 @@ def _check_args(args: argparse.Namespace) -> None:
     if not args.hop_s > 0:
         raise ConfigError(f"--hop-s must be > 0, got {args.hop_s:g}")
     smoothing_from_args(args)
-    if not 0 <= args.min_confidence <= 1:
-        raise ConfigError(f"--min-confidence must be in [0, 1], got {args.min_confidence:g}")
 
 
 #: listen backlog of ``terrain serve`` where the open-file limit leaves room for it

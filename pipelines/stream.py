@@ -14,7 +14,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import add_smoothing, output_file, positive_number, smoothing_from_args
+from pipelines.arguments import (add_smoothing, output_file, positive_number, probability,
+                                 smoothing_from_args)
 from terrain.control import DesiredSlipConfig
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hop-s", type=positive_number, default=0.5,
                         help="time between decisions, s")
     add_smoothing(parser)
-    parser.add_argument("--min-confidence", type=float, default=0.5,
+    parser.add_argument("--min-confidence", type=probability, default=0.5,
                         help="smoothed probability below which the fallback target is used")
 
 

@@ -290,8 +290,13 @@ def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_
     assert (frames["reset_never"]["terrain"] == frames["filter"]["terrain"]).all()
     assert (frames["filter"]["terrain"] != frames["raw"]["terrain"]).any()
     capsys.readouterr()
-    for extra, words in ((["--reset-confidence", "1.5"], "reset_confidence must be in (0, 1]"),
-                         (["--reset-confidence", "0.9", "--dwell-s", "0"], "needs dwell_s"),
+    for extra, words in ((["--reset-confidence", "1.5"],
+                          "argument --reset-confidence: must be a probability in [0, 1]"),
+                         (["--reset-confidence", "0"], "--reset-confidence must be > 0"),
+                         (["--min-confidence", "2"],
+                          "argument --min-confidence: must be a probability in [0, 1]"),
+                         (["--reset-confidence", "0.9", "--dwell-s", "0"],
+                          "--dwell-s 0 turns off"),
                          (["--dwell-s", "inf"], "--dwell-s must be a finite number >= 0"),
                          (["--reset-confidence", "0.9", "--reset-windows", "0"],
                           "argument --reset-windows: must be an integer >= 1"),
