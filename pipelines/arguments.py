@@ -166,6 +166,11 @@ def model_dir(value: str) -> Path:
     return path
 
 
+#: argparse ``type`` of every option naming a file or folder the command writes: an error
+#: while writing that names no file (a full disk) is reported naming these options
+OUTPUT_TYPES = (output_file, output_dir, model_dir)
+
+
 def positive_number(value: str) -> float:
     """argparse ``type`` of an option that takes a finite number > 0 (a window length, hop or
     cut-off), so a bad value is refused with the option's name rather than the name of the

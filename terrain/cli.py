@@ -12,12 +12,14 @@ This module only dispatches; it is the outermost layer (nothing imports it).
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import sys
 import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
+from pipelines.arguments import OUTPUT_TYPES
 from terrain.tracking import activate_store, store_errors
 from terrain.errors import DataWarning, TerrainError
 
@@ -140,7 +142,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (TerrainError, OSError) + store_errors() as exc:
             if debug:
                 raise
-            print(f"terrain {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+            print(f"terrain {args.command}: error: {_one_line(exc)}"
+                  f"{_while_writing(exc, parser, args)}", file=sys.stderr)
             return 2
         except KeyboardInterrupt:
             if debug:
@@ -162,6 +165,27 @@ def main(argv: Sequence[str] | None = None) -> int:
                   "could tell; rerun with --debug for the traceback and report it)",
                   file=sys.stderr)
             return 1
+
+
+#: errors of a write that Python reports without the file's name
+_WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def _while_writing(exc: BaseException, parser: argparse.ArgumentParser,
+                   args: argparse.Namespace) -> str:
+    """The output options of the command, for a write error that names no file (a full disk:
+    ``[Errno 28] No space left on device`` alone), or ``""``."""
+    if not (isinstance(exc, OSError) and exc.filename is None and exc.errno in _WRITE_ERRNOS):
+        return ""
+    command = parser._subparsers._group_actions[0].choices[args.command]
+    outputs = [f"{action.option_strings[0]} {getattr(args, action.dest)}"
+               for action in command._actions
+               if action.type in OUTPUT_TYPES and action.option_strings
+               and getattr(args, action.dest, None) is not None]
+    if not outputs:
+        return ""
+    return (f" while writing {outputs[0]}" if len(outputs) == 1
+            else f" while writing one of {', '.join(outputs)}")
 
 
 def _one_line(exc: BaseException) -> str:

@@ -174,3 +174,17 @@ def test_cli_refuses_an_output_under_proc_before_any_work(argv, option, kind, tm
     err = capsys.readouterr().err
     assert f"argument {option}: cannot" in err and "'/proc'" in err
     assert "Traceback" not in err and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs Linux's /dev/full")
+def test_a_full_disk_is_reported_naming_the_output_option(tmp_path, capsys):
+    # Python's ENOSPC carries no file name: the one line said "[Errno 28] No space left on
+    # device" and nothing about which output
+    run_dir = tmp_path / "sim"
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "3",
+                 "--out", str(run_dir)]) == 0
+    capsys.readouterr()
+    assert main(["estimate", "--out", "/dev/full", str(run_dir)]) == 2
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("terrain estimate: error: ")
+    assert "No space left on device while writing --out /dev/full" in line
