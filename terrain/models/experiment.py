@@ -457,6 +457,13 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
             notes.append(note)
         if n_dropped:
             notes.append(f"{n_dropped} window(s) straddling a time-block boundary dropped")
+        if config.protocol == "loro" and len(config.seeds) > 1:
+            # the folds are the same for every seed: the spread over seeds is only the
+            # model's own randomness, not a different split
+            notes.append(f"loro: leave-one-run-out folds are the same for all "
+                         f"{len(config.seeds)} seeds; the seeds change only the model's own "
+                         "randomness (the SVM's probability calibration split, a CNN's "
+                         "initialisation), not the split")
     else:
         notes.append(f"paper protocol: run_majority_accuracy votes per "
                      f"{PAPER_WINDOW['partition_s']:g} s partition (its split unit), not per "

@@ -133,6 +133,19 @@ def test_cv_notes_the_blocks_actually_made_and_warns_below_two(vulpi_runs):
     assert "WARNING" not in notes["DIRT_ROAD"][0]
 
 
+def test_loro_with_several_seeds_says_the_folds_repeat(vulpi_runs):
+    config = dict(dataset="vulpi", signals=("wheels",), window_s=30.0, protocol="loro")
+    twice = run_cv(ExperimentConfig(seeds=(0, 1), **config), vulpi_runs)
+    folds = twice.report.folds
+    assert len(folds) == 2 * len(folds[folds["seed"] == 0])
+    first, second = (folds[folds["seed"] == s].reset_index(drop=True) for s in (0, 1))
+    assert (first["n_test"] == second["n_test"]).all()   # the same runs held out, in order
+    assert any(n.startswith("loro: leave-one-run-out folds are the same for all 2 seeds")
+               for n in twice.report.notes)
+    once = run_cv(ExperimentConfig(seeds=(0,), **config), vulpi_runs)
+    assert not any(n.startswith("loro:") for n in once.report.notes)
+
+
 # --- metrics ---------------------------------------------------------------------------------
 
 def test_window_metrics_on_a_known_confusion():
