@@ -103,6 +103,10 @@ class ClockError(DataFormatError):
     """The streams of one run do not share a clock (their time spans do not overlap)."""
 
 
+class ServiceBusyError(TerrainError):
+    """The served model answers as many requests as it may at once: retry shortly."""
+
+
 class DataWarning(UserWarning):
     """Input that is probably, not certainly, wrong: the message says what was assumed."""
 

@@ -300,7 +300,8 @@ def check_accel_units(frame: pd.DataFrame, path) -> None:
 
 def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
                  lines: np.ndarray | None = None,
-                 limits: Mapping[str, ChannelLimit] = CHANNEL_LIMITS) -> None:
+                 limits: Mapping[str, ChannelLimit] = CHANNEL_LIMITS,
+                 rows: np.ndarray | None = None) -> None:
     """Refuse values outside the plausibility range of their channel.
 
     Parameters
@@ -315,11 +316,14 @@ def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
         ``(n_rows,)`` 1-based file line of each row.
     limits : Mapping[str, ChannelLimit]
         Bounds per canonical channel.
+    rows : numpy.ndarray, optional
+        ``(n_rows,)`` 0-based data row of each row where the frame is one stream cut from a
+        larger table (a served model's request); default: the frame's own positions.
 
     Raises
     ------
     ImplausibleValueError
-        Naming file, column, the first offending lines and their count.
+        Naming file, column, the first offending lines (or rows) and their count.
     """
     file_col = {v: k for k, v in columns.items()}
     for name, lim in limits.items():
@@ -328,13 +332,14 @@ def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
         values = frame[name].to_numpy()
         bad = np.flatnonzero(np.abs(values) > lim.limit)
         if bad.size:
-            where = lines[bad] if lines is not None else bad
+            at = bad if rows is None else np.asarray(rows)[bad]
+            where = lines[bad] if lines is not None else at
             raise ImplausibleValueError(
                 f"{bad.size} value(s) beyond +-{lim.limit:.4g} {lim.unit} ({lim.source}), "
                 f"first {values[bad[0]]:.6g} at "
                 f"{first_items(where, word='line' if lines is not None else 'row')}"
                 + (f"; {lim.hint}" if lim.hint else ""),
-                path, file_col.get(name, name), int(bad[0]),
+                path, file_col.get(name, name), int(at[0]),
                 int(where[0]) if lines is not None else None)
 
 
@@ -386,7 +391,7 @@ def timestamp_unit(rate_hz: float, stream: str) -> str | None:
                  if lo <= float(f"{per_s * rate_hz:.4g}") <= hi), None)
 
 
-def check_rate(t_s: np.ndarray, stream: str, path) -> None:
+def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time") -> None:
     """Rule ``timestamp_units``: implied sample rate against the stream's nominal rate.
 
     Parameters
@@ -397,12 +402,15 @@ def check_rate(t_s: np.ndarray, stream: str, path) -> None:
         Stream name (``imu``, ``wheels``; others are not judged).
     path : str or Path
         File (for the message).
+    time_column : str
+        Name of the time column where the timestamps were read (for the message: ``time``
+        in the measured files, ``t_s`` in a served model's request).
 
     Raises
     ------
     UnitError
         When the timestamps are certainly in ms, us or ns (:func:`timestamp_unit`), naming
-        the file, the column ``time`` and the unit.
+        the file, the time column and the unit.
     """
     if stream not in NOMINAL_RATE_HZ or t_s.size < 2:
         return
@@ -415,14 +423,14 @@ def check_rate(t_s: np.ndarray, stream: str, path) -> None:
             f"rule timestamp_units: median step implies {rate:.4g} Hz, far below the "
             f"{lo:g}-{hi:g} Hz of the {stream} stream; x{factor} gives {per_s * rate:.4g} Hz: "
             f"the timestamps look like {word} ({unit}); divide the time column by {factor}",
-            path, "time")
+            path, time_column)
     if not lo <= rate <= hi:
         _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
               f"Hz of the {stream} stream; timestamps assumed in s")
 
 
 def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
-              files: Mapping[str, str]) -> dict:
+              files: Mapping[str, str], time_column: str = "time") -> dict:
     """Apply the clock, unit and stuck-sensor rules to the streams of one run.
 
     Parameters
@@ -435,6 +443,8 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
         Vehicle name; the vehicle rules apply to vehicles of :data:`VEHICLE_LIMITS`.
     files : Mapping[str, str]
         Stream name -> file or source (for the messages).
+    time_column : str
+        Name of the streams' time column where they were read (for the messages).
 
     Returns
     -------
@@ -457,7 +467,8 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     imu, wheels = streams.get("imu"), streams.get("wheels")
     src = (lambda s: files.get(s, run_id))
     if imu is not None and wheels is not None and len(imu) and len(wheels):
-        unused = {k: v for k, v in _check_clocks(imu, wheels, src, found).items() if v > 0}
+        clocks = _check_clocks(imu, wheels, src, found, time_column)
+        unused = {k: v for k, v in clocks.items() if v > 0}
         _check_gyro(imu, wheels, vehicle, src("imu"), found)
     if wheels is not None and len(wheels) and vehicle in VEHICLE_LIMITS:
         _check_wheel_speed(wheels, imu, VEHICLE_LIMITS[vehicle], src("wheels"), found)
@@ -510,7 +521,7 @@ def _warn(message: str) -> None:
     warnings.warn(message, DataWarning, stacklevel=3)
 
 
-def _check_clocks(imu, wheels, src, found) -> dict[str, float]:
+def _check_clocks(imu, wheels, src, found, time_column: str = "time") -> dict[str, float]:
     """Rule ``clock_overlap``; returns the seconds of each stream outside the other's span."""
     (a0, a1), (b0, b1) = ((float(f[TIME].iloc[0]), float(f[TIME].iloc[-1]))
                           for f in (imu, wheels))
@@ -518,9 +529,10 @@ def _check_clocks(imu, wheels, src, found) -> dict[str, float]:
     spans = f"imu {a0:.10g}..{a1:.10g} s, wheels {b0:.10g}..{b1:.10g} s"
     if overlap <= 0:
         raise ClockError(f"rule clock_overlap: the IMU and wheel clocks do not overlap "
-                         f"({spans}); both files must start near time 0 (subtract each "
-                         "file's first timestamp, or fix the one in another unit or epoch)",
-                         f"{src('imu')} and {src('wheels')}", "time")
+                         f"({spans}); both streams must start near time 0 (subtract each "
+                         "stream's first timestamp, or fix the one in another unit or "
+                         "epoch)", src("imu") if src("imu") == src("wheels")
+                         else f"{src('imu')} and {src('wheels')}", time_column)
     shorter = min(a1 - a0, b1 - b0)
     unused = {"imu": (a1 - a0) - overlap, "wheels": (b1 - b0) - overlap}
     left_out = {k: v for k, v in unused.items()

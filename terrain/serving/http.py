@@ -11,8 +11,6 @@ body-size limit. ``terrain serve`` (:mod:`pipelines.serve`) adds it to the app.
 from __future__ import annotations
 
 import asyncio
-import csv
-import io
 import json
 import logging
 import math
@@ -20,8 +18,9 @@ import re
 from typing import Any, Awaitable, Callable, MutableMapping
 
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
-                            ImplausibleValueError, RaggedRowError, TerrainError, config_integer,
-                            duplicated)
+                            ImplausibleValueError, RaggedRowError, ServiceBusyError,
+                            TerrainError, config_integer)
+from terrain.serving.body import body_refusal
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -52,15 +51,12 @@ MAX_CONNECTIONS = 256
 #: open files ``terrain serve`` keeps for itself beside its connections (model files,
 #: MLflow, logs) when checking ``--max-connections`` against the open-file limit
 RESERVED_FILES = 64
-#: largest uncompressed size of a Parquet body, as a multiple of the body-size limit (a
-#: small compressed body can decode to gigabytes)
-PARQUET_EXPANSION = 16
 #: the served model's endpoints; any other path is answered 404 here (FastAPI would serve its
 #: ``/docs`` and ``/openapi.json`` pages, and redirect ``/invocations/`` with an empty 307)
 ENDPOINTS = ("/invocations", "/ping", "/health", "/version")
+#: endpoints answered to GET (and so to HEAD, without the body)
+READ_ENDPOINTS = ("/ping", "/health", "/version")
 _TYPED = re.compile(r"^([A-Z][A-Za-z]*Error): ")
-#: line ends of a CSV body: pandas (MLflow's CSV parser) reads CR LF, LF and a lone CR
-_LINE_END = re.compile(rb"\r\n|\r|\n")
 _log = logging.getLogger(__name__)
 
 
@@ -109,12 +105,13 @@ def _typed_error(status: int, text: str) -> TerrainError:
                                   "(quote a field that holds a comma)", where,
                                   line=int(line))
         if "EOF inside string" in detail:
-            return DataFormatError(f"unterminated quote in the CSV body ({detail})", where)
-        return DataFormatError(f"the request body is not a readable CSV table ({detail})",
-                               where)
+            return DataFormatError("unterminated quote in the CSV body", where)
+        return DataFormatError("the request body is not a readable CSV table", where)
     if "Parquet" in text and "Failed to parse" in text:
-        return DataFormatError("the request body is not a readable Parquet table "
-                               f"({detail[:200]})", where)
+        # pyarrow's reason is a schema dump or a C++ status line, not the user's words
+        return DataFormatError("the request body is not a readable Parquet table (send a "
+                               "file written by pandas.DataFrame.to_parquet or pyarrow)",
+                               where)
     # before the JSON branch: MLflow's JSON parse error of a non-UTF-8 body holds the
     # UnicodeDecodeError's repr, with the request's bytes in it
     if "UnicodeDecodeError" in text and ("UTF-8" in text or "valid JSON" in text):
@@ -130,10 +127,14 @@ def _typed_error(status: int, text: str) -> TerrainError:
         return DataFormatError(f"unsupported request content type: {text.strip()}", where)
     text = re.sub(r"<class '([\w.]+)'>", r"\1", text.strip())  # Python type reprs
     if re.search(r"DataFrame constructor|must be called with a collection|Got type|"
-                 r"unexpected input type|Failed to parse input", text):
+                 r"unexpected input type|Failed to parse input|not a valid dataframe|"
+                 r"must be a dictionary|must have 'data'|exactly one of the input fields",
+                 text):
+        # MLflow's and pandas's own words (constructor calls, Python types) say nothing
+        # to the client: say what the served model takes
         return DataFormatError("the JSON body is not a table of samples; send "
                                "{\"dataframe_split\": {\"columns\": [...], \"data\": [[...], "
-                               f"...]}}}} (MLflow: {text[:160]})", where)
+                               "...]}} or {\"dataframe_records\": [{...}, ...]}", where)
     text = re.sub(r"^Invalid input\.\s*", "", text)
     if text.count("'") % 2:  # MLflow's "... Got {'columns'}.'" ends on a stray quote
         text = re.sub(r"'$", "", text)
@@ -187,152 +188,41 @@ def _failure(exc: Exception) -> tuple[int, dict]:
                  "message": f"internal error ({type(exc).__name__}); see the server log"}
 
 
-async def _send_json(send: Send, status: int, doc: dict) -> None:
-    body = json.dumps(doc).encode()
-    await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"),
-                            (b"content-length", str(len(body)).encode())]})
-    await send({"type": "http.response.body", "body": body})
-
-
-def _header_names(body: bytes) -> list[str] | None:
-    """Column names of a CSV body's header line (ended by CR LF, LF or a lone CR, as pandas
-    reads it), or None when it cannot be split plainly (quoted names are left to the CSV
-    parser)."""
-    head = _LINE_END.split(body, 1)[0]
-    if b'"' in head:
-        return None
-    return [c.strip() for c in head.decode("utf-8", "replace").lstrip("\ufeff").split(",")]
-
-
-def _short_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
-    """(1-based line, fields) of the first CSV data row with fewer fields than the header's
-    ``n_columns``, or None. pandas would fill the missing trailing fields with NaN, which
-    the served model cannot tell from a cell left empty on purpose; blank lines are skipped
-    as pandas skips them. A body with quotes is split by :mod:`csv` (a quoted field may
-    hold a comma or a line break), any other by its commas; a body with an unterminated
-    quote (an odd number of quote characters) is left to MLflow's parser, which refuses
-    it."""
-    if body.count(b'"') % 2:
-        return None
-    if b'"' in body:  # newline="": the csv module then takes any of the line ends
-        reader = csv.reader(io.StringIO(body.decode("utf-8", "replace"), newline=""))
-        next(reader, None)  # the header
-        for row in reader:
-            if row and len(row) < n_columns:
-                return reader.line_num, len(row)
-        return None
-    for number, line in enumerate(_LINE_END.split(body)[1:], start=2):
-        if line.strip() and line.count(b",") + 1 < n_columns:
-            return number, line.count(b",") + 1
-    return None
-
-
-def _json_split(body: bytes) -> tuple[list, Any] | None:
-    """The ``columns`` and ``data`` of a ``dataframe_split`` JSON body, or None (another
-    shape, or a body MLflow's parser will refuse with its own message)."""
-    try:
-        doc = json.loads(body)
-    except (ValueError, RecursionError):
-        return None
-    split = doc.get("dataframe_split") if isinstance(doc, dict) else None
-    columns = split.get("columns") if isinstance(split, dict) else None
-    return (columns, split.get("data")) if isinstance(columns, list) else None
-
-
-def _short_json_row(columns: list, data: Any) -> tuple[int, int] | None:
-    """(0-based row, values) of the first ``dataframe_split`` data row holding fewer values
-    than there are columns (pandas would fill the rest with NaN), or None."""
-    if not isinstance(data, list):
-        return None
-    for number, row in enumerate(data):
-        if isinstance(row, list) and len(row) < len(columns):
-            return number, len(row)
-    return None
-
-
-def body_refusal(content_type: str, body: bytes, max_rows: int | None,
-                 max_body_bytes: int) -> tuple[int, dict] | None:
-    """Status and answer refusing a request body before MLflow parses it, or None.
-
-    * column names that are not text or appear twice (a ``dataframe_split`` JSON body or a
-      CSV header): MLflow would shift the channels after a repeated one, or fail on a list
-      used as a name;
-    * a CSV row with fewer fields than the header, or a ``dataframe_split`` data row with
-      fewer values than columns: pandas would fill the rest with NaN, silently;
-    * a Parquet body whose metadata announce more than ``max_rows`` rows, or rows x columns
-      x 8 bytes (the least it decodes to) over :data:`PARQUET_EXPANSION` x
-      ``max_body_bytes`` (a small compressed body can decode to gigabytes before the served
-      model could count its rows).
+def classified(doc: dict) -> dict:
+    """An error answer with MLflow's ``sqlstate`` and ``error_class`` beside its
+    ``error_code``, as MLflow's own answers carry them, so every error has one form.
 
     Parameters
     ----------
-    content_type : str
-        The request's Content-Type (parameters such as ``charset`` ignored).
-    body : bytes
-        The whole body.
-    max_rows : int or None
-        Largest request the served model accepts, rows (None: not checked here).
-    max_body_bytes : int
-        The body-size limit, bytes.
+    doc : dict
+        ``{"error_code", "message", ...}``; fields already set are kept.
 
     Returns
     -------
-    tuple of (int, dict) or None
+    dict
+        ``doc`` with ``sqlstate`` and ``error_class`` derived from ``error_code`` by MLflow's
+        own tables (:mod:`mlflow.error_classification`: the client table, else the server
+        one, e.g. ``REQUEST_LIMIT_EXCEEDED``).
     """
-    kind = content_type.split(";")[0].strip().lower()
-    split = _json_split(body) if kind == "application/json" else None
-    columns = (split[0] if split is not None
-               else _header_names(body) if kind == "text/csv" else None)
-    if columns is not None:
-        odd = [c for c in columns if not isinstance(c, str)]
-        dup = duplicated(c for c in columns if isinstance(c, str))
-        if odd or dup:
-            what = (f"column names must be text, got {json.dumps(odd[0])[:40]}" if odd else
-                    f"duplicated column name(s) {dup}; send each column once")
-            return 400, {"error_code": "BAD_REQUEST",
-                         "message": _typed(DataFormatError(what, "request"))}
-    if kind == "text/csv":
-        try:
-            header = next(csv.reader(io.StringIO(
-                _LINE_END.split(body, 1)[0].decode("utf-8", "replace"))), [])
-            short = _short_csv_row(body, len(header)) if len(header) > 1 else None
-        except csv.Error as exc:  # a field over csv's 131 072 characters: a 500 before
-            return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
-                f"unreadable CSV ({exc}); a channel value or name is a number or a short "
-                "name", "request"))}
-        if short is not None:
-            return 400, {"error_code": "BAD_REQUEST", "message": _typed(RaggedRowError(
-                f"a row of {short[1]} fields under a header of {len(header)} (write an "
-                "empty field for a missing value: the row would be filled with NaN)",
-                "request", line=short[0]))}
-    short = _short_json_row(*split) if split is not None else None
-    if short is not None:
-        return 400, {"error_code": "BAD_REQUEST", "message": _typed(RaggedRowError(
-            f"data row {short[0]} (0-based) holds {short[1]} values for {len(split[0])} "
-            "columns (send null for a missing value: the row would be filled with NaN)",
-            "request"))}
-    if kind == "application/vnd.apache.parquet":
-        try:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-            meta = pq.ParquetFile(pa.BufferReader(body)).metadata
-        except Exception:  # not Parquet: MLflow's parser answers with its own message
-            return None
-        # decoded, every cell takes at least 8 bytes (a float; text more); the metadata's
-        # own sizes are of the encoded pages (a dictionary-encoded column is a few bytes)
-        size = int(meta.num_rows) * int(meta.num_columns) * 8
-        if max_rows is not None and meta.num_rows > max_rows:
-            return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
-                f"request of {meta.num_rows} rows exceeds the limit of {max_rows}; send the "
-                "streams in shorter pieces", "request"))}
-        if size > PARQUET_EXPANSION * max_body_bytes:
-            return 413, {"error_code": "REQUEST_LIMIT_EXCEEDED",
-                         "message": _typed(DataFormatError(
-                             f"Parquet body decodes to at least {size} bytes, over "
-                             f"{PARQUET_EXPANSION} x the body limit of {max_body_bytes}; "
-                             "send the streams in shorter pieces", "request"))}
-    return None
+    from mlflow.error_classification import ErrorClass, SqlState
+
+    code = str(doc.get("error_code", "BAD_REQUEST"))
+    doc.setdefault("sqlstate", SqlState.from_client_error_code(code)
+                   or SqlState.from_cp_error_code(code))
+    doc.setdefault("error_class", ErrorClass.from_client_error_code(code)
+                   or ErrorClass.from_cp_error_code(code))
+    return doc
+
+
+async def _send_json(send: Send, status: int, doc: dict,
+                     headers: tuple[tuple[bytes, bytes], ...] = (), head: bool = False) -> None:
+    """Send ``doc`` as a JSON answer (an error classified, :func:`classified`); ``head``:
+    the request was HEAD, so the body is announced but not sent."""
+    body = json.dumps(classified(doc) if status >= 400 else doc).encode()
+    await send({"type": "http.response.start", "status": status,
+                "headers": [(b"content-type", b"application/json"),
+                            (b"content-length", str(len(body)).encode()), *headers]})
+    await send({"type": "http.response.body", "body": b"" if head else body})
 
 
 class _BodyTooLarge(Exception):
@@ -350,18 +240,25 @@ class RequestGuard:
       redirect would lose the body of a client that does not follow it);
     * a POST without ``Content-Length`` is answered 411, one with ``Transfer-Encoding`` as
       well 400 (the two disagree on where the body ends), one over ``max_body_bytes`` 413,
-      one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500);
+      one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500), one
+      with a ``Content-Encoding`` 415 (its bytes would be read as text), one with two
+      different Content-Type headers 400; the media type is handed on in lower case (media
+      types are case-insensitive; MLflow compares them as written);
+    * ``HEAD`` on ``/ping``, ``/health`` and ``/version`` is run as ``GET`` (the server
+      sends no body for it);
     * the body of ``/invocations`` is read here, counting its bytes (longer than announced
-      or than the limit: 413), checked by :func:`body_refusal` (repeated or non-text column
-      names, a Parquet body that decodes past the limits) and then handed to MLflow;
+      or than the limit: 413), checked by :func:`terrain.serving.body.body_refusal`
+      (encoding, column names, ragged rows, the JSON table's shape, numbers beyond the
+      float range, a Parquet body that decodes past the limits) and then handed to MLflow;
     * a body that has not arrived whole ``body_timeout_s`` after the headers is answered
       408 and its slot freed (a client stalled half-way would hold it for ever);
     * at most ``max_in_flight`` requests to ``/invocations`` are answered at once; one more
       is answered 503 at once;
     * every error answer (status >= 400) is rewritten to the project's JSON error: MLflow's
       ``stack_trace`` field is dropped and the message is one line, ``<ErrorClass>: ...``
-      (:func:`project_message`); a plain-text answer (MLflow's 415, its 504 timeout)
-      becomes JSON as well;
+      (:func:`project_message`), with ``sqlstate`` and ``error_class`` (:func:`classified`)
+      and a 405's ``Allow`` header kept; a plain-text answer (MLflow's 415, its 504
+      timeout) becomes JSON as well;
     * an exception that escapes MLflow's handler (a JSON body nested 100,000 deep raises
       ``RecursionError`` in the parser) is answered 400 when it is the request's fault,
       else 500 with one line (the traceback goes to the server log); the server keeps
@@ -393,21 +290,33 @@ class RequestGuard:
         self.body_timeout_s = float(body_timeout_s)
         self.in_flight = 0
 
-    def refusal(self, path: str, headers: dict[bytes, bytes]) -> tuple[int, dict] | None:
+    def refusal(self, path: str, raw_headers: list[tuple[bytes, bytes]]
+                ) -> tuple[int, dict] | None:
         """Status and body refusing a POST from its path and headers alone, or None.
 
         Parameters
         ----------
         path : str
             Request path (the Content-Type is required on ``/invocations``).
-        headers : dict
-            Lower-case header name -> value (bytes, as ASGI gives them).
+        raw_headers : list of (bytes, bytes)
+            Lower-case header name and value, as ASGI gives them (a name may repeat).
 
         Returns
         -------
         tuple of (int, dict) or None
         """
+        headers = dict(raw_headers)
         size = headers.get(b"content-length")
+        types = {v.strip().lower() for k, v in raw_headers if k == b"content-type"}
+        if len(types) > 1:
+            return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
+                f"request with {len(types)} different Content-Type headers; send one",
+                "request"))}
+        encoding = headers.get(b"content-encoding", b"identity").strip().lower()
+        if encoding not in (b"", b"identity"):
+            return 415, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
+                f"Content-Encoding {encoding.decode('latin-1')[:20]!r} is not accepted; "
+                "send the body uncompressed", "request"))}
         tail = "; send the streams in shorter pieces"
         if size is not None and b"transfer-encoding" in headers:
             return 400, {"error_code": "BAD_REQUEST",
@@ -444,14 +353,21 @@ class RequestGuard:
                          if path.rstrip("/") in ENDPOINTS else ""))
             await _send_json(send, 404, _endpoint_error(404, detail))
             return
+        if scope["method"] == "HEAD" and path in READ_ENDPOINTS:
+            # HEAD is GET without the body (RFC 9110); the server, which keeps its own scope,
+            # sends no body for it
+            scope = {**scope, "method": "GET"}
         invocation = scope["method"] == "POST" and path == "/invocations"
         if scope["method"] == "POST":
+            refused = self.refusal(path, scope["headers"])
             headers = dict(scope["headers"])
-            refused = self.refusal(path, headers)
+            if refused is None and invocation:
+                scope = {**scope, "headers": _media_type_lower(scope["headers"])}
             if refused is None and invocation and self.in_flight >= self.max_in_flight:
                 refused = 503, {"error_code": "TEMPORARILY_UNAVAILABLE",
-                                "message": f"ConfigError: server busy with "
-                                           f"{self.in_flight} requests; retry shortly"}
+                                "message": _typed(ServiceBusyError(
+                                    f"server busy with {self.in_flight} requests; retry "
+                                    "shortly"))}
             if refused is None and invocation:
                 self.in_flight += 1
                 try:
@@ -521,7 +437,11 @@ class RequestGuard:
                     return
                 status = held["start"]["status"]
                 held["sent"] = True
-                await _send_json(send, status, _error_body(status, b"".join(held["parts"])))
+                # a 405's Allow header says which methods the endpoint takes
+                kept = tuple((k, v) for k, v in held["start"].get("headers", [])
+                             if k.lower() == b"allow")
+                await _send_json(send, status, _error_body(status, b"".join(held["parts"])),
+                                 kept)
                 return
             held["sent"] = held["sent"] or message["type"] == "http.response.start"
             await send(message)
@@ -532,6 +452,16 @@ class RequestGuard:
             if held["sent"]:
                 raise
             await _send_json(send, *_failure(exc))
+
+
+def _media_type_lower(raw_headers: list[tuple[bytes, bytes]]) -> list[tuple[bytes, bytes]]:
+    """The headers with the Content-Type's media type in lower case (media types are
+    case-insensitive, RFC 9110; MLflow compares them as written: ``TEXT/CSV`` was a 415)."""
+    def lower(value: bytes) -> bytes:
+        kind, sep, params = value.partition(b";")
+        return kind.strip().lower() + sep + params
+
+    return [(k, lower(v) if k == b"content-type" else v) for k, v in raw_headers]
 
 
 def _short_path(path: str, limit: int = 60) -> str:
@@ -671,7 +601,7 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
 def _closing_answer(status: bytes, message: str) -> bytes:
     """A whole HTTP/1.1 answer written straight to a connection that is then closed (no
     ASGI cycle runs): ``status`` line, the project's JSON error with ``message``."""
-    body = json.dumps({"error_code": "BAD_REQUEST", "message": message}).encode()
+    body = json.dumps(classified({"error_code": "BAD_REQUEST", "message": message})).encode()
     return (b"HTTP/1.1 %s\r\ncontent-type: application/json\r\nconnection: close\r\n"
             b"content-length: %d\r\n\r\n" % (status, len(body)) + body)
 

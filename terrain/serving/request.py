@@ -133,7 +133,7 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
                              f"{MAX_PLAUSIBLE_TIME_S:g} s, the first {float(t[beyond[0]])!r} "
                              "(a clock in ms or ns since an epoch?); send seconds, e.g. since "
                              "the start of the log", where, TIME, int(rows[beyond[0]]))
-    check_rate(t, stream, where)
+    check_rate(t, stream, where, TIME)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]
         rate = implied_rate_hz(t)   # as printed: 1 ms float steps are 1000 Hz, in range
@@ -300,12 +300,13 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
         # finite values only: an isolated inf is a non-finite sample as a NaN is (the
         # service flags it non_finite; a burst was refused above), not a value out of range
-        check_ranges(part.where(np.isfinite(part)), where, {c: c for c in channels})
+        check_ranges(part.where(np.isfinite(part)), where, {c: c for c in channels},
+                     rows=rows)
         if {"ax", "ay", "az"} <= set(channels):
             check_accel_units(part, where)  # a stream in g is refused, as a file in g
         out[stream] = part
     # the readers' run-level rules (units, clocks, stuck sensors); certain findings raise
-    checks = check_run(where, out, vehicle, {s: where for s in out})
+    checks = check_run(where, out, vehicle, {s: where for s in out}, time_column=TIME)
     checks["unused"] = _unused_rows(frame, long,
                                     [s for s in known_streams if s not in streams])
     return Run("request", "request", None, out, vehicle=vehicle, source=where, meta=checks)

@@ -10,7 +10,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from terrain.serving.http import PARQUET_EXPANSION, RequestGuard, body_refusal
+from terrain.serving.body import PARQUET_EXPANSION, body_refusal
+from terrain.serving.http import RequestGuard
 
 
 def _scope(path="/invocations", length=2, content_type=b"text/csv", method="POST"):
@@ -94,7 +95,8 @@ def test_requests_beyond_the_in_flight_limit_are_answered_503_at_once():
     statuses = sorted(c.answer()[0] for c in clients)
     assert statuses == [200, 200, 503] and guard.in_flight == 0
     busy = next(c.answer()[1] for c in clients if c.answer()[0] == 503)
-    assert busy["message"].startswith("ConfigError: server busy with 2 requests")
+    assert busy["message"].startswith("ServiceBusyError: server busy with 2 requests")
+    assert busy["error_class"] and busy["sqlstate"]   # the one form of every error
     # the slots are free again afterwards
     client = _Client([b"ab"])
     asyncio.run(guard(_scope(), client.receive, client.send))
@@ -211,4 +213,179 @@ def test_a_csv_field_beyond_the_csv_modules_limit_is_a_typed_400(body):
     # csv.Error escaped the guard: a plain-text 500 and a traceback in the log (HTTP fuzz)
     status, answer = body_refusal("text/csv", body, max_rows=50_000, max_body_bytes=10**6)
     assert status == 400 and answer["error_code"] == "BAD_REQUEST"
-    assert "unreadable CSV" in answer["message"] and "field larger" in answer["message"]
+    assert "unreadable CSV: a field longer than 131072 characters" in answer["message"]
+
+
+# --- bodies pandas or MLflow would read wrongly, or refuse in their own words (HTTP fuzz) ---
+
+_CSV = (b"stream,t_s,vel_l,vel_r,cur_l,cur_r\n"
+        + b"".join(b"wheels,%.3f,0.1,0.1,15.0,14.0\n" % (10 + 0.154 * i) for i in range(20)))
+
+
+def _csv_with(row: int, value: bytes) -> bytes:
+    """``_CSV`` with ``cur_l`` of data row ``row`` (0-based) set to ``value``."""
+    lines = _CSV.split(b"\n")
+    fields = lines[row + 1].split(b",")
+    fields[4] = value
+    lines[row + 1] = b",".join(fields)
+    return b"\n".join(lines)
+
+
+def _message(refused):
+    assert refused is not None, "the body was passed on"
+    status, answer = refused
+    assert status == 400 and answer["error_code"] == "BAD_REQUEST"
+    return answer["message"]
+
+
+@pytest.mark.parametrize("value", [b"1e400", b"-1E+400", b"9" * 400, b"1" * 500 + b".5"])
+def test_a_csv_number_beyond_the_float_range_is_refused_not_read_as_inf(value):
+    # pandas reads each of these as +-inf: the served model took it for one non-finite
+    # sample and repaired it (200)
+    message = _message(body_refusal("text/csv", _csv_with(5, value), None, 10**6))
+    assert message.startswith("ImplausibleValueError: number ")
+    assert "beyond the float range" in message
+    assert message.endswith("(file request, column 'cur_l', line 7)")
+
+
+@pytest.mark.parametrize("value", [b"1e308", b"1e-400", b"-0.0", b"1" * 308, b"0." + b"1" * 400])
+def test_large_finite_numbers_reach_the_model(value):
+    # finite: the plausibility ranges (not the guard) judge them
+    assert body_refusal("text/csv", _csv_with(5, value), None, 10**6) is None
+
+
+def test_a_json_number_beyond_the_float_range_is_refused_with_its_row_and_column():
+    columns = ["stream", "t_s", "vel_l", "vel_r", "cur_l", "cur_r"]
+    rows = [["wheels", 10 + 0.154 * i, 0.1, 0.1, 15.0, 14.0] for i in range(20)]
+    split = json.dumps({"dataframe_split": {"columns": columns, "data": rows}})
+    body = split.replace("15.0", "1e400", 4).replace("1e400", "15.0", 3).encode()
+    message = _message(body_refusal("application/json", body, None, 10**6))
+    assert message.startswith("ImplausibleValueError: number 1e400 beyond the float range")
+    assert message.endswith("(file request, column 'cur_l', data row 3 (0-based))")
+    records = json.dumps({"dataframe_records": [dict(zip(columns, r)) for r in rows]})
+    body = records.replace("14.0", "-2.5e999", 2).replace("-2.5e999", "14.0", 1).encode()
+    message = _message(body_refusal("application/json", body, None, 10**6))
+    assert message.endswith("(file request, column 'cur_r', data row 1 (0-based))")
+
+
+def test_quoted_or_trailing_commas_do_not_slip_past_the_header_checks():
+    header, rest = _CSV.split(b"\n", 1)
+    # a quoted repeated name: pandas renamed it cur_r.1 and the request was answered (200)
+    quoted = header + b',"cur_r"\n' + rest.replace(b"\n", b",1\n")
+    assert "duplicated column name(s) ['cur_r']" in _message(
+        body_refusal("text/csv", quoted, None, 10**6))
+    # every row one field longer: pandas made the first column the index and the answer
+    # named the timestamps as unknown streams
+    trailing = header + b"\n" + rest.replace(b"\n", b",\n")
+    message = _message(body_refusal("text/csv", trailing, None, 10**6))
+    assert message.startswith("RaggedRowError: a row of 7 fields under a header of 6 (a "
+                              "trailing comma") and message.endswith("line 2)")
+
+
+def test_utf16_and_unterminated_quotes_are_named_as_such():
+    message = _message(body_refusal("text/csv", _CSV.decode().encode("utf-16"), None, 10**6))
+    assert message.startswith("EncodingError: the request body is UTF-16")
+    message = _message(body_refusal("text/csv", b"\xef\xbb\xbf" + _CSV.replace(
+        b"15.0", b"\xe915", 1), None, 10**6))
+    assert message.startswith("EncodingError: the request body is not UTF-8 text (byte 0xe9")
+    unterminated = _CSV.replace(b"wheels,10.616", b'"wheels,10.616', 1)
+    message = _message(body_refusal("text/csv", unterminated, None, 10**6))
+    assert message == ("DataFormatError: unterminated quote: the quoted field opened here "
+                       "runs to the end of the body (file request, line 6)")
+
+
+@pytest.mark.parametrize("doc, words", [
+    (None, "the JSON body is null, not an object"),
+    (3, "the JSON body is a number, not an object"),
+    ({}, "the JSON body has the key(s) []"),
+    ({"dataframe_split": {"columns": ["a", "b"]}}, "must be an object with 'columns' and "
+                                                   "'data'"),
+    ({"dataframe_split": {"columns": "ab", "data": [[1, 2]]}}, "'columns' must be a list"),
+    ({"dataframe_split": {"columns": ["a", "b"], "data": "abc"}}, "'data' must be a list of "
+                                                                  "rows, got a string"),
+    ({"dataframe_split": {"columns": ["a", "b"], "data": [[1, 2], 5]}},
+     "a data row is a number, not an array of values (file request, data row 1 (0-based))"),
+    ({"dataframe_split": {"columns": ["a", "b"], "data": [[1, 2, 3]]}},
+     "RaggedRowError: data row 0 (0-based) holds 3 values for 2 columns"),
+    ({"dataframe_split": {"columns": ["a", "b"], "data": [[1, 2]], "index": [0, 1]}},
+     "'index' has 2 entries for 1 data rows"),
+    ({"dataframe_records": [{"a": 1, "b": 2}, {"a": 1}]},
+     "RaggedRowError: record 1 (0-based) lacks ['b']"),
+    ({"dataframe_records": [{"a": 1}, "abc"]}, "a record is a string, not an object"),
+])
+def test_json_tables_of_the_wrong_shape_get_the_projects_words(doc, words):
+    # pandas's and MLflow's words reached the client ("6 columns passed, passed data had 8
+    # columns", "object of type 'int' has no len()"), or a record's missing key became NaN
+    message = _message(body_refusal("application/json", json.dumps(doc).encode(), None, 100))
+    assert words in message
+    for internal in ("passed data", "has no len", "constructor", "Received", "MLflow"):
+        assert internal not in message
+
+
+def test_a_parquet_schema_with_a_repeated_column_is_refused():
+    table = pa.Table.from_arrays([pa.array([1.0]), pa.array([2.0])], names=["cur_r", "cur_r"])
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    message = _message(body_refusal("application/vnd.apache.parquet",
+                                    sink.getvalue().to_pybytes(), None, 10**6))
+    assert "duplicated column name(s) ['cur_r']" in message
+
+
+def _raw_scope(method, path, headers):
+    return {"type": "http", "method": method, "path": path, "headers": headers}
+
+
+def test_every_error_answer_has_one_form_and_http_details_are_honoured():
+    app, seen = _echo_app()
+    guard = RequestGuard(app, max_body_bytes=1000)
+    cases = [
+        # two Content-Type headers that disagree: the first one won
+        ([(b"content-length", b"2"), (b"content-type", b"text/csv"),
+          (b"content-type", b"application/json")], 400, "2 different Content-Type headers"),
+        # a compressed body: its bytes were read as text
+        ([(b"content-length", b"2"), (b"content-type", b"text/csv"),
+          (b"content-encoding", b"gzip")], 415, "Content-Encoding 'gzip' is not accepted"),
+        ([(b"content-length", b"2000"), (b"content-type", b"text/csv")], 413, "exceeds"),
+        ([(b"content-type", b"text/csv")], 411, "without Content-Length"),
+    ]
+    for headers, status, words in cases:
+        client = _Client([b"ab"])
+        asyncio.run(guard(_raw_scope("POST", "/invocations", headers), client.receive,
+                          client.send))
+        got, answer = client.answer()
+        assert got == status and words in answer["message"], answer
+        assert set(answer) == {"error_code", "message", "sqlstate", "error_class"}
+        assert answer["sqlstate"] and answer["error_class"]
+    assert seen == []
+    # media types are case-insensitive: MLflow answered TEXT/CSV with 415
+    client = _Client([b"ab"])
+    asyncio.run(guard(_raw_scope("POST", "/invocations", [
+        (b"content-length", b"2"), (b"content-type", b"TEXT/CSV; charset=utf-8")]),
+        client.receive, client.send))
+    assert client.answer() == (200, {"n": 2})
+
+
+def test_head_is_get_and_a_405_keeps_its_allow_header():
+    methods = []
+
+    async def app(scope, receive, send):
+        methods.append(scope["method"])
+        if scope["method"] == "GET":
+            await send({"type": "http.response.start", "status": 200, "headers": []})
+            await send({"type": "http.response.body", "body": b"\n"})
+            return
+        await send({"type": "http.response.start", "status": 405,
+                    "headers": [(b"allow", b"GET"), (b"content-type", b"application/json")]})
+        await send({"type": "http.response.body", "body": b'{"detail": "Method Not Allowed"}'})
+
+    guard = RequestGuard(app, max_body_bytes=1000)
+    client = _Client([])
+    asyncio.run(guard(_raw_scope("HEAD", "/ping", []), client.receive, client.send))
+    assert methods == ["GET"] and client.sent[0]["status"] == 200
+    client = _Client([])
+    asyncio.run(guard(_raw_scope("DELETE", "/ping", []), client.receive, client.send))
+    start = client.sent[0]
+    assert start["status"] == 405 and (b"allow", b"GET") in start["headers"]
+    status, answer = client.answer()
+    assert answer["message"].startswith("ConfigError: Method Not Allowed")
+    assert answer["sqlstate"] and answer["error_class"]

@@ -27,7 +27,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import (ClockError, ConfigError, DataFormatError, ImplausibleValueError,
+                            UnitError)
 from terrain.run import WHEEL_CHANNELS
 from terrain.serving.pyfunc import save_model
 from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
@@ -465,6 +466,30 @@ def test_rate_at_the_nominal_bound_is_accepted_and_the_message_agrees():
         parse_request(_synthetic(0.00099, 2500), streams, 2.0, 10_000)
 
 
+def test_request_errors_name_the_requests_own_row_and_time_column():
+    """The range rule named the row within its stream (data row 5 for the request's row
+    316, behind 311 IMU rows) and the clock and unit rules a column 'time' the request does
+    not have, with 'file request and request' (HTTP fuzz)."""
+    imu = pd.DataFrame({"stream": "imu", "t_s": 10.0 + np.arange(300) * 0.01,
+                        "ax": 0.0, "ay": 0.0, "az": 9.81, "wx": 0.0, "wy": 0.0, "wz": 0.0})
+    wheels = _synthetic(0.154, 20)
+    wheels.loc[5, "cur_l"] = 1e6
+    frame = pd.concat([imu, wheels], ignore_index=True)
+    streams = {"wheels": WHEEL_CHANNELS, "imu": ["ax", "ay", "az", "wx", "wy", "wz"]}
+    with pytest.raises(ImplausibleValueError, match=r"first 1e\+06 at row 305 \(file "
+                                                    r"request, column 'cur_l', data row 305"):
+        parse_request(frame, streams, 2.0, 10_000)
+    frame.loc[frame["stream"] == "imu", "t_s"] += 100.0   # clocks 100 s apart
+    frame.loc[305, "cur_l"] = 10.0
+    with pytest.raises(ClockError) as info:
+        parse_request(frame, streams, 2.0, 10_000)
+    assert "both streams must start near time 0" in str(info.value)
+    assert str(info.value).endswith("(file request, column 't_s')")
+    with pytest.raises(UnitError) as info:     # a clock in ms
+        parse_request(_synthetic(154.0, 20), {"wheels": WHEEL_CHANNELS}, 2.0, 10_000)
+    assert str(info.value).endswith("(file request, column 't_s')")
+
+
 @pytest.mark.parametrize("span_s, shown", [(1.9999999, "spans 1.9999999 s"),
                                            (1.5, "spans 1.5 s")])
 def test_a_stream_just_short_of_a_window_says_by_how_much(span_s, shown):
@@ -742,15 +767,16 @@ UNPARSABLE = {
     # was "not valid JSON (UnicodeDecodeError('utf-8', b'{...the request's bytes...'"
     "not utf-8 json": (b'{"dataframe_split": {"columns": ["stream"], "data": [["wh\xff\xfe'
                        b'els"]]}}', "application/json", "EncodingError",
-                       "not UTF-8 text (invalid start byte at byte 57)"),
+                       "not UTF-8 text (byte 0xff at byte 57)"),
     # MLflow's tensor formats: the message said only "got ndarray" / "got dict"
     "mlflow inputs tensor": (b'{"inputs": [[1, 2]]}', "application/json", "DataFormatError",
                              "got ndarray (MLflow's 'inputs' and 'instances' tensor formats"),
     "mlflow instances records": (b'{"instances": [{"t_s": 1}]}', "application/json",
                                  "DataFormatError", "got dict (MLflow's 'inputs'"),
-    # MLflow's own message, which ends on a stray quote
+    # MLflow's own message ("... Got {'columns'}.") before the guard checked the shape
     "split without data": (b'{"dataframe_split": {"columns": ["stream"]}}', "application/json",
-                           "DataFormatError", "Got {'columns'}. (file request)"),
+                           "DataFormatError", "dataframe_split must be an object with "
+                           "'columns' and 'data' (and optionally 'index'), got ['columns']"),
     "stream cell holding a list": (b'{"dataframe_split": {"columns": ["stream", "t_s"], '
                                    b'"data": [[["wheels"], 1]]}}', "application/json",
                                    "DataFormatError", "unknown stream list ['wheels'] in 1 row"),

@@ -1,0 +1,379 @@
+"""Checks of a request body before MLflow's scoring server parses it.
+
+MLflow reads a CSV body with pandas, a JSON body with its own ``dataframe_split`` /
+``dataframe_records`` readers and a Parquet body with pyarrow. Each of them accepts some
+malformed bodies silently (pandas renames a repeated column ``cur_r.1``, fills a short row
+with NaN, turns a row one field longer than the header into an index column, reads
+``1e400`` as infinity) and refuses others with its own wording (``Error tokenizing data. C
+error: EOF inside string``, ``6 columns passed, passed data had 8 columns``).
+:func:`body_refusal` finds these cases on the raw bytes first and answers them with the
+project's typed message, naming the line, row and column. Used by
+:class:`terrain.serving.http.RequestGuard`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+from typing import Any
+
+from terrain.errors import (DataFormatError, EncodingError, ImplausibleValueError,
+                            RaggedRowError, TerrainError, duplicated)
+
+#: line ends of a CSV body: pandas (MLflow's CSV parser) reads CR LF, LF and a lone CR
+LINE_END = re.compile(rb"\r\n|\r|\n")
+_TEXT_LINE_END = re.compile(r"\r\n|\r|\n")
+#: largest uncompressed size of a Parquet body, as a multiple of the body-size limit (a
+#: small compressed body can decode to gigabytes)
+PARQUET_EXPANSION = 16
+#: the JSON shapes of a table that the served model takes
+JSON_TABLES = ("dataframe_split", "dataframe_records")
+#: a number written beyond the float range would need a decimal exponent of 309 or more, or
+#: 309 or more digits before the point: only such tokens are parsed to be sure
+_HUGE_NUMBER = re.compile(
+    r"(?<![\w.])[-+]?(?:(?:\d+\.?\d*|\.\d+)[eE]\+?\d{3,}|\d{309,}(?:\.\d*)?(?:[eE][-+]?\d+)?)"
+    r"(?![\w.])")
+#: cheap first passes over the raw bytes for such tokens (the precise pattern above takes
+#: ~0.4 s on an 8 MB body, these ~0.06 s): a 3-digit exponent, or a run of 309 digits
+_EXPONENT_3 = re.compile(rb"[eE]\+?\d\d\d")
+_DIGITS_AS_ZERO = bytes.maketrans(b"123456789", b"000000000")
+_JSON_FORM = ('send {"dataframe_split": {"columns": [...], "data": [[...], ...]}} or '
+              '{"dataframe_records": [{...}, ...]}')
+_WHERE = "request"
+
+
+def _refusal(error: TerrainError, status: int = 400,
+             code: str = "BAD_REQUEST") -> tuple[int, dict]:
+    """Status and JSON answer of a refused body (``<ErrorClass>: message``)."""
+    return status, {"error_code": code, "message": f"{type(error).__name__}: {error}"}
+
+
+class _HugeFloat(float):
+    """A JSON number literal beyond the float range (``json`` reads it as infinity); keeps
+    its text so the refusal can show it."""
+
+    text = ""
+
+
+def _json_float(text: str) -> float:
+    """``parse_float`` of :func:`json.loads`: a float, or a :class:`_HugeFloat` for a
+    literal beyond the float range."""
+    value = float(text)
+    if math.isinf(value):
+        value = _HugeFloat(value)
+        value.text = text
+    return value
+
+
+def _json_type(value: Any) -> str:
+    """JSON's name of a parsed value's type (``null``, ``a number``...), not Python's."""
+    if value is None:
+        return "null"
+    for kind, name in ((bool, "a boolean"), ((int, float), "a number"), (str, "a string"),
+                       (list, "an array"), (dict, "an object")):
+        if isinstance(value, kind):
+            return name
+    return type(value).__name__
+
+
+def _short_text(text: str, limit: int = 24) -> str:
+    return text if len(text) <= limit else f"{text[:limit - 3]}... ({len(text)} characters)"
+
+
+def _huge_number(value: str, column: str | None, row: int | None = None,
+                 line: int | None = None) -> ImplausibleValueError:
+    """The refusal of a number beyond the float range (``value`` as written)."""
+    return ImplausibleValueError(
+        f"number {_short_text(value)} beyond the float range (|x| < "
+        f"{1.7976931348623157e308:.4g}); no logger writes it", _WHERE, column, row, line)
+
+
+def _encoding_refusal(body: bytes) -> tuple[int, dict] | None:
+    """A text body (CSV, JSON) that is not UTF-8: UTF-16 (its byte-order mark or NUL bytes)
+    or a byte sequence UTF-8 cannot hold, named with its offset."""
+    if body[:2] in (b"\xff\xfe", b"\xfe\xff") or b"\x00" in body[:4096]:
+        return _refusal(EncodingError("the request body is UTF-16 (a byte-order mark or NUL "
+                                      "bytes); send UTF-8 text", _WHERE))
+    try:
+        body.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        return _refusal(EncodingError(
+            f"the request body is not UTF-8 text (byte 0x{body[exc.start]:02x} at byte "
+            f"{exc.start}); send UTF-8 text", _WHERE))
+    return None
+
+
+def csv_header(body: bytes) -> list[str]:
+    """Column names of a CSV body's header line (ended by CR LF, LF or a lone CR, as pandas
+    reads it; quoted names unquoted, a UTF-8 byte-order mark dropped).
+
+    Parameters
+    ----------
+    body : bytes
+        The request body, UTF-8.
+
+    Returns
+    -------
+    list of str
+        Names as pandas would read them before de-duplicating (stripped of spaces).
+
+    Raises
+    ------
+    csv.Error
+        A field beyond the csv module's size limit.
+    """
+    head = LINE_END.split(body, 1)[0].decode("utf-8", "replace").lstrip("\ufeff")
+    return [c.strip() for c in next(csv.reader(io.StringIO(head)), [])]
+
+
+def _ragged_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
+    """(1-based line, fields) of the first CSV data row whose number of fields differs from
+    the header's ``n_columns``, or None. pandas would fill a short row's missing fields with
+    NaN, which the served model cannot tell from a cell left empty on purpose, and would
+    take the first field of rows one field longer than the header as an index, shifting
+    every column; blank lines are skipped as pandas skips them. A body with quotes is
+    split by :mod:`csv` (a quoted field may hold a comma or a line break), any other by its
+    commas; a body with an unterminated quote is refused before this is asked."""
+    if b'"' in body:  # newline="": the csv module then takes any of the line ends
+        reader = csv.reader(io.StringIO(body.decode("utf-8", "replace"), newline=""))
+        next(reader, None)  # the header
+        for row in reader:
+            if row and len(row) != n_columns:
+                return reader.line_num, len(row)
+        return None
+    for number, line in enumerate(LINE_END.split(body)[1:], start=2):
+        if line.strip() and line.count(b",") + 1 != n_columns:
+            return number, line.count(b",") + 1
+    return None
+
+
+def _may_hold_huge_number(body: bytes) -> bool:
+    """Whether ``body`` holds a 3-digit decimal exponent or 309 digits in a row, without
+    which no number in it is beyond the float range."""
+    return (_EXPONENT_3.search(body) is not None
+            or b"0" * 309 in body.translate(_DIGITS_AS_ZERO))
+
+
+def _csv_refusal(body: bytes) -> tuple[int, dict] | None:
+    """Refusal of a CSV body (see :func:`body_refusal`), or None."""
+    if body.count(b'"') % 2:
+        # quotes pair up in order ("" inside a quoted field is two), so the unpaired one is
+        # the last: the field it opens runs to the end of the body
+        line = len(LINE_END.findall(body, 0, body.rindex(b'"'))) + 1
+        return _refusal(DataFormatError("unterminated quote: the quoted field opened here "
+                                        "runs to the end of the body", _WHERE, line=line))
+    try:
+        header = csv_header(body)
+        dup = duplicated(header)
+        if dup:
+            return _refusal(DataFormatError(f"duplicated column name(s) {dup}; send each "
+                                            "column once", _WHERE))
+        ragged = _ragged_csv_row(body, len(header)) if len(header) > 1 else None
+    except csv.Error as exc:  # a field over csv's 131 072 characters: a 500 before
+        limit = re.search(r"\((\d+)\)", str(exc))
+        return _refusal(DataFormatError(
+            "unreadable CSV: a field longer than "
+            f"{limit.group(1) if limit else 'the CSV reader allows'} characters; a channel "
+            "value or name is a number or a short name", _WHERE))
+    if ragged is not None:
+        line, fields = ragged
+        hint = ("write an empty field for a missing value: the row would be filled with NaN"
+                if fields < len(header) else
+                "a trailing comma, or a comma inside an unquoted value: the columns would "
+                "shift")
+        return _refusal(RaggedRowError(f"a row of {fields} fields under a header of "
+                                       f"{len(header)} ({hint})", _WHERE, line=line))
+    if not _may_hold_huge_number(body):
+        return None
+    text = body.decode("utf-8")
+    for found in _HUGE_NUMBER.finditer(text):
+        if math.isinf(float(found.group())):
+            start = found.start()
+            line = len(_TEXT_LINE_END.findall(text, 0, start)) + 1
+            line_start = max(text.rfind("\n", 0, start), text.rfind("\r", 0, start)) + 1
+            field = text.count(",", line_start, start)
+            column = header[field] if field < len(header) else None
+            return _refusal(_huge_number(found.group(), column, line=line))
+    return None
+
+
+def _json_refusal(body: bytes) -> tuple[int, dict] | None:
+    """Refusal of a JSON body (see :func:`body_refusal`), or None."""
+    try:
+        # the hook costs a Python call per number: only where a huge one may be
+        huge = _may_hold_huge_number(body)
+        doc = json.loads(body, parse_float=_json_float) if huge else json.loads(body)
+    except (ValueError, RecursionError):
+        return None  # MLflow's parser refuses it; its message is rewritten by the guard
+    if not isinstance(doc, dict):
+        return _refusal(DataFormatError(f"the JSON body is {_json_type(doc)}, not an "
+                                        f"object; {_JSON_FORM}", _WHERE))
+    if "inputs" in doc or "instances" in doc:
+        return None  # the served model answers MLflow's tensor formats itself
+    tables = [k for k in doc if k in JSON_TABLES]
+    if len(tables) != 1 or len(doc) != 1:
+        return _refusal(DataFormatError(f"the JSON body has the key(s) {sorted(doc)[:5]}; "
+                                        f"{_JSON_FORM}", _WHERE))
+    if tables[0] == "dataframe_split":
+        return _split_refusal(doc["dataframe_split"], huge)
+    return _records_refusal(doc["dataframe_records"], huge)
+
+
+def _names_refusal(columns: list) -> tuple[int, dict] | None:
+    odd = [c for c in columns if not isinstance(c, str)]
+    if odd:
+        return _refusal(DataFormatError(f"column names must be text, got "
+                                        f"{json.dumps(odd[0])[:40]}", _WHERE))
+    dup = duplicated(columns)
+    if dup:
+        return _refusal(DataFormatError(f"duplicated column name(s) {dup}; send each column "
+                                        "once", _WHERE))
+    return None
+
+
+def _split_refusal(split: Any, huge: bool) -> tuple[int, dict] | None:
+    """Refusal of a ``dataframe_split`` table: its shape, names, rows and (``huge``: the
+    body may hold one) numbers beyond the float range."""
+    if not isinstance(split, dict) or not {"columns", "data"} <= set(split) \
+            or not set(split) <= {"columns", "data", "index"}:
+        keys = sorted(split) if isinstance(split, dict) else _json_type(split)
+        return _refusal(DataFormatError(f"dataframe_split must be an object with 'columns' "
+                                        f"and 'data' (and optionally 'index'), got {keys}; "
+                                        f"{_JSON_FORM}", _WHERE))
+    columns, data = split["columns"], split["data"]
+    if not isinstance(columns, list):
+        return _refusal(DataFormatError("dataframe_split 'columns' must be a list of column "
+                                        f"names, got {_json_type(columns)}", _WHERE))
+    refused = _names_refusal(columns)
+    if refused is not None:
+        return refused
+    if not isinstance(data, list):
+        return _refusal(DataFormatError("dataframe_split 'data' must be a list of rows, got "
+                                        f"{_json_type(data)}", _WHERE))
+    index = split.get("index")
+    if index is not None and not (isinstance(index, list) and len(index) == len(data)):
+        size = len(index) if isinstance(index, list) else _json_type(index)
+        return _refusal(DataFormatError(f"dataframe_split 'index' has {size} entries for "
+                                        f"{len(data)} data rows (leave it out)", _WHERE))
+    for number, row in enumerate(data):
+        if not isinstance(row, list):
+            return _refusal(DataFormatError(f"a data row is {_json_type(row)}, not an "
+                                            "array of values", _WHERE, row=number))
+        if len(row) != len(columns):
+            hint = ("send null for a missing value: the row would be filled with NaN"
+                    if len(row) < len(columns) else "one value per column")
+            return _refusal(RaggedRowError(f"data row {number} (0-based) holds {len(row)} "
+                                           f"values for {len(columns)} columns ({hint})",
+                                           _WHERE))
+        for column, value in zip(columns, row) if huge else ():
+            if isinstance(value, _HugeFloat):
+                return _refusal(_huge_number(value.text, column, number))
+    return None
+
+
+def _records_refusal(records: Any, huge: bool) -> tuple[int, dict] | None:
+    """Refusal of a ``dataframe_records`` table: every record an object with the same keys
+    (pandas would fill a missing key with NaN, as a short CSV row), and (``huge``: the body
+    may hold one) its numbers beyond the float range."""
+    if not isinstance(records, list):
+        return _refusal(DataFormatError(f"dataframe_records must be a list of objects, got "
+                                        f"{_json_type(records)}", _WHERE))
+    keys = None
+    for number, record in enumerate(records):
+        if not isinstance(record, dict):
+            return _refusal(DataFormatError(f"a record is {_json_type(record)}, not an "
+                                            "object of column: value", _WHERE, row=number))
+        if keys is None:
+            keys = list(record)
+        elif set(record) != set(keys):
+            missing = [k for k in keys if k not in record]
+            extra = [k for k in record if k not in keys]
+            what = (f"lacks {missing} (send null for a missing value: it would be filled "
+                    "with NaN)" if missing else f"has key(s) {extra} that record 0 lacks")
+            return _refusal(RaggedRowError(f"record {number} (0-based) {what}", _WHERE))
+        for column, value in record.items() if huge else ():
+            if isinstance(value, _HugeFloat):
+                return _refusal(_huge_number(value.text, column, number))
+    return None
+
+
+def _parquet_refusal(body: bytes, max_rows: int | None,
+                     max_body_bytes: int) -> tuple[int, dict] | None:
+    """Refusal of a Parquet body from its metadata (see :func:`body_refusal`), or None."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+        meta = pq.ParquetFile(pa.BufferReader(body)).metadata
+    except Exception:  # not Parquet: MLflow's parser answers with its own message
+        return None
+    dup = duplicated(meta.schema.names)
+    if dup:
+        return _refusal(DataFormatError(f"duplicated column name(s) {dup}; send each column "
+                                        "once", _WHERE))
+    # decoded, every cell takes at least 8 bytes (a float; text more); the metadata's own
+    # sizes are of the encoded pages (a dictionary-encoded column is a few bytes)
+    size = int(meta.num_rows) * int(meta.num_columns) * 8
+    if max_rows is not None and meta.num_rows > max_rows:
+        return _refusal(DataFormatError(f"request of {meta.num_rows} rows exceeds the limit "
+                                        f"of {max_rows}; send the streams in shorter pieces",
+                                        _WHERE))
+    if size > PARQUET_EXPANSION * max_body_bytes:
+        return _refusal(DataFormatError(
+            f"Parquet body decodes to at least {size} bytes, over {PARQUET_EXPANSION} x the "
+            f"body limit of {max_body_bytes}; send the streams in shorter pieces", _WHERE),
+            413, "REQUEST_LIMIT_EXCEEDED")
+    return None
+
+
+def body_refusal(content_type: str, body: bytes, max_rows: int | None,
+                 max_body_bytes: int) -> tuple[int, dict] | None:
+    """Status and answer refusing a request body before MLflow parses it, or None.
+
+    * a CSV or JSON body that is not UTF-8 (UTF-16 included), named with the byte;
+    * column names that are not text or appear twice (a CSV header, quoted or not, a
+      ``dataframe_split`` table or a Parquet schema): pandas renames a repeated column and
+      MLflow would shift the channels after it;
+    * a CSV row with a number of fields other than the header's, a ``dataframe_split``
+      data row with another number of values than columns, a ``dataframe_records`` record
+      with other keys than the first: pandas would fill the missing fields with NaN
+      silently, or shift the columns;
+    * an unterminated quote in a CSV body, named with the line where it opens;
+    * a JSON body that is not one ``dataframe_split`` or ``dataframe_records`` table of the
+      right shape (MLflow's ``inputs`` / ``instances`` are left to the served model, which
+      refuses them with its own message);
+    * a number beyond the float range (``1e400``, an integer of 400 digits), which pandas
+      and ``json`` read as infinity: refused with its line or row and column;
+    * a Parquet body whose metadata announce more than ``max_rows`` rows, or rows x columns
+      x 8 bytes (the least it decodes to) over :data:`PARQUET_EXPANSION` x
+      ``max_body_bytes`` (a small compressed body can decode to gigabytes before the served
+      model could count its rows).
+
+    Parameters
+    ----------
+    content_type : str
+        The request's Content-Type (parameters such as ``charset`` ignored).
+    body : bytes
+        The whole body.
+    max_rows : int or None
+        Largest request the served model accepts, rows (None: not checked here).
+    max_body_bytes : int
+        The body-size limit, bytes.
+
+    Returns
+    -------
+    tuple of (int, dict) or None
+        HTTP status and ``{"error_code", "message"}`` of the refusal; None to pass the body
+        on to MLflow.
+    """
+    kind = content_type.split(";")[0].strip().lower()
+    if kind in ("text/csv", "application/json"):
+        refused = _encoding_refusal(body)
+        if refused is not None:
+            return refused
+        return _csv_refusal(body) if kind == "text/csv" else _json_refusal(body)
+    if kind == "application/vnd.apache.parquet":
+        return _parquet_refusal(body, max_rows, max_body_bytes)
+    return None
