@@ -190,12 +190,17 @@ def positive_number(value: str) -> float:
     argparse.ArgumentTypeError
         Not a number, or not finite and > 0.
     """
+    return _number(value, lambda x: 0 < x < math.inf, "a finite number > 0")
+
+
+def _number(value: str, accept, wording: str) -> float:
+    """``value`` as a float that ``accept`` takes, else argparse's error with ``wording``."""
     try:
         number = float(value)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not 0 < number < math.inf:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {value}")
+    if not accept(number):
+        raise argparse.ArgumentTypeError(f"must be {wording}, got {value}")
     return number
 
 
@@ -268,13 +273,7 @@ def probability(value: str) -> float:
     argparse.ArgumentTypeError
         Not a number, or outside [0, 1] (NaN included).
     """
-    try:
-        number = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not 0 <= number <= 1:
-        raise argparse.ArgumentTypeError(f"must be a probability in [0, 1], got {value}")
-    return number
+    return _number(value, lambda x: 0 <= x <= 1, "a probability in [0, 1]")
 
 
 def seed_value(value: str) -> int:
