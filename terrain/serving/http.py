@@ -215,14 +215,14 @@ def classified(doc: dict) -> dict:
 
 
 async def _send_json(send: Send, status: int, doc: dict,
-                     headers: tuple[tuple[bytes, bytes], ...] = (), head: bool = False) -> None:
-    """Send ``doc`` as a JSON answer (an error classified, :func:`classified`); ``head``:
-    the request was HEAD, so the body is announced but not sent."""
+                     headers: tuple[tuple[bytes, bytes], ...] = ()) -> None:
+    """Send ``doc`` as a JSON answer (an error classified, :func:`classified`) with the
+    extra ``headers``."""
     body = json.dumps(classified(doc) if status >= 400 else doc).encode()
     await send({"type": "http.response.start", "status": status,
                 "headers": [(b"content-type", b"application/json"),
                             (b"content-length", str(len(body)).encode()), *headers]})
-    await send({"type": "http.response.body", "body": b"" if head else body})
+    await send({"type": "http.response.body", "body": body})
 
 
 class _BodyTooLarge(Exception):
