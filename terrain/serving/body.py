@@ -125,8 +125,11 @@ def csv_header(body: bytes) -> list[str]:
     csv.Error
         A field beyond the csv module's size limit.
     """
-    head = LINE_END.split(body, 1)[0].decode("utf-8", "replace").lstrip("\ufeff")
-    return [c.strip() for c in next(csv.reader(io.StringIO(head)), [])]
+    head = LINE_END.split(body, 1)[0]
+    if b'"' in head:  # a quoted name may hold a line break: the csv module reads it whole
+        head = body
+    text = head.decode("utf-8", "replace").lstrip("\ufeff")
+    return [c.strip() for c in next(csv.reader(io.StringIO(text, newline="")), [])]
 
 
 def _ragged_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
@@ -214,6 +217,10 @@ def _json_refusal(body: bytes) -> tuple[int, dict] | None:
     if "inputs" in doc or "instances" in doc:
         return None  # the served model answers MLflow's tensor formats itself
     tables = [k for k in doc if k in JSON_TABLES]
+    if "params" in doc:   # MLflow's inference parameters: nothing in the served model reads them
+        return _refusal(DataFormatError("the served model takes no 'params' (its settings "
+                                        "are fixed when it is served); send the table alone",
+                                        _WHERE))
     if len(tables) != 1 or len(doc) != 1:
         return _refusal(DataFormatError(f"the JSON body has the key(s) {sorted(doc)[:5]}; "
                                         f"{_JSON_FORM}", _WHERE))

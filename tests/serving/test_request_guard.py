@@ -282,6 +282,14 @@ def test_quoted_or_trailing_commas_do_not_slip_past_the_header_checks():
                               "trailing comma") and message.endswith("line 2)")
 
 
+def test_a_quoted_header_name_may_hold_a_line_break():
+    body = b'stream,"t\ns",vel_l\nwheels,1,2\nwheels,2,3\n'
+    assert body_refusal("text/csv", body, None, 1000) is None
+    status, answer = body_refusal("text/csv", body + b"wheels,3\n", None, 1000)
+    assert status == 400 and "a row of 2 fields under a header of 3" in answer["message"] \
+        and answer["message"].endswith("line 5)")
+
+
 def test_utf16_and_unterminated_quotes_are_named_as_such():
     message = _message(body_refusal("text/csv", _CSV.decode().encode("utf-16"), None, 10**6))
     assert message.startswith("EncodingError: the request body is UTF-16")
@@ -298,6 +306,7 @@ def test_utf16_and_unterminated_quotes_are_named_as_such():
     (None, "the JSON body is null, not an object"),
     (3, "the JSON body is a number, not an object"),
     ({}, "the JSON body has the key(s) []"),
+    ({"dataframe_records": [{"a": 1}], "params": {"hop_s": 1}}, "takes no 'params'"),
     ({"dataframe_split": {"columns": ["a", "b"]}}, "must be an object with 'columns' and "
                                                    "'data'"),
     ({"dataframe_split": {"columns": "ab", "data": [[1, 2]]}}, "'columns' must be a list"),
