@@ -541,7 +541,8 @@ def _check_clocks(imu, wheels, src, found, time_column: str = "time") -> dict[st
         unused_text = ", ".join(f"{k} {seconds_text(v)}" for k, v in unused.items() if v > 0)
         found.append(f"{src('imu')}: rule clock_overlap: the IMU and wheel clocks overlap for "
                      f"{overlap:.1f} s only ({spans}); assumed one clock, only the overlap "
-                     f"is used (left out: {unused_text})")
+                     f"can be classified (left out: {unused_text}; a live replay or a served "
+                     "request answers the rest with dropped, stale decisions)")
     return unused
 
 
