@@ -6,9 +6,12 @@ import asyncio
 import json
 
 import numpy as np
+import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from terrain.serving.body import PARQUET_EXPANSION, body_refusal
 from terrain.serving.http import RequestGuard
@@ -398,3 +401,35 @@ def test_head_is_get_and_a_405_keeps_its_allow_header():
     status, answer = client.answer()
     assert answer["message"].startswith("ConfigError: Method Not Allowed")
     assert answer["sqlstate"] and answer["error_class"]
+
+
+_FINITE = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=60, deadline=None)
+@given(values=st.lists(st.tuples(_FINITE, _FINITE,
+                                 st.sampled_from(["wheels", "imu", "a,b", 'q"uote', ""])),
+                       min_size=1, max_size=30),
+       line_end=st.sampled_from(["\n", "\r\n"]))
+def test_tables_written_by_pandas_pass_the_guard_and_a_huge_number_never_does(
+        values, line_end):
+    """What pandas writes as CSV (every finite float, quoted text with commas and quotes,
+    empty cells), and the same table as a dataframe_split or dataframe_records JSON body,
+    reaches MLflow untouched; the CSV with one number beyond the float range is refused."""
+    frame = pd.DataFrame(values, columns=["t_s", "cur_l", "stream"])
+    csv_body = frame.to_csv(index=False, lineterminator=line_end).encode()
+    # json.dumps, not DataFrame.to_json: its 15 digits round the largest floats past the
+    # float range (1.7976931348623151e+308 is written 1.79769313486232e+308), which the guard
+    # rightly refuses
+    split = json.dumps({"dataframe_split": {"columns": list(frame.columns),
+                                            "data": frame.values.tolist()}}).encode()
+    records = json.dumps({"dataframe_records": frame.to_dict(orient="records")}).encode()
+    for kind, body in (("text/csv", csv_body), ("application/json", split),
+                       ("application/json", records)):
+        assert body_refusal(kind, body, None, 10**8) is None, body[:200]
+    lines = csv_body.split(line_end.encode())
+    cells = lines[1].split(b",")
+    cells[1] = b"-1e999"
+    lines[1] = b",".join(cells)
+    message = _message(body_refusal("text/csv", line_end.encode().join(lines), None, 10**8))
+    assert "beyond the float range" in message and "column 'cur_l'" in message
