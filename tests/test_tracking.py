@@ -174,3 +174,25 @@ def test_the_slip_model_lookup_loads_the_latest_version_and_leaves_mlflow_as_it_
     assert model.predict([[0.0]])[0] == pytest.approx(0.2)            # version 2
     assert "MLFLOW_REGISTRY_URI" not in os.environ
     assert mlflow.get_tracking_uri() == before
+
+
+def test_processes_that_open_a_new_store_together_all_log_their_run(tmp_path):
+    """MLflow creates and migrates a new SQLite store without guarding against another
+    process doing the same: two `terrain train` started together in a fresh folder failed
+    (3 of 3 tries: 'table _alembic_tmp_tags already exists'). terrain.tracking.store_lock
+    serialises the store's first opening."""
+    import subprocess
+    import sys
+
+    script = ("import sys\nfrom terrain.tracking import tracked_run\n"
+              "with tracked_run('race', run_name=sys.argv[1], announce=False) as run:\n"
+              "    run.log_metrics({'x': 1.0})\n")
+    env = {k: v for k, v in os.environ.items() if k != "MLFLOW_TRACKING_URI"}
+    procs = [subprocess.Popen([sys.executable, "-c", script, f"run{k}"], cwd=tmp_path, env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for k in range(3)]
+    results = [p.communicate(timeout=300) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0, 0], [err[-400:] for _, err in results]
+    client = mlflow.MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'mlflow.db'}")
+    runs = client.search_runs([client.get_experiment_by_name("race").experiment_id])
+    assert sorted(r.info.run_name for r in runs) == ["run0", "run1", "run2"]
