@@ -77,10 +77,14 @@ except ImportError:  # pragma: no cover
     PythonModel, MlflowException, BAD_REQUEST, INTERNAL_ERROR = object, Exception, 400, 500
 
 #: default limit of the decisions one request may make (its time span / hop_s): 2000 at
-#: the 0.5 s hop is 1000 s of stream, and keeps one request's work near 1 s (about 0.2 ms
-#: per decision inside a timestamp gap, 0.6 ms on dense samples, measured with
-#: ``benchmarks/bench_served_load.py``'s machine); a live robot sends seconds at a time
+#: the 0.5 s hop is 1000 s of stream, and bounds one request's work to seconds (measured
+#: by an HTTP fuzz: 0.6-0.7 s wheel-only, 2.9-3.2 s with the IMU at 100 Hz); a live robot
+#: sends seconds at a time
 MAX_DECISIONS = 2_000
+#: requests of more rows than this are long (a bulk log: 10,000 rows are 100 s of a 100 Hz
+#: IMU): they are decided one at a time in their own lane, so a robot's short requests,
+#: decided one at a time in theirs, never wait behind them
+LONG_REQUEST_ROWS = 10_000
 _log = logging.getLogger(__name__)
 
 
@@ -243,11 +247,12 @@ class ServedStreamModel(PythonModel):
     def __init__(self) -> None:
         self.settings: dict = {}
         self.model: StreamModel | None = None
-        # one request decided at a time: MLflow's server runs each prediction in a thread of
-        # its pool, and concurrent CPU-bound requests only contend for the interpreter lock
-        # and memory (measured: 8 requests of 999 s at once took 47.6 s against 8 x 3.9 s
-        # one after another, at 950 MB; docs/streaming.md, "Served model under load")
-        self._deciding = threading.Lock()
+        # one request decided at a time per lane (short, long: LONG_REQUEST_ROWS): MLflow's
+        # server runs each prediction in a thread of its pool, and concurrent CPU-bound
+        # requests only contend for the interpreter lock and memory (measured: 8 requests of
+        # 999 s at once took 47.6 s against 8 x 3.9 s one after another, at 950 MB;
+        # docs/streaming.md, "Served model under load")
+        self._lanes = {False: threading.Lock(), True: threading.Lock()}
 
     def load_context(self, context: Any) -> None:
         """Load the classifier and the settings.
@@ -339,6 +344,10 @@ class ServedStreamModel(PythonModel):
                 params: dict | None = None) -> pd.DataFrame:
         """MLflow entry: :meth:`decide`, errors mapped to :class:`ServedInputError`.
 
+        Requests are decided one at a time in two lanes, short and long (more than
+        :data:`LONG_REQUEST_ROWS` rows), so at most two run at once and a short one never
+        waits behind a bulk log.
+
         Parameters
         ----------
         context : mlflow.pyfunc.PythonModelContext
@@ -359,7 +368,7 @@ class ServedStreamModel(PythonModel):
             (the traceback goes to the server log only) for an unexpected failure.
         """
         try:
-            with self._deciding:
+            with self._lanes[len(model_input) > LONG_REQUEST_ROWS]:
                 return self.decide(model_input)
         except TerrainError as exc:
             raise ServedInputError(f"{type(exc).__name__}: {' '.join(str(exc).split())}"

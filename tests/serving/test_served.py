@@ -1073,26 +1073,32 @@ def test_wrapping_says_nothing_of_the_signature_it_leaves_out(wheel_model, tmp_p
     assert "signature" not in (tmp_path / "served" / "MLmodel").read_text()
 
 
-def test_the_served_model_decides_one_request_at_a_time():
+def test_the_served_model_decides_one_request_at_a_time_per_lane():
     """MLflow's server runs each prediction in a thread of its pool; CPU-bound requests
-    deciding at once only contended (8 requests of 999 s: 47.6 s together against 8 x 3.9 s;
-    a 3 s request among them waited 31 s against 21 s one at a time)."""
-    from terrain.serving.served import ServedStreamModel
+    deciding at once only contended (8 requests of 999 s: 47.6 s together against 8 x 3.9 s).
+    One at a time, a short request waited 21 s behind seven long ones: short and long
+    requests have a lane each."""
+    from terrain.serving.served import LONG_REQUEST_ROWS, ServedStreamModel
 
-    model, active, most = ServedStreamModel(), [0], [0]
+    model, active, most, order = ServedStreamModel(), {}, {}, []
 
     def decide(frame):
-        active[0] += 1
-        most[0] = max(most[0], active[0])
-        time.sleep(0.02)
-        active[0] -= 1
+        lane = len(frame) > LONG_REQUEST_ROWS
+        active[lane] = active.get(lane, 0) + 1
+        most[lane] = max(most.get(lane, 0), active[lane])
+        time.sleep(0.3 if lane else 0.01)
+        active[lane] -= 1
+        order.append(lane)
         return frame
 
     model.decide = decide
-    threads = [threading.Thread(target=model.predict, args=(None, pd.DataFrame()))
-               for _ in range(6)]
+    long, short = pd.DataFrame(index=range(LONG_REQUEST_ROWS + 1)), pd.DataFrame(index=range(9))
+    threads = [threading.Thread(target=model.predict, args=(None, frame))
+               for frame in [long] * 3 + [short] * 6]
     for thread in threads:
         thread.start()
+        time.sleep(0.005)
     for thread in threads:
         thread.join()
-    assert most[0] == 1 and active[0] == 0
+    assert most == {True: 1, False: 1} and active == {True: 0, False: 0}
+    assert order[:6] == [False] * 6      # the short ones did not wait for the long ones
