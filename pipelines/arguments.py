@@ -204,6 +204,31 @@ def _number(value: str, accept, wording: str) -> float:
     return number
 
 
+def parse_integer(value: str, refusal: str) -> int:
+    """An option's text as an integer: the one parse of every integer argparse ``type``.
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+    refusal : str
+        Start of the message for text that is not an integer (the text's ``repr`` follows).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        ``value`` is not an integer.
+    """
+    try:
+        return int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{refusal}{value!r}") from None
+
+
 def positive_integer(value: str) -> int:
     """argparse ``type`` of an option that takes an integer >= 1 (threads, epochs, a count).
 
@@ -221,10 +246,7 @@ def positive_integer(value: str) -> int:
     argparse.ArgumentTypeError
         Not an integer, or below 1.
     """
-    try:
-        number = int(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {value!r}") from None
+    number = parse_integer(value, "not an integer: ")
     if number < 1:
         raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
     return number
@@ -296,10 +318,7 @@ def seed_value(value: str) -> int:
         Not an integer, negative or above ``MAX_SEED`` (scikit-learn's splitters seed
         ``numpy.random.RandomState``, which takes no other value).
     """
-    try:
-        number = int(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a seed is an integer, got {value!r}") from None
+    number = parse_integer(value, "a seed is an integer, got ")
     if not 0 <= number <= MAX_SEED:
         raise argparse.ArgumentTypeError(
             f"a seed is an integer in 0-{MAX_SEED} (NumPy's seed range), got {value}")

@@ -20,7 +20,8 @@ from pathlib import Path
 import pandas as pd
 
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, integer_up_to,
-                                 output_dir, positive_integer, positive_number, seed_value)
+                                 output_dir, parse_integer, positive_integer, positive_number,
+                                 seed_value)
 from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
                                     grid_markdown, iter_grid, joblib_backend, markdown_table,
@@ -53,10 +54,7 @@ def _n_jobs(value: str) -> int:
     argparse.ArgumentTypeError
         Not an integer, or 0 (joblib has no meaning for it).
     """
-    try:
-        number = int(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"an integer, got {value!r}") from None
+    number = parse_integer(value, "an integer, got ")
     if number == 0:
         raise argparse.ArgumentTypeError("0 workers cannot run a cell: give -1 (every "
                                          "worker of the backend), 1 (sequential) or more")

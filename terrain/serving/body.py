@@ -170,10 +170,9 @@ def _csv_refusal(body: bytes) -> tuple[int, dict] | None:
                                         "runs to the end of the body", _WHERE, line=line))
     try:
         header = csv_header(body)
-        dup = duplicated(header)
-        if dup:
-            return _refusal(DataFormatError(f"duplicated column name(s) {dup}; send each "
-                                            "column once", _WHERE))
+        refused = _names_refusal(header)
+        if refused is not None:
+            return refused
         ragged = _ragged_csv_row(body, len(header)) if len(header) > 1 else None
     except csv.Error as exc:  # a field over csv's 131 072 characters: a 500 before
         limit = re.search(r"\((\d+)\)", str(exc))
@@ -230,6 +229,8 @@ def _json_refusal(body: bytes) -> tuple[int, dict] | None:
 
 
 def _names_refusal(columns: list) -> tuple[int, dict] | None:
+    """Refusal of column names that are not text or appear twice (CSV header, JSON table,
+    Parquet schema), or None."""
     odd = [c for c in columns if not isinstance(c, str)]
     if odd:
         return _refusal(DataFormatError(f"column names must be text, got "
@@ -316,10 +317,9 @@ def _parquet_refusal(body: bytes, max_rows: int | None,
         meta = pq.ParquetFile(pa.BufferReader(body)).metadata
     except Exception:  # not Parquet: MLflow's parser answers with its own message
         return None
-    dup = duplicated(meta.schema.names)
-    if dup:
-        return _refusal(DataFormatError(f"duplicated column name(s) {dup}; send each column "
-                                        "once", _WHERE))
+    refused = _names_refusal(meta.schema.names)
+    if refused is not None:
+        return refused
     # decoded, every cell takes at least 8 bytes (a float; text more); the metadata's own
     # sizes are of the encoded pages (a dictionary-encoded column is a few bytes)
     size = int(meta.num_rows) * int(meta.num_columns) * 8
