@@ -9,8 +9,15 @@ streams interleaved as logged, a different slice each time), are sent; any answe
 HTTP 200 with one decision row per due window counts as an error. Throughput, error count and
 request latency p50/p99 print and are logged to MLflow (experiment ``terrain-benchmark``).
 
-Run: ``python benchmarks/bench_served_load.py [--kind wheels|all] [--requests 2000]
-[--concurrency 4] [--no-mlflow]``.
+``--behind-long K`` measures instead what a robot's short request waits behind bulk logs: K
+long requests (the longest runs with both streams, each repeated on a shifted clock until the
+JSON body is as long as ``--long-bytes`` allows, e.g. 60,000-70,000 rows) are sent at once,
+then, from 1 s later, ``--requests`` short ones (capped at 12), one a second, one at a time;
+each short request's latency prints and the first one's and the largest of the others are
+logged.
+
+Run: ``python benchmarks/bench_served_load.py [--kind wheels|all] [--model DIR]
+[--requests 2000] [--concurrency 4] [--behind-long K] [--no-mlflow]``.
 """
 
 from __future__ import annotations
@@ -57,11 +64,47 @@ def request_bodies(runs, streams, request_s: float, count: int, seed: int = 0) -
     return bodies
 
 
+def long_bodies(runs, streams, count: int, max_bytes: int) -> list[bytes]:
+    """JSON bodies of the ``count`` longest runs holding ``streams``, each run repeated on a
+    clock shifted by its streams' span plus 1 s as often as fits in ``max_bytes`` (once at
+    least)."""
+    def body(run, repeats: int) -> bytes:
+        span = (max(run.streams[s][TIME].max() for s in streams)
+                - min(run.streams[s][TIME].min() for s in streams) + 1.0)
+        parts = [run.streams[s].assign(**{TIME: run.streams[s][TIME] + k * span}, stream=s)
+                 for k in range(repeats) for s in streams]
+        frame = pd.concat(parts, ignore_index=True).sort_values(TIME, kind="stable")
+        cols = ["stream", TIME] + [c for c in frame.columns if c not in ("stream", TIME)]
+        split = json.loads(frame[cols].to_json(orient="split", index=False))
+        return json.dumps({"dataframe_split": split}).encode()
+
+    usable = sorted((r for r in runs if all(s in r.streams for s in streams)),
+                    key=lambda r: -r.duration_s)[:count]
+    return [body(r, max(1, int(max_bytes // len(body(r, 1))))) for r in usable]
+
+
+def behind_long(base: str, longs: list[bytes], shorts: list[bytes]) -> dict:
+    """Send ``longs`` at once, then ``shorts`` one a second from 1 s later, one at a time;
+    returns the short requests' latencies (s) and whether every request was answered 200."""
+    with ThreadPoolExecutor(len(longs)) as pool:
+        pending = [pool.submit(_post, base + "/invocations", b) for b in longs]
+        time.sleep(1.0)
+        short = []
+        for body in shorts:
+            ok, latency = _post(base + "/invocations", body)
+            short.append((ok, latency))
+            print(f"short request {len(short)}: {latency:.2f} s", flush=True)
+            time.sleep(max(0.0, 1.0 - latency))
+        long = [f.result() for f in pending]
+    return {"short_s": [r[1] for r in short], "long_s": [r[1] for r in long],
+            "errors": sum(not r[0] for r in short + long)}
+
+
 def _post(url: str, body: bytes) -> tuple[bool, float]:
     start = time.perf_counter()
     req = urllib.request.Request(url, body, {"Content-Type": "application/json"})
     try:
-        with urllib.request.urlopen(req, timeout=30) as res:
+        with urllib.request.urlopen(req, timeout=300) as res:
             ok = res.status == 200 and len(json.loads(res.read())["predictions"]) > 0
     except (urllib.error.URLError, OSError, ValueError, KeyError):
         ok = False
@@ -100,6 +143,10 @@ def main() -> int:
     parser.add_argument("--concurrency", type=int, default=4)
     parser.add_argument("--request-s", type=float, default=4.0,
                         help="seconds of stream per request")
+    parser.add_argument("--behind-long", type=int, default=0, metavar="K",
+                        help="send K long requests at once, then short ones behind them")
+    parser.add_argument("--long-bytes", type=int, default=7_500_000,
+                        help="largest long request body, bytes (the server's limit: 8 MB)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     runs = load_dataset("borealtc")
@@ -112,6 +159,8 @@ def main() -> int:
                                    m.classes, {"dataset": "borealtc", "kind": args.kind})
         window = load_stream_model(model_dir).window
         request_s = max(args.request_s, window.window_s + 1.0)
+        if args.behind_long:
+            return _behind_long(args, runs, streams, model_dir, request_s)
         bodies = request_bodies(runs, streams, request_s, args.requests)
         proc, base = _serve(model_dir)
         try:
@@ -138,6 +187,37 @@ def main() -> int:
                          params={"kind": args.kind, "requests": args.requests,
                                  "concurrency": args.concurrency,
                                  "request_s": request_s},
+                         announce=False) as run:
+            run.log_metrics(metrics)
+        print(run.describe())
+    return 0
+
+
+def _behind_long(args, runs, streams, model_dir: Path, request_s: float) -> int:
+    """The ``--behind-long`` measurement; returns 0."""
+    longs = long_bodies(runs, streams, args.behind_long, args.long_bytes)
+    shorts = request_bodies(runs, streams, request_s, min(args.requests, 12) + 1)
+    proc, base = _serve(model_dir)
+    try:
+        _post(base + "/invocations", shorts[0])  # warm-up
+        result = behind_long(base, longs, shorts[1:])
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)
+    short = result["short_s"]
+    metrics = {"behind_long_first_short_s": short[0],
+               "behind_long_later_short_max_s": max(short[1:], default=float("nan")),
+               "behind_long_long_max_s": max(result["long_s"]),
+               "behind_long_errors": result["errors"]}
+    print(f"served {args.kind} model: {len(longs)} long requests of "
+          f"{min(map(len, longs)) / 1e6:.1f}-{max(map(len, longs)) / 1e6:.1f} MB at once, "
+          f"then {len(short)} of {request_s:g} s: first short {short[0]:.2f} s, later ones "
+          f"at most {metrics['behind_long_later_short_max_s']:.2f} s; longest long request "
+          f"{metrics['behind_long_long_max_s']:.1f} s; {result['errors']} errors")
+    if not args.no_mlflow:
+        with tracked_run("terrain-benchmark", run_name=f"served-behind-long-{args.kind}",
+                         params={"kind": args.kind, "behind_long": args.behind_long,
+                                 "long_bytes": args.long_bytes, "request_s": request_s},
                          announce=False) as run:
             run.log_metrics(metrics)
         print(run.describe())

@@ -36,7 +36,8 @@ from pipelines.arguments import (add_smoothing, model_dir, positive_number, prob
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
 from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT,
-                                  RESERVED_FILES, RequestGuard, bounded_connections_protocol)
+                                  RESERVED_FILES, RequestGuard, bounded_connections_protocol,
+                                  run_server)
 from terrain.serving.model import read_mlmodel
 from terrain.serving.pyfunc import pip_requirements
 from terrain.serving.served import MAX_DECISIONS, save_served_model, served_settings
@@ -383,7 +384,8 @@ def main(args: argparse.Namespace) -> int:
                                     timeout_graceful_shutdown=5, http=protocol,
                                     backlog=backlog)
             try:
-                uvicorn.Server(config).run(sockets=[sock])
+                run_server(uvicorn.Server(config), [sock],
+                           getattr(args, "max_in_flight", MAX_IN_FLIGHT))
             finally:
                 if protocol.timed_out:
                     print(f"terrain serve: closed {protocol.timed_out} connection(s) that "

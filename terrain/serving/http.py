@@ -15,6 +15,7 @@ import json
 import logging
 import math
 import re
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Awaitable, Callable, MutableMapping
 
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
@@ -452,6 +453,45 @@ class RequestGuard:
             if held["sent"]:
                 raise
             await _send_json(send, *_failure(exc))
+
+
+def run_server(server, sockets: list, workers: int) -> None:
+    """Run a uvicorn server until it stops, with ``workers`` threads for MLflow's predictions.
+
+    MLflow's scoring server decides every request in a thread of the event loop's default
+    executor (``asyncio.to_thread``), whose size Python sets to ``min(32, CPUs + 4)``: 6 on
+    a 2-core robot computer, fewer than the default :data:`MAX_IN_FLIGHT` requests the
+    server admits. A long request waiting for its lane of the served model
+    (:class:`terrain.serving.served.ServedStreamModel`) holds its thread, so with six bulk
+    logs admitted a robot's short request queued for a thread, not for the model: 7.5 s
+    behind seven 5-7 MB logs (measured, docs/streaming.md, "Served model under load").
+    Here every admitted request has a thread of its own.
+
+    Parameters
+    ----------
+    server : uvicorn.Server
+        The configured server (its ``config`` gives the event loop factory).
+    sockets : list of socket.socket
+        Bound, listening sockets handed to ``server.serve``.
+    workers : int
+        Threads of the default executor, at least the requests admitted at once
+        (``max_in_flight``).
+
+    Raises
+    ------
+    ValueError
+        ``workers`` is below 1.
+    """
+    if workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+
+    async def serve() -> None:
+        executor = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="terrain-serve")
+        asyncio.get_running_loop().set_default_executor(executor)
+        await server.serve(sockets=sockets)
+
+    with asyncio.Runner(loop_factory=server.config.get_loop_factory()) as runner:
+        runner.run(serve())
 
 
 def _media_type_lower(raw_headers: list[tuple[bytes, bytes]]) -> list[tuple[bytes, bytes]]:
