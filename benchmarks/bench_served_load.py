@@ -183,13 +183,9 @@ def main() -> int:
           f"{metrics['served_throughput_rps']:.1f} req/s, {errors} errors; latency p50 "
           f"{metrics['served_p50_ms']:.1f} ms, p99 {metrics['served_p99_ms']:.1f} ms")
     if not args.no_mlflow:
-        with tracked_run("terrain-benchmark", run_name=f"served-load-{args.kind}",
-                         params={"kind": args.kind, "requests": args.requests,
-                                 "concurrency": args.concurrency,
-                                 "request_s": request_s},
-                         announce=False) as run:
-            run.log_metrics(metrics)
-        print(run.describe())
+        _log(f"served-load-{args.kind}", metrics,
+             {"kind": args.kind, "requests": args.requests, "concurrency": args.concurrency,
+              "request_s": request_s})
     return 0
 
 
@@ -215,13 +211,18 @@ def _behind_long(args, runs, streams, model_dir: Path, request_s: float) -> int:
           f"at most {metrics['behind_long_later_short_max_s']:.2f} s; longest long request "
           f"{metrics['behind_long_long_max_s']:.1f} s; {result['errors']} errors")
     if not args.no_mlflow:
-        with tracked_run("terrain-benchmark", run_name=f"served-behind-long-{args.kind}",
-                         params={"kind": args.kind, "behind_long": args.behind_long,
-                                 "long_bytes": args.long_bytes, "request_s": request_s},
-                         announce=False) as run:
-            run.log_metrics(metrics)
-        print(run.describe())
+        _log(f"served-behind-long-{args.kind}", metrics,
+             {"kind": args.kind, "behind_long": args.behind_long,
+              "long_bytes": args.long_bytes, "request_s": request_s})
     return 0
+
+
+def _log(run_name: str, metrics: dict, params: dict) -> None:
+    """Log one benchmark run to MLflow (experiment ``terrain-benchmark``) and name it."""
+    with tracked_run("terrain-benchmark", run_name=run_name, params=params,
+                     announce=False) as run:
+        run.log_metrics(metrics)
+    print(run.describe())
 
 
 if __name__ == "__main__":
