@@ -77,6 +77,8 @@ def store_errors() -> tuple[type[BaseException], ...]:
 
 #: Seconds a remote tracking server has to answer :func:`check_store`'s request.
 STORE_CHECK_TIMEOUT_S = 5.0
+#: Seconds :func:`store_lock` waits for another process that holds a SQLite store's lock
+STORE_LOCK_TIMEOUT_S = 300.0
 
 
 def check_store(uri: str) -> None:
@@ -377,18 +379,35 @@ def store_lock(uri: str) -> Iterator[None]:
     Yields
     ------
     None
+
+    Raises
+    ------
+    ConfigError
+        Another process has held the lock for :data:`STORE_LOCK_TIMEOUT_S`.
     """
     if not uri.startswith("sqlite:///"):
         yield
         return
     import hashlib
 
-    from filelock import FileLock
+    from filelock import FileLock, Timeout
 
-    key = hashlib.sha1(str(Path(uri[len("sqlite:///"):]).resolve()).encode()).hexdigest()[:16]
-    with FileLock(str(Path(tempfile.gettempdir()) / f"terrain-mlflow-{key}.lock"),
-                  timeout=300):
+    database = Path(uri[len("sqlite:///"):].split("?", 1)[0]).resolve()   # no ?timeout=...
+    key = hashlib.sha1(str(database).encode()).hexdigest()[:16]
+    # one lock file per user: a lock file left by another user could not be opened
+    path = Path(tempfile.gettempdir()) / f"terrain-mlflow-{os.getuid()}-{key}.lock"
+    lock = FileLock(str(path), timeout=STORE_LOCK_TIMEOUT_S)
+    try:
+        lock.acquire()
+    except Timeout:
+        raise ConfigError(f"the MLflow store {database} has been opened by another process "
+                          f"for over {STORE_LOCK_TIMEOUT_S:g} s (lock {path}); wait for it "
+                          "to finish, or run this one in another folder (or "
+                          "MLFLOW_TRACKING_URI)") from None
+    try:
         yield
+    finally:
+        lock.release()
 
 
 @contextmanager

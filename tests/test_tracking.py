@@ -196,3 +196,34 @@ def test_processes_that_open_a_new_store_together_all_log_their_run(tmp_path):
     client = mlflow.MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'mlflow.db'}")
     runs = client.search_runs([client.get_experiment_by_name("race").experiment_id])
     assert sorted(r.info.run_name for r in runs) == ["run0", "run1", "run2"]
+
+
+def test_a_store_lock_held_too_long_is_a_one_line_config_error(tmp_path, monkeypatch):
+    """filelock's Timeout escaped as a traceback; a query string (``?timeout=``) gave the same
+    database another lock."""
+    import threading
+
+    from terrain import tracking
+    from terrain.errors import ConfigError
+
+    monkeypatch.setattr(tracking, "STORE_LOCK_TIMEOUT_S", 0.2)
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    held, release = threading.Event(), threading.Event()
+
+    def hold():
+        with tracking.store_lock(uri):
+            held.set()
+            release.wait(10)
+
+    holder = threading.Thread(target=hold)
+    holder.start()
+    try:
+        assert held.wait(10)
+        with pytest.raises(ConfigError, match="opened by another process for over 0.2 s"):
+            with tracking.store_lock(uri + "?timeout=30"):
+                pass
+    finally:
+        release.set()
+        holder.join(10)
+    with tracking.store_lock(uri):   # released: taken at once
+        pass
