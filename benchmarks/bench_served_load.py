@@ -64,13 +64,18 @@ def request_bodies(runs, streams, request_s: float, count: int, seed: int = 0) -
     return bodies
 
 
-def long_bodies(runs, streams, count: int, max_bytes: int) -> list[bytes]:
-    """JSON bodies of the ``count`` longest runs holding ``streams``, each run repeated on a
-    clock shifted by its streams' span plus 1 s as often as fits in ``max_bytes`` (once at
-    least)."""
-    def body(run, repeats: int) -> bytes:
-        span = (max(run.streams[s][TIME].max() for s in streams)
+def long_bodies(runs, streams, count: int, max_bytes: int,
+                max_span_s: float = 990.0) -> list[bytes]:
+    """JSON bodies of the ``count`` longest runs holding ``streams`` and spanning at most
+    ``max_span_s`` seconds, each run repeated on a clock shifted by its streams' span plus
+    1 s as often as fits in ``max_bytes`` and ``max_span_s`` (the served model's 2,000
+    decisions at a 0.5 s hop are 1,000 s; once at least)."""
+    def span_s(run) -> float:
+        return (max(run.streams[s][TIME].max() for s in streams)
                 - min(run.streams[s][TIME].min() for s in streams) + 1.0)
+
+    def body(run, repeats: int) -> bytes:
+        span = span_s(run)
         parts = [run.streams[s].assign(**{TIME: run.streams[s][TIME] + k * span}, stream=s)
                  for k in range(repeats) for s in streams]
         frame = pd.concat(parts, ignore_index=True).sort_values(TIME, kind="stable")
@@ -78,9 +83,10 @@ def long_bodies(runs, streams, count: int, max_bytes: int) -> list[bytes]:
         split = json.loads(frame[cols].to_json(orient="split", index=False))
         return json.dumps({"dataframe_split": split}).encode()
 
-    usable = sorted((r for r in runs if all(s in r.streams for s in streams)),
-                    key=lambda r: -r.duration_s)[:count]
-    return [body(r, max(1, int(max_bytes // len(body(r, 1))))) for r in usable]
+    usable = sorted((r for r in runs if all(s in r.streams for s in streams)
+                     and span_s(r) <= max_span_s), key=lambda r: -r.duration_s)[:count]
+    return [body(r, max(1, min(int(max_bytes // len(body(r, 1))),
+                               int(max_span_s // span_s(r))))) for r in usable]
 
 
 def behind_long(base: str, longs: list[bytes], shorts: list[bytes]) -> dict:

@@ -57,6 +57,9 @@ RESERVED_FILES = 64
 ENDPOINTS = ("/invocations", "/ping", "/health", "/version")
 #: endpoints answered to GET (and so to HEAD, without the body)
 READ_ENDPOINTS = ("/ping", "/health", "/version")
+#: error codes that MLflow's classification tables lack, classified as another: a request
+#: that ran out of time (MLflow's 504) is, like a busy server, to be retried
+CLASSIFIED_AS = {"DEADLINE_EXCEEDED": "TEMPORARILY_UNAVAILABLE"}
 _TYPED = re.compile(r"^([A-Z][A-Za-z]*Error): ")
 _log = logging.getLogger(__name__)
 
@@ -203,11 +206,13 @@ def classified(doc: dict) -> dict:
     dict
         ``doc`` with ``sqlstate`` and ``error_class`` derived from ``error_code`` by MLflow's
         own tables (:mod:`mlflow.error_classification`: the client table, else the server
-        one, e.g. ``REQUEST_LIMIT_EXCEEDED``).
+        one, e.g. ``REQUEST_LIMIT_EXCEEDED``; a code in neither as :data:`CLASSIFIED_AS`
+        says).
     """
     from mlflow.error_classification import ErrorClass, SqlState
 
     code = str(doc.get("error_code", "BAD_REQUEST"))
+    code = CLASSIFIED_AS.get(code, code)
     doc.setdefault("sqlstate", SqlState.from_client_error_code(code)
                    or SqlState.from_cp_error_code(code))
     doc.setdefault("error_class", ErrorClass.from_client_error_code(code)
@@ -363,7 +368,7 @@ class RequestGuard:
             refused = self.refusal(path, scope["headers"])
             headers = dict(scope["headers"])
             if refused is None and invocation:
-                scope = {**scope, "headers": _media_type_lower(scope["headers"])}
+                scope = {**scope, "headers": _content_type_normalised(scope["headers"])}
             if refused is None and invocation and self.in_flight >= self.max_in_flight:
                 refused = 503, {"error_code": "TEMPORARILY_UNAVAILABLE",
                                 "message": _typed(ServiceBusyError(
@@ -463,9 +468,10 @@ def run_server(server, sockets: list, workers: int) -> None:
     a 2-core robot computer, fewer than the default :data:`MAX_IN_FLIGHT` requests the
     server admits. A long request waiting for its lane of the served model
     (:class:`terrain.serving.served.ServedStreamModel`) holds its thread, so with six bulk
-    logs admitted a robot's short request queued for a thread, not for the model: 7.5 s
-    behind seven 5-7 MB logs (measured, docs/streaming.md, "Served model under load").
-    Here every admitted request has a thread of its own.
+    logs admitted a robot's short requests queued for a thread, not for the model: up to
+    3.8 s behind seven 5.8-7.5 MB logs, 0.11-0.17 s with a thread each (measured,
+    docs/streaming.md, "Served model under load"). Here every admitted request has a thread
+    of its own.
 
     Parameters
     ----------
@@ -494,14 +500,42 @@ def run_server(server, sockets: list, workers: int) -> None:
         runner.run(serve())
 
 
-def _media_type_lower(raw_headers: list[tuple[bytes, bytes]]) -> list[tuple[bytes, bytes]]:
-    """The headers with the Content-Type's media type in lower case (media types are
-    case-insensitive, RFC 9110; MLflow compares them as written: ``TEXT/CSV`` was a 415)."""
-    def lower(value: bytes) -> bytes:
-        kind, sep, params = value.partition(b";")
-        return kind.strip().lower() + sep + params
+def normalised_content_type(value: bytes) -> bytes:
+    """A Content-Type as MLflow's scoring server compares it: the media type and the
+    parameter names in lower case, quoted parameter values unquoted, the charset's value in
+    lower case, ``; `` between the parts (RFC 9110, 8.3: media types, parameter names and
+    the charset are case-insensitive, and a value may be quoted). MLflow compares them as
+    written: ``TEXT/CSV`` and ``Charset=UTF-8`` were a 415, ``charset="utf-8"`` a 415 saying
+    "only supports UTF-8".
 
-    return [(k, lower(v) if k == b"content-type" else v) for k, v in raw_headers]
+    Parameters
+    ----------
+    value : bytes
+        The Content-Type header's value.
+
+    Returns
+    -------
+    bytes
+    """
+    kind, *params = value.split(b";")
+    parts = [kind.strip().lower()]
+    for param in params:
+        name, sep, text = param.partition(b"=")
+        name, text = name.strip().lower(), text.strip()
+        if len(text) >= 2 and text[:1] == text[-1:] == b'"':
+            text = re.sub(rb"\\(.)", rb"\1", text[1:-1])
+        if name == b"charset":
+            text = text.lower()
+        if name or text:
+            parts.append(name + sep + text)
+    return b"; ".join(parts)
+
+
+def _content_type_normalised(raw_headers: list[tuple[bytes, bytes]]
+                             ) -> list[tuple[bytes, bytes]]:
+    """The headers with the Content-Type :func:`normalised_content_type`."""
+    return [(k, normalised_content_type(v) if k == b"content-type" else v)
+            for k, v in raw_headers]
 
 
 def _short_path(path: str, limit: int = 60) -> str:

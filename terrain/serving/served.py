@@ -83,8 +83,12 @@ except ImportError:  # pragma: no cover
 MAX_DECISIONS = 2_000
 #: requests of more rows than this are long (a bulk log: 10,000 rows are 100 s of a 100 Hz
 #: IMU): they are decided one at a time in their own lane, so a robot's short requests,
-#: decided one at a time in theirs, never wait behind them
+#: decided one at a time in theirs, do not wait behind them
 LONG_REQUEST_ROWS = 10_000
+#: requests spanning more seconds of stream than this are long too, whatever their rows: the
+#: work is per decision, i.e. per second of stream (a 999 s wheel-only log holds only 6,488
+#: rows and took 1.4 s; seven of them kept a 3 s request waiting 9.5 s in the short lane)
+LONG_REQUEST_S = 100.0
 _log = logging.getLogger(__name__)
 
 
@@ -247,7 +251,7 @@ class ServedStreamModel(PythonModel):
     def __init__(self) -> None:
         self.settings: dict = {}
         self.model: StreamModel | None = None
-        # one request decided at a time per lane (short, long: LONG_REQUEST_ROWS): MLflow's
+        # one request decided at a time per lane (short, long: is_long): MLflow's
         # server runs each prediction in a thread of its pool, and concurrent CPU-bound
         # requests only contend for the interpreter lock and memory (measured: 8 requests of
         # 999 s at once took 47.6 s against 8 x 3.9 s one after another, at 950 MB;
@@ -344,9 +348,9 @@ class ServedStreamModel(PythonModel):
                 params: dict | None = None) -> pd.DataFrame:
         """MLflow entry: :meth:`decide`, errors mapped to :class:`ServedInputError`.
 
-        Requests are decided one at a time in two lanes, short and long (more than
-        :data:`LONG_REQUEST_ROWS` rows), so at most two run at once and a short one never
-        waits behind a bulk log.
+        Requests are decided one at a time in two lanes, short and long (:func:`is_long`:
+        more than :data:`LONG_REQUEST_ROWS` rows or :data:`LONG_REQUEST_S` seconds of
+        stream), so at most two run at once and a short one does not wait behind a bulk log.
 
         Parameters
         ----------
@@ -368,7 +372,7 @@ class ServedStreamModel(PythonModel):
             (the traceback goes to the server log only) for an unexpected failure.
         """
         try:
-            with self._lanes[len(model_input) > LONG_REQUEST_ROWS]:
+            with self._lanes[is_long(model_input)]:
                 return self.decide(model_input)
         except TerrainError as exc:
             raise ServedInputError(f"{type(exc).__name__}: {' '.join(str(exc).split())}"
@@ -377,6 +381,40 @@ class ServedStreamModel(PythonModel):
             _log.exception("served model failed")
             raise ServedInputError(f"internal error ({type(exc).__name__}); see the server "
                                    "log", INTERNAL_ERROR) from None
+
+
+def is_long(model_input: Any) -> bool:
+    """Whether a served request takes the long lane: a table of more than
+    :data:`LONG_REQUEST_ROWS` rows, or whose timestamps (``t_s``, or the wide format's
+    ``<stream>_t_s``; non-numeric and non-finite cells ignored) span more than
+    :data:`LONG_REQUEST_S` seconds. A time column that cannot be read as numbers at all (an
+    integer beyond the float range) leaves the request short; the model refuses it.
+
+    Parameters
+    ----------
+    model_input : Any
+        The request as MLflow parsed it: a DataFrame, or whatever a malformed body gave (a
+        number, a string, None), which is short and refused by :meth:`ServedStreamModel.decide`.
+
+    Returns
+    -------
+    bool
+    """
+    if not isinstance(model_input, pd.DataFrame):
+        return False
+    if len(model_input) > LONG_REQUEST_ROWS:
+        return True
+    times = [c for c in model_input.columns
+             if isinstance(c, str) and (c == TIME or c.endswith(f"_{TIME}"))]
+    if not times:
+        return False
+    try:
+        stamps = np.concatenate([pd.to_numeric(model_input[c], errors="coerce").to_numpy(float)
+                                 for c in times])
+    except (OverflowError, TypeError, ValueError):  # an integer of 400 digits, a repeated
+        return False   # name (a frame, not a column): decide() refuses it in its own words
+    stamps = stamps[np.isfinite(stamps)]
+    return bool(stamps.size) and float(stamps.max() - stamps.min()) > LONG_REQUEST_S
 
 
 def save_served_model(path: str | Path, model_dir: str | Path, settings: dict | None = None,

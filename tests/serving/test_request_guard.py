@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import io
 import json
 
 import numpy as np
@@ -305,6 +306,61 @@ def test_utf16_and_unterminated_quotes_are_named_as_such():
                        "runs to the end of the body (file request, line 6)")
 
 
+def test_a_long_run_of_digits_is_judged_in_one_pass():
+    """A run of 200,000 digits: the number pattern backtracked quadratically in the run's
+    length (40,000 digits held the event loop, and every other request, for 22 s; this run
+    would take ~10 min). The regular expression engine holds the interpreter lock, so the
+    body is judged in a child process that a regression makes time out, not hang."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from terrain.serving.body import body_refusal; "
+            "body = sys.stdin.buffer.read(); "
+            "print(body_refusal('text/csv', body, None, 10**7)[1]['message'])")
+    for digits, answer in ((b"7" * 200_000, "(file request, column 'cur_l', line 7)"),
+                           (b"7" * 200_000 + b".5e3", "(file request, column 'cur_l', line 7)")):
+        done = subprocess.run([sys.executable, "-c", code], input=_csv_with(5, digits),
+                              capture_output=True, timeout=120)
+        assert done.returncode == 0, done.stderr.decode()[-500:]
+        assert done.stdout.decode().strip().endswith(answer)
+    not_a_number = _csv_with(5, b"7" * 200_000 + b"x")   # text: pandas keeps it as text
+    assert body_refusal("text/csv", not_a_number, None, 10**7) is None
+
+
+def test_a_quoted_comma_before_a_huge_number_does_not_shift_its_column():
+    body = (b'stream,note,t_s,vel_l,vel_r,cur_l,cur_r\n'
+            b'wheels,"left, front",10.615,0.094,-0.094,1e400,10.05\n')
+    assert _message(body_refusal("text/csv", body, None, 10**6)).endswith(
+        "(file request, column 'cur_l', line 2)")
+
+
+def test_quotes_are_read_where_pandas_reads_them():
+    # a quote inside an unquoted field is a literal character (pandas reads 'tire 13"'):
+    # counting quotes called an odd number of them an unterminated quote
+    literal = b'stream,t_s,note\n' + b''.join(b'wheels,%d,tire 13"\n' % i for i in range(3))
+    assert body_refusal("text/csv", literal, None, 10**6) is None
+    assert pd.read_csv(io.BytesIO(literal))["note"].tolist() == ['tire 13"'] * 3
+    # ... and an even number of them no longer hides a quote that is never closed
+    hidden = literal + b'wheels,3,"tire\nwheels,4,x\n'
+    assert _message(body_refusal("text/csv", hidden, None, 10**6)) == (
+        "DataFormatError: unterminated quote: the quoted field opened here runs to the end "
+        "of the body (file request, line 5)")
+    # a line of spaces in a body with quotes is skipped, as pandas skips it
+    spaces = b'a,b,c\n"1",2,3\n   \n4,5,6\n'
+    assert body_refusal("text/csv", spaces, None, 10**6) is None
+    assert len(pd.read_csv(io.BytesIO(spaces))) == 2
+
+
+def test_a_nul_byte_is_named_and_utf16_is_told_from_it():
+    padded = _CSV + b"\x00" * 64    # a log padded with zeros after a power cut
+    assert _message(body_refusal("text/csv", padded, None, 10**6)) == (
+        f"EncodingError: the request body holds a NUL byte (0x00) at byte {len(_CSV)} (a log "
+        "padded with zeros, e.g. after a power cut?); send text only (file request, line 22)")
+    no_mark = _CSV.decode().encode("utf-16-le")   # UTF-16 without a byte-order mark
+    assert _message(body_refusal("text/csv", no_mark, None, 10**6)).startswith(
+        "EncodingError: the request body is UTF-16")
+
+
 @pytest.mark.parametrize("doc, words", [
     (None, "the JSON body is null, not an object"),
     (3, "the JSON body is a number, not an object"),
@@ -377,6 +433,34 @@ def test_every_error_answer_has_one_form_and_http_details_are_honoured():
     assert client.answer() == (200, {"n": 2})
 
 
+@pytest.mark.parametrize("sent, handed_on", [
+    (b"TEXT/CSV; Charset=UTF-8", b"text/csv; charset=utf-8"),
+    (b'text/csv; charset="utf-8"', b"text/csv; charset=utf-8"),
+    (b"Application/JSON;charset=utf-8;", b"application/json; charset=utf-8"),
+    (b"text/csv", b"text/csv"),
+    (b"text/csv; format=pandas-split", b"text/csv; format=pandas-split"),  # MLflow: 415
+])
+def test_content_type_parameters_are_handed_on_as_mlflow_compares_them(sent, handed_on):
+    """Media types, parameter names and the charset are case-insensitive and a value may be
+    quoted (RFC 9110): MLflow compares them as written, and answered ``Charset=UTF-8``
+    'Unrecognized content type parameters: Charset' and ``charset="utf-8"`` 'only supports
+    UTF-8' (415)."""
+    from terrain.serving.http import normalised_content_type
+
+    assert normalised_content_type(sent) == handed_on
+    seen = []
+
+    async def app(scope, receive, send):
+        seen.append(dict(scope["headers"])[b"content-type"])
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"{}"})
+
+    client = _Client([b"ab"])
+    asyncio.run(RequestGuard(app, max_body_bytes=1000)(_raw_scope("POST", "/invocations", [
+        (b"content-length", b"2"), (b"content-type", sent)]), client.receive, client.send))
+    assert seen == [handed_on]
+
+
 def test_head_is_get_and_a_405_keeps_its_allow_header():
     methods = []
 
@@ -433,3 +517,22 @@ def test_tables_written_by_pandas_pass_the_guard_and_a_huge_number_never_does(
     lines[1] = b",".join(cells)
     message = _message(body_refusal("text/csv", line_end.encode().join(lines), None, 10**8))
     assert "beyond the float range" in message and "column 'cur_l'" in message
+
+
+def test_mlflow_s_plain_text_timeout_is_answered_classified():
+    """MLflow answers a prediction over its timeout with a plain-text 504; rewritten as
+    DEADLINE_EXCEEDED, a code MLflow's classification tables lack, it carried a null
+    sqlstate and error_class."""
+    async def app(scope, receive, send):
+        await send({"type": "http.response.start", "status": 504,
+                    "headers": [(b"content-type", b"application/json")]})
+        await send({"type": "http.response.body",
+                    "body": b"Request processing time exceeded limit"})
+
+    client = _Client([b"ab"])
+    asyncio.run(RequestGuard(app, max_body_bytes=1000)(_raw_scope("POST", "/invocations", [
+        (b"content-length", b"2"), (b"content-type", b"text/csv")]), client.receive,
+        client.send))
+    status, answer = client.answer()
+    assert status == 504 and answer["error_code"] == "DEADLINE_EXCEEDED"
+    assert answer["sqlstate"] == "XXM00" and answer["error_class"] == "CLIENT_INTERNAL_ERROR"

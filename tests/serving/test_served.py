@@ -1077,13 +1077,15 @@ def test_the_served_model_decides_one_request_at_a_time_per_lane():
     """MLflow's server runs each prediction in a thread of its pool; CPU-bound requests
     deciding at once only contended (8 requests of 999 s: 47.6 s together against 8 x 3.9 s).
     One at a time, a short request waited 21 s behind seven long ones: short and long
-    requests have a lane each."""
-    from terrain.serving.served import LONG_REQUEST_ROWS, ServedStreamModel
+    requests have a lane each. A long request is long by its rows or by its time span (a
+    999 s wheel-only log holds only 6,488 rows: seven of them kept a 3 s request waiting
+    9.5 s in the short lane)."""
+    from terrain.serving.served import LONG_REQUEST_ROWS, LONG_REQUEST_S, ServedStreamModel
 
     model, active, most, order = ServedStreamModel(), {}, {}, []
 
     def decide(frame):
-        lane = len(frame) > LONG_REQUEST_ROWS
+        lane = len(frame) > 100
         active[lane] = active.get(lane, 0) + 1
         most[lane] = max(most.get(lane, 0), active[lane])
         time.sleep(0.3 if lane else 0.01)
@@ -1092,9 +1094,14 @@ def test_the_served_model_decides_one_request_at_a_time_per_lane():
         return frame
 
     model.decide = decide
-    long, short = pd.DataFrame(index=range(LONG_REQUEST_ROWS + 1)), pd.DataFrame(index=range(9))
+    # the stub's lane is read from the frame's length: 101 rows or more are the long ones
+    span = np.linspace(0.0, LONG_REQUEST_S + 1.0, 101)
+    longs = [pd.DataFrame(index=range(LONG_REQUEST_ROWS + 1)),      # by rows
+             pd.DataFrame({"stream": "wheels", "t_s": span}),      # by span, long format
+             pd.DataFrame({"wheels_t_s": span, "imu_t_s": span})]  # by span, wide format
+    short = pd.DataFrame({"stream": "wheels", "t_s": np.linspace(0.0, 3.0, 9)})
     threads = [threading.Thread(target=model.predict, args=(None, frame))
-               for frame in [long] * 3 + [short] * 6]
+               for frame in longs + [short] * 6]
     for thread in threads:
         thread.start()
         time.sleep(0.005)
@@ -1102,3 +1109,32 @@ def test_the_served_model_decides_one_request_at_a_time_per_lane():
         thread.join()
     assert most == {True: 1, False: 1} and active == {True: 0, False: 0}
     assert order[:6] == [False] * 6      # the short ones did not wait for the long ones
+
+
+@pytest.mark.parametrize("value", [5, "abc", None, np.float64(2.0)])
+def test_a_request_that_is_no_table_is_a_typed_400_not_a_500(value):
+    """``{"inputs": 5}``: MLflow hands the model a scalar; choosing its lane called len() on
+    it, a TypeError answered 500 with a traceback in the log."""
+    from mlflow.protos.databricks_pb2 import BAD_REQUEST, ErrorCode
+
+    from terrain.serving.served import ServedInputError, ServedStreamModel, is_long
+
+    assert is_long(value) is False
+    model = ServedStreamModel()
+    model.decide = lambda frame: parse_request(frame, {"wheels": ["vel_l"]}, 2.0, 100)
+    with pytest.raises(ServedInputError) as raised:
+        model.predict(None, value)
+    assert raised.value.error_code == ErrorCode.Name(BAD_REQUEST)
+    assert raised.value.message.startswith("DataFormatError: ")
+
+
+def test_the_lane_of_a_table_with_unreadable_times_is_short():
+    """Choosing the lane must not fail where the model's own checks answer: an integer of
+    400 digits (float conversion overflows) or a repeated time column."""
+    from terrain.serving.served import LONG_REQUEST_S, is_long
+
+    assert not is_long(pd.DataFrame({"t_s": [10**400, 0]}, dtype=object))
+    assert not is_long(pd.DataFrame([[0.0, 500.0]], columns=["t_s", "t_s"]))
+    assert is_long(pd.DataFrame({"imu_t_s": [0.0, np.nan],
+                                 "wheels_t_s": [1.0, 2.0 + LONG_REQUEST_S]}))
+    assert not is_long(pd.DataFrame({"t_s": ["a", "b"]}))
