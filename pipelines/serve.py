@@ -384,8 +384,10 @@ def main(args: argparse.Namespace) -> int:
                                     timeout_graceful_shutdown=5, http=protocol,
                                     backlog=backlog)
             try:
+                # twice the requests admitted: a request MLflow answered 504 (its timeout)
+                # frees its slot while its prediction still runs in its thread
                 run_server(uvicorn.Server(config), [sock],
-                           getattr(args, "max_in_flight", MAX_IN_FLIGHT))
+                           2 * getattr(args, "max_in_flight", MAX_IN_FLIGHT))
             finally:
                 if protocol.timed_out:
                     print(f"terrain serve: closed {protocol.timed_out} connection(s) that "

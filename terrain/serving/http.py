@@ -481,7 +481,8 @@ def run_server(server, sockets: list, workers: int) -> None:
         Bound, listening sockets handed to ``server.serve``.
     workers : int
         Threads of the default executor, at least the requests admitted at once
-        (``max_in_flight``).
+        (``max_in_flight``; ``terrain serve`` gives twice that, since a request MLflow
+        answered 504 frees its slot while its prediction still runs in its thread).
 
     Raises
     ------
