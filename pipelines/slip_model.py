@@ -93,13 +93,14 @@ def resolve_slip_model(model_dir: Path | None) -> tuple[Any | None, str]:
     import mlflow
     import mlflow.sklearn
 
-    from terrain.tracking import check_store, tracking_uri
+    from terrain.tracking import check_store, sqlite_database, tracking_uri
 
     if model_dir is not None:
         return load_slip_model_dir(model_dir), str(model_dir)
     uri = f"models:/{REGISTERED_SLIP_MODEL}/latest"
     store = tracking_uri()
-    if store.startswith("sqlite:///") and not Path(store[len("sqlite:///"):]).exists():
+    database = sqlite_database(store)
+    if database is not None and not database.exists():
         return None, f"no tracking store at {store}"     # do not create an empty one
     try:        # an unreachable server: at once, not after MLflow's minutes of retries
         check_store(store)

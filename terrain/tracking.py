@@ -81,6 +81,27 @@ STORE_CHECK_TIMEOUT_S = 5.0
 STORE_LOCK_TIMEOUT_S = 300.0
 
 
+def sqlite_database(uri: str) -> Path | None:
+    """The database file of a ``sqlite:///`` tracking URI, or None for any other store.
+
+    Parameters
+    ----------
+    uri : str
+        Tracking URI (:func:`tracking_uri`).
+
+    Returns
+    -------
+    Path or None
+        ``sqlite:///mlflow.db`` gives ``mlflow.db`` (relative), ``sqlite:////abs/mlflow.db``
+        ``/abs/mlflow.db``; a query (``?timeout=30``, which SQLAlchemy passes to the driver)
+        is not part of the file's name. None for another scheme or ``sqlite:///:memory:``.
+    """
+    if not uri.startswith("sqlite:///"):
+        return None
+    name = uri[len("sqlite:///"):].split("?", 1)[0]
+    return None if name in ("", ":memory:") else Path(name)
+
+
 def check_store(uri: str) -> None:
     """Refuse, in one line and at once, a tracking store MLflow could not use.
 
@@ -104,11 +125,11 @@ def check_store(uri: str) -> None:
     """
     hint = ("set MLFLOW_TRACKING_URI to a store that can be used, or unset it for "
             "sqlite:///<current folder>/mlflow.db")
-    scheme, _, rest = uri.partition("://")
-    if scheme == "sqlite" and rest.startswith("/") and rest != "/:memory:":
+    scheme = uri.partition("://")[0]
+    path = sqlite_database(uri)
+    if path is not None:
         import sqlite3
 
-        path = Path(rest[1:])
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             con = sqlite3.connect(path)
@@ -385,14 +406,15 @@ def store_lock(uri: str) -> Iterator[None]:
     ConfigError
         Another process has held the lock for :data:`STORE_LOCK_TIMEOUT_S`.
     """
-    if not uri.startswith("sqlite:///"):
+    database = sqlite_database(uri)
+    if database is None:
         yield
         return
     import hashlib
 
     from filelock import FileLock, Timeout
 
-    database = Path(uri[len("sqlite:///"):].split("?", 1)[0]).resolve()   # no ?timeout=...
+    database = database.resolve()
     key = hashlib.sha1(str(database).encode()).hexdigest()[:16]
     # one lock file per user: a lock file left by another user could not be opened
     path = Path(tempfile.gettempdir()) / f"terrain-mlflow-{os.getuid()}-{key}.lock"

@@ -227,3 +227,27 @@ def test_a_store_lock_held_too_long_is_a_one_line_config_error(tmp_path, monkeyp
         holder.join(10)
     with tracking.store_lock(uri):   # released: taken at once
         pass
+
+
+@pytest.mark.parametrize("uri, database", [
+    ("sqlite:///mlflow.db", "mlflow.db"),
+    ("sqlite:////abs/dir/mlflow.db", "/abs/dir/mlflow.db"),
+    ("sqlite:////abs/mlflow.db?timeout=30", "/abs/mlflow.db"),
+    ("sqlite:///:memory:", None),
+    ("http://127.0.0.1:5000", None),
+    ("file:///tmp/mlruns", None),
+])
+def test_the_database_file_of_a_tracking_uri(uri, database):
+    from terrain.tracking import sqlite_database
+
+    got = sqlite_database(uri)
+    assert (None if got is None else str(got)) == database
+
+
+def test_the_store_check_opens_the_database_a_query_names(tmp_path):
+    """check_store took ``?timeout=30`` for part of the file's name and created a second,
+    empty database beside the user's."""
+    from terrain.tracking import check_store
+
+    check_store(f"sqlite:///{tmp_path / 'mlflow.db'}?timeout=30")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mlflow.db"]
