@@ -4,8 +4,9 @@ MLflow reads a CSV body with pandas, a JSON body with its own ``dataframe_split`
 ``dataframe_records`` readers and a Parquet body with pyarrow. Each of them accepts some
 malformed bodies silently (pandas renames a repeated column ``cur_r.1``, fills a short row
 with NaN, turns a row one field longer than the header into an index column, reads
-``1e400`` as infinity) and refuses others with its own wording (``Error tokenizing data. C
-error: EOF inside string``, ``6 columns passed, passed data had 8 columns``).
+``1e400`` as infinity; ``json`` keeps the last value of a key given twice) and refuses
+others with its own wording (``Error tokenizing data. C error: EOF inside string``, ``6
+columns passed, passed data had 8 columns``).
 :func:`body_refusal` finds these cases on the raw bytes first and answers them with the
 project's typed message, naming the line, row and column. Used by
 :class:`terrain.serving.http.RequestGuard`.
@@ -259,14 +260,56 @@ def _huge_csv_field(text: str, header: list[str]) -> tuple[str, str | None, int]
     return None
 
 
+class _ObjectsWithRepeatedKeys:
+    """``object_pairs_hook`` of :func:`json.loads` that notes a key given twice in one
+    object (``json`` and MLflow keep the last value and drop the other silently): the
+    first such key and the object's place among the objects closed so far (a
+    ``dataframe_records`` record closes before the next one opens, so for a table of flat
+    records that place is the record's index)."""
+
+    def __init__(self) -> None:
+        self.closed = 0
+        self.repeated: tuple[str, int] | None = None
+
+    def __call__(self, pairs: list[tuple[str, Any]]) -> dict:
+        obj = dict(pairs)
+        if len(obj) != len(pairs) and self.repeated is None:
+            seen: set[str] = set()
+            for key, _ in pairs:
+                if key in seen:
+                    self.repeated = (key, self.closed)
+                    break
+                seen.add(key)
+        self.closed += 1
+        return obj
+
+
+def _repeated_key_refusal(doc: Any, key: str, place: int) -> tuple[int, dict]:
+    """Refusal of a JSON body with ``key`` twice in one object, the ``place``-th closed."""
+    records = doc.get("dataframe_records") if isinstance(doc, dict) else None
+    if isinstance(records, list) and place < len(records) and isinstance(
+            records[place], dict) and key in records[place]:
+        return _refusal(DataFormatError(f"record {place} (0-based) has the key "
+                                        f"{json.dumps(key)[:40]} twice (a JSON reader keeps "
+                                        "the last value and drops the other); send each "
+                                        "key once", _WHERE))
+    return _refusal(DataFormatError(f"the JSON body has the key {json.dumps(key)[:40]} twice "
+                                    "in one object (a JSON reader keeps the last value and "
+                                    "drops the other); send each key once", _WHERE))
+
+
 def _json_refusal(body: bytes) -> tuple[int, dict] | None:
     """Refusal of a JSON body (see :func:`body_refusal`), or None."""
+    hook = _ObjectsWithRepeatedKeys()
     try:
         # the hook costs a Python call per number: only where a huge one may be
         huge = _may_hold_huge_number(body)
-        doc = json.loads(body, parse_float=_json_float) if huge else json.loads(body)
+        doc = (json.loads(body, parse_float=_json_float, object_pairs_hook=hook) if huge
+               else json.loads(body, object_pairs_hook=hook))
     except (ValueError, RecursionError):
         return None  # MLflow's parser refuses it; its message is rewritten by the guard
+    if hook.repeated is not None:
+        return _repeated_key_refusal(doc, *hook.repeated)
     if not isinstance(doc, dict):
         return _refusal(DataFormatError(f"the JSON body is {_json_type(doc)}, not an "
                                         f"object; {_JSON_FORM}", _WHERE))
@@ -404,6 +447,8 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
       data row with another number of values than columns, a ``dataframe_records`` record
       with other keys than the first: pandas would fill the missing fields with NaN
       silently, or shift the columns;
+    * a JSON key given twice in one object (a record's column, a table's ``columns``):
+      ``json`` keeps the last value and drops the other silently; named with the record;
     * an unterminated quote in a CSV body, named with the line where it opens;
     * a JSON body that is not one ``dataframe_split`` or ``dataframe_records`` table of the
       right shape (MLflow's ``inputs`` / ``instances`` are left to the served model, which

@@ -390,6 +390,25 @@ def test_json_tables_of_the_wrong_shape_get_the_projects_words(doc, words):
         assert internal not in message
 
 
+@pytest.mark.parametrize("body, words", [
+    (b'{"dataframe_records": [{"t_s": 0, "cur_l": 1}, {"t_s": 1, "cur_l": 2, "cur_l": 3}]}',
+     'record 1 (0-based) has the key "cur_l" twice'),
+    (b'{"dataframe_records": [{"t_s": 0, "cur_l": 1e400, "cur_l": 2}]}',   # the huge path
+     'record 0 (0-based) has the key "cur_l" twice'),
+    (b'{"dataframe_split": {"columns": ["t_s"], "columns": ["cur_l"], "data": [[1]]}}',
+     'the JSON body has the key "columns" twice in one object'),
+    (b'{"dataframe_records": [{"t_s": 0}], "dataframe_records": [{"t_s": 1}]}',
+     'the JSON body has the key "dataframe_records" twice in one object'),
+])
+def test_a_json_key_given_twice_is_refused_not_overwritten(body, words):
+    # json (and so MLflow's reader) kept the last value of a repeated key and dropped the
+    # other without a word: {"cur_l": 2, "cur_l": 3} was served as cur_l = 3
+    message = _message(body_refusal("application/json", body, None, 10**6))
+    assert message.startswith("DataFormatError: ") and words in message
+    once = b'{"dataframe_records": [{"t_s": 0, "cur_l": 1}, {"t_s": 1, "cur_l": 2}]}'
+    assert body_refusal("application/json", once, None, 10**6) is None
+
+
 def test_a_parquet_schema_with_a_repeated_column_is_refused():
     table = pa.Table.from_arrays([pa.array([1.0]), pa.array([2.0])], names=["cur_r", "cur_r"])
     sink = pa.BufferOutputStream()
