@@ -248,8 +248,9 @@ class RequestGuard:
       well 400 (the two disagree on where the body ends), one over ``max_body_bytes`` 413,
       one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500), one
       with a ``Content-Encoding`` 415 (its bytes would be read as text), one with two
-      different Content-Type headers 400; the media type is handed on in lower case (media
-      types are case-insensitive; MLflow compares them as written);
+      different Content-Type headers 400 (compared as :func:`normalised_content_type`
+      writes them); the Content-Type is handed on so written (media types, parameter
+      names and the charset are case-insensitive; MLflow compares them as written);
     * ``HEAD`` on ``/ping``, ``/health`` and ``/version`` is run as ``GET`` (the server
       sends no body for it);
     * the body of ``/invocations`` is read here, counting its bytes (longer than announced
@@ -313,7 +314,8 @@ class RequestGuard:
         """
         headers = dict(raw_headers)
         size = headers.get(b"content-length")
-        types = {v.strip().lower() for k, v in raw_headers if k == b"content-type"}
+        # the same type written twice in other case or quoting is one type (RFC 9110)
+        types = {normalised_content_type(v) for k, v in raw_headers if k == b"content-type"}
         if len(types) > 1:
             return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
                 f"request with {len(types)} different Content-Type headers; send one",

@@ -450,6 +450,13 @@ def test_every_error_answer_has_one_form_and_http_details_are_honoured():
         (b"content-length", b"2"), (b"content-type", b"TEXT/CSV; charset=utf-8")]),
         client.receive, client.send))
     assert client.answer() == (200, {"n": 2})
+    # the same type sent twice, in other case and quoting, is one type (was a 400 "2
+    # different Content-Type headers": the values were compared lower-cased, as written)
+    client = _Client([b"ab"])
+    asyncio.run(guard(_raw_scope("POST", "/invocations", [
+        (b"content-length", b"2"), (b"content-type", b"text/csv; charset=utf-8"),
+        (b"content-type", b'TEXT/CSV;Charset="UTF-8"')]), client.receive, client.send))
+    assert client.answer() == (200, {"n": 2})
 
 
 @pytest.mark.parametrize("sent, handed_on", [
