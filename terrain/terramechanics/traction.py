@@ -193,12 +193,16 @@ def brixius_motion_resistance(abs_slip: np.ndarray, mobility_number: float
     -------
     resistance, dresistance_ds : ndarray, shape (...)
     """
+    # float arrays of the slip's shape: np.full_like would take an integer slip's dtype
+    # and truncate the slope to 0
     return (1.0 / mobility_number + 0.5 * abs_slip / np.sqrt(mobility_number),
-            np.full_like(abs_slip, 0.5 / np.sqrt(mobility_number)))
+            np.full(np.shape(abs_slip), 0.5 / np.sqrt(mobility_number)))
 
 
 def _constant(abs_slip: np.ndarray, value: float) -> tuple[np.ndarray, np.ndarray]:
-    return np.full_like(abs_slip, value), np.zeros_like(abs_slip)
+    """``value`` and a zero slope at every slip, as float arrays of the slip's shape (an
+    integer slip such as ``np.array([0, 1])`` must not truncate ``value`` to 0)."""
+    return np.full(np.shape(abs_slip), float(value)), np.zeros(np.shape(abs_slip))
 
 
 @dataclass(frozen=True)

@@ -255,3 +255,17 @@ def test_brixius_net_traction_is_the_source_form_and_its_hysteresis_holds_the_0_
     np.testing.assert_allclose(mu, gt - 0.04, rtol=0, atol=1e-12)
     # the torque-only loss the wheel torque adds back is at least Brixius's 0.04
     assert terrain.hysteresis >= 0.04
+
+
+@pytest.mark.parametrize("name", ["SANDY_LOAM", "SNOW", "GRASS", "PLOUGHED", "ASPHALT"])
+def test_curve_coefficients_of_an_integer_slip_equal_those_of_the_same_float_slip(name):
+    # np.full_like took the dtype of an integer slip: the constant soil resistance 0.08 of
+    # SANDY_LOAM came back as 0 at slip np.array([0, 1]) and Brixius's slope as 0
+    terrain = get_terrain(name)
+    as_int = terrain.curve.coefficients(np.array([0, 1]), terrain.soil_resistance)
+    as_float = terrain.curve.coefficients(np.array([0.0, 1.0]), terrain.soil_resistance)
+    for got, want in zip(as_int, as_float):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+        assert np.asarray(got).dtype == np.float64
+    scalar = terrain.curve.coefficients(1, terrain.soil_resistance)
+    np.testing.assert_allclose(scalar.resistance, as_float.resistance[1], rtol=0, atol=1e-15)
