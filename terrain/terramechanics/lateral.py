@@ -129,7 +129,11 @@ class SoilParams:
     Raises
     ------
     ConfigError
-        ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
+        ``n``, ``shear_modulus_m`` or ``lateral_shear_modulus_m`` is not a finite value
+        > 0, ``friction_angle_deg`` is outside (0, 90) (the bearing-capacity factors of
+        :func:`bearing_capacity_factors` divide by ``tan phi``), ``cohesion_pa`` or
+        ``unit_weight_n_m3`` is negative or not finite, ``k_c`` or ``k_phi`` is not
+        finite, ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
         ``slip_sinkage_ratio`` is negative or not finite, or ``rate_weakening_speed_m_s``
         is not a finite positive speed.
     """
@@ -150,6 +154,24 @@ class SoilParams:
     rate_weakening_speed_m_s: float | None = None
 
     def __post_init__(self) -> None:
+        positive = {"n": self.n, "shear_modulus_m": self.shear_modulus_m}
+        if self.lateral_shear_modulus_m is not None:
+            positive["lateral_shear_modulus_m"] = self.lateral_shear_modulus_m
+        for key, value in positive.items():
+            if not (np.isfinite(value) and value > 0.0):
+                raise ConfigError(f"{self.name}: {key} must be a finite value > 0, got {value}")
+        for key, value in (("cohesion_pa", self.cohesion_pa),
+                           ("unit_weight_n_m3", self.unit_weight_n_m3)):
+            if not (np.isfinite(value) and value >= 0.0):
+                raise ConfigError(f"{self.name}: {key} must be a finite value >= 0, got "
+                                  f"{value}")
+        for key, value in (("k_c", self.k_c), ("k_phi", self.k_phi)):
+            if not np.isfinite(value):
+                raise ConfigError(f"{self.name}: {key} must be finite, got {value}")
+        if not 0.0 < self.friction_angle_deg < 90.0:
+            raise ConfigError(f"{self.name}: friction_angle_deg must be in (0, 90) degrees "
+                              f"(the bearing-capacity factors divide by tan phi), got "
+                              f"{self.friction_angle_deg}")
         if self.rate_weakening_speed_m_s is not None and not (
                 np.isfinite(self.rate_weakening_speed_m_s)
                 and self.rate_weakening_speed_m_s > 0.0):
