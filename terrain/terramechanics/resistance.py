@@ -225,8 +225,11 @@ def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
     Returns
     -------
     float
-        Sinkage z, m.
+        Sinkage z, m (0 for a load <= 0: a wheel off the ground does not sink, the limit
+        of ``z ~ W^(1/n)`` as ``W -> 0``).
     """
+    if load_n <= 0:
+        return 0.0
     p = load_n / (width_m * length_m)
     return float((p / (k_c / width_m + k_phi)) ** (1.0 / n))
 
@@ -246,7 +249,10 @@ def bekker_compaction_coefficient(load_n: float, width_m: float, length_m: float
     Returns
     -------
     float
+        Dimensionless; 0 for a load <= 0 (the limit of ``R_c / W ~ W^(1/n)`` as ``W -> 0``).
     """
+    if load_n <= 0:
+        return 0.0
     z = bekker_sinkage_m(load_n, width_m, length_m, k_c, k_phi, n)
     rc = width_m * (k_c / width_m + k_phi) * z ** (n + 1.0) / (n + 1.0)
     return float(rc / load_n)

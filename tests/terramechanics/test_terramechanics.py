@@ -9,6 +9,7 @@ from terrain.errors import ConfigError, DataFormatError, EstimationError, ShapeE
 from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BurckhardtCurve,
                                     JanosiCurve, TractionAndResistance,
+                                    bekker_compaction_coefficient, bekker_sinkage_m,
                                     brixius_motion_resistance, brixius_traction,
                                     calibrate_janosi, can_turn_in_place, get_terrain,
                                     husky_hysteresis_for_current, sae_slip, steady_slip,
@@ -269,3 +270,14 @@ def test_curve_coefficients_of_an_integer_slip_equal_those_of_the_same_float_sli
         assert np.asarray(got).dtype == np.float64
     scalar = terrain.curve.coefficients(1, terrain.soil_resistance)
     np.testing.assert_allclose(scalar.resistance, as_float.resistance[1], rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("load_n", [0.0, -5.0])
+def test_bekker_sinkage_and_compaction_of_an_unloaded_plate_are_zero(load_n):
+    # before: W = 0 raised ZeroDivisionError in bekker_compaction_coefficient and W < 0 a
+    # TypeError (a negative pressure to the power 1/n is complex); the limit W -> 0 is 0
+    soil = dict(width_m=0.11, length_m=0.08, k_c=5.27e3, k_phi=1515.04e3, n=0.7)
+    assert bekker_sinkage_m(load_n, **soil) == 0.0
+    assert bekker_compaction_coefficient(load_n, **soil) == 0.0
+    assert bekker_sinkage_m(1e-6, **soil) < 1e-12            # continuous at 0
+    assert bekker_compaction_coefficient(1e-6, **soil) < 1e-12
