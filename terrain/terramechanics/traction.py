@@ -44,6 +44,8 @@ import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from terrain.errors import ConfigError
+
 
 class CurveCoefficients(NamedTuple):
     """Longitudinal coefficients of a contact at slip magnitudes ``|s|`` (arrays, shape (...)).
@@ -255,12 +257,29 @@ class JanosiCurve:
     residual_ratio : float or None
         ``K_r`` of Wong's hump-type shear curve (residual over peak strength, in (0, 1));
         None = the exponential Janosi-Hanamoto curve (:func:`patch_mobilisation`).
+
+    Raises
+    ------
+    ConfigError
+        ``mu_max`` is negative or not finite, ``shear_slip`` is not a finite value > 0, or
+        ``residual_ratio`` is outside (0, 1).
     """
 
     mu_max: float
     shear_slip: float
     source: str = ""
     residual_ratio: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.mu_max) and self.mu_max >= 0.0):
+            raise ConfigError(f"JanosiCurve: mu_max must be a finite value >= 0, got "
+                              f"{self.mu_max}")
+        if not (np.isfinite(self.shear_slip) and self.shear_slip > 0.0):
+            raise ConfigError(f"JanosiCurve: shear_slip K/L must be a finite value > 0, got "
+                              f"{self.shear_slip}")
+        if self.residual_ratio is not None and not 0.0 < self.residual_ratio < 1.0:
+            raise ConfigError(f"JanosiCurve: residual_ratio must be in (0, 1) or None, got "
+                              f"{self.residual_ratio}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """:func:`janosi_traction` with the terrain's constant resistance.
@@ -310,7 +329,16 @@ class JanosiCurve:
         -------
         JanosiCurve
             ``mu_max = tan(phi) + c A / W``, ``shear_slip = K / L``.
+
+        Raises
+        ------
+        ConfigError
+            ``load_n`` is not a finite load > 0 (``c A / W`` has no value), or the curve's
+            own checks fail.
         """
+        if not (np.isfinite(load_n) and load_n > 0.0):
+            raise ConfigError(f"JanosiCurve.from_soil: load_n must be a finite load > 0 N, "
+                              f"got {load_n}")
         mu_max = np.tan(np.radians(friction_angle_deg)) + cohesion_pa * contact_area_m2 / load_n
         return cls(float(mu_max), shear_modulus_m / contact_length_m, source, residual_ratio)
 

@@ -281,3 +281,24 @@ def test_bekker_sinkage_and_compaction_of_an_unloaded_plate_are_zero(load_n):
     assert bekker_compaction_coefficient(load_n, **soil) == 0.0
     assert bekker_sinkage_m(1e-6, **soil) < 1e-12            # continuous at 0
     assert bekker_compaction_coefficient(1e-6, **soil) < 1e-12
+
+
+@pytest.mark.parametrize("mu_max, shear_slip, residual_ratio", [
+    (0.6, -0.1, None),      # before: mu(0.5) = -4.0, traction against the slip, |mu| > mu_max
+    (0.6, 0.0, None),       # before: mu(0.5) = 0.6 with a NaN slope
+    (0.6, float("nan"), None),
+    (-0.2, 0.1, None),
+    (float("inf"), 0.1, None),
+    (0.6, 0.1, 1.0),
+])
+def test_janosi_curve_refuses_parameters_with_no_physical_curve(
+        mu_max, shear_slip, residual_ratio):
+    with pytest.raises(ConfigError):
+        JanosiCurve(mu_max, shear_slip, residual_ratio=residual_ratio)
+
+
+@pytest.mark.parametrize("load_n", [0.0, -10.0])
+def test_janosi_from_soil_refuses_a_contact_without_load(load_n):
+    # before: ZeroDivisionError at W = 0, a negative mu_max below it
+    with pytest.raises(ConfigError):
+        JanosiCurve.from_soil(1720.0, 29.0, 0.025, 0.11 * 0.08, 0.08, load_n)
