@@ -18,6 +18,7 @@ the buffers, events and stuck watches to decide.
 
 from __future__ import annotations
 
+import math
 from collections import Counter, deque
 from typing import Sequence
 
@@ -32,7 +33,7 @@ from terrain.serving.clocks import (AHEAD, DUPLICATE, DUPLICATE_TOL_S, TIME_RULE
 from terrain.serving.config import KNOWN_STREAMS, StreamConfig
 from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S, SampleRule, StuckWatch
 
-#: Rejection events remembered per stream (bounded, for the flags).
+#: Rejection spans remembered per stream (bounded, for the flags; :meth:`StreamIntake.note`).
 MAX_EVENTS = 256
 #: reason of a sample a chunk pushed out of its stream's buffer before any decision used it
 #: (a chunk longer than the buffer, or a backlog while another stream lags)
@@ -62,6 +63,11 @@ class DecisionClock:
     def __init__(self, window_s: float, rate_hz: float) -> None:
         self.next_t: float | None = None
         self._window_s, self._rate_hz = window_s, rate_hz
+
+    @property
+    def window_s(self) -> float:
+        """The model's window, s."""
+        return self._window_s
 
     def needed_since(self) -> float:
         """Oldest time a coming decision's window may still read.
@@ -114,7 +120,9 @@ class StreamIntake:
     buffers : dict of str to RingBuffer
         Accepted samples per stream (replaced when a clock restarts).
     events : dict of str to deque
-        ``(t_s, reason)`` of the newest :data:`MAX_EVENTS` rejections per stream.
+        ``(t_first_s, t_last_s, reason)`` of the newest :data:`MAX_EVENTS` spans of
+        rejections per stream (:meth:`note`): a window ``[t - window_s, t)`` holds a
+        rejection of the span iff ``t_first_s < t`` and ``t_last_s >= t - window_s``.
     stuck : dict of str to StuckWatch
         Stuck-sensor watch per stream.
     clocks : dict of str to StreamClock
@@ -149,6 +157,34 @@ class StreamIntake:
         # a step ahead of the others by less than stale_s is a lag the config tolerates
         self._step_s = max(config.clock_restart_s, config.stale_s)
         self.unplaced: set[tuple[str, str]] = set()
+
+    def note(self, stream: str, t_s: float, reason: str) -> None:
+        """Remember a rejection (or a restart) of ``stream`` at ``t_s`` for the flags.
+
+        A rejection of the same reason as the stream's newest span, at most one window
+        after its end, extends that span: no window ``[t - window_s, t)`` holds the span
+        without holding one of its rejections, so the flags are those of every rejection
+        kept one by one, while a chunk refused sample by sample no longer pushes the
+        rejections of its first windows out of the bounded log (one 580-sample chunk with
+        every other sample non-finite left its first 18 decisions unflagged).
+
+        Parameters
+        ----------
+        stream : str
+            A stream the model needs.
+        t_s : float
+            Service time of the rejection, s.
+        reason : str
+            Its flag.
+        """
+        log = self.events[stream]
+        if log:
+            first, last, kind = log[-1]
+            if kind == reason and first <= t_s <= last + self._decisions.window_s:
+                if t_s > last:
+                    log[-1] = (first, t_s, reason)
+                return
+        log.append((t_s, t_s, reason))
 
     def ingest(self, stream: str, t: np.ndarray, v: np.ndarray, hold: bool = True,
                judged: bool = False) -> None:
@@ -205,8 +241,8 @@ class StreamIntake:
                 at = buf.last_t if len(buf) else self.newest()
                 if not np.isfinite(bad_t).all() and at == -np.inf:
                     self.unplaced.add((stream, reason))
-                self.events[stream].extend(
-                    (bt if np.isfinite(bt) else at, reason) for bt in bad_t)
+                for bt in bad_t.tolist():
+                    self.note(stream, bt if math.isfinite(bt) else at, reason)
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
@@ -219,7 +255,7 @@ class StreamIntake:
             lost = buf.evicted(t, self._decisions.needed_since())
             if lost:
                 self.refused[(stream, OVERFLOW)] += lost
-                self.events[stream].append((float(t[0]), OVERFLOW))
+                self.note(stream, float(t[0]), OVERFLOW)
             self.stuck[stream].update(t, v)
             clock.rejoining = False
         buf.append(t, v)
@@ -254,7 +290,7 @@ class StreamIntake:
         if clock.on_ms_clock or (suspect and not held):
             if self._in_ms(stream):   # its newest steps say so already
                 self.refused[(stream, UNITS)] += len(t)
-                self.events[stream].append((self.newest(), UNITS))
+                self.note(stream, self.newest(), UNITS)
                 return None
             if not suspect:
                 return t, v
@@ -265,7 +301,7 @@ class StreamIntake:
                 i = int(back[0])
                 if last < t[i] and t0 - last > self.config.max_backlog_s:
                     self.refused[(stream, AHEAD)] += len(held) + i
-                    self.events[stream].append((self.newest(), AHEAD))
+                    self.note(stream, self.newest(), AHEAD)
                     held.clear()
                     return t[i:], v[i:]
                 self._release_unjudged(stream)
@@ -290,7 +326,7 @@ class StreamIntake:
         if held.n_finite <= UNITS_STEPS and len(held) < self.config.buffer_samples:
             return None
         if held.n_finite > UNITS_STEPS and self._in_ms(stream):   # purged with what is held
-            self.events[stream].append((self.newest(), UNITS))
+            self.note(stream, self.newest(), UNITS)
             return None
         self._release_unjudged(stream)   # a clock in s (a dropout)
         return None
@@ -332,7 +368,7 @@ class StreamIntake:
                 # late on the held clock by less than a clock's step: out of order
                 if ahead and 0.0 <= held.last_t - ti <= self._step_s:
                     self.refused[(stream, TIME_RULE)] += 1
-                    self.events[stream].append((self.newest(), TIME_RULE))
+                    self.note(stream, self.newest(), TIME_RULE)
                     taken[i] = False
                     continue
                 self._drop_ahead(stream)
@@ -372,7 +408,7 @@ class StreamIntake:
         self.refused[(stream, AHEAD)] += len(self._take_ahead(stream))
         # flagged from the service's newest time on: the stream's own newest may be long
         # before every coming window (a clock in ms whose every sample steps ahead)
-        self.events[stream].append((self.newest(), AHEAD))
+        self.note(stream, self.newest(), AHEAD)
 
     def _resolve_ahead(self) -> None:
         """Release the runs held ahead that :func:`~terrain.serving.clocks.resolve_hold`
@@ -402,7 +438,7 @@ class StreamIntake:
             self._move_clock(stream, t, shift)
         self.ingest(stream, t, v, hold=False, judged=True)
         if shift:
-            self.events[stream].append((float(t[-1]), "clock_restart"))
+            self.note(stream, float(t[-1]), "clock_restart")
 
     def _resent(self, stream: str, t: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``(n,)`` bool: the samples of a chunk that the stream already gave, buffered
@@ -600,7 +636,7 @@ class StreamIntake:
         for s in self.streams:
             self.events[s].clear()
         for s, (t, v) in held.items():
-            self.events[s].append((float(t[0]), "clock_restart"))
+            self.note(s, float(t[0]), "clock_restart")
             self.ingest(s, t, v, judged=True)
 
     def _restart_alone(self, stream: str, running: list[str]) -> float:
@@ -624,6 +660,6 @@ class StreamIntake:
         self._decisions.rewind(self.newest(), self.config.max_backlog_s)
         # the windows that hold the restart carry it: from the first held sample when the
         # decision clock starts again, else from the newest (those before are emitted)
-        self.events[stream].append((float(t[0] if self._decisions.next_t is None else t[-1]),
-                                    "clock_restart"))
+        self.note(stream, float(t[0] if self._decisions.next_t is None else t[-1]),
+                  "clock_restart")
         return float(shift)

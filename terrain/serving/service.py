@@ -292,7 +292,7 @@ class StreamService:
             clock.next_t = start + self.model.window.window_s
             unplaced = self._intake.unplaced
             for stream, reason in unplaced:   # refused before any sample
-                self._intake.events[stream].append((start, reason))
+                self._intake.note(stream, start, reason)
             unplaced.clear()
         out = []
         while min(last) >= clock.next_t or newest >= clock.next_t + self.config.stale_s:
@@ -377,7 +377,7 @@ class StreamService:
             flags.add("stale")
         t_lo = t - self.model.window.window_s
         for ev in intake.events.values():
-            flags.update(reason for et, reason in ev if t_lo <= et < t)
+            flags.update(reason for first, last, reason in ev if first < t and last >= t_lo)
         stuck = [key for watch in intake.stuck.values() for key in watch.stuck_between(t_lo, t)]
         if stuck:   # one flag, as the readers write it
             flags.add(stuck_flag(stuck))
