@@ -239,7 +239,9 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     Raises
     ------
     ConfigError
-        Unknown protocol, or more folds than groups (``grouped``, ``paper``).
+        Unknown protocol, more folds than groups, or every class with fewer windows
+        (``grouped``) or 5 s partitions (``paper``) than folds, which the stratified
+        splitters refuse (``grouped``, ``paper``).
     """
     n_groups = len(np.unique(groups))
     if protocol in ("grouped", "paper") and not 2 <= n_splits <= n_groups:
@@ -247,6 +249,16 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
                  else "5 s partitions")
         raise ConfigError(f"{n_splits} folds over {n_groups} split units ({units}): every "
                           "fold holds at least one unit out, and there are at least 2 folds")
+    if protocol in ("grouped", "paper"):
+        # scikit-learn's stratified splitters raise a bare ValueError when no class has as
+        # many members (windows; partitions for the paper protocol) as there are folds
+        members = (labels if protocol == "grouped"
+                   else labels[np.unique(groups, return_index=True)[1]])
+        _, counts = np.unique(members, return_counts=True)
+        if (counts < n_splits).all():
+            what = "windows" if protocol == "grouped" else "5 s partitions"
+            raise ConfigError(f"{n_splits} folds, and no class has as many {what} (at most "
+                              f"{counts.max()}): use shorter windows or fewer folds")
     if protocol == "grouped":
         yield from StratifiedGroupKFold(n_splits, shuffle=True, random_state=seed).split(
             labels, labels, groups)

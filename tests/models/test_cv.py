@@ -103,6 +103,23 @@ def test_unknown_protocol_is_rejected():
         list(iter_splits("kfold", np.array(["A", "B"]), np.array(["a", "b"]), 0))
 
 
+@pytest.mark.parametrize("protocol", ["grouped", "paper"])
+def test_no_class_with_as_many_members_as_folds_is_a_config_error(protocol):
+    # 6 units of 3 classes, 2 windows (and for paper 2 partitions) per class, 5 folds:
+    # scikit-learn's stratified splitters raised a bare ValueError ("internal error" in the CLI)
+    labels = np.repeat(["A", "B", "C"], 2)
+    groups = np.array([f"u{i}" for i in range(6)])
+    with pytest.raises(ConfigError, match="no class has as many"):
+        list(iter_splits(protocol, labels, groups, 0, n_splits=5))
+
+
+def test_vulpi_windows_too_long_for_the_folds_are_a_config_error(vulpi_runs):
+    # 45 s windows leave every Vulpi class fewer than 5 windows
+    config = ExperimentConfig(dataset="vulpi", window_s=45.0, seeds=(0,))
+    with pytest.raises(ConfigError, match="no class has as many windows"):
+        run_cv(config, runs=vulpi_runs)
+
+
 def test_single_dirt_road_run_is_cut_into_contiguous_blocks(vulpi_runs):
     ws = make_windows(vulpi_runs, "all", WindowConfig(window_s=1.0, rate_hz=50.0))
     labels = ws.labels.astype(str)
