@@ -32,6 +32,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError, duplicated
 from terrain.models.cv import cross_validate, grouped_units
+from terrain.models.ensemble import normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, cnn_seeds_for, make_model
 
@@ -282,13 +283,15 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     Raises
     ------
     ConfigError
-        The members do not cover the same windows in the same folds.
+        The members do not cover the same windows in the same folds, or ``weights`` are not
+        one per member, negative or all 0
+        (:func:`~terrain.models.ensemble.normalised_weights`).
     """
     key = ["seed", "fold", "run", "t_start_s"]
     base = members[0].sort_values(key).reset_index(drop=True)
     cols = [f"proba_{c}" for c in classes]
-    w = np.full(len(members), 1.0 / len(members)) if weights is None else (
-        np.asarray(weights, float) / np.sum(weights))
+    w = (np.full(len(members), 1.0 / len(members)) if weights is None
+         else normalised_weights(weights, len(members)))
     total = np.zeros((len(base), len(cols)))
     for wi, frame in zip(w, members):
         frame = frame.sort_values(key).reset_index(drop=True)

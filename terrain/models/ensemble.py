@@ -20,7 +20,38 @@ from sklearn.metrics import log_loss
 from sklearn.model_selection import StratifiedGroupKFold
 from sklearn.utils.validation import check_is_fitted
 
+from terrain.errors import ConfigError
 from terrain.models.cv import fit_with_groups
+
+
+def normalised_weights(weights, n_members: int) -> np.ndarray:
+    """Fixed member weights scaled to sum 1, one per member.
+
+    Parameters
+    ----------
+    weights : sequence of float
+        One non-negative weight per member, not all 0.
+    n_members : int
+        Number of members.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_members,)`` weights summing to 1.
+
+    Raises
+    ------
+    ConfigError
+        Not one weight per member (a member would be dropped silently), a negative or
+        non-finite weight, or all weights 0.
+    """
+    w = np.asarray(weights, dtype=float).ravel()
+    if w.size != n_members:
+        raise ConfigError(f"{w.size} weight(s) for {n_members} members: give one per member")
+    if not (np.isfinite(w).all() and (w >= 0).all() and w.sum() > 0):
+        raise ConfigError(f"member weights must be finite, >= 0 and not all 0, got "
+                          f"{w.tolist()}")
+    return w / w.sum()
 
 
 def simplex_grid(n_members: int, step: float) -> np.ndarray:
@@ -139,14 +170,19 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         Returns
         -------
         self
+
+        Raises
+        ------
+        ConfigError
+            Fixed ``weights`` not one per member, negative, non-finite or all 0
+            (:func:`normalised_weights`).
         """
         y = np.asarray(y)
         self.classes_ = np.unique(y)
         n = len(self.estimators)
         self.weight_scores_ = {}
         if self.weights is not None:
-            w = np.asarray(self.weights, dtype=float)
-            self.weights_ = w / w.sum()
+            self.weights_ = normalised_weights(self.weights, n)
         elif groups is None:
             self.weights_ = np.full(n, 1.0 / n)
         else:

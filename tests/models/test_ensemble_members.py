@@ -72,3 +72,33 @@ def test_wheel_trees_find_a_planted_current_per_speed(script):
     assert proba.shape == (int((~train).sum()), 2)
     np.testing.assert_allclose(proba.sum(axis=1), 1.0)
     assert (model.predict(X[~train]) == y[~train]).mean() > 0.95
+
+
+def test_fixed_weights_must_be_one_per_member():
+    # two weights for three members dropped the third member silently (zip), in the
+    # ensemble and in the out-of-fold soft vote alike
+    from sklearn.dummy import DummyClassifier
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.errors import ConfigError
+    from terrain.models.compare import soft_vote
+    from terrain.models.ensemble import SoftVotingEnsemble
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(40, 3))
+    y = np.where(X[:, 0] > 0, "A", "B")
+    members = [("d1", DummyClassifier()), ("d2", DummyClassifier()),
+               ("lr", LogisticRegression())]
+    with pytest.raises(ConfigError, match="2 weight"):
+        SoftVotingEnsemble(members, weights=(1, 1)).fit(X, y)
+    with pytest.raises(ConfigError, match=">= 0"):
+        SoftVotingEnsemble(members, weights=(1, -1, 1)).fit(X, y)
+    ens = SoftVotingEnsemble(members, weights=(0, 0, 2)).fit(X, y)
+    np.testing.assert_allclose(ens.weights_, [0, 0, 1])
+    frame = pd.DataFrame({"seed": 0, "fold": 0, "run": "r", "t_start_s": np.arange(3.0),
+                          "proba_A": [0.2, 0.5, 0.9], "proba_B": [0.8, 0.5, 0.1]})
+    sure = frame.assign(proba_A=1.0, proba_B=0.0)
+    with pytest.raises(ConfigError, match="1 weight"):
+        soft_vote([frame, sure], ["A", "B"], weights=(1,))
+    np.testing.assert_allclose(soft_vote([frame, sure], ["A", "B"], weights=(1, 1))["proba_A"],
+                               [0.6, 0.75, 0.95])
