@@ -175,6 +175,7 @@ class SimConfig:
     terrains : tuple of str
         Terrain classes along the path (changing every ``segment_length_m``, cycling); a
         sequence of names, not one string (:func:`parse_terrain_list` splits ``"A,B"``).
+        Any case; kept as the catalogue's names (``"snow"`` -> ``"SNOW"``).
     scenario : str
         One of :data:`~terrain.sim.scenarios.SCENARIO_NAMES`.
     duration_s : float
@@ -231,7 +232,9 @@ class SimConfig:
         for t in self.terrains:
             if not str(t).strip():
                 raise ConfigError(f"empty terrain name in terrains {tuple(self.terrains)!r}")
-            get_terrain(t)
+        # the catalogue's names (get_terrain takes any case): the run's label, its folder and
+        # the truth stream's per-sample labels must be the same class name
+        object.__setattr__(self, "terrains", tuple(get_terrain(t).name for t in self.terrains))
         if self.scenario not in SCENARIO_NAMES:
             raise ConfigError(f"unknown scenario {self.scenario!r}; valid choices: "
                               f"{', '.join(SCENARIO_NAMES)}")

@@ -181,3 +181,22 @@ def test_write_run_refuses_an_index_of_a_measured_run_and_unreadable_stream_name
     write_run(replace(run, meta={}), tmp_path / "other", index=5)
     (back,) = read_runs_dir(tmp_path / "other")
     assert back.vehicle == "tracked"
+
+
+def test_lower_case_terrain_names_label_the_run_with_the_catalogue_name(tmp_path):
+    """SimConfig accepts any case (get_terrain does), but the run was labelled with the name
+    as given: terrains=("snow",) gave run sim/snow/0, folder snow/ and a truth stream of
+    SNOW, so the CLI's note said "terrain(s) snow never reached ... the run holds SNOW"."""
+    from pipelines.simulate import unreached_terrains_note
+    config = SimConfig(vehicle="husky", terrains=("snow", "Ice"), scenario="spin",
+                       duration_s=0.5, seed=0)
+    assert config.terrains == ("SNOW", "ICE")
+    run = simulate(SimConfig(vehicle="husky", terrains=("snow",), scenario="spin",
+                             duration_s=0.5, seed=0))
+    assert run.terrain == "SNOW" and run.run_id == "sim/SNOW/0"
+    assert run.meta["terrains"] == ["SNOW"]
+    assert set(run.streams["truth"]["terrain"]) == {"SNOW"}
+    paths = write_run(run, tmp_path)
+    assert paths["imu"].parent.name == "SNOW"
+    single = SimConfig(vehicle="husky", terrains=("snow",), scenario="spin", duration_s=0.5)
+    assert unreached_terrains_note(run, single) is None
