@@ -171,7 +171,7 @@ class SimConfig:
     Parameters
     ----------
     vehicle : str
-        ``agrimaro``, ``husky`` or ``tracked``.
+        ``agrimaro``, ``husky`` or ``tracked`` (any case; kept as the catalogue's name).
     terrains : tuple of str
         Terrain classes along the path (changing every ``segment_length_m``, cycling); a
         sequence of names, not one string (:func:`parse_terrain_list` splits ``"A,B"``).
@@ -220,6 +220,9 @@ class SimConfig:
 
     def __post_init__(self) -> None:
         vehicle = get_vehicle(self.vehicle)
+        # the catalogue's name (get_vehicle takes any case): DEFAULT_SENSORS and the closed
+        # loop look the vehicle up by it
+        object.__setattr__(self, "vehicle", vehicle.name)
         if self.physics not in PHYSICS_VERSIONS:
             raise ConfigError(f"unknown physics {self.physics!r}; valid choices: "
                               f"{', '.join(PHYSICS_VERSIONS)}")

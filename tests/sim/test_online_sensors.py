@@ -113,3 +113,16 @@ def test_a_sample_reads_the_first_physics_step_at_or_after_it():
     # between steps: the next one; before the first: the first; past the last: the last
     np.testing.assert_array_equal(physics_step_index(t_phys, [0.0149, -1.0, 4.985, 9.0]),
                                   [2, 0, 499, 499])
+
+
+def test_closed_loop_takes_a_vehicle_name_in_any_case_like_simconfig():
+    """SimConfig accepts "Husky" (get_vehicle takes any case), but simulate_closed_loop and
+    replay_observations looked DEFAULT_SENSORS up by the name as given: KeyError 'Husky'."""
+    from terrain.sim.closed_loop import simulate_closed_loop
+    config = SimConfig(vehicle="Husky", terrains=("SNOW",), scenario="spin", duration_s=0.3,
+                       seed=0)
+    sim = simulate_with_physics(config)
+    assert len(list(replay_observations(sim))) > 0
+    closed = simulate_closed_loop(config, lambda observation: None)
+    np.testing.assert_array_equal(closed.physics.twist, sim.physics.twist)
+    assert config.vehicle == "husky"
