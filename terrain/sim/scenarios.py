@@ -5,7 +5,8 @@ at the physics rate and the inclination of the ground plane.
 
 ``straight_accel``  seed 001 ch. 7.2.3: accelerate at 1 m/s^2 to 1 m/s, then cruise.
 ``orchard``         seed 000 sec. III: rows at constant speed, U-turns at the headland with
-                    constant speed and turning radius, alternating left/right.
+                    constant speed and turning radius (1.5 m), alternating left/right; the
+                    speed leaves a skid-steer's outer side within the speed limit in the turn.
 ``slope_turn``      seed 003 Experiment III: turning at 20 deg/s and 0.05-0.2 m/s on a 15 deg
                     slope (the plane rises along world +x).
 ``spin``            spin in place at 0.6 rad/s, reversing every 8 s.
@@ -94,7 +95,8 @@ def physics_steps(duration_s: float, dt_s: float) -> int:
 
 
 def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Generator,
-                  max_speed_m_s: float, omnidirectional: bool = False) -> Commands:
+                  max_speed_m_s: float, omnidirectional: bool = False,
+                  track_m: float = 0.0) -> Commands:
     """Commanded twist of a named scenario.
 
     Parameters
@@ -111,6 +113,11 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
         Vehicle speed limit; scenario speeds are scaled down to it.
     omnidirectional : bool
         Whether lateral velocity commands are allowed (swerve drive).
+    track_m : float
+        Track of a skid-steered vehicle, m (0: steered). In a turn of radius ``R`` at speed
+        ``v`` its outer side runs at ``v (1 + track / (2 R))``; ``orchard`` lowers its speed
+        so that this stays within ``0.95 max_speed_m_s`` (a clipped outer side would widen
+        the U-turn and turn it by less than pi).
 
     Returns
     -------
@@ -138,8 +145,8 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
         v = min(1.0, vmax)
         tw[:, 0] = np.minimum(t * 1.0, v)
     elif name == "orchard":
-        v = min(0.5, vmax)
         row_m, radius_m = 20.0, 1.5
+        v = min(0.5, vmax / (1.0 + float(track_m) / (2.0 * radius_m)))
         t_row, t_turn = row_m / v, np.pi * radius_m / v
         phase = t % (t_row + t_turn)
         k = (t // (t_row + t_turn)).astype(int)

@@ -392,7 +392,8 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
     dt = 1.0 / float(config.physics_rate_hz)
     vmax = vehicle.motor.max_wheel_speed_rad_s * vehicle.wheel_radius_m
     cmds = make_commands(config.scenario, float(config.duration_s), dt, rng, vmax,
-                         omnidirectional=geometry.steered)
+                         omnidirectional=geometry.steered,
+                         track_m=0.0 if geometry.steered else vehicle.track_m)
     steer_offset = None
     if geometry.steered:
         db = vehicle.steering_dead_band_rad

@@ -29,3 +29,25 @@ def test_rate_limited_command_reaches_its_target():
     v = cmd.twist[:, 0]
     np.testing.assert_allclose(v[:100], 0.005 * np.arange(1, 101))
     np.testing.assert_allclose(v[100:], 0.5)
+
+
+def test_orchard_u_turn_of_the_tracked_vehicle_is_a_half_turn_of_radius_1_5_m():
+    """The orchard's U-turn at 0.95 of the speed limit asked the tracked vehicle's outer
+    track for 0.475 (1 + 0.393 / 3) = 0.54 m/s, over its 0.5 m/s limit: the clipped wheel
+    commands turned by 2.18 rad (not pi) on a 2.06 m radius (not 1.5 m). The speed now
+    leaves the outer track within the limit."""
+    from terrain.sim import SimConfig, simulate_with_physics
+    from terrain.vehicles import get_vehicle
+    tracked = get_vehicle("tracked")
+    sim = simulate_with_physics(SimConfig(vehicle="tracked", terrains=("ASPHALT",),
+                                          scenario="orchard", duration_s=60.0, seed=0))
+    rim = sim.physics.omega_cmd * tracked.wheel_radius_m
+    limit = tracked.motor.max_wheel_speed_rad_s * tracked.wheel_radius_m
+    assert np.abs(rim).max() < limit                       # no wheel command clipped
+    yaw_rate = (rim[:, 1] - rim[:, 0]) / tracked.track_m
+    speed = rim.mean(axis=1)
+    turning = np.abs(yaw_rate) > 0.05
+    assert turning.any() and not turning[-1]               # one whole U-turn in the run
+    np.testing.assert_allclose(np.median(speed[turning] / np.abs(yaw_rate[turning])), 1.5,
+                               rtol=1e-6)
+    np.testing.assert_allclose(yaw_rate.sum() * 0.01, np.pi, atol=2e-3)
