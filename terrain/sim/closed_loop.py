@@ -322,6 +322,27 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
     return hook
 
 
+def _check_sensor_rates(config: SimConfig, sensors: SensorSettings) -> None:
+    """Refuse a sensor faster than the physics: :class:`OnlineSensors` samples once per
+    physics step at most, so it would deliver the physics rate, not the sensor's.
+
+    Raises
+    ------
+    ConfigError
+        A rate of ``sensors`` the run's sensors use above ``config.physics_rate_hz``, named.
+    """
+    names = ["imu_rate_hz", "wheel_rate_hz"]
+    if get_vehicle(config.vehicle).contact_geometry().steered:
+        names += ["steer_rate_hz", "cam_rate_hz"]
+    physics_hz = float(config.physics_rate_hz)
+    fast = [f"{n} {getattr(sensors, n):g} Hz" for n in names
+            if float(getattr(sensors, n)) > physics_hz * (1 + 1e-9)]
+    if fast:
+        raise ConfigError(f"the online sensors sample once per physics step, so a sensor "
+                          f"faster than the physics ({physics_hz:g} Hz) would give the "
+                          f"physics rate: {', '.join(fast)}; raise physics_rate_hz")
+
+
 def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], np.ndarray],
                          control_rate_hz: float = 50.0) -> Simulation:
     """Simulate with a controller in the loop.
@@ -344,10 +365,12 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     Raises
     ------
     ConfigError
-        Bad configuration or rate.
+        Bad configuration or rate, or a sensor faster than ``config.physics_rate_hz``.
     """
-    sensors = OnlineSensors(config.vehicle, config.sensors or DEFAULT_SENSORS[config.vehicle],
-                            config.seed, config.duration_s, config.physics, config.terrains)
+    settings = config.sensors or DEFAULT_SENSORS[config.vehicle]
+    _check_sensor_rates(config, settings)
+    sensors = OnlineSensors(config.vehicle, settings, config.seed, config.duration_s,
+                            config.physics, config.terrains)
     return simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))
 
 
@@ -374,13 +397,15 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     Raises
     ------
     ConfigError
-        Non-positive rate.
+        Non-positive rate, or a sensor faster than the run's ``physics_rate_hz``.
     """
     if not control_rate_hz > 0:
         raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
     cfg, phys = sim.config, sim.physics
-    sensors = OnlineSensors(cfg.vehicle, cfg.sensors or DEFAULT_SENSORS[cfg.vehicle], cfg.seed,
-                            cfg.duration_s, cfg.physics, cfg.terrains)
+    settings = cfg.sensors or DEFAULT_SENSORS[cfg.vehicle]
+    _check_sensor_rates(cfg, settings)
+    sensors = OnlineSensors(cfg.vehicle, settings, cfg.seed, cfg.duration_s, cfg.physics,
+                            cfg.terrains)
     period, next_t, n = 1.0 / control_rate_hz, 0.0, len(phys.t_s)
     for k in range(n):
         snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],

@@ -126,3 +126,22 @@ def test_closed_loop_takes_a_vehicle_name_in_any_case_like_simconfig():
     closed = simulate_closed_loop(config, lambda observation: None)
     np.testing.assert_array_equal(closed.physics.twist, sim.physics.twist)
     assert config.vehicle == "husky"
+
+
+def test_online_sensors_refuse_a_sensor_faster_than_the_physics():
+    """The online sensors sample once per physics step at most: with 50 Hz physics (allowed,
+    50-1000 Hz) the 100 Hz IMU came out at 50 Hz (101 rows for 2 s against the batch
+    stream's 201), silently. Now a ConfigError names the sensor."""
+    from terrain.errors import ConfigError
+    from terrain.sim.closed_loop import simulate_closed_loop
+    config = SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="spin",
+                       duration_s=0.5, seed=0, physics_rate_hz=50.0)
+    sim = simulate_with_physics(config)
+    with pytest.raises(ConfigError, match="imu_rate_hz 100 Hz"):
+        list(replay_observations(sim))
+    with pytest.raises(ConfigError, match="imu_rate_hz 100 Hz"):
+        simulate_closed_loop(config, lambda observation: None)
+    fine = simulate_with_physics(SimConfig(vehicle="husky", terrains=("ASPHALT",),
+                                           scenario="spin", duration_s=0.5, seed=0))
+    imu = np.concatenate([o.imu for o in replay_observations(fine)])
+    assert len(imu) == len(fine.run.streams["imu"])
