@@ -164,3 +164,15 @@ def test_report_json_refuses_non_finite_numbers():
     for bad in (float("nan"), float("inf")):
         with pytest.raises(ValueError):
             report_json({"records": [{"gain_lo": bad}]})
+
+
+def test_cli_with_progress_reports_the_replay_time(tmp_path):
+    # with the progress bar (the default) the runs were replayed before run_audit, which was
+    # given the frames and timed nothing: every committed report said replay_s 0.0
+    write_signal_files(tmp_path, "ASPHALT", 0, *simulated_streams(seeds=(66,),
+                                                                  duration_s=20.0)[0])
+    out = tmp_path / "out"
+    assert cli_main(["audit", str(tmp_path), "--json", str(out / "a.json"), "--bootstrap",
+                     "50", "--param-bootstrap", "0", "--no-pooled", "--no-mlflow"]) == 0
+    timings = json.loads((out / "a.json").read_text())["timings_s"]
+    assert timings["replay_s"] > 0.01               # a 20 s run's replay takes ~0.3 s
