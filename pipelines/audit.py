@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import shlex
+import time
 from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
@@ -191,7 +192,6 @@ def _run_with_progress(runs, settings, progress: bool):
     replay's wall time is measured here (``run_audit`` given the frames would report ~0 s)."""
     if not progress:
         return run_audit(runs, settings)
-    import time
     from dataclasses import replace
 
     from tqdm.auto import tqdm
