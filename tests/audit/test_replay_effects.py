@@ -211,6 +211,22 @@ def test_fit_current_alternation_converges_with_offsets_and_grade():
     assert abs(short.k_a_per_rad - p.k_a_per_rad) > 1.0
 
 
+def test_fit_current_grade_takes_only_runs_with_a_pitch():
+    """A run without an IMU has no pitch estimate (its pitch is 0 as a placeholder): its
+    rows in the grade's least squares said "level ground" while its currents climbed the
+    same hills, which pulled the grade down (3.5 A/rad for 10 planted, 2 of 4 runs without
+    an IMU)."""
+    from dataclasses import replace
+
+    frames = [_hills_frame(s) for s in simulated_streams(seeds=(43, 44))]
+    both = fit_current(frames, ["grade_resistance"]).k_a_per_rad
+    blind = replace(frames[1], has_imu=False, pitch=np.zeros(frames[1].n))
+    k = fit_current([frames[0], blind], ["grade_resistance"]).k_a_per_rad
+    alone = fit_current([frames[0]], ["grade_resistance"]).k_a_per_rad
+    assert both == pytest.approx(10.0, abs=1.5)
+    assert k == pytest.approx(alone, abs=1e-9)
+
+
 def test_pitch_estimate_ignores_the_replay_start_transient(shipped_borealtc):
     """The replay starts from rest, so its first sample accelerates at the friction limit
     (+-7.5 m/s^2 on ASPHALT); low-passed with the rest, it read as up to 0.29 rad of pitch on
