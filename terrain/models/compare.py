@@ -776,11 +776,12 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
         from distributed import Client, LocalCluster
 
         cluster = None if address else LocalCluster(n_workers=2, threads_per_worker=1)
-        with Client(address or cluster) as client, parallel_config(backend="dask"):
-            yield -1
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        try:   # the local cluster's worker processes are closed when a cell fails too
+            with Client(address or cluster), parallel_config(backend="dask"):
+                yield -1
+        finally:
+            if cluster is not None:
+                cluster.close()
     else:                                   # ray (check_backend refused any other name)
         try:
             import ray

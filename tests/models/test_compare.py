@@ -67,6 +67,25 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
     assert len(children) == 2 and "metrics.accuracy_k10" in children.columns
 
 
+def test_a_failing_cell_closes_the_local_dask_cluster(monkeypatch):
+    # the local cluster (two worker processes) was closed only when the grid ended well:
+    # an exception inside the block left it running
+    import distributed
+
+    made = []
+
+    class Recorded(distributed.LocalCluster):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(distributed, "LocalCluster", Recorded)
+    with pytest.raises(RuntimeError, match="cell failed"):
+        with joblib_backend("dask"):
+            raise RuntimeError("cell failed")
+    assert len(made) == 1 and made[0].status.name == "closed"
+
+
 def test_dask_local_cluster_gives_the_same_cells_as_local_runs():
     from distributed import LocalCluster
 
