@@ -436,7 +436,11 @@ def fit_yaw(frames: Sequence[AuditFrame], spec: Sequence[str],
     settings : EffectSettings
         Constants of the effect models (thresholds, iterations, minimum sample counts).
     form : str, optional
-        Force the ``immobilised`` form (default: the one with the lower training error).
+        ``uniform`` forces one immobile fraction for every turn. Otherwise (None or
+        ``rate_dependent``) the fractions below and above each candidate threshold compete
+        with the uniform form, and the one with the lower training error is kept: a refit
+        asked for ``rate_dependent`` comes back uniform where no threshold gives the
+        contrast ``settings.min_rate_contrast``.
 
     Returns
     -------
