@@ -5,8 +5,10 @@ Plain wheel odometry (seed 000 eqs. 1-5 with ``eta = 1``)::
     v = (v_L + v_R) / 2,   yaw_rate = (v_R - v_L) / B
 
 Compensated: each side's ground speed from its rim speed and slip, inverting the SAE slip of
-:func:`terrain.terramechanics.slip.sae_slip` (:func:`ground_speed_from_slip`), and the
-turning factor ``chi`` (ICR expansion with the turning slip lumped in; seed 000 eq. 5 with
+:func:`terrain.terramechanics.slip.sae_slip` with
+:func:`terrain.terramechanics.slip.ground_speed_from_slip` (a braking slip below
+:data:`BRAKING_SLIP_FLOOR` is held there, counted and warned about), and the turning
+factor ``chi`` (ICR expansion with the turning slip lumped in; seed 000 eq. 5 with
 Mandow et al. 2007)::
 
     v = (v_L' + v_R') / 2,  yaw_rate = (v_R - v_L) / (chi B),  lateral velocity v_y
@@ -22,34 +24,17 @@ The pose is integrated with the midpoint heading (as the simulator does).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from terrain.errors import ShapeError, TimeStepError
+from terrain.errors import DataWarning, ShapeError, TimeStepError
+from terrain.terramechanics.slip import ground_speed_from_slip
 
-
-def ground_speed_from_slip(rim_speed_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:
-    """Ground speed ``v`` of a wheel whose rim speed ``omega r`` has SAE slip ``s``.
-
-    Inverse of ``s = (omega r - v) / max(|omega r|, |v|)``: with ``s' = s sgn(omega r)``
-    (positive when the wheel outruns the ground, forward or backward),
-    ``v = omega r (1 - s')`` when ``s' >= 0`` (driving), ``v = omega r / (1 + s')`` when
-    ``s' < 0`` (braking, ``s' > -1``).
-
-    Parameters
-    ----------
-    rim_speed_m_s : ndarray, shape (...)
-        ``omega r``, m/s.
-    slip : ndarray, shape (...)
-        SAE slip in (-1, 1].
-
-    Returns
-    -------
-    ndarray, shape (...)
-        m/s.
-    """
-    w = np.asarray(rim_speed_m_s, dtype=float)
-    s = np.clip(np.where(w < 0, -1.0, 1.0) * np.asarray(slip, dtype=float), -0.95, 1.0)
-    return np.where(s >= 0, w * (1.0 - s), w / (1.0 + s))
+#: braking slip at which a compensated ground speed is held: the inverse grows as
+#: ``1 / (1 + s)``, so a window whose slip is -1 (a locked or nearly stopped rim under a
+#: moving vehicle) would give an unbounded speed
+BRAKING_SLIP_FLOOR = -0.95
 
 
 def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
@@ -68,7 +53,9 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     track_m : float
         Track B, m.
     slip_left, slip_right : ndarray, shape (N,), optional
-        SAE slip of each side (None = 0, plain odometry).
+        SAE slip of each side (None = 0, plain odometry); a slip below
+        :data:`BRAKING_SLIP_FLOOR` (in the rim's direction) is taken as that floor, and the
+        samples so held are counted in a :class:`~terrain.errors.DataWarning`.
     chi : float or ndarray, shape (N,)
         Turning factor (1 = plain odometry).
     lateral_m_s : float or ndarray, shape (N,)
@@ -97,8 +84,8 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
                          f"{vl.shape}, {vr.shape}")
     if t.size > 1 and np.any(np.diff(t) <= 0):
         raise TimeStepError("dead_reckon: times must be strictly increasing")
-    gl = vl if slip_left is None else ground_speed_from_slip(vl, slip_left)
-    gr = vr if slip_right is None else ground_speed_from_slip(vr, slip_right)
+    gl = vl if slip_left is None else _ground_speed(vl, slip_left)
+    gr = vr if slip_right is None else _ground_speed(vr, slip_right)
     v = 0.5 * (gl + gr)
     vy = np.broadcast_to(np.asarray(lateral_m_s, dtype=float), t.shape)
     if yaw_rate_rad_s is None:
@@ -119,3 +106,16 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     x = np.concatenate([[0.0], np.cumsum((v_mid * c - vy_mid * s) * dt)])
     y = np.concatenate([[0.0], np.cumsum((v_mid * s + vy_mid * c) * dt)])
     return np.column_stack([x, y, yaw])
+
+
+def _ground_speed(rim_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:
+    """Side ground speed from its rim speed and slip, braking slip held at
+    :data:`BRAKING_SLIP_FLOOR` (counted, warned)."""
+    q = np.where(rim_m_s < 0, -1.0, 1.0) * np.asarray(slip, dtype=float)
+    held = q < BRAKING_SLIP_FLOOR
+    if held.any():
+        warnings.warn(f"dead_reckon: {int(held.sum())} of {held.size} slips below "
+                      f"{BRAKING_SLIP_FLOOR} (braking) taken as {BRAKING_SLIP_FLOOR}: the "
+                      "ground speed 1 / (1 + s) would be unbounded", DataWarning, stacklevel=3)
+    q = np.clip(q, BRAKING_SLIP_FLOOR, 1.0)
+    return ground_speed_from_slip(rim_m_s, np.where(rim_m_s < 0, -q, q))

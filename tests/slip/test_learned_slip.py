@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -15,9 +16,10 @@ from terrain.slip.baselines import endo_turning_slip, fit_pitch_slip, observer_s
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import error_table, odometry_errors, steady_straight
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
-from terrain.slip.odometry import dead_reckon, ground_speed_from_slip
+from terrain.errors import DataWarning
+from terrain.slip.odometry import BRAKING_SLIP_FLOOR, dead_reckon
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
-from terrain.terramechanics.slip import sae_slip
+from terrain.terramechanics.slip import ground_speed_from_slip, sae_slip
 from terrain.vehicles import HUSKY, endo_slip_ratio_ratio
 
 TINY = SlipDataSpec(terrains=("SANDY_LOAM", "SNOW"), scenarios=("straight_accel", "random"),
@@ -36,6 +38,23 @@ def test_ground_speed_inverts_sae_slip():
     v = np.array([0.7, 1.2, 0.5, -0.5, 0.0])
     s = sae_slip(rim, v, dead_band_m_s=0.0)
     np.testing.assert_allclose(ground_speed_from_slip(rim, s), v, atol=1e-12)
+
+
+def test_dead_reckon_holds_a_braking_slip_at_its_floor_and_says_so():
+    # odometry had its own copy of the slip inverse that held slip at -0.95 without a word
+    # (slip -0.98 on a 0.02 m/s rim: 0.40 m/s against the inverse's 1.00)
+    t = np.linspace(0.0, 1.0, 11)
+    rim = np.full_like(t, 0.5)
+    slip = np.full_like(t, -0.2)
+    slip[3:5] = -0.98
+    with pytest.warns(DataWarning, match="2 of 11 slips below -0.95"):
+        pose = dead_reckon(t, rim, rim, HUSKY.track_m, slip, np.full_like(t, -0.2))
+    held = np.where(slip < BRAKING_SLIP_FLOOR, BRAKING_SLIP_FLOOR, slip)
+    ground = 0.5 * (ground_speed_from_slip(rim, held) + ground_speed_from_slip(rim, -0.2))
+    assert pose[-1, 0] == pytest.approx(np.trapezoid(ground, t))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # no floor reached: no warning
+        dead_reckon(t, rim, rim, HUSKY.track_m, np.full_like(t, -0.9), np.full_like(t, 0.3))
 
 
 def test_dead_reckon_straight_and_circle():
