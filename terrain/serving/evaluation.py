@@ -18,6 +18,7 @@ from __future__ import annotations
 import ast
 import json
 import re
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -137,9 +138,11 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
                          ) -> tuple[Run, list[Segment]]:
     """String runs of changing terrain into one long run (seeded).
 
-    Runs are taken in a seeded random order, each time choosing a run whose terrain differs
-    from the previous piece's; each piece is a random stretch of ``min_s``-``max_s`` seconds
-    (capped at the run's length; every run is used once).
+    Runs are taken in a seeded random order, each time choosing the first run whose terrain
+    differs from the previous piece's and after which the runs left can still alternate, so
+    the terrain changes at every switch wherever the runs allow it; each piece is a random
+    stretch of ``min_s``-``max_s`` seconds (capped at the run's length; every run is used
+    once).
 
     Parameters
     ----------
@@ -174,13 +177,28 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     pool = [r for r in runs if all(s in r.streams for s in streams)]
     if len({r.terrain for r in pool}) < 2:
         raise ConfigError("a concatenated stream needs runs of at least two terrains")
+    span = [min(r.streams[s][TIME].iloc[-1] for s in streams)
+            - max(r.streams[s][TIME].iloc[0] for s in streams) for r in pool]
+    kept = [k for k in range(len(pool)) if span[k] >= min(min_s, 10.0)]  # others skipped
     order = list(rng.permutation(len(pool)))
     parts: dict[str, list[pd.DataFrame]] = {s: [] for s in streams}
     segments: list[Segment] = []
     clock = 0.0
     while order:
         prev = segments[-1].terrain if segments else None
-        pick = next((k for k in order if pool[k].terrain != prev), order[0])
+        # the first run in the seeded order whose terrain differs from the previous piece's
+        # and leaves runs that can still alternate; a plain first pick could strand runs of
+        # one terrain at the end, side by side, when an order without them existed. Where
+        # they cannot alternate, a run of the most frequent other terrain (fewest joins)
+        left = [k for k in order if k in kept]
+        count = Counter(pool[j].terrain for j in left)
+        most = max((count[pool[k].terrain] for k in order if pool[k].terrain != prev),
+                   default=0)
+        pick = next((k for k in order if pool[k].terrain != prev and
+                     (k not in kept or _can_alternate(pool, [j for j in left if j != k],
+                                                      pool[k].terrain))),
+                    next((k for k in order if pool[k].terrain != prev
+                          and count[pool[k].terrain] == most), order[0]))
         order.remove(pick)
         run = pool[pick]
         t_lo = max(run.streams[s][TIME].iloc[0] for s in streams)
@@ -199,6 +217,32 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     frames = {s: pd.concat(p, ignore_index=True) for s, p in parts.items()}
     return Run("concatenated", "concatenated", None, frames,
                meta={"segments": [s.__dict__ for s in segments]}), segments
+
+
+def _can_alternate(pool: Sequence[Run], left: Sequence[int], prev: str) -> bool:
+    """Whether the runs ``left`` can follow a piece of terrain ``prev`` with the terrain
+    changing at every switch.
+
+    Parameters
+    ----------
+    pool : sequence of Run
+        Candidate runs.
+    left : sequence of int
+        Indices into ``pool`` of the runs still to place.
+    prev : str
+        Terrain of the piece they follow.
+
+    Returns
+    -------
+    bool
+        True when no terrain has more than half the runs (rounded up), and ``prev`` not
+        more than half rounded down (it cannot take the first place).
+    """
+    n = len(left)
+    counts: dict[str, int] = {}
+    for k in left:
+        counts[str(pool[k].terrain)] = counts.get(str(pool[k].terrain), 0) + 1
+    return all(c <= ((n // 2) if t == prev else (n + 1) // 2) for t, c in counts.items())
 
 
 def truth_at(segments: Sequence[Segment], t_s: np.ndarray) -> np.ndarray:

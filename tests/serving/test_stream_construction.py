@@ -1,0 +1,39 @@
+"""How the held-out streams are strung together (:func:`concatenated_streams`), on small
+synthetic wheel runs: which runs follow which, and which runs are left out."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.run import Run
+from terrain.serving.evaluation import concatenated_streams
+
+
+def _run(i: int, terrain: str, length_s: float = 60.0) -> Run:
+    t = np.arange(0.0, length_s, 0.2)
+    frame = pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.5, "cur_l": 1.0, "cur_r": 1.0})
+    return Run(f"syn/{terrain}/{i:02d}", "syn", terrain, {"wheels": frame})
+
+
+def _joins(segments) -> int:
+    """Pieces that follow a piece of their own terrain (no switch between them)."""
+    return sum(a.terrain == b.terrain for a, b in zip(segments[:-1], segments[1:]))
+
+
+@pytest.mark.parametrize("terrains,fewest", [
+    # as many SNOW runs as all others together: they can alternate (BorealTC's folds hold
+    # 4-6 SNOW runs of 10-11)
+    ({"SNOW": 5, "ICE": 2, "FLOORING": 2, "SANDY_LOAM": 1}, 0),
+    ({"SNOW": 4, "ICE": 3, "ASPHALT": 2, "FLOORING": 1, "SANDY_LOAM": 1}, 0),
+    # seven SNOW runs among ten: three joins cannot be avoided, and no more are made
+    ({"SNOW": 7, "ICE": 2, "FLOORING": 1}, 3)])
+def test_the_terrain_changes_at_every_switch_where_the_runs_allow_it(terrains, fewest):
+    runs = [_run(i, t) for t, n in terrains.items() for i in range(n)]
+    for seed in range(40):
+        stream, segments = concatenated_streams(runs, ("wheels",), seed)
+        assert sorted(s.run_id for s in segments) == sorted(r.run_id for r in runs)
+        assert _joins(segments) == fewest, seed
+        # still the seeded stream: the same seed gives the same pieces
+        assert concatenated_streams(runs, ("wheels",), seed)[1] == segments
