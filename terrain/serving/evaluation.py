@@ -141,8 +141,9 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     Runs are taken in a seeded random order, each time choosing the first run whose terrain
     differs from the previous piece's and after which the runs left can still alternate, so
     the terrain changes at every switch wherever the runs allow it; each piece is a random
-    stretch of ``min_s``-``max_s`` seconds (capped at the run's length; every run is used
-    once).
+    stretch of ``min_s``-``max_s`` seconds (capped at the run's length). Every run is used
+    once, except a run whose streams overlap for less than ``min(min_s, 10 s)``: it is left
+    out and named in ``meta["skipped_runs"]`` (BorealTC's ASPHALT/02, 9.5 s).
 
     Parameters
     ----------
@@ -165,7 +166,8 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     Returns
     -------
     run : Run
-        The concatenated run (terrain ``None``; ``meta["segments"]`` lists the pieces).
+        The concatenated run (terrain ``None``; ``meta["segments"]`` lists the pieces,
+        ``meta["skipped_runs"]`` the ids of the runs too short for a piece).
     segments : list of Segment
 
     Raises
@@ -183,6 +185,7 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     order = list(rng.permutation(len(pool)))
     parts: dict[str, list[pd.DataFrame]] = {s: [] for s in streams}
     segments: list[Segment] = []
+    skipped: list[str] = []
     clock = 0.0
     while order:
         prev = segments[-1].terrain if segments else None
@@ -205,6 +208,7 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
         t_hi = min(run.streams[s][TIME].iloc[-1] for s in streams)
         length = min(float(rng.uniform(min_s, max_s)), t_hi - t_lo)
         if length < min(min_s, 10.0):
+            skipped.append(run.run_id)
             continue
         start = t_lo + float(rng.uniform(0.0, t_hi - t_lo - length))
         offset = clock - start
@@ -216,7 +220,8 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
         clock += length + gap_s
     frames = {s: pd.concat(p, ignore_index=True) for s, p in parts.items()}
     return Run("concatenated", "concatenated", None, frames,
-               meta={"segments": [s.__dict__ for s in segments]}), segments
+               meta={"segments": [s.__dict__ for s in segments],
+                     "skipped_runs": skipped}), segments
 
 
 def _can_alternate(pool: Sequence[Run], left: Sequence[int], prev: str) -> bool:

@@ -37,3 +37,15 @@ def test_the_terrain_changes_at_every_switch_where_the_runs_allow_it(terrains, f
         assert _joins(segments) == fewest, seed
         # still the seeded stream: the same seed gives the same pieces
         assert concatenated_streams(runs, ("wheels",), seed)[1] == segments
+
+
+def test_a_run_too_short_for_a_piece_is_named_not_dropped_silently():
+    # BorealTC's ASPHALT/02 (9.5 s) was left out of every held-out stream without a word,
+    # while the docstring said every run is used once
+    runs = [_run(0, "ICE"), _run(1, "SNOW"), _run(2, "ASPHALT", length_s=9.0),
+            _run(3, "FLOORING")]
+    stream, segments = concatenated_streams(runs, ("wheels",), seed=0)
+    assert "syn/ASPHALT/02" not in {s.run_id for s in segments} and len(segments) == 3
+    assert stream.meta["skipped_runs"] == ["syn/ASPHALT/02"]
+    whole = concatenated_streams([r for r in runs if r.terrain != "ASPHALT"], ("wheels",), 0)
+    assert whole[0].meta["skipped_runs"] == []
