@@ -115,8 +115,8 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError(f"--duration-s must be at least one slip window "
                           f"({SLIP_WINDOW.window_s:g} s), got {args.duration_s:g}")
     if not args.orchard_duration_s <= args.duration_s:  # NaN, or an orchard run to simulate
-        try:  # the simulation's own checks, before hours of fitting
-            SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.orchard_duration_s)
+        try:  # the simulation's own checks (SimConfig: at most 7200 s), before hours of fitting
+            list(SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.orchard_duration_s).configs())
         except ConfigError as exc:
             raise ConfigError(f"--orchard-duration-s: {exc}") from None
     vehicle = get_vehicle("husky")

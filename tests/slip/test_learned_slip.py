@@ -186,6 +186,29 @@ def test_slip_fit_command(tmp_path, monkeypatch):
     assert (tmp_path / "mlflow.db").exists()
 
 
+def test_slip_fit_refuses_a_too_long_orchard_run_before_simulating(tmp_path, monkeypatch,
+                                                                   capsys):
+    """An ``--orchard-duration-s`` the simulator refuses (over 7200 s) is an error before any
+    run is simulated or fitted, naming the option (it was SimConfig's bare message after
+    the whole grid had been simulated and fitted)."""
+    import pipelines.slip_fit as slip_fit
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("runs simulated before the options were checked")
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    monkeypatch.setattr(slip_fit, "simulated_runs", no_simulation)
+    rc = cli_main(["slip-fit", "--terrains", "SNOW", "--scenarios", "straight_accel",
+                   "--duration-s", "14", "--orchard-duration-s", "8000",
+                   "--cache-dir", str(tmp_path / "cache"), "--out", str(tmp_path / "out"),
+                   "--no-register"])
+    assert rc == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("terrain slip-fit: error: --orchard-duration-s:") and "7200" in err
+    assert not (tmp_path / "mlflow.db").exists()
+
+
 def test_variance_moment_of_the_calibrated_std(tiny_table):
     """``predict_std(moment="variance")`` scales the bulk (median) calibration so the mean
     normalised squared out-of-fold residual is 1: what a Kalman filter needs as variance."""
