@@ -85,6 +85,10 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
                 by: Sequence[str] = ("terrain",)) -> pd.DataFrame:
     """Median and 90th percentile absolute slip error over both sides, grouped.
 
+    Side-windows whose error is not finite (a model undefined there, e.g. eq. 27 in straight
+    driving, or a group left without a prediction) are left out of the median and p90 and
+    counted: ``n_scored`` says how many side-windows the figures are over.
+
     Parameters
     ----------
     pred, truth : ndarray, shape (n, 2)
@@ -99,7 +103,9 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     Returns
     -------
     pandas.DataFrame
-        ``by`` columns, ``median_abs_err``, ``p90_abs_err``, ``n_windows``, ``n_runs``.
+        ``by`` columns, ``median_abs_err``, ``p90_abs_err``, ``n_windows`` (windows of the
+        group), ``n_scored`` (side-windows with a finite error, at most ``2 n_windows``),
+        ``n_runs``.
     """
     err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
     frame = meta.loc[mask, list(by) + ["run_id"]].copy()
@@ -113,7 +119,8 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
         rows.append({**dict(zip(by, key)),
                      "median_abs_err": float(np.median(e)) if e.size else np.nan,
                      "p90_abs_err": float(np.percentile(e, 90)) if e.size else np.nan,
-                     "n_windows": int(len(g)), "n_runs": int(g["run_id"].nunique())})
+                     "n_windows": int(len(g)), "n_scored": int(e.size),
+                     "n_runs": int(g["run_id"].nunique())})
     return pd.DataFrame(rows)
 
 

@@ -150,6 +150,20 @@ def test_learned_model_on_held_out_seed(tiny_table):
         SlipRegressor().fit(X, y[:, :2])
 
 
+def test_error_table_counts_the_side_windows_it_scores():
+    """A model undefined on some windows (eq. 27 in straight driving: NaN) is scored on the
+    rest; the table says on how many (its n_windows counted every window of the group, so a
+    median over 2 of 8 side-windows read as one over all 4 windows)."""
+    meta = pd.DataFrame({"run_id": ["a", "a", "b", "b"], "terrain": ["SNOW"] * 4})
+    truth = np.zeros((4, 2))
+    pred = np.array([[0.1, 0.3], [np.nan, np.nan], [np.nan, np.nan], [np.nan, 0.2]])
+    row = error_table(pred, truth, meta, np.ones(4, bool)).iloc[0]
+    assert row["n_windows"] == 4 and row["n_runs"] == 2
+    assert row["n_scored"] == 3 and row["median_abs_err"] == pytest.approx(0.2)
+    empty = error_table(np.full((4, 2), np.nan), truth, meta, np.ones(4, bool)).iloc[0]
+    assert empty["n_scored"] == 0 and np.isnan(empty["median_abs_err"])
+
+
 def test_compensated_odometry_beats_plain_with_true_slip(tiny_table):
     runs, X, Y, meta = tiny_table
     truth = np.where(np.isnan(Y[list(SLIP_OUTPUTS)].to_numpy()), 1.0,
