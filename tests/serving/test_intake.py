@@ -58,7 +58,7 @@ def test_a_late_sample_is_refused_and_flagged_at_its_stamp():
     late_t = np.array([1.05])                          # before the newest, no sample of it
     intake.ingest("wheels", late_t, v[:1] + 0.1)
     assert intake.refused == {("wheels", TIME_RULE): 1}
-    assert (1.05, TIME_RULE) in intake.events["wheels"]
+    assert (1.05, 1.05, TIME_RULE) in intake.events["wheels"]   # a span of one refusal
 
 
 def test_samples_pushed_out_before_the_decision_clock_read_them_are_counted():
