@@ -326,7 +326,8 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     Returns
     -------
     pandas.DataFrame
-        Shape ``(n_samples, 1 + n_channels)``: ``t_s`` then every channel, SI units;
+        Shape ``(n_samples, 1 + n_channels)``: ``t_s`` then every numeric channel
+        (float64, integer columns included; text columns left out), SI units;
         ``attrs`` holds ``rate_hz``, ``method`` and ``streams``.
 
     Raises
@@ -343,7 +344,11 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         raise DataFormatError(f"run has none of the streams {list(streams)} "
                               f"(has {list(run.streams)})", run.source)
     frames = [run.streams[s] for s in present]
-    channels = [[c for c in f.columns if c != TIME and f[c].dtype.kind == "f"] for f in frames]
+    # numeric channels, integer ones included (a shipped Parquet column may hold int64:
+    # leaving it out made every feature of it a KeyError); text channels (a simulated run's
+    # per-sample ``terrain`` label) are not resampled
+    channels = [[c for c in f.columns if c != TIME and f[c].dtype.kind in "iuf"]
+                for f in frames]
     flat = [c for ch in channels for c in ch]
     clash = duplicated(flat)
     if clash:

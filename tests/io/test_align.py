@@ -271,3 +271,16 @@ def test_compiled_resampling_is_bit_identical_to_numpy_interp(m, n, seed, where)
     expected = _numpy_align_oracle(t, v, grid, 3.0 * step)
     np.testing.assert_array_equal(np.isnan(got), np.isnan(expected))
     assert np.array_equal(got, expected, equal_nan=True)
+
+
+def test_an_integer_channel_is_aligned_not_left_out(make_run):
+    # align_streams took only float64 columns: an int64 column (a shipped Parquet file may
+    # hold one, _check_table accepts it) vanished from the aligned frame, and windowing any
+    # signal set that needs it failed with a bare KeyError
+    t = np.arange(0, 101) / 10.0
+    wheels = _wheels(t)
+    wheels["cur_l"] = wheels["cur_l"].astype(np.int64)
+    frame = align_streams(make_run({"wheels": wheels}), ("wheels",), rate_hz=50.0)
+    assert list(frame.columns) == [TIME, *WHEEL_CHANNELS]
+    assert frame["cur_l"].dtype == np.float64
+    np.testing.assert_array_equal(frame["cur_l"].to_numpy(), 5.0)
