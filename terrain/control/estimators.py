@@ -242,8 +242,8 @@ class AgriMaRoVisualOdometryEKF:
             z = z[:3]
             if name in self.rows and np.all(np.isfinite(z)):
                 self.ekf.update(z, rows=self.rows[name])
-            if name == "cam":
-                self.t_cam = t
+                if name == "cam":   # only a sample the filter used renews the reference
+                    self.t_cam = t
         x = self.ekf.x
         vx, vy, w, ax, ay = x[3], x[4], x[5], x[6], x[7]
         pos = np.asarray(self.vehicle.wheel_positions_m)

@@ -252,3 +252,25 @@ def test_agrimaro_gyro_view_hands_the_controller_the_slope_of_its_speed(monkeypa
     np.testing.assert_allclose(a[k], line, atol=1e-9)
     modes = np.array([np.asarray(r["mode"])[0] for r in loop.log])
     assert np.all(modes[np.array([r["t_s"] for r in loop.log]) > 4.0] == STEADY)
+
+
+def test_agrimaro_non_finite_camera_samples_do_not_count_as_a_fresh_reference():
+    """A visual-odometry sample holding NaN is skipped by the filter, so it must not renew
+    the age the controller's stale-input guard reads: with it the age stayed 0 through 1.5 s
+    of NaN samples (the controller kept correcting on a coasting estimate); dropped rows give
+    the same age as NaN rows."""
+    from terrain.sim.closed_loop import replay_observations
+
+    sim = simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=("TILES",),
+                                          scenario="straight_accel", duration_s=2.5, seed=0))
+    ages = {}
+    for mode in ("dropped", "nan"):
+        est = estimator_for("agrimaro", lambda t: ("TILES", 1.0))
+        for obs in replay_observations(sim):
+            if obs.t_s > 1.5 and len(obs.cam):
+                cam = obs.cam[:0] if mode == "dropped" else obs.cam.copy()
+                cam[:, 1:] = np.nan
+                obs = obs._replace(cam=cam)
+            ages[mode] = est.update(obs).age_s
+    assert ages["dropped"] > 0.9
+    assert ages["nan"] == pytest.approx(ages["dropped"])
