@@ -179,9 +179,11 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     pool = [r for r in runs if all(s in r.streams for s in streams)]
     if len({r.terrain for r in pool}) < 2:
         raise ConfigError("a concatenated stream needs runs of at least two terrains")
-    span = [min(r.streams[s][TIME].iloc[-1] for s in streams)
-            - max(r.streams[s][TIME].iloc[0] for s in streams) for r in pool]
-    kept = [k for k in range(len(pool)) if span[k] >= min(min_s, 10.0)]  # others skipped
+    # each run's span with every stream present; a run shorter than a piece is skipped
+    bounds = [(max(r.streams[s][TIME].iloc[0] for s in streams),
+               min(r.streams[s][TIME].iloc[-1] for s in streams)) for r in pool]
+    shortest_s = min(min_s, 10.0)
+    kept = {k for k, (lo, hi) in enumerate(bounds) if hi - lo >= shortest_s}
     order = list(rng.permutation(len(pool)))
     parts: dict[str, list[pd.DataFrame]] = {s: [] for s in streams}
     segments: list[Segment] = []
@@ -189,25 +191,21 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     clock = 0.0
     while order:
         prev = segments[-1].terrain if segments else None
+        others = [k for k in order if pool[k].terrain != prev]
+        left = [k for k in order if k in kept]
         # the first run in the seeded order whose terrain differs from the previous piece's
         # and leaves runs that can still alternate; a plain first pick could strand runs of
-        # one terrain at the end, side by side, when an order without them existed. Where
-        # they cannot alternate, a run of the most frequent other terrain (fewest joins)
-        left = [k for k in order if k in kept]
-        count = Counter(pool[j].terrain for j in left)
-        most = max((count[pool[k].terrain] for k in order if pool[k].terrain != prev),
-                   default=0)
-        pick = next((k for k in order if pool[k].terrain != prev and
-                     (k not in kept or _can_alternate(pool, [j for j in left if j != k],
-                                                      pool[k].terrain))),
-                    next((k for k in order if pool[k].terrain != prev
-                          and count[pool[k].terrain] == most), order[0]))
+        # one terrain at the end, side by side, when an order without them existed
+        pick = next((k for k in others if k not in kept or _can_alternate(
+            pool, [j for j in left if j != k], pool[k].terrain)), None)
+        if pick is None:   # they cannot alternate: the most frequent other terrain (fewest joins)
+            count = Counter(pool[j].terrain for j in left)
+            pick = max(others, key=lambda k: count[pool[k].terrain], default=order[0])
         order.remove(pick)
         run = pool[pick]
-        t_lo = max(run.streams[s][TIME].iloc[0] for s in streams)
-        t_hi = min(run.streams[s][TIME].iloc[-1] for s in streams)
+        t_lo, t_hi = bounds[pick]
         length = min(float(rng.uniform(min_s, max_s)), t_hi - t_lo)
-        if length < min(min_s, 10.0):
+        if length < shortest_s:
             skipped.append(run.run_id)
             continue
         start = t_lo + float(rng.uniform(0.0, t_hi - t_lo - length))
@@ -244,9 +242,7 @@ def _can_alternate(pool: Sequence[Run], left: Sequence[int], prev: str) -> bool:
         more than half rounded down (it cannot take the first place).
     """
     n = len(left)
-    counts: dict[str, int] = {}
-    for k in left:
-        counts[str(pool[k].terrain)] = counts.get(str(pool[k].terrain), 0) + 1
+    counts = Counter(str(pool[k].terrain) for k in left)
     return all(c <= ((n // 2) if t == prev else (n + 1) // 2) for t, c in counts.items())
 
 
