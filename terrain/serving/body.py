@@ -302,10 +302,11 @@ def _json_refusal(body: bytes) -> tuple[int, dict] | None:
     """Refusal of a JSON body (see :func:`body_refusal`), or None."""
     hook = _ObjectsWithRepeatedKeys()
     try:
-        # the hook costs a Python call per number: only where a huge one may be
+        # parse_float costs a Python call per number: only where a huge one may be (None:
+        # json's own float)
         huge = _may_hold_huge_number(body)
-        doc = (json.loads(body, parse_float=_json_float, object_pairs_hook=hook) if huge
-               else json.loads(body, object_pairs_hook=hook))
+        doc = json.loads(body, parse_float=_json_float if huge else None,
+                         object_pairs_hook=hook)
     except (ValueError, RecursionError):
         return None  # MLflow's parser refuses it; its message is rewritten by the guard
     if hook.repeated is not None:
