@@ -46,6 +46,28 @@ def _read(path: Path) -> pd.DataFrame:
     return with_default_keys(pd.read_csv(path))
 
 
+def _cells_in_several_folders(cells: pd.DataFrame, keys: list[str]) -> list[str]:
+    """Name every cell that more than one folder holds.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        The folders' ``compare_cells.csv`` rows, with a ``folder`` column.
+    keys : list of str
+        Columns that, with ``model`` and ``history``, identify one cell.
+
+    Returns
+    -------
+    list of str
+        One line per duplicated cell: its model, keys and the folders holding it (empty
+        when every cell is in one folder).
+    """
+    ident = ["model", *keys, "history"]
+    folders = cells.groupby(ident, dropna=False)["folder"].agg(lambda f: sorted(set(f)))
+    return [f"{key[0]} ({', '.join(f'{k} {v}' for k, v in zip(ident[1:], key[1:]))}): "
+            + ", ".join(where) for key, where in folders.items() if len(where) > 1]
+
+
 def main() -> int:
     """Merge the folders, add the vote, write the table and figure."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -56,9 +78,15 @@ def main() -> int:
     parser.add_argument("--history", type=int, nargs="+", default=[1, 5, 10])
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
-    cells = pd.concat([_read(d / "compare_cells.csv") for d in args.dirs])
-    preds = pd.concat([_read(d / "predictions.csv") for d in args.dirs])
     keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "seed"]
+    cells = pd.concat([_read(d / "compare_cells.csv").assign(folder=str(d))
+                       for d in args.dirs])
+    twice = _cells_in_several_folders(cells, keys)
+    if twice:
+        parser.error("a cell is in more than one folder (it would count as several seeds); "
+                     "pass one folder per cell:\n  " + "\n  ".join(twice))
+    cells = cells.drop(columns="folder")
+    preds = pd.concat([_read(d / "predictions.csv") for d in args.dirs])
     rows = [cells]
     for vote in args.vote or [["svm", "cnn", "cnn-spectrogram"]]:
         name = "vote(" + "+".join(vote) + ")"

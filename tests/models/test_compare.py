@@ -237,6 +237,28 @@ def test_merge_compare_votes_across_folders_with_and_without_protocol(tmp_path, 
     assert "vote(m1+m2)" in (out / "compare_table.md").read_text()
 
 
+def test_merge_compare_refuses_a_cell_given_by_two_folders(tmp_path, monkeypatch, capsys):
+    import runpy
+    import sys
+
+    # the same model and seed in two folders (a rerun beside the first run) would count as
+    # two seeds in the table's mean and spread and double the vote's windows
+    m1 = np.array([0.1] * 3 + [0.9] * 3 + [0.8] * 6)
+    _compare_folder(tmp_path / "first", "m1", m1, with_protocol=True)
+    _compare_folder(tmp_path / "rerun", "m1", m1, with_protocol=True)
+    out = tmp_path / "merged"
+    monkeypatch.setattr(sys, "argv", [
+        "merge_compare.py", str(tmp_path / "first"), str(tmp_path / "rerun"), "--vote", "m1",
+        "--history", "1", "--out", str(out)])
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
+                       run_name="__main__")
+    assert done.value.code == 2
+    err = capsys.readouterr().err
+    assert "m1" in err and "first" in err and "rerun" in err and "seed 0" in err
+    assert not out.exists()
+
+
 def test_a_failing_cell_leaves_the_finished_cells_logged_and_saved(workdir, capsys):
     import mlflow
 
