@@ -164,6 +164,29 @@ def test_error_table_counts_the_side_windows_it_scores():
     assert empty["n_scored"] == 0 and np.isnan(empty["median_abs_err"])
 
 
+def test_slip_fit_summary_is_standard_json_with_null_for_a_figure_not_computed():
+    """With no slipping run held out, the median reduction over slipping runs is NaN; the
+    summary file wrote it as a bare ``NaN`` token, which is not JSON (strict readers refuse
+    it); it is ``null`` beside ``slipping_runs`` 0."""
+    from pipelines.slip_fit import _summary, summary_json
+
+    errors = pd.DataFrame({"windows": ["steady_straight"], "terrain": ["SNOW"],
+                           "split": ["held-out seeds"], "model": ["learned"],
+                           "median_abs_err": [0.01]})
+    odo = pd.DataFrame({"scenario": ["orchard"], "slid_off": [False], "plain_err_pct": [1.0],
+                        "compensated_err_pct": [0.5], "compensated_gyro_err_pct": [0.4],
+                        "gyro_heading_err_pct": [0.3], "reduction_pct": [50.0]})
+
+    def strict(token):
+        raise ValueError(f"not JSON: {token}")
+
+    text = summary_json(_summary(errors, odo))
+    loaded = json.loads(text, parse_constant=strict)
+    assert loaded["odometry.orchard.slipping_runs"] == 0
+    assert loaded["odometry.orchard.slipping_median_reduction_pct"] is None
+    assert loaded["held-out_seeds.learned.SNOW.median_abs_err"] == pytest.approx(0.01)
+
+
 def test_compensated_odometry_beats_plain_with_true_slip(tiny_table):
     runs, X, Y, meta = tiny_table
     truth = np.where(np.isnan(Y[list(SLIP_OUTPUTS)].to_numpy()), 1.0,
