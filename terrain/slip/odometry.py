@@ -54,8 +54,9 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         Track B, m.
     slip_left, slip_right : ndarray, shape (N,), optional
         SAE slip of each side (None = 0, plain odometry); a slip below
-        :data:`BRAKING_SLIP_FLOOR` (in the rim's direction) is taken as that floor, and the
-        samples so held are counted in a :class:`~terrain.errors.DataWarning`.
+        :data:`BRAKING_SLIP_FLOOR` (in the rim's direction) is taken as that floor and one
+        above 1 as 1 (ground speed 0), and the samples so held are counted in a
+        :class:`~terrain.errors.DataWarning`.
     chi : float or ndarray, shape (N,)
         Turning factor (1 = plain odometry).
     lateral_m_s : float or ndarray, shape (N,)
@@ -110,12 +111,17 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
 
 def _ground_speed(rim_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:
     """Side ground speed from its rim speed and slip, braking slip held at
-    :data:`BRAKING_SLIP_FLOOR` (counted, warned)."""
+    :data:`BRAKING_SLIP_FLOOR` and traction slip at 1 (each counted, warned)."""
     q = np.where(rim_m_s < 0, -1.0, 1.0) * np.asarray(slip, dtype=float)
     held = q < BRAKING_SLIP_FLOOR
     if held.any():
         warnings.warn(f"dead_reckon: {int(held.sum())} of {held.size} slips below "
                       f"{BRAKING_SLIP_FLOOR} (braking) taken as {BRAKING_SLIP_FLOOR}: the "
                       "ground speed 1 / (1 + s) would be unbounded", DataWarning, stacklevel=3)
+    spun = q > 1.0
+    if spun.any():
+        warnings.warn(f"dead_reckon: {int(spun.sum())} of {spun.size} slips above 1 taken as "
+                      "1 (ground speed 0): the SAE slip saturates at 1 (sae_slip)",
+                      DataWarning, stacklevel=3)
     q = np.clip(q, BRAKING_SLIP_FLOOR, 1.0)
     return ground_speed_from_slip(rim_m_s, np.where(rim_m_s < 0, -q, q))

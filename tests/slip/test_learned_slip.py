@@ -57,6 +57,22 @@ def test_dead_reckon_holds_a_braking_slip_at_its_floor_and_says_so():
         dead_reckon(t, rim, rim, HUSKY.track_m, np.full_like(t, -0.9), np.full_like(t, 0.3))
 
 
+def test_dead_reckon_holds_a_slip_above_one_at_one_and_says_so():
+    # a learned slip of 1.1 (no SAE slip exceeds 1, sae_slip's saturation) was clipped to 1,
+    # the rim spinning on a contact at rest, without a word
+    t = np.linspace(0.0, 1.0, 11)
+    rim = np.full_like(t, 0.5)
+    slip = np.full_like(t, 0.2)
+    slip[2:5] = 1.1
+    with pytest.warns(DataWarning, match="3 of 11 slips above 1"):
+        pose = dead_reckon(t, rim, rim, HUSKY.track_m, slip, slip)
+    ground = ground_speed_from_slip(rim, np.minimum(slip, 1.0))
+    assert pose[-1, 0] == pytest.approx(np.trapezoid(ground, t))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # slip 1 itself is the saturation, no warning
+        dead_reckon(t, rim, rim, HUSKY.track_m, np.ones_like(t), np.ones_like(t))
+
+
 def test_dead_reckon_straight_and_circle():
     t = np.linspace(0.0, 10.0, 1001)
     pose = dead_reckon(t, np.full_like(t, 0.5), np.full_like(t, 0.5), HUSKY.track_m)
