@@ -36,6 +36,7 @@ class DataFormatError(TerrainError, ValueError):
 
     def __init__(self, message: str, path: str | None = None, column: str | None = None,
                  row: int | None = None, line: int | None = None) -> None:
+        self.message = message
         self.path = None if path is None else str(path)
         self.column = column
         self.row = row

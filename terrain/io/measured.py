@@ -144,7 +144,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         All :class:`DataFormatError`, with file, column and file line.
     """
     path = Path(path)
-    text = _read_text(path)
+    text = read_text(path)
     if "\r" in text:   # CR LF and a lone CR (classic Mac OS) end a line as LF does
         text = text.replace("\r\n", "\n").replace("\r", "\n")
     header, rows, lines, skipped = _split_lines(text, path)
@@ -244,9 +244,26 @@ def _fast_numbers(rows: list[list[str]], header: list[str],
         return None
 
 
-def _read_text(path: Path) -> str:
-    """The file as text; directories, symlink loops, FIFOs/devices and non-UTF-8 bytes are
-    typed errors."""
+def read_text(path: Path) -> str:
+    """A file as UTF-8 text (a byte-order mark dropped), every way of failing typed.
+
+    Parameters
+    ----------
+    path : Path
+        File to read.
+
+    Returns
+    -------
+    str
+        Its text.
+
+    Raises
+    ------
+    UnreadableFileError
+        A directory, a FIFO/socket/device, a dangling symlink or symlink loop, no permission.
+    EncodingError
+        Bytes that are not UTF-8; names the first one's byte offset and line.
+    """
     if path.exists() and not path.is_file() and not path.is_dir():
         raise UnreadableFileError("is not a regular file (a FIFO, socket or device?)", path)
     try:
@@ -527,7 +544,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     meta: dict = {}
     if "meta" in files:
         try:
-            meta = json.loads(_read_text(files["meta"]))
+            meta = json.loads(read_text(files["meta"]))
         except json.JSONDecodeError as exc:
             raise DataFormatError(f"invalid JSON: {exc.msg}, column {exc.colno}",
                                   files["meta"], line=exc.lineno) from None

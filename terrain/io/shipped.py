@@ -29,7 +29,7 @@ import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, DataWarning, MissingColumnError,
                             NonFiniteError, NonNumericError, TimestampError)
-from terrain.io.measured import list_run_files, read_run
+from terrain.io.measured import list_run_files, read_run, read_text
 from terrain.io.plausibility import check_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 
@@ -278,7 +278,10 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
 def _parse_manifest(path: Path, hint: str):
     """Parse a manifest file, a failure named with its line and column and ``hint``."""
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
+        return json.loads(read_text(path))
+    except DataFormatError as exc:  # not UTF-8 (byte offset and line), not a file
+        raise type(exc)(f"unreadable manifest: {exc.message}; {hint}", path,
+                        line=exc.line) from None
     except json.JSONDecodeError as exc:  # where the parser stopped: line and column
         raise DataFormatError(f"unreadable manifest (invalid JSON: {exc.msg}, column "
                               f"{exc.colno}); {hint}", path, line=exc.lineno) from None

@@ -453,3 +453,13 @@ def test_a_conversion_that_fails_while_writing_leaves_the_data_as_it_was(tmp_pat
     assert [r.run_id for r in read_shipped("borealtc", out)] == [
         "borealtc/ASPHALT/00", "borealtc/FLOORING/04"]
     assert not [p for p in out.rglob(".*")]
+
+
+def test_a_manifest_with_a_non_utf8_byte_names_its_offset_and_line(tmp_path):
+    # it said only "unreadable manifest (UnicodeDecodeError)", with nothing to find the byte
+    path = tmp_path / "manifest.json"
+    path.write_bytes(b'{\n  "datasets": {\n    "vulpi": "caf\xe9"\n  }\n}\n')
+    with pytest.raises(DataFormatError) as info:
+        read_manifest(tmp_path)
+    assert info.value.path == str(path) and info.value.line == 3
+    assert "0xe9 at byte offset 35" in str(info.value) and "UTF-8" in str(info.value)
