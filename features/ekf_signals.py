@@ -164,9 +164,9 @@ def add_ekf_channels(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None,
                      ) -> pd.DataFrame:
     """A copy of the aligned ``frame`` with :data:`EKF_CHANNELS` appended.
 
-    Frames without ``vel_l``, ``vel_r`` or ``wz`` (or shorter than 2 rows) are returned
-    unchanged (the windowing step then reports the missing channels). See
-    :func:`ekf_channel_frame`.
+    Frames without ``vel_l``, ``vel_r`` or ``wz`` are returned unchanged; a frame shorter
+    than 2 rows (too short for the filter and for any window) gets the EKF channels as NaN,
+    so the windowing step lists its run as too short. See :func:`ekf_channel_frame`.
 
     Parameters
     ----------
@@ -182,7 +182,10 @@ def add_ekf_channels(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None,
     pandas.DataFrame
         ``frame`` with the EKF channels as extra columns, or ``frame`` itself.
     """
-    if not {TIME, "vel_l", "vel_r", "wz"} <= set(frame.columns) or len(frame) < 2:
+    if not {TIME, "vel_l", "vel_r", "wz"} <= set(frame.columns):
         return frame
+    if len(frame) < 2:
+        return pd.concat([frame, pd.DataFrame(np.nan, index=frame.index,
+                                              columns=list(EKF_CHANNELS))], axis=1)
     ekf = ekf_channel_frame(frame, wheel_rate_hz=wheel_rate_hz, settings=settings)
     return pd.concat([frame, ekf], axis=1)

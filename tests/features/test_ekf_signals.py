@@ -114,3 +114,17 @@ def test_window_channels_reject_missing_channels_and_gaps(husky_run):
         window_ekf_channels(ws.X[0], ws.channels, ws.rate_hz)
     with pytest.raises(ConfigError, match="rate_hz"):
         window_ekf_channels(ws.X[:2], ws.channels, 0.0)
+
+
+def test_a_run_of_one_aligned_sample_is_too_short_not_a_key_error():
+    # IMU and wheel streams that overlap by 0.01 s align to one 50 Hz row: the run is shorter
+    # than a window, as it is for the raw signal sets, not a KeyError on the EKF columns
+    imu = pd.DataFrame({"t_s": [0.0, 0.01], "wx": 0.0, "wy": 0.0, "wz": 0.0, "ax": 0.0,
+                        "ay": 0.0, "az": 9.81})
+    wheels = pd.DataFrame({"t_s": [0.0, 0.1], "vel_l": 0.5, "vel_r": 0.6, "cur_l": 5.0,
+                           "cur_r": 6.0})
+    run = Run("t/ICE/00", "t", "ICE", {"imu": imu, "wheels": wheels})
+    ws = make_windows([run], "all+ekf", WindowConfig(window_s=2.0, rate_hz=50.0))
+    assert len(ws) == 0 and ws.channels == ALL_CHANNELS + EKF_CHANNELS
+    assert ws.counts["too_short_runs"] == ["t/ICE/00"]
+    assert ws.counts["per_run"]["t/ICE/00"]["aligned_s"] == pytest.approx(0.02)
