@@ -8,7 +8,8 @@ statistics from :mod:`features.calculators`. Per window:
 * ``vel_mean__slope``: least-squares slope of the mean rim speed, m/s^2 (transients);
 * ``pitch``: :func:`terrain.slip.physics.pitch_from_accelerometer` with that slope removed, rad;
 * ``inv_chi``: :func:`features.calculators.regression_gain` of the gyro yaw rate on the wheel
-  yaw rate ``(v_R - v_L)/B`` (the inverse ICR expansion, seed 000 eqs. 1-5);
+  yaw rate ``(v_R - v_L)/B`` with the given vehicle's track B (the inverse ICR expansion,
+  seed 000 eqs. 1-5);
 * with terrain probabilities: one column per terrain (``p__<TERRAIN>``) and the physics slip
   under them (``phys_slip_l``, ``phys_slip_r``, ``phys_std``,
   :func:`terrain.slip.physics.physics_slip`).
@@ -201,7 +202,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     cols["vel_mean__slope"] = slope
     pitch = pitch_from_accelerometer(cols["ax__mean"], cols["ay__mean"], cols["az__mean"], slope)
     cols["pitch"] = pitch
-    cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["yaw_rate_wheels"]],
+    # the wheel yaw rate of this vehicle's track (the windows' yaw_rate_wheels is Husky's)
+    cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["vel_diff"]] / vehicle.track_m,
                                       INV_CHI_FLOOR_RAD_S)
     if probabilities is not None:
         for k, p in probabilities.items():

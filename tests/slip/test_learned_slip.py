@@ -147,6 +147,32 @@ def test_targets_and_features_on_simulated_runs(tiny_table):
     assert turning.any() and np.nanmedian(Y["chi"]) > 1.0
 
 
+def test_inv_chi_uses_the_vehicles_own_track():
+    """``inv_chi`` regresses the gyro yaw rate on the wheel yaw rate ``(v_R - v_L)/B`` of the
+    vehicle given; the windows' ``yaw_rate_wheels`` channel is Husky's (make_windows), so a
+    tracked vehicle (B = 0.393 m) turning at chi = 2 gave 0.73, not 0.5."""
+    from features.slip_features import (INV_CHI_FLOOR_RAD_S, SLIP_CHANNELS,
+                                        slip_feature_matrix)
+    from features.windows import HUSKY_TRACK_M
+    from terrain.vehicles import TRACKED
+
+    rate = 50.0
+    t = np.arange(100) / rate
+    vel_diff = 0.2 + 0.1 * np.sin(2 * np.pi * 0.5 * t)
+    values = {c: np.zeros_like(t) for c in SLIP_CHANNELS}
+    values.update(vel_l=0.5 - 0.5 * vel_diff, vel_r=0.5 + 0.5 * vel_diff, vel_diff=vel_diff,
+                  yaw_rate_wheels=vel_diff / HUSKY_TRACK_M, az=np.full_like(t, 9.81))
+    for vehicle in (HUSKY, TRACKED):
+        values["wz"] = vel_diff / (2.0 * vehicle.track_m)          # chi = 2
+        x = np.stack([values[c] for c in SLIP_CHANNELS])[None]
+        names, cols = slip_feature_matrix(x, SLIP_CHANNELS, rate, vehicle)
+        wheel_yaw = vel_diff / vehicle.track_m     # the ridge floor pulls the gain below 0.5
+        ridge = (wheel_yaw ** 2).sum() / ((wheel_yaw ** 2).sum()
+                                          + t.size * INV_CHI_FLOOR_RAD_S ** 2)
+        assert cols[0, names.index("inv_chi")] == pytest.approx(0.5 * ridge)
+        assert ridge > 0.97
+
+
 def test_learned_model_on_held_out_seed(tiny_table):
     runs, X, Y, meta = tiny_table
     test = (meta["seed"] == 100).to_numpy()
