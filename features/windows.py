@@ -168,7 +168,7 @@ class WindowConfig:
         If set, each run is first cut into non-overlapping partitions of this length and
         windows never cross a partition boundary (the papers' protocol uses 5 s).
     steady_only : bool
-        Keep only windows in steady motion: mean |vel_mean| >= ``min_speed_m_s`` and
+        Keep only windows in steady motion: |mean(vel_mean)| >= ``min_speed_m_s`` and
         std(vel_mean) <= ``max_speed_std_m_s`` (thesis ch. 8.1 uses steady-motion windows).
         It needs the wheel stream whatever the signals: runs without it are skipped, and a
         window whose wheel speeds are not all finite is dropped as a gap.
