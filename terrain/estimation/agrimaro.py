@@ -324,6 +324,8 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
       ``wheels`` stream (``vel_l``/``vel_r`` divided by the wheel radius), wheel 3 missing;
     * ``imu``: ``ax, ay, wz`` and ``yaw_imu``, the trapezoidal integral of ``wz`` from the
       first IMU sample (the drifting yaw of a magnetometer-less IMU, seed 001 ch. 4.5.3);
+      a non-finite ``wz`` is left out of the integral (the trapezoid spans the gap) and
+      its sample's ``yaw_imu`` is NaN;
     * ``steer``: ``delta_1..3``; ``cam``: ``v_cx, v_cy, yaw_rate_c, yaw_c``.
 
     Missing streams are left out (the filter runs on the others). The EMA pre-filter of
@@ -369,7 +371,12 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
             t = frame[TIME].to_numpy(dtype=float)
             if sensor == "imu":
                 wz = frame["wz"].to_numpy(dtype=float)
-                yaw = cumulative_trapezoid(np.nan_to_num(wz), t, initial=0.0)
+                # a non-finite wz is left out of the integral (it spans the gap), and its
+                # own yaw_imu is NaN like its wz (the filter skips and counts the sample)
+                ok = np.isfinite(wz)
+                yaw = np.full(wz.shape, np.nan)
+                if ok.any():
+                    yaw[ok] = cumulative_trapezoid(wz[ok], t[ok], initial=0.0)
                 vals = np.column_stack([frame["ax"].to_numpy(float), frame["ay"].to_numpy(float),
                                         wz, yaw])
             else:

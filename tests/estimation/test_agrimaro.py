@@ -149,3 +149,26 @@ def test_ema_filter_holds_the_previous_input_over_a_non_finite_sample():
     assert test.examples                                    # the example is in the docstring
     result = doctest.DocTestRunner().run(test, out=lambda _: None)
     assert result.failed == 0 and result.attempted >= 1
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_imu_yaw_integral_leaves_non_finite_gyro_samples_out(bad):
+    """``yaw_imu`` is the integral of ``wz``: a non-finite gyro sample was read as 0 rad/s
+    (``nan_to_num``), so a 1 s NaN gap while turning at 0.5 rad/s left the yaw 0.5 rad
+    short for the rest of the run (used as a measurement), and one inf made every later
+    yaw 9e305 rad (a frozen heading, wrapped to an arbitrary angle). Left out, the
+    integral spans the gap; the sample's own yaw_imu is non-finite like its wz."""
+    import pandas as pd
+
+    from terrain.estimation.agrimaro import agrimaro_samples
+    from terrain.run import Run
+
+    t = np.round(np.arange(501) * 0.01, 10)
+    wz = np.full(t.size, 0.5)
+    gap = (t > 2.0) & (t < 3.0) if np.isnan(bad) else t == 2.5
+    wz[gap] = bad
+    imu = pd.DataFrame({"t_s": t, "ax": 0.0, "ay": 0.0, "wz": wz})
+    run = Run("sim/TEST/00", "sim", "TEST", {"imu": imu}, vehicle="agrimaro")
+    yaw = agrimaro_samples(run, AgriMaRoEKFSettings(ema_alpha=()))["imu"].values[:, 3]
+    assert np.isnan(yaw[gap]).all()
+    np.testing.assert_allclose(yaw[~gap], 0.5 * t[~gap], atol=1e-9)
