@@ -119,7 +119,9 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         Sample times, s, strictly increasing.
     pose : ndarray, shape (N, 3)
         Measured ``x, y`` (m, world frame) and ``theta`` (rad, unwrapped). With
-        ``use_position=False`` only ``theta`` is read (x, y may be NaN).
+        ``use_position=False`` only ``theta`` is read (x, y may be NaN). A sample with a
+        non-finite value among those read or among its speeds is missing: the estimates are
+        held over it (no correction, no prediction) and its ``error`` is NaN.
     v_right_m_s, v_left_m_s : ndarray, shape (N,)
         Track / side speeds ``omega r`` at the same times, m/s.
     settings : AdaptiveObserverSettings
@@ -153,8 +155,10 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     lam_r, lam_l = s.lambda_gains
     lo, hi = s.eta_bounds
     use_pos = s.use_position
-    xh, yh, th = (float(p[0, 0]) if use_pos else 0.0, float(p[0, 1]) if use_pos else 0.0,
-                  float(p[0, 2]))
+    # the observer starts at the first pose it can read (a missing first sample is held)
+    start = p[int(np.argmax(np.isfinite(p if use_pos else p[:, 2:]).all(axis=1)))]
+    xh, yh, th = (float(start[0]) if use_pos else 0.0, float(start[1]) if use_pos else 0.0,
+                  float(start[2]))
     er, el = float(s.eta0[0]), float(s.eta0[1])
     pose_hat = np.empty((n, 3))
     eta = np.empty((n, 2))
@@ -163,7 +167,8 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     vrs, vls, dts = vr.tolist(), vl.tolist(), dt.tolist() + [0.0]
     for k in range(n):
         theta, a, b = ths[k], vrs[k], vls[k]
-        if not (math.isfinite(theta) and math.isfinite(a) and math.isfinite(b)):
+        if not (math.isfinite(theta) and math.isfinite(a) and math.isfinite(b)
+                and (not use_pos or (math.isfinite(xs[k]) and math.isfinite(ys[k])))):
             # a missing sample: hold the estimates (no correction, no prediction)
             pose_hat[k] = (xh, yh, th)
             eta[k] = (er, el)

@@ -74,6 +74,24 @@ def test_observer_converges_exponentially_on_exact_kinematics():
     assert e_slow[-1] < 0.05 and e_slow[t > 20].max() > err[t > 20].max()
 
 
+def test_observer_holds_over_a_missing_position_sample():
+    """A NaN position sample is a missing sample like a NaN heading or speed: the estimates
+    are held over it. It was read (only theta and the speeds were checked), so one NaN x
+    made e_x, x^ and both eta NaN for the rest of the run; a NaN first sample did the same
+    (the observer started at it)."""
+    d = 0.3
+    t, pose = _kinematic_run(0.9, 0.8, 0.6, 0.4, d)
+    n = t.size
+    pose[1000, 0] = np.nan                   # one missing position fix at t = 10 s
+    pose[0, 2] = np.nan                      # and a missing first heading (the start pose)
+    res = run_adaptive_observer(t, pose, np.full(n, 0.6), np.full(n, 0.4),
+                                AdaptiveObserverSettings(half_track_m=d))
+    assert np.isfinite(res.eta).all() and np.isfinite(res.pose_hat).all()
+    assert np.isnan(res.error[[0, 1000]]).all()
+    err = np.abs(res.eta - np.array([0.9, 0.8])).max(axis=1)
+    assert err[t > 20].max() < 1e-3
+
+
 def test_yaw_only_observer_identifies_the_turning_combination():
     d = 0.3
     t, pose = _kinematic_run(0.9, 0.8, 0.6, 0.4, d)
