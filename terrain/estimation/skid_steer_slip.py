@@ -560,7 +560,8 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
         Times of the slip model's outputs, s, increasing (None: no pseudo-measurement).
     pseudo_slip : ndarray, shape (k, 2)
         Slip of sides 1 and 2 from the slip model; a non-finite side is left out of that
-        update (the other side is used), a window with neither side finite is skipped.
+        update (the other side is used), a window with neither side finite is skipped; both
+        are counted in ``counts["slip_model"]["non_finite"]``.
     pseudo_std : ndarray, shape (k, 2) or (k,)
         Its standard deviation (the larger of the sides used is used for both rows).
     gate : Gate, optional
@@ -610,10 +611,11 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     sp = np.where(valid, sp, np.nan)
     sd = np.where(valid.all(axis=1), sd, np.max(np.where(valid, sd2, -np.inf), axis=1))
     ok = valid.any(axis=1) & np.isfinite(sd) & (sd > 0)
+    # a window with neither side usable still reaches the filter, which skips and counts it
+    base["slip_model"] = SensorSamples(tp, sp)
     tp, sp, sd = tp[ok], sp[ok], sd[ok]
     dd = np.where(np.isfinite(dd[ok]), dd[ok], sd)
     ts = np.where(np.isfinite(ts[ok]), ts[ok], 0.0)
-    base["slip_model"] = SensorSamples(tp, sp)
     # segment ends: the grid step that receives each pseudo-measurement
     steps = step_index(t_grid_s, tp, clip=True)
     ends = np.unique(steps)

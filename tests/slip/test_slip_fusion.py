@@ -187,6 +187,22 @@ def test_segments_process_each_pseudo_measurement_once(sandy):
         == int(np.sum(t <= 20.0 + 1e-9))
 
 
+def test_a_pseudo_measurement_with_no_finite_side_is_counted_as_non_finite():
+    """A window with one non-finite side was counted in ``non_finite`` (and in the run
+    summary's "non-finite samples skipped"); one with neither side finite was dropped before
+    the filter saw it, so it vanished from ``samples`` and ``non_finite`` alike."""
+    from terrain.estimation.runner import SensorSamples
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings, run_with_pseudo_slip
+    t = np.arange(401) / 100.0
+    samples = {"wheels": SensorSamples(t, np.full((t.size, 2), 0.3))}
+    tp = np.array([0.5, 1.5, 2.5, 3.5])
+    slip = np.array([[0.1, 0.1], [np.nan, np.nan], [np.nan, 0.1], [0.1, 0.1]])
+    res = run_with_pseudo_slip(t, samples, SkidSteerSlipSettings(), tp, slip,
+                               np.full(4, 0.05))
+    c = res.counts["slip_model"]
+    assert (c["samples"], c["non_finite"], c["used"]) == (4, 2, 3)
+
+
 def test_a_spinning_start_gets_a_wide_physics_std_and_a_transient_drift():
     """A start on ice spins the wheels (true slip ~0.5 for ~2 s) at the curve's flat
     maximum traction: the window covering it must not claim the knee slip with a small std
