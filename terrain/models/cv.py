@@ -239,9 +239,10 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     Raises
     ------
     ConfigError
-        Unknown protocol, more folds than groups, or every class with fewer windows
+        Unknown protocol, more folds than groups, every class with fewer windows
         (``grouped``) or 5 s partitions (``paper``) than folds, which the stratified
-        splitters refuse (``grouped``, ``paper``).
+        splitters refuse (``grouped``, ``paper``), or a ``grouped`` split that leaves a fold
+        without a test unit (few runs).
     """
     n_groups = len(np.unique(groups))
     if protocol in ("grouped", "paper") and not 2 <= n_splits <= n_groups:
@@ -260,8 +261,16 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
             raise ConfigError(f"{n_splits} folds, and no class has as many {what} (at most "
                               f"{counts.max()}): use shorter windows or fewer folds")
     if protocol == "grouped":
-        yield from StratifiedGroupKFold(n_splits, shuffle=True, random_state=seed).split(
-            labels, labels, groups)
+        splits = list(StratifiedGroupKFold(n_splits, shuffle=True, random_state=seed).split(
+            labels, labels, groups))
+        empty = [k for k, (_, test) in enumerate(splits) if not len(test)]
+        if empty:
+            # with few runs the splitter can leave a fold with no test run (the fit on it then
+            # failed with scikit-learn's bare "Found array with 0 sample(s)")
+            raise ConfigError(f"StratifiedGroupKFold({n_splits}, seed {seed}) puts no test run "
+                              f"in fold(s) {empty} of {n_groups} split units: use fewer folds "
+                              "or more runs")
+        yield from splits
     elif protocol == "loro":
         yield from LeaveOneGroupOut().split(labels, labels, groups)
     elif protocol == "paper":
@@ -463,7 +472,7 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     Raises
     ------
     ConfigError
-        Unknown ``protocol`` (from :func:`iter_splits`).
+        Unknown ``protocol``, or folds :func:`iter_splits` refuses.
     RuntimeError
         If a split unit lands on both sides of a split (an internal invariant; it signals a
         bug, not bad input).

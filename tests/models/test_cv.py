@@ -113,6 +113,24 @@ def test_no_class_with_as_many_members_as_folds_is_a_config_error(protocol):
         list(iter_splits(protocol, labels, groups, 0, n_splits=5))
 
 
+def test_a_grouped_fold_left_without_test_runs_is_a_config_error():
+    # 5 runs of 2 terrains (29, 44, 29 windows of A; 12, 10 of B), 5 folds: as many runs as
+    # folds, yet StratifiedGroupKFold(5, seed 0) puts no run in one test fold, and fitting on
+    # it reached the user as scikit-learn's bare "Found array with 0 sample(s)"
+    sizes = [29, 44, 29, 12, 10]
+    labels = np.repeat(["A", "A", "A", "B", "B"], sizes)
+    groups = np.repeat([f"r{i}" for i in range(5)], sizes)
+    with pytest.raises(ConfigError, match="no test run"):
+        list(iter_splits("grouped", labels, groups, 0, n_splits=5))
+    X = np.random.default_rng(0).standard_normal((len(labels), 3))
+    t = np.arange(len(labels), dtype=float)
+    with pytest.raises(ConfigError, match="no test run"):
+        cross_validate(lambda seed: make_svm(), X, labels, groups, groups, t, t + 1.0,
+                       seeds=(0,))
+    # every fold of this split holds a test run: nothing refused
+    assert all(len(test) for _, test in iter_splits("grouped", labels, groups, 0, n_splits=2))
+
+
 def test_vulpi_windows_too_long_for_the_folds_are_a_config_error(vulpi_runs):
     # 45 s windows leave every Vulpi class fewer than 5 windows
     config = ExperimentConfig(dataset="vulpi", window_s=45.0, seeds=(0,))
