@@ -126,7 +126,7 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
         Finite values along the last axis (e.g. NEES over time, or the accelerometer
         samples of each window).
     max_lag : int
-        Largest lag of the autocorrelation summed, samples.
+        The sum runs over lags ``1 .. min(N, max_lag) - 1`` at most, samples.
     threshold : float
         The sum stops at the first lag whose autocorrelation is below it.
 
@@ -161,7 +161,7 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     series : ndarray, shape (N,)
         Values (e.g. NEES over time).
     max_lag : int
-        Largest lag of the autocorrelation summed, samples.
+        The sum runs over lags ``1 .. min(N, max_lag) - 1`` at most, samples.
 
     Returns
     -------
