@@ -192,7 +192,8 @@ class TerrainModel(PythonModel):
         ImplausibleValueError
             A value beyond its channel's plausibility range (:mod:`terrain.io.plausibility`).
         DataFormatError
-            Samples not at the model's rate, or timestamps not increasing within a run.
+            Samples not at the model's rate, timestamps not increasing within a run, or a
+            sample without a run.
         """
         if self._pipeline is None:
             self.load_context(context)
@@ -242,7 +243,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         periods (a hole without rows: a gap must be NaN rows on the uniform clock); names
         the run and row.
     DataFormatError
-        A median sample rate more than 1 % off ``config.rate_hz``.
+        A median sample rate more than 1 % off ``config.rate_hz``, or a sample without a
+        run (``run`` missing: names the first row).
     """
     cols = [RUN, TIME] + input_channels(channels)
     missing = [c for c in cols if c not in samples.columns]
@@ -251,6 +253,11 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                  "model input", missing[0])
     # the readers' plausibility ranges also guard served input (1e300 would overflow features)
     check_ranges(samples, "model input", {c: c for c in cols[2:]})
+    no_run = samples[RUN].isna().to_numpy()
+    if no_run.any():  # groupby would leave these samples out without a word
+        row = int(np.flatnonzero(no_run)[0])
+        raise DataFormatError(f"{int(no_run.sum())} sample(s) without a run (every sample "
+                              "names the run it belongs to)", "model input", RUN, row)
     out, dropped, empty = [], 0, 0
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)

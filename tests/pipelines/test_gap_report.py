@@ -149,3 +149,16 @@ def test_served_model_refuses_a_time_hole_without_rows():
         predict_windows(_Constant(), _samples(t), ["vel_l", "vel_r", "cur_l", "cur_r"],
                         WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
     assert exc.value.row == 50 and "1 step(s) longer than 1.5 sample periods" in str(exc.value)
+
+
+def test_served_model_refuses_samples_without_a_run():
+    # a row whose run is missing (JSON null through `mlflow models serve`, which passes it
+    # on as NaN) was left out by the groupby without a word: all-null runs gave 0 windows
+    from terrain.errors import DataFormatError
+    samples = _samples(np.round(np.arange(0.0, 6.0, 0.1), 6)).astype({"run": object})
+    samples.loc[40:, "run"] = None
+    with pytest.raises(DataFormatError) as exc:
+        predict_windows(_Constant(), samples, ["vel_l", "vel_r", "cur_l", "cur_r"],
+                        WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
+    assert exc.value.column == "run" and exc.value.row == 40
+    assert "20 sample(s) without a run" in str(exc.value)
