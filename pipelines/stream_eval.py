@@ -111,7 +111,8 @@ def main(args: argparse.Namespace) -> int:
     if args.folds < 2:
         raise ConfigError(f"--folds must be at least 2 (a model needs runs to train on and "
                           f"runs held out), got {args.folds}")
-    WindowConfig(window_s=args.window_s, hop_s=args.hop_s)  # the wheel-cv windows' checks
+    # the wheel-cv windows' checks, at the wheel recipe's clock rate they are cut at
+    WindowConfig(window_s=args.window_s, hop_s=args.hop_s, rate_hz=RECIPES["wheels"].rate_hz)
     if not 0 <= args.switch_gap_s < math.inf:
         raise ConfigError(f"--switch-gap-s must be a finite number of seconds >= 0, got "
                           f"{args.switch_gap_s}")

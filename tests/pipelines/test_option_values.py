@@ -222,6 +222,9 @@ _REFUSED = [
     (["audit", "--dataset", "vulpi", "--json", "a.json", "--replay-input-lowpass-hz", "0"],
      "argument --replay-input-lowpass-hz: must be a finite number > 0, got 0"),
     (["stream-eval", "--window-s", "-1"], "argument --window-s: must be a finite number"),
+    # 3 samples at the wheel CV's 10 Hz (15 at the 50 Hz the check used): refused after the
+    # dataset was read and an MLflow run opened
+    (["stream-eval", "--window-s", "0.3"], "at least 4 samples"),
     (["compare", "--threads", "1000000"],
      "argument --threads: must be an integer in 1-1024, got 1000000"),
     (["benchmark", "--repeats", "1000000000000"], "--repeats"),
