@@ -748,7 +748,8 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
     recipe : ModelRecipe
         Signals, window (history) length, rate, features and classifier.
     hop_s : float
-        Hop between windows (decisions), s.
+        Hop between windows (decisions), s; the windows are cut a whole number of samples
+        apart (:attr:`WindowConfig.hop_samples`), and the filter steps at that hop.
     seeds : sequence of int
         Fold seeds.
     smoothings : Mapping[str, SmoothingConfig]
@@ -763,8 +764,11 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
         seeds' out-of-fold windows), ``run_mean_accuracy`` (smoothing -> mean over runs of
         the per-run accuracy, so the long runs do not dominate) and ``by_seed``.
     """
-    ws = make_windows(runs, recipe.signals, WindowConfig(window_s=recipe.window_s,
-                                                         hop_s=hop_s, rate_hz=recipe.rate_hz))
+    window = WindowConfig(window_s=recipe.window_s, hop_s=hop_s, rate_hz=recipe.rate_hz)
+    ws = make_windows(runs, recipe.signals, window)
+    # the filter steps at the hop the windows are cut at: a whole number of samples
+    # (0.25 s at 10 Hz is cut as 0.2 s)
+    cut_hop_s = window.hop_samples / recipe.rate_hz
     labels = ws.labels.astype(str)
     F = recipe_features(recipe, ws.channels).fit(ws.X).transform(ws.X)
     by_seed: dict[str, list[float]] = {name: [] for name in smoothings}
@@ -774,7 +778,7 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
                                            ws.run_ids, seed, n_splits, recipe.run_balanced)
         names = np.asarray(classes, dtype=object)
         for name, config in smoothings.items():
-            ok = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, hop_s, config)] == labels
+            ok = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, cut_hop_s, config)] == labels
             by_seed[name].append(float(ok.mean()))
             by_run[name].append(float(pd.Series(ok).groupby(ws.run_ids).mean().mean()))
     return {"n_windows": len(ws), "n_runs": int(len(np.unique(ws.run_ids))),

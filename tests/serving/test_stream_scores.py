@@ -108,3 +108,32 @@ def test_offline_scoring_takes_unclassified_windows_as_the_live_service_does():
     names = np.array(list(classes) + [None], dtype=object)
     np.testing.assert_array_equal(names[filter_sequence(proba, 0.5, config)],
                                   np.array([d.terrain for d in live], dtype=object))
+
+
+def test_window_cv_smooths_at_the_hop_its_windows_were_cut_at():
+    # at the wheel recipe's 10 Hz a hop of 0.25 s is cut as 2 samples (0.2 s): the windows
+    # of hop 0.25 and 0.2 are the same, but the filter was stepped as if 0.25 s apart
+    # (p_switch 0.5 instead of 0.4 at a 0.5 s dwell), so the smoothed accuracies differed
+    from dataclasses import replace
+
+    from terrain.run import Run
+    from terrain.serving.evaluation import window_cv
+    from terrain.serving.recipes import RECIPES
+    from terrain.serving.smoothing import SmoothingConfig
+
+    def run(i, terrain, level):
+        rng = np.random.default_rng(i)
+        t = np.arange(0.0, 60.0, 0.1)
+        v = 0.5 + 0.2 * np.sin(t / 3 + i) + 0.02 * rng.standard_normal(len(t))
+        cur = level + 2.0 * v + 0.8 * rng.standard_normal(len(t))
+        frame = pd.DataFrame({"t_s": t, "vel_l": v, "vel_r": v + 0.05 * np.sin(t / 5),
+                              "cur_l": cur, "cur_r": cur + 0.3 * rng.standard_normal(len(t))})
+        return Run(f"syn/{terrain}/{i:02d}", "syn", terrain, {"wheels": frame})
+
+    runs = [run(i, "ICE" if i % 2 else "SNOW", 3.0 if i % 2 else 3.5) for i in range(6)]
+    recipe = replace(RECIPES["wheels"], n_trees=20)
+    smoothing = {"f": SmoothingConfig(dwell_s=0.5, evidence_power=1.0)}
+    cut, exact = (window_cv(runs, recipe, hop, [0], smoothing, n_splits=2)
+                  for hop in (0.25, 0.2))
+    assert cut["n_windows"] == exact["n_windows"]
+    assert cut["pooled_accuracy"] == exact["pooled_accuracy"]
