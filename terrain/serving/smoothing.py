@@ -4,7 +4,8 @@ Forward filter (Rabiner, "A tutorial on hidden Markov models", Proc. IEEE 77(2) 
 eq. 20, the forward variable normalised at every step). The hidden state is the terrain
 class; between two decisions (one hop apart) the robot stays on its terrain with
 probability ``1 - p_switch`` and otherwise moves to any other class uniformly, with
-``p_switch = hop_s / dwell_s`` (a mean dwell time ``dwell_s`` on one terrain). The
+``p_switch = min(hop_s / dwell_s, (K - 1) / K)`` (a mean dwell time ``dwell_s`` on one
+terrain; a dwell shorter than ``K / (K - 1)`` hops means no memory, a uniform prior). The
 classifier's posterior ``q`` stands for the emission likelihood up to the class prior
 (the SVM is trained class-balanced, so the prior is uniform); it is tempered by
 ``evidence_power`` because overlapping windows are not independent observations::
@@ -167,7 +168,10 @@ class ForwardFilter:
 
     def __init__(self, n_classes: int, hop_s: float, config: SmoothingConfig) -> None:
         self.config = config
-        self.p_switch = 1.0 if config.dwell_s is None else min(1.0, hop_s / config.dwell_s)
+        # a dwell under K/(K-1) hops is no memory (a uniform prior), not a push away from
+        # the last terrain (lam of predict_steps would turn negative)
+        self.p_switch = 1.0 if config.dwell_s is None else min(
+            (n_classes - 1) / n_classes, hop_s / config.dwell_s)
         self.p = np.full(n_classes, 1.0 / n_classes)
         self.current: int | None = None
         self._streak = 0

@@ -200,6 +200,18 @@ def test_no_decision_before_a_valid_window_and_invalid_windows_only_predict():
     assert decided == 0 and 0.5 < p[0] < 0.9 ** 0.5 / (0.9 ** 0.5 + 0.1 ** 0.5) + 1e-12
 
 
+def test_a_dwell_shorter_than_the_hop_forgets_the_past_rather_than_pushing_away_from_it():
+    # hop 0.5 s, dwell 0.2 s: the leave probability was held at 1, so the prediction put all
+    # of the last terrain's belief on the other class and a window mildly naming terrain 0
+    # after a confident one was decided as 1; a dwell that short means no memory (uniform)
+    filt = ForwardFilter(2, 0.5, SmoothingConfig(dwell_s=0.2))
+    filt.update(np.array([0.99, 0.01]))
+    decided, p = filt.update(np.array([0.6, 0.4]))
+    assert decided == 0
+    np.testing.assert_allclose(p, forward_step(np.array([0.5, 0.5]), np.array([0.6, 0.4]),
+                                               0.5, 0.5))
+
+
 @pytest.mark.parametrize("kwargs", [dict(dwell_s=0.0), dict(dwell_s=float("inf")),
                                     dict(dwell_s=float("nan")), dict(dwell_s="10"),
                                     dict(evidence_power=0.0),
