@@ -81,8 +81,11 @@ class ReadReport:
         its 1-based position; the last one's name adds ``a trailing comma?``).
     warnings : list[str]
         What the file itself makes likely but not certain (rule ``last_line``: no line
-        break after the last line, which may then have been cut off while being written),
-        each naming the file; :func:`read_run` adds them to the run's warnings.
+        break after the last line, which may then have been cut off while being written;
+        rule ``timestamp_units``: a rate outside the stream's nominal range; rule
+        ``accel_units``: an accelerometer that sees no gravity), each naming the file;
+        :func:`read_stream_csv` warns them and :func:`read_run` adds them to the run's
+        warnings.
     """
 
     path: str
@@ -215,10 +218,13 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
                                            report, name, lines)
     frame = pd.DataFrame(out)
     stream = STREAM_NAMES.get(kind, kind)
-    check_rate(frame[TIME].to_numpy(), stream, path)
+    check_rate(frame[TIME].to_numpy(), stream, path, found=report.warnings)
     check_ranges(frame, path, mapping, lines)
     if kind == "imu":
-        check_accel_units(frame, path)   # a file in g is refused, a dead sensor warned
+        # a file in g is refused, a dead sensor warned
+        check_accel_units(frame, path, found=report.warnings)
+    for msg in report.warnings:
+        warnings.warn(msg, DataWarning, stacklevel=2)
     return frame, report
 
 
@@ -578,8 +584,6 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
             gaps[name] = report.gaps
     checks = check_run(run_id, streams, vehicle,
                        {STREAM_NAMES.get(k, k): str(p) for k, p in files.items()})
-    for msg in file_warnings:
-        warnings.warn(msg, DataWarning, stacklevel=2)
     checks["warnings"] = file_warnings + checks["warnings"]
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
                vehicle=vehicle, source=str(files["pro"].parent),

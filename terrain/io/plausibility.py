@@ -264,7 +264,7 @@ def accel_in_g(median_specific_force: float) -> bool:
     return DEAD_ACCEL_M_S2 <= median_specific_force < G_UNITS_BELOW_M_S2
 
 
-def check_accel_units(frame: pd.DataFrame, path) -> None:
+def check_accel_units(frame: pd.DataFrame, path, found: list[str] | None = None) -> None:
     """Rule ``accel_units``: an accelerometer in g, told apart from a dead one.
 
     Parameters
@@ -273,6 +273,9 @@ def check_accel_units(frame: pd.DataFrame, path) -> None:
         IMU frame (``t_s``, ``ax``, ``ay``, ``az`` in the file's units, supposedly m/s^2).
     path : str or Path
         File (for the message).
+    found : list of str, optional
+        Where the dead-sensor warning goes (the reader's :class:`ReadReport` warnings, which
+        it warns and the run keeps); None: warned here as a :class:`DataWarning`.
 
     Raises
     ------
@@ -289,9 +292,10 @@ def check_accel_units(frame: pd.DataFrame, path) -> None:
         return  # every sample in a stuck stretch: the stuck_sensor rule reports it
     median = float(np.median(np.linalg.norm(acc[live], axis=1)))
     if median < DEAD_ACCEL_M_S2:
-        _warn(f"{path}: rule accel_units: median specific force {median:.2f} over "
-              f"{int(live.sum())} sample(s) outside stuck stretches: the accelerometer sees "
-              "no gravity (9.81 m/s^2, or 1 in g): dead or disconnected sensor; assumed m/s^2")
+        _say(f"{path}: rule accel_units: median specific force {median:.2f} over "
+             f"{int(live.sum())} sample(s) outside stuck stretches: the accelerometer sees "
+             "no gravity (9.81 m/s^2, or 1 in g): dead or disconnected sensor; assumed m/s^2",
+             found)
     elif accel_in_g(median):
         raise UnitError(f"rule accel_units: median specific force {median:.2f} is far below "
                         "9.81 m/s^2; the file looks like units of g, expected m/s^2 (x 9.81)",
@@ -391,7 +395,8 @@ def timestamp_unit(rate_hz: float, stream: str) -> str | None:
                  if lo <= float(f"{per_s * rate_hz:.4g}") <= hi), None)
 
 
-def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time") -> None:
+def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time",
+               found: list[str] | None = None) -> None:
     """Rule ``timestamp_units``: implied sample rate against the stream's nominal rate.
 
     Parameters
@@ -405,6 +410,9 @@ def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time") ->
     time_column : str
         Name of the time column where the timestamps were read (for the message: ``time``
         in the measured files, ``t_s`` in a served model's request).
+    found : list of str, optional
+        Where the warning of a rate outside the nominal range goes (as for
+        :func:`check_accel_units`); None: warned here.
 
     Raises
     ------
@@ -425,8 +433,8 @@ def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time") ->
             f"the timestamps look like {word} ({unit}); divide the time column by {factor}",
             path, time_column)
     if not lo <= rate <= hi:
-        _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
-              f"Hz of the {stream} stream; timestamps assumed in s")
+        _say(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
+             f"Hz of the {stream} stream; timestamps assumed in s", found)
 
 
 def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
@@ -519,6 +527,14 @@ def stuck_stretches(streams: Mapping[str, pd.DataFrame]) -> dict[str, list[list[
 
 def _warn(message: str) -> None:
     warnings.warn(message, DataWarning, stacklevel=3)
+
+
+def _say(message: str, found: list[str] | None) -> None:
+    """A likely-wrong finding: into ``found`` when given (its owner warns it), else warned."""
+    if found is None:
+        warnings.warn(message, DataWarning, stacklevel=3)
+    else:
+        found.append(message)
 
 
 def _check_clocks(imu, wheels, src, found, time_column: str = "time") -> dict[str, float]:

@@ -124,3 +124,29 @@ def test_a_rate_at_the_nominal_bound_is_not_warned_and_the_message_agrees():
         check_rate(t, "wheels", "f.csv")
     with pytest.warns(UserWarning, match="1010 Hz outside the nominal 1-1000 Hz"):
         check_rate(np.arange(2500) * 0.00099, "wheels", "f.csv")
+
+
+@pytest.mark.parametrize("case, rule", [("rate", "implied sample rate 5 Hz outside"),
+                                        ("dead", "rule accel_units")])
+def test_a_file_rule_warning_is_counted_in_the_run_and_its_input_report(tmp_path, case,
+                                                                        rule):
+    """The readers' file rules that only warn (an IMU rate outside its nominal range,
+    assumed s; an accelerometer that sees no gravity, assumed m/s^2) were printed but not
+    kept in ``Run.meta["warnings"]``: the input report then said "nothing repaired, dropped
+    or skipped" and counted 0 plausibility warnings."""
+    from terrain.io.report import input_report
+
+    if case == "rate":
+        imu = _imu(1001, rate_hz=5.0)               # 5 Hz: below the IMU's 10-2000 Hz
+        pro = _pro(200.0)
+    else:
+        imu = _imu(50)
+        imu[["ax", "ay", "az"]] = 0.01 * np.random.default_rng(3).standard_normal((50, 3))
+        pro = _pro(0.5, rate_hz=20.0)
+    _write(tmp_path, imu, pro)
+    (run,), messages = _read(tmp_path)
+    assert sum(rule in m for m in messages) == 1          # printed once
+    assert sum(rule in m for m in run.meta["warnings"]) == 1
+    report = input_report([run])
+    assert report.metrics()["input_warnings"] >= 1
+    assert "nothing repaired" not in report.text()
