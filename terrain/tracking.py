@@ -249,7 +249,8 @@ class TrackedRun:
                                                    for k, v in params.items()])
 
     def log_metrics(self, metrics: Mapping[str, float], step: int | None = None) -> None:
-        """Log numeric metrics; non-finite values are skipped and listed in a tag.
+        """Log numeric metrics; non-finite values are skipped and listed in a tag
+        (``non_finite_metrics``: the names of every call so far, sorted).
 
         Parameters
         ----------
@@ -265,8 +266,10 @@ class TrackedRun:
         now_ms = int(time.time() * 1000)
         self.client.log_batch(self.run_id, metrics=[Metric(k, v, now_ms, step or 0)
                                                     for k, v in good.items()])
-        if bad:
-            self.client.set_tag(self.run_id, "non_finite_metrics", ",".join(bad))
+        if bad:   # added to those of earlier calls, which the tag keeps
+            before = self.client.get_run(self.run_id).data.tags.get("non_finite_metrics")
+            names = sorted(set(bad) | set(before.split(",") if before else ()))
+            self.client.set_tag(self.run_id, "non_finite_metrics", ",".join(names))
 
     def log_table(self, frame: pd.DataFrame, name: str) -> None:
         """Log a DataFrame as a CSV artifact.

@@ -49,6 +49,20 @@ def test_embedded_store_lives_in_the_working_directory(tmp_path, monkeypatch, ca
     assert run.run_id in capsys.readouterr().out
 
 
+def test_non_finite_metrics_of_every_call_stay_listed(tmp_path, monkeypatch):
+    # the tag was overwritten by each call: a pipeline logging its metrics in a loop kept
+    # only the last call's skipped names ("b"), and "a" was lost without a trace
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    with tracked_run("terrain-test", announce=False) as run:
+        run.log_metrics({"a": float("nan"), "ok": 1.0})
+        run.log_metrics({"b": float("inf")})
+        run.log_metrics({"ok2": 2.0})
+    logged = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id)
+    assert logged.data.tags["non_finite_metrics"] == "a,b"
+    assert logged.data.metrics == {"ok": 1.0, "ok2": 2.0}
+
+
 def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     other = tmp_path / "elsewhere.db"
     monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{other}")
