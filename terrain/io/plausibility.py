@@ -315,7 +315,8 @@ def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
     path : str or Path
         File the frame was read from (for the message).
     columns : Mapping[str, str]
-        Canonical name -> column name in the file.
+        Column name in the file -> canonical name (as
+        :data:`terrain.io.measured.COLUMN_MAPS`), so the error names the file's column.
     lines : numpy.ndarray, optional
         ``(n_rows,)`` 1-based file line of each row.
     limits : Mapping[str, ChannelLimit]

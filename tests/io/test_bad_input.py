@@ -550,3 +550,18 @@ def test_signed_nan_words_are_repaired_whatever_else_the_file_holds(turning, wor
     pro.write_text("\n".join(lines))
     runs, _ = _read(pro.parent.parent)
     assert runs[0].meta["repaired"] == {"wheels.cur_l": 1}
+
+
+def test_check_ranges_takes_file_column_to_canonical_name():
+    """``check_ranges``' ``columns`` maps the file's column to the canonical name (what the
+    reader passes, :data:`COLUMN_MAPS`); its docstring said the reverse, with which the
+    error named the canonical ``vel_r`` instead of the file's ``velR``."""
+    from terrain.errors import ImplausibleValueError
+    from terrain.io.measured import COLUMN_MAPS
+    from terrain.io.plausibility import check_ranges
+
+    frame = pd.DataFrame({"t_s": [0.0, 0.1], "vel_l": [0.1, 0.1], "vel_r": [0.1, 9.0],
+                          "cur_l": [1.0, 1.0], "cur_r": [1.0, 1.0]})
+    with pytest.raises(ImplausibleValueError) as info:
+        check_ranges(frame, "pro_00.csv", COLUMN_MAPS["pro"], np.array([2, 3]))
+    assert (info.value.column, info.value.line, info.value.row) == ("velR", 3, 1)
