@@ -201,6 +201,9 @@ def main(args: argparse.Namespace) -> int:
     """
     from terrain.tracking import tracked_run
 
+    # the catalogue reads terrain names in any case; the tables, plots and the soft-terrain
+    # slip-limit bound (SOFT) compare them in upper case
+    args.terrains = [str(t).upper() for t in args.terrains]
     check_grid(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

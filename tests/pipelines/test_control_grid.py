@@ -44,3 +44,14 @@ def test_control_grid_tunes_on_other_seeds_and_cuts_the_ice_start_up_slip(workdi
     assert "| husky | ICE | straight_accel |" in (workdir / "g" / "comparison.md").read_text()
     assert (workdir / "g" / "slip_husky_ICE_straight_accel.png").stat().st_size > 0
     assert "peak_slip_cut" in capsys.readouterr().out
+
+
+def test_terrain_names_in_lower_case_keep_the_slip_limit_bound(workdir):
+    # the catalogue reads terrain names in any case (the runs simulate snow), so the grid's
+    # tables and its quasi-static slip-limit bound (soft terrains) must not depend on it
+    rc = cli_main(["control-grid", "--vehicles", "husky", "--terrains", "snow", "--no-tune",
+                   "--duration-s", "2", "--out", "g"])
+    assert rc == 0
+    summary = json.loads((workdir / "g" / "summary.json").read_text())
+    assert [r["terrain"] for r in summary["comparison"]] == ["SNOW"]
+    assert [b["terrain"] for b in summary["slip_limit_bound"]] == ["SNOW"]
