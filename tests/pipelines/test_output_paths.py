@@ -118,6 +118,7 @@ _OUTPUT_OPTIONS = [
     (["stream-eval"], "--model-out", "dir"),
     (["train", "--dataset", "vulpi"], "--model-out", "dir"),
     (["serve", "--model", "M"], "--served-out", "dir"),
+    (["convert", "SRC", "--dataset", "vulpi"], "--data-dir", "dir"),
 ]
 
 
@@ -146,6 +147,18 @@ def test_empty_output_path_refused():
     for check in (output_file, output_dir, model_dir):
         with pytest.raises(argparse.ArgumentTypeError, match="an empty path"):
             check("")
+
+
+def test_convert_refuses_an_empty_data_dir_instead_of_the_shipped_one(tmp_path, monkeypatch,
+                                                                      capsys):
+    # `--data-dir ""` (an unset shell variable) fell back to the default data/ folder and
+    # overwrote the shipped data there with the converted runs
+    monkeypatch.setenv("TERRAIN_DATA_DIR", str(tmp_path / "shipped"))
+    with pytest.raises(SystemExit) as exc:
+        main(["convert", str(tmp_path / "src"), "--dataset", "vulpi", "--data-dir", ""])
+    assert exc.value.code == 2
+    assert "argument --data-dir: an empty path" in capsys.readouterr().err
+    assert not (tmp_path / "shipped").exists()
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
