@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
+import os
 import sys
 import warnings
 from types import MappingProxyType
@@ -116,7 +117,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     A project error (:class:`~terrain.errors.TerrainError`), a missing or unreadable file,
     or a model store error is printed as one line on stderr with exit status 2. Anything
     else (memory exhausted, a defect of terrain) is also one line, with exit status 1, and
-    Ctrl-C prints ``interrupted`` with status 130. ``--debug`` shows the traceback instead.
+    Ctrl-C prints ``interrupted`` with status 130. A reader that closes standard output early
+    (``terrain slip-table | head``) ends the command quietly with status 141, as a shell
+    reports a writer stopped by SIGPIPE. ``--debug`` shows the traceback instead.
 
     Parameters
     ----------
@@ -127,7 +130,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         Exit status: the sub-command's (0 on success), 2 after a reported error (argparse
-        itself exits with 2 on a usage error), 1 after an unexpected one, 130 after Ctrl-C.
+        itself exits with 2 on a usage error), 1 after an unexpected one, 130 after Ctrl-C,
+        141 when standard output was closed by its reader.
     """
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -138,7 +142,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             # the entry point owns MLflow's process-wide store (model logging, the registry
             # and ``models:/`` URIs read it); the library never sets it
             activate_store()
-            return int(args._main(args) or 0)
+            status = int(args._main(args) or 0)
+            sys.stdout.flush()      # a reader gone away fails here, not in Python's exit
+            return status
+        except BrokenPipeError:
+            if debug:
+                raise
+            _silence_stdout()
+            return 141
         except (TerrainError, OSError) + store_errors() as exc:
             if debug:
                 raise
@@ -165,6 +176,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                   "could tell; rerun with --debug for the traceback and report it)",
                   file=sys.stderr)
             return 1
+
+
+def _silence_stdout() -> None:
+    """Point standard output at the null device, so that the output still buffered is not
+    flushed into the closed pipe again when Python exits (its "Exception ignored" lines)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, sys.stdout.fileno())
+        finally:
+            os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass    # not a file descriptor (captured output): nothing is flushed at exit
 
 
 #: errors of a write that Python reports without the file's name

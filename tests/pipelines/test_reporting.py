@@ -340,3 +340,27 @@ def test_audit_says_which_checks_a_run_without_imu_misses(workdir, capsys, borea
     assert "only their motor currents are compared" in out
     signals = {s["signal"] for s in json.loads((workdir / "a.json").read_text())["signals"]}
     assert signals == {"cur_l", "cur_r"}
+
+
+def test_a_reader_that_closes_stdout_early_is_not_an_error(tmp_path):
+    # `terrain slip-table | head -1`: the reader went away after its first line; the command
+    # printed "terrain slip-table: error: [Errno 32] Broken pipe" and exited 2 (or Python's
+    # "Exception ignored ... BrokenPipeError" and 120 when the write failed only at exit)
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    read, write = os.pipe()
+    os.close(read)                     # the reader is gone before the command writes
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-c", "import sys; from terrain.cli import main; "
+             "sys.exit(main(['slip-table']))"],
+            stdout=write, stderr=subprocess.PIPE, text=True, cwd=tmp_path, timeout=120,
+            env={**os.environ, "PYTHONPATH": str(root)})
+    finally:
+        os.close(write)
+    assert proc.stderr == ""
+    assert proc.returncode == 141      # as a shell reports a writer stopped by SIGPIPE
