@@ -28,7 +28,7 @@ from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, Replay
                                   cruise_wheel_acceleration_rms, lowpass_cutoff_hz)
 from terrain.audit.core import prepare_frames
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
-from terrain.audit.selection import json_ready
+from terrain.io.jsonfile import json_ready
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir

@@ -20,7 +20,6 @@ uncontrolled runs only (the earlier classifier).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from pipelines.arguments import DistinctSeeds, output_dir, seed_value
@@ -33,6 +32,7 @@ from terrain.control.grid import (TUNING_SEEDS, check_grid_axes, compare, markdo
                                   run_grid, slip_limit_bound, tune_gains)
 from terrain.control.traction import TractionControlConfig
 from terrain.errors import ConfigError, duplicated
+from terrain.io.jsonfile import strict_json
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -244,7 +244,7 @@ def main(args: argparse.Namespace) -> int:
                    "tuning_seeds": list(TUNING_SEEDS), "evaluation_seeds": args.seeds,
                    "comparison": table.to_dict(orient="records"), "slip_limit_bound": bound,
                    "terrain_source": classifiers}
-        (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
+        (out / "summary.json").write_text(strict_json(summary))
         for p in _plots(traces, table, out):
             run.log_artifact(p, "plots")
         run.log_table(table, "comparison.json")

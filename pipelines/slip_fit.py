@@ -12,7 +12,6 @@ logged to MLflow (experiment terrain-slip-fit); the model is registered as slip-
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_fea
                                     slip_table, slip_windows, terrain_columns)
 from pipelines.arguments import DistinctSeeds, output_dir, seed_value
 from terrain.errors import ConfigError
+from terrain.io.jsonfile import strict_json
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
@@ -173,7 +173,7 @@ def main(args: argparse.Namespace) -> int:
         if args.orchard_duration_s > args.duration_s:
             odo = pd.concat([odo, _long_orchard(args, vehicle, model)], ignore_index=True)
         summary = _summary(errors, odo)
-        (args.out / "summary.json").write_text(summary_json(summary))
+        (args.out / "summary.json").write_text(strict_json(summary, indent=2))
         run.log_metrics(summary)
         for frame, name in ((errors, "slip_errors.csv"), (odo, "odometry.csv")):
             frame.to_csv(args.out / name, index=False)
@@ -198,7 +198,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"note: no steady straight window of {', '.join(TARGET_TERRAINS)} in the held-out "
               f"runs: no median slip error table to print (slip_errors.csv holds "
               f"{len(errors)} row(s))")
-    print(summary_json(summary).rstrip() if summary else "note: summary.json is empty (no "
+    print(strict_json(summary).rstrip() if summary else "note: summary.json is empty (no "
           "steady straight window of those terrains, no orchard or slope_turn run held out)")
     print(f"logged model: {uri}; tables in {args.out}")
     print(run.describe())
@@ -223,25 +223,6 @@ def _measured(dataset: str, model: SlipRegressor, vehicle) -> pd.DataFrame:
     X = slip_features(ws, vehicle, one_hot_probabilities(ws.labels.astype(str), TERRAIN_NAMES))
     return measured_checks(X, model.predict(X), ws.run_ids, ws.labels.astype(str),
                            vehicle.track_m)
-
-
-def summary_json(summary: dict[str, float]) -> str:
-    """The summary as standard JSON: a figure that could not be computed is ``null``.
-
-    Parameters
-    ----------
-    summary : dict of str to float
-        Figures of :func:`_summary`; NaN where nothing was there to score (e.g. the median
-        reduction over slipping runs when ``slipping_runs`` is 0).
-
-    Returns
-    -------
-    str
-        Indented JSON; Python's default would write ``NaN``, which JSON does not allow and
-        strict readers (``jq``, JavaScript) refuse.
-    """
-    clean = {k: (v if np.isfinite(v) else None) for k, v in summary.items()}
-    return json.dumps(clean, indent=2, allow_nan=False) + "\n"
 
 
 def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:

@@ -27,7 +27,7 @@ import pandas as pd
 
 from terrain.audit.core import POOLED, AuditResult
 from terrain.audit.effects import EFFECT_VOCABULARY, GROUP_SIGNALS
-from terrain.audit.selection import json_ready
+from terrain.io.jsonfile import json_ready
 
 FORMAT = "terrain-audit/1"
 BASELINE = (

@@ -46,42 +46,12 @@ from terrain.audit.effects import (EFFECT_VOCABULARY, GROUP_MODELS, GROUPS, Curr
 from terrain.audit.frames import AuditFrame, split_frame
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError
+from terrain.io.jsonfile import json_ready
 
 #: fitted model of one group
 GroupParams = LagParams | YawParams | CurrentParams
 #: cross-validation units: each a list of frames (one run, or one segment of a run)
 Units = Sequence[Sequence[AuditFrame]]
-
-
-def json_ready(v: Any, nd: int = 5) -> Any:
-    """A value made JSON-ready.
-
-    Parameters
-    ----------
-    v : any
-        Value; mappings, lists and tuples are converted recursively.
-    nd : int, optional
-        Decimals kept of every float.
-
-    Returns
-    -------
-    any
-        ``v`` with numpy scalars turned into Python ones, floats rounded to ``nd`` decimals,
-        non-finite floats to ``None``, mappings to dicts with string keys, tuples to lists.
-    """
-    if v is None:
-        return None
-    if isinstance(v, (bool, np.bool_)):
-        return bool(v)
-    if isinstance(v, (int, np.integer)):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        return None if not np.isfinite(v) else round(float(v), nd)
-    if isinstance(v, Mapping):
-        return {str(k): json_ready(x, nd) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [json_ready(x, nd) for x in v]
-    return v
 
 
 #: Most bootstrap resamples of a gain interval: 100 times the default, far past where the

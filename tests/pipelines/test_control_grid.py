@@ -52,6 +52,10 @@ def test_terrain_names_in_lower_case_keep_the_slip_limit_bound(workdir):
     rc = cli_main(["control-grid", "--vehicles", "husky", "--terrains", "snow", "--no-tune",
                    "--duration-s", "2", "--out", "g"])
     assert rc == 0
-    summary = json.loads((workdir / "g" / "summary.json").read_text())
+
+    def strict(token):      # NaN / Infinity are not JSON (jq, JSON.parse refuse them)
+        raise ValueError(f"not JSON: {token}")
+
+    summary = json.loads((workdir / "g" / "summary.json").read_text(), parse_constant=strict)
     assert [r["terrain"] for r in summary["comparison"]] == ["SNOW"]
     assert [b["terrain"] for b in summary["slip_limit_bound"]] == ["SNOW"]

@@ -210,7 +210,8 @@ def test_slip_fit_summary_is_standard_json_with_null_for_a_figure_not_computed()
     """With no slipping run held out, the median reduction over slipping runs is NaN; the
     summary file wrote it as a bare ``NaN`` token, which is not JSON (strict readers refuse
     it); it is ``null`` beside ``slipping_runs`` 0."""
-    from pipelines.slip_fit import _summary, summary_json
+    from pipelines.slip_fit import _summary
+    from terrain.io.jsonfile import strict_json
 
     errors = pd.DataFrame({"windows": ["steady_straight"], "terrain": ["SNOW"],
                            "split": ["held-out seeds"], "model": ["learned"],
@@ -222,7 +223,7 @@ def test_slip_fit_summary_is_standard_json_with_null_for_a_figure_not_computed()
     def strict(token):
         raise ValueError(f"not JSON: {token}")
 
-    text = summary_json(_summary(errors, odo))
+    text = strict_json(_summary(errors, odo))
     loaded = json.loads(text, parse_constant=strict)
     assert loaded["odometry.orchard.slipping_runs"] == 0
     assert loaded["odometry.orchard.slipping_median_reduction_pct"] is None

@@ -1,0 +1,71 @@
+"""JSON files that strict readers accept: a figure that could not be computed is ``null``.
+
+Python's :func:`json.dumps` writes a NaN or infinite float as the bare tokens ``NaN`` and
+``Infinity``, which JSON does not allow (RFC 8259, section 6): ``jq``, JavaScript's
+``JSON.parse`` and other strict readers refuse the whole file. Every summary the project
+writes goes through :func:`json_ready` first.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Mapping
+
+import numpy as np
+
+
+def json_ready(v: Any, nd: int | None = 5) -> Any:
+    """A value made JSON-ready.
+
+    Parameters
+    ----------
+    v : any
+        Value; mappings, lists and tuples are converted recursively.
+    nd : int or None, optional
+        Decimals kept of every float (None: all).
+
+    Returns
+    -------
+    any
+        ``v`` with numpy scalars turned into Python ones, floats rounded to ``nd`` decimals,
+        non-finite floats to ``None``, mappings to dicts with string keys, tuples to lists.
+    """
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        if not np.isfinite(v):
+            return None
+        return float(v) if nd is None else round(float(v), nd)
+    if isinstance(v, Mapping):
+        return {str(k): json_ready(x, nd) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_ready(x, nd) for x in v]
+    return v
+
+
+def strict_json(obj: Any, indent: int = 1) -> str:
+    """Indented standard JSON of ``obj``, every float kept in full and a non-finite one
+    written as ``null``.
+
+    Parameters
+    ----------
+    obj : any
+        Mappings, lists, tuples, numbers (numpy scalars included), strings, booleans, None.
+    indent : int, optional
+        Indentation, spaces.
+
+    Returns
+    -------
+    str
+        The JSON text, ending with a newline.
+
+    Raises
+    ------
+    TypeError
+        A value JSON cannot hold (an array, an object).
+    """
+    return json.dumps(json_ready(obj, None), indent=indent, allow_nan=False) + "\n"
