@@ -180,7 +180,8 @@ class WindowConfig:
     ConfigError
         A length or rate that is not a finite positive number, ``partition_s`` shorter
         than ``window_s``, a window of fewer than 4 or more than
-        :data:`MAX_WINDOW_SAMPLES` samples.
+        :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample (window starts
+        and lengths are rounded to whole samples).
     """
 
     window_s: float = 2.0
@@ -197,6 +198,10 @@ class WindowConfig:
                               f"{self.window_s} s and {self.rate_hz} Hz")
         if self.hop_s is not None and not 0 < self.hop_s < math.inf:
             raise ConfigError(f"hop_s must be a finite number > 0 s, got {self.hop_s}")
+        if self.hop_s is not None and round(self.hop_s * self.rate_hz) < 1:
+            # it was cut at one sample while the run logged the hop asked for
+            raise ConfigError(f"hop_s {self.hop_s:g} s is under one sample at {self.rate_hz:g} "
+                              f"Hz ({1 / self.rate_hz:g} s): windows start on samples")
         if self.partition_s is not None and not self.window_s <= self.partition_s < math.inf:
             raise ConfigError(f"partition_s must be finite and >= window_s, got "
                               f"{self.partition_s} s")

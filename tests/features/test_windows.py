@@ -247,7 +247,9 @@ def test_subset_keeps_provenance(make_run):
 
 @pytest.mark.parametrize("kwargs", [dict(window_s=0.0), dict(hop_s=-1.0),
                                     dict(window_s=2.0, partition_s=1.0),
-                                    dict(window_s=0.05, rate_hz=50.0), dict(rate_hz=0.0)])
+                                    dict(window_s=0.05, rate_hz=50.0), dict(rate_hz=0.0),
+                                    # under one sample: it was cut at 0.02 s without a word
+                                    dict(hop_s=0.001, rate_hz=50.0)])
 def test_window_config_rejects_bad_settings(kwargs):
     with pytest.raises(ConfigError):
         WindowConfig(**kwargs)
