@@ -111,8 +111,9 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
                     gap_factor: float = 3.0) -> tuple[pd.DataFrame, ReadReport]:
     """Read and validate one stream file.
 
-    The file is parsed strictly: UTF-8 text (a BOM is allowed), comma separated, no quoting,
-    one header line then one data row per line, lines ended by LF, CR LF or a lone CR (as
+    The file is parsed strictly: UTF-8 text (a BOM is allowed), comma separated (a quoted
+    data field is read as CSV within its own line; header names unquoted), one header line
+    then one data row per line, lines ended by LF, CR LF or a lone CR (as
     the streaming service reads CSV bodies). Blank lines and ``#`` comment lines are
     skipped and counted in the report; every other line must have as many fields as the
     header. Errors name the 1-based file line (what an editor shows).

@@ -516,10 +516,13 @@ def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path) -> None:
     t = frame[TIME].to_numpy(dtype=float)
     bad_t = np.flatnonzero(~(np.diff(t) > 0))
     if len(bad_t) or (len(t) and not np.isfinite(t).all()):
-        row = int(bad_t[0]) + 1 if len(bad_t) else int(np.flatnonzero(~np.isfinite(t))[0])
+        # the first offending row: a NaN at row 0 fails the step after it too (row 1)
+        first = [int(k) for k in np.flatnonzero(~np.isfinite(t))[:1]]
+        row = min(first + [int(bad_t[0]) + 1] if len(bad_t) else first)
         raise TimestampError(f"run {run_id}: timestamps must increase strictly and be "
-                             f"finite, got {t[row]!r} after {t[row - 1]!r}" if row else
-                             f"run {run_id}: timestamp {t[row]!r} is not finite", path, TIME,
+                             f"finite, got {float(t[row])!r} after {float(t[row - 1])!r}"
+                             if row else f"run {run_id}: timestamp {float(t[row])!r} is not "
+                             "finite", path, TIME,
                              row)
     values = frame.drop(columns=TIME).to_numpy(dtype=float)
     bad = np.argwhere(~np.isfinite(values))

@@ -463,3 +463,18 @@ def test_a_manifest_with_a_non_utf8_byte_names_its_offset_and_line(tmp_path):
         read_manifest(tmp_path)
     assert info.value.path == str(path) and info.value.line == 3
     assert "0xe9 at byte offset 35" in str(info.value) and "UTF-8" in str(info.value)
+
+
+@pytest.mark.parametrize("t, row, words", [([np.nan, 0.1, 0.2], 0, "nan is not finite"),
+                                           ([0.0, 0.1, np.nan, 0.3], 2, "got nan after 0.1"),
+                                           ([0.0, 0.2, 0.1, np.nan], 2, "got 0.1 after 0.2")])
+def test_a_shipped_run_is_refused_at_its_first_bad_timestamp(tmp_path, t, row, words):
+    # a NaN first timestamp was reported at row 1 ("got 0.1 after nan")
+    import pandas as pd
+    from terrain.errors import TimestampError
+    from terrain.io.shipped import _check_run_rows
+
+    frame = pd.DataFrame({"t_s": t, "wz": 0.0})
+    with pytest.raises(TimestampError) as info:
+        _check_run_rows(frame, "vulpi/X/1", tmp_path / "imu.parquet")
+    assert info.value.row == row and words in str(info.value)
