@@ -139,6 +139,32 @@ def output_dir(value: str) -> Path:
     return path
 
 
+def input_path(value: str) -> str:
+    """argparse ``type`` of an option naming a file, folder or URI the command reads, whose
+    absence means a default: an empty value is refused, not taken as the option left out.
+
+    Parameters
+    ----------
+    value : str
+        The option's value.
+
+    Returns
+    -------
+    str
+        ``value`` unchanged (a path or an MLflow URI; read later, where a missing one is a
+        typed error naming it).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        The value is empty or blank (``--model ""`` fell back to the default source).
+    """
+    if not value.strip():
+        raise argparse.ArgumentTypeError("an empty path (give one, or leave the option out "
+                                         "for its default)")
+    return value
+
+
 def model_dir(value: str) -> Path:
     """argparse ``type`` of an option naming a model directory to create: as
     :func:`output_dir`, and the folder must be absent or empty (MLflow writes a model only

@@ -22,7 +22,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import DistinctSeeds, output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, input_path, output_dir, seed_value
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
 from pipelines.control_sim import SCENARIOS
@@ -80,7 +80,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default="label",
                         help="terrain decisions: label (default), live-sim (classifier "
                              "trained on simulated runs) or model (--model)")
-    parser.add_argument("--model", default=None, help="classifier of --terrain-source model")
+    parser.add_argument("--model", type=input_path, default=None,
+                        help="classifier of --terrain-source model")
     parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=None,
                         help="training seeds of the live-sim classifier (default: "

@@ -29,7 +29,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import DistinctSeeds, output_file, seed_value
+from pipelines.arguments import DistinctSeeds, input_path, output_file, seed_value
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="proportional gain, rad/s per unit slip (default: tuned)")
     parser.add_argument("--ki", type=float, default=None,
                         help="integral gain, rad/s per unit slip and s (default: tuned)")
-    parser.add_argument("--model", default=None,
+    parser.add_argument("--model", type=input_path, default=None,
                         help="terrain classifier saved by `terrain train --model-out DIR`")
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default=None,
                         help="terrain decisions: live-sim (classifier trained on simulated "

@@ -17,6 +17,7 @@ import sys
 
 from pathlib import Path
 
+from pipelines.arguments import input_path
 from terrain.control.desired_slip import build_slip_table, classifier_classes
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.shipped import default_data_dir, manifest_terrains, read_manifest
@@ -32,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         Subparser to fill.
     """
     parser.add_argument("--json", action="store_true", help="print JSON instead of CSV")
-    parser.add_argument("--data-dir", default=None,
+    parser.add_argument("--data-dir", type=input_path, default=None,
                         help="shipped data folder whose manifest lists the measured classes "
                              "(default: data/, or TERRAIN_DATA_DIR)")
 

@@ -248,6 +248,12 @@ _REFUSED = [
     (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
       "straight_accel", "--controller", "traction", "--json", "c.json", "--kp", "nan"],
      "kp=nan"),
+    # an empty value was the option left out: the live-sim classifier, the default data/
+    (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
+      "straight_accel", "--controller", "traction", "--json", "c.json", "--model", ""],
+     "argument --model: an empty path"),
+    (["control-grid", "--model", "", "--out", "g"], "argument --model: an empty path"),
+    (["slip-table", "--data-dir", " "], "argument --data-dir: an empty path"),
 ]
 
 
