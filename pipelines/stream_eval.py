@@ -34,6 +34,8 @@ from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-stream-eval"
+#: default hop of the wheel-cv part's windows, s (non-overlapping 2 s decisions)
+WHEEL_CV_HOP_S = 2.0
 #: smoothing settings scored on the same replayed decisions: none, hysteresis alone (a
 #: margin on the window's own probabilities), the forward filter alone, and both
 SMOOTHINGS = {"raw": SmoothingConfig(dwell_s=None),
@@ -68,9 +70,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "soft vote; all-ensemble3: + raw CNN as well; wheels: physics "
                              "features + extra trees; default: the default recipe per signal "
                              "set)")
-    parser.add_argument("--window-s", type=positive_number, default=RECIPES["wheels"].window_s,
-                        help="wheel-cv window (history) length, s")
-    parser.add_argument("--hop-s", type=positive_number, default=2.0, help="wheel-cv hop, s")
+    parser.add_argument("--window-s", type=positive_number, default=None,
+                        help="wheel-cv window (history) length, s (default: the wheels "
+                             f"recipe's, {RECIPES['wheels'].window_s:g} s)")
+    parser.add_argument("--hop-s", type=positive_number, default=None,
+                        help=f"wheel-cv hop, s (default {WHEEL_CV_HOP_S:g})")
     parser.add_argument("--folds", type=int, default=5,
                         help="folds over runs of the held-out streams: each fold's model is "
                              "trained on (N-1)/N of the runs and its held-out runs are one "
@@ -100,11 +104,22 @@ def main(args: argparse.Namespace) -> int:
     ------
     ConfigError
         A recipe repeated in ``--kinds``, ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
-        :class:`~features.windows.WindowConfig` refuses, a negative or infinite
+        :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
+        that does not run the wheel CV, a negative or infinite
         ``--switch-gap-s``, a ``--model-out`` folder of a recipe that is not empty: checked
         before any run is read; more ``--folds`` than runs to cut the streams from: checked
         once the runs are read, before any model is fitted.
     """
+    wheel_cv = args.part in ("wheel-cv", "both")
+    given = [o for o, v in (("--window-s", args.window_s), ("--hop-s", args.hop_s))
+             if v is not None]
+    if given and not wheel_cv:   # they were ignored (and logged to MLflow as if used)
+        raise ConfigError(f"{' and '.join(given)} set the wheel-cv part's windows; --part "
+                          f"{args.part} does not run it")
+    if args.window_s is None:
+        args.window_s = RECIPES["wheels"].window_s
+    if args.hop_s is None:
+        args.hop_s = WHEEL_CV_HOP_S
     repeated = duplicated(args.kinds)
     if repeated:  # each would be fitted and logged twice under one name
         raise ConfigError(f"--kinds: {repeated} given more than once")
@@ -130,9 +145,10 @@ def main(args: argparse.Namespace) -> int:
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",
                      params={"part": args.part, "seeds": ",".join(map(str, args.seeds)),
-                             "window_s": args.window_s, "hop_s": args.hop_s,
-                             "switch_gap_s": args.switch_gap_s,
-                             "folds": args.folds}) as run:
+                             "switch_gap_s": args.switch_gap_s, "folds": args.folds,
+                             # the wheel-cv windows, only where that part runs
+                             **({"window_s": args.window_s, "hop_s": args.hop_s}
+                                if wheel_cv else {})}) as run:
         if args.part in ("wheel-cv", "both"):
             recipe = replace(RECIPES["wheels"], window_s=args.window_s)
             cv = window_cv(runs, recipe, args.hop_s, args.seeds, SMOOTHINGS)

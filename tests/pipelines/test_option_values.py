@@ -245,6 +245,9 @@ _REFUSED = [
     (["train", "--signals", "all+ekf"], "EKF-derived channels are for cross-validation"),
     # refused after the wheel-only CV had run (found by a CLI fuzz)
     (["stream-eval", "--folds", "1000"], "--folds 1000 over the"),
+    # ignored by the streams part, yet logged to its MLflow run as if used
+    (["stream-eval", "--part", "streams", "--hop-s", "1"],
+     "--hop-s set the wheel-cv part's windows; --part streams does not run it"),
     (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
       "straight_accel", "--controller", "traction", "--json", "c.json", "--kp", "nan"],
      "kp=nan"),
