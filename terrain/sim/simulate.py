@@ -18,7 +18,8 @@ Streams (file columns in brackets where the file names them differently):
 ``steer``  ``t_s, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro)
 ``cam``    ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
            point in robot axes (x forward, y left; before the eq. 5.4 lever-arm correction),
-           m/s, rad/s, rad; rows missing during outages (agrimaro)
+           m/s, rad/s, rad; rows missing during outages (agrimaro; metadata
+           ``cam_outages_s``: ``[start, end)`` of each, s; ``cam_rows_dropped``: rows removed)
 ``omega``  ``t_s, omega_1, omega_2, omega_3`` reported wheel speeds, rad/s (agrimaro)
 ``cur``    ``t_s, cur_1, cur_2, cur_3`` motor current magnitudes, A (agrimaro)
 """
@@ -464,8 +465,10 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
                             "yaw_c": s[:, 3] + sensors.cam_yaw_noise_rad * nz[:, 3]})
         keep = np.ones(len(t_c), dtype=bool)
         n_out = rng.poisson(sensors.cam_outage_rate_hz * duration)
+        cam_outages = []
         for start, length in zip(rng.uniform(0, duration, n_out), rng.uniform(0.5, 2.0, n_out)):
             keep &= ~((t_c >= start) & (t_c < start + length))
+            cam_outages.append([float(start), float(start + length)])
         streams["cam"] = cam[keep].reset_index(drop=True)
 
     rates = {"physics": float(config.physics_rate_hz), **stream_rates_hz(vehicle.name, sensors)}
@@ -482,6 +485,9 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         "vehicle_params": _jsonable(vehicle),
         "terrain_params": {t.name: _jsonable(t) for t in terrains},
         "sensor_settings": _jsonable(sensors),
+        # the simulated visual-odometry outages and the camera rows they removed
+        **({"cam_outages_s": cam_outages, "cam_rows_dropped": int(np.sum(~keep))}
+           if geometry.steered else {}),
         "units": {"time": "s", "wx": "rad/s", "ax": "m/s^2", "cur": "A", "vel": "m/s",
                   "delta": "rad", "omega": "rad/s", "v_c": "m/s", "yaw": "rad"},
     }

@@ -10,7 +10,7 @@ from terrain.errors import ConfigError
 from terrain.io.writer import to_file_frames, write_run
 from terrain.sim import Effects, SimConfig, parse_effects, simulate
 from terrain.sim.dynamics import integrate
-from terrain.sim.simulate import motor_currents, simulate_with_physics
+from terrain.sim.simulate import DEFAULT_SENSORS, motor_currents, simulate_with_physics
 from terrain.terramechanics import MEASURED_HUSKY_STRAIGHT, get_terrain
 from terrain.vehicles import HUSKY, TRACKED, get_vehicle
 
@@ -424,3 +424,25 @@ def test_a_parked_husky_slides_down_15_degree_ice_at_its_sliding_friction():
     i, j = np.searchsorted(t, [1.0, 3.0 - 0.01])
     acc = (v[j] - v[i]) / (t[j] - t[i])
     assert acc == pytest.approx(-g * (np.sin(th) - mu_locked * np.cos(th)), rel=0.03)
+
+
+def test_camera_outages_are_recorded_in_the_run_metadata():
+    """The AgriMaRo's simulated visual-odometry outages drop camera rows; the run's metadata
+    did not say when or how many (a 120 s run at 4 outages a minute lost rows the reader
+    could not tell from a short file). It now lists each outage and counts the rows."""
+    sensors = replace(DEFAULT_SENSORS["agrimaro"], cam_outage_rate_hz=4.0 / 60.0)
+    r = simulate(SimConfig(vehicle="agrimaro", terrains=("GRASS",), scenario="random",
+                           duration_s=120.0, seed=2, sensors=sensors))
+    outages = r.meta["cam_outages_s"]
+    assert len(outages) > 0
+    t_all = np.arange(0.0, 120.0 + 1e-9, 1.0 / sensors.cam_rate_hz)
+    inside = np.zeros(len(t_all), dtype=bool)
+    for start, end in outages:
+        assert 0.5 <= end - start <= 2.0
+        inside |= (t_all >= start) & (t_all < end)
+    assert r.meta["cam_rows_dropped"] == int(inside.sum()) > 0
+    assert len(r.streams["cam"]) == len(t_all) - r.meta["cam_rows_dropped"]
+    cam_t = r.streams["cam"].t_s.to_numpy()
+    np.testing.assert_allclose(cam_t, t_all[~inside])
+    husky = simulate(SimConfig(terrains=("GRASS",), duration_s=2.0))
+    assert "cam_outages_s" not in husky.meta          # no camera on the Husky
