@@ -37,8 +37,8 @@ import numpy as np
 
 import terrain.sim.dynamics as dynamics
 from terrain.audit.frames import MANOEUVRES, prepare_frame
-from terrain.audit.physics import (PhysicsComparisonSettings, _errors, _on, alternate_split,
-                                   gain_table, per_run_errors)
+from terrain.audit.physics import (TUNED_TERRAINS, PhysicsComparisonSettings, _errors, _on,
+                                   alternate_split, gain_table, per_run_errors)
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
 from terrain.sim import SimConfig
@@ -48,12 +48,6 @@ from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import icr_expansion_factor
 
 SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
-#: Terrains whose runs were split by :func:`~terrain.audit.physics.alternate_split` to choose
-#: a physics-v2 parameter: the soils (:data:`terrain.terramechanics.lateral.SOILS`; BorealTC
-#: SANDY_LOAM and SNOW, Vulpi PLOUGHED) and the rigid surfaces the Husky
-#: tyre's side-force factor was chosen on (:data:`terrain.sim.forces.COMBINED_SLIP`). Only
-#: their held-out halves enter ``--heldout-table``.
-TUNED_TERRAINS = frozenset(SOILS) | frozenset({"ASPHALT", "FLOORING", "ICE"})
 
 
 def rmse(errs, sig, scope):

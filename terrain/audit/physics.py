@@ -6,8 +6,10 @@ with :attr:`ReplaySettings.physics`), on the same comparison clock
 commanded yaw rate or the replayed one, so it is taken from the *reference* version's frame
 for both, so that both are scored on the same samples and timing). No fitted effect is
 applied. The v2 soil parameters (:mod:`terrain.terramechanics.lateral`) come from published
-tables, with the shear moduli and the choice of the snow row made on the *training* half of
-the SANDY_LOAM and SNOW runs (``benchmarks/sweep_soil_params.py``): the tables over all runs
+tables, with the shear moduli, the shear curves' residual ratios and the choice of the snow
+row made on the *training* half of the runs of each soil, and the Husky tyre's side-force
+factor and the ICE friction on the training half of the ASPHALT, FLOORING and ICE runs
+(:data:`TUNED_TERRAINS`, ``benchmarks/sweep_soil_params.py``): the tables over all runs
 include those training runs; ``sweep_soil_params.py --heldout-table`` scores the held-out
 runs alone.
 
@@ -32,7 +34,13 @@ from terrain.audit.selection import MAX_BOOTSTRAP
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
+from terrain.terramechanics.lateral import SOILS
 
+#: Terrains whose runs were split by :func:`alternate_split` to choose a physics-v2
+#: parameter: the soils (:data:`terrain.terramechanics.lateral.SOILS`; BorealTC SANDY_LOAM
+#: and SNOW, Vulpi PLOUGHED) and the rigid surfaces the Husky tyre's side-force factor and
+#: the ICE friction were chosen on (:data:`terrain.sim.forces.COMBINED_SLIP`).
+TUNED_TERRAINS = frozenset(SOILS) | frozenset({"ASPHALT", "FLOORING", "ICE"})
 #: signals compared; ``cur`` pools left and right
 COMPARED_SIGNALS = ("wz", "ax", "ay", "cur_l", "cur_r", "cur")
 #: manoeuvre scopes; ``moving`` pools straight, curve and spin
@@ -274,11 +282,15 @@ def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
         The section, ending with a newline.
     """
     ref, new = meta["reference"], meta["candidate"]
+    tuned = sorted(TUNED_TERRAINS & set(table.terrain))
+    runs = ("All runs; v2 parameters were chosen on the training half of the shipped runs of "
+            f"{', '.join(tuned)}: their rows (and `all`) include those training runs "
+            "(held-out figures in docs/physics_v2.md)." if tuned else
+            "All runs; no v2 parameter was chosen on runs of these terrains.")
     lines = [f"## Physics {new} against {ref} (replay, no fitted effect, all runs)",
              "",
              f"Gain = 1 - RMSE({new}) / RMSE({ref}); 95 % interval: runs resampled with "
-             "replacement within the terrain. All runs, including the training runs of the "
-             "v2 soil parameters (SANDY_LOAM, SNOW; held-out figures in docs/physics_v2.md).",
+             f"replacement within the terrain. {runs}",
              "",
              f"| terrain | signal | manoeuvre | runs | samples | RMSE {ref} | RMSE {new} | "
              "gain [95 % CI] |", "|---|---|---|---|---|---|---|---|"]

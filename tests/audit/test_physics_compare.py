@@ -86,3 +86,20 @@ def test_a_negative_turning_resistance_is_explained_in_its_direction():
                                                              CurrentParams(k_a=-3.18))
     assert effect_cause("current_offset", CurrentParams(k_a=-3.18)) == \
         EFFECT_VOCABULARY["current_offset"].cause
+
+
+def test_the_comparison_names_the_terrains_whose_runs_chose_v2_parameters():
+    # the heading said every table's training runs were SANDY_LOAM's and SNOW's, also on the
+    # Vulpi tables (no such terrain; PLOUGHED's K was chosen on its training runs) and
+    # silent on ASPHALT, FLOORING and ICE (the tyre's k_S and the ICE friction were chosen
+    # on their training halves): their all-run rows read as held out
+    import pandas as pd
+    tab = pd.DataFrame({"run_id": ["v/PLOUGHED/1", "v/PLOUGHED/3", "v/CONCRETE/1", "b/ICE/00"],
+                        "terrain": ["PLOUGHED", "PLOUGHED", "CONCRETE", "ICE"],
+                        "signal": "cur", "scope": "moving", "n": 100,
+                        "sse_ref": 400.0, "sse_new": 100.0})
+    md = comparison_markdown(gain_table(tab, PhysicsComparisonSettings(n_bootstrap=50)),
+                             {"reference": "v1", "candidate": "v2"})
+    head = md.split("| terrain |")[0]
+    assert "SANDY_LOAM" not in head and "SNOW" not in head
+    assert "ICE" in head and "PLOUGHED" in head and "CONCRETE" not in head
