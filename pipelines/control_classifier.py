@@ -65,10 +65,12 @@ CLASSIFIER_WINDOW = WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=50.0)
 TERRAIN_SOURCES = ("label", "live-sim", "model")
 #: Run-id suffix of the closed-loop training runs (the controller on).
 CONTROLLED_SUFFIX = "+traction"
-#: Modules besides the simulator's whose code shapes a cached classifier: the window
-#: features and models it is built from, the MLflow model it is saved as, and the closed
-#: loop (controller and estimators) that drives its controlled training runs.
-CLASSIFIER_MODULES: tuple[str, ...] = ("features", "terrain.models", "terrain.serving",
+#: Modules besides the simulator's whose code shapes a cached classifier: this module
+#: (which runs, windows and model it trains), the window features and models it is built
+#: from, the MLflow model it is saved as, and the closed loop (controller and estimators)
+#: that drives its controlled training runs.
+CLASSIFIER_MODULES: tuple[str, ...] = ("pipelines.control_classifier", "features",
+                                       "terrain.models", "terrain.serving",
                                        "terrain.control", "terrain.estimation")
 
 

@@ -41,6 +41,8 @@ def test_sim_classifier_is_trained_once_and_cached(husky_classifier):
     assert simulator_digest("husky", TERRAINS) != simulator_digest("agrimaro", TERRAINS)
     # ... and the code that builds the model and drives its controlled runs
     assert info["code"] == source_digest(CLASSIFIER_MODULES)
+    # the training code itself among them (an edit to it reused the stale cached model)
+    assert "pipelines.control_classifier" in CLASSIFIER_MODULES
     again, info2 = sim_classifier("husky", TERRAINS, seeds=(2000,),
                                   scenarios=("straight_accel",), duration_s=10.0,
                                   cache_dir=cache)
