@@ -446,8 +446,9 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
     decided : numpy.ndarray
         ``(n,)`` decided terrain names (object; ``None`` before any decision).
     window_s : float
-        History a decision rests on, s: a decision is settled when ``[t - window_s, t)``
-        lies inside its piece.
+        History a decision rests on, s: a decision is settled when the terrain at
+        ``t - window_s`` is the terrain at ``t`` (pieces, 30-120 s, outlast any window, so
+        its history lies on one terrain; two adjacent pieces of one terrain count as one).
 
     Returns
     -------

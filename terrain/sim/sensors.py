@@ -114,8 +114,9 @@ def physics_step_index(t_phys_s: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     A sample at ``t`` takes the state of the first physics step whose time is ``>= t``,
     within 1e-9 s (so a sample on the grid reads that step despite rounding); samples past
     the last step read the last one (:func:`terrain.run.step_index`, clipped, the rule the
-    filters place their measurements by). The simulated sensors, the ground truth and the
-    closed-loop logs place their samples by it.
+    filters place their measurements by). The ground truth, the terrain labels and the
+    closed-loop logs place their samples by it (the open-loop simulator's sensor streams
+    instead interpolate the physics linearly at their nominal times, :func:`interp_columns`).
 
     Parameters
     ----------
