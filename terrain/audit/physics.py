@@ -34,6 +34,7 @@ from terrain.audit.selection import MAX_BOOTSTRAP
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
+from terrain.sim.forces import PHYSICS_VERSIONS
 from terrain.terramechanics.lateral import SOILS
 
 #: Terrains whose runs were split by :func:`alternate_split` to choose a physics-v2
@@ -66,7 +67,8 @@ class PhysicsComparisonSettings:
     Raises
     ------
     ConfigError
-        ``n_bootstrap`` or ``seed`` out of range.
+        ``n_bootstrap`` or ``seed`` out of range, or a version not in
+        :data:`terrain.sim.forces.PHYSICS_VERSIONS`.
     """
 
     reference: str = "v1"
@@ -75,6 +77,10 @@ class PhysicsComparisonSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        unknown = [v for v in (self.reference, self.candidate) if v not in PHYSICS_VERSIONS]
+        if unknown:   # every run would be skipped and the table come back empty
+            raise ConfigError(f"physics versions must be among {list(PHYSICS_VERSIONS)}, got "
+                              f"{unknown}")
         if not 10 <= self.n_bootstrap <= MAX_BOOTSTRAP or self.seed < 0:
             raise ConfigError(f"n_bootstrap must be in 10-{MAX_BOOTSTRAP:,} and seed >= 0, "
                               f"got {self.n_bootstrap} and {self.seed}")

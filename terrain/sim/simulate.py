@@ -257,8 +257,9 @@ class SimConfig:
                               f"{vehicle.name}: the minimum is {minimum:g} s ({why})")
         if not float(self.segment_length_m) > 0:
             raise ConfigError(f"segment_length_m must be > 0, got {self.segment_length_m}")
-        if int(self.seed) < 0:
-            raise ConfigError(f"seed must be >= 0, got {self.seed}")
+        if isinstance(self.seed, bool) or int(self.seed) != self.seed or int(self.seed) < 0:
+            # a seed of 2.7 was simulated as seed 2 and labelled so, without a word
+            raise ConfigError(f"seed must be an integer >= 0, got {self.seed!r}")
         if self.effects.icr_expansion != 1.0 and vehicle.contact_geometry().steered:
             # simulate() applies chi to skid-steered vehicles only: planted on a steered one
             # it would be listed as active in the run's metadata and change nothing

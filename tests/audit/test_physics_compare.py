@@ -103,3 +103,10 @@ def test_the_comparison_names_the_terrains_whose_runs_chose_v2_parameters():
     head = md.split("| terrain |")[0]
     assert "SANDY_LOAM" not in head and "SNOW" not in head
     assert "ICE" in head and "PLOUGHED" in head and "CONCRETE" not in head
+
+
+@pytest.mark.parametrize("kwargs", [dict(reference="v3"), dict(candidate="V2")])
+def test_an_unknown_physics_version_is_refused_not_an_empty_table(kwargs):
+    # every run was skipped by the replay's error and the comparison came back empty
+    with pytest.raises(ConfigError, match="physics versions must be among"):
+        PhysicsComparisonSettings(**kwargs)

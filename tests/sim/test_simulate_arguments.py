@@ -81,6 +81,14 @@ def test_duration_bounds_still_hold():
         SimConfig(duration_s=float("nan"))
 
 
+@pytest.mark.parametrize("seed", [2.7, -1, True])
+def test_a_seed_that_is_not_a_whole_number_is_refused(seed):
+    # 2.7 was simulated as seed 2 (and its run labelled sim/<TERRAIN>/2) without a word
+    with pytest.raises(ConfigError, match="seed must be an integer >= 0"):
+        SimConfig(seed=seed)
+    assert SimConfig(seed=np.int64(3)).seed == 3 and SimConfig(seed=3.0).seed == 3
+
+
 def test_library_steps_refuse_a_grid_of_one_step():
     rng = np.random.default_rng(0)
     with pytest.raises(ConfigError, match="shorter than one physics step"):
