@@ -207,10 +207,14 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
     -------
     pandas.DataFrame
         ``peak_slip_off/on``, ``peak_slip_cut`` (fraction), ``energy_off/on`` (J/m),
-        ``energy_cut`` (fraction), ``time_to_speed_off/on`` (s), ``time_increase``
-        (fraction), ``slip_rmse_off/on``, ``steady_within_0_02_on`` (fraction of steady
-        samples with |slip - target| <= 0.02), ``terrain_accuracy_on`` (share of control
-        steps whose terrain decision is the true terrain, controller on).
+        ``energy_cut`` (fraction), ``time_to_speed_off/on`` (s, mean over the seeds whose
+        run reaches cruise), ``time_to_speed_reached_off/on`` (how many runs reach it, of
+        ``runs``, the seeds of the cell), ``time_increase`` (fraction: mean time on over
+        mean time off, both over the seeds where both runs reach cruise, so a run that
+        never gets there is counted, not averaged out), ``slip_rmse_off/on``,
+        ``steady_within_0_02_on`` (fraction of steady samples with |slip - target| <=
+        0.02), ``terrain_accuracy_on`` (share of control steps whose terrain decision is
+        the true terrain, controller on).
     """
     keys = ["vehicle", "terrain", "scenario"]
     cols = ["peak_slip", "energy_j_per_m", "time_to_speed_s", "slip_rmse",
@@ -224,7 +228,16 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         out[f"{short}_on"] = mean[(c, "traction")]
     out["peak_slip_cut"] = 1.0 - out["peak_slip_on"] / out["peak_slip_off"]
     out["energy_cut"] = 1.0 - out["energy_on"] / out["energy_off"]
-    out["time_increase"] = out["time_to_speed_on"] / out["time_to_speed_off"] - 1.0
+    # time to cruise: the seeds where neither run reached it are left out of the increase
+    # (a mean over the seeds each run reached compares different seeds) and counted
+    t = results.assign(t=results["time_to_speed_s"].astype(float))
+    reached = t.groupby(keys + ["controller"])["t"].count().unstack("controller")
+    out["time_to_speed_reached_off"] = reached["off"]
+    out["time_to_speed_reached_on"] = reached["traction"]
+    out["runs"] = t[t["controller"] == "off"].groupby(keys)["seed"].nunique()
+    pairs = t.set_index(keys + ["seed", "controller"])["t"].unstack("controller").dropna()
+    paired = pairs.groupby(level=keys).mean().reindex(out.index)
+    out["time_increase"] = paired["traction"] / paired["off"] - 1.0
     out["steady_within_0_02_on"] = mean[("steady_slip_within_0_02", "traction")]
     out["terrain_accuracy_on"] = mean[("terrain_accuracy", "traction")]
     return out.reset_index()
@@ -277,9 +290,9 @@ def markdown_table(table: pd.DataFrame) -> str:
     Returns
     -------
     str
-        Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on, the
-        relative changes, the steady-slip share within 0.02 of the target and the terrain
-        decisions' accuracy.
+        Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on (with
+        how many runs reach it where not all do), the relative changes, the steady-slip
+        share within 0.02 of the target and the terrain decisions' accuracy.
     """
     head = ("| vehicle | terrain | scenario | peak slip off -> on | cut | energy J/m off -> on "
             "| cut | time to cruise s off -> on | longer | slip RMSE off -> on "
@@ -290,11 +303,17 @@ def markdown_table(table: pd.DataFrame) -> str:
         return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) \
             else format(v, fmt)
 
+    def reach(r):   # how many runs reach cruise, where not all of them do
+        counts = (r.time_to_speed_reached_off, r.time_to_speed_reached_on)
+        return "" if counts == (r.runs, r.runs) else \
+            f" ({counts[0]:.0f} -> {counts[1]:.0f} of {r.runs:.0f} reach it)"
+
     lines = [f"| {r.vehicle} | {r.terrain} | {r.scenario} | {f(r.peak_slip_off, '.3f')} -> "
              f"{f(r.peak_slip_on, '.3f')} | {f(100 * r.peak_slip_cut, '.0f')} % | "
              f"{f(r.energy_off, '.0f')} -> {f(r.energy_on, '.0f')} | "
              f"{f(100 * r.energy_cut, '.1f')} % | {f(r.time_to_speed_off, '.2f')} -> "
-             f"{f(r.time_to_speed_on, '.2f')} | {f(100 * r.time_increase, '.0f')} % | "
+             f"{f(r.time_to_speed_on, '.2f')}{reach(r)} | "
+             f"{f(100 * r.time_increase, '.0f')} % | "
              f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')} | "
              f"{f(r.steady_within_0_02_on, '.2f')} | {f(r.terrain_accuracy_on, '.2f')} |"
              for r in table.itertuples()]

@@ -296,3 +296,27 @@ def test_peak_slip_above_the_enabling_speed_is_undefined_for_a_stuck_robot():
     assert stuck["peak_slip"] == pytest.approx(1.0) and stuck["peak_slip_gated"] is None
     _, _, moving = run_closed_loop("husky", "TILES", "slope_turn", False, 0, duration_s=3.0)
     assert 0 < moving["peak_slip_gated"] <= moving["peak_slip"]
+
+
+def test_comparison_counts_runs_that_never_reach_cruise():
+    """Three seeds: off reaches cruise at 1.0, 1.0 and 3.0 s, on at 1.1, 1.1 s and never on
+    the seed whose off run was slow. The on run that never got there was dropped from the
+    mean unsaid, and the two means over different seeds read as a faster start (1.67 ->
+    1.10 s, "longer" -34 %). The increase is now over the seeds both runs reach (+10 %) and
+    the table counts the runs that reach cruise."""
+    import pandas as pd
+
+    from terrain.control.grid import compare, markdown_table
+
+    rows = [{"vehicle": "husky", "terrain": "GRASS", "scenario": "slope_turn", "seed": seed,
+             "controller": ctrl, "peak_slip": 0.5, "energy_j_per_m": 100.0,
+             "time_to_speed_s": t, "slip_rmse": 0.1, "steady_slip_within_0_02": None,
+             "mean_speed_m_s": 0.1, "terrain_accuracy": 1.0}
+            for seed, times in enumerate([(1.0, 1.1), (1.0, 1.1), (3.0, None)])
+            for ctrl, t in zip(("off", "traction"), times)]
+    table = compare(pd.DataFrame(rows))
+    row = table.iloc[0]
+    assert row["time_increase"] == pytest.approx(0.1)                  # was -0.34
+    assert (row["time_to_speed_reached_off"], row["time_to_speed_reached_on"],
+            row["runs"]) == (3, 2, 3)
+    assert "2 of 3" in markdown_table(table)
