@@ -55,7 +55,9 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     seeds : sequence of int
         Tuning seeds.
     time_weight : float
-        Weight of the relative time-to-cruise increase in the cost.
+        Weight of the relative time-to-cruise increase in the cost (a controlled run that
+        never reaches cruise counts as reaching it at the end of the run, ``duration_s``,
+        the earliest it could; a run whose uncontrolled twin never reaches it counts 1).
     steady_weight : float
         Weight of the share of steady control steps with ``|slip - target| > 0.02`` (the
         issue's steady-driving target; a run without steady samples counts as 1).
@@ -86,7 +88,9 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
                                 (kp, ki), estimator=estimator, feed_forward=feed_forward)[2]
             t0, t1 = base[ter, seed]["time_to_speed_s"], m["time_to_speed_s"]
             rmse.append(m["slip_rmse"] if m["slip_rmse"] is not None else 1.0)
-            dt.append(1.0 if (t1 is None or not t0) else max(t1 / t0 - 1.0, 0.0))
+            if t1 is None:      # never reached in the run: at duration_s at the earliest
+                t1 = float(duration_s)
+            dt.append(1.0 if not t0 else max(t1 / t0 - 1.0, 0.0))
             within = m["steady_slip_within_0_02"]
             miss.append(1.0 if within is None else 1.0 - within)
         row = {"kp": kp, "ki": ki, "slip_rmse": float(np.mean(rmse)),

@@ -320,3 +320,23 @@ def test_comparison_counts_runs_that_never_reach_cruise():
     assert (row["time_to_speed_reached_off"], row["time_to_speed_reached_on"],
             row["runs"]) == (3, 2, 3)
     assert "2 of 3" in markdown_table(table)
+
+
+def test_tuning_never_prefers_gains_that_never_reach_cruise(monkeypatch):
+    """Without control the robot reaches cruise at 1.0 s; kp 1 gets there at 2.5 s, kp 2
+    never in the 10 s run. A run that never reached cruise was charged a relative increase of
+    1.0 (as if at 2.0 s), less than kp 1's 1.5, so the tuning chose the gains that never get
+    there. Now it counts as reaching cruise at the end of the run at the earliest (+900 %)."""
+    import terrain.control.grid as grid
+
+    def fake_run(vehicle, terrain, scenario, on, seed, duration_s, gains=None, **kw):
+        t = 1.0 if not on else {1.0: 2.5, 2.0: None}[gains[0]]
+        return None, None, {"time_to_speed_s": t, "slip_rmse": 0.05,
+                            "steady_slip_within_0_02": 1.0}
+
+    monkeypatch.setattr(grid, "run_closed_loop", fake_run)
+    best, table = grid.tune_gains("husky", ["ICE"], [1.0, 2.0], [0.0], duration_s=10.0,
+                                  seeds=(1000,))
+    assert best == (1.0, 0.0)                                   # was (2.0, 0.0)
+    assert table.set_index("kp")["time_increase"].to_dict() == pytest.approx(
+        {1.0: 1.5, 2.0: 9.0})
