@@ -327,7 +327,10 @@ class StreamService:
         times, values, steps, gap = [], [], [], False
         for buf in self._intake.buffers.values():
             ts, vs = buf.since(lo)
-            cut = int(np.searchsorted(ts, t, side="right")) + 1  # one sample past t
+            # up to the first sample at or past t, whatever came after it: the IMU's
+            # anti-alias filter runs both ways over what is read, so one more sample would
+            # move the window's values with the chunking of the pushes
+            cut = int(np.searchsorted(ts, t, side="left")) + 1
             ts, vs = ts[:cut], vs[:cut]
             if len(ts) < 2:
                 return None, np.inf, {"short"}
