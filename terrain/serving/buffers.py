@@ -171,21 +171,29 @@ class RingBuffer:
         start = max(0, int(np.searchsorted(t, t_min_s, side="left")) - 1)
         return t[start:].copy(), self._v[end - self._size + start:end].copy()
 
-    def median_step(self, last: int = 64) -> float:
+    def median_step(self, last: int = 64, through_s: float | None = None) -> float:
         """Median time step of the newest ``last`` samples, s (``nan`` with < 2 samples).
 
         Parameters
         ----------
         last : int
             Samples looked at.
+        through_s : float or None
+            Only the samples up to the first one at or after this time count, s (a
+            window's step, whatever arrived after it); ``None``: all kept samples.
 
         Returns
         -------
         float
             Median of the differences of their timestamps, s; ``nan`` with fewer than 2.
         """
-        m = min(self._size, last)
+        end = self._next + self.capacity
+        size = self._size
+        if through_s is not None:
+            t = self._t[end - size:end]
+            size = min(size, int(np.searchsorted(t, through_s, side="left")) + 1)
+            end -= self._size - size
+        m = min(size, last)
         if m < 2:
             return float("nan")
-        end = self._next + self.capacity
         return median_step(self._t[end - m:end])

@@ -335,8 +335,9 @@ class StreamService:
             if len(ts) < 2:
                 return None, np.inf, {"short"}
             # a gap is judged against the stream's usual step (the readers' rule), not the
-            # few samples of one window, which a long gap would dominate
-            steps.append(buf.median_step())
+            # few samples of one window, which a long gap would dominate; its step up to the
+            # window's last sample read (later arrivals would move it with the chunking)
+            steps.append(buf.median_step(through_s=t))
             if (np.diff(ts) > self.config.gap_factor * steps[-1]).any():
                 gap = True
             times.append(ts)
