@@ -2,8 +2,9 @@
 
 Python's :func:`json.dumps` writes a NaN or infinite float as the bare tokens ``NaN`` and
 ``Infinity``, which JSON does not allow (RFC 8259, section 6): ``jq``, JavaScript's
-``JSON.parse`` and other strict readers refuse the whole file. Every summary the project
-writes goes through :func:`json_ready` first.
+``JSON.parse`` and other strict readers refuse the whole file. The audit report and the
+``summary.json`` of ``terrain slip-fit`` and ``terrain control-grid`` go through
+:func:`json_ready` first.
 """
 
 from __future__ import annotations
