@@ -232,7 +232,7 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         out[f"{short}_on"] = mean[(c, "traction")]
     out["peak_slip_cut"] = 1.0 - out["peak_slip_on"] / out["peak_slip_off"]
     out["energy_cut"] = 1.0 - out["energy_on"] / out["energy_off"]
-    # time to cruise: the seeds where neither run reached it are left out of the increase
+    # time to cruise: a seed where either run did not reach it is left out of the increase
     # (a mean over the seeds each run reached compares different seeds) and counted
     t = results.assign(t=results["time_to_speed_s"].astype(float))
     reached = t.groupby(keys + ["controller"])["t"].count().unstack("controller")
