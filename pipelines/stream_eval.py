@@ -149,7 +149,7 @@ def main(args: argparse.Namespace) -> int:
                              # the wheel-cv windows, only where that part runs
                              **({"window_s": args.window_s, "hop_s": args.hop_s}
                                 if wheel_cv else {})}) as run:
-        if args.part in ("wheel-cv", "both"):
+        if wheel_cv:
             recipe = replace(RECIPES["wheels"], window_s=args.window_s)
             cv = window_cv(runs, recipe, args.hop_s, args.seeds, SMOOTHINGS)
             report["wheel_cv"] = cv

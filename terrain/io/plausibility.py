@@ -292,10 +292,10 @@ def check_accel_units(frame: pd.DataFrame, path, found: list[str] | None = None)
         return  # every sample in a stuck stretch: the stuck_sensor rule reports it
     median = float(np.median(np.linalg.norm(acc[live], axis=1)))
     if median < DEAD_ACCEL_M_S2:
-        _say(f"{path}: rule accel_units: median specific force {median:.2f} over "
-             f"{int(live.sum())} sample(s) outside stuck stretches: the accelerometer sees "
-             "no gravity (9.81 m/s^2, or 1 in g): dead or disconnected sensor; assumed m/s^2",
-             found)
+        _warn(f"{path}: rule accel_units: median specific force {median:.2f} over "
+              f"{int(live.sum())} sample(s) outside stuck stretches: the accelerometer sees "
+              "no gravity (9.81 m/s^2, or 1 in g): dead or disconnected sensor; assumed "
+              "m/s^2", found)
     elif accel_in_g(median):
         raise UnitError(f"rule accel_units: median specific force {median:.2f} is far below "
                         "9.81 m/s^2; the file looks like units of g, expected m/s^2 (x 9.81)",
@@ -434,8 +434,8 @@ def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time",
             f"the timestamps look like {word} ({unit}); divide the time column by {factor}",
             path, time_column)
     if not lo <= rate <= hi:
-        _say(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
-             f"Hz of the {stream} stream; timestamps assumed in s", found)
+        _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
+              f"Hz of the {stream} stream; timestamps assumed in s", found)
 
 
 def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
@@ -526,12 +526,9 @@ def stuck_stretches(streams: Mapping[str, pd.DataFrame]) -> dict[str, list[list[
     return out
 
 
-def _warn(message: str) -> None:
-    warnings.warn(message, DataWarning, stacklevel=3)
-
-
-def _say(message: str, found: list[str] | None) -> None:
-    """A likely-wrong finding: into ``found`` when given (its owner warns it), else warned."""
+def _warn(message: str, found: list[str] | None = None) -> None:
+    """A likely-wrong finding: into ``found`` when given (its owner warns it), else warned
+    as a :class:`DataWarning` at the caller's caller."""
     if found is None:
         warnings.warn(message, DataWarning, stacklevel=3)
     else:
