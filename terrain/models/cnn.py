@@ -225,8 +225,6 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     and sample_weight.sum() > 0):
                 raise ValueError("sample_weight must be finite and >= 0, and the weights not "
                                  "all zero")
-        counts = np.bincount(y_idx, minlength=len(self.classes_)).astype(np.float32)
-        weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
         train_split, callbacks, fit_idx = None, [], np.arange(len(Z))
         if self.early_stopping:
             if groups is None:
@@ -236,6 +234,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             fit_idx, val_idx = next(inner.split(Z, y_idx, np.asarray(groups)))
             train_split = predefined_split(Dataset(Z[val_idx], y_idx[val_idx]))
             callbacks = [EarlyStopping(patience=self.patience, load_best=True)]
+        # the loss's class weights balance the windows the network trains on: the
+        # validation runs held out for early stopping take no part in them
+        counts = np.bincount(y_idx[fit_idx], minlength=len(self.classes_)).astype(np.float32)
+        weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
         threads = torch.get_num_threads()
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(self.random_state)

@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+from sklearn.model_selection import StratifiedGroupKFold
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from terrain.errors import ConfigError
@@ -159,6 +160,26 @@ def test_early_stopping_validates_on_whole_held_out_runs():
     assert n_train == 6 * 12
     # the fitted model does not carry the validation windows with it
     assert model.net_.train_split is None
+
+
+def test_early_stopping_class_weights_count_the_training_runs_only():
+    # runs of 4 to 20 windows: the runs the grouped validation split holds out change
+    # the class balance of the windows the network trains on
+    X, y, groups = _planted(per_run=20)
+    sizes = (20, 4, 20, 4, 4, 4, 20, 12)
+    keep = np.concatenate([np.flatnonzero(groups == f"run{r}")[:n]
+                           for r, n in enumerate(sizes)])
+    X, y, groups = X[keep], y[keep], groups[keep]
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True,
+                             validation_splits=4).fit(X, y, groups=groups)
+    _, y_idx = np.unique(y, return_inverse=True)
+    fit_idx, _ = next(StratifiedGroupKFold(4, shuffle=True, random_state=model.random_state)
+                      .split(X, y_idx, groups))
+    counts = np.bincount(y_idx[fit_idx], minlength=2)
+    every_window = np.bincount(y_idx, minlength=2)
+    assert counts[0] / counts[1] != pytest.approx(every_window[0] / every_window[1], rel=0.05)
+    np.testing.assert_allclose(model.net_.criterion_.weight.numpy(),
+                               counts.sum() / (2 * counts), rtol=1e-6)
 
 
 def test_log_spectrogram_peaks_at_the_tone_frequency():
