@@ -239,7 +239,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         counts = np.bincount(y_idx[fit_idx], minlength=len(self.classes_)).astype(np.float32)
         weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
         threads = torch.get_num_threads()
-        with torch.random.fork_rng(devices=[]):
+        # torch.manual_seed reseeds every CUDA device too: fork their RNGs as well, so a
+        # fit leaves the caller's random streams as it found them on a GPU machine too
+        cuda = list(range(torch.cuda.device_count())) if torch.cuda.is_available() else []
+        with torch.random.fork_rng(devices=cuda):
             torch.manual_seed(self.random_state)
             if self.n_threads:
                 torch.set_num_threads(self.n_threads)

@@ -182,6 +182,16 @@ def test_early_stopping_class_weights_count_the_training_runs_only():
                                counts.sum() / (2 * counts), rtol=1e-6)
 
 
+def test_fit_leaves_the_callers_torch_random_stream_as_it_found_it():
+    import torch
+    X, y, _ = _planted(n_runs=4)
+    torch.manual_seed(123)
+    expected = torch.rand(3)
+    torch.manual_seed(123)
+    RawCNNClassifier(**{**FAST, "max_epochs": 1}).fit(X, y)
+    torch.testing.assert_close(torch.rand(3), expected)
+
+
 def test_log_spectrogram_peaks_at_the_tone_frequency():
     t = np.arange(200) / RATE_HZ
     X = np.sin(2 * np.pi * 20.0 * t)[None, None, :].astype(np.float32)
