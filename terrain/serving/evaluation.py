@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from features.windows import WindowConfig, make_windows
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, first_items
 from terrain.models.cv import iter_splits
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -173,7 +173,9 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     Raises
     ------
     ConfigError
-        Fewer than two terrains among the usable runs.
+        Fewer than two terrains among the usable runs (those holding ``streams``, their
+        streams overlapping for at least ``min(min_s, 10 s)``); the message names the runs
+        too short and their lengths.
     """
     rng = np.random.default_rng(seed)
     pool = [r for r in runs if all(s in r.streams for s in streams)]
@@ -184,6 +186,13 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
                min(r.streams[s][TIME].iloc[-1] for s in streams)) for r in pool]
     shortest_s = min(min_s, 10.0)
     kept = {k for k, (lo, hi) in enumerate(bounds) if hi - lo >= shortest_s}
+    if len({pool[k].terrain for k in kept}) < 2:
+        short = [f"{r.run_id} ({hi - lo:.3g} s)" for k, (r, (lo, hi)) in
+                 enumerate(zip(pool, bounds)) if k not in kept]
+        raise ConfigError(
+            f"a concatenated stream needs runs of at least two terrains at least "
+            f"{shortest_s:g} s long (min(min_s={min_s:g}, 10 s)); of the {len(pool)} runs "
+            f"given, {len(short)} are shorter: {first_items(short, word='run')}")
     order = list(rng.permutation(len(pool)))
     parts: dict[str, list[pd.DataFrame]] = {s: [] for s in streams}
     segments: list[Segment] = []

@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from terrain.errors import ConfigError
 from terrain.run import Run
 from terrain.serving.evaluation import concatenated_streams
 
@@ -49,3 +50,17 @@ def test_a_run_too_short_for_a_piece_is_named_not_dropped_silently():
     assert stream.meta["skipped_runs"] == ["syn/ASPHALT/02"]
     whole = concatenated_streams([r for r in runs if r.terrain != "ASPHALT"], ("wheels",), 0)
     assert whole[0].meta["skipped_runs"] == []
+
+
+@pytest.mark.parametrize("lengths_s", [
+    # every run too short for a piece: pandas's bare "No objects to concatenate"
+    {"ICE": 5.0, "SNOW": 8.0},
+    # one terrain left once the short runs are out: a stream without a switch, no word
+    {"ICE": 60.0, "SNOW": 8.0}])
+def test_runs_too_short_to_alternate_are_a_typed_error_naming_them(lengths_s):
+    runs = [_run(i, t, length_s=s) for i, (t, s) in enumerate(lengths_s.items())]
+    with pytest.raises(ConfigError) as exc:
+        concatenated_streams(runs, ("wheels",), seed=0)
+    message = str(exc.value)
+    assert "2 runs" in message and "min_s=30" in message and "10 s" in message
+    assert "syn/SNOW/01 (7.8 s)" in message
