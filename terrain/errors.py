@@ -108,6 +108,18 @@ class ServiceBusyError(TerrainError):
     """The served model answers as many requests as it may at once: retry shortly."""
 
 
+class EndpointError(TerrainError):
+    """A request the served model's HTTP front cannot route: see the subclasses."""
+
+
+class UnknownEndpointError(EndpointError):
+    """A request to a path the served model does not answer (HTTP 404)."""
+
+
+class MethodNotAllowedError(EndpointError):
+    """A request with a method its endpoint does not take (HTTP 405)."""
+
+
 class DataWarning(UserWarning):
     """Input that is probably, not certainly, wrong: the message says what was assumed."""
 

@@ -19,8 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Awaitable, Callable, MutableMapping
 
 from terrain.errors import (ConfigError, DataFormatError, EmptyFileError, EncodingError,
-                            ImplausibleValueError, RaggedRowError, ServiceBusyError,
-                            TerrainError, config_integer)
+                            ImplausibleValueError, MethodNotAllowedError, RaggedRowError,
+                            ServiceBusyError, TerrainError, UnknownEndpointError,
+                            config_integer)
 from terrain.serving.body import body_refusal
 
 Scope = MutableMapping[str, Any]
@@ -165,9 +166,12 @@ def _error_body(status: int, body: bytes) -> dict:
 
 
 def _endpoint_error(status: int, detail: str) -> dict:
-    """The JSON error of a request to an unknown endpoint (404) or with a wrong method (405)."""
+    """The JSON error of a request to an unknown endpoint (404: ``ENDPOINT_NOT_FOUND``,
+    :class:`UnknownEndpointError`) or with a wrong method (405: ``BAD_REQUEST``, MLflow's
+    codes having none for it, :class:`MethodNotAllowedError`)."""
+    error = UnknownEndpointError if status == 404 else MethodNotAllowedError
     return {"error_code": "ENDPOINT_NOT_FOUND" if status == 404 else "BAD_REQUEST",
-            "message": _typed(ConfigError(
+            "message": _typed(error(
                 f"{detail}: the served model answers POST /invocations (the streams) and "
                 "GET /ping, /health, /version"))}
 

@@ -509,8 +509,24 @@ def test_head_is_get_and_a_405_keeps_its_allow_header():
     start = client.sent[0]
     assert start["status"] == 405 and (b"allow", b"GET") in start["headers"]
     status, answer = client.answer()
-    assert answer["message"].startswith("ConfigError: Method Not Allowed")
+    # an HTTP routing error, not a bad configuration (it said "ConfigError: ...")
+    assert answer["message"].startswith("MethodNotAllowedError: Method Not Allowed")
+    assert answer["error_code"] == "BAD_REQUEST"
     assert answer["sqlstate"] and answer["error_class"]
+
+
+@pytest.mark.parametrize("path", ["/predict", "/invocations/"])
+def test_an_unknown_endpoint_is_an_unknown_endpoint_error(path):
+    """A 404 says which error it is (it said ``ConfigError``, the error of a bad
+    configuration) and keeps MLflow's JSON error form."""
+    client = _Client([])
+    asyncio.run(RequestGuard(_echo_app()[0], max_body_bytes=1000)(
+        _scope(path=path, method="GET"), client.receive, client.send))
+    status, answer = client.answer()
+    assert status == 404 and answer["error_code"] == "ENDPOINT_NOT_FOUND"
+    assert answer["message"].startswith(f"UnknownEndpointError: no endpoint {path!r}")
+    assert "POST /invocations" in answer["message"]
+    assert answer["error_class"] == "RESOURCE_NOT_FOUND"
 
 
 _FINITE = st.floats(allow_nan=False, allow_infinity=False, width=64)

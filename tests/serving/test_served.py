@@ -913,7 +913,7 @@ def test_real_server_wrong_endpoint_is_a_typed_answer(server, method, path, stat
     finally:
         conn.close()
     assert res.status == status
-    _one_line_typed(answer, "ConfigError")
+    _one_line_typed(answer, "UnknownEndpointError" if status == 404 else "MethodNotAllowedError")
     assert "POST /invocations" in answer["message"]
     assert ("trailing slash" in answer["message"]) == path.endswith("/")
 
