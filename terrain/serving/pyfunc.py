@@ -36,7 +36,7 @@ import pandas as pd
 from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_channels,
                               required_streams, window_frame)
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
-                            TimestampError)
+                            NonNumericError, TimestampError)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
@@ -189,6 +189,8 @@ class TerrainModel(PythonModel):
         ------
         MissingColumnError
             A required input column is missing.
+        NonNumericError
+            A time or channel cell that is not a number (text, a boolean).
         ImplausibleValueError
             A value beyond its channel's plausibility range (:mod:`terrain.io.plausibility`).
         DataFormatError
@@ -233,6 +235,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     ------
     MissingColumnError
         A required input column is missing.
+    NonNumericError
+        A time or channel cell that is not a number (text, a boolean); names the column and
+        row.
     ImplausibleValueError
         A value beyond its channel's plausibility range (:func:`terrain.io.plausibility.
         check_ranges`).
@@ -251,6 +256,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     if missing:
         raise MissingColumnError(f"model input lacks column(s) {missing}; expected {cols}",
                                  "model input", missing[0])
+    # numbers only, as floats: the plausibility ranges look at float columns alone (1000 m/s
+    # written as integers passed them), and text failed later with Python's bare ValueError
+    samples = samples.assign(**{c: _numbers(samples[c]) for c in cols[1:]})
     # the readers' plausibility ranges also guard served input (1e300 would overflow features)
     check_ranges(samples, "model input", {c: c for c in cols[2:]})
     no_run = samples[RUN].isna().to_numpy()
@@ -303,6 +311,30 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     result = result[columns]
     result.attrs.update(dropped_windows=dropped, empty_windows=empty)
     return result
+
+
+def _numbers(column: pd.Series) -> np.ndarray:
+    """A model input column as float (empty cells NaN); :class:`NonNumericError` names the
+    column and 0-based row of the first cell that is not a number (text, a boolean, a date:
+    a JSON ``true`` is not 1.0)."""
+    raw = column.to_numpy()
+    if raw.dtype.kind in "iuf":
+        return raw.astype(float)
+    if raw.dtype.kind == "O":
+        bad = np.fromiter((isinstance(x, (bool, np.bool_)) for x in raw), bool, raw.size)
+        try:
+            values = pd.to_numeric(pd.Series(np.where(bad, None, raw)),
+                                   errors="coerce").to_numpy(dtype=float)
+        except (OverflowError, TypeError, ValueError):  # a cell pandas cannot even coerce
+            values = np.full(raw.size, np.nan)
+        bad |= np.isnan(values) & pd.notna(column).to_numpy()
+    else:  # booleans, dates, durations, complex numbers
+        bad, values = np.ones(raw.size, dtype=bool), None
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise NonNumericError(f"{int(bad.sum())} value(s) that are not numbers, first "
+                              f"{str(raw[row])[:40]!r}", "model input", str(column.name), row)
+    return values
 
 
 def model_signature(channels: Sequence[str], classes: Sequence[str]):

@@ -1,0 +1,50 @@
+"""The aligned-samples pyfunc (:func:`terrain.serving.pyfunc.predict_windows`) refuses input
+that is not numbers with the project's typed errors, on a stand-in classifier."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.windows import WindowConfig
+from terrain.errors import ImplausibleValueError, NonNumericError
+from terrain.serving.pyfunc import predict_windows
+
+
+class _Classifier:
+    classes_ = np.array(["A", "B"])
+
+    def predict_proba(self, X):
+        return np.tile([0.3, 0.7], (len(X), 1))
+
+
+def _predict(samples):
+    return predict_windows(_Classifier(), samples, ["vel_l", "vel_r"],
+                           WindowConfig(window_s=2.0, rate_hz=20.0), ["A", "B"])
+
+
+def _samples(n=200):
+    """10 s of aligned wheel samples of one run at 20 Hz."""
+    return pd.DataFrame({"run": "r1", "t_s": np.arange(n) / 20.0, "vel_l": 0.5, "vel_r": 0.5})
+
+
+@pytest.mark.parametrize("column, cell", [("t_s", "x"), ("vel_l", "x"), ("vel_l", True)])
+def test_a_cell_that_is_not_a_number_is_a_typed_error_naming_it(column, cell):
+    # text was Python's bare "ValueError: could not convert string to float: 'x'", and a
+    # JSON true was read as 1.0 m/s
+    samples = _samples().astype({column: object})
+    samples.loc[7, column] = cell
+    with pytest.raises(NonNumericError) as exc:
+        _predict(samples)
+    assert exc.value.column == column and exc.value.row == 7
+
+
+def test_integer_values_are_range_checked_like_floats():
+    # 1000 m/s written as integers passed the plausibility ranges (they look at float
+    # columns only) and gave five confident windows
+    samples = _samples()
+    samples["vel_l"] = 1000
+    with pytest.raises(ImplausibleValueError, match="vel_l"):
+        _predict(samples)
+    assert len(_predict(_samples())) == 5
