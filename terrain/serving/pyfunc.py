@@ -36,11 +36,12 @@ import pandas as pd
 from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_channels,
                               required_streams, window_frame)
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
-                            NonNumericError, TimestampError)
+                            TimestampError)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
 from terrain.serving.model import load_pipeline, read_model_metadata
+from terrain.serving.request import numeric_column
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
     from mlflow.pyfunc import PythonModel
@@ -258,7 +259,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                  "model input", missing[0])
     # numbers only, as floats: the plausibility ranges look at float columns alone (1000 m/s
     # written as integers passed them), and text failed later with Python's bare ValueError
-    samples = samples.assign(**{c: _numbers(samples[c]) for c in cols[1:]})
+    rows = np.arange(len(samples))
+    samples = samples.assign(**{c: numeric_column(samples, c, rows, "model input")
+                                for c in cols[1:]})
     # the readers' plausibility ranges also guard served input (1e300 would overflow features)
     check_ranges(samples, "model input", {c: c for c in cols[2:]})
     no_run = samples[RUN].isna().to_numpy()
@@ -311,30 +314,6 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     result = result[columns]
     result.attrs.update(dropped_windows=dropped, empty_windows=empty)
     return result
-
-
-def _numbers(column: pd.Series) -> np.ndarray:
-    """A model input column as float (empty cells NaN); :class:`NonNumericError` names the
-    column and 0-based row of the first cell that is not a number (text, a boolean, a date:
-    a JSON ``true`` is not 1.0)."""
-    raw = column.to_numpy()
-    if raw.dtype.kind in "iuf":
-        return raw.astype(float)
-    if raw.dtype.kind == "O":
-        bad = np.fromiter((isinstance(x, (bool, np.bool_)) for x in raw), bool, raw.size)
-        try:
-            values = pd.to_numeric(pd.Series(np.where(bad, None, raw)),
-                                   errors="coerce").to_numpy(dtype=float)
-        except (OverflowError, TypeError, ValueError):  # a cell pandas cannot even coerce
-            values = np.full(raw.size, np.nan)
-        bad |= np.isnan(values) & pd.notna(column).to_numpy()
-    else:  # booleans, dates, durations, complex numbers
-        bad, values = np.ones(raw.size, dtype=bool), None
-    if bad.any():
-        row = int(np.flatnonzero(bad)[0])
-        raise NonNumericError(f"{int(bad.sum())} value(s) that are not numbers, first "
-                              f"{str(raw[row])[:40]!r}", "model input", str(column.name), row)
-    return values
 
 
 def model_signature(channels: Sequence[str], classes: Sequence[str]):

@@ -43,12 +43,34 @@ MAX_REPAIR_RUN = 2
 DEFAULT_VEHICLE = "husky"
 
 
-def _numeric(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) -> np.ndarray:
+def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) -> np.ndarray:
     """Column ``col`` at ``rows`` as float; a typed error naming the first bad row.
 
-    Text (``NonNumericError``), a boolean (``NonNumericError``: JSON ``true`` is not 1.0)
-    and a number beyond the float range (``ImplausibleValueError``, e.g. an integer of 400
-    digits) are refused; empty cells are NaN.
+    The served models' one reading of a request's numbers (this module's requests and the
+    aligned-samples pyfunc, :func:`terrain.serving.pyfunc.predict_windows`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The request's table.
+    col : str
+        The column to read.
+    rows : numpy.ndarray
+        ``(n,)`` 0-based row positions to read (the rows named in an error).
+    where : str
+        What the table is, for the error (e.g. ``"model input"``).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` float values; empty cells NaN.
+
+    Raises
+    ------
+    NonNumericError
+        Text, a boolean (JSON ``true`` is not 1.0), a date, a duration or a complex number.
+    ImplausibleValueError
+        A number beyond the float range (e.g. an integer of 400 digits).
     """
     raw = frame[col].to_numpy()[rows]
     if raw.dtype.kind in "iuf":
@@ -294,8 +316,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
                                      f"missing {missing} ({form})", where, missing[0])
         rows = (np.flatnonzero((frame[STREAM] == stream).to_numpy()) if long
                 else _wide_rows(frame, stream, tcol, channels, where))
-        t = _numeric(frame, tcol, rows, where)
-        v = np.column_stack([_numeric(frame, c, rows, where) for c in channels])
+        t = numeric_column(frame, tcol, rows, where)
+        v = np.column_stack([numeric_column(frame, c, rows, where) for c in channels])
         _check_stream(stream, t, v, channels, rows, window_s, where)
         part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
         # finite values only: an isolated inf is a non-finite sample as a NaN is (the
