@@ -340,3 +340,22 @@ def test_tuning_never_prefers_gains_that_never_reach_cruise(monkeypatch):
     assert best == (1.0, 0.0)                                   # was (2.0, 0.0)
     assert table.set_index("kp")["time_increase"].to_dict() == pytest.approx(
         {1.0: 1.5, 2.0: 9.0})
+
+
+@pytest.mark.parametrize("rate_hz", [10.0, 50.0, 100.0])
+def test_first_call_integrates_no_assumed_interval(rate_hz):
+    """The first call has no previous one, so its PID integrates nothing: before, it
+    integrated an assumed 0.02 s whatever the rate (husky, ki = 10, slip error -0.49: a first
+    correction of -0.098 rad/s at 10, 50 and 100 Hz alike). Its ``dt_s`` is logged as 0; the
+    second call integrates its real interval."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=0.0, ki=10.0)
+    r = ctrl_cfg.wheel_radius_m
+    loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.5, 1.0, r),
+                        build_slip_table(["ICE"]), lambda t: ("ICE", 1.0), feed_forward=False)
+    first = loop(_observation(100.0, np.full(n, 1.0 / r)))
+    second = loop(_observation(100.0 + 1.0 / rate_hz, np.full(n, 1.0 / r)))
+    np.testing.assert_allclose(first, 0.0, atol=1e-4)
+    error = loop.log[-1]["desired"] - loop.log[-1]["slip_est"]
+    np.testing.assert_allclose(second, 10.0 * error / rate_hz, rtol=1e-3)
+    assert loop.log[0]["dt_s"] == 0.0
+    assert loop.log[1]["dt_s"] == pytest.approx(1.0 / rate_hz)
