@@ -217,8 +217,10 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         mean time off, both over the seeds where both runs reach cruise, so a run that
         never gets there is counted, not averaged out), ``slip_rmse_off/on``,
         ``steady_within_0_02_on`` (fraction of steady samples with |slip - target| <=
-        0.02), ``terrain_accuracy_on`` (share of control steps whose terrain decision is
-        the true terrain, controller on).
+        0.02, mean over the seeds whose controlled run has steady samples: a run without
+        any has no share and is left out), ``steady_within_0_02_runs_on`` (how many runs
+        that mean is over, of ``runs``), ``terrain_accuracy_on`` (share of control steps
+        whose terrain decision is the true terrain, controller on).
     """
     keys = ["vehicle", "terrain", "scenario"]
     cols = ["peak_slip", "energy_j_per_m", "time_to_speed_s", "slip_rmse",
@@ -243,6 +245,10 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
     paired = pairs.groupby(level=keys).mean().reindex(out.index)
     out["time_increase"] = paired["traction"] / paired["off"] - 1.0
     out["steady_within_0_02_on"] = mean[("steady_slip_within_0_02", "traction")]
+    # a run without steady samples has no share (None) and is left out of that mean: counted
+    steady = results.assign(s=results["steady_slip_within_0_02"].astype(float))
+    out["steady_within_0_02_runs_on"] = steady[steady["controller"] == "traction"].groupby(
+        keys)["s"].count().reindex(out.index).fillna(0).astype(int)
     out["terrain_accuracy_on"] = mean[("terrain_accuracy", "traction")]
     return out.reset_index()
 
@@ -296,7 +302,8 @@ def markdown_table(table: pd.DataFrame) -> str:
     str
         Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on (with
         how many runs reach it where not all do), the relative changes, the steady-slip
-        share within 0.02 of the target and the terrain decisions' accuracy.
+        share within 0.02 of the target (with how many runs it is over where some have no
+        steady samples) and the terrain decisions' accuracy.
     """
     head = ("| vehicle | terrain | scenario | peak slip off -> on | cut | energy J/m off -> on "
             "| cut | time to cruise s off -> on | longer | slip RMSE off -> on "
@@ -312,6 +319,10 @@ def markdown_table(table: pd.DataFrame) -> str:
         return "" if counts == (r.runs, r.runs) else \
             f" ({counts[0]:.0f} -> {counts[1]:.0f} of {r.runs:.0f} reach it)"
 
+    def steady_runs(r):   # how many runs the steady share is over, where not all
+        n = getattr(r, "steady_within_0_02_runs_on", r.runs)
+        return "" if n == r.runs else f" ({n:.0f} of {r.runs:.0f} runs)"
+
     lines = [f"| {r.vehicle} | {r.terrain} | {r.scenario} | {f(r.peak_slip_off, '.3f')} -> "
              f"{f(r.peak_slip_on, '.3f')} | {f(100 * r.peak_slip_cut, '.0f')} % | "
              f"{f(r.energy_off, '.0f')} -> {f(r.energy_on, '.0f')} | "
@@ -319,6 +330,7 @@ def markdown_table(table: pd.DataFrame) -> str:
              f"{f(r.time_to_speed_on, '.2f')}{reach(r)} | "
              f"{f(100 * r.time_increase, '.0f')} % | "
              f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')} | "
-             f"{f(r.steady_within_0_02_on, '.2f')} | {f(r.terrain_accuracy_on, '.2f')} |"
+             f"{f(r.steady_within_0_02_on, '.2f')}{steady_runs(r)} | "
+             f"{f(r.terrain_accuracy_on, '.2f')} |"
              for r in table.itertuples()]
     return head + "\n".join(lines) + "\n"

@@ -322,6 +322,31 @@ def test_comparison_counts_runs_that_never_reach_cruise():
     assert "2 of 3" in markdown_table(table)
 
 
+def test_comparison_counts_the_seeds_of_the_steady_share():
+    """Three seeds, controller on: only one has steady samples (within 0.02: 0.9), the other
+    two none (None). The mean read 0.9 with nothing saying it rests on 1 run of 3; the
+    comparison now counts the runs it is over and the table says so (the share unchanged)."""
+    import pandas as pd
+
+    from terrain.control.grid import compare, markdown_table
+
+    rows = [{"vehicle": "husky", "terrain": "GRASS", "scenario": "slope_turn", "seed": seed,
+             "controller": ctrl, "peak_slip": 0.5, "energy_j_per_m": 100.0,
+             "time_to_speed_s": 1.0, "slip_rmse": 0.1,
+             "steady_slip_within_0_02": within if ctrl == "traction" else None,
+             "mean_speed_m_s": 0.1, "terrain_accuracy": 1.0}
+            for seed, within in enumerate([0.9, None, None])
+            for ctrl in ("off", "traction")]
+    table = compare(pd.DataFrame(rows))
+    row = table.iloc[0]
+    assert row["steady_within_0_02_on"] == pytest.approx(0.9)
+    assert (row["steady_within_0_02_runs_on"], row["runs"]) == (1, 3)
+    assert "0.90 (1 of 3 runs)" in markdown_table(table)
+    full = compare(pd.DataFrame([dict(r, steady_slip_within_0_02=0.9) for r in rows]))
+    assert full.iloc[0]["steady_within_0_02_runs_on"] == 3
+    assert "0.90 |" in markdown_table(full) and "of 3 runs" not in markdown_table(full)
+
+
 def test_tuning_never_prefers_gains_that_never_reach_cruise(monkeypatch):
     """Without control the robot reaches cruise at 1.0 s; kp 1 gets there at 2.5 s, kp 2
     never in the 10 s run. A run that never reached cruise was charged a relative increase of
