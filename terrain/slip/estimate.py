@@ -401,7 +401,8 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     0, which claimed certainty: at the start of a simulated GRASS orchard run the physics'
     slip reaches 0.21 there); a note counts those samples. The propagation runs through the
     unclipped SAE ratio, so a slip at the +-1 clip keeps a std (clipped, its finite
-    differences were 0 while the estimate was off by up to 1.0 at a spin's reversal).
+    differences were 0 while the estimate was off by up to 1.0 at a spin's reversal); a
+    note counts the samples saturated there (:func:`clip_notes`).
 
     Parameters
     ----------
@@ -472,11 +473,37 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     in_band = in_dead_band(rim, v_long, DEAD_BAND_M_S)
     std = np.where(in_band, np.nan, np.sqrt(var))
     notes = (agrimaro_missing_stream_notes(run) + lag_notes(run, lag_est)
-             + dead_band_notes(in_band))
+             + dead_band_notes(in_band) + clip_notes(base))
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
                        std, notes)
+
+
+def clip_notes(unclipped_slip: np.ndarray) -> tuple[str, ...]:
+    """A note counting the slip samples saturated to +-1 (seed 001 ch. 7.2.1's clip).
+
+    Where the rim speed and the wheel's velocity have opposite signs (a wheel turning
+    against its motion, as at a spin's reversal when the wheel speed crosses zero first) the
+    SAE ratio reaches up to +-2; the slip reports +-1 there.
+
+    Parameters
+    ----------
+    unclipped_slip : ndarray, shape (N, k)
+        SAE ratio before the clip (:func:`sae_slip` with saturation 2), dimensionless.
+
+    Returns
+    -------
+    tuple of str
+        One note, or none when no sample is beyond +-1.
+    """
+    beyond = np.abs(np.asarray(unclipped_slip, dtype=float)) > 1.0
+    n = int(np.count_nonzero(beyond))
+    if n == 0:
+        return ()
+    return (f"{n} of {beyond.size} wheel slip samples beyond +-1 (rim speed against the "
+            f"wheel's motion, e.g. at a spin's reversal) saturated to +-1 (ch. 7.2.1); "
+            f"std_slip from the unclipped ratio",)
 
 
 def dead_band_notes(in_band: np.ndarray) -> tuple[str, ...]:

@@ -269,3 +269,9 @@ def test_agrimaro_slip_at_the_clip_keeps_a_std():
     clipped = np.abs(est.slip) == 1.0
     assert clipped.sum() > 10
     assert np.all(est.slip_std[clipped] > 0.05)
+    # the samples whose ratio went beyond +-1 (the wheel speed crossed zero before the
+    # wheel's velocity did: up to -2) and were saturated are counted (60 of the 87 at the
+    # clip here; the rest are wheels at rest on a moving robot, -1 exactly); they were not
+    note = [n for n in est.notes if "saturated to +-1" in n]
+    assert len(note) == 1 and f" of {est.slip.size} " in note[0]
+    assert 0 < int(note[0].split(" of ")[0]) <= clipped.sum()
