@@ -69,7 +69,8 @@ class VelocityEstimate(NamedTuple):
     chassis_speed_m_s : float
         Estimated chassis speed magnitude, m/s.
     age_s : float
-        Age of the velocity reference (camera, or wheel sample), s; inf before the first.
+        Age of the velocity reference (camera, or wheel sample; :class:`FusedSlipObserver`:
+        also its slip pseudo-measurement), s; inf before the first.
     """
 
     omega_meas_rad_s: np.ndarray
@@ -457,10 +458,15 @@ class FusedSlipObserver:
       and the estimated slip through the model's wheel row
       (:func:`terrain.terramechanics.slip.ground_speed_from_slip`, ``omega_i r (1 - s_i)`` in
       traction), so the controller regulates the filter's slip state; the
-      acceleration ``a_x``; the chassis speed ``|v_bx|``. The estimate is *stale* (its age
-      grows, the controller's safe output applies) when no pseudo-measurement arrived in the
-      last ``period_s`` (plus the wheel sample's own age): without its slip model the slip
-      common to both sides is not observable and the filter drifts;
+      acceleration ``a_x``; the chassis speed ``|v_bx|``; and the estimate's age ``age_s``
+      (s): the *larger* of the latest wheel sample's age and the time since the last
+      pseudo-measurement the filter used (a finite one) less ``period_s``, inf before the
+      first wheel sample or the first used pseudo-measurement (so always without a
+      catalogued terrain decision). Without its slip model the slip common to both sides is
+      not observable and the filter drifts, so the age grows once no pseudo-measurement was
+      used for ``period_s``; the controller's safe output applies when the age exceeds its
+      ``max_input_age_s``, i.e. after ``period_s + max_input_age_s`` without one (Husky:
+      0.2 + 0.25 s);
     * the speed bound of the batch estimate (``settings.filter.speed_bound_braking_slip``,
       ``speed_bound_hold_s``): after every sample the estimate is projected in its
       covariance's metric (:func:`terrain.estimation.ekf.project_to_bounds`) into the

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -274,3 +276,25 @@ def test_agrimaro_non_finite_camera_samples_do_not_count_as_a_fresh_reference():
             ages[mode] = est.update(obs).age_s
     assert ages["dropped"] > 0.9
     assert ages["nan"] == pytest.approx(ages["dropped"])
+
+
+def test_fused_observer_age_is_the_larger_of_wheel_and_pseudo_measurement_ages():
+    """The age the controller sees: the larger (not the sum) of the wheel sample's age and
+    the time since the last used pseudo-measurement less ``period_s``; inf without a
+    terrain decision (no pseudo-measurement). Last pseudo-measurement at 1.0 s, wheel sample
+    at 1.5 s, call at 1.6 s: 0.4 s (the docstring read "plus the wheel sample's age", 0.5)."""
+    from terrain.sim.closed_loop import Observation
+
+    def obs(t, wheel_t=(), cur_t=()):
+        w = np.array([[tw, 5.0, 5.0] for tw in wheel_t]).reshape(-1, 3)
+        c = np.array([[tc, 2.0, 2.0] for tc in cur_t]).reshape(-1, 3)
+        return Observation(t, np.zeros(2), np.zeros((0, 4)), w, np.zeros((0, 3)),
+                           np.zeros((0, 5)), c, np.zeros((0, 7)))
+
+    est = FusedSlipObserver("husky", lambda t: ("ICE", 1.0), period_s=0.2)
+    assert est.update(obs(1.0, (0.96, 0.98, 1.0), (0.96, 0.98, 1.0))).age_s == 0.0
+    assert est.pseudo_count == 1
+    assert est.update(obs(1.6, (1.5,))).age_s == pytest.approx(0.4)
+    assert est.pseudo_count == 1
+    blind = FusedSlipObserver("husky", None)
+    assert blind.update(obs(1.0, (1.0,), (1.0,))).age_s == math.inf
