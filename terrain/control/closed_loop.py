@@ -42,6 +42,12 @@ from terrain.vehicles import get_vehicle
 BUS_VOLTAGE_V: Mapping[str, float] = MappingProxyType({"agrimaro": 48.0, "husky": 24.0})
 
 
+#: Distance below which a run has not moved and its energies per metre are undefined (None),
+#: m: a turn in place translates by round-off only (the Husky's spin on SNOW: 6e-19 m in 4 s,
+#: 2.6e21 J/m). 1 mm: ASSUMED, far above round-off, far below any run that drives.
+MIN_DISTANCE_M = 1e-3
+
+
 class LiveTerrain(Protocol):
     """A terrain decision made on the loop's own samples (a live classifier).
 
@@ -290,7 +296,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
         the chassis speed exceeds the enabling threshold; None if it never does),
         ``time_to_speed_s`` (None if never),
-        ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law),
+        ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law;
+        this and the two other per-metre energies None where the distance is below
+        :data:`MIN_DISTANCE_M`),
         ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``),
         ``drive_energy_j_per_m`` (``sum k_t G |omega| |I| dt / distance``: what a PWM drive
         passes to the motors, :meth:`terrain.vehicles.MotorParams.drive_power_w`; the bus
@@ -308,6 +316,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     dt = float(phys.t_s[1] - phys.t_s[0])
     speed = np.hypot(phys.twist[:, 0], phys.twist[:, 1])
     distance = float(np.sum(speed) * dt)
+    moved = distance >= MIN_DISTANCE_M     # below: round-off of a turn in place, no J/m
     duration = float(phys.t_s[-1] - phys.t_s[0] + dt)
     cur = motor_currents(phys, vehicle, sim.config.effects)
     energy = bus_voltage_v * float(np.sum(cur) * dt)
@@ -366,9 +375,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "cruise_speed_m_s": cruise,
         "reference_speed_m_s": reference,
         "final_speed_m_s": final,
-        "energy_j_per_m": energy / distance if distance > 0 else None,
-        "mech_energy_j_per_m": mech / distance if distance > 0 else None,
-        "drive_energy_j_per_m": drive / distance if distance > 0 else None,
+        "energy_j_per_m": energy / distance if moved else None,
+        "mech_energy_j_per_m": mech / distance if moved else None,
+        "drive_energy_j_per_m": drive / distance if moved else None,
         "distance_m": distance,
         "mean_speed_m_s": distance / duration,
         "steady_slip_error_max": float(np.max(s_err)) if s_err.size else None,

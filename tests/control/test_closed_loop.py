@@ -384,3 +384,15 @@ def test_first_call_integrates_no_assumed_interval(rate_hz):
     np.testing.assert_allclose(second, 10.0 * error / rate_hz, rtol=1e-3)
     assert loop.log[0]["dt_s"] == 0.0
     assert loop.log[1]["dt_s"] == pytest.approx(1.0 / rate_hz)
+
+
+def test_energy_per_metre_of_a_run_that_does_not_move_is_undefined():
+    """The Husky spinning on SNOW barely turns and does not translate: its distance is
+    round-off (6e-19 m in 4 s), and the energy per metre read 2.6e21 J/m as if measured.
+    Below MIN_DISTANCE_M it is undefined (None, n/a in the tables), like a distance of 0."""
+    from terrain.control.closed_loop import MIN_DISTANCE_M
+
+    m = run_closed_loop("husky", "SNOW", "spin", True, 1, duration_s=4.0)[2]
+    assert m["distance_m"] < MIN_DISTANCE_M
+    assert m["energy_j_per_m"] is None and m["mech_energy_j_per_m"] is None
+    assert m["drive_energy_j_per_m"] is None
