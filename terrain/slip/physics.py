@@ -313,7 +313,8 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
     rim_speed_m_s : ndarray, shape (n, m)
         Rim speed ``omega r`` of each motor, m/s.
     pitch_rad : ndarray, shape (n,)
-        Nose-up pitch, rad (normal loads scale with its cosine).
+        Nose-up pitch, rad (normal loads scale with its cosine); NaN: no normal load, the
+        row's outputs are NaN.
     wheel_accel_rad_s2 : ndarray, shape (n, m), optional
         Wheel angular acceleration, rad/s^2 (None = 0, steady driving).
     pitch_std_rad : ndarray, shape (n,), optional
@@ -323,7 +324,7 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
     Returns
     -------
     mu : ndarray, shape (n, m)
-        Gross traction coefficient (dimensionless).
+        Gross traction coefficient (dimensionless; NaN on the rows without a pitch).
     dmu_dtorque : ndarray, shape (n, m)
         ``d mu / d T``, 1/(N m).
     rolling_mu : ndarray, shape (n, m)
@@ -344,8 +345,9 @@ def traction_from_torque(vehicle, terrain: TerrainParams, torque_nm: np.ndarray,
         raise ShapeError(f"torque and rim speed must be (n, {nm}) and pitch (n,), got "
                          f"{torque.shape}, {rim.shape}, {pitch.shape}")
     motor_of = geometry.motor_of_contact
-    a = np.empty_like(torque)
-    b = np.empty_like(torque)
+    # a row without a pitch (NaN: no accelerometer mean) has no normal load: NaN, not filled
+    a = np.full_like(torque, np.nan)
+    b = np.full_like(torque, np.nan)
     # normal loads scale with cos(pitch): one layout per distinct pitch value
     for p in np.unique(np.round(pitch, 4)):
         rows = np.round(pitch, 4) == p

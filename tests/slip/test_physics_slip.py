@@ -272,3 +272,19 @@ def test_saturated_follows_each_rows_most_probable_terrain():
     np.testing.assert_array_equal(
         batch.saturated[:2], physics_slip(HUSKY, {"ASPHALT": 1.0}, cur[:2], rim[:2],
                                           np.zeros(2)).saturated)
+
+
+def test_a_window_without_a_pitch_gets_no_traction():
+    # traction_from_torque filled its rows one distinct pitch at a time into np.empty arrays;
+    # NaN equals no pitch, so a window whose accelerometer mean is NaN kept uninitialised
+    # memory (mu = inf on [0, NaN, 0.05] at 5 N m on GRASS) instead of NaN
+    torque = np.full((3, 2), 5.0)
+    rim = np.ones((3, 2))
+    pitch = np.array([0.0, np.nan, 0.05])
+    mu, dmu, rolling = traction_from_torque(HUSKY, get_terrain("GRASS"), torque, rim, pitch)
+    for out in (mu, dmu, rolling):
+        assert np.isnan(out[1]).all()
+        assert np.isfinite(out[[0, 2]]).all()
+    ref = traction_from_torque(HUSKY, get_terrain("GRASS"), torque[[0, 2]], rim[[0, 2]],
+                               pitch[[0, 2]])[0]
+    np.testing.assert_array_equal(mu[[0, 2]], ref)
