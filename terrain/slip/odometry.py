@@ -52,7 +52,7 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         Side rim speeds, m/s.
     track_m : float
         Track B, m.
-    slip_left, slip_right : ndarray, shape (N,), optional
+    slip_left, slip_right : float or ndarray, shape (N,), optional
         SAE slip of each side (None = 0, plain odometry); a slip below
         :data:`BRAKING_SLIP_FLOOR` (in the rim's direction) is taken as that floor and one
         above 1 as 1 (ground speed 0), and the samples so held are counted in a
@@ -73,7 +73,7 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     Raises
     ------
     ShapeError
-        Inconsistent lengths.
+        Inconsistent lengths (times, speeds, slips, ``chi``, ``lateral_m_s``, yaw rate).
     TimeStepError
         Times not strictly increasing.
     """
@@ -85,12 +85,14 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
                          f"{vl.shape}, {vr.shape}")
     if t.size > 1 and np.any(np.diff(t) <= 0):
         raise TimeStepError("dead_reckon: times must be strictly increasing")
-    gl = vl if slip_left is None else _ground_speed(vl, slip_left)
-    gr = vr if slip_right is None else _ground_speed(vr, slip_right)
+    gl = vl if slip_left is None else _ground_speed(vl, _per_sample("slip_left", slip_left,
+                                                                    t.shape))
+    gr = vr if slip_right is None else _ground_speed(vr, _per_sample("slip_right", slip_right,
+                                                                     t.shape))
     v = 0.5 * (gl + gr)
-    vy = np.broadcast_to(np.asarray(lateral_m_s, dtype=float), t.shape)
+    vy = _per_sample("lateral_m_s", lateral_m_s, t.shape)
     if yaw_rate_rad_s is None:
-        yaw_rate = (vr - vl) / (np.asarray(chi, dtype=float) * track_m)
+        yaw_rate = (vr - vl) / (_per_sample("chi", chi, t.shape) * track_m)
     else:
         yaw_rate = np.asarray(yaw_rate_rad_s, dtype=float)
         if yaw_rate.shape != t.shape:
@@ -107,6 +109,16 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     x = np.concatenate([[0.0], np.cumsum((v_mid * c - vy_mid * s) * dt)])
     y = np.concatenate([[0.0], np.cumsum((v_mid * s + vy_mid * c) * dt)])
     return np.column_stack([x, y, yaw])
+
+
+def _per_sample(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    """``value`` (a float or one value per sample) as an array of ``shape``; ShapeError
+    naming ``name`` for another length."""
+    x = np.asarray(value, dtype=float)
+    if x.ndim and x.shape != shape:
+        raise ShapeError(f"dead_reckon: {name} must be a float or have shape {shape}, got "
+                         f"{x.shape}")
+    return np.broadcast_to(x, shape)
 
 
 def _ground_speed(rim_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:

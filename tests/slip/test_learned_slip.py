@@ -329,3 +329,16 @@ def test_too_few_runs_to_calibrate_the_std_is_said_and_scored_as_unknown():
     table = std_calibration_table(model.predict(X), std, y, pd.DataFrame({"scenario": "a"},
                                   index=range(200)), np.ones(200, bool))
     assert np.isnan(table.loc[0, "coverage_1std"]) and np.isnan(table.loc[0, "coverage_2std"])
+
+
+def test_dead_reckon_refuses_slips_and_factors_of_another_length_by_name():
+    # a slip, chi or lateral velocity of another length than the times reached numpy's bare
+    # "operands could not be broadcast together with shapes (5,) (3,)" (ValueError), though
+    # the docstring promises ShapeError
+    t = np.arange(5.0)
+    v = np.ones(5)
+    for kwargs in ({"slip_left": np.zeros(3)}, {"slip_right": np.zeros(3)},
+                   {"chi": np.ones(3)}, {"lateral_m_s": np.ones(3)}):
+        with pytest.raises(ShapeError, match=next(iter(kwargs))):
+            dead_reckon(t, v, v, HUSKY.track_m, **kwargs)
+    dead_reckon(t, v, v, HUSKY.track_m, np.zeros(5), 0.0, chi=2.0, lateral_m_s=0.1)
