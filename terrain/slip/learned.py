@@ -24,7 +24,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.model_selection import GroupKFold
 
-from terrain.errors import ConfigError, DataWarning, ShapeError
+from terrain.errors import ConfigError, DataWarning, NonFiniteInputError, ShapeError
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -107,12 +107,24 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Raises
         ------
         ShapeError
-            ``y`` is not ``(n_windows, 4)``, or ``groups`` has another length than ``X``.
+            ``X`` is not 2-D, ``y`` is not ``(n_windows, 4)``, or ``groups`` has another
+            length than ``X``.
+        NonFiniteInputError
+            A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite.
         """
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
+        if X.ndim != 2:
+            raise ShapeError(f"X must have shape (n_windows, n_features), got {X.shape}")
         if y.ndim != 2 or y.shape != (len(X), len(SLIP_OUTPUTS)):
             raise ShapeError(f"y must have shape ({len(X)}, {len(SLIP_OUTPUTS)}), got {y.shape}")
+        for i in (0, 1, 3):         # chi alone may be NaN (undefined when not turning)
+            bad = ~np.isfinite(y[:, i])
+            if bad.any():
+                raise NonFiniteInputError(
+                    f"{int(bad.sum())} of {len(y)} training windows have a non-finite "
+                    f"{SLIP_OUTPUTS[i]} target (first rows {np.flatnonzero(bad)[:3].tolist()}):"
+                    " only chi may be NaN")
         self.n_features_in_ = X.shape[1]
         self.slip_models_ = [self._tree().fit(X, y[:, i]) for i in range(2)]
         turning = np.isfinite(y[:, 2])

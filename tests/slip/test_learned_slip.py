@@ -342,3 +342,21 @@ def test_dead_reckon_refuses_slips_and_factors_of_another_length_by_name():
         with pytest.raises(ShapeError, match=next(iter(kwargs))):
             dead_reckon(t, v, v, HUSKY.track_m, **kwargs)
     dead_reckon(t, v, v, HUSKY.track_m, np.zeros(5), 0.0, chi=2.0, lateral_m_s=0.1)
+
+
+def test_slip_model_refuses_a_missing_target_or_a_flat_feature_table_by_name():
+    # a NaN slip or lateral-velocity target reached scikit-learn's bare "Input y contains
+    # NaN." (ValueError) and a 1-D feature table numpy's "tuple index out of range"
+    # (IndexError); only chi may be NaN (undefined when not turning)
+    from terrain.errors import NonFiniteInputError
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((60, 3))
+    y = np.column_stack([0.01 * X[:, 0], 0.01 * X[:, 0], np.full(60, np.nan), X[:, 1]])
+    for col in (0, 1, 3):
+        bad = y.copy()
+        bad[[4, 7], col] = np.nan
+        with pytest.raises(NonFiniteInputError, match=f"2 of 60 .*{SLIP_OUTPUTS[col]}"):
+            SlipRegressor(max_iter=3).fit(X, bad)
+    with pytest.raises(ShapeError, match="X must"):
+        SlipRegressor(max_iter=3).fit(X[:, 0], y)
+    SlipRegressor(max_iter=3).fit(X, y)     # chi NaN everywhere: no turning, allowed
