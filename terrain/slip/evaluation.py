@@ -190,7 +190,8 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
     Returns
     -------
     ndarray, shape (n, 2)
-        Left and right slip.
+        Left and right slip (NaN for a window without an IMU sample, which
+        :func:`error_table` leaves out of ``n_scored``).
     """
     out = np.full((len(meta), 2), np.nan)
     by_id = {r.run_id: r for r in runs}
@@ -205,7 +206,8 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
         csum = np.vstack([np.zeros((1, 2)), np.cumsum(s, axis=0)])
         a = np.searchsorted(t, meta["t_start_s"].to_numpy()[idx])
         b = np.searchsorted(t, meta["t_end_s"].to_numpy()[idx])
-        out[idx] = (csum[b] - csum[a]) / np.maximum(b - a, 1)[:, None]
+        n = (b - a)[:, None]     # a window without an IMU sample has no mean: NaN, not 0
+        out[idx] = np.where(n > 0, (csum[b] - csum[a]) / np.maximum(n, 1), np.nan)
     return out
 
 

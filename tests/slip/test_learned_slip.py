@@ -360,3 +360,19 @@ def test_slip_model_refuses_a_missing_target_or_a_flat_feature_table_by_name():
     with pytest.raises(ShapeError, match="X must"):
         SlipRegressor(max_iter=3).fit(X[:, 0], y)
     SlipRegressor(max_iter=3).fit(X, y)     # chi NaN everywhere: no turning, allowed
+
+
+def test_observer_window_without_imu_samples_has_no_slip():
+    # a window that holds no IMU sample (here past the end of the IMU stream) got the mean
+    # of no samples as 0 / 1 = slip 0, a valid slip that error_table then scored
+    from terrain.run import Run
+    from terrain.slip.evaluation import observer_window_slip
+    t = np.arange(0.0, 10.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": np.full_like(t, 0.2)})
+    wheels = pd.DataFrame({"t_s": t, "vel_l": np.full_like(t, 0.4), "vel_r": np.full_like(t, 0.6)})
+    run = Run("sim/X/orchard/0", "sim", "ASPHALT", {"imu": imu, "wheels": wheels})
+    meta = pd.DataFrame({"run_id": [run.run_id] * 2, "t_start_s": [2.0, 12.0],
+                         "t_end_s": [4.0, 14.0]})
+    out = observer_window_slip([run], meta, HUSKY.track_m)
+    assert np.isfinite(out[0]).all()
+    assert np.isnan(out[1]).all()
