@@ -12,6 +12,10 @@
     The adaptive observer of the track efficiencies ``eta = 1 - i``
     (:func:`terrain.estimation.observer.run_adaptive_observer`) in its yaw-only variant (no
     position sensor on the Husky runs), slip ``1 - eta`` (:func:`observer_slip`).
+
+``endo`` and ``observer`` give the seeds' slip ratio ``alpha = 1 - v / (omega r)``; scored
+against the simulator's SAE slip they are first read in its convention
+(:func:`slip_ratio_as_sae`).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import numpy as np
 
 from terrain.errors import ConfigError, ShapeError
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.skid_steer import TRACKED, endo_slip_ratio_ratio
 
 
@@ -169,3 +174,32 @@ def observer_slip(t_s: np.ndarray, yaw_rad: np.ndarray, v_left_m_s: np.ndarray,
                                 AdaptiveObserverSettings(half_track_m=half_track_m,
                                                          use_position=False))
     return np.column_stack([1.0 - res.eta_left, 1.0 - res.eta_right])
+
+
+def slip_ratio_as_sae(rim_speed_m_s: np.ndarray, slip_ratio: np.ndarray) -> np.ndarray:
+    """The seeds' slip ratio as the SAE slip of the simulator's truth.
+
+    Seed 003 (eqs. 3-4, Endo's eq. 27) and seed 000 (``1 - eta``) define the slip ratio
+    ``alpha = 1 - v / (omega r)``: relative to the rim speed whatever the sign of the slip.
+    The SAE slip (seed 001 eqs. 7.1-7.2, :func:`terrain.terramechanics.slip.sae_slip`)
+    divides by the larger of the two speeds and is signed by the direction of travel, so
+    the two agree only in forward traction: braking (rim 0.8 m/s, ground 1.0 m/s) is
+    ``alpha = -0.25`` but SAE -0.20, and reversing in traction (rim -0.3, ground -0.2) is
+    ``alpha = +0.33`` but SAE -0.33. The ground speed ``v = omega r (1 - alpha)`` is
+    recovered and its SAE slip taken (no dead band: only the convention changes).
+
+    Parameters
+    ----------
+    rim_speed_m_s : ndarray, shape (...)
+        Rim speed ``omega r`` of each side, m/s.
+    slip_ratio : ndarray, shape (...)
+        ``alpha`` of the same sides (broadcast with ``rim_speed_m_s``), dimensionless; NaN
+        stays NaN.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        SAE slip in [-1, 1], dimensionless; 0 where the rim is still (``v = 0`` too).
+    """
+    rim = np.asarray(rim_speed_m_s, dtype=float)
+    return sae_slip(rim, rim * (1.0 - np.asarray(slip_ratio, dtype=float)), dead_band_m_s=0.0)

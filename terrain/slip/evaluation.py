@@ -19,7 +19,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError
 from terrain.run import TIME, Run
-from terrain.slip.baselines import observer_slip
+from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
 
 #: A run whose true path is longer than this many times the wheel path slid off its slope.
@@ -178,6 +178,9 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
                          ) -> np.ndarray:
     """Window means of the seed 000 observer slip (yaw-only, gyro heading) per run.
 
+    The observer's ``1 - eta`` is read as SAE slip sample by sample
+    (:func:`terrain.slip.baselines.slip_ratio_as_sae`), the convention of the truth.
+
     Parameters
     ----------
     runs : sequence of Run
@@ -202,7 +205,9 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
         yaw = np.concatenate([[0.0], np.cumsum(np.diff(t) * imu["wz"].to_numpy()[:-1])])
         vl = np.interp(t, wh[TIME], wh["vel_l"])
         vr = np.interp(t, wh[TIME], wh["vel_r"])
-        s = observer_slip(t, yaw, vl, vr, 0.5 * track_m)
+        # the observer's 1 - eta, per sample in the SAE convention of the truth it is scored on
+        s = slip_ratio_as_sae(np.column_stack([vl, vr]),
+                              observer_slip(t, yaw, vl, vr, 0.5 * track_m))
         csum = np.vstack([np.zeros((1, 2)), np.cumsum(s, axis=0)])
         a = np.searchsorted(t, meta["t_start_s"].to_numpy()[idx])
         b = np.searchsorted(t, meta["t_end_s"].to_numpy()[idx])
@@ -295,7 +300,8 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     ``zero`` (what the EKF reports for the common slip today), ``physics``
     (:mod:`terrain.slip.physics`, columns ``phys_slip_l/r`` of ``X``), ``pitch-linear`` (eq. 22
     fitted on the straight-driving ``train`` windows, gyro |yaw rate| < 0.05 rad/s), ``endo`` (eq.
-    27 with the gyro), ``observer`` (seed 000).
+    27 with the gyro), ``observer`` (seed 000); the last two in the SAE convention of the
+    truth (:func:`terrain.slip.baselines.slip_ratio_as_sae`).
 
     Parameters
     ----------
@@ -324,12 +330,13 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     straight = train & (np.abs(X["wz__mean"].to_numpy()) < 0.05)   # eq. 22: straight driving
     coef = fit_pitch_slip(pitch[straight], Y[straight, :2].mean(axis=1), terr[straight])
     eq22 = pitch_slip(coef, pitch, terr)
+    rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(dtype=float)
     return {
         "zero": np.zeros((len(X), 2)),
         "physics": X[["phys_slip_l", "phys_slip_r"]].to_numpy(),
         "pitch-linear": np.column_stack([eq22, eq22]),
-        "endo": endo_turning_slip(X["vel_l__mean"].to_numpy(), X["vel_r__mean"].to_numpy(),
-                                  X["wz__mean"].to_numpy(), track_m),
+        "endo": slip_ratio_as_sae(rim, endo_turning_slip(rim[:, 0], rim[:, 1],
+                                                         X["wz__mean"].to_numpy(), track_m)),
         "observer": observer_window_slip(runs, meta, track_m),
     }
 

@@ -12,7 +12,8 @@ import pytest
 from features.slip_features import slip_table, terrain_columns
 from terrain.cli import main as cli_main
 from terrain.errors import ShapeError, TimeStepError
-from terrain.slip.baselines import endo_turning_slip, fit_pitch_slip, observer_slip, pitch_slip
+from terrain.slip.baselines import (endo_turning_slip, fit_pitch_slip, observer_slip,
+                                    pitch_slip, slip_ratio_as_sae)
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import error_table, odometry_errors, steady_straight
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
@@ -376,3 +377,42 @@ def test_observer_window_without_imu_samples_has_no_slip():
     out = observer_window_slip([run], meta, HUSKY.track_m)
     assert np.isfinite(out[0]).all()
     assert np.isnan(out[1]).all()
+
+
+def test_the_seeds_slip_ratio_is_read_as_sae_slip():
+    # forward traction agrees; braking and reversing do not (the SAE slip divides by the
+    # larger speed and is signed by the direction of travel)
+    rim = np.array([1.0, 0.8, -0.3, -0.8, 0.0, 0.5])
+    ground = np.array([0.9, 1.0, -0.2, -1.0, 0.0, np.nan])
+    alpha = 1.0 - np.divide(ground, rim, out=np.zeros_like(rim), where=rim != 0)
+    np.testing.assert_allclose(slip_ratio_as_sae(rim, alpha),
+                               [0.1, -0.2, -1 / 3, 0.2, 0.0, np.nan], atol=1e-12)
+
+
+def test_baselines_are_scored_in_the_convention_of_the_truth():
+    # Endo's eq. 27 puts the inner side of a turn in braking (alpha_l < 0); it was scored
+    # as alpha against the truth's SAE slip (-0.25 where SAE says -0.20)
+    from terrain.run import Run
+    from terrain.slip.evaluation import baseline_predictions
+    vl, vr = np.array([0.2]), np.array([0.5])
+    a_r = np.array([0.1])
+    a_l = endo_slip_ratio_ratio(vl, vr) * a_r
+    assert a_l[0] < 0
+    yaw = (vr * (1 - a_r) - vl * (1 - a_l)) / HUSKY.track_m
+    t = np.arange(0.0, 10.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": np.full_like(t, yaw[0])})
+    wheels = pd.DataFrame({"t_s": t, "vel_l": np.full_like(t, vl[0]),
+                           "vel_r": np.full_like(t, vr[0])})
+    run = Run("sim/X/orchard/0", "sim", "ASPHALT", {"imu": imu, "wheels": wheels})
+    X = pd.DataFrame({"pitch": [0.0], "vel_l__mean": vl, "vel_r__mean": vr, "wz__mean": yaw,
+                      "phys_slip_l": [0.0], "phys_slip_r": [0.0]})
+    meta = pd.DataFrame({"run_id": [run.run_id], "terrain": ["ASPHALT"], "t_start_s": [2.0],
+                         "t_end_s": [4.0]})
+    out = baseline_predictions(X, np.zeros((1, 2)), meta, np.ones(1, dtype=bool), [run],
+                               HUSKY.track_m)
+    np.testing.assert_allclose(out["endo"], [[a_l[0] / (1 - a_l[0]), a_r[0]]], atol=1e-12)
+    alpha = observer_slip(t, np.cumsum(np.r_[0.0, np.diff(t) * yaw[0]]), wheels["vel_l"],
+                          wheels["vel_r"], 0.5 * HUSKY.track_m)
+    sae = slip_ratio_as_sae(np.column_stack([wheels["vel_l"], wheels["vel_r"]]), alpha)
+    window = (t >= 2.0) & (t < 4.0)
+    np.testing.assert_allclose(out["observer"][0], sae[window].mean(axis=0), atol=1e-9)
