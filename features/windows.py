@@ -9,6 +9,7 @@ partition (``partition_s``).
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -254,7 +255,8 @@ class WindowSet:
         full partition (``partition_tail_s``, s), runs skipped for a missing stream and runs
         shorter than one window or partition (with their ids; ``reasons``: run id -> why),
         and ``per_run``: run id -> ``windows``, ``dropped_gap``, ``empty_gap``,
-        ``dropped_unsteady``, ``partition_tail_s``, ``aligned_s``.
+        ``dropped_unsteady``, ``partition_tail_s``, ``aligned_s``. A :meth:`subset` adds
+        ``not_selected`` (in total and per run): windows cut but left out by the selection.
     """
 
     X: np.ndarray
@@ -282,11 +284,25 @@ class WindowSet:
         -------
         WindowSet
             The selected windows with the same ``channels`` and ``rate_hz`` and a copy of
-            ``counts``.
+            ``counts`` that states the subset: ``windows`` (in total and per run) counts the
+            selected windows, and ``not_selected`` (in total and per run) the windows of
+            this set that the selection leaves out (added to any count already there). The
+            counts of what windowing dropped or skipped are kept as they are.
         """
-        return WindowSet(self.X[mask], self.channels, self.run_ids[mask], self.groups[mask],
-                         self.labels[mask], self.t_start_s[mask], self.t_end_s[mask],
-                         self.rate_hz, dict(self.counts))
+        rows = np.arange(len(self))[mask]
+        counts = copy.deepcopy(self.counts)
+        if "windows" in counts:
+            counts["windows"] = int(rows.size)
+        counts["not_selected"] = (counts.get("not_selected", 0)
+                                  + len(self) - np.unique(rows).size)
+        for rid, entry in counts.get("per_run", {}).items():
+            mine = self.run_ids == rid
+            kept = np.unique(rows[mine[rows]]).size
+            entry["not_selected"] = entry.get("not_selected", 0) + int(mine.sum()) - kept
+            entry["windows"] = int(mine[rows].sum())
+        return WindowSet(self.X[rows], self.channels, self.run_ids[rows], self.groups[rows],
+                         self.labels[rows], self.t_start_s[rows], self.t_end_s[rows],
+                         self.rate_hz, counts)
 
 
 def required_streams(channels: Iterable[str]) -> tuple[str, ...]:

@@ -245,6 +245,27 @@ def test_subset_keeps_provenance(make_run):
     np.testing.assert_array_equal(sub.X, ws.X[::2])
 
 
+def test_subset_counts_state_the_subset_not_the_parent(make_run):
+    # a subset kept the parent's counts: 10 windows of one run reported as the parent's 20
+    # (10 per run), and its per_run dict was the parent's own object
+    runs = [make_run(_streams(seed=i), f"t/ASPHALT/0{i}") for i in range(2)]
+    ws = make_windows(runs, "all", WindowConfig(window_s=2.0, rate_hz=50.0))
+    sub = ws.subset(ws.run_ids == "t/ASPHALT/00")
+    assert len(sub) == sub.counts["windows"] == 10 and ws.counts["windows"] == 20
+    assert sub.counts["not_selected"] == 10
+    assert {r: e["windows"] for r, e in sub.counts["per_run"].items()} == {
+        "t/ASPHALT/00": 10, "t/ASPHALT/01": 0}
+    assert sub.counts["per_run"]["t/ASPHALT/01"]["not_selected"] == 10
+    assert {r: e["windows"] for r, e in ws.counts["per_run"].items()} == {
+        "t/ASPHALT/00": 10, "t/ASPHALT/01": 10}          # the parent's are unchanged
+    table = input_report(runs, sub.counts).table
+    assert table["windows"].tolist() == [10, 0]
+    odd = sub.subset(np.array([1, 3, 5]))                 # index arrays too, chained
+    assert odd.counts["windows"] == 3 and odd.counts["not_selected"] == 17
+    assert odd.counts["per_run"]["t/ASPHALT/00"] == {
+        **ws.counts["per_run"]["t/ASPHALT/00"], "windows": 3, "not_selected": 7}
+
+
 @pytest.mark.parametrize("kwargs", [dict(window_s=0.0), dict(hop_s=-1.0),
                                     dict(window_s=2.0, partition_s=1.0),
                                     dict(window_s=0.05, rate_hz=50.0), dict(rate_hz=0.0),
