@@ -100,6 +100,10 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         if X.ndim != 3 or X.shape[1] != len(self.channels):
             raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
                              f"n_samples), got {X.shape}")
+        if X.shape[0] == 0:
+            # as scikit-learn refuses 0 samples (its reshape would fail inside NumPy)
+            raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 "
+                             "is required")
         if not np.isfinite(X).all():
             raise ValueError("X contains NaN or inf")
         return X
@@ -134,7 +138,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             Unknown statistic name.
         ValueError
-            ``X`` of the wrong shape or non-finite.
+            ``X`` of the wrong shape, of 0 windows or non-finite.
         """
         unknown = [s for s in self.stats if s not in calculators.STATISTICS]
         if unknown:
@@ -175,7 +179,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             ``fit`` has not been called.
         ValueError
-            ``X`` of the wrong shape or non-finite.
+            ``X`` of the wrong shape, of 0 windows or non-finite.
         """
         check_is_fitted(self, "feature_names_out_")
         X = self._check(X)

@@ -226,6 +226,13 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     return out
 
 
+def _refuse_no_window(X: np.ndarray) -> None:
+    """Refuse 0 windows, as scikit-learn refuses 0 samples (:class:`ValueError`)."""
+    if X.shape[0] == 0:
+        raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 is "
+                         "required")
+
+
 class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
     """Wheel-only physics features at two time scales (stateless transformer).
 
@@ -284,11 +291,17 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         ------
         ConfigError
             A wheel channel is missing from ``channels``.
+        ValueError
+            ``X`` not of 3 dimensions, or of 0 windows.
         """
         missing = [c for c in WHEEL_CHANNELS if c not in self.channels]
         if missing:
             raise ConfigError(f"WheelPhysicsFeatures needs channels {missing}")
         X = np.asarray(X, dtype=float)
+        if X.ndim != 3:
+            raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
+                             f"n_samples), got {X.shape}")
+        _refuse_no_window(X)
         self.feature_names_out_ = np.asarray(
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
              for f in PHYSICS_FEATURES], dtype=object)
@@ -311,7 +324,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            ``X`` of another window length than at fit, or non-finite.
+            ``X`` of another window length than at fit, of 0 windows, or non-finite.
         ConfigError
             A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
         """
@@ -319,6 +332,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         X = np.asarray(X, dtype=float)
         if X.ndim != 3 or X.shape[2] != self.n_samples_in_:
             raise ValueError(f"expected windows of {self.n_samples_in_} samples, got {X.shape}")
+        _refuse_no_window(X)
         if not np.isfinite(X).all():
             raise ValueError("X contains NaN or inf")
         idx = [list(self.channels).index(c) for c in WHEEL_CHANNELS]

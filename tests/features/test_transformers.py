@@ -98,6 +98,22 @@ def test_non_finite_input_and_unknown_stat_are_rejected():
         WindowFeatures(channels=CHANNELS, stats=("mean", "median")).fit(_windows())
 
 
+def test_zero_windows_are_refused_naming_them():
+    # WindowFeatures fitted on 0 windows without a word and its transform failed inside
+    # NumPy ("cannot reshape array of size 0 into shape (0,newaxis)"), while the wheel
+    # physics features returned a (0, 50) matrix: both now refuse 0 windows as scikit-learn
+    # refuses 0 samples
+    from features.wheel_physics import WheelPhysicsFeatures
+    chans = ("vel_l", "vel_r", "cur_l", "cur_r", "wz")
+    X = _windows(channels=chans, samples=40)
+    for make in (lambda: WindowFeatures(channels=chans, rate_hz=10.0),
+                 lambda: WheelPhysicsFeatures(channels=chans, rate_hz=10.0)):
+        for call in (lambda: make().fit(X[:0]), lambda: make().fit_transform(X[:0]),
+                     lambda: make().fit(X).transform(X[:0])):
+            with pytest.raises(ValueError, match=r"0 windows \(X of shape \(0, 5, 40\)\)"):
+                call()
+
+
 def test_transform_before_fit_raises():
     with pytest.raises(NotFittedError):
         WindowFeatures(channels=CHANNELS).transform(_windows())
