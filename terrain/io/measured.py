@@ -534,7 +534,8 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     Run
         The run with one stream per file (``pro`` -> wheel stream, ``imu`` -> IMU stream,
         ``t_s`` first, SI units); its ``meta`` holds ``meta_XX.json`` plus the repair, gap and
-        skipped-line counts of the readers.
+        skipped-line counts of the readers, and ``warnings``: the files' own findings
+        (``file_warnings``, :attr:`ReadReport.warnings`) then those of the run's checks.
 
     Raises
     ------
@@ -589,7 +590,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
                vehicle=vehicle, source=str(files["pro"].parent),
                meta={**meta, "repaired": repaired, "gaps": gaps, "skipped_lines": skipped,
-                     "ignored_columns": ignored,
+                     "ignored_columns": ignored, "file_warnings": list(file_warnings),
                      **checks, "files": {k: str(p) for k, p in files.items()}})
 
 

@@ -166,10 +166,12 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
             "samples": {k: len(v) for k, v in run.streams.items()},
             "repaired": dict(run.meta["repaired"]), "gaps": run.meta["gaps"],
             "source_files": {p.name: sha256(p) for k, p in files.items()},
-            # what the reader skipped or ignored in the CSV files (kept when there is any:
-            # the shipped runs report it as the CSV runs did)
+            # what the reader skipped or ignored in the CSV files, and what the files made
+            # likely (kept when there is any: the shipped runs report it as the CSV runs did)
             **{key: dict(run.meta[key]) for key in ("skipped_lines", "ignored_columns")
                if run.meta.get(key)},
+            **({"file_warnings": list(run.meta["file_warnings"])}
+               if run.meta.get("file_warnings") else {}),
         })
     tables: dict[str, pd.DataFrame] = {}
     rates = {}
@@ -419,8 +421,8 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
     ``source`` is a string, ``runs_without_imu``, where present, a list of run ids, and
     ``runs`` is a non-empty list of objects, each with a unique ``run_id``, a ``terrain`` of
     the entry's ``terrains``, ``repaired`` (an object of counts), ``gaps`` (an object of
-    lists of ``[t_start_s, t_end_s]`` pairs) and, where present, a boolean ``has_imu``, as
-    :func:`convert_dataset` writes them.
+    lists of ``[t_start_s, t_end_s]`` pairs) and, where present, a boolean ``has_imu`` and
+    a list of strings ``file_warnings``, as :func:`convert_dataset` writes them.
 
     Parameters
     ----------
@@ -490,6 +492,9 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
                 isinstance(v, list) and all(map(_is_time_pair, v)) for v in gaps.values()):
             raise _fail(f"{k}.gaps", "an object of lists of [t_start_s, t_end_s] pairs",
                         gaps, path)
+        found = info.get("file_warnings", [])
+        if not isinstance(found, list) or not all(isinstance(w, str) for w in found):
+            raise _fail(f"{k}.file_warnings", "a list of messages", found, path)
     return entry
 
 
@@ -547,7 +552,10 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     Returns
     -------
     list of Run
-        Sorted by run id; runs without an IMU recording have only a ``wheels`` stream.
+        Sorted by run id; runs without an IMU recording have only a ``wheels`` stream. Each
+        run's ``meta`` holds what the CSV readers repaired, skipped, ignored and found
+        (``file_warnings``) when the run was converted, and ``warnings``: those findings
+        then the plausibility checks' (:func:`~terrain.io.plausibility.check_run`).
 
     Raises
     ------
@@ -565,6 +573,12 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         :class:`~terrain.errors.NonNumericError`, :class:`~terrain.errors.TimestampError`,
         :class:`~terrain.errors.NonFiniteError`); names the file and the manifest key or
         column, with the run and its 0-based row.
+
+    Warns
+    -----
+    DataWarning
+        Each finding of a run's files kept from its conversion, and those of the
+        plausibility checks.
     """
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
@@ -626,9 +640,15 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                 f"{'rows' if 'imu' in streams else 'no row'} of run {rid!r}; regenerate data/ "
                 "with `terrain convert`", manifest_path)
         # the same plausibility rules as the CSV reader (ranges were checked on conversion)
+        # the CSV files' own findings, made when they were converted (warned again, as
+        # reading the CSV files warns them)
+        file_warnings = list(info.get("file_warnings", []))
+        for msg in file_warnings:
+            warnings.warn(msg, DataWarning, stacklevel=2)
         checks = check_run(rid, streams, DATASET_VEHICLE[dataset],
                            {n: f"{data_dir / dataset / STREAM_FILES[n]} run {rid}"
                             for n in streams})
+        checks["warnings"] = file_warnings + checks["warnings"]
         runs.append(Run(run_id=rid, dataset=dataset, terrain=info["terrain"], streams=streams,
                         vehicle=DATASET_VEHICLE[dataset],
                         source=f"{data_dir / dataset} ({entry['source']})",
@@ -638,7 +658,7 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                                        for k, v in info["gaps"].items()},
                               "skipped_lines": dict(info.get("skipped_lines", {})),
                               "ignored_columns": dict(info.get("ignored_columns", {})),
-                              **checks}))
+                              "file_warnings": file_warnings, **checks}))
     if "runs_without_imu" in entry:
         without = {r.run_id for r in runs if "imu" not in r.streams}
         listed_without = set(entry["runs_without_imu"])

@@ -278,6 +278,8 @@ def test_a_parquet_file_and_its_checksum_both_edited_are_refused_by_the_readers_
      "datasets.vulpi.runs[1].has_imu' must be a boolean"),
     (lambda e: e.__setitem__("runs_without_imu", "none"),
      "datasets.vulpi.runs_without_imu' must be a list of run ids"),
+    (lambda e: e["runs"][1].__setitem__("file_warnings", "cut off"),
+     "datasets.vulpi.runs[1].file_warnings' must be a list of messages"),
 ])
 def test_a_manifest_entry_of_another_structure_names_its_key(vulpi_copy, edit, key):
     path = _edit_manifest(vulpi_copy, edit)
@@ -389,6 +391,31 @@ def test_convert_keeps_the_count_of_skipped_lines_and_ignored_columns(tmp_path, 
     text = input_report(list(shipped.values())).text()
     assert "ignored 1 column(s)" in text and "wheels.batt" in text
     assert "skipped 2 blank/comment line(s)" in text
+
+
+def test_convert_keeps_the_warnings_of_the_csv_readers(tmp_path, csv_tree):
+    # a wheel file without its last line break (rule last_line) was warned when converted,
+    # then lost: the shipped run's meta["warnings"] held only the clock finding recomputed
+    # on reading, and its input report counted 1 warning where the CSV run counted 2
+    from terrain.errors import DataWarning
+    from terrain.io.report import input_report
+    pro = csv_tree / "ASPHALT" / "pro_00.csv"
+    pro.write_text(pro.read_text().rstrip("\n"))
+    out = tmp_path / "data"
+    with pytest.warns(DataWarning, match="last_line"):
+        convert_dataset(csv_tree, "borealtc", out)
+    with pytest.warns(DataWarning, match="last_line"):  # warned on reading, as from CSV
+        shipped = {r.run_id: r for r in read_shipped("borealtc", out)}
+    with pytest.warns(DataWarning, match="last_line"):
+        from_csv = {r.run_id: r for r in read_runs_dir(csv_tree, "borealtc")}
+    run = "borealtc/ASPHALT/00"
+    got = shipped[run].meta["warnings"]
+    assert len(got) == len(from_csv[run].meta["warnings"]) == 2
+    assert "rule last_line" in got[0] and str(pro) in got[0] and "clock_overlap" in got[1]
+    assert all(not r.meta["warnings"] or "last_line" not in r.meta["warnings"][0]
+               for rid, r in shipped.items() if rid != run)
+    table = input_report(list(shipped.values())).table.set_index("run_id")
+    assert table.loc[run, "warnings"] == 2
 
 
 def _data_dir_state(out):
