@@ -447,7 +447,10 @@ def tracked_run(experiment: str, run_name: str | None = None,
     environment is left as it is. When MLflow's process-wide URI resolves to the same store
     (always so in a fresh ``terrain`` process, or after :func:`activate_store`), the run is
     also MLflow's active run for the duration of the block, so fluent calls inside it (model
-    logging) land in it. The run ends ``FINISHED``, or ``FAILED`` when the block raises.
+    logging) land in it. If the caller already has an active run on that store, the run is
+    its child (tag ``mlflow.parentRunId``, MLflow's nested run) and the caller's run is
+    active again, still running, after the block. The run ends ``FINISHED``, or ``FAILED``
+    when the block raises.
 
     Parameters
     ----------
@@ -480,12 +483,14 @@ def tracked_run(experiment: str, run_name: str | None = None,
         client = mlflow.MlflowClient(tracking_uri=uri)
         exp_id = _experiment_id(client, experiment, embedded)
     version = code_version()
+    fluent = mlflow.get_tracking_uri() == uri
+    parent = mlflow.active_run() if fluent else None
+    nesting = {} if parent is None else {"mlflow.parentRunId": parent.info.run_id}
     run = client.create_run(exp_id, run_name=run_name,
-                            tags={"code_version": version, **(tags or {})})
+                            tags={"code_version": version, **nesting, **(tags or {})})
     handle = TrackedRun(run.info.run_id, experiment, uri, client)
-    fluent = mlflow.get_tracking_uri() == uri and mlflow.active_run() is None
     if fluent:
-        mlflow.start_run(run_id=handle.run_id)
+        mlflow.start_run(run_id=handle.run_id, nested=parent is not None)
     status = "FAILED"
     try:
         handle.log_params({"code_version": version, **(params or {})})

@@ -49,6 +49,30 @@ def test_embedded_store_lives_in_the_working_directory(tmp_path, monkeypatch, ca
     assert run.run_id in capsys.readouterr().out
 
 
+def test_a_run_opened_inside_a_callers_active_run_is_its_child(tmp_path, monkeypatch):
+    # inside a caller's active run, the run was a sibling (no parent tag) and not active:
+    # fluent calls in the block (model logging) landed in the caller's run
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    previous = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(tracking_uri())     # the caller's store is the run's
+    try:
+        client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+        outer = client.create_run(client.create_experiment("caller")).info.run_id
+        with mlflow.start_run(run_id=outer):
+            with tracked_run("terrain-test", announce=False) as run:
+                assert mlflow.active_run().info.run_id == run.run_id
+                mlflow.log_param("fluent", 1)
+            assert mlflow.active_run().info.run_id == outer      # the caller's run goes on
+            assert client.get_run(outer).info.status == "RUNNING"
+    finally:
+        mlflow.set_tracking_uri(previous)
+    child = client.get_run(run.run_id)
+    assert child.data.tags["mlflow.parentRunId"] == outer
+    assert child.data.params["fluent"] == "1" and child.info.status == "FINISHED"
+    assert "fluent" not in client.get_run(outer).data.params
+
+
 def test_non_finite_metrics_of_every_call_stay_listed(tmp_path, monkeypatch):
     # the tag was overwritten by each call: a pipeline logging its metrics in a loop kept
     # only the last call's skipped names ("b"), and "a" was lost without a trace
