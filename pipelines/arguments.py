@@ -57,6 +57,17 @@ def _cannot_create_in(folder: Path) -> str | None:
     return None
 
 
+#: The one refusal of an empty or blank path, whatever the option (``--model ""``,
+#: ``--data-dir ""``, ``--out ""``): an unset shell variable, not the option left out.
+EMPTY_PATH = "an empty path (give a path, or leave the option out where it has a default)"
+
+
+def _refuse_empty(value: str) -> None:
+    """Refuse an empty or blank option value with :data:`EMPTY_PATH`."""
+    if not value.strip():
+        raise argparse.ArgumentTypeError(EMPTY_PATH)
+
+
 def output_file(value: str) -> Path:
     """argparse ``type`` of an output file option: refuse, while the options are read and
     before any work, a path that could not be written.
@@ -79,8 +90,7 @@ def output_file(value: str) -> Path:
         nearest existing folder (tried with a scratch file, removed at once; argparse
         prints the error as a one-line usage error).
     """
-    if not value.strip():
-        raise argparse.ArgumentTypeError("an empty path (give a file name)")
+    _refuse_empty(value)
     path = Path(value)
     blocker = _blocking_ancestor(path)
     if blocker is not None:
@@ -123,8 +133,7 @@ def output_dir(value: str) -> Path:
         created in the nearest existing folder (tried with a scratch file, removed at
         once; argparse prints the error as a one-line usage error).
     """
-    if not value.strip():
-        raise argparse.ArgumentTypeError("an empty path (give a folder name)")
+    _refuse_empty(value)
     path = Path(value)
     blocker = path if path.exists() and not path.is_dir() else _blocking_ancestor(path)
     if blocker is not None:
@@ -159,9 +168,7 @@ def input_path(value: str) -> str:
     argparse.ArgumentTypeError
         The value is empty or blank (``--model ""`` fell back to the default source).
     """
-    if not value.strip():
-        raise argparse.ArgumentTypeError("an empty path (give one, or leave the option out "
-                                         "for its default)")
+    _refuse_empty(value)
     return value
 
 

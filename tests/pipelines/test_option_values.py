@@ -13,7 +13,7 @@ import argparse
 import pytest
 
 from features.windows import MAX_WINDOW_SAMPLES, WindowConfig
-from pipelines.arguments import seed_value
+from pipelines.arguments import EMPTY_PATH, seed_value
 from terrain.audit.physics import PhysicsComparisonSettings
 from terrain.audit.selection import MAX_BOOTSTRAP, SelectionSettings
 from terrain.cli import main
@@ -254,9 +254,9 @@ _REFUSED = [
     # an empty value was the option left out: the live-sim classifier, the default data/
     (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
       "straight_accel", "--controller", "traction", "--json", "c.json", "--model", ""],
-     "argument --model: an empty path"),
-    (["control-grid", "--model", "", "--out", "g"], "argument --model: an empty path"),
-    (["slip-table", "--data-dir", " "], "argument --data-dir: an empty path"),
+     f"argument --model: {EMPTY_PATH}"),
+    (["control-grid", "--model", "", "--out", "g"], f"argument --model: {EMPTY_PATH}"),
+    (["slip-table", "--data-dir", " "], f"argument --data-dir: {EMPTY_PATH}"),
 ]
 
 

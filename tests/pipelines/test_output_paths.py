@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from pipelines.arguments import model_dir, output_dir, output_file
+from pipelines.arguments import EMPTY_PATH, input_path, model_dir, output_dir, output_file
 from terrain.cli import build_parser, main
 
 
@@ -144,9 +144,14 @@ def test_cli_refuses_unwritable_output_before_any_work(argv, option, kind, block
 
 def test_empty_output_path_refused():
     # Path("") is the working folder: `simulate --out ""` wrote into it without a word
-    for check in (output_file, output_dir, model_dir):
-        with pytest.raises(argparse.ArgumentTypeError, match="an empty path"):
-            check("")
+    # one wording for every path option: `--model ""` and `--data-dir ""` were told
+    # "give one, or leave the option out for its default" and "give a folder name"
+    for check in (output_file, output_dir, model_dir, input_path):
+        for value in ("", "  "):
+            with pytest.raises(argparse.ArgumentTypeError) as exc:
+                check(value)
+            assert str(exc.value) == EMPTY_PATH == (
+                "an empty path (give a path, or leave the option out where it has a default)")
 
 
 def test_convert_refuses_an_empty_data_dir_instead_of_the_shipped_one(tmp_path, monkeypatch,
@@ -157,7 +162,7 @@ def test_convert_refuses_an_empty_data_dir_instead_of_the_shipped_one(tmp_path, 
     with pytest.raises(SystemExit) as exc:
         main(["convert", str(tmp_path / "src"), "--dataset", "vulpi", "--data-dir", ""])
     assert exc.value.code == 2
-    assert "argument --data-dir: an empty path" in capsys.readouterr().err
+    assert f"argument --data-dir: {EMPTY_PATH}" in capsys.readouterr().err
     assert not (tmp_path / "shipped").exists()
 
 
