@@ -14,7 +14,7 @@ from sklearn.pipeline import FeatureUnion
 from sklearn.utils.validation import check_is_fitted
 
 from features import calculators
-from features.windows import ALL_CHANNELS
+from features.windows import ALL_CHANNELS, refuse_no_windows
 from terrain.errors import ConfigError
 from terrain.run import IMU_CHANNELS
 
@@ -100,10 +100,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         if X.ndim != 3 or X.shape[1] != len(self.channels):
             raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
                              f"n_samples), got {X.shape}")
-        if X.shape[0] == 0:
-            # as scikit-learn refuses 0 samples (its reshape would fail inside NumPy)
-            raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 "
-                             "is required")
+        refuse_no_windows(X)     # (the features' reshape would fail inside NumPy)
         if not np.isfinite(X).all():
             raise ValueError("X contains NaN or inf")
         return X

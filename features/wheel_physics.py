@@ -34,7 +34,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from features.calculators import quantile_sorted
-from features.windows import HUSKY_TRACK_M
+from features.windows import HUSKY_TRACK_M, refuse_no_windows
 from terrain.errors import ConfigError, ShapeError
 from terrain.run import WHEEL_CHANNELS
 
@@ -226,13 +226,6 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     return out
 
 
-def _refuse_no_window(X: np.ndarray) -> None:
-    """Refuse 0 windows, as scikit-learn refuses 0 samples (:class:`ValueError`)."""
-    if X.shape[0] == 0:
-        raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 is "
-                         "required")
-
-
 class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
     """Wheel-only physics features at two time scales (stateless transformer).
 
@@ -301,7 +294,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         if X.ndim != 3:
             raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
                              f"n_samples), got {X.shape}")
-        _refuse_no_window(X)
+        refuse_no_windows(X)
         self.feature_names_out_ = np.asarray(
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
              for f in PHYSICS_FEATURES], dtype=object)
@@ -332,7 +325,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         X = np.asarray(X, dtype=float)
         if X.ndim != 3 or X.shape[2] != self.n_samples_in_:
             raise ValueError(f"expected windows of {self.n_samples_in_} samples, got {X.shape}")
-        _refuse_no_window(X)
+        refuse_no_windows(X)
         if not np.isfinite(X).all():
             raise ValueError("X contains NaN or inf")
         idx = [list(self.channels).index(c) for c in WHEEL_CHANNELS]

@@ -305,6 +305,24 @@ class WindowSet:
                          self.rate_hz, counts)
 
 
+def refuse_no_windows(X: np.ndarray) -> None:
+    """Refuse an array of 0 windows, as scikit-learn refuses 0 samples.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` windows.
+
+    Raises
+    ------
+    ValueError
+        ``n_windows`` is 0.
+    """
+    if X.shape[0] == 0:
+        raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 is "
+                         "required")
+
+
 def required_streams(channels: Iterable[str]) -> tuple[str, ...]:
     """Streams a channel selection needs (``imu`` and/or ``wheels``).
 
