@@ -39,6 +39,7 @@ class RingBuffer:
         self._v = np.empty((2 * self.capacity, n_channels))
         self._next = 0  # slot the next sample goes to
         self._size = 0
+        self._batch_t = -np.inf  # first timestamp of the newest appended batch
 
     def __len__(self) -> int:
         return self._size
@@ -54,6 +55,13 @@ class RingBuffer:
         return float(self._t[self._next - self._size + self.capacity]) if self._size \
             else np.inf
 
+    @property
+    def batch_first_t(self) -> float:
+        """Timestamp of the first sample of the newest batch appended, s, at most
+        :attr:`last_t` (``-inf`` when empty): the time the stream had reached when its
+        newest samples arrived together (:attr:`last_t` for samples appended one by one)."""
+        return min(self._batch_t, self.last_t)
+
     def append(self, t_s: np.ndarray, values: np.ndarray) -> None:
         """Append samples (already validated, in increasing time).
 
@@ -65,6 +73,8 @@ class RingBuffer:
             ``(n, n_channels)`` values, SI units.
         """
         n = len(t_s)
+        if n:
+            self._batch_t = float(t_s[0])
         if n == 1:  # the usual push: one sample, no index arrays
             i = self._next
             self._t[i] = self._t[i + self.capacity] = t_s[0]

@@ -36,7 +36,9 @@ class StreamConfig:
         Time between decisions, s (> 0).
     stale_s : float
         A stream whose newest sample is older than the decision time by more than this is
-        stale, s (> 0).
+        stale, s (> 0). A decision waits for a lagging stream until the newest push of
+        another began this far past it (a chunk's samples arrive together: a chunk longer
+        than ``stale_s`` makes no decision early; :mod:`terrain.serving.service`).
     min_confidence : float
         Smoothed probability below which the fallback target is used, in [0, 1].
     buffer_samples : int

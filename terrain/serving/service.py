@@ -22,8 +22,13 @@ service time the service
    targets, passing ``terrain=None`` (the conservative fallback) below ``min_confidence``.
 
 A decision is due at service time ``t`` once every needed stream has reached ``t``, or once
-some stream is ``stale_s`` past ``t`` while another lags (the decision is then flagged
-``stale`` and rests on the data that did arrive; its ``window_age_s`` says how old).
+some stream had gone ``stale_s`` past ``t`` when its newest push came while another lags
+(the decision is then flagged ``stale`` when the lagging stream's newest sample is over
+``stale_s`` before ``t``, and rests on the data that did arrive; its ``window_age_s`` says
+how old). The samples of a chunk arrive together, so the other streams' samples of its span
+may still be on their way: a stream's staleness is judged from the first sample of its
+newest push, not its last, and a chunk longer than ``stale_s`` makes no decision early
+(one by one, as before; a stream silent for good is judged stale one chunk later).
 
 A sample that arrives after every stream has been silent for long (a paused robot, a
 clock jump) makes every hop of the silent stretch due at once. Decisions due more than
@@ -281,13 +286,17 @@ class StreamService:
         buffers, clock = self._intake.buffers, self._clock
         last = [b.last_t for b in buffers.values()]
         newest = max(last)
+        # a lagging stream is stale once another had gone stale_s past the decision when
+        # its newest samples came: a chunk's samples arrive together, so the other
+        # streams' samples of its span may be on their way (module docstring)
+        arrived = max(b.batch_first_t for b in buffers.values())
         if clock.next_t is None:
             filled = [b for b in buffers.values() if len(b)]
             if not filled:
                 return []
             start = max(b.first_t for b in filled)
             if len(filled) < len(buffers) and \
-                    newest < start + self.model.window.window_s + self.config.stale_s:
+                    arrived < start + self.model.window.window_s + self.config.stale_s:
                 return []  # wait for the silent stream(s) for a while
             clock.next_t = start + self.model.window.window_s
             unplaced = self._intake.unplaced
@@ -295,7 +304,7 @@ class StreamService:
                 self._intake.note(stream, start, reason)
             unplaced.clear()
         out = []
-        while min(last) >= clock.next_t or newest >= clock.next_t + self.config.stale_s:
+        while min(last) >= clock.next_t or arrived >= clock.next_t + self.config.stale_s:
             if newest - clock.next_t > self.config.max_backlog_s:
                 skip = self._silent_hops(newest)
                 if skip:

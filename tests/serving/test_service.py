@@ -148,6 +148,36 @@ def test_a_jittery_imu_in_chunks_gives_the_decisions_of_one_by_one(all_model, un
     np.testing.assert_allclose([d.proba for d in out], [d.proba for d in ref], atol=1e-9)
 
 
+def test_chunks_spanning_more_than_stale_s_wait_for_the_other_streams(all_model, unseen_run):
+    """Both streams pushed in 5 s chunks (IMU chunk, then the wheels' of the same span) with
+    ``stale_s = 1``: each IMU chunk made the decisions up to its end minus 1 s due while the
+    wheels' chunk of that span was still to come, 137 of 173 flagged (102 ``short|stale``,
+    every window read before the wheels reached it). They now wait for the wheels' chunk, as
+    sample by sample (only the last decision, due by staleness alone, is not reached)."""
+    ref = replay_run(service(all_model, stale_s=1.0), unseen_run)
+    chunks = []
+    for stream in ("imu", "wheels"):
+        frame = unseen_run.streams[stream]
+        k = np.floor(frame[TIME].to_numpy(dtype=float) / 5.0).astype(int)
+        chunks += [(kk, stream, frame[k == kk]) for kk in np.unique(k)]
+    svc = service(all_model, stale_s=1.0)
+    out = []
+    for _, stream, rows in sorted(chunks, key=lambda c: (c[0], c[1])):
+        out += svc.push(stream, rows[TIME].to_numpy(dtype=float), rows.drop(columns=TIME))
+    assert len(ref) - 1 <= len(out) <= len(ref)
+    n = len(out)
+    assert [(d.t_s, d.flags) for d in out] == [(d.t_s, d.flags) for d in ref[:n]]
+    np.testing.assert_allclose([d.proba for d in out], [d.proba for d in ref[:n]], atol=1e-9)
+    # a stream that is silent for good is still judged stale, one chunk later
+    imu = unseen_run.streams["imu"]
+    t = imu[TIME].to_numpy(dtype=float)
+    svc = service(all_model, stale_s=1.0)
+    late = [d for i in range(0, 40, 5) for d in svc.push(
+        "imu", t[(t >= i) & (t < i + 5)], imu[(t >= i) & (t < i + 5)].drop(columns=TIME))]
+    assert late and all("stale" in d.flags for d in late)
+    assert late[-1].t_s <= 35.0 - 1.0
+
+
 def test_an_accelerometer_in_g_is_flagged_and_not_classified(all_model, unseen_run):
     # the readers refuse a file in g (rule accel_units); the service classified such a
     # stream as if gravity were 1 m/s^2: now every window is flagged and only predicted
