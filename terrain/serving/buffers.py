@@ -136,10 +136,31 @@ class RingBuffer:
             return 0
         if len(t_s) == 1:  # the usual push on a full buffer: its oldest sample goes
             return int(self.first_t >= since_s)
+        return len(self.evicted_times(t_s, since_s))
+
+    def evicted_times(self, t_s: np.ndarray, since_s: float) -> np.ndarray:
+        """Timestamps of the samples :meth:`evicted` counts, oldest first.
+
+        Parameters
+        ----------
+        t_s : numpy.ndarray
+            ``(n,)`` timestamps about to be appended, s.
+        since_s : float
+            Samples before this time are no longer needed, s (``-inf``: all are).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(m,)`` timestamps, s (``m`` is :meth:`evicted`).
+        """
+        k = self._size + len(t_s) - self.capacity
+        if k <= 0:
+            return np.empty(0)
         end = self._next + self.capacity
         held = self._t[end - self._size:end][:k]
         own = t_s[:max(0, k - self._size)]
-        return int(np.count_nonzero(held >= since_s) + np.count_nonzero(own >= since_s))
+        lost = np.concatenate([held, own])
+        return lost[lost >= since_s]
 
     def first_at_or_after(self, t_s: float) -> float:
         """Timestamp of the oldest kept sample at or after ``t_s``, s (``inf`` if none).

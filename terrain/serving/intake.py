@@ -132,8 +132,9 @@ class StreamIntake:
     restarts : int
         Clock restarts so far.
     unplaced : set of (str, str)
-        ``(stream, reason)`` of samples refused without a stamp before any stream had one
-        (flagged on the first window).
+        ``(stream, reason)`` of samples refused without a stamp before any stream had one,
+        or pushed out of their buffer (``buffer_overflow``) before the first decision was
+        placed (flagged on the first window).
     """
 
     def __init__(self, streams: dict[str, tuple[str, ...]], config: StreamConfig,
@@ -252,10 +253,15 @@ class StreamIntake:
             t, v = self._hold_ahead(stream, t, v)
         if len(t):
             # samples the chunk pushes out of the buffer before a decision used them
-            lost = buf.evicted(t, self._decisions.needed_since())
+            since = self._decisions.needed_since()
+            lost = buf.evicted(t, since)
             if lost:
                 self.refused[(stream, OVERFLOW)] += lost
-                self.note(stream, float(t[0]), OVERFLOW)
+                if since == -np.inf:   # no decision placed: the first window says so
+                    self.unplaced.add((stream, OVERFLOW))
+                else:   # the coming windows that would have read them
+                    for lt in buf.evicted_times(t, since).tolist():
+                        self.note(stream, lt, OVERFLOW)
             self.stuck[stream].update(t, v)
             clock.rejoining = False
         buf.append(t, v)

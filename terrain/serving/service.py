@@ -6,7 +6,8 @@ keeps a bounded :class:`~terrain.serving.buffers.RingBuffer`, so memory is fixed
 unbounded stream. A chunk longer than half the buffer is taken in pieces, deciding after
 each; a sample pushed out of its buffer before any decision could read it (a backlog of one
 stream while another lags) is counted as ``buffer_overflow`` in
-:attr:`StreamService.refused_samples` and flags the windows after it. Every ``hop_s`` of
+:attr:`StreamService.refused_samples` and flags the windows that would have read it (the
+first window, when it was lost before any decision was placed). Every ``hop_s`` of
 service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,

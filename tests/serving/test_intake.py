@@ -71,6 +71,11 @@ def test_samples_pushed_out_before_the_decision_clock_read_them_are_counted():
     t2, v2 = _chunk(2.0, 30)
     intake.ingest("wheels", t2, v2)
     assert intake.refused.get(("wheels", OVERFLOW), 0) == 20 + 30 - 32
+    # flagged where they were lost (0.0 to 1.7 s: the windows of the decisions at 2.0 to
+    # 3.5 s that would have read them), not at the chunk's first stamp (2.0 s: the windows
+    # at 2.5 to 4.0 s, the first one missed and the last one whole)
+    (first_s, last_s, reason), = intake.events["wheels"]
+    assert reason == OVERFLOW and (first_s, last_s) == pytest.approx((0.0, 1.7))
     # a decision clock already past them (its next window reads from 7.8 s on): they were
     # read, nothing is lost
     fresh, fresh_clock = _intake(buffer_samples=32)
@@ -83,6 +88,8 @@ def test_samples_pushed_out_before_the_decision_clock_read_them_are_counted():
     first.ingest("wheels", t, v)
     first.ingest("wheels", t2, v2)
     assert first.refused[("wheels", OVERFLOW)] == 18
+    # no window will read them: the first one placed says so
+    assert first.unplaced == {("wheels", OVERFLOW)} and not first.events["wheels"]
 
 
 def test_a_clock_offset_of_the_config_is_the_clocks_start():
