@@ -323,7 +323,7 @@ def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarra
         ``(n, n_classes)`` classifier probabilities; NaN rows where the service did not
         classify the window (:data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: a gap, too
         short, or a units rule), which the filter treats as prediction-only steps, as the
-        live service does (the unsmoothed service repeats the last probabilities there).
+        live service does (the unsmoothed service reports uniform probabilities there).
     """
     svc = StreamService(model, CataloguePeakTargets(model.classes),
                         StreamConfig(hop_s=hop_s, smoothing=SmoothingConfig(dwell_s=None)))

@@ -46,7 +46,8 @@ class SmoothingConfig:
     ----------
     dwell_s : float or None
         Expected time on one terrain, s (finite, > 0); ``None`` disables the filter (each window's
-        probabilities pass through unchanged).
+        probabilities pass through unchanged; a window not classified gives the uniform
+        distribution, no memory, as a dwell under ``K / (K - 1)`` hops does).
     evidence_power : float
         Exponent on the classifier probabilities, in (0, 1].
     hysteresis : float
@@ -190,11 +191,14 @@ class ForwardFilter:
         decided : int or None
             Index of the decided class (``None`` before the first valid window).
         p : numpy.ndarray
-            ``(K,)`` filtered probabilities (a copy).
+            ``(K,)`` filtered probabilities (a copy); without the filter, ``q``, or the
+            uniform distribution when ``q`` is ``None``.
         """
         if self.config.dwell_s is None:
-            if q is not None:
-                self.p = np.asarray(q, dtype=float).copy()
+            # no memory: an invalid window is no evidence (the last window's probabilities
+            # kept would be reported as the current ones)
+            self.p = np.full(len(self.p), 1.0 / len(self.p)) if q is None \
+                else np.asarray(q, dtype=float).copy()
         else:
             self.p = forward_step(self.p, q, self.p_switch, self.config.evidence_power)
         if q is None and self.current is None:
