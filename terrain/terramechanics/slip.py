@@ -1,8 +1,11 @@
 """SAE longitudinal slip of a wheel or track: the one place the formula lives.
 
 ``s = (omega r - v_long) / max(|omega r|, |v_long|)`` (seed ``001_59da564c4b2d6a48.txt``
-eqs. 7.1-7.2, denominator of eq. 7.7): positive in traction (the rim is faster), negative in
-braking, in [-1, 1]. Every caller (the simulator's contact model, the post-hoc slip estimate
+eqs. 7.1-7.2, denominator of eq. 7.7), in [-1, 1], signed by the direction of travel:
+driving forward, positive in traction (the rim is faster) and negative in braking; in
+reverse the signs flip (rim -1.0 m/s, ground -0.8 m/s: -0.2), so a caller that wants the
+traction sign multiplies by the sign of the rim speed (as :mod:`terrain.slip.odometry`
+does). Every caller (the simulator's contact model, the post-hoc slip estimate
 of :mod:`terrain.slip`, the terramechanics calibration) calls :func:`sae_slip`; they differ
 only in its conditioning options:
 
