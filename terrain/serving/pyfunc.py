@@ -15,7 +15,8 @@ row per window::
 
 Windows holding NaN (a timestamp gap) are dropped and counted in the ``dropped_windows``
 attribute of the returned frame; window positions wholly inside a gap of every stream (not a
-single sample in them: no data was dropped) are counted apart, in ``empty_windows``. The same
+single sample in them: no data was dropped) are counted apart, in ``empty_windows``; runs
+shorter than one window are listed in ``short_runs``. The same
 model is served by ``mlflow models serve -m DIR``.
 """
 
@@ -230,7 +231,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         ``run, t_start_s, t_end_s`` (s), ``predicted`` and ``proba_<CLASS>`` per window; its
         ``attrs["dropped_windows"]`` counts windows of data dropped for holding NaN (a
         timestamp gap), ``attrs["empty_windows"]`` the window positions wholly inside a gap
-        of every stream (no sample at all, so not counted as dropped).
+        of every stream (no sample at all, so not counted as dropped), and
+        ``attrs["short_runs"]`` lists the runs shorter than one window (no row).
 
     Raises
     ------
@@ -269,7 +271,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         row = int(np.flatnonzero(no_run)[0])
         raise DataFormatError(f"{int(no_run.sum())} sample(s) without a run (every sample "
                               "names the run it belongs to)", "model input", RUN, row)
-    out, dropped, empty = [], 0, 0
+    out, dropped, empty, short = [], 0, 0, []
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)
         t = frame[TIME].to_numpy(dtype=float)
@@ -301,6 +303,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         empty += counts["empty_gap"]
         dropped += counts["dropped_gap"]
         if len(X) == 0:
+            if len(frame) < round(config.window_s * config.rate_hz):
+                short.append(str(run_id))   # no window fits: named, not left out unsaid
             continue
         proba = pipeline.predict_proba(X)
         order = list(pipeline.classes_)
@@ -312,7 +316,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     columns = [RUN, "t_start_s", "t_end_s", "predicted"] + [f"proba_{c}" for c in classes]
     result = pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=columns)
     result = result[columns]
-    result.attrs.update(dropped_windows=dropped, empty_windows=empty)
+    result.attrs.update(dropped_windows=dropped, empty_windows=empty, short_runs=short)
     return result
 
 

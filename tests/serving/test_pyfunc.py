@@ -48,3 +48,12 @@ def test_integer_values_are_range_checked_like_floats():
     with pytest.raises(ImplausibleValueError, match="vel_l"):
         _predict(samples)
     assert len(_predict(_samples())) == 5
+
+
+def test_a_run_shorter_than_a_window_is_listed_not_left_out_unsaid():
+    # r2 (0.5 s, the window is 2 s) gave no row and no count
+    short = _samples(10).assign(run="r2")
+    out = _predict(pd.concat([_samples(), short], ignore_index=True))
+    assert set(out["run"]) == {"r1"} and len(out) == 5
+    assert out.attrs["short_runs"] == ["r2"]
+    assert _predict(_samples()).attrs["short_runs"] == []
