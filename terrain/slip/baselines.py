@@ -20,12 +20,13 @@ against the simulator's SAE slip they are first read in its convention
 
 from __future__ import annotations
 
+import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, DataWarning, ShapeError
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.skid_steer import TRACKED, endo_slip_ratio_ratio
@@ -36,6 +37,8 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
     """Least-squares ``slip = a + b pitch`` per terrain (seed 003 eq. 22).
 
     A terrain whose windows span less than 0.01 rad of pitch gets ``b = 0`` (its mean slip).
+    Windows with a non-finite pitch or slip are left out of the fit, counted in a
+    :class:`~terrain.errors.DataWarning`.
 
     Parameters
     ----------
@@ -55,6 +58,11 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
     ------
     ShapeError
         Lengths differ.
+
+    Warns
+    -----
+    DataWarning
+        Windows left out for a non-finite pitch or slip (their count).
     """
     p = np.asarray(pitch_rad, dtype=float)
     s = np.asarray(slip, dtype=float)
@@ -62,9 +70,13 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
     if not (p.shape == s.shape == lab.shape):
         raise ShapeError(f"pitch, slip and terrains differ in length: {p.shape}, {s.shape}, "
                          f"{lab.shape}")
+    finite = np.isfinite(p) & np.isfinite(s)
+    if not finite.all():
+        warnings.warn(f"fit_pitch_slip: {int((~finite).sum())} of {finite.size} windows with a "
+                      "non-finite pitch or slip left out of the fit", DataWarning, stacklevel=2)
     out = {}
     for name in np.unique(lab):
-        sel = (lab == name) & np.isfinite(p) & np.isfinite(s)
+        sel = (lab == name) & finite
         if not sel.any():
             continue
         if np.ptp(p[sel]) < 0.01:

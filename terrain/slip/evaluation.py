@@ -244,7 +244,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         chi and lateral velocity), ``reduction_pct`` (of compensated against plain),
         ``gyro_heading_err_pct`` (wheel speeds, heading from the gyro) and
         ``compensated_gyro_err_pct`` (predicted slip and lateral velocity, gyro heading; NaN
-        without an IMU). ``slid_off``: the body travelled more than
+        without an IMU); the errors are NaN for a run whose true path has length 0 (no
+        percentage of it). ``slid_off``: the body travelled more than
         :data:`SLID_OFF_FACTOR` x the wheels' path (it slid down the slope, e.g. the Husky on a
         15 deg icy slope, which no wheel odometry can follow).
     """
@@ -268,14 +269,17 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         xy = tr[["x", "y"]].to_numpy()
         end = np.array([np.interp(t[-1], tr[TIME], tr["x"]), np.interp(t[-1], tr[TIME], tr["y"])])
         dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
-        e_plain = 100 * float(np.hypot(*(plain[-1, :2] - end))) / dist
-        e_comp = 100 * float(np.hypot(*(comp[-1, :2] - end))) / dist
+
+        def pct(pose: np.ndarray) -> float:
+            """Final position error, percent of the path (NaN for a run that did not move)."""
+            return 100 * float(np.hypot(*(pose[-1, :2] - end))) / dist if dist > 0 else np.nan
+
+        e_plain, e_comp = pct(plain), pct(comp)
         if wz is not None:
             gyro = dead_reckon(t, vl, vr, track_m, yaw_rate_rad_s=wz)
             comp_gyro = dead_reckon(t, vl, vr, track_m, s1, s2, lateral_m_s=v_by,
                                     yaw_rate_rad_s=wz)
-            e_gyro = 100 * float(np.hypot(*(gyro[-1, :2] - end))) / dist
-            e_comp_gyro = 100 * float(np.hypot(*(comp_gyro[-1, :2] - end))) / dist
+            e_gyro, e_comp_gyro = pct(gyro), pct(comp_gyro)
         else:
             e_gyro = e_comp_gyro = np.nan
         wheel_path = float(np.sum(np.hypot(*np.diff(plain[:, :2], axis=0).T)))

@@ -416,3 +416,27 @@ def test_baselines_are_scored_in_the_convention_of_the_truth():
     sae = slip_ratio_as_sae(np.column_stack([wheels["vel_l"], wheels["vel_r"]]), alpha)
     window = (t >= 2.0) & (t < 4.0)
     np.testing.assert_allclose(out["observer"][0], sae[window].mean(axis=0), atol=1e-9)
+
+
+def test_pitch_slip_fit_counts_the_windows_it_leaves_out():
+    pitch = np.array([0.0, 0.1, np.nan, 0.2, 0.3])
+    slip = np.array([0.1, 0.15, 0.2, np.nan, 0.25])
+    with pytest.warns(DataWarning, match="2 of 5 windows"):
+        coef = fit_pitch_slip(pitch, slip, ["SNOW"] * 5)
+    assert coef["SNOW"] == pytest.approx((0.1, 0.5))
+
+
+def test_odometry_error_of_a_run_that_does_not_move_is_nan_not_a_crash():
+    # a run with a true path of length 0 raised ZeroDivisionError
+    from terrain.run import Run
+    from terrain.slip.evaluation import odometry_errors
+    t = np.arange(0.0, 10.0, 0.1)
+    still = pd.DataFrame({"t_s": t, "vel_l": 0.0, "vel_r": 0.0})
+    truth = pd.DataFrame({"t_s": t, "x": 0.0, "y": 0.0})
+    run = Run("sim/ASPHALT/parked/0", "sim", "ASPHALT", {"wheels": still, "truth": truth})
+    meta = pd.DataFrame({"run_id": [run.run_id] * 2, "t_start_s": [0.0, 2.0],
+                         "t_end_s": [2.0, 4.0]})
+    out = odometry_errors([run], meta, np.zeros((2, 4)) + [0, 0, 1, 0], HUSKY.track_m,
+                          [run.run_id])
+    assert out.loc[0, "distance_m"] == 0.0
+    assert np.isnan(out.loc[0, ["plain_err_pct", "compensated_err_pct"]].astype(float)).all()
