@@ -29,19 +29,28 @@ from either end, held outside): the replay starts from rest, and its first sampl
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.audit.replay import Replay, lowpass
+from terrain.audit.replay import LOWPASS_MIN_SAMPLES, Replay, lowpass
 from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataWarning
 from terrain.run import TIME, Run
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles import skid_steer_forward
 
 MANOEUVRES = ("stop", "straight", "curve", "spin")
 STOP, STRAIGHT, CURVE, SPIN = range(4)
+#: Fewest IMU samples :func:`prepare_frame` uses; a run with a shorter IMU stream is audited
+#: as one without IMU (with a :class:`~terrain.errors.DataWarning`). What the code needs:
+#: the IMU channels are low-passed (:func:`~terrain.audit.replay.lowpass`), which returns a
+#: series no longer than its end padding (15 samples) unfiltered, and then the comparisons
+#: would mix bandwidths. The lag estimation sets no count of its own: a record too short
+#: to span a window and the lag search range gives no identifiable lag (lag 0, listed as
+#: such), and IMU samples within ``edge_s`` of the record's ends are not scored.
+MIN_IMU_SAMPLES = LOWPASS_MIN_SAMPLES
 
 
 @dataclass(frozen=True)
@@ -252,6 +261,12 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     Returns
     -------
     AuditFrame
+
+    Warns
+    -----
+    DataWarning
+        The run has an IMU stream of fewer than :data:`MIN_IMU_SAMPLES` samples: it is
+        audited as a run without IMU.
     """
     wheels = run.streams["wheels"]
     t = replay.t_s
@@ -262,7 +277,12 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     score_cur = score & ~_in_gaps(t, gaps.get("wheels"))
     nan = np.full(len(t), np.nan)
     imu = run.streams.get("imu")
-    if imu is not None and len(imu) > 30:
+    if imu is not None and len(imu) < MIN_IMU_SAMPLES:
+        warnings.warn(f"{run.run_id}: IMU stream of {len(imu)} samples ignored (fewer than "
+                      f"{MIN_IMU_SAMPLES}, too short to low-pass): audited as a run without "
+                      "IMU", DataWarning, stacklevel=2)
+        imu = None
+    if imu is not None:
         ti = imu[TIME].to_numpy(dtype=float)
         rate = 1.0 / float(np.median(np.diff(ti)))
         chans = lowpass(imu[["wz", "ax", "ay"]].to_numpy(dtype=float), rate,

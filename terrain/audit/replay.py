@@ -158,6 +158,13 @@ class Replay:
 #: Nyquist frequency, 0.5, where a Butterworth design fails).
 MAX_CUTOFF_FRACTION = 0.45
 
+#: Order of :func:`lowpass`'s Butterworth filter.
+LOWPASS_ORDER = 4
+#: Fewest samples :func:`lowpass` filters: ``scipy.signal.sosfiltfilt`` extends each end by
+#: ``3 (2 n_sections + 1)`` samples (15 for the two second-order sections of the 4th order)
+#: and needs a longer series; a shorter one is returned unfiltered.
+LOWPASS_MIN_SAMPLES = 3 * (2 * (LOWPASS_ORDER // 2) + 1) + 1
+
 
 def lowpass_cutoff_hz(rate_hz: float, cutoff_hz: float) -> float:
     """The cut-off :func:`lowpass` uses: the one asked, clipped to
@@ -197,12 +204,13 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float, padtype: str =
     Returns
     -------
     ndarray, same shape
-        Filtered values (unchanged when the series is too short to filter).
+        Filtered values (unchanged when the series holds fewer than
+        :data:`LOWPASS_MIN_SAMPLES`, too short to filter).
     """
     values = np.asarray(values, dtype=float)
     fc = lowpass_cutoff_hz(rate_hz, cutoff_hz)
-    sos = signal.butter(4, fc, fs=float(rate_hz), output="sos")
-    if values.shape[0] <= 3 * (2 * len(sos) + 1):
+    sos = signal.butter(LOWPASS_ORDER, fc, fs=float(rate_hz), output="sos")
+    if values.shape[0] < LOWPASS_MIN_SAMPLES:
         return values
     return signal.sosfiltfilt(sos, values, axis=0, padtype=padtype)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -14,7 +16,7 @@ from terrain.audit.replay import (JITTER_ACCEL_M_S2, ReplaySettings,
                                   cruise_wheel_acceleration_rms, replay_run)
 from terrain.audit import selection
 from terrain.audit.selection import SelectionSettings, bootstrap_gain, make_units
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, DataWarning
 from terrain.io.shipped import load_dataset
 from terrain.run import Run
 from terrain.io.writer import to_file_frames
@@ -101,6 +103,27 @@ def test_input_lowpass_removes_the_noise_a_replay_rectifies_into_current():
     assert np.std(np.diff(rep.vel_l[t > 5.0])) < 0.1 * np.std(np.diff(record[t > 5.0]))
     with pytest.raises(ConfigError, match="input_cutoff_hz"):
         ReplaySettings(input_cutoff_hz=0.0)
+
+
+def test_a_short_imu_stream_is_used_when_filterable_and_warned_about_otherwise(sim_run):
+    """An IMU stream of 30 samples or fewer was dropped without a word (``len(imu) > 30``):
+    the run was audited as one without IMU. The code after needs more samples than the
+    low-pass pads each end with (15); the lag estimation copes with any length (no
+    identifiable lag). 20 samples are now used; 10 are ignored with a DataWarning naming
+    the run and the count."""
+    res, _ = sim_run
+    imu, pro = res["imu"], res["pro"]
+    start = len(imu) // 2
+    used = _run(imu.iloc[start:start + 20], pro)
+    assert prepare_frame(used, replay_run(used)).has_imu
+    short = _run(imu.iloc[start:start + 10], pro)
+    with pytest.warns(DataWarning, match=r"t/ASPHALT/00.*10 samples"):
+        frame = prepare_frame(short, replay_run(short))
+    assert not frame.has_imu
+    none = _run(None, pro)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not prepare_frame(none, replay_run(none)).has_imu
 
 
 def test_manoeuvre_classes():
