@@ -576,6 +576,9 @@ class CurrentParams:
         Constants of the turning term.
     n_straight : int
         Straight samples used for the offsets.
+    n_without_pitch : int
+        Moving samples of runs without an IMU left out of a fit with ``grade_resistance``
+        (no pitch estimate: their pitch 0 is a placeholder, not level ground); 0 without it.
     """
 
     offset_left_a: float = 0.0
@@ -586,6 +589,7 @@ class CurrentParams:
     turn_ref_rad_s: float = 0.5
     coulomb_scale_rad_s: float = 0.1
     n_straight: int = 0
+    n_without_pitch: int = 0
 
     @property
     def offset_a(self) -> float:
@@ -666,8 +670,11 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     (``current_offset``), ``k_a g(|x|)`` to both sides on turning samples
     (``turning_resistance``) and ``k_a_per_rad |pitch|`` to both sides
     (``grade_resistance``). Offsets are the median residuals of straight driving; the turning
-    and grade coefficients are least squares over moving samples (with a grade, those of
-    runs with an IMU: a run without one has no pitch, not a level one); the two steps alternate
+    and grade coefficients are least squares over moving samples; with a grade, every step
+    takes the samples of runs with an IMU only (a run without one has no pitch, not a level
+    one: its straight rows would carry its climbing current into the offsets, its moving rows
+    would tell the least squares "level ground"), and counts the moving samples left out
+    (:attr:`CurrentParams.n_without_pitch`); the two steps alternate
     until the coefficients stop changing (relative 1e-9, at most
     ``settings.max_alternations``; a grade column, nonzero on straight samples too, couples
     them). Without ``current_offset``, the grade coefficient's least squares carries a
@@ -698,21 +705,28 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     offset_on = "current_offset" in spec
     turning_on = "turning_resistance" in spec
     grade_on = "grade_resistance" in spec
-    n_straight = int(d.straight.sum())
+    # a run without an IMU has no pitch (0 is a placeholder): in a fit with a grade its rows
+    # would say "level ground" while its currents climbed, in the least squares (2 of 4 hill
+    # runs without one: 3.5 A/rad fitted for 10 planted) and, through the straight medians,
+    # in the offsets (4.0 for 10), so such a fit takes the runs with a pitch only
+    fit_rows = d.has_pitch if grade_on else np.ones(len(d.x), dtype=bool)
+    n_without_pitch = int((d.moving & ~fit_rows).sum())
+    n_straight = int((d.straight & fit_rows).sum())
     if offset_on and n_straight < settings.min_straight_samples:
         raise NotIdentifiable(f"current_offset: {n_straight} straight samples, need "
                               f"{settings.min_straight_samples}")
-    if turning_on and d.turn.sum() < settings.min_turn_samples:
-        raise NotIdentifiable(f"turning_resistance: {int(d.turn.sum())} turning samples, "
+    n_turn = int((d.turn & fit_rows).sum())
+    if turning_on and n_turn < settings.min_turn_samples:
+        raise NotIdentifiable(f"turning_resistance: {n_turn} turning samples, "
                               f"need {settings.min_turn_samples}")
     if grade_on:
-        sel = d.has_pitch & d.moving
+        sel = fit_rows & d.moving
         spread = float(np.std(d.pitch[sel])) if sel.any() else 0.0
         if spread < settings.min_pitch_spread_rad:
             raise NotIdentifiable(f"grade_resistance: |pitch| spread {spread:.4f} rad below "
                                   f"{settings.min_pitch_spread_rad} rad (level ground)")
     forms = (None,) if not turning_on else (TURNING_FORMS if form is None else (form,))
-    mv = d.moving
+    mv = d.moving & fit_rows
     best = None
     for fm in forms:
         cols = []
@@ -727,18 +741,14 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
         # least squares (not part of the model): |pitch| >= 0 would otherwise absorb it
         level = grade_on and not offset_on
         ls_design = np.column_stack([design, np.ones(len(d.x))]) if level else design
-        # a run without an IMU has no pitch: its rows would say "level ground" to the grade
-        # (2 of 4 hill runs without one: 3.5 A/rad fitted for 10 planted), so the least
-        # squares of a grade takes the runs with a pitch only
-        ls_rows = mv & d.has_pitch if grade_on else mv
         for _ in range(settings.max_alternations if (offset_on and cols) else 1):
             common = design @ coef
             if offset_on:
-                st = d.straight
+                st = d.straight & fit_rows
                 off = np.median(d.res[st] - common[st, None], axis=0)
             if cols:
                 target = (d.res - off[None, :] * mv[:, None]).mean(axis=1)
-                new = np.linalg.lstsq(ls_design[ls_rows], target[ls_rows],
+                new = np.linalg.lstsq(ls_design[mv], target[mv],
                                       rcond=None)[0][:len(coef)]
                 converged = np.all(np.abs(new - coef) <= 1e-9 * (1.0 + np.abs(new)))
                 coef = new
@@ -753,7 +763,8 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
                          k_a=float(coef[0]) if turning_on else 0.0, form=fm,
                          k_a_per_rad=float(coef[-1]) if grade_on else 0.0,
                          turn_ref_rad_s=settings.turn_ref_rad_s,
-                         coulomb_scale_rad_s=settings.coulomb_scale_rad_s, n_straight=n_straight)
+                         coulomb_scale_rad_s=settings.coulomb_scale_rad_s, n_straight=n_straight,
+                         n_without_pitch=n_without_pitch)
 
 
 def predict_current(frame: AuditFrame, params: CurrentParams) -> np.ndarray:
@@ -974,7 +985,8 @@ def effect_details(name: str, params: LagParams | YawParams | CurrentParams) -> 
         ``immobilised``: ``form, chi_mobile, mobile_model, threshold_rad_s, fractions``;
         ``turning_resistance``: ``form, reference``; ``icr_expansion``:
         ``fraction_excluded_immobile``; ``current_offset``: ``offset_left_a,
-        offset_right_a, common_a`` (A); other effects: empty.
+        offset_right_a, common_a`` (A); ``grade_resistance``: ``n_moving_without_imu``
+        (moving samples of runs without IMU left out of its fit); other effects: empty.
     """
     if name == "immobilised":
         return {"form": params.form, "chi_mobile": params.chi,
@@ -993,6 +1005,8 @@ def effect_details(name: str, params: LagParams | YawParams | CurrentParams) -> 
     if name == "current_offset":
         return {"offset_left_a": params.offset_left_a, "offset_right_a": params.offset_right_a,
                 "common_a": params.common_a}
+    if name == "grade_resistance":
+        return {"n_moving_without_imu": params.n_without_pitch}
     return {}
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from audit_helpers import simulated_streams
 from terrain.audit.effects import (EffectSettings, NotIdentifiable, _current_data,
-                                   fit_current, fit_yaw, predict_current)
+                                   effect_details, fit_current, fit_yaw, predict_current)
 from terrain.audit.frames import MANOEUVRES, classify_manoeuvres, prepare_frame
 from terrain.audit.replay import (JITTER_ACCEL_M_S2, ReplaySettings,
                                   cruise_wheel_acceleration_rms, replay_run)
@@ -248,6 +248,33 @@ def test_fit_current_grade_takes_only_runs_with_a_pitch():
     alone = fit_current([frames[0]], ["grade_resistance"]).k_a_per_rad
     assert both == pytest.approx(10.0, abs=1.5)
     assert k == pytest.approx(alone, abs=1e-9)
+
+
+def test_fit_current_offsets_beside_a_grade_take_only_runs_with_a_pitch():
+    """With ``current_offset`` beside the grade, the offsets (medians of straight driving)
+    took the straight rows of a run without an IMU, whose pitch 0 is a placeholder: its
+    climbing current went into the offsets as if on level ground and halved the grade
+    (4.0 A/rad for 10 planted, 8.2 on the run with an IMU alone). Those rows are left out
+    of a fit with a grade, and counted."""
+    from dataclasses import replace
+
+    frames = [_hills_frame(s, offsets_a=(-0.7, 0.9)) for s in simulated_streams(seeds=(43, 44))]
+    blind = replace(frames[1], has_imu=False, pitch=np.zeros(frames[1].n))
+    for spec in (["current_offset", "grade_resistance"],
+                 ["turning_resistance", "current_offset", "grade_resistance"]):
+        alone = fit_current([frames[0]], spec)
+        p = fit_current([frames[0], blind], spec)
+        assert p.k_a_per_rad == pytest.approx(alone.k_a_per_rad, abs=1e-9)
+        assert p.offset_a == pytest.approx(alone.offset_a, abs=1e-9)
+        assert p.n_straight == alone.n_straight
+        assert p.n_without_pitch == int(((blind.manoeuvre != 0) & blind.score_cur).sum()) > 0
+        assert alone.n_without_pitch == 0
+        assert effect_details("grade_resistance", p) == {
+            "n_moving_without_imu": p.n_without_pitch}
+    # a fit without a grade needs no pitch: every run's rows
+    both = fit_current([frames[0], blind], ["current_offset"])
+    assert both.n_without_pitch == 0
+    assert both.n_straight > fit_current([frames[0]], ["current_offset"]).n_straight
 
 
 def test_pitch_estimate_ignores_the_replay_start_transient(shipped_borealtc):
