@@ -16,8 +16,10 @@ runs alone.
 For each terrain (and ``all`` pooled), each signal (``wz, ax, ay, cur_l, cur_r``, and
 ``cur`` = both currents) and each manoeuvre (``straight, curve, spin``, ``moving`` = all three,
 ``stop``), the RMSE of each version, the gain ``1 - RMSE_new / RMSE_ref`` and its 95 %
-run-bootstrap interval (runs resampled with replacement within the terrain; per-run sums of
-squared errors, so long runs weigh by their samples).
+run-bootstrap interval (runs resampled with replacement within the terrain, and for ``all``
+within each terrain, so that every resample keeps the terrain mix of the data:
+:func:`~terrain.audit.selection.stratified_resamples`; per-run sums of squared errors, so long
+runs weigh by their samples).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import pandas as pd
 
 from terrain.audit.frames import MANOEUVRES, AuditFrame, FrameSettings, prepare_frame
 from terrain.audit.replay import ReplaySettings, replay_run
-from terrain.audit.selection import MAX_BOOTSTRAP
+from terrain.audit.selection import MAX_BOOTSTRAP, stratified_resamples
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
@@ -243,7 +245,8 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
     pandas.DataFrame
         Columns ``terrain, signal, scope, n_runs, n, rmse_ref, rmse_new, gain, gain_lo,
         gain_hi`` (gain = ``1 - rmse_new / rmse_ref``, NaN where ``rmse_ref`` is 0; the
-        interval NaN where one run holds every sample: resampling it says nothing). A
+        interval NaN where one run holds every sample: resampling it says nothing; the
+        ``pooled`` rows resample runs within each terrain). A
         signal and scope without any sample (e.g. ``stop`` on runs that never stop) gets
         no row; ``n_runs`` counts the runs with samples in it.
     """
@@ -259,7 +262,8 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
             n = sub.n.to_numpy(float)
             a, b = sub.sse_ref.to_numpy(float), sub.sse_new.to_numpy(float)
             r_ref, r_new = np.sqrt(a.sum() / n.sum()), np.sqrt(b.sum() / n.sum())
-            idx = rng.integers(0, len(sub), (settings.n_bootstrap, len(sub)))
+            # the pooled rows resample runs within each terrain (one stratum elsewhere)
+            idx = stratified_resamples(sub.terrain.to_numpy(), rng, settings.n_bootstrap)
             ra = np.sqrt(a[idx].sum(1) / n[idx].sum(1))
             rb = np.sqrt(b[idx].sum(1) / n[idx].sum(1))
             g = 1.0 - rb / np.where(ra > 0, ra, np.nan)

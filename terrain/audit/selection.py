@@ -16,10 +16,12 @@ runs pooled):
    the samples where the effect acts (:attr:`~terrain.audit.effects.EffectSpec.scope`):
    ``(RMSE_before - RMSE_with) / RMSE_baseline`` (RMSE pooled over held-out samples).
 4. Support: units (those with samples in the effect's scope) are resampled with
-   replacement (``n_bootstrap`` times) and the gain is recomputed from the resampled per-unit
-   errors; the effect is supported when the lower end of the 95 % percentile interval is
-   above 0 *and* the gain is at least ``min_gain`` *and* its fitted size is not negligible
-   (:func:`negligible`) *and* it does not contradict its physics (:func:`unphysical`).
+   replacement (``n_bootstrap`` times; with all runs pooled, within each terrain, so that
+   every resample keeps the terrain mix of the data: :func:`stratified_resamples`) and the
+   gain is recomputed from the resampled per-unit errors; the effect is supported when the
+   lower end of the 95 % percentile interval is above 0 *and* the gain is at least
+   ``min_gain`` *and* its fitted size is not negligible (:func:`negligible`) *and* it does
+   not contradict its physics (:func:`unphysical`).
    The supported candidate with the largest gain joins the model and step 3 repeats (a
    larger gain that misses the rule, e.g. a noisy one whose interval reaches 0, does not
    stop a supported one from joining); when no candidate is supported, selection stops and
@@ -27,7 +29,8 @@ runs pooled):
    ``supported = false``.
 5. Parameters are fitted on all units with the final model (an unsupported effect: final
    model plus that effect); their 95 % intervals come from refitting on units resampled with
-   replacement (``n_param_bootstrap`` times; the functional form is kept fixed).
+   replacement (``n_param_bootstrap`` times, within each terrain as in step 4; the functional
+   form is kept fixed).
 
 A fold whose training units hold no information on a candidate (e.g. the only run with turns
 is held out) predicts with the model without that candidate.
@@ -465,8 +468,49 @@ def unit_errors(units: Units, group: str, params: Sequence[GroupParams],
     return np.asarray(out_s, dtype=float), np.asarray(out_n)
 
 
+def stratified_resamples(strata: np.ndarray, rng: np.random.Generator, n_boot: int
+                         ) -> np.ndarray:
+    """Bootstrap resamples of units drawn with replacement within each stratum.
+
+    A figure pooled over terrains is the terrain mix of the data: resampling units across
+    terrains would give every resample its own mix, and the interval would measure the mix
+    as much as the run-to-run spread. Each stratum keeps its count in every resample.
+
+    Parameters
+    ----------
+    strata : ndarray, shape (n_units,)
+        Stratum of each unit (its terrain).
+    rng : numpy.random.Generator
+        Draws the resamples.
+    n_boot : int
+        Number of resamples.
+
+    Returns
+    -------
+    ndarray of int, shape (n_boot, n_units)
+        Unit indices; the positions of a stratum's units hold draws among those units
+        (strata drawn in sorted order). With one stratum, exactly
+        ``rng.integers(0, n_units, (n_boot, n_units))``.
+    """
+    strata = np.asarray(strata)
+    labels = np.unique(strata)
+    if len(labels) <= 1:
+        return rng.integers(0, len(strata), (n_boot, len(strata)))
+    idx = np.empty((n_boot, len(strata)), dtype=np.int64)
+    for label in labels:
+        members = np.flatnonzero(strata == label)
+        idx[:, members] = members[rng.integers(0, len(members), (n_boot, len(members)))]
+    return idx
+
+
+def _strata(units: Units) -> np.ndarray:
+    """Terrain of each unit (every frame of a unit comes from one run), shape (n_units,)."""
+    return np.asarray([unit[0].terrain for unit in units])
+
+
 def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
-                   rng: np.random.Generator, n_boot: int) -> tuple[float, list[float]]:
+                   rng: np.random.Generator, n_boot: int,
+                   strata: np.ndarray | None = None) -> tuple[float, list[float]]:
     """Gain ``(sqrt(sum ref) - sqrt(sum new)) / sqrt(sum base)`` and its 95 % interval.
 
     Parameters
@@ -481,6 +525,9 @@ def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
         Draws the unit resamples.
     n_boot : int
         Number of resamples.
+    strata : ndarray, shape (n_units,), optional
+        Terrain of each unit: units are resampled within each terrain
+        (:func:`stratified_resamples`); default one stratum.
 
     Returns
     -------
@@ -492,7 +539,7 @@ def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
     def gain(r, n, b):
         return (np.sqrt(r) - np.sqrt(n)) / np.sqrt(np.maximum(b, 1e-300))
     point = float(gain(ref.sum(), new.sum(), base.sum()))
-    idx = rng.integers(0, len(ref), (n_boot, len(ref)))
+    idx = stratified_resamples(np.zeros(len(ref)) if strata is None else strata, rng, n_boot)
     g = gain(ref[idx].sum(axis=1), new[idx].sum(axis=1), base[idx].sum(axis=1))
     return point, [float(np.percentile(g, 2.5)), float(np.percentile(g, 97.5))]
 
@@ -500,13 +547,15 @@ def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
 def _param_ci(units: Units, group: str, spec: Sequence[str], name: str, form: str | None,
               settings: EffectSettings, rng: np.random.Generator,
               n_boot: int) -> dict[str, tuple[float, float]]:
-    """Bootstrap interval of the parameter of ``name`` refitted on resampled units."""
+    """Bootstrap interval of the parameter of ``name`` refitted on units resampled within
+    each terrain (:func:`stratified_resamples`)."""
     if n_boot <= 0:
         return {}
     fit = GROUP_MODELS[group].fit
+    strata = _strata(units)
     draws = []
     for _ in range(n_boot):
-        idx = rng.integers(0, len(units), len(units))
+        idx = stratified_resamples(strata, rng, 1)[0]
         frames = [f for i in idx for f in units[i]]
         try:
             p = fit(frames, list(spec), settings, form)
@@ -569,7 +618,8 @@ def score_candidate(units: Units, group: str, spec: Sequence[str], name: str,
     keep = n > 0                                 # units with samples where the effect acts
     if base[keep].sum() <= 0:
         raise NotIdentifiable(f"no scored samples in scope {scope!r}")
-    gain, ci = bootstrap_gain(ref[keep], new[keep], base[keep], rng, n_bootstrap)
+    gain, ci = bootstrap_gain(ref[keep], new[keep], base[keep], rng, n_bootstrap,
+                              _strata(units)[keep])
     n_all = max(n.sum(), 1)
     return Trial(name=name, scope=scope, heldout_params=tuple(with_params), gain=gain,
                  gain_ci95=(ci[0], ci[1]),

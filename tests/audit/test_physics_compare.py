@@ -66,6 +66,29 @@ def test_a_single_run_gets_no_bootstrap_interval():
     assert "| X | cur | moving | 1 | 100 | 2 | 1 | +0.500 (one run: no interval) |" in md
 
 
+def test_the_pooled_interval_resamples_runs_within_each_terrain():
+    """The ``all`` row resampled runs across terrains, so every resample had its own terrain
+    mix and the interval measured the mix as much as the runs: here every run of a terrain
+    is alike (X gains 0.5, Y nothing), so the pooled gain (0.21) is the same in every
+    resample that keeps three runs of each, but the unstratified interval spread over
+    [0.06, 0.39]. The terrains' own rows draw as before."""
+    import pandas as pd
+    tab = pd.DataFrame({"run_id": [f"a/{t}/{k}" for t in "XY" for k in range(3)],
+                        "terrain": ["X"] * 3 + ["Y"] * 3, "signal": "cur", "scope": "moving",
+                        "n": 100, "sse_ref": 400.0, "sse_new": [100.0] * 3 + [400.0] * 3})
+    s = PhysicsComparisonSettings(n_bootstrap=200)
+    g = gain_table(tab, s).set_index("terrain")
+    point = g.loc["all", "gain"]
+    assert point == pytest.approx(0.2094, abs=1e-4)
+    assert g.loc["all", "gain_lo"] == pytest.approx(point)
+    assert g.loc["all", "gain_hi"] == pytest.approx(point)
+    uneven = tab.assign(sse_new=[100.0, 200.0, 50.0, 400.0, 300.0, 390.0])
+    per_terrain = gain_table(uneven, s).set_index("terrain")
+    alone = gain_table(uneven[uneven.terrain == "X"], s).set_index("terrain")
+    assert per_terrain.loc["X", ["gain_lo", "gain_hi"]].tolist() == pytest.approx(
+        alone.loc["X", ["gain_lo", "gain_hi"]].tolist())
+
+
 def test_a_scope_without_samples_gets_no_row():
     # the docstring said the gain is NaN where there is no sample; such a scope has no row
     # (behaviour unchanged, docstring corrected; this passed before too)

@@ -310,6 +310,27 @@ def test_bootstrap_gain():
     assert 0.0 < ci[0] and ci[1] < 0.5
 
 
+def test_bootstrap_gain_of_pooled_terrains_resamples_within_each():
+    """Units of several terrains (the audit's pooled ``all`` scope) were resampled across
+    terrains, so the interval measured the resampled terrain mix: three units of a terrain
+    where the candidate halves the error and three where it does nothing gave [0.00, 0.39]
+    around 0.21 although every resample keeping three of each gives 0.21. With ``strata``
+    each terrain keeps its count; one stratum draws exactly the unstratified resamples."""
+    ref = np.full(6, 4.0)
+    new = np.array([1.0] * 3 + [4.0] * 3)
+    strata = np.array(["X"] * 3 + ["Y"] * 3)
+    gain, ci = bootstrap_gain(ref, new, ref, np.random.default_rng(0), 200, strata)
+    assert ci == pytest.approx([gain, gain])
+    idx = selection.stratified_resamples(strata, np.random.default_rng(1), 50)
+    assert idx.shape == (50, 6)
+    assert (idx[:, :3] < 3).all() and (idx[:, 3:] >= 3).all()
+    one = selection.stratified_resamples(np.zeros(6), np.random.default_rng(1), 50)
+    assert (one == np.random.default_rng(1).integers(0, 6, (50, 6))).all()
+    uneven = np.array([1.0, 2.0, 0.5, 4.0, 3.0, 3.9])
+    assert (bootstrap_gain(ref, uneven, ref, np.random.default_rng(2), 100)
+            == bootstrap_gain(ref, uneven, ref, np.random.default_rng(2), 100, np.zeros(6)))
+
+
 def test_forward_selection_takes_the_best_supported_candidate(monkeypatch):
     # the round's largest gain is noisy (interval reaches below 0: not supported); a smaller
     # gain whose interval lies above 0 meets the stated rule and must join. Before, the
