@@ -28,7 +28,7 @@ import warnings
 
 import numpy as np
 
-from terrain.errors import DataWarning, ShapeError, TimeStepError
+from terrain.errors import ConfigError, DataWarning, ShapeError, TimeStepError
 from terrain.terramechanics.slip import ground_speed_from_slip
 
 #: braking slip at which a compensated ground speed is held: the inverse grows as
@@ -73,9 +73,12 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     Raises
     ------
     ShapeError
-        Inconsistent lengths (times, speeds, slips, ``chi``, ``lateral_m_s``, yaw rate).
+        Inconsistent lengths (times, speeds, slips, ``chi``, ``lateral_m_s``, yaw rate), or
+        no sample.
     TimeStepError
-        Times not strictly increasing.
+        Times not finite or not strictly increasing.
+    ConfigError
+        ``track_m`` not > 0 where the yaw rate comes from the wheels.
     """
     t = np.asarray(t_s, dtype=float)
     vl = np.asarray(v_left_m_s, dtype=float)
@@ -83,8 +86,13 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     if not (t.shape == vl.shape == vr.shape) or t.ndim != 1:
         raise ShapeError(f"t, v_left, v_right must share a shape (N,), got {t.shape}, "
                          f"{vl.shape}, {vr.shape}")
-    if t.size > 1 and np.any(np.diff(t) <= 0):
-        raise TimeStepError("dead_reckon: times must be strictly increasing")
+    if t.size == 0:
+        raise ShapeError("dead_reckon: no sample (the pose starts at the first one)")
+    if not (np.isfinite(t).all() and np.all(np.diff(t) > 0)):   # NaN compares False
+        raise TimeStepError("dead_reckon: times must be finite and strictly increasing")
+    if yaw_rate_rad_s is None and not track_m > 0:
+        raise ConfigError(f"dead_reckon: track_m must be > 0 for the wheels' yaw rate, got "
+                          f"{track_m}")
     gl = vl if slip_left is None else _ground_speed(vl, _per_sample("slip_left", slip_left,
                                                                     t.shape))
     gr = vr if slip_right is None else _ground_speed(vr, _per_sample("slip_right", slip_right,

@@ -11,7 +11,7 @@ import pytest
 
 from features.slip_features import slip_table, terrain_columns
 from terrain.cli import main as cli_main
-from terrain.errors import ShapeError, TimeStepError
+from terrain.errors import ConfigError, ShapeError, TimeStepError
 from terrain.slip.baselines import (endo_turning_slip, fit_pitch_slip, observer_slip,
                                     pitch_slip, slip_ratio_as_sae)
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
@@ -440,3 +440,18 @@ def test_odometry_error_of_a_run_that_does_not_move_is_nan_not_a_crash():
                           [run.run_id])
     assert out.loc[0, "distance_m"] == 0.0
     assert np.isnan(out.loc[0, ["plain_err_pct", "compensated_err_pct"]].astype(float)).all()
+
+
+def test_dead_reckon_refuses_no_sample_nan_times_and_a_non_positive_track():
+    # an empty input gave a pose of shape (1, 3), a NaN time passed the order check (NaN
+    # compares False) and spread NaN, a track of 0 divided by zero
+    t = np.arange(0.0, 1.0, 0.1)
+    v = np.full_like(t, 0.5)
+    with pytest.raises(ShapeError, match="no sample"):
+        dead_reckon(np.zeros(0), np.zeros(0), np.zeros(0), HUSKY.track_m)
+    with pytest.raises(TimeStepError, match="finite"):
+        dead_reckon(np.where(t == t[3], np.nan, t), v, v, HUSKY.track_m)
+    with pytest.raises(ConfigError, match="track_m"):
+        dead_reckon(t, v, v, 0.0)
+    assert dead_reckon(t, v, v, 0.0, yaw_rate_rad_s=np.zeros_like(t))[-1, 0] == \
+        pytest.approx(0.45)
