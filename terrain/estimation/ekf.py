@@ -206,8 +206,19 @@ class Gate:
         -------
         float
             The ``probability`` quantile (dimensionless NIS).
+
+        Raises
+        ------
+        ConfigError
+            ``dof`` outside ``1 .. max_dof`` (a sensor group larger than the gate was built
+            for: raise ``max_dof``).
         """
-        return float(self._thresholds[int(dof) - 1])
+        d = int(dof)
+        if not 1 <= d <= self._thresholds.size:
+            raise ConfigError(f"gate has chi-square thresholds for 1..{self._thresholds.size} "
+                              f"degrees of freedom, asked for {dof} (a sensor group of {dof} "
+                              f"rows needs Gate(max_dof >= {dof}))")
+        return float(self._thresholds[d - 1])
 
 
 @dataclass(frozen=True)
@@ -338,6 +349,8 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
     CovarianceError
         ``P`` not symmetric PSD or ``R`` not positive definite (``check`` True), or the
         innovation covariance ``S`` is singular or indefinite (always checked).
+    ConfigError
+        A group of more rows than ``gate.max_dof``.
     """
     n = x.shape[0]
     y = np.asarray(y, dtype=float)

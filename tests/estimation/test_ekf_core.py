@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain.errors import (CovarianceError, EstimationError, NonFiniteInputError, ShapeError,
-                            TimeStepError)
+from terrain.errors import (ConfigError, CovarianceError, EstimationError, NonFiniteInputError,
+                            ShapeError, TimeStepError)
 from terrain.estimation import ExtendedKalmanFilter, Gate, correct, predict, update
 
 
@@ -287,3 +287,15 @@ def test_update_with_its_own_noise_equals_a_filter_built_with_it():
     assert own.update(np.zeros(1)).S[0, 0] > 1.0          # its own R (1.0) again
     with pytest.raises(CovarianceError):
         own.update(np.zeros(1), R=np.array([-0.1]))
+
+
+def test_gate_threshold_outside_its_table_raises_a_config_error():
+    # Gate(max_dof=2).threshold(0) returned the 2-dof quantile (index -1) and a 3-row group
+    # raised a bare IndexError from inside correct()
+    gate = Gate(0.99, max_dof=2)
+    assert gate.threshold(2) == pytest.approx(9.2103, rel=1e-4)
+    for dof in (0, 3):
+        with pytest.raises(ConfigError, match="max_dof"):
+            gate.threshold(dof)
+    with pytest.raises(ConfigError, match="max_dof >= 3"):
+        correct(np.zeros(3), np.eye(3), np.ones(3), np.eye(3), np.ones(3), gate=gate)
