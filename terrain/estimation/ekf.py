@@ -664,7 +664,8 @@ class ExtendedKalmanFilter:
         *args
             Extra arguments passed to ``h``, ``H``.
         rows : sequence of int, optional
-            Rows of the full measurement vector present in ``z``.
+            Rows of the full measurement vector present in ``z``: distinct integers in
+            ``0 .. m-1``.
         R : ndarray, shape (len(z),) or (len(z), len(z)), optional
             Measurement noise of this update only (e.g. of a block-averaged or adaptively
             weighted row), units of ``z`` squared; None: the filter's ``R`` of these rows.
@@ -675,9 +676,19 @@ class ExtendedKalmanFilter:
 
         Raises
         ------
-        ShapeError, NonFiniteInputError, CovarianceError
+        ShapeError
+            ``z`` of the wrong length, or ``rows`` not distinct integers in ``0 .. m-1``.
+        NonFiniteInputError, CovarianceError
         """
-        idx = np.arange(self._m) if rows is None else np.asarray(rows, dtype=int)
+        if rows is None:
+            idx = np.arange(self._m)
+        else:
+            idx = np.asarray(rows)
+            if (idx.ndim != 1 or idx.dtype.kind not in "iu" or np.unique(idx).size != idx.size
+                    or (idx.size and not (0 <= idx.min() and idx.max() < self._m))):
+                raise ShapeError(f"rows must be distinct integers in 0..{self._m - 1}, got "
+                                 f"{np.asarray(rows).tolist()}")
+            idx = idx.astype(int)
         z = as_vector(z, "z", idx.size)
         hx = np.asarray(self._h(self._x, *args), dtype=float)
         Hm = np.asarray(self._H(self._x, *args), dtype=float)

@@ -299,3 +299,16 @@ def test_gate_threshold_outside_its_table_raises_a_config_error():
             gate.threshold(dof)
     with pytest.raises(ConfigError, match="max_dof >= 3"):
         correct(np.zeros(3), np.eye(3), np.ones(3), np.eye(3), np.ones(3), gate=gate)
+
+
+@pytest.mark.parametrize("rows", [[5], [-1], [0, 0], [0.5]])
+def test_streaming_update_refuses_rows_outside_the_measurement(rows):
+    # rows=[0, 0] used one sample twice as two independent ones (NIS 2.0, state pulled
+    # twice as hard), [-1] updated the last row, [0.5] row 0, [5] raised a bare IndexError
+    f, F, _, _, Q = _cv_model()
+    h = lambda x: x  # noqa: E731
+    H = lambda x: np.eye(2)  # noqa: E731
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, Q, np.ones(2))
+    with pytest.raises(ShapeError, match="rows"):
+        ekf.update(np.ones(len(rows)), rows=rows)
+    np.testing.assert_array_equal(ekf.x, np.zeros(2))
