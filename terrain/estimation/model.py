@@ -162,8 +162,9 @@ class StateSpaceModel:
         -------
         (lower, upper) of ndarray, shape (n,), or None
             :func:`terrain.estimation.runner.run_filter` clips the state mean into this box
-            after every update (the covariance is left as it is); ``-inf`` / ``inf`` for a
-            state without a bound. None: no clipping.
+            after every update (the covariance is left as it is; the steps where the clip
+            moved the mean are counted in ``meta["state_bounds_clipped"]``); ``-inf`` / ``inf``
+            for a state without a bound. None: no clipping.
         """
         return None
 

@@ -37,6 +37,9 @@ class LoopArrays:
     bound_active : ndarray of bool, shape (N,) or None
         Steps whose estimate was projected onto ``step_bounds``
         (:func:`terrain.estimation.runner.run_filter`); None when the loop had none.
+    clipped : ndarray of bool, shape (N,) or None
+        Steps whose estimate the model's ``state_bounds`` clipped (moved); None when the
+        loop had none.
     """
 
     x: np.ndarray
@@ -48,6 +51,7 @@ class LoopArrays:
     nis: np.ndarray
     dof: np.ndarray
     bound_active: np.ndarray | None = None
+    clipped: np.ndarray | None = None
 
 
 @dataclass

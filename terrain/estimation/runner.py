@@ -254,8 +254,9 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         numba is importable, else the reference. The first compiled call on a machine
         compiles the loop (about 4.5 s, then cached on disk). The engine used is recorded in
         ``meta["engine"]``. A model with ``state_bounds`` (its states clipped into their
-        physical range after every update) runs on the reference loop, as does a filter with
-        ``step_bounds``.
+        physical range after every update; the steps where the clip moved the estimate are
+        counted in ``meta["state_bounds_clipped"]``) runs on the reference loop, as does a
+        filter with ``step_bounds``.
     step_bounds : (lower, upper), each ndarray of shape (N, n), optional
         Bounds of the state at each step, the states' units (``-inf`` / ``inf``: none),
         from measurements rather than from the model (e.g. the speed bound of
@@ -351,6 +352,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
             "rate_hz": float(1.0 / np.median(dts)) if dts.size else float("nan")}
     if step_bounds is not None:
         meta["step_bounds_active"] = int(loop.bound_active.sum())
+    if bounds is not None:
+        meta["state_bounds_clipped"] = int(loop.clipped.sum())
     return EKFResult(t_s=t_grid, x=loop.x, P_diag=loop.P_diag, P=loop.P, y=loop.y,
                      S_diag=loop.S_diag, accepted=accepted, nis=loop.nis, dof=loop.dof,
                      state_names=tuple(model.state_names),
@@ -415,6 +418,7 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
     nis = np.full(N, np.nan)
     dof = np.zeros(N, dtype=int)
     bound_active = np.zeros(N, dtype=bool)
+    clipped = np.zeros(N, dtype=bool)
     residual = model.residual
     transition, observation = model.transition, model.observation
     q_dt, Qk = None, None
@@ -453,10 +457,12 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
                 x, active = project_to_bounds(x, P, lo_k, up_k, step_bound_movable)
                 bound_active[k] = active.any()
         if bounds is not None and (key or step_bounds is not None):
-            x = np.clip(x, lower, upper)
+            xc = np.clip(x, lower, upper)
+            clipped[k] = bool((xc != x).any())
+            x = xc
         xs[k] = x
         Pd[k] = P.diagonal()
         if Ps is not None:
             Ps[k] = P
     return LoopArrays(x=xs, P_diag=Pd, P=Ps, y=Y, S_diag=Sd, accepted=accepted, nis=nis, dof=dof,
-                      bound_active=bound_active)
+                      bound_active=bound_active, clipped=clipped)

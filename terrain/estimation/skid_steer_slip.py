@@ -693,8 +693,9 @@ def _concatenate(parts: list[EKFResult]) -> EKFResult:
     cat = np.concatenate
     meta = dict(first.meta)
     meta.update(n_steps=int(sum(p.t_s.size for p in parts)), segments=len(parts))
-    if "step_bounds_active" in meta:
-        meta["step_bounds_active"] = int(sum(p.meta["step_bounds_active"] for p in parts))
+    for key in ("step_bounds_active", "state_bounds_clipped"):
+        if key in meta:
+            meta[key] = int(sum(p.meta[key] for p in parts))
     return EKFResult(t_s=cat([p.t_s for p in parts]), x=cat([p.x for p in parts]),
                      P_diag=cat([p.P_diag for p in parts]), P=cat([p.P for p in parts]),
                      y=cat([p.y for p in parts]), S_diag=cat([p.S_diag for p in parts]),

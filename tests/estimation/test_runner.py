@@ -131,3 +131,19 @@ def test_step_bounds_hold_every_estimate_and_are_counted():
         run_filter(model, t, samples, step_bounds=(-upper[:, :3], upper[:, :3]))
     with pytest.raises(ShapeError, match="above"):
         run_filter(model, t, samples, step_bounds=(upper, -upper))
+
+
+def test_state_bound_clips_are_counted():
+    """The model's state_bounds clip was silent: a start with slip_1 = 1.4 (outside [-1, 1])
+    was clipped back to 1 at the first update and nothing in the result said so."""
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
+    model = SkidSteerSlipModel()
+    t = np.arange(0.0, 2.0, 0.01)
+    wheels = {"wheels": SensorSamples(t[::10], np.full((t[::10].size, 2), 0.3))}
+    x0 = model.x0
+    x0[4] = 1.4
+    res = run_filter(model, t, wheels, engine="numpy", x0=x0)
+    assert np.abs(res.x[:, 4:6]).max() <= 1.0
+    assert res.meta["state_bounds_clipped"] == 1
+    assert run_filter(model, t, wheels, engine="numpy").meta["state_bounds_clipped"] == 0
+    assert "state_bounds_clipped" not in run_filter(SkidSteerModel(), t, wheels).meta
