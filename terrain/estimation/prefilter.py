@@ -105,9 +105,27 @@ def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) 
     Returns
     -------
     ndarray, shape (d,) (or a 0-d array for 1-D input), units of ``values``.
+        NaN for a column with fewer finite samples than the window (none at all included).
+
+    Raises
+    ------
+    EstimationError
+        ``rate_hz`` or ``window_s`` not a finite number > 0, or ``values`` not of shape
+        ``(k,)`` or ``(k, d)``.
     """
+    for name, value in (("rate_hz", rate_hz), ("window_s", window_s)):
+        try:
+            ok = bool(np.isfinite(float(value)) and float(value) > 0.0)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise EstimationError(f"robust_noise_std: {name} must be a finite number > 0, "
+                                  f"got {value!r}")
     v = np.asarray(values, dtype=float)
-    flat = v.reshape(v.shape[0], -1)
+    if v.ndim not in (1, 2):
+        raise EstimationError(f"robust_noise_std: values must have shape (k,) or (k, d), got "
+                              f"{v.shape}")
+    flat = v[:, None] if v.ndim == 1 else v
     w = max(3, int(round(window_s * rate_hz)) | 1)
     out = np.empty(flat.shape[1])
     for j in range(flat.shape[1]):
