@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from terrain.errors import ShapeError
+from terrain.errors import CovarianceError, ShapeError, first_items
 from terrain.estimation.model import wrap_angle
 
 
@@ -38,13 +38,23 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
     Raises
     ------
     ShapeError
+        Shapes that do not match.
+    CovarianceError
+        A covariance that is singular (e.g. a state with zero variance); the message names
+        the steps.
     """
     e = np.asarray(errors, dtype=float)
     P = np.asarray(covariances, dtype=float)
     if e.ndim != 2 or P.shape != (e.shape[0], e.shape[1], e.shape[1]):
         raise ShapeError(f"errors (N, n) and covariances (N, n, n) expected, got {e.shape} "
                          f"and {P.shape}")
-    sol = np.linalg.solve(P, e[..., None])[..., 0]
+    try:
+        sol = np.linalg.solve(P, e[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        with np.errstate(all="ignore"):
+            singular = np.flatnonzero(np.linalg.slogdet(P)[0] == 0)
+        raise CovarianceError(f"NEES: the covariance is singular at "
+                              f"{first_items(singular.tolist(), word='step')}") from None
     return np.einsum("ij,ij->i", e, sol)
 
 

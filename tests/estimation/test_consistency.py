@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from terrain.errors import ShapeError
+from terrain.errors import CovarianceError, ShapeError
 from terrain.estimation.consistency import (chi2_test, effective_sample_size, mean_chi2_bounds,
                                             nees, rmse, state_errors)
 
@@ -62,3 +62,10 @@ def test_rmse_known_value_and_nan_policy():
     assert rmse(np.array([[1.0, 1.0], [-1.0, 1.0]])) == pytest.approx(1.0)
     assert np.isnan(rmse(np.array([1.0, np.nan])))              # NaN not dropped silently
     assert rmse(np.array([2.0, np.nan]), ignore_nan=True) == pytest.approx(2.0)
+
+
+def test_nees_of_a_singular_covariance_names_the_step():
+    # a state with zero variance at step 1 raised numpy's LinAlgError("Singular matrix")
+    P = np.stack([np.eye(2), np.diag([1.0, 0.0]), np.eye(2)])
+    with pytest.raises(CovarianceError, match="singular at step 1$"):
+        nees(np.ones((3, 2)), P)
