@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from terrain.errors import CovarianceError, ShapeError, first_items
+from terrain.errors import ConfigError, CovarianceError, ShapeError, first_items
 from terrain.estimation.model import wrap_angle
 
 
@@ -99,6 +99,17 @@ def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
     return float(np.sqrt(np.nanmean(sq) if ignore_nan else np.mean(sq)))
 
 
+def _check_probability(probability: float) -> None:
+    """Refuse a two-sided coverage outside (0, 1) (chi-square quantiles would be NaN)."""
+    try:
+        ok = 0.0 < float(probability) < 1.0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ConfigError(f"probability (two-sided coverage) must be in (0, 1), e.g. 0.95, got "
+                          f"{probability!r}")
+
+
 def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
                      ) -> tuple[float, float]:
     """Two-sided bounds of the mean of ``n_samples`` independent chi-square(``dof``) values
@@ -117,7 +128,13 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
     -------
     (lower, upper) : tuple of float
         ``chi2.ppf((1 -/+ p) / 2, n dof) / n``.
+
+    Raises
+    ------
+    ConfigError
+        ``probability`` not a number in (0, 1).
     """
+    _check_probability(probability)
     n = max(float(n_samples), 1.0)
     a = (1.0 - probability) / 2.0
     return (float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n))
@@ -259,7 +276,13 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     Returns
     -------
     ChiSquareTest
+
+    Raises
+    ------
+    ConfigError
+        ``probability`` not a number in (0, 1).
     """
+    _check_probability(probability)
     v = np.asarray(values, dtype=float)
     d = np.broadcast_to(np.asarray(dof, dtype=float), v.shape)
     ok = np.isfinite(v) & (d > 0)

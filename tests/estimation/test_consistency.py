@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from terrain.errors import CovarianceError, ShapeError
+from terrain.errors import ConfigError, CovarianceError, ShapeError
 from terrain.estimation.consistency import (chi2_test, effective_sample_size, mean_chi2_bounds,
                                             nees, rmse, state_errors)
 
@@ -69,3 +69,13 @@ def test_nees_of_a_singular_covariance_names_the_step():
     P = np.stack([np.eye(2), np.diag([1.0, 0.0]), np.eye(2)])
     with pytest.raises(CovarianceError, match="singular at step 1$"):
         nees(np.ones((3, 2)), P)
+
+
+@pytest.mark.parametrize("probability", [0.0, 1.0, 1.5, 95, np.nan])
+def test_a_coverage_outside_zero_one_is_refused(probability):
+    # chi2_test(..., probability=1.5) returned bounds (nan, nan), inside False and
+    # fraction_in_pointwise 0.0 as if the filter had failed the test
+    with pytest.raises(ConfigError, match="probability"):
+        chi2_test(np.full(10, 2.0), 2, probability)
+    with pytest.raises(ConfigError, match="probability"):
+        mean_chi2_bounds(2, 100, probability)
