@@ -343,7 +343,8 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
     windows : ndarray, shape (n_windows, 3, n_samples)
         ``vel_l``, ``vel_r`` (m/s) and ``wz`` (rad/s) of each window, every sample finite.
     rate_hz : float
-        Sampling rate of the windows, Hz (> 0).
+        Sampling rate of the windows, Hz, finite, in ``[MIN_RATE_HZ, MAX_RATE_HZ]`` of
+        :mod:`terrain.estimation.runner`.
     settings : SkidSteerSettings
         Geometry and tuning.
     wheel_rate_hz : float, optional
@@ -366,7 +367,8 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
     NonFiniteInputError
         A non-finite sample (cut windows around gaps; :func:`skid_steer_on_frame` skips them).
     ConfigError
-        ``rate_hz`` not positive.
+        ``rate_hz`` not a finite number in ``[MIN_RATE_HZ, MAX_RATE_HZ]``
+        (:func:`~terrain.estimation.runner.check_rate_hz`).
     """
     W = np.asarray(windows, dtype=np.float64)
     if W.ndim != 3 or W.shape[1] != 3 or W.shape[2] < 2:
@@ -374,8 +376,9 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
     if not np.isfinite(W).all():
         bad = int(np.argmax(~np.isfinite(W).all(axis=(1, 2))))
         raise NonFiniteInputError(f"window {bad} holds a non-finite sample")
-    if not rate_hz > 0:
-        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
+    rate_hz = check_rate_hz(rate_hz, "rate_hz")
+    if rate_hz is None:
+        raise ConfigError("rate_hz of the windows is required, got None")
     scale = max(1.0, rate_hz / float(wheel_rate_hz)) if wheel_rate_hz else 1.0
     model = SkidSteerModel(settings, wheel_r_scale=scale)
     n_win, _, n = W.shape

@@ -134,3 +134,12 @@ def test_bad_inputs():
     import pandas as pd
     with pytest.raises(DataFormatError):
         skid_steer_on_frame(pd.DataFrame({"t_s": [0.0, 0.1], "vel_l": [0.0, 0.0]}))
+
+
+@pytest.mark.parametrize("rate_hz", [np.inf, 0.0, np.nan, None])
+def test_windows_refuse_a_rate_that_is_not_a_finite_number_of_hz(rate_hz):
+    # rate_hz=inf passed the "> 0" check and ran every window with dt = 1/inf = 0 s (no
+    # process noise, no prediction) and returned estimates; None raised a bare TypeError
+    from terrain.estimation.skid_steer import skid_steer_on_windows
+    with pytest.raises(ConfigError, match="rate_hz"):
+        skid_steer_on_windows(np.ones((1, 3, 20)), rate_hz)
