@@ -59,7 +59,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError, DataFormatError, ImplausibleValueError, ShapeError
+from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
+                            config_numbers)
 from terrain.slip import sae_slip
 from terrain.vehicles import contact_geometry, get_vehicle
 
@@ -111,6 +112,14 @@ class TractionControlConfig:
         two-sided regulation (Table 8.1, case 1B speeds a wheel that slips less than the
         target up beyond the low-level command; while accelerating, ``Power_state`` stays
         positive, so this feeds back on itself until the output saturates).
+
+    Raises
+    ------
+    ConfigError
+        A setting that is not a real number (text, ``None``, a boolean, a list) or a
+        ``one_sided`` that is not a boolean, named; a non-finite setting; a negative gain or
+        threshold; a radius, speed limit, time constant or input age limit not > 0; an
+        ``output_fraction`` outside (0, 1].
     """
 
     kp: float = 1.0
@@ -128,8 +137,12 @@ class TractionControlConfig:
     one_sided: bool = True
 
     def __post_init__(self) -> None:
-        bad = {f: getattr(self, f) for f in self.__dataclass_fields__
-               if not math.isfinite(float(getattr(self, f)))}
+        numeric = {f: getattr(self, f) for f in self.__dataclass_fields__ if f != "one_sided"}
+        config_numbers("TractionControlConfig", **numeric)
+        if not isinstance(self.one_sided, (bool, np.bool_)):
+            raise ConfigError(f"TractionControlConfig.one_sided must be True or False, got "
+                              f"{type(self.one_sided).__name__} {self.one_sided!r:.60}")
+        bad = {f: v for f, v in numeric.items() if not math.isfinite(float(v))}
         if bad:
             raise ConfigError("traction control settings must be finite, got "
                               + ", ".join(f"{f}={v}" for f, v in bad.items()))

@@ -249,6 +249,17 @@ def test_invalid_settings_are_typed_errors(kwargs):
         TractionControlConfig(**kwargs)
 
 
+@pytest.mark.parametrize("kwargs", [{"kp": "1"}, {"kp": None}, {"ki": "abc"},
+                                    {"omega_max_rad_s": [100.0]}, {"kd": True},
+                                    {"one_sided": "no"}, {"one_sided": 1.0}])
+def test_settings_that_are_not_numbers_are_typed_errors_naming_the_field(kwargs):
+    """kp '1' raised Python's TypeError ('<' not supported between 'float' and 'str'), kp
+    None and one_sided 'no' a TypeError / ValueError of float(); kd True passed as 1."""
+    (field,) = kwargs
+    with pytest.raises(ConfigError, match=f"TractionControlConfig.{field}"):
+        TractionControlConfig(**kwargs)
+
+
 def test_one_sided_limiter_keeps_only_the_slip_reducing_cases_of_table_8_1():
     cfg = TractionControlConfig(kp=1.0, wheel_radius_m=1.0, one_sided=True)
     v = np.array([c[1] for c in TABLE_8_1])
