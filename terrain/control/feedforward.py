@@ -25,10 +25,12 @@ drawbar load); the reference is only as good as the terrain decision.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
+from terrain.errors import ConfigError
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -122,14 +124,25 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     Returns
     -------
     FeedForward
+
+    Raises
+    ------
+    ConfigError
+        ``|target_slip|`` not a finite value below 1 (at 1 no ground speed limits the wheel:
+        it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, or ``dt_s``
+        negative or not finite.
     """
+    s_t, radius, dt_s = abs(float(target_slip)), float(wheel_radius_m), float(dt_s)
+    if not (s_t < 1.0 and radius > 0.0 and 0.0 <= dt_s < math.inf):   # NaN fails each
+        raise ConfigError(f"feedforward_step: need |target_slip| < 1, wheel_radius_m > 0 and "
+                          f"a finite dt_s >= 0, got {target_slip}, {wheel_radius_m}, {dt_s}")
     omega = np.asarray(omega_low_level_rad_s, dtype=float)
-    rim = np.abs(omega) * wheel_radius_m
+    rim = np.abs(omega) * radius
     v_est = np.nan_to_num(np.abs(np.asarray(v_est_m_s, dtype=float)))
     grown = np.asarray(v_ref_m_s, dtype=float) + max(float(accel_limit_m_s2), 0.0) * dt_s
     lift = v_est if engaged is None else np.where(engaged, np.minimum(v_est, grown), v_est)
     v_ref = np.maximum(lift, np.minimum(grown, rim))
-    limit = v_ref / (wheel_radius_m * (1.0 - min(abs(float(target_slip)), 0.99)))
+    limit = v_ref / (radius * (1.0 - s_t))
     over = np.abs(omega) > limit
     corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
     return FeedForward(corr, v_ref, limit, over)

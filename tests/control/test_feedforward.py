@@ -9,6 +9,7 @@ import pytest
 from terrain.control.closed_loop import run_closed_loop
 from terrain.control.desired_slip import desired_slip
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
+from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain, steady_slip
 from terrain.terramechanics.resistance import G_M_S2
 
@@ -87,3 +88,16 @@ def test_feedforward_cuts_the_start_up_slip_on_ice():
     assert ff["peak_slip"] < 0.6 * off["peak_slip"]
     assert ff["time_to_speed_s"] < 1.15 * off["time_to_speed_s"]
     assert ff["feed_forward"] and not pid["feed_forward"]
+
+
+@pytest.mark.parametrize("target_slip, radius, dt", [
+    (1.0, 0.2, 0.02), (1.5, 0.2, 0.02), (float("nan"), 0.2, 0.02),
+    (0.1, 0.0, 0.02), (0.1, -0.2, 0.02), (0.1, 0.2, -0.02), (0.1, 0.2, float("nan"))])
+def test_feedforward_refuses_settings_with_no_limit_instead_of_clipping(
+        target_slip, radius, dt):
+    """A target slip of 1 or more was clipped to 0.99 without a word (target 1.5: limit
+    v_ref / (0.01 r), 100 times the reference's wheel speed); a radius of 0 gave an infinite
+    limit, a NaN target or time step a NaN limit and no correction."""
+    with pytest.raises(ConfigError):
+        feedforward_step(np.array([0.2]), np.array([0.2]), np.array([5.0]), 0.5, target_slip,
+                         radius, dt)
