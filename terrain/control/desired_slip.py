@@ -31,11 +31,11 @@ BorealTC's deep forest ``SNOW`` as a deformable soil (Janosi-Hanamoto), so it ge
 tractive-efficiency rule; a snow-covered *road* (``PACKED_SNOW``, Burckhardt) would get the
 friction-peak rule.
 
-Fallback (:func:`select_target`): an unknown class, a decision below ``min_confidence`` or
-older than ``max_decision_age_s`` gets the most conservative entry of the table: the smallest
-traction and steady targets and the braking target closest to zero over all classes, so the
-wheel never runs past the friction peak of any catalogued surface (on a deformable soil it then
-gives away pull, never stability).
+Fallback (:func:`select_target`): an unknown class, a decision below ``min_confidence``,
+older than ``max_decision_age_s`` or of a negative age gets the most conservative entry of
+the table: the smallest traction and steady targets and the braking target closest to zero
+over all classes, so the wheel never runs past the friction peak of any catalogued surface (on
+a deformable soil it then gives away pull, never stability).
 """
 
 from __future__ import annotations
@@ -322,7 +322,8 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
         above 1 (a percentage: 45 would have passed a 0.5 threshold) or non-finite ->
         fallback.
     decision_age_s : float
-        Time since the decision, s; above ``table.config.max_decision_age_s`` or non-finite
+        Time since the decision, s; above ``table.config.max_decision_age_s``, negative (a
+        decision stamped after the time it is used at: clocks that disagree) or non-finite
         -> fallback.
 
     Returns

@@ -126,6 +126,8 @@ def test_fallback_is_the_most_conservative_entry(table):
     ("GRASS", 0.9, 10.0, FALLBACK_LABEL), ("GRASS", 0.9, float("inf"), FALLBACK_LABEL),
     ("GRASS", 1.0, 0.0, "GRASS"),
     ("GRASS", 45.0, 0.0, FALLBACK_LABEL),   # a percentage: 45 % is below the threshold
+    ("GRASS", 0.9, -0.1, FALLBACK_LABEL),   # stamped after its use: clocks disagree
+    ("GRASS", 0.9, 4.0, "GRASS"),           # exactly max_decision_age_s is not older
 ])
 def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
     assert select_target(table, terrain, confidence, age).terrain == expect
