@@ -19,7 +19,8 @@ Deformable soils (slip-producing soil resistance > 0; the catalogue's Janosi-Han
 Brixius curves: snow, sandy loam, grass, gravel, dirt, ploughed and unploughed fields)
     *traction*: the slip of maximum tractive efficiency
     (:func:`terrain.terramechanics.efficiency.max_tractive_efficiency`), capped at
-    ``deformable_cap``: their net-pull maximum lies at 40-60 % slip and is no usable set point;
+    ``deformable_cap``: their net-pull maximum lies at 54-73 % slip (Brixius soils) or at full
+    spin (the Janosi-Hanamoto curves rise up to ``s = 1``) and is no usable set point;
     *braking*: the stable-side slip at ``braking_fraction`` of the braking peak, capped at
     ``-deformable_cap``.
 Every terrain, *steady*: the slip at which traction balances the slip-producing soil resistance
@@ -82,7 +83,8 @@ class DesiredSlipConfig:
     deformable_cap : float
         Largest traction / braking slip magnitude on deformable soils (0.30: the upper end of
         the "often exceeding 20-30 %" slip that seed 001 ch. 8.2 gives for plastic terrain,
-        below the 40-60 % net-pull peak).
+        below the net-pull peak: 54-73 % slip on the catalogue's Brixius soils, full spin on
+        its Janosi-Hanamoto soils).
     min_confidence : float
         Decisions with a top-class probability below this use the fallback (0.5: ASSUMED, the
         decision must hold the majority of the probability mass).

@@ -81,10 +81,16 @@ def test_deformable_soils_at_max_tractive_efficiency_capped(table):
         assert e.traction <= CFG.deformable_cap + 1e-12
         assert abs(e.braking) <= CFG.deformable_cap + 1e-12
         assert e.traction == pytest.approx(min(s_best, CFG.deformable_cap), abs=1e-3), name
-        # the net-pull peak lies far beyond the target: no usable set point there
+        # the net-pull peak lies far beyond the target: no usable set point there (the
+        # docstrings said 40-60 % slip: Brixius soils 54-73 %, Janosi-Hanamoto ones at s = 1)
         net = traction_coefficient(terrain.curve, grid) - soil_resistance_coefficient(terrain,
                                                                                       grid)
-        assert grid[np.argmax(net)] > e.traction + 0.1, name
+        s_net = grid[np.argmax(net)]
+        assert s_net > e.traction + 0.1, name
+        if isinstance(terrain.curve, BrixiusCurve):
+            assert 0.53 < s_net < 0.74, (name, s_net)
+        else:
+            assert s_net == 1.0, (name, s_net)
     assert table.entries["SANDY_LOAM"].traction == CFG.deformable_cap   # its optimum is 0.34
 
 
