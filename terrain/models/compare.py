@@ -463,14 +463,16 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
     -------
     pandas.DataFrame
         One row per group: ``<metric>_mean``, ``<metric>_std`` for the table metrics,
-        ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and ``n_seeds``.
+        ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and ``n_seeds`` (rows of the
+        group). A value missing (NaN) in any of the group's rows makes its mean and std NaN:
+        they are never those of fewer seeds than ``n_seeds`` says.
     """
     rows = with_default_keys(rows)
     keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "history", "model"]
     g = rows.groupby(keys, sort=True)
-    out = pd.concat([g[list(TABLE_METRICS)].mean().add_suffix("_mean"),
-                     g[list(TABLE_METRICS)].std(ddof=0).add_suffix("_std"),
-                     g[["fit_s_per_fold", "infer_ms_per_window"]].mean(),
+    out = pd.concat([g[list(TABLE_METRICS)].mean(skipna=False).add_suffix("_mean"),
+                     g[list(TABLE_METRICS)].std(ddof=0, skipna=False).add_suffix("_std"),
+                     g[["fit_s_per_fold", "infer_ms_per_window"]].mean(skipna=False),
                      g.size().rename("n_seeds")], axis=1)
     return out.reset_index()
 

@@ -354,3 +354,26 @@ def test_a_missing_optional_extra_is_refused_before_any_run(argv, message, tmp_p
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not any(tmp_path.iterdir())     # no mlflow.db, no mlruns, no output folder
+
+
+def _seed_rows(values: dict[str, list[float]], **fields) -> pd.DataFrame:
+    """Rows of one (model, signals, window, dataset, history) group, one per seed."""
+    n = len(next(iter(values.values())))
+    base = {"protocol": "grouped", "dataset": "toy", "signals": "all", "window_s": 2.0,
+            "train_hop_s": 2.0, "history": 1, "model": "svm", "fit_s_per_fold": 1.0,
+            "infer_ms_per_window": 0.5, **fields}
+    return pd.DataFrame([{**base, "seed": s, **{k: v[s] for k, v in values.items()}}
+                         for s in range(n)])
+
+
+def test_summary_table_does_not_average_over_a_seed_missing_a_metric():
+    from terrain.models.compare import summary_table
+
+    nan = float("nan")
+    rows = _seed_rows({"accuracy": [0.9, 0.5, 0.7], "balanced_accuracy": [0.8] * 3,
+                       "macro_f1": [0.8] * 3, "run_vote_accuracy": [1.0, 1.0, nan]})
+    (row,) = summary_table(rows).to_dict(orient="records")
+    assert row["n_seeds"] == 3
+    assert row["accuracy_mean"] == pytest.approx(0.7)
+    # seed 2 has no run vote: a mean of the two others would claim 1.0 over 3 seeds
+    assert np.isnan(row["run_vote_accuracy_mean"]) and np.isnan(row["run_vote_accuracy_std"])
