@@ -558,7 +558,7 @@ def grid_markdown(table: pd.DataFrame, history: Sequence[int] = (1, 10)) -> str:
 
 def plot_comparison(table: pd.DataFrame):
     """Accuracy (mean ± std over seeds) per model, one panel per dataset, one bar per
-    history length.
+    history length (a model, signal set and window not run at a history has no bar there).
 
     Parameters
     ----------
@@ -578,14 +578,18 @@ def plot_comparison(table: pd.DataFrame):
     for ax, (protocol, ds) in zip(axes[0], datasets):
         sub = table[(table["dataset"] == ds) & (table["protocol"] == protocol)]
         hops = sub["train_hop_s"] if "train_hop_s" in sub else sub["window_s"]
+        combos = list(zip(sub["model"], sub["signals"], sub["window_s"], hops))
+        slot = {c: i for i, c in enumerate(dict.fromkeys(combos))}
         labels = [f"{m}\n{s} {w:g}s" + (f" (train hop {h:g}s)" if h != w else "")
-                  for m, s, w, h in dict.fromkeys(zip(sub["model"], sub["signals"],
-                                                      sub["window_s"], hops))]
+                  for m, s, w, h in slot]
         histories = sorted(set(sub["history"]))
         width = 0.8 / len(histories)
         for i, k in enumerate(histories):
-            h = sub[sub["history"] == k]
-            x = np.arange(len(h)) + i * width
+            at = (sub["history"] == k).to_numpy()
+            # each bar at its own (model, signals, window) slot: a combination not run at
+            # this k leaves its slot empty instead of shifting the bars after it
+            x = np.array([slot[c] for c, a in zip(combos, at) if a]) + i * width
+            h = sub[at]
             ax.bar(x, h["accuracy_mean"], width, yerr=h["accuracy_std"], label=f"k={k}")
         ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, labels, rotation=60,
                       fontsize=7, ha="right")

@@ -377,3 +377,25 @@ def test_summary_table_does_not_average_over_a_seed_missing_a_metric():
     assert row["accuracy_mean"] == pytest.approx(0.7)
     # seed 2 has no run vote: a mean of the two others would claim 1.0 over 3 seeds
     assert np.isnan(row["run_vote_accuracy_mean"]) and np.isnan(row["run_vote_accuracy_std"])
+
+
+def test_comparison_figure_puts_each_bar_over_its_own_model():
+    from matplotlib.container import BarContainer
+
+    from terrain.models.compare import plot_comparison
+
+    # the cnn cell was run at k = 1 only: svm's k = 10 bar must stay at svm's place
+    table = pd.concat([_seed_rows({"accuracy_mean": [0.71], "accuracy_std": [0.0]},
+                                  model="cnn"),
+                       _seed_rows({"accuracy_mean": [0.91], "accuracy_std": [0.0]}),
+                       _seed_rows({"accuracy_mean": [1.0], "accuracy_std": [0.0]},
+                                  history=10)])
+    ax = plot_comparison(table).axes[0]
+    names = [t.get_text().split("\n")[0] for t in ax.get_xticklabels()]
+    ticks = dict(zip(names, ax.get_xticks()))
+    bars = {c.get_label(): [(p.get_x() + p.get_width() / 2, p.get_height())
+                            for p in c.patches]
+            for c in ax.containers if isinstance(c, BarContainer)}
+    (x10, height10), = bars["k=10"]
+    assert height10 == 1.0
+    assert abs(x10 - ticks["svm"]) < abs(x10 - ticks["cnn"])
