@@ -218,7 +218,19 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     -------
     numpy.ndarray
         ``(n_rows,)`` predicted labels, aligned with ``predictions``' rows.
+
+    Raises
+    ------
+    ConfigError
+        Two rows of one window (same ``group`` and ``t_start_s``): rows of several seeds or
+        cells, whose histories would be averaged into each other.
     """
+    twice = predictions.duplicated(["group", "t_start_s"])
+    if twice.any():
+        first = predictions.loc[twice, ["group", "t_start_s"]].iloc[0]
+        raise ConfigError(f"{int(twice.sum())} window(s) given more than once (e.g. "
+                          f"{first['group']} at {first['t_start_s']:g} s): the decision "
+                          "history takes the rows of one seed of one cell")
     cols = [f"proba_{c}" for c in classes]
     order = predictions.sort_values(["group", "t_start_s"], kind="stable")
     smooth = (order.groupby("group", sort=False)[cols]
@@ -234,7 +246,7 @@ def score_rows(predictions: pd.DataFrame, classes: Sequence[str], history: Seque
     Parameters
     ----------
     predictions : pandas.DataFrame
-        Rows of one cell: ``true``, ``group``, ``t_start_s``, ``proba_<CLASS>``.
+        Rows of one cell and seed: ``true``, ``group``, ``t_start_s``, ``proba_<CLASS>``.
     classes : sequence of str
         Class order.
     history : sequence of int
@@ -246,6 +258,11 @@ def score_rows(predictions: pd.DataFrame, classes: Sequence[str], history: Seque
     -------
     list of dict
         One row per ``k``: ``history``, :data:`TABLE_METRICS`, ``n_windows`` and ``fields``.
+
+    Raises
+    ------
+    ConfigError
+        A window given more than once (rows of several seeds, :func:`history_predictions`).
     """
     rows = []
     for k in history:

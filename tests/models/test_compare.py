@@ -399,3 +399,18 @@ def test_comparison_figure_puts_each_bar_over_its_own_model():
     (x10, height10), = bars["k=10"]
     assert height10 == 1.0
     assert abs(x10 - ticks["svm"]) < abs(x10 - ticks["cnn"])
+
+
+def test_history_refuses_rows_of_several_seeds():
+    from terrain.models.compare import score_rows
+
+    one = pd.DataFrame({"group": ["r1"] * 3, "t_start_s": [0.0, 2.0, 4.0], "true": ["A"] * 3,
+                        "proba_A": [0.9] * 3, "proba_B": [0.1] * 3})
+    seed1 = one.assign(seed=1, proba_A=[0.2, 0.2, 0.45], proba_B=[0.8, 0.8, 0.55])
+    np.testing.assert_array_equal(history_predictions(seed1, ["A", "B"], 2), ["B"] * 3)
+    # seed 1's history must not take seed 0's window at the same time (it gave A, A, A)
+    both = pd.concat([one.assign(seed=0), seed1], ignore_index=True)
+    with pytest.raises(ConfigError, match="more than once"):
+        history_predictions(both, ["A", "B"], 2)
+    with pytest.raises(ConfigError, match="one seed"):
+        score_rows(both, ["A", "B"], (1, 2), {})
