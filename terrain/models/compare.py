@@ -100,7 +100,7 @@ class CompareConfig:
     n_threads : int or None
         torch threads per CNN fit.
     single_run_blocks : int
-        Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
+        Blocks a single-run class is cut into (>= 2, see :mod:`terrain.models.cv`).
     protocol : {"grouped", "paper"}
         Split protocol of every cell (``paper`` is leaky and needs ``windows_s == (1.7,)``,
         the papers' window).
@@ -117,7 +117,8 @@ class CompareConfig:
     ------
     ConfigError
         An unknown model, dataset, signal set or protocol; a window length, seed or
-        ``train_hop_s`` that :class:`~terrain.models.experiment.ExperimentConfig` refuses;
+        ``train_hop_s`` or ``single_run_blocks`` that
+        :class:`~terrain.models.experiment.ExperimentConfig` refuses;
         ``cnn_seeds`` without a CNN model; a value repeated on an axis (models, signals,
         windows_s, datasets, history; a repeated seed is ExperimentConfig's refusal); no
         seed, a history length below 1, fewer than
@@ -183,7 +184,8 @@ class CompareConfig:
                 for window_s in self.windows_s:
                     ExperimentConfig(dataset=dataset, signals=(signals,), window_s=window_s,
                                      protocol=self.protocol, seeds=self.seeds,
-                                     train_hop_s=self.train_hop_s)
+                                     train_hop_s=self.train_hop_s,
+                                     single_run_blocks=self.single_run_blocks)
 
     def cells(self) -> list[Cell]:
         """Every cell of the grid (model varies fastest).

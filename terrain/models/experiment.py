@@ -72,7 +72,7 @@ class ExperimentConfig:
     search : bool
         Nested grouped grid search of C and gamma inside each training fold.
     single_run_blocks : int
-        Blocks a single-run class is cut into (see :mod:`terrain.models.cv`).
+        Blocks a single-run class is cut into (>= 2, see :mod:`terrain.models.cv`).
     svm : SVMConfig
         SVM hyperparameters and search grid (:class:`terrain.models.svm.SVMConfig`).
     model : {"svm", "cnn", "cnn-spectrogram", "minirocket", "ensemble", "ensemble3"}
@@ -97,7 +97,7 @@ class ExperimentConfig:
         Unknown model, dataset, protocol or signal, ``search`` with a model other than
         the SVM or with ``run_balanced``, a ``train_hop_s`` that is not a finite positive
         number or comes with ``paper``, no seed, one outside ``0..MAX_SEED`` or a repeated
-        one, or window
+        one, ``single_run_blocks`` not an integer >= 2, or window
         settings :class:`~features.windows.WindowConfig` refuses.
     """
 
@@ -159,6 +159,13 @@ class ExperimentConfig:
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
                               f"seed range), got {list(self.seeds)}")
+        if isinstance(self.single_run_blocks, bool) or not (
+                isinstance(self.single_run_blocks, (int, np.integer))
+                and self.single_run_blocks >= 2):
+            # 0 reached NumPy's bare "number sections must be larger than 0" in the CV, and
+            # 1 block never trains a single-run class when it is tested
+            raise ConfigError(f"single_run_blocks must be an integer >= 2 (blocks a "
+                              f"single-run class is cut into), got {self.single_run_blocks!r}")
         if duplicated(int(s) for s in self.seeds):
             raise ConfigError(f"seeds must be distinct (a repeated seed counts one split "
                               f"twice), got {list(self.seeds)}")

@@ -389,3 +389,15 @@ def test_grouped_units_splits_and_purges_as_terrain_cv_does():
     ws = _one_run_windows(2.0)
     kept, _, _, _, n_dropped = grouped_units(ws, 4)
     assert kept is ws and n_dropped == 0
+
+
+@pytest.mark.parametrize("blocks", [0, 1, 2.5, True])
+def test_single_run_blocks_below_two_are_refused_before_any_data(blocks):
+    from terrain.models.compare import CompareConfig
+
+    # 0 reached NumPy's bare ValueError in np.array_split once the windows were cut
+    with pytest.raises(ConfigError, match="single_run_blocks"):
+        ExperimentConfig(single_run_blocks=blocks)
+    with pytest.raises(ConfigError, match="single_run_blocks"):
+        CompareConfig(models=("svm",), single_run_blocks=blocks)
+    assert ExperimentConfig(single_run_blocks=2).single_run_blocks == 2
