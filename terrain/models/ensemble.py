@@ -12,6 +12,7 @@ equal.
 from __future__ import annotations
 
 import itertools
+from numbers import Real
 from typing import Sequence
 
 import numpy as np
@@ -68,8 +69,16 @@ def simplex_grid(n_members: int, step: float) -> np.ndarray:
     -------
     numpy.ndarray
         ``(n_points, n_members)`` non-negative rows summing to 1.
+
+    Raises
+    ------
+    ConfigError
+        ``step`` outside (0, 1] or ``1 / step`` not an integer.
     """
-    n = int(round(1.0 / step))
+    n = round(1.0 / step) if isinstance(step, Real) and 0 < step <= 1 else 0
+    if n < 1 or not np.isclose(n * step, 1.0):
+        raise ConfigError(f"weight_step must be in (0, 1] with 1 / weight_step an integer "
+                          f"(0.5, 0.25, 0.1, ...), got {step!r}")
     rows = [c for c in itertools.product(range(n + 1), repeat=n_members) if sum(c) == n]
     return np.asarray(rows, dtype=float) / n
 
@@ -175,7 +184,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         ------
         ConfigError
             Fixed ``weights`` not one per member, negative, non-finite or all 0
-            (:func:`normalised_weights`).
+            (:func:`normalised_weights`); weights to choose with fewer runs (``groups``)
+            than ``inner_splits``, or a ``weight_step`` :func:`simplex_grid` refuses.
         """
         y = np.asarray(y)
         self.classes_ = np.unique(y)
@@ -187,13 +197,25 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             self.weights_ = np.full(n, 1.0 / n)
         else:
             groups = np.asarray(groups)
+            grid = simplex_grid(n, self.weight_step)
+            n_runs = len(np.unique(groups))
+            if not 2 <= self.inner_splits <= n_runs:
+                # scikit-learn's bare "Cannot have number of splits ..." otherwise
+                raise ConfigError(f"choosing the ensemble weights holds 1/{self.inner_splits} "
+                                  f"of the training runs out, and there are {n_runs}: give "
+                                  f"inner_splits from 2 to {n_runs}, fixed weights or more runs")
             inner = StratifiedGroupKFold(self.inner_splits, shuffle=True,
                                          random_state=self.random_state)
             tr, va = next(inner.split(X, y, groups))
+            if not len(va):
+                raise ConfigError(f"StratifiedGroupKFold({self.inner_splits}, seed "
+                                  f"{self.random_state}) holds no run out of the {n_runs} "
+                                  "to choose the ensemble weights: fewer inner_splits or "
+                                  "more runs")
             probas = [aligned_proba(fit_with_groups(clone(est), X[tr], y[tr], groups[tr]), X[va],
                                     self.classes_) for _, est in self.estimators]
             best, best_w = np.inf, None
-            for w in simplex_grid(n, self.weight_step):
+            for w in grid:
                 p = sum(wi * pi for wi, pi in zip(w, probas))
                 p = np.clip(p, 1e-12, 1.0)
                 score = log_loss(y[va], p / p.sum(axis=1, keepdims=True), labels=self.classes_)

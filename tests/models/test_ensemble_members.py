@@ -102,3 +102,28 @@ def test_fixed_weights_must_be_one_per_member():
         soft_vote([frame, sure], ["A", "B"], weights=(1,))
     np.testing.assert_allclose(soft_vote([frame, sure], ["A", "B"], weights=(1, 1))["proba_A"],
                                [0.6, 0.75, 0.95])
+
+
+def test_weights_to_choose_refuse_too_few_runs_and_an_off_grid_step():
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.errors import ConfigError
+    from terrain.models.ensemble import SoftVotingEnsemble, simplex_grid
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(40, 3))
+    y = np.where(X[:, 0] > 0, "A", "B")
+    members = [("a", LogisticRegression()), ("b", LogisticRegression(C=0.01))]
+    three_runs = np.repeat(["r0", "r1", "r2"], [14, 13, 13])
+    # 4 inner folds over 3 runs: scikit-learn's bare ValueError ('Cannot have number of
+    # splits n_splits=4 greater than the number of groups: 3')
+    with pytest.raises(ConfigError, match="there are 3"):
+        SoftVotingEnsemble(members).fit(X, y, groups=three_runs)
+    ten_runs = np.repeat([f"r{i}" for i in range(10)], 4)
+    with pytest.raises(ConfigError, match="weight_step"):      # was a ZeroDivisionError
+        SoftVotingEnsemble(members, weight_step=0).fit(X, y, groups=ten_runs)
+    with pytest.raises(ConfigError, match="weight_step"):      # was searched as thirds
+        simplex_grid(2, 0.3)
+    assert len(simplex_grid(2, 0.1)) == 11 and len(simplex_grid(3, 0.25)) == 15
+    ens = SoftVotingEnsemble(members, weight_step=0.5).fit(X, y, groups=ten_runs)
+    assert len(ens.weight_scores_) == 3 and np.isclose(ens.weights_.sum(), 1.0)
