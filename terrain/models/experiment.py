@@ -552,8 +552,9 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
 
     The SVM is ``features + scaler + SVC`` with Platt-scaled probabilities; with
     ``config.search`` its hyperparameters come from a grouped grid search over all runs
-    first. Other models (``config.model``) take the raw windows directly; the ensemble
-    chooses its weights on held-out runs.
+    first. Other models (``config.model``) take the raw windows directly; the ensembles
+    vote with equal weights (:meth:`ExperimentConfig.model_config` leaves
+    ``ModelConfig.tune_weights`` off), logged in ``info`` as ``weight_<member>``.
 
     Parameters
     ----------
