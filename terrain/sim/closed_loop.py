@@ -343,6 +343,25 @@ def _check_sensor_rates(config: SimConfig, sensors: SensorSettings) -> None:
                           f"physics rate: {', '.join(fast)}; raise physics_rate_hz")
 
 
+def _check_control_rate(config: SimConfig, control_rate_hz: float) -> None:
+    """Refuse a controller rate the hook cannot deliver: it runs once per physics step at
+    most, so a controller faster than the physics would be called at the physics rate.
+
+    Raises
+    ------
+    ConfigError
+        ``control_rate_hz`` not > 0, or above ``config.physics_rate_hz``.
+    """
+    if not control_rate_hz > 0:
+        raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
+    physics_hz = float(config.physics_rate_hz)
+    if float(control_rate_hz) > physics_hz * (1 + 1e-9):
+        raise ConfigError(f"the controller is called once per physics step at most, so "
+                          f"control_rate_hz {control_rate_hz:g} Hz above the physics "
+                          f"({physics_hz:g} Hz) would run at the physics rate; lower it or "
+                          "raise physics_rate_hz")
+
+
 def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], np.ndarray],
                          control_rate_hz: float = 50.0) -> Simulation:
     """Simulate with a controller in the loop.
@@ -354,7 +373,7 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     controller : callable
         ``controller(observation) -> correction`` (rad/s per motor).
     control_rate_hz : float
-        Controller rate, Hz.
+        Controller rate, Hz (> 0, at most ``config.physics_rate_hz``).
 
     Returns
     -------
@@ -365,8 +384,10 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     Raises
     ------
     ConfigError
-        Bad configuration or rate, or a sensor faster than ``config.physics_rate_hz``.
+        Bad configuration or rate, or a sensor or the controller faster than
+        ``config.physics_rate_hz``.
     """
+    _check_control_rate(config, control_rate_hz)
     settings = config.sensors or DEFAULT_SENSORS[config.vehicle]
     _check_sensor_rates(config, settings)
     sensors = OnlineSensors(config.vehicle, settings, config.seed, config.duration_s,
@@ -387,7 +408,7 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     sim : Simulation
         A run of :func:`terrain.sim.simulate.simulate_with_physics`.
     control_rate_hz : float
-        Call rate, Hz (> 0).
+        Call rate, Hz (> 0, at most the run's ``physics_rate_hz``).
 
     Yields
     ------
@@ -397,11 +418,11 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     Raises
     ------
     ConfigError
-        Non-positive rate, or a sensor faster than the run's ``physics_rate_hz``.
+        Non-positive rate, or a sensor or the call rate faster than the run's
+        ``physics_rate_hz``.
     """
-    if not control_rate_hz > 0:
-        raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
     cfg, phys = sim.config, sim.physics
+    _check_control_rate(cfg, control_rate_hz)
     settings = cfg.sensors or DEFAULT_SENSORS[cfg.vehicle]
     _check_sensor_rates(cfg, settings)
     sensors = OnlineSensors(cfg.vehicle, settings, cfg.seed, cfg.duration_s, cfg.physics,

@@ -145,3 +145,22 @@ def test_online_sensors_refuse_a_sensor_faster_than_the_physics():
                                            scenario="spin", duration_s=0.5, seed=0))
     imu = np.concatenate([o.imu for o in replay_observations(fine)])
     assert len(imu) == len(fine.run.streams["imu"])
+
+
+def test_a_controller_faster_than_the_physics_is_refused():
+    """The hook runs once per physics step, so a controller asked for 500 Hz over 100 Hz
+    physics was called 101 times in 1 s (every 10 ms, the physics rate), silently; the
+    replay yielded at 100 Hz too. Now both refuse it, naming the two rates."""
+    from terrain.errors import ConfigError
+    from terrain.sim.closed_loop import simulate_closed_loop
+    config = SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="straight_accel",
+                       duration_s=1.0, seed=0)
+    with pytest.raises(ConfigError, match="control_rate_hz 500 Hz.*100 Hz"):
+        simulate_closed_loop(config, lambda observation: None, control_rate_hz=500.0)
+    sim = simulate_with_physics(config)
+    with pytest.raises(ConfigError, match="control_rate_hz 500 Hz.*100 Hz"):
+        list(replay_observations(sim, control_rate_hz=500.0))
+    calls = []
+    simulate_closed_loop(config, lambda observation: calls.append(observation.t_s),
+                         control_rate_hz=100.0)
+    assert len(calls) == 101
