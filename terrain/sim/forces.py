@@ -750,7 +750,15 @@ def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarr
     -------
     ndarray, shape (...)
         Current magnitude, A.
+
+    Raises
+    ------
+    ConfigError
+        ``physics`` not one of :data:`PHYSICS_VERSIONS`.
     """
+    if physics not in PHYSICS_VERSIONS:
+        raise ConfigError(f"unknown physics {physics!r}; valid choices: "
+                          f"{', '.join(PHYSICS_VERSIONS)}")
     if physics == "v1":
         return np.abs(motor.current_from_torque(wheel_torque_nm, omega_rad_s))
     direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)

@@ -520,3 +520,22 @@ def test_v2_husky_at_rest_facing_uphill_has_wongs_axle_loads(monkeypatch):
     for n in (loads[0], loads[-1]):               # from the first step on, and held at rest
         assert n[x < 0].sum() == pytest.approx(weight * np.cos(theta) / 2 + shift, abs=0.05)
         assert n[x > 0].sum() == pytest.approx(weight * np.cos(theta) / 2 - shift, abs=0.05)
+
+
+def test_current_report_refuses_an_unknown_physics_version():
+    """reported_current_a took any name but "v1" as v2: "V1" or "v3" reported 1.00 A for a
+    braking wheel (-5 N m at 2 rad/s) where v1 reports 0.80 A, without a word (the online
+    sensors of the closed loop pass their physics through unchecked). Now a ConfigError
+    lists the versions."""
+    from terrain.sim.forces import reported_current_a
+    torque, omega = np.array([-5.0]), np.array([2.0])
+    v1 = reported_current_a(HUSKY.motor, torque, omega, "v1")[0]
+    assert v1 == pytest.approx(0.8047, abs=1e-4)
+    assert reported_current_a(HUSKY.motor, torque, omega, "v2")[0] == pytest.approx(1.0)
+    for bad in ("V1", "v3"):
+        with pytest.raises(ConfigError, match="v1, v2"):
+            reported_current_a(HUSKY.motor, torque, omega, bad)
+    from terrain.sim.closed_loop import OnlineSensors
+    from terrain.sim.simulate import DEFAULT_SENSORS
+    with pytest.raises(ConfigError, match="v1, v2"):
+        OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0, physics="V1")
