@@ -11,7 +11,8 @@ name                     unit      meaning (value when off)
                                    ``value * tanh(|yaw_rate| / 0.1 rad/s)`` (0)
 ``current_offset``       A         mean ``curR - curL`` shift: added to the right side when
                                    positive, ``|value|`` to the left when negative (0)
-``grade_resistance``     A/rad     extra current on both sides ``value * |pitch|`` on slopes (0)
+``grade_resistance``     A/rad     extra current on both sides ``value * |pitch|`` on slopes,
+                                   ``value >= 0`` (a slope never lowers the current) (0)
 =======================  ========  ============================================================
 
 With every effect off the simulator is ideal in each named respect, but for the ICR
@@ -64,7 +65,9 @@ PLANTED_EFFECTS: Mapping[str, PlantedEffect] = MappingProxyType({
     "wheel_lag": PlantedEffect("s", 0.0, 0.0, 2.0),
     "turning_resistance": PlantedEffect("A", 0.0, 0.0, 50.0),
     "current_offset": PlantedEffect("A", 0.0, -20.0, 20.0),
-    "grade_resistance": PlantedEffect("A/rad", 0.0, -200.0, 200.0),
+    # >= 0: a negative value would drive the current below 0, which the magnitude sensor
+    # reflects into more current (and the audit rejects k_a_per_rad <= 0 as unphysical)
+    "grade_resistance": PlantedEffect("A/rad", 0.0, 0.0, 200.0),
 })
 EFFECT_NAMES: tuple[str, ...] = tuple(PLANTED_EFFECTS)
 #: Yaw rate at which ``turning_resistance`` reaches 76 % (tanh(1)) of its value, rad/s.
@@ -89,7 +92,7 @@ class Effects:
     current_offset : float
         Right-minus-left current shift, A, in [-20, 20].
     grade_resistance : float
-        Extra current per rad of pitch, A/rad, in [-200, 200].
+        Extra current per rad of pitch, A/rad, in [0, 200].
 
     Raises
     ------

@@ -131,6 +131,20 @@ def test_grade_resistance_extra_current_on_slope():
     assert np.hypot(imu.ax, imu.ay).median() > 1.5
 
 
+def test_a_negative_grade_resistance_is_refused():
+    """A grade resistance is extra current on slopes (the audit rejects a fitted
+    k_a_per_rad <= 0 as unphysical), but [-200, 200] A/rad was accepted: planted at
+    -60 A/rad on the Husky's slope_turn (6 s, seed 1, mean |pitch| 0.15 rad) it drove the
+    motor current to -15.7 A, which the magnitude sensor reflected, so the mean cur_l rose
+    from 0.80 A to 8.37 A: the opposite of what was planted. Now refused."""
+    with pytest.raises(ConfigError, match="grade_resistance"):
+        Effects(grade_resistance=-60.0)
+    with pytest.raises(ConfigError, match="grade_resistance"):
+        parse_effects(["grade_resistance=-0.5"])
+    assert Effects(grade_resistance=0.0).active() == {}
+    assert Effects(grade_resistance=200.0).active() == {"grade_resistance": 200.0}
+
+
 @pytest.mark.parametrize("terrain", list(MEASURED_HUSKY_STRAIGHT))
 def test_husky_straight_current_matches_measured(terrain):
     target, speed = MEASURED_HUSKY_STRAIGHT[terrain]
