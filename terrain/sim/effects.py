@@ -34,7 +34,7 @@ from dataclasses import dataclass, fields
 from types import MappingProxyType
 from typing import Iterable, Mapping
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,8 @@ class Effects:
     Raises
     ------
     ConfigError
-        A magnitude out of its range.
+        A magnitude out of its range, or not a real number (text, None, a boolean:
+        :func:`parse_effects` converts ``NAME=VALUE`` text).
     """
 
     icr_expansion: float = 1.0
@@ -108,6 +109,7 @@ class Effects:
     grade_resistance: float = 0.0
 
     def __post_init__(self) -> None:
+        config_numbers("Effects", **{f.name: getattr(self, f.name) for f in fields(self)})
         for f in fields(self):
             value = float(getattr(self, f.name))
             spec = PLANTED_EFFECTS[f.name]

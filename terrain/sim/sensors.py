@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.signal import lfilter
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 from terrain.run import step_index
 from terrain.terramechanics.resistance import G_M_S2
 
@@ -51,7 +51,8 @@ class SensorSettings:
     Raises
     ------
     ConfigError
-        A rate not finite and > 0, or another setting not finite and >= 0.
+        A rate not finite and > 0, another setting not finite and >= 0, or a setting that
+        is not a real number (text, None, a boolean).
     """
 
     imu_rate_hz: float = 100.0
@@ -76,6 +77,7 @@ class SensorSettings:
         """Refuse a rate that is not finite and > 0 or a noise level, resolution or outage
         rate that is not finite and >= 0 (:class:`~terrain.errors.ConfigError` naming the
         field)."""
+        config_numbers("SensorSettings", **{f.name: getattr(self, f.name) for f in fields(self)})
         for name in RATE_FIELDS:
             value = float(getattr(self, name))
             if not (math.isfinite(value) and value > 0):

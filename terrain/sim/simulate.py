@@ -27,6 +27,7 @@ Streams (file columns in brackets where the file names them differently):
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass, field, is_dataclass
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -34,7 +35,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
@@ -205,7 +206,8 @@ class SimConfig:
         Unknown vehicle, terrain, scenario or physics version (the message lists the valid
         choices), or a duration, rate, segment length or seed out of range (a duration too short for
         two samples of every stream names the slowest stream and the minimum in seconds),
-        or ``icr_expansion`` planted on a steered vehicle (it would change nothing).
+        or ``icr_expansion`` planted on a steered vehicle (it would change nothing), or a
+        number given as text, None or a boolean, or ``effects`` not :class:`Effects`.
     """
 
     vehicle: str = "husky"
@@ -220,6 +222,13 @@ class SimConfig:
     physics: str = DEFAULT_PHYSICS
 
     def __post_init__(self) -> None:
+        # before the range checks: text, None or a boolean is named, not a TypeError there
+        config_numbers("SimConfig", duration_s=self.duration_s,
+                       segment_length_m=self.segment_length_m,
+                       physics_rate_hz=self.physics_rate_hz)
+        if not isinstance(self.effects, Effects):
+            raise ConfigError(f"SimConfig.effects must be Effects (parse_effects builds one "
+                              f"from NAME=VALUE items), got {type(self.effects).__name__}")
         vehicle = get_vehicle(self.vehicle)
         # the catalogue's name (get_vehicle takes any case): DEFAULT_SENSORS and the closed
         # loop look the vehicle up by it
@@ -257,7 +266,9 @@ class SimConfig:
                               f"{vehicle.name}: the minimum is {minimum:g} s ({why})")
         if not float(self.segment_length_m) > 0:
             raise ConfigError(f"segment_length_m must be > 0, got {self.segment_length_m}")
-        if isinstance(self.seed, bool) or int(self.seed) != self.seed or int(self.seed) < 0:
+        seed = self.seed
+        if not (isinstance(seed, numbers.Real) and not isinstance(seed, bool)
+                and math.isfinite(seed) and int(seed) == seed and seed >= 0):
             # a seed of 2.7 was simulated as seed 2 and labelled so, without a word
             raise ConfigError(f"seed must be an integer >= 0, got {self.seed!r}")
         if self.effects.icr_expansion != 1.0 and vehicle.contact_geometry().steered:

@@ -10,7 +10,7 @@ from terrain.cli import main
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import write_run
-from terrain.sim import (SensorSettings, SimConfig, make_commands, minimum_duration_s,
+from terrain.sim import (Effects, SensorSettings, SimConfig, make_commands, minimum_duration_s,
                          parse_effects, parse_terrain_list, simulate)
 from terrain.sim.dynamics import integrate
 from terrain.vehicles import get_vehicle
@@ -208,3 +208,33 @@ def test_lower_case_terrain_names_label_the_run_with_the_catalogue_name(tmp_path
     assert paths["imu"].parent.name == "SNOW"
     single = SimConfig(vehicle="husky", terrains=("snow",), scenario="spin", duration_s=0.5)
     assert unreached_terrains_note(run, single) is None
+
+
+@pytest.mark.parametrize("kwargs", [dict(seed=float("inf")), dict(seed=float("nan")),
+                                    dict(seed=None), dict(duration_s="10"),
+                                    dict(duration_s=True), dict(duration_s=None),
+                                    dict(physics_rate_hz="100"), dict(segment_length_m="5"),
+                                    dict(effects=None), dict(effects={"gyro_bias": 0.1})])
+def test_simconfig_refuses_a_value_of_the_wrong_type_with_a_config_error(kwargs):
+    """seed inf raised OverflowError, NaN ValueError, None TypeError; duration_s "10" and
+    True were accepted (the text kept in the config, True simulated as 1 s); effects None
+    or a dict raised AttributeError. Each is now a ConfigError naming the field."""
+    name = next(iter(kwargs))
+    with pytest.raises(ConfigError, match=name):
+        SimConfig(**kwargs)
+
+
+@pytest.mark.parametrize("cls, kwargs", [(SensorSettings, dict(imu_rate_hz="x")),
+                                         (SensorSettings, dict(gyro_noise_rad_s=None)),
+                                         (SensorSettings, dict(wheel_rate_hz="6.5")),
+                                         (Effects, dict(gyro_bias="0.1")),
+                                         (Effects, dict(gyro_bias=None)),
+                                         (Effects, dict(wheel_lag="x"))])
+def test_sensor_settings_and_effects_refuse_text_and_none(cls, kwargs):
+    """SensorSettings(imu_rate_hz="x") raised ValueError, None TypeError, and "6.5" was
+    kept as text; Effects(gyro_bias="0.1") was accepted with the text stored, None raised
+    TypeError. Now a ConfigError names the field (parse_effects still converts text)."""
+    name = next(iter(kwargs))
+    with pytest.raises(ConfigError, match=name):
+        cls(**kwargs)
+    assert parse_effects(["gyro_bias=0.1"]).gyro_bias == 0.1
