@@ -434,6 +434,8 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
     t_src = np.clip(t_w - config.effects.wheel_lag, 0.0, None)
     om_w = interp_columns(t_src, phys.t_s, omega_rep)
     vel_w = quantise(om_w * r_w, sensors.speed_quantum_m_s)
+    if sensors.speed_quantum_m_s > 0:
+        om_w = vel_w / r_w      # the omega stream reports the same quantised encoder speed
     cur_w = interp_columns(t_src, phys.t_s, cur)
     cur_w = quantise(np.abs(cur_w + sensors.current_noise_a * rng.standard_normal(cur_w.shape)),
                      sensors.current_quantum_a)

@@ -294,6 +294,22 @@ def test_encoder_count_rate_is_unbiased_and_quantised():
     np.testing.assert_allclose(means, omega[:, 1].reshape(20, 100).mean(axis=1), atol=0.1)
 
 
+def test_agrimaro_omega_stream_has_the_speed_quantum_of_the_wheel_stream():
+    """With a speed quantum of 0.05 m/s the AgriMaRo's pro stream held multiples of it
+    (vel_l 0.85 m/s) while its omega stream of the same wheel held the unquantised speed
+    (omega_1 r 0.8346 m/s): two reports of one encoder disagreed. Both are quantised now,
+    as the closed loop's online encoders already were."""
+    sensors = replace(DEFAULT_SENSORS["agrimaro"], speed_quantum_m_s=0.05)
+    r = simulate(SimConfig(vehicle="agrimaro", scenario="straight_accel", duration_s=3.0,
+                           seed=0, sensors=sensors))
+    pro, om = r.streams["wheels"], r.streams["omega"]
+    radius = get_vehicle("agrimaro").wheel_radius_m
+    np.testing.assert_allclose(om.omega_1 * radius, pro.vel_l, atol=1e-12)
+    np.testing.assert_allclose(om.omega_2 * radius, pro.vel_r, atol=1e-12)
+    steps = om[["omega_1", "omega_2", "omega_3"]].to_numpy() * radius / 0.05
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
+
+
 def test_agrimaro_reported_wheel_speed_is_unbiased_in_cruise():
     res = simulate(SimConfig(vehicle="agrimaro", terrains=("TILES",), scenario="straight_accel",
                              duration_s=20.0, seed=0))
