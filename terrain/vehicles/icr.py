@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from terrain.errors import ShapeError
+
 
 def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarray:
     """Least-squares slope of ``y = a x`` through the origin along the last axis, ridge
@@ -54,6 +56,14 @@ def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarra
         return num / den
 
 
+def _same_shape(**arrays: np.ndarray) -> None:
+    """Raise :class:`~terrain.errors.ShapeError` naming the shapes unless all are equal."""
+    shapes = {name: np.shape(a) for name, a in arrays.items()}
+    if len(set(shapes.values())) > 1:
+        raise ShapeError("arrays of different shapes: " + ", ".join(
+            f"{name} {shape}" for name, shape in shapes.items()))
+
+
 def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.ndarray,
                        floor_rad_s: float = 0.0) -> np.ndarray | float:
     """Least-squares ``a = 1 / chi`` of ``yaw_rate = a x`` along the last axis.
@@ -74,12 +84,19 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
         ``a = sum(x y) / (sum(x^2) + n floor^2)`` (dimensionless); NaN where the denominator
         is 0 (no sample, or no commanded turn and no floor).
 
+    Raises
+    ------
+    ShapeError
+        The two arrays differ in shape.
+
     References
     ----------
     Seed ``000_f24201ff985633bf.txt`` eqs. 2-3; Mandow et al., IROS 2007 (ICR expansion).
     """
-    out = _origin_slope(np.asarray(yaw_rate_rad_s, dtype=float),
-                        np.asarray(commanded_yaw_rate_rad_s, dtype=float), floor_rad_s)
+    y = np.asarray(yaw_rate_rad_s, dtype=float)
+    x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
+    _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
+    out = _origin_slope(y, x, floor_rad_s)
     return float(out) if np.ndim(out) == 0 else out
 
 
@@ -106,7 +123,7 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
 
     Raises
     ------
-    ValueError
+    ShapeError
         The two arrays differ in shape.
 
     References
@@ -116,8 +133,7 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     """
     y = np.asarray(yaw_rate_rad_s, dtype=float)
     x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
-    if x.shape != y.shape:
-        raise ValueError(f"yaw rate shape {y.shape} differs from command shape {x.shape}")
+    _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
     sxy = float(np.sum(x * y))
     return float(np.sum(x * x)) / sxy if sxy > 0 else float("inf")
 
@@ -145,12 +161,19 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     float
         ``chi`` (dimensionless); NaN when the recording never turns.
 
+    Raises
+    ------
+    ShapeError
+        The three arrays differ in shape.
+
     References
     ----------
     Mandow et al., IROS 2007 (ICR expansion); seed ``000_f24201ff985633bf.txt`` eqs. 2-3.
     """
     w = np.asarray(yaw_rate_rad_s, dtype=float)
-    d = np.asarray(v_right_m_s, dtype=float) - np.asarray(v_left_m_s, dtype=float)
+    left, right = np.asarray(v_left_m_s, dtype=float), np.asarray(v_right_m_s, dtype=float)
+    _same_shape(v_left_m_s=left, v_right_m_s=right, yaw_rate_rad_s=w)
+    d = right - left
     turning = np.abs(w) > min_yaw_rate_rad_s
     if not turning.any():
         return float("nan")

@@ -33,3 +33,22 @@ def test_batched_windows_and_shape_check():
     np.testing.assert_allclose(gains, [1 / 1.2, 1 / 1.5, 1 / 2.0])
     with pytest.raises(ValueError, match="shape"):
         icr_expansion_factor(np.zeros(3), np.zeros(4))
+
+
+def test_arrays_of_different_shapes_are_a_shape_error():
+    """icr_expansion_factor raised a bare ValueError on a shape mismatch, inverse_icr_factor
+    and chi_from_truth NumPy's "operands could not be broadcast" ValueError, and
+    chi_from_truth an IndexError for a yaw rate of another length. Each is now the
+    project's ShapeError naming the shapes."""
+    from terrain.errors import ShapeError
+    from terrain.vehicles.icr import chi_from_truth
+    three, four = np.ones(3), np.ones(4)
+    with pytest.raises(ShapeError, match=r"\(3,\).*\(4,\)"):
+        icr_expansion_factor(three, four)
+    with pytest.raises(ShapeError, match=r"\(3,\).*\(4,\)"):
+        inverse_icr_factor(three, four)
+    with pytest.raises(ShapeError, match=r"\(3,\).*\(4,\)"):
+        chi_from_truth(three, four, three, 0.5)
+    with pytest.raises(ShapeError, match=r"\(3,\).*\(4,\)"):
+        chi_from_truth(three, three, four, 0.5)
+    assert chi_from_truth(three, 2 * three, three, 0.5) == pytest.approx(2.0)
