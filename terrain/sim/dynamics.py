@@ -31,7 +31,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, PHYSICS_VERSIONS,
                                 SLIDE_SPEED_M_S,
                                 SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
@@ -339,6 +339,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     ------
     ConfigError
         Unknown physics version, or a time grid of fewer than two steps.
+    ShapeError
+        The hook returned a correction without one value per motor.
+    NonFiniteInputError
+        The hook returned a NaN or infinite correction.
     numpy.linalg.LinAlgError
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).
@@ -483,7 +487,16 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                      nxt.copy(), torque_out[k].copy(), float(pitch_k),
                                      float(roll_k), ti))
             if new is not None:
-                correction = np.asarray(new, dtype=float).reshape(nm)
+                new = np.asarray(new, dtype=float)
+                if new.size != nm:
+                    raise ShapeError(f"the closed-loop hook returned {new.size} values for "
+                                     f"{nm} motors at step {k} (t = {t_s[k]:.3f} s), shape "
+                                     f"{new.shape}")
+                if not np.all(np.isfinite(new)):
+                    raise NonFiniteInputError(f"the closed-loop hook returned a non-finite "
+                                              f"correction {new.ravel().tolist()} rad/s at "
+                                              f"step {k} (t = {t_s[k]:.3f} s)")
+                correction = new.reshape(nm)
     yaw = pose_out[:, 2]
     pitch, roll = slope_attitude(slope_rad, yaw) if slope_rad else (np.zeros(n), np.zeros(n))
     return PhysicsResult(t_s=t_s, pose=pose_out, twist=twist_out, accel_body=acc_out,

@@ -164,3 +164,21 @@ def test_a_controller_faster_than_the_physics_is_refused():
     simulate_closed_loop(config, lambda observation: calls.append(observation.t_s),
                          control_rate_hz=100.0)
     assert len(calls) == 101
+
+
+def test_a_controller_correction_of_the_wrong_shape_or_not_finite_is_a_typed_error():
+    """A controller that returned NaN made the next step fail on "cannot convert float NaN
+    to integer" (the travelled distance had turned NaN), and one that returned three values
+    for the Husky's two motors NumPy's "cannot reshape" ValueError. Both are now the
+    project's typed errors naming the step and its time."""
+    from terrain.errors import NonFiniteInputError, ShapeError
+    from terrain.sim.closed_loop import simulate_closed_loop
+    config = SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="straight_accel",
+                       duration_s=1.0, seed=0)
+    with pytest.raises(NonFiniteInputError, match=r"step 52 \(t = 0.520 s\)"):
+        simulate_closed_loop(config, lambda o: np.array([np.nan, 0.0]) if o.t_s > 0.5
+                             else np.zeros(2))
+    with pytest.raises(ShapeError, match=r"3 values for 2 motors"):
+        simulate_closed_loop(config, lambda o: np.zeros(3))
+    closed = simulate_closed_loop(config, lambda o: [0.0, 0.0])
+    assert np.isfinite(closed.physics.twist).all()
