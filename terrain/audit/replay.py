@@ -39,7 +39,7 @@ from scipy import signal
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import integrate
-from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
+from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -98,9 +98,7 @@ class ReplaySettings:
     input_cutoff_hz: float | None = None
 
     def __post_init__(self) -> None:
-        if self.physics not in PHYSICS_VERSIONS:
-            raise ConfigError(f"unknown physics {self.physics!r}; valid choices: "
-                              f"{', '.join(PHYSICS_VERSIONS)}")
+        check_physics(self.physics)
         if not 50.0 <= float(self.physics_rate_hz) <= 1000.0:
             raise ConfigError(f"physics_rate_hz must be in [50, 1000], got {self.physics_rate_hz}")
         if not 0.0 < float(self.output_cutoff_hz) < 0.5 * float(self.physics_rate_hz):

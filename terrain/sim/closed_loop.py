@@ -40,7 +40,7 @@ import numpy as np
 
 from terrain.errors import ConfigError
 from terrain.sim.dynamics import ControlHook, PlantSnapshot
-from terrain.sim.forces import PHYSICS_VERSIONS, reported_current_a
+from terrain.sim.forces import check_physics, reported_current_a
 from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specific_force,
                                  vibration_level, vibration_pole, vibration_signals)
 from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulate_with_physics
@@ -132,10 +132,7 @@ class OnlineSensors:
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
                  duration_s: float, physics: str = "v1", terrains: Sequence[str] = ()) -> None:
         self.vehicle = get_vehicle(vehicle)
-        if physics not in PHYSICS_VERSIONS:
-            # checked here, not at the first current sample of the run
-            raise ConfigError(f"unknown physics {physics!r}; valid choices: "
-                              f"{', '.join(PHYSICS_VERSIONS)}")
+        check_physics(physics)   # here, not at the first current sample of the run
         self.physics = physics
         self.settings = sensors
         self.steered = self.vehicle.contact_geometry().steered

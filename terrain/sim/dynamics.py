@@ -32,9 +32,9 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
-from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, PHYSICS_VERSIONS,
-                                SLIDE_SPEED_M_S,
-                                SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, contact_forces,
+from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, SLIDE_SPEED_M_S,
+                                SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, check_physics,
+                                contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
                                 reach_chord_contact, step_traction_coefficient,
                                 specific_force_m_s2, transferred_normal_loads,
@@ -347,9 +347,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).
     """
-    if physics not in PHYSICS_VERSIONS:
-        raise ConfigError(f"unknown physics {physics!r}; valid choices: "
-                          f"{', '.join(PHYSICS_VERSIONS)}")
+    check_physics(physics)
     if len(t_s) < 2:
         raise ConfigError(f"the time grid needs at least 2 steps to integrate, got {len(t_s)} "
                           "(a duration shorter than one physics step?)")

@@ -79,6 +79,7 @@ SOIL_SPEED_M_S = 0.01
 #: every terrain; ``v2`` load transfer, the lateral wheel-soil model on soils and the tyre's
 #: combined-slip law on rigid surfaces.
 PHYSICS_VERSIONS = ("v1", "v2")
+
 #: Physics version the simulator and the audit use unless told otherwise (decided from the
 #: held-out comparison of docs/physics_v2.md).
 DEFAULT_PHYSICS = "v1"
@@ -722,6 +723,24 @@ def contact_torque_nm(layout: ContactLayout, terrain, mu: np.ndarray,
         mu + terrain.hysteresis * np.tanh(rim_speed_m_s / HYSTERESIS_SPEED_M_S))
 
 
+def check_physics(physics: str) -> None:
+    """Refuse a physics version the simulator does not have.
+
+    Parameters
+    ----------
+    physics : str
+        A version name (:data:`PHYSICS_VERSIONS`).
+
+    Raises
+    ------
+    ConfigError
+        ``physics`` not one of :data:`PHYSICS_VERSIONS` (the message lists them).
+    """
+    if physics not in PHYSICS_VERSIONS:
+        raise ConfigError(f"unknown physics {physics!r}; valid choices: "
+                          f"{', '.join(PHYSICS_VERSIONS)}")
+
+
 def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarray,
                        physics: str = "v1") -> np.ndarray:
     """Motor current magnitude the drive reports, from wheel torque and speed.
@@ -756,9 +775,7 @@ def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarr
     ConfigError
         ``physics`` not one of :data:`PHYSICS_VERSIONS`.
     """
-    if physics not in PHYSICS_VERSIONS:
-        raise ConfigError(f"unknown physics {physics!r}; valid choices: "
-                          f"{', '.join(PHYSICS_VERSIONS)}")
+    check_physics(physics)
     if physics == "v1":
         return np.abs(motor.current_from_torque(wheel_torque_nm, omega_rad_s))
     direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)

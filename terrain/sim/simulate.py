@@ -39,7 +39,7 @@ from terrain.errors import ConfigError, config_numbers
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
-from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS, reported_current_a
+from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
 from terrain.sim.scenarios import SCENARIO_NAMES, make_commands, physics_steps
 from terrain.sim.sensors import (SensorSettings, encoder_count_rate, first_order_filter, imu,
                                  interp_columns, physics_step_index, quantise, sample_times)
@@ -233,9 +233,7 @@ class SimConfig:
         # the catalogue's name (get_vehicle takes any case): DEFAULT_SENSORS and the closed
         # loop look the vehicle up by it
         object.__setattr__(self, "vehicle", vehicle.name)
-        if self.physics not in PHYSICS_VERSIONS:
-            raise ConfigError(f"unknown physics {self.physics!r}; valid choices: "
-                              f"{', '.join(PHYSICS_VERSIONS)}")
+        check_physics(self.physics)
         if isinstance(self.terrains, str):
             raise ConfigError(f"terrains must be a sequence of terrain names, got the string "
                               f"{self.terrains!r} (split a comma-separated list with "
