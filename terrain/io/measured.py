@@ -633,9 +633,10 @@ def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
         hint = (f"; its terrain folder(s) {', '.join(inner)} do: pass one of them, e.g. "
                 f"{shown / inner[0]}" if inner else "")
         raise ConfigError(f"{shown} holds no run files (imu_XX.csv, pro_XX.csv){hint}")
-    if index is None and len(runs) > 1:
-        raise ConfigError(f"{shown} holds runs {sorted(runs)}: choose one with --index")
-    index = index or next(iter(runs))
+    if index is None:
+        if len(runs) > 1:
+            raise ConfigError(f"{shown} holds runs {sorted(runs)}: choose one with --index")
+        index = next(iter(runs))
     if index not in runs:
         raise ConfigError(f"no run {index!r} in {shown}; available: {sorted(runs)}")
     return read_run(runs[index], f"{folder.name}/{index}", folder.parent.name,

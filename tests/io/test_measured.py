@@ -386,6 +386,16 @@ def test_read_folder_run_reads_the_chosen_run_labelled_by_its_folder(tmp_path, s
         read_folder_run(tmp_path / "husky" / "SNOW")
 
 
+def test_read_folder_run_refuses_an_empty_index_instead_of_taking_the_first_run(
+        tmp_path, synth_imu, synth_pro, write_run):
+    # terrain stream RUN_DIR --index "" took run 01 of two without a word
+    for index in ("01", "02"):
+        write_run(tmp_path / "husky", "ICE", index, synth_imu(duration_s=1.0),
+                  synth_pro(duration_s=1.0))
+    with pytest.raises(ConfigError, match=r"no run '' in .*available: \['01', '02'\]"):
+        read_folder_run(tmp_path / "husky" / "ICE", "")
+
+
 def test_empty_runs_folder_is_rejected(tmp_path):
     with pytest.raises(DataFormatError):
         list_run_files(tmp_path)
