@@ -18,6 +18,7 @@ import tempfile
 from pathlib import Path
 
 from terrain.errors import ConfigError, duplicated
+from terrain.io.measured import is_run_file_name
 from terrain.models.experiment import MAX_SEED
 from terrain.models.registry import MAX_CNN_SEEDS
 from terrain.serving.smoothing import SmoothingConfig
@@ -202,6 +203,68 @@ def model_dir(value: str) -> Path:
 #: argparse ``type`` of every option naming a file or folder the command writes: an error
 #: while writing that names no file (a full disk) is reported naming these options
 OUTPUT_TYPES = (output_file, output_dir, model_dir)
+
+
+def check_output_files(command: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, once every option is read and before any work, an output file that another
+    output option names too, or that would overwrite what the command reads.
+
+    An output file is refused where it is a file or folder given as an input, lies in an
+    input model directory (one holding ``MLmodel``), or is named like a run file
+    (:func:`terrain.io.measured.is_run_file_name`) in an input runs folder or one of its
+    terrain folders. Other files beside the inputs (``runs/predictions.csv``) are taken.
+
+    Parameters
+    ----------
+    command : argparse.ArgumentParser
+        The sub-command's parser (its actions with an :data:`OUTPUT_TYPES` type are the
+        outputs, those naming an existing path the inputs).
+    args : argparse.Namespace
+        Its parsed arguments.
+
+    Raises
+    ------
+    SystemExit
+        Through ``command.error``: argparse's usage lines and a one-line error naming the
+        option, exit status 2.
+    """
+    outputs, inputs = [], []
+    for action in command._actions:
+        value = getattr(args, action.dest, None)
+        if not isinstance(value, (str, Path)) or not str(value).strip():
+            continue
+        name = action.option_strings[0] if action.option_strings else action.dest
+        if action.type is output_file:
+            outputs.append((name, Path(value)))
+        elif action.type not in OUTPUT_TYPES and action.choices is None \
+                and Path(value).exists():
+            inputs.append((str(value), Path(value).resolve()))
+    seen: dict[Path, str] = {}
+    for name, path in outputs:
+        target = path.resolve()
+        if target in seen:
+            command.error(f"argument {name}: {str(path)!r} is the file of {seen[target]} too "
+                          "(give each output its own file)")
+        seen[target] = name
+        why = _overwritten_input(target, inputs)
+        if why:
+            command.error(f"argument {name}: cannot write {str(path)!r}: {why}")
+
+
+def _overwritten_input(target: Path, inputs: list[tuple[str, Path]]) -> str | None:
+    """Why writing the resolved ``target`` would overwrite one of the ``inputs`` (each as
+    given and resolved), or ``None``."""
+    for shown, source in inputs:
+        if target == source:
+            return "it is an input of this command"
+        if source.is_dir() and source in target.parents:
+            if (source / "MLmodel").is_file():
+                return f"it lies in the input model directory {shown!r}"
+            if source in (target.parent, target.parent.parent) \
+                    and is_run_file_name(target.name):
+                return (f"it is named like a run file of the input runs folder "
+                        f"{shown!r} (write the output elsewhere)")
+    return None
 
 
 def positive_number(value: str) -> float:

@@ -20,7 +20,7 @@ import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
-from pipelines.arguments import OUTPUT_TYPES
+from pipelines.arguments import OUTPUT_TYPES, check_output_files
 from terrain.tracking import activate_store, store_errors
 from terrain.errors import DataWarning, TerrainError
 
@@ -135,6 +135,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
+    check_output_files(_command_parser(parser, args), args)
     debug = getattr(args, "debug", False)
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
@@ -201,7 +202,7 @@ def _while_writing(exc: BaseException, parser: argparse.ArgumentParser,
     ``[Errno 28] No space left on device`` alone), or ``""``."""
     if not (isinstance(exc, OSError) and exc.filename is None and exc.errno in _WRITE_ERRNOS):
         return ""
-    command = parser._subparsers._group_actions[0].choices[args.command]
+    command = _command_parser(parser, args)
     outputs = [f"{action.option_strings[0]} {getattr(args, action.dest)}"
                for action in command._actions
                if action.type in OUTPUT_TYPES and action.option_strings
@@ -210,6 +211,12 @@ def _while_writing(exc: BaseException, parser: argparse.ArgumentParser,
         return ""
     return (f" while writing {outputs[0]}" if len(outputs) == 1
             else f" while writing one of {', '.join(outputs)}")
+
+
+def _command_parser(parser: argparse.ArgumentParser,
+                    args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The sub-command parser of ``args.command``."""
+    return parser._subparsers._group_actions[0].choices[args.command]
 
 
 def _one_line(exc: BaseException) -> str:

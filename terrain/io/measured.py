@@ -425,6 +425,23 @@ def _near_miss(name: str) -> str | None:
     return None
 
 
+def is_run_file_name(name: str) -> bool:
+    """Whether a file named ``name`` in a terrain folder is one the readers take or refuse
+    as a run file (``imu_XX.csv``, ``meta_XX.json``; ``IMU_04.csv``, ``imu_04.csv.gz``).
+
+    Parameters
+    ----------
+    name : str
+        A file name, without its folder.
+
+    Returns
+    -------
+    bool
+        True for a run file's name (:func:`folder_run_files` reads or refuses such a file).
+    """
+    return bool(_FILE_RE.match(name) or _META_RE.match(name) or _near_miss(name))
+
+
 def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
     """Index the run files directly inside one folder.
 

@@ -206,3 +206,66 @@ def test_a_full_disk_is_reported_naming_the_output_option(tmp_path, capsys):
     line = capsys.readouterr().err.strip().splitlines()[-1]
     assert line.startswith("terrain estimate: error: ")
     assert "No space left on device while writing --out /dev/full" in line
+
+
+def test_two_outputs_naming_one_file_are_refused_before_any_work(tmp_path, monkeypatch,
+                                                                 capsys):
+    # `audit --json r.json --md r.json` ran the whole audit, wrote the Markdown over the
+    # JSON and said "report written to r.json and r.json"
+    monkeypatch.chdir(tmp_path)
+    for argv in (["audit", "--dataset", "vulpi", "--json", "r.json", "--md", "./r.json"],
+                 ["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
+                  "straight_accel", "--controller", "off", "--json", "r.json", "--csv",
+                  "r.json"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        err = capsys.readouterr().err
+        assert "Traceback" not in err
+        assert err.strip().splitlines()[-1].endswith(
+            "'r.json' is the file of --json too (give each output its own file)")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _runs_folder(root):
+    folder = root / "runs" / "ICE"
+    folder.mkdir(parents=True)
+    for name in ("imu_00.csv", "pro_00.csv", "meta_00.json"):
+        (folder / name).write_text("kept\n")
+    model = root / "model"
+    model.mkdir()
+    (model / "MLmodel").write_text("kept\n")
+    return root / "runs"
+
+
+@pytest.mark.parametrize("argv, target", [
+    (["predict", "--model", "model", "runs"], "runs/ICE/pro_00.csv"),
+    (["predict", "--model", "model", "runs"], "runs/ICE/imu_07.csv"),
+    (["estimate", "runs/ICE"], "runs/ICE/meta_00.json"),
+    (["stream", "--model", "model", "runs/ICE"], "runs/ICE/imu_00.csv"),
+    (["stream", "--model", "model", "runs/ICE"], "model/MLmodel"),
+])
+def test_an_output_among_the_input_files_is_refused_before_any_work(argv, target, tmp_path,
+                                                                    monkeypatch, capsys):
+    # `predict --model M runs --out runs/ICE/pro_00.csv` read the run, then wrote the
+    # predictions over its wheel file: the measured data was lost and the next read failed
+    runs = _runs_folder(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--out", target])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument --out: cannot write {target!r}: " in err and "Traceback" not in err
+    assert all(f.read_text() == "kept\n" for f in (runs / "ICE").iterdir())
+    assert not (tmp_path / "mlflow.db").exists()
+
+
+def test_an_output_beside_the_input_files_is_taken(tmp_path, monkeypatch):
+    # a file the readers do not read may be written inside the runs folder (and rewritten)
+    _runs_folder(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    for target in ("runs/predictions.csv", "runs/ICE/predictions.csv"):
+        (tmp_path / target).write_text("old\n")
+        args = build_parser().parse_args(["predict", "--model", "model", "runs",
+                                          "--out", target])
+        assert str(args.out) == target
