@@ -12,7 +12,7 @@ import argparse
 
 import numpy as np
 
-from pipelines.arguments import output_dir, seed_value
+from pipelines.arguments import output_dir, positive_number, seed_value
 from terrain.io.writer import write_run
 from terrain.run import Run
 from terrain.sim import (SCENARIO_NAMES, SimConfig, parse_effects, parse_terrain_list,
@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=seed_value, default=0, help="random seed")
     parser.add_argument("--effect", action="append", default=[], metavar="NAME=VALUE",
                         help="plant a named effect (repeatable, each name once)")
-    parser.add_argument("--segment-m", type=float, default=25.0,
+    parser.add_argument("--segment-m", type=positive_number, default=25.0,
                         help="distance between terrain changes, m")
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,
                         help="physics version (v2: load transfer, lateral wheel-soil model, "

@@ -233,6 +233,11 @@ _REFUSED = [
     (["audit", "--dataset", "vulpi", "--json", "a.json", "--param-bootstrap",
       "1000000000000"], "n_param_bootstrap"),
     (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--seed", "-1"], "seed"),
+    # named as SimConfig's segment_length_m; inf ran, its note saying 'changes every inf m'
+    (["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--out", "s",
+      "--segment-m", "0"], "argument --segment-m: must be a finite number > 0, got 0"),
+    (["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--out", "s",
+      "--segment-m", "inf"], "argument --segment-m: must be a finite number > 0, got inf"),
     (["control-grid", "--terrains", "BOGUS", "--out", "g"], "unknown terrain 'BOGUS'"),
     (["control-grid", "--seeds", "1000", "--out", "g"], "are tuning seeds"),
     (["control-grid", "--kp-grid", "2", "nan", "--out", "g"], "kp=nan"),
