@@ -173,6 +173,30 @@ def input_path(value: str) -> str:
     return value
 
 
+def input_folder(value: str) -> Path:
+    """argparse ``type`` of an argument naming a folder (or model URI) the command reads: as
+    :func:`input_path`, so an empty value is refused rather than taken as ``Path("")``, the
+    working folder.
+
+    Parameters
+    ----------
+    value : str
+        The argument's value.
+
+    Returns
+    -------
+    pathlib.Path
+        ``value`` as a path (read later, where a missing one is a typed error naming it).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        The value is empty or blank (``terrain predict --model M ""`` read the runs of the
+        working folder).
+    """
+    return Path(input_path(value))
+
+
 def model_dir(value: str) -> Path:
     """argparse ``type`` of an option naming a model directory to create: as
     :func:`output_dir`, and the folder must be absent or empty (MLflow writes a model only

@@ -20,7 +20,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from pipelines.arguments import output_file, positive_number, seed_value
+from pipelines.arguments import input_folder, output_file, positive_number, seed_value
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
@@ -53,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         The subcommand's parser.
     """
-    parser.add_argument("runs_dir", nargs="?", type=Path, default=None,
+    parser.add_argument("runs_dir", nargs="?", type=input_folder, default=None,
                         help="folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default=None,
                         help="audit a shipped dataset instead of RUNS_DIR")

@@ -29,7 +29,7 @@ import argparse
 from pathlib import Path
 
 from features.slip_outputs import missing_slip_inputs, slip_model_outputs
-from pipelines.arguments import output_file
+from pipelines.arguments import input_folder, output_file
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
@@ -50,8 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("run_dir", type=Path, help="folder in the run layout (or a terrain "
-                                                   "folder of it)")
+    parser.add_argument("run_dir", type=input_folder,
+                        help="folder in the run layout (or a terrain folder of it)")
     parser.add_argument("--out", type=output_file, required=True, help="output CSV file")
     parser.add_argument("--run", default=None, metavar="TERRAIN/XX",
                         help="select one run when RUN_DIR holds several")
@@ -69,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the IMU rate)")
     parser.add_argument("--slip-model", choices=SLIP_MODELS, default=None,
                         help="skid-steer slip source (default fused)")
-    parser.add_argument("--slip-model-dir", type=Path, default=None,
+    parser.add_argument("--slip-model-dir", type=input_folder, default=None,
                         help="learned slip model (MLflow model dir or model URI; an error "
                              "when it cannot be loaded; default: registered slip-husky, "
                              "physics with a note when there is none)")

@@ -9,11 +9,10 @@ run, t_start_s, t_end_s, predicted, one proba_<CLASS> column per class and flags
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import output_file
+from pipelines.arguments import input_folder, output_file
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
@@ -36,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", required=True,
                         help="MLflow model directory or URI (e.g. models:/terrain-borealtc/latest, "
                              "resolved in the tracking store in force, see README)")
-    parser.add_argument("runs_dir", type=Path, metavar="RUNS_DIR",
+    parser.add_argument("runs_dir", type=input_folder, metavar="RUNS_DIR",
                         help="runs folder <TERRAIN>/{imu_XX,pro_XX}.csv or one terrain folder")
     parser.add_argument("--out", type=output_file, required=True, help="predictions CSV")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")

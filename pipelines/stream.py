@@ -12,10 +12,9 @@ on stale input).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from pipelines.arguments import (add_smoothing, output_file, positive_number, probability,
-                                 smoothing_from_args)
+from pipelines.arguments import (add_smoothing, input_folder, output_file, positive_number,
+                                 probability, smoothing_from_args)
 from terrain.control import DesiredSlipConfig
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
@@ -31,9 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Sub-command parser to which the options are added (modified in place).
     """
-    parser.add_argument("--model", type=Path, required=True,
+    parser.add_argument("--model", type=input_folder, required=True,
                         help="model directory (terrain train --model-out)")
-    parser.add_argument("run_dir", type=Path, metavar="RUN_DIR",
+    parser.add_argument("run_dir", type=input_folder, metavar="RUN_DIR",
                         help="terrain folder holding the run's imu_XX.csv / pro_XX.csv")
     parser.add_argument("--index", default=None, help="run index XX when RUN_DIR holds several")
     parser.add_argument("--out", type=output_file, required=True, help="decisions CSV to write")

@@ -262,6 +262,16 @@ _REFUSED = [
      f"argument --model: {EMPTY_PATH}"),
     (["control-grid", "--model", "", "--out", "g"], f"argument --model: {EMPTY_PATH}"),
     (["slip-table", "--data-dir", " "], f"argument --data-dir: {EMPTY_PATH}"),
+    # a folder argument given as "" was Path(""), the working folder: predict and estimate
+    # read the runs there, --slip-model-dir "" looked for a slip model in it
+    (["predict", "--model", "m", "", "--out", "p.csv"], f"argument RUNS_DIR: {EMPTY_PATH}"),
+    (["estimate", "", "--out", "s.csv"], f"argument run_dir: {EMPTY_PATH}"),
+    (["estimate", "r", "--out", "s.csv", "--slip-model-dir", ""],
+     f"argument --slip-model-dir: {EMPTY_PATH}"),
+    (["stream", "--model", "", "r", "--out", "s.csv"], f"argument --model: {EMPTY_PATH}"),
+    (["stream", "--model", "m", "", "--out", "s.csv"], f"argument RUN_DIR: {EMPTY_PATH}"),
+    (["audit", "", "--json", "a.json"], f"argument runs_dir: {EMPTY_PATH}"),
+    (["serve", "--model", " "], f"argument --model: {EMPTY_PATH}"),
 ]
 
 
