@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from pipelines.arguments import output_dir
+from pipelines.arguments import input_folder, output_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASETS, convert_dataset, default_data_dir, read_shipped
 
@@ -21,7 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("src", help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
+    parser.add_argument("src", type=input_folder,
+                        help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", required=True, choices=DATASETS)
     parser.add_argument("--data-dir", type=output_dir, default=None,
                         help="output data/ folder (default: the project's data/)")

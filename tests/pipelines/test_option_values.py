@@ -272,6 +272,7 @@ _REFUSED = [
     (["stream", "--model", "m", "", "--out", "s.csv"], f"argument RUN_DIR: {EMPTY_PATH}"),
     (["audit", "", "--json", "a.json"], f"argument runs_dir: {EMPTY_PATH}"),
     (["serve", "--model", " "], f"argument --model: {EMPTY_PATH}"),
+    (["convert", "", "--dataset", "vulpi", "--data-dir", "d"], f"argument src: {EMPTY_PATH}"),
 ]
 
 
