@@ -15,8 +15,8 @@ import numpy as np
 from pipelines.arguments import output_dir, positive_number, seed_value
 from terrain.io.writer import write_run
 from terrain.run import Run
-from terrain.sim import (SCENARIO_NAMES, SimConfig, parse_effects, parse_terrain_list,
-                         simulate)
+from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SimConfig, parse_effects,
+                         parse_terrain_list, simulate)
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import VEHICLE_NAMES
@@ -39,8 +39,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="simulated time, s (at most 7200; at least two samples of the "
                              "slowest stream: husky 0.16, tracked 0.1, agrimaro 0.04)")
     parser.add_argument("--seed", type=seed_value, default=0, help="random seed")
+    ranges = ", ".join(f"{name} [{e.lower:g}, {e.upper:g}] "
+                       f"{'(dimensionless)' if e.unit == '1' else e.unit}"
+                       for name, e in PLANTED_EFFECTS.items())
     parser.add_argument("--effect", action="append", default=[], metavar="NAME=VALUE",
-                        help="plant a named effect (repeatable, each name once)")
+                        help=f"plant a named effect (repeatable, each name once): {ranges}; "
+                             "terrain.sim.effects says what each does")
     parser.add_argument("--segment-m", type=positive_number, default=25.0,
                         help="distance between terrain changes, m")
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,

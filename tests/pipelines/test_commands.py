@@ -312,3 +312,15 @@ def test_train_run_balanced_serves_the_wrapped_model(workdir, capsys):
     assert train_run.data.params["run_balanced"] == "True"
     assert train_run.info.run_name.endswith("+run-balanced")
     _assert_predicts_ploughed(model_dir, workdir)
+
+
+def test_simulate_help_gives_each_effects_unit_and_range(capsys):
+    # the help listed the effect names only; their units (rad/s, s, A, A/rad) and ranges
+    # came out only when a value was refused
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for piece in ("icr_expansion [1, 20] (dimensionless)", "gyro_bias [-0.5, 0.5] rad/s",
+                  "wheel_lag [0, 2] s", "turning_resistance [0, 50] A",
+                  "current_offset [-20, 20] A", "grade_resistance [-200, 200] A/rad"):
+        assert piece in text, piece
