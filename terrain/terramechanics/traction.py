@@ -333,12 +333,16 @@ class JanosiCurve:
         Raises
         ------
         ConfigError
-            ``load_n`` is not a finite load > 0 (``c A / W`` has no value), or the curve's
-            own checks fail.
+            ``load_n`` is not a finite load > 0 (``c A / W`` has no value),
+            ``contact_length_m`` not a finite length > 0 (``K / L`` has none), or the
+            curve's own checks fail.
         """
         if not (np.isfinite(load_n) and load_n > 0.0):
             raise ConfigError(f"JanosiCurve.from_soil: load_n must be a finite load > 0 N, "
                               f"got {load_n}")
+        if not (np.isfinite(contact_length_m) and contact_length_m > 0.0):
+            raise ConfigError(f"JanosiCurve.from_soil: contact_length_m must be a finite "
+                              f"length > 0 m, got {contact_length_m}")
         mu_max = np.tan(np.radians(friction_angle_deg)) + cohesion_pa * contact_area_m2 / load_n
         return cls(float(mu_max), shear_modulus_m / contact_length_m, source, residual_ratio)
 

@@ -302,3 +302,10 @@ def test_janosi_from_soil_refuses_a_contact_without_load(load_n):
     # before: ZeroDivisionError at W = 0, a negative mu_max below it
     with pytest.raises(ConfigError):
         JanosiCurve.from_soil(1720.0, 29.0, 0.025, 0.11 * 0.08, 0.08, load_n)
+
+
+@pytest.mark.parametrize("length_m", [0.0, -0.08, float("nan")])
+def test_janosi_from_soil_refuses_a_contact_without_length(length_m):
+    # before: ZeroDivisionError at L = 0, a negative or NaN shear slip K / L below it
+    with pytest.raises(ConfigError, match="contact_length_m"):
+        JanosiCurve.from_soil(1720.0, 29.0, 0.025, 0.11 * 0.08, length_m, 500.0)
