@@ -603,6 +603,12 @@ class ExtendedKalmanFilter:
         Current covariance (a copy).
     last_innovation : Innovation or None
         Innovation record of the last update (None before the first).
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError, CovarianceError
+        An initial state or matrix of the wrong shape (``R`` a scalar included), not finite,
+        or not a covariance.
     """
 
     def __init__(self, x0: np.ndarray, P0: np.ndarray, f: Callable, F: Callable,
@@ -615,6 +621,8 @@ class ExtendedKalmanFilter:
         self._f, self._F, self._h, self._H = f, F, h, H
         self._Q = Q if callable(Q) else as_covariance(Q, n, "Q")
         R = np.asarray(R, dtype=float)
+        if R.ndim not in (1, 2):   # a scalar has no size m (R.shape[0] was a bare IndexError)
+            raise ShapeError(f"R must have shape (m, m) or (m,), got {R.shape}")
         self._m = R.shape[0]
         self._R = R if R.ndim == 1 else as_covariance(R, self._m, "R", definite=True)
         if R.ndim == 1:

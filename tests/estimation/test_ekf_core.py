@@ -312,3 +312,12 @@ def test_streaming_update_refuses_rows_outside_the_measurement(rows):
     with pytest.raises(ShapeError, match="rows"):
         ekf.update(np.ones(len(rows)), rows=rows)
     np.testing.assert_array_equal(ekf.x, np.zeros(2))
+
+
+def test_streaming_filter_refuses_a_scalar_measurement_noise_by_shape():
+    # R = 0.1 (a scalar) raised a bare IndexError on R.shape[0]
+    from terrain.errors import ShapeError
+    from terrain.estimation.ekf import ExtendedKalmanFilter
+    with pytest.raises(ShapeError, match="R must have shape"):
+        ExtendedKalmanFilter(np.zeros(1), np.ones(1), lambda x, dt: x, lambda x, dt: np.eye(1),
+                             lambda x: x, lambda x: np.eye(1), np.ones(1), 0.1)
