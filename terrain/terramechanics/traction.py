@@ -44,7 +44,7 @@ import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 
 
 class CurveCoefficients(NamedTuple):
@@ -214,15 +214,27 @@ class BurckhardtCurve:
     Parameters
     ----------
     c1, c2, c3 : float
-        Coefficients (dimensionless).
+        Coefficients (dimensionless): ``c1``, ``c2`` finite and > 0, ``c3`` finite and >= 0.
     source : str
         Citation of the coefficients.
+
+    Raises
+    ------
+    ConfigError
+        A coefficient outside its range (``mu`` would not rise from 0 at ``s = 0``, or NaN).
     """
 
     c1: float
     c2: float
     c3: float
     source: str = ""
+
+    def __post_init__(self) -> None:
+        config_numbers("BurckhardtCurve", c1=self.c1, c2=self.c2, c3=self.c3)
+        if not (np.isfinite([self.c1, self.c2, self.c3]).all() and self.c1 > 0.0
+                and self.c2 > 0.0 and self.c3 >= 0.0):
+            raise ConfigError(f"BurckhardtCurve: need finite c1 > 0, c2 > 0 and c3 >= 0, got "
+                              f"{self.c1}, {self.c2}, {self.c3}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """:func:`burckhardt_traction` with the terrain's constant resistance.
@@ -354,13 +366,24 @@ class BrixiusCurve:
     Parameters
     ----------
     mobility_number : float
-        ``Bn`` (dimensionless), see :func:`brixius_mobility_number`.
+        ``Bn`` (dimensionless, finite and > 0), see :func:`brixius_mobility_number`.
     source : str
         Citation of the coefficients.
+
+    Raises
+    ------
+    ConfigError
+        ``mobility_number`` not a finite number > 0 (the curve divides by it).
     """
 
     mobility_number: float
     source: str = ""
+
+    def __post_init__(self) -> None:
+        config_numbers("BrixiusCurve", mobility_number=self.mobility_number)
+        if not (np.isfinite(self.mobility_number) and self.mobility_number > 0.0):
+            raise ConfigError(f"BrixiusCurve: mobility_number must be a finite number > 0, got "
+                              f"{self.mobility_number}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """:func:`brixius_traction` and :func:`brixius_motion_resistance`.

@@ -7,7 +7,8 @@ from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataFormatError, EstimationError, ShapeError
 from terrain.sim.forces import contact_layout, contact_torque_nm
-from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BurckhardtCurve,
+from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BrixiusCurve,
+                                    BurckhardtCurve,
                                     JanosiCurve, TractionAndResistance,
                                     bekker_compaction_coefficient, bekker_sinkage_m,
                                     brixius_motion_resistance, brixius_traction,
@@ -309,3 +310,19 @@ def test_janosi_from_soil_refuses_a_contact_without_length(length_m):
     # before: ZeroDivisionError at L = 0, a negative or NaN shear slip K / L below it
     with pytest.raises(ConfigError, match="contact_length_m"):
         JanosiCurve.from_soil(1720.0, 29.0, 0.025, 0.11 * 0.08, length_m, 500.0)
+
+
+@pytest.mark.parametrize("c1, c2, c3", [(0.0, 23.99, 0.52), (1.28, -1.0, 0.52),
+                                        (1.28, 23.99, -0.1), (float("nan"), 23.99, 0.52),
+                                        (1.28, float("inf"), 0.52), ("1.28", 23.99, 0.52)])
+def test_burckhardt_curve_refuses_coefficients_outside_their_ranges(c1, c2, c3):
+    # a negative c3 or c2 built a curve whose mu falls from s = 0 (NaN propagated, text
+    # failed at the first evaluation)
+    with pytest.raises(ConfigError, match="BurckhardtCurve"):
+        BurckhardtCurve(c1, c2, c3)
+
+
+@pytest.mark.parametrize("bn", [0.0, -3.0, float("nan"), float("inf"), None])
+def test_brixius_curve_refuses_a_mobility_number_it_cannot_divide_by(bn):
+    with pytest.raises(ConfigError, match="BrixiusCurve"):
+        BrixiusCurve(bn)
