@@ -692,10 +692,13 @@ class ExtendedKalmanFilter:
             idx = np.arange(self._m)
         else:
             idx = np.asarray(rows)
-            if (idx.ndim != 1 or idx.dtype.kind not in "iu" or np.unique(idx).size != idx.size
-                    or (idx.size and not (0 <= idx.min() and idx.max() < self._m))):
+            # per update (the control loop's estimators): a set of the few row numbers, not
+            # np.unique and two reductions (0.7 against 5 us, a sixth of a small update)
+            ids = idx.tolist() if idx.ndim == 1 and idx.dtype.kind in "iu" else None
+            if ids is None or len(set(ids)) != len(ids) or (
+                    ids and not (0 <= min(ids) and max(ids) < self._m)):
                 raise ShapeError(f"rows must be distinct integers in 0..{self._m - 1}, got "
-                                 f"{np.asarray(rows).tolist()}")
+                                 f"{idx.tolist()}")
             idx = idx.astype(int)
         z = as_vector(z, "z", idx.size)
         hx = np.asarray(self._h(self._x, *args), dtype=float)
