@@ -119,7 +119,8 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     -------
     float
         ``chi`` (dimensionless, 1 = ideal differential drive); ``inf`` when
-        ``sum(x y) <= 0`` (the vehicle does not turn, or turns against the command).
+        ``sum(x y) <= 0`` (the vehicle does not turn, or turns against the command); NaN
+        when a sample is NaN (an unknown chi, not a dug-in vehicle).
 
     Raises
     ------
@@ -135,6 +136,8 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
     sxy = float(np.sum(x * y))
+    if np.isnan(sxy):
+        return float("nan")
     return float(np.sum(x * x)) / sxy if sxy > 0 else float("inf")
 
 

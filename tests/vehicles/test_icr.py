@@ -52,3 +52,15 @@ def test_arrays_of_different_shapes_are_a_shape_error():
     with pytest.raises(ShapeError, match=r"\(3,\).*\(4,\)"):
         chi_from_truth(three, three, four, 0.5)
     assert chi_from_truth(three, 2 * three, three, 0.5) == pytest.approx(2.0)
+
+
+def test_a_missing_sample_gives_an_unknown_chi_not_a_dug_in_vehicle():
+    """A NaN yaw rate (a gyro dropout) made sum(x y) NaN, and ``NaN > 0`` is False, so
+    icr_expansion_factor returned inf: the answer it reserves for a vehicle that does not
+    turn the commanded way (dug in). An unknown chi is NaN."""
+    x = np.linspace(0.1, 0.8, 50)
+    wz = x / 1.5
+    wz[7] = np.nan
+    assert np.isnan(icr_expansion_factor(wz, x))
+    assert np.isnan(icr_expansion_factor(x / 1.5, np.where(x > 0.5, np.nan, x)))
+    assert icr_expansion_factor(np.zeros(50), x) == np.inf          # still dug in
