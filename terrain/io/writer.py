@@ -134,12 +134,16 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     ------
     ConfigError
         Index out of range [0, 99] or already used by a file of the folder (any
-        ``*_XX.*``, measured runs have no ``meta_XX.json``), or a stream name the readers
+        ``*_XX.*``, measured runs have no ``meta_XX.json``), no free index left (default
+        ``index``: the folder holds runs 00-99), or a stream name the readers
         would not read back.
     """
     folder = Path(out_dir) / str(run.terrain or "UNLABELLED")
     folder.mkdir(parents=True, exist_ok=True)
     idx = next_index(folder) if index is None else int(index)
+    if index is None and idx > 99:
+        raise ConfigError(f"{folder} already holds runs 00-99: the layout numbers a terrain "
+                          f"folder's runs with two digits; write to another folder")
     if not 0 <= idx <= 99:
         raise ConfigError(f"run index must be in [0, 99], got {idx}")
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them

@@ -476,3 +476,17 @@ def test_camera_outages_are_recorded_in_the_run_metadata():
     np.testing.assert_allclose(cam_t, t_all[~inside])
     husky = simulate(SimConfig(terrains=("GRASS",), duration_s=2.0))
     assert "cam_outages_s" not in husky.meta          # no camera on the Husky
+
+
+def test_a_full_terrain_folder_is_refused_as_full(tmp_path, husky_orchard):
+    """With the indexes 00-99 of a folder taken, write_run chose index 100 itself and then
+    refused it with "run index must be in [0, 99], got 100", an index the user never gave.
+    The message now says the folder is full."""
+    folder = tmp_path / "ASPHALT"
+    folder.mkdir()
+    for i in range(100):
+        (folder / f"imu_{i:02d}.csv").write_text("time\n")
+    with pytest.raises(ConfigError, match=r"ASPHALT.*already holds runs 00-99"):
+        write_run(husky_orchard, tmp_path)
+    with pytest.raises(ConfigError, match=r"\[0, 99\], got 100"):
+        write_run(husky_orchard, tmp_path, index=100)
