@@ -39,7 +39,8 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, DataFormatError, NonFiniteInputError, ShapeError
+from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, ShapeError,
+                            config_numbers)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
@@ -282,6 +283,40 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     return result
 
 
+def wheel_r_scale(rate_hz: float, wheel_rate_hz: float | None) -> float:
+    """Wheel-variance inflation of a wheel stream interpolated onto a faster clock.
+
+    ``max(1, rate_hz / wheel_rate_hz)``: each native wheel sample is repeated about that many
+    times on the grid, so its variance is multiplied by it to count its information once.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Rate of the grid the wheel samples are on, Hz.
+    wheel_rate_hz : float or None
+        Native wheel rate, Hz, finite and > 0; None: unknown (or the grid rate), no
+        inflation.
+
+    Returns
+    -------
+    float
+        The factor, >= 1, dimensionless.
+
+    Raises
+    ------
+    ConfigError
+        ``wheel_rate_hz`` not None and not a finite number > 0: NaN, 0, negative and inf were
+        taken as "no inflation" before; a run whose wheel rate is unknown passes None.
+    """
+    if wheel_rate_hz is None:
+        return 1.0
+    config_numbers("skid-steer filter", wheel_rate_hz=wheel_rate_hz)
+    if not (math.isfinite(wheel_rate_hz) and wheel_rate_hz > 0):
+        raise ConfigError(f"wheel_rate_hz must be a finite number of Hz > 0 (None when the "
+                          f"native wheel rate is unknown), got {wheel_rate_hz}")
+    return max(1.0, float(rate_hz) / float(wheel_rate_hz))
+
+
 def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidSteerSettings(),
                         *, wheel_rate_hz: float | None = None, gate: Gate | None = None
                         ) -> EKFResult:
@@ -299,7 +334,8 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     settings : SkidSteerSettings
         Geometry and tuning.
     wheel_rate_hz : float, optional
-        Native wheel rate, Hz (default: the grid rate, i.e. no inflation).
+        Native wheel rate, Hz, finite and > 0 (default None: the rate is unknown or equal to
+        the grid rate, i.e. no inflation).
     gate : Gate, optional
         Per-sensor chi-square gating.
 
@@ -311,13 +347,15 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     ------
     DataFormatError
         Missing columns.
+    ConfigError
+        ``wheel_rate_hz`` not None and not a finite number > 0 (NaN, 0, negative, inf).
     """
     missing = [c for c in (TIME, "vel_l", "vel_r", "wz") if c not in frame.columns]
     if missing:
         raise DataFormatError(f"aligned frame lacks columns {missing}", None, missing[0])
     t = frame[TIME].to_numpy(float)
     rate = float(1.0 / np.median(np.diff(t))) if t.size > 1 else 1.0
-    scale = max(1.0, rate / float(wheel_rate_hz)) if wheel_rate_hz else 1.0
+    scale = wheel_r_scale(rate, wheel_rate_hz)
     samples = {"wheels": SensorSamples(t, frame[["vel_l", "vel_r"]].to_numpy(float)),
                "gyro": SensorSamples(t, frame[["wz"]].to_numpy(float))}
     result = run_filter(SkidSteerModel(settings, wheel_r_scale=scale), t, samples, gate=gate)
@@ -348,8 +386,9 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
     settings : SkidSteerSettings
         Geometry and tuning.
     wheel_rate_hz : float, optional
-        Native wheel rate, Hz: the wheel variance is multiplied by ``rate_hz / wheel_rate_hz``
-        (at least 1), as in :func:`skid_steer_on_frame`.
+        Native wheel rate, Hz, finite and > 0: the wheel variance is multiplied by
+        ``rate_hz / wheel_rate_hz`` (at least 1), as in :func:`skid_steer_on_frame` (default
+        None: rate unknown, no inflation).
 
     Returns
     -------
@@ -368,7 +407,8 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
         A non-finite sample (cut windows around gaps; :func:`skid_steer_on_frame` skips them).
     ConfigError
         ``rate_hz`` not a finite number in ``[MIN_RATE_HZ, MAX_RATE_HZ]``
-        (:func:`~terrain.estimation.runner.check_rate_hz`).
+        (:func:`~terrain.estimation.runner.check_rate_hz`), or ``wheel_rate_hz`` not None and
+        not a finite number > 0.
     """
     W = np.asarray(windows, dtype=np.float64)
     if W.ndim != 3 or W.shape[1] != 3 or W.shape[2] < 2:
@@ -379,7 +419,7 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
     rate_hz = check_rate_hz(rate_hz, "rate_hz")
     if rate_hz is None:
         raise ConfigError("rate_hz of the windows is required, got None")
-    scale = max(1.0, rate_hz / float(wheel_rate_hz)) if wheel_rate_hz else 1.0
+    scale = wheel_r_scale(rate_hz, wheel_rate_hz)
     model = SkidSteerModel(settings, wheel_r_scale=scale)
     n_win, _, n = W.shape
     from terrain.estimation.fast import fast_kernel_of, run_compiled

@@ -143,3 +143,20 @@ def test_windows_refuse_a_rate_that_is_not_a_finite_number_of_hz(rate_hz):
     from terrain.estimation.skid_steer import skid_steer_on_windows
     with pytest.raises(ConfigError, match="rate_hz"):
         skid_steer_on_windows(np.ones((1, 3, 20)), rate_hz)
+
+
+@pytest.mark.parametrize("wheel_rate_hz", [np.nan, 0.0, -6.5, np.inf, "6.5"])
+def test_a_wheel_rate_that_is_not_a_finite_positive_number_of_hz_is_refused(wheel_rate_hz):
+    # NaN, 0, -6.5 and inf were all taken as "no inflation" (wheel_r_scale 1.0) without a
+    # word, where 6.5 Hz on a 50 Hz grid gives 7.7; None is the documented "rate unknown"
+    import pandas as pd
+    from terrain.estimation.skid_steer import skid_steer_on_windows
+    t = np.arange(50) / 50.0
+    frame = pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6, "wz": 0.1})
+    with pytest.raises(ConfigError, match="wheel_rate_hz"):
+        skid_steer_on_frame(frame, wheel_rate_hz=wheel_rate_hz)
+    with pytest.raises(ConfigError, match="wheel_rate_hz"):
+        skid_steer_on_windows(np.ones((1, 3, 20)), 50.0, wheel_rate_hz=wheel_rate_hz)
+    assert skid_steer_on_frame(frame, wheel_rate_hz=None).meta["wheel_r_scale"] == 1.0
+    assert skid_steer_on_frame(frame, wheel_rate_hz=6.5).meta["wheel_r_scale"] == \
+        pytest.approx(50.0 / 6.5)
