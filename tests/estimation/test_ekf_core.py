@@ -321,3 +321,29 @@ def test_streaming_filter_refuses_a_scalar_measurement_noise_by_shape():
     with pytest.raises(ShapeError, match="R must have shape"):
         ExtendedKalmanFilter(np.zeros(1), np.ones(1), lambda x, dt: x, lambda x, dt: np.eye(1),
                              lambda x: x, lambda x: np.eye(1), np.ones(1), 0.1)
+
+
+@pytest.mark.parametrize("bad_q, error, match", [
+    (lambda dt: np.eye(3) * dt, ShapeError, r"\(2, 2\)"),       # was NumPy's broadcast error
+    (lambda dt: 0.1 * dt, ShapeError, r"\(2, 2\)"),             # was a bare AttributeError
+    (lambda dt: np.full((2, 2), np.nan), NonFiniteInputError, "Q"),   # P all NaN
+    (lambda dt: np.array([[dt, 1.0], [0.0, dt]]), CovarianceError, "symmetric"),  # halved in
+    (lambda dt: -np.eye(2), CovarianceError, "semi-definite"),  # P min eigenvalue -0.99
+    (lambda dt: np.array([dt, np.inf]), NonFiniteInputError, "Q"),
+    (lambda dt: np.array([dt, -dt]), CovarianceError, "semi-definite")])
+def test_a_callable_process_noise_is_checked_at_each_predict(bad_q, error, match):
+    f, F, h, H, _ = _cv_model()
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, bad_q, np.array([1.0]))
+    with pytest.raises(error, match=match):
+        ekf.predict(0.1)
+    np.testing.assert_array_equal(ekf.P, np.eye(2))      # nothing propagated
+
+
+def test_a_callable_diagonal_process_noise_gives_what_its_matrix_gives():
+    f, F, h, H, _ = _cv_model()
+    for q in (lambda dt: np.array([0.0, 0.2 * dt]), lambda dt: np.diag([0.0, 0.2 * dt]),
+              lambda dt: np.array([[1e-3, 1e-4], [1e-4, 0.2 * dt]])):
+        ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, q, np.array([1.0]))
+        ekf.predict(0.1)
+        ref = predict(np.zeros(2), np.eye(2), 0.1, f, F, q)[1]
+        np.testing.assert_array_equal(ekf.P, ref)
