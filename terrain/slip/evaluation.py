@@ -129,6 +129,10 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
                           by: Sequence[str] = ("scenario",)) -> pd.DataFrame:
     """How well a predicted slip std describes the errors (held-out windows).
 
+    Side-windows whose normalised error ``|error| / std`` is NaN (no prediction, no truth or
+    no std there) are left out of the coverage and counted: ``n_scored`` says how many
+    side-windows the coverage is over, as in :func:`error_table`.
+
     Parameters
     ----------
     pred : ndarray, shape (n, >=2)
@@ -147,9 +151,10 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     Returns
     -------
     pandas.DataFrame
-        Per group: ``n_windows``, ``coverage_1std`` and ``coverage_2std`` (fraction of
+        Per group: ``n_windows``, ``n_scored`` (side-windows with a normalised error, at most
+        ``2 n_windows``), ``coverage_1std`` and ``coverage_2std`` (fraction of the scored
         side-windows with ``|error| <= k std``; Gaussian 0.683, 0.954; NaN where the model
-        gives no std),
+        gives no std), and over every side-window of the group (NaN if one is):
         ``median_normalised_sq`` (Gaussian 0.455), ``mean_normalised_sq`` (Gaussian 1),
         ``median_std``, ``median_abs_err``.
     """
@@ -164,7 +169,7 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
         uu = u[sel].ravel()
         finite = uu[~np.isnan(uu)]     # a model without a std covers nothing: NaN, not 0
         rows.append({**dict(zip(by, key if isinstance(key, tuple) else (key,))),
-                     "n_windows": len(sel),
+                     "n_windows": len(sel), "n_scored": int(finite.size),
                      "coverage_1std": float(np.mean(finite <= 1)) if finite.size else np.nan,
                      "coverage_2std": float(np.mean(finite <= 2)) if finite.size else np.nan,
                      "median_normalised_sq": float(np.median(uu ** 2)),

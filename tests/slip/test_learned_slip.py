@@ -455,3 +455,20 @@ def test_dead_reckon_refuses_no_sample_nan_times_and_a_non_positive_track():
         dead_reckon(t, v, v, 0.0)
     assert dead_reckon(t, v, v, 0.0, yaw_rate_rad_s=np.zeros_like(t))[-1, 0] == \
         pytest.approx(0.45)
+
+
+def test_std_calibration_counts_the_side_windows_its_coverage_is_over():
+    # 3 of 8 side-windows without a prediction: the coverage 0.6 was over the other 5, and
+    # the table did not say so (error_table's n_scored does)
+    import pandas as pd
+
+    from terrain.slip.evaluation import std_calibration_table
+
+    pred = np.array([[0.01, 0.02], [np.nan, np.nan], [0.0, 0.05], [0.03, np.nan]])
+    table = std_calibration_table(pred, np.full((4, 2), 0.02), np.zeros((4, 2)),
+                                  pd.DataFrame({"scenario": ["a"] * 4}), np.ones(4, bool))
+    assert table.loc[0, "n_windows"] == 4 and table.loc[0, "n_scored"] == 5
+    assert table.loc[0, "coverage_1std"] == pytest.approx(3 / 5)
+    no_std = std_calibration_table(pred, np.full((4, 2), np.nan), np.zeros((4, 2)),
+                                   pd.DataFrame({"scenario": ["a"] * 4}), np.ones(4, bool))
+    assert no_std.loc[0, "n_scored"] == 0 and np.isnan(no_std.loc[0, "coverage_1std"])
