@@ -142,6 +142,12 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     -------
     ndarray, shape (n, 2)
         ``alpha_l, alpha_r`` clipped to [-1, 1].
+
+    Warns
+    -----
+    DataWarning
+        Slips outside [-1, 1] (a yaw rate the wheel speeds cannot give under eq. 27, e.g.
+        against their turn) were clipped (their count of the defined slips).
     """
     vl = np.asarray(v_left_m_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
@@ -151,7 +157,13 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     den = vr - rho * vl
     ok &= np.abs(den) > 1e-6
     a_r = np.where(ok, (vr - vl - track_m * w) / np.where(ok, den, 1.0), np.nan)
-    return np.clip(np.column_stack([rho * a_r, a_r]), -1.0, 1.0)
+    alpha = np.column_stack([rho * a_r, a_r])
+    out = np.abs(alpha) > 1.0
+    if out.any():
+        warnings.warn(f"endo_turning_slip: {int(out.sum())} of {int(ok.sum()) * 2} slips "
+                      "outside [-1, 1] clipped to it (a yaw rate the wheel speeds cannot give "
+                      "under eq. 27)", DataWarning, stacklevel=2)
+    return np.clip(alpha, -1.0, 1.0)
 
 
 def observer_slip(t_s: np.ndarray, yaw_rad: np.ndarray, v_left_m_s: np.ndarray,

@@ -472,3 +472,19 @@ def test_std_calibration_counts_the_side_windows_its_coverage_is_over():
     no_std = std_calibration_table(pred, np.full((4, 2), np.nan), np.zeros((4, 2)),
                                    pd.DataFrame({"scenario": ["a"] * 4}), np.ones(4, bool))
     assert no_std.loc[0, "n_scored"] == 0 and np.isnan(no_std.loc[0, "coverage_1std"])
+
+
+def test_endo_turning_slip_counts_the_slips_it_clips():
+    # a yaw rate against the wheels' turn gave alpha_l -4.68, alpha_r 2.15, returned as -1
+    # and 1 without a word
+    import warnings
+
+    from terrain.errors import DataWarning
+
+    vl, vr = np.array([0.2, 0.2, 0.5]), np.array([0.5, 0.5, 0.5])
+    with pytest.warns(DataWarning, match="2 of 4 slips"):
+        out = endo_turning_slip(vl, vr, np.array([0.5, -3.0, 0.0]), HUSKY.track_m)
+    np.testing.assert_array_equal(out[1], [-1.0, 1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        endo_turning_slip(vl[:1], vr[:1], np.array([0.5]), HUSKY.track_m)
