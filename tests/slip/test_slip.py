@@ -275,3 +275,27 @@ def test_agrimaro_slip_at_the_clip_keeps_a_std():
     note = [n for n in est.notes if "saturated to +-1" in n]
     assert len(note) == 1 and f" of {est.slip.size} " in note[0]
     assert 0 < int(note[0].split(" of ")[0]) <= clipped.sum()
+
+
+def test_estimate_lag_refuses_times_that_do_not_increase_by_name():
+    # shuffled times in the middle of the signal gave a lag of -0.75 s at correlation 0.96
+    # for a planted 0.37 s; times rounded to 0.1 s (duplicates) gave 0.40 s
+    from terrain.errors import TimeStepError
+    t = np.arange(0, 20, 0.01)
+    ref = np.clip(t - 2.0, 0, 1) + 0.5 * np.clip(t - 8.0, 0, 1) * (t < 12)
+    sig = np.interp(t - 0.37, t, ref)
+    q = np.arange(t.size)
+    q[100:-100] = np.random.default_rng(0).permutation(q[100:-100])
+    with pytest.raises(TimeStepError, match="t_sig_s"):
+        estimate_lag(t, ref, t[q], sig[q])
+    with pytest.raises(TimeStepError, match="t_sig_s.*duplicate"):
+        estimate_lag(t, ref, np.round(t, 1), sig)
+    with pytest.raises(TimeStepError, match="t_ref_s"):
+        estimate_lag(t[::-1], ref[::-1], t, sig)
+    from terrain.slip import gated_lag
+    with pytest.raises(TimeStepError, match="t_sig_s"):
+        gated_lag(t, ref, t[q], sig[q])
+    # a NaN sample is dropped as before, not taken for a step back
+    t_nan = t.copy()
+    t_nan[500] = np.nan
+    assert estimate_lag(t, ref, t_nan, sig).lag_s == pytest.approx(0.37, abs=0.01)
