@@ -72,8 +72,22 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
     Returns
     -------
     ndarray, shape (N, n)
+
+    Raises
+    ------
+    ShapeError
+        ``estimates`` not 2-D, ``truth`` of another shape (a single state is not broadcast
+        over the steps), or an angle column outside the ``n`` columns.
     """
-    e = np.asarray(estimates, dtype=float) - np.asarray(truth, dtype=float)
+    x = np.asarray(estimates, dtype=float)
+    t = np.asarray(truth, dtype=float)
+    if x.ndim != 2 or t.shape != x.shape:
+        raise ShapeError(f"estimates and truth must both be (N, n), got estimates {x.shape} "
+                         f"and truth {t.shape}")
+    bad = [j for j in angle_columns if not -x.shape[1] <= j < x.shape[1]]
+    if bad:
+        raise ShapeError(f"angle column {bad[0]} outside the {x.shape[1]} state columns")
+    e = x - t
     for j in angle_columns:
         e[:, j] = wrap_angle(e[:, j])
     return e
@@ -281,10 +295,16 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     ------
     ConfigError
         ``probability`` not a number in (0, 1).
+    ShapeError
+        ``values`` not 1-D, or ``dof`` neither a number nor of the shape of ``values``.
     """
     _check_probability(probability)
     v = np.asarray(values, dtype=float)
-    d = np.broadcast_to(np.asarray(dof, dtype=float), v.shape)
+    dof = np.asarray(dof, dtype=float)
+    if v.ndim != 1 or dof.shape not in ((), v.shape):
+        raise ShapeError(f"values (N,) and dof (a number or (N,)) expected, got values "
+                         f"{v.shape} and dof {dof.shape}")
+    d = np.broadcast_to(dof, v.shape)
     ok = np.isfinite(v) & (d > 0)
     v, d = v[ok], d[ok]
     if v.size == 0:

@@ -79,3 +79,20 @@ def test_a_coverage_outside_zero_one_is_refused(probability):
         chi2_test(np.full(10, 2.0), 2, probability)
     with pytest.raises(ConfigError, match="probability"):
         mean_chi2_bounds(2, 100, probability)
+
+
+def test_arrays_of_other_shapes_are_refused_by_name():
+    # a dof per step of another length was NumPy's bare "could not be broadcast" ValueError,
+    # as was a truth of another number of steps; a 1-D error with an angle column was a bare
+    # IndexError, and a truth of shape (n,) was broadcast over every step without a word
+    with pytest.raises(ShapeError, match="dof"):
+        chi2_test(np.full(100, 2.0), np.full(99, 2.0))
+    with pytest.raises(ShapeError, match="truth"):
+        state_errors(np.zeros((5, 3)), np.ones((4, 3)))
+    with pytest.raises(ShapeError, match="truth"):
+        state_errors(np.zeros((5, 3)), np.ones(3))
+    with pytest.raises(ShapeError, match="estimates"):
+        state_errors(np.zeros(5), np.ones(5), (0,))
+    with pytest.raises(ShapeError, match="angle column 3"):
+        state_errors(np.zeros((5, 3)), np.ones((5, 3)), (3,))
+    assert chi2_test(np.full(4, 2.0), np.full(4, 2.0)).n_samples == 4
