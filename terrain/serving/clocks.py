@@ -135,7 +135,7 @@ class HeldRun:
     """Samples of one stream held while their clock is told, and where the run began.
 
     Bounded: beyond ``capacity`` samples the oldest are dropped (the run's start time
-    stays).
+    stays; :attr:`n_dropped` and :attr:`dropped_last_s` say what was lost).
 
     Parameters
     ----------
@@ -152,15 +152,23 @@ class HeldRun:
     others_newest_s : dict of str to float
         Newest buffered time of every other stream when the run began, s (the reference
         of a move onto their clock).
+    n_dropped : int
+        Samples dropped by the bound since the run began (its oldest ones: stamps from
+        ``t0_s`` to :attr:`dropped_last_s`).
+    dropped_last_s : float
+        Stamp of the newest sample dropped, s (NaN when none was).
     """
 
-    __slots__ = ("_samples", "t0_s", "lead_s", "others_newest_s")
+    __slots__ = ("_samples", "t0_s", "lead_s", "others_newest_s", "n_dropped",
+                 "dropped_last_s")
 
     def __init__(self, capacity: int) -> None:
         self._samples: deque = deque(maxlen=int(capacity))
         self.t0_s = float("nan")
         self.lead_s = 0.0
         self.others_newest_s: dict[str, float] = {}
+        self.n_dropped = 0
+        self.dropped_last_s = float("nan")
 
     def __len__(self) -> int:
         return len(self._samples)
@@ -188,12 +196,13 @@ class HeldRun:
         others_newest_s : Mapping[str, float]
             Newest buffered time of every other stream now, s (copied).
         """
-        self._samples.clear()
+        self.clear()
         self.t0_s, self.lead_s = float(t0_s), float(lead_s)
         self.others_newest_s = dict(others_newest_s)
 
     def append(self, t_s: float, values: np.ndarray) -> None:
-        """Hold one sample (the oldest is dropped when :attr:`full`).
+        """Hold one sample (the oldest is dropped when :attr:`full`, and counted in
+        :attr:`n_dropped`).
 
         Parameters
         ----------
@@ -202,6 +211,9 @@ class HeldRun:
         values : numpy.ndarray
             ``(n_channels,)`` its values, copied (a robot may reuse the array it pushed).
         """
+        if self.full:
+            self.n_dropped += 1
+            self.dropped_last_s = self._samples[0][0]
         self._samples.append((float(t_s), np.array(values, dtype=float)))
 
     def repeats(self, t_s: float, values: np.ndarray) -> bool:
@@ -251,8 +263,10 @@ class HeldRun:
             self.append(ti, vi)
 
     def clear(self) -> None:
-        """Drop every held sample."""
+        """Drop every held sample (and forget those the bound dropped)."""
         self._samples.clear()
+        self.n_dropped = 0
+        self.dropped_last_s = float("nan")
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """The held samples as arrays.

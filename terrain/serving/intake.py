@@ -159,7 +159,8 @@ class StreamIntake:
         self._step_s = max(config.clock_restart_s, config.stale_s)
         self.unplaced: set[tuple[str, str]] = set()
 
-    def note(self, stream: str, t_s: float, reason: str) -> None:
+    def note(self, stream: str, t_s: float, reason: str, until_s: float | None = None
+             ) -> None:
         """Remember a rejection (or a restart) of ``stream`` at ``t_s`` for the flags.
 
         A rejection of the same reason as the stream's newest span, at most one window
@@ -177,15 +178,20 @@ class StreamIntake:
             Service time of the rejection, s.
         reason : str
             Its flag.
+        until_s : float or None
+            Service time of the last of a run of rejections from ``t_s`` on, s (no step
+            between them longer than a gap of the stream), noted as one span; None: the
+            one rejection at ``t_s``.
         """
+        last_s = t_s if until_s is None else max(t_s, until_s)
         log = self.events[stream]
         if log:
             first, last, kind = log[-1]
             if kind == reason and first <= t_s <= last + self._decisions.window_s:
-                if t_s > last:
-                    log[-1] = (first, t_s, reason)
+                if last_s > last:
+                    log[-1] = (first, last_s, reason)
                 return
-        log.append((t_s, t_s, reason))
+        log.append((t_s, last_s, reason))
 
     def ingest(self, stream: str, t: np.ndarray, v: np.ndarray, hold: bool = True,
                judged: bool = False) -> None:
@@ -438,11 +444,21 @@ class StreamIntake:
 
     def _release_ahead(self, stream: str, shift: float) -> None:
         """Ingest the held run of ``stream`` moved by ``shift`` (s; a shift is a restart of
-        that stream's clock alone: offset, counter and flag)."""
-        t, v = self._take_ahead(stream).arrays()
+        that stream's clock alone: offset, counter and flag). The oldest samples the bounded
+        hold dropped (counted as ``buffer_overflow`` when dropped) flag the windows that
+        would have read them, on the clock the run is put on, as samples pushed out of the
+        stream's buffer do (:meth:`ingest`; the first window when no decision is placed)."""
+        held = self._take_ahead(stream)
+        t, v = held.arrays()
         if shift:
             self._move_clock(stream, t, shift)
         self.ingest(stream, t, v, hold=False, judged=True)
+        if held.n_dropped:   # a run: no step in it longer than a gap of the stream
+            if self._decisions.next_t is None:
+                self.unplaced.add((stream, OVERFLOW))
+            else:
+                self.note(stream, held.t0_s + shift, OVERFLOW,
+                          until_s=held.dropped_last_s + shift)
         if shift:
             self.note(stream, float(t[-1]), "clock_restart")
 

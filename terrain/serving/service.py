@@ -7,8 +7,9 @@ unbounded stream. A chunk longer than half the buffer is taken in pieces, decidi
 each; a sample pushed out of its buffer before any decision could read it (a backlog of one
 stream while another lags) is counted as ``buffer_overflow`` in
 :attr:`StreamService.refused_samples` and flags the windows that would have read it (the
-first window, when it was lost before any decision was placed). Every ``hop_s`` of
-service time the service
+first window, when it was lost before any decision was placed), as is a sample dropped from
+a full run held ahead of the other streams' clock (flagged once the run is taken, on the
+clock it is put on). Every ``hop_s`` of service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns the last window of the model's length with the project's NumPy alignment core

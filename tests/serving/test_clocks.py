@@ -33,8 +33,12 @@ def test_held_run_is_bounded_and_keeps_its_start():
     assert v.shape == (3, 2) and v[0, 0] == 2.0
     assert held.t0_s == 10.0 and held.lead_s == 0.4          # the start outlives the bound
     assert held.others_newest_s == {"wheels": 9.9}
+    # what the bound dropped: the oldest two, 10.0 to 10.1 s (their windows are flagged
+    # when the run is released)
+    assert held.n_dropped == 2 and held.dropped_last_s == pytest.approx(10.1)
     held.clear()
     assert len(held) == 0 and held.last_t == -np.inf and held.arrays()[1].shape[0] == 0
+    assert held.n_dropped == 0 and np.isnan(held.dropped_last_s)
 
 
 def test_extend_clock_begins_a_new_run_at_a_break():

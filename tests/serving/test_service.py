@@ -1434,3 +1434,33 @@ def test_wheel_speeds_in_kmh_are_flagged_and_not_classified(wheel_model, unseen_
     # Husky's); the rule was off for such models before
     shipped = replace(wheel_model, metadata=MappingProxyType({"dataset": "borealtc"}))
     assert [d.flags for d in push_wheels(service(shipped), kmh)] == [d.flags for d in got]
+
+
+def test_samples_lost_from_a_full_hold_ahead_flag_the_windows_that_would_read_them(
+        all_model, unseen_run):
+    """The IMU clock steps 847.5 s ahead after 10 s and is held until the wheels tell it
+    (4 s later); the hold keeps buffer_samples samples, so with 250 the oldest 251 held
+    (the first 2.5 s after the step) were counted as buffer_overflow but flagged no
+    decision: the first window after the release (its start in that stretch) was short
+    and said nothing of them. The lost stretch is flagged, once the run is put back on the
+    wheels' clock, on the windows that would have read it (decisions already made, stale
+    while the IMU was held, are not changed)."""
+    from terrain.serving.replay import interleave
+    t_cut = float(unseen_run.streams["imu"][TIME].iloc[0]) + 10.0
+    window_s = all_model.window.window_s
+    svc, got = service(all_model, buffer_samples=250), []
+    for stream, t, v in interleave(unseen_run, svc.needed_streams):
+        if stream == "imu" and t[0] >= t_cut:
+            t = t + 847.5
+        got += svc.push(stream, t, v)
+    assert svc.clock_offsets_s == {"imu": -847.5, "wheels": 0.0}
+    assert svc.refused_samples == {("imu", "buffer_overflow"): 251}
+    lost_until = t_cut + 2.5      # the 251 oldest held: t_cut to t_cut + 2.5 s, at 100 Hz
+    flagged = [d.t_s for d in got if "buffer_overflow" in d.flags]
+    assert flagged, "the loss flagged no decision"
+    # every window [t - window_s, t) holding a lost sample decided after the release (the
+    # first one short for want of them), and only those
+    held_until = max(d.t_s for d in got if "stale" in d.flags)
+    released = [d for d in got if d.t_s > held_until]
+    assert "short" in released[0].flags
+    assert flagged == [d.t_s for d in released if d.t_s - window_s <= lost_until + 1e-9]
