@@ -178,6 +178,9 @@ def main(args: argparse.Namespace) -> int:
         recall = pooled_recall(rep.confusion)
         metrics = {f"{k}_mean": v["mean"] for k, v in summary.items()}
         metrics.update({f"{k}_std": v["std"] for k, v in summary.items()})
+        # a class's recall is averaged over the folds that test it: how many, beside it
+        metrics.update({f"{k}_n_folds": v["n_folds"] for k, v in summary.items()
+                        if k.startswith("recall_")})
         metrics.update({f"{k}_pooled": float(rep.pooled[k].mean()) for k in HEADLINE})
         metrics.update({f"recall_{c}_pooled": v for c, v in recall.items()})
         metrics.update(inputs.metrics())
@@ -211,9 +214,12 @@ def main(args: argparse.Namespace) -> int:
               f"(min {s['min']:.3f}, max {s['max']:.3f})")
     print(f"  pooled per-class recall (confusion matrix, counts summed over {len(pooled)} "
           f"seed(s)): {', '.join(f'{c} {v:.2f}' for c, v in recall.items())}")
-    recalls = ", ".join(f"{k[7:]} {v['mean']:.2f}" for k, v in summary.items()
-                        if k.startswith("recall_"))
-    print(f"  per-class recall, mean over folds: {recalls}")
+    n_folds = len(rep.folds)
+    recalls = ", ".join(
+        f"{k[7:]} {v['mean']:.2f}"
+        + (f" ({v['n_folds']} of {n_folds} folds)" if v["n_folds"] < n_folds else "")
+        for k, v in summary.items() if k.startswith("recall_"))
+    print(f"  per-class recall, mean over the folds holding the class: {recalls}")
     print(inputs.text())
     for note in rep.notes:
         if note not in result.input_notes:  # the input report above says these

@@ -318,19 +318,23 @@ class CVReport:
     pooled: pd.DataFrame
     notes: list[str] = field(default_factory=list)
 
-    def summary(self) -> dict[str, dict[str, float]]:
-        """Mean, std, min and max over folds (all seeds) of every metric.
+    def summary(self) -> dict[str, dict[str, float | int]]:
+        """Mean, std, min and max over folds (all seeds) of every metric, and how many
+        folds that is.
 
         Returns
         -------
         dict
             Metric name (each float column of :attr:`folds` but ``seed``/``fold``) ->
-            ``{"mean", "std" (population, ddof=0), "min", "max"}``.
+            ``{"mean", "std" (population, ddof=0), "min", "max", "n_folds"}``: over the
+            folds with a value, ``n_folds`` of them (for ``recall_<CLASS>``, the folds whose
+            test windows hold the class; every fold for the other metrics).
         """
         cols = [c for c in self.folds.columns if c not in ("seed", "fold")
                 and self.folds[c].dtype.kind == "f"]
         return {c: {"mean": float(self.folds[c].mean()), "std": float(self.folds[c].std(ddof=0)),
-                    "min": float(self.folds[c].min()), "max": float(self.folds[c].max())}
+                    "min": float(self.folds[c].min()), "max": float(self.folds[c].max()),
+                    "n_folds": int(self.folds[c].notna().sum())}
                 for c in cols}
 
 

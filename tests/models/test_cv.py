@@ -401,3 +401,24 @@ def test_single_run_blocks_below_two_are_refused_before_any_data(blocks):
     with pytest.raises(ConfigError, match="single_run_blocks"):
         CompareConfig(models=("svm",), single_run_blocks=blocks)
     assert ExperimentConfig(single_run_blocks=2).single_run_blocks == 2
+
+
+def test_summary_says_over_how_many_folds_each_metric_is_averaged():
+    """A class with 2 runs among 5 folds is tested in 2 of them: its recall's mean (0.225)
+    was over those 2 only, next to metrics over all 5, with nothing saying so."""
+    rng = np.random.default_rng(0)
+    per_run = 20
+    runs = [("ASPHALT", i) for i in range(6)] + [("SNOW", i) for i in range(6)] + \
+        [("MUD", i) for i in range(2)]
+    y = np.repeat([c for c, _ in runs], per_run).astype(object)
+    groups = np.repeat([f"sim/{c}/{i:02d}" for c, i in runs], per_run).astype(object)
+    X = rng.standard_normal((y.size, 4))
+    X[:, 0] += np.select([y == "ASPHALT", y == "SNOW"], [-2.0, 2.0], 0.0)
+    t0 = np.tile(np.arange(per_run) * 2.0, len(runs))
+    report = cross_validate(lambda seed: make_svm(SVMConfig(), seed), X, y, groups, groups,
+                            t0, t0 + 2.0, protocol="grouped", seeds=(0,), n_splits=5)
+    summary = report.summary()
+    held = int(report.folds["recall_MUD"].notna().sum())
+    assert held == 2 and summary["recall_MUD"]["n_folds"] == held
+    assert summary["recall_MUD"]["mean"] == pytest.approx(report.folds["recall_MUD"].mean())
+    assert summary["recall_ASPHALT"]["n_folds"] == summary["accuracy"]["n_folds"] == 5

@@ -81,11 +81,18 @@ def test_cv_vulpi_reports_grouped_metrics_and_logs_mlflow(workdir, capsys):
     assert np.asarray(report["confusion"]["counts"]).sum() == 3 * report["n_windows"]
     printed = capsys.readouterr().out
     assert "MLflow run" in printed
+    # each class's recall says over how many of the folds it is averaged (those testing it)
+    n_folds = {k[7:]: v["n_folds"] for k, v in report["metrics"].items()
+               if k.startswith("recall_")}
+    assert set(n_folds) == set(report["classes"]) and max(n_folds.values()) == 15
+    line = next(ln for ln in printed.splitlines() if "per-class recall, mean over" in ln)
+    assert all(f"({n} of 15 folds)" in line for n in n_folds.values() if n < 15)
     assert (workdir / "mlflow.db").exists()
     import mlflow
     mlflow.set_tracking_uri(f"sqlite:///{workdir / 'mlflow.db'}")
     run = mlflow.get_run(report["mlflow_run_id"])
     assert run.data.params["dataset"] == "vulpi"
+    assert {f"recall_{c}_n_folds" for c in n_folds} <= set(run.data.metrics)
     assert "code_version" in run.data.tags
     arts = {a.path for a in mlflow.MlflowClient().list_artifacts(run.info.run_id)}
     assert {"confusion_matrix.png", "confusion_matrix.csv", "predictions.csv"} <= arts
