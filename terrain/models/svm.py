@@ -20,6 +20,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
 from features.transformers import WindowFeatures
+from terrain.errors import ConfigError, first_items
 from terrain.models.compiled import CompiledPipeline
 
 
@@ -75,12 +76,55 @@ def make_svm(config: SVMConfig = SVMConfig(), random_state: int = 0) -> Pipeline
     return Pipeline([("scale", StandardScaler()), ("svc", svc)])
 
 
+class GroupedSearch(GridSearchCV):
+    """``GridSearchCV`` over inner folds grouped by run (:func:`make_search`) that refuses
+    fewer runs than folds with a :class:`~terrain.errors.ConfigError` (scikit-learn's own
+    error names neither the runs nor the setting). Parameters as for ``GridSearchCV``.
+    """
+
+    def fit(self, X, y=None, **params):
+        """Check the runs, then fit as ``GridSearchCV.fit``.
+
+        Parameters
+        ----------
+        X : array-like
+            ``(n_windows, n_features)`` training features.
+        y : array-like or None
+            ``(n_windows,)`` labels.
+        **params : dict
+            Fit parameters; ``groups``: ``(n_windows,)`` the windows' runs (split units).
+
+        Returns
+        -------
+        GroupedSearch
+            ``self``.
+
+        Raises
+        ------
+        ConfigError
+            Fewer runs than inner folds (``SVMConfig.inner_splits``), ``groups`` missing
+            included; the message names the runs.
+        """
+        groups = params.get("groups")
+        runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
+        n_splits = self.cv.get_n_splits()
+        if len(runs) < n_splits:
+            given = first_items(runs, word="run") if runs else "no groups given"
+            raise ConfigError(f"the grouped hyperparameter search splits its training windows "
+                              f"by run into {n_splits} inner folds (SVMConfig.inner_splits): "
+                              f"it got {len(runs)} runs ({given}) and needs at least "
+                              f"{n_splits}; give more runs or fewer inner_splits (>= 2)")
+        return super().fit(X, y, **params)
+
+
 def make_search(config: SVMConfig = SVMConfig(), random_state: int = 0,
-                n_jobs: int | None = None) -> GridSearchCV:
+                n_jobs: int | None = None) -> GroupedSearch:
     """Grid search over C and gamma with inner folds grouped by run.
 
     Call ``fit(X, y, groups=groups)``: the inner ``StratifiedGroupKFold`` only ever splits the
-    training runs it is given, so tuning never sees a test run.
+    training runs it is given, so tuning never sees a test run; fewer runs than
+    ``config.inner_splits`` are a :class:`~terrain.errors.ConfigError` at ``fit``
+    (:class:`GroupedSearch`).
 
     Parameters
     ----------
@@ -94,14 +138,14 @@ def make_search(config: SVMConfig = SVMConfig(), random_state: int = 0,
 
     Returns
     -------
-    sklearn.model_selection.GridSearchCV
-        Unfitted search scored by macro F1, refitted on the whole training split with the
-        best ``svc__C`` and ``svc__gamma``.
+    GroupedSearch
+        Unfitted ``GridSearchCV`` scored by macro F1, refitted on the whole training split
+        with the best ``svc__C`` and ``svc__gamma``.
     """
     inner = StratifiedGroupKFold(config.inner_splits, shuffle=True, random_state=random_state)
     grid = {"svc__C": list(config.search_C), "svc__gamma": list(config.search_gamma)}
-    return GridSearchCV(make_svm(config, random_state), grid, cv=inner, scoring="f1_macro",
-                        n_jobs=n_jobs, refit=True)
+    return GroupedSearch(make_svm(config, random_state), grid, cv=inner, scoring="f1_macro",
+                         n_jobs=n_jobs, refit=True)
 
 
 def _pair_matrices(n_classes: int) -> tuple[np.ndarray, np.ndarray]:

@@ -422,3 +422,19 @@ def test_summary_says_over_how_many_folds_each_metric_is_averaged():
     assert held == 2 and summary["recall_MUD"]["n_folds"] == held
     assert summary["recall_MUD"]["mean"] == pytest.approx(report.folds["recall_MUD"].mean())
     assert summary["recall_ASPHALT"]["n_folds"] == summary["accuracy"]["n_folds"] == 5
+
+
+def test_a_search_over_fewer_runs_than_its_inner_folds_is_a_config_error():
+    """Two runs for 3 inner folds reached scikit-learn's bare ValueError ('Cannot have
+    number of splits n_splits=3 greater than the number of groups: 2'), no groups its
+    'number of groups: 1'."""
+    X, y, groups, _ = _planted(n_runs=2)
+    search = make_search(SVMConfig(search_C=(1.0,), search_gamma=("scale",)))
+    with pytest.raises(ConfigError, match=r"3 inner folds \(SVMConfig.inner_splits\).* 2 runs "
+                                          r"\(runs sim/T/00, sim/T/01\) and needs at least 3"):
+        search.fit(X, y, groups=groups)
+    with pytest.raises(ConfigError, match=r"0 runs \(no groups given\)"):
+        search.fit(X, y)
+    X, y, groups, _ = _planted(n_runs=6)                 # enough: fits, as before
+    assert make_search(SVMConfig(search_C=(1.0,), search_gamma=("scale",))).fit(
+        X, y, groups=groups).best_params_["svc__C"] == 1.0
