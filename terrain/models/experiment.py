@@ -552,9 +552,12 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
 
     The SVM is ``features + scaler + SVC`` with Platt-scaled probabilities; with
     ``config.search`` its hyperparameters come from a grouped grid search over all runs
-    first. Other models (``config.model``) take the raw windows directly; the ensembles
-    vote with equal weights (:meth:`ExperimentConfig.model_config` leaves
-    ``ModelConfig.tune_weights`` off), logged in ``info`` as ``weight_<member>``.
+    first, its inner folds over the split units of :func:`run_cv` (a single-run class cut
+    into ``single_run_blocks`` time blocks, :func:`~terrain.models.cv.grouped_units`; the
+    windows straddling a block boundary left out of the search only). Other models
+    (``config.model``) take the raw windows directly; the ensembles vote with equal weights
+    (:meth:`ExperimentConfig.model_config` leaves ``ModelConfig.tune_weights`` off), logged
+    in ``info`` as ``weight_<member>``.
 
     Parameters
     ----------
@@ -584,7 +587,8 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     windows : WindowSet
         The training windows.
     info : dict
-        Chosen hyperparameters.
+        Chosen hyperparameters (``search_split_classes``: the classes the search cut into
+        time blocks, when any).
     """
     check_servable_signals(config.signals)
     # training uses every window of the training cut (train_hop_s), when one is set
@@ -604,9 +608,16 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         return model, ws, info
     svm = replace(config.svm, probability=True)
     if config.search:
-        fx = feature_extractor(ws)
+        # the inner folds split the units run_cv splits: a single-run class grouped by run
+        # would be in one inner test fold only, absent from that fold's training
+        tuned, tuned_y, units = ws, labels, ws.groups
+        if config.protocol != "paper":
+            tuned, tuned_y, units, split, _ = grouped_units(ws, config.single_run_blocks)
+            if split:
+                info["search_split_classes"] = ",".join(split)
+        fx = feature_extractor(tuned)
         search = make_search(config.svm, config.seeds[0], n_jobs=n_jobs)
-        search.fit(fx.transform(ws.X), labels, groups=ws.groups)
+        search.fit(fx.transform(tuned.X), tuned_y, groups=units)
         best = search.best_params_
         svm = replace(svm, C=best["svc__C"], gamma=best["svc__gamma"])
         info.update({"best_C": best["svc__C"], "best_gamma": best["svc__gamma"]})

@@ -169,3 +169,37 @@ def test_paper_protocol_says_its_vote_is_per_partition(vulpi_runs):
     res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
                                   protocol="paper"), runs=vulpi_runs, progress=False)
     assert any("votes per 5 s partition" in note for note in res.report.notes)
+
+
+def test_fit_pipeline_search_splits_a_single_run_class_as_run_cv_does(vulpi_runs,
+                                                                      monkeypatch):
+    """terrain train --search grouped its inner folds by run: Vulpi's DIRT_ROAD (one run)
+    was in the test side of one of the 3 inner folds, whose training lacked it (all 40 of
+    its windows scored with recall 0 by construction), and never tested in the other two.
+    The search now splits the units run_cv splits (grouped_units: the class's run cut into
+    single_run_blocks time blocks), so every inner fold trains and tests every class."""
+    from terrain.models import experiment
+    from terrain.models.svm import SVMConfig
+
+    seen = {}
+    real = experiment.make_search
+
+    def spy(*args, **kwargs):
+        search = real(*args, **kwargs)
+        fit = search.fit
+
+        def record(X, y, groups=None, **params):
+            seen.update(y=np.asarray(y), groups=np.asarray(groups), cv=search.cv)
+            return fit(X, y, groups=groups, **params)
+        search.fit = record
+        return search
+
+    monkeypatch.setattr(experiment, "make_search", spy)
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,), search=True,
+                              svm=SVMConfig(search_C=(10.0,), search_gamma=("scale",)))
+    _, ws, info = experiment.fit_pipeline(config, runs=vulpi_runs)
+    y, groups = seen["y"], seen["groups"]
+    for train, test in seen["cv"].split(np.zeros(len(y)), y, groups):
+        assert set(y[train]) == set(y) and "DIRT_ROAD" in set(y[test])
+    assert info["search_split_classes"] == "DIRT_ROAD"
+    assert len(ws) >= len(y)          # the model itself is fitted on every window
