@@ -49,6 +49,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from terrain.control.traction import check_slip_targets
 from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import (TerrainParams, get_terrain, is_deformable,
                                     steady_slip, traction_peak)
@@ -138,6 +139,12 @@ class DesiredSlip:
         Where the curve comes from (catalogue entry) and the relation used.
     method : str
         The rule of each target, and whether the curve is direct, by analogy or calibrated.
+
+    Raises
+    ------
+    ConfigError
+        A target of the wrong sign, beyond [-1, 1] or not a real number
+        (:func:`terrain.control.traction.check_slip_targets`).
     """
 
     terrain: str
@@ -146,6 +153,9 @@ class DesiredSlip:
     steady: float
     source: str
     method: str
+
+    def __post_init__(self) -> None:
+        check_slip_targets("DesiredSlip", self.traction, self.braking, self.steady)
 
 
 def classifier_classes(measured: Sequence[str]) -> tuple[str, ...]:

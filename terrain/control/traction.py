@@ -257,16 +257,63 @@ class SlipTargets:
     Parameters
     ----------
     traction : float
-        Target while accelerating, > 0.
+        Target while accelerating, in (0, 1] (dimensionless, SAE slip: wheel faster than the
+        ground).
     braking : float
-        Target while braking, < 0.
+        Target while braking, in [-1, 0) (wheel slower than the ground).
     steady : float
-        Target while cruising, >= 0.
+        Target while cruising, in [0, 1].
+
+    Raises
+    ------
+    ConfigError
+        A target that is not a real number, or outside its range (:func:`check_slip_targets`),
+        named with its value.
     """
 
     traction: float
     braking: float
     steady: float
+
+    def __post_init__(self) -> None:
+        check_slip_targets("SlipTargets", self.traction, self.braking, self.steady)
+
+
+def check_slip_targets(owner: str, traction: float, braking: float, steady: float) -> None:
+    """Refuse slip targets of the wrong sign or beyond the SAE slip's range.
+
+    The targets are magnitudes for forward driving in the SAE convention of eqs. 8.4-8.5
+    (seed 001 ch. 8.3.2; the sign for reversing comes from ``sgn(v_long)``, eqs. 8.7-8.9):
+    a traction target is positive (wheel faster than the ground), a braking target negative,
+    a steady target not negative (Table 8.1: +0.1, -0.15), each within [-1, 1], the range of
+    the SAE slip. A traction target of the wrong sign makes the one-sided limiter slow a wheel
+    that does not slip; NaN never matches a slip, so the controller would never act.
+
+    Parameters
+    ----------
+    owner : str
+        Name of the record, for the message (``"SlipTargets"``, ``"DesiredSlip"``).
+    traction : float
+        Traction target, dimensionless, must be in (0, 1].
+    braking : float
+        Braking target, dimensionless, must be in [-1, 0).
+    steady : float
+        Steady target, dimensionless, must be in [0, 1].
+
+    Raises
+    ------
+    ConfigError
+        A target that is not a real number, or outside its range, named with its value.
+    """
+    config_numbers(owner, traction=traction, braking=braking, steady=steady)
+    checks = (("traction", traction, 0.0 < traction <= 1.0, "in (0, 1]"),
+              ("braking", braking, -1.0 <= braking < 0.0, "in [-1, 0)"),
+              ("steady", steady, 0.0 <= steady <= 1.0, "in [0, 1]"))
+    for name, value, ok, rule in checks:
+        if not ok:   # NaN fails each comparison
+            raise ConfigError(f"{owner}.{name} must be {rule} (SAE slip magnitude for forward "
+                              "driving: traction > 0, braking < 0; the sign for reversing "
+                              f"comes from sgn(v_long)), got {value}")
 
 
 class TractionState(NamedTuple):

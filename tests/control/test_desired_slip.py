@@ -205,3 +205,12 @@ def test_soft_soil_efficiency_optimum_above_the_cap_comes_from_the_curves():
         assert max_tractive_efficiency(replace(terrain, hysteresis=0.0))[0] > 0.25, name
     # a Brixius soil (strong tyre, stiff soil) peaks at low slip, as in Zoz & Grisso (2003)
     assert 0.1 < max_tractive_efficiency(get_terrain("UNPLOUGHED"))[0] < 0.13
+
+
+def test_desired_slip_rows_refuse_targets_of_the_wrong_sign():
+    """The table's rows carry the same sign rules as SlipTargets (traction > 0, braking < 0);
+    a hand-made row with a positive braking target was accepted silently."""
+    from terrain.control.desired_slip import DesiredSlip
+
+    with pytest.raises(ConfigError, match=r"DesiredSlip\.braking .*got 0\.15"):
+        DesiredSlip("X", 0.1, 0.15, 0.0, "hand-made", "none")

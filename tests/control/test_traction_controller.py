@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -148,8 +149,8 @@ def test_safe_output_on_stale_or_non_finite_input():
         out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0], **bad)
         assert out.safe.all() and np.all(out.omega_cmd_rad_s == 0.7), bad
     out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0],
-                   targets=SlipTargets(np.nan, -0.1, 0.0))
-    assert out.safe.all()
+                   targets=types.SimpleNamespace(traction=np.nan, braking=-0.1, steady=0.0))
+    assert out.safe.all()    # any object with the three targets (SlipTargets refuses NaN)
 
 
 def test_bumpless_disable_then_enable():
@@ -452,3 +453,28 @@ def test_the_agrimaro_controller_no_longer_acts_on_encoder_noise_on_the_slope():
     assert off["peak_slip_gated"] < 0.04
     assert on["peak_slip_gated"] < 0.07                  # 0.869 with the thesis's threshold
     assert on["energy_j_per_m"] <= 1.03 * off["energy_j_per_m"]
+
+
+@pytest.mark.parametrize("field, value", [("traction", -0.1), ("traction", 0.0),
+                                          ("braking", 0.15), ("braking", 0.0),
+                                          ("steady", -0.05), ("traction", 1.5),
+                                          ("braking", -2.0), ("steady", float("nan")),
+                                          ("traction", "0.1"), ("braking", None)])
+def test_slip_targets_with_the_wrong_sign_are_typed_errors_naming_the_field(field, value):
+    """SAE slip (eq. 8.5) of forward driving: traction > 0, braking < 0, steady >= 0, each in
+    [-1, 1]; SlipTargets(-0.1, 0.15, -0.05) was accepted silently (the limiter then slowed a
+    wheel that did not slip and sped up one that locked)."""
+    good = {"traction": 0.1, "braking": -0.15, "steady": 0.0}
+    with pytest.raises(ConfigError, match=rf"SlipTargets\.{field}"):
+        SlipTargets(**{**good, field: value})
+
+
+def test_every_shipped_table_row_is_valid_slip_targets():
+    from terrain.control.desired_slip import DesiredSlipConfig
+    from terrain.terramechanics.catalogue import TERRAIN_NAMES
+
+    for cfg in (DesiredSlipConfig(), DesiredSlipConfig(traction_fraction=0.5,
+                                                       deformable_cap=0.05)):
+        table = build_slip_table(TERRAIN_NAMES, cfg)
+        for e in [*table.entries.values(), table.fallback]:
+            assert SlipTargets(e.traction, e.braking, e.steady).traction == e.traction
