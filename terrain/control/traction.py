@@ -27,7 +27,8 @@ Beyond the thesis (their settings in :class:`TractionControlConfig`):
   1 s of traction, when the integral was clamped to the static +-limit only);
 * output saturation: ``|PID_out| <= output_fraction * omega_max``, the command stays within
   ``[-omega_max, omega_max]`` and never crosses zero (slip control modulates the wheel speed,
-  it never reverses a wheel nor moves one the low level holds still);
+  it never reverses a wheel nor moves one the low level holds still); where these conflict
+  (a low-level command beyond ``omega_max``) the wheel speed limit and the half-line win;
 * one-sided limiting (``one_sided``, default): the correction only ever moves the wheel speed
   towards the ground speed, so the robot is never driven faster than commanded;
 * derivative on the measured slip (no kick when the target switches between traction, braking
@@ -37,7 +38,8 @@ Beyond the thesis (their settings in :class:`TractionControlConfig`):
   correction (with ``ki > 0``), so only the proportional and derivative action on the current
   error is added, never a stale or reset integral;
 * safe output: a non-finite input or an estimate older than ``max_input_age_s`` gives
-  ``omega_cmd = omega_low_level`` (no correction) at once and resets that wheel's state.
+  ``omega_cmd = omega_low_level`` (no correction; clipped to ``+-omega_max`` like every
+  command) at once and resets that wheel's state.
 
 Why not simple-pid (2.0.1) for the building blocks: its windup guard clamps the integral to
 the output limits. That is acceptable for a fixed limit, not here: the room left for the
@@ -370,11 +372,13 @@ class TractionOutput(NamedTuple):
     Parameters
     ----------
     omega_cmd_rad_s : ndarray, shape (n,)
-        Final wheel speed command ``omega_low_level + PID_out`` (eq. 8.3), rad/s; exactly
-        ``omega_low_level`` where ``safe`` (the controller adds nothing); a non-finite
-        ``omega_low_level`` is refused (:func:`traction_control_step`).
+        Final wheel speed command ``omega_low_level + PID_out`` (eq. 8.3), rad/s, always
+        within ``[-omega_max, omega_max]``; ``omega_low_level`` where ``safe`` (the
+        controller adds nothing; a low-level command beyond ``omega_max`` is still clipped to
+        it); a non-finite ``omega_low_level`` is refused (:func:`traction_control_step`).
     correction_rad_s : ndarray, shape (n,)
-        ``PID_out`` actually applied (saturated, or decaying while disabled), rad/s.
+        ``PID_out`` actually applied (saturated, or decaying while disabled), rad/s; beyond
+        the output limit only where the low-level command exceeds ``omega_max`` by more.
     slip : ndarray, shape (n,)
         Measured SAE slip (eq. 8.4; NaN where the input is not finite).
     desired_slip : ndarray, shape (n,)
@@ -504,8 +508,9 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                 "command, it cannot make one up", column="omega_low_level_rad_s")
         rs = wm * radius
         ok = global_ok and math.isfinite(ll + rs + vl + al + sl)
-        if not ok:  # safe output: no correction, memory dropped
-            rows.append((ll, 0.0, sl, 0.0, 0.0, STEADY, False, True,
+        if not ok:  # safe output: no correction (only the wheel speed limit), memory dropped
+            cmd = min(max(ll, -w_max), w_max)
+            rows.append((cmd, cmd - ll, sl, 0.0, 0.0, STEADY, False, True,
                          0.0, 0.0, False, 0.0, 0.0, False))
             continue
         power = al * vl                                                   # eq. 8.6
@@ -519,12 +524,16 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         use = max(abs(rs), abs(vl)) >= thr_w
         error = desired - sl if use else 0.0                              # eq. 8.1
         # output limits: |PID_out| <= limit, command in the low level's half-line
-        hi = min(limit, (w_max if ll > 0.0 else 0.0) - ll)
+        room_hi = (w_max if ll > 0.0 else 0.0) - ll
+        hi = min(limit, room_hi)
         lo = max(-limit, (-w_max if ll < 0.0 else 0.0) - ll)
         if one_sided:  # limiter: only towards the ground speed (less |slip|)
             slow_down = (mode != BRAKING) == (ll > 0.0)
             hi, lo = (min(hi, 0.0), lo) if slow_down else (hi, max(lo, 0.0))
-        hi = max(hi, lo)
+        # no room left (|omega_ll| beyond omega_max + limit, or beyond omega_max against the
+        # limiter's side): the wheel speed limit and the half-line win, on either sign
+        hi = min(max(hi, lo), room_hi)
+        lo = min(lo, hi)
         # derivative on the measured slip, low-pass filtered
         if use:
             raw_d = (sl - s_prev) / dt if s_valid else 0.0

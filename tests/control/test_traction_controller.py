@@ -478,3 +478,23 @@ def test_every_shipped_table_row_is_valid_slip_targets():
         table = build_slip_table(TERRAIN_NAMES, cfg)
         for e in [*table.entries.values(), table.fallback]:
             assert SlipTargets(e.traction, e.braking, e.steady).traction == e.traction
+
+
+@pytest.mark.parametrize("omega_ll, accel", [(160.0, 1.0), (200.0, 1.0), (120.0, -1.0),
+                                             (-200.0, 1.0), (-120.0, -1.0), (120.0, 0.0)])
+@pytest.mark.parametrize("one_sided", [True, False])
+def test_command_never_exceeds_omega_max_even_for_a_low_level_command_beyond_it(
+        omega_ll, accel, one_sided):
+    """omega_max 100, output limit 50: a low-level command of 160 rad/s came out as 110
+    (the output limit won over the wheel speed limit beyond 1.5 omega_max), and 120 rad/s
+    while braking with the limiter as 120 (its side forbade slowing); -200 gave -100. The
+    wheel speed limit and the command's half-line now win over the output limit and the
+    limiter's side, on both signs and also where the input forces the safe output."""
+    cfg = TractionControlConfig(kp=1.0, one_sided=one_sided)
+    v = math.copysign(50.0, omega_ll)
+    for v_in in (v, np.nan):
+        out, _ = _step(cfg, TractionState.zeros(1), omega_ll, omega_ll, v_in,
+                       accel * math.copysign(1.0, v), chassis=50.0)
+        cmd = out.omega_cmd_rad_s[0]
+        assert cmd == pytest.approx(math.copysign(100.0, omega_ll)), (v_in, out)
+        assert cmd == pytest.approx(omega_ll + out.correction_rad_s[0])
