@@ -210,12 +210,17 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        ``peak_slip_off/on``, ``peak_slip_cut`` (fraction), ``energy_off/on`` (J/m),
+        ``peak_slip_off/on``, ``peak_slip_cut`` (fraction), ``energy_off/on`` (J/m, mean
+        over the seeds whose run moves: a run below
+        :data:`~terrain.control.closed_loop.MIN_DISTANCE_M` has none),
+        ``energy_runs_off/on`` (how many runs that mean is over, of ``runs``),
         ``energy_cut`` (fraction), ``time_to_speed_off/on`` (s, mean over the seeds whose
         run reaches cruise), ``time_to_speed_reached_off/on`` (how many runs reach it, of
         ``runs``, the seeds of the cell), ``time_increase`` (fraction: mean time on over
         mean time off, both over the seeds where both runs reach cruise, so a run that
-        never gets there is counted, not averaged out), ``slip_rmse_off/on``,
+        never gets there is counted, not averaged out), ``slip_rmse_off/on`` (mean over the
+        seeds whose controller is ever enabled), ``slip_rmse_runs_off/on`` (how many runs
+        that mean is over, of ``runs``),
         ``steady_within_0_02_on`` (fraction of steady samples with |slip - target| <=
         0.02, mean over the seeds whose controlled run has steady samples: a run without
         any has no share and is left out), ``steady_within_0_02_runs_on`` (how many runs
@@ -245,10 +250,16 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
     paired = pairs.groupby(level=keys).mean().reindex(out.index)
     out["time_increase"] = paired["traction"] / paired["off"] - 1.0
     out["steady_within_0_02_on"] = mean[("steady_slip_within_0_02", "traction")]
-    # a run without steady samples has no share (None) and is left out of that mean: counted
-    steady = results.assign(s=results["steady_slip_within_0_02"].astype(float))
-    out["steady_within_0_02_runs_on"] = steady[steady["controller"] == "traction"].groupby(
-        keys)["s"].count().reindex(out.index).fillna(0).astype(int)
+    # a run without a value (None: no steady samples, no distance for J/m, never enabled for
+    # the RMSE) is left out of that mean: counted
+    for c, short, ctrls in (("steady_slip_within_0_02", "steady_within_0_02", ("traction",)),
+                            ("energy_j_per_m", "energy", ("off", "traction")),
+                            ("slip_rmse", "slip_rmse", ("off", "traction"))):
+        valid = results.assign(s=results[c].astype(float))
+        for ctrl in ctrls:
+            runs = valid[valid["controller"] == ctrl].groupby(keys)["s"].count()
+            out[f"{short}_runs_{'on' if ctrl == 'traction' else ctrl}"] = runs.reindex(
+                out.index).fillna(0).astype(int)
     out["terrain_accuracy_on"] = mean[("terrain_accuracy", "traction")]
     return out.reset_index()
 
@@ -300,10 +311,12 @@ def markdown_table(table: pd.DataFrame) -> str:
     Returns
     -------
     str
-        Markdown with peak slip, energy per metre (J/m), time to cruise (s) off -> on (with
-        how many runs reach it where not all do), the relative changes, the steady-slip
-        share within 0.02 of the target (with how many runs it is over where some have no
-        steady samples) and the terrain decisions' accuracy.
+        Markdown with peak slip, energy per metre (J/m, with how many runs it is over where
+        some have none), time to cruise (s) off -> on (with how many runs reach it where not
+        all do), the relative changes, the slip RMSE (with how many runs it is over where
+        some have none), the steady-slip share within 0.02 of the target (with how many
+        runs it is over where some have no steady samples) and the terrain decisions'
+        accuracy.
     """
     head = ("| vehicle | terrain | scenario | peak slip off -> on | cut | energy J/m off -> on "
             "| cut | time to cruise s off -> on | longer | slip RMSE off -> on "
@@ -319,18 +332,20 @@ def markdown_table(table: pd.DataFrame) -> str:
         return "" if counts == (r.runs, r.runs) else \
             f" ({counts[0]:.0f} -> {counts[1]:.0f} of {r.runs:.0f} reach it)"
 
-    def steady_runs(r):   # how many runs the steady share is over, where not all
-        n = getattr(r, "steady_within_0_02_runs_on", r.runs)
-        return "" if n == r.runs else f" ({n:.0f} of {r.runs:.0f} runs)"
+    def runs_of(r, short, ctrls=("off", "on")):   # how many runs a mean is over, if not all
+        counts = [getattr(r, f"{short}_runs_{c}", r.runs) for c in ctrls]
+        return "" if all(n == r.runs for n in counts) else \
+            f" ({' -> '.join(f'{n:.0f}' for n in counts)} of {r.runs:.0f} runs)"
 
     lines = [f"| {r.vehicle} | {r.terrain} | {r.scenario} | {f(r.peak_slip_off, '.3f')} -> "
              f"{f(r.peak_slip_on, '.3f')} | {f(100 * r.peak_slip_cut, '.0f')} % | "
-             f"{f(r.energy_off, '.0f')} -> {f(r.energy_on, '.0f')} | "
+             f"{f(r.energy_off, '.0f')} -> {f(r.energy_on, '.0f')}{runs_of(r, 'energy')} | "
              f"{f(100 * r.energy_cut, '.1f')} % | {f(r.time_to_speed_off, '.2f')} -> "
              f"{f(r.time_to_speed_on, '.2f')}{reach(r)} | "
              f"{f(100 * r.time_increase, '.0f')} % | "
-             f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')} | "
-             f"{f(r.steady_within_0_02_on, '.2f')}{steady_runs(r)} | "
+             f"{f(r.slip_rmse_off, '.3f')} -> {f(r.slip_rmse_on, '.3f')}"
+             f"{runs_of(r, 'slip_rmse')} | "
+             f"{f(r.steady_within_0_02_on, '.2f')}{runs_of(r, 'steady_within_0_02', ('on',))} | "
              f"{f(r.terrain_accuracy_on, '.2f')} |"
              for r in table.itertuples()]
     return head + "\n".join(lines) + "\n"

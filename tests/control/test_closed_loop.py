@@ -347,6 +347,37 @@ def test_comparison_counts_the_seeds_of_the_steady_share():
     assert "0.90 |" in markdown_table(full) and "of 3 runs" not in markdown_table(full)
 
 
+def test_comparison_counts_the_seeds_of_the_energy_and_slip_rmse_means():
+    """Three seeds: the controlled run of two of them does not move (energy per metre None)
+    and never enables the controller (slip RMSE None). energy_on read 100 and slip_rmse_on
+    0.1, means over 1 run of 3 with nothing saying so, beside a counted steady share. The
+    comparison now counts the runs of each such mean as the steady share does, and the table
+    says so where not all runs have one."""
+    import pandas as pd
+
+    from terrain.control.grid import compare, markdown_table
+
+    rows = [{"vehicle": "husky", "terrain": "SNOW", "scenario": "spin", "seed": seed,
+             "controller": ctrl, "peak_slip": 0.5,
+             "energy_j_per_m": 100.0 if ctrl == "off" or seed == 0 else None,
+             "time_to_speed_s": 1.0,
+             "slip_rmse": 0.1 if ctrl == "off" or seed == 0 else None,
+             "steady_slip_within_0_02": 0.9, "mean_speed_m_s": 0.1, "terrain_accuracy": 1.0}
+            for seed in range(3) for ctrl in ("off", "traction")]
+    table = compare(pd.DataFrame(rows))
+    row = table.iloc[0]
+    assert row["energy_on"] == pytest.approx(100.0) and row["slip_rmse_on"] == 0.1
+    assert (row["energy_runs_off"], row["energy_runs_on"]) == (3, 1)
+    assert (row["slip_rmse_runs_off"], row["slip_rmse_runs_on"], row["runs"]) == (3, 1, 3)
+    md = markdown_table(table)
+    assert "100 -> 100 (3 -> 1 of 3 runs)" in md
+    assert "0.100 -> 0.100 (3 -> 1 of 3 runs)" in md
+    full = compare(pd.DataFrame([dict(r, energy_j_per_m=100.0, slip_rmse=0.1) for r in rows]))
+    assert full.iloc[0][["energy_runs_off", "energy_runs_on", "slip_rmse_runs_off",
+                         "slip_rmse_runs_on"]].tolist() == [3, 3, 3, 3]
+    assert "of 3 runs" not in markdown_table(full)
+
+
 def test_tuning_never_prefers_gains_that_never_reach_cruise(monkeypatch):
     """Without control the robot reaches cruise at 1.0 s; kp 1 gets there at 2.5 s, kp 2
     never in the 10 s run. A run that never reached cruise was charged a relative increase of
