@@ -313,6 +313,27 @@ def positive_number(value: str) -> float:
     return _number(value, lambda x: 0 < x < math.inf, "a finite number > 0")
 
 
+def non_negative_number(value: str) -> float:
+    """argparse ``type`` of an option that takes a finite number >= 0 (a controller gain),
+    refused with the option's name rather than the configuration field's.
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a number, or not finite and >= 0.
+    """
+    return _number(value, lambda x: 0 <= x < math.inf, "a finite number >= 0")
+
+
 def _number(value: str, accept, wording: str) -> float:
     """``value`` as a float that ``accept`` takes, else argparse's error with ``wording``."""
     try:

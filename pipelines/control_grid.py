@@ -22,10 +22,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import DistinctSeeds, input_path, output_dir, seed_value
+from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_dir,
+                                 positive_number, seed_value)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
-from pipelines.control_sim import SCENARIOS
+from pipelines.control_sim import SCENARIOS, check_duration
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import (TUNING_SEEDS, check_grid_axes, compare, markdown_table,
@@ -33,7 +34,6 @@ from terrain.control.grid import (TUNING_SEEDS, check_grid_axes, compare, markdo
 from terrain.control.traction import TractionControlConfig
 from terrain.errors import ConfigError, duplicated
 from terrain.io.jsonfile import strict_json
-from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
 EXPERIMENT = "terrain-control"
@@ -63,10 +63,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=["straight_accel"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0])
-    parser.add_argument("--duration-s", type=float, default=20.0)
+    parser.add_argument("--duration-s", type=positive_number, default=20.0)
     parser.add_argument("--no-tune", action="store_true", help="use the default gains")
-    parser.add_argument("--kp-grid", nargs="+", type=float, default=list(KP_GRID))
-    parser.add_argument("--ki-grid", nargs="+", type=float, default=list(KI_GRID))
+    parser.add_argument("--kp-grid", nargs="+", type=non_negative_number, default=list(KP_GRID))
+    parser.add_argument("--ki-grid", nargs="+", type=non_negative_number, default=list(KI_GRID))
     parser.add_argument("--husky-estimator", choices=ESTIMATORS["husky"],
                         default=ESTIMATORS["husky"][0],
                         help="the Husky's slip estimator (default: the fused slip estimate)")
@@ -134,10 +134,12 @@ def check_grid(args: argparse.Namespace) -> None:
     Raises
     ------
     ConfigError
-        An unknown vehicle or terrain, a duration or seed :class:`terrain.sim.SimConfig`
-        refuses, a gain of the grids :class:`terrain.control.traction.TractionControlConfig`
-        refuses (negative or not finite), an evaluation seed that is a tuning seed, a
-        value repeated on an axis or in a gain grid, a terrain-source option the source
+        An unknown vehicle or terrain, a ``--duration-s`` :class:`terrain.sim.SimConfig`
+        refuses (:func:`pipelines.control_sim.check_duration`), a gain of the grids
+        :class:`terrain.control.traction.TractionControlConfig` refuses (negative or not
+        finite; their argparse type refuses them first, naming the option), an evaluation
+        seed that is a tuning seed, a value repeated on an axis or in a gain grid, a
+        terrain-source option the source
         would ignore (:func:`pipelines.control_classifier.check_decision_options`), gain
         grids other than the default with ``--no-tune``, or a ``--husky-estimator`` or
         ``--agrimaro-estimator`` other than the default with no such vehicle in
@@ -149,8 +151,7 @@ def check_grid(args: argparse.Namespace) -> None:
             get_terrain(terrain)
             for scenario in args.scenarios:
                 for seed in args.seeds:
-                    SimConfig(vehicle=vehicle, terrains=(terrain.upper(),), scenario=scenario,
-                              duration_s=args.duration_s, seed=seed)
+                    check_duration(vehicle, terrain, scenario, args.duration_s, seed)
     for kp in args.kp_grid:
         for ki in args.ki_grid:
             TractionControlConfig(kp=kp, ki=ki)

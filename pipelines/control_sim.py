@@ -29,7 +29,8 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import DistinctSeeds, input_path, output_file, seed_value
+from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_file,
+                                 positive_number, seed_value)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
@@ -63,10 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", required=True, choices=SCENARIOS)
     parser.add_argument("--controller", required=True, choices=("off", "traction"))
     parser.add_argument("--seed", type=seed_value, default=0, help="run seed")
-    parser.add_argument("--duration-s", type=float, default=20.0, help="simulated time, s")
-    parser.add_argument("--kp", type=float, default=None,
+    parser.add_argument("--duration-s", type=positive_number, default=20.0,
+                        help="simulated time, s")
+    parser.add_argument("--kp", type=non_negative_number, default=None,
                         help="proportional gain, rad/s per unit slip (default: tuned)")
-    parser.add_argument("--ki", type=float, default=None,
+    parser.add_argument("--ki", type=non_negative_number, default=None,
                         help="integral gain, rad/s per unit slip and s (default: tuned)")
     parser.add_argument("--model", type=input_path, default=None,
                         help="terrain classifier saved by `terrain train --model-out DIR`")
@@ -92,6 +94,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--csv", type=output_file, default=None, help="optional per-step trace CSV")
 
 
+def check_duration(vehicle: str, terrain: str, scenario: str, duration_s: float,
+                   seed: int) -> None:
+    """Refuse a ``--duration-s`` that :class:`terrain.sim.SimConfig` refuses for this run,
+    named as the option (the configuration's message, e.g. the vehicle's minimum, follows).
+
+    Parameters
+    ----------
+    vehicle, terrain, scenario : str
+        The run's vehicle, catalogued terrain (checked before) and scenario (a choice).
+    duration_s : float
+        ``--duration-s``, simulated time, s (finite and > 0: its argparse type).
+    seed : int
+        The run's seed (checked by its argparse type).
+
+    Raises
+    ------
+    ConfigError
+        ``--duration-s: <SimConfig's message>``: above 7200 s, or too short for two samples
+        of every stream of the vehicle.
+    """
+    try:
+        SimConfig(vehicle=vehicle, terrains=(terrain.upper(),), scenario=scenario,
+                  duration_s=duration_s, seed=seed)
+    except ConfigError as exc:
+        raise ConfigError(f"--duration-s: {exc}") from None
+
+
 def main(args: argparse.Namespace) -> int:
     """Run one closed-loop simulation and write its metrics.
 
@@ -115,16 +144,16 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        Unknown terrain, or a duration or seed that :class:`terrain.sim.SimConfig` refuses,
-        or ``--model`` with a terrain source other than ``model``, or ``--kp``, ``--ki`` or
-        ``--no-feed-forward`` with ``--controller off`` where no controlled classifier
-        training run uses them (checked before a classifier is trained).
+        Unknown terrain, or a duration that :class:`terrain.sim.SimConfig` refuses
+        (:func:`check_duration`), or ``--model`` with a terrain source other than
+        ``model``, or ``--kp``, ``--ki`` or ``--no-feed-forward`` with ``--controller off``
+        where no controlled classifier training run uses them (checked before a classifier
+        is trained).
     """
     get_terrain(args.terrain)         # an unknown terrain fails here, before any training
-    # so do a duration out of range (too short for two samples of every stream) and a bad
-    # seed: the same configuration run_closed_loop simulates
-    SimConfig(vehicle=args.vehicle, terrains=(args.terrain.upper(),), scenario=args.scenario,
-              duration_s=args.duration_s, seed=args.seed)
+    # so does a duration out of range (too short for two samples of every stream): the same
+    # configuration run_closed_loop simulates
+    check_duration(args.vehicle, args.terrain, args.scenario, args.duration_s, args.seed)
     kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None

@@ -38,6 +38,44 @@ def test_control_sim_too_short_duration_fails_before_any_training(vehicle, minim
     assert not (tmp_path / "m.json").exists()
 
 
+_SIM = ["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario", "straight_accel",
+        "--controller", "traction"]
+_GRID = ["control-grid", "--vehicles", "husky", "--terrains", "ICE"]
+
+
+@pytest.mark.parametrize("argv, text", [
+    # each said the setting's name: duration_s must be in (0, 7200] s; traction control
+    # settings must be finite, got kp=nan; gains must be >= 0, got kp=2.0, ki=-1.0, kd=0.0
+    (_SIM + ["--duration-s", "-5"], "argument --duration-s: must be a finite number > 0"),
+    (_SIM + ["--duration-s", "nan"], "argument --duration-s: must be a finite number > 0"),
+    (_SIM + ["--duration-s", "10000"], "--duration-s: duration_s must be in (0, 7200] s"),
+    (_SIM + ["--duration-s", "0.01"], "--duration-s: duration_s 0.01 s is too short"),
+    (_SIM + ["--kp", "nan"], "argument --kp: must be a finite number >= 0, got nan"),
+    (_SIM + ["--ki", "-1"], "argument --ki: must be a finite number >= 0, got -1"),
+    (_SIM + ["--kp", "inf"], "argument --kp: must be a finite number >= 0, got inf"),
+    (_GRID + ["--duration-s", "inf"], "argument --duration-s: must be a finite number > 0"),
+    (_GRID + ["--duration-s", "10000"], "--duration-s: duration_s must be in (0, 7200] s"),
+    (_GRID + ["--kp-grid", "2", "nan"], "argument --kp-grid: must be a finite number >= 0"),
+    (_GRID + ["--ki-grid", "-1"], "argument --ki-grid: must be a finite number >= 0, got -1"),
+])
+def test_control_commands_name_the_option_of_a_bad_value(argv, text, tmp_path, capsys,
+                                                         monkeypatch):
+    def no_training(*args, **kwargs):
+        raise AssertionError("the classifier must not be trained for a bad option")
+
+    monkeypatch.setattr(control_sim, "decision_source", no_training)
+    monkeypatch.chdir(tmp_path)
+    out = ["--json", "m.json"] if argv[0] == "control-sim" else ["--out", "g"]
+    try:
+        code = main(argv + out)
+    except SystemExit as exc:   # argparse's own usage error
+        code = exc.code
+    assert code == 2
+    line = _error_line(capsys, argv[0])
+    assert text in line, line
+    assert not any(tmp_path.iterdir())
+
+
 @pytest.mark.parametrize("source", ["label", "live-sim"])
 def test_control_sim_refuses_a_model_it_would_not_use(source, tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(control_sim, "decision_source", lambda *a, **k: (None, {}))

@@ -240,7 +240,8 @@ _REFUSED = [
       "--segment-m", "inf"], "argument --segment-m: must be a finite number > 0, got inf"),
     (["control-grid", "--terrains", "BOGUS", "--out", "g"], "unknown terrain 'BOGUS'"),
     (["control-grid", "--seeds", "1000", "--out", "g"], "are tuning seeds"),
-    (["control-grid", "--kp-grid", "2", "nan", "--out", "g"], "kp=nan"),
+    (["control-grid", "--kp-grid", "2", "nan", "--out", "g"],
+     "argument --kp-grid: must be a finite number >= 0, got nan"),
     (["control-grid", "--vehicles", "tracked", "--out", "g"], "supports vehicles"),
     (["slip-fit", "--orchard-duration-s", "nan"], "--orchard-duration-s"),
     # shorter than one 2 s slip window: scikit-learn's 0-sample error after the simulation
@@ -255,7 +256,7 @@ _REFUSED = [
      "--hop-s set the wheel-cv part's windows; --part streams does not run it"),
     (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
       "straight_accel", "--controller", "traction", "--json", "c.json", "--kp", "nan"],
-     "kp=nan"),
+     "argument --kp: must be a finite number >= 0, got nan"),
     # an empty value was the option left out: the live-sim classifier, the default data/
     (["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
       "straight_accel", "--controller", "traction", "--json", "c.json", "--model", ""],
