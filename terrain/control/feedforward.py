@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -129,17 +129,27 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     ------
     ConfigError
         ``|target_slip|`` not a finite value below 1 (at 1 no ground speed limits the wheel:
-        it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, or ``dt_s``
-        negative or not finite.
+        it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, ``dt_s``
+        negative or not finite, ``accel_limit_m_s2`` not finite (a NaN reference never
+        limits), or one of these not a real number (named).
     """
-    s_t, radius, dt_s = abs(float(target_slip)), float(wheel_radius_m), float(dt_s)
+    try:
+        s_t, radius, dt_s = abs(float(target_slip)), float(wheel_radius_m), float(dt_s)
+        a_max = float(accel_limit_m_s2)
+    except (TypeError, ValueError):   # the slow path names the argument
+        config_numbers("feedforward_step", accel_limit_m_s2=accel_limit_m_s2,
+                       target_slip=target_slip, wheel_radius_m=wheel_radius_m, dt_s=dt_s)
+        raise
     if not (s_t < 1.0 and radius > 0.0 and 0.0 <= dt_s < math.inf):   # NaN fails each
         raise ConfigError(f"feedforward_step: need |target_slip| < 1, wheel_radius_m > 0 and "
                           f"a finite dt_s >= 0, got {target_slip}, {wheel_radius_m}, {dt_s}")
+    if not math.isfinite(a_max):   # a NaN reference never binds, and stays NaN for good
+        raise ConfigError(f"feedforward_step: accel_limit_m_s2 must be finite, got "
+                          f"{accel_limit_m_s2}")
     omega = np.asarray(omega_low_level_rad_s, dtype=float)
     rim = np.abs(omega) * radius
     v_est = np.nan_to_num(np.abs(np.asarray(v_est_m_s, dtype=float)))
-    grown = np.asarray(v_ref_m_s, dtype=float) + max(float(accel_limit_m_s2), 0.0) * dt_s
+    grown = np.asarray(v_ref_m_s, dtype=float) + max(a_max, 0.0) * dt_s
     lift = v_est if engaged is None else np.where(engaged, np.minimum(v_est, grown), v_est)
     v_ref = np.maximum(lift, np.minimum(grown, rim))
     limit = v_ref / (radius * (1.0 - s_t))

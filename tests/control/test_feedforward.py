@@ -101,3 +101,14 @@ def test_feedforward_refuses_settings_with_no_limit_instead_of_clipping(
     with pytest.raises(ConfigError):
         feedforward_step(np.array([0.2]), np.array([0.2]), np.array([5.0]), 0.5, target_slip,
                          radius, dt)
+
+
+@pytest.mark.parametrize("accel", [float("nan"), float("inf"), "1.0x", None])
+def test_feedforward_refuses_an_acceleration_limit_that_is_not_a_finite_number(accel):
+    """A NaN acceleration limit made the reference ground speed NaN, so the limit never bound
+    (correction 0 for a wheel at 10 rad/s over a 0.5 m/s ground speed) and the NaN reference
+    fed back into every later step: the feed-forward was off for good, unsaid. Text or None
+    raised float()'s own ValueError / TypeError. Now a ConfigError naming accel_limit_m_s2."""
+    with pytest.raises(ConfigError, match="accel_limit_m_s2"):
+        feedforward_step(np.zeros(1), np.array([0.5]), np.array([10.0]), accel, 0.1, 0.1,
+                         0.02)
