@@ -185,9 +185,18 @@ def config_for_vehicle(vehicle: str, **settings: float) -> tuple[TractionControl
     Raises
     ------
     ConfigError
-        Unknown vehicle or invalid settings.
+        Unknown vehicle, an unknown setting or ``wheel_radius_m`` / ``omega_max_rad_s``
+        (the vehicle's) in ``settings``, named, or invalid settings.
     """
     params = get_vehicle(vehicle)
+    fields = TractionControlConfig.__dataclass_fields__
+    for name in settings:
+        if name not in fields:
+            raise ConfigError(f"unknown traction control setting {name!r}; the settings are "
+                              f"{', '.join(fields)}")
+        if name in ("wheel_radius_m", "omega_max_rad_s"):
+            raise ConfigError(f"{name} comes from the vehicle {vehicle}'s geometry and motor; "
+                              "build a TractionControlConfig for other values")
     geometry = contact_geometry(params)
     threshold = max(TractionControlConfig.wheel_speed_threshold_m_s,
                     encoder_resolution_speed_m_s(params.motor, geometry.wheel_radius_m))

@@ -498,3 +498,15 @@ def test_command_never_exceeds_omega_max_even_for_a_low_level_command_beyond_it(
         cmd = out.omega_cmd_rad_s[0]
         assert cmd == pytest.approx(math.copysign(100.0, omega_ll)), (v_in, out)
         assert cmd == pytest.approx(omega_ll + out.correction_rad_s[0])
+
+
+@pytest.mark.parametrize("settings, match", [
+    ({"kpp": 1.0}, "unknown traction control setting 'kpp'"),
+    ({"wheel_radius_m": 0.2}, "wheel_radius_m comes from the vehicle husky"),
+    ({"omega_max_rad_s": 50.0}, "omega_max_rad_s comes from the vehicle husky")])
+def test_config_for_vehicle_refuses_a_setting_it_cannot_take_naming_it(settings, match):
+    """A misspelt setting raised TractionControlConfig's own TypeError ('unexpected keyword
+    argument'), a radius or speed limit one about 'multiple values for keyword argument'."""
+    with pytest.raises(ConfigError, match=match):
+        config_for_vehicle("husky", **settings)
+
