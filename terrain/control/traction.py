@@ -62,7 +62,7 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
-                            config_numbers)
+                            config_integer, config_numbers)
 from terrain.slip import sae_slip
 from terrain.vehicles import contact_geometry, get_vehicle
 
@@ -612,12 +612,11 @@ class TractionController:
     Raises
     ------
     ConfigError
-        ``n_units < 1``.
+        ``n_units`` not an integer >= 1 (2.5 or True included).
     """
 
     def __init__(self, config: TractionControlConfig, n_units: int) -> None:
-        if int(n_units) < 1:
-            raise ConfigError(f"n_units must be >= 1, got {n_units}")
+        config_integer("TractionController n_units", n_units, 1)
         self.config = config
         self.n_units = int(n_units)
         self.state = TractionState.zeros(self.n_units)

@@ -510,3 +510,10 @@ def test_config_for_vehicle_refuses_a_setting_it_cannot_take_naming_it(settings,
     with pytest.raises(ConfigError, match=match):
         config_for_vehicle("husky", **settings)
 
+
+@pytest.mark.parametrize("n_units", ["x", 2.5, True, 0])
+def test_traction_controller_refuses_a_unit_count_that_is_not_a_positive_integer(n_units):
+    """n_units 2.5 built a controller of 2 units and True one of 1 without a word; 'x'
+    raised int()'s ValueError."""
+    with pytest.raises(ConfigError, match="n_units"):
+        TractionController(TractionControlConfig(), n_units)
