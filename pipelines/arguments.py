@@ -275,6 +275,36 @@ def check_output_files(command: argparse.ArgumentParser, args: argparse.Namespac
             command.error(f"argument {name}: cannot write {str(path)!r}: {why}")
 
 
+def check_derived_output(option: str, path: Path, inputs: list[Path | None]) -> None:
+    """Refuse a file whose name a command derives from an output option's value (``terrain
+    estimate --out`` writes one file per run beside it) as :func:`output_file` and
+    :func:`check_output_files` refuse the option's own file, before the command writes any.
+
+    Parameters
+    ----------
+    option : str
+        The output option the name derives from (``--out``), named in the error.
+    path : pathlib.Path
+        The derived file.
+    inputs : list of pathlib.Path or None
+        The command's inputs (``None`` for an input option left out).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` could not be written (:func:`output_file`), or writing it would overwrite
+        an input (a run file of an input runs folder, a file in an input model directory).
+    """
+    try:
+        output_file(str(path))
+    except argparse.ArgumentTypeError as exc:
+        raise ConfigError(f"{option}: {exc}") from None
+    given = [(str(p), Path(p).resolve()) for p in inputs if p is not None and Path(p).exists()]
+    why = _overwritten_input(path.resolve(), given)
+    if why:
+        raise ConfigError(f"{option}: cannot write {str(path)!r}: {why}")
+
+
 def _overwritten_input(target: Path, inputs: list[tuple[str, Path]]) -> str | None:
     """Why writing the resolved ``target`` would overwrite one of the ``inputs`` (each as
     given and resolved), or ``None``."""

@@ -29,7 +29,7 @@ import argparse
 from pathlib import Path
 
 from features.slip_outputs import missing_slip_inputs, slip_model_outputs
-from pipelines.arguments import input_folder, output_file
+from pipelines.arguments import check_derived_output, input_folder, output_file
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError
 from terrain.estimation.ekf import Gate
@@ -87,6 +87,20 @@ def _load(run_dir: Path, select: str | None):
     return runs
 
 
+def _outputs(args: argparse.Namespace, runs) -> dict[str, Path]:
+    """Run id -> its output file: ``--out`` for one run, else one file per run beside it,
+    each checked as ``--out`` itself was (before any run is estimated)."""
+    if len(runs) == 1:
+        return {runs[0].run_id: args.out}
+    outs = {}
+    for run in runs:
+        _, terrain, index = run.run_id.split("/")
+        outs[run.run_id] = args.out.with_name(
+            f"{args.out.stem}_{terrain}_{index}{args.out.suffix}")
+        check_derived_output("--out", outs[run.run_id], [args.run_dir, args.slip_model_dir])
+    return outs
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the estimator on each selected run, write its table and print a summary line.
 
@@ -106,11 +120,14 @@ def main(args: argparse.Namespace) -> int:
         ``--gate`` outside (0, 1), ``--rate-hz`` outside [1 Hz, 10 kHz] (both checked before
         any run is read); a ``--slip-model-dir`` that cannot be loaded
         (:func:`pipelines.slip_model.resolve_slip_model`); ``--run`` names no run of
-        RUN_DIR; a run lacks the streams its estimator needs.
+        RUN_DIR; a run's own file beside ``--out`` (several runs) cannot be written or would
+        overwrite an input (:func:`pipelines.arguments.check_derived_output`); a run lacks
+        the streams its estimator needs.
     """
     gate = Gate(args.gate) if args.gate is not None else None
     rate_hz = check_rate_hz(args.rate_hz, "--rate-hz")
     runs = _load(args.run_dir, args.run)
+    outs = _outputs(args, runs)
     print(input_report(runs).text())
     # an option for the other vehicle kind than every run's is said, not silently ignored
     skid = any(r.vehicle != "agrimaro" for r in runs)
@@ -155,11 +172,7 @@ def main(args: argparse.Namespace) -> int:
             print(note)
         lags["not estimated" if est.lag is None else "applied" if est.lag.applied
              else "not applied"] += 1
-        if len(runs) == 1:
-            out = args.out
-        else:
-            _, terrain, index = run.run_id.split("/")
-            out = args.out.with_name(f"{args.out.stem}_{terrain}_{index}{args.out.suffix}")
+        out = outs[run.run_id]
         out.parent.mkdir(parents=True, exist_ok=True)
         frame = est.to_frame()
         # the states to 9 digits; the time exactly (an epoch clock needs 10 before the point)

@@ -269,3 +269,30 @@ def test_an_output_beside_the_input_files_is_taken(tmp_path, monkeypatch):
         args = build_parser().parse_args(["predict", "--model", "model", "runs",
                                           "--out", target])
         assert str(args.out) == target
+
+
+def test_estimate_checks_each_per_run_file_before_any_work(tmp_path, capsys):
+    # with several runs, estimate writes <stem>_<TERRAIN>_<XX><suffix> beside --out, files the
+    # output checks never saw: '--out runs/ICE/meta.json' planted meta_ICE_00.json and
+    # meta_SNOW_00.json among the run files (the next read: 'run has no wheel file'), and a
+    # per-run name that was a folder failed after the earlier runs had been estimated
+    runs = tmp_path / "runs"
+    for terrain in ("ICE", "SNOW"):
+        assert main(["simulate", "--vehicle", "husky", "--terrain", terrain, "--duration-s",
+                     "2", "--out", str(runs)]) == 0
+    before = sorted(runs.rglob("*"))
+    capsys.readouterr()
+    out = runs / "ICE" / "meta.json"
+    assert main(["estimate", str(runs), "--out", str(out), "--slip-model", "ekf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == (f"terrain estimate: error: --out: cannot write "
+                   f"{str(runs / 'ICE' / 'meta_ICE_00.json')!r}: it is named like a run file "
+                   f"of the input runs folder {str(runs)!r} (write the output elsewhere)")
+    assert sorted(runs.rglob("*")) == before
+    (tmp_path / "est_SNOW_00.csv").mkdir()
+    assert main(["estimate", str(runs), "--out", str(tmp_path / "est.csv"),
+                 "--slip-model", "ekf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == (f"terrain estimate: error: --out: cannot write "
+                   f"{str(tmp_path / 'est_SNOW_00.csv')!r}: it is a folder (give a file name)")
+    assert not (tmp_path / "est_ICE_00.csv").exists()
