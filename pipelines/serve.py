@@ -341,13 +341,16 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        ``--host`` is not a loopback address, ``--port`` is out of range or in use, a
+        ``--host`` is empty or not a loopback address, ``--port`` is out of range or in use, a
         number is out of range, ``--model`` does not exist or is not a terrain model
         (its pipeline must be a fitted classifier), or it is an already wrapped model and
         an option setting the wrapped model (:data:`WRAP_OPTIONS`) is given.
     """
     import uvicorn
 
+    if not args.host.strip():     # an unset shell variable: "--host  is not..." hid it
+        raise ConfigError(f"--host is {'blank' if args.host else 'empty'} ({args.host!r}): "
+                          "give a loopback address (127.0.0.1, ::1 or localhost)")
     try:
         loopback = args.host == "localhost" or ipaddress.ip_address(args.host).is_loopback
     except ValueError:

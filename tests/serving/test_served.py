@@ -269,6 +269,19 @@ def test_serve_refuses_a_non_loopback_host(model_dirs, capsys):
     assert "not a loopback address" in capsys.readouterr().err
 
 
+def test_serve_says_an_empty_host_is_empty(tmp_path, capsys):
+    # --host "" (an unset shell variable) said "--host is not a loopback address": the value
+    # the user gave was not to be seen
+    from terrain.cli import main
+    model = str(tmp_path / "model")
+    assert main(["serve", "--model", model, "--host", ""]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "terrain serve: error: --host is empty (''): give a loopback address "
+        "(127.0.0.1, ::1 or localhost)")
+    assert main(["serve", "--model", model, "--host", "  "]) == 2
+    assert "error: --host is blank (" in capsys.readouterr().err
+
+
 def _error(served, frame) -> str:
     status, body = _call(served, frame)
     assert status == 400, body
