@@ -20,13 +20,15 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from pipelines.arguments import input_folder, output_file, positive_number, seed_value
+from pipelines.arguments import (input_folder, output_file, parse_integer, positive_number,
+                                 seed_value)
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
 from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, ReplaySettings,
                                   cruise_wheel_acceleration_rms, lowpass_cutoff_hz)
 from terrain.audit.core import prepare_frames
+from terrain.audit.selection import MAX_BOOTSTRAP, MAX_PARAM_BOOTSTRAP, MIN_BOOTSTRAP
 from terrain.audit.report import flat_metrics, summary_lines, write_markdown
 from terrain.io.jsonfile import json_ready
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -45,6 +47,34 @@ DEFAULTS: Mapping[str, float] = MappingProxyType({
     "min_gain": SelectionSettings.min_gain, "seed": SelectionSettings.seed})
 
 
+def _integer_in(low: int, high: int):
+    """argparse ``type``: an integer in ``low..high`` (a setting's range, kept with
+    :class:`terrain.audit.selection.SelectionSettings`), refused with the option's name
+    rather than the setting's."""
+    def parse(value: str) -> int:
+        number = parse_integer(value, "not an integer: ")
+        if not low <= number <= high:
+            raise argparse.ArgumentTypeError(
+                f"must be an integer in {low}-{high:,}, got {value}")
+        return number
+
+    parse.__name__ = f"integer_in_{low}_{high}"
+    return parse
+
+
+def _min_gain(value: str) -> float:
+    """argparse ``type`` of ``--min-gain``: a fraction in [0, 1) (NaN refused), as
+    :class:`terrain.audit.selection.SelectionSettings` takes it, named as the option."""
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
+    if not 0 <= number < 1:
+        raise argparse.ArgumentTypeError(
+            f"must be a fraction of the baseline RMSE in [0, 1), got {value}")
+    return number
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the arguments of ``terrain audit`` to ``parser``.
 
@@ -61,12 +91,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write the JSON report here")
     parser.add_argument("--md", type=output_file, default=None,
                         help="write the Markdown report here")
-    parser.add_argument("--bootstrap", type=int, default=DEFAULTS["bootstrap"],
-                        help="resamples of held-out runs for the gain interval")
-    parser.add_argument("--param-bootstrap", type=int, default=DEFAULTS["param_bootstrap"],
-                        help="resamples of runs for the parameter intervals")
-    parser.add_argument("--min-gain", type=float, default=DEFAULTS["min_gain"],
-                        help="smallest held-out gain (fraction of baseline RMSE) to support")
+    parser.add_argument("--bootstrap", type=_integer_in(MIN_BOOTSTRAP, MAX_BOOTSTRAP),
+                        default=DEFAULTS["bootstrap"],
+                        help="resamples of held-out runs for the gain interval "
+                             f"({MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,})")
+    parser.add_argument("--param-bootstrap", type=_integer_in(0, MAX_PARAM_BOOTSTRAP),
+                        default=DEFAULTS["param_bootstrap"],
+                        help="resamples of runs for the parameter intervals "
+                             f"(0-{MAX_PARAM_BOOTSTRAP:,})")
+    parser.add_argument("--min-gain", type=_min_gain, default=DEFAULTS["min_gain"],
+                        help="smallest held-out gain (fraction of baseline RMSE, in [0, 1)) "
+                             "to support")
     parser.add_argument("--seed", type=seed_value, default=DEFAULTS["seed"], help="bootstrap seed")
     parser.add_argument("--no-pooled", action="store_true",
                         help="skip the pooled fit over all terrains (terrain 'all')")

@@ -32,7 +32,7 @@ import pandas as pd
 
 from terrain.audit.frames import MANOEUVRES, AuditFrame, FrameSettings, prepare_frame
 from terrain.audit.replay import ReplaySettings, replay_run
-from terrain.audit.selection import MAX_BOOTSTRAP, stratified_resamples
+from terrain.audit.selection import MAX_BOOTSTRAP, MIN_BOOTSTRAP, stratified_resamples
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
@@ -83,9 +83,9 @@ class PhysicsComparisonSettings:
         if unknown:   # every run would be skipped and the table come back empty
             raise ConfigError(f"physics versions must be among {list(PHYSICS_VERSIONS)}, got "
                               f"{unknown}")
-        if not 10 <= self.n_bootstrap <= MAX_BOOTSTRAP or self.seed < 0:
-            raise ConfigError(f"n_bootstrap must be in 10-{MAX_BOOTSTRAP:,} and seed >= 0, "
-                              f"got {self.n_bootstrap} and {self.seed}")
+        if not MIN_BOOTSTRAP <= self.n_bootstrap <= MAX_BOOTSTRAP or self.seed < 0:
+            raise ConfigError(f"n_bootstrap must be in {MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,} and "
+                              f"seed >= 0, got {self.n_bootstrap} and {self.seed}")
 
 
 def _errors(frame: AuditFrame, other: AuditFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:

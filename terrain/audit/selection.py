@@ -60,6 +60,8 @@ Units = Sequence[Sequence[AuditFrame]]
 #: Most bootstrap resamples of a gain interval: 100 times the default, far past where the
 #: interval's bounds stop moving; more only fills memory (resamples x units indices).
 MAX_BOOTSTRAP = 100_000
+#: Fewest bootstrap resamples of a gain interval.
+MIN_BOOTSTRAP = 10
 #: Most parameter-interval resamples: each one refits every effect.
 MAX_PARAM_BOOTSTRAP = 10_000
 
@@ -84,7 +86,7 @@ class SelectionSettings:
     Raises
     ------
     ConfigError
-        ``n_bootstrap`` outside ``10..MAX_BOOTSTRAP``, ``n_param_bootstrap`` outside
+        ``n_bootstrap`` outside ``MIN_BOOTSTRAP..MAX_BOOTSTRAP``, ``n_param_bootstrap`` outside
         ``0..MAX_PARAM_BOOTSTRAP``, ``min_units < 2``, ``min_gain`` outside [0, 1) or NaN,
         or ``seed < 0``.
     """
@@ -96,9 +98,9 @@ class SelectionSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        if not (10 <= self.n_bootstrap <= MAX_BOOTSTRAP
+        if not (MIN_BOOTSTRAP <= self.n_bootstrap <= MAX_BOOTSTRAP
                 and 0 <= self.n_param_bootstrap <= MAX_PARAM_BOOTSTRAP):
-            raise ConfigError(f"n_bootstrap must be in 10-{MAX_BOOTSTRAP:,} and "
+            raise ConfigError(f"n_bootstrap must be in {MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,} and "
                               f"n_param_bootstrap in 0-{MAX_PARAM_BOOTSTRAP:,}, got "
                               f"{self.n_bootstrap} and {self.n_param_bootstrap}")
         if self.min_units < 2:

@@ -86,16 +86,20 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("flag, value, message", [
-    ("--min-gain", "nan", "min_gain must be in [0, 1)"),
-    ("--min-gain", "-5", "min_gain must be in [0, 1)"),
+    ("--min-gain", "nan", "argument --min-gain: must be a fraction of the baseline RMSE in "
+                          "[0, 1), got nan"),
+    ("--min-gain", "-5", "argument --min-gain: must be a fraction of the baseline RMSE in "
+                         "[0, 1), got -5"),
 ])
 def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tmp_path,
                                                                     capsys, flag, value,
                                                                     message):
-    # a NaN threshold supports no effect at all: the audit would answer "none"
-    assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow", flag, value)) == 2
-    err = capsys.readouterr().err
-    assert message in err and len(err.strip().splitlines()) == 1
+    # a NaN threshold supports no effect at all: the audit would answer "none"; refused as
+    # the option (it was SelectionSettings' "min_gain must be in [0, 1)")
+    with pytest.raises(SystemExit) as exit_info:
+        cli_main(_args(runs_dir, tmp_path, "--no-mlflow", flag, value))
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(message)
     assert not (tmp_path / "a.json").exists()
 
 
