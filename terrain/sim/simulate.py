@@ -190,7 +190,7 @@ class SimConfig:
     effects : Effects
         Planted effects (all off by default).
     segment_length_m : float
-        Distance between terrain changes, m.
+        Distance between terrain changes, m (finite, > 0).
     physics_rate_hz : float
         Integrator rate, Hz (50-1000).
     sensors : SensorSettings or None
@@ -262,8 +262,10 @@ class SimConfig:
         if physics_steps(self.duration_s, dt) < physics_steps(minimum, dt):
             raise ConfigError(f"duration_s {self.duration_s} s is too short for the "
                               f"{vehicle.name}: the minimum is {minimum:g} s ({why})")
-        if not float(self.segment_length_m) > 0:
-            raise ConfigError(f"segment_length_m must be > 0, got {self.segment_length_m}")
+        if not 0 < float(self.segment_length_m) < math.inf:
+            # inf kept a multi-terrain run on its first terrain and wrote Infinity to its meta
+            raise ConfigError(f"segment_length_m must be a finite length > 0, m, got "
+                              f"{self.segment_length_m}")
         seed = self.seed
         if not (isinstance(seed, numbers.Real) and not isinstance(seed, bool)
                 and math.isfinite(seed) and int(seed) == seed and seed >= 0):

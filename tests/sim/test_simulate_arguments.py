@@ -224,6 +224,16 @@ def test_simconfig_refuses_a_value_of_the_wrong_type_with_a_config_error(kwargs)
         SimConfig(**kwargs)
 
 
+@pytest.mark.parametrize("length", [float("inf"), 0.0, -1.0, float("nan")])
+def test_simconfig_refuses_a_segment_length_that_is_not_a_finite_length(length):
+    """inf was accepted (the CLI's --segment-m refuses it): a two-terrain run stayed on its
+    first terrain, labelled MIXED, and its meta_XX.json held segment_length_m Infinity,
+    which is not JSON."""
+    with pytest.raises(ConfigError, match=rf"^segment_length_m must be a finite length > 0, "
+                                          rf"m, got {length}$"):
+        SimConfig(terrains=("ICE", "SNOW"), segment_length_m=length)
+
+
 @pytest.mark.parametrize("cls, kwargs", [(SensorSettings, dict(imu_rate_hz="x")),
                                          (SensorSettings, dict(gyro_noise_rad_s=None)),
                                          (SensorSettings, dict(wheel_rate_hz="6.5")),
