@@ -18,8 +18,9 @@ from terrain.run import Run
 from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SimConfig, parse_effects,
                          parse_terrain_list, simulate)
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
+from terrain.sim.scenarios import physics_steps
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
-from terrain.vehicles import VEHICLE_NAMES
+from terrain.vehicles import VEHICLE_NAMES, get_vehicle
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -80,10 +81,43 @@ def main(args: argparse.Namespace) -> int:
     run = simulate(config)
     paths = write_run(run, args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")
-    note = unreached_terrains_note(run, config)
-    if note:
-        print(note)
+    for note in (unreached_terrains_note(run, config), clipped_commands_note(run)):
+        if note:
+            print(note)
     return 0
+
+
+def clipped_commands_note(run: Run) -> str | None:
+    """A note counting the physics steps whose wheel commands were clipped at the speed limit.
+
+    A scenario's twist may ask a motor for more than its speed limit (the ``random``
+    scenario's outer side in a fast turn); the simulator clips each motor's command there
+    (:func:`terrain.sim.dynamics.wheel_commands`), so the run does not follow the command.
+
+    Parameters
+    ----------
+    run : Run
+        A simulated run; its metadata holds ``speed_limit_clipped_steps`` (one count per
+        motor), ``scenario``, ``duration_s`` and ``rates_hz["physics"]`` (Hz).
+
+    Returns
+    -------
+    str or None
+        ``note: ...`` with the limit (rad/s) and each side's or wheel's count of clipped
+        steps out of the run's physics steps; None when no command was clipped.
+    """
+    counts = run.meta.get("speed_limit_clipped_steps") or []
+    if not any(counts):
+        return None
+    vehicle = get_vehicle(run.vehicle)
+    steps = physics_steps(run.meta["duration_s"], 1.0 / run.meta["rates_hz"]["physics"]) + 1
+    sides = len(counts) == 2 and not vehicle.contact_geometry().steered
+    names = ["left", "right"] if sides else [f"wheel {i + 1}" for i in range(len(counts))]
+    per_motor = ", ".join(f"{name} {count}" for name, count in zip(names, counts))
+    return (f"note: the {run.meta['scenario']} scenario asked for more than the wheel speed "
+            f"limit ({vehicle.motor.max_wheel_speed_rad_s:.3g} rad/s): each "
+            f"{'side' if sides else 'wheel'}'s command clipped to it on {per_motor} of "
+            f"{steps} physics steps (the run does not follow the command there)")
 
 
 def unreached_terrains_note(run: Run, config: SimConfig) -> str | None:

@@ -152,6 +152,9 @@ class PhysicsResult:
         Index into ``terrain_names``.
     terrain_names : tuple of str
         Terrain of each index.
+    speed_clipped_steps : ndarray of int, shape (m,)
+        Physics steps on which each motor's command from ``twist_cmd`` (before a closed
+        loop's correction) exceeded the motor speed limit and was clipped to it.
     """
 
     t_s: np.ndarray
@@ -167,6 +170,7 @@ class PhysicsResult:
     roll: np.ndarray
     terrain_index: np.ndarray
     terrain_names: tuple[str, ...]
+    speed_clipped_steps: np.ndarray
 
 
 class PlantSnapshot(NamedTuple):
@@ -249,7 +253,7 @@ def slope_attitude(slope_rad: float, yaw_rad: np.ndarray | float
 
 
 def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Wheel speed and steering commands from the commanded twist (inverse kinematics).
 
     Swerve drive: seed 001 inverse kinematics (:func:`terrain.vehicles.swerve.swerve_inverse`),
@@ -267,8 +271,10 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
 
     Returns
     -------
-    omega_cmd : ndarray, shape (n, n_motors), rad/s (clipped to the speed limit)
+    omega_cmd : ndarray, shape (n, n_motors), rad/s (clipped to the speed limit, per motor)
     delta_cmd : ndarray, shape (n, n_motors), rad (zeros for skid-steer)
+    clipped : ndarray of int, shape (n_motors,)
+        Steps on which each motor's command exceeded the speed limit (clipped to it).
     """
     n = len(twist_cmd)
     wmax = vehicle.motor.max_wheel_speed_rad_s
@@ -287,10 +293,12 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
                 d = prev
             delta[i], omega[i] = d, w
             prev = d
-        return np.clip(omega, -wmax, wmax), delta
-    v_l, v_r = skid_steer_inverse(twist_cmd[:, 0], twist_cmd[:, 2], vehicle.track_m)
-    omega = np.column_stack([v_l, v_r]) / geometry.wheel_radius_m
-    return np.clip(omega, -wmax, wmax), np.zeros((n, 2))
+    else:
+        v_l, v_r = skid_steer_inverse(twist_cmd[:, 0], twist_cmd[:, 2], vehicle.track_m)
+        omega = np.column_stack([v_l, v_r]) / geometry.wheel_radius_m
+        delta = np.zeros((n, 2))
+    clipped = np.count_nonzero(np.abs(omega) > wmax, axis=0)
+    return np.clip(omega, -wmax, wmax), delta, clipped
 
 
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
@@ -388,7 +396,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     drive_inertia = drive_inertia_kg_m2(vehicle)
     steer_rate = getattr(vehicle, "steering_rate_rad_s", 0.0) * dt
 
-    omega_cmd, delta_cmd = wheel_commands(vehicle, geometry, twist_cmd)
+    omega_cmd, delta_cmd, clipped = wheel_commands(vehicle, geometry, twist_cmd)
     omega_ll = omega_cmd
     correction = np.zeros(nm)
     if hook is not None:
@@ -501,4 +509,5 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                          omega=omega_out, omega_cmd=omega_cmd, slip_motor=slip_out,
                          delta=delta_out, torque=torque_out, pitch=pitch, roll=roll,
                          terrain_index=terr_out,
-                         terrain_names=tuple(t.name for t in terrains))
+                         terrain_names=tuple(t.name for t in terrains),
+                         speed_clipped_steps=clipped)

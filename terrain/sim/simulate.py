@@ -22,6 +22,10 @@ Streams (file columns in brackets where the file names them differently):
            ``cam_outages_s``: ``[start, end)`` of each, s; ``cam_rows_dropped``: rows removed)
 ``omega``  ``t_s, omega_1, omega_2, omega_3`` reported wheel speeds, rad/s (agrimaro)
 ``cur``    ``t_s, cur_1, cur_2, cur_3`` motor current magnitudes, A (agrimaro)
+
+Metadata ``speed_limit_clipped_steps``: per motor, the physics steps on which the scenario's
+command asked for more than the motor speed limit and was clipped to it (per side or wheel;
+``terrain simulate`` says so in a note).
 """
 
 from __future__ import annotations
@@ -499,6 +503,8 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         "vehicle_params": _jsonable(vehicle),
         "terrain_params": {t.name: _jsonable(t) for t in terrains},
         "sensor_settings": _jsonable(sensors),
+        # physics steps on which each motor's command exceeded its speed limit (clipped there)
+        "speed_limit_clipped_steps": phys.speed_clipped_steps.tolist(),
         # the simulated visual-odometry outages and the camera rows they removed
         **({"cam_outages_s": cam_outages, "cam_rows_dropped": int(np.sum(~keep))}
            if geometry.steered else {}),

@@ -248,3 +248,22 @@ def test_sensor_settings_and_effects_refuse_text_and_none(cls, kwargs):
     with pytest.raises(ConfigError, match=name):
         cls(**kwargs)
     assert parse_effects(["gyro_bias=0.1"]).gyro_bias == 0.1
+
+
+def test_wheel_commands_clipped_at_the_speed_limit_are_counted_and_said(tmp_path, capsys):
+    # the random scenario's segments (speed up to 0.95 of the limit, yaw rate up to 0.8 rad/s)
+    # ask the outer side for more than the wheel speed limit: the Husky's seed 1 asks the
+    # left side for more on 431 of 6001 physics steps; clipped per side, as documented, and
+    # not counted anywhere
+    run = simulate(SimConfig(vehicle="husky", scenario="random", duration_s=60.0, seed=1))
+    assert run.meta["speed_limit_clipped_steps"] == [431, 0]
+    assert simulate(SimConfig(vehicle="husky", scenario="random", duration_s=60.0,
+                              seed=0)).meta["speed_limit_clipped_steps"] == [0, 0]
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "60",
+                 "--seed", "1", "--out", str(tmp_path)]) == 0
+    assert ("note: the random scenario asked for more than the wheel speed limit (6.06 rad/s): "
+            "each side's command clipped to it on left 431, right 0 of 6001 physics steps (the "
+            "run does not follow the command there)") in capsys.readouterr().out
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "60",
+                 "--seed", "0", "--out", str(tmp_path)]) == 0
+    assert "speed limit" not in capsys.readouterr().out
