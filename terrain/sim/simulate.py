@@ -264,7 +264,7 @@ class SimConfig:
         minimum, why = minimum_duration_s(vehicle.name, self.sensors, self.physics_rate_hz)
         dt = 1.0 / float(self.physics_rate_hz)
         if physics_steps(self.duration_s, dt) < physics_steps(minimum, dt):
-            raise ConfigError(f"duration_s {self.duration_s} s is too short for the "
+            raise ConfigError(f"a duration of {self.duration_s} s is too short for the "
                               f"{vehicle.name}: the minimum is {minimum:g} s ({why})")
         if not 0 < float(self.segment_length_m) < math.inf:
             # inf kept a multi-terrain run on its first terrain and wrote Infinity to its meta

@@ -243,6 +243,13 @@ _REFUSED = [
     (["audit", "--dataset", "vulpi", "--json", "a.json", "--min-gain", "1"],
      "argument --min-gain: must be a fraction of the baseline RMSE in [0, 1), got 1"),
     (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--seed", "-1"], "seed"),
+    # named as SimConfig's duration_s ("duration_s must be in (0, 7200] s, got -1.0")
+    (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--out", "s", "--duration-s",
+      "-1"], "argument --duration-s: must be a finite number in (0, 7200] s, got -1"),
+    (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--out", "s", "--duration-s",
+      "nan"], "argument --duration-s: must be a finite number in (0, 7200] s, got nan"),
+    (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--out", "s", "--duration-s",
+      "0.01"], "error: a duration of 0.01 s is too short for the husky: the minimum is 0.16 s"),
     # named as SimConfig's segment_length_m; inf ran, its note saying 'changes every inf m'
     (["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--out", "s",
       "--segment-m", "0"], "argument --segment-m: must be a finite number > 0, got 0"),
