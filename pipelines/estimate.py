@@ -124,7 +124,11 @@ def main(args: argparse.Namespace) -> int:
         overwrite an input (:func:`pipelines.arguments.check_derived_output`); a run lacks
         the streams its estimator needs.
     """
-    gate = Gate(args.gate) if args.gate is not None else None
+    try:
+        gate = Gate(args.gate) if args.gate is not None else None
+    except ConfigError:     # Gate's message names no option
+        raise ConfigError(f"--gate must be a probability in (0, 1) exclusive "
+                          f"(e.g. 0.999), got {args.gate:g}") from None
     rate_hz = check_rate_hz(args.rate_hz, "--rate-hz")
     runs = _load(args.run_dir, args.run)
     outs = _outputs(args, runs)

@@ -52,7 +52,9 @@ def test_estimate_bad_gate_is_one_line_before_reading_runs(gate, tmp_path, capsy
     # the folder does not even exist: the argument is refused first
     assert main(["estimate", str(tmp_path / "absent"), "--out", str(tmp_path / "s.csv"),
                  "--gate", gate]) == 2
-    assert "gate probability must be in (0, 1)" in _error_line(capsys)
+    # named as the option (it was Gate's "gate probability must be in (0, 1) ...")
+    assert f"--gate must be a probability in (0, 1) exclusive (e.g. 0.999), got {float(gate):g}" \
+        in _error_line(capsys)
 
 
 @pytest.mark.parametrize("rate", ["1e9", "0", "-5", "inf", "nan", "20000", "1e-9",

@@ -250,6 +250,9 @@ _REFUSED = [
       "nan"], "argument --duration-s: must be a finite number in (0, 7200] s, got nan"),
     (["simulate", "--vehicle", "husky", "--terrain", "ICE", "--out", "s", "--duration-s",
       "0.01"], "error: a duration of 0.01 s is too short for the husky: the minimum is 0.16 s"),
+    # "gate probability must be in (0, 1) exclusive", the option not named
+    (["estimate", "r", "--out", "e.csv", "--gate", "nan"],
+     "error: --gate must be a probability in (0, 1) exclusive (e.g. 0.999), got nan"),
     # named as SimConfig's segment_length_m; inf ran, its note saying 'changes every inf m'
     (["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--out", "s",
       "--segment-m", "0"], "argument --segment-m: must be a finite number > 0, got 0"),
