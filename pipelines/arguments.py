@@ -22,6 +22,7 @@ from terrain.io.measured import is_run_file_name
 from terrain.models.experiment import MAX_SEED
 from terrain.models.registry import MAX_CNN_SEEDS
 from terrain.serving.smoothing import SmoothingConfig
+from terrain.sim.simulate import MAX_DURATION_S
 
 
 def _blocking_ancestor(path: Path) -> Path | None:
@@ -341,6 +342,32 @@ def positive_number(value: str) -> float:
         Not a number, or not finite and > 0.
     """
     return _number(value, lambda x: 0 < x < math.inf, "a finite number > 0")
+
+
+def sim_duration_s(value: str) -> float:
+    """argparse ``type`` of a simulated run's ``--duration-s``: a finite number in
+    ``(0, MAX_DURATION_S]`` s (:class:`terrain.sim.SimConfig`'s range), refused with the
+    option's name rather than the configuration field's (``terrain simulate``,
+    ``control-sim``, ``control-grid``; the vehicle's minimum needs the vehicle and stays
+    with :class:`~terrain.sim.SimConfig`).
+
+    Parameters
+    ----------
+    value : str
+        The option's text, s.
+
+    Returns
+    -------
+    float
+        Simulated time, s.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a number, or not in ``(0, MAX_DURATION_S]`` (NaN and inf included).
+    """
+    return _number(value, lambda x: 0 < x <= MAX_DURATION_S,
+                   f"a finite number in (0, {MAX_DURATION_S:g}] s")
 
 
 def non_negative_number(value: str) -> float:

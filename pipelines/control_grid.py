@@ -23,7 +23,7 @@ import argparse
 from pathlib import Path
 
 from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_dir,
-                                 positive_number, seed_value)
+                                 seed_value, sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
 from pipelines.control_sim import SCENARIOS, check_duration
@@ -63,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=["straight_accel"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0])
-    parser.add_argument("--duration-s", type=positive_number, default=20.0)
+    parser.add_argument("--duration-s", type=sim_duration_s, default=20.0)
     parser.add_argument("--no-tune", action="store_true", help="use the default gains")
     parser.add_argument("--kp-grid", nargs="+", type=non_negative_number, default=list(KP_GRID))
     parser.add_argument("--ki-grid", nargs="+", type=non_negative_number, default=list(KI_GRID))

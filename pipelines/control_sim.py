@@ -30,7 +30,7 @@ import json
 from pathlib import Path
 
 from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_file,
-                                 positive_number, seed_value)
+                                 seed_value, sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           check_decision_options, decision_source)
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
@@ -64,7 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", required=True, choices=SCENARIOS)
     parser.add_argument("--controller", required=True, choices=("off", "traction"))
     parser.add_argument("--seed", type=seed_value, default=0, help="run seed")
-    parser.add_argument("--duration-s", type=positive_number, default=20.0,
+    parser.add_argument("--duration-s", type=sim_duration_s, default=20.0,
                         help="simulated time, s")
     parser.add_argument("--kp", type=non_negative_number, default=None,
                         help="proportional gain, rad/s per unit slip (default: tuned)")
@@ -104,15 +104,15 @@ def check_duration(vehicle: str, terrain: str, scenario: str, duration_s: float,
     vehicle, terrain, scenario : str
         The run's vehicle, catalogued terrain (checked before) and scenario (a choice).
     duration_s : float
-        ``--duration-s``, simulated time, s (finite and > 0: its argparse type).
+        ``--duration-s``, simulated time, s (in (0, 7200]: its argparse type).
     seed : int
         The run's seed (checked by its argparse type).
 
     Raises
     ------
     ConfigError
-        ``--duration-s: <SimConfig's message>``: above 7200 s, or too short for two samples
-        of every stream of the vehicle.
+        ``--duration-s: <SimConfig's message>``: too short for two samples of every stream
+        of the vehicle.
     """
     try:
         SimConfig(vehicle=vehicle, terrains=(terrain.upper(),), scenario=scenario,

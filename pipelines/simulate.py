@@ -12,7 +12,7 @@ import argparse
 
 import numpy as np
 
-from pipelines.arguments import output_dir, positive_number, seed_value
+from pipelines.arguments import output_dir, positive_number, seed_value, sim_duration_s
 from terrain.io.writer import write_run
 from terrain.run import Run
 from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SimConfig, parse_effects,
@@ -22,19 +22,6 @@ from terrain.sim.simulate import MAX_DURATION_S
 from terrain.sim.scenarios import physics_steps
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.vehicles import VEHICLE_NAMES, get_vehicle
-
-
-def _duration_s(value: str) -> float:
-    """argparse ``type`` of ``--duration-s``: a finite number in (0, MAX_DURATION_S] s, refused
-    with the option's name rather than :class:`SimConfig`'s ``duration_s``."""
-    try:
-        number = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not 0 < number <= MAX_DURATION_S:    # NaN and inf included
-        raise argparse.ArgumentTypeError(
-            f"must be a finite number in (0, {MAX_DURATION_S:g}] s, got {value}")
-    return number
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -50,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain class, or comma-separated classes along the path; one "
                              f"of {', '.join(TERRAIN_NAMES)}")
     parser.add_argument("--scenario", default="random", help=f"one of {', '.join(SCENARIO_NAMES)}")
-    parser.add_argument("--duration-s", type=_duration_s, default=60.0,
+    parser.add_argument("--duration-s", type=sim_duration_s, default=60.0,
                         help=f"simulated time, s (at most {MAX_DURATION_S:g}; at least two "
                              "samples of the slowest stream: husky 0.16, tracked 0.1, "
                              "agrimaro 0.04)")
