@@ -579,6 +579,10 @@ class CurrentParams:
     n_without_pitch : int
         Moving samples of runs without an IMU left out of a fit with ``grade_resistance``
         (no pitch estimate: their pitch 0 is a placeholder, not level ground); 0 without it.
+    n_outside_imu : int
+        Moving samples of runs with an IMU read outside its record (``has_pitch`` False on
+        the frame: before its first or after its last stamp) left out of a fit with
+        ``grade_resistance``, for the same reason; 0 without it.
     """
 
     offset_left_a: float = 0.0
@@ -590,6 +594,7 @@ class CurrentParams:
     coulomb_scale_rad_s: float = 0.1
     n_straight: int = 0
     n_without_pitch: int = 0
+    n_outside_imu: int = 0
 
     @property
     def offset_a(self) -> float:
@@ -637,13 +642,14 @@ class _CurrentData:
     straight: np.ndarray
     turn: np.ndarray
     moving: np.ndarray
-    pitch: np.ndarray        # |pitch|, 0 without IMU
-    has_pitch: np.ndarray
+    pitch: np.ndarray        # |pitch|, 0 where there is no estimate
+    has_imu: np.ndarray      # the sample's run has an IMU
+    has_pitch: np.ndarray    # and the sample lies within its record
 
 
 def _current_data(frames: Sequence[AuditFrame]) -> _CurrentData:
     cols: dict[str, list] = {k: [] for k in ("x", "res", "straight", "turn", "moving", "pitch",
-                                             "has_pitch")}
+                                             "has_imu", "has_pitch")}
     for f in frames:
         m = f.score_cur
         if not m.any():
@@ -655,7 +661,8 @@ def _current_data(frames: Sequence[AuditFrame]) -> _CurrentData:
         cols["turn"].append(np.isin(man, (CURVE, SPIN)))
         cols["moving"].append(man != STOP)
         cols["pitch"].append(np.abs(f.pitch[m]))
-        cols["has_pitch"].append(np.full(int(m.sum()), f.has_imu))
+        cols["has_imu"].append(np.full(int(m.sum()), f.has_imu))
+        cols["has_pitch"].append(f.has_imu & f.has_pitch[m])
     if not cols["x"]:
         raise NotIdentifiable("no current samples to score")
     return _CurrentData(**{k: np.concatenate(v) for k, v in cols.items()})
@@ -673,9 +680,10 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     and grade coefficients are least squares over moving samples; with a grade, every step
     takes the samples of runs with an IMU only (a run without one has no pitch, not a level
     one: its straight rows would carry its climbing current into the offsets, its moving rows
-    would tell the least squares "level ground"), and counts the moving samples left out
-    (:attr:`CurrentParams.n_without_pitch`); the two steps alternate
-    until the coefficients stop changing (relative 1e-9, at most
+    would tell the least squares "level ground"; likewise the samples of a run with an IMU
+    read outside its record, :attr:`AuditFrame.has_pitch`), and counts the moving samples
+    left out (:attr:`CurrentParams.n_without_pitch`, :attr:`CurrentParams.n_outside_imu`);
+    the two steps alternate until the coefficients stop changing (relative 1e-9, at most
     ``settings.max_alternations``; a grade column, nonzero on straight samples too, couples
     them). Without ``current_offset``, the grade coefficient's least squares carries a
     constant column for the level of the moving currents, not part of the model: ``|pitch|``
@@ -708,9 +716,12 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
     # a run without an IMU has no pitch (0 is a placeholder): in a fit with a grade its rows
     # would say "level ground" while its currents climbed, in the least squares (2 of 4 hill
     # runs without one: 3.5 A/rad fitted for 10 planted) and, through the straight medians,
-    # in the offsets (4.0 for 10), so such a fit takes the runs with a pitch only
+    # in the offsets (4.0 for 10), so such a fit takes the runs with a pitch only; and of
+    # those, the samples read within the IMU record (past its end the filtered accelerometer
+    # was held: an IMU of 12-40 s under 60 s of hills, 9.1 A/rad for 10.7 within it)
     fit_rows = d.has_pitch if grade_on else np.ones(len(d.x), dtype=bool)
-    n_without_pitch = int((d.moving & ~fit_rows).sum())
+    n_without_pitch = int((d.moving & ~fit_rows & ~d.has_imu).sum())
+    n_outside_imu = int((d.moving & ~fit_rows & d.has_imu).sum())
     n_straight = int((d.straight & fit_rows).sum())
     if offset_on and n_straight < settings.min_straight_samples:
         raise NotIdentifiable(f"current_offset: {n_straight} straight samples, need "
@@ -764,7 +775,7 @@ def fit_current(frames: Sequence[AuditFrame], spec: Sequence[str],
                          k_a_per_rad=float(coef[-1]) if grade_on else 0.0,
                          turn_ref_rad_s=settings.turn_ref_rad_s,
                          coulomb_scale_rad_s=settings.coulomb_scale_rad_s, n_straight=n_straight,
-                         n_without_pitch=n_without_pitch)
+                         n_without_pitch=n_without_pitch, n_outside_imu=n_outside_imu)
 
 
 def predict_current(frame: AuditFrame, params: CurrentParams) -> np.ndarray:
@@ -986,7 +997,8 @@ def effect_details(name: str, params: LagParams | YawParams | CurrentParams) -> 
         ``turning_resistance``: ``form, reference``; ``icr_expansion``:
         ``fraction_excluded_immobile``; ``current_offset``: ``offset_left_a,
         offset_right_a, common_a`` (A); ``grade_resistance``: ``n_moving_without_imu``
-        (moving samples of runs without IMU left out of its fit); other effects: empty.
+        (moving samples of runs without IMU left out of its fit), ``n_moving_outside_imu``
+        (those of runs with an IMU read outside its record); other effects: empty.
     """
     if name == "immobilised":
         return {"form": params.form, "chi_mobile": params.chi,
@@ -1006,7 +1018,8 @@ def effect_details(name: str, params: LagParams | YawParams | CurrentParams) -> 
         return {"offset_left_a": params.offset_left_a, "offset_right_a": params.offset_right_a,
                 "common_a": params.common_a}
     if name == "grade_resistance":
-        return {"n_moving_without_imu": params.n_without_pitch}
+        return {"n_moving_without_imu": params.n_without_pitch,
+                "n_moving_outside_imu": params.n_outside_imu}
     return {}
 
 

@@ -115,7 +115,11 @@ class AuditFrame:
     cur : shape (n, 2), measured currents (left, right).
     has_imu : bool
     wz, ax, ay : measured IMU channels read at ``t - lag(t)`` (NaN without IMU).
-    pitch : estimated pitch, rad (0 without IMU).
+    pitch : estimated pitch, rad (0 where :attr:`has_pitch` is False: a placeholder, not
+        level ground).
+    has_pitch : bool, samples with a pitch estimate: read at ``t - lag(t)`` within the IMU
+        record (none without IMU); outside it the filtered accelerometer would be its end
+        value held.
     imu_t_s, imu_wz : shape (m,), the low-passed gyro on its own clock (for constant-lag
         evaluation of ``wheel_lag``); empty without IMU.
     score_imu, score_cur : bool masks of the samples scored for IMU and current signals.
@@ -141,6 +145,7 @@ class AuditFrame:
     ax: np.ndarray
     ay: np.ndarray
     pitch: np.ndarray
+    has_pitch: np.ndarray
     imu_t_s: np.ndarray
     imu_wz: np.ndarray
     score_imu: np.ndarray
@@ -294,7 +299,9 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         ax_slow = np.interp(t_imu, ti, lowpass(imu["ax"].to_numpy(dtype=float), rate,
                                                settings.pitch_cutoff_hz, padtype="even"))
         sim_ax_slow = _slow_within_edges(t, replay.ax, score, settings)
-        pitch = np.arcsin(np.clip((ax_slow - sim_ax_slow) / G_M_S2, -1.0, 1.0))
+        has_pitch = (t_imu >= ti[0]) & (t_imu <= ti[-1])
+        pitch = np.where(has_pitch, np.arcsin(np.clip((ax_slow - sim_ax_slow) / G_M_S2,
+                                                      -1.0, 1.0)), 0.0)
         score_imu = (score & (t_imu >= ti[0] + settings.edge_s)
                      & (t_imu <= ti[-1] - settings.edge_s)
                      & (t >= ti[0] + settings.edge_s) & (t <= ti[-1] - settings.edge_s)
@@ -303,6 +310,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     else:
         lag = LagTrack(np.empty(0), np.empty(0), np.empty(0), 0)
         wz, ax, ay, pitch = nan, nan.copy(), nan.copy(), np.zeros(len(t))
+        has_pitch = np.zeros(len(t), dtype=bool)
         imu_t, imu_wz, has_imu = np.empty(0), np.empty(0), False
         score_imu = np.zeros(len(t), dtype=bool)
     return AuditFrame(
@@ -312,8 +320,8 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
                                       settings),
         quiet=_quiet(t, x, settings), sim_wz=replay.yaw_rate, sim_ax=replay.ax,
         sim_ay=replay.ay, sim_vx=replay.v_x, sim_cur=replay.cur, cur=cur, has_imu=has_imu,
-        wz=wz, ax=ax, ay=ay, pitch=pitch, imu_t_s=imu_t, imu_wz=imu_wz, score_imu=score_imu,
-        score_cur=score_cur, lag=lag)
+        wz=wz, ax=ax, ay=ay, pitch=pitch, has_pitch=has_pitch, imu_t_s=imu_t, imu_wz=imu_wz,
+        score_imu=score_imu, score_cur=score_cur, lag=lag)
 
 
 def segment_lag(frame: AuditFrame, start: int, stop: int,
@@ -378,7 +386,7 @@ def split_frame(frame: AuditFrame, n_parts: int,
         return [frame]
     per_sample = ("t_s", "commanded_yaw_rate", "commanded_speed", "manoeuvre", "quiet",
                   "sim_wz", "sim_ax", "sim_ay", "sim_vx", "sim_cur", "cur", "wz", "ax", "ay",
-                  "pitch", "score_imu", "score_cur")
+                  "pitch", "has_pitch", "score_imu", "score_cur")
     parts = []
     for k, idx in enumerate(np.array_split(np.arange(frame.n), n_parts)):
         if idx.size == 0:

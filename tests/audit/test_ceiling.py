@@ -41,8 +41,8 @@ def _frame(run_id, wz_of, n_cycles=4, spin_s=12.0, straight_s=8.0, terrain="SNOW
         quiet=~ones, sim_wz=x / 3.0, sim_ax=np.zeros(n), sim_ay=np.zeros(n),
         sim_vx=v.copy(), sim_cur=np.column_stack([2 + 3 * np.abs(x), 2 + 3 * np.abs(x)]),
         cur=np.column_stack([3.5 + 6.5 * np.abs(x), 3.5 + 6.5 * np.abs(x)]), has_imu=True,
-        wz=wz, ax=np.zeros(n), ay=np.zeros(n), pitch=np.zeros(n), imu_t_s=np.arange(n) / RATE_HZ,
-        imu_wz=wz, score_imu=ones, score_cur=ones.copy(),
+        wz=wz, ax=np.zeros(n), ay=np.zeros(n), pitch=np.zeros(n), has_pitch=ones.copy(),
+        imu_t_s=np.arange(n) / RATE_HZ, imu_wz=wz, score_imu=ones, score_cur=ones.copy(),
         lag=LagTrack(np.empty(0), np.empty(0), np.empty(0), 0))
 
 

@@ -270,11 +270,42 @@ def test_fit_current_offsets_beside_a_grade_take_only_runs_with_a_pitch():
         assert p.n_without_pitch == int(((blind.manoeuvre != 0) & blind.score_cur).sum()) > 0
         assert alone.n_without_pitch == 0
         assert effect_details("grade_resistance", p) == {
-            "n_moving_without_imu": p.n_without_pitch}
+            "n_moving_without_imu": p.n_without_pitch, "n_moving_outside_imu": 0}
     # a fit without a grade needs no pitch: every run's rows
     both = fit_current([frames[0], blind], ["current_offset"])
     assert both.n_without_pitch == 0
     assert both.n_straight > fit_current([frames[0]], ["current_offset"]).n_straight
+
+
+def test_fit_current_grade_leaves_out_samples_outside_the_imu_record():
+    """Past the IMU's last stamp (and before its first) the pitch was read from the filtered
+    accelerometer held at its end value, and those samples entered the grade fit as if
+    measured: an IMU record of 12-40 s under 60 s of wheels gave 9.1 A/rad for 10 planted
+    (10.7 with the samples read within the record only). They are left out, and counted."""
+    from dataclasses import replace
+
+    imu, pro = simulated_streams(seeds=(43,))[0]
+    frame = _hills_frame((imu[(imu.time >= 12.0) & (imu.time <= 40.0)], pro))
+    t_imu = frame.t_s - frame.lag.at(frame.t_s)
+    outside = (t_imu < frame.imu_t_s[0]) | (t_imu > frame.imu_t_s[-1])
+    moving_out = int((frame.score_cur & (frame.manoeuvre != 0) & outside).sum())
+    assert moving_out > 100
+    inside = replace(frame, score_cur=frame.score_cur & ~outside)
+    for spec in (["grade_resistance"], ["current_offset", "grade_resistance"]):
+        p = fit_current([frame], spec)
+        ref = fit_current([inside], spec)
+        assert p.k_a_per_rad == pytest.approx(ref.k_a_per_rad, abs=1e-9)
+        assert p.offset_a == pytest.approx(ref.offset_a, abs=1e-9)
+        assert p.n_outside_imu == moving_out and p.n_without_pitch == 0
+        assert effect_details("grade_resistance", p) == {
+            "n_moving_without_imu": 0, "n_moving_outside_imu": moving_out}
+    assert fit_current([frame], ["grade_resistance"]).k_a_per_rad == pytest.approx(
+        10.0, abs=1.0)
+    # the grade term predicts nothing where there is no pitch
+    assert not frame.has_pitch[outside].any() and frame.has_pitch[~outside].all()
+    assert np.all(frame.pitch[outside] == 0.0)
+    # a fit without a grade needs no pitch: every sample
+    assert fit_current([frame], ["current_offset"]).n_outside_imu == 0
 
 
 def test_pitch_estimate_ignores_the_replay_start_transient(shipped_borealtc):

@@ -50,6 +50,18 @@ def test_settings_reach_the_prose(shipped_report):
     assert "the gain is at least 0.05," in page
 
 
+def test_grade_details_name_the_samples_left_out_without_a_pitch(shipped_report):
+    report, md = shipped_report
+    title, commands, figures = _page_inputs(md)
+    changed = copy.deepcopy(report)
+    grade = next(e for e in changed["effects"]
+                 if e["name"] == "grade_resistance" and e["terrain"] == "SNOW")
+    grade["details"]["n_moving_outside_imu"] = 37
+    page = to_markdown(changed, figures, commands, title)
+    assert "37 moving samples outside their run's IMU record (no pitch) left out" in page
+    assert "outside their run's IMU record" not in md
+
+
 def test_effect_results_are_built_by_keyword_and_frozen():
     with pytest.raises(TypeError):
         EffectResult("icr_expansion", "ASPHALT", "yaw")          # positional: refused
