@@ -321,13 +321,13 @@ class JanosiCurve:
         Parameters
         ----------
         cohesion_pa : float
-            Soil cohesion c, Pa.
+            Soil cohesion c, Pa (>= 0).
         friction_angle_deg : float
-            Internal friction angle phi, degrees.
+            Internal friction angle phi, degrees, in [0, 90).
         shear_modulus_m : float
-            Shear deformation modulus K, m.
+            Shear deformation modulus K, m (> 0).
         contact_area_m2 : float
-            Contact area A of one wheel or track, m^2.
+            Contact area A of one wheel or track, m^2 (> 0).
         contact_length_m : float
             Contact length L, m.
         load_n : float
@@ -346,9 +346,27 @@ class JanosiCurve:
         ------
         ConfigError
             ``load_n`` is not a finite load > 0 (``c A / W`` has no value),
-            ``contact_length_m`` not a finite length > 0 (``K / L`` has none), or the
-            curve's own checks fail.
+            ``contact_length_m`` not a finite length > 0 (``K / L`` has none),
+            ``cohesion_pa`` negative or not finite, ``friction_angle_deg`` outside [0, 90)
+            (``tan phi`` is infinite at 90 and negative beyond), ``shear_modulus_m`` or
+            ``contact_area_m2`` not a finite value > 0, or the curve's own checks fail;
+            each message names the field.
         """
+        config_numbers("JanosiCurve.from_soil", cohesion_pa=cohesion_pa,
+                       friction_angle_deg=friction_angle_deg, shear_modulus_m=shear_modulus_m,
+                       contact_area_m2=contact_area_m2, contact_length_m=contact_length_m,
+                       load_n=load_n)
+        if not (np.isfinite(cohesion_pa) and cohesion_pa >= 0.0):
+            raise ConfigError(f"JanosiCurve.from_soil: cohesion_pa must be a finite cohesion "
+                              f">= 0 Pa, got {cohesion_pa}")
+        if not 0.0 <= friction_angle_deg < 90.0:
+            raise ConfigError(f"JanosiCurve.from_soil: friction_angle_deg must be in [0, 90) "
+                              f"degrees, got {friction_angle_deg}")
+        for key, value, unit in (("shear_modulus_m", shear_modulus_m, "m"),
+                                 ("contact_area_m2", contact_area_m2, "m^2")):
+            if not (np.isfinite(value) and value > 0.0):
+                raise ConfigError(f"JanosiCurve.from_soil: {key} must be a finite value "
+                                  f"> 0 {unit}, got {value}")
         if not (np.isfinite(load_n) and load_n > 0.0):
             raise ConfigError(f"JanosiCurve.from_soil: load_n must be a finite load > 0 N, "
                               f"got {load_n}")

@@ -326,3 +326,30 @@ def test_burckhardt_curve_refuses_coefficients_outside_their_ranges(c1, c2, c3):
 def test_brixius_curve_refuses_a_mobility_number_it_cannot_divide_by(bn):
     with pytest.raises(ConfigError, match="BrixiusCurve"):
         BrixiusCurve(bn)
+
+
+@pytest.mark.parametrize("field, change", [
+    ("friction_angle_deg", dict(friction_angle_deg=90.0)),      # before: mu_max 1.6e16
+    ("friction_angle_deg", dict(friction_angle_deg=100.0)),     # before: named mu_max
+    ("friction_angle_deg", dict(friction_angle_deg=-5.0)),
+    ("friction_angle_deg", dict(friction_angle_deg=float("nan"))),
+    ("cohesion_pa", dict(cohesion_pa=-500.0)),                  # before: accepted, mu_max 0.53
+    ("cohesion_pa", dict(cohesion_pa=float("inf"))),
+    ("contact_area_m2", dict(contact_area_m2=-0.01)),           # before: accepted
+    ("contact_area_m2", dict(contact_area_m2=0.0)),
+    ("shear_modulus_m", dict(shear_modulus_m=-0.02)),           # before: named shear_slip
+    ("shear_modulus_m", dict(shear_modulus_m=0.0)),
+])
+def test_janosi_from_soil_refuses_soil_values_naming_the_field(field, change):
+    args = dict(cohesion_pa=1000.0, friction_angle_deg=30.0, shear_modulus_m=0.02,
+                contact_area_m2=0.01, contact_length_m=0.1, load_n=100.0)
+    args.update(change)
+    with pytest.raises(ConfigError, match=f"JanosiCurve.from_soil: {field}"):
+        JanosiCurve.from_soil(**args)
+
+
+def test_janosi_from_soil_accepts_a_frictionless_or_cohesionless_soil():
+    assert JanosiCurve.from_soil(0.0, 30.0, 0.02, 0.01, 0.1, 100.0).mu_max == pytest.approx(
+        np.tan(np.radians(30.0)))
+    assert JanosiCurve.from_soil(1000.0, 0.0, 0.02, 0.01, 0.1, 100.0).mu_max == pytest.approx(
+        0.1)
