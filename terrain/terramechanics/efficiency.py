@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from terrain.errors import config_integer
 from terrain.terramechanics.resistance import soil_resistance_coefficient
 from terrain.terramechanics.traction import traction_coefficient
 
@@ -79,11 +80,18 @@ def max_tractive_efficiency(terrain, points: int = 2001) -> tuple[float, float]:
     efficiency : float
         :func:`tractive_efficiency` there, dimensionless.
 
+    Raises
+    ------
+    ConfigError
+        ``points`` not an integer >= 3 (the refinement needs a grid point on each side of
+        the best one).
+
     References
     ----------
     Wong (2008) ch. 4.2; Zoz & Grisso (2003), see the module docstring.
     """
-    grid = np.linspace(0.0, 1.0, int(points))
+    config_integer("max_tractive_efficiency points", points, 3)
+    grid = np.linspace(0.0, 1.0, points)
     i = int(np.argmax(tractive_efficiency(terrain, grid)))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
     res = minimize_scalar(lambda s: -float(tractive_efficiency(terrain, s)), bounds=(lo, hi),

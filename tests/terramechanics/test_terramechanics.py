@@ -353,3 +353,13 @@ def test_janosi_from_soil_accepts_a_frictionless_or_cohesionless_soil():
         np.tan(np.radians(30.0)))
     assert JanosiCurve.from_soil(1000.0, 0.0, 0.02, 0.01, 0.1, 100.0).mu_max == pytest.approx(
         0.1)
+
+
+@pytest.mark.parametrize("points", [2, 1, 0, -3, 2.5, "2001"])
+def test_max_tractive_efficiency_refuses_a_grid_of_fewer_than_3_points(points):
+    from terrain.terramechanics.efficiency import max_tractive_efficiency
+
+    # before: points=1 returned (0.0, 0.0) on SNOW (true maximum 0.154 at slip 0.46),
+    # points=0 raised NumPy's "argmax of an empty sequence"
+    with pytest.raises(ConfigError, match="points"):
+        max_tractive_efficiency(TERRAINS["SNOW"], points=points)
