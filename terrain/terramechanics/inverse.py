@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
+from terrain.errors import config_integer
 from terrain.terramechanics.traction import (TractionCurve, traction_coefficient,
                                              traction_peak)
 
@@ -119,8 +120,15 @@ def stable_side(curve: TractionCurve, points: int = INVERSE_GRID_POINTS
         Slip grid, dimensionless, increasing from 0.
     mu : ndarray, shape (points,)
         ``mu`` on the grid, strictly increasing.
+
+    Raises
+    ------
+    ConfigError
+        ``points`` not an integer >= 2 (one point tabulates only ``(0, 0)``, which every
+        ``mu`` would read as saturated at slip 0).
     """
-    return _stable_side_table(curve, int(points))
+    config_integer("stable_side points", points, 2)
+    return _stable_side_table(curve, points)
 
 
 @lru_cache(maxsize=128)
@@ -155,12 +163,17 @@ def slip_from_traction(curve: TractionCurve, mu: np.ndarray | float,
         Gross traction coefficient (force over normal load), dimensionless; NaN passes
         through.
     points : int
-        Resolution of the tabulated stable side.
+        Resolution of the tabulated stable side (an integer >= 2, :func:`stable_side`).
 
     Returns
     -------
     StableSlip
         Slip and whether ``|mu|`` was at or beyond the curve's maximum (slip = peak slip).
+
+    Raises
+    ------
+    ConfigError
+        ``points`` not an integer >= 2.
     """
     m = np.asarray(mu, dtype=float)
     s_grid, mu_grid = stable_side(curve, points)

@@ -363,3 +363,16 @@ def test_max_tractive_efficiency_refuses_a_grid_of_fewer_than_3_points(points):
     # points=0 raised NumPy's "argmax of an empty sequence"
     with pytest.raises(ConfigError, match="points"):
         max_tractive_efficiency(TERRAINS["SNOW"], points=points)
+
+
+@pytest.mark.parametrize("points", [1, 0, -1, 3.5])
+def test_stable_side_refuses_a_grid_of_fewer_than_2_points(points):
+    from terrain.terramechanics.inverse import slip_from_traction, stable_side
+
+    # before: points=1 tabulated only (0, 0), so slip_from_traction(ASPHALT, 0.5) said
+    # slip 0, saturated; points=0 raised an IndexError
+    curve = TERRAINS["ASPHALT"].curve
+    with pytest.raises(ConfigError, match="points"):
+        stable_side(curve, points)
+    with pytest.raises(ConfigError, match="points"):
+        slip_from_traction(curve, 0.5, points)
