@@ -376,3 +376,11 @@ def test_stable_side_refuses_a_grid_of_fewer_than_2_points(points):
         stable_side(curve, points)
     with pytest.raises(ConfigError, match="points"):
         slip_from_traction(curve, 0.5, points)
+
+
+@pytest.mark.parametrize("fraction", [0.0, 1.5, -0.2, float("nan")])
+def test_slip_at_peak_fraction_refuses_a_fraction_outside_0_1_with_a_config_error(fraction):
+    from terrain.terramechanics.inverse import slip_at_peak_fraction
+
+    with pytest.raises(ConfigError, match="fraction"):
+        slip_at_peak_fraction(TERRAINS["ASPHALT"].curve, fraction)
