@@ -11,8 +11,11 @@ Brixius (1987), motion resistance ratio ``1/Bn + 0.04 + 0.5 s / sqrt(Bn)``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from terrain.errors import ConfigError
 from terrain.terramechanics.traction import traction_peak
 
 G_M_S2 = 9.80665
@@ -205,6 +208,19 @@ def can_turn_in_place(geometry, terrain) -> bool:
     return drive > resist
 
 
+def _check_bekker_plate(width_m: float, length_m: float, k_c: float, k_phi: float,
+                        n: float) -> None:
+    """Refuse a plate or soil for which Bekker's relation has no sinkage (ConfigError)."""
+    for key, value in (("width_m", width_m), ("length_m", length_m), ("n", n)):
+        if not (math.isfinite(value) and value > 0.0):
+            raise ConfigError(f"bekker_sinkage_m: {key} must be a finite value > 0, got "
+                              f"{value}")
+    modulus = k_c / width_m + k_phi
+    if not (math.isfinite(modulus) and modulus > 0.0):
+        raise ConfigError(f"bekker_sinkage_m: k_c / width_m + k_phi must be a finite modulus "
+                          f"> 0 N/m^(n+2), got {k_c} / {width_m} + {k_phi} = {modulus}")
+
+
 def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
                      k_phi: float, n: float) -> float:
     """Static sinkage of a flat plate, Bekker ``p = (k_c / b + k_phi) z^n`` (Wong eq. 2.33).
@@ -227,7 +243,16 @@ def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
     float
         Sinkage z, m (0 for a load <= 0: a wheel off the ground does not sink, the limit
         of ``z ~ W^(1/n)`` as ``W -> 0``).
+
+    Raises
+    ------
+    ConfigError
+        ``width_m``, ``length_m`` or ``n`` not a finite value > 0, or a pressure-sinkage
+        modulus ``k_c / width_m + k_phi`` that is not finite and > 0 (no sinkage solves
+        ``p = (k_c / b + k_phi) z^n``: a negative one made the sinkage complex, zero
+        divided by it).
     """
+    _check_bekker_plate(width_m, length_m, k_c, k_phi, n)
     if load_n <= 0:
         return 0.0
     p = load_n / (width_m * length_m)
@@ -250,7 +275,13 @@ def bekker_compaction_coefficient(load_n: float, width_m: float, length_m: float
     -------
     float
         Dimensionless; 0 for a load <= 0 (the limit of ``R_c / W ~ W^(1/n)`` as ``W -> 0``).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`bekker_sinkage_m`.
     """
+    _check_bekker_plate(width_m, length_m, k_c, k_phi, n)
     if load_n <= 0:
         return 0.0
     z = bekker_sinkage_m(load_n, width_m, length_m, k_c, k_phi, n)

@@ -384,3 +384,17 @@ def test_slip_at_peak_fraction_refuses_a_fraction_outside_0_1_with_a_config_erro
 
     with pytest.raises(ConfigError, match="fraction"):
         slip_at_peak_fraction(TERRAINS["ASPHALT"].curve, fraction)
+
+
+@pytest.mark.parametrize("field, args", [
+    ("k_c / width_m \\+ k_phi", (100.0, 0.1, 0.1, -5e3, 10.0, 0.7)),   # before: TypeError
+    ("k_c / width_m \\+ k_phi", (100.0, 0.1, 0.1, 0.0, 0.0, 0.7)),     # ZeroDivisionError
+    ("width_m", (100.0, 0.0, 0.1, 5.27e3, 1515.04e3, 0.7)),            # ZeroDivisionError
+    ("length_m", (100.0, 0.1, -0.1, 5.27e3, 1515.04e3, 0.7)),          # NaN sinkage
+    ("n", (100.0, 0.1, 0.1, 5.27e3, 1515.04e3, 0.0)),
+])
+def test_bekker_sinkage_refuses_a_plate_or_soil_with_no_sinkage(field, args):
+    with pytest.raises(ConfigError, match=f"bekker_sinkage_m: {field}"):
+        bekker_sinkage_m(*args)
+    with pytest.raises(ConfigError, match=f"bekker_sinkage_m: {field}"):
+        bekker_compaction_coefficient(*args)
