@@ -53,7 +53,7 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer
 from terrain.terramechanics.resistance import bekker_sinkage_m
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation
 
@@ -431,12 +431,23 @@ def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
     max_load_n : float
         Largest normal load tabulated, N (> 0).
     n_grid : int
-        Grid points.
+        Grid points (an integer >= 2: the first row is the unloaded wheel).
 
     Returns
     -------
     SoilContact
+
+    Raises
+    ------
+    ConfigError
+        ``max_load_n`` not a finite load > 0 or ``n_grid`` not an integer >= 2 (the table
+        would hold no loaded row, and every wheel's load would be clipped to 0: no lateral
+        force at all).
     """
+    if not (np.isfinite(max_load_n) and max_load_n > 0.0):
+        raise ConfigError(f"soil_contact: max_load_n must be a finite load > 0 N, got "
+                          f"{max_load_n}")
+    config_integer("soil_contact n_grid", n_grid, 2)
     loads = np.linspace(0.0, max_load_n, n_grid)
     z = np.zeros(n_grid)
     length = np.full(n_grid, footprint_length_m)

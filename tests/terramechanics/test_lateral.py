@@ -43,3 +43,15 @@ def test_shipped_soils_pass_validation_and_resist_the_slide(name):
                                                 np.array([0.1, -0.1]), np.array([0.3, 0.3]))
     assert np.all(np.isfinite(force)) and force[0] < 0.0 < force[1]
     assert np.all(slope <= 0.0)
+
+
+@pytest.mark.parametrize("max_load_n, n_grid, field", [
+    (0.0, 64, "max_load_n"),          # before: a table of zero loads, strength 0 at any load
+    (-10.0, 64, "max_load_n"),
+    (float("nan"), 64, "max_load_n"),
+    (4.0 * W, 1, "n_grid"),           # before: one row at load 0, strength 0 at any load
+    (4.0 * W, 2.5, "n_grid"),
+])
+def test_soil_contact_refuses_a_table_with_no_loaded_row(max_load_n, n_grid, field):
+    with pytest.raises(ConfigError, match=f"soil_contact: {field}|soil_contact n_grid"):
+        soil_contact(SOILS["SNOW"], 0.11, 0.08, 0.1651, max_load_n, n_grid=n_grid)
