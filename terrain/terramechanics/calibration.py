@@ -132,11 +132,27 @@ def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: flo
 
     Raises
     ------
-    ValueError
-        No solution (the ratio ``(f + a/g)/f`` must be below ``slip_accel / slip_steady``).
+    ConfigError
+        ``soil_resistance`` or ``accel_m_s2`` not a finite value > 0, a slip outside
+        (0, 1], or no solution: the ratio ``(f + a/g_0)/f`` must be below
+        ``slip_accel / slip_steady`` (``g(s_acc/k) / g(s_ss/k)`` runs from 1 as ``k -> 0``
+        to ``s_acc / s_ss`` as ``k -> inf``).
     """
+    for key, value in (("soil_resistance", soil_resistance), ("accel_m_s2", accel_m_s2)):
+        if not (math.isfinite(value) and value > 0.0):
+            raise ConfigError(f"calibrate_janosi: {key} must be a finite value > 0, got "
+                              f"{value}")
+    for key, value in (("slip_steady", slip_steady), ("slip_accel", slip_accel)):
+        if not 0.0 < value <= 1.0:
+            raise ConfigError(f"calibrate_janosi: {key} must be in (0, 1], got {value}")
     g = lambda x: float(patch_mobilisation(x)[0])  # noqa: E731
     target = (soil_resistance + accel_m_s2 / G_M_S2) / soil_resistance
+    if not target < slip_accel / slip_steady:
+        raise ConfigError(
+            f"calibrate_janosi: no Janosi-Hanamoto curve gives slip {slip_steady} at the "
+            f"resistance {soil_resistance} and slip {slip_accel} at {accel_m_s2} m/s^2 more: "
+            f"the demand ratio (f + a/g_0)/f = {target:.4g} must be below slip_accel / "
+            f"slip_steady = {slip_accel / slip_steady:.4g}")
     k = brentq(lambda k: g(slip_accel / k) / g(slip_steady / k) - target, 1e-3, 1e3)
     return JanosiCurve(soil_resistance / g(slip_steady / k), k,
                        "calibrated (calibrate_janosi)")

@@ -398,3 +398,16 @@ def test_bekker_sinkage_refuses_a_plate_or_soil_with_no_sinkage(field, args):
         bekker_sinkage_m(*args)
     with pytest.raises(ConfigError, match=f"bekker_sinkage_m: {field}"):
         bekker_compaction_coefficient(*args)
+
+
+@pytest.mark.parametrize("args, field", [
+    ((0.0, 0.1255, 0.339), "soil_resistance"),      # before: ZeroDivisionError
+    ((-0.08, 0.1255, 0.339), "soil_resistance"),
+    ((0.08, 0.0, 0.339), "slip_steady"),
+    ((0.08, 0.1255, 1.5), "slip_accel"),
+    ((0.08, 0.339, 0.1255), "no Janosi-Hanamoto curve"),   # before: brentq's sign message
+    ((0.08, 0.1255, 0.339, 0.0), "accel_m_s2"),
+])
+def test_calibrate_janosi_refuses_data_with_no_curve_naming_why(args, field):
+    with pytest.raises(ConfigError, match=f"calibrate_janosi: {field}"):
+        calibrate_janosi(*args)
