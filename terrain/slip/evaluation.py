@@ -17,7 +17,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, EstimationError
 from terrain.run import TIME, Run
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -26,6 +26,17 @@ from terrain.slip.odometry import dead_reckon
 SLID_OFF_FACTOR = 3.0
 #: Windows of straight_accel runs starting after this time are steady, s.
 STEADY_AFTER_S = 3.0
+
+
+def _run_with(by_id: dict[str, Run], run_id: str, streams: Sequence[str]) -> Run:
+    """The run ``run_id`` of ``by_id``, refused by name when absent or without ``streams``."""
+    run = by_id.get(run_id)
+    if run is None:
+        raise ConfigError(f"run {run_id!r} is not among the {len(by_id)} run(s) given")
+    missing = [s for s in streams if s not in run.streams]
+    if missing:
+        raise EstimationError(f"run {run_id} has no {' or '.join(missing)} stream")
+    return run
 
 
 def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarray:
@@ -200,11 +211,18 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
     ndarray, shape (n, 2)
         Left and right slip (NaN for a window without an IMU sample, which
         :func:`error_table` leaves out of ``n_scored``).
+
+    Raises
+    ------
+    ConfigError
+        A run of ``meta`` is not among ``runs`` (its id is named).
+    EstimationError
+        A run without an ``imu`` or ``wheels`` stream (its id is named).
     """
     out = np.full((len(meta), 2), np.nan)
     by_id = {r.run_id: r for r in runs}
     for rid, idx in meta.groupby("run_id").indices.items():
-        run = by_id[rid]
+        run = _run_with(by_id, rid, ("imu", "wheels"))
         imu, wh = run.streams["imu"], run.streams["wheels"]
         t = imu[TIME].to_numpy()
         yaw = np.concatenate([[0.0], np.cumsum(np.diff(t) * imu["wz"].to_numpy()[:-1])])
@@ -253,12 +271,23 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         percentage of it). ``slid_off``: the body travelled more than
         :data:`SLID_OFF_FACTOR` x the wheels' path (it slid down the slope, e.g. the Husky on a
         15 deg icy slope, which no wheel odometry can follow).
+
+    Raises
+    ------
+    ConfigError
+        A run of ``run_ids`` that is not among ``runs`` or has no window in ``meta`` (its id
+        is named).
+    EstimationError
+        A run without a ``wheels`` or ``truth`` stream (its id is named).
     """
     by_id = {r.run_id: r for r in runs}
     rows = []
     for rid in run_ids:
-        run = by_id[rid]
+        run = _run_with(by_id, rid, ("wheels", "truth"))
         sel = np.flatnonzero(meta["run_id"].to_numpy() == rid)
+        if not sel.size:    # no prediction to interpolate onto its wheel samples
+            raise ConfigError(f"run {rid} has no window in meta: no slip prediction to "
+                              "compensate its odometry with")
         wh, tr = run.streams["wheels"], run.streams["truth"]
         t = wh[TIME].to_numpy()
         centre = 0.5 * (meta["t_start_s"].to_numpy()[sel] + meta["t_end_s"].to_numpy()[sel])

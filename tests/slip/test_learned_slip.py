@@ -488,3 +488,34 @@ def test_endo_turning_slip_counts_the_slips_it_clips():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         endo_turning_slip(vl[:1], vr[:1], np.array([0.5]), HUSKY.track_m)
+
+
+def _still_run(run_id="sim/ASPHALT/a/0", imu=False):
+    """A 10 s run driving straight at 0.5 m/s (wheels, truth, optionally an IMU)."""
+    from terrain.run import Run
+    t = np.arange(0.0, 10.0, 0.1)
+    streams = {"wheels": pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.5}),
+               "truth": pd.DataFrame({"t_s": t, "x": 0.5 * t, "y": 0.0})}
+    if imu:
+        streams["imu"] = pd.DataFrame({"t_s": t, "wz": 0.0})
+    return Run(run_id, "sim", "ASPHALT", streams)
+
+
+def test_odometry_and_observer_name_the_run_they_cannot_evaluate():
+    # a run id without windows raised np.interp's bare "array of sample points is empty", an
+    # unknown run id a bare KeyError 'nope', a run without an IMU KeyError 'imu'
+    from terrain.errors import EstimationError
+    from terrain.slip.evaluation import observer_window_slip
+    run = _still_run()
+    other = pd.DataFrame({"run_id": ["sim/SNOW/b/0"], "t_start_s": [0.0], "t_end_s": [2.0]})
+    own = other.assign(run_id=run.run_id)
+    pred = np.array([[0.0, 0.0, 1.0, 0.0]])
+    with pytest.raises(ConfigError, match="sim/ASPHALT/a/0.*no window"):
+        odometry_errors([run], other, pred, HUSKY.track_m, [run.run_id])
+    with pytest.raises(ConfigError, match="'nope'.*not among"):
+        odometry_errors([run], own, pred, HUSKY.track_m, ["nope"])
+    with pytest.raises(ConfigError, match="sim/SNOW/b/0.*not among"):
+        observer_window_slip([run], other, HUSKY.track_m)
+    with pytest.raises(EstimationError, match="sim/ASPHALT/a/0 has no imu stream"):
+        observer_window_slip([run], own, HUSKY.track_m)
+    assert np.isfinite(observer_window_slip([_still_run(imu=True)], own, HUSKY.track_m)).all()
