@@ -12,12 +12,13 @@ start after the 1 m/s^2 ramp (``t_start_s >= STEADY_AFTER_S``) with true |yaw ra
 
 from __future__ import annotations
 
+import warnings
 from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, EstimationError
+from terrain.errors import ConfigError, DataWarning, EstimationError
 from terrain.run import TIME, Run
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -26,6 +27,12 @@ from terrain.slip.odometry import dead_reckon
 SLID_OFF_FACTOR = 3.0
 #: Windows of straight_accel runs starting after this time are steady, s.
 STEADY_AFTER_S = 3.0
+#: Range a predicted turning factor chi is clipped to before it divides the wheel yaw rate
+#: (:func:`odometry_errors`, :func:`measured_checks`): a skid-steer chi is ~1.5-3
+#: (:mod:`terrain.slip.odometry`); a prediction outside it (e.g. near 0 in straight driving,
+#: where the chi model has no target) would blow the compensated yaw rate up. Counted and
+#: warned about.
+CHI_RANGE = (0.5, 5.0)
 
 
 def _run_with(by_id: dict[str, Run], run_id: str, streams: Sequence[str]) -> Run:
@@ -37,6 +44,14 @@ def _run_with(by_id: dict[str, Run], run_id: str, streams: Sequence[str]) -> Run
     if missing:
         raise EstimationError(f"run {run_id} has no {' or '.join(missing)} stream")
     return run
+
+
+def _clip_chi(chi: np.ndarray) -> tuple[np.ndarray, int]:
+    """``chi`` clipped to :data:`CHI_RANGE` and how many of its values were outside (NaN is
+    left as it is and not counted)."""
+    chi = np.asarray(chi, dtype=float)
+    out = (chi < CHI_RANGE[0]) | (chi > CHI_RANGE[1])
+    return np.clip(chi, *CHI_RANGE), int(out.sum())
 
 
 def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarray:
@@ -244,7 +259,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     """Final position error of plain and slip-compensated dead reckoning (percent of distance).
 
     The window predictions (``slip_1, slip_2, chi`` at the window centres) are interpolated
-    onto the wheel samples; before the first centre the first prediction holds.
+    onto the wheel samples; before the first centre the first prediction holds. The
+    interpolated chi is clipped to :data:`CHI_RANGE` (counted in a warning).
 
     Parameters
     ----------
@@ -279,9 +295,16 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         is named).
     EstimationError
         A run without a ``wheels`` or ``truth`` stream (its id is named).
+
+    Warns
+    -----
+    DataWarning
+        Wheel samples whose interpolated chi lies outside :data:`CHI_RANGE` were clipped to
+        it (their count, and of how many runs).
     """
     by_id = {r.run_id: r for r in runs}
     rows = []
+    n_clipped = n_samples = n_runs_clipped = 0
     for rid in run_ids:
         run = _run_with(by_id, rid, ("wheels", "truth"))
         sel = np.flatnonzero(meta["run_id"].to_numpy() == rid)
@@ -297,7 +320,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         s1, s2, chi, v_by = (np.interp(t, c, p[:, k]) for k in range(4))
         vl, vr = wh["vel_l"].to_numpy(), wh["vel_r"].to_numpy()
         plain = dead_reckon(t, vl, vr, track_m)
-        comp = dead_reckon(t, vl, vr, track_m, s1, s2, np.clip(chi, 0.5, 5.0), v_by)
+        chi, n_out = _clip_chi(chi)
+        n_clipped, n_samples = n_clipped + n_out, n_samples + t.size
+        n_runs_clipped += n_out > 0
+        comp = dead_reckon(t, vl, vr, track_m, s1, s2, chi, v_by)
         imu = run.streams.get("imu")
         wz = None if imu is None else np.interp(t, imu[TIME].to_numpy(), imu["wz"].to_numpy())
         xy = tr[["x", "y"]].to_numpy()
@@ -324,6 +350,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
                      "plain_err_pct": e_plain, "compensated_err_pct": e_comp,
                      "reduction_pct": 100 * (1 - e_comp / e_plain) if e_plain > 0 else np.nan,
                      "gyro_heading_err_pct": e_gyro, "compensated_gyro_err_pct": e_comp_gyro})
+    if n_clipped:
+        warnings.warn(f"odometry_errors: chi of {n_clipped} of {n_samples} wheel samples "
+                      f"({n_runs_clipped} of {len(rows)} runs) outside [{CHI_RANGE[0]:g}, "
+                      f"{CHI_RANGE[1]:g}] clipped to it", DataWarning, stacklevel=2)
     return pd.DataFrame(rows, columns=["run_id", "terrain", "scenario", "distance_m",
                                        "duration_s", "slid_off", "plain_err_pct",
                                        "compensated_err_pct", "reduction_pct",
@@ -386,7 +416,7 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
 
     * yaw: RMS over turning windows (gyro |yaw rate| >= ``min_turn_rad_s``) of the gyro yaw
       rate minus the wheel yaw rate, plain ``(v_R - v_L)/B`` and compensated
-      ``(v_R - v_L)/(chi B)`` with the predicted ``chi``;
+      ``(v_R - v_L)/(chi B)`` with the predicted ``chi`` clipped to :data:`CHI_RANGE`;
     * slip vs currents: median |learned - physics| slip (the physics slip is computed from
       the measured currents, :mod:`terrain.slip.physics`) and the Spearman correlation of the
       learned slip with the mean current, over straight windows.
@@ -412,12 +442,23 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     pandas.DataFrame
         One row per terrain: ``n_runs, yaw_rms_plain_rad_s, yaw_rms_compensated_rad_s,
         median_learned_minus_physics, spearman_slip_current``.
+
+    Warns
+    -----
+    DataWarning
+        Turning windows whose predicted chi lies outside :data:`CHI_RANGE` had it clipped
+        (their count).
     """
     from scipy.stats import spearmanr
 
     wz = X["wz__mean"].to_numpy()
     dv = X["vel_diff__mean"].to_numpy()
-    chi = np.clip(pred[:, 2], 0.5, 5.0)
+    turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on
+    chi, n_out = _clip_chi(np.where(turning, pred[:, 2], 1.0))
+    if n_out:
+        warnings.warn(f"measured_checks: chi of {n_out} of {int(turning.sum())} turning "
+                      f"windows outside [{CHI_RANGE[0]:g}, {CHI_RANGE[1]:g}] clipped to it",
+                      DataWarning, stacklevel=2)
     slip = pred[:, :2].mean(axis=1)
     phys = X[["phys_slip_l", "phys_slip_r"]].to_numpy().mean(axis=1)
     cur = X[["cur_l__mean", "cur_r__mean"]].to_numpy().mean(axis=1)

@@ -519,3 +519,30 @@ def test_odometry_and_observer_name_the_run_they_cannot_evaluate():
     with pytest.raises(EstimationError, match="sim/ASPHALT/a/0 has no imu stream"):
         observer_window_slip([run], own, HUSKY.track_m)
     assert np.isfinite(observer_window_slip([_still_run(imu=True)], own, HUSKY.track_m)).all()
+
+
+def test_chi_clip_of_the_odometry_and_yaw_checks_is_counted_and_said():
+    # a predicted chi of 9 was clipped to 5 (and 0.2 to 0.5) without a word
+    from terrain.slip.evaluation import CHI_RANGE, measured_checks
+    assert CHI_RANGE == (0.5, 5.0)
+    run = _still_run()
+    meta = pd.DataFrame({"run_id": [run.run_id] * 2, "t_start_s": [0.0, 6.0],
+                         "t_end_s": [2.0, 8.0]})
+    wild = np.array([[0.0, 0.0, 9.0, 0.0], [0.0, 0.0, 9.0, 0.0]])
+    with pytest.warns(DataWarning, match=r"chi of 100 of 100 wheel samples \(1 of 1 runs\) "
+                                         r"outside \[0.5, 5\]"):
+        clipped = odometry_errors([run], meta, wild, HUSKY.track_m, [run.run_id])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")          # in range: no warning, same figures
+        same = odometry_errors([run], meta, np.where(wild == 9.0, 5.0, wild), HUSKY.track_m,
+                               [run.run_id])
+    pd.testing.assert_frame_equal(clipped, same)
+    X = pd.DataFrame({"wz__mean": [0.3, 0.3, 0.0], "vel_diff__mean": [0.2, 0.2, 0.0],
+                      "cur_l__mean": 1.0, "cur_r__mean": 1.0, "phys_slip_l": 0.0,
+                      "phys_slip_r": 0.0})
+    pred = np.array([[0.0, 0.0, 0.2, 0.0], [0.0, 0.0, 2.0, 0.0], [0.0, 0.0, 9.0, 0.0]])
+    with pytest.warns(DataWarning, match=r"chi of 1 of 2 turning windows outside"):
+        checks = measured_checks(X, pred, np.array(["a", "a", "a"]), np.array(["S"] * 3),
+                                 HUSKY.track_m)
+    expected = np.sqrt(np.mean((0.3 - 0.2 / (np.array([0.5, 2.0]) * HUSKY.track_m)) ** 2))
+    assert checks.loc[0, "yaw_rms_compensated_rad_s"] == pytest.approx(expected)
