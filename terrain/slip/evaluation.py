@@ -124,7 +124,8 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     mask : ndarray of bool, shape (n,)
         Windows to score.
     by : sequence of str
-        Grouping columns.
+        Grouping columns (windows whose value is missing form a group of their own, labelled
+        NaN, after the others: none is left out).
 
     Returns
     -------
@@ -138,7 +139,7 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     frame["e1"] = err[mask, 0]
     frame["e2"] = err[mask, 1]
     rows = []
-    for key, g in frame.groupby(list(by), sort=True):
+    for key, g in frame.groupby(list(by), sort=True, dropna=False):   # unlabelled: kept
         e = np.concatenate([g["e1"].to_numpy(), g["e2"].to_numpy()])
         e = e[np.isfinite(e)]
         key = key if isinstance(key, tuple) else (key,)
@@ -172,7 +173,8 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     mask : ndarray of bool, shape (n,)
         Windows to score.
     by : sequence of str
-        Grouping columns of ``meta``.
+        Grouping columns of ``meta`` (windows whose value is missing form a group of their
+        own, labelled NaN, after the others: none is left out).
 
     Returns
     -------
@@ -190,7 +192,7 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     pos = np.flatnonzero(np.asarray(mask, bool))
     keys = meta[list(by)].iloc[pos].reset_index(drop=True)
     rows = []
-    for key, g in keys.groupby(list(by)):
+    for key, g in keys.groupby(list(by), dropna=False):     # unlabelled windows: kept
         sel = pos[g.index.to_numpy()]
         uu = u[sel].ravel()
         finite = uu[~np.isnan(uu)]     # a model without a std covers nothing: NaN, not 0
