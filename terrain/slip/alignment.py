@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.errors import EstimationError, TimeStepError
+from terrain.errors import ConfigError, EstimationError, TimeStepError, config_numbers
 
 
 @dataclass(frozen=True)
@@ -76,18 +76,24 @@ class LagGate:
 
     Raises
     ------
-    ValueError
-        ``min_correlation`` outside [0, 1] or a negative tolerance.
+    ConfigError
+        A value that is not a real number, ``min_correlation`` outside [0, 1] (or NaN), or a
+        negative (or NaN) tolerance; a :class:`ValueError`, as before.
     """
 
     min_correlation: float = 0.3
     halves_tolerance_s: float | None = 0.1
 
     def __post_init__(self) -> None:
+        config_numbers("LagGate", optional=("halves_tolerance_s",),
+                       min_correlation=self.min_correlation,
+                       halves_tolerance_s=self.halves_tolerance_s)
         if not 0.0 <= self.min_correlation <= 1.0:
-            raise ValueError(f"min_correlation must be in [0, 1], got {self.min_correlation}")
+            raise ConfigError(f"LagGate.min_correlation must be in [0, 1], got "
+                              f"{self.min_correlation}")
         if self.halves_tolerance_s is not None and not self.halves_tolerance_s >= 0:
-            raise ValueError(f"halves_tolerance_s must be >= 0, got {self.halves_tolerance_s}")
+            raise ConfigError(f"LagGate.halves_tolerance_s must be >= 0, got "
+                              f"{self.halves_tolerance_s}")
 
 
 def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np.ndarray,
@@ -107,9 +113,9 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
         Delayed signal (e.g. the encoder rim speed): strictly increasing times, s, same
         unit.
     max_lag_s : float
-        Largest lag searched, s (> 0).
+        Largest lag searched, s (finite, at least half a grid step ``0.5 / rate_hz``).
     rate_hz : float
-        Grid rate, Hz.
+        Grid rate, Hz (finite, > 0).
 
     Returns
     -------
@@ -117,14 +123,23 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
 
     Raises
     ------
+    ConfigError
+        ``max_lag_s`` or ``rate_hz`` not a finite positive number (the argument is named),
+        or ``max_lag_s`` under half a grid step (no lag but 0 would be searched).
     TimeStepError
         ``t_ref_s`` or ``t_sig_s`` (their finite samples) not strictly increasing: the
         argument, the first offending sample and the count are named.
     EstimationError
         Too little overlap or a flat signal (no transient to align on).
     """
-    if not (max_lag_s > 0 and rate_hz > 0):
-        raise EstimationError("max_lag_s and rate_hz must be > 0")
+    config_numbers("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
+    for name, value in (("max_lag_s", max_lag_s), ("rate_hz", rate_hz)):
+        if not 0 < value < np.inf:      # inf overflowed int() below, NaN compared False
+            raise ConfigError(f"{name} must be a finite number > 0, got {value}")
+    if round(max_lag_s * rate_hz) < 1:
+        raise ConfigError(f"max_lag_s {max_lag_s:g} s is under half a grid step of "
+                          f"{1 / rate_hz:g} s (rate_hz {rate_hz:g}): only the lag 0 would be "
+                          "searched")
     tr, r = _finite(t_ref_s, ref, "t_ref_s")
     ts, s = _finite(t_sig_s, sig, "t_sig_s")
     t0, t1 = max(tr[0], ts[0]), min(tr[-1], ts[-1])
@@ -182,7 +197,7 @@ def gated_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np
 
     Raises
     ------
-    TimeStepError, EstimationError
+    TimeStepError, EstimationError, ConfigError
         As :func:`estimate_lag` on the whole overlap.
     """
     est = estimate_lag(t_ref_s, ref, t_sig_s, sig, max_lag_s=max_lag_s, rate_hz=rate_hz)

@@ -299,3 +299,26 @@ def test_estimate_lag_refuses_times_that_do_not_increase_by_name():
     t_nan = t.copy()
     t_nan[500] = np.nan
     assert estimate_lag(t, ref, t_nan, sig).lag_s == pytest.approx(0.37, abs=0.01)
+
+
+def test_lag_settings_are_refused_by_name_as_configuration_errors():
+    # LagGate raised a plain ValueError; estimate_lag with max_lag_s or rate_hz = inf raised
+    # OverflowError 'cannot convert float infinity to integer', text a TypeError, and a
+    # max_lag_s under half a grid step searched the lag 0 alone (lag 0 s, "correlation 1")
+    from terrain.slip import LagGate
+    with pytest.raises(ConfigError, match="min_correlation"):
+        LagGate(min_correlation=2.0)
+    with pytest.raises(ConfigError, match="halves_tolerance_s"):
+        LagGate(halves_tolerance_s=-1.0)
+    with pytest.raises(ConfigError, match="LagGate.min_correlation must be a real number"):
+        LagGate(min_correlation="0.3")
+    with pytest.raises(ValueError):       # ConfigError is a ValueError: old callers still catch
+        LagGate(min_correlation=float("nan"))
+    t = np.arange(0, 20, 0.01)
+    ref = np.clip(t - 2.0, 0, 1)
+    for name, bad in (("max_lag_s", np.inf), ("rate_hz", np.inf), ("max_lag_s", np.nan),
+                      ("rate_hz", 0.0), ("max_lag_s", -1.0), ("max_lag_s", "1")):
+        with pytest.raises(ConfigError, match=name):
+            estimate_lag(t, ref, t, ref, **{name: bad})
+    with pytest.raises(ConfigError, match="max_lag_s 0.001 s.*half a grid step"):
+        estimate_lag(t, ref, t, ref, max_lag_s=0.001)
