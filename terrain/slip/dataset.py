@@ -11,6 +11,8 @@ simulation, and a run simulated before a change of the simulator is never reused
 from __future__ import annotations
 
 import hashlib
+import os
+import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
@@ -133,7 +135,9 @@ def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run
     cache_dir : str or Path, optional
         Cache folder (created); None = no cache. A run of the same settings cached by an
         earlier simulator (another :func:`terrain.sim.digest.simulator_digest`) is replaced,
-        so the folder holds one file per cell and settings.
+        so the folder holds one file per cell and settings. Each write goes through a
+        temporary file of its own, renamed into place: processes sharing the folder never
+        read a partial file nor trip over each other's.
 
     Returns
     -------
@@ -146,9 +150,17 @@ def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run
     run = replace(run, run_id=f"sim/{config.terrains[0]}/{config.scenario}/{config.seed}")
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp")
-        joblib.dump(run, tmp)
-        tmp.replace(path)
+        # a temporary file of this write's own: two processes filling one cell at once each
+        # rename a whole file into place (one shared "<key>.tmp" was renamed away under the
+        # other writer, whose own rename then failed with FileNotFoundError)
+        handle, name = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
+        os.close(handle)
+        tmp = Path(name)
+        try:
+            joblib.dump(run, tmp)
+            tmp.replace(path)
+        finally:
+            tmp.unlink(missing_ok=True)
         for stale in path.parent.glob(f"{_cell(config)}_*.joblib"):
             if stale != path:   # the same run from an earlier simulator
                 stale.unlink()

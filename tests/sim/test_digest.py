@@ -73,3 +73,26 @@ def test_slip_cache_reuses_a_run_only_while_the_simulator_is_unchanged(tmp_path,
     dataset.simulated_run(config, tmp_path)
     names = {f.name for f in tmp_path.iterdir()}
     assert new_key in names and files[0].name not in names and len(names) == 2
+
+
+def test_two_writers_of_one_cache_cell_do_not_trip_over_one_temporary_file(tmp_path,
+                                                                           monkeypatch):
+    # both writers dumped to the one "<key>.tmp": a writer whose file the other had moved
+    # into place before its own rename failed with FileNotFoundError (and two writers at once
+    # wrote into one file). Each write now has a temporary file of its own.
+    config = SimConfig(terrains=("SNOW",), scenario="straight_accel", duration_s=2.0, seed=5)
+    real_dump = dataset.joblib.dump
+    calls = []
+
+    def dump_meanwhile(value, filename):
+        calls.append(filename)
+        out = real_dump(value, filename)
+        if len(calls) == 1:     # another process stores the same cell before this one renames
+            dataset.simulated_run(config, tmp_path)
+        return out
+
+    monkeypatch.setattr(dataset.joblib, "dump", dump_meanwhile)
+    run = dataset.simulated_run(config, tmp_path)
+    assert len(calls) == 2 and calls[0] != calls[1]
+    assert [f.name for f in tmp_path.iterdir()] == [dataset.cache_key(config)]
+    assert dataset.simulated_run(config, tmp_path).streams["imu"].equals(run.streams["imu"])
