@@ -19,7 +19,7 @@ from typing import Iterator
 
 import joblib
 
-from terrain.errors import ConfigError, duplicated
+from terrain.errors import ConfigError, config_integer, config_numbers, duplicated
 from terrain.run import Run
 from terrain.sim.digest import simulator_digest
 from terrain.sim.scenarios import SCENARIO_NAMES
@@ -47,8 +47,8 @@ class SlipDataSpec:
     Raises
     ------
     ConfigError
-        Unknown terrain or scenario, a value repeated on an axis, empty grid, non-positive
-        duration.
+        Unknown terrain or scenario, a value repeated on an axis, empty grid, a seed that is
+        not an integer >= 0, a duration that is not a number or not > 0.
     """
 
     terrains: tuple[str, ...] = TERRAIN_NAMES
@@ -65,6 +65,9 @@ class SlipDataSpec:
                               f"{list(TERRAIN_NAMES)}, scenarios {list(SCENARIO_NAMES)}")
         if not (self.terrains and self.scenarios and self.seeds):
             raise ConfigError("the run grid is empty")
+        for seed in self.seeds:     # configs() takes int(): 1.7 would be simulated as seed 1
+            config_integer("SlipDataSpec.seeds", seed, 0)
+        config_numbers("SlipDataSpec", duration_s=self.duration_s)
         for axis in ("terrains", "scenarios", "seeds"):
             repeated = duplicated(getattr(self, axis))
             if repeated:  # a run simulated and counted twice

@@ -561,3 +561,14 @@ def test_error_and_calibration_tables_keep_windows_without_a_label():
     calib = std_calibration_table(pred, np.full((4, 2), 0.2), truth, meta, np.ones(4, bool))
     assert calib["n_windows"].tolist() == [2, 1, 1]
     assert calib["scenario"].tolist()[:2] == ["x", "y"] and pd.isna(calib.loc[2, "scenario"])
+
+
+def test_slip_data_spec_refuses_a_fractional_seed_and_a_text_duration():
+    # seeds=(1.7,) was simulated and labelled as seed 1 (configs() took int() before SimConfig
+    # could refuse it), a duration '10' raised TypeError "'>' not supported"
+    with pytest.raises(ConfigError, match=r"seeds must be an integer >= 0, got 1.7"):
+        SlipDataSpec(("SNOW",), ("random",), (1.7,), 10.0)
+    with pytest.raises(ConfigError, match="SlipDataSpec.duration_s must be a real number"):
+        SlipDataSpec(("SNOW",), ("random",), (1,), "10")
+    assert [c.seed for c in SlipDataSpec(("SNOW",), ("random",), (np.int64(3),), 10.0)
+            .configs()] == [3]
