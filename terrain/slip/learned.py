@@ -110,7 +110,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             ``X`` is not 2-D, ``y`` is not ``(n_windows, 4)``, or ``groups`` has another
             length than ``X``.
         NonFiniteInputError
-            A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite.
+            A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite, or a ``chi``
+            target is infinite.
         """
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
@@ -125,6 +126,12 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                     f"{int(bad.sum())} of {len(y)} training windows have a non-finite "
                     f"{SLIP_OUTPUTS[i]} target (first rows {np.flatnonzero(bad)[:3].tolist()}):"
                     " only chi may be NaN")
+        bad = np.isinf(y[:, 2])     # NaN says "not turning"; inf was silently taken for it
+        if bad.any():
+            raise NonFiniteInputError(
+                f"{int(bad.sum())} of {len(y)} training windows have an infinite chi target "
+                f"(first rows {np.flatnonzero(bad)[:3].tolist()}): chi is finite, or NaN where "
+                "the robot does not turn")
         self.n_features_in_ = X.shape[1]
         self.slip_models_ = [self._tree().fit(X, y[:, i]) for i in range(2)]
         turning = np.isfinite(y[:, 2])

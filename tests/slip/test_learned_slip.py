@@ -572,3 +572,14 @@ def test_slip_data_spec_refuses_a_fractional_seed_and_a_text_duration():
         SlipDataSpec(("SNOW",), ("random",), (1,), "10")
     assert [c.seed for c in SlipDataSpec(("SNOW",), ("random",), (np.int64(3),), 10.0)
             .configs()] == [3]
+
+
+def test_slip_model_refuses_an_infinite_chi_target():
+    # chi = inf was taken for "not turning" (NaN) and left out of the chi fit without a word
+    from terrain.errors import NonFiniteInputError
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((60, 3))
+    y = np.column_stack([0.01 * X[:, 0], 0.01 * X[:, 0], np.full(60, 2.0), X[:, 1]])
+    y[[3, 9], 2] = np.inf
+    with pytest.raises(NonFiniteInputError, match="2 of 60 .*infinite chi"):
+        SlipRegressor(max_iter=3).fit(X, y)
