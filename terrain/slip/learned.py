@@ -112,6 +112,13 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         NonFiniteInputError
             A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite, or a ``chi``
             target is infinite.
+
+        Warns
+        -----
+        DataWarning
+            Fewer than ``2 min_samples_leaf`` windows with a chi target (turning): chi is
+            not learned, :meth:`predict` gives their median (1 without any) on every window;
+            or too few runs in ``groups`` for the calibration folds (no std).
         """
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
@@ -138,6 +145,13 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         self.chi_default_ = float(np.nanmedian(y[:, 2])) if turning.any() else 1.0
         self.chi_model_ = (self._tree().fit(X[turning], y[turning, 2])
                            if turning.sum() >= 2 * self.min_samples_leaf else None)
+        if self.chi_model_ is None:     # a constant chi: said, not left to be found out
+            warnings.warn(f"slip model chi not learned: {int(turning.sum())} turning training "
+                          f"window(s), fewer than {2 * self.min_samples_leaf} (2 "
+                          f"min_samples_leaf); predict gives the constant chi "
+                          f"{self.chi_default_:.4g} ("
+                          f"{'their median' if turning.any() else 'no turning window'})",
+                          DataWarning, stacklevel=2)
         self.lateral_model_ = self._tree().fit(X, y[:, 3])
         self.packed_trees_ = pack_trees(self._estimators(), self.n_features_in_)
         self.std_model_, self.std_scale_, self.calibration_ = None, float("nan"), {}

@@ -583,3 +583,23 @@ def test_slip_model_refuses_an_infinite_chi_target():
     y[[3, 9], 2] = np.inf
     with pytest.raises(NonFiniteInputError, match="2 of 60 .*infinite chi"):
         SlipRegressor(max_iter=3).fit(X, y)
+
+
+def test_slip_model_says_when_chi_is_a_constant():
+    # with 30 turning windows (fewer than 2 min_samples_leaf = 40) chi was predicted as
+    # their median, 1.368 on every window, without a word
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((200, 3))
+    y = np.column_stack([np.zeros(200), np.zeros(200), np.full(200, np.nan), np.zeros(200)])
+    y[:30, 2] = 1.5 + X[:30, 0]
+    with pytest.warns(DataWarning, match=r"30 turning training window\(s\), fewer than 40.*"
+                                         r"constant chi 1.368"):
+        model = SlipRegressor(max_iter=3).fit(X, y)
+    assert np.all(model.predict(X)[:, 2] == pytest.approx(np.median(y[:30, 2])))
+    y[:, 2] = np.nan
+    with pytest.warns(DataWarning, match=r"0 turning training window\(s\).*constant chi 1 "):
+        SlipRegressor(max_iter=3).fit(X, y)
+    y[:40, 2] = 1.5 + X[:40, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        SlipRegressor(max_iter=3).fit(X, y)
