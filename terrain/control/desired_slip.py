@@ -49,7 +49,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.control.traction import check_slip_targets
+from terrain.control.traction import age_is_fresh, check_slip_targets
 from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import (TerrainParams, get_terrain, is_deformable,
                                     steady_slip, traction_peak)
@@ -336,7 +336,8 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     decision_age_s : float
         Time since the decision, s; above ``table.config.max_decision_age_s``, negative (a
         decision stamped after the time it is used at: clocks that disagree) or non-finite
-        -> fallback.
+        -> fallback (:func:`terrain.control.traction.age_is_fresh`, the rule of the traction
+        step's input age too).
 
     Returns
     -------
@@ -345,6 +346,6 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
     trusted = (key in table.entries and np.isfinite(confidence)
-               and cfg.min_confidence <= confidence <= 1.0 and np.isfinite(decision_age_s)
-               and 0.0 <= decision_age_s <= cfg.max_decision_age_s)
+               and cfg.min_confidence <= confidence <= 1.0
+               and age_is_fresh(decision_age_s, cfg.max_decision_age_s))
     return table.entries[key] if trusted else table.fallback

@@ -37,9 +37,10 @@ Beyond the thesis (their settings in :class:`TractionControlConfig`):
   ``release_tau_s`` instead of jumping to 0, and on enable the integral starts from the held
   correction (with ``ki > 0``), so only the proportional and derivative action on the current
   error is added, never a stale or reset integral;
-* safe output: a non-finite input or an estimate older than ``max_input_age_s`` gives
-  ``omega_cmd = omega_low_level`` (no correction; clipped to ``+-omega_max`` like every
-  command) at once and resets that wheel's state.
+* safe output: a non-finite input or an estimate older than ``max_input_age_s`` (or with a
+  negative age: stamped after the step, clocks that disagree; :func:`age_is_fresh`, the rule
+  of the decision age too) gives ``omega_cmd = omega_low_level`` (no correction; clipped to
+  ``+-omega_max`` like every command) at once and resets that wheel's state.
 
 Why not simple-pid (2.0.1) for the building blocks: its windup guard clamps the integral to
 the output limits. That is acceptable for a fixed limit, not here: the room left for the
@@ -101,7 +102,8 @@ class TractionControlConfig:
     release_tau_s : float
         Time constant with which the correction decays while disabled, s (> 0).
     max_input_age_s : float
-        Slip / velocity estimates older than this give the safe output, s.
+        Slip / velocity estimates older than this (or with a negative age) give the safe
+        output, s (:func:`age_is_fresh`).
     one_sided : bool
         True (default): a slip *limiter*, as traction control / ABS: in traction and steady
         driving the correction may only slow the wheel below ``omega_low_level``, in braking
@@ -327,6 +329,30 @@ def check_slip_targets(owner: str, traction: float, braking: float, steady: floa
                               f"comes from sgn(v_long)), got {value}")
 
 
+def age_is_fresh(age_s: float, max_age_s: float) -> bool:
+    """Whether an input of age ``age_s`` may be trusted: finite and in ``[0, max_age_s]``.
+
+    The one rule of the control layer for the age of an estimate
+    (:func:`traction_control_step`) and of a terrain decision
+    (:func:`terrain.control.desired_slip.select_target`). A negative age is an input stamped
+    after the time it is used at: clocks that disagree, so the stamp, and the age, cannot be
+    trusted (a clock error is distrusted, not read as "fresh").
+
+    Parameters
+    ----------
+    age_s : float
+        Time since the input was made, s.
+    max_age_s : float
+        Oldest trusted age, s (>= 0; the age equal to it is trusted).
+
+    Returns
+    -------
+    bool
+        False for an age that is older, negative or not finite (NaN, +-inf).
+    """
+    return math.isfinite(age_s) and 0.0 <= age_s <= max_age_s
+
+
 class TractionState(NamedTuple):
     """Controller memory between steps, one entry per drive unit (arrays of shape (n,)).
 
@@ -440,7 +466,8 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     dt_s : float
         Time since the previous step, s (> 0).
     input_age_s : float
-        Age of the slip / velocity estimates, s.
+        Age of the slip / velocity estimates, s; not in ``[0, max_input_age_s]``
+        (:func:`age_is_fresh`: older, negative or non-finite) -> the safe output.
     slip : ndarray, shape (n,), optional
         Measured slip per unit from an estimator (skid-steer: the fused slip estimate of each
         side, dimensionless); None: computed from ``omega_meas_rad_s`` and ``v_long_m_s`` with
@@ -481,7 +508,7 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         raise
     radius = cfg.wheel_radius_m
     global_ok = (math.isfinite(chassis_speed_m_s) and math.isfinite(dt_s) and dt_s > 0.0
-                 and math.isfinite(input_age_s) and input_age_s <= cfg.max_input_age_s
+                 and age_is_fresh(input_age_s, cfg.max_input_age_s)
                  and math.isfinite(targets.traction) and math.isfinite(targets.braking)
                  and math.isfinite(targets.steady))
     n = state.integral.shape

@@ -153,6 +153,30 @@ def test_safe_output_on_stale_or_non_finite_input():
     assert out.safe.all()    # any object with the three targets (SlipTargets refuses NaN)
 
 
+def test_a_negative_input_age_is_a_clock_error_and_gives_the_safe_output():
+    """An estimate 5 s *younger* than the step (stamped after it: clocks that disagree) was
+    taken as fresh (``input_age_s <= max_input_age_s``) and corrected the wheel (-0.4 rad/s),
+    while :func:`select_target` already refused a negative decision age. One rule now,
+    :func:`terrain.control.traction.age_is_fresh`: a negative age is not trusted."""
+    from terrain.control.desired_slip import select_target
+    from terrain.control.traction import age_is_fresh
+
+    cfg = TractionControlConfig()
+    fresh, _ = _step(cfg, TractionState.zeros(1), 1.0, 1.0, 0.5, 1.0, dt=0.02)
+    assert fresh.correction_rad_s[0] == pytest.approx(-0.4) and not fresh.safe[0]
+    for age in (-5.0, -1e-9):
+        out, state = _step(cfg, TractionState.zeros(1), 1.0, 1.0, 0.5, 1.0, dt=0.02,
+                           input_age_s=age)
+        assert out.safe.all() and out.correction_rad_s[0] == 0.0, age   # was -0.4
+        assert out.omega_cmd_rad_s[0] == 1.0 and state.integral[0] == 0.0
+    table = build_slip_table(["ICE", "TILES"])
+    for age in (-5.0, 0.0, 0.1, 4.0, 4.1, math.nan, math.inf):
+        trusted = select_target(table, "TILES", 1.0, age).terrain == "TILES"
+        assert trusted == age_is_fresh(age, table.config.max_decision_age_s), age
+    assert [age_is_fresh(a, 0.1) for a in (0.0, 0.1, 0.2, -0.01, math.nan, -math.inf)] == [
+        True, True, False, False, False, False]
+
+
 def test_bumpless_disable_then_enable():
     cfg = TractionControlConfig(kp=0.0, ki=2.0, release_tau_s=0.2)
     state = TractionState.zeros(1)
