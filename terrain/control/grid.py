@@ -214,13 +214,15 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         over the seeds whose run moves: a run below
         :data:`~terrain.control.closed_loop.MIN_DISTANCE_M` has none),
         ``energy_runs_off/on`` (how many runs that mean is over, of ``runs``),
-        ``energy_cut`` (fraction), ``time_to_speed_off/on`` (s, mean over the seeds whose
-        run reaches cruise), ``time_to_speed_reached_off/on`` (how many runs reach it, of
-        ``runs``, the seeds of the cell), ``time_increase`` (fraction: mean time on over
-        mean time off, both over the seeds where both runs reach cruise, so a run that
-        never gets there is counted, not averaged out), ``slip_rmse_off/on`` (mean over the
-        seeds whose controller is ever enabled), ``slip_rmse_runs_off/on`` (how many runs
-        that mean is over, of ``runs``),
+        ``energy_cut`` (fraction: one less the mean energy on over the mean energy off, both
+        over the seeds where both runs have one, as ``time_increase``; equal to
+        ``1 - energy_on / energy_off`` where every run has one), ``time_to_speed_off/on``
+        (s, mean over the seeds whose run reaches cruise), ``time_to_speed_reached_off/on``
+        (how many runs reach it, of ``runs``, the seeds of the cell), ``time_increase``
+        (fraction: mean time on over mean time off, both over the seeds where both runs
+        reach cruise, so a run that never gets there is counted, not averaged out),
+        ``slip_rmse_off/on`` (mean over the seeds whose controller is ever enabled),
+        ``slip_rmse_runs_off/on`` (how many runs that mean is over, of ``runs``),
         ``steady_within_0_02_on`` (fraction of steady samples with |slip - target| <=
         0.02, mean over the seeds whose controlled run has steady samples: a run without
         any has no share and is left out), ``steady_within_0_02_runs_on`` (how many runs
@@ -238,7 +240,16 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         out[f"{short}_off"] = mean[(c, "off")]
         out[f"{short}_on"] = mean[(c, "traction")]
     out["peak_slip_cut"] = 1.0 - out["peak_slip_on"] / out["peak_slip_off"]
-    out["energy_cut"] = 1.0 - out["energy_on"] / out["energy_off"]
+
+    def paired(col):   # means of off and on over the seeds where both runs have a value
+        pairs = results.assign(v=results[col].astype(float)).set_index(
+            keys + ["seed", "controller"])["v"].unstack("controller").dropna()
+        return pairs.groupby(level=keys).mean().reindex(out.index)
+
+    # a seed where either run has no energy (did not move) is left out of the cut, as from
+    # the time increase below: a ratio of means over different seeds compares other runs
+    energy = paired("energy_j_per_m")
+    out["energy_cut"] = 1.0 - energy["traction"] / energy["off"]
     # time to cruise: a seed where either run did not reach it is left out of the increase
     # (a mean over the seeds each run reached compares different seeds) and counted
     t = results.assign(t=results["time_to_speed_s"].astype(float))
@@ -246,9 +257,8 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
     out["time_to_speed_reached_off"] = reached["off"]
     out["time_to_speed_reached_on"] = reached["traction"]
     out["runs"] = t[t["controller"] == "off"].groupby(keys)["seed"].nunique()
-    pairs = t.set_index(keys + ["seed", "controller"])["t"].unstack("controller").dropna()
-    paired = pairs.groupby(level=keys).mean().reindex(out.index)
-    out["time_increase"] = paired["traction"] / paired["off"] - 1.0
+    times = paired("time_to_speed_s")
+    out["time_increase"] = times["traction"] / times["off"] - 1.0
     out["steady_within_0_02_on"] = mean[("steady_slip_within_0_02", "traction")]
     # a run without a value (None: no steady samples, no distance for J/m, never enabled for
     # the RMSE) is left out of that mean: counted

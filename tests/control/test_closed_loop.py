@@ -378,6 +378,31 @@ def test_comparison_counts_the_seeds_of_the_energy_and_slip_rmse_means():
     assert "of 3 runs" not in markdown_table(full)
 
 
+def test_energy_cut_is_paired_over_the_seeds_where_both_runs_have_an_energy():
+    """Two seeds: off 100 and 200 J/m, on 110 J/m and none (the controlled run of seed 1
+    does not move). The cut compared the mean over both off runs (150) with the one on run
+    (110) and read a 27 % saving where the only pair costs 10 % more. It is now over the
+    seeds where both runs have an energy, as ``time_increase`` is (-10 %); the means and
+    their run counts are unchanged."""
+    import pandas as pd
+
+    from terrain.control.grid import compare
+
+    rows = [{"vehicle": "husky", "terrain": "SNOW", "scenario": "spin", "seed": seed,
+             "controller": ctrl, "peak_slip": 0.5, "energy_j_per_m": e,
+             "time_to_speed_s": 1.0, "slip_rmse": 0.1, "steady_slip_within_0_02": 0.9,
+             "mean_speed_m_s": 0.1, "terrain_accuracy": 1.0}
+            for seed, energies in enumerate([(100.0, 110.0), (200.0, None)])
+            for ctrl, e in zip(("off", "traction"), energies)]
+    row = compare(pd.DataFrame(rows)).iloc[0]
+    assert row["energy_cut"] == pytest.approx(-0.1)                    # was +0.267
+    assert (row["energy_off"], row["energy_on"]) == (150.0, 110.0)
+    assert (row["energy_runs_off"], row["energy_runs_on"]) == (2, 1)
+    full = compare(pd.DataFrame([dict(r, energy_j_per_m=r["energy_j_per_m"] or 220.0)
+                                 for r in rows])).iloc[0]
+    assert full["energy_cut"] == pytest.approx(1.0 - full["energy_on"] / full["energy_off"])
+
+
 def test_tuning_never_prefers_gains_that_never_reach_cruise(monkeypatch):
     """Without control the robot reaches cruise at 1.0 s; kp 1 gets there at 2.5 s, kp 2
     never in the 10 s run. A run that never reached cruise was charged a relative increase of
