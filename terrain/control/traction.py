@@ -265,7 +265,9 @@ class SlipTargets:
     """Target slip magnitudes for forward driving (sign from ``sgn(v_long)``, eqs. 8.7-8.9).
 
     Any object with these three attributes works, e.g. a
-    :class:`~terrain.control.desired_slip.DesiredSlip` row of the table.
+    :class:`~terrain.control.desired_slip.DesiredSlip` row of the table. It unpacks as
+    ``traction, braking, steady = targets`` (as a plain tuple does): it is also the record
+    the live service's target providers return (:mod:`terrain.serving.targets`).
 
     Parameters
     ----------
@@ -290,6 +292,10 @@ class SlipTargets:
 
     def __post_init__(self) -> None:
         check_slip_targets("SlipTargets", self.traction, self.braking, self.steady)
+
+    def __iter__(self):
+        """The three targets in order ``traction, braking, steady`` (tuple unpacking)."""
+        return iter((self.traction, self.braking, self.steady))
 
 
 def check_slip_targets(owner: str, traction: float, braking: float, steady: float) -> None:

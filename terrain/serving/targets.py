@@ -10,28 +10,13 @@ straight from the peaks of the catalogue's traction-slip curves
 from __future__ import annotations
 
 from types import MappingProxyType
-from typing import Mapping, NamedTuple, Protocol, Sequence
+from typing import Mapping, Protocol, Sequence
 
+from terrain.control import DesiredSlipConfig, build_slip_table, select_target
+# the controller's record (signs and range checked), re-exported: one class for the targets
+from terrain.control.traction import SlipTargets
 from terrain.errors import ConfigError, config_numbers
 from terrain.terramechanics import get_terrain, steady_slip, traction_peak
-
-
-class SlipTargets(NamedTuple):
-    """Slip targets of one decision (SAE slip, dimensionless); a plain tuple also works.
-
-    Parameters
-    ----------
-    traction : float
-        Target slip when driving (> 0: wheel faster than ground).
-    braking : float
-        Target slip when braking (< 0).
-    steady : float
-        Slip expected in steady driving on level ground.
-    """
-
-    traction: float
-    braking: float
-    steady: float
 
 
 class TargetProvider(Protocol):
@@ -53,8 +38,10 @@ class TargetProvider(Protocol):
 
         Returns
         -------
-        SlipTargets
-            Traction, braking and steady slip targets (SAE slip, dimensionless).
+        SlipTargets or tuple of float
+            Traction, braking and steady slip targets (SAE slip, dimensionless):
+            :class:`terrain.control.traction.SlipTargets` (checked signs), or any triple the
+            service can unpack as ``traction, braking, steady``.
         """
         ...  # pragma: no cover
 
@@ -146,8 +133,6 @@ class TableTargets:
     """
 
     def __init__(self, classes: Sequence[str], config=None) -> None:
-        from terrain.control import DesiredSlipConfig, build_slip_table
-
         classes = _class_names(classes, "TableTargets")
         if config is not None and not isinstance(config, DesiredSlipConfig):
             raise ConfigError("TableTargets config must be a DesiredSlipConfig, got "
@@ -173,8 +158,6 @@ class TableTargets:
         -------
         SlipTargets
         """
-        from terrain.control import select_target
-
         age = 2.0 * self.table.config.max_decision_age_s if stale else 0.0
         e = select_target(self.table, terrain, confidence, age)
         return SlipTargets(e.traction, e.braking, e.steady)

@@ -239,6 +239,27 @@ def test_catalogue_targets_are_the_curve_peaks_and_the_fallback_the_slipperiest(
         CataloguePeakTargets(["NOT_A_TERRAIN"])
 
 
+def test_the_service_slip_targets_are_the_controllers_checked_record():
+    """terrain.serving had its own SlipTargets (a NamedTuple with no checks) beside the
+    controller's record of the same name and meaning, which refuses a wrong sign:
+    serving's SlipTargets(-0.1, 0.15, -0.05) was accepted and would have reached the
+    controller. There is one class now, checked, and it still unpacks as the service
+    reads a provider's targets (``traction, braking, steady = ...``)."""
+    import terrain.control
+    import terrain.serving
+    from terrain.serving.targets import SlipTargets, TableTargets
+
+    assert SlipTargets is terrain.serving.SlipTargets is terrain.control.SlipTargets
+    with pytest.raises(ConfigError, match=r"SlipTargets\.traction must be in \(0, 1\]"):
+        SlipTargets(-0.1, 0.15, -0.05)
+    for provider in (CataloguePeakTargets(["ASPHALT", "ICE", "SNOW"]),
+                     TableTargets(["ASPHALT", "ICE", "SNOW"])):
+        got = provider.target_for("SNOW", 0.9, False)
+        assert isinstance(got, SlipTargets)
+        traction, braking, steady = got
+        assert (traction, braking, steady) == (got.traction, got.braking, got.steady)
+
+
 def test_table_targets_follow_the_desired_slip_table_and_its_fallback():
     from terrain.control import build_slip_table, select_target
     from terrain.serving.targets import TableTargets
