@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, ShapeError, config_numbers
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -127,6 +127,9 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
 
     Raises
     ------
+    ShapeError
+        ``v_ref_m_s``, ``v_est_m_s`` or ``engaged`` not of the command's shape ``(n,)``
+        (named, with both shapes; NumPy broadcast a ``(1,)`` reference to every wheel).
     ConfigError
         ``|target_slip|`` not a finite value below 1 (at 1 no ground speed limits the wheel:
         it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, ``dt_s``
@@ -147,12 +150,27 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         raise ConfigError(f"feedforward_step: accel_limit_m_s2 must be finite, got "
                           f"{accel_limit_m_s2}")
     omega = np.asarray(omega_low_level_rad_s, dtype=float)
+    v_est = np.asarray(v_est_m_s, dtype=float)
+    v_ref = np.asarray(v_ref_m_s, dtype=float)
+    n = omega.shape
+    if v_ref.shape != n or v_est.shape != n or (
+            engaged is not None and np.shape(engaged) != n):
+        _refuse_shapes(n, v_ref_m_s=v_ref, v_est_m_s=v_est, engaged=engaged)
     rim = np.abs(omega) * radius
-    v_est = np.nan_to_num(np.abs(np.asarray(v_est_m_s, dtype=float)))
-    grown = np.asarray(v_ref_m_s, dtype=float) + max(a_max, 0.0) * dt_s
+    v_est = np.nan_to_num(np.abs(v_est))
+    grown = v_ref + max(a_max, 0.0) * dt_s
     lift = v_est if engaged is None else np.where(engaged, np.minimum(v_est, grown), v_est)
     v_ref = np.maximum(lift, np.minimum(grown, rim))
     limit = v_ref / (radius * (1.0 - s_t))
     over = np.abs(omega) > limit
     corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
     return FeedForward(corr, v_ref, limit, over)
+
+
+def _refuse_shapes(n: tuple, **arrays) -> None:
+    """Raise a :class:`~terrain.errors.ShapeError` naming each array of ``arrays`` whose
+    shape is not the command's ``n``; the slow path, run only once a shape differs."""
+    bad = [f"{name} has shape {np.shape(a)}" for name, a in arrays.items()
+           if a is not None and np.shape(a) != n]
+    raise ShapeError(f"feedforward_step: {', '.join(bad)}, the command omega_low_level_rad_s "
+                     f"{n}: one entry per drive unit")

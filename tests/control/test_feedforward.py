@@ -3,6 +3,8 @@ and its effect on a start on ice (issue 11, estimator latency)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -112,3 +114,23 @@ def test_feedforward_refuses_an_acceleration_limit_that_is_not_a_finite_number(a
     with pytest.raises(ConfigError, match="accel_limit_m_s2"):
         feedforward_step(np.zeros(1), np.array([0.5]), np.array([10.0]), accel, 0.1, 0.1,
                          0.02)
+
+
+@pytest.mark.parametrize("name,v_ref,v_est,engaged,shape", [
+    ("v_ref_m_s", np.zeros(1), np.zeros(2), None, "(1,)"),          # broadcast, unsaid
+    ("v_ref_m_s", np.zeros(3), np.zeros(2), None, "(3,)"),          # numpy's ValueError
+    ("v_est_m_s", np.zeros(2), np.zeros(3), None, "(3,)"),
+    ("v_est_m_s", np.zeros(2), 0.0, None, "()"),
+    ("engaged", np.zeros(2), np.zeros(2), np.array([True]), "(1,)"),
+])
+def test_feedforward_refuses_arrays_not_of_the_commands_shape_naming_both(
+        name, v_ref, v_est, engaged, shape):
+    """A reference of shape (1,) beside a command of two wheels was broadcast without a
+    word (both wheels limited from the one reference: correction -2.78 rad/s each); one of
+    (3,) raised numpy's 'operands could not be broadcast together'. Now a ShapeError naming
+    the argument, its shape and the command's."""
+    from terrain.errors import ShapeError
+
+    with pytest.raises(ShapeError, match=rf"{name} has shape {re.escape(shape)}, the "
+                                         r"command omega_low_level_rad_s \(2,\)"):
+        feedforward_step(v_ref, v_est, np.array([3.0, 3.0]), 1.0, 0.1, 0.1, 0.02, engaged)
