@@ -15,7 +15,8 @@ from typing import Iterator
 
 import numpy as np
 
-from terrain.errors import ConfigError, MissingColumnError
+from terrain.errors import (ClockError, ConfigError, DataFormatError, MissingColumnError,
+                            config_numbers)
 from terrain.run import TIME, Run
 from terrain.sim.closed_loop import Observation
 
@@ -53,12 +54,19 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     Raises
     ------
     ConfigError
-        Non-positive radius or rate.
+        A radius or rate that is not a real number (named), or not finite and > 0.
     MissingColumnError
         A stream or channel missing (named, with the run).
+    DataFormatError
+        A stream without samples (named, with the run).
+    ClockError
+        The two streams' time spans do not overlap (both spans given): no call would
+        receive both.
     """
-    if not (wheel_radius_m > 0 and control_rate_hz > 0):
-        raise ConfigError(f"wheel_radius_m and control_rate_hz must be > 0, got "
+    config_numbers("measured_observations", wheel_radius_m=wheel_radius_m,
+                   control_rate_hz=control_rate_hz)
+    if not (0 < wheel_radius_m < np.inf and 0 < control_rate_hz < np.inf):
+        raise ConfigError(f"wheel_radius_m and control_rate_hz must be finite and > 0, got "
                           f"{wheel_radius_m}, {control_rate_hz}")
     need = {"imu": (TIME, "wx", "wy", "wz", "ax", "ay", "az"),
             "wheels": (TIME, "vel_l", "vel_r", "cur_l", "cur_r")}
@@ -69,12 +77,19 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
             raise MissingColumnError(f"run {run.run_id} has no {stream} channel(s) "
                                      f"{', '.join(missing)}", path=run.source or None,
                                      column=missing[0])
+        if run.streams[stream].empty:
+            raise DataFormatError(f"run {run.run_id} has no {stream} samples: nothing to "
+                                  "replay", path=run.source or None)
     full = run.streams["imu"][list(need["imu"])].to_numpy(dtype=float)
     imu = full[:, [0, 4, 5, 3]]                   # t, ax, ay, wz
     wh = run.streams["wheels"][list(need["wheels"])].to_numpy(dtype=float)
     wheels = np.column_stack([wh[:, 0], wh[:, 1:3] / wheel_radius_m])
     currents = np.column_stack([wh[:, 0], np.abs(wh[:, 3:5])])
     t0, t1 = max(imu[0, 0], wh[0, 0]), min(imu[-1, 0], wh[-1, 0])
+    if t1 < t0:   # no call would receive both streams: not one observation, unsaid
+        raise ClockError(f"run {run.run_id}: the imu and wheels streams do not overlap in "
+                         f"time (imu {imu[0, 0]:.2f}-{imu[-1, 0]:.2f} s, wheels "
+                         f"{wh[0, 0]:.2f}-{wh[-1, 0]:.2f} s)", path=run.source or None)
     period = 1.0 / control_rate_hz
     data = {"imu": imu, "wheels": wheels, "currents": currents, "imu_full": full}
     cuts = dict.fromkeys(data, 0)

@@ -58,3 +58,28 @@ def test_a_run_without_currents_or_with_bad_settings_is_refused_by_name():
         next(measured_observations(Run("r", "t", None, {"wheels": run.streams["wheels"]}), 0.2))
     with pytest.raises(ConfigError):
         next(measured_observations(run, 0.0))
+
+
+def test_empty_or_disjoint_streams_and_unusable_settings_are_typed_errors():
+    """A run with an empty wheels stream raised numpy's 'index 0 is out of bounds for axis 0
+    with size 0'; IMU samples over 0-1 s and wheel samples over 5-6 s gave no observation
+    at all, without a word (the whole run dropped); a control rate of inf raised Python's
+    'cannot convert float infinity to integer' and one given as text '50' a bare TypeError.
+    Now a DataFormatError naming the run and the stream, a ClockError with both spans, and
+    ConfigErrors naming the setting."""
+    from terrain.errors import ClockError, DataFormatError
+
+    imu_t = np.arange(0.0, 1.0, 0.01)
+    with pytest.raises(DataFormatError, match=r"run test/SNOW/00 has no wheels samples") \
+            as err:
+        next(measured_observations(_run(imu_t, np.array([])), 0.2))
+    assert err.value.path == "mem"
+    with pytest.raises(ClockError, match=r"imu 0.00-0.99 s, wheels 5.00-5.90 s"):
+        next(measured_observations(_run(imu_t, np.arange(5.0, 6.0, 0.15)), 0.2))
+    run = _run(imu_t, np.arange(0.0, 1.0, 0.15))
+    for radius, rate, name in ((0.2, float("inf"), "control_rate_hz"),
+                               (0.2, "50", "control_rate_hz"),
+                               (float("inf"), 50.0, "wheel_radius_m"),
+                               (None, 50.0, "wheel_radius_m")):
+        with pytest.raises(ConfigError, match=name):
+            next(measured_observations(run, radius, rate))
