@@ -30,7 +30,7 @@ from terrain.control.desired_slip import SlipTable, select_target
 from terrain.control.estimators import SlipEstimator, estimator_for
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 from terrain.sim.closed_loop import Observation
 from terrain.sim.sensors import physics_step_index
 from terrain.sim.simulate import Simulation, motor_currents
@@ -504,8 +504,9 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     Raises
     ------
     ConfigError
-        Unknown vehicle, terrain or scenario, bad gains, or both ``terrain_decision`` and
-        ``live_terrain`` given.
+        Unknown vehicle, terrain or scenario, bad gains (not a pair of real numbers, named,
+        or refused by :class:`~terrain.control.traction.TractionControlConfig`), or both
+        ``terrain_decision`` and ``live_terrain`` given.
     """
     from terrain.control.desired_slip import build_slip_table
     from terrain.control.traction import config_for_vehicle
@@ -515,7 +516,12 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     if vehicle not in LOOP_SETTINGS:
         raise ConfigError(f"the traction control loop supports vehicles agrimaro and husky, "
                           f"got {vehicle!r}")
-    kp, ki = gains or default_gains(vehicle, estimator)
+    gains = default_gains(vehicle, estimator) if gains is None else gains
+    if isinstance(gains, (str, bytes)) or not hasattr(gains, "__len__") or len(gains) != 2:
+        raise ConfigError(f"gains must be a pair (kp, ki) of numbers, rad/s per unit slip "
+                          f"and rad/s per unit slip and second, got {gains!r:.60}")
+    kp, ki = gains
+    config_numbers("run_closed_loop gains", kp=kp, ki=ki)
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
     if live_terrain is not None and terrain_decision is not None:
         raise ConfigError("give terrain_decision or live_terrain, not both")

@@ -452,3 +452,19 @@ def test_energy_per_metre_of_a_run_that_does_not_move_is_undefined():
     assert m["distance_m"] < MIN_DISTANCE_M
     assert m["energy_j_per_m"] is None and m["mech_energy_j_per_m"] is None
     assert m["drive_energy_j_per_m"] is None
+
+
+@pytest.mark.parametrize("gains,match", [
+    ((1.0,), r"gains must be a pair \(kp, ki\)"),
+    ((1.0, 0.0, 0.1), r"gains must be a pair \(kp, ki\)"),       # (kp, ki, kd)
+    ("12", r"gains must be a pair \(kp, ki\)"),
+    (("a", 0.0), "kp"),
+    ((2.0, None), "ki"),
+])
+def test_gains_that_are_not_a_pair_of_numbers_are_a_config_error(gains, match):
+    """run_closed_loop's docstring promises a ConfigError for bad gains; (1.0,) and a
+    (kp, ki, kd) triple raised Python's 'not enough / too many values to unpack' and
+    ("a", 0.0) float()'s 'could not convert string to float'. Now a ConfigError naming
+    what is wrong, before any simulation."""
+    with pytest.raises(ConfigError, match=match):
+        run_closed_loop("husky", "ICE", "straight_accel", True, 1, 1.0, gains=gains)
