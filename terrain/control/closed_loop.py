@@ -160,6 +160,12 @@ class TractionLoop:
         nothing (no interval has elapsed, whatever the loop's rate); its derivative is 0
         (no previous slip); only the feed-forward's first ramp step assumes
         :data:`FIRST_FEEDFORWARD_STEP_S`.
+
+    Raises
+    ------
+    ConfigError
+        ``accel_tau_s`` not a real number, or not finite and >= 0 (named); ``n_units`` not
+        an integer >= 1 (:class:`~terrain.control.traction.TractionController`).
     """
 
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
@@ -167,6 +173,10 @@ class TractionLoop:
                  apply: bool = True, accel_tau_s: float = 0.3,
                  feed_forward: bool = True,
                  observer: Callable[[Observation], None] | None = None) -> None:
+        config_numbers("TractionLoop", accel_tau_s=accel_tau_s)
+        if not 0.0 <= accel_tau_s < math.inf:   # NaN fails: it turned the filter off, unsaid
+            raise ConfigError(f"TractionLoop accel_tau_s must be a finite time constant >= 0 "
+                              f"s (0 = no filter), got {accel_tau_s}")
         self.controller = TractionController(config, n_units)
         self.observer = observer
         self.feed_forward = bool(feed_forward)

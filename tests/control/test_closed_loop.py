@@ -468,3 +468,17 @@ def test_gains_that_are_not_a_pair_of_numbers_are_a_config_error(gains, match):
     what is wrong, before any simulation."""
     with pytest.raises(ConfigError, match=match):
         run_closed_loop("husky", "ICE", "straight_accel", True, 1, 1.0, gains=gains)
+
+
+@pytest.mark.parametrize("tau", [-0.3, float("nan"), float("inf"), "0.3"])
+def test_an_acceleration_filter_time_constant_that_is_not_finite_and_non_negative_is_refused(
+        tau):
+    """TractionLoop documents accel_tau_s >= 0 (0 = off), but -0.3 and NaN turned the
+    filter off without a word (Power_state then follows the acceleration the correction
+    causes: the limit cycle the filter is there against), inf froze the filtered
+    acceleration at its first value, and the text '0.3' passed through float(). Now a
+    ConfigError naming accel_tau_s when the loop is built."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=2.0)
+    with pytest.raises(ConfigError, match="accel_tau_s"):
+        TractionLoop(ctrl_cfg, n, _FixedEstimator(0.6, 1.0, -1.0, ctrl_cfg.wheel_radius_m),
+                     build_slip_table(["ICE"]), lambda t: ("ICE", 1.0), accel_tau_s=tau)
