@@ -341,7 +341,7 @@ def positive_number(value: str) -> float:
     argparse.ArgumentTypeError
         Not a number, or not finite and > 0.
     """
-    return _number(value, lambda x: 0 < x < math.inf, "a finite number > 0")
+    return parse_number(value, lambda x: 0 < x < math.inf, "a finite number > 0")
 
 
 def sim_duration_s(value: str) -> float:
@@ -366,8 +366,8 @@ def sim_duration_s(value: str) -> float:
     argparse.ArgumentTypeError
         Not a number, or not in ``(0, MAX_DURATION_S]`` (NaN and inf included).
     """
-    return _number(value, lambda x: 0 < x <= MAX_DURATION_S,
-                   f"a finite number in (0, {MAX_DURATION_S:g}] s")
+    return parse_number(value, lambda x: 0 < x <= MAX_DURATION_S,
+                        f"a finite number in (0, {MAX_DURATION_S:g}] s")
 
 
 def non_negative_number(value: str) -> float:
@@ -388,11 +388,32 @@ def non_negative_number(value: str) -> float:
     argparse.ArgumentTypeError
         Not a number, or not finite and >= 0.
     """
-    return _number(value, lambda x: 0 <= x < math.inf, "a finite number >= 0")
+    return parse_number(value, lambda x: 0 <= x < math.inf, "a finite number >= 0")
 
 
-def _number(value: str, accept, wording: str) -> float:
-    """``value`` as a float that ``accept`` takes, else argparse's error with ``wording``."""
+def parse_number(value: str, accept, wording: str) -> float:
+    """An option's text as a float that ``accept`` takes: the one parse of every number
+    argparse ``type``.
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+    accept : callable
+        ``float -> bool``: True for an accepted value (NaN must fail it).
+    wording : str
+        What the option takes, for the message (``"a finite number > 0"``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a number (``not a number: 'x'``), or a number ``accept`` refuses (``must be
+        <wording>, got <value>``).
+    """
     try:
         number = float(value)
     except ValueError:
@@ -476,6 +497,34 @@ def integer_up_to(high: int):
     return parse
 
 
+def integer_in(low: int, high: int):
+    """argparse ``type`` of an option that takes an integer in ``low..high`` (a setting's
+    range, kept with its configuration, e.g. :data:`terrain.audit.selection.MAX_BOOTSTRAP`),
+    refused with the option's name rather than the setting's.
+
+    Parameters
+    ----------
+    low, high : int
+        Smallest and largest value accepted.
+
+    Returns
+    -------
+    callable
+        ``str -> int``; raises ``argparse.ArgumentTypeError`` for text that is not an integer
+        (``not an integer: 'x'``) or one outside ``low..high`` (``must be an integer in
+        10-100,000, got 0``).
+    """
+    def parse(value: str) -> int:
+        number = parse_integer(value, "not an integer: ")
+        if not low <= number <= high:
+            raise argparse.ArgumentTypeError(
+                f"must be an integer in {low}-{high:,}, got {value}")
+        return number
+
+    parse.__name__ = f"integer_in_{low}_{high}"
+    return parse
+
+
 def probability(value: str) -> float:
     """argparse ``type`` of an option that takes a probability in [0, 1] (a confidence).
 
@@ -493,7 +542,7 @@ def probability(value: str) -> float:
     argparse.ArgumentTypeError
         Not a number, or outside [0, 1] (NaN included).
     """
-    return _number(value, lambda x: 0 <= x <= 1, "a probability in [0, 1]")
+    return parse_number(value, lambda x: 0 <= x <= 1, "a probability in [0, 1]")
 
 
 def seed_value(value: str) -> int:

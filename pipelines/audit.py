@@ -20,8 +20,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from pipelines.arguments import (input_folder, output_file, parse_integer, positive_number,
-                                 seed_value)
+from pipelines.arguments import (input_folder, integer_in, output_file, parse_number,
+                                 positive_number, seed_value)
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
@@ -47,32 +47,10 @@ DEFAULTS: Mapping[str, float] = MappingProxyType({
     "min_gain": SelectionSettings.min_gain, "seed": SelectionSettings.seed})
 
 
-def _integer_in(low: int, high: int):
-    """argparse ``type``: an integer in ``low..high`` (a setting's range, kept with
-    :class:`terrain.audit.selection.SelectionSettings`), refused with the option's name
-    rather than the setting's."""
-    def parse(value: str) -> int:
-        number = parse_integer(value, "not an integer: ")
-        if not low <= number <= high:
-            raise argparse.ArgumentTypeError(
-                f"must be an integer in {low}-{high:,}, got {value}")
-        return number
-
-    parse.__name__ = f"integer_in_{low}_{high}"
-    return parse
-
-
 def _min_gain(value: str) -> float:
     """argparse ``type`` of ``--min-gain``: a fraction in [0, 1) (NaN refused), as
     :class:`terrain.audit.selection.SelectionSettings` takes it, named as the option."""
-    try:
-        number = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not 0 <= number < 1:
-        raise argparse.ArgumentTypeError(
-            f"must be a fraction of the baseline RMSE in [0, 1), got {value}")
-    return number
+    return parse_number(value, lambda x: 0 <= x < 1, "a fraction of the baseline RMSE in [0, 1)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -91,11 +69,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="write the JSON report here")
     parser.add_argument("--md", type=output_file, default=None,
                         help="write the Markdown report here")
-    parser.add_argument("--bootstrap", type=_integer_in(MIN_BOOTSTRAP, MAX_BOOTSTRAP),
+    parser.add_argument("--bootstrap", type=integer_in(MIN_BOOTSTRAP, MAX_BOOTSTRAP),
                         default=DEFAULTS["bootstrap"],
                         help="resamples of held-out runs for the gain interval "
                              f"({MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,})")
-    parser.add_argument("--param-bootstrap", type=_integer_in(0, MAX_PARAM_BOOTSTRAP),
+    parser.add_argument("--param-bootstrap", type=integer_in(0, MAX_PARAM_BOOTSTRAP),
                         default=DEFAULTS["param_bootstrap"],
                         help="resamples of runs for the parameter intervals "
                              f"(0-{MAX_PARAM_BOOTSTRAP:,})")
