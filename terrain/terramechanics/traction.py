@@ -15,9 +15,13 @@ Curve families
     ``j = s x`` integrated over a contact of length ``L`` (J. Y. Wong, *Theory of Ground
     Vehicles*, 4th ed., Wiley 2008, ch. 2.4-2.5; seed 003 eqs. 14-17):
     ``mu = mu_max (1 - (k / s)(1 - exp(-s / k)))`` with ``k = K / L`` and
-    ``mu_max = tan(phi) + c A / W`` (Mohr-Coulomb). With a ``residual_ratio`` the shear
-    follows Wong's hump-type curve instead, which peaks and falls to a residual strength
-    (snow covers and organic terrain, Wong ch. 2.4; :func:`patch_mobilisation`).
+    ``mu_max = tan(phi) + c A / W`` (Mohr-Coulomb). Seed 003 prints eqs. 17 and 19 as
+    ``1 - (K / (s l)) exp(-s l / K)``, without the ``1 -`` before the exponential: a
+    misprint (the mean of ``1 - exp(-s x / K)`` over ``0 <= x <= l`` is Wong's form, used
+    here; the printed one falls to minus infinity as ``s -> 0`` instead of to 0). With a
+    ``residual_ratio`` the shear follows Wong's hump-type curve instead, which peaks and falls
+    to a residual strength (snow covers and organic terrain, Wong ch. 2.4;
+    :func:`patch_mobilisation`).
 :class:`BrixiusCurve`
     Brixius (1987) traction equations for tyres on agricultural soils (ASAE paper 87-1622):
     gross traction ratio ``0.88 (1 - exp(-0.1 Bn)) (1 - exp(-7.5 s)) + 0.04`` and motion
