@@ -223,7 +223,7 @@ def main(args: argparse.Namespace) -> int:
                         {f"tune_{v}_cost": r["cost"]}, step=next(step)),
                     estimator=estimators.get(veh), feed_forward=not args.no_feed_forward)
                 tuning[veh].to_csv(out / f"tuning_{veh}.csv", index=False)
-                run.log_table(tuning[veh], f"tuning_{veh}.json")
+                run.log_table(tuning[veh], f"tuning_{veh}.csv")
         decisions, classifiers = {}, {}
         for veh in args.vehicles:
             decisions[veh], classifiers[veh] = decision_source(
@@ -249,7 +249,7 @@ def main(args: argparse.Namespace) -> int:
         (out / "summary.json").write_text(strict_json(summary))
         for p in _plots(traces, table, out):
             run.log_artifact(p, "plots")
-        run.log_table(table, "comparison.json")
+        run.log_table(table, "comparison.csv")
         run.log_dict(summary, "summary.json")
         print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     return 0

@@ -280,7 +280,14 @@ class TrackedRun:
             The table (written without index).
         name : str
             Artifact file name, e.g. ``predictions.csv``.
+
+        Raises
+        ------
+        ConfigError
+            ``name`` does not end in ``.csv`` (the content is CSV whatever the name).
         """
+        if not name.endswith(".csv"):
+            raise ConfigError(f"log_table writes CSV: name {name!r} must end in .csv")
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / name
             frame.to_csv(path, index=False)

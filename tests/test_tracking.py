@@ -9,6 +9,7 @@ import threading
 import time
 
 import mlflow
+import pandas as pd
 import pytest
 
 from pipelines.slip_model import resolve_slip_model
@@ -85,6 +86,22 @@ def test_non_finite_metrics_of_every_call_stay_listed(tmp_path, monkeypatch):
     logged = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id)
     assert logged.data.tags["non_finite_metrics"] == "a,b"
     assert logged.data.metrics == {"ok": 1.0, "ok2": 2.0}
+
+
+def test_a_table_is_logged_as_csv_under_a_csv_name_only(tmp_path, monkeypatch):
+    # log_table writes CSV whatever the name: `terrain control-grid` logged its tuning and
+    # comparison tables as CSV text in files named tuning_husky.json and comparison.json
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    table = pd.DataFrame({"kp": [2.0, 5.0], "cost": [0.1, 0.09]})
+    with tracked_run("terrain-test", announce=False) as run:
+        with pytest.raises(ConfigError, match=r"log_table writes CSV: name 'tuning.json' "
+                                              r"must end in \.csv"):
+            run.log_table(table, "tuning.json")
+        run.log_table(table, "tuning.csv")
+    root = tmp_path / "mlartifacts" / "terrain-test" / run.run_id / "artifacts"
+    assert sorted(p.name for p in root.iterdir()) == ["tuning.csv"]
+    assert pd.read_csv(root / "tuning.csv").equals(table)
 
 
 def test_environment_variable_selects_another_store(tmp_path, monkeypatch):

@@ -44,6 +44,11 @@ def test_control_grid_tunes_on_other_seeds_and_cuts_the_ice_start_up_slip(workdi
     assert "| husky | ICE | straight_accel |" in (workdir / "g" / "comparison.md").read_text()
     assert (workdir / "g" / "slip_husky_ICE_straight_accel.png").stat().st_size > 0
     assert "peak_slip_cut" in capsys.readouterr().out
+    # the MLflow run holds the same tables as CSV under .csv names (they were CSV text
+    # named tuning_husky.json and comparison.json)
+    logged = {p.name for p in (workdir / "mlartifacts").rglob("*") if p.is_file()}
+    assert {"tuning_husky.csv", "comparison.csv"} <= logged
+    assert not {"tuning_husky.json", "comparison.json"} & logged
 
 
 def test_terrain_names_in_lower_case_keep_the_slip_limit_bound(workdir):
