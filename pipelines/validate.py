@@ -54,10 +54,12 @@ def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:
     Returns
     -------
     str
+        Header, rule and one line per row; a missing float reads ``nan``, an infinite one
+        ``inf`` or ``-inf``.
     """
     def fmt(v) -> str:
         if isinstance(v, (float, np.floating)):
-            return "nan" if not np.isfinite(v) else f"{v:.{digits}g}"
+            return "nan" if np.isnan(v) else f"{v:.{digits}g}"
         return str(v)
     head = "| " + " | ".join(map(str, table.columns)) + " |"
     rule = "|" + "|".join("---" for _ in table.columns) + "|"
