@@ -149,29 +149,28 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
                          train_hop_s=args.train_hop_s, cnn_seeds=args.cnn_seeds)
 
 
-def log_cell(result: dict, experiment_id: str) -> None:
+def log_cell(result: dict) -> None:
     """Log one finished cell as a child run of the active ``compare`` run.
+
+    Through :func:`terrain.tracking.tracked_run` (a child of the caller's active run), so
+    the cell follows the rules of every other run: ``code_version`` logged, non-finite
+    metrics skipped and listed in the tag ``non_finite_metrics``.
 
     Parameters
     ----------
     result : dict
         A :func:`terrain.models.compare.run_cell` result.
-    experiment_id : str
-        MLflow experiment of the parent run.
     """
-    import mlflow
-
     c = result["cell"]
     name = (f"{c['model']}-{c['dataset']}-{c['signals']}-{c['window_s']:g}s-seed{c['seed']}"
             + ("" if c["protocol"] == "grouped" else f"-{c['protocol']}-LEAKY")
             + ("" if c["train_hop_s"] is None else f"-trainhop{c['train_hop_s']:g}s"))
-    with mlflow.start_run(run_name=name, nested=True, experiment_id=experiment_id):
-        mlflow.log_params(c)
-        mlflow.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in result["rows"]
-                            for m in ("accuracy", "balanced_accuracy", "macro_f1",
-                                      "run_vote_accuracy")})
-        mlflow.log_metrics({k: float(result["rows"][0][k]) for k in
-                            ("fit_s_per_fold", "infer_ms_per_window")})
+    with tracked_run(EXPERIMENT, run_name=name, params=c, announce=False) as child:
+        child.log_metrics({f"{m}_k{r['history']}": float(r[m]) for r in result["rows"]
+                           for m in ("accuracy", "balanced_accuracy", "macro_f1",
+                                     "run_vote_accuracy")})
+        child.log_metrics({k: float(result["rows"][0][k]) for k in
+                           ("fit_s_per_fold", "infer_ms_per_window")})
 
 
 def main(args: argparse.Namespace) -> int:
@@ -187,8 +186,6 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status (0).
     """
-    import mlflow
-
     check_backend(args.backend, args.address)      # before any run opens
     config = config_from_args(args)
     for model in config.models:               # optional extras, before any run opens
@@ -199,7 +196,6 @@ def main(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     with tracked_run(EXPERIMENT, run_name="compare", params={**params,
                                                              "backend": args.backend}) as run:
-        experiment_id = mlflow.active_run().info.experiment_id
         results = []
         with joblib_backend(args.backend, args.address) as n_jobs:
             finished = iter_grid(config, n_jobs=n_jobs if args.n_jobs == -1 else args.n_jobs)
@@ -209,7 +205,7 @@ def main(args: argparse.Namespace) -> int:
             for res in finished:
                 # each cell is logged and saved when it finishes, so a long grid that stops
                 # early keeps what it measured (child runs and compare_cells.csv)
-                log_cell(res, experiment_id)
+                log_cell(res)
                 results.append(res)
                 pd.DataFrame([r for done in results for r in done["rows"]]).to_csv(
                     args.out / "compare_cells.csv", index=False)

@@ -1,0 +1,44 @@
+"""`terrain compare`'s child runs follow the project's MLflow rules (terrain.tracking)."""
+
+from __future__ import annotations
+
+import math
+
+import mlflow
+
+from pipelines.compare import EXPERIMENT, log_cell
+from terrain.tracking import code_version, tracked_run, tracking_uri
+
+
+def test_a_cells_non_finite_metric_is_skipped_and_listed_not_logged_as_nan(tmp_path,
+                                                                           monkeypatch):
+    # log_cell called mlflow.log_metrics itself: a cell whose run vote is undefined logged
+    # run_vote_accuracy_k1 = nan as a number (every other pipeline skips it and lists it
+    # in the tag non_finite_metrics)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    cell = {"model": "svm", "dataset": "vulpi", "signals": "all", "window_s": 2.0, "seed": 0,
+            "protocol": "grouped", "train_hop_s": None}
+    row = {"history": 1, "accuracy": 0.9, "balanced_accuracy": 0.85, "macro_f1": 0.8,
+           "run_vote_accuracy": float("nan"), "fit_s_per_fold": 1.5,
+           "infer_ms_per_window": 0.2}
+    previous = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(tracking_uri())        # as `terrain` does (activate_store)
+    try:
+        with tracked_run(EXPERIMENT, run_name="compare", announce=False) as parent:
+            log_cell({"cell": cell, "rows": [row]})
+    finally:
+        mlflow.set_tracking_uri(previous)
+    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    children = client.search_runs([client.get_experiment_by_name(EXPERIMENT).experiment_id],
+                                  f"tags.mlflow.parentRunId = '{parent.run_id}'")
+    assert len(children) == 1
+    child = children[0]
+    assert child.info.run_name == "svm-vulpi-all-2s-seed0"
+    assert all(math.isfinite(v) for v in child.data.metrics.values())
+    assert child.data.metrics == {"accuracy_k1": 0.9, "balanced_accuracy_k1": 0.85,
+                                  "macro_f1_k1": 0.8, "fit_s_per_fold": 1.5,
+                                  "infer_ms_per_window": 0.2}
+    assert child.data.tags["non_finite_metrics"] == "run_vote_accuracy_k1"
+    assert child.data.params["model"] == "svm"
+    assert child.data.params["code_version"] == code_version()
