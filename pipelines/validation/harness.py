@@ -13,6 +13,7 @@ slip from it (reported in the validation document).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
@@ -26,6 +27,7 @@ from terrain.estimation.consistency import (chi2_test, effective_sample_size,
 from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_truth,
                                          run_adaptive_observer)
 from terrain.estimation.prefilter import robust_noise_std
+from terrain.errors import DataWarning
 from terrain.estimation.runner import EKFResult
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
 from terrain.run import TIME, Run
@@ -541,7 +543,7 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
     Parameters
     ----------
     runs : sequence of Run
-        Measured runs (runs without IMU are skipped).
+        Measured runs (runs without IMU are skipped, with a warning that names them).
     settings : SkidSteerSettings
         Settings of the skid-steer EKF.
     observer : AdaptiveObserverSettings
@@ -551,9 +553,19 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
     -------
     pandas.DataFrame
         One row per run with an IMU: run_id, terrain, chi_ekf, chi_observer, eta_R, eta_L,
-        gyro_bias, turning_fraction, duration_s.
+        gyro_bias, turning_fraction, duration_s (these columns also when no run has one).
+
+    Warns
+    -----
+    DataWarning
+        Some runs have no ``imu`` stream: how many of how many, and their ids.
     """
     rows = []
+    no_imu = [run.run_id for run in runs if "imu" not in run.streams]
+    if no_imu:
+        warnings.warn(f"measured_skid_steer_summary: {len(no_imu)} of {len(runs)} runs have "
+                      f"no imu stream and are skipped: {', '.join(map(str, no_imu))}",
+                      DataWarning, stacklevel=2)
     for run in runs:
         if "imu" not in run.streams:
             continue
@@ -579,7 +591,8 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
                      "eta_R": pick(obs.eta_right), "eta_L": pick(obs.eta_left),
                      "gyro_bias": bias, "turning_fraction": float(turning.mean()),
                      "duration_s": float(t[-1] - t[0])})
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=["run_id", "terrain", "chi_ekf", "chi_observer", "eta_R",
+                                       "eta_L", "gyro_bias", "turning_fraction", "duration_s"])
 
 
 def outage_experiment(result: Simulation, t_off_s: float = 8.0, t_on_s: float = 11.0,
