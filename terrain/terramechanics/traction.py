@@ -508,14 +508,33 @@ def brixius_mobility_number(cone_index_pa: float, section_width_m: float,
     section_width_m, diameter_m : float
         Tyre section width b and unloaded diameter d, m.
     load_n : float
-        Wheel load W, N.
+        Wheel load W, N (> 0: the number of an unloaded tyre is undefined).
     deflection_ratio : float
-        Tyre deflection over section height delta/h.
+        Tyre deflection over section height delta/h, in [0, 1).
 
     Returns
     -------
     float
+        ``Bn`` (dimensionless, > 0).
+
+    Raises
+    ------
+    ConfigError
+        A value that is not a real number, ``cone_index_pa``, ``section_width_m``,
+        ``diameter_m`` or ``load_n`` not a finite value > 0 (a zero load divided by zero), or
+        ``deflection_ratio`` outside [0, 1).
     """
+    config_numbers("brixius_mobility_number", cone_index_pa=cone_index_pa,
+                   section_width_m=section_width_m, diameter_m=diameter_m, load_n=load_n,
+                   deflection_ratio=deflection_ratio)
+    for key, value in (("cone_index_pa", cone_index_pa), ("section_width_m", section_width_m),
+                       ("diameter_m", diameter_m), ("load_n", load_n)):
+        if not (math.isfinite(value) and value > 0.0):
+            raise ConfigError(f"brixius_mobility_number: {key} must be a finite value > 0, "
+                              f"got {value}")
+    if not 0.0 <= deflection_ratio < 1.0:
+        raise ConfigError(f"brixius_mobility_number: deflection_ratio (delta/h) must be in "
+                          f"[0, 1), got {deflection_ratio}")
     return (cone_index_pa * section_width_m * diameter_m / load_n
             * (1.0 + 5.0 * deflection_ratio) / (1.0 + 3.0 * section_width_m / diameter_m))
 

@@ -11,7 +11,8 @@ from terrain.terramechanics import (MEASURED_HUSKY_STRAIGHT, TERRAINS, BrixiusCu
                                     BurckhardtCurve,
                                     JanosiCurve, TractionAndResistance,
                                     bekker_compaction_coefficient, bekker_sinkage_m,
-                                    brixius_motion_resistance, brixius_traction,
+                                    brixius_mobility_number, brixius_motion_resistance,
+                                    brixius_traction,
                                     calibrate_janosi, can_turn_in_place, get_terrain,
                                     husky_hysteresis_for_current, sae_slip, steady_slip,
                                     traction_coefficient, traction_curve_and_slope,
@@ -326,6 +327,25 @@ def test_burckhardt_curve_refuses_coefficients_outside_their_ranges(c1, c2, c3):
 def test_brixius_curve_refuses_a_mobility_number_it_cannot_divide_by(bn):
     with pytest.raises(ConfigError, match="BrixiusCurve"):
         BrixiusCurve(bn)
+
+
+@pytest.mark.parametrize("field, value", [
+    ("load_n", 0.0),                  # before: ZeroDivisionError 'float division by zero'
+    ("load_n", -400.0),               # before: a negative Bn
+    ("diameter_m", 0.0),              # before: ZeroDivisionError
+    ("section_width_m", -0.11),
+    ("cone_index_pa", float("nan")),
+    ("deflection_ratio", 1.5),        # a deflection larger than the section height
+    ("load_n", "400"),                # before: TypeError
+])
+def test_brixius_mobility_number_refuses_an_unloaded_or_impossible_tyre(field, value):
+    args = dict(cone_index_pa=1.5e6, section_width_m=0.11, diameter_m=0.33, load_n=400.0,
+                deflection_ratio=0.1)
+    assert brixius_mobility_number(**args) == pytest.approx(
+        1.5e6 * 0.11 * 0.33 / 400.0 * 1.5 / (1.0 + 3.0 / 3.0))
+    args[field] = value
+    with pytest.raises(ConfigError, match=f"brixius_mobility_number.*{field}"):
+        brixius_mobility_number(**args)
 
 
 @pytest.mark.parametrize("field, change", [
