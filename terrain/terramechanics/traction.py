@@ -622,8 +622,8 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
 
     Raises
     ------
-    ValueError
-        ``residual_ratio`` outside (0, 1).
+    ConfigError
+        ``residual_ratio`` outside (0, 1) (a ``ValueError`` too).
     """
     a = np.asarray(a, dtype=float)
     if residual_ratio is None:
@@ -631,7 +631,8 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     else:
         kr = float(residual_ratio)
         if not 0.0 < kr < 1.0:
-            raise ValueError(f"residual_ratio must be in (0, 1), got {residual_ratio}")
+            raise ConfigError(f"patch_mobilisation: residual_ratio must be in (0, 1), got "
+                              f"{residual_ratio}")
         b, s0, c2 = _hump_constants(kr)
     g, dg = _mobilisation_kernel(np.ascontiguousarray(a).reshape(-1), kr, b, s0, c2)
     return g.reshape(a.shape), dg.reshape(a.shape)

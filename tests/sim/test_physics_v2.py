@@ -91,8 +91,9 @@ def test_exponential_patch_mobilisation_and_invalid_residual_ratio():
     assert g2.shape == (4, 3)
     np.testing.assert_array_equal(g2, patch_mobilisation(grid, 0.4)[0][:, ::2])
     np.testing.assert_array_equal(dg2[0, 0], patch_mobilisation(0.0, 0.4)[1])
-    for bad in (0.0, 1.0, 1.5):
-        with pytest.raises(ValueError, match="residual_ratio"):
+    for bad in (0.0, 1.0, 1.5, float("nan")):
+        # the typed error (a ValueError too): was a plain ValueError
+        with pytest.raises(ConfigError, match="residual_ratio"):
             patch_mobilisation(a, bad)
         with pytest.raises(ConfigError, match="residual_ratio"):
             replace(SOILS["SNOW"], residual_ratio=bad)
