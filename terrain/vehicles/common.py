@@ -2,9 +2,44 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from terrain.errors import ConfigError, config_integer, config_numbers
+
+
+def check_fields(params, positive: tuple = (), non_negative: tuple = (),
+                 counts: tuple = ()) -> None:
+    """Refuse impossible values of a parameter dataclass when it is built.
+
+    Parameters
+    ----------
+    params : dataclass instance
+        The parameters (its class name prefixes each message).
+    positive : tuple of str
+        Fields that must be finite real numbers > 0 (a mass, a radius, a time constant).
+    non_negative : tuple of str
+        Fields that must be finite real numbers >= 0 (0 = off, or none).
+    counts : tuple of str
+        Fields that must be integers >= 1.
+
+    Raises
+    ------
+    ConfigError
+        The first offending field, named ``Class.field``, with the value given.
+    """
+    owner = type(params).__name__
+    values = {name: getattr(params, name) for name in positive + non_negative}
+    config_numbers(owner, **values)
+    for name, value in values.items():
+        bound = 0.0 if name in positive else -math.inf
+        if not (math.isfinite(value) and value >= 0.0 and value > bound):
+            rule = "> 0" if name in positive else ">= 0"
+            raise ConfigError(f"{owner}.{name} must be a finite value {rule}, got {value!r}")
+    for name in counts:
+        config_integer(f"{owner}.{name}", getattr(params, name), 1)
 
 
 @dataclass(frozen=True)
@@ -22,7 +57,7 @@ class MotorParams:
     gear_ratio : float
         Motor turns per wheel turn.
     efficiency : float
-        Gearbox efficiency (0, 1].
+        Gearbox efficiency, in (0, 1].
     no_load_current_a : float
         Current drawn at zero load torque (friction of motor, gearbox, chain), A.
     speed_time_constant_s : float
@@ -50,6 +85,20 @@ class MotorParams:
     encoder_counts_per_rev: int
     wheel_inertia_kg_m2: float
     source: str
+
+    def __post_init__(self) -> None:
+        """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
+        constant, ratio, speed limit and speed-loop time constant finite and > 0, efficiency
+        in (0, 1], no-load current, filter time constant and inertia finite and >= 0,
+        encoder counts an integer >= 1."""
+        check_fields(self, positive=("torque_constant_nm_per_a", "gear_ratio", "efficiency",
+                                     "speed_time_constant_s", "max_wheel_speed_rad_s"),
+                     non_negative=("no_load_current_a", "encoder_filter_s",
+                                   "wheel_inertia_kg_m2"),
+                     counts=("encoder_counts_per_rev",))
+        if self.efficiency > 1.0:
+            raise ConfigError(f"MotorParams.efficiency must be in (0, 1], got "
+                              f"{self.efficiency!r}")
 
     @property
     def encoder_quantum_rad(self) -> float:

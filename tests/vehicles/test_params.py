@@ -1,0 +1,36 @@
+"""The vehicle parameter dataclasses refuse impossible values when built (ConfigError naming
+the field), so a bad variant fails at construction, not as an inf or a ZeroDivisionError
+deep in a simulation."""
+
+from dataclasses import replace
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.vehicles import HUSKY, get_vehicle
+
+
+@pytest.mark.parametrize("name", ["agrimaro", "husky", "tracked"])
+def test_the_shipped_motors_pass_their_own_checks(name):
+    vehicle = get_vehicle(name)
+    assert replace(vehicle.motor) == vehicle.motor
+
+
+@pytest.mark.parametrize("field, value", [
+    ("efficiency", 1.2),                 # before: accepted, a current below the torque law's
+    ("efficiency", 0.0),                 # before: accepted, current_from_torque gave inf
+    ("torque_constant_nm_per_a", 0.0),
+    ("gear_ratio", -78.71),
+    ("no_load_current_a", -1.0),
+    ("speed_time_constant_s", 0.0),      # before: ZeroDivisionError in the integrator
+    ("speed_time_constant_s", -0.1),
+    ("max_wheel_speed_rad_s", 0.0),
+    ("encoder_filter_s", float("nan")),
+    ("encoder_counts_per_rev", 0),       # before: ZeroDivisionError in encoder_count_rate
+    ("encoder_counts_per_rev", 78.5),
+    ("wheel_inertia_kg_m2", -0.06),
+    ("gear_ratio", "78.71"),
+])
+def test_motor_params_refuse_impossible_values(field, value):
+    with pytest.raises(ConfigError, match=f"MotorParams.{field}"):
+        replace(HUSKY.motor, **{field: value})
