@@ -42,6 +42,24 @@ def check_fields(params, positive: tuple = (), non_negative: tuple = (),
         config_integer(f"{owner}.{name}", getattr(params, name), 1)
 
 
+def check_motor(vehicle) -> None:
+    """Refuse a vehicle whose ``motor`` is not a :class:`MotorParams`.
+
+    Parameters
+    ----------
+    vehicle : dataclass instance
+        Vehicle parameters with a ``motor`` field.
+
+    Raises
+    ------
+    ConfigError
+        ``motor`` of another type, named ``Class.motor``.
+    """
+    if not isinstance(vehicle.motor, MotorParams):
+        raise ConfigError(f"{type(vehicle).__name__}.motor must be MotorParams, got "
+                          f"{type(vehicle.motor).__name__}")
+
+
 @dataclass(frozen=True)
 class MotorParams:
     """Speed-controlled drive motor (one per side or per wheel).

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.vehicles.common import ContactGeometry, MotorParams
+from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
 
 
 def _husky_motor() -> MotorParams:
@@ -84,6 +84,17 @@ class HuskyParams:
     speed_quantum_m_s: float = 0.2 / 25.4
     current_quantum_a: float = 0.01
     wheels_per_motor: int = 2
+
+    def __post_init__(self) -> None:
+        """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
+        lengths, mass and inertia finite and > 0, quanta finite and >= 0, wheels per motor an
+        integer >= 1, ``motor`` a :class:`MotorParams`."""
+        check_fields(self, positive=("track_m", "wheelbase_m", "wheel_radius_m", "mass_kg",
+                                     "yaw_inertia_kg_m2", "contact_length_m",
+                                     "contact_width_m"),
+                     non_negative=("speed_quantum_m_s", "current_quantum_a"),
+                     counts=("wheels_per_motor",))
+        check_motor(self)
 
     def contact_geometry(self) -> ContactGeometry:
         """Four wheels at ``(+-L/2, +-B/2)``; motor 0 = left side (y > 0), motor 1 = right
@@ -164,6 +175,16 @@ class TrackedParams:
     n_segments: int = 5
     motor: MotorParams = field(default_factory=_tracked_motor)
     wheels_per_motor: int = 1
+
+    def __post_init__(self) -> None:
+        """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
+        lengths, mass and inertia finite and > 0, CoG height and Endo's exponent finite and
+        >= 0, segment and wheel counts integers >= 1, ``motor`` a :class:`MotorParams`."""
+        check_fields(self, positive=("track_m", "track_width_m", "track_length_m", "mass_kg",
+                                     "sprocket_radius_m", "yaw_inertia_kg_m2"),
+                     non_negative=("cog_height_m", "slip_parameter_n"),
+                     counts=("n_segments", "wheels_per_motor"))
+        check_motor(self)
 
     @property
     def wheel_radius_m(self) -> float:

@@ -19,7 +19,8 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.vehicles.common import ContactGeometry, MotorParams
+from terrain.errors import ConfigError
+from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
 
 #: Rotation taking T265 tracking-frame vectors (x right, y up, z backward) to the robot frame
 #: (x forward, y left, z up), seed 001 ch. 5.2.3.
@@ -91,6 +92,26 @@ class AgriMaRoParams:
     contact_length_m: float = 0.10
     contact_width_m: float = 0.12
     wheels_per_motor: int = 1
+
+    def __post_init__(self) -> None:
+        """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
+        three finite wheel positions (x, y), a finite 3-vector camera lever arm, radius, mass,
+        inertia, steering rate and patch finite and > 0, dead band finite and >= 0, wheels
+        per motor an integer >= 1, ``motor`` a :class:`MotorParams`."""
+        for name, shape in (("wheel_positions_m", (3, 2)), ("camera_lever_arm_m", (3,))):
+            value = getattr(self, name)
+            try:
+                arr = np.asarray(value, dtype=float)
+            except (TypeError, ValueError):
+                arr = None
+            if arr is None or arr.shape != shape or not np.isfinite(arr).all():
+                raise ConfigError(f"AgriMaRoParams.{name} must be finite numbers of shape "
+                                  f"{shape}, got {value!r:.80}")
+        check_fields(self, positive=("wheel_radius_m", "mass_kg", "yaw_inertia_kg_m2",
+                                     "steering_rate_rad_s", "contact_length_m",
+                                     "contact_width_m"),
+                     non_negative=("steering_dead_band_rad",), counts=("wheels_per_motor",))
+        check_motor(self)
 
     @property
     def positions(self) -> np.ndarray:

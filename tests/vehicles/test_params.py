@@ -7,12 +7,13 @@ from dataclasses import replace
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.vehicles import HUSKY, get_vehicle
+from terrain.vehicles import AGRIMARO, HUSKY, TRACKED, get_vehicle
 
 
 @pytest.mark.parametrize("name", ["agrimaro", "husky", "tracked"])
-def test_the_shipped_motors_pass_their_own_checks(name):
+def test_the_shipped_parameters_pass_their_own_checks(name):
     vehicle = get_vehicle(name)
+    assert replace(vehicle) == vehicle
     assert replace(vehicle.motor) == vehicle.motor
 
 
@@ -34,3 +35,30 @@ def test_the_shipped_motors_pass_their_own_checks(name):
 def test_motor_params_refuse_impossible_values(field, value):
     with pytest.raises(ConfigError, match=f"MotorParams.{field}"):
         replace(HUSKY.motor, **{field: value})
+
+
+@pytest.mark.parametrize("vehicle, field, value", [
+    (HUSKY, "mass_kg", -50.0),            # before: accepted
+    (HUSKY, "wheel_radius_m", 0.0),
+    (HUSKY, "track_m", float("inf")),
+    (HUSKY, "yaw_inertia_kg_m2", 0.0),
+    (HUSKY, "contact_length_m", -0.08),
+    (HUSKY, "speed_quantum_m_s", -0.01),
+    (HUSKY, "wheels_per_motor", 0),
+    (HUSKY, "motor", None),
+    (TRACKED, "mass_kg", 0.0),
+    (TRACKED, "sprocket_radius_m", 0.0),
+    (TRACKED, "track_length_m", -0.6),
+    (TRACKED, "n_segments", 0),          # before: ZeroDivisionError in contact_geometry
+    (TRACKED, "slip_parameter_n", float("nan")),
+    (AGRIMARO, "wheel_radius_m", 0.0),   # before: swerve_inverse gave omega inf
+    (AGRIMARO, "mass_kg", -150.0),
+    (AGRIMARO, "steering_rate_rad_s", 0.0),
+    (AGRIMARO, "steering_dead_band_rad", -0.021),
+    (AGRIMARO, "wheel_positions_m", ((0.0, 0.0), (1.0, 0.0))),
+    (AGRIMARO, "wheel_positions_m", ((0.0, 0.0), (1.0, 0.0), (0.0, float("nan")))),
+    (AGRIMARO, "camera_lever_arm_m", (0.6685, -0.26875)),
+])
+def test_vehicle_params_refuse_impossible_values(vehicle, field, value):
+    with pytest.raises(ConfigError, match=f"{type(vehicle).__name__}.{field}"):
+        replace(vehicle, **{field: value})
