@@ -304,14 +304,35 @@ def band_weights(n_samples: int, rate_hz: float,
     rate_hz : float
         Sampling rate, Hz.
     bands_hz : tuple of (low, high)
-        Bands ``[low, high)`` in Hz; a band holding no FFT bin gets the nearest bin(s).
+        Bands ``[low, high)`` in Hz, finite, ``low < high``, overlapping ``[0, rate_hz / 2]``
+        (``high > 0``, ``low`` at most the Nyquist frequency); a band holding no FFT bin
+        gets the nearest bin(s).
 
     Returns
     -------
     numpy.ndarray
         ``(n_samples // 2 + 1, n_bands)``; column ``k`` is ``1 / m`` on the ``m`` bins of
         band ``k`` and 0 elsewhere, so ``psd @ W`` is the mean density of each band.
+
+    Raises
+    ------
+    ConfigError
+        A band that is not finite, has ``low >= high``, ends at or below 0 Hz or starts
+        above the Nyquist frequency (it would hold no content, only a borrowed nearest bin).
     """
+    nyquist = 0.5 * rate_hz
+    for lo, hi in bands_hz:
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            raise ConfigError(f"band ({lo:g}, {hi:g}) Hz: the edges must be finite")
+        if not lo < hi:
+            raise ConfigError(f"band ({lo:g}, {hi:g}) Hz must have its lower edge below its "
+                              f"upper")
+        if hi <= 0.0:
+            raise ConfigError(f"band ({lo:g}, {hi:g}) Hz must end above 0 Hz")
+        if lo > nyquist:
+            raise ConfigError(f"band ({lo:g}, {hi:g}) Hz starts above the Nyquist frequency "
+                              f"{nyquist:g} Hz of a {rate_hz:g} Hz signal: it holds no "
+                              f"content")
     freqs = np.fft.rfftfreq(n_samples, d=1.0 / rate_hz)
     weights = np.zeros((len(freqs), len(bands_hz)))
     for k, (lo, hi) in enumerate(bands_hz):
@@ -354,7 +375,8 @@ def band_log_power(x: np.ndarray, rate_hz: float,
     rate_hz : float
         Sampling rate, Hz.
     bands_hz : tuple of (low, high)
-        Bands ``[low, high)`` in Hz; a band holding no FFT bin gets the nearest bin.
+        Bands ``[low, high)`` in Hz (as :func:`band_weights` accepts them); a band holding
+        no FFT bin gets the nearest bin.
     weights : numpy.ndarray or None
         ``band_weights(n_samples, rate_hz, bands_hz)``, precomputed by a caller that
         transforms many batches (computed here when ``None``).
@@ -365,6 +387,11 @@ def band_log_power(x: np.ndarray, rate_hz: float,
     -------
     numpy.ndarray
         ``(n_windows, n_channels, n_bands)``, log10(unit^2/Hz).
+
+    Raises
+    ------
+    ConfigError
+        A band :func:`band_weights` refuses (when ``weights`` is not given).
     """
     n = x.shape[-1]
     taper = hann_taper(n) if taper is None else taper

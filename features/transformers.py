@@ -133,7 +133,9 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            Unknown statistic name.
+            Unknown statistic name, or a band of ``bands_hz`` that
+            :func:`features.calculators.band_weights` refuses (not finite, inverted, or
+            outside 0 Hz to the Nyquist frequency).
         ValueError
             ``X`` of the wrong shape, of 0 windows or non-finite.
         """

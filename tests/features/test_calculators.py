@@ -12,6 +12,7 @@ from scipy import stats as sps
 
 from features import calculators as calc
 from features.transformers import linear_bands
+from terrain.errors import ConfigError
 
 RAMP = np.array([1.0, 2.0, 3.0, 4.0])
 # Bernoulli(p = 1/4) scaled by 3: skewness (1-2p)/sqrt(p(1-p)) = 2/sqrt(3),
@@ -167,3 +168,24 @@ def test_quantile_sorted_equals_numpy_quantile_bit_for_bit(x, q):
     wheel-physics features rely on it)."""
     got = calc.quantile_sorted(np.sort(x), q)
     assert got == np.quantile(x, q)
+
+
+@pytest.mark.parametrize("band, match", [
+    ((30.0, 40.0), "above the Nyquist frequency 25 Hz"),     # no content at 50 Hz
+    ((5.0, 2.0), "lower edge below its upper"),
+    ((2.0, 2.0), "lower edge below its upper"),
+    ((-2.0, -1.0), "end above 0 Hz"),
+    ((np.nan, 2.0), "finite"),
+    ((1.0, np.inf), "finite"),
+])
+def test_band_weights_refuse_bands_without_content(band, match):
+    """A band above the Nyquist frequency, inverted, below 0 Hz or not finite has no FFT bin
+    of its own: it used to get the nearest bin without a word ((30, 40) Hz at 50 Hz was the
+    25 Hz bin, named ``band_30_40hz``; NaN gave log10(1e-12) = -12)."""
+    with pytest.raises(ConfigError, match=match):
+        calc.band_weights(N, RATE, (band,))
+    x = np.zeros((1, 1, N))
+    with pytest.raises(ConfigError, match=match):
+        calc.band_log_power(x, RATE, ((0.0, 2.5), band))
+    # a band reaching past the Nyquist frequency keeps the bins it holds
+    assert calc.band_weights(N, RATE, ((20.0, 30.0),))[:, 0].sum() == pytest.approx(1.0)

@@ -243,3 +243,10 @@ def test_serial_feature_union_runs_each_part_once_whatever_it_returns():
         dense.transform(X), FeatureUnion(parts(), transformer_weights={"raw": 3.0}).fit(X)
         .transform(X))
     assert SerialFeatureUnion([("off", "drop")]).fit(X).transform(X).shape == (12, 0)
+
+
+def test_band_above_nyquist_is_refused_at_fit():
+    fx = WindowFeatures(channels=("ax",), rate_hz=50.0, stats=("mean",),
+                        bands_hz=((30.0, 40.0),))
+    with pytest.raises(ConfigError, match="above the Nyquist frequency 25 Hz"):
+        fx.fit(np.ones((1, 1, 100)))
