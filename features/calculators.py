@@ -15,7 +15,7 @@ import numba
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, ShapeError, config_numbers
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
@@ -317,9 +317,14 @@ def band_weights(n_samples: int, rate_hz: float,
     Raises
     ------
     ConfigError
-        A band that is not finite, has ``low >= high``, ends at or below 0 Hz or starts
-        above the Nyquist frequency (it would hold no content, only a borrowed nearest bin).
+        ``rate_hz`` not a finite number > 0, or a band that is not finite, has
+        ``low >= high``, ends at or below 0 Hz or starts above the Nyquist frequency (it
+        would hold no content, only a borrowed nearest bin).
     """
+    config_numbers("band_weights", rate_hz=rate_hz)
+    if not (np.isfinite(rate_hz) and rate_hz > 0):
+        raise ConfigError(f"band_weights: rate_hz must be a finite number > 0 Hz, "
+                          f"got {rate_hz!r}")
     nyquist = 0.5 * rate_hz
     for lo, hi in bands_hz:
         if not (np.isfinite(lo) and np.isfinite(hi)):

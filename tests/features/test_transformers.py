@@ -250,3 +250,24 @@ def test_band_above_nyquist_is_refused_at_fit():
                         bands_hz=((30.0, 40.0),))
     with pytest.raises(ConfigError, match="above the Nyquist frequency 25 Hz"):
         fx.fit(np.ones((1, 1, 100)))
+
+
+@pytest.mark.parametrize("rate_hz, band_width_hz, match", [
+    (50.0, -1.0, "band_width_hz"), (50.0, 0.0, "band_width_hz"),
+    (50.0, np.nan, "band_width_hz"), (50.0, np.inf, "band_width_hz"),
+    (50.0, "2.5", "band_width_hz"), (0.0, 2.5, "rate_hz"), (np.nan, 2.5, "rate_hz"),
+])
+def test_linear_bands_refuse_widths_and_rates_that_give_no_bands(
+        rate_hz, band_width_hz, match):
+    """A negative band width gave no band at all without a word (WindowFeatures then made
+    no band feature), 0 raised ZeroDivisionError and NaN numpy's 'arange: cannot compute
+    length'."""
+    with pytest.raises(ConfigError, match=match):
+        linear_bands(rate_hz, band_width_hz)
+    with pytest.raises(ConfigError, match=match):
+        WindowFeatures(channels=("ax",), rate_hz=rate_hz,
+                       band_width_hz=band_width_hz).fit(np.ones((1, 1, 100)))
+    if match == "rate_hz":   # given bands: band_weights checks the rate
+        with pytest.raises(ConfigError, match=match):
+            WindowFeatures(channels=("ax",), rate_hz=rate_hz,
+                           bands_hz=((0.0, 2.0),)).fit(np.ones((1, 1, 100)))
