@@ -15,7 +15,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from features import calculators
 from features.windows import ALL_CHANNELS, refuse_no_windows
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_numbers, duplicated, first_items
 from terrain.run import IMU_CHANNELS
 
 DEFAULT_STATS = tuple(calculators.STATISTICS)
@@ -146,7 +146,9 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             Unknown statistic name, a ``rate_hz`` or ``band_width_hz`` :func:`linear_bands`
             refuses, or a band of ``bands_hz`` that :func:`features.calculators.band_weights`
-            refuses (not finite, inverted, or outside 0 Hz to the Nyquist frequency).
+            refuses (not finite, inverted, or outside 0 Hz to the Nyquist frequency), or a
+            feature name that occurs twice (a repeated channel or statistic, or two bands
+            whose names agree).
         ValueError
             ``X`` of the wrong shape, of 0 windows or non-finite.
         """
@@ -161,6 +163,13 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         names += [f"{c}__{_band_name(lo, hi)}" for c in self.channels if c in IMU_CHANNELS
                   for lo, hi in self.bands_]
         names += [name for name, _ in self._cross_terms()]
+        repeated = duplicated(names)
+        if repeated:
+            why = [f"{field} {twice} given twice" for field, twice in
+                   (("channels", duplicated(self.channels)), ("stats", duplicated(self.stats)))
+                   if twice] or ["bands whose edges agree to 6 digits"]
+            raise ConfigError(f"WindowFeatures: feature names occur more than once "
+                              f"({'; '.join(why)}): {first_items(repeated, word='name')}")
         self.feature_names_out_ = np.asarray(names, dtype=object)
         self.n_samples_in_ = X.shape[2]
         # constant FFT helpers of this window length (derived from the settings, not the data)

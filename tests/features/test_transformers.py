@@ -271,3 +271,43 @@ def test_linear_bands_refuse_widths_and_rates_that_give_no_bands(
         with pytest.raises(ConfigError, match=match):
             WindowFeatures(channels=("ax",), rate_hz=rate_hz,
                            bands_hz=((0.0, 2.0),)).fit(np.ones((1, 1, 100)))
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"channels": ("wz", "ax", "wz")}, r"channels \['wz'\] given twice.*wz__"),
+    ({"channels": ("wz", "ax"), "stats": ("std", "mean", "std")},
+     r"stats \['std'\] given twice\): names ax__std, wz__std"),
+    ({"channels": ("ax",), "bands_hz": ((1.0, 2.0), (1.0000001, 2.0))},
+     r"agree to 6 digits\): name ax__band_1_2hz"),
+])
+def test_repeated_feature_names_are_refused(kw, match):
+    """A repeated channel or statistic gave repeated columns and names (channels ('wz',
+    'ax', 'wz'): 27 names, 18 distinct), and two bands equal to 6 digits one name."""
+    X = np.random.default_rng(0).normal(size=(2, len(kw["channels"]), 100))
+    with pytest.raises(ConfigError, match=f"more than once.*{match}"):
+        WindowFeatures(rate_hz=50.0, **kw).fit(X)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_every_column_is_the_feature_its_name_says(seed):
+    """Property over random channel subsets, statistics and bands: names are unique and
+    column k is the named feature computed on its own."""
+    rng = np.random.default_rng(seed)
+    channels = tuple(rng.permutation(ALL_CHANNELS)[:rng.integers(1, len(ALL_CHANNELS))])
+    stats = tuple(rng.permutation(DEFAULT_STATS)[:rng.integers(1, len(DEFAULT_STATS))])
+    X = rng.normal(size=(3, len(channels), 64))
+    fx = WindowFeatures(channels=channels, rate_hz=50.0, stats=stats, band_width_hz=5.0)
+    F = fx.fit_transform(X)
+    names = list(fx.get_feature_names_out())
+    assert len(set(names)) == len(names) == F.shape[1]
+    bands = {_band_name(lo, hi): (lo, hi) for lo, hi in linear_bands(50.0, 5.0)}
+    for k, name in enumerate(names):
+        signal_name, feature = name.split("__", 1)
+        x = X[:, channels.index(signal_name)]
+        if feature in calculators.STATISTICS:
+            want = calculators.STATISTICS[feature](x)
+        elif feature in bands:
+            want = calculators.band_log_power(x[:, None], 50.0, (bands[feature],))[:, 0, 0]
+        else:
+            continue   # cross terms: test_columns_hold_what_their_names_say
+        np.testing.assert_allclose(F[:, k], want, rtol=1e-12, err_msg=name)  # (BLAS order)
