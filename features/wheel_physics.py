@@ -35,7 +35,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from features.calculators import quantile_sorted
 from features.windows import HUSKY_TRACK_M, refuse_no_windows
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError, first_items
 from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
@@ -208,6 +208,8 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
         A non-positive or non-finite rate, track, scale or ridge.
     ShapeError
         The four inputs are not 2-D arrays of one shape with at least one sample.
+    NonFiniteInputError
+        An input holds NaN or inf (the message names it and the first windows).
     """
     for name, value in (("rate_hz", rate_hz), ("track_m", track_m),
                         ("speed_scale_m_s", speed_scale_m_s),
@@ -221,8 +223,19 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
                          f"(n_windows, n_samples >= 1) arrays of one shape, got "
                          f"{[a.shape for a in arrays]}")
     out = np.empty((shape[0], len(PHYSICS_FEATURES)))
-    _physics_kernel(*arrays, 1.0 / float(rate_hz), float(track_m), float(speed_scale_m_s),
-                    float(yaw_scale_rad_s), float(ridge), out)
+    try:
+        _physics_kernel(*arrays, 1.0 / float(rate_hz), float(track_m),
+                        float(speed_scale_m_s), float(yaw_scale_rad_s), float(ridge), out)
+    except np.linalg.LinAlgError:
+        # the ridge fits' solve refuses a NaN or inf (checked here, off the hot path)
+        for name, a in zip(("vel_l", "vel_r", "cur_l", "cur_r"), arrays):
+            bad = ~np.isfinite(a)
+            if bad.any():
+                raise NonFiniteInputError(
+                    f"physics_features: {name} holds {int(bad.sum())} non-finite "
+                    f"sample{'s' if bad.sum() > 1 else ''} "
+                    f"({first_items(np.unique(np.nonzero(bad)[0]), word='window')})") from None
+        raise
     return out
 
 

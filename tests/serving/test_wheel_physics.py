@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.serving.evaluation import (concatenated_streams, held_out_folds, pool_scores,
                                         score_stream, switching_delays, truth_at)
 
@@ -207,3 +207,15 @@ def test_switching_delay_and_accuracy_of_known_decisions(borealtc_runs):
     assert pooled["accuracy"] == pytest.approx(score.accuracy)
     assert pooled["n_switches"] == 2 * len(delays)
     assert all(0.8 < r <= 1.0 for r in pooled["recall"].values())
+
+
+@pytest.mark.parametrize("which, value", [(0, np.nan), (2, np.nan), (3, np.inf)])
+def test_physics_features_name_a_non_finite_input(which, value):
+    """A NaN or inf sample raised numpy's bare LinAlgError 'Array must not contain infs or
+    NaNs' from inside the compiled ridge fit, naming no input."""
+    parts = [p.copy() for p in _planted(n_windows=3, n=10)]
+    parts[which][1, 4] = value
+    name = ("vel_l", "vel_r", "cur_l", "cur_r")[which]
+    with pytest.raises(NonFiniteInputError,
+                       match=rf"physics_features: {name} holds 1 non-finite sample \(window 1"):
+        physics_features(*parts, RATE)
