@@ -112,6 +112,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
             raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
                              f"n_samples), got {X.shape}")
         refuse_no_windows(X)     # (the features' reshape would fail inside NumPy)
+        if X.shape[2] < 2:       # (mean_abs_diff of one sample is NaN)
+            raise ValueError(f"windows need at least 2 samples, got X of shape {X.shape}")
         if not np.isfinite(X).all():
             raise ValueError("X contains NaN or inf")
         return X
@@ -150,7 +152,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
             feature name that occurs twice (a repeated channel or statistic, or two bands
             whose names agree).
         ValueError
-            ``X`` of the wrong shape, of 0 windows or non-finite.
+            ``X`` of the wrong shape, of 0 windows, of windows of fewer than 2 samples, or
+            non-finite.
         """
         unknown = [s for s in self.stats if s not in calculators.STATISTICS]
         if unknown:
@@ -198,7 +201,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             ``fit`` has not been called.
         ValueError
-            ``X`` of the wrong shape, of 0 windows or non-finite.
+            ``X`` of the wrong shape, of 0 windows, of windows of fewer than 2 samples, or
+            non-finite.
         """
         check_is_fitted(self, "feature_names_out_")
         X = self._check(X)

@@ -311,3 +311,16 @@ def test_every_column_is_the_feature_its_name_says(seed):
         else:
             continue   # cross terms: test_columns_hold_what_their_names_say
         np.testing.assert_allclose(F[:, k], want, rtol=1e-12, err_msg=name)  # (BLAS order)
+
+
+def test_one_sample_windows_are_refused_not_given_nan_features():
+    """Windows of one sample passed the checks and gave a NaN <channel>__mean_abs_diff
+    column for every channel (finite input, non-finite features)."""
+    X = np.random.default_rng(0).normal(size=(2, 3, 1))
+    fx = WindowFeatures(channels=("wz", "cur_l", "vel_l"), rate_hz=50.0)
+    with pytest.raises(ValueError, match="at least 2 samples"):
+        fx.fit(X)
+    fx.fit(np.repeat(X, 2, axis=2))
+    with pytest.raises(ValueError, match="at least 2 samples"):
+        fx.transform(X)
+    assert np.isfinite(fx.transform(np.repeat(X, 2, axis=2))).all()
