@@ -39,7 +39,8 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
         streams, terrain label in ``run.terrain``.
     learned_model : SlipRegressor or None
         Fitted model (``predict`` -> ``slip_1, slip_2, ...``) on the features of
-        :func:`features.slip_features.slip_features`.
+        :func:`features.slip_features.slip_features`; it gets their table, whose columns it
+        checks against those it was fitted on (``feature_names_in_``, when it has them).
     physics_settings : PhysicsSlipSettings
         Uncertainties of the physics slip of the pseudo-measurement (the learned model's
         ``phys_*`` features keep the defaults it was trained with). The pseudo-measurement's
@@ -68,6 +69,12 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
         the estimate is therefore not causal: a filter step uses up to half a window, 1 s, of
         later data. None when the run lacks
         currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
+
+    Raises
+    ------
+    ShapeError, MissingColumnError
+        ``learned_model`` was fitted on another number of feature columns, or on other
+        columns or in another order (:func:`terrain.slip.learned.feature_names_mismatch`).
     """
 
     ws, missing = _slip_windows(run)
@@ -113,10 +120,10 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
            "physics_current": (t_mid, current_only.slip, current_only.std),
            "physics_transient": (t_mid, with_change.slip, change)}
     if learned_model is not None:
-        Xa = X.to_numpy(float)
-        pred = np.asarray(learned_model.predict(Xa), dtype=float)[:, :2]
+        # the table, not its array: a model that kept its feature names checks them
+        pred = np.asarray(learned_model.predict(X), dtype=float)[:, :2]
         # the filter needs the error variance: the variance-calibrated std (heavy tails in)
-        std = (np.asarray(learned_model.predict_std(Xa, moment="variance"), dtype=float)
+        std = (np.asarray(learned_model.predict_std(X, moment="variance"), dtype=float)
                if hasattr(learned_model, "predict_std") else np.full_like(pred, np.nan))
         out["learned"] = (t_mid, pred, std)
     return out

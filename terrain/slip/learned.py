@@ -20,11 +20,13 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.model_selection import GroupKFold
 
-from terrain.errors import ConfigError, DataWarning, NonFiniteInputError, ShapeError
+from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
+                            ShapeError, duplicated)
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -56,6 +58,16 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         out-of-fold residuals of the training windows are at the level of the simulator's
         window-mean truth on firm ground, where slip is ~1e-4, and a smaller std would let
         one window dominate the filter).
+
+    Attributes
+    ----------
+    n_features_in_ : int
+        Number of feature columns seen in :meth:`fit`.
+    feature_names_in_ : ndarray of str, shape (n_features_in_,)
+        The column names of ``X`` in :meth:`fit`, when it was a DataFrame with text column
+        names (scikit-learn's convention); a DataFrame given to :meth:`predict` must then have
+        exactly these columns in this order. Absent after a fit on a bare array, and on models
+        stored before the names were kept (they predict as before, unchecked).
     """
 
     def __init__(self, max_iter: int = 300, learning_rate: float = 0.1,
@@ -92,7 +104,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like, shape (n_windows, n_features)
-            Window features.
+            Window features; a DataFrame with text column names sets ``feature_names_in_``
+            (a bare array, or other column names, leaves it unset).
         y : array-like, shape (n_windows, 4)
             ``slip_1, slip_2`` (dimensionless), ``chi`` (NaN where undefined), ``v_by``
             (m/s).
@@ -120,6 +133,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             not learned, :meth:`predict` gives their median (1 without any) on every window;
             or too few runs in ``groups`` for the calibration folds (no std).
         """
+        names = _text_columns(X)
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
         if X.ndim != 2:
@@ -140,6 +154,10 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                 f"(first rows {np.flatnonzero(bad)[:3].tolist()}): chi is finite, or NaN where "
                 "the robot does not turn")
         self.n_features_in_ = X.shape[1]
+        if names is not None:
+            self.feature_names_in_ = names
+        elif hasattr(self, "feature_names_in_"):     # refitted on a bare array
+            del self.feature_names_in_
         self.slip_models_ = [self._tree().fit(X, y[:, i]) for i in range(2)]
         turning = np.isfinite(y[:, 2])
         self.chi_default_ = float(np.nanmedian(y[:, 2])) if turning.any() else 1.0
@@ -208,7 +226,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like, shape (n_windows, n_features)
-            Window features (same columns as in :meth:`fit`).
+            Window features (same columns as in :meth:`fit`); a DataFrame must have the
+            columns ``feature_names_in_`` in that order when the model has them, a bare
+            array is taken as in that order.
         moment : {"median", "variance"}
             ``median``: the bulk calibration of :meth:`fit` (68 % of typical windows within
             1 std). ``variance``: scaled by ``sqrt(mean normalised squared residual)`` of the
@@ -228,6 +248,11 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         ------
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
+            For a DataFrame, the message names the missing and extra columns.
+        MissingColumnError
+            ``X`` is a DataFrame of the right width whose columns are not
+            ``feature_names_in_`` in that order (the message names the missing, extra or
+            misplaced columns: :func:`feature_names_mismatch`).
         ConfigError
             Unknown ``moment``.
         """
@@ -248,10 +273,15 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                 self.lateral_model_]
 
     def _check_X(self, X) -> np.ndarray:
+        fitted = getattr(self, "feature_names_in_", None)  # absent: stored before the names
+        wrong = (feature_names_mismatch([str(c) for c in X.columns], list(fitted))
+                 if fitted is not None and isinstance(X, pd.DataFrame) else None)
         X = np.asarray(X, dtype=float)
         if X.ndim != 2 or X.shape[1] != self.n_features_in_:
             raise ShapeError(f"X must have shape (n_windows, {self.n_features_in_}), "
-                             f"got {X.shape}")
+                             f"got {X.shape}" + (f": {wrong.message}" if wrong else ""))
+        if wrong is not None:
+            raise wrong
         return X
 
     def predict(self, X) -> np.ndarray:
@@ -260,7 +290,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like, shape (n_windows, n_features)
-            Window features (same columns as in :meth:`fit`).
+            Window features (same columns as in :meth:`fit`); a DataFrame must have the
+            columns ``feature_names_in_`` in that order when the model has them, a bare
+            array is taken as in that order.
 
         Returns
         -------
@@ -272,6 +304,11 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         ------
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
+            For a DataFrame, the message names the missing and extra columns.
+        MissingColumnError
+            ``X`` is a DataFrame of the right width whose columns are not
+            ``feature_names_in_`` in that order (the message names the missing, extra or
+            misplaced columns: :func:`feature_names_mismatch`).
         """
         X = self._check_X(X)
         packed = getattr(self, "packed_trees_", None)
@@ -290,7 +327,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like, shape (n_windows, n_features)
-            Window features (same columns as in :meth:`fit`).
+            Window features (same columns as in :meth:`fit`); a DataFrame must have the
+            columns ``feature_names_in_`` in that order when the model has them, a bare
+            array is taken as in that order.
 
         Returns
         -------
@@ -301,6 +340,11 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         ------
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
+            For a DataFrame, the message names the missing and extra columns.
+        MissingColumnError
+            ``X`` is a DataFrame of the right width whose columns are not
+            ``feature_names_in_`` in that order (the message names the missing, extra or
+            misplaced columns: :func:`feature_names_mismatch`).
         """
         X = self._check_X(X)
         chi = (self.chi_model_.predict(X) if self.chi_model_ is not None
@@ -326,3 +370,59 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         """
         err = np.abs(self.predict(X)[:, :2] - np.asarray(y, dtype=float)[:, :2])
         return -float(np.median(err))
+
+
+def _text_columns(X) -> np.ndarray | None:
+    """The column names of a DataFrame whose names are all text, else None (scikit-learn's
+    rule for ``feature_names_in_``)."""
+    if isinstance(X, pd.DataFrame) and all(isinstance(c, str) for c in X.columns):
+        return np.asarray(list(X.columns), dtype=object)
+    return None
+
+
+def feature_names_mismatch(columns: list[str], fitted: list[str]) -> MissingColumnError | None:
+    """What is wrong with a feature table's columns against those a model was fitted on.
+
+    A tree ensemble reads its inputs by position: the same columns in another order predict
+    without an error and wrongly (two swapped currents swap the sides' slips).
+
+    Parameters
+    ----------
+    columns : list of str, length n_columns
+        Column names of the table to predict on.
+    fitted : list of str, length n_features
+        Column names of the table the model was fitted on (``feature_names_in_``).
+
+    Returns
+    -------
+    MissingColumnError or None
+        None when ``columns`` is ``fitted``; otherwise the error to raise, naming the first
+        few fitted columns missing, columns the model does not know, columns given twice, or
+        (the same columns in another order) the misplaced ones; its ``column`` is the first
+        of them.
+    """
+    def shown(items: list) -> str:
+        return f"{items[:5]}" + (f" and {len(items) - 5} more" if len(items) > 5 else "")
+
+    if columns == fitted:
+        return None
+    where = f"the {len(fitted)} feature columns the slip model was fitted on"
+    given, known = set(columns), set(fitted)
+    missing = [c for c in fitted if c not in given]
+    extra = [c for c in columns if c not in known]
+    if missing or extra:
+        return MissingColumnError(
+            f"X's columns differ from {where}: "
+            + "; ".join(f"{word} {shown(items)}" for word, items in
+                        (("missing", missing), ("extra", extra)) if items),
+            column=(missing or extra)[0])
+    twice = duplicated(columns)
+    if twice:
+        return MissingColumnError(f"X has the column(s) {shown(twice)} more than once (of "
+                                  f"{where})", column=twice[0])
+    moved = [(i, c, f) for i, (c, f) in enumerate(zip(columns, fitted)) if c != f]
+    return MissingColumnError(
+        f"X has {where} in another order: "
+        + ", ".join(f"column {i} is {c!r} where the model has {f!r}" for i, c, f in moved[:3])
+        + (f" and {len(moved) - 3} more misplaced" if len(moved) > 3 else "")
+        + " (reorder as feature_names_in_)", column=moved[0][1])

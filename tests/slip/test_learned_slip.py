@@ -603,3 +603,69 @@ def test_slip_model_says_when_chi_is_a_constant():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         SlipRegressor(max_iter=3).fit(X, y)
+
+
+def _named_table(n=300, seed=0):
+    rng = np.random.default_rng(seed)
+    X = pd.DataFrame(rng.normal(size=(n, 3)), columns=["cur_l__mean", "cur_r__mean", "pitch"])
+    y = np.column_stack([0.1 * X["cur_l__mean"], 0.1 * X["cur_r__mean"], np.ones(n),
+                         0.02 * X["pitch"]])
+    return X, y
+
+
+def test_slip_model_refuses_a_table_whose_columns_differ_from_those_it_was_fitted_on():
+    # the model kept no column names: the same table with cur_l__mean and cur_r__mean
+    # swapped predicted slip_1 0.0093 -> -0.0116 and slip_2 -0.0114 -> 0.0131 on its first
+    # window (up to 0.057 apart on three windows) without a word
+    from terrain.errors import MissingColumnError
+    X, y = _named_table()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        model = SlipRegressor(max_iter=20).fit(X, y, groups=np.repeat(np.arange(6), 50))
+    assert list(model.feature_names_in_) == list(X.columns)
+    swapped = X[["cur_r__mean", "cur_l__mean", "pitch"]]
+    for method in (model.predict, model.predict_std, model.predict_reference):
+        with pytest.raises(MissingColumnError, match="cur_r__mean.*cur_l__mean"):
+            method(swapped)
+    with pytest.raises(MissingColumnError, match=r"missing \['pitch'\].*extra \['roll'\]"):
+        model.predict(X.rename(columns={"pitch": "roll"}))
+    with pytest.raises(ShapeError, match=r"got \(300, 2\): .*missing \['pitch'\]"):
+        model.predict(X[["cur_l__mean", "cur_r__mean"]])    # the width first, as before
+    # a bare array of the right width is taken as in the fitted order, as before
+    np.testing.assert_array_equal(model.predict(X.to_numpy()), model.predict(X))
+    np.testing.assert_array_equal(model.predict_std(X.to_numpy()), model.predict_std(X))
+    with pytest.raises(ShapeError):
+        model.predict(X.to_numpy()[:, :2])
+    # the names change nothing else: bit-identical to a model fitted on the bare array
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        bare = SlipRegressor(max_iter=20).fit(X.to_numpy(), y,
+                                              groups=np.repeat(np.arange(6), 50))
+    assert not hasattr(bare, "feature_names_in_")
+    np.testing.assert_array_equal(model.predict(X), bare.predict(X))
+    np.testing.assert_array_equal(model.predict(X), model.predict_reference(X))
+    np.testing.assert_array_equal(model.predict_std(X), bare.predict_std(X))
+    # the names add no type the stored model's serialiser must trust (terrain slip-fit)
+    import skops.io as sio
+
+    from pipelines.slip_fit import TRUSTED
+    data = sio.dumps(model)
+    assert set(sio.get_untrusted_types(data=data)) <= set(TRUSTED)
+    with pytest.raises(MissingColumnError, match="another order"):
+        sio.loads(data, trusted=list(TRUSTED)).predict(swapped)
+    # refitted on a bare array, the names of the earlier fit are forgotten
+    model.fit(X.to_numpy(), y)
+    assert not hasattr(model, "feature_names_in_")
+
+
+def test_slip_model_stored_before_the_feature_names_still_loads_and_predicts(tmp_path):
+    import joblib
+    X, y = _named_table()
+    model = SlipRegressor(max_iter=20).fit(X, y)
+    expected = model.predict(X)
+    del model.feature_names_in_          # as a model fitted and stored before the names
+    joblib.dump(model, tmp_path / "old.joblib")
+    old = joblib.load(tmp_path / "old.joblib")
+    np.testing.assert_array_equal(old.predict(X), expected)
+    np.testing.assert_array_equal(old.predict(X.to_numpy()), expected)
+    old.predict(X[["cur_r__mean", "cur_l__mean", "pitch"]])    # no names: no check, as before

@@ -388,3 +388,31 @@ def test_the_speed_no_longer_runs_off_on_a_measured_snow_reversal(borealtc_runs)
     assert np.abs(off.ekf.state("v_bx")).max() > 5.0       # the run-off, without the bound
     assert off.meta["speed_bound_active_steps"] == 0
     assert not any("projected back" in n for n in off.notes)
+
+
+def test_learned_slip_outputs_refuse_a_model_fitted_on_the_features_in_another_order(tmp_path):
+    # slip_model_outputs handed the model a bare array: a model whose feature columns were
+    # in another order predicted from the wrong columns without a word
+    import warnings
+
+    from features.slip_features import one_hot_probabilities, slip_features, slip_windows
+    from terrain.errors import DataWarning, MissingColumnError
+    from terrain.slip.learned import SlipRegressor
+    from terrain.terramechanics.catalogue import TERRAIN_NAMES
+    from terrain.vehicles import HUSKY
+
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                                 scenario="straight_accel", duration_s=8.0, seed=3)), tmp_path)
+    run = read_runs_dir(tmp_path, dataset="order")[0]
+    ws = slip_windows([run])
+    X = slip_features(ws, HUSKY, one_hot_probabilities(["SANDY_LOAM"] * len(ws), TERRAIN_NAMES))
+    rng = np.random.default_rng(0)
+    y = np.column_stack([rng.normal(size=(len(X), 2)), np.ones(len(X)), np.zeros(len(X))])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        model = SlipRegressor(max_iter=5, min_samples_leaf=1).fit(X, y)
+        reordered = SlipRegressor(max_iter=5, min_samples_leaf=1).fit(X[X.columns[::-1]], y)
+    out = slip_model_outputs(run, model)
+    np.testing.assert_array_equal(out["learned"][1], model.predict(X.to_numpy())[:, :2])
+    with pytest.raises(MissingColumnError, match="another order"):
+        slip_model_outputs(run, reordered)
