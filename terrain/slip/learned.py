@@ -24,6 +24,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
 from sklearn.model_selection import GroupKFold
+from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
                             ShapeError, duplicated)
@@ -246,6 +247,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
+        sklearn.exceptions.NotFittedError
+            The model has not been fitted.
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
             For a DataFrame, the message names the missing and extra columns.
@@ -273,6 +276,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                 self.lateral_model_]
 
     def _check_X(self, X) -> np.ndarray:
+        check_is_fitted(self, "slip_models_")       # not a bare AttributeError before fit
         fitted = getattr(self, "feature_names_in_", None)  # absent: stored before the names
         wrong = (feature_names_mismatch([str(c) for c in X.columns], list(fitted))
                  if fitted is not None and isinstance(X, pd.DataFrame) else None)
@@ -302,6 +306,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
+        sklearn.exceptions.NotFittedError
+            The model has not been fitted.
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
             For a DataFrame, the message names the missing and extra columns.
@@ -338,6 +344,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
+        sklearn.exceptions.NotFittedError
+            The model has not been fitted.
         ShapeError
             ``X`` has another number of columns than in :meth:`fit`.
             For a DataFrame, the message names the missing and extra columns.
@@ -367,6 +375,11 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Returns
         -------
         float
+
+        Raises
+        ------
+        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
+            As :meth:`predict`.
         """
         err = np.abs(self.predict(X)[:, :2] - np.asarray(y, dtype=float)[:, :2])
         return -float(np.median(err))

@@ -669,3 +669,14 @@ def test_slip_model_stored_before_the_feature_names_still_loads_and_predicts(tmp
     np.testing.assert_array_equal(old.predict(X), expected)
     np.testing.assert_array_equal(old.predict(X.to_numpy()), expected)
     old.predict(X[["cur_r__mean", "cur_l__mean", "pitch"]])    # no names: no check, as before
+
+
+def test_unfitted_slip_model_raises_not_fitted_error():
+    # predict before fit raised "'SlipRegressor' object has no attribute 'n_features_in_'"
+    from sklearn.exceptions import NotFittedError
+    X, _ = _named_table(10)
+    for method in ("predict", "predict_std", "predict_reference"):
+        with pytest.raises(NotFittedError, match="SlipRegressor"):
+            getattr(SlipRegressor(), method)(X)
+    with pytest.raises(NotFittedError, match="SlipRegressor"):
+        SlipRegressor().score(X, np.zeros((10, 4)))
