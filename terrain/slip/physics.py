@@ -455,6 +455,10 @@ def _normalise(probabilities: Mapping[str, np.ndarray | float], n: int,
     if not probabilities:
         raise ConfigError("terrain probabilities are empty")
     names = list(probabilities)
+    for k in names:
+        if np.shape(probabilities[k]) not in ((), (n,)):
+            raise ShapeError(f"terrain probability of {k} must be one number or have shape "
+                             f"({n},), got {np.shape(probabilities[k])}")
     p = np.column_stack([np.broadcast_to(np.asarray(probabilities[k], float), (n,))
                          for k in names])
     if np.any(p < 0) or not np.all(np.isfinite(p)):
@@ -520,14 +524,24 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     ConfigError
         Unknown terrain name or invalid probabilities.
     ShapeError
-        Inconsistent shapes.
+        Inconsistent shapes: ``current_a`` and ``rim_speed_m_s`` not one ``(n, m)`` shape,
+        ``pitch_rad`` not ``(n,)``, or ``pitch_std_rad``, ``n_averaged``, a terrain
+        probability (``(n,)``) or ``wheel_accel_rad_s2`` (``(n, m)``) neither that nor one
+        number; the message names the argument.
     """
     cur = np.abs(np.asarray(current_a, dtype=float))
     rim = np.asarray(rim_speed_m_s, dtype=float)
     if cur.shape != rim.shape or cur.ndim != 2:
         raise ShapeError(f"current and rim speed must share a shape (n, m), got {cur.shape}, "
                          f"{rim.shape}")
-    n = cur.shape[0]
+    n, m = cur.shape
+    for name, value, allowed in (("pitch_rad", pitch_rad, ((n,),)),
+                                 ("pitch_std_rad", pitch_std_rad, ((), (n,))),
+                                 ("wheel_accel_rad_s2", wheel_accel_rad_s2, ((), (n, m))),
+                                 ("n_averaged", n_averaged, ((), (n,)))):
+        if value is not None and np.shape(value) not in allowed:
+            raise ShapeError(f"{name} must have shape {' or '.join(map(str, allowed))} for "
+                             f"{n} rows of {m} motors, got {np.shape(value)}")
     probs = _normalise(terrain_probabilities, n, settings.min_probability)
     radius = vehicle.contact_geometry().wheel_radius_m
     omega = rim / radius

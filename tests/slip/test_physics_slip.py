@@ -288,3 +288,26 @@ def test_a_window_without_a_pitch_gets_no_traction():
     ref = traction_from_torque(HUSKY, get_terrain("GRASS"), torque[[0, 2]], rim[[0, 2]],
                                pitch[[0, 2]])[0]
     np.testing.assert_array_equal(mu[[0, 2]], ref)
+
+
+def test_physics_slip_refuses_inputs_of_another_shape_by_name():
+    # a scalar pitch raised numpy's "too many indices for array: array is 0-dimensional"
+    # (IndexError); a pitch std, wheel acceleration, sample count or terrain probability of
+    # another length "operands could not be broadcast together" (ValueError), though the
+    # docstring promises ShapeError for inconsistent shapes
+    cur = np.array([[10.0, 11.0], [12.0, 12.0], [8.0, 9.0]])
+    rim = np.array([[0.5, 0.5], [0.6, 0.6], [0.4, 0.45]])
+    pitch = np.zeros(3)
+    for kwargs, name in (({"pitch_rad": 0.0}, "pitch_rad"),
+                         ({"pitch_rad": np.zeros(2)}, "pitch_rad"),
+                         ({"pitch_std_rad": np.full(2, 0.01)}, "pitch_std_rad"),
+                         ({"wheel_accel_rad_s2": np.ones(3)}, "wheel_accel_rad_s2"),
+                         ({"n_averaged": np.ones(2)}, "n_averaged"),
+                         ({"terrain_probabilities": {"SNOW": np.ones(2)}}, "SNOW")):
+        args = {"terrain_probabilities": {"SNOW": 1.0}, "pitch_rad": pitch, **kwargs}
+        with pytest.raises(ShapeError, match=name):
+            physics_slip(HUSKY, args.pop("terrain_probabilities"), cur, rim,
+                         args.pop("pitch_rad"), **args)
+    # what the docstring allows still runs: constants, per-row arrays
+    physics_slip(HUSKY, {"SNOW": np.ones(3)}, cur, rim, pitch, np.zeros((3, 2)),
+                 n_averaged=np.full(3, 13.0), pitch_std_rad=np.full(3, 0.01))
