@@ -51,7 +51,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, ShapeError, config_numbers
 from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.sim.sensors import SensorSettings
@@ -80,7 +80,15 @@ class PhysicsSlipSettings:
     coverage_sigma : float
         Half-width of the reported interval in standard deviations (2 ~ 95 %).
     min_probability : float
-        Terrains below this classifier probability are ignored (weights renormalised).
+        Terrains below this classifier probability are ignored (weights renormalised), in
+        [0, 1).
+
+    Raises
+    ------
+    ConfigError
+        A value that is not a real number (:func:`terrain.errors.config_numbers`), an
+        uncertainty that is not finite and >= 0, a ``coverage_sigma`` not finite and > 0, or
+        a ``min_probability`` outside [0, 1).
     """
 
     current_std_a: float = SensorSettings.current_noise_a
@@ -90,10 +98,21 @@ class PhysicsSlipSettings:
     min_probability: float = 1e-3
 
     def __post_init__(self) -> None:
-        if min(self.current_std_a, self.efficiency_rel_std, self.hysteresis_rel_std) < 0:
-            raise ConfigError("PhysicsSlipSettings: uncertainties must be >= 0")
-        if not self.coverage_sigma > 0:
-            raise ConfigError("PhysicsSlipSettings: coverage_sigma must be > 0")
+        config_numbers("PhysicsSlipSettings", current_std_a=self.current_std_a,
+                       efficiency_rel_std=self.efficiency_rel_std,
+                       hysteresis_rel_std=self.hysteresis_rel_std,
+                       coverage_sigma=self.coverage_sigma, min_probability=self.min_probability)
+        for name in ("current_std_a", "efficiency_rel_std", "hysteresis_rel_std"):
+            value = getattr(self, name)     # NaN passed '< 0' and made every std NaN
+            if not 0.0 <= value < np.inf:
+                raise ConfigError(f"PhysicsSlipSettings.{name} must be a finite "
+                                  f"uncertainty >= 0, got {value}")
+        if not 0.0 < self.coverage_sigma < np.inf:
+            raise ConfigError(f"PhysicsSlipSettings.coverage_sigma must be finite and > 0, "
+                              f"got {self.coverage_sigma}")
+        if not 0.0 <= self.min_probability < 1.0:
+            raise ConfigError(f"PhysicsSlipSettings.min_probability must be in [0, 1), got "
+                              f"{self.min_probability}")
 
 
 class PhysicsSlip(NamedTuple):

@@ -311,3 +311,22 @@ def test_physics_slip_refuses_inputs_of_another_shape_by_name():
     # what the docstring allows still runs: constants, per-row arrays
     physics_slip(HUSKY, {"SNOW": np.ones(3)}, cur, rim, pitch, np.zeros((3, 2)),
                  n_averaged=np.full(3, 13.0), pitch_std_rad=np.full(3, 0.01))
+
+
+def test_physics_slip_settings_refuse_what_is_not_a_finite_number_in_range():
+    # current_std_a NaN gave a NaN std on every window-side without a word (the check
+    # 'min(...) < 0' is False for NaN), inf the same; the text '0.1' raised Python's
+    # "'<' not supported between instances of 'float' and 'str'"; min_probability 2 dropped
+    # every terrain and said "terrain probabilities sum to 0 on some rows"
+    for kwargs, match in (({"current_std_a": float("nan")}, "current_std_a"),
+                          ({"current_std_a": float("inf")}, "current_std_a"),
+                          ({"efficiency_rel_std": float("nan")}, "efficiency_rel_std"),
+                          ({"hysteresis_rel_std": -0.1}, "hysteresis_rel_std"),
+                          ({"current_std_a": "0.1"}, "current_std_a must be a real number"),
+                          ({"coverage_sigma": float("inf")}, "coverage_sigma"),
+                          ({"min_probability": 2.0}, "min_probability"),
+                          ({"min_probability": float("nan")}, "min_probability")):
+        with pytest.raises(ConfigError, match=match):
+            PhysicsSlipSettings(**kwargs)
+    PhysicsSlipSettings(current_std_a=0.0, efficiency_rel_std=0.0, hysteresis_rel_std=0.0,
+                        min_probability=0.0)
