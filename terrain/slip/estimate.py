@@ -51,6 +51,12 @@ LAG_MODES = ("xcorr", "ema", "none")
 TUNINGS = ("noise", "thesis")
 
 
+def _check_lag(lag: str) -> None:
+    # an unknown mode (a typo, "XCORR") was taken as "none" without a word
+    if lag not in LAG_MODES:
+        raise ConfigError(f"unknown lag mode {lag!r}; valid: {', '.join(LAG_MODES)}")
+
+
 @dataclass
 class RunEstimate:
     """States and slip of one run.
@@ -430,8 +436,9 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     EstimationError, DataFormatError
         The run lacks a wheel-speed or IMU stream.
     ConfigError
-        Unknown tuning.
+        Unknown tuning or lag mode.
     """
+    _check_lag(lag)
     params = get_vehicle("agrimaro")
     settings = settings or agrimaro_settings(run, tuning)
     if lag == "ema":
@@ -558,8 +565,9 @@ def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None =
     EstimationError
         No ``wheels`` stream.
     ConfigError
-        Unknown vehicle.
+        Unknown vehicle or lag mode.
     """
+    _check_lag(lag)
     params = get_vehicle(run.vehicle)
     settings = settings or SkidSteerSettings(track_m=params.track_m)
     w = run.streams.get("wheels")
@@ -613,8 +621,7 @@ def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",
     EstimationError, DataFormatError
         The run lacks the streams its estimator needs.
     """
-    if lag not in LAG_MODES:
-        raise ConfigError(f"unknown lag mode {lag!r}; valid: {', '.join(LAG_MODES)}")
+    _check_lag(lag)
     vehicle = get_vehicle(run.vehicle).name
     if vehicle == "agrimaro":
         if settings is not None and not isinstance(settings, AgriMaRoEKFSettings):
@@ -822,7 +829,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     EstimationError
         No ``wheels`` stream.
     ConfigError
-        Unknown slip model or vehicle; ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``
+        Unknown slip model, lag mode or vehicle; ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``
         (:func:`~terrain.estimation.runner.check_rate_hz`).
     """
     from terrain.estimation.runner import SensorSamples, make_grid
@@ -830,6 +837,7 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
 
     if slip_model not in SLIP_MODELS:
         raise ConfigError(f"unknown slip model {slip_model!r}; valid: {', '.join(SLIP_MODELS)}")
+    _check_lag(lag)
     if slip_model == "ekf" or outputs is None:
         # without a pseudo-measurement the slip-augmented EKF has only the accelerometer to
         # tie the speed to: white accelerometer noise and no bias state make it drift and

@@ -322,3 +322,21 @@ def test_lag_settings_are_refused_by_name_as_configuration_errors():
             estimate_lag(t, ref, t, ref, **{name: bad})
     with pytest.raises(ConfigError, match="max_lag_s 0.001 s.*half a grid step"):
         estimate_lag(t, ref, t, ref, max_lag_s=0.001)
+
+
+def test_every_run_estimate_refuses_an_unknown_lag_mode():
+    # only estimate_run checked the lag mode: estimate_skid_steer_run, estimate_agrimaro_run
+    # and estimate_skid_steer_slip_run took lag="xcor" (or "XCORR") as "none" without a word
+    # and wrote meta lag_mode 'xcor'
+    from terrain.slip.estimate import (estimate_agrimaro_run, estimate_skid_steer_run,
+                                       estimate_skid_steer_slip_run)
+    husky = simulate_husky("ASPHALT", seed=2, duration_s=5.0).run
+    for call in (lambda: estimate_skid_steer_run(husky, lag="xcor"),
+                 lambda: estimate_skid_steer_slip_run(husky, "ekf", lag="XCORR"),
+                 lambda: estimate_skid_steer_slip_run(husky, "physics", lag="xcor",
+                                                      outputs={})):
+        with pytest.raises(ConfigError, match="unknown lag mode .*valid: xcorr, ema, none"):
+            call()
+    agri = simulate_agrimaro("ASPHALT", seed=2, duration_s=5.0).run
+    with pytest.raises(ConfigError, match="unknown lag mode 'xcor'"):
+        estimate_agrimaro_run(agri, lag="xcor")
