@@ -8,7 +8,10 @@ Converting a run's canonical streams back to the file dialect is the inverse of
 :data:`terrain.io.measured.COLUMN_MAPS` / :data:`~terrain.io.measured.STREAM_NAMES`: stream
 ``wheels`` becomes file ``pro`` (``time, curL, curR, velL, velR`` in the frame's column order),
 ``t_s`` becomes ``time`` in every file, other columns keep their names. Numbers are written with
-``%.9g``. :func:`terrain.io.measured.read_runs_dir` loads the files unchanged.
+``%.9g`` (9 significant digits: :func:`terrain.io.measured.read_runs_dir` reads back each value
+to within 5e-9 of it, relative), except in a file whose timestamps ``%.9g`` would not keep
+strictly increasing (an epoch clock, ~1.7e9 s, becomes whole seconds): that file is written
+with every float in full (Python's shortest exact form), so it reads back exactly.
 """
 
 from __future__ import annotations
@@ -17,14 +20,37 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError
 from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES
 from terrain.run import TIME, Run
 
-#: Number format of the written CSV files.
+#: Number format of the written CSV files (see the module's note on timestamps).
 FLOAT_FORMAT = "%.9g"
+
+
+def float_format(time_s) -> str | None:
+    """The number format of a stream file: :data:`FLOAT_FORMAT`, unless it would not keep
+    the file's timestamps strictly increasing.
+
+    Parameters
+    ----------
+    time_s : array_like
+        ``(n,)`` the file's timestamps, s.
+
+    Returns
+    -------
+    str or None
+        :data:`FLOAT_FORMAT`, or None (pandas then writes every float in full, exactly)
+        where two timestamps that increase would be written equal or out of order, e.g. an
+        epoch clock at 100 Hz (1700000000.01 s is ``1.7e+09``).
+    """
+    t = np.asarray(time_s, dtype=float)
+    written = np.char.mod(FLOAT_FORMAT, t).astype(float)
+    keeps = np.diff(written) > 0
+    return None if (np.diff(t) > 0)[~keeps].any() else FLOAT_FORMAT
 
 
 def file_kind(stream: str) -> str:
@@ -157,7 +183,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     paths: dict[str, Path] = {}
     for kind, frame in frames.items():
         path = folder / f"{kind}_{idx:02d}.csv"
-        frame.to_csv(path, index=False, float_format=FLOAT_FORMAT)
+        fmt = float_format(frame["time"]) if "time" in frame else FLOAT_FORMAT
+        frame.to_csv(path, index=False, float_format=fmt)
         paths[kind] = path
     meta = dict(run.meta)
     meta.setdefault("vehicle", run.vehicle)   # read back as this vehicle, not the default

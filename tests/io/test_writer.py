@@ -1,0 +1,49 @@
+"""The writer of the measured-run layout (:mod:`terrain.io.writer`): what it writes the readers
+read back."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.io.measured import read_runs_dir
+from terrain.io.writer import FLOAT_FORMAT, write_run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+
+
+def _run(t0_s: float, n_imu: int = 300, n_wheels: int = 40, seed: int = 0) -> Run:
+    """A small Husky run whose clocks start at ``t0_s``."""
+    rng = np.random.default_rng(seed)
+    imu = pd.DataFrame({TIME: t0_s + np.arange(n_imu) / 100.0,
+                        **{c: rng.normal(0.0, 0.1, n_imu) for c in IMU_CHANNELS}})
+    imu["az"] += 9.81
+    wheels = pd.DataFrame({TIME: t0_s + np.arange(n_wheels) / 6.5,
+                           **{c: rng.uniform(0.0, 0.5, n_wheels) for c in WHEEL_CHANNELS}})
+    return Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT",
+               streams={"imu": imu, "wheels": wheels}, vehicle="husky", source="", meta={})
+
+
+@pytest.mark.parametrize("t0_s", [0.0, 1234.5, 1.7e9])
+def test_a_written_run_reads_back_with_its_timestamps(tmp_path, t0_s):
+    """An epoch clock (1.7e9 s) written with 9 significant digits became whole seconds: the
+    written IMU file held 300 rows at 1700000000 and its reading raised TimestampError
+    'duplicated timestamp 1700000000.0 after 1700000000.0 (299 such row(s) ...)'. A clock
+    that the number format cannot keep in order is written exactly."""
+    run = _run(t0_s)
+    write_run(run, tmp_path, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = read_runs_dir(tmp_path)[0]
+    for name, frame in run.streams.items():
+        t = back.streams[name][TIME].to_numpy()
+        assert np.all(np.diff(t) > 0)
+        as_written = np.array([float(FLOAT_FORMAT % x) for x in frame[TIME]])
+        if np.all(np.diff(as_written) > 0):   # the usual clock: written as before
+            np.testing.assert_array_equal(t, as_written)
+        else:
+            np.testing.assert_array_equal(t, frame[TIME].to_numpy())
+        np.testing.assert_allclose(back.streams[name][frame.columns].to_numpy(),
+                                   frame.to_numpy(), rtol=1e-8, atol=0)
