@@ -35,9 +35,9 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFileError,
-                            EncodingError, MissingColumnError, NonFiniteError, NonNumericError,
-                            OrphanFileError, RaggedRowError, TimestampError,
-                            UnreadableFileError, duplicated, first_items)
+                            EncodingError, ImplausibleValueError, MissingColumnError,
+                            NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
+                            TimestampError, UnreadableFileError, duplicated, first_items)
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
@@ -57,6 +57,10 @@ MAX_PLAUSIBLE_RATE_RAD_S = CHANNEL_LIMITS["wz"].limit
 FILE_KIND_PATTERN = r"[a-z][a-z0-9]*"
 _FILE_RE = re.compile(rf"^(?P<kind>{FILE_KIND_PATTERN})_(?P<index>\d+)\.csv$")
 _META_RE = re.compile(r"^meta_(?P<index>.+)\.json$")
+#: cell texts (stripped, lower case) that stand for a missing or non-finite sample: the words
+#: NumPy's fast path reads as non-finite too (C's printf writes -nan), and an empty cell
+NON_FINITE_WORDS = ("nan", "-nan", "+nan", "inf", "-inf", "+inf", "infinity", "-infinity",
+                    "+infinity", "")
 
 
 @dataclass
@@ -130,7 +134,9 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         linear interpolation in time between its finite neighbours (counted in the report).
         Longer bursts, non-finite values at the first or last row, and those whose finite
         neighbours lie across a timestamp gap (a step of more than ``gap_factor`` median
-        steps) raise :class:`NonFiniteError`.
+        steps) raise :class:`NonFiniteError`. A non-finite sample is an empty cell or one of
+        :data:`NON_FINITE_WORDS`; a number beyond the float64 range (``1e400``) is not one:
+        it raises :class:`ImplausibleValueError`.
     gap_factor : float
         A timestamp step larger than ``gap_factor`` times the median step is reported as a gap.
 
@@ -195,8 +201,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         text = pd.Series(cells[:, header.index(col)]).str.strip()
         values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
         # the words NumPy's fast path reads as non-finite too (C's printf writes -nan)
-        is_nan_word = text.str.lower().isin(["nan", "-nan", "+nan", "inf", "-inf", "+inf",
-                                             "infinity", "-infinity", "+infinity", ""])
+        is_nan_word = text.str.lower().isin(NON_FINITE_WORDS)
         bad = np.isnan(values) & ~is_nan_word.to_numpy()
         if bad.any():
             if kind not in COLUMN_MAPS and name != TIME and bad.all():
@@ -209,6 +214,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
                                   f"{first_items(lines[idx])}", path, col, int(idx[0]),
                                   int(lines[idx[0]]))
         out[name] = values
+    _refuse_overflow(out, mapping, header, rows, lines, path)
     # the clock first (finite, increasing, its gaps): channels are repaired on it
     t = out[TIME]
     _refuse_non_finite_time(t, path, next(c for c, n in mapping.items() if n == TIME), lines)
@@ -341,6 +347,26 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
         raise EmptyFileError("file has a single data row; at least 2 are needed to know the "
                              "sample rate", path, line=int(lines[0]))
     return header, cells, lines, skipped
+
+
+def _refuse_overflow(out: dict[str, np.ndarray], mapping: Mapping[str, str],
+                     header: list[str], rows: list[list[str]], lines: np.ndarray,
+                     path: Path) -> None:
+    """A number beyond float64's range (``1e400``) parses as inf; it is a value, not a
+    missing sample, so it is refused (ImplausibleValueError naming the first) rather than
+    repaired as a non-finite cell."""
+    for col, name in mapping.items():
+        values = out[name]
+        if values.dtype == object:
+            continue
+        j = header.index(col)
+        idx = [i for i in np.flatnonzero(np.isinf(values))
+               if rows[i][j].strip().lower() not in NON_FINITE_WORDS]
+        if idx:
+            raise ImplausibleValueError(
+                f"{len(idx)} number(s) beyond the float64 range (+-1.8e308), first "
+                f"{rows[idx[0]][j].strip()[:40]!r} at {first_items(lines[idx])}: not a "
+                "plausible measurement", path, col, int(idx[0]), int(lines[idx[0]]))
 
 
 def _refuse_non_finite_time(t: np.ndarray, path: Path, col: str, lines: np.ndarray) -> None:

@@ -126,6 +126,27 @@ def test_huge_finite_value_is_implausible_with_file_column_line(turning):
     assert "24 g" in _one_line(info.value)
 
 
+@pytest.mark.parametrize("column, text", [("ax", "1e400"), ("ax", "-1E+999"),
+                                          ("time", "1e400"), ("ax", '"1e400"')])
+def test_a_number_beyond_float_range_is_implausible_not_repaired(turning, column, text):
+    """'1e300' in ax was refused as beyond 24 g, but '1e400' overflowed to inf and was
+    repaired by interpolation as an isolated non-finite cell (meta repaired {'imu.ax': 1},
+    the input report 'repaired 1 isolated non-finite cell(s)'); in the time column it was
+    'non-finite timestamp'. A number that float64 cannot hold is a value, not a missing one:
+    refused with its file, column and line."""
+    imu, _ = turning
+    lines = _lines(imu)
+    header = lines[0].split(",")
+    cells = lines[501].split(",")
+    cells[header.index(column)] = text
+    lines[501] = ",".join(cells)
+    imu.write_text("\n".join(lines))
+    with pytest.raises(ImplausibleValueError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert (info.value.path, info.value.column, info.value.line) == (str(imu), column, 502)
+    assert text.strip('"') in _one_line(info.value) and "float64" in str(info.value)
+
+
 def test_gyro_in_deg_s_on_a_turning_run_is_refused_by_the_yaw_rule(turning):
     imu, _ = turning
     _edit(imu, lambda f: f.__setitem__(["wx", "wy", "wz"], np.degrees(f[["wx", "wy", "wz"]])))
