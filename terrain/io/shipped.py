@@ -421,8 +421,9 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
     ``source`` is a string, ``runs_without_imu``, where present, a list of run ids, and
     ``runs`` is a non-empty list of objects, each with a unique ``run_id``, a ``terrain`` of
     the entry's ``terrains``, ``repaired`` (an object of counts), ``gaps`` (an object of
-    lists of ``[t_start_s, t_end_s]`` pairs) and, where present, a boolean ``has_imu`` and
-    a list of strings ``file_warnings``, as :func:`convert_dataset` writes them.
+    lists of ``[t_start_s, t_end_s]`` pairs) and, where present, a boolean ``has_imu``,
+    ``samples`` (an object of counts), a number ``duration_s`` and a list of strings
+    ``file_warnings``, as :func:`convert_dataset` writes them.
 
     Parameters
     ----------
@@ -492,6 +493,14 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
                 isinstance(v, list) and all(map(_is_time_pair, v)) for v in gaps.values()):
             raise _fail(f"{k}.gaps", "an object of lists of [t_start_s, t_end_s] pairs",
                         gaps, path)
+        samples = info.get("samples", {})
+        if not isinstance(samples, dict) or not all(
+                isinstance(n, int) and not isinstance(n, bool) and n >= 0
+                for n in samples.values()):
+            raise _fail(f"{k}.samples", "an object of counts", samples, path)
+        duration = info.get("duration_s", 0.0)
+        if not isinstance(duration, (int, float)) or isinstance(duration, bool):
+            raise _fail(f"{k}.duration_s", "a number of seconds", duration, path)
         found = info.get("file_warnings", [])
         if not isinstance(found, list) or not all(isinstance(w, str) for w in found):
             raise _fail(f"{k}.file_warnings", "a list of messages", found, path)
@@ -539,6 +548,27 @@ def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path) -> None:
                              str(frame.columns.drop(TIME)[col]), row)
 
 
+def _check_run_counts(run: Run, info: dict, key: str, path: Path) -> None:
+    """A run's manifest ``samples`` (rows per shipped stream) and ``duration_s``
+    (:attr:`Run.duration_s`, 3 decimals, as :func:`convert_dataset` writes it) against the
+    run read, where present: DataFormatError naming the key. ``samples`` of a stream the
+    shipped format leaves out (``truth``...) have no rows to compare with."""
+    samples = info.get("samples")
+    if samples is not None:
+        rows = {name: len(frame) for name, frame in run.streams.items()}
+        for name in STREAM_FILES:
+            if samples.get(name) != rows.get(name):
+                said = f"{name} {samples[name]}" if name in samples else f"no {name}"
+                held = f"holds {rows[name]} rows" if name in rows else "holds no row"
+                raise DataFormatError(f"key '{key}.samples' says {said} but "
+                                      f"{STREAM_FILES[name]} {held} of run {run.run_id!r}; "
+                                      "regenerate data/ with `terrain convert`", path)
+    if "duration_s" in info and round(run.duration_s, 3) != info["duration_s"]:
+        raise DataFormatError(f"key '{key}.duration_s' says {info['duration_s']:g} s but "
+                              f"its rows span {run.duration_s:.3f} s; regenerate data/ with "
+                              "`terrain convert`", path)
+
+
 def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
     """Read one shipped dataset.
 
@@ -567,7 +597,8 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         manifest's ``files`` does not list (its runs would silently lack that stream), a
         manifest entry of another structure (:func:`dataset_entry`), runs of a file and of
         the manifest that differ (run ids; a run's ``has_imu`` and the entry's
-        ``runs_without_imu`` against the IMU rows the files hold), a missing
+        ``runs_without_imu`` against the IMU rows the files hold; a run's ``samples`` and
+        ``duration_s`` against its rows), a missing
         or non-numeric column, timestamps that do not increase strictly or a non-finite
         value (subclasses :class:`~terrain.errors.MissingColumnError`,
         :class:`~terrain.errors.NonNumericError`, :class:`~terrain.errors.TimestampError`,
@@ -659,6 +690,7 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                               "skipped_lines": dict(info.get("skipped_lines", {})),
                               "ignored_columns": dict(info.get("ignored_columns", {})),
                               "file_warnings": file_warnings, **checks}))
+        _check_run_counts(runs[-1], info, f"datasets.{dataset}.runs[{i}]", manifest_path)
     if "runs_without_imu" in entry:
         without = {r.run_id for r in runs if "imu" not in r.streams}
         listed_without = set(entry["runs_without_imu"])

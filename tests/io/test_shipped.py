@@ -505,3 +505,24 @@ def test_a_shipped_run_is_refused_at_its_first_bad_timestamp(tmp_path, t, row, w
     with pytest.raises(TimestampError) as info:
         _check_run_rows(frame, "vulpi/X/1", tmp_path / "imu.parquet")
     assert info.value.row == row and words in str(info.value)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda r: r["samples"].__setitem__("wheels", r["samples"]["wheels"] + 1),
+     r"runs\[2\].samples' says wheels \d+ but wheels.parquet holds \d+ rows"),
+    (lambda r: r["samples"].pop("imu"),
+     r"runs\[2\].samples' says no imu but imu.parquet holds \d+ rows"),
+    (lambda r: r.__setitem__("duration_s", r["duration_s"] + 1.0),
+     r"runs\[2\].duration_s' says [\d.]+ s but its rows span [\d.]+ s"),
+    (lambda r: r.__setitem__("samples", {"wheels": "many"}),
+     r"runs\[2\].samples' must be an object of counts"),
+])
+def test_the_manifest_counts_of_a_run_must_equal_its_rows(vulpi_copy, edit, message):
+    """Each run's ``samples`` and ``duration_s`` (what data/README.md calls the per-run
+    durations and sample counts) were never compared with the files: a manifest saying 1
+    more wheel sample, no IMU sample or a second more than the rows hold was read without a
+    word. They are now checked where present, naming the key."""
+    path = _edit_manifest(vulpi_copy, lambda e: edit(e["runs"][2]))
+    with pytest.raises(DataFormatError, match=message) as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert info.value.path == str(path) and "\n" not in str(info.value)
