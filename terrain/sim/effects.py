@@ -13,7 +13,8 @@ name                     unit      meaning (value when off)
 ``current_offset``       A         mean ``curR - curL`` shift: added to the right side when
                                    positive, ``|value|`` to the left when negative (0)
 ``grade_resistance``     A/rad     extra current on both sides ``value * |pitch|`` on slopes,
-                                   ``value >= 0`` (a slope never lowers the current) (0)
+                                   ``value >= 0`` (a slope never lowers the current); only
+                                   on ``slope_turn``, the others being level (0)
 =======================  ========  ============================================================
 
 With every effect off the simulator is ideal in each named respect, but for the ICR

@@ -19,12 +19,18 @@ rest: the vehicle starts standing and the command at t = 0 is 0.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping
 
 import numpy as np
 
 from terrain.errors import ConfigError
 
 SCENARIO_NAMES: tuple[str, ...] = ("straight_accel", "orchard", "slope_turn", "spin", "random")
+#: Inclination of each scenario's ground plane (rising along world +x), rad (read-only):
+#: ``slope_turn``'s 15 deg slope (seed 003 Experiment III); the others are level.
+SCENARIO_SLOPES_RAD: Mapping[str, float] = MappingProxyType(
+    {name: float(np.radians(15.0)) if name == "slope_turn" else 0.0 for name in SCENARIO_NAMES})
 
 
 @dataclass(frozen=True)
@@ -139,7 +145,7 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
                           f"({dt_s:g} s)")
     t = np.arange(n) * dt_s
     tw = np.zeros((n, 3))
-    slope = 0.0
+    slope = SCENARIO_SLOPES_RAD[name]
     vmax = 0.95 * max_speed_m_s
     if name == "straight_accel":
         v = min(1.0, vmax)
@@ -156,7 +162,6 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
         tw[:, 0] = _rate_limit(tw[:, 0], 0.5, dt_s) if n > 1 else tw[:, 0]
         tw[:, 2] = _rate_limit(tw[:, 2], 2.0, dt_s)
     elif name == "slope_turn":
-        slope = np.radians(15.0)
         v = min(0.2, vmax)
         tw[:, 0] = np.where((t // 10.0) % 2 == 0, v, 0.05)
         tw[:, 2] = np.radians(20.0) * np.where((t // 20.0) % 2 == 0, 1.0, -1.0)

@@ -44,7 +44,8 @@ from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
-from terrain.sim.scenarios import SCENARIO_NAMES, make_commands, physics_steps
+from terrain.sim.scenarios import (SCENARIO_NAMES, SCENARIO_SLOPES_RAD, make_commands,
+                                   physics_steps)
 from terrain.sim.sensors import (SensorSettings, encoder_count_rate, first_order_filter, imu,
                                  interp_columns, physics_step_index, quantise, sample_times)
 from terrain.terramechanics.catalogue import get_terrain
@@ -210,8 +211,10 @@ class SimConfig:
         Unknown vehicle, terrain, scenario or physics version (the message lists the valid
         choices), or a duration, rate, segment length or seed out of range (a duration too short for
         two samples of every stream names the slowest stream and the minimum in seconds),
-        or ``icr_expansion`` planted on a steered vehicle (it would change nothing), or a
-        number given as text, None or a boolean, or ``effects`` not :class:`Effects`.
+        or ``icr_expansion`` planted on a steered vehicle or ``grade_resistance`` on a level
+        scenario (:data:`~terrain.sim.scenarios.SCENARIO_SLOPES_RAD`; either would change
+        nothing), or a number given as text, None or a boolean, or ``effects`` not
+        :class:`Effects`.
     """
 
     vehicle: str = "husky"
@@ -281,6 +284,12 @@ class SimConfig:
             raise ConfigError(f"icr_expansion is a skid-steer effect (yaw rate (v_R - v_L) / "
                               f"(chi B)); the {vehicle.name} is steered, so it would change "
                               "nothing: leave it out")
+        if self.effects.grade_resistance != 0.0 and SCENARIO_SLOPES_RAD[self.scenario] == 0.0:
+            # motor_currents adds grade_resistance |pitch|: on level ground pitch is 0, so the
+            # run's metadata would list the effect as active and no stream would change
+            raise ConfigError(f"grade_resistance adds current in proportion to |pitch|; the "
+                              f"{self.scenario} scenario is on level ground, so it would "
+                              "change nothing: plant it on slope_turn or leave it out")
 
 
 @dataclass(frozen=True)

@@ -172,6 +172,22 @@ def test_icr_expansion_on_a_steered_vehicle_is_refused(tmp_path, capsys):
     assert not any(tmp_path.iterdir())
 
 
+def test_grade_resistance_on_level_ground_is_refused(tmp_path, capsys):
+    # grade_resistance adds value * |pitch|: on a level scenario (every one but slope_turn)
+    # the run's metadata listed it as active and every stream came out identical to the run
+    # without it (husky orchard, 2 s, seed 1, 50 A/rad)
+    with pytest.raises(ConfigError, match="grade_resistance .* level ground"):
+        SimConfig(vehicle="husky", scenario="orchard",
+                  effects=parse_effects(["grade_resistance=50"]))
+    SimConfig(vehicle="husky", scenario="slope_turn",
+              effects=parse_effects(["grade_resistance=50"]))
+    SimConfig(vehicle="husky", scenario="orchard", effects=parse_effects(["gyro_bias=0.03"]))
+    assert main(["simulate", "--vehicle", "husky", "--scenario", "spin", "--terrain", "SNOW",
+                 "--effect", "grade_resistance=50", "--out", str(tmp_path)]) == 2
+    assert "the spin scenario is on level ground" in _one_line_error(capsys)
+    assert not any(tmp_path.iterdir())
+
+
 def test_write_run_refuses_an_index_of_a_measured_run_and_unreadable_stream_names(tmp_path):
     # measured runs have no meta_XX.json: index 3 overwrote their pro_03.csv
     from dataclasses import replace
