@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, EstimationError
+from terrain.errors import ConfigError, EstimationError, config_numbers
 from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, estimate_agrimaro,
                                          noise_derived_settings)
 from terrain.estimation.ekf import Gate
@@ -671,7 +671,9 @@ class FusionSettings:
     Raises
     ------
     ConfigError
-        ``error_correlation`` outside [-1, 1].
+        A value that is not a real number (:func:`terrain.errors.config_numbers`;
+        ``error_correlation`` may be None), ``min_std`` not finite and > 0,
+        ``learned_std_floor`` not finite and >= 0, or ``error_correlation`` outside [-1, 1].
     """
 
     learned_std_floor: float = 0.01
@@ -680,9 +682,18 @@ class FusionSettings:
     error_correlation: float | None = None
 
     def __post_init__(self) -> None:
+        config_numbers("FusionSettings", ("error_correlation",),
+                       learned_std_floor=self.learned_std_floor, min_std=self.min_std,
+                       error_correlation=self.error_correlation)
+        if not 0.0 < self.min_std < np.inf:        # a NaN floor made every std NaN
+            raise ConfigError(f"FusionSettings.min_std must be a finite std > 0, got "
+                              f"{self.min_std}")
+        if not 0.0 <= self.learned_std_floor < np.inf:
+            raise ConfigError(f"FusionSettings.learned_std_floor must be a finite std >= 0, "
+                              f"got {self.learned_std_floor}")
         rho = self.error_correlation
-        if rho is not None and not (np.isfinite(rho) and -1.0 <= rho <= 1.0):
-            raise ConfigError(f"error_correlation must be in [-1, 1], got {rho}")
+        if rho is not None and not -1.0 <= rho <= 1.0:
+            raise ConfigError(f"FusionSettings.error_correlation must be in [-1, 1], got {rho}")
 
 
 #: Settings of the batch estimate (:func:`estimate_skid_steer_slip_run`, ``terrain estimate``):

@@ -416,3 +416,25 @@ def test_learned_slip_outputs_refuse_a_model_fitted_on_the_features_in_another_o
     np.testing.assert_array_equal(out["learned"][1], model.predict(X.to_numpy())[:, :2])
     with pytest.raises(MissingColumnError, match="another order"):
         slip_model_outputs(run, reordered)
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(min_std=-0.01), r"FusionSettings.min_std must be a finite std > 0, got -0.01"),
+    (dict(min_std=0.0), r"FusionSettings.min_std must be a finite std > 0, got 0.0"),
+    (dict(min_std=float("nan")), r"FusionSettings.min_std must be a finite std > 0, got nan"),
+    (dict(learned_std_floor=-1.0), r"learned_std_floor must be a finite std >= 0, got -1.0"),
+    (dict(learned_std_floor=float("inf")), r"learned_std_floor must be a finite std >= 0"),
+    (dict(error_correlation="0.1"), r"FusionSettings.error_correlation must be a real number"),
+    (dict(min_std="0.003"), r"FusionSettings.min_std must be a real number"),
+    (dict(learned_std_floor=None), r"FusionSettings.learned_std_floor must be a real number"),
+    (dict(error_correlation=float("nan")), r"FusionSettings.error_correlation must be in "),
+])
+def test_fusion_settings_refuse_impossible_floors_and_text(kwargs, match):
+    """FusionSettings checked only error_correlation, with np.isfinite: the text '0.1' raised
+    numpy's bare TypeError, min_std -0.01 or NaN and learned_std_floor -1 were taken (a NaN
+    floor makes every pseudo-measurement std NaN: every window then skipped as non-finite)."""
+    from terrain.errors import ConfigError
+    from terrain.slip.estimate import FusionSettings
+    with pytest.raises(ConfigError, match=match):
+        FusionSettings(**kwargs)
+    FusionSettings(learned_std_floor=0, error_correlation=None)       # defaults still valid
