@@ -101,7 +101,10 @@ class SensorSamples:
             raise ShapeError(f"sensor samples need t_s (k,) and values (k, d), got "
                              f"{t.shape} and {np.shape(self.values)}")
         if t.size and (not np.isfinite(t).all() or (np.diff(t) <= 0).any()):
-            raise TimeStepError("sensor timestamps must be finite and strictly increasing")
+            bad = np.flatnonzero(~np.isfinite(t) | np.r_[False, ~(np.diff(t) > 0)])[0]
+            after = f" after {t[bad - 1]:.6g} s" if bad and np.isfinite(t[bad]) else ""
+            raise TimeStepError(f"sensor timestamps must be finite and strictly increasing: "
+                                f"sample {bad} at {t[bad]:.6g} s{after}")
         object.__setattr__(self, "t_s", t)
         object.__setattr__(self, "values", v)
 
@@ -171,13 +174,13 @@ def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     return step_index(t_grid, t_s)
 
 
-def _place(t_grid: np.ndarray, samples: SensorSamples, width: int
+def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str
            ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
-    """Step index of each kept sample and the counts of one sensor."""
+    """Step index of each kept sample and the counts of sensor ``name``."""
     t = samples.t_s
     v = samples.values
     if v.shape[1] != width:
-        raise ShapeError(f"sensor has {v.shape[1]} columns, the model expects {width}")
+        raise ShapeError(f"sensor {name!r} has {v.shape[1]} columns, the model expects {width}")
     step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
     inside = (t > t_grid[0] - step0 - 1e-9) & (t <= t_grid[-1] + 1e-9)
     idx = sample_steps(t_grid, t)
@@ -305,7 +308,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         if name not in sensor_rows:
             raise ShapeError(f"unknown sensor {name!r}; the model has {list(sensor_rows)}")
         rows = list(sensor_rows[name])
-        steps, values, c = _place(t_grid, s, len(rows))
+        steps, values, c = _place(t_grid, s, len(rows), name)
         Z[steps[:, None], np.asarray(rows)[None, :]] = values
         counts[name] = c
     avail = np.isfinite(Z)

@@ -147,3 +147,16 @@ def test_state_bound_clips_are_counted():
     assert res.meta["state_bounds_clipped"] == 1
     assert run_filter(model, t, wheels, engine="numpy").meta["state_bounds_clipped"] == 0
     assert "state_bounds_clipped" not in run_filter(SkidSteerModel(), t, wheels).meta
+
+
+def test_sample_errors_name_the_sensor_and_the_sample():
+    """run_filter said 'sensor has 2 columns, the model expects 1' without the sensor, and
+    SensorSamples 'sensor timestamps must be finite and strictly increasing' without the
+    sample."""
+    grid = make_grid(0.0, 1.0, 10.0)
+    with pytest.raises(ShapeError, match="sensor 'gyro' has 2 columns, the model expects 1"):
+        run_filter(SkidSteerModel(), grid, {"gyro": SensorSamples(grid, np.zeros((11, 2)))})
+    with pytest.raises(TimeStepError, match=r"sample 2 at 0.1 s after 0.2 s"):
+        SensorSamples(np.array([0.0, 0.2, 0.1]), np.zeros((3, 1)))
+    with pytest.raises(TimeStepError, match=r"sample 1 at nan s"):
+        SensorSamples(np.array([0.0, np.nan]), np.zeros((2, 1)))
