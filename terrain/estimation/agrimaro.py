@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, MissingColumnError, TimeStepError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
@@ -351,7 +351,12 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     Raises
     ------
     DataFormatError
-        The run has no IMU stream (the filter's clock), or a stream lacks a column (named).
+        The run has no IMU stream (the filter's clock); MissingColumnError (a
+        DataFormatError) when a stream it reads lacks a column (run, stream and columns
+        named).
+    TimeStepError
+        A stream's timestamps not finite and strictly increasing (run, stream and the first
+        such sample named).
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
@@ -360,7 +365,9 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     for sensor, (stream, cols) in SENSOR_COLUMNS.items():
         frame = run.streams.get(stream)
         if frame is None and sensor == "omega" and "wheels" in run.streams:
+            stream = "wheels"
             w = run.streams["wheels"]
+            _check_columns(run, stream, w, ("vel_l", "vel_r"))
             t = w[TIME].to_numpy(dtype=float)
             vals = np.column_stack([w["vel_l"].to_numpy(dtype=float) / vehicle.wheel_radius_m,
                                     w["vel_r"].to_numpy(dtype=float) / vehicle.wheel_radius_m,
@@ -368,6 +375,7 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         elif frame is None:
             continue
         else:
+            _check_columns(run, stream, frame, [c for c in cols if c != "yaw_imu"])
             t = frame[TIME].to_numpy(dtype=float)
             if sensor == "imu":
                 wz = frame["wz"].to_numpy(dtype=float)
@@ -380,16 +388,23 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
                 vals = np.column_stack([frame["ax"].to_numpy(float), frame["ay"].to_numpy(float),
                                         wz, yaw])
             else:
-                missing = [c for c in cols if c not in frame.columns]
-                if missing:
-                    raise DataFormatError(f"stream {stream!r} lacks columns {missing}",
-                                          run.source, missing[0])
                 vals = frame[list(cols)].to_numpy(dtype=float)
         angles = [j for j, name in enumerate(SENSOR_COLUMNS[sensor][1])
                   if MEASUREMENT_NAMES.index(name) in ANGLE_ROWS]
         vals = ema_filter(vals, settings.alpha(sensor), angles)
-        out[sensor] = SensorSamples(t - float(offsets.get(sensor, 0.0)), vals)
+        try:
+            out[sensor] = SensorSamples(t - float(offsets.get(sensor, 0.0)), vals)
+        except TimeStepError as exc:
+            raise TimeStepError(f"run {run.run_id}: stream {stream!r}: {exc}") from None
     return out
+
+
+def _check_columns(run: Run, stream: str, frame, columns) -> None:
+    """MissingColumnError naming the run, the stream and the columns it lacks."""
+    missing = [c for c in (TIME, *columns) if c not in frame.columns]
+    if missing:
+        raise MissingColumnError(f"run {run.run_id}: stream {stream!r} lacks columns {missing}",
+                                 run.source, missing[0])
 
 
 def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettings(), *,
@@ -435,7 +450,10 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     Raises
     ------
     DataFormatError
-        No IMU stream, or a stream lacks a column.
+        No IMU stream or one of fewer than 2 samples, or a stream lacks a column
+        (MissingColumnError); the run and the stream named.
+    TimeStepError
+        A stream's timestamps not finite and strictly increasing (run and stream named).
     ConfigError, ShapeError, CovarianceError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`); from :func:`~terrain.estimation.run_filter` (bad engine, shapes,
@@ -446,6 +464,10 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     samples = {k: v for k, v in samples.items()
                if k in model.sensor_rows and (sensors is None or k in sensors)}
     t_imu = run.streams["imu"][TIME].to_numpy(dtype=float)
+    if t_imu.size < 2:
+        raise DataFormatError(f"run {run.run_id}: stream 'imu' has {t_imu.size} "
+                              f"sample{'' if t_imu.size == 1 else 's'}; the filter's clock "
+                              "needs 2 or more", run.source)
     rate = check_rate_hz(rate_hz)
     rate = float(1.0 / np.median(np.diff(t_imu))) if rate is None else rate
     grid = make_grid(float(t_imu[0]), float(t_imu[-1]), rate)

@@ -172,3 +172,43 @@ def test_imu_yaw_integral_leaves_non_finite_gyro_samples_out(bad):
     yaw = agrimaro_samples(run, AgriMaRoEKFSettings(ema_alpha=()))["imu"].values[:, 3]
     assert np.isnan(yaw[gap]).all()
     np.testing.assert_allclose(yaw[~gap], 0.5 * t[~gap], atol=1e-9)
+
+
+def _tiny_agrimaro_run(n=101):
+    import pandas as pd
+
+    from terrain.run import Run
+
+    t = np.round(np.arange(n) * 0.01, 10)
+    imu = pd.DataFrame({"t_s": t, "ax": 0.0, "ay": 0.0, "wz": 0.1})
+    cam = pd.DataFrame({"t_s": t[::3], "v_cx": 0.0, "v_cy": 0.0, "yaw_rate_c": 0.1,
+                        "yaw_c": 0.1 * t[::3]})
+    return Run("sim/TEST/07", "sim", "TEST", {"imu": imu, "cam": cam}, vehicle="agrimaro",
+               source="test.csv")
+
+
+def test_agrimaro_run_errors_name_the_run_and_the_stream():
+    """An imu stream without wz raised a bare KeyError 'wz' (only the other streams' columns
+    were checked); a repeated timestamp TimeStepError 'sensor timestamps must be finite and
+    strictly increasing' without run or stream; an empty imu stream numpy's IndexError
+    'index 0 is out of bounds', one IMU sample TimeStepError 'rate must be > 0 Hz, got nan'."""
+    from dataclasses import replace as dc_replace
+
+    from terrain.errors import DataFormatError, MissingColumnError, TimeStepError
+    run = _tiny_agrimaro_run()
+    assert estimate_agrimaro(run).counts["imu"]["used"] == 101          # the run itself is fine
+    no_wz = dc_replace(run, streams={**run.streams, "imu": run.streams["imu"].drop(
+        columns=["wz"])})
+    with pytest.raises(MissingColumnError, match=r"run sim/TEST/07: stream 'imu' lacks "
+                                                 r"columns \['wz'\]"):
+        estimate_agrimaro(no_wz)
+    cam = run.streams["cam"].copy()
+    cam.loc[5, "t_s"] = cam.loc[4, "t_s"]
+    with pytest.raises(TimeStepError, match=r"run sim/TEST/07: stream 'cam': .*sample 5 "
+                                            r"at 0.12 s after 0.12 s"):
+        estimate_agrimaro(dc_replace(run, streams={**run.streams, "cam": cam}))
+    for n in (0, 1):
+        short = dc_replace(run, streams={**run.streams, "imu": run.streams["imu"].iloc[:n]})
+        with pytest.raises(DataFormatError, match=rf"run sim/TEST/07: stream 'imu' has {n} "
+                                                  r"samples?; the filter's clock needs 2"):
+            estimate_agrimaro(short)
