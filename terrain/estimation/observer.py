@@ -118,7 +118,9 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     t_s : ndarray, shape (N,)
         Sample times, s, strictly increasing.
     pose : ndarray, shape (N, 3)
-        Measured ``x, y`` (m, world frame) and ``theta`` (rad, unwrapped). With
+        Measured ``x, y`` (m, world frame) and ``theta`` (rad, unwrapped or wrapped: the
+        heading error ``theta - theta^`` is wrapped to [-pi, pi), as an angle innovation of
+        the EKFs is, :meth:`terrain.estimation.model.StateSpaceModel.residual`). With
         ``use_position=False`` only ``theta`` is read (x, y may be NaN). A sample with a
         non-finite value among those read or among its speeds is missing: the estimates are
         held over it (no correction, no prediction) and its ``error`` is NaN.
@@ -165,6 +167,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     err = np.empty((n, 3))
     xs, ys, ths = p[:, 0].tolist(), p[:, 1].tolist(), p[:, 2].tolist()
     vrs, vls, dts = vr.tolist(), vl.tolist(), dt.tolist() + [0.0]
+    two_pi = 2.0 * math.pi
     for k in range(n):
         theta, a, b = ths[k], vrs[k], vls[k]
         if not (math.isfinite(theta) and math.isfinite(a) and math.isfinite(b)
@@ -175,7 +178,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
             err[k] = np.nan
             continue
         c, sn = math.cos(theta), math.sin(theta)
-        e_th = theta - th
+        e_th = (theta - th + math.pi) % two_pi - math.pi     # an angle: wrapped to [-pi, pi)
         if use_pos:
             e_x, e_y = xs[k] - xh, ys[k] - yh
         else:

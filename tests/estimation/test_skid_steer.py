@@ -160,3 +160,23 @@ def test_a_wheel_rate_that_is_not_a_finite_positive_number_of_hz_is_refused(whee
     assert skid_steer_on_frame(frame, wheel_rate_hz=None).meta["wheel_r_scale"] == 1.0
     assert skid_steer_on_frame(frame, wheel_rate_hz=6.5).meta["wheel_r_scale"] == \
         pytest.approx(50.0 / 6.5)
+
+
+@pytest.mark.parametrize("use_position", [True, False])
+def test_observer_takes_a_heading_wrapped_to_pi(use_position):
+    """A pose sensor reports its heading in [-pi, pi): the heading error ``theta - theta^``
+    jumped by 2 pi at every wrap (3 wraps in 60 s of this turn) and kicked eta_R, eta_L up to
+    1.2 (position rows) and 1.0 (yaw only) away from the estimates of the unwrapped heading;
+    the error is an angle and is now wrapped, so a wrapped heading gives those estimates."""
+    from terrain.estimation.model import wrap_angle
+    d = 0.3
+    t, pose = _kinematic_run(0.9, 0.8, 0.6, 0.4, d)
+    n = t.size
+    wrapped = pose.copy()
+    wrapped[:, 2] = wrap_angle(pose[:, 2])
+    assert np.ptp(wrapped[:, 2]) > 6.0 and np.ptp(pose[:, 2]) > 20.0
+    s = AdaptiveObserverSettings(half_track_m=d, use_position=use_position)
+    ref = run_adaptive_observer(t, pose, np.full(n, 0.6), np.full(n, 0.4), s)
+    res = run_adaptive_observer(t, wrapped, np.full(n, 0.6), np.full(n, 0.4), s)
+    np.testing.assert_allclose(res.eta, ref.eta, atol=1e-9)
+    np.testing.assert_allclose(res.error, ref.error, atol=1e-9)
