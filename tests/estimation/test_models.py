@@ -10,6 +10,7 @@ from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, AgriMaRoModel,
                                          noise_derived_settings)
 from terrain.estimation.model import finite_difference_jacobian
 from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
 from terrain.estimation.slip_state import SlipStateModel
 
 MODELS = {
@@ -19,6 +20,10 @@ MODELS = {
     "slip-state-camera": SlipStateModel(accel="direct", camera=True),
     "skid-steer": SkidSteerModel(SkidSteerSettings(chi0=1.4)),
 }
+#: Every model class and option, for the near-singular states below.
+EDGE_MODELS = {**MODELS, "slip-state-direct": SlipStateModel(accel="direct"),
+               "slip-state-ch4-camera": SlipStateModel(camera=True),
+               "skid-steer-slip": SkidSteerSlipModel()}
 
 
 def _random_state(model, rng):
@@ -96,3 +101,49 @@ def test_camera_lever_arm_is_inside_h():
 def test_bad_settings_raise_config_error(kwargs):
     with pytest.raises(ConfigError):
         AgriMaRoEKFSettings(**kwargs)
+
+
+def _edge_states(model, rng):
+    """States at the edges of the models' trigonometry and kinematics: body at rest (zero
+    speed and yaw rate), wheels steered to +-90 deg (and 180 deg), heading at +-pi and past
+    it. Kept away from the deliberate kinks, which a finite difference straddles: the
+    skid-steer ln(chi) column below its yaw-rate threshold, a floored or clipped slip, a
+    slip-augmented side's ground speed of exactly 0."""
+    names = model.state_names
+    skid = "log_icr_chi" in names
+    out = []
+    for k in range(24):
+        x = rng.uniform(-1.5, 1.5, model.n_states)
+        for j, name in enumerate(names):
+            if name == "yaw":
+                x[j] = (np.pi, -np.pi, np.pi - 1e-9, 3.0 * np.pi, -2.5 * np.pi, x[j])[k % 6]
+            elif name.startswith("delta"):
+                x[j] = rng.choice([np.pi / 2, -np.pi / 2, np.pi, 0.0])
+            elif name.startswith("slip"):
+                x[j] = rng.uniform(-0.5, 0.5)
+            elif name in ("v_bx", "v_by") and k % 2 == 0:
+                x[j] = 0.3 if skid else 0.0               # at rest (skid: off the kink)
+            elif name == "yaw_rate":
+                x[j] = (rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 1.0) if skid
+                        else 0.0 if k % 2 == 0 else x[j])
+            elif name == "pitch":
+                x[j] = rng.choice([0.0, np.pi / 2, -np.pi / 2])
+        if skid and "slip_1" in names:                    # both sides' ground speed > 0
+            x[0] = 0.3 + 0.6 * 0.5708 * abs(x[1])
+        out.append(x)
+    return out
+
+
+@pytest.mark.parametrize("name", list(EDGE_MODELS))
+def test_jacobians_match_finite_differences_at_near_singular_states(name):
+    model = EDGE_MODELS[name]
+    rng = np.random.default_rng(19)
+    for x in _edge_states(model, rng):
+        for dt in (0.01, 0.05):
+            fx, F = model.transition(x, dt)
+            np.testing.assert_allclose(
+                F, finite_difference_jacobian(lambda v: model.f(v, dt), x), rtol=1e-6,
+                atol=1e-8, err_msg=f"F at {x}")
+        hx, H = model.observation(x)
+        np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x), rtol=1e-6,
+                                   atol=1e-7, err_msg=f"H at {x}")
