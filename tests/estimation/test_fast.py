@@ -221,3 +221,37 @@ def test_a_new_model_runs_on_the_engine_without_editing_it():
     engine = Path(__file__).resolve().parents[2] / "terrain" / "estimation" / "fast.py"
     code = engine.read_text().lower()
     assert not any(name in code for name in ("agrimaro", "skid", "husky", "pendulum"))
+
+
+@pytest.mark.parametrize("tuning", ["thesis", "noise-derived"])
+def test_compiled_equals_reference_at_the_edges(tuning):
+    """Random samples on a non-uniform grid (Q per step and per second), the heading
+    crossing +-pi in both yaw rows (wrapped innovations), wheels steered to +-90 deg, the
+    body at rest, NaN rows and a camera gap, with and without the gate."""
+    from terrain.estimation.agrimaro import AgriMaRoEKFSettings, noise_derived_settings
+    rng = np.random.default_rng(5)
+    grid = np.cumsum(np.r_[0.0, rng.uniform(0.005, 0.02, 399)])
+    settings = AgriMaRoEKFSettings() if tuning == "thesis" else noise_derived_settings()
+    x0 = np.zeros(12)
+    x0[2], x0[8:11] = math.pi - 0.01, (math.pi / 2, -math.pi / 2, 0.0)
+    t = grid[1:] - rng.uniform(0.0, 0.004, grid.size - 1)
+    k = t.size
+    yaw = (math.pi - 0.01 + 0.3 * t + math.pi) % (2 * math.pi) - math.pi
+    imu = np.column_stack([rng.normal(0, .5, k), rng.normal(0, .5, k),
+                           rng.normal(0.3, .01, k), yaw + rng.normal(0, .01, k)])
+    imu[rng.integers(0, k, 10), rng.integers(0, 4, 10)] = np.nan
+    steer = np.column_stack([np.full(k, math.pi / 2), np.full(k, -math.pi / 2),
+                             np.zeros(k)]) + rng.normal(0, 1e-3, (k, 3))
+    cam = np.column_stack([rng.normal(0, .01, (k, 2)), rng.normal(0.3, .01, k),
+                           yaw - rng.normal(0, .001, k)])
+    cam[100:150] = np.nan
+    samples = {"imu": SensorSamples(t, imu),
+               "omega": SensorSamples(t[::3], np.column_stack(
+                   [np.zeros(k), rng.normal(0, 0.1, k), np.zeros(k)])[::3]),
+               "steer": SensorSamples(t[::2], steer[::2]),
+               "cam": SensorSamples(t[::5], cam[::5])}
+    for gate in (None, Gate(0.99)):
+        fast, ref = _both(AgriMaRoModel(settings=settings), grid, samples, gate=gate, x0=x0,
+                          store_covariance=True)
+        assert_same_result(fast, ref, covariance=True)
+        assert np.abs(np.diff(fast.x[:, 2])).max() < 0.5    # no 2 pi jump of the state
