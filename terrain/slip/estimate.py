@@ -122,7 +122,8 @@ class RunEstimate:
         """One line for the log: steps and rate, mean NIS and dof (both over the steps with an
         update), median slip of each wheel, encoder lag (or that it was not applied),
         non-finite samples skipped, samples a later one in the same filter step superseded
-        (a ``rate_hz`` below a sensor's rate).
+        (a ``rate_hz`` below a sensor's rate), samples outside the filter's time span (a
+        stream that starts before or ends after the grid).
 
         Returns
         -------
@@ -146,12 +147,17 @@ class RunEstimate:
         # a filter slower than a sensor keeps the latest of its samples in each step
         superseded = {k: f"{v['superseded']} of {v['samples']}"
                       for k, v in ekf.counts.items() if v.get("superseded")}
+        # a stream that starts before or ends after the filter's grid loses those samples
+        outside = {k: f"{v['outside']} of {v['samples']}"
+                   for k, v in ekf.counts.items() if v.get("outside")}
         return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
                 f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
                 f"{dof:.2f}), median {slips}, encoder lag {lag}"
                 + (f", non-finite samples skipped {skipped}" if skipped else "")
                 + (f", samples unused (a later one in the same filter step wins) "
-                   f"{superseded}" if superseded else ""))
+                   f"{superseded}" if superseded else "")
+                + (f", samples outside the filter's time span (dropped) {outside}"
+                   if outside else ""))
 
 
 def resample(t_grid_s: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:

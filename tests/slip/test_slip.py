@@ -340,3 +340,26 @@ def test_every_run_estimate_refuses_an_unknown_lag_mode():
     agri = simulate_agrimaro("ASPHALT", seed=2, duration_s=5.0).run
     with pytest.raises(ConfigError, match="unknown lag mode 'xcor'"):
         estimate_agrimaro_run(agri, lag="xcor")
+
+
+def test_summary_shows_samples_outside_the_filter_span():
+    """A stream that starts before or ends after the filter's grid (the skid-steer grid is
+    the overlap of wheels and IMU) loses those samples, counted in counts['outside'] but not
+    shown: a simulated 5 s run loses 8 gyro samples so (BorealTC ASPHALT/01 14), and one whose
+    wheels stop 2 s early 208, with the same summary line."""
+    from dataclasses import replace
+    result = simulate_husky("ASPHALT", seed=2, duration_s=5.0)
+    run = result.run
+    wheels = run.streams["wheels"]
+    cut = replace(run, streams={**run.streams, "wheels": wheels[wheels["t_s"] <= 3.0]})
+    est = estimate_run(cut, lag="none")
+    out = est.ekf.counts["gyro"]["outside"]
+    assert out >= 190
+    n = est.ekf.counts["gyro"]["samples"]
+    line = est.summary()
+    assert "samples outside the filter's time span (dropped) {" in line
+    assert f"'gyro': '{out} of {n}'" in line
+    full = estimate_run(run, lag="none")        # even the whole run ends its wheels early
+    c = full.ekf.counts["gyro"]
+    assert 0 < c["outside"] < 20 and f"'gyro': '{c['outside']} of {c['samples']}'" in \
+        full.summary()
