@@ -29,6 +29,8 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
+from terrain.errors import MissingColumnError
+
 TIME = "t_s"
 IMU_CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az")
 WHEEL_CHANNELS = ("vel_l", "vel_r", "cur_l", "cur_r")
@@ -108,6 +110,36 @@ class Run:
         frame = self.streams.get("wheels")
         frames = [frame] if frame is not None else list(self.streams.values())
         return float(max(f[TIME].iloc[-1] - f[TIME].iloc[0] for f in frames if len(f)))
+
+    def require_columns(self, stream: str, columns) -> pd.DataFrame:
+        """A stream's frame, checked to hold ``t_s`` and ``columns``.
+
+        Parameters
+        ----------
+        stream : str
+            Stream name, a key of :attr:`streams` (e.g. ``"imu"``).
+        columns : iterable of str
+            Channel names the caller reads.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The stream's frame.
+
+        Raises
+        ------
+        KeyError
+            If the run has no such stream.
+        MissingColumnError
+            The frame lacks ``t_s`` or one of ``columns`` (run, stream and the missing
+            columns named; a :class:`~terrain.errors.DataFormatError`).
+        """
+        frame = self.streams[stream]
+        missing = [c for c in (TIME, *columns) if c not in frame.columns]
+        if missing:
+            raise MissingColumnError(f"run {self.run_id}: stream {stream!r} lacks columns "
+                                     f"{missing}", self.source, missing[0])
+        return frame
 
     def rate_hz(self, stream: str) -> float:
         """Median sampling rate of ``stream`` in Hz.

@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from terrain.errors import ConfigError, DataFormatError, MissingColumnError, TimeStepError
+from terrain.errors import ConfigError, DataFormatError, TimeStepError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
@@ -367,7 +367,7 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         if frame is None and sensor == "omega" and "wheels" in run.streams:
             stream = "wheels"
             w = run.streams["wheels"]
-            _check_columns(run, stream, w, ("vel_l", "vel_r"))
+            run.require_columns(stream, ("vel_l", "vel_r"))
             t = w[TIME].to_numpy(dtype=float)
             vals = np.column_stack([w["vel_l"].to_numpy(dtype=float) / vehicle.wheel_radius_m,
                                     w["vel_r"].to_numpy(dtype=float) / vehicle.wheel_radius_m,
@@ -375,7 +375,7 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         elif frame is None:
             continue
         else:
-            _check_columns(run, stream, frame, [c for c in cols if c != "yaw_imu"])
+            run.require_columns(stream, [c for c in cols if c != "yaw_imu"])
             t = frame[TIME].to_numpy(dtype=float)
             if sensor == "imu":
                 wz = frame["wz"].to_numpy(dtype=float)
@@ -397,14 +397,6 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         except TimeStepError as exc:
             raise TimeStepError(f"run {run.run_id}: stream {stream!r}: {exc}") from None
     return out
-
-
-def _check_columns(run: Run, stream: str, frame, columns) -> None:
-    """MissingColumnError naming the run, the stream and the columns it lacks."""
-    missing = [c for c in (TIME, *columns) if c not in frame.columns]
-    if missing:
-        raise MissingColumnError(f"run {run.run_id}: stream {stream!r} lacks columns {missing}",
-                                 run.source, missing[0])
 
 
 def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettings(), *,

@@ -254,7 +254,8 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     Raises
     ------
     DataFormatError
-        No ``wheels`` stream.
+        No ``wheels`` stream, or a stream without the columns it reads
+        (:class:`~terrain.errors.MissingColumnError`, run and stream named).
     ConfigError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`).
@@ -262,12 +263,12 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     if "wheels" not in run.streams:
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
     off = dict(time_offsets_s or {})
-    w = run.streams["wheels"]
+    w = run.require_columns("wheels", ("vel_l", "vel_r"))
     samples = {"wheels": SensorSamples(w[TIME].to_numpy(float) - off.get("wheels", 0.0),
                                        w[["vel_l", "vel_r"]].to_numpy(float))}
     spans = [samples["wheels"].t_s]
     if "imu" in run.streams:
-        imu = run.streams["imu"]
+        imu = run.require_columns("imu", ("wz",))
         samples["gyro"] = SensorSamples(imu[TIME].to_numpy(float) - off.get("gyro", 0.0),
                                         imu[["wz"]].to_numpy(float))
         spans.append(samples["gyro"].t_s)

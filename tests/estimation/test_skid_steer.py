@@ -180,3 +180,23 @@ def test_observer_takes_a_heading_wrapped_to_pi(use_position):
     res = run_adaptive_observer(t, wrapped, np.full(n, 0.6), np.full(n, 0.4), s)
     np.testing.assert_allclose(res.eta, ref.eta, atol=1e-9)
     np.testing.assert_allclose(res.error, ref.error, atol=1e-9)
+
+
+def test_a_stream_without_the_columns_the_filter_reads_names_run_stream_and_columns():
+    """estimate_skid_steer read vel_l, vel_r and wz unchecked: an imu stream without wz was
+    pandas' bare KeyError "None of [Index(['wz'])] are in the [columns]"; it is now the
+    MissingColumnError (a DataFormatError) that names the run, the stream and the columns,
+    through Run.require_columns, as estimate_agrimaro's."""
+    import pandas as pd
+    from terrain.errors import MissingColumnError
+    from terrain.run import Run
+    t = np.arange(50) / 10.0
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6})
+    imu = pd.DataFrame({"t_s": t, "wx": 0.0})
+    run = Run("sim/TEST/03", "sim", "ASPHALT", {"wheels": wheels, "imu": imu})
+    with pytest.raises(MissingColumnError, match=r"run sim/TEST/03: stream 'imu' lacks "
+                                                 r"columns \['wz'\]"):
+        estimate_skid_steer(run)
+    run = Run("sim/TEST/03", "sim", "ASPHALT", {"wheels": wheels.drop(columns="vel_r")})
+    with pytest.raises(DataFormatError, match=r"stream 'wheels' lacks columns \['vel_r'\]"):
+        estimate_skid_steer(run)
