@@ -97,6 +97,14 @@ def _short_text(text: str, limit: int = 24) -> str:
     return text if len(text) <= limit else f"{text[:limit - 3]}... ({len(text)} characters)"
 
 
+def _listed(names: list, limit: int = 5) -> str:
+    """``names`` (the request's columns or keys) as a message lists them: the first
+    ``limit``, each cut by :func:`_short_text`, and a count of the others (a repeated
+    5,000-name header listed every name: a 70 kB message)."""
+    shown = [_short_text(str(n)) for n in names[:limit]]
+    return f"{shown}" + (f" and {len(names) - limit} more" if len(names) > limit else "")
+
+
 def _huge_number(value: str, column: str | None, row: int | None = None,
                  line: int | None = None) -> ImplausibleValueError:
     """The refusal of a number beyond the float range (``value`` as written)."""
@@ -322,7 +330,7 @@ def _json_refusal(body: bytes) -> tuple[int, dict] | None:
                                         "are fixed when it is served); send the table alone",
                                         _WHERE))
     if len(tables) != 1 or len(doc) != 1:
-        return _refusal(DataFormatError(f"the JSON body has the key(s) {sorted(doc)[:5]}; "
+        return _refusal(DataFormatError(f"the JSON body has the key(s) {_listed(sorted(doc))}; "
                                         f"{_JSON_FORM}", _WHERE))
     if tables[0] == "dataframe_split":
         return _split_refusal(doc["dataframe_split"], huge)
@@ -338,8 +346,8 @@ def _names_refusal(columns: list) -> tuple[int, dict] | None:
                                         f"{json.dumps(odd[0])[:40]}", _WHERE))
     dup = duplicated(columns)
     if dup:
-        return _refusal(DataFormatError(f"duplicated column name(s) {dup}; send each column "
-                                        "once", _WHERE))
+        return _refusal(DataFormatError(f"duplicated column name(s) {_listed(dup)}; send each "
+                                        "column once", _WHERE))
     return None
 
 
@@ -400,8 +408,9 @@ def _records_refusal(records: Any, huge: bool) -> tuple[int, dict] | None:
         elif set(record) != set(keys):
             missing = [k for k in keys if k not in record]
             extra = [k for k in record if k not in keys]
-            what = (f"lacks {missing} (send null for a missing value: it would be filled "
-                    "with NaN)" if missing else f"has key(s) {extra} that record 0 lacks")
+            what = (f"lacks {_listed(missing)} (send null for a missing value: it would be "
+                    "filled with NaN)" if missing else
+                    f"has key(s) {_listed(extra)} that record 0 lacks")
             return _refusal(RaggedRowError(f"record {number} (0-based) {what}", _WHERE))
         for column, value in record.items() if huge else ():
             if isinstance(value, _HugeFloat):

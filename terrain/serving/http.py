@@ -226,8 +226,11 @@ def classified(doc: dict) -> dict:
 
 async def _send_json(send: Send, status: int, doc: dict,
                      headers: tuple[tuple[bytes, bytes], ...] = ()) -> None:
-    """Send ``doc`` as a JSON answer (an error classified, :func:`classified`) with the
+    """Send ``doc`` as a JSON answer (an error classified, :func:`classified`, its message
+    one line of at most :data:`MAX_MESSAGE` characters, :func:`project_message`) with the
     extra ``headers``."""
+    if status >= 400 and "message" in doc:
+        doc = {**doc, "message": project_message(status, str(doc["message"]))}
     body = json.dumps(classified(doc) if status >= 400 else doc).encode()
     await send({"type": "http.response.start", "status": status,
                 "headers": [(b"content-type", b"application/json"),

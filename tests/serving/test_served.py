@@ -868,6 +868,41 @@ def test_real_server_refuses_repeated_or_non_text_column_names(server, request_f
     assert status == 400 and "duplicated column name(s) ['cur_l']" in answer["message"]
 
 
+#: bodies whose refusal names many of the request's own names: the guard's message listed
+#: every one (a 5,000-name CSV header repeated: a 70 kB message, a dump of the request)
+_NAMES = [f"c{i:05d}" for i in range(5000)]
+LONG_LISTS = {
+    "repeated csv header": ((",".join(_NAMES * 2) + "\n").encode(), "text/csv",
+                            "DataFormatError", "duplicated column name(s) ['c00000', "
+                            "'c00001', 'c00002', 'c00003', 'c00004'] and 4995 more"),
+    "repeated split columns": (json.dumps({"dataframe_split": {"columns": _NAMES[:4000] * 2,
+                                                               "data": []}}).encode(),
+                               "application/json", "DataFormatError", "and 3995 more"),
+    "record lacking keys": (json.dumps({"dataframe_records": [dict.fromkeys(_NAMES, 1),
+                                                              {"c00000": 1}]}).encode(),
+                            "application/json", "RaggedRowError",
+                            "record 1 (0-based) lacks ['c00001', 'c00002', 'c00003', "
+                            "'c00004', 'c00005'] and 4994 more"),
+    "record with other keys": (json.dumps({"dataframe_records": [
+        {"c00000": 1}, dict.fromkeys(_NAMES, 1)]}).encode(), "application/json",
+        "RaggedRowError", "and 4994 more"),
+    "long top-level key": (json.dumps({"k" * 30_000: 1, "y": 2}).encode(), "application/json",
+                           "DataFormatError", "the JSON body has the key(s)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(LONG_LISTS))
+def test_real_server_refusal_lists_are_bounded(server, case):
+    """A refusal naming the request's columns or keys shows the first few and a count: the
+    message stays one line of at most 500 characters, never a dump of the request."""
+    body, content_type, error, words = LONG_LISTS[case]
+    status, answer = _raw(server[1], body, content_type)
+    assert status == 400, answer
+    _one_line_typed(answer, error)
+    assert words in answer["message"]
+    assert _raw(server[1], b"stream,t_s\n", "text/csv")[0] == 400  # still answering
+
+
 def test_real_server_refuses_a_parquet_body_by_its_metadata(server, request_frame):
     """300,000 rows compress to a few kB: refused from the file's metadata (rows over the
     model's limit) before anything is decoded."""
