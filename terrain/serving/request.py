@@ -140,6 +140,15 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
         i = int(np.flatnonzero(~np.isfinite(t))[0])
         raise NonFiniteError(f"non-finite timestamp in stream {stream!r}", where, TIME,
                              int(rows[i]))
+    beyond = np.flatnonzero(np.abs(t) > MAX_PLAUSIBLE_TIME_S)
+    if beyond.size:
+        # the service's rule plausible_time would refuse every such sample one by one and
+        # the answer would hold no decision and no reason; checked before the order, which
+        # such stamps lose as floats (integer ns 1 apart near 1e18 read as duplicated)
+        raise TimestampError(f"stream {stream!r}: {beyond.size} timestamp(s) beyond "
+                             f"{MAX_PLAUSIBLE_TIME_S:g} s, the first {float(t[beyond[0]])!r} "
+                             "(a clock in ms or ns since an epoch?); send seconds, e.g. since "
+                             "the start of the log", where, TIME, int(rows[beyond[0]]))
     dt = np.diff(t)
     if (dt <= 0).any():
         i = int(np.flatnonzero(dt <= 0)[0]) + 1
@@ -147,14 +156,6 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
         raise TimestampError(f"stream {stream!r}: {what} timestamp {float(t[i])!r} after "
                              f"{float(t[i - 1])!r}; timestamps must increase strictly (send each "
                              "stream in time order)", where, TIME, int(rows[i]))
-    beyond = np.flatnonzero(np.abs(t) > MAX_PLAUSIBLE_TIME_S)
-    if beyond.size:
-        # the service's rule plausible_time would refuse every such sample one by one and
-        # the answer would hold no decision and no reason
-        raise TimestampError(f"stream {stream!r}: {beyond.size} timestamp(s) beyond "
-                             f"{MAX_PLAUSIBLE_TIME_S:g} s, the first {float(t[beyond[0]])!r} "
-                             "(a clock in ms or ns since an epoch?); send seconds, e.g. since "
-                             "the start of the log", where, TIME, int(rows[beyond[0]]))
     check_rate(t, stream, where, TIME)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]

@@ -1068,6 +1068,23 @@ def test_timestamps_beyond_the_plausible_clock_are_refused_never_a_crash(
         assert "data row 0" in message
 
 
+@pytest.mark.parametrize("stamps, first", [
+    # integer nanoseconds since an epoch, 1 ns apart: distinct as sent, equal as floats
+    (lambda n: [10**18 + i for i in range(n)], "1e+18"),
+    (lambda n: [-1e308 + 0.15 * i for i in range(n)], "-1e+308"),
+])
+def test_timestamps_beyond_the_plausible_clock_are_named_before_their_order(
+        served, request_frame, stamps, first):
+    # the order was checked first: distinct integer stamps beyond the float's resolution
+    # were refused as "duplicated timestamp 1e+18 after 1e+18", which the client never sent
+    frame = request_frame.astype({"t_s": object})
+    frame["t_s"] = stamps(len(frame))
+    message = _error(served, frame)
+    assert message.startswith(f"TimestampError: stream 'wheels': {len(frame)} timestamp(s) "
+                              f"beyond 1e+11 s, the first {float(first)!r}"), message
+    assert "duplicated" not in message and "data row 0" in message
+
+
 def test_a_request_of_50_000_columns_is_refused_in_linear_time(served):
     # the duplicate-name check counted every name in the whole list (quadratic): 50 000
     # columns held the server for ~45 s, so /ping timed out behind it
