@@ -43,6 +43,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from features.windows import WindowConfig, make_windows
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.control.closed_loop import LOOP_SETTINGS, default_gains, run_closed_loop
 from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import TUNING_SEEDS
@@ -236,6 +237,24 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     tmp.rename(model_dir)
     info_path.write_text(json.dumps(info, indent=1) + "\n")
     return model_dir, {**info, "cached": False}
+
+
+def add_classifier_options(parser) -> None:
+    """Add the live-sim classifier's options, ``--classifier-seeds`` and
+    ``--classifier-uncontrolled-only`` (``terrain control-sim``, ``terrain control-grid``).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    """
+    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=None,
+                        help="training seeds of the live-sim classifier (default: "
+                             f"{' '.join(map(str, CLASSIFIER_SEEDS))})")
+    parser.add_argument("--classifier-uncontrolled-only", action="store_true",
+                        help="train the live-sim classifier on uncontrolled runs only "
+                             "(default: also on runs with the traction controller on)")
 
 
 def check_decision_options(source: str, model_dir: str | None,

@@ -25,7 +25,8 @@ from pathlib import Path
 from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_dir,
                                  seed_value, sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
-                                          check_decision_options, decision_source)
+                                          add_classifier_options, check_decision_options,
+                                          decision_source)
 from pipelines.control_sim import SCENARIOS, check_duration
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
@@ -82,13 +83,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "trained on simulated runs) or model (--model)")
     parser.add_argument("--model", type=input_path, default=None,
                         help="classifier of --terrain-source model")
-    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
-                        default=None,
-                        help="training seeds of the live-sim classifier (default: "
-                             f"{' '.join(map(str, CLASSIFIER_SEEDS))})")
-    parser.add_argument("--classifier-uncontrolled-only", action="store_true",
-                        help="train the live-sim classifier on uncontrolled runs only "
-                             "(default: also on runs with the traction controller on)")
+    add_classifier_options(parser)
     parser.add_argument("--out", type=output_dir, required=True, help="output folder")
 
 

@@ -29,10 +29,11 @@ import argparse
 import json
 from pathlib import Path
 
-from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_file,
-                                 seed_value, sim_duration_s)
+from pipelines.arguments import (input_path, non_negative_number, output_file, seed_value,
+                                 sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
-                                          check_decision_options, decision_source)
+                                          add_classifier_options, check_decision_options,
+                                          decision_source)
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
 from terrain.control.estimators import ESTIMATORS
 from terrain.errors import ConfigError
@@ -77,13 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "runs, run live on the loop's samples; trained once, then "
                              "cached), model (--model) or label (ground truth); default "
                              "model with --model, else live-sim")
-    parser.add_argument("--classifier-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
-                        default=None,
-                        help="training seeds of the live-sim classifier (default: "
-                             f"{' '.join(map(str, CLASSIFIER_SEEDS))})")
-    parser.add_argument("--classifier-uncontrolled-only", action="store_true",
-                        help="train the live-sim classifier on uncontrolled runs only "
-                             "(default: also on runs with the traction controller on)")
+    add_classifier_options(parser)
     parser.add_argument("--estimator", default=None,
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}),
                         help="slip estimator (default: the vehicle's: AgriMaRo ekf-vo-full-gyro, "
