@@ -21,7 +21,7 @@ import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any, Iterator, Mapping
 
 import pandas as pd
@@ -279,7 +279,7 @@ class TrackedRun:
         frame : pandas.DataFrame
             The table (written without index).
         name : str
-            Artifact file name, e.g. ``predictions.csv``.
+            Artifact path, e.g. ``predictions.csv`` or ``tables/x.csv``.
 
         Raises
         ------
@@ -288,10 +288,12 @@ class TrackedRun:
         """
         if not name.endswith(".csv"):
             raise ConfigError(f"log_table writes CSV: name {name!r} must end in .csv")
+        artifact = PurePosixPath(name)
+        folder = str(artifact.parent) if str(artifact.parent) != "." else None
         with tempfile.TemporaryDirectory() as tmp:
-            path = Path(tmp) / name
+            path = Path(tmp) / artifact.name
             frame.to_csv(path, index=False)
-            self.client.log_artifact(self.run_id, str(path))
+            self.client.log_artifact(self.run_id, str(path), folder)
 
     def log_figure(self, figure: Any, name: str) -> None:
         """Log a matplotlib figure as an image artifact.

@@ -306,3 +306,15 @@ def test_the_store_check_opens_the_database_a_query_names(tmp_path):
 
     check_store(f"sqlite:///{tmp_path / 'mlflow.db'}?timeout=30")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mlflow.db"]
+
+
+def test_a_table_name_with_a_folder_is_logged_in_that_folder(tmp_path, monkeypatch):
+    # log_table wrote the CSV to <tmp>/<name> without the folder existing: 'tables/x.csv'
+    # raised a bare FileNotFoundError, where log_figure takes 'figures/x.png'
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    table = pd.DataFrame({"kp": [2.0, 5.0]})
+    with tracked_run("terrain-test", announce=False) as run:
+        run.log_table(table, "tables/tuning.csv")
+    root = tmp_path / "mlartifacts" / "terrain-test" / run.run_id / "artifacts"
+    assert pd.read_csv(root / "tables" / "tuning.csv").equals(table)
