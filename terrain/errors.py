@@ -240,6 +240,33 @@ def config_integer(name: str, value, lo: int, hi: int | None = None) -> None:
         raise ConfigError(f"{name} must be an integer {bound}, got {value!r}")
 
 
+def config_positive(owner: str, allow_zero: bool = False, **values) -> None:
+    """Refuse configuration values that are not finite real numbers > 0 (>= 0 with
+    ``allow_zero``): a mass, a length, a modulus, a time constant.
+
+    Parameters
+    ----------
+    owner : str
+        The configuration's or function's name, for the message (``"HuskyParams"``,
+        ``"bekker_sinkage_m"``).
+    allow_zero : bool, optional
+        Accept 0 (a quantity that may be off or absent).
+    **values
+        Field name -> value.
+
+    Raises
+    ------
+    ConfigError
+        The first value that is not a real number (:func:`config_numbers`), or not finite
+        and > 0 (>= 0), named ``owner.field`` with the value given.
+    """
+    config_numbers(owner, **values)
+    for name, value in values.items():
+        if not (value >= 0.0 if allow_zero else value > 0.0) or value == float("inf"):
+            rule = ">= 0" if allow_zero else "> 0"     # (NaN fails both comparisons)
+            raise ConfigError(f"{owner}.{name} must be a finite value {rule}, got {value!r}")
+
+
 class EstimationError(TerrainError, ValueError):
     """Bad input to a state estimator (:mod:`terrain.estimation`, :mod:`terrain.slip`).
 

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                soil_resistance_coefficient)
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
@@ -138,10 +138,7 @@ def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: flo
         ``slip_accel / slip_steady`` (``g(s_acc/k) / g(s_ss/k)`` runs from 1 as ``k -> 0``
         to ``s_acc / s_ss`` as ``k -> inf``).
     """
-    for key, value in (("soil_resistance", soil_resistance), ("accel_m_s2", accel_m_s2)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise ConfigError(f"calibrate_janosi: {key} must be a finite value > 0, got "
-                              f"{value}")
+    config_positive("calibrate_janosi", soil_resistance=soil_resistance, accel_m_s2=accel_m_s2)
     for key, value in (("slip_steady", slip_steady), ("slip_accel", slip_accel)):
         if not 0.0 < value <= 1.0:
             raise ConfigError(f"calibrate_janosi: {key} must be in (0, 1], got {value}")

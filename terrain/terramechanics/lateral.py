@@ -53,7 +53,7 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer
+from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.terramechanics.resistance import bekker_sinkage_m
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation
 
@@ -157,14 +157,9 @@ class SoilParams:
         positive = {"n": self.n, "shear_modulus_m": self.shear_modulus_m}
         if self.lateral_shear_modulus_m is not None:
             positive["lateral_shear_modulus_m"] = self.lateral_shear_modulus_m
-        for key, value in positive.items():
-            if not (np.isfinite(value) and value > 0.0):
-                raise ConfigError(f"{self.name}: {key} must be a finite value > 0, got {value}")
-        for key, value in (("cohesion_pa", self.cohesion_pa),
-                           ("unit_weight_n_m3", self.unit_weight_n_m3)):
-            if not (np.isfinite(value) and value >= 0.0):
-                raise ConfigError(f"{self.name}: {key} must be a finite value >= 0, got "
-                                  f"{value}")
+        config_positive(self.name, **positive)
+        config_positive(self.name, allow_zero=True, cohesion_pa=self.cohesion_pa,
+                        unit_weight_n_m3=self.unit_weight_n_m3)
         for key, value in (("k_c", self.k_c), ("k_phi", self.k_phi)):
             if not np.isfinite(value):
                 raise ConfigError(f"{self.name}: {key} must be finite, got {value}")

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.terramechanics.traction import traction_peak
 
 G_M_S2 = 9.80665
@@ -211,10 +211,7 @@ def can_turn_in_place(geometry, terrain) -> bool:
 def _check_bekker_plate(width_m: float, length_m: float, k_c: float, k_phi: float,
                         n: float) -> None:
     """Refuse a plate or soil for which Bekker's relation has no sinkage (ConfigError)."""
-    for key, value in (("width_m", width_m), ("length_m", length_m), ("n", n)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise ConfigError(f"bekker_sinkage_m: {key} must be a finite value > 0, got "
-                              f"{value}")
+    config_positive("bekker_sinkage_m", width_m=width_m, length_m=length_m, n=n)
     modulus = k_c / width_m + k_phi
     if not (math.isfinite(modulus) and modulus > 0.0):
         raise ConfigError(f"bekker_sinkage_m: k_c / width_m + k_phi must be a finite modulus "

@@ -48,7 +48,7 @@ import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_numbers, config_positive
 
 
 class CurveCoefficients(NamedTuple):
@@ -527,11 +527,8 @@ def brixius_mobility_number(cone_index_pa: float, section_width_m: float,
     config_numbers("brixius_mobility_number", cone_index_pa=cone_index_pa,
                    section_width_m=section_width_m, diameter_m=diameter_m, load_n=load_n,
                    deflection_ratio=deflection_ratio)
-    for key, value in (("cone_index_pa", cone_index_pa), ("section_width_m", section_width_m),
-                       ("diameter_m", diameter_m), ("load_n", load_n)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise ConfigError(f"brixius_mobility_number: {key} must be a finite value > 0, "
-                              f"got {value}")
+    config_positive("brixius_mobility_number", cone_index_pa=cone_index_pa,
+                    section_width_m=section_width_m, diameter_m=diameter_m, load_n=load_n)
     if not 0.0 <= deflection_ratio < 1.0:
         raise ConfigError(f"brixius_mobility_number: deflection_ratio (delta/h) must be in "
                           f"[0, 1), got {deflection_ratio}")

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer, config_numbers
+from terrain.errors import ConfigError, config_integer, config_positive
 
 
 def check_fields(params, positive: tuple = (), non_negative: tuple = (),
@@ -31,13 +30,9 @@ def check_fields(params, positive: tuple = (), non_negative: tuple = (),
         The first offending field, named ``Class.field``, with the value given.
     """
     owner = type(params).__name__
-    values = {name: getattr(params, name) for name in positive + non_negative}
-    config_numbers(owner, **values)
-    for name, value in values.items():
-        bound = 0.0 if name in positive else -math.inf
-        if not (math.isfinite(value) and value >= 0.0 and value > bound):
-            rule = "> 0" if name in positive else ">= 0"
-            raise ConfigError(f"{owner}.{name} must be a finite value {rule}, got {value!r}")
+    config_positive(owner, **{name: getattr(params, name) for name in positive})
+    config_positive(owner, allow_zero=True,
+                    **{name: getattr(params, name) for name in non_negative})
     for name in counts:
         config_integer(f"{owner}.{name}", getattr(params, name), 1)
 

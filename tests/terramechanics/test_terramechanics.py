@@ -414,9 +414,9 @@ def test_slip_at_peak_fraction_refuses_a_fraction_outside_0_1_with_a_config_erro
     ("n", (100.0, 0.1, 0.1, 5.27e3, 1515.04e3, 0.0)),
 ])
 def test_bekker_sinkage_refuses_a_plate_or_soil_with_no_sinkage(field, args):
-    with pytest.raises(ConfigError, match=f"bekker_sinkage_m: {field}"):
+    with pytest.raises(ConfigError, match=rf"bekker_sinkage_m(\.|: ){field}"):
         bekker_sinkage_m(*args)
-    with pytest.raises(ConfigError, match=f"bekker_sinkage_m: {field}"):
+    with pytest.raises(ConfigError, match=rf"bekker_sinkage_m(\.|: ){field}"):
         bekker_compaction_coefficient(*args)
 
 
@@ -429,5 +429,5 @@ def test_bekker_sinkage_refuses_a_plate_or_soil_with_no_sinkage(field, args):
     ((0.08, 0.1255, 0.339, 0.0), "accel_m_s2"),
 ])
 def test_calibrate_janosi_refuses_data_with_no_curve_naming_why(args, field):
-    with pytest.raises(ConfigError, match=f"calibrate_janosi: {field}"):
+    with pytest.raises(ConfigError, match=rf"calibrate_janosi(\.|: ){field}"):
         calibrate_janosi(*args)
