@@ -265,4 +265,5 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         numpy.ndarray
             ``(n_windows,)`` labels.
         """
-        return self.classes_[self.predict_proba(X).argmax(axis=1)]
+        proba = self.predict_proba(X)       # before classes_: unfitted is NotFittedError
+        return self.classes_[proba.argmax(axis=1)]

@@ -127,3 +127,18 @@ def test_weights_to_choose_refuse_too_few_runs_and_an_off_grid_step():
     assert len(simplex_grid(2, 0.1)) == 11 and len(simplex_grid(3, 0.25)) == 15
     ens = SoftVotingEnsemble(members, weight_step=0.5).fit(X, y, groups=ten_runs)
     assert len(ens.weight_scores_) == 3 and np.isclose(ens.weights_.sum(), 1.0)
+
+
+def test_predict_before_fit_is_not_fitted_error():
+    # predict read classes_ before predict_proba's check: Python's AttributeError
+    # "'SoftVotingEnsemble' object has no attribute 'classes_'" instead of NotFittedError
+    from sklearn.exceptions import NotFittedError
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.models.ensemble import SoftVotingEnsemble
+
+    ens = SoftVotingEnsemble([("lr", LogisticRegression())], weights=(1,))
+    X = np.zeros((2, 3))
+    for method in (ens.predict, ens.predict_proba):
+        with pytest.raises(NotFittedError, match="not fitted"):
+            method(X)
