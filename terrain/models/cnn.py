@@ -163,6 +163,25 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             raise ValueError(f"expected 2-D or 3-D windows, got {X.ndim}-D")
         return X
 
+    def _validation_split(self, Z: np.ndarray, y_idx: np.ndarray, groups: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """Training and validation rows of early stopping: the first split of
+        ``StratifiedGroupKFold(validation_splits)`` (seed ``random_state``) whose training
+        runs hold every class, so no class is held out whole (a class of one run would
+        otherwise be validated on but never trained on). ConfigError when no split does."""
+        inner = StratifiedGroupKFold(self.validation_splits, shuffle=True,
+                                     random_state=self.random_state)
+        lost = set()
+        for fit_idx, val_idx in inner.split(Z, y_idx, groups):
+            missing = np.setdiff1d(np.arange(len(self.classes_)), y_idx[fit_idx])
+            if not missing.size:
+                return fit_idx, val_idx
+            lost.update(self.classes_[missing].tolist())
+        raise ConfigError(f"early stopping holds 1/{self.validation_splits} of the training "
+                          f"runs out, and every such split (seed {self.random_state}) holds "
+                          f"out every run of class(es) {sorted(lost)}: give those classes "
+                          f"more runs, fewer validation_splits, or early_stopping=False")
+
     def _device(self) -> str:
         import torch
         if self.device == "auto":
@@ -195,7 +214,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``early_stopping=True`` without ``groups``.
+            ``early_stopping=True`` without ``groups``, or with no validation split that
+            leaves a training run of every class.
         ValueError
             ``sample_weight`` of another length than ``y``, negative, not finite, or all 0.
         """
@@ -226,12 +246,12 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                 raise ValueError("sample_weight must be finite and >= 0, and the weights not "
                                  "all zero")
         train_split, callbacks, fit_idx = None, [], np.arange(len(Z))
+        self.validation_groups_ = np.asarray([] if groups is None else groups)[:0]
         if self.early_stopping:
             if groups is None:
                 raise ConfigError("early_stopping needs the run of every window (groups)")
-            inner = StratifiedGroupKFold(self.validation_splits, shuffle=True,
-                                         random_state=self.random_state)
-            fit_idx, val_idx = next(inner.split(Z, y_idx, np.asarray(groups)))
+            fit_idx, val_idx = self._validation_split(Z, y_idx, np.asarray(groups))
+            self.validation_groups_ = np.unique(np.asarray(groups)[val_idx])
             train_split = predefined_split(Dataset(Z[val_idx], y_idx[val_idx]))
             callbacks = [EarlyStopping(patience=self.patience, load_best=True)]
         # the loss's class weights balance the windows the network trains on: the
@@ -387,6 +407,9 @@ class RawCNNClassifier(_WindowCNN):
         The trained network.
     n_epochs_ : int
         Epochs run.
+    validation_groups_ : numpy.ndarray
+        Runs held out of training for early stopping (validated on, never trained on;
+        the first split that leaves every class a training run); empty without it.
     """
 
     _per_bin = 0
@@ -479,6 +502,9 @@ class SpectrogramCNNClassifier(_WindowCNN):
         The trained network.
     n_epochs_ : int
         Epochs run.
+    validation_groups_ : numpy.ndarray
+        Runs held out of training for early stopping (validated on, never trained on;
+        the first split that leaves every class a training run); empty without it.
     """
 
     _per_bin = 1

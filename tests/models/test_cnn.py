@@ -243,3 +243,29 @@ def test_noise_copy_still_learns_the_planted_vibration():
     model = SpectrogramCNNClassifier(rate_hz=RATE_HZ, augment_noise_std=0.3, random_state=0,
                                      **FAST).fit(X[train], y[train])
     assert (model.predict(X[~train]) == y[~train]).mean() > 0.9
+
+
+def test_early_stopping_never_holds_out_every_run_of_a_class():
+    # A, B with 4 runs each and C with one: StratifiedGroupKFold(5, seed 3)'s first split
+    # held out C's only run, so the network was trained on A and B alone, C kept in
+    # classes_ with an untrained output, without a word
+    rng = np.random.default_rng(0)
+    runs = [("A", f"a{i}") for i in range(4)] + [("B", f"b{i}") for i in range(4)] + [("C", "c0")]
+    X = np.concatenate([rng.normal(size=(10, 2, 32)) + k for k in range(len(runs))])
+    y = np.repeat([lab for lab, _ in runs], 10)
+    groups = np.repeat([run for _, run in runs], 10)
+    _, y_idx = np.unique(y, return_inverse=True)
+    _, first_val = next(StratifiedGroupKFold(5, shuffle=True, random_state=3)
+                        .split(X, y_idx, groups))
+    assert "c0" in set(groups[first_val])          # the split the fit used to take
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True,
+                             random_state=3).fit(X, y, groups=groups)
+    held = set(model.validation_groups_)
+    assert held and "c0" not in held
+    assert set(y[~np.isin(groups, list(held))]) == {"A", "B", "C"}
+    # one run per class: every split holds out some class's only run; refused, named
+    one_each = np.isin(groups, ["a0", "b0", "c0"])
+    with pytest.raises(ConfigError, match="'A'"):
+        RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True,
+                         validation_splits=2).fit(X[one_each], y[one_each],
+                                                  groups=groups[one_each])
