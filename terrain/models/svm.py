@@ -304,7 +304,11 @@ class SVMPipeline(CompiledPipeline):
         return cached[1]
 
     def _compiled_proba(self, compiled: _CalibratedRBF, Xt) -> np.ndarray:
-        """:func:`calibrated_rbf_proba` of the scaled features."""
+        """:func:`calibrated_rbf_proba` of the scaled features; features that are not all
+        finite (NaN passes the scaler) go to the fitted step, whose SVC refuses them with
+        scikit-learn's error instead of a NaN row."""
+        if not np.isfinite(Xt).all():
+            return self.steps[-1][1].predict_proba(Xt)
         return calibrated_rbf_proba(Xt, compiled)
 
 

@@ -64,3 +64,25 @@ def test_binary_and_uncalibrated_fall_back_to_sklearn():
     plain = SVMPipeline(make_svm(SVMConfig(probability=False)).steps).fit(X, y)
     assert plain._compiled() is None
     np.testing.assert_array_equal(plain.predict(X), Pipeline(plain.steps).predict(X))
+
+
+def _four_class_svm():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(200, 5))
+    y = np.array(list("abcd"))[(X[:, 0] > 0).astype(int) + 2 * (X[:, 1] > 0)]
+    model = SVMPipeline(make_svm(SVMConfig(probability=True)).steps).fit(X, y)
+    assert model._compiled() is not None
+    return model, X
+
+
+def test_fast_path_refuses_nan_features_as_sklearn_does():
+    # the NumPy path gave a NaN row (and predict the first class, 'a') where scikit-learn's
+    # SVC raises 'Input X contains NaN'
+    model, X = _four_class_svm()
+    Xn = X[:2].copy()
+    Xn[0, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        Pipeline(model.steps).predict_proba(Xn)
+    for method in (model.predict_proba, model.predict):
+        with pytest.raises(ValueError, match="NaN"):
+            method(Xn)
