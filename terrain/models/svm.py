@@ -309,7 +309,8 @@ class SVMPipeline(CompiledPipeline):
         scikit-learn's error instead of a NaN row."""
         if not np.isfinite(Xt).all():
             return self.steps[-1][1].predict_proba(Xt)
-        return calibrated_rbf_proba(Xt, compiled)
+        # float64 as the SVC casts it (no copy of float64 features)
+        return calibrated_rbf_proba(np.asarray(Xt, dtype=np.float64), compiled)
 
 
 def svm_window_pipeline(channels: Sequence[str], rate_hz: float, config: SVMConfig = SVMConfig(),
