@@ -16,7 +16,8 @@ Answer: one row per window, ``t_s, terrain, confidence, proba_<CLASS>...,
 target_slip_traction, target_slip_braking, target_slip_steady, window_age_s, flags,
 dropped``; ``dropped`` is true for a window that was not classified, and its reason is in
 ``flags`` (one of :data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: ``gap``, ``short``,
-or a unit rule the service applies per window, ``accel_units``, ``wheel_speed_units``);
+or a unit rule the service applies per window, ``accel_units``, ``wheel_speed_units``, or
+``non_finite_proba``, a NaN or inf among the model's probabilities);
 ``window_age_s`` is null where no window was built (``short``; the in-process service says
 inf, which JSON cannot hold). The readers'
 run-level plausibility rules (:func:`terrain.io.plausibility.check_run`) apply to the

@@ -62,7 +62,9 @@ over twice the top speed of the model's vehicle, so they are in km/h: the reader
 :func:`terrain.io.plausibility.wheel_speed_in_kmh` on one window; not classified; only for
 a model whose metadata names a vehicle of :data:`terrain.io.plausibility.VEHICLE_LIMITS`,
 directly or through its shipped dataset (:func:`terrain.serving.model.model_vehicle`), and
-that uses the wheel speeds), ``clock_restart``, ``low_confidence`` (fallback target).
+that uses the wheel speeds), ``non_finite_proba`` (the model's probabilities for the window
+hold a NaN or inf: no evidence, the filter takes a prediction-only step), ``clock_restart``,
+``low_confidence`` (fallback target).
 """
 
 from __future__ import annotations
@@ -94,7 +96,7 @@ __all__ = ["StreamService", "StreamConfig", "UNCLASSIFIED_FLAGS"]
 #: Flags of a window the service does not classify (the filter takes a prediction-only
 #: step there; see the module docstring).
 UNCLASSIFIED_FLAGS: frozenset[str] = frozenset({"gap", "short", "accel_units",
-                                                "wheel_speed_units"})
+                                                "wheel_speed_units", "non_finite_proba"})
 
 
 class StreamService:
@@ -400,6 +402,8 @@ class StreamService:
         if X is not None:
             raw = self.model.pipeline.predict_proba(X)[0]
             q = np.array([raw[i] if i >= 0 else 0.0 for i in self._pipe_cols])
+            if not np.isfinite(q).all():   # the filter takes no evidence from it
+                flags.add("non_finite_proba")
         decided, p = self._filter.update(q)
         terrain = None if decided is None else self.model.classes[decided]
         conf = 0.0 if decided is None else float(p[decided])

@@ -105,7 +105,8 @@ def forward_step(p_prev: np.ndarray, q: np.ndarray | None, p_switch: float,
         ``(K,)`` filtered class probabilities of the previous step (sum 1).
     q : numpy.ndarray or None
         ``(K,)`` classifier probabilities of the new window; ``None`` (no valid window):
-        prediction only.
+        prediction only, as for a ``q`` holding a NaN or inf (no evidence: folded in, it
+        would make the probabilities NaN for every later step).
     p_switch : float
         Probability of leaving the current class within one step, in [0, 1].
     evidence_power : float
@@ -121,7 +122,8 @@ def forward_step(p_prev: np.ndarray, q: np.ndarray | None, p_switch: float,
     if q is None:
         return prior
     post = prior * np.maximum(q, PROBA_FLOOR) ** evidence_power
-    return post / post.sum()
+    total = float(post.sum())   # (one scalar check: a NaN or inf in q makes it non-finite)
+    return post / total if math.isfinite(total) else prior
 
 
 def predict_steps(p_prev: np.ndarray, n_steps: int, p_switch: float) -> np.ndarray:
@@ -184,7 +186,9 @@ class ForwardFilter:
         Parameters
         ----------
         q : numpy.ndarray or None
-            ``(K,)`` classifier probabilities; ``None`` when the window was invalid.
+            ``(K,)`` classifier probabilities; ``None`` when the window was invalid. A ``q``
+            with a NaN or infinite entry is no evidence either (taken as ``None``): folded
+            in, it would make ``p`` NaN for every later step.
 
         Returns
         -------
@@ -197,6 +201,8 @@ class ForwardFilter:
         if self.config.dwell_s is None:
             # no memory: an invalid window is no evidence (the last window's probabilities
             # kept would be reported as the current ones)
+            if q is not None and not np.isfinite(q).all():
+                q = None
             self.p = np.full(len(self.p), 1.0 / len(self.p)) if q is None \
                 else np.asarray(q, dtype=float).copy()
         else:

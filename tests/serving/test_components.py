@@ -274,3 +274,22 @@ def test_table_targets_follow_the_desired_slip_table_and_its_fallback():
     for args in [(None, 0.9, False), ("SNOW", 0.1, False), ("SNOW", 0.9, True)]:
         assert tuple(targets.target_for(*args)) == (fb.traction, fb.braking, fb.steady)
     assert targets.fallback.traction == fb.traction
+
+
+@pytest.mark.parametrize("dwell_s", [10.0, None])
+def test_a_window_of_non_finite_probabilities_is_no_evidence_and_never_poisons_the_filter(
+        dwell_s):
+    # a NaN (or inf) window made p NaN for good: every later decision named class 0 (argmax
+    # of NaN) with a NaN confidence, whatever the windows said
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=dwell_s))
+    good = np.array([0.1, 0.7, 0.2])
+    filt.update(good)
+    ref = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=dwell_s))
+    ref.update(good)
+    for bad in (np.full(3, np.nan), np.array([np.inf, 1.0, 0.0]), np.array([0.5, np.nan, 0.5])):
+        decided, p = filt.update(bad)
+        assert np.isfinite(p).all() and p.sum() == pytest.approx(1.0)
+        np.testing.assert_allclose(p, ref.update(None)[1])    # a prediction-only step
+        assert decided == 1
+    decided, p = filt.update(good)
+    assert decided == 1 and np.isfinite(p).all() and p.sum() == pytest.approx(1.0)

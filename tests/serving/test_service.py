@@ -1464,3 +1464,37 @@ def test_samples_lost_from_a_full_hold_ahead_flag_the_windows_that_would_read_th
     released = [d for d in got if d.t_s > held_until]
     assert "short" in released[0].flags
     assert flagged == [d.t_s for d in released if d.t_s - window_s <= lost_until + 1e-9]
+
+
+class _NaNEvery:
+    """A fitted pipeline whose every ``k``-th window's probabilities are NaN."""
+
+    def __init__(self, pipeline, k):
+        self.pipeline, self.k, self.calls = pipeline, k, 0
+        self.classes_ = pipeline.classes_
+
+    def predict_proba(self, X):
+        self.calls += 1
+        out = self.pipeline.predict_proba(X)
+        return np.full_like(out, np.nan) if self.calls % self.k == 0 else out
+
+
+@pytest.mark.parametrize("smoothing", [SmoothingConfig(), RAW])
+def test_a_model_answering_nan_probabilities_flags_its_window_and_the_filter_goes_on(
+        wheel_model, unseen_run, smoothing):
+    # one NaN answer of the pipeline made the filter's p NaN for good: every later decision
+    # named the first class with a NaN confidence (and the fallback target), silently
+    frame = unseen_run.streams["wheels"].iloc[:1500]
+    clean = push_wheels(service(wheel_model, smoothing=smoothing), frame)
+    model = replace(wheel_model, pipeline=_NaNEvery(wheel_model.pipeline, 10))
+    got = push_wheels(service(model, smoothing=smoothing), frame)
+    assert len(got) == len(clean) > 30
+    bad = [d for d in got if "non_finite_proba" in d.flags]
+    assert len(bad) == model.pipeline.calls // 10 > 0
+    for d in got:
+        assert np.isfinite(d.proba).all() and d.proba.sum() == pytest.approx(1.0)
+        assert np.isfinite(d.confidence)
+    # windows classified before the first NaN answer are untouched
+    first = got.index(bad[0])
+    assert [d.terrain for d in got[:first]] == [d.terrain for d in clean[:first]]
+    assert {d.terrain for d in got[first + 1:]} == {d.terrain for d in clean[first + 1:]}
