@@ -90,7 +90,9 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
     run_ids, t_s : numpy.ndarray
         ``(n_windows,)`` run of each window and its time, s (windows are ordered by it).
     hop_s : float
-        Time between consecutive windows, s.
+        Time between consecutive windows, s. Windows a run lacks (``t_s`` more than one
+        hop apart, e.g. around a timestamp gap) are the filter's prediction-only steps
+        (:meth:`~terrain.serving.smoothing.ForwardFilter.skip`), as in the live service.
     config : SmoothingConfig
 
     Returns
@@ -103,7 +105,10 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
         idx = np.flatnonzero(run_ids == run)
         idx = idx[np.argsort(t_s[idx], kind="stable")]
         filt = ForwardFilter(proba.shape[1], hop_s, config)
-        for i in idx:
+        # hops without a window before each one (0 for windows one hop apart)
+        missing = np.maximum(np.rint(np.diff(t_s[idx], prepend=t_s[idx[0]]) / hop_s) - 1, 0)
+        for i, n in zip(idx, missing.astype(int)):
+            filt.skip(n)
             out[i] = filt.update(proba[i])[0]
     return out
 

@@ -9,7 +9,8 @@ import pytest
 
 from terrain.errors import DataFormatError
 from terrain.serving.evaluation import (StreamScore, encode_stream_scores, pool_scores,
-                                        read_stream_scores, seed_accuracies)
+                                        read_stream_scores, seed_accuracies, smooth_runs)
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 
 
 def _rows():
@@ -137,3 +138,26 @@ def test_window_cv_smooths_at_the_hop_its_windows_were_cut_at():
                   for hop in (0.25, 0.2))
     assert cut["n_windows"] == exact["n_windows"]
     assert cut["pooled_accuracy"] == exact["pooled_accuracy"]
+
+
+def test_smooth_runs_predicts_across_the_windows_a_run_lacks():
+    # windows dropped inside a run (make_windows leaves out a window holding a gap) were
+    # filtered as if one hop apart: 10 minutes without a window kept the old terrain's
+    # belief (p 0.98 -> decided CLASS 0 against a window naming 1); the filter now takes the
+    # missing hops' prediction steps, as the live service does (ForwardFilter.skip)
+    config = SmoothingConfig(dwell_s=10.0)
+    first, later = np.array([0.99, 0.01]), np.array([0.35, 0.65])
+    proba = np.array([first, first, later])
+    t = np.array([0.0, 0.5, 600.5])
+    runs = np.array(["a", "a", "a"])
+    ref = ForwardFilter(2, 0.5, config)
+    ref.update(first)
+    ref.update(first)
+    ref.skip(1199)
+    assert smooth_runs(proba, runs, t, 0.5, config).tolist() == [0, 0, ref.update(later)[0]]
+    assert ref.current == 1
+    # windows one hop apart (up to round-off) are filtered as before
+    t_even = np.array([0.0, 0.5, 1.0 + 1e-9])
+    plain = ForwardFilter(2, 0.5, config)
+    assert smooth_runs(proba, runs, t_even, 0.5, config).tolist() == \
+        [plain.update(q)[0] for q in proba]
