@@ -20,7 +20,10 @@ the vehicle's data, the run's terrain among its classes); otherwise the label is
 reason in the JSON (terrain_source).
 
 JSON fields: slip_rmse, peak_slip, time_to_speed_s, energy_j_per_m (V_bus x motor currents),
-distance_m, mean_speed_m_s, terrain_accuracy and more (terrain.control.closed_loop.loop_metrics).
+distance_m, mean_speed_m_s, terrain_accuracy, speed_limit_clipped_steps and
+correction_clipped_steps (per motor, physics steps whose command, before and after the
+controller's correction, was clipped at the wheel speed limit; a note says so when any was)
+and more (terrain.control.closed_loop.loop_metrics).
 """
 
 from __future__ import annotations
@@ -190,4 +193,9 @@ def main(args: argparse.Namespace) -> int:
         trace_frame(sim, loop).to_csv(args.csv, index=False, float_format="%.6g")
     print(f"wrote {args.json}: peak_slip {metrics['peak_slip']:.3f}, "
           f"energy {metrics['energy_j_per_m']:.1f} J/m")
+    clips = {key: metrics[key] for key in ("speed_limit_clipped_steps",
+                                           "correction_clipped_steps") if any(metrics[key])}
+    if clips:
+        print(f"note: wheel commands clipped at the speed limit, physics steps per motor: "
+              f"{clips} (the run does not follow the command there)")
     return 0

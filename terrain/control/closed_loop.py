@@ -319,7 +319,11 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control
         steps whose decision
         equals the true terrain; no decision counts as wrong), ``terrain_decisions`` (control
-        steps per decided class, ``NONE`` = no decision yet).
+        steps per decided class, ``NONE`` = no decision yet), ``speed_limit_clipped_steps``
+        (per motor, physics steps whose low-level command was clipped at the wheel speed
+        limit) and ``correction_clipped_steps`` (per motor, those whose command plus the
+        controller's correction was; None for a run without a hook), from the run's
+        :class:`~terrain.sim.dynamics.PhysicsResult`.
     """
     phys = sim.physics
     vehicle = get_vehicle(sim.config.vehicle)
@@ -400,6 +404,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "terrain_decisions": {str(k): int(v) for k, v in zip(*np.unique(decided,
                                                                         return_counts=True))},
         "bus_voltage_v": bus_voltage_v,
+        "speed_limit_clipped_steps": phys.speed_clipped_steps.tolist(),
+        "correction_clipped_steps": (None if phys.correction_clipped_steps is None
+                                     else phys.correction_clipped_steps.tolist()),
     }
 
 

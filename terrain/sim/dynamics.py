@@ -155,6 +155,10 @@ class PhysicsResult:
     speed_clipped_steps : ndarray of int, shape (m,)
         Physics steps on which each motor's command from ``twist_cmd`` (before a closed
         loop's correction) exceeded the motor speed limit and was clipped to it.
+    correction_clipped_steps : ndarray of int, shape (m,), or None
+        Closed loop only (None without a hook): physics steps on which each motor's
+        corrected command (low-level command plus the hook's correction) exceeded the motor
+        speed limit and was clipped to it.
     """
 
     t_s: np.ndarray
@@ -171,6 +175,7 @@ class PhysicsResult:
     terrain_index: np.ndarray
     terrain_names: tuple[str, ...]
     speed_clipped_steps: np.ndarray
+    correction_clipped_steps: np.ndarray | None = None
 
 
 class PlantSnapshot(NamedTuple):
@@ -331,9 +336,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     hook : ControlHook, optional
         Closed loop: called after every step with a :class:`PlantSnapshot`; the correction
         it returns (rad/s per motor) is added to the low-level wheel command of the following
-        steps, the sum clipped to the speed limit, and ``omega_cmd`` of the result records
-        the corrected command. None (default): open loop, the commands of ``twist_cmd``
-        unchanged (bit-identical to a run without the argument).
+        steps, the sum clipped to the speed limit (counted in ``correction_clipped_steps``),
+        and ``omega_cmd`` of the result records the corrected command. None (default): open
+        loop, the commands of ``twist_cmd`` unchanged (bit-identical to a run without the
+        argument).
     physics : str
         ``v1`` (static loads, Coulomb lateral friction) or ``v2`` (load transfer, lateral
         wheel-soil model on soils), :data:`terrain.sim.forces.PHYSICS_VERSIONS`.
@@ -399,8 +405,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     omega_cmd, delta_cmd, clipped = wheel_commands(vehicle, geometry, twist_cmd)
     omega_ll = omega_cmd
     correction = np.zeros(nm)
+    wmax = motor.max_wheel_speed_rad_s
+    corr_clipped = None
     if hook is not None:
         omega_cmd = omega_cmd.copy()
+        corr_clipped = np.zeros(nm, dtype=np.int64)
     if steer_offset_rad is not None:
         delta_cmd = delta_cmd + steer_offset_rad
 
@@ -433,8 +442,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             maps = fixed_maps
         omega_prev = omega
         if hook is not None:
-            omega_cmd[k] = np.clip(omega_ll[k] + correction, -motor.max_wheel_speed_rad_s,
-                                   motor.max_wheel_speed_rad_s)
+            wanted = omega_ll[k] + correction
+            corr_clipped += np.abs(wanted) > wmax
+            omega_cmd[k] = np.clip(wanted, -wmax, wmax)
         omega = omega + alpha_m * (omega_cmd[k] - omega)
         dw = (omega - omega_prev) / dt
         # force model, then gravity and the Coriolis terms of the body-frame equations:
@@ -510,4 +520,5 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                          delta=delta_out, torque=torque_out, pitch=pitch, roll=roll,
                          terrain_index=terr_out,
                          terrain_names=tuple(t.name for t in terrains),
-                         speed_clipped_steps=clipped)
+                         speed_clipped_steps=clipped,
+                         correction_clipped_steps=corr_clipped)

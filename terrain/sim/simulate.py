@@ -25,7 +25,9 @@ Streams (file columns in brackets where the file names them differently):
 
 Metadata ``speed_limit_clipped_steps``: per motor, the physics steps on which the scenario's
 command asked for more than the motor speed limit and was clipped to it (per side or wheel;
-``terrain simulate`` says so in a note).
+``terrain simulate`` says so in a note). Closed loop only, ``correction_clipped_steps``: per
+motor, the physics steps on which the command plus the controller's correction exceeded the
+limit and was clipped to it (``terrain control-sim`` reports both counts in its JSON).
 """
 
 from __future__ import annotations
@@ -514,6 +516,9 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         "sensor_settings": _jsonable(sensors),
         # physics steps on which each motor's command exceeded its speed limit (clipped there)
         "speed_limit_clipped_steps": phys.speed_clipped_steps.tolist(),
+        # closed loop: steps on which the corrected command exceeded it (clipped there)
+        **({"correction_clipped_steps": phys.correction_clipped_steps.tolist()}
+           if phys.correction_clipped_steps is not None else {}),
         # the simulated visual-odometry outages and the camera rows they removed
         **({"cam_outages_s": cam_outages, "cam_rows_dropped": int(np.sum(~keep))}
            if geometry.steered else {}),

@@ -490,3 +490,34 @@ def test_a_full_terrain_folder_is_refused_as_full(tmp_path, husky_orchard):
         write_run(husky_orchard, tmp_path)
     with pytest.raises(ConfigError, match=r"\[0, 99\], got 100"):
         write_run(husky_orchard, tmp_path, index=100)
+
+
+def test_closed_loop_corrections_clipped_at_the_speed_limit_are_counted():
+    """A closed loop's correction added to the low-level command was clipped at the motor
+    speed limit without a count (``speed_limit_clipped_steps`` counts the command before the
+    correction only). The integrator now counts those steps per motor, when a hook runs, and
+    the run's metadata carries them."""
+    cfg = SimConfig(terrains=("ASPHALT",), scenario="straight_accel", duration_s=2.0, seed=0)
+    open_loop = simulate_with_physics(cfg)
+    assert open_loop.physics.correction_clipped_steps is None
+    assert "correction_clipped_steps" not in open_loop.run.meta
+    wmax = HUSKY.motor.max_wheel_speed_rad_s
+
+    def hook(snap):
+        # left side pushed past +limit from step 10 on, right past -limit from step 20 on;
+        # exactly at the limit is no clip
+        if snap.step == 0:
+            return np.array([0.0, 0.0])
+        if snap.step in (9, 19):
+            return np.array([2.0 * wmax, -2.0 * wmax if snap.step == 19 else 0.0])
+        return None
+
+    sim = simulate_with_physics(cfg, hook=hook)
+    n = len(sim.physics.t_s)
+    assert sim.physics.correction_clipped_steps.tolist() == [n - 10, n - 20]
+    assert sim.run.meta["correction_clipped_steps"] == [n - 10, n - 20]
+    assert sim.run.meta["speed_limit_clipped_steps"] == [0, 0]
+    np.testing.assert_array_equal(sim.physics.omega_cmd[10:, 0], wmax)
+    np.testing.assert_array_equal(sim.physics.omega_cmd[20:, 1], -wmax)
+    at_limit = simulate_with_physics(cfg, hook=lambda snap: np.zeros(2))
+    assert at_limit.physics.correction_clipped_steps.tolist() == [0, 0]
