@@ -22,8 +22,9 @@ reason in the JSON (terrain_source).
 JSON fields: slip_rmse, peak_slip, time_to_speed_s, energy_j_per_m (V_bus x motor currents),
 distance_m, mean_speed_m_s, terrain_accuracy, speed_limit_clipped_steps and
 correction_clipped_steps (per motor, physics steps whose command, before and after the
-controller's correction, was clipped at the wheel speed limit; a note says so when any was)
-and more (terrain.control.closed_loop.loop_metrics).
+controller's correction, was clipped at the wheel speed limit; a note says so when any was),
+controller_cam_rows_dropped (AgriMaRo: camera samples the controller's own camera outages
+removed) and more (terrain.control.closed_loop.loop_metrics).
 """
 
 from __future__ import annotations

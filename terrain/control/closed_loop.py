@@ -323,7 +323,8 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         (per motor, physics steps whose low-level command was clipped at the wheel speed
         limit) and ``correction_clipped_steps`` (per motor, those whose command plus the
         controller's correction was; None for a run without a hook), from the run's
-        :class:`~terrain.sim.dynamics.PhysicsResult`.
+        :class:`~terrain.sim.dynamics.PhysicsResult`, and ``controller_cam_rows_dropped``
+        (camera samples the controller's camera outages removed; None without a camera).
     """
     phys = sim.physics
     vehicle = get_vehicle(sim.config.vehicle)
@@ -407,6 +408,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "speed_limit_clipped_steps": phys.speed_clipped_steps.tolist(),
         "correction_clipped_steps": (None if phys.correction_clipped_steps is None
                                      else phys.correction_clipped_steps.tolist()),
+        "controller_cam_rows_dropped": sim.run.meta.get("controller_cam_rows_dropped"),
     }
 
 

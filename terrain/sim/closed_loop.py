@@ -27,13 +27,16 @@ The IMU comes in two views of the same samples (same white noise and bias draws)
 Other simplifications against the batch sensor model of :mod:`terrain.sim.simulate` (which
 still writes the run's logged streams from the physics): no sensor lag, no planted effects;
 noise from generators of their own (seeded from the run's seed), so the logged streams keep
-the open-loop run's noise draws.
+the open-loop run's noise draws. The camera outages the controller sees are drawn there too,
+so they differ from the logged streams' (metadata ``cam_outages_s``): a closed-loop run's
+metadata lists them as ``controller_cam_outages_s`` (``[start, end)``, s) and counts the
+camera rows they removed, ``controller_cam_rows_dropped`` (:func:`simulate_closed_loop`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
@@ -121,7 +124,9 @@ class OnlineSensors:
     ``current_noise_a`` and the quantum ``current_quantum_a`` (the planted current effects
     of the batch model are not applied). The IMU's vibration, ``wx, wy, az`` noise and the
     ``az`` bias come from a third generator, so the other draws are those of the IMU without
-    them.
+    them. The camera outages (``outages``, ``[start, end)`` pairs, s) are drawn at start
+    from the sensors' own generator; ``cam_rows_dropped`` counts the camera samples they
+    removed so far.
 
     Raises
     ------
@@ -156,6 +161,7 @@ class OnlineSensors:
         n_out = self.rng.poisson(s.cam_outage_rate_hz * duration_s)
         self.outages = [(a, a + b) for a, b in zip(self.rng.uniform(0, duration_s, n_out),
                                                    self.rng.uniform(0.5, 2.0, n_out))]
+        self.cam_rows_dropped = 0       # camera samples the outages removed
         self._angle = 0.0
         self._counts = 0.0
         self._omega_prev = 0.0
@@ -228,7 +234,9 @@ class OnlineSensors:
         c = self.ch["cam"]
         if t + eps >= c.next_t:
             c.next_t += c.period_s
-            if not any(a <= t < b for a, b in self.outages):
+            if any(a <= t < b for a, b in self.outages):
+                self.cam_rows_dropped += 1
+            else:
                 lever = self.vehicle.camera_lever_arm_m
                 vx, vy, w = snap.twist.tolist()
                 n = self.rng.standard_normal(4)
@@ -380,7 +388,9 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     -------
     Simulation
         As :func:`terrain.sim.simulate.simulate_with_physics`; ``physics.omega_cmd`` holds
-        the corrected commands.
+        the corrected commands. With a camera, the run's metadata adds the outages of the
+        controller's camera, ``controller_cam_outages_s`` (``[start, end)`` of each, s), and
+        ``controller_cam_rows_dropped`` (camera samples they removed).
 
     Raises
     ------
@@ -393,7 +403,13 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     _check_sensor_rates(config, settings)
     sensors = OnlineSensors(config.vehicle, settings, config.seed, config.duration_s,
                             config.physics, config.terrains)
-    return simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))
+    sim = simulate_with_physics(config, make_hook(sensors, controller, control_rate_hz))
+    if not sensors.steered:
+        return sim
+    meta = {**sim.run.meta,
+            "controller_cam_outages_s": [[float(a), float(b)] for a, b in sensors.outages],
+            "controller_cam_rows_dropped": int(sensors.cam_rows_dropped)}
+    return replace(sim, run=replace(sim.run, meta=meta))
 
 
 def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):

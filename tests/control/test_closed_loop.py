@@ -145,6 +145,7 @@ def test_control_sim_command_writes_the_json_fields(tmp_path):
     assert r["terrain_source"].startswith("label")
     # both clip counts of the wheel commands at the speed limit, per side (none here)
     assert r["speed_limit_clipped_steps"] == r["correction_clipped_steps"] == [0, 0]
+    assert r["controller_cam_rows_dropped"] is None          # no camera on the Husky
     # default gains follow the estimator: the fused estimate's tuning, the observer's own
     assert (r["estimator"], r["kp"], r["ki"]) == ("husky-fused-slip-ekf", 2.0, 0.0)
     assert 0.0 < r["peak_slip"] <= 1.0 and r["distance_m"] > 1.0

@@ -182,3 +182,31 @@ def test_a_controller_correction_of_the_wrong_shape_or_not_finite_is_a_typed_err
         simulate_closed_loop(config, lambda o: np.zeros(3))
     closed = simulate_closed_loop(config, lambda o: [0.0, 0.0])
     assert np.isfinite(closed.physics.twist).all()
+
+
+def test_the_closed_loop_run_records_the_camera_outages_its_controller_saw():
+    """The online camera draws its outages from a generator of its own, so a closed-loop
+    controller lost the camera at other times than the run's metadata (the logged streams'
+    draws) said, and its dropped rows were counted nowhere: AgriMaRo GRASS straight_accel
+    seed 5, 20 s, the controller had no camera from 8.04 to 9.94 s while ``cam_outages_s``
+    was [] and ``cam_rows_dropped`` 0. The metadata now also lists the controller's outages
+    and counts the camera rows they removed."""
+    from terrain.sim.closed_loop import simulate_closed_loop
+
+    cfg = SimConfig(vehicle="agrimaro", terrains=("GRASS",), scenario="straight_accel",
+                    duration_s=20.0, seed=5)
+    seen = []
+    sim = simulate_closed_loop(cfg, lambda obs: seen.append(obs) or np.zeros(3), 50.0)
+    assert sim.run.meta["cam_outages_s"] == [] and sim.run.meta["cam_rows_dropped"] == 0
+    outages = sim.run.meta["controller_cam_outages_s"]
+    assert len(outages) == 1 and outages[0][0] == pytest.approx(8.04, abs=0.01)
+    cam_t = np.concatenate([obs.cam[:, 0] for obs in seen])
+    start, end = outages[0]
+    assert not np.any((cam_t >= start) & (cam_t < end))
+    dropped = sim.run.meta["controller_cam_rows_dropped"]
+    rate = DEFAULT_SENSORS["agrimaro"].cam_rate_hz
+    assert abs(dropped - (end - start) * rate) <= 1
+    assert dropped + len(cam_t) == len(np.arange(0.0, 20.0 + 1e-9, 1.0 / rate))
+    husky = simulate_closed_loop(SimConfig(terrains=("GRASS",), duration_s=2.0),
+                                 lambda obs: np.zeros(2), 50.0)
+    assert "controller_cam_outages_s" not in husky.run.meta     # no camera on the Husky
