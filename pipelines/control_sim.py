@@ -192,8 +192,9 @@ def main(args: argparse.Namespace) -> int:
     if args.csv:
         Path(args.csv).parent.mkdir(parents=True, exist_ok=True)
         trace_frame(sim, loop).to_csv(args.csv, index=False, float_format="%.6g")
-    print(f"wrote {args.json}: peak_slip {metrics['peak_slip']:.3f}, "
-          f"energy {metrics['energy_j_per_m']:.1f} J/m")
+    energy = metrics["energy_j_per_m"]      # None for a run that does not move
+    print(f"wrote {args.json}: peak_slip {metrics['peak_slip']:.3f}, energy "
+          + ("n/a (the run did not move)" if energy is None else f"{energy:.1f} J/m"))
     clips = {key: metrics[key] for key in ("speed_limit_clipped_steps",
                                            "correction_clipped_steps") if any(metrics[key])}
     if clips:

@@ -485,3 +485,20 @@ def test_an_acceleration_filter_time_constant_that_is_not_finite_and_non_negativ
     with pytest.raises(ConfigError, match="accel_tau_s"):
         TractionLoop(ctrl_cfg, n, _FixedEstimator(0.6, 1.0, -1.0, ctrl_cfg.wheel_radius_m),
                      build_slip_table(["ICE"]), lambda t: ("ICE", 1.0), accel_tau_s=tau)
+
+
+def test_control_sim_prints_a_run_that_does_not_move(tmp_path, capsys):
+    """The Husky held on the 15 deg SNOW slope for 0.2 s travels under MIN_DISTANCE_M, so its
+    energy per metre is None; control-sim's summary line formatted it with ``:.1f`` and
+    ended in "internal error: TypeError: unsupported format string passed to
+    NoneType.__format__" after writing the JSON. It now prints n/a."""
+    import json
+
+    from terrain.cli import main
+
+    out = tmp_path / "r.json"
+    assert main(["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario",
+                 "slope_turn", "--controller", "off", "--duration-s", "0.2",
+                 "--terrain-source", "label", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["energy_j_per_m"] is None
+    assert "energy n/a" in capsys.readouterr().out
