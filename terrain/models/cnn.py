@@ -44,6 +44,7 @@ from sklearn.utils.validation import (check_array, check_consistent_length, chec
                                       column_or_1d)
 
 from terrain.errors import ConfigError
+from terrain.models.cv import require_runs
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
 POWER_FLOOR = 1e-10
@@ -168,7 +169,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         """Training and validation rows of early stopping: the first split of
         ``StratifiedGroupKFold(validation_splits)`` (seed ``random_state``) whose training
         runs hold every class, so no class is held out whole (a class of one run would
-        otherwise be validated on but never trained on). ConfigError when no split does."""
+        otherwise be validated on but never trained on). ConfigError when no split does,
+        or with fewer runs than ``validation_splits`` (:func:`.cv.require_runs`)."""
+        require_runs(groups, self.validation_splits, "early stopping", "validation_splits",
+                     ("early_stopping=False",))
         inner = StratifiedGroupKFold(self.validation_splits, shuffle=True,
                                      random_state=self.random_state)
         lost = set()
@@ -214,7 +218,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``early_stopping=True`` without ``groups``, or with no validation split that
+            ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
+            integer >= 2 or above the number of runs, or with no validation split that
             leaves a training run of every class.
         ValueError
             ``sample_weight`` of another length than ``y``, negative, not finite, or all 0.

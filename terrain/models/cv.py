@@ -28,7 +28,7 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer, first_items
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 
 PROTOCOLS = ("grouped", "loro", "paper")
@@ -336,6 +336,44 @@ class CVReport:
                     "min": float(self.folds[c].min()), "max": float(self.folds[c].max()),
                     "n_folds": int(self.folds[c].notna().sum())}
                 for c in cols}
+
+
+def require_runs(groups, n_splits, purpose: str, setting: str,
+                 alternatives: Sequence[str] = ()) -> None:
+    """Refuse an inner split by run into more folds than there are runs.
+
+    scikit-learn's own error ("Cannot have number of splits n_splits=5 greater than the
+    number of groups: 3") names neither the runs nor the setting; this one names both.
+
+    Parameters
+    ----------
+    groups : array-like or None
+        ``(n_windows,)`` run of every training window; ``None``: no runs given.
+    n_splits : int
+        Inner folds asked for (``StratifiedGroupKFold(n_splits)``).
+    purpose : str
+        What splits, for the message (e.g. ``"early stopping"``).
+    setting : str
+        The setting that gives ``n_splits`` (e.g. ``"SVMConfig.inner_splits"``).
+    alternatives : sequence of str
+        Other remedies named after "more runs or fewer <setting>" (e.g.
+        ``"early_stopping=False"``).
+
+    Raises
+    ------
+    ConfigError
+        ``n_splits`` not an integer >= 2, or fewer runs than ``n_splits``; the message
+        names the runs (the first three and a count).
+    """
+    config_integer(setting, n_splits, 2)
+    runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
+    if len(runs) < n_splits:
+        given = first_items(runs, word="run") if runs else "no groups given"
+        remedies = ["more runs", f"fewer {setting.rsplit('.', 1)[-1]} (>= 2)", *alternatives]
+        raise ConfigError(f"{purpose} splits its training windows by run into {n_splits} "
+                          f"inner folds ({setting}): it got {len(runs)} runs ({given}) and "
+                          f"needs at least {n_splits}; give {', '.join(remedies[:-1])} or "
+                          f"{remedies[-1]}")
 
 
 def fit_with_groups(estimator, X, y, groups, always: bool = False, **fit_params):

@@ -20,8 +20,8 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
 from features.transformers import WindowFeatures
-from terrain.errors import ConfigError, first_items
 from terrain.models.compiled import CompiledPipeline
+from terrain.models.cv import require_runs
 
 
 @dataclass(frozen=True)
@@ -105,15 +105,8 @@ class GroupedSearch(GridSearchCV):
             Fewer runs than inner folds (``SVMConfig.inner_splits``), ``groups`` missing
             included; the message names the runs.
         """
-        groups = params.get("groups")
-        runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
-        n_splits = self.cv.get_n_splits()
-        if len(runs) < n_splits:
-            given = first_items(runs, word="run") if runs else "no groups given"
-            raise ConfigError(f"the grouped hyperparameter search splits its training windows "
-                              f"by run into {n_splits} inner folds (SVMConfig.inner_splits): "
-                              f"it got {len(runs)} runs ({given}) and needs at least "
-                              f"{n_splits}; give more runs or fewer inner_splits (>= 2)")
+        require_runs(params.get("groups"), self.cv.get_n_splits(),
+                     "the grouped hyperparameter search", "SVMConfig.inner_splits")
         return super().fit(X, y, **params)
 
 

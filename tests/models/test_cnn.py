@@ -269,3 +269,19 @@ def test_early_stopping_never_holds_out_every_run_of_a_class():
         RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True,
                          validation_splits=2).fit(X[one_each], y[one_each],
                                                   groups=groups[one_each])
+
+
+def test_early_stopping_over_fewer_runs_than_validation_splits_is_a_config_error():
+    # three runs for validation_splits=5 reached scikit-learn's bare ValueError "Cannot have
+    # number of splits n_splits=5 greater than the number of groups: 3."
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(30, 2, 32)).astype(np.float32)
+    y = np.repeat(["A", "B", "A"], 10)
+    groups = np.repeat(["r0", "r1", "r2"], 10)
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True)
+    with pytest.raises(ConfigError, match=r"early stopping splits its training windows by run "
+                                          r"into 5 inner folds \(validation_splits\): it got 3 "
+                                          r"runs \(runs r0, r1, r2\) and needs at least 5"):
+        model.fit(X, y, groups=groups)
+    with pytest.raises(ConfigError, match="validation_splits must be an integer >= 2"):
+        model.set_params(validation_splits=1).fit(X, y, groups=groups)
