@@ -38,13 +38,12 @@ from typing import Sequence
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.model_selection import StratifiedGroupKFold
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
                                       column_or_1d)
 
 from terrain.errors import ConfigError
-from terrain.models.cv import require_runs
+from terrain.models.cv import class_keeping_split
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
 POWER_FLOOR = 1e-10
@@ -164,28 +163,6 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             raise ValueError(f"expected 2-D or 3-D windows, got {X.ndim}-D")
         return X
 
-    def _validation_split(self, Z: np.ndarray, y_idx: np.ndarray, groups: np.ndarray
-                          ) -> tuple[np.ndarray, np.ndarray]:
-        """Training and validation rows of early stopping: the first split of
-        ``StratifiedGroupKFold(validation_splits)`` (seed ``random_state``) whose training
-        runs hold every class, so no class is held out whole (a class of one run would
-        otherwise be validated on but never trained on). ConfigError when no split does,
-        or with fewer runs than ``validation_splits`` (:func:`.cv.require_runs`)."""
-        require_runs(groups, self.validation_splits, "early stopping", "validation_splits",
-                     ("early_stopping=False",))
-        inner = StratifiedGroupKFold(self.validation_splits, shuffle=True,
-                                     random_state=self.random_state)
-        lost = set()
-        for fit_idx, val_idx in inner.split(Z, y_idx, groups):
-            missing = np.setdiff1d(np.arange(len(self.classes_)), y_idx[fit_idx])
-            if not missing.size:
-                return fit_idx, val_idx
-            lost.update(self.classes_[missing].tolist())
-        raise ConfigError(f"early stopping holds 1/{self.validation_splits} of the training "
-                          f"runs out, and every such split (seed {self.random_state}) holds "
-                          f"out every run of class(es) {sorted(lost)}: give those classes "
-                          f"more runs, fewer validation_splits, or early_stopping=False")
-
     def _device(self) -> str:
         import torch
         if self.device == "auto":
@@ -255,7 +232,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         if self.early_stopping:
             if groups is None:
                 raise ConfigError("early_stopping needs the run of every window (groups)")
-            fit_idx, val_idx = self._validation_split(Z, y_idx, np.asarray(groups))
+            fit_idx, val_idx = class_keeping_split(
+                y, groups, self.validation_splits, self.random_state, "early stopping",
+                "validation_splits", "early_stopping=False")
             self.validation_groups_ = np.unique(np.asarray(groups)[val_idx])
             train_split = predefined_split(Dataset(Z[val_idx], y_idx[val_idx]))
             callbacks = [EarlyStopping(patience=self.patience, load_best=True)]

@@ -376,6 +376,57 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
                           f"{remedies[-1]}")
 
 
+def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpose: str,
+                        setting: str, alternative: str) -> tuple[np.ndarray, np.ndarray]:
+    """Training and held-out rows of an inner split by run that keeps every class trained.
+
+    The first split of ``StratifiedGroupKFold(n_splits, shuffle=True, random_state)`` whose
+    held-out runs are not empty and whose training runs hold every class: a class of one run
+    would otherwise be held out whole, validated on but never trained on. The same split as
+    the first one whenever that one keeps every class.
+
+    Parameters
+    ----------
+    labels, groups : array-like
+        ``(n_windows,)`` class and run of every training window.
+    n_splits : int
+        ``1 / n_splits`` of the runs are held out.
+    random_state : int
+        Seed of the split's shuffling.
+    purpose : str
+        What the runs are held out for, for the messages (e.g. ``"early stopping"``).
+    setting : str
+        The setting that gives ``n_splits`` (e.g. ``"validation_splits"``).
+    alternative : str
+        A remedy besides more runs and fewer splits (e.g. ``"early_stopping=False"``).
+
+    Returns
+    -------
+    fit_idx, held_idx : numpy.ndarray
+        Integer rows of the training and the held-out windows.
+
+    Raises
+    ------
+    ConfigError
+        Fewer runs than ``n_splits`` or ``n_splits`` not an integer >= 2
+        (:func:`require_runs`), or no split that keeps a training run of every class (the
+        message names the classes held out whole).
+    """
+    require_runs(groups, n_splits, purpose, setting, (alternative,))
+    classes, y_idx = np.unique(np.asarray(labels), return_inverse=True)
+    inner = StratifiedGroupKFold(n_splits, shuffle=True, random_state=random_state)
+    lost = set()
+    for fit_idx, held_idx in inner.split(y_idx, y_idx, np.asarray(groups)):
+        missing = np.setdiff1d(np.arange(len(classes)), y_idx[fit_idx])
+        if held_idx.size and not missing.size:
+            return fit_idx, held_idx
+        lost.update(classes[missing].tolist())
+    raise ConfigError(f"{purpose} holds 1/{n_splits} of the training runs out, and every "
+                      f"such split (seed {random_state}) holds out every run of class(es) "
+                      f"{sorted(lost)}: give those classes more runs, fewer {setting}, or "
+                      f"{alternative}")
+
+
 def fit_with_groups(estimator, X, y, groups, always: bool = False, **fit_params):
     """Fit, passing ``groups`` to estimators whose ``fit`` takes it (searches, ensembles, CNNs).
 

@@ -3,8 +3,9 @@
 The ensemble averages the members' class probabilities with non-negative weights summing
 to 1. With ``weights=None`` and the run of every training window given to ``fit``, the
 weights are chosen on a grid of the simplex (step ``weight_step``) by the log loss of the
-members' probabilities on whole runs held out of the training data (one
-``StratifiedGroupKFold(inner_splits)`` split): nothing outside the training fold is seen.
+members' probabilities on whole runs held out of the training data (the first
+``StratifiedGroupKFold(inner_splits)`` split that leaves every class a training run):
+nothing outside the training fold is seen.
 The members are then refitted on every training window. Without ``groups`` the weights are
 equal.
 """
@@ -18,11 +19,10 @@ from typing import Sequence
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.metrics import log_loss
-from sklearn.model_selection import StratifiedGroupKFold
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError
-from terrain.models.cv import fit_with_groups
+from terrain.models.cv import class_keeping_split, fit_with_groups
 
 
 def normalised_weights(weights, n_members: int) -> np.ndarray:
@@ -151,6 +151,9 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         ``(n_members,)`` weights used.
     weight_scores_ : dict
         Held-out log loss of every weight vector tried (empty with fixed weights).
+    validation_groups_ : numpy.ndarray
+        Runs held out to choose the weights (the first inner split that leaves every
+        class a training run); empty when the weights are not chosen.
     columns_ : list of numpy.ndarray
         Column in ``classes_`` of each fitted member's classes (:func:`class_columns`).
     """
@@ -185,12 +188,15 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         ConfigError
             Fixed ``weights`` not one per member, negative, non-finite or all 0
             (:func:`normalised_weights`); weights to choose with fewer runs (``groups``)
-            than ``inner_splits``, or a ``weight_step`` :func:`simplex_grid` refuses.
+            than ``inner_splits``, or where every inner split holds out every run of a
+            class (:func:`~terrain.models.cv.class_keeping_split`), or a ``weight_step``
+            :func:`simplex_grid` refuses.
         """
         y = np.asarray(y)
         self.classes_ = np.unique(y)
         n = len(self.estimators)
         self.weight_scores_ = {}
+        self.validation_groups_ = np.asarray([] if groups is None else groups)[:0]
         if self.weights is not None:
             self.weights_ = normalised_weights(self.weights, n)
         elif groups is None:
@@ -198,20 +204,10 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         else:
             groups = np.asarray(groups)
             grid = simplex_grid(n, self.weight_step)
-            n_runs = len(np.unique(groups))
-            if not 2 <= self.inner_splits <= n_runs:
-                # scikit-learn's bare "Cannot have number of splits ..." otherwise
-                raise ConfigError(f"choosing the ensemble weights holds 1/{self.inner_splits} "
-                                  f"of the training runs out, and there are {n_runs}: give "
-                                  f"inner_splits from 2 to {n_runs}, fixed weights or more runs")
-            inner = StratifiedGroupKFold(self.inner_splits, shuffle=True,
-                                         random_state=self.random_state)
-            tr, va = next(inner.split(X, y, groups))
-            if not len(va):
-                raise ConfigError(f"StratifiedGroupKFold({self.inner_splits}, seed "
-                                  f"{self.random_state}) holds no run out of the {n_runs} "
-                                  "to choose the ensemble weights: fewer inner_splits or "
-                                  "more runs")
+            tr, va = class_keeping_split(y, groups, self.inner_splits, self.random_state,
+                                         "choosing the ensemble weights", "inner_splits",
+                                         "fixed weights")
+            self.validation_groups_ = np.unique(groups[va])
             probas = [aligned_proba(fit_with_groups(clone(est), X[tr], y[tr], groups[tr]), X[va],
                                     self.classes_) for _, est in self.estimators]
             best, best_w = np.inf, None

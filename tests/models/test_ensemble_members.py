@@ -117,7 +117,8 @@ def test_weights_to_choose_refuse_too_few_runs_and_an_off_grid_step():
     three_runs = np.repeat(["r0", "r1", "r2"], [14, 13, 13])
     # 4 inner folds over 3 runs: scikit-learn's bare ValueError ('Cannot have number of
     # splits n_splits=4 greater than the number of groups: 3')
-    with pytest.raises(ConfigError, match="there are 3"):
+    with pytest.raises(ConfigError, match=r"into 4 inner folds \(inner_splits\): it got 3 runs "
+                                          r"\(runs r0, r1, r2\)"):
         SoftVotingEnsemble(members).fit(X, y, groups=three_runs)
     ten_runs = np.repeat([f"r{i}" for i in range(10)], 4)
     with pytest.raises(ConfigError, match="weight_step"):      # was a ZeroDivisionError
@@ -142,3 +143,35 @@ def test_predict_before_fit_is_not_fitted_error():
     for method in (ens.predict, ens.predict_proba):
         with pytest.raises(NotFittedError, match="not fitted"):
             method(X)
+
+
+def test_weights_are_never_chosen_on_every_run_of_a_class():
+    # A, B with 4 runs each and C with one: StratifiedGroupKFold(4, seed 0)'s first split
+    # held out C's only run, so the members that scored the weights never saw C (log loss
+    # 9.28 at best, C's column 0) and the weights were chosen on that, without a word
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.model_selection import StratifiedGroupKFold
+
+    from terrain.errors import ConfigError
+    from terrain.models.ensemble import SoftVotingEnsemble
+
+    rng = np.random.default_rng(0)
+    runs = [("A", f"a{i}") for i in range(4)] + [("B", f"b{i}") for i in range(4)] + [("C", "c0")]
+    X = np.concatenate([rng.normal(size=(10, 3)) + 3 * "ABC".index(lab) for lab, _ in runs])
+    y = np.repeat([lab for lab, _ in runs], 10)
+    groups = np.repeat([run for _, run in runs], 10)
+    _, first_val = next(StratifiedGroupKFold(4, shuffle=True, random_state=0)
+                        .split(X, y, groups))
+    assert "c0" in set(groups[first_val])          # the split the fit used to take
+    members = [("a", LogisticRegression()), ("b", LogisticRegression(C=0.01))]
+    ens = SoftVotingEnsemble(members).fit(X, y, groups=groups)
+    held = set(ens.validation_groups_)
+    assert held and "c0" not in held
+    assert set(y[~np.isin(groups, list(held))]) == {"A", "B", "C"}
+    assert min(ens.weight_scores_.values()) < 1.0
+    # one run per class: every split holds out some class's only run; refused, named
+    one_each = np.isin(groups, ["a0", "a1", "b0", "c0"])
+    with pytest.raises(ConfigError, match=r"choosing the ensemble weights .*class\(es\) "
+                                          r"\['.*'C'\]"):
+        SoftVotingEnsemble(members, inner_splits=2).fit(X[one_each], y[one_each],
+                                                        groups=groups[one_each])
