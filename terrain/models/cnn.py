@@ -42,7 +42,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
                                       column_or_1d)
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.models.cv import class_keeping_split
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -211,6 +211,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         check_consistent_length(X, y)
         check_classification_targets(y)
         self.n_features_in_ = X.shape[1]
+        self.window_shape_ = as_windows(X).shape[1:]
         self.classes_, y_idx = np.unique(y, return_inverse=True)
         if len(self.classes_) < 2:
             raise ValueError("need at least 2 classes, got 1 class")
@@ -298,6 +299,14 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         -------
         numpy.ndarray
             ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+
+        Raises
+        ------
+        ValueError
+            Another number of channels than in ``fit``.
+        ShapeError
+            Windows of another length than in ``fit`` (``window_shape_``; a model saved
+            before it was recorded takes any length).
         """
         import torch
 
@@ -306,6 +315,12 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         if X.shape[1] != self.n_features_in_:
             raise ValueError(f"X has {X.shape[1]} features, but {type(self).__name__} is "
                              f"expecting {self.n_features_in_} features as input (channels)")
+        shape = getattr(self, "window_shape_", None)     # None: saved before it was kept
+        if shape is not None and X.shape[-1] != shape[-1]:
+            raise ShapeError(f"{type(self).__name__} was fitted on windows of shape {shape} "
+                             f"(channels, samples) and got {as_windows(X).shape[1:]}: "
+                             "windows of another length run through its pooling but are "
+                             "off its training distribution; cut them as for training")
 
         Z = self._standardise(self._inputs(as_windows(X)))
         module = self.net_.module_
@@ -387,6 +402,9 @@ class RawCNNClassifier(_WindowCNN):
         Terrain labels, in the order of ``predict_proba``.
     mean_, scale_ : numpy.ndarray
         ``(n_channels, 1)`` training-window mean and standard deviation per channel.
+    window_shape_ : tuple of int
+        ``(n_channels, n_samples)`` of the training windows; ``predict_proba`` refuses
+        another.
     net_ : skorch.NeuralNetClassifier
         The trained network.
     n_epochs_ : int
@@ -482,6 +500,9 @@ class SpectrogramCNNClassifier(_WindowCNN):
         channel's log power per frequency bin.
     freqs_hz_ : numpy.ndarray
         ``(n_freqs,)`` bin frequencies, Hz.
+    window_shape_ : tuple of int
+        ``(n_channels, n_samples)`` of the training windows; ``predict_proba`` refuses
+        another.
     net_ : skorch.NeuralNetClassifier
         The trained network.
     n_epochs_ : int

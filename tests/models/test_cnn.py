@@ -12,7 +12,7 @@ import pytest
 from sklearn.model_selection import StratifiedGroupKFold
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier, log_spectrogram
 
 RATE_HZ = 100.0
@@ -285,3 +285,22 @@ def test_early_stopping_over_fewer_runs_than_validation_splits_is_a_config_error
         model.fit(X, y, groups=groups)
     with pytest.raises(ConfigError, match="validation_splits must be an integer >= 2"):
         model.set_params(validation_splits=1).fit(X, y, groups=groups)
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_windows_of_another_length_than_the_training_ones_are_refused(cls):
+    # global pooling runs the network on any length: windows of 200 samples after training
+    # on 64 were answered ([[0.55, 0.45]] from the raw CNN) off the training distribution
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(30, 2, 64)).astype(np.float32)
+    y = np.repeat(["A", "B", "A"], 10)
+    model = cls(**{**FAST, "max_epochs": 1}).fit(X, y)
+    assert model.window_shape_ == (2, 64)
+    with pytest.raises(ShapeError, match=r"windows of shape \(2, 64\).* got \(2, 200\)"):
+        model.predict_proba(rng.normal(size=(1, 2, 200)).astype(np.float32))
+    proba = model.predict_proba(X)
+    # a model saved before the shape was recorded predicts as it did
+    old = pickle.loads(pickle.dumps(model))
+    del old.window_shape_
+    np.testing.assert_array_equal(old.predict_proba(X), proba)
+    assert old.predict_proba(rng.normal(size=(1, 2, 200)).astype(np.float32)).shape == (1, 2)
