@@ -156,6 +156,9 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         class a training run); empty when the weights are not chosen.
     columns_ : list of numpy.ndarray
         Column in ``classes_`` of each fitted member's classes (:func:`class_columns`).
+    n_features_in_ : int
+        ``X.shape[1]`` in ``fit`` (channels of raw windows; features of a table); the
+        members check their own input at prediction.
     """
 
     def __init__(self, estimators: Sequence[tuple[str, object]], weights=None,
@@ -191,8 +194,16 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             than ``inner_splits``, or where every inner split holds out every run of a
             class (:func:`~terrain.models.cv.class_keeping_split`), or a ``weight_step``
             :func:`simplex_grid` refuses.
+        ValueError
+            ``y`` is None.
         """
+        if y is None:      # scikit-learn's own "y should be a 1d array, got ... shape ()"
+            raise ValueError(f"{type(self).__name__} requires y to be passed, but the target "
+                             "y is None: give the (n_windows,) labels of the training windows")
         y = np.asarray(y)
+        shape = np.shape(X)
+        if len(shape) >= 2:
+            self.n_features_in_ = shape[1]
         self.classes_ = np.unique(y)
         n = len(self.estimators)
         self.weight_scores_ = {}

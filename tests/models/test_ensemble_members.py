@@ -175,3 +175,22 @@ def test_weights_are_never_chosen_on_every_run_of_a_class():
                                           r"\['.*'C'\]"):
         SoftVotingEnsemble(members, inner_splits=2).fit(X[one_each], y[one_each],
                                                         groups=groups[one_each])
+
+
+def test_fit_without_labels_is_a_clear_error_and_the_input_width_is_kept():
+    # fit(X, None) gave scikit-learn's generic "y should be a 1d array, got an array of
+    # shape () instead.", and no n_features_in_ was set
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.models.ensemble import SoftVotingEnsemble
+
+    X = np.random.default_rng(0).normal(size=(30, 3))
+    y = np.repeat(["A", "B", "A"], 10)
+    groups = np.repeat(["r0", "r1", "r2"], 10)
+    for weights, kwargs in (((1,), {}), (None, {"groups": groups})):
+        ens = SoftVotingEnsemble([("lr", LogisticRegression())], weights=weights,
+                                 inner_splits=2)
+        with pytest.raises(ValueError, match="requires y to be passed, but the target y is "
+                                             "None"):
+            ens.fit(X, None, **kwargs)
+        assert ens.fit(X, y, **kwargs).n_features_in_ == 3
