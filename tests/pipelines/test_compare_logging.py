@@ -22,14 +22,18 @@ def test_a_cells_non_finite_metric_is_skipped_and_listed_not_logged_as_nan(tmp_p
     row = {"history": 1, "accuracy": 0.9, "balanced_accuracy": 0.85, "macro_f1": 0.8,
            "run_vote_accuracy": float("nan"), "fit_s_per_fold": 1.5,
            "infer_ms_per_window": 0.2}
+    uri = tracking_uri()
+    # MLflow's set_tracking_uri also exports MLFLOW_TRACKING_URI: monkeypatch owns the
+    # variable so that it leaves with the test (it leaked this store into the next tests)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
     previous = mlflow.get_tracking_uri()
-    mlflow.set_tracking_uri(tracking_uri())        # as `terrain` does (activate_store)
+    mlflow.set_tracking_uri(uri)                   # as `terrain` does (activate_store)
     try:
         with tracked_run(EXPERIMENT, run_name="compare", announce=False) as parent:
             log_cell({"cell": cell, "rows": [row]})
     finally:
         mlflow.set_tracking_uri(previous)
-    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    client = mlflow.MlflowClient(tracking_uri=uri)
     children = client.search_runs([client.get_experiment_by_name(EXPERIMENT).experiment_id],
                                   f"tags.mlflow.parentRunId = '{parent.run_id}'")
     assert len(children) == 1

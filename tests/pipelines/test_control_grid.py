@@ -46,7 +46,10 @@ def test_control_grid_tunes_on_other_seeds_and_cuts_the_ice_start_up_slip(workdi
     assert "peak_slip_cut" in capsys.readouterr().out
     # the MLflow run holds the same tables as CSV under .csv names (they were CSV text
     # named tuning_husky.json and comparison.json)
-    logged = {p.name for p in (workdir / "mlartifacts").rglob("*") if p.is_file()}
+    import mlflow
+    client = mlflow.MlflowClient(tracking_uri=f"sqlite:///{workdir / 'mlflow.db'}")
+    (run,) = client.search_runs([client.get_experiment_by_name("terrain-control").experiment_id])
+    logged = {a.path for a in client.list_artifacts(run.info.run_id)}
     assert {"tuning_husky.csv", "comparison.csv"} <= logged
     assert not {"tuning_husky.json", "comparison.json"} & logged
 
