@@ -274,3 +274,13 @@ def test_subset_counts_state_the_subset_not_the_parent(make_run):
 def test_window_config_rejects_bad_settings(kwargs):
     with pytest.raises(ConfigError):
         WindowConfig(**kwargs)
+
+
+def test_runs_sharing_an_id_are_refused(make_run):
+    # two runs under one id were windowed as one: 15 windows of 'sim/ASPHALT/5' with start
+    # times 0..8 then 0..18 s, per_run counting the second run's 10 only
+    runs = [make_run(_streams(duration_s=10.0, seed=0), "sim/ASPHALT/5"),
+            make_run(_streams(duration_s=20.0, seed=1), "sim/ASPHALT/5"),
+            make_run(_streams(duration_s=10.0, seed=2), "sim/ASPHALT/6")]
+    with pytest.raises(ConfigError, match=r"\['sim/ASPHALT/5'\]"):
+        make_windows(runs, "all", WindowConfig(window_s=2.0))
