@@ -7,6 +7,8 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M,
@@ -14,8 +16,9 @@ from features.windows import (ALL_CHANNELS, DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_
                               make_windows, required_streams, resolve_signals,
                               window_frame)
 from terrain.errors import ConfigError
+from terrain.io.align import overlap_grid
 from terrain.io.report import input_report
-from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 
 
 def _streams(duration_s=20.0, vel=None, seed=0):
@@ -284,3 +287,67 @@ def test_runs_sharing_an_id_are_refused(make_run):
             make_run(_streams(duration_s=10.0, seed=2), "sim/ASPHALT/6")]
     with pytest.raises(ConfigError, match=r"\['sim/ASPHALT/5'\]"):
         make_windows(runs, "all", WindowConfig(window_s=2.0))
+
+
+@settings(max_examples=80, deadline=None)
+@given(start_s=st.floats(0.0, 5.0), wheel_hz=st.sampled_from([6.5, 10.0, 15.0, 20.0]),
+       n_wheel=st.integers(2, 200), rate_hz=st.sampled_from([10.0, 15.0, 20.0, 50.0]),
+       window_s=st.floats(0.4, 4.0), hop_frac=st.one_of(st.none(), st.floats(0.05, 1.5)),
+       partition_frac=st.one_of(st.none(), st.floats(1.0, 4.0)),
+       gap=st.one_of(st.none(), st.tuples(st.floats(0.0, 1.0), st.floats(0.0, 0.5))))
+def test_window_count_formula_and_spans_on_random_runs(start_s, wheel_hz, n_wheel, rate_hz,
+                                                       window_s, hop_frac, partition_frac,
+                                                       gap):
+    """For any gap-free or gapped wheel run: the windows cut, dropped for the gap and wholly
+    inside it add up to floor((N - n) / hop) + 1 per partition (N clock samples, n per
+    window), every window lies inside its run and outside its gap, and its ids and times
+    are its run's, in order."""
+    if round(window_s * rate_hz) < 4:
+        return
+    hop_s = None if hop_frac is None else max(hop_frac * window_s, 1.0 / rate_hz)
+    partition_s = None if partition_frac is None else partition_frac * window_s
+    config = WindowConfig(window_s=window_s, hop_s=hop_s, rate_hz=rate_hz,
+                          partition_s=partition_s)
+    t = start_s + np.arange(n_wheel) / wheel_hz
+    keep = np.ones(n_wheel, dtype=bool)
+    hole = None
+    if gap is not None:            # a hole of wheel samples: a step > 3 median steps
+        a = int(gap[0] * (n_wheel - 1))
+        b = a + 4 + int(gap[1] * n_wheel)
+        if 1 <= a and b < n_wheel - 1:
+            keep[a:b] = False
+            hole = (t[a - 1], t[b])
+    wheels = pd.DataFrame({TIME: t[keep], "vel_l": 0.5, "vel_r": 0.6,
+                           "cur_l": 5.0 + np.arange(n_wheel)[keep] % 3, "cur_r": 6.0})
+    run = Run("t/ICE/07", "t", "ICE", {"wheels": wheels}, source="hypothesis run")
+    ws = make_windows([run], "wheels", config)
+    total = len(overlap_grid([t[keep]], rate_hz))     # clock samples of the run
+    assert total - 1 <= (t[-1] - t[0]) * rate_hz + 1e-6 < total
+    n, hop = config.n_samples, config.hop_samples
+    length = config.partition_samples or total
+    per_part = (length - n) // hop + 1 if length >= n else 0
+    expected = per_part * (total // length)
+    c = ws.counts
+    assert len(ws) == c["windows"] == c["per_run"]["t/ICE/07"]["windows"]
+    assert len(ws) + c["dropped_gap"] + c["empty_gap"] == expected
+    if hole is None:
+        assert len(ws) == expected
+    shortest = max(n, length) if partition_s else n
+    assert (c["too_short_runs"] == ["t/ICE/07"]) == (total < shortest)
+    period = 1.0 / rate_hz
+    last = ws.t_end_s - period                          # time of a window's last sample
+    assert (ws.t_start_s >= t[0] - 1e-9).all() and (last <= t[-1] + 1e-9).all()
+    np.testing.assert_allclose(ws.t_end_s - ws.t_start_s, n * period, rtol=0, atol=1e-9)
+    assert (np.diff(ws.t_start_s) > 0).all()
+    if hole is not None:                              # no window holds a sample of the hole
+        assert ((last < hole[0] + 1e-9) | (ws.t_start_s > hole[0])).all()
+        assert ((ws.t_start_s >= hole[1] - 1e-9) | (last <= hole[0] + 1e-9)).all()
+    assert np.isfinite(ws.X).all() and ws.X.shape[1:] == (len(ws.channels), n)
+    assert set(ws.run_ids) <= {"t/ICE/07"} and set(ws.labels) <= {"ICE"}
+    if partition_s is not None:
+        k = np.array([int(g.split("#")[1]) for g in ws.groups], dtype=int)
+        first = np.round((ws.t_start_s - t[0]) * rate_hz).astype(int)
+        np.testing.assert_array_equal(first // length, k)
+        np.testing.assert_array_equal((first + n - 1) // length, k)
+    else:
+        assert list(ws.groups) == list(ws.run_ids)
