@@ -76,6 +76,13 @@ def test_online_full_imu_senses_gravity_and_keeps_the_estimators_view():
     assert ay == pytest.approx(ay0, abs=1e-12) and wz == wz0
     assert az == pytest.approx(G_M_S2 * np.cos(0.2), abs=0.3)           # bias + noise
     assert obs.imu_full.shape == (1, 7) and obs.imu.shape == (1, 4)
+    # the same draws on level ground: z loses g (1 - cos(pitch)), 0.196 m/s^2, which the
+    # bias-and-noise bound above cannot tell from g itself
+    level = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0)
+    level.record(_snapshot(0.0, 0.0))
+    (_, _, _, _, ax_level, _, az_level), = level.take(0.0, np.zeros(2)).imu_full
+    assert az - az_level == pytest.approx(-G_M_S2 * (1.0 - np.cos(0.2)), abs=1e-12)
+    assert ax - ax_level == pytest.approx(G_M_S2 * np.sin(0.2), abs=1e-12)
 
 
 def test_adding_the_full_imu_leaves_the_estimators_draws_unchanged():
