@@ -87,6 +87,7 @@ def test_output_saturation_and_no_reversal():
 def _check_limits(cfg):
     rng = np.random.default_rng(3)
     state = TractionState.zeros(4)
+    largest_correction = largest_cmd = 0.0
     for _ in range(2000):
         omega_ll = rng.uniform(-20, 20, 4) * (rng.random(4) > 0.1)
         omega = omega_ll + rng.normal(0, 2, 4)
@@ -101,6 +102,12 @@ def _check_limits(cfg):
         if cfg.one_sided:      # limiter: only towards the ground speed
             towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
             assert np.all(out.correction_rad_s * towards >= -1e-12)
+        largest_correction = max(largest_correction, np.abs(out.correction_rad_s).max())
+        largest_cmd = max(largest_cmd, np.abs(cmd).max())
+    # the bounds are reached, not merely respected: kp = 50 saturates the output at
+    # output_fraction * omega_max = 5 rad/s and drives commands onto the 20 rad/s limit
+    assert largest_correction == pytest.approx(0.25 * 20.0, abs=1e-12)
+    assert largest_cmd == pytest.approx(20.0, abs=1e-12)
 
 
 def test_anti_windup_releases_at_once():
