@@ -185,8 +185,11 @@ def test_peak_fraction_inverse_is_exact_and_agrees_with_the_tabulated_inverse():
             assert float(slip_from_traction(curve, frac * mu_peak).slip) == pytest.approx(
                 s, abs=2e-3), (name, frac)
         assert slip_at_peak_fraction(curve, 1.0) == s_peak
-    with pytest.raises(ValueError):
-        slip_at_peak_fraction(get_terrain("ICE").curve, 0.0)
+    # a fraction above 1 has no slip on the stable side: the check must refuse it by name,
+    # before root-finding fails with scipy's bare 'f(a) and f(b) must have different signs'
+    for bad in (0.0, 1.2, float("nan")):
+        with pytest.raises(ConfigError, match=r"fraction must be in \(0, 1\]"):
+            slip_at_peak_fraction(get_terrain("ICE").curve, bad)
 
 
 def test_soft_soil_efficiency_optimum_above_the_cap_comes_from_the_curves():
