@@ -47,7 +47,7 @@ import numba
 import numpy as np
 from numba import types
 
-from terrain.errors import CovarianceError, ShapeError
+from terrain.errors import ConfigError, CovarianceError, ShapeError
 from terrain.estimation.result import LoopArrays
 
 #: Status codes returned by the compiled loop.
@@ -96,9 +96,9 @@ class FastKernel:
 
     Raises
     ------
-    ValueError
+    ConfigError
         A kernel that is not callable, ``q_diag`` of the wrong length, unknown ``q_per`` or
-        an angle row outside ``0..m-1``.
+        an angle row outside ``0..m-1`` (a ValueError, as before).
     """
 
     transition: Callable[..., Any]
@@ -112,13 +112,16 @@ class FastKernel:
 
     def __post_init__(self) -> None:
         if not (callable(self.transition) and callable(self.observation)):
-            raise ValueError("transition and observation must be (numba-compilable) functions")
+            raise ConfigError("FastKernel transition and observation must be (numba-compilable) "
+                              "functions")
         if len(self.q_diag) != self.n_states:
-            raise ValueError(f"q_diag needs {self.n_states} values, got {len(self.q_diag)}")
+            raise ConfigError(f"FastKernel q_diag needs {self.n_states} values, got "
+                              f"{len(self.q_diag)}")
         if self.q_per not in ("step", "second"):
-            raise ValueError(f"q_per must be 'step' or 'second', got {self.q_per!r}")
+            raise ConfigError(f"FastKernel q_per must be 'step' or 'second', got {self.q_per!r}")
         if any(not 0 <= r < self.n_measurements for r in self.angle_rows):
-            raise ValueError(f"angle rows {self.angle_rows} outside 0..{self.n_measurements - 1}")
+            raise ConfigError(f"FastKernel angle rows {self.angle_rows} outside "
+                              f"0..{self.n_measurements - 1}")
 
 
 def fast_kernel_of(model: object) -> FastKernel | None:

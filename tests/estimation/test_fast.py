@@ -130,11 +130,12 @@ def test_engine_selection_and_fallback():
     with pytest.raises(ConfigError):
         run_filter(SkidSteerModel(), grid, z, engine="fortran")
     kernel = fast_kernel_of(SkidSteerModel())
-    with pytest.raises(ValueError):
+    # (a plain ValueError before: the project's configuration errors are ConfigError)
+    with pytest.raises(ConfigError, match="FastKernel q_diag needs 4 values, got 1"):
         replace(kernel, q_diag=(1.0,))                         # 1 variance for 4 states
-    with pytest.raises(ValueError):
+    with pytest.raises(ConfigError, match="FastKernel q_per"):
         replace(kernel, q_per="minute")
-    with pytest.raises(ValueError):
+    with pytest.raises(ConfigError, match=r"FastKernel angle rows \(3,\) outside 0..2"):
         replace(kernel, angle_rows=(3,))                       # 3 rows: 0..2
 
 
