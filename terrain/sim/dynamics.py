@@ -32,9 +32,9 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
-from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, SLIDE_SPEED_M_S,
-                                SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S, check_physics,
-                                contact_forces,
+from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
+                                SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
+                                check_physics, contact_forces,
                                 contact_layout, contact_torque_nm, gravity_force,
                                 reach_chord_contact, step_traction_coefficient,
                                 specific_force_m_s2, transferred_normal_loads,
@@ -159,6 +159,12 @@ class PhysicsResult:
         Closed loop only (None without a hook): physics steps on which each motor's
         corrected command (low-level command plus the hook's correction) exceeded the motor
         speed limit and was clipped to it.
+    load_floor_steps : ndarray of int, shape (c,), or None
+        Physics v2 with load transfer only (None without: v1, or a vehicle with no
+        centre-of-gravity height): physics steps on which each contact's transferred normal
+        load was held at the floor of :data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its
+        static load (the transfer asked for less: a wheel about to lift,
+        :func:`terrain.sim.forces.transferred_normal_loads`).
     """
 
     t_s: np.ndarray
@@ -176,6 +182,7 @@ class PhysicsResult:
     terrain_names: tuple[str, ...]
     speed_clipped_steps: np.ndarray
     correction_clipped_steps: np.ndarray | None = None
+    load_floor_steps: np.ndarray | None = None
 
 
 class PlantSnapshot(NamedTuple):
@@ -392,6 +399,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     # gravity alone, so a vehicle that starts on a grade starts with its static transfer
     acc_lt = specific_force_m_s2(np.zeros(2), gravity_force(mass, slope_rad, 0.0), mass)
     normal = None
+    # steps on which each contact's transferred load sat at the floor (counted, not hidden)
+    floor_n = MIN_LOAD_FRACTION * layout.normal_load_n
+    load_floor = np.zeros(len(floor_n), dtype=np.int64) if cog_h > 0 else None
     motor_of = layout.motor_of
     m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
     m_inv = np.diag(1.0 / np.diag(m_mat))
@@ -452,6 +462,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         if cog_h > 0:
             normal = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m,
                                               mass, cog_h, acc_lt[0], acc_lt[1])
+            load_floor += normal <= floor_n
         contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
                                  side_factor[ti], hold_slip[ti])
         gravity = gravity_force(mass, slope_rad, pose[2])
@@ -521,4 +532,5 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                          terrain_index=terr_out,
                          terrain_names=tuple(t.name for t in terrains),
                          speed_clipped_steps=clipped,
-                         correction_clipped_steps=corr_clipped)
+                         correction_clipped_steps=corr_clipped,
+                         load_floor_steps=load_floor)

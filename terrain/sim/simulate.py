@@ -28,6 +28,9 @@ command asked for more than the motor speed limit and was clipped to it (per sid
 ``terrain simulate`` says so in a note). Closed loop only, ``correction_clipped_steps``: per
 motor, the physics steps on which the command plus the controller's correction exceeded the
 limit and was clipped to it (``terrain control-sim`` reports both counts in its JSON).
+Physics v2 with load transfer only, ``load_floor_steps``: per contact, the physics steps on
+which its transferred normal load was held at the floor of
+:data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its static load (a wheel about to lift).
 """
 
 from __future__ import annotations
@@ -519,6 +522,9 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         # closed loop: steps on which the corrected command exceeded it (clipped there)
         **({"correction_clipped_steps": phys.correction_clipped_steps.tolist()}
            if phys.correction_clipped_steps is not None else {}),
+        # physics v2 load transfer: steps on which each contact's load sat at its floor
+        **({"load_floor_steps": phys.load_floor_steps.tolist()}
+           if phys.load_floor_steps is not None else {}),
         # the simulated visual-odometry outages and the camera rows they removed
         **({"cam_outages_s": cam_outages, "cam_rows_dropped": int(np.sum(~keep))}
            if geometry.steered else {}),

@@ -540,3 +540,39 @@ def test_current_report_refuses_an_unknown_physics_version():
     from terrain.sim.simulate import DEFAULT_SENSORS
     with pytest.raises(ConfigError, match="v1, v2"):
         OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0, physics="V1")
+
+
+def test_load_transfer_floor_is_counted(monkeypatch):
+    """The v2 load transfer floors a contact's load at MIN_LOAD_FRACTION of its static load
+    (a wheel about to lift) and rescales the others, but no count said when it did: a Husky
+    with its CoG raised to 1.5 m starting to 1 m/s and stopping (specific force up to
+    5.5 m/s^2, loads down to -278 N asked for) held its wheels at the floor on 24, 22, 24, 22
+    steps of 300 without a word. PhysicsResult.load_floor_steps now counts them per contact
+    (None without load transfer), and a simulated run's metadata carries them."""
+    from terrain.sim.forces import MIN_LOAD_FRACTION
+    geo = HUSKY.contact_geometry()
+    t = np.arange(0.0, 3.0, 0.01)
+    cmd = np.zeros((len(t), 3))
+    cmd[t < 1.5, 0] = 1.0
+    p1 = integrate(HUSKY, geo, (get_terrain("ASPHALT"),), 1e9, t, cmd, 0.0, 1.0, physics="v1")
+    assert p1.load_floor_steps is None
+    p2 = integrate(HUSKY, geo, (get_terrain("ASPHALT"),), 1e9, t, cmd, 0.0, 1.0, physics="v2")
+    np.testing.assert_array_equal(p2.load_floor_steps, np.zeros(4, dtype=np.int64))
+    loads = []
+
+    def spy(*args):
+        loads.append(transferred_normal_loads(*args))
+        return loads[-1]
+
+    monkeypatch.setattr(dynamics, "transferred_normal_loads", spy)
+    monkeypatch.setattr(dynamics, "LOAD_TRANSFER", MappingProxyType(
+        {"husky": replace(LOAD_TRANSFER["husky"], cog_height_m=1.5)}))
+    p = integrate(HUSKY, geo, (get_terrain("ASPHALT"),), 1e9, t, cmd, 0.0, 1.0, physics="v2")
+    at_floor = np.array(loads) <= MIN_LOAD_FRACTION * W * (1 + 1e-12)
+    assert at_floor.any()
+    np.testing.assert_array_equal(p.load_floor_steps, at_floor.sum(axis=0))
+    sim = simulate_with_physics(SimConfig(terrains=("ASPHALT",), scenario="straight_accel",
+                                          duration_s=1.0, seed=0, physics="v2"))
+    assert sim.run.meta["load_floor_steps"] == [0, 0, 0, 0]
+    assert "load_floor_steps" not in simulate_with_physics(SimConfig(
+        terrains=("ASPHALT",), scenario="straight_accel", duration_s=1.0, seed=0)).run.meta
