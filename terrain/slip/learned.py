@@ -250,12 +250,12 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             The model has not been fitted.
         ShapeError
-            ``X`` has another number of columns than in :meth:`fit`.
-            For a DataFrame, the message names the missing and extra columns.
+            ``X`` has another number of columns than in :meth:`fit` and is not a DataFrame
+            checked by name (below).
         MissingColumnError
-            ``X`` is a DataFrame of the right width whose columns are not
-            ``feature_names_in_`` in that order (the message names the missing, extra or
-            misplaced columns: :func:`feature_names_mismatch`).
+            The model has ``feature_names_in_`` and ``X`` is a DataFrame whose columns are
+            not those in that order, whatever its width (the message names the missing,
+            extra or misplaced columns: :func:`feature_names_mismatch`).
         ConfigError
             Unknown ``moment``.
         """
@@ -280,12 +280,12 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         fitted = getattr(self, "feature_names_in_", None)  # absent: stored before the names
         wrong = (feature_names_mismatch([str(c) for c in X.columns], list(fitted))
                  if fitted is not None and isinstance(X, pd.DataFrame) else None)
+        if wrong is not None:       # a named table of any width: name its columns
+            raise wrong
         X = np.asarray(X, dtype=float)
         if X.ndim != 2 or X.shape[1] != self.n_features_in_:
             raise ShapeError(f"X must have shape (n_windows, {self.n_features_in_}), "
-                             f"got {X.shape}" + (f": {wrong.message}" if wrong else ""))
-        if wrong is not None:
-            raise wrong
+                             f"got {X.shape}")
         return X
 
     def predict(self, X) -> np.ndarray:
@@ -309,12 +309,12 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             The model has not been fitted.
         ShapeError
-            ``X`` has another number of columns than in :meth:`fit`.
-            For a DataFrame, the message names the missing and extra columns.
+            ``X`` has another number of columns than in :meth:`fit` and is not a DataFrame
+            checked by name (below).
         MissingColumnError
-            ``X`` is a DataFrame of the right width whose columns are not
-            ``feature_names_in_`` in that order (the message names the missing, extra or
-            misplaced columns: :func:`feature_names_mismatch`).
+            The model has ``feature_names_in_`` and ``X`` is a DataFrame whose columns are
+            not those in that order, whatever its width (the message names the missing,
+            extra or misplaced columns: :func:`feature_names_mismatch`).
         """
         X = self._check_X(X)
         packed = getattr(self, "packed_trees_", None)
@@ -347,12 +347,12 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             The model has not been fitted.
         ShapeError
-            ``X`` has another number of columns than in :meth:`fit`.
-            For a DataFrame, the message names the missing and extra columns.
+            ``X`` has another number of columns than in :meth:`fit` and is not a DataFrame
+            checked by name (below).
         MissingColumnError
-            ``X`` is a DataFrame of the right width whose columns are not
-            ``feature_names_in_`` in that order (the message names the missing, extra or
-            misplaced columns: :func:`feature_names_mismatch`).
+            The model has ``feature_names_in_`` and ``X`` is a DataFrame whose columns are
+            not those in that order, whatever its width (the message names the missing,
+            extra or misplaced columns: :func:`feature_names_mismatch`).
         """
         X = self._check_X(X)
         chi = (self.chi_model_.predict(X) if self.chi_model_ is not None

@@ -629,8 +629,14 @@ def test_slip_model_refuses_a_table_whose_columns_differ_from_those_it_was_fitte
             method(swapped)
     with pytest.raises(MissingColumnError, match=r"missing \['pitch'\].*extra \['roll'\]"):
         model.predict(X.rename(columns={"pitch": "roll"}))
-    with pytest.raises(ShapeError, match=r"got \(300, 2\): .*missing \['pitch'\]"):
-        model.predict(X[["cur_l__mean", "cur_r__mean"]])    # the width first, as before
+    # a table of another width is the same defect: named columns, not a shape (it raised
+    # ShapeError "X must have shape (n_windows, 3), got (300, 2): ... missing ['pitch']"
+    # while the same table renamed raised MissingColumnError)
+    for method in (model.predict, model.predict_std, model.predict_reference):
+        with pytest.raises(MissingColumnError, match=r"missing \['pitch'\]"):
+            method(X[["cur_l__mean", "cur_r__mean"]])
+        with pytest.raises(MissingColumnError, match=r"extra \['roll'\]"):
+            method(X.assign(roll=0.0))
     # a bare array of the right width is taken as in the fitted order, as before
     np.testing.assert_array_equal(model.predict(X.to_numpy()), model.predict(X))
     np.testing.assert_array_equal(model.predict_std(X.to_numpy()), model.predict_std(X))

@@ -9,7 +9,7 @@ from sklearn.ensemble import HistGradientBoostingRegressor
 
 from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_features,
                                     slip_windows, window_feature_vector)
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, MissingColumnError, ShapeError
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.learned import SlipRegressor
 from terrain.tree_predict import pack_trees, predict_packed
@@ -92,8 +92,10 @@ def test_slip_regressor_compiled_predict_equals_reference(one_run):
     assert np.array_equal(model.predict(X.iloc[[3]]), model.predict_reference(X.iloc[[3]]))
     del model.packed_trees_                           # a model pickled before the adaptor
     assert np.array_equal(model.predict(X), model.predict_reference(X))
-    with pytest.raises(ShapeError):
+    with pytest.raises(MissingColumnError):         # a named table: the columns named
         model.predict(X.iloc[:, :5])
+    with pytest.raises(ShapeError):                 # a bare array: its width
+        model.predict(X.to_numpy()[:, :5])
     y[3:, 2] = np.nan                                 # too few turning windows: chi default
     model = SlipRegressor(max_iter=20, min_samples_leaf=2).fit(X, y)
     assert model.chi_model_ is None
