@@ -123,6 +123,9 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         The fitted copy of ``estimator``.
     classes_ : numpy.ndarray
         Its labels, in the order of ``predict_proba``.
+    n_features_in_ : int
+        Number of input features: the fitted estimator's own ``n_features_in_``, else
+        ``X.shape[1]`` (channels for a raw ``(n_windows, n_channels, n_samples)`` input).
     """
 
     def __init__(self, estimator, weight_param: str = "sample_weight") -> None:
@@ -158,6 +161,11 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         self.estimator_ = fit_with_groups(clone(self.estimator), X, y, groups, **{
             self.weight_param: within_class_run_weights(y, groups)})
         self.classes_ = self.estimator_.classes_
+        shape = np.shape(X)
+        n_features = getattr(self.estimator_, "n_features_in_",
+                             shape[1] if len(shape) >= 2 else None)
+        if n_features is not None:
+            self.n_features_in_ = n_features
         return self
 
     def predict_proba(self, X) -> np.ndarray:

@@ -54,6 +54,9 @@ def test_wrapper_fits_its_estimator_with_the_within_class_run_weights():
     np.testing.assert_allclose(wrapped.estimator_.coef_, direct.coef_)
     np.testing.assert_allclose(wrapped.predict_proba(X), direct.predict_proba(X))
     assert list(wrapped.classes_) == ["A", "B"]
+    # scikit-learn's convention, as its siblings (the ensemble, the CNN) keep it: it was
+    # absent after fit while the fitted LogisticRegression inside had n_features_in_ 1
+    assert wrapped.n_features_in_ == wrapped.estimator_.n_features_in_ == X.shape[1]
     # the long run no longer sets where class B begins: the boundary moves towards B's
     # short runs
     plain = LogisticRegression().fit(X, y)
@@ -74,7 +77,9 @@ class _Recorder(ClassifierMixin, BaseEstimator):
 
 def test_wrapper_hands_the_runs_on_to_an_estimator_that_takes_them():
     X, y, groups = _tabular()
-    fitted = RunBalancedClassifier(_Recorder()).fit(X, y, groups).estimator_
+    wrapped = RunBalancedClassifier(_Recorder()).fit(X, y, groups)
+    assert wrapped.n_features_in_ == X.shape[1]      # an estimator without it: from X
+    fitted = wrapped.estimator_
     assert fitted.groups_ is groups
     np.testing.assert_allclose(fitted.sample_weight_, within_class_run_weights(y, groups))
 
