@@ -541,7 +541,8 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     Raises
     ------
     ConfigError
-        Unknown terrain name or invalid probabilities.
+        Unknown terrain name or invalid probabilities; ``n_averaged`` not > 0 (0, negative
+        or NaN: the current noise would be NaN).
     ShapeError
         Inconsistent shapes: ``current_a`` and ``rim_speed_m_s`` not one ``(n, m)`` shape,
         ``pitch_rad`` not ``(n,)``, or ``pitch_std_rad``, ``n_averaged``, a terrain
@@ -561,6 +562,10 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         if value is not None and np.shape(value) not in allowed:
             raise ShapeError(f"{name} must have shape {' or '.join(map(str, allowed))} for "
                              f"{n} rows of {m} motors, got {np.shape(value)}")
+    n_avg = np.asarray(n_averaged, dtype=float)
+    if not np.all(n_avg > 0):           # one comparison: 0, < 0 and NaN all fail it
+        raise ConfigError(f"n_averaged must be > 0 (a count of current samples), got "
+                          f"{n_avg[~(n_avg > 0)][:5] if n_avg.ndim else n_avg}")
     probs = _normalise(terrain_probabilities, n, settings.min_probability)
     radius = vehicle.contact_geometry().wheel_radius_m
     omega = rim / radius
@@ -568,8 +573,7 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     torque = wheel_torque_from_current(vehicle.motor, signed, omega)
     dtorque_di = wheel_torque_from_current(vehicle.motor, signed + 1.0, omega) - torque
     k = settings.coverage_sigma
-    sd_i = settings.current_std_a / np.sqrt(np.broadcast_to(np.asarray(n_averaged, float),
-                                                            (n,)))[:, None]
+    sd_i = settings.current_std_a / np.sqrt(np.broadcast_to(n_avg, (n,)))[:, None]
     sd_within = within_window_current_std(current_within_std_a, settings.current_std_a,
                                           cur.shape)
     mean = np.zeros_like(cur)

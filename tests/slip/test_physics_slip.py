@@ -308,6 +308,11 @@ def test_physics_slip_refuses_inputs_of_another_shape_by_name():
         with pytest.raises(ShapeError, match=name):
             physics_slip(HUSKY, args.pop("terrain_probabilities"), cur, rim,
                          args.pop("pitch_rad"), **args)
+    # a sample count of 0, below 0 or NaN gave a NaN std without a word (n_averaged 0: std
+    # [nan nan nan]; [13, 0, 13]: [0.047 nan 0.161] on the slip of the left side)
+    for bad in (0.0, -4.0, np.nan, np.array([13.0, 0.0, 13.0])):
+        with pytest.raises(ConfigError, match="n_averaged"):
+            physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, pitch, n_averaged=bad)
     # what the docstring allows still runs: constants, per-row arrays
     physics_slip(HUSKY, {"SNOW": np.ones(3)}, cur, rim, pitch, np.zeros((3, 2)),
                  n_averaged=np.full(3, 13.0), pitch_std_rad=np.full(3, 0.01))
