@@ -270,12 +270,17 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     comparison = None
     if args.compare_physics:
         cmp_settings = PhysicsComparisonSettings(n_bootstrap=args.bootstrap, seed=args.seed)
-        per_run, _ = per_run_errors(runs, cmp_settings, settings.replay, settings.frames,
-                                    settings.lag)
+        per_run, cmp_skipped = per_run_errors(runs, cmp_settings, settings.replay,
+                                              settings.frames, settings.lag)
         comparison = gain_table(per_run, cmp_settings)
         report["physics_comparison"] = {
             "reference": cmp_settings.reference, "candidate": cmp_settings.candidate,
-            "records": [json_ready(r) for r in comparison.to_dict(orient="records")]}
+            "records": [json_ready(r) for r in comparison.to_dict(orient="records")],
+            "skipped": cmp_skipped}
+        if cmp_skipped:
+            print(f"  note: {len(cmp_skipped)} run(s) left out of the physics comparison "
+                  f"({cmp_settings.reference} vs {cmp_settings.candidate}): "
+                  + "; ".join(f"{k} ({v})" for k, v in cmp_skipped.items()))
     if tracked is not None:
         report["mlflow_run_id"] = tracked.run_id
     figures = make_figures(result)

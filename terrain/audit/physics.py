@@ -284,7 +284,8 @@ def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
     table : pandas.DataFrame
         Output of :func:`gain_table`.
     meta : dict
-        ``reference`` and ``candidate`` version names.
+        ``reference`` and ``candidate`` version names, and optionally ``skipped`` (run id ->
+        reason, :func:`per_run_errors`), listed under the table.
 
     Returns
     -------
@@ -311,4 +312,7 @@ def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
                     else "(one run: no interval)")
         lines.append(f"| {r.terrain} | {r.signal} | {r.scope} | {r.n_runs} | {r.n} | "
                      f"{r.rmse_ref:.3g} | {r.rmse_new:.3g} | {r.gain:+.3f} {interval} |")
+    if meta.get("skipped"):
+        lines += ["", f"Left out ({len(meta['skipped'])} run(s) a version could not replay): "
+                  + "; ".join(f"{k} ({v})" for k, v in meta["skipped"].items()) + "."]
     return "\n".join(lines) + "\n"

@@ -161,6 +161,41 @@ def test_cli_physics_comparison_of_a_one_run_terrain_is_strict_json(tmp_path):
     assert all(isinstance(r["gain"], float) for r in records)
 
 
+def test_cli_physics_comparison_shows_the_runs_it_skipped(tmp_path, monkeypatch, capsys):
+    # a run whose v2 replay fails (v1, the audited physics, replays it) was dropped from the
+    # comparison's table with no word: per_run_errors returned it and the pipeline threw it
+    # away (before: no note printed, no trace in the JSON; the records just count one run)
+    import terrain.audit.physics as physics
+    from terrain.errors import DataFormatError
+
+    for i, streams in enumerate(simulated_streams(seeds=(66, 67), duration_s=20.0)):
+        write_signal_files(tmp_path / "runs", "ASPHALT", i, *streams)
+    replay = physics.replay_run
+
+    def failing(run, settings):
+        if run.run_id == "runs/ASPHALT/01" and settings.physics == "v2":
+            raise DataFormatError("planted v2 failure")
+        return replay(run, settings)
+
+    monkeypatch.setattr(physics, "replay_run", failing)
+    out = tmp_path / "out"
+    assert cli_main(["audit", str(tmp_path / "runs"), "--json", str(out / "a.json"), "--md",
+                     str(out / "a.md"), "--bootstrap", "50", "--param-bootstrap", "0",
+                     "--compare-physics", "--no-pooled", "--no-mlflow", "--no-progress"]) == 0
+    report = _strict_json((out / "a.json").read_text())
+    assert report["runs"]["audited"] == ["runs/ASPHALT/00", "runs/ASPHALT/01"]
+    comparison = report["physics_comparison"]
+    assert comparison["skipped"] == {"runs/ASPHALT/01": "planted v2 failure"}
+    assert comparison["records"] and all(r["n_runs"] == 1 for r in comparison["records"])
+    assert set(comparison["records"][0]) == {"terrain", "signal", "scope", "n_runs", "n",
+                                             "rmse_ref", "rmse_new", "gain", "gain_lo",
+                                             "gain_hi"}
+    printed = capsys.readouterr().out
+    assert "1 run(s) left out of the physics comparison" in printed
+    assert "runs/ASPHALT/01 (planted v2 failure)" in printed
+    assert "runs/ASPHALT/01 (planted v2 failure)" in (out / "a.md").read_text()
+
+
 def test_report_json_refuses_non_finite_numbers():
     from pipelines.audit import report_json
 
