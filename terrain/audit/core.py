@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -430,6 +430,24 @@ def _turning_forms(group: GroupResult, settings: AuditSettings) -> dict:
     return out
 
 
+def _unscored_reason(frames: Sequence[AuditFrame], group: str,
+                     needs: Callable[[AuditFrame], bool]) -> str:
+    """Why a group got fewer than 2 cross-validation units: no run with the samples it
+    scores, or runs too short to cut into 2 scorable segments (each named with its scored
+    sample count and the time they span)."""
+    what = "current" if group == "current" else "IMU"
+    usable = [f for f in frames if needs(f)]
+    if not usable:
+        return f"no run with {what} samples to score"
+    spans = []
+    for f in usable:
+        t = f.t_s[f.score_cur if group == "current" else f.score_imu]
+        spans.append(f"{f.run_id} ({t.size} {what} samples scored over "
+                     f"{t[-1] - t[0]:.1f} s)")
+    return (f"{len(usable)} run(s) too short to cut into 2 scorable segments: "
+            + "; ".join(spans))
+
+
 def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
               frames: Sequence[AuditFrame] | None = None) -> AuditResult:
     """Audit the simulator against measured runs (module docstring).
@@ -482,9 +500,8 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
                     return bool(f.has_imu and f.score_imu.any())
             units, segmented = make_units(fs, min_units, needs, settings.lag)
             if len(units) < 2:
-                what = "current" if group == "current" else "IMU"
                 groups[(scope, group)] = unscored_group(
-                    group, scope, f"no run with {what} samples to score", len(fs))
+                    group, scope, _unscored_reason(fs, group, needs), len(fs))
                 continue
             # ideal differential drive: wz = (v_R - v_L) / B (seed 000 eq. 2)
             refs = ({"ideal": YawParams(kinematic=True, inverse_chi=1.0)} if group == "yaw"

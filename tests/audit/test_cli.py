@@ -136,6 +136,23 @@ def test_cli_names_a_run_too_short_to_score(tmp_path, capsys):
     assert "no run could be audited" in err and "ICE/00: no sample to score: 2.9 s long" in err
 
 
+def test_a_run_too_short_to_segment_is_named_not_called_missing(tmp_path):
+    # a 4.5 s run keeps 2 scored samples (audited), but its segments leave fewer than 2
+    # scorable units; every effect said "no run with IMU samples to score" (before), as if
+    # the terrain had no run
+    from audit_helpers import audit_folder
+
+    write_signal_files(tmp_path, "ICE", 0, *simulated_streams(seeds=(5,), duration_s=4.5)[0])
+    result = audit_folder(tmp_path)
+    assert len(result.frames) == 1 and result.frames[0].score_imu.any()
+    run_id = result.frames[0].run_id
+    for group, what in (("timing", "IMU"), ("yaw", "IMU"), ("current", "current")):
+        reason = result.groups[("ICE", group)].effects[0].reason
+        assert "no run with" not in reason
+        assert "too short to cut into 2 scorable segments" in reason
+        assert f"{run_id} (2 {what} samples scored over " in reason
+
+
 def _strict_json(text: str):
     """``text`` parsed as strict JSON (``json.loads`` accepts NaN and Infinity by default;
     JavaScript's JSON.parse and most other readers do not)."""
