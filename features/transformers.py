@@ -15,7 +15,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from features import calculators
 from features.windows import ALL_CHANNELS, refuse_no_windows
-from terrain.errors import ConfigError, config_numbers, duplicated, first_items
+from terrain.errors import ConfigError, config_positive, duplicated, first_items
 from terrain.run import IMU_CHANNELS
 
 DEFAULT_STATS = tuple(calculators.STATISTICS)
@@ -46,11 +46,7 @@ def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, flo
         ``rate_hz`` or ``band_width_hz`` not a finite number > 0 (a negative width gave no
         band at all).
     """
-    config_numbers("linear_bands", rate_hz=rate_hz, band_width_hz=band_width_hz)
-    for name, value in (("rate_hz", rate_hz), ("band_width_hz", band_width_hz)):
-        if not (np.isfinite(value) and value > 0):
-            raise ConfigError(f"linear_bands: {name} must be a finite number > 0 Hz, "
-                              f"got {value!r}")
+    config_positive("linear_bands", rate_hz=rate_hz, band_width_hz=band_width_hz)
     nyquist = rate_hz / 2.0
     edges = np.append(np.arange(0.0, nyquist, band_width_hz), nyquist)
     return tuple((float(a), float(b)) for a, b in zip(edges[:-1], edges[1:]) if b - a > 1e-9)

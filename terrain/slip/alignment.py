@@ -29,7 +29,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.errors import ConfigError, EstimationError, TimeStepError, config_numbers
+from terrain.errors import (ConfigError, EstimationError, TimeStepError, config_numbers,
+                            config_positive)
 
 
 @dataclass(frozen=True)
@@ -132,10 +133,8 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
     EstimationError
         Too little overlap or a flat signal (no transient to align on).
     """
-    config_numbers("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
-    for name, value in (("max_lag_s", max_lag_s), ("rate_hz", rate_hz)):
-        if not 0 < value < np.inf:      # inf overflowed int() below, NaN compared False
-            raise ConfigError(f"{name} must be a finite number > 0, got {value}")
+    # (inf overflowed int() below, NaN compared False)
+    config_positive("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
     if round(max_lag_s * rate_hz) < 1:
         raise ConfigError(f"max_lag_s {max_lag_s:g} s is under half a grid step of "
                           f"{1 / rate_hz:g} s (rate_hz {rate_hz:g}): only the lag 0 would be "

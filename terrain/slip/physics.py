@@ -51,7 +51,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError, config_numbers
+from terrain.errors import ConfigError, ShapeError, config_numbers, config_positive
 from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.sim.forces import contact_layout, contact_torque_nm
 from terrain.sim.sensors import SensorSettings
@@ -98,18 +98,12 @@ class PhysicsSlipSettings:
     min_probability: float = 1e-3
 
     def __post_init__(self) -> None:
-        config_numbers("PhysicsSlipSettings", current_std_a=self.current_std_a,
-                       efficiency_rel_std=self.efficiency_rel_std,
-                       hysteresis_rel_std=self.hysteresis_rel_std,
-                       coverage_sigma=self.coverage_sigma, min_probability=self.min_probability)
-        for name in ("current_std_a", "efficiency_rel_std", "hysteresis_rel_std"):
-            value = getattr(self, name)     # NaN passed '< 0' and made every std NaN
-            if not 0.0 <= value < np.inf:
-                raise ConfigError(f"PhysicsSlipSettings.{name} must be a finite "
-                                  f"uncertainty >= 0, got {value}")
-        if not 0.0 < self.coverage_sigma < np.inf:
-            raise ConfigError(f"PhysicsSlipSettings.coverage_sigma must be finite and > 0, "
-                              f"got {self.coverage_sigma}")
+        # (NaN passed a '< 0' check and made every std NaN)
+        config_positive("PhysicsSlipSettings", allow_zero=True, current_std_a=self.current_std_a,
+                        efficiency_rel_std=self.efficiency_rel_std,
+                        hysteresis_rel_std=self.hysteresis_rel_std)
+        config_positive("PhysicsSlipSettings", coverage_sigma=self.coverage_sigma)
+        config_numbers("PhysicsSlipSettings", min_probability=self.min_probability)
         if not 0.0 <= self.min_probability < 1.0:
             raise ConfigError(f"PhysicsSlipSettings.min_probability must be in [0, 1), got "
                               f"{self.min_probability}")
