@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
-from terrain.errors import ConfigError, duplicated
+from terrain.errors import ConfigError, duplicated, listed
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY
@@ -465,8 +465,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     channels = resolve_signals(signals)
     shared = duplicated(run.run_id for run in runs)
     if shared:
-        more = f" and {len(shared) - 5} more" if len(shared) > 5 else ""
-        raise ConfigError(f"runs share run id(s) {shared[:5]}{more}: windows are grouped, "
+        raise ConfigError(f"runs share run id(s) {listed(shared)}: windows are grouped, "
                           "split and counted by run id, so each run needs its own")
     need = required_streams(channels)
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []

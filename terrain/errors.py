@@ -147,6 +147,29 @@ def first_items(items, limit: int = 3, word: str = "line") -> str:
     return f"{word}{'s' if len(items) > 1 else ''} {shown}{more}"
 
 
+def listed(items, limit: int = 5, show=None) -> str:
+    """The first items of a list as a message shows them (a list's repr) and a count of the
+    others: ``['a', 'b', 'c', 'd', 'e'] and 4995 more``, so a message stays one short line
+    however many columns, keys or runs are wrong.
+
+    Parameters
+    ----------
+    items : sequence
+        The items, in the order to show them.
+    limit : int, optional
+        How many to show.
+    show : callable, optional
+        Applied to each shown item (e.g. to cut long names); default: the item itself.
+
+    Returns
+    -------
+    str
+    """
+    items = list(items)
+    shown = [item if show is None else show(item) for item in items[:limit]]
+    return f"{shown}" + (f" and {len(items) - limit} more" if len(items) > limit else "")
+
+
 def duplicated(items) -> list:
     """The items that occur more than once, sorted (linear time: a request of 50 000 column
     names took 45 s with ``list.count`` per name).

@@ -21,3 +21,10 @@ def test_zero_passes_where_allowed_and_text_is_not_a_number():
         config_positive("SoilParams", allow_zero=True, cohesion_pa=-1.0)
     with pytest.raises(ConfigError, match=r"bekker_sinkage_m\.n must be a real number"):
         config_positive("bekker_sinkage_m", n="0.7")
+
+
+def test_listed_shows_the_first_items_and_counts_the_others():
+    from terrain.errors import listed
+    assert listed(["a", "b"]) == "['a', 'b']"
+    assert listed([f"c{i}" for i in range(7)], 3) == "['c0', 'c1', 'c2'] and 4 more"
+    assert listed(["x" * 40], show=lambda s: s[:4]) == "['xxxx']"

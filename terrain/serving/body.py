@@ -22,7 +22,7 @@ import re
 from typing import Any
 
 from terrain.errors import (DataFormatError, EncodingError, ImplausibleValueError,
-                            RaggedRowError, TerrainError, duplicated)
+                            RaggedRowError, TerrainError, duplicated, listed)
 
 #: line ends of a CSV body: pandas (MLflow's CSV parser) reads CR LF, LF and a lone CR
 LINE_END = re.compile(rb"\r\n|\r|\n")
@@ -101,8 +101,7 @@ def _listed(names: list, limit: int = 5) -> str:
     """``names`` (the request's columns or keys) as a message lists them: the first
     ``limit``, each cut by :func:`_short_text`, and a count of the others (a repeated
     5,000-name header listed every name: a 70 kB message)."""
-    shown = [_short_text(str(n)) for n in names[:limit]]
-    return f"{shown}" + (f" and {len(names) - limit} more" if len(names) > limit else "")
+    return listed(names, limit, lambda n: _short_text(str(n)))
 
 
 def _huge_number(value: str, column: str | None, row: int | None = None,

@@ -27,7 +27,7 @@ from sklearn.model_selection import GroupKFold
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
-                            ShapeError, duplicated)
+                            ShapeError, duplicated, listed)
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -414,9 +414,6 @@ def feature_names_mismatch(columns: list[str], fitted: list[str]) -> MissingColu
         (the same columns in another order) the misplaced ones; its ``column`` is the first
         of them.
     """
-    def shown(items: list) -> str:
-        return f"{items[:5]}" + (f" and {len(items) - 5} more" if len(items) > 5 else "")
-
     if columns == fitted:
         return None
     where = f"the {len(fitted)} feature columns the slip model was fitted on"
@@ -426,12 +423,12 @@ def feature_names_mismatch(columns: list[str], fitted: list[str]) -> MissingColu
     if missing or extra:
         return MissingColumnError(
             f"X's columns differ from {where}: "
-            + "; ".join(f"{word} {shown(items)}" for word, items in
+            + "; ".join(f"{word} {listed(items)}" for word, items in
                         (("missing", missing), ("extra", extra)) if items),
             column=(missing or extra)[0])
     twice = duplicated(columns)
     if twice:
-        return MissingColumnError(f"X has the column(s) {shown(twice)} more than once (of "
+        return MissingColumnError(f"X has the column(s) {listed(twice)} more than once (of "
                                   f"{where})", column=twice[0])
     moved = [(i, c, f) for i, (c, f) in enumerate(zip(columns, fitted)) if c != f]
     return MissingColumnError(
