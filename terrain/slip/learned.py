@@ -247,15 +247,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
-        sklearn.exceptions.NotFittedError
-            The model has not been fitted.
-        ShapeError
-            ``X`` has another number of columns than in :meth:`fit` and is not a DataFrame
-            checked by name (below).
-        MissingColumnError
-            The model has ``feature_names_in_`` and ``X`` is a DataFrame whose columns are
-            not those in that order, whatever its width (the message names the missing,
-            extra or misplaced columns: :func:`feature_names_mismatch`).
+        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
+            As :meth:`predict`.
         ConfigError
             Unknown ``moment``.
         """
@@ -344,15 +337,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
-        sklearn.exceptions.NotFittedError
-            The model has not been fitted.
-        ShapeError
-            ``X`` has another number of columns than in :meth:`fit` and is not a DataFrame
-            checked by name (below).
-        MissingColumnError
-            The model has ``feature_names_in_`` and ``X`` is a DataFrame whose columns are
-            not those in that order, whatever its width (the message names the missing,
-            extra or misplaced columns: :func:`feature_names_mismatch`).
+        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
+            As :meth:`predict`.
         """
         X = self._check_X(X)
         chi = (self.chi_model_.predict(X) if self.chi_model_ is not None
