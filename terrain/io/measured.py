@@ -326,7 +326,8 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
             raise EmptyFileError(f"file has a header but no data rows; the header ends in "
                                  f"{trailing} unnamed column(s) (a trailing comma?)", path,
                                  line=skipped["header_line"])
-        raise EmptyFileError("file has a header but no data rows", path)
+        raise EmptyFileError("file has a header but no data rows", path,
+                             line=skipped["header_line"])
     lines = np.asarray(lines)
     # a quoted field (``"1,5"``) is parsed as CSV within its own line only: an unbalanced
     # quote never swallows the following lines, it makes its line ragged

@@ -106,7 +106,18 @@ def test_a_header_only_file_without_a_trailing_comma_gets_no_hint(tmp_path, kind
     path = _write(tmp_path, kind, rows=0)
     with pytest.raises(EmptyFileError) as info:
         read_stream_csv(path, kind)
-    assert str(info.value) == f"file has a header but no data rows (file {path})"
+    assert str(info.value) == f"file has a header but no data rows (file {path}, line 1)"
+    assert info.value.line == 1
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_header_only_file_names_the_header_line_after_comments(tmp_path, kind):
+    path = tmp_path / f"{kind}_00.csv"
+    path.write_text("# logged by the rover\n\n" + _text(kind, rows=0) + "\n")
+    with pytest.raises(EmptyFileError) as info:
+        read_stream_csv(path, kind)
+    assert (info.value.path, info.value.line) == (str(path), 3)
+    assert str(info.value).endswith(", line 3)")
 
 
 @pytest.mark.filterwarnings("ignore:.*stuck at one value")   # the synthetic IMU is constant
