@@ -62,6 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         The subcommand's parser.
     """
     parser.add_argument("runs_dir", nargs="?", type=input_folder, default=None,
+                        metavar="RUNS_DIR",
                         help="folder in the measured-run layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default=None,
                         help="audit a shipped dataset instead of RUNS_DIR")

@@ -21,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("src", type=input_folder,
+    parser.add_argument("src", type=input_folder, metavar="CSV_DIR",
                         help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", required=True, choices=DATASETS)
     parser.add_argument("--data-dir", type=output_dir, default=None,

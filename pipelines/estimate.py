@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("run_dir", type=input_folder,
+    parser.add_argument("run_dir", type=input_folder, metavar="RUN_DIR",
                         help="folder in the run layout (or a terrain folder of it)")
     parser.add_argument("--out", type=output_file, required=True, help="output CSV file")
     parser.add_argument("--run", default=None, metavar="TERRAIN/XX",

@@ -66,6 +66,27 @@ def test_every_subcommand_has_help(capsys):
     assert set(names) <= set(SUBCOMMANDS)
 
 
+#: subcommand -> the name its help (and README) gives its positional folder argument
+_POSITIONAL_NAMES = {"predict": "RUNS_DIR", "audit": "[RUNS_DIR]", "estimate": "RUN_DIR",
+                     "stream": "RUN_DIR", "convert": "CSV_DIR"}
+
+
+def test_positional_arguments_show_in_usage_as_their_help_names_them():
+    # `terrain estimate --help` printed "usage: terrain estimate [-h] ... run_dir" above
+    # "select one run when RUN_DIR holds several" (audit: "[runs_dir]" / "RUNS_DIR")
+    parser = build_parser()
+    for name, sp in parser._subparsers._group_actions[0].choices.items():
+        usage = " ".join(sp.format_usage().split())
+        for action in sp._actions:
+            if action.option_strings or action.choices is not None:
+                continue    # options, and a positional shown as its {choices}
+            shown = action.metavar or action.dest
+            assert shown.isupper() and re.search(rf"\b{shown}\b", usage), (name, usage)
+            assert not re.search(rf"\b{action.dest}\b", usage), (name, usage)
+        if name in _POSITIONAL_NAMES:
+            assert f" {_POSITIONAL_NAMES[name]}" in usage, (name, usage)
+
+
 def test_cv_vulpi_reports_grouped_metrics_and_logs_mlflow(workdir, capsys):
     out = workdir / "cv.json"
     assert main(["cv", "--dataset", "vulpi", "--json", str(out), "--no-progress"]) == 0

@@ -286,14 +286,14 @@ _REFUSED = [
     # a folder argument given as "" was Path(""), the working folder: predict and estimate
     # read the runs there, --slip-model-dir "" looked for a slip model in it
     (["predict", "--model", "m", "", "--out", "p.csv"], f"argument RUNS_DIR: {EMPTY_PATH}"),
-    (["estimate", "", "--out", "s.csv"], f"argument run_dir: {EMPTY_PATH}"),
+    (["estimate", "", "--out", "s.csv"], f"argument RUN_DIR: {EMPTY_PATH}"),
     (["estimate", "r", "--out", "s.csv", "--slip-model-dir", ""],
      f"argument --slip-model-dir: {EMPTY_PATH}"),
     (["stream", "--model", "", "r", "--out", "s.csv"], f"argument --model: {EMPTY_PATH}"),
     (["stream", "--model", "m", "", "--out", "s.csv"], f"argument RUN_DIR: {EMPTY_PATH}"),
-    (["audit", "", "--json", "a.json"], f"argument runs_dir: {EMPTY_PATH}"),
+    (["audit", "", "--json", "a.json"], f"argument RUNS_DIR: {EMPTY_PATH}"),
     (["serve", "--model", " "], f"argument --model: {EMPTY_PATH}"),
-    (["convert", "", "--dataset", "vulpi", "--data-dir", "d"], f"argument src: {EMPTY_PATH}"),
+    (["convert", "", "--dataset", "vulpi", "--data-dir", "d"], f"argument CSV_DIR: {EMPTY_PATH}"),
 ]
 
 
