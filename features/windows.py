@@ -252,10 +252,12 @@ class WindowSet:
     counts : dict
         Book-keeping: windows kept, dropped for gaps or unsteady motion, window positions
         wholly inside a gap (``empty_gap``, see :func:`window_frame`), time after the last
-        full partition (``partition_tail_s``, s), runs skipped for a missing stream and runs
+        full partition (``partition_tail_s``, s) and after the last window of a run or
+        partition (``window_tail_s``, s), runs skipped for a missing stream and runs
         shorter than one window or partition (with their ids; ``reasons``: run id -> why),
         and ``per_run``: run id -> ``windows``, ``dropped_gap``, ``empty_gap``,
-        ``dropped_unsteady``, ``partition_tail_s``, ``aligned_s``. A :meth:`subset` adds
+        ``dropped_unsteady``, ``partition_tail_s``, ``window_tail_s``, ``aligned_s``. A
+        :meth:`subset` adds
         ``not_selected`` (in total and per run): windows cut but left out by the selection.
     """
 
@@ -372,9 +374,11 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         ``steady_only``, also a non-finite wheel speed outside the selected channels),
         ``empty_gap`` (window positions without a single finite value, wholly inside a gap
         of every channel: not windows of data, so not counted as dropped; not returned
-        either), ``dropped_unsteady``, and ``partition_tail_s``: the time after the last
+        either), ``dropped_unsteady``, ``partition_tail_s``: the time after the last
         full partition (s; the whole frame when it holds none), which no window is cut
-        from (0 when ``partition_s`` is None).
+        from (0 when ``partition_s`` is None), and ``window_tail_s``: the time after the
+        last window of the frame, or of each partition, which no window covers (s; the
+        whole frame when it is shorter than one window and ``partition_s`` is None).
 
     Raises
     ------
@@ -393,14 +397,17 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         bounds = [(s, s + p) for s in range(0, total - p + 1, p)]
         tail = total - p * len(bounds)
     starts, parts = [], []
+    window_tail = 0     # samples after the last window of each partition (or of the frame)
     for k, (a, b) in enumerate(bounds):
         s = np.arange(a, b - n + 1, hop)
         starts.append(s)
         parts.append(np.full(s.size, k))
+        window_tail += b - (int(s[-1]) + n if s.size else a)
     start = np.concatenate(starts) if starts else np.zeros(0, int)
     part = np.concatenate(parts) if parts else np.zeros(0, int)
     counts = {"dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
-              "partition_tail_s": tail / config.rate_hz}
+              "partition_tail_s": tail / config.rate_hz,
+              "window_tail_s": window_tail / config.rate_hz}
     if start.size == 0:
         return (np.zeros((0, len(channels), n)), np.zeros(0), np.zeros(0), part, counts)
     idx = start[:, None] + np.arange(n)[None, :]
@@ -441,7 +448,9 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     shorter than one partition, are listed in ``counts["too_short_runs"]``, the reason of
     each in ``counts["reasons"]``; with ``partition_s``, the time after the last full
     partition of each run, which no window is cut from, is counted in
-    ``counts["partition_tail_s"]`` (s, in total and per run). Nothing is dropped silently.
+    ``counts["partition_tail_s"]``, and with or without partitions the time after the last
+    window of each run (or partition) in ``counts["window_tail_s"]`` (s, in total and per
+    run). Nothing is dropped silently.
 
     Parameters
     ----------
@@ -470,7 +479,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     need = required_streams(channels)
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
     counts = {"windows": 0, "dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
-              "partition_tail_s": 0.0, "skipped_runs": [],
+              "partition_tail_s": 0.0, "window_tail_s": 0.0, "skipped_runs": [],
               "too_short_runs": [], "reasons": {}, "per_run": {}}
     iterator = runs
     if progress:
@@ -492,6 +501,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         counts["empty_gap"] += c["empty_gap"]
         counts["dropped_unsteady"] += c["dropped_unsteady"]
         counts["partition_tail_s"] += c["partition_tail_s"]
+        counts["window_tail_s"] += c["window_tail_s"]
         counts["per_run"][run.run_id] = {"windows": len(X), **c, "aligned_s": len(frame)
                                          / config.rate_hz}
         if len(frame) < config.n_samples:

@@ -103,7 +103,9 @@ def main(args: argparse.Namespace) -> int:
                                            pred["t_end_s"])
         counts["per_run"][run.run_id] = {"windows": len(pred), "dropped_unsteady": 0,
                                          "dropped_gap": int(pred.attrs.get("dropped_windows", 0)),
-                                         "empty_gap": int(pred.attrs.get("empty_windows", 0))}
+                                         "empty_gap": int(pred.attrs.get("empty_windows", 0)),
+                                         "window_tail_s": float(pred.attrs.get("window_tail_s",
+                                                                               0.0))}
         if len(samples) / float(meta["rate_hz"]) < window_s:
             counts["too_short_runs"].append(run.run_id)
         parts.append(pred)

@@ -41,7 +41,7 @@ def seconds_text(seconds: float) -> str:
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
            "gap_list", "skipped_lines", "ignored_columns", "unused_imu_s", "unused_wheels_s",
            "stuck", "windows", "dropped_gap", "empty_gap", "dropped_unsteady",
-           "partition_tail_s", "flagged_windows", "warnings")
+           "partition_tail_s", "window_tail_s", "flagged_windows", "warnings")
 #: streams whose seconds outside the other's span the report counts (rule clock_overlap)
 UNUSED_STREAMS = ("imu", "wheels")
 
@@ -62,8 +62,10 @@ class InputReport:
         left out wherever both streams are aligned, warned about only beyond 2 s and a
         tenth of the overlap;
         ``stuck`` lists stuck channels; ``partition_tail_s`` is the time after a run's last
-        full partition, which no window is cut from (s; 0 without partitions); window columns
-        are empty (-1) when the command does not window.
+        full partition, which no window is cut from (s; 0 without partitions), and
+        ``window_tail_s`` the time after the last window of the run or of each partition,
+        which no window covers (s); window columns are empty (-1) when the command does not
+        window.
     """
 
     table: pd.DataFrame
@@ -71,7 +73,7 @@ class InputReport:
     def metrics(self, prefix: str = "input_") -> dict[str, float]:
         """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, ignored
         file columns, seconds of each stream outside the other's span, windows dropped and
-        flagged, partition tails not windowed (s), stuck channels, warnings.
+        flagged, partition and window tails not windowed (s), stuck channels, warnings.
 
         Parameters
         ----------
@@ -100,6 +102,7 @@ class InputReport:
             "windows_empty_gap": int(t.loc[windowed, "empty_gap"].sum()),
             "windows_dropped_unsteady": int(t.loc[windowed, "dropped_unsteady"].sum()),
             "partition_tail_s": float(t.loc[windowed, "partition_tail_s"].sum()),
+            "window_tail_s": float(t.loc[windowed, "window_tail_s"].sum()),
             "windows_flagged": int(t.loc[t["flagged_windows"] > 0, "flagged_windows"].sum()),
             "warnings": int(t["warnings"].sum()),
         }.items()}
@@ -155,6 +158,9 @@ class InputReport:
             parts.append(f"  not windowed: {m['partition_tail_s']:.1f} s of run tails after "
                          f"the last full partition (partition protocol) in "
                          f"{ids(t['partition_tail_s'] > 0)}")
+        if m["window_tail_s"]:
+            parts.append(f"  not windowed: {m['window_tail_s']:.1f} s of run tails after "
+                         f"the last full window in {ids(t['window_tail_s'] > 0)}")
         if m["windows_empty_gap"]:
             parts.append(f"  {int(m['windows_empty_gap'])} window position(s) wholly inside "
                          "a gap of every stream: no data there, not counted as dropped")
@@ -188,9 +194,9 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
     counts : Mapping, optional
         ``WindowSet.counts`` of :func:`features.windows.make_windows` (or the same keys:
         ``per_run``, ``skipped_runs``, ``too_short_runs``; ``empty_gap``, the window
-        positions wholly inside a gap, and ``partition_tail_s`` may be absent from a
-        ``per_run`` entry, and ``reasons``, run id -> why it was skipped or is too short,
-        from ``counts``). Without it the window columns are -1.
+        positions wholly inside a gap, ``partition_tail_s`` and ``window_tail_s`` may be
+        absent from a ``per_run`` entry, and ``reasons``, run id -> why it was skipped or
+        is too short, from ``counts``). Without it the window columns are -1.
     window_s : float, optional
         Window length, s (for the too-short reason where ``counts`` gives none).
     flagged : Mapping[str, int], optional
@@ -242,6 +248,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
             "empty_gap": int(w.get("empty_gap", 0)) if w else 0,
             "dropped_unsteady": int(w["dropped_unsteady"]) if w else 0,
             "partition_tail_s": float(w.get("partition_tail_s", 0.0)) if w else 0.0,
+            "window_tail_s": float(w.get("window_tail_s", 0.0)) if w else 0.0,
             "flagged_windows": int(flagged.get(run.run_id, 0)),
             "warnings": len(meta.get("warnings", ())),
         })

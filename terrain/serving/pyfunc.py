@@ -231,8 +231,10 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         ``run, t_start_s, t_end_s`` (s), ``predicted`` and ``proba_<CLASS>`` per window; its
         ``attrs["dropped_windows"]`` counts windows of data dropped for holding NaN (a
         timestamp gap), ``attrs["empty_windows"]`` the window positions wholly inside a gap
-        of every stream (no sample at all, so not counted as dropped), and
-        ``attrs["short_runs"]`` lists the runs shorter than one window (no row).
+        of every stream (no sample at all, so not counted as dropped),
+        ``attrs["window_tail_s"]`` the time after each run's last window, which no window
+        covers (s, summed over the runs), and ``attrs["short_runs"]`` lists the runs
+        shorter than one window (no row).
 
     Raises
     ------
@@ -271,7 +273,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         row = int(np.flatnonzero(no_run)[0])
         raise DataFormatError(f"{int(no_run.sum())} sample(s) without a run (every sample "
                               "names the run it belongs to)", "model input", RUN, row)
-    out, dropped, empty, short = [], 0, 0, []
+    out, dropped, empty, tail, short = [], 0, 0, 0.0, []
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)
         t = frame[TIME].to_numpy(dtype=float)
@@ -302,6 +304,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         X, t0, t1, _, counts = window_frame(frame, channels, config)
         empty += counts["empty_gap"]
         dropped += counts["dropped_gap"]
+        tail += counts["window_tail_s"]
         if len(X) == 0:
             if len(frame) < round(config.window_s * config.rate_hz):
                 short.append(str(run_id))   # no window fits: named, not left out unsaid
@@ -316,7 +319,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     columns = [RUN, "t_start_s", "t_end_s", "predicted"] + [f"proba_{c}" for c in classes]
     result = pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=columns)
     result = result[columns]
-    result.attrs.update(dropped_windows=dropped, empty_windows=empty, short_runs=short)
+    result.attrs.update(dropped_windows=dropped, empty_windows=empty, window_tail_s=tail,
+                        short_runs=short)
     return result
 
 

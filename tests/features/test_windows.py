@@ -101,6 +101,29 @@ def test_partition_tail_and_runs_without_a_full_partition_are_counted(make_run):
     assert plain.counts["partition_tail_s"] == 0.0 and plain.counts["too_short_runs"] == []
 
 
+def test_the_run_tail_after_the_last_window_is_counted_with_and_without_partitions(make_run):
+    # a 21 s run cut into 2 s windows left 1.02 s after its last window uncounted (no
+    # partition, so partition_tail_s 0): only the partition protocol counted its tail
+    runs = [make_run(_streams(duration_s=21.0), "t/ICE/00", "ICE"),
+            make_run(_streams(duration_s=1.0), "t/ICE/01", "ICE")]    # < 1 window
+    plain = make_windows(runs, "all", WindowConfig(window_s=2.0, rate_hz=50.0))
+    per_run = plain.counts["per_run"]
+    # 1051 grid points: windows 0..999, 51 samples after; 51 points: no window, all tail
+    assert per_run["t/ICE/00"]["window_tail_s"] == pytest.approx(1.02)
+    assert per_run["t/ICE/01"]["window_tail_s"] == pytest.approx(1.02)
+    assert plain.counts["window_tail_s"] == pytest.approx(2.04)
+    assert plain.counts["partition_tail_s"] == 0.0
+    # with partitions: 4 partitions of 250 samples, 85-sample windows every 10 samples end
+    # at 245 (5 samples, 0.1 s, after each), and the 51-sample partition tail
+    config = WindowConfig(window_s=1.7, hop_s=0.2, rate_hz=50.0, partition_s=5.0)
+    parts = make_windows(runs[:1], "all", config)
+    assert parts.counts["window_tail_s"] == pytest.approx(4 * 0.1)
+    assert parts.counts["partition_tail_s"] == pytest.approx(1.02)
+    report = input_report(runs, plain.counts, 2.0).text()
+    assert ("not windowed: 2.0 s of run tails after the last full window in t/ICE/00, "
+            "t/ICE/01") in report
+
+
 def test_steady_only_drops_windows_with_speed_changes(make_run):
     # steady 0.5 m/s until 10 s, then a 1 Hz +-0.4 m/s oscillation
     vel = (lambda t: np.where(t < 10.0, 0.5, 0.5 + 0.4 * np.sin(2 * np.pi * (t - 10.0))))

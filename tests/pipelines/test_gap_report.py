@@ -162,3 +162,12 @@ def test_served_model_refuses_samples_without_a_run():
                         WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
     assert exc.value.column == "run" and exc.value.row == 40
     assert "20 sample(s) without a run" in str(exc.value)
+
+
+def test_served_model_counts_the_run_tail_after_its_last_window():
+    # 6.5 s at 10 Hz (65 samples) in 2 s windows: 3 windows, 0.5 s after the last one that
+    # terrain predict's input report did not mention
+    t = np.round(np.arange(0.0, 6.5, 0.1), 6)
+    out = predict_windows(_Constant(), _samples(t), ["vel_l", "vel_r", "cur_l", "cur_r"],
+                          WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
+    assert len(out) == 3 and out.attrs["window_tail_s"] == pytest.approx(0.5)
