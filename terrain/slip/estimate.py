@@ -836,7 +836,9 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         ``physics_interval`` it is skipped (a run with every window-side at full slip then
         gets the plain EKF's answer). A note and ``meta["pseudo_full_slip"]`` (of
         ``meta["pseudo_window_sides"]``; ``meta["pseudo_full_slip_use"]``: ``"interval
-        centre"``, ``"skipped"`` or ``"none"``) count them. The forward speed is held within
+        centre"``, ``"skipped"`` or ``"none"``) count them; a window-side whose physics slip
+        has no finite std (an unknown current spread inside the window) is skipped, counted
+        in ``meta["pseudo_unknown_std"]`` and a note. The forward speed is held within
         what the recent rim speeds allow (``settings.filter.speed_bound_braking_slip``,
         :func:`terrain.estimation.skid_steer_slip.speed_bounds_m_s`); the steps where the
         estimate was projected back are ``meta["speed_bound_active_steps"]`` and a note.
@@ -941,6 +943,17 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                 "window-sides (the current asks for at least the most traction the "
                 f"{run.terrain} curve gives: the slip is bounded, not measured); their "
                 "pseudo-measurement is skipped (no physics_interval in the outputs)")
+    unknown = np.zeros(full.shape, dtype=bool)
+    if source != "learned":
+        # a physics slip without a std (its current spread inside the window unknown:
+        # terrain.slip.physics.within_window_current_std) is skipped by the filter, and said
+        s_p, sd_p = outputs["physics"][1:]
+        unknown = np.isfinite(s_p) & ~np.isfinite(sd_p)
+        if unknown.any():
+            notes.append(
+                f"note: physics slip without a std on {int(unknown.sum())} of {unknown.size} "
+                "window-sides (its uncertainty is unknown, e.g. the current spread inside the "
+                "window is NaN: not taken as steady); their pseudo-measurement is skipped")
     # drift scaled with the slope of the traction curve: the physics std from current noise
     drift = (outputs["physics_current"][2] if fs.slip_psd_rel > 0 and pm[0] is not None
              and "physics_current" in outputs else None)
@@ -971,5 +984,6 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                         "pseudo_full_slip": int(full.sum()),
                         "speed_bound_active_steps": held,
                         "pseudo_full_slip_use": full_use,
+                        "pseudo_unknown_std": int(unknown.sum()),
                         "pseudo_window_sides": int(full.size)},
                        np.sqrt(ekf.P_diag[:, idx]), tuple(notes))

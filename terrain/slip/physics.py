@@ -395,7 +395,8 @@ def within_window_current_std(current_within_std_a: np.ndarray | None, noise_std
     Parameters
     ----------
     current_within_std_a : ndarray, shape (n, m), or None
-        Std of the current samples inside each window, A; None: zeros.
+        Std of the current samples inside each window, A; None: zeros. NaN where it is
+        not known (a window holding a non-finite current sample).
     noise_std_a : float
         Std of one current sample's noise, A (:attr:`PhysicsSlipSettings.current_std_a`).
     shape : tuple of int
@@ -404,7 +405,10 @@ def within_window_current_std(current_within_std_a: np.ndarray | None, noise_std
     Returns
     -------
     ndarray, shape (n, m)
-        Excess spread, A (>= 0).
+        Excess spread, A (>= 0); NaN where the spread is NaN: a window whose steadiness is
+        unknown is not taken as steady (its physics slip std and interval are then NaN,
+        which the slip pseudo-measurement skips and counts, see
+        :func:`terrain.estimation.skid_steer_slip.run_with_pseudo_slip`).
 
     Raises
     ------
@@ -416,7 +420,8 @@ def within_window_current_std(current_within_std_a: np.ndarray | None, noise_std
     s = np.asarray(current_within_std_a, dtype=float)
     if s.shape != tuple(shape):
         raise ShapeError(f"current_within_std_a must be {tuple(shape)}, got {s.shape}")
-    return np.sqrt(np.maximum(np.nan_to_num(s) ** 2 - noise_std_a ** 2, 0.0))
+    # NaN stays NaN (np.maximum propagates it): unknown, not steady
+    return np.sqrt(np.maximum(s ** 2 - noise_std_a ** 2, 0.0))
 
 
 def _slip_interval(curve, mu_low: np.ndarray, mu_high: np.ndarray

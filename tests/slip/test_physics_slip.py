@@ -178,6 +178,24 @@ def test_within_window_spread_counts_only_above_the_sensor_noise():
     np.testing.assert_allclose(moving.slip, steady.slip)
 
 
+def test_an_unknown_within_window_spread_is_not_taken_as_steady():
+    # a NaN spread (steadiness unknown) gave 0, a steady window: the physics std of that
+    # side was the steady one (0.0061 on SANDY_LOAM at 4 A, efficiency and hysteresis
+    # uncertainties off; a 2 A spread gives 0.19) as if the traction held still
+    from terrain.slip.physics import within_window_current_std
+    got = within_window_current_std(np.array([[np.nan, 0.5]]), 0.08, (1, 2))
+    assert np.isnan(got[0, 0]) and got[0, 1] == pytest.approx(np.sqrt(0.25 - 0.0064))
+    cur, rim = np.full((1, 2), 4.0), np.full((1, 2), 0.5)
+    exact = PhysicsSlipSettings(efficiency_rel_std=0.0, hysteresis_rel_std=0.0)
+    steady = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1), settings=exact)
+    unknown = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1), settings=exact,
+                           current_within_std_a=np.array([[np.nan, 0.05]]))
+    np.testing.assert_allclose(unknown.slip, steady.slip)
+    assert np.isnan(unknown.std[0, 0]) and np.isnan(unknown.lower[0, 0]) \
+        and np.isnan(unknown.upper[0, 0])
+    assert unknown.std[0, 1] == pytest.approx(steady.std[0, 1])
+
+
 def test_pitch_std_matches_the_spread_of_window_means_of_coloured_vibration():
     # AR(1) vibration (pole 0.6) of 2 m/s^2 on level ground, 100-sample windows: the std of
     # the window-mean pitch predicted from each window alone against its actual spread

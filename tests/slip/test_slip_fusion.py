@@ -203,6 +203,23 @@ def test_a_pseudo_measurement_with_no_finite_side_is_counted_as_non_finite():
     assert (c["samples"], c["non_finite"], c["used"]) == (4, 2, 3)
 
 
+def test_window_sides_whose_physics_std_is_unknown_are_skipped_and_counted(sandy):
+    # a NaN current spread inside a window gave a steady window's std (0); it is now a NaN
+    # physics std (terrain.slip.physics.within_window_current_std), which the filter skips:
+    # the run says how many window-sides that was, beside the full-slip count
+    _, run = sandy
+    out = slip_model_outputs(run)
+    t, slip, std = out["physics"]
+    std = std.copy()
+    std[[3, 7, 7], [0, 0, 1]] = np.nan
+    out["physics"] = (t, slip, std)
+    est = estimate_skid_steer_slip_run(run, "physics", outputs=out, lag="none")
+    assert est.meta["pseudo_unknown_std"] == 3
+    assert any(f"physics slip without a std on 3 of {std.size} window-sides" in n
+               for n in est.notes)
+    assert est.ekf.counts["slip_model"]["non_finite"] == 2      # windows 3 and 7
+
+
 def test_a_spinning_start_gets_a_wide_physics_std_and_a_transient_drift():
     """A start on ice spins the wheels (true slip ~0.5 for ~2 s) at the curve's flat
     maximum traction: the window covering it must not claim the knee slip with a small std
