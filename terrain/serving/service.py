@@ -63,7 +63,8 @@ over twice the top speed of the model's vehicle, so they are in km/h: the reader
 a model whose metadata names a vehicle of :data:`terrain.io.plausibility.VEHICLE_LIMITS`,
 directly or through its shipped dataset (:func:`terrain.serving.model.model_vehicle`), and
 that uses the wheel speeds), ``non_finite_proba`` (the model's probabilities for the window
-hold a NaN or inf: no evidence, the filter takes a prediction-only step), ``clock_restart``,
+hold a NaN or inf: no evidence, the filter takes a prediction-only step; no terrain before
+the first window taken as evidence, with the filter as without), ``clock_restart``,
 ``low_confidence`` (fallback target).
 """
 
@@ -402,9 +403,9 @@ class StreamService:
         if X is not None:
             raw = self.model.pipeline.predict_proba(X)[0]
             q = np.array([raw[i] if i >= 0 else 0.0 for i in self._pipe_cols])
-            if not np.isfinite(q).all():   # the filter takes no evidence from it
-                flags.add("non_finite_proba")
         decided, p = self._filter.update(q)
+        if q is not None and not self._filter.evidence:   # a NaN or inf: no evidence
+            flags.add("non_finite_proba")
         terrain = None if decided is None else self.model.classes[decided]
         conf = 0.0 if decided is None else float(p[decided])
         trusted = terrain if conf >= self.config.min_confidence else None

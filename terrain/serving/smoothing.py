@@ -167,6 +167,12 @@ class ForwardFilter:
     hop_s : float
         Time between decisions, s.
     config : SmoothingConfig
+
+    Attributes
+    ----------
+    evidence : bool
+        Whether the last :meth:`update` took its window as evidence (false for ``None``
+        and for probabilities holding a NaN or inf; false before any update).
     """
 
     def __init__(self, n_classes: int, hop_s: float, config: SmoothingConfig) -> None:
@@ -179,6 +185,7 @@ class ForwardFilter:
         self.current: int | None = None
         self._streak = 0
         self._last_top: int | None = None
+        self.evidence = False
 
     def update(self, q: np.ndarray | None) -> tuple[int | None, np.ndarray]:
         """Fold in one window's probabilities.
@@ -187,22 +194,26 @@ class ForwardFilter:
         ----------
         q : numpy.ndarray or None
             ``(K,)`` classifier probabilities; ``None`` when the window was invalid. A ``q``
-            with a NaN or infinite entry is no evidence either (taken as ``None``): folded
-            in, it would make ``p`` NaN for every later step.
+            with a NaN or infinite entry is no evidence either (taken as ``None``, with or
+            without the filter; :attr:`evidence` says so): folded in, it would make ``p``
+            NaN for every later step.
 
         Returns
         -------
         decided : int or None
-            Index of the decided class (``None`` before the first valid window).
+            Index of the decided class (``None`` before the first window taken as
+            evidence).
         p : numpy.ndarray
             ``(K,)`` filtered probabilities (a copy); without the filter, ``q``, or the
             uniform distribution when ``q`` is ``None``.
         """
+        # the one finiteness test of a window's probabilities (the service reads evidence)
+        if q is not None and not np.isfinite(q).all():
+            q = None
+        self.evidence = q is not None
         if self.config.dwell_s is None:
             # no memory: an invalid window is no evidence (the last window's probabilities
             # kept would be reported as the current ones)
-            if q is not None and not np.isfinite(q).all():
-                q = None
             self.p = np.full(len(self.p), 1.0 / len(self.p)) if q is None \
                 else np.asarray(q, dtype=float).copy()
         else:

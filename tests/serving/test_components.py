@@ -293,3 +293,16 @@ def test_a_window_of_non_finite_probabilities_is_no_evidence_and_never_poisons_t
         assert decided == 1
     decided, p = filt.update(good)
     assert decided == 1 and np.isfinite(p).all() and p.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("dwell_s", [10.0, None])
+def test_a_first_window_of_non_finite_probabilities_decides_nothing_with_or_without_filter(
+        dwell_s):
+    # with the filter on, a NaN first window (no evidence yet) was decided as the prior's
+    # argmax (class 0 at 1/K) while the unfiltered filter gave no decision
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=dwell_s))
+    for bad in (np.full(3, np.nan), np.array([np.inf, 1.0, 0.0])):
+        decided, p = filt.update(bad)
+        assert decided is None and not filt.evidence
+        np.testing.assert_allclose(p, np.full(3, 1 / 3))
+    assert filt.update(np.array([0.1, 0.7, 0.2]))[0] == 1 and filt.evidence

@@ -1498,3 +1498,23 @@ def test_a_model_answering_nan_probabilities_flags_its_window_and_the_filter_goe
     first = got.index(bad[0])
     assert [d.terrain for d in got[:first]] == [d.terrain for d in clean[:first]]
     assert {d.terrain for d in got[first + 1:]} == {d.terrain for d in clean[first + 1:]}
+
+
+def test_a_first_window_of_nan_probabilities_gives_no_terrain_with_the_filter_as_without(
+        wheel_model, unseen_run):
+    # with the forward filter on, a NaN first window was decided as the prior's argmax
+    # (the first class at 1/K, flagged low_confidence|non_finite_proba), without it no
+    # terrain; both now give no terrain, flagged non_finite_proba alone
+    frame = unseen_run.streams["wheels"].iloc[:300]
+    firsts = []
+    for smoothing in (SmoothingConfig(), RAW):
+        nan_first = _NaNEvery(wheel_model.pipeline, 10 ** 9)
+        nan_first.calls = 10 ** 9 - 1     # its first answer is NaN, no other
+        got = push_wheels(service(replace(wheel_model, pipeline=nan_first),
+                                  smoothing=smoothing), frame)
+        assert len(got) > 3 and nan_first.calls > 10 ** 9
+        firsts.append(got[0])
+        assert all(d.terrain is not None and "non_finite_proba" not in d.flags
+                   for d in got[1:])
+    for d in firsts:
+        assert (d.terrain, d.confidence, d.flags) == (None, 0.0, "non_finite_proba")
