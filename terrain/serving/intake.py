@@ -417,7 +417,7 @@ class StreamIntake:
     def _drop_ahead(self, stream: str) -> None:
         """Refuse the held run of ``stream`` (a stray stamp ahead), counted and flagged as
         ``time_ahead``."""
-        self.refused[(stream, AHEAD)] += len(self._take_ahead(stream))
+        self._refuse_ahead(stream, AHEAD)
         # flagged from the service's newest time on: the stream's own newest may be long
         # before every coming window (a clock in ms whose every sample steps ahead)
         self.note(stream, self.newest(), AHEAD)
@@ -478,6 +478,15 @@ class StreamIntake:
             out |= [clock.ahead.repeats(ti, vi) for ti, vi in zip(t, v)]
         return out
 
+    def _refuse_ahead(self, stream: str, reason: str) -> None:
+        """Refuse the run held ahead by ``stream``, counted under ``reason``: the samples
+        held and the oldest ones its bound dropped (counted as ``buffer_overflow`` when
+        dropped, now under the reason that drops the run: a sample counts once)."""
+        held = self._take_ahead(stream)
+        if held.n_dropped:
+            self._uncount(stream, OVERFLOW, held.n_dropped)
+        self.refused[(stream, reason)] += len(held) + held.n_dropped
+
     def _take_ahead(self, stream: str) -> HeldRun:
         """The run held ahead by ``stream``, which holds none after."""
         clock = self.clocks[stream]
@@ -535,10 +544,11 @@ class StreamIntake:
         clock starts again when it ran ahead of every other stream on their stamps."""
         buf, clock = self.buffers[stream], self.clocks[stream]
         k = newest_on_ms_clock(buf.times(), clock.ms_step_s)
-        n = k + len(clock.late) + len(clock.unjudged) + \
-            (len(self._take_ahead(stream)) if clock.ahead is not None else 0)
+        n = k + len(clock.late) + len(clock.unjudged)
         if n:
             self.refused[(stream, UNITS)] += n
+        if clock.ahead is not None:
+            self._refuse_ahead(stream, UNITS)
         buf.drop_newest(k)
         self.stuck[stream] = StuckWatch(stream, self.streams[stream])
         clock.late.clear()

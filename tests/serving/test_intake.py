@@ -108,3 +108,25 @@ def test_a_lone_stream_stepping_ahead_is_taken_there_is_no_other_clock():
     assert ("wheels", AHEAD) not in intake.refused
     assert intake.clocks["wheels"].held() == {}
     assert intake.newest() == pytest.approx(31.9)
+
+
+def test_a_held_run_refused_as_a_stray_stamp_counts_all_its_samples_under_time_ahead():
+    """A run held ahead of the other stream's clock is bounded (``buffer_samples``): the
+    oldest held samples it drops were counted as buffer_overflow, and when the stream then
+    went on on its old clock the run was refused as time_ahead with only the samples still
+    held (40 held into a 32-sample hold: 8 buffer_overflow + 32 time_ahead). Every sample
+    of the run is now counted once, under the reason that finally dropped it."""
+    streams = {"wheels": ("vel_l", "vel_r"), "currents": ("cur_l", "cur_r")}
+    cfg = StreamConfig(streams=streams, buffer_samples=32)
+    intake = StreamIntake(streams, cfg, DEFAULT_RULES, DecisionClock(2.0, 10.0))
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v[:, :2])
+    intake.ingest("currents", t, v[:, 2:])
+    t2, v2 = _chunk(12.0, 40)                  # the wheel clock steps 10 s ahead, alone
+    intake.ingest("wheels", t2, v2[:, :2])
+    assert intake.clocks["wheels"].held() == {AHEAD: 32}
+    assert intake.refused == {("wheels", OVERFLOW): 8}     # counted nowhere else yet
+    t3, v3 = _chunk(2.0, 1)                    # the wheels go on on their old clock
+    intake.ingest("wheels", t3, v3[:, :2])
+    assert intake.clocks["wheels"].held() == {}
+    assert intake.refused == {("wheels", AHEAD): 40}
