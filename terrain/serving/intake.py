@@ -540,10 +540,13 @@ class StreamIntake:
     def _purge(self, stream: str) -> None:
         """Refuse the samples of ``stream`` buffered on its ms clock (the newest ones, each
         a step over ten nominal periods after the one before; those before the switch were
-        good and stay) and those it holds, counted as ``timestamp_units``; the decision
-        clock starts again when it ran ahead of every other stream on their stamps."""
+        good and stay) and those it holds, counted as ``timestamp_units`` (the late ones
+        held for a restart move there from ``time_not_increasing``); the decision clock
+        starts again when it ran ahead of every other stream on their stamps."""
         buf, clock = self.buffers[stream], self.clocks[stream]
         k = newest_on_ms_clock(buf.times(), clock.ms_step_s)
+        if len(clock.late):   # counted when refused as late (held_samples says so)
+            self._uncount(stream, TIME_RULE, len(clock.late))
         n = k + len(clock.late) + len(clock.unjudged)
         if n:
             self.refused[(stream, UNITS)] += n

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from terrain.run import WHEEL_CHANNELS
-from terrain.serving.clocks import AHEAD, DUPLICATE, TIME_RULE
+from terrain.serving.clocks import AHEAD, DUPLICATE, TIME_RULE, UNITS
 from terrain.serving.config import StreamConfig
 from terrain.serving.intake import OVERFLOW, DecisionClock, StreamIntake
 from terrain.serving.rules import DEFAULT_RULES
@@ -130,3 +130,22 @@ def test_a_held_run_refused_as_a_stray_stamp_counts_all_its_samples_under_time_a
     intake.ingest("wheels", t3, v3[:, :2])
     assert intake.clocks["wheels"].held() == {}
     assert intake.refused == {("wheels", AHEAD): 40}
+
+
+def test_late_samples_held_for_a_restart_and_purged_with_a_clock_in_ms_count_once():
+    """Samples refused as time_not_increasing are held as a possible restarted clock (and
+    stay counted there); a purge of the stream found on a clock in ms counted them again as
+    timestamp_units: 3 late samples and 9 on the ms clock gave 15 refusals for 12 samples.
+    They are now counted once, under the purge's reason."""
+    intake, _ = _intake()
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v)
+    t2, v2 = _chunk(1.05, 3)                  # late: before the newest (1.9 s)
+    intake.ingest("wheels", t2, v2)
+    assert intake.refused == {("wheels", TIME_RULE): 3} and len(intake.clocks["wheels"].late)
+    pushed = 0
+    while ("wheels", UNITS) not in intake.refused:   # the wheels go on in ms
+        t3, v3 = _chunk(2000.0 + 100.0 * pushed, 1)
+        intake.ingest("wheels", t3, v3)
+        pushed += 1
+    assert pushed == 9 and intake.refused == {("wheels", UNITS): 3 + pushed}
