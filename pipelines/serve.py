@@ -35,7 +35,7 @@ from pipelines.arguments import (add_smoothing, input_folder, model_dir, positiv
                                  probability, smoothing_from_args)
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
-from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT,
+from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT, MIN_IDLE_S,
                                   RESERVED_FILES, RequestGuard, bounded_connections_protocol,
                                   run_server)
 from terrain.serving.model import read_mlmodel
@@ -78,8 +78,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "none is in progress (a client stalled in its headers) before "
                              "it is answered 408 and closed")
     parser.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS,
-                        help="connections kept open (more: the oldest idle one is closed); "
-                             "at most the open-file limit (ulimit -n) minus "
+                        help="connections kept open (more: the oldest one idle for "
+                             f"{MIN_IDLE_S:g} s is closed, else the new one is answered 503); "
+                             "twice this (as many refused ones are held up to "
+                             f"{MIN_IDLE_S:g} s) at most the open-file limit (ulimit -n) minus "
                              f"{RESERVED_FILES}")
 
 
@@ -269,11 +271,13 @@ def _check_args(args: argparse.Namespace) -> None:
                               f"{unit}, got {value}")
     limit = _open_file_limit()
     connections = getattr(args, "max_connections", MAX_CONNECTIONS)
-    if limit is not None and connections > limit - RESERVED_FILES:
+    # kept ones, and as many answered 503 and held until their client has read it
+    if limit is not None and 2 * connections > limit - RESERVED_FILES:
         raise ConfigError(f"--max-connections {connections} does not fit the open-file limit "
                           f"{limit} (ulimit -n) less {RESERVED_FILES} for the server's own "
-                          f"files: pass at most {max(limit - RESERVED_FILES, 1)} or raise "
-                          "the limit")
+                          f"files (twice the bound: as many connections refused beyond it "
+                          f"are held up to {MIN_IDLE_S:g} s): pass at most "
+                          f"{max((limit - RESERVED_FILES) // 2, 1)} or raise the limit")
     header_timeout = getattr(args, "header_timeout_s", HEADER_TIMEOUT_S)
     if not (math.isfinite(header_timeout) and header_timeout > 0):
         raise ConfigError(f"--header-timeout-s must be a finite number of seconds > 0, got "
@@ -292,7 +296,8 @@ def accept_backlog(max_connections: int) -> int:
     open-file limit.
 
     asyncio accepts up to ``backlog`` connections in one pass of its loop before any of
-    them can be closed, so the connections kept open plus about two passes must fit the
+    them can be closed, so the connections kept open (and as many refused ones, held until
+    their client has read the 503) plus about two passes must fit the
     open-file limit (measured: with 2,048 under a limit of 1,024, a burst of 1,100 idle
     connections still made ``accept`` fail with EMFILE while the oldest were being
     closed).
@@ -310,7 +315,7 @@ def accept_backlog(max_connections: int) -> int:
     limit = _open_file_limit()
     if limit is None:
         return MAX_BACKLOG
-    return int(min(MAX_BACKLOG, max(16, (limit - RESERVED_FILES - max_connections) // 3)))
+    return int(min(MAX_BACKLOG, max(16, (limit - RESERVED_FILES - 2 * max_connections) // 3)))
 
 
 def _open_file_limit() -> int | None:
@@ -399,6 +404,10 @@ def main(args: argparse.Namespace) -> int:
                 if protocol.closed:
                     print(f"terrain serve: closed {protocol.closed} idle connection(s) "
                           f"beyond --max-connections {protocol.limit}", flush=True)
+                if protocol.refused:
+                    print(f"terrain serve: answered {protocol.refused} new connection(s) 503 "
+                          f"beyond --max-connections {protocol.limit} (none idle for "
+                          f"{protocol.min_idle_s:g} s)", flush=True)
     except _Stopped as stop:
         print(f"terrain serve: stopped ({stop})", flush=True)
     finally:

@@ -45,11 +45,19 @@ BODY_TIMEOUT_S = 30.0
 #: it is answered 408 and closed: uvicorn times out no connection before its first request,
 #: nor one stalled inside a request's headers (its keep-alive timer stops at the first byte)
 HEADER_TIMEOUT_S = 30.0
-#: default of the connections ``terrain serve`` keeps open: beyond, the oldest idle one is
-#: closed. Measured: 1,100 connections that never sent a byte took a served model down
-#: under the common 1,024 open-file limit (``accept`` failed with EMFILE, /ping timed out,
-#: 83,150 lines of tracebacks on stderr), uvicorn having no timeout before the first request
+#: default of the connections ``terrain serve`` keeps open: beyond, the oldest one idle for
+#: :data:`MIN_IDLE_S` is closed, or the new one is answered 503. Measured: 1,100 connections
+#: that never sent a byte took a served model down under the common 1,024 open-file limit
+#: (``accept`` failed with EMFILE, /ping timed out, 83,150 lines of tracebacks on stderr),
+#: uvicorn having no timeout before the first request
 MAX_CONNECTIONS = 256
+#: seconds a connection must have gone without a byte in, no request of it in progress, before
+#: it may be closed for a new one beyond the bound; also the longest a connection refused
+#: beyond the bound is kept open after its 503, reading (and dropping) its client's request so
+#: that the client reads the answer instead of a reset. A just-accepted connection whose bytes
+#: are not read yet is not idle: closing it reset 41 of 90 requests of 40 clients at a bound
+#: of 20 (100 of 120 in tests/serving/test_header_timeout.py)
+MIN_IDLE_S = 1.0
 #: open files ``terrain serve`` keeps for itself beside its connections (model files,
 #: MLflow, logs) when checking ``--max-connections`` against the open-file limit
 RESERVED_FILES = 64
@@ -569,7 +577,8 @@ def _replay(body: bytes, receive: Receive) -> Receive:
 
 
 def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
-                                 header_timeout_s: float = HEADER_TIMEOUT_S) -> type:
+                                 header_timeout_s: float = HEADER_TIMEOUT_S,
+                                 min_idle_s: float = MIN_IDLE_S) -> type:
     """uvicorn HTTP protocol class keeping at most ``max_connections`` connections open and
     timing out connections that start no request.
 
@@ -577,8 +586,14 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
     connections that never send a byte (a leaking client, a port scanner holding sockets)
     pile up until ``accept`` fails for lack of file descriptors and the server answers
     nobody. With this class, a new connection beyond the bound closes the oldest *idle*
-    one (no request in progress) or, when every other one is mid-request, is closed
-    itself. A request in progress is never cut.
+    one (no request in progress and no byte received for ``min_idle_s``, nor a response
+    sent); when there is none (every other one is mid-request, or was just accepted and its
+    request not read yet), the new one is answered ``503`` with the project's JSON error
+    (``ServiceBusyError``, ``TEMPORARILY_UNAVAILABLE``) and closed once its client closes, or
+    after ``min_idle_s``, its request read and dropped meanwhile (closed at once with bytes
+    unread, its client would see a reset, not the answer). At most ``max_connections`` such
+    refused connections are kept so; beyond, the oldest is closed at once. A request in
+    progress, or a connection just accepted, is never cut.
 
     A connection that starts no request for ``header_timeout_s`` while none of its requests
     is in progress (it never sent a byte, or it stalled inside a request line or headers,
@@ -596,31 +611,39 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
     header_timeout_s : float
         Seconds without a new request, none in progress, before a connection is closed
         (finite, > 0).
+    min_idle_s : float
+        Seconds without a byte in, no request in progress, before a connection may be
+        closed for a new one beyond the bound (finite, > 0).
 
     Returns
     -------
     type
         A subclass of uvicorn's default HTTP protocol, for ``uvicorn.Config(http=...)``;
-        its ``closed`` attribute counts the connections it closed beyond the bound,
-        ``timed_out`` those closed by the header timeout, ``limit`` is ``max_connections``
-        and ``header_timeout_s`` the timeout.
+        its ``closed`` attribute counts the idle connections it closed beyond the bound,
+        ``refused`` the new ones it answered 503, ``timed_out`` those closed by the header
+        timeout, ``limit`` is ``max_connections``, ``header_timeout_s`` the timeout and
+        ``min_idle_s`` the idle time.
 
     Raises
     ------
     ConfigError
-        ``max_connections`` below 1, or ``header_timeout_s`` not a finite number > 0.
+        ``max_connections`` below 1, or ``header_timeout_s`` or ``min_idle_s`` not a finite
+        number > 0.
     """
     from collections import OrderedDict
 
     from uvicorn.protocols.http.auto import AutoHTTPProtocol
 
     config_integer("max_connections", max_connections, 1)
-    if isinstance(header_timeout_s, bool) or not (
-            isinstance(header_timeout_s, (int, float)) and math.isfinite(header_timeout_s)
-            and header_timeout_s > 0):
-        raise ConfigError(f"header_timeout_s must be a finite number of seconds > 0, got "
-                          f"{header_timeout_s!r}")
+    for name, value in (("header_timeout_s", header_timeout_s), ("min_idle_s", min_idle_s)):
+        if isinstance(value, bool) or not (
+                isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ConfigError(f"{name} must be a finite number of seconds > 0, got {value!r}")
     opened: OrderedDict = OrderedDict()   # open connections, oldest first
+    refusing: OrderedDict = OrderedDict()   # connections answered 503 -> their closing timer
+    busy_answer = _closing_answer(b"503 Service Unavailable", _typed(ServiceBusyError(
+        f"server holds its {max_connections} connections, none idle for {min_idle_s:g} s; "
+        "retry shortly")), "TEMPORARILY_UNAVAILABLE")
     timeout_answer = _closing_answer(b"408 Request Timeout", (
         f"DataFormatError: no complete request within {header_timeout_s:g} s; send the "
         "request line and headers at once"))
@@ -631,25 +654,62 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
 
     class BoundedConnections(AutoHTTPProtocol):  # type: ignore[misc, valid-type]
         closed = 0
+        refused = 0
         timed_out = 0
         limit = max_connections
 
         def connection_made(self, transport) -> None:
             super().connection_made(transport)
+            self._refused = False
+            self._active = self.loop.time()   # a byte in, a response out, or the accept
             opened[self] = None
             self._watch_requests(None, True)
             if len(opened) <= max_connections:
                 return
-            idle = next((c for c in opened if c is not self and _is_idle(c)), self)
+            if BoundedConnections.closed + BoundedConnections.refused == 0:
+                _log.warning("more than %d connections open: closing the oldest one idle "
+                             "for %g s for each new one, else answering the new one 503 "
+                             "(counted; said once)", max_connections, min_idle_s)
+            now = self.loop.time()
+            idle = next((c for c in opened if c is not self and _is_idle(c)
+                         and now - c._active >= min_idle_s), None)
+            if idle is None:
+                self._refuse()
+                return
             opened.pop(idle, None)
             BoundedConnections.closed += 1
-            if BoundedConnections.closed == 1:
-                _log.warning("more than %d connections open: closing the oldest idle one "
-                             "for each new one (counted; said once)", max_connections)
             idle.transport.close()
+
+        def _refuse(self) -> None:
+            """Answer this new connection 503 and close it once its client has read it."""
+            BoundedConnections.refused += 1
+            opened.pop(self, None)
+            self._refused = True
+            self._header_timer.cancel()
+            self.transport.write(busy_answer)
+            if self.transport.can_write_eof():
+                self.transport.write_eof()
+            refusing[self] = self.loop.call_later(min_idle_s, self.transport.close)
+            while len(refusing) > max_connections:   # a flood: the oldest goes at once
+                oldest, timer = refusing.popitem(last=False)
+                timer.cancel()
+                oldest.transport.close()
+
+        def data_received(self, data: bytes) -> None:
+            if self._refused:   # answered 503 already: the request is read and dropped
+                return
+            self._active = self.loop.time()
+            super().data_received(data)
+
+        def on_response_complete(self) -> None:
+            self._active = self.loop.time()
+            super().on_response_complete()
 
         def connection_lost(self, exc) -> None:
             opened.pop(self, None)
+            timer = refusing.pop(self, None)
+            if timer is not None:
+                timer.cancel()
             self._header_timer.cancel()
             super().connection_lost(exc)
 
@@ -679,13 +739,15 @@ def bounded_connections_protocol(max_connections: int = MAX_CONNECTIONS,
 
     # set here: inside the class body the name would not see this function's argument
     BoundedConnections.header_timeout_s = header_timeout_s
+    BoundedConnections.min_idle_s = min_idle_s
     return BoundedConnections
 
 
-def _closing_answer(status: bytes, message: str) -> bytes:
+def _closing_answer(status: bytes, message: str, code: str = "BAD_REQUEST") -> bytes:
     """A whole HTTP/1.1 answer written straight to a connection that is then closed (no
-    ASGI cycle runs): ``status`` line, the project's JSON error with ``message``."""
-    body = json.dumps(classified({"error_code": "BAD_REQUEST", "message": message})).encode()
+    ASGI cycle runs): ``status`` line, the project's JSON error with ``message`` and the
+    error code ``code``."""
+    body = json.dumps(classified({"error_code": code, "message": message})).encode()
     return (b"HTTP/1.1 %s\r\ncontent-type: application/json\r\nconnection: close\r\n"
             b"content-length: %d\r\n\r\n" % (status, len(body)) + body)
 

@@ -121,3 +121,70 @@ def test_the_header_timeout_must_be_a_finite_positive_number(bad):
 
 def test_the_protocol_class_reports_its_timeout():
     assert bounded_connections_protocol(10, header_timeout_s=2.5).header_timeout_s == 2.5
+
+
+def _burst(address, clients: int, requests: int) -> list:
+    """``clients`` threads each sending ``requests`` requests to ``/busy`` on a new
+    connection each: the status of each, or the exception's class name (a reset)."""
+    import http.client
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(_):
+        conn = http.client.HTTPConnection(*address, timeout=10)
+        try:
+            conn.request("GET", "/busy")
+            res = conn.getresponse()
+            body = res.read()
+            return res.status if res.status == 200 else (res.status, json.loads(body))
+        except Exception as exc:   # a reset, a broken pipe, a closed connection
+            return type(exc).__name__
+        finally:
+            conn.close()
+
+    with ThreadPoolExecutor(clients) as pool:
+        return list(pool.map(one, range(clients * requests)))
+
+
+def test_a_burst_over_the_connection_bound_is_answered_never_reset():
+    """40 concurrent clients against a bound of 20 (a request of 0.1 s each): a connection
+    just accepted, its request not yet read, was closed as "idle" and its client reset
+    (41 of 90 requests measured); now every request is answered, 200 or 503 in the
+    project's JSON form, and no connection in progress or just accepted is closed."""
+    import uvicorn
+
+    async def busy(scope, receive, send):
+        if scope["type"] == "http":
+            await asyncio.sleep(0.1)
+        await _app(scope, receive, send)
+
+    protocol = bounded_connections_protocol(20, header_timeout_s=5.0)
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    srv = uvicorn.Server(uvicorn.Config(busy, log_level="warning", http=protocol,
+                                        lifespan="off", backlog=256))
+    thread = threading.Thread(target=srv.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        deadline = time.monotonic() + 20
+        while not srv.started:
+            assert time.monotonic() < deadline, "uvicorn did not start"
+            time.sleep(0.01)
+        answers = _burst(sock.getsockname(), 40, 3)
+    finally:
+        srv.should_exit = True
+        thread.join(10)
+        sock.close()
+    failed = [a for a in answers if not isinstance(a, (int, tuple))]
+    assert not failed, f"{len(failed)} of {len(answers)} requests failed: {failed[:5]}"
+    busy_answers = [a for a in answers if isinstance(a, tuple)]
+    for status, body in busy_answers:
+        assert status == 503 and body["error_code"] == "TEMPORARILY_UNAVAILABLE"
+        assert body["message"].startswith("ServiceBusyError: ")
+    assert answers.count(200) >= 20
+    assert protocol.refused == len(busy_answers)
+
+
+@pytest.mark.parametrize("bad", [0, float("inf"), True])
+def test_the_idle_time_must_be_a_finite_positive_number(bad):
+    with pytest.raises(ConfigError, match="min_idle_s"):
+        bounded_connections_protocol(10, min_idle_s=bad)
