@@ -234,7 +234,10 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     know), and the answer could only report it as fewer decisions. Rows of a known stream
     that the model does not need (IMU rows sent to a wheel-only model) are not read, as the
     in-process service ignores them; ``meta["unused"]`` counts them per stream, and the
-    served answer flags every window ``unused:<stream>``.
+    served answer flags every window ``unused:<stream>``. Columns that are neither
+    ``stream``, a time column nor a channel of a known stream (a CSV index, a misspelt
+    channel, another sensor) are not read either; ``meta["ignored_columns"]`` names them
+    and the served answer says so on every window.
 
     Parameters
     ----------
@@ -248,8 +251,10 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         Largest accepted request, rows.
     where : str
         Name of the input in messages.
-    known_streams : sequence of str
-        Stream names a long-format request may hold.
+    known_streams : sequence of str or Mapping[str, sequence of str]
+        Stream names a long-format request may hold (a mapping: stream -> its channels;
+        else the channels of :data:`~terrain.serving.config.KNOWN_STREAMS`), whose time
+        columns and channels are not ignored columns.
     vehicle : str
         Vehicle whose bounds the run-level rules of
         :func:`terrain.io.plausibility.check_run` use.
@@ -260,7 +265,8 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         One frame per needed stream (``t_s`` + channels), in the request's time order;
         ``meta`` holds the run-level findings (``stuck``, ``warnings``) of
         :func:`~terrain.io.plausibility.check_run` and ``unused`` (stream -> rows of a
-        known stream the model does not need).
+        known stream the model does not need) and ``ignored_columns`` (the request's
+        columns that no known stream has, in request order).
 
     Raises
     ------
@@ -332,6 +338,7 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     checks = check_run(where, out, vehicle, {s: where for s in out}, time_column=TIME)
     checks["unused"] = _unused_rows(frame, long,
                                     [s for s in known_streams if s not in streams])
+    checks["ignored_columns"] = _ignored_columns(labels, long, streams, known_streams)
     return Run("request", "request", None, out, vehicle=vehicle, source=where, meta=checks)
 
 
@@ -349,6 +356,21 @@ def _unused_rows(frame: pd.DataFrame, long: bool, others: Sequence[str]) -> dict
         if n:
             counts[stream] = n
     return counts
+
+
+def _ignored_columns(labels: Sequence[str], long: bool, streams: Mapping[str, Sequence[str]],
+                     known: Sequence[str] | Mapping[str, Sequence[str]]) -> list[str]:
+    """The request's columns that no known stream has (``stream`` and ``t_s`` in the long
+    format, ``<stream>_t_s`` in the wide one, and every known stream's channels), in request
+    order: not read, and named in the answer rather than dropped without a word."""
+    read = {STREAM, TIME} if long else set()
+    for stream in known:
+        channels = (known[stream] if isinstance(known, Mapping)
+                    else streams.get(stream, KNOWN_STREAMS.get(stream, ())))
+        read.update(channels)
+        if not long:
+            read.add(f"{stream}_{TIME}")
+    return [c for c in labels if c not in read]
 
 
 def _check_stream_names(names: np.ndarray, known: Sequence[str], where: str) -> None:

@@ -14,9 +14,10 @@ described in :mod:`terrain.serving.request`).
 
 Answer: one row per window, ``t_s, terrain, confidence, proba_<CLASS>...,
 target_slip_traction, target_slip_braking, target_slip_steady, window_age_s, flags,
-dropped``; ``dropped`` is true for a window that was not classified, and its reason is in
-``flags`` (one of :data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: ``gap``, ``short``,
-or a unit rule the service applies per window, ``accel_units``, ``wheel_speed_units``, or
+dropped, ignored_columns, n_ignored_columns``; ``dropped`` is true for a window that was
+not classified, and its reason is in ``flags`` (one of
+:data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: ``gap``, ``short``, or a unit rule
+the service applies per window, ``accel_units``, ``wheel_speed_units``, or
 ``non_finite_proba``, a NaN or inf among the model's probabilities);
 ``window_age_s`` is null where no window was built (``short``; the in-process service says
 inf, which JSON cannot hold). The readers'
@@ -29,7 +30,10 @@ known stream the model does not use (IMU rows sent to a wheel-only model) are no
 not checked: every window says so (``unused:<stream>``). Samples the service still held
 when the request ended (a stream stepping far ahead of the others' clock, held until they
 catch up; :attr:`~terrain.serving.service.StreamService.held_samples`) reached no decision:
-every window says so (``held:<stream>``).
+every window says so (``held:<stream>``). Columns that no known stream has (a CSV index, a
+misspelt channel, another sensor) are not read: every window names them,
+``ignored_columns`` (the first five, as :func:`terrain.errors.listed` writes them, and a
+count of the others; empty when none), and counts them, ``n_ignored_columns``.
 
 A window holding a timestamp gap costs the same as any other (the service aligns only its
 window's end of the streams' grid, :func:`terrain.io.align.overlap_grid_tail`; the window is
@@ -57,7 +61,7 @@ import pandas as pd
 
 from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
-from terrain.errors import ConfigError, DataFormatError, TerrainError
+from terrain.errors import ConfigError, DataFormatError, TerrainError, listed
 from terrain.run import TIME
 from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
@@ -304,7 +308,9 @@ class ServedStreamModel(PythonModel):
         -------
         pandas.DataFrame
             One row per window (see module docstring); ``window_age_s`` (s) is None (JSON
-            null) where no window was built (``short``: its age is infinite).
+            null) where no window was built (``short``: its age is infinite);
+            ``ignored_columns`` and ``n_ignored_columns`` name and count the request's
+            columns that no known stream has (not read).
 
         Raises
         ------
@@ -317,7 +323,7 @@ class ServedStreamModel(PythonModel):
         streams = {s: service.streams[s] for s in service.needed_streams}
         window_s = self.model.window.window_s
         run = parse_request(frame, streams, window_s, int(self.settings["max_rows"]),
-                            known_streams=tuple(self.config.streams),
+                            known_streams=self.config.streams,
                             vehicle=str(self.settings["vehicle"]))
         limit, hop = int(self.settings["max_decisions"]), float(self.config.hop_s)
         planned = planned_decisions(run, window_s, hop)
@@ -338,6 +344,9 @@ class ServedStreamModel(PythonModel):
         out["flags"] = _plausibility_flags(out, window_s, run.meta, held)
         # (a list, not the .str accessor: an answer without decisions has no text dtype)
         out["dropped"] = [not UNCLASSIFIED_FLAGS.isdisjoint(f.split("|")) for f in out["flags"]]
+        ignored = run.meta["ignored_columns"]
+        out["ignored_columns"] = listed(ignored) if ignored else ""
+        out["n_ignored_columns"] = len(ignored)
         out["terrain"] = out["terrain"].fillna("")
         # no window was built (``short``): its age is infinite, which JSON cannot hold
         # (MLflow would write the bare token Infinity): null instead

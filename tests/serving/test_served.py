@@ -95,7 +95,8 @@ def test_answer_is_the_in_process_service(served, request_frame, wheel_model):
                             StreamConfig(hop_s=0.5))
     run = parse_request(request_frame, {"wheels": WHEEL_CHANNELS}, 2.0, 10_000)
     want = decisions_frame(replay_run(service, run), wheel_model.classes)
-    assert list(got.columns) == list(want.columns) + ["dropped"]
+    assert list(got.columns) == [*want.columns, "dropped", "ignored_columns",
+                                 "n_ignored_columns"]
     # 12 s of stream: decisions every 0.5 s from the end of the first 2 s window on
     assert len(got) == len(want) >= 10
     assert np.allclose(np.diff(got["t_s"]), 0.5)
@@ -125,6 +126,27 @@ def test_rows_of_a_stream_the_model_does_not_use_are_flagged_not_checked(served,
     got, want = pd.DataFrame(body["predictions"]), pd.DataFrame(plain["predictions"])
     assert (got["flags"] == "unused:imu").all() and (want["flags"] == "").all()
     pd.testing.assert_frame_equal(got.drop(columns="flags"), want.drop(columns="flags"))
+
+
+@pytest.mark.parametrize("wide", [False, True])
+def test_columns_the_model_does_not_know_are_named_in_the_answer(served, request_frame, wide):
+    """Unknown columns (a CSV index, a typo of a channel, extra sensors) were ignored
+    without a word (the answer was the plain one); every window now names them and their
+    count, and the answer is otherwise unchanged."""
+    frame = request_frame
+    if wide:
+        frame = frame.drop(columns="stream").rename(columns={"t_s": "wheels_t_s"})
+    status, plain = _call(served, frame)
+    extra = ["Unnamed: 0", "cur_left", "gps_lat", "x1", "x2", "x3", "x4"]
+    status, body = _call(served, frame.assign(**{c: 1.0 for c in extra}))
+    assert status == 200, body
+    got, want = pd.DataFrame(body["predictions"]), pd.DataFrame(plain["predictions"])
+    assert (want["n_ignored_columns"] == 0).all() and (want["ignored_columns"] == "").all()
+    assert (got["n_ignored_columns"] == 7).all()
+    assert (got["ignored_columns"]
+            == "['Unnamed: 0', 'cur_left', 'gps_lat', 'x1', 'x2'] and 2 more").all()
+    ignored = ["ignored_columns", "n_ignored_columns"]
+    pd.testing.assert_frame_equal(got.drop(columns=ignored), want.drop(columns=ignored))
 
 
 def test_wide_format_gives_the_same_answer(served, request_frame):
