@@ -319,7 +319,14 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
         rows.append(line)
         lines.append(i + 1)
     if header is None:
-        raise EmptyFileError("file is empty", path)
+        n = skipped["blank"] + skipped["comment"]
+        if not n:
+            raise EmptyFileError("file is empty", path)
+        # lines, but only comment and blank ones: "empty" would send the user to a file
+        # that is not
+        lines_were = f"{n} lines were" if n > 1 else "1 line was"
+        raise EmptyFileError(f"no header line: its {lines_were} all skipped "
+                             f"({skipped['comment']} comment, {skipped['blank']} blank)", path)
     if not rows:
         trailing = next((k for k, c in enumerate(reversed(header)) if c), len(header))
         if trailing:   # the header line shows the trailing-comma problem: say so

@@ -272,6 +272,21 @@ def test_empty_file_raises_empty_file_error(tmp_path):
     assert info.value.path == str(path)
 
 
+@pytest.mark.parametrize("text, counts", [
+    ("# exported by logger v2\n# units: SI\n\n", "3 lines were all skipped (2 comment, 1 blank)"),
+    ("\n\n", "2 lines were all skipped (0 comment, 2 blank)"),
+    ("# only a comment", "1 line was all skipped (1 comment, 0 blank)")])
+def test_comment_only_file_says_no_header_line(tmp_path, text, counts):
+    # such a file said "file is empty", though it has lines
+    path = tmp_path / "imu_00.csv"
+    path.write_text(text)
+    with pytest.raises(EmptyFileError) as info:
+        read_stream_csv(path, "imu")
+    msg = str(info.value)
+    assert "no header line" in msg and counts in msg and "is empty" not in msg
+    assert info.value.path == str(path)
+
+
 def test_header_only_file_raises_empty_file_error(tmp_path):
     path = tmp_path / "pro_00.csv"
     path.write_text(",".join(BOREALTC_PRO) + "\n")
