@@ -422,7 +422,8 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
     ``runs`` is a non-empty list of objects, each with a unique ``run_id``, a ``terrain`` of
     the entry's ``terrains``, ``repaired`` (an object of counts), ``gaps`` (an object of
     lists of ``[t_start_s, t_end_s]`` pairs) and, where present, a boolean ``has_imu``,
-    ``samples`` (an object of counts), a number ``duration_s`` and a list of strings
+    ``samples`` and ``skipped_lines`` (objects of counts), ``ignored_columns`` (an object
+    of lists of column names), a number ``duration_s`` and a list of strings
     ``file_warnings``, as :func:`convert_dataset` writes them.
 
     Parameters
@@ -493,11 +494,18 @@ def dataset_entry(manifest, dataset: str, path: str | Path) -> dict:
                 isinstance(v, list) and all(map(_is_time_pair, v)) for v in gaps.values()):
             raise _fail(f"{k}.gaps", "an object of lists of [t_start_s, t_end_s] pairs",
                         gaps, path)
-        samples = info.get("samples", {})
-        if not isinstance(samples, dict) or not all(
-                isinstance(n, int) and not isinstance(n, bool) and n >= 0
-                for n in samples.values()):
-            raise _fail(f"{k}.samples", "an object of counts", samples, path)
+        for name in ("samples", "skipped_lines"):
+            counts = info.get(name, {})
+            if not isinstance(counts, dict) or not all(
+                    isinstance(n, int) and not isinstance(n, bool) and n >= 0
+                    for n in counts.values()):
+                raise _fail(f"{k}.{name}", "an object of counts", counts, path)
+        ignored = info.get("ignored_columns", {})
+        if not isinstance(ignored, dict) or not all(
+                isinstance(v, list) and all(isinstance(c, str) for c in v)
+                for v in ignored.values()):
+            raise _fail(f"{k}.ignored_columns", "an object of lists of column names",
+                        ignored, path)
         duration = info.get("duration_s", 0.0)
         if not isinstance(duration, (int, float)) or isinstance(duration, bool):
             raise _fail(f"{k}.duration_s", "a number of seconds", duration, path)

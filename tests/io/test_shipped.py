@@ -280,6 +280,16 @@ def test_a_parquet_file_and_its_checksum_both_edited_are_refused_by_the_readers_
      "datasets.vulpi.runs_without_imu' must be a list of run ids"),
     (lambda e: e["runs"][1].__setitem__("file_warnings", "cut off"),
      "datasets.vulpi.runs[1].file_warnings' must be a list of messages"),
+    # these two were not checked: a bare TypeError / ValueError of dict(), or a count of
+    # "many" blank lines kept for the input report to add up
+    (lambda e: e["runs"][1].__setitem__("skipped_lines", 3),
+     "datasets.vulpi.runs[1].skipped_lines' must be an object of counts"),
+    (lambda e: e["runs"][1].__setitem__("skipped_lines", {"imu.blank": "many"}),
+     "datasets.vulpi.runs[1].skipped_lines' must be an object of counts"),
+    (lambda e: e["runs"][1].__setitem__("ignored_columns", ["x"]),
+     "datasets.vulpi.runs[1].ignored_columns' must be an object of lists of column names"),
+    (lambda e: e["runs"][1].__setitem__("ignored_columns", {"imu": "x"}),
+     "datasets.vulpi.runs[1].ignored_columns' must be an object of lists of column names"),
 ])
 def test_a_manifest_entry_of_another_structure_names_its_key(vulpi_copy, edit, key):
     path = _edit_manifest(vulpi_copy, edit)
