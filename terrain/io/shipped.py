@@ -532,9 +532,13 @@ def _check_table(table: pd.DataFrame, stream: str, path: Path) -> None:
                                   "convert`", path, column)
 
 
-def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path) -> None:
+def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path,
+                    rows: np.ndarray | None = None) -> None:
     """The rules of the CSV reader that ``terrain convert`` applied, rechecked per run:
-    strictly increasing, finite timestamps and finite values (no repair here)."""
+    strictly increasing, finite timestamps and finite values (no repair here). The error
+    names the run's row in its message and the file's row (``rows``: the 0-based row of
+    the file of each of the run's rows; default: the run's own) as its ``row``."""
+    rows = np.arange(len(frame)) if rows is None else np.asarray(rows)
     t = frame[TIME].to_numpy(dtype=float)
     bad_t = np.flatnonzero(~(np.diff(t) > 0))
     if len(bad_t) or (len(t) and not np.isfinite(t).all()):
@@ -542,18 +546,20 @@ def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path) -> None:
         first = [int(k) for k in np.flatnonzero(~np.isfinite(t))[:1]]
         row = min(first + [int(bad_t[0]) + 1] if len(bad_t) else first)
         raise TimestampError(f"run {run_id}: timestamps must increase strictly and be "
-                             f"finite, got {float(t[row])!r} after {float(t[row - 1])!r}"
+                             f"finite, got {float(t[row])!r} after {float(t[row - 1])!r} at "
+                             f"row {row} of the run"
                              if row else f"run {run_id}: timestamp {float(t[row])!r} is not "
-                             "finite", path, TIME,
-                             row)
+                             "finite at row 0 of the run", path, TIME,
+                             int(rows[row]))
     values = frame.drop(columns=TIME).to_numpy(dtype=float)
     bad = np.argwhere(~np.isfinite(values))
     if len(bad):
         row, col = (int(i) for i in bad[0])
         raise NonFiniteError(f"run {run_id}: {len(bad)} non-finite value(s), the first "
-                             f"{values[row, col]!r}; the shipped files hold only repaired, "
-                             "finite values: regenerate data/ with `terrain convert`", path,
-                             str(frame.columns.drop(TIME)[col]), row)
+                             f"{float(values[row, col])!r} at row {row} of the run; the "
+                             "shipped files hold only repaired, finite values: regenerate "
+                             "data/ with `terrain convert`", path,
+                             str(frame.columns.drop(TIME)[col]), int(rows[row]))
 
 
 def _check_run_counts(run: Run, info: dict, key: str, path: Path) -> None:
@@ -611,7 +617,7 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         value (subclasses :class:`~terrain.errors.MissingColumnError`,
         :class:`~terrain.errors.NonNumericError`, :class:`~terrain.errors.TimestampError`,
         :class:`~terrain.errors.NonFiniteError`); names the file and the manifest key or
-        column, with the run and its 0-based row.
+        column, with the run, the row of the run and the row of the file (both 0-based).
 
     Warns
     -----
@@ -654,10 +660,12 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                                   f"{str(exc)[:120]}); regenerate data/ with `terrain convert`",
                                   path) from None
         _check_table(table, name, path)
+        groups = table.groupby(RUN_ID, observed=True, sort=False)
         tables[name] = {str(k): g.drop(columns=RUN_ID).reset_index(drop=True)
-                        for k, g in table.groupby(RUN_ID, observed=True, sort=False)}
+                        for k, g in groups}
+        file_rows = {str(k): v for k, v in groups.indices.items()}
         for rid, frame in tables[name].items():
-            _check_run_rows(frame, rid, path)
+            _check_run_rows(frame, rid, path, file_rows[rid])
     listed = {info["run_id"] for info in entry["runs"]}
     for name, table in tables.items():
         extra = sorted(set(table) - listed)

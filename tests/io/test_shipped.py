@@ -259,6 +259,30 @@ def test_a_parquet_file_and_its_checksum_both_edited_are_refused_by_the_readers_
         assert "run vulpi/CONCRETE/1" in str(info.value) and info.value.row is not None
 
 
+@pytest.mark.parametrize("column, value, error", [("wx", np.nan, "NonFiniteError"),
+                                                  ("t_s", -1.0, "TimestampError")])
+def test_a_bad_value_of_a_later_run_names_its_row_of_the_file(vulpi_copy, column, value,
+                                                              error):
+    # the row named was the run's own (data row 10 of a run whose row 10 is row 3506 of the
+    # file), and a NaN was shown as "np.float64(nan)"
+    import pandas as pd
+    from terrain.io.shipped import sha256 as digest
+    path = vulpi_copy / "vulpi" / "imu.parquet"
+    table = pd.read_parquet(path)
+    rid = list(dict.fromkeys(table["run_id"].astype(str)))[3]
+    at = int(np.flatnonzero((table["run_id"].astype(str) == rid).to_numpy())[10])
+    table.loc[table.index[at], column] = value
+    table.to_parquet(path)
+    _edit_manifest(vulpi_copy, lambda e: e["files"].__setitem__("vulpi/imu.parquet",
+                                                                digest(path)))
+    with pytest.raises(DataFormatError) as info:
+        read_shipped("vulpi", vulpi_copy)
+    assert type(info.value).__name__ == error and info.value.column == column
+    assert info.value.row == at and f"run {rid}: " in str(info.value)
+    assert "row 10 of the run" in str(info.value)
+    assert "np.float64" not in str(info.value)
+
+
 @pytest.mark.parametrize("edit, key", [
     (lambda e: e.pop("runs"), "datasets.vulpi.runs' is missing"),
     (lambda e: e.__setitem__("runs", "x"), "datasets.vulpi.runs' must be a non-empty list"),
