@@ -434,7 +434,8 @@ def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time",
             f"the timestamps look like {word} ({unit}); divide the time column by {factor}",
             path, time_column)
     if not lo <= rate <= hi:
-        _warn(f"{path}: implied sample rate {rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
+        _warn(f"{path}: rule timestamp_units: column {time_column!r}: implied sample rate "
+              f"{rate:.4g} Hz outside the nominal {lo:g}-{hi:g} "
               f"Hz of the {stream} stream; timestamps assumed in s", found)
 
 

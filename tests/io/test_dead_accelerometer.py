@@ -126,6 +126,16 @@ def test_a_rate_at_the_nominal_bound_is_not_warned_and_the_message_agrees():
         check_rate(np.arange(2500) * 0.00099, "wheels", "f.csv")
 
 
+def test_the_rate_warning_names_its_rule_and_time_column():
+    """The one warning of rule timestamp_units said neither the rule nor the column ("f.csv:
+    implied sample rate 1010 Hz outside ..."), unlike every other rule's finding."""
+    from terrain.io.plausibility import check_rate
+    found = []
+    check_rate(np.arange(2500) * 0.00099, "wheels", "f.csv", "t_s", found=found)
+    assert found and found[0].startswith("f.csv: rule timestamp_units: column 't_s': ")
+    assert "1010 Hz outside the nominal 1-1000 Hz" in found[0]
+
+
 @pytest.mark.parametrize("case, rule", [("rate", "implied sample rate 5 Hz outside"),
                                         ("dead", "rule accel_units")])
 def test_a_file_rule_warning_is_counted_in_the_run_and_its_input_report(tmp_path, case,
