@@ -160,7 +160,8 @@ def main(args: argparse.Namespace) -> int:
                 print(f"wheel-only window accuracy ({cv['n_windows']} windows of "
                       f"{args.window_s:g} s every {args.hop_s:g} s, {len(args.seeds)} seeds "
                       f"pooled), {name}: {acc:.3f} (mean over runs "
-                      f"{cv['run_mean_accuracy'][name]:.3f})")
+                      f"{cv['run_mean_accuracy'][name]:.3f}; "
+                      f"{cv['n_undecided'][name]} windows without a decision, counted wrong)")
         if args.part in ("streams", "both"):
             for kind in args.kinds:
                 frames = [held_out_streams(runs, RECIPES[kind], seed, SMOOTHINGS,

@@ -39,6 +39,11 @@ from terrain.serving.service import UNCLASSIFIED_FLAGS, StreamConfig, StreamServ
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.serving.targets import CataloguePeakTargets
 
+#: decided class index of a window without a decision (:func:`smooth_runs`,
+#: :func:`filter_sequence`: no window with finite probabilities yet); its callers index
+#: ``classes + [None]`` with it, so it is scored as stream-eval scores an unclassified window
+NO_DECISION = -1
+
 
 def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels: np.ndarray,
                       groups: np.ndarray, seed: int, n_splits: int = 5,
@@ -98,9 +103,11 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
     Returns
     -------
     numpy.ndarray
-        ``(n_windows,)`` decided class index of each window.
+        ``(n_windows,)`` decided class index of each window; :data:`NO_DECISION` (-1) for
+        the windows of a run before its first window with finite probabilities (a NaN or
+        inf one is no evidence: :meth:`~terrain.serving.smoothing.ForwardFilter.update`).
     """
-    out = np.zeros(len(proba), dtype=int)
+    out = np.full(len(proba), NO_DECISION)
     for run in np.unique(run_ids):
         idx = np.flatnonzero(run_ids == run)
         idx = idx[np.argsort(t_s[idx], kind="stable")]
@@ -109,7 +116,8 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
         missing = np.maximum(np.rint(np.diff(t_s[idx], prepend=t_s[idx[0]]) / hop_s) - 1, 0)
         for i, n in zip(idx, missing.astype(int)):
             filt.skip(n)
-            out[i] = filt.update(proba[i])[0]
+            decided = filt.update(proba[i])[0]
+            out[i] = NO_DECISION if decided is None else decided
     return out
 
 
@@ -342,7 +350,8 @@ def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarra
 
 
 def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) -> np.ndarray:
-    """Decided class index of each step of one stream (``-1`` before any valid window).
+    """Decided class index of each step of one stream (:data:`NO_DECISION` before any valid
+    window).
 
     Parameters
     ----------
@@ -358,10 +367,10 @@ def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) ->
         ``(n,)`` int.
     """
     filt = ForwardFilter(proba.shape[1], hop_s, config)
-    out = np.full(len(proba), -1)
+    out = np.full(len(proba), NO_DECISION)
     for i, q in enumerate(proba):
         decided = filt.update(None if np.isnan(q).any() else q)[0]
-        out[i] = -1 if decided is None else decided
+        out[i] = NO_DECISION if decided is None else decided
     return out
 
 
@@ -777,7 +786,9 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
     dict
         ``n_windows``, ``n_runs``, ``pooled_accuracy`` (smoothing -> accuracy over all
         seeds' out-of-fold windows), ``run_mean_accuracy`` (smoothing -> mean over runs of
-        the per-run accuracy, so the long runs do not dominate) and ``by_seed``.
+        the per-run accuracy, so the long runs do not dominate), ``n_undecided``
+        (smoothing -> windows without a decision, :data:`NO_DECISION`, all seeds together:
+        counted wrong, as stream-eval counts an unclassified window) and ``by_seed``.
     """
     window = WindowConfig(window_s=recipe.window_s, hop_s=hop_s, rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
@@ -788,15 +799,19 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
     F = recipe_features(recipe, ws.channels).fit(ws.X).transform(ws.X)
     by_seed: dict[str, list[float]] = {name: [] for name in smoothings}
     by_run: dict[str, list[float]] = {name: [] for name in smoothings}
+    undecided = {name: 0 for name in smoothings}
     for seed in seeds:
         proba, classes = grouped_oof_proba(lambda s: recipe_classifier(recipe, s), F, labels,
                                            ws.run_ids, seed, n_splits, recipe.run_balanced)
-        names = np.asarray(classes, dtype=object)
+        # NO_DECISION (-1) indexes the None after the classes: wrong, never the last class
+        names = np.array(list(classes) + [None], dtype=object)
         for name, config in smoothings.items():
-            ok = names[smooth_runs(proba, ws.run_ids, ws.t_start_s, cut_hop_s, config)] == labels
+            decided = smooth_runs(proba, ws.run_ids, ws.t_start_s, cut_hop_s, config)
+            undecided[name] += int((decided == NO_DECISION).sum())
+            ok = names[decided] == labels
             by_seed[name].append(float(ok.mean()))
             by_run[name].append(float(pd.Series(ok).groupby(ws.run_ids).mean().mean()))
     return {"n_windows": len(ws), "n_runs": int(len(np.unique(ws.run_ids))),
             "pooled_accuracy": {k: float(np.mean(v)) for k, v in by_seed.items()},
             "run_mean_accuracy": {k: float(np.mean(v)) for k, v in by_run.items()},
-            "by_seed": by_seed}
+            "n_undecided": undecided, "by_seed": by_seed}

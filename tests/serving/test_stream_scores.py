@@ -140,6 +140,62 @@ def test_window_cv_smooths_at_the_hop_its_windows_were_cut_at():
     assert cut["pooled_accuracy"] == exact["pooled_accuracy"]
 
 
+def test_smooth_runs_gives_no_decision_for_a_first_window_without_evidence():
+    # a run whose first window's probabilities are NaN: ForwardFilter.update gives no
+    # decision (None), which smooth_runs wrote into its int array (TypeError), with the
+    # filter on or off; it is now -1, no decision, as in filter_sequence, and a later NaN
+    # window keeps the decision (prediction only)
+    proba = np.array([[np.nan, np.nan], [0.2, 0.8], [np.nan, np.nan], [0.9, 0.1],
+                      [np.inf, 0.0], [0.3, 0.7]])
+    runs = np.array(["a", "a", "a", "a", "b", "b"])
+    t = np.array([0.0, 0.5, 1.0, 1.5, 0.0, 0.5])
+    for config in (SmoothingConfig(dwell_s=None), SmoothingConfig(dwell_s=0.5)):
+        assert smooth_runs(proba, runs, t, 0.5, config).tolist() == [-1, 1, 1, 0, -1, 1]
+
+
+def test_window_cv_counts_windows_without_a_decision_wrong_and_shows_them(monkeypatch):
+    # window_cv indexed the class names with smooth_runs' decisions: a window without one
+    # (-1) would have silently named the last class; it now counts as wrong, as stream-eval
+    # scores an undecided window (score_stream: None), and is counted in n_undecided
+    from terrain.serving import evaluation
+
+    windows = _Windows(labels=np.array(["ICE", "ICE", "SNOW", "SNOW"]),
+                       run_ids=np.array(["r1", "r1", "r2", "r2"]),
+                       t_start_s=np.array([0.0, 0.5, 0.0, 0.5]), X=np.zeros((4, 1)),
+                       channels=("c",))
+    proba = np.array([[np.nan, np.nan], [0.9, 0.1], [np.nan, np.nan], [0.1, 0.9]])
+
+    class Identity:
+        def fit(self, X):
+            return self
+
+        def transform(self, X):
+            return X
+
+    monkeypatch.setattr(evaluation, "make_windows", lambda *a: windows)
+    monkeypatch.setattr(evaluation, "recipe_features", lambda *a: Identity())
+    monkeypatch.setattr(evaluation, "grouped_oof_proba",
+                        lambda *a, **k: (proba, ["ICE", "SNOW"]))
+    from terrain.serving.recipes import RECIPES
+
+    cv = evaluation.window_cv([], RECIPES["wheels"], 0.5, [0, 1],
+                              {"raw": SmoothingConfig(dwell_s=None),
+                               "filter": SmoothingConfig()}, n_splits=2)
+    assert cv["pooled_accuracy"] == {"raw": 0.5, "filter": 0.5}
+    assert cv["run_mean_accuracy"] == {"raw": 0.5, "filter": 0.5}
+    assert cv["n_undecided"] == {"raw": 4, "filter": 4}
+
+
+class _Windows:
+    """A stand-in for make_windows' result (attributes and length)."""
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+    def __len__(self):
+        return len(self.labels)
+
+
 def test_smooth_runs_predicts_across_the_windows_a_run_lacks():
     # windows dropped inside a run (make_windows leaves out a window holding a gap) were
     # filtered as if one hop apart: 10 minutes without a window kept the old terrain's
