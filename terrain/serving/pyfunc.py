@@ -18,6 +18,12 @@ attribute of the returned frame; window positions wholly inside a gap of every s
 single sample in them: no data was dropped) are counted apart, in ``empty_windows``; runs
 shorter than one window are listed in ``short_runs``. The same
 model is served by ``mlflow models serve -m DIR``.
+
+Other input columns are not read, and the answer cannot name them (unlike ``terrain serve``'s
+``ignored_columns``): MLflow's signature enforcement removes the columns the input schema
+(:func:`model_signature`) lacks before :meth:`TerrainModel.predict` runs, and logs them
+itself ("Found extra inputs in the model input that are not defined in the model signature:
+[...]. These inputs will be ignored.").
 """
 
 from __future__ import annotations
@@ -216,7 +222,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         ``(n_windows, n_channels, n_samples)``.
     samples : pandas.DataFrame
         Aligned samples: ``run``, ``t_s`` (s, strictly increasing within a run) and the
-        channels of :func:`input_channels` (SI units), at ``config.rate_hz``.
+        channels of :func:`input_channels` (SI units), at ``config.rate_hz``. Other columns
+        are not read (through MLflow they never arrive: see the module docstring).
     channels : sequence of str
         Channel order of the windows (derived channels are added from the raw ones).
     config : WindowConfig

@@ -9,7 +9,7 @@ import pytest
 
 from features.windows import WindowConfig
 from terrain.errors import ImplausibleValueError, NonNumericError
-from terrain.serving.pyfunc import predict_windows
+from terrain.serving.pyfunc import predict_windows, save_model
 
 
 class _Classifier:
@@ -57,3 +57,42 @@ def test_a_run_shorter_than_a_window_is_listed_not_left_out_unsaid():
     assert set(out["run"]) == {"r1"} and len(out) == 5
     assert out.attrs["short_runs"] == ["r2"]
     assert _predict(_samples()).attrs["short_runs"] == []
+
+
+@pytest.mark.filterwarnings("ignore:.*An input example was not provided")
+def test_mlflow_drops_extra_input_columns_before_predict_and_logs_them(tmp_path, monkeypatch):
+    # terrain serve names a request's columns that no stream has (ignored_columns); the
+    # aligned-samples pyfunc cannot: MLflow's signature enforcement removes the columns its
+    # input schema lacks before TerrainModel.predict runs, and logs them as a warning of its
+    # own (documented in the module docstring and README), so predict_windows never sees them
+    import logging
+
+    import mlflow.pyfunc
+    from sklearn.dummy import DummyClassifier
+
+    from terrain.serving import pyfunc
+
+    clf = DummyClassifier(strategy="prior").fit(np.zeros((4, 2, 40)), ["A", "A", "B", "B"])
+    save_model(tmp_path / "m", clf, ["vel_l", "vel_r"], WindowConfig(window_s=2.0, rate_hz=20.0),
+               ["A", "B"], {}, progress=False)
+    model = mlflow.pyfunc.load_model(str(tmp_path / "m"))
+    seen = []
+
+    def spy(pipeline, samples, *args):
+        seen.append(list(samples.columns))
+        return predict_windows(pipeline, samples, *args)
+
+    monkeypatch.setattr(pyfunc, "predict_windows", spy)
+    records = []
+    handler = logging.Handler()
+    handler.emit = records.append
+    logger = logging.getLogger("mlflow.models.utils")
+    logger.addHandler(handler)
+    try:
+        out = model.predict(_samples().assign(**{"Unnamed: 0": 1.0, "gps_lat": 46.8}))
+    finally:
+        logger.removeHandler(handler)
+    assert seen == [["run", "t_s", "vel_l", "vel_r"]]
+    pd.testing.assert_frame_equal(out, model.predict(_samples()))
+    assert any("'Unnamed: 0'" in r.getMessage() and "'gps_lat'" in r.getMessage()
+               and "will be ignored" in r.getMessage() for r in records)
