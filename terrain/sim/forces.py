@@ -418,6 +418,7 @@ class ContactForces(NamedTuple):
     dslip_dv_s_m: np.ndarray | None = None
     dmu_ds_tangent: np.ndarray | None = None
     dmu_ds: np.ndarray | None = None
+    shear_share: np.ndarray | None = None
 
 
 def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np.ndarray,
@@ -473,6 +474,14 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     coef = terrain.curve.coefficients(abs_s, terrain.soil_resistance)
     if soil is not None and soil.soil.rate_weakening_speed_m_s is not None:
         coef = _rate_weakened(coef, wr, v_long, soil.soil)
+    share = None
+    if soil is not None:
+        a_long = (abs_s / terrain.curve.traction.shear_slip if soil.soil.combined_shear
+                  else None)
+        f_lat, k_lat, share = soil_lateral_force_and_slope(
+            soil, normal, v_lat, wr, SLIDE_SPEED_M_S, slip_ratio=slip, shear_long=a_long)
+        if share is not None:   # the soil's strength shared by both directions
+            coef = coef._replace(mu=coef.mu * share, dmu_ds=coef.dmu_ds * share)
     f_soil = coef.resistance
     th_s = np.tanh(v_long / SOIL_SPEED_M_S)
     combined = soil is None and side_force_factor is not None
@@ -504,14 +513,12 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     elif soil is None:
         f_lat, k_lat = lateral_force_and_slope(terrain.lateral_friction, normal, v_lat,
                                                SLIDE_SPEED_M_S)
-    else:
-        f_lat, k_lat = soil_lateral_force_and_slope(soil, normal, v_lat, wr, SLIDE_SPEED_M_S,
-                                                    slip_ratio=slip)
     force = a_force.T @ f_long + b_mat.T @ f_lat
     jac = (a_force.T * k_long) @ a_mat + (b_mat.T * k_lat) @ b_mat
     if combined:
         return ContactForces(force, jac, mu, wr, dmu * ds_dv)
-    return ContactForces(force, jac, mu, wr, dmu * ds_dv, v_long, slip, ds_dv, coef.dmu_ds, dmu)
+    return ContactForces(force, jac, mu, wr, dmu * ds_dv, v_long, slip, ds_dv, coef.dmu_ds, dmu,
+                         share)
 
 
 def _rate_weakened(coef, rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, soil):
@@ -599,7 +606,7 @@ def reach_chord_contact(contact: ContactForces, layout: ContactLayout, maps: Vel
     if soil is not None and soil.soil.rate_weakening_speed_m_s is not None:
         coef_r = _rate_weakened(coef_r, contact.rim_speed_m_s,
                                 contact.v_long_m_s + a_mat @ dv_reach, soil.soil)
-    mu_r = coef_r.mu
+    mu_r = coef_r.mu if contact.shear_share is None else coef_r.mu * contact.shear_share
     gap = abs_s - abs_r
     wide = np.abs(gap) > 1e-9
     chord = np.where(wide, (mu_s - mu_r) / np.where(wide, gap, 1.0), tangent)

@@ -125,6 +125,16 @@ class SoilParams:
         ASSUMED, with no constant for this snow in the sources here. None: no weakening
         (every shipped soil; 0.05-1 m/s on SNOW were tried on training runs and not
         adopted, docs/physics_v2.md, "Measured chi per manoeuvre").
+    combined_shear : bool
+        True: the longitudinal traction and the lateral shear share the patch's
+        Mohr-Coulomb strength ``c b l + N tan phi`` (Wong eq. 2.56 bounds the resultant
+        shear stress): each direction keeps :func:`combined_shear_shares` of its own force,
+        the shear along the resultant displacement. False (every shipped soil): each
+        direction takes the whole strength, so a wheel that slips along and across at once
+        can carry more than it (a v2 Husky spin on SANDY_LOAM: 71.5 N along and 68.9 N
+        across, 99.3 N against 85.4 N). True was measured on the training runs and not
+        adopted: it costs SANDY_LOAM's current what it keeps of the yaw rate
+        (docs/physics_v2.md, "The shear strength shared between directions").
 
     Raises
     ------
@@ -135,7 +145,7 @@ class SoilParams:
         ``unit_weight_n_m3`` is negative or not finite, ``k_c`` or ``k_phi`` is not
         finite, ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
         ``slip_sinkage_ratio`` is negative or not finite, or ``rate_weakening_speed_m_s``
-        is not a finite positive speed.
+        is not a finite positive speed, or ``combined_shear`` is not a bool.
     """
 
     name: str
@@ -152,6 +162,7 @@ class SoilParams:
     residual_ratio: float | None = None
     slip_sinkage_ratio: float | None = None
     rate_weakening_speed_m_s: float | None = None
+    combined_shear: bool = False
 
     def __post_init__(self) -> None:
         positive = {"n": self.n, "shear_modulus_m": self.shear_modulus_m}
@@ -176,6 +187,9 @@ class SoilParams:
                 np.isfinite(self.slip_sinkage_ratio) and self.slip_sinkage_ratio >= 0.0):
             raise ConfigError(f"{self.name}: slip_sinkage_ratio must be a finite value >= 0 "
                               f"or None, got {self.slip_sinkage_ratio}")
+        if not isinstance(self.combined_shear, bool):
+            raise ConfigError(f"{self.name}: combined_shear must be True or False, got "
+                              f"{self.combined_shear!r}")
         if self.layer_depth_m is not None and not self.layer_depth_m > 0:
             raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
                               f"{self.layer_depth_m}")
@@ -475,10 +489,80 @@ def lateral_strength_n(soil: SoilParams, width_m: float, normal_load_n: np.ndarr
     """
     load = np.asarray(normal_load_n, dtype=float)
     length = np.asarray(contact_length_m, dtype=float)
-    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
-    strength = (soil.cohesion_pa * (width_m * length) + load * tan_phi
+    strength = (shear_strength_n(soil, width_m, load, length)
                 + bulldozing_force_n(sinkage_m, length, soil))
     return np.where(load > 0, strength, 0.0)
+
+
+def shear_strength_n(soil: SoilParams, width_m: float, normal_load_n: np.ndarray,
+                     contact_length_m: np.ndarray) -> np.ndarray:
+    """Mohr-Coulomb shear strength of a contact patch, ``c b l + N tan phi``.
+
+    The largest shear force the soil under the patch can carry in any direction (Wong,
+    *Theory of Ground Vehicles* 4th ed., eq. 2.56 at full mobilisation); the longitudinal
+    traction and the lateral shear share it (:func:`combined_shear_shares`).
+
+    Parameters
+    ----------
+    soil : SoilParams
+        Soil.
+    width_m : float
+        Contact width b, m.
+    normal_load_n, contact_length_m : ndarray, shape (c,)
+        Normal load N (N) and contact length l (m) of each wheel.
+
+    Returns
+    -------
+    ndarray, shape (c,)
+        N.
+    """
+    tan_phi = np.tan(np.radians(soil.friction_angle_deg))
+    return (soil.cohesion_pa * (width_m * np.asarray(contact_length_m, dtype=float))
+            + np.asarray(normal_load_n, dtype=float) * tan_phi)
+
+
+def combined_shear_shares(a_long: np.ndarray, a_lat: np.ndarray,
+                          residual_ratio: float | None = None
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Share of each direction's own shear left when the patch slips along and across.
+
+    A soil element under a wheel that slips longitudinally and sideways is sheared along
+    the resultant of both displacements; its shear stress follows the shear curve of the
+    *resultant* displacement and points along it (Mohr-Coulomb bounds the resultant, Wong
+    eq. 2.56; the construction of Wong and Chiang's general theory of skid steering, "A
+    general theory for skid steering of tracked vehicles on firm ground", Proc. IMechE D 215
+    (2001) 343-355, and Wong ch. 7). With both displacements growing linearly along the patch,
+    each over its own shear modulus (``a_long = |s| L / K_x``, ``a_lat = l |tan beta| /
+    K_y``), the patch means are ``g(a) a_long / a`` and ``g(a) a_lat / a`` with ``a =
+    sqrt(a_long^2 + a_lat^2)`` (:func:`shear_mobilisation`), and their resultant never
+    exceeds the strength ``g(a) <= 1``. Each direction's force is its one-direction force
+    ``g(a_i)`` times the share ``h(a) / h(a_i)``, ``h(u) = g(u) / u`` (``h(0) = 1/2``): 1
+    when the other direction does not slip, less otherwise.
+
+    Parameters
+    ----------
+    a_long, a_lat : ndarray, shape (c,)
+        Longitudinal and lateral shear displacement at the rear of the patch over their
+        moduli (dimensionless, sign ignored).
+    residual_ratio : float or None
+        ``K_r`` of the hump-type curve (:attr:`SoilParams.residual_ratio`); None =
+        exponential.
+
+    Returns
+    -------
+    share_long, share_lat : ndarray, shape (c,)
+        Dimensionless, in (0, 1] (a hump-type curve past its peak can give a share above 1).
+    """
+    a_x = np.abs(np.asarray(a_long, dtype=float))
+    a_y = np.abs(np.asarray(a_lat, dtype=float))
+    a = np.hypot(a_x, a_y)
+    args = np.concatenate([a, a_x, a_y])
+    g = shear_mobilisation(args, residual_ratio)
+    n = a.size
+    pos = args > 1e-12
+    h = np.where(pos, g / np.where(pos, args, 1.0), 0.5)
+    h_res, h_x, h_y = h[:n], h[n:2 * n], h[2 * n:]
+    return h_res / h_x, h_res / h_y
 
 
 def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
@@ -545,8 +629,9 @@ def rate_weakening_factor(slip_speed_m_s: np.ndarray, soil: SoilParams
 def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray,
                                  v_lateral_m_s: np.ndarray, rim_speed_m_s: np.ndarray,
                                  slide_speed_m_s: float = 0.02,
-                                 slip_ratio: np.ndarray | None = None
-                                 ) -> tuple[np.ndarray, np.ndarray]:
+                                 slip_ratio: np.ndarray | None = None,
+                                 shear_long: np.ndarray | None = None
+                                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lateral soil force of skid-steered wheels and its secant slope (module docstring).
 
     ``F = -tanh(v_lat / v_slide) S(N) g(l |v_lat| / (K max(|omega r|, v_slide)))`` with the
@@ -572,6 +657,12 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     slip_ratio : ndarray, shape (c,), optional
         Longitudinal (SAE) slip ratio of each wheel; used only by a soil with a
         ``slip_sinkage_ratio`` (None: static sinkage).
+    shear_long : ndarray, shape (c,), optional
+        Longitudinal shear displacement of each patch over K_x, ``|s| L / K_x``: the lateral
+        shear strength ``c b l + N tan phi`` (:func:`shear_strength_n`; not the bulldozing)
+        is shared with the longitudinal traction by :func:`combined_shear_shares` (a soil
+        with :attr:`SoilParams.combined_shear`). None: the lateral shear takes the whole
+        strength.
 
     Returns
     -------
@@ -580,6 +671,9 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     slope_n_s_m : ndarray, shape (c,)
         Secant slope ``F / v_lat`` (N s/m; its limit at ``v_lat = 0``), never steeper than
         the tangent, which keeps the implicit integrator stable.
+    share_long : ndarray, shape (c,) or None
+        With ``shear_long``: the share of its one-direction traction left to each wheel's
+        longitudinal shear (:func:`combined_shear_shares`, dimensionless); else None.
     """
     n_load = np.clip(np.asarray(normal_load_n, dtype=float), 0.0, contact.load_grid_n[-1])
     if contact.soil.slip_sinkage_ratio is not None and slip_ratio is not None:
@@ -589,11 +683,17 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
         strength = np.interp(n_load, contact.load_grid_n, contact.strength_grid_n)
         length = np.interp(n_load, contact.load_grid_n, contact.length_grid_m)
     v = np.asarray(v_lateral_m_s, dtype=float)
-    if contact.soil.rate_weakening_speed_m_s is not None:
-        strength = strength * rate_weakening_factor(v, contact.soil)[0]
     roll = np.maximum(np.abs(np.asarray(rim_speed_m_s, dtype=float)), slide_speed_m_s)
     scale = length / (contact.soil.shear_modulus_y_m * roll)     # a = scale |v|
     a = scale * np.abs(v)
+    share_long = None
+    if shear_long is not None:
+        share_long, share_lat = combined_shear_shares(shear_long, a,
+                                                      contact.soil.residual_ratio)
+        shear = shear_strength_n(contact.soil, contact.width_m, n_load, length)
+        strength = strength - np.where(n_load > 0, shear, 0.0) * (1.0 - share_lat)
+    if contact.soil.rate_weakening_speed_m_s is not None:
+        strength = strength * rate_weakening_factor(v, contact.soil)[0]
     g = shear_mobilisation(a, contact.soil.residual_ratio)
     x_l = v / slide_speed_m_s
     th = np.tanh(x_l)
@@ -601,7 +701,7 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     # secant F / v = -(tanh(x)/x) (S / v_slide) g, finite (0) at v = 0
     x_safe = np.where(np.abs(x_l) > 1e-9, x_l, 1.0)
     ratio = np.where(np.abs(x_l) > 1e-9, th / x_safe, 1.0)
-    return force, -ratio * strength * g / slide_speed_m_s
+    return force, -ratio * strength * g / slide_speed_m_s, share_long
 
 
 def longitudinal_curve(contact: SoilContact, load_n: float) -> JanosiCurve:

@@ -19,7 +19,8 @@ from terrain.sim.forces import (LOAD_TRANSFER, contact_forces, contact_layout, g
 from terrain.sim.simulate import motor_currents, simulate_with_physics
 from terrain.terramechanics.catalogue import MEASURED_HUSKY_STRAIGHT, get_terrain
 from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors,
-                                            bulldozing_force_n, longitudinal_curve,
+                                            bulldozing_force_n, combined_shear_shares,
+                                            lateral_strength_n, longitudinal_curve,
                                             rate_weakening_factor, shear_mobilisation,
                                             soil_contact,
                                             slip_sunk_strength_n, soil_lateral_force_and_slope,
@@ -171,13 +172,13 @@ def test_soil_lateral_force_bounded_odd_and_grows_with_slip_angle():
     assert strength == pytest.approx(1720.0 * 0.11 * 0.08 + W * np.tan(np.radians(29.0))
                                      + bull, rel=0.01)
     v = np.array([-0.3, -0.05, 0.0, 0.05, 0.3])
-    f, k = soil_lateral_force_and_slope(c, np.full(5, W), v, np.full(5, 0.3))
+    f, k, _ = soil_lateral_force_and_slope(c, np.full(5, W), v, np.full(5, 0.3))
     assert np.all(np.abs(f) <= strength + 1e-9)
     assert f == pytest.approx(-f[::-1])
     assert np.all(k <= 0) and f[2] == 0.0
     # the same sideways speed shears more when the wheel rolls slower (larger slip angle)
-    f_slow, _ = soil_lateral_force_and_slope(c, np.array([W]), np.array([0.05]),
-                                             np.array([0.05]))
+    f_slow, _, _ = soil_lateral_force_and_slope(c, np.array([W]), np.array([0.05]),
+                                                np.array([0.05]))
     assert abs(f_slow[0]) > abs(f[3])
 
 
@@ -212,12 +213,12 @@ def test_slip_sinkage_deepens_the_wall_with_the_slip_and_keeps_the_static_contac
                                     + bulldozing_force_n(z_r, 2 * z_r, snow))
     # the force law uses the deepened strength only on a soil with slip sinkage
     v = np.array([0.1])
-    f_static, _ = soil_lateral_force_and_slope(c, np.array([W]), v, np.array([0.2]))
-    f_slip, _ = soil_lateral_force_and_slope(c, np.array([W]), v, np.array([0.2]),
-                                             slip_ratio=np.array([0.5]))
+    f_static, _, _ = soil_lateral_force_and_slope(c, np.array([W]), v, np.array([0.2]))
+    f_slip, _, _ = soil_lateral_force_and_slope(c, np.array([W]), v, np.array([0.2]),
+                                                slip_ratio=np.array([0.5]))
     plain = soil_contact(replace(snow, slip_sinkage_ratio=None), 0.11, 0.08, 0.1651, 4 * W)
-    f_plain, _ = soil_lateral_force_and_slope(plain, np.array([W]), v, np.array([0.2]),
-                                              slip_ratio=np.array([0.5]))
+    f_plain, _, _ = soil_lateral_force_and_slope(plain, np.array([W]), v, np.array([0.2]),
+                                                 slip_ratio=np.array([0.5]))
     assert abs(f_slip[0]) > abs(f_static[0]) and f_plain[0] == pytest.approx(f_static[0])
     for bad in (-1.0, float("nan"), float("inf")):
         with pytest.raises(ConfigError, match="slip_sinkage_ratio"):
@@ -241,8 +242,8 @@ def test_velocity_weakening_scales_both_directions_by_their_own_slip_speed():
     plain = soil_contact(snow, 0.11, 0.08, 0.1651, 4 * W)
     weak_c = replace(plain, soil=weak)
     v = np.array([0.05, 0.2, -0.4])
-    f_p, k_p = soil_lateral_force_and_slope(plain, np.full(3, W), v, np.full(3, 0.3))
-    f_w, k_w = soil_lateral_force_and_slope(weak_c, np.full(3, W), v, np.full(3, 0.3))
+    f_p, k_p, _ = soil_lateral_force_and_slope(plain, np.full(3, W), v, np.full(3, 0.3))
+    f_w, k_w, _ = soil_lateral_force_and_slope(weak_c, np.full(3, W), v, np.full(3, 0.3))
     scale = 1.0 / (1.0 + np.abs(v) / 0.2)
     np.testing.assert_allclose(f_w, f_p * scale)
     np.testing.assert_allclose(k_w, k_p * scale)
@@ -261,6 +262,58 @@ def test_velocity_weakening_scales_both_directions_by_their_own_slip_speed():
     # here: the same contact back)
     r_w = reach_chord_contact(c_w, layout, maps, ter, np.zeros(3), soil=weak_c)
     np.testing.assert_allclose(r_w.mu, c_w.mu)
+
+
+@pytest.mark.parametrize("k_r", [None, 0.9, 0.4])
+def test_combined_shear_shares_put_the_resultant_on_the_strength_curve(k_r):
+    a_x = np.array([0.0, 0.5, 2.0, 1e-13, 3.0, 40.0])
+    a_y = np.array([1.0, 0.0, 2.0, 0.7, 1e-3, 5.0])
+    s_x, s_y = combined_shear_shares(a_x, a_y, k_r)
+    a = np.hypot(a_x, a_y)
+    g, g_x, g_y = (shear_mobilisation(v, k_r) for v in (a, a_x, a_y))
+    # each direction's force is the resultant's shear along its own displacement ...
+    np.testing.assert_allclose(s_x * g_x, g * a_x / a, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(s_y * g_y, g * a_y / a, rtol=1e-9, atol=1e-15)
+    # ... so both together mobilise the strength once, g(a), never each its own g(a_i)
+    np.testing.assert_allclose(np.hypot(s_x * g_x, s_y * g_y), g, rtol=1e-9)
+    # a direction the other does not share with keeps its whole force; a direction that
+    # slides far leaves little stiffness to the other (the friction-ellipse effect)
+    assert s_x[1] == 1.0 and s_y[0] == 1.0
+    assert s_x[4] == pytest.approx(1.0, abs=1e-6)
+    assert s_y[4] < 0.5
+
+
+def test_combined_shear_keeps_a_spinning_wheel_within_the_soil_strength():
+    # the defect the flag answers (docs/physics_v2.md, "The shear strength shared between
+    # directions"): a wheel slipping 0.4 along and sliding 0.2 m/s sideways at a 0.3 m/s rim
+    # speed takes the patch's whole Mohr-Coulomb strength in each direction
+    loam = SOILS["SANDY_LOAM"]
+    assert not loam.combined_shear                      # shipped: each direction whole
+    strength = float(lateral_strength_n(loam, 0.11, np.array([W]),
+                                        *wheel_sinkage_m(W, 0.11, 0.08, 0.1651, loam))[0])
+    results = {}
+    for flag in (False, True):
+        c = soil_contact(replace(loam, combined_shear=flag), 0.11, 0.08, 0.1651, 4 * W)
+        curve = longitudinal_curve(c, W)
+        a_x = np.array([0.4 / curve.shear_slip]) if flag else None
+        f_y, _, share = soil_lateral_force_and_slope(c, np.array([W]), np.array([0.2]),
+                                                     np.array([0.3]), shear_long=a_x)
+        share = 1.0 if share is None else share
+        f_x = W * curve.coefficients(np.array([0.4]), 0.0).mu * share
+        results[flag] = float(np.hypot(f_x, f_y)[0])
+    assert results[False] > 1.1 * strength              # 99 N against 85 N
+    assert results[True] <= strength
+    with pytest.raises(ConfigError, match="combined_shear"):
+        replace(loam, combined_shear=1)
+
+
+def test_combined_shear_lets_the_husky_spin_more_freely_on_sandy_loam(monkeypatch):
+    # sharing the strength leaves less lateral shear to a wheel that spins: 1/chi larger
+    # (sweep on the training runs: simulated spin chi 1.74 -> 1.61, docs/physics_v2.md)
+    a2 = _spin_yaw("v2")
+    monkeypatch.setattr(dynamics, "SOILS", MappingProxyType({
+        **SOILS, "SANDY_LOAM": replace(SOILS["SANDY_LOAM"], combined_shear=True)}))
+    assert a2 < _spin_yaw("v2") < 1
 
 
 def test_longitudinal_curve_is_the_catalogue_strength_with_the_soils_k_x():

@@ -39,8 +39,8 @@ def test_soil_params_refuse_values_that_give_nan_or_a_force_along_the_slide(chan
 def test_shipped_soils_pass_validation_and_resist_the_slide(name):
     soil = replace(SOILS[name])                   # re-runs __post_init__
     contact = soil_contact(soil, 0.11, 0.08, 0.1651, 4.0 * W)
-    force, slope = soil_lateral_force_and_slope(contact, np.array([W, W]),
-                                                np.array([0.1, -0.1]), np.array([0.3, 0.3]))
+    force, slope, _ = soil_lateral_force_and_slope(contact, np.array([W, W]),
+                                                   np.array([0.1, -0.1]), np.array([0.3, 0.3]))
     assert np.all(np.isfinite(force)) and force[0] < 0.0 < force[1]
     assert np.all(slope <= 0.0)
 
