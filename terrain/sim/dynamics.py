@@ -39,8 +39,8 @@ from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
                                 reach_chord_contact, step_traction_coefficient,
                                 specific_force_m_s2, transferred_normal_loads,
                                 velocity_maps)
-from terrain.terramechanics.lateral import (SOILS, SoilContact, longitudinal_curve,
-                                            soil_contact)
+from terrain.terramechanics.lateral import (SOILS, SlipCompactionResistance, SoilContact,
+                                            longitudinal_curve, soil_contact)
 from terrain.terramechanics.resistance import is_deformable
 from terrain.terramechanics.slip import sae_slip
 from terrain.terramechanics.traction import TractionAndResistance
@@ -85,8 +85,11 @@ def v2_terrain(terrain, contact: SoilContact, load_n: float):
         ``terrain.curve``.
     """
     soil_curve = longitudinal_curve(contact, load_n)
+    resistance = terrain.curve
+    if contact.soil.slip_sinkage_ratio is not None and contact.soil.slip_compaction:
+        resistance = SlipCompactionResistance(terrain.curve, contact, load_n)
     return replace(terrain, curve=TractionAndResistance(
-        soil_curve, terrain.curve,
+        soil_curve, resistance,
         f"traction: {soil_curve.source}; motion resistance: {terrain.source}"))
 
 

@@ -54,8 +54,8 @@ from typing import Mapping
 import numpy as np
 
 from terrain.errors import ConfigError, config_integer, config_positive
-from terrain.terramechanics.resistance import bekker_sinkage_m
-from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation
+from terrain.terramechanics.resistance import bekker_sinkage_m, compaction_resistance_n
+from terrain.terramechanics.traction import CurveCoefficients, JanosiCurve, patch_mobilisation
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
 
@@ -135,6 +135,12 @@ class SoilParams:
         across, 99.3 N against 85.4 N). True was measured on the training runs and not
         adopted: it costs SANDY_LOAM's current what it keeps of the yaw rate
         (docs/physics_v2.md, "The shear strength shared between directions").
+    slip_compaction : bool
+        True, on a soil with a ``slip_sinkage_ratio``: the deeper rut of a slipping wheel
+        also adds its compaction resistance to the longitudinal law
+        (:class:`SlipCompactionResistance`, Wong eq. 2.54), not only a deeper wall to
+        bulldoze sideways. False (every shipped soil): the wall only. Measured with
+        ``combined_shear`` on the training runs and not adopted (same section).
 
     Raises
     ------
@@ -145,7 +151,8 @@ class SoilParams:
         ``unit_weight_n_m3`` is negative or not finite, ``k_c`` or ``k_phi`` is not
         finite, ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
         ``slip_sinkage_ratio`` is negative or not finite, or ``rate_weakening_speed_m_s``
-        is not a finite positive speed, or ``combined_shear`` is not a bool.
+        is not a finite positive speed, or ``combined_shear`` or ``slip_compaction`` is
+        not a bool.
     """
 
     name: str
@@ -163,6 +170,7 @@ class SoilParams:
     slip_sinkage_ratio: float | None = None
     rate_weakening_speed_m_s: float | None = None
     combined_shear: bool = False
+    slip_compaction: bool = False
 
     def __post_init__(self) -> None:
         positive = {"n": self.n, "shear_modulus_m": self.shear_modulus_m}
@@ -187,9 +195,10 @@ class SoilParams:
                 np.isfinite(self.slip_sinkage_ratio) and self.slip_sinkage_ratio >= 0.0):
             raise ConfigError(f"{self.name}: slip_sinkage_ratio must be a finite value >= 0 "
                               f"or None, got {self.slip_sinkage_ratio}")
-        if not isinstance(self.combined_shear, bool):
-            raise ConfigError(f"{self.name}: combined_shear must be True or False, got "
-                              f"{self.combined_shear!r}")
+        for key in ("combined_shear", "slip_compaction"):
+            if not isinstance(getattr(self, key), bool):
+                raise ConfigError(f"{self.name}: {key} must be True or False, got "
+                                  f"{getattr(self, key)!r}")
         if self.layer_depth_m is not None and not self.layer_depth_m > 0:
             raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
                               f"{self.layer_depth_m}")
@@ -589,13 +598,93 @@ def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,
     contact_length_m : ndarray, shape (c,)
         ``l``, m.
     """
+    z = slip_sinkage_m(contact, normal_load_n, slip_ratio)[0]
+    length = contact_chord_m(z, contact.wheel_radius_m, contact.length_grid_m[0])
+    return lateral_strength_n(contact.soil, contact.width_m, normal_load_n, z, length), length
+
+
+def slip_sinkage_m(contact: SoilContact, normal_load_n: np.ndarray | float,
+                   slip_ratio: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sinkage of wheels that slip, and its slope in ``|s|``.
+
+    ``z = min(z_0(N) (1 + k_s |s|), z_max)`` with the static sinkage ``z_0`` of the
+    tabulated contact, ``k_s`` = :attr:`SoilParams.slip_sinkage_ratio` and ``z_max`` the
+    wheel radius or the soil's ``layer_depth_m`` (Ding et al. 2010; Lyasko 2010; the
+    linear form ASSUMED, see :class:`SoilParams`).
+
+    Parameters
+    ----------
+    contact : SoilContact
+        Tabulated contact; its soil has a ``slip_sinkage_ratio``.
+    normal_load_n : float or ndarray, shape (c,)
+        Normal loads, N (within the table).
+    slip_ratio : ndarray, shape (c,)
+        Longitudinal (SAE) slip ratio, dimensionless (sign ignored).
+
+    Returns
+    -------
+    sinkage_m : ndarray, shape (c,)
+        z, m.
+    dsinkage_ds_m : ndarray, shape (c,)
+        ``d z / d|s|``, m (0 where capped).
+    """
     soil = contact.soil
     z0 = np.interp(normal_load_n, contact.load_grid_n, contact.sinkage_grid_m)
     z_max = contact.wheel_radius_m if soil.layer_depth_m is None else min(
         contact.wheel_radius_m, soil.layer_depth_m)
-    z = np.minimum(z0 * (1.0 + soil.slip_sinkage_ratio * np.abs(slip_ratio)), z_max)
-    length = contact_chord_m(z, contact.wheel_radius_m, contact.length_grid_m[0])
-    return lateral_strength_n(soil, contact.width_m, normal_load_n, z, length), length
+    z_free = z0 * (1.0 + soil.slip_sinkage_ratio * np.abs(slip_ratio))
+    z = np.minimum(z_free, z_max)
+    return z, np.where(z_free < z_max, z0 * soil.slip_sinkage_ratio, 0.0)
+
+
+@dataclass(frozen=True)
+class SlipCompactionResistance:
+    """A curve's motion resistance plus the compaction of the rut a slipping wheel digs.
+
+    A wheel that slips sinks deeper (:func:`slip_sinkage_m`), and the soil pressed down to
+    the deeper rut resists its motion: the coefficient adds ``(R_c(z(s)) - R_c(z_0)) / W``
+    (:func:`terrain.terramechanics.resistance.compaction_resistance_n`, Wong eq. 2.54) to
+    the resistance of ``base``, at the wheel load ``W`` the curve is built for (the static
+    load, as :func:`longitudinal_curve`); the traction is ``base``'s. Used by physics v2 on
+    a soil with :attr:`SoilParams.slip_compaction`.
+
+    Parameters
+    ----------
+    base : TractionCurve
+        Curve giving the traction and the resistance at rest (``coefficients``).
+    contact : SoilContact
+        Tabulated wheel-soil contact; its soil has a ``slip_sinkage_ratio``.
+    load_n : float
+        Wheel load, N (> 0).
+    """
+
+    base: object
+    contact: SoilContact
+    load_n: float
+
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """``base``'s coefficients with the slip-sinkage compaction added to the resistance.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain (passed to ``base``).
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        c = self.base.coefficients(abs_slip, soil_resistance)
+        soil, width = self.contact.soil, self.contact.width_m
+        z, dz = slip_sinkage_m(self.contact, self.load_n, np.asarray(abs_slip, dtype=float))
+        z0 = float(np.interp(self.load_n, self.contact.load_grid_n,
+                             self.contact.sinkage_grid_m))
+        r, dr_dz = compaction_resistance_n(z, width, soil.k_c, soil.k_phi, soil.n)
+        r0 = compaction_resistance_n(z0, width, soil.k_c, soil.k_phi, soil.n)[0]
+        return CurveCoefficients(c.mu, c.dmu_ds, c.resistance + (r - r0) / self.load_n,
+                                 c.dresistance_ds + dr_dz * dz / self.load_n)
 
 
 def rate_weakening_factor(slip_speed_m_s: np.ndarray, soil: SoilParams

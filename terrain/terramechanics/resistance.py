@@ -282,5 +282,32 @@ def bekker_compaction_coefficient(load_n: float, width_m: float, length_m: float
     if load_n <= 0:
         return 0.0
     z = bekker_sinkage_m(load_n, width_m, length_m, k_c, k_phi, n)
-    rc = width_m * (k_c / width_m + k_phi) * z ** (n + 1.0) / (n + 1.0)
-    return float(rc / load_n)
+    return float(compaction_resistance_n(z, width_m, k_c, k_phi, n)[0] / load_n)
+
+
+def compaction_resistance_n(sinkage_m: np.ndarray | float, width_m: float, k_c: float,
+                            k_phi: float, n: float) -> tuple[np.ndarray, np.ndarray]:
+    """Compaction resistance of a rut of depth z, ``R_c = b (k_c/b + k_phi) z^(n+1)/(n+1)``.
+
+    The work of pressing the soil down to ``z`` per unit travel (Wong, *Theory of Ground
+    Vehicles* 4th ed., eq. 2.54, Bekker's pressure-sinkage relation integrated over depth).
+
+    Parameters
+    ----------
+    sinkage_m : float or ndarray, shape (...)
+        Rut depth z, m (>= 0).
+    width_m : float
+        Contact width b, m.
+    k_c, k_phi, n : float
+        Bekker moduli (N/m^(n+1), N/m^(n+2)) and exponent, as in :func:`bekker_sinkage_m`.
+
+    Returns
+    -------
+    resistance_n : ndarray, shape (...)
+        ``R_c``, N.
+    dresistance_dz_n_m : ndarray, shape (...)
+        ``d R_c / d z = b (k_c/b + k_phi) z^n``, N/m.
+    """
+    z = np.maximum(np.asarray(sinkage_m, dtype=float), 0.0)
+    modulus = width_m * (k_c / width_m + k_phi)
+    return modulus * z ** (n + 1.0) / (n + 1.0), modulus * z ** n

@@ -316,6 +316,37 @@ def test_combined_shear_lets_the_husky_spin_more_freely_on_sandy_loam(monkeypatc
     assert a2 < _spin_yaw("v2") < 1
 
 
+def test_slip_compaction_adds_the_deeper_ruts_bekker_compaction_to_the_resistance():
+    loam = replace(SOILS["SANDY_LOAM"], slip_sinkage_ratio=5.0, slip_compaction=True)
+    contact = soil_contact(loam, 0.11, 0.08, 0.1651, 4 * W)
+    base = get_terrain("SANDY_LOAM")
+    ter = dynamics.v2_terrain(base, contact, W)
+    s = np.array([0.0, 0.1, 0.4, 1.0])
+    c = ter.curve.coefficients(s, base.soil_resistance)
+    plain = dynamics.v2_terrain(base, replace(contact, soil=replace(loam, slip_compaction=False)),
+                                W).curve.coefficients(s, base.soil_resistance)
+    np.testing.assert_array_equal(c.mu, plain.mu)          # traction unchanged
+    np.testing.assert_array_equal(plain.resistance, base.soil_resistance)
+    z0 = wheel_sinkage_m(W, 0.11, 0.08, 0.1651, loam)[0]
+    # Wong eq. 2.54 at z = z0 (1 + 5 s) less its value at rest, over the load (z0 from the
+    # contact's load table, within 1e-3 of the direct fixed point at W)
+    k = loam.k_c / 0.11 + loam.k_phi
+    r_c = 0.11 * k * (z0 * (1 + 5 * s)) ** 1.7 / 1.7
+    np.testing.assert_allclose(c.resistance - base.soil_resistance, (r_c - r_c[0]) / W,
+                               rtol=1e-3, atol=1e-12)
+    assert c.resistance[0] == base.soil_resistance and np.all(np.diff(c.resistance) > 0)
+    h = 1e-6
+    up = ter.curve.coefficients(s[1:] + h, base.soil_resistance).resistance
+    down = ter.curve.coefficients(s[1:] - h, base.soil_resistance).resistance
+    np.testing.assert_allclose(c.dresistance_ds[1:], (up - down) / (2 * h), rtol=1e-5)
+    # a rut as deep as the wheel radius stops deepening: no slope there
+    deep = replace(contact, soil=replace(loam, slip_sinkage_ratio=1e6))
+    capped = dynamics.v2_terrain(base, deep, W).curve.coefficients(np.array([0.5]), 0.08)
+    assert capped.dresistance_ds[0] == 0.0
+    with pytest.raises(ConfigError, match="slip_compaction"):
+        replace(loam, slip_compaction="yes")
+
+
 def test_longitudinal_curve_is_the_catalogue_strength_with_the_soils_k_x():
     loam = SOILS["SANDY_LOAM"]
     c = soil_contact(loam, 0.11, 0.08, 0.1651, 4 * W)
