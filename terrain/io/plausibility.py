@@ -308,6 +308,9 @@ def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
                  rows: np.ndarray | None = None) -> None:
     """Refuse values outside the plausibility range of their channel.
 
+    Float, integer and unsigned columns are judged (a column of another kind, e.g. text,
+    is the reader's to refuse as non-numeric).
+
     Parameters
     ----------
     frame : pandas.DataFrame
@@ -332,10 +335,11 @@ def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
     """
     file_col = {v: k for k, v in columns.items()}
     for name, lim in limits.items():
-        if name not in frame.columns or frame[name].dtype.kind != "f":
+        if name not in frame.columns or frame[name].dtype.kind not in "iuf":
             continue
         values = frame[name].to_numpy()
-        bad = np.flatnonzero(np.abs(values) > lim.limit)
+        # both bounds, not abs(): int64's most negative value is its own abs (NaN: neither)
+        bad = np.flatnonzero((values > lim.limit) | (values < -lim.limit))
         if bad.size:
             at = bad if rows is None else np.asarray(rows)[bad]
             where = lines[bad] if lines is not None else at

@@ -268,8 +268,8 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     if missing:
         raise MissingColumnError(f"model input lacks column(s) {missing}; expected {cols}",
                                  "model input", missing[0])
-    # numbers only, as floats: the plausibility ranges look at float columns alone (1000 m/s
-    # written as integers passed them), and text failed later with Python's bare ValueError
+    # numbers only, as floats: text failed later with Python's bare ValueError (the
+    # plausibility ranges once looked at float columns alone: 1000 m/s as integers passed)
     rows = np.arange(len(samples))
     samples = samples.assign(**{c: numeric_column(samples, c, rows, "model input")
                                 for c in cols[1:]})

@@ -586,3 +586,26 @@ def test_check_ranges_takes_file_column_to_canonical_name():
     with pytest.raises(ImplausibleValueError) as info:
         check_ranges(frame, "pro_00.csv", COLUMN_MAPS["pro"], np.array([2, 3]))
     assert (info.value.column, info.value.line, info.value.row) == ("velR", 3, 1)
+
+
+@pytest.mark.parametrize("dtype", ["int64", "int32", "uint16", "uint64"])
+def test_check_ranges_checks_integer_and_unsigned_columns(dtype):
+    """An integer or unsigned column is judged as a float one is (it was skipped: an int64
+    wheel speed of 9 m/s passed), and int64's most negative value, whose ``abs`` overflows
+    to itself, is refused too."""
+    from terrain.errors import ImplausibleValueError
+    from terrain.io.measured import COLUMN_MAPS
+    from terrain.io.plausibility import check_ranges
+
+    frame = pd.DataFrame({"t_s": [0.0, 0.1, 0.2], "vel_l": [0, 0, 0], "vel_r": [0, 9, 9],
+                          "cur_l": [1, 1, 1], "cur_r": [1, 1, 1]}).astype(
+        {c: dtype for c in ("vel_l", "vel_r", "cur_l", "cur_r")})
+    with pytest.raises(ImplausibleValueError) as info:
+        check_ranges(frame, "pro_00.csv", COLUMN_MAPS["pro"], np.array([2, 3, 4]))
+    assert (info.value.path, info.value.column, info.value.line) == ("pro_00.csv", "velR", 3)
+    assert str(info.value).startswith("2 value(s) beyond +-5 m/s") and "lines 3, 4" in str(
+        info.value)
+    if dtype == "int64":
+        frame["vel_r"] = np.array([0, 0, np.iinfo(np.int64).min])
+        with pytest.raises(ImplausibleValueError, match="1 value"):
+            check_ranges(frame, "pro_00.csv", COLUMN_MAPS["pro"], np.array([2, 3, 4]))
