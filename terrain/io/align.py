@@ -39,7 +39,8 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from terrain.errors import ConfigError, DataFormatError, duplicated
+from terrain.errors import (ConfigError, DataFormatError, config_numbers, config_positive,
+                            duplicated)
 from terrain.run import TIME, Run
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -72,16 +73,18 @@ def overlap_grid(times_s: Sequence[np.ndarray], rate_hz: float) -> np.ndarray:
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not positive.
+        If ``rate_hz`` is not a finite number > 0.
     """
-    t0, n = _grid_span(times_s, rate_hz)
+    t0, n = _grid_span(times_s, rate_hz, "overlap_grid")
     return t0 + np.arange(n) / rate_hz
 
 
-def _grid_span(times_s: Sequence[np.ndarray], rate_hz: float) -> tuple[float, int]:
-    """First point ``t0`` (s) and number of points of :func:`overlap_grid` (0: no overlap)."""
-    if not rate_hz > 0:
-        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
+def _grid_span(times_s: Sequence[np.ndarray], rate_hz: float,
+               owner: str) -> tuple[float, int]:
+    """First point ``t0`` (s) and number of points of :func:`overlap_grid` (0: no overlap);
+    ``owner`` names the caller in the error of a ``rate_hz`` that is not finite and > 0
+    (inf raised a bare OverflowError)."""
+    config_positive(owner, rate_hz=rate_hz)
     t0 = max(float(t[0]) for t in times_s)
     t1 = min(float(t[-1]) for t in times_s)
     if t1 <= t0:
@@ -118,9 +121,9 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not positive.
+        If ``rate_hz`` is not a finite number > 0.
     """
-    t0, n = _grid_span(times_s, rate_hz)
+    t0, n = _grid_span(times_s, rate_hz, "overlap_grid_tail")
     # first k with t0 + k / rate >= before_s, on the grid's own float arithmetic
     end = min(max(int(np.ceil((before_s - t0) * rate_hz)), 0), n)
     while end > 0 and t0 + (end - 1) / rate_hz >= before_s:
@@ -319,9 +322,10 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     streams : tuple of str
         Stream names to align (their channel names must not collide).
     rate_hz : float
-        Rate of the common clock, Hz (> 0).
+        Rate of the common clock, Hz (finite, > 0).
     gap_factor : float
-        A step longer than ``gap_factor`` x the stream's median step is a gap.
+        A step longer than ``gap_factor`` x the stream's median step is a gap (finite,
+        > 1).
 
     Returns
     -------
@@ -333,12 +337,18 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not positive, or two streams share a channel name.
+        If ``rate_hz`` is not a finite number > 0, ``gap_factor`` not a finite number > 1
+        (NaN or inf made no step a gap, 1 or less nearly every one), or two streams share a
+        channel name.
     DataFormatError
         If none of ``streams`` is in the run, or their time spans do not overlap.
     """
-    if not rate_hz > 0:
-        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
+    config_positive("align_streams", rate_hz=rate_hz)
+    config_numbers("align_streams", gap_factor=gap_factor)
+    if not 1.0 < gap_factor < np.inf:
+        raise ConfigError(f"align_streams.gap_factor must be a finite number > 1 (a step "
+                          f"longer than gap_factor x the median step is a gap), got "
+                          f"{gap_factor!r}")
     present = [s for s in streams if s in run.streams]
     if not present:
         raise DataFormatError(f"run has none of the streams {list(streams)} "

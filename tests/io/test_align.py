@@ -284,3 +284,27 @@ def test_an_integer_channel_is_aligned_not_left_out(make_run):
     assert list(frame.columns) == [TIME, *WHEEL_CHANNELS]
     assert frame["cur_l"].dtype == np.float64
     np.testing.assert_array_equal(frame["cur_l"].to_numpy(), 5.0)
+
+
+@pytest.mark.parametrize("gap_factor", [float("nan"), 1.0, 0.5, -3.0, float("inf"), "3", True])
+def test_a_gap_factor_that_is_no_gap_rule_is_refused(make_run, gap_factor):
+    # NaN (or inf) made no step a gap: a 2 s hole of the wheel stream was interpolated
+    # across; 1.0 made every step a little over the median one a gap (277 of 470 grid
+    # points NaN on a jittery stream instead of the 99 of the hole)
+    run = make_run({"imu": _imu(np.arange(0, 1001) / 100.0),
+                    "wheels": _wheels(np.r_[np.arange(0, 31) / 10.0,
+                                            5.0 + np.arange(0, 51) / 10.0])})
+    with pytest.raises(ConfigError, match=r"align_streams\.gap_factor .*"
+                                          + repr(gap_factor).replace("'", ".")):
+        align_streams(run, rate_hz=50.0, gap_factor=gap_factor)
+
+
+@pytest.mark.parametrize("rate_hz", [float("inf"), float("nan"), -50.0, "50"])
+def test_a_rate_that_is_not_a_finite_positive_number_is_a_config_error(make_run, rate_hz):
+    # rate_hz=inf raised a bare OverflowError (cannot convert float infinity to integer)
+    run = make_run({"wheels": _wheels(np.arange(0, 51) / 10.0)})
+    with pytest.raises(ConfigError, match=r"align_streams\.rate_hz .*"
+                                          + repr(rate_hz).replace("'", ".")):
+        align_streams(run, ("wheels",), rate_hz=rate_hz)
+    with pytest.raises(ConfigError, match="rate_hz"):
+        overlap_grid([np.arange(0, 51) / 10.0], rate_hz)
