@@ -674,7 +674,8 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
                                   f"(key 'datasets.{dataset}.runs'): {extra[:5]}",
                                   data_dir / dataset / STREAM_FILES[name], RUN_ID)
     runs = []
-    for i, info in enumerate(entry["runs"]):
+    # sorted by run id, as returned; ``i`` stays the manifest's index (its keys in messages)
+    for i, info in sorted(enumerate(entry["runs"]), key=lambda item: item[1]["run_id"]):
         rid = info["run_id"]
         streams = {n: t[rid] for n, t in tables.items() if rid in t}
         if "wheels" not in streams:

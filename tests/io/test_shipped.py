@@ -560,3 +560,15 @@ def test_the_manifest_counts_of_a_run_must_equal_its_rows(vulpi_copy, edit, mess
     with pytest.raises(DataFormatError, match=message) as info:
         read_shipped("vulpi", vulpi_copy)
     assert info.value.path == str(path) and "\n" not in str(info.value)
+
+
+def test_runs_come_sorted_by_run_id_whatever_the_manifest_order(vulpi_copy):
+    # read_shipped returned the manifest's order although its docstring (and load_dataset's)
+    # says sorted by run id: a manifest listing its runs in reverse gave them reversed
+    _edit_manifest(vulpi_copy, lambda e: e["runs"].reverse())
+    ids = [r.run_id for r in read_shipped("vulpi", vulpi_copy)]
+    assert ids == sorted(ids) and len(ids) == 15 and ids[0] == "vulpi/CONCRETE/1"
+    # a manifest key in a message still counts from the manifest's own order
+    _edit_manifest(vulpi_copy, lambda e: e["runs"][0].update(has_imu=False))
+    with pytest.raises(DataFormatError, match=r"runs\[0\]\.has_imu.* 'vulpi/UNPLOUGHED/"):
+        read_shipped("vulpi", vulpi_copy)
