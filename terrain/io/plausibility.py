@@ -450,7 +450,7 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     Parameters
     ----------
     run_id : str
-        Run id (for the messages).
+        Run id (for the messages of a stream that ``files`` does not name).
     streams : Mapping[str, pandas.DataFrame]
         Stream name -> frame (``t_s`` first, canonical channels, SI units).
     vehicle : str
@@ -489,7 +489,7 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     stuck = stuck_stretches(streams)
     for key, spans in stuck.items():
         total = sum(b - a for a, b in spans)
-        found.append(f"{run_id}: {key} stuck at one value for {total:.1f} s "
+        found.append(f"{src(key.split('.')[0])}: {key} stuck at one value for {total:.1f} s "
                      f"({len(spans)} stretch(es), first from t = {spans[0][0]:.1f} s): dead "
                      "or stuck sensor; windows holding it are flagged")
     for msg in found:

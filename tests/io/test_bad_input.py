@@ -609,3 +609,23 @@ def test_check_ranges_checks_integer_and_unsigned_columns(dtype):
         frame["vel_r"] = np.array([0, 0, np.iinfo(np.int64).min])
         with pytest.raises(ImplausibleValueError, match="1 value"):
             check_ranges(frame, "pro_00.csv", COLUMN_MAPS["pro"], np.array([2, 3, 4]))
+
+
+def test_stuck_sensor_warning_names_the_file_as_the_other_run_findings_do(turning):
+    # it named the run only ('borealtc/ASPHALT/00: imu.wz stuck at one value ...') where
+    # every other run-level finding names the file
+    from terrain.io.plausibility import check_run
+
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__("wz", 0.0))
+    (run,), caught = _read(imu.parent.parent)
+    (message,) = [str(w.message) for w in caught]
+    assert message.startswith(f"{imu}: imu.wz stuck at one value for ")
+    assert run.meta["warnings"] == [message]
+    # with files given per stream (the shipped reader's '<file> run <id>'), each its own
+    streams = {"imu": run.streams["imu"], "wheels": run.streams["wheels"].assign(cur_r=1.0)}
+    with pytest.warns(DataWarning):
+        found = check_run("r/A/0", streams, "husky", {"imu": "imu.parquet run r/A/0",
+                                                      "wheels": "wheels.parquet run r/A/0"})
+    assert sorted(w.split(" stuck")[0] for w in found["warnings"]) == [
+        "imu.parquet run r/A/0: imu.wz", "wheels.parquet run r/A/0: wheels.cur_r"]
