@@ -332,7 +332,9 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     pandas.DataFrame
         Shape ``(n_samples, 1 + n_channels)``: ``t_s`` then every numeric channel
         (float64, integer columns included; text columns left out), SI units;
-        ``attrs`` holds ``rate_hz``, ``method`` and ``streams``.
+        ``attrs`` holds ``rate_hz``, ``method``, ``streams``, and the columns left out
+        (text, boolean: not resampled) as ``dropped_columns`` (``"<stream>.<column>"``,
+        in stream and column order) and their count ``n_dropped_columns``.
 
     Raises
     ------
@@ -359,6 +361,8 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     # per-sample ``terrain`` label) are not resampled
     channels = [[c for c in f.columns if c != TIME and f[c].dtype.kind in "iuf"]
                 for f in frames]
+    dropped = tuple(f"{s}.{c}" for s, f, ch in zip(present, frames, channels)
+                    for c in f.columns if c != TIME and c not in ch)
     flat = [c for ch in channels for c in ch]
     clash = duplicated(flat)
     if clash:
@@ -372,6 +376,7 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                                    zip(frames, channels)], grid, rate_hz, gap_factor)
     frame = pd.DataFrame(np.column_stack([grid, aligned]), columns=[TIME] + flat)
     frame.attrs.update(rate_hz=float(rate_hz), streams=tuple(present),
+                       dropped_columns=dropped, n_dropped_columns=len(dropped),
                        method="anti-alias low-pass (Butterworth 4, 0.4 fs, zero phase) for "
                               "faster streams, then linear interpolation; NaN inside gaps")
     return frame

@@ -308,3 +308,18 @@ def test_a_rate_that_is_not_a_finite_positive_number_is_a_config_error(make_run,
         align_streams(run, ("wheels",), rate_hz=rate_hz)
     with pytest.raises(ConfigError, match="rate_hz"):
         overlap_grid([np.arange(0, 51) / 10.0], rate_hz)
+
+
+def test_text_columns_left_out_are_recorded_in_attrs(make_run):
+    # a simulated run's per-sample 'terrain' label (text) was left out of the aligned frame
+    # without a trace: attrs held only rate_hz, streams and method
+    t = np.arange(0, 101) / 10.0
+    truth = pd.DataFrame({TIME: t, "x_m": t, "terrain": np.where(t < 5, "GRASS", "SNOW"),
+                          "note": "ok"})
+    run = make_run({"wheels": _wheels(t), "truth": truth})
+    frame = align_streams(run, ("wheels", "truth"), rate_hz=50.0)
+    assert list(frame.columns) == [TIME, *WHEEL_CHANNELS, "x_m"]
+    assert frame.attrs["dropped_columns"] == ("truth.terrain", "truth.note")
+    assert frame.attrs["n_dropped_columns"] == 2
+    plain = align_streams(run, ("wheels",), rate_hz=50.0)
+    assert plain.attrs["dropped_columns"] == () and plain.attrs["n_dropped_columns"] == 0
