@@ -298,7 +298,8 @@ class ExperimentResult:
         ``windowing_s``, ``features_s`` and ``cv_s``: wall-clock time of each stage, s.
     input_notes : tuple of str
         The notes of ``report.notes`` that restate the windowing's book-keeping (runs
-        skipped for a missing stream, windows dropped, window positions inside a gap), which
+        skipped for a missing stream, windows dropped, window positions inside a gap, run
+        tails after the last full partition or window, s), which
         :func:`terrain.io.report.input_report` also states: a command that prints that
         report leaves these out of its notes (the JSON report keeps every note).
     """
@@ -491,6 +492,12 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     if ws.counts.get("empty_gap"):
         input_notes.append(f"{ws.counts['empty_gap']} window position(s) wholly inside a gap "
                            "of every stream (no data, not counted as dropped)")
+    for key, after in (("partition_tail_s", "full partition (partition protocol)"),
+                       ("window_tail_s", "full window")):
+        if ws.counts.get(key):
+            n_runs = sum(c.get(key, 0.0) > 0 for c in ws.counts["per_run"].values())
+            input_notes.append(f"not windowed: {ws.counts[key]:.1f} s of run tails after the "
+                               f"last {after} in {n_runs} run(s)")
     notes += input_notes
     training = load_training_windows(config, runs, ws, groups,
                                      fx.transform if on_features else None, progress)

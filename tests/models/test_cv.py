@@ -438,3 +438,17 @@ def test_a_search_over_fewer_runs_than_its_inner_folds_is_a_config_error():
     X, y, groups, _ = _planted(n_runs=6)                 # enough: fits, as before
     assert make_search(SVMConfig(search_C=(1.0,), search_gamma=("scale",))).fit(
         X, y, groups=groups).best_params_["svc__C"] == 1.0
+
+
+def test_cv_notes_the_run_tails_not_windowed(vulpi_runs):
+    # the notes listed the windows dropped for gaps or unsteady motion, not the run time
+    # after each run's last full window, which the input report shows (30 s windows over
+    # the 15 Vulpi runs leave 232.1 s of tails)
+    res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), window_s=30.0,
+                                  seeds=(0,)), vulpi_runs)
+    tail = res.counts["window_tail_s"]
+    assert tail > 30.0 and res.counts["partition_tail_s"] == 0.0
+    note = f"not windowed: {tail:.1f} s of run tails after the last full window in 15 run(s)"
+    assert note == "not windowed: 232.1 s of run tails after the last full window in 15 run(s)"
+    assert note in res.report.notes and note in res.input_notes
+    assert not any("last full partition" in n for n in res.report.notes)

@@ -169,6 +169,10 @@ def test_paper_protocol_says_its_vote_is_per_partition(vulpi_runs):
     res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
                                   protocol="paper"), runs=vulpi_runs, progress=False)
     assert any("votes per 5 s partition" in note for note in res.report.notes)
+    # and the run time after each run's last full partition, which no window is cut from
+    tail = res.counts["partition_tail_s"]
+    assert tail > 0 and (f"not windowed: {tail:.1f} s of run tails after the last full "
+                         "partition (partition protocol) in ") in " ".join(res.input_notes)
 
 
 def test_fit_pipeline_search_splits_a_single_run_class_as_run_cv_does(vulpi_runs,
