@@ -55,7 +55,8 @@ import numpy as np
 
 from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.terramechanics.resistance import bekker_sinkage_m, compaction_resistance_n
-from terrain.terramechanics.traction import CurveCoefficients, JanosiCurve, patch_mobilisation
+from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
+                                             patch_mobilisation)
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
 
@@ -658,7 +659,7 @@ class SlipCompactionResistance:
         Wheel load, N (> 0).
     """
 
-    base: object
+    base: TractionCurve
     contact: SoilContact
     load_n: float
 
