@@ -308,6 +308,30 @@ def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: floa
     return max(1.0, n_phases / sum_sq)
 
 
+def check_gap_factor(owner: str, gap_factor: float) -> None:
+    """Refuse a gap factor that is not a finite number > 1 (the gap rule of this module).
+
+    A step longer than ``gap_factor`` x the stream's median step is a gap: NaN or inf makes
+    no step a gap, 1 or less nearly every one (every window dropped).
+
+    Parameters
+    ----------
+    owner : str
+        Name of the caller, for the message (``"<owner>.gap_factor ..."``).
+    gap_factor : float
+        The factor, dimensionless.
+
+    Raises
+    ------
+    ConfigError
+        ``gap_factor`` not a number, or not finite and > 1.
+    """
+    config_numbers(owner, gap_factor=gap_factor)
+    if not 1.0 < gap_factor < np.inf:
+        raise ConfigError(f"{owner}.gap_factor must be a finite number > 1 (a step longer "
+                          f"than gap_factor x the median step is a gap), got {gap_factor!r}")
+
+
 def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                   rate_hz: float = DEFAULT_RATE_HZ, gap_factor: float = 3.0) -> pd.DataFrame:
     """Put the named streams of ``run`` on one uniform clock.
@@ -346,11 +370,7 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         If none of ``streams`` is in the run, or their time spans do not overlap.
     """
     config_positive("align_streams", rate_hz=rate_hz)
-    config_numbers("align_streams", gap_factor=gap_factor)
-    if not 1.0 < gap_factor < np.inf:
-        raise ConfigError(f"align_streams.gap_factor must be a finite number > 1 (a step "
-                          f"longer than gap_factor x the median step is a gap), got "
-                          f"{gap_factor!r}")
+    check_gap_factor("align_streams", gap_factor)
     present = [s for s in streams if s in run.streams]
     if not present:
         raise DataFormatError(f"run has none of the streams {list(streams)} "

@@ -14,6 +14,7 @@ from typing import Mapping
 import numpy as np
 
 from terrain.errors import ConfigError, config_integer, config_numbers, duplicated
+from terrain.io.align import check_gap_factor
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.smoothing import SmoothingConfig
 
@@ -108,9 +109,7 @@ class StreamConfig:
         if not 0 <= self.min_confidence <= 1:
             raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
         config_integer("buffer_samples", self.buffer_samples, 2, MAX_BUFFER_SAMPLES)
-        # a factor <= 1 calls half of all steps a gap (every window dropped); NaN none
-        if not 1 < self.gap_factor < np.inf:
-            raise ConfigError(f"gap_factor must be a finite number > 1, got {self.gap_factor}")
+        check_gap_factor("StreamConfig", self.gap_factor)
         unknown = [s for s in self.clock_offsets_s if s not in self.streams]
         bad = {s: o for s, o in self.clock_offsets_s.items() if not np.isfinite(o)}
         if unknown or bad:
