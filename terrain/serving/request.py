@@ -223,7 +223,7 @@ def _wide_rows(frame: pd.DataFrame, stream: str, tcol: str, channels: Sequence[s
 
 def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
                   window_s: float, max_rows: int, where: str = "request",
-                  known_streams: Sequence[str] = tuple(KNOWN_STREAMS),
+                  known_streams: Mapping[str, Sequence[str]] = KNOWN_STREAMS,
                   vehicle: str = DEFAULT_VEHICLE) -> Run:
     """Validate a request frame (long or wide, see module docstring) into a :class:`Run`.
 
@@ -251,10 +251,9 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         Largest accepted request, rows.
     where : str
         Name of the input in messages.
-    known_streams : sequence of str or Mapping[str, sequence of str]
-        Stream names a long-format request may hold (a mapping: stream -> its channels;
-        else the channels of :data:`~terrain.serving.config.KNOWN_STREAMS`), whose time
-        columns and channels are not ignored columns.
+    known_streams : Mapping[str, sequence of str]
+        Streams a long-format request may hold, stream -> its channels (their time columns
+        and channels, with those of ``streams``, are not ignored columns).
     vehicle : str
         Vehicle whose bounds the run-level rules of
         :func:`terrain.io.plausibility.check_run` use.
@@ -338,7 +337,7 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     checks = check_run(where, out, vehicle, {s: where for s in out}, time_column=TIME)
     checks["unused"] = _unused_rows(frame, long,
                                     [s for s in known_streams if s not in streams])
-    checks["ignored_columns"] = _ignored_columns(labels, long, streams, known_streams)
+    checks["ignored_columns"] = _ignored_columns(labels, long, (known_streams, streams))
     return Run("request", "request", None, out, vehicle=vehicle, source=where, meta=checks)
 
 
@@ -358,18 +357,18 @@ def _unused_rows(frame: pd.DataFrame, long: bool, others: Sequence[str]) -> dict
     return counts
 
 
-def _ignored_columns(labels: Sequence[str], long: bool, streams: Mapping[str, Sequence[str]],
-                     known: Sequence[str] | Mapping[str, Sequence[str]]) -> list[str]:
-    """The request's columns that no known stream has (``stream`` and ``t_s`` in the long
-    format, ``<stream>_t_s`` in the wide one, and every known stream's channels), in request
-    order: not read, and named in the answer rather than dropped without a word."""
+def _ignored_columns(labels: Sequence[str], long: bool,
+                     stream_maps: Sequence[Mapping[str, Sequence[str]]]) -> list[str]:
+    """The request's columns that no stream of ``stream_maps`` (stream -> channels) has
+    (``stream`` and ``t_s`` in the long format, ``<stream>_t_s`` in the wide one, and the
+    streams' channels), in request order: not read, and named in the answer rather than
+    dropped without a word."""
     read = {STREAM, TIME} if long else set()
-    for stream in known:
-        channels = (known[stream] if isinstance(known, Mapping)
-                    else streams.get(stream, KNOWN_STREAMS.get(stream, ())))
-        read.update(channels)
-        if not long:
-            read.add(f"{stream}_{TIME}")
+    for stream_map in stream_maps:
+        for stream, channels in stream_map.items():
+            read.update(channels)
+            if not long:
+                read.add(f"{stream}_{TIME}")
     return [c for c in labels if c not in read]
 
 
