@@ -1,24 +1,31 @@
-"""Is the forward filter's switch reset worth turning on? Chosen inside the training runs only.
+"""Which smoothing rule, chosen inside the training runs only? The reset and the smoothing grid.
 
 ``benchmarks/stream_switch_oracle.py`` scores the reset rule
 (``SmoothingConfig(reset_confidence=theta, reset_windows=m)``) on the held-out streams and
-picks its parameters on the first seed's streams, so its figure on that seed is optimistic.
+picks its parameters on the first seed's streams, so its figure on that seed is optimistic;
+the service's default smoothing (forward filter, dwell 10 s, evidence power 0.5) was itself
+chosen on held-out streams of an earlier model (docs/streaming.md, "Temporal smoothing").
 Here every outer fold of ``terrain stream-eval``'s protocol (same folds over runs, same
 seeded held-out streams, :func:`terrain.serving.evaluation.held_out_folds`) chooses its
 decision rule from its own training runs: they are split again, run-grouped, into
 ``--inner-folds`` folds whose held-out runs are strung into inner streams in the same way;
 one classifier per inner fold is trained with ``--kind``'s recipe, and the rule with the
-best pooled per-decision accuracy on the inner streams is chosen among
+best pooled per-decision accuracy on the inner streams is chosen (ties go to the default).
+Three candidate sets, each chosen from the same replays (``CANDIDATES``):
 
-* ``filter``: the service's default forward filter (no reset), and
-* ``reset(theta, m)``: the filter with the reset, theta in {0.8, 0.9, 0.95}, m in {1, 2, 3}
-  (the grid of ``stream_switch_oracle.py``, fixed before it was run).
+* ``reset``: the default filter (``filter``) and the filter with the reset, theta in
+  {0.8, 0.9, 0.95}, m in {1, 2, 3} (the grid of ``stream_switch_oracle.py``, fixed before it
+  was run);
+* ``smoothing``: the smoothing grid of ``terrain stream-eval``
+  (:data:`pipelines.stream_eval.SMOOTHINGS`: raw windows, hysteresis, forward filters of
+  dwell 5-60 s and evidence power 0.2-1, both), whose ``dwell10_power0.5`` is the default;
+* ``all``: both.
 
 The classifier trained on the whole outer training fold then decides on the outer
-held-out stream with the chosen rule. Nothing of an outer stream takes part in its choice.
-The pooled per-decision accuracy, settled accuracy and median switching delay of the
-nested choice and of the default filter are printed, per seed and pooled, and logged to
-MLflow (experiment ``terrain-benchmark``, run ``stream-reset-nested``).
+held-out stream with each set's chosen rule. Nothing of an outer stream takes part in its
+choice. The pooled per-decision accuracy, settled accuracy and median switching delay of
+the default filter and of each set's nested choice are printed, per seed and pooled, and
+logged to MLflow (experiment ``terrain-benchmark``, run ``stream-reset-nested``).
 
 Run: ``python benchmarks/stream_reset_nested.py [--kind all-ensemble-dense-no-speed-1s]
 [--seeds 0 1 2] [--no-mlflow]`` (five classifiers per outer fold: 25 min per seed with the
@@ -39,6 +46,7 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
+from pipelines.stream_eval import SMOOTHINGS
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import held_out_folds, pool_scores, raw_decisions, score_smoothing
 from terrain.serving.recipes import RECIPES, fit_stream_model
@@ -46,9 +54,18 @@ from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
 
 HOP_S = 0.5
-RULES = {"filter": SmoothingConfig(),
-         **{f"reset({th}, {m})": SmoothingConfig(reset_confidence=th, reset_windows=m)
-            for th in (0.8, 0.9, 0.95) for m in (1, 2, 3)}}
+#: the service's default rule (forward filter, dwell 10 s, power 0.5, no reset)
+DEFAULT_RULE = "filter"
+RESET_RULES = {DEFAULT_RULE: SmoothingConfig(),
+               **{f"reset({th}, {m})": SmoothingConfig(reset_confidence=th, reset_windows=m)
+                  for th in (0.8, 0.9, 0.95) for m in (1, 2, 3)}}
+#: every rule scored; stream-eval's ``dwell10_power0.5`` is the default under its own name
+RULES = {**RESET_RULES, **{name: rule for name, rule in SMOOTHINGS.items()
+                           if rule != SmoothingConfig()}}
+#: the candidate sets a fold chooses among (each includes the default)
+CANDIDATES = {"reset": list(RESET_RULES),
+              "smoothing": [DEFAULT_RULE] + [name for name in SMOOTHINGS if name in RULES],
+              "all": list(RULES)}
 
 
 def score_rows(folds: list[dict], rule: str) -> list[dict]:
@@ -65,8 +82,13 @@ def replay(recipe, train, stream, segments, seed: int) -> dict:
             "window_s": recipe.window_s}
 
 
+def choose(inner_accuracy: Mapping[str, float], candidates: list[str]) -> str:
+    """The candidate with the best inner accuracy; a tie goes to the default rule."""
+    return max(candidates, key=lambda r: (inner_accuracy[r], r == DEFAULT_RULE))
+
+
 def run_seed(runs, recipe, seed: int, inner_folds: int, bar) -> list[dict]:
-    """One row per outer fold: the rule chosen inside it and both rules' outer scores."""
+    """One row per outer fold: every rule's inner accuracy and outer score."""
     need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
     out = []
     for fold, train, stream, segments in held_out_folds(runs, need, seed):
@@ -74,12 +96,9 @@ def run_seed(runs, recipe, seed: int, inner_folds: int, bar) -> list[dict]:
                  in held_out_folds(train, need, seed, n_splits=inner_folds)]
         inner_acc = {rule: pool_scores(pd.DataFrame(score_rows(inner, rule)))["accuracy"]
                      for rule in RULES}
-        chosen = max(RULES, key=lambda r: (inner_acc[r], r == "filter"))
         outer = replay(recipe, train, stream, segments, seed)
-        out.append({"seed": seed, "fold": fold, "chosen": chosen,
-                    "inner_accuracy": inner_acc,
-                    "filter": score_rows([outer], "filter")[0],
-                    "nested": score_rows([outer], chosen)[0]})
+        out.append({"seed": seed, "fold": fold, "inner_accuracy": inner_acc,
+                    "outer": {rule: score_rows([outer], rule)[0] for rule in RULES}})
         bar.update()
     return out
 
@@ -90,23 +109,33 @@ def _jsonable(obj):
 
 
 def report(rows: list[dict]) -> dict[str, float]:
-    """Print the pooled scores (all seeds and per seed); return the MLflow metrics."""
+    """Print the pooled scores (all seeds and per seed); return the MLflow metrics.
+
+    For every candidate set the nested arm decides each outer fold with the rule chosen on
+    that fold's inner streams; the ``filter`` arm always with the default.
+    """
     metrics = {}
     seeds = sorted({r["seed"] for r in rows})
+    chosen = {name: [choose(r["inner_accuracy"], cands) for r in rows]
+              for name, cands in CANDIDATES.items()}
+    arms = {DEFAULT_RULE: [DEFAULT_RULE] * len(rows),
+            **{f"nested_{name}": picks for name, picks in chosen.items()}}
     for label, sel in [("all", seeds)] + [(f"seed{s}", [s]) for s in seeds]:
-        part = [r for r in rows if r["seed"] in sel]
         print(f"seeds {sel}:")
-        for rule in ("filter", "nested"):
-            score = pool_scores(pd.DataFrame([r[rule] for r in part]))
-            print(f"  {rule:<7} per decision {score['accuracy']:.4f}  settled "
+        for arm, picks in arms.items():
+            part = [r["outer"][pick] for r, pick in zip(rows, picks) if r["seed"] in sel]
+            score = pool_scores(pd.DataFrame(part))
+            print(f"  {arm:<17} per decision {score['accuracy']:.4f}  settled "
                   f"{score['accuracy_settled']:.4f}  median delay {score['median_delay_s']:.2f} s")
             for key in ("accuracy", "accuracy_settled", "median_delay_s"):
-                metrics[f"{label}_{rule}_{key}"] = score[key]
-    chosen = pd.Series([r["chosen"] for r in rows]).value_counts()
-    print("rule chosen inside the training runs (outer folds): "
-          + ", ".join(f"{k} x {v}" for k, v in chosen.items()))
-    for k, v in chosen.items():
-        metrics["chosen_" + re.sub(r"[^A-Za-z0-9.]+", "_", k).strip("_")] = float(v)
+                metrics[f"{label}_{arm}_{key}"] = score[key]
+    for name, picks in chosen.items():
+        counts = pd.Series(picks).value_counts()
+        print(f"chosen among {name!r} inside the training runs (outer folds): "
+              + ", ".join(f"{k} x {v}" for k, v in counts.items()))
+        for k, v in counts.items():
+            slug = re.sub(r"[^A-Za-z0-9.]+", "_", k).strip("_")
+            metrics[f"chosen_{name}_{slug}"] = float(v)
     return metrics
 
 
