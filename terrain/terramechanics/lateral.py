@@ -260,6 +260,26 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
 })
 
 
+def max_sinkage_m(wheel_radius_m: float, soil: SoilParams) -> float:
+    """Deepest a wheel sinks: its radius, or the soil's layer depth where that is less.
+
+    Parameters
+    ----------
+    wheel_radius_m : float
+        Wheel radius r, m.
+    soil : SoilParams
+        Soil; :attr:`SoilParams.layer_depth_m` (None: no firm base within reach).
+
+    Returns
+    -------
+    float
+        ``z_max``, m.
+    """
+    if soil.layer_depth_m is None:
+        return wheel_radius_m
+    return min(wheel_radius_m, soil.layer_depth_m)
+
+
 def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
                     wheel_radius_m: float, soil: SoilParams, iterations: int = 30
                     ) -> tuple[float, float]:
@@ -294,8 +314,7 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
         return 0.0, footprint_length_m
     length = footprint_length_m
     z = 0.0
-    z_max = wheel_radius_m if soil.layer_depth_m is None else min(wheel_radius_m,
-                                                                  soil.layer_depth_m)
+    z_max = max_sinkage_m(wheel_radius_m, soil)
     for _ in range(iterations):
         z = min(bekker_sinkage_m(load_n, width_m, length, soil.k_c, soil.k_phi, soil.n),
                 z_max)
@@ -631,8 +650,7 @@ def slip_sinkage_m(contact: SoilContact, normal_load_n: np.ndarray | float,
     """
     soil = contact.soil
     z0 = np.interp(normal_load_n, contact.load_grid_n, contact.sinkage_grid_m)
-    z_max = contact.wheel_radius_m if soil.layer_depth_m is None else min(
-        contact.wheel_radius_m, soil.layer_depth_m)
+    z_max = max_sinkage_m(contact.wheel_radius_m, soil)
     z_free = z0 * (1.0 + soil.slip_sinkage_ratio * np.abs(slip_ratio))
     z = np.minimum(z_free, z_max)
     return z, np.where(z_free < z_max, z0 * soil.slip_sinkage_ratio, 0.0)
