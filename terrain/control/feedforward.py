@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError, config_numbers
+from terrain.errors import ConfigError, ImplausibleValueError, ShapeError, config_numbers
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -135,6 +135,10 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, ``dt_s``
         negative or not finite, ``accel_limit_m_s2`` not finite (a NaN reference never
         limits), or one of these not a real number (named).
+    ImplausibleValueError
+        A non-finite ``omega_low_level_rad_s`` or ``v_ref_m_s`` (named): the wheel's
+        reference would become NaN, its limit never bind again (a non-finite estimate
+        counts as 0, as before).
     """
     try:
         s_t, radius, dt_s = abs(float(target_slip)), float(wheel_radius_m), float(dt_s)
@@ -156,6 +160,11 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     if v_ref.shape != n or v_est.shape != n or (
             engaged is not None and np.shape(engaged) != n):
         _refuse_shapes(n, v_ref_m_s=v_ref, v_est_m_s=v_est, engaged=engaged)
+    for name, values in (("omega_low_level_rad_s", omega), ("v_ref_m_s", v_ref)):
+        if not np.all(np.isfinite(values)):   # a NaN reference never binds, and stays NaN
+            raise ImplausibleValueError(
+                f"feedforward_step: {name} holds a non-finite value {values.tolist()}; the "
+                "limit of that wheel would be lost for good", column=name)
     rim = np.abs(omega) * radius
     v_est = np.nan_to_num(np.abs(v_est))
     grown = v_ref + max(a_max, 0.0) * dt_s

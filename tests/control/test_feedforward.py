@@ -134,3 +134,21 @@ def test_feedforward_refuses_arrays_not_of_the_commands_shape_naming_both(
     with pytest.raises(ShapeError, match=rf"{name} has shape {re.escape(shape)}, the "
                                          r"command omega_low_level_rad_s \(2,\)"):
         feedforward_step(v_ref, v_est, np.array([3.0, 3.0]), 1.0, 0.1, 0.1, 0.02, engaged)
+
+
+@pytest.mark.parametrize("name,v_ref,omega", [
+    ("omega_low_level_rad_s", np.zeros(2), np.array([float("nan"), 10.0])),
+    ("omega_low_level_rad_s", np.zeros(2), np.array([float("inf"), 10.0])),
+    ("v_ref_m_s", np.array([float("nan"), 0.0]), np.array([10.0, 10.0])),
+])
+def test_feedforward_refuses_a_non_finite_command_or_reference_naming_it(name, v_ref, omega):
+    """A NaN low-level command made that wheel's reference ground speed NaN (min / max with a
+    NaN rim speed), so its limit was NaN, never bound, and the NaN reference fed back into
+    every later step: after one NaN command a wheel at 50 rad/s over a ground speed of 0 got
+    correction 0 for good, unsaid (a NaN reference passed in did the same). Now an
+    ImplausibleValueError naming the argument, as the traction step refuses a NaN command."""
+    from terrain.errors import ImplausibleValueError
+
+    with pytest.raises(ImplausibleValueError, match=name) as err:
+        feedforward_step(v_ref, np.zeros(2), omega, 1.0, 0.1, 0.2, 0.02)
+    assert err.value.column == name
