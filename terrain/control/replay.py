@@ -58,7 +58,9 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     MissingColumnError
         A stream or channel missing (named, with the run).
     DataFormatError
-        A stream without samples (named, with the run).
+        A stream without samples, or whose times are not finite and non-decreasing (named,
+        with the run, the column ``t_s`` and the first such row: a sample out of order
+        would be lost to the cuts).
     ClockError
         The two streams' time spans do not overlap (both spans given): no call would
         receive both.
@@ -80,6 +82,14 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
         if run.streams[stream].empty:
             raise DataFormatError(f"run {run.run_id} has no {stream} samples: nothing to "
                                   "replay", path=run.source or None)
+        t = run.streams[stream][TIME].to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(t) | np.r_[False, np.diff(t) < 0.0])
+        if bad.size:   # the cuts below search sorted times: a sample out of order is lost
+            i = int(bad[0])
+            raise DataFormatError(f"run {run.run_id}: {stream} time {t[i]} at row {i} is not "
+                                  f"finite or goes back (previous {t[i - 1] if i else 'none'}); "
+                                  f"{bad.size} such row(s): the replay needs finite times in "
+                                  "order", path=run.source or None, column=TIME, row=i)
     full = run.streams["imu"][list(need["imu"])].to_numpy(dtype=float)
     imu = full[:, [0, 4, 5, 3]]                   # t, ax, ay, wz
     wh = run.streams["wheels"][list(need["wheels"])].to_numpy(dtype=float)

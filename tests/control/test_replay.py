@@ -83,3 +83,21 @@ def test_empty_or_disjoint_streams_and_unusable_settings_are_typed_errors():
                                (None, 50.0, "wheel_radius_m")):
         with pytest.raises(ConfigError, match=name):
             next(measured_observations(run, radius, rate))
+
+
+def test_a_stream_whose_clock_is_not_finite_and_non_decreasing_is_refused_naming_the_row():
+    """Two wheel samples logged out of order (t 0.45 before 0.6 swapped) cut the stream with
+    a binary search that needs sorted times: one of the 14 wheel samples never reached an
+    observation, unsaid; a NaN time (first or last row) dropped that sample the same way.
+    Now a DataFormatError naming the run, the stream, the column t_s and the row."""
+    from terrain.errors import DataFormatError
+
+    imu_t = np.arange(0.0, 2.0, 0.01)
+    wheel_t = np.arange(0.0, 2.0, 0.15)
+    swapped = wheel_t.copy()
+    swapped[[3, 4]] = swapped[[4, 3]]
+    for times, row in ((swapped, 4), (np.r_[np.nan, wheel_t[1:]], 0),
+                       (np.r_[wheel_t[:-1], np.nan], 13)):
+        with pytest.raises(DataFormatError, match=r"run test/SNOW/00.*wheels") as err:
+            next(measured_observations(_run(imu_t, times), 0.2))
+        assert (err.value.column, err.value.row, err.value.path) == ("t_s", row, "mem")
