@@ -38,7 +38,7 @@ from typing import Callable, Mapping, NamedTuple, Protocol
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
 from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict, project_to_bounds
 from terrain.estimation.skid_steer_slip import SENSOR_ROWS as SLIP_SENSOR_ROWS
@@ -356,14 +356,18 @@ class WheelImuObserver:
     vehicle : str
         Skid-steer vehicle name (wheel radius, track).
     tau_s : float
-        Time constant of the pull towards the slower wheel, s (> 0).
+        Time constant of the pull towards the slower wheel, s (finite, > 0).
+
+    Raises
+    ------
+    ConfigError
+        ``tau_s`` not a finite number > 0 (inf would never pull to the wheels).
     """
 
     name = "wheel-imu-observer"
 
     def __init__(self, vehicle: str = "husky", tau_s: float = 2.0) -> None:
-        if not tau_s > 0:
-            raise ConfigError(f"tau_s must be > 0, got {tau_s}")
+        config_positive("WheelImuObserver", tau_s=tau_s)   # inf: never pulled to the wheels
         self.vehicle = get_vehicle(vehicle)
         self.tau_s = float(tau_s)
         self.limits = (f"interim until the fused slip estimate: integrated accelerometer "
@@ -489,9 +493,9 @@ class FusedSlipObserver:
         ``f(t_s) -> (label or None, confidence, ...)``, the loop's terrain decision (its
         label is used); None: no pseudo-measurement.
     window_s : float
-        Length of the current / wheel window of one physics slip, s (> 0).
+        Length of the current / wheel window of one physics slip, s (finite, > 0).
     period_s : float
-        Interval between pseudo-measurements, s (> 0).
+        Interval between pseudo-measurements, s (finite, > 0).
     settings : FusionSettings
         Std floors and EKF tuning (:data:`CONTROL_FUSION`: issue 10's defaults with a
         faster slip random walk).
@@ -506,7 +510,7 @@ class FusedSlipObserver:
     Raises
     ------
     ConfigError
-        Non-positive window or period; an unknown ``imu`` view.
+        A window or period that is not a finite number > 0; an unknown ``imu`` view.
     """
 
     def __init__(self, vehicle: str = "husky",
@@ -515,8 +519,8 @@ class FusedSlipObserver:
                  settings: FusionSettings = CONTROL_FUSION,
                  physics_settings: PhysicsSlipSettings = PhysicsSlipSettings(),
                  imu: str = "full-gyro") -> None:
-        if not (window_s > 0 and period_s > 0):
-            raise ConfigError(f"window_s and period_s must be > 0, got {window_s}, {period_s}")
+        # inf: a window that keeps every sample, a period that never gives a pseudo-measurement
+        config_positive("FusedSlipObserver", window_s=window_s, period_s=period_s)
         if imu not in IMU_VIEWS:
             raise ConfigError(f"imu must be one of {', '.join(IMU_VIEWS)}, got {imu!r}")
         self.imu = imu

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from terrain.control.estimators import (AgriMaRoVisualOdometryEKF, FusedSlipObserver,
-                                        estimator_for)
+                                        WheelImuObserver, estimator_for)
 from terrain.errors import ConfigError
 from terrain.sim.simulate import SimConfig, simulate_with_physics
 
@@ -298,3 +298,16 @@ def test_fused_observer_age_is_the_larger_of_wheel_and_pseudo_measurement_ages()
     assert est.pseudo_count == 1
     blind = FusedSlipObserver("husky", None)
     assert blind.update(obs(1.0, (1.0,), (1.0,))).age_s == math.inf
+
+
+@pytest.mark.parametrize("make", [
+    lambda: WheelImuObserver(tau_s=float("inf")),
+    lambda: WheelImuObserver(tau_s=float("nan")),
+    lambda: FusedSlipObserver(window_s=float("inf")),
+    lambda: FusedSlipObserver(period_s=float("inf")),
+])
+def test_observers_refuse_infinite_time_constants(make):
+    # inf passed the old `> 0` checks: a pull that never acts, a window that keeps every
+    # sample, a period with no pseudo-measurement (the estimate always stale)
+    with pytest.raises(ConfigError, match="must be a finite value > 0"):
+        make()
