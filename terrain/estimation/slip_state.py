@@ -92,8 +92,8 @@ class SlipStateModel(KernelModel):
     Raises
     ------
     ConfigError
-        Unknown ``accel``, ``r_diag`` of the wrong length or not > 0, ``p0_diag`` / ``q_diag``
-        without 14 values.
+        Unknown ``accel`` or ``q_per``, ``r_diag`` of the wrong length or not finite and
+        > 0, ``p0_diag`` / ``q_diag`` without 14 finite values >= 0.
     """
 
     vehicle: AgriMaRoParams = AGRIMARO
@@ -120,11 +120,14 @@ class SlipStateModel(KernelModel):
         object.__setattr__(self, "measurement_names", tuple(names))
         r = self.r_diag if self.r_diag is not None else (
             THESIS_R_CH4 + (CAMERA_R if self.camera else ()))
-        if len(r) != len(names) or min(r) <= 0:
-            raise ConfigError(f"r_diag needs {len(names)} values > 0, got {r}")
+        if len(r) != len(names) or not all(0.0 < float(v) < np.inf for v in r):
+            raise ConfigError(f"r_diag needs {len(names)} finite values > 0, got {r}")
         object.__setattr__(self, "r_diag", tuple(float(v) for v in r))
-        if len(self.p0_diag) != 14 or len(self.q_diag) != 14:
-            raise ConfigError("p0_diag and q_diag need 14 values")
+        for label, values in (("p0_diag", self.p0_diag), ("q_diag", self.q_diag)):
+            if len(values) != 14 or not all(0.0 <= float(v) < np.inf for v in values):
+                raise ConfigError(f"{label} needs 14 finite values >= 0, got {values}")
+        if self.q_per not in ("step", "second"):
+            raise ConfigError(f"q_per must be 'step' or 'second', got {self.q_per!r}")
         super().__post_init__()
 
     @property

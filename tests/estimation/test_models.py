@@ -147,3 +147,17 @@ def test_jacobians_match_finite_differences_at_near_singular_states(name):
         hx, H = model.observation(x)
         np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x), rtol=1e-6,
                                    atol=1e-7, err_msg=f"H at {x}")
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(q_per="steps"), "q_per"),
+    (dict(q_diag=(-1e-3,) * 14), "q_diag"),
+    (dict(q_diag=(float("nan"),) * 14), "q_diag"),
+    (dict(p0_diag=(float("inf"),) * 14), "p0_diag"),
+    (dict(p0_diag=(-1e-6,) + (1e-6,) * 13), "p0_diag")])
+def test_slip_state_model_refuses_a_tuning_that_is_not_a_covariance(kwargs, match):
+    """SlipStateModel checked only the lengths of p0_diag and q_diag, not q_per: q_per='steps'
+    ran silently as per-second noise (Q 1e-10 instead of 1e-8 at 100 Hz) and q_diag of -1e-3
+    gave negative variances (P_diag -0.137 after 1 s, no error)."""
+    with pytest.raises(ConfigError, match=match):
+        SlipStateModel(**kwargs)
