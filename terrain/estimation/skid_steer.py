@@ -254,8 +254,9 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     Raises
     ------
     DataFormatError
-        No ``wheels`` stream, or a stream without the columns it reads
-        (:class:`~terrain.errors.MissingColumnError`, run and stream named).
+        No ``wheels`` stream, a stream it reads of fewer than 2 samples, or one without the
+        columns it reads (:class:`~terrain.errors.MissingColumnError`); run and stream
+        named.
     ConfigError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`).
@@ -272,6 +273,11 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         samples["gyro"] = SensorSamples(imu[TIME].to_numpy(float) - off.get("gyro", 0.0),
                                         imu[["wz"]].to_numpy(float))
         spans.append(samples["gyro"].t_s)
+    for stream, span in zip(("wheels", "imu"), spans):   # the grid spans them all
+        if span.size < 2:
+            raise DataFormatError(f"run {run.run_id}: stream {stream!r} has {span.size} "
+                                  f"sample{'' if span.size == 1 else 's'}; the filter needs 2 "
+                                  "or more of each stream it reads", run.source)
     fast = spans[-1]
     rate = check_rate_hz(rate_hz)
     rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate

@@ -200,3 +200,22 @@ def test_a_stream_without_the_columns_the_filter_reads_names_run_stream_and_colu
     run = Run("sim/TEST/03", "sim", "ASPHALT", {"wheels": wheels.drop(columns="vel_r")})
     with pytest.raises(DataFormatError, match=r"stream 'wheels' lacks columns \['vel_r'\]"):
         estimate_skid_steer(run)
+
+
+@pytest.mark.parametrize("stream,n", [("imu", 0), ("imu", 1), ("wheels", 0), ("wheels", 1)])
+def test_a_stream_of_fewer_than_two_samples_is_refused_naming_run_and_stream(stream, n):
+    """estimate_skid_steer read the grid off its streams unchecked: an empty imu stream was
+    numpy's bare IndexError 'index 0 is out of bounds for axis 0 with size 0', one wheel
+    sample TimeStepError 'rate must be > 0 Hz, got nan' after a 'Mean of empty slice'
+    RuntimeWarning; it now says which stream of which run is too short, as
+    estimate_agrimaro does."""
+    import pandas as pd
+    from terrain.run import Run
+    t = np.arange(50) / 10.0
+    streams = {"wheels": pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6}),
+               "imu": pd.DataFrame({"t_s": t, "wz": 0.1})}
+    streams[stream] = streams[stream].iloc[:n]
+    run = Run("sim/TEST/03", "sim", "ASPHALT", streams, source="test.csv")
+    with pytest.raises(DataFormatError, match=rf"run sim/TEST/03: stream '{stream}' has {n} "
+                                              r"samples?; the filter needs 2"):
+        estimate_skid_steer(run)
