@@ -58,14 +58,15 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from terrain.errors import ConfigError, DataFormatError, TimeStepError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
 from terrain.estimation.model import KernelModel, StateSpaceModel, diagonal_process_noise
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import SensorSamples, check_rate_hz, make_grid, run_filter
+from terrain.estimation.runner import (SensorSamples, check_rate_hz, make_grid, run_filter,
+                                       stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -392,10 +393,8 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         angles = [j for j, name in enumerate(SENSOR_COLUMNS[sensor][1])
                   if MEASUREMENT_NAMES.index(name) in ANGLE_ROWS]
         vals = ema_filter(vals, settings.alpha(sensor), angles)
-        try:
-            out[sensor] = SensorSamples(t - float(offsets.get(sensor, 0.0)), vals)
-        except TimeStepError as exc:
-            raise TimeStepError(f"run {run.run_id}: stream {stream!r}: {exc}") from None
+        out[sensor] = stream_samples(run.run_id, stream, t - float(offsets.get(sensor, 0.0)),
+                                     vals)
     return out
 
 

@@ -109,6 +109,39 @@ class SensorSamples:
         object.__setattr__(self, "values", v)
 
 
+def stream_samples(run_id: str, stream: str, t_s: np.ndarray, values: np.ndarray
+                   ) -> SensorSamples:
+    """:class:`SensorSamples` of one stream of a run, its time errors naming run and stream.
+
+    Parameters
+    ----------
+    run_id : str
+        The run's id, for the message.
+    stream : str
+        The stream the samples come from, for the message.
+    t_s : ndarray, shape (k,)
+        Sample times, s, strictly increasing.
+    values : ndarray, shape (k, d) or (k,)
+        Values (SI units).
+
+    Returns
+    -------
+    SensorSamples
+
+    Raises
+    ------
+    TimeStepError
+        Times not finite and strictly increasing: ``run <id>: stream '<stream>': ...`` and
+        the first such sample.
+    ShapeError
+        As :class:`SensorSamples`.
+    """
+    try:
+        return SensorSamples(t_s, values)
+    except TimeStepError as exc:
+        raise TimeStepError(f"run {run_id}: stream {stream!r}: {exc}") from None
+
+
 def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive).
 

@@ -47,7 +47,7 @@ from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, ob
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import (SensorSamples, check_rate_hz, make_grid, run_filter,
-                                       sensor_groups)
+                                       sensor_groups, stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
@@ -257,6 +257,9 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         No ``wheels`` stream, a stream it reads of fewer than 2 samples, or one without the
         columns it reads (:class:`~terrain.errors.MissingColumnError`); run and stream
         named.
+    TimeStepError
+        A stream's timestamps not finite and strictly increasing (run, stream and the first
+        such sample named).
     ConfigError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`).
@@ -265,13 +268,15 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
     off = dict(time_offsets_s or {})
     w = run.require_columns("wheels", ("vel_l", "vel_r"))
-    samples = {"wheels": SensorSamples(w[TIME].to_numpy(float) - off.get("wheels", 0.0),
-                                       w[["vel_l", "vel_r"]].to_numpy(float))}
+    samples = {"wheels": stream_samples(run.run_id, "wheels",
+                                        w[TIME].to_numpy(float) - off.get("wheels", 0.0),
+                                        w[["vel_l", "vel_r"]].to_numpy(float))}
     spans = [samples["wheels"].t_s]
     if "imu" in run.streams:
         imu = run.require_columns("imu", ("wz",))
-        samples["gyro"] = SensorSamples(imu[TIME].to_numpy(float) - off.get("gyro", 0.0),
-                                        imu[["wz"]].to_numpy(float))
+        samples["gyro"] = stream_samples(run.run_id, "imu",
+                                         imu[TIME].to_numpy(float) - off.get("gyro", 0.0),
+                                         imu[["wz"]].to_numpy(float))
         spans.append(samples["gyro"].t_s)
     for stream, span in zip(("wheels", "imu"), spans):   # the grid spans them all
         if span.size < 2:

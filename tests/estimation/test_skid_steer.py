@@ -219,3 +219,21 @@ def test_a_stream_of_fewer_than_two_samples_is_refused_naming_run_and_stream(str
     with pytest.raises(DataFormatError, match=rf"run sim/TEST/03: stream '{stream}' has {n} "
                                               r"samples?; the filter needs 2"):
         estimate_skid_steer(run)
+
+
+@pytest.mark.parametrize("stream", ["wheels", "imu"])
+def test_a_repeated_timestamp_names_the_run_and_the_stream(stream):
+    """A repeated timestamp reached the user as TimeStepError 'sensor timestamps must be
+    finite and strictly increasing: sample 5 at 0.4 s after 0.4 s', naming neither the run
+    nor the stream; it now names both, as estimate_agrimaro's does."""
+    import pandas as pd
+    from terrain.run import Run
+    t = np.arange(50) / 10.0
+    streams = {"wheels": pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6}),
+               "imu": pd.DataFrame({"t_s": t, "wz": 0.1})}
+    frame = streams[stream].copy()
+    frame.loc[5, "t_s"] = frame.loc[4, "t_s"]
+    streams[stream] = frame
+    with pytest.raises(TimeStepError, match=rf"run sim/TEST/03: stream '{stream}': .*sample 5 "
+                                            r"at 0.4 s after 0.4 s"):
+        estimate_skid_steer(Run("sim/TEST/03", "sim", "ASPHALT", streams))
