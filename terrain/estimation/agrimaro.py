@@ -65,8 +65,8 @@ from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, obser
 from terrain.estimation.model import KernelModel, StateSpaceModel, diagonal_process_noise
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import (SensorSamples, check_rate_hz, make_grid, run_filter,
-                                       stream_samples)
+from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_sensor_names,
+                                       make_grid, run_filter, stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -358,10 +358,13 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     TimeStepError
         A stream's timestamps not finite and strictly increasing (run, stream and the first
         such sample named).
+    ConfigError
+        A key of ``time_offsets_s`` that is not a sensor of :data:`SENSOR_ROWS`.
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
     offsets = dict(time_offsets_s or {})
+    check_sensor_names("time_offsets_s", offsets, SENSOR_ROWS)
     out: dict[str, SensorSamples] = {}
     for sensor, (stream, cols) in SENSOR_COLUMNS.items():
         frame = run.streams.get(stream)
@@ -422,7 +425,8 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     vehicle : AgriMaRoParams
         Geometry (seed 001 ch. 7.2, 5.2.3).
     sensors : tuple of str, optional
-        Use only these sensors (e.g. to simulate a camera outage).
+        Use only these sensors, keys of the model's ``sensor_rows`` (e.g. to simulate a
+        camera outage).
     store_covariance : bool
         Keep full covariances (NEES).
     model : StateSpaceModel, optional
@@ -447,11 +451,15 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
         A stream's timestamps not finite and strictly increasing (run and stream named).
     ConfigError, ShapeError, CovarianceError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
-        check_rate_hz`); from :func:`~terrain.estimation.run_filter` (bad engine, shapes,
-        or an innovation covariance that is not positive definite).
+        check_rate_hz`); a name in ``sensors`` or ``time_offsets_s`` that is not a sensor of
+        the model (:func:`~terrain.estimation.runner.check_sensor_names`); from
+        :func:`~terrain.estimation.run_filter` (bad engine, shapes, or an innovation
+        covariance that is not positive definite).
     """
-    samples = agrimaro_samples(run, settings, time_offsets_s, vehicle)
     model = model if model is not None else AgriMaRoModel(vehicle=vehicle, settings=settings)
+    if sensors is not None:
+        check_sensor_names("sensors", sensors, model.sensor_rows)
+    samples = agrimaro_samples(run, settings, time_offsets_s, vehicle)
     samples = {k: v for k, v in samples.items()
                if k in model.sensor_rows and (sensors is None or k in sensors)}
     t_imu = run.streams["imu"][TIME].to_numpy(dtype=float)

@@ -19,11 +19,11 @@ Scheduling rule (explicit, recorded in :attr:`EKFResult.meta`):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError, TimeStepError
+from terrain.errors import ConfigError, ShapeError, TimeStepError, listed
 from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, project_to_bounds
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
@@ -107,6 +107,31 @@ class SensorSamples:
                                 f"sample {bad} at {t[bad]:.6g} s{after}")
         object.__setattr__(self, "t_s", t)
         object.__setattr__(self, "values", v)
+
+
+def check_sensor_names(argument: str, names: Iterable[str], sensors: Iterable[str]) -> None:
+    """Refuse names in an estimator's per-sensor argument that are not sensors of its filter
+    (a latency or a selection for a misspelt sensor would otherwise not be applied).
+
+    Parameters
+    ----------
+    argument : str
+        The argument's name, for the message (e.g. ``time_offsets_s``).
+    names : iterable of str
+        The sensor names it holds.
+    sensors : iterable of str
+        The filter's sensors (a model's ``sensor_rows``).
+
+    Raises
+    ------
+    ConfigError
+        A name that is not one of ``sensors`` (the unknown names and the sensors listed).
+    """
+    known = list(sensors)
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ConfigError(f"{argument} names {listed(unknown)}, not a sensor of the filter "
+                          f"(sensors: {known})")
 
 
 def stream_samples(run_id: str, stream: str, t_s: np.ndarray, values: np.ndarray

@@ -46,8 +46,8 @@ from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, ob
                                                      transition_into)
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import (SensorSamples, check_rate_hz, make_grid, run_filter,
-                                       sensor_groups, stream_samples)
+from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_sensor_names,
+                                       make_grid, run_filter, sensor_groups, stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
@@ -262,11 +262,12 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         such sample named).
     ConfigError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
-        check_rate_hz`).
+        check_rate_hz`), or a key of ``time_offsets_s`` other than ``wheels`` and ``gyro``.
     """
     if "wheels" not in run.streams:
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
     off = dict(time_offsets_s or {})
+    check_sensor_names("time_offsets_s", off, SENSOR_ROWS)
     w = run.require_columns("wheels", ("vel_l", "vel_r"))
     samples = {"wheels": stream_samples(run.run_id, "wheels",
                                         w[TIME].to_numpy(float) - off.get("wheels", 0.0),

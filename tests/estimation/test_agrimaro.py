@@ -212,3 +212,18 @@ def test_agrimaro_run_errors_name_the_run_and_the_stream():
         with pytest.raises(DataFormatError, match=rf"run sim/TEST/07: stream 'imu' has {n} "
                                                   r"samples?; the filter's clock needs 2"):
             estimate_agrimaro(short)
+
+
+def test_an_unknown_sensor_or_latency_key_is_refused():
+    """sensors=('imu', 'camera') ran without the camera ('cam') and time_offsets_s={'wheels':
+    0.05} applied no latency (the sensor is 'omega'), both without a word; both are now a
+    ConfigError naming the unknown names and the sensors there are."""
+    from terrain.errors import ConfigError
+    run = _tiny_agrimaro_run()
+    with pytest.raises(ConfigError, match=r"sensors names \['camera'\], not a sensor of the "
+                                          r"filter \(sensors: \['omega', 'imu', 'steer', "
+                                          r"'cam'\]\)"):
+        estimate_agrimaro(run, sensors=("imu", "camera"))
+    with pytest.raises(ConfigError, match=r"time_offsets_s names \['wheels'\]"):
+        estimate_agrimaro(run, time_offsets_s={"wheels": 0.05})
+    assert estimate_agrimaro(run, sensors=("imu",)).counts.keys() == {"imu"}

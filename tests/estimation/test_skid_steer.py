@@ -237,3 +237,20 @@ def test_a_repeated_timestamp_names_the_run_and_the_stream(stream):
     with pytest.raises(TimeStepError, match=rf"run sim/TEST/03: stream '{stream}': .*sample 5 "
                                             r"at 0.4 s after 0.4 s"):
         estimate_skid_steer(Run("sim/TEST/03", "sim", "ASPHALT", streams))
+
+
+def test_a_latency_for_a_sensor_the_filter_does_not_have_is_refused():
+    """time_offsets_s={'imu': 0.05} (the stream's name; the filter's sensor is 'gyro') was
+    silently not applied: the result equalled the one without any offset. It is now a
+    ConfigError naming the unknown key and the sensors there are."""
+    import pandas as pd
+    from terrain.run import Run
+    t = np.arange(50) / 10.0
+    run = Run("sim/TEST/03", "sim", "ASPHALT",
+              {"wheels": pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6}),
+               "imu": pd.DataFrame({"t_s": t, "wz": 0.1})})
+    with pytest.raises(ConfigError, match=r"time_offsets_s names \['imu'\], not a sensor of "
+                                          r"the filter \(sensors: \['wheels', 'gyro'\]\)"):
+        estimate_skid_steer(run, time_offsets_s={"imu": 0.05})
+    assert estimate_skid_steer(run, time_offsets_s={"gyro": 0.05}).meta["time_offsets_s"] == {
+        "gyro": 0.05}
