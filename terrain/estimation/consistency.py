@@ -233,11 +233,13 @@ class ChiSquareTest:
     n_effective : float
         Effective number of independent samples.
     bounds : tuple of float
-        95 % bounds of the mean with ``n_effective`` samples.
+        Bounds of the mean with ``n_effective`` samples, at the two-sided coverage
+        ``probability`` of :func:`chi2_test` (0.95 by default).
     bounds_iid : tuple of float
-        95 % bounds assuming independent samples (``n_samples``).
+        The same coverage assuming independent samples (``n_samples``).
     fraction_in_pointwise : float
-        Fraction of samples inside the pointwise 95 % interval of chi-square(dof).
+        Fraction of samples inside the pointwise interval of chi-square(dof) at that
+        coverage.
     """
 
     mean: float
