@@ -32,7 +32,8 @@ import pandas as pd
 
 from terrain.audit.frames import MANOEUVRES, AuditFrame, FrameSettings, prepare_frame
 from terrain.audit.replay import ReplaySettings, replay_run
-from terrain.audit.selection import MAX_BOOTSTRAP, MIN_BOOTSTRAP, stratified_resamples
+from terrain.audit.selection import (MAX_BOOTSTRAP, MIN_BOOTSTRAP, has_spread,
+                                     stratified_resamples)
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
@@ -245,8 +246,9 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
     pandas.DataFrame
         Columns ``terrain, signal, scope, n_runs, n, rmse_ref, rmse_new, gain, gain_lo,
         gain_hi`` (gain = ``1 - rmse_new / rmse_ref``, NaN where ``rmse_ref`` is 0; the
-        interval NaN where one run holds every sample: resampling it says nothing; the
-        ``pooled`` rows resample runs within each terrain). A
+        interval NaN where one run holds every sample, or one run per terrain in the
+        ``pooled`` rows: resampling says nothing there; the ``pooled`` rows resample runs
+        within each terrain). A
         signal and scope without any sample (e.g. ``stop`` on runs that never stop) gets
         no row; ``n_runs`` counts the runs with samples in it.
     """
@@ -267,9 +269,10 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
             ra = np.sqrt(a[idx].sum(1) / n[idx].sum(1))
             rb = np.sqrt(b[idx].sum(1) / n[idx].sum(1))
             g = 1.0 - rb / np.where(ra > 0, ra, np.nan)
-            # one run has no run-to-run spread to resample: no interval, not a zero-width one
+            # one run (per terrain, for the pooled rows) has no run-to-run spread to
+            # resample: no interval, not a zero-width one
             lo, hi = ((float(np.nanpercentile(g, 2.5)), float(np.nanpercentile(g, 97.5)))
-                      if len(sub) > 1 else (np.nan, np.nan))
+                      if has_spread(sub.terrain.to_numpy()) else (np.nan, np.nan))
             rows.append((terrain, sig, scope, len(sub), int(n.sum()), r_ref, r_new,
                          1.0 - r_new / r_ref if r_ref > 0 else np.nan, lo, hi))
     return pd.DataFrame(rows, columns=["terrain", "signal", "scope", "n_runs", "n", "rmse_ref",

@@ -19,7 +19,8 @@ runs pooled):
    replacement (``n_bootstrap`` times; with all runs pooled, within each terrain, so that
    every resample keeps the terrain mix of the data: :func:`stratified_resamples`) and the
    gain is recomputed from the resampled per-unit errors; the effect is supported when the
-   lower end of the 95 % percentile interval is above 0 *and* the gain is at least
+   lower end of the 95 % percentile interval is above 0 (no interval, hence no support,
+   when every terrain holds a single such unit: :func:`has_spread`) *and* the gain is at least
    ``min_gain`` *and* its fitted size is not negligible (:func:`negligible`) *and* it does
    not contradict its physics (:func:`unphysical`).
    The supported candidate with the largest gain joins the model and step 3 repeats (a
@@ -135,7 +136,8 @@ class EffectResult:
         step; for unsupported effects, increment over the final model); None when the effect
         was not scored.
     heldout_gain_ci95 : (float, float) or None
-        Bootstrap interval of the gain.
+        Bootstrap interval of the gain (None also when every terrain holds a single unit in
+        the effect's scope: ``details["no_gain_interval"]``).
     supported : bool
         Whether the effect joined the model.
     step : int or None
@@ -505,6 +507,26 @@ def stratified_resamples(strata: np.ndarray, rng: np.random.Generator, n_boot: i
     return idx
 
 
+def has_spread(strata: np.ndarray) -> bool:
+    """Whether resampling within strata can vary: some stratum holds two or more units.
+
+    With one unit per stratum every resample of :func:`stratified_resamples` draws the same
+    units, and a percentile interval over them is the point estimate itself: a certainty
+    there is no unit-to-unit information for.
+
+    Parameters
+    ----------
+    strata : ndarray, shape (n_units,)
+        Stratum of each unit (its terrain).
+
+    Returns
+    -------
+    bool
+    """
+    _, counts = np.unique(np.asarray(strata), return_counts=True)
+    return bool(counts.size and counts.max() >= 2)
+
+
 def _strata(units: Units) -> np.ndarray:
     """Terrain of each unit (every frame of a unit comes from one run), shape (n_units,)."""
     return np.asarray([unit[0].terrain for unit in units])
@@ -536,12 +558,17 @@ def bootstrap_gain(ref: np.ndarray, new: np.ndarray, base: np.ndarray,
     gain : float
         Point estimate (fraction of the baseline RMSE).
     ci95 : list of float
-        Percentile interval ``[2.5 %, 97.5 %]`` over unit resamples.
+        Percentile interval ``[2.5 %, 97.5 %]`` over unit resamples; ``[nan, nan]`` when
+        every stratum holds a single unit (:func:`has_spread`: no interval, so the effect
+        cannot be supported on it).
     """
     def gain(r, n, b):
         return (np.sqrt(r) - np.sqrt(n)) / np.sqrt(np.maximum(b, 1e-300))
     point = float(gain(ref.sum(), new.sum(), base.sum()))
-    idx = stratified_resamples(np.zeros(len(ref)) if strata is None else strata, rng, n_boot)
+    strata = np.zeros(len(ref)) if strata is None else strata
+    if not has_spread(strata):
+        return point, [float("nan"), float("nan")]
+    idx = stratified_resamples(strata, rng, n_boot)
     g = gain(ref[idx].sum(axis=1), new[idx].sum(axis=1), base[idx].sum(axis=1))
     return point, [float(np.percentile(g, 2.5)), float(np.percentile(g, 97.5))]
 
@@ -755,6 +782,11 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
                            effect_settings))
     trial = path.trial(name)
     details = {"scope": spec.scope, **effect_details(name, params)}
+    interval = None if trial is None else trial.gain_ci95
+    if interval is not None and not np.all(np.isfinite(interval)):
+        interval = None
+        details["no_gain_interval"] = ("one unit per terrain in scope: resampling within "
+                                       "terrains cannot vary")
     if trial is not None:
         for flag in ("unphysical", "negligible"):
             if getattr(trial, flag):
@@ -773,7 +805,7 @@ def effect_result(name: str, terrain: str, group: str, units: Units, path: Selec
     return EffectResult(
         name=name, terrain=terrain, group=group, params=effect_params(name, params), ci95=ci,
         heldout_gain=None if trial is None else trial.gain,
-        heldout_gain_ci95=None if trial is None else trial.gain_ci95,
+        heldout_gain_ci95=interval,
         supported=supported, step=path.step(name), details=details,
         cause=effect_cause(name, params), n_units=len(units), n_runs=n_runs)
 

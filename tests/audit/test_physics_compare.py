@@ -133,3 +133,16 @@ def test_an_unknown_physics_version_is_refused_not_an_empty_table(kwargs):
     # every run was skipped by the replay's error and the comparison came back empty
     with pytest.raises(ConfigError, match="physics versions must be among"):
         PhysicsComparisonSettings(**kwargs)
+
+
+def test_a_pooled_row_of_one_run_per_terrain_gets_no_bootstrap_interval():
+    """Resampled within each terrain, one run per terrain always draws the same runs: the
+    pooled row of X (gain 0.5) and Y (gain 0.1) got the zero-width interval [0.272, 0.272]
+    around its gain, a certainty there is no run-to-run information for."""
+    import pandas as pd
+    tab = pd.DataFrame({"run_id": ["a/X/0", "a/Y/0"], "terrain": ["X", "Y"], "signal": "cur",
+                        "scope": "moving", "n": [100, 100], "sse_ref": [400.0, 400.0],
+                        "sse_new": [100.0, 324.0]})
+    g = gain_table(tab, PhysicsComparisonSettings(n_bootstrap=200)).set_index("terrain")
+    assert g.loc["all", "n_runs"] == 2 and np.isfinite(g.loc["all", "gain"])
+    assert np.isnan(g.loc["all", "gain_lo"]) and np.isnan(g.loc["all", "gain_hi"])

@@ -362,6 +362,28 @@ def test_bootstrap_gain_of_pooled_terrains_resamples_within_each():
             == bootstrap_gain(ref, uneven, ref, np.random.default_rng(2), 100, np.zeros(6)))
 
 
+def test_bootstrap_gain_of_one_unit_per_terrain_has_no_interval():
+    """Resampled within each terrain, one unit per terrain (the pooled scope where each
+    terrain has one run in the effect's scope) always draws the same units: the interval was
+    the point itself, [0.217, 0.217], so any gain above ``min_gain`` passed the
+    "interval above 0" rule that should be able to reject it. No spread: no interval, and
+    the candidate is not supported."""
+    ref = np.array([4.0, 4.0])
+    new = np.array([1.0, 3.9])
+    gain, ci = bootstrap_gain(ref, new, ref, np.random.default_rng(0), 200,
+                              np.array(["X", "Y"]))
+    assert gain == pytest.approx(0.2174, abs=1e-4)
+    assert np.isnan(ci[0]) and np.isnan(ci[1])
+    trial = selection.Trial(name="gyro_bias", scope="all", heldout_params=(), gain=gain,
+                            gain_ci95=(ci[0], ci[1]), rmse_baseline=1.0, rmse_before=1.0,
+                            rmse_with=0.8, unphysical=None, negligible=None)
+    assert not selection.is_supported(trial, SelectionSettings())
+    # one stratum with two or more units keeps its spread
+    gain, ci = bootstrap_gain(np.full(3, 4.0), np.array([1.0, 3.9, 2.0]), np.full(3, 4.0),
+                              np.random.default_rng(0), 200, np.array(["X", "Y", "Y"]))
+    assert ci[0] < ci[1]
+
+
 def test_forward_selection_takes_the_best_supported_candidate(monkeypatch):
     # the round's largest gain is noisy (interval reaches below 0: not supported); a smaller
     # gain whose interval lies above 0 meets the stated rule and must join. Before, the
