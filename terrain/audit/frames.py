@@ -267,6 +267,12 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     -------
     AuditFrame
 
+    Raises
+    ------
+    MissingColumnError
+        The ``imu`` stream lacks ``wz``, ``ax`` or ``ay`` (a
+        :class:`~terrain.errors.DataFormatError`).
+
     Warns
     -----
     DataWarning
@@ -282,6 +288,8 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     score_cur = score & ~_in_gaps(t, gaps.get("wheels"))
     nan = np.full(len(t), np.nan)
     imu = run.streams.get("imu")
+    if imu is not None:
+        run.require_columns("imu", ("wz", "ax", "ay"))
     if imu is not None and len(imu) < MIN_IMU_SAMPLES:
         warnings.warn(f"{run.run_id}: IMU stream of {len(imu)} samples ignored (fewer than "
                       f"{MIN_IMU_SAMPLES}, too short to low-pass): audited as a run without "

@@ -302,7 +302,8 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     ConfigError
         Vehicle not a skid-steer, or terrain label unknown to the catalogue.
     DataFormatError
-        No wheel stream, or fewer than 4 wheel samples.
+        No wheel stream, or fewer than 4 wheel samples; a
+        :class:`~terrain.errors.MissingColumnError` when it lacks one of its columns.
     """
     vehicle_name = str(run.vehicle).lower()
     if vehicle_name not in SKID_STEER_VEHICLES:
@@ -316,6 +317,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     wheels = run.streams.get("wheels")
     if wheels is None:
         raise DataFormatError(f"run {run.run_id} has no wheel stream", run.source)
+    run.require_columns("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
     if len(wheels) < 4:
         raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
                               run.source)

@@ -77,6 +77,21 @@ def test_replay_errors():
         replay_run(Run("t/ASPHALT/01", "t", "ASPHALT", {}))
 
 
+def test_a_stream_without_its_columns_is_skipped_with_a_typed_error():
+    """A wheel stream without currents (or an IMU without ``wz``) reached the frame as a bare
+    KeyError ("None of [Index(['cur_l', 'cur_r'])] are in the [columns]"), a traceback
+    instead of a skipped run; it is refused with MissingColumnError naming the columns."""
+    from terrain.audit import prepare_frames
+    from terrain.errors import MissingColumnError
+    t = np.arange(0.0, 15.0, 0.15)
+    pro = pd.DataFrame({"time": t, "curL": 1.0, "curR": 1.0, "velL": 0.2, "velR": 0.3})
+    with pytest.raises(MissingColumnError, match="cur_l"):
+        replay_run(_run(None, pro.drop(columns=["curL"])))
+    imu = pd.DataFrame({"time": t, "wx": 0.0, "wy": 0.0, "ax": 0.0, "ay": 0.0, "az": 9.8})
+    frames, skipped = prepare_frames([_run(imu, pro)])
+    assert not frames and "wz" in skipped["t/ASPHALT/00"]
+
+
 def test_input_lowpass_removes_the_noise_a_replay_rectifies_into_current():
     # a 0.57 m/s cruise recorded at 15 Hz whose every 4th sample reads about half (the
     # pattern of the Vulpi wheel-speed record, e.g. vulpi/CONCRETE/1: 0.57 0.57 0.57 0.29
