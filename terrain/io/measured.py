@@ -636,7 +636,9 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         if report.gaps:
             gaps[name] = report.gaps
     checks = check_run(run_id, streams, vehicle,
-                       {STREAM_NAMES.get(k, k): str(p) for k, p in files.items()})
+                       {STREAM_NAMES.get(k, k): str(p) for k, p in files.items()},
+                       columns={STREAM_NAMES[k]: COLUMN_MAPS[k] for k in files
+                                if k in COLUMN_MAPS})
     checks["warnings"] = file_warnings + checks["warnings"]
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
                vehicle=vehicle, source=str(files["pro"].parent),

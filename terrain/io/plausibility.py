@@ -444,7 +444,8 @@ def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time",
 
 
 def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
-              files: Mapping[str, str], time_column: str = "time") -> dict:
+              files: Mapping[str, str], time_column: str = "time",
+              columns: Mapping[str, Mapping[str, str]] | None = None) -> dict:
     """Apply the clock, unit and stuck-sensor rules to the streams of one run.
 
     Parameters
@@ -459,6 +460,11 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
         Stream name -> file or source (for the messages).
     time_column : str
         Name of the streams' time column where they were read (for the messages).
+    columns : Mapping[str, Mapping[str, str]], optional
+        Stream name -> {file column -> canonical channel} where the file's column names
+        differ from the channels' (:data:`terrain.io.measured.COLUMN_MAPS`), so that a
+        stuck-sensor warning names the column of the file (``column 'curL'
+        (wheels.cur_l)``); None: the files use the canonical names.
 
     Returns
     -------
@@ -489,12 +495,22 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     stuck = stuck_stretches(streams)
     for key, spans in stuck.items():
         total = sum(b - a for a, b in spans)
-        found.append(f"{src(key.split('.')[0])}: {key} stuck at one value for {total:.1f} s "
+        found.append(f"{src(key.split('.')[0])}: {_channel_text(key, columns)} stuck at one "
+                     f"value for {total:.1f} s "
                      f"({len(spans)} stretch(es), first from t = {spans[0][0]:.1f} s): dead "
                      "or stuck sensor; windows holding it are flagged")
     for msg in found:
         _warn(msg)
     return {"stuck": stuck, "unused_s": unused, "warnings": found}
+
+
+def _channel_text(key: str, columns: Mapping[str, Mapping[str, str]] | None) -> str:
+    """``<stream>.<channel>`` for a message, led by the file's column name where that
+    differs (``column 'curL' (wheels.cur_l)``): the user looks for it in the file."""
+    stream, channel = key.split(".", 1)
+    column = next((c for c, n in (columns or {}).get(stream, {}).items() if n == channel),
+                  channel)
+    return key if column == channel else f"column {column!r} ({key})"
 
 
 def stuck_stretches(streams: Mapping[str, pd.DataFrame]) -> dict[str, list[list[float]]]:

@@ -629,3 +629,22 @@ def test_stuck_sensor_warning_names_the_file_as_the_other_run_findings_do(turnin
                                                       "wheels": "wheels.parquet run r/A/0"})
     assert sorted(w.split(" stuck")[0] for w in found["warnings"]) == [
         "imu.parquet run r/A/0: imu.wz", "wheels.parquet run r/A/0: wheels.cur_r"]
+
+
+def test_stuck_sensor_warning_names_the_file_column_where_it_differs(turning):
+    # 'pro_00.csv: wheels.cur_l stuck ...' named a channel the file does not hold: its
+    # column is curL (the reader's column map); a column of the same name stays as it was
+    from terrain.io.plausibility import check_run
+
+    imu, pro = turning
+    _edit(pro, lambda f: f.__setitem__("curL", 3.25))
+    _edit(imu, lambda f: f.__setitem__("wz", 0.0))
+    (run,), caught = _read(pro.parent.parent)
+    messages = sorted(str(w.message) for w in caught)
+    assert [m.split(" stuck at one value for ")[0] for m in messages] == [
+        f"{imu}: imu.wz", f"{pro}: column 'curL' (wheels.cur_l)"]
+    assert sorted(run.meta["stuck"]) == ["imu.wz", "wheels.cur_l"]   # keys stay canonical
+    # any column map: the file's name leads, the canonical channel follows
+    with pytest.warns(DataWarning, match=r"column 'angular_velocity_z' \(imu\.wz\) stuck"):
+        check_run("r", {"imu": run.streams["imu"]}, "husky", {"imu": "log.csv"},
+                  columns={"imu": {"time": TIME, "angular_velocity_z": "wz"}})

@@ -183,7 +183,7 @@ def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_p
     out_csv = tmp_path / "d.csv"
     assert _stream(model_dir, folder, out_csv) == 0
     captured = capsys.readouterr()
-    assert "wheels.cur_l stuck at one value" in captured.err
+    assert "column 'curL' (wheels.cur_l) stuck at one value" in captured.err
     frame = pd.read_csv(out_csv, keep_default_na=False)
     has = frame["flags"].str.contains("stuck:wheels.cur_l")
     pro = pd.read_csv(folder / "pro_07.csv")
