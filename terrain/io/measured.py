@@ -119,8 +119,10 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     data field is read as CSV within its own line; header names unquoted), one header line
     then one data row per line, lines ended by LF, CR LF or a lone CR (as
     the streaming service reads CSV bodies). Blank lines and ``#`` comment lines are
-    skipped and counted in the report; every other line must have as many fields as the
-    header. Errors name the 1-based file line (what an editor shows).
+    skipped and counted in the report; the first other line is the header (one of numbers
+    is refused: the header is missing or commented out, as ``numpy.savetxt`` writes it);
+    every other line must have as many fields as the header. Errors name the 1-based file
+    line (what an editor shows).
 
     Parameters
     ----------
@@ -217,7 +219,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     _refuse_overflow(out, mapping, header, rows, lines, path)
     # the clock first (finite, increasing, its gaps): channels are repaired on it
     t = out[TIME]
-    _refuse_non_finite_time(t, path, next(c for c, n in mapping.items() if n == TIME), lines)
+    _refuse_non_finite_time(t, path, next(c for c, n in mapping.items() if n == TIME), lines,
+                            rows)
     gap_steps = _check_time(t, path, gap_factor, report, lines)
     for col, name in mapping.items():
         if name != TIME and out[name].dtype != object:
@@ -292,8 +295,11 @@ def read_text(path: Path) -> str:
     except UnicodeDecodeError as exc:
         head = data[:exc.start]   # lines end in LF, CR LF or a lone CR
         line = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
+        utf16 = data.startswith((b"\xff\xfe", b"\xfe\xff"))
         raise EncodingError(f"undecodable byte 0x{data[exc.start]:02x} at byte offset "
-                            f"{exc.start}; expected UTF-8 text", path,
+                            f"{exc.start}; expected UTF-8 text"
+                            + (" (the file starts with a UTF-16 byte-order mark, as Windows "
+                               "PowerShell writes: save it as UTF-8)" if utf16 else ""), path,
                             line=line) from None
 
 
@@ -327,6 +333,7 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
         lines_were = f"{n} lines were" if n > 1 else "1 line was"
         raise EmptyFileError(f"no header line: its {lines_were} all skipped "
                              f"({skipped['comment']} comment, {skipped['blank']} blank)", path)
+    _refuse_numeric_header(header, raw, skipped["header_line"], path)
     if not rows:
         trailing = next((k for k, c in enumerate(reversed(header)) if c), len(header))
         if trailing:   # the header line shows the trailing-comma problem: say so
@@ -343,7 +350,10 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     ragged = np.flatnonzero(n_fields != len(header))
     if ragged.size:
         k = int(ragged[0])
-        hint = ("; a trailing comma?" if rows[k].rstrip().endswith(",")
+        hint = (_header_format_hint(header) if len(header) == 1 and _header_format_hint(header)
+                else "; the line holds NUL bytes: the end of a file that was never written "
+                "(a power loss while logging?)" if "\x00" in rows[k]
+                else "; a trailing comma?" if rows[k].rstrip().endswith(",")
                 else "; an unbalanced quote?" if rows[k].count('"') % 2
                 else f"; the header ends in a comma, line {lines[k]} does not: a trailing comma?"
                 if not header[-1] and n_fields[k] < len(header) else "")
@@ -355,6 +365,41 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
         raise EmptyFileError("file has a single data row; at least 2 are needed to know the "
                              "sample rate", path, line=int(lines[0]))
     return header, cells, lines, skipped
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _refuse_numeric_header(header: list[str], raw: list[str], header_line: int,
+                           path: Path) -> None:
+    """A first line (not blank, not a comment) of numbers is a data row: the file has no
+    header line, or has it commented out (``numpy.savetxt`` writes ``# time,wx,...``). Read
+    as the header, its values were named as columns: "duplicated column name(s)
+    ['0.1968503937007874']" when two were equal."""
+    named = [c for c in header if c]
+    if not named or not all(_is_number(c) for c in named):
+        return
+    hint = ""
+    for k in range(header_line - 2, -1, -1):    # the comment line just above, if any
+        text = raw[k].strip()
+        if not text:
+            continue
+        if text.startswith("#"):
+            names = [c.strip() for c in text.lstrip("#").split(",")]
+            if len(names) == len(header) and not any(_is_number(c) for c in names if c):
+                hint = (f"; line {k + 1} ({text[:60]!r}) looks like the header commented "
+                        "out: remove its '#'")
+        break
+    shown = ",".join(header)
+    shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    raise MissingColumnError(f"no header line: the first line that is not blank or a comment "
+                             f"holds numbers ({shown!r}), not column names{hint}", path,
+                             line=header_line)
 
 
 def _refuse_overflow(out: dict[str, np.ndarray], mapping: Mapping[str, str],
@@ -377,12 +422,17 @@ def _refuse_overflow(out: dict[str, np.ndarray], mapping: Mapping[str, str],
                 "plausible measurement", path, col, int(idx[0]), int(lines[idx[0]]))
 
 
-def _refuse_non_finite_time(t: np.ndarray, path: Path, col: str, lines: np.ndarray) -> None:
-    """A non-finite timestamp is never repaired (NonFiniteError naming the first)."""
+def _refuse_non_finite_time(t: np.ndarray, path: Path, col: str, lines: np.ndarray,
+                            rows: list[list[str]]) -> None:
+    """A non-finite timestamp is never repaired (NonFiniteError naming the first); a row
+    of empty cells only (``,,,,``: a spreadsheet's emptied rows) is said to be one."""
     idx = np.flatnonzero(~np.isfinite(t))
     if idx.size:
-        raise NonFiniteError(f"{idx.size} non-finite timestamp(s) at {first_items(lines[idx])}",
-                             path, col, int(idx[0]), int(lines[idx[0]]))
+        empty = [i for i in idx if not any(c.strip() for c in rows[i])]
+        hint = (f"; {len(empty)} of them a line of empty cells only (a spreadsheet's emptied "
+                "rows?): delete such lines" if empty else "")
+        raise NonFiniteError(f"{idx.size} non-finite timestamp(s) at {first_items(lines[idx])}"
+                             f"{hint}", path, col, int(idx[0]), int(lines[idx[0]]))
 
 
 def _repair_non_finite(values: np.ndarray, t: np.ndarray, gap_steps: np.ndarray, path: Path,

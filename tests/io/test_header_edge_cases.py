@@ -13,7 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError, EmptyFileError, RaggedRowError
+from terrain.errors import (DataFormatError, EmptyFileError, EncodingError, MissingColumnError,
+                            NonFiniteError, RaggedRowError)
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report
 
@@ -152,3 +153,52 @@ def test_a_comma_ending_the_header_only_is_named_in_the_ragged_row_error(tmp_pat
     text = str(info.value)
     assert info.value.line == 2 and "\n" not in text
     assert "the header ends in a comma, line 2 does not: a trailing comma?" in text
+
+
+@pytest.mark.parametrize("prefix", ["#", "# "])
+def test_a_header_commented_out_is_named_not_taken_for_data(tmp_path, prefix):
+    # numpy.savetxt(header=...) writes '# time,curL,...': the first data row was then read
+    # as the header, 'duplicated column name(s) ['0.5'] in the header (line 2)'
+    path = tmp_path / "pro_00.csv"
+    path.write_text(prefix + _text("pro"))
+    with pytest.raises(MissingColumnError) as info:
+        read_stream_csv(path, "pro")
+    assert info.value.line == 2 and info.value.path == str(path)
+    assert "no header line: the first line that is not blank or a comment holds numbers " \
+           "('0.00,1.0,1.1,0.5,0.5')" in str(info.value)
+    assert f"line 1 ('{prefix}time,curL,curR,velL,velR') looks like the header commented " \
+           "out: remove its '#'" in str(info.value)
+    # no header at all: the same error, without the hint
+    path.write_text(_text("pro").split("\n", 1)[1])
+    with pytest.raises(MissingColumnError, match=r"holds numbers \('0.00,1.0,1.1,0.5,0.5'\), "
+                                                 r"not column names \(file"):
+        read_stream_csv(path, "pro")
+
+
+def test_a_semicolon_file_with_decimal_commas_names_its_separator(tmp_path):
+    # the decimal commas split each row into more fields than the one-field header: the
+    # ragged-row error said nothing of the separator
+    path = tmp_path / "pro_00.csv"
+    path.write_text(_text("pro").replace(",", ";").replace(".", ","))
+    with pytest.raises(RaggedRowError, match=r"\(the header is separated by semicolons; the "
+                                             r"readers take commas only\)"):
+        read_stream_csv(path, "pro")
+
+
+def test_nul_bytes_ending_a_file_and_empty_spreadsheet_rows_are_named(tmp_path):
+    path = tmp_path / "pro_00.csv"
+    path.write_text(_text("pro") + "\x00" * 4096)   # a log cut by a power loss
+    with pytest.raises(RaggedRowError, match="the line holds NUL bytes") as info:
+        read_stream_csv(path, "pro")
+    assert info.value.line == N_ROWS + 2
+    path.write_text(_text("pro") + ",,,,\n" * 3)    # rows emptied in a spreadsheet
+    with pytest.raises(NonFiniteError, match="3 of them a line of empty cells only") as info:
+        read_stream_csv(path, "pro")
+    assert (info.value.column, info.value.line) == ("time", N_ROWS + 2)
+
+
+def test_a_utf16_file_says_so(tmp_path):
+    path = tmp_path / "pro_00.csv"
+    path.write_bytes(_text("pro").encode("utf-16"))
+    with pytest.raises(EncodingError, match="UTF-16 byte-order mark"):
+        read_stream_csv(path, "pro")
