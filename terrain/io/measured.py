@@ -542,8 +542,8 @@ def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
     Raises
     ------
     DataFormatError
-        A file named like a run file that the readers would not read (upper case, or
-        compressed), naming the file: it would otherwise be left out silently (an IMU
+        A file named like a run file that the readers would not read (upper case,
+        compressed, or ``meta_XX.csv``), naming the file: it would otherwise be left out silently (an IMU
         file named ``IMU_04.csv`` made its run wheel-only).
     """
     runs: dict[str, dict[str, Path]] = {}
@@ -553,6 +553,11 @@ def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
             runs.setdefault(meta["index"], {})["meta"] = f
             continue
         m = _FILE_RE.match(f.name)
+        if m and m["kind"] == "meta":
+            # taken for the run's metadata, it was shadowed by meta_XX.json without a word
+            raise DataFormatError("file named like a run file is not read (a run's metadata "
+                                  f"is meta_{m['index']}.json; a stream cannot be named "
+                                  "meta)", f)
         if m:
             runs.setdefault(m["index"], {})[m["kind"]] = f
             continue

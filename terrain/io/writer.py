@@ -161,10 +161,22 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     ConfigError
         Index out of range [0, 99] or already used by a file of the folder (any
         ``*_XX.*``, measured runs have no ``meta_XX.json``), no free index left (default
-        ``index``: the folder holds runs 00-99), or a stream name the readers
-        would not read back.
+        ``index``: the folder holds runs 00-99), a stream name the readers
+        would not read back (``meta`` included), or a terrain that is not a folder name
+        (``A/B``, ``..``); nothing is written then.
     """
-    folder = Path(out_dir) / str(run.terrain or "UNLABELLED")
+    terrain = str(run.terrain or "UNLABELLED")
+    if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
+        # 'A/B' wrote a folder the readers never look in (they take <root>/<TERRAIN>/)
+        raise ConfigError(f"terrain {terrain!r} is not a folder name: the run would be "
+                          f"written where the readers never look")
+    frames = to_file_frames(run)
+    odd = [k for k in frames if not re.fullmatch(FILE_KIND_PATTERN, k) or k == "meta"]
+    if odd:     # the readers take <kind>_XX.csv with that kind only; meta_XX is the metadata
+        raise ConfigError(f"stream names {odd} would be written but never read back: a "
+                          f"stream name is lower-case letters and digits, starting with a "
+                          f"letter, and not 'meta' (meta_XX.json holds the run's metadata)")
+    folder = Path(out_dir) / terrain
     folder.mkdir(parents=True, exist_ok=True)
     idx = next_index(folder) if index is None else int(index)
     if index is None and idx > 99:
@@ -174,12 +186,6 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         raise ConfigError(f"run index must be in [0, 99], got {idx}")
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
-    frames = to_file_frames(run)
-    odd = [k for k in frames if not re.fullmatch(FILE_KIND_PATTERN, k)]
-    if odd:     # the readers take <kind>_XX.csv with that kind only
-        raise ConfigError(f"stream names {odd} would be written but never read back: a "
-                          f"stream name is lower-case letters and digits, starting with a "
-                          f"letter")
     paths: dict[str, Path] = {}
     for kind, frame in frames.items():
         path = folder / f"{kind}_{idx:02d}.csv"
@@ -187,7 +193,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         frame.to_csv(path, index=False, float_format=fmt)
         paths[kind] = path
     meta = dict(run.meta)
-    meta.setdefault("vehicle", run.vehicle)   # read back as this vehicle, not the default
+    # read back as the run's vehicle: not the default, nor a stale "vehicle" of its meta
+    meta["vehicle"] = run.vehicle
     meta["index"] = f"{idx:02d}"
     meta["files"] = {k: p.name for k, p in paths.items()}
     path = folder / f"meta_{idx:02d}.json"

@@ -47,3 +47,43 @@ def test_a_written_run_reads_back_with_its_timestamps(tmp_path, t0_s):
             np.testing.assert_array_equal(t, frame[TIME].to_numpy())
         np.testing.assert_allclose(back.streams[name][frame.columns].to_numpy(),
                                    frame.to_numpy(), rtol=1e-8, atol=0)
+
+
+def test_the_run_vehicle_is_written_not_a_stale_one_of_its_meta(tmp_path):
+    # meta.setdefault kept a 'vehicle' of run.meta: a husky run read back as 'tracked'
+    run = _run(0.0)
+    run = Run(run.run_id, run.dataset, run.terrain, run.streams, vehicle="husky",
+              meta={"vehicle": "tracked"})
+    write_run(run, tmp_path, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = read_runs_dir(tmp_path)[0]
+    assert back.vehicle == "husky" and back.meta["vehicle"] == "husky"
+
+
+@pytest.mark.parametrize("terrain, stream, words", [
+    ("A/B", None, "is not a folder name"), ("..", None, "is not a folder name"),
+    ("ASPHALT", "meta", "not 'meta'")])
+def test_what_would_not_read_back_is_refused_before_anything_is_written(tmp_path, terrain,
+                                                                       stream, words):
+    # a stream 'meta' became meta_00.csv, shadowed by meta_00.json when read back: the
+    # stream was lost without a word; terrain 'A/B' wrote A/B/, where no reader looks
+    from terrain.errors import ConfigError
+
+    run = _run(0.0)
+    streams = dict(run.streams)
+    if stream:
+        streams[stream] = run.streams["wheels"][[TIME, "vel_l"]]
+    run = Run(run.run_id, run.dataset, terrain, streams)
+    with pytest.raises(ConfigError, match=words):
+        write_run(run, tmp_path / "out", 0)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_meta_csv_file_is_named_not_shadowed_by_the_metadata(tmp_path):
+    from terrain.errors import DataFormatError
+
+    write_run(_run(0.0), tmp_path, 0)
+    (tmp_path / "ASPHALT" / "meta_00.csv").write_text("time,x\n0,1\n1,2\n")
+    with pytest.raises(DataFormatError, match="a stream cannot be named meta"):
+        read_runs_dir(tmp_path)
