@@ -463,8 +463,9 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     columns : Mapping[str, Mapping[str, str]], optional
         Stream name -> {file column -> canonical channel} where the file's column names
         differ from the channels' (:data:`terrain.io.measured.COLUMN_MAPS`), so that a
-        stuck-sensor warning names the column of the file (``column 'curL'
-        (wheels.cur_l)``); None: the files use the canonical names.
+        stuck-sensor warning (``column 'curL' (wheels.cur_l)``) and the wheel-speed unit
+        error name the columns of the file; None: the files use the canonical names (the
+        shipped Parquet files, a served request).
 
     Returns
     -------
@@ -491,7 +492,8 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
         unused = {k: v for k, v in clocks.items() if v > 0}
         _check_gyro(imu, wheels, vehicle, src("imu"), found)
     if wheels is not None and len(wheels) and vehicle in VEHICLE_LIMITS:
-        _check_wheel_speed(wheels, imu, VEHICLE_LIMITS[vehicle], src("wheels"), found)
+        _check_wheel_speed(wheels, imu, VEHICLE_LIMITS[vehicle], src("wheels"), found,
+                           [_file_column("wheels", c, columns) for c in ("vel_l", "vel_r")])
     stuck = stuck_stretches(streams)
     for key, spans in stuck.items():
         total = sum(b - a for a, b in spans)
@@ -504,12 +506,19 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     return {"stuck": stuck, "unused_s": unused, "warnings": found}
 
 
+def _file_column(stream: str, channel: str,
+                 columns: Mapping[str, Mapping[str, str]] | None) -> str:
+    """The column of ``stream``'s file that holds ``channel`` (the channel's own name where
+    ``columns`` gives none)."""
+    return next((c for c, n in (columns or {}).get(stream, {}).items() if n == channel),
+                channel)
+
+
 def _channel_text(key: str, columns: Mapping[str, Mapping[str, str]] | None) -> str:
     """``<stream>.<channel>`` for a message, led by the file's column name where that
     differs (``column 'curL' (wheels.cur_l)``): the user looks for it in the file."""
     stream, channel = key.split(".", 1)
-    column = next((c for c, n in (columns or {}).get(stream, {}).items() if n == channel),
-                  channel)
+    column = _file_column(stream, channel, columns)
     return key if column == channel else f"column {column!r} ({key})"
 
 
@@ -629,14 +638,15 @@ def wheel_speed_in_kmh(p99_speed: float, limits: VehicleLimits) -> bool:
     return p99_speed > 2.0 * limits.top_speed_m_s
 
 
-def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found) -> None:
+def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found,
+                       speed_columns: Sequence[str] = ("vel_l", "vel_r")) -> None:
     speed = np.abs(np.r_[wheels["vel_l"].to_numpy(), wheels["vel_r"].to_numpy()])
     p99 = float(np.percentile(speed, 99))
     if wheel_speed_in_kmh(p99, lim):
         raise UnitError(
             f"rule wheel_speed_units: 99th-percentile wheel speed {p99:.3g} is more than twice "
             f"the top speed {lim.top_speed_m_s:g} m/s ({lim.source}); km/h is 3.6 x m/s: "
-            "convert velL, velR to m/s (/ 3.6)", path, "velL")
+            f"convert {', '.join(speed_columns)} to m/s (/ 3.6)", path, speed_columns[0])
     evidence = []
     if p99 > 1.2 * lim.top_speed_m_s:
         evidence.append(f"99th-percentile speed {p99:.3g} above 1.2 x top speed "

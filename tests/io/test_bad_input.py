@@ -175,6 +175,20 @@ def test_wheel_speeds_in_km_h_refused_when_beyond_twice_top_speed(runs_by_id, tm
     with pytest.raises(UnitError) as info:
         read_runs_dir(tmp_path)
     assert info.value.path == str(pro) and "km/h" in _one_line(info.value)
+    assert info.value.column == "velL" and "convert velL, velR to m/s" in str(info.value)
+
+
+def test_wheel_speeds_in_km_h_name_the_columns_of_the_frames_checked(runs_by_id):
+    # the rule said 'convert velL, velR' (column 'velL') to a served request or a shipped
+    # file, whose columns are vel_l, vel_r
+    from terrain.io.plausibility import check_run
+
+    run = runs_by_id["borealtc/ASPHALT/01"]
+    streams = {"wheels": run.streams["wheels"].assign(vel_l=lambda f: 3.6 * f["vel_l"],
+                                                      vel_r=lambda f: 3.6 * f["vel_r"])}
+    with pytest.raises(UnitError, match="convert vel_l, vel_r to m/s") as info:
+        check_run("r", streams, "husky", {"wheels": "request"})
+    assert info.value.column == "vel_l"
 
 
 def test_slow_wheel_speeds_in_km_h_are_a_warning(turning):
