@@ -80,7 +80,8 @@ class ReadReport:
         ``blank`` and ``comment`` lines skipped.
     ignored_columns : list[str]
         Header columns of an ``imu`` or ``pro`` file that are not among its canonical
-        columns, and header columns of any stream file that have no name, in file order:
+        columns, and header columns of any stream file that have no name or are named
+        ``t_s`` (the clock is ``time``), in file order:
         present in the file, not read. One with an empty name is ``<unnamed column N>`` (N
         its 1-based position; the last one's name adds ``a trailing comma?``).
     warnings : list[str]
@@ -170,8 +171,10 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     mapping = COLUMN_MAPS.get(kind)
     if mapping is None:
         # extra stream: ``time`` is required and comes first, other columns keep their names;
-        # a column without a name (a trailing comma) is not read but reported, as for imu/pro
-        mapping = {"time": TIME, **{c: c for c in header if c and c != "time"}}
+        # a column without a name (a trailing comma) is not read but reported, as for imu/pro;
+        # so is one named t_s, the canonical name of the clock (it took the place of the
+        # file's 'time' column without a word)
+        mapping = {"time": TIME, **{c: c for c in header if c and c not in ("time", TIME)}}
     missing = [c for c in mapping if c not in header]
     if missing:
         raise MissingColumnError(

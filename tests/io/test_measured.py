@@ -477,6 +477,16 @@ def test_extra_stream_reads_time_first_and_keeps_string_labels(tmp_path):
     assert list(frame["terrain"]) == ["ICE", "ICE", "SNOW"]
 
 
+def test_a_t_s_column_of_an_extra_stream_is_reported_not_taken_for_its_clock(tmp_path):
+    # both mapped to t_s, the later column replaced the file's 'time' without a word
+    path = tmp_path / "truth_00.csv"
+    path.write_text("time,t_s,x\n0.0,100.0,1.0\n0.1,100.1,2.0\n0.2,100.2,3.0\n")
+    frame, report = read_stream_csv(path, "truth")
+    assert list(frame.columns) == [TIME, "x"]
+    np.testing.assert_array_equal(frame[TIME], [0.0, 0.1, 0.2])
+    assert report.ignored_columns == ["t_s"]
+
+
 def test_extra_stream_without_time_column_is_rejected(tmp_path):
     path = tmp_path / "truth_00.csv"
     path.write_text("t,x\n0.0,1.0\n0.1,2.0\n")
