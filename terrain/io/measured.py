@@ -309,7 +309,8 @@ def read_text(path: Path) -> str:
 def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.ndarray, dict]:
     """Header fields, data rows (fields), their 1-based file lines, skipped-line counts."""
     raw = text.split("\n")
-    if raw and raw[-1] == "":
+    unended = bool(raw) and raw[-1] != ""   # no line break after the last line
+    if not unended:
         raw.pop()  # the newline that ends the last line
     skipped = {"blank": 0, "comment": 0}
     header, rows, lines = None, [], []
@@ -356,6 +357,8 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
         hint = (_header_format_hint(header) if len(header) == 1 and _header_format_hint(header)
                 else "; the line holds NUL bytes: the end of a file that was never written "
                 "(a power loss while logging?)" if "\x00" in rows[k]
+                else "; it is the last line and has no line break: cut off while the file "
+                "was written (a logger stopped)?" if unended and k == len(rows) - 1
                 else "; a trailing comma?" if rows[k].rstrip().endswith(",")
                 else "; an unbalanced quote?" if rows[k].count('"') % 2
                 else f"; the header ends in a comma, line {lines[k]} does not: a trailing comma?"

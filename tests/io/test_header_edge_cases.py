@@ -202,3 +202,17 @@ def test_a_utf16_file_says_so(tmp_path):
     path.write_bytes(_text("pro").encode("utf-16"))
     with pytest.raises(EncodingError, match="UTF-16 byte-order mark"):
         read_stream_csv(path, "pro")
+
+
+def test_a_last_line_cut_mid_row_says_the_file_was_cut_off(tmp_path):
+    # a logger stopped while writing: a bare ragged-row error at the last line
+    path = tmp_path / "pro_00.csv"
+    path.write_text(_text("pro")[:-9])                 # '1.19,1.0,1' of the last row
+    with pytest.raises(RaggedRowError, match="it is the last line and has no line break: "
+                                             "cut off while the file was written") as info:
+        read_stream_csv(path, "pro")
+    assert info.value.line == N_ROWS + 1
+    path.write_text(_text("pro")[:-9] + "\n")          # its line break written: no such hint
+    with pytest.raises(RaggedRowError) as info:
+        read_stream_csv(path, "pro")
+    assert "cut off" not in str(info.value)
