@@ -549,8 +549,8 @@ def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
     ------
     DataFormatError
         A file named like a run file that the readers would not read (upper case,
-        compressed, or ``meta_XX.csv``), naming the file: it would otherwise be left out silently (an IMU
-        file named ``IMU_04.csv`` made its run wheel-only).
+        compressed, or ``meta_XX.csv``), naming the file: it would otherwise be left out
+        silently (an IMU file named ``IMU_04.csv`` made its run wheel-only).
     """
     runs: dict[str, dict[str, Path]] = {}
     for f in sorted(Path(folder).iterdir()):
