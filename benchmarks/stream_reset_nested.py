@@ -28,8 +28,10 @@ the default filter and of each set's nested choice are printed, per seed and poo
 logged to MLflow (experiment ``terrain-benchmark``, run ``stream-reset-nested``).
 
 Run: ``python benchmarks/stream_reset_nested.py [--kind all-ensemble-dense-no-speed-1s]
-[--seeds 0 1 2] [--no-mlflow]`` (five classifiers per outer fold: 25 min per seed with the
-three seeds run as three processes side by side on a 2-core machine, ``OMP_NUM_THREADS=1``).
+[--seeds 0 1 2] [--no-mlflow]`` (five classifiers per outer fold: 19-25 min per seed with
+the three seeds run as three processes side by side on a 2-core machine,
+``OMP_NUM_THREADS=1``). Results: docs/streaming.md, "One-second windows" (the reset) and
+"Held-out concatenated streams" (the smoothing grid, 2026-11-27).
 ``--out DIR`` keeps one JSON file per seed, and ``--merge FILE ...`` pools such files
 (seeds run as separate processes) without training anything.
 """
