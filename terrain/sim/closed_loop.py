@@ -45,7 +45,8 @@ from terrain.errors import ConfigError
 from terrain.sim.dynamics import ControlHook, PlantSnapshot
 from terrain.sim.forces import check_physics, reported_current_a
 from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specific_force,
-                                 vibration_level, vibration_pole, vibration_signals)
+                                 quantise, vibration_level, vibration_pole,
+                                 vibration_signals)
 from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulate_with_physics
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
@@ -212,7 +213,7 @@ class OnlineSensors:
             r = self.vehicle.wheel_radius_m
             om = self._filtered
             if s.speed_quantum_m_s > 0:
-                om = np.round(om * r / s.speed_quantum_m_s) * s.speed_quantum_m_s / r
+                om = quantise(om * r, s.speed_quantum_m_s) / r
             c.rows.append((t, *om.tolist()))
             c.next_t += c.period_s
         c = self.ch["currents"]
@@ -220,15 +221,15 @@ class OnlineSensors:
             cur = reported_current_a(motor, np.asarray(snap.torque, dtype=float), snap.omega,
                                      self.physics)
             cur = np.abs(cur + s.current_noise_a * self.rng_current.standard_normal(cur.size))
-            if s.current_quantum_a > 0:
-                cur = np.round(cur / s.current_quantum_a) * s.current_quantum_a
+            cur = quantise(cur, s.current_quantum_a)
             c.rows.append((t, *cur.tolist()))
             c.next_t += c.period_s
         if not self.steered:
             return
         c = self.ch["steer"]
         if t + eps >= c.next_t:
-            d = np.round(snap.delta / s.steer_quantum_rad) * s.steer_quantum_rad
+            # (a resolution of 0 is no quantisation, as in the batch model)
+            d = quantise(snap.delta, s.steer_quantum_rad)
             c.rows.append((t, *d.tolist()))
             c.next_t += c.period_s
         c = self.ch["cam"]

@@ -217,3 +217,22 @@ def test_the_closed_loop_run_records_the_camera_outages_its_controller_saw():
     husky = simulate_closed_loop(SimConfig(terrains=("GRASS",), duration_s=2.0),
                                  lambda obs: np.zeros(2), 50.0)
     assert "controller_cam_outages_s" not in husky.run.meta     # no camera on the Husky
+
+
+def test_online_sensors_with_a_resolution_of_zero_report_unquantised_values():
+    """A resolution of 0 means no quantisation (:func:`terrain.sim.sensors.quantise`, the
+    batch model): the online steering encoders divided by it and reported NaN (all 303 rows
+    of a 2 s AgriMaRo run), the batch stream the true angles."""
+    from dataclasses import replace
+
+    settings = replace(DEFAULT_SENSORS["agrimaro"], steer_quantum_rad=0.0,
+                       current_quantum_a=0.0)
+    sim = simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=("ASPHALT",),
+                                          duration_s=2.0, seed=1, sensors=settings))
+    obs = list(replay_observations(sim))
+    steer = np.concatenate([o.steer for o in obs])
+    currents = np.concatenate([o.currents for o in obs])
+    assert len(steer) > 50 and np.isfinite(steer).all()
+    assert np.isfinite(currents).all()
+    k = np.searchsorted(sim.physics.t_s, steer[:, 0] - 1e-9)
+    np.testing.assert_allclose(steer[:, 1:], sim.physics.delta[k], atol=1e-12)
