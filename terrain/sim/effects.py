@@ -157,7 +157,8 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     Raises
     ------
     ConfigError
-        Unknown name, malformed item, a name given twice, non-numeric or out-of-range value.
+        Unknown name, malformed item, a name given twice, non-numeric or out-of-range value
+        (a mapping's value that is a boolean, None or not one real number included).
     """
     if items is None:
         return Effects()
@@ -177,8 +178,12 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
         if name in pairs:
             raise ConfigError(f"effect {name} given twice ({name}={pairs[name]:g} and "
                               f"{name}={value}); give each effect once")
+        if not isinstance(value, str):
+            # a mapping's number goes to Effects as given: float() turned True into 1
+            pairs[name] = value
+            continue
         try:
             pairs[name] = float(value)
-        except (TypeError, ValueError):
+        except ValueError:
             raise ConfigError(f"effect {name} needs a number, got {value!r}") from None
     return Effects(**pairs)

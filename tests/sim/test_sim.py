@@ -529,3 +529,13 @@ def test_closed_loop_corrections_clipped_at_the_speed_limit_are_counted():
     np.testing.assert_array_equal(sim.physics.omega_cmd[20:, 1], -wmax)
     at_limit = simulate_with_physics(cfg, hook=lambda snap: np.zeros(2))
     assert at_limit.physics.correction_clipped_steps.tolist() == [0, 0]
+
+
+def test_parse_effects_refuses_a_boolean_or_none_in_a_mapping():
+    """A mapping's values were passed through float(): ``{"wheel_lag": True}`` planted a
+    1 s wheel lag without a word, though :class:`Effects` refuses a boolean."""
+    for bad in (True, None, [0.1]):
+        with pytest.raises(ConfigError, match="wheel_lag"):
+            parse_effects({"wheel_lag": bad})
+    assert parse_effects({"wheel_lag": 0.5, "gyro_bias": "0.1"}).active() == {
+        "wheel_lag": 0.5, "gyro_bias": 0.1}
