@@ -27,7 +27,7 @@ import numpy as np
 
 from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket, require_aeon
@@ -117,6 +117,14 @@ class ModelConfig:
         so that every run of a class weighs the same
         (:class:`terrain.models.weighting.RunBalancedClassifier`; ``fit`` then needs the
         run of every window, ``groups``); False (default): every window the same.
+
+    Raises
+    ------
+    ConfigError
+        An unknown ``kind`` or ensemble member; ``max_epochs``, ``minirocket_kernels`` or
+        ``minirocket_max_dilations`` not an integer >= 1; ``spectrogram_noise_std`` not a
+        finite number >= 0; ``cnn_seeds`` or ``n_threads`` out of range, ``cnn_seeds > 1``
+        without a CNN, or ``run_balanced`` with ``window_ekf``.
     """
 
     kind: str = "svm"
@@ -139,9 +147,13 @@ class ModelConfig:
         if self.run_balanced and self.window_ekf:
             raise ConfigError("run_balanced is not implemented with window_ekf")
         singles = [m for m in MODELS if m not in ENSEMBLES]
-        if not self.spectrogram_noise_std >= 0:
-            raise ConfigError(f"spectrogram_noise_std must be >= 0, got "
-                              f"{self.spectrogram_noise_std}")
+        # a budget of 0 epochs trained nothing and served the untrained network; 0 dilations
+        # reached aeon's bare ZeroDivisionError; an infinite noise level passed ">= 0"
+        config_integer("ModelConfig.max_epochs", self.max_epochs, 1)
+        config_integer("ModelConfig.minirocket_kernels", self.minirocket_kernels, 1)
+        config_integer("ModelConfig.minirocket_max_dilations", self.minirocket_max_dilations, 1)
+        config_positive("ModelConfig", allow_zero=True,
+                        spectrogram_noise_std=self.spectrogram_noise_std)
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")

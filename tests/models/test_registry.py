@@ -124,3 +124,15 @@ def test_cnn_seeds_need_a_model_that_holds_a_cnn():
         CompareConfig(models=("svm", "minirocket"), cnn_seeds=3)
     with pytest.raises(ConfigError, match="cnn_seeds must be"):
         CompareConfig(models=("cnn",), cnn_seeds=0)
+
+
+@pytest.mark.parametrize("setting, value", [
+    ("max_epochs", 0), ("max_epochs", -3), ("max_epochs", 2.5), ("max_epochs", True),
+    ("minirocket_kernels", 0), ("minirocket_max_dilations", 0),
+    ("spectrogram_noise_std", float("inf")), ("spectrogram_noise_std", float("nan"))])
+def test_training_budget_settings_are_checked_before_any_fit(setting, value):
+    # max_epochs=0 trained no epoch and served the untrained network's probabilities
+    # (n_epochs_ 0, no word); a 0-dilation MiniRocket reached aeon's bare ZeroDivisionError;
+    # an infinite noise level passed the ">= 0" check
+    with pytest.raises(ConfigError, match=setting):
+        ModelConfig(kind="cnn", **{setting: value})
