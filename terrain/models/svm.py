@@ -37,8 +37,12 @@ class SVMConfig:
     probability : bool
         Wrap the SVC in ``CalibratedClassifierCV(method="sigmoid", ensemble=False)`` (Platt
         scaling on 5-fold out-of-fold decision values) so the model gives class
-        probabilities, as needed for serving. Calibration folds are not grouped by run: it
-        only shapes the probabilities, never an evaluation.
+        probabilities, as needed for serving. Its ``predict`` is then the argmax of those
+        probabilities, not the SVC's own vote, so the calibration shapes evaluated figures
+        too: the ``svm`` cells of ``terrain compare``, every ensemble's vote and the decision
+        history (``terrain cv --model svm`` without ``--window-ekf`` cross-validates the
+        uncalibrated SVC). The calibration folds are ``StratifiedKFold`` over the training
+        windows, not grouped by run; they see training windows only, never a test run.
     search_C, search_gamma : tuple
         Grid of the nested search.
     inner_splits : int
