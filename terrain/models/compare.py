@@ -30,7 +30,7 @@ from typing import Iterator, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, duplicated
+from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.models.cv import cross_validate, grouped_units
 from terrain.models.ensemble import normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
@@ -121,7 +121,7 @@ class CompareConfig:
         :class:`~terrain.models.experiment.ExperimentConfig` refuses;
         ``cnn_seeds`` without a CNN model; a value repeated on an axis (models, signals,
         windows_s, datasets, history; a repeated seed is ExperimentConfig's refusal); no
-        seed, a history length below 1, fewer than
+        seed, a history length that is not an integer >= 1, fewer than
         1 epoch or 2 folds; ``n_threads`` outside 1-``MAX_TORCH_THREADS``
         (:class:`~terrain.models.registry.ModelConfig`'s rule).
     """
@@ -171,6 +171,8 @@ class CompareConfig:
                 raise ConfigError(f"{axis} must be distinct: {repeated} given more than once")
         if not self.seeds or min(self.history, default=0) < 1:
             raise ConfigError("need at least one seed and history lengths >= 1")
+        for k in self.history:   # (2.5 failed in every cell, after its CV, in pandas)
+            config_integer("CompareConfig.history", k, 1)
         if self.max_epochs < 1 or self.n_splits < 2:
             raise ConfigError(f"max_epochs must be >= 1 and n_splits >= 2, got "
                               f"{self.max_epochs} and {self.n_splits}")

@@ -414,3 +414,12 @@ def test_history_refuses_rows_of_several_seeds():
         history_predictions(both, ["A", "B"], 2)
     with pytest.raises(ConfigError, match="one seed"):
         score_rows(both, ["A", "B"], (1, 2), {})
+
+
+@pytest.mark.parametrize("history", [(1, 2.5), (True,), (1, 0)])
+def test_history_lengths_must_be_integers_before_any_cell(history):
+    # history=(1, 2.5) passed the ">= 1" check; every cell then cross-validated its model
+    # and failed scoring it with pandas' bare "window must be an integer 0 or greater"
+    with pytest.raises(ConfigError, match="history"):
+        CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
+                      datasets=("vulpi",), seeds=(0,), history=history)
