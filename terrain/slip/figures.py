@@ -11,6 +11,9 @@ import pandas as pd
 def error_figure(errors: pd.DataFrame, terrains: Sequence[str]):
     """Median absolute slip error per terrain and model, steady straight driving.
 
+    A terrain without a score for a model (not among the runs, or the model undefined
+    there) gets no bar, marked "n/a".
+
     Parameters
     ----------
     errors : pandas.DataFrame
@@ -35,7 +38,13 @@ def error_figure(errors: pd.DataFrame, terrains: Sequence[str]):
     width = 0.8 / max(1, table.shape[1])
     x = np.arange(len(table))
     for k, col in enumerate(table.columns):
-        ax.bar(x + k * width, table[col].fillna(0.0).to_numpy() + 1e-5, width, label=col)
+        # no score (terrain not simulated, model undefined there): no bar and "n/a", not a
+        # bar at the axis floor that reads as the smallest error
+        heights = table[col].to_numpy(dtype=float) + 1e-5
+        ax.bar(x + k * width, heights, width, label=col)
+        for i in np.flatnonzero(np.isnan(heights)):
+            ax.text(x[i] + k * width, 0.02, "n/a", rotation=90, ha="center", va="bottom",
+                    fontsize=6, transform=ax.get_xaxis_transform())
     ax.axhline(0.02, color="k", ls="--", lw=1, label="target 0.02")
     ax.set_yscale("log")
     ax.set_xticks(x + 0.4 - width / 2, table.index)

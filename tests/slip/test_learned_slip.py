@@ -686,3 +686,21 @@ def test_unfitted_slip_model_raises_not_fitted_error():
             getattr(SlipRegressor(), method)(X)
     with pytest.raises(NotFittedError, match="SlipRegressor"):
         SlipRegressor().score(X, np.zeros((10, 4)))
+
+
+def test_error_figure_draws_no_bar_for_a_median_error_not_computed():
+    # a terrain not scored (not simulated, or a model undefined there) was filled with 0 and
+    # drawn at 1e-5, the smallest error on the log axis: the best model where there is none
+    from terrain.slip.figures import error_figure
+
+    errors = pd.DataFrame({"split": ["held-out seeds"] * 4, "windows": ["steady_straight"] * 4,
+                           "model": ["learned", "learned", "pitch-linear", "pitch-linear"],
+                           "terrain": ["SNOW", "ICE", "SNOW", "ICE"],
+                           "median_abs_err": [0.01, 0.002, 0.3, np.nan]})
+    ax = error_figure(errors, ("SNOW", "ICE", "GRASS")).axes[0]
+    heights = {c.get_label(): [p.get_height() for p in c] for c in ax.containers}
+    np.testing.assert_allclose(heights["learned"][:2], [0.01, 0.002], rtol=1e-2)
+    np.testing.assert_allclose(heights["pitch-linear"][0], 0.3, rtol=1e-3)
+    assert np.isnan(heights["pitch-linear"][1])         # ICE: no score, no bar
+    assert np.isnan(heights["learned"][2]) and np.isnan(heights["pitch-linear"][2])  # GRASS
+    assert sum(t.get_text() == "n/a" for t in ax.texts) == 3
