@@ -28,7 +28,8 @@ import warnings
 
 import numpy as np
 
-from terrain.errors import ConfigError, DataWarning, ShapeError, TimeStepError
+from terrain.errors import (ConfigError, DataWarning, NonFiniteInputError, ShapeError,
+                            TimeStepError, first_items)
 from terrain.terramechanics.slip import ground_speed_from_slip
 
 #: braking slip at which a compensated ground speed is held: the inverse grows as
@@ -77,6 +78,9 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         no sample.
     TimeStepError
         Times not finite or not strictly increasing.
+    NonFiniteInputError
+        A speed, slip, ``chi``, lateral velocity or yaw rate sample that is NaN or infinite
+        (the pose would be NaN from it on); the message names the argument and counts them.
     ConfigError
         ``track_m`` not > 0 where the yaw rate comes from the wheels.
     """
@@ -93,6 +97,8 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     if yaw_rate_rad_s is None and not track_m > 0:
         raise ConfigError(f"dead_reckon: track_m must be > 0 for the wheels' yaw rate, got "
                           f"{track_m}")
+    _finite("v_left_m_s", vl)
+    _finite("v_right_m_s", vr)
     gl = vl if slip_left is None else _ground_speed(vl, _per_sample("slip_left", slip_left,
                                                                     t.shape))
     gr = vr if slip_right is None else _ground_speed(vr, _per_sample("slip_right", slip_right,
@@ -105,6 +111,7 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         yaw_rate = np.asarray(yaw_rate_rad_s, dtype=float)
         if yaw_rate.shape != t.shape:
             raise ShapeError(f"yaw_rate_rad_s must have shape {t.shape}, got {yaw_rate.shape}")
+        _finite("yaw_rate_rad_s", yaw_rate)
     yaw_rate = np.broadcast_to(yaw_rate, t.shape)
     dt = np.diff(t)
     # trapezoidal in the speeds, midpoint heading
@@ -126,7 +133,19 @@ def _per_sample(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
     if x.ndim and x.shape != shape:
         raise ShapeError(f"dead_reckon: {name} must be a float or have shape {shape}, got "
                          f"{x.shape}")
-    return np.broadcast_to(x, shape)
+    return _finite(name, np.broadcast_to(x, shape))
+
+
+def _finite(name: str, x: np.ndarray) -> np.ndarray:
+    """``x``, refused by ``name`` (NonFiniteInputError) when a sample is NaN or infinite: the
+    integrated pose would be NaN from that sample on."""
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        raise NonFiniteInputError(
+            f"dead_reckon: {name} has {bad.size} of {x.size} samples NaN or infinite "
+            f"({first_items(bad.tolist(), word='sample')}): the pose would be NaN from the "
+            "first on")
+    return x
 
 
 def _ground_speed(rim_m_s: np.ndarray, slip: np.ndarray) -> np.ndarray:

@@ -704,3 +704,23 @@ def test_error_figure_draws_no_bar_for_a_median_error_not_computed():
     assert np.isnan(heights["pitch-linear"][1])         # ICE: no score, no bar
     assert np.isnan(heights["learned"][2]) and np.isnan(heights["pitch-linear"][2])  # GRASS
     assert sum(t.get_text() == "n/a" for t in ax.texts) == 3
+
+
+def test_dead_reckon_refuses_a_non_finite_speed_slip_or_yaw_rate_by_name():
+    # one NaN slip sample made every later pose NaN without a word ([nan, nan, 0] at the end)
+    from terrain.errors import NonFiniteInputError
+
+    t = np.linspace(0.0, 1.0, 11)
+    rim = np.full_like(t, 0.5)
+    slip = np.full_like(t, 0.1)
+    slip[3] = np.nan
+    with pytest.raises(NonFiniteInputError, match=r"slip_left.*1 of 11.*sample 3"):
+        dead_reckon(t, rim, rim, HUSKY.track_m, slip, np.full_like(t, 0.1))
+    fast = rim.copy()
+    fast[[4, 6]] = np.inf
+    with pytest.raises(NonFiniteInputError, match=r"v_right_m_s.*2 of 11"):
+        dead_reckon(t, rim, fast, HUSKY.track_m)
+    with pytest.raises(NonFiniteInputError, match="yaw_rate_rad_s"):
+        dead_reckon(t, rim, rim, HUSKY.track_m, yaw_rate_rad_s=np.where(t > 0.5, np.nan, 0.0))
+    with pytest.raises(NonFiniteInputError, match="chi"):
+        dead_reckon(t, rim, rim, HUSKY.track_m, chi=np.nan)
