@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import ShapeError
+from terrain.errors import ShapeError, config_positive
 from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -126,7 +126,7 @@ def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
     yaw_rate_rad_s : ndarray, shape (N,)
         Yaw rate (EKF estimate), rad/s.
     track_m : float
-        Geometric track width B, m.
+        Geometric track width B, m (finite, > 0).
     dead_band_m_s : float
         Dead band of :func:`sae_slip`, m/s.
 
@@ -139,7 +139,10 @@ def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
     ------
     ShapeError
         Arrays of disagreeing shapes.
+    ConfigError
+        ``track_m`` not a finite number > 0 (a negative one would swap the sides).
     """
+    config_positive("skid_steer_side_slip", track_m=track_m)
     v = np.asarray(v_bx_m_s, dtype=float)
     half = 0.5 * float(track_m)
     return wheel_slip(rim_speed_m_s, v, np.zeros(v.shape), yaw_rate_rad_s,

@@ -363,3 +363,16 @@ def test_summary_shows_samples_outside_the_filter_span():
     c = full.ekf.counts["gyro"]
     assert 0 < c["outside"] < 20 and f"'gyro': '{c['outside']} of {c['samples']}'" in \
         full.summary()
+
+
+def test_side_slip_refuses_a_track_that_is_not_a_positive_length():
+    # a negative track moved the left contact line to the right: the sides' slips swapped
+    # sign and size without a word (B = -0.55: -0.099, 0.258 against 0.110, 0.075)
+    from terrain.slip import skid_steer_side_slip
+
+    rim, v, w = np.array([[1.0, 1.2]]), np.array([1.0]), np.array([0.4])
+    np.testing.assert_allclose(skid_steer_side_slip(rim, v, w, 0.55), [[0.11, 0.075]],
+                               atol=1e-12)
+    for bad in (-0.55, 0.0, float("nan"), float("inf"), "0.55"):
+        with pytest.raises(ConfigError, match="track_m"):
+            skid_steer_side_slip(rim, v, w, bad)
