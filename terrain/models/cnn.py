@@ -217,7 +217,16 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             raise ValueError("need at least 2 classes, got 1 class")
         torch, _, _ = _torch_modules()
         Z = self._inputs(as_windows(X))
-        self._fit_scaling(Z)
+        fit_idx = val_idx = None
+        if self.early_stopping:
+            if groups is None:
+                raise ConfigError("early_stopping needs the run of every window (groups)")
+            fit_idx, val_idx = class_keeping_split(
+                y, groups, self.validation_splits, self.random_state, "early stopping",
+                "validation_splits", "early_stopping=False")
+        # the normalisation statistics come from the windows the network trains on: the
+        # validation runs held out for early stopping take no part in them
+        self._fit_scaling(Z if fit_idx is None else Z[fit_idx])
         self.mask_ = self._band_mask(X.shape[-1], Z.shape)
         Z = self._standardise(Z)
         y_idx = y_idx.astype(np.int64)
@@ -228,14 +237,11 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     and sample_weight.sum() > 0):
                 raise ValueError("sample_weight must be finite and >= 0, and the weights not "
                                  "all zero")
-        train_split, callbacks, fit_idx = None, [], np.arange(len(Z))
+        train_split, callbacks = None, []
         self.validation_groups_ = np.asarray([] if groups is None else groups)[:0]
-        if self.early_stopping:
-            if groups is None:
-                raise ConfigError("early_stopping needs the run of every window (groups)")
-            fit_idx, val_idx = class_keeping_split(
-                y, groups, self.validation_splits, self.random_state, "early stopping",
-                "validation_splits", "early_stopping=False")
+        if fit_idx is None:
+            fit_idx = np.arange(len(Z))
+        else:
             self.validation_groups_ = np.unique(np.asarray(groups)[val_idx])
             train_split = predefined_split(Dataset(Z[val_idx], y_idx[val_idx]))
             callbacks = [EarlyStopping(patience=self.patience, load_best=True)]

@@ -182,6 +182,21 @@ def test_early_stopping_class_weights_count_the_training_runs_only():
                                counts.sum() / (2 * counts), rtol=1e-6)
 
 
+def test_early_stopping_normalisation_statistics_leave_out_the_validation_runs():
+    # the validation runs held out for early stopping are unseen data for the network:
+    # its input scaling must not be fitted on them either (it was, before the split)
+    X, y, groups = _planted()
+    X = X.copy()
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True,
+                             validation_splits=4)
+    model.fit(X, y, groups=groups)
+    val = np.isin(groups, model.validation_groups_)
+    assert 0 < val.sum() < len(X)
+    np.testing.assert_allclose(model.mean_[:, 0], X[~val].mean(axis=(0, 2)), rtol=1e-5)
+    np.testing.assert_allclose(model.scale_[:, 0], X[~val].std(axis=(0, 2)), rtol=1e-4)
+    assert not np.allclose(model.mean_[:, 0], X.mean(axis=(0, 2)), rtol=1e-5)
+
+
 def test_fit_leaves_the_callers_torch_random_stream_as_it_found_it():
     import torch
     X, y, _ = _planted(n_runs=4)
