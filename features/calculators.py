@@ -306,7 +306,9 @@ def band_weights(n_samples: int, rate_hz: float,
     bands_hz : tuple of (low, high)
         Bands ``[low, high)`` in Hz, finite, ``low < high``, overlapping ``[0, rate_hz / 2]``
         (``high > 0``, ``low`` at most the Nyquist frequency); a band holding no FFT bin
-        gets the nearest bin(s).
+        gets the nearest bin(s). A bin within ``1e-9`` of the bin spacing of an edge counts
+        as on it (the float rounding of the bin frequencies and of the edges, e.g. 5 Hz as
+        4.999999999999999 Hz, would put it in the band below).
 
     Returns
     -------
@@ -339,9 +341,11 @@ def band_weights(n_samples: int, rate_hz: float,
                               f"{nyquist:g} Hz of a {rate_hz:g} Hz signal: it holds no "
                               f"content")
     freqs = np.fft.rfftfreq(n_samples, d=1.0 / rate_hz)
+    # a bin on an edge (to rounding: 1e-9 of the bin spacing) is the band's it starts
+    tol = 1e-9 * rate_hz / n_samples
     weights = np.zeros((len(freqs), len(bands_hz)))
     for k, (lo, hi) in enumerate(bands_hz):
-        sel = (freqs >= lo) & (freqs < hi)
+        sel = (freqs >= lo - tol) & (freqs < hi - tol)
         if not sel.any():
             sel = np.abs(freqs - 0.5 * (lo + hi)) == np.abs(freqs - 0.5 * (lo + hi)).min()
         weights[sel, k] = 1.0 / sel.sum()

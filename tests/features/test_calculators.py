@@ -189,3 +189,20 @@ def test_band_weights_refuse_bands_without_content(band, match):
         calc.band_log_power(x, RATE, ((0.0, 2.5), band))
     # a band reaching past the Nyquist frequency keeps the bins it holds
     assert calc.band_weights(N, RATE, ((20.0, 30.0),))[:, 0].sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("n, rate, width, edge_bin", [
+    (70, 50.0, 2.5, 7),      # 1.4 s at 50 Hz: bin 7 is 5 Hz, rfftfreq says 4.999999999999999
+    (200, 30.0, 0.2, 4),     # bin 4 is 0.6 Hz, linear_bands' edge is 0.6000000000000001
+])
+def test_a_bin_on_a_band_edge_belongs_to_the_band_it_starts(n, rate, width, edge_bin):
+    """A bin exactly on an edge ``k w`` belongs to ``[k w, (k+1) w)`` (lower edge
+    inclusive), whatever the float rounding of the bin frequency or of the edge: it was
+    averaged into the band below, which then held one bin more than its neighbour."""
+    bands = linear_bands(rate, width)
+    W = calc.band_weights(n, rate, bands)
+    k = round(edge_bin * rate / n / width)
+    assert W[edge_bin, k] > 0 and W[edge_bin, k - 1] == 0
+    # each bin of [0, Nyquist) in exactly one band
+    inside = np.arange(n // 2 + (n % 2))
+    np.testing.assert_array_equal(np.count_nonzero(W[inside], axis=1), 1)
