@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
-from terrain.errors import ConfigError, duplicated, listed
+from terrain.errors import ConfigError, config_positive, duplicated, listed
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY
@@ -174,7 +174,7 @@ class WindowConfig:
         It needs the wheel stream whatever the signals: runs without it are skipped, and a
         window whose wheel speeds are not all finite is dropped as a gap.
     min_speed_m_s, max_speed_std_m_s : float
-        Steady-motion thresholds, m/s.
+        Steady-motion thresholds, m/s (finite, >= 0).
 
     Raises
     ------
@@ -182,7 +182,8 @@ class WindowConfig:
         A length or rate that is not a finite positive number, ``partition_s`` shorter
         than ``window_s``, a window of fewer than 4 or more than
         :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample (window starts
-        and lengths are rounded to whole samples).
+        and lengths are rounded to whole samples), or a steady-motion threshold that is not
+        a finite number >= 0 (NaN made every window unsteady).
     """
 
     window_s: float = 2.0
@@ -212,6 +213,8 @@ class WindowConfig:
                               f"{MAX_WINDOW_SAMPLES:,} (a shorter window or a lower rate)")
         if round(self.window_s * self.rate_hz) < 4:
             raise ConfigError("a window must hold at least 4 samples")
+        config_positive("WindowConfig", allow_zero=True, min_speed_m_s=self.min_speed_m_s,
+                        max_speed_std_m_s=self.max_speed_std_m_s)
 
     @property
     def n_samples(self) -> int:

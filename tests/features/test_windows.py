@@ -138,6 +138,20 @@ def test_steady_only_drops_windows_with_speed_changes(make_run):
     assert (v.std(axis=-1) <= 0.1).all()
 
 
+@pytest.mark.parametrize("field, value", [("min_speed_m_s", np.nan),
+                                          ("max_speed_std_m_s", np.nan),
+                                          ("max_speed_std_m_s", -0.1),
+                                          ("min_speed_m_s", np.inf),
+                                          ("min_speed_m_s", "0.1")])
+def test_steady_thresholds_that_are_not_finite_non_negative_numbers_are_refused(
+        make_run, field, value):
+    """A NaN or negative steady-motion threshold was taken: NaN (or a negative spread) made
+    every window of the run of ``test_steady_only_drops_windows_with_speed_changes``
+    "unsteady" (19 of 19 dropped, against 9 kept and 10 dropped)."""
+    with pytest.raises(ConfigError, match=f"WindowConfig.{field}"):
+        WindowConfig(steady_only=True, **{field: value})
+
+
 def test_steady_only_drops_standstill(make_run):
     run = make_run(_streams(vel=lambda t: np.zeros_like(t)))
     ws = make_windows([run], "wheels", WindowConfig(window_s=2.0, steady_only=True))
