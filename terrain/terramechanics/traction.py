@@ -218,7 +218,8 @@ class BurckhardtCurve:
     Parameters
     ----------
     c1, c2, c3 : float
-        Coefficients (dimensionless): ``c1``, ``c2`` finite and > 0, ``c3`` finite and >= 0.
+        Coefficients (dimensionless): ``c1``, ``c2`` finite and > 0, ``c3`` finite and >= 0,
+        and ``c1 c2 > c3`` (the slope ``d mu / d s = c1 c2 - c3`` at ``s = 0``).
     source : str
         Citation of the coefficients.
 
@@ -239,6 +240,10 @@ class BurckhardtCurve:
                 and self.c2 > 0.0 and self.c3 >= 0.0):
             raise ConfigError(f"BurckhardtCurve: need finite c1 > 0, c2 > 0 and c3 >= 0, got "
                               f"{self.c1}, {self.c2}, {self.c3}")
+        if not self.c1 * self.c2 > self.c3:
+            raise ConfigError(f"BurckhardtCurve: need c1 c2 > c3 (mu must rise from 0 at s = 0: "
+                              f"slope c1 c2 - c3), got c1 c2 = {self.c1 * self.c2} and c3 = "
+                              f"{self.c3}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """:func:`burckhardt_traction` with the terrain's constant resistance.

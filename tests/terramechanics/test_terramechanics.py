@@ -431,3 +431,12 @@ def test_bekker_sinkage_refuses_a_plate_or_soil_with_no_sinkage(field, args):
 def test_calibrate_janosi_refuses_data_with_no_curve_naming_why(args, field):
     with pytest.raises(ConfigError, match=rf"calibrate_janosi(\.|: ){field}"):
         calibrate_janosi(*args)
+
+
+@pytest.mark.parametrize("c1, c2, c3", [(0.05, 0.5, 1.0), (1.0, 0.5, 0.5)])
+def test_burckhardt_curve_refuses_a_curve_that_does_not_rise_from_zero(c1, c2, c3):
+    # mu'(0) = c1 c2 - c3 <= 0: mu falls (or stays flat) from s = 0, no stable side; before:
+    # accepted, and traction_peak failed with scipy's bare 'The lower bound exceeds the
+    # upper bound' (its refinement took the grid's last point as the lower bound)
+    with pytest.raises(ConfigError, match="BurckhardtCurve.*c1 c2 > c3"):
+        BurckhardtCurve(c1, c2, c3)
