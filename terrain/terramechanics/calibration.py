@@ -150,6 +150,22 @@ def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: flo
             f"resistance {soil_resistance} and slip {slip_accel} at {accel_m_s2} m/s^2 more: "
             f"the demand ratio (f + a/g_0)/f = {target:.4g} must be below slip_accel / "
             f"slip_steady = {slip_accel / slip_steady:.4g}")
-    k = brentq(lambda k: g(slip_accel / k) / g(slip_steady / k) - target, 1e-3, 1e3)
+    excess = lambda k: g(slip_accel / k) / g(slip_steady / k) - target  # noqa: E731
+    # the ratio runs from 1 (k -> 0) to slip_accel / slip_steady (k -> inf): widen the
+    # bracket 1000-fold until it holds the root (a firm soil's k can lie below 1e-3)
+    lo, hi = 1e-3, 1e3
+    for _ in range(30):
+        if excess(lo) >= 0.0:
+            lo *= 1e-3
+        elif excess(hi) <= 0.0:
+            hi *= 1e3
+        else:
+            break
+    else:
+        raise ConfigError(f"calibrate_janosi: no Janosi-Hanamoto curve found for slip "
+                          f"{slip_steady} at the resistance {soil_resistance} and slip "
+                          f"{slip_accel} at {accel_m_s2} m/s^2 more (K/L outside "
+                          f"[{lo:.3g}, {hi:.3g}])")
+    k = brentq(excess, lo, hi)
     return JanosiCurve(soil_resistance / g(slip_steady / k), k,
                        "calibrated (calibrate_janosi)")

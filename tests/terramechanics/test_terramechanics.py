@@ -440,3 +440,16 @@ def test_burckhardt_curve_refuses_a_curve_that_does_not_rise_from_zero(c1, c2, c
     # upper bound' (its refinement took the grid's last point as the lower bound)
     with pytest.raises(ConfigError, match="BurckhardtCurve.*c1 c2 > c3"):
         BurckhardtCurve(c1, c2, c3)
+
+
+@pytest.mark.parametrize("args", [(0.3, 0.005, 0.05, 0.1), (0.08, 1e-4, 0.5)])
+def test_calibrate_janosi_solves_data_whose_k_lies_outside_1e3(args):
+    # a firm soil (f = 0.3) with slips 0.005 / 0.05 at 0.1 m/s^2 has its K/L near 1e-4:
+    # before, brentq's fixed bracket [1e-3, 1e3] gave 'f(a) and f(b) must have different
+    # signs' for data the docstring accepts
+    f, s_ss, s_acc = args[:3]
+    accel = args[3] if len(args) > 3 else 1.0
+    curve = calibrate_janosi(*args)
+    assert float(traction_coefficient(curve, s_ss)) == pytest.approx(f, rel=1e-6)
+    assert float(traction_coefficient(curve, s_acc)) == pytest.approx(f + accel / 9.80665,
+                                                                      rel=1e-6)
