@@ -282,8 +282,9 @@ class JanosiCurve:
     Raises
     ------
     ConfigError
-        ``mu_max`` is negative or not finite, ``shear_slip`` is not a finite value > 0, or
-        ``residual_ratio`` is outside (0, 1).
+        A value that is not a real number (text, a boolean, ``None`` but for
+        ``residual_ratio``), ``mu_max`` is negative or not finite, ``shear_slip`` is not a
+        finite value > 0, or ``residual_ratio`` is outside (0, 1).
     """
 
     mu_max: float
@@ -292,6 +293,8 @@ class JanosiCurve:
     residual_ratio: float | None = None
 
     def __post_init__(self) -> None:
+        config_numbers("JanosiCurve", optional=("residual_ratio",), mu_max=self.mu_max,
+                       shear_slip=self.shear_slip, residual_ratio=self.residual_ratio)
         if not (np.isfinite(self.mu_max) and self.mu_max >= 0.0):
             raise ConfigError(f"JanosiCurve: mu_max must be a finite value >= 0, got "
                               f"{self.mu_max}")

@@ -453,3 +453,13 @@ def test_calibrate_janosi_solves_data_whose_k_lies_outside_1e3(args):
     assert float(traction_coefficient(curve, s_ss)) == pytest.approx(f, rel=1e-6)
     assert float(traction_coefficient(curve, s_acc)) == pytest.approx(f + accel / 9.80665,
                                                                       rel=1e-6)
+
+
+@pytest.mark.parametrize("args, field", [(("0.5", 0.3), "mu_max"), ((0.5, None), "shear_slip"),
+                                         ((True, 0.3), "mu_max"),
+                                         ((0.5, 0.3, "", "0.4"), "residual_ratio")])
+def test_janosi_curve_refuses_a_value_that_is_not_a_number(args, field):
+    # before: numpy's bare TypeError ('ufunc isfinite not supported'), Python's for the
+    # residual ratio, and mu_max=True built a curve of mu_max 1
+    with pytest.raises(ConfigError, match=rf"JanosiCurve\.{field}"):
+        JanosiCurve(*args)
