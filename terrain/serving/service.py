@@ -315,10 +315,10 @@ class StreamService:
                 if skip:
                     self._filter.skip(skip)
                     self._skipped += skip
-                    clock.next_t += skip * self.config.hop_s
+                    clock.advance(skip, self.config.hop_s)
                     continue
             out.append(self._decide(clock.next_t))
-            clock.next_t += self.config.hop_s
+            clock.advance(1, self.config.hop_s)
         return out
 
     def _silent_hops(self, newest: float) -> int:
