@@ -28,7 +28,6 @@ def test_decision_clock_look_back_rewind_and_reset():
     assert clock.next_t is None and clock.needed_since() == -np.inf
 
 
-
 def test_decision_clock_hops_do_not_drift():
     # a running sum of 0.3 s hops was 2.2e-9 s late after 20 000 decisions (68 min), past
     # the 1e-9 s by which a window's end is told from a grid point; the clock is now its
@@ -43,6 +42,7 @@ def test_decision_clock_hops_do_not_drift():
     clock.next_t = 100.0
     clock.advance(1, 0.3)
     assert clock.next_t == 100.3
+
 
 def _intake(buffer_samples=64, **config):
     cfg = StreamConfig(streams={"wheels": WHEEL_CHANNELS}, buffer_samples=buffer_samples,
