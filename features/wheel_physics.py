@@ -249,7 +249,10 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
     rate_hz : float
         Sampling rate of the windows, Hz.
     short_s : float or None
-        Length of the second, recent time scale, s; ``None``: whole window only.
+        Length of the second, recent time scale, s; ``None``: whole window only. Also
+        whole window only (no ``__last...s`` names) where it rounds to fewer than 3
+        samples (too few for the fits) or to the whole window or more (the same features
+        twice).
     track_m : float
         Track width B, m.
     ridge : float
