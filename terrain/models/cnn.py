@@ -25,7 +25,8 @@ Leakage and reproducibility: the per-channel (raw) or per-channel-and-bin (spect
 standardisation is computed in ``fit`` from the training windows only. skorch's default
 random validation split is disabled: training runs a fixed epoch budget, or, with
 ``early_stopping=True``, validates on whole runs held out of the training data given to
-``fit`` (``groups`` required). Weights, shuffling and dropout draw from ``random_state`` in
+``fit`` (``groups`` required), which then take no part in the standardisation or the class
+weights either. Weights, shuffling and dropout draw from ``random_state`` in
 a forked torch RNG, so CPU training is deterministic; a CUDA device is used when present
 (``device="auto"``) and nothing requires one. skorch is handed the network's class and
 arguments, never an instance, so a net trained on a GPU loads and predicts on a CPU-only
