@@ -16,8 +16,9 @@ serve), whose windows come from the run's
 logged streams (the batch sensor model, as the uncontrolled runs). Trained on uncontrolled
 runs only, the classifier degraded under control (the slip the controller holds changes the
 wheel-speed and current signatures): docs/control_validation.md. Windows from
-:func:`features.windows.make_windows` (2 s, hop 0.5 s, 50 Hz, all IMU and wheel channels:
-``terrain train``'s default signal set); the SVM of :func:`terrain.models.registry.make_model`
+:func:`features.windows.make_windows` (2 s, hop 0.5 s, 50 Hz, all IMU and wheel channels,
+``all``: ``terrain train``'s default signal set on Vulpi and combined, not on BorealTC, where
+it leaves out the forward wheel speeds); the SVM of :func:`terrain.models.registry.make_model`
 (window features -> scaler -> RBF SVC with Platt probabilities); saved as the same MLflow
 model directory as ``terrain train --model-out`` (:func:`terrain.serving.pyfunc.save_model`),
 cached under ``out/control_classifier/<vehicle>-<key>/model`` (the key hashes the settings,
