@@ -142,10 +142,12 @@ class ModelRecipe:
                               "(svm or an ensemble, window statistics, all signals)")
 
 
-#: all signals: the ``terrain train --model svm`` model (2 s at the BorealTC IMU rate);
+#: all signals: the ``terrain train --model svm --signals all --train-hop-s 2`` model (2 s at
+#: the BorealTC IMU rate);
 #: all-ensemble: the same windows, the ``ensemble`` model (SVM + spectrogram CNN, soft vote);
 #: all-ensemble3: the same windows, the ``ensemble3`` model (SVM + raw CNN + spectrogram
-#: CNN, soft vote; the BorealTC default of ``terrain train``); ``all-dense`` and
+#: CNN, soft vote; the BorealTC default of ``terrain train`` until that became ``ensemble`` on
+#: ``all-no-speed``); ``all-dense`` and
 #: ``all-ensemble-dense``: the SVM and the ensemble fitted on windows cut every 0.5 s
 #: (overlapping) from the training runs
 #: (as ``terrain cv --train-hop-s 0.5``, docs/streaming.md); ``all-ensemble-dense-window-ekf``:
