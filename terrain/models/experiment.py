@@ -314,6 +314,28 @@ class ExperimentResult:
     input_notes: tuple[str, ...] = ()
 
 
+def check_windows_left(ws: WindowSet, config: ExperimentConfig) -> None:
+    """Refuse a selection that leaves no window (every run shorter than the window, or no
+    run holding the signals), before scikit-learn's own "0 samples" ``ValueError``.
+
+    Parameters
+    ----------
+    ws : WindowSet
+        The windows cut from the dataset.
+    config : ExperimentConfig
+        Dataset, signals and window length, named in the message.
+
+    Raises
+    ------
+    ConfigError
+        ``ws`` holds no window.
+    """
+    if len(ws) == 0:
+        raise ConfigError(f"no window left for this dataset, signal set and window (dataset "
+                          f"{config.dataset!r}, signals {'+'.join(config.signals)}, "
+                          f"{config.window_s:g} s windows)")
+
+
 def check_two_classes(labels: np.ndarray, dataset: str, run_ids: np.ndarray) -> None:
     """Refuse windows of fewer than two terrain classes, naming the class and its runs.
 
@@ -444,8 +466,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     runs = load_dataset(config.dataset, data_dir) if runs is None else runs
     ws = load_windows(config, runs, data_dir, progress)
     t1 = time.perf_counter()
-    if len(ws) == 0:
-        raise ConfigError("no window left for this dataset, signal set and window")
+    check_windows_left(ws, config)
     labels = ws.labels.astype(str)
     check_two_classes(labels, config.dataset, ws.run_ids)
     notes = []
@@ -584,7 +605,8 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     ------
     ConfigError
         If the signals include EKF-derived channels (not computed by the served model), or
-        the windows hold one terrain class only.
+        the selection leaves no window (:func:`check_windows_left`), or the windows hold
+        one terrain class only.
 
     Returns
     -------
@@ -601,6 +623,7 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     # training uses every window of the training cut (train_hop_s), when one is set
     ws = load_windows(config if config.train_hop_s is None
                       else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)
+    check_windows_left(ws, config)
     labels = ws.labels.astype(str)
     check_two_classes(labels, config.dataset, ws.run_ids)
     info: dict = {"model": config.model}

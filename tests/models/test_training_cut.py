@@ -148,6 +148,18 @@ def test_one_terrain_class_is_a_typed_error_naming_it(vulpi_runs):
             call(config, runs=one)
 
 
+def test_no_window_left_is_a_typed_error_in_training_as_in_cv(vulpi_runs):
+    # `terrain train --dataset vulpi --model svm --window-s 1000` (every run shorter than the
+    # window) was an internal error: scikit-learn's "found 0 windows" ValueError, exit 1
+    from terrain.models.experiment import fit_pipeline
+
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
+                              window_s=1000.0)
+    for call in (run_cv, fit_pipeline):
+        with pytest.raises(ConfigError, match=r"no window left .*1000 s"):
+            call(config, runs=vulpi_runs)
+
+
 @pytest.mark.parametrize("given", [dict(window_s=3.0), dict(hop_s=1.0), dict(window_s=1.0,
                                                                              hop_s=0.1)])
 def test_paper_protocol_refuses_window_options_it_would_ignore(given):
