@@ -12,7 +12,7 @@ import argparse
 
 import pandas as pd
 
-from pipelines.arguments import input_folder, output_file
+from pipelines.arguments import input_folder, input_path, output_file
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Sub-command parser to which the options are added (modified in place).
     """
-    parser.add_argument("--model", required=True,
+    parser.add_argument("--model", type=input_path, required=True,
                         help="MLflow model directory or URI (e.g. models:/terrain-borealtc/latest, "
                              "resolved in the tracking store in force, see README)")
     parser.add_argument("runs_dir", type=input_folder, metavar="RUNS_DIR",

@@ -286,6 +286,9 @@ _REFUSED = [
     # a folder argument given as "" was Path(""), the working folder: predict and estimate
     # read the runs there, --slip-model-dir "" looked for a slip model in it
     (["predict", "--model", "m", "", "--out", "p.csv"], f"argument RUNS_DIR: {EMPTY_PATH}"),
+    # --model "" loaded the working folder (". is not a terrain model directory", or its
+    # model where the command ran in one)
+    (["predict", "--model", "", "r", "--out", "p.csv"], f"argument --model: {EMPTY_PATH}"),
     (["estimate", "", "--out", "s.csv"], f"argument RUN_DIR: {EMPTY_PATH}"),
     (["estimate", "r", "--out", "s.csv", "--slip-model-dir", ""],
      f"argument --slip-model-dir: {EMPTY_PATH}"),
