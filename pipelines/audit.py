@@ -20,8 +20,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from pipelines.arguments import (input_folder, integer_in, output_file, parse_number,
-                                 positive_number, seed_value)
+from pipelines.arguments import (input_folder, integer_in, output_dir, output_file,
+                                 parse_number, positive_number, seed_value)
 from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict, to_markdown
 from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdown,
                                    gain_table, per_run_errors)
@@ -29,7 +29,7 @@ from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, Replay
                                   cruise_wheel_acceleration_rms, lowpass_cutoff_hz)
 from terrain.audit.core import prepare_frames
 from terrain.audit.selection import MAX_BOOTSTRAP, MAX_PARAM_BOOTSTRAP, MIN_BOOTSTRAP
-from terrain.audit.report import flat_metrics, summary_lines, write_markdown
+from terrain.audit.report import figures_folder, flat_metrics, summary_lines, write_markdown
 from terrain.io.jsonfile import json_ready
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.errors import ConfigError
@@ -147,13 +147,20 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        Neither or both of ``RUNS_DIR`` and ``--dataset`` given, or a setting out of range
-        (:class:`terrain.audit.selection.SelectionSettings`).
+        Neither or both of ``RUNS_DIR`` and ``--dataset`` given, the figures' folder beside
+        ``--md`` cannot be created (:func:`pipelines.arguments.output_dir`), or a setting out
+        of range (:class:`terrain.audit.selection.SelectionSettings`); all before any run is
+        read.
     DataFormatError
         No run could be audited (from the readers or :func:`terrain.audit.run_audit`).
     """
     if (args.runs_dir is None) == (args.dataset is None):
         raise ConfigError("give exactly one of RUNS_DIR or --dataset")
+    if args.md is not None:     # its figures' folder, before the audit rather than after it
+        try:
+            output_dir(str(figures_folder(args.md)))
+        except argparse.ArgumentTypeError as exc:
+            raise ConfigError(f"--md: {exc}") from None
     settings = AuditSettings(  # before reading: a bad setting fails fast
         replay=ReplaySettings(physics=args.physics,
                               input_cutoff_hz=args.replay_input_lowpass_hz),

@@ -356,9 +356,27 @@ def to_markdown(report: Mapping, figures: Mapping[str, str] | None = None,
         manoeuvre_rows=_manoeuvre_rows(report))
 
 
+def figures_folder(path: Path) -> Path:
+    """The folder of a Markdown report's figures, ``<stem>_figures`` beside it.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The Markdown file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path.parent / f"{path.stem}_figures"``.
+    """
+    path = Path(path)
+    return path.parent / f"{path.stem}_figures"
+
+
 def write_markdown(path: Path, report: Mapping, figures: Mapping[str, Any],
                    commands: Sequence[str] = (), title: str = "Simulation audit") -> None:
-    """Write the Markdown report at ``path`` and its figures in ``<stem>_figures/`` beside it.
+    """Write the Markdown report at ``path`` and its figures in ``<stem>_figures/`` beside it
+    (:func:`figures_folder`).
 
     Parameters
     ----------
@@ -375,7 +393,7 @@ def write_markdown(path: Path, report: Mapping, figures: Mapping[str, Any],
         Page title.
     """
     path = Path(path)
-    folder = path.parent / f"{path.stem}_figures"
+    folder = figures_folder(path)
     folder.mkdir(parents=True, exist_ok=True)
     for key, fig in figures.items():
         fig.savefig(folder / f"audit_{key}.png", dpi=90)

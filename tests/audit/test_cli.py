@@ -232,3 +232,17 @@ def test_cli_with_progress_reports_the_replay_time(tmp_path):
                      "50", "--param-bootstrap", "0", "--no-pooled", "--no-mlflow"]) == 0
     timings = json.loads((out / "a.json").read_text())["timings_s"]
     assert timings["replay_s"] > 0.01               # a 20 s run's replay takes ~0.3 s
+
+
+def test_cli_refuses_a_figures_folder_it_cannot_create_before_the_audit(runs_dir, tmp_path,
+                                                                        capsys, monkeypatch):
+    # --md a.md beside a file a_figures: the whole audit ran, a.json was written, and then
+    # "error: File exists: .../a_figures" (naming no option) left a.json behind
+    import pipelines.audit as audit
+
+    (tmp_path / "a_figures").write_text("not a folder")
+    monkeypatch.setattr(audit, "read_runs_dir", lambda *a, **k: pytest.fail("runs were read"))
+    assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow")) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("terrain audit: error: --md: ") and "a_figures" in err
+    assert not (tmp_path / "a.json").exists()
