@@ -33,6 +33,20 @@ def _blocking_ancestor(path: Path) -> Path | None:
     return None
 
 
+def _why(exc: OSError) -> str:
+    """An error's reason without the path (``File name too long``)."""
+    return exc.strerror or type(exc).__name__
+
+
+def _exists(path: Path) -> bool:
+    """``path.exists()``, False for a name the system refuses to look up (too long: the
+    command's own reading then reports it, naming it)."""
+    try:
+        return path.exists()
+    except OSError:
+        return False
+
+
 def _nearest_existing(path: Path) -> Path:
     """``path`` itself or its nearest existing ancestor (``.`` for a relative path)."""
     for candidate in (path, *path.parents):
@@ -87,26 +101,29 @@ def output_file(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        The value is empty, an ancestor of the path is a file, the path is an existing
-        folder or a file without write permission, or no file can be created in the
-        nearest existing folder (tried with a scratch file, removed at once; argparse
-        prints the error as a one-line usage error).
+        The value is empty, a name the system refuses (too long), an ancestor of the path
+        is a file, the path is an existing folder or a file without write permission, or no
+        file can be created in the nearest existing folder (tried with a scratch file,
+        removed at once; argparse prints the error as a one-line usage error).
     """
     _refuse_empty(value)
     path = Path(value)
-    blocker = _blocking_ancestor(path)
-    if blocker is not None:
-        raise argparse.ArgumentTypeError(
-            f"cannot write {value!r}: {str(blocker)!r} is a file, not a folder")
-    if path.is_dir():
-        raise argparse.ArgumentTypeError(
-            f"cannot write {value!r}: it is a folder (give a file name)")
-    if path.exists():
-        if not os.access(path, os.W_OK):
+    try:
+        blocker = _blocking_ancestor(path)
+        if blocker is not None:
             raise argparse.ArgumentTypeError(
-                f"cannot write {value!r}: no write permission on {value!r}")
-        return path
-    base = _nearest_existing(path.parent)
+                f"cannot write {value!r}: {str(blocker)!r} is a file, not a folder")
+        if path.is_dir():
+            raise argparse.ArgumentTypeError(
+                f"cannot write {value!r}: it is a folder (give a file name)")
+        if path.exists():
+            if not os.access(path, os.W_OK):
+                raise argparse.ArgumentTypeError(
+                    f"cannot write {value!r}: no write permission on {value!r}")
+            return path
+        base = _nearest_existing(path.parent)
+    except OSError as exc:      # a name the system refuses to look up (too long)
+        raise argparse.ArgumentTypeError(f"cannot write {value!r}: {_why(exc)}") from None
     why = _cannot_create_in(base)
     if why is not None:
         raise argparse.ArgumentTypeError(
@@ -131,17 +148,22 @@ def output_dir(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        The value is empty, the path or one of its ancestors is a file, or no file can be
-        created in the nearest existing folder (tried with a scratch file, removed at
-        once; argparse prints the error as a one-line usage error).
+        The value is empty, a name the system refuses (too long), the path or one of its
+        ancestors is a file, or no file can be created in the nearest existing folder
+        (tried with a scratch file, removed at once; argparse prints the error as a one-line
+        usage error).
     """
     _refuse_empty(value)
     path = Path(value)
-    blocker = path if path.exists() and not path.is_dir() else _blocking_ancestor(path)
+    try:
+        blocker = path if path.exists() and not path.is_dir() else _blocking_ancestor(path)
+        base = _nearest_existing(path)
+    except OSError as exc:      # a name the system refuses to look up (too long)
+        raise argparse.ArgumentTypeError(
+            f"cannot use {value!r} as output folder: {_why(exc)}") from None
     if blocker is not None:
         raise argparse.ArgumentTypeError(
             f"cannot use {value!r} as output folder: {str(blocker)!r} is a file")
-    base = _nearest_existing(path)
     why = _cannot_create_in(base)
     if why is not None:
         raise argparse.ArgumentTypeError(
@@ -262,7 +284,7 @@ def check_output_files(command: argparse.ArgumentParser, args: argparse.Namespac
         if action.type is output_file:
             outputs.append((name, Path(value)))
         elif action.type not in OUTPUT_TYPES and action.choices is None \
-                and Path(value).exists():
+                and _exists(Path(value)):
             inputs.append((str(value), Path(value).resolve()))
     seen: dict[Path, str] = {}
     for name, path in outputs:
@@ -300,7 +322,7 @@ def check_derived_output(option: str, path: Path, inputs: list[Path | None]) -> 
         output_file(str(path))
     except argparse.ArgumentTypeError as exc:
         raise ConfigError(f"{option}: {exc}") from None
-    given = [(str(p), Path(p).resolve()) for p in inputs if p is not None and Path(p).exists()]
+    given = [(str(p), Path(p).resolve()) for p in inputs if p is not None and _exists(Path(p))]
     why = _overwritten_input(path.resolve(), given)
     if why:
         raise ConfigError(f"{option}: cannot write {str(path)!r}: {why}")

@@ -296,3 +296,29 @@ def test_estimate_checks_each_per_run_file_before_any_work(tmp_path, capsys):
     assert err == (f"terrain estimate: error: --out: cannot write "
                    f"{str(tmp_path / 'est_SNOW_00.csv')!r}: it is a folder (give a file name)")
     assert not (tmp_path / "est_ICE_00.csv").exists()
+
+
+_LONG = "a" * 300   # one name longer than any file system takes (ENAMETOOLONG)
+
+
+@pytest.mark.parametrize("argv", [
+    ["predict", "--model", "m", "r", "--out", f"{_LONG}.csv"],      # output file
+    ["predict", "--model", "m", "r", "--out", f"{_LONG}/p.csv"],    # its folder
+    ["simulate", "--vehicle", "husky", "--terrain", "ICE", "--out", _LONG],  # output folder
+    ["estimate", _LONG, "--out", "e.csv"],                          # an input
+], ids=["file", "file-folder", "folder", "input"])
+def test_a_name_too_long_is_one_line_not_a_traceback(argv, tmp_path, monkeypatch, capsys):
+    # Path.exists() raises OSError [Errno 36] File name too long: it escaped argparse (and
+    # the input check run before the command) as a Python traceback, exit 1
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "m").mkdir()
+    (tmp_path / "r").mkdir()
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse's own usage error
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith(f"terrain {argv[0]}: error:")
+    assert "too long" in err
