@@ -71,7 +71,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-loto", action="store_true", help="skip leave-one-terrain-out")
     parser.add_argument("--measured", default=None, choices=list(DATASET_SPECS),
                         help="also check the model on a shipped measured dataset (borealtc)")
-    parser.add_argument("--no-register", action="store_true")
+    parser.add_argument("--no-register", action="store_true",
+                        help="log the model without registering it as slip-husky")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -352,3 +352,17 @@ def test_simulate_help_gives_each_effects_unit_and_range(capsys):
                   "wheel_lag [0, 2] s", "turning_resistance [0, 50] A",
                   "current_offset [-20, 20] A", "grade_resistance [0, 200] A/rad"):
         assert piece in text, piece
+
+
+def test_every_flag_says_what_it_does_in_help():
+    # `terrain slip-fit --help` listed --no-register with a blank help line: a flag shows
+    # no default, so nothing at all said what it does
+    from terrain.cli import _NO_HELP, build_parser
+
+    parser = build_parser()
+    silent = [f"{name} {action.option_strings[0]}"
+              for name, command in parser._subparsers._group_actions[0].choices.items()
+              for action in command._actions
+              if action.nargs == 0 and action.option_strings
+              and not (action.help or "").replace(_NO_HELP, "").strip()]
+    assert silent == []
