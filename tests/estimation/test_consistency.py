@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
+from scipy import signal, stats
 
 from terrain.errors import ConfigError, CovarianceError, ShapeError
 from terrain.estimation.consistency import (chi2_test, effective_sample_size, mean_chi2_bounds,
@@ -32,6 +32,10 @@ def test_bounds_and_effective_sample_size():
     white = rng.standard_normal(5000)
     red = np.convolve(white, np.ones(50) / 50, mode="same")
     assert effective_sample_size(red) < 0.1 * effective_sample_size(white)
+    # a known value: AR(1) with phi = 0.8 has tau = 1 + 2 sum phi^k = (1 + phi) / (1 - phi)
+    # = 9 (8.6 summed to the 0.05 threshold); the ratio above also held with tau = 1 + sum
+    ar = signal.lfilter([1.0], [1.0, -0.8], np.random.default_rng(5).standard_normal(20000))
+    assert effective_sample_size(ar) == pytest.approx(20000 / 9.0, rel=0.15)
 
 
 def test_biased_filter_fails_the_test():
