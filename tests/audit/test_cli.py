@@ -50,9 +50,11 @@ def test_cli_writes_json_and_markdown(runs_dir, tmp_path, capsys):
     assert report["supported"]["ICE"] == ["none"]
     md = (tmp_path / "a.md").read_text()
     assert "## Effects" in md and "gyro_bias" in md and "terrain audit" in md
-    for line in md.splitlines():
-        if line.startswith("!["):
-            assert (tmp_path / line.split("](")[1].rstrip(")")).exists()
+    # every figure written is linked from the page, and every link names a written figure
+    linked = {line.split("](")[1].rstrip(")") for line in md.splitlines()
+              if line.startswith("![")}
+    written = {f"a_figures/{p.name}" for p in (tmp_path / "a_figures").glob("*.png")}
+    assert linked and linked == written
     assert "ASPHALT: gyro_bias" in capsys.readouterr().out
 
 
