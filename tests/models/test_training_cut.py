@@ -119,6 +119,7 @@ def test_fit_pipeline_trains_on_the_training_cut(vulpi_runs):
                                   runs=vulpi_runs)
     assert 1.8 < len(dense) / len(plain) < 2.1
     assert dense.X.shape[1:] == plain.X.shape[1:]          # same window, same served input
+    assert pipe.named_steps["scale"].n_samples_seen_ == len(dense)   # fitted on every window
     assert pipe.predict_proba(plain.X[:3]).shape == (3, len(np.unique(plain.labels)))
 
 
