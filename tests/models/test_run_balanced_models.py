@@ -119,9 +119,12 @@ def test_cnn_draws_its_epochs_by_the_window_weights():
     # weight only on B's odd run: the vibration is never seen as B, unseen B is not found
     blind = fit(np.where(np.isin(groups[train], ["b0", "b1", "b2"]), 0.0, 1.0))
     assert (blind.predict(X[test]) == y[test]).mean() <= 0.7
-    for bad in (np.zeros(train.sum()), -weight, np.ones(3)):
-        with pytest.raises(ValueError):
+    one_negative = np.where(np.arange(train.sum()) == 0, -1.0, weight)   # sum still > 0
+    for bad in (np.zeros(train.sum()), -weight, one_negative, np.full(train.sum(), np.nan)):
+        with pytest.raises(ValueError, match="sample_weight must be finite and >= 0"):
             fit(bad)
+    with pytest.raises(ValueError, match="inconsistent numbers of samples"):
+        fit(np.ones(3))
 
 
 def test_fitted_cnn_keeps_neither_its_training_weights_nor_its_draw_generator():
