@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 
 import pytest
+from cli_helpers import exit_code
 
 from features.windows import MAX_WINDOW_SAMPLES, WindowConfig
 from pipelines.arguments import EMPTY_PATH, seed_value
@@ -304,10 +305,7 @@ _REFUSED = [
 def test_cli_refuses_out_of_range_values_in_one_line(argv, text, tmp_path, monkeypatch,
                                                      capsys):
     monkeypatch.chdir(tmp_path)
-    try:
-        code = main(argv)
-    except SystemExit as exc:  # argparse's own usage error
-        code = exc.code
+    code = exit_code(argv)
     assert code == 2
     err = capsys.readouterr().err
     lines = err.strip().splitlines()

@@ -6,6 +6,7 @@ import argparse
 import os
 
 import pytest
+from cli_helpers import exit_code
 
 from pipelines.arguments import EMPTY_PATH, input_path, model_dir, output_dir, output_file
 from terrain.cli import build_parser, main
@@ -313,10 +314,7 @@ def test_a_name_too_long_is_one_line_not_a_traceback(argv, tmp_path, monkeypatch
     monkeypatch.chdir(tmp_path)
     (tmp_path / "m").mkdir()
     (tmp_path / "r").mkdir()
-    try:
-        code = main(argv)
-    except SystemExit as exc:  # argparse's own usage error
-        code = exc.code
+    code = exit_code(argv)
     assert code == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err
