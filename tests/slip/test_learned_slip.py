@@ -132,6 +132,14 @@ def test_observer_finds_no_slip_in_slip_free_turning():
     yaw = (vr - vl) / HUSKY.track_m * t
     s = observer_slip(t, yaw, vl, vr, HUSKY.track_m / 2)
     np.testing.assert_allclose(s[-1], 0.0, atol=1e-3)
+    # the right (outer) side slipping by 0.2: the yaw-only observer cannot split the yaw
+    # deficit between the sides, but its slips reproduce the gyro's yaw rate and put the
+    # slip on the right (left 1 - eta < 0 < right 1 - eta)
+    rate = (0.8 * vr - vl) / HUSKY.track_m
+    s = observer_slip(t, rate * t, vl, vr, HUSKY.track_m / 2)
+    implied = (vr * (1 - s[:, 1]) - vl * (1 - s[:, 0])) / HUSKY.track_m
+    np.testing.assert_allclose(implied[-1], rate[-1], rtol=1e-3)
+    assert s[-1, 0] < -0.01 and s[-1, 1] > 0.1
 
 
 def test_targets_and_features_on_simulated_runs(tiny_table):
