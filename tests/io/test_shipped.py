@@ -66,6 +66,11 @@ def test_runs_equal_detects_a_changed_value_label_or_stream(borealtc_runs):
     assert not runs_equal(run, dataclasses.replace(run, terrain="SNOW"))
     assert not runs_equal(run, dataclasses.replace(run, streams={"wheels":
                                                                  run.streams["wheels"]}))
+    # the id, and a column's name with its values unchanged (a swapped label)
+    assert not runs_equal(run, dataclasses.replace(run, run_id=run.run_id + "0"))
+    wheels = run.streams["wheels"].rename(columns={"vel_l": "vel_r", "vel_r": "vel_l"})
+    assert not runs_equal(run, dataclasses.replace(run, streams={**run.streams,
+                                                                 "wheels": wheels}))
 
 
 def test_manifest_records_provenance_rates_checksums(tmp_path, csv_tree):
