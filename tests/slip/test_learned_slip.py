@@ -534,6 +534,9 @@ def test_chi_clip_of_the_odometry_and_yaw_checks_is_counted_and_said():
     from terrain.slip.evaluation import CHI_RANGE, measured_checks
     assert CHI_RANGE == (0.5, 5.0)
     run = _still_run()
+    # turning: chi divides the wheel yaw rate (on a straight run any chi gives the same
+    # pose, so an unclipped 9 passed for the clipped 5)
+    run.streams["wheels"]["vel_r"] = 0.6
     meta = pd.DataFrame({"run_id": [run.run_id] * 2, "t_start_s": [0.0, 6.0],
                          "t_end_s": [2.0, 8.0]})
     wild = np.array([[0.0, 0.0, 9.0, 0.0], [0.0, 0.0, 9.0, 0.0]])
@@ -545,6 +548,9 @@ def test_chi_clip_of_the_odometry_and_yaw_checks_is_counted_and_said():
         same = odometry_errors([run], meta, np.where(wild == 9.0, 5.0, wild), HUSKY.track_m,
                                [run.run_id])
     pd.testing.assert_frame_equal(clipped, same)
+    other = odometry_errors([run], meta, np.where(wild == 9.0, 2.0, wild), HUSKY.track_m,
+                            [run.run_id])
+    assert abs(other.loc[0, "compensated_err_pct"] - same.loc[0, "compensated_err_pct"]) > 1
     X = pd.DataFrame({"wz__mean": [0.3, 0.3, 0.0], "vel_diff__mean": [0.2, 0.2, 0.0],
                       "cur_l__mean": 1.0, "cur_r__mean": 1.0, "phys_slip_l": 0.0,
                       "phys_slip_r": 0.0})
