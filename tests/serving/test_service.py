@@ -86,7 +86,8 @@ def test_imu_and_wheel_decisions_are_the_batch_predictions_on_the_model_clock(
 
 def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run):
     svc = service(all_model, hop_s=0.5, smoothing=SmoothingConfig())
-    frame = decisions_frame(replay_run(svc, unseen_run), all_model.classes)
+    decisions = replay_run(svc, unseen_run)
+    frame = decisions_frame(decisions, all_model.classes)
     assert list(frame.columns) == (
         ["t_s", "terrain", "confidence"] + [f"proba_{c}" for c in all_model.classes]
         + ["target_slip_traction", "target_slip_braking", "target_slip_steady",
@@ -97,6 +98,19 @@ def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run)
     np.testing.assert_allclose(frame.filter(like="proba_").sum(axis=1), 1.0)
     assert (frame["window_age_s"] < 0.2).all()  # the 6.5 Hz wheels set the pace
     assert set(frame["terrain"]) <= set(all_model.classes)
+    # each column holds its own field of each decision (the columns were checked by name
+    # only: braking and steady targets written into each other's column passed)
+    for col in ("t_s", "terrain", "confidence", "target_slip_traction", "target_slip_braking",
+                "target_slip_steady", "window_age_s", "flags"):
+        assert frame[col].tolist() == [getattr(d, col) for d in decisions], col
+    np.testing.assert_array_equal(frame.filter(like="proba_").to_numpy(),
+                                  [d.proba for d in decisions])
+    # ... and the targets are the catalogue's for the decision (the fallback when unsure)
+    targets = [svc.targets.target_for(d.terrain, d.confidence, "stale" in d.flags)
+               for d in decisions]
+    assert frame[["target_slip_traction", "target_slip_braking", "target_slip_steady"]] \
+        .to_numpy().tolist() == [[s.traction, s.braking, s.steady] for s in targets]
+    assert (frame["target_slip_steady"] != frame["target_slip_braking"]).all()
 
 
 def test_a_window_does_not_depend_on_how_many_samples_past_its_end_have_arrived(
