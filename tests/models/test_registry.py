@@ -17,7 +17,7 @@ CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az", "vel_l", "vel_r", "cur_l", "cur_
 def test_ensemble3_is_the_equal_weight_vote_of_svm_raw_cnn_and_spectrogram_cnn():
     # ensemble_members configures the two-member "ensemble" only; ensemble3 is fixed
     config = ModelConfig(kind="ensemble3", ensemble_members=("svm", "minirocket"),
-                         max_epochs=7)
+                         max_epochs=7, n_threads=2, early_stopping=True)
     model = make_model(config, CHANNELS, 50.0, "borealtc", random_state=3)
     assert isinstance(model, SoftVotingEnsemble)
     assert [name for name, _ in model.estimators] == list(ENSEMBLE3_MEMBERS)
@@ -28,6 +28,9 @@ def test_ensemble3_is_the_equal_weight_vote_of_svm_raw_cnn_and_spectrogram_cnn()
     cnn, spec = model.estimators[1][1], model.estimators[2][1]
     assert cnn.max_epochs == spec.max_epochs == 7
     assert cnn.random_state == spec.random_state == 3
+    # ... and the thread budget and early stopping (a dropped setting left the default)
+    assert cnn.n_threads == spec.n_threads == 2
+    assert cnn.early_stopping is spec.early_stopping is True
     assert spec.band_limits_hz[CHANNELS.index("vel_l")] == pytest.approx(3.25)
     two = make_model(ModelConfig(kind="ensemble"), CHANNELS, 50.0, "borealtc")
     assert [name for name, _ in two.estimators] == ["svm", "cnn-spectrogram"]
