@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import ShapeError
+from terrain.errors import ShapeError, config_positive
 
 
 def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarray:
@@ -155,7 +155,7 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     yaw_rate_rad_s : ndarray, shape (N,)
         True yaw rate, rad/s.
     track_m : float
-        Track width B, m.
+        Track width B, m (finite, > 0).
     min_yaw_rate_rad_s : float
         Samples turning slower than this are left out, rad/s.
 
@@ -168,11 +168,15 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     ------
     ShapeError
         The three arrays differ in shape.
+    ConfigError
+        ``track_m`` is not a finite length > 0 (a negative one flipped chi's sign, 0 gave
+        NaN).
 
     References
     ----------
     Mandow et al., IROS 2007 (ICR expansion); seed ``000_f24201ff985633bf.txt`` eqs. 2-3.
     """
+    config_positive("chi_from_truth", track_m=track_m)
     w = np.asarray(yaw_rate_rad_s, dtype=float)
     left, right = np.asarray(v_left_m_s, dtype=float), np.asarray(v_right_m_s, dtype=float)
     _same_shape(v_left_m_s=left, v_right_m_s=right, yaw_rate_rad_s=w)

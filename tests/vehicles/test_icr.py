@@ -64,3 +64,14 @@ def test_a_missing_sample_gives_an_unknown_chi_not_a_dug_in_vehicle():
     assert np.isnan(icr_expansion_factor(wz, x))
     assert np.isnan(icr_expansion_factor(x / 1.5, np.where(x > 0.5, np.nan, x)))
     assert icr_expansion_factor(np.zeros(50), x) == np.inf          # still dug in
+
+
+@pytest.mark.parametrize("track_m", [0.0, -0.5, float("nan"), float("inf")])
+def test_chi_from_truth_refuses_a_track_that_is_not_a_finite_length(track_m):
+    from terrain.errors import ConfigError
+    from terrain.vehicles.icr import chi_from_truth
+
+    # a negative track turned chi 1.6 into -1.6 and 0 into NaN, without a word
+    yaw = np.array([0.5, 0.5])
+    with pytest.raises(ConfigError, match="chi_from_truth.track_m must be a finite value > 0"):
+        chi_from_truth(np.array([-0.2, -0.2]), np.array([0.2, 0.2]), yaw, track_m)
