@@ -106,10 +106,12 @@ class Run:
 
     @property
     def duration_s(self) -> float:
-        """Duration of the wheel stream (or the longest stream), in s."""
+        """Duration of the wheel stream (or the longest stream), in s; 0 when it (or every
+        stream) holds no sample."""
         frame = self.streams.get("wheels")
         frames = [frame] if frame is not None else list(self.streams.values())
-        return float(max(f[TIME].iloc[-1] - f[TIME].iloc[0] for f in frames if len(f)))
+        return float(max((f[TIME].iloc[-1] - f[TIME].iloc[0] for f in frames if len(f)),
+                         default=0.0))
 
     def require_columns(self, stream: str, columns) -> pd.DataFrame:
         """A stream's frame, checked to hold ``t_s`` and ``columns``.
