@@ -839,8 +839,11 @@ def test_real_server_without_content_type_is_a_415(server, request_frame):
     _one_line_typed(body, "DataFormatError")
     assert "Content-Type" in body["message"] and "text/csv" in body["message"]
     status, body = _raw(server[1], b"x", "text/plain")  # MLflow's plain-text 415, as JSON
-    assert status == 415
+    assert status == 415 and body["error_code"] == "BAD_REQUEST", body
     _one_line_typed(body, "DataFormatError")
+    # MLflow's own words kept, under the project's name for them
+    assert body["message"].startswith("DataFormatError: unsupported request content type: ")
+    assert "text/plain" in body["message"], body
 
 
 def test_real_server_huge_integer_is_a_typed_400(server, request_frame):
