@@ -773,9 +773,13 @@ def test_real_server_answers_and_survives_bad_requests(server, request_frame):
     assert status == 400 and body["message"].startswith("TimestampError: ")
     big = pd.concat([request_frame] * 40, ignore_index=True)
     status, body = _post(base + "/invocations", _body(big).encode())
-    assert status == 413 and "exceeds the limit of 100000" in body["message"]
+    assert status == 413 and body["error_code"] == "REQUEST_LIMIT_EXCEEDED", body
+    _one_line_typed(body, "DataFormatError")
+    assert "exceeds the limit of 100000" in body["message"]
     status, body = _post(base + "/invocations", b'{"dataframe_split": ')
-    assert 400 <= status < 500 and "Traceback" not in json.dumps(body)
+    assert status == 400, body
+    _one_line_typed(body, "DataFormatError")
+    assert "the request body is not valid JSON (" in body["message"], body
     assert _post(base + "/invocations", good)[0] == 200  # still up
     assert proc.poll() is None
 
