@@ -579,6 +579,10 @@ def test_a_clock_step_just_longer_than_clock_restart_s_is_put_back(all_model, un
     after = [d for d in got if d.t_s > t_cut + 5.5 + all_model.window.window_s]
     assert len(after) > 40 and [d.flags for d in after] == \
         [ref[round(d.t_s, 6)].flags for d in after]
+    # the windows holding the newest held sample (~5 s in) say clock_restart, no others
+    flagged = [d.t_s - t_cut for d in got if "clock_restart" in d.flags]
+    assert len(flagged) == round(all_model.window.window_s / 0.5), flagged
+    assert 5.0 < flagged[0] and flagged[-1] < 5.5 + all_model.window.window_s, flagged
 
 
 @pytest.mark.parametrize("stream", ["imu", "wheels"])
