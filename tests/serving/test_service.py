@@ -600,6 +600,10 @@ def test_a_clock_stepping_back_less_than_clock_restart_s_is_put_back(all_model, 
         got += svc.push(s, t - 3.0 if s == stream and t[0] >= t_cut else t, v)
     assert svc.clock_restarts == 1 and svc.refused_samples == {}
     assert abs(svc.clock_offsets_s[stream] - 3.0) < 0.08   # half a wheel step
+    # the windows holding the first sample of the late run (3 s in) say clock_restart
+    flagged = [d.t_s - t_cut for d in got if "clock_restart" in d.flags]
+    assert len(flagged) == round(all_model.window.window_s / 0.5), flagged
+    assert 2.5 < flagged[0] and flagged[-1] < 3.0 + all_model.window.window_s, flagged
     ref = {round(d.t_s, 6): d for d in reference}
     after = [d for d in got if d.t_s > t_cut + 3.0 + all_model.window.window_s]
     assert len(after) > 40 and sum(d.flags == "" for d in after) >= 0.95 * len(after)
