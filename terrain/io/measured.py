@@ -354,15 +354,8 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     ragged = np.flatnonzero(n_fields != len(header))
     if ragged.size:
         k = int(ragged[0])
-        hint = (_header_format_hint(header) if len(header) == 1 and _header_format_hint(header)
-                else "; the line holds NUL bytes: the end of a file that was never written "
-                "(a power loss while logging?)" if "\x00" in rows[k]
-                else "; it is the last line and has no line break: cut off while the file "
-                "was written (a logger stopped)?" if unended and k == len(rows) - 1
-                else "; a trailing comma?" if rows[k].rstrip().endswith(",")
-                else "; an unbalanced quote?" if rows[k].count('"') % 2
-                else f"; the header ends in a comma, line {lines[k]} does not: a trailing comma?"
-                if not header[-1] and n_fields[k] < len(header) else "")
+        hint = _ragged_hint(header, rows[k], int(lines[k]), int(n_fields[k]),
+                            unended and k == len(rows) - 1)
         raise RaggedRowError(f"{ragged.size} of {len(rows)} data rows have a field count "
                              f"other than the header's {len(header)} (first: {n_fields[k]} "
                              f"fields) at {first_items(lines[ragged])}{hint}", path,
@@ -371,6 +364,30 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
         raise EmptyFileError("file has a single data row; at least 2 are needed to know the "
                              "sample rate", path, line=int(lines[0]))
     return header, cells, lines, skipped
+
+
+def _ragged_hint(header: list[str], row: str, line: int, n_fields: int,
+                 cut_off: bool) -> str:
+    """The likely cause of the first row whose field count is not the header's, for the
+    message ("" when none is recognised); ``cut_off``: it is the last line and has no line
+    break after it."""
+    if len(header) == 1:
+        dialect = _header_format_hint(header)
+        if dialect:
+            return dialect
+    if "\x00" in row:
+        return ("; the line holds NUL bytes: the end of a file that was never written (a "
+                "power loss while logging?)")
+    if cut_off:
+        return ("; it is the last line and has no line break: cut off while the file was "
+                "written (a logger stopped)?")
+    if row.rstrip().endswith(","):
+        return "; a trailing comma?"
+    if row.count('"') % 2:
+        return "; an unbalanced quote?"
+    if not header[-1] and n_fields < len(header):
+        return f"; the header ends in a comma, line {line} does not: a trailing comma?"
+    return ""
 
 
 def _is_number(text: str) -> bool:
