@@ -48,6 +48,7 @@ Rigid surfaces keep the Coulomb law of
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from types import MappingProxyType
 from typing import Mapping
 
@@ -698,12 +699,19 @@ class SlipCompactionResistance:
         c = self.base.coefficients(abs_slip, soil_resistance)
         soil, width = self.contact.soil, self.contact.width_m
         z, dz = slip_sinkage_m(self.contact, self.load_n, np.asarray(abs_slip, dtype=float))
+        r, dr_dz = compaction_resistance_n(z, width, soil.k_c, soil.k_phi, soil.n)
+        return CurveCoefficients(
+            c.mu, c.dmu_ds, c.resistance + (r - self._static_compaction_n) / self.load_n,
+            c.dresistance_ds + dr_dz * dz / self.load_n)
+
+    @cached_property
+    def _static_compaction_n(self) -> float:
+        """``R_c(z_0)`` of the static rut at ``load_n``, N (fixed by the fields: once)."""
+        soil = self.contact.soil
         z0 = float(np.interp(self.load_n, self.contact.load_grid_n,
                              self.contact.sinkage_grid_m))
-        r, dr_dz = compaction_resistance_n(z, width, soil.k_c, soil.k_phi, soil.n)
-        r0 = compaction_resistance_n(z0, width, soil.k_c, soil.k_phi, soil.n)[0]
-        return CurveCoefficients(c.mu, c.dmu_ds, c.resistance + (r - r0) / self.load_n,
-                                 c.dresistance_ds + dr_dz * dz / self.load_n)
+        return float(compaction_resistance_n(z0, self.contact.width_m, soil.k_c, soil.k_phi,
+                                             soil.n)[0])
 
 
 def rate_weakening_factor(slip_speed_m_s: np.ndarray, soil: SoilParams
