@@ -704,13 +704,21 @@ class ExtendedKalmanFilter:
         ShapeError, NonFiniteInputError, CovarianceError
             A callable ``Q`` returned a matrix of the wrong shape, non-finite, asymmetric or
             not positive semi-definite (:func:`checked_process_noise`); nothing is changed.
+        NonFiniteInputError
+            ``f`` or ``F`` gave a non-finite prior (e.g. a NaN control input in ``args``);
+            nothing is changed, so the filter never carries a NaN state silently.
         """
         dt = check_time_step(dt)
         Q = self._Q
         if callable(Q):     # checked as a constant Q is in __init__, cheaply
             Q = checked_process_noise(Q(dt), self._x.size)
-        self._x, self._P = predict(self._x, self._P, dt, self._f, self._F, Q,
-                                   args=args, check=False)
+        x, P = predict(self._x, self._P, dt, self._f, self._F, Q, args=args, check=False)
+        if not math.isfinite(x.sum() + P.sum()):   # one scalar test: any NaN/inf shows
+            raise NonFiniteInputError(
+                f"prediction over dt = {dt} s gave a non-finite state or covariance "
+                f"(f(x, dt) finite: {bool(np.isfinite(x).all())}); check the control "
+                f"input {args!r}; the filter keeps its previous state")
+        self._x, self._P = x, P
 
     def update(self, z: np.ndarray, *args: Any, rows: Sequence[int] | None = None,
                R: np.ndarray | None = None) -> Innovation:

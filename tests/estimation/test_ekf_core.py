@@ -347,3 +347,20 @@ def test_a_callable_diagonal_process_noise_gives_what_its_matrix_gives():
         ekf.predict(0.1)
         ref = predict(np.zeros(2), np.eye(2), 0.1, f, F, q)[1]
         np.testing.assert_array_equal(ekf.P, ref)
+
+
+def test_a_non_finite_control_input_is_refused_and_the_filter_keeps_its_state():
+    # Was: a NaN control input made the state NaN without a word, and the next update
+    # failed with a misleading "S is not positive definite (NIS nan)".
+    f = lambda x, dt, u: x + dt * u  # noqa: E731
+    F = lambda x, dt, u: np.eye(1)  # noqa: E731
+    ekf = ExtendedKalmanFilter(np.zeros(1), np.eye(1), f, F, lambda x: x,
+                               lambda x: np.eye(1), np.array([0.1]), np.ones(1))
+    ekf.predict(0.1, np.array([2.0]))
+    np.testing.assert_allclose(ekf.x, [0.2])
+    with pytest.raises(NonFiniteInputError, match="non-finite state"):
+        ekf.predict(0.1, np.array([np.nan]))
+    np.testing.assert_allclose(ekf.x, [0.2])                 # nothing propagated
+    np.testing.assert_allclose(ekf.P, [[1.1]])
+    ekf.update(np.array([0.4]))                              # and the filter goes on
+    assert np.isfinite(ekf.x).all()
