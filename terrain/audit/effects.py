@@ -84,7 +84,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
-from terrain.errors import TerrainError
+from terrain.errors import ConfigError, TerrainError, config_integer, config_positive
 from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
 
@@ -263,6 +263,36 @@ class EffectSettings:
         ("icr_expansion", 0.05), ("gyro_bias", 0.002), ("wheel_lag", 0.05),
         ("immobilised", 0.05), ("turning_resistance", 0.1), ("current_offset", 0.1),
         ("grade_resistance", 1.0))
+
+    def __post_init__(self) -> None:
+        """Refuse a setting that is not a number in range (none was checked before).
+
+        Raises
+        ------
+        ConfigError
+            A rate scale, ratio or time not finite and > 0 (``immobile_ratio`` also <= 1);
+            ``min_pitch_spread_rad`` or ``min_rate_contrast`` not finite and >= 0; an
+            iteration or sample count not an integer >= 1; a threshold quantile outside
+            (0, 1); a ``negligible`` floor not finite and >= 0.
+        """
+        config_positive("EffectSettings", turn_ref_rad_s=self.turn_ref_rad_s,
+                        coulomb_scale_rad_s=self.coulomb_scale_rad_s,
+                        immobile_ratio=self.immobile_ratio,
+                        immobile_smooth_s=self.immobile_smooth_s)
+        config_positive("EffectSettings", allow_zero=True,
+                        min_pitch_spread_rad=self.min_pitch_spread_rad,
+                        min_rate_contrast=self.min_rate_contrast,
+                        **{f"negligible[{name!r}]": floor for name, floor in self.negligible})
+        if self.immobile_ratio > 1.0:
+            raise ConfigError(f"EffectSettings.immobile_ratio must be <= 1, got "
+                              f"{self.immobile_ratio!r}")
+        for name in ("robust_iterations", "max_alternations", "min_turn_samples",
+                     "min_straight_samples", "min_quiet_samples"):
+            config_integer(f"EffectSettings.{name}", getattr(self, name), 1)
+        if not self.threshold_quantiles or not all(
+                0.0 < float(q) < 1.0 for q in self.threshold_quantiles):
+            raise ConfigError(f"EffectSettings.threshold_quantiles must be quantiles in "
+                              f"(0, 1), got {self.threshold_quantiles!r}")
 
 
 # ----------------------------------------------------------------------------------------

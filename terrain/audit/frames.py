@@ -36,7 +36,7 @@ import numpy as np
 
 from terrain.audit.replay import LOWPASS_MIN_SAMPLES, Replay, lowpass
 from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
-from terrain.errors import ConfigError, DataWarning
+from terrain.errors import DataWarning, config_positive
 from terrain.run import TIME, Run
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles import skid_steer_forward
@@ -84,10 +84,19 @@ class FrameSettings:
     quiet_margin_s: float = 1.5
 
     def __post_init__(self) -> None:
-        if not self.imu_cutoff_hz > 0 or not self.pitch_cutoff_hz > 0:
-            raise ConfigError("cut-off frequencies must be > 0")
-        if self.edge_s < 0:
-            raise ConfigError(f"edge_s must be >= 0, got {self.edge_s}")
+        """Refuse a setting that is not a finite number in range (NaN passed before).
+
+        Raises
+        ------
+        ConfigError
+            A cut-off frequency or a rate threshold not finite and > 0, or ``edge_s``,
+            ``moving_m_s`` or ``quiet_margin_s`` not finite and >= 0.
+        """
+        config_positive("FrameSettings", imu_cutoff_hz=self.imu_cutoff_hz,
+                        pitch_cutoff_hz=self.pitch_cutoff_hz, turn_rad_s=self.turn_rad_s,
+                        quiet_rad_s=self.quiet_rad_s)
+        config_positive("FrameSettings", allow_zero=True, edge_s=self.edge_s,
+                        moving_m_s=self.moving_m_s, quiet_margin_s=self.quiet_margin_s)
 
 
 @dataclass(frozen=True)

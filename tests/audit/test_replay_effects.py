@@ -515,3 +515,32 @@ def test_jittery_wheel_records_are_told_apart_from_clean_ones(shipped_borealtc):
     assert cruise_wheel_acceleration_rms(_run(None, pro)) < 0.1
     slow = pro.assign(velL=0.1, velR=0.1)
     assert np.isnan(cruise_wheel_acceleration_rms(_run(None, slow)))
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("edge_s", float("nan"), r"FrameSettings\.edge_s must be a finite value >= 0"),
+    ("turn_rad_s", -0.1, r"FrameSettings\.turn_rad_s must be a finite value > 0"),
+    ("quiet_rad_s", float("nan"), r"FrameSettings\.quiet_rad_s"),
+    ("moving_m_s", float("inf"), r"FrameSettings\.moving_m_s"),
+    ("imu_cutoff_hz", 0.0, r"FrameSettings\.imu_cutoff_hz")])
+def test_frame_settings_refuse_a_nan_or_out_of_range_threshold(field, value, match):
+    # Was: NaN passed every check (only the cut-offs and edge_s < 0 were tested), and a
+    # NaN turn threshold made no sample a turn without a word.
+    from terrain.audit.frames import FrameSettings
+    with pytest.raises(ConfigError, match=match):
+        FrameSettings(**{field: value})
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(immobile_ratio=float("nan")), r"immobile_ratio must be a finite value > 0"),
+    (dict(immobile_ratio=1.5), r"immobile_ratio must be <= 1"),
+    (dict(turn_ref_rad_s=0.0), r"turn_ref_rad_s"),
+    (dict(max_alternations=0), r"max_alternations must be an integer >= 1"),
+    (dict(min_turn_samples=2.5), r"min_turn_samples must be an integer"),
+    (dict(threshold_quantiles=(0.5, 1.0)), r"threshold_quantiles must be quantiles"),
+    (dict(negligible=(("gyro_bias", float("nan")),)), r"negligible\['gyro_bias'\]")])
+def test_effect_settings_refuse_a_nan_or_out_of_range_constant(kwargs, match):
+    # Was: no check at all (a NaN ratio classified every turning sample as mobile).
+    with pytest.raises(ConfigError, match=match):
+        EffectSettings(**kwargs)
+    EffectSettings()                               # the defaults stay valid
