@@ -9,11 +9,14 @@ directly, so the streaming service needs no MLflow server or pyfunc wrapper.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import yaml
 
@@ -23,6 +26,46 @@ from terrain.io.shipped import dataset_vehicle
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS, Run
 
 PIPELINE_ARTIFACT = Path("artifacts") / "pipeline.joblib"
+
+
+@contextlib.contextmanager
+def new_model_directory(path: str | Path) -> Iterator[Path]:
+    """Write a model directory whole or not at all.
+
+    Yields a fresh, absent path beside ``path`` (same parent, so the same file system) to
+    write the model to; on a clean exit it is renamed to ``path`` in one step, and on any
+    error (an interrupt included) it is removed, so ``path`` never holds half a model that
+    a later save refuses and a later load misreads.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Model directory to create (absent or empty).
+
+    Yields
+    ------
+    pathlib.Path
+        The staging directory's path (absent: the writer creates it, as
+        :func:`mlflow.pyfunc.save_model` does).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` exists and is not an empty directory.
+    """
+    path = Path(path)
+    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+        raise ConfigError(f"model directory {path} exists and is not empty")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+    stage.rmdir()
+    try:
+        yield stage
+        if path.exists():
+            path.rmdir()
+        stage.rename(path)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 @dataclass(frozen=True)

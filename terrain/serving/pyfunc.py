@@ -47,7 +47,7 @@ from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, No
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
-from terrain.serving.model import load_pipeline, read_model_metadata
+from terrain.serving.model import load_pipeline, new_model_directory, read_model_metadata
 from terrain.serving.request import numeric_column
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
@@ -459,12 +459,9 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
     import mlflow.pyfunc
 
     path = Path(path)
-    if path.exists() and any(path.iterdir()):
-        raise ConfigError(f"model directory {path} exists and is not empty")
-    if path.exists():
-        path.rmdir()
-    with tempfile.TemporaryDirectory() as tmp, artifact_progress(progress):
-        mlflow.pyfunc.save_model(path=str(path), input_example=input_example, **_model_kwargs(
+    with new_model_directory(path) as stage, tempfile.TemporaryDirectory() as tmp, \
+            artifact_progress(progress):
+        mlflow.pyfunc.save_model(path=str(stage), input_example=input_example, **_model_kwargs(
             pipeline, channels, window, classes, metadata, Path(tmp)))
     return path
 

@@ -66,7 +66,7 @@ from terrain.run import TIME
 from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
-                                   load_stream_model, model_vehicle)
+                                   load_stream_model, model_vehicle, new_model_directory)
 from terrain.serving.replay import replay_run
 from terrain.serving.request import (DEFAULT_VEHICLE, parse_request, planned_decisions,
                                      time_span_s)
@@ -458,10 +458,6 @@ def save_served_model(path: str | Path, model_dir: str | Path, settings: dict | 
     model = load_stream_model(model_dir)
     settings = settings or served_settings(model)
     path = Path(path)
-    if path.exists() and any(path.iterdir()):
-        raise ConfigError(f"model directory {path} exists and is not empty")
-    if path.exists():
-        path.rmdir()
     root = Path(__file__).resolve().parents[2]
     # no signature, on purpose: a request is either layout (long with ``stream``, or one
     # column per channel) and is checked by parse_request with the project's typed errors,
@@ -471,13 +467,14 @@ def save_served_model(path: str | Path, model_dir: str | Path, settings: dict | 
     pyfunc_log = logging.getLogger("mlflow.pyfunc")
     pyfunc_log.addFilter(no_signature)
     try:
-        mlflow.pyfunc.save_model(
-            path=str(path), python_model=str(Path(__file__).with_name("served_entry.py")),
-            model_config=settings,
-            artifacts={"pipeline": str(Path(model_dir) / PIPELINE_ARTIFACT)},
-            code_paths=[str(root / "terrain"), str(root / "features")],
-            pip_requirements=list(pip_requirements or ["numpy", "pandas", "scikit-learn"]),
-            metadata={**settings, "source_model": str(Path(model_dir).resolve())})
+        with new_model_directory(path) as stage:
+            mlflow.pyfunc.save_model(
+                path=str(stage), python_model=str(Path(__file__).with_name("served_entry.py")),
+                model_config=settings,
+                artifacts={"pipeline": str(Path(model_dir) / PIPELINE_ARTIFACT)},
+                code_paths=[str(root / "terrain"), str(root / "features")],
+                pip_requirements=list(pip_requirements or ["numpy", "pandas", "scikit-learn"]),
+                metadata={**settings, "source_model": str(Path(model_dir).resolve())})
     finally:
         pyfunc_log.removeFilter(no_signature)
     return path

@@ -96,3 +96,32 @@ def test_mlflow_drops_extra_input_columns_before_predict_and_logs_them(tmp_path,
     pd.testing.assert_frame_equal(out, model.predict(_samples()))
     assert any("'Unnamed: 0'" in r.getMessage() and "'gps_lat'" in r.getMessage()
                and "will be ignored" in r.getMessage() for r in records)
+
+
+@pytest.mark.filterwarnings("ignore:.*An input example was not provided")
+def test_a_save_interrupted_midway_leaves_no_half_written_model_directory(tmp_path,
+                                                                          monkeypatch):
+    # Was: an interrupt while MLflow wrote MLmodel left 'artifacts' and 'pyfunc_entry.py'
+    # in the target, so the next save refused the folder ("exists and is not empty") and a
+    # load met half a model. Now the folder appears whole or not at all.
+    import mlflow.models.model
+    from sklearn.dummy import DummyClassifier
+
+    from terrain.errors import ConfigError
+
+    def interrupted(self, *args, **kwargs):
+        raise KeyboardInterrupt("interrupted while writing MLmodel")
+
+    clf = DummyClassifier(strategy="prior").fit(np.zeros((4, 2, 40)), ["A", "A", "B", "B"])
+    args = (clf, ["vel_l", "vel_r"], WindowConfig(window_s=2.0, rate_hz=20.0), ["A", "B"], {})
+    (tmp_path / "m").mkdir()                         # an empty target is accepted
+    with monkeypatch.context() as patch:
+        patch.setattr(mlflow.models.model.Model, "save", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            save_model(tmp_path / "m", *args, progress=False)
+    assert [p.name for p in tmp_path.iterdir()] == ["m"]     # no staging folder left
+    assert not any((tmp_path / "m").iterdir())               # and nothing half-written
+    save_model(tmp_path / "m", *args, progress=False)        # so a second try succeeds
+    assert (tmp_path / "m" / "MLmodel").is_file()
+    with pytest.raises(ConfigError, match="exists and is not empty"):
+        save_model(tmp_path / "m", *args, progress=False)
