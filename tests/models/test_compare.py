@@ -36,6 +36,68 @@ def test_history_averages_only_earlier_windows_of_the_same_run():
                                   ["B", "A", "A", "A"])
 
 
+def _history_frame():
+    """Out-of-fold rows of one seed: run r1 (truth A), run r4 cut into two time blocks (truth
+    B, the later block in its own split unit) and run r5 (truth A); given newest first."""
+    rows = [("r1", "r1", t, pa, "A")
+            for t, pa in zip((0.0, 2.0, 4.0, 6.0), (0.9, 0.9, 0.45, 0.1))]
+    rows += [("r4@block0", "r4", 0.0, 0.9, "B"), ("r4@block0", "r4", 2.0, 0.9, "B"),
+             ("r4@block1", "r4", 4.0, 0.45, "B")]
+    rows += [("r5", "r5", t, pa, "A") for t, pa in zip((0.0, 2.0, 4.0), (0.9, 0.45, 0.45))]
+    frame = pd.DataFrame(rows, columns=["group", "run", "t_start_s", "proba_A", "true"])
+    frame["proba_B"] = 1.0 - frame["proba_A"]
+    frame["predicted"] = np.where(frame["proba_A"] > 0.5, "A", "B")
+    return frame.iloc[::-1]
+
+
+def test_history_is_causal_within_each_split_unit_whatever_the_row_order():
+    frame = _history_frame()
+    k3 = pd.Series(history_predictions(frame, ["A", "B"], 3), index=frame.index).sort_index()
+    # r1 at 4 s: mean A of 0.9, 0.9, 0.45 (a centred mean, 0.48, would look at 6 s); r1 at
+    # 6 s: 0.48 -> B (four windows, 0.59, would be A); r4@block1 starts its own history
+    # (0.45 -> B; averaged with the block before it, or across units, it would be A);
+    # r4@block0 at 0 s is A alone (0.48 -> B had r1's last windows leaked in)
+    np.testing.assert_array_equal(k3, ["A", "A", "A", "B", "A", "A", "B", "A", "A", "A"])
+    k1 = history_predictions(frame, ["A", "B"], 1)
+    np.testing.assert_array_equal(k1, frame["predicted"])
+
+
+def test_scores_at_a_history_length_use_its_decisions_and_vote_per_split_unit():
+    from terrain.models.compare import score_rows
+
+    frame = _history_frame()
+    k1, k3 = score_rows(frame, ["A", "B"], (1, 3), {"model": "toy"})
+    assert (k1["history"], k3["history"], k3["model"], k3["n_windows"]) == (1, 3, "toy", 10)
+    # k = 1: right r1 0, 2 s; r4@block1; r5 0 s. Votes: r1 tie -> A (right), r4@block0 A,
+    # r4@block1 B (right), r5 B
+    assert k1["accuracy"] == pytest.approx(4 / 10)
+    assert k1["run_vote_accuracy"] == pytest.approx(2 / 4)
+    # k = 3: r1 A A A B, r4 A A B, r5 A A A; the four split units (not the three runs:
+    # r4 as one run votes A, wrong, which would give 2 / 3) vote right but r4@block0
+    assert k3["accuracy"] == pytest.approx(7 / 10)
+    assert k3["balanced_accuracy"] == pytest.approx((6 / 7 + 1 / 3) / 2)
+    # F1 of A: precision 6 / 8, recall 6 / 7 -> 0.8; of B: precision 1 / 2, recall 1 / 3 -> 0.4
+    assert k3["macro_f1"] == pytest.approx((0.8 + 0.4) / 2)
+    assert k3["run_vote_accuracy"] == pytest.approx(3 / 4)
+
+
+def test_a_cell_cuts_a_single_run_class_into_time_blocks_as_terrain_cv_does(vulpi_runs):
+    from features.windows import make_windows
+    from terrain.models.compare import Cell, cell_windows
+    from terrain.models.cv import grouped_units
+    from terrain.models.experiment import ExperimentConfig
+
+    ws, labels, groups, training = cell_windows(Cell("svm", "wheels", 2.0, "vulpi", 0), 5)
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), window_s=2.0)
+    cut, cut_labels, cut_groups, split, _ = grouped_units(
+        make_windows(vulpi_runs, ("wheels",), config.window_config()), 5)
+    assert split == ["DIRT_ROAD"] and training is None
+    # DIRT_ROAD's one run as 5 split units, so a fold testing one of them trains on others
+    assert len(set(groups[labels == "DIRT_ROAD"])) == 5
+    np.testing.assert_array_equal(groups, cut_groups)
+    np.testing.assert_array_equal(ws.t_start_s, cut.t_start_s)
+
+
 def test_unknown_model_is_rejected():
     with pytest.raises(ConfigError, match="unknown model"):
         CompareConfig(models=("svm", "forest"))
