@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.base import BaseEstimator, ClassifierMixin, TransformerMixin
 from sklearn.model_selection import StratifiedKFold
 from sklearn.pipeline import Pipeline
 
@@ -293,6 +293,80 @@ def test_grouped_cv_is_not_fooled_by_run_fingerprints():
     assert paper.pooled["accuracy"].mean() > 0.9
 
 
+class _SignOfFirstFeature(ClassifierMixin, BaseEstimator):
+    """Predicts "A" where feature 0 is > 0, else "B" (whatever it was fitted on)."""
+
+    def fit(self, X, y):
+        self.classes_ = np.unique(y)
+        return self
+
+    def predict(self, X):
+        return np.where(np.asarray(X)[:, 0] > 0, "A", "B")
+
+
+def test_run_vote_is_per_split_unit_in_every_fold_and_pooled():
+    # 6 runs, each cut into 2 split units of 4 windows: the first unit predicted right, the
+    # second 3 times wrong. A unit's vote is right only for the first unit; a run's vote
+    # (5 right of 8 windows) would always be right
+    n_runs, per_unit = 6, 4
+    run = np.repeat(np.arange(n_runs), 2 * per_unit)
+    unit = np.repeat(np.arange(2 * n_runs), per_unit)
+    y = np.where(run % 2 == 0, "A", "B")
+    sign = np.where(y == "A", 1.0, -1.0)
+    wrong = (unit % 2 == 1) & (np.tile(np.arange(per_unit), 2 * n_runs) < 3)
+    X = np.where(wrong, -sign, sign)[:, None]
+    runs = np.array([f"r{r}" for r in run], dtype=object)
+    groups = np.array([f"r{u // 2}@block{u % 2}" for u in unit], dtype=object)
+    t0 = np.tile(np.arange(2 * per_unit) * 2.0, n_runs)
+    report = cross_validate(lambda seed: _SignOfFirstFeature(), X, y, groups, runs, t0,
+                            t0 + 2.0, "grouped", seeds=(0,), n_splits=3)
+    assert report.pooled["run_majority_accuracy"].iloc[0] == pytest.approx(1 / 2)
+    both_units_tested = False
+    for (_, fold), p in report.predictions.groupby(["seed", "fold"]):
+        units = p["group"].unique()
+        right = sum(u.endswith("@block0") for u in units)
+        row = report.folds[report.folds["fold"] == fold].iloc[0]
+        assert row["run_majority_accuracy"] == pytest.approx(right / len(units))
+        both_units_tested |= p.groupby("run")["group"].nunique().max() == 2
+    assert both_units_tested   # a fold where a run's vote would differ from its units'
+
+
+def test_probabilities_keep_their_class_columns_when_a_fold_trains_without_a_class():
+    from sklearn.linear_model import LogisticRegression
+
+    # class A has a single run: the fold testing it trains on B and C only, whose model's
+    # columns (B, C) must land in proba_B and proba_C, with proba_A = 0
+    rng = np.random.default_rng(0)
+    run_labels = ["A"] + ["B"] * 4 + ["C"] * 4
+    y = np.repeat(run_labels, 10)
+    runs = np.repeat([f"r{i}" for i in range(len(run_labels))], 10).astype(object)
+    centres = {"A": 0.0, "B": -4.0, "C": 4.0}
+    X = np.array([centres[c] for c in y])[:, None] + rng.normal(0, 0.5, (y.size, 1))
+    t0 = np.tile(np.arange(10) * 2.0, len(run_labels))
+    report = cross_validate(lambda seed: LogisticRegression(), X, y, runs, runs, t0,
+                            t0 + 2.0, "grouped", seeds=(0,), n_splits=3)
+    pred = report.predictions
+    proba = pred[["proba_A", "proba_B", "proba_C"]].to_numpy()
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+    assert (np.array(["A", "B", "C"])[proba.argmax(axis=1)] == pred["predicted"]).all()
+    tested_a = pred["fold"] == pred.loc[pred["true"] == "A", "fold"].iloc[0]
+    assert (pred.loc[tested_a, "proba_A"] == 0.0).all()
+    assert (pred.loc[pred["true"] == "B", "predicted"] == "B").all()
+    assert (pred.loc[pred["true"] == "C", "predicted"] == "C").all()
+
+
+def test_a_split_unit_on_both_sides_of_a_split_stops_the_cross_validation(monkeypatch):
+    import terrain.models.cv as cv
+
+    X, y, groups, t0 = _planted(n_runs=4, per_run=4)
+    # a broken splitter that puts the first window of the test run into training too
+    leaky = (lambda *args, **kwargs: iter([(np.arange(0, 9), np.arange(8, 16))]))
+    monkeypatch.setattr(cv, "iter_splits", leaky)
+    with pytest.raises(RuntimeError, match="both sides"):
+        cross_validate(lambda seed: make_svm(SVMConfig(), seed), X, y, groups, groups, t0,
+                       t0 + 2.0, "grouped", seeds=(0,), n_splits=2)
+
+
 # --- nested search sees training groups only ---------------------------------------------------
 
 class _Log:
@@ -345,6 +419,15 @@ def test_nested_search_only_sees_training_groups():
         assert fits[-1] == train_ids                        # refit on every training run
         assert all(f < train_ids for f in fits[:-1])        # inner fits: a subset of them
         assert set().union(*fits[:-1]) == train_ids
+
+
+def test_run_cv_search_tunes_each_fold_on_its_training_units(vulpi_runs):
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,), search=True,
+                              n_splits=3, svm=SVMConfig(search_C=(1.0, 10.0),
+                                                        search_gamma=("scale",),
+                                                        inner_splits=3))
+    folds = run_cv(config, runs=vulpi_runs).report.folds
+    assert len(folds) == 3 and set(folds["best_svc__C"]) <= {1.0, 10.0}
 
 
 def test_overlapping_windows_never_straddle_time_blocks_of_a_single_run_class():
