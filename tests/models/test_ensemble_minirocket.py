@@ -76,6 +76,35 @@ def test_weights_favour_the_informative_member_and_use_training_runs_only():
     np.testing.assert_allclose(ens.predict_proba(X[~train]).sum(axis=1), 1.0)
 
 
+class ConfidentlyWrong(ClassifierMixin, BaseEstimator):
+    """Gives the opposite of the informative window-mean rule a probability of 0.99."""
+
+    def fit(self, X, y, groups=None):
+        self.classes_ = np.unique(y)
+        return self
+
+    def predict_proba(self, X):
+        b = np.where(X.mean(axis=(1, 2)) > 0.5, 0.01, 0.99)
+        return np.column_stack([1 - b, b])
+
+
+def test_weights_minimise_the_held_out_log_loss_not_the_members_confidence():
+    from sklearn.metrics import log_loss
+
+    X, y, groups = _runs()
+    members = [("wrong", ConfidentlyWrong()), ("logreg", RecordingLogReg())]
+    ens = SoftVotingEnsemble(members, inner_splits=4).fit(X, y, groups=groups)
+    assert ens.weights_.tolist() == [0.0, 1.0]
+    # the score of a weight vector is the log loss, on the held-out runs, of the members
+    # fitted on the other runs
+    held = np.isin(groups, ens.validation_groups_)
+    logreg = RecordingLogReg().fit(X[~held], y[~held])
+    expected = log_loss(y[held], np.clip(logreg.predict_proba(X[held]), 1e-12, 1.0),
+                        labels=["A", "B"])
+    assert ens.weight_scores_[(0.0, 1.0)] == pytest.approx(expected, rel=1e-9)
+    assert ens.weight_scores_[(1.0, 0.0)] > 1.0 > ens.weight_scores_[(0.0, 1.0)]
+
+
 def test_fixed_or_groupless_weights_are_not_searched():
     X, y, groups = _runs(n_runs=4)
     members = [("a", FlatDummy(strategy="prior")), ("b", RecordingLogReg())]

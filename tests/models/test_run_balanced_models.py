@@ -185,3 +185,25 @@ def test_window_svm_is_a_hard_margin_fit_that_window_weights_do_not_move():
     assert np.ptp(within_class_run_weights(y, groups)) > 1.0       # the weights do differ
     np.testing.assert_allclose(weighted.estimator_.decision_function(F),
                                plain.decision_function(F), atol=1e-9)
+
+
+def test_run_cv_cross_validates_the_run_balanced_svm_it_is_asked_for(vulpi_runs, monkeypatch):
+    import terrain.models.experiment as experiment
+    from terrain.models.experiment import ExperimentConfig, run_cv
+
+    class Captured(Exception):
+        pass
+
+    def capture(factory, *args, **kwargs):
+        raise Captured(factory)
+
+    monkeypatch.setattr(experiment, "cross_validate", capture)
+    for balanced in (True, False):
+        config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
+                                  run_balanced=balanced)
+        with pytest.raises(Captured) as caught:
+            run_cv(config, runs=vulpi_runs)
+        model = caught.value.args[0](0)
+        assert isinstance(model, RunBalancedClassifier) is balanced
+        if balanced:
+            assert model.weight_param == "svc__sample_weight"
