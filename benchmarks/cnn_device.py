@@ -59,8 +59,8 @@ def device_rows(kind: str, device: str, seeds: list[int], threads: int,
     compare = CompareConfig()
     rows = []
     for seed in seeds:
-        ws, labels, groups, _ = cell_windows(Cell(kind, "all", 2.0, dataset, seed),
-                                             compare.single_run_blocks)
+        ws, labels, groups = cell_windows(Cell(kind, "all", 2.0, dataset, seed),
+                                          compare.single_run_blocks)[:3]
 
         def make(s: int):
             model = make_model(ModelConfig(kind, n_threads=threads), ws.channels, ws.rate_hz,

@@ -122,7 +122,7 @@ def window_cv(seeds, log: bool) -> int:
     for arm in ("all", "all+ekf", "all+windowed-ekf"):
         cell = Cell("cnn-spectrogram", "all+ekf" if arm == "all+ekf" else "all", WINDOW_S,
                     "borealtc", seeds[0], "grouped", None)
-        ws, labels, groups, _ = cell_windows(cell, 5)
+        ws, labels, groups = cell_windows(cell, 5)[:3]
         config = ModelConfig(kind="cnn-spectrogram", window_ekf=arm == "all+windowed-ekf")
         report = cross_validate(
             lambda s: make_model(config, tuple(ws.channels), ws.rate_hz, "borealtc", s),

@@ -170,7 +170,7 @@ def log_cell(result: dict) -> None:
                            for m in ("accuracy", "balanced_accuracy", "macro_f1",
                                      "run_vote_accuracy")})
         child.log_metrics({k: float(result["rows"][0][k]) for k in
-                           ("fit_s_per_fold", "infer_ms_per_window")})
+                           ("fit_s_per_fold", "infer_ms_per_window", "n_windows_dropped")})
 
 
 def main(args: argparse.Namespace) -> int:
@@ -228,6 +228,9 @@ def main(args: argparse.Namespace) -> int:
         pd.concat([r["predictions"] for r in results]).to_csv(args.out / "predictions.csv",
                                                               index=False)
     print(md)
+    # once per distinct note (every seed and model of a dataset cuts the same blocks)
+    for note in dict.fromkeys(n for res in results for n in res.get("notes", ())):
+        print(f"note: {note}")
     print(f"{len(results)} cells; table, cells, predictions and figure in {args.out}")
     print(run.describe())
     return 0

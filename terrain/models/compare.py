@@ -25,7 +25,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from types import MappingProxyType
-from typing import Iterator, Sequence
+from typing import Any, Iterator, NamedTuple, Sequence
 
 import numpy as np
 import pandas as pd
@@ -325,12 +325,63 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     return out
 
 
-def cell_windows(cell: Cell, n_blocks: int) -> tuple:
+class CellWindows(NamedTuple):
+    """The windows of one comparison cell (:func:`cell_windows`).
+
+    Attributes
+    ----------
+    ws : features.windows.WindowSet
+        The evaluation windows.
+    labels : numpy.ndarray
+        ``(n_windows,)`` class names.
+    groups : numpy.ndarray
+        ``(n_windows,)`` split units (runs, or blocks of a single-run class).
+    training : TrainingWindows or None
+        The cell's training cut when it has a ``train_hop_s``
+        (:class:`~terrain.models.cv.TrainingWindows`), else None.
+    split_classes : tuple of str
+        Classes with a single run, cut into time blocks (none under the paper protocol).
+    n_dropped : int
+        Windows dropped for straddling a block boundary.
+    """
+
+    ws: Any
+    labels: np.ndarray
+    groups: np.ndarray
+    training: Any
+    split_classes: tuple = ()
+    n_dropped: int = 0
+
+    def notes(self, dataset: str) -> list[str]:
+        """What the cut changed, in the words of ``terrain cv``'s notes.
+
+        Parameters
+        ----------
+        dataset : str
+            The cell's dataset, named in each note.
+
+        Returns
+        -------
+        list of str
+            One note per single-run class and one for the dropped windows (none when
+            nothing was cut).
+        """
+        notes = [f"{dataset}: class {c} has a single run: cut into "
+                 f"{len(np.unique(self.groups[self.labels == c]))} contiguous time block(s) "
+                 f"used as groups (its scores measure an unseen stretch of the same run, not "
+                 f"an unseen run)" for c in self.split_classes]
+        if self.n_dropped:
+            notes.append(f"{dataset}: {self.n_dropped} window(s) straddling a time-block "
+                         f"boundary dropped")
+        return notes
+
+
+def cell_windows(cell: Cell, n_blocks: int) -> CellWindows:
     """The windows a cell is cross-validated on, as ``terrain cv`` cuts them.
 
     Single-run classes are split into ``n_blocks`` contiguous time blocks used as groups and
-    windows straddling a block boundary dropped; under the paper protocol the 1.7 s windows
-    are grouped by 5 s partition.
+    windows straddling a block boundary dropped (both reported in the result); under the
+    paper protocol the 1.7 s windows are grouped by 5 s partition.
 
     Parameters
     ----------
@@ -341,15 +392,8 @@ def cell_windows(cell: Cell, n_blocks: int) -> tuple:
 
     Returns
     -------
-    ws : WindowSet
-        The evaluation windows.
-    labels : numpy.ndarray
-        ``(n_windows,)`` class names.
-    groups : numpy.ndarray
-        ``(n_windows,)`` split units (runs, or blocks of a single-run class).
-    training : TrainingWindows or None
-        The cell's training cut when it has a ``train_hop_s``
-        (:class:`~terrain.models.cv.TrainingWindows`), else None.
+    CellWindows
+        ``(ws, labels, groups, training, split_classes, n_dropped)``.
     """
     from terrain.io.shipped import load_dataset
     from terrain.models.experiment import (ExperimentConfig, check_two_classes,
@@ -362,9 +406,10 @@ def cell_windows(cell: Cell, n_blocks: int) -> tuple:
     ws = load_windows(config, runs)
     check_two_classes(ws.labels.astype(str), cell.dataset, ws.run_ids)
     if cell.protocol == "paper":
-        return ws, ws.labels.astype(str), ws.groups, None
-    ws, labels, groups, _, _ = grouped_units(ws, n_blocks)
-    return ws, labels, groups, load_training_windows(config, runs, ws, groups)
+        return CellWindows(ws, ws.labels.astype(str), ws.groups, None)
+    ws, labels, groups, split, n_dropped = grouped_units(ws, n_blocks)
+    return CellWindows(ws, labels, groups, load_training_windows(config, runs, ws, groups),
+                       tuple(split), n_dropped)
 
 
 def run_cell(cell: Cell, config: CompareConfig) -> dict:
@@ -381,10 +426,12 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     -------
     dict
         ``cell`` (its fields), ``rows`` (one dict per history length: the table metrics,
-        ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``), ``folds`` (frame) and
-        ``predictions`` (frame with probabilities).
+        ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``, ``n_windows_dropped``),
+        ``folds`` (frame), ``predictions`` (frame with probabilities) and ``notes`` (what
+        the cut into time blocks changed, :meth:`CellWindows.notes`).
     """
-    ws, labels, groups, training = cell_windows(cell, config.single_run_blocks)
+    cut = cell_windows(cell, config.single_run_blocks)
+    ws, labels, groups, training = cut[:4]
     mc = ModelConfig(kind=cell.model, max_epochs=config.max_epochs,
                      n_threads=config.n_threads, early_stopping=config.early_stopping,
                      cnn_seeds=cnn_seeds_for(cell.model, config.cnn_seeds))
@@ -398,11 +445,11 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     rows = score_rows(pred, report.classes, config.history,
                       {**asdict(cell), "fit_s_per_fold": float(report.folds["fit_s"].mean()),
                        "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
-                       "cell_wall_s": wall_s,
+                       "cell_wall_s": wall_s, "n_windows_dropped": cut.n_dropped,
                        **({"epochs_per_fold": float(report.folds["n_epochs"].mean())}
                           if "n_epochs" in report.folds else {})})
     return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),
-            "predictions": pred.assign(**asdict(cell))}
+            "predictions": pred.assign(**asdict(cell)), "notes": cut.notes(cell.dataset)}
 
 
 def iter_grid(config: CompareConfig, n_jobs: int | None = None) -> Iterator[dict]:

@@ -87,15 +87,20 @@ def test_a_cell_cuts_a_single_run_class_into_time_blocks_as_terrain_cv_does(vulp
     from terrain.models.cv import grouped_units
     from terrain.models.experiment import ExperimentConfig
 
-    ws, labels, groups, training = cell_windows(Cell("svm", "wheels", 2.0, "vulpi", 0), 5)
+    cell_cut = cell_windows(Cell("svm", "wheels", 2.0, "vulpi", 0), 5)
+    ws, labels, groups, training = cell_cut[:4]
     config = ExperimentConfig(dataset="vulpi", signals=("wheels",), window_s=2.0)
-    cut, cut_labels, cut_groups, split, _ = grouped_units(
+    cut, cut_labels, cut_groups, split, n_dropped = grouped_units(
         make_windows(vulpi_runs, ("wheels",), config.window_config()), 5)
     assert split == ["DIRT_ROAD"] and training is None
     # DIRT_ROAD's one run as 5 split units, so a fold testing one of them trains on others
     assert len(set(groups[labels == "DIRT_ROAD"])) == 5
     np.testing.assert_array_equal(groups, cut_groups)
     np.testing.assert_array_equal(ws.t_start_s, cut.t_start_s)
+    # and the cut is reported, as terrain cv reports it (it was discarded)
+    assert cell_cut.split_classes == ("DIRT_ROAD",) and cell_cut.n_dropped == n_dropped
+    assert cell_cut.notes("vulpi")[0].startswith(
+        "vulpi: class DIRT_ROAD has a single run: cut into 5 contiguous time block(s)")
 
 
 def test_unknown_model_is_rejected():
@@ -127,6 +132,11 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
         experiment_names=["terrain-compare"],
         filter_string=f"tags.mlflow.parentRunId = '{parent.run_id.iloc[0]}'")
     assert len(children) == 2 and "metrics.accuracy_k10" in children.columns
+    # Vulpi's single-run class is cut into time blocks: said once, as terrain cv says it
+    out_text = capsys.readouterr().out
+    assert out_text.count("note: vulpi: class DIRT_ROAD has a single run: cut into 5") == 1
+    assert (cells["n_windows_dropped"] == 0).all()
+    assert (children["metrics.n_windows_dropped"] == 0).all()
 
 
 def test_a_failing_cell_closes_the_local_dask_cluster(monkeypatch):
