@@ -3,7 +3,8 @@
 
 * Embedded default store: when ``MLFLOW_TRACKING_URI`` is unset, runs go to
   ``sqlite:///<cwd>/mlflow.db`` and artifacts to ``<cwd>/mlartifacts``. A remote server is
-  one environment variable away (``MLFLOW_TRACKING_URI=http://host:5000``).
+  one environment variable away (``MLFLOW_TRACKING_URI=http://host:5000``); any SQLite
+  store keeps its artifacts beside its database (``<database folder>/mlartifacts``).
 * One experiment per pipeline (``terrain-cv``, ``terrain-train``, ``terrain-benchmark``...).
 * Every run is tagged and parametrised with the code version (git commit when the code is
   in a git checkout, else the package version).
@@ -202,13 +203,22 @@ def code_version() -> str:
         return f"terrain-{terrain.__version__}"
 
 
-def _experiment_id(client: Any, name: str, embedded: bool) -> str:
-    """Id of experiment ``name`` in the client's store, created when missing (the embedded
-    store keeps its artifacts in ``<cwd>/mlartifacts/<name>``, passed explicitly)."""
+def _experiment_id(client: Any, name: str, uri: str) -> str:
+    """Id of experiment ``name`` in the client's store, created when missing.
+
+    A SQLite store keeps its artifacts beside its database, in
+    ``<database folder>/mlartifacts/<name>`` (passed explicitly; for the embedded store the
+    database folder is the working directory). MLflow's own default for a ``sqlite:///``
+    store named by ``MLFLOW_TRACKING_URI`` is ``./mlruns`` of whichever folder first creates
+    the experiment: a stray ``mlruns/`` there, and one store's artifacts spread over
+    folders. Other stores choose their own location.
+    """
     exp = client.get_experiment_by_name(name)
     if exp is not None:
         return exp.experiment_id
-    location = (Path.cwd() / ARTIFACT_DIR / name).as_uri() if embedded else None
+    database = sqlite_database(uri)
+    location = (None if database is None
+                else (database.resolve().parent / ARTIFACT_DIR / name).as_uri())
     return client.create_experiment(name, artifact_location=location)
 
 
@@ -451,15 +461,15 @@ def tracked_run(experiment: str, run_name: str | None = None,
                 announce: bool = True) -> Iterator[TrackedRun]:
     """Open an MLflow run in ``experiment`` on the store in force (:func:`tracking_uri`).
 
-    The store and, for the embedded store, the artifact location (``<cwd>/mlartifacts``) are
-    passed to MLflow explicitly through a client: nothing process-wide is configured and the
-    environment is left as it is. When MLflow's process-wide URI resolves to the same store
-    (always so in a fresh ``terrain`` process, or after :func:`activate_store`), the run is
-    also MLflow's active run for the duration of the block, so fluent calls inside it (model
-    logging) land in it. If the caller already has an active run on that store, the run is
-    its child (tag ``mlflow.parentRunId``, MLflow's nested run) and the caller's run is
-    active again, still running, after the block. The run ends ``FINISHED``, or ``FAILED``
-    when the block raises.
+    The store and, for a SQLite store, the artifact location (``mlartifacts`` beside the
+    database) are passed to MLflow explicitly through a client: nothing process-wide is
+    configured and the environment is left as it is. When MLflow's process-wide URI
+    resolves to the same store (always so in a fresh ``terrain`` process, or after
+    :func:`activate_store`), the run is also MLflow's active run for the duration of the
+    block, so fluent calls inside it (model logging) land in it. If the caller already has
+    an active run on that store, the run is its child (tag ``mlflow.parentRunId``, MLflow's
+    nested run) and the caller's run is active again, still running, after the block. The
+    run ends ``FINISHED``, or ``FAILED`` when the block raises.
 
     Parameters
     ----------
@@ -487,10 +497,9 @@ def tracked_run(experiment: str, run_name: str | None = None,
 
     uri = tracking_uri()
     check_store(uri)
-    embedded = not os.environ.get("MLFLOW_TRACKING_URI")
     with store_lock(uri):
         client = mlflow.MlflowClient(tracking_uri=uri)
-        exp_id = _experiment_id(client, experiment, embedded)
+        exp_id = _experiment_id(client, experiment, uri)
     version = code_version()
     fluent = mlflow.get_tracking_uri() == uri
     parent = mlflow.active_run() if fluent else None

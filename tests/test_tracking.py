@@ -114,6 +114,36 @@ def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     assert other.exists() and not (tmp_path / "mlflow.db").exists()
 
 
+def test_a_sqlite_store_named_by_the_environment_keeps_its_artifacts_beside_it(
+        tmp_path, monkeypatch):
+    # the README's recipe (train in one folder, then from another folder
+    # MLFLOW_TRACKING_URI=sqlite:////where/train/ran/mlflow.db terrain predict ...) created
+    # terrain-predict with MLflow's default artifact root, ./mlruns of the folder the command
+    # ran in: a stray mlruns/ there, and the store's artifacts scattered over every folder
+    # an experiment was first created from
+    store = tmp_path / "store"
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{store / 'mlflow.db'}")
+    monkeypatch.chdir(elsewhere)
+    with tracked_run("terrain-test", announce=False) as run:
+        run.log_dict({"x": 1}, "report.json")
+    exp = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_experiment_by_name(
+        "terrain-test")
+    assert exp.artifact_location == (store / "mlartifacts" / "terrain-test").as_uri()
+    assert (store / "mlartifacts" / "terrain-test" / run.run_id / "artifacts" /
+            "report.json").exists()
+    assert not any(elsewhere.iterdir())          # no mlruns/ in the working folder
+    # a relative sqlite:/// path is the working folder's database: artifacts beside it too
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", "sqlite:///rel.db")
+    with tracked_run("terrain-test", announce=False):
+        pass
+    exp = mlflow.MlflowClient(tracking_uri="sqlite:///rel.db").get_experiment_by_name(
+        "terrain-test")
+    assert exp.artifact_location == (elsewhere / "mlartifacts" / "terrain-test").as_uri()
+    assert [p.name for p in elsewhere.iterdir()] == ["rel.db"]     # and no mlruns/
+
+
 def test_a_store_that_cannot_be_used_is_one_line_at_once(tmp_path, monkeypatch, capsys,
                                                          closed_port):
     # MLflow retried an unopenable SQLite file for ~100 s and then raised a database error
