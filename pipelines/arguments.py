@@ -654,7 +654,8 @@ def add_run_balanced(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--run-balanced", action="store_true",
                         help="weigh the training windows so that every run of a class counts "
                              "the same, instead of every window (a long run then does not "
-                             "stand for its terrain; docs/streaming.md)")
+                             "stand for its terrain; docs/streaming.md; not with "
+                             "--window-ekf)")
 
 
 def add_train_hop(parser: argparse.ArgumentParser) -> None:

@@ -145,7 +145,8 @@ class ModelConfig:
         if self.kind not in MODELS:
             raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
         if self.run_balanced and self.window_ekf:
-            raise ConfigError("run_balanced is not implemented with window_ekf")
+            raise ConfigError("run_balanced (--run-balanced) is not implemented with "
+                              "window_ekf (--window-ekf): choose one")
         singles = [m for m in MODELS if m not in ENSEMBLES]
         # a budget of 0 epochs trained nothing and served the untrained network; 0 dilations
         # reached aeon's bare ZeroDivisionError; an infinite noise level passed ">= 0"

@@ -367,3 +367,14 @@ def test_stream_eval_refuses_a_full_model_folder_before_any_evaluation(
     assert "--model-out: model directory 'mo/wheels' exists and is not empty" in err
     assert "Traceback" not in err and not (tmp_path / "mlflow.db").exists()
     assert sorted(p.name for p in (tmp_path / "mo").iterdir()) == ["wheels"]
+
+
+@pytest.mark.parametrize("command", ["cv", "train"])
+def test_run_balanced_with_window_ekf_is_refused_in_the_flags_own_names(
+        command, capsys, tmp_path, monkeypatch):
+    # the refusal named the library's fields (run_balanced, window_ekf), not the flags
+    monkeypatch.chdir(tmp_path)
+    code = exit_code([command, "--dataset", "vulpi", "--run-balanced", "--window-ekf"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert "--run-balanced" in err and "--window-ekf" in err
