@@ -259,7 +259,8 @@ class WindowSet:
         partition (``window_tail_s``, s), runs skipped for a missing stream and runs
         shorter than one window or partition (with their ids; ``reasons``: run id -> why),
         and ``per_run``: run id -> ``windows``, ``dropped_gap``, ``empty_gap``,
-        ``dropped_unsteady``, ``partition_tail_s``, ``window_tail_s``, ``aligned_s``. A
+        ``dropped_unsteady``, ``partition_tail_s``, ``window_tail_s``, ``aligned_s``;
+        ``streams``: the streams aligned (:func:`required_streams` of the channels). A
         :meth:`subset` adds
         ``not_selected`` (in total and per run): windows cut but left out by the selection.
     """
@@ -483,7 +484,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
     counts = {"windows": 0, "dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
               "partition_tail_s": 0.0, "window_tail_s": 0.0, "skipped_runs": [],
-              "too_short_runs": [], "reasons": {}, "per_run": {}}
+              "too_short_runs": [], "reasons": {}, "per_run": {}, "streams": list(need)}
     iterator = runs
     if progress:
         from tqdm.auto import tqdm

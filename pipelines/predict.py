@@ -12,6 +12,7 @@ import argparse
 
 import pandas as pd
 
+from features.windows import required_streams
 from pipelines.arguments import input_folder, input_path, output_file
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
@@ -80,7 +81,8 @@ def main(args: argparse.Namespace) -> int:
     model, meta = _load(args.model, progress)
     runs = read_runs_path(args.runs_dir, labelled=False, progress=progress)
     window_s = float(meta["window_s"])
-    counts: dict = {"per_run": {}, "skipped_runs": [], "too_short_runs": []}
+    counts: dict = {"per_run": {}, "skipped_runs": [], "too_short_runs": [],
+                    "streams": list(required_streams(meta["channels"]))}
     parts = []
     items = runs
     if progress:

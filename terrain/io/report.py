@@ -196,7 +196,11 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         ``per_run``, ``skipped_runs``, ``too_short_runs``; ``empty_gap``, the window
         positions wholly inside a gap, ``partition_tail_s`` and ``window_tail_s`` may be
         absent from a ``per_run`` entry, and ``reasons``, run id -> why it was skipped or
-        is too short, from ``counts``). Without it the window columns are -1.
+        is too short, from ``counts``; ``streams``, the streams the command aligned, from
+        :func:`features.windows.required_streams` of its channels). Without it the window
+        columns are -1. Only where both streams are aligned is each cut to the other's
+        span: with one (a wheel-only model) all of it is used and the other not at all, so
+        no ``unused_*_s`` is counted; without ``streams`` the readers' account is kept.
     window_s : float, optional
         Window length, s (for the too-short reason where ``counts`` gives none).
     flagged : Mapping[str, int], optional
@@ -212,13 +216,14 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
     short = set(counts.get("too_short_runs", ()))
     reasons = dict(counts.get("reasons", {}))
     flagged = flagged or {}
+    aligned = set(UNUSED_STREAMS) <= set(counts.get("streams", UNUSED_STREAMS))
     rows = []
     for run in runs:
         meta = run.meta
         repaired = dict(meta.get("repaired", {}))
         gaps = merged_gaps(dict(meta.get("gaps", {})))
         stuck = sorted(dict(meta.get("stuck", {})))
-        unused = dict(meta.get("unused_s", {}))
+        unused = dict(meta.get("unused_s", {})) if aligned else {}
         w = per_run.get(run.run_id)
         status, reason = "used", ""
         if run.run_id in skipped:

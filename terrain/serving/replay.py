@@ -155,7 +155,8 @@ class RunReplay:
         run_id = self.run.run_id
         counts = {"per_run": {} if self.too_short else {run_id: {
             "windows": len(self.frame), "dropped_gap": 0, "dropped_unsteady": 0}},
-            "too_short_runs": [run_id] if self.too_short else []}
+            "too_short_runs": [run_id] if self.too_short else [],
+            "streams": list(self.streams)}
         return input_report([self.run], counts, self.window_s, {run_id: self.n_stuck})
 
     def check(self, path: str | Path) -> None:

@@ -272,6 +272,14 @@ def test_seconds_of_a_stream_left_out_without_a_warning_are_in_the_input_report(
     assert f"not used: {left_out:.1f} s of imu outside the other stream's span" \
         in report.text()
     assert "nothing repaired, dropped or skipped" not in report.text()
+    # a wheel-only selection aligns no IMU: nothing of either stream is cut to the other's
+    # span (it said "2.9 s of imu outside the other stream's span" of a stream not read)
+    wheels = make_windows([run], "wheels", WindowConfig(rate_hz=50.0))
+    assert wheels.counts["streams"] == ["wheels"]
+    report = input_report([run], wheels.counts, 2.0)
+    row = report.table.iloc[0]
+    assert row["unused_imu_s"] == 0.0 and row["unused_wheels_s"] == 0.0
+    assert "not used" not in report.text()
 
 
 def test_dead_sensor_is_reported_and_its_windows_flagged(turning):
