@@ -21,7 +21,7 @@ def test_a_cells_non_finite_metric_is_skipped_and_listed_not_logged_as_nan(tmp_p
             "protocol": "grouped", "train_hop_s": None}
     row = {"history": 1, "accuracy": 0.9, "balanced_accuracy": 0.85, "macro_f1": 0.8,
            "run_vote_accuracy": float("nan"), "fit_s_per_fold": 1.5,
-           "infer_ms_per_window": 0.2}
+           "infer_ms_per_window": 0.2, "n_windows_dropped": 3}
     uri = tracking_uri()
     # MLflow's set_tracking_uri also exports MLFLOW_TRACKING_URI: monkeypatch owns the
     # variable so that it leaves with the test (it leaked this store into the next tests)
@@ -42,7 +42,7 @@ def test_a_cells_non_finite_metric_is_skipped_and_listed_not_logged_as_nan(tmp_p
     assert all(math.isfinite(v) for v in child.data.metrics.values())
     assert child.data.metrics == {"accuracy_k1": 0.9, "balanced_accuracy_k1": 0.85,
                                   "macro_f1_k1": 0.8, "fit_s_per_fold": 1.5,
-                                  "infer_ms_per_window": 0.2}
+                                  "infer_ms_per_window": 0.2, "n_windows_dropped": 3.0}
     assert child.data.tags["non_finite_metrics"] == "run_vote_accuracy_k1"
     assert child.data.params["model"] == "svm"
     assert child.data.params["code_version"] == code_version()
