@@ -314,3 +314,34 @@ def test_stream_clock_reports_what_it_holds():
     clock.unjudged.append(np.array([200.0, 210.0]), _values(2))
     clock.late.append(5.0, _values(1)[0])           # refused and counted already
     assert clock.held() == {AHEAD: 1, UNITS: 2}
+
+
+def test_clock_rules_at_their_bounds():
+    """Each rule at the exact bound its docstring draws (stamps exact in binary)."""
+    # a step of exactly max_step_s continues a run (a gap is a step longer than that)
+    assert continues_run(1.25, 1.0, 0.25)
+    # exactly step_s ahead of the other stream is no step of its own clock ("more than")
+    assert not steps_ahead(200.0, 100.0, [195.0], 5.0, 60.0)
+    assert steps_ahead(200.0, 100.0, [194.875], 5.0, 60.0)
+    # a run that has lasted exactly max_backlog_s with the others silent is taken as it is
+    args = (1.0, 5.0, 60.0)   # lag_s, clock_restart_s, max_backlog_s
+    assert resolve_hold(200.0, 260.0, {"wheels": 100.0}, {"wheels": 101.0}, *args) == []
+    assert resolve_hold(200.0, 259.875, {"wheels": 100.0}, {"wheels": 101.0}, *args) is None
+
+
+def test_a_held_run_knows_a_resent_sample_within_the_stamp_tolerance_either_side():
+    """A re-sent stamp rounded (a float32 clock) may land just before or just after the
+    held one: within DUPLICATE_TOL_S either way it is the same sample; the same stamp
+    with other values is not."""
+    from terrain.serving.clocks import DUPLICATE_TOL_S
+
+    held = HeldRun(8)
+    v = np.array([0.25, 8.0])
+    held.begin(100.0, 0.0, {})
+    held.append(99.5, v + 1.0)
+    held.append(100.0, v)
+    held.append(100.5, v + 2.0)
+    for dt in (0.0, 0.5 * DUPLICATE_TOL_S, -0.5 * DUPLICATE_TOL_S):
+        assert held.repeats(100.0 + dt, v), dt
+    assert not held.repeats(100.0 + 3 * DUPLICATE_TOL_S, v)
+    assert not held.repeats(100.0, v + 0.5)

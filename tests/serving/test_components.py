@@ -306,3 +306,188 @@ def test_a_first_window_of_non_finite_probabilities_decides_nothing_with_or_with
         assert decided is None and not filt.evidence
         np.testing.assert_allclose(p, np.full(3, 1 / 3))
     assert filt.update(np.array([0.1, 0.7, 0.2]))[0] == 1 and filt.evidence
+
+
+def test_rules_keep_a_value_at_the_readers_limit_and_refuse_stamps_far_either_side_of_0():
+    """The boundaries of the sample rules, as the readers draw them
+    (:func:`terrain.io.plausibility.check_ranges` refuses only beyond a limit): a value
+    exactly at its limit is kept, the next float past it refused, in either sign; a stamp
+    far before 0 (a corrupted or negative epoch stamp) is as implausible as one far after."""
+    from terrain.io.plausibility import CHANNEL_LIMITS
+
+    speed, gyro = CHANNEL_LIMITS["vel_l"].limit, CHANNEL_LIMITS["wz"].limit
+    above = np.nextafter(speed, np.inf)
+    v = np.array([[speed], [-speed], [above], [-above]])
+    keep, _ = plausible_values(("vel_l",), np.arange(4.0), v, -np.inf)
+    np.testing.assert_array_equal(keep, [True, True, False, False])
+    g = np.array([[gyro], [-gyro], [np.nextafter(gyro, np.inf)]])
+    keep, _ = plausible_gyro(("wz",), np.arange(3.0), g, -np.inf)
+    np.testing.assert_array_equal(keep, [True, True, False])
+    t = np.array([-1.8e12, -1e300, -1e11, 1e11])
+    keep, _ = plausible_time(("vel_l",), t, np.zeros((4, 1)), -np.inf)
+    np.testing.assert_array_equal(keep, [False, False, True, True])
+
+
+def test_forward_step_floors_a_zero_probability_and_ignores_a_non_finite_window():
+    """One window with a class at probability 0 must not put that class at 0 (the floor,
+    :data:`~terrain.serving.smoothing.PROBA_FLOOR`: the filter must be able to come back to
+    it), and a window holding a NaN or inf is no evidence (prediction only), as its
+    docstring says, also when called directly rather than through ``ForwardFilter``."""
+    from terrain.serving.smoothing import PROBA_FLOOR
+
+    p = np.array([0.2, 0.5, 0.3])
+    prior = forward_step(p, None, 0.1, 0.5)
+    post = forward_step(p, np.array([1.0, 0.0, 0.0]), 0.1, 0.5)
+    want = prior * np.array([1.0, PROBA_FLOOR, PROBA_FLOOR]) ** 0.5
+    np.testing.assert_allclose(post, want / want.sum(), rtol=1e-12)
+    assert (post > 0).all()
+    for bad in (np.array([np.nan, 0.5, 0.5]), np.array([np.inf, 0.0, 0.0])):
+        np.testing.assert_allclose(forward_step(p, bad, 0.1, 0.5), prior, rtol=1e-12)
+
+
+def test_a_reset_restarts_from_the_floored_window_so_no_class_is_ruled_out():
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=60.0, reset_confidence=0.9,
+                                                 reset_windows=1))
+    for _ in range(40):
+        filt.update(np.array([0.8, 0.1, 0.1]))
+    assert filt.current == 0
+    decided, p = filt.update(np.array([0.05, 0.95, 0.0]))   # class 2 at 0: floored
+    assert decided == 1
+    from terrain.serving.smoothing import PROBA_FLOOR
+    want = np.array([0.05, 0.95, PROBA_FLOOR])
+    np.testing.assert_allclose(p, want / want.sum(), rtol=1e-12)
+
+
+def test_catalogue_targets_trust_a_confidence_at_the_threshold_and_check_its_range():
+    targets = CataloguePeakTargets(["ASPHALT", "ICE", "SNOW"], min_confidence=0.6)
+    assert targets.target_for("SNOW", 0.6, False) == targets.table["SNOW"] != targets.fallback
+    assert targets.target_for("SNOW", np.nextafter(0.6, 0), False) == targets.fallback
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ConfigError, match="min_confidence"):
+            CataloguePeakTargets(["ICE"], min_confidence=bad)
+
+
+def test_ring_buffer_counts_exactly_the_samples_an_append_pushes_out():
+    """``evicted`` / ``evicted_times`` (the service's ``buffer_overflow`` count): the
+    oldest held samples, then a chunk's own first ones when it is longer than the buffer,
+    only those at or after ``since_s``; nothing while the buffer still has room."""
+    buf = RingBuffer(1, capacity=4)
+    buf.append(np.array([0.0, 1.0, 2.0]), np.zeros((3, 1)))
+    one = np.array([3.0])
+    assert buf.evicted(one, -np.inf) == 0 and buf.evicted_times(one, -np.inf).size == 0
+    buf.append(one, np.zeros((1, 1)))                          # full: 0, 1, 2, 3
+    assert buf.evicted(np.array([4.0]), -np.inf) == 1
+    assert buf.evicted(np.array([4.0]), 0.0) == 1               # at since_s: still needed
+    assert buf.evicted(np.array([4.0]), 0.5) == 0
+    chunk = np.arange(4.0, 10.0)                                # 6 samples into 4 slots
+    np.testing.assert_array_equal(buf.evicted_times(chunk, -np.inf), [0, 1, 2, 3, 4, 5])
+    np.testing.assert_array_equal(buf.evicted_times(chunk, 1.0), [1, 2, 3, 4, 5])
+    assert buf.evicted(chunk, 1.0) == 5
+    assert buf.evicted(chunk[:2], 1.0) == 1                     # 0 and 1 go; 0 not needed
+
+
+def test_ring_buffer_lookups_take_a_sample_at_the_asked_time():
+    buf = RingBuffer(1, capacity=8)
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.5, 0.6])                # a gap of 0.2 s
+    buf.append(t, t[:, None])
+    assert buf.first_at_or_after(0.3) == 0.3 and buf.first_at_or_after(0.31) == 0.5
+    assert buf.first_at_or_after(0.61) == np.inf
+    # the step up to the first sample at or after through_s, whatever came after
+    assert buf.median_step(through_s=0.3) == pytest.approx(0.1)
+    assert buf.median_step(through_s=0.0) != buf.median_step(through_s=0.0)   # nan: 1
+    assert buf.median_step() == pytest.approx(0.1)              # steps .1 .1 .1 .2 .1
+    assert buf.median_step(last=3) == pytest.approx(0.15)       # steps .2 .1: newest 3
+    assert buf.median_step(last=3, through_s=0.5) == pytest.approx(0.15)
+    buf.drop_newest(-3)                                         # never adds samples
+    assert len(buf) == 6 and buf.last_t == 0.6
+    buf.drop_newest(2)
+    assert len(buf) == 4 and buf.last_t == 0.3
+
+
+def test_ring_buffer_batch_first_t_is_the_first_stamp_of_the_newest_push():
+    """What the service judges a lagging stream's staleness from: a chunk's samples
+    arrived together, so the stream had reached its first stamp when they came."""
+    buf = RingBuffer(1, capacity=8)
+    assert buf.batch_first_t == -np.inf
+    buf.append(np.array([1.0, 1.1, 1.2]), np.zeros((3, 1)))
+    assert buf.batch_first_t == 1.0 and buf.last_t == 1.2
+    buf.append(np.array([1.3]), np.zeros((1, 1)))
+    assert buf.batch_first_t == 1.3
+    buf.append(np.array([1.4, 1.5]), np.zeros((2, 1)))
+    buf.drop_newest(2)                                          # never past the newest kept
+    assert buf.batch_first_t == buf.last_t == 1.3
+
+
+def _stuck_data(seed, lengths):
+    """8 Hz samples (binary-exact stamps) of 3 channels, the last two with stretches of one
+    value planted (``lengths`` samples each), some just at the rule's limits (20 s for a
+    current, 1 s for the IMU, and 10 samples), some just short of them."""
+    rng = np.random.default_rng(seed)
+    n = 2400
+    t = np.arange(n) * 0.125
+    v = rng.normal(0.0, 1.0, (n, 3))
+    for col in (1, 2):
+        a = int(rng.integers(0, 40))
+        while a < n - 10:
+            length = int(rng.choice(lengths))
+            v[a:a + length, col] = round(float(rng.normal()), 2)
+            a += length + int(rng.integers(1, 60))
+    return t, v
+
+
+@pytest.mark.parametrize("stream, channels, lengths", [
+    # currents: 161 samples at 8 Hz are exactly 20 s, 160 are short of it
+    ("wheels", ("vel_l", "cur_l", "cur_r"), (160, 161, 170, 3, 120, 200)),
+    # a gyro: 9 samples at 8 Hz span its 1 s but are one short of 10, 10 samples are stuck
+    ("imu", ("ax", "wx", "wz"), (8, 9, 10, 11, 30)),
+])
+@pytest.mark.parametrize("seed", range(3))
+def test_stuck_watch_finds_the_readers_stretches_whatever_the_chunking(
+        seed, stream, channels, lengths):
+    """The live stuck-sensor rule (:class:`~terrain.serving.rules.StuckWatch`) sample by
+    sample or in chunks of any size finds the stretches the readers' rule finds on the
+    whole stream (:func:`terrain.io.plausibility.stuck_stretches`), bounds included, the
+    one still going at the end as well."""
+    import pandas as pd
+
+    from terrain.io.plausibility import stuck_stretches
+    from terrain.run import TIME
+    from terrain.serving.rules import StuckWatch
+
+    t, v = _stuck_data(seed, lengths)
+    # a last sample of new values ends every stretch, the one going on at the end included
+    t, v = np.r_[t, t[-1] + 0.125], np.vstack([v, [[7.0, 7.0, 7.0]]])
+    frame = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
+    want = stuck_stretches({stream: frame})
+    assert sum(len(s) for s in want.values()) >= 4
+    rng = np.random.default_rng(100 + seed)
+    for sizes in ("one", "random", "whole"):
+        watch = StuckWatch(stream, channels, max_stretches=128)
+        a = 0
+        while a < len(t):
+            k = {"one": 1, "whole": len(t)}.get(sizes) or int(rng.integers(1, 300))
+            watch.update(t[a:a + k], v[a:a + k])
+            a += k
+        got = {key: [list(s) for s in ended] for key, ended in zip(watch.keys, watch.ended)}
+        assert {k: s for k, s in got.items() if s} == want, sizes
+
+
+def test_stuck_watch_flags_a_window_holding_any_sample_of_the_stretch():
+    """A decision's window is ``[t_lo, t_hi)``: a stuck stretch whose last sample is at
+    ``t_lo`` is in it, one whose first sample is at ``t_hi`` is not (ended stretches and
+    the one still going alike)."""
+    from terrain.serving.rules import StuckWatch
+
+    t = np.arange(0, 801) * 0.125                  # 0 .. 100 s at 8 Hz
+    x = np.sin(t)                                  # a live current...
+    x[(t >= 10.0) & (t <= 40.0)] = 2.5             # ... stuck from 10 s to 40 s
+    x[t >= 60.0] = 3.5                             # ... and from 60 s to the end (100 s)
+    watch = StuckWatch("wheels", ("cur_l",))
+    for k in range(len(t)):
+        watch.update(t[k:k + 1], x[k:k + 1, None])
+    assert list(watch.ended[0]) == [(10.0, 40.0)]
+    flagged = [("wheels.cur_l" in watch.stuck_between(lo, hi))
+               for lo, hi in ((40.0, 45.0), (40.125, 45.0), (5.0, 10.0), (5.0, 10.125),
+                              (55.0, 60.0), (55.0, 60.125), (100.0, 101.0),
+                              (100.125, 101.0))]
+    assert flagged == [True, False, False, True, False, True, True, False]
