@@ -491,3 +491,27 @@ def test_stuck_watch_flags_a_window_holding_any_sample_of_the_stretch():
                               (55.0, 60.0), (55.0, 60.125), (100.0, 101.0),
                               (100.125, 101.0))]
     assert flagged == [True, False, False, True, False, True, True, False]
+
+
+def test_a_replay_swaps_the_live_stuck_flag_for_the_runs_on_each_decisions_own_window():
+    """``with_run_stuck_flags`` (``terrain stream``, the served model): the live
+    ``stuck:`` flag is dropped, never joined beside the run's (two stuck tokens in one
+    decision), and a decision's window is ``[t_s - window_age_s - window_s,
+    t_s - window_age_s]``: a stale decision is judged on the window it rests on."""
+    from terrain.serving.decisions import Decision, decisions_frame, with_run_stuck_flags
+
+    def decision(t_s, age, flags):
+        return Decision(t_s, "SNOW", 0.9, np.array([0.1, 0.9]), 0.2, -0.15, 0.05, age, flags)
+
+    decisions = [decision(10.0, 0.0, "stale|stuck:imu.wz"),     # window [8, 10]
+                 decision(20.0, 9.0, "stale|stuck:imu.wz"),     # window [9, 11]: stale
+                 decision(13.0, 0.0, "low_confidence"),         # window [11, 13]
+                 decision(30.0, 0.0, "")]                       # window [28, 30]
+    frame = decisions_frame(decisions, ["ICE", "SNOW"])
+    assert frame.loc[0, ["target_slip_traction", "target_slip_braking",
+                         "target_slip_steady", "proba_SNOW"]].tolist() == [0.2, -0.15, 0.05, 0.9]
+    stuck = {"imu.wz": [[10.5, 12.0]], "wheels.cur_l": [[9.5, 9.6]]}
+    flags, n_stuck = with_run_stuck_flags(frame, stuck, 2.0)
+    assert flags == ["stale|stuck:wheels.cur_l", "stale|stuck:imu.wz,wheels.cur_l",
+                     "low_confidence|stuck:imu.wz", ""]
+    assert n_stuck == 3

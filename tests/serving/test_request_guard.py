@@ -578,3 +578,76 @@ def test_mlflow_s_plain_text_timeout_is_answered_classified():
     status, answer = client.answer()
     assert status == 504 and answer["error_code"] == "DEADLINE_EXCEEDED"
     assert answer["sqlstate"] == "XXM00" and answer["error_class"] == "CLIENT_INTERNAL_ERROR"
+
+
+def _post(guard, headers, chunks=(b"ab",)):
+    client = _Client(list(chunks))
+    asyncio.run(guard(_raw_scope("POST", "/invocations", headers), client.receive,
+                      client.send))
+    return client.answer()
+
+
+def test_the_guards_header_rules_at_their_bounds():
+    """A body of exactly ``max_body_bytes`` is taken (one byte more is a 413); a
+    Content-Encoding is compared case-insensitively (``IDENTITY`` is no encoding, RFC 9110);
+    a Content-Type of blanks is none (415); Content-Length beside Transfer-Encoding is a
+    400 (the two disagree on where the body ends: a smuggled request)."""
+    app, seen = _echo_app()
+    guard = RequestGuard(app, max_body_bytes=4)
+    csv = (b"content-type", b"text/csv")
+    assert _post(guard, [(b"content-length", b"4"), csv], [b"abcd"]) == (200, {"n": 4})
+    status, answer = _post(guard, [(b"content-length", b"5"), csv], [b"abcde"])
+    assert status == 413 and "exceeds the limit of 4" in answer["message"]
+    assert _post(guard, [(b"content-length", b"2"), csv,
+                         (b"content-encoding", b" IDENTITY ")]) == (200, {"n": 2})
+    status, answer = _post(guard, [(b"content-length", b"2"), (b"content-type", b"  ")])
+    assert status == 415 and "without Content-Type" in answer["message"]
+    status, answer = _post(guard, [(b"content-length", b"2"), csv,
+                                   (b"transfer-encoding", b"chunked")])
+    assert status == 400 and "Content-Length and Transfer-Encoding" in answer["message"]
+    assert seen == [b"abcd", b"ab"]
+
+
+def _answering_app(status, body, content_type=b"application/json"):
+    """A stand-in for MLflow's app answering every request with ``status`` and ``body``."""
+    async def app(scope, receive, send):
+        while (await receive()).get("more_body"):
+            pass
+        await send({"type": "http.response.start", "status": status,
+                    "headers": [(b"content-type", content_type)]})
+        await send({"type": "http.response.body", "body": body})
+    return app
+
+
+def test_the_apps_400_is_rewritten_and_its_500_stays_a_server_fault():
+    """MLflow's own 400 (a stack trace and its words) becomes the project's typed error;
+    a plain-text 500 stays an ``INTERNAL_ERROR`` and is never dressed up as the client's
+    ``DataFormatError``."""
+    headers = [(b"content-length", b"2"), (b"content-type", b"text/csv")]
+    mlflow_400 = json.dumps({"error_code": "BAD_REQUEST", "stack_trace": "Traceback ...",
+                             "message": "Invalid input. Got type <class 'int'>"}).encode()
+    status, answer = _post(RequestGuard(_answering_app(400, mlflow_400), 100), headers)
+    assert status == 400 and "stack_trace" not in answer
+    assert answer["message"].startswith("DataFormatError: the JSON body is not a table")
+    status, answer = _post(RequestGuard(_answering_app(500, b"worker crashed", b"text/plain"),
+                                        100), headers)
+    assert status == 500 and answer["error_code"] == "INTERNAL_ERROR"
+    assert answer["message"] == "worker crashed"
+
+
+def test_a_body_dripped_slower_than_its_deadline_is_answered_408():
+    """The deadline runs from the headers to the body's last byte, not from chunk to
+    chunk: a client dripping one byte every 0.1 s under a 0.25 s deadline (a slow-loris
+    client) would hold its slot for as long as it likes."""
+    app, seen = _echo_app()
+    guard = RequestGuard(app, max_body_bytes=100, max_in_flight=1, body_timeout_s=0.25)
+    drip = _Client([b"a", b"b", b"c", b"d", b"e", b"f"])
+
+    async def receive():
+        await asyncio.sleep(0.1)
+        return await drip.receive()
+
+    asyncio.run(guard(_scope(length=6), receive, drip.send))
+    status, answer = drip.answer()
+    assert status == 408 and seen == [] and guard.in_flight == 0
+    assert "incomplete after 0.25 s" in answer["message"]
