@@ -1540,3 +1540,29 @@ def test_a_first_window_of_nan_probabilities_gives_no_terrain_with_the_filter_as
                    for d in got[1:])
     for d in firsts:
         assert (d.terrain, d.confidence, d.flags) == (None, 0.0, "non_finite_proba")
+
+
+def test_the_confidence_is_the_decided_terrains_probability_under_hysteresis(
+        wheel_model, unseen_run, borealtc_runs):
+    """With hysteresis the decided terrain may trail another class's filtered probability
+    (here after a switch of terrain: the run, then one of another terrain); its confidence
+    (and the min_confidence fallback judged on it) is the decided terrain's own
+    probability, never the top one of another class."""
+    other = next(r for r in borealtc_runs if r.terrain != unseen_run.terrain)
+    first = unseen_run.streams["wheels"]
+    second = other.streams["wheels"].copy()
+    step = float(first[TIME].diff().median())
+    second[TIME] += first[TIME].iloc[-1] + step - second[TIME].iloc[0]
+    svc = service(wheel_model, smoothing=SmoothingConfig(dwell_s=10.0, hysteresis=0.4),
+                  min_confidence=0.5)
+    frame = decisions_frame(push_wheels(svc, first) + push_wheels(svc, second),
+                            wheel_model.classes)
+    frame = frame[frame["terrain"].notna()]
+    proba = frame[[f"proba_{c}" for c in wheel_model.classes]].to_numpy()
+    own = proba[np.arange(len(frame)), [wheel_model.classes.index(t)
+                                        for t in frame["terrain"]]]
+    trailing = own < proba.max(axis=1)
+    assert trailing.sum() >= 1, "the run should hold a decision held by the hysteresis"
+    np.testing.assert_array_equal(frame["confidence"].to_numpy(), own)
+    low = frame["flags"].str.contains("low_confidence").to_numpy()
+    np.testing.assert_array_equal(low, own < 0.5)
