@@ -1566,3 +1566,19 @@ def test_the_confidence_is_the_decided_terrains_probability_under_hysteresis(
     np.testing.assert_array_equal(frame["confidence"].to_numpy(), own)
     low = frame["flags"].str.contains("low_confidence").to_numpy()
     np.testing.assert_array_equal(low, own < 0.5)
+
+
+def test_proba_columns_follow_the_models_class_order_not_the_pipelines(
+        wheel_model, unseen_run):
+    """``StreamModel.classes`` sets the order of the decisions' probabilities; the
+    pipeline's own ``classes_`` order may differ: each class's probability must follow
+    its name (a robot reading ``proba_ICE`` must get the pipeline's ICE column)."""
+    flipped = replace(wheel_model, classes=tuple(reversed(wheel_model.classes)))
+    assert flipped.classes != tuple(flipped.pipeline.classes_)
+    wheels = unseen_run.streams["wheels"].iloc[:120]
+    a = decisions_frame(push_wheels(service(wheel_model), wheels), wheel_model.classes)
+    b = decisions_frame(push_wheels(service(flipped), wheels), flipped.classes)
+    assert len(a) > 3
+    cols = [f"proba_{c}" for c in wheel_model.classes]
+    np.testing.assert_array_equal(a[cols].to_numpy(), b[cols].to_numpy())
+    assert a["terrain"].tolist() == b["terrain"].tolist()
