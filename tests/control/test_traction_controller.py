@@ -548,3 +548,54 @@ def test_traction_controller_refuses_a_unit_count_that_is_not_a_positive_integer
     raised int()'s ValueError."""
     with pytest.raises(ConfigError, match="n_units"):
         TractionController(TractionControlConfig(), n_units)
+
+
+def test_a_locked_wheel_under_a_moving_robot_is_corrected():
+    """Braking with the wheel locked (omega r = 0 under a 0.5 m/s wheel centre): slip -1
+    (eq. 8.4 with the ground speed as denominator), the wheel's speed for the enabling
+    threshold is max(|omega r|, |v_long|) = 0.5 m/s, so the error -0.15 - (-1) = 0.85 is
+    acted on and the correction speeds the wheel up (kp 1: +0.85 rad/s, r 1 m). Enabling on
+    the rim speed alone would leave every locked wheel uncorrected."""
+    out, _ = _step(TractionControlConfig(kp=1.0), TractionState.zeros(1), 5.0, 0.0, 0.5, -1.0)
+    assert out.mode[0] == BRAKING and out.slip[0] == pytest.approx(-1.0)
+    assert out.error[0] == pytest.approx(0.85)
+    assert out.correction_rad_s[0] == pytest.approx(0.85) and out.enabled[0]
+
+
+def test_thresholds_at_their_exact_values():
+    """ch. 8.3.2: the error is 0 *below* the wheel speed threshold (a wheel at exactly 0.05
+    m/s is outside the slip's own dead band of ch. 7.2.1 and is regulated); the correction
+    reaches the motors only while the chassis speed *exceeds* its threshold; Power_state
+    equal to its threshold is steady (eq. 8.9)."""
+    cfg = TractionControlConfig(kp=1.0, one_sided=False)
+    out, _ = _step(cfg, TractionState.zeros(1), 0.05, 0.05, 0.05, 1.0)   # a v = 0.05 > 0.02
+    assert out.mode[0] == TRACTION and out.error[0] == pytest.approx(0.1)
+    out, _ = _step(cfg, TractionState.zeros(1), 0.7, 0.7, 0.6, 1.0, chassis=0.05)
+    assert not out.enabled[0] and out.correction_rad_s[0] == 0.0
+    out, _ = _step(cfg, TractionState.zeros(1), 0.7, 0.7, 0.6, 1.0, chassis=0.0501)
+    assert out.enabled[0] and out.correction_rad_s[0] != 0.0
+    cfg = TractionControlConfig(kp=1.0, one_sided=False, power_threshold_m2_s3=0.05)
+    out, _ = _step(cfg, TractionState.zeros(2), [0.7, 0.7], [0.7, 0.7], [0.5, 0.5],
+                   [0.1, -0.1])                                # a v = +-0.05 exactly
+    assert list(out.mode) == [STEADY, STEADY]
+    out, _ = _step(TractionControlConfig(one_sided=False, power_threshold_m2_s3=0.0),
+                   TractionState.zeros(1), 0.7, 0.7, 0.6, 0.0)  # threshold 0, cruising
+    assert out.mode[0] == STEADY
+
+
+def test_integral_is_clamped_to_the_room_after_integrating_with_a_derivative():
+    """One-sided, traction: the limiter only lets the correction slow the wheel, so the
+    integral's room is [-limit, 0]. The slip rises fast from 0 to 0.09 (ground 1 m/s, dt
+    0.02 s, tau_d 0.01 s): raw derivative 4.5 1/s, filtered 0.02 / 0.03 of it = 3.0 1/s,
+    d term -kd 3.0 = -1.5 rad/s; error 0.01 > 0 with the output unsaturated (p + i + d < 0),
+    so the integral would grow to ki e dt = 0.002 rad/s, on the forbidden side; it is held
+    at 0 and the correction is kp e + d = 0.01 - 1.5 = -1.49 rad/s."""
+    cfg = TractionControlConfig(kp=1.0, ki=10.0, kd=0.5, derivative_tau_s=0.01)
+    state = TractionState.zeros(1)
+    for slip in (0.0, 0.09):
+        out, state = _step(cfg, state, 2.0, 1.0 / (1.0 - slip), 1.0, 1.0, chassis=1.0,
+                           dt=0.02)
+    assert out.mode[0] == TRACTION and out.error[0] == pytest.approx(0.01)
+    assert state.derivative[0] == pytest.approx(3.0)
+    assert state.integral[0] == 0.0
+    assert out.correction_rad_s[0] == pytest.approx(-1.49)
