@@ -8,12 +8,15 @@ import numpy as np
 import pytest
 
 from terrain.control import build_slip_table, config_for_vehicle
-from terrain.control.closed_loop import BUS_VOLTAGE_V, TractionLoop, run_closed_loop
+from terrain.control.closed_loop import (BUS_VOLTAGE_V, FIRST_FEEDFORWARD_STEP_S, TractionLoop,
+                                         fallback_basis, run_closed_loop)
 from terrain.control.estimators import VelocityEstimate
+from terrain.control.feedforward import traction_acceleration_limit
 from terrain.control.grid import TUNING_SEEDS, run_grid, slip_limit_bound
 from terrain.errors import ConfigError
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
 from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, simulate_with_physics
+from terrain.terramechanics import get_terrain
 
 
 def _config(vehicle="husky", terrain="ICE", duration=3.0, seed=4):
@@ -508,3 +511,77 @@ def test_control_sim_prints_a_run_that_does_not_move(tmp_path, capsys):
                  "--terrain-source", "label", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["energy_j_per_m"] is None
     assert "energy n/a" in capsys.readouterr().out
+
+
+def test_engaged_feed_forward_gives_way_to_a_feedback_that_slows_the_wheel_more():
+    """ICE, wheel commanded above the feed-forward limit (0.3 m/s rim against
+    0.2 / (1 - 0.0098)) but measured spinning (rim 1.0 m/s over 0.2 m/s ground: slip 0.8):
+    the limit binds with a correction of about -0.6 rad/s (r 0.165 m), the feedback asks
+    kp (0.0098 - 0.8) = -1.58 rad/s (within the -1.8 rad/s that would stop the wheel). The
+    one that slows the wheel more, the feedback's, is applied (class docstring), not the
+    engaged feed-forward's."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=2.0)
+    r = ctrl_cfg.wheel_radius_m
+    table = build_slip_table(["ICE"])
+    corrections = {}
+    for ff in (False, True):
+        loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.2, 1.0, r), table,
+                            lambda t: ("ICE", 1.0), feed_forward=ff)
+        corrections[ff] = loop(_observation(0.02, np.full(n, 0.3 / r)))
+    assert loop.ff_engaged.all()
+    expected = 2.0 * (table.entries["ICE"].traction - 0.8)
+    np.testing.assert_allclose(corrections[False], expected, rtol=1e-9)
+    np.testing.assert_allclose(corrections[True], corrections[False], rtol=0, atol=1e-12)
+
+
+def test_feed_forward_limits_on_the_fallbacks_terrain_while_no_terrain_is_decided():
+    """No decision yet (label None): the fallback's targets apply, and the feed-forward
+    limit is computed on the terrain the fallback's traction target comes from (ICE, the
+    smallest traction target of ICE and GRASS), not switched off."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=2.0)
+    r = ctrl_cfg.wheel_radius_m
+    table = build_slip_table(["GRASS", "ICE"])
+    assert fallback_basis(table) == "ICE"
+    assert table.fallback.traction == table.entries["ICE"].traction
+    loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.2, 1.0, r), table,
+                        lambda t: (None, 0.0))
+    c = loop(_observation(0.02, np.full(n, 1.0 / r)))
+    assert loop.ff_engaged.all()
+    np.testing.assert_allclose(1.0 / r + c, 0.2 / (r * (1 - table.fallback.traction)),
+                               rtol=1e-9)
+
+
+def test_decision_age_is_the_time_since_the_decision_and_the_first_ramp_step_is_assumed():
+    """A decision made 1 s before the call (``t_decided = t - 1``) has age +1 s: trusted
+    (GRASS's targets; the table's limit is 4 s); made 10 s before: the fallback. The
+    feed-forward reference of the first call, from a standing estimate, is
+    ``a_max FIRST_FEEDFORWARD_STEP_S`` (module constant, 0.02 s)."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=2.0)
+    r = ctrl_cfg.wheel_radius_m
+    table = build_slip_table(["GRASS", "ICE"])
+    for made_before, expect in ((1.0, table.entries["GRASS"]), (10.0, table.fallback)):
+        loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(0.0, 0.0, 0.0, r), table,
+                            lambda t: ("GRASS", 0.9, t - made_before))
+        loop(_observation(20.0, np.full(n, 1.0 / r)))
+        assert loop.log[-1]["decision_age_s"] == pytest.approx(made_before)
+        assert loop.log[-1]["target_traction"] == expect.traction
+    a_max = traction_acceleration_limit(get_terrain("ICE"), table.fallback.traction)
+    assert a_max > 0
+    np.testing.assert_allclose(loop.v_ref, a_max * FIRST_FEEDFORWARD_STEP_S, rtol=1e-12)
+
+
+def test_a_non_finite_acceleration_estimate_suspends_the_control_for_that_call_only():
+    """A NaN acceleration from the estimator gives the safe output for that call; the
+    low-pass of the accelerations restarts from the next finite one instead of carrying the
+    NaN (which would have kept every later call safe, the controller off for good)."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=2.0)
+    r = ctrl_cfg.wheel_radius_m
+    est = _FixedEstimator(0.6, 1.0, math.nan, r)
+    loop = TractionLoop(ctrl_cfg, n, est, build_slip_table(["ICE"]), lambda t: ("ICE", 1.0))
+    loop(_observation(0.02, np.full(n, 0.6 / r)))
+    assert loop.log[-1]["safe"].all()
+    est.a = -1.0                                               # braking, locking wheel
+    for k in range(2):
+        c = loop(_observation(0.04 + 0.02 * k, np.full(n, 0.6 / r)))
+        assert not loop.log[-1]["safe"].any() and np.all(loop.log[-1]["mode"] == -1)
+    assert np.all(c > 0.5)

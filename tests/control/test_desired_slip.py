@@ -7,13 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from terrain.control.desired_slip import (FALLBACK_LABEL, THESIS_CLASSES, DesiredSlipConfig,
-                                          build_slip_table, classifier_classes, desired_slip,
+from terrain.control.desired_slip import (FALLBACK_LABEL, THESIS_CLASSES, DesiredSlip,
+                                          DesiredSlipConfig, build_slip_table,
+                                          classifier_classes, desired_slip, fallback_entry,
                                           is_deformable, select_target)
 from terrain.errors import ConfigError
 from terrain.io.shipped import read_manifest
 from terrain.terramechanics import (BrixiusCurve, BurckhardtCurve, get_terrain,
-                                    soil_resistance_coefficient, traction_coefficient,
+                                    soil_resistance_coefficient, steady_slip,
+                                    traction_coefficient,
                                     traction_curve_and_slope)
 from terrain.terramechanics.catalogue import TERRAINS
 from terrain.terramechanics.efficiency import max_tractive_efficiency, tractive_efficiency
@@ -116,6 +118,11 @@ def test_targets_follow_the_rule_settings():
     assert loose.traction < desired_slip(get_terrain("ASPHALT")).traction
     tight = desired_slip(get_terrain("GRASS"), DesiredSlipConfig(deformable_cap=0.2))
     assert tight.traction == 0.2
+    # SNOW's resistances balance at 0.167 slip, above a 0.1 cap: the steady target (a limit
+    # of the one-sided controller too) is held at the traction target, never above it
+    assert steady_slip(get_terrain("SNOW")) > 0.1
+    capped = desired_slip(get_terrain("SNOW"), DesiredSlipConfig(deformable_cap=0.1))
+    assert capped.traction == 0.1 and capped.steady == 0.1
 
 
 def test_fallback_is_the_most_conservative_entry(table):
@@ -123,6 +130,18 @@ def test_fallback_is_the_most_conservative_entry(table):
     assert fb.traction == min(e.traction for e in table.entries.values())
     assert fb.braking == max(e.braking for e in table.entries.values())
     assert fb.braking < 0 < fb.traction and 0 <= fb.steady <= fb.traction
+
+
+def test_fallback_takes_each_target_from_its_own_most_conservative_entry():
+    """Hand-built rows: the smallest traction (A), the braking closest to 0 (B, not the
+    most negative -0.3 of A) and the smallest steady (B), each from another row where they
+    differ; on the catalogue's table every steady minimum is 0 and cannot tell."""
+    a = DesiredSlip("A", traction=0.05, braking=-0.3, steady=0.04, source="", method="")
+    b = DesiredSlip("B", traction=0.2, braking=-0.1, steady=0.01, source="", method="")
+    fb = fallback_entry([a, b])
+    assert (fb.terrain, fb.traction, fb.braking, fb.steady) == (FALLBACK_LABEL, 0.05, -0.1,
+                                                                0.01)
+    assert "traction from A, braking from B, steady from B" in fb.source
 
 
 @pytest.mark.parametrize("terrain,confidence,age,expect", [
@@ -134,6 +153,7 @@ def test_fallback_is_the_most_conservative_entry(table):
     ("GRASS", 45.0, 0.0, FALLBACK_LABEL),   # a percentage: 45 % is below the threshold
     ("GRASS", 0.9, -0.1, FALLBACK_LABEL),   # stamped after its use: clocks disagree
     ("GRASS", 0.9, 4.0, "GRASS"),           # exactly max_decision_age_s is not older
+    ("GRASS", 0.5, 0.0, "GRASS"),           # exactly min_confidence is not below it
 ])
 def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
     assert select_target(table, terrain, confidence, age).terrain == expect

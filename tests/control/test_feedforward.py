@@ -39,9 +39,20 @@ def test_feedforward_limits_the_wheel_to_the_reachable_ground_speed():
     ff = feedforward_step(v_ref, np.array([0.9, 0.9]), np.array([6.0, 1.0]), a_max, s_t, r, dt)
     np.testing.assert_allclose(ff.v_ref_m_s, [0.9, 0.9])
     np.testing.assert_allclose(ff.correction_rad_s, [0.9 / 0.18 - 6.0, 0.0], atol=1e-12)
+    # reversing: v_long is signed, the reference a magnitude; a robot already backing at
+    # 0.9 m/s lifts it as one driving forward does (limit 0.9 / 0.18 = 5 rad/s either way)
+    ff = feedforward_step(np.zeros(2), np.array([-0.9, 0.9]), np.array([-6.0, 6.0]), a_max,
+                          s_t, r, dt)
+    np.testing.assert_allclose(ff.v_ref_m_s, [0.9, 0.9])
+    np.testing.assert_allclose(ff.correction_rad_s, [1.0, -1.0])
     # never above the commanded rim speed, no growth with a negative acceleration limit
     ff = feedforward_step(np.array([0.3]), np.array([0.0]), np.array([1.0]), -1.0, s_t, r, dt)
     np.testing.assert_allclose(ff.v_ref_m_s, [0.2])
+    # ... nor shrinking (the rim speed 1.0 m/s is above it: only the clamp of a_max at 0
+    # keeps the reference at 0.3, a_max dt would take it to 0.28 and slow the wheel)
+    ff = feedforward_step(np.array([0.3]), np.array([0.0]), np.array([5.0]), -1.0, s_t, r, dt)
+    np.testing.assert_allclose(ff.v_ref_m_s, [0.3])
+    np.testing.assert_allclose(ff.correction_rad_s, [0.3 / 0.18 - 5.0])
 
 
 def test_engaged_limit_is_released_no_faster_than_the_terrain_accelerates():
