@@ -74,6 +74,42 @@ def test_dead_reckon_holds_a_slip_above_one_at_one_and_says_so():
         dead_reckon(t, rim, rim, HUSKY.track_m, np.ones_like(t), np.ones_like(t))
 
 
+def test_dead_reckon_integrates_with_the_midpoint_heading_and_trapezoidal_rates():
+    """Coarse steps (0.1 s), closed forms: a half circle of radius 1 (v 1 m/s, yaw rate
+    1 rad/s, gyro) ends at (0, 2) (each step's chord along the midpoint heading, short of
+    the arc by 1 - sinc(0.05) = 4e-4; along the start heading it lands 0.1 m off in x; a
+    full circle closes either way). Yaw rate and speed ramping as t over 1 s: yaw and
+    distance 0.5 exactly (trapezoid; the left sample gives 0.45). Sliding sideways at
+    1 m/s while turning at 1 rad/s for pi / 2 s: (cos(pi/2) - 1, sin(pi/2)) = (-1, 1)."""
+    t = np.linspace(0.0, np.pi, 32)
+    one = np.ones_like(t)
+    pose = dead_reckon(t, one, one, HUSKY.track_m, yaw_rate_rad_s=one)
+    np.testing.assert_allclose(pose[-1], [0.0, 2.0, np.pi], atol=2e-3)
+    t = np.linspace(0.0, 1.0, 11)
+    assert dead_reckon(t, 0 * t, 0 * t, HUSKY.track_m, yaw_rate_rad_s=t)[-1, 2] == \
+        pytest.approx(0.5, abs=1e-12)
+    np.testing.assert_allclose(dead_reckon(t, t, t, HUSKY.track_m)[-1], [0.5, 0.0, 0.0],
+                               atol=1e-12)
+    t = np.linspace(0.0, np.pi / 2, 41)
+    zero = np.zeros_like(t)
+    pose = dead_reckon(t, zero, zero, HUSKY.track_m, lateral_m_s=1.0,
+                       yaw_rate_rad_s=np.ones_like(t))
+    np.testing.assert_allclose(pose[-1, :2], [-1.0, 1.0], atol=2e-3)
+
+
+def test_dead_reckon_reversing_is_the_mirror_of_driving_forward():
+    """SAE slip in the rim's direction: backing at rim -0.5 m/s with slip -0.2 (traction in
+    reverse, eq. 7.1 mirrored) moves at -0.5 (1 - 0.2) = -0.4 m/s; braking in reverse
+    (slip +0.2) at -0.5 / (1 - 0.2) = -0.625 m/s, the mirror of the forward values."""
+    t = np.linspace(0.0, 1.0, 11)
+    rim = np.full_like(t, 0.5)
+    for s, ground in ((0.2, 0.4), (-0.2, 0.625)):
+        fwd = dead_reckon(t, rim, rim, HUSKY.track_m, np.full_like(t, s), np.full_like(t, s))
+        back = dead_reckon(t, -rim, -rim, HUSKY.track_m, np.full_like(t, -s),
+                           np.full_like(t, -s))
+        assert fwd[-1, 0] == pytest.approx(ground) and back[-1, 0] == pytest.approx(-ground)
+
+
 def test_dead_reckon_straight_and_circle():
     t = np.linspace(0.0, 10.0, 1001)
     pose = dead_reckon(t, np.full_like(t, 0.5), np.full_like(t, 0.5), HUSKY.track_m)

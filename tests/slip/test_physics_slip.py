@@ -16,6 +16,7 @@ from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
 from terrain.terramechanics.inverse import slip_from_traction, stable_side
 from terrain.terramechanics.traction import traction_coefficient, traction_peak
 from terrain.vehicles import HUSKY
+from terrain.vehicles.common import drive_inertia_kg_m2
 
 
 @pytest.mark.parametrize("name", TERRAIN_NAMES)
@@ -353,3 +354,78 @@ def test_physics_slip_settings_refuse_what_is_not_a_finite_number_in_range():
             PhysicsSlipSettings(**kwargs)
     PhysicsSlipSettings(current_std_a=0.0, efficiency_rel_std=0.0, hysteresis_rel_std=0.0,
                         min_probability=0.0)
+
+
+def test_reversing_is_the_mirror_image_of_driving_forward():
+    """Flat ground, odd traction curves: a side driving backwards at the same current
+    magnitude (the logged current is unsigned, its sign comes from the wheel speed) has the
+    opposite slip with the same std and a mirrored interval."""
+    cur = np.array([[8.0, 12.0]])
+    rim = np.array([[0.5, 0.8]])
+    fwd = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1))
+    back = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, -rim, np.zeros(1))
+    assert np.all(fwd.slip > 0)
+    np.testing.assert_allclose(back.slip, -fwd.slip, atol=1e-12)
+    np.testing.assert_allclose(back.std, fwd.std, atol=1e-12)
+    np.testing.assert_allclose(back.lower, -fwd.upper, atol=1e-12)
+
+
+def test_wheel_inertia_torque_is_removed_before_the_traction():
+    """``mu`` from torque T while the wheel accelerates at alpha equals ``mu`` from the
+    torque ``T - J alpha`` of a steady wheel (J: drive inertia at the wheel)."""
+    ter = get_terrain("GRASS")
+    torque = np.full((1, 2), 6.0)
+    rim = np.full((1, 2), 0.5)
+    alpha = np.array([[4.0, -4.0]])
+    accel = traction_from_torque(HUSKY, ter, torque, rim, np.zeros(1), alpha)[0]
+    steady = traction_from_torque(HUSKY, ter, torque - drive_inertia_kg_m2(HUSKY) * alpha,
+                                  rim, np.zeros(1))[0]
+    assert drive_inertia_kg_m2(HUSKY) > 0
+    np.testing.assert_allclose(accel, steady, rtol=1e-12)
+    assert accel[0, 0] < accel[0, 1]        # spinning up takes torque away from the ground
+
+
+def test_interval_is_coverage_sigma_stds_either_side_for_one_terrain():
+    """One terrain (no between-terrain spread), slip on the curve's stable side: the
+    reported interval is ``[lo, hi]`` and the std ``(hi - lo) / (2 k)``, so its width is
+    ``2 k std`` for any coverage ``k``; and the current noise of the mean of n samples
+    shrinks as 1 / sqrt(n) (only current noise here: four samples halve the std, to first
+    order in the small noise)."""
+    cur = np.array([[4.0, 5.0]])
+    rim = np.array([[0.5, 0.5]])
+    for k in (1.0, 2.0, 3.0):
+        ps = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1),
+                          settings=PhysicsSlipSettings(coverage_sigma=k))
+        assert np.all((ps.lower > -1) & (ps.upper < 1))
+        np.testing.assert_allclose(ps.upper - ps.lower, 2.0 * k * ps.std, rtol=1e-9)
+    only_current = PhysicsSlipSettings(current_std_a=0.05, efficiency_rel_std=0.0,
+                                       hysteresis_rel_std=0.0)
+    one, four = (physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1),
+                              n_averaged=n, settings=only_current).std for n in (1.0, 4.0))
+    np.testing.assert_allclose(four, one / 2.0, rtol=2e-2)
+
+
+def test_terrains_below_the_minimum_probability_are_dropped():
+    """A 0.05 % share of ICE is below ``min_probability`` (0.1 %): the slip is SNOW's alone,
+    not pulled towards ICE's (whose curve gives another slip for the same current)."""
+    cur = np.array([[10.0, 10.0]])
+    rim = np.array([[0.5, 0.5]])
+    snow = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, np.zeros(1))
+    ice = physics_slip(HUSKY, {"ICE": 1.0}, cur, rim, np.zeros(1))
+    assert np.all(np.abs(ice.slip - snow.slip) > 1e-3)
+    mixed = physics_slip(HUSKY, {"SNOW": 0.9995, "ICE": 0.0005}, cur, rim, np.zeros(1))
+    np.testing.assert_array_equal(mixed.slip, snow.slip)
+    np.testing.assert_array_equal(mixed.std, snow.std)
+
+
+def test_interval_of_a_terrain_mixture_covers_each_terrains_slip():
+    """Half GRASS, half SANDY_LOAM: the same current means a different slip on each (4 A:
+    0.36 against 0.09); the reported interval (the weighted intervals widened by k times the
+    spread between the terrains' slips, law of total variance) holds both."""
+    cur = np.array([[4.0, 4.5]])
+    rim = np.array([[0.5, 0.5]])
+    each = [physics_slip(HUSKY, {name: 1.0}, cur, rim, np.zeros(1)).slip
+            for name in ("GRASS", "SANDY_LOAM")]
+    mixed = physics_slip(HUSKY, {"GRASS": 0.5, "SANDY_LOAM": 0.5}, cur, rim, np.zeros(1))
+    assert np.all(np.abs(each[0] - each[1]) > 0.02)
+    assert np.all(mixed.lower <= np.minimum(*each)) and np.all(mixed.upper >= np.maximum(*each))

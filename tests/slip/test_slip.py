@@ -43,6 +43,19 @@ def test_sae_slip_dead_band_saturation_nan_and_vectorised():
         sae_slip(1.0, 1.0, dead_band_m_s=-1.0)
 
 
+def test_sae_slip_at_the_dead_band_edge_and_with_the_simulators_floor():
+    # ch. 7.2.1: 0 only where both speeds are *below* the dead band; at exactly 0.05 m/s the
+    # slip is computed (the controller's enabling speed uses the same edge)
+    assert sae_slip(0.05, 0.0) == 1.0 and sae_slip(0.0, 0.05) == -1.0
+    assert sae_slip(0.0499, 0.0) == 0.0
+    # the simulator's floored form: max(|omega r|, |v|, floor) in the denominator, still
+    # saturated to [-1, 1] (opposite signs give |ratio| 2 before the clip)
+    assert sae_slip(0.01, 0.0, speed_floor_m_s=0.02, dead_band_m_s=0.0) == pytest.approx(0.5)
+    assert sae_slip(1.0, -1.0, speed_floor_m_s=0.02) == 1.0
+    assert sae_slip(-1.0, 1.0, speed_floor_m_s=0.02) == -1.0
+    assert sae_slip(3.0, -3.0, speed_floor_m_s=0.02, saturation=0.5) == 0.5
+
+
 def test_wheel_longitudinal_velocity_eqs_7_3_to_7_5():
     pos = np.asarray(AGRIMARO.wheel_positions_m)
     v = wheel_longitudinal_velocity(np.array([1.0]), np.array([0.2]), np.array([0.5]), pos,
