@@ -274,6 +274,9 @@ def test_agrimaro_non_finite_camera_samples_do_not_count_as_a_fresh_reference():
                 cam[:, 1:] = np.nan
                 obs = obs._replace(cam=cam)
             ages[mode] = est.update(obs).age_s
+            if obs.t_s <= 1.5:
+                fresh = ages[mode]
+        assert fresh < 0.1       # a finite camera sample the filter used renews the age
     assert ages["dropped"] > 0.9
     assert ages["nan"] == pytest.approx(ages["dropped"])
 
@@ -311,3 +314,73 @@ def test_observers_refuse_infinite_time_constants(make):
     # sample, a period with no pseudo-measurement (the estimate always stale)
     with pytest.raises(ConfigError, match="must be a finite value > 0"):
         make()
+
+
+def test_wheel_imu_observer_integrates_the_accelerometer_over_time_and_pulls_to_the_slower_side():
+    """Accelerometer only: 1 m/s^2 sampled at 100 Hz over 0.5 s gives v = 49 x 0.01 s x 1
+    m/s^2 = 0.49 m/s. Then driving straight with the left wheel spinning (rim 0.8 m/s) and the
+    right one rolling (0.5 m/s): the speed is pulled to the slower side's, 0.5 m/s (after
+    20 s = 10 tau), not to the spinning wheel's. Standing still (wheels and command at 0) the
+    speed is reset to 0 whatever the accelerometer's bias integrated."""
+    from terrain.sim.closed_loop import Observation
+
+    est = WheelImuObserver("husky", tau_s=2.0)
+    r = est.vehicle.wheel_radius_m
+
+    def obs(t, imu, wheels):
+        return Observation(t, np.zeros(2), imu, wheels, np.zeros((0, 4)), np.zeros((0, 5)),
+                           np.zeros((0, 3)), np.zeros((0, 7)))
+
+    imu = np.array([[0.01 * k, 1.0, 0.0, 0.0] for k in range(50)])
+    e = est.update(obs(0.5, imu, np.zeros((0, 3))))
+    assert e.chassis_speed_m_s == pytest.approx(0.49, abs=1e-12)
+    for k in range(51, 2051):
+        t = 0.01 * k
+        e = est.update(obs(t, np.array([[t, 0.0, 0.0, 0.0]]),
+                           np.array([[t, 0.8 / r, 0.5 / r]])))
+    assert e.chassis_speed_m_s == pytest.approx(0.5, abs=1e-3)
+    np.testing.assert_allclose(e.v_long_m_s, [0.5, 0.5], atol=1e-3)
+    t += 0.01
+    e = est.update(obs(t, np.array([[t - 0.005, 0.3, 0.0, 0.0]]), np.array([[t, 0.0, 0.0]])))
+    assert e.chassis_speed_m_s == 0.0
+
+
+def _no_samples(t):
+    from terrain.sim.closed_loop import Observation
+
+    return Observation(t, np.zeros(3), np.zeros((0, 4)), np.zeros((0, 4)), np.zeros((0, 4)),
+                       np.zeros((0, 5)), np.zeros((0, 3)), np.zeros((0, 7)))
+
+
+def test_fused_observer_hands_on_a_slip_state_beyond_the_model_range_clipped():
+    """A slip state beyond +-MAX_SLIP (0.95, the filter model's range) is clipped before the
+    ground speed is derived from it: a braking slip of -1.5 would give the unbounded
+    ``omega r / (1 + s)`` (held by ground_speed_from_slip at 1e12 times the rim speed)."""
+    from terrain.estimation.equations.skid_steer_slip import MAX_SLIP
+    from terrain.terramechanics.slip import ground_speed_from_slip
+
+    est = estimator_for("husky", lambda t: ("ICE", 1.0))
+    r = est.vehicle.wheel_radius_m
+    est.omega = np.array([1.0, 1.0]) / r
+    est.x[4:6] = [-1.5, 1.5]
+    e = est.update(_no_samples(0.0)._replace(omega_low_level=np.zeros(2)))
+    np.testing.assert_allclose(
+        e.v_long_m_s, ground_speed_from_slip(np.ones(2), np.array([-MAX_SLIP, MAX_SLIP])))
+    np.testing.assert_allclose(e.v_long_m_s, [1.0 / 0.05, 0.05])
+
+
+def test_agrimaro_wheel_acceleration_is_the_body_acceleration_along_the_wheel():
+    """Clean-IMU view (the filter's acceleration state handed on): each wheel's
+    ``a_long = a_x cos(delta) + a_y sin(delta)``, the projection of eq. 7.5 applied to the
+    acceleration; at 90 deg of steering the lateral acceleration is the wheel's."""
+    from terrain.estimation.ekf import ExtendedKalmanFilter
+
+    est = estimator_for("agrimaro", kind="ekf-vo")
+    m = est.model
+    x = np.array(m.x0, dtype=float)
+    x[3:8] = [0.0, 0.0, 0.0, 0.4, 0.3]                 # vx vy w ax ay
+    x[8:11] = [0.0, np.pi / 2, -np.pi / 4]
+    est.ekf = ExtendedKalmanFilter(x, m.P0, m.f, m.F, m.h, m.H, m.Q, m.R_diag)
+    e = est.update(_no_samples(0.0))
+    np.testing.assert_allclose(e.a_local_m_s2,
+                               [0.4, 0.3, (0.4 - 0.3) / np.sqrt(2.0)], atol=1e-12)
