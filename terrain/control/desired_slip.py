@@ -144,7 +144,8 @@ class DesiredSlip:
     ------
     ConfigError
         A target of the wrong sign, beyond [-1, 1] or not a real number
-        (:func:`terrain.control.traction.check_slip_targets`).
+        (:func:`terrain.control.traction.check_slip_targets`), or a steady target above
+        the traction target.
     """
 
     terrain: str
@@ -156,6 +157,10 @@ class DesiredSlip:
 
     def __post_init__(self) -> None:
         check_slip_targets("DesiredSlip", self.traction, self.braking, self.steady)
+        if self.steady > self.traction:   # a cruising wheel allowed more slip than a driving one
+            raise ConfigError(f"DesiredSlip.steady must be in [0, traction] "
+                              f"({self.traction}) for terrain {self.terrain!r}, got "
+                              f"{self.steady}")
 
 
 def classifier_classes(measured: Sequence[str]) -> tuple[str, ...]:

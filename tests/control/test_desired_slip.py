@@ -237,3 +237,9 @@ def test_desired_slip_rows_refuse_targets_of_the_wrong_sign():
 
     with pytest.raises(ConfigError, match=r"DesiredSlip\.braking .*got 0\.15"):
         DesiredSlip("X", 0.1, 0.15, 0.0, "hand-made", "none")
+    # the docstring's steady in [0, traction] was not checked: a cruising wheel allowed
+    # more slip than an accelerating one passed
+    with pytest.raises(ConfigError, match=r"DesiredSlip\.steady must be in \[0, traction\] "
+                                          r"\(0\.1\) for terrain 'X', got 0\.2"):
+        DesiredSlip("X", 0.1, -0.15, 0.2, "hand-made", "none")
+    assert DesiredSlip("X", 0.1, -0.15, 0.1, "hand-made", "none").steady == 0.1
