@@ -380,9 +380,25 @@ class TrackedRun:
         -------
         str
             ``models:/...`` URI.
+
+        Raises
+        ------
+        ConfigError
+            This run is not MLflow's active run (:func:`tracked_run` makes it so only when
+            MLflow's process-wide URI is this run's store): MLflow's model logging goes to
+            the active run, so the model would land in another run or store.
         """
+        import mlflow
         import mlflow.sklearn
         from mlflow.models import infer_signature
+
+        active = mlflow.active_run()
+        if active is None or active.info.run_id != self.run_id:
+            raise ConfigError(
+                f"cannot log model {name!r} to run {self.run_id}: it is not MLflow's active "
+                f"run (MLflow's process-wide store is {mlflow.get_tracking_uri()}, this run's "
+                f"{self.uri}; call terrain.tracking.activate_store() first), and MLflow logs "
+                "models to the active run")
 
         signature = infer_signature(input_example, model.predict(input_example))
         info = mlflow.sklearn.log_model(model, name=name, signature=signature,

@@ -114,6 +114,32 @@ def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     assert other.exists() and not (tmp_path / "mlflow.db").exists()
 
 
+def test_a_model_is_never_logged_to_a_run_other_than_its_own(tmp_path, monkeypatch):
+    # log_sklearn_model uses MLflow's fluent model logging, which writes to the active run;
+    # when MLflow's process-wide store was another one, tracked_run opened its run on its
+    # own store without making it active, and the model went to a new run of the other store
+    from sklearn.dummy import DummyRegressor
+
+    monkeypatch.chdir(tmp_path)
+    # monkeypatch owns the variable first, so that it leaves with the test (MLflow's
+    # set_tracking_uri exports it)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    previous = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'other.db'}")
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path / 'mine.db'}")
+    X = pd.DataFrame({"a": [0.0, 1.0, 2.0]})
+    model = DummyRegressor().fit(X, [0.0, 1.0, 2.0])
+    try:
+        with pytest.raises(ConfigError, match="not MLflow's active run"):
+            with tracked_run("terrain-test", announce=False) as run:
+                run.log_sklearn_model(model, "m", X)
+        assert mlflow.active_run() is None
+    finally:
+        mlflow.set_tracking_uri(previous)
+    other = mlflow.MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'other.db'}")
+    assert other.search_experiments(filter_string="name = 'terrain-test'") == []
+
+
 def test_a_sqlite_store_named_by_the_environment_keeps_its_artifacts_beside_it(
         tmp_path, monkeypatch):
     # the README's recipe (train in one folder, then from another folder
