@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError, config_integer, duplicated
-from terrain.models.cv import cross_validate, grouped_units
+from terrain.models.cv import block_notes, cross_validate, grouped_units
 from terrain.models.ensemble import normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, cnn_seeds_for, make_model
@@ -343,6 +343,9 @@ class CellWindows(NamedTuple):
         Classes with a single run, cut into time blocks (none under the paper protocol).
     n_dropped : int
         Windows dropped for straddling a block boundary.
+    notes : tuple of str
+        What the cut changed, each prefixed with the dataset, in the words of ``terrain
+        cv``'s notes (:func:`~terrain.models.cv.block_notes`).
     """
 
     ws: Any
@@ -351,29 +354,7 @@ class CellWindows(NamedTuple):
     training: Any
     split_classes: tuple = ()
     n_dropped: int = 0
-
-    def notes(self, dataset: str) -> list[str]:
-        """What the cut changed, in the words of ``terrain cv``'s notes.
-
-        Parameters
-        ----------
-        dataset : str
-            The cell's dataset, named in each note.
-
-        Returns
-        -------
-        list of str
-            One note per single-run class and one for the dropped windows (none when
-            nothing was cut).
-        """
-        notes = [f"{dataset}: class {c} has a single run: cut into "
-                 f"{len(np.unique(self.groups[self.labels == c]))} contiguous time block(s) "
-                 f"used as groups (its scores measure an unseen stretch of the same run, not "
-                 f"an unseen run)" for c in self.split_classes]
-        if self.n_dropped:
-            notes.append(f"{dataset}: {self.n_dropped} window(s) straddling a time-block "
-                         f"boundary dropped")
-        return notes
+    notes: tuple = ()
 
 
 def cell_windows(cell: Cell, n_blocks: int) -> CellWindows:
@@ -393,7 +374,7 @@ def cell_windows(cell: Cell, n_blocks: int) -> CellWindows:
     Returns
     -------
     CellWindows
-        ``(ws, labels, groups, training, split_classes, n_dropped)``.
+        ``(ws, labels, groups, training, split_classes, n_dropped, notes)``.
     """
     from terrain.io.shipped import load_dataset
     from terrain.models.experiment import (ExperimentConfig, check_two_classes,
@@ -408,8 +389,10 @@ def cell_windows(cell: Cell, n_blocks: int) -> CellWindows:
     if cell.protocol == "paper":
         return CellWindows(ws, ws.labels.astype(str), ws.groups, None)
     ws, labels, groups, split, n_dropped = grouped_units(ws, n_blocks)
+    notes = tuple(f"{cell.dataset}: {note}"
+                  for note in block_notes(labels, groups, split, n_blocks, n_dropped))
     return CellWindows(ws, labels, groups, load_training_windows(config, runs, ws, groups),
-                       tuple(split), n_dropped)
+                       tuple(split), n_dropped, notes)
 
 
 def run_cell(cell: Cell, config: CompareConfig) -> dict:
@@ -428,7 +411,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
         ``cell`` (its fields), ``rows`` (one dict per history length: the table metrics,
         ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``, ``n_windows_dropped``),
         ``folds`` (frame), ``predictions`` (frame with probabilities) and ``notes`` (what
-        the cut into time blocks changed, :meth:`CellWindows.notes`).
+        the cut into time blocks changed, :attr:`CellWindows.notes`).
     """
     cut = cell_windows(cell, config.single_run_blocks)
     ws, labels, groups, training = cut[:4]
@@ -449,7 +432,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
                        **({"epochs_per_fold": float(report.folds["n_epochs"].mean())}
                           if "n_epochs" in report.folds else {})})
     return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),
-            "predictions": pred.assign(**asdict(cell)), "notes": cut.notes(cell.dataset)}
+            "predictions": pred.assign(**asdict(cell)), "notes": list(cut.notes)}
 
 
 def iter_grid(config: CompareConfig, n_jobs: int | None = None) -> Iterator[dict]:

@@ -135,6 +135,45 @@ def grouped_units(ws, n_blocks: int) -> tuple:
     return ws.subset(keep), labels[keep], groups[keep], split, int((~keep).sum())
 
 
+def block_notes(labels: np.ndarray, groups: np.ndarray, split_classes: Sequence[str],
+                n_blocks: int, n_dropped: int) -> list[str]:
+    """What :func:`grouped_units` changed, as ``terrain cv`` and ``terrain compare`` say it.
+
+    Parameters
+    ----------
+    labels, groups : numpy.ndarray
+        ``(n_kept,)`` class names and split units of the kept windows.
+    split_classes : sequence of str
+        Classes cut into time blocks.
+    n_blocks : int
+        Blocks asked per single-run class.
+    n_dropped : int
+        Windows dropped for straddling a block boundary.
+
+    Returns
+    -------
+    list of str
+        One note per split class (with a warning where it got fewer than 2 blocks, so it is
+        never in training when tested) and one for the dropped windows; empty when nothing
+        was cut.
+    """
+    notes = []
+    for c in split_classes:
+        # a class with fewer windows than blocks gets fewer (non-empty) blocks
+        n_units = len(np.unique(groups[labels == c]))
+        note = (f"class {c} has a single run: cut into {n_units} contiguous time "
+                f"block(s) (of {n_blocks} asked) used as groups (its "
+                f"scores measure an unseen stretch of the same run, not an unseen run)")
+        if n_units < 2:
+            note += (f"; WARNING: with fewer than 2 blocks, {c} is never in training "
+                     f"when it is tested (its recall is 0 by construction): its scores "
+                     f"do not measure generalisation")
+        notes.append(note)
+    if n_dropped:
+        notes.append(f"{n_dropped} window(s) straddling a time-block boundary dropped")
+    return notes
+
+
 def training_units(run_ids: np.ndarray, t_start_s: np.ndarray, t_end_s: np.ndarray,
                    groups: np.ndarray, train_run_ids: np.ndarray, train_t_start_s: np.ndarray,
                    train_t_end_s: np.ndarray) -> np.ndarray:

@@ -21,8 +21,8 @@ from features.transformers import WindowFeatures
 from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
 from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import DATASET_SPECS, load_dataset
-from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, cross_validate,
-                               fit_with_groups, grouped_units, training_units)
+from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
+                               cross_validate, fit_with_groups, grouped_units, training_units)
 from terrain.models.registry import MODELS, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, make_search, make_svm, svm_window_pipeline
 from terrain.models.weighting import run_balanced
@@ -473,19 +473,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     groups = ws.groups
     if config.protocol != "paper":
         ws, labels, groups, split, n_dropped = grouped_units(ws, config.single_run_blocks)
-        for c in split:
-            # a class with fewer windows than blocks gets fewer (non-empty) blocks
-            n_units = len(np.unique(groups[labels == c]))
-            note = (f"class {c} has a single run: cut into {n_units} contiguous time "
-                    f"block(s) (of {config.single_run_blocks} asked) used as groups (its "
-                    f"scores measure an unseen stretch of the same run, not an unseen run)")
-            if n_units < 2:
-                note += (f"; WARNING: with fewer than 2 blocks, {c} is never in training "
-                         f"when it is tested (its recall is 0 by construction): its scores "
-                         f"do not measure generalisation")
-            notes.append(note)
-        if n_dropped:
-            notes.append(f"{n_dropped} window(s) straddling a time-block boundary dropped")
+        notes += block_notes(labels, groups, split, config.single_run_blocks, n_dropped)
         if config.protocol == "loro" and len(config.seeds) > 1:
             # the folds are the same for every seed: the spread over seeds is only the
             # model's own randomness, not a different split

@@ -99,7 +99,7 @@ def test_a_cell_cuts_a_single_run_class_into_time_blocks_as_terrain_cv_does(vulp
     np.testing.assert_array_equal(ws.t_start_s, cut.t_start_s)
     # and the cut is reported, as terrain cv reports it (it was discarded)
     assert cell_cut.split_classes == ("DIRT_ROAD",) and cell_cut.n_dropped == n_dropped
-    assert cell_cut.notes("vulpi")[0].startswith(
+    assert cell_cut.notes[0].startswith(
         "vulpi: class DIRT_ROAD has a single run: cut into 5 contiguous time block(s)")
 
 
