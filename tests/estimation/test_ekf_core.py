@@ -364,3 +364,54 @@ def test_a_non_finite_control_input_is_refused_and_the_filter_keeps_its_state():
     np.testing.assert_allclose(ekf.P, [[1.1]])
     ekf.update(np.array([0.4]))                              # and the filter goes on
     assert np.isfinite(ekf.x).all()
+
+
+def test_gate_thresholds_are_the_chi_square_quantile_of_each_group_size():
+    # a table read at the wrong index (e.g. d instead of d - 1, clamped at the top) gave the
+    # right value only for the largest group size
+    from scipy import stats
+    gate = Gate(0.999, max_dof=6)
+    for dof in range(1, 7):
+        assert gate.threshold(dof) == pytest.approx(stats.chi2.ppf(0.999, dof), rel=1e-12)
+    assert gate.threshold(1) == pytest.approx(10.828, rel=1e-4)     # textbook table value
+
+
+def test_streaming_update_of_some_rows_wraps_angles_and_gates_by_sensor():
+    """``update(z, rows=...)`` with a residual: the residual sees ``z`` placed in its rows of
+    a full vector (an angle row is wrapped by position), and the sensor groups of the gate are
+    re-indexed to the positions of the rows present."""
+    f = lambda x, dt: x  # noqa: E731
+    F = lambda x, dt: np.eye(3)  # noqa: E731
+    h = lambda x: x.copy()  # noqa: E731
+    H = lambda x: np.eye(3)  # noqa: E731
+
+    def wrap_row_2(z, hx):
+        y = z - hx
+        y[2] = (y[2] + np.pi) % (2 * np.pi) - np.pi
+        return y
+
+    x0, P0, R = np.array([0.0, 0.0, 3.1]), np.eye(3), np.full(3, 0.01)
+    ekf = ExtendedKalmanFilter(x0, P0, f, F, h, H, np.zeros(3), R, residual=wrap_row_2)
+    inn = ekf.update(np.array([0.5, -3.1]), rows=[0, 2])    # heading across +-pi
+    y_heading = -3.1 - 3.1 + 2 * np.pi                      # +0.083 rad, not -6.2
+    np.testing.assert_allclose(inn.y, [0.5, y_heading], atol=1e-12)
+    ref_x, ref_P, _ = correct(x0, P0, np.array([0.5, y_heading]), np.eye(3)[[0, 2]], R[[0, 2]])
+    np.testing.assert_allclose(ekf.x, ref_x, atol=1e-12)
+    np.testing.assert_allclose(ekf.P, ref_P, atol=1e-12)
+    # gate with sensors {0, 1} and {2}: given rows [1, 2], the outlier in row 2 is rejected
+    # alone (its group is position 1 of the rows present, not row 2 of a full vector)
+    gated = ExtendedKalmanFilter(np.zeros(3), np.eye(3) * 0.01, f, F, h, H, np.zeros(3),
+                                 np.full(3, 1e-4), gate=Gate(0.999),
+                                 groups=[np.array([0, 1]), np.array([2])])
+    inn = gated.update(np.array([0.01, 5.0]), rows=[1, 2])
+    assert inn.accepted.tolist() == [True, False]
+    assert gated.x[1] == pytest.approx(0.01 * 0.01 / (0.01 + 1e-4))
+    assert gated.x[2] == 0.0
+
+
+def test_an_innovation_with_no_number_is_refused_on_the_unchecked_path():
+    # correct(check=False) is the run loop's path; a NaN innovation (a model's h gone NaN)
+    # must raise rather than return a NaN state
+    with pytest.raises(CovarianceError):
+        correct(np.zeros(2), np.eye(2), np.array([np.nan]), np.array([[1.0, 0.0]]),
+                np.array([0.1]), check=False)
