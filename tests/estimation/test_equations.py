@@ -100,3 +100,53 @@ def test_slip_augmented_jacobians_match_finite_differences(slips):
         np.testing.assert_allclose(skid_steer_slip.H(x, params), num_H, atol=1e-6)
     if abs(slips[0]) > skid_steer_slip.MAX_SLIP:           # h ignores a clipped slip
         assert skid_steer_slip.H(x, params)[0, 4] == 0.0
+
+
+def test_chi_is_a_consider_parameter_below_its_yaw_rate_threshold():
+    """The ``ln(chi)`` column of the wheel rows is ``-+ chi B w / 2`` while turning and zero
+    below ``chi_min_yaw_rate_rad_s`` (driving straight a gyro bias must not drag chi
+    towards 0); the wheel rows themselves still use chi."""
+    params = skid_steer.SkidSteerEquationParams(track_m=0.6, chi_min_yaw_rate_rad_s=0.05)
+    chi = 1.5
+    for w, column in ((0.3, 1.5 * 0.6 * 0.3 / 2), (-0.3, -1.5 * 0.6 * 0.3 / 2),
+                      (0.05, 1.5 * 0.6 * 0.05 / 2), (0.049, 0.0), (0.0, 0.0), (-0.02, 0.0)):
+        x = np.array([0.5, w, 0.0, math.log(chi)])
+        H = skid_steer.H(x, params)
+        np.testing.assert_allclose(H[:2, 3], [-column, column], atol=1e-15, err_msg=f"w {w}")
+        np.testing.assert_allclose(skid_steer.h(x, params)[:2],
+                                   [0.5 - chi * 0.6 * w / 2, 0.5 + chi * 0.6 * w / 2])
+
+
+def test_slip_augmented_accelerometer_reads_gravity_as_the_simulator_does():
+    """At rest on a nose-up grade the accelerometer reads ``+g sin(pitch)`` forward and
+    ``g cos(pitch)`` up: the body-axes convention of the simulator's sensors
+    (:func:`terrain.sim.sensors.gravity_specific_force`, pitch nose-up positive). A sign
+    slip in both ``h`` and ``H`` passes the finite-difference check and would estimate
+    every grade upside down."""
+    from terrain.sim.sensors import gravity_specific_force
+    params = skid_steer_slip.SkidSteerSlipEquationParams()
+    for pitch in (0.1, -0.2):
+        x = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.3, pitch])
+        ax, az = skid_steer_slip.h(x, params)[5:7]
+        g_x, _, g_z = gravity_specific_force(np.array([pitch]), np.array([0.0]))
+        assert ax == pytest.approx(0.3 + g_x[0], rel=1e-6)
+        assert az == pytest.approx(g_z[0], rel=1e-6)
+        assert np.sign(ax - 0.3) == np.sign(pitch)
+
+
+def test_slip_state_wheel_rows_floor_one_minus_slip():
+    """Eq. 4.22 with ``1 - s`` floored at SLIP_FLOOR: a slip state at or past 0.95 reads the
+    rim speed of slip 0.95 (finite, also at s = 1) and has no slip column."""
+    from terrain.estimation.slip_state import SLIP_FLOOR, SlipStateModel
+    model = SlipStateModel()
+    x = np.zeros(14)
+    x[3] = 1.0                                           # 1 m/s forward, wheels straight
+    r = model.vehicle.wheel_radius_m
+    for s in (0.96, 0.99, 1.0, 1.5):
+        x[8] = s
+        hx, H = model.observation(x)
+        assert hx[0] == pytest.approx(1.0 / (SLIP_FLOOR * r), rel=1e-12)
+        assert H[0, 8] == 0.0
+    x[8] = 0.5
+    hx, H = model.observation(x)
+    assert hx[0] == pytest.approx(1.0 / (0.5 * r)) and H[0, 8] == pytest.approx(1.0 / (0.25 * r))
