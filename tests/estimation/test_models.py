@@ -161,3 +161,31 @@ def test_slip_state_model_refuses_a_tuning_that_is_not_a_covariance(kwargs, matc
     gave negative variances (P_diag -0.137 after 1 s, no error)."""
     with pytest.raises(ConfigError, match=match):
         SlipStateModel(**kwargs)
+
+
+def test_skid_steer_measurement_noise_is_the_squared_stds_with_the_wheel_inflation():
+    s = SkidSteerSettings(wheel_std_m_s=0.03, gyro_std_rad_s=0.01)
+    np.testing.assert_allclose(SkidSteerModel(s).R_diag, [9e-4, 9e-4, 1e-4], rtol=1e-12)
+    # a wheel stream interpolated 4x: its variance (not the gyro's) counts 4 times
+    np.testing.assert_allclose(SkidSteerModel(s, wheel_r_scale=4.0).R_diag,
+                               [3.6e-3, 3.6e-3, 1e-4], rtol=1e-12)
+
+
+@pytest.mark.parametrize("dt", [0.01, 0.1, 0.5])
+def test_skid_steer_slip_process_noise_is_the_exact_white_jerk_discretisation(dt):
+    """``(v_bx, a_x)`` driven by white jerk of density q: Q = q [[dt^3/3, dt^2/2],
+    [dt^2/2, dt]], computed here independently by Van Loan's matrix exponential
+    (Van Loan 1978, IEEE TAC 23(3), eq. for Q_d); the other states ``diag(q) dt``."""
+    from scipy.linalg import expm
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
+    settings = SkidSteerSlipSettings(jerk_psd=0.7)
+    Q = SkidSteerSlipModel(settings).Q(dt)
+    A = np.array([[0.0, 1.0], [0.0, 0.0]])
+    Gq = np.diag([0.0, 0.7])
+    M = expm(np.block([[-A, Gq], [np.zeros((2, 2)), A.T]]) * dt)
+    Qd = M[2:, 2:].T @ M[:2, 2:]
+    np.testing.assert_allclose(Q[np.ix_([0, 6], [0, 6])], Qd, rtol=1e-10)
+    others = [1, 2, 3, 4, 5, 7]
+    np.testing.assert_allclose(np.diag(Q)[others],
+                               np.asarray(settings.q_diag)[others] * dt, rtol=1e-12)
+    assert np.count_nonzero(Q - np.diag(np.diag(Q))) == 2          # only the (v, a) pair
