@@ -160,3 +160,26 @@ def test_sample_errors_name_the_sensor_and_the_sample():
         SensorSamples(np.array([0.0, 0.2, 0.1]), np.zeros((3, 1)))
     with pytest.raises(TimeStepError, match=r"sample 1 at nan s"):
         SensorSamples(np.array([0.0, np.nan]), np.zeros((2, 1)))
+
+
+def test_the_later_of_two_samples_in_one_step_is_the_one_used():
+    """Scheduling rule: two samples of a sensor inside one step, the later wins (the earlier
+    is counted as superseded). The gyro reads 0.1 then 0.3 rad/s inside the first step
+    after t = 0; the innovation at that step is 0.3 - h(x_prior)."""
+    t = np.array([0.001, 0.009])
+    samples = {"gyro": SensorSamples(t, np.array([[0.1], [0.3]]))}
+    res = run_filter(SkidSteerModel(), make_grid(0.0, 0.05, 100.0), samples, engine="numpy")
+    assert res.counts["gyro"]["superseded"] == 1 and res.counts["gyro"]["used"] == 1
+    assert res.y[1, 2] == pytest.approx(0.3)       # prior yaw rate + bias are 0
+    assert np.isnan(res.y[[0, 2, 3, 4, 5], 2]).all()
+
+
+def test_a_sample_up_to_one_step_before_the_grid_is_used_at_the_first_step():
+    """The first step takes the samples of the step before ``t_0`` (a sample a few ms before
+    a grid that starts at the overlap of the streams is not lost); older ones are outside."""
+    grid = make_grid(1.0, 1.1, 100.0)
+    samples = {"gyro": SensorSamples(np.array([0.95, 0.995]), np.array([[0.7], [0.2]]))}
+    for engine in ("numpy", "numba"):
+        res = run_filter(SkidSteerModel(), grid, samples, engine=engine)
+        assert res.counts["gyro"]["outside"] == 1 and res.counts["gyro"]["used"] == 1
+        assert res.accepted[0, 2] and res.y[0, 2] == pytest.approx(0.2)
