@@ -254,3 +254,37 @@ def test_a_latency_for_a_sensor_the_filter_does_not_have_is_refused():
         estimate_skid_steer(run, time_offsets_s={"imu": 0.05})
     assert estimate_skid_steer(run, time_offsets_s={"gyro": 0.05}).meta["time_offsets_s"] == {
         "gyro": 0.05}
+
+
+def test_the_filter_grid_spans_the_overlap_of_the_streams():
+    """The grid starts at the later first sample and ends at the earlier last one: wheels
+    over 0-5 s and an IMU over 1-4 s give a 100 Hz grid on [1, 4] s (none of it predicting
+    on wheels alone before the gyro starts)."""
+    import pandas as pd
+    from terrain.run import Run
+    tw = np.arange(51) / 10.0
+    ti = 1.0 + np.arange(301) / 100.0
+    run = Run("sim/TEST/04", "sim", "ASPHALT",
+              {"wheels": pd.DataFrame({"t_s": tw, "vel_l": 0.5, "vel_r": 0.5}),
+               "imu": pd.DataFrame({"t_s": ti, "wz": 0.0})})
+    res = estimate_skid_steer(run)
+    assert res.t_s[0] == pytest.approx(1.0) and res.t_s[-1] == pytest.approx(4.0)
+    assert res.t_s.size == 301
+
+
+def test_one_observer_step_is_eq_8():
+    """One explicit-Euler step of seed 000 eq. 8 from a known heading error: pose starts at
+    the first sample; after one step the heading misses by e_th = 0.05 rad, and the next
+    adaptation is eta_R += h lambda_R v_R / (2 d) e_th, eta_L -= h lambda_L v_L / (2 d) e_th
+    (x, y errors zero: the observer's straight-line prediction is exact)."""
+    d, h, e_th = 0.3, 0.01, 0.05
+    s = AdaptiveObserverSettings(half_track_m=d, l_gains=(2.0, 2.0, 10.0),
+                                 lambda_gains=(50.0, 40.0), eta0=(1.0, 1.0))
+    t = np.array([0.0, h, 2 * h])
+    pose = np.array([[0.0, 0.0, 0.0], [0.6 * h, 0.0, e_th], [2 * 0.6 * h, 0.0, e_th]])
+    res = run_adaptive_observer(t, pose, np.full(3, 0.6), np.full(3, 0.6), s)
+    np.testing.assert_allclose(res.error[1], [0.0, 0.0, e_th], atol=1e-15)
+    np.testing.assert_allclose(res.eta[2], [1.0 + h * 50.0 * 0.6 / (2 * d) * e_th,
+                                            1.0 - h * 40.0 * 0.6 / (2 * d) * e_th], rtol=1e-12)
+    # the heading estimate moved by the injection l3 e_th (no turning with eta_R = eta_L)
+    assert res.pose_hat[2, 2] == pytest.approx(h * 10.0 * e_th, rel=1e-12)
