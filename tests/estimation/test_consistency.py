@@ -100,3 +100,24 @@ def test_arrays_of_other_shapes_are_refused_by_name():
     with pytest.raises(ShapeError, match="angle column 3"):
         state_errors(np.zeros((5, 3)), np.ones((5, 3)), (3,))
     assert chi2_test(np.full(4, 2.0), np.full(4, 2.0)).n_samples == 4
+
+
+def test_nis_with_a_varying_number_of_rows_is_tested_against_the_mean_dof():
+    """NIS of steps with different numbers of accepted rows: the expected mean is the mean
+    dof (E[sum chi2(d_k)] / N), not its median; a step with no row (dof 0) carries no
+    statistic and is left out even if a value was written for it."""
+    rng = np.random.default_rng(6)
+    dof = np.tile([1, 1, 4], 4000)
+    values = rng.chisquare(dof).astype(float)
+    test = chi2_test(values, dof)
+    assert test.dof == pytest.approx(2.0)
+    assert test.inside and test.mean == pytest.approx(2.0, rel=0.03)
+    with_empty = chi2_test(np.r_[values, 50.0, 50.0], np.r_[dof, 0, 0])
+    assert with_empty.n_samples == values.size
+    assert with_empty.mean == pytest.approx(test.mean)
+
+
+def test_bounds_of_fewer_than_one_effective_sample_are_those_of_one():
+    assert mean_chi2_bounds(3, 0.4) == mean_chi2_bounds(3, 1)
+    lo, hi = mean_chi2_bounds(3, 1)
+    assert (lo, hi) == pytest.approx((stats.chi2.ppf(0.025, 3), stats.chi2.ppf(0.975, 3)))
