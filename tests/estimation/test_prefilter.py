@@ -26,3 +26,26 @@ def test_robust_noise_std_of_no_samples_is_nan():
     rng = np.random.default_rng(0)
     noise = robust_noise_std(0.1 * rng.standard_normal((2000, 2)), 100.0, 0.5)
     np.testing.assert_allclose(noise, 0.1, rtol=0.1)
+
+
+def test_ema_weights_the_previous_output_by_alpha_as_eq_6_12():
+    """``z_new = alpha z_prev + (1 - alpha) z_raw`` (seed 001 eq. 6.12, alpha = 0.1: light
+    smoothing). With alpha = 0.5 the two weights are equal, so only an asymmetric alpha
+    tells the convention: a step 0 -> 10 reaches 9 after one sample with alpha = 0.1."""
+    from terrain.estimation import ema_filter
+    np.testing.assert_allclose(ema_filter(np.array([0.0, 10.0, 10.0]), 0.1), [0.0, 9.0, 9.9])
+    np.testing.assert_allclose(ema_filter(np.array([0.0, 10.0, 10.0]), 0.75),
+                               [0.0, 2.5, 4.375])
+    np.testing.assert_array_equal(ema_filter(np.array([1.0, 5.0]), 0.0), [1.0, 5.0])
+    with pytest.raises(EstimationError, match="alpha"):
+        ema_filter(np.array([1.0, 5.0]), 1.0)        # would freeze at the first sample
+
+
+def test_robust_noise_std_needs_a_window_of_finite_samples():
+    # 40 finite samples at 100 Hz cannot fill a 0.5 s (51-sample) window: NaN, not a number
+    # from a moving average that is all edge
+    rng = np.random.default_rng(1)
+    col = rng.standard_normal(200)
+    col[40:] = np.nan
+    assert np.isnan(robust_noise_std(col, 100.0, 0.5))
+    assert np.isfinite(robust_noise_std(col[:40], 100.0, 0.3))      # 31-sample window
