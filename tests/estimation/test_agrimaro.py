@@ -227,3 +227,14 @@ def test_an_unknown_sensor_or_latency_key_is_refused():
     with pytest.raises(ConfigError, match=r"time_offsets_s names \['wheels'\]"):
         estimate_agrimaro(run, time_offsets_s={"wheels": 0.05})
     assert estimate_agrimaro(run, sensors=("imu",)).counts.keys() == {"imu"}
+
+
+def test_a_sensor_latency_is_subtracted_from_its_timestamps_only(turning_run):
+    """``time_offsets_s`` is a latency: a camera that reports 30 ms late has its samples
+    moved 30 ms earlier; the other sensors stay where they were."""
+    from terrain.estimation.agrimaro import agrimaro_samples
+    base = agrimaro_samples(turning_run.run)
+    late = agrimaro_samples(turning_run.run, time_offsets_s={"cam": 0.03})
+    np.testing.assert_allclose(late["cam"].t_s, base["cam"].t_s - 0.03, atol=1e-12)
+    np.testing.assert_array_equal(late["cam"].values, base["cam"].values)
+    np.testing.assert_array_equal(late["imu"].t_s, base["imu"].t_s)

@@ -183,3 +183,17 @@ def test_a_sample_up_to_one_step_before_the_grid_is_used_at_the_first_step():
         res = run_filter(SkidSteerModel(), grid, samples, engine=engine)
         assert res.counts["gyro"]["outside"] == 1 and res.counts["gyro"]["used"] == 1
         assert res.accepted[0, 2] and res.y[0, 2] == pytest.approx(0.2)
+
+
+def test_sensor_nis_of_a_one_row_sensor_is_the_step_nis():
+    """``sensor_nis`` sums ``y_i^2 / S_ii`` over the sensor's accepted rows: for the gyro
+    alone at a step it is that step's NIS, and NaN where the gyro had no sample."""
+    t = np.array([0.013, 0.031])
+    samples = {"gyro": SensorSamples(t, np.array([[0.2], [-0.1]]))}
+    res = run_filter(SkidSteerModel(), make_grid(0.0, 0.05, 100.0), samples, engine="numpy")
+    nis = res.sensor_nis("gyro")
+    used = np.isfinite(res.nis)
+    assert used.sum() == 2
+    np.testing.assert_allclose(nis[used], res.nis[used], rtol=1e-12)
+    np.testing.assert_allclose(nis[used], res.y[used, 2] ** 2 / res.S_diag[used, 2])
+    assert np.isnan(nis[~used]).all()

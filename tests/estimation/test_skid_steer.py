@@ -270,6 +270,9 @@ def test_the_filter_grid_spans_the_overlap_of_the_streams():
     res = estimate_skid_steer(run)
     assert res.t_s[0] == pytest.approx(1.0) and res.t_s[-1] == pytest.approx(4.0)
     assert res.t_s.size == 301
+    # a gyro latency of 0.5 s is subtracted: its samples span 0.5-3.5 s, so does the grid
+    late = estimate_skid_steer(run, time_offsets_s={"gyro": 0.5})
+    assert late.t_s[0] == pytest.approx(0.5) and late.t_s[-1] == pytest.approx(3.5)
 
 
 def test_one_observer_step_is_eq_8():
