@@ -59,6 +59,21 @@ def test_statistics_are_per_window_and_channel():
     np.testing.assert_allclose(calc.kurtosis(x), sps.kurtosis(x, axis=-1, bias=True))
 
 
+@pytest.mark.parametrize("where", [0, 4, 9])
+def test_a_nan_sample_makes_every_statistic_of_its_row_nan(where):
+    """A NaN anywhere in a window makes all its statistics NaN (min and max included: a
+    comparison with NaN is false, so a running minimum would skip it); the other rows and
+    channels keep their values."""
+    x = np.tile(np.arange(10.0), (2, 2, 1))
+    x[1, 0, where] = np.nan
+    names = list(calc.STATISTICS)
+    out = calc.statistics(x, names)
+    assert np.isnan(out[1, 0]).all(), dict(zip(names, out[1, 0]))
+    clean = calc.statistics(np.arange(10.0)[None, None, :], names)[0, 0]
+    for w, c in [(0, 0), (0, 1), (1, 1)]:
+        np.testing.assert_array_equal(out[w, c], clean)
+
+
 def test_constant_window_has_zero_shape_moments():
     x = np.full((1, 1, 10), 4.2)
     assert calc.skewness(x)[0, 0] == 0.0 and calc.kurtosis(x)[0, 0] == 0.0
@@ -132,6 +147,23 @@ def test_band_without_bin_uses_nearest_bin():
     np.testing.assert_allclose(narrow, empty)
 
 
+def test_band_between_two_bins_gets_both_nearest_bins():
+    """A band holding no bin is averaged over the bin(s) nearest its centre: (7.05, 7.45) Hz
+    lies between the 7.0 and 7.5 Hz bins of a 2 s window, at equal distance from its
+    centre 7.25 Hz (its lower edge alone would pick 7.0 Hz only)."""
+    W = calc.band_weights(N, RATE, ((7.05, 7.45),))
+    freqs = np.fft.rfftfreq(N, 1.0 / RATE)
+    assert sorted(freqs[W[:, 0] > 0]) == [7.0, 7.5]
+    np.testing.assert_allclose(W[W[:, 0] > 0, 0], [0.5, 0.5])
+    # off centre, the single nearest bin
+    W = calc.band_weights(N, RATE, ((7.05, 7.2),))
+    assert list(freqs[W[:, 0] > 0]) == [7.0]
+    W = calc.band_weights(N, RATE, ((7.05, 7.4),))
+    assert list(freqs[W[:, 0] > 0]) == [7.0]
+    W = calc.band_weights(N, RATE, ((7.3, 7.45),))
+    assert list(freqs[W[:, 0] > 0]) == [7.5]
+
+
 def test_per_speed_floors_the_speed():
     current = np.array([[10.0, 10.0], [10.0, 10.0], [-4.0, -4.0], [6.0, 6.0]])
     speed = np.array([[0.01, 0.01], [2.0, 2.0], [-2.0, -2.0], [1.0, -1.0]])
@@ -170,11 +202,21 @@ def test_quantile_sorted_equals_numpy_quantile_bit_for_bit(x, q):
     assert got == np.quantile(x, q)
 
 
+def test_quantile_sorted_at_half_fraction_interpolates_from_above_like_numpy():
+    """At a fraction of exactly 0.5 numpy interpolates from the upper neighbour; from the
+    lower one these two values give a result one rounding step off (found by search)."""
+    x = np.array([-0.013210486329130189, 0.01257302210933933])
+    assert x[0] + (x[1] - x[0]) * 0.5 != np.quantile(x, 0.5)      # the cases differ here
+    assert calc.quantile_sorted(x, 0.5) == np.quantile(x, 0.5)
+    assert calc.quantile_sorted(x, 1.0) == x[1] and calc.quantile_sorted(x, 0.0) == x[0]
+
+
 @pytest.mark.parametrize("band, match", [
     ((30.0, 40.0), "above the Nyquist frequency 25 Hz"),     # no content at 50 Hz
     ((5.0, 2.0), "lower edge below its upper"),
     ((2.0, 2.0), "lower edge below its upper"),
     ((-2.0, -1.0), "end above 0 Hz"),
+    ((-1.0, 0.0), "end above 0 Hz"),                         # [-1, 0) holds no bin
     ((np.nan, 2.0), "finite"),
     ((1.0, np.inf), "finite"),
 ])
@@ -189,6 +231,13 @@ def test_band_weights_refuse_bands_without_content(band, match):
         calc.band_log_power(x, RATE, ((0.0, 2.5), band))
     # a band reaching past the Nyquist frequency keeps the bins it holds
     assert calc.band_weights(N, RATE, ((20.0, 30.0),))[:, 0].sum() == pytest.approx(1.0)
+
+
+def test_a_band_starting_at_the_nyquist_frequency_holds_the_nyquist_bin():
+    """``low`` may be the Nyquist frequency itself (an even-length window has a bin
+    there): (25, 30) Hz at 50 Hz is the 25 Hz bin alone, not refused."""
+    W = calc.band_weights(N, RATE, ((25.0, 30.0),))
+    assert W[-1, 0] == 1.0 and W[:-1, 0].sum() == 0.0
 
 
 @pytest.mark.parametrize("n, rate, width, edge_bin", [
