@@ -10,11 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import (ALL_CHANNELS, DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M,
-                              SIGNAL_SETS, SPEED_CHANNELS, WindowConfig, add_derived_channels,
-                              make_windows, required_streams, resolve_signals,
-                              window_frame)
+                              MAX_WINDOW_SAMPLES, SIGNAL_SETS, SPEED_CHANNELS, WindowConfig,
+                              add_derived_channels, make_windows, required_streams,
+                              resolve_signals, window_frame)
 from terrain.errors import ConfigError
 from terrain.io.align import overlap_grid
 from terrain.io.report import input_report
@@ -159,6 +160,35 @@ def test_steady_only_drops_standstill(make_run):
     assert ws.X.shape == (0, len(SIGNAL_SETS["wheels"]), 100)
 
 
+def test_steady_only_keeps_steady_reversing(make_run):
+    """Driving backwards at a steady speed is steady motion: the speed test is on
+    |mean(vel_mean)|, not on its signed value."""
+    run = make_run(_streams(vel=lambda t: np.full_like(t, -0.5)))
+    ws = make_windows([run], "wheels", WindowConfig(window_s=2.0, steady_only=True))
+    assert len(ws) == 10 and ws.counts["dropped_unsteady"] == 0
+
+
+@pytest.mark.parametrize("field, over", [("min_speed_m_s", 0.25 + 1e-9),
+                                         ("max_speed_std_m_s", 0.25 - 1e-9)])
+def test_steady_thresholds_are_inclusive(field, over):
+    """|mean| >= min_speed and std <= max_speed_std: a window exactly on a threshold is
+    steady, one a hair beyond it is not. The speed alternates 0.25 / 0.75 m/s (mean 0.5,
+    std 0.25, exact in binary) or is 0.25 m/s throughout (mean 0.25, std 0)."""
+    n = 300
+    if field == "min_speed_m_s":
+        v = np.full(n, 0.25)
+    else:
+        v = np.where(np.arange(n) % 2 == 0, 0.25, 0.75)
+    frame = pd.DataFrame({TIME: np.arange(n) / 50.0, "vel_l": v, "vel_r": v})
+    base = dict(window_s=2.0, rate_hz=50.0, steady_only=True, min_speed_m_s=0.1,
+                max_speed_std_m_s=0.1)
+    on = WindowConfig(**{**base, "min_speed_m_s": 0.25, "max_speed_std_m_s": 0.25})
+    X, *_, counts = window_frame(frame, ["vel_l"], on)
+    assert len(X) == 3 and counts["dropped_unsteady"] == 0
+    X, *_, counts = window_frame(frame, ["vel_l"], WindowConfig(**{**on.__dict__, field: over}))
+    assert len(X) == 0 and counts["dropped_unsteady"] == 3
+
+
 def test_steady_only_applies_to_imu_only_selection(make_run):
     run = make_run(_streams(vel=lambda t: np.zeros_like(t)))
     ws = make_windows([run], "imu", WindowConfig(window_s=2.0, steady_only=True))
@@ -241,6 +271,9 @@ def test_required_streams():
     assert required_streams(IMU_CHANNELS) == ("imu",)
     assert required_streams(["cur_sum"]) == ("wheels",)
     assert required_streams(["wz", "yaw_rate_wheels"]) == ("imu", "wheels")
+    # the EKF channels come from the IMU and the wheel encoders together
+    assert required_streams(EKF_CHANNELS) == ("imu", "wheels")
+    assert required_streams(["ekf_nis"]) == ("imu", "wheels")
 
 
 def test_derived_channels():
@@ -300,6 +333,11 @@ def test_subset_counts_state_the_subset_not_the_parent(make_run):
         "t/ASPHALT/00": 10, "t/ASPHALT/01": 10}          # the parent's are unchanged
     table = input_report(runs, sub.counts).table
     assert table["windows"].tolist() == [10, 0]
+    # a resample repeating windows leaves out only the windows it never picks
+    boot = ws.subset(np.array([0, 0, 0, 12]))
+    assert boot.counts["windows"] == 4 and boot.counts["not_selected"] == 18
+    assert {r: (e["windows"], e["not_selected"]) for r, e in boot.counts["per_run"].items()} \
+        == {"t/ASPHALT/00": (3, 9), "t/ASPHALT/01": (1, 9)}
     odd = sub.subset(np.array([1, 3, 5]))                 # index arrays too, chained
     assert odd.counts["windows"] == 3 and odd.counts["not_selected"] == 17
     assert odd.counts["per_run"]["t/ASPHALT/00"] == {
@@ -314,6 +352,14 @@ def test_subset_counts_state_the_subset_not_the_parent(make_run):
 def test_window_config_rejects_bad_settings(kwargs):
     with pytest.raises(ConfigError):
         WindowConfig(**kwargs)
+
+
+def test_window_config_sample_limit_is_inclusive():
+    """:data:`MAX_WINDOW_SAMPLES` is the most samples a window may hold: exactly that many
+    is allowed (10 000 s at 100 Hz), one more is refused."""
+    assert WindowConfig(window_s=10_000.0, rate_hz=100.0).n_samples == MAX_WINDOW_SAMPLES
+    with pytest.raises(ConfigError, match="at most"):
+        WindowConfig(window_s=10_000.01, rate_hz=100.0)
 
 
 def test_runs_sharing_an_id_are_refused(make_run):
