@@ -175,6 +175,21 @@ def test_a_header_commented_out_is_named_not_taken_for_data(tmp_path, prefix):
         read_stream_csv(path, "pro")
 
 
+def test_a_header_with_some_numeric_names_is_still_a_header(tmp_path):
+    """Only a first line of numbers only is taken for a data row: a header naming a
+    channel ``2`` (a second steering angle of an extra stream) or with an extra numeric
+    column beside the canonical ones is read as the header."""
+    path = tmp_path / "steer_00.csv"
+    path.write_text("time,1,2\n" + "".join(f"{k / 10:.2f},0.05,0.06\n" for k in range(N_ROWS)))
+    frame, _ = read_stream_csv(path, "steer")
+    assert list(frame.columns) == ["t_s", "1", "2"] and (frame["2"] == 0.06).all()
+    path = tmp_path / "pro_00.csv"
+    lines = _text("pro").split("\n")
+    path.write_text("\n".join([lines[0] + ",5"] + [ln + ",0" for ln in lines[1:] if ln]) + "\n")
+    frame, report = read_stream_csv(path, "pro")
+    assert report.ignored_columns == ["5"] and len(frame) == N_ROWS
+
+
 def test_a_semicolon_file_with_decimal_commas_names_its_separator(tmp_path):
     # the decimal commas split each row into more fields than the one-field header: the
     # ragged-row error said nothing of the separator

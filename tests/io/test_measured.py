@@ -118,7 +118,8 @@ def test_decreasing_timestamp_raises_with_row(tmp_path, synth_imu):
     with pytest.raises(TimestampError) as info:
         read_stream_csv(path, "imu")
     assert (info.value.path, info.value.column, info.value.row) == (str(path), "time", 40)
-    assert "decreasing" in str(info.value)
+    # the message itself (the path holds the test's name, "test_decreasing_...")
+    assert info.value.message.startswith("decreasing timestamp")
 
 
 def test_duplicated_timestamp_raises_with_row(tmp_path, synth_pro):
@@ -128,7 +129,7 @@ def test_duplicated_timestamp_raises_with_row(tmp_path, synth_pro):
     with pytest.raises(TimestampError) as info:
         read_stream_csv(path, "pro")
     assert (info.value.column, info.value.row) == ("time", 25)
-    assert "duplicated" in str(info.value)
+    assert info.value.message.startswith("duplicated timestamp")
 
 
 @pytest.mark.parametrize("bad", ["nan", "inf", "-inf", ""])
@@ -139,6 +140,7 @@ def test_burst_longer_than_max_repair_run_is_rejected(tmp_path, synth_imu, bad):
     with pytest.raises(NonFiniteError) as info:
         read_stream_csv(path, "imu", max_repair_run=2)
     assert (info.value.path, info.value.column, info.value.row) == (str(path), "ax", 20)
+    assert info.value.line == 22      # the burst's first line (header on line 1)
 
 
 def test_burst_within_max_repair_run_is_repaired_and_counted(tmp_path, synth_imu):
@@ -209,6 +211,31 @@ def test_a_non_finite_sample_next_to_a_timestamp_gap_is_refused(tmp_path):
     frame, report = read_stream_csv(_wheel_file(tmp_path, t, cells), "pro")
     assert frame["vel_l"][60] == 0.9 and report.repaired == {"vel_l": 1}
     assert report.gaps == [(4.9, 10.0)]
+
+
+def test_a_gap_is_a_step_longer_than_gap_factor_median_steps(tmp_path):
+    """The gap rule is ``step > gap_factor x median step``, the median so that a long pause
+    does not hide a shorter gap: at 0.125 s steps (exact in binary) a 0.375 s step (3 x, on
+    the threshold) is no gap, a 0.5 s step is one, and so is it beside a 20 s pause that
+    lifts the mean step to about 1 s (3 x the mean would hide it)."""
+    d = 0.125
+
+    def times(*big):
+        steps = [d] * 10
+        for k, step in big:
+            steps[k] = step
+        return np.r_[0.0, np.cumsum(steps)]
+
+    _, report = read_stream_csv(_wheel_file(tmp_path, times((4, 3 * d)), 0.5), "pro")
+    assert report.gaps == []
+    t = times((4, 4 * d))
+    _, report = read_stream_csv(_wheel_file(tmp_path, t, 0.5), "pro")
+    assert report.gaps == [(t[4], t[5])]
+    t = times((4, 4 * d), (7, 20.0))
+    _, report = read_stream_csv(_wheel_file(tmp_path, t, 0.5), "pro")
+    assert report.gaps == [(t[4], t[5]), (t[7], t[8])]
+    _, report = read_stream_csv(_wheel_file(tmp_path, t, 0.5), "pro", gap_factor=5.0)
+    assert report.gaps == [(t[7], t[8])]
 
 
 @settings(max_examples=60, deadline=None, derandomize=True,
