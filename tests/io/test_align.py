@@ -161,6 +161,53 @@ def test_short_segment_between_gaps_is_anti_alias_filtered_too(n_segment, phase)
     assert _rms(out[inside]) < 0.5 * _rms(raw)
 
 
+@pytest.mark.parametrize("n_segment", [2, 5])
+def test_short_segment_is_filtered_with_all_its_samples_but_one_as_padding(n_segment):
+    """A gap-free segment of fewer than 16 samples is filtered by ``sosfiltfilt`` with a
+    padding of all its samples but one (a two-sample segment included); on its own sample
+    times the aligned values are that filter's output."""
+    from scipy import signal
+
+    t = np.r_[np.arange(0, 300), 400 + np.arange(n_segment), 522 + np.arange(300)] / 100.0
+    v = np.sin(2 * np.pi * 30.0 * t + 0.3)[:, None]
+    seg = slice(300, 300 + n_segment)
+    out = align_arrays([t], [v], t[seg], 50.0)[:, 0]
+    sos = signal.butter(4, 20.0, fs=100.0, output="sos")
+    want = signal.sosfiltfilt(sos, v[seg, 0], padlen=n_segment - 1)
+    np.testing.assert_allclose(out, want, rtol=0, atol=1e-12)
+    assert np.abs(out - v[seg, 0]).max() > 0.05      # filtered, not passed through
+
+
+@pytest.mark.parametrize("native_hz, filtered", [(60.0, False), (74.0, False), (76.0, True),
+                                                 (100.0, True)])
+def test_only_a_stream_over_1_5_times_the_grid_rate_is_anti_alias_filtered(native_hz,
+                                                                           filtered):
+    """Between 1 and 1.5 times the grid rate a stream is interpolated as it is (a clock's
+    jitter about the grid rate must not switch the filter on); above, it is filtered."""
+    t = np.arange(0, 400) / native_hz
+    v = np.sin(2 * np.pi * 7.0 * t)[:, None] + 0.3 * np.sin(2 * np.pi * 29.0 * t)[:, None]
+    grid = overlap_grid([t], 50.0)
+    out = align_arrays([t], [v], grid, 50.0)[:, 0]
+    plain = np.interp(grid, t, v[:, 0])
+    if filtered:
+        assert np.abs(out - plain).max() > 0.1
+    else:
+        np.testing.assert_array_equal(out, plain)
+
+
+def test_a_step_of_exactly_gap_factor_median_steps_is_no_gap():
+    """The gap rule is strict, as the reader's (:mod:`terrain.io.measured`): at 0.125 s
+    steps (exact in binary) a 0.375 s step is interpolated across, a 0.5 s step is a gap."""
+    for big, is_gap in ((0.375, False), (0.5, True)):
+        t = np.r_[np.arange(8) * 0.125, 0.875 + big + np.arange(8) * 0.125]
+        v = np.arange(t.size, dtype=float)[:, None]
+        grid = np.array([0.875 + big / 2])
+        out = align_arrays([t], [v], grid, 8.0)[0, 0]
+        assert np.isnan(out) == is_gap
+        if not is_gap:
+            assert out == 7.5
+
+
 def test_one_sample_segment_keeps_its_value():
     t = np.r_[np.arange(0, 300), 400, 500 + np.arange(300)] / 100.0
     v = np.sin(2 * np.pi * 1.0 * t)[:, None]
@@ -192,6 +239,10 @@ def test_numpy_core_on_part_of_the_grid_gives_the_values_of_the_whole(make_run):
 
 def test_overlap_grid_is_empty_without_overlap_and_median_step_is_the_median():
     assert overlap_grid([np.arange(5.0), 10 + np.arange(5.0)], 10.0).size == 0
+    # a span of 1.1 s at 50 Hz is 54.99999999999999 steps in floats: the grid still reaches
+    # the last common sample (56 points), not one step short of it
+    grid = overlap_grid([np.arange(1, 13) / 10.0, np.arange(0, 25) / 10.0], 50.0)
+    assert grid.size == 56 and grid[-1] == pytest.approx(1.2, abs=1e-12)
     with pytest.raises(ConfigError):
         overlap_grid([np.arange(5.0)], 0.0)
     for n in (2, 3, 10, 11):
@@ -220,6 +271,7 @@ def test_interpolated_mean_count_matches_monte_carlo(native_hz, n_samples, rate_
 def test_interpolated_mean_count_limits():
     # a stream at least as fast as the clock: one independent value per clock sample
     assert interpolated_mean_count(100, 50.0, 100.0) == 100.0
+    assert interpolated_mean_count(100, 50.0, 50.0) == 100.0       # as fast: the same
     assert interpolated_mean_count(1, 50.0, 6.5) >= 1.0
     with pytest.raises(ConfigError):
         interpolated_mean_count(0, 50.0, 6.5)
@@ -236,6 +288,18 @@ def test_overlap_grid_tail_is_the_whole_grids_tail(t0, span, rate_hz, before_s, 
     assert end == want_end
     np.testing.assert_array_equal(tail, grid[max(want_end - n_last, 0):want_end])
     assert overlap_grid_tail([np.arange(5.0), 10 + np.arange(5.0)], 10.0, 20.0, 3)[1] == 0
+
+
+@pytest.mark.parametrize("t0, rate_hz", [(0.0, 50.0), (0.1, 50.0), (0.37, 6.5), (1.3, 100.0)])
+def test_overlap_grid_tail_before_a_grid_point_excludes_it(t0, rate_hz):
+    """``before_s`` equal to grid point ``k`` (as the grid's own float arithmetic gives it)
+    counts the ``k`` points before it, never the point itself."""
+    times = [t0 + np.linspace(0.0, 3.0, 7)]
+    grid = overlap_grid(times, rate_hz)
+    for k in range(grid.size):
+        tail, end = overlap_grid_tail(times, rate_hz, float(grid[k]), 2)
+        assert end == k
+        np.testing.assert_array_equal(tail, grid[max(k - 2, 0):k])
 
 
 def _numpy_align_oracle(t, v, grid, gap_s):
