@@ -6,6 +6,7 @@ in one short line, or an explicit :class:`DataWarning`; nothing is rescaled.
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -670,3 +671,119 @@ def test_stuck_sensor_warning_names_the_file_column_where_it_differs(turning):
     with pytest.warns(DataWarning, match=r"column 'angular_velocity_z' \(imu\.wz\) stuck"):
         check_run("r", {"imu": run.streams["imu"]}, "husky", {"imu": "log.csv"},
                   columns={"imu": {"time": TIME, "angular_velocity_z": "wz"}})
+
+
+# --- the plausibility rules' thresholds, on synthetic streams -------------------------------
+
+
+def test_gyro_in_deg_s_mounted_upside_down_is_refused_too(turning):
+    """The yaw rule judges |slope| and |corr|: an IMU mounted upside down (wz = -yaw rate)
+    in deg/s is as certainly in deg/s as one mounted upright."""
+    imu, _ = turning
+    _edit(imu, lambda f: f.__setitem__(["wx", "wy", "wz"],
+                                       -np.degrees(f[["wx", "wy", "wz"]])))
+    with pytest.raises(UnitError, match="gyro_units") as info:
+        read_runs_dir(imu.parent.parent)
+    slope = re.search(r"speed difference is (-?[0-9.]+) 1/m", info.value.message)
+    assert info.value.column == "wz" and float(slope.group(1)) < -15.0
+
+
+@pytest.mark.parametrize("step_s, n_same, stuck", [
+    (0.1, 11, True),       # 1.0 s exactly, 11 samples: stuck (both bounds inclusive)
+    (0.125, 10, True),     # 10 samples exactly, over 1.125 s: stuck
+    (0.125, 9, False),     # 9 samples over 1.0 s: too few samples
+    (0.05, 20, False),     # 20 samples over 0.95 s: too short
+])
+def test_stuck_sensor_bounds_are_inclusive(step_s, n_same, stuck):
+    """Rule ``stuck_sensor`` for the IMU: at least :data:`STUCK_IMU_S` (1 s) from the
+    stretch's first to its last sample and at least :data:`STUCK_MIN_SAMPLES` (10) samples
+    of one exact value."""
+    from terrain.io.plausibility import stuck_stretches
+
+    n = 60
+    t = np.arange(n) * step_s
+    wz = np.sin(np.arange(n) + 0.5)
+    wz[20:20 + n_same] = 0.25
+    got = stuck_stretches({"imu": pd.DataFrame({TIME: t, "wz": wz})})
+    want = {"imu.wz": [[t[20], t[20 + n_same - 1]]]} if stuck else {}
+    assert got == want
+
+
+@pytest.mark.parametrize("stream, rate_hz, unit", [
+    ("imu", 2.0, None),        # slow (a warning), not ten times below 10 Hz: not in ms
+    ("imu", 0.1, "ms"),        # 100 Hz in ms
+    ("wheels", 0.5, None),     # half the lowest wheel rate: slow, not ms
+    ("wheels", 0.0065, "ms"),  # the 6.5 Hz wheel stream in ms
+])
+def test_timestamp_unit_is_judged_only_ten_times_below_the_nominal_rate(stream, rate_hz,
+                                                                        unit):
+    from terrain.io.plausibility import timestamp_unit
+
+    assert timestamp_unit(rate_hz, stream) == unit
+
+
+@pytest.mark.parametrize("stream, rate_hz", [("imu", 10.0), ("imu", 2000.0),
+                                             ("wheels", 1.0), ("wheels", 1000.0)])
+def test_a_rate_on_a_nominal_bound_is_no_warning(stream, rate_hz):
+    from terrain.io.plausibility import check_rate
+
+    found = []
+    check_rate(np.arange(50) / rate_hz, stream, "f.csv", found=found)
+    assert found == []
+    check_rate(np.arange(50) / (0.9 * rate_hz if rate_hz < 100 else 1.1 * rate_hz), stream,
+               "f.csv", found=found)
+    assert len(found) == 1 and "outside the nominal" in found[0]
+
+
+def _imu_frame(t, ax=None):
+    ax = np.zeros(t.size) if ax is None else ax
+    rng = np.random.default_rng(0)
+    return pd.DataFrame({TIME: t, **{c: 0.01 * rng.standard_normal(t.size)
+                                     for c in ("wx", "wy", "wz", "ay")},
+                         "ax": ax, "az": 9.81 + 0.01 * rng.standard_normal(t.size)})
+
+
+def test_streams_meeting_at_one_instant_do_not_overlap():
+    """An IMU clock ending where the wheel clock starts overlaps for 0 s: refused as
+    clocks that do not overlap, not aligned onto a one-point grid."""
+    from terrain.io.plausibility import check_run
+
+    imu = _imu_frame(np.arange(0, 251) / 50.0)                      # 0 .. 5 s
+    t_w = 5.0 + np.arange(0, 51) / 10.0                              # 5 .. 10 s
+    wheels = pd.DataFrame({TIME: t_w, "vel_l": 0.5, "vel_r": 0.5, "cur_l": 5.0 + t_w,
+                           "cur_r": 6.0 + t_w})
+    with pytest.raises(ClockError, match="do not overlap"):
+        check_run("r", {"imu": imu, "wheels": wheels}, "husky", {})
+
+
+@pytest.mark.parametrize("scale, warned", [(1.0, False), (3.0, True)])
+def test_wheel_speeds_rising_faster_than_the_acceleration_are_probably_km_h(scale, warned):
+    """Rule ``wheel_speed_units``'s second evidence: the slope of d(wheel speed)/dt on the
+    forward acceleration is about 1 in m/s and 3.6 in km/h; above 2.5 the speeds are
+    probably in km/h, even when they are slow (0.5 m/s at most here, under 1.2 x the
+    Husky's top speed)."""
+    from terrain.io.plausibility import check_run
+
+    t_i = np.arange(0, 3001) / 50.0
+    f = 0.1
+    ax = 0.05 * np.sin(2 * np.pi * f * t_i)
+    t_w = np.arange(0, 601) / 10.0
+    v = scale * 0.05 / (2 * np.pi * f) * (1.0 - np.cos(2 * np.pi * f * t_w))   # integral of ax
+    wheels = pd.DataFrame({TIME: t_w, "vel_l": v, "vel_r": v, "cur_l": 5.0 + np.sin(t_w),
+                           "cur_r": 6.0 + np.cos(t_w)})
+    assert v.max() < 1.2 * 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        out = check_run("r", {"imu": _imu_frame(t_i, ax), "wheels": wheels}, "husky", {})
+    found = [w for w in out["warnings"] if "wheel_speed_units" in w]
+    assert len(found) == warned
+    if warned:
+        assert f"slope {scale:.2f}" in found[0] and "probably in km/h" in found[0]
+
+
+@pytest.mark.parametrize("median, in_g", [(0.2, False), (0.5, True), (1.0, True),
+                                          (2.99, True), (3.0, False), (9.81, False)])
+def test_accel_in_g_is_the_band_between_a_dead_sensor_and_gravity(median, in_g):
+    from terrain.io.plausibility import accel_in_g
+
+    assert accel_in_g(median) is in_g
