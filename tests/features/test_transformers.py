@@ -56,6 +56,23 @@ def test_columns_hold_what_their_names_say():
     np.testing.assert_allclose(col["wz__band_5_7p5hz"], bp)
 
 
+def test_cross_terms_use_their_own_floors():
+    """``min_speed_m_s`` floors the current-per-speed terms and ``turn_floor_rad_s`` the
+    yaw-rate gain, each its own (their defaults are both 0.05, so a swap showed nowhere)."""
+    n = 100
+    t = np.arange(n) / 50.0
+    x = 0.03 * np.sin(2 * np.pi * t)                      # barely turning, rad/s
+    window = np.stack([x / 1.4, np.full(n, 4.0), np.full(n, 0.1), x])[None]
+    fx = WindowFeatures(channels=("wz", "cur_l", "vel_l", "yaw_rate_wheels"), rate_hz=50.0,
+                        stats=(), bands_hz=(), min_speed_m_s=0.5, turn_floor_rad_s=0.02)
+    F = fx.fit_transform(window)
+    col = dict(zip(fx.get_feature_names_out(), F[0]))
+    assert col["cur_l__per_speed"] == pytest.approx(4.0 / 0.5, rel=1e-12)
+    gain = (x @ (x / 1.4)) / (x @ x + n * 0.02 ** 2)
+    assert col["wz__gain_on_yaw_rate_wheels"] == pytest.approx(gain, rel=1e-12)
+    assert 0.2 < gain < 0.6            # the floor matters here: 1 / 1.4 without it
+
+
 def test_all_channels_include_both_cross_terms():
     fx = WindowFeatures(channels=ALL_CHANNELS, rate_hz=100.0).fit(
         np.ones((2, len(ALL_CHANNELS), 200)))
