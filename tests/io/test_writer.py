@@ -87,3 +87,19 @@ def test_a_meta_csv_file_is_named_not_shadowed_by_the_metadata(tmp_path):
     (tmp_path / "ASPHALT" / "meta_00.csv").write_text("time,x\n0,1\n1,2\n")
     with pytest.raises(DataFormatError, match="a stream cannot be named meta"):
         read_runs_dir(tmp_path)
+
+
+def test_the_default_index_is_the_smallest_free_one_up_to_99(tmp_path):
+    """Index 99 is the last one the two-digit layout has: a folder using 00-98 (and a gap
+    at 05) gets 05, then 99, then no more."""
+    from terrain.errors import ConfigError
+
+    folder = tmp_path / "ASPHALT"
+    folder.mkdir()
+    for i in range(99):
+        if i != 5:
+            (folder / f"note_{i:02d}.txt").write_text("")
+    assert write_run(_run(0.0), tmp_path)["pro"].name == "pro_05.csv"
+    assert write_run(_run(0.0), tmp_path)["meta"].name == "meta_99.json"
+    with pytest.raises(ConfigError, match="already holds runs 00-99"):
+        write_run(_run(0.0), tmp_path)
