@@ -5,7 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sklearn.base import clone
+from sklearn.calibration import CalibratedClassifierCV
 from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import StandardScaler
+from sklearn.svm import SVC
 
 from features.windows import WindowConfig, make_windows
 from terrain.models.registry import ModelConfig, make_model
@@ -95,3 +98,35 @@ def test_fast_path_on_float32_features_equals_sklearn():
     X32 = X[:20].astype(np.float32)
     np.testing.assert_allclose(model.predict_proba(X32), Pipeline(model.steps).predict_proba(X32),
                                rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("calibration, shape", [
+    ({"method": "sigmoid", "ensemble": True}, "ovr"),     # five calibrated copies, averaged
+    ({"method": "isotonic", "ensemble": False}, "ovr"),   # no sigmoid a, b to read
+    ({"method": "sigmoid", "ensemble": False}, "ovo"),    # pair values calibrated as classes
+])
+def test_calibrations_the_numpy_path_does_not_reproduce_fall_back_to_sklearn(calibration,
+                                                                             shape):
+    # the fast path reads one sigmoid per class over scikit-learn's one-vs-rest vote
+    # transform of a single calibrated SVC: anything else must take scikit-learn's path
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(200, 5))
+    y = np.array(list("abcd"))[(X[:, 0] > 0).astype(int) + 2 * (X[:, 1] > 0)]
+    svc = SVC(C=30.0, class_weight="balanced", decision_function_shape=shape, random_state=0)
+    model = SVMPipeline([("scale", StandardScaler()),
+                         ("svc", CalibratedClassifierCV(svc, **calibration))]).fit(X, y)
+    assert model._compiled() is None
+    np.testing.assert_allclose(model.predict_proba(X), Pipeline(model.steps).predict_proba(X),
+                               rtol=0, atol=1e-12)
+
+
+def test_make_svm_balances_the_classes_and_uses_the_configured_kernel_width():
+    # 150 windows of class a, 30 of b, 20 of c: each class weighs n / (3 n_class)
+    rng = np.random.default_rng(0)
+    y = np.repeat(["a", "b", "c"], [150, 30, 20])
+    X = rng.normal(size=(len(y), 3)) + np.searchsorted(["a", "b", "c"], y)[:, None]
+    svc = make_svm(SVMConfig(C=3.0, gamma=0.05)).fit(X, y).named_steps["svc"]
+    np.testing.assert_allclose(svc.class_weight_, [200 / 450, 200 / 90, 200 / 60])
+    assert svc.C == 3.0 and svc._gamma == 0.05
+    calibrated = make_svm(SVMConfig(gamma=0.05, probability=True)).named_steps["svc"]
+    assert calibrated.estimator.gamma == 0.05
