@@ -194,3 +194,18 @@ def test_fit_without_labels_is_a_clear_error_and_the_input_width_is_kept():
                                              "None"):
             ens.fit(X, None, **kwargs)
         assert ens.fit(X, y, **kwargs).n_features_in_ == 3
+
+
+@pytest.mark.parametrize("weights, match", [
+    ((0, 0, 0), "not all 0"),                  # was 0 / 0: NaN weights, NaN probabilities
+    ((1, np.inf, 1), "finite"),                # was inf / inf: a NaN weight
+    ((1, np.nan, 1), "finite"),
+    ((1, 1, 1, 1), "4 weight"),                # a fourth weight would be renormalised away
+])
+def test_fixed_weights_are_refused_unless_finite_non_negative_one_per_member(weights, match):
+    from terrain.errors import ConfigError
+    from terrain.models.ensemble import normalised_weights
+
+    with pytest.raises(ConfigError, match=match):
+        normalised_weights(weights, 3)
+    np.testing.assert_allclose(normalised_weights((0, 1, 3), 3), [0.0, 0.25, 0.75])
