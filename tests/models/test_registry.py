@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
-from terrain.models.registry import (ENSEMBLE3_MEMBERS, ENSEMBLES, MODELS, ModelConfig,
+from terrain.models.registry import (ENSEMBLE3_MEMBERS, ENSEMBLES, MAX_CNN_SEEDS,
+                                     MAX_TORCH_THREADS, MODELS, ModelConfig, band_limits_hz,
                                      ensemble_member_kinds, make_model)
 from terrain.models.svm import SVMPipeline
 
@@ -105,7 +107,7 @@ def test_cnn_seeds_bag_independently_seeded_networks_with_equal_weights():
                       RawCNNClassifier)
 
 
-@pytest.mark.parametrize("seeds", [0, -1, 1.5, True])
+@pytest.mark.parametrize("seeds", [0, -1, 1.5, True, MAX_CNN_SEEDS + 1])
 def test_cnn_seeds_must_be_a_positive_integer(seeds):
     with pytest.raises(ConfigError, match="cnn_seeds"):
         ModelConfig(kind="cnn", cnn_seeds=seeds)
@@ -119,8 +121,9 @@ def test_cnn_seeds_need_a_model_that_holds_a_cnn():
     assert cnn_kinds("ensemble", ("svm", "minirocket")) == () == cnn_kinds("svm")
     for config in ({"kind": "svm"}, {"kind": "minirocket"},
                    {"kind": "ensemble", "ensemble_members": ("svm", "minirocket")}):
-        with pytest.raises(ConfigError, match="has none"):
-            ModelConfig(cnn_seeds=3, **config)
+        for seeds in (2, 3):
+            with pytest.raises(ConfigError, match="has none"):
+                ModelConfig(cnn_seeds=seeds, **config)
     # a comparison bags the cells whose model holds a CNN and refuses a grid without one
     assert CompareConfig(models=("svm", "cnn"), cnn_seeds=3).cnn_seeds == 3
     with pytest.raises(ConfigError, match="none of the models"):
@@ -132,10 +135,38 @@ def test_cnn_seeds_need_a_model_that_holds_a_cnn():
 @pytest.mark.parametrize("setting, value", [
     ("max_epochs", 0), ("max_epochs", -3), ("max_epochs", 2.5), ("max_epochs", True),
     ("minirocket_kernels", 0), ("minirocket_max_dilations", 0),
-    ("spectrogram_noise_std", float("inf")), ("spectrogram_noise_std", float("nan"))])
+    ("spectrogram_noise_std", float("inf")), ("spectrogram_noise_std", float("nan")),
+    ("n_threads", 0), ("n_threads", MAX_TORCH_THREADS + 1)])
 def test_training_budget_settings_are_checked_before_any_fit(setting, value):
     # max_epochs=0 trained no epoch and served the untrained network's probabilities
     # (n_epochs_ 0, no word); a 0-dilation MiniRocket reached aeon's bare ZeroDivisionError;
     # an infinite noise level passed the ">= 0" check
     with pytest.raises(ConfigError, match=setting):
         ModelConfig(kind="cnn", **{setting: value})
+
+
+def test_ensemble_members_are_calibrated_where_a_plain_svm_is_asked_for():
+    # probability=False asks for the uncalibrated SVC of a lone SVM; an ensemble's SVM
+    # member must still give probabilities to be voted with
+    plain = make_model(ModelConfig(kind="svm"), CHANNELS, 50.0, "vulpi", probability=False)
+    assert not hasattr(plain.named_steps["svc"], "predict_proba")
+    for kind in ENSEMBLES:
+        model = make_model(ModelConfig(kind=kind), CHANNELS, 50.0, "vulpi", probability=False)
+        svm = dict(model.estimators)["svm"]
+        assert hasattr(svm.named_steps["svc"], "predict_proba")
+
+
+def test_band_limits_are_the_native_nyquist_of_every_wheel_channel_derived_ones_included():
+    channels = ("wz", "vel_l", "cur_r", "vel_mean", "cur_diff", "yaw_rate_wheels")
+    assert band_limits_hz(channels, "borealtc") == (np.inf, 3.25, 3.25, 3.25, 3.25, 3.25)
+    assert band_limits_hz(channels, "vulpi")[1:] == (7.5,) * 5
+    assert band_limits_hz(channels, "unknown") == (np.inf,) * 6
+
+
+def test_minirocket_gets_the_seed_and_budget_it_is_asked_for():
+    config = ModelConfig(kind="minirocket", minirocket_kernels=840, minirocket_max_dilations=8)
+    model = make_model(config, CHANNELS, 50.0, "vulpi", random_state=7)
+    params = model.get_params()
+    assert params["minirocket__random_state"] == 7
+    assert params["minirocket__n_kernels"] == 840
+    assert params["minirocket__max_dilations_per_kernel"] == 8
