@@ -135,3 +135,18 @@ def test_minirocket_separates_planted_terrains_on_unseen_runs():
     model.fit(X[~test], y[~test])
     assert (model.predict(X[test]) == y[test]).mean() >= 0.9
     np.testing.assert_allclose(model.predict_proba(X[test]).sum(axis=1), 1.0)
+
+
+def test_minirocket_biases_follow_the_seed_and_the_head_is_balanced_with_its_c():
+    pytest.importorskip("aeon")
+    from terrain.models.minirocket import MiniRocketFeatures, make_minirocket
+
+    X, _, _ = _runs(n_runs=2, per_run=8)
+    X = X.astype(np.float32)
+    features = [MiniRocketFeatures(n_kernels=84, max_dilations_per_kernel=4,
+                                   random_state=seed).fit(X).transform(X)
+                for seed in (0, 0, 1)]
+    np.testing.assert_array_equal(features[0], features[1])
+    assert not np.array_equal(features[0], features[2])
+    head = make_minirocket(0, C=0.5).get_params()
+    assert head["logreg__C"] == 0.5 and head["logreg__class_weight"] == "balanced"
