@@ -36,6 +36,8 @@ def test_every_run_of_a_class_weighs_the_same_and_each_class_keeps_its_count():
     assert np.isclose(share[labels == "SNOW"].sum(), 1.0)
     with pytest.raises(ShapeError):
         within_class_run_weights(labels, groups[:-1])
+    with pytest.raises(ShapeError):                      # one label per window, not a table
+        within_class_run_weights(labels[:, None], groups[:, None])
 
 
 def _tabular():

@@ -81,6 +81,8 @@ def test_window_ekf_svm_separates_planted_ground_states_and_is_stateless(windows
     # the turning windows carry the ICR expansion (the straight ones carry none of it)
     turning = np.abs(windows.X[held_out][:, windows.channels.index("wz")]).mean(axis=1) > 0.1
     assert turning.sum() >= 20 and correct[turning].mean() >= 0.95 and correct.mean() > 0.8
+    np.testing.assert_array_equal(model.predict(windows.X[held_out]),
+                                  model.classes_[proba.argmax(axis=1)])
     # a decision depends on its window only: alone or in a batch, the same probabilities
     np.testing.assert_allclose(model.predict_proba(windows.X[held_out][3:4]), proba[3:4],
                                rtol=1e-12)
