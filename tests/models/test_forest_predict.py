@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from sklearn.ensemble import ExtraTreesClassifier, RandomForestClassifier
 from sklearn.linear_model import LogisticRegression
+from sklearn.pipeline import Pipeline
 
 from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
@@ -55,6 +56,20 @@ def test_packed_forest_equals_sklearn_on_real_windows(wheel_windows, forest):
         forest_proba(pack_forest(forest), Ft[:, :5])
 
 
+def test_inputs_on_and_just_above_a_split_threshold_take_sklearns_side():
+    # integer features: a random forest splits half-way (x <= 1.5 goes left); a float64
+    # input 1e-9 above a threshold is that threshold once cast to float32, as scikit-learn
+    # casts it, so it goes left too
+    rng = np.random.default_rng(0)
+    F = rng.integers(0, 5, (300, 3)).astype(float)
+    y = np.where(F[:, 0] + F[:, 1] + rng.integers(0, 2, 300) > 4, "a", "b")
+    forest = RandomForestClassifier(20, random_state=0).fit(F, y)
+    axis = np.arange(-0.5, 5.0, 0.5)
+    grid = np.stack(np.meshgrid(axis, axis, axis), axis=-1).reshape(-1, 3)
+    grid = np.concatenate([grid, grid + 1e-9])
+    assert np.array_equal(forest_proba(pack_forest(forest), grid), forest.predict_proba(grid))
+
+
 def test_missing_values_take_the_learned_side(wheel_windows):
     train, test = wheel_windows
     F, Ft = _features(train), _features(test)
@@ -88,7 +103,9 @@ def test_forest_pipeline_uses_the_compiled_path_and_survives_pickling(wheel_wind
                                             class_weight="balanced", random_state=0))])
     pipe.fit(train.X, labels)
     assert pipe._compiled() is not None
-    ref = super(ForestPipeline, pipe).predict_proba(test.X)       # scikit-learn's path
+    # scikit-learn's own path over the same fitted steps (super(ForestPipeline, pipe) is
+    # CompiledPipeline, whose predict_proba is the compiled path under test)
+    ref = Pipeline(pipe.steps).predict_proba(test.X)
     assert np.array_equal(pipe.predict_proba(test.X), ref)
     assert np.array_equal(pipe.predict(test.X), pipe.classes_[ref.argmax(axis=1)])
     loaded = pickle.loads(pickle.dumps(pipe))
@@ -96,7 +113,7 @@ def test_forest_pipeline_uses_the_compiled_path_and_survives_pickling(wheel_wind
     # refitting the final step repacks it: no stale trees
     pipe.steps[-1][1].set_params(random_state=5).fit(pipe[:-1].transform(train.X), labels)
     assert np.array_equal(pipe.predict_proba(test.X),
-                          super(ForestPipeline, pipe).predict_proba(test.X))
+                          Pipeline(pipe.steps).predict_proba(test.X))
     # another final step: scikit-learn's path
     other = ForestPipeline([("features", WheelPhysicsFeatures(channels=train.channels,
                                                               rate_hz=10.0)),

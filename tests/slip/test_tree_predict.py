@@ -42,6 +42,20 @@ def test_packed_trees_bit_identical_to_sklearn_with_missing_values():
         predict_packed(packed, Xt[:, :3])
 
 
+def test_inputs_on_a_split_threshold_go_left_as_in_sklearn():
+    # integer features: the bins split half-way (x <= 1.5 goes left); inputs on the
+    # thresholds themselves must take scikit-learn's side
+    rng = np.random.default_rng(0)
+    X = rng.integers(0, 5, (400, 2)).astype(float)
+    y = X[:, 0] * X[:, 1] + 0.1 * rng.normal(size=400)
+    model = HistGradientBoostingRegressor(max_iter=20, early_stopping=False,
+                                          random_state=0).fit(X, y)
+    grid = np.stack(np.meshgrid(np.arange(-0.5, 5.0, 0.5), np.arange(-0.5, 5.0, 0.5)),
+                    axis=-1).reshape(-1, 2)
+    out = predict_packed(pack_trees([model], 2), grid)[:, 0]
+    assert np.array_equal(out, model.predict(grid))
+
+
 def test_pack_rejects_what_it_cannot_reproduce():
     X, y = _data()
     with pytest.raises(ConfigError):
