@@ -246,6 +246,9 @@ def test_noise_copy_of_the_training_spectra():
     assert abs(noise.mean()) < 0.01 and abs(noise.std() - 0.3) < 0.01
     assert not Z2[50:, 2, 13:].any()
     np.testing.assert_array_equal(model._augmented(Z, y)[0], Z2)
+    small = SpectrogramCNNClassifier(rate_hz=RATE_HZ, augment_noise_std=0.1, random_state=4)
+    small.mask_ = None
+    assert abs((small._augmented(Z, y)[0][50:] - Z).std() - 0.1) < 0.005
     plain = SpectrogramCNNClassifier(rate_hz=RATE_HZ)
     assert plain._augmented(Z, y)[0] is Z
     with pytest.raises(ConfigError, match="augment_noise_std"):
@@ -319,3 +322,104 @@ def test_windows_of_another_length_than_the_training_ones_are_refused(cls):
     del old.window_shape_
     np.testing.assert_array_equal(old.predict_proba(X), proba)
     assert old.predict_proba(rng.normal(size=(1, 2, 200)).astype(np.float32)).shape == (1, 2)
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_inputs_are_standardised_per_channel_or_per_bin_and_a_constant_channel_stays_finite(cls):
+    # the raw CNN scales each channel, the spectrogram CNN each channel's frequency bin; a
+    # channel constant over the training windows (a current at rest) divides by 1, not 0
+    X, y, _ = _planted(n_runs=4)
+    X = X.copy()
+    X[:, 2] = 0.25
+    model = cls(**{**FAST, "max_epochs": 1}).fit(X, y)
+    Z = model._standardise(model._inputs(X))
+    axes = (0, 2) if cls is RawCNNClassifier else (0, 3)
+    np.testing.assert_allclose(Z[:, :2].mean(axis=axes), 0.0, atol=1e-3)
+    np.testing.assert_allclose(Z[:, :2].std(axis=axes), 1.0, rtol=1e-3)
+    assert (model.scale_[2] == 1.0).all() and not Z[:, 2].any()
+    assert np.isfinite(model.predict_proba(X)).all()
+
+
+def test_log_spectrogram_known_values_and_a_segment_longer_than_the_window():
+    # a constant c through a Hann window of n samples: DC bin |c sum(hann)|^2, one frame
+    # per hop; a segment longer than the window is clipped to it (one frame)
+    c, n = 0.5, 100
+    X = np.full((1, 1, n), c, dtype=np.float32)
+    spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=0.4, hop_s=0.2)
+    assert spec.shape == (1, 1, 21, 4) and freqs[1] == pytest.approx(2.5)
+    np.testing.assert_allclose(spec[0, 0, 0], np.log10((c * np.hanning(40).sum()) ** 2),
+                               rtol=1e-5)
+    whole, freqs = log_spectrogram(X, RATE_HZ, segment_s=2.0, hop_s=0.2)
+    assert whole.shape == (1, 1, n // 2 + 1, 1) and freqs[1] == pytest.approx(1.0)
+    np.testing.assert_allclose(whole[0, 0, 0, 0], np.log10((c * np.hanning(n).sum()) ** 2),
+                               rtol=1e-5)
+
+
+def test_band_mask_keeps_the_bin_at_the_limit():
+    model = SpectrogramCNNClassifier(rate_hz=RATE_HZ, segment_s=0.5, band_limits_hz=(np.inf, 4.0))
+    mask = model._band_mask(200, (1, 2, 26, 8))
+    assert mask[0].all() and mask[1, :, 0].tolist() == [1.0] * 3 + [0.0] * 23   # 0, 2, 4 Hz
+
+
+def test_the_seed_draws_the_initial_weights():
+    # with lr 0 the network keeps its initial weights (one batch: the same normalisation
+    # statistics whatever the order), so the seeds' probabilities differ by their weights
+    X, y, _ = _planted(n_runs=4)
+    still = {**FAST, "max_epochs": 1, "lr": 0.0, "batch_size": len(X)}
+    p = [RawCNNClassifier(**still, random_state=s).fit(X, y).predict_proba(X) for s in (0, 1)]
+    assert np.abs(p[0] - p[1]).max() > 1e-3
+
+
+def test_fit_hands_on_its_weight_decay_and_restores_the_thread_count():
+    import torch
+    X, y, _ = _planted(n_runs=2)
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        model = RawCNNClassifier(**{**FAST, "max_epochs": 1}, weight_decay=0.123).fit(X, y)
+        assert torch.get_num_threads() == 2                   # FAST trains on 1 thread
+    finally:
+        torch.set_num_threads(before)
+    assert model.net_.optimizer_.param_groups[0]["weight_decay"] == 0.123
+
+
+def test_early_stopping_keeps_the_best_validated_network():
+    import torch
+    X, y, groups = _planted()
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 20, "lr": 0.03}, early_stopping=True,
+                             validation_splits=4, patience=2).fit(X, y, groups=groups)
+    losses = [epoch["valid_loss"] for epoch in model.net_.history]
+    assert losses[-1] > min(losses)               # it went on past its best epoch
+    val = np.isin(groups, model.validation_groups_)
+    assert val.sum() <= FAST["batch_size"]        # one validation batch: the epoch's loss
+    Z = torch.as_tensor(model._standardise(model._inputs(X[val])))
+    target = torch.as_tensor(np.searchsorted(model.classes_, y[val]))
+    with torch.inference_mode():
+        loss = model.net_.criterion_(model.net_.module_.eval()(Z), target).item()
+    assert loss == pytest.approx(min(losses), rel=1e-5)
+
+
+def test_early_stopping_with_window_weights_draws_from_the_training_runs_only():
+    # run-balanced weights (ModelConfig.run_balanced) with early stopping: the sampler
+    # draws among the windows of the training runs, as many as they hold
+    X, y, groups = _planted()
+    model = RawCNNClassifier(**{**FAST, "max_epochs": 1}, early_stopping=True,
+                             validation_splits=4).fit(X, y, groups=groups,
+                                                      sample_weight=np.linspace(0.5, 2, len(y)))
+    batches = model.net_.history[0]["batches"]
+    assert sum(b["train_batch_size"] for b in batches if "train_batch_size" in b) == 6 * 12
+
+
+def test_networks_drop_out_while_training_only():
+    import torch
+
+    from terrain.models.nets import Raw1dNet, Spectrogram2dNet
+    with torch.random.fork_rng():
+        torch.manual_seed(0)
+        for net, shape in ((Raw1dNet(2, 3, width=4, dropout=0.5), (4, 2, 64)),
+                           (Spectrogram2dNet(2, 3, width=4, dropout=0.5), (4, 2, 26, 8))):
+            x = torch.randn(shape)
+            net.train()
+            assert not torch.equal(net(x), net(x))
+            net.eval()
+            assert torch.equal(net(x), net(x))
