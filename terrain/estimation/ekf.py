@@ -389,7 +389,8 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
     Raises
     ------
     ShapeError, NonFiniteInputError
-        Bad shapes or non-finite values (``check`` True).
+        Bad shapes or non-finite values (``check`` True); a non-finite innovation among the
+        rows used (always checked; a gate rejects such a row instead).
     CovarianceError
         ``P`` not symmetric PSD or ``R`` not positive definite (``check`` True), or the
         innovation covariance ``S`` is singular or indefinite (always checked).
@@ -451,6 +452,9 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
     K = sol[:, :n].T
     nis = float(np.dot(ya, sol[:, n]))
     if not nis >= 0.0:
+        if not np.isfinite(ya).all():
+            raise NonFiniteInputError("innovation y is not finite (a measurement or the "
+                                      "model's h(x) is NaN or inf)")
         raise CovarianceError(f"innovation covariance S is not positive definite (NIS {nis})")
     x_new = x + np.dot(K, ya)
     A = np.dot(K, Ha)

@@ -411,7 +411,12 @@ def test_streaming_update_of_some_rows_wraps_angles_and_gates_by_sensor():
 
 def test_an_innovation_with_no_number_is_refused_on_the_unchecked_path():
     # correct(check=False) is the run loop's path; a NaN innovation (a model's h gone NaN)
-    # must raise rather than return a NaN state
-    with pytest.raises(CovarianceError):
+    # must raise rather than return a NaN state, and say so: it read "S is not positive
+    # definite (NIS nan)", sending the engineer after the covariances
+    with pytest.raises(NonFiniteInputError, match="innovation y is not finite"):
         correct(np.zeros(2), np.eye(2), np.array([np.nan]), np.array([[1.0, 0.0]]),
                 np.array([0.1]), check=False)
+    # a non-positive-definite S is still named as such
+    with pytest.raises(CovarianceError, match="not positive definite"):
+        correct(np.zeros(2), np.zeros((2, 2)), np.array([1.0]), np.array([[1.0, 0.0]]),
+                np.array([0.0]), check=False)
