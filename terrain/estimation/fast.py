@@ -47,7 +47,7 @@ import numba
 import numpy as np
 from numba import types
 
-from terrain.errors import ConfigError, CovarianceError, ShapeError
+from terrain.errors import ConfigError, CovarianceError, NonFiniteInputError, ShapeError
 from terrain.estimation.result import LoopArrays
 
 #: Status codes returned by the compiled loop.
@@ -463,6 +463,9 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     CovarianceError
         ``S`` (or a gated group's block of it) is not positive definite, or a NIS is
         negative, at some step (the message names the step).
+    NonFiniteInputError
+        A non-finite innovation among a step's accepted rows (the model's ``h(x)`` is NaN
+        or inf; the message names the step and rows).
     """
     Z = np.ascontiguousarray(Z, dtype=np.float64)
     N, m = Z.shape
@@ -494,6 +497,11 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
         raise CovarianceError("innovation covariance S = H P H^T + R is not positive definite "
                               f"(Cholesky failed at step {step})")
     if status == _NIS_NEGATIVE:
+        Y, used = out[3][step], out[5][step]
+        if not np.isfinite(Y[used]).all():
+            raise NonFiniteInputError(f"innovation y is not finite at step {step} (rows "
+                                      f"{np.flatnonzero(used & ~np.isfinite(Y)).tolist()}: "
+                                      "the model's h(x) is NaN or inf)")
         raise CovarianceError(f"innovation covariance S is not positive definite (NIS not "
                               f">= 0 at step {step})")
     if status == _GATE_SINGULAR:

@@ -256,3 +256,30 @@ def test_compiled_equals_reference_at_the_edges(tuning):
                           store_covariance=True)
         assert_same_result(fast, ref, covariance=True)
         assert np.abs(np.diff(fast.x[:, 2])).max() < 0.5    # no 2 pi jump of the state
+
+
+@numba.njit(cache=True)
+def _hold_transition(x, u, dt, p, fx, F):
+    """A constant state ``[level]``."""
+    fx[0] = x[0]
+    F[0, 0] = 1.0
+
+
+@numba.njit(cache=True)
+def _sqrt_observation(x, p, hx, H):
+    """``sqrt(level)``: NaN below zero, with a finite Jacobian row."""
+    hx[0] = math.sqrt(x[0]) if x[0] >= 0.0 else math.nan
+    H[0, 0] = 0.5
+
+
+def test_a_non_finite_innovation_is_named_as_such_by_the_compiled_loop():
+    # the NumPy path says "innovation y is not finite"; the compiled loop said "S is not
+    # positive definite (NIS not >= 0)" for the same fault, a model's h(x) gone NaN
+    from terrain.errors import NonFiniteInputError
+    kernel = FastKernel(_hold_transition, _sqrt_observation, (), 1, 1, (1e-4,), "step", ())
+    with pytest.raises(NonFiniteInputError, match="innovation y is not finite at step 0"):
+        run_compiled(kernel, np.full(2, 0.1), np.ones((2, 1)), np.array([-1.0]), np.eye(1),
+                     np.array([0.01]), np.array([0]), 1)
+    fine = run_compiled(kernel, np.full(2, 0.1), np.ones((2, 1)), np.array([1.0]), np.eye(1),
+                        np.array([0.01]), np.array([0]), 1)
+    assert np.isfinite(fine.nis).all()
