@@ -12,8 +12,9 @@ Method (recorded in the returned frame's ``attrs``):
    extension (point reflection about each end sample) keeps a long segment's end values
    close (a linear ramp's to 1e-5 of its span), not a short one's: filtered with one sample
    of padding, two samples of a 30 Hz tone at 100 Hz, 0.296 and 0.817, become 0.196 and
-   0.283. A one-sample segment is kept as it is. A stream between 1 and 1.5 times the grid rate is NOT filtered (the margin keeps
-   a clock's jitter about the grid rate from filtering a stream sampled at it); no shipped
+   0.283. A one-sample segment is kept as it is. A stream between 1 and 1.5 times the grid
+   rate is NOT filtered (the margin keeps a clock's jitter about the grid rate from
+   filtering a stream sampled at it); no shipped
    or simulated stream falls there, but content of such a stream between 0.5 x ``rate_hz``
    and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on
    a 50 Hz grid): resample it at its own rate or at under 2/3 of it.
