@@ -135,3 +135,46 @@ def plant_grade(imu: pd.DataFrame, pro: pd.DataFrame, k_a_per_rad: float,
 def audit_folder(root: Path, settings: AuditSettings = FAST):
     """Read a measured-run folder and audit it."""
     return run_audit(read_runs_dir(root), settings)
+
+
+def synthetic_frame(run_id: str, terrain: str = "ASPHALT", bias_rad_s: float = 0.0,
+                    chi: float | None = None, offsets_a: tuple[float, float] = (0.0, 0.0),
+                    noise: float = 0.005, seed: int = 0, n_cycles: int = 4,
+                    drift_rad_s: float = 0.0):
+    """An :class:`~terrain.audit.frames.AuditFrame` built directly (no replay, no IMU file):
+    cycles of 10 s straight at 0.5 m/s, a 5 s curve (``x = 0.5`` rad/s), 10 s straight and a
+    5 s spin in place (``x = -0.8``), at 10 Hz. The replay's yaw rate is ``x / 1.2`` and its
+    currents ``2 + |x|`` A; the gyro reads the replay (or ``x / chi``) plus ``bias_rad_s`` and
+    white noise of ``noise`` rad/s, the currents the replay's plus ``offsets_a`` (left, right)
+    while moving and noise of ``10 noise`` A. ``drift_rad_s`` is the commanded yaw rate of
+    the straight stretches (below the turn threshold). No lag (an empty, unidentifiable
+    track)."""
+    from terrain.audit.frames import FrameSettings, _quiet, classify_manoeuvres
+    from terrain.audit.frames import AuditFrame
+    from terrain.audit.timing import LagTrack
+
+    rng = np.random.default_rng(seed)
+    dt = 0.1
+    straight = np.full(100, drift_rad_s)
+    cycle = np.r_[straight, np.full(50, 0.5), straight, np.full(50, -0.8)]
+    speed = np.r_[np.full(100, 0.5), np.full(50, 0.5), np.full(100, 0.5), np.zeros(50)]
+    x = np.tile(cycle, n_cycles)
+    v = np.tile(speed, n_cycles)
+    n = x.size
+    t = np.arange(n) * dt
+    vel_l, vel_r = v - 0.5 * x * B, v + 0.5 * x * B
+    man = classify_manoeuvres(x, v, vel_l, vel_r, B)
+    moving = man != 0
+    sim_wz = x / 1.2
+    wz = (sim_wz if chi is None else x / chi) + bias_rad_s + noise * rng.standard_normal(n)
+    sim_cur = np.column_stack([2.0 + np.abs(x)] * 2)
+    cur = (sim_cur + np.outer(moving, offsets_a)
+           + 10 * noise * rng.standard_normal((n, 2)))
+    score = (t >= t[0] + 2.0) & (t <= t[-1] - 2.0)
+    return AuditFrame(
+        run_id=run_id, group=run_id, terrain=terrain, t_s=t, commanded_yaw_rate=x,
+        commanded_speed=v, manoeuvre=man, quiet=_quiet(t, x, FrameSettings()),
+        sim_wz=sim_wz, sim_ax=np.zeros(n), sim_ay=np.zeros(n), sim_vx=v, sim_cur=sim_cur,
+        cur=cur, has_imu=True, wz=wz, ax=np.zeros(n), ay=np.zeros(n), pitch=np.zeros(n),
+        has_pitch=np.ones(n, dtype=bool), imu_t_s=t, imu_wz=wz, score_imu=score,
+        score_cur=score.copy(), lag=LagTrack(np.empty(0), np.empty(0), np.empty(0), 0))

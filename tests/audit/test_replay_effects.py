@@ -544,3 +544,197 @@ def test_effect_settings_refuse_a_nan_or_out_of_range_constant(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         EffectSettings(**kwargs)
     EffectSettings()                               # the defaults stay valid
+
+
+def _trial(gain=0.1, ci=(0.05, 0.15), unphysical=None, negligible=None):
+    return selection.Trial(name="gyro_bias", scope="all", heldout_params=(), gain=gain,
+                           gain_ci95=ci, rmse_baseline=1.0, rmse_before=1.0,
+                           rmse_with=1.0 - gain, unphysical=unphysical, negligible=negligible)
+
+
+def test_support_needs_an_interval_above_zero_the_minimum_gain_and_an_admissible_fit():
+    settings = SelectionSettings(min_gain=0.02)
+    assert selection.is_supported(_trial(), settings)
+    # the rule is "above 0": an interval that reaches 0 exactly does not support
+    assert not selection.is_supported(_trial(ci=(0.0, 0.2)), settings)
+    # "at least min_gain": the bound itself passes, just below does not
+    assert selection.is_supported(_trial(gain=0.02, ci=(0.01, 0.03)), settings)
+    assert not selection.is_supported(_trial(gain=0.0199, ci=(0.01, 0.03)), settings)
+    # a supported-looking gain is refused when the fit is negligible or unphysical
+    assert not selection.is_supported(_trial(negligible="tiny"), settings)
+    assert not selection.is_supported(_trial(unphysical="wrong way"), settings)
+
+
+def test_bootstrap_gain_is_a_fraction_of_the_baseline_with_percentile_bounds():
+    # the gain divides by the *baseline* RMSE, not by the RMSE of the model before: here the
+    # model before already removed half the baseline's squared error
+    ref = np.ones(8)
+    new = np.r_[np.full(4, 0.25), np.ones(4)]
+    base = 4.0 * ref
+    gain, ci = bootstrap_gain(ref, new, base, np.random.default_rng(7), 300)
+    assert gain == pytest.approx((np.sqrt(8.0) - np.sqrt(5.0)) / np.sqrt(32.0))
+    # the interval is the 2.5 / 97.5 % percentiles of the gains of unit resamples
+    idx = np.random.default_rng(7).integers(0, 8, (300, 8))
+    g = ((np.sqrt(ref[idx].sum(1)) - np.sqrt(new[idx].sum(1)))
+         / np.sqrt(base[idx].sum(1)))
+    assert ci == pytest.approx([np.percentile(g, 2.5), np.percentile(g, 97.5)])
+
+
+def test_negligible_and_unphysical_floors():
+    from terrain.audit.effects import CurrentParams, YawParams
+
+    es = EffectSettings()                             # gyro_bias floor 0.002, chi 5 %
+    assert selection.negligible("gyro_bias", YawParams(bias_rad_s=-0.002), es) is None
+    assert "below" in selection.negligible("gyro_bias", YawParams(bias_rad_s=0.0019), es)
+    # chi is compared with the replay's own chi, relatively: 1.55 against 1.5 is 3.3 %
+    near = YawParams(kinematic=True, inverse_chi=1.0 / 1.55, chi_replay=1.5)
+    assert "within 5 %" in selection.negligible("icr_expansion", near, es)
+    far = YawParams(kinematic=True, inverse_chi=1.0 / 1.3, chi_replay=1.2)   # 8.3 %
+    assert selection.negligible("icr_expansion", far, es) is None
+    # a grade resistance must cost current: zero or negative is unphysical
+    assert selection.unphysical("grade_resistance", CurrentParams(k_a_per_rad=2.0)) is None
+    for k in (0.0, -2.0):
+        assert "<= 0" in selection.unphysical("grade_resistance",
+                                              CurrentParams(k_a_per_rad=k))
+    assert selection.unphysical("gyro_bias", YawParams(bias_rad_s=-1.0)) is None
+
+
+def _synthetic_units(**kw):
+    from audit_helpers import synthetic_frame
+    return [[synthetic_frame(f"s/ASPHALT/{i}", seed=i, **kw)] for i in range(4)]
+
+
+FAST_SELECTION = SelectionSettings(n_bootstrap=200, n_param_bootstrap=20)
+
+
+def test_selection_on_synthetic_units_names_nothing_when_nothing_is_planted():
+    for group in ("yaw", "current"):
+        g = selection.select_group(_synthetic_units(), group, "ASPHALT", FAST_SELECTION)
+        assert g.selected == () and not any(e.supported for e in g.effects)
+        assert g.final_rmse == g.baseline_rmse
+
+
+def test_loro_fits_each_fold_without_its_own_unit():
+    from dataclasses import replace
+
+    biases = (0.01, 0.02, 0.03, 0.07)
+    units = [[replace(u[0], wz=u[0].sim_wz + b)]
+             for u, b in zip(_synthetic_units(noise=0.0), biases)]
+    held = selection.loro(units, "yaw", ["gyro_bias"], [], EffectSettings())
+    others = [np.mean([b for j, b in enumerate(biases) if j != k]) for k in range(4)]
+    assert [p.bias_rad_s for p in held] == pytest.approx(others, abs=1e-12)
+
+
+def test_forward_selection_takes_the_larger_gain_first_and_scores_the_next_against_it():
+    """chi 1.5 against the replay's 1.2 and a 0.02 rad/s gyro bias planted: both join, the
+    one with the larger first-round gain first; the second is scored against the model
+    holding the first (its RMSE before is not the baseline's), and the group's final RMSE is
+    the held-out RMSE of the final model."""
+    from terrain.audit.effects import YawParams, predict_yaw
+
+    units = _synthetic_units(bias_rad_s=0.02, chi=1.5)
+    g = selection.select_group(units, "yaw", "ASPHALT", FAST_SELECTION)
+    assert set(g.selected) == {"icr_expansion", "gyro_bias"}
+    first = next(e for e in g.effects if e.step == 1)
+    second = next(e for e in g.effects if e.step == 2)
+    other = selection.score_candidate(units, "yaw", [], second.name,
+                                      [YawParams()] * len(units), EffectSettings(),
+                                      np.random.default_rng(0), 200)
+    assert first.heldout_gain > other.gain > 0
+    assert second.details["heldout_rmse_before"] < 0.5 * second.details["heldout_rmse_baseline"]
+    bias = next(e for e in g.effects if e.name == "gyro_bias")
+    assert bias.params["bias_rad_s"] == pytest.approx(0.02, abs=1e-3)
+    assert next(e for e in g.effects if e.name == "icr_expansion").params["chi"] == \
+        pytest.approx(1.5, rel=1e-3)
+    # final RMSE: the held-out predictions of the final model, pooled over scored samples
+    s = n = 0
+    for u, p in zip(g.units, g.heldout_params):
+        for f in u:
+            r = (f.wz - predict_yaw(f, p))[f.score_imu]
+            s, n = s + np.sum(r * r), n + r.size
+    assert g.final_rmse == pytest.approx(np.sqrt(s / n), rel=1e-12)
+    assert g.final_rmse < 0.1 * g.baseline_rmse
+
+
+def test_a_candidates_gain_is_scored_on_its_own_scope_against_the_replay():
+    """icr_expansion acts on turning samples: its gain is (RMSE_before - RMSE_with) /
+    RMSE_baseline with all three on the turning samples (held-out), by hand."""
+    from terrain.audit.effects import YawParams, predict_yaw, scope_mask
+
+    units = _synthetic_units(chi=1.5)
+    trial = selection.score_candidate(units, "yaw", [], "icr_expansion",
+                                      [YawParams()] * len(units), EffectSettings(),
+                                      np.random.default_rng(0), 200)
+    held = selection.loro(units, "yaw", ["icr_expansion"], [], EffectSettings())
+
+    def rmse(params, scope):
+        s = n = 0
+        for u, p in zip(units, params):
+            m = u[0].score_imu & scope_mask(u[0], scope)
+            r = (u[0].wz - predict_yaw(u[0], p))[m]
+            s, n = s + np.sum(r * r), n + r.size
+        return np.sqrt(s / n)
+    base = rmse([YawParams()] * 4, "turning")
+    assert trial.rmse_baseline == pytest.approx(base, rel=1e-12)
+    assert trial.rmse_with == pytest.approx(rmse(held, "turning"), rel=1e-12)
+    assert trial.gain == pytest.approx(1.0 - rmse(held, "turning") / base, rel=1e-12)
+    assert abs(rmse([YawParams()] * 4, "all") - base) > 0.01       # the scope matters
+
+
+def test_make_units_keeps_runs_at_the_minimum_and_cuts_fewer_into_enough_segments():
+    from audit_helpers import synthetic_frame
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(4)]
+    units, segmented = make_units(frames, 4, lambda f: True)
+    assert not segmented and [u[0].group for u in units] == [f.run_id for f in frames]
+    # 3 runs for 4 units: each cut in ceil(4 / 3) = 2, so at least 4 units
+    units, segmented = make_units(frames[:3], 4, lambda f: True)
+    assert segmented and len(units) == 6
+    assert [u[0].group for u in units[:2]] == ["s/ASPHALT/0#0", "s/ASPHALT/0#1"]
+    assert make_units(frames, 4, lambda f: False) == ([], False)
+
+
+def test_a_fold_that_cannot_identify_the_candidate_keeps_the_model_before():
+    """Only one unit turns: the fold that holds it out cannot fit turning_resistance and
+    predicts with the model before (the offsets), not with the bare replay."""
+    from dataclasses import replace
+
+    from terrain.audit.effects import CurrentParams
+
+    units = _synthetic_units(offsets_a=(-0.3, 0.5))
+    for u in units[1:]:
+        f = u[0]
+        u[0] = replace(f, manoeuvre=np.where(np.isin(f.manoeuvre, (2, 3)), 0, f.manoeuvre)
+                       .astype(f.manoeuvre.dtype))
+    before = selection.loro(units, "current", ["current_offset"], [], EffectSettings())
+    trial = selection.score_candidate(units, "current", ["current_offset"],
+                                      "turning_resistance", before, EffectSettings(),
+                                      np.random.default_rng(0), 50)
+    held = trial.heldout_params[0]
+    assert held.k_a == 0.0 and held.offset_a == pytest.approx(0.8, abs=0.01)
+    assert trial.heldout_params[1].k_a != 0.0
+    assert isinstance(held, CurrentParams)
+
+
+def test_units_without_samples_in_scope_are_left_out_of_the_gain_interval():
+    """icr_expansion on units of which two hold no scored turning sample: the interval is
+    resampled over the three units that do (an empty unit drawn would only dilute it)."""
+    from dataclasses import replace
+
+    from terrain.audit.effects import YawParams
+
+    units = _synthetic_units(chi=1.5) + _synthetic_units(chi=1.5)[:1]
+    units[3] = [replace(units[3][0], score_imu=units[3][0].score_imu
+                        & (units[3][0].manoeuvre == 1))]
+    units[4] = [replace(units[4][0], run_id="s/ASPHALT/9", group="s/ASPHALT/9",
+                        score_imu=units[4][0].score_imu & (units[4][0].manoeuvre == 1))]
+    es = EffectSettings()
+    trial = selection.score_candidate(units, "yaw", [], "icr_expansion", [YawParams()] * 5,
+                                      es, np.random.default_rng(3), 200)
+    held = selection.loro(units, "yaw", ["icr_expansion"], [], es)
+    base, n = selection.unit_errors(units, "yaw", [YawParams()] * 5, "turning")
+    new, _ = selection.unit_errors(units, "yaw", held, "turning")
+    keep = n > 0
+    assert keep.tolist() == [True, True, True, False, False]
+    gain, ci = bootstrap_gain(base[keep], new[keep], base[keep], np.random.default_rng(3),
+                              200)
+    assert trial.gain == pytest.approx(gain) and trial.gain_ci95 == pytest.approx(tuple(ci))
