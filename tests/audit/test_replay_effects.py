@@ -681,6 +681,76 @@ def test_a_candidates_gain_is_scored_on_its_own_scope_against_the_replay():
     assert abs(rmse([YawParams()] * 4, "all") - base) > 0.01       # the scope matters
 
 
+def test_manoeuvre_thresholds_are_inclusive_and_a_pivot_turn_is_a_curve():
+    # passed as x, v and side speeds directly, so the thresholds are met exactly
+    from terrain.audit.frames import FrameSettings
+    s = FrameSettings()                          # moving 0.05 m/s, turn 0.1 rad/s
+    vl = np.array([0.05, 0.0, 0.3, 0.3, 0.0])
+    vr = np.array([0.0, 0.05, 0.3, 0.3, 0.5])
+    x = np.array([0.0, 0.0, 0.1, 0.0999, 0.5 / B])
+    v = np.array([0.025, 0.025, 0.3, 0.3, 0.25])
+    got = [MANOEUVRES[k] for k in classify_manoeuvres(x, v, vl, vr, B, s)]
+    # one side at the threshold moves; |x| at the threshold turns; a pivot on one
+    # standing side (ICR on that wheel, |v| = |x| B / 2) is a curve, not a spin
+    assert got == ["straight", "straight", "curve", "straight", "curve"]
+    x2 = np.array([0.4, 0.4])
+    got = [MANOEUVRES[k] for k in classify_manoeuvres(
+        x2, np.array([0.5 * 0.4 * B * 0.99, 0.5 * 0.4 * B * 1.01]), np.full(2, 0.3),
+        np.full(2, 0.3), B, s)]
+    assert got == ["spin", "curve"]
+
+
+def test_quiet_samples_are_slow_and_far_from_every_turn():
+    from terrain.audit.frames import FrameSettings, _quiet
+    t = np.arange(0.0, 30.0, 0.1)
+    x = np.zeros(t.size)
+    x[(t >= 10.0) & (t <= 12.0)] = 0.5               # one turn
+    x[(t >= 20.0) & (t <= 25.0)] = 0.07              # slow, below the turn threshold
+    q = _quiet(t, x, FrameSettings())                # quiet below 0.05, margin 1.5 s
+
+    def at(s):
+        return bool(q[np.argmin(np.abs(t - s))])
+    assert at(2.0) and at(8.4) and at(13.6) and at(18.0)   # before the first turn too
+    assert not at(8.6) and not at(11.0) and not at(13.4)
+    assert not at(22.0)                                     # 0.07 rad/s is not quiet
+    assert _quiet(t, np.zeros(t.size), FrameSettings()).all()
+
+
+def test_turning_shape_is_one_at_the_reference_turn():
+    from terrain.audit.effects import CurrentParams
+    p = CurrentParams(turn_ref_rad_s=0.5, coulomb_scale_rad_s=0.1)
+    x = np.array([-0.5, 0.25, 0.5, 1.0])
+    assert p.turning_shape(x, "proportional") == pytest.approx([1.0, 0.5, 1.0, 2.0])
+    assert p.turning_shape(x, "coulomb") == pytest.approx(
+        np.tanh(np.abs(x) / 0.1) / np.tanh(5.0))
+    assert p.turning_shape(np.array([0.5]), "coulomb")[0] == pytest.approx(1.0)
+
+
+def test_current_errors_count_both_sides_and_the_straight_difference_once():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.effects import CurrentParams, current_sse
+    f = synthetic_frame("s/ASPHALT/0", offsets_a=(-0.3, 0.5), noise=0.0)
+    straight = f.score_cur & (f.manoeuvre == 1)
+    s, n = current_sse(f, CurrentParams(), "all")
+    assert n == 2 * f.score_cur.sum()
+    moving = f.score_cur & (f.manoeuvre != 0)
+    assert s == pytest.approx(moving.sum() * (0.3 ** 2 + 0.5 ** 2))
+    # right - left: measured 0.8 more than the replay; a model with the offsets the right
+    # way round explains it, the wrong way round doubles it
+    s, n = current_sse(f, CurrentParams(), "straight_diff")
+    assert n == straight.sum() and s == pytest.approx(n * 0.8 ** 2)
+    s, _ = current_sse(f, CurrentParams(offset_left_a=-0.3, offset_right_a=0.5),
+                       "straight_diff")
+    assert s == pytest.approx(0.0, abs=1e-18)
+    s, _ = current_sse(f, CurrentParams(offset_left_a=0.5, offset_right_a=-0.3),
+                       "straight_diff")
+    assert s == pytest.approx(n * 1.6 ** 2)
+    assert current_sse(replace(f, score_cur=np.zeros(f.n, dtype=bool)),
+                       CurrentParams()) == (0.0, 0)
+
+
 def test_make_units_keeps_runs_at_the_minimum_and_cuts_fewer_into_enough_segments():
     from audit_helpers import synthetic_frame
     frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(4)]
@@ -691,6 +761,18 @@ def test_make_units_keeps_runs_at_the_minimum_and_cuts_fewer_into_enough_segment
     assert segmented and len(units) == 6
     assert [u[0].group for u in units[:2]] == ["s/ASPHALT/0#0", "s/ASPHALT/0#1"]
     assert make_units(frames, 4, lambda f: False) == ([], False)
+
+
+def test_scopes_select_the_samples_each_effect_acts_on():
+    from audit_helpers import synthetic_frame
+    from terrain.audit.effects import scope_mask
+    f = synthetic_frame("s/ASPHALT/0")
+    assert scope_mask(f, "all").all()
+    assert (scope_mask(f, "active") == ~f.quiet).all() and f.quiet.any()
+    assert (scope_mask(f, "turning") == np.isin(f.manoeuvre, (2, 3))).all()
+    assert (scope_mask(f, "moving") == (f.manoeuvre != 0)).all()
+    assert (scope_mask(f, "straight") == (f.manoeuvre == 1)).all()
+    assert {int(k) for k in np.unique(f.manoeuvre)} == {1, 2, 3}
 
 
 def test_a_fold_that_cannot_identify_the_candidate_keeps_the_model_before():
@@ -716,25 +798,151 @@ def test_a_fold_that_cannot_identify_the_candidate_keeps_the_model_before():
 
 
 def test_units_without_samples_in_scope_are_left_out_of_the_gain_interval():
-    """icr_expansion on units of which two hold no scored turning sample: the interval is
-    resampled over the three units that do (an empty unit drawn would only dilute it)."""
+    """icr_expansion on units of which four hold no scored turning sample: the interval is
+    resampled over the six units that do (an empty unit drawn would only dilute it)."""
     from dataclasses import replace
 
     from terrain.audit.effects import YawParams
 
-    units = _synthetic_units(chi=1.5) + _synthetic_units(chi=1.5)[:1]
-    units[3] = [replace(units[3][0], score_imu=units[3][0].score_imu
-                        & (units[3][0].manoeuvre == 1))]
-    units[4] = [replace(units[4][0], run_id="s/ASPHALT/9", group="s/ASPHALT/9",
-                        score_imu=units[4][0].score_imu & (units[4][0].manoeuvre == 1))]
+    from audit_helpers import synthetic_frame
+
+    # runs that scrub differently, so that the per-unit gains differ; the last four
+    # score no turning sample. (With few units the percentiles sit on the extreme
+    # resamples, "every draw the same unit", which empty units do not change.)
+    chis = (1.3, 1.4, 1.5, 1.6, 1.8, 2.0, 1.5, 1.5, 1.5, 1.5)
+    units = [[synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=chi, n_cycles=2)]
+             for i, chi in enumerate(chis)]
+    for k in range(6, 10):
+        units[k] = [replace(units[k][0], score_imu=units[k][0].score_imu
+                            & (units[k][0].manoeuvre == 1))]
     es = EffectSettings()
-    trial = selection.score_candidate(units, "yaw", [], "icr_expansion", [YawParams()] * 5,
-                                      es, np.random.default_rng(3), 200)
+    trial = selection.score_candidate(units, "yaw", [], "icr_expansion",
+                                      [YawParams()] * 10, es, np.random.default_rng(3), 200)
     held = selection.loro(units, "yaw", ["icr_expansion"], [], es)
-    base, n = selection.unit_errors(units, "yaw", [YawParams()] * 5, "turning")
+    base, n = selection.unit_errors(units, "yaw", [YawParams()] * 10, "turning")
     new, _ = selection.unit_errors(units, "yaw", held, "turning")
     keep = n > 0
-    assert keep.tolist() == [True, True, True, False, False]
+    assert keep.tolist() == [True] * 6 + [False] * 4
     gain, ci = bootstrap_gain(base[keep], new[keep], base[keep], np.random.default_rng(3),
                               200)
-    assert trial.gain == pytest.approx(gain) and trial.gain_ci95 == pytest.approx(tuple(ci))
+    assert trial.gain == pytest.approx(gain)
+    assert trial.gain_ci95 == pytest.approx(tuple(ci), rel=1e-12)
+    assert ci[1] - ci[0] > 0.01
+
+
+def test_gyro_bias_is_fitted_on_quiet_samples_against_the_mobile_model():
+    """Straight stretches command a slow 0.03 rad/s drift (quiet: below 0.05 rad/s): the
+    bias is the gyro minus the mobile model there, ``x / chi`` with icr_expansion, the
+    replay without; turning samples, where chi 1.5 departs from the replay's 1.2, stay out."""
+    from audit_helpers import synthetic_frame
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i, bias_rad_s=0.02, chi=1.5,
+                              drift_rad_s=0.03, noise=0.001) for i in range(2)]
+    p = fit_yaw(frames, ["icr_expansion", "gyro_bias"])
+    assert p.chi == pytest.approx(1.5, rel=1e-3)
+    assert p.bias_rad_s == pytest.approx(0.02, abs=2e-4)
+    # against the replay (x / 1.2) on quiet samples: 0.02 + 0.03 / 1.5 - 0.03 / 1.2
+    p = fit_yaw(frames, ["gyro_bias"])
+    assert p.bias_rad_s == pytest.approx(0.02 + 0.03 / 1.5 - 0.03 / 1.2, abs=2e-4)
+
+
+def test_immobile_scale_takes_the_fraction_of_its_side_of_the_threshold():
+    from terrain.audit.effects import immobile_scale
+    x = np.array([0.2, -0.6, 0.5, 0.6, 0.0])
+    turn = np.array([True, True, True, False, False])
+    assert immobile_scale(x, turn, (0.1, 0.5), 0.5) == pytest.approx(
+        [0.9, 0.5, 0.5, 1.0, 1.0])
+    assert immobile_scale(x, turn, (0.25, 0.9), np.inf) == pytest.approx(
+        [0.75, 0.75, 0.75, 1.0, 1.0])
+
+
+def test_grade_current_grows_with_the_slope_in_either_direction():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.effects import CurrentParams
+    f = synthetic_frame("s/ASPHALT/0", noise=0.0)
+    pitch = np.where(np.arange(f.n) % 2, 0.1, -0.1)
+    f = replace(f, pitch=pitch)
+    extra = predict_current(f, CurrentParams(k_a_per_rad=10.0)) - f.sim_cur
+    moving = f.manoeuvre != 0
+    assert extra[moving] == pytest.approx(1.0)
+    assert np.all(extra[~moving] == 0.0)
+
+
+def test_wheel_lag_is_the_median_unit_lag_and_reads_the_gyro_earlier_for_late_wheels():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.effects import LagParams, fit_lag, lag_sse
+    from terrain.audit.timing import LagTrack
+
+    frames = [replace(synthetic_frame(f"s/ASPHALT/{i}", seed=i),
+                      lag=LagTrack(np.array([10.0, 40.0]), np.array([lag, lag]),
+                                   np.array([0.9, 0.9]), 2))
+              for i, lag in enumerate((0.1, 0.2, 0.9))]
+    p = fit_lag(frames, ["wheel_lag"])
+    assert p.lag_s == pytest.approx(0.2)
+    assert p.per_run == pytest.approx({f.group: f.lag.median_s for f in frames})
+    assert fit_lag(frames, []).lag_s == 0.0
+    # wheel data 0.5 s late: the gyro at real time tau shows the wheels stamped tau + 0.5
+    f = frames[0]
+    late = replace(f, imu_wz=np.interp(f.t_s + 0.5, f.t_s, f.sim_wz))
+    m = late.score_imu & ~late.quiet & (late.t_s < late.t_s[-1] - 1.0)
+    late = replace(late, score_imu=m)
+    assert lag_sse(late, LagParams(0.5), "all")[0] == pytest.approx(0.0, abs=1e-20)
+    assert lag_sse(late, LagParams(-0.5), "all")[0] > 1.0
+
+
+def test_immobilised_keeps_the_mobile_model_that_fits_better():
+    """chi 1.5 against the replay's 1.2, and the robot dug in (gyro 0) for the first 30 % of
+    every turn: ``immobilised`` alone tries the replay and ``x / chi_m`` as the mobile yaw
+    rate and must keep the kinematic one, with its chi and the planted fraction."""
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    frames = []
+    for i in range(2):
+        f = synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5, noise=0.002)
+        turn = np.isin(f.manoeuvre, (2, 3))
+        start = np.flatnonzero(turn & ~np.r_[False, turn[:-1]])
+        dug = np.zeros(f.n, dtype=bool)
+        for s in start:
+            dug[s:s + 15] = True                         # 15 of each 50-sample turn
+        frames.append(replace(f, wz=np.where(dug, 0.0, f.wz)))
+    p = fit_yaw(frames, ["immobilised"])
+    assert p.kinematic and p.chi == pytest.approx(1.5, rel=0.01)
+    assert p.fraction == pytest.approx(0.3, abs=0.03) and p.form == "uniform"
+
+
+def test_a_turning_resistance_fitted_below_zero_gets_its_own_cause():
+    from terrain.audit.effects import EFFECT_VOCABULARY, CurrentParams, effect_cause
+    vocab = EFFECT_VOCABULARY["turning_resistance"].cause
+    assert effect_cause("turning_resistance", CurrentParams(k_a=1.2)) == vocab
+    below = effect_cause("turning_resistance", CurrentParams(k_a=-1.2))
+    assert below != vocab and "less current" in below
+    assert effect_cause("gyro_bias", CurrentParams(k_a=-1.2)) == \
+        EFFECT_VOCABULARY["gyro_bias"].cause
+
+
+def test_the_gyro_is_read_on_the_runs_own_clock_and_the_edges_are_not_scored(sim_run):
+    """IMU stamps 0.5 s early against the wheels (wheel data late): the frame reads the gyro
+    at ``t - lag`` and matches the replay there far better than on raw timestamps; the first
+    and last ``edge_s`` of the run are not scored."""
+    _, run = sim_run
+    imu = run.streams["imu"]
+    late = _run(imu.assign(t_s=imu.t_s - 0.5).rename(columns={"t_s": "time"}),
+                run.streams["wheels"].rename(columns={"t_s": "time", "vel_l": "velL",
+                                                      "vel_r": "velR", "cur_l": "curL",
+                                                      "cur_r": "curR"}))
+    frame = prepare_frame(late, replay_run(late))
+    assert frame.lag.median_s == pytest.approx(0.5, abs=0.05)
+    m = frame.score_imu
+
+    def rmse(wz):
+        return np.sqrt(np.mean((wz - frame.sim_wz)[m] ** 2))
+    assert rmse(frame.wz) < 0.5 * rmse(frame.wz_at_lag(0.0))
+    assert rmse(frame.wz) == pytest.approx(rmse(frame.wz_at_lag(0.5)), rel=0.05)
+    t = frame.t_s
+    for mask in (frame.score_cur, frame.score_imu):
+        assert t[mask].min() >= t[0] + 2.0 and t[mask].max() <= t[-1] - 2.0
+    assert frame.score_cur[(t > t[0] + 2.2) & (t < t[-1] - 2.2)].all()
