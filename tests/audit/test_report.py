@@ -118,3 +118,73 @@ def test_a_lag_fitted_on_segments_of_one_run_is_not_said_to_transfer_between_run
     page = to_markdown(changed, figures, commands, title)
     assert "a constant lag transfers between runs on ASPHALT" in page
     assert "0.50 s late on every run" in page and "within one run" not in page
+
+
+def test_signal_records_keep_replay_as_the_bare_physics_and_extended_as_held_out():
+    """The ``signals`` records, by hand on synthetic frames with a planted gyro bias and
+    current offsets: ``replay_*`` is the replay with no fitted effect, ``extended_*`` the
+    held-out (leave-one-run-out) predictions of the selected effects, each on the scored
+    samples of the signal pooled over runs and manoeuvres; bias = measured - predicted."""
+    import numpy as np
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit import AuditSettings, SelectionSettings, run_audit, to_dict
+    from terrain.audit.effects import predict_current, predict_yaw
+    from terrain.audit.report import flat_metrics, signal_table
+    from terrain.audit.selection import loro
+
+    from dataclasses import replace
+
+    # the gyro on its own (raw) clock reads 0.05 rad/s above the aligned one
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i, bias_rad_s=0.02,
+                              offsets_a=(-0.3, 0.5)) for i in range(4)]
+    frames = [replace(f, imu_wz=f.wz + 0.05) for f in frames]
+    result = run_audit([], AuditSettings(selection=SelectionSettings(
+        n_bootstrap=200, n_param_bootstrap=20), pooled=False), frames=frames)
+    assert result.supported("ASPHALT") == ["gyro_bias", "current_offset"]
+    table = signal_table(result).set_index("signal")
+    units = [[f] for f in frames]
+    yaw = loro(units, "yaw", ["gyro_bias"], [], result.settings.effects)
+    cur = loro(units, "current", ["current_offset"], [], result.settings.effects)
+
+    def pooled(pairs):
+        r = np.concatenate([m - p for m, p in pairs])
+        return r.size, np.sqrt(np.mean(r * r)), np.mean(r)
+
+    m = [f.score_imu for f in frames]
+    n, rmse, bias = pooled((f.wz[k], f.sim_wz[k]) for f, k in zip(frames, m))
+    assert table.loc["wz", "n"] == n
+    assert table.loc["wz", "replay_rmse"] == pytest.approx(rmse, rel=1e-9)
+    assert table.loc["wz", "replay_bias"] == pytest.approx(bias, rel=1e-9)
+    assert bias == pytest.approx(0.02, abs=1e-3)
+    _, ext, _ = pooled((f.wz[k], predict_yaw(f, p)[k]) for f, k, p in zip(frames, m, yaw))
+    assert table.loc["wz", "extended_rmse"] == pytest.approx(ext, rel=1e-9)
+    assert table.loc["wz", "ideal_rmse"] == pytest.approx(
+        pooled((f.wz[k], f.commanded_yaw_rate[k]) for f, k in zip(frames, m))[1], rel=1e-9)
+    assert table.loc["wz", "extended_gain"] == pytest.approx(1.0 - ext / rmse, rel=1e-9)
+    assert table.loc["wz", "replay_raw_rmse"] == pytest.approx(
+        pooled((f.wz[k] + 0.05, f.sim_wz[k]) for f, k in zip(frames, m))[1], rel=1e-9)
+    # a gyro bias is a sensor offset: it does not move the body, so the extended lateral
+    # acceleration is the replay's
+    assert table.loc["ay", "extended_rmse"] == table.loc["ay", "replay_rmse"]
+    for j, side, offset in ((0, "cur_l", -0.3), (1, "cur_r", 0.5)):
+        k = [f.score_cur for f in frames]
+        n, rmse, bias = pooled((f.cur[q, j], f.sim_cur[q, j]) for f, q in zip(frames, k))
+        assert table.loc[side, "replay_rmse"] == pytest.approx(rmse, rel=1e-9)
+        assert table.loc[side, "replay_bias"] == pytest.approx(bias, rel=1e-9)
+        _, ext, _ = pooled((f.cur[q, j], predict_current(f, p)[q, j])
+                           for f, q, p in zip(frames, k, cur))
+        assert table.loc[side, "extended_rmse"] == pytest.approx(ext, rel=1e-9)
+        assert ext < 0.2 * rmse
+        # the moving samples carry the planted offset, the stops do not
+        assert np.sign(bias) == np.sign(offset)
+    # the JSON records and the flat metrics carry the same numbers under the same names
+    report = to_dict(result)
+    rec = {r["signal"]: r for r in report["signals"]}
+    metrics = flat_metrics(report)
+    for s in ("wz", "cur_l", "cur_r"):
+        assert rec[s]["terrain"] == "ASPHALT" and rec[s]["n"] == table.loc[s, "n"]
+        for model in ("replay", "extended"):
+            assert rec[s][f"{model}_rmse"] == pytest.approx(table.loc[s, f"{model}_rmse"],
+                                                            abs=1e-5)
+            assert metrics[f"rmse_{model}__{s}__ASPHALT"] == rec[s][f"{model}_rmse"]
