@@ -49,3 +49,86 @@ def test_the_tolerance_lies_far_below_sensor_resolution():
     stats = residual_statistics(_table(measured, replay), "SNOW")
     assert CONSTANT_SPREAD_TOL < 1e-6
     assert stats["corr"].notna().all()
+
+
+def test_the_raw_timestamp_replay_is_scored_against_the_gyro_on_raw_timestamps():
+    rng = np.random.default_rng(5)
+    replay = rng.normal(0.0, 0.3, 50)
+    table = _table(replay + 0.1, replay).assign(signal="wz", replay_raw=replay,
+                                                measured_raw=replay - 0.2)
+    stats = residual_statistics(table, "SNOW").set_index(["model", "run_id", "manoeuvre"])
+    assert stats.loc[("replay", "*", "all"), "bias"] == pytest.approx(0.1)
+    assert stats.loc[("replay_raw", "*", "all"), "bias"] == pytest.approx(-0.2)
+    assert stats.loc[("replay_raw", "*", "all"), "rmse"] == pytest.approx(0.2)
+
+
+def test_measured_facts_of_synthetic_runs():
+    from audit_helpers import synthetic_frame
+    from terrain.audit.core import measured_facts
+
+    from dataclasses import replace
+
+    from terrain.vehicles.icr import icr_expansion_factor
+
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5, offsets_a=(-0.3, 0.5),
+                              noise=0.0) for i in range(2)]
+    # spins scrub more than curves (chi 2.0): the pooled chi takes both kinds of turn
+    frames = [replace(f, wz=np.where(f.manoeuvre == 3, f.commanded_yaw_rate / 2.0, f.wz))
+              for f in frames]
+    facts = measured_facts(frames)
+    turn = [f.score_imu & np.isin(f.manoeuvre, (2, 3)) for f in frames]
+    chi = icr_expansion_factor(np.concatenate([f.wz[k] for f, k in zip(frames, turn)]),
+                               np.concatenate([f.commanded_yaw_rate[k]
+                                               for f, k in zip(frames, turn)]))
+    assert 1.5 < chi < 2.0 and facts["chi_pooled"] == pytest.approx(chi)
+    m = np.concatenate([f.manoeuvre[f.score_cur] for f in frames])
+    assert facts["n_straight"] == np.sum(m == 1) and facts["n_spin"] == np.sum(m == 3)
+    # replay currents 2 + |x|, offsets -0.3 / +0.5 while moving: mean of sides +0.1
+    assert facts["current_straight_a"] == pytest.approx(2.1)
+    assert facts["current_spin_a"] == pytest.approx(2.9)
+    assert facts["current_curve_a"] == pytest.approx(2.6)
+    assert facts["spin_to_straight_current_ratio"] == pytest.approx(2.9 / 2.1)
+    assert facts["straight_right_minus_left_a"] == pytest.approx(0.8)
+    assert facts["runs"] == 2 and facts["runs_with_imu"] == 2
+    assert facts["runs_with_identifiable_lag"] == 0 and facts["lag_min_s"] is None
+
+
+def test_runs_are_pooled_only_across_several_terrains():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit import POOLED, AuditSettings, SelectionSettings, run_audit
+
+    settings = AuditSettings(selection=SelectionSettings(n_bootstrap=50,
+                                                         n_param_bootstrap=0))
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(4)]
+    one = run_audit([], settings, frames=frames)
+    assert {t for t, _ in one.groups} == {"ASPHALT"} and set(one.facts) == {"ASPHALT"}
+    two = run_audit([], settings, frames=frames[:2] + [
+        replace(f, terrain="SNOW", run_id=f"s/SNOW/{i}", group=f"s/SNOW/{i}")
+        for i, f in enumerate(frames[2:])])
+    assert {t for t, _ in two.groups} == {"ASPHALT", "SNOW", POOLED}
+    assert two.facts[POOLED]["runs"] == 4
+
+
+def test_the_turning_forms_are_compared_on_turning_samples():
+    """The current group's ``turning_resistance`` details carry the held-out RMSE of each
+    forced form on the turning samples (the effect's scope), not on every sample."""
+    from audit_helpers import synthetic_frame
+    from terrain.audit import AuditSettings, SelectionSettings, run_audit
+    from terrain.audit.selection import loro, unit_errors
+
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(4)]
+    result = run_audit([], AuditSettings(selection=SelectionSettings(
+        n_bootstrap=50, n_param_bootstrap=0), pooled=False), frames=frames)
+    details = result.effect("turning_resistance", "ASPHALT").details
+    units = [[f] for f in frames]
+    for form in ("coulomb", "proportional"):
+        held = loro(units, "current", ["turning_resistance"], [], result.settings.effects,
+                    form=form)
+        s, n = unit_errors(units, "current", held, "turning")
+        s_all, n_all = unit_errors(units, "current", held, "all")
+        assert details[f"heldout_rmse_turning_{form}"] == pytest.approx(
+            np.sqrt(s.sum() / n.sum()), rel=1e-12)
+        assert np.sqrt(s_all.sum() / n_all.sum()) != pytest.approx(
+            np.sqrt(s.sum() / n.sum()), rel=1e-3)
