@@ -68,3 +68,20 @@ def test_lag_beyond_search_range_is_not_reported():
     t_w, x, t_imu, wz = _signals(lambda t: np.full_like(t, 2.5))
     track = estimate_lag_track(t_w, x, t_imu, wz, LagSettings(max_lag_s=1.0))
     assert not np.any(np.abs(track.lags_s) >= 0.95)
+
+
+def test_an_inverted_gyro_is_no_match_and_drift_is_per_minute():
+    from terrain.audit.timing import LagTrack
+    t_w, x, t_imu, wz = _signals(lambda t: np.full_like(t, 0.3))
+    m = t_w < 40.0
+    lag, r2, slope = best_lag(t_w[m], x[m], t_imu, wz)
+    assert lag == pytest.approx(0.3, abs=0.05) and r2 > 0.9 and slope > 0
+    # the same gyro mounted upside down: no lag explains it with a positive slope
+    lag, r2, slope = best_lag(t_w[m], x[m], t_imu, -wz)
+    assert r2 == 0.0
+    # a lag growing by 0.01 s every second drifts 0.6 s per minute
+    c = np.arange(0.0, 61.0, 15.0)
+    track = LagTrack(c, 0.1 + 0.01 * c, np.ones(c.size), c.size)
+    assert track.drift_s_per_min() == pytest.approx(0.6)
+    assert track.summary()["drift_s_per_min"] == pytest.approx(0.6)
+    assert np.isnan(LagTrack(c[:3], c[:3], np.ones(3), 3).drift_s_per_min())   # 30 s span
