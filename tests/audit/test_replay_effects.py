@@ -946,3 +946,31 @@ def test_the_gyro_is_read_on_the_runs_own_clock_and_the_edges_are_not_scored(sim
     for mask in (frame.score_cur, frame.score_imu):
         assert t[mask].min() >= t[0] + 2.0 and t[mask].max() <= t[-1] - 2.0
     assert frame.score_cur[(t > t[0] + 2.2) & (t < t[-1] - 2.2)].all()
+
+
+def test_the_rate_dependent_form_needs_fast_turns_to_dig_in_more():
+    """Dug in for 60 % of every fast turn (spins, |x| = 0.8) and never in slow ones (curves,
+    0.5): the rate-dependent form splits them. Dug in on the slow turns only contradicts
+    "faster scrub digs in more": the uniform form is kept."""
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+
+    def dug_in(code):
+        frames = []
+        for i in range(2):
+            f = synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5, noise=0.002)
+            turn = f.manoeuvre == code
+            start = np.flatnonzero(turn & ~np.r_[False, turn[:-1]])
+            dug = np.zeros(f.n, dtype=bool)
+            for s in start:
+                dug[s:s + 30] = True                     # 30 of each 50-sample turn
+            frames.append(replace(f, wz=np.where(dug, 0.0, f.wz)))
+        return fit_yaw(frames, ["icr_expansion", "immobilised"])
+    fast = dug_in(3)
+    assert fast.form == "rate_dependent" and 0.5 < fast.threshold_rad_s <= 0.8
+    # 0.6 of each spin, but the last spin of a run ends in the unscored 2 s edge, where
+    # only its dug-in 30 samples are scored: (3 * 30 + 30) / (3 * 50 + 30) = 2/3
+    assert fast.fractions == pytest.approx((0.0, 2.0 / 3.0), abs=0.02)
+    slow = dug_in(2)
+    assert slow.form == "uniform" and slow.fraction == pytest.approx(0.3, abs=0.03)
