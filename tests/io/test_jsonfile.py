@@ -31,3 +31,22 @@ def test_json_ready_rounds_only_when_asked():
 def test_a_value_json_cannot_hold_is_a_type_error():
     with pytest.raises(TypeError):
         strict_json({"x": np.zeros(2)})
+
+
+def test_booleans_stay_json_booleans_not_numbers():
+    # True == 1 in Python, so a comparison of loaded values cannot tell them apart: the text
+    text = strict_json({"ok": True, "flags": [False, np.bool_(True)]}, indent=None)
+    assert text == '{"ok": true, "flags": [false, true]}\n'
+    assert json_ready([True, (np.bool_(False),)]) == [True, [False]]
+    assert type(json_ready([True])[0]) is bool
+
+
+def test_rounding_reaches_floats_nested_in_lists_and_tuples():
+    assert json_ready([0.123456789, (1.0000049, {"x": [2.9999951]})], 3) == \
+        [0.123, [1.0, {"x": [3.0]}]]
+
+
+def test_strict_json_text_is_indented_as_asked_and_ends_with_a_newline():
+    text = strict_json({"a": [1, 2]}, indent=2)
+    assert text == '{\n  "a": [\n    1,\n    2\n  ]\n}\n'
+    assert strict_json([1]).endswith("]\n")
