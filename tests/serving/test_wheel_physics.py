@@ -219,3 +219,41 @@ def test_physics_features_name_a_non_finite_input(which, value):
     with pytest.raises(NonFiniteInputError,
                        match=rf"physics_features: {name} holds 1 non-finite sample \(window 1"):
         physics_features(*parts, RATE)
+
+
+def test_transformer_reads_the_wheel_channels_by_name_and_passes_its_settings():
+    vel_l, vel_r, cur_l, cur_r = _planted(n_windows=4, n=40)
+    # channels in another order, with an unused one between
+    X = np.stack([cur_r, vel_l, np.zeros_like(vel_l), cur_l, vel_r], axis=1)
+    chans = ("cur_r", "vel_l", "wz", "cur_l", "vel_r")
+    out = WheelPhysicsFeatures(channels=chans, rate_hz=RATE, short_s=None).fit(X).transform(X)
+    np.testing.assert_allclose(out, physics_features(vel_l, vel_r, cur_l, cur_r, RATE))
+    # the track width and ridge set on the transformer reach the features
+    fx = WheelPhysicsFeatures(channels=chans, rate_hz=RATE, short_s=None, track_m=1.1,
+                              ridge=0.5).fit(X)
+    want = physics_features(vel_l, vel_r, cur_l, cur_r, RATE, track_m=1.1, ridge=0.5)
+    np.testing.assert_allclose(fx.transform(X), want)
+    assert not np.allclose(want, out)
+
+
+@pytest.mark.parametrize("short_s, names", [
+    (4.0, 1),      # 40 samples: the whole window again, not a second scale
+    (0.25, 1),     # rounds to 2 samples: too few for the fits
+    (0.29, 2),     # rounds (not truncates) to 3 samples: a second scale
+])
+def test_transformer_keeps_a_short_scale_only_of_3_samples_to_less_than_the_window(short_s,
+                                                                                   names):
+    X = np.stack(_planted(n_windows=3, n=40), axis=1)
+    fx = WheelPhysicsFeatures(rate_hz=RATE, short_s=short_s).fit(X)
+    assert len(fx.get_feature_names_out()) == names * len(PHYSICS_FEATURES)
+    assert fx.transform(X).shape == (3, names * len(PHYSICS_FEATURES))
+    if names == 2:
+        assert fx.get_feature_names_out()[-1] == f"{PHYSICS_FEATURES[-1]}__last0.29s"
+        np.testing.assert_allclose(fx.transform(X)[:, len(PHYSICS_FEATURES):],
+                                   physics_features(*(X[:, i, -3:] for i in range(4)), RATE))
+
+
+def test_physics_features_refuse_windows_of_no_sample():
+    parts = _planted(n_windows=2, n=10)
+    with pytest.raises(ShapeError, match="n_samples >= 1"):
+        physics_features(*(p[:, :0] for p in parts), RATE)
