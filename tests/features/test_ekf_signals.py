@@ -128,3 +128,24 @@ def test_a_run_of_one_aligned_sample_is_too_short_not_a_key_error():
     assert len(ws) == 0 and ws.channels == ALL_CHANNELS + EKF_CHANNELS
     assert ws.counts["too_short_runs"] == ["t/ICE/00"]
     assert ws.counts["per_run"]["t/ICE/00"]["aligned_s"] == pytest.approx(0.02)
+
+
+def test_a_left_wheel_spinning_faster_on_a_straight_run_shows_on_the_left_side():
+    # the gyro says straight (wz = 0) while the left wheel reads 0.2 m/s above the right:
+    # the left side slips forward (rim faster than its ground), the right backward, and the
+    # wheel innovations of the first steps (before the filter's bias absorbs the mismatch)
+    # take the same signs (measured minus predicted)
+    n = 200
+    t = np.arange(n) / 50.0
+    frame = pd.DataFrame({"t_s": t, "vel_l": np.full(n, 0.6), "vel_r": np.full(n, 0.4),
+                          "wz": np.zeros(n)})
+    settings = SkidSteerSettings(track_m=0.9)
+    ch = ekf_channel_frame(frame, settings=settings)
+    late, early = ch.iloc[n // 2:], ch.iloc[1:6]
+    assert (late["ekf_slip_l"] > 0.05).all() and (late["ekf_slip_r"] < -0.05).all()
+    assert (early["ekf_innov_vel_l"] > 0.05).all() and (early["ekf_innov_vel_r"] < -0.05).all()
+    # the frame path and the window path use the settings' track width alike
+    X = frame[["vel_l", "vel_r", "wz"]].to_numpy().T[None]
+    out = window_ekf_channels(X, ("vel_l", "vel_r", "wz"), 50.0, settings=settings)
+    np.testing.assert_allclose(out[0], ekf_channel_frame(frame, settings=settings).to_numpy().T,
+                               rtol=1e-9, atol=1e-12)
