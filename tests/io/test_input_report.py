@@ -24,8 +24,7 @@ def test_statuses_window_columns_and_totals_of_planted_runs():
     report = input_report(runs, _counts(), window_s=2.0, flagged={"r/stuck": 3})
     t = report.table.set_index("run_id")
     assert list(report.table.columns) == list(COLUMNS)
-    assert list(t["status"]) == ["used", "used", "skipped", "too_short", "used",
-                                  "skipped"]
+    assert list(t["status"]) == ["used", "used", "skipped", "too_short", "used", "skipped"]
     assert t.loc["r/skip", "reason"] == "no imu or wheels stream"
     assert t.loc["r/short", "reason"] == "shorter than one 2 s window"
     assert t.loc["r/none", "windows"] == -1 and t.loc["r/used", "windows"] == 10
