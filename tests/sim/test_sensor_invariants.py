@@ -12,7 +12,9 @@ import pytest
 from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SensorSettings, SimConfig,
                          parse_effects, simulate)
 from terrain.sim.dynamics import PhysicsResult
-from terrain.sim.sensors import imu
+from terrain.sim.sensors import (coloured_noise, encoder_count_rate, first_order_filter,
+                                 gravity_specific_force, imu, quantise, sample_times,
+                                 vibration_level, vibration_pole, vibration_signals)
 from terrain.sim.simulate import stream_rates_hz
 from terrain.terramechanics import get_terrain
 from terrain.terramechanics.resistance import G_M_S2
@@ -101,3 +103,118 @@ def test_the_seed_alone_decides_the_run(scenario):
                                       check_exact=True)
     assert not runs[0].streams["imu"].equals(runs[2].streams["imu"])
     assert not runs[0].streams["wheels"].equals(runs[2].streams["wheels"])
+
+
+def test_gravity_specific_force_points_uphill_in_body_axes_with_magnitude_g():
+    # nose up by 0.2 rad: the accelerometer reads +g sin on x (x points uphill), g cos on z
+    g_x, g_y, g_z = gravity_specific_force(np.array([0.2]), np.array([0.0]))
+    np.testing.assert_allclose([g_x[0], g_y[0], g_z[0]],
+                               [G_M_S2 * np.sin(0.2), 0.0, G_M_S2 * np.cos(0.2)], atol=1e-12)
+    # right side down by 0.2 rad: y (left) points uphill, so +g sin on y
+    g_x, g_y, g_z = gravity_specific_force(np.array([0.0]), np.array([0.2]))
+    np.testing.assert_allclose([g_x[0], g_y[0], g_z[0]],
+                               [0.0, G_M_S2 * np.sin(0.2), G_M_S2 * np.cos(0.2)], atol=1e-12)
+    # any inclination: magnitude g, tilt from z of hypot(pitch, roll), in-plane part along
+    # the uphill direction (pitch, roll)
+    pitch, roll = np.array([0.1, -0.3, 0.25]), np.array([0.2, 0.05, -0.15])
+    g_x, g_y, g_z = gravity_specific_force(pitch, roll)
+    np.testing.assert_allclose(np.sqrt(g_x ** 2 + g_y ** 2 + g_z ** 2), G_M_S2, rtol=1e-12)
+    np.testing.assert_allclose(g_z, G_M_S2 * np.cos(np.hypot(pitch, roll)), rtol=1e-12)
+    np.testing.assert_allclose(g_x * roll, g_y * pitch, atol=1e-12)
+    assert np.all(g_x * pitch > 0)
+
+
+def test_vibration_level_is_one_at_the_reference_speed_and_capped_at_3_m_s():
+    v_ref = np.full(4, 0.5)
+    level = vibration_level(np.array([0.5, 0.0, 5.0, 0.0]), np.array([0.0, -1.0, 0.0, 20.0]),
+                            v_ref)
+    # straight at v_ref: 1; turning on the spot at 1 rad/s counts as 0.3 m/s; both capped
+    np.testing.assert_allclose(level, np.sqrt([1.0, 0.3 / 0.5, 3.0 / 0.5, 3.0 / 0.5]),
+                               rtol=1e-12)
+
+
+def test_vibration_pole_decays_at_the_corner_frequency_whatever_the_rate():
+    # a first-order low-pass with corner f_c decays by exp(-2 pi f_c) per second
+    for rate in (50.0, 100.0, 400.0):
+        per_second = vibration_pole(rate, 15.0) ** rate
+        assert per_second == pytest.approx(np.exp(-2 * np.pi * 15.0), rel=1e-9)
+
+
+def test_coloured_noise_has_unit_variance_lag_one_correlation_the_pole_and_streams():
+    pole = vibration_pole(100.0, 15.0)
+    white = np.random.default_rng(1).standard_normal((200_000, 2))
+    y, last = coloured_noise(white, pole)
+    assert y[1000:].std() == pytest.approx(1.0, rel=0.02)
+    rho = np.corrcoef(y[1000:-1, 0], y[1001:, 0])[0, 1]
+    assert rho == pytest.approx(pole, abs=0.01)
+    # one sample at a time, carrying the state, gives the batch output
+    state, rows = None, []
+    for k in range(50):
+        row, state = coloured_noise(white[k:k + 1], pole, state)
+        rows.append(row[0])
+    np.testing.assert_allclose(np.array(rows), y[:50], rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(last, y[-1])
+
+
+def test_vibration_signals_scale_gyro_and_accelerometer_axes_by_their_own_std():
+    coloured = np.ones((3, 5))
+    out = vibration_signals(coloured, np.array([1.0, 2.0, 0.5]), np.full(3, 0.01),
+                            np.full(3, 0.3))
+    np.testing.assert_allclose(out[:, :2], 0.01 * np.array([[1, 1], [2, 2], [0.5, 0.5]]))
+    np.testing.assert_allclose(out[:, 2:], 0.3 * np.array([[1, 1, 1], [2, 2, 2], [.5, .5, .5]]))
+
+
+def test_first_order_filter_holds_a_constant_and_reaches_63_percent_after_tau():
+    dt, tau = 0.001, 0.05
+    np.testing.assert_allclose(first_order_filter(np.full((100, 2), 3.0), dt, tau), 3.0,
+                               rtol=1e-12)
+    step = np.r_[0.0, np.ones(200)]
+    y = first_order_filter(step, dt, tau)
+    assert y[round(tau / dt)] == pytest.approx(1.0 - np.exp(-1.0), rel=1e-9)
+    assert first_order_filter(step, dt, 0.0) is step
+
+
+def test_quantise_rounds_to_the_nearest_step_both_signs():
+    np.testing.assert_allclose(quantise(np.array([0.7, -0.7, 0.2, 1.49]), 1.0),
+                               [1.0, -1.0, 0.0, 1.0])
+    x = np.array([0.123])
+    assert quantise(x, 0.0) is x
+
+
+def test_encoder_count_rate_integrates_to_the_true_wheel_angle():
+    dt, counts = 0.01, 100_000
+    t = np.arange(101) * dt
+    omega = np.column_stack([np.full(101, 2.0), 3.0 * t])   # constant, and a ramp
+    rate = encoder_count_rate(omega, dt, counts)
+    quantum = 2 * np.pi / counts
+    # the rate sums to the counted angle: 2 rad, and 3 T^2 / 2 = 1.5 rad (trapezoid, exact)
+    np.testing.assert_allclose(rate.sum(axis=0) * dt, [2.0, 1.5], atol=quantum)
+    # and each step is a whole number of counts per step
+    np.testing.assert_allclose(np.round(rate * dt / quantum), rate * dt / quantum, atol=1e-6)
+
+
+def test_sample_times_include_the_duration_despite_rounding():
+    t = sample_times(1.0, 10.0)
+    assert len(t) == 11 and t[-1] == pytest.approx(1.0)
+    assert len(sample_times(0.3, 10.0)) == 4
+
+
+def test_imu_reads_lateral_acceleration_on_ay_and_terrain_vibration_on_every_shaken_axis():
+    n = 20001
+    phys = _physics(n)
+    gravel = get_terrain("GRAVEL")
+    # driving straight at the terrain's reference speed with 0.5 m/s^2 to the left
+    phys = PhysicsResult(**{**phys.__dict__,
+                            "twist": np.column_stack([np.full(n, gravel.vib_speed_m_s),
+                                                      np.zeros((n, 2))]),
+                            "accel_body": np.column_stack([np.zeros(n), np.full(n, 0.5)]),
+                            "terrain_names": ("GRAVEL",)})
+    settings = SensorSettings(accel_bias_std_m_s2=0.0)
+    _, data = imu(phys, (gravel,), settings, 0.0, np.random.default_rng(2), 200.0)
+    assert data[:, 4].mean() == pytest.approx(0.5, abs=0.02)
+    # level 1: each shaken axis has the catalogue std on top of the white noise
+    expect_g = np.hypot(gravel.vib_gyro_rad_s, settings.gyro_noise_rad_s)
+    expect_a = np.hypot(gravel.vib_accel_m_s2, settings.accel_noise_m_s2)
+    np.testing.assert_allclose(data[:, :2].std(axis=0), expect_g, rtol=0.05)
+    np.testing.assert_allclose(data[:, 3:].std(axis=0), expect_a, rtol=0.05)
+    assert data[:, 2].std() == pytest.approx(settings.gyro_noise_rad_s, rel=0.05)
