@@ -51,3 +51,74 @@ def test_orchard_u_turn_of_the_tracked_vehicle_is_a_half_turn_of_radius_1_5_m():
     np.testing.assert_allclose(np.median(speed[turning] / np.abs(yaw_rate[turning])), 1.5,
                                rtol=1e-6)
     np.testing.assert_allclose(yaw_rate.sum() * 0.01, np.pi, atol=2e-3)
+
+
+def _at(cmd, t_s: float) -> np.ndarray:
+    """Commanded twist at time ``t_s`` (nearest physics step)."""
+    return cmd.twist[int(round(t_s / (cmd.t_s[1] - cmd.t_s[0])))]
+
+
+def test_physics_steps_round_the_duration_and_the_grid_ends_on_it():
+    from terrain.sim.scenarios import physics_steps
+    assert physics_steps(0.3, 0.1) == 3 and physics_steps(0.7, 0.1) == 7
+    cmd = make_commands("spin", 0.3, 0.1, np.random.default_rng(0), 1.0)
+    np.testing.assert_allclose(cmd.t_s, [0.0, 0.1, 0.2, 0.3])
+
+
+def test_orchard_u_turns_are_half_turns_alternating_left_and_right():
+    # 0.5 m/s on 20 m rows, U-turns of radius 1.5 m (3 pi s each): left first, then right
+    dt = 0.01
+    cmd = make_commands("orchard", 100.0, dt, np.random.default_rng(0), 1.0)
+    t_turn = np.pi * 1.5 / 0.5
+    assert cmd.slope_rad == 0.0
+    yaw = cmd.twist[:, 2]
+    first = cmd.t_s < 40.0 + t_turn + 1.0
+    np.testing.assert_allclose(yaw[first].sum() * dt, np.pi, atol=0.01)
+    np.testing.assert_allclose(yaw[~first].sum() * dt, -np.pi, atol=0.01)
+    np.testing.assert_allclose(_at(cmd, 45.0), [0.5, 0.0, 0.5 / 1.5])
+    np.testing.assert_allclose(_at(cmd, 60.0), [0.5, 0.0, 0.0])
+    np.testing.assert_allclose(_at(cmd, 95.0), [0.5, 0.0, -0.5 / 1.5])
+
+
+def test_orchard_slows_a_skid_steer_so_its_outer_side_stays_within_the_limit():
+    track, vmax = 0.6, 0.5
+    cmd = make_commands("orchard", 30.0, 0.01, np.random.default_rng(0), vmax, track_m=track)
+    v = cmd.twist[-1, 0]
+    assert v * (1.0 + track / (2.0 * 1.5)) == pytest.approx(0.95 * vmax, rel=1e-12)
+
+
+def test_slope_turn_and_spin_timing():
+    dt = 0.01
+    cmd = make_commands("slope_turn", 40.0, dt, np.random.default_rng(0), 1.0)
+    assert cmd.slope_rad == pytest.approx(np.radians(15.0))
+    # 0.2 m/s for 10 s, then 0.05 m/s for 10 s; turning left at 20 deg/s for 20 s, then right
+    for t, v, r in ((5.0, 0.2, 20.0), (15.0, 0.05, 20.0), (25.0, 0.2, -20.0),
+                    (35.0, 0.05, -20.0)):
+        np.testing.assert_allclose(_at(cmd, t), [v, 0.0, np.radians(r)], atol=1e-12)
+    # spin: +0.6 rad/s for 8 s, then -0.6 rad/s for 8 s (reached through the 1.5 rad/s^2 limit)
+    cmd = make_commands("spin", 16.0, dt, np.random.default_rng(0), 1.0)
+    assert cmd.slope_rad == 0.0
+    np.testing.assert_allclose(_at(cmd, 4.0), [0.0, 0.0, 0.6], atol=1e-12)
+    np.testing.assert_allclose(_at(cmd, 12.0), [0.0, 0.0, -0.6], atol=1e-12)
+    np.testing.assert_allclose(_at(cmd, 8.0 + 0.6 / 1.5), [0.0, 0.0, 0.0], atol=0.02)
+
+
+def test_straight_accel_ramps_at_1_m_s2_to_its_speed():
+    cmd = make_commands("straight_accel", 3.0, 0.01, np.random.default_rng(0), 0.8)
+    np.testing.assert_allclose(_at(cmd, 0.5), [0.5, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(cmd.twist[-1], [0.95 * 0.8, 0.0, 0.0], atol=1e-12)
+
+
+def test_random_scenario_stays_within_the_speed_limit_and_follows_its_seed():
+    a = make_commands("random", 120.0, 0.01, np.random.default_rng(5), 0.6)
+    b = make_commands("random", 120.0, 0.01, np.random.default_rng(5), 0.6)
+    c = make_commands("random", 120.0, 0.01, np.random.default_rng(6), 0.6)
+    np.testing.assert_array_equal(a.twist, b.twist)
+    assert not np.array_equal(a.twist, c.twist)
+    assert np.all(a.twist[:, 1] == 0.0)        # not omnidirectional: no lateral command
+    assert np.abs(a.twist[:, 0]).max() <= 0.95 * 0.6 + 1e-12
+    assert np.abs(a.twist[:, 0]).max() > 0.5 * 0.6
+    omni = make_commands("random", 120.0, 0.01, np.random.default_rng(5), 0.6,
+                         omnidirectional=True)
+    assert np.abs(omni.twist[:, 1]).max() > 0.05
+    assert np.abs(omni.twist[:, 1]).max() <= 0.5 * 0.95 * 0.6 + 1e-12
