@@ -218,3 +218,11 @@ def test_imu_reads_lateral_acceleration_on_ay_and_terrain_vibration_on_every_sha
     np.testing.assert_allclose(data[:, :2].std(axis=0), expect_g, rtol=0.05)
     np.testing.assert_allclose(data[:, 3:].std(axis=0), expect_a, rtol=0.05)
     assert data[:, 2].std() == pytest.approx(settings.gyro_noise_rad_s, rel=0.05)
+
+
+@pytest.mark.parametrize("field", ["imu_rate_hz", "wheel_rate_hz", "cam_rate_hz"])
+def test_a_sensor_rate_of_zero_is_refused(field):
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=field):
+        SensorSettings(**{field: 0.0})
+    SensorSettings(**{"cam_outage_rate_hz": 0.0})       # a level of 0 is allowed

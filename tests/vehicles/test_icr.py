@@ -75,3 +75,17 @@ def test_chi_from_truth_refuses_a_track_that_is_not_a_finite_length(track_m):
     yaw = np.array([0.5, 0.5])
     with pytest.raises(ConfigError, match="chi_from_truth.track_m must be a finite value > 0"):
         chi_from_truth(np.array([-0.2, -0.2]), np.array([0.2, 0.2]), yaw, track_m)
+
+
+def test_chi_from_truth_fits_left_and_right_turns_and_skips_slow_samples():
+    from terrain.vehicles.icr import chi_from_truth
+    track, chi = 0.55, 1.6
+    w = np.array([0.5, -0.5, 0.8, -0.3, 0.05, 0.0])
+    left = np.full(6, 0.4) - 0.5 * chi * track * w
+    right = np.full(6, 0.4) + 0.5 * chi * track * w
+    right[4] += 0.3                     # slower than 0.1 rad/s: left out of the fit
+    assert chi_from_truth(left, right, w, track) == pytest.approx(chi, rel=1e-12)
+    # right turns alone give the same chi (|yaw rate| selects the samples, not its sign)
+    neg = w < -0.1
+    assert chi_from_truth(left[neg], right[neg], w[neg], track) == pytest.approx(chi, rel=1e-12)
+    assert np.isnan(chi_from_truth(left[4:], right[4:], w[4:], track))

@@ -62,3 +62,16 @@ def test_motor_params_refuse_impossible_values(field, value):
 def test_vehicle_params_refuse_impossible_values(vehicle, field, value):
     with pytest.raises(ConfigError, match=f"{type(vehicle).__name__}.{field}"):
         replace(vehicle, **{field: value})
+
+
+def test_encoder_quantum_and_drive_inertia_follow_their_definitions():
+    import numpy as np
+    from terrain.vehicles.common import drive_inertia_kg_m2
+    # one count is a full turn over the counts per revolution
+    for vehicle in (HUSKY, TRACKED, AGRIMARO):
+        motor = vehicle.motor
+        assert motor.encoder_quantum_rad * motor.encoder_counts_per_rev == pytest.approx(
+            2 * np.pi)
+    # a Husky motor turns the two wheels of its side (chained); a track one sprocket
+    assert drive_inertia_kg_m2(HUSKY) == pytest.approx(2 * HUSKY.motor.wheel_inertia_kg_m2)
+    assert drive_inertia_kg_m2(TRACKED) == pytest.approx(TRACKED.motor.wheel_inertia_kg_m2)
