@@ -270,6 +270,11 @@ def test_wheel_rates_and_camera_lever_arm():
     # v_cx = v_bx - yaw_rate * d_y  with d_y = -0.26875 (seed 001 eq. 5.4)
     resid = cam.v_cx - (vx + 0.26875 * yr)
     assert np.abs(resid.mean()) < 0.01 and resid.std() < 0.03
+    # v_cy = v_by + yaw_rate * d_x  with d_x = 0.6685 (the camera ahead of the centre)
+    vy = np.interp(cam.t_s, tr.t_s, tr.v_by)
+    resid = cam.v_cy - (vy + 0.6685 * yr)
+    assert np.abs(resid.mean()) < 0.01 and resid.std() < 0.03
+    assert np.std(0.6685 * yr) > 0.1                 # the lever arm term is not negligible
     st = r.streams["steer"]
     assert np.allclose(np.diff(np.unique(np.round(st.delta_1 / (2 * np.pi / 4096)))) % 1, 0)
     assert get_vehicle("agrimaro").steering_dead_band_rad >= np.abs(
