@@ -226,3 +226,14 @@ def test_a_sensor_rate_of_zero_is_refused(field):
     with pytest.raises(ConfigError, match=field):
         SensorSettings(**{field: 0.0})
     SensorSettings(**{"cam_outage_rate_hz": 0.0})       # a level of 0 is allowed
+
+
+def test_current_offset_goes_to_the_right_motor_if_positive_and_the_left_if_negative():
+    from terrain.sim.simulate import motor_currents
+    from terrain.vehicles import HUSKY
+    phys = _physics(5)
+    base = motor_currents(phys, HUSKY, parse_effects([]))
+    plus = motor_currents(phys, HUSKY, parse_effects(["current_offset=0.7"]))
+    minus = motor_currents(phys, HUSKY, parse_effects(["current_offset=-0.7"]))
+    np.testing.assert_allclose(plus - base, [[0.0, 0.7]] * 5, atol=1e-12)
+    np.testing.assert_allclose(minus - base, [[0.7, 0.0]] * 5, atol=1e-12)
