@@ -275,6 +275,16 @@ def test_wheel_rates_and_camera_lever_arm():
     resid = cam.v_cy - (vy + 0.6685 * yr)
     assert np.abs(resid.mean()) < 0.01 and resid.std() < 0.03
     assert np.std(0.6685 * yr) > 0.1                 # the lever arm term is not negligible
+    # the T265's yaw rate and yaw are the body's, within their configured noise; a yaw
+    # channel reading the yaw rate (a review's mutant) passed every test
+    from terrain.sim.simulate import DEFAULT_SENSORS
+    sensors = DEFAULT_SENSORS["agrimaro"]
+    resid = cam.yaw_rate_c - yr
+    assert np.abs(resid.mean()) < 0.01 and resid.std() < 3 * sensors.cam_yaw_rate_noise_rad_s
+    yaw = np.interp(cam.t_s, tr.t_s, np.unwrap(tr.yaw))
+    resid = np.angle(np.exp(1j * (cam.yaw_c - yaw)))
+    assert np.abs(resid.mean()) < 0.01 and resid.std() < 3 * sensors.cam_yaw_noise_rad
+    assert np.ptp(yaw) > 1.0                         # the run turns: yaw and yaw rate differ
     st = r.streams["steer"]
     assert np.allclose(np.diff(np.unique(np.round(st.delta_1 / (2 * np.pi / 4096)))) % 1, 0)
     assert get_vehicle("agrimaro").steering_dead_band_rad >= np.abs(
