@@ -14,10 +14,10 @@ Method (recorded in the returned frame's ``attrs``):
    of padding, two samples of a 30 Hz tone at 100 Hz, 0.296 and 0.817, become 0.196 and
    0.283. A one-sample segment is kept as it is. A stream between 1 and 1.5 times the grid
    rate is NOT filtered (the margin keeps a clock's jitter about the grid rate from
-   filtering a stream sampled at it); no shipped
-   or simulated stream falls there, but content of such a stream between 0.5 x ``rate_hz``
-   and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on
-   a 50 Hz grid): resample it at its own rate or at under 2/3 of it.
+   filtering a stream sampled at it); no shipped or simulated stream falls there, but
+   content of such a stream between 0.5 x ``rate_hz`` and its own Nyquist frequency
+   aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on a 50 Hz grid): resample it at
+   its own rate or at under 2/3 of it.
 3. Every stream is then linearly interpolated onto the grid. The ~6.5 Hz (BorealTC) or
    ~15 Hz (Vulpi) wheel stream is thus interpolated between its samples.
 4. Grid points that fall inside a timestamp gap of any stream (a step longer than
