@@ -218,6 +218,75 @@ def test_inv_chi_uses_the_vehicles_own_track():
         assert ridge > 0.97
 
 
+def test_window_pitch_removes_the_wheel_speed_slope_from_the_accelerometer():
+    """A Husky climbing a 0.1 rad slope while speeding up at 0.5 m/s^2: the accelerometer
+    reads ``g sin(p) + dv/dt`` forward and ``g cos(p)`` up; the window's ``vel_mean__slope``
+    is the 0.5 m/s^2 and its ``pitch`` the 0.1 rad (adding the slope instead of removing it
+    passed every test)."""
+    from features.slip_features import SLIP_CHANNELS, slip_feature_matrix
+
+    rate, g, p, a = 50.0, 9.81, 0.1, 0.5
+    t = np.arange(100) / rate
+    v = 0.3 + a * t
+    values = {c: np.zeros_like(t) for c in SLIP_CHANNELS}
+    values.update(vel_l=v, vel_r=v, ax=np.full_like(t, g * np.sin(p) + a),
+                  az=np.full_like(t, g * np.cos(p)))
+    x = np.stack([values[c] for c in SLIP_CHANNELS])[None]
+    names, cols = slip_feature_matrix(x, SLIP_CHANNELS, rate, HUSKY)
+    assert cols[0, names.index("vel_mean__slope")] == pytest.approx(a)
+    assert cols[0, names.index("pitch")] == pytest.approx(p)
+
+
+def test_slip_targets_are_the_truth_means_of_each_window_and_its_mid_terrain():
+    """Targets against a planted truth stream: ``slip_1 = t``, ``slip_2 = 2 t``,
+    ``v_by = -t``, ``yaw_rate = 0.5``, terrain GRASS before 5 s and SNOW after. Each target
+    is the mean over the window's samples [t_start, t_end), the label the one at the window's
+    middle (the lateral velocity read from the yaw rate column, and the label at the window's
+    start, passed every test)."""
+    from dataclasses import replace as replace_run
+
+    from features.slip_features import slip_targets, slip_windows
+    from terrain.sim import SimConfig, simulate
+
+    run = simulate(SimConfig(terrains=("GRASS",), scenario="straight_accel", duration_s=10.0,
+                             seed=0))
+    t = run.streams["truth"]["t_s"].to_numpy()
+    truth = pd.DataFrame({"t_s": t, "slip_1": t, "slip_2": 2 * t, "v_by": -t,
+                          "yaw_rate": np.full_like(t, 0.5),
+                          "terrain": np.where(t < 5.0, "GRASS", "SNOW")})
+    run = replace_run(run, streams={**run.streams, "truth": truth})
+    ws = slip_windows([run])
+    Y = slip_targets([run], ws)
+    assert len(ws) >= 6
+    for i in range(len(ws)):
+        inside = (t >= ws.t_start_s[i]) & (t < ws.t_end_s[i])
+        assert Y["slip_1"][i] == pytest.approx(t[inside].mean())
+        assert Y["slip_2"][i] == pytest.approx(2 * t[inside].mean())
+        assert Y["v_by"][i] == pytest.approx(-t[inside].mean())
+        assert Y["yaw_rate"][i] == pytest.approx(0.5)
+        mid = 0.5 * (ws.t_start_s[i] + ws.t_end_s[i])
+        assert Y["terrain"][i] == ("GRASS" if mid < 5.0 else "SNOW")
+
+
+def test_physics_slip_columns_follow_their_side():
+    """The side drawing more current (left, 12 A against 3 A) slips more: ``phys_slip_l``
+    is the left side's physics slip (the left column read from the right side passed every
+    test)."""
+    from features.slip_features import SLIP_CHANNELS, slip_feature_matrix
+
+    rate = 50.0
+    t = np.arange(100) / rate
+    values = {c: np.zeros_like(t) for c in SLIP_CHANNELS}
+    values.update(vel_l=np.full_like(t, 0.5), vel_r=np.full_like(t, 0.5),
+                  cur_l=np.full_like(t, 12.0), cur_r=np.full_like(t, 3.0),
+                  cur_diff=np.full_like(t, -9.0), az=np.full_like(t, 9.81))
+    x = np.stack([values[c] for c in SLIP_CHANNELS])[None]
+    names, cols = slip_feature_matrix(x, SLIP_CHANNELS, rate, HUSKY,
+                                      {"SANDY_LOAM": np.array([1.0])})
+    left, right = cols[0, names.index("phys_slip_l")], cols[0, names.index("phys_slip_r")]
+    assert left > right > 0.0
+
+
 def test_learned_model_on_held_out_seed(tiny_table):
     runs, X, Y, meta = tiny_table
     test = (meta["seed"] == 100).to_numpy()
