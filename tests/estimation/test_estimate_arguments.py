@@ -244,6 +244,9 @@ def test_missing_slip_inputs_names_the_first_input_the_slip_models_lack():
     for reason, streams in cases.items():
         other = replace(run, streams=streams)
         assert reason in missing_slip_inputs(other) and slip_model_outputs(other) is None
+    # one side's current missing is named too (not the generic "no complete window")
+    right_less = replace(run, streams={**run.streams, "wheels": wheels.drop(columns=["cur_r"])})
+    assert "no motor currents" in missing_slip_inputs(right_less)
     mud = replace(run, terrain="MUD")
     assert "'MUD' not in the terrain catalogue" in missing_slip_inputs(mud)
 
