@@ -533,7 +533,9 @@ def test_a_manifest_with_a_non_utf8_byte_names_its_offset_and_line(tmp_path):
 
 @pytest.mark.parametrize("t, row, words", [([np.nan, 0.1, 0.2], 0, "nan is not finite"),
                                            ([0.0, 0.1, np.nan, 0.3], 2, "got nan after 0.1"),
-                                           ([0.0, 0.2, 0.1, np.nan], 2, "got 0.1 after 0.2")])
+                                           ([0.0, 0.2, 0.1, np.nan], 2, "got 0.1 after 0.2"),
+                                           # strictly: a repeated timestamp is refused too
+                                           ([0.0, 0.1, 0.1, 0.2], 2, "got 0.1 after 0.1")])
 def test_a_shipped_run_is_refused_at_its_first_bad_timestamp(tmp_path, t, row, words):
     # a NaN first timestamp was reported at row 1 ("got 0.1 after nan")
     import pandas as pd
