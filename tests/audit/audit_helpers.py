@@ -149,8 +149,7 @@ def synthetic_frame(run_id: str, terrain: str = "ASPHALT", bias_rad_s: float = 0
     while moving and noise of ``10 noise`` A. ``drift_rad_s`` is the commanded yaw rate of
     the straight stretches (below the turn threshold). No lag (an empty, unidentifiable
     track)."""
-    from terrain.audit.frames import FrameSettings, _quiet, classify_manoeuvres
-    from terrain.audit.frames import AuditFrame
+    from terrain.audit.frames import AuditFrame, FrameSettings, _quiet, classify_manoeuvres
     from terrain.audit.timing import LagTrack
 
     rng = np.random.default_rng(seed)
