@@ -327,6 +327,14 @@ def test_clock_rules_at_their_bounds():
     args = (1.0, 5.0, 60.0)   # lag_s, clock_restart_s, max_backlog_s
     assert resolve_hold(200.0, 260.0, {"wheels": 100.0}, {"wheels": 101.0}, *args) == []
     assert resolve_hold(200.0, 259.875, {"wheels": 100.0}, {"wheels": 101.0}, *args) is None
+    # the clocks meet while the other stream's newest stamp lies within lag_s of the held
+    # run, either side: 1 s before its first stamp or 1 s after its newest, not 1.125 s
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 199.0}, *args) == []
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 198.875}, *args) \
+        == ["wheels"]
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 211.0}, *args) == []
+    assert resolve_hold(200.0, 210.0, {"wheels": 100.0}, {"wheels": 211.125}, *args) \
+        == ["wheels"]
 
 
 def test_a_held_run_knows_a_resent_sample_within_the_stamp_tolerance_either_side():
