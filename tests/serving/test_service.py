@@ -222,6 +222,30 @@ def test_a_silent_stream_makes_decisions_stale_with_the_fallback_target(all_mode
     assert not early["flags"].str.contains("stale").any()
 
 
+def test_no_decision_is_classified_on_a_window_one_sample_short(all_model, unseen_run):
+    # both streams on the model's clock, the wheels falling silent after 4 s: the window
+    # reads two samples of look-back, so the decisions one to three periods after the
+    # wheels' last sample still hold the model's n samples (their age says how old the
+    # newest is); the next would hold n - 1 and must be unclassified, not classified short
+    rate = all_model.window.rate_hz
+    frame = align_streams(unseen_run, ("imu", "wheels"), rate).iloc[:int(8 * rate)]
+    svc = service(all_model, hop_s=1.0 / rate)
+    stop = int(4 * rate)
+    decisions = []
+    for i, row in enumerate(frame.itertuples(index=False)):
+        decisions += svc.push("imu", row.t_s, {c: getattr(row, c) for c in IMU_CHANNELS})
+        if i < stop:
+            decisions += svc.push("wheels", row.t_s,
+                                  {c: getattr(row, c) for c in WHEEL_CHANNELS})
+    last_wheel = float(frame["t_s"].iloc[stop - 1])
+    after = {int(round((d.t_s - last_wheel) * rate)): d for d in decisions
+             if d.t_s > last_wheel - 1e-9}
+    for m in (0, 1, 2, 3):
+        assert after[m].flags == ""
+        assert after[m].window_age_s == pytest.approx(max(m - 1, 0) / rate, abs=1e-9)
+    assert all("short" in after[m].flags.split("|") for m in range(4, 12))
+
+
 def test_rejected_and_missing_samples_flag_the_windows_that_cover_them(wheel_model,
                                                                        unseen_run):
     wheels = unseen_run.streams["wheels"].copy()
