@@ -696,7 +696,9 @@ def stuck_window_flags(stuck: Mapping[str, list], t_start_s: np.ndarray,
     stuck : Mapping[str, list]
         ``Run.meta["stuck"]``: ``"<stream>.<channel>" -> [[t_start_s, t_end_s], ...]``.
     t_start_s, t_end_s : numpy.ndarray
-        ``(n_windows,)`` window bounds on the run's clock, s.
+        ``(n_windows,)`` window bounds on the run's clock, s: a window ``[t_start_s,
+        t_end_s)`` holds a stretch ``[a, b]`` when ``a < t_end_s`` and ``b >= t_start_s``
+        (the live service's rule, :meth:`terrain.serving.rules.StuckWatch.stuck_between`).
 
     Returns
     -------
@@ -709,7 +711,7 @@ def stuck_window_flags(stuck: Mapping[str, list], t_start_s: np.ndarray,
     for key, spans in stuck.items():
         hit = np.zeros(t0.size, dtype=bool)
         for a, b in spans:
-            hit |= (t0 <= b) & (t1 >= a)
+            hit |= (t0 <= b) & (t1 > a)
         for i in np.flatnonzero(hit):
             names[i].append(key)
     return np.array([stuck_flag(n) for n in names], dtype=object)

@@ -306,7 +306,18 @@ def test_stuck_stretch_flags_only_the_windows_holding_it(turning):
     assert 19.9 < a < 20.1 and 22.9 < b < 23.1
     t0 = np.arange(0.0, 50.0, 2.0)
     flags = stuck_window_flags(run.meta["stuck"], t0, t0 + 2.0)
-    assert list(t0[flags != ""]) == [18.0, 20.0, 22.0]
+    # the stretch's first sample is at 20.0 s: the window [18, 20) ends before it
+    assert a == 20.0 and list(t0[flags != ""]) == [20.0, 22.0]
+
+
+def test_stuck_window_flags_take_windows_as_half_open():
+    """A window ``[t_start_s, t_end_s)`` holds the stretch ``[a, b]`` of sample times when
+    they share a sample time: as the live service's rule (``StuckWatch.stuck_between``)."""
+    stuck = {"wheels.cur_l": [[2.0, 5.0]]}
+    t0 = np.array([0.0, 1.0, 3.0, 4.99, 5.0, 5.01])
+    flags = stuck_window_flags(stuck, t0, t0 + 2.0)
+    assert list(flags) == ["", "stuck:wheels.cur_l", "stuck:wheels.cur_l",
+                           "stuck:wheels.cur_l", "stuck:wheels.cur_l", ""]
 
 
 def test_run_shorter_than_one_window_and_gaps_are_reported(runs_by_id, tmp_path):
