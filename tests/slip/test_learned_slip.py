@@ -287,6 +287,51 @@ def test_physics_slip_columns_follow_their_side():
     assert left > right > 0.0
 
 
+def test_physics_slip_columns_take_each_input_from_its_own_window_statistic():
+    """The physics slip of a window speeding up at 0.4 m/s^2 with noisy currents and
+    accelerometer is :func:`terrain.slip.physics.physics_slip` of: the sides' mean currents
+    and rim speeds, the wheel angular acceleration slope / r (rad/s^2), the sides' current
+    spreads, the pitch std of the ``ax`` samples; ``phys_std`` is the mean of the two
+    sides' std (the acceleration as slope * r, the spreads or the pitch noise read from
+    another channel, and the larger side's std each passed every test)."""
+    from features.calculators import std
+    from features.slip_features import SLIP_CHANNELS, slip_feature_matrix
+    from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
+                                      pitch_std_from_accelerometer)
+
+    rate, a = 50.0, 0.4
+    t = np.arange(100) / rate
+    rng = np.random.default_rng(3)
+    v = 0.3 + a * t
+    values = {c: np.zeros_like(t) for c in SLIP_CHANNELS}
+    values.update(vel_l=v, vel_r=1.1 * v, cur_l=6.0 + 1.5 * rng.standard_normal(t.size),
+                  cur_r=4.0 + 0.3 * rng.standard_normal(t.size),
+                  ax=a + 2.0 * rng.standard_normal(t.size), ay=0.3 * rng.standard_normal(t.size),
+                  az=np.full_like(t, 9.81))
+    x = np.stack([values[c] for c in SLIP_CHANNELS])[None]
+    probs = {"SANDY_LOAM": np.array([1.0])}
+    names, cols = slip_feature_matrix(x, SLIP_CHANNELS, rate, HUSKY, probs,
+                                      current_rate_hz=rate)
+    r_w = HUSKY.contact_geometry().wheel_radius_m
+    slope = 0.5 * (1.0 + 1.1) * a
+    cur = np.array([[values["cur_l"].mean(), values["cur_r"].mean()]])
+    rim = np.array([[v.mean(), 1.1 * v.mean()]])
+    pitch = pitch_from_accelerometer(np.array([values["ax"].mean()]), np.zeros(1),
+                                     np.array([9.81]), np.array([slope]))
+    want = physics_slip(HUSKY, probs, cur, rim, pitch, np.full((1, 2), slope / r_w),
+                        n_averaged=100, current_within_std_a=std(
+                            np.stack([values["cur_l"], values["cur_r"]])[None]),
+                        pitch_std_rad=pitch_std_from_accelerometer(values["ax"][None]))
+    assert cols[0, names.index("vel_mean__slope")] == pytest.approx(slope)
+    assert cols[0, names.index("phys_slip_l")] == pytest.approx(want.slip[0, 0])
+    assert cols[0, names.index("phys_slip_r")] == pytest.approx(want.slip[0, 1])
+    assert cols[0, names.index("phys_std")] == pytest.approx(want.std[0].mean())
+    # the inputs matter: the two sides' std differ, the acceleration moves the slip
+    assert abs(want.std[0, 0] - want.std[0, 1]) > 0.05 * want.std[0].mean()
+    steady = physics_slip(HUSKY, probs, cur, rim, pitch, np.zeros((1, 2)), n_averaged=100)
+    assert abs(steady.slip[0, 0] - want.slip[0, 0]) > 1e-3
+
+
 def test_learned_model_on_held_out_seed(tiny_table):
     runs, X, Y, meta = tiny_table
     test = (meta["seed"] == 100).to_numpy()
