@@ -374,3 +374,60 @@ def test_a_table_name_with_a_folder_is_logged_in_that_folder(tmp_path, monkeypat
         run.log_table(table, "tables/tuning.csv")
     root = tmp_path / "mlartifacts" / "terrain-test" / run.run_id / "artifacts"
     assert pd.read_csv(root / "tables" / "tuning.csv").equals(table)
+
+
+@pytest.mark.parametrize("fluent", [True, False])
+def test_a_run_whose_block_raises_ends_failed_and_not_active(tmp_path, monkeypatch, fluent):
+    """A pipeline that fails inside its run leaves it ``FAILED`` (not ``FINISHED`` or
+    ``RUNNING``), whether the run was MLflow's active run or only the client's, and the
+    error reaches the caller."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    previous = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'other.db'}")   # exports the variable
+    if not fluent:   # the run's store is not MLflow's process-wide one
+        monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path / 'mine.db'}")
+    try:
+        with pytest.raises(ZeroDivisionError):
+            with tracked_run("terrain-test", announce=False) as run:
+                assert (mlflow.active_run() is not None) == fluent
+                1 / 0
+        assert mlflow.active_run() is None
+    finally:
+        mlflow.set_tracking_uri(previous)
+    mine = f"sqlite:///{tmp_path / ('other.db' if fluent else 'mine.db')}"
+    assert run.uri == mine
+    assert mlflow.MlflowClient(tracking_uri=mine).get_run(run.run_id).info.status == "FAILED"
+
+
+def test_code_version_is_the_commit_marked_dirty_by_modified_tracked_files(tmp_path,
+                                                                          monkeypatch):
+    """``code_version`` tags a run with the source tree's commit, ``-dirty`` when a tracked
+    file differs from it (an untracked file does not), and the package version outside a
+    git checkout."""
+    import subprocess
+
+    import terrain
+    import terrain.tracking as tracking
+
+    def git(*args):
+        return subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                              cwd=tmp_path / "repo", check=True, capture_output=True,
+                              text=True).stdout.strip()
+
+    (tmp_path / "repo").mkdir()
+    module = tmp_path / "repo" / "tracking.py"
+    module.write_text("x = 1\n")
+    git("init", "-q")
+    git("add", "tracking.py")
+    git("commit", "-q", "-m", "c")
+    sha = git("rev-parse", "HEAD")
+    monkeypatch.setattr(tracking, "__file__", str(module))
+    assert code_version() == sha and len(sha) == 40
+    (tmp_path / "repo" / "new.txt").write_text("untracked\n")
+    assert code_version() == sha
+    module.write_text("x = 2\n")
+    assert code_version() == sha + "-dirty"
+    (tmp_path / "plain").mkdir()
+    monkeypatch.setattr(tracking, "__file__", str(tmp_path / "plain" / "tracking.py"))
+    assert code_version() == f"terrain-{terrain.__version__}"
