@@ -400,8 +400,8 @@ def test_a_run_whose_block_raises_ends_failed_and_not_active(tmp_path, monkeypat
     assert mlflow.MlflowClient(tracking_uri=mine).get_run(run.run_id).info.status == "FAILED"
 
 
-def test_code_version_is_the_commit_marked_dirty_by_modified_tracked_files(tmp_path,
-                                                                          monkeypatch):
+def test_code_version_is_the_commit_marked_dirty_by_modified_tracked_files(
+        tmp_path, monkeypatch):
     """``code_version`` tags a run with the source tree's commit, ``-dirty`` when a tracked
     file differs from it (an untracked file does not), and the package version outside a
     git checkout."""
