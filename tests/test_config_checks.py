@@ -1,6 +1,8 @@
-"""terrain.errors.config_positive: the one check of a positive (or non-negative) setting."""
+"""terrain.errors: the checks of settings (positive, integer, number) and message helpers."""
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pytest
@@ -28,3 +30,51 @@ def test_listed_shows_the_first_items_and_counts_the_others():
     assert listed(["a", "b"]) == "['a', 'b']"
     assert listed([f"c{i}" for i in range(7)], 3) == "['c0', 'c1', 'c2'] and 4 more"
     assert listed(["x" * 40], show=lambda s: s[:4]) == "['xxxx']"
+
+
+def test_first_items_shows_the_first_lines_and_counts_the_others():
+    from terrain.errors import first_items
+    assert first_items([4]) == "line 4"
+    assert first_items([4, 9, 12]) == "lines 4, 9, 12"
+    assert first_items([4, 9, 12, 20, 21]) == "lines 4, 9, 12 and 2 more"
+    assert first_items(["a.csv", "b.csv"], limit=1, word="file") == "files a.csv and 1 more"
+
+
+def test_duplicated_names_each_repeated_item_once_sorted():
+    from terrain.errors import duplicated
+    assert duplicated(["t_s", "ax", "wz", "ax", "t_s", "ax"]) == ["ax", "t_s"]
+    assert duplicated(["a", "b"]) == []
+
+
+@pytest.mark.parametrize("value, ok", [(0, False), (1, True), (5, True), (6, False),
+                                       (np.int64(3), True), (True, False), (2.0, False),
+                                       ("3", False), (None, False)])
+def test_config_integer_takes_integers_in_the_closed_range_only(value, ok):
+    from terrain.errors import config_integer
+    if ok:
+        config_integer("buffer_samples", value, 1, 5)
+    else:
+        with pytest.raises(ConfigError, match=rf"^buffer_samples must be an integer in \[1, 5\], "
+                                              rf"got {re.escape(repr(value))}$"):
+            config_integer("buffer_samples", value, 1, 5)
+
+
+def test_config_integer_without_an_upper_bound():
+    from terrain.errors import config_integer
+    config_integer("reset_windows", 10 ** 9, 0)
+    with pytest.raises(ConfigError, match=r"^reset_windows must be an integer >= 0, got -1$"):
+        config_integer("reset_windows", -1, 0)
+
+
+@pytest.mark.parametrize("value", [True, "1.0", b"1", 1j, [1.0], np.array([1.0, 2.0]),
+                                   np.bool_(True), np.str_("1"), None])
+def test_config_numbers_refuses_what_is_not_one_real_number(value):
+    from terrain.errors import config_numbers
+    with pytest.raises(ConfigError, match=r"^StreamConfig\.hop_s must be a real number, got "):
+        config_numbers("StreamConfig", hop_s=value)
+
+
+def test_config_numbers_takes_real_scalars_and_optional_none():
+    from terrain.errors import config_numbers
+    config_numbers("StreamConfig", ("dwell_s",), hop_s=0.5, n=3, f=np.float32(1.5),
+                   i=np.int16(2), zero_d=np.array(2.5), dwell_s=None)
