@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
+import pytest
 
+from terrain.errors import MissingColumnError
 from terrain.run import Run
 
 
@@ -14,3 +17,32 @@ def test_a_run_without_samples_lasts_zero_seconds():
     assert Run("sim/X/01", "sim", None, {}).duration_s == 0.0
     two = pd.DataFrame({"t_s": [1.0, 3.5]})
     assert Run("sim/X/02", "sim", None, {"wheels": two}).duration_s == 2.5
+
+
+def test_duration_is_the_wheel_streams_and_else_the_longest_streams():
+    imu = pd.DataFrame({"t_s": [0.0, 30.0]})
+    wheels = pd.DataFrame({"t_s": [2.0, 12.0]})
+    assert Run("r/X/00", "r", None, {"imu": imu, "wheels": wheels}).duration_s == 10.0
+    cam = pd.DataFrame({"t_s": [5.0, 9.0]})
+    assert Run("r/X/01", "r", None, {"cam": cam, "imu": imu}).duration_s == 30.0
+
+
+def test_rate_is_one_over_the_median_step():
+    # steps of 0.01 s with one 2 s gap and one doubled step: the median ignores them
+    t = np.concatenate([np.arange(0.0, 1.0, 0.01), [3.0, 3.02], 3.02 + np.arange(1, 50) * 0.01])
+    run = Run("r/X/00", "r", None, {"imu": pd.DataFrame({"t_s": t})})
+    assert run.rate_hz("imu") == pytest.approx(100.0)
+
+
+def test_require_columns_names_the_run_stream_file_and_missing_columns():
+    frame = pd.DataFrame({"t_s": [0.0], "vel_l": [0.0]})
+    run = Run("borealtc/SNOW/03", "borealtc", "SNOW", {"wheels": frame}, source="a/b.csv")
+    assert run.require_columns("wheels", ["vel_l"]) is frame
+    with pytest.raises(MissingColumnError) as err:
+        run.require_columns("wheels", ["vel_l", "cur_l", "cur_r"])
+    assert str(err.value).startswith("run borealtc/SNOW/03: stream 'wheels' lacks columns "
+                                     "['cur_l', 'cur_r']")
+    assert "a/b.csv" in str(err.value) and "cur_l" in str(err.value)
+    with pytest.raises(MissingColumnError, match=r"lacks columns \['t_s'\]"):
+        Run("r/X/00", "r", None, {"imu": pd.DataFrame({"ax": [1.0]})}).require_columns(
+            "imu", ["ax"])
