@@ -1,0 +1,133 @@
+"""Run-grouped evaluation of the slip models: no held-out window reaches a fit, baselines
+fitted on the training windows only, odometry scored against the window centres."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.run import Run
+from terrain.slip.evaluation import (STEADY_AFTER_S, baseline_predictions, error_table,
+                                     fit_predict, leave_one_out, odometry_errors,
+                                     steady_straight)
+from terrain.slip.odometry import dead_reckon
+from terrain.vehicles import HUSKY
+
+
+class _Recorder:
+    """Predicts the mean target of the rows it was fitted on; remembers those rows (the
+    first feature column is the window's index)."""
+
+    fitted: list = []
+
+    def fit(self, X, Y):
+        _Recorder.fitted.append(np.asarray(X)[:, 0].astype(int).tolist())
+        self.mean = np.asarray(Y).mean(axis=0)
+        return self
+
+    def predict(self, X):
+        return np.tile(self.mean, (len(X), 1))
+
+
+def _table(n=8):
+    X = pd.DataFrame({"i": np.arange(n, dtype=float)})
+    Y = np.arange(2 * n, dtype=float).reshape(n, 2)
+    return X, Y
+
+
+def test_fit_predict_fits_on_the_training_windows_only_and_refuses_overlap():
+    X, Y = _table()
+    train = np.array([1, 1, 1, 0, 0, 0, 0, 0], bool)
+    test = np.array([0, 0, 0, 0, 1, 1, 0, 0], bool)
+    _Recorder.fitted = []
+    out = fit_predict(_Recorder, X, Y, train, test)
+    assert _Recorder.fitted == [[0, 1, 2]]
+    np.testing.assert_allclose(out[test], [Y[:3].mean(axis=0)] * 2)
+    assert np.isnan(out[~test]).all()
+    with pytest.raises(ConfigError, match="disjoint"):
+        fit_predict(_Recorder, X, Y, train, train | test)     # a test window in training
+
+
+def test_leave_one_out_never_trains_on_the_group_it_predicts():
+    X, Y = _table()
+    groups = np.array(["a", "a", "b", "b", "c", "c", "c", "c"])
+    train = np.array([1, 0, 1, 0, 1, 1, 0, 0], bool)
+    test = ~train
+    _Recorder.fitted = []
+    out = leave_one_out(_Recorder, X, Y, groups, train, test)
+    assert _Recorder.fitted == [[2, 4, 5], [0, 4, 5], [0, 2]]   # groups a, b, c held out
+    np.testing.assert_allclose(out[1], Y[[2, 4, 5]].mean(axis=0))
+    np.testing.assert_allclose(out[7], Y[[0, 2]].mean(axis=0))
+    assert np.isnan(out[train]).all()
+
+
+def test_steady_straight_boundaries():
+    meta = pd.DataFrame({"scenario": ["straight_accel"] * 3 + ["random"],
+                         "t_start_s": [STEADY_AFTER_S, STEADY_AFTER_S - 0.1, 10.0, 10.0]})
+    np.testing.assert_array_equal(steady_straight(meta, [0.0, 0.0, 0.0, 0.0]),
+                                  [True, False, True, False])
+    np.testing.assert_array_equal(steady_straight(meta, [0.0499, 0.0, -0.05, 0.0]),
+                                  [True, False, False, False])   # |yaw rate| below 0.05
+
+
+def test_error_table_p90_over_both_sides():
+    meta = pd.DataFrame({"run_id": ["a"] * 5, "terrain": ["SNOW"] * 5})
+    pred = np.column_stack([np.arange(5) * 0.01, np.arange(5, 10) * 0.01])    # 0 .. 0.09
+    row = error_table(pred, np.zeros((5, 2)), meta, np.ones(5, bool)).iloc[0]
+    assert row["p90_abs_err"] == pytest.approx(np.percentile(np.arange(10) * 0.01, 90))
+    assert row["median_abs_err"] == pytest.approx(0.045)
+
+
+def _run(run_id, t, vl, vr, truth_xy=None):
+    streams = {"wheels": pd.DataFrame({"t_s": t, "vel_l": vl, "vel_r": vr}),
+               "imu": pd.DataFrame({"t_s": t, "wz": 0.0})}
+    if truth_xy is not None:
+        streams = {"wheels": streams["wheels"],
+                   "truth": pd.DataFrame({"t_s": t, "x": truth_xy[:, 0], "y": truth_xy[:, 1]})}
+    return Run(run_id, "sim", "SNOW", streams)
+
+
+def test_pitch_linear_baseline_is_fitted_on_straight_training_windows_only():
+    # eq. 22 on the mean slip of both sides of the straight training windows; a held-out
+    # window (slip 0.9) or a turning one must not move the line s = 0.1 + 0.5 pitch
+    pitch = np.array([0.0, 0.1, 0.2, 0.3, 0.05, 0.15])
+    wz = np.array([0.0, 0.0, 0.01, 0.0, 0.0, 0.5])
+    mean = 0.1 + 0.5 * pitch
+    Y = np.column_stack([mean - 0.05, mean + 0.05])
+    train = np.array([1, 1, 1, 0, 0, 1], bool)
+    Y[~train] = 0.9
+    Y[5] = 0.9                                  # turning training window
+    X = pd.DataFrame({"pitch": pitch, "vel_l__mean": 0.5, "vel_r__mean": 0.5,
+                      "wz__mean": wz, "phys_slip_l": 0.0, "phys_slip_r": 0.0})
+    t = np.arange(0.0, 10.0, 0.1)
+    run = _run("sim/SNOW/a/0", t, 0.5, 0.5)
+    meta = pd.DataFrame({"run_id": run.run_id, "terrain": "SNOW",
+                         "t_start_s": np.arange(6.0), "t_end_s": np.arange(6.0) + 1.0})
+    out = baseline_predictions(X, Y, meta, train, [run], HUSKY.track_m)["pitch-linear"]
+    np.testing.assert_allclose(out, np.column_stack([mean, mean]), atol=1e-9)
+
+
+def test_odometry_errors_interpolate_the_predictions_from_the_window_centres():
+    # truth: the wheels compensated with the true side slips, which are the window values
+    # interpolated between the window centres: the compensated odometry is exact, the
+    # plain one is not, and swapping the sides or taking the window starts is not exact
+    t = np.arange(0.0, 12.0, 0.05)
+    vl, vr = np.full_like(t, 0.5), np.full_like(t, 1.0)
+    starts = np.arange(0.0, 10.0, 2.0)
+    centres = starts + 1.0
+    s_left = np.array([0.3, 0.05, 0.4, 0.35, 0.1])
+    s_right = np.array([0.05, 0.25, 0.0, 0.1, 0.2])
+    truth = dead_reckon(t, vl, vr, HUSKY.track_m, np.interp(t, centres, s_left),
+                        np.interp(t, centres, s_right))
+    run = _run("sim/SNOW/turn/0", t, vl, vr, truth[:, :2])
+    meta = pd.DataFrame({"run_id": run.run_id, "t_start_s": starts, "t_end_s": starts + 2.0})
+    pred = np.column_stack([s_left, s_right, np.ones(5), np.zeros(5)])
+    row = odometry_errors([run], meta, pred, HUSKY.track_m, [run.run_id]).iloc[0]
+    assert row["compensated_err_pct"] < 1e-9
+    assert row["plain_err_pct"] > 1.0
+    assert row["reduction_pct"] == pytest.approx(100.0)
+    assert not row["slid_off"]
+    assert np.isnan(row["gyro_heading_err_pct"])            # no IMU
+    assert row["duration_s"] == pytest.approx(t[-1])
