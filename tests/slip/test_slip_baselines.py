@@ -1,0 +1,65 @@
+"""Seed slip baselines and dead reckoning at their documented boundaries."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError, DataWarning, TimeStepError
+from terrain.slip.baselines import (endo_turning_slip, fit_pitch_slip, observer_slip,
+                                    slip_ratio_as_sae)
+from terrain.slip.odometry import BRAKING_SLIP_FLOOR, dead_reckon
+
+
+def test_pitch_line_is_fitted_over_a_pitch_span_of_a_few_hundredths():
+    pitch = np.linspace(0.0, 0.05, 6)            # 0.05 rad: above the 0.01 rad floor
+    coef = fit_pitch_slip(pitch, 0.02 + 0.4 * pitch, ["SNOW"] * 6)
+    assert coef["SNOW"] == pytest.approx((0.02, 0.4))
+    flat = fit_pitch_slip(np.full(3, 0.1) + [0.0, 0.002, 0.004], [0.1, 0.2, 0.3], ["SNOW"] * 3)
+    assert flat["SNOW"] == pytest.approx((0.2, 0.0))
+
+
+def test_endo_slip_is_defined_from_the_turn_threshold_on_and_not_for_a_still_side():
+    vl, vr = np.array([0.2, 0.2, 0.2]), np.array([0.5, 5e-4, 0.5])
+    out = endo_turning_slip(vl, vr, np.array([0.1, -0.5, 0.0999]), 0.5, min_turn_rad_s=0.1)
+    assert np.isfinite(out[0]).all()                    # |yaw rate| == threshold: a turn
+    assert np.isnan(out[1]).all()                       # right side (nearly) still
+    assert np.isnan(out[2]).all()                       # below the threshold
+
+
+def test_endo_slip_exactly_at_plus_minus_one_is_not_counted_as_clipped():
+    # equal side speeds: rho = -1, alpha_r = -B w / (2 v) = 1 exactly, alpha_l = -1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = endo_turning_slip(np.array([1.0]), np.array([1.0]), np.array([-2.0]), 1.0)
+    np.testing.assert_array_equal(out, [[-1.0, 1.0]])
+
+
+def test_slip_ratio_as_sae_has_no_dead_band_at_creeping_speed():
+    # rim 2 cm/s, alpha 0.5: ground 1 cm/s, SAE 0.5 (the slow speed is a convention change
+    # only, not the thesis's dead band that would report 0)
+    np.testing.assert_allclose(slip_ratio_as_sae(np.array([0.02, -0.02]), np.array([0.5, 0.5])),
+                               [0.5, -0.5])
+
+
+def test_observer_refuses_a_zero_half_track():
+    t = np.arange(0.0, 1.0, 0.1)
+    with pytest.raises(ConfigError, match="half_track_m"):
+        observer_slip(t, np.zeros_like(t), np.ones_like(t), np.ones_like(t), 0.0)
+
+
+def test_dead_reckon_refuses_a_repeated_time():
+    t = np.array([0.0, 0.1, 0.1, 0.2])
+    with pytest.raises(TimeStepError, match="strictly increasing"):
+        dead_reckon(t, np.ones(4), np.ones(4), 0.5)
+
+
+def test_dead_reckon_slip_exactly_at_the_braking_floor_is_not_said_to_be_held():
+    t = np.arange(4.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        pose = dead_reckon(t, np.ones(4), np.ones(4), 0.5, np.full(4, BRAKING_SLIP_FLOOR),
+                           np.full(4, BRAKING_SLIP_FLOOR))
+    assert pose[-1, 0] == pytest.approx(3.0 / (1.0 + BRAKING_SLIP_FLOOR))
