@@ -23,3 +23,12 @@ def test_skid_steer_slip_with_the_lag_applied_beats_no_lag():
         e = est.slip[moving] - tr[["slip_1", "slip_2"]].to_numpy()[moving]
         errs[mode] = float(np.sqrt(np.nanmean(e ** 2)))
     assert errs["xcorr"] < 0.8 * errs["none"], errs
+
+
+def test_resample_gives_nan_for_a_column_with_a_single_finite_sample():
+    from terrain.slip.estimate import resample
+    t = np.array([0.0, 1.0, 2.0])
+    values = np.array([[1.0, np.nan], [2.0, 5.0], [3.0, np.nan]])
+    out = resample(np.array([0.5, 1.0, 2.5]), t, values)
+    np.testing.assert_allclose(out[:, 0], [1.5, 2.0, np.nan])
+    assert np.isnan(out[:, 1]).all()             # one sample: no line to interpolate on
