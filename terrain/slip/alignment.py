@@ -135,14 +135,15 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
     """
     # (inf overflowed int() below, NaN compared False)
     config_positive("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
-    if round(max_lag_s * rate_hz) < 1:
+    # the nearest grid lag, halves up (Python's round() takes 0.5 to 0 and 2.5 to 2)
+    max_k = int(np.floor(max_lag_s * rate_hz + 0.5 + 1e-9))
+    if max_k < 1:
         raise ConfigError(f"max_lag_s {max_lag_s:g} s is under half a grid step of "
                           f"{1 / rate_hz:g} s (rate_hz {rate_hz:g}): only the lag 0 would be "
                           "searched")
     tr, r = _finite(t_ref_s, ref, "t_ref_s")
     ts, s = _finite(t_sig_s, sig, "t_sig_s")
     t0, t1 = max(tr[0], ts[0]), min(tr[-1], ts[-1])
-    max_k = int(round(max_lag_s * rate_hz))
     n = int(np.floor((t1 - t0) * rate_hz)) + 1 if t1 > t0 else 0
     if n < 4 * max_k or n < 20:
         raise EstimationError(f"signals overlap {max(t1 - t0, 0):.2f} s, too short to estimate "

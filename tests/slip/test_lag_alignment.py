@@ -58,6 +58,10 @@ def test_fewer_than_20_finite_samples_are_refused_whatever_the_grid():
 def test_a_search_of_one_grid_step_is_allowed():
     est = estimate_lag(T, STEPS, T, STEPS, max_lag_s=0.01)
     assert abs(est.lag_s) <= 0.01
+    # half a grid step, the least the docstring allows, searches one step (Python's round()
+    # takes 0.5 to 0, and refused it as "under half a grid step")
+    est = estimate_lag(T, STEPS, T, np.interp(T - 0.01, T, STEPS), max_lag_s=0.005)
+    assert est.lag_s == pytest.approx(0.01, abs=0.002)
     with pytest.raises(ConfigError, match="half a grid step"):
         estimate_lag(T, STEPS, T, STEPS, max_lag_s=0.004)
 
