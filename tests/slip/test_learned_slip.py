@@ -704,11 +704,13 @@ def test_chi_clip_of_the_odometry_and_yaw_checks_is_counted_and_said():
     X = pd.DataFrame({"wz__mean": [0.3, 0.3, 0.0], "vel_diff__mean": [0.2, 0.2, 0.0],
                       "cur_l__mean": 1.0, "cur_r__mean": 1.0, "phys_slip_l": 0.0,
                       "phys_slip_r": 0.0})
-    pred = np.array([[0.0, 0.0, 0.2, 0.0], [0.0, 0.0, 2.0, 0.0], [0.0, 0.0, 9.0, 0.0]])
+    # chi 3, not 2: the clipped 0.5 and 2 are reciprocal, so chi multiplying the wheel yaw
+    # rate instead of dividing it gave the same RMS and passed
+    pred = np.array([[0.0, 0.0, 0.2, 0.0], [0.0, 0.0, 3.0, 0.0], [0.0, 0.0, 9.0, 0.0]])
     with pytest.warns(DataWarning, match=r"chi of 1 of 2 turning windows outside"):
         checks = measured_checks(X, pred, np.array(["a", "a", "a"]), np.array(["S"] * 3),
                                  HUSKY.track_m)
-    expected = np.sqrt(np.mean((0.3 - 0.2 / (np.array([0.5, 2.0]) * HUSKY.track_m)) ** 2))
+    expected = np.sqrt(np.mean((0.3 - 0.2 / (np.array([0.5, 3.0]) * HUSKY.track_m)) ** 2))
     assert checks.loc[0, "yaw_rms_compensated_rad_s"] == pytest.approx(expected)
 
 
