@@ -96,3 +96,20 @@ def test_two_writers_of_one_cache_cell_do_not_trip_over_one_temporary_file(tmp_p
     assert len(calls) == 2 and calls[0] != calls[1]
     assert [f.name for f in tmp_path.iterdir()] == [dataset.cache_key(config)]
     assert dataset.simulated_run(config, tmp_path).streams["imu"].equals(run.streams["imu"])
+
+
+def test_simulator_digest_follows_the_vehicles_default_sensor_settings(monkeypatch):
+    """The default sensor settings (rates, noise) shape every simulated run: a change of
+    them must invalidate the caches as a change of the vehicle's parameters does."""
+    import dataclasses
+
+    import terrain.sim.digest as digest
+
+    before = simulator_digest("husky", ("SNOW",))
+    sensors = dict(digest.DEFAULT_SENSORS)
+    husky = sensors["husky"]
+    sensors["husky"] = dataclasses.replace(husky, wheel_rate_hz=2.0 * husky.wheel_rate_hz)
+    monkeypatch.setattr(digest, "DEFAULT_SENSORS", sensors)
+    assert simulator_digest("husky", ("SNOW",)) != before
+    monkeypatch.setattr(digest, "DEFAULT_SENSORS", {**sensors, "husky": husky})
+    assert simulator_digest("husky", ("SNOW",)) == before
