@@ -101,3 +101,24 @@ def test_a_stream_whose_clock_is_not_finite_and_non_decreasing_is_refused_naming
         with pytest.raises(DataFormatError, match=r"run test/SNOW/00.*wheels") as err:
             next(measured_observations(_run(imu_t, times), 0.2))
         assert (err.value.column, err.value.row, err.value.path) == ("t_s", row, "mem")
+
+
+def test_the_last_call_is_at_the_end_of_the_common_span_and_repeated_times_are_kept():
+    """Calls run from t0 to the last t0 + k / rate not after the common end t1 (here t1
+    itself, 2.0 s at 20 Hz: 41 calls, the last one carrying the samples at 2.0 s); a clock
+    that repeats a time (non-decreasing) is accepted, both samples delivered; streams that
+    meet in one instant give that one call, not a ClockError."""
+    imu_t = np.arange(0, 201) / 100.0                          # 0 .. 2.0 s
+    wheel_t = np.r_[np.arange(0, 21) / 10.0]                   # 0 .. 2.0 s
+    obs = list(measured_observations(_run(imu_t, wheel_t), 0.2, 20.0))
+    assert len(obs) == 41 and obs[-1].t_s == pytest.approx(2.0)
+    assert obs[-1].wheels[-1, 0] == 2.0 and obs[-1].imu[-1, 0] == 2.0
+    assert sum(len(o.wheels) for o in obs) == 21 and sum(len(o.imu) for o in obs) == 201
+    repeated = np.r_[wheel_t[:5], wheel_t[4], wheel_t[5:]]     # 0.4 s logged twice
+    obs = list(measured_observations(_run(imu_t, repeated), 0.2, 20.0))
+    w = np.concatenate([o.wheels[:, 0] for o in obs])
+    np.testing.assert_array_equal(w, repeated)
+    meet = list(measured_observations(_run(np.array([0.0, 0.5, 1.0]),
+                                           np.array([1.0, 1.5])), 0.2, 20.0))
+    assert [o.t_s for o in meet] == [1.0]
+    assert meet[0].imu[:, 0].tolist() == [1.0] and meet[0].wheels[:, 0].tolist() == [1.0]
