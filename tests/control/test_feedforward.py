@@ -73,6 +73,19 @@ def test_engaged_limit_is_released_no_faster_than_the_terrain_accelerates():
     np.testing.assert_allclose(slow.v_ref_m_s, 0.2 + 2 * a_max * dt)
 
 
+def test_a_command_exactly_at_its_limit_does_not_engage_it():
+    """With a zero target slip the reference that has caught up with the rim speed puts the
+    limit exactly at the command: nothing to correct, and the limit does not bind (the
+    command is not above it), so the next step's estimate lifts the reference freely."""
+    r, a_max, dt = 0.5, 0.5, 0.02
+    ff = feedforward_step(np.array([1.0]), np.zeros(1), np.array([2.0]), a_max, 0.0, r, dt)
+    np.testing.assert_allclose(ff.omega_limit_rad_s, [2.0])
+    assert ff.engaged.tolist() == [False] and ff.correction_rad_s.tolist() == [0.0]
+    nxt = feedforward_step(ff.v_ref_m_s, np.array([1.5]), np.array([4.0]), a_max, 0.0, r, dt,
+                           engaged=ff.engaged)
+    np.testing.assert_allclose(nxt.v_ref_m_s, [1.5])        # not held to 1.0 + a_max dt
+
+
 @pytest.mark.parametrize("vehicle,estimator,terrains", [
     ("husky", "fused", ("SNOW", "ICE", "GRASS", "TILES")),
     ("husky", "observer", ("SNOW", "ICE")),
