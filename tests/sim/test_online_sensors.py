@@ -236,3 +236,71 @@ def test_online_sensors_with_a_resolution_of_zero_report_unquantised_values():
     assert np.isfinite(currents).all()
     k = np.searchsorted(sim.physics.t_s, steer[:, 0] - 1e-9)
     np.testing.assert_allclose(steer[:, 1:], sim.physics.delta[k], atol=1e-12)
+
+
+def _snap(k, t, omega, torque=(0.0, 0.0, 0.0), twist=(0.0, 0.0, 0.0), yaw=0.0):
+    om = np.asarray(omega, dtype=float)
+    return PlantSnapshot(k, t, np.array([0.0, 0.0, yaw]), np.asarray(twist, dtype=float),
+                         np.zeros(2), om, np.zeros(om.size), om, np.asarray(torque, float),
+                         0.0, 0.0, 0)
+
+
+def test_online_camera_encoders_and_currents_from_known_snapshots():
+    """Noise-free AgriMaRo sensors on hand-made plant states: the camera reads the velocity
+    at its mount, ``(vx - w l_y, vy + w l_x)``; the encoder's driver filter is first order,
+    ``f <- a f + (1 - a) omega`` with ``a = exp(-dt / tau)``; the drive reports current
+    magnitudes, also for a braking (negative) torque."""
+    from dataclasses import replace
+
+    from terrain.sim.forces import reported_current_a
+    from terrain.vehicles import get_vehicle
+
+    quiet = replace(DEFAULT_SENSORS["agrimaro"], gyro_noise_rad_s=0.0, accel_noise_m_s2=0.0,
+                    accel_bias_std_m_s2=0.0, current_noise_a=0.0, current_quantum_a=0.0,
+                    speed_quantum_m_s=1e-9, cam_noise_m_s=0.0, cam_yaw_rate_noise_rad_s=0.0,
+                    cam_yaw_noise_rad=0.0, cam_outage_rate_hz=0.0)
+    veh = get_vehicle("agrimaro")
+    s = OnlineSensors("agrimaro", quiet, 0, 1.0)
+    torque = np.array([-20.0, 5.0, -3.0])
+    s.record(_snap(0, 0.0, [0.0, 0.0, 0.0], torque, (1.0, 0.2, 0.5), 0.1))
+    obs = s.take(0.0, np.zeros(3))
+    lx, ly = veh.camera_lever_arm_m[:2]
+    np.testing.assert_allclose(obs.cam[0, 1:], [1.0 - 0.5 * ly, 0.2 + 0.5 * lx, 0.5, 0.1])
+    expect = np.abs(reported_current_a(veh.motor, torque, np.zeros(3), "v1"))
+    assert (expect > 0).all()
+    np.testing.assert_allclose(obs.currents[0, 1:], expect)
+    dt, tau, f = 0.01, veh.motor.encoder_filter_s, np.zeros(3)
+    for k in range(1, 3):                   # a step of the wheel speed to 6 rad/s
+        s.record(_snap(k, k * dt, [6.0, 6.0, 6.0]))
+        a = np.exp(-dt / tau)
+        f = a * f + (1 - a) * 6.0
+    s.ch["wheels"].next_t = 0.0             # sample the filter now
+    s.record(_snap(3, 3 * dt, [6.0, 6.0, 6.0]))
+    f = np.exp(-dt / tau) * f + (1 - np.exp(-dt / tau)) * 6.0
+    np.testing.assert_allclose(s.take(0.03, np.zeros(3)).wheels[-1, 1:], f, rtol=1e-6)
+    # at zero torque the drive's noise is reported as a magnitude too, never negative
+    noisy = OnlineSensors("agrimaro", replace(quiet, current_noise_a=0.08), 0, 1.0)
+    for k in range(60):
+        noisy.record(_snap(k, k * dt, [0.0, 0.0, 0.0]))
+    cur = noisy.take(0.6, np.zeros(3)).currents[:, 1:]
+    assert cur.size >= 60 and (cur >= 0).all() and (cur > 0).any()
+
+
+def test_replaying_a_run_gives_the_observations_its_controller_saw():
+    """A controller that corrects nothing leaves the run as the open loop's; replaying that
+    run (:func:`replay_observations`) must hand over what the controller received, every
+    sample and the low-level command of the step about to be applied (the ramp of
+    ``straight_accel`` changes it at every step)."""
+    from terrain.sim.closed_loop import simulate_closed_loop
+
+    cfg = SimConfig(vehicle="husky", terrains=("ICE",), scenario="straight_accel",
+                    duration_s=1.0, seed=3)
+    seen = []
+    sim = simulate_closed_loop(cfg, lambda obs: seen.append(obs) or np.zeros(2))
+    replayed = list(replay_observations(sim))
+    assert len(replayed) == len(seen) == 51
+    assert np.ptp([o.omega_low_level[0] for o in seen]) > 0
+    for a, b in zip(seen, replayed):
+        assert a.t_s == b.t_s
+        for name in a._fields[1:]:
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
