@@ -585,3 +585,103 @@ def test_a_non_finite_acceleration_estimate_suspends_the_control_for_that_call_o
         c = loop(_observation(0.04 + 0.02 * k, np.full(n, 0.6 / r)))
         assert not loop.log[-1]["safe"].any() and np.all(loop.log[-1]["mode"] == -1)
     assert np.all(c > 0.5)
+
+
+def test_loop_metrics_summaries_from_known_values():
+    """The run's summaries recomputed from the physics and the log after planting known
+    values: braking (negative) shaft power is not mechanical energy spent; the cruise speed
+    is the largest *mean* command of the wheels times the radius (not the fastest single
+    wheel); the skid-steer sides' true speeds are ``vx -/+ yaw_rate B / 2`` (left first);
+    the final speed the mean over the last ``final_window_s``."""
+    from terrain.control.closed_loop import loop_metrics
+    from terrain.sim.sensors import physics_step_index
+    from terrain.vehicles import get_vehicle
+
+    sim, loop, _ = run_closed_loop("husky", "TILES", "straight_accel", False, 2, 3.0)
+    phys, veh = sim.physics, get_vehicle("husky")
+    dt = phys.t_s[1] - phys.t_s[0]
+    phys.torque[: len(phys.t_s) // 3] *= -1.0                 # a braking third
+    phys.twist[:, 2] = 0.3                                    # turning at 0.3 rad/s
+    big = 4.0 * max(np.abs(r["omega_low_level"]).mean() for r in loop.log)
+    loop.log[5]["omega_low_level"] = np.array([big, -0.25 * big])
+    m = loop_metrics(sim, loop, 24.0)
+    speed = np.hypot(phys.twist[:, 0], phys.twist[:, 1])
+    distance = speed.sum() * dt
+    power = phys.torque * phys.omega
+    assert (power < 0).any()
+    assert m["mech_energy_j_per_m"] == pytest.approx(np.clip(power, 0, None).sum() * dt
+                                                     / distance, rel=1e-9)
+    assert m["cruise_speed_m_s"] == pytest.approx(0.625 * big * veh.wheel_radius_m, rel=1e-12)
+    t_log = np.array([r["t_s"] for r in loop.log])
+    idx = physics_step_index(phys.t_s, t_log)
+    half = 0.5 * veh.track_m * 0.3
+    v_true = np.column_stack([phys.twist[idx, 0] - half, phys.twist[idx, 0] + half])
+    v_est = np.array([r["v_long"] for r in loop.log])
+    assert m["speed_estimate_rmse_m_s"] == pytest.approx(
+        math.sqrt(np.mean((v_est - v_true) ** 2)), rel=1e-9)
+    final = speed[phys.t_s >= phys.t_s[-1] - 2.0]
+    assert len(final) > 1 and m["final_speed_m_s"] == pytest.approx(final.mean(), rel=1e-12)
+
+
+def test_the_logged_steady_target_takes_the_sign_of_the_motion():
+    """Reversing (negative ground speed) the steady set point scored by the metrics is the
+    table's steady slip with the sign of the motion (SNOW: -0.167), as forwards +0.167."""
+    ctrl_cfg, n = config_for_vehicle("husky", kp=2.0)
+    r = ctrl_cfg.wheel_radius_m
+    table = build_slip_table(["SNOW"])
+    steady = table.entries["SNOW"].steady
+    assert steady > 0.1
+    for sign in (1.0, -1.0):
+        loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(sign * 1.0, sign * 0.8, 0.0, r),
+                            table, lambda t: ("SNOW", 1.0))
+        loop(_observation(0.02, np.full(n, sign * 1.0 / r)))
+        np.testing.assert_allclose(loop.log[-1]["steady_target"], sign * steady)
+
+
+def test_tuning_cost_clips_a_faster_start_and_charges_a_run_without_steady_samples(
+        monkeypatch):
+    """Per run: a controlled start faster than the uncontrolled one is no time increase (0,
+    not a negative credit that buys a poor slip RMSE), and a run without steady samples
+    counts as missing the steady target in full (1)."""
+    import terrain.control.grid as grid
+
+    def fake_run(vehicle, terrain, scenario, on, seed, duration_s, gains=None, **kw):
+        if not on:
+            return None, None, {"time_to_speed_s": 2.0, "slip_rmse": 0.3,
+                                "steady_slip_within_0_02": 0.5}
+        return None, None, {"time_to_speed_s": 1.0, "slip_rmse": 0.05,
+                            "steady_slip_within_0_02": None if gains[0] == 1.0 else 0.75}
+
+    monkeypatch.setattr(grid, "run_closed_loop", fake_run)
+    best, table = grid.tune_gains("husky", ["ICE"], [1.0, 2.0], [0.0], duration_s=10.0,
+                                  seeds=(1000,))
+    rows = table.set_index("kp")
+    assert rows["time_increase"].tolist() == [0.0, 0.0]                   # not -0.5
+    assert rows["steady_miss"].to_dict() == pytest.approx({1.0: 1.0, 2.0: 0.25})
+    assert best == (2.0, 0.0)
+    assert rows.loc[1.0, "cost"] == pytest.approx(0.05 + 0.5 * 1.0)
+
+
+def test_grid_axes_compare_terrain_names_in_any_case_and_name_the_axis():
+    from terrain.control.grid import check_grid_axes
+
+    with pytest.raises(ConfigError, match=r"terrains: .*ICE.* given more than once"):
+        check_grid_axes(["husky"], ["ICE", "ice"], ["straight_accel"], [0])
+    with pytest.raises(ConfigError, match=r"vehicles: .*husky"):
+        run_grid(["husky", "Husky"], ["ICE"], ["straight_accel"], [0], {"husky": (2.0, 0.0)})
+    check_grid_axes(["husky", "agrimaro"], ["ICE", "SNOW"], ["straight_accel"], [0, 1])
+
+
+def test_grid_rows_say_where_the_terrain_decision_came_from(monkeypatch):
+    """A run with a live classifier is marked ``classifier``, one on its label ``label``."""
+    import terrain.control.grid as grid
+
+    monkeypatch.setattr(grid, "run_closed_loop",
+                        lambda *a, **kw: (None, None, {"peak_slip": 0.1}))
+    monkeypatch.setattr("terrain.control.closed_loop.trace_frame", lambda sim, loop: None)
+    live = object()
+    results, _ = grid.run_grid(["husky", "agrimaro"], ["ICE"], ["straight_accel"], [0],
+                               {"husky": (2.0, 0.0), "agrimaro": (5.0, 0.0)},
+                               decisions={"husky": lambda ter: (live, None, "live")})
+    assert results.groupby("vehicle")["terrain_source"].agg(set).to_dict() == {
+        "husky": {"classifier"}, "agrimaro": {"label"}}
