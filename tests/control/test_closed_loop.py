@@ -685,3 +685,38 @@ def test_grid_rows_say_where_the_terrain_decision_came_from(monkeypatch):
                                decisions={"husky": lambda ter: (live, None, "live")})
     assert results.groupby("vehicle")["terrain_source"].agg(set).to_dict() == {
         "husky": {"classifier"}, "agrimaro": {"label"}}
+
+
+def test_slip_limit_bound_keeps_the_uncut_share_of_the_peak():
+    """A cut of 0.75 of a 0.4 peak leaves a limit of 0.1 (the default cut 0.5 cannot tell
+    the share kept from the share removed)."""
+    b = slip_limit_bound("GRASS", 0.4, cut=0.75)
+    assert b["slip_limit"] == pytest.approx(0.1)
+    assert b["accel_at_limit_m_s2"] == pytest.approx(
+        traction_acceleration_limit(get_terrain("GRASS"), 0.1))
+
+
+def test_steady_slip_error_counts_only_after_cruise_plus_the_settling_time():
+    """Steady steps count from ``time_to_speed_s + steady_after_s`` on, not from
+    ``steady_after_s`` after the start: a large error planted in between is not scored."""
+    from terrain.control.closed_loop import loop_metrics
+
+    sim, loop, m = run_closed_loop("husky", "TILES", "straight_accel", True, 0, 6.0)
+    t_speed = m["time_to_speed_s"]
+    assert t_speed is not None and t_speed > 0.5 and m["steady_slip_error_max"] < 0.02
+    from terrain.sim.sensors import physics_step_index
+
+    t_log = np.array([r["t_s"] for r in loop.log])
+    early = (t_log >= 3.0) & (t_log < t_speed + 3.0)
+    assert early.any()
+    sim.physics.slip_motor[physics_step_index(sim.physics.t_s, t_log[early])] = 0.9
+    assert loop_metrics(sim, loop, 24.0)["steady_slip_error_max"] < 0.02
+
+
+def test_an_undecided_terrain_gives_the_fused_estimator_the_fallback_terrain():
+    """With no terrain decided the fused estimator's slip model assumes the fallback's
+    terrain, so its pseudo-measurements keep coming (without, the slip common to both sides
+    is unobservable and the estimate reported stale)."""
+    m = run_closed_loop("husky", "ICE", "straight_accel", True, 0, 2.0,
+                        terrain_decision=lambda t: (None, 0.0))[2]
+    assert m["estimator_pseudo_measurements"] > 0
