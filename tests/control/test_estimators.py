@@ -445,3 +445,27 @@ def test_fused_observer_on_the_full_imu_reads_ax_and_az_not_ay():
         states.append(est.x.copy())
     np.testing.assert_array_equal(states[0], states[1])
     assert abs(states[0][6]) > 0      # the accelerometer rows were used
+
+
+def test_agrimaro_speed_slope_needs_three_calls_and_spans_its_window():
+    """The slope replaces the filter's acceleration only from three calls in the window on
+    (two give the state back); a speed rising 1 m/s per s then gives 1 m/s^2 per unit."""
+    est = AgriMaRoVisualOdometryEKF()
+    state = np.full(3, 7.0)
+    for k, expect in ((0, 7.0), (1, 7.0), (2, 1.0), (3, 1.0)):
+        t = 0.1 * k
+        got = est._speed_slope(t, np.full(3, 2.0 + t), state)
+        np.testing.assert_allclose(got, expect, rtol=1e-9)
+
+
+def test_fused_speed_bound_holds_each_end_at_its_widest():
+    """The speed range of the recent wheel samples: its lower end the smallest of their
+    lower ends, its upper the largest; a speed inside stays put (no projection)."""
+    est = FusedSlipObserver("husky", None)
+    est.bound_rows = [(0.0, 0.2, 0.6), (0.05, 0.5, 0.9)]
+    est.x[est._v] = 0.3
+    est._bound_speed(0.1)
+    assert est.bound_count == 0 and est.x[est._v] == 0.3
+    est.x[est._v] = 1.2
+    est._bound_speed(0.1)
+    assert est.bound_count == 1 and est.x[est._v] == pytest.approx(0.9)
