@@ -304,3 +304,23 @@ def test_replaying_a_run_gives_the_observations_its_controller_saw():
         assert a.t_s == b.t_s
         for name in a._fields[1:]:
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def test_online_encoder_counts_the_trapezoid_of_the_wheel_angle():
+    """Without a speed quantum the encoder counts whole increments of the wheel angle, the
+    angle integrated by the trapezoid rule: a wheel going from 0 to 20 rad/s in one 0.01 s
+    step turns 0.1 rad, one 4 deg count (the rectangle rule's 0.2 rad would be two). The
+    driver's filter is taken out (``encoder_filter_s`` 0) to read the counts themselves."""
+    from dataclasses import replace
+
+    from terrain.vehicles import get_vehicle
+
+    s = OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 0, 1.0)
+    veh = get_vehicle("agrimaro")
+    s.vehicle = replace(veh, motor=replace(veh.motor, encoder_filter_s=0.0))
+    q = veh.motor.encoder_quantum_rad
+    assert 0.1 / q == pytest.approx(1.43, abs=0.01)
+    s.record(_snap(0, 0.0, [0.0, 0.0, 0.0]))
+    s.ch["wheels"].next_t = 0.0
+    s.record(_snap(1, 0.01, [20.0, 20.0, 20.0]))
+    np.testing.assert_allclose(s.take(0.01, np.zeros(3)).wheels[-1, 1:], q / 0.01)
