@@ -469,3 +469,16 @@ def test_fused_speed_bound_holds_each_end_at_its_widest():
     est.x[est._v] = 1.2
     est._bound_speed(0.1)
     assert est.bound_count == 1 and est.x[est._v] == pytest.approx(0.9)
+
+
+def test_fused_speed_bound_drops_a_sample_once_a_later_one_is_current_at_the_hold_start():
+    """Over the last ``speed_bound_hold_s`` (1 s) the bound keeps every later sample and the
+    one current at its start: a sample exactly at the start is the current one, and the one
+    before it (a lower range) no longer counts."""
+    est = FusedSlipObserver("husky", None)
+    assert est.settings.filter.speed_bound_hold_s == 1.0
+    est.bound_rows = [(0.0, 0.0, 0.5), (0.5, 0.8, 1.0)]
+    est.x[est._v] = 0.6
+    est._bound_speed(1.5)                          # the hold starts at 0.5 s
+    assert est.bound_count == 1 and est.x[est._v] == pytest.approx(0.8)
+    assert [row[0] for row in est.bound_rows] == [0.5]
