@@ -218,6 +218,22 @@ def test_predict_counts_windows_dropped_for_a_gap(workdir, capsys, vulpi_runs, s
     assert "dropped windows: 2 spanning a gap" in out
 
 
+def test_predict_counts_and_names_a_run_skipped_for_a_missing_stream(
+        workdir, capsys, vulpi_runs, saved_model):
+    # a run without the IMU file the model needs is skipped: counted and named, not dropped
+    # silently, and no prediction row comes from it
+    _write(vulpi_runs[0], workdir / "runs")
+    imu = _write(vulpi_runs[1], workdir / "runs", terrain="OTHER")
+    imu.unlink()
+    assert main(["predict", "--model", str(saved_model), str(workdir / "runs"),
+                 "--out", "p.csv", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    skipped = "runs/OTHER/" + vulpi_runs[1].run_id.split("/")[2]
+    assert f"1 run(s) skipped (no imu stream): {skipped}" in out
+    assert "from 1 of 2 runs" in out
+    assert not pd.read_csv(workdir / "p.csv")["run"].str.startswith("runs/OTHER").any()
+
+
 def test_predict_with_a_bad_model_path_is_one_line(workdir, capsys, vulpi_runs):
     _write(vulpi_runs[0], workdir / "runs")
     assert main(["predict", "--model", str(workdir / "no_model"), str(workdir / "runs"),
