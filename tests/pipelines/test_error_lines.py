@@ -38,3 +38,22 @@ def test_a_long_message_is_cut_to_500_characters(monkeypatch, capsys):
     _fail_with(monkeypatch, ConfigError("y" * 500))     # at the limit: kept whole
     assert main(["slip-table"]) == 2
     assert capsys.readouterr().err == prefix + "y" * 500 + "\n"
+
+
+def test_a_data_warning_is_one_line_saying_warning(monkeypatch, capsys):
+    # what a reader assumed (DataWarning) reads "warning"; any other warning keeps its kind
+    import warnings
+
+    from terrain.errors import DataWarning
+    import pipelines.slip_table as slip_table
+
+    def warn(args):
+        warnings.warn("3 blank line(s) skipped in imu_00.csv", DataWarning)
+        warnings.warn("something else", UserWarning)
+        return 0
+
+    monkeypatch.setattr(slip_table, "main", warn)
+    assert main(["slip-table"]) == 0
+    assert capsys.readouterr().err.splitlines() == [
+        "terrain: warning: 3 blank line(s) skipped in imu_00.csv",
+        "terrain: UserWarning: something else"]
