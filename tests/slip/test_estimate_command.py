@@ -59,3 +59,22 @@ def test_unknown_run_is_a_clear_error(run_dir, tmp_path, capsys):
     assert main(["estimate", str(run_dir), "--run", "SNOW/07", "--out",
                  str(tmp_path / "x.csv")]) == 2
     assert "no run 'SNOW/07'" in capsys.readouterr().err
+
+
+def test_the_lag_note_counts_the_runs_as_their_summaries_say(run_dir, tmp_path, capsys):
+    # the closing note counts each run by what its own summary line says about the lag
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv"),
+                 "--slip-model", "ekf"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    summaries = [line for line in lines if " -> " in line and "steps at" in line]
+    assert len(summaries) == 2
+    applied = sum("encoder lag applied" in line for line in summaries)
+    not_applied = sum("encoder lag not applied" in line for line in summaries)
+    estimated = applied + not_applied
+    note = [line for line in lines if line.startswith("note: encoder lag applied on")]
+    if not_applied:
+        assert note == [f"note: encoder lag applied on {applied} of 2 runs, not applied on "
+                        f"{not_applied} (no clear cross-correlation peak), not estimated on "
+                        f"{2 - estimated}"]
+    else:
+        assert note == []
