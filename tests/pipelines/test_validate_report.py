@@ -35,3 +35,27 @@ def test_measured_runs_without_an_imu_are_skipped_with_a_count():
     assert summary.empty
     assert list(summary.columns) == ["run_id", "terrain", "chi_ekf", "chi_observer", "eta_R",
                                      "eta_L", "gyro_bias", "turning_fraction", "duration_s"]
+
+
+def test_validate_out_writes_every_printed_table(tmp_path, monkeypatch, capsys):
+    # --out "also writes the Markdown": the file holds each section as printed, in order
+    import argparse
+    import sys
+    import types
+
+    import pipelines.validate as validate
+
+    report = types.ModuleType("fake_validation_report")
+    report.sections = lambda quick: [
+        ("First", lambda: pd.DataFrame({"case": ["a"], "x": [0.5]})),
+        ("Second" if quick else "Long", lambda: pd.DataFrame({"n": [3]}))]
+    monkeypatch.setitem(sys.modules, "fake_validation_report", report)
+    monkeypatch.setattr(validate, "REPORTS", {"fake": "fake_validation_report"})
+    out = tmp_path / "sub" / "report.md"
+    assert validate.main(argparse.Namespace(report="fake", quick=True, out=out)) == 0
+    printed = capsys.readouterr().out
+    text = out.read_text()
+    assert text.startswith("### First\n\n| case | x |\n|---|---|\n| a | 0.5 |\n\n(")
+    assert "### Second\n\n| n |\n|---|\n| 3 |\n\n(" in text and "Long" not in text
+    assert text.index("### First") < text.index("### Second")
+    assert all(line in printed for line in text.splitlines())
