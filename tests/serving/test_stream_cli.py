@@ -345,3 +345,31 @@ def test_replay_recorded_reports_what_the_service_did(borealtc_runs, train_runs,
     wheel_only = replace(run, streams={"wheels": run.streams["wheels"]})
     with pytest.raises(ConfigError, match=r"needs stream\(s\) \['imu'\], absent from run"):
         replay_recorded(StreamService(all_model, TableTargets(all_model.classes)), wheel_only)
+
+
+@pytest.mark.parametrize("min_confidence", [0.95, 0.2])
+def test_stream_min_confidence_sets_when_the_fallback_target_is_used(
+        min_confidence, run_dir, tmp_path, capsys, wheel_model, monkeypatch):
+    # below --min-confidence a decision takes the table's conservative entry, at or above
+    # it the decided class's own targets, whatever the built-in default (0.5)
+    from terrain.control import DesiredSlipConfig
+    from terrain.serving import TableTargets
+
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+    out = tmp_path / "d.csv"
+    assert main(["stream", "--model", str(model_dir), str(run_dir), "--out", str(out),
+                 "--min-confidence", str(min_confidence)]) == 0
+    frame = pd.read_csv(out, keep_default_na=False)
+    table = TableTargets(wheel_model.classes, DesiredSlipConfig())
+    fallback = table.target_for(None, 1.0, False)
+    fresh = frame[frame["flags"].isin(["", "low_confidence"])]
+    assert ((fresh["flags"] == "low_confidence") == (fresh["confidence"] < min_confidence)).all()
+    near = (fresh["confidence"] - 0.5).abs() < abs(min_confidence - 0.5)
+    band = fresh[near & ((fresh["confidence"] < 0.5) == (min_confidence < 0.5))]
+    assert len(band) > 0        # decisions the default threshold would treat otherwise
+    for row in fresh.itertuples():
+        want = (fallback if row.confidence < min_confidence
+                else table.target_for(row.terrain, 1.0, False))
+        assert row.target_slip_traction == pytest.approx(want.traction, abs=1e-9)
+        assert row.target_slip_braking == pytest.approx(want.braking, abs=1e-9)
