@@ -78,3 +78,19 @@ def test_the_lag_note_counts_the_runs_as_their_summaries_say(run_dir, tmp_path, 
                         f"{2 - estimated}"]
     else:
         assert note == []
+
+
+def test_tuning_option_reaches_the_agrimaro_filter(run_dir, tmp_path):
+    # --tuning thesis and the default (noise-derived) tuning filter the same run differently;
+    # --tuning noise is the default itself
+    frames = {}
+    for name, extra in {"default": [], "noise": ["--tuning", "noise"],
+                        "thesis": ["--tuning", "thesis"]}.items():
+        out = tmp_path / f"{name}.csv"
+        assert main(["estimate", str(run_dir / "GRASS"), "--out", str(out), "--lag", "none",
+                     *extra]) == 0
+        frames[name] = pd.read_csv(out)
+    pd.testing.assert_frame_equal(frames["default"], frames["noise"])
+    std = [c for c in frames["default"].columns if c.startswith("std_")]
+    assert not np.allclose(frames["default"][std].to_numpy(), frames["thesis"][std].to_numpy(),
+                           equal_nan=True)
