@@ -75,3 +75,26 @@ def test_train_options_reach_the_config(train_config, capsys):
         "svm", ("imu",), 1.5, 0.75)
     assert given["cnn_seeds"] == 3 and given["run_balanced"] and given["search"]
     assert given["seeds"] == (0,) and not given["window_ekf"]
+
+
+@pytest.mark.parametrize("protocol, headline", [("grouped", True), ("loro", True),
+                                                ("paper", False)])
+def test_cv_report_marks_only_the_leaky_protocol_as_not_headline(protocol, headline):
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from pipelines.cv import result_dict
+
+    config = _cv("--protocol", protocol)
+    pooled = pd.DataFrame({"seed": [0, 1], "accuracy": [0.8, 0.9]})
+    report = SimpleNamespace(classes=["ICE", "SNOW"], summary=lambda: {}, pooled=pooled,
+                             confusion=pd.DataFrame([[3, 1], [0, 4]]), notes=[])
+    result = SimpleNamespace(config=config, report=report, n_windows=8, n_runs=2,
+                             timings_s={})
+    got = result_dict(result)
+    assert got["headline"] is headline
+    # the spread over seeds is the population one (ddof 0), as printed
+    assert got["pooled"] == {"accuracy": {"mean": pytest.approx(0.85),
+                                          "std": pytest.approx(0.05)}}
+    assert got["confusion"] == {"labels": ["ICE", "SNOW"], "counts": [[3, 1], [0, 4]]}
