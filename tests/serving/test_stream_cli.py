@@ -373,3 +373,24 @@ def test_stream_min_confidence_sets_when_the_fallback_target_is_used(
                 else table.target_for(row.terrain, 1.0, False))
         assert row.target_slip_traction == pytest.approx(want.traction, abs=1e-9)
         assert row.target_slip_braking == pytest.approx(want.braking, abs=1e-9)
+
+
+def test_predict_counts_the_windows_holding_a_stuck_sensor(run_dir, tmp_path, capsys,
+                                                           wheel_model, monkeypatch):
+    # predict flags each window holding the stuck channel and its input report counts them
+    monkeypatch.chdir(tmp_path)
+    model_dir = _saved(wheel_model, tmp_path / "model")
+
+    def stuck(frame):  # a dead current sensor for 22 s (the rule needs 20 s)
+        frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
+        return frame
+
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=stuck)
+    out_csv = tmp_path / "p.csv"
+    assert main(["predict", "--model", str(model_dir), str(folder), "--out", str(out_csv),
+                 "--no-progress"]) == 0
+    frame = pd.read_csv(out_csv, keep_default_na=False)
+    n = int((frame["flags"] != "").sum())
+    assert n > 5 and (frame["flags"][frame["flags"] != ""] == "stuck:wheels.cur_l").all()
+    assert (f"stuck or dead sensor channel(s): runs/SNOW/07 (wheels.cur_l); {n} window(s) "
+            "holding one flagged") in capsys.readouterr().out
