@@ -1,0 +1,98 @@
+"""Options of the simulation and closed-loop commands reach what they configure, and the
+notes and outputs say what the run holds (hand mutation review of pipelines/simulate.py,
+control_sim.py, control_grid.py, stream_eval.py, slip_fit.py, compare.py, serve.py and
+audit.py)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pandas as pd
+
+import pipelines.control_sim as control_sim
+from pipelines.simulate import unreached_terrains_note
+from terrain.cli import main
+from terrain.sim import SimConfig, simulate
+
+
+def test_simulate_physics_option_reaches_the_run_and_the_run_number_is_shown(
+        tmp_path, capsys):
+    # --physics v2 was simulated as the default physics (v1) without a word if dropped
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "0.5",
+                 "--physics", "v2", "--out", str(tmp_path)]) == 0
+    meta = json.loads((tmp_path / "ICE" / "meta_00.json").read_text())
+    assert meta["physics"] == "v2"
+    assert "(run 00)" in capsys.readouterr().out    # the XX of the files written
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "0.5",
+                 "--out", str(tmp_path)]) == 0
+    assert json.loads((tmp_path / "ICE" / "meta_01.json").read_text())["physics"] == "v1"
+    assert "(run 01)" in capsys.readouterr().out
+
+
+def test_unreached_terrain_note_gives_the_path_length_in_the_plane():
+    # a 3-4-5 path twice: 10 m in the plane (6 m along x alone)
+    config = SimConfig(vehicle="husky", terrains=("ICE", "SNOW"), scenario="spin",
+                       duration_s=0.5, segment_length_m=20.0)
+    run = simulate(config)
+    truth = pd.DataFrame({"t_s": [0.0, 1.0, 2.0], "x": [0.0, 3.0, 6.0], "y": [0.0, 4.0, 8.0],
+                          "terrain": ["ICE"] * 3})
+    note = unreached_terrains_note(replace(run, streams={**run.streams, "truth": truth}),
+                                   config)
+    assert note == ("note: terrain(s) SNOW never reached: the path covers 10.0 m and the "
+                    "terrain changes every 20 m (--segment-m); the run holds ICE only")
+
+
+def _control_sim(tmp_path, *extra):
+    out = tmp_path / "c.json"
+    argv = ["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
+            "straight_accel", "--duration-s", "0.5", "--json", str(out), *extra]
+    assert main(argv) == 0
+    return json.loads(out.read_text())
+
+
+def test_control_sim_gains_given_are_the_gains_run(tmp_path):
+    r = _control_sim(tmp_path, "--controller", "traction", "--terrain-source", "label",
+                     "--kp", "7", "--ki", "3")
+    assert (r["kp"], r["ki"]) == (7.0, 3.0)
+    r = _control_sim(tmp_path, "--controller", "traction", "--terrain-source", "label",
+                     "--ki", "4")
+    assert (r["kp"], r["ki"]) == (2.0, 4.0)       # kp: the fused estimator's tuned default
+
+
+def test_control_sim_passes_the_live_sim_classifier_options_on(tmp_path, monkeypatch):
+    """The live-sim classifier is trained on the runs the options describe: the gains,
+    estimator, feed-forward, seeds and the uncontrolled-only flag (caught here before any
+    training)."""
+    calls = []
+
+    def capture(source, vehicle, terrains, seeds, model, classifier_seeds, **kwargs):
+        calls.append(dict(source=source, seeds=seeds, classifier_seeds=classifier_seeds,
+                          **kwargs))
+        return None, {"terrain_source": source}
+
+    monkeypatch.setattr(control_sim, "decision_source", capture)
+    r = _control_sim(tmp_path, "--controller", "off", "--classifier-uncontrolled-only",
+                     "--classifier-seeds", "3000", "--seed", "4")
+    assert calls[-1]["controlled_runs"] is False and calls[-1]["classifier_seeds"] == [3000]
+    assert calls[-1]["seeds"] == [4] and r["seed"] == 4 and r["controller"] == "off"
+    _control_sim(tmp_path, "--controller", "off", "--kp", "6", "--ki", "1",
+                 "--no-feed-forward", "--estimator", "observer")
+    assert calls[-1]["controlled_runs"] is True and calls[-1]["gains"] == (6.0, 1.0)
+    assert calls[-1]["feed_forward"] is False and calls[-1]["estimator"] == "observer"
+    assert calls[-1]["classifier_seeds"] == control_sim.CLASSIFIER_SEEDS
+
+
+def test_control_sim_controller_and_feed_forward_options_reach_the_loop(tmp_path):
+    """On ICE the uncontrolled Husky spins its wheels at start-up (peak slip 0.47 in 2 s);
+    the traction controller holds it near its target (0.11), and without its feed-forward
+    the 2 s start-up is the uncontrolled one. The JSON names the terrain as catalogued."""
+    common = ("--terrain-source", "label", "--duration-s", "2")
+    off = _control_sim(tmp_path, "--controller", "off", *common)
+    on = _control_sim(tmp_path, "--controller", "traction", *common)
+    feedback = _control_sim(tmp_path, "--controller", "traction", "--no-feed-forward",
+                            *common)
+    assert off["controller"] == "off" and off["peak_slip"] > 0.4
+    assert on["peak_slip"] < 0.2 and on["feed_forward"] is True
+    assert feedback["feed_forward"] is False and feedback["peak_slip"] > 0.4
+    assert off["terrain"] == on["terrain"] == "ICE"     # given as "ice"
