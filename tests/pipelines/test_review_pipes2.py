@@ -96,3 +96,76 @@ def test_control_sim_controller_and_feed_forward_options_reach_the_loop(tmp_path
     assert on["peak_slip"] < 0.2 and on["feed_forward"] is True
     assert feedback["feed_forward"] is False and feedback["peak_slip"] > 0.4
     assert off["terrain"] == on["terrain"] == "ICE"     # given as "ice"
+
+
+def test_control_grid_refuses_a_repeated_proportional_gain(tmp_path, monkeypatch, capsys):
+    # each candidate would be tuned twice and tabulated twice in tuning_<vehicle>.csv
+    monkeypatch.chdir(tmp_path)
+    assert main(["control-grid", "--kp-grid", "2", "5", "2", "--out", "g"]) == 2
+    err = capsys.readouterr().err
+    assert "--kp-grid: [2.0] given more than once (each gain once)" in err
+    assert not any(tmp_path.iterdir())
+
+
+class _Stop(Exception):
+    """Raised by the stand-in of the grid run, once its arguments are recorded."""
+
+
+class _NoTracking:
+    """Stand-in of :func:`terrain.tracking.tracked_run` (the grid's logging is not what
+    these tests check): a run that logs nothing."""
+
+    def __init__(self, *args, **kwargs):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: None
+
+
+def test_control_grid_runs_the_estimator_gains_and_feed_forward_asked_for(tmp_path,
+                                                                          monkeypatch):
+    """--husky-estimator, its default gains and --no-feed-forward reach the grid's runs
+    (caught at the grid run, after the options' checks)."""
+    import pipelines.control_grid as control_grid
+    from terrain.control.closed_loop import default_gains
+
+    calls = []
+
+    def capture(*args):
+        calls.append(args)
+        raise _Stop()
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("terrain.tracking.tracked_run", _NoTracking)
+    monkeypatch.setattr(control_grid, "run_grid", capture)
+    assert main(["control-grid", "--vehicles", "husky", "--terrains", "ice", "--no-tune",
+                 "--husky-estimator", "observer", "--no-feed-forward", "--seeds", "3",
+                 "--duration-s", "1.5", "--out", "g"]) == 1
+    vehicles, terrains, scenarios, seeds, gains, duration, estimators, ff, _ = calls[0]
+    assert (vehicles, terrains, scenarios, seeds) == (["husky"], ["ICE"], ["straight_accel"],
+                                                      [3])
+    assert estimators["husky"] == "observer" and duration == 1.5 and ff is False
+    assert gains == {"husky": default_gains("husky", "observer")} == {"husky": (5.0, 0.0)}
+
+
+def test_control_grid_summary_names_its_seeds_and_bounds_the_straight_runs_only(
+        tmp_path, monkeypatch):
+    """summary.json: the evaluation seeds as given; the quasi-static slip-limit bound is
+    that of the straight_accel runs on soft terrain (not the orchard's)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("terrain.tracking.tracked_run", _NoTracking)
+    assert main(["control-grid", "--vehicles", "husky", "--terrains", "SNOW", "--scenarios",
+                 "straight_accel", "orchard", "--no-tune", "--seeds", "3", "--duration-s",
+                 "0.5", "--out", "g"]) == 0
+    summary = json.loads((tmp_path / "g" / "summary.json").read_text())
+    assert summary["evaluation_seeds"] == [3]
+    assert sorted(r["scenario"] for r in summary["comparison"]) == ["orchard", "straight_accel"]
+    assert [b["terrain"] for b in summary["slip_limit_bound"]] == ["SNOW"]
+    runs = pd.read_csv(tmp_path / "g" / "runs.csv")
+    assert sorted(runs["seed"].unique()) == [3] and len(runs) == 4
