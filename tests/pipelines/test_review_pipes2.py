@@ -113,10 +113,12 @@ class _Stop(Exception):
 
 class _NoTracking:
     """Stand-in of :func:`terrain.tracking.tracked_run` (the grid's logging is not what
-    these tests check): a run that logs nothing."""
+    these tests check): a run that logs nothing, its parameters kept in ``started``."""
 
-    def __init__(self, *args, **kwargs):
-        pass
+    started: list = []
+
+    def __init__(self, *args, params=None, **kwargs):
+        self.started.append(params)
 
     def __enter__(self):
         return self
@@ -169,3 +171,38 @@ def test_control_grid_summary_names_its_seeds_and_bounds_the_straight_runs_only(
     assert [b["terrain"] for b in summary["slip_limit_bound"]] == ["SNOW"]
     runs = pd.read_csv(tmp_path / "g" / "runs.csv")
     assert sorted(runs["seed"].unique()) == [3] and len(runs) == 4
+
+
+def test_stream_eval_refuses_an_infinite_switch_gap_before_reading_any_run(
+        tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["stream-eval", "--part", "streams", "--switch-gap-s", "inf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == ("terrain stream-eval: error: --switch-gap-s must be a finite number of "
+                       "seconds >= 0, got inf")
+    assert not any(tmp_path.iterdir())
+
+
+def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(monkeypatch):
+    """Each fold holds at least one run out: --folds N over N runs is the largest that
+    does (refused above it); the folds and the switch gap reach the held-out streams and
+    the MLflow parameters (a stand-in of three runs, caught at the first stream)."""
+    import pipelines.stream_eval as stream_eval
+
+    calls = []
+
+    def capture(runs, recipe, seed, smoothings, **kwargs):
+        calls.append(kwargs)
+        raise _Stop()
+
+    monkeypatch.setattr(stream_eval, "load_dataset", lambda name: ["r0", "r1", "r2"])
+    monkeypatch.setattr(stream_eval, "runs_holding", lambda runs, names: runs)
+    monkeypatch.setattr(stream_eval, "held_out_streams", capture)
+    monkeypatch.setattr(stream_eval, "tracked_run", _NoTracking)
+    argv = ["stream-eval", "--part", "streams", "--kinds", "wheels", "--seeds", "4",
+            "--switch-gap-s", "0.25"]
+    assert main(argv + ["--folds", "3"]) == 1                  # reached the streams
+    assert calls[-1]["n_splits"] == 3 and calls[-1]["switch_gap_s"] == 0.25
+    assert _NoTracking.started[-1] == {"part": "streams", "seeds": "4", "switch_gap_s": 0.25,
+                                       "folds": 3}
+    assert main(argv + ["--folds", "4"]) == 2 and len(calls) == 1
