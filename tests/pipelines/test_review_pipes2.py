@@ -9,6 +9,7 @@ import json
 from dataclasses import replace
 
 import pandas as pd
+import pytest
 
 import pipelines.control_sim as control_sim
 from pipelines.simulate import unreached_terrains_note
@@ -206,3 +207,47 @@ def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(mo
     assert _NoTracking.started[-1] == {"part": "streams", "seeds": "4", "switch_gap_s": 0.25,
                                        "folds": 3}
     assert main(argv + ["--folds", "4"]) == 2 and len(calls) == 1
+
+
+def test_slip_fit_summary_reduces_the_medians_of_the_runs_that_did_not_slide_off():
+    """Known values: the run that slid off the path is left out; each reduction is that of
+    the median compensated (or gyro-compensated) error against the median plain one."""
+    from pipelines.slip_fit import _summary
+
+    errors = pd.DataFrame({"windows": ["steady_straight", "all"], "terrain": ["ICE", "ICE"],
+                           "split": ["held-out seeds"] * 2, "model": ["learned"] * 2,
+                           "median_abs_err": [0.02, 0.5]})
+    odo = pd.DataFrame({"scenario": ["orchard"] * 3, "slid_off": [False, False, True],
+                        "plain_err_pct": [4.0, 1.0, 30.0],
+                        "compensated_err_pct": [1.0, 0.5, 20.0],
+                        "compensated_gyro_err_pct": [2.0, 0.5, 20.0],
+                        "gyro_heading_err_pct": [0.5, 0.1, 9.0],
+                        "reduction_pct": [75.0, 50.0, 33.0]})
+    s = _summary(errors, odo)
+    assert s["held-out_seeds.learned.ICE.median_abs_err"] == 0.02    # steady windows only
+    assert s["odometry.orchard.plain_err_pct"] == 2.5                   # median of 4 and 1
+    assert s["odometry.orchard.compensated_err_pct"] == 0.75
+    assert s["odometry.orchard.reduction_of_median_pct"] == pytest.approx(70.0)
+    assert s["odometry.orchard.compensated_gyro_err_pct"] == 1.25
+    assert s["odometry.orchard.gyro_reduction_of_median_pct"] == pytest.approx(50.0)
+    assert s["odometry.orchard.gyro_heading_err_pct"] == pytest.approx(0.3)
+    assert s["odometry.orchard.slipping_runs"] == 1.0                   # plain error > 2 %
+    assert s["odometry.orchard.slipping_median_reduction_pct"] == 75.0
+
+
+def test_slip_fit_takes_a_duration_of_exactly_one_slip_window(tmp_path, monkeypatch):
+    # one 2 s window per run: the shortest duration with something to fit (caught at the
+    # simulation, after the options' checks)
+    import pipelines.slip_fit as slip_fit
+
+    calls = []
+
+    def capture(spec, cache_dir):
+        calls.append(spec)
+        raise _Stop()
+
+    monkeypatch.setattr(slip_fit, "simulated_runs", capture)
+    assert main(["slip-fit", "--terrains", "SNOW", "--scenarios", "straight_accel",
+                 "--duration-s", "2", "--orchard-duration-s", "1", "--out",
+                 str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c")]) == 1
+    assert calls[0].duration_s == 2.0
