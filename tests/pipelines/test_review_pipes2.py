@@ -251,3 +251,47 @@ def test_slip_fit_takes_a_duration_of_exactly_one_slip_window(tmp_path, monkeypa
                  "--duration-s", "2", "--orchard-duration-s", "1", "--out",
                  str(tmp_path / "o"), "--cache-dir", str(tmp_path / "c")]) == 1
     assert calls[0].duration_s == 2.0
+
+
+def test_audit_options_reach_its_settings_and_its_reproduce_line(tmp_path, monkeypatch):
+    """Every audit option sets what it names (the shipped runs and the audit itself stood
+    in for), and the report's reproduce line gives back the options that differ from the
+    defaults, a threshold of 0 included (a gain of any size supports an effect)."""
+    import pipelines.audit as audit
+
+    calls = []
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(audit, "load_dataset", lambda name: [])
+    monkeypatch.setattr(audit, "_audit", lambda args, runs, settings, *rest:
+                        calls.append((args, settings)))
+    assert main(["audit", "--dataset", "vulpi", "--json", "a.json", "--no-mlflow",
+                 "--no-pooled", "--sweep-lateral-friction", "--physics", "v2",
+                 "--replay-input-lowpass-hz", "2.5", "--min-gain", "0", "--seed", "7",
+                 "--bootstrap", "50"]) == 0
+    args, settings = calls[0]
+    assert settings.pooled is False and settings.sweep_factors == audit.SWEEP_FACTORS
+    assert (settings.replay.physics, settings.replay.input_cutoff_hz) == ("v2", 2.5)
+    selection = settings.selection
+    assert (selection.min_gain, selection.seed, selection.n_bootstrap) == (0.0, 7, 50)
+    assert audit._command(args) == (
+        "terrain audit --dataset vulpi --json a.json --bootstrap 50 --min-gain 0.0 --seed 7 "
+        "--physics v2 --replay-input-lowpass-hz 2.5 --no-pooled --sweep-lateral-friction")
+    assert main(["audit", "--dataset", "vulpi", "--json", "a.json", "--no-mlflow"]) == 0
+    args, settings = calls[1]
+    assert settings.pooled is True and settings.sweep_factors == ()
+    assert audit._command(args) == "terrain audit --dataset vulpi --json a.json"
+
+
+def test_quick_compare_refuses_threads_it_would_ignore(tmp_path, monkeypatch, capsys):
+    # the quick grid's CNNs train on its own single thread
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", "--quick", "--threads", "2"]) == 2
+    assert "would ignore ['--threads']" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("text, workers", [("-1", -1), ("-2", -2), ("1", 1), ("3", 3)])
+def test_compare_n_jobs_takes_any_integer_but_zero(text, workers):
+    from pipelines.compare import _n_jobs
+
+    assert _n_jobs(text) == workers
