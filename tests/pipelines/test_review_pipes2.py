@@ -295,3 +295,56 @@ def test_compare_n_jobs_takes_any_integer_but_zero(text, workers):
     from pipelines.compare import _n_jobs
 
     assert _n_jobs(text) == workers
+
+
+def test_serve_port_range_ends_at_65535():
+    # 65536 reached socket.bind, whose OverflowError is no OSError: an internal error
+    from pipelines.serve import bind_port
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^--port 65536 is outside 1-65535"):
+        bind_port("127.0.0.1", 65536)
+
+
+def test_serve_keeps_twice_its_connections_within_the_open_file_limit(tmp_path, monkeypatch,
+                                                                      capsys):
+    """The connections kept and as many refused ones held must fit the open-file limit
+    less the server's own files: at a limit of 1000, at most (1000 - reserved) // 2."""
+    import pipelines.serve as serve
+    from terrain.serving.http import RESERVED_FILES
+
+    monkeypatch.setattr(serve, "_open_file_limit", lambda: 1000)
+    most = (1000 - RESERVED_FILES) // 2
+    for connections in (most + 1, 1000 - RESERVED_FILES):
+        assert main(["serve", "--model", str(tmp_path), "--max-connections",
+                     str(connections)]) == 2
+        err = capsys.readouterr().err
+        assert (f"--max-connections {connections} does not fit the open-file limit 1000"
+                in err and f"pass at most {most} or raise the limit" in err)
+    assert main(["serve", "--model", str(tmp_path), "--max-connections", str(most)]) == 2
+    assert "open-file limit" not in capsys.readouterr().err     # refused later: no model
+
+
+def test_serve_listen_backlog_leaves_the_kept_and_refused_connections_their_files(
+        monkeypatch):
+    import pipelines.serve as serve
+
+    monkeypatch.setattr(serve, "_open_file_limit", lambda: 1000)
+    assert serve.accept_backlog(100) == (1000 - 64 - 2 * 100) // 3 == 245
+    assert serve.accept_backlog(460) == 16                        # at least 16
+    monkeypatch.setattr(serve, "_open_file_limit", lambda: None)
+    assert serve.accept_backlog(100) == serve.MAX_BACKLOG == 2048
+    monkeypatch.setattr(serve, "_open_file_limit", lambda: 10 ** 6)
+    assert serve.accept_backlog(100) == 2048                      # at most MAX_BACKLOG
+
+
+def test_only_a_model_of_kind_terrain_stream_counts_as_wrapped(tmp_path):
+    # a `terrain train` model's MLmodel also holds metadata: it must still be wrapped
+    from pipelines.serve import is_served_model
+
+    for kind, wrapped in (("terrain-stream", True), ("terrain-classifier", False)):
+        folder = tmp_path / kind
+        folder.mkdir()
+        (folder / "MLmodel").write_text(f"metadata:\n  kind: {kind}\n  hop_s: 0.5\n")
+        assert is_served_model(folder) is wrapped
+    assert is_served_model(tmp_path) is False                      # no MLmodel
