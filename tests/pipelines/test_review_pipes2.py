@@ -348,3 +348,16 @@ def test_only_a_model_of_kind_terrain_stream_counts_as_wrapped(tmp_path):
         (folder / "MLmodel").write_text(f"metadata:\n  kind: {kind}\n  hop_s: 0.5\n")
         assert is_served_model(folder) is wrapped
     assert is_served_model(tmp_path) is False                      # no MLmodel
+
+
+def test_quick_compare_keeps_the_history_and_the_paper_protocols_windows():
+    import argparse
+
+    from pipelines.compare import add_arguments, config_from_args
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    config = config_from_args(parser.parse_args(["--quick", "--history", "1", "3"]))
+    assert config.history == (1, 3) and config.windows_s == (2.0,)
+    paper = config_from_args(parser.parse_args(["--quick", "--protocol", "paper"]))
+    assert paper.protocol == "paper" and paper.windows_s == (1.7,)   # the papers' windows
