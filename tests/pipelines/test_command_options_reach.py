@@ -1,5 +1,5 @@
 """Options of the simulation and closed-loop commands reach what they configure, and the
-notes and outputs say what the run holds (hand mutation review of pipelines/simulate.py,
+notes and outputs say what the run holds (pipelines/simulate.py,
 control_sim.py, control_grid.py, stream_eval.py, slip_fit.py, compare.py, serve.py and
 audit.py)."""
 
