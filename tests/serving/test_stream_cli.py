@@ -170,16 +170,18 @@ def test_stream_reports_the_cells_the_reader_repaired(run_dir, tmp_path, capsys,
     assert "wheels.cur_l:1" in out
 
 
+def _dead_current(frame):
+    """A dead left current sensor for 22 s (the stuck rule needs 20 s)."""
+    frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
+    return frame
+
+
 def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_path, capsys,
                                                                   wheel_model, monkeypatch):
     monkeypatch.chdir(tmp_path)
     model_dir = _saved(wheel_model, tmp_path / "model")
 
-    def stuck(frame):  # a dead current sensor for 22 s (the rule needs 20 s)
-        frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
-        return frame
-
-    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=stuck)
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=_dead_current)
     out_csv = tmp_path / "d.csv"
     assert _stream(model_dir, folder, out_csv) == 0
     captured = capsys.readouterr()
@@ -381,11 +383,7 @@ def test_predict_counts_the_windows_holding_a_stuck_sensor(run_dir, tmp_path, ca
     monkeypatch.chdir(tmp_path)
     model_dir = _saved(wheel_model, tmp_path / "model")
 
-    def stuck(frame):  # a dead current sensor for 22 s (the rule needs 20 s)
-        frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
-        return frame
-
-    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=stuck)
+    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=_dead_current)
     out_csv = tmp_path / "p.csv"
     assert main(["predict", "--model", str(model_dir), str(folder), "--out", str(out_csv),
                  "--no-progress"]) == 0
