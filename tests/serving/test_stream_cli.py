@@ -180,7 +180,6 @@ def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_p
                                                                   wheel_model, monkeypatch):
     monkeypatch.chdir(tmp_path)
     model_dir = _saved(wheel_model, tmp_path / "model")
-
     folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=_dead_current)
     out_csv = tmp_path / "d.csv"
     assert _stream(model_dir, folder, out_csv) == 0
@@ -382,7 +381,6 @@ def test_predict_counts_the_windows_holding_a_stuck_sensor(run_dir, tmp_path, ca
     # predict flags each window holding the stuck channel and its input report counts them
     monkeypatch.chdir(tmp_path)
     model_dir = _saved(wheel_model, tmp_path / "model")
-
     folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=_dead_current)
     out_csv = tmp_path / "p.csv"
     assert main(["predict", "--model", str(model_dir), str(folder), "--out", str(out_csv),
