@@ -301,8 +301,9 @@ def test_janosi_curve_refuses_parameters_with_no_physical_curve(
 
 @pytest.mark.parametrize("load_n", [0.0, -10.0])
 def test_janosi_from_soil_refuses_a_contact_without_load(load_n):
-    # before: ZeroDivisionError at W = 0, a negative mu_max below it
-    with pytest.raises(ConfigError):
+    # before: ZeroDivisionError at W = 0, a negative mu_max below it (which the curve's own
+    # mu_max check refused too: the load must be the field named)
+    with pytest.raises(ConfigError, match="from_soil: load_n must be a finite load"):
         JanosiCurve.from_soil(1720.0, 29.0, 0.025, 0.11 * 0.08, 0.08, load_n)
 
 
