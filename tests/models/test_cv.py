@@ -257,10 +257,20 @@ def test_planted_effect_is_found():
     assert (report.pooled["run_majority_accuracy"] == 1.0).all()
     assert len(report.folds) == 6 and len(report.predictions) == 2 * len(y)
     assert report.confusion.to_numpy().trace() == 2 * len(y)
-    for (seed, fold), p in report.predictions.groupby(["seed", "fold"]):
-        train_groups = set(groups) - set(p["group"])
-        assert train_groups and not (train_groups & set(p["group"]))
     assert report.summary()["accuracy"]["min"] == 1.0
+    # each fold fits on the runs it does not test, all of them (group ids recorded at fit;
+    # before, the check was set(groups) - tested against tested: true whatever was fitted)
+    log = _Log()
+    group_id = np.array([int(g.rsplit("/", 1)[1]) for g in groups])
+    report = cross_validate(lambda seed: Pipeline([("record", RecordGroups(log)),
+                                                   *make_svm(SVMConfig(), seed).steps]),
+                            np.column_stack([group_id, X]), y, groups, groups, t0, t0 + 2.0,
+                            protocol="grouped", seeds=(0, 1), n_splits=3)
+    tested = [frozenset(group_id[np.isin(groups, p["group"])].tolist())
+              for _, p in report.predictions.groupby(["seed", "fold"], sort=False)]
+    assert len(log.fits) == len(tested) == 6
+    for fitted, test in zip(log.fits, tested):
+        assert fitted and fitted.isdisjoint(test) and fitted | test == set(group_id)
 
 
 def test_shuffled_labels_stay_near_chance():
