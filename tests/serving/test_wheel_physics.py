@@ -133,7 +133,10 @@ def test_concatenated_streams_switch_terrain_and_are_reproducible(borealtc_runs)
     a, seg_a = concatenated_streams(runs, ("imu", "wheels"), seed=3)
     b, seg_b = concatenated_streams(runs, ("imu", "wheels"), seed=3)
     assert seg_a == seg_b and len(seg_a) >= 5
-    assert len({s.run_id for s in seg_a}) == len(seg_a)  # each run used once
+    assert len({s.run_id for s in seg_a}) == len(seg_a)  # each run used once...
+    # ... and every run used: in a piece or named too short for one
+    assert ({s.run_id for s in seg_a} | set(a.meta["skipped_runs"])
+            == {r.run_id for r in runs})
     assert all(s.duration_s <= 120.0 for s in seg_a)
     switches = sum(p.terrain != s.terrain for p, s in zip(seg_a[:-1], seg_a[1:]))
     assert switches >= len(seg_a) // 2
