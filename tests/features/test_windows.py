@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -344,13 +345,17 @@ def test_subset_counts_state_the_subset_not_the_parent(make_run):
         **ws.counts["per_run"]["t/ASPHALT/00"], "windows": 3, "not_selected": 7}
 
 
-@pytest.mark.parametrize("kwargs", [dict(window_s=0.0), dict(hop_s=-1.0),
-                                    dict(window_s=2.0, partition_s=1.0),
-                                    dict(window_s=0.05, rate_hz=50.0), dict(rate_hz=0.0),
-                                    # under one sample: it was cut at 0.02 s without a word
-                                    dict(hop_s=0.001, rate_hz=50.0)])
-def test_window_config_rejects_bad_settings(kwargs):
-    with pytest.raises(ConfigError):
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(window_s=0.0), "window_s and rate_hz must be finite numbers > 0"),
+    # a negative hop was also refused as "under one sample": each setting by its own rule
+    (dict(hop_s=-1.0), "hop_s must be a finite number > 0 s, got -1.0"),
+    (dict(window_s=2.0, partition_s=1.0), "partition_s must be finite and >= window_s"),
+    (dict(window_s=0.05, rate_hz=50.0), "a window must hold at least 4 samples"),
+    (dict(rate_hz=0.0), "window_s and rate_hz must be finite numbers > 0"),
+    # under one sample: it was cut at 0.02 s without a word
+    (dict(hop_s=0.001, rate_hz=50.0), "hop_s 0.001 s is under one sample at 50 Hz")])
+def test_window_config_rejects_bad_settings(kwargs, words):
+    with pytest.raises(ConfigError, match=re.escape(words)):
         WindowConfig(**kwargs)
 
 
