@@ -9,6 +9,7 @@ with a Python traceback (``OverflowError``, NumPy's seed ``ValueError``, a
 from __future__ import annotations
 
 import argparse
+import re
 
 import pytest
 from cli_helpers import exit_code
@@ -32,12 +33,20 @@ def test_seed_type_takes_numpys_range_only():
             seed_value(bad)
 
 
-@pytest.mark.parametrize("kwargs", [dict(window_s=float("inf")), dict(window_s=float("nan")),
-                                    dict(hop_s=float("inf")), dict(rate_hz=float("inf")),
-                                    dict(window_s=2.0, partition_s=float("inf")),
-                                    dict(window_s=MAX_WINDOW_SAMPLES / 100 + 1, rate_hz=100.0)])
-def test_window_config_refuses_infinite_or_huge_windows(kwargs):
-    with pytest.raises(ConfigError):
+_NOT_FINITE = "window_s and rate_hz must be finite numbers > 0"
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    # an infinite window or rate was also refused as a window of too many samples ("holds
+    # inf samples"): each is refused as not finite
+    (dict(window_s=float("inf")), _NOT_FINITE), (dict(window_s=float("nan")), _NOT_FINITE),
+    (dict(hop_s=float("inf")), "hop_s must be a finite number > 0 s"),
+    (dict(rate_hz=float("inf")), _NOT_FINITE),
+    (dict(window_s=2.0, partition_s=float("inf")), "partition_s must be finite"),
+    (dict(window_s=MAX_WINDOW_SAMPLES / 100 + 1, rate_hz=100.0),
+     f"at most {MAX_WINDOW_SAMPLES:,} (a shorter window or a lower rate)")])
+def test_window_config_refuses_infinite_or_huge_windows(kwargs, words):
+    with pytest.raises(ConfigError, match=re.escape(words)):
         WindowConfig(**kwargs)
 
 
