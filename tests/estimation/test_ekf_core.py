@@ -174,7 +174,8 @@ def test_bad_shapes_non_finite_and_covariances_raise_typed_errors():
         correct(x, np.zeros((2, 2)), np.array([1.0]), np.array([[1.0, 0.0]]),
                 np.array([-1.0]), check=False)
     assert issubclass(CovarianceError, EstimationError)
-    with pytest.raises(ValueError):
+    # the project's typed error (a bare ValueError passed), naming what is wrong
+    with pytest.raises(ConfigError, match=r"gate probability must be in \(0, 1\)"):
         Gate(1.5)
 
 
