@@ -1,12 +1,15 @@
 """What the commands print, log and write says what the run held: the counts, the notes and
-the names (pipelines/control_sim.py and compare.py), on known values; stand-ins keep the
-runs short."""
+the names (pipelines/control_sim.py, compare.py, predict.py and train.py), on known values;
+stand-ins keep the runs short."""
 
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import mlflow
+import numpy as np
+import pandas as pd
 
 import pipelines.control_sim as control_sim
 from pipelines.compare import EXPERIMENT, log_cell
@@ -82,3 +85,143 @@ def test_compare_child_run_names_the_training_hop_and_protocol_and_each_history(
     assert child.data.metrics["accuracy_k1"] == 0.7
     assert child.data.metrics["accuracy_k5"] == 0.8
     assert child.data.metrics["n_windows_dropped"] == 2.0
+
+
+class _Recorder:
+    """A stand-in of :func:`terrain.tracking.tracked_run`'s run: what was logged."""
+
+    def __init__(self):
+        self.metrics, self.params, self.tables = {}, {}, {}
+
+    def __call__(self, *args, **kwargs):
+        return self
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def log_metrics(self, metrics):
+        self.metrics.update(metrics)
+
+    def log_params(self, params):
+        self.params.update(params)
+
+    def log_table(self, table, name):
+        self.tables[name] = table
+
+    def describe(self):
+        return "run: stand-in"
+
+
+class _WindowModel:
+    """A stand-in classifier: one ``ICE`` window per full 2 s of samples at 100 Hz."""
+
+    def predict(self, samples):
+        n = len(samples) // 200
+        return pd.DataFrame({"t_start_s": 2.0 * np.arange(n), "t_end_s": 2.0 * np.arange(n) + 2,
+                             "predicted": ["ICE"] * n})
+
+
+def test_predict_counts_the_runs_used_skipped_and_noted_apart(
+        tmp_path, capsys, monkeypatch, write_run, synth_imu, synth_pro):
+    """Six runs for a model trained on an AgriMaRo at 100 Hz: two full (one with a 50 Hz IMU),
+    one of 1.5 s (too short for a 2 s window), one of exactly one window (200 samples) and
+    two without their IMU (skipped). Every
+    Husky run draws the other-vehicle note, the 50 Hz one the slower-IMU note, and each
+    count reaches the printout and the logged metrics."""
+    import pipelines.predict as predict
+
+    meta = {"window_s": 2.0, "rate_hz": 100.0, "vehicle": "agrimaro",
+            "channels": ["vel_l", "vel_r", "cur_l", "cur_r", "wx", "wy", "wz", "ax", "ay", "az"]}
+    monkeypatch.setattr(predict, "_load", lambda uri, progress: (_WindowModel(), meta))
+    run = _Recorder()
+    monkeypatch.setattr(predict, "tracked_run", run)
+    runs = tmp_path / "runs"
+    write_run(runs, "ICE", "00", synth_imu(10.0), synth_pro(10.0))
+    write_run(runs, "ICE", "01", synth_imu(10.0, rate_hz=50.0), synth_pro(10.0))
+    write_run(runs, "SNOW", "00", synth_imu(1.5), synth_pro(1.5))
+    write_run(runs, "SNOW", "01", None, synth_pro(10.0))
+    write_run(runs, "SNOW", "03", None, synth_pro(10.0))
+    write_run(runs, "SNOW", "02", synth_imu(1.99), synth_pro(1.99))    # 200 samples: 2 s
+    out = tmp_path / "p.csv"
+    assert main(["predict", "--model", str(tmp_path), str(runs), "--out", str(out),
+                 "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "11 windows from 4 of 6 runs -> " + str(out) in text
+    assert "predicted windows per class: {'ICE': 11}" in text
+    assert text.count("IMU is sampled at 50 Hz") == 1
+    m = run.metrics
+    assert (m["n_windows"], m["n_runs"], m["n_runs_used"], m["n_runs_skipped"]) == (11, 6, 4, 2)
+    assert (m["n_runs_other_vehicle"], m["n_runs_slower_imu"]) == (6, 1)
+    assert m["input_runs_too_short"] == 1     # the 1.5 s run; 200 samples fill one window
+    assert m["n_windows_flagged"] == 0
+    assert len(pd.read_csv(out)) == 11
+
+
+def test_predict_names_the_first_line_of_a_model_load_failure(tmp_path, capsys, monkeypatch):
+    import pipelines.predict as predict
+
+    def fail(uri, progress):
+        raise OSError("MLmodel unreadable\n  in the second line: detail")
+    monkeypatch.setattr(predict, "load_model", fail)
+    assert main(["predict", "--model", str(tmp_path), str(tmp_path), "--out",
+                 str(tmp_path / "p.csv")]) == 2
+    assert capsys.readouterr().err == (f"terrain predict: error: cannot load model "
+                                       f"'{tmp_path}': MLmodel unreadable\n")
+
+
+class _Windows(SimpleNamespace):
+    """A stand-in of the training windows: their arrays, counted by length."""
+
+    def __len__(self):
+        return len(self.X)
+
+
+def test_train_logs_the_runs_hop_vehicle_and_classes_it_trained_on(
+        tmp_path, capsys, monkeypatch):
+    """Three runs loaded, two windowed (a Husky's and an AgriMaRo's): two runs trained, no
+    single vehicle; the 0.5 s training hop given is the one logged; a one-seed CNN budget
+    leaves the run's name alone; a lower-case catalogued class is no stranger; a member's
+    ``n_jobs`` is not a model parameter."""
+    from sklearn.neighbors import KNeighborsClassifier
+    from sklearn.pipeline import Pipeline
+
+    import pipelines.train as train
+
+    runs = [SimpleNamespace(run_id=f"vulpi/{t}/{i}", vehicle=v)
+            for t, i, v in (("ICE", 0, "husky"), ("MY_YARD", 1, "agrimaro"),
+                            ("ICE", 2, "husky"))]
+    labels = np.array(["ice", "ice", "MY_YARD", "MY_YARD"])
+    X = np.array([[0.0], [0.1], [1.0], [1.1]])
+    pipe = Pipeline([("clf", KNeighborsClassifier(n_neighbors=1, n_jobs=1))]).fit(X, labels)
+    ws = _Windows(X=X, labels=labels, run_ids=np.array(["vulpi/ICE/0"] * 2
+                                                       + ["vulpi/MY_YARD/1"] * 2),
+                  counts={}, channels=["vel_l"])
+    report = SimpleNamespace(metrics=dict, table=pd.DataFrame(), text=lambda: "report")
+    logged = {}
+    monkeypatch.setattr(train, "load_dataset", lambda name: runs)
+    monkeypatch.setattr(train, "fit_pipeline", lambda config, runs, progress: (pipe, ws, {}))
+    monkeypatch.setattr(train, "input_report", lambda *a: report)
+    monkeypatch.setattr(train, "runs_to_model_input", lambda *a: (pd.DataFrame(), []))
+    monkeypatch.setattr(train, "log_model", lambda pipe, ch, w, classes, meta, *a, **k:
+                        logged.update(meta=meta, classes=classes) or "runs:/x/model")
+    run = _Recorder()
+
+    def tracked(experiment, run_name, params):
+        logged.update(name=run_name, params=params)
+        return run
+    monkeypatch.setattr(train, "tracked_run", tracked)
+    assert main(["train", "--dataset", "vulpi", "--model", "svm", "--train-hop-s", "0.5",
+                 "--no-progress", "--no-register"]) == 0
+    out = capsys.readouterr().out
+    assert logged["name"] == "svm-vulpi-all"
+    assert logged["params"]["train_hop_s"] == 0.5 and logged["params"]["window_s"] == 2.0
+    assert logged["meta"]["vehicle"] is None and logged["meta"]["trained_on_runs"] == 2
+    assert run.metrics["n_runs"] == 2 and run.metrics["n_windows"] == 4
+    assert "trained on 4 windows of 2 runs, classes ['MY_YARD', 'ice']" in out
+    assert "note: class(es) ['MY_YARD'] not in the terrain catalogue" in out
+    assert "registered as" not in out
+    assert run.params["model.clf__n_neighbors"] == 1
+    assert not [k for k in run.params if k.endswith("n_jobs")]
