@@ -1,6 +1,6 @@
 """What the commands print, log and write says what the run held: the counts, the notes and
-the names (pipelines/control_sim.py, compare.py, predict.py and train.py), on known values;
-stand-ins keep the runs short."""
+the names (pipelines/control_sim.py, compare.py, predict.py, train.py, slip_model.py,
+estimate.py and terrain/cli.py), on known values; stand-ins keep the runs short."""
 
 from __future__ import annotations
 
@@ -10,10 +10,12 @@ from types import SimpleNamespace
 import mlflow
 import numpy as np
 import pandas as pd
+import pytest
 
 import pipelines.control_sim as control_sim
 from pipelines.compare import EXPERIMENT, log_cell
 from terrain.cli import main
+from terrain.errors import ConfigError
 from terrain.tracking import tracked_run, tracking_uri
 
 
@@ -225,3 +227,131 @@ def test_train_logs_the_runs_hop_vehicle_and_classes_it_trained_on(
     assert "registered as" not in out
     assert run.params["model.clf__n_neighbors"] == 1
     assert not [k for k in run.params if k.endswith("n_jobs")]
+
+
+def test_estimate_names_each_runs_file_counts_its_lags_and_keeps_the_epoch_time(
+        tmp_path, capsys, monkeypatch):
+    """Four runs (an AgriMaRo's, three Husky's) whose lag was not applied, applied twice and
+    not estimated: one file per run named by terrain and index, each count in the closing
+    note, the learned model looked for (a skid-steer run among them), an epoch clock
+    written to the digit."""
+    import pipelines.estimate as estimate
+
+    runs = [SimpleNamespace(run_id=f"r/{t}/{i}", vehicle=v)
+            for t, i, v in (("GRASS", "00", "agrimaro"), ("ASPHALT", "00", "husky"),
+                            ("ASPHALT", "01", "husky"), ("SNOW", "00", "husky"))]
+    lags = {"r/GRASS/00": SimpleNamespace(applied=False),
+            "r/ASPHALT/00": SimpleNamespace(applied=True),
+            "r/ASPHALT/01": SimpleNamespace(applied=True), "r/SNOW/00": None}
+
+    def est(run, *args, **kwargs):
+        return SimpleNamespace(notes=[], lag=lags[run.run_id], summary=lambda: run.run_id,
+                               to_frame=lambda: pd.DataFrame({"t_s": [1700000000.123456],
+                                                              "v_bx": [0.5]}))
+    monkeypatch.setattr(estimate, "_load", lambda run_dir, select: runs)
+    monkeypatch.setattr(estimate, "input_report", lambda runs: SimpleNamespace(text=str))
+    monkeypatch.setattr(estimate, "estimate_run", est)
+    monkeypatch.setattr(estimate, "estimate_skid_steer_slip_run", est)
+    monkeypatch.setattr(estimate, "slip_model_outputs", lambda run, learned: None)
+    monkeypatch.setattr(estimate, "missing_slip_inputs", lambda run: [])
+    monkeypatch.setattr(estimate, "resolve_slip_model",
+                        lambda model_dir: (None, "no tracking store at here"))
+    out = tmp_path / "s.csv"
+    assert main(["estimate", str(tmp_path), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "note: no learned slip model (no tracking store at here)" in text
+    assert ("note: encoder lag applied on 2 of 4 runs, not applied on 1 (no clear "
+            "cross-correlation peak), not estimated on 1") in text
+    written = sorted(p.name for p in tmp_path.glob("s_*.csv"))
+    assert written == ["s_ASPHALT_00.csv", "s_ASPHALT_01.csv", "s_GRASS_00.csv",
+                       "s_SNOW_00.csv"]
+    assert f"r/SNOW/00 -> {tmp_path / 's_SNOW_00.csv'}" in text
+    frame = pd.read_csv(tmp_path / "s_GRASS_00.csv", dtype={"t_s": str})
+    assert frame["t_s"].tolist() == ["1700000000.123456"]
+
+
+def test_a_write_error_naming_no_file_names_the_output_options_given(
+        tmp_path, capsys, monkeypatch):
+    # a file over the size limit (EFBIG) names no file, as a full disk does: the line names
+    # the one output given, or each of several; a long message is cut at 500 characters
+    import errno
+
+    def fail(args):
+        raise failure
+    monkeypatch.setattr(control_sim, "main", fail)
+    argv = ["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
+            "straight_accel", "--controller", "off", "--json", str(tmp_path / "c.json")]
+    failure = OSError(errno.EFBIG, "File too large")
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (f"terrain control-sim: error: [Errno {errno.EFBIG}] "
+                                       f"File too large while writing --json "
+                                       f"{tmp_path / 'c.json'}\n")
+    assert main([*argv, "--csv", str(tmp_path / "t.csv")]) == 2
+    assert capsys.readouterr().err.endswith(
+        f" while writing one of --json {tmp_path / 'c.json'}, --csv {tmp_path / 't.csv'}\n")
+    failure = ConfigError("x" * 600)
+    assert main(argv) == 2
+    assert capsys.readouterr().err == "terrain control-sim: error: " + "x" * 497 + "...\n"
+
+
+def test_slip_model_dir_errors_list_what_the_folder_holds_and_the_loaders_reason(
+        tmp_path, monkeypatch):
+    import mlflow.sklearn
+
+    from pipelines.slip_model import load_slip_model_dir
+
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ConfigError, match=r"not an MLflow model folder \(found: nothing\)"):
+        load_slip_model_dir(empty)
+    full = tmp_path / "full"
+    full.mkdir()
+    for name in "abcdefghij":
+        (full / name).write_text("")
+    with pytest.raises(ConfigError, match=r"\(found: a, b, c, d, e, f, g, h\); give"):
+        load_slip_model_dir(full)
+    # a reason of exactly 200 characters is kept whole; a longer one is cut to 200
+    (full / "MLmodel").write_text("flavors: {}\n")
+    for reason, shown in (("y" * 200, "y" * 200), ("z" * 201, "z" * 197 + "...")):
+        def fail(uri, reason=reason):
+            raise ValueError(reason)
+        monkeypatch.setattr(mlflow.sklearn, "load_model", fail)
+        with pytest.raises(ConfigError) as info:
+            load_slip_model_dir(full)
+        assert str(info.value) == (f"--slip-model-dir {full}: the model cannot be loaded "
+                                   f"(ValueError: {shown})")
+
+
+def test_the_registered_slip_model_is_its_highest_version_by_number(monkeypatch):
+    # versions 9 and 10: the latest is 10 (9 as text)
+    import mlflow
+    import mlflow.artifacts
+    import mlflow.sklearn
+
+    import terrain.tracking
+    from pipelines.slip_model import REGISTERED_SLIP_MODEL, resolve_slip_model
+
+    class Client:
+        def __init__(self, **kwargs):
+            pass
+
+        def search_model_versions(self, query):
+            return [SimpleNamespace(version=v) for v in ("9", "10", "2")]
+
+        def get_model_version_download_uri(self, name, version):
+            return f"store/{name}/{version}"
+
+    monkeypatch.setattr(terrain.tracking, "tracking_uri", lambda: "http://stand-in:5000")
+    monkeypatch.setattr(terrain.tracking, "check_store", lambda store: None)
+    monkeypatch.setattr(mlflow, "MlflowClient", Client)
+    monkeypatch.setattr(mlflow.artifacts, "download_artifacts",
+                        lambda artifact_uri, tracking_uri: "local:" + artifact_uri)
+    monkeypatch.setattr(mlflow.sklearn, "load_model", lambda path: path)
+    assert resolve_slip_model(None) == (f"local:store/{REGISTERED_SLIP_MODEL}/10",
+                                        f"models:/{REGISTERED_SLIP_MODEL}/latest")
+
+    def unreachable(store):
+        raise ConfigError("cannot reach http://stand-in:5000; start it first")
+    monkeypatch.setattr(terrain.tracking, "check_store", unreachable)
+    assert resolve_slip_model(None) == (None, "tracking store not usable: cannot reach "
+                                              "http://stand-in:5000")
