@@ -7,16 +7,13 @@ from __future__ import annotations
 import json
 from types import SimpleNamespace
 
-import mlflow
 import numpy as np
 import pandas as pd
 import pytest
 
 import pipelines.control_sim as control_sim
-from pipelines.compare import EXPERIMENT, log_cell
 from terrain.cli import main
 from terrain.errors import ConfigError
-from terrain.tracking import tracked_run, tracking_uri
 
 
 def _closed_loop_stand_in(monkeypatch, speed_limit, correction, energy=12.34):
@@ -51,42 +48,6 @@ def test_control_sim_notes_clipped_commands_when_any_motor_step_was_clipped(
     _closed_loop_stand_in(monkeypatch, [0, 0, 0, 0], [0, 0, 0, 0], energy=None)
     _, out = _control_sim(tmp_path, capsys)
     assert "note:" not in out and "energy n/a (the run did not move)" in out
-
-
-def _log_cells(tmp_path, monkeypatch, cell, rows):
-    """Log one cell under a ``compare`` parent run; its child run."""
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
-    uri = tracking_uri()
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
-    previous = mlflow.get_tracking_uri()
-    mlflow.set_tracking_uri(uri)
-    try:
-        with tracked_run(EXPERIMENT, run_name="compare", announce=False) as parent:
-            log_cell({"cell": cell, "rows": rows})
-    finally:
-        mlflow.set_tracking_uri(previous)
-    client = mlflow.MlflowClient(tracking_uri=uri)
-    children = client.search_runs([client.get_experiment_by_name(EXPERIMENT).experiment_id],
-                                  f"tags.mlflow.parentRunId = '{parent.run_id}'")
-    assert len(children) == 1
-    return children[0]
-
-
-def test_compare_child_run_names_the_training_hop_and_protocol_and_each_history(
-        tmp_path, monkeypatch):
-    # a cell fitted on 0.5 s hops of 2 s windows under the leaky paper protocol: both in
-    # the name (the hop once named the window length); one metric per history k
-    cell = {"model": "svm", "dataset": "vulpi", "signals": "all", "window_s": 2.0, "seed": 1,
-            "protocol": "paper", "train_hop_s": 0.5}
-    rows = [{"history": k, "accuracy": acc, "balanced_accuracy": 0.5, "macro_f1": 0.4,
-             "run_vote_accuracy": 0.6, "fit_s_per_fold": 1.0, "infer_ms_per_window": 0.1,
-             "n_windows_dropped": 2} for k, acc in ((1, 0.7), (5, 0.8))]
-    child = _log_cells(tmp_path, monkeypatch, cell, rows)
-    assert child.info.run_name == "svm-vulpi-all-2s-seed1-paper-LEAKY-trainhop0.5s"
-    assert child.data.metrics["accuracy_k1"] == 0.7
-    assert child.data.metrics["accuracy_k5"] == 0.8
-    assert child.data.metrics["n_windows_dropped"] == 2.0
 
 
 class _Recorder:
