@@ -1,5 +1,5 @@
 """What the commands print, log and write says what the run held: the counts, the notes and
-the names (pipelines/control_sim.py, compare.py, predict.py, train.py, slip_model.py,
+the names (pipelines/control_sim.py, predict.py, train.py, slip_model.py,
 estimate.py and terrain/cli.py), on known values; stand-ins keep the runs short."""
 
 from __future__ import annotations
