@@ -62,6 +62,12 @@ def test_a_search_of_one_grid_step_is_allowed():
     # takes 0.5 to 0, and refused it as "under half a grid step")
     est = estimate_lag(T, STEPS, T, np.interp(T - 0.01, T, STEPS), max_lag_s=0.005)
     assert est.lag_s == pytest.approx(0.01, abs=0.002)
+    # 12.5 steps search 13 (round() gave 12): 50 samples are then under four times the
+    # searched lags (52) and refused, where 12 steps (48) pass
+    t, x = np.arange(50) * 0.01, np.clip(np.arange(50) * 0.01 - 0.2, 0.0, 0.1)
+    assert estimate_lag(t, x, t, x, max_lag_s=0.12).n_samples == 50
+    with pytest.raises(EstimationError, match="too short to estimate a lag of up to 0.125 s"):
+        estimate_lag(t, x, t, x, max_lag_s=0.125)
     with pytest.raises(ConfigError, match="half a grid step"):
         estimate_lag(T, STEPS, T, STEPS, max_lag_s=0.004)
 
