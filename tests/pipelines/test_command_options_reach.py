@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import pandas as pd
 import pytest
+from cli_helpers import RecordingRun, control_sim_json
 
 import pipelines.control_sim as control_sim
 from pipelines.simulate import unreached_terrains_note
@@ -45,11 +46,7 @@ def test_unreached_terrain_note_gives_the_path_length_in_the_plane():
 
 
 def _control_sim(tmp_path, *extra):
-    out = tmp_path / "c.json"
-    argv = ["control-sim", "--vehicle", "husky", "--terrain", "ice", "--scenario",
-            "straight_accel", "--duration-s", "0.5", "--json", str(out), *extra]
-    assert main(argv) == 0
-    return json.loads(out.read_text())
+    return control_sim_json(tmp_path, "--duration-s", "0.5", *extra)
 
 
 def test_control_sim_gains_given_are_the_gains_run(tmp_path):
@@ -112,25 +109,6 @@ class _Stop(Exception):
     """Raised by the stand-in of the grid run, once its arguments are recorded."""
 
 
-class _NoTracking:
-    """Stand-in of :func:`terrain.tracking.tracked_run` (the grid's logging is not what
-    these tests check): a run that logs nothing, its parameters kept in ``started``."""
-
-    started: list = []
-
-    def __init__(self, *args, params=None, **kwargs):
-        self.started.append(params)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def __getattr__(self, name):
-        return lambda *args, **kwargs: None
-
-
 def test_control_grid_runs_the_estimator_gains_and_feed_forward_asked_for(tmp_path,
                                                                           monkeypatch):
     """--husky-estimator, its default gains and --no-feed-forward reach the grid's runs
@@ -145,7 +123,7 @@ def test_control_grid_runs_the_estimator_gains_and_feed_forward_asked_for(tmp_pa
         raise _Stop()
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("terrain.tracking.tracked_run", _NoTracking)
+    monkeypatch.setattr("terrain.tracking.tracked_run", RecordingRun())
     monkeypatch.setattr(control_grid, "run_grid", capture)
     assert main(["control-grid", "--vehicles", "husky", "--terrains", "ice", "--no-tune",
                  "--husky-estimator", "observer", "--no-feed-forward", "--seeds", "3",
@@ -162,7 +140,7 @@ def test_control_grid_summary_names_its_seeds_and_bounds_the_straight_runs_only(
     """summary.json: the evaluation seeds as given; the quasi-static slip-limit bound is
     that of the straight_accel runs on soft terrain (not the orchard's)."""
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("terrain.tracking.tracked_run", _NoTracking)
+    monkeypatch.setattr("terrain.tracking.tracked_run", RecordingRun())
     assert main(["control-grid", "--vehicles", "husky", "--terrains", "SNOW", "--scenarios",
                  "straight_accel", "orchard", "--no-tune", "--seeds", "3", "--duration-s",
                  "0.5", "--out", "g"]) == 0
@@ -199,13 +177,14 @@ def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(mo
     monkeypatch.setattr(stream_eval, "load_dataset", lambda name: ["r0", "r1", "r2"])
     monkeypatch.setattr(stream_eval, "runs_holding", lambda runs, names: runs)
     monkeypatch.setattr(stream_eval, "held_out_streams", capture)
-    monkeypatch.setattr(stream_eval, "tracked_run", _NoTracking)
+    tracking = RecordingRun()
+    monkeypatch.setattr(stream_eval, "tracked_run", tracking)
     argv = ["stream-eval", "--part", "streams", "--kinds", "wheels", "--seeds", "4",
             "--switch-gap-s", "0.25"]
     assert main(argv + ["--folds", "3"]) == 1                  # reached the streams
     assert calls[-1]["n_splits"] == 3 and calls[-1]["switch_gap_s"] == 0.25
-    assert _NoTracking.started[-1] == {"part": "streams", "seeds": "4", "switch_gap_s": 0.25,
-                                       "folds": 3}
+    assert tracking.starts[-1] == {"part": "streams", "seeds": "4", "switch_gap_s": 0.25,
+                                   "folds": 3}
     assert main(argv + ["--folds", "4"]) == 2 and len(calls) == 1
 
 

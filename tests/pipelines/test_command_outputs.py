@@ -4,12 +4,12 @@ estimate.py and terrain/cli.py), on known values; stand-ins keep the runs short.
 
 from __future__ import annotations
 
-import json
 from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_helpers import RecordingRun, control_sim_json
 
 import pipelines.control_sim as control_sim
 from terrain.cli import main
@@ -26,11 +26,9 @@ def _closed_loop_stand_in(monkeypatch, speed_limit, correction, energy=12.34):
 
 
 def _control_sim(tmp_path, capsys):
-    out = tmp_path / "c.json"
-    assert main(["control-sim", "--vehicle", "husky", "--terrain", "ice", "--terrain-source",
-                 "label", "--scenario", "straight_accel", "--controller", "traction",
-                 "--duration-s", "2", "--json", str(out)]) == 0
-    return json.loads(out.read_text()), capsys.readouterr().out
+    result = control_sim_json(tmp_path, "--terrain-source", "label", "--controller",
+                              "traction", "--duration-s", "2")
+    return result, capsys.readouterr().out
 
 
 def test_control_sim_notes_clipped_commands_when_any_motor_step_was_clipped(
@@ -48,34 +46,6 @@ def test_control_sim_notes_clipped_commands_when_any_motor_step_was_clipped(
     _closed_loop_stand_in(monkeypatch, [0, 0, 0, 0], [0, 0, 0, 0], energy=None)
     _, out = _control_sim(tmp_path, capsys)
     assert "note:" not in out and "energy n/a (the run did not move)" in out
-
-
-class _Recorder:
-    """A stand-in of :func:`terrain.tracking.tracked_run`'s run: what was logged."""
-
-    def __init__(self):
-        self.metrics, self.params, self.tables = {}, {}, {}
-
-    def __call__(self, *args, **kwargs):
-        return self
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def log_metrics(self, metrics):
-        self.metrics.update(metrics)
-
-    def log_params(self, params):
-        self.params.update(params)
-
-    def log_table(self, table, name):
-        self.tables[name] = table
-
-    def describe(self):
-        return "run: stand-in"
 
 
 class _WindowModel:
@@ -99,7 +69,7 @@ def test_predict_counts_the_runs_used_skipped_and_noted_apart(
     meta = {"window_s": 2.0, "rate_hz": 100.0, "vehicle": "agrimaro",
             "channels": ["vel_l", "vel_r", "cur_l", "cur_r", "wx", "wy", "wz", "ax", "ay", "az"]}
     monkeypatch.setattr(predict, "_load", lambda uri, progress: (_WindowModel(), meta))
-    run = _Recorder()
+    run = RecordingRun()
     monkeypatch.setattr(predict, "tracked_run", run)
     runs = tmp_path / "runs"
     write_run(runs, "ICE", "00", synth_imu(10.0), synth_pro(10.0))
@@ -170,7 +140,7 @@ def test_train_logs_the_runs_hop_vehicle_and_classes_it_trained_on(
     monkeypatch.setattr(train, "runs_to_model_input", lambda *a: (pd.DataFrame(), []))
     monkeypatch.setattr(train, "log_model", lambda pipe, ch, w, classes, meta, *a, **k:
                         logged.update(meta=meta, classes=classes) or "runs:/x/model")
-    run = _Recorder()
+    run = RecordingRun()
 
     def tracked(experiment, run_name, params):
         logged.update(name=run_name, params=params)
