@@ -170,17 +170,22 @@ def test_stream_reports_the_cells_the_reader_repaired(run_dir, tmp_path, capsys,
     assert "wheels.cur_l:1" in out
 
 
-def _dead_current(frame):
-    """A dead left current sensor for 22 s (the stuck rule needs 20 s)."""
-    frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
-    return frame
+def _model_and_dead_current_run(run_dir, tmp_path, wheel_model, monkeypatch):
+    """Working in ``tmp_path``: the wheel model's saved folder and a copy of the run whose
+    left current sensor is dead for 22 s (the stuck rule needs 20 s)."""
+    def dead_current(frame):
+        frame.loc[(frame["time"] > 5.0) & (frame["time"] < 27.0), "curL"] = 3.25
+        return frame
+
+    monkeypatch.chdir(tmp_path)
+    return (_saved(wheel_model, tmp_path / "model"),
+            _edited_copy(run_dir, tmp_path / "runs", edit_pro=dead_current))
 
 
 def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_path, capsys,
                                                                   wheel_model, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    model_dir = _saved(wheel_model, tmp_path / "model")
-    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=_dead_current)
+    model_dir, folder = _model_and_dead_current_run(run_dir, tmp_path, wheel_model,
+                                                    monkeypatch)
     out_csv = tmp_path / "d.csv"
     assert _stream(model_dir, folder, out_csv) == 0
     captured = capsys.readouterr()
@@ -190,7 +195,7 @@ def test_stream_flags_decisions_whose_window_holds_a_stuck_sensor(run_dir, tmp_p
     pro = pd.read_csv(folder / "pro_07.csv")
     a, b = pro.loc[pro["curL"] == 3.25, "time"].agg(["min", "max"])  # the stuck samples
     end = frame["t_s"] - frame["window_age_s"]      # each decision's window [end - 2 s, end)
-    overlaps = (end - 2.0 <= b) & (end >= a)
+    overlaps = (end - 2.0 <= b) & (end > a)
     assert has.sum() > 15 and (has == overlaps).all()
     n = int(has.sum())
     assert f"stuck or dead sensor channel(s): SNOW/07 (wheels.cur_l); {n} window(s)" \
@@ -379,9 +384,8 @@ def test_stream_min_confidence_sets_when_the_fallback_target_is_used(
 def test_predict_counts_the_windows_holding_a_stuck_sensor(run_dir, tmp_path, capsys,
                                                            wheel_model, monkeypatch):
     # predict flags each window holding the stuck channel and its input report counts them
-    monkeypatch.chdir(tmp_path)
-    model_dir = _saved(wheel_model, tmp_path / "model")
-    folder = _edited_copy(run_dir, tmp_path / "runs", edit_pro=_dead_current)
+    model_dir, folder = _model_and_dead_current_run(run_dir, tmp_path, wheel_model,
+                                                    monkeypatch)
     out_csv = tmp_path / "p.csv"
     assert main(["predict", "--model", str(model_dir), str(folder), "--out", str(out_csv),
                  "--no-progress"]) == 0
