@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from control_helpers import observation
 
 from terrain.control import build_slip_table, config_for_vehicle
 from terrain.control.closed_loop import (BUS_VOLTAGE_V, FIRST_FEEDFORWARD_STEP_S, TractionLoop,
@@ -212,14 +213,6 @@ class _FixedEstimator:
                                 np.full(n, self.a), abs(self.v), 0.0)
 
 
-def _observation(t_s, omega_ll):
-    from terrain.sim.closed_loop import Observation
-
-    e = np.zeros((0, 3))
-    return Observation(t_s, omega_ll, np.zeros((0, 4)), e, e, np.zeros((0, 5)), e,
-                       np.zeros((0, 7)))
-
-
 def test_feed_forward_does_not_discard_the_braking_correction():
     """Braking on ICE with a locking wheel (ground 1 m/s, rim 0.6 m/s, slip -0.4 beyond the
     -0.015 target): the feedback speeds the wheel up (+0.77 rad/s with kp = 2). The
@@ -233,7 +226,7 @@ def test_feed_forward_does_not_discard_the_braking_correction():
         loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(0.6, 1.0, -1.0, r),
                             build_slip_table(["ICE"]), lambda t: ("ICE", 1.0), feed_forward=ff)
         for k in range(3):
-            c = loop(_observation(0.02 * (k + 1), np.full(n, 0.6 / r)))
+            c = loop(observation(0.02 * (k + 1), np.full(n, 0.6 / r)))
         assert np.all(loop.log[-1]["mode"] == -1)              # BRAKING
         corrections[ff] = c
     assert np.all(corrections[False] > 0.5)                     # 0.77 rad/s
@@ -248,7 +241,7 @@ def test_engaged_feed_forward_still_slows_a_spinning_wheel():
     r = ctrl_cfg.wheel_radius_m
     loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.2, 1.0, r),
                         build_slip_table(["ICE"]), lambda t: ("ICE", 1.0))
-    c = loop(_observation(0.02, np.full(n, 1.0 / r)))
+    c = loop(observation(0.02, np.full(n, 1.0 / r)))
     assert loop.ff_engaged.all()
     limit = 0.2 / (r * (1 - build_slip_table(["ICE"]).entries["ICE"].traction))
     np.testing.assert_allclose(1.0 / r + c, limit, rtol=1e-9)
@@ -445,8 +438,8 @@ def test_first_call_integrates_no_assumed_interval(rate_hz):
     r = ctrl_cfg.wheel_radius_m
     loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.5, 1.0, r),
                         build_slip_table(["ICE"]), lambda t: ("ICE", 1.0), feed_forward=False)
-    first = loop(_observation(100.0, np.full(n, 1.0 / r)))
-    second = loop(_observation(100.0 + 1.0 / rate_hz, np.full(n, 1.0 / r)))
+    first = loop(observation(100.0, np.full(n, 1.0 / r)))
+    second = loop(observation(100.0 + 1.0 / rate_hz, np.full(n, 1.0 / r)))
     np.testing.assert_allclose(first, 0.0, atol=1e-4)
     error = loop.log[-1]["desired"] - loop.log[-1]["slip_est"]
     np.testing.assert_allclose(second, 10.0 * error / rate_hz, rtol=1e-3)
@@ -527,7 +520,7 @@ def test_engaged_feed_forward_gives_way_to_a_feedback_that_slows_the_wheel_more(
     for ff in (False, True):
         loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.2, 1.0, r), table,
                             lambda t: ("ICE", 1.0), feed_forward=ff)
-        corrections[ff] = loop(_observation(0.02, np.full(n, 0.3 / r)))
+        corrections[ff] = loop(observation(0.02, np.full(n, 0.3 / r)))
     assert loop.ff_engaged.all()
     expected = 2.0 * (table.entries["ICE"].traction - 0.8)
     np.testing.assert_allclose(corrections[False], expected, rtol=1e-9)
@@ -545,7 +538,7 @@ def test_feed_forward_limits_on_the_fallbacks_terrain_while_no_terrain_is_decide
     assert table.fallback.traction == table.entries["ICE"].traction
     loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(1.0, 0.2, 1.0, r), table,
                         lambda t: (None, 0.0))
-    c = loop(_observation(0.02, np.full(n, 1.0 / r)))
+    c = loop(observation(0.02, np.full(n, 1.0 / r)))
     assert loop.ff_engaged.all()
     np.testing.assert_allclose(1.0 / r + c, 0.2 / (r * (1 - table.fallback.traction)),
                                rtol=1e-9)
@@ -562,7 +555,7 @@ def test_decision_age_is_the_time_since_the_decision_and_the_first_ramp_step_is_
     for made_before, expect in ((1.0, table.entries["GRASS"]), (10.0, table.fallback)):
         loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(0.0, 0.0, 0.0, r), table,
                             lambda t: ("GRASS", 0.9, t - made_before))
-        loop(_observation(20.0, np.full(n, 1.0 / r)))
+        loop(observation(20.0, np.full(n, 1.0 / r)))
         assert loop.log[-1]["decision_age_s"] == pytest.approx(made_before)
         assert loop.log[-1]["target_traction"] == expect.traction
     a_max = traction_acceleration_limit(get_terrain("ICE"), table.fallback.traction)
@@ -578,11 +571,11 @@ def test_a_non_finite_acceleration_estimate_suspends_the_control_for_that_call_o
     r = ctrl_cfg.wheel_radius_m
     est = _FixedEstimator(0.6, 1.0, math.nan, r)
     loop = TractionLoop(ctrl_cfg, n, est, build_slip_table(["ICE"]), lambda t: ("ICE", 1.0))
-    loop(_observation(0.02, np.full(n, 0.6 / r)))
+    loop(observation(0.02, np.full(n, 0.6 / r)))
     assert loop.log[-1]["safe"].all()
     est.a = -1.0                                               # braking, locking wheel
     for k in range(2):
-        c = loop(_observation(0.04 + 0.02 * k, np.full(n, 0.6 / r)))
+        c = loop(observation(0.04 + 0.02 * k, np.full(n, 0.6 / r)))
         assert not loop.log[-1]["safe"].any() and np.all(loop.log[-1]["mode"] == -1)
     assert np.all(c > 0.5)
 
@@ -634,7 +627,7 @@ def test_the_logged_steady_target_takes_the_sign_of_the_motion():
     for sign in (1.0, -1.0):
         loop = TractionLoop(ctrl_cfg, n, _FixedEstimator(sign * 1.0, sign * 0.8, 0.0, r),
                             table, lambda t: ("SNOW", 1.0))
-        loop(_observation(0.02, np.full(n, sign * 1.0 / r)))
+        loop(observation(0.02, np.full(n, sign * 1.0 / r)))
         np.testing.assert_allclose(loop.log[-1]["steady_target"], sign * steady)
 
 

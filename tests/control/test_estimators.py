@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from control_helpers import observation
 
 from terrain.control.estimators import (AgriMaRoVisualOdometryEKF, FusedSlipObserver,
                                         WheelImuObserver, estimator_for)
@@ -386,23 +387,13 @@ def test_agrimaro_wheel_acceleration_is_the_body_acceleration_along_the_wheel():
                                [0.4, 0.3, (0.4 - 0.3) / np.sqrt(2.0)], atol=1e-12)
 
 
-def _obs(t, omega_ll, imu=None, wheels=None, currents=None, imu_full=None):
-    from terrain.sim.closed_loop import Observation
-
-    return Observation(t, np.asarray(omega_ll, float),
-                       np.zeros((0, 4)) if imu is None else imu,
-                       np.zeros((0, 3)) if wheels is None else wheels, np.zeros((0, 3)),
-                       np.zeros((0, 5)), np.zeros((0, 3)) if currents is None else currents,
-                       np.zeros((0, 7)) if imu_full is None else imu_full)
-
-
 def test_wheel_imu_observer_resets_only_when_the_command_stands_too():
     """Wheels reading 0 with a command of 1 rad/s (locked wheels, the robot still sliding)
     are no standstill: the integrated speed is kept (the first wheel sample pulls nothing)."""
     est = WheelImuObserver("husky", tau_s=2.0)
     imu = np.array([[0.01 * k, 1.0, 0.0, 0.0] for k in range(50)])
-    est.update(_obs(0.5, [1.0, 1.0], imu=imu))
-    e = est.update(_obs(0.51, [1.0, 1.0], wheels=np.array([[0.51, 0.0, 0.0]])))
+    est.update(observation(0.5, [1.0, 1.0], imu=imu))
+    e = est.update(observation(0.51, [1.0, 1.0], wheels=np.array([[0.51, 0.0, 0.0]])))
     assert e.chassis_speed_m_s == pytest.approx(0.49, abs=1e-12)
 
 
@@ -423,7 +414,7 @@ def test_fused_observer_physics_slip_gets_the_wheels_angular_acceleration(monkey
     t = np.array([0.0, 0.1, 0.2, 0.3])
     wheels = np.column_stack([t, t * 10 + 1.0, t * 10 + 1.0])
     currents = np.column_stack([t, np.full(4, 2.0), np.full(4, 2.0)])
-    est.update(_obs(0.3, [4.0, 4.0], wheels=wheels, currents=currents))
+    est.update(observation(0.3, [4.0, 4.0], wheels=wheels, currents=currents))
     assert len(seen) == 1
     np.testing.assert_allclose(seen[0], [[10.0, 10.0]])
 
@@ -440,8 +431,8 @@ def test_fused_observer_on_the_full_imu_reads_ax_and_az_not_ay():
         rows = base.copy()
         rows[:, 5] = ay
         est = FusedSlipObserver("husky", None, imu="full")
-        est.update(_obs(0.5, [1.0, 1.0], imu_full=rows,
-                        wheels=np.column_stack([t[::10], np.full((5, 2), 2.0)])))
+        est.update(observation(0.5, [1.0, 1.0], imu_full=rows,
+                               wheels=np.column_stack([t[::10], np.full((5, 2), 2.0)])))
         states.append(est.x.copy())
     np.testing.assert_array_equal(states[0], states[1])
     assert abs(states[0][6]) > 0      # the accelerometer rows were used
