@@ -17,13 +17,14 @@ from terrain.vehicles import HUSKY
 
 
 class _Recorder:
-    """Predicts the mean target of the rows it was fitted on; remembers those rows (the
-    first feature column is the window's index)."""
+    """Predicts the mean target of the rows it was fitted on; appends those rows (the first
+    feature column is the window's index) to ``fitted``, a list its caller keeps."""
 
-    fitted: list = []
+    def __init__(self, fitted: list):
+        self.fitted = fitted
 
     def fit(self, X, Y):
-        _Recorder.fitted.append(np.asarray(X)[:, 0].astype(int).tolist())
+        self.fitted.append(np.asarray(X)[:, 0].astype(int).tolist())
         self.mean = np.asarray(Y).mean(axis=0)
         return self
 
@@ -41,13 +42,13 @@ def test_fit_predict_fits_on_the_training_windows_only_and_refuses_overlap():
     X, Y = _table()
     train = np.array([1, 1, 1, 0, 0, 0, 0, 0], bool)
     test = np.array([0, 0, 0, 0, 1, 1, 0, 0], bool)
-    _Recorder.fitted = []
-    out = fit_predict(_Recorder, X, Y, train, test)
-    assert _Recorder.fitted == [[0, 1, 2]]
+    fitted = []
+    out = fit_predict(lambda: _Recorder(fitted), X, Y, train, test)
+    assert fitted == [[0, 1, 2]]
     np.testing.assert_allclose(out[test], [Y[:3].mean(axis=0)] * 2)
     assert np.isnan(out[~test]).all()
     with pytest.raises(ConfigError, match="disjoint"):
-        fit_predict(_Recorder, X, Y, train, train | test)     # a test window in training
+        fit_predict(lambda: _Recorder([]), X, Y, train, train | test)  # a test window trained
 
 
 def test_leave_one_out_never_trains_on_the_group_it_predicts():
@@ -55,9 +56,9 @@ def test_leave_one_out_never_trains_on_the_group_it_predicts():
     groups = np.array(["a", "a", "b", "b", "c", "c", "c", "c"])
     train = np.array([1, 0, 1, 0, 1, 1, 0, 0], bool)
     test = ~train
-    _Recorder.fitted = []
-    out = leave_one_out(_Recorder, X, Y, groups, train, test)
-    assert _Recorder.fitted == [[2, 4, 5], [0, 4, 5], [0, 2]]   # groups a, b, c held out
+    fitted = []
+    out = leave_one_out(lambda: _Recorder(fitted), X, Y, groups, train, test)
+    assert fitted == [[2, 4, 5], [0, 4, 5], [0, 2]]   # groups a, b, c held out
     np.testing.assert_allclose(out[1], Y[[2, 4, 5]].mean(axis=0))
     np.testing.assert_allclose(out[7], Y[[0, 2]].mean(axis=0))
     assert np.isnan(out[train]).all()
