@@ -61,9 +61,9 @@ def test_predict_counts_the_runs_used_skipped_and_noted_apart(
         tmp_path, capsys, monkeypatch, write_run, synth_imu, synth_pro):
     """Six runs for a model trained on an AgriMaRo at 100 Hz: two full (one with a 50 Hz IMU),
     one of 1.5 s (too short for a 2 s window), one of exactly one window (200 samples) and
-    two without their IMU (skipped). Every
-    Husky run draws the other-vehicle note, the 50 Hz one the slower-IMU note, and each
-    count reaches the printout and the logged metrics."""
+    two without their IMU (skipped). Every Husky run draws the other-vehicle note, the
+    50 Hz one the slower-IMU note, and each count reaches the printout and the logged
+    metrics."""
     import pipelines.predict as predict
 
     meta = {"window_s": 2.0, "rate_hz": 100.0, "vehicle": "agrimaro",
