@@ -556,8 +556,10 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     pandas.DataFrame
         Columns ``terrain, factor, lateral_friction, replay_chi, measured_chi, n_runs``;
         ``replay_chi`` is :func:`terrain.vehicles.icr.icr_expansion_factor` of the replayed
-        yaw rate and ``(v_R - v_L) / B`` over the turning samples of every chosen run (inf
-        when the replayed robot does not turn).
+        yaw rate and ``(v_R - v_L) / B`` over the turning samples of every chosen run at
+        least ``settings.frames.edge_s`` from either end of its record, the audit frames'
+        scored span (inf when the replayed robot does not turn; NaN when no run of
+        ``terrain`` turns, or none inside that span).
 
     Raises
     ------
@@ -585,14 +587,16 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         for run in chosen:
             rep = replay_run(run, settings.replay, terrain=ter)
             _, x = skid_steer_forward(rep.vel_l, rep.vel_r, rep.track_m)
+            # the frames' scored span: edge_s from either end (replay start, filter edges)
             m = ((np.abs(x) >= settings.frames.turn_rad_s)
-                 & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s))
+                 & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s)
+                 & (rep.t_s <= rep.t_s[-1] - settings.frames.edge_s))
             commanded.append(x[m])
             replayed.append(rep.yaw_rate[m])
+        commanded, replayed = np.concatenate(commanded), np.concatenate(replayed)
+        chi = icr_expansion_factor(replayed, commanded) if commanded.size else np.nan
         rows.append({"terrain": terrain, "factor": float(factor),
-                     "lateral_friction": ter.lateral_friction,
-                     "replay_chi": icr_expansion_factor(np.concatenate(replayed),
-                                                        np.concatenate(commanded)),
+                     "lateral_friction": ter.lateral_friction, "replay_chi": chi,
                      "measured_chi": measured_chi, "n_runs": len(chosen)})
     return pd.DataFrame(rows)
 

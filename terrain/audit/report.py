@@ -204,13 +204,14 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     -------
     str
         ``~<mu>``; ``below <lowest>`` / ``above <highest>`` when the sweep does not bracket
-        the measured chi; ``-`` without a measured chi.
+        the measured chi; ``-`` without a measured chi or without a replayed chi (no run
+        of the terrain turns inside the scored span).
     """
     g = sweep.sort_values("lateral_friction")
     target = g.measured_chi.iloc[0]
-    if target is None or not np.isfinite(float(target)):
-        return "-"
     mu, chi = g.lateral_friction.to_numpy(float), g.replay_chi.to_numpy(float)
+    if target is None or not np.isfinite(float(target)) or np.isnan(chi).all():
+        return "-"
     for k in range(len(mu) - 1):
         if chi[k] <= target <= chi[k + 1] and np.isfinite(chi[k + 1]):
             frac = (target - chi[k]) / max(chi[k + 1] - chi[k], 1e-12)
