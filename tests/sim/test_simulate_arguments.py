@@ -283,3 +283,25 @@ def test_wheel_commands_clipped_at_the_speed_limit_are_counted_and_said(tmp_path
     assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "60",
                  "--seed", "0", "--out", str(tmp_path)]) == 0
     assert "speed limit" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name, lower, upper", [
+    ("icr_expansion", 1.0, 20.0), ("gyro_bias", -0.5, 0.5), ("wheel_lag", 0.0, 2.0),
+    ("turning_resistance", 0.0, 50.0), ("current_offset", -20.0, 20.0),
+    ("grade_resistance", 0.0, 200.0)])
+def test_each_planted_effect_takes_its_documented_range_ends_included(name, lower, upper):
+    """The ranges of the module's table: chi below 1 would make the robot turn faster than
+    differential drive, a negative turning resistance would lower the current in turns; a
+    gyro bias and a current offset go either way (left or right)."""
+    for value in (lower, upper):
+        assert Effects(**{name: value}).as_dict()[name] == value
+    for value in (lower - 0.01, upper + 0.01):
+        with pytest.raises(ConfigError, match=name):
+            Effects(**{name: value})
+
+
+def test_an_effect_item_with_two_equals_signs_is_refused():
+    """``NAME=VALUE=...`` is malformed: its value is not a number, rather than the text after
+    the second ``=`` being dropped."""
+    with pytest.raises(ConfigError, match="gyro_bias needs a number"):
+        parse_effects(["gyro_bias=0.1=0.2"])
