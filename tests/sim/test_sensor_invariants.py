@@ -237,3 +237,60 @@ def test_current_offset_goes_to_the_right_motor_if_positive_and_the_left_if_nega
     minus = motor_currents(phys, HUSKY, parse_effects(["current_offset=-0.7"]))
     np.testing.assert_allclose(plus - base, [[0.0, 0.7]] * 5, atol=1e-12)
     np.testing.assert_allclose(minus - base, [[0.7, 0.0]] * 5, atol=1e-12)
+
+
+def test_turning_resistance_adds_the_same_tanh_current_to_both_sides_in_either_turn():
+    """``value tanh(|yaw_rate| / 0.1 rad/s)`` (the module's table) on both motors, left and
+    right turns alike, whatever the forward speed; nothing while driving straight."""
+    from dataclasses import replace
+
+    from terrain.sim.effects import TURN_RATE_SCALE_RAD_S
+    from terrain.sim.simulate import motor_currents
+    from terrain.vehicles import HUSKY
+    assert TURN_RATE_SCALE_RAD_S == 0.1
+    r = np.array([0.0, 0.1, -0.1, 0.05, -1.0])
+    twist = np.column_stack([np.full(5, 1.2), np.zeros(5), r])    # 1.2 m/s forward
+    phys = replace(_physics(5), twist=twist)
+    extra = (motor_currents(phys, HUSKY, parse_effects(["turning_resistance=3"]))
+             - motor_currents(phys, HUSKY, parse_effects([])))
+    expected = 3.0 * np.tanh(np.abs(r) / 0.1)            # 0, 2.28, 2.28, 1.39, 3.0 A
+    np.testing.assert_allclose(extra, np.column_stack([expected, expected]), atol=1e-12)
+
+
+def test_grade_resistance_adds_value_times_abs_pitch_to_both_sides_up_and_down():
+    """``value |pitch|`` on both motors: a slope never lowers the current, climbing or
+    descending."""
+    from dataclasses import replace
+
+    from terrain.sim.simulate import motor_currents
+    from terrain.vehicles import HUSKY
+    pitch = np.array([0.0, 0.2, -0.2, 0.05])
+    phys = replace(_physics(4), pitch=pitch)
+    extra = (motor_currents(phys, HUSKY, parse_effects(["grade_resistance=40"]))
+             - motor_currents(phys, HUSKY, parse_effects([])))
+    np.testing.assert_allclose(extra, [[0.0, 0.0], [8.0, 8.0], [8.0, 8.0], [2.0, 2.0]],
+                               atol=1e-12)
+
+
+def test_wheel_lag_delays_every_wheel_stream_speeds_and_currents_alike():
+    """The wheel streams at time t hold the values of t - lag (the module's table): the pro_
+    speeds and currents and AgriMaRo's ``omega`` and ``cur``. At 50 Hz a 0.5 s lag is 25
+    samples; with the current noise off the lagged run is the unlagged one shifted by
+    exactly that, the first 0.5 s holding the start's values."""
+    from dataclasses import replace
+
+    from terrain.sim.simulate import DEFAULT_SENSORS
+    sensors = replace(DEFAULT_SENSORS["agrimaro"], current_noise_a=0.0)
+    assert sensors.wheel_rate_hz == 50.0
+    cfg = dict(vehicle="agrimaro", scenario="random", duration_s=4.0, seed=3, sensors=sensors)
+    base = simulate(SimConfig(**cfg))
+    late = simulate(SimConfig(**cfg, effects=parse_effects(["wheel_lag=0.5"])))
+    for stream in ("wheels", "omega", "cur"):
+        b, lagged = base.streams[stream], late.streams[stream]
+        assert np.array_equal(lagged.t_s, b.t_s)         # stamped on the same clock
+        for column in b.columns.drop("t_s"):
+            moved = np.abs(lagged[column] - b[column]).max()
+            assert moved > 0.1, f"{stream}.{column} not lagged"
+            np.testing.assert_allclose(lagged[column].to_numpy()[25:],
+                                       b[column].to_numpy()[:-25], atol=1e-9,
+                                       err_msg=f"{stream}.{column}")
