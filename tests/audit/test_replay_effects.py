@@ -974,3 +974,55 @@ def test_the_rate_dependent_form_needs_fast_turns_to_dig_in_more():
     assert fast.fractions == pytest.approx((0.0, 2.0 / 3.0), abs=0.02)
     slow = dug_in(2)
     assert slow.form == "uniform" and slow.fraction == pytest.approx(0.3, abs=0.03)
+
+
+def test_current_offsets_are_added_while_moving_only():
+    """``current_offset``: constant offsets of the left and right readings *while moving*
+    (a robot at rest draws the replay's stand-still current): left to ``cur_l``, right to
+    ``cur_r``, nothing on stopped samples."""
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.effects import CurrentParams
+    from terrain.audit.frames import STOP
+    f = synthetic_frame("s/ASPHALT/0", noise=0.0)
+    manoeuvre = f.manoeuvre.copy()
+    manoeuvre[:30] = STOP                                # the run starts at rest for 3 s
+    f = replace(f, manoeuvre=manoeuvre)
+    extra = predict_current(f, CurrentParams(offset_left_a=-0.3, offset_right_a=0.5)) - f.sim_cur
+    moving = manoeuvre != STOP
+    assert moving.any() and (~moving).sum() == 30
+    np.testing.assert_allclose(extra[moving], [[-0.3, 0.5]] * int(moving.sum()), atol=1e-12)
+    assert np.all(extra[~moving] == 0.0)
+
+
+def test_the_vocabulary_fits_and_scores_each_effect_where_the_table_says():
+    """The vocabulary (module table): each effect's group, JSON parameter and unit, and the
+    samples its held-out gain is scored on; every effect the simulator plants is audited
+    under the same name and unit, and the Coulomb turning shape is the simulator's."""
+    from terrain.audit.effects import EFFECT_VOCABULARY, EffectSettings
+    from terrain.sim import PLANTED_EFFECTS
+    from terrain.sim.effects import TURN_RATE_SCALE_RAD_S
+    table = {
+        "icr_expansion": ("yaw", "chi", "1", "turning"),
+        "gyro_bias": ("yaw", "bias_rad_s", "rad/s", "all"),
+        "wheel_lag": ("timing", "lag_s", "s", "active"),
+        "turning_resistance": ("current", "k_a", "A", "turning"),
+        "current_offset": ("current", "offset_a", "A", "straight_diff"),
+        "grade_resistance": ("current", "k_a_per_rad", "A/rad", "moving"),
+        "immobilised": ("yaw", "fraction", "1", "turning"),
+    }
+    assert {name: (s.group, s.param, s.unit, s.scope)
+            for name, s in EFFECT_VOCABULARY.items()} == table
+    for name, planted in PLANTED_EFFECTS.items():
+        assert EFFECT_VOCABULARY[name].unit == planted.unit, name
+    assert EffectSettings().coulomb_scale_rad_s == TURN_RATE_SCALE_RAD_S
+
+
+def test_fitted_chi_is_the_kinematic_one_or_the_replays_own():
+    """``YawParams.chi``: ``1 / inverse_chi`` when the mobile model is kinematic, the
+    replay's own chi when the mobile yaw rate is the replay's (the report's ``chi_mobile``)."""
+    from terrain.audit.effects import YawParams
+    assert YawParams(kinematic=True, inverse_chi=0.8, chi_replay=1.3).chi == pytest.approx(1.25)
+    assert YawParams(kinematic=False, inverse_chi=0.8, chi_replay=1.3).chi == 1.3
+    assert np.isnan(YawParams().chi)
