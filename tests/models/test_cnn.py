@@ -125,17 +125,26 @@ def test_gpu_trained_model_serves_on_a_cpu_only_machine(tmp_path):
     assert next(model.net_.module_.parameters()).device.type == "cuda"
     on_gpu = model.predict_proba(X[test])
     assert (model.classes_[on_gpu.argmax(axis=1)] == y[test]).mean() >= 0.9
-    (tmp_path / "model.pkl").write_bytes(pickle.dumps(model))
-    np.save(tmp_path / "x.npy", X[test])
+    np.testing.assert_allclose(proba_without_cuda(model, X[test], tmp_path), on_gpu, atol=1e-4)
+
+
+def proba_without_cuda(model, X, folder) -> np.ndarray:
+    """``model.predict_proba(X)`` in a new process that sees no CUDA device (a robot's CPU):
+    the model is pickled to ``folder`` and loaded there; every CNN it holds must be on the
+    CPU after loading."""
+    (folder / "model.pkl").write_bytes(pickle.dumps(model))
+    np.save(folder / "x.npy", X)
     code = ("import pickle, sys, warnings, numpy as np, torch; warnings.simplefilter('ignore');"
             "assert not torch.cuda.is_available();"
             "m = pickle.loads(open(sys.argv[1] + '/model.pkl', 'rb').read());"
-            "assert next(m.net_.module_.parameters()).device.type == 'cpu';"
+            "nets = [e for e in getattr(m, 'estimators_', [m]) if hasattr(e, 'net_')];"
+            "assert nets and all(next(e.net_.module_.parameters()).device.type == 'cpu'"
+            " for e in nets);"
             "np.save(sys.argv[1] + '/p.npy', m.predict_proba(np.load(sys.argv[1] + '/x.npy')))")
-    done = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
+    done = subprocess.run([sys.executable, "-c", code, str(folder)], capture_output=True,
                           text=True, env={**os.environ, "CUDA_VISIBLE_DEVICES": ""})
     assert done.returncode == 0, done.stderr[-2000:]
-    np.testing.assert_allclose(np.load(tmp_path / "p.npy"), on_gpu, atol=1e-4)
+    return np.load(folder / "p.npy")
 
 
 def test_normalisation_statistics_come_from_the_training_windows_only():

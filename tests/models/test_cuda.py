@@ -9,17 +9,13 @@ GPU-trained model loading on a CPU-only machine is ``test_cnn.py``'s CUDA test.
 
 from __future__ import annotations
 
-import os
-import pickle
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 from sklearn.linear_model import LogisticRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import FunctionTransformer, StandardScaler
-from test_cnn import FAST, _cuda_available, _planted  # same folder (pytest's prepend mode)
+from test_cnn import (FAST, _cuda_available, _planted,  # same folder (prepend mode)
+                      proba_without_cuda)
 
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
@@ -87,13 +83,5 @@ def test_ensemble_with_a_cuda_member_serves_on_a_cpu_only_machine(tmp_path):
     assert _on_cuda(ensemble.estimators_[1])
     on_gpu = ensemble.predict_proba(X[test])
     assert (ensemble.classes_[on_gpu.argmax(axis=1)] == y[test]).mean() >= 0.9
-    (tmp_path / "model.pkl").write_bytes(pickle.dumps(ensemble))
-    np.save(tmp_path / "x.npy", X[test])
-    code = ("import pickle, sys, warnings, numpy as np, torch; warnings.simplefilter('ignore');"
-            "assert not torch.cuda.is_available();"
-            "m = pickle.loads(open(sys.argv[1] + '/model.pkl', 'rb').read());"
-            "np.save(sys.argv[1] + '/p.npy', m.predict_proba(np.load(sys.argv[1] + '/x.npy')))")
-    done = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
-                          text=True, env={**os.environ, "CUDA_VISIBLE_DEVICES": ""})
-    assert done.returncode == 0, done.stderr[-2000:]
-    np.testing.assert_allclose(np.load(tmp_path / "p.npy"), on_gpu, atol=1e-4)
+    np.testing.assert_allclose(proba_without_cuda(ensemble, X[test], tmp_path), on_gpu,
+                               atol=1e-4)
