@@ -29,7 +29,7 @@ import pandas as pd
 import pytest
 
 from terrain.errors import (ClockError, ConfigError, DataFormatError, ImplausibleValueError,
-                            UnitError)
+                            NonFiniteError, NonNumericError, TimestampError, UnitError)
 from terrain.run import WHEEL_CHANNELS
 from terrain.serving.pyfunc import save_model
 from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
@@ -535,6 +535,97 @@ def test_a_stream_just_short_of_a_window_says_by_how_much(span_s, shown):
     with pytest.raises(DataFormatError, match=rf"too short: it {shown} over 11 sample\(s\); "
                                               r"one window needs 2 s"):
         parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 10_000)
+
+
+def test_a_stream_of_exactly_one_window_is_taken_and_makes_one_decision():
+    """The bounds of a request's span: exactly one window (2.0 s, 1/8 s steps, exact in
+    binary) is long enough and makes one decision, half a hop more makes two."""
+    streams = {"wheels": WHEEL_CHANNELS}
+    run = parse_request(_synthetic(0.125, 17), streams, 2.0, 100)
+    assert planned_decisions(run, 2.0, 0.5) == 1
+    assert planned_decisions(run, 2.5, 0.5) == 0
+    assert planned_decisions(parse_request(_synthetic(0.125, 21), streams, 2.0, 100),
+                             2.0, 0.5) == 2
+
+
+def test_the_row_limit_and_the_lowest_nominal_rate_are_taken_at_their_bounds():
+    streams = {"wheels": WHEEL_CHANNELS}
+    frame = _synthetic(0.125, 20)
+    assert len(parse_request(frame, streams, 2.0, 20).streams["wheels"]) == 20
+    with pytest.raises(DataFormatError, match="request of 20 rows exceeds the limit of 19;"):
+        parse_request(frame, streams, 2.0, 19)
+    parse_request(_synthetic(1.0, 3), streams, 2.0, 100)   # 1 Hz: the nominal 1-1000 Hz
+    with pytest.raises(DataFormatError, match=r"implies 0.9901 Hz, outside its nominal "
+                                              r"1-1000 Hz"):
+        parse_request(_synthetic(1.01, 3), streams, 2.0, 100)
+
+
+@pytest.mark.parametrize("value, what", [(10.0, "decreasing timestamp 10.0 after 10.5"),
+                                         (10.5, "duplicated timestamp 10.5 after 10.5")])
+def test_a_time_error_names_the_row_that_goes_back(value, what):
+    """As README's example: the row moved back in time is named, not the one before it."""
+    frame = _synthetic(0.125, 20)
+    frame.loc[5, "t_s"] = value
+    with pytest.raises(TimestampError) as info:
+        parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 100)
+    assert what in str(info.value)
+    assert str(info.value).endswith("(file request, column 't_s', data row 5 (0-based))")
+
+
+def test_a_burst_of_two_non_finite_values_is_repaired_and_one_of_three_refused():
+    frame = _synthetic(0.125, 20)
+    frame.loc[[5, 6], "cur_l"] = np.nan
+    run = parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 100)
+    assert run.streams["wheels"]["cur_l"].isna().sum() == 2   # left to the service
+    frame.loc[7, "cur_l"] = np.inf
+    with pytest.raises(NonFiniteError, match=r"burst of 3 non-finite values \(more than 2 "
+                                             r"are not repaired\) \(file request, column "
+                                             r"'cur_l', data row 5"):
+        parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 100)
+
+
+def test_a_column_of_booleans_is_refused_not_read_as_ones():
+    """JSON ``true`` in every row gives a boolean column, which NumPy would read as 1.0."""
+    frame = _synthetic(0.125, 20).assign(vel_l=True)
+    assert frame["vel_l"].dtype == bool
+    with pytest.raises(NonNumericError, match=r"boolean value True where a number is "
+                                              r"expected \(20 such value\(s\)\) \(file "
+                                              r"request, column 'vel_l', data row 0"):
+        parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 100)
+
+
+def test_a_wide_row_past_the_last_stamp_holding_one_value_is_refused():
+    """A value after its stream's last stamp would be dropped without a word."""
+    wide = _synthetic(0.125, 20).drop(columns="stream").rename(columns={"t_s": "wheels_t_s"})
+    wide.loc[20] = np.nan
+    wide.loc[20, "cur_l"] = 12.0
+    with pytest.raises(NonFiniteError) as info:
+        parse_request(wide, {"wheels": WHEEL_CHANNELS}, 2.0, 100)
+    assert "wheels_t_s is empty in a row that holds values of the stream's channels" \
+        in str(info.value)
+    assert str(info.value).endswith("(file request, column 'wheels_t_s', data row 20 "
+                                    "(0-based))")
+
+
+def test_time_columns_of_the_other_format_are_named_as_ignored():
+    """A long request's ``<stream>_t_s`` columns, and a wide request's ``t_s``, are not
+    read: they are named in the answer like any other unread column."""
+    streams = {"wheels": WHEEL_CHANNELS}
+    long = _synthetic(0.125, 20).assign(wheels_t_s=1.0, imu_t_s=2.0)
+    assert parse_request(long, streams, 2.0, 100).meta["ignored_columns"] == [
+        "wheels_t_s", "imu_t_s"]
+    wide = long.drop(columns=["stream", "wheels_t_s"]).rename(columns={"t_s": "wheels_t_s"})
+    wide = wide.assign(t_s=0.0, imu_t_s=np.nan)
+    assert parse_request(wide, streams, 2.0, 100).meta["ignored_columns"] == ["t_s"]
+
+
+def test_unknown_streams_are_listed_five_and_a_count():
+    frame = _synthetic(0.125, 20).astype({"stream": object})
+    frame.loc[3:9, "stream"] = list("abcdefg")
+    with pytest.raises(DataFormatError) as info:
+        parse_request(frame, {"wheels": WHEEL_CHANNELS}, 2.0, 100)
+    assert str(info.value).startswith("unknown stream 'a', 'b', 'c', 'd', 'e' and 2 more in 7 "
+                                      "row(s), data rows 3")
 
 
 def _replay(service_cls, model, frame):
