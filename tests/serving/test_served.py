@@ -683,6 +683,21 @@ def test_decisions_are_bounded_before_any_work(served, request_frame, wheel_mode
     assert MAX_DECISIONS == 2000
 
 
+@pytest.mark.parametrize("last_s, status", [(1001.5, 200), (1002.0, 400)])
+def test_the_decision_limit_is_reached_not_passed(served, request_frame, last_s, status):
+    """A request spanning one window and 1999 hops makes exactly the 2,000 decisions
+    allowed (answered, every one); half a hop more would make 2,001 (refused)."""
+    frame = request_frame.assign(t_s=request_frame["t_s"] - request_frame["t_s"].iloc[0])
+    frame.loc[frame.index >= 40, "t_s"] += last_s - frame["t_s"].iloc[-1]
+    assert frame["t_s"].iloc[-1] == last_s
+    got, body = _call(served, frame)
+    assert got == status, body
+    if status == 200:
+        assert len(body["predictions"]) == MAX_DECISIONS
+    else:
+        assert "would make 2001 decisions" in body["message"]
+
+
 def test_settings_are_checked(wheel_model):
     with pytest.raises(ConfigError, match="shorter than one period"):
         served_settings(wheel_model, hop_s=1e-4)
