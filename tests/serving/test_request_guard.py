@@ -651,3 +651,91 @@ def test_a_body_dripped_slower_than_its_deadline_is_answered_408():
     status, answer = drip.answer()
     assert status == 408 and seen == [] and guard.in_flight == 0
     assert "incomplete after 0.25 s" in answer["message"]
+
+
+def test_a_content_type_in_capitals_still_has_its_body_checked():
+    """The media type is case-insensitive for the body checks too: a ``TEXT/CSV`` body
+    with a repeated column is refused (pandas would rename the copy ``t_s.1``)."""
+    app, seen = _echo_app()
+    body = b"stream,t_s,t_s\nwheels,1,2\n"
+    status, answer = _post(RequestGuard(app, max_body_bytes=1000),
+                           [(b"content-length", str(len(body)).encode()),
+                            (b"content-type", b"TEXT/CSV; Charset=UTF-8")], [body])
+    assert status == 400 and "duplicated column name(s) ['t_s']" in answer["message"]
+    assert seen == []
+
+
+def test_a_parquet_body_may_decode_to_exactly_its_expansion_limit():
+    kind = "application/vnd.apache.parquet"
+    body = _parquet(50_000)     # 50,000 rows x 2 cells x 8 bytes: 800,000 bytes decoded
+    assert body_refusal(kind, body, None, 800_000 // PARQUET_EXPANSION) is None
+    status, answer = body_refusal(kind, body, None, 800_000 // PARQUET_EXPANSION - 1)
+    assert status == 413 and answer["error_code"] == "REQUEST_LIMIT_EXCEEDED"
+
+
+@pytest.mark.parametrize("doc, words", [
+    ({"dataframe_split": {"columns": ["a"], "data": [[1]]}, "extra": 1},
+     "the JSON body has the key(s) ['dataframe_split', 'extra']"),
+    ({"dataframe_split": {"columns": ["a"], "data": [[1]], "orient": "split"}},
+     "got ['columns', 'data', 'orient']"),
+])
+def test_keys_beside_a_json_table_are_refused_not_dropped(doc, words):
+    assert words in _message(body_refusal("application/json", json.dumps(doc).encode(),
+                                          None, 1000))
+
+
+def test_a_cr_only_csv_names_the_column_and_line_of_a_huge_number():
+    body = _csv_with(5, b"1e400").replace(b"\n", b"\r")
+    assert _message(body_refusal("text/csv", body, None, 10**6)).endswith(
+        "(file request, column 'cur_l', line 7)")
+
+
+def test_a_byte_order_mark_is_not_part_of_the_first_column_name():
+    body = b"\xef\xbb\xbft_s,stream,t_s\n1,wheels,2\n"
+    assert "duplicated column name(s) ['t_s']" in _message(
+        body_refusal("text/csv", body, None, 1000))
+    body = b"\xef\xbb\xbft_s,stream\n1e400,wheels\n"
+    assert _message(body_refusal("text/csv", body, None, 1000)).endswith(
+        "(file request, column 't_s', line 2)")
+
+
+def test_a_content_length_that_is_no_number_is_a_400():
+    app, seen = _echo_app()
+    status, answer = _post(RequestGuard(app, max_body_bytes=1000),
+                           [(b"content-length", b"2x"), (b"content-type", b"text/csv")])
+    assert status == 400 and answer["message"] == ("DataFormatError: Content-Length is not "
+                                                   "a number")
+    assert seen == []
+
+
+def test_only_invocations_needs_a_content_type():
+    """A POST elsewhere is MLflow's to answer (a 405 on /ping), not a 415."""
+    app, seen = _echo_app()
+    client = _Client([b"ab"])
+    asyncio.run(RequestGuard(app, max_body_bytes=1000)(
+        _raw_scope("POST", "/ping", [(b"content-length", b"2")]), client.receive, client.send))
+    assert client.answer() == (200, {"n": 2}) and seen == [b"ab"]
+
+
+def test_a_long_message_is_cut_to_500_characters():
+    from terrain.serving.http import MAX_MESSAGE, project_message
+
+    text = project_message(400, "DataFormatError: " + "x" * 1000)
+    assert len(text) == MAX_MESSAGE == 500 and text.endswith("x...")
+
+
+def test_an_error_answer_sent_in_pieces_is_rewritten_whole():
+    async def app(scope, receive, send):
+        while (await receive()).get("more_body"):
+            pass
+        doc = json.dumps({"error_code": "BAD_REQUEST", "stack_trace": "Traceback ...",
+                          "message": "Invalid input. Got type <class 'int'>"}).encode()
+        await send({"type": "http.response.start", "status": 400,
+                    "headers": [(b"content-type", b"application/json")]})
+        await send({"type": "http.response.body", "body": doc[:20], "more_body": True})
+        await send({"type": "http.response.body", "body": doc[20:]})
+
+    status, answer = _post(RequestGuard(app, 100), [(b"content-length", b"2"),
+                                                    (b"content-type", b"text/csv")])
+    assert status == 400 and "stack_trace" not in answer
+    assert answer["message"].startswith("DataFormatError: the JSON body is not a table")
