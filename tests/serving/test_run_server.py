@@ -98,3 +98,13 @@ def test_fewer_threads_than_requests_blocked_at_once_starve_the_rest():
 def test_run_server_refuses_no_threads():
     with pytest.raises(ValueError, match="workers must be at least 1"):
         run_server(None, [], 0)
+
+
+def test_one_thread_is_enough():
+    srv, thread, sock = _server(_barrier_app(threading.Barrier(1)), workers=1)
+    try:
+        assert _get(f"http://127.0.0.1:{sock.getsockname()[1]}/") == b"met"
+    finally:
+        srv.should_exit = True
+        thread.join(10)
+        sock.close()
