@@ -242,7 +242,8 @@ def _message(refused):
     return answer["message"]
 
 
-@pytest.mark.parametrize("value", [b"1e400", b"-1E+400", b"9" * 400, b"1" * 500 + b".5"])
+@pytest.mark.parametrize("value", [b"1e400", b"-1E+400", b"9" * 309, b"9" * 400,
+                                   b"1" * 500 + b".5"])
 def test_a_csv_number_beyond_the_float_range_is_refused_not_read_as_inf(value):
     # pandas reads each of these as +-inf: the served model took it for one non-finite
     # sample and repaired it (200)
@@ -364,6 +365,7 @@ def test_a_nul_byte_is_named_and_utf16_is_told_from_it():
 @pytest.mark.parametrize("doc, words", [
     (None, "the JSON body is null, not an object"),
     (3, "the JSON body is a number, not an object"),
+    (True, "the JSON body is a boolean, not an object"),
     ({}, "the JSON body has the key(s) []"),
     ({"dataframe_records": [{"a": 1}], "params": {"hop_s": 1}}, "takes no 'params'"),
     ({"dataframe_split": {"columns": ["a", "b"]}}, "must be an object with 'columns' and "
@@ -739,3 +741,18 @@ def test_an_error_answer_sent_in_pieces_is_rewritten_whole():
                                                     (b"content-type", b"text/csv")])
     assert status == 400 and "stack_trace" not in answer
     assert answer["message"].startswith("DataFormatError: the JSON body is not a table")
+
+
+@pytest.mark.parametrize("path", ["/ping", "/health", "/version"])
+def test_head_on_each_read_endpoint_is_run_as_get(path):
+    methods = []
+
+    async def app(scope, receive, send):
+        methods.append(scope["method"])
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"{}"})
+
+    client = _Client([])
+    asyncio.run(RequestGuard(app, max_body_bytes=1000)(_raw_scope("HEAD", path, []),
+                                                       client.receive, client.send))
+    assert methods == ["GET"] and client.answer() == (200, {})

@@ -1110,6 +1110,7 @@ def test_a_non_finite_first_or_last_sample_is_refused(served, request_frame, row
     message = _error(served, frame)
     assert message.startswith("NonFiniteError: stream 'wheels': non-finite value in its "
                               + ("first" if row == 0 else "last") + " sample")
+    assert message.endswith(f"column 'cur_l', data row {frame.index[row]} (0-based))")
 
 
 def test_an_accelerometer_in_g_is_refused_as_the_readers_do(borealtc_runs):
