@@ -335,8 +335,11 @@ class RequestGuard:
             return 400, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
                 f"request with {len(types)} different Content-Type headers; send one",
                 "request"))}
-        encoding = headers.get(b"content-encoding", b"identity").strip().lower()
-        if encoding not in (b"", b"identity"):
+        # every Content-Encoding header counts (RFC 9110 lists their codings in the order
+        # applied): ``gzip`` then ``identity`` is a gzip body, not the last header's text
+        encodings = [v.strip().lower() for k, v in raw_headers if k == b"content-encoding"]
+        encoding = next((e for e in encodings if e not in (b"", b"identity")), None)
+        if encoding is not None:
             return 415, {"error_code": "BAD_REQUEST", "message": _typed(DataFormatError(
                 f"Content-Encoding {encoding.decode('latin-1')[:20]!r} is not accepted; "
                 "send the body uncompressed", "request"))}

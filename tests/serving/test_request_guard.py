@@ -756,3 +756,16 @@ def test_head_on_each_read_endpoint_is_run_as_get(path):
     asyncio.run(RequestGuard(app, max_body_bytes=1000)(_raw_scope("HEAD", path, []),
                                                        client.receive, client.send))
     assert methods == ["GET"] and client.answer() == (200, {})
+
+
+def test_a_compressed_body_is_refused_whichever_content_encoding_header_comes_last():
+    """Two Content-Encoding headers, ``gzip`` then ``identity``: the coding is gzip (RFC
+    9110 lists the codings of every such header in the order applied); only the last
+    header was looked at, so the compressed bytes were read as text."""
+    app, seen = _echo_app()
+    status, answer = _post(RequestGuard(app, max_body_bytes=1000),
+                           [(b"content-length", b"2"), (b"content-type", b"text/csv"),
+                            (b"content-encoding", b"gzip"),
+                            (b"content-encoding", b"identity")])
+    assert status == 415 and "Content-Encoding 'gzip' is not accepted" in answer["message"]
+    assert seen == []
