@@ -769,3 +769,28 @@ def test_a_compressed_body_is_refused_whichever_content_encoding_header_comes_la
                             (b"content-encoding", b"identity")])
     assert status == 415 and "Content-Encoding 'gzip' is not accepted" in answer["message"]
     assert seen == []
+
+
+def test_an_exception_in_the_app_is_a_one_line_500_or_ends_an_answer_begun():
+    """An unexpected failure before any answer is a 500 naming only the exception's class
+    (the traceback goes to the log); after the answer has begun no second answer is sent
+    (the exception goes on to the server, which closes the connection)."""
+    async def failing(scope, receive, send):
+        while (await receive()).get("more_body"):
+            pass
+        raise RuntimeError("secret internals")
+
+    headers = [(b"content-length", b"2"), (b"content-type", b"text/csv")]
+    status, answer = _post(RequestGuard(failing, 100), headers)
+    assert status == 500 and answer["error_code"] == "INTERNAL_ERROR"
+    assert answer["message"] == "internal error (RuntimeError); see the server log"
+
+    async def begun(scope, receive, send):
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        raise RuntimeError("half-way")
+
+    client = _Client([b"ab"])
+    with pytest.raises(RuntimeError, match="half-way"):
+        asyncio.run(RequestGuard(begun, 100)(_raw_scope("POST", "/invocations", headers),
+                                             client.receive, client.send))
+    assert [m["type"] for m in client.sent] == ["http.response.start"]
