@@ -285,7 +285,10 @@ class ServedStreamModel(PythonModel):
         self.model = StreamModel(pipeline, tuple(s["channels"]),
                                  WindowConfig(window_s=float(s["window_s"]),
                                               rate_hz=float(s["rate_hz"])),
-                                 tuple(s["classes"]))
+                                 tuple(s["classes"]),
+                                 # the service's per-window wheel_speed_units rule needs
+                                 # the vehicle (the run-level rules get it in decide)
+                                 metadata={"vehicle": str(s["vehicle"])})
         self.targets = TableTargets(self.model.classes,
                                     DesiredSlipConfig(min_confidence=s["min_confidence"]))
         # a request makes at most max_decisions decisions, every one in the answer (a

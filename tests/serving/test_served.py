@@ -439,6 +439,23 @@ def test_windows_a_unit_rule_kept_from_the_classifier_are_dropped(served_all,
     assert plain.sum() >= 10 and not got.loc[plain, "dropped"].any()
 
 
+def test_windows_with_wheel_speeds_in_kmh_are_dropped(served, long_unseen_run):
+    """Three speeds of 3.4 (km/h; under 1 % of the request's, so the request passes the
+    readers' run-level rule) put the windows holding them over twice the Husky's top
+    speed: those windows are flagged ``wheel_speed_units`` and dropped, the others not (the
+    served model built its service without the vehicle, so the rule never ran and they
+    were classified)."""
+    wheels = long_unseen_run.streams["wheels"]
+    frame = wheels[wheels["t_s"] < wheels["t_s"].iloc[0] + 30.0].assign(stream="wheels")
+    frame = frame[COLUMNS].reset_index(drop=True)
+    frame.loc[100:102, "vel_l"] = 3.4
+    status, body = _call(served, frame)
+    assert status == 200, body
+    got = pd.DataFrame(body["predictions"])
+    units = got["flags"].str.split("|").apply(lambda f: "wheel_speed_units" in f)
+    assert 1 <= units.sum() <= 8 and (got["dropped"] == units).all()
+
+
 def test_samples_still_held_when_the_request_ends_are_named_on_every_window(served_all,
                                                                             long_unseen_run):
     """A wheel stream that steps 20 s ahead of the IMU's clock near the end of a request is
