@@ -188,15 +188,10 @@ def test_paper_protocol_says_its_vote_is_per_partition(vulpi_runs):
                          "partition (partition protocol) in ") in " ".join(res.input_notes)
 
 
-def test_fit_pipeline_search_splits_a_single_run_class_as_run_cv_does(vulpi_runs,
-                                                                      monkeypatch):
-    """terrain train --search grouped its inner folds by run: Vulpi's DIRT_ROAD (one run)
-    was in the test side of one of the 3 inner folds, whose training lacked it (all 40 of
-    its windows scored with recall 0 by construction), and never tested in the other two.
-    The search now splits the units run_cv splits (grouped_units: the class's run cut into
-    single_run_blocks time blocks), so every inner fold trains and tests every class."""
+def _record_search_fit(monkeypatch) -> dict:
+    """Make ``fit_pipeline``'s grid search record what it is fitted on: the returned dict gets
+    ``y``, ``groups`` (its split units) and ``cv`` (its inner splitter) at the fit."""
     from terrain.models import experiment
-    from terrain.models.svm import SVMConfig
 
     seen = {}
     real = experiment.make_search
@@ -212,6 +207,20 @@ def test_fit_pipeline_search_splits_a_single_run_class_as_run_cv_does(vulpi_runs
         return search
 
     monkeypatch.setattr(experiment, "make_search", spy)
+    return seen
+
+
+def test_fit_pipeline_search_splits_a_single_run_class_as_run_cv_does(vulpi_runs,
+                                                                      monkeypatch):
+    """terrain train --search grouped its inner folds by run: Vulpi's DIRT_ROAD (one run)
+    was in the test side of one of the 3 inner folds, whose training lacked it (all 40 of
+    its windows scored with recall 0 by construction), and never tested in the other two.
+    The search now splits the units run_cv splits (grouped_units: the class's run cut into
+    single_run_blocks time blocks), so every inner fold trains and tests every class."""
+    from terrain.models import experiment
+    from terrain.models.svm import SVMConfig
+
+    seen = _record_search_fit(monkeypatch)
     config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,), search=True,
                               svm=SVMConfig(search_C=(10.0,), search_gamma=("scale",)))
     _, ws, info = experiment.fit_pipeline(config, runs=vulpi_runs)
@@ -220,3 +229,19 @@ def test_fit_pipeline_search_splits_a_single_run_class_as_run_cv_does(vulpi_runs
         assert set(y[train]) == set(y) and "DIRT_ROAD" in set(y[test])
     assert info["search_split_classes"] == "DIRT_ROAD"
     assert len(ws) >= len(y)          # the model itself is fitted on every window
+
+
+def test_fit_pipeline_serves_the_searched_model_with_the_first_seed(vulpi_runs, monkeypatch):
+    from terrain.models.experiment import fit_pipeline
+    from terrain.models.svm import SVMConfig
+
+    seen = _record_search_fit(monkeypatch)
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(7, 0), search=True,
+                              single_run_blocks=4,
+                              svm=SVMConfig(search_C=(3.0,), search_gamma=(0.01,)))
+    pipe, _, info = fit_pipeline(config, runs=vulpi_runs)
+    assert (info["best_C"], info["best_gamma"]) == (3.0, 0.01)
+    svc = pipe.named_steps["svc"].estimator                  # inside the Platt calibration
+    assert (svc.C, svc.gamma, svc.random_state) == (3.0, 0.01, 7)
+    # the inner folds split the single-run class into the blocks asked, not the default 5
+    assert len(set(seen["groups"][seen["y"] == "DIRT_ROAD"])) == 4
