@@ -97,3 +97,23 @@ def test_experiment_config_checks_the_filter_inputs():
                    {"search": True}):
         with pytest.raises(ConfigError, match="window-ekf"):
             ExperimentConfig(window_ekf=True, **kwargs)
+
+
+def test_run_cv_cross_validates_the_window_ekf_svm_on_raw_windows(vulpi_runs, monkeypatch):
+    # the SVM's features are computed once for the plain SVM only: with --window-ekf the
+    # folds must get the raw windows and the EKF-augmented model, or the plain SVM runs
+    import terrain.models.experiment as experiment
+
+    class Captured(Exception):
+        pass
+
+    def capture(factory, X, *args, **kwargs):
+        raise Captured(factory, X)
+
+    monkeypatch.setattr(experiment, "cross_validate", capture)
+    config = ExperimentConfig(dataset="vulpi", seeds=(0,), window_ekf=True)
+    with pytest.raises(Captured) as caught:
+        experiment.run_cv(config, runs=vulpi_runs)
+    factory, X = caught.value.args
+    assert isinstance(factory(0), WindowEKFClassifier)
+    assert X.ndim == 3 and X.shape[2] == 100               # 2 s windows at 50 Hz, not features
