@@ -168,6 +168,20 @@ def test_experiment_config_hands_run_balance_to_the_model_and_refuses_it_with_se
         ExperimentConfig(model="svm", search=True, run_balanced=True)
 
 
+def test_fit_pipeline_serves_the_run_balanced_svm_it_is_asked_for(vulpi_runs):
+    # terrain train --run-balanced: the served SVM is the run-balanced wrapper, fitted with
+    # the windows' runs, and takes raw windows like the plain one
+    from terrain.models.experiment import ExperimentConfig, fit_pipeline
+
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
+                              run_balanced=True)
+    model, ws, info = fit_pipeline(config, runs=vulpi_runs)
+    assert isinstance(model, RunBalancedClassifier) and info["model"] == "svm"
+    proba = model.predict_proba(ws.X[:3])
+    assert proba.shape == (3, 4)
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+
+
 def test_window_svm_is_a_hard_margin_fit_that_window_weights_do_not_move():
     """Why run balance reaches the ensemble through its CNN only: on the shipped Vulpi
     windows the SVM (C = 30, balanced classes) keeps no support vector at its bound, so
