@@ -323,7 +323,8 @@ def check_windows_left(ws: WindowSet, config: ExperimentConfig) -> None:
     ws : WindowSet
         The windows cut from the dataset.
     config : ExperimentConfig
-        Dataset, signals and window length, named in the message.
+        Dataset, signals and the windows :meth:`ExperimentConfig.window_config` cuts (length,
+        and partitions under the ``paper`` protocol), named in the message.
 
     Raises
     ------
@@ -331,9 +332,11 @@ def check_windows_left(ws: WindowSet, config: ExperimentConfig) -> None:
         ``ws`` holds no window.
     """
     if len(ws) == 0:
+        window = config.window_config()
+        within = f" in {window.partition_s:g} s partitions" if window.partition_s else ""
         raise ConfigError(f"no window left for this dataset, signal set and window (dataset "
                           f"{config.dataset!r}, signals {'+'.join(config.signals)}, "
-                          f"{config.window_s:g} s windows)")
+                          f"{window.window_s:g} s windows{within})")
 
 
 def check_two_classes(labels: np.ndarray, dataset: str, run_ids: np.ndarray) -> None:

@@ -161,6 +161,24 @@ def test_no_window_left_is_a_typed_error_in_training_as_in_cv(vulpi_runs):
             call(config, runs=vulpi_runs)
 
 
+def test_no_window_left_names_the_paper_windows_it_cut(vulpi_runs):
+    # the paper protocol cuts 1.7 s windows inside 5 s partitions: runs of 3 s hold none, and
+    # the message named the unused default window_s ("2 s windows") instead
+    from dataclasses import replace
+
+    from terrain.models.experiment import fit_pipeline
+    from terrain.run import TIME
+
+    short = [replace(r, streams={k: f[f[TIME] < f[TIME].iloc[0] + 3.0]
+                                 for k, f in r.streams.items()}) for r in vulpi_runs]
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
+                              protocol="paper")
+    for call in (run_cv, fit_pipeline):
+        with pytest.raises(ConfigError, match=r"no window left .*1\.7 s windows in 5 s "
+                                              r"partitions"):
+            call(config, runs=short)
+
+
 @pytest.mark.parametrize("given", [dict(window_s=3.0), dict(hop_s=1.0), dict(window_s=1.0,
                                                                              hop_s=0.1)])
 def test_paper_protocol_refuses_window_options_it_would_ignore(given):
