@@ -15,20 +15,23 @@ from terrain.models.cv import (TrainingWindows, cross_validate, purge_block_over
 from terrain.models.experiment import ExperimentConfig, run_cv
 
 
-class _Recorder(ClassifierMixin, BaseEstimator):
-    """Predicts the majority class; remembers the row ids (column 0) it was fitted on."""
+def recorder_class(seen: list) -> type:
+    """A classifier class that predicts the majority class and appends to ``seen`` the row
+    ids (column 0) of every fit. The list is the calling test's own: a clone of an instance
+    (as the cross-validation makes) is of the same class and records into it too."""
 
-    seen: list = []
+    class Recorder(ClassifierMixin, BaseEstimator):
+        def fit(self, X, y):
+            seen.append(np.asarray(X)[:, 0].astype(int).copy())
+            self.classes_ = np.unique(y)
+            values, counts = np.unique(y, return_counts=True)
+            self.majority_ = values[np.argmax(counts)]
+            return self
 
-    def fit(self, X, y):
-        type(self).seen.append(np.asarray(X)[:, 0].astype(int).copy())
-        self.classes_ = np.unique(y)
-        values, counts = np.unique(y, return_counts=True)
-        self.majority_ = values[np.argmax(counts)]
-        return self
+        def predict(self, X):
+            return np.full(len(X), self.majority_)
 
-    def predict(self, X):
-        return np.full(len(X), self.majority_)
+    return Recorder
 
 
 @pytest.fixture(scope="module")
@@ -73,17 +76,18 @@ def test_folds_train_only_on_training_units(vulpi_cuts):
                            dense.t_start_s, dense.t_end_s)
     row_id = np.arange(len(dense), dtype=float)[:, None]
     training = TrainingWindows(row_id, dense.labels.astype(str), units)
-    _Recorder.seen = []
-    report = cross_validate(lambda s: _Recorder(), np.zeros((len(ev), 1)), labels, groups,
+    seen: list = []
+    recorder = recorder_class(seen)
+    report = cross_validate(lambda s: recorder(), np.zeros((len(ev), 1)), labels, groups,
                             ev.run_ids, ev.t_start_s, ev.t_end_s, seeds=(0,), n_splits=3,
                             training=training)
-    assert len(_Recorder.seen) == 3
-    for (_, fold), rows in zip(report.predictions.groupby("fold"), _Recorder.seen):
+    assert len(seen) == 3
+    for (_, fold), rows in zip(report.predictions.groupby("fold"), seen):
         test_units = set(fold["group"])
         assert not test_units & {units[i] for i in rows}   # nothing of a test unit
         expected = {i for i, u in enumerate(units) if u is not None and u not in test_units}
         assert set(rows.tolist()) == expected              # everything else that is usable
-    assert report.folds["n_train"].sum() == sum(len(r) for r in _Recorder.seen)
+    assert report.folds["n_train"].sum() == sum(len(r) for r in seen)
     assert (report.folds["n_test"].sum() == len(ev))       # the test windows are unchanged
 
 
