@@ -151,8 +151,8 @@ def main() -> int:
     compare = CompareConfig()
     rows, fit_s = [], {}
     for seed in args.seeds:
-        ws, labels, groups, _ = cell_windows(Cell("svm", "all", 2.0, args.dataset, seed),
-                                             compare.single_run_blocks)
+        ws, labels, groups = cell_windows(Cell("svm", "all", 2.0, args.dataset, seed),
+                                          compare.single_run_blocks)[:3]
         factories = {
             "svm": [lambda s: make_model(ModelConfig("svm"), ws.channels, ws.rate_hz,
                                          args.dataset, s)],

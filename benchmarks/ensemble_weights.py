@@ -66,8 +66,8 @@ def main() -> int:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     config = CompareConfig(datasets=(args.dataset,), signals=("all",), windows_s=(2.0,))
-    ws, labels, groups, _ = cell_windows(Cell("ensemble", "all", 2.0, args.dataset, 0),
-                                         config.single_run_blocks)
+    ws, labels, groups = cell_windows(Cell("ensemble", "all", 2.0, args.dataset, 0),
+                                      config.single_run_blocks)[:3]
     classes = sorted(np.unique(labels))
     tasks = [(seed, fold, tr, te) for seed in args.seeds
              for fold, (tr, te) in enumerate(iter_splits("grouped", labels, groups, seed))]

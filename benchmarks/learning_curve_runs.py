@@ -110,8 +110,8 @@ def main() -> int:
     blocks = CompareConfig().single_run_blocks
     rows = []
     for seed in args.seeds:
-        ws, labels, groups, _ = cell_windows(Cell("svm", "all", 2.0, args.dataset, seed),
-                                             blocks)
+        ws, labels, groups = cell_windows(Cell("svm", "all", 2.0, args.dataset, seed),
+                                          blocks)[:3]
         for n_splits in args.splits:
             preds, classes, fit_s = {}, None, {}
             for model in args.models:
