@@ -303,6 +303,8 @@ def main() -> int:
         return heldout_table(args.heldout_table, args.dataset)
     variants = json.loads(args.variants)
     runs = [r for r in load_dataset(args.dataset) if r.terrain == args.terrain]
+    if not runs:
+        ap.error(f"--terrain {args.terrain}: {args.dataset} has no run of it (--dataset)")
     train, held = alternate_split(runs)
     print("training:", [r.run_id.split("/")[-1] for r in train])
     print("held out:", [r.run_id.split("/")[-1] for r in held])
