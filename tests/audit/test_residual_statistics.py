@@ -132,3 +132,61 @@ def test_the_turning_forms_are_compared_on_turning_samples():
             np.sqrt(s.sum() / n.sum()), rel=1e-12)
         assert np.sqrt(s_all.sum() / n_all.sum()) != pytest.approx(
             np.sqrt(s.sum() / n.sum()), rel=1e-3)
+
+
+def test_two_samples_have_no_correlation():
+    # any two distinct pairs lie on a line: their Pearson correlation is +-1 and says nothing
+    two = residual_statistics(_table([0.1, 0.5], [0.2, 0.3]), "SNOW")
+    assert two["corr"].isna().all() and (two["n"] == 2).all()
+    three = residual_statistics(_table([0.1, 0.5, 0.2], [0.2, 0.3, 0.1]), "SNOW")
+    assert np.isfinite(three["corr"]).all()
+
+
+def test_the_pooled_chi_needs_more_than_ten_turning_samples():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.core import measured_facts
+
+    frame = synthetic_frame("s/ASPHALT/0", chi=1.5, noise=0.0)
+    turning = np.flatnonzero(frame.score_imu & np.isin(frame.manoeuvre, (2, 3)))
+    straight = frame.score_imu & ~np.isin(frame.manoeuvre, (2, 3))
+    for n, chi in ((10, None), (11, pytest.approx(1.5))):
+        score = straight.copy()
+        score[turning[:n]] = True
+        assert measured_facts([replace(frame, score_imu=score)])["chi_pooled"] == chi
+
+
+def test_the_lag_range_of_the_facts_spans_the_runs_with_an_identifiable_lag():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.core import measured_facts
+    from terrain.audit.timing import LagTrack
+
+    def lagged(i, lags):
+        return replace(synthetic_frame(f"s/ASPHALT/{i}", seed=i), lag=LagTrack(
+            np.arange(len(lags)) * 15.0 + 15.0, np.array(lags), np.ones(len(lags)), 3))
+    frames = [lagged(0, [-0.2, 0.1]), lagged(1, [0.3, 0.05, 0.2]),
+              synthetic_frame("s/ASPHALT/2", seed=2),                   # no identifiable lag
+              replace(lagged(3, [5.0]), has_imu=False)]                 # no IMU: no lag
+    facts = measured_facts(frames)
+    assert facts["lag_min_s"] == pytest.approx(-0.2) and facts["lag_max_s"] == pytest.approx(0.3)
+    assert facts["runs_with_identifiable_lag"] == 2 and facts["runs_with_imu"] == 3
+    assert facts["runs"] == 4
+
+
+def test_turning_forms_without_a_scored_turn_are_unknown_not_perfect():
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit import AuditSettings, SelectionSettings, run_audit
+
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(4)]
+    frames = [replace(f, score_cur=f.score_cur & ~np.isin(f.manoeuvre, (2, 3)))
+              for f in frames]
+    result = run_audit([], AuditSettings(selection=SelectionSettings(
+        n_bootstrap=50, n_param_bootstrap=0), pooled=False), frames=frames)
+    details = result.effect("turning_resistance", "ASPHALT").details
+    assert np.isnan(details["heldout_rmse_turning_coulomb"])
+    assert np.isnan(details["heldout_rmse_turning_proportional"])
