@@ -1026,3 +1026,18 @@ def test_fitted_chi_is_the_kinematic_one_or_the_replays_own():
     assert YawParams(kinematic=True, inverse_chi=0.8, chi_replay=1.3).chi == pytest.approx(1.25)
     assert YawParams(kinematic=False, inverse_chi=0.8, chi_replay=1.3).chi == 1.3
     assert np.isnan(YawParams().chi)
+
+
+def test_a_run_without_imu_is_audited_on_its_currents_and_an_unknown_terrain_skipped():
+    """A wheel stream alone still gives current samples to score: the run is prepared (not
+    skipped for lacking gyro samples); a run on a terrain outside the catalogue is skipped
+    with the replay's reason."""
+    from terrain.audit import prepare_frames
+
+    t = np.arange(0.0, 20.0, 0.1)
+    pro = pd.DataFrame({"time": t, "curL": 2.0, "curR": 2.0, "velL": 0.4, "velR": 0.4})
+    frames, skipped = prepare_frames([_run(None, pro),
+                                      _run(None, pro, terrain="LAVA", run_id="t/LAVA/00")])
+    assert [f.run_id for f in frames] == ["t/ASPHALT/00"]
+    assert not frames[0].has_imu and frames[0].score_cur.any()
+    assert list(skipped) == ["t/LAVA/00"] and "LAVA" in skipped["t/LAVA/00"]
