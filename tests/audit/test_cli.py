@@ -147,12 +147,17 @@ def test_a_run_too_short_to_segment_is_named_not_called_missing(tmp_path):
     write_signal_files(tmp_path, "ICE", 0, *simulated_streams(seeds=(5,), duration_s=4.5)[0])
     result = audit_folder(tmp_path)
     assert len(result.frames) == 1 and result.frames[0].score_imu.any()
-    run_id = result.frames[0].run_id
-    for group, what in (("timing", "IMU"), ("yaw", "IMU"), ("current", "current")):
+    frame = result.frames[0]
+    for group, what, scored in (("timing", "IMU", frame.score_imu),
+                                ("yaw", "IMU", frame.score_imu),
+                                ("current", "current", frame.score_cur)):
         reason = result.groups[("ICE", group)].effects[0].reason
         assert "no run with" not in reason
         assert "too short to cut into 2 scorable segments" in reason
-        assert f"{run_id} (2 {what} samples scored over " in reason
+        t = frame.t_s[scored]                    # the span of the scored samples, not an end
+        assert t.size == 2
+        assert (f"{frame.run_id} ({t.size} {what} samples scored over "
+                f"{t[-1] - t[0]:.1f} s)") in reason
 
 
 def _strict_json(text: str):
