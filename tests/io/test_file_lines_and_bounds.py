@@ -186,3 +186,63 @@ def test_streams_meeting_at_one_instant_have_no_common_clock(make_run):
     streams = _streams(imu_t, wheel_t)
     with pytest.raises(DataFormatError, match="do not overlap"):
         align_streams(make_run(streams))
+
+
+def test_gyro_slope_is_fitted_over_the_wheel_samples_the_imu_spans():
+    """Rule ``gyro_units`` fits the slope of wz on v_R - v_L over the wheel samples inside
+    the IMU's span only: an IMU in deg/s recorded for 20 s beside a wheel file running on
+    to 60 s gives the planted slope 57.3 / 0.8 = 71.6 1/m (corr 1.00), not one diluted by
+    40 s of wheel turns set against the IMU's last yaw rate (26.5 1/m, corr 0.51)."""
+    import pandas as pd
+
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_run
+    from terrain.run import TIME
+
+    t_i, t_w = np.arange(1001) / 50.0, np.arange(601) / 10.0
+    streams = _streams(t_i, t_w)
+    streams["imu"]["wz"] = np.degrees(0.5 * np.sin(0.5 * t_i))      # deg/s
+    dv = 0.8 * 0.5 * np.sin(0.5 * t_w)                               # chi B = 0.8 m
+    streams["wheels"] = pd.DataFrame({TIME: t_w, "vel_l": 0.5 - dv / 2, "vel_r": 0.5 + dv / 2,
+                                      "cur_l": 5.0 + np.sin(t_w), "cur_r": 6.0 + np.cos(t_w)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        with pytest.raises(UnitError) as info:
+            check_run("r", streams, "husky", {"imu": "imu.csv", "wheels": "pro.csv"})
+    assert "is 71.6 1/m (corr 1.00)" in str(info.value)
+    assert (info.value.path, info.value.column) == ("imu.csv", "wz")
+
+
+def test_a_short_row_inside_a_file_without_a_final_line_break_is_not_called_cut_off(
+        tmp_path, synth_imu):
+    """Only the last line of a file that has no line break after it may have been cut off
+    while written: a short row in the middle of such a file is a ragged row, named by its
+    line, without the cut-off hint."""
+    path = tmp_path / "imu_00.csv"
+    synth_imu(duration_s=1.0).to_csv(path, index=False)
+    lines = path.read_text().rstrip("\n").split("\n")
+    lines[10] = lines[10].rsplit(",", 1)[0]          # data row 9 loses its last field
+    path.write_text("\n".join(lines))
+    with pytest.raises(RaggedRowError) as info:
+        read_stream_csv(path, "imu")
+    assert info.value.line == 11 and "cut off" not in str(info.value)
+
+
+@pytest.mark.parametrize("unrelated, warned", [(0.0, True), (0.2, False)])
+def test_a_km_h_slope_counts_only_when_the_speed_follows_the_acceleration(unrelated,
+                                                                          warned):
+    """Rule ``wheel_speed_units``'s slope evidence needs the wheel-speed derivative to
+    correlate with the forward acceleration (>= 0.5): speeds rising 3 x faster than the
+    acceleration say km/h; the same speeds beside a 0.2 m/s swing that the accelerometer
+    does not see (slope still 2.9) say nothing."""
+    t_i, t_w = np.arange(3001) / 50.0, np.arange(601) / 10.0
+    streams = _streams(t_i, t_w)
+    streams["imu"]["ax"] = 0.05 * np.sin(2 * np.pi * 0.1 * t_i)
+    v = (3.0 * 0.05 / (2 * np.pi * 0.1) * (1.0 - np.cos(2 * np.pi * 0.1 * t_w))
+         + unrelated * np.sin(2 * np.pi * 0.23 * t_w))
+    streams["wheels"]["vel_l"] = v
+    streams["wheels"]["vel_r"] = v
+    found = [w for w in _check_quietly(streams)["warnings"] if "wheel_speed_units" in w]
+    assert len(found) == warned
+    if warned:
+        assert "slope 3.00" in found[0]
