@@ -246,3 +246,15 @@ def test_a_km_h_slope_counts_only_when_the_speed_follows_the_acceleration(unrela
     assert len(found) == warned
     if warned:
         assert "slope 3.00" in found[0]
+
+
+def test_the_anti_alias_cut_off_is_0_4_times_the_grid_rate():
+    """A 20 Hz tone of a 100 Hz stream aligned at 50 Hz sits on the filter's cut-off
+    (0.4 x 50 Hz): -3 dB forward and -3 dB backward (zero phase) leave half its amplitude."""
+    from terrain.io.align import align_arrays, overlap_grid
+
+    t = np.arange(2001) / 100.0
+    tone = np.sin(2 * np.pi * 20.0 * t)[:, None]
+    grid = overlap_grid([t], 50.0)
+    out = align_arrays([t], [tone], grid, 50.0)[100:-100, 0]     # away from the ends
+    assert np.sqrt(2.0 * np.mean(out ** 2)) == pytest.approx(0.5, abs=0.01)
