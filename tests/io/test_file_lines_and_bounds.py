@@ -258,3 +258,23 @@ def test_the_anti_alias_cut_off_is_0_4_times_the_grid_rate():
     grid = overlap_grid([t], 50.0)
     out = align_arrays([t], [tone], grid, 50.0)[100:-100, 0]     # away from the ends
     assert np.sqrt(2.0 * np.mean(out ** 2)) == pytest.approx(0.5, abs=0.01)
+
+
+@pytest.mark.parametrize("imu_hz, warned", [(92.0, False), (88.0, True)])
+def test_converting_warns_of_an_imu_rate_more_than_a_tenth_off_the_datasets(
+        tmp_path, synth_imu, synth_pro, write_run, imu_hz, warned):
+    """``terrain convert`` warns when the IMU's rate is more than 10 % off the dataset's
+    (BorealTC: 100 Hz), since every window is aligned at the dataset's rate: 8 % off passes,
+    12 % off is named."""
+    from terrain.io.shipped import convert_dataset
+
+    write_run(tmp_path / "csv", "ASPHALT", "00", synth_imu(rate_hz=imu_hz),
+              synth_pro(rate_hz=6.5))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        convert_dataset(tmp_path / "csv", "borealtc", tmp_path / "data")
+    said = [str(w.message) for w in seen if "IMU runs at" in str(w.message)]
+    assert said == ([f"{tmp_path / 'csv'}: the IMU runs at {imu_hz:g} Hz, dataset "
+                     "'borealtc' at 100 Hz: its windows will be aligned at 100 Hz (the IMU "
+                     "resampled); convert the runs under the dataset they come from"]
+                    if warned else [])
