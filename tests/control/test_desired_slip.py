@@ -109,6 +109,9 @@ def test_source_and_basis_recorded(table):
     assert table.entries["FLOORING"].method.endswith("[analogy]")
     assert table.entries["ASPHALT"].method.endswith("[direct]")
     assert table.entries["GRASS"].method.endswith("[calibrated]")
+    # Janosi-Hanamoto K or Brixius cone index ASSUMED in the catalogue
+    assert table.entries["SNOW"].method.endswith("[direct, one parameter assumed]")
+    assert table.entries["UNPLOUGHED"].method.endswith("[direct, one parameter assumed]")
     for name, e in table.entries.items():
         assert e.source.startswith(f"catalogue {name}:")
 
@@ -154,6 +157,8 @@ def test_fallback_takes_each_target_from_its_own_most_conservative_entry():
     ("GRASS", 0.9, -0.1, FALLBACK_LABEL),   # stamped after its use: clocks disagree
     ("GRASS", 0.9, 4.0, "GRASS"),           # exactly max_decision_age_s is not older
     ("GRASS", 0.5, 0.0, "GRASS"),           # exactly min_confidence is not below it
+    ("GRASS", 0.49, 0.0, FALLBACK_LABEL),   # min_confidence 0.5: the majority of the mass
+    ("GRASS", 0.9, 4.01, FALLBACK_LABEL),   # max age 4 s: two 2 s classification windows
 ])
 def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
     assert select_target(table, terrain, confidence, age).terrain == expect
@@ -169,6 +174,39 @@ def test_unknown_class_and_bad_settings_are_typed_errors():
         DesiredSlipConfig(traction_fraction=0.99, braking_fraction=0.9)
     with pytest.raises(ConfigError):
         DesiredSlipConfig(deformable_cap=1.5)
+    with pytest.raises(ConfigError, match="max_decision_age_s > 0"):
+        DesiredSlipConfig(max_decision_age_s=0.0)   # every decision would be stale
+    with pytest.raises(ConfigError, match="the desired-slip table has no entries"):
+        build_slip_table([])                         # no fallback without rows
+
+
+def test_rigid_braking_target_is_99_percent_of_the_friction_peak(table):
+    """ch. 8.3.2 eq. 8.8: braking "at the peak of the braking curve", kept 1 % on the stable
+    side: mu(|braking|) = 0.99 mu_peak, the peak in closed form (Burckhardt
+    ln(c1 c2 / c3) / c2; ICE, c3 = 0, at s = 1). The deformable soils' braking targets all
+    sit at the 0.30 cap instead."""
+    for name in ("ASPHALT", "CONCRETE", "TILES", "FLOORING", "PACKED_SNOW", "ICE"):
+        c = get_terrain(name).curve
+        s_peak = math.log(c.c1 * c.c2 / c.c3) / c.c2 if c.c3 > 0 else 1.0
+        mu = (lambda s: c.c1 * (1 - math.exp(-c.c2 * s)) - c.c3 * s)  # noqa: E731
+        b = desired_slip(get_terrain(name)).braking
+        assert mu(-b) == pytest.approx(0.99 * mu(s_peak), rel=1e-9), name
+    for name in ("SNOW", "SANDY_LOAM", "DIRT_ROAD", "PLOUGHED", "UNPLOUGHED", "GRASS",
+                 "GRAVEL"):
+        assert table.entries[name].braking == -CFG.deformable_cap, name
+    # the fallback is the ice row's: the smallest traction and the braking closest to 0
+    ice = table.entries["ICE"]
+    assert (table.fallback.traction, table.fallback.braking) == (ice.traction, ice.braking)
+
+
+def test_class_labels_are_case_insensitive_and_thesis_classes_not_repeated():
+    """A classifier trained on lower-case folders ('grass', 'ice') gets the same table; a
+    measured class that is also a thesis class appears once."""
+    assert classifier_classes(["ice", "grass", "Asphalt"]) == ("ASPHALT", "GRASS", "ICE",
+                                                               "TILES", "GRAVEL")
+    table = build_slip_table(["grass", "Ice"])
+    assert list(table.entries) == ["GRASS", "ICE"]
+    assert table.entries["ICE"] == desired_slip(get_terrain("ICE"))
 
 
 def test_tractive_efficiency_matches_brixius_textbook_form():
