@@ -275,10 +275,20 @@ def test_stateful_wrapper_equals_the_pure_steps():
 
 @pytest.mark.parametrize("kwargs", [{"kp": -1.0}, {"wheel_radius_m": 0.0},
                                     {"output_fraction": 1.5}, {"ki": float("nan")},
-                                    {"power_threshold_m2_s3": -0.1}])
+                                    {"power_threshold_m2_s3": -0.1}, {"kd": -0.1},
+                                    {"ki": -0.1}])
 def test_invalid_settings_are_typed_errors(kwargs):
     with pytest.raises(ConfigError):
         TractionControlConfig(**kwargs)
+
+
+def test_the_whole_speed_limit_may_be_given_to_the_correction():
+    """output_fraction is in (0, 1]: 1 lets the correction use all of omega_max."""
+    cfg = TractionControlConfig(kp=1000.0, output_fraction=1.0, one_sided=False)
+    # reversing at 40 m/s with the wheel at -80 rad/s (slip -0.5, target -0.1): slowed by
+    # 80 rad/s down to the half-line's 0, beyond the 50 rad/s of the default fraction 0.5
+    out, _ = _step(cfg, TractionState.zeros(1), -80.0, -80.0, -40.0, -1.0)
+    assert out.mode[0] == TRACTION and out.correction_rad_s[0] == pytest.approx(80.0)
 
 
 @pytest.mark.parametrize("kwargs", [{"kp": "1"}, {"kp": None}, {"ki": "abc"},
@@ -599,3 +609,111 @@ def test_integral_is_clamped_to_the_room_after_integrating_with_a_derivative():
     assert state.derivative[0] == pytest.approx(3.0)
     assert state.integral[0] == 0.0
     assert out.correction_rad_s[0] == pytest.approx(-1.49)
+
+
+def test_one_sided_steady_driving_is_limited_at_the_traction_target():
+    """One-sided limiter while cruising (Power_state within its threshold): the limit is the
+    *traction* target, not the steady one (TractionControlConfig.one_sided: as a limit the
+    steady target stops any acceleration Power_state has not detected yet). A wheel at slip
+    0.05, between the steady target 0 and the traction target 0.1, is left alone; at 0.15 it
+    is slowed by kp (0.1 - 0.15). Two-sided, the same wheel is regulated to the steady 0."""
+    cfg = TractionControlConfig(kp=1.0)
+    for slip, correction in ((0.05, 0.0), (0.15, -0.05)):
+        wr = 0.6 / (1.0 - slip)                       # ground 0.6 m/s, r 1 m
+        out, _ = _step(cfg, TractionState.zeros(1), wr, wr, 0.6, 0.0)
+        assert out.mode[0] == STEADY and out.desired_slip[0] == pytest.approx(0.1)
+        assert out.correction_rad_s[0] == pytest.approx(correction, abs=1e-12), slip
+    two_sided = TractionControlConfig(kp=1.0, one_sided=False)
+    out, _ = _step(two_sided, TractionState.zeros(1), 0.6 / 0.95, 0.6 / 0.95, 0.6, 0.0)
+    assert out.desired_slip[0] == 0.0 and out.correction_rad_s[0] == pytest.approx(-0.05)
+
+
+def test_a_wheel_spinning_under_a_robot_at_rest_is_regulated_to_zero_slip():
+    """s_desired = sgn(v_long) s_target (eqs. 8.7-8.9) with sgn(0) = 0: a wheel spinning at
+    0.5 m/s under a wheel centre at rest has slip 1 (eq. 8.4, |omega r| as denominator) and
+    the error 0 - 1 = -1, all of it acted on (kp 1: -1 rad/s), not 0.1 - 1 as if the robot
+    drove forwards."""
+    out, _ = _step(TractionControlConfig(kp=1.0), TractionState.zeros(1), 5.0, 0.5, 0.0, 0.0)
+    assert out.slip[0] == pytest.approx(1.0) and out.desired_slip[0] == 0.0
+    assert out.error[0] == pytest.approx(-1.0)
+    assert out.correction_rad_s[0] == pytest.approx(-1.0)
+
+
+def test_each_unit_keeps_its_own_memory():
+    """Three wheels stepped together equal each wheel stepped alone: the integral, the
+    previous slip, the filtered derivative, the held correction and the active flag of a
+    wheel are never another wheel's (AgriMaRo: left front, right front, rear in one call).
+    Different slips, accelerations and a non-finite estimate on one wheel, with the chassis
+    disabled now and then."""
+    cfg = TractionControlConfig(kp=2.0, ki=5.0, kd=0.05, omega_max_rad_s=20.0)
+    rng = np.random.default_rng(7)
+    n, steps = 3, 120
+    omega_ll = rng.uniform(2.0, 8.0, (steps, n))
+    omega = omega_ll * rng.uniform(0.8, 1.2, (steps, n))
+    v = omega * 0.1 * rng.uniform(0.7, 1.1, (steps, n))
+    v[rng.random((steps, n)) < 0.05] = np.nan
+    acc = rng.normal(0.0, 1.0, (steps, n)) + np.array([1.0, -1.0, 0.0])
+    chassis = np.where(rng.random(steps) < 0.15, 0.0, 0.5)
+    together = TractionState.zeros(n)
+    alone = [TractionState.zeros(1) for _ in range(n)]
+    for k in range(steps):
+        out, together = _step(cfg, together, omega_ll[k], omega[k], v[k], acc[k],
+                              chassis=chassis[k], dt=0.02)
+        for i in range(n):
+            ref, alone[i] = _step(cfg, alone[i], omega_ll[k, i], omega[k, i], v[k, i],
+                                  acc[k, i], chassis=chassis[k], dt=0.02)
+            assert out.omega_cmd_rad_s[i] == ref.omega_cmd_rad_s[0], (k, i)
+    assert np.ptp(together.integral) > 0.1     # the wheels' memories differ
+
+
+def test_conditional_integration_holds_the_integral_while_saturated_on_either_side():
+    """Anti-windup by conditional integration, both limits: with the output saturated in the
+    direction of the error the integral stops at the value that just reaches the limit and
+    then stays there while the error grows (it neither winds further nor moves against the
+    error's sign). Two-sided, command 0.2 rad/s: the room is [-0.2, +5] (the command's
+    half-line below, the output limit 5 above); slip rising 0.2 -> 0.6 (error -0.1 ->
+    -0.5 after 0.6 s at -0.1) pins the output at -0.2. Mirrored: command 9.8 rad/s under
+    omega_max 10, room [-5, +0.2], slip 0.0 then falling to -0.4 while accelerating pins it
+    at +0.2."""
+    cfg = TractionControlConfig(kp=0.5, ki=5.0, omega_max_rad_s=10.0, one_sided=False)
+    for omega_ll, s0, s1, bound in ((0.2, 0.2, 0.6, -0.2), (9.8, 0.0, -0.4, 0.2)):
+        slips = np.r_[np.full(60, s0), np.linspace(s0, s1, 60)]
+        state, integrals = TractionState.zeros(1), []
+        for slip in slips:
+            wheel = 0.6 / (1.0 - slip) if slip >= 0 else 0.6 * (1.0 + slip)   # ground 0.6 m/s
+            out, state = _step(cfg, state, omega_ll, wheel, 0.6, 1.0)
+            integrals.append(state.integral[0])
+        assert out.correction_rad_s[0] == pytest.approx(bound)
+        steps = np.diff(integrals) * np.sign(bound)
+        assert np.all(steps >= -1e-12), omega_ll      # never against the error
+        # at the constant error it stopped at bound - kp e (30 steps of ki e dt = 0.005),
+        # and the growing error then moved it no more
+        assert integrals[59] == pytest.approx(bound - 0.5 * math.copysign(0.1, bound))
+        assert max(integrals[59:]) - min(integrals[59:]) < 1e-12, omega_ll
+
+
+def test_the_derivative_restarts_from_zero_after_the_wheel_speed_dead_band():
+    """Below the enabling wheel speed the slip is not measured, so its derivative is
+    forgotten: a wheel leaving the dead band starts with derivative 0 (no previous slip to
+    differentiate), not with the filtered derivative it had before it slowed down."""
+    cfg = TractionControlConfig(kp=0.0, kd=1.0, derivative_tau_s=0.09, one_sided=False)
+    state = TractionState.zeros(1)
+    for wheel in (0.7, 0.8):                                 # slip rises: derivative > 0
+        out, state = _step(cfg, state, 10.0, wheel, 0.6, 1.0)
+    assert state.derivative[0] > 1.0
+    out, state = _step(cfg, state, 10.0, 0.01, 0.01, 1.0)   # below 0.05 m/s: not measured
+    assert out.error[0] == 0.0
+    out, state = _step(cfg, state, 10.0, 0.8, 0.6, 1.0)     # measured again
+    assert state.derivative[0] == 0.0 and out.correction_rad_s[0] == 0.0
+
+
+def test_a_non_finite_acceleration_gives_that_wheel_the_safe_output():
+    """Power_state = a_local v_long (eq. 8.6) of a NaN acceleration is no mode: that wheel
+    gets the safe output (no correction, memory dropped), not the steady target that every
+    comparison with NaN would fall through to; the other wheel is corrected."""
+    cfg = TractionControlConfig(kp=1.0, ki=2.0)
+    out, state = _step(cfg, TractionState.zeros(2), [1.0, 1.0], [1.0, 1.0], [0.5, 0.5],
+                       [np.nan, 1.0])
+    assert list(out.safe) == [True, False] and list(out.enabled) == [False, True]
+    assert out.omega_cmd_rad_s[0] == 1.0 and out.correction_rad_s[0] == 0.0
+    assert state.integral[0] == 0.0 and out.correction_rad_s[1] < 0.0
