@@ -112,6 +112,10 @@ def test_source_and_basis_recorded(table):
     # Janosi-Hanamoto K or Brixius cone index ASSUMED in the catalogue
     assert table.entries["SNOW"].method.endswith("[direct, one parameter assumed]")
     assert table.entries["UNPLOUGHED"].method.endswith("[direct, one parameter assumed]")
+    assert table.entries["ASPHALT"].source.endswith("interior friction peak (Burckhardt: "
+                                                    "ln(c1 c2/c3)/c2)")
+    assert table.entries["ICE"].source.endswith("curve without interior peak: peak = max on "
+                                                "[0, 1]")
     for name, e in table.entries.items():
         assert e.source.startswith(f"catalogue {name}:")
 
@@ -176,6 +180,8 @@ def test_unknown_class_and_bad_settings_are_typed_errors():
         DesiredSlipConfig(deformable_cap=1.5)
     with pytest.raises(ConfigError, match="max_decision_age_s > 0"):
         DesiredSlipConfig(max_decision_age_s=0.0)   # every decision would be stale
+    # equal fractions are allowed (0 < traction_fraction <= braking_fraction < 1)
+    assert DesiredSlipConfig(traction_fraction=0.99).braking_fraction == 0.99
     with pytest.raises(ConfigError, match="the desired-slip table has no entries"):
         build_slip_table([])                         # no fallback without rows
 
