@@ -717,3 +717,16 @@ def test_a_non_finite_acceleration_gives_that_wheel_the_safe_output():
     assert list(out.safe) == [True, False] and list(out.enabled) == [False, True]
     assert out.omega_cmd_rad_s[0] == 1.0 and out.correction_rad_s[0] == 0.0
     assert state.integral[0] == 0.0 and out.correction_rad_s[1] < 0.0
+
+
+def test_the_stateful_wrapper_passes_the_estimated_slip_and_the_input_age():
+    """TractionController.step hands its slip estimate (skid-steer sides) and the estimate's
+    age to the step: an estimated slip 0.3 gives the error 0.1 - 0.3, not the one of the
+    wheel speeds (0); an estimate older than max_input_age_s gives the safe output."""
+    ctrl = TractionController(TractionControlConfig(kp=1.0, one_sided=False), 2)
+    ones = np.ones(2)
+    out = ctrl.step(TARGETS, 3 * ones, 3 * ones, 3 * ones, ones, 0.5, 0.01,
+                    slip=np.array([0.3, 0.05]))
+    np.testing.assert_allclose(out.error, [-0.2, 0.05])
+    out = ctrl.step(TARGETS, 3 * ones, 3 * ones, 3 * ones, ones, 0.5, 0.01, input_age_s=0.5)
+    assert out.safe.all() and np.all(out.omega_cmd_rad_s == 3.0)
