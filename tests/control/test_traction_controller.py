@@ -152,12 +152,16 @@ def test_safe_output_on_stale_or_non_finite_input():
     assert nan.omega_cmd_rad_s[0] == 0.7 and nan.correction_rad_s[0] == 0.0
     assert nan.correction_rad_s[1] < 0 and np.isnan(nan.slip[0])
     assert all(np.all(np.isfinite(np.asarray(f, dtype=float))) for f in s_nan)
-    for bad in ({"chassis": np.nan}, {"dt": np.nan}, {"dt": 0.0}, {"chassis": np.inf}):
+    for bad in ({"chassis": np.nan}, {"dt": np.nan}, {"dt": 0.0}, {"chassis": np.inf},
+                {"dt": -0.01}):
         out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0], **bad)
         assert out.safe.all() and np.all(out.omega_cmd_rad_s == 0.7), bad
     out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0],
                    targets=types.SimpleNamespace(traction=np.nan, braking=-0.1, steady=0.0))
     assert out.safe.all()    # any object with the three targets (SlipTargets refuses NaN)
+    out, _ = _step(cfg, state, [0.7, 0.7], [0.7, 0.7], [0.5, 0.5], [1.0, 1.0],
+                   targets=types.SimpleNamespace(traction=0.1, braking=-0.1, steady=np.nan))
+    assert out.safe.all()    # a NaN steady target too, though this step is in traction
 
 
 def test_a_negative_input_age_is_a_clock_error_and_gives_the_safe_output():
@@ -508,6 +512,12 @@ def test_slip_targets_with_the_wrong_sign_are_typed_errors_naming_the_field(fiel
     good = {"traction": 0.1, "braking": -0.15, "steady": 0.0}
     with pytest.raises(ConfigError, match=rf"SlipTargets\.{field}"):
         SlipTargets(**{**good, field: value})
+
+
+def test_slip_targets_may_reach_the_ends_of_the_sae_range():
+    """Each target lies in [-1, 1], the SAE slip's range, ends included: a braking target of
+    -1 (a locked wheel) and a traction / steady target of 1 (full spin) are valid."""
+    assert tuple(SlipTargets(1.0, -1.0, 1.0)) == (1.0, -1.0, 1.0)
 
 
 def test_every_shipped_table_row_is_valid_slip_targets():
