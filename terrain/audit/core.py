@@ -27,7 +27,7 @@ import pandas as pd
 from terrain.audit.effects import (EffectSettings, YawParams, effect_params,
                                    predict_current, predict_yaw)
 from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
-                                  FrameSettings, prepare_frame)
+                                  FrameSettings, prepare_frame, scored_span)
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
@@ -587,10 +587,8 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         for run in chosen:
             rep = replay_run(run, settings.replay, terrain=ter)
             _, x = skid_steer_forward(rep.vel_l, rep.vel_r, rep.track_m)
-            # the frames' scored span: edge_s from either end (replay start, filter edges)
-            m = ((np.abs(x) >= settings.frames.turn_rad_s)
-                 & (rep.t_s >= rep.t_s[0] + settings.frames.edge_s)
-                 & (rep.t_s <= rep.t_s[-1] - settings.frames.edge_s))
+            turning = np.abs(x) >= settings.frames.turn_rad_s
+            m = turning & scored_span(rep.t_s, settings.frames)
             commanded.append(x[m])
             replayed.append(rep.yaw_rate[m])
         commanded, replayed = np.concatenate(commanded), np.concatenate(replayed)

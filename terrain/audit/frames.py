@@ -257,6 +257,24 @@ def _in_gaps(t: np.ndarray, gaps) -> np.ndarray:
     return bad
 
 
+def scored_span(t: np.ndarray, settings: FrameSettings) -> np.ndarray:
+    """The samples the audit scores: at least ``edge_s`` from either end of the record
+    (the replay's start and the zero-phase filters' edges are not scored).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Sample times of one record, s, increasing.
+    settings : FrameSettings
+        Its ``edge_s`` is used.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    return (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
+
+
 def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSettings(),
                   lag_settings: LagSettings = LagSettings()) -> AuditFrame:
     """Put one run and its replay on the comparison clock.
@@ -293,7 +311,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     v, x = skid_steer_forward(replay.vel_l, replay.vel_r, replay.track_m)  # seed 000 eq. 2
     cur = wheels[["cur_l", "cur_r"]].to_numpy(dtype=float)
     gaps = dict(run.meta.get("gaps", {}) or {})
-    score = (t >= t[0] + settings.edge_s) & (t <= t[-1] - settings.edge_s)
+    score = scored_span(t, settings)
     score_cur = score & ~_in_gaps(t, gaps.get("wheels"))
     nan = np.full(len(t), np.nan)
     imu = run.streams.get("imu")
