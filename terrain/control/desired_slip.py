@@ -67,6 +67,10 @@ TABLE_COLUMNS: tuple[str, ...] = ("terrain", "target_slip_traction", "target_sli
 
 #: Label of the fallback row.
 FALLBACK_LABEL = "UNKNOWN"
+#: How far above 1 a confidence may lie and still be a probability: a weighted soft vote of
+#: members that are all certain sums its float weights to one ulp above 1 (weights 0.6, 0.3,
+#: 0.1 give 1.0000000000000002), which is rounding, not a percentage.
+CONFIDENCE_ROUNDING = 1e-9
 
 
 @dataclass(frozen=True)
@@ -336,8 +340,8 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
         Decided class (case-insensitive); None or a class not in the table -> fallback.
     confidence : float
         Probability of the decided class, in [0, 1]; below ``table.config.min_confidence``,
-        above 1 (a percentage: 45 would have passed a 0.5 threshold) or non-finite ->
-        fallback.
+        above 1 (a percentage: 45 would have passed a 0.5 threshold; up to
+        ``CONFIDENCE_ROUNDING`` above 1 is rounding and trusted) or non-finite -> fallback.
     decision_age_s : float
         Time since the decision, s; above ``table.config.max_decision_age_s``, negative (a
         decision stamped after the time it is used at: clocks that disagree) or non-finite
@@ -351,6 +355,6 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
     trusted = (key in table.entries and np.isfinite(confidence)
-               and cfg.min_confidence <= confidence <= 1.0
+               and cfg.min_confidence <= confidence <= 1.0 + CONFIDENCE_ROUNDING
                and age_is_fresh(decision_age_s, cfg.max_decision_age_s))
     return table.entries[key] if trusted else table.fallback

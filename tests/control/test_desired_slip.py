@@ -12,6 +12,7 @@ from terrain.control.desired_slip import (FALLBACK_LABEL, THESIS_CLASSES, Desire
                                           classifier_classes, desired_slip, fallback_entry,
                                           is_deformable, select_target)
 from terrain.errors import ConfigError
+from terrain.models.ensemble import normalised_weights
 from terrain.io.shipped import read_manifest
 from terrain.terramechanics import (BrixiusCurve, BurckhardtCurve, get_terrain,
                                     soil_resistance_coefficient, steady_slip,
@@ -166,6 +167,15 @@ def test_fallback_takes_each_target_from_its_own_most_conservative_entry():
 ])
 def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
     assert select_target(table, terrain, confidence, age).terrain == expect
+
+
+def test_a_certain_weighted_vote_one_ulp_above_one_is_trusted(table):
+    # an ensemble whose members are all certain, weighted 0.6 / 0.3 / 0.1, sums its float
+    # weights to 1.0000000000000002: rounding, not a percentage
+    confidence = float(normalised_weights((0.6, 0.3, 0.1), 3) @ np.ones(3))
+    assert confidence > 1.0
+    assert select_target(table, "GRASS", confidence, 0.0).terrain == "GRASS"
+    assert select_target(table, "GRASS", 1.01, 0.0).terrain == FALLBACK_LABEL
 
 
 def test_unknown_class_and_bad_settings_are_typed_errors():
