@@ -421,3 +421,46 @@ def test_an_innovation_with_no_number_is_refused_on_the_unchecked_path():
     with pytest.raises(CovarianceError, match="not positive definite"):
         correct(np.zeros(2), np.zeros((2, 2)), np.array([1.0]), np.array([[1.0, 0.0]]),
                 np.array([0.0]), check=False)
+
+
+@pytest.mark.parametrize("eps, ok", [(1e-9, True), (1e-5, False)])
+def test_covariance_checks_allow_round_off_and_refuse_more(eps, ok):
+    """A covariance asymmetric by ``eps`` of its scale, or with a smallest eigenvalue of
+    ``-eps / 2`` times its largest: round-off (1e-9, under SYMMETRY_RTOL 1e-6 and PSD_RTOL
+    1e-9) passes, a real asymmetry or a negative variance (1e-5) is refused."""
+    f, F, h, H, Q = _cv_model()
+    asym = np.array([[100.0, 1.0 + 100.0 * eps], [1.0, 1.0]])
+    indefinite = np.diag([100.0, -100.0 * eps / 2.0])
+    for P, match in ((asym, "not symmetric"), (indefinite, "not positive semi-definite")):
+        if ok:
+            predict(np.zeros(2), P, 0.1, f, F, Q)
+        else:
+            with pytest.raises(CovarianceError, match=match):
+                predict(np.zeros(2), P, 0.1, f, F, Q)
+
+
+def test_normalised_innovation_is_y_over_the_innovation_std():
+    """``Innovation.normalised`` = ``y_i / sqrt(S_ii)`` (a standard-normal value for a
+    consistent filter), from a known update: P = diag(3, 8), H = I, R = diag(1, 1)."""
+    x, P = np.zeros(2), np.diag([3.0, 8.0])
+    _, _, inn = correct(x, P, np.array([4.0, -6.0]), np.eye(2), np.array([1.0, 1.0]))
+    np.testing.assert_allclose(np.diag(inn.S), [4.0, 9.0])
+    np.testing.assert_allclose(inn.normalised, [2.0, -2.0])
+    assert inn.nis == pytest.approx(4.0 ** 2 / 4.0 + 6.0 ** 2 / 9.0)
+
+
+def test_an_update_noise_that_is_not_a_covariance_is_refused_even_when_s_stays_positive():
+    """A negative per-update ``R`` with a large prior (``S = H P H^T + R`` still > 0, so the
+    solve alone would accept it and shrink ``P`` below the optimal posterior) and an ``R``
+    of the wrong length are typed errors, and the filter keeps its state."""
+    f, F, h, H, Q = _cv_model()
+    kf = ExtendedKalmanFilter(np.zeros(2), 100.0 * np.eye(2), f, F, h, H, Q, np.array([1.0]))
+    with pytest.raises(CovarianceError, match="R is not positive definite"):
+        kf.update(np.ones(1), R=np.array([-0.1]))
+    with pytest.raises(CovarianceError, match="R is not positive definite"):
+        kf.update(np.ones(1), rows=[0], R=np.array([[-0.1]]))
+    with pytest.raises(ShapeError, match=r"R must have shape \(1, 1\)"):
+        kf.update(np.ones(1), R=np.array([0.1, 0.1]))
+    np.testing.assert_array_equal(kf.x, np.zeros(2))
+    np.testing.assert_array_equal(kf.P, 100.0 * np.eye(2))
+    assert kf.last_innovation is None
