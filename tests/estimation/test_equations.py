@@ -87,6 +87,25 @@ def test_slip_augmented_wheel_row_is_the_sae_slip_of_its_state():
     np.testing.assert_allclose(sae_slip(rims, [1.0, 1.0], dead_band_m_s=0.0), [-0.2, 0.2])
 
 
+@pytest.mark.parametrize("v, w, s1, s2", [(-1.0, 0.0, 0.2, -0.2), (0.8, 0.6, 0.3, -0.1),
+                                          (-0.6, -0.8, -0.25, 0.4), (0.1, 1.0, 0.2, 0.2)])
+def test_slip_augmented_wheel_rows_keep_the_sae_sign_reversing_and_turning(v, w, s1, s2):
+    """Each side's predicted rim speed has the SAE slip of its state over that side's own
+    ground speed ``v_bx -+ chi B yaw_rate / 2`` (seed 001 eqs. 7.1-7.2), also reversing
+    (traction in reverse: rim faster backwards, slip < 0) and with the sides moving in
+    opposite directions (spot turn, last case)."""
+    from terrain.slip import sae_slip
+    params = skid_steer_slip.SkidSteerSlipEquationParams()
+    chi = 1.4
+    x = np.array([v, w, 0.0, np.log(chi), s1, s2, 0.0, 0.0])
+    rims = skid_steer_slip.h(x, params)[:2]
+    half = chi * params.track_m * w / 2.0
+    ground = np.array([v - half, v + half])
+    np.testing.assert_allclose(sae_slip(rims, ground, dead_band_m_s=0.0), [s1, s2], rtol=1e-12)
+    # the sign convention: a positive slip spins the rim ahead of the ground, either way
+    assert np.all(np.sign(rims - ground) == np.sign([s1, s2]))
+
+
 @pytest.mark.parametrize("slips", [(0.3, -0.4), (-0.1, 0.05), (0.97, -0.97)],
                          ids=["traction-braking", "small", "clipped"])
 def test_slip_augmented_jacobians_match_finite_differences(slips):

@@ -3,6 +3,7 @@ innovations, NIS, gating and counts to round-off; engine selection and fall-back
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -16,7 +17,8 @@ from terrain.errors import ConfigError, CovarianceError
 from terrain.estimation import Gate, SensorSamples, StateSpaceModel, make_grid, run_filter
 from terrain.estimation.agrimaro import AgriMaRoModel, agrimaro_samples, estimate_agrimaro
 from terrain.estimation.fast import FastKernel, fast_kernel_of, run_compiled
-from terrain.estimation.skid_steer import SkidSteerModel
+from terrain.estimation import skid_steer
+from terrain.estimation.skid_steer import SkidSteerModel, estimate_skid_steer
 from terrain.estimation.slip_state import SlipStateModel
 from pipelines.validation.harness import (data_driven_settings, outage_experiment,
                                           simulate_agrimaro)
@@ -109,6 +111,26 @@ def test_skid_steer_compiled_equals_reference():
         fast, ref = _both(SkidSteerModel(wheel_r_scale=2.0), grid, samples, gate=gate)
         assert_same_result(fast, ref)
     assert fast.counts["wheels"]["rejected"] == 1
+
+
+def test_skid_steer_compiled_equals_reference_on_a_shipped_run(borealtc_runs, monkeypatch):
+    """estimate_skid_steer on a measured BorealTC run (SNOW/04: 100 Hz IMU, 6.5 Hz wheels,
+    turns, 22 gyro rows gated out): the compiled loop that it runs gives the NumPy
+    reference's states, covariances, innovations, NIS, gate decisions and counts (the other
+    tests use simulated streams), and every posterior covariance is symmetric and positive
+    definite."""
+    run = next(r for r in borealtc_runs if r.run_id == "borealtc/SNOW/04")
+    gate = Gate(0.999)
+    fast = estimate_skid_steer(run, gate=gate, store_covariance=True)
+    monkeypatch.setattr(skid_steer, "run_filter", functools.partial(run_filter,
+                                                                    engine="numpy"))
+    ref = estimate_skid_steer(run, gate=gate, store_covariance=True)
+    assert_same_result(fast, ref, covariance=True)
+    assert fast.t_s.size > 2000 and fast.counts["gyro"]["rejected"] > 0
+    assert np.ptp(fast.state("log_icr_chi")) > 0.5          # it turns: chi is corrected
+    for P in (fast.P, ref.P):
+        np.testing.assert_array_equal(P, P.transpose(0, 2, 1))
+        assert np.linalg.eigvalsh(P).min() > 0.0
 
 
 @dataclass(frozen=True)

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from terrain.errors import ConfigError, DataFormatError, ShapeError, TimeStepError
 from terrain.estimation.observer import (AdaptiveObserverSettings, eta_from_truth,
                                          run_adaptive_observer)
 from terrain.estimation.skid_steer import (SkidSteerSettings, chi_from_truth,
-                                           estimate_skid_steer, icr_chi, skid_steer_on_frame)
+                                           estimate_skid_steer, icr_chi, skid_steer_on_frame,
+                                           skid_steer_on_windows)
 from pipelines.validation.harness import husky_comparison, simulate_husky
 from terrain.io.align import align_streams
 from terrain.vehicles import HUSKY
@@ -291,3 +293,40 @@ def test_one_observer_step_is_eq_8():
                                             1.0 - h * 40.0 * 0.6 / (2 * d) * e_th], rtol=1e-12)
     # the heading estimate moved by the injection l3 e_th (no turning with eta_R = eta_L)
     assert res.pose_hat[2, 2] == pytest.approx(h * 10.0 * e_th, rel=1e-12)
+
+
+def test_without_turning_chi_stays_at_its_prior_median():
+    """A robot standing still (wheels and gyro at 0) never turns, so ``chi`` is a consider
+    parameter at every step: the estimate stays at the prior median ``chi0`` (the state is
+    ``ln(chi)``, started at ``ln(chi0)``) and its log-std grows from ``log_chi0_std`` by the
+    drift density only."""
+    t = np.arange(101) * 0.01
+    zeros = np.zeros_like(t)
+    frame = pd.DataFrame({"t_s": t, "vel_l": zeros, "vel_r": zeros, "wz": zeros})
+    settings = SkidSteerSettings(chi0=2.0, log_chi0_std=0.5, log_chi_psd=1e-2)
+    res = skid_steer_on_frame(frame, settings)
+    np.testing.assert_allclose(icr_chi(res), 2.0, rtol=1e-12)
+    np.testing.assert_allclose(res.std("log_icr_chi") ** 2, 0.25 + 1e-2 * t, rtol=1e-9)
+
+
+def test_windows_equal_the_frame_filter_on_each_window():
+    """skid_steer_on_windows (the compiled loop on a regular clock, steps of 1 / rate_hz s)
+    gives, for each window, the states, innovations and NIS of skid_steer_on_frame on a frame
+    holding that window alone, with the same wheel-variance inflation."""
+    rng = np.random.default_rng(3)
+    rate, n = 50.0, 120
+    t = np.arange(n) / rate
+    windows = np.empty((2, 3, n))
+    for i, turn in enumerate((0.0, 0.4)):
+        windows[i, 0] = 0.6 - turn * 0.3 + 0.02 * rng.standard_normal(n)
+        windows[i, 1] = 0.6 + turn * 0.3 + 0.02 * rng.standard_normal(n)
+        windows[i, 2] = turn + 0.01 + 0.005 * rng.standard_normal(n)
+    x, y, nis = skid_steer_on_windows(windows, rate, wheel_rate_hz=10.0)
+    for i in range(2):
+        frame = pd.DataFrame({"t_s": t, "vel_l": windows[i, 0], "vel_r": windows[i, 1],
+                              "wz": windows[i, 2]})
+        ref = skid_steer_on_frame(frame, wheel_rate_hz=10.0)
+        assert ref.meta["wheel_r_scale"] == pytest.approx(5.0)
+        np.testing.assert_allclose(x[i], ref.x, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(y[i], ref.y, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(nis[i], ref.nis, rtol=1e-9, atol=1e-12)
