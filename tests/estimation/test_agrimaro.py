@@ -238,3 +238,25 @@ def test_a_sensor_latency_is_subtracted_from_its_timestamps_only(turning_run):
     np.testing.assert_allclose(late["cam"].t_s, base["cam"].t_s - 0.03, atol=1e-12)
     np.testing.assert_array_equal(late["cam"].values, base["cam"].values)
     np.testing.assert_array_equal(late["imu"].t_s, base["imu"].t_s)
+
+
+def test_wheel_speeds_stand_in_for_the_wheel_rates_in_rad_per_s():
+    """A run without an ``omega`` stream feeds wheels 1 and 2 from the ``wheels`` stream:
+    ``vel_l``, ``vel_r`` (m/s) divided by the wheel radius give the encoder rates (rad/s) of
+    the wheel rows; wheel 3 has no sample, and the latency of ``omega`` moves them."""
+    import pandas as pd
+
+    from terrain.estimation.agrimaro import agrimaro_samples
+    from terrain.run import Run
+    from terrain.vehicles.swerve import AGRIMARO
+
+    t = np.round(np.arange(11) * 0.1, 10)
+    imu = pd.DataFrame({"t_s": t, "ax": 0.0, "ay": 0.0, "wz": 0.0})
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.8})
+    run = Run("sim/TEST/01", "sim", "TEST", {"imu": imu, "wheels": wheels}, vehicle="agrimaro")
+    omega = agrimaro_samples(run, AgriMaRoEKFSettings(ema_alpha=()),
+                             time_offsets_s={"omega": 0.05})["omega"]
+    r = AGRIMARO.wheel_radius_m
+    np.testing.assert_allclose(omega.values[:, :2], np.tile([0.5 / r, 0.8 / r], (11, 1)))
+    assert np.isnan(omega.values[:, 2]).all()
+    np.testing.assert_allclose(omega.t_s, t - 0.05)

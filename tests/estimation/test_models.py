@@ -154,7 +154,8 @@ def test_jacobians_match_finite_differences_at_near_singular_states(name):
     (dict(q_diag=(-1e-3,) * 14), "q_diag"),
     (dict(q_diag=(float("nan"),) * 14), "q_diag"),
     (dict(p0_diag=(float("inf"),) * 14), "p0_diag"),
-    (dict(p0_diag=(-1e-6,) + (1e-6,) * 13), "p0_diag")])
+    (dict(p0_diag=(-1e-6,) + (1e-6,) * 13), "p0_diag"),
+    (dict(r_diag=(0.0,) + (1e-5,) * 9), "r_diag needs 10 finite values > 0")])
 def test_slip_state_model_refuses_a_tuning_that_is_not_a_covariance(kwargs, match):
     """SlipStateModel checked only the lengths of p0_diag and q_diag, not q_per: q_per='steps'
     ran silently as per-second noise (Q 1e-10 instead of 1e-8 at 100 Hz) and q_diag of -1e-3

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from terrain.errors import ShapeError, TimeStepError
-from terrain.estimation import SensorSamples, make_grid, run_filter
+from terrain.estimation import Gate, SensorSamples, make_grid, run_filter
 from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
 from pipelines.validation.harness import outage_experiment, simulate_agrimaro, truth_on_grid
 
@@ -197,3 +197,35 @@ def test_sensor_nis_of_a_one_row_sensor_is_the_step_nis():
     np.testing.assert_allclose(nis[used], res.nis[used], rtol=1e-12)
     np.testing.assert_allclose(nis[used], res.y[used, 2] ** 2 / res.S_diag[used, 2])
     assert np.isnan(nis[~used]).all()
+
+
+def test_a_non_finite_sample_does_not_supersede_a_finite_one_in_its_step():
+    """The gyro reads 0.3 rad/s, then NaN inside the same step: the NaN sample is skipped and
+    counted as non-finite, and the 0.3 is used (not counted as superseded and lost)."""
+    t = np.array([0.002, 0.008])
+    samples = {"gyro": SensorSamples(t, np.array([[0.3], [np.nan]]))}
+    for engine in ("numpy", "numba"):
+        res = run_filter(SkidSteerModel(), make_grid(0.0, 0.05, 100.0), samples,
+                         engine=engine)
+        c = res.counts["gyro"]
+        assert (c["non_finite"], c["superseded"], c["used"]) == (1, 0, 1)
+        assert res.accepted[1, 2] and res.y[1, 2] == pytest.approx(0.3)
+
+
+def test_the_frame_shows_only_the_innovations_of_the_rows_used():
+    """``to_frame``'s ``innov_<row>`` is the innovation where the row entered the update and
+    NaN where the gate rejected it (its innovation is still in ``y``), so that averages of the
+    column describe the update; the gate rejects a 5 m/s wheel outlier."""
+    samples = _straight_samples()
+    w = samples["wheels"].values.copy()
+    w[50, 1] = 5.0
+    samples["wheels"] = SensorSamples(samples["wheels"].t_s, w)
+    res = run_filter(SkidSteerModel(), make_grid(0.0, 30.0, 100.0), samples,
+                     gate=Gate(0.999))
+    assert res.counts["wheels"]["rejected"] == 1
+    frame = res.to_frame()
+    k = int(np.flatnonzero(np.isfinite(res.y[:, 1]) & ~res.accepted[:, 1])[0])
+    assert res.y[k, 1] > 4.0 and np.isnan(frame["innov_vel_r"].iloc[k])
+    np.testing.assert_array_equal(frame["innov_vel_r"].notna(), res.accepted[:, 1])
+    used = res.accepted[:, 2]
+    np.testing.assert_allclose(frame["innov_wz"][used], res.y[used, 2])

@@ -1,0 +1,30 @@
+"""Slip-augmented skid-steer filter: a pseudo-measurement side without a usable variance is
+left out and counted."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.estimation.runner import SensorSamples
+from terrain.estimation.skid_steer_slip import (MEASUREMENT_NAMES, SkidSteerSlipSettings,
+                                                run_with_pseudo_slip)
+
+
+def test_a_pseudo_measurement_side_with_a_zero_std_is_left_out_and_counted():
+    """A slip model's side with std 0 (no spread: not a usable variance) is left out of its
+    update like a non-finite side, and the window is counted in ``non_finite``; the other
+    side is still used. Taken as is, the zero std of the side was replaced by the other
+    side's and the row entered the update with that made-up variance."""
+    t = np.arange(301) / 100.0
+    samples = {"wheels": SensorSamples(t, np.full((t.size, 2), 0.3))}
+    tp = np.array([0.5, 1.5, 2.5])
+    slip = np.full((3, 2), 0.1)
+    std = np.array([[0.05, 0.05], [0.05, 0.0], [0.05, 0.05]])
+    res = run_with_pseudo_slip(t, samples, SkidSteerSlipSettings(), tp, slip, std)
+    c = res.counts["slip_model"]
+    assert (c["samples"], c["non_finite"], c["used"]) == (3, 1, 3)
+    rows = [MEASUREMENT_NAMES.index("slip_1"), MEASUREMENT_NAMES.index("slip_2")]
+    used = res.accepted[:, rows]
+    np.testing.assert_array_equal(used.sum(axis=0), [3, 2])
+    k = int(np.flatnonzero(used[:, 0])[1])          # the step of the second window
+    assert used[k, 0] and not used[k, 1]
