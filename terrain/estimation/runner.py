@@ -232,6 +232,27 @@ def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     return step_index(t_grid, t_s)
 
 
+def samples_inside(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
+    """Which samples :func:`run_filter` may use: those after the step before the first
+    (``t_0 - dt``, taken at the first step) and at or before the last step (to 1e-9 s); the
+    others are counted as ``outside``.
+
+    Parameters
+    ----------
+    t_grid : ndarray, shape (N,)
+        Filter steps, s, increasing.
+    t_s : ndarray, shape (k,)
+        Sample times, s.
+
+    Returns
+    -------
+    ndarray of bool, shape (k,)
+    """
+    t = np.asarray(t_s, dtype=float)
+    step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
+    return (t > t_grid[0] - step0 - 1e-9) & (t <= t_grid[-1] + 1e-9)
+
+
 def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str
            ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
     """Step index of each kept sample and the counts of sensor ``name``."""
@@ -239,8 +260,7 @@ def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str
     v = samples.values
     if v.shape[1] != width:
         raise ShapeError(f"sensor {name!r} has {v.shape[1]} columns, the model expects {width}")
-    step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
-    inside = (t > t_grid[0] - step0 - 1e-9) & (t <= t_grid[-1] + 1e-9)
+    inside = samples_inside(t_grid, t)
     idx = sample_steps(t_grid, t)
     finite_any = np.isfinite(v).any(axis=1)
     non_finite = int((~np.isfinite(v).all(axis=1) & inside).sum())

@@ -46,7 +46,8 @@ from terrain.estimation.equations.skid_steer_slip import (N_MEASUREMENTS, N_STAT
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import SensorSamples, run_filter, sample_steps
+from terrain.estimation.runner import (SensorSamples, run_filter, sample_steps,
+                                       samples_inside)
 from terrain.run import step_index
 from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
@@ -557,7 +558,9 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     settings : SkidSteerSlipSettings
         Tuning.
     pseudo_t_s : ndarray, shape (k,), optional
-        Times of the slip model's outputs, s, increasing (None: no pseudo-measurement).
+        Times of the slip model's outputs, s, increasing (None: no pseudo-measurement); one
+        outside the grid (:func:`~terrain.estimation.runner.samples_inside`) is counted as
+        outside and sets no segment's noise.
     pseudo_slip : ndarray, shape (k, 2)
         Slip of sides 1 and 2 from the slip model; a non-finite side is left out of that
         update (the other side is used), a window with neither side finite is skipped; both
@@ -610,7 +613,8 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     valid = np.isfinite(sp) & np.isfinite(sd2) & (sd2 > 0)
     sp = np.where(valid, sp, np.nan)
     sd = np.where(valid.all(axis=1), sd, np.max(np.where(valid, sd2, -np.inf), axis=1))
-    ok = valid.any(axis=1) & np.isfinite(sd) & (sd > 0)
+    # a window outside the grid is counted there and never used: it sets no segment's noise
+    ok = valid.any(axis=1) & np.isfinite(sd) & (sd > 0) & samples_inside(t_grid_s, tp)
     # a window with neither side usable still reaches the filter, which skips and counts it
     base["slip_model"] = SensorSamples(tp, sp)
     tp, sp, sd = tp[ok], sp[ok], sd[ok]

@@ -28,3 +28,21 @@ def test_a_pseudo_measurement_side_with_a_zero_std_is_left_out_and_counted():
     np.testing.assert_array_equal(used.sum(axis=0), [3, 2])
     k = int(np.flatnonzero(used[:, 0])[1])          # the step of the second window
     assert used[k, 0] and not used[k, 1]
+
+
+def test_a_pseudo_measurement_outside_the_grid_changes_nothing_but_its_count():
+    """A slip-model window after the grid's end (or long before its start) is counted as
+    outside and never used; it must not set the variance of the segment it was clipped to.
+    It did: a window at 3.5 s with std 5 on a grid ending at 3.0 s gave the used window on
+    the last step (2.995 s, std 0.05) an innovation variance of 25.0 instead of 0.0036."""
+    t = np.arange(301) / 100.0
+    samples = {"wheels": SensorSamples(t, np.full((t.size, 2), 0.3))}
+    tp = np.array([0.5, 1.5, 2.995])
+    ref = run_with_pseudo_slip(t, samples, SkidSteerSlipSettings(slip_psd_rel=1.0), tp,
+                               np.full((3, 2), 0.1), np.full(3, 0.05))
+    more = run_with_pseudo_slip(t, samples, SkidSteerSlipSettings(slip_psd_rel=1.0),
+                                np.r_[-2.0, tp, 3.5], np.full((5, 2), 0.1),
+                                np.r_[5.0, np.full(3, 0.05), 5.0])
+    assert (more.counts["slip_model"]["outside"], more.counts["slip_model"]["used"]) == (2, 3)
+    for name in ("x", "P_diag", "y", "S_diag", "nis"):
+        np.testing.assert_array_equal(getattr(more, name), getattr(ref, name), err_msg=name)
