@@ -122,8 +122,11 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         heading error ``theta - theta^`` is wrapped to [-pi, pi), as an angle innovation of
         the EKFs is, :meth:`terrain.estimation.model.StateSpaceModel.residual`). With
         ``use_position=False`` only ``theta`` is read (x, y may be NaN). A sample with a
-        non-finite value among those read or among its speeds is missing: the estimates are
-        held over it (no correction, no prediction) and its ``error`` is NaN.
+        non-finite value among those read or among its speeds is missing: no correction (its
+        ``error`` is NaN), but the observer predicts over its step with its speeds, or the
+        last finite ones (eq. 8 with ``e = 0``; holding the estimates instead lost the
+        motion of the step, which the adaptive law made up by raising eta). Before the
+        first sample it can read the estimates are held (it starts at that pose).
     v_right_m_s, v_left_m_s : ndarray, shape (N,)
         Track / side speeds ``omega r`` at the same times, m/s.
     settings : AdaptiveObserverSettings
@@ -168,14 +171,30 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     xs, ys, ths = p[:, 0].tolist(), p[:, 1].tolist(), p[:, 2].tolist()
     vrs, vls, dts = vr.tolist(), vl.tolist(), dt.tolist() + [0.0]
     two_pi = 2.0 * math.pi
+    started = False                  # from the first pose it reads (the start pose)
+    a_last = b_last = math.nan       # the last finite speeds
     for k in range(n):
         theta, a, b = ths[k], vrs[k], vls[k]
-        if not (math.isfinite(theta) and math.isfinite(a) and math.isfinite(b)
-                and (not use_pos or (math.isfinite(xs[k]) and math.isfinite(ys[k])))):
-            # a missing sample: hold the estimates (no correction, no prediction)
+        speeds = math.isfinite(a) and math.isfinite(b)
+        if speeds:
+            a_last, b_last = a, b
+        pose_ok = math.isfinite(theta) and (
+            not use_pos or (math.isfinite(xs[k]) and math.isfinite(ys[k])))
+        started = started or pose_ok
+        if not (speeds and pose_ok):
+            # a missing sample: no correction; time passes, so the observer predicts over
+            # the step (e = 0) with the speeds it has or the last finite ones (held before
+            # the start, which is the first pose it reads, and before any finite speed)
             pose_hat[k] = (xh, yh, th)
             eta[k] = (er, el)
             err[k] = np.nan
+            h = dts[k]
+            if started and h > 0.0 and math.isfinite(a_last):
+                v_g, w_g = body_rates(b_last * el, a_last * er, 2.0 * d, 1.0)   # eq. 5
+                if use_pos:
+                    xh += h * math.cos(th) * v_g
+                    yh += h * math.sin(th) * v_g
+                th += h * w_g
             continue
         c, sn = math.cos(theta), math.sin(theta)
         e_th = (theta - th + math.pi) % two_pi - math.pi     # an angle: wrapped to [-pi, pi)
