@@ -122,6 +122,21 @@ def test_missing_samples_do_not_bias_the_observer(use_position):
     assert np.isnan(res.error[~np.isfinite(pose[:, 2]) | np.isnan(vr) | np.isnan(vl)]).all()
 
 
+def test_observer_starts_at_the_first_pose_it_reads_without_predicting_before_it():
+    """Poses missing for the first second (the speeds known): the observer starts at the
+    first pose it reads and holds until then, so at that sample its estimate is that pose
+    (error 0); it predicts over missing samples only after it has started."""
+    d = 0.3
+    t, pose = _kinematic_run(0.9, 0.8, 0.6, 0.4, d)
+    n = t.size
+    pose[:100] = np.nan
+    res = run_adaptive_observer(t, pose, np.full(n, 0.6), np.full(n, 0.4),
+                                AdaptiveObserverSettings(half_track_m=d))
+    np.testing.assert_array_equal(res.pose_hat[:101], np.tile(pose[100], (101, 1)))
+    np.testing.assert_array_equal(res.error[100], [0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(res.eta[:101], np.tile([1.0, 1.0], (101, 1)))
+
+
 def test_yaw_only_observer_identifies_the_turning_combination():
     d = 0.3
     t, pose = _kinematic_run(0.9, 0.8, 0.6, 0.4, d)
