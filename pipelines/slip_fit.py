@@ -232,7 +232,12 @@ def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:
     for (split, model, terr), v in sel.set_index(["split", "model", "terrain"])[
             "median_abs_err"].items():
         out[f"{split.replace(' ', '_')}.{model}.{terr}.median_abs_err"] = float(v)
-    for scen, g in odo[~odo["slid_off"].astype(bool)].groupby("scenario"):
+    for scen, every in odo.groupby("scenario"):
+        # a run that slid off its slope is left out of the medians: counted, not dropped
+        # unseen (a scenario whose every run slid off kept no key at all)
+        slid = every["slid_off"].astype(bool)
+        out[f"odometry.{scen}.slid_off_runs"] = float(slid.sum())
+        g = every[~slid]
         plain, comp = float(g["plain_err_pct"].median()), float(g["compensated_err_pct"].median())
         out[f"odometry.{scen}.plain_err_pct"] = plain
         out[f"odometry.{scen}.compensated_err_pct"] = comp

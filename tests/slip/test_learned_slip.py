@@ -890,3 +890,27 @@ def test_dead_reckon_refuses_a_non_finite_speed_slip_or_yaw_rate_by_name():
         dead_reckon(t, rim, rim, HUSKY.track_m, yaw_rate_rad_s=np.where(t > 0.5, np.nan, 0.0))
     with pytest.raises(NonFiniteInputError, match="chi"):
         dead_reckon(t, rim, rim, HUSKY.track_m, chi=np.nan)
+
+
+def test_slip_fit_summary_counts_the_runs_that_slid_off_and_keeps_their_scenario():
+    """A run that slid off its slope is left out of the odometry medians; the summary did
+    not say how many were (and a scenario whose every run slid off had no key at all)."""
+    from pipelines.slip_fit import _summary
+    from terrain.io.jsonfile import strict_json
+
+    errors = pd.DataFrame(columns=["windows", "terrain", "split", "model", "median_abs_err"])
+    odo = pd.DataFrame({
+        "scenario": ["slope_turn", "slope_turn", "slope_turn", "ice_slope"],
+        "slid_off": [True, False, False, True],
+        "plain_err_pct": [900.0, 4.0, 6.0, 800.0],
+        "compensated_err_pct": [950.0, 1.0, 3.0, 700.0],
+        "compensated_gyro_err_pct": [960.0, 0.5, 1.5, 600.0],
+        "gyro_heading_err_pct": [970.0, 2.0, 2.0, 500.0],
+        "reduction_pct": [-5.6, 75.0, 50.0, 12.5]})
+    summary = json.loads(strict_json(_summary(errors, odo)))
+    assert summary["odometry.slope_turn.slid_off_runs"] == 1
+    assert summary["odometry.slope_turn.plain_err_pct"] == pytest.approx(5.0)
+    assert summary["odometry.slope_turn.compensated_err_pct"] == pytest.approx(2.0)
+    assert summary["odometry.slope_turn.slipping_runs"] == 2
+    assert summary["odometry.ice_slope.slid_off_runs"] == 1
+    assert summary["odometry.ice_slope.plain_err_pct"] is None      # no run left to score
