@@ -429,3 +429,57 @@ def test_interval_of_a_terrain_mixture_covers_each_terrains_slip():
     mixed = physics_slip(HUSKY, {"GRASS": 0.5, "SANDY_LOAM": 0.5}, cur, rim, np.zeros(1))
     assert np.all(np.abs(each[0] - each[1]) > 0.02)
     assert np.all(mixed.lower <= np.minimum(*each)) and np.all(mixed.upper >= np.maximum(*each))
+
+
+def test_pitch_from_accelerometer_on_a_slope_driven_across_at_a_roll():
+    # body pitched 0.2 rad and rolled 0.3 rad: gravity reads g (sin p, -cos p sin r,
+    # cos p cos r); the roll takes part of cos p into a_y, so a_z alone would make the
+    # pitch 0.209 rad
+    p, r = 0.2, 0.3
+    f = G_M_S2 * np.array([np.sin(p), -np.cos(p) * np.sin(r), np.cos(p) * np.cos(r)])
+    assert pitch_from_accelerometer(*f) == pytest.approx(p, abs=1e-12)
+
+
+def test_load_std_with_a_run_prior_is_the_posterior_mean_of_tan_squared():
+    # prior N(0, 0.01 rad^2) and window noise sigma 0.1 rad: k = 0.5; at p_hat = 0 the
+    # posterior mean of p^2 is (0 + 0.5 * 0)^2 + 0.5 * 0.01 = 0.005, so the relative std is
+    # sqrt(0.005 * 0.01 + 0.5 * 0.01^2) = 0.01 (without the posterior variance 0.0071)
+    factor, rel = normal_load_factor(np.array([0.0, 0.2]), np.array([0.1, 0.1]), (0.0, 0.01))
+    np.testing.assert_allclose(factor, np.exp(0.005))
+    np.testing.assert_allclose(rel[0], 0.01, rtol=1e-12)
+    tan2 = np.tan(0.1) ** 2 + 0.005                    # p_hat 0.2 shrunk half-way to 0
+    np.testing.assert_allclose(rel[1], np.sqrt(tan2 * 0.01 + 0.5e-4), rtol=1e-12)
+
+
+def test_reported_traction_of_a_terrain_mixture_is_probability_weighted():
+    # each terrain's rolling loss gives its own gross traction for one current; the mixture
+    # reports their probability-weighted mean (not their sum)
+    cur = np.array([[4.0, 6.0], [2.0, 3.0]])
+    rim = np.array([[0.5, 0.6], [0.3, 0.4]])
+    a = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(2))
+    b = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, np.zeros(2))
+    assert not np.allclose(a.mu, b.mu)
+    mix = physics_slip(HUSKY, {"SANDY_LOAM": 0.3, "SNOW": 0.7}, cur, rim, np.zeros(2))
+    np.testing.assert_allclose(mix.mu, 0.3 * a.mu + 0.7 * b.mu, rtol=1e-12)
+
+
+def test_load_uncertainty_scales_the_whole_torque_share_of_the_traction():
+    # a relative normal-load error e changes torque / load, i.e. mu + rolling, by e: with
+    # the pitch noise as the only uncertainty the interval is the curve's inverse at
+    # mu +- k (mu + rolling) rel_std (the rolling part is 35-58 % of it on SANDY_LOAM here)
+    terrain = get_terrain("SANDY_LOAM")
+    cur, rim = np.array([[4.0, 6.0]]), np.array([[0.5, 0.6]])
+    pitch, pitch_std = np.array([0.05]), np.array([0.08])
+    quiet = PhysicsSlipSettings(current_std_a=0.0, efficiency_rel_std=0.0,
+                                hysteresis_rel_std=0.0)
+    out = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, pitch, settings=quiet,
+                       pitch_std_rad=pitch_std)
+    torque = wheel_torque_from_current(HUSKY.motor, cur,
+                                       rim / HUSKY.contact_geometry().wheel_radius_m)
+    mu, _, rolling = traction_from_torque(HUSKY, terrain, torque, rim, pitch,
+                                          pitch_std_rad=pitch_std)
+    sd = (mu + rolling) * normal_load_factor(pitch, pitch_std)[1][:, None]
+    assert np.all(rolling > 0.1 * mu)
+    k = quiet.coverage_sigma
+    np.testing.assert_allclose(out.lower, slip_from_traction(terrain.curve, mu - k * sd).slip)
+    np.testing.assert_allclose(out.upper, slip_from_traction(terrain.curve, mu + k * sd).slip)
