@@ -11,7 +11,7 @@ from terrain.errors import ConfigError
 from terrain.run import Run
 from terrain.slip.evaluation import (STEADY_AFTER_S, baseline_predictions, error_table,
                                      fit_predict, leave_one_out, odometry_errors,
-                                     steady_straight)
+                                     std_calibration_table, steady_straight)
 from terrain.slip.odometry import dead_reckon
 from terrain.vehicles import HUSKY
 
@@ -132,3 +132,72 @@ def test_odometry_errors_interpolate_the_predictions_from_the_window_centres():
     assert not row["slid_off"]
     assert np.isnan(row["gyro_heading_err_pct"])            # no IMU
     assert row["duration_s"] == pytest.approx(t[-1])
+
+
+def test_odometry_errors_with_the_gyro_heading_use_the_predicted_lateral_velocity():
+    # the body slides sideways at 0.2 m/s (on a slope) with no yaw; the wheels see none of
+    # it: only the predicted lateral velocity brings the gyro-heading odometry to the truth.
+    # The truth runs 2 s past the last wheel sample: the end is compared at that sample.
+    t = np.arange(0.0, 12.0, 0.05)
+    vl = vr = np.ones_like(t)
+    t_truth = np.arange(0.0, 14.0, 0.05)
+    truth = dead_reckon(t_truth, np.ones_like(t_truth), np.ones_like(t_truth), HUSKY.track_m,
+                        lateral_m_s=0.2)
+    run = Run("sim/SNOW/slope/0", "sim", "SNOW", {
+        "wheels": pd.DataFrame({"t_s": t, "vel_l": vl, "vel_r": vr}),
+        "imu": pd.DataFrame({"t_s": t, "wz": 0.0}),
+        "truth": pd.DataFrame({"t_s": t_truth, "x": truth[:, 0], "y": truth[:, 1]})})
+    starts = np.arange(0.0, 10.0, 2.0)
+    meta = pd.DataFrame({"run_id": run.run_id, "t_start_s": starts, "t_end_s": starts + 2.0})
+    pred = np.column_stack([np.zeros(5), np.zeros(5), np.ones(5), np.full(5, 0.2)])
+    row = odometry_errors([run], meta, pred, HUSKY.track_m, [run.run_id]).iloc[0]
+    assert row["compensated_gyro_err_pct"] < 1e-9
+    assert row["compensated_err_pct"] < 1e-9
+    # plain: 0.2 m/s x 11.95 s sideways over the 14 s path of 1.02 m/s
+    path = 14.0 * np.hypot(1.0, 0.2) - 0.05 * np.hypot(1.0, 0.2)
+    expected = 100 * 0.2 * t[-1] / path
+    assert row["plain_err_pct"] == pytest.approx(expected, rel=1e-6)
+    assert row["gyro_heading_err_pct"] == pytest.approx(expected, rel=1e-6)
+
+
+def test_std_calibration_table_on_hand_computed_normalised_errors():
+    # errors 0.5, 1.5, 2.5, 0.1 std units on group a (std 1, 1, 1, 2: errors 0.5, 1.5, 2.5,
+    # 0.2), and on group b a side-window the model calls certain (std 0) and misses: not
+    # covered, and scored (a claim of certainty that is wrong is the worst calibration)
+    truth = np.zeros((4, 2))
+    pred = np.array([[0.5, 1.5], [2.5, 0.2], [0.3, 0.0], [9.0, 9.0]])
+    std = np.array([[1.0, 1.0], [1.0, 2.0], [0.0, 1.0], [1.0, 1.0]])
+    meta = pd.DataFrame({"scenario": ["a", "a", "b", "c"]})
+    mask = np.array([True, True, True, False])             # window 3 is not held out
+    table = std_calibration_table(pred, std, truth, meta, mask).set_index("scenario")
+    assert list(table.index) == ["a", "b"]
+    a, b = table.loc["a"], table.loc["b"]
+    assert a["n_scored"] == 4 and a["coverage_1std"] == pytest.approx(0.5)
+    assert a["coverage_2std"] == pytest.approx(0.75)
+    u2 = np.array([0.25, 2.25, 6.25, 0.01])
+    assert a["median_normalised_sq"] == pytest.approx(np.median(u2))
+    assert a["mean_normalised_sq"] == pytest.approx(np.mean(u2))
+    assert a["median_std"] == pytest.approx(1.0)           # of 1, 1, 1, 2 (the mean is 1.25)
+    assert a["median_abs_err"] == pytest.approx(np.median([0.5, 1.5, 2.5, 0.2]))
+    assert b["n_scored"] == 2 and b["coverage_1std"] == pytest.approx(0.5)
+    assert b["coverage_2std"] == pytest.approx(0.5)
+
+
+def test_measured_checks_compare_learned_and_physics_slip_on_straight_windows_only():
+    # straight: gyro |yaw rate| < 0.05 rad/s, as for eq. 22 and the steady windows; the
+    # windows at 0.07 and 0.3 rad/s (learned and physics apart by 0.5) are not straight
+    from terrain.slip.evaluation import measured_checks
+    wz = np.array([0.0, 0.01, -0.02, 0.03, 0.07, 0.3])
+    phys = np.array([0.10, 0.20, 0.30, 0.40, 0.0, 0.0])
+    learned = phys + np.array([0.01, 0.02, 0.03, 0.04, 0.5, 0.5])
+    X = pd.DataFrame({"wz__mean": wz, "vel_diff__mean": wz * HUSKY.track_m,
+                      "cur_l__mean": [1.0, 2.0, 3.0, 4.0, 0.0, 0.0],
+                      "cur_r__mean": [1.0, 2.0, 3.0, 4.0, 0.0, 0.0],
+                      "phys_slip_l": phys, "phys_slip_r": phys})
+    pred = np.column_stack([learned, learned, np.ones(6), np.zeros(6)])
+    row = measured_checks(X, pred, np.array(["r1"] * 3 + ["r2"] * 3), np.array(["SNOW"] * 6),
+                          HUSKY.track_m).iloc[0]
+    assert row["median_learned_minus_physics"] == pytest.approx(0.025)
+    assert row["spearman_slip_current"] == pytest.approx(1.0)
+    assert row["n_runs"] == 2 and row["n_turning_windows"] == 1
+    assert row["yaw_rms_plain_rad_s"] == pytest.approx(0.0, abs=1e-12)
