@@ -439,3 +439,57 @@ def test_window_count_formula_and_spans_on_random_runs(start_s, wheel_hz, n_whee
         np.testing.assert_array_equal((first + n - 1) // length, k)
     else:
         assert list(ws.groups) == list(ws.run_ids)
+
+
+def test_window_hop_and_partition_lengths_round_to_the_nearest_sample():
+    """Lengths in seconds become the nearest whole number of samples, not the number below:
+    0.29 s at 100 Hz is 28.999999999999996 samples in floating point, i.e. 29 samples
+    (truncated it was 28: 0.28 s windows started every 0.28 s, a partition of 0.56 s)."""
+    config = WindowConfig(window_s=0.29, hop_s=0.29, rate_hz=100.0, partition_s=0.57)
+    assert (config.n_samples, config.hop_samples, config.partition_samples) == (29, 29, 57)
+    n = 200
+    frame = pd.DataFrame({TIME: np.arange(n) / 100.0, "wz": np.arange(n, dtype=float)})
+    X, t0, t1, _, _ = window_frame(frame, ["wz"],
+                                   WindowConfig(window_s=0.29, hop_s=0.29, rate_hz=100.0))
+    assert X.shape == (6, 1, 29)
+    np.testing.assert_allclose(t0, 0.29 * np.arange(6), atol=1e-12)
+    np.testing.assert_allclose(t1 - t0, 0.29, atol=1e-12)
+    np.testing.assert_array_equal(X[:, 0, 0], 29 * np.arange(6))
+
+
+@pytest.mark.parametrize("partition_s", [None, 2.0])
+def test_a_run_of_exactly_one_window_or_partition_is_not_too_short(partition_s):
+    """A run whose aligned clock holds exactly one window (and one partition) of samples
+    gives that window and is not listed as too short; one sample less gives none and is."""
+    def run(n_wheel):
+        t = np.arange(n_wheel) / 50.0
+        wheels = pd.DataFrame({TIME: t, "vel_l": 0.5, "vel_r": 0.6, "cur_l": 5.0,
+                               "cur_r": 6.0})
+        return Run("t/ICE/07", "t", "ICE", {"wheels": wheels}, source="test run")
+
+    config = WindowConfig(window_s=2.0, rate_hz=50.0, partition_s=partition_s)
+    exact = make_windows([run(100)], "wheels", config)
+    assert len(exact) == 1 and exact.counts["too_short_runs"] == []
+    assert exact.counts["window_tail_s"] == 0.0 and exact.counts["partition_tail_s"] == 0.0
+    short = make_windows([run(99)], "wheels", config)
+    assert len(short) == 0 and short.counts["too_short_runs"] == ["t/ICE/07"]
+
+
+def test_a_window_of_4_samples_is_the_shortest_accepted():
+    """At least 4 samples per window: 0.08 s at 50 Hz (4) is accepted, 0.06 s (3) refused."""
+    assert WindowConfig(window_s=0.08, rate_hz=50.0).n_samples == 4
+    with pytest.raises(ConfigError, match="at least 4 samples"):
+        WindowConfig(window_s=0.06, rate_hz=50.0)
+
+
+def test_a_run_without_wheels_the_signals_need_is_not_blamed_on_steady_only(make_run):
+    """Only a run skipped because ``steady_only`` asks for wheels (IMU signals) gets the
+    steady-only reason; a run lacking the wheel stream that its signals themselves need is
+    reported as such."""
+    imu_only = make_run({"imu": _streams()["imu"]}, "t/ICE/00", "ICE")
+    for config in (WindowConfig(window_s=2.0), WindowConfig(window_s=2.0, steady_only=True)):
+        ws = make_windows([imu_only], "all", config)
+        assert ws.counts["skipped_runs"] == ["t/ICE/00"] and ws.counts["reasons"] == {}
+        text = input_report([imu_only], ws.counts, 2.0).text()
+        assert "skipped (no wheels stream): t/ICE/00" in text
+        assert "steady_only" not in text
