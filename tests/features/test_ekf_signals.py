@@ -149,3 +149,33 @@ def test_a_left_wheel_spinning_faster_on_a_straight_run_shows_on_the_left_side()
     out = window_ekf_channels(X, ("vel_l", "vel_r", "wz"), 50.0, settings=settings)
     np.testing.assert_allclose(out[0], ekf_channel_frame(frame, settings=settings).to_numpy().T,
                                rtol=1e-9, atol=1e-12)
+
+
+def test_run_windows_take_the_ekf_channels_of_the_whole_run_at_its_wheel_rate(husky_run):
+    """The EKF channels of ``make_windows`` are those of the filter run over the whole aligned
+    run with the run's native wheel rate (the wheel variance inflated by grid rate / native
+    rate); without that rate the filter trusts the interpolated wheel samples as independent
+    50 Hz readings and its channels differ."""
+    config = WindowConfig(window_s=2.0, rate_hz=50.0)
+    ws = make_windows([husky_run], "ekf", config)
+    frame = align_streams(husky_run, ("imu", "wheels"), 50.0)
+    want = ekf_channel_frame(frame, wheel_rate_hz=husky_run.rate_hz("wheels")).to_numpy()
+    n = config.n_samples
+    first = np.round(ws.t_start_s * 50.0).astype(int) - int(round(frame["t_s"].iloc[0] * 50.0))
+    assert len(ws) > 10
+    for k in range(0, len(ws), 5):
+        np.testing.assert_allclose(ws.X[k], want[first[k]:first[k] + n].T, rtol=1e-12)
+    plain = ekf_channel_frame(frame).to_numpy()
+    assert not np.allclose(plain[first[5]:first[5] + n].T, ws.X[5], rtol=1e-3)
+
+
+def test_an_imu_gap_alone_makes_every_ekf_channel_nan(husky_run):
+    """A grid row without the gyro (IMU gap, wheel speeds present) is a gap of the EKF
+    channels too, as a row without the wheels is: the channels there would come from a
+    filter that saw only half its measurements."""
+    frame = align_streams(husky_run, ("imu", "wheels"), 50.0)
+    frame.loc[500:520, "wz"] = np.nan                               # the IMU alone
+    frame.loc[700:720, ["vel_l", "vel_r"]] = np.nan                 # the wheels alone
+    ekf = ekf_channel_frame(frame, wheel_rate_hz=husky_run.rate_hz("wheels"))
+    assert ekf.loc[500:520].isna().all().all() and ekf.loc[700:720].isna().all().all()
+    assert np.isfinite(ekf.loc[530:690].to_numpy()).all()
