@@ -237,24 +237,34 @@ def test_window_pitch_removes_the_wheel_speed_slope_from_the_accelerometer():
     assert cols[0, names.index("pitch")] == pytest.approx(p)
 
 
+def _with_truth(columns, keep=None):
+    """A 10 s simulated GRASS run whose truth stream is replaced by ``columns(t)`` (a dict of
+    truth columns of its clock ``t``), its rows where ``keep(t)`` (all when None)."""
+    from dataclasses import replace as replace_run
+
+    from terrain.sim import SimConfig, simulate
+
+    run = simulate(SimConfig(terrains=("GRASS",), scenario="straight_accel", duration_s=10.0,
+                             seed=0))
+    t = run.streams["truth"]["t_s"].to_numpy()
+    truth = pd.DataFrame({"t_s": t, **columns(t)})
+    if keep is not None:
+        truth = truth[keep(t)]
+    return replace_run(run, streams={**run.streams, "truth": truth})
+
+
 def test_slip_targets_are_the_truth_means_of_each_window_and_its_mid_terrain():
     """Targets against a planted truth stream: ``slip_1 = t``, ``slip_2 = 2 t``,
     ``v_by = -t``, ``yaw_rate = 0.5``, terrain GRASS before 5 s and SNOW after. Each target
     is the mean over the window's samples [t_start, t_end), the label the one at the window's
     middle (the lateral velocity read from the yaw rate column, and the label at the window's
     start, passed every test)."""
-    from dataclasses import replace as replace_run
-
     from features.slip_features import slip_targets, slip_windows
-    from terrain.sim import SimConfig, simulate
 
-    run = simulate(SimConfig(terrains=("GRASS",), scenario="straight_accel", duration_s=10.0,
-                             seed=0))
+    run = _with_truth(lambda t: {"slip_1": t, "slip_2": 2 * t, "v_by": -t,
+                                 "yaw_rate": np.full_like(t, 0.5),
+                                 "terrain": np.where(t < 5.0, "GRASS", "SNOW")})
     t = run.streams["truth"]["t_s"].to_numpy()
-    truth = pd.DataFrame({"t_s": t, "slip_1": t, "slip_2": 2 * t, "v_by": -t,
-                          "yaw_rate": np.full_like(t, 0.5),
-                          "terrain": np.where(t < 5.0, "GRASS", "SNOW")})
-    run = replace_run(run, streams={**run.streams, "truth": truth})
     ws = slip_windows([run])
     Y = slip_targets([run], ws)
     assert len(ws) >= 6
@@ -266,6 +276,61 @@ def test_slip_targets_are_the_truth_means_of_each_window_and_its_mid_terrain():
         assert Y["yaw_rate"][i] == pytest.approx(0.5)
         mid = 0.5 * (ws.t_start_s[i] + ws.t_end_s[i])
         assert Y["terrain"][i] == ("GRASS" if mid < 5.0 else "SNOW")
+
+
+def test_slip_targets_of_a_window_without_truth_samples_are_nan_not_zero():
+    """A window whose span holds no sample of the truth stream (a hole in it) has no target:
+    NaN, so that the model is not trained on a made-up slip of 0."""
+    from features.slip_features import slip_targets, slip_windows
+
+    run = _with_truth(lambda t: {"slip_1": 0.2, "slip_2": 0.3, "v_by": 0.01,
+                                 "yaw_rate": 0.5, "terrain": "GRASS"},
+                      keep=lambda t: (t < 3.9) | (t >= 6.1))
+    ws = slip_windows([run])
+    Y = slip_targets([run], ws)
+    inside = (ws.t_start_s >= 3.9) & (ws.t_end_s <= 6.1)
+    assert inside.sum() == 1                       # the window [4, 6) s
+    assert Y.loc[inside, ["slip_1", "slip_2", "v_by", "yaw_rate", "chi"]].isna().all().all()
+    np.testing.assert_allclose(Y.loc[~inside, "slip_1"], 0.2)
+    np.testing.assert_allclose(Y.loc[~inside, "slip_2"], 0.3)
+
+
+def test_slip_target_chi_uses_the_track_width_given():
+    """``chi = mean(v_R - v_L) / (B mean(yaw_rate))`` with the vehicle's own track B (a
+    tracked vehicle's 0.393 m, not Husky's), NaN below the turning-rate floor."""
+    from dataclasses import replace as replace_ws
+
+    from features.slip_features import MIN_TURN_RATE_RAD_S, slip_targets, slip_windows
+    from terrain.vehicles import TRACKED
+
+    run = _with_truth(lambda t: {"slip_1": 0.0, "slip_2": 0.0, "v_by": 0.0,
+                                 "yaw_rate": np.where(t < 5.0, 0.5, 0.5 * MIN_TURN_RATE_RAD_S),
+                                 "terrain": "GRASS"})
+    ws = slip_windows([run])
+    X = ws.X.copy()
+    X[:, ws.channels.index("vel_r")] = X[:, ws.channels.index("vel_l")] + 0.4
+    ws = replace_ws(ws, X=X)
+    turning = ws.t_end_s <= 5.0 + 1e-9
+    assert 0 < turning.sum() < len(ws)
+    for track in (HUSKY.track_m, TRACKED.track_m):
+        chi = slip_targets([run], ws, track_m=track)["chi"].to_numpy()
+        np.testing.assert_allclose(chi[turning], 0.4 / (track * 0.5))
+        assert np.isnan(chi[ws.t_start_s >= 5.0]).all()
+
+
+def test_slip_features_refuse_probabilities_of_another_number_of_windows():
+    """Terrain probabilities must have one row per window: a table of the wrong length is a
+    ConfigError naming both counts (it failed inside NumPy on broadcasting)."""
+    from features.slip_features import slip_features, slip_windows
+
+    run = _with_truth(lambda t: {"slip_1": 0.0, "slip_2": 0.0, "v_by": 0.0, "yaw_rate": 0.0,
+                                 "terrain": "GRASS"})
+    ws = slip_windows([run])
+    probs = pd.DataFrame({"GRASS": np.ones(len(ws) + 1)})
+    with pytest.raises(ConfigError, match=f"{len(ws) + 1} probability rows for {len(ws)} "
+                                          "windows"):
+        slip_features(ws, HUSKY, probs)
+    assert slip_features(ws, HUSKY, probs.iloc[:-1]).shape[0] == len(ws)
 
 
 def test_physics_slip_columns_follow_their_side():

@@ -455,3 +455,17 @@ def test_fusion_settings_refuse_impossible_floors_and_text(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         FusionSettings(**kwargs)
     FusionSettings(learned_std_floor=0, error_correlation=None)       # defaults still valid
+
+
+def test_a_run_on_a_terrain_outside_the_catalogue_gets_no_slip_outputs_and_says_why(sandy):
+    """The physics slip needs the terrain's catalogue curve: a run labelled with a terrain
+    the catalogue lacks gets no outputs, and the reason names the terrain."""
+    from dataclasses import replace
+
+    from features.slip_outputs import missing_slip_inputs
+
+    _, run = sandy
+    assert missing_slip_inputs(run) is None
+    odd = replace(run, terrain="MARS")
+    assert missing_slip_inputs(odd) == "terrain 'MARS' not in the terrain catalogue"
+    assert slip_model_outputs(odd) is None
