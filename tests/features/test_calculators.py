@@ -12,7 +12,7 @@ from scipy import stats as sps
 
 from features import calculators as calc
 from features.transformers import linear_bands
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 
 RAMP = np.array([1.0, 2.0, 3.0, 4.0])
 # Bernoulli(p = 1/4) scaled by 3: skewness (1-2p)/sqrt(p(1-p)) = 2/sqrt(3),
@@ -255,3 +255,13 @@ def test_a_bin_on_a_band_edge_belongs_to_the_band_it_starts(n, rate, width, edge
     # each bin of [0, Nyquist) in exactly one band
     inside = np.arange(n // 2 + (n % 2))
     np.testing.assert_array_equal(np.count_nonzero(W[inside], axis=1), 1)
+
+
+def test_statistics_refuse_an_unknown_name_and_windows_of_no_sample():
+    """An unknown statistic is a ConfigError listing the valid ones (it was NumPy's "tuple.index
+    (x): x not in tuple"); windows of no sample are a ShapeError, not a compiled read past
+    the end of each row."""
+    with pytest.raises(ConfigError, match=r"unknown statistics \['median'\]; valid: \['mean'"):
+        calc.statistics(np.ones((2, 1, 4)), ("mean", "median"))
+    with pytest.raises(ShapeError, match="at least one sample"):
+        calc.statistics(np.ones((2, 3, 0)), ("mean",))

@@ -493,3 +493,18 @@ def test_a_run_without_wheels_the_signals_need_is_not_blamed_on_steady_only(make
         text = input_report([imu_only], ws.counts, 2.0).text()
         assert "skipped (no wheels stream): t/ICE/00" in text
         assert "steady_only" not in text
+
+
+@pytest.mark.parametrize("vel_l, vel_r", [(0.0, 0.4), (0.4, 0.0)])
+def test_steady_motion_is_judged_on_the_mean_of_both_wheel_speeds(vel_l, vel_r):
+    """One side standing while the other drives at 0.4 m/s is steady motion at 0.2 m/s
+    (``vel_mean``), whichever side stands."""
+    n = 300
+    frame = pd.DataFrame({TIME: np.arange(n) / 50.0, "vel_l": np.full(n, vel_l),
+                          "vel_r": np.full(n, vel_r)})
+    config = WindowConfig(window_s=2.0, rate_hz=50.0, steady_only=True, min_speed_m_s=0.15)
+    X, *_, counts = window_frame(frame, ["vel_l"], config)
+    assert len(X) == 3 and counts["dropped_unsteady"] == 0
+    X, *_, counts = window_frame(frame, ["vel_l"],
+                                 WindowConfig(**{**config.__dict__, "min_speed_m_s": 0.25}))
+    assert len(X) == 0 and counts["dropped_unsteady"] == 3
