@@ -469,3 +469,18 @@ def test_a_run_on_a_terrain_outside_the_catalogue_gets_no_slip_outputs_and_says_
     odd = replace(run, terrain="MARS")
     assert missing_slip_inputs(odd) == "terrain 'MARS' not in the terrain catalogue"
     assert slip_model_outputs(odd) is None
+
+
+def test_current_and_transient_stds_leave_the_model_uncertainties_out(sandy):
+    """``physics_current`` is the current noise alone and ``physics_transient`` the slip
+    change inside each window: the gearbox-efficiency and rolling-loss uncertainties of the
+    settings widen the ``physics`` std only, not these two (the transient std computed with
+    them grew with a wider efficiency prior)."""
+    _, run = sandy
+    usual = slip_model_outputs(run)
+    wide = slip_model_outputs(run, None, PhysicsSlipSettings(efficiency_rel_std=0.3,
+                                                             hysteresis_rel_std=0.4))
+    for key in ("physics_current", "physics_transient"):
+        np.testing.assert_allclose(wide[key][2], usual[key][2], rtol=1e-12, err_msg=key)
+    assert (usual["physics_transient"][2] > 0).any()
+    assert np.all(wide["physics"][2] > usual["physics"][2])
