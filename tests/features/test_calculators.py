@@ -265,3 +265,11 @@ def test_statistics_refuse_an_unknown_name_and_windows_of_no_sample():
         calc.statistics(np.ones((2, 1, 4)), ("mean", "median"))
     with pytest.raises(ShapeError, match="at least one sample"):
         calc.statistics(np.ones((2, 3, 0)), ("mean",))
+
+
+@pytest.mark.parametrize("rate", ["50", True, 0.0, np.nan])
+def test_band_weights_refuse_a_rate_that_is_not_a_positive_number(rate):
+    """The sampling rate sets every bin frequency: a string or a bool is a ConfigError naming
+    the setting (a string was NumPy's TypeError from isfinite), as 0 and NaN are."""
+    with pytest.raises(ConfigError, match="rate_hz"):
+        calc.band_weights(N, rate, ((0.0, 2.5),))

@@ -484,3 +484,25 @@ def test_current_and_transient_stds_leave_the_model_uncertainties_out(sandy):
         np.testing.assert_allclose(wide[key][2], usual[key][2], rtol=1e-12, err_msg=key)
     assert (usual["physics_transient"][2] > 0).any()
     assert np.all(wide["physics"][2] > usual["physics"][2])
+
+
+@pytest.mark.parametrize("drop, reason", [
+    ("currents", "no motor currents (cur_l, cur_r)"), ("imu", "no IMU stream"),
+    ("wheels", "no wheel stream")])
+def test_a_run_lacking_a_slip_input_gets_no_outputs_and_the_reason_names_it(
+        sandy, drop, reason):
+    """Each missing input is named as itself, before any windowing (which would call a run
+    without IMU one without a complete window)."""
+    from dataclasses import replace
+
+    from features.slip_outputs import missing_slip_inputs
+
+    _, run = sandy
+    streams = dict(run.streams)
+    if drop == "currents":
+        streams["wheels"] = streams["wheels"].drop(columns=["cur_l", "cur_r"])
+    else:
+        del streams[drop]
+    lacking = replace(run, streams=streams)
+    assert missing_slip_inputs(lacking) == reason
+    assert slip_model_outputs(lacking) is None
