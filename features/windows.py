@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
-from terrain.errors import ConfigError, config_positive, duplicated, listed
+from terrain.errors import ConfigError, config_numbers, config_positive, duplicated, listed
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY
@@ -179,11 +179,11 @@ class WindowConfig:
     Raises
     ------
     ConfigError
-        A length or rate that is not a finite positive number, ``partition_s`` shorter
-        than ``window_s``, a window of fewer than 4 or more than
-        :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample (window starts
-        and lengths are rounded to whole samples), or a steady-motion threshold that is not
-        a finite number >= 0 (NaN made every window unsteady).
+        A length or rate that is not a real number (text, a bool, a list) or not a finite
+        positive number, ``partition_s`` shorter than ``window_s``, a window of fewer than
+        4 or more than :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample
+        (window starts and lengths are rounded to whole samples), or a steady-motion
+        threshold that is not a finite number >= 0 (NaN made every window unsteady).
     """
 
     window_s: float = 2.0
@@ -195,6 +195,10 @@ class WindowConfig:
     max_speed_std_m_s: float = 0.1
 
     def __post_init__(self) -> None:
+        # text or a list raised Python's bare TypeError in the range checks, True passed as 1
+        config_numbers("WindowConfig", optional=("hop_s", "partition_s"),
+                       window_s=self.window_s, hop_s=self.hop_s, rate_hz=self.rate_hz,
+                       partition_s=self.partition_s)
         if not (0 < self.window_s < math.inf and 0 < self.rate_hz < math.inf):
             raise ConfigError(f"window_s and rate_hz must be finite numbers > 0, got "
                               f"{self.window_s} s and {self.rate_hz} Hz")

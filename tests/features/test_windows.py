@@ -508,3 +508,14 @@ def test_steady_motion_is_judged_on_the_mean_of_both_wheel_speeds(vel_l, vel_r):
     X, *_, counts = window_frame(frame, ["vel_l"],
                                  WindowConfig(**{**config.__dict__, "min_speed_m_s": 0.25}))
     assert len(X) == 0 and counts["dropped_unsteady"] == 3
+
+
+@pytest.mark.parametrize("field", ["window_s", "hop_s", "rate_hz", "partition_s"])
+@pytest.mark.parametrize("value", [True, "2", [2.0]])
+def test_window_lengths_and_rate_that_are_not_numbers_are_refused(field, value):
+    """A window length, hop, partition or rate must be a real number: ``True`` was taken as
+    1 (``window_s=True`` cut 1 s windows of 50 samples without a word) and text or a list
+    raised Python's bare TypeError ("'<' not supported between instances of 'int' and
+    'str'"), naming no field."""
+    with pytest.raises(ConfigError, match=f"WindowConfig.{field} must be a real number"):
+        WindowConfig(**{field: value})
