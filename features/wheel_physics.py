@@ -35,7 +35,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from features.calculators import quantile_sorted
 from features.windows import HUSKY_TRACK_M, refuse_no_windows
-from terrain.errors import ConfigError, NonFiniteInputError, ShapeError, first_items
+from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
+                            first_items)
 from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
@@ -205,12 +206,16 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     Raises
     ------
     ConfigError
-        A non-positive or non-finite rate, track, scale or ridge.
+        A rate, track, scale or ridge that is not a real number (text, a bool), or not
+        finite and > 0.
     ShapeError
         The four inputs are not 2-D arrays of one shape with at least one sample.
     NonFiniteInputError
         An input holds NaN or inf (the message names it and the first windows).
     """
+    # True passed the range check as 1, text failed inside NumPy's isfinite
+    config_numbers("physics_features", rate_hz=rate_hz, track_m=track_m,
+                   speed_scale_m_s=speed_scale_m_s, yaw_scale_rad_s=yaw_scale_rad_s, ridge=ridge)
     for name, value in (("rate_hz", rate_hz), ("track_m", track_m),
                         ("speed_scale_m_s", speed_scale_m_s),
                         ("yaw_scale_rad_s", yaw_scale_rad_s), ("ridge", ridge)):
@@ -299,13 +304,17 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            A wheel channel is missing from ``channels``.
+            A wheel channel is missing from ``channels``, or ``rate_hz`` or ``short_s`` is
+            not a real number (text, a bool).
         ValueError
             ``X`` not of 3 dimensions, or of 0 windows.
         """
         missing = [c for c in WHEEL_CHANNELS if c not in self.channels]
         if missing:
             raise ConfigError(f"WheelPhysicsFeatures needs channels {missing}")
+        # they set the scales' sample counts and names (True was a 1 s scale, "__last1s")
+        config_numbers("WheelPhysicsFeatures", optional=("short_s",), rate_hz=self.rate_hz,
+                       short_s=self.short_s)
         X = np.asarray(X, dtype=float)
         if X.ndim != 3:
             raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "

@@ -266,3 +266,19 @@ def test_physics_features_refuse_windows_of_no_sample():
     parts = _planted(n_windows=2, n=10)
     with pytest.raises(ShapeError, match="n_samples >= 1"):
         physics_features(*(p[:, :0] for p in parts), RATE)
+
+
+@pytest.mark.parametrize("value", [True, "10", [10.0]])
+def test_settings_that_are_not_numbers_are_refused_naming_them(value):
+    """``rate_hz=True`` was taken as 1 Hz (the features of 10 Hz windows computed at 1 Hz
+    without a word) and text gave NumPy's "ufunc 'isfinite' not supported"; the
+    transformer's ``short_s`` / ``rate_hz`` as text failed on "can't multiply sequence"."""
+    parts = _planted(n_windows=2, n=20)
+    with pytest.raises(ConfigError, match="physics_features.rate_hz must be a real number"):
+        physics_features(*parts, value)
+    with pytest.raises(ConfigError, match="physics_features.ridge must be a real number"):
+        physics_features(*parts, RATE, ridge=value)
+    X = np.stack(parts, axis=1)
+    for field in ("rate_hz", "short_s"):
+        with pytest.raises(ConfigError, match=f"WheelPhysicsFeatures.{field} must be a real"):
+            WheelPhysicsFeatures(**{field: value}).fit(X)
