@@ -79,9 +79,10 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
     band_width_hz : float
         Width of the default bands, Hz.
     min_speed_m_s : float
-        Speed floor of the current-per-speed features, m/s.
+        Speed floor of the current-per-speed features, m/s (finite, > 0).
     turn_floor_rad_s : float
-        Ridge floor of the yaw-rate gain feature (``wz`` on ``yaw_rate_wheels``), rad/s.
+        Ridge floor of the yaw-rate gain feature (``wz`` on ``yaw_rate_wheels``), rad/s
+        (finite, > 0).
 
     Attributes
     ----------
@@ -142,7 +143,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            Unknown statistic name, a ``rate_hz`` or ``band_width_hz`` :func:`linear_bands`
+            Unknown statistic name, a ``min_speed_m_s`` or ``turn_floor_rad_s`` that is not a
+            finite number > 0, a ``rate_hz`` or ``band_width_hz`` :func:`linear_bands`
             refuses, or a band of ``bands_hz`` that :func:`features.calculators.band_weights`
             refuses (not finite, inverted, or outside 0 Hz to the Nyquist frequency), or a
             feature name that occurs twice (a repeated channel or statistic, or two bands
@@ -155,6 +157,9 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         if unknown:
             raise ConfigError(f"unknown statistics {unknown}; valid: "
                               f"{list(calculators.STATISTICS)}")
+        # the floors keep the cross terms of a standing, straight window finite
+        config_positive("WindowFeatures", min_speed_m_s=self.min_speed_m_s,
+                        turn_floor_rad_s=self.turn_floor_rad_s)
         X = self._check(X)
         names = [f"{c}__{s}" for c in self.channels for s in self.stats]
         self.bands_ = (tuple(self.bands_hz) if self.bands_hz is not None

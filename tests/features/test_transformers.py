@@ -341,3 +341,18 @@ def test_one_sample_windows_are_refused_not_given_nan_features():
     with pytest.raises(ValueError, match="at least 2 samples"):
         fx.transform(X)
     assert np.isfinite(fx.transform(np.repeat(X, 2, axis=2))).all()
+
+
+@pytest.mark.parametrize("field", ["min_speed_m_s", "turn_floor_rad_s"])
+@pytest.mark.parametrize("value", [0.0, -1.0, np.nan, np.inf, True, "0.05"])
+def test_cross_term_floors_that_are_not_finite_positive_numbers_are_refused(field, value):
+    """The floors keep the cross terms of a standing, straight window finite: a floor of 0
+    (or negative) gave ``cur_l__per_speed`` inf and ``wz__gain_on_yaw_rate_wheels`` NaN
+    (0/0) for finite windows, NaN gave NaN, and True was taken as 1."""
+    X = np.zeros((2, 4, 100))
+    X[:, 1] = 5.0                                     # 5 A at standstill, not turning
+    fx = WindowFeatures(channels=("wz", "cur_l", "vel_l", "yaw_rate_wheels"), rate_hz=50.0,
+                        **{field: value})
+    with pytest.raises(ConfigError, match=f"WindowFeatures.{field} must be"):
+        fx.fit(X)
+    assert np.isfinite(WindowFeatures(channels=fx.channels, rate_hz=50.0).fit_transform(X)).all()
