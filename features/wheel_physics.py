@@ -307,7 +307,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             A wheel channel is missing from ``channels``, or ``rate_hz`` or ``short_s`` is
             not a real number (text, a bool).
         ValueError
-            ``X`` not of 3 dimensions, or of 0 windows.
+            ``X`` not of 3 dimensions, of another number of channels than ``channels``, or
+            of 0 windows.
         """
         missing = [c for c in WHEEL_CHANNELS if c not in self.channels]
         if missing:
@@ -316,7 +317,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         config_numbers("WheelPhysicsFeatures", optional=("short_s",), rate_hz=self.rate_hz,
                        short_s=self.short_s)
         X = np.asarray(X, dtype=float)
-        if X.ndim != 3:
+        if X.ndim != 3 or X.shape[1] != len(self.channels):   # channels are read by position
             raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
                              f"n_samples), got {X.shape}")
         refuse_no_windows(X)
@@ -342,13 +343,17 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            ``X`` of another window length than at fit, of 0 windows, or non-finite.
+            ``X`` of another number of channels than ``channels`` or another window length
+            than at fit, of 0 windows, or non-finite.
         ConfigError
             A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
         """
         check_is_fitted(self, "feature_names_out_")
         X = np.asarray(X, dtype=float)
-        if X.ndim != 3 or X.shape[2] != self.n_samples_in_:
+        if X.ndim != 3 or X.shape[1] != len(self.channels):
+            raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
+                             f"n_samples), got {X.shape}")
+        if X.shape[2] != self.n_samples_in_:
             raise ValueError(f"expected windows of {self.n_samples_in_} samples, got {X.shape}")
         refuse_no_windows(X)
         if not np.isfinite(X).all():

@@ -282,3 +282,18 @@ def test_settings_that_are_not_numbers_are_refused_naming_them(value):
     for field in ("rate_hz", "short_s"):
         with pytest.raises(ConfigError, match=f"WheelPhysicsFeatures.{field} must be a real"):
             WheelPhysicsFeatures(**{field: value}).fit(X)
+
+
+@pytest.mark.parametrize("n_channels", [3, 5])
+def test_windows_of_another_channel_count_than_named_are_refused(n_channels):
+    """The channels are read by position from ``channels``: windows holding one channel
+    more than named were read without a word (the features of the first four channels,
+    whatever they were), one fewer failed on NumPy's "index 3 is out of bounds"."""
+    X = np.zeros((3, n_channels, 40))
+    good = np.stack(_planted(n_windows=3, n=40), axis=1)
+    fitted = WheelPhysicsFeatures(rate_hz=RATE).fit(good)
+    for call in (lambda: WheelPhysicsFeatures(rate_hz=RATE).fit(X),
+                 lambda: fitted.transform(X)):
+        with pytest.raises(ValueError, match=rf"expected X of shape \(n_windows, 4, "
+                                             rf"n_samples\), got \(3, {n_channels}, 40\)"):
+            call()
