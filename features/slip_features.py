@@ -184,11 +184,15 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     Raises
     ------
     ConfigError
-        A channel of :data:`SLIP_CHANNELS` is missing.
+        A channel of :data:`SLIP_CHANNELS` is missing, or ``x`` is not 3-D with one row per
+        channel.
     """
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
         raise ConfigError(f"slip features need channels {missing}")
+    if x.ndim != 3 or x.shape[1] != len(channels):     # channels are read by position
+        raise ConfigError(f"windows must have shape (n_windows, {len(channels)}, n_samples), "
+                          f"got {x.shape}")
     ch = {c: i for i, c in enumerate(channels)}
     cols: dict[str, np.ndarray] = {}
     means, stds = mean(x), std(x)

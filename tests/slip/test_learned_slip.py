@@ -979,3 +979,16 @@ def test_slip_fit_summary_counts_the_runs_that_slid_off_and_keeps_their_scenario
     assert summary["odometry.slope_turn.slipping_runs"] == 2
     assert summary["odometry.ice_slope.slid_off_runs"] == 1
     assert summary["odometry.ice_slope.plain_err_pct"] is None      # no run left to score
+
+
+@pytest.mark.parametrize("extra", [1, -5])
+def test_slip_feature_matrix_refuses_windows_of_another_channel_count_than_named(extra):
+    """Channels are read by position from ``channels``: windows holding one more channel
+    than named were read without a word, fewer failed on NumPy's IndexError."""
+    from features.slip_features import SLIP_CHANNELS, slip_feature_matrix
+
+    x = np.ones((2, len(SLIP_CHANNELS) + extra, 100))
+    with pytest.raises(ConfigError, match=rf"windows must have shape \(n_windows, "
+                                          rf"{len(SLIP_CHANNELS)}, n_samples\), got "
+                                          rf"\(2, {len(SLIP_CHANNELS) + extra}, 100\)"):
+        slip_feature_matrix(x, SLIP_CHANNELS, 50.0, HUSKY)
