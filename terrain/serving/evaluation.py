@@ -349,7 +349,8 @@ def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarra
     return t, proba
 
 
-def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) -> np.ndarray:
+def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig,
+                    t_s: np.ndarray | None = None) -> np.ndarray:
     """Decided class index of each step of one stream (:data:`NO_DECISION` before any valid
     window).
 
@@ -360,6 +361,11 @@ def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) ->
     hop_s : float
         Step, s.
     config : SmoothingConfig
+    t_s : numpy.ndarray or None
+        ``(n,)`` decision times, s. Hops missing between two of them (the decisions a
+        service skipped in a silent stretch longer than its ``max_backlog_s``) are the
+        filter's prediction-only steps (:meth:`~terrain.serving.smoothing.ForwardFilter.skip`),
+        as in the live service; None: the decisions are one hop apart.
 
     Returns
     -------
@@ -368,7 +374,10 @@ def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig) ->
     """
     filt = ForwardFilter(proba.shape[1], hop_s, config)
     out = np.full(len(proba), NO_DECISION)
+    missing = np.zeros(len(proba), dtype=int) if t_s is None or not len(proba) else \
+        np.maximum(np.rint(np.diff(t_s, prepend=t_s[0]) / hop_s) - 1, 0).astype(int)
     for i, q in enumerate(proba):
+        filt.skip(int(missing[i]))
         decided = filt.update(None if np.isnan(q).any() else q)[0]
         out[i] = NO_DECISION if decided is None else decided
     return out
@@ -379,7 +388,8 @@ def score_smoothing(segments: Sequence[Segment], t_s: np.ndarray, proba: np.ndar
                     window_s: float = 0.0) -> "StreamScore":
     """Score one smoothing setting on a replayed stream's raw window probabilities.
 
-    :func:`filter_sequence` decides, :func:`score_stream` scores.
+    :func:`filter_sequence` decides (with the prediction steps of the hops missing between
+    decision times, as the live service takes them), :func:`score_stream` scores.
 
     Parameters
     ----------
@@ -403,7 +413,8 @@ def score_smoothing(segments: Sequence[Segment], t_s: np.ndarray, proba: np.ndar
     StreamScore
     """
     names = np.array(list(classes) + [None], dtype=object)
-    return score_stream(segments, t_s, names[filter_sequence(proba, hop_s, config)], window_s)
+    decided = filter_sequence(proba, hop_s, config, np.asarray(t_s, dtype=float))
+    return score_stream(segments, t_s, names[decided], window_s)
 
 
 @dataclass(frozen=True)

@@ -217,3 +217,39 @@ def test_smooth_runs_predicts_across_the_windows_a_run_lacks():
     plain = ForwardFilter(2, 0.5, config)
     assert smooth_runs(proba, runs, t_even, 0.5, config).tolist() == \
         [plain.update(q)[0] for q in proba]
+
+
+def test_offline_scoring_takes_the_skipped_silent_stretch_as_the_live_service_does():
+    # a 100 s silence of every stream: the live service skips the decisions due over
+    # max_backlog_s (60 s) before the next sample and its filter takes their prediction
+    # steps (ForwardFilter.skip); stream-eval's offline filter stepped once per decision
+    # emitted, so after the silence it still held the old terrain's belief, and under a 0.3
+    # hysteresis decided the old terrain where the live service had followed the new one
+    from features.windows import WindowConfig
+    from terrain.run import TIME, Run
+    from terrain.serving.evaluation import filter_sequence, raw_decisions, score_smoothing
+    from terrain.serving.evaluation import Segment
+    from terrain.serving.model import StreamModel
+    from terrain.serving.replay import replay_run
+    from terrain.serving.service import StreamConfig, StreamService
+    from terrain.serving.targets import CataloguePeakTargets
+
+    t = np.r_[np.arange(0.0, 20.0, 0.1), np.arange(120.0, 135.0, 0.1)]
+    v = np.where(t < 100.0, 0.05, 0.15)            # ASPHALT, then ICE (_WzClassifier)
+    wheels = pd.DataFrame({TIME: t, "vel_l": v, "vel_r": v, "cur_l": 1.0, "cur_r": 1.0})
+    run = Run("probe/ICE/0", "probe", "ICE", {"wheels": wheels})
+    classes = tuple(_WzClassifier.classes_)
+    model = StreamModel(_WzClassifier(), ("vel_l",),
+                        WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=10.0), classes)
+    config = SmoothingConfig(dwell_s=60.0, hysteresis=0.3)
+    service = StreamService(model, CataloguePeakTargets(classes),
+                            StreamConfig(hop_s=0.5, smoothing=config))
+    live = np.array([d.terrain for d in replay_run(service, run)], dtype=object)
+    assert service.skipped_decisions > 0
+    t_s, proba = raw_decisions(model, run, 0.5)
+    segments = [Segment("a", "ASPHALT", 0.0, 0.0, 20.0), Segment("b", "ICE", 120.0, 0.0, 15.0)]
+    score = score_smoothing(segments, t_s, proba, classes, config, 0.5)
+    after = t_s >= 120.0
+    assert score.delays_s == (float(t_s[after][live[after] == "ICE"][0] - 120.0),)
+    names = np.array(list(classes) + [None], dtype=object)
+    np.testing.assert_array_equal(names[filter_sequence(proba, 0.5, config, t_s)], live)
