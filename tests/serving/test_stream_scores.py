@@ -219,6 +219,18 @@ def test_smooth_runs_predicts_across_the_windows_a_run_lacks():
         [plain.update(q)[0] for q in proba]
 
 
+def test_smooth_runs_takes_no_prediction_step_between_windows_one_hop_apart():
+    # one extra prediction step per window (lambda 0.5 at a 2 s dwell, 0.5 s hop, K = 2)
+    # halves the memory of the confident windows: the fourth window then decides class 1
+    config = SmoothingConfig(dwell_s=2.0, evidence_power=1.0)
+    proba = np.array([[0.9, 0.1]] * 3 + [[0.3, 0.7]])
+    t = np.arange(4) * 0.5
+    ref = ForwardFilter(2, 0.5, config)
+    want = [ref.update(q)[0] for q in proba]
+    assert want == [0, 0, 0, 0]
+    assert smooth_runs(proba, np.zeros(4), t, 0.5, config).tolist() == want
+
+
 def test_offline_scoring_takes_the_skipped_silent_stretch_as_the_live_service_does():
     # a 100 s silence of every stream: the live service skips the decisions due over
     # max_backlog_s (60 s) before the next sample and its filter takes their prediction

@@ -297,3 +297,41 @@ def test_windows_of_another_channel_count_than_named_are_refused(n_channels):
         with pytest.raises(ValueError, match=rf"expected X of shape \(n_windows, 4, "
                                              rf"n_samples\), got \(3, {n_channels}, 40\)"):
             call()
+
+
+def _piece(run_id, terrain, a_s, duration_s):
+    """A piece of a stream starting at ``a_s`` on the stream clock (its run's own clock
+    starting at 5 s)."""
+    from terrain.serving.evaluation import Segment
+
+    return Segment(run_id, terrain, 5.0, a_s - 5.0, duration_s)
+
+
+def test_a_switch_is_counted_once_its_delay_from_the_new_pieces_start():
+    """Known decisions on hand-made pieces with a 0.5 s dropout at every switch: the delay
+    runs from the new piece's first instant (not the previous piece's end), a flicker back
+    to the old terrain does not count the switch again, two pieces of one terrain side by
+    side are no switch, a terrain first named only in the next piece is never followed
+    (inf), and the decisions between pieces are scored nowhere."""
+    segs = [_piece("r0", "ICE", 0.0, 30.0), _piece("r1", "SNOW", 30.5, 30.0),
+            _piece("r2", "SNOW", 61.0, 20.0), _piece("r3", "ASPHALT", 81.5, 20.0),
+            _piece("r4", "ICE", 102.0, 20.0)]
+    t = np.arange(0.0, 122.0, 0.5)
+    decided = np.full(len(t), "ICE", dtype=object)
+    decided[t >= 33.0] = "SNOW"                          # 2.5 s after SNOW's start
+    decided[(t >= 40.0) & (t < 42.0)] = "ICE"            # a flicker back
+    decided[t >= 102.0] = "ASPHALT"                      # ASPHALT only after its piece
+    decided[t >= 105.0] = "ICE"                          # 3 s after ICE's start
+    np.testing.assert_array_equal(switching_delays(segs, t, decided), [2.5, np.inf, 3.0])
+    np.testing.assert_array_equal(truth_at(segs, np.array([29.5, 30.0, 30.5, 60.5, 61.0])),
+                                  np.array(["ICE", None, "SNOW", None, "SNOW"], dtype=object))
+    score = score_stream(segs, t, decided, window_s=2.0)
+    inside = [(s.t_from_s + s.t_offset_s, s.duration_s, s.terrain) for s in segs]
+    truth = [next((k for a, d, k in inside if a <= ti < a + d), None) for ti in t]
+    scored = [(d == k) for d, k in zip(decided, truth) if k is not None]
+    assert score.n_decisions == len(scored) == len(t) - 4   # 30.0, 60.5, 81.0, 101.5
+    assert score.accuracy == pytest.approx(np.mean(scored))
+    assert score.delays_s == (2.5, np.inf, 3.0) and score.median_delay_s == 3.0
+    # settled: the window's start (2 s back) inside a piece of the same terrain
+    assert score.n_settled == sum(k is not None and k == next(
+        (j for a, d, j in inside if a <= ti - 2.0 < a + d), None) for ti, k in zip(t, truth))
