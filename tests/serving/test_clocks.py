@@ -323,6 +323,10 @@ def test_clock_rules_at_their_bounds():
     # exactly step_s ahead of the other stream is no step of its own clock ("more than")
     assert not steps_ahead(200.0, 100.0, [195.0], 5.0, 60.0)
     assert steps_ahead(200.0, 100.0, [194.875], 5.0, 60.0)
+    # another stream exactly step_s behind the stream just before is still a clock to judge
+    # by ("behind by more than step_s" is a dead or lagging one)
+    assert steps_ahead(200.0, 100.0, [95.0], 5.0, 60.0)
+    assert not steps_ahead(200.0, 100.0, [94.875], 5.0, 60.0)
     # a run that has lasted exactly max_backlog_s with the others silent is taken as it is
     args = (1.0, 5.0, 60.0)   # lag_s, clock_restart_s, max_backlog_s
     assert resolve_hold(200.0, 260.0, {"wheels": 100.0}, {"wheels": 101.0}, *args) == []

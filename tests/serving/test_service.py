@@ -436,6 +436,24 @@ def test_a_clock_jump_skips_the_silent_stretch_and_counts_it(wheel_model, unseen
     assert len(clean_after) >= len([d for d in before if d.flags == ""]) - 2
 
 
+def test_after_a_silent_stretch_the_decisions_resume_max_backlog_s_before_the_new_sample(
+        wheel_model):
+    """The skipped decisions are exactly those due more than ``max_backlog_s`` before the
+    sample that ends the silence: the first emitted one is the first hop at or after it."""
+    t, v = _wheel_chunk(300)                          # 10 s to 39.9 s
+    v[:, 2:] += 0.5 * np.sin(t)[:, None]
+    svc = service(wheel_model, hop_s=0.5, max_backlog_s=30.0)
+    before = svc.push("wheels", t, v)
+    # 970 s of silence, then 9 samples at once (the 8 steps the units rule judges a long
+    # step on: taken together, the newest at 1010.8 s)
+    after = svc.push("wheels", t[:9] + 1000.0, v[:9])
+    after += svc.push("wheels", t[9:] + 1000.0, v[9:])
+    resumed = [d.t_s for d in after if d.t_s > t[-1] + wheel_model.window.window_s + 1.0]
+    assert resumed[0] == 981.0                        # 1010.8 - 30 = 980.8: the next hop
+    times = [d.t_s for d in before + after]
+    assert len(times) + svc.skipped_decisions == round((times[-1] - times[0]) / 0.5) + 1
+
+
 def test_a_stretch_of_refused_samples_shorter_than_the_backlog_is_still_emitted(
         wheel_model, unseen_run):
     # a 10 s NaN burst (every sample refused) is silent for the buffers but shorter than
@@ -1404,6 +1422,23 @@ def test_a_chunk_longer_than_the_buffer_loses_no_decision(wheel_model):
     assert whole[0].t_s == pytest.approx(t[0] + wheel_model.window.window_s)
 
 
+def test_a_chunk_of_most_of_the_buffer_decides_as_samples_one_by_one(wheel_model):
+    """Chunks of 60 samples into a buffer of 64 (a 2 s window is 40 samples of the model's
+    clock): taken whole, each would leave 4 samples of the look-back the next decisions need;
+    taken in halves of the buffer, every decision is the one a sample-by-sample push gives
+    and no sample is lost."""
+    t, v = _wheel_chunk(600)
+    v[:, 2:] += 0.5 * np.sin(t)[:, None]             # currents that move: no stuck flag
+    one = service(wheel_model, buffer_samples=64)
+    by_one = [d for i in range(600) for d in one.push("wheels", t[i:i + 1], v[i:i + 1])]
+    chunked = service(wheel_model, buffer_samples=64)
+    in_chunks = [d for i in range(0, 600, 60)
+                 for d in chunked.push("wheels", t[i:i + 60], v[i:i + 60])]
+    assert len(by_one) > 100 and chunked.refused_samples == one.refused_samples == {}
+    assert [(d.t_s, d.terrain, d.flags) for d in in_chunks] == \
+        [(d.t_s, d.terrain, d.flags) for d in by_one]
+
+
 def test_samples_pushed_out_of_the_buffer_before_any_decision_are_counted(all_model):
     """IMU samples held while the wheel stream lags: those the buffer cannot keep until the
     wheels arrive are counted and the first decision after them says so (the flag was put
@@ -1606,3 +1641,79 @@ def test_proba_columns_follow_the_models_class_order_not_the_pipelines(
     cols = [f"proba_{c}" for c in wheel_model.classes]
     np.testing.assert_array_equal(a[cols].to_numpy(), b[cols].to_numpy())
     assert a["terrain"].tolist() == b["terrain"].tolist()
+
+
+def _two_stream_service(min_confidence, provider_min_confidence=0.5):
+    """A service deciding with ``_WzClassifier`` (0.8 on one class) from the wheel speed,
+    beside an IMU stream it needs as well (its yaw rate), no filter."""
+    from features.windows import WindowConfig
+    from terrain.serving import StreamModel
+    from test_stream_scores import _WzClassifier
+
+    classes = tuple(_WzClassifier.classes_)
+    model = StreamModel(_WzClassifier(), ("vel_l", "wz"),
+                        WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=8.0), classes)
+    return StreamService(model, CataloguePeakTargets(classes, provider_min_confidence),
+                         StreamConfig(hop_s=0.5, stale_s=1.0, min_confidence=min_confidence,
+                                      smoothing=RAW))
+
+
+def _push_two_streams(svc, t, imu_until_s):
+    """8 Hz samples (binary-exact stamps) of both streams, the IMU falling silent after
+    ``imu_until_s``; the wheel speed names SNOW (``_WzClassifier``: 0.25 m/s), the other
+    channels move (no stuck sensor)."""
+    out = []
+    for ti in t:
+        live = 0.01 * np.sin(7.0 * ti)
+        if ti <= imu_until_s:
+            out += svc.push("imu", ti, {c: live for c in IMU_CHANNELS})
+        out += svc.push("wheels", ti, {"vel_l": 0.25, "vel_r": 0.25 + live,
+                                       "cur_l": 1.0 + live, "cur_r": 1.0 - live})
+    return out
+
+
+def test_a_decision_at_min_confidence_is_trusted_and_below_it_the_fallback_is_asked_for():
+    """The service trusts a confidence at ``min_confidence`` (the provider's rule too) and,
+    below it, asks the provider for its conservative fallback (``terrain=None``) whatever
+    the provider's own threshold: the decision still names its terrain, flagged."""
+    t = np.arange(0, 80) * 0.125
+    at = _two_stream_service(0.8)
+    decisions = _push_two_streams(at, t, 10.0)
+    assert len(decisions) > 10
+    snow = at.targets.table["SNOW"]
+    for d in decisions:
+        assert (d.terrain, d.confidence, d.flags) == ("SNOW", 0.8, "")
+        assert d.target_slip_traction == snow.traction != at.targets.fallback.traction
+    below = _two_stream_service(np.nextafter(0.8, 1.0), provider_min_confidence=0.0)
+    for d in _push_two_streams(below, t, 10.0):
+        assert (d.terrain, d.flags) == ("SNOW", "low_confidence")
+        assert d.target_slip_traction == below.targets.fallback.traction
+
+
+def test_a_decision_is_stale_only_once_a_stream_is_more_than_stale_s_behind():
+    """Stale is ``t`` over ``stale_s`` past a stream's newest sample: a decision exactly
+    ``stale_s`` after it is not stale (nor given the fallback for it)."""
+    svc = _two_stream_service(0.5)
+    decisions = _push_two_streams(svc, np.arange(0, 160) * 0.125, 8.0)
+    stale = {d.t_s: "stale" in d.flags.split("|") for d in decisions if d.t_s >= 8.5}
+    assert stale[9.0] is False and stale[9.5] is True
+    assert all(stale[t] for t in stale if t > 9.0)
+
+
+def test_a_replay_of_streams_that_never_overlap_says_they_overlap_for_0_s():
+    """``terrain stream``'s refusal names the streams' common span: 0 s when one ends
+    before the other starts (it was the negative gap between them)."""
+    import pandas as pd
+
+    from terrain.run import Run
+    from terrain.serving.replay import replay_recorded
+
+    t = np.arange(0, 80) * 0.125
+    imu = pd.DataFrame({TIME: t, **{c: 0.01 * np.sin(7.0 * t) for c in IMU_CHANNELS}})
+    wheels = pd.DataFrame({TIME: t + 20.0, "vel_l": 0.25, "vel_r": 0.25,
+                           "cur_l": 1.0 + np.sin(t), "cur_r": 1.0 - np.sin(t)})
+    replay = replay_recorded(_two_stream_service(0.5),
+                             Run("probe/SNOW/0", "probe", "SNOW", {"imu": imu, "wheels": wheels}))
+    assert replay.overlap_s == 0.0 and replay.too_short
+    with pytest.raises(DataFormatError, match=r"overlap for 0\.00 s"):
+        replay.check("probe")
