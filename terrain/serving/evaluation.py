@@ -111,13 +111,7 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
     for run in np.unique(run_ids):
         idx = np.flatnonzero(run_ids == run)
         idx = idx[np.argsort(t_s[idx], kind="stable")]
-        filt = ForwardFilter(proba.shape[1], hop_s, config)
-        # hops without a window before each one (0 for windows one hop apart)
-        missing = np.maximum(np.rint(np.diff(t_s[idx], prepend=t_s[idx[0]]) / hop_s) - 1, 0)
-        for i, n in zip(idx, missing.astype(int)):
-            filt.skip(n)
-            decided = filt.update(proba[i])[0]
-            out[i] = NO_DECISION if decided is None else decided
+        out[idx] = filter_sequence(proba[idx], hop_s, config, t_s[idx])
     return out
 
 
@@ -374,11 +368,12 @@ def filter_sequence(proba: np.ndarray, hop_s: float, config: SmoothingConfig,
     """
     filt = ForwardFilter(proba.shape[1], hop_s, config)
     out = np.full(len(proba), NO_DECISION)
+    # hops without a decision before each one (0 for decisions one hop apart)
     missing = np.zeros(len(proba), dtype=int) if t_s is None or not len(proba) else \
         np.maximum(np.rint(np.diff(t_s, prepend=t_s[0]) / hop_s) - 1, 0).astype(int)
     for i, q in enumerate(proba):
         filt.skip(int(missing[i]))
-        decided = filt.update(None if np.isnan(q).any() else q)[0]
+        decided = filt.update(q)[0]     # a non-finite row is no evidence (update)
         out[i] = NO_DECISION if decided is None else decided
     return out
 
