@@ -14,7 +14,7 @@ from sklearn.pipeline import FeatureUnion
 from sklearn.utils.validation import check_is_fitted
 
 from features import calculators
-from features.windows import ALL_CHANNELS, refuse_no_windows
+from features.windows import ALL_CHANNELS, refuse_no_windows, refuse_non_finite
 from terrain.errors import ConfigError, config_positive, duplicated, first_items
 from terrain.run import IMU_CHANNELS
 
@@ -111,8 +111,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         refuse_no_windows(X)     # (the features' reshape would fail inside NumPy)
         if X.shape[2] < 2:       # (mean_abs_diff of one sample is NaN)
             raise ValueError(f"windows need at least 2 samples, got X of shape {X.shape}")
-        if not np.isfinite(X).all():
-            raise ValueError("X contains NaN or inf")
+        refuse_non_finite(X, self.channels)
         return X
 
     def _cross_terms(self) -> list[tuple[str, tuple[str, str]]]:

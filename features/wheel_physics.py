@@ -34,7 +34,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from features.calculators import quantile_sorted
-from features.windows import HUSKY_TRACK_M, refuse_no_windows
+from features.windows import HUSKY_TRACK_M, refuse_no_windows, refuse_non_finite
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
                             first_items)
 from terrain.run import WHEEL_CHANNELS
@@ -356,8 +356,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         if X.shape[2] != self.n_samples_in_:
             raise ValueError(f"expected windows of {self.n_samples_in_} samples, got {X.shape}")
         refuse_no_windows(X)
-        if not np.isfinite(X).all():
-            raise ValueError("X contains NaN or inf")
+        refuse_non_finite(X, self.channels)
         idx = [list(self.channels).index(c) for c in WHEEL_CHANNELS]
         parts = [physics_features(*(X[:, i, -m:] for i in idx), self.rate_hz, self.track_m,
                                   ridge=self.ridge)

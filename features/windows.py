@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
-from terrain.errors import ConfigError, config_numbers, config_positive, duplicated, listed
+from terrain.errors import (ConfigError, config_numbers, config_positive, duplicated,
+                            first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY
@@ -331,6 +332,33 @@ def refuse_no_windows(X: np.ndarray) -> None:
     if X.shape[0] == 0:
         raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 is "
                          "required")
+
+
+def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:
+    """Refuse windows holding NaN or inf, naming the channels and the first windows.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        ``(n_windows, n_channels, n_samples)`` windows.
+    channels : sequence of str
+        ``(n_channels,)`` channel names, in the order of ``X``'s second axis.
+
+    Raises
+    ------
+    ValueError
+        A value of ``X`` is NaN or infinite; the message names each channel holding one and
+        the first windows (their index in ``X``).
+    """
+    bad = ~np.isfinite(X)
+    if not bad.any():
+        return
+    per = bad.any(axis=2)             # (n_windows, n_channels)
+    parts = [f"{name!r} in {first_items(np.flatnonzero(per[:, j]), word='window')}"
+             for j, name in enumerate(channels) if per[:, j].any()]
+    n = int(bad.sum())
+    raise ValueError(f"X contains NaN or inf ({n} value{'s' if n > 1 else ''}): "
+                     f"{'; '.join(parts)}")
 
 
 def required_streams(channels: Iterable[str]) -> tuple[str, ...]:

@@ -109,7 +109,10 @@ def test_wrong_shape_raises_value_error(shape):
 def test_non_finite_input_and_unknown_stat_are_rejected():
     X = _windows()
     X[2, 1, 5] = np.nan
-    with pytest.raises(ValueError, match="NaN"):
+    X[4, 1, 0] = X[4, 2, 7] = np.inf
+    # the message names the channels and the windows (it said only "X contains NaN or inf")
+    with pytest.raises(ValueError, match=r"X contains NaN or inf \(3 values\): 'vel_l' in "
+                                         r"windows 2, 4; 'cur_l' in window 4$"):
         WindowFeatures(channels=CHANNELS).fit(X)
     with pytest.raises(ConfigError, match="median"):
         WindowFeatures(channels=CHANNELS, stats=("mean", "median")).fit(_windows())

@@ -230,6 +230,15 @@ def test_physics_features_name_a_non_finite_input(which, value):
         physics_features(*parts, RATE)
 
 
+def test_transformer_names_the_channel_and_window_of_a_non_finite_sample():
+    """It said only "X contains NaN or inf"."""
+    X = np.stack(_planted(n_windows=3, n=40), axis=1)
+    fitted = WheelPhysicsFeatures(rate_hz=RATE).fit(X)
+    X[1, 2, 5] = np.nan
+    with pytest.raises(ValueError, match=r"NaN or inf \(1 value\): 'cur_l' in window 1$"):
+        fitted.transform(X)
+
+
 def test_transformer_reads_the_wheel_channels_by_name_and_passes_its_settings():
     vel_l, vel_r, cur_l, cur_r = _planted(n_windows=4, n=40)
     # channels in another order, with an unused one between
