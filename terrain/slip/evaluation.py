@@ -188,7 +188,8 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     """
     err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
     std = np.asarray(std, float)
-    u = err / std
+    with np.errstate(divide="ignore", invalid="ignore"):    # std 0: inf (uncovered) or NaN
+        u = err / std
     pos = np.flatnonzero(np.asarray(mask, bool))
     keys = meta[list(by)].iloc[pos].reset_index(drop=True)
     rows = []

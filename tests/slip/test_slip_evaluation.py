@@ -160,6 +160,7 @@ def test_odometry_errors_with_the_gyro_heading_use_the_predicted_lateral_velocit
     assert row["gyro_heading_err_pct"] == pytest.approx(expected, rel=1e-6)
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")    # a std of 0 warned 'divide by zero'
 def test_std_calibration_table_on_hand_computed_normalised_errors():
     # errors 0.5, 1.5, 2.5, 0.1 std units on group a (std 1, 1, 1, 2: errors 0.5, 1.5, 2.5,
     # 0.2), and on group b a side-window the model calls certain (std 0) and misses: not
