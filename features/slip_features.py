@@ -282,14 +282,17 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     Raises
     ------
     ConfigError
-        A run of the window set has no ``truth`` stream.
+        A run of the window set is not among ``runs`` or has no ``truth`` stream.
     """
     by_id: Mapping[str, Run] = {r.run_id: r for r in runs}
     out = pd.DataFrame(index=np.arange(len(ws)),
                        columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
                        dtype=object)
     for rid in pd.unique(ws.run_ids):
-        run = by_id[rid]
+        run = by_id.get(rid)
+        if run is None:     # (a bare KeyError before)
+            raise ConfigError(f"slip_targets: the windows' run {rid!r} is not among the "
+                              f"{len(by_id)} run(s) given")
         if "truth" not in run.streams:
             raise ConfigError(f"run {rid} has no truth stream (slip targets need simulated runs)")
         tr = run.streams["truth"]

@@ -295,6 +295,16 @@ def test_slip_targets_of_a_window_without_truth_samples_are_nan_not_zero():
     np.testing.assert_allclose(Y.loc[~inside, "slip_2"], 0.3)
 
 
+def test_slip_targets_of_windows_from_a_run_not_given_name_it():
+    """A bare KeyError before."""
+    from features.slip_features import slip_targets, slip_windows
+
+    run = _with_truth(lambda t: {"slip_1": 0.2, "slip_2": 0.3, "v_by": 0.01,
+                                 "yaw_rate": 0.5, "terrain": "GRASS"})
+    with pytest.raises(ConfigError, match=rf"run {run.run_id!r} is not among the 0 run\(s\)"):
+        slip_targets([], slip_windows([run]))
+
+
 def test_slip_target_chi_uses_the_track_width_given():
     """``chi = mean(v_R - v_L) / (B mean(yaw_rate))`` with the vehicle's own track B (a
     tracked vehicle's 0.393 m, not Husky's), NaN below the turning-rate floor."""
