@@ -36,7 +36,7 @@ from sklearn.utils.validation import check_is_fitted
 from features.calculators import quantile_sorted
 from features.windows import HUSKY_TRACK_M, refuse_no_windows, refuse_non_finite
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
-                            first_items)
+                            duplicated, first_items)
 from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
@@ -304,8 +304,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            A wheel channel is missing from ``channels``, or ``rate_hz`` or ``short_s`` is
-            not a real number (text, a bool).
+            A wheel channel is missing from ``channels`` or named twice there (the
+            channels are read by position), or ``rate_hz`` or ``short_s`` is not a real
+            number (text, a bool).
         ValueError
             ``X`` not of 3 dimensions, of another number of channels than ``channels``, or
             of 0 windows.
@@ -313,6 +314,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         missing = [c for c in WHEEL_CHANNELS if c not in self.channels]
         if missing:
             raise ConfigError(f"WheelPhysicsFeatures needs channels {missing}")
+        twice = duplicated(self.channels)
+        if twice:        # the first of two was read, the other ignored without a word
+            raise ConfigError(f"WheelPhysicsFeatures: channels {twice} given twice")
         # they set the scales' sample counts and names (True was a 1 s scale, "__last1s")
         config_numbers("WheelPhysicsFeatures", optional=("short_s",), rate_hz=self.rate_hz,
                        short_s=self.short_s)

@@ -230,6 +230,15 @@ def test_physics_features_name_a_non_finite_input(which, value):
         physics_features(*parts, RATE)
 
 
+def test_a_wheel_channel_named_twice_is_refused():
+    """Channels are read by position: the first of two ``cur_l`` was read and the other
+    ignored without a word."""
+    X = np.stack([*_planted(n_windows=3, n=40), np.zeros((3, 40))], axis=1)
+    with pytest.raises(ConfigError, match=r"channels \['cur_l'\] given twice"):
+        WheelPhysicsFeatures(channels=("vel_l", "vel_r", "cur_l", "cur_r", "cur_l"),
+                             rate_hz=RATE).fit(X)
+
+
 def test_transformer_names_the_channel_and_window_of_a_non_finite_sample():
     """It said only "X contains NaN or inf"."""
     X = np.stack(_planted(n_windows=3, n=40), axis=1)
