@@ -36,7 +36,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import DataFormatError, ShapeError
+from terrain.errors import DataFormatError, ShapeError, duplicated
 from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerSettings, skid_steer_on_frame,
                                            skid_steer_on_windows)
 from terrain.run import TIME
@@ -121,7 +121,8 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     Raises
     ------
     terrain.errors.DataFormatError
-        ``channels`` lacks ``vel_l``, ``vel_r`` or ``wz``.
+        ``channels`` lacks ``vel_l``, ``vel_r`` or ``wz``, or names one of them twice (the
+        channels are read by position).
     terrain.errors.ShapeError, terrain.errors.NonFiniteInputError
         ``X`` not 3-D, or a non-finite sample.
     """
@@ -130,6 +131,10 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     if missing:
         raise DataFormatError(f"EKF channels need {missing} among the window channels "
                               f"{names}", None, missing[0])
+    twice = [c for c in duplicated(names) if c in ("vel_l", "vel_r", "wz")]
+    if twice:      # the first of two was read, the other ignored without a word
+        raise DataFormatError(f"EKF channels: {twice} named twice among the window channels "
+                              f"{names}", None, twice[0])
     X = np.asarray(X, dtype=float)
     if X.ndim != 3 or X.shape[1] != len(names):
         raise ShapeError(f"X must be (n_windows, {len(names)}, n_samples), got {X.shape}")

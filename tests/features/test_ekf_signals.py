@@ -114,6 +114,11 @@ def test_window_channels_reject_missing_channels_and_gaps(husky_run):
         window_ekf_channels(ws.X[0], ws.channels, ws.rate_hz)
     with pytest.raises(ConfigError, match="rate_hz"):
         window_ekf_channels(ws.X[:2], ws.channels, 0.0)
+    # channels are read by position: a second wz was ignored without a word
+    i = ws.channels.index("wz")
+    X2 = np.concatenate([ws.X[:2], ws.X[:2, i:i + 1]], axis=1)
+    with pytest.raises(DataFormatError, match=r"\['wz'\] named twice"):
+        window_ekf_channels(X2, list(ws.channels) + ["wz"], ws.rate_hz)
 
 
 def test_a_run_of_one_aligned_sample_is_too_short_not_a_key_error():
