@@ -80,14 +80,14 @@ def rules(fold: dict) -> dict[str, np.ndarray]:
     truth = truth_at(segments, t)
     settled = truth_at(segments, t - fold["window_s"]) == truth
     restart = np.r_[False, settled[1:] & ~settled[:-1]]
-    raw = filter_sequence(proba, HOP_S, SmoothingConfig(dwell_s=None))
+    raw = filter_sequence(proba, HOP_S, SmoothingConfig(dwell_s=None), t)
     oracle = decide(proba, restart=restart)
-    out = {"raw": raw, "filter": filter_sequence(proba, HOP_S, SmoothingConfig()),
+    out = {"raw": raw, "filter": filter_sequence(proba, HOP_S, SmoothingConfig(), t),
            "oracle restart": oracle, "oracle hybrid": np.where(settled, oracle, raw)}
     for theta in THETAS:
         for m in STREAKS:
             out[f"reset({theta}, {m})"] = filter_sequence(proba, HOP_S, SmoothingConfig(
-                reset_confidence=theta, reset_windows=m))
+                reset_confidence=theta, reset_windows=m), t)
     return out
 
 
