@@ -19,6 +19,10 @@ from terrain.terramechanics import (BurckhardtCurve, JanosiCurve, TERRAINS, get_
                                     traction_coefficient, traction_peak)
 from terrain.terramechanics.efficiency import max_tractive_efficiency, tractive_efficiency
 from terrain.terramechanics.inverse import slip_from_traction, stable_side_end
+from terrain.terramechanics.lateral import (SOILS, combined_shear_shares, contact_chord_m,
+                                            lateral_strength_n)
+from terrain.terramechanics.resistance import lateral_force_and_slope
+from terrain.terramechanics.traction import patch_mobilisation
 
 W = 50.0 * 9.80665 / 4.0          # static Husky wheel load, N
 
@@ -130,3 +134,48 @@ def test_velocity_slope_of_the_slip_is_its_derivative(rim, v):
     fd = (sae_slip(rim, v + h, speed_floor_m_s=floor, dead_band_m_s=0.0)
           - sae_slip(rim, v - h, speed_floor_m_s=floor, dead_band_m_s=0.0)) / (2 * h)
     assert ds_dv[0] == pytest.approx(float(fd), rel=1e-5)
+
+
+def test_lateral_friction_opposes_the_slide_and_is_bounded_by_mu_n():
+    # Coulomb -mu N sign(v) smoothed by tanh(v / v_slide); slope = secant F / v
+    v = np.array([-0.5, -0.02, -1e-9, 0.0, 1e-9, 0.02, 0.5])
+    normal = np.full(v.shape, 200.0)
+    force, slope = lateral_force_and_slope(0.6, normal, v, slide_speed_m_s=0.02)
+    assert np.all(force * v <= 0.0) and np.all(np.abs(force) <= 0.6 * 200.0)
+    assert np.allclose(force, -force[::-1])                          # odd in v
+    assert force[-1] == pytest.approx(-0.6 * 200.0 * np.tanh(25.0))
+    assert force[-2] == pytest.approx(-0.6 * 200.0 * np.tanh(1.0))
+    assert np.allclose(slope[v != 0], force[v != 0] / v[v != 0])
+    assert slope[3] == pytest.approx(-0.6 * 200.0 / 0.02)          # the tangent at 0
+
+
+def test_sunk_rim_chord_and_unloaded_strength():
+    # chord of a rim of radius r sunk by z: 2 sqrt(2 r z - z^2); 2 r at z = r
+    assert float(contact_chord_m(0.2, 0.2, 0.0)) == pytest.approx(0.4)
+    assert float(contact_chord_m(0.02, 0.2, 0.0)) == pytest.approx(2 * np.sqrt(0.008 - 0.0004))
+    assert float(contact_chord_m(0.001, 0.2, 0.1)) == pytest.approx(0.1)
+    soil = SOILS["PLOUGHED"]
+    strength = lateral_strength_n(soil, 0.11, np.array([0.0, 100.0]), np.array([0.02, 0.02]),
+                                  np.array([0.1, 0.1]))
+    assert strength[0] == 0.0 and strength[1] > 100.0 * np.tan(np.radians(
+        soil.friction_angle_deg))
+
+
+def test_combined_shear_shares_are_continuous_where_one_direction_stops():
+    # h(u) = g(u) / u -> 1/2 as u -> 0: no jump when one displacement reaches 0
+    at_zero = combined_shear_shares(np.array([0.0, 0.7]), np.array([0.7, 0.0]))
+    near = combined_shear_shares(np.array([1e-9, 0.7]), np.array([0.7, 1e-9]))
+    assert np.allclose(at_zero, near, atol=1e-7)
+    assert at_zero[0][1] == pytest.approx(1.0) and at_zero[1][0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("kr", [0.3, 0.5, 0.8])
+def test_hump_shear_curve_peaks_near_one_and_falls_to_the_residual_ratio(kr):
+    # point shear at the rear of the patch, f(a) = d(a g)/da = g + a g'; Wong's hump curve
+    # is normalised to a peak of about 1 (1 at u = 1), tends to K_r, starts with slope 1
+    a = np.linspace(1e-3, 30.0, 30001)
+    g, dg = patch_mobilisation(a, kr)
+    f = g + a * dg
+    assert 1.0 <= f.max() < 1.03
+    assert f[-1] == pytest.approx(kr, abs=2e-3)
+    assert patch_mobilisation(np.array([0.0]), kr)[1][0] == pytest.approx(0.5)
