@@ -21,7 +21,8 @@ from terrain.terramechanics.efficiency import max_tractive_efficiency, tractive_
 from terrain.terramechanics.inverse import slip_from_traction, stable_side_end
 from terrain.terramechanics.lateral import (SOILS, combined_shear_shares, contact_chord_m,
                                             lateral_strength_n)
-from terrain.terramechanics.resistance import lateral_force_and_slope
+from terrain.terramechanics.resistance import (lateral_force_and_slope,
+                                               soil_resistance_coefficient)
 from terrain.terramechanics.traction import patch_mobilisation
 
 W = 50.0 * 9.80665 / 4.0          # static Husky wheel load, N
@@ -179,3 +180,27 @@ def test_hump_shear_curve_peaks_near_one_and_falls_to_the_residual_ratio(kr):
     assert 1.0 <= f.max() < 1.03
     assert f[-1] == pytest.approx(kr, abs=2e-3)
     assert patch_mobilisation(np.array([0.0]), kr)[1][0] == pytest.approx(0.5)
+
+
+def test_sae_slip_options_of_the_thesis_formula():
+    # no floor: 0/0 is 0, the saturation bound applies, a NaN speed stays unknown
+    assert float(sae_slip(0.0, 0.0, dead_band_m_s=0.0)) == 0.0
+    assert float(sae_slip(1.0, 0.5, dead_band_m_s=0.0, saturation=0.3)) == pytest.approx(0.3)
+    assert float(sae_slip(-1.0, 0.5, dead_band_m_s=0.0, saturation=0.3)) == pytest.approx(-0.3)
+    assert np.isnan(sae_slip(np.nan, 1.0)) and np.isnan(sae_slip(1.0, np.nan))
+
+
+@pytest.mark.parametrize("name", ["DIRT_ROAD", "PLOUGHED", "SNOW", "GRASS"])
+def test_soil_resistance_is_even_in_the_slip(name):
+    # resistance opposes rolling whichever way the wheel slips
+    terrain = get_terrain(name)
+    s = np.array([0.05, 0.3, 1.0])
+    assert np.allclose(soil_resistance_coefficient(terrain, -s),
+                       soil_resistance_coefficient(terrain, s))
+
+
+def test_inverse_of_a_curve_with_a_flat_top_is_the_first_slip_reaching_it():
+    # Burckhardt ice (c3 = 0) reaches c1 = 0.05 in floating point by s = 0.123 and stays
+    curve = get_terrain("ICE").curve
+    out = slip_from_traction(curve, 0.05)
+    assert bool(out.saturated) and float(out.slip) < 0.13
