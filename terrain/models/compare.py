@@ -236,11 +236,13 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
                           f"{first['group']} at {first['t_start_s']:g} s): the decision "
                           "history takes the rows of one seed of one cell")
     cols = [f"proba_{c}" for c in classes]
-    order = predictions.sort_values(["group", "t_start_s"], kind="stable")
+    # by row position: a frame's own index may repeat (frames joined by pd.concat)
+    order = predictions.reset_index(drop=True).sort_values(["group", "t_start_s"],
+                                                           kind="stable")
     smooth = (order.groupby("group", sort=False)[cols]
               .rolling(k, min_periods=1).mean().reset_index(level=0, drop=True))
     labels = np.asarray(classes, dtype=object)[smooth[cols].to_numpy().argmax(axis=1)]
-    return pd.Series(labels, index=smooth.index).loc[predictions.index].to_numpy()
+    return pd.Series(labels, index=smooth.index).sort_index().to_numpy()
 
 
 def score_rows(predictions: pd.DataFrame, classes: Sequence[str], history: Sequence[int],

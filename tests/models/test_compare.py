@@ -36,6 +36,21 @@ def test_history_averages_only_earlier_windows_of_the_same_run():
                                   ["B", "A", "A", "A"])
 
 
+def test_history_gives_one_decision_per_row_of_a_frame_with_a_repeated_index():
+    # two folds' frames joined by pd.concat keep their own 0, 1 index: each label was looked
+    # up by index, so the 4 rows got 8 decisions, r2's rows those of r1's as well
+    first = pd.DataFrame({"group": ["r1", "r1"], "t_start_s": [0.0, 2.0],
+                          "proba_A": [0.9, 0.2], "proba_B": [0.1, 0.8]})
+    second = pd.DataFrame({"group": ["r2", "r2"], "t_start_s": [0.0, 2.0],
+                           "proba_A": [0.1, 0.7], "proba_B": [0.9, 0.3]})
+    joined = pd.concat([first, second])
+    np.testing.assert_array_equal(history_predictions(joined, ["A", "B"], 1),
+                                  ["A", "B", "B", "A"])
+    # k = 2 at r2's second window: mean A 0.4 -> B (its own history, not r1's)
+    np.testing.assert_array_equal(history_predictions(joined, ["A", "B"], 2),
+                                  ["A", "A", "B", "B"])
+
+
 def _history_frame():
     """Out-of-fold rows of one seed: run r1 (truth A), run r4 cut into two time blocks (truth
     B, the later block in its own split unit) and run r5 (truth A); given newest first."""
