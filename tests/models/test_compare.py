@@ -462,6 +462,8 @@ def test_summary_table_does_not_average_over_a_seed_missing_a_metric():
     (row,) = summary_table(rows).to_dict(orient="records")
     assert row["n_seeds"] == 3
     assert row["accuracy_mean"] == pytest.approx(0.7)
+    # spread over seeds: the population std (ddof=0), as CVReport.summary gives it
+    assert row["accuracy_std"] == pytest.approx(np.sqrt(0.08 / 3))
     # seed 2 has no run vote: a mean of the two others would claim 1.0 over 3 seeds
     assert np.isnan(row["run_vote_accuracy_mean"]) and np.isnan(row["run_vote_accuracy_std"])
 

@@ -160,6 +160,8 @@ def test_band_limits_are_the_native_nyquist_of_every_wheel_channel_derived_ones_
     channels = ("wz", "vel_l", "cur_r", "vel_mean", "cur_diff", "yaw_rate_wheels")
     assert band_limits_hz(channels, "borealtc") == (np.inf, 3.25, 3.25, 3.25, 3.25, 3.25)
     assert band_limits_hz(channels, "vulpi")[1:] == (7.5,) * 5
+    # the combined dataset takes the lower native rate (BorealTC's): nothing above 3.25 Hz
+    assert band_limits_hz(channels, "combined") == band_limits_hz(channels, "borealtc")
     assert band_limits_hz(channels, "unknown") == (np.inf,) * 6
 
 
