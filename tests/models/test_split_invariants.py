@@ -35,6 +35,11 @@ def test_a_training_window_ending_where_the_next_block_starts_belongs_to_its_own
     dense_run = np.full(dense_t0.size, "v/DIRT_ROAD/1", dtype=object)
     units = training_units(run, t0, t0 + 2.0, blocks, dense_run, dense_t0, dense_t0 + 2.0)
     assert units.tolist() == ["b0", "b0", "b0", None, "b1", "b1", "b1"]
+    # a run of the training cut without evaluation windows (all dropped) is never trained on
+    other = np.full(3, "v/ASPHALT/2", dtype=object)
+    units = training_units(run, t0, t0 + 2.0, blocks, np.concatenate([dense_run, other]),
+                           np.arange(10.0), np.arange(10.0) + 2.0)
+    assert units.tolist()[7:] == [None] * 3
 
 
 # --- ensemble weights --------------------------------------------------------------------------
