@@ -153,3 +153,18 @@ def test_the_fast_path_refuses_features_of_another_width_as_scikit_learn_does():
     assert model.predict_proba(X[:2]).shape == (2, 3)
     with pytest.raises(ValueError, match="StandardScaler is expecting 4 features"):
         model.predict_proba(X[:2, :1])
+
+
+def test_pooled_metrics_are_those_of_each_seeds_own_predictions():
+    from sklearn.linear_model import LogisticRegression
+    from test_cv import _planted       # same folder (prepend import mode)
+
+    from terrain.models.cv import cross_validate
+
+    X, y, groups, t0 = _planted(n_runs=8, per_run=10, effect=0.4, seed=3)
+    report = cross_validate(lambda seed: LogisticRegression(), X, y, groups, groups, t0,
+                            t0 + 2.0, seeds=(0, 1), n_splits=4)
+    per_seed = report.predictions.groupby("seed").apply(
+        lambda p: (p["true"] == p["predicted"]).mean(), include_groups=False)
+    assert per_seed[0] != per_seed[1]
+    np.testing.assert_allclose(report.pooled.set_index("seed")["accuracy"], per_seed)
