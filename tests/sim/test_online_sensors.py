@@ -167,6 +167,8 @@ def test_a_controller_faster_than_the_physics_is_refused():
     sim = simulate_with_physics(config)
     with pytest.raises(ConfigError, match="control_rate_hz 500 Hz.*100 Hz"):
         list(replay_observations(sim, control_rate_hz=500.0))
+    with pytest.raises(ConfigError, match="control_rate_hz 101 Hz"):   # just above it
+        list(replay_observations(sim, control_rate_hz=101.0))
     calls = []
     simulate_closed_loop(config, lambda observation: calls.append(observation.t_s),
                          control_rate_hz=100.0)
@@ -306,11 +308,14 @@ def test_replaying_a_run_gives_the_observations_its_controller_saw():
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
-def test_online_encoder_counts_the_trapezoid_of_the_wheel_angle():
+@pytest.mark.parametrize("dt, omega", [(0.01, 20.0), (0.005, 40.0)])
+def test_online_encoder_counts_the_trapezoid_of_the_wheel_angle(dt, omega):
     """Without a speed quantum the encoder counts whole increments of the wheel angle, the
     angle integrated by the trapezoid rule: a wheel going from 0 to 20 rad/s in one 0.01 s
-    step turns 0.1 rad, one 4 deg count (the rectangle rule's 0.2 rad would be two). The
-    driver's filter is taken out (``encoder_filter_s`` 0) to read the counts themselves."""
+    step turns 0.1 rad, one 4 deg count (the rectangle rule's 0.2 rad would be two); so does
+    one going to 40 rad/s in a 0.005 s step (200 Hz physics), whose count rate is the count
+    over that step. The driver's filter is taken out (``encoder_filter_s`` 0) to read the
+    counts themselves."""
     from dataclasses import replace
 
     from terrain.vehicles import get_vehicle
@@ -322,5 +327,76 @@ def test_online_encoder_counts_the_trapezoid_of_the_wheel_angle():
     assert 0.1 / q == pytest.approx(1.43, abs=0.01)
     s.record(_snap(0, 0.0, [0.0, 0.0, 0.0]))
     s.ch["wheels"].next_t = 0.0
-    s.record(_snap(1, 0.01, [20.0, 20.0, 20.0]))
-    np.testing.assert_allclose(s.take(0.01, np.zeros(3)).wheels[-1, 1:], q / 0.01)
+    s.record(_snap(1, dt, [omega] * 3))
+    np.testing.assert_allclose(s.take(dt, np.zeros(3)).wheels[-1, 1:], q / dt)
+
+
+def test_online_encoder_reads_a_steady_wheel_speed_on_average():
+    """A wheel turning at 10 rad/s turns 1.43 counts a physics step: the filtered count
+    rates the wheel samples report over the second half second average to 10 rad/s (the
+    previous step's speed enters the trapezoid of the angle, not 0)."""
+    s = OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 0, 2.0)
+    for k in range(101):
+        s.record(_snap(k, 0.01 * k, [10.0] * 3))
+    wheels = s.take(1.0, np.zeros(3)).wheels
+    assert len(wheels) == 51                       # 50 Hz
+    late = wheels[wheels[:, 0] > 0.5, 1:]
+    np.testing.assert_allclose(late.mean(axis=0), 10.0, atol=0.3)
+
+
+def test_online_currents_are_quantised_and_draw_from_their_own_generator():
+    """The currents are reported at their resolution ``current_quantum_a``, and their noise
+    has its own generator: sampling them at another rate leaves the IMU and camera samples
+    of the same seed unchanged, draw for draw."""
+    from dataclasses import replace
+
+    views = []
+    for wheel_rate_hz in (50.0, 10.0):
+        s = OnlineSensors("agrimaro", replace(DEFAULT_SENSORS["agrimaro"],
+                                              wheel_rate_hz=wheel_rate_hz), 3, 1.0)
+        for k in range(51):
+            s.record(_snap(k, 0.01 * k, [5.0] * 3, torque=(2.0, 2.0, 2.0),
+                           twist=(0.5, 0.0, 0.1)))
+        views.append(s.take(0.5, np.zeros(3)))
+    assert len(views[0].currents) != len(views[1].currents)
+    steps = views[0].currents[:, 1:] / DEFAULT_SENSORS["agrimaro"].current_quantum_a
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
+    np.testing.assert_array_equal(views[0].imu, views[1].imu)
+    np.testing.assert_array_equal(views[0].cam, views[1].cam)
+
+
+def test_online_encoder_is_the_batch_encoder_model_sample_for_sample():
+    """A wheel speeding up from 0 to 12 rad/s: the online encoder (count rate per physics
+    step, then the motor driver's filter) reports at 50 Hz what the batch model
+    (:func:`encoder_count_rate`, :func:`first_order_filter`) computes for the same steps."""
+    from terrain.sim.sensors import encoder_count_rate, first_order_filter
+
+    s = OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 0, 2.0)
+    motor = s.vehicle.motor
+    omega = np.column_stack([np.linspace(0.0, 12.0, 101)] * 3)
+    for k in range(101):
+        s.record(_snap(k, 0.01 * k, omega[k]))
+    online = s.take(1.0, np.zeros(3)).wheels
+    batch = first_order_filter(encoder_count_rate(omega, 0.01, motor.encoder_counts_per_rev),
+                               0.01, motor.encoder_filter_s)
+    assert motor.encoder_filter_s > 0.01
+    np.testing.assert_allclose(online[:, 1:], batch[::2], atol=1e-9)
+
+
+def test_online_accelerometer_carries_a_constant_per_run_bias():
+    """Without white noise the online IMU at rest reads its per-run accelerometer bias on
+    ax and ay: constant within a run, of std ``accel_bias_std_m_s2`` across seeds (as the
+    batch model)."""
+    from dataclasses import replace
+
+    quiet = replace(DEFAULT_SENSORS["husky"], accel_noise_m_s2=0.0, gyro_noise_rad_s=0.0)
+    biases = []
+    for seed in range(40):
+        s = OnlineSensors("husky", quiet, seed, 1.0)
+        for k in range(3):
+            s.record(_snapshot(0.0, 0.0))
+            s.ch["imu"].next_t = 0.0
+        imu = s.take(0.0, np.zeros(2)).imu
+        assert np.ptp(imu[:, 1:3], axis=0).max() == 0.0
+        biases.append(imu[0, 1:3])
+    np.testing.assert_allclose(np.std(biases, axis=0), quiet.accel_bias_std_m_s2, rtol=0.4)

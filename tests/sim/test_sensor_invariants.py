@@ -5,6 +5,8 @@ their off values changing nothing."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -70,14 +72,24 @@ def test_simulated_imu_frame_forward_acceleration_and_left_turn():
     assert imu_s.wz[late].mean() > 0.4
 
 
+#: every rate distinct, so that a stream sampled at another stream's rate shows
+DISTINCT_RATES = SensorSettings(imu_rate_hz=80.0, wheel_rate_hz=20.0, steer_rate_hz=40.0,
+                                cam_rate_hz=25.0, truth_rate_hz=50.0)
+
+
+@pytest.mark.parametrize("sensors", [None, DISTINCT_RATES])
 @pytest.mark.parametrize("vehicle", ["husky", "agrimaro", "tracked"])
-def test_every_stream_is_written_at_its_configured_rate(vehicle):
-    run = simulate(SimConfig(vehicle=vehicle, scenario="random", duration_s=2.0, seed=0))
-    rates = stream_rates_hz(vehicle)
+def test_every_stream_is_written_at_its_configured_rate(vehicle, sensors):
+    run = simulate(SimConfig(vehicle=vehicle, scenario="random", duration_s=2.0, seed=0,
+                             sensors=sensors))
+    rates = stream_rates_hz(vehicle, sensors)
+    assert run.meta["rates_hz"] == {"physics": 100.0, **rates}
     files = {"wheels": "pro"}
     for name, frame in run.streams.items():
         period = np.median(np.diff(frame.t_s))
         assert period == pytest.approx(1.0 / rates[files.get(name, name)], rel=1e-9), name
+    if sensors is not None:
+        assert rates["truth"] == 50.0 and rates["pro"] == 20.0
 
 
 @pytest.mark.parametrize("vehicle, scenario", [("husky", "slope_turn"), ("agrimaro", "random")])
@@ -294,3 +306,45 @@ def test_wheel_lag_delays_every_wheel_stream_speeds_and_currents_alike():
             np.testing.assert_allclose(lagged[column].to_numpy()[25:],
                                        b[column].to_numpy()[:-25], atol=1e-9,
                                        err_msg=f"{stream}.{column}")
+
+
+def test_imu_axes_draw_their_own_noise_and_their_own_accelerometer_bias():
+    # at rest there is no vibration: each axis is its white noise, the accelerometer axes
+    # plus their bias; axes sharing a draw would read the same noise or the same bias
+    settings = SensorSettings()
+    _, data = imu(_physics(4001), (get_terrain("ASPHALT"),), settings, 0.0,
+                  np.random.default_rng(0), 40.0)
+    corr = np.corrcoef(data.T)
+    assert np.abs(corr[~np.eye(6, dtype=bool)]).max() < 0.1
+    # without white noise the accelerometer reads its constant per-run bias exactly, and
+    # the three axes' biases are three draws of std accel_bias_std_m_s2
+    quiet = SensorSettings(gyro_noise_rad_s=0.0, accel_noise_m_s2=0.0)
+    biases = []
+    for seed in range(40):
+        _, d = imu(_physics(11), (get_terrain("ASPHALT"),), quiet, 0.0,
+                   np.random.default_rng(seed), 0.1)
+        np.testing.assert_array_equal(d[:, :3], 0.0)
+        assert np.ptp(d[:, 3:], axis=0).max() < 1e-12
+        biases.append(d[0, 3:] - [0.0, 0.0, G_M_S2])
+    biases = np.array(biases)
+    assert np.abs(np.corrcoef(biases.T)[~np.eye(3, dtype=bool)]).max() < 0.5
+    np.testing.assert_allclose(biases.std(axis=0), quiet.accel_bias_std_m_s2, rtol=0.4)
+
+
+def test_batch_imu_vibration_follows_the_terrain_of_each_sample():
+    # first half on asphalt driving forward, second on snow sliding sideways (AgriMaRo), at
+    # 0.23 m/s (snow's reference speed): wx's std is each terrain's gyro vibration at the
+    # level of the speed, plus the white noise
+    n = 8001
+    snow = np.arange(n) >= n // 2
+    phys = replace(_physics(n), twist=np.column_stack([0.23 * ~snow, 0.23 * snow, np.zeros(n)]),
+                   terrain_index=snow.astype(int),
+                   terrain_names=("ASPHALT", "SNOW"))
+    terrains = (get_terrain("ASPHALT"), get_terrain("SNOW"))
+    settings = SensorSettings()
+    t, data = imu(phys, terrains, settings, 0.0, np.random.default_rng(1), 80.0)
+    level = vibration_level(np.array([0.23]), np.array([0.0]),
+                            np.array([ter.vib_speed_m_s for ter in terrains]))
+    for half, ter, lev in zip((t < 39.0, t > 41.0), terrains, level):
+        want = np.hypot(ter.vib_gyro_rad_s * lev, settings.gyro_noise_rad_s)
+        assert data[half, 0].std() == pytest.approx(want, rel=0.1)

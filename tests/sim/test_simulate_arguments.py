@@ -102,7 +102,8 @@ def test_library_steps_refuse_a_grid_of_one_step():
 @pytest.mark.parametrize("field, value", [("wheel_rate_hz", 0.0), ("imu_rate_hz", -100.0),
                                           ("cam_rate_hz", float("inf")),
                                           ("gyro_noise_rad_s", -0.1),
-                                          ("current_noise_a", float("nan"))])
+                                          ("current_noise_a", float("nan")),
+                                          ("accel_noise_m_s2", float("inf"))])
 def test_sensor_settings_refuse_bad_rates_and_noise(field, value):
     with pytest.raises(ConfigError, match=field):
         SensorSettings(**{field: value})
