@@ -122,3 +122,16 @@ def test_random_scenario_stays_within_the_speed_limit_and_follows_its_seed():
                          omnidirectional=True)
     assert np.abs(omni.twist[:, 1]).max() > 0.05
     assert np.abs(omni.twist[:, 1]).max() <= 0.5 * 0.95 * 0.6 + 1e-12
+
+
+def test_random_scenario_holds_each_command_for_two_to_six_seconds():
+    # a new segment starts where the command starts to move again after holding still; the
+    # ramps (at most 1.6 s at these limits) end inside a segment of 2-6 s
+    dt = 0.01
+    cmd = make_commands("random", 300.0, dt, np.random.default_rng(8), 1.0,
+                        omnidirectional=True)
+    moving = np.any(np.diff(cmd.twist, axis=0) != 0.0, axis=1)
+    onsets = cmd.t_s[1:][moving & ~np.concatenate([[True], moving[:-1]])]
+    gaps = np.diff(onsets)
+    assert len(gaps) > 300.0 / 6.0 - 2
+    assert gaps.min() >= 2.0 - 1e-9 and gaps.max() <= 6.0 + 1e-9

@@ -629,3 +629,56 @@ def test_duration_and_physics_rate_limits_are_inclusive():
         SimConfig(physics_rate_hz=49.9)
     with pytest.raises(ConfigError, match="physics_rate_hz"):
         SimConfig(physics_rate_hz=1000.1)
+
+
+@pytest.mark.parametrize("vehicle, scenario", [("husky", "straight_accel"),
+                                               ("agrimaro", "random")])
+def test_terrain_changes_every_segment_length_of_travelled_path(vehicle, scenario):
+    # the label of a truth sample is terrains[floor(path / segment) mod n], the path being
+    # the distance travelled (sideways included: the AgriMaRo's random run moves laterally)
+    seg = 1.5
+    r = simulate(SimConfig(vehicle=vehicle, terrains=("ASPHALT", "SNOW", "GRAVEL"),
+                           scenario=scenario, duration_s=12.0, seed=4, segment_length_m=seg))
+    truth = r.streams["truth"]
+    step = np.hypot(np.diff(truth.x), np.diff(truth.y))
+    path = np.concatenate([[0.0], np.cumsum(step)])
+    assert path[-1] > 3 * seg
+    if vehicle == "agrimaro":
+        assert np.abs(truth.v_by).max() > 0.05
+    expected = np.array(["ASPHALT", "SNOW", "GRAVEL"])[(path // seg).astype(int) % 3]
+    away = np.abs(path - seg * np.round(path / seg)) > 0.02   # off the boundaries
+    np.testing.assert_array_equal(truth.terrain.to_numpy()[away], expected[away])
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "tracked", "agrimaro"])
+@pytest.mark.parametrize("physics", ["v1", "v2"])
+def test_a_vehicle_at_rest_without_a_command_stays_at_rest(vehicle, physics):
+    params = get_vehicle(vehicle)
+    t = np.arange(201) * 0.01
+    phys = integrate(params, params.contact_geometry(), (get_terrain("SANDY_LOAM"),), 25.0, t,
+                     np.zeros((201, 3)), 0.0, 1.0, physics=physics)
+    for values in (phys.pose, phys.twist, phys.accel_body, phys.omega, phys.slip_motor):
+        np.testing.assert_array_equal(values, 0.0)
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "tracked"])
+def test_skid_steer_goes_straight_on_straight_accel_and_spins_in_place_on_spin(vehicle):
+    # equal commands on both sides: no yaw, no sideways drift; opposite ones: no travel
+    straight = simulate(SimConfig(vehicle=vehicle, terrains=("ASPHALT",),
+                                  scenario="straight_accel", duration_s=4.0, seed=2)).streams
+    assert straight["truth"].x.iloc[-1] > 1.0
+    np.testing.assert_allclose(straight["truth"][["y", "yaw", "yaw_rate"]], 0.0, atol=1e-9)
+    spin = simulate(SimConfig(vehicle=vehicle, terrains=("ASPHALT",), scenario="spin",
+                              duration_s=10.0, seed=2)).streams["truth"]
+    assert np.abs(spin.yaw_rate).max() > 0.3
+    np.testing.assert_allclose(spin[["x", "y", "v_bx", "v_by"]], 0.0, atol=1e-6)
+
+
+def test_a_duration_off_the_physics_grid_is_rounded_and_the_metadata_says_the_simulated_one():
+    # 2.004 s at 100 Hz is 200 whole steps: every stream ends at 2.0 s and meta_XX.json
+    # gives 2.0 s, the duration the streams cover, not the one asked for
+    run = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="spin",
+                             duration_s=2.004, seed=0))
+    assert run.meta["duration_s"] == pytest.approx(2.0, abs=1e-12)
+    for name in ("imu", "truth"):
+        assert run.streams[name].t_s.iloc[-1] == pytest.approx(2.0, abs=1e-12)
