@@ -18,6 +18,7 @@ rest: the vehicle starts standing and the command at t = 0 is 0.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Mapping
@@ -132,13 +133,15 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     Raises
     ------
     ConfigError
-        Unknown scenario, or a duration that is not positive or rounds to less than one
-        physics step.
+        Unknown scenario, a physics step or a duration that is not a finite time > 0, or a
+        duration that rounds to less than one physics step.
     """
     if name not in SCENARIO_NAMES:
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
-    if not duration_s > 0:
-        raise ConfigError(f"duration must be > 0 s, got {duration_s}")
+    if not (math.isfinite(float(dt_s)) and dt_s > 0):
+        raise ConfigError(f"the physics step must be a finite time > 0 s, got {dt_s}")
+    if not (math.isfinite(float(duration_s)) and duration_s > 0):
+        raise ConfigError(f"duration must be a finite time > 0 s, got {duration_s}")
     n = physics_steps(duration_s, dt_s) + 1
     if n < 2:
         raise ConfigError(f"duration {duration_s} s is shorter than one physics step "

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from terrain.errors import ConfigError
 from terrain.sim import SCENARIO_NAMES, make_commands
 
 #: Rate limits of terrain/sim/scenarios.py per scenario: (v_x m/s^2, v_y m/s^2, yaw rad/s^2);
@@ -135,3 +136,15 @@ def test_random_scenario_holds_each_command_for_two_to_six_seconds():
     gaps = np.diff(onsets)
     assert len(gaps) > 300.0 / 6.0 - 2
     assert gaps.min() >= 2.0 - 1e-9 and gaps.max() <= 6.0 + 1e-9
+
+
+@pytest.mark.parametrize("duration_s, dt_s, match", [
+    (1.0, 0.0, "the physics step must be"), (1.0, float("nan"), "the physics step must be"),
+    (1.0, -0.01, "the physics step must be"), (1.0, float("inf"), "the physics step must be"),
+    (float("inf"), 0.01, "duration"), (float("nan"), 0.01, "duration")])
+def test_make_commands_refuses_a_step_or_duration_that_is_not_a_finite_time(
+        duration_s, dt_s, match):
+    # a step of 0 was a ZeroDivisionError, NaN a ValueError, -0.01 s and inf were called
+    # longer than the duration; an infinite duration was an OverflowError
+    with pytest.raises(ConfigError, match=match):
+        make_commands("spin", duration_s, dt_s, np.random.default_rng(0), 1.0)
