@@ -18,14 +18,13 @@ rest: the vehicle starts standing and the command at t = 0 is 0.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 
 SCENARIO_NAMES: tuple[str, ...] = ("straight_accel", "orchard", "slope_turn", "spin", "random")
 #: Inclination of each scenario's ground plane (rising along world +x), rad (read-only):
@@ -138,10 +137,7 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     """
     if name not in SCENARIO_NAMES:
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
-    if not (math.isfinite(float(dt_s)) and dt_s > 0):
-        raise ConfigError(f"the physics step must be a finite time > 0 s, got {dt_s}")
-    if not (math.isfinite(float(duration_s)) and duration_s > 0):
-        raise ConfigError(f"duration must be a finite time > 0 s, got {duration_s}")
+    config_positive("make_commands", dt_s=dt_s, duration_s=duration_s)
     n = physics_steps(duration_s, dt_s) + 1
     if n < 2:
         raise ConfigError(f"duration {duration_s} s is shorter than one physics step "

@@ -139,9 +139,10 @@ def test_random_scenario_holds_each_command_for_two_to_six_seconds():
 
 
 @pytest.mark.parametrize("duration_s, dt_s, match", [
-    (1.0, 0.0, "the physics step must be"), (1.0, float("nan"), "the physics step must be"),
-    (1.0, -0.01, "the physics step must be"), (1.0, float("inf"), "the physics step must be"),
-    (float("inf"), 0.01, "duration"), (float("nan"), 0.01, "duration")])
+    (1.0, 0.0, "make_commands.dt_s must be"), (1.0, float("nan"), "make_commands.dt_s must be"),
+    (1.0, -0.01, "make_commands.dt_s must be"), (1.0, float("inf"), "make_commands.dt_s must be"),
+    (float("inf"), 0.01, "make_commands.duration_s must be"),
+    (float("nan"), 0.01, "make_commands.duration_s must be")])
 def test_make_commands_refuses_a_step_or_duration_that_is_not_a_finite_time(
         duration_s, dt_s, match):
     # a step of 0 was a ZeroDivisionError, NaN a ValueError, -0.01 s and inf were called
