@@ -306,10 +306,12 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     Raises
     ------
     ConfigError
-        The members do not cover the same windows in the same folds, or ``weights`` are not
-        one per member, negative or all 0
+        No member, the members do not cover the same windows in the same folds, or
+        ``weights`` are not one per member, negative or all 0
         (:func:`~terrain.models.ensemble.normalised_weights`).
     """
+    if not len(members):     # (a bare IndexError before)
+        raise ConfigError("soft_vote needs at least one member's predictions, got none")
     key = ["seed", "fold", "run", "t_start_s"]
     base = members[0].sort_values(key).reset_index(drop=True)
     cols = [f"proba_{c}" for c in classes]

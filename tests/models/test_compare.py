@@ -235,6 +235,8 @@ def test_soft_vote_of_cv_predictions_equals_the_fixed_weight_ensemble():
     assert (voted["predicted"].to_numpy() == ref["predicted"].to_numpy()).all()
     with pytest.raises(ConfigError, match="same folds"):
         soft_vote([single[0], single[1].iloc[1:]], ["A", "B"])
+    with pytest.raises(ConfigError, match="at least one member"):     # an IndexError before
+        soft_vote([], ["A", "B"])
 
 
 def test_early_stopping_reaches_the_cnns():
