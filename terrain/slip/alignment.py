@@ -50,6 +50,9 @@ class LagEstimate:
         which does not judge the peak).
     reason : str
         Why it is not applied, in words (empty when applied).
+    at_range_end : bool
+        Whether the maximum lies on the first or last lag searched (the maximum of a
+        correlation still rising there, not a peak).
     """
 
     lag_s: float
@@ -57,6 +60,7 @@ class LagEstimate:
     n_samples: int
     applied: bool = True
     reason: str = ""
+    at_range_end: bool = False
 
 
 @dataclass(frozen=True)
@@ -167,7 +171,7 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
         den = y0 - 2 * y1 + y2
         frac = 0.5 * (y0 - y2) / den if den != 0 else 0.0
     return LagEstimate(lag_s=float((lags[i] + frac) / rate_hz), correlation=float(vals[i]),
-                       n_samples=int(n))
+                       n_samples=int(n), at_range_end=i in (0, vals.size - 1))
 
 
 def gated_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np.ndarray,
@@ -176,8 +180,8 @@ def gated_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np
     """:func:`estimate_lag`, with its peak judged: ``applied`` only for a clear peak.
 
     The peak is not applied when its correlation is below ``gate.min_correlation``, when it
-    lies at the end of the searched range (within half a grid step of ``+-max_lag_s``: the
-    maximum of a correlation that is still rising there), or when the two halves of the
+    lies on the first or last lag searched (``LagEstimate.at_range_end``: the maximum of a
+    correlation that is still rising there), or when the two halves of the
     overlap each give a peak of at least ``gate.min_correlation`` and their lags differ by
     more than ``gate.halves_tolerance_s``. ``reason`` lists every failed check.
 
@@ -205,7 +209,9 @@ def gated_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np
     if est.correlation < gate.min_correlation:
         reasons.append(f"peak correlation {est.correlation:.3f} below "
                        f"{gate.min_correlation:g}")
-    if abs(est.lag_s) >= max_lag_s - 0.5 / rate_hz:
+    # on the lag searched last, not within half a step of max_lag_s: max_lag_s off the grid
+    # rounds to the nearest grid lag, and a refined peak one step inside was flagged
+    if est.at_range_end:
         reasons.append(f"peak at the end of the searched range +-{max_lag_s:g} s")
     if gate.halves_tolerance_s is not None:
         tr, r = _finite(t_ref_s, ref, "t_ref_s")

@@ -105,6 +105,12 @@ def test_gated_lag_applies_only_a_clear_peak():
     # the true delay lies beyond the searched range: the maximum sits on its end
     beyond = gated_lag(t, steps, t, np.interp(t - 1.5, t, steps), max_lag_s=1.0)
     assert abs(beyond.lag_s) >= 0.99 and "end of the searched range" in beyond.reason
+    # max_lag_s off the grid (1.006 s at 100 Hz searches up to 1.01 s): a delay of 1.003 s
+    # peaks one step inside the range, refined to 1.002 s, which the check within half a
+    # step of max_lag_s (1.001 s) called the end of the range
+    inside = gated_lag(t, steps, t, np.interp(t - 1.003, t, steps), max_lag_s=1.006)
+    assert inside.applied and inside.lag_s == pytest.approx(1.003, abs=0.002)
+    assert not gated_lag(t, steps, t, np.interp(t - 1.2, t, steps), max_lag_s=1.006).applied
     # the first half delayed by 0.3 s, the second by 0.6 s: each half has a clear peak
     half = np.where(t < 20, np.interp(t - 0.3, t, steps), np.interp(t - 0.6, t, steps))
     split = gated_lag(t, steps, t, half)
