@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.signal import lfilter
 
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_numbers, config_positive
 from terrain.run import step_index
 from terrain.terramechanics.resistance import G_M_S2
 
@@ -106,7 +106,13 @@ def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
     -------
     ndarray, shape (n,)
         Times, s.
+
+    Raises
+    ------
+    ConfigError
+        ``rate_hz`` not a finite rate > 0 (0 was a ZeroDivisionError).
     """
+    config_positive("sample_times", rate_hz=rate_hz)
     return np.arange(0.0, duration_s + 1e-9, 1.0 / rate_hz)
 
 

@@ -44,7 +44,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_numbers, config_positive
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
@@ -133,8 +133,10 @@ def minimum_duration_s(vehicle: str, sensors: SensorSettings | None = None,
     Raises
     ------
     ConfigError
-        Unknown vehicle.
+        Unknown vehicle, or ``physics_rate_hz`` not a finite rate > 0 (0 was a
+        ZeroDivisionError).
     """
+    config_positive("minimum_duration_s", physics_rate_hz=physics_rate_hz)
     rates = stream_rates_hz(vehicle, sensors)
     slowest = min(rates, key=rates.get)
     period = (MIN_STREAM_SAMPLES - 1) / rates[slowest]

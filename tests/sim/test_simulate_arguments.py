@@ -72,6 +72,17 @@ def test_minimum_duration_follows_the_sensor_settings():
     assert minimum_duration_s("husky", physics_rate_hz=50.0)[0] == pytest.approx(0.16)
 
 
+@pytest.mark.parametrize("rate", [0.0, -100.0, float("nan")])
+def test_a_rate_that_is_not_a_finite_rate_above_zero_is_refused_naming_it(rate):
+    # 0 was a ZeroDivisionError in both; a negative rate gave an empty time grid
+    from terrain.sim.sensors import sample_times
+
+    with pytest.raises(ConfigError, match="minimum_duration_s.physics_rate_hz must be"):
+        minimum_duration_s("husky", physics_rate_hz=rate)
+    with pytest.raises(ConfigError, match="sample_times.rate_hz must be"):
+        sample_times(1.0, rate)
+
+
 def test_duration_bounds_still_hold():
     with pytest.raises(ConfigError, match=r"\(0, 7200\]"):
         SimConfig(duration_s=0)
