@@ -14,7 +14,7 @@ from sklearn.pipeline import FeatureUnion
 from sklearn.utils.validation import check_is_fitted
 
 from features import calculators
-from features.windows import ALL_CHANNELS, refuse_no_windows, refuse_non_finite
+from features.windows import ALL_CHANNELS, as_windows, refuse_non_finite
 from terrain.errors import ConfigError, config_positive, duplicated, first_items
 from terrain.run import IMU_CHANNELS
 
@@ -104,11 +104,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         self.turn_floor_rad_s = turn_floor_rad_s
 
     def _check(self, X: np.ndarray) -> np.ndarray:
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 3 or X.shape[1] != len(self.channels):
-            raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
-                             f"n_samples), got {X.shape}")
-        refuse_no_windows(X)     # (the features' reshape would fail inside NumPy)
+        X = as_windows(X, self.channels)     # (0 windows: the reshape would fail in NumPy)
         if X.shape[2] < 2:       # (mean_abs_diff of one sample is NaN)
             raise ValueError(f"windows need at least 2 samples, got X of shape {X.shape}")
         refuse_non_finite(X, self.channels)

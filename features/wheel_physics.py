@@ -34,9 +34,9 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from features.calculators import quantile_sorted
-from features.windows import HUSKY_TRACK_M, refuse_no_windows, refuse_non_finite
+from features.windows import HUSKY_TRACK_M, as_windows, refuse_non_finite
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
-                            duplicated, first_items)
+                            config_positive, duplicated, first_items)
 from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
@@ -213,14 +213,10 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     NonFiniteInputError
         An input holds NaN or inf (the message names it and the first windows).
     """
-    # True passed the range check as 1, text failed inside NumPy's isfinite
-    config_numbers("physics_features", rate_hz=rate_hz, track_m=track_m,
-                   speed_scale_m_s=speed_scale_m_s, yaw_scale_rad_s=yaw_scale_rad_s, ridge=ridge)
-    for name, value in (("rate_hz", rate_hz), ("track_m", track_m),
-                        ("speed_scale_m_s", speed_scale_m_s),
-                        ("yaw_scale_rad_s", yaw_scale_rad_s), ("ridge", ridge)):
-        if not (np.isfinite(value) and value > 0):
-            raise ConfigError(f"physics_features: {name} must be finite and > 0, got {value!r}")
+    # (True passed a range check as 1, text failed inside NumPy's isfinite)
+    config_positive("physics_features", rate_hz=rate_hz, track_m=track_m,
+                    speed_scale_m_s=speed_scale_m_s, yaw_scale_rad_s=yaw_scale_rad_s,
+                    ridge=ridge)
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (vel_l, vel_r, cur_l, cur_r)]
     shape = arrays[0].shape
     if len(shape) != 2 or shape[1] < 1 or any(a.shape != shape for a in arrays):
@@ -320,11 +316,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         # they set the scales' sample counts and names (True was a 1 s scale, "__last1s")
         config_numbers("WheelPhysicsFeatures", optional=("short_s",), rate_hz=self.rate_hz,
                        short_s=self.short_s)
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 3 or X.shape[1] != len(self.channels):   # channels are read by position
-            raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
-                             f"n_samples), got {X.shape}")
-        refuse_no_windows(X)
+        X = as_windows(X, self.channels)
         self.feature_names_out_ = np.asarray(
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
              for f in PHYSICS_FEATURES], dtype=object)
@@ -353,13 +345,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
         """
         check_is_fitted(self, "feature_names_out_")
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 3 or X.shape[1] != len(self.channels):
-            raise ValueError(f"expected X of shape (n_windows, {len(self.channels)}, "
-                             f"n_samples), got {X.shape}")
+        X = as_windows(X, self.channels)
         if X.shape[2] != self.n_samples_in_:
             raise ValueError(f"expected windows of {self.n_samples_in_} samples, got {X.shape}")
-        refuse_no_windows(X)
         refuse_non_finite(X, self.channels)
         idx = [list(self.channels).index(c) for c in WHEEL_CHANNELS]
         parts = [physics_features(*(X[:, i, -m:] for i in idx), self.rate_hz, self.track_m,

@@ -316,22 +316,39 @@ class WindowSet:
                          self.rate_hz, counts)
 
 
-def refuse_no_windows(X: np.ndarray) -> None:
-    """Refuse an array of 0 windows, as scikit-learn refuses 0 samples.
+def as_windows(X, channels: Sequence[str]) -> np.ndarray:
+    """``X`` as float windows holding one row per channel, refused otherwise.
+
+    The feature transformers read their channels by position, so a window array of another
+    channel count is refused, and one of 0 windows is refused as scikit-learn refuses 0
+    samples.
 
     Parameters
     ----------
-    X : numpy.ndarray
+    X : array-like
         ``(n_windows, n_channels, n_samples)`` windows.
+    channels : sequence of str
+        ``(n_channels,)`` channel names, in the order of ``X``'s second axis.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``X`` as a float array.
 
     Raises
     ------
     ValueError
-        ``n_windows`` is 0.
+        ``X`` not of 3 dimensions, of another number of channels than ``channels``, or of 0
+        windows.
     """
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 3 or X.shape[1] != len(channels):
+        raise ValueError(f"expected X of shape (n_windows, {len(channels)}, n_samples), "
+                         f"got {X.shape}")
     if X.shape[0] == 0:
         raise ValueError(f"found 0 windows (X of shape {X.shape}) while a minimum of 1 is "
                          "required")
+    return X
 
 
 def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:
