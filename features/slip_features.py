@@ -206,7 +206,7 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     cols["vel_mean__slope"] = slope
     pitch = pitch_from_accelerometer(cols["ax__mean"], cols["ay__mean"], cols["az__mean"], slope)
     cols["pitch"] = pitch
-    # the wheel yaw rate of this vehicle's track (the windows' yaw_rate_wheels is Husky's)
+    # the wheel yaw rate of the vehicle given (the windows may come from another's runs)
     cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["vel_diff"]] / vehicle.track_m,
                                       INV_CHI_FLOOR_RAD_S)
     if probabilities is not None:

@@ -19,13 +19,14 @@ import numpy as np
 import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
+from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.errors import (ConfigError, config_numbers, config_positive, duplicated,
                             first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
-from terrain.vehicles import HUSKY
+from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, get_vehicle
 
-#: Husky A200 track width B, m, used by the wheel-odometry yaw rate channel: the vehicle's
+#: Husky A200 track width B, m, the wheel-odometry yaw rate channel's default: the vehicle's
 #: parameter :attr:`terrain.vehicles.HuskyParams.track_m` (source documented there).
 HUSKY_TRACK_M = HUSKY.track_m
 
@@ -93,6 +94,44 @@ def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
     if not out:
         raise ConfigError("empty signal selection")
     return tuple(out)
+
+
+def derived_track_m(vehicle: str | None) -> float:
+    """Track width B that the derived wheel channels of a run or model of a vehicle use, m.
+
+    ``yaw_rate_wheels = (vel_r - vel_l) / B`` is the skid-steer kinematic yaw rate of that
+    vehicle's own sides, so a run's windows (:func:`make_windows`) and a served model's
+    live windows (:func:`terrain.serving.model.model_track_m`) take B from the vehicle.
+
+    Parameters
+    ----------
+    vehicle : str or None
+        A name of :data:`terrain.run.VEHICLE_NAMES` (any case; a run's ``vehicle``), or None
+        when it is not known.
+
+    Returns
+    -------
+    float
+        The skid-steer vehicle's ``track_m``: ``husky`` 0.5708 m
+        (:class:`terrain.vehicles.HuskyParams`), ``tracked`` 0.393 m
+        (:class:`terrain.vehicles.TrackedParams`, seed 003 Table 2). :data:`HUSKY_TRACK_M`
+        for None, and for the AgriMaRo, which has no left and right side: its ``wheels``
+        stream holds the rim speeds of wheels 1 and 2 (steered, at d_1, d_2 = (-+0.5075, 0)
+        m, :mod:`terrain.sim.simulate`), so its ``yaw_rate_wheels`` is their speed difference
+        over the Husky's track, a feature the classifiers learn, not a yaw rate (what every
+        vehicle got before the vehicle was read).
+
+    Raises
+    ------
+    ConfigError
+        An unknown vehicle name (:func:`terrain.vehicles.get_vehicle` lists the valid ones).
+    """
+    if vehicle is None:
+        return HUSKY_TRACK_M
+    params = get_vehicle(vehicle)
+    if isinstance(params, (HuskyParams, TrackedParams)):
+        return float(params.track_m)
+    return HUSKY_TRACK_M
 
 
 def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
@@ -503,7 +542,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     partition of each run, which no window is cut from, is counted in
     ``counts["partition_tail_s"]``, and with or without partitions the time after the last
     window of each run (or partition) in ``counts["window_tail_s"]`` (s, in total and per
-    run). Nothing is dropped silently.
+    run). Nothing is dropped silently. The derived wheel channels and the EKF channels use
+    each run's own vehicle's track width (:func:`derived_track_m` of ``run.vehicle``).
 
     Parameters
     ----------
@@ -546,9 +586,12 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
             if "wheels" not in need and "wheels" not in run.streams:
                 counts["reasons"][run.run_id] = "no wheels stream, which steady_only needs"
             continue
-        frame = add_derived_channels(align_streams(run, streams, config.rate_hz))
+        # the run's own track width: the wheel yaw rate and the EKF are per vehicle
+        track_m = derived_track_m(run.vehicle)
+        frame = add_derived_channels(align_streams(run, streams, config.rate_hz), track_m)
         if set(channels) & set(EKF_CHANNELS):
-            frame = add_ekf_channels(frame, wheel_rate_hz=run.rate_hz("wheels"))
+            frame = add_ekf_channels(frame, wheel_rate_hz=run.rate_hz("wheels"),
+                                     settings=SkidSteerSettings(track_m=track_m))
         X, t0, t1, part, c = window_frame(frame, channels, config)
         counts["dropped_gap"] += c["dropped_gap"]
         counts["empty_gap"] += c["empty_gap"]

@@ -20,7 +20,7 @@ from typing import Any, Iterator, Mapping
 
 import yaml
 
-from features.windows import DERIVED_WHEEL_CHANNELS, WindowConfig
+from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfig
 from terrain.errors import ConfigError
 from terrain.io.shipped import dataset_vehicle
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS, Run
@@ -126,6 +126,29 @@ def model_vehicle(metadata: Mapping[str, Any]) -> str | None:
     if isinstance(vehicle, str) and vehicle:
         return vehicle.lower()
     return dataset_vehicle(str(metadata.get("dataset", "")))
+
+
+def model_track_m(metadata: Mapping[str, Any]) -> float:
+    """Track width B of a model's derived wheel channels, m.
+
+    The live windows must compute ``yaw_rate_wheels = (vel_r - vel_l) / B`` as the training
+    windows did: the model's ``track_m``, written at saving from the training runs' vehicle
+    (:func:`features.windows.derived_track_m` of :func:`model_vehicle`).
+
+    Parameters
+    ----------
+    metadata : Mapping
+        The model directory's ``metadata`` (:func:`read_model_metadata` checks that a
+        ``track_m`` there is a positive number).
+
+    Returns
+    -------
+    float
+        ``metadata["track_m"]``; :data:`features.windows.HUSKY_TRACK_M` for a model saved
+        before the key existed (every window then used the Husky's track).
+    """
+    value = metadata.get("track_m")
+    return HUSKY_TRACK_M if value is None else float(value)
 
 
 def imu_rate_note(channels, model_rate_hz: float, run: Run) -> str | None:
@@ -253,7 +276,8 @@ def read_model_metadata(path: str | Path) -> dict:
         The ``metadata`` mapping of ``MLmodel``: at least ``channels`` and ``classes``
         (non-empty lists of names), ``window_s`` and ``rate_hz`` (positive numbers, s and
         Hz); ``hop_s`` is a positive number or None (None, as :class:`WindowConfig` reads
-        it: windows one window length apart).
+        it: windows one window length apart); ``track_m``, where present, a positive number
+        (m, :func:`model_track_m`).
 
     Raises
     ------
@@ -282,14 +306,15 @@ def read_model_metadata(path: str | Path) -> dict:
                 not all(isinstance(c, (str, int)) and not isinstance(c, bool) for c in names):
             raise ConfigError(f"{mlmodel}: metadata {key} must be a non-empty list of names, "
                               f"got {names!r}"[:300])
-    for key in ("window_s", "rate_hz", "hop_s"):
+    for key in ("window_s", "rate_hz", "hop_s", "track_m"):
         value = meta.get(key)
-        if key == "hop_s" and value is None:
+        if key in ("hop_s", "track_m") and value is None:
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)) or \
                 not math.isfinite(value) or value <= 0:
             raise ConfigError(f"{mlmodel}: metadata {key} must be a positive number"
-                              f"{' or null' if key == 'hop_s' else ''}, got {value!r}"[:300])
+                              f"{' or null' if key in ('hop_s', 'track_m') else ''}, got "
+                              f"{value!r}"[:300])
     try:
         WindowConfig(window_s=float(meta["window_s"]), rate_hz=float(meta["rate_hz"]))
     except ConfigError as exc:

@@ -40,14 +40,16 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
-from features.windows import (DERIVED_WHEEL_CHANNELS, WindowConfig, add_derived_channels,
-                              required_streams, window_frame)
+from features.windows import (DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfig,
+                              add_derived_channels, derived_track_m, required_streams,
+                              window_frame)
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
                             TimestampError)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
-from terrain.serving.model import load_pipeline, new_model_directory, read_model_metadata
+from terrain.serving.model import (load_pipeline, model_vehicle, new_model_directory,
+                                   read_model_metadata)
 from terrain.serving.request import numeric_column
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
@@ -139,13 +141,17 @@ class TerrainModel(PythonModel):
         ``rate_hz``).
     classes : sequence of str
         Terrain classes, in the order of ``predict_proba``.
+    track_m : float
+        Track width of the derived wheel channels, m (the training runs' vehicle's,
+        :func:`terrain.serving.model.model_track_m`).
     """
 
     def __init__(self, channels: Sequence[str] = (), window: dict | None = None,
-                 classes: Sequence[str] = ()) -> None:
+                 classes: Sequence[str] = (), track_m: float = HUSKY_TRACK_M) -> None:
         self.channels = list(channels)
         self.window = dict(window or {})
         self.classes = list(classes)
+        self.track_m = float(track_m)
         self._pipeline = None
 
     def load_context(self, context: Any) -> None:
@@ -172,6 +178,8 @@ class TerrainModel(PythonModel):
             self.channels = list(config["channels"])
             self.window = dict(config["window"])
             self.classes = list(config["classes"])
+            # models saved before the setting existed derived their channels with the Husky's
+            self.track_m = float(config.get("track_m", HUSKY_TRACK_M))
         self._pipeline = load_pipeline(context.artifacts["pipeline"])
 
     def predict(self, context: Any, model_input: pd.DataFrame, params: dict | None = None
@@ -208,11 +216,12 @@ class TerrainModel(PythonModel):
         if self._pipeline is None:
             self.load_context(context)
         return predict_windows(self._pipeline, model_input, self.channels,
-                               WindowConfig(**self.window), self.classes)
+                               WindowConfig(**self.window), self.classes, self.track_m)
 
 
 def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str],
-                    config: WindowConfig, classes: Sequence[str]) -> pd.DataFrame:
+                    config: WindowConfig, classes: Sequence[str],
+                    track_m: float = HUSKY_TRACK_M) -> pd.DataFrame:
     """Window aligned samples per run and predict (see module docstring for the format).
 
     Parameters
@@ -231,6 +240,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     classes : sequence of str
         Classes whose ``proba_<CLASS>`` columns are returned (0 for a class the pipeline
         does not know).
+    track_m : float
+        Track width B of the derived ``yaw_rate_wheels`` channel, m (the model's,
+        :func:`terrain.serving.model.model_track_m`).
 
     Returns
     -------
@@ -307,7 +319,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                  f"{config.rate_hz:g} Hz clock, a gap being rows of NaN "
                                  f"(align with align_streams)",
                                  f"model input, run {run_id}", TIME, row)
-        frame = add_derived_channels(frame)
+        frame = add_derived_channels(frame, track_m)
         X, t0, t1, _, counts = window_frame(frame, channels, config)
         empty += counts["empty_gap"]
         dropped += counts["dropped_gap"]
@@ -406,17 +418,20 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     path = tmp / PIPELINE_FILE
     joblib.dump(pipeline, path)
     window_d = {"window_s": window.window_s, "hop_s": window.hop_s, "rate_hz": window.rate_hz}
+    # the live windows derive yaw_rate_wheels with the training vehicle's track, as its
+    # training windows did (make_windows: each run's own)
+    track_m = derived_track_m(model_vehicle(metadata))
     root = Path(__file__).resolve().parents[2]  # the checkout: terrain/, features/
     return dict(
         python_model=str(Path(__file__).with_name("pyfunc_entry.py")),
         model_config={"channels": list(channels), "window": window_d,
-                      "classes": list(classes)},
+                      "classes": list(classes), "track_m": track_m},
         artifacts={"pipeline": str(path)},
         signature=model_signature(channels, classes),
         code_paths=[str(root / "terrain"), str(root / "features")],
         pip_requirements=pip_requirements(pipeline),
         metadata={**metadata, "channels": list(channels), "classes": list(classes),
-                  **window_d},
+                  "track_m": track_m, **window_d},
     )
 
 

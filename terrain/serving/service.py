@@ -16,7 +16,8 @@ clock it is put on). Every ``hop_s`` of service time the service
    (:func:`terrain.io.align.overlap_grid_tail`, the window's end of ``overlap_grid``, and
    :func:`terrain.io.align.align_arrays`, the step the batch readers'
    :func:`~terrain.io.align.align_streams` runs) and adds the
-   derived wheel channels (:func:`features.windows.derived_wheel_arrays`); the whole
+   derived wheel channels (:func:`features.windows.derived_wheel_arrays`, with the
+   model's track width, :func:`terrain.serving.model.model_track_m`); the whole
    per-decision path works on arrays, no data frame,
 3. classifies it with the fitted pipeline (the model's own feature code),
 4. folds the probabilities into the forward filter (:mod:`terrain.serving.smoothing`),
@@ -86,7 +87,7 @@ from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.intake import DecisionClock, StreamIntake
-from terrain.serving.model import StreamModel, model_vehicle
+from terrain.serving.model import StreamModel, model_track_m, model_vehicle
 from terrain.serving.rules import DEFAULT_RULES, SampleRule
 from terrain.serving.smoothing import ForwardFilter
 from terrain.serving.targets import TargetProvider
@@ -169,6 +170,7 @@ class StreamService:
             if set(WHEEL_CHANNELS) <= set(flat) else None
         if self._wheel_cols is not None:
             flat += list(DERIVED_WHEEL_CHANNELS)
+        self._track_m = model_track_m(model.metadata)   # as the training windows derived
         self._x_cols = np.array([flat.index(c) for c in model.channels])
         accel = ("ax", "ay", "az")
         # the accelerometer-units rule needs all three axes; it matters when one is used
@@ -371,7 +373,7 @@ class StreamService:
         aligned = align_arrays(times, values, tail, w.rate_hz, self.config.gap_factor,
                                steps).T
         if self._wheel_cols is not None:
-            derived = derived_wheel_arrays(*aligned[self._wheel_cols])
+            derived = derived_wheel_arrays(*aligned[self._wheel_cols], self._track_m)
             aligned = np.concatenate([aligned, np.stack(list(derived.values()))])
         X = aligned[self._x_cols][None]
         if gap or not np.isfinite(X).all():

@@ -194,8 +194,9 @@ def test_targets_and_features_on_simulated_runs(tiny_table):
 
 def test_inv_chi_uses_the_vehicles_own_track():
     """``inv_chi`` regresses the gyro yaw rate on the wheel yaw rate ``(v_R - v_L)/B`` of the
-    vehicle given; the windows' ``yaw_rate_wheels`` channel is Husky's (make_windows), so a
-    tracked vehicle (B = 0.393 m) turning at chi = 2 gave 0.73, not 0.5."""
+    vehicle given, not the windows' ``yaw_rate_wheels`` channel (here Husky's, which
+    make_windows gave every run before it read the run's vehicle): a tracked vehicle
+    (B = 0.393 m) turning at chi = 2 gave 0.73, not 0.5."""
     from features.slip_features import (INV_CHI_FLOOR_RAD_S, SLIP_CHANNELS,
                                         slip_feature_matrix)
     from features.windows import HUSKY_TRACK_M
