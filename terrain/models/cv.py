@@ -28,7 +28,7 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
-from terrain.errors import ConfigError, config_integer, first_items
+from terrain.errors import ConfigError, config_integer, first_items, listed
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 
 PROTOCOLS = ("grouped", "loro", "paper")
@@ -280,8 +280,8 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     ConfigError
         Unknown protocol, more folds than groups, every class with fewer windows
         (``grouped``) or 5 s partitions (``paper``) than folds, which the stratified
-        splitters refuse (``grouped``, ``paper``), or a ``grouped`` split that leaves a fold
-        without a test unit (few runs).
+        splitters refuse (``grouped``, ``paper``), a ``grouped`` split that leaves a fold
+        without a test unit (few runs), or ``loro`` over fewer than 2 runs.
     """
     n_groups = len(np.unique(groups))
     if protocol in ("grouped", "paper") and not 2 <= n_splits <= n_groups:
@@ -311,6 +311,9 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
                               "or more runs")
         yield from splits
     elif protocol == "loro":
+        if n_groups < 2:      # scikit-learn's bare ValueError otherwise
+            raise ConfigError(f"leave one run out needs at least 2 runs, got {n_groups} "
+                              f"({listed(np.unique(groups).tolist())})")
         yield from LeaveOneGroupOut().split(labels, labels, groups)
     elif protocol == "paper":
         units, first = np.unique(groups, return_index=True)

@@ -113,6 +113,16 @@ def test_no_class_with_as_many_members_as_folds_is_a_config_error(protocol):
         list(iter_splits(protocol, labels, groups, 0, n_splits=5))
 
 
+def test_leave_one_run_out_over_a_single_run_is_a_config_error():
+    # scikit-learn's bare ValueError "LeaveOneGroupOut expects at least 2" reached the user
+    labels, groups = np.array(["A", "B", "A"]), np.array(["r1", "r1", "r1"])
+    with pytest.raises(ConfigError, match=r"leave one run out needs at least 2 runs, got 1 "
+                                          r"\(\['r1'\]\)"):
+        list(iter_splits("loro", labels, groups, 0))
+    folds = list(iter_splits("loro", labels, np.array(["r1", "r1", "r2"]), 0))
+    assert [(list(a), list(b)) for a, b in folds] == [([2], [0, 1]), ([0, 1], [2])]
+
+
 def test_a_grouped_fold_left_without_test_runs_is_a_config_error():
     # 5 runs of 2 terrains (29, 44, 29 windows of A; 12, 10 of B), 5 folds: as many runs as
     # folds, yet StratifiedGroupKFold(5, seed 0) puts no run in one test fold, and fitting on
