@@ -50,6 +50,10 @@ CORRUPTIONS = {
     "no_metadata": ("MLmodel", lambda p: p.write_text("flavors: {}\n"), "no metadata mapping"),
     "bad_window": ("MLmodel", lambda p: p.write_text(p.read_text().replace(
         "  window_s: 2.0", "  window_s: two")), "metadata window_s must be a positive number"),
+    # the live windows' wheel yaw rate divides by it: 0 made every window infinite
+    "bad_track": ("MLmodel", lambda p: p.write_text(p.read_text().replace(
+        "  track_m: 0.5708", "  track_m: 0")),
+        "metadata track_m must be a positive number or null, got 0"),
 }
 
 
