@@ -43,7 +43,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
                                       column_or_1d)
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, ShapeError, config_positive
 from terrain.models.cv import class_keeping_split
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -88,7 +88,13 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
         ``(n_windows, n_channels, n_freqs, n_frames)`` float32, ``log10(|STFT|^2 + 1e-10)``.
     freqs_hz : numpy.ndarray
         ``(n_freqs,)`` bin frequencies, Hz.
+
+    Raises
+    ------
+    ConfigError
+        ``rate_hz``, ``segment_s`` or ``hop_s`` not a finite number > 0.
     """
+    config_positive("log_spectrogram", rate_hz=rate_hz, segment_s=segment_s, hop_s=hop_s)
     n_samples = X.shape[-1]
     seg = int(np.clip(round(segment_s * rate_hz), 2, n_samples))
     hop = max(1, int(round(hop_s * rate_hz)))

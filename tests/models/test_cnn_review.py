@@ -10,7 +10,7 @@ from sklearn.base import clone
 from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default prepend import)
 from torch import nn
 
-from terrain.errors import ShapeError
+from terrain.errors import ConfigError, ShapeError
 from terrain.models.cnn import (POWER_FLOOR, RawCNNClassifier, SpectrogramCNNClassifier,
                                 log_spectrogram)
 from terrain.models.nets import Raw1dNet, Spectrogram2dNet
@@ -215,3 +215,19 @@ def test_shorter_windows_than_the_training_ones_are_refused_too(cls):
     model = cls(**ONE_EPOCH).fit(X, y)
     with pytest.raises(ShapeError, match=r"windows of shape \(3, 200\).* got \(3, 150\)"):
         model.predict_proba(X[:, :, :150])
+
+
+@pytest.mark.parametrize("setting, value", [
+    ("segment_s", 0.0), ("segment_s", -0.5), ("hop_s", 0.0), ("hop_s", float("nan")),
+    ("rate_hz", 0.0), ("rate_hz", -100.0), ("rate_hz", float("inf"))])
+def test_spectrogram_settings_that_are_not_finite_and_positive_are_config_errors(setting,
+                                                                                 value):
+    # segment_s=0 trained silently on 2-sample Hann segments, which are all zero (every
+    # bin at the power floor: nothing to learn); rate_hz=0 raised ZeroDivisionError,
+    # rate_hz=-100 gave negative bin frequencies that every band limit kept
+    X, y, _ = _planted(n_runs=2, per_run=6)
+    settings = {"rate_hz": RATE_HZ, "segment_s": 0.5, "hop_s": 0.2, setting: value}
+    with pytest.raises(ConfigError, match=f"{setting} must be a finite value > 0"):
+        log_spectrogram(X, **settings)
+    with pytest.raises(ConfigError, match=f"{setting} must be a finite value > 0"):
+        SpectrogramCNNClassifier(**ONE_EPOCH, **settings).fit(X, y)
