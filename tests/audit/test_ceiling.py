@@ -7,9 +7,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from terrain.audit.ceiling import (ceiling_table, current_ceiling_samples, history_features,
-                                   learned_transfer_samples, online_current_samples,
-                                   online_yaw_rate_samples, yaw_rate_ceiling_samples)
+from terrain.audit.ceiling import (TransferSettings, ceiling_table, current_ceiling_samples,
+                                   history_features, learned_transfer_samples,
+                                   online_current_samples, online_yaw_rate_samples,
+                                   yaw_rate_ceiling_samples)
 from terrain.audit.frames import MANOEUVRES, AuditFrame
 from terrain.audit.physics import alternate_split
 from terrain.audit.timing import LagTrack
@@ -315,3 +316,110 @@ def test_alternate_split_takes_every_other_run_in_id_order():
     train, held = alternate_split([R("S/03"), R("S/01"), R("S/02"), R("S/04"), R("S/05")])
     assert [r.run_id for r in train] == ["S/01", "S/03", "S/05"]
     assert [r.run_id for r in held] == ["S/02", "S/04"]
+
+
+def test_fits_on_training_runs_never_see_the_evaluated_runs_measurements():
+    # the trained and learned columns are fitted on the training runs only: replacing the
+    # evaluated runs' gyro and currents changes their measured column, not those predictions
+    rng = np.random.default_rng(4)
+    train = [_frame(f"t{k}", lambda x, t: x / 2.0, rng=rng, noise=0.01) for k in range(3)]
+    held = [_frame(f"h{k}", lambda x, t: x / 2.0, rng=rng, noise=0.01) for k in range(2)]
+    other = [replace(f, wz=5.0 * f.wz + 0.3, cur=3.0 * f.cur + 4.0) for f in held]
+    settings = TransferSettings(max_iter=20)
+    for fn, col in ((yaw_rate_ceiling_samples, "trained"), (current_ceiling_samples, "trained")):
+        a, b = fn(held, train_frames=train), fn(other, train_frames=train)
+        assert not np.allclose(a.measured, b.measured)
+        np.testing.assert_array_equal(a[col], b[col])
+    for signal in ("wz", "cur_l"):
+        a = learned_transfer_samples(train, held, signal, settings=settings)
+        b = learned_transfer_samples(train, other, signal, settings=settings)
+        assert not np.allclose(a.measured, b.measured)
+        np.testing.assert_array_equal(a.learned, b.learned)
+
+
+def test_unscorable_samples_are_left_out_of_every_fit():
+    # standing samples and samples whose gyro is NaN are not scored: the table has no row
+    # for them and the fits stay finite
+    f = _frame("a", lambda x, t: x / 2.0)
+    stop = np.zeros(f.n, dtype=bool)
+    stop[:10] = True
+    wz = f.wz.copy()
+    wz[20:25] = np.nan
+    g = replace(f, manoeuvre=np.where(stop, MANOEUVRES.index("stop"), f.manoeuvre), wz=wz)
+    tab = yaw_rate_ceiling_samples([g])
+    assert len(tab) == f.n - 10 - 5 and "stop" not in set(tab.manoeuvre)
+    assert np.isfinite(tab[["measured", "shared", "per_run"]].to_numpy()).all()
+    assert tab.attrs["chi_shared"]["spin"] == pytest.approx(2.0)
+    cur = current_ceiling_samples([g])
+    assert len(cur) == 2 * (f.n - 10) and "stop" not in set(cur.manoeuvre)
+
+
+def test_side_speeds_are_the_left_and_right_ones():
+    # on curves the sides run at v -+ x B / 2 (left, right); a current that grows with its
+    # own side's speed is in the family, so the shared fit reproduces it exactly
+    from terrain.vehicles import HUSKY
+    f = _frame("a", lambda x, t: x / 2.0)
+    curve = MANOEUVRES.index("curve")
+    # a speed that varies along the curves: |v - xB/2| + |v + xB/2| = 2 v is then no
+    # constant, and one side's speed cannot stand in for the other's
+    v = np.where(f.manoeuvre == SPIN, 0.6 + 0.2 * np.sin(f.t_s), f.commanded_speed)
+    x = f.commanded_yaw_rate
+    half = 0.5 * HUSKY.track_m * x
+    cur = np.column_stack([1.0 + 4.0 * np.abs(v - half), 1.0 + 4.0 * np.abs(v + half)])
+    g = replace(f, commanded_speed=v, cur=cur,
+                manoeuvre=np.where(f.manoeuvre == SPIN, curve, f.manoeuvre))
+    tab = current_ceiling_samples([g])
+    np.testing.assert_allclose(tab.shared, tab.measured, atol=1e-9)
+
+
+def test_trained_currents_fall_back_to_the_reference_and_correct_the_candidate():
+    # no spin in the training runs: the held-out spins keep the reference replay, counted
+    straight = [replace(f, score_cur=f.manoeuvre != SPIN)
+                for f in (_frame("t0", lambda x, t: x), _frame("t1", lambda x, t: x))]
+    held = _frame("h0", lambda x, t: x)
+    tab = current_ceiling_samples([held], train_frames=straight)
+    spin = (tab.manoeuvre == "spin").to_numpy()
+    assert tab.attrs["trained_fallback"] == spin.sum() > 0
+    np.testing.assert_array_equal(tab.trained[spin], tab.reference[spin])
+    # steady replays (constant within a manoeuvre): the correction is of the candidate, so
+    # a candidate that spins 0.2 A higher on the held-out run keeps that step, whatever the
+    # reference does
+    rng = np.random.default_rng(6)
+
+    def flat(f, ref_spin, cand_spin):
+        def level(spin_a):
+            return (np.where(f.manoeuvre[:, None] == SPIN, spin_a, 2.0)
+                    + 1e-7 * rng.standard_normal(f.sim_cur.shape))
+        return replace(f, sim_cur=level(ref_spin)), replace(f, sim_cur=level(cand_spin))
+    train = [flat(_frame(f"t{k}", lambda x, t: x), 4.0, 5.0) for k in range(2)]
+    frame, cand = flat(held, 4.0, 5.2)
+    tab = current_ceiling_samples([frame], [cand], train_frames=[f for f, _ in train],
+                                  train_candidates=[c for _, c in train])
+    law = 3.5 + 6.5 * np.abs(np.concatenate([held.commanded_yaw_rate] * 2))
+    step = np.where(tab.manoeuvre == "spin", 0.2, 0.0)
+    np.testing.assert_allclose(tab.trained, law + step, atol=1e-3)
+
+
+def test_ceiling_table_gain_is_undefined_without_a_reference_error():
+    f = _frame("a", lambda x, t: x / 3.0)                 # the gyro is the replay exactly
+    row = _row(ceiling_table(yaw_rate_ceiling_samples([f])), "spin")
+    assert row.rmse_reference == 0.0 and np.isnan(row.gain_shared)
+
+
+def test_candidates_off_the_frames_clock_are_refused():
+    a = _frame("a", lambda x, t: x)
+    short = _frame("a", lambda x, t: x, n_cycles=3)
+    with pytest.raises(ConfigError, match="clock"):
+        yaw_rate_ceiling_samples([a], [short])
+    with pytest.raises(ConfigError, match="clock"):
+        current_ceiling_samples([a], [short])
+
+
+def test_forgetting_sums_read_at_the_lead_decay_from_the_last_available_sample():
+    from terrain.audit.ceiling import _forgetting_sums
+    t = np.array([0.0, 1.0, 10.0])
+    code = np.array([0, 1, 0])
+    (s,) = _forgetting_sums(t, code, (np.array([1.0, 5.0, 1.0]),), lead_s=2.0, memory_s=4.0)
+    # at t = 10 the sums of t = 8 are available: the code-0 sample at 0, decayed over 8 s;
+    # the code-1 sample is another manoeuvre, and nothing precedes t = 0 - 2 or t = 1 - 2
+    np.testing.assert_allclose(s, [0.0, 0.0, np.exp(-8.0 / 4.0)])
