@@ -37,3 +37,22 @@ def test_a_non_finite_wheel_sample_is_refused_naming_the_run_and_column(column):
     assert not frames and column in skipped["x/ASPHALT/00"]
     # the finite record replays
     assert np.isfinite(replay_run(_run(_pro())).cur).all()
+
+
+@pytest.mark.parametrize("column", ["wz", "ax", "t_s"])
+def test_a_non_finite_imu_sample_is_refused_naming_the_run_and_column(column):
+    # one NaN gyro sample went through the zero-phase low-pass, which spreads it over the
+    # whole record: every scored gyro sample NaN, the run's yaw-rate error NaN (or its
+    # samples silently left out where a caller filters NaN)
+    from terrain.audit.frames import prepare_frame
+    pro = _pro()
+    t = np.arange(0.0, 20.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": 0.1, "ax": 0.0, "ay": 0.0})
+    imu.loc[500, column] = np.nan
+    run = Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT",
+              streams={"wheels": pro, "imu": imu}, vehicle="husky")
+    with pytest.raises(NonFiniteError, match=rf"x/ASPHALT/00.*{column}.*row 500") as info:
+        prepare_frame(run, replay_run(run))
+    assert info.value.column == column and info.value.row == 500
+    frames, skipped = prepare_frames([run])
+    assert not frames and column in skipped["x/ASPHALT/00"]
