@@ -56,3 +56,61 @@ def test_a_non_finite_imu_sample_is_refused_naming_the_run_and_column(column):
     assert info.value.column == column and info.value.row == 500
     frames, skipped = prepare_frames([run])
     assert not frames and column in skipped["x/ASPHALT/00"]
+
+
+def test_samples_in_a_timestamp_gap_are_not_scored():
+    # a gap of the IMU stream (8-10 s) takes the IMU signals out there; a gap of the wheel
+    # stream (12-13 s) takes out both (the currents and the replay's inputs)
+    from terrain.audit.frames import prepare_frame
+    pro = _pro()
+    t = np.arange(0.0, 20.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": 0.1, "ax": 0.0, "ay": 0.0})
+    run = Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT",
+              streams={"wheels": pro, "imu": imu}, vehicle="husky",
+              meta={"gaps": {"imu": [[8.0, 10.0]], "wheels": [[12.0, 13.0]]}})
+    f = prepare_frame(run, replay_run(run))
+    assert not f.lag.identifiable                # lag 0: the IMU is read at the wheel times
+    ts = f.t_s
+
+    def between(a, b):
+        return (ts > a) & (ts < b)
+    assert not f.score_imu[between(8.0, 10.0) | between(12.0, 13.0)].any()
+    assert not f.score_cur[between(12.0, 13.0)].any()
+    assert f.score_cur[between(8.0, 10.0)].all()
+    rest = between(2.0, 18.0) & ~between(7.99, 10.01) & ~between(11.99, 13.01)
+    assert f.score_imu[rest].all() and f.score_cur[rest].all()
+
+
+def test_a_nose_up_pitch_reads_positive_and_only_within_the_imu_record():
+    # a level accelerometer pitched nose-up by 0.1 rad reads g sin(0.1) on x beyond the
+    # vehicle's own acceleration (none while cruising): the pitch estimate is +0.1 rad, and
+    # where the IMU record (4-20 s) does not reach there is no estimate
+    from terrain.audit.frames import prepare_frame
+    pro = _pro()
+    t = np.arange(4.0, 20.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": 0.0, "ax": 9.80665 * np.sin(0.1), "ay": 0.0})
+    run = Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT",
+              streams={"wheels": pro, "imu": imu}, vehicle="husky")
+    f = prepare_frame(run, replay_run(run))
+    cruise = (f.t_s > 8.0) & (f.t_s < 18.0)
+    np.testing.assert_allclose(f.pitch[cruise], 0.1, atol=0.01)
+    assert (f.commanded_yaw_rate[cruise] > 0).all()           # the right side is faster
+    assert not f.has_pitch[f.t_s < 4.0].any() and (f.pitch[f.t_s < 4.0] == 0.0).all()
+    assert f.has_pitch[f.t_s >= 4.0].all()
+
+
+def test_the_replays_start_from_rest_does_not_lean_on_the_pitch():
+    # a record that starts at cruising speed: the replay accelerates from rest at its first
+    # samples (7.5 m/s^2), the level IMU reads nothing. Low-passed over the whole record, that
+    # transient showed as a pitch of 0.02 rad in the scored span; within the span, none
+    from terrain.audit.frames import prepare_frame
+    t = np.arange(0.0, 30.0, 0.15)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": 0.8, "vel_r": 0.8})
+    ti = np.arange(0.0, 30.0, 0.01)
+    imu = pd.DataFrame({"t_s": ti, "wz": 0.0, "ax": 0.0, "ay": 0.0})
+    run = Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT",
+              streams={"wheels": pro, "imu": imu}, vehicle="husky")
+    rep = replay_run(run)
+    f = prepare_frame(run, rep)
+    assert rep.ax[0] > 5.0
+    assert np.abs(f.pitch[f.score_cur]).max() < 1e-3
