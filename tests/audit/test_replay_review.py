@@ -114,3 +114,21 @@ def test_the_replays_start_from_rest_does_not_lean_on_the_pitch():
     f = prepare_frame(run, rep)
     assert rep.ax[0] > 5.0
     assert np.abs(f.pitch[f.score_cur]).max() < 1e-3
+
+
+def test_sides_one_speed_step_apart_are_replayed_at_their_mean():
+    # a quantised record (BorealTC: steps of 0.2/25.4 m/s) cruising with the sides rounded
+    # to neighbouring steps (63 and 64): the difference carries no information, both sides
+    # are replayed at their mean and draw the same current; unmerged, the replayed robot
+    # fights a fictitious 8 mm/s difference and its currents split by about 1 A
+    step = 0.2 / 25.4
+    t = np.arange(0.0, 30.0, 0.15)
+    k = np.minimum(np.floor(t / 10.0 * 63.0), 63.0)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": k * step,
+                        "vel_r": (k + (t > 10.0)) * step})
+    rep = replay_run(_run(pro))
+    cruise = (t > 12.0) & (t < 28.0)
+    assert abs(np.mean(rep.cur[cruise, 0] - rep.cur[cruise, 1])) < 0.05
+    assert np.abs(rep.yaw_rate[cruise]).max() < 1e-3
+    # the replay reports the record's own speeds (before the merge)
+    np.testing.assert_allclose(rep.vel_r - rep.vel_l, np.where(t > 10.0, step, 0.0))
