@@ -280,7 +280,7 @@ def speed_resolution(values: np.ndarray, tol: float = 0.01) -> float:
     return step if np.all(np.abs(k - np.round(k)) < tol) else 0.0
 
 
-def refuse_non_finite(run: Run, stream: str, columns) -> None:
+def refuse_non_finite_columns(run: Run, stream: str, columns) -> None:
     """Refuse a stream whose named columns hold a NaN or infinite value.
 
     The replay integrates the wheel speeds and the frames low-pass the IMU channels: one
@@ -353,7 +353,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     if len(wheels) < 4:
         raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
                               run.source)
-    refuse_non_finite(run, "wheels", (TIME, "vel_l", "vel_r", "cur_l", "cur_r"))
+    refuse_non_finite_columns(run, "wheels", (TIME, "vel_l", "vel_r", "cur_l", "cur_r"))
     vehicle = get_vehicle(vehicle_name)
     geometry = vehicle.contact_geometry()
     t_w = wheels[TIME].to_numpy(dtype=float)
