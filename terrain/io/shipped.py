@@ -381,10 +381,19 @@ def verify_manifest(data_dir: str | Path | None = None) -> list[str]:
     list of str
         Relative paths whose checksum differs or that are missing, and shipped stream files
         (:data:`STREAM_FILES`) that exist but are not listed (empty when all match).
+
+    Raises
+    ------
+    DataFormatError
+        A manifest of another structure (:func:`dataset_entry`), naming the key.
     """
     data_dir = Path(data_dir or default_data_dir())
+    path = data_dir / "manifest.json"
+    manifest = read_manifest(data_dir)
+    manifest_terrains(manifest, path)   # 'datasets': an object of dataset objects
     bad = []
-    for dataset, entry in read_manifest(data_dir)["datasets"].items():
+    for dataset in manifest["datasets"]:
+        entry = dataset_entry(manifest, dataset, path)
         for rel, digest in entry["files"].items():
             p = data_dir / rel
             if not p.exists() or sha256(p) != digest:
