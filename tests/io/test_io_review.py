@@ -6,9 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import NonFiniteError, NonNumericError
+from terrain.errors import NonFiniteError, NonNumericError, TimestampError
 from terrain.io.align import overlap_grid
-from terrain.io.measured import read_runs_dir, read_runs_path, read_stream_csv
+from terrain.io.measured import (read_folder_run, read_runs_dir, read_runs_path,
+                                 read_stream_csv)
 from terrain.io.writer import write_run
 from terrain.run import TIME, Run
 
@@ -158,3 +159,23 @@ def test_require_columns_names_a_missing_clock(make_run):
     with pytest.raises(MissingColumnError) as err:
         run.require_columns("wheels", ["vel_l"])
     assert err.value.column == TIME
+
+
+@pytest.mark.parametrize("value, what", [("0.03", "duplicated"), ("0.01", "decreasing")])
+def test_a_timestamp_error_names_the_line_of_the_offending_row(tmp_path, value, what):
+    rows = _imu_rows().splitlines(keepends=True)
+    rows[4] = value + rows[4][rows[4].index(","):]     # data row 4: file line 7 (header, comment)
+    text = HEADER + "\n# a comment\n" + "".join(rows)
+    with pytest.raises(TimestampError, match=what) as err:
+        read_stream_csv(_write(tmp_path, text), "imu")
+    assert (err.value.column, err.value.row, err.value.line) == ("time", 4, 7)
+
+
+def test_a_terrain_folder_read_alone_is_labelled_in_upper_case(tmp_path, write_run, synth_imu,
+                                                               synth_pro):
+    write_run(tmp_path / "runs", "snow", "02", synth_imu(duration_s=2.0),
+              synth_pro(duration_s=2.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = read_folder_run(tmp_path / "runs" / "snow")
+    assert (run.run_id, run.terrain, run.dataset) == ("snow/02", "SNOW", "runs")
