@@ -179,3 +179,34 @@ def test_a_terrain_folder_read_alone_is_labelled_in_upper_case(tmp_path, write_r
         warnings.simplefilter("ignore")
         run = read_folder_run(tmp_path / "runs" / "snow")
     assert (run.run_id, run.terrain, run.dataset) == ("snow/02", "SNOW", "runs")
+
+
+def test_a_short_overlap_is_warned_even_when_little_is_left_out():
+    # IMU 0..3 s, wheels 1.8..4.6 s: 1.8 s and 1.6 s left out (under the 2 s of the
+    # left-out rule) but the overlap, 1.2 s, is under half the shorter span (2.8 s)
+    from terrain.io.plausibility import check_run
+
+    rng = np.random.default_rng(3)
+    t_i = np.arange(301) / 100.0
+    imu = pd.DataFrame({TIME: t_i, **{c: 0.01 * rng.standard_normal(t_i.size)
+                                      for c in ("wx", "wy", "wz", "ax", "ay")},
+                        "az": 9.81 + 0.01 * rng.standard_normal(t_i.size)})
+    t_w = 1.8 + np.arange(29) / 10.0
+    wheels = pd.DataFrame({TIME: t_w, **{c: 0.5 + 0.001 * rng.standard_normal(t_w.size)
+                                         for c in ("vel_l", "vel_r")},
+                           **{c: 5.0 + rng.standard_normal(t_w.size)
+                              for c in ("cur_l", "cur_r")}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        found = check_run("x/A/00", {"imu": imu, "wheels": wheels}, "husky", {})
+    assert found["unused_s"] == {"imu": pytest.approx(1.8), "wheels": pytest.approx(1.6)}
+    (msg,) = [w for w in found["warnings"] if "clock_overlap" in w]
+    assert "overlap for 1.2 s only" in msg
+
+
+def test_a_dataset_with_an_empty_terrain_list_is_refused():
+    from terrain.errors import DataFormatError
+    from terrain.io.shipped import manifest_terrains
+
+    with pytest.raises(DataFormatError, match=r"'datasets.vulpi.terrains' is an empty list"):
+        manifest_terrains({"datasets": {"vulpi": {"terrains": []}}}, "manifest.json")
