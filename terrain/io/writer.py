@@ -177,7 +177,6 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata)")
     folder = Path(out_dir) / terrain
-    folder.mkdir(parents=True, exist_ok=True)
     idx = next_index(folder) if index is None else int(index)
     if index is None and idx > 99:
         raise ConfigError(f"{folder} already holds runs 00-99: the layout numbers a terrain "
@@ -186,6 +185,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         raise ConfigError(f"run index must be in [0, 99], got {idx}")
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
+    folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then
     paths: dict[str, Path] = {}
     for kind, frame in frames.items():
         path = folder / f"{kind}_{idx:02d}.csv"

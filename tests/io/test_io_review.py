@@ -119,7 +119,8 @@ def test_an_index_outside_the_two_digit_layout_is_refused(tmp_path, make_run, in
 
     with pytest.raises(ConfigError, match=r"must be in \[0, 99\]"):
         write_run(_wheel_run(make_run), tmp_path, index)
-    assert not any((tmp_path / "ASPHALT").iterdir())
+    # nothing is written then, not even the terrain folder (an empty ASPHALT/ was left)
+    assert not (tmp_path / "ASPHALT").exists()
 
 
 def test_a_gap_inside_a_longer_one_of_another_stream_keeps_the_longer_end():
