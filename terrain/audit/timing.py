@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,15 @@ class LagSettings:
     min_r2: float = 0.5
 
     def __post_init__(self) -> None:
+        """Refuse settings that are not finite numbers in range (ConfigError naming them): NaN
+        passed every window's excitation test (``min_excitation_rad_s``) or none's R^2 test
+        (``min_r2``), and an infinite ``max_lag_s`` or ``window_s`` searched without end."""
+        config_positive("LagSettings", max_lag_s=self.max_lag_s, lag_step_s=self.lag_step_s,
+                        window_s=self.window_s, step_s=self.step_s)
+        config_positive("LagSettings", allow_zero=True,
+                        min_excitation_rad_s=self.min_excitation_rad_s, min_r2=self.min_r2)
+        if self.min_r2 > 1.0:
+            raise ConfigError(f"LagSettings.min_r2 must be in [0, 1], got {self.min_r2!r}")
         if not 0 < self.lag_step_s < self.max_lag_s:
             raise ConfigError("need 0 < lag_step_s < max_lag_s")
         if not 0 < self.step_s <= self.window_s:

@@ -177,3 +177,16 @@ def test_lag_settings_refuse_a_step_outside_its_range(kwargs):
     from terrain.errors import ConfigError
     with pytest.raises(ConfigError):
         LagSettings(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(min_r2=float("nan")), "min_r2"),                   # no window's R^2 passed
+    (dict(min_excitation_rad_s=float("nan")), "min_excitation_rad_s"),   # every window did
+    (dict(min_r2=-0.1), "min_r2"), (dict(min_r2=1.5), "min_r2"),
+    (dict(max_lag_s=float("inf")), "max_lag_s"), (dict(window_s=float("inf")), "window_s"),
+    (dict(min_r2="0.5"), "min_r2")])
+def test_lag_settings_refuse_thresholds_that_are_not_finite_numbers_in_range(kwargs, field):
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=rf"LagSettings\.{field} must be"):
+        LagSettings(**kwargs)
+    LagSettings(min_r2=0.0, min_excitation_rad_s=0.0)      # both limits off: valid
