@@ -115,6 +115,10 @@ def main(args: argparse.Namespace) -> int:
     if not args.duration_s >= SLIP_WINDOW.window_s:  # runs without a window: nothing to fit
         raise ConfigError(f"--duration-s must be at least one slip window "
                           f"({SLIP_WINDOW.window_s:g} s), got {args.duration_s:g}")
+    try:    # the simulation's own range (SimConfig: at most 7200 s), named as the option
+        next(SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.duration_s).configs())
+    except ConfigError as exc:
+        raise ConfigError(f"--duration-s: {exc}") from None
     if not args.orchard_duration_s <= args.duration_s:  # NaN, or an orchard run to simulate
         try:  # the simulation's own checks (SimConfig: at most 7200 s), before hours of fitting
             list(SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.orchard_duration_s).configs())
