@@ -238,10 +238,15 @@ def model_dir(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        As :func:`output_dir`, or the folder exists and is not empty.
+        As :func:`output_dir`, or the folder exists and is not empty or cannot be listed.
     """
     path = output_dir(value)
-    if path.is_dir() and any(path.iterdir()):
+    try:
+        full = path.is_dir() and any(path.iterdir())
+    except OSError as exc:      # a folder one may write into but not list (mode -wx)
+        raise argparse.ArgumentTypeError(
+            f"cannot use {value!r} as model directory: {_why(exc)}") from None
+    if full:
         raise argparse.ArgumentTypeError(
             f"model directory {value!r} exists and is not empty (give a new or empty one)")
     return path
