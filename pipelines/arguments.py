@@ -739,3 +739,23 @@ def smoothing_from_args(args: argparse.Namespace) -> SmoothingConfig:
     windows = {} if args.reset_windows is None else {"reset_windows": args.reset_windows}
     return SmoothingConfig(dwell_s=args.dwell_s or None,
                            reset_confidence=args.reset_confidence, **windows)
+
+
+def option_params(args: argparse.Namespace, leave_out: tuple[str, ...] = ()) -> dict:
+    """A command's options as MLflow run parameters.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options; names starting with ``_`` are the CLI's own (``_main``, the
+        sub-command's function, which MLflow logged as ``<function main at 0x...>``, a
+        value that changes from run to run) and are left out.
+    leave_out : tuple of str
+        Further option names not to log (e.g. machine-specific paths).
+
+    Returns
+    -------
+    dict
+        Option name -> value, as given.
+    """
+    return {k: v for k, v in vars(args).items() if not k.startswith("_") and k not in leave_out}

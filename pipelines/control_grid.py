@@ -22,8 +22,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, output_dir,
-                                 seed_value, sim_duration_s)
+from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, option_params,
+                                 output_dir, seed_value, sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           add_classifier_options, check_decision_options,
                                           decision_source)
@@ -204,7 +204,7 @@ def main(args: argparse.Namespace) -> int:
     check_grid(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    params = {k: v for k, v in vars(args).items() if not k.startswith("_")}
+    params = option_params(args)
     with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
         estimators = {"husky": args.husky_estimator, "agrimaro": args.agrimaro_estimator}
         gains = {v: default_gains(v, estimators.get(v)) for v in args.vehicles}

@@ -19,7 +19,7 @@ import pandas as pd
 
 from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_features,
                                     slip_table, slip_windows, terrain_columns)
-from pipelines.arguments import DistinctSeeds, output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, option_params, output_dir, seed_value
 from terrain.errors import ConfigError
 from terrain.io.jsonfile import strict_json
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -134,8 +134,8 @@ def main(args: argparse.Namespace) -> int:
     train = ~test
     steady = steady_straight(meta, Yf["yaw_rate"].to_numpy())
     args.out.mkdir(parents=True, exist_ok=True)
-    params = {"n_runs": len(runs), "n_windows": len(X), **{k: str(v) for k, v in vars(
-        args).items() if k not in ("out", "cache_dir")}}
+    params = {"n_runs": len(runs), "n_windows": len(X), **{k: str(v) for k, v in option_params(
+        args, ("out", "cache_dir")).items()}}
     with threadpool_limits(1, "openmp"), tracked_run(EXPERIMENT, "slip-husky", params) as run:
         model = SlipRegressor().fit(X[train], Y[train],
                                     groups=meta["run_id"].to_numpy()[train])

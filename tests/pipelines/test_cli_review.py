@@ -272,3 +272,18 @@ def test_serve_refuses_a_private_or_wildcard_host(host, tmp_path, monkeypatch, c
     assert exit_code(["serve", "--model", "m", "--host", host]) == 2
     assert capsys.readouterr().err == (f"terrain serve: error: --host {host} is not a "
                                        "loopback address (use 127.0.0.1)\n")
+
+
+@pytest.mark.parametrize("command", [["slip-fit"], ["control-grid"]])
+def test_run_parameters_hold_the_options_not_the_clis_own_function(command, tmp_path):
+    # slip-fit logged every parsed name to MLflow, _main too: '<function main at 0x...>',
+    # a parameter that changed from run to run
+    from pipelines.arguments import option_params
+    from terrain.cli import build_parser
+
+    args = build_parser().parse_args(command + ["--out", str(tmp_path / "o")])
+    assert callable(args._main)
+    params = option_params(args, ("out",))
+    assert params and not any(k.startswith("_") for k in params)
+    assert "out" not in params and params["seeds" if "seeds" in params else "terrains"]
+    assert {k: v for k, v in vars(args).items() if k in params} == params
