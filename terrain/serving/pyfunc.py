@@ -418,9 +418,11 @@ def _model_kwargs(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     path = tmp / PIPELINE_FILE
     joblib.dump(pipeline, path)
     window_d = {"window_s": window.window_s, "hop_s": window.hop_s, "rate_hz": window.rate_hz}
-    # the live windows derive yaw_rate_wheels with the training vehicle's track, as its
-    # training windows did (make_windows: each run's own)
-    track_m = derived_track_m(model_vehicle(metadata))
+    # the live windows derive yaw_rate_wheels with the track its training windows used (a
+    # StreamModel's own, terrain.serving.recipes.fit_stream_model), else the training
+    # vehicle's (make_windows: each run's own)
+    track_m = float(metadata["track_m"]) if metadata.get("track_m") is not None \
+        else derived_track_m(model_vehicle(metadata))
     root = Path(__file__).resolve().parents[2]  # the checkout: terrain/, features/
     return dict(
         python_model=str(Path(__file__).with_name("pyfunc_entry.py")),
@@ -454,7 +456,9 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
         Terrain classes, in the order of ``predict_proba``.
     metadata : dict
         Extra model metadata (dataset, signals...); channels, classes and window settings
-        are added to it.
+        are added to it, and ``track_m`` (m) where it lacks one: the track width of the
+        vehicle it names (:func:`features.windows.derived_track_m` of
+        :func:`terrain.serving.model.model_vehicle`).
     input_example : pandas.DataFrame, optional
         Aligned samples in the model's input format, stored with the model.
     progress : bool

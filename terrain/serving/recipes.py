@@ -21,7 +21,7 @@ from sklearn.pipeline import Pipeline
 
 from features.transformers import SerialFeatureUnion, WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
-from features.windows import WindowConfig, make_windows
+from features.windows import WindowConfig, derived_track_m, make_windows
 from terrain.errors import ConfigError
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
@@ -323,6 +323,9 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     Returns
     -------
     StreamModel
+        With ``metadata["track_m"]``, the track width (m) its live windows derive the wheel
+        yaw rate with: the training runs' vehicle's (:func:`features.windows.
+        derived_track_m`), the Husky's when they come from several vehicles.
     """
     window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
                           rate_hz=recipe.rate_hz)
@@ -352,6 +355,11 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         weights = ({"classifier__sample_weight": run_balanced_weights(
             labels, np.asarray(ws.run_ids))} if recipe.run_balanced else {})
         pipe.fit(ws.X, labels, **weights)
+    # the live windows derive yaw_rate_wheels with the track the training windows used
+    # (make_windows: each run's own vehicle's); runs of several vehicles: the Husky's
+    vehicles = {str(r.vehicle).lower() for r in runs}
+    track_m = derived_track_m(vehicles.pop() if len(vehicles) == 1 else None)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
                                                        rate_hz=recipe.rate_hz),
-                       tuple(sorted(np.unique(labels).tolist())))
+                       tuple(sorted(np.unique(labels).tolist())),
+                       metadata=MappingProxyType({"track_m": track_m}))

@@ -144,3 +144,47 @@ def test_the_service_derives_the_live_channels_with_the_models_track(wheel_model
     assert len(got) >= 8
     np.testing.assert_allclose(got, expected[TRACKED.track_m], atol=1e-6)
     assert np.abs(got - expected[HUSKY_TRACK_M]).max() > 1e-3
+
+
+def _labelled(vehicle: str, run_id: str, terrain: str, turn_m_s: float) -> Run:
+    t = np.arange(300) / 10.0
+    wheels = pd.DataFrame({TIME: t, "cur_l": 5.0 + turn_m_s + 0.1 * np.sin(3 * t),
+                           "cur_r": 6.0 - turn_m_s + 0.1 * np.cos(2 * t),
+                           "vel_l": 0.4 - turn_m_s + 0.05 * np.sin(t),
+                           "vel_r": 0.4 + turn_m_s + 0.05 * np.cos(t)})
+    return Run(run_id, "sim", terrain, {"wheels": wheels}, vehicle=vehicle)
+
+
+def test_a_stream_model_fitted_on_tracked_runs_serves_with_their_track():
+    # fit_stream_model's StreamModel had no metadata, so the service derived the live
+    # yaw_rate_wheels with the Husky's track while its training windows used 0.393 m
+    from terrain.serving.recipes import ModelRecipe, fit_stream_model
+
+    recipe = ModelRecipe(signals="wheels", window_s=2.0, rate_hz=10.0, train_hop_s=1.0)
+    runs = [_labelled("tracked", f"r{i}", terrain, turn)
+            for i, (terrain, turn) in enumerate([("GRASS", 0.05), ("GRASS", 0.06),
+                                                 ("ICE", 0.15), ("ICE", 0.16)])]
+    model = fit_stream_model(recipe, runs)
+    assert model_track_m(model.metadata) == TRACKED.track_m
+    mixed = fit_stream_model(recipe, runs[:3] + [replace(runs[3], vehicle="husky")])
+    assert model_track_m(mixed.metadata) == HUSKY_TRACK_M
+    run = _labelled("tracked", "new", "ICE", 0.1)
+    svc = StreamService(model, CataloguePeakTargets(model.classes),
+                        StreamConfig(smoothing=SmoothingConfig(dwell_s=None), hop_s=2.0))
+    frame = run.streams["wheels"]
+    decisions = []
+    for row in frame.itertuples(index=False):
+        decisions += svc.push("wheels", row.t_s, {c: getattr(row, c) for c in WHEEL_CHANNELS})
+    ws = make_windows([run], model.channels, WindowConfig(window_s=2.0, rate_hz=10.0))
+    order = [list(model.pipeline.classes_).index(c) for c in model.classes]
+    expected = model.pipeline.predict_proba(ws.X[:len(decisions)])[:, order]
+    assert len(decisions) >= 10
+    np.testing.assert_allclose([d.proba for d in decisions], expected, atol=1e-6)
+
+
+@pytest.mark.filterwarnings("ignore:.*An input example was not provided")
+def test_saving_keeps_a_track_the_metadata_gives(tmp_path):
+    path = save_model(tmp_path / "m", _mean_model(), ["vel_diff", "yaw_rate_wheels"],
+                      WindowConfig(window_s=2.0, rate_hz=10.0), ["A", "B"],
+                      {"dataset": "borealtc", "track_m": TRACKED.track_m}, progress=False)
+    assert model_track_m(read_model_metadata(path)) == TRACKED.track_m
