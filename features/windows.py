@@ -134,6 +134,25 @@ def derived_track_m(vehicle: str | None) -> float:
     return HUSKY_TRACK_M
 
 
+def runs_track_m(runs: Sequence[Run]) -> float:
+    """The one track width a model trained on ``runs`` derives its live windows with, m.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        Training runs.
+
+    Returns
+    -------
+    float
+        :func:`derived_track_m` of their vehicle when they share one; the Husky's
+        (:data:`HUSKY_TRACK_M`) when they come from several (each training window still used
+        its own run's).
+    """
+    vehicles = {str(r.vehicle).lower() for r in runs}
+    return derived_track_m(vehicles.pop() if len(vehicles) == 1 else None)
+
+
 def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
                          cur_r: np.ndarray, track_m: float = HUSKY_TRACK_M
                          ) -> dict[str, np.ndarray]:

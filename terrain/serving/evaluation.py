@@ -27,7 +27,7 @@ from typing import Callable, Iterator, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from features.windows import WindowConfig, make_windows
+from features.windows import WindowConfig, make_windows, runs_track_m
 from terrain.errors import ConfigError, DataFormatError, first_items
 from terrain.models.cv import iter_splits
 from terrain.run import TIME, Run
@@ -802,7 +802,7 @@ def window_cv(runs: Sequence[Run], recipe: ModelRecipe, hop_s: float, seeds: Seq
     # (0.25 s at 10 Hz is cut as 0.2 s)
     cut_hop_s = window.hop_samples / recipe.rate_hz
     labels = ws.labels.astype(str)
-    F = recipe_features(recipe, ws.channels).fit(ws.X).transform(ws.X)
+    F = recipe_features(recipe, ws.channels, runs_track_m(runs)).fit(ws.X).transform(ws.X)
     by_seed: dict[str, list[float]] = {name: [] for name in smoothings}
     by_run: dict[str, list[float]] = {name: [] for name in smoothings}
     undecided = {name: 0 for name in smoothings}

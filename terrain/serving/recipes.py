@@ -21,7 +21,7 @@ from sklearn.pipeline import Pipeline
 
 from features.transformers import SerialFeatureUnion, WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
-from features.windows import WindowConfig, derived_track_m, make_windows
+from features.windows import HUSKY_TRACK_M, WindowConfig, make_windows, runs_track_m
 from terrain.errors import ConfigError
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
@@ -31,8 +31,8 @@ from terrain.run import Run
 from terrain.serving.model import StreamModel
 
 
-def wheel_features(channels: tuple[str, ...], rate_hz: float,
-                   short_s: float | None = 2.0) -> SerialFeatureUnion:
+def wheel_features(channels: tuple[str, ...], rate_hz: float, short_s: float | None = 2.0,
+                   track_m: float = HUSKY_TRACK_M) -> SerialFeatureUnion:
     """Statistics + physics features of wheel windows (stateless).
 
     Parameters
@@ -43,6 +43,8 @@ def wheel_features(channels: tuple[str, ...], rate_hz: float,
         Window sampling rate, Hz.
     short_s : float or None
         Recent time scale of the physics features, s.
+    track_m : float
+        Track width B of the physics features' yaw-rate command ``(v_R - v_L)/B``, m.
 
     Returns
     -------
@@ -52,7 +54,7 @@ def wheel_features(channels: tuple[str, ...], rate_hz: float,
     return SerialFeatureUnion([
         ("stats", WindowFeatures(channels=channels, rate_hz=rate_hz)),
         ("physics", WheelPhysicsFeatures(channels=channels, rate_hz=rate_hz,
-                                         short_s=short_s))])
+                                         short_s=short_s, track_m=track_m))])
 
 
 #: Feature sets and classifiers a recipe may name.
@@ -260,7 +262,8 @@ def run_balanced_weights(labels: np.ndarray, groups: np.ndarray) -> np.ndarray:
     return w * (w.size / w.sum())
 
 
-def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...]):
+def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...],
+                    track_m: float = HUSKY_TRACK_M):
     """Stateless feature transformer of a recipe.
 
     Parameters
@@ -268,6 +271,9 @@ def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...]):
     recipe : ModelRecipe
     channels : tuple of str
         Window channel order.
+    track_m : float
+        Track width B of the wheel physics features, m (the training runs' vehicle's,
+        :func:`features.windows.derived_track_m`).
 
     Returns
     -------
@@ -276,8 +282,8 @@ def recipe_features(recipe: ModelRecipe, channels: tuple[str, ...]):
     if recipe.features == "stats":
         return WindowFeatures(channels=channels, rate_hz=recipe.rate_hz)
     if recipe.features == "physics":
-        return WheelPhysicsFeatures(channels=channels, rate_hz=recipe.rate_hz)
-    return wheel_features(channels, recipe.rate_hz)
+        return WheelPhysicsFeatures(channels=channels, rate_hz=recipe.rate_hz, track_m=track_m)
+    return wheel_features(channels, recipe.rate_hz, track_m=track_m)
 
 
 def recipe_classifier(recipe: ModelRecipe, random_state: int = 0):
@@ -324,13 +330,16 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     -------
     StreamModel
         With ``metadata["track_m"]``, the track width (m) its live windows derive the wheel
-        yaw rate with: the training runs' vehicle's (:func:`features.windows.
-        derived_track_m`), the Husky's when they come from several vehicles.
+        yaw rate with, which its wheel physics features use too: the training runs'
+        vehicle's (:func:`features.windows.runs_track_m`).
     """
     window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
                           rate_hz=recipe.rate_hz)
     ws = make_windows(runs, recipe.signals, window)
     labels = ws.labels.astype(str)
+    # the live windows derive yaw_rate_wheels with the track the training windows used
+    # (make_windows: each run's own vehicle's), and so do the wheel physics features
+    track_m = runs_track_m(runs)
     if recipe.classifier in ENSEMBLES or recipe.window_ekf:
         # the `terrain train --model <ensemble> [--window-ekf]` estimator, raw windows in
         pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf,
@@ -342,7 +351,7 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         groups = {"groups": np.asarray(ws.run_ids)} if recipe.run_balanced else {}
         pipe.fit(ws.X, labels, **groups)
     else:
-        features = ("features", recipe_features(recipe, ws.channels))
+        features = ("features", recipe_features(recipe, ws.channels, track_m))
         classifier = recipe_classifier(recipe, seed)
         if isinstance(classifier, Pipeline):
             # the SVM: features -> scaler -> calibrated SVC flattened into the SVMPipeline of
@@ -355,10 +364,6 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         weights = ({"classifier__sample_weight": run_balanced_weights(
             labels, np.asarray(ws.run_ids))} if recipe.run_balanced else {})
         pipe.fit(ws.X, labels, **weights)
-    # the live windows derive yaw_rate_wheels with the track the training windows used
-    # (make_windows: each run's own vehicle's); runs of several vehicles: the Husky's
-    vehicles = {str(r.vehicle).lower() for r in runs}
-    track_m = derived_track_m(vehicles.pop() if len(vehicles) == 1 else None)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
                                                        rate_hz=recipe.rate_hz),
                        tuple(sorted(np.unique(labels).tolist())),

@@ -188,3 +188,18 @@ def test_saving_keeps_a_track_the_metadata_gives(tmp_path):
                       WindowConfig(window_s=2.0, rate_hz=10.0), ["A", "B"],
                       {"dataset": "borealtc", "track_m": TRACKED.track_m}, progress=False)
     assert model_track_m(read_model_metadata(path)) == TRACKED.track_m
+
+
+@pytest.mark.parametrize("vehicle", ["tracked", "husky"])
+def test_the_wheel_physics_features_of_a_stream_model_use_the_runs_track(vehicle):
+    from features.wheel_physics import WheelPhysicsFeatures
+    from terrain.serving.recipes import ModelRecipe, fit_stream_model
+
+    recipe = ModelRecipe(signals="wheels", window_s=2.0, rate_hz=10.0, train_hop_s=1.0,
+                         features="stats+physics")
+    runs = [_labelled(vehicle, f"r{i}", terrain, turn)
+            for i, (terrain, turn) in enumerate([("GRASS", 0.05), ("ICE", 0.15)])]
+    pipe = fit_stream_model(recipe, runs).pipeline
+    physics = [t for _, t in pipe.steps[0][1].transformer_list
+               if isinstance(t, WheelPhysicsFeatures)]
+    assert [p.track_m for p in physics] == [derived_track_m(vehicle)]
