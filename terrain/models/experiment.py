@@ -18,7 +18,8 @@ from sklearn.pipeline import Pipeline
 
 from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
-from features.windows import WindowConfig, WindowSet, make_windows, resolve_signals
+from features.windows import (WindowConfig, WindowSet, make_windows, resolve_signals,
+                              runs_track_m)
 from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
@@ -527,7 +528,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     elif on_features:
         factory = (lambda seed: make_svm(config.svm, seed))
     else:
-        mc = config.model_config()
+        mc = replace(config.model_config(), track_m=runs_track_m(runs))   # the window EKF's
         factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, config.dataset, seed))
         fold_jobs = n_jobs
     report = cross_validate(factory, F, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s,
@@ -611,6 +612,7 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
         time blocks, when any).
     """
     check_servable_signals(config.signals)
+    runs = load_dataset(config.dataset, data_dir) if runs is None else runs
     # training uses every window of the training cut (train_hop_s), when one is set
     ws = load_windows(config if config.train_hop_s is None
                       else replace(config, hop_s=config.train_hop_s), runs, data_dir, progress)
@@ -619,8 +621,9 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     check_two_classes(labels, config.dataset, ws.run_ids)
     info: dict = {"model": config.model}
     if config.model != "svm" or config.window_ekf or config.run_balanced:
-        model = make_model(config.model_config(), ws.channels, ws.rate_hz, config.dataset,
-                           config.seeds[0])
+        # the window EKF's skid-steer filter takes the training runs' vehicle's track
+        model = make_model(replace(config.model_config(), track_m=runs_track_m(runs)),
+                           ws.channels, ws.rate_hz, config.dataset, config.seeds[0])
         model = fit_with_groups(model, ws.X, labels, ws.groups)
         vote = getattr(model, "estimator_", model)          # inside WindowEKFClassifier
         if hasattr(vote, "weights_"):

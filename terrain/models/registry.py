@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from features.ekf_signals import EKF_CHANNELS
-from features.windows import DERIVED_WHEEL_CHANNELS
+from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M
 from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
@@ -117,14 +117,18 @@ class ModelConfig:
         so that every run of a class weighs the same
         (:class:`terrain.models.weighting.RunBalancedClassifier`; ``fit`` then needs the
         run of every window, ``groups``); False (default): every window the same.
+    track_m : float
+        Track width B of the training runs' vehicle, m, for ``window_ekf``'s skid-steer
+        filter (:func:`features.windows.runs_track_m`; default the Husky's).
 
     Raises
     ------
     ConfigError
         An unknown ``kind`` or ensemble member; ``max_epochs``, ``minirocket_kernels`` or
         ``minirocket_max_dilations`` not an integer >= 1; ``spectrogram_noise_std`` not a
-        finite number >= 0; ``cnn_seeds`` or ``n_threads`` out of range, ``cnn_seeds > 1``
-        without a CNN, or ``run_balanced`` with ``window_ekf``.
+        finite number >= 0; ``track_m`` not a finite number > 0; ``cnn_seeds`` or
+        ``n_threads`` out of range, ``cnn_seeds > 1`` without a CNN, or ``run_balanced``
+        with ``window_ekf``.
     """
 
     kind: str = "svm"
@@ -140,6 +144,7 @@ class ModelConfig:
     spectrogram_noise_std: float = 0.0
     cnn_seeds: int = 1
     run_balanced: bool = False
+    track_m: float = HUSKY_TRACK_M
 
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
@@ -155,6 +160,7 @@ class ModelConfig:
         config_integer("ModelConfig.minirocket_max_dilations", self.minirocket_max_dilations, 1)
         config_positive("ModelConfig", allow_zero=True,
                         spectrogram_noise_std=self.spectrogram_noise_std)
+        config_positive("ModelConfig", track_m=self.track_m)
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")
@@ -322,7 +328,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         inner = make_model(replace(config, window_ekf=False),
                            tuple(channels) + tuple(EKF_CHANNELS), rate_hz, dataset,
                            random_state, probability)
-        return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset))
+        return WindowEKFClassifier(inner, tuple(channels), rate_hz, WHEEL_RATE_HZ.get(dataset),
+                                   config.track_m)
     if config.run_balanced and kind not in ENSEMBLES and not (kind in CNN_MODELS
                                                               and config.cnn_seeds > 1):
         return run_balanced(make_model(replace(config, run_balanced=False), channels,

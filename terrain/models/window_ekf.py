@@ -18,6 +18,8 @@ from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
 from features.ekf_signals import EKF_CHANNELS, window_ekf_channels
+from features.windows import HUSKY_TRACK_M
+from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.models.cv import fit_with_groups
 
 
@@ -36,6 +38,9 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
     wheel_rate_hz : float or None
         Native rate of the wheel stream, Hz (the EKF's wheel-variance inflation, see
         :func:`~terrain.estimation.skid_steer.skid_steer_on_windows`).
+    track_m : float
+        Track width B of the vehicle whose windows these are, m (the filter's skid-steer
+        kinematics; default the Husky's, :data:`features.windows.HUSKY_TRACK_M`).
 
     Attributes
     ----------
@@ -52,11 +57,12 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
     """
 
     def __init__(self, estimator, channels: tuple[str, ...] = (), rate_hz: float = 100.0,
-                 wheel_rate_hz: float | None = None):
+                 wheel_rate_hz: float | None = None, track_m: float = HUSKY_TRACK_M):
         self.estimator = estimator
         self.channels = channels
         self.rate_hz = rate_hz
         self.wheel_rate_hz = wheel_rate_hz
+        self.track_m = track_m
 
     def augment(self, X: np.ndarray) -> np.ndarray:
         """The windows with their EKF channels appended.
@@ -79,7 +85,8 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
         """
         X = np.asarray(X, dtype=float)
         ekf = window_ekf_channels(X, self.channels, self.rate_hz,
-                                  wheel_rate_hz=self.wheel_rate_hz)
+                                  wheel_rate_hz=self.wheel_rate_hz,
+                                  settings=SkidSteerSettings(track_m=self.track_m))
         return np.concatenate([X, ekf], axis=1)
 
     @property

@@ -345,7 +345,7 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         pipe = make_model(ModelConfig(kind=recipe.classifier, window_ekf=recipe.window_ekf,
                                       spectrogram_noise_std=recipe.spectrogram_noise_std,
                                       cnn_seeds=recipe.cnn_seeds,
-                                      run_balanced=recipe.run_balanced),
+                                      run_balanced=recipe.run_balanced, track_m=track_m),
                           ws.channels, recipe.rate_hz, "borealtc", random_state=seed)
         # the runs reach the members only where they weigh them (fixed vote weights)
         groups = {"groups": np.asarray(ws.run_ids)} if recipe.run_balanced else {}

@@ -21,7 +21,7 @@ from terrain.run import TIME, WHEEL_CHANNELS, Run
 from terrain.serving import CataloguePeakTargets, SmoothingConfig, StreamConfig, StreamService
 from terrain.serving.model import model_track_m, read_model_metadata
 from terrain.serving.pyfunc import predict_windows, save_model
-from terrain.vehicles import HUSKY, TRACKED
+from terrain.vehicles import HUSKY, TRACKED, get_vehicle
 
 
 def _turning_run(vehicle: str, run_id: str = "r1") -> Run:
@@ -203,3 +203,37 @@ def test_the_wheel_physics_features_of_a_stream_model_use_the_runs_track(vehicle
     physics = [t for _, t in pipe.steps[0][1].transformer_list
                if isinstance(t, WheelPhysicsFeatures)]
     assert [p.track_m for p in physics] == [derived_track_m(vehicle)]
+
+
+def _spin_run(run_id: str, terrain: str, chi: float, vehicle: str = "tracked") -> Run:
+    """A 12 s spin at 0.6 rad/s with the sides' speeds chi times the kinematic ones."""
+    t = np.arange(600) / 50.0
+    w = 0.6 + 0.05 * np.sin(t)
+    imu = pd.DataFrame({TIME: t, "wx": 0.0, "wy": 0.0, "wz": w, "ax": 0.01 * np.sin(5 * t),
+                        "ay": 0.01 * np.cos(3 * t), "az": 9.81})
+    half = 0.5 * get_vehicle(vehicle).track_m * w * chi
+    wheels = pd.DataFrame({TIME: t, "cur_l": 5.0 * chi, "cur_r": 5.0 * chi, "vel_l": -half,
+                           "vel_r": half})
+    return Run(run_id, "sim", terrain, {"imu": imu, "wheels": wheels}, vehicle=vehicle)
+
+
+def test_the_window_ekf_of_a_model_uses_the_training_runs_track():
+    # WindowEKFClassifier ran the skid-steer filter of every window with the Husky's track
+    from features.ekf_signals import window_ekf_channels
+    from terrain.estimation.skid_steer import SkidSteerSettings
+    from terrain.models.registry import ModelConfig
+    from terrain.serving.recipes import ModelRecipe, fit_stream_model
+
+    recipe = ModelRecipe(signals="all", window_s=2.0, rate_hz=50.0, train_hop_s=1.0,
+                         window_ekf=True)
+    runs = [_spin_run("a", "GRASS", 1.3), _spin_run("b", "ICE", 2.0)]
+    model = fit_stream_model(recipe, runs).pipeline
+    assert model.track_m == TRACKED.track_m
+    ws = make_windows(runs, model.channels, WindowConfig(window_s=2.0, rate_hz=50.0))
+    own = window_ekf_channels(ws.X, ws.channels, 50.0, wheel_rate_hz=model.wheel_rate_hz,
+                              settings=SkidSteerSettings(track_m=TRACKED.track_m))
+    np.testing.assert_allclose(model.augment(ws.X)[:, len(ws.channels):], own)
+    husky = window_ekf_channels(ws.X, ws.channels, 50.0, wheel_rate_hz=model.wheel_rate_hz)
+    assert np.abs(own - husky).max() > 0.05
+    with pytest.raises(ConfigError, match="ModelConfig.track_m must be a finite value > 0"):
+        ModelConfig(track_m=0.0)
