@@ -132,8 +132,9 @@ def model_track_m(metadata: Mapping[str, Any]) -> float:
     """Track width B of a model's derived wheel channels, m.
 
     The live windows must compute ``yaw_rate_wheels = (vel_r - vel_l) / B`` as the training
-    windows did: the model's ``track_m``, written at saving from the training runs' vehicle
-    (:func:`features.windows.derived_track_m` of :func:`model_vehicle`).
+    windows did: the model's ``track_m``, written at saving (:func:`terrain.serving.pyfunc.
+    save_model`: the track the model was fitted with, else the one of its training runs'
+    vehicle, :func:`features.windows.derived_track_m` of :func:`model_vehicle`).
 
     Parameters
     ----------
