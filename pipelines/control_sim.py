@@ -30,7 +30,6 @@ removed) and more (terrain.control.closed_loop.loop_metrics).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from pipelines.arguments import (input_path, non_negative_number, output_file, seed_value,
@@ -41,6 +40,7 @@ from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
 from terrain.control.estimators import ESTIMATORS
 from terrain.errors import ConfigError
+from terrain.io.jsonfile import strict_json
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -128,7 +128,8 @@ def main(args: argparse.Namespace) -> int:
     ``args.model``) the controller's terrain comes from the classifier's decisions on the
     loop's own samples (:func:`pipelines.control_classifier.decision_source`; ``live-sim`` is
     the default without a model), with ``label`` the true terrain. Writes the metrics (peak slip,
-    energy in J/m, ...) as JSON to ``args.json`` and, if ``args.csv``, the per-step trace.
+    energy in J/m, ...) as standard JSON to ``args.json`` (:func:`terrain.io.jsonfile.strict_json`:
+    a non-finite figure is ``null``) and, if ``args.csv``, the per-step trace.
 
     Parameters
     ----------
@@ -188,7 +189,7 @@ def main(args: argparse.Namespace) -> int:
            "duration_s": args.duration_s, "terrain_source": note,
            "classifier": info, **metrics}
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.json).write_text(json.dumps(out, indent=1) + "\n")
+    Path(args.json).write_text(strict_json(out))
     if args.csv:
         Path(args.csv).parent.mkdir(parents=True, exist_ok=True)
         trace_frame(sim, loop).to_csv(args.csv, index=False, float_format="%.6g")
