@@ -152,15 +152,19 @@ class TractionControlConfig:
                               + ", ".join(f"{f}={v}" for f, v in bad.items()))
         if min(self.kp, self.ki, self.kd) < 0.0:
             raise ConfigError(f"gains must be >= 0, got kp={self.kp}, ki={self.ki}, kd={self.kd}")
-        if min(self.wheel_radius_m, self.omega_max_rad_s, self.derivative_tau_s,
-               self.release_tau_s, self.max_input_age_s) <= 0.0:
+        positive = ("wheel_radius_m", "omega_max_rad_s", "derivative_tau_s", "release_tau_s",
+                    "max_input_age_s")
+        bad = [f"{f}={numeric[f]}" for f in positive if numeric[f] <= 0.0]
+        if bad:
             raise ConfigError("wheel radius, speed limit, time constants and input age limit "
-                              "must be > 0")
+                              f"must be > 0, got {', '.join(bad)}")
         if not 0.0 < self.output_fraction <= 1.0:
             raise ConfigError(f"output_fraction must be in (0, 1], got {self.output_fraction}")
-        if min(self.wheel_speed_threshold_m_s, self.chassis_speed_threshold_m_s,
-               self.power_threshold_m2_s3) < 0.0:
-            raise ConfigError("thresholds must be >= 0")
+        thresholds = ("wheel_speed_threshold_m_s", "chassis_speed_threshold_m_s",
+                      "power_threshold_m2_s3")
+        bad = [f"{f}={numeric[f]}" for f in thresholds if numeric[f] < 0.0]
+        if bad:
+            raise ConfigError(f"thresholds must be >= 0, got {', '.join(bad)}")
 
 
 def config_for_vehicle(vehicle: str, **settings: float) -> tuple[TractionControlConfig, int]:

@@ -33,3 +33,15 @@ def test_the_boundary_settings_that_are_allowed_are_accepted():
                                 wheel_speed_threshold_m_s=0.0, chassis_speed_threshold_m_s=0.0,
                                 power_threshold_m2_s3=0.0)
     assert (cfg.kp, cfg.output_fraction, cfg.power_threshold_m2_s3) == (0.0, 1.0, 0.0)
+
+
+@pytest.mark.parametrize("field, value", [
+    ("wheel_speed_threshold_m_s", -0.01), ("chassis_speed_threshold_m_s", -0.5),
+    ("power_threshold_m2_s3", -0.02), ("derivative_tau_s", 0.0), ("release_tau_s", -1.0),
+    ("max_input_age_s", 0.0), ("wheel_radius_m", -0.1), ("omega_max_rad_s", 0.0)])
+def test_a_setting_out_of_range_is_named_with_its_value(field, value):
+    """The range errors said only "thresholds must be >= 0" or "wheel radius, speed limit,
+    time constants and input age limit must be > 0", not which of the eight settings was
+    wrong nor its value; they now name both (the project's rule for typed errors)."""
+    with pytest.raises(ConfigError, match=rf"{field}={value}"):
+        TractionControlConfig(**{field: value})
