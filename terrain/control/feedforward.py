@@ -166,7 +166,7 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
                 f"feedforward_step: {name} holds a non-finite value {values.tolist()}; the "
                 "limit of that wheel would be lost for good", column=name)
     rim = np.abs(omega) * radius
-    v_est = np.nan_to_num(np.abs(v_est))
+    v_est = np.nan_to_num(np.abs(v_est), nan=0.0, posinf=0.0)   # non-finite: 0
     grown = v_ref + max(a_max, 0.0) * dt_s
     lift = v_est if engaged is None else np.where(engaged, np.minimum(v_est, grown), v_est)
     v_ref = np.maximum(lift, np.minimum(grown, rim))

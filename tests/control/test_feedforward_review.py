@@ -22,6 +22,16 @@ def test_a_nan_speed_estimate_counts_as_zero_and_the_reference_stays_usable():
     np.testing.assert_allclose(again.v_ref_m_s, [0.09, 0.09])
 
 
+@pytest.mark.parametrize("bad", [np.inf, -np.inf])
+def test_an_infinite_speed_estimate_counts_as_zero_too(bad):
+    """The docstring's rule is for any non-finite estimate: +inf became 1.8e308 through
+    nan_to_num, lifting the reference to it, and the wheel's limit was released."""
+    args = (np.array([2.0, 2.0]), 1.0, 0.2, 0.1, 0.02)
+    ff = feedforward_step(np.array([0.05, 0.05]), np.array([bad, 0.0]), *args)
+    np.testing.assert_allclose(ff.v_ref_m_s, [0.07, 0.07])
+    assert ff.engaged.all()
+
+
 @pytest.mark.parametrize("name", ["ICE", "GRASS", "SNOW"])
 def test_the_acceleration_limit_depends_on_the_slip_magnitude_only(name):
     """slip is a magnitude: a braking-signed slip gives the limit of its magnitude (on the
