@@ -29,7 +29,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import MissingColumnError
+from terrain.errors import MissingColumnError, NonFiniteError
 
 TIME = "t_s"
 IMU_CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az")
@@ -142,6 +142,34 @@ class Run:
             raise MissingColumnError(f"run {self.run_id}: stream {stream!r} lacks columns "
                                      f"{missing}", self.source, missing[0])
         return frame
+
+    def require_finite(self, stream: str, columns) -> None:
+        """Refuse a stream whose ``t_s`` or named columns hold a NaN or infinite value.
+
+        For callers that cannot skip a sample: the audit's replay integrates the wheel
+        speeds, and its frames low-pass the IMU channels, where one non-finite sample ends
+        in the integrator's error or spreads over the whole filtered record.
+
+        Parameters
+        ----------
+        stream : str
+            Stream name, a key of :attr:`streams`.
+        columns : iterable of str
+            Columns checked after ``t_s`` (present: :meth:`require_columns` first).
+
+        Raises
+        ------
+        NonFiniteError
+            A column holds a non-finite value (run, stream, column, count and first row
+            named; a :class:`~terrain.errors.DataFormatError`).
+        """
+        frame = self.streams[stream]
+        for col in (TIME, *columns):
+            bad = np.flatnonzero(~np.isfinite(frame[col].to_numpy(dtype=float)))
+            if bad.size:
+                raise NonFiniteError(f"run {self.run_id}: {bad.size} non-finite value(s) in "
+                                     f"{stream} column {col!r}, first at row {bad[0]}",
+                                     self.source, col, int(bad[0]))
 
     def rate_hz(self, stream: str) -> float:
         """Median sampling rate of ``stream`` in Hz.

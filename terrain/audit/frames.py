@@ -34,8 +34,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.audit.replay import (LOWPASS_MIN_SAMPLES, Replay, lowpass,
-                                  refuse_non_finite_columns)
+from terrain.audit.replay import LOWPASS_MIN_SAMPLES, Replay, lowpass
 from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
 from terrain.errors import DataWarning, config_positive
 from terrain.run import TIME, Run
@@ -321,7 +320,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     imu = run.streams.get("imu")
     if imu is not None:
         run.require_columns("imu", ("wz", "ax", "ay"))
-        refuse_non_finite_columns(run, "imu", (TIME, "wz", "ax", "ay"))
+        run.require_finite("imu", ("wz", "ax", "ay"))
     if imu is not None and len(imu) < MIN_IMU_SAMPLES:
         warnings.warn(f"{run.run_id}: IMU stream of {len(imu)} samples ignored (fewer than "
                       f"{MIN_IMU_SAMPLES}, too short to low-pass): audited as a run without "

@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, DataFormatError, NonFiniteError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
@@ -280,36 +280,6 @@ def speed_resolution(values: np.ndarray, tol: float = 0.01) -> float:
     return step if np.all(np.abs(k - np.round(k)) < tol) else 0.0
 
 
-def refuse_non_finite_columns(run: Run, stream: str, columns) -> None:
-    """Refuse a stream whose named columns hold a NaN or infinite value.
-
-    The replay integrates the wheel speeds and the frames low-pass the IMU channels: one
-    non-finite sample would end in the integrator's error or spread over the whole filtered
-    record.
-
-    Parameters
-    ----------
-    run : Run
-        The run (its id and source are named).
-    stream : str
-        Stream name, a key of ``run.streams``.
-    columns : iterable of str
-        Columns checked (present: :meth:`~terrain.run.Run.require_columns` first).
-
-    Raises
-    ------
-    NonFiniteError
-        A column holds a non-finite value (run, stream, column, count and first row named).
-    """
-    frame = run.streams[stream]
-    for col in columns:
-        bad = np.flatnonzero(~np.isfinite(frame[col].to_numpy(dtype=float)))
-        if bad.size:
-            raise NonFiniteError(f"run {run.run_id}: {bad.size} non-finite value(s) in "
-                                 f"{stream} column {col!r}, first at row {bad[0]}", run.source,
-                                 col, int(bad[0]))
-
-
 def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
                terrain: TerrainParams | None = None) -> Replay:
     """Replay one measured run through the simulator (see the module docstring).
@@ -353,7 +323,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     if len(wheels) < 4:
         raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
                               run.source)
-    refuse_non_finite_columns(run, "wheels", (TIME, "vel_l", "vel_r", "cur_l", "cur_r"))
+    run.require_finite("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
     vehicle = get_vehicle(vehicle_name)
     geometry = vehicle.contact_geometry()
     t_w = wheels[TIME].to_numpy(dtype=float)
