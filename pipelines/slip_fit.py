@@ -115,15 +115,9 @@ def main(args: argparse.Namespace) -> int:
     if not args.duration_s >= SLIP_WINDOW.window_s:  # runs without a window: nothing to fit
         raise ConfigError(f"--duration-s must be at least one slip window "
                           f"({SLIP_WINDOW.window_s:g} s), got {args.duration_s:g}")
-    try:    # the simulation's own range (SimConfig: at most 7200 s), named as the option
-        next(SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.duration_s).configs())
-    except ConfigError as exc:
-        raise ConfigError(f"--duration-s: {exc}") from None
+    _simulation_takes("--duration-s", args.duration_s)
     if not args.orchard_duration_s <= args.duration_s:  # NaN, or an orchard run to simulate
-        try:  # the simulation's own checks (SimConfig: at most 7200 s), before hours of fitting
-            list(SlipDataSpec(("ASPHALT",), ("orchard",), (0,), args.orchard_duration_s).configs())
-        except ConfigError as exc:
-            raise ConfigError(f"--orchard-duration-s: {exc}") from None
+        _simulation_takes("--orchard-duration-s", args.orchard_duration_s)
     vehicle = get_vehicle("husky")
     spec = SlipDataSpec(tuple(args.terrains), tuple(args.scenarios),
                         tuple(args.train_seeds) + tuple(args.test_seeds), args.duration_s)
@@ -208,6 +202,15 @@ def main(args: argparse.Namespace) -> int:
     print(f"logged model: {uri}; tables in {args.out}")
     print(run.describe())
     return 0
+
+
+def _simulation_takes(option: str, duration_s: float) -> None:
+    """Refuse a duration the simulation refuses (SimConfig: at most 7200 s), named as the
+    option, before hours of simulating and fitting."""
+    try:
+        next(SlipDataSpec(("ASPHALT",), ("orchard",), (0,), duration_s).configs())
+    except ConfigError as exc:
+        raise ConfigError(f"{option}: {exc}") from None
 
 
 def _long_orchard(args: argparse.Namespace, vehicle, model: SlipRegressor) -> pd.DataFrame:
