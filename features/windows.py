@@ -147,7 +147,7 @@ def runs_track_m(runs: Sequence[Run]) -> float:
     float
         :func:`derived_track_m` of their vehicle when they share one; the Husky's
         (:data:`HUSKY_TRACK_M`) when they come from several (each training window still used
-        its own run's).
+        its own run's) or there is none.
     """
     vehicles = {str(r.vehicle).lower() for r in runs}
     return derived_track_m(vehicles.pop() if len(vehicles) == 1 else None)

@@ -202,18 +202,25 @@ class ExperimentConfig:
         return WindowConfig(window_s=self.window_s, hop_s=self.hop_s, rate_hz=rate,
                             steady_only=self.steady_only)
 
-    def model_config(self) -> ModelConfig:
+    def model_config(self, runs: Sequence[Run] = ()) -> ModelConfig:
         """The classifier settings of this experiment.
+
+        Parameters
+        ----------
+        runs : sequence of Run
+            The runs the model is fitted on: their vehicle's track width for the window
+            EKF (:func:`features.windows.runs_track_m`); none: the Husky's.
 
         Returns
         -------
         ModelConfig
-            Model name, epoch budget, threads, SVM settings, ``window_ekf``, ``cnn_seeds``
-            and ``run_balanced``.
+            Model name, epoch budget, threads, SVM settings, ``window_ekf``, ``cnn_seeds``,
+            ``run_balanced`` and ``track_m``.
         """
         return ModelConfig(kind=self.model, max_epochs=self.max_epochs,
                            n_threads=self.n_threads, svm=self.svm, window_ekf=self.window_ekf,
-                           cnn_seeds=self.cnn_seeds, run_balanced=self.run_balanced)
+                           cnn_seeds=self.cnn_seeds, run_balanced=self.run_balanced,
+                           track_m=runs_track_m(runs))
 
     def as_params(self) -> dict:
         """Flat parameter dict for MLflow.
@@ -528,7 +535,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     elif on_features:
         factory = (lambda seed: make_svm(config.svm, seed))
     else:
-        mc = replace(config.model_config(), track_m=runs_track_m(runs))   # the window EKF's
+        mc = config.model_config(runs)
         factory = (lambda seed: make_model(mc, ws.channels, ws.rate_hz, config.dataset, seed))
         fold_jobs = n_jobs
     report = cross_validate(factory, F, labels, groups, ws.run_ids, ws.t_start_s, ws.t_end_s,
@@ -621,9 +628,8 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     check_two_classes(labels, config.dataset, ws.run_ids)
     info: dict = {"model": config.model}
     if config.model != "svm" or config.window_ekf or config.run_balanced:
-        # the window EKF's skid-steer filter takes the training runs' vehicle's track
-        model = make_model(replace(config.model_config(), track_m=runs_track_m(runs)),
-                           ws.channels, ws.rate_hz, config.dataset, config.seeds[0])
+        model = make_model(config.model_config(runs), ws.channels, ws.rate_hz, config.dataset,
+                           config.seeds[0])
         model = fit_with_groups(model, ws.X, labels, ws.groups)
         vote = getattr(model, "estimator_", model)          # inside WindowEKFClassifier
         if hasattr(vote, "weights_"):
