@@ -37,7 +37,9 @@ import pandas as pd
 from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFileError,
                             EncodingError, ImplausibleValueError, MissingColumnError,
                             NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
-                            TimestampError, UnreadableFileError, duplicated, first_items)
+                            TimestampError, UnreadableFileError, config_integer, duplicated,
+                            first_items)
+from terrain.io.align import check_gap_factor
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
@@ -141,7 +143,8 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
         :data:`NON_FINITE_WORDS`; a number beyond the float64 range (``1e400``) is not one:
         it raises :class:`ImplausibleValueError`.
     gap_factor : float
-        A timestamp step larger than ``gap_factor`` times the median step is reported as a gap.
+        A timestamp step larger than ``gap_factor`` times the median step is reported as a gap
+        (a finite number > 1, :func:`terrain.io.align.check_gap_factor`).
 
     Returns
     -------
@@ -155,7 +158,12 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     UnreadableFileError, EncodingError, EmptyFileError, RaggedRowError, MissingColumnError,
     NonNumericError, NonFiniteError, TimestampError, ImplausibleValueError, UnitError
         All :class:`DataFormatError`, with file, column and file line.
+    ConfigError
+        ``max_repair_run`` not an integer >= 0, or ``gap_factor`` not a finite number > 1
+        (checked before the file is read).
     """
+    config_integer("read_stream_csv.max_repair_run", max_repair_run, 0)
+    check_gap_factor("read_stream_csv", gap_factor)
     path = Path(path)
     text = read_text(path)
     if "\r" in text:   # CR LF and a lone CR (classic Mac OS) end a line as LF does

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import NonFiniteError, NonNumericError, TimestampError
+from terrain.errors import ConfigError, NonFiniteError, NonNumericError, TimestampError
 from terrain.io.align import overlap_grid
 from terrain.io.measured import (read_folder_run, read_runs_dir, read_runs_path,
                                  read_stream_csv)
@@ -211,3 +211,31 @@ def test_a_dataset_with_an_empty_terrain_list_is_refused():
 
     with pytest.raises(DataFormatError, match=r"'datasets.vulpi.terrains' is an empty list"):
         manifest_terrains({"datasets": {"vulpi": {"terrains": []}}}, "manifest.json")
+
+
+@pytest.mark.parametrize("options, named", [
+    ({"gap_factor": 0.5}, "gap_factor"),          # nearly every step a gap
+    ({"gap_factor": float("nan")}, "gap_factor"),  # no step a gap, repairs across gaps
+    ({"gap_factor": float("inf")}, "gap_factor"),
+    ({"max_repair_run": -1}, "max_repair_run"),    # every burst refused, said as too long
+    ({"max_repair_run": 1.5}, "max_repair_run"),
+    ({"max_repair_run": True}, "max_repair_run"),
+])
+def test_reader_options_out_of_range_are_refused_by_name(tmp_path, options, named):
+    # before, gap_factor NaN read every timestamp gap as no gap (a NaN burst across one was
+    # interpolated) and max_repair_run -1 refused a single NaN as a burst too long to repair
+    path = _write(tmp_path, HEADER + "\n" + _imu_rows())
+    with pytest.raises(ConfigError, match=named):
+        read_stream_csv(path, "imu", **options)
+
+
+def test_reader_option_bounds_still_read(tmp_path):
+    # max_repair_run 0 repairs nothing (a NaN is refused); a factor just above 1 is allowed
+    text = HEADER + "\n" + _imu_rows(20) + "".join(
+        f"{0.2 + i * 0.01:.2f},{'nan' if i == 1 else '0.1'},0.2,0.3,0.1,0.2,9.8\n"
+        for i in range(20))
+    path = _write(tmp_path, text)
+    frame, report = read_stream_csv(path, "imu", gap_factor=1.01)
+    assert report.repaired == {"wx": 1} and np.isfinite(frame["wx"]).all()
+    with pytest.raises(NonFiniteError):
+        read_stream_csv(path, "imu", max_repair_run=0)
