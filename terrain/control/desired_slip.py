@@ -338,14 +338,15 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     table : SlipTable
     terrain : str or None
         Decided class (case-insensitive); None or a class not in the table -> fallback.
-    confidence : float
+    confidence : float or None
         Probability of the decided class, in [0, 1]; below ``table.config.min_confidence``,
         above 1 (a percentage: 45 would have passed a 0.5 threshold; up to
-        ``CONFIDENCE_ROUNDING`` above 1 is rounding and trusted) or non-finite -> fallback.
-    decision_age_s : float
+        ``CONFIDENCE_ROUNDING`` above 1 is rounding and trusted), non-finite or None (a
+        decision without one) -> fallback.
+    decision_age_s : float or None
         Time since the decision, s; above ``table.config.max_decision_age_s``, negative (a
-        decision stamped after the time it is used at: clocks that disagree) or non-finite
-        -> fallback (:func:`terrain.control.traction.age_is_fresh`, the rule of the traction
+        decision stamped after the time it is used at: clocks that disagree), non-finite or
+        None -> fallback (:func:`terrain.control.traction.age_is_fresh`, the rule of the traction
         step's input age too).
 
     Returns
@@ -354,7 +355,7 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     """
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
-    trusted = (key in table.entries and np.isfinite(confidence)
+    trusted = (key in table.entries and confidence is not None and np.isfinite(confidence)
                and cfg.min_confidence <= confidence <= 1.0 + CONFIDENCE_ROUNDING
                and age_is_fresh(decision_age_s, cfg.max_decision_age_s))
     return table.entries[key] if trusted else table.fallback

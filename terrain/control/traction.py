@@ -350,17 +350,17 @@ def age_is_fresh(age_s: float, max_age_s: float) -> bool:
 
     Parameters
     ----------
-    age_s : float
-        Time since the input was made, s.
+    age_s : float or None
+        Time since the input was made, s (None: not known).
     max_age_s : float
         Oldest trusted age, s (>= 0; the age equal to it is trusted).
 
     Returns
     -------
     bool
-        False for an age that is older, negative or not finite (NaN, +-inf).
+        False for an age that is older, negative, not finite (NaN, +-inf) or None.
     """
-    return math.isfinite(age_s) and 0.0 <= age_s <= max_age_s
+    return age_s is not None and math.isfinite(age_s) and 0.0 <= age_s <= max_age_s
 
 
 class TractionState(NamedTuple):

@@ -164,6 +164,8 @@ def test_fallback_takes_each_target_from_its_own_most_conservative_entry():
     ("GRASS", 0.5, 0.0, "GRASS"),           # exactly min_confidence is not below it
     ("GRASS", 0.49, 0.0, FALLBACK_LABEL),   # min_confidence 0.5: the majority of the mass
     ("GRASS", 0.9, 4.01, FALLBACK_LABEL),   # max age 4 s: two 2 s classification windows
+    ("GRASS", None, 0.0, FALLBACK_LABEL),   # a decision without a confidence (was TypeError)
+    ("GRASS", 0.9, None, FALLBACK_LABEL),   # or without a stamp
 ])
 def test_select_target_falls_back_when_untrusted(table, terrain, confidence, age, expect):
     assert select_target(table, terrain, confidence, age).terrain == expect
