@@ -236,11 +236,16 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
         A run of ``meta`` is not among ``runs`` (its id is named).
     EstimationError
         A run without an ``imu`` or ``wheels`` stream (its id is named).
+    NonFiniteError
+        A non-finite time, ``wz``, ``vel_l`` or ``vel_r`` sample (run, column and row named):
+        the heading integrates the gyro, so one would make every later window NaN.
     """
     out = np.full((len(meta), 2), np.nan)
     by_id = {r.run_id: r for r in runs}
     for rid, idx in meta.groupby("run_id").indices.items():
         run = _run_with(by_id, rid, ("imu", "wheels"))
+        run.require_finite("imu", ("wz",))
+        run.require_finite("wheels", ("vel_l", "vel_r"))
         imu, wh = run.streams["imu"], run.streams["wheels"]
         t = imu[TIME].to_numpy()
         yaw = np.concatenate([[0.0], np.cumsum(np.diff(t) * imu["wz"].to_numpy()[:-1])])
@@ -298,6 +303,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         is named).
     EstimationError
         A run without a ``wheels`` or ``truth`` stream (its id is named).
+    NonFiniteError
+        A non-finite time, wheel speed, truth position or (with an IMU) ``wz`` sample (run,
+        column and row named): dead reckoning integrates them, so one would make the run's
+        errors NaN.
 
     Warns
     -----
@@ -310,6 +319,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     n_clipped = n_samples = n_runs_clipped = 0
     for rid in run_ids:
         run = _run_with(by_id, rid, ("wheels", "truth"))
+        run.require_finite("wheels", ("vel_l", "vel_r"))
+        run.require_finite("truth", ("x", "y"))
+        if "imu" in run.streams:
+            run.require_finite("imu", ("wz",))
         sel = np.flatnonzero(meta["run_id"].to_numpy() == rid)
         if not sel.size:    # no prediction to interpolate onto its wheel samples
             raise ConfigError(f"run {rid} has no window in meta: no slip prediction to "

@@ -1003,3 +1003,36 @@ def test_slip_feature_matrix_refuses_windows_of_another_channel_count_than_named
                                           rf"{len(SLIP_CHANNELS)}, n_samples\), got "
                                           rf"\(2, {len(SLIP_CHANNELS) + extra}, 100\)"):
         slip_feature_matrix(x, SLIP_CHANNELS, 50.0, HUSKY)
+
+
+def test_observer_slip_refuses_a_non_finite_gyro_sample_by_name():
+    # one NaN gyro sample at 1 s went into the heading's cumulative sum and turned the
+    # observer slip of every later window of the run into NaN, left out of n_scored silently
+    from terrain.errors import NonFiniteError
+    from terrain.slip.evaluation import observer_window_slip
+    run = _still_run(imu=True)
+    meta = pd.DataFrame({"run_id": [run.run_id], "t_start_s": [6.0], "t_end_s": [8.0]})
+    assert np.isfinite(observer_window_slip([run], meta, HUSKY.track_m)).all()
+    run.streams["imu"].loc[10, "wz"] = np.nan
+    with pytest.raises(NonFiniteError, match="sim/ASPHALT/a/0.*imu column 'wz'.*row 10"):
+        observer_window_slip([run], meta, HUSKY.track_m)
+    run = _still_run(imu=True)
+    run.streams["wheels"].loc[3, "vel_r"] = np.inf
+    with pytest.raises(NonFiniteError, match="wheels column 'vel_r'"):
+        observer_window_slip([run], meta, HUSKY.track_m)
+
+
+def test_odometry_errors_refuse_a_non_finite_sample_by_name():
+    # one NaN wheel speed or gyro sample made the dead-reckoned errors of the whole run NaN,
+    # a row of NaN percentages without a word
+    from terrain.errors import NonFiniteError
+    run = _still_run(imu=True)
+    meta = pd.DataFrame({"run_id": [run.run_id], "t_start_s": [0.0], "t_end_s": [2.0]})
+    pred = np.array([[0.0, 0.0, 1.0, 0.0]])
+    ok = odometry_errors([run], meta, pred, HUSKY.track_m, [run.run_id])
+    assert np.isfinite(ok[["plain_err_pct", "gyro_heading_err_pct"]].to_numpy()).all()
+    for stream, col in (("wheels", "vel_l"), ("imu", "wz"), ("truth", "y")):
+        bad = _still_run(imu=True)
+        bad.streams[stream].loc[40, col] = np.nan
+        with pytest.raises(NonFiniteError, match=f"{stream} column '{col}', first at row 40"):
+            odometry_errors([bad], meta, pred, HUSKY.track_m, [bad.run_id])
