@@ -67,6 +67,26 @@ def as_windows(X) -> np.ndarray:
     return X[:, None, :] if X.ndim == 2 else X
 
 
+def segment_samples(rate_hz: float, segment_s: float, n_samples: int) -> int:
+    """Samples of one STFT segment: ``segment_s`` at ``rate_hz``, clipped to the window.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Sampling rate, Hz.
+    segment_s : float
+        Segment length, s.
+    n_samples : int
+        Samples of one window.
+
+    Returns
+    -------
+    int
+        The nearest whole number of samples, at least 2 and at most ``n_samples``.
+    """
+    return int(np.clip(round(segment_s * rate_hz), 2, n_samples))
+
+
 def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: float
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Per-channel log power short-time spectra (Hann window, one-sided).
@@ -78,7 +98,9 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     rate_hz : float
         Sampling rate, Hz.
     segment_s : float
-        STFT segment length, s (clipped to the window length).
+        STFT segment length, s (:func:`segment_samples`: clipped to the window length, at
+        least 2 samples; a segment of fewer than 3 samples is tapered with a rectangular
+        window, since a Hann window of 2 samples is all zeros).
     hop_s : float
         Hop between segments, s.
 
@@ -95,11 +117,12 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
         ``rate_hz``, ``segment_s`` or ``hop_s`` not a finite number > 0.
     """
     config_positive("log_spectrogram", rate_hz=rate_hz, segment_s=segment_s, hop_s=hop_s)
-    n_samples = X.shape[-1]
-    seg = int(np.clip(round(segment_s * rate_hz), 2, n_samples))
+    seg = segment_samples(rate_hz, segment_s, X.shape[-1])
     hop = max(1, int(round(hop_s * rate_hz)))
     frames = np.lib.stride_tricks.sliding_window_view(X, seg, axis=-1)[..., ::hop, :]
-    spec = np.fft.rfft(frames * np.hanning(seg).astype(np.float32), axis=-1)
+    # a Hann window of 2 samples is all zeros (a constant image): shorter ones are rectangular
+    taper = np.hanning(seg) if seg >= 3 else np.ones(seg)
+    spec = np.fft.rfft(frames * taper.astype(np.float32), axis=-1)
     power = np.log10(np.abs(spec) ** 2 + POWER_FLOOR).astype(np.float32)
     return np.swapaxes(power, -1, -2), np.fft.rfftfreq(seg, 1.0 / rate_hz)
 
@@ -570,7 +593,7 @@ class SpectrogramCNNClassifier(_WindowCNN):
         return np.concatenate([Z, copy]), np.concatenate([y_idx, y_idx])
 
     def _band_mask(self, n_samples: int, shape) -> np.ndarray | None:
-        seg = int(np.clip(round(self.segment_s * self.rate_hz), 2, n_samples))
+        seg = segment_samples(self.rate_hz, self.segment_s, n_samples)
         self.freqs_hz_ = np.fft.rfftfreq(seg, 1.0 / self.rate_hz)
         if self.band_limits_hz is None:
             return None

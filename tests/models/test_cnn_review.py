@@ -231,3 +231,17 @@ def test_spectrogram_settings_that_are_not_finite_and_positive_are_config_errors
         log_spectrogram(X, **settings)
     with pytest.raises(ConfigError, match=f"{setting} must be a finite value > 0"):
         SpectrogramCNNClassifier(**ONE_EPOCH, **settings).fit(X, y)
+
+
+@pytest.mark.parametrize("segment_s, n_samples", [(0.02, 200), (0.01, 200), (0.5, 2)])
+def test_a_segment_of_two_samples_gives_a_spectrum_not_a_constant_image(segment_s, n_samples):
+    # 0.02 s at 100 Hz is 2 samples: np.hanning(2) is [0, 0], so every bin sat at the power
+    # floor and the network trained on a constant; 0.01 s was clipped up to those 2, and a
+    # 2-sample window clipped every segment down to them. Now rectangular: sum and difference
+    X = np.random.default_rng(1).normal(size=(2, 1, n_samples)).astype(np.float32)
+    spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=segment_s, hop_s=0.1)
+    assert freqs.tolist() == [0.0, RATE_HZ / 2]
+    pair = X[..., :2]
+    expect = np.stack([pair.sum(-1), pair[..., 0] - pair[..., 1]], axis=-1)
+    np.testing.assert_allclose(spec[..., 0], np.log10(expect ** 2 + POWER_FLOOR), rtol=1e-4)
+    assert np.ptp(spec) > 1.0
