@@ -20,3 +20,39 @@ def test_an_error_still_over_the_tolerance_at_the_end_never_converged():
     t = np.array([10.0, 11.0, 12.0, 13.0])
     assert _conv_time(t, np.array([0.01, 0.01, 0.01, 0.2])) == np.inf
     assert _conv_time(t, np.array([0.2, 0.2, 0.2, 0.2])) == np.inf
+
+
+class _Result:
+    """A stand-in for a simulation or an EKF result: only the attributes read."""
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+
+def test_average_nees_is_the_time_mean_of_the_run_average_after_t_min(monkeypatch):
+    # planted NEES sequences of two runs (column 0 of the state errors) on t = 0..3 s
+    from pipelines.validation import harness
+    from terrain.estimation.consistency import mean_chi2_bounds
+
+    planted = {0: [30.0, 12.0, 12.0, 6.0], 1: [30.0, 12.0, 12.0, 50.0]}
+    t = np.arange(4.0)
+
+    def estimate(run, settings, store_covariance=False):
+        x = np.zeros((4, 12))
+        x[:, 0] = planted[run.seed]
+        return _Result(t_s=t, x=x, P=None, nis=np.ones(4), dof=np.ones(4))
+
+    monkeypatch.setattr(harness, "simulate_agrimaro",
+                        lambda terrain, seed, *a: _Result(run=_Result(seed=seed)))
+    monkeypatch.setattr(harness, "estimate_agrimaro", estimate)
+    monkeypatch.setattr(harness, "agrimaro_truth_states", lambda result, grid: 0.0)
+    monkeypatch.setattr(harness, "state_errors", lambda x, truth, angles: x - truth)
+    monkeypatch.setattr(harness, "nees", lambda e, P: e[:, 0])
+    row = harness.agrimaro_consistency("GRASS", seeds=[0, 1], t_min_s=1.0,
+                                       settings_fn=lambda run: None)
+    # run average from t = 1 s: [12, 12, 28]; its time mean, not its median (12)
+    assert row.anees == np.mean([12.0, 12.0, 28.0])
+    lo, hi = mean_chi2_bounds(12, 2)
+    assert lo < 12.0 < hi < 28.0 and row.nees_step_bounds == (lo, hi)
+    assert row.nees_fraction_in_bounds == 2 / 3          # 28 is over the upper bound
+    assert row.n_runs == 2 and row.nis_mean == 1.0
