@@ -56,3 +56,22 @@ def test_average_nees_is_the_time_mean_of_the_run_average_after_t_min(monkeypatc
     assert lo < 12.0 < hi < 28.0 and row.nees_step_bounds == (lo, hi)
     assert row.nees_fraction_in_bounds == 2 / 3          # 28 is over the upper bound
     assert row.n_runs == 2 and row.nis_mean == 1.0
+
+
+def test_measured_summary_spans_the_run_not_its_clock_and_medians_the_turns():
+    # a simulated Husky run whose clock starts at 100 s (logged runs rarely start at 0)
+    from pipelines.validation.harness import measured_skid_steer_summary, simulate_husky
+    from terrain.estimation.skid_steer import estimate_skid_steer, icr_chi
+    from terrain.run import TIME, Run
+
+    run = simulate_husky("ASPHALT", 1, 12.0, "random").run
+    run = Run(run.run_id, run.dataset, run.terrain,
+              {k: v.assign(**{TIME: v[TIME] + 100.0}) for k, v in run.streams.items()},
+              run.vehicle, run.source, run.meta)
+    row = measured_skid_steer_summary([run]).iloc[0]
+    ekf = estimate_skid_steer(run)
+    turning = np.abs(ekf.state("yaw_rate")) > 0.15
+    assert row["duration_s"] == ekf.t_s[-1] - ekf.t_s[0] and 11.9 < row["duration_s"] < 12.0
+    assert row["turning_fraction"] == turning.mean() and 0.0 < turning.mean() < 1.0
+    assert row["chi_ekf"] == np.nanmedian(icr_chi(ekf)[turning])
+    assert row["gyro_bias"] == ekf.state("gyro_bias")[-1]
