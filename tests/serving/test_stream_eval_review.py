@@ -181,3 +181,44 @@ def test_window_cv_run_mean_accuracy_weighs_every_run_the_same(monkeypatch):
     assert cv["pooled_accuracy"] == {"raw": 0.75}
     assert cv["run_mean_accuracy"] == {"raw": 0.5}
     assert cv["n_windows"] == 4 and cv["n_runs"] == 2
+
+
+def test_held_out_streams_pass_their_seed_hop_gap_and_window_on(monkeypatch):
+    """The classifier seed, the decision hop, the switch dropout and the recipe's window
+    reach the fit, the replay, the stream and the scoring of every fold."""
+    from terrain.serving import evaluation
+    from terrain.serving.recipes import RECIPES
+
+    runs = [_run(3 * k + i, t) for k, t in enumerate(("ICE", "SNOW", "ASPHALT"))
+            for i in range(3)]
+    fitted, replayed, scored = [], [], []
+
+    class Model:
+        classes = ("ASPHALT", "ICE", "SNOW")
+
+    def fit(recipe, train, seed):
+        fitted.append(seed)
+        return Model()
+
+    def replay(model, stream, hop_s):
+        replayed.append((hop_s, stream.meta["segments"]))
+        return np.zeros(1), np.full((1, 3), 1 / 3)
+
+    def score(segments, t, proba, classes, config, hop_s, window_s):
+        scored.append((hop_s, window_s, config))
+        return evaluation.StreamScore(1.0, (), 1)
+
+    monkeypatch.setattr(evaluation, "fit_stream_model", fit)
+    monkeypatch.setattr(evaluation, "raw_decisions", replay)
+    monkeypatch.setattr(evaluation, "score_smoothing", score)
+    config = SmoothingConfig(dwell_s=3.0)
+    recipe = RECIPES["wheels"]
+    rows = evaluation.held_out_streams(runs, recipe, 7, {"f": config}, hop_s=0.25,
+                                       n_splits=3, switch_gap_s=1.5)
+    assert len(rows) == 3 and fitted == [7, 7, 7]
+    assert scored == [(0.25, recipe.window_s, config)] * 3 and recipe.window_s > 0
+    for hop_s, segments in replayed:
+        assert hop_s == 0.25 and len(segments) == 3
+        ends = [s["t_from_s"] + s["t_offset_s"] + s["duration_s"] for s in segments]
+        starts = [s["t_from_s"] + s["t_offset_s"] for s in segments]
+        np.testing.assert_allclose(np.subtract(starts[1:], ends[:-1]), 1.5, atol=1e-9)
