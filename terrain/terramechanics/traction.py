@@ -695,12 +695,21 @@ def traction_peak(curve: TractionCurve, saturation: float = 0.95) -> TractionPea
     saturation : float
         For curves rising monotonically up to ``s = 1`` (Janosi, Brixius, Burckhardt with
         ``c3 = 0``), the peak is taken as the smallest slip reaching this fraction of the
-        maximum (the curve is flat beyond it).
+        maximum (the curve is flat beyond it); in (0, 1].
 
     Returns
     -------
     TractionPeak
+
+    Raises
+    ------
+    ConfigError
+        ``saturation`` not a number in (0, 1] (a percentage such as 95 gave slip 0).
     """
+    config_numbers("traction_peak", saturation=saturation)
+    if not 0.0 < saturation <= 1.0:
+        raise ConfigError(f"traction_peak: saturation must be a fraction in (0, 1], got "
+                          f"{saturation}")
     grid = np.linspace(0.0, 1.0, 20001)
     mu = traction_coefficient(curve, grid)
     i_max = int(np.argmax(mu))
