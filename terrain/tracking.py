@@ -524,7 +524,11 @@ def tracked_run(experiment: str, run_name: str | None = None,
                             tags={"code_version": version, **nesting, **(tags or {})})
     handle = TrackedRun(run.info.run_id, experiment, uri, client)
     if fluent:
-        mlflow.start_run(run_id=handle.run_id, nested=parent is not None)
+        try:
+            mlflow.start_run(run_id=handle.run_id, nested=parent is not None)
+        except BaseException:   # (e.g. the caller set another experiment): not left RUNNING
+            client.set_terminated(handle.run_id, status="FAILED")
+            raise
     status = "FAILED"
     try:
         handle.log_params({"code_version": version, **(params or {})})

@@ -431,3 +431,27 @@ def test_code_version_is_the_commit_marked_dirty_by_modified_tracked_files(
     (tmp_path / "plain").mkdir()
     monkeypatch.setattr(tracking, "__file__", str(tmp_path / "plain" / "tracking.py"))
     assert code_version() == f"terrain-{terrain.__version__}"
+
+
+def test_a_run_that_cannot_become_active_is_not_left_running(tmp_path, monkeypatch):
+    """The caller chose another experiment (``mlflow.set_experiment``): MLflow refuses to make
+    a run of ``terrain-test`` active. The run created for it ends ``FAILED``; it was left
+    ``RUNNING`` for good, and the error reaches the caller."""
+    from mlflow.exceptions import MlflowException
+    from mlflow.tracking import fluent
+
+    uri = f"sqlite:///{tmp_path / 'mine.db'}"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+    previous = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(uri)                       # fluent: the run would be active
+    client = mlflow.MlflowClient(tracking_uri=uri)
+    monkeypatch.setattr(fluent, "_active_experiment_id", client.create_experiment("theirs"))
+    try:
+        with pytest.raises(MlflowException, match="active experiment"):
+            with tracked_run("terrain-test", announce=False):
+                pass
+        assert mlflow.active_run() is None
+    finally:
+        mlflow.set_tracking_uri(previous)
+    (run,) = client.search_runs([client.get_experiment_by_name("terrain-test").experiment_id])
+    assert run.info.status == "FAILED"
