@@ -507,10 +507,90 @@ def test_history_refuses_rows_of_several_seeds():
         score_rows(both, ["A", "B"], (1, 2), {})
 
 
-@pytest.mark.parametrize("history", [(1, 2.5), (True,), (1, 0)])
+@pytest.mark.parametrize("history", [(1, 2.5), (True,), (1, 0), (1, 5, 1)])
 def test_history_lengths_must_be_integers_before_any_cell(history):
     # history=(1, 2.5) passed the ">= 1" check; every cell then cross-validated its model
     # and failed scoring it with pandas' bare "window must be an integer 0 or greater"
     with pytest.raises(ConfigError, match="history"):
         CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
                       datasets=("vulpi",), seeds=(0,), history=history)
+
+
+def test_the_grid_holds_every_combination_of_its_axes_once():
+    # each (model, signals, window, dataset, seed) is one cell: a seed or any axis value
+    # left out would be a cell silently never run
+    import itertools
+
+    config = CompareConfig(models=("svm", "cnn"), signals=("imu", "all"), windows_s=(1.0, 2.0),
+                           datasets=("vulpi",), seeds=(0, 1, 2), history=(1,))
+    cells = config.cells()
+    got = [(c.model, c.signals, c.window_s, c.dataset, c.seed) for c in cells]
+    assert len(got) == 2 * 2 * 2 * 1 * 3
+    assert set(got) == set(itertools.product(("svm", "cnn"), ("imu", "all"), (1.0, 2.0),
+                                             ("vulpi",), (0, 1, 2)))
+    assert {(c.protocol, c.train_hop_s) for c in cells} == {("grouped", None)}
+
+
+def test_a_cell_cross_validates_with_its_own_seed_and_reports_means_over_folds(monkeypatch):
+    # the cell's seed must reach the CV (its split and models): every seed of a grid gave
+    # the same cell otherwise; the times per fold are means over the folds
+    from types import SimpleNamespace
+
+    import terrain.models.compare as compare
+
+    ws = SimpleNamespace(X=np.zeros((4, 1, 5)), run_ids=np.array(["r1", "r1", "r2", "r2"]),
+                         t_start_s=np.array([0.0, 2.0, 0.0, 2.0]),
+                         t_end_s=np.array([2.0, 4.0, 2.0, 4.0]), channels=("ax",),
+                         rate_hz=50.0)
+    labels = np.array(["A", "A", "B", "B"])
+    monkeypatch.setattr(compare, "cell_windows", lambda cell, n: compare.CellWindows(
+        ws, labels, ws.run_ids, None, (), 0, ()))
+    seen = {}
+
+    def fake_cv(factory, X, y, groups, run_ids, t0, t1, protocol, seeds, n_splits, **kw):
+        seen.update(seeds=seeds, n_splits=n_splits)
+        pred = pd.DataFrame({"seed": seeds[0], "fold": [0, 0, 1, 1], "run": run_ids,
+                             "group": groups, "t_start_s": t0, "t_end_s": t1, "true": y,
+                             "predicted": y, "proba_A": [0.9, 0.8, 0.2, 0.1],
+                             "proba_B": [0.1, 0.2, 0.8, 0.9]})
+        folds = pd.DataFrame({"fit_s": [1.0, 3.0], "infer_ms_per_window": [0.5, 1.5]})
+        return SimpleNamespace(predictions=pred, classes=["A", "B"], folds=folds)
+
+    monkeypatch.setattr(compare, "cross_validate", fake_cv)
+    config = CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
+                           datasets=("vulpi",), seeds=(7,), history=(1,), n_splits=3)
+    res = compare.run_cell(config.cells()[0], config)
+    assert seen == {"seeds": (7,), "n_splits": 3}
+    (row,) = res["rows"]
+    assert (row["seed"], row["fit_s_per_fold"], row["infer_ms_per_window"]) == (7, 2.0, 1.0)
+    assert row["accuracy"] == 1.0 and (res["predictions"]["seed"] == 7).all()
+
+
+def test_summary_table_keeps_cells_of_other_training_hops_apart():
+    from terrain.models.compare import summary_table
+
+    # the same cell trained on non-overlapping windows and on 0.5 s hops: two rows, never
+    # one mean over both as if they were two seeds
+    rows = pd.concat([_seed_rows({"accuracy": [0.8], "balanced_accuracy": [0.8],
+                                  "macro_f1": [0.8], "run_vote_accuracy": [0.8]},
+                                 train_hop_s=np.nan),
+                      _seed_rows({"accuracy": [0.9], "balanced_accuracy": [0.9],
+                                  "macro_f1": [0.9], "run_vote_accuracy": [0.9]},
+                                 train_hop_s=0.5)])
+    table = summary_table(rows).set_index("train_hop_s")
+    assert sorted(table.index) == [0.5, 2.0] and (table["n_seeds"] == 1).all()
+    assert table.loc[0.5, "accuracy_mean"] == 0.9 and table.loc[2.0, "accuracy_mean"] == 0.8
+
+
+def test_a_dask_address_is_used_and_no_local_cluster_is_started(monkeypatch):
+    import distributed
+    from distributed import LocalCluster, get_client
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster:
+        made = []
+        monkeypatch.setattr(distributed, "LocalCluster",
+                            lambda *a, **k: made.append(1) or cluster)
+        with joblib_backend("dask", cluster.scheduler_address) as n_jobs:
+            assert get_client().scheduler.address == cluster.scheduler_address
+        assert n_jobs == -1 and made == []
