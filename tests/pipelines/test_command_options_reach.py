@@ -276,6 +276,45 @@ def test_compare_n_jobs_takes_any_integer_but_zero(text, workers):
     assert _n_jobs(text) == workers
 
 
+@pytest.mark.parametrize("option, workers, backend", [
+    ([], -1, ("loky", None)), (["--n-jobs", "2"], 2, ("loky", None)),
+    (["--n-jobs", "1"], 1, ("loky", None)),
+    (["--backend", "dask", "--address", "tcp://host:8786"], -1, ("dask", "tcp://host:8786"))])
+def test_compare_n_jobs_and_backend_reach_the_grid(option, workers, backend, tmp_path,
+                                                   monkeypatch):
+    # --n-jobs was parsed and checked, and the grid could still run on every worker; the
+    # --address must reach the backend (a local cluster otherwise, and the grid run here)
+    from contextlib import contextmanager
+
+    import pipelines.compare as compare
+
+    cell = {"model": "svm", "signals": "all", "window_s": 2.0, "dataset": "vulpi", "seed": 0,
+            "protocol": "grouped", "train_hop_s": None}
+    row = {**cell, "history": 1, "accuracy": 0.9, "balanced_accuracy": 0.9, "macro_f1": 0.9,
+           "run_vote_accuracy": 1.0, "fit_s_per_fold": 1.0, "infer_ms_per_window": 0.1,
+           "n_windows_dropped": 0}
+    asked = []
+
+    def grid(config, n_jobs=None):
+        asked.append(n_jobs)
+        yield {"cell": cell, "rows": [row], "predictions": pd.DataFrame([cell]), "notes": []}
+
+    @contextmanager
+    def joblib_backend(name, address):
+        asked.append((name, address))
+        yield -1
+
+    monkeypatch.setattr(compare, "iter_grid", grid)
+    monkeypatch.setattr(compare, "joblib_backend", joblib_backend)
+    monkeypatch.setattr(compare, "tracked_run", RecordingRun())
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", "--models", "svm", "--signals", "all", "--windows-s", "2",
+                 "--datasets", "vulpi", "--seeds", "0", "--history", "1", "--no-progress",
+                 *option, "--out", "cmp"]) == 0
+    assert asked == [backend, workers]
+    assert pd.read_csv(tmp_path / "cmp" / "compare_table.csv")["accuracy_mean"].tolist() == [0.9]
+
+
 def test_serve_port_range_ends_at_65535():
     # 65536 reached socket.bind, whose OverflowError is no OSError: an internal error
     from pipelines.serve import bind_port
