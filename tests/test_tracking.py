@@ -455,3 +455,17 @@ def test_a_run_that_cannot_become_active_is_not_left_running(tmp_path, monkeypat
         mlflow.set_tracking_uri(previous)
     (run,) = client.search_runs([client.get_experiment_by_name("terrain-test").experiment_id])
     assert run.info.status == "FAILED"
+
+
+def test_metrics_logged_at_steps_keep_their_steps(tmp_path, monkeypatch):
+    """A curve logged step by step (``terrain control-grid``'s tuning costs) keeps each
+    value at its step; without a step the value is at step 0."""
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path / 'mine.db'}")
+    with tracked_run("terrain-test", announce=False) as run:
+        for step, cost in enumerate((3.0, 2.0, 1.5)):
+            run.log_metrics({"cost": cost}, step=step)
+        run.log_metrics({"final": 1.5})
+    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    history = sorted((m.step, m.value) for m in client.get_metric_history(run.run_id, "cost"))
+    assert history == [(0, 3.0), (1, 2.0), (2, 1.5)]
+    assert [m.step for m in client.get_metric_history(run.run_id, "final")] == [0]
