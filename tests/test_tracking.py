@@ -114,10 +114,15 @@ def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     assert other.exists() and not (tmp_path / "mlflow.db").exists()
 
 
-def test_a_model_is_never_logged_to_a_run_other_than_its_own(tmp_path, monkeypatch):
+@pytest.mark.parametrize("caller_run", [False, True])
+def test_a_model_is_never_logged_to_a_run_other_than_its_own(tmp_path, monkeypatch,
+                                                             caller_run):
     # log_sklearn_model uses MLflow's fluent model logging, which writes to the active run;
     # when MLflow's process-wide store was another one, tracked_run opened its run on its
     # own store without making it active, and the model went to a new run of the other store
+    # (or, with the caller's own run active there, into the caller's run)
+    from contextlib import nullcontext
+
     from sklearn.dummy import DummyRegressor
 
     monkeypatch.chdir(tmp_path)
@@ -130,9 +135,10 @@ def test_a_model_is_never_logged_to_a_run_other_than_its_own(tmp_path, monkeypat
     X = pd.DataFrame({"a": [0.0, 1.0, 2.0]})
     model = DummyRegressor().fit(X, [0.0, 1.0, 2.0])
     try:
-        with pytest.raises(ConfigError, match="not MLflow's active run"):
-            with tracked_run("terrain-test", announce=False) as run:
-                run.log_sklearn_model(model, "m", X)
+        with mlflow.start_run() if caller_run else nullcontext():
+            with pytest.raises(ConfigError, match="not MLflow's active run"):
+                with tracked_run("terrain-test", announce=False) as run:
+                    run.log_sklearn_model(model, "m", X)
         assert mlflow.active_run() is None
     finally:
         mlflow.set_tracking_uri(previous)
