@@ -594,3 +594,24 @@ def test_a_dask_address_is_used_and_no_local_cluster_is_started(monkeypatch):
         with joblib_backend("dask", cluster.scheduler_address) as n_jobs:
             assert get_client().scheduler.address == cluster.scheduler_address
         assert n_jobs == -1 and made == []
+
+
+@pytest.mark.parametrize("settings, message", [
+    (dict(n_splits=1), "got 30 and 1"), (dict(max_epochs=0), "got 0 and 5"),
+    (dict(n_threads=0), "thread")])
+def test_fold_epoch_and_thread_settings_are_checked_before_any_cell(settings, message):
+    # a single fold has no held-out runs: each cell would fail after loading its data
+    with pytest.raises(ConfigError, match=message):
+        CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
+                      datasets=("vulpi",), seeds=(0,), history=(1,), **settings)
+
+
+def test_rows_without_a_protocol_or_training_hop_are_grouped_non_overlapping_ones():
+    from terrain.models.compare import with_default_keys
+
+    # rows of an older run (no protocol, no hop) joined with newer ones: NaN keys
+    rows = pd.DataFrame({"window_s": [2.0, 1.7], "protocol": [None, "paper"],
+                         "train_hop_s": [np.nan, 0.5]})
+    keyed = with_default_keys(rows)
+    assert keyed["protocol"].tolist() == ["grouped", "paper"]
+    assert keyed["train_hop_s"].tolist() == [2.0, 0.5]
