@@ -120,8 +120,8 @@ class CompareConfig:
         ``train_hop_s`` or ``single_run_blocks`` that
         :class:`~terrain.models.experiment.ExperimentConfig` refuses;
         ``cnn_seeds`` without a CNN model; a value repeated on an axis (models, signals,
-        windows_s, datasets, history; a repeated seed is ExperimentConfig's refusal); no
-        seed, a history length that is not an integer >= 1, fewer than
+        windows_s, datasets, history; a repeated seed is ExperimentConfig's refusal); an
+        empty axis (no cell); no seed, a history length that is not an integer >= 1, fewer than
         1 epoch or 2 folds; ``n_threads`` outside 1-``MAX_TORCH_THREADS``
         (:class:`~terrain.models.registry.ModelConfig`'s rule).
     """
@@ -166,6 +166,8 @@ class CompareConfig:
             raise ConfigError(f"unknown model(s) {bad}; valid: {list(MODELS)}")
         # (repeated seeds: ExperimentConfig's own check, run below for every cell)
         for axis in ("models", "signals", "windows_s", "datasets", "history"):
+            if not len(getattr(self, axis)):  # no cell at all: summary_table had no column
+                raise ConfigError(f"{axis} is empty: the grid would have no cell")
             repeated = duplicated(getattr(self, axis))
             if repeated:  # a repeated value would fit its cells twice and count them as two
                 raise ConfigError(f"{axis} must be distinct: {repeated} given more than once")

@@ -606,6 +606,17 @@ def test_fold_epoch_and_thread_settings_are_checked_before_any_cell(settings, me
                       datasets=("vulpi",), seeds=(0,), history=(1,), **settings)
 
 
+@pytest.mark.parametrize("axis", ["models", "signals", "windows_s", "datasets", "history"])
+def test_an_empty_axis_is_refused_by_name(axis):
+    # models=() gave zero cells, and terrain compare then failed in summary_table with a
+    # bare KeyError (library callers: the CLI's nargs="+" never passes an empty axis)
+    one = dict(models=("svm",), signals=("all",), windows_s=(2.0,), datasets=("vulpi",),
+               seeds=(0,), history=(1,))
+    assert len(CompareConfig(**one).cells()) == 1
+    with pytest.raises(ConfigError, match=f"{axis} is empty"):
+        CompareConfig(**{**one, axis: ()})
+
+
 def test_rows_without_a_protocol_or_training_hop_are_grouped_non_overlapping_ones():
     from terrain.models.compare import with_default_keys
 
