@@ -506,6 +506,7 @@ def test_v2_ploughed_held_out_turn_chi_within_10_percent(ploughed_held_out_turns
     assert chi["v2"] == pytest.approx(chi["measured"], rel=0.10)
 
 
+@pytest.mark.slow   # two v2 replays of every held-out SNOW run: ~30 s quiet, over 60 s loaded
 def test_snow_hump_lowers_the_replayed_spin_current_of_held_out_runs(monkeypatch):
     # the held-out SNOW runs (alternate_split: the residual ratio was chosen on the other
     # half) spin at 8 A on average where the exponential snow contact of v2 replays 11 A
