@@ -710,6 +710,13 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
     return frame
 
 
+def _weighted_accuracy(accuracy: pd.Series, n: pd.Series) -> float:
+    """Mean of ``accuracy`` weighted by ``n`` over the rows with ``n > 0`` (a row without a
+    decision has accuracy NaN and no weight; NaN when no row has one)."""
+    some = n > 0
+    return float(np.average(accuracy[some], weights=n[some])) if some.any() else float("nan")
+
+
 def seed_accuracies(rows: pd.DataFrame) -> dict[int, float]:
     """Per-decision accuracy of every seed, pooled over its folds.
 
@@ -721,9 +728,10 @@ def seed_accuracies(rows: pd.DataFrame) -> dict[int, float]:
     Returns
     -------
     dict
-        Seed -> accuracy weighted by decisions.
+        Seed -> accuracy weighted by decisions (rows without a decision have no weight;
+        NaN for a seed without any).
     """
-    return {int(seed): float(np.average(g["accuracy"], weights=g["n_decisions"]))
+    return {int(seed): _weighted_accuracy(g["accuracy"], g["n_decisions"])
             for seed, g in rows.groupby("seed")}
 
 
@@ -740,7 +748,8 @@ def pool_scores(rows: pd.DataFrame) -> dict:
     -------
     dict
         ``accuracy`` (weighted by decisions), ``accuracy_settled`` (weighted by settled
-        decisions), ``median_delay_s`` (median of every switching delay, s), ``n_switches``,
+        decisions; rows without any have no weight, and NaN when no row has one),
+        ``median_delay_s`` (median of every switching delay, s), ``n_switches``,
         ``recall`` (true class -> share of its decisions naming it) and ``confusion`` (the
         summed true -> decided counts).
     """
@@ -751,11 +760,9 @@ def pool_scores(rows: pd.DataFrame) -> dict:
             out = confusion.setdefault(true, {})
             for got, n in row.items():
                 out[got] = out.get(got, 0) + int(n)
-    settled = rows["n_settled"] > 0
-    return {"accuracy": float(np.average(rows["accuracy"], weights=rows["n_decisions"])),
-            "accuracy_settled": float(np.average(rows.loc[settled, "accuracy_settled"],
-                                                 weights=rows.loc[settled, "n_settled"]))
-            if settled.any() else float("nan"),
+    return {"accuracy": _weighted_accuracy(rows["accuracy"], rows["n_decisions"]),
+            "accuracy_settled": _weighted_accuracy(rows["accuracy_settled"],
+                                                   rows["n_settled"]),
             "median_delay_s": float(np.median(delays)) if delays.size else float("nan"),
             "n_switches": int(delays.size),
             "recall": {t: row.get(t, 0) / sum(row.values())

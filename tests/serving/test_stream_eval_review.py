@@ -61,6 +61,19 @@ def test_seed_accuracies_weigh_each_fold_by_its_decisions():
         {0: (100 * 1.0 + 300 * 0.5) / 400, 1: 0.8})
 
 
+def test_a_row_without_decisions_has_no_weight_instead_of_making_the_pool_nan():
+    # a row with n_decisions 0 has accuracy NaN; 0 x NaN made the pooled and the seed's
+    # accuracy NaN where the other rows give 0.9
+    rows = pd.DataFrame([
+        {"seed": 0, "accuracy": 0.9, "n_decisions": 10, "accuracy_settled": 0.9,
+         "n_settled": 10, "delays_s": [], "confusion": {"ICE": {"ICE": 9, "SNOW": 1}}},
+        {"seed": 0, "accuracy": float("nan"), "n_decisions": 0,
+         "accuracy_settled": float("nan"), "n_settled": 0, "delays_s": [], "confusion": {}}])
+    assert pool_scores(rows)["accuracy"] == pytest.approx(0.9)
+    assert seed_accuracies(rows) == {0: pytest.approx(0.9)}
+    assert np.isnan(pool_scores(rows.iloc[[1]])["accuracy"])   # no decision at all: NaN
+
+
 def test_undecided_decisions_are_counted_wrong_under_none():
     segs = [Segment("a", "ICE", 0.0, 0.0, 10.0), Segment("b", "SNOW", 0.0, 10.0, 10.0)]
     t = np.arange(0.0, 20.0, 1.0)
