@@ -273,7 +273,9 @@ class StreamService:
         channels = self.streams[stream]
         if not isinstance(values, np.ndarray):   # the usual push: nothing read by index
             check_same_index(t_s, values, stream)
-        t = real_array(t_s, stream, "t_s") + self._intake.clocks[stream].offset_s
+        clock = self._intake.clocks[stream]
+        raw = real_array(t_s, stream, "t_s")
+        t = raw + clock.offset_s
         v = chunk_values(values, t, channels, stream)
         if not len(t):
             return []
@@ -285,7 +287,9 @@ class StreamService:
             return self._emit()
         out = []
         for i in range(0, len(t), piece):
-            self._intake.ingest(stream, t[i:i + piece], v[i:i + piece])
+            # each piece with the stream's offset now, as a next push: a piece before may
+            # have moved its clock (a restart of it alone, a run held ahead put back)
+            self._intake.ingest(stream, raw[i:i + piece] + clock.offset_s, v[i:i + piece])
             out.extend(self._emit())
         return out
 
