@@ -327,7 +327,8 @@ def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarra
     t_s : numpy.ndarray
         ``(n,)`` decision times, s.
     proba : numpy.ndarray
-        ``(n, n_classes)`` classifier probabilities; NaN rows where the service did not
+        ``(n, n_classes)`` classifier probabilities (``n`` 0 for a run shorter than one
+        window); NaN rows where the service did not
         classify the window (:data:`~terrain.serving.service.UNCLASSIFIED_FLAGS`: a gap, too
         short, or a units rule), which the filter treats as prediction-only steps, as the
         live service does (the unsmoothed service reports uniform probabilities there).
@@ -336,7 +337,7 @@ def raw_decisions(model: StreamModel, run: Run, hop_s: float) -> tuple[np.ndarra
                         StreamConfig(hop_s=hop_s, smoothing=SmoothingConfig(dwell_s=None)))
     decisions = replay_run(svc, run)
     t = np.array([d.t_s for d in decisions])
-    proba = np.array([d.proba for d in decisions]).reshape(len(decisions), -1)
+    proba = np.array([d.proba for d in decisions]).reshape(len(decisions), len(model.classes))
     invalid = np.array([not UNCLASSIFIED_FLAGS.isdisjoint(d.flags.split("|"))
                         for d in decisions], dtype=bool)
     proba[invalid] = np.nan

@@ -111,6 +111,25 @@ def test_offline_scoring_takes_unclassified_windows_as_the_live_service_does():
                                   np.array([d.terrain for d in live], dtype=object))
 
 
+def test_a_run_shorter_than_one_window_gives_no_decision_rows_not_a_reshape_error():
+    # a 1.5 s run under 2 s windows: no decision, and proba.reshape(0, -1) raised numpy's
+    # bare "cannot reshape array of size 0 into shape (0,newaxis)"
+    from features.windows import WindowConfig
+    from terrain.run import TIME, Run
+    from terrain.serving.evaluation import raw_decisions
+    from terrain.serving.model import StreamModel
+
+    t = np.arange(0.0, 1.5, 0.01)
+    imu = pd.DataFrame({TIME: t, "wx": 0 * t, "wy": 0 * t, "wz": 0.5 + 0 * t, "ax": 0 * t,
+                        "ay": 0 * t, "az": 9.81 + 0 * t})
+    run = Run("probe/ASPHALT/1", "probe", "ASPHALT", {"imu": imu})
+    classes = tuple(_WzClassifier.classes_)
+    model = StreamModel(_WzClassifier(), ("wz", "ax", "ay", "az"),
+                        WindowConfig(window_s=2.0, hop_s=0.5, rate_hz=100.0), classes)
+    t_s, proba = raw_decisions(model, run, 0.5)
+    assert t_s.shape == (0,) and proba.shape == (0, len(classes))
+
+
 def test_window_cv_smooths_at_the_hop_its_windows_were_cut_at():
     # at the wheel recipe's 10 Hz a hop of 0.25 s is cut as 2 samples (0.2 s): the windows
     # of hop 0.25 and 0.2 are the same, but the filter was stepped as if 0.25 s apart
