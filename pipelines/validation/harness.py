@@ -402,7 +402,8 @@ class HuskyComparison:
 
     ``*_err`` are median relative errors over steady turns after 10 s; ``*_p90`` the 90th
     percentile; ``*_conv_s`` the time after which the relative error of the steady-turn
-    samples stays below 5 % (``inf`` when the last of them is still over it).
+    samples stays below 5 % (``inf`` when the last of them is still over it; a NaN error,
+    e.g. the observer's chi at a yaw rate of 0, is not below it).
 
     Parameters
     ----------
@@ -448,7 +449,7 @@ class HuskyComparison:
 
 
 def _conv_time(t: np.ndarray, rel_err: np.ndarray, tol: float = 0.05) -> float:
-    bad = np.flatnonzero(rel_err > tol)
+    bad = np.flatnonzero(~(rel_err <= tol))     # NaN (an error not computed) is not below
     if bad.size and bad[-1] == t.size - 1:     # still over tol at the end: never converged
         return float("inf")
     return float(t[bad[-1]]) if bad.size else float(t[0]) if t.size else float("nan")

@@ -22,6 +22,14 @@ def test_an_error_still_over_the_tolerance_at_the_end_never_converged():
     assert _conv_time(t, np.array([0.2, 0.2, 0.2, 0.2])) == np.inf
 
 
+def test_an_error_that_cannot_be_computed_is_not_below_the_tolerance():
+    # a NaN relative error (the observer's yaw rate 0: chi = 0 / 0) passed 'rel_err > tol'
+    # as converged: errors [0.2, 0.01, NaN] gave 10.0 s
+    t = np.array([10.0, 11.0, 12.0, 13.0])
+    assert _conv_time(t, np.array([0.2, np.nan, 0.01, 0.01])) == 11.0
+    assert _conv_time(t, np.array([0.2, 0.01, 0.01, np.nan])) == np.inf
+
+
 class _Result:
     """A stand-in for a simulation or an EKF result: only the attributes read."""
 
