@@ -813,7 +813,8 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
     backend : {"loky", "dask", "ray"}
         ``loky``: local worker processes. ``dask``: a ``distributed.Client`` connected to
         ``address`` (``tcp://scheduler:8786``), or a local cluster when ``None``. ``ray``:
-        ``ray.init(address)`` (optional extra ``terrain[ray]``), local when ``None``.
+        ``ray.init(address)`` (optional extra ``terrain[ray]``), local when ``None``; a Ray
+        session the caller already started is used as it is and left running.
     address : str or None
         Scheduler / cluster address.
 
@@ -852,9 +853,12 @@ def joblib_backend(backend: str = "loky", address: str | None = None):
         except ImportError as exc:
             raise ConfigError(RAY_MISSING) from exc
         register_ray()
-        ray.init(address=address, ignore_reinit_error=True)
+        started = not ray.is_initialized()   # a caller's own Ray session is used, and kept
+        if started:
+            ray.init(address=address)
         try:
             with parallel_config(backend="ray"):
                 yield -1
         finally:
-            ray.shutdown()
+            if started:
+                ray.shutdown()

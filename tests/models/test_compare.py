@@ -626,3 +626,39 @@ def test_rows_without_a_protocol_or_training_hop_are_grouped_non_overlapping_one
     keyed = with_default_keys(rows)
     assert keyed["protocol"].tolist() == ["grouped", "paper"]
     assert keyed["train_hop_s"].tolist() == [2.0, 0.5]
+
+
+def _fake_ray(monkeypatch, initialized: bool) -> list:
+    """A stand-in ``ray`` package (not installed here) that records its calls; its joblib
+    backend is loky's."""
+    import importlib.machinery
+    import sys
+    import types
+
+    from joblib import register_parallel_backend
+    from joblib._parallel_backends import LokyBackend
+
+    calls = []
+    ray = types.ModuleType("ray")
+    ray.is_initialized = lambda: initialized
+    ray.init = lambda address=None, **kw: calls.append(("init", address))
+    ray.shutdown = lambda: calls.append(("shutdown",))
+    util, jl = types.ModuleType("ray.util"), types.ModuleType("ray.util.joblib")
+    jl.register_ray = lambda: register_parallel_backend("ray", LokyBackend)
+    ray.util, util.joblib = util, jl
+    for name, module in (("ray", ray), ("ray.util", util), ("ray.util.joblib", jl)):
+        module.__spec__ = importlib.machinery.ModuleSpec(name, None)   # find_spec's answer
+        monkeypatch.setitem(sys.modules, name, module)
+    return calls
+
+
+def test_ray_backend_starts_and_stops_only_a_session_of_its_own(monkeypatch):
+    # the sweep shut down a Ray session its caller had started (ray.shutdown() in any case)
+    calls = _fake_ray(monkeypatch, initialized=False)
+    with joblib_backend("ray", "ray://head:10001") as n_jobs:
+        assert n_jobs == -1
+    assert calls == [("init", "ray://head:10001"), ("shutdown",)]
+    calls = _fake_ray(monkeypatch, initialized=True)
+    with joblib_backend("ray", None):
+        pass
+    assert calls == []
