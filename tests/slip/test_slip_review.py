@@ -1,0 +1,41 @@
+"""Review tests of the slip estimate: bounds of the terrain weighting and of the lag gate."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.slip import gated_lag
+from terrain.slip.physics import PhysicsSlipSettings, physics_slip
+from terrain.vehicles import HUSKY
+
+T = np.arange(0, 40, 0.01)
+STEPS = (np.clip(T - 2.0, 0, 1) + 0.5 * np.clip(T - 8.0, 0, 1) * (T < 12)
+         - 0.7 * np.clip(T - 25.0, 0, 1) + 0.4 * np.clip(T - 31.0, 0, 1) * (T < 35))
+
+
+def test_a_terrain_exactly_at_the_minimum_probability_is_kept():
+    """``min_probability`` drops the terrains *below* it: a share of exactly 0.25 with
+    ``min_probability=0.25`` is averaged in (0.75 SNOW + 0.25 ICE), not dropped."""
+    cur = np.array([[10.0, 10.0]])
+    rim = np.array([[0.5, 0.5]])
+    settings = PhysicsSlipSettings(min_probability=0.25)
+    snow = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, np.zeros(1), settings=settings)
+    ice = physics_slip(HUSKY, {"ICE": 1.0}, cur, rim, np.zeros(1), settings=settings)
+    assert np.all(np.abs(ice.slip - snow.slip) > 1e-3)
+    mixed = physics_slip(HUSKY, {"SNOW": 0.75, "ICE": 0.25}, cur, rim, np.zeros(1),
+                         settings=settings)
+    np.testing.assert_allclose(mixed.slip, 0.75 * snow.slip + 0.25 * ice.slip, rtol=1e-12)
+    np.testing.assert_allclose(mixed.mu, 0.75 * snow.mu + 0.25 * ice.mu, rtol=1e-12)
+
+
+def test_a_lead_beyond_the_searched_range_is_flagged_at_its_lower_end():
+    """A signal 1.5 s *ahead* of the reference, searched up to +-1 s: the maximum lies on the
+    first lag searched (-1 s), a correlation still rising there, so it is not applied."""
+    ahead = gated_lag(T, STEPS, T, np.interp(T + 1.5, T, STEPS), max_lag_s=1.0)
+    assert ahead.at_range_end and not ahead.applied
+    assert ahead.lag_s == pytest.approx(-1.0, abs=0.01)
+    assert "end of the searched range" in ahead.reason
+    # the same lead inside the range is a clear peak of the right sign
+    inside = gated_lag(T, STEPS, T, np.interp(T + 0.6, T, STEPS), max_lag_s=1.0)
+    assert inside.applied and inside.lag_s == pytest.approx(-0.6, abs=0.01)
