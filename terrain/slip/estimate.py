@@ -929,12 +929,16 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                 f"{run.terrain} curve gives: the slip is bounded, not measured); their "
                 "pseudo-measurement is the centre of the physics interval with its std")
         elif full.all():
-            return estimate_skid_steer_slip_run(
+            est = estimate_skid_steer_slip_run(
                 run, slip_model, outputs=None, lag=lag, gate=gate, rate_hz=rate_hz,
                 settings=settings, missing=(
                     f"the physics slip is full slip (+-1) on every window-side ({full.size}):"
                     f" the current asks for at least the most traction the {run.terrain} "
                     "curve gives, which bounds the slip without measuring it"))
+            # every window-side skipped: counted as when only some are
+            est.meta.update(pseudo_full_slip=int(full.sum()), pseudo_full_slip_use="skipped",
+                            pseudo_window_sides=int(full.size))
+            return est
         elif full.any():
             pm = (pm[0], np.where(full, np.nan, pm[1]), pm[2])
             full_use = "skipped"

@@ -39,3 +39,25 @@ def test_a_lead_beyond_the_searched_range_is_flagged_at_its_lower_end():
     # the same lead inside the range is a clear peak of the right sign
     inside = gated_lag(T, STEPS, T, np.interp(T + 0.6, T, STEPS), max_lag_s=1.0)
     assert inside.applied and inside.lag_s == pytest.approx(-0.6, abs=0.01)
+
+
+def test_every_window_side_at_full_slip_without_an_interval_is_counted_in_meta():
+    """Every window-side at full slip (+1) and no ``physics_interval``: all are skipped and
+    the plain EKF answers; ``meta`` still counts them (``pseudo_full_slip`` of
+    ``pseudo_window_sides``, used as ``"skipped"``), as when only some are."""
+    from features.slip_outputs import slip_model_outputs
+    from pipelines.validation.harness import simulate_husky
+    from terrain.slip.estimate import estimate_skid_steer_slip_run
+
+    run = simulate_husky("ASPHALT", seed=2, duration_s=8.0, icr_expansion=1.0,
+                         scenario="straight_accel").run
+    out = dict(slip_model_outputs(run))
+    out.pop("physics_interval", None)
+    t, slip, std = out["physics"]
+    out["physics"] = (t, np.ones_like(slip), np.full_like(std, 0.01))
+    est = estimate_skid_steer_slip_run(run, "physics", outputs=out, lag="none")
+    assert est.meta["slip_model"] == "ekf"
+    assert any(f"full slip (+-1) on every window-side ({slip.size})" in n for n in est.notes)
+    assert est.meta.get("pseudo_full_slip") == slip.size
+    assert est.meta.get("pseudo_window_sides") == slip.size
+    assert est.meta.get("pseudo_full_slip_use") == "skipped"
