@@ -61,3 +61,44 @@ def test_every_window_side_at_full_slip_without_an_interval_is_counted_in_meta()
     assert est.meta.get("pseudo_full_slip") == slip.size
     assert est.meta.get("pseudo_window_sides") == slip.size
     assert est.meta.get("pseudo_full_slip_use") == "skipped"
+
+
+def test_the_physics_std_is_floored_before_it_is_used_or_weighted():
+    """A physics std under ``min_std`` (1e-4 on firm ground) is raised to it, both as the
+    ``physics`` pseudo-measurement's std and in the ``fused`` weights: with physics 0.10
+    at std 1e-4 (floored to 0.01) and a learned 0.20 at 0.01, the fused slip is the plain
+    mean 0.15, not 0.10 (the unfloored weight 1e4 against 1)."""
+    from terrain.slip.estimate import FusionSettings, pseudo_measurement
+    t = np.arange(2.0)
+    phys = (t, np.full((2, 2), 0.10), np.full((2, 2), 1e-4))
+    learned = (t, np.full((2, 2), 0.20), np.full((2, 2), 0.01))
+    s = FusionSettings(min_std=0.01, error_correlation=0.0)
+    _, sp, vp = pseudo_measurement({"physics": phys}, "physics", s)
+    np.testing.assert_allclose(sp, 0.10)
+    np.testing.assert_allclose(vp, 0.01)
+    _, sf, vf = pseudo_measurement({"physics": phys, "learned": learned}, "fused", s)
+    np.testing.assert_allclose(sf, 0.15)
+    # the mean of two independent errors, 0.0071, is itself floored
+    np.testing.assert_allclose(vf, 0.01)
+
+
+def test_only_a_finite_physics_slip_without_a_std_counts_as_unknown_std():
+    """A window-side whose physics slip is itself NaN is a non-finite measurement, not one of
+    unknown std: of a NaN slip with a NaN std and a finite slip with a NaN std, only the
+    second is counted in ``pseudo_unknown_std``."""
+    from features.slip_outputs import slip_model_outputs
+    from pipelines.validation.harness import simulate_husky
+    from terrain.slip.estimate import estimate_skid_steer_slip_run
+
+    run = simulate_husky("ASPHALT", seed=2, duration_s=8.0, icr_expansion=1.0,
+                         scenario="straight_accel").run
+    out = dict(slip_model_outputs(run))
+    t, slip, std = out["physics"]
+    slip, std = slip.copy(), std.copy()
+    slip[2, 0] = std[2, 0] = np.nan
+    std[4, 1] = np.nan
+    out["physics"] = (t, slip, std)
+    est = estimate_skid_steer_slip_run(run, "physics", outputs=out, lag="none")
+    assert est.meta["pseudo_unknown_std"] == 1
+    assert any(f"physics slip without a std on 1 of {std.size} window-sides" in n
+               for n in est.notes)
