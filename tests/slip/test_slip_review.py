@@ -102,3 +102,48 @@ def test_only_a_finite_physics_slip_without_a_std_counts_as_unknown_std():
     assert est.meta["pseudo_unknown_std"] == 1
     assert any(f"physics slip without a std on 1 of {std.size} window-sides" in n
                for n in est.notes)
+
+
+def test_fused_full_slip_window_sides_keep_the_learned_slip_in_the_fusion():
+    """``fused`` with a learned model: a full-slip window-side's physics slip is replaced by
+    its interval centre (0.3) and then still fused with the learned slip (0.1, ten times
+    surer): the filter settles near the learned 0.1, not on the physics centre alone."""
+    from features.slip_outputs import slip_model_outputs
+    from pipelines.validation.harness import simulate_husky
+    from terrain.slip.estimate import estimate_skid_steer_slip_run
+
+    run = simulate_husky("ASPHALT", seed=2, duration_s=12.0, icr_expansion=1.0,
+                         scenario="straight_accel").run
+    out = dict(slip_model_outputs(run))
+    t, slip, std = out["physics"]
+    out["physics"] = (t, np.ones_like(slip), np.full_like(std, 0.02))
+    out["physics_interval"] = (t, np.full_like(slip, 0.2), np.full_like(slip, 0.4))
+    out["learned"] = (t, np.full_like(slip, 0.1), np.full_like(slip, 0.002))
+    est = estimate_skid_steer_slip_run(run, "fused", outputs=out, lag="none")
+    assert est.meta["slip_model"] == "fused"
+    assert est.meta["pseudo_full_slip_use"] == "interval centre"
+    late = est.ekf.t_s > 6.0
+    np.testing.assert_allclose(np.median(est.slip[late], axis=0), 0.1, atol=0.03)
+
+
+def test_full_slip_window_sides_without_an_interval_are_skipped_by_the_filter():
+    """Windows 2 and 5 at full slip (+1) on both sides and no ``physics_interval``: their
+    pseudo-measurement is skipped (the filter counts the two windows as non-finite), not
+    taken as a slip of +1; ``meta`` counts the 4 window-sides as ``"skipped"``."""
+    from features.slip_outputs import slip_model_outputs
+    from pipelines.validation.harness import simulate_husky
+    from terrain.slip.estimate import estimate_skid_steer_slip_run
+
+    run = simulate_husky("ASPHALT", seed=2, duration_s=8.0, icr_expansion=1.0,
+                         scenario="straight_accel").run
+    out = dict(slip_model_outputs(run))
+    out.pop("physics_interval", None)
+    t, slip, std = out["physics"]
+    slip = slip.copy()
+    slip[[2, 5]] = 1.0
+    out["physics"] = (t, slip, std)
+    est = estimate_skid_steer_slip_run(run, "physics", outputs=out, lag="none")
+    assert est.meta["pseudo_full_slip"] == 4
+    assert est.meta["pseudo_full_slip_use"] == "skipped"
+    assert est.ekf.counts["slip_model"]["non_finite"] == 2
+    assert np.abs(est.slip).max() < 0.5
