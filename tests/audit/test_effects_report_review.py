@@ -53,3 +53,92 @@ def test_the_extended_lateral_acceleration_follows_the_fitted_yaw_rate(chi_audit
     assert table.loc["ay", "replay_rmse"] == pytest.approx(rep, rel=1e-9)
     assert table.loc["ay", "extended_rmse"] == pytest.approx(ext, rel=1e-9)
     assert table.loc["ay", "extended_rmse"] < 0.5 * table.loc["ay", "replay_rmse"]
+
+
+def test_current_offsets_are_the_median_straight_residuals_and_keep_their_sides():
+    """Offsets -0.3 A (left) and 0.5 A (right) planted while moving, and a 10 A spike on the
+    right in one straight sample out of ten (the replay fighting a sub-resolution speed
+    difference): the median straight residuals are the planted offsets, unmoved by the
+    spikes, and the details keep each side's offset on its side."""
+    from terrain.audit.effects import effect_details, fit_current
+    from terrain.audit.frames import STRAIGHT
+
+    f = synthetic_frame("s/ASPHALT/0", offsets_a=(-0.3, 0.5), noise=0.0)
+    straight = np.flatnonzero(f.score_cur & (f.manoeuvre == STRAIGHT))
+    cur = f.cur.copy()
+    cur[straight[::10], 1] += 10.0
+    p = fit_current([replace(f, cur=cur)], ["current_offset"])
+    assert (p.offset_left_a, p.offset_right_a) == pytest.approx((-0.3, 0.5), abs=1e-12)
+    assert p.offset_a == pytest.approx(0.8, abs=1e-12)
+    d = effect_details("current_offset", p)
+    assert (d["offset_left_a"], d["offset_right_a"], d["common_a"]) == pytest.approx(
+        (-0.3, 0.5, 0.1), abs=1e-12)
+
+
+def test_the_turning_form_with_the_lower_training_error_is_kept():
+    """1 A more current per side in every turn, whatever its rate (the curves at 0.5 rad/s
+    and the spins at 0.8 rad/s alike): the Coulomb form (about 1 at both rates) explains it,
+    the proportional one (1 and 1.6) cannot; with 1.6 A in the spins it is the other way
+    round."""
+    from terrain.audit.effects import fit_current
+    from terrain.audit.frames import CURVE, SPIN
+
+    f = synthetic_frame("s/ASPHALT/0", noise=0.0)
+    for spin_extra, form in ((1.0, "coulomb"), (1.6, "proportional")):
+        extra = np.select([f.manoeuvre == CURVE, f.manoeuvre == SPIN], [1.0, spin_extra], 0.0)
+        p = fit_current([replace(f, cur=f.cur + extra[:, None])], ["turning_resistance"])
+        assert p.form == form
+        assert p.k_a == pytest.approx(1.0, abs=2e-3)
+
+
+def test_the_rate_dependent_form_is_refused_when_slow_turns_dig_in_more():
+    """The robot digs in during every slow curve (0.5 rad/s) and never in its fast spins
+    (0.8 rad/s): sinkage that grows with the slip velocity cannot do that, so the
+    ``rate_dependent`` form (more immobile above the threshold) is not taken; the uniform
+    form keeps the turning-time fraction."""
+    from terrain.audit.effects import fit_yaw
+    from terrain.audit.frames import CURVE
+
+    frames = []
+    for i in range(2):
+        f = synthetic_frame(f"s/ASPHALT/{i}", seed=i, noise=0.0)
+        frames.append(replace(f, wz=np.where(f.manoeuvre == CURVE, 0.0, f.wz)))
+    p = fit_yaw(frames, ["immobilised"])
+    assert p.form == "uniform" and not np.isfinite(p.threshold_rad_s)
+    assert p.fractions[0] == pytest.approx(p.fraction) and p.fraction > 0.4
+
+
+def test_the_replays_own_chi_is_taken_on_the_mobile_turns_only():
+    """The gyro reads nothing in every curve (dug in) and turns with chi 1.5 in the spins,
+    where the replay turns with chi 1.2 (and with chi 3 in the curves): the replay's own
+    chi, the yardstick of the fitted chi's practical floor, is measured on the same mobile
+    (spin) samples as the fitted chi, so it is 1.2, not a mix with the dug-in curves."""
+    from terrain.audit.effects import fit_yaw
+    from terrain.audit.frames import CURVE
+
+    frames = []
+    for i in range(2):
+        f = synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5, noise=0.0)
+        curve = f.manoeuvre == CURVE
+        frames.append(replace(f, wz=np.where(curve, 0.0, f.wz),
+                              sim_wz=np.where(curve, f.commanded_yaw_rate / 3.0, f.sim_wz)))
+    p = fit_yaw(frames, ["icr_expansion"])
+    assert p.chi == pytest.approx(1.5, rel=1e-9)
+    assert p.chi_replay == pytest.approx(1.2, rel=1e-9)
+
+
+def test_the_gyro_bias_beside_chi_is_fitted_on_quiet_samples_only():
+    """A gyro offset of 0.01 rad/s and a robot dug in during every curve (the gyro reads
+    only its offset there) with chi 1.5 in the spins: the bias comes from the quiet
+    samples, far from any turn, where no yaw-rate model error leaks into it, not from the
+    turns that the mobile model cannot explain."""
+    from terrain.audit.effects import fit_yaw
+    from terrain.audit.frames import CURVE
+
+    frames = []
+    for i in range(2):
+        f = synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5, bias_rad_s=0.01, noise=0.0)
+        frames.append(replace(f, wz=np.where(f.manoeuvre == CURVE, 0.01, f.wz)))
+    p = fit_yaw(frames, ["icr_expansion", "gyro_bias"])
+    assert p.bias_rad_s == pytest.approx(0.01, abs=1e-12)
+    assert p.chi == pytest.approx(1.5, rel=1e-9)
