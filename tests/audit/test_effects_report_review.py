@@ -142,3 +142,30 @@ def test_the_gyro_bias_beside_chi_is_fitted_on_quiet_samples_only():
     p = fit_yaw(frames, ["icr_expansion", "gyro_bias"])
     assert p.bias_rad_s == pytest.approx(0.01, abs=1e-12)
     assert p.chi == pytest.approx(1.5, rel=1e-9)
+
+
+def test_a_supported_immobilised_effect_without_a_mobile_chi_is_rendered():
+    """``immobilised`` with the replay as its mobile model takes the replay's own chi, which
+    is ``inf`` (JSON ``null``) when the replayed robot does not turn: the page says the robot
+    digs in and its held-out gain, and leaves the unknown mobile chi out instead of failing
+    to render."""
+    import copy
+    import json
+    from pathlib import Path
+
+    from terrain.audit.report import to_markdown
+
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    report = json.loads((docs / "audit_report.json").read_text())
+    e = next(x for x in report["effects"] if x["name"] == "immobilised" and x["supported"])
+    assert e["details"]["chi_mobile"] is not None
+    known = to_markdown(report)
+    assert f"mobile turns have chi {e['details']['chi_mobile']:.2f}" in known
+    report = copy.deepcopy(report)
+    e = next(x for x in report["effects"] if x["name"] == "immobilised" and x["supported"])
+    e["details"].update(chi_mobile=None, mobile_model="replay")
+    page = to_markdown(report)
+    line = next(s for s in page.splitlines() if s.startswith(f"- **{e['terrain']}**"))
+    assert f"during {100 * e['params']['fraction']:.0f} % of its turning time" in line
+    assert "mobile turns have chi" not in line
+    assert f"removes {100 * e['heldout_gain']:.0f} % of the replay's yaw-rate error" in line
