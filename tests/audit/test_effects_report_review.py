@@ -169,3 +169,22 @@ def test_a_supported_immobilised_effect_without_a_mobile_chi_is_rendered():
     assert f"during {100 * e['params']['fraction']:.0f} % of its turning time" in line
     assert "mobile turns have chi" not in line
     assert f"removes {100 * e['heldout_gain']:.0f} % of the replay's yaw-rate error" in line
+
+
+def test_the_json_groups_carry_the_held_out_replay_and_final_errors(chi_audit):
+    """Each ``groups`` record of the JSON report: the held-out RMSE of the replay
+    (``baseline_rmse``) and of the selected model (``final_rmse``, lower once an effect is
+    selected), the signals it is scored on and its number of cross-validation units."""
+    from terrain.audit import to_dict
+
+    frames, result = chi_audit
+    groups = {(g["terrain"], g["group"]): g for g in to_dict(result)["groups"]}
+    yaw = groups[("ASPHALT", "yaw")]
+    res = result.groups[("ASPHALT", "yaw")]
+    assert yaw["selected"] == list(res.selected) and "icr_expansion" in yaw["selected"]
+    assert yaw["baseline_rmse"] == pytest.approx(res.baseline_rmse, abs=1e-5)
+    assert yaw["final_rmse"] == pytest.approx(res.final_rmse, abs=1e-5)
+    assert yaw["final_rmse"] < 0.5 * yaw["baseline_rmse"]
+    assert yaw["signals"] == ["wz"] and groups[("ASPHALT", "current")]["signals"] == [
+        "cur_l", "cur_r"]
+    assert yaw["n_units"] == len(frames) == 4
