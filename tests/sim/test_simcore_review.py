@@ -32,3 +32,25 @@ def test_the_imu_gravity_is_the_specific_force_of_the_dynamics_gravity(yaw):
     f = specific_force_m_s2(np.zeros(2), gravity_force(mass, slope, yaw), mass)
     np.testing.assert_allclose([g_x[0], g_y[0]], f, atol=1e-12)
     assert g_z[0] == pytest.approx(9.80665 * np.cos(slope), rel=1e-12)
+
+
+def test_the_pose_advances_along_the_mid_step_heading_of_the_twist():
+    # a steady left turn: each step moves the pose by dt times the stored body velocity
+    # rotated to the heading halfway through the step (the midpoint rule), so the chord's
+    # direction sits halfway between the yaws before and after the step (off by r dt / 2 =
+    # 3 mrad at 0.6 rad/s, 100 Hz, with the heading at the start of the step)
+    from terrain.sim.dynamics import integrate
+    from terrain.terramechanics.catalogue import get_terrain
+    from terrain.vehicles import HUSKY
+
+    t = np.arange(0.0, 3.0, 0.01)
+    cmd = np.column_stack([np.full_like(t, 0.8), np.zeros_like(t), np.full_like(t, 0.6)])
+    p = integrate(HUSKY, HUSKY.contact_geometry(), (get_terrain("ASPHALT"),), 1e9, t, cmd,
+                  0.0, 1.0)
+    step = np.diff(p.pose[:, :2], axis=0)
+    v = p.twist[1:, :2]
+    mid = 0.5 * (p.pose[:-1, 2] + p.pose[1:, 2])
+    world = np.column_stack([v[:, 0] * np.cos(mid) - v[:, 1] * np.sin(mid),
+                             v[:, 0] * np.sin(mid) + v[:, 1] * np.cos(mid)])
+    assert p.twist[-1, 2] > 0.3                        # a turn under way
+    np.testing.assert_allclose(step, 0.01 * world, rtol=0, atol=1e-12)
