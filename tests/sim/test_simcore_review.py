@@ -54,3 +54,28 @@ def test_the_pose_advances_along_the_mid_step_heading_of_the_twist():
                              v[:, 0] * np.sin(mid) + v[:, 1] * np.cos(mid)])
     assert p.twist[-1, 2] > 0.3                        # a turn under way
     np.testing.assert_allclose(step, 0.01 * world, rtol=0, atol=1e-12)
+
+
+def test_the_motor_torque_carries_the_wheel_inertia_times_the_wheel_acceleration():
+    # the wheel speeds follow the command through the motor lag whatever the wheels'
+    # inertia, so two runs that differ only in it move alike and their torques differ by
+    # the added inertia times the wheel acceleration: more torque while the wheels spin up,
+    # less while they slow down
+    from dataclasses import replace
+
+    from terrain.sim.dynamics import integrate
+    from terrain.terramechanics.catalogue import get_terrain
+    from terrain.vehicles import HUSKY
+
+    t = np.arange(0.0, 4.0, 0.01)
+    v = np.where(t < 2.0, np.minimum(t, 1.0), np.maximum(3.0 - t, 0.0))
+    cmd = np.column_stack([v, np.zeros_like(t), np.zeros_like(t)])
+    heavy = replace(HUSKY, motor=replace(HUSKY.motor, wheel_inertia_kg_m2=(
+        HUSKY.motor.wheel_inertia_kg_m2 + 0.5)))
+    runs = [integrate(veh, HUSKY.contact_geometry(), (get_terrain("ASPHALT"),), 1e9, t, cmd,
+                      0.0, 1.0) for veh in (HUSKY, heavy)]
+    np.testing.assert_array_equal(runs[0].omega, runs[1].omega)
+    dw = np.diff(runs[0].omega, axis=0, prepend=np.zeros((1, 2))) / 0.01
+    extra = 0.5 * HUSKY.wheels_per_motor * dw
+    assert extra.max() > 0.5 and extra.min() < -0.5          # spin-up and slow-down
+    np.testing.assert_allclose(runs[1].torque - runs[0].torque, extra, rtol=1e-9, atol=1e-9)
