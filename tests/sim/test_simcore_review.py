@@ -79,3 +79,41 @@ def test_the_motor_torque_carries_the_wheel_inertia_times_the_wheel_acceleration
     extra = 0.5 * HUSKY.wheels_per_motor * dw
     assert extra.max() > 0.5 and extra.min() < -0.5          # spin-up and slow-down
     np.testing.assert_allclose(runs[1].torque - runs[0].torque, extra, rtol=1e-9, atol=1e-9)
+
+
+def test_the_reported_current_of_physics_v2_in_each_quadrant():
+    # v2 reports I_0 + T / k while the motor drives, only I_0 while it brakes (the torque
+    # against the speed) and the holding torque |T| / k at a standstill; v1 reports |I|
+    from terrain.sim.forces import reported_current_a
+    from terrain.vehicles import HUSKY
+
+    m = HUSKY.motor
+    k = m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency
+    torque = np.array([4.0, -4.0, -4.0, 4.0, 4.0, -4.0])
+    omega = np.array([20.0, -20.0, 20.0, -20.0, 0.0, 0.0])
+    got = reported_current_a(m, torque, omega, "v2")
+    i0 = m.no_load_current_a * np.tanh(20.0 / 0.05)
+    np.testing.assert_allclose(got, [i0 + 4 / k, i0 + 4 / k, i0, i0, 4 / k, 4 / k],
+                               rtol=1e-12)
+    np.testing.assert_allclose(reported_current_a(m, torque, omega, "v1"),
+                               np.abs(m.current_from_torque(torque, omega)), rtol=1e-12)
+
+
+def test_the_motor_torque_of_a_ramp_does_not_depend_on_the_physics_step():
+    # the motors pay for the traction the implicit step gave the body (the linearised
+    # coefficient over the step): a Husky ramping at 0.5 m/s^2 on ASPHALT needs the same
+    # torque at 100 Hz and at 1 kHz physics, 4.92 N m per side (the coefficient at the start
+    # of the step, with the new wheel speed and the old body speed, gave 14.3 N m at 100 Hz
+    # and 5.96 at 1 kHz)
+    from terrain.sim.dynamics import integrate
+    from terrain.terramechanics.catalogue import get_terrain
+    from terrain.vehicles import HUSKY
+
+    torque = []
+    for dt in (0.01, 0.001):
+        t = np.arange(0.0, 1.5 + 0.5 * dt, dt)
+        cmd = np.column_stack([0.5 * t, np.zeros_like(t), np.zeros_like(t)])
+        p = integrate(HUSKY, HUSKY.contact_geometry(), (get_terrain("ASPHALT"),), 1e9, t,
+                      cmd, 0.0, 1.0)
+        torque.append(p.torque[(t > 1.0) & (t <= 1.5)].mean())
+    assert torque[0] == pytest.approx(torque[1], rel=0.1)
