@@ -323,7 +323,8 @@ class WindowSet:
         shorter than one window or partition (with their ids; ``reasons``: run id -> why),
         and ``per_run``: run id -> ``windows``, ``dropped_gap``, ``empty_gap``,
         ``dropped_unsteady``, ``partition_tail_s``, ``window_tail_s``, ``aligned_s``;
-        ``streams``: the streams aligned (:func:`required_streams` of the channels). A
+        ``streams``: the streams aligned (:func:`required_streams` of the channels, and
+        ``wheels`` with ``steady_only``). A
         :meth:`subset` adds
         ``not_selected`` (in total and per run): windows cut but left out by the selection.
     """
@@ -592,13 +593,15 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
     counts = {"windows": 0, "dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
               "partition_tail_s": 0.0, "window_tail_s": 0.0, "skipped_runs": [],
-              "too_short_runs": [], "reasons": {}, "per_run": {}, "streams": list(need)}
+              "too_short_runs": [], "reasons": {}, "per_run": {}}
     iterator = runs
     if progress:
         from tqdm.auto import tqdm
         iterator = tqdm(runs, desc="windowing runs", unit="run")
     # steady-motion selection needs the wheel speeds even for IMU-only signal sets
     streams = tuple(dict.fromkeys(need + (("wheels",) if config.steady_only else ())))
+    # the streams aligned: with both, each is cut to the other's span (the input report)
+    counts["streams"] = list(streams)
     for run in iterator:
         if any(s not in run.streams for s in streams):
             counts["skipped_runs"].append(run.run_id)
