@@ -301,8 +301,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         ------
         ConfigError
             A wheel channel is missing from ``channels`` or named twice there (the
-            channels are read by position), or ``rate_hz`` or ``short_s`` is not a real
-            number (text, a bool).
+            channels are read by position), ``rate_hz`` not a finite number > 0, or
+            ``short_s`` not a finite number (text, a bool, NaN, inf) or None.
         ValueError
             ``X`` not of 3 dimensions, of another number of channels than ``channels``, or
             of 0 windows.
@@ -316,6 +316,11 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         # they set the scales' sample counts and names (True was a 1 s scale, "__last1s")
         config_numbers("WheelPhysicsFeatures", optional=("short_s",), rate_hz=self.rate_hz,
                        short_s=self.short_s)
+        # (NaN or inf failed in int(round(...)) naming no field; a rate <= 0 passed fit)
+        config_positive("WheelPhysicsFeatures", rate_hz=self.rate_hz)
+        if self.short_s is not None and not np.isfinite(self.short_s):
+            raise ConfigError(f"WheelPhysicsFeatures.short_s must be a finite number of "
+                              f"seconds or None, got {self.short_s!r}")
         X = as_windows(X, self.channels)
         self.feature_names_out_ = np.asarray(
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
