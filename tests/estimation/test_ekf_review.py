@@ -1,0 +1,102 @@
+"""Review tests of the EKF core: gate degrees of freedom and boundary, chi-square bounds with
+the effective sample count, the windowed autocorrelation time."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import signal, stats
+
+from terrain.estimation import Gate, correct
+from terrain.estimation.consistency import (chi2_test, effective_sample_size,
+                                            integrated_autocorrelation_time, mean_chi2_bounds)
+
+
+def test_each_group_is_gated_on_the_quantile_of_its_own_size():
+    # three independent unit-variance rows (P = 0, R = 1: S = I), groups of 2 and 1 rows;
+    # NIS 13 of the 1-row group is over chi2(1) 0.999 = 10.83 (under chi2(3) = 16.27), NIS
+    # 15 of the 2-row group over chi2(2) = 13.82: both groups are rejected
+    gate = Gate(0.999)
+    groups = [np.array([0, 1]), np.array([2])]
+    y = np.array([np.sqrt(7.5), np.sqrt(7.5), np.sqrt(13.0)])
+    _, _, inn = correct(np.zeros(3), np.zeros((3, 3)), y, np.eye(3), np.ones(3), gate=gate,
+                        groups=groups)
+    assert inn.accepted.tolist() == [False, False, False]
+    # just under their own thresholds both are accepted
+    y = np.array([np.sqrt(6.5), np.sqrt(6.5), np.sqrt(10.5)])
+    _, _, inn = correct(np.zeros(3), np.zeros((3, 3)), y, np.eye(3), np.ones(3), gate=gate,
+                        groups=groups)
+    assert inn.accepted.all() and inn.nis == pytest.approx(23.5) and inn.dof == 3
+
+
+def test_a_group_exactly_at_its_threshold_is_accepted():
+    # the gate rejects a NIS that *exceeds* the quantile (the compiled loop tests the same)
+    t = Gate(0.999).threshold(1)
+    y = np.array([np.sqrt(t)])
+    assert y[0] * y[0] == t                    # exact in float64 for this quantile
+    _, _, inn = correct(np.zeros(1), np.zeros((1, 1)), y, np.eye(1), np.ones(1),
+                        gate=Gate(0.999))
+    assert inn.accepted.tolist() == [True] and inn.nis == t
+    _, _, inn = correct(np.zeros(1), np.zeros((1, 1)), np.nextafter(y, 10.0), np.eye(1),
+                        np.ones(1), gate=Gate(0.999))
+    assert inn.accepted.tolist() == [False] and np.isnan(inn.nis)
+
+
+def test_chi2_test_bounds_use_the_effective_sample_count():
+    # correlated chi-square(1) values: squares of an AR(1) with unit variance (tau ~ 1.5)
+    e = signal.lfilter([np.sqrt(1 - 0.9 ** 2)], [1.0, -0.9],
+                       np.random.default_rng(3).standard_normal(4000))
+    v = e ** 2
+    test = chi2_test(v, 1.0)
+    n_eff = effective_sample_size(v)
+    assert n_eff < 0.8 * v.size
+    assert test.n_effective == n_eff
+    assert test.bounds == mean_chi2_bounds(1.0, n_eff)
+    assert test.bounds_iid == mean_chi2_bounds(1.0, v.size)
+    assert test.bounds[0] < test.bounds_iid[0] and test.bounds[1] > test.bounds_iid[1]
+
+
+def _tau_by_definition(x, max_lag, threshold):
+    """Sokal's windowed tau from the biased sample autocorrelation, one lag at a time."""
+    d = x - x.mean()
+    n = x.size
+    var = d @ d / n
+    tau = 1.0
+    for k in range(1, min(n, max_lag)):
+        rho = (d[:-k] @ d[k:]) / n / var
+        if rho < threshold:
+            break
+        tau += 2.0 * rho
+    return tau
+
+
+def test_autocorrelation_time_stops_at_the_first_lag_below_the_threshold():
+    # a noisy oscillation: its autocorrelation drops below 0.05 near lag 12 and comes back
+    # above it near lag 38, which the window must not count
+    rng = np.random.default_rng(8)
+    t = np.arange(3000)
+    x = np.sin(2 * np.pi * t / 50.0) + 0.5 * rng.standard_normal(t.size)
+    want = _tau_by_definition(x, 2000, 0.05)
+    assert float(integrated_autocorrelation_time(x)) == pytest.approx(want, rel=1e-9)
+    assert 1.0 < want < 15.0
+    # rows of a 2-D array each get their own
+    ar = signal.lfilter([1.0], [1.0, -0.7], rng.standard_normal(3000))
+    both = integrated_autocorrelation_time(np.stack([x, ar]))
+    assert both[1] == pytest.approx(_tau_by_definition(ar, 2000, 0.05), rel=1e-9)
+
+
+def test_effective_sample_size_drops_non_finite_values():
+    rng = np.random.default_rng(9)
+    ar = signal.lfilter([1.0], [1.0, -0.8], rng.standard_normal(3000))
+    holed = ar.copy()
+    holed[::10] = np.nan
+    holed[5] = np.inf
+    finite = holed[np.isfinite(holed)]
+    assert effective_sample_size(holed) == effective_sample_size(finite)
+    assert effective_sample_size(holed) < finite.size / 5.0      # tau of about 9
+
+
+def test_chi_square_quantiles_behind_the_bounds():
+    # N = 1 bounds are the two-sided quantiles of one chi-square value
+    lo, hi = mean_chi2_bounds(2, 1, probability=0.9)
+    assert (lo, hi) == pytest.approx((stats.chi2.ppf(0.05, 2), stats.chi2.ppf(0.95, 2)))
