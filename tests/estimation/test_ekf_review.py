@@ -100,3 +100,30 @@ def test_chi_square_quantiles_behind_the_bounds():
     # N = 1 bounds are the two-sided quantiles of one chi-square value
     lo, hi = mean_chi2_bounds(2, 1, probability=0.9)
     assert (lo, hi) == pytest.approx((stats.chi2.ppf(0.05, 2), stats.chi2.ppf(0.95, 2)))
+
+
+def _gate_at(value):
+    """A gate whose threshold is ``value`` for every group size."""
+    class _Fixed(Gate):
+        def threshold(self, dof):
+            return value
+    return _Fixed(0.999)
+
+
+def test_the_compiled_gate_accepts_a_nis_exactly_at_its_threshold():
+    # one gyro sample: the only gated group of the run; its marginal NIS is the step's NIS,
+    # computed by the same Cholesky solve in the compiled loop
+    from terrain.estimation.runner import SensorSamples, make_grid, run_filter
+    from terrain.estimation.skid_steer import SkidSteerModel
+
+    grid = make_grid(0.0, 0.05, 100.0)
+    samples = {"gyro": SensorSamples(np.array([0.013]), np.array([[0.2]]))}
+    free = run_filter(SkidSteerModel(), grid, samples, engine="numba")
+    d2 = free.nis[2]
+    assert d2 > 0.0 and free.accepted[2, 2]
+    at = run_filter(SkidSteerModel(), grid, samples, engine="numba", gate=_gate_at(d2))
+    assert at.accepted[2, 2] and at.nis[2] == d2
+    np.testing.assert_array_equal(at.x, free.x)
+    below = run_filter(SkidSteerModel(), grid, samples, engine="numba",
+                       gate=_gate_at(np.nextafter(d2, 0.0)))
+    assert not below.accepted[2, 2] and below.counts["gyro"]["rejected"] == 1
