@@ -127,3 +127,21 @@ def test_the_compiled_gate_accepts_a_nis_exactly_at_its_threshold():
     below = run_filter(SkidSteerModel(), grid, samples, engine="numba",
                        gate=_gate_at(np.nextafter(d2, 0.0)))
     assert not below.accepted[2, 2] and below.counts["gyro"]["rejected"] == 1
+
+
+def test_with_step_bounds_the_state_bounds_also_hold_at_steps_without_a_sample():
+    # run_filter: after each step's update, or prediction at a step with no sample, the
+    # estimate is projected onto step_bounds, *then* clipped into the model's state_bounds
+    from terrain.estimation.runner import SensorSamples, run_filter
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
+
+    model = SkidSteerSlipModel()
+    t = np.arange(0.0, 1.0, 0.01)
+    wheels = {"wheels": SensorSamples(t[5::10], np.full((t[5::10].size, 2), 0.3))}
+    x0 = model.x0
+    x0[4] = 1.4                                  # slip_1 outside [-1, 1]
+    free = np.full((t.size, model.n_states), np.inf)
+    res = run_filter(model, t, wheels, engine="numpy", x0=x0, step_bounds=(-free, free))
+    assert res.x[0, 4] == 1.0                    # step 0 has no sample: clipped all the same
+    assert np.abs(res.x[:, 4:6]).max() <= 1.0
+    assert res.meta["state_bounds_clipped"] >= 1 and res.meta["step_bounds_active"] == 0
