@@ -145,3 +145,21 @@ def test_with_step_bounds_the_state_bounds_also_hold_at_steps_without_a_sample()
     assert res.x[0, 4] == 1.0                    # step 0 has no sample: clipped all the same
     assert np.abs(res.x[:, 4:6]).max() <= 1.0
     assert res.meta["state_bounds_clipped"] >= 1 and res.meta["step_bounds_active"] == 0
+
+
+def test_one_precise_update_of_a_badly_scaled_covariance_stays_positive_semi_definite():
+    # states of scales 1e-3 .. 1e4 observed by rows with noise down to 1e-14: the short form
+    # (I - K H) P of eq. 4.12 reaches eigenvalues of -3e-5 times the largest on these
+    # draws; the Joseph form stays within round-off of PSD
+    rng = np.random.default_rng(0)
+    n = 4
+    worst = 0.0
+    for _ in range(300):
+        a = rng.standard_normal((n, n)) * 10.0 ** rng.uniform(-3, 4, n)
+        H = rng.standard_normal((2, n))
+        R = np.full(2, 10.0 ** rng.uniform(-14, -6))
+        _, P1, _ = correct(np.zeros(n), a @ a.T, np.zeros(2), H, R, check=False)
+        eig = np.linalg.eigvalsh(P1)
+        worst = min(worst, eig[0] / eig[-1])
+        np.testing.assert_array_equal(P1, P1.T)
+    assert worst > -1e-12
