@@ -163,3 +163,27 @@ def test_one_precise_update_of_a_badly_scaled_covariance_stays_positive_semi_def
         worst = min(worst, eig[0] / eig[-1])
         np.testing.assert_array_equal(P1, P1.T)
     assert worst > -1e-12
+
+
+def test_the_streaming_filter_gates_a_sensor_after_an_absent_one():
+    # groups [0] and [1]; an update of row 1 alone leaves group 0 empty: group 1 is still
+    # gated (an outlier of 100 sigma is rejected, the filter unchanged)
+    from terrain.estimation import ExtendedKalmanFilter
+
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2) * 0.01, lambda x, dt: x,
+                               lambda x, dt: np.eye(2), lambda x: x, lambda x: np.eye(2),
+                               np.eye(2) * 1e-4, np.array([1e-4, 1e-4]), gate=Gate(0.999),
+                               groups=[np.array([0]), np.array([1])])
+    inn = ekf.update(np.array([10.0]), rows=[1])
+    assert inn.accepted.tolist() == [False] and inn.dof == 0
+    np.testing.assert_array_equal(ekf.x, np.zeros(2))
+    inn = ekf.update(np.array([0.01]), rows=[1])          # a good sample is used
+    assert inn.accepted.tolist() == [True] and ekf.x[1] > 0.0
+
+
+def test_a_grid_whose_span_rounds_below_a_whole_number_of_steps_keeps_its_last_step():
+    # (0.3 - 0.1) * 10 is 1.9999999999999998 in float64: the grid still has 3 steps
+    from terrain.estimation.runner import make_grid
+
+    grid = make_grid(0.1, 0.3, 10.0)
+    assert grid.size == 3 and grid[-1] == pytest.approx(0.3)
