@@ -1,0 +1,46 @@
+"""Review tests of the forward filter: the per-hop switching probability and the decided
+class across a skipped silent stretch; the desired-slip table's fallback entry."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+
+
+@pytest.mark.parametrize("hop_s, dwell_s", [(0.5, 10.0), (0.25, 2.0), (1.0, 4.0)])
+def test_one_hop_without_a_window_switches_with_probability_hop_over_dwell(hop_s, dwell_s):
+    # a mean dwell of dwell_s seconds on a terrain: leave it with hop_s / dwell_s per hop,
+    # to the K - 1 other classes uniformly
+    filt = ForwardFilter(3, hop_s, SmoothingConfig(dwell_s=dwell_s))
+    filt.p = np.array([1.0, 0.0, 0.0])
+    decided, p = filt.update(None)
+    ps = hop_s / dwell_s
+    np.testing.assert_allclose(p, [1.0 - ps, ps / 2, ps / 2], rtol=1e-12)
+    assert filt.p_switch == pytest.approx(ps, rel=1e-12)
+
+
+def test_a_skipped_stretch_that_forgets_everything_keeps_the_decided_class():
+    # a dwell under K/(K-1) hops: one hop forgets all, p is exactly uniform after a skip;
+    # a tie is no reason to switch (as update(None) repeated keeps the decided class)
+    a, b = (ForwardFilter(2, 0.5, SmoothingConfig(dwell_s=0.2)) for _ in range(2))
+    for f in (a, b):
+        assert f.update(np.array([0.2, 0.8]))[0] == 1
+    for _ in range(3):
+        decided, p = a.update(None)
+    b.skip(3)
+    np.testing.assert_array_equal(b.p, [0.5, 0.5])
+    np.testing.assert_allclose(b.p, p, rtol=1e-12)
+    assert b.current == decided == 1
+
+
+def test_table_targets_fallback_is_the_tables_conservative_entry_whole():
+    from terrain.control import build_slip_table
+    from terrain.serving.targets import TableTargets
+
+    classes = ["ASPHALT", "ICE", "SNOW"]
+    fb = build_slip_table(classes).fallback
+    assert tuple(TableTargets(classes).fallback) == (fb.traction, fb.braking, fb.steady)
+    # the braking target is its own entry, not the traction one mirrored
+    assert fb.braking != -fb.traction
