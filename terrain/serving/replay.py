@@ -56,6 +56,8 @@ def interleave(run: Run, streams: Sequence[str], max_chunk: int = 1
     names = [s for s in streams if s in run.streams]
     times = [run.streams[s][TIME].to_numpy(dtype=float) for s in names]
     vals = [run.streams[s].drop(columns=TIME).to_numpy(dtype=float) for s in names]
+    if not sum(len(t) for t in times):
+        return  # no sample of the named streams (none present, or all empty)
     which = np.concatenate([np.full(len(t), i) for i, t in enumerate(times)])
     row = np.concatenate([np.arange(len(t)) for t in times])
     order = np.argsort(np.concatenate(times), kind="stable")

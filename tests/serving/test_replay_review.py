@@ -66,3 +66,11 @@ def test_overlap_is_the_span_every_stream_covers():
     assert _overlap_s([a, b]) == 4.0
     assert _overlap_s([a, pd.DataFrame({TIME: [6.0, 9.0]})]) == 0.0
     assert _overlap_s([a, pd.DataFrame({TIME: []})]) == 0.0
+
+
+@pytest.mark.parametrize("times", [{"a": np.array([])}, {"a": np.array([]), "b": np.array([])},
+                                   {"c": np.array([0.0, 1.0])}])
+def test_interleave_of_no_sample_of_the_named_streams_yields_nothing(times):
+    # streams absent from the run are skipped (docstring): none present, or none holding a
+    # sample, is nothing to replay (was numpy's ValueError / an IndexError)
+    assert _events(_run(times), ("a", "b"), 4) == []
