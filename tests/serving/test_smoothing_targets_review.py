@@ -44,3 +44,13 @@ def test_table_targets_fallback_is_the_tables_conservative_entry_whole():
     assert tuple(TableTargets(classes).fallback) == (fb.traction, fb.braking, fb.steady)
     # the braking target is its own entry, not the traction one mirrored
     assert fb.braking != -fb.traction
+
+
+def test_without_the_filter_an_invalid_window_reports_no_memory_but_keeps_the_decision():
+    # no smoothing: a window not classified gives the uniform distribution, not the last
+    # window's probabilities reported as the current ones
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=None))
+    assert filt.update(np.array([0.1, 0.7, 0.2]))[0] == 1
+    decided, p = filt.update(None)
+    np.testing.assert_array_equal(p, np.full(3, 1 / 3))
+    assert decided == 1 and not filt.evidence
