@@ -96,7 +96,7 @@ class CataloguePeakTargets:
         terrain : str or None
             Decided class.
         confidence : float
-            Its smoothed probability.
+            Its smoothed probability (NaN: not trusted, the fallback).
         stale : bool
             Stale input.
 
@@ -104,7 +104,8 @@ class CataloguePeakTargets:
         -------
         SlipTargets
         """
-        if terrain is None or stale or confidence < self.min_confidence \
+        # (not >=: a NaN confidence is no trust, as in select_target)
+        if terrain is None or stale or not confidence >= self.min_confidence \
                 or terrain not in self.table:
             return self.fallback
         return self.table[terrain]

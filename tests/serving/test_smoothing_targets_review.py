@@ -54,3 +54,13 @@ def test_without_the_filter_an_invalid_window_reports_no_memory_but_keeps_the_de
     decided, p = filt.update(None)
     np.testing.assert_array_equal(p, np.full(3, 1 / 3))
     assert decided == 1 and not filt.evidence
+
+
+def test_catalogue_targets_fall_back_on_a_nan_confidence():
+    # 'nan < min_confidence' is False: a NaN confidence got the terrain's own targets
+    from terrain.serving.targets import CataloguePeakTargets
+
+    targets = CataloguePeakTargets(("ASPHALT", "ICE", "SNOW"))
+    own = max(targets.table, key=lambda c: targets.table[c].traction)   # not the fallback
+    assert targets.target_for(own, 0.9, False) == targets.table[own] != targets.fallback
+    assert targets.target_for(own, float("nan"), False) == targets.fallback
