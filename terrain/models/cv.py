@@ -265,7 +265,8 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     labels, groups : numpy.ndarray
         ``(n_windows,)``; for ``paper`` the groups are the 5 s partitions.
     seed : int
-        Shuffling seed (``paper`` uses ``21 + seed`` so seed 0 is the published split).
+        Shuffling seed (``paper`` uses ``(21 + seed) mod 2**32``, NumPy's seed range, so
+        seed 0 is the published split).
     n_splits : int
         Folds (not used by ``loro``).
 
@@ -318,7 +319,8 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     elif protocol == "paper":
         units, first = np.unique(groups, return_index=True)
         unit_labels = labels[first]
-        skf = StratifiedKFold(n_splits, shuffle=True, random_state=PAPER_RANDOM_STATE + seed)
+        skf = StratifiedKFold(n_splits, shuffle=True,
+                              random_state=(PAPER_RANDOM_STATE + seed) % 2 ** 32)
         position = {u: i for i, u in enumerate(units)}
         unit_of = np.array([position[g] for g in groups])
         for tr_u, te_u in skf.split(units, unit_labels):
