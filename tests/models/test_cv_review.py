@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.model_selection import StratifiedKFold
 
-from terrain.models.cv import PAPER_RANDOM_STATE, iter_splits
+from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, iter_splits,
+                               split_single_run_classes)
 from terrain.models.experiment import MAX_SEED, ExperimentConfig
+from terrain.models.metrics import confusion
 
 
 def _partitions(n_per_class=10):
@@ -30,3 +34,62 @@ def test_the_paper_split_takes_every_seed_the_config_accepts():
     for (_, test), (_, ref_test) in zip(iter_splits("paper", labels, groups, 0, 5),
                                         ref.split(groups, labels)):
         assert np.array_equal(test, ref_test)
+
+
+def test_confusion_columns_are_the_predicted_classes_in_the_given_order():
+    # asymmetric: a->b once, b->c once; a reversed or shuffled column index mislabels them
+    cm = confusion(["a", "a", "b", "c", "c"], ["b", "a", "c", "c", "c"], ["a", "b", "c"])
+    assert list(cm.index) == ["a", "b", "c"] and list(cm.columns) == ["a", "b", "c"]
+    assert cm.loc["a", "b"] == 1 and cm.loc["b", "a"] == 0
+    assert cm.loc["b", "c"] == 1 and cm.loc["c", "b"] == 0
+    assert cm.loc["c", "c"] == 2 and cm.to_numpy().sum() == 5
+
+
+class _SeededGuess(BaseEstimator, ClassifierMixin):
+    """Predicts class ``seed % n_classes`` of its training classes, whatever the input."""
+
+    def __init__(self, seed=0):
+        self.seed = seed
+
+    def fit(self, X, y):
+        self.classes_ = np.unique(y)
+        return self
+
+    def predict(self, X):
+        return np.full(len(X), self.classes_[self.seed % len(self.classes_)])
+
+
+def _six_runs():
+    labels = np.repeat(["a", "b"], 30)
+    groups = np.repeat([f"r{i}" for i in range(6)], 10).astype(object)
+    t0 = np.tile(np.arange(10.0), 6)
+    return np.zeros((60, 1)), labels, groups, t0
+
+
+def test_each_seed_builds_its_own_model_and_the_confusion_counts_its_predictions():
+    X, y, groups, t0 = _six_runs()
+    report = cross_validate(_SeededGuess, X, y, groups, groups, t0, t0 + 1.0,
+                            seeds=(4, 7, 8), n_splits=3)
+    pred = report.predictions
+    # seeds 4 and 8 guess class 0 ("a") everywhere, seed 7 class 1 ("b"): the model seed is
+    # honoured
+    assert set(pred.loc[pred.seed == 4, "predicted"]) == {"a"}
+    assert set(pred.loc[pred.seed == 7, "predicted"]) == {"b"}
+    assert report.pooled.set_index("seed")["accuracy"].to_dict() == {4: 0.5, 7: 0.5, 8: 0.5}
+    # the confusion (rows true, columns predicted) counts the out-of-fold predictions of
+    # every seed: 60 windows predicted "a" and 30 predicted "b" per true class
+    cross = pd.crosstab(pred["true"], pred["predicted"])
+    assert report.confusion.equals(cross.rename_axis(index="true", columns="predicted"))
+    assert report.confusion.loc["b", "a"] == 60 and report.confusion.loc["a", "b"] == 30
+
+
+def test_single_run_blocks_are_contiguous_in_time_whatever_the_window_order():
+    rng = np.random.default_rng(0)
+    order = rng.permutation(20)
+    t0 = np.arange(20.0)[order]                   # windows listed out of time order
+    labels = np.array(["solo"] * 20)
+    groups, split = split_single_run_classes(labels, np.full(20, "r0", dtype=object), t0, 4)
+    assert split == ["solo"]
+    for k in range(4):
+        times = np.sort(t0[groups == f"r0@block{k}"])
+        assert np.array_equal(times, np.arange(5.0 * k, 5.0 * k + 5))
