@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.model_selection import StratifiedKFold
 
@@ -93,3 +94,29 @@ def test_single_run_blocks_are_contiguous_in_time_whatever_the_window_order():
     for k in range(4):
         times = np.sort(t0[groups == f"r0@block{k}"])
         assert np.array_equal(times, np.arange(5.0 * k, 5.0 * k + 5))
+
+
+class _Captured(Exception):
+    """Stops run_cv once its estimator factory is captured."""
+
+
+@pytest.mark.parametrize("search", [True, False])
+def test_run_cv_builds_every_cv_seeds_model_and_inner_search_with_that_seed(
+        vulpi_runs, monkeypatch, search):
+    from terrain.models import experiment
+
+    captured = {}
+
+    def capture(factory, *args, **kwargs):
+        captured["factory"] = factory
+        raise _Captured
+
+    monkeypatch.setattr(experiment, "cross_validate", capture)
+    config = ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(5, 9), search=search)
+    with pytest.raises(_Captured):
+        experiment.run_cv(config, runs=vulpi_runs)
+    model = captured["factory"](9)
+    if search:          # the inner grouped folds of seed 9 shuffle with seed 9
+        assert model.cv.random_state == 9
+        model = model.estimator
+    assert model.named_steps["svc"].random_state == 9
