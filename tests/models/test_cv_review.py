@@ -120,3 +120,23 @@ def test_run_cv_builds_every_cv_seeds_model_and_inner_search_with_that_seed(
         assert model.cv.random_state == 9
         model = model.estimator
     assert model.named_steps["svc"].random_state == 9
+
+
+def test_class_keeping_split_never_holds_out_every_run_of_a_class():
+    from sklearn.model_selection import StratifiedGroupKFold
+
+    from terrain.models.cv import class_keeping_split
+
+    # class "solo" has one run: a split holding that run out trains without the class
+    labels = np.array(["a"] * 30 + ["b"] * 30 + ["solo"] * 10)
+    groups = np.repeat([f"r{i}" for i in range(7)], 10).astype(object)
+    first_held_solo = 0
+    for seed in range(6):
+        fit, held = class_keeping_split(labels, groups, 3, seed, "early stopping",
+                                        "validation_splits", "early_stopping=False")
+        assert set(labels[fit]) == {"a", "b", "solo"} and held.size
+        assert not set(groups[fit]) & set(groups[held])
+        first_fit, _ = next(StratifiedGroupKFold(3, shuffle=True, random_state=seed).split(
+            labels, labels, groups))
+        first_held_solo += "solo" not in set(labels[first_fit])
+    assert first_held_solo       # the check above was exercised on at least one seed
