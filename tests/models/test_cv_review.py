@@ -140,3 +140,14 @@ def test_class_keeping_split_never_holds_out_every_run_of_a_class():
             labels, labels, groups))
         first_held_solo += "solo" not in set(labels[first_fit])
     assert first_held_solo       # the check above was exercised on at least one seed
+
+
+def test_paper_folds_count_partitions_not_windows_per_class():
+    from terrain.errors import ConfigError
+
+    # 3 partitions per class of 10 windows each: 30 windows, but only 3 partitions, per class
+    labels = np.repeat(["a", "b"], 30)
+    groups = np.repeat([f"r{i}#0" for i in range(6)], 10).astype(object)
+    with pytest.raises(ConfigError, match="no class has as many 5 s partitions"):
+        list(iter_splits("paper", labels, groups, 0, 5))
+    assert len(list(iter_splits("paper", labels, groups, 0, 3))) == 3
