@@ -290,6 +290,29 @@ def config_positive(owner: str, allow_zero: bool = False, **values) -> None:
             raise ConfigError(f"{owner}.{name} must be a finite value {rule}, got {value!r}")
 
 
+def config_fraction(owner: str, **values) -> None:
+    """Refuse configuration values that are not real numbers in (0, 1]: a fraction of a
+    peak, a saturation, a slip (a percentage such as 95 is refused).
+
+    Parameters
+    ----------
+    owner : str
+        The function's name, for the message (``"traction_peak"``).
+    **values
+        Field name -> value.
+
+    Raises
+    ------
+    ConfigError
+        The first value that is not a real number (:func:`config_numbers`), or not in
+        (0, 1] (NaN included), named with the value given.
+    """
+    config_numbers(owner, **values)
+    for name, value in values.items():
+        if not 0.0 < value <= 1.0:
+            raise ConfigError(f"{owner}: {name} must be in (0, 1], got {value}")
+
+
 class EstimationError(TerrainError, ValueError):
     """Bad input to a state estimator (:mod:`terrain.estimation`, :mod:`terrain.slip`).
 

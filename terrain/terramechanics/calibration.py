@@ -15,7 +15,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_fraction, config_positive
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                soil_resistance_coefficient)
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
@@ -139,9 +139,7 @@ def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: flo
         to ``s_acc / s_ss`` as ``k -> inf``).
     """
     config_positive("calibrate_janosi", soil_resistance=soil_resistance, accel_m_s2=accel_m_s2)
-    for key, value in (("slip_steady", slip_steady), ("slip_accel", slip_accel)):
-        if not 0.0 < value <= 1.0:
-            raise ConfigError(f"calibrate_janosi: {key} must be in (0, 1], got {value}")
+    config_fraction("calibrate_janosi", slip_steady=slip_steady, slip_accel=slip_accel)
     g = lambda x: float(patch_mobilisation(x)[0])  # noqa: E731
     target = (soil_resistance + accel_m_s2 / G_M_S2) / soil_resistance
     if not target < slip_accel / slip_steady:

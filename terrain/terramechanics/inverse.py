@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
-from terrain.errors import ConfigError, config_integer, config_numbers
+from terrain.errors import config_fraction, config_integer
 from terrain.terramechanics.traction import (TractionCurve, traction_coefficient,
                                              traction_peak)
 
@@ -90,9 +90,7 @@ def slip_at_peak_fraction(curve: TractionCurve, fraction: float) -> float:
     ConfigError
         ``fraction`` not a number in (0, 1] (NaN included).
     """
-    config_numbers("slip_at_peak_fraction", fraction=fraction)
-    if not 0.0 < fraction <= 1.0:
-        raise ConfigError(f"slip_at_peak_fraction: fraction must be in (0, 1], got {fraction}")
+    config_fraction("slip_at_peak_fraction", fraction=fraction)
     s_peak, mu_peak = stable_side_end(curve)
     level = fraction * mu_peak
     if fraction == 1.0:

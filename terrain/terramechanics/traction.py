@@ -48,7 +48,7 @@ import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from terrain.errors import ConfigError, config_numbers, config_positive
+from terrain.errors import ConfigError, config_fraction, config_numbers, config_positive
 
 
 class CurveCoefficients(NamedTuple):
@@ -706,10 +706,7 @@ def traction_peak(curve: TractionCurve, saturation: float = 0.95) -> TractionPea
     ConfigError
         ``saturation`` not a number in (0, 1] (a percentage such as 95 gave slip 0).
     """
-    config_numbers("traction_peak", saturation=saturation)
-    if not 0.0 < saturation <= 1.0:
-        raise ConfigError(f"traction_peak: saturation must be a fraction in (0, 1], got "
-                          f"{saturation}")
+    config_fraction("traction_peak", saturation=saturation)
     grid = np.linspace(0.0, 1.0, 20001)
     mu = traction_coefficient(curve, grid)
     i_max = int(np.argmax(mu))
