@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from terrain.errors import ConfigError, CovarianceError, ShapeError, first_items
+from terrain.errors import (ConfigError, CovarianceError, ShapeError, config_numbers,
+                            config_positive, first_items)
 from terrain.estimation.model import wrap_angle
 
 
@@ -146,9 +147,15 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
     Raises
     ------
     ConfigError
-        ``probability`` not a number in (0, 1).
+        ``probability`` not a number in (0, 1), ``dof`` not a finite number > 0 or
+        ``n_samples`` not a finite number (each gave bounds of NaN).
     """
     _check_probability(probability)
+    config_positive("mean_chi2_bounds", dof=dof)
+    config_numbers("mean_chi2_bounds", n_samples=n_samples)
+    if not np.isfinite(n_samples):
+        raise ConfigError(f"mean_chi2_bounds.n_samples must be a finite number, got "
+                          f"{n_samples!r}")
     n = max(float(n_samples), 1.0)
     a = (1.0 - probability) / 2.0
     return (float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n))
@@ -296,7 +303,8 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     Raises
     ------
     ConfigError
-        ``probability`` not a number in (0, 1).
+        ``probability`` not a number in (0, 1), or an infinite ``dof``
+        (:func:`mean_chi2_bounds`).
     ShapeError
         ``values`` not 1-D, or ``dof`` neither a number nor of the shape of ``values``.
     """
