@@ -161,6 +161,14 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
     return (float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n))
 
 
+def _check_max_lag(owner: str, max_lag: int) -> None:
+    """Refuse a lag window of no lag: ``max_lag < 1`` (a negative one sliced the
+    autocorrelation from the end and summed nearly every lag)."""
+    config_numbers(owner, max_lag=max_lag)
+    if not max_lag >= 1:
+        raise ConfigError(f"{owner}: max_lag must be >= 1 (lags summed), got {max_lag!r}")
+
+
 def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
                                     threshold: float = 0.05) -> np.ndarray:
     """Integrated autocorrelation time ``tau = 1 + 2 sum_k rho_k`` of each row, the sum
@@ -182,7 +190,13 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     -------
     ndarray, shape (...)
         ``tau`` (>= 1); 1 for a constant row or fewer than 3 samples.
+
+    Raises
+    ------
+    ConfigError
+        ``max_lag`` not a number >= 1 (a negative one summed nearly every lag).
     """
+    _check_max_lag("integrated_autocorrelation_time", max_lag)
     x = np.asarray(series, dtype=float)
     n = x.shape[-1]
     if n < 3:
@@ -215,7 +229,13 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     -------
     float
         Between 1 and N.
+
+    Raises
+    ------
+    ConfigError
+        ``max_lag`` not a number >= 1 (:func:`integrated_autocorrelation_time`).
     """
+    _check_max_lag("effective_sample_size", max_lag)
     x = np.asarray(series, dtype=float)
     x = x[np.isfinite(x)]
     n = x.size

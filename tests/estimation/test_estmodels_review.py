@@ -23,3 +23,17 @@ def test_chi2_bounds_of_an_impossible_dof_or_sample_count_are_refused(kwargs, ma
         mean_chi2_bounds(**args)
     assert mean_chi2_bounds(3, 10) == pytest.approx(
         (stats.chi2.ppf(0.025, 30) / 10, stats.chi2.ppf(0.975, 30) / 10))
+
+
+@pytest.mark.parametrize("max_lag", [0, -5])
+def test_an_autocorrelation_window_of_no_lag_is_refused(max_lag):
+    """``max_lag=-5`` sliced the autocorrelation as ``[1:-5]``: a sum over nearly every lag
+    instead of none (tau 1.37 for white noise of 100 samples, where max_lag 1 gives 1)."""
+    from terrain.estimation.consistency import (effective_sample_size,
+                                                integrated_autocorrelation_time)
+    x = np.random.default_rng(0).standard_normal(100)
+    with pytest.raises(ConfigError, match="max_lag"):
+        integrated_autocorrelation_time(x, max_lag=max_lag)
+    with pytest.raises(ConfigError, match="max_lag"):
+        effective_sample_size(x, max_lag=max_lag)
+    assert float(integrated_autocorrelation_time(x, max_lag=1)) == 1.0
