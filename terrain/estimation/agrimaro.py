@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, config_positive
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
@@ -217,7 +217,19 @@ def noise_derived_settings(*, accel_std_m_s2: float = 0.8, gyro_std_rad_s: float
     Returns
     -------
     AgriMaRoEKFSettings
+
+    Raises
+    ------
+    ConfigError
+        A standard deviation not a finite number > 0 (a negative one was squared into a
+        valid-looking variance), or a density or ``p0_diag`` that
+        :class:`AgriMaRoEKFSettings` refuses.
     """
+    config_positive("noise_derived_settings", accel_std_m_s2=accel_std_m_s2,
+                    gyro_std_rad_s=gyro_std_rad_s, cam_vel_std_m_s=cam_vel_std_m_s,
+                    cam_yaw_rate_std_rad_s=cam_yaw_rate_std_rad_s,
+                    cam_yaw_std_rad=cam_yaw_std_rad, steer_std_rad=steer_std_rad,
+                    omega_std_rad_s=omega_std_rad_s, imu_yaw_std_rad=imu_yaw_std_rad)
     r = (omega_std_rad_s ** 2,) * 3 + (accel_std_m_s2 ** 2,) * 2 + (
         gyro_std_rad_s ** 2, imu_yaw_std_rad ** 2) + (steer_std_rad ** 2,) * 3 + (
         cam_vel_std_m_s ** 2,) * 2 + (cam_yaw_rate_std_rad_s ** 2, cam_yaw_std_rad ** 2)

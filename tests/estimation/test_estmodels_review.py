@@ -37,3 +37,15 @@ def test_an_autocorrelation_window_of_no_lag_is_refused(max_lag):
     with pytest.raises(ConfigError, match="max_lag"):
         effective_sample_size(x, max_lag=max_lag)
     assert float(integrated_autocorrelation_time(x, max_lag=1)) == 1.0
+
+
+@pytest.mark.parametrize("name", ["accel_std_m_s2", "cam_yaw_std_rad", "omega_std_rad_s"])
+@pytest.mark.parametrize("value", [-0.8, 0.0, float("inf")])
+def test_a_noise_derived_std_that_is_not_a_finite_number_gt_0_is_refused_by_name(name, value):
+    """``noise_derived_settings(accel_std_m_s2=-0.8)`` squared the std into a variance of
+    0.64 without a word (a sign error in the caller's noise estimate passed unseen)."""
+    from terrain.estimation.agrimaro import noise_derived_settings
+    with pytest.raises(ConfigError, match=f"noise_derived_settings.{name}"):
+        noise_derived_settings(**{name: value})
+    r = noise_derived_settings(accel_std_m_s2=0.5).r_diag
+    assert r[3] == r[4] == pytest.approx(0.25)
