@@ -459,7 +459,10 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     Raises
     ------
     ShapeError
-        Sizes that disagree with each other or with the kernel.
+        Sizes that disagree with each other or with the kernel: ``dts`` not ``(N - 1,)``,
+        ``P0`` not ``(n, n)``, ``R_diag`` or ``row_sensor`` not ``(m,)``, fewer
+        ``thresholds`` than the rows of the largest sensor group (the loop runs without
+        bounds checks: a short array was read past its end).
     CovarianceError
         ``S`` (or a gated group's block of it) is not positive definite, or a NIS is
         negative, at some step (the message names the step).
@@ -474,20 +477,32 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     if (n, m) != (kernel.n_states, kernel.n_measurements):
         raise ShapeError(f"the kernel needs {kernel.n_states} states and "
                          f"{kernel.n_measurements} rows, got {n} and {m}")
+    dts = np.ascontiguousarray(dts, dtype=np.float64)
+    P0 = np.ascontiguousarray(P0, dtype=np.float64)
+    R_diag = np.ascontiguousarray(R_diag, dtype=np.float64)
+    row_sensor = np.ascontiguousarray(row_sensor, dtype=np.int64)
+    for name, arr, shape in (("dts", dts, (max(N - 1, 0),)), ("P0", P0, (n, n)),
+                             ("R_diag", R_diag, (m,)), ("row_sensor", row_sensor, (m,))):
+        if arr.shape != shape:
+            raise ShapeError(f"run_compiled: {name} must be of shape {shape} for {N} steps, "
+                             f"{n} states and {m} rows, got {arr.shape}")
     is_angle = np.zeros(m, dtype=np.bool_)
     is_angle[list(kernel.angle_rows)] = True
     gate_on = thresholds is not None
     thr = np.ones(1) if thresholds is None else np.ascontiguousarray(thresholds, np.float64)
+    largest = max([int(np.count_nonzero(row_sensor == g)) for g in range(int(n_sensors))],
+                  default=0)
+    if gate_on and (thr.ndim != 1 or thr.size < largest):
+        raise ShapeError(f"run_compiled: thresholds must hold one per degree of freedom up to "
+                         f"the {largest} rows of the largest sensor group, got shape "
+                         f"{thr.shape}")
     out = (np.empty((N, n)), np.empty((N, n)),
            np.empty((N if store_covariance else 0, n, n)), np.empty((N, m)),
            np.empty((N, m)), np.empty((N, m), dtype=np.bool_), np.empty(N),
            np.empty(N, dtype=np.int64))            # every entry written by the loop
     model = (np.asarray(kernel.params, dtype=np.float64), np.zeros(0),
-             np.asarray(kernel.q_diag, dtype=np.float64),
-             np.ascontiguousarray(R_diag, dtype=np.float64), is_angle)
-    data = (np.ascontiguousarray(dts, dtype=np.float64), Z, x0,
-            np.ascontiguousarray(P0, dtype=np.float64),
-            np.ascontiguousarray(row_sensor, dtype=np.int64), thr)
+             np.asarray(kernel.q_diag, dtype=np.float64), R_diag, is_angle)
+    data = (dts, Z, x0, P0, row_sensor, thr)
     options = np.array([kernel.q_per == "second", int(n_sensors), gate_on,
                         bool(store_covariance)], dtype=np.int64)
     status, step = _filter_loop(_callback(kernel.transition, TRANSITION_SIGNATURE),

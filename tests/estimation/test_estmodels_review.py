@@ -49,3 +49,28 @@ def test_a_noise_derived_std_that_is_not_a_finite_number_gt_0_is_refused_by_name
         noise_derived_settings(**{name: value})
     r = noise_derived_settings(accel_std_m_s2=0.5).r_diag
     assert r[3] == r[4] == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("arg,value", [
+    ("dts", np.full(10, 0.01)), ("P0", np.eye(3)), ("R_diag", np.full(2, 1e-4)),
+    ("row_sensor", np.array([0, 0])), ("thresholds", np.array([3.84]))])
+def test_the_compiled_loop_refuses_arrays_of_other_sizes_by_name(arg, value):
+    """The loop runs without bounds checks: 10 steps for a 50-step run, a 3 x 3 P0 for 4
+    states or 2 noise variances for 3 rows were read past their ends and the run returned
+    other numbers without a word (e.g. a final speed variance of 1.1e-5 instead of
+    3.4e-4 for the short ``dts``); one gate threshold for the two wheel rows likewise."""
+    from terrain.errors import ShapeError
+    from terrain.estimation.fast import run_compiled
+    from terrain.estimation.runner import sensor_groups
+    from terrain.estimation.skid_steer import SENSOR_ROWS, SkidSteerModel
+    model = SkidSteerModel()
+    Z = np.tile([0.4, 0.4, 0.0], (50, 1))
+    args = dict(dts=np.full(49, 0.01), P0=model.P0, R_diag=model.R_diag,
+                row_sensor=sensor_groups(SENSOR_ROWS, 3), thresholds=np.array([3.84, 5.99]))
+    ref = run_compiled(model.fast_kernel(), args["dts"], Z, model.x0, args["P0"],
+                       args["R_diag"], args["row_sensor"], 2, thresholds=args["thresholds"])
+    assert np.isfinite(ref.P_diag).all()
+    args[arg] = value
+    with pytest.raises(ShapeError, match=arg):
+        run_compiled(model.fast_kernel(), args["dts"], Z, model.x0, args["P0"],
+                     args["R_diag"], args["row_sensor"], 2, thresholds=args["thresholds"])

@@ -300,8 +300,8 @@ def test_a_non_finite_innovation_is_named_as_such_by_the_compiled_loop():
     from terrain.errors import NonFiniteInputError
     kernel = FastKernel(_hold_transition, _sqrt_observation, (), 1, 1, (1e-4,), "step", ())
     with pytest.raises(NonFiniteInputError, match="innovation y is not finite at step 0"):
-        run_compiled(kernel, np.full(2, 0.1), np.ones((2, 1)), np.array([-1.0]), np.eye(1),
+        run_compiled(kernel, np.full(1, 0.1), np.ones((2, 1)), np.array([-1.0]), np.eye(1),
                      np.array([0.01]), np.array([0]), 1)
-    fine = run_compiled(kernel, np.full(2, 0.1), np.ones((2, 1)), np.array([1.0]), np.eye(1),
+    fine = run_compiled(kernel, np.full(1, 0.1), np.ones((2, 1)), np.array([1.0]), np.eye(1),
                         np.array([0.01]), np.array([0]), 1)
     assert np.isfinite(fine.nis).all()
