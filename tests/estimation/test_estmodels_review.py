@@ -184,3 +184,33 @@ def test_the_wheel_variance_is_inflated_for_repeats_and_never_deflated():
     assert wheel_r_scale(50.0, 100.0) == 1.0
     assert wheel_r_scale(100.0, 100.0) == 1.0
     assert wheel_r_scale(50.0, None) == 1.0
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(q_diag=(-1e-3,) * 12), "q_diag must be >= 0"),
+    (dict(p0_diag=(-1e-6,) + (1e-5,) * 11), "p0_diag must be >= 0"),
+    (dict(q_diag=(np.nan,) * 12), "q_diag needs 12 finite values"),
+    (dict(p0_diag=(np.inf,) * 12), "p0_diag needs 12 finite values"),
+    (dict(r_diag=(np.nan,) + (1e-3,) * 13), "r_diag needs 14 finite values")])
+def test_agrimaro_tuning_that_is_not_a_covariance_is_refused_by_name(kwargs, match):
+    """A negative process variance makes ``P`` indefinite (the AgriMaRo settings'
+    check of it was untested, as was their finiteness check); the thesis tuning passes."""
+    from terrain.estimation.agrimaro import AgriMaRoEKFSettings
+    with pytest.raises(ConfigError, match=match):
+        AgriMaRoEKFSettings(**kwargs)
+    assert AgriMaRoEKFSettings(q_diag=(0.0,) * 12).q_diag == (0.0,) * 12
+
+
+def test_an_exactly_singular_innovation_covariance_fails_the_factorisation():
+    """A zero pivot is not positive definite: the Cholesky factorisation must stop there
+    (named as such) instead of dividing by zero and reaching the NIS check with NaN."""
+    from terrain.errors import CovarianceError
+    from terrain.estimation.fast import run_compiled
+    from terrain.estimation.skid_steer import SkidSteerModel
+    model = SkidSteerModel()
+    Z = np.array([[np.nan, np.nan, 0.1], [np.nan, np.nan, 0.1]])     # the gyro row only
+    r_gyro = model.R_diag[2]
+    P0 = np.diag([1.0, -0.5 * r_gyro, -0.5 * r_gyro, 1.0])         # H P H^T = -R exactly
+    with pytest.raises(CovarianceError, match="Cholesky failed at step 0"):
+        run_compiled(model.fast_kernel(), np.full(1, 0.01), Z, model.x0, P0, model.R_diag,
+                     np.array([0, 0, 1]), 2)
