@@ -234,8 +234,9 @@ def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
 
 def samples_inside(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     """Which samples :func:`run_filter` may use: those after the step before the first
-    (``t_0 - dt``, taken at the first step) and at or before the last step (to 1e-9 s); the
-    others are counted as ``outside``.
+    (``t_0 - dt``, taken at the first step) and at or before the last step, both to 1e-9 s
+    by the placement rule of :func:`sample_steps` (a sample at ``t_0 - dt`` belongs to that
+    step, which is not the grid's); the others are counted as ``outside``.
 
     Parameters
     ----------
@@ -250,7 +251,7 @@ def samples_inside(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     """
     t = np.asarray(t_s, dtype=float)
     step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
-    return (t > t_grid[0] - step0 - 1e-9) & (t <= t_grid[-1] + 1e-9)
+    return (t > t_grid[0] - step0 + 1e-9) & (t <= t_grid[-1] + 1e-9)
 
 
 def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str

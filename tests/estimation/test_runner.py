@@ -229,3 +229,17 @@ def test_the_frame_shows_only_the_innovations_of_the_rows_used():
     np.testing.assert_array_equal(frame["innov_vel_r"].notna(), res.accepted[:, 1])
     used = res.accepted[:, 2]
     np.testing.assert_allclose(frame["innov_wz"][used], res.y[used, 2])
+
+
+def test_a_sample_exactly_one_step_before_the_grid_is_outside():
+    """A sample at ``t_0 - dt`` belongs to the step before ``t_0`` (the placement rule of
+    ``step_index``: a sample on a step belongs to that step), which is not part of the grid:
+    it is outside, as any older sample; one a microsecond later is the first step's."""
+    grid = make_grid(1.0, 1.1, 100.0)
+    for t_before, outside in ((0.99, 1), (0.990001, 0)):
+        samples = {"gyro": SensorSamples(np.array([t_before]), np.array([[0.7]]))}
+        for engine in ("numpy", "numba"):
+            res = run_filter(SkidSteerModel(), grid, samples, engine=engine)
+            assert res.counts["gyro"]["outside"] == outside
+            assert res.counts["gyro"]["used"] == 1 - outside
+            assert np.isfinite(res.y[0, 2]) == (outside == 0)
