@@ -20,6 +20,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
 from features.transformers import WindowFeatures
+from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.models.compiled import CompiledPipeline
 from terrain.models.cv import require_runs
 
@@ -47,6 +48,13 @@ class SVMConfig:
         Grid of the nested search.
     inner_splits : int
         Folds of the inner (grouped) search.
+
+    Raises
+    ------
+    ConfigError
+        ``C`` or a ``search_C`` value not a finite number > 0; ``gamma`` or a
+        ``search_gamma`` value neither ``"scale"``, ``"auto"`` nor a finite number > 0; an
+        empty grid; ``inner_splits`` not an integer >= 2.
     """
 
     C: float = 30.0
@@ -55,6 +63,32 @@ class SVMConfig:
     search_C: tuple[float, ...] = (3.0, 10.0, 30.0, 100.0)
     search_gamma: tuple[float | str, ...] = ("scale", 0.003, 0.01)
     inner_splits: int = 3
+
+    def __post_init__(self) -> None:
+        # C <= 0 or an unknown gamma reached SVC's InvalidParameterError at the first fit,
+        # gamma 0 fitted a constant kernel, and inner_splits 1 or an empty grid raised
+        # scikit-learn's bare ValueError inside the CV, after the data was windowed
+        config_positive("SVMConfig", C=self.C)
+        _check_gamma("gamma", self.gamma)
+        config_integer("SVMConfig.inner_splits", self.inner_splits, 2)
+        for name, grid in (("search_C", self.search_C), ("search_gamma", self.search_gamma)):
+            if isinstance(grid, str) or not hasattr(grid, "__len__") or len(grid) == 0:
+                raise ConfigError(f"SVMConfig.{name} must be a non-empty sequence, got {grid!r}")
+        for c in self.search_C:
+            config_positive("SVMConfig", search_C=c)
+        for gamma in self.search_gamma:
+            _check_gamma("search_gamma", gamma)
+
+
+def _check_gamma(name: str, gamma) -> None:
+    """Refuse an RBF width that is neither ``"scale"``, ``"auto"`` nor a finite number > 0
+    (:class:`~terrain.errors.ConfigError` naming ``SVMConfig.<name>``)."""
+    if isinstance(gamma, str):
+        if gamma not in ("scale", "auto"):
+            raise ConfigError(f"SVMConfig.{name} must be 'scale', 'auto' or a finite number "
+                              f"> 0, got {gamma!r}")
+        return
+    config_positive("SVMConfig", **{name: gamma})
 
 
 def make_svm(config: SVMConfig = SVMConfig(), random_state: int = 0) -> Pipeline:

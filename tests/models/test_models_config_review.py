@@ -1,0 +1,34 @@
+"""Review of the classifiers' configuration: settings that are nonsense are refused with a
+:class:`~terrain.errors.ConfigError` naming the field when the configuration is built, before
+any data is read, instead of a bare scikit-learn error after it or a silently different run."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.models.svm import SVMConfig
+
+
+@pytest.mark.parametrize("field, value", [
+    ("C", 0.0), ("C", -1.0), ("C", math.nan), ("C", math.inf),
+    ("gamma", 0.0), ("gamma", -0.01), ("gamma", "bogus"), ("gamma", math.nan),
+    ("inner_splits", 1), ("inner_splits", 2.5), ("inner_splits", True),
+    ("search_C", ()), ("search_C", (1.0, -3.0)), ("search_gamma", ()),
+    ("search_gamma", ("scale", 0.0))])
+def test_svm_settings_are_checked_when_the_config_is_built(field, value):
+    # C <= 0 and gamma "bogus" reached SVC's InvalidParameterError at the first fit;
+    # gamma 0 fitted a constant kernel; inner_splits 1 and an empty grid raised scikit-learn's
+    # bare ValueError inside the CV, after the data was windowed
+    with pytest.raises(ConfigError, match=f"SVMConfig.{field}"):
+        SVMConfig(**{field: value})
+
+
+def test_svm_settings_take_the_kernel_width_names_and_positive_numbers():
+    for gamma in ("scale", "auto", 0.003):
+        assert SVMConfig(gamma=gamma).gamma == gamma
+    config = SVMConfig(C=0.5, search_C=(0.1,), search_gamma=("auto", 1.0), inner_splits=2)
+    assert (config.C, config.search_C, config.search_gamma, config.inner_splits) == (
+        0.5, (0.1,), ("auto", 1.0), 2)
