@@ -99,7 +99,7 @@ class ExperimentConfig:
         the SVM or with ``run_balanced``, a ``train_hop_s`` that is not a finite positive
         number or comes with ``paper``, no seed, one outside ``0..MAX_SEED`` or a repeated
         one, ``single_run_blocks`` not an integer >= 2, or window
-        settings :class:`~features.windows.WindowConfig` refuses.
+        settings :class:`~features.windows.WindowConfig` refuses (``rate_hz`` 0 included).
     """
 
     dataset: str = "borealtc"
@@ -196,7 +196,8 @@ class ExperimentConfig:
             ``paper`` protocol, else ``window_s``/``hop_s``; the rate is ``rate_hz`` or the
             dataset's IMU rate (:data:`terrain.io.shipped.DATASET_SPECS`).
         """
-        rate = self.rate_hz or DATASET_SPECS[self.dataset].rate_hz
+        # 0 Hz is refused by WindowConfig, not taken for "unset"
+        rate = self.rate_hz if self.rate_hz is not None else DATASET_SPECS[self.dataset].rate_hz
         if self.protocol == "paper":
             return WindowConfig(rate_hz=rate, steady_only=self.steady_only, **PAPER_WINDOW)
         return WindowConfig(window_s=self.window_s, hop_s=self.hop_s, rate_hz=rate,

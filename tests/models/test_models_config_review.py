@@ -9,6 +9,7 @@ import math
 import pytest
 
 from terrain.errors import ConfigError
+from terrain.models.experiment import ExperimentConfig
 from terrain.models.svm import SVMConfig
 
 
@@ -32,3 +33,13 @@ def test_svm_settings_take_the_kernel_width_names_and_positive_numbers():
     config = SVMConfig(C=0.5, search_C=(0.1,), search_gamma=("auto", 1.0), inner_splits=2)
     assert (config.C, config.search_C, config.search_gamma, config.inner_splits) == (
         0.5, (0.1,), ("auto", 1.0), 2)
+
+
+def test_a_zero_rate_is_refused_not_replaced_by_the_dataset_rate():
+    # rate_hz=0.0 was taken as "unset" (``rate_hz or IMU rate``): the experiment ran at
+    # BorealTC's 100 Hz and logged rate_hz 100 for a rate of 0 asked
+    with pytest.raises(ConfigError, match="rate_hz"):
+        ExperimentConfig(rate_hz=0.0)
+    # None is the documented "dataset's IMU rate"; a rate given is kept
+    assert ExperimentConfig(rate_hz=None).window_config().rate_hz == 100.0
+    assert ExperimentConfig(dataset="vulpi", rate_hz=25.0).window_config().rate_hz == 25.0
