@@ -20,7 +20,7 @@ from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import (WindowConfig, WindowSet, make_windows, resolve_signals,
                               runs_track_m)
-from terrain.errors import ConfigError, duplicated
+from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
                                cross_validate, fit_with_groups, grouped_units, training_units)
@@ -98,7 +98,7 @@ class ExperimentConfig:
         Unknown model, dataset, protocol or signal, ``search`` with a model other than
         the SVM or with ``run_balanced``, a ``train_hop_s`` that is not a finite positive
         number or comes with ``paper``, no seed, one outside ``0..MAX_SEED`` or a repeated
-        one, ``single_run_blocks`` not an integer >= 2, or window
+        one, ``single_run_blocks`` or ``n_splits`` not an integer >= 2, or window
         settings :class:`~features.windows.WindowConfig` refuses (``rate_hz`` 0 included).
     """
 
@@ -167,6 +167,8 @@ class ExperimentConfig:
             # 1 block never trains a single-run class when it is tested
             raise ConfigError(f"single_run_blocks must be an integer >= 2 (blocks a "
                               f"single-run class is cut into), got {self.single_run_blocks!r}")
+        # 2.5 folds reached scikit-learn's bare ValueError after the data was windowed
+        config_integer("ExperimentConfig.n_splits", self.n_splits, 2)
         if duplicated(int(s) for s in self.seeds):
             raise ConfigError(f"seeds must be distinct (a repeated seed counts one split "
                               f"twice), got {list(self.seeds)}")

@@ -43,3 +43,16 @@ def test_a_zero_rate_is_refused_not_replaced_by_the_dataset_rate():
     # None is the documented "dataset's IMU rate"; a rate given is kept
     assert ExperimentConfig(rate_hz=None).window_config().rate_hz == 100.0
     assert ExperimentConfig(dataset="vulpi", rate_hz=25.0).window_config().rate_hz == 25.0
+
+
+@pytest.mark.parametrize("n_splits", [2.5, 1, 0, True, "5"])
+def test_outer_folds_must_be_an_integer_of_two_at_least(n_splits):
+    # 2.5 reached scikit-learn's bare "number of folds must be of Integral type" after the
+    # dataset was loaded and windowed; 1 and 0 were refused only then
+    with pytest.raises(ConfigError, match="n_splits"):
+        ExperimentConfig(n_splits=n_splits)
+
+
+def test_outer_folds_take_every_integer_of_two_and_more():
+    assert ExperimentConfig(n_splits=2).n_splits == 2
+    assert ExperimentConfig(n_splits=10, protocol="loro").n_splits == 10
