@@ -76,3 +76,18 @@ def test_run_cv_builds_every_cv_seeds_raw_window_model_with_that_seed(
         assert model.estimator.named_steps["svc"].estimator.random_state == 9
     else:
         assert model.random_state == 9
+
+
+def test_a_minirocket_member_without_aeon_is_refused_before_any_data(monkeypatch):
+    # an ensemble holding MiniRocket needs the optional extra as much as MiniRocket alone
+    from terrain.models import registry
+
+    def missing():
+        raise ConfigError("minirocket needs aeon")
+
+    monkeypatch.setattr(registry, "require_aeon", missing)
+    for kind, members in (("minirocket", ()), ("ensemble", ("svm", "minirocket"))):
+        with pytest.raises(ConfigError, match="aeon"):
+            registry.check_dependencies(kind, members)
+    registry.check_dependencies("ensemble3")            # svm + CNNs: no aeon needed
+    registry.check_dependencies("ensemble", ("svm", "cnn"))
