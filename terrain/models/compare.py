@@ -121,9 +121,10 @@ class CompareConfig:
         :class:`~terrain.models.experiment.ExperimentConfig` refuses;
         ``cnn_seeds`` without a CNN model; a value repeated on an axis (models, signals,
         windows_s, datasets, history; a repeated seed is ExperimentConfig's refusal); an
-        empty axis (no cell); no seed, a history length that is not an integer >= 1, fewer than
-        1 epoch or 2 folds; ``n_threads`` outside 1-``MAX_TORCH_THREADS``
-        (:class:`~terrain.models.registry.ModelConfig`'s rule).
+        empty axis (no cell); no seed, a history length that is not an integer >= 1,
+        ``max_epochs`` not an integer >= 1 or ``n_splits`` not an integer >= 2; ``n_threads``
+        outside 1-``MAX_TORCH_THREADS`` (:class:`~terrain.models.registry.ModelConfig`'s
+        rule).
     """
 
     models: tuple[str, ...] = MODELS
@@ -175,9 +176,9 @@ class CompareConfig:
             raise ConfigError("need at least one seed and history lengths >= 1")
         for k in self.history:   # (2.5 failed in every cell, after its CV, in pandas)
             config_integer("CompareConfig.history", k, 1)
-        if self.max_epochs < 1 or self.n_splits < 2:
-            raise ConfigError(f"max_epochs must be >= 1 and n_splits >= 2, got "
-                              f"{self.max_epochs} and {self.n_splits}")
+        # (n_splits 2.5 passed a '< 2' check, then failed in every cell after its data)
+        config_integer("CompareConfig.max_epochs", self.max_epochs, 1)
+        config_integer("CompareConfig.n_splits", self.n_splits, 2)
         for model in self.models:  # the model's own rules (threads, ...)
             ModelConfig(kind=model, n_threads=self.n_threads,
                         cnn_seeds=cnn_seeds_for(model, self.cnn_seeds))

@@ -597,7 +597,10 @@ def test_a_dask_address_is_used_and_no_local_cluster_is_started(monkeypatch):
 
 
 @pytest.mark.parametrize("settings, message", [
-    (dict(n_splits=1), "got 30 and 1"), (dict(max_epochs=0), "got 0 and 5"),
+    (dict(n_splits=1), r"n_splits must be an integer >= 2, got 1"),
+    (dict(n_splits=2.5), r"n_splits must be an integer >= 2, got 2.5"),
+    (dict(max_epochs=0), r"max_epochs must be an integer >= 1, got 0"),
+    (dict(max_epochs=1.5), r"max_epochs must be an integer >= 1, got 1.5"),
     (dict(n_threads=0), "thread")])
 def test_fold_epoch_and_thread_settings_are_checked_before_any_cell(settings, message):
     # a single fold has no held-out runs: each cell would fail after loading its data
