@@ -1,0 +1,58 @@
+"""Review of :func:`terrain.serving.body.body_refusal` on bodies built here (no server)."""
+
+from __future__ import annotations
+
+import json
+
+from terrain.serving.body import body_refusal
+
+LIMIT = 1 << 20
+
+
+def _json(doc) -> tuple[int, dict] | None:
+    return body_refusal("application/json", json.dumps(doc).encode(), None, LIMIT)
+
+
+def test_a_record_with_a_key_record_0_lacks_is_refused_naming_the_key():
+    # pandas would add the column and fill it with NaN in every other record
+    records = [{"t_s": 0.0, "vel_l": 0.1}, {"t_s": 0.1, "vel_l": 0.1},
+               {"t_s": 0.2, "vel_l": 0.1, "cur_l": 5.0}]
+    status, answer = _json({"dataframe_records": records})
+    assert status == 400
+    assert answer["message"].startswith("RaggedRowError: record 2 (0-based) has key(s) "
+                                        "['cur_l'] that record 0 lacks")
+
+
+def test_a_quote_opened_in_the_last_byte_is_named_with_its_line():
+    # the quote opens a field and the body ends: pandas would answer "EOF inside string"
+    body = b"stream,t_s\nwheels,0.0\nwheels,\""
+    status, answer = body_refusal("text/csv", body, None, LIMIT)
+    assert status == 400
+    assert answer["message"].startswith("DataFormatError: unterminated quote")
+    assert "line 3" in answer["message"]
+
+
+def test_a_record_that_is_no_object_is_named_by_its_place():
+    status, answer = _json({"dataframe_records": [{"t_s": 0.0}, {"t_s": 0.1}, [0.2]]})
+    assert status == 400 and answer["message"].startswith("DataFormatError: a record is an "
+                                                          "array, not an object")
+    assert "data row 2 (0-based)" in answer["message"]
+
+
+def test_seven_repeated_column_names_are_five_named_and_two_counted():
+    names = [f"c{i}" for i in range(7)]
+    body = (",".join(names * 2) + "\n" + ",".join(["1"] * 14) + "\n").encode()
+    status, answer = body_refusal("text/csv", body, None, LIMIT)
+    assert status == 400
+    assert ("duplicated column name(s) ['c0', 'c1', 'c2', 'c3', 'c4'] and 2 more; send each "
+            "column once") in answer["message"]
+
+
+def test_a_huge_number_after_a_space_in_a_quoted_body_is_refused_with_its_column():
+    # pandas reads " 1e400" as infinity; the quote elsewhere sends the body through the
+    # csv module, whose fields keep their spaces
+    body = b'stream,t_s,vel_l\n"wheels",0.0, 1e400\n'
+    status, answer = body_refusal("text/csv", body, None, LIMIT)
+    assert status == 400 and answer["message"].startswith("ImplausibleValueError: number "
+                                                          "1e400 beyond the float range")
+    assert "column 'vel_l'" in answer["message"] and "line 2" in answer["message"]
