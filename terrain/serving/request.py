@@ -27,7 +27,7 @@ import pandas as pd
 
 from terrain.errors import (DataFormatError, ImplausibleValueError, MissingColumnError,
                             NonFiniteError, NonNumericError, TimestampError, duplicated,
-                            first_items)
+                            first_items, listed)
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_accel_units, check_ranges,
                                      check_rate, check_run, implied_rate_hz)
 from terrain.run import TIME, Run
@@ -318,8 +318,9 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
             form = ("long format: stream, t_s, channels" if long else
                     "wide format: <stream>_t_s next to each stream's channels, or add a "
                     "'stream' column for the long format")
+            near = _near_names(labels, missing if long else [*missing, STREAM])
             raise MissingColumnError(f"the model needs stream {stream!r} with {need}; "
-                                     f"missing {missing} ({form})", where, missing[0])
+                                     f"missing {missing} ({form}){near}", where, missing[0])
         rows = (np.flatnonzero((frame[STREAM] == stream).to_numpy()) if long
                 else _wide_rows(frame, stream, tcol, channels, where))
         t = numeric_column(frame, tcol, rows, where)
@@ -339,6 +340,15 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
                                     [s for s in known_streams if s not in streams])
     checks["ignored_columns"] = _ignored_columns(labels, long, (known_streams, streams))
     return Run("request", "request", None, out, vehicle=vehicle, source=where, meta=checks)
+
+
+def _near_names(labels: Sequence[str], names: Sequence[str]) -> str:
+    """``; the request has [...] (spaces or case differ)`` naming the request's columns that
+    are one of ``names`` but for spaces around it or its case (a CSV written ``stream, t_s``
+    has the column ``' t_s'``, which pandas keeps as written), or ``""`` when none is."""
+    wanted = {name.lower() for name in names}
+    near = [c for c in labels if c.strip().lower() in wanted and c not in names]
+    return f"; the request has {listed(near)} (spaces or case differ)" if near else ""
 
 
 def _unused_rows(frame: pd.DataFrame, long: bool, others: Sequence[str]) -> dict[str, int]:

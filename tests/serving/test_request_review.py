@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import NonFiniteError, NonNumericError
+from terrain.errors import MissingColumnError, NonFiniteError, NonNumericError
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.request import numeric_column, parse_request, planned_decisions, time_span_s
 
@@ -89,3 +89,28 @@ def test_the_time_span_runs_from_the_earliest_first_sample_of_any_stream():
     run = parse_request(frame, BOTH, 2.0, 10_000)
     assert time_span_s(run) == pytest.approx(3.99)
     assert planned_decisions(run, 2.0, 0.5) == 4
+
+
+@pytest.mark.parametrize("rename", [lambda c: " " + c, lambda c: c.upper(), lambda c: c + " "],
+                         ids=["leading space", "capitals", "trailing space"])
+def test_a_needed_column_written_with_spaces_or_in_capitals_is_named_as_sent(rename):
+    # a CSV written "stream, t_s, vel_l" (a space after each comma) has the column ' t_s';
+    # "missing ['t_s', ...]" alone reads as if the request had no time column at all
+    frame = _long_frame().rename(columns={"t_s": rename("t_s"), "cur_l": rename("cur_l")})
+    with pytest.raises(MissingColumnError) as err:
+        parse_request(frame, BOTH, 2.0, 10_000)
+    assert err.value.column == "t_s"
+    assert f"the request has {[rename('t_s'), rename('cur_l')]}" in str(err.value)
+    assert "spaces or case differ" in str(err.value)
+
+
+def test_a_stream_column_written_with_a_space_is_named_as_sent():
+    frame = _long_frame().rename(columns={"stream": " stream"})
+    with pytest.raises(MissingColumnError, match=r"the request has \[' stream'\]"):
+        parse_request(frame, BOTH, 2.0, 10_000)
+
+
+def test_a_missing_column_with_no_near_name_gets_no_such_hint():
+    with pytest.raises(MissingColumnError) as err:
+        parse_request(_long_frame().drop(columns="cur_l"), BOTH, 2.0, 10_000)
+    assert "missing ['cur_l']" in str(err.value) and "the request has" not in str(err.value)
