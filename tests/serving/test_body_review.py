@@ -56,3 +56,9 @@ def test_a_huge_number_after_a_space_in_a_quoted_body_is_refused_with_its_column
     assert status == 400 and answer["message"].startswith("ImplausibleValueError: number "
                                                           "1e400 beyond the float range")
     assert "column 'vel_l'" in answer["message"] and "line 2" in answer["message"]
+
+
+def test_mlflow_s_tensor_formats_are_left_to_the_served_model():
+    # the served model refuses "inputs" and "instances" in its own words (expected a table)
+    for key in ("inputs", "instances"):
+        assert _json({key: [[0.0, 1.0]]}) is None
