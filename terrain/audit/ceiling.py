@@ -52,7 +52,7 @@ import pandas as pd
 from sklearn.ensemble import HistGradientBoostingRegressor
 
 from terrain.audit.frames import MANOEUVRES, STOP, AuditFrame
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import inverse_icr_factor
 
@@ -604,7 +604,8 @@ def online_yaw_rate_samples(frames: Sequence[AuditFrame],
     Raises
     ------
     ConfigError
-        ``lead_s < 0``, ``memory_s <= 0``, ``prior_s < 0`` or candidates not matching.
+        ``lead_s`` or ``prior_s`` not a finite value >= 0, ``memory_s`` not a finite value
+        > 0, or candidates not matching.
 
     References
     ----------
@@ -612,8 +613,9 @@ def online_yaw_rate_samples(frames: Sequence[AuditFrame],
     2nd ed., 1999, ch. 11.2) of the ICR expansion model ``wz = x / chi`` (Mandow et al., IROS
     2007; seed ``000_f24201ff985633bf.txt`` eqs. 2-3), with the replay as the prior.
     """
-    if lead_s < 0 or not memory_s > 0 or prior_s < 0:
-        raise ConfigError("lead_s and prior_s must be >= 0 and memory_s > 0")
+    # NaN passed ``lead_s < 0``: every forecast then fell back to the replay without a word
+    config_positive("online_yaw_rate_samples", allow_zero=True, lead_s=lead_s, prior_s=prior_s)
+    config_positive("online_yaw_rate_samples", memory_s=memory_s)
     _check_pairs(frames, candidates)
     w0 = 0.25 * prior_s
     parts = []
@@ -675,10 +677,12 @@ def online_current_samples(frames: Sequence[AuditFrame],
     Raises
     ------
     ConfigError
-        ``lead_s < 0``, ``memory_s <= 0``, ``prior_s < 0`` or candidates not matching.
+        ``lead_s`` or ``prior_s`` not a finite value >= 0, ``memory_s`` not a finite value
+        > 0, or candidates not matching.
     """
-    if lead_s < 0 or not memory_s > 0 or prior_s < 0:
-        raise ConfigError("lead_s and prior_s must be >= 0 and memory_s > 0")
+    # NaN passed ``lead_s < 0``: every forecast then fell back to the replay without a word
+    config_positive("online_current_samples", allow_zero=True, lead_s=lead_s, prior_s=prior_s)
+    config_positive("online_current_samples", memory_s=memory_s)
     _check_pairs(frames, candidates)
     parts = []
     for k, f in enumerate(frames):
