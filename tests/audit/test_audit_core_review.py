@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from terrain.audit import physics
 from terrain.audit.ceiling import online_current_samples, online_yaw_rate_samples
 from terrain.audit.frames import MANOEUVRES, AuditFrame
 from terrain.audit.timing import LagTrack
@@ -53,3 +56,71 @@ def test_the_online_forecast_leaves_the_replay_with_valid_settings():
     assert np.abs(wz.online - wz.reference).to_numpy()[spin].max() > 0.05
     cur = online_current_samples([f], lead_s=2.0, memory_s=15.0, prior_s=0.0)
     assert (cur.online - cur.reference).max() == pytest.approx(1.5)
+
+
+def test_the_moving_scope_of_the_physics_comparison_leaves_out_stops(monkeypatch):
+    # 'moving' pools straight, curve and spin: a run at rest adds nothing to it
+    ref = _frame(n_stop=30)
+    new = replace(ref, sim_wz=ref.sim_wz + 0.1, sim_cur=ref.sim_cur - 1.0)
+    monkeypatch.setattr(physics, "paired_frames", lambda *a, **k: ([(ref, new)], {}))
+    tab, _ = physics.per_run_errors([], physics.PhysicsComparisonSettings())
+    for sig, per in tab.groupby("signal"):
+        per = per.set_index("scope")
+        assert per.n["stop"] > 0
+        parts = per.loc[["straight", "curve", "spin"]]
+        assert per.n["moving"] == parts.n.sum(), sig
+        np.testing.assert_allclose(per.loc["moving", ["sse_ref", "sse_new"]].to_numpy(float),
+                                   parts[["sse_ref", "sse_new"]].sum().to_numpy(float))
+        assert per.n["moving"] + per.n["stop"] == (2 if sig == "cur" else 1) * ref.n
+
+
+def test_each_versions_errors_are_its_own_on_every_signal(monkeypatch):
+    # the reference replay misses the measured currents by 1.5 A, the candidate by 2.5 A
+    # on both sides; its yaw rate is 0.1 rad/s off the reference's, its accelerations
+    # -0.3 (x) and +0.2 m/s^2 (y) off the measured ones, which the reference matches
+    ref = _frame(n_stop=30)
+    new = replace(ref, sim_wz=ref.sim_wz + 0.1, sim_cur=ref.sim_cur - 1.0,
+                  sim_ax=ref.sim_ax - 0.3, sim_ay=ref.sim_ay + 0.2)
+    monkeypatch.setattr(physics, "paired_frames", lambda *a, **k: ([(ref, new)], {}))
+    tab, _ = physics.per_run_errors([], physics.PhysicsComparisonSettings())
+    cur = tab[tab.signal.isin(["cur_l", "cur_r", "cur"]) & (tab.n > 0)]
+    np.testing.assert_allclose(cur.sse_ref / cur.n, 1.5 ** 2)
+    np.testing.assert_allclose(cur.sse_new / cur.n, 2.5 ** 2)
+    wz = tab[(tab.signal == "wz") & (tab.scope == "moving")].iloc[0]
+    m = ref.manoeuvre != STOP
+    e = (ref.wz - ref.sim_wz)[m]
+    assert wz.sse_ref == pytest.approx(np.sum(e ** 2))
+    assert wz.sse_new == pytest.approx(np.sum((e - 0.1) ** 2))
+    for sig, off in (("ax", 0.3), ("ay", 0.2)):
+        row = tab[(tab.signal == sig) & (tab.scope == "moving")].iloc[0]
+        assert row.sse_ref == 0.0 and row.sse_new / row.n == pytest.approx(off ** 2), sig
+
+
+def test_the_sample_table_reads_each_model_against_its_own_gyro_and_rate():
+    # the extended yaw model predicts the gyro: mobile rate + bias. Only the mobile rate
+    # turns the body, so ay = v_x wz moves by v_x (mobile - replayed rate), not by the bias
+    from types import SimpleNamespace
+
+    from terrain.audit.core import _samples, residual_statistics
+    from terrain.audit.effects import YawParams
+
+    # a gyro stamped 0.3 s late: on raw timestamps it is read 0.3 s earlier than aligned
+    f = replace(_frame(), sim_vx=np.full(_frame().n, 0.4))
+    f = replace(f, imu_t_s=f.t_s + 0.3)
+    x = f.commanded_yaw_rate
+    params = YawParams(kinematic=True, inverse_chi=0.5, bias_rad_s=0.05)
+    groups = {("SNOW", "yaw"): SimpleNamespace(units=[[f]], heldout_params=[params])}
+    samples = _samples(groups, "SNOW", [f])
+    wz = samples[samples.signal == "wz"]
+    np.testing.assert_allclose(wz.extended, 0.5 * x + 0.05)
+    np.testing.assert_allclose(wz.measured, f.wz)
+    raw = np.interp(f.t_s, f.t_s + 0.3, f.imu_wz)
+    assert np.abs(raw - f.wz).max() > 0.1
+    np.testing.assert_allclose(wz.measured_raw, raw)
+    ay = samples[samples.signal == "ay"]
+    np.testing.assert_allclose(ay.extended, f.sim_ay + 0.4 * (0.5 * x - x / 3.0))
+    stats = residual_statistics(samples, "SNOW")
+    row = stats[(stats.signal == "ay") & (stats.model == "extended") & (stats.run_id == "*")
+                & (stats.manoeuvre == "all")].iloc[0]
+    e = f.ay - (f.sim_ay + 0.4 * (0.5 * x - x / 3.0))
+    assert row.n == f.n and row.bias == pytest.approx(np.mean(e))
