@@ -124,3 +124,24 @@ def test_the_sample_table_reads_each_model_against_its_own_gyro_and_rate():
                 & (stats.manoeuvre == "all")].iloc[0]
     e = f.ay - (f.sim_ay + 0.4 * (0.5 * x - x / 3.0))
     assert row.n == f.n and row.bias == pytest.approx(np.mean(e))
+
+
+def test_a_run_without_imu_is_audited_on_its_currents():
+    # a wheel-only run has no IMU sample to score, but its currents are scored: it is an
+    # audited frame, not a skipped run
+    import pandas as pd
+
+    from terrain.audit import prepare_frames
+    from terrain.run import Run
+
+    t = np.arange(0.0, 10.0, 0.15)
+    v = np.minimum(t * 0.5, 0.8)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": v, "vel_r": 1.1 * v})
+    run = Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT", streams={"wheels": pro},
+              vehicle="husky")
+    frames, skipped = prepare_frames([run])
+    assert skipped == {} and len(frames) == 1
+    f = frames[0]
+    assert not f.has_imu and not f.score_imu.any()
+    # scored: at least edge_s (2 s) from either end of the 9.9 s record
+    np.testing.assert_array_equal(f.score_cur, (t >= 2.0) & (t <= t[-1] - 2.0))
