@@ -32,7 +32,7 @@ from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
 from terrain.audit.timing import LagSettings
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, config_positive
 from terrain.run import Run
 from terrain.vehicles import get_vehicle, skid_steer_forward
 from terrain.vehicles.icr import icr_expansion_factor
@@ -70,7 +70,12 @@ class AuditSettings:
         Also fit every run pooled (terrain ``all``) when there are several terrains.
     sweep_factors : tuple of float
         Multipliers of the catalogue lateral friction for the what-if replays
-        (:func:`lateral_friction_sweep`); empty: no sweep.
+        (:func:`lateral_friction_sweep`), each finite and >= 0; empty: no sweep.
+
+    Raises
+    ------
+    ConfigError
+        A sweep factor that is not a finite number >= 0.
     """
 
     replay: ReplaySettings = field(default_factory=ReplaySettings)
@@ -80,6 +85,16 @@ class AuditSettings:
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     pooled: bool = True
     sweep_factors: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        """Refuse a sweep factor that is not a finite number >= 0 before the audit runs.
+
+        Raises
+        ------
+        ConfigError
+            A factor NaN, infinite, negative or not a number.
+        """
+        _check_factors("AuditSettings.sweep_factors", self.sweep_factors)
 
     def as_params(self) -> dict[str, object]:
         """Flat ``section.name -> value`` mapping (for MLflow parameters and the report).
@@ -193,6 +208,14 @@ class AuditResult:
             if e.name == name and e.terrain == terrain:
                 return e
         raise KeyError(f"{name} on {terrain}")
+
+
+def _check_factors(owner: str, factors: Sequence[float]) -> None:
+    """Lateral-friction multipliers must be finite and >= 0: NaN stopped the replay with a
+    bare ValueError, and a negative factor replayed a friction that pushes the tyre along its
+    own slip."""
+    config_positive(owner, allow_zero=True,
+                    **{f"factors[{i}]": f for i, f in enumerate(factors)})
 
 
 def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings()
@@ -545,7 +568,7 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     terrain : str
         Catalogue terrain.
     factors : sequence of float
-        Multipliers of the catalogue lateral friction.
+        Multipliers of the catalogue lateral friction (finite, >= 0).
     settings : AuditSettings
         Its ``replay`` and ``frames`` parts are used.
     measured_chi : float, optional
@@ -564,9 +587,11 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     Raises
     ------
     ConfigError
-        ``terrain`` is not in the catalogue.
+        ``terrain`` is not in the catalogue, or a factor is not a finite number >= 0.
     """
     from dataclasses import replace
+
+    _check_factors("lateral_friction_sweep", factors)
 
     from terrain.terramechanics.catalogue import get_terrain
 

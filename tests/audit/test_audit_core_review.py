@@ -145,3 +145,30 @@ def test_a_run_without_imu_is_audited_on_its_currents():
     assert not f.has_imu and not f.score_imu.any()
     # scored: at least edge_s (2 s) from either end of the 9.9 s record
     np.testing.assert_array_equal(f.score_cur, (t >= 2.0) & (t <= t[-1] - 2.0))
+
+
+@pytest.mark.parametrize("factor", [float("nan"), -0.5, float("inf")])
+def test_a_lateral_friction_factor_out_of_range_is_refused(factor):
+    # NaN stopped the replay with a bare ValueError ("cannot convert float NaN to integer");
+    # a negative factor replayed a negative lateral friction and wrote its chi (0.69 on
+    # a simulated SANDY_LOAM run at -1) into the table; AuditSettings took either and failed
+    # only after the whole audit had run
+    from terrain.audit import AuditSettings
+    from terrain.audit.core import lateral_friction_sweep
+
+    with pytest.raises(ConfigError, match=r"factors\[1\] must be a finite value >= 0"):
+        AuditSettings(sweep_factors=(1.0, factor))
+    with pytest.raises(ConfigError, match=r"factors\[0\] must be a finite value >= 0"):
+        lateral_friction_sweep([], "SANDY_LOAM", (factor,))
+
+
+def test_lateral_friction_factors_in_range_scale_the_catalogue_value():
+    from terrain.audit import AuditSettings
+    from terrain.audit.core import lateral_friction_sweep
+    from terrain.terramechanics.catalogue import get_terrain
+
+    assert AuditSettings(sweep_factors=(0.0, 0.5, 2.0)).sweep_factors == (0.0, 0.5, 2.0)
+    tab = lateral_friction_sweep([], "SANDY_LOAM", (0.0, 0.5, 2.0))
+    base = get_terrain("SANDY_LOAM").lateral_friction
+    np.testing.assert_allclose(tab.lateral_friction, [0.0, 0.5 * base, 2.0 * base])
+    assert (tab.n_runs == 0).all() and tab.replay_chi.isna().all()
