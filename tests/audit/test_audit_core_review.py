@@ -14,7 +14,7 @@ from terrain.audit.timing import LagTrack
 from terrain.errors import ConfigError
 
 RATE_HZ = 6.5
-STOP, STRAIGHT, SPIN = (MANOEUVRES.index(m) for m in ("stop", "straight", "spin"))
+STOP, STRAIGHT, CURVE, SPIN = (MANOEUVRES.index(m) for m in ("stop", "straight", "curve", "spin"))
 
 
 def _frame(run_id="a", chi=2.0, n_st=40, n_sp=80, n_stop=0, cycles=3):
@@ -172,3 +172,108 @@ def test_lateral_friction_factors_in_range_scale_the_catalogue_value():
     base = get_terrain("SANDY_LOAM").lateral_friction
     np.testing.assert_allclose(tab.lateral_friction, [0.0, 0.5 * base, 2.0 * base])
     assert (tab.n_runs == 0).all() and tab.replay_chi.isna().all()
+
+
+def test_manoeuvres_follow_the_side_speeds():
+    # stop: both sides slower than moving_m_s; straight: |x| < turn_rad_s; spin: the sides
+    # turn opposite ways (ICR between the wheels); curve: a turn with both sides one way
+    from terrain.audit.frames import FrameSettings, classify_manoeuvres
+
+    rng = np.random.default_rng(1)
+    track = 0.555
+    v, x = rng.uniform(-1.0, 1.0, 4000), rng.uniform(-2.0, 2.0, 4000)
+    v[:1000] *= 0.1                                   # many slow samples, one side at rest
+    vel_l, vel_r = v - 0.5 * track * x, v + 0.5 * track * x
+    s = FrameSettings()
+    got = classify_manoeuvres(x, v, vel_l, vel_r, track, s)
+    moving = (np.abs(vel_l) >= s.moving_m_s) | (np.abs(vel_r) >= s.moving_m_s)
+    turning = np.abs(x) >= s.turn_rad_s
+    want = np.where(~moving, STOP, np.where(~turning, STRAIGHT,
+                                            np.where(vel_l * vel_r < 0, SPIN, CURVE)))
+    np.testing.assert_array_equal(got, want)
+    assert {STOP, STRAIGHT, CURVE, SPIN} <= set(got.tolist())
+    # one side at rest and the other just moving is driving, not standing still
+    one = classify_manoeuvres(np.array([0.0]), np.array([0.03]), np.array([0.0]),
+                              np.array([0.06]), track, s)
+    assert one[0] != STOP
+
+
+def test_quiet_samples_keep_their_margin_from_every_turn():
+    from terrain.audit.frames import FrameSettings, _quiet
+
+    t = np.arange(0.0, 20.0, 0.1)
+    x = np.where((t >= 10.0) & (t < 11.0), 0.5, 0.0)
+    x[20] = 0.07                                       # a slow drift, neither quiet nor a turn
+    s = FrameSettings()
+    got = _quiet(t, x, s)
+    turns = t[np.abs(x) >= s.turn_rad_s]
+    gap = np.min(np.abs(t[:, None] - turns[None, :]), axis=1)
+    np.testing.assert_array_equal(got, (np.abs(x) < s.quiet_rad_s) & (gap > s.quiet_margin_s))
+    assert got[:20].all() and not got[20] and got[-30:].all() and not got[100:125].any()
+
+
+def test_split_segments_tile_the_frame_and_estimate_their_lag_from_their_own_gyro(
+        monkeypatch):
+    # a segment left out in cross-validation must not feed the lag of the others: each
+    # segment's lag track sees only the gyro samples stamped within its own span
+    from terrain.audit import frames as fr
+
+    f = _frame()
+    seen = []
+    real = fr.estimate_lag_track
+
+    def spy(t, x, t_imu, wz, settings, alternative=None):
+        seen.append((t[0], t[-1], t_imu.copy()))
+        return real(t, x, t_imu, wz, settings, alternative=alternative)
+
+    monkeypatch.setattr(fr, "estimate_lag_track", spy)
+    parts = fr.split_frame(f, 3)
+    assert [p.group for p in parts] == ["a#0", "a#1", "a#2"]
+    for name in ("t_s", "wz", "manoeuvre", "score_imu"):
+        np.testing.assert_array_equal(np.concatenate([getattr(p, name) for p in parts]),
+                                      getattr(f, name))
+    np.testing.assert_array_equal(np.vstack([p.cur for p in parts]), f.cur)
+    assert len(seen) == 3
+    for (t0, t1, t_imu), p in zip(seen, parts):
+        assert (t0, t1) == (p.t_s[0], p.t_s[-1])
+        assert t_imu.min() >= t0 and t_imu.max() <= t1 and len(t_imu) == p.n
+
+
+def test_the_constant_lag_reading_looks_back_in_the_gyro():
+    # positive lag = wheel data late: the gyro is read lag_s earlier than the wheel stamp
+    f = _frame()
+    f = replace(f, imu_wz=0.1 * f.imu_t_s)               # a ramp: value = 0.1 t
+    inner = (f.t_s > 1.0) & (f.t_s < f.t_s[-1] - 1.0)
+    np.testing.assert_allclose(f.wz_at_lag(0.3)[inner], 0.1 * (f.t_s[inner] - 0.3))
+    np.testing.assert_allclose(f.wz_at_lag(-0.3)[inner], 0.1 * (f.t_s[inner] + 0.3))
+
+
+def test_an_imu_stream_too_short_to_low_pass_is_set_aside_with_a_warning():
+    # fewer than MIN_IMU_SAMPLES (the low-pass's padding) would be compared unfiltered
+    # against a filtered replay: the run is audited as one without IMU, and says so
+    import warnings
+
+    import pandas as pd
+
+    from terrain.audit import prepare_frames
+    from terrain.audit.frames import MIN_IMU_SAMPLES
+    from terrain.errors import DataWarning
+    from terrain.run import Run
+
+    t = np.arange(0.0, 10.0, 0.15)
+    v = np.minimum(t * 0.5, 0.8)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": v, "vel_r": 1.1 * v})
+
+    def run(n_imu):
+        ti = np.linspace(0.0, 9.9, n_imu)
+        imu = pd.DataFrame({"t_s": ti, "wz": 0.0, "ax": 0.0, "ay": 0.0})
+        return Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT",
+                   streams={"wheels": pro, "imu": imu}, vehicle="husky")
+
+    with pytest.warns(DataWarning, match=f"fewer than {MIN_IMU_SAMPLES}"):
+        (short,), _ = prepare_frames([run(MIN_IMU_SAMPLES - 1)])
+    assert not short.has_imu and not short.score_imu.any()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        (enough,), _ = prepare_frames([run(MIN_IMU_SAMPLES)])
+    assert enough.has_imu
