@@ -315,3 +315,18 @@ def test_replayed_currents_are_magnitudes_even_where_the_filter_rings():
               vehicle="husky")
     rep = replay_run(run)
     assert rep.cur.min() >= 0.0 and rep.cur[t > 6.0].min() > 0.5
+
+
+def test_speed_resolution_is_found_only_in_a_quantised_record():
+    from terrain.audit.replay import speed_resolution
+
+    step = 0.2 / 25.4
+    rng = np.random.default_rng(3)
+    k = rng.integers(-90, 90, 500)
+    assert speed_resolution(k * step) == pytest.approx(step, rel=1e-5)   # 7 decimals
+    assert speed_resolution(rng.uniform(-1.0, 1.0, 500)) == 0.0
+    # a record that is quantised except for a few samples is not quantised
+    v = k * step
+    v[:5] += 0.3 * step
+    assert speed_resolution(v) == 0.0
+    assert speed_resolution(np.array([0.0, step, -step])) == 0.0    # too few magnitudes
