@@ -330,3 +330,38 @@ def test_speed_resolution_is_found_only_in_a_quantised_record():
     v[:5] += 0.3 * step
     assert speed_resolution(v) == 0.0
     assert speed_resolution(np.array([0.0, step, -step])) == 0.0    # too few magnitudes
+
+
+def test_the_lowpass_cut_off_is_the_one_asked_below_its_ceiling():
+    from terrain.audit.replay import MAX_CUTOFF_FRACTION, lowpass_cutoff_hz
+
+    assert lowpass_cutoff_hz(100.0, 2.0) == 2.0
+    assert lowpass_cutoff_hz(4.0, 2.0) == pytest.approx(MAX_CUTOFF_FRACTION * 4.0)
+
+
+@pytest.mark.parametrize("headroom", [0.5, float("nan")])
+def test_a_speed_headroom_below_one_is_refused(headroom):
+    # below 1 the replay would clip the measured speeds it is meant to impose
+    from terrain.audit.replay import ReplaySettings
+
+    with pytest.raises(ConfigError, match="speed_headroom"):
+        ReplaySettings(speed_headroom=headroom)
+    assert ReplaySettings(speed_headroom=1.0).speed_headroom == 1.0
+
+
+def test_the_input_lowpass_smooths_each_side_on_its_own():
+    import pandas as pd
+
+    from terrain.audit.replay import ReplaySettings, lowpass, replay_run
+    from terrain.run import Run
+
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 12.0, 1 / 15.0)
+    vel_l = 0.4 + 0.05 * rng.standard_normal(len(t))
+    vel_r = 0.6 + 0.05 * rng.standard_normal(len(t))
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": vel_l, "vel_r": vel_r})
+    run = Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT", streams={"wheels": pro},
+              vehicle="husky")
+    rep = replay_run(run, ReplaySettings(input_cutoff_hz=2.0))
+    np.testing.assert_allclose(rep.vel_l, lowpass(vel_l, 15.0, 2.0), rtol=1e-9)
+    np.testing.assert_allclose(rep.vel_r, lowpass(vel_r, 15.0, 2.0), rtol=1e-9)
