@@ -365,3 +365,21 @@ def test_the_input_lowpass_smooths_each_side_on_its_own():
     rep = replay_run(run, ReplaySettings(input_cutoff_hz=2.0))
     np.testing.assert_allclose(rep.vel_l, lowpass(vel_l, 15.0, 2.0), rtol=1e-9)
     np.testing.assert_allclose(rep.vel_r, lowpass(vel_r, 15.0, 2.0), rtol=1e-9)
+
+
+def test_the_cruise_acceleration_needs_twenty_cruising_samples():
+    import pandas as pd
+
+    from terrain.audit.replay import cruise_wheel_acceleration_rms
+    from terrain.run import Run
+
+    def rms(n_cruise):
+        v = np.r_[np.zeros(30 - n_cruise), np.tile([0.5, 0.6], n_cruise // 2)]
+        t = np.arange(len(v)) * 0.1
+        pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": v, "vel_r": v})
+        return cruise_wheel_acceleration_rms(Run(run_id="x/ASPHALT/00", dataset="x",
+                                                 terrain="ASPHALT", streams={"wheels": pro},
+                                                 vehicle="husky"))
+
+    assert np.isnan(rms(10))
+    assert rms(24) == pytest.approx(1.0)          # +-0.1 m/s every 0.1 s
