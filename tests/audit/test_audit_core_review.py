@@ -383,3 +383,18 @@ def test_the_cruise_acceleration_needs_twenty_cruising_samples():
 
     assert np.isnan(rms(10))
     assert rms(24) == pytest.approx(1.0)          # +-0.1 m/s every 0.1 s
+
+
+def test_a_run_without_a_scorable_prediction_has_an_unknown_rmse_not_a_perfect_one():
+    import pandas as pd
+
+    from terrain.audit.core import residual_statistics
+
+    samples = pd.DataFrame({"run_id": ["a"] * 5 + ["b"] * 5, "terrain": "SNOW",
+                            "manoeuvre": "spin", "signal": "wz",
+                            "measured": np.arange(10.0),
+                            "replay": np.r_[np.arange(5.0) + 0.5, np.full(5, np.nan)]})
+    stats = residual_statistics(samples, "SNOW").set_index("run_id")
+    assert stats.loc["a", "n"] == 5 and stats.loc["a", "rmse"] == pytest.approx(0.5)
+    assert stats.loc["b", "n"] == 0
+    assert np.isnan(stats.loc["b", "rmse"]) and np.isnan(stats.loc["b", "bias"])
