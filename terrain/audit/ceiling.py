@@ -52,7 +52,7 @@ import pandas as pd
 from sklearn.ensemble import HistGradientBoostingRegressor
 
 from terrain.audit.frames import MANOEUVRES, STOP, AuditFrame
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import inverse_icr_factor
 
@@ -94,6 +94,12 @@ class TransferSettings:
         Smallest leaf, samples (the wheel clock of BorealTC is ~6.5 Hz: 40 samples ~ 6 s).
     random_state : int
         Seed of the regressor.
+
+    Raises
+    ------
+    ConfigError
+        ``max_iter`` or ``min_samples_leaf`` not an integer >= 1, ``learning_rate`` not a
+        finite number > 0, ``random_state`` not an integer in ``0 .. 2**32 - 1``.
     """
 
     max_iter: int = 300
@@ -102,8 +108,11 @@ class TransferSettings:
     random_state: int = 0
 
     def __post_init__(self) -> None:
-        if self.max_iter < 1 or self.min_samples_leaf < 1 or not self.learning_rate > 0:
-            raise ConfigError("max_iter and min_samples_leaf must be >= 1, learning_rate > 0")
+        # (NaN or 2.5 iterations passed a '< 1' check and failed later inside scikit-learn)
+        config_integer("TransferSettings.max_iter", self.max_iter, 1)
+        config_integer("TransferSettings.min_samples_leaf", self.min_samples_leaf, 1)
+        config_integer("TransferSettings.random_state", self.random_state, 0, 2 ** 32 - 1)
+        config_positive("TransferSettings", learning_rate=self.learning_rate)
 
 
 def _check_pairs(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None,

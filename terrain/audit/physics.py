@@ -35,7 +35,7 @@ from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.audit.selection import (MAX_BOOTSTRAP, MIN_BOOTSTRAP, has_spread,
                                      stratified_resamples)
 from terrain.audit.timing import LagSettings
-from terrain.errors import ConfigError, DataFormatError
+from terrain.errors import ConfigError, DataFormatError, config_integer
 from terrain.run import Run
 from terrain.sim.forces import PHYSICS_VERSIONS
 from terrain.terramechanics.lateral import SOILS
@@ -70,7 +70,7 @@ class PhysicsComparisonSettings:
     Raises
     ------
     ConfigError
-        ``n_bootstrap`` or ``seed`` out of range, or a version not in
+        ``n_bootstrap`` or ``seed`` not an integer in its range, or a version not in
         :data:`terrain.sim.forces.PHYSICS_VERSIONS`.
     """
 
@@ -84,9 +84,10 @@ class PhysicsComparisonSettings:
         if unknown:   # every run would be skipped and the table come back empty
             raise ConfigError(f"physics versions must be among {list(PHYSICS_VERSIONS)}, got "
                               f"{unknown}")
-        if not MIN_BOOTSTRAP <= self.n_bootstrap <= MAX_BOOTSTRAP or self.seed < 0:
-            raise ConfigError(f"n_bootstrap must be in {MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,} and "
-                              f"seed >= 0, got {self.n_bootstrap} and {self.seed}")
+        # (seed NaN or n_bootstrap 10.5 passed a range check, then numpy's TypeError)
+        config_integer("PhysicsComparisonSettings.n_bootstrap", self.n_bootstrap,
+                       MIN_BOOTSTRAP, MAX_BOOTSTRAP)
+        config_integer("PhysicsComparisonSettings.seed", self.seed, 0)
 
 
 def _errors(frame: AuditFrame, other: AuditFrame) -> dict[str, tuple[np.ndarray, np.ndarray]]:

@@ -423,3 +423,18 @@ def test_forgetting_sums_read_at_the_lead_decay_from_the_last_available_sample()
     # at t = 10 the sums of t = 8 are available: the code-0 sample at 0, decayed over 8 s;
     # the code-1 sample is another manoeuvre, and nothing precedes t = 0 - 2 or t = 1 - 2
     np.testing.assert_allclose(s, [0.0, 0.0, np.exp(-8.0 / 4.0)])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(max_iter=float("nan")), r"max_iter must be an integer >= 1, got nan"),
+    (dict(max_iter=2.5), r"max_iter must be an integer >= 1, got 2.5"),
+    (dict(min_samples_leaf=float("nan")), r"min_samples_leaf must be an integer >= 1"),
+    (dict(min_samples_leaf=0), r"min_samples_leaf must be an integer >= 1, got 0"),
+    (dict(random_state=-1), r"random_state must be an integer in \[0, 4294967295\]"),
+    (dict(learning_rate=float("inf")), r"learning_rate"),
+    (dict(learning_rate=0.0), r"learning_rate")])
+def test_transfer_settings_refuse_a_count_that_is_not_an_integer(kwargs, match):
+    # NaN or 2.5 iterations passed the '< 1' check and failed later inside scikit-learn
+    with pytest.raises(ConfigError, match=match):
+        TransferSettings(**kwargs)
+    assert TransferSettings(max_iter=1, min_samples_leaf=1, random_state=2 ** 32 - 1)

@@ -148,3 +148,16 @@ def test_a_pooled_row_of_one_run_per_terrain_gets_no_bootstrap_interval():
     g = gain_table(tab, PhysicsComparisonSettings(n_bootstrap=200)).set_index("terrain")
     assert g.loc["all", "n_runs"] == 2 and np.isfinite(g.loc["all", "gain"])
     assert np.isnan(g.loc["all", "gain_lo"]) and np.isnan(g.loc["all", "gain_hi"])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(n_bootstrap=10.5), r"n_bootstrap must be an integer in \[10, "),
+    (dict(n_bootstrap=5), r"n_bootstrap must be an integer in \[10, "),
+    (dict(seed=float("nan")), r"seed must be an integer >= 0, got nan"),
+    (dict(seed=1.5), r"seed must be an integer >= 0, got 1.5"),
+    (dict(seed=-1), r"seed must be an integer >= 0, got -1")])
+def test_comparison_settings_refuse_counts_that_are_not_integers(kwargs, match):
+    # seed NaN and n_bootstrap 10.5 passed the range check; gain_table then raised numpy's
+    # TypeError
+    with pytest.raises(ConfigError, match=match):
+        PhysicsComparisonSettings(**kwargs)
