@@ -12,6 +12,7 @@ is the type of every seed option.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import tempfile
@@ -36,6 +37,16 @@ def _blocking_ancestor(path: Path) -> Path | None:
 def _why(exc: OSError) -> str:
     """An error's reason without the path (``File name too long``)."""
     return exc.strerror or type(exc).__name__
+
+
+def _refuse_loop(path: Path) -> None:
+    """Raise the ``OSError`` of a path whose lookup runs through a symbolic link loop (ELOOP:
+    ``exists`` says False, and ``Path.resolve`` raises ``RuntimeError``)."""
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise
 
 
 def _exists(path: Path) -> bool:
@@ -101,14 +112,16 @@ def output_file(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        The value is empty, a name the system refuses (too long), an ancestor of the path
-        is a file, the path is an existing folder or a file without write permission, or no
-        file can be created in the nearest existing folder (tried with a scratch file,
-        removed at once; argparse prints the error as a one-line usage error).
+        The value is empty, a name the system refuses (too long, or a symbolic link loop),
+        an ancestor of the path is a file, the path is an existing folder or a file without
+        write permission, or no file can be created in the nearest existing folder (tried
+        with a scratch file, removed at once; argparse prints the error as a one-line usage
+        error).
     """
     _refuse_empty(value)
     path = Path(value)
     try:
+        _refuse_loop(path)
         blocker = _blocking_ancestor(path)
         if blocker is not None:
             raise argparse.ArgumentTypeError(
@@ -122,7 +135,7 @@ def output_file(value: str) -> Path:
                     f"cannot write {value!r}: no write permission on {value!r}")
             return path
         base = _nearest_existing(path.parent)
-    except OSError as exc:      # a name the system refuses to look up (too long)
+    except OSError as exc:      # a name the system refuses to look up (too long, a loop)
         raise argparse.ArgumentTypeError(f"cannot write {value!r}: {_why(exc)}") from None
     why = _cannot_create_in(base)
     if why is not None:
@@ -148,17 +161,18 @@ def output_dir(value: str) -> Path:
     Raises
     ------
     argparse.ArgumentTypeError
-        The value is empty, a name the system refuses (too long), the path or one of its
-        ancestors is a file, or no file can be created in the nearest existing folder
-        (tried with a scratch file, removed at once; argparse prints the error as a one-line
-        usage error).
+        The value is empty, a name the system refuses (too long, or a symbolic link loop),
+        the path or one of its ancestors is a file, or no file can be created in the nearest
+        existing folder (tried with a scratch file, removed at once; argparse prints the
+        error as a one-line usage error).
     """
     _refuse_empty(value)
     path = Path(value)
     try:
+        _refuse_loop(path)
         blocker = path if path.exists() and not path.is_dir() else _blocking_ancestor(path)
         base = _nearest_existing(path)
-    except OSError as exc:      # a name the system refuses to look up (too long)
+    except OSError as exc:      # a name the system refuses to look up (too long, a loop)
         raise argparse.ArgumentTypeError(
             f"cannot use {value!r} as output folder: {_why(exc)}") from None
     if blocker is not None:

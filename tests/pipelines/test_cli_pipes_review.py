@@ -1,0 +1,28 @@
+"""Third review of the command-line layer (arguments, dispatch, estimate, serve, the closed
+loop's classifier options): odd inputs and hand mutants no earlier test held."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+from cli_helpers import exit_code
+
+from pipelines.arguments import output_dir, output_file
+
+
+@pytest.mark.parametrize("name", ["loop", "loop/out.csv"])
+def test_an_output_path_through_a_symlink_loop_is_refused_in_one_line(
+        name, tmp_path, monkeypatch, capsys):
+    # `--out loop` (a link to itself) passed the output check, then Path.resolve raised
+    # RuntimeError('Symlink loop') while the options were read: a traceback
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "loop").symlink_to("loop")
+    with pytest.raises(argparse.ArgumentTypeError, match="symbolic links"):
+        output_file(name)
+    with pytest.raises(argparse.ArgumentTypeError, match="symbolic links"):
+        output_dir(name)
+    assert exit_code(["estimate", "runs", "--out", name]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "RuntimeError" not in err
+    assert f"argument --out: cannot write {name!r}: " in err.splitlines()[-1]
