@@ -20,8 +20,8 @@ import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
-from pipelines.arguments import OUTPUT_TYPES, check_output_files
-from terrain.tracking import activate_store, store_errors
+# the pipelines, MLflow and scikit-learn load in main (seconds): a Ctrl-C meanwhile is
+# main's one line, not a traceback of import frames
 from terrain.errors import DataWarning, TerrainError
 
 #: subcommand -> pipelines module implementing it
@@ -117,9 +117,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     A project error (:class:`~terrain.errors.TerrainError`), a missing or unreadable file,
     or a model store error is printed as one line on stderr with exit status 2. Anything
     else (memory exhausted, a defect of terrain) is also one line, with exit status 1, and
-    Ctrl-C prints ``interrupted`` with status 130. A reader that closes standard output early
-    (``terrain slip-table | head``) ends the command quietly with status 141, as a shell
-    reports a writer stopped by SIGPIPE. ``--debug`` shows the traceback instead.
+    Ctrl-C prints ``interrupted`` with status 130 (also while the commands load). A reader
+    that closes standard output early (``terrain slip-table | head``) ends the command
+    quietly with status 141, as a shell reports a writer stopped by SIGPIPE. ``--debug``
+    shows the traceback instead.
 
     Parameters
     ----------
@@ -133,9 +134,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         itself exits with 2 on a usage error), 1 after an unexpected one, 130 after Ctrl-C,
         141 when standard output was closed by its reader.
     """
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    check_output_files(_command_parser(parser, args), args)
+    try:
+        from pipelines.arguments import check_output_files
+        from terrain.tracking import activate_store, store_errors
+
+        parser = build_parser()     # imports every pipeline
+        args = parser.parse_args(argv)
+        check_output_files(_command_parser(parser, args), args)
+    except KeyboardInterrupt:
+        print("terrain: interrupted", file=sys.stderr)
+        return 130
     debug = getattr(args, "debug", False)
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
@@ -200,6 +208,8 @@ def _while_writing(exc: BaseException, parser: argparse.ArgumentParser,
                    args: argparse.Namespace) -> str:
     """The output options of the command, for a write error that names no file (a full disk:
     ``[Errno 28] No space left on device`` alone), or ``""``."""
+    from pipelines.arguments import OUTPUT_TYPES
+
     if not (isinstance(exc, OSError) and exc.filename is None and exc.errno in _WRITE_ERRNOS):
         return ""
     command = _command_parser(parser, args)
