@@ -113,12 +113,15 @@ def output_file(value: str) -> Path:
     ------
     argparse.ArgumentTypeError
         The value is empty, a name the system refuses (too long, or a symbolic link loop),
-        an ancestor of the path is a file, the path is an existing folder or a file without
-        write permission, or no file can be created in the nearest existing folder (tried
-        with a scratch file, removed at once; argparse prints the error as a one-line usage
-        error).
+        an ancestor of the path is a file, the path ends with a slash or is an existing
+        folder or a file without write permission, or no file can be created in the nearest
+        existing folder (tried with a scratch file, removed at once; argparse prints the
+        error as a one-line usage error).
     """
     _refuse_empty(value)
+    if value.endswith(("/", os.sep)):     # Path drops the slash: 'out/' became a file 'out'
+        raise argparse.ArgumentTypeError(
+            f"cannot write {value!r}: it names a folder (give a file name)")
     path = Path(value)
     try:
         _refuse_loop(path)

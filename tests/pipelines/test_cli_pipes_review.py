@@ -270,3 +270,13 @@ def test_estimate_says_the_skid_steer_options_an_agrimaro_run_does_not_use(
             "its slip with the camera)") in text
     assert ("note: --slip-model-dir nowhere not used: no skid-steer run (the AgriMaRo EKF "
             "observes its slip)") in text
+
+
+def test_an_output_file_given_with_a_trailing_slash_is_refused_as_a_folder(tmp_path):
+    # Path('results/') is Path('results'): a missing 'results/' became a file 'results'
+    with pytest.raises(argparse.ArgumentTypeError,
+                       match=r"^cannot write '.*results/': it names a folder \(give a file "
+                             r"name\)$"):
+        output_file(str(tmp_path / "results") + "/")
+    assert not (tmp_path / "results").exists()
+    assert output_file(str(tmp_path / "results")) == tmp_path / "results"
