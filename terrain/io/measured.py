@@ -55,6 +55,10 @@ STREAM_NAMES: Mapping[str, str] = MappingProxyType({"imu": "imu", "pro": "wheels
 #: gyro rates above this (rad/s) are beyond a MEMS gyro's 2000 deg/s full scale: the reader's
 #: plausibility range of the angular rates (:data:`terrain.io.plausibility.CHANNEL_LIMITS`)
 MAX_PLAUSIBLE_RATE_RAD_S = CHANNEL_LIMITS["wz"].limit
+#: stream name -> the file kind it is read from, for the names that are not their file's
+#: kind (``wheels``, from ``pro_XX.csv``): a ``wheels_XX.csv`` would replace that stream
+_TAKEN_STREAM_NAMES: Mapping[str, str] = MappingProxyType(
+    {name: kind for kind, name in STREAM_NAMES.items() if name != kind})
 #: the ``<kind>`` of a run file ``<kind>_XX.csv`` the readers take (the stream's file prefix)
 FILE_KIND_PATTERN = r"[a-z][a-z0-9]*"
 _FILE_RE = re.compile(rf"^(?P<kind>{FILE_KIND_PATTERN})_(?P<index>\d+)\.csv$")
@@ -574,8 +578,10 @@ def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
     ------
     DataFormatError
         A file named like a run file that the readers would not read (upper case,
-        compressed, or ``meta_XX.csv``), naming the file: it would otherwise be left out
-        silently (an IMU file named ``IMU_04.csv`` made its run wheel-only).
+        compressed, ``meta_XX.csv``, or ``wheels_XX.csv``: the wheel stream is read from
+        ``pro_XX.csv``), naming the file: it would otherwise be left out silently (an IMU
+        file named ``IMU_04.csv`` made its run wheel-only) or replace a stream of its run
+        (``wheels_XX.csv`` took the place of ``pro_XX.csv``).
     """
     runs: dict[str, dict[str, Path]] = {}
     for f in sorted(Path(folder).iterdir()):
@@ -589,6 +595,14 @@ def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
             raise DataFormatError("file named like a run file is not read (a run's metadata "
                                   f"is meta_{m['index']}.json; a stream cannot be named "
                                   "meta)", f)
+        if m and m["kind"] in _TAKEN_STREAM_NAMES:
+            # read as a stream of the name of another file's stream, it replaced that
+            # stream without a word (wheels_XX.csv the wheel stream of pro_XX.csv)
+            kind = _TAKEN_STREAM_NAMES[m["kind"]]
+            raise DataFormatError("file named like a run file is not read (stream "
+                                  f"{m['kind']!r} of a run is read from {kind}_"
+                                  f"{m['index']}.csv; a stream cannot be named "
+                                  f"{m['kind']})", f)
         if m:
             runs.setdefault(m["index"], {})[m["kind"]] = f
             continue
