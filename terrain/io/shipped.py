@@ -618,7 +618,9 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         A missing or unreadable file, a file whose SHA-256 differs from the manifest's
         (edited after `terrain convert` wrote it), a stream file that exists but that the
         manifest's ``files`` does not list (its runs would silently lack that stream), a
-        manifest entry of another structure (:func:`dataset_entry`), runs of a file and of
+        manifest entry of another structure (:func:`dataset_entry`), a run's ``terrain``
+        other than the terrain folder of its id (``<dataset>/<TERRAIN>/<index>``, as
+        :func:`convert_dataset` writes it), runs of a file and of
         the manifest that differ (run ids; a run's ``has_imu`` and the entry's
         ``runs_without_imu`` against the IMU rows the files hold; a run's ``samples`` and
         ``duration_s`` against its rows), a missing
@@ -690,6 +692,13 @@ def read_shipped(dataset: str, data_dir: str | Path | None = None) -> list[Run]:
         if "wheels" not in streams:
             raise DataFormatError(f"run {rid!r} of key 'datasets.{dataset}.runs' has no rows "
                                   f"in {STREAM_FILES['wheels']}", manifest_path)
+        folder = rid.split("/")
+        if len(folder) == 3 and folder[1].upper() != info["terrain"]:
+            # the label is the manifest's: one edited to another class was read as it
+            raise DataFormatError(f"key 'datasets.{dataset}.runs[{i}].terrain' is "
+                                  f"{info['terrain']!r} but run {rid!r} lies in terrain "
+                                  f"folder {folder[1]!r}; regenerate data/ with `terrain "
+                                  "convert`", manifest_path)
         if "has_imu" in info and info["has_imu"] != ("imu" in streams):
             raise DataFormatError(
                 f"key 'datasets.{dataset}.runs[{i}].has_imu' is "

@@ -102,3 +102,26 @@ def test_converting_an_imu_more_than_a_tenth_off_the_datasets_rate_warns(
     assert said == ([f"{root}: the IMU runs at {imu_hz:g} Hz, dataset 'vulpi' at 50 Hz: its "
                      "windows will be aligned at 50 Hz (the IMU resampled); convert the runs "
                      "under the dataset they come from"] if warned else [])
+
+
+def test_a_run_labelled_with_another_terrain_than_its_folder_is_refused(tmp_path, data_dir):
+    # the label of a shipped run is the manifest's 'terrain'; one edited to another class
+    # of the dataset (vulpi/CONCRETE/1 as DIRT_ROAD) was read as that class without a word
+    import json
+    import shutil
+
+    from terrain.io.shipped import read_shipped
+
+    copy = tmp_path / "data"
+    shutil.copytree(data_dir, copy)
+    path = copy / "manifest.json"
+    manifest = json.loads(path.read_text())
+    run = manifest["datasets"]["vulpi"]["runs"][0]
+    assert (run["run_id"], run["terrain"]) == ("vulpi/CONCRETE/1", "CONCRETE")
+    run["terrain"] = "DIRT_ROAD"
+    path.write_text(json.dumps(manifest))
+    with pytest.raises(DataFormatError, match=r"'datasets\.vulpi\.runs\[0\]\.terrain' is "
+                       r"'DIRT_ROAD' but run 'vulpi/CONCRETE/1' lies in terrain folder "
+                       r"'CONCRETE'") as err:
+        _quiet(read_shipped, "vulpi", copy)
+    assert err.value.path == str(path)
