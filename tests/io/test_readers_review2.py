@@ -125,3 +125,122 @@ def test_a_run_labelled_with_another_terrain_than_its_folder_is_refused(tmp_path
                        r"'CONCRETE'") as err:
         _quiet(read_shipped, "vulpi", copy)
     assert err.value.path == str(path)
+
+
+def test_the_gaps_of_a_run_are_keyed_by_stream_name(tmp_path, write_run, synth_imu, synth_pro):
+    # Run.meta["gaps"] is read by stream ('wheels', not the file's 'pro'): the audit
+    # leaves the wheel stream's gaps out of its current scoring through that key
+    pro = synth_pro(duration_s=6.0).drop(index=range(21, 31))      # 2.0 s -> 3.1 s: a gap
+    imu = synth_imu(duration_s=6.0)
+    imu = imu[(imu["time"] < 4.0) | (imu["time"] > 4.5)]            # 3.99 s -> 4.51 s
+    write_run(tmp_path / "runs", "ASPHALT", "00", imu, pro)
+    run = _quiet(read_folder_run, tmp_path / "runs" / "ASPHALT")
+    assert run.meta["gaps"] == {"imu": [(3.99, 4.51)], "wheels": [(2.0, 3.1)]}
+
+
+@pytest.mark.parametrize("norm, dead", [(0.0, True), (0.45, True), (0.2, True), (9.81, False)])
+def test_an_accelerometer_below_half_a_g_in_g_units_is_warned_dead(norm, dead):
+    # below 0.5 (half of gravity in g) the sensor sees gravity in neither unit: a warning
+    # (assumed m/s^2) for every such median, not only for an all-zero sensor
+    from terrain.io.plausibility import check_accel_units
+
+    rng = np.random.default_rng(5)
+    t = np.arange(300) / 100.0
+    az = norm + 0.01 * rng.standard_normal(t.size) if norm else 0.0 * t + 1e-3 * (t % 0.02)
+    frame = pd.DataFrame({TIME: t, "ax": 0.0 * t + 1e-4 * rng.standard_normal(t.size),
+                          "ay": 1e-4 * rng.standard_normal(t.size), "az": az})
+    found = []
+    check_accel_units(frame, "imu_00.csv", found=found)
+    assert len(found) == dead
+    if dead:
+        assert "rule accel_units" in found[0] and "dead or disconnected" in found[0]
+
+
+def test_a_two_row_file_in_milliseconds_is_refused():
+    # two rows are the readers' minimum: their one step is judged too (100 ms read as 100 s)
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_rate
+
+    with pytest.raises(UnitError, match=r"milliseconds \(ms\)") as err:
+        check_rate(np.array([0.0, 100.0]), "wheels", "pro_00.csv")
+    assert err.value.column == "time"
+
+
+def test_a_deg_s_gyro_is_refused_when_the_wheels_turn_just_enough():
+    # the wheels turn when std(v_R - v_L) >= 0.02 m/s: here 0.025 m/s, and the yaw rate is
+    # 1 / (chi B) = 1.5 1/m times that, in deg/s (x 57.3): certain, refused
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_run
+
+    rng = np.random.default_rng(2)
+    t_w = np.arange(201) / 10.0
+    dv = 0.035 * np.sin(2 * np.pi * t_w / 5.0)
+    assert 0.02 <= dv.std() < 0.03
+    wheels = pd.DataFrame({TIME: t_w, "vel_l": 0.5 - dv / 2, "vel_r": 0.5 + dv / 2,
+                           "cur_l": 5 + rng.standard_normal(t_w.size),
+                           "cur_r": 6 + rng.standard_normal(t_w.size)})
+    t_i = np.arange(2001) / 100.0
+    wz = np.degrees(1.5 * np.interp(t_i, t_w, dv)) + 0.01 * rng.standard_normal(t_i.size)
+    imu = pd.DataFrame({TIME: t_i, "wx": 0.01 * rng.standard_normal(t_i.size),
+                        "wy": 0.01 * rng.standard_normal(t_i.size), "wz": wz,
+                        "ax": 0.1 * rng.standard_normal(t_i.size),
+                        "ay": 0.1 * rng.standard_normal(t_i.size),
+                        "az": 9.81 + 0.1 * rng.standard_normal(t_i.size)})
+    with pytest.raises(UnitError, match="rule gyro_units") as err:
+        _quiet(check_run, "x/A/00", {"imu": imu, "wheels": wheels}, "husky",
+               {"imu": "imu_00.csv", "wheels": "pro_00.csv"})
+    assert (err.value.path, err.value.column) == ("imu_00.csv", "wz")
+
+
+def test_a_stuck_channel_is_reported_with_the_time_of_all_its_stretches():
+    # two stuck stretches of ax (1.5 s and 2.0 s): the warning gives their total, and
+    # Run.meta["stuck"] both stretches, each from its first to its last sample
+    from terrain.io.plausibility import check_run
+
+    rng = np.random.default_rng(4)
+    t = np.arange(1001) / 100.0
+    imu = pd.DataFrame({TIME: t, **{c: 0.05 * rng.standard_normal(t.size)
+                                    for c in ("wx", "wy", "wz", "ax", "ay")},
+                        "az": 9.81 + 0.05 * rng.standard_normal(t.size)})
+    imu.loc[(t >= 1.0) & (t <= 2.5), "ax"] = 0.25
+    imu.loc[(t >= 6.0) & (t <= 8.0), "ax"] = -0.5
+    found = _quiet(check_run, "x/A/00", {"imu": imu}, "husky", {"imu": "imu_00.csv"})
+    assert found["stuck"] == {"imu.ax": [[1.0, 2.5], [6.0, 8.0]]}
+    assert found["warnings"] == ["imu_00.csv: imu.ax stuck at one value for 3.5 s (2 "
+                                 "stretch(es), first from t = 1.0 s): dead or stuck sensor; "
+                                 "windows holding it are flagged"]
+
+
+def test_a_value_beyond_range_in_a_stream_cut_from_a_table_names_the_tables_row():
+    # a served request's IMU columns are judged on their own: the error names the row of
+    # the request (``rows``), not the position in the cut
+    from terrain.errors import ImplausibleValueError
+    from terrain.io.plausibility import check_ranges
+
+    frame = pd.DataFrame({TIME: [0.0, 0.01, 0.02], "wz": [0.1, 40.0, 0.2]})
+    with pytest.raises(ImplausibleValueError, match=r"first 40 at row 11") as err:
+        check_ranges(frame, "request", {"t_s": TIME, "wz": "wz"}, rows=np.array([10, 11, 12]))
+    assert (err.value.column, err.value.row, err.value.line) == ("wz", 11, None)
+
+
+def test_km_h_wheel_speeds_are_warned_when_noise_leaves_a_correlation_over_one_half():
+    # the speed-derivative / acceleration slope counts as evidence from a correlation of
+    # 0.5 (1 s averages): noisy speeds in km/h (correlation 0.69, slope 3.8) are warned
+    from terrain.io.plausibility import check_run
+
+    rng = np.random.default_rng(0)
+    t_i = np.arange(0, 3001) / 50.0
+    t_w = np.arange(0, 601) / 10.0
+    ax = 0.05 * np.sin(2 * np.pi * 0.1 * t_i)
+    v = 3.6 * 0.05 / (2 * np.pi * 0.1) * (1.0 - np.cos(2 * np.pi * 0.1 * t_w)) \
+        + 0.12 * rng.standard_normal(t_w.size)
+    wheels = pd.DataFrame({TIME: t_w, "vel_l": v, "vel_r": v, "cur_l": 5.0 + np.sin(t_w),
+                           "cur_r": 6.0 + np.cos(t_w)})
+    imu = pd.DataFrame({TIME: t_i, **{c: 0.01 * np.random.default_rng(k).standard_normal(
+        t_i.size) for k, c in enumerate(("wx", "wy", "wz", "ay"))}, "ax": ax,
+        "az": 9.81 + 0.01 * np.random.default_rng(9).standard_normal(t_i.size)})
+    out = _quiet(check_run, "r", {"imu": imu, "wheels": wheels}, "husky",
+                 {"wheels": "pro_00.csv"})
+    found = [w for w in out["warnings"] if "wheel_speed_units" in w]
+    assert len(found) == 1 and "slope 3.78" in found[0]
+    assert "99th-percentile" not in found[0]     # slow enough: the slope alone says it
