@@ -244,3 +244,22 @@ def test_km_h_wheel_speeds_are_warned_when_noise_leaves_a_correlation_over_one_h
     found = [w for w in out["warnings"] if "wheel_speed_units" in w]
     assert len(found) == 1 and "slope 3.78" in found[0]
     assert "99th-percentile" not in found[0]     # slow enough: the slope alone says it
+
+
+def test_a_shipped_run_keeps_the_file_warnings_of_its_csv_files(tmp_path, write_run,
+                                                                synth_imu, synth_pro):
+    # Run.meta['file_warnings'] of the shipped copy is the CSV run's (a pro file without a
+    # line break after its last line), besides their place at the head of 'warnings'
+    from terrain.io.shipped import convert_dataset, read_shipped
+
+    root = tmp_path / "csv"
+    paths = write_run(root, "ASPHALT", "00", synth_imu(duration_s=3.0),
+                      synth_pro(duration_s=3.0))
+    paths["pro"].write_text(paths["pro"].read_text().rstrip("\n"))
+    csv_run = _quiet(read_folder_run, root / "ASPHALT")
+    _quiet(convert_dataset, root, "borealtc", tmp_path / "data")
+    (run,) = _quiet(read_shipped, "borealtc", tmp_path / "data")
+    assert len(csv_run.meta["file_warnings"]) == 1
+    assert "rule last_line" in csv_run.meta["file_warnings"][0]
+    assert run.meta["file_warnings"] == csv_run.meta["file_warnings"]
+    assert run.meta["warnings"][:1] == csv_run.meta["file_warnings"]
