@@ -263,3 +263,26 @@ def test_a_shipped_run_keeps_the_file_warnings_of_its_csv_files(tmp_path, write_
     assert "rule last_line" in csv_run.meta["file_warnings"][0]
     assert run.meta["file_warnings"] == csv_run.meta["file_warnings"]
     assert run.meta["warnings"][:1] == csv_run.meta["file_warnings"]
+
+
+def test_converting_runs_with_extra_streams_warns_of_the_files_left_out(
+        tmp_path, write_run, synth_imu, synth_pro):
+    # the shipped format keeps the IMU and wheel streams: a truth_XX.csv beside them is
+    # dropped on conversion, and said so, counted per kind
+    from terrain.errors import DataWarning
+    from terrain.io.shipped import convert_dataset
+
+    root = tmp_path / "csv"
+    for index in ("00", "01"):
+        write_run(root, "ASPHALT", index, synth_imu(duration_s=3.0), synth_pro(duration_s=3.0))
+    pd.DataFrame({"time": np.arange(31) / 10.0, "slip": np.linspace(0, 0.3, 31)}).to_csv(
+        root / "ASPHALT" / "truth_01.csv", index=False)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        entry = convert_dataset(root, "borealtc", tmp_path / "data")
+    said = [str(w.message) for w in seen if issubclass(w.category, DataWarning)
+            and "left out" in str(w.message)]
+    assert said == [f"{root}: stream file(s) left out, the shipped format keeps the IMU and "
+                    "wheel streams only: truth (1 run(s))"]
+    assert [sorted(r["samples"]) for r in entry["runs"]] == [["imu", "wheels"],
+                                                             ["imu", "truth", "wheels"]]
