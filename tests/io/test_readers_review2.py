@@ -286,3 +286,24 @@ def test_converting_runs_with_extra_streams_warns_of_the_files_left_out(
                     "wheel streams only: truth (1 run(s))"]
     assert [sorted(r["samples"]) for r in entry["runs"]] == [["imu", "wheels"],
                                                              ["imu", "truth", "wheels"]]
+
+
+def test_an_indented_comment_line_is_skipped_counted_and_kept_out_of_the_line_numbers(
+        tmp_path):
+    # a comment line is one whose first non-blank character is '#', indented or not; the
+    # lines below it keep their file line numbers
+    from terrain.errors import NonNumericError
+    from terrain.io.measured import read_stream_csv
+
+    rows = [f"{i * 0.01:.2f},0.1,0.2,0.3,0.1,0.2,{9.8 + 0.01 * (i % 3):.2f}\n"
+            for i in range(30)]
+    rows.insert(10, "   # logger paused\n")
+    path = tmp_path / "imu_00.csv"
+    path.write_text("time,wx,wy,wz,ax,ay,az\n" + "".join(rows))
+    frame, report = _quiet(read_stream_csv, path, "imu")
+    assert len(frame) == 30 and report.skipped_lines == {"blank": 0, "comment": 1}
+    rows[20] = rows[20].replace(",0.1,0.2,0.3,", ",x,0.2,0.3,")   # data row 19: line 22
+    path.write_text("time,wx,wy,wz,ax,ay,az\n" + "".join(rows))
+    with pytest.raises(NonNumericError) as err:
+        _quiet(read_stream_csv, path, "imu")
+    assert (err.value.column, err.value.row, err.value.line) == ("wx", 19, 22)
