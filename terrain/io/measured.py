@@ -833,8 +833,12 @@ def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = 
         if sub:
             raise _mixed_layout(path, folder_run_files(path), sub)
         root, only = path.parent, path.name
-    return read_runs_dir(root, root.resolve().name, labelled=labelled, progress=progress,
-                         only=only, **reader_options)
+    try:
+        name = root.resolve().name
+    except (OSError, RuntimeError) as exc:  # a symbolic link loop: RuntimeError before 3.13
+        raise DataFormatError(f"not a folder of runs: {exc}", path=str(path)) from None
+    return read_runs_dir(root, name, labelled=labelled, progress=progress, only=only,
+                         **reader_options)
 
 
 def read_runs_dir(root: str | Path, dataset: str | None = None, *,

@@ -798,3 +798,13 @@ def test_accel_in_g_is_the_band_between_a_dead_sensor_and_gravity(median, in_g):
     from terrain.io.plausibility import accel_in_g
 
     assert accel_in_g(median) is in_g
+
+
+def test_a_runs_path_that_is_a_symbolic_link_loop_is_a_data_format_error(tmp_path):
+    # terrain estimate LOOP raised Path.resolve's RuntimeError('Symlink loop'), which the
+    # CLI reported as an internal error of terrain
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    with pytest.raises(DataFormatError) as info:
+        read_runs_path(loop)
+    assert info.value.path == str(loop) and "not a folder of runs" in str(info.value)
