@@ -85,10 +85,20 @@ def to_file_frames(run: Run) -> dict[str, pd.DataFrame]:
     dict
         File kind (``imu``, ``pro``, ``truth``...) -> frame with the file's column names, in
         the order of ``run.streams``.
+
+    Raises
+    ------
+    ConfigError
+        Two streams that go to one file (``wheels`` and ``pro``: the second overwrote the
+        first).
     """
     frames: dict[str, pd.DataFrame] = {}
     for name, frame in run.streams.items():
         kind = file_kind(name)
+        if kind in frames:
+            other = next(n for n in run.streams if n != name and file_kind(n) == kind)
+            raise ConfigError(f"run {run.run_id}: streams {other!r} and {name!r} would both "
+                              f"be written to {kind}_XX.csv; rename one")
         mapping = COLUMN_MAPS.get(kind, {"time": TIME})
         inverse = {canonical: column for column, canonical in mapping.items()}
         frames[kind] = frame.rename(columns=inverse)
@@ -162,8 +172,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         Index out of range [0, 99] or already used by a file of the folder (any
         ``*_XX.*``, measured runs have no ``meta_XX.json``), no free index left (default
         ``index``: the folder holds runs 00-99), a stream name the readers
-        would not read back (``meta`` included), or a terrain that is not a folder name
-        (``A/B``, ``..``); nothing is written then.
+        would not read back (``meta`` included) or two streams that go to one file
+        (:func:`to_file_frames`), or a terrain that is not a folder name (``A/B``, ``..``);
+        nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):

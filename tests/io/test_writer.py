@@ -103,3 +103,20 @@ def test_the_default_index_is_the_smallest_free_one_up_to_99(tmp_path):
     assert write_run(_run(0.0), tmp_path)["meta"].name == "meta_99.json"
     with pytest.raises(ConfigError, match="already holds runs 00-99"):
         write_run(_run(0.0), tmp_path)
+
+
+def test_two_streams_that_go_to_one_file_are_refused_before_anything_is_written(tmp_path):
+    # 'wheels' is written as pro_XX.csv, and so was a stream named 'pro': the second
+    # silently overwrote the first, and the run read back had lost its wheel stream
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+
+    run = _run(0.0)
+    pro = run.streams["wheels"].copy()
+    pro["vel_l"] += 1.0
+    both = replace(run, streams={**run.streams, "pro": pro})
+    with pytest.raises(ConfigError, match=r"streams 'wheels' and 'pro' would both be written "
+                                          r"to pro_XX\.csv"):
+        write_run(both, tmp_path, 0)
+    assert not (tmp_path / "ASPHALT").exists()
