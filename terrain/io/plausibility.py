@@ -646,7 +646,8 @@ def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found,
         raise UnitError(
             f"rule wheel_speed_units: 99th-percentile wheel speed {p99:.3g} is more than twice "
             f"the top speed {lim.top_speed_m_s:g} m/s ({lim.source}); km/h is 3.6 x m/s: "
-            f"convert {', '.join(speed_columns)} to m/s (/ 3.6)", path, speed_columns[0])
+            f"convert {', '.join(speed_columns)} to m/s (/ 3.6; a wheel angular speed in "
+            f"rad/s: x the wheel radius in m)", path, speed_columns[0])
     evidence = []
     if p99 > 1.2 * lim.top_speed_m_s:
         evidence.append(f"99th-percentile speed {p99:.3g} above 1.2 x top speed "

@@ -190,6 +190,8 @@ def test_wheel_speeds_in_km_h_name_the_columns_of_the_frames_checked(runs_by_id)
     with pytest.raises(UnitError, match="convert vel_l, vel_r to m/s") as info:
         check_run("r", streams, "husky", {"wheels": "request"})
     assert info.value.column == "vel_l"
+    # speeds logged as wheel angular speeds (rad/s) fail the same rule: the hint names both
+    assert "(/ 3.6; a wheel angular speed in rad/s: x the wheel radius in m)" in str(info.value)
 
 
 def test_slow_wheel_speeds_in_km_h_are_a_warning(turning):
