@@ -6,7 +6,6 @@ and log the results; the composition itself lives here so it can be tested and r
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -20,7 +19,7 @@ from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import (WindowConfig, WindowSet, make_windows, resolve_signals,
                               runs_track_m)
-from terrain.errors import ConfigError, config_integer, duplicated
+from terrain.errors import ConfigError, config_integer, config_positive, duplicated
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
                                cross_validate, fit_with_groups, grouped_units, training_units)
@@ -141,9 +140,8 @@ class ExperimentConfig:
                                   "vel_l, vel_r and wz: the signals must hold them "
                                   f"(missing {missing}) and no EKF channel")
         if self.train_hop_s is not None:
-            if not 0 < self.train_hop_s < math.inf:
-                raise ConfigError(f"train_hop_s must be a finite number > 0 s, got "
-                                  f"{self.train_hop_s}")
+            # (text such as '0.5' raised Python's TypeError in the comparison)
+            config_positive("ExperimentConfig", train_hop_s=self.train_hop_s)
             if self.protocol == "paper":
                 raise ConfigError("the paper protocol fixes its windows (0.1 s hop): drop "
                                   "--train-hop-s")

@@ -18,8 +18,11 @@ from terrain.models.svm import SVMConfig
     # --search builds the SVM's grid search: with a CNN it would cross-validate an SVM
     (dict(model="cnn", search=True), "--search tunes the SVM"),
     (dict(protocol="kfold"), "unknown protocol 'kfold'"),
-    (dict(train_hop_s=0.0), "train_hop_s must be a finite number > 0"),
-    (dict(train_hop_s=-1.0), "train_hop_s must be a finite number > 0"),
+    (dict(train_hop_s=0.0), "train_hop_s must be a finite value > 0"),
+    (dict(train_hop_s=-1.0), "train_hop_s must be a finite value > 0"),
+    (dict(train_hop_s=float("nan")), "train_hop_s must be a finite value > 0"),
+    # text raised Python's TypeError in the comparison
+    (dict(train_hop_s="0.5"), "train_hop_s must be a real number, got str '0.5'"),
     (dict(train_hop_s=0.001), "under one sample at 100 Hz"),        # BorealTC's IMU rate
     (dict(seeds=(True,)), "seeds must be one or more integers"),
     (dict(seeds=(1.5,)), "seeds must be one or more integers"),
