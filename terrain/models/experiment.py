@@ -491,8 +491,8 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
             # model's own randomness, not a different split
             notes.append(f"loro: leave-one-run-out folds are the same for all "
                          f"{len(config.seeds)} seeds; the seeds change only the model's own "
-                         "randomness (the SVM's probability calibration split, a CNN's "
-                         "initialisation), not the split")
+                         "randomness (a CNN's initialisation; the SVM has none: its "
+                         "calibration folds are not shuffled), not the split")
     else:
         notes.append(f"paper protocol: run_majority_accuracy votes per "
                      f"{PAPER_WINDOW['partition_s']:g} s partition (its split unit), not per "
