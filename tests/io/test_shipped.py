@@ -579,3 +579,30 @@ def test_runs_come_sorted_by_run_id_whatever_the_manifest_order(vulpi_copy):
     _edit_manifest(vulpi_copy, lambda e: e["runs"][0].update(has_imu=False))
     with pytest.raises(DataFormatError, match=r"runs\[0\]\.has_imu.* 'vulpi/UNPLOUGHED/"):
         read_shipped("vulpi", vulpi_copy)
+
+
+def test_a_manifest_duration_off_by_a_millisecond_is_refused(vulpi_copy):
+    # convert_dataset writes duration_s to 3 decimals and read_shipped compares it at 3:
+    # a run whose last sample is gone (one 50 Hz step) or a hand-edited figure is refused
+    def longer(entry):
+        entry["runs"][1]["duration_s"] = round(entry["runs"][1]["duration_s"] + 0.001, 3)
+
+    _edit_manifest(vulpi_copy, longer)
+    with pytest.raises(DataFormatError, match=r"runs\[1\]\.duration_s' says"):
+        read_shipped("vulpi", vulpi_copy)
+
+
+def test_a_run_labelled_with_another_terrain_than_its_folder_is_refused(vulpi_copy):
+    # the label of a shipped run is the manifest's 'terrain'; one edited to another class
+    # of the dataset (vulpi/CONCRETE/1 as DIRT_ROAD) was read as that class without a word
+    def relabel(entry):
+        run = entry["runs"][0]
+        assert (run["run_id"], run["terrain"]) == ("vulpi/CONCRETE/1", "CONCRETE")
+        run["terrain"] = "DIRT_ROAD"
+
+    path = _edit_manifest(vulpi_copy, relabel)
+    with pytest.raises(DataFormatError, match=r"'datasets\.vulpi\.runs\[0\]\.terrain' is "
+                       r"'DIRT_ROAD' but run 'vulpi/CONCRETE/1' lies in terrain folder "
+                       r"'CONCRETE'") as err:
+        read_shipped("vulpi", vulpi_copy)
+    assert err.value.path == str(path)
