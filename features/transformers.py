@@ -157,10 +157,12 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
                         turn_floor_rad_s=self.turn_floor_rad_s)
         X = self._check(X)
         names = [f"{c}__{s}" for c in self.channels for s in self.stats]
-        self.bands_ = (tuple(self.bands_hz) if self.bands_hz is not None
-                       else linear_bands(self.rate_hz, self.band_width_hz))
+        # every check before the first attribute is set: a refused (re)fit leaves no mix of
+        # new names and old band weights behind
+        bands = (tuple(self.bands_hz) if self.bands_hz is not None
+                 else linear_bands(self.rate_hz, self.band_width_hz))
         names += [f"{c}__{_band_name(lo, hi)}" for c in self.channels if c in IMU_CHANNELS
-                  for lo, hi in self.bands_]
+                  for lo, hi in bands]
         names += [name for name, _ in self._cross_terms()]
         repeated = duplicated(names)
         if repeated:
@@ -169,12 +171,13 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
                    if twice] or ["bands whose edges agree to 6 digits"]
             raise ConfigError(f"WindowFeatures: feature names occur more than once "
                               f"({'; '.join(why)}): {first_items(repeated, word='name')}")
-        self.feature_names_out_ = np.asarray(names, dtype=object)
-        self.n_samples_in_ = X.shape[2]
         # constant FFT helpers of this window length (derived from the settings, not the data)
+        weights = calculators.band_weights(X.shape[2], self.rate_hz, bands)
+        self.bands_ = bands
+        self.n_samples_in_ = X.shape[2]
         self.taper_ = calculators.hann_taper(self.n_samples_in_)
-        self.band_weights_ = calculators.band_weights(self.n_samples_in_, self.rate_hz,
-                                                      self.bands_)
+        self.band_weights_ = weights
+        self.feature_names_out_ = np.asarray(names, dtype=object)
         return self
 
     def transform(self, X: np.ndarray) -> np.ndarray:
