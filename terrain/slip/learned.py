@@ -27,7 +27,7 @@ from sklearn.model_selection import GroupKFold
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
-                            ShapeError, duplicated, listed)
+                            ShapeError, config_integer, config_positive, duplicated, listed)
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -53,12 +53,13 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Seed (the trees are deterministic without early stopping; kept for clones).
     calibration_folds : int
         Grouped folds of the out-of-fold slip residuals the standard deviation is calibrated
-        on (:meth:`fit` with ``groups``; fewer than 2 disables the calibration).
+        on (:meth:`fit` with ``groups``; an integer >= 0, fewer than 2 disables the
+        calibration).
     std_floor : float
-        Documented floor of :meth:`predict_std`, dimensionless slip (0.0005: below it the
-        out-of-fold residuals of the training windows are at the level of the simulator's
-        window-mean truth on firm ground, where slip is ~1e-4, and a smaller std would let
-        one window dominate the filter).
+        Documented floor of :meth:`predict_std`, dimensionless slip, finite and > 0 (0.0005:
+        below it the out-of-fold residuals of the training windows are at the level of the
+        simulator's window-mean truth on firm ground, where slip is ~1e-4, and a smaller std
+        would let one window dominate the filter).
 
     Attributes
     ----------
@@ -120,6 +121,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
+        ConfigError
+            ``std_floor`` not a finite number > 0 (it keeps the log-variance target finite
+            where a residual is 0), or ``calibration_folds`` not an integer >= 0.
         ShapeError
             ``X`` is not 2-D, ``y`` is not ``(n_windows, 4)``, or ``groups`` has another
             length than ``X``.
@@ -134,6 +138,10 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             not learned, :meth:`predict` gives their median (1 without any) on every window;
             or too few runs in ``groups`` for the calibration folds (no std).
         """
+        # (NaN made the variance target NaN, 0 made it -inf at a zero residual: scikit-learn's
+        # bare errors about a y that was fine; 2.5 folds failed after the four fits)
+        config_positive("SlipRegressor", std_floor=self.std_floor)
+        config_integer("SlipRegressor.calibration_folds", self.calibration_folds, 0)
         names = _text_columns(X)
         X = np.asarray(X, dtype=float)
         y = np.asarray(y, dtype=float)
