@@ -45,3 +45,19 @@ def test_valid_settings_still_fit_and_fewer_than_two_folds_still_disable_the_std
     assert np.isnan(model.fit(X, y, groups=groups).predict_std(X[:2])).all()
     model = SlipRegressor(max_iter=3, min_samples_leaf=5, std_floor=0.002)
     np.testing.assert_allclose(model.fit(X, y, groups=groups).predict_std(X[:2]), 0.002)
+
+
+def test_calibration_folds_are_grouped_by_run_whatever_the_order_of_the_windows():
+    # each run's windows share features and a slip unrelated to them: only a model that saw
+    # the run predicts it. With the windows of the runs interleaved, folds that are not
+    # grouped by run (plain KFold) put every run on both sides and calibrate on residuals
+    # near 0; grouped folds see the run-to-run spread of the slip (std 0.1)
+    rng = np.random.default_rng(0)
+    n_runs, per_run = 9, 30
+    run_x, run_s = rng.normal(size=(n_runs, 3)), rng.normal(0.0, 0.1, size=n_runs)
+    groups = np.tile(np.arange(n_runs), per_run)
+    X = run_x[groups] + 1e-3 * rng.normal(size=(groups.size, 3))
+    y = np.column_stack([run_s[groups], run_s[groups], np.full(groups.size, 2.0),
+                         np.zeros(groups.size)])
+    model = SlipRegressor(max_iter=20, min_samples_leaf=5).fit(X, y, groups=groups)
+    assert model.calibration_["median_abs_residual"] > 0.03

@@ -23,3 +23,13 @@ def test_cache_key_tells_apart_settings_that_are_not_in_the_cell_name():
 def test_slip_data_spec_refuses_a_zero_duration():
     with pytest.raises(ConfigError, match="duration_s must be > 0"):
         SlipDataSpec(terrains=("SNOW",), duration_s=0.0)
+
+
+@pytest.mark.parametrize("axis, values", [("terrains", ("SNOW", "ICE", "SNOW")),
+                                          ("scenarios", ("orchard", "orchard")),
+                                          ("seeds", (0, 1, 1))])
+def test_slip_data_spec_refuses_a_value_repeated_on_an_axis(axis, values):
+    # a repeated value gives the same run twice (one run id): its windows would weigh twice
+    # in the fit and the error tables
+    with pytest.raises(ConfigError, match=f"{axis}: .* given more than once"):
+        SlipDataSpec(**{axis: values})
