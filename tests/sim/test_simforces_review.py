@@ -1,0 +1,102 @@
+"""Review of the simulator's sensors, closed loop and scenarios (hand mutants).
+
+Each test pins a behaviour that a hand mutant of terrain/sim/{sensors,closed_loop,
+scenarios}.py changed without any other test of tests/sim noticing (mutant ids in the
+comments; the review's report lists them).
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.sim import make_commands
+from terrain.sim.closed_loop import OnlineSensors
+from terrain.sim.dynamics import PlantSnapshot
+from terrain.sim.sensors import SensorSettings, vibration_pole
+from terrain.sim.simulate import DEFAULT_SENSORS
+from terrain.terramechanics.resistance import G_M_S2
+
+
+def test_vibration_pole_is_the_corner_frequency_in_rad_s_over_the_rate():
+    # kills S2 (f_c in Hz taken as rad/s, half the corner): the existing check compares
+    # exp(-94) with exp(-47), both below pytest.approx's absolute tolerance of 1e-12
+    for rate in (50.0, 100.0, 400.0):
+        assert np.log(vibration_pole(rate, 15.0)) == pytest.approx(-2 * np.pi * 15.0 / rate,
+                                                                   rel=1e-12)
+    # the -3 dB point of the discrete filter y_k = a y_(k-1) + (1 - a) x_k sits near f_c
+    a = vibration_pole(1000.0, 15.0)
+    z = np.exp(2j * np.pi * 15.0 / 1000.0)
+    gain = abs((1 - a) / (1 - a / z))
+    assert gain == pytest.approx(1 / np.sqrt(2), rel=0.02)
+
+
+@pytest.mark.parametrize("field", ["gyro_noise_rad_s", "accel_bias_std_m_s2",
+                                   "current_quantum_a", "cam_outage_rate_hz"])
+def test_a_negative_noise_level_resolution_or_outage_rate_is_refused(field):
+    # kills S16 (the >= 0 check of the non-rate settings loosened to >= -1)
+    with pytest.raises(ConfigError, match=f"sensor setting {field} must be finite and >= 0"):
+        SensorSettings(**{field: -0.5})
+    SensorSettings(**{field: 0.0})                      # 0: off, allowed
+
+
+def _cam_snap(k, t):
+    z2, z3 = np.zeros(2), np.zeros(3)
+    return PlantSnapshot(k, t, z3, np.array([0.3, 0.0, 0.0]), z2, z3, z3, z3, z3, 0.0, 0.0, 0)
+
+
+def test_online_camera_drops_exactly_the_samples_inside_each_outage_and_counts_them():
+    # kills C2 (an outage held 0.05 s past its end) and C3 (dropped rows not counted):
+    # at 30 Hz on a 100 Hz physics grid, an outage [0.5, 1.0) removes the samples due at
+    # 0.5, 0.533, ..., 0.967 s (15 of them) and no other
+    sensors = OnlineSensors("agrimaro", replace(DEFAULT_SENSORS["agrimaro"],
+                                                cam_outage_rate_hz=0.0), 0, 2.0)
+    assert sensors.outages == []
+    sensors.outages = [(0.5, 1.0)]
+    for k in range(201):
+        sensors.record(_cam_snap(k, 0.01 * k))
+    cam_t = sensors.take(2.0, np.zeros(3)).cam[:, 0]
+    due = np.arange(61) / 30.0                       # the camera's nominal sample times
+    taken = np.ceil(due * 100.0 - 1e-6) / 100.0      # the first physics step at or after
+    inside = (taken >= 0.5) & (taken < 1.0)
+    np.testing.assert_allclose(cam_t, taken[~inside], atol=1e-9)
+    assert sensors.cam_rows_dropped == int(inside.sum()) == 15
+
+
+def test_online_full_imu_carries_the_per_run_accelerometer_bias_on_az_too():
+    # kills C8 (no z bias on the online full IMU; the batch IMU has one on all three axes):
+    # without white noise and vibration, az at rest reads g + a constant bias whose spread
+    # over runs is accel_bias_std_m_s2
+    quiet = replace(DEFAULT_SENSORS["husky"], accel_noise_m_s2=0.0, gyro_noise_rad_s=0.0,
+                    accel_bias_std_m_s2=0.1)
+    z2, z3 = np.zeros(2), np.zeros(3)
+    biases = []
+    for seed in range(40):
+        s = OnlineSensors("husky", quiet, seed, 1.0)
+        for k in range(3):
+            s.record(PlantSnapshot(k, 0.01 * k, z3, z3, z2, z2, z2, z2, z2, 0.0, 0.0, 0))
+        az = s.take(0.02, np.zeros(2)).imu_full[:, 6]
+        assert len(az) == 3 and np.ptp(az) == 0.0
+        biases.append(az[0] - G_M_S2)
+    assert np.std(biases) == pytest.approx(0.1, rel=0.4)
+
+
+def test_online_steering_encoders_report_the_12_bit_resolution():
+    # kills C10 (online steering angles not quantised, unlike the batch steer stream)
+    q = DEFAULT_SENSORS["agrimaro"].steer_quantum_rad
+    assert q == pytest.approx(2 * np.pi / 4096)
+    delta = np.array([0.1234567, -0.5 * q + 1e-7, 3.3 * q])
+    z2, z3 = np.zeros(2), np.zeros(3)
+    s = OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 0, 1.0)
+    s.record(PlantSnapshot(0, 0.0, z3, z3, z2, z3, delta, z3, z3, 0.0, 0.0, 0))
+    steer = s.take(0.0, np.zeros(3)).steer
+    np.testing.assert_allclose(steer[0, 1:], np.round(delta / q) * q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(steer[0, 1:] / q, [np.round(0.1234567 / q), 0.0, 3.0])
+
+
+def test_a_duration_shorter_than_half_a_physics_step_is_refused():
+    # kills Sc4 (n < 1 instead of n < 2: 4 ms at 10 ms steps gave a single-sample command)
+    with pytest.raises(ConfigError, match="shorter than one physics step"):
+        make_commands("spin", 0.004, 0.01, np.random.default_rng(0), 1.0)
+    assert len(make_commands("spin", 0.006, 0.01, np.random.default_rng(0), 1.0).t_s) == 2
