@@ -132,12 +132,15 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     Raises
     ------
     ConfigError
-        Unknown scenario, a physics step or a duration that is not a finite time > 0, or a
-        duration that rounds to less than one physics step.
+        Unknown scenario, a physics step or a duration that is not a finite time > 0, a
+        duration that rounds to less than one physics step, a speed limit that is not
+        finite and > 0, or a track that is not finite and >= 0.
     """
     if name not in SCENARIO_NAMES:
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
-    config_positive("make_commands", dt_s=dt_s, duration_s=duration_s)
+    config_positive("make_commands", dt_s=dt_s, duration_s=duration_s,
+                    max_speed_m_s=max_speed_m_s)
+    config_positive("make_commands", allow_zero=True, track_m=track_m)
     n = physics_steps(duration_s, dt_s) + 1
     if n < 2:
         raise ConfigError(f"duration {duration_s} s is shorter than one physics step "

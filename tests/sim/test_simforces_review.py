@@ -100,3 +100,18 @@ def test_a_duration_shorter_than_half_a_physics_step_is_refused():
     with pytest.raises(ConfigError, match="shorter than one physics step"):
         make_commands("spin", 0.004, 0.01, np.random.default_rng(0), 1.0)
     assert len(make_commands("spin", 0.006, 0.01, np.random.default_rng(0), 1.0).t_s) == 2
+
+
+@pytest.mark.parametrize("max_speed, track, match", [
+    (-1.0, 0.0, "make_commands.max_speed_m_s must be"),
+    (float("nan"), 0.0, "make_commands.max_speed_m_s must be"),
+    (0.0, 0.0, "make_commands.max_speed_m_s must be"),
+    (1.0, -0.5, "make_commands.track_m must be"),
+    (1.0, float("nan"), "make_commands.track_m must be")])
+def test_make_commands_refuses_a_speed_limit_or_track_that_is_not_a_finite_length(
+        max_speed, track, match):
+    # a speed limit of -1 m/s drove straight_accel backwards at -0.95 m/s, NaN drove it at
+    # 1 m/s (min(1.0, nan) is 1.0); a negative track raised orchard's speed above the limit
+    with pytest.raises(ConfigError, match=match):
+        make_commands("straight_accel", 2.0, 0.01, np.random.default_rng(0), max_speed,
+                      track_m=track)
