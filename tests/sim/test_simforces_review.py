@@ -115,3 +115,18 @@ def test_make_commands_refuses_a_speed_limit_or_track_that_is_not_a_finite_lengt
     with pytest.raises(ConfigError, match=match):
         make_commands("straight_accel", 2.0, 0.01, np.random.default_rng(0), max_speed,
                       track_m=track)
+
+
+@pytest.mark.parametrize("seed, duration, match", [
+    (-1, 5.0, "OnlineSensors.seed must be an integer >= 0"),
+    (1.5, 5.0, "OnlineSensors.seed must be an integer >= 0"),
+    (0, -5.0, "OnlineSensors.duration_s must be"),
+    (0, float("nan"), "OnlineSensors.duration_s must be")])
+def test_online_sensors_refuse_a_bad_seed_or_duration_with_a_typed_error(seed, duration, match):
+    # a seed of -1 was numpy's ValueError "expected non-negative integer", a duration of
+    # -5 s or NaN its "lam < 0 or lam is NaN" (the camera outages' Poisson draw)
+    with pytest.raises(ConfigError, match=match):
+        OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], seed, duration)
+    # SimConfig's rule: a whole float is a seed, and the same seed gives the same draws
+    assert (OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 3.0, 60.0).outages
+            == OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 3, 60.0).outages)
