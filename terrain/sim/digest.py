@@ -29,14 +29,15 @@ SIMULATOR_MODULES: tuple[str, ...] = ("terrain.sim", "terrain.terramechanics",
                                       "terrain.vehicles", "terrain.run", "terrain.errors")
 
 
-def _source_files(module: str) -> list[Path]:
+def _source_files(module: str) -> tuple[Path, list[Path]]:
+    """The folder of a module or package and its source files (sorted)."""
     spec = importlib.util.find_spec(module)
     if spec is None or spec.origin is None:
         raise ConfigError(f"source digest: no module {module!r}")
     origin = Path(spec.origin)
     if spec.submodule_search_locations:  # a package: every .py file below it
-        return sorted(origin.parent.rglob("*.py"))
-    return [origin]
+        return origin.parent, sorted(origin.parent.rglob("*.py"))
+    return origin.parent, [origin]
 
 
 def source_digest(modules: Sequence[str]) -> str:
@@ -61,8 +62,9 @@ def source_digest(modules: Sequence[str]) -> str:
     """
     h = hashlib.sha1()
     for module in modules:
-        files = _source_files(module)
-        root = files[0].parent
+        # relative to the package's folder (the first file's folder was a subpackage's
+        # when one sorted before __init__.py, and the other files raised ValueError)
+        root, files = _source_files(module)
         for path in files:
             h.update(f"{module}:{path.relative_to(root).as_posix()}\n".encode())
             h.update(path.read_bytes())

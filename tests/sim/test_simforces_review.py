@@ -5,6 +5,7 @@ digest,scenarios}.py changed without any other test of tests/sim noticing (mutan
 comments; the review's report lists them).
 """
 
+import importlib
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -14,6 +15,7 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.sim import make_commands
 from terrain.sim.closed_loop import OnlineSensors
+from terrain.sim.digest import source_digest
 from terrain.sim.dynamics import PlantSnapshot
 from terrain.sim.forces import SLIDE_SPEED_M_S, contact_forces, contact_layout, velocity_maps
 from terrain.sim.sensors import SensorSettings, gravity_specific_force, imu, vibration_pole
@@ -262,3 +264,21 @@ def test_simulator_digest_follows_the_default_physics_version(monkeypatch):
     assert simulator_digest("husky", ("SNOW",)) != before
     monkeypatch.setattr(digest, "SimConfig", SimConfig)
     assert simulator_digest("husky", ("SNOW",)) == before
+
+
+def test_source_digest_of_a_package_with_a_subpackage_sorting_first(tmp_path, monkeypatch):
+    # the files of a package were made relative to the folder of the first one in sorted
+    # order: a subpackage whose name sorts before "__init__.py" (upper case, "Models")
+    # became that root, and the package's own files raised ValueError ("is not in the
+    # subpath"); the root is the package's folder
+    monkeypatch.syspath_prepend(str(tmp_path))
+    pkg = tmp_path / "digest_probe_upper"
+    (pkg / "Models").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "Models" / "__init__.py").write_text("")
+    (pkg / "Models" / "tyre.py").write_text("K_S = 0.6\n")
+    importlib.invalidate_caches()
+    before = source_digest(["digest_probe_upper"])
+    assert len(before) == 40
+    (pkg / "Models" / "tyre.py").write_text("K_S = 0.7\n")
+    assert source_digest(["digest_probe_upper"]) != before
