@@ -104,7 +104,9 @@ class LoadTransferParams:
     source: str
 
 
-#: Centre-of-gravity heights by vehicle (read-only). The Husky A200 value is an estimate:
+#: Centre-of-gravity heights by vehicle (read-only), for vehicles whose parameters carry
+#: none (the tracked vehicle's is ``TrackedParams.cog_height_m``, seed 003 Table 2, which
+#: :func:`terrain.sim.dynamics.integrate` reads). The Husky A200 value is an estimate:
 #: Clearpath gives no CoG height; the datasheet body is 0.39 m tall with 0.13 m ground
 #: clearance and the batteries and drive train sit low in the chassis, so the mass centre is
 #: taken at the wheel-axle height plus 0.05 m.
@@ -113,7 +115,6 @@ LOAD_TRANSFER: Mapping[str, LoadTransferParams] = MappingProxyType({
         "ASSUMED 0.215 m: Husky A200 datasheet (height 0.39 m, ground clearance 0.13 m, "
         "13 in wheels of radius 0.1651 m); mass centre 0.05 m above the wheel axles "
         "(batteries and motors low in the chassis); no published measurement")),
-    "tracked": LoadTransferParams(0.150, "seed 003 Table 2 (Patako test bed, h = 0.150 m)"),
     "agrimaro": LoadTransferParams(0.0, "no load transfer modelled for AgriMaRo (steered)"),
 })
 

@@ -661,3 +661,35 @@ def test_load_transfer_floor_is_counted(monkeypatch):
     assert sim.run.meta["load_floor_steps"] == [0, 0, 0, 0]
     assert "load_floor_steps" not in simulate_with_physics(SimConfig(
         terrains=("ASPHALT",), scenario="straight_accel", duration_s=1.0, seed=0)).run.meta
+
+
+def test_the_tracked_vehicles_own_cog_height_sets_its_load_transfer(monkeypatch):
+    # TrackedParams.cog_height_m (seed 003 Table 2) was validated and never read: v2 took a
+    # second copy of Table 2's 0.150 m from terrain.sim.forces, so a tracked vehicle built
+    # with another CoG height drove with the catalogue's load transfer
+    heights, loads = [], []
+
+    def spy(static, x, y, mass, cog_height_m, ax, ay):
+        heights.append(cog_height_m)
+        loads.append(transferred_normal_loads(static, x, y, mass, cog_height_m, ax, ay))
+        return loads[-1]
+
+    monkeypatch.setattr(dynamics, "transferred_normal_loads", spy)
+    t = np.arange(0.0, 1.0, 0.01)
+    cmd = np.zeros((len(t), 3))
+    cmd[:, 0] = 0.5
+    default = get_vehicle("tracked")
+    assert default.cog_height_m == 0.150
+    rear_minus_front = {}
+    for h in (default.cog_height_m, 0.40):
+        veh = replace(default, cog_height_m=h)
+        heights.clear()
+        loads.clear()
+        integrate(veh, veh.contact_geometry(), (get_terrain("ASPHALT"),), 1e9, t, cmd, 0.1,
+                  1.0, physics="v2")
+        assert heights and set(heights) == {h}
+        x = veh.contact_geometry().positions_m[:, 0]
+        rear_minus_front[h] = loads[-1][x < 0].sum() - loads[-1][x > 0].sum()
+    # climbing a 0.1 rad grade the rear contacts carry more; the transfer is proportional to
+    # the height (transferred_normal_loads): 0.40 m moves 2.7 times what 0.150 m moves
+    assert rear_minus_front[0.40] > 2.0 * rear_minus_front[0.150] > 0.0
