@@ -36,7 +36,8 @@ class SensorSettings:
         Std of the constant per-run accelerometer bias, m/s^2 (the z gyro has no baseline
         bias: ``gyro_bias`` is a named effect).
     vibration_bandwidth_hz : float
-        Corner frequency of the first-order filter shaping terrain vibration.
+        Corner frequency of the first-order filter shaping terrain vibration, Hz; 0 turns
+        the vibration off (pole 1, scale ``sqrt(1 - pole^2) = 0``).
     current_noise_a : float
         White noise std of the motor current sensor, A.
     current_quantum_a, speed_quantum_m_s : float
