@@ -27,7 +27,7 @@ import pandas as pd
 from terrain.control.closed_loop import run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
-from terrain.errors import ConfigError, duplicated
+from terrain.errors import ConfigError, config_positive, duplicated
 from terrain.terramechanics import get_terrain, steady_slip
 
 #: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
@@ -75,7 +75,24 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
         ``(kp, ki)`` of the lowest cost.
     table : pandas.DataFrame
         ``kp, ki, slip_rmse, time_increase, steady_miss, cost`` per candidate.
+
+    Raises
+    ------
+    ConfigError
+        ``terrains``, ``seeds``, ``kp_grid`` or ``ki_grid`` empty or with a value given
+        more than once (a repeated seed counts its runs twice), or a weight that is not a
+        finite real number >= 0 (named), before any run.
     """
+    config_positive("tune_gains", allow_zero=True, time_weight=time_weight,
+                    steady_weight=steady_weight)
+    for name, values in (("terrains", [str(t).upper() for t in terrains]),
+                         ("seeds", list(seeds)), ("kp_grid", list(kp_grid)),
+                         ("ki_grid", list(ki_grid))):
+        repeated = duplicated(values)
+        if not values or repeated:
+            raise ConfigError(f"tune_gains {name}: " + (
+                f"{repeated} given more than once" if repeated else "empty")
+                + " (each value once, at least one)")
     base = {}
     for ter, seed in itertools.product(terrains, seeds):
         base[ter, seed] = run_closed_loop(vehicle, ter, "straight_accel", False, seed,
