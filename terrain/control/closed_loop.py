@@ -131,7 +131,8 @@ class TractionLoop:
         available at time ``t_s`` (s), taken as current (age 0); or
         ``(label, confidence, t_decided_s)``: the decision with the time it was made (s), its
         age ``t_s - t_decided_s`` goes to :func:`~terrain.control.desired_slip.select_target`
-        (a decision older than the table's ``max_decision_age_s`` gets the fallback).
+        (a decision older than the table's ``max_decision_age_s``, or with the time None,
+        unknown, gets the fallback).
     apply : bool
         True: return the correction; False: shadow mode (return zeros, log everything).
     accel_tau_s : float
@@ -211,7 +212,9 @@ class TractionLoop:
         est = self.estimator.update(obs)
         decision = self.terrain_decision(obs.t_s)
         label, conf = decision[0], decision[1]
-        age = obs.t_s - float(decision[2]) if len(decision) > 2 else 0.0
+        # a decision of unknown time (stamp None) has no age: the fallback (select_target)
+        stamp = decision[2] if len(decision) > 2 else obs.t_s
+        age = None if stamp is None else obs.t_s - float(stamp)
         targets = select_target(self.table, label, conf, decision_age_s=age)
         # the first call has no previous one: no interval has elapsed, so the PID integrates
         # nothing (dt 0, floored to 1 us as a repeated time); only the feed-forward's first
