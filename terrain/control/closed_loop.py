@@ -157,7 +157,8 @@ class TractionLoop:
     ----------
     log : list of dict
         One record per call (time, ``dt_s`` the interval since the previous call in s, 0 at
-        the first call, estimate, controller output, decision). The first call integrates
+        the first call, estimate, controller output, decision, ``fallback`` whether the
+        table's fallback targets applied). The first call integrates
         nothing (no interval has elapsed, whatever the loop's rate); its derivative is 0
         (no previous slip); only the feed-forward's first ramp step assumes
         :data:`FIRST_FEEDFORWARD_STEP_S`.
@@ -262,7 +263,8 @@ class TractionLoop:
                          "enabled": out.enabled,
                          "safe": out.safe, "mode": out.mode,
                          "correction": correction, "terrain": label,
-                         "decision_age_s": age, "target_traction": targets.traction})
+                         "decision_age_s": age, "target_traction": targets.traction,
+                         "fallback": targets is self.table.fallback})
         return correction if self.apply else np.zeros_like(correction)
 
 
@@ -322,7 +324,10 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``enabled_fraction``, ``speed_estimate_rmse_m_s``, ``terrain_accuracy`` (share of control
         steps whose decision
         equals the true terrain; no decision counts as wrong), ``terrain_decisions`` (control
-        steps per decided class, ``NONE`` = no decision yet), ``speed_limit_clipped_steps``
+        steps per decided class, ``NONE`` = no decision yet; a stale or low-confidence
+        decision counts as its class), ``fallback_steps`` (control steps that ran on the
+        table's fallback targets: no, an untrusted or a stale decision),
+        ``speed_limit_clipped_steps``
         (per motor, physics steps whose low-level command was clipped at the wheel speed
         limit) and ``correction_clipped_steps`` (per motor, those whose command plus the
         controller's correction was; None for a run without a hook), from the run's
@@ -407,6 +412,7 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         "terrain_accuracy": float(np.mean(decided == truth_names)),
         "terrain_decisions": {str(k): int(v) for k, v in zip(*np.unique(decided,
                                                                         return_counts=True))},
+        "fallback_steps": int(sum(bool(r.get("fallback", False)) for r in log)),
         "bus_voltage_v": bus_voltage_v,
         "speed_limit_clipped_steps": phys.speed_clipped_steps.tolist(),
         "correction_clipped_steps": (None if phys.correction_clipped_steps is None

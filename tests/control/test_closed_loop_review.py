@@ -43,3 +43,109 @@ def test_a_decision_of_unknown_time_gets_the_fallback(stamp):
     loop(observation(1.0, np.full(n, 1.0)))
     assert loop.log[-1]["target_traction"] == table.fallback.traction
     assert loop.log[-1]["target_traction"] != table.entries["GRASS"].traction
+
+
+class _Accelerating(_Standing):
+    """At rest, but the estimated acceleration of call k is ``accels[k]`` m/s^2."""
+
+    def __init__(self, accels):
+        self.accels = iter(accels)
+
+    def update(self, obs):
+        """The estimate with the next acceleration.
+
+        Parameters
+        ----------
+        obs : Observation
+            Ignored but for the number of units.
+        """
+        est = super().update(obs)
+        return est._replace(a_local_m_s2=np.full(len(obs.omega_low_level), next(self.accels)))
+
+
+def test_an_acceleration_time_constant_of_zero_is_accepted_and_turns_the_filter_off():
+    """``accel_tau_s = 0`` is documented as "no filter": the mode sees each call's
+    acceleration as estimated (2 then -3 m/s^2), where tau 0.3 s keeps most of the 2."""
+    cfg, n = config_for_vehicle("husky", kp=2.0)
+    table = build_slip_table(["ICE"])
+    seen = {}
+    for tau in (0.0, 0.3):
+        loop = TractionLoop(cfg, n, _Accelerating([2.0, -3.0]), table,
+                            lambda t: ("ICE", 1.0), accel_tau_s=tau)
+        loop(observation(0.02, np.full(n, 1.0)))
+        loop(observation(0.04, np.full(n, 1.0)))
+        seen[tau] = loop.a_filtered.copy()
+    np.testing.assert_array_equal(seen[0.0], -3.0)
+    expected = 2.0 + (1.0 - np.exp(-0.02 / 0.3)) * (-3.0 - 2.0)
+    np.testing.assert_allclose(seen[0.3], expected, rtol=1e-12)
+
+
+class _RecordingLive:
+    """A live terrain decision that records the observation times it is fed."""
+
+    def __init__(self):
+        self.fed = []
+
+    def update(self, obs):
+        """Record the call's time.
+
+        Parameters
+        ----------
+        obs : Observation
+            Samples since the previous call.
+        """
+        self.fed.append(obs.t_s)
+
+    def __call__(self, t_s):
+        """No decision.
+
+        Parameters
+        ----------
+        t_s : float
+            Time, s.
+        """
+        return None, 0.0
+
+
+def test_a_live_classifier_is_fed_every_observation_of_the_run():
+    """run_closed_loop wires the live classifier's ``update`` as the loop's observer: it sees
+    each control call's samples once, in order, before its decision is read."""
+    from terrain.control.closed_loop import run_closed_loop
+
+    live = _RecordingLive()
+    _, loop, _ = run_closed_loop("husky", "ICE", "straight_accel", True, 0, 1.0,
+                                 live_terrain=live)
+    assert len(loop.log) > 10
+    assert live.fed == [r["t_s"] for r in loop.log]
+
+
+def test_a_live_classifier_and_a_decision_function_exclude_each_other():
+    """Both given: a ConfigError, not one silently ignored (before any simulation)."""
+    from terrain.control.closed_loop import run_closed_loop
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="not both"):
+        run_closed_loop("husky", "ICE", "straight_accel", True, 0, 1.0,
+                        terrain_decision=lambda t: ("ICE", 1.0), live_terrain=_RecordingLive())
+
+
+def test_the_metrics_count_the_control_steps_that_ran_on_the_fallback_target():
+    """A decision made 10 s before each call (older than the table's limit) is never
+    trusted: every step runs on the fallback, yet the decisions and the accuracy count it as
+    ICE (right); ``fallback_steps`` says how many steps assumed the fallback. Fresh until
+    0.5 s, stale after: the steps after 0.5 s."""
+    from terrain.control.closed_loop import run_closed_loop
+
+    _, loop, m = run_closed_loop("husky", "ICE", "straight_accel", True, 0, 1.0,
+                                 terrain_decision=lambda t: ("ICE", 1.0, t - 10.0))
+    n = len(loop.log)
+    assert m["terrain_decisions"] == {"ICE": n} and m["terrain_accuracy"] == 1.0
+    assert m["fallback_steps"] == n
+    max_age = loop.table.config.max_decision_age_s
+    _, loop, m = run_closed_loop(
+        "husky", "ICE", "straight_accel", True, 0, 1.0,
+        terrain_decision=lambda t: ("ICE", 1.0, t if t <= 0.5 else t - max_age - 1.0))
+    t = np.array([r["t_s"] for r in loop.log])
+    assert m["fallback_steps"] == int(np.sum(t > 0.5)) > 0
+    _, _, m = run_closed_loop("husky", "ICE", "straight_accel", True, 0, 1.0)
+    assert m["fallback_steps"] == 0
