@@ -48,3 +48,57 @@ def test_tuning_pairs_each_controlled_run_with_the_uncontrolled_run_of_its_seed(
     for seeds in ((1000, 1001), (1001, 1000)):
         _, table = grid.tune_gains("husky", ["ICE"], [1.0], [0.0], seeds=seeds)
         assert table.loc[0, "time_increase"] == pytest.approx(0.5, abs=1e-12)
+
+
+def test_a_candidate_whose_controller_is_never_enabled_is_charged_the_full_slip_cost(
+        monkeypatch):
+    """kp 1: the controlled run has no slip RMSE (never enabled) and counts 1.0, not 0
+    (which would make the candidate that never acts the best); kp 2: RMSE 0.05."""
+    def fake_run(vehicle, terrain, scenario, on, seed, duration_s, gains=None, **kw):
+        rmse = None if on and gains[0] == 1.0 else 0.05
+        return None, None, {"time_to_speed_s": 1.0, "slip_rmse": rmse,
+                            "steady_slip_within_0_02": 1.0}
+
+    monkeypatch.setattr(grid, "run_closed_loop", fake_run)
+    best, table = grid.tune_gains("husky", ["ICE"], [1.0, 2.0], [0.0], seeds=(1000,))
+    assert table.set_index("kp")["slip_rmse"].to_dict() == pytest.approx({1.0: 1.0, 2.0: 0.05})
+    assert best == (2.0, 0.0)
+
+
+def test_a_grid_run_whose_provider_gives_no_live_classifier_is_marked_label(monkeypatch):
+    """A provider that returns no ``live`` leaves the run on its label, and the row says
+    ``label`` (not ``classifier``); each run gets its own provider call, off and on, with
+    its own classifier passed on."""
+    got = []
+
+    def fake_run(veh, ter, sc, on, seed, duration_s, gains, **kw):
+        got.append(kw["live_terrain"])
+        return None, None, {"peak_slip": 0.1}
+
+    monkeypatch.setattr(grid, "run_closed_loop", fake_run)
+    monkeypatch.setattr("terrain.control.closed_loop.trace_frame", lambda sim, loop: None)
+    made = []
+
+    def provider(ter):
+        made.append(object() if ter == "ICE" else None)
+        return made[-1], None, "live"
+
+    results, _ = grid.run_grid(["husky"], ["ICE", "SNOW"], ["straight_accel"], [0],
+                               {"husky": (2.0, 0.0)}, decisions={"husky": provider})
+    assert results.set_index(["terrain", "controller"])["terrain_source"].to_dict() == {
+        ("ICE", "off"): "classifier", ("ICE", "traction"): "classifier",
+        ("SNOW", "off"): "label", ("SNOW", "traction"): "label"}
+    assert got == made and got[0] is not got[1]
+
+
+def test_a_run_whose_uncontrolled_twin_never_reaches_cruise_counts_a_full_increase(
+        monkeypatch):
+    """Off never reaches cruise (None): no ratio exists, the run counts 1 (documented), not
+    0 (which would credit the candidate with no delay at all)."""
+    def fake_run(vehicle, terrain, scenario, on, seed, duration_s, gains=None, **kw):
+        return None, None, {"time_to_speed_s": 2.0 if on else None, "slip_rmse": 0.05,
+                            "steady_slip_within_0_02": 1.0}
+
+    monkeypatch.setattr(grid, "run_closed_loop", fake_run)
+    _, table = grid.tune_gains("husky", ["ICE"], [1.0], [0.0], seeds=(1000,))
+    assert table.loc[0, "time_increase"] == 1.0
