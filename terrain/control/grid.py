@@ -190,8 +190,8 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     Raises
     ------
     ConfigError
-        An evaluation seed is a tuning seed, or a value repeated on an axis
-        (:func:`check_grid_axes`).
+        An evaluation seed is a tuning seed, a value repeated on an axis
+        (:func:`check_grid_axes`), or a vehicle without ``gains`` (named), before any run.
     """
     from terrain.control.closed_loop import trace_frame
 
@@ -199,6 +199,10 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     if shared:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
     check_grid_axes(vehicles, terrains, scenarios, seeds)
+    missing = [v for v in vehicles if v not in gains]
+    if missing:   # a KeyError after every run of the vehicles before it
+        raise ConfigError(f"run_grid: no gains (kp, ki) for vehicle(s) {missing}; gains has "
+                          f"{sorted(gains)}")
     rows, traces = [], {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                     (False, True)):

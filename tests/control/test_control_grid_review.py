@@ -102,3 +102,17 @@ def test_a_run_whose_uncontrolled_twin_never_reaches_cruise_counts_a_full_increa
     monkeypatch.setattr(grid, "run_closed_loop", fake_run)
     _, table = grid.tune_gains("husky", ["ICE"], [1.0], [0.0], seeds=(1000,))
     assert table.loc[0, "time_increase"] == 1.0
+
+
+def test_a_grid_vehicle_without_gains_is_refused_before_any_run(monkeypatch):
+    """gains for the Husky only, vehicles Husky and AgriMaRo: Python's KeyError 'agrimaro'
+    came after every Husky run had been simulated; now a ConfigError naming the vehicle,
+    before the first run."""
+    calls = []
+    monkeypatch.setattr(grid, "run_closed_loop",
+                        lambda *a, **kw: calls.append(a) or (None, None, {"peak_slip": 0.1}))
+    monkeypatch.setattr("terrain.control.closed_loop.trace_frame", lambda sim, loop: None)
+    with pytest.raises(ConfigError, match="agrimaro"):
+        grid.run_grid(["husky", "agrimaro"], ["ICE"], ["straight_accel"], [0],
+                      {"husky": (2.0, 0.0)})
+    assert calls == []
