@@ -149,3 +149,45 @@ def test_the_metrics_count_the_control_steps_that_ran_on_the_fallback_target():
     assert m["fallback_steps"] == int(np.sum(t > 0.5)) > 0
     _, _, m = run_closed_loop("husky", "ICE", "straight_accel", True, 0, 1.0)
     assert m["fallback_steps"] == 0
+
+
+def test_a_decision_without_a_time_is_current_however_late_in_the_run():
+    """``(label, confidence)``: taken as made now (age 0), at 0.02 s and at 100 s alike; had
+    it been aged from the run's start, the table's 4 s limit would put every later step on
+    the fallback."""
+    table = build_slip_table(["GRASS", "ICE"])
+    loop, n = _loop(lambda t: ("GRASS", 0.9), table)
+    for t in (0.02, 100.0):
+        loop(observation(t, np.full(n, 1.0)))
+        assert loop.log[-1]["decision_age_s"] == 0.0
+        assert loop.log[-1]["target_traction"] == table.entries["GRASS"].traction
+        assert not loop.log[-1]["fallback"]
+
+
+def test_a_low_confidence_decision_gets_the_fallback_and_a_confident_one_its_entry():
+    """GRASS decided at confidence below the table's ``min_confidence``: the fallback's
+    targets (ICE's traction), logged as fallback; at 0.99 GRASS's own."""
+    table = build_slip_table(["GRASS", "ICE"])
+    low = table.config.min_confidence / 2
+    for conf, expect in ((low, table.fallback), (0.99, table.entries["GRASS"])):
+        loop, n = _loop(lambda t: ("GRASS", conf), table)
+        loop(observation(0.02, np.full(n, 1.0)))
+        assert loop.log[-1]["target_traction"] == expect.traction
+        assert loop.log[-1]["fallback"] == (expect is table.fallback)
+    assert table.fallback.traction != table.entries["GRASS"].traction
+
+
+def test_a_run_that_never_reaches_cruise_has_no_steady_slip_scores():
+    """Steady steps count only after the cruise speed is reached: timed against an
+    unreachable speed (cruise_fraction 10) the same run has no steady samples (None),
+    though its controller is in steady mode on many enabled steps."""
+    from terrain.control.closed_loop import loop_metrics, run_closed_loop
+    from terrain.control.traction import STEADY
+
+    sim, loop, m = run_closed_loop("husky", "TILES", "straight_accel", True, 0, 4.0)
+    steady = np.array([r["enabled"] & (r["mode"] == STEADY) for r in loop.log])
+    assert steady.sum() > 10
+    never = loop_metrics(sim, loop, 24.0, cruise_fraction=10.0)
+    assert never["time_to_speed_s"] is None
+    assert never["steady_slip_within_0_02"] is None
+    assert never["steady_slip_error_max"] is None
