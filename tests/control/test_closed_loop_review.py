@@ -191,3 +191,14 @@ def test_a_run_that_never_reaches_cruise_has_no_steady_slip_scores():
     assert never["time_to_speed_s"] is None
     assert never["steady_slip_within_0_02"] is None
     assert never["steady_slip_error_max"] is None
+
+
+def test_the_peak_slip_is_the_largest_magnitude_braking_slip_included():
+    """A locking wheel (slip -0.9, braking) is the run's peak slip 0.9: magnitudes, not the
+    largest signed value."""
+    from terrain.control.closed_loop import loop_metrics, run_closed_loop
+
+    sim, loop, m = run_closed_loop("husky", "ICE", "straight_accel", False, 0, 1.0)
+    assert m["peak_slip"] < 0.9
+    sim.physics.slip_motor[len(sim.physics.t_s) // 2, 0] = -0.9
+    assert loop_metrics(sim, loop, 24.0)["peak_slip"] == pytest.approx(0.9)

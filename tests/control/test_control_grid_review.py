@@ -116,3 +116,17 @@ def test_a_grid_vehicle_without_gains_is_refused_before_any_run(monkeypatch):
         grid.run_grid(["husky", "agrimaro"], ["ICE"], ["straight_accel"], [0],
                       {"husky": (2.0, 0.0)})
     assert calls == []
+
+
+def test_the_peak_slip_cut_is_the_share_of_the_uncontrolled_peak_removed():
+    """Peak 0.4 off and 0.1 on, both seeds: a cut of 0.75 (not the 0.25 left)."""
+    import pandas as pd
+
+    rows = [{"vehicle": "husky", "terrain": "ICE", "scenario": "straight_accel", "seed": s,
+             "controller": c, "peak_slip": 0.4 if c == "off" else 0.1,
+             "energy_j_per_m": 100.0, "time_to_speed_s": 2.0, "slip_rmse": 0.1,
+             "steady_slip_within_0_02": 1.0, "mean_speed_m_s": 0.5, "terrain_accuracy": 1.0}
+            for s in (0, 1) for c in ("off", "traction")]
+    row = grid.compare(pd.DataFrame(rows)).iloc[0]
+    assert row["peak_slip_cut"] == pytest.approx(0.75)
+    assert "| 0.400 -> 0.100 | 75 % |" in grid.markdown_table(grid.compare(pd.DataFrame(rows)))
