@@ -202,3 +202,19 @@ def test_the_peak_slip_is_the_largest_magnitude_braking_slip_included():
     assert m["peak_slip"] < 0.9
     sim.physics.slip_motor[len(sim.physics.t_s) // 2, 0] = -0.9
     assert loop_metrics(sim, loop, 24.0)["peak_slip"] == pytest.approx(0.9)
+
+
+def test_the_feed_forward_limits_on_the_decided_terrain_not_the_fallbacks():
+    """GRASS decided with a GRASS and ICE table: the first ramp step grows the reference by
+    GRASS's acceleration at GRASS's target, not ICE's (the fallback's terrain, lower)."""
+    from terrain.control.closed_loop import FIRST_FEEDFORWARD_STEP_S
+    from terrain.control.feedforward import traction_acceleration_limit
+    from terrain.terramechanics import get_terrain
+
+    table = build_slip_table(["GRASS", "ICE"])
+    loop, n = _loop(lambda t: ("GRASS", 1.0), table)
+    loop(observation(0.02, np.full(n, 10.0)))
+    grass = traction_acceleration_limit(get_terrain("GRASS"), table.entries["GRASS"].traction)
+    ice = traction_acceleration_limit(get_terrain("ICE"), table.fallback.traction)
+    assert grass > 1.5 * ice > 0                     # 0.85 against 0.47 m/s^2
+    np.testing.assert_allclose(loop.v_ref, grass * FIRST_FEEDFORWARD_STEP_S, rtol=1e-12)
