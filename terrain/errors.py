@@ -232,6 +232,33 @@ def config_numbers(owner: str, optional: tuple = (), **values) -> None:
                               f"{type(value).__name__} {value!r:.60}")
 
 
+def config_seed(name: str, value) -> None:
+    """Refuse a random seed that is not a whole number >= 0.
+
+    A whole float such as ``3.0`` is a seed (the simulator's configurations take seeds from
+    JSON and CSV files, where 3 may be written 3.0); ``2.7`` is not (it was simulated as
+    seed 2 and labelled so), nor a boolean, NaN or infinity.
+
+    Parameters
+    ----------
+    name : str
+        The setting's name, for the message.
+    value : object
+        The value given.
+
+    Raises
+    ------
+    ConfigError
+        ``value`` not a real number, a boolean, not finite, not whole, or negative.
+    """
+    import math
+    import numbers
+
+    if not (isinstance(value, numbers.Real) and not isinstance(value, bool)
+            and math.isfinite(value) and int(value) == value and value >= 0):
+        raise ConfigError(f"{name} must be an integer >= 0, got {value!r}")
+
+
 def config_integer(name: str, value, lo: int, hi: int | None = None) -> None:
     """Refuse a configuration value that is not an integer in ``[lo, hi]``.
 

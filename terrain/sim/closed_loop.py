@@ -36,13 +36,12 @@ camera rows they removed, ``controller_cam_rows_dropped`` (:func:`simulate_close
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, replace
 from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_positive, config_seed
 from terrain.sim.dynamics import ControlHook, PlantSnapshot
 from terrain.sim.forces import check_physics, reported_current_a
 from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specific_force,
@@ -139,10 +138,7 @@ class OnlineSensors:
 
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
                  duration_s: float, physics: str = "v1", terrains: Sequence[str] = ()) -> None:
-        # the seed rule of SimConfig (a whole float such as 3.0 is a seed)
-        if not (isinstance(seed, numbers.Real) and not isinstance(seed, bool)
-                and math.isfinite(seed) and int(seed) == seed and seed >= 0):
-            raise ConfigError(f"OnlineSensors.seed must be an integer >= 0, got {seed!r}")
+        config_seed("OnlineSensors.seed", seed)     # SimConfig's rule
         config_positive("OnlineSensors", duration_s=duration_s)
         self.vehicle = get_vehicle(vehicle)
         check_physics(physics)   # here, not at the first current sample of the run

@@ -36,7 +36,6 @@ which its transferred normal load was held at the floor of
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import asdict, dataclass, field, is_dataclass
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -44,7 +43,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, config_numbers, config_positive
+from terrain.errors import ConfigError, config_numbers, config_positive, config_seed
 from terrain.run import TIME, Run
 from terrain.sim.dynamics import ControlHook, PhysicsResult, integrate
 from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
@@ -280,11 +279,7 @@ class SimConfig:
             # inf kept a multi-terrain run on its first terrain and wrote Infinity to its meta
             raise ConfigError(f"segment_length_m must be a finite length > 0, m, got "
                               f"{self.segment_length_m}")
-        seed = self.seed
-        if not (isinstance(seed, numbers.Real) and not isinstance(seed, bool)
-                and math.isfinite(seed) and int(seed) == seed and seed >= 0):
-            # a seed of 2.7 was simulated as seed 2 and labelled so, without a word
-            raise ConfigError(f"seed must be an integer >= 0, got {self.seed!r}")
+        config_seed("seed", self.seed)
         if self.effects.icr_expansion != 1.0 and vehicle.contact_geometry().steered:
             # simulate() applies chi to skid-steered vehicles only: planted on a steered one
             # it would be listed as active in the run's metadata and change nothing
