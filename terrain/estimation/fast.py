@@ -490,12 +490,13 @@ def run_compiled(kernel: FastKernel, dts: np.ndarray, Z: np.ndarray, x0: np.ndar
     is_angle[list(kernel.angle_rows)] = True
     gate_on = thresholds is not None
     thr = np.ones(1) if thresholds is None else np.ascontiguousarray(thresholds, np.float64)
-    largest = max([int(np.count_nonzero(row_sensor == g)) for g in range(int(n_sensors))],
-                  default=0)
-    if gate_on and (thr.ndim != 1 or thr.size < largest):
-        raise ShapeError(f"run_compiled: thresholds must hold one per degree of freedom up to "
-                         f"the {largest} rows of the largest sensor group, got shape "
-                         f"{thr.shape}")
+    if gate_on:     # (only then: the window filters call this once per window, ungated)
+        largest = max([int(np.count_nonzero(row_sensor == g)) for g in range(int(n_sensors))],
+                      default=0)
+        if thr.ndim != 1 or thr.size < largest:
+            raise ShapeError(f"run_compiled: thresholds must hold one per degree of freedom "
+                             f"up to the {largest} rows of the largest sensor group, got "
+                             f"shape {thr.shape}")
     out = (np.empty((N, n)), np.empty((N, n)),
            np.empty((N if store_covariance else 0, n, n)), np.empty((N, m)),
            np.empty((N, m)), np.empty((N, m), dtype=np.bool_), np.empty(N),
