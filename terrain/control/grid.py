@@ -85,14 +85,9 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     """
     config_positive("tune_gains", allow_zero=True, time_weight=time_weight,
                     steady_weight=steady_weight)
-    for name, values in (("terrains", [str(t).upper() for t in terrains]),
-                         ("seeds", list(seeds)), ("kp_grid", list(kp_grid)),
-                         ("ki_grid", list(ki_grid))):
-        repeated = duplicated(values)
-        if not values or repeated:
-            raise ConfigError(f"tune_gains {name}: " + (
-                f"{repeated} given more than once" if repeated else "empty")
-                + " (each value once, at least one)")
+    _check_axes({"terrains": [str(t).upper() for t in terrains], "seeds": list(seeds),
+                 "kp_grid": list(kp_grid), "ki_grid": list(ki_grid)}, "tune_gains ",
+                nonempty=True)
     base = {}
     for ter, seed in itertools.product(terrains, seeds):
         base[ter, seed] = run_closed_loop(vehicle, ter, "straight_accel", False, seed,
@@ -141,14 +136,22 @@ def check_grid_axes(vehicles: Sequence[str], terrains: Sequence[str], scenarios:
     ConfigError
         A value given more than once, naming the axis.
     """
-    axes = {"vehicles": [str(v).lower() for v in vehicles],
-            "terrains": [str(t).upper() for t in terrains],
-            "scenarios": list(scenarios), "seeds": [int(s) for s in seeds]}
+    _check_axes({"vehicles": [str(v).lower() for v in vehicles],
+                 "terrains": [str(t).upper() for t in terrains],
+                 "scenarios": list(scenarios), "seeds": [int(s) for s in seeds]})
+
+
+def _check_axes(axes: dict[str, list], owner: str = "", nonempty: bool = False) -> None:
+    """Refuse a value repeated on an axis (or, with ``nonempty``, an empty axis), naming
+    the axis after ``owner``: the one rule of :func:`check_grid_axes` and
+    :func:`tune_gains`."""
     for axis, values in axes.items():
+        if nonempty and not values:
+            raise ConfigError(f"{owner}{axis}: empty (each value once, at least one)")
         repeated = duplicated(values)
         if repeated:
-            raise ConfigError(f"{axis}: {repeated} given more than once (each value of a grid "
-                              "axis once)")
+            raise ConfigError(f"{owner}{axis}: {repeated} given more than once (each value of "
+                              "a grid axis once)")
 
 
 def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequence[str],
