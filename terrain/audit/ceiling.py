@@ -570,6 +570,17 @@ def _forgetting_sums(t: np.ndarray, code: np.ndarray, terms: Sequence[np.ndarray
     return out
 
 
+def _check_online(owner: str, frames: Sequence[AuditFrame],
+                  candidates: Sequence[AuditFrame] | None, lead_s: float, memory_s: float,
+                  prior_s: float) -> None:
+    """The inputs of the online forecasts: ``lead_s`` and ``prior_s`` finite and >= 0,
+    ``memory_s`` finite and > 0 (NaN passed ``lead_s < 0``, and every forecast then fell
+    back to the replay without a word), candidates on the frames' clocks."""
+    config_positive(owner, allow_zero=True, lead_s=lead_s, prior_s=prior_s)
+    config_positive(owner, memory_s=memory_s)
+    _check_pairs(frames, candidates)
+
+
 def online_yaw_rate_samples(frames: Sequence[AuditFrame],
                             candidates: Sequence[AuditFrame] | None = None,
                             lead_s: float = 2.0, memory_s: float = 30.0,
@@ -622,10 +633,7 @@ def online_yaw_rate_samples(frames: Sequence[AuditFrame],
     2nd ed., 1999, ch. 11.2) of the ICR expansion model ``wz = x / chi`` (Mandow et al., IROS
     2007; seed ``000_f24201ff985633bf.txt`` eqs. 2-3), with the replay as the prior.
     """
-    # NaN passed ``lead_s < 0``: every forecast then fell back to the replay without a word
-    config_positive("online_yaw_rate_samples", allow_zero=True, lead_s=lead_s, prior_s=prior_s)
-    config_positive("online_yaw_rate_samples", memory_s=memory_s)
-    _check_pairs(frames, candidates)
+    _check_online("online_yaw_rate_samples", frames, candidates, lead_s, memory_s, prior_s)
     w0 = 0.25 * prior_s
     parts = []
     for k, f in enumerate(frames):
@@ -689,10 +697,7 @@ def online_current_samples(frames: Sequence[AuditFrame],
         ``lead_s`` or ``prior_s`` not a finite value >= 0, ``memory_s`` not a finite value
         > 0, or candidates not matching.
     """
-    # NaN passed ``lead_s < 0``: every forecast then fell back to the replay without a word
-    config_positive("online_current_samples", allow_zero=True, lead_s=lead_s, prior_s=prior_s)
-    config_positive("online_current_samples", memory_s=memory_s)
-    _check_pairs(frames, candidates)
+    _check_online("online_current_samples", frames, candidates, lead_s, memory_s, prior_s)
     parts = []
     for k, f in enumerate(frames):
         m = _cur_mask(f)
