@@ -27,11 +27,12 @@ import warnings
 import numpy as np
 import pandas as pd
 from sklearn.base import clone
-from sklearn.metrics import f1_score, log_loss
+from sklearn.metrics import log_loss
 from sklearn.model_selection import StratifiedGroupKFold
 
 from terrain.models.cv import iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
+from terrain.models.metrics import window_metrics
 from terrain.models.svm import SVMConfig, make_svm
 from terrain.tracking import tracked_run
 
@@ -99,8 +100,9 @@ def score_seed(features: np.ndarray, labels: np.ndarray, runs: np.ndarray, group
     for variant, p in proba.items():
         pred = classes[p.argmax(axis=1)]
         correct = pred == labels
-        rows.append({"seed": seed, "variant": variant, "accuracy": correct.mean(),
-                     "macro_f1": f1_score(labels, pred, average="macro"),
+        scores = window_metrics(labels, pred, classes)
+        rows.append({"seed": seed, "variant": variant, "accuracy": scores["accuracy"],
+                     "macro_f1": scores["macro_f1"],
                      "log_loss": log_loss(labels, np.clip(p, 1e-6, 1.0), labels=classes),
                      "ece": expected_calibration_error(p, correct),
                      "mean_confidence": p.max(axis=1).mean()})
