@@ -49,6 +49,7 @@ from numba import types
 
 from terrain.errors import ConfigError, CovarianceError, NonFiniteInputError, ShapeError
 from terrain.estimation.result import LoopArrays
+from terrain.vehicles.common import wrap_angle
 
 #: Status codes returned by the compiled loop.
 _OK, _S_NOT_PD, _NIS_NEGATIVE, _GATE_SINGULAR = 0, 1, 2, 3
@@ -269,7 +270,6 @@ def _filter_loop(transition, observation, model, data, options, out):
     B = np.empty((m, n + 1))
     BR = np.empty((m, n))
     AP = np.empty((n, n))
-    two_pi = 2.0 * math.pi
     for k in range(N):
         if k > 0:
             # -- predict (eqs. 4.3, 4.5): P = F P F^T + Q, F applied through its non-zeros
@@ -306,7 +306,7 @@ def _filter_loop(transition, observation, model, data, options, out):
                 r = rows[a]
                 yv = Z[k, r] - hx[r]
                 if is_angle[r]:
-                    yv = (yv + math.pi) % two_pi - math.pi
+                    yv = wrap_angle(yv)
                 ya[a] = yv
                 for j in range(n):
                     Ha[a, j] = Hf[r, j]

@@ -14,32 +14,16 @@ them when the two share work (trigonometry), which is what the run loop calls.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable, ClassVar, Mapping
 
 import numpy as np
 
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+from terrain.vehicles.common import wrap_angle
 
 if TYPE_CHECKING:
     from terrain.estimation.fast import FastKernel
-
-
-def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
-    """Wrap angles to [-pi, pi).
-
-    Parameters
-    ----------
-    a : float or ndarray
-        Angles, rad.
-
-    Returns
-    -------
-    float or ndarray
-        Same shape, rad.
-    """
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 class StateSpaceModel:
@@ -226,9 +210,8 @@ class StateSpaceModel:
         ndarray, shape (m,)
         """
         y = np.asarray(z, dtype=float) - hx
-        two_pi = 2.0 * math.pi
         for r in self.angle_rows:
-            y[r] = (y[r] + math.pi) % two_pi - math.pi      # NaN stays NaN
+            y[r] = wrap_angle(y[r])      # NaN stays NaN
         return y
 
     def sensor_groups(self) -> list[np.ndarray]:

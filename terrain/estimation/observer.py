@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain.errors import ConfigError, ShapeError, TimeStepError
+from terrain.vehicles.common import wrap_angle
 from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
 
 
@@ -170,7 +171,6 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     err = np.empty((n, 3))
     xs, ys, ths = p[:, 0].tolist(), p[:, 1].tolist(), p[:, 2].tolist()
     vrs, vls, dts = vr.tolist(), vl.tolist(), dt.tolist() + [0.0]
-    two_pi = 2.0 * math.pi
     started = False                  # from the first pose it reads (the start pose)
     a_last = b_last = math.nan       # the last finite speeds
     for k in range(n):
@@ -197,7 +197,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
                 th += h * w_g
             continue
         c, sn = math.cos(theta), math.sin(theta)
-        e_th = (theta - th + math.pi) % two_pi - math.pi     # an angle: wrapped to [-pi, pi)
+        e_th = wrap_angle(theta - th)     # an angle: wrapped to [-pi, pi)
         if use_pos:
             e_x, e_y = xs[k] - xh, ys[k] - yh
         else:

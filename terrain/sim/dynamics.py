@@ -44,7 +44,7 @@ from terrain.terramechanics.lateral import (SOILS, SlipCompactionResistance, Soi
 from terrain.terramechanics.resistance import is_deformable
 from terrain.terramechanics.slip import sae_slip
 from terrain.terramechanics.traction import TractionAndResistance
-from terrain.vehicles.common import ContactGeometry, drive_inertia_kg_m2
+from terrain.vehicles.common import ContactGeometry, drive_inertia_kg_m2, wrap_angle
 from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
@@ -451,7 +451,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         ter = terrains[ti]
         # actuators: steering (rate-limited), speed loop (first-order lag)
         if layout.steered:
-            step = (delta_cmd[k] - delta + np.pi) % (2 * np.pi) - np.pi
+            step = wrap_angle(delta_cmd[k] - delta)
             delta = delta + np.minimum(np.maximum(step, -steer_rate), steer_rate)
             d_c = delta[motor_of]
             maps = velocity_maps(layout, d_c)

@@ -1,12 +1,38 @@
-"""Parameter types shared by all vehicles: motors and the ground-contact geometry."""
+"""Parameter types shared by all vehicles (motors, ground-contact geometry) and the angle
+convention (:func:`wrap_angle`) that the vehicles, the simulator and the filters share."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+from numba.extending import register_jitable
 
 from terrain.errors import ConfigError, config_integer, config_positive
+
+
+@register_jitable
+def wrap_angle(angle_rad):
+    """Wrap angles to [-pi, pi), the heading and steering-angle convention of the project.
+
+    The one definition: the EKF's angle innovations (python and compiled loops), the
+    adaptive observer's heading error, the swerve inverse kinematics and the simulator's
+    steering actuator call it. Compiles inside numba code (``register_jitable``).
+
+    Parameters
+    ----------
+    angle_rad : float or ndarray, any shape
+        Angles, rad. NaN stays NaN; an infinite angle gives NaN.
+
+    Returns
+    -------
+    float or ndarray
+        Same shape, rad, in [-pi, pi): ``a - 2 pi k`` for the integer k that puts it there.
+        The floating-point remainder of a sum just below 0 rounds up to 2 pi (``-1e-17``
+        from -pi gives +pi); that case is moved to -pi, so +pi is never returned.
+    """
+    wrapped = (angle_rad + np.pi) % (2.0 * np.pi) - np.pi
+    return wrapped - 2.0 * np.pi * (wrapped >= np.pi)
 
 
 def check_fields(params, positive: tuple = (), non_negative: tuple = (),

@@ -20,7 +20,8 @@ import numpy as np
 from numba.extending import register_jitable
 
 from terrain.errors import ConfigError
-from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
+from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
+                                     wrap_angle)
 
 #: Rotation taking T265 tracking-frame vectors (x right, y up, z backward) to the robot frame
 #: (x forward, y left, z up), seed 001 ch. 5.2.3.
@@ -328,8 +329,7 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     prev = np.zeros_like(delta0) if delta_prev_rad is None else np.broadcast_to(
         np.asarray(delta_prev_rad, dtype=float), delta0.shape)
     delta1 = delta0 - np.pi * np.sign(delta0 + 1e-300)        # the k = 1 (flipped) solution
-    wrap = lambda a: (a + np.pi) % (2.0 * np.pi) - np.pi  # noqa: E731
-    use_flip = np.abs(wrap(delta1 - prev)) < np.abs(wrap(delta0 - prev))
+    use_flip = np.abs(wrap_angle(delta1 - prev)) < np.abs(wrap_angle(delta0 - prev))
     delta = np.where(use_flip, delta1, delta0)
     omega = np.where(use_flip, -speed, speed) / params.wheel_radius_m
     still = speed < min_speed_m_s
