@@ -95,7 +95,7 @@ class DesiredSlipConfig:
         decision must hold the majority of the probability mass).
     max_decision_age_s : float
         Decisions older than this (s) use the fallback (4.0: ASSUMED, two 2 s classification
-        windows of the default feature set).
+        windows of the default feature set); finite, > 0.
 
     Raises
     ------
@@ -120,9 +120,11 @@ class DesiredSlipConfig:
                               f"{self.traction_fraction}, {self.braking_fraction}")
         if not 0.0 < self.deformable_cap < 1.0:
             raise ConfigError(f"deformable_cap must be in (0, 1), got {self.deformable_cap}")
-        if not (0.0 <= self.min_confidence <= 1.0 and self.max_decision_age_s > 0.0):
-            raise ConfigError("min_confidence must be in [0, 1] and max_decision_age_s > 0, got "
-                              f"{self.min_confidence}, {self.max_decision_age_s}")
+        # inf: no decision would ever turn stale, the last class would hold for good
+        if not (0.0 <= self.min_confidence <= 1.0
+                and 0.0 < self.max_decision_age_s < float("inf")):
+            raise ConfigError("min_confidence must be in [0, 1] and max_decision_age_s > 0 "
+                              f"(finite), got {self.min_confidence}, {self.max_decision_age_s}")
 
 
 @dataclass(frozen=True)
