@@ -78,3 +78,23 @@ def test_feedforward_uses_the_magnitude_of_a_signed_target():
         np.testing.assert_array_equal(a, b)
     with pytest.raises(ConfigError, match="target_slip"):
         feedforward_step(*args, -1.0, 0.2, 0.02)
+
+
+def test_while_the_wheel_speed_limit_pins_the_output_the_integral_grows_up_to_it():
+    """Conditional integration against the room the output has at that step, also where a
+    low-level command beyond omega_max + the output limit pins the correction: omega_max 20,
+    limit 5, command 26 rad/s: the room is the single value -6 (command 20). A wheel
+    slipping 0.2 against the target 0.1 (kp 45: p = -4.5, ki e dt = -0.01) keeps the
+    integral growing until p + I reaches that -6, I = -1.5, not stopping at the output
+    limit's -5 (I = -0.5). When the command drops to 15 rad/s and the slip to the target,
+    the correction is that integral, -1.5 rad/s."""
+    cfg = TractionControlConfig(kp=45.0, ki=10.0, omega_max_rad_s=20.0, output_fraction=0.25)
+    state = TractionState.zeros(1)
+    for _ in range(300):
+        out, state = _step(cfg, state, 26.0, 25.0, 20.0, 1.0, chassis=20.0)
+    assert out.mode[0] == TRACTION and out.error[0] == pytest.approx(-0.1)
+    assert out.omega_cmd_rad_s[0] == pytest.approx(20.0)
+    assert state.integral[0] == pytest.approx(-1.5, abs=1e-9)
+    out, state = _step(cfg, state, 15.0, 20.0 / 0.9, 20.0, 1.0, chassis=20.0)
+    assert out.error[0] == pytest.approx(0.0, abs=1e-12)
+    assert out.correction_rad_s[0] == pytest.approx(-1.5, abs=1e-9)
