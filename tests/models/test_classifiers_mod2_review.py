@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sklearn.base import BaseEstimator, ClassifierMixin, clone
+from sklearn.linear_model import LogisticRegression
 from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default prepend import)
 
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.cv import class_keeping_split
+from terrain.models.ensemble import SoftVotingEnsemble
 
 ONE_EPOCH = {**FAST, "max_epochs": 1}
 
@@ -50,3 +53,71 @@ def test_auto_device_is_cuda_exactly_when_torch_has_it(monkeypatch, cuda, expect
     monkeypatch.setattr(torch.cuda, "is_available", lambda: cuda)
     assert RawCNNClassifier(device="auto")._device() == expected
     assert RawCNNClassifier(device="cpu")._device() == "cpu"     # an explicit choice stays
+
+
+class _MeanLogReg(LogisticRegression):
+    """Logistic regression on the window means of ``(n_windows, n_channels, n_samples)``."""
+
+    def fit(self, X, y, groups=None):
+        return super().fit(X.mean(axis=2), y)
+
+    def predict_proba(self, X):
+        return super().predict_proba(X.mean(axis=2))
+
+
+class _SureOfTheOther(ClassifierMixin, BaseEstimator):
+    """Gives probability 1 to the class that is not the window's (read from its mean)."""
+
+    def fit(self, X, y, groups=None):
+        self.classes_ = np.unique(y)
+        return self
+
+    def predict_proba(self, X):
+        b = (X.mean(axis=(1, 2)) < 0.5).astype(float)     # class "B" windows have mean 1
+        return np.column_stack([1 - b, b])
+
+
+def _two_terrains(first: str = "B"):
+    """Runs of 6 windows, class ``first`` first: B windows have mean 1, A windows mean 0."""
+    rng = np.random.default_rng(0)
+    labels = [first, "A" if first == "B" else "B"] * 4
+    X = np.concatenate([rng.normal(lab == "B", 0.3, (6, 2, 8)) for lab in labels])
+    return X, np.repeat(labels, 6), np.repeat([f"run{r}" for r in range(8)], 6)
+
+
+def test_ensemble_classes_are_sorted_whatever_the_label_order_and_columns_follow_them():
+    X, y, groups = _two_terrains(first="B")
+    assert y[0] == "B"
+    ens = SoftVotingEnsemble([("a", _MeanLogReg()), ("b", _MeanLogReg(C=0.01))],
+                             weights=(1, 3)).fit(X, y)
+    assert ens.classes_.tolist() == ["A", "B"]                 # as np.unique, as the members
+    proba = ens.predict_proba(X)
+    members = [est.predict_proba(X) for est in ens.estimators_]
+    np.testing.assert_allclose(proba, 0.25 * members[0] + 0.75 * members[1], rtol=1e-12)
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0, rtol=1e-12)
+    assert (ens.predict(X) == y).mean() > 0.9
+    assert clone(ens).get_params()["weights"] == (1, 3)
+
+
+def test_a_member_sure_of_the_wrong_class_scores_the_log_loss_of_the_1e_12_floor():
+    # probability 0 on the true class is clipped to 1e-12 (then the row renormalised):
+    # a log loss of -ln(1e-12) = 27.63 per window, the floor the weight search is built on
+    X, y, groups = _two_terrains(first="A")
+    ens = SoftVotingEnsemble([("sure", _SureOfTheOther()), ("logreg", _MeanLogReg())],
+                             weight_step=0.5, inner_splits=4).fit(X, y, groups=groups)
+    assert ens.weights_.tolist() == [0.0, 1.0]
+    assert ens.weight_scores_[(1.0, 0.0)] == pytest.approx(-np.log(1e-12), rel=1e-9)
+    assert ens.weight_scores_[(0.5, 0.5)] < 1.0
+
+
+def test_the_ensemble_seed_draws_the_runs_its_weights_are_chosen_on():
+    X, y, groups = _two_terrains(first="A")
+    held = []
+    for seed in (0, 1):
+        ens = SoftVotingEnsemble([("a", _MeanLogReg()), ("b", _MeanLogReg(C=0.01))],
+                                 weight_step=0.5, random_state=seed).fit(X, y, groups=groups)
+        _, val = class_keeping_split(y, groups, 4, seed, "choosing the ensemble weights",
+                                     "inner_splits", "fixed weights")
+        assert ens.validation_groups_.tolist() == sorted(set(groups[val]))
+        held.append(ens.validation_groups_.tolist())
+    assert held[0] != held[1]
