@@ -14,6 +14,7 @@ from features.ekf_signals import EKF_CHANNELS, window_ekf_channels
 from features.windows import WindowConfig, make_windows
 from pipelines.validation.harness import simulate_husky
 from terrain.errors import ConfigError
+from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.models.experiment import ExperimentConfig
 from terrain.models.registry import ModelConfig, make_model
 from terrain.models.svm import SVMPipeline
@@ -67,6 +68,20 @@ def test_the_wrapped_classifier_sees_the_window_and_its_ekf_channels(windows):
     # an estimator whose fit takes no groups is fitted without them
     plain = WindowEKFClassifier(DummyClassifier(), windows.channels, windows.rate_hz)
     assert plain.fit(windows.X, windows.labels, groups=groups).predict(windows.X[:2]).shape == (2,)
+
+
+def test_the_filter_runs_with_the_vehicle_track_width_it_is_given(windows):
+    # track_m is the skid-steer kinematics of the vehicle whose windows these are: a
+    # narrower track than the Husky's changes the filter's channels, and is the one used
+    X = windows.X[:3]
+    narrow = WindowEKFClassifier(DummyClassifier(), windows.channels, windows.rate_hz, 6.5,
+                                 track_m=0.3).augment(X)[:, X.shape[1]:]
+    husky = WindowEKFClassifier(DummyClassifier(), windows.channels, windows.rate_hz,
+                                6.5).augment(X)[:, X.shape[1]:]
+    np.testing.assert_array_equal(narrow, window_ekf_channels(
+        X, windows.channels, windows.rate_hz, wheel_rate_hz=6.5,
+        settings=SkidSteerSettings(track_m=0.3)))
+    assert not np.allclose(narrow, husky)
 
 
 def test_window_ekf_svm_separates_planted_ground_states_and_is_stateless(windows, tmp_path):
