@@ -121,3 +121,26 @@ def test_the_ensemble_seed_draws_the_runs_its_weights_are_chosen_on():
         assert ens.validation_groups_.tolist() == sorted(set(groups[val]))
         held.append(ens.validation_groups_.tolist())
     assert held[0] != held[1]
+
+
+class _Float32MeanLogReg(_MeanLogReg):
+    """Probabilities rounded to float32, as the CNNs' softmax gives them (rows sum to 1
+    within ~1e-7, beyond the 1.5e-8 scikit-learn's log_loss tolerates without a warning)."""
+
+    def predict_proba(self, X):
+        return super().predict_proba(X).astype(np.float32).astype(np.float64)
+
+
+def test_weights_are_chosen_on_float32_member_probabilities_without_a_warning():
+    import warnings
+    X, y, groups = _two_terrains(first="A")
+    X = X + np.random.default_rng(1).normal(0, 0.4, X.shape)     # unsure members
+    members = [("a", _Float32MeanLogReg()), ("b", _Float32MeanLogReg(C=0.01))]
+    held = np.isin(groups, SoftVotingEnsemble(members).fit(X, y, groups=groups)
+                   .validation_groups_)
+    p = members[0][1].fit(X[~held], y[~held]).predict_proba(X[held])
+    assert np.abs(p.sum(axis=1) - 1).max() > 1.5e-8          # not normalised in float64
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ens = SoftVotingEnsemble(members, weight_step=0.5).fit(X, y, groups=groups)
+    assert len(ens.weight_scores_) == 3 and np.isclose(ens.weights_.sum(), 1.0)
