@@ -12,6 +12,7 @@ from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default pr
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.cv import class_keeping_split
 from terrain.models.ensemble import SoftVotingEnsemble
+from terrain.models.metrics import majority_vote, run_majority_accuracy
 
 ONE_EPOCH = {**FAST, "max_epochs": 1}
 
@@ -144,3 +145,14 @@ def test_weights_are_chosen_on_float32_member_probabilities_without_a_warning():
         warnings.simplefilter("error")
         ens = SoftVotingEnsemble(members, weight_step=0.5).fit(X, y, groups=groups)
     assert len(ens.weight_scores_) == 3 and np.isclose(ens.weights_.sum(), 1.0)
+
+
+def test_a_groups_true_label_is_that_of_its_first_window():
+    # documented rule of run_majority_accuracy: g1's truth is A (its first window) although
+    # most of its windows say B; the vote B is then wrong
+    groups = ["g1", "g1", "g1", "g2", "g2"]
+    y_true = ["A", "B", "B", "C", "C"]
+    y_pred = ["B", "B", "B", "C", "A"]
+    assert majority_vote(y_pred, groups).to_dict() == {"g1": "B", "g2": "A"}
+    assert run_majority_accuracy(y_true, y_pred, groups) == 0.0
+    assert run_majority_accuracy(y_true, ["A", "A", "B", "C", "C"], groups) == 1.0
