@@ -156,3 +156,26 @@ def test_a_groups_true_label_is_that_of_its_first_window():
     assert majority_vote(y_pred, groups).to_dict() == {"g1": "B", "g2": "A"}
     assert run_majority_accuracy(y_true, y_pred, groups) == 0.0
     assert run_majority_accuracy(y_true, ["A", "A", "B", "C", "C"], groups) == 1.0
+
+
+def test_forest_pipeline_with_a_two_output_forest_takes_scikit_learns_path():
+    # pack_forest refuses a forest with two outputs: the pipeline then predicts as a plain
+    # Pipeline (one probability table per output) instead of failing
+    from sklearn.ensemble import ExtraTreesClassifier
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    from terrain.models.forest import ForestPipeline
+
+    rng = np.random.default_rng(0)
+    F = rng.normal(size=(40, 3))
+    Y = np.column_stack([np.where(F[:, 0] > 0, "a", "b"), np.where(F[:, 1] > 0, "c", "d")])
+    pipe = ForestPipeline([("scale", StandardScaler()),
+                           ("forest", ExtraTreesClassifier(5, random_state=0))]).fit(F, Y)
+    assert pipe._compiled() is None
+    expected = Pipeline(pipe.steps).predict_proba(F)
+    got = pipe.predict_proba(F)
+    assert len(got) == len(expected) == 2
+    for g, e in zip(got, expected):
+        np.testing.assert_array_equal(g, e)
+    np.testing.assert_array_equal(pipe.predict(F), Pipeline(pipe.steps).predict(F))
