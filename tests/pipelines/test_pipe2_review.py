@@ -1,0 +1,63 @@
+"""Review tests of the thin pipelines (pipelines/validation, live_terrain, slip_model...)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipelines.validation.sim_tables import regression_chi
+from terrain.run import TIME, Run
+from terrain.vehicles import HUSKY
+
+
+def test_regression_chi_fits_only_the_turning_samples_and_gives_command_over_gyro():
+    # chi = (v_R - v_L) / B over the measured yaw rate, fitted where |(v_R - v_L) / B| >
+    # 0.2 rad/s: a straight-line sample (gyro noise, no commanded turn) must not enter
+    t = np.arange(0.0, 10.0, 0.1)
+    x = np.linspace(-1.0, 1.0, len(t))               # commanded turn rate, rad/s
+    wheels = pd.DataFrame({TIME: t, "vel_l": -x * HUSKY.track_m / 2,
+                           "vel_r": x * HUSKY.track_m / 2})
+    wz = np.where(np.abs(x) > 0.2, x / 1.6, 0.3)     # chi 1.6; a gyro offset near x = 0
+    imu = pd.DataFrame({TIME: t, "wz": wz})
+    run = Run("r", "sim", "ICE", {"wheels": wheels, "imu": imu})
+    assert regression_chi(run) == pytest.approx(1.6, rel=1e-9)
+    # with gyro noise: the least-squares slope of wz on x (through 0) is 1 / chi, not the
+    # slope of x on wz
+    noisy = wz + 0.05 * np.cos(7.0 * t)
+    run = Run("r", "sim", "ICE", {"wheels": wheels, "imu": imu.assign(wz=noisy)})
+    turning = np.abs(x) > 0.2
+    slope = np.linalg.lstsq(x[turning, None], noisy[turning], rcond=None)[0][0]
+    assert regression_chi(run) == pytest.approx(1.0 / slope, rel=1e-9)
+    assert abs(regression_chi(run) - 1.6) > 1e-3       # the noise does move it
+
+
+class _Stop(Exception):
+    """Raised by a stand-in once the arguments it was called with are recorded."""
+
+
+def test_control_grid_tunes_with_the_estimator_feed_forward_and_grids_asked_for(
+        tmp_path, monkeypatch):
+    # the tuning runs must be those of the grid: the Husky's --husky-estimator, without
+    # feed-forward under --no-feed-forward, over the gain grids given (tuned with the
+    # default estimator and the feed-forward on, the gains would fit another controller)
+    from cli_helpers import RecordingRun
+
+    import pipelines.control_grid as control_grid
+    from terrain.cli import main
+
+    calls = []
+
+    def capture(vehicle, terrains, kp_grid, ki_grid, **kwargs):
+        calls.append((vehicle, terrains, kp_grid, ki_grid, kwargs))
+        raise _Stop()
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("terrain.tracking.tracked_run", RecordingRun())
+    monkeypatch.setattr(control_grid, "tune_gains", capture)
+    assert main(["control-grid", "--vehicles", "husky", "--terrains", "ICE",
+                 "--husky-estimator", "observer", "--no-feed-forward", "--kp-grid", "3", "4",
+                 "--ki-grid", "1", "--seeds", "3", "--duration-s", "1.5", "--out", "g"]) == 1
+    (vehicle, terrains, kp_grid, ki_grid, kwargs), = calls
+    assert (vehicle, terrains, kp_grid, ki_grid) == ("husky", ["ICE"], [3.0, 4.0], [1.0])
+    assert kwargs["estimator"] == "observer" and kwargs["feed_forward"] is False
