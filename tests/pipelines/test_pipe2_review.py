@@ -61,3 +61,28 @@ def test_control_grid_tunes_with_the_estimator_feed_forward_and_grids_asked_for(
     (vehicle, terrains, kp_grid, ki_grid, kwargs), = calls
     assert (vehicle, terrains, kp_grid, ki_grid) == ("husky", ["ICE"], [3.0, 4.0], [1.0])
     assert kwargs["estimator"] == "observer" and kwargs["feed_forward"] is False
+
+
+@pytest.mark.parametrize("argv, code", [
+    (["--repeats", "100"], 1),              # MAX_REPEATS itself is taken (stand-in stops it)
+    (["--repeats", "101"], 2),
+    (["--repeats", "0"], 2),
+    (["--reference-windows", "1"], 1),
+    (["--reference-windows", "0"], 2),
+])
+def test_benchmark_takes_repeats_up_to_the_maximum_and_one_reference_window(
+        argv, code, monkeypatch, capsys):
+    # refused (status 2, one line) before the shipped data are read and a run is opened
+    import pipelines.benchmark as benchmark
+    from cli_helpers import exit_code
+
+    def stop(*args, **kwargs):
+        raise _Stop()
+
+    monkeypatch.setattr(benchmark, "tracked_run", stop)
+    assert exit_code(["benchmark", *argv]) == code
+    if code == 2:
+        assert capsys.readouterr().err.strip().splitlines()[-1] == (
+            "terrain benchmark: error: --repeats must be in 1-100 and --reference-windows "
+            f">= 1, got {argv[1] if argv[0] == '--repeats' else 3} and "
+            f"{argv[1] if argv[0] == '--reference-windows' else 300}")
