@@ -86,3 +86,22 @@ def test_benchmark_takes_repeats_up_to_the_maximum_and_one_reference_window(
             "terrain benchmark: error: --repeats must be in 1-100 and --reference-windows "
             f">= 1, got {argv[1] if argv[0] == '--repeats' else 3} and "
             f"{argv[1] if argv[0] == '--reference-windows' else 300}")
+
+
+def test_consistency_row_says_inside_against_the_bounds_of_the_time_average():
+    # the report's "inside" column: the ANEES against the bounds of a time average of
+    # M n_eff chi-square(12) values, not one step's much wider bounds
+    from pipelines.validation.harness import ConsistencyRow
+
+    row = ConsistencyRow(terrain="GRASS", n_runs=10, anees=10.0, nees_bounds=(11.9, 12.1),
+                         nees_fraction_in_bounds=0.9, nis_mean=8.0, nis_dof=8.2,
+                         nis_bounds=(7.5, 8.9), rmse={"v_bx": 0.01, "yaw_rate": 0.02},
+                         nees_step_bounds=(9.16, 15.22), nees_n_eff=400.0)
+    d = row.as_dict()
+    assert d["NEES_inside"] is False                       # 10 is inside one step's bounds
+    assert (d["NEES_lo"], d["NEES_hi"]) == (11.9, 12.1)
+    assert (d["NEES_step_lo"], d["NEES_step_hi"]) == (9.16, 15.22)
+    assert (d["terrain"], d["runs"], d["ANEES"], d["NEES_n_eff"]) == ("GRASS", 10, 10.0, 400.0)
+    assert (d["NIS"], d["NIS_dof"], d["NIS_lo"], d["NIS_hi"]) == (8.0, 8.2, 7.5, 8.9)
+    assert (d["rmse_v_bx"], d["rmse_yaw_rate"]) == (0.01, 0.02)
+    assert ConsistencyRow(**{**row.__dict__, "anees": 12.0}).as_dict()["NEES_inside"] is True
