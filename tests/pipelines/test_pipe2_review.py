@@ -105,3 +105,25 @@ def test_consistency_row_says_inside_against_the_bounds_of_the_time_average():
     assert (d["NIS"], d["NIS_dof"], d["NIS_lo"], d["NIS_hi"]) == (8.0, 8.2, 7.5, 8.9)
     assert (d["rmse_v_bx"], d["rmse_yaw_rate"]) == (0.01, 0.02)
     assert ConsistencyRow(**{**row.__dict__, "anees": 12.0}).as_dict()["NEES_inside"] is True
+
+
+def test_simulate_notes_the_steps_each_wheel_command_was_clipped_on(tmp_path, capsys):
+    # AgriMaRo, random, seed 0, 10 s: the outer wheel's command passes the speed limit; the
+    # note counts each wheel's clipped steps out of the run's 1001 time steps (10 s at
+    # 100 Hz, both ends), as the run's metadata holds them
+    import json
+
+    from terrain.cli import main
+    from terrain.vehicles import get_vehicle
+
+    assert main(["simulate", "--vehicle", "agrimaro", "--terrain", "ICE", "--scenario",
+                 "random", "--duration-s", "10", "--seed", "0", "--out", str(tmp_path)]) == 0
+    counts = json.loads((tmp_path / "ICE" / "meta_00.json").read_text())[
+        "speed_limit_clipped_steps"]
+    assert len(counts) == 3 and any(counts)
+    limit = get_vehicle("agrimaro").motor.max_wheel_speed_rad_s
+    per_wheel = ", ".join(f"wheel {i + 1} {c}" for i, c in enumerate(counts))
+    assert capsys.readouterr().out.splitlines()[-1] == (
+        f"note: the random scenario asked for more than the wheel speed limit "
+        f"({limit:.3g} rad/s): each wheel's command clipped to it on {per_wheel} of 1001 "
+        f"physics steps (the run does not follow the command there)")
