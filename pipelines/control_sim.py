@@ -145,15 +145,19 @@ def main(args: argparse.Namespace) -> int:
     ------
     ConfigError
         Unknown terrain, or a duration that :class:`terrain.sim.SimConfig` refuses
-        (:func:`check_duration`), or ``--model`` with a terrain source other than
-        ``model``, or ``--kp``, ``--ki`` or ``--no-feed-forward`` with ``--controller off``
-        where no controlled classifier training run uses them (checked before a classifier
-        is trained).
+        (:func:`check_duration`), or an ``--estimator`` of the other vehicle, or ``--model``
+        with a terrain source other than ``model``, or ``--kp``, ``--ki`` or
+        ``--no-feed-forward`` with ``--controller off`` where no controlled classifier
+        training run uses them (checked before a classifier is trained).
     """
     get_terrain(args.terrain)         # an unknown terrain fails here, before any training
     # so does a duration out of range (too short for two samples of every stream): the same
     # configuration run_closed_loop simulates
     check_duration(args.vehicle, args.terrain, args.scenario, args.duration_s, args.seed)
+    if args.estimator is not None and args.estimator not in ESTIMATORS[args.vehicle]:
+        # the loop refused it only after a live-sim classifier was trained (minutes)
+        raise ConfigError(f"--estimator {args.estimator!r} is not available for "
+                          f"{args.vehicle}; valid: {', '.join(ESTIMATORS[args.vehicle])}")
     kp, ki = default_gains(args.vehicle, args.estimator)
     gains = (kp if args.kp is None else args.kp, ki if args.ki is None else args.ki)
     terrain, live, note, table = args.terrain.upper(), None, TERRAIN_SOURCE_NOTE, None

@@ -127,3 +127,30 @@ def test_simulate_notes_the_steps_each_wheel_command_was_clipped_on(tmp_path, ca
         f"note: the random scenario asked for more than the wheel speed limit "
         f"({limit:.3g} rad/s): each wheel's command clipped to it on {per_wheel} of 1001 "
         f"physics steps (the run does not follow the command there)")
+
+
+@pytest.mark.parametrize("source", [["--classifier-uncontrolled-only"],
+                                    ["--terrain-source", "label"]])
+def test_control_sim_refuses_another_vehicles_estimator_before_training_a_classifier(
+        source, tmp_path, monkeypatch, capsys):
+    # `--vehicle husky --estimator ekf-vo --classifier-uncontrolled-only` trained the
+    # live-sim classifier (minutes of simulated runs and an SVM fit) and only then did the
+    # closed loop refuse the AgriMaRo's estimator
+    import pipelines.control_classifier as control_classifier
+    from cli_helpers import exit_code
+
+    trained = []
+
+    def train(*args, **kwargs):
+        trained.append(args)
+        raise _Stop()
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(control_classifier, "sim_classifier", train)
+    assert exit_code(["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
+                      "straight_accel", "--controller", "traction", "--estimator", "ekf-vo",
+                      "--duration-s", "0.5", "--json", "c.json", *source]) == 2
+    assert not trained and not any(tmp_path.iterdir())
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "terrain control-sim: error: --estimator 'ekf-vo' is not available for husky; "
+        "valid: fused, observer, fused-full-imu, fused-clean-imu")
