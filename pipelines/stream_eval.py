@@ -103,13 +103,17 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        A recipe repeated in ``--kinds``, ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
+        ``--part none`` without ``--model-out``, a recipe repeated in ``--kinds``,
+        ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
         :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
-        that does not run the wheel CV, a negative or infinite
-        ``--switch-gap-s``, a ``--model-out`` folder of a recipe that is not empty: checked
-        before any run is read; more ``--folds`` than runs to cut the streams from: checked
-        once the runs are read, before any model is fitted.
+        that does not run the wheel CV, a negative or infinite ``--switch-gap-s``, a
+        ``--model-out`` folder of a recipe that is not empty: checked before any run is read;
+        more ``--folds`` than runs to cut the streams from: checked once the runs are read,
+        before any model is fitted.
     """
+    if args.part == "none" and args.model_out is None:   # an empty MLflow run, nothing done
+        raise ConfigError("--part none evaluates nothing and only saves the --model-out "
+                          "models: give --model-out DIR, or another --part")
     wheel_cv = args.part in ("wheel-cv", "both")
     given = [o for o, v in (("--window-s", args.window_s), ("--hop-s", args.hop_s))
              if v is not None]

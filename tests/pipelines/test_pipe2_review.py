@@ -154,3 +154,22 @@ def test_control_sim_refuses_another_vehicles_estimator_before_training_a_classi
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         "terrain control-sim: error: --estimator 'ekf-vo' is not available for husky; "
         "valid: fused, observer, fused-full-imu, fused-clean-imu")
+
+
+def test_stream_eval_part_none_without_model_out_is_refused_before_any_run(
+        tmp_path, monkeypatch, capsys):
+    # --part none only saves the --model-out models: without it the command read BorealTC,
+    # opened an MLflow run, logged an empty stream_eval.json and said nothing was done
+    import pipelines.stream_eval as stream_eval
+    from cli_helpers import RecordingRun, exit_code
+
+    read = []
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(stream_eval, "load_dataset", lambda name: read.append(name) or [])
+    recorder = RecordingRun()
+    monkeypatch.setattr(stream_eval, "tracked_run", recorder)
+    assert exit_code(["stream-eval", "--part", "none"]) == 2
+    assert not read and not recorder.starts and not any(tmp_path.iterdir())
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "terrain stream-eval: error: --part none evaluates nothing and only saves the "
+        "--model-out models: give --model-out DIR, or another --part")
