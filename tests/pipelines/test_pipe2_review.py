@@ -173,3 +173,37 @@ def test_stream_eval_part_none_without_model_out_is_refused_before_any_run(
     assert capsys.readouterr().err.strip().splitlines()[-1] == (
         "terrain stream-eval: error: --part none evaluates nothing and only saves the "
         "--model-out models: give --model-out DIR, or another --part")
+
+
+def test_slip_errors_of_the_estimation_report_split_steady_and_transient_on_the_filter_clock():
+    # docs/estimation_validation.md's slip columns: steady_err_i the signed mean error of
+    # wheel i after 5 s, steady_truth the mean true slip there, transient_rmse over the first
+    # 3 s and rmse over the run, both over the finite errors (a slip NaN in its dead band)
+    from types import SimpleNamespace
+
+    from pipelines.validation.estimation_tables import _slip_errors
+
+    t_ph = np.arange(0.0, 10.0 + 1e-9, 0.01)
+    slip = np.column_stack([0.1 + 0.01 * t_ph, 0.2 * np.ones_like(t_ph), 0.05 * t_ph])
+    n = len(t_ph)
+    physics = SimpleNamespace(t_s=t_ph, pose=np.zeros((n, 3)), twist=np.zeros((n, 3)),
+                              accel_body=np.zeros((n, 2)), delta=np.zeros((n, 0)),
+                              slip_motor=slip, omega=np.zeros((n, 3)))
+    t = np.arange(0.0, 10.0 + 1e-9, 0.5)            # the filter's clock, 21 steps
+    truth = np.column_stack([0.1 + 0.01 * t, 0.2 * np.ones_like(t), 0.05 * t])
+    offset = np.zeros_like(truth)
+    offset[:, 0] = 0.1                               # wheel 1: +0.1 throughout
+    offset[:, 1] = np.where(t > 5.0, -0.05, np.where(t < 3.0, 0.2, 0.0))
+    estimate = truth + offset
+    estimate[t == 9.5, 2] = np.nan                   # wheel 3: one NaN (dead band)
+    est = SimpleNamespace(slip=estimate, ekf=SimpleNamespace(t_s=t))
+    out = _slip_errors(SimpleNamespace(physics=physics), est)
+    steady, first = t > 5.0, t < 3.0
+    assert out["steady_err_1"] == pytest.approx(0.1)
+    assert out["steady_err_2"] == pytest.approx(-0.05)            # signed, not absolute
+    assert out["steady_err_3"] == pytest.approx(0.0, abs=1e-12)   # the NaN left out
+    assert out["steady_truth"] == pytest.approx(truth[steady].mean())
+    assert out["transient_rmse"] == pytest.approx(
+        np.sqrt(np.mean(offset[first] ** 2)))                    # 6 steps, 3 wheels
+    finite = np.isfinite(estimate)
+    assert out["rmse"] == pytest.approx(np.sqrt(np.mean(offset[finite] ** 2)))
