@@ -207,3 +207,21 @@ def test_slip_errors_of_the_estimation_report_split_steady_and_transient_on_the_
         np.sqrt(np.mean(offset[first] ** 2)))                    # 6 steps, 3 wheels
     finite = np.isfinite(estimate)
     assert out["rmse"] == pytest.approx(np.sqrt(np.mean(offset[finite] ** 2)))
+
+
+def test_live_decision_is_the_latest_emitted_by_t_and_an_unclassified_window_is_none():
+    # the loop's decision at t: the latest window decided by t with the loop time it was
+    # emitted at; a window the service did not classify (terrain None) gives no decision,
+    # not the older one before it (its age would hide that the classifier stopped)
+    from collections import deque
+
+    from pipelines.live_terrain import MAX_DECISIONS, LiveClassifier
+
+    live = object.__new__(LiveClassifier)
+    live._decisions = deque([(2.0, "ICE", 0.9), (2.5, "SNOW", 0.6), (3.0, None, 0.0)],
+                            maxlen=MAX_DECISIONS)
+    assert live(1.9) == (None, 0.0)                       # before the first decision
+    assert live(2.0) == ("ICE", 0.9, 2.0)
+    assert live(2.0 - 1e-10) == ("ICE", 0.9, 2.0)         # the loop clock's rounding
+    assert live(2.7) == ("SNOW", 0.6, 2.5)
+    assert live(3.2) == (None, 0.0)
