@@ -225,3 +225,28 @@ def test_live_decision_is_the_latest_emitted_by_t_and_an_unclassified_window_is_
     assert live(2.0 - 1e-10) == ("ICE", 0.9, 2.0)         # the loop clock's rounding
     assert live(2.7) == ("SNOW", 0.6, 2.5)
     assert live(3.2) == (None, 0.0)
+
+
+def test_thesis_straight_line_table_takes_steady_after_4_s_and_peak_after_0_2_s(monkeypatch):
+    # docs/sim_validation.md: steady slip = mean of the three wheels' average after 4 s; peak
+    # = its maximum after 0.2 s (the start-up instant left out); one row per thesis terrain
+    import pipelines.validation.sim_tables as sim_tables
+
+    t = np.round(np.arange(0.0, 8.0 + 1e-9, 0.01), 2)
+    average = np.where(t > 4.0, 0.1, 0.3)
+    average[t == 0.1] = 0.9                            # start-up spike: not the peak
+    average[t == 1.0] = 0.5                            # the peak
+    configs = []
+
+    def simulate(config):
+        configs.append(config)
+        truth = pd.DataFrame({TIME: t, "slip_1": average - 0.02, "slip_2": average,
+                              "slip_3": average + 0.02})
+        return Run("r", "sim", config.terrains[0], {"truth": truth}, vehicle="agrimaro")
+
+    monkeypatch.setattr(sim_tables, "simulate", simulate)
+    table = sim_tables.thesis_straight_line_table(duration_s=8.0, seed=3)
+    assert list(table["terrain"]) == ["TILES", "GRASS", "GRAVEL"]
+    assert np.allclose(table["steady_slip"], 0.1) and np.allclose(table["peak_slip"], 0.5)
+    assert {(c.vehicle, c.scenario, c.duration_s, c.seed) for c in configs} == {
+        ("agrimaro", "straight_accel", 8.0, 3)}
