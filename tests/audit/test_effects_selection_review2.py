@@ -1,0 +1,62 @@
+"""Review tests (second pass) of the audit's effect models, selection and clock alignment:
+boundaries and scopes the earlier tests left open."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from audit_helpers import synthetic_frame
+from terrain.audit.effects import YawParams, predict_yaw
+from terrain.audit.frames import CURVE, SPIN, STRAIGHT, FrameSettings, _quiet
+
+
+def test_the_dug_in_expectation_scales_turning_samples_only():
+    # the immobile fraction is fitted on turning samples (effects._fit_immobile); a straight
+    # sample keeps the mobile model's yaw rate however much the robot digs in while turning
+    f = synthetic_frame("s/ASPHALT/0", drift_rad_s=0.05, noise=0.0)
+    p = YawParams(immobilised=True, fractions=(0.4, 0.4), bias_rad_s=0.01)
+    pred = predict_yaw(f, p)
+    straight = f.manoeuvre == STRAIGHT
+    turn = np.isin(f.manoeuvre, (CURVE, SPIN))
+    assert straight.any() and turn.any()
+    assert pred[straight] == pytest.approx(f.sim_wz[straight] + 0.01)
+    assert pred[turn] == pytest.approx(0.6 * f.sim_wz[turn] + 0.01)
+
+
+def test_a_sample_exactly_the_quiet_margin_from_a_turn_is_not_quiet():
+    # "no turning sample lies within quiet_margin_s": a turn exactly 1.5 s away lies within
+    # it (exact times: 0.5 s steps, margin 1.5 s)
+    t = np.arange(0.0, 10.0, 0.5)
+    x = np.zeros(t.size)
+    x[t == 5.0] = 0.5
+    q = _quiet(t, x, FrameSettings(quiet_margin_s=1.5))
+    assert not q[t == 3.5][0] and not q[t == 6.5][0]
+    assert q[t == 3.0][0] and q[t == 7.0][0]
+
+
+def test_the_physics_comparison_scores_imu_and_current_samples_on_their_own_masks():
+    # the gyro is scored where the IMU is (score_imu), the currents where the wheel stream is
+    # (score_cur): here the IMU covers the first half of the scored span only
+    from terrain.audit.physics import _errors
+    f = synthetic_frame("s/ASPHALT/0", noise=0.0)
+    f = replace(f, score_imu=f.score_imu & (np.arange(f.n) < f.n // 2))
+    other = replace(f, sim_wz=f.wz - 1.0, sim_ax=f.ax, sim_ay=f.ay, sim_cur=f.cur - 2.0)
+    e = _errors(f, other)
+    assert e["wz"][0].size == f.score_imu.sum() < f.score_cur.sum()
+    assert e["wz"][0] == pytest.approx(1.0)
+    assert e["cur_l"][0].size == e["cur_r"][0].size == f.score_cur.sum()
+    assert e["cur"][0].size == 2 * f.score_cur.sum() and e["cur"][0] == pytest.approx(4.0)
+
+
+def test_the_moving_scope_of_the_physics_comparison_leaves_out_stops():
+    # "moving" pools straight, curve and spin: a stopped sample is its own scope
+    from terrain.audit.physics import _sums
+    man = np.array([0, 1, 2, 3, 0, 1])                   # stop, straight, curve, spin, ...
+    e = np.array([100.0, 1.0, 2.0, 3.0, 100.0, 4.0])
+    errors = {"wz": (e, man)}
+    assert _sums(errors, "moving") == {"wz": (10.0, 4)}
+    assert _sums(errors, "stop") == {"wz": (200.0, 2)}
+    assert _sums(errors, "straight") == {"wz": (5.0, 2)}
