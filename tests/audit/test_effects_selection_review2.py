@@ -60,3 +60,38 @@ def test_the_moving_scope_of_the_physics_comparison_leaves_out_stops():
     assert _sums(errors, "moving") == {"wz": (10.0, 4)}
     assert _sums(errors, "stop") == {"wz": (200.0, 2)}
     assert _sums(errors, "straight") == {"wz": (5.0, 2)}
+
+
+def test_the_lag_is_scored_on_the_gyros_samples():
+    # wheel_lag is a yaw-rate effect: scored where the gyro is scored (score_imu), not where
+    # the currents are; here the IMU covers the first half of the scored span only
+    from terrain.audit.effects import LagParams, lag_sse
+    f = synthetic_frame("s/ASPHALT/0", noise=0.0)
+    f = replace(f, score_imu=f.score_imu & (np.arange(f.n) < f.n // 2),
+                sim_wz=f.sim_wz - 0.5)
+    sse, n = lag_sse(f, LagParams(0.0), "all")
+    assert n == f.score_imu.sum() < f.score_cur.sum()
+    assert sse == pytest.approx(0.25 * n)
+
+
+def _dug_in(run_id, seed, bias_rad_s):
+    """A synthetic run (chi 1.5, gyro bias) whose robot digs in during the curves of
+    cycles 0 and 2: the gyro reads its bias there (turning samples: 1/4 dug in)."""
+    f = synthetic_frame(run_id, seed=seed, chi=1.5, bias_rad_s=bias_rad_s)
+    wz = f.wz.copy()
+    rng = np.random.default_rng(seed + 100)
+    for c in (0, 2):
+        sl = slice(300 * c + 100, 300 * c + 150)
+        wz[sl] = bias_rad_s + 0.005 * rng.standard_normal(50)
+    return replace(f, wz=wz, imu_wz=wz)
+
+
+def test_a_dug_in_sample_is_told_by_the_gyro_net_of_its_bias():
+    # a gyro biased by 0.3 rad/s reads 0.3 where the robot digs in: against the mobile
+    # model's 0.33-0.53 rad/s that is immobile once the bias is taken off, not before
+    from terrain.audit.effects import fit_yaw
+    frames = [_dug_in(f"s/ASPHALT/{i}", i, 0.3) for i in range(3)]
+    p = fit_yaw(frames, ["icr_expansion", "gyro_bias", "immobilised"], form="uniform")
+    assert p.bias_rad_s == pytest.approx(0.3, abs=0.01)
+    assert p.chi == pytest.approx(1.5, rel=0.02)
+    assert p.fraction == pytest.approx(0.25, abs=0.03)
