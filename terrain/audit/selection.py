@@ -372,7 +372,9 @@ def unphysical(name: str, params: GroupParams) -> str | None:
     ``grade_resistance`` must cost current: a slope in either direction adds gravity load to
     the flat-ground replay (seed 003 eq. 10), so ``k_a_per_rad <= 0`` means the pitch
     estimate is correlated with something else (accelerations, vibration) and the effect is
-    not supported whatever its gain.
+    not supported whatever its gain. ``icr_expansion`` must turn the robot the way its
+    wheels command: a ``chi`` that is NaN or <= 0 (a gyro mounted upside down fits ``chi < 0``,
+    a dead one ``chi = NaN``) describes a sensor, not a wider track.
 
     Parameters
     ----------
@@ -389,6 +391,9 @@ def unphysical(name: str, params: GroupParams) -> str | None:
     if name == "grade_resistance" and not params.k_a_per_rad > 0:
         return (f"k_a_per_rad = {params.k_a_per_rad:.3g} <= 0: slopes would lower the "
                 "current, which no grade resistance does")
+    if name == "icr_expansion" and not params.chi > 0:
+        return (f"chi = {params.chi:.3g} not > 0: the gyro turns against the wheels' "
+                "command (or not at all), which no ICR expansion does")
     return None
 
 

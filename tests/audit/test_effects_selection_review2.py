@@ -95,3 +95,23 @@ def test_a_dug_in_sample_is_told_by_the_gyro_net_of_its_bias():
     assert p.bias_rad_s == pytest.approx(0.3, abs=0.01)
     assert p.chi == pytest.approx(1.5, rel=0.02)
     assert p.fraction == pytest.approx(0.25, abs=0.03)
+
+
+@pytest.mark.parametrize("gyro", ["inverted", "dead"])
+def test_a_gyro_that_turns_the_other_way_or_not_at_all_names_no_icr_expansion(gyro):
+    # an upside-down gyro fitted chi = -1.2 and a dead one (reads 0) chi = NaN; both were
+    # supported as an ICR expansion (gain 0.995 and 1.0): neither is a wider track
+    from terrain.audit import selection
+    from terrain.audit.selection import SelectionSettings, select_group
+
+    def broken(f):
+        wz = -f.wz if gyro == "inverted" else np.zeros(f.n)
+        return replace(f, wz=wz, imu_wz=wz)
+    units = [[broken(synthetic_frame(f"s/ASPHALT/{i}", seed=i))] for i in range(4)]
+    g = select_group(units, "yaw", "ASPHALT",
+                     SelectionSettings(n_bootstrap=50, n_param_bootstrap=0))
+    icr = next(e for e in g.effects if e.name == "icr_expansion")
+    assert "icr_expansion" not in g.selected and not icr.supported
+    assert "chi" in icr.details["unphysical"]
+    assert selection.unphysical("icr_expansion",
+                                YawParams(kinematic=True, inverse_chi=1 / 1.4)) is None
