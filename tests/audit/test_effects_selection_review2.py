@@ -115,3 +115,35 @@ def test_a_gyro_that_turns_the_other_way_or_not_at_all_names_no_icr_expansion(gy
     assert "chi" in icr.details["unphysical"]
     assert selection.unphysical("icr_expansion",
                                 YawParams(kinematic=True, inverse_chi=1 / 1.4)) is None
+
+
+def test_the_lag_of_a_unit_is_the_median_of_its_windows():
+    # each unit's own lag is the median of its window lags (not its first window), and the
+    # fitted lag the median over units
+    from terrain.audit.effects import fit_lag
+    from terrain.audit.timing import LagTrack
+
+    def unit(i, lags):
+        k = len(lags)
+        return replace(synthetic_frame(f"s/ASPHALT/{i}", seed=i),
+                       lag=LagTrack(np.arange(k) * 15.0 + 15.0, np.asarray(lags),
+                                    np.full(k, 0.9), k))
+    frames = [unit(0, [0.1, 0.5, 0.2]), unit(1, [0.6, 0.3, 0.4]), unit(2, [0.0, 0.35, 0.7])]
+    p = fit_lag(frames, ["wheel_lag"])
+    assert dict(p.per_run) == pytest.approx({"s/ASPHALT/0": 0.2, "s/ASPHALT/1": 0.4,
+                                             "s/ASPHALT/2": 0.35})
+    assert p.lag_s == pytest.approx(0.35)
+
+
+def test_a_pooled_parameter_interval_resamples_units_within_each_terrain():
+    # two terrains whose units are alike within each (gyro bias 0.01 on A, 0.05 on B): every
+    # resample that keeps two units of each terrain fits the same pooled bias, so the
+    # interval is the point; resampling across terrains would spread it over the mix
+    from terrain.audit import selection
+    from terrain.audit.effects import EffectSettings
+    units = [[synthetic_frame(f"s/{t}/{i}", terrain=t, seed=i, bias_rad_s=b, noise=0.0)]
+             for t, b in (("A", 0.01), ("B", 0.05)) for i in range(2)]
+    ci = selection._param_ci(units, "yaw", ["gyro_bias"], "gyro_bias", None,
+                             EffectSettings(), np.random.default_rng(0), 20)
+    lo, hi = ci["bias_rad_s"]
+    assert lo == pytest.approx(0.03, abs=1e-9) and hi == pytest.approx(0.03, abs=1e-9)
