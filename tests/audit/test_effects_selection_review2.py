@@ -147,3 +147,15 @@ def test_a_pooled_parameter_interval_resamples_units_within_each_terrain():
                              EffectSettings(), np.random.default_rng(0), 20)
     lo, hi = ci["bias_rad_s"]
     assert lo == pytest.approx(0.03, abs=1e-9) and hi == pytest.approx(0.03, abs=1e-9)
+
+
+def test_segments_of_one_run_are_counted_as_one_run():
+    # four segments of a single run are four cross-validation units but one run: the report
+    # says a result from them transfers to no other run (report._timing_finding, n_runs < 2)
+    from terrain.audit.frames import split_frame
+    from terrain.audit.selection import SelectionSettings, select_group
+    units = [[p] for p in split_frame(synthetic_frame("s/ASPHALT/0", bias_rad_s=0.02), 4)]
+    g = select_group(units, "yaw", "ASPHALT",
+                     SelectionSettings(n_bootstrap=50, n_param_bootstrap=0), segmented=True)
+    assert {e.n_units for e in g.effects} == {4}
+    assert {e.n_runs for e in g.effects} == {1}
