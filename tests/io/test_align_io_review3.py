@@ -1,0 +1,38 @@
+"""Review of terrain.io.align: the ends of the span and the order of timestamps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.errors import DataFormatError
+from terrain.io.align import align_streams, overlap_grid
+from terrain.run import TIME
+
+
+def _wheels(t, vel_l=None):
+    n = len(t)
+    vel_l = np.arange(n, dtype=float) if vel_l is None else vel_l
+    return pd.DataFrame({TIME: t, "vel_l": vel_l, "vel_r": np.full(n, 0.6),
+                         "cur_l": np.full(n, 5.0), "cur_r": np.full(n, 6.0)})
+
+
+def _imu(t):
+    n = len(t)
+    return pd.DataFrame({TIME: t, "wx": np.zeros(n), "wy": np.zeros(n), "wz": np.zeros(n),
+                         "ax": np.zeros(n), "ay": np.zeros(n), "az": np.full(n, 9.81)})
+
+
+def test_spans_that_only_touch_do_not_overlap(make_run):
+    # the IMU ends at 1 s where the wheels begin: no stretch of time both cover, as the
+    # readers' clock_overlap rule (overlap <= 0) says; a one-point grid would make a 1-row
+    # frame of one instant out of two streams that never ran together
+    t_imu = np.arange(0, 101) / 100.0
+    t_wh = 1.0 + np.arange(0, 11) / 10.0
+    assert overlap_grid([t_imu, t_wh], 50.0).size == 0
+    run = make_run({"imu": _imu(t_imu), "wheels": _wheels(t_wh)})
+    with pytest.raises(DataFormatError, match="do not overlap"):
+        align_streams(run, rate_hz=50.0)
+    # one common sample period later they do overlap: two grid points
+    assert overlap_grid([t_imu, t_wh - 0.02], 50.0).size == 2
