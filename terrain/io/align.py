@@ -42,8 +42,8 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from terrain.errors import (ConfigError, DataFormatError, config_numbers, config_positive,
-                            duplicated)
+from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_numbers,
+                            config_positive, duplicated)
 from terrain.run import TIME, Run
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -371,6 +371,9 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         channel name.
     DataFormatError
         If none of ``streams`` is in the run, or their time spans do not overlap.
+    TimestampError
+        A stream's ``t_s`` not finite and strictly increasing (the :class:`Run` contract),
+        naming the stream and the first offending row.
     """
     config_positive("align_streams", rate_hz=rate_hz)
     check_gap_factor("align_streams", gap_factor)
@@ -392,6 +395,14 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         raise ConfigError(f"streams {present} share channel name(s) {clash}; align them "
                           "separately")
     times = [f[TIME].to_numpy(dtype=float) for f in frames]
+    for name, t in zip(present, times):
+        # the interpolation takes the order for granted: two swapped samples were read
+        # without a word, a NaN time made the grid's length a bare ValueError
+        ok = np.isfinite(t[1:]) & (np.diff(t) > 0)
+        if t.size and not (np.isfinite(t[0]) and ok.all()):
+            row = 0 if not np.isfinite(t[0]) else int(np.argmin(ok)) + 1
+            raise TimestampError(f"stream {name!r}: timestamps must increase strictly, got "
+                                 f"{float(t[row])!r} at row {row}", run.source, TIME, row)
     grid = overlap_grid(times, rate_hz)
     if grid.size == 0:
         raise DataFormatError(f"streams {present} do not overlap in time", run.source)

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError
+from terrain.errors import DataFormatError, TimestampError
 from terrain.io.align import align_streams, overlap_grid
 from terrain.run import TIME
 
@@ -36,3 +36,23 @@ def test_spans_that_only_touch_do_not_overlap(make_run):
         align_streams(run, rate_hz=50.0)
     # one common sample period later they do overlap: two grid points
     assert overlap_grid([t_imu, t_wh - 0.02], 50.0).size == 2
+
+
+@pytest.mark.parametrize("where", ["swapped", "repeated", "nan"])
+def test_timestamps_that_do_not_increase_strictly_are_refused(make_run, where):
+    # a hand-built Run (the contract: t_s strictly increasing) with two samples swapped was
+    # interpolated without a word: at t = 1.0 s a ramp vel_l = 10 t read 9.5, not 10; a NaN
+    # time made the grid's length a bare ValueError
+    t = np.arange(0, 51) / 10.0
+    v = 10.0 * t
+    if where == "swapped":
+        t[[10, 11]] = t[[11, 10]]
+    elif where == "repeated":
+        t[20] = t[19]
+    else:
+        t[30] = np.nan
+    run = make_run({"wheels": _wheels(t, vel_l=v)})
+    with pytest.raises(TimestampError, match=r"wheels.*increase strictly") as err:
+        align_streams(run, ("wheels",), rate_hz=50.0)
+    assert err.value.column == TIME
+    assert err.value.row == {"swapped": 11, "repeated": 20, "nan": 30}[where]
