@@ -6,6 +6,8 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from terrain.io.jsonfile import json_ready, strict_json
 
@@ -50,3 +52,37 @@ def test_strict_json_text_is_indented_as_asked_and_ends_with_a_newline():
     text = strict_json({"a": [1, 2]}, indent=2)
     assert text == '{\n  "a": [\n    1,\n    2\n  ]\n}\n'
     assert strict_json([1]).endswith("]\n")
+
+
+_leaf = (st.none() | st.booleans() | st.integers(-2**63, 2**63 - 1) | st.text(max_size=5)
+         | st.floats(allow_nan=True, allow_infinity=True)
+         | st.floats(width=32).map(np.float32) | st.integers(-9, 9).map(np.int64))
+_values = st.recursive(_leaf, lambda inner: st.lists(inner, max_size=3)
+                       | st.tuples(inner, inner)
+                       | st.dictionaries(st.text(max_size=3), inner, max_size=3), max_leaves=8)
+
+
+def _same(loaded, original):
+    """``loaded`` (from JSON) is ``original`` with every finite float exact, every non-finite
+    one None, tuples as lists and numpy scalars as Python ones."""
+    if isinstance(original, (bool, np.bool_)) or original is None:
+        return loaded is (None if original is None else bool(original))
+    if isinstance(original, (float, np.floating)):
+        return loaded is None if not np.isfinite(original) else (
+            type(loaded) is float and loaded == float(original))
+    if isinstance(original, (int, np.integer)):
+        return type(loaded) is int and loaded == int(original)
+    if isinstance(original, dict):
+        return loaded.keys() == original.keys() and all(_same(loaded[k], v)
+                                                        for k, v in original.items())
+    if isinstance(original, (list, tuple)):
+        return (isinstance(loaded, list) and len(loaded) == len(original)
+                and all(_same(a, b) for a, b in zip(loaded, original)))
+    return loaded == original
+
+
+@given(_values)
+@settings(max_examples=50, deadline=None)
+def test_strict_json_reads_back_every_finite_float_exactly(value):
+    loaded = json.loads(strict_json(value), parse_constant=_strict)
+    assert _same(loaded, value)
