@@ -63,3 +63,17 @@ def test_unused_seconds_count_only_where_both_streams_are_aligned(streams, count
     run = _run("r/a", unused_s={"imu": 3.0})
     report = input_report([run], {"per_run": {}, "streams": streams})
     assert report.metrics()["input_unused_imu_s"] == counted
+
+
+@pytest.mark.parametrize("dropped_gap, dropped_unsteady", [(0, 5), (4, 0)])
+def test_windows_dropped_for_one_reason_alone_are_still_reported(dropped_gap, dropped_unsteady):
+    # a steady-only command whose runs have no gap drops windows as unsteady only: the line
+    # must not hang on the gap count (nor the gap line on the unsteady count)
+    counts = {"per_run": {"r/a": {"windows": 6, "dropped_gap": dropped_gap,
+                                  "dropped_unsteady": dropped_unsteady}}}
+    report = input_report([_run("r/a")], counts)
+    assert (f"dropped windows: {dropped_gap} spanning a gap, {dropped_unsteady} unsteady "
+            "(--steady-only)") in report.text()
+    m = report.metrics()
+    assert (m["input_windows_dropped_gap"], m["input_windows_dropped_unsteady"]) == (
+        dropped_gap, dropped_unsteady)
