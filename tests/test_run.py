@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import MissingColumnError
+from terrain.errors import MissingColumnError, NonFiniteError
 from terrain.run import Run
 
 
@@ -46,3 +46,22 @@ def test_require_columns_names_the_run_stream_file_and_missing_columns():
     with pytest.raises(MissingColumnError, match=r"lacks columns \['t_s'\]"):
         Run("r/X/00", "r", None, {"imu": pd.DataFrame({"ax": [1.0]})}).require_columns(
             "imu", ["ax"])
+
+
+@pytest.mark.parametrize("column, row", [("t_s", 2), ("vel_l", 1), ("vel_r", None)])
+def test_require_finite_names_the_first_non_finite_value_of_time_and_the_columns(column, row):
+    # t_s is checked before the named columns (an integrator steps on it); vel_r is not
+    # named, so its inf passes
+    frame = pd.DataFrame({"t_s": [0.0, 0.1, 0.2, 0.3], "vel_l": [0.5] * 4,
+                          "vel_r": [0.5, np.inf, 0.5, 0.5]})
+    if row is not None:
+        frame.loc[row, column] = np.nan
+        frame.loc[row + 1, column] = np.inf
+    run = Run("r/X/00", "r", None, {"wheels": frame}, source="w.csv")
+    if row is None:
+        run.require_finite("wheels", ["vel_l"])
+        return
+    with pytest.raises(NonFiniteError, match=rf"2 non-finite value\(s\) in wheels column "
+                                             rf"'{column}', first at row {row}") as err:
+        run.require_finite("wheels", ["vel_l"])
+    assert (err.value.column, err.value.row, err.value.path) == (column, row, "w.csv")
