@@ -583,6 +583,9 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     ConfigError
         An unknown signal (:func:`resolve_signals`), or two runs sharing one run id (their
         windows would be grouped, split and counted as one run's).
+    MissingColumnError
+        A run's stream lacks a channel the signals read (a derived wheel channel reads all
+        of :data:`~terrain.run.WHEEL_CHANNELS`), naming the run, the stream and the columns.
     """
     channels = resolve_signals(signals)
     shared = duplicated(run.run_id for run in runs)
@@ -602,12 +605,19 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     streams = tuple(dict.fromkeys(need + (("wheels",) if config.steady_only else ())))
     # the streams aligned: with both, each is cut to the other's span (the input report)
     counts["streams"] = list(streams)
+    # the raw channels the selection reads (the derived ones are made from all four wheel
+    # channels): a stream lacking one ended in a bare KeyError of the windowing
+    derived = bool(set(channels) & set(DERIVED_WHEEL_CHANNELS))
+    columns = {"imu": [c for c in IMU_CHANNELS if c in channels],
+               "wheels": [c for c in WHEEL_CHANNELS if derived or c in channels]}
     for run in iterator:
         if any(s not in run.streams for s in streams):
             counts["skipped_runs"].append(run.run_id)
             if "wheels" not in need and "wheels" not in run.streams:
                 counts["reasons"][run.run_id] = "no wheels stream, which steady_only needs"
             continue
+        for s in need:
+            run.require_columns(s, columns[s])
         # the run's own track width: the wheel yaw rate and the EKF are per vehicle
         track_m = derived_track_m(run.vehicle)
         frame = add_derived_channels(align_streams(run, streams, config.rate_hz), track_m)

@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from features.windows import WindowConfig, make_windows
+from terrain.errors import MissingColumnError
 from terrain.io.report import input_report
 from terrain.run import IMU_CHANNELS, TIME, Run
 
@@ -102,3 +103,22 @@ def test_no_kept_window_holds_a_grid_point_inside_a_gap(start_s, tenths, hop_s):
     assert c["dropped_gap"] >= 1 and np.isfinite(ws.X).all()
     t = ws.t_start_s[:, None] + np.arange(n)[None, :] / config.rate_hz
     assert not ((t > a + 1e-9) & (t < b - 1e-9)).any()
+
+
+@pytest.mark.parametrize("signals", ["wheels", ["vel_l", "vel_mean"], ["cur_sum"]])
+def test_a_wheel_stream_without_its_currents_is_a_typed_error_naming_the_run(signals):
+    # a hand-built Run whose wheels stream holds only the speeds ended in a bare KeyError
+    # "['cur_l', 'cur_r', 'vel_mean', ...] not in index" from the windowing; the derived
+    # channels (vel_mean included) are made from all four wheel channels
+    tw = np.arange(201) / 10.0
+    wheels = pd.DataFrame({TIME: tw, "vel_l": 0.5, "vel_r": 0.6})
+    run = Run(run_id="t/ICE/07", dataset="t", terrain="ICE", streams={"wheels": wheels},
+              source="hand-built")
+    with pytest.raises(MissingColumnError, match=r"run t/ICE/07: stream 'wheels' lacks "
+                                                 r"columns \['cur_l', 'cur_r'\]") as err:
+        make_windows([run], signals, WindowConfig(window_s=2.0))
+    assert err.value.column == "cur_l" and err.value.path == "hand-built"
+    # the speeds alone suffice for the raw speed channels
+    ws = make_windows([run], ["vel_l", "vel_r"], WindowConfig(window_s=2.0))
+    assert len(ws) == 10
+    np.testing.assert_allclose(ws.X[:, 1], 0.6)
