@@ -64,3 +64,13 @@ def test_catalogue_targets_fall_back_on_a_nan_confidence():
     own = max(targets.table, key=lambda c: targets.table[c].traction)   # not the fallback
     assert targets.target_for(own, 0.9, False) == targets.table[own] != targets.fallback
     assert targets.target_for(own, float("nan"), False) == targets.fallback
+
+
+def test_catalogue_targets_fall_back_on_a_terrain_the_model_does_not_know():
+    # a terrain outside the provider's classes (another model's, a typo) is no trust:
+    # the fallback, not a KeyError in the control loop
+    from terrain.serving.targets import CataloguePeakTargets
+
+    targets = CataloguePeakTargets(("ASPHALT", "ICE"))
+    assert "SNOW" not in targets.table
+    assert targets.target_for("SNOW", 0.99, False) == targets.fallback
