@@ -18,7 +18,9 @@ stream      channels                                                    units
 
 Streams keep their own time base. Putting them on one clock is the explicit step
 :func:`terrain.io.align.align_streams`; placing sample times on a uniform step grid (a
-filter's or the simulator's) is :func:`step_index`, the one rule both use.
+filter's or the simulator's) is :func:`step_index`, the one rule both use. Which sample
+times break the contract (not finite, or not after the previous one) is
+:func:`times_out_of_order`, the one rule of the readers, the alignment and the filters.
 """
 
 from __future__ import annotations
@@ -66,6 +68,32 @@ def step_index(t_grid_s: np.ndarray, t_s, clip: bool = False) -> np.ndarray:
     """
     idx = np.searchsorted(t_grid_s, np.asarray(t_s, dtype=float) - 1e-9, side="left")
     return np.clip(idx, 0, len(t_grid_s) - 1) if clip else idx
+
+
+def times_out_of_order(t_s, strict: bool = True) -> np.ndarray:
+    """Rows of a time column that break the ``t_s`` contract: not finite, or not after the
+    previous row's time (before it: ``strict=False`` lets a repeated time pass).
+
+    The first row returned is the one an error names; a row after a non-finite time is
+    judged by that comparison alone (NaN compares False), so it is not counted again.
+
+    Parameters
+    ----------
+    t_s : array-like, shape (n,)
+        Sample times, s, in row order.
+    strict : bool
+        True: a time equal to the previous one breaks the contract (the :class:`Run`
+        streams'); False: only a time before it does.
+
+    Returns
+    -------
+    ndarray of int, shape (k,)
+        The offending rows, ascending (0-based); empty when every time is in order.
+    """
+    t = np.asarray(t_s, dtype=float)
+    step = np.diff(t)
+    back = step <= 0.0 if strict else step < 0.0
+    return np.flatnonzero(~np.isfinite(t) | np.r_[False, back])
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """The project's one sample-to-step rule (terrain.run.step_index), used by the filters and the
-simulator alike."""
+simulator alike, and its one time-order rule (terrain.run.times_out_of_order)."""
 
 from __future__ import annotations
 
@@ -27,3 +27,16 @@ def test_the_filters_and_the_simulator_share_the_rule():
     t[::7] = grid[rng.integers(0, grid.size, t[::7].size)]   # samples on steps
     np.testing.assert_array_equal(sample_steps(grid, t), step_index(grid, t))
     np.testing.assert_array_equal(physics_step_index(grid, t), step_index(grid, t, clip=True))
+
+
+def test_times_out_of_order_names_every_row_that_breaks_the_time_contract():
+    from terrain.run import times_out_of_order
+    assert times_out_of_order([0.0, 0.1, 0.2]).size == 0
+    assert times_out_of_order([]).size == 0
+    # a repeat breaks the strict rule only; a step back breaks both
+    np.testing.assert_array_equal(times_out_of_order([0.0, 0.1, 0.1, 0.05]), [2, 3])
+    np.testing.assert_array_equal(times_out_of_order([0.0, 0.1, 0.1, 0.05], strict=False),
+                                  [3])
+    # a NaN row is named; the row after it is not counted again (NaN compares False)
+    np.testing.assert_array_equal(times_out_of_order([0.0, np.nan, 0.2, np.inf]), [1, 3])
+    assert times_out_of_order([np.nan, 0.0])[0] == 0

@@ -17,7 +17,7 @@ import numpy as np
 
 from terrain.errors import (ClockError, ConfigError, DataFormatError, MissingColumnError,
                             config_numbers)
-from terrain.run import TIME, Run
+from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.closed_loop import Observation
 
 
@@ -83,7 +83,7 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
             raise DataFormatError(f"run {run.run_id} has no {stream} samples: nothing to "
                                   "replay", path=run.source or None)
         t = run.streams[stream][TIME].to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(t) | np.r_[False, np.diff(t) < 0.0])
+        bad = times_out_of_order(t, strict=False)
         if bad.size:   # the cuts below search sorted times: a sample out of order is lost
             i = int(bad[0])
             raise DataFormatError(f"run {run.run_id}: {stream} time {t[i]} at row {i} is not "

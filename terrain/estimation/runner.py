@@ -27,7 +27,7 @@ from terrain.errors import ConfigError, ShapeError, TimeStepError, listed
 from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, project_to_bounds
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
-from terrain.run import step_index
+from terrain.run import step_index, times_out_of_order
 
 #: Engines of :func:`run_filter`.
 ENGINES: tuple[str, ...] = ("auto", "numba", "numpy")
@@ -100,8 +100,9 @@ class SensorSamples:
         if t.ndim != 1 or v.ndim != 2 or v.shape[0] != t.shape[0]:
             raise ShapeError(f"sensor samples need t_s (k,) and values (k, d), got "
                              f"{t.shape} and {np.shape(self.values)}")
-        if t.size and (not np.isfinite(t).all() or (np.diff(t) <= 0).any()):
-            bad = np.flatnonzero(~np.isfinite(t) | np.r_[False, ~(np.diff(t) > 0)])[0]
+        out_of_order = times_out_of_order(t)
+        if out_of_order.size:
+            bad = out_of_order[0]
             after = f" after {t[bad - 1]:.6g} s" if bad and np.isfinite(t[bad]) else ""
             raise TimeStepError(f"sensor timestamps must be finite and strictly increasing: "
                                 f"sample {bad} at {t[bad]:.6g} s{after}")

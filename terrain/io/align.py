@@ -44,7 +44,7 @@ from scipy import signal
 
 from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_numbers,
                             config_positive, duplicated)
-from terrain.run import TIME, Run
+from terrain.run import TIME, Run, times_out_of_order
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
 #: every dataset gets identical features and the combined model sees one definition.
@@ -398,9 +398,9 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     for name, t in zip(present, times):
         # the interpolation takes the order for granted: two swapped samples were read
         # without a word, a NaN time made the grid's length a bare ValueError
-        ok = np.isfinite(t[1:]) & (np.diff(t) > 0)
-        if t.size and not (np.isfinite(t[0]) and ok.all()):
-            row = 0 if not np.isfinite(t[0]) else int(np.argmin(ok)) + 1
+        out_of_order = times_out_of_order(t)
+        if out_of_order.size:
+            row = int(out_of_order[0])
             raise TimestampError(f"stream {name!r}: timestamps must increase strictly, got "
                                  f"{float(t[row])!r} at row {row}", run.source, TIME, row)
     grid = overlap_grid(times, rate_hz)

@@ -31,7 +31,7 @@ from terrain.errors import (ConfigError, DataFormatError, DataWarning, MissingCo
                             NonFiniteError, NonNumericError, TimestampError)
 from terrain.io.measured import list_run_files, read_run, read_text
 from terrain.io.plausibility import check_run
-from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 
 #: Citation and license of each dataset (from ``shared/data/README.md``).
 DATASET_INFO: Mapping[str, Mapping[str, str]] = MappingProxyType({
@@ -549,11 +549,9 @@ def _check_run_rows(frame: pd.DataFrame, run_id: str, path: Path,
     the file of each of the run's rows; default: the run's own) as its ``row``."""
     rows = np.arange(len(frame)) if rows is None else np.asarray(rows)
     t = frame[TIME].to_numpy(dtype=float)
-    bad_t = np.flatnonzero(~(np.diff(t) > 0))
-    if len(bad_t) or (len(t) and not np.isfinite(t).all()):
-        # the first offending row: a NaN at row 0 fails the step after it too (row 1)
-        first = [int(k) for k in np.flatnonzero(~np.isfinite(t))[:1]]
-        row = min(first + [int(bad_t[0]) + 1] if len(bad_t) else first)
+    out_of_order = times_out_of_order(t)
+    if out_of_order.size:
+        row = int(out_of_order[0])
         raise TimestampError(f"run {run_id}: timestamps must increase strictly and be "
                              f"finite, got {float(t[row])!r} after {float(t[row - 1])!r} at "
                              f"row {row} of the run"

@@ -30,6 +30,7 @@ import numpy as np
 
 from terrain.errors import (ConfigError, DataWarning, NonFiniteInputError, ShapeError,
                             TimeStepError, first_items)
+from terrain.run import times_out_of_order
 from terrain.terramechanics.slip import ground_speed_from_slip
 
 #: braking slip at which a compensated ground speed is held: the inverse grows as
@@ -92,7 +93,7 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
                          f"{vl.shape}, {vr.shape}")
     if t.size == 0:
         raise ShapeError("dead_reckon: no sample (the pose starts at the first one)")
-    if not (np.isfinite(t).all() and np.all(np.diff(t) > 0)):   # NaN compares False
+    if times_out_of_order(t).size:
         raise TimeStepError("dead_reckon: times must be finite and strictly increasing")
     if yaw_rate_rad_s is None and not track_m > 0:
         raise ConfigError(f"dead_reckon: track_m must be > 0 for the wheels' yaw rate, got "
