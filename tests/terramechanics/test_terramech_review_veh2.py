@@ -1,0 +1,111 @@
+"""Review tests (hand mutants) of resistance, combined slip, calibration and the catalogue."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from terrain.terramechanics import get_terrain
+from terrain.terramechanics.calibration import husky_hysteresis_for_current, steady_slip
+from terrain.terramechanics.catalogue import TERRAINS
+from terrain.terramechanics.combined_slip import combined_slip_coefficients
+from terrain.terramechanics.lateral import SOILS
+from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
+                                               compaction_resistance_n, is_deformable)
+from terrain.terramechanics.traction import traction_coefficient
+from terrain.vehicles import HUSKY
+
+
+def test_secant_at_zero_slip_is_the_slope_of_the_curve_there():
+    # mu(s_res) / s_res -> d mu / ds at 0: the documented value at s_res = 0 is that limit,
+    # not 0 (a 0 there gave a linearised contact no stiffness at rest)
+    curve = get_terrain("ASPHALT").curve
+    slope0 = float(curve.coefficients(np.array(0.0), 0.0).dmu_ds)
+    assert slope0 > 1.0
+    at_rest = combined_slip_coefficients(curve, np.array([0.0]), np.array([0.0]), 0.7)
+    tiny = combined_slip_coefficients(curve, np.array([1e-9]), np.array([0.0]), 0.7)
+    assert at_rest.secant[0] == pytest.approx(slope0, rel=1e-12)
+    assert at_rest.secant[0] == pytest.approx(tiny.secant[0], rel=1e-6)
+    assert at_rest.mu_long[0] == 0.0 and at_rest.mu_side[0] == 0.0
+
+
+def test_compaction_of_a_rut_above_the_surface_is_zero_not_nan():
+    # a negative depth (the contact lifts off) has no compaction; z^(n+1) of a negative z
+    # with a fractional n would be NaN
+    soil = SOILS["SANDY_LOAM"]
+    assert soil.n != round(soil.n)
+    r, dr = compaction_resistance_n(np.array([-0.01, -1e-6, 0.0]), 0.11, soil.k_c,
+                                    soil.k_phi, soil.n)
+    np.testing.assert_array_equal(r, 0.0)
+    np.testing.assert_array_equal(dr, 0.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class _RisingResistance:
+    """Asphalt traction with a resistance 0 at rest, rising with slip (a slip-sinkage soil)."""
+
+    base: object
+
+    def coefficients(self, abs_slip, soil_resistance):
+        """Coefficients of ``base`` with resistance ``0.1 |s|``."""
+        s = np.asarray(abs_slip, dtype=float)
+        c = self.base.coefficients(s, soil_resistance)
+        return c._replace(resistance=0.1 * s, dresistance_ds=np.full_like(s, 0.1))
+
+
+def test_a_soil_with_resistance_only_under_slip_is_deformable():
+    # "slip-producing soil resistance anywhere on [0, 1]": none at rest is still a soil
+    asphalt = get_terrain("ASPHALT")
+    assert not is_deformable(asphalt)
+    soil = dataclasses.replace(asphalt, curve=_RisingResistance(asphalt.curve))
+    assert is_deformable(soil)
+
+
+@pytest.mark.parametrize("name", ["SANDY_LOAM", "GRASS", "ASPHALT"])
+def test_steady_slip_downhill_is_zero(name):
+    # a downhill grade (sin(pitch) < 0) that outweighs the soil resistance needs no
+    # traction: slip 0 (documented range [0, 1]), not a root-finding error
+    terrain = get_terrain(name)
+    assert steady_slip(terrain, -0.3) == 0.0
+    assert steady_slip(terrain, -0.3) <= steady_slip(terrain, -0.05) <= steady_slip(terrain, 0.05)
+
+
+def _side_current(terrain, husky, hysteresis, speed_m_s):
+    """Per-side current of ``husky`` driving straight: the contact torque law
+    ``r (W/2)(mu(s) + h tanh(omega r / v0))`` at the steady slip, then the motor law."""
+    s = steady_slip(terrain)
+    mu = float(traction_coefficient(terrain.curve, s))
+    rim = speed_m_s / (1.0 - s)
+    torque = (husky.wheel_radius_m * husky.mass_kg * G_M_S2 / 2.0
+              * (mu + hysteresis * math.tanh(rim / HYSTERESIS_SPEED_M_S)))
+    return float(husky.motor.current_from_torque(torque, rim / husky.wheel_radius_m))
+
+
+@pytest.mark.parametrize("husky, speed_m_s", [
+    (HUSKY, 0.45),
+    (dataclasses.replace(HUSKY, mass_kg=80.0), 0.45),     # a loaded Husky: its own weight
+    (HUSKY, 0.004),          # no-load current only partly signed: tanh(omega / 0.05) ~ 0.46
+])
+def test_calibrated_hysteresis_reproduces_the_current_of_the_vehicle_given(husky, speed_m_s):
+    terrain = get_terrain("SANDY_LOAM")
+    h = husky_hysteresis_for_current(terrain, 4.5, speed_m_s, husky=husky)
+    assert h > 0.0
+    assert _side_current(terrain, husky, h, speed_m_s) == pytest.approx(4.5, rel=1e-9)
+
+
+def test_catalogue_vibration_levels_are_the_measured_ones_in_their_fields():
+    # accelerometer std in m/s^2, roll/pitch gyro std in rad/s, at the speed given
+    asphalt, snow = TERRAINS["ASPHALT"], TERRAINS["SNOW"]
+    assert (asphalt.vib_accel_m_s2, asphalt.vib_gyro_rad_s, asphalt.vib_speed_m_s) == (
+        1.59, 0.038, 0.45)
+    assert (snow.vib_accel_m_s2, snow.vib_gyro_rad_s, snow.vib_speed_m_s) == (2.76, 0.088, 0.23)
+    for t in TERRAINS.values():
+        assert t.vib_accel_m_s2 > t.vib_gyro_rad_s > 0.0, t.name
+
+
+def test_terrain_lookup_is_case_insensitive():
+    assert get_terrain("sandy_loam") is TERRAINS["SANDY_LOAM"]
+    assert get_terrain("Asphalt") is TERRAINS["ASPHALT"]
