@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Mapping
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.traction import (BrixiusCurve, BurckhardtCurve, JanosiCurve,
                                              TractionCurve, brixius_mobility_number)
@@ -65,6 +65,15 @@ class TerrainParams:
     vib_gyro_rad_s: float
     vib_speed_m_s: float
     source: str
+
+    def __post_init__(self) -> None:
+        """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
+        soil resistance, hysteresis, lateral friction and vibration levels finite and >= 0,
+        the vibration reference speed finite and > 0."""
+        config_positive("TerrainParams", allow_zero=True, soil_resistance=self.soil_resistance,
+                        hysteresis=self.hysteresis, lateral_friction=self.lateral_friction,
+                        vib_accel_m_s2=self.vib_accel_m_s2, vib_gyro_rad_s=self.vib_gyro_rad_s)
+        config_positive("TerrainParams", vib_speed_m_s=self.vib_speed_m_s)
 
 
 #: Mean motor current per side measured while the Husky drives straight (A), and the mean

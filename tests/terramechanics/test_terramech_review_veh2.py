@@ -109,3 +109,27 @@ def test_catalogue_vibration_levels_are_the_measured_ones_in_their_fields():
 def test_terrain_lookup_is_case_insensitive():
     assert get_terrain("sandy_loam") is TERRAINS["SANDY_LOAM"]
     assert get_terrain("Asphalt") is TERRAINS["ASPHALT"]
+
+
+@pytest.mark.parametrize("field, value", [
+    ("hysteresis", -0.5),            # before: accepted, tractive efficiency 1.64 at slip 0.1
+    ("soil_resistance", float("nan")),   # before: accepted, is_deformable False (rigid)
+    ("soil_resistance", -0.08),
+    ("lateral_friction", -0.5),      # before: accepted, sideways friction pushing the slide
+    ("lateral_friction", float("inf")),
+    ("vib_accel_m_s2", -1.0),
+    ("vib_gyro_rad_s", float("nan")),
+    ("vib_speed_m_s", 0.0),          # before: accepted, sqrt(v / 0) vibration scaling
+    ("hysteresis", "0.015"),
+])
+def test_terrain_params_refuse_impossible_values(field, value):
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=f"TerrainParams.{field}"):
+        dataclasses.replace(TERRAINS["ASPHALT"], **{field: value})
+
+
+def test_the_catalogue_passes_its_own_terrain_checks():
+    for terrain in TERRAINS.values():
+        assert dataclasses.replace(terrain) == terrain
+    # a rigid surface with no rolling loss: allowed (0 = none)
+    assert dataclasses.replace(TERRAINS["ASPHALT"], hysteresis=0.0).hysteresis == 0.0
