@@ -133,3 +133,16 @@ def test_the_catalogue_passes_its_own_terrain_checks():
         assert dataclasses.replace(terrain) == terrain
     # a rigid surface with no rolling loss: allowed (0 = none)
     assert dataclasses.replace(TERRAINS["ASPHALT"], hysteresis=0.0).hysteresis == 0.0
+
+
+def test_bekker_sinkage_uses_the_pressure_over_the_whole_plate():
+    # p = W / (b l): a 0.5 x 2 m plate under 2 kN bears the 2 kPa of a 0.5 x 1 m plate under
+    # 1 kN and sinks as deep, 2000 / (10e3 / 0.5 + 1e6) m (Wong eq. 2.33, n = 1)
+    from terrain.terramechanics.resistance import bekker_sinkage_m
+    long_plate = bekker_sinkage_m(2000.0, 0.5, 2.0, 10e3, 1e6, 1.0)
+    assert long_plate == pytest.approx(2000.0 / 1.02e6, rel=1e-12)
+    assert long_plate == pytest.approx(bekker_sinkage_m(1000.0, 0.5, 1.0, 10e3, 1e6, 1.0),
+                                       rel=1e-12)
+    # a longer plate under the same load presses less and sinks less
+    assert bekker_sinkage_m(1000.0, 0.5, 2.0, 10e3, 1e6, 1.0) == pytest.approx(
+        1000.0 / 1.02e6, rel=1e-12)
