@@ -146,3 +146,25 @@ def test_bekker_sinkage_uses_the_pressure_over_the_whole_plate():
     # a longer plate under the same load presses less and sinks less
     assert bekker_sinkage_m(1000.0, 0.5, 2.0, 10e3, 1e6, 1.0) == pytest.approx(
         1000.0 / 1.02e6, rel=1e-12)
+
+
+@pytest.mark.parametrize("slip, k", [(0.5, 2.0), (-0.5, 0.5), (0.0, 1.0)])
+def test_rim_speed_from_slip_at_standstill_takes_sign_0_as_forward(slip, k):
+    # documented sign(0) = +1: at v = 0 the slope d(omega r)/dv is that of a vehicle about
+    # to move forward, 1 / (1 - s) in traction, 1 + s in braking (the limit v -> 0+)
+    from terrain.terramechanics.slip import rim_speed_from_slip
+    rim, d_ground, d_slip = rim_speed_from_slip(0.0, slip)
+    assert (rim, d_slip) == (0.0, 0.0)
+    assert d_ground == pytest.approx(k, rel=1e-12)
+    assert d_ground == pytest.approx(rim_speed_from_slip(1e-12, slip)[1], rel=1e-9)
+
+
+def test_brixius_mobility_number_edges_of_the_deflection_ratio():
+    # [0, 1): an undeflected tyre is allowed, a tyre flattened to its rim (delta = h) is not;
+    # Bn = CI b d / W (1 + 5 delta/h) / (1 + 3 b/d)
+    from terrain.errors import ConfigError
+    from terrain.terramechanics.traction import brixius_mobility_number
+    assert brixius_mobility_number(1e6, 0.11, 0.33, 123.0, 0.0) == pytest.approx(
+        1e6 * 0.11 * 0.33 / 123.0 / 2.0, rel=1e-12)
+    with pytest.raises(ConfigError, match="deflection_ratio"):
+        brixius_mobility_number(1e6, 0.11, 0.33, 123.0, 1.0)
