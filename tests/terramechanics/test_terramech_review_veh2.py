@@ -168,3 +168,19 @@ def test_brixius_mobility_number_edges_of_the_deflection_ratio():
         1e6 * 0.11 * 0.33 / 123.0 / 2.0, rel=1e-12)
     with pytest.raises(ConfigError, match="deflection_ratio"):
         brixius_mobility_number(1e6, 0.11, 0.33, 123.0, 1.0)
+
+
+def test_longitudinal_curve_is_janosi_on_the_sunk_patch():
+    # JanosiCurve.from_soil with A = b l(N), L = l(N): mu_max = tan(phi) + c b l / W and
+    # k = K / l, with l(N) the contact's tabulated sunk length at that load
+    from terrain.terramechanics.lateral import longitudinal_curve, soil_contact
+    soil = SOILS["SANDY_LOAM"]
+    width, load = 0.11, 150.0
+    contact = soil_contact(soil, width, 0.08, 0.1651, 4 * 123.0)
+    length = float(np.interp(load, contact.load_grid_n, contact.length_grid_m))
+    assert length != pytest.approx(width)
+    curve = longitudinal_curve(contact, load)
+    assert curve.shear_slip == pytest.approx(soil.shear_modulus_m / length, rel=1e-12)
+    assert curve.mu_max == pytest.approx(
+        math.tan(math.radians(soil.friction_angle_deg)) + soil.cohesion_pa * width * length
+        / load, rel=1e-12)
