@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from terrain.errors import ConfigError, config_fraction, config_positive
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
@@ -52,7 +52,14 @@ def steady_slip(terrain, extra_demand: float = 0.0) -> float:
     vals = np.array([f(s) for s in grid])
     above = np.nonzero(vals >= 0.0)[0]
     if len(above) == 0:
-        return 1.0
+        # a peak between two grid points can still meet the demand: refine the best one
+        j = int(np.argmax(vals))
+        lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+        top = minimize_scalar(lambda s: -f(s), bounds=(lo, hi), method="bounded",
+                              options={"xatol": 1e-12})
+        if not -top.fun >= 0.0:
+            return 1.0
+        return float(brentq(f, lo, float(top.x), xtol=1e-10))
     i = int(above[0])
     return float(brentq(f, grid[i - 1], grid[i], xtol=1e-10))
 

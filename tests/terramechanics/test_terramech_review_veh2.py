@@ -184,3 +184,30 @@ def test_longitudinal_curve_is_janosi_on_the_sunk_patch():
     assert curve.mu_max == pytest.approx(
         math.tan(math.radians(soil.friction_angle_deg)) + soil.cohesion_pa * width * length
         / load, rel=1e-12)
+
+
+def test_steady_slip_near_a_narrow_peak_is_found_on_the_stable_side():
+    # dry asphalt peaks (mu 1.170) at slip 0.17 and falls below 1.147 by slip 0.25: a demand
+    # of 1.16 is met at a stable slip below the peak, not read as a full spin (slip 1)
+    from terrain.terramechanics.inverse import stable_side_end
+    asphalt = get_terrain("ASPHALT")
+    s_peak, mu_peak = stable_side_end(asphalt.curve)
+    assert 1.16 < mu_peak
+    s = steady_slip(asphalt, 1.16)
+    assert 0.0 < s < s_peak
+    assert float(traction_coefficient(asphalt.curve, s)) == pytest.approx(1.16, abs=1e-8)
+
+
+@pytest.mark.parametrize("name", ["FLOORING", "PACKED_SNOW", "ASPHALT"])
+def test_steady_slip_just_below_a_peak_between_grid_points_is_not_a_full_spin(name):
+    # FLOORING peaks at slip 0.13084, between the 0.0025-spaced search points 0.13 and
+    # 0.1325, both about 4e-6 below the peak: a demand 2e-6 below the peak came out as 1.0
+    # (full spin) although the curve meets it on its stable side
+    from terrain.terramechanics.inverse import stable_side_end
+    terrain = get_terrain(name)
+    s_peak, mu_peak = stable_side_end(terrain.curve)
+    demand = mu_peak - 2e-6
+    s = steady_slip(terrain, demand)
+    assert 0.0 < s <= s_peak
+    assert float(traction_coefficient(terrain.curve, s)) == pytest.approx(demand, abs=1e-9)
+    assert steady_slip(terrain, mu_peak + 1e-6) == 1.0      # beyond the peak: full spin
