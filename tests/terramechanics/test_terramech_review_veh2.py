@@ -211,3 +211,28 @@ def test_steady_slip_just_below_a_peak_between_grid_points_is_not_a_full_spin(na
     assert 0.0 < s <= s_peak
     assert float(traction_coefficient(terrain.curve, s)) == pytest.approx(demand, abs=1e-9)
     assert steady_slip(terrain, mu_peak + 1e-6) == 1.0      # beyond the peak: full spin
+
+
+def test_combined_slip_at_small_slips_is_on_the_curve():
+    # s_res small but not 0: mu_L = mu(s) along the slip, the secant, not the tangent there
+    curve = get_terrain("ASPHALT").curve
+    s = np.array([1e-9, 1e-6, 5e-4, 2e-3])
+    c = combined_slip_coefficients(curve, s, np.zeros_like(s), 0.7)
+    np.testing.assert_allclose(c.mu_long, traction_coefficient(curve, s), rtol=1e-9)
+    c = combined_slip_coefficients(curve, np.zeros_like(s), s, 0.7)
+    np.testing.assert_allclose(c.mu_side, -0.7 * traction_coefficient(curve, s), rtol=1e-9)
+
+
+def test_max_tractive_efficiency_is_searched_up_to_full_slip():
+    # a soil whose traction builds up slowly (K/L = 5) over a small resistance works best at
+    # a large slip: the search covers [0, 1], and agrees with a dense scan
+    from terrain.terramechanics.efficiency import max_tractive_efficiency, tractive_efficiency
+    from terrain.terramechanics.traction import JanosiCurve
+    terrain = dataclasses.replace(get_terrain("GRASS"), curve=JanosiCurve(1.0, 5.0),
+                                  soil_resistance=0.04, hysteresis=0.0)
+    s_best, eta_best = max_tractive_efficiency(terrain)
+    scan = np.linspace(0.0, 1.0, 100001)
+    eta = tractive_efficiency(terrain, scan)
+    assert s_best > 0.6                   # 0.641
+    assert s_best == pytest.approx(scan[np.argmax(eta)], abs=1e-4)
+    assert eta_best == pytest.approx(eta.max(), rel=1e-6)
