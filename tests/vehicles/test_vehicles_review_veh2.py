@@ -19,3 +19,20 @@ def test_yaw_inertias_are_the_documented_plates():
     w, t = p[1, 0] - p[0, 0], -p[2, 1]
     assert (w, t) == pytest.approx((1.015, 0.756))
     assert AGRIMARO.yaw_inertia_kg_m2 == pytest.approx(AGRIMARO.mass_kg * (w * w + t * t) / 12.0)
+
+
+def test_swerve_kinematics_use_the_geometry_given():
+    # a variant with other wheel positions and radius: inverse then forward with the same
+    # parameters returns the twist (every existing round trip used AGRIMARO itself)
+    from dataclasses import replace
+
+    import numpy as np
+
+    from terrain.vehicles import swerve_forward, swerve_inverse
+    variant = replace(AGRIMARO, wheel_radius_m=0.25,
+                      wheel_positions_m=((-0.4, 0.1), (0.6, 0.0), (0.1, -0.9)))
+    twists = np.array([[0.3, 0.8, -0.1], [-0.5, 0.2, 0.4], [0.0, -0.6, 0.0]])
+    delta, omega = swerve_inverse(twists, variant)
+    np.testing.assert_allclose(swerve_forward(delta, omega, variant), twists, atol=1e-12)
+    # the same wheel commands on AGRIMARO would mean another motion
+    assert not np.allclose(swerve_forward(delta, omega), twists, atol=1e-3)
