@@ -898,7 +898,8 @@ class LagParams:
 def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
             settings: EffectSettings = EffectSettings(), form: str | None = None) -> LagParams:
     """Fit the timing model: the median of the units' own median lags (one per run, or one
-    per segment, each from the segment's own span: :func:`~terrain.audit.frames.split_frame`).
+    per segment, each from the segment's own span: :func:`~terrain.audit.frames.split_frame`),
+    each frame counted as often as it is given (a bootstrap resample's repeats included).
 
     Parameters
     ----------
@@ -920,13 +921,15 @@ def fit_lag(frames: Sequence[AuditFrame], spec: Sequence[str],
     NotIdentifiable
         No unit with an identifiable lag.
     """
-    per_run = {f.group: f.lag.median_s for f in frames if f.has_imu and f.lag.identifiable}
+    usable = [f for f in frames if f.has_imu and f.lag.identifiable]
+    per_run = {f.group: f.lag.median_s for f in usable}
     if "wheel_lag" not in spec:
         return LagParams(0.0, per_run)
-    if not per_run:
+    if not usable:
         raise NotIdentifiable("wheel_lag: no run has a window where the wheels command a "
                               "varying yaw rate that the gyro follows")
-    return LagParams(float(np.median(list(per_run.values()))), per_run)
+    # over the frames, not the names: a unit a bootstrap resample draws k times counts k times
+    return LagParams(float(np.median([f.lag.median_s for f in usable])), per_run)
 
 
 def lag_sse(frame: AuditFrame, params: LagParams, scope: str = "all") -> tuple[float, int]:

@@ -159,3 +159,20 @@ def test_segments_of_one_run_are_counted_as_one_run():
                      SelectionSettings(n_bootstrap=50, n_param_bootstrap=0), segmented=True)
     assert {e.n_units for e in g.effects} == {4}
     assert {e.n_runs for e in g.effects} == {1}
+
+
+def test_a_unit_drawn_several_times_by_the_bootstrap_weighs_as_often_in_the_lag():
+    # a resample that draws unit 0 three times and unit 1 once: the median of
+    # [0.1, 0.1, 0.1, 0.2] is 0.1; keyed by run name the repeats collapsed to [0.1, 0.2]
+    # and gave 0.15, so the parameter interval of wheel_lag was not a bootstrap interval
+    from terrain.audit.effects import fit_lag
+    from terrain.audit.timing import LagTrack
+
+    def unit(i, lag):
+        return replace(synthetic_frame(f"s/ASPHALT/{i}", seed=i),
+                       lag=LagTrack(np.array([15.0]), np.array([lag]), np.array([0.9]), 1))
+    u0, u1 = unit(0, 0.1), unit(1, 0.2)
+    p = fit_lag([u0, u0, u0, u1], ["wheel_lag"])
+    assert p.lag_s == pytest.approx(0.1)
+    assert dict(p.per_run) == pytest.approx({"s/ASPHALT/0": 0.1, "s/ASPHALT/1": 0.2})
+    assert fit_lag([u0, u1], ["wheel_lag"]).lag_s == pytest.approx(0.15)   # distinct units
