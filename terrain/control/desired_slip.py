@@ -354,7 +354,15 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     Returns
     -------
     DesiredSlip
+
+    Raises
+    ------
+    ConfigError
+        ``confidence`` or ``decision_age_s`` not a real number or None (text, a bool).
     """
+    # True passed as a confidence of 1, text failed inside numpy's isfinite
+    config_numbers("select_target", optional=("confidence", "decision_age_s"),
+                   confidence=confidence, decision_age_s=decision_age_s)
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
     trusted = (key in table.entries and confidence is not None and np.isfinite(confidence)
