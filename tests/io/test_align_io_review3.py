@@ -56,3 +56,16 @@ def test_timestamps_that_do_not_increase_strictly_are_refused(make_run, where):
         align_streams(run, ("wheels",), rate_hz=50.0)
     assert err.value.column == TIME
     assert err.value.row == {"swapped": 11, "repeated": 20, "nan": 30}[where]
+
+
+def test_align_streams_names_a_stream_without_samples():
+    # an empty stream raised a bare IndexError reading its first sample
+    from terrain.run import Run
+    t = np.arange(0, 2, 0.01)
+    imu = pd.DataFrame({"t_s": t, **{c: np.zeros(t.size) for c in
+                                     ("wx", "wy", "wz", "ax", "ay", "az")}})
+    wheels = pd.DataFrame({c: np.zeros(0) for c in ("t_s", "vel_l", "vel_r", "cur_l",
+                                                    "cur_r")})
+    run = Run("t/ICE/00", "t", "ICE", {"imu": imu, "wheels": wheels})
+    with pytest.raises(DataFormatError, match="stream 'wheels' has no samples"):
+        align_streams(run, ("imu", "wheels"), 50.0)
