@@ -158,14 +158,10 @@ class ExperimentConfig:
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
                               f"seed range), got {list(self.seeds)}")
-        if isinstance(self.single_run_blocks, bool) or not (
-                isinstance(self.single_run_blocks, (int, np.integer))
-                and self.single_run_blocks >= 2):
-            # 0 reached NumPy's bare "number sections must be larger than 0" in the CV, and
-            # 1 block never trains a single-run class when it is tested
-            raise ConfigError(f"single_run_blocks must be an integer >= 2 (blocks a "
-                              f"single-run class is cut into), got {self.single_run_blocks!r}")
-        # 2.5 folds reached scikit-learn's bare ValueError after the data was windowed
+        # single_run_blocks 0 reached NumPy's bare "number sections must be larger than 0"
+        # in the CV, and 1 block never trains a single-run class when it is tested; 2.5
+        # folds reached scikit-learn's bare ValueError after the data was windowed
+        config_integer("ExperimentConfig.single_run_blocks", self.single_run_blocks, 2)
         config_integer("ExperimentConfig.n_splits", self.n_splits, 2)
         if duplicated(int(s) for s in self.seeds):
             raise ConfigError(f"seeds must be distinct (a repeated seed counts one split "

@@ -399,8 +399,12 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     # the others the table of terrain.sim.forces
     lt = LOAD_TRANSFER.get(vehicle.name)
     own_h = getattr(vehicle, "cog_height_m", None)
-    cog_h = (0.0 if not v2 else float(own_h) if own_h is not None
-             else lt.cog_height_m if lt is not None else 0.0)
+    if not v2:
+        cog_h = 0.0
+    elif own_h is not None:
+        cog_h = float(own_h)
+    else:
+        cog_h = lt.cog_height_m if lt is not None else 0.0
     alpha_lt = min(1.0, dt / LOAD_TRANSFER_TIME_CONSTANT_S)
     # low-passed specific force of the load transfer, started at rest on the plane (yaw 0):
     # gravity alone, so a vehicle that starts on a grade starts with its static transfer
