@@ -119,7 +119,16 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
         Lateral force, N.
     slope_n_s_m : ndarray, shape (n,)
         Secant slope ``d F / d v_lat``, N s/m.
+
+    Raises
+    ------
+    ConfigError
+        ``slide_speed_m_s`` not a finite value > 0 (0 divides by zero, a negative one turns
+        the friction into a pushing force).
     """
+    if not (isinstance(slide_speed_m_s, float) and 0.0 < slide_speed_m_s < math.inf):
+        # (the isinstance test is the per-step fast path; anything else checked in full)
+        config_positive("lateral_force_and_slope", slide_speed_m_s=slide_speed_m_s)
     normal = np.asarray(normal_load_n)
     v = np.asarray(v_lateral_m_s)
     th_l = np.tanh(v / slide_speed_m_s)
@@ -151,6 +160,11 @@ def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s:
     -------
     ndarray, shape (n,)
         Lateral force, N.
+
+    Raises
+    ------
+    ConfigError
+        ``slide_speed_m_s`` not a finite value > 0.
     """
     return lateral_force_and_slope(mu_lateral, normal_load_n, v_lateral_m_s,
                                    slide_speed_m_s)[0]
