@@ -152,7 +152,11 @@ def main(args: argparse.Namespace) -> int:
                              "switch_gap_s": args.switch_gap_s, "folds": args.folds,
                              # the wheel-cv windows, only where that part runs
                              **({"window_s": args.window_s, "hop_s": args.hop_s}
-                                if wheel_cv else {})}) as run:
+                                if wheel_cv else {}),
+                             # the recipes, only where streams are scored or models saved
+                             **({"kinds": ",".join(args.kinds)}
+                                if args.part in ("streams", "both") or args.model_out
+                                else {})}) as run:
         if wheel_cv:
             recipe = replace(RECIPES["wheels"], window_s=args.window_s)
             cv = window_cv(runs, recipe, args.hop_s, args.seeds, SMOOTHINGS)

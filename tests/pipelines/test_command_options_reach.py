@@ -184,8 +184,16 @@ def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(mo
     assert main(argv + ["--folds", "3"]) == 1                  # reached the streams
     assert calls[-1]["n_splits"] == 3 and calls[-1]["switch_gap_s"] == 0.25
     assert tracking.starts[-1] == {"part": "streams", "seeds": "4", "switch_gap_s": 0.25,
-                                   "folds": 3}
+                                   "folds": 3, "kinds": "wheels"}
     assert main(argv + ["--folds", "4"]) == 2 and len(calls) == 1
+    # the wheel-cv part alone uses no recipe of --kinds: not logged as if it did
+    monkeypatch.setattr(stream_eval, "window_cv", lambda *a, **k: calls.append(a) or _stop())
+    assert main(["stream-eval", "--part", "wheel-cv", "--seeds", "4"]) == 1
+    assert "kinds" not in tracking.starts[-1] and tracking.starts[-1]["part"] == "wheel-cv"
+
+
+def _stop():
+    raise _Stop()
 
 
 def test_slip_fit_summary_reduces_the_medians_of_the_runs_that_did_not_slide_off():
