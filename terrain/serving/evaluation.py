@@ -299,15 +299,23 @@ def switching_delays(segments: Sequence[Segment], t_s: np.ndarray,
     Returns
     -------
     numpy.ndarray
-        ``(n_switches,)`` delays, s; ``inf`` when the piece ended before the new terrain was
-        ever decided.
+        ``(n_switches,)`` delays, s; ``inf`` when the new terrain was not decided before it
+        ended (its piece and any pieces of the same terrain right after it, which are no
+        switch: the robot is still on the terrain it switched to).
     """
     delays = []
-    for prev, seg in zip(segments[:-1], segments[1:]):
-        if seg.terrain == prev.terrain:
+    for i in range(1, len(segments)):
+        seg = segments[i]
+        if seg.terrain == segments[i - 1].terrain:
             continue
         a = seg.t_from_s + seg.t_offset_s
-        sel = (t_s >= a) & (t_s < a + seg.duration_s) & (decided == seg.terrain)
+        inside = np.zeros(len(t_s), dtype=bool)
+        for piece in segments[i:]:
+            if piece.terrain != seg.terrain:
+                break
+            start = piece.t_from_s + piece.t_offset_s
+            inside |= (t_s >= start) & (t_s < start + piece.duration_s)
+        sel = inside & (decided == seg.terrain)
         delays.append(float(t_s[sel][0] - a) if sel.any() else np.inf)
     return np.asarray(delays)
 

@@ -45,3 +45,17 @@ def test_stream_score_counts_undecided_wrong_and_settles_after_one_window():
     assert score.confusion == {"A": {"none": 2, "A": 24, "B": 3, "C": 1}, "B": {"B": 10},
                                "C": {"B": 10}}
     assert score.delays_s == (0.0, np.inf, 3.0) and score.median_delay_s == 3.0
+
+
+def test_a_switch_into_two_pieces_of_one_terrain_is_followed_in_either():
+    # A [0, 10) -> B [10, 20) and another run of B [20, 30): B first decided at 24, in the
+    # second B piece; the terrain has not changed since the switch at 10, so the delay is
+    # 14 s (it was inf: only the first B piece was searched). A decision of B in the gap
+    # of a later piece of another terrain is still no following.
+    segs = [Segment("a", "A", 0.0, 0.0, 10.0), Segment("b1", "B", 0.0, 10.0, 10.0),
+            Segment("b2", "B", 5.0, 15.0, 10.0), Segment("c", "C", 0.0, 30.0, 10.0)]
+    t = np.arange(0.0, 40.0, 1.0)
+    decided = np.array(["A"] * 24 + ["B"] * 6 + ["B"] * 3 + ["C"] * 7, dtype=object)
+    assert switching_delays(segs, t, decided).tolist() == [14.0, 3.0]
+    late = np.array(["A"] * 30 + ["B"] * 10, dtype=object)   # B only once C has come
+    assert switching_delays(segs, t, late).tolist() == [np.inf, np.inf]
