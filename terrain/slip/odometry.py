@@ -60,7 +60,7 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         above 1 as 1 (ground speed 0), and the samples so held are counted in a
         :class:`~terrain.errors.DataWarning`.
     chi : float or ndarray, shape (N,)
-        Turning factor (1 = plain odometry).
+        Turning factor, > 0 (1 = plain odometry); not used with ``yaw_rate_rad_s``.
     lateral_m_s : float or ndarray, shape (N,)
         Lateral body velocity (sideways sliding), m/s (0 = plain odometry).
     yaw_rate_rad_s : ndarray, shape (N,), optional
@@ -83,7 +83,7 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         A speed, slip, ``chi``, lateral velocity or yaw rate sample that is NaN or infinite
         (the pose would be NaN from it on); the message names the argument and counts them.
     ConfigError
-        ``track_m`` not > 0 where the yaw rate comes from the wheels.
+        ``track_m`` or a ``chi`` sample not > 0 where the yaw rate comes from the wheels.
     """
     t = np.asarray(t_s, dtype=float)
     vl = np.asarray(v_left_m_s, dtype=float)
@@ -107,7 +107,13 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
     v = 0.5 * (gl + gr)
     vy = _per_sample("lateral_m_s", lateral_m_s, t.shape)
     if yaw_rate_rad_s is None:
-        yaw_rate = (vr - vl) / (_per_sample("chi", chi, t.shape) * track_m)
+        k = _per_sample("chi", chi, t.shape)
+        bad = np.flatnonzero(~(k > 0))
+        if bad.size:     # 0 divided the yaw rate (NaN pose), < 0 turned the other way
+            raise ConfigError(f"dead_reckon: chi must be > 0 (it divides the wheels' yaw "
+                              f"rate), got {k[bad[0]]:g} at {bad.size} of {k.size} samples "
+                              f"({first_items(bad.tolist(), word='sample')})")
+        yaw_rate = (vr - vl) / (k * track_m)
     else:
         yaw_rate = np.asarray(yaw_rate_rad_s, dtype=float)
         if yaw_rate.shape != t.shape:
