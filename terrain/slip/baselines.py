@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError, DataWarning, ShapeError
+from terrain.errors import ConfigError, DataWarning, ShapeError, config_positive
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.skid_steer import TRACKED, endo_slip_ratio_ratio
@@ -131,7 +131,7 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     yaw_rate_rad_s : ndarray, shape (n,)
         Gyro yaw rate, rad/s.
     track_m : float
-        Track B, m.
+        Track B, m (finite, > 0).
     n : float
         Endo's exponent (default the seed's 0.847, Table 2).
     min_turn_rad_s : float
@@ -143,12 +143,18 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     ndarray, shape (n, 2)
         ``alpha_l, alpha_r`` clipped to [-1, 1].
 
+    Raises
+    ------
+    ConfigError
+        ``track_m`` not a finite number > 0 (:func:`terrain.errors.config_positive`).
+
     Warns
     -----
     DataWarning
         Slips outside [-1, 1] (a yaw rate the wheel speeds cannot give under eq. 27, e.g.
         against their turn) were clipped (their count of the defined slips).
     """
+    config_positive("endo_turning_slip", track_m=track_m)  # B yaw_rate closes eq. 27
     vl = np.asarray(v_left_m_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
     w = np.asarray(yaw_rate_rad_s, dtype=float)

@@ -26,3 +26,13 @@ def test_dead_reckon_ignores_chi_when_the_gyro_gives_the_heading():
     pose = dead_reckon(t, np.ones(5), np.ones(5), HUSKY.track_m, chi=0.0,
                        yaw_rate_rad_s=np.zeros(5))
     assert np.allclose(pose[:, 0], t) and np.allclose(pose[:, 1:], 0.0)
+
+
+@pytest.mark.parametrize("track", [0.0, -0.5, np.nan, np.inf, True])
+def test_endo_turning_slip_refuses_a_track_that_is_not_a_positive_number(track):
+    # B yaw_rate closes eq. 27: a negative track gave other slips (alpha_r 0.22 against 0.12
+    # at B = 0.5 m for vl 1, vr 1.5 m/s, yaw rate 0.3 rad/s), 0 dropped the measured turn
+    # (0.17), NaN made every slip NaN, all without a word
+    from terrain.slip.baselines import endo_turning_slip
+    with pytest.raises(ConfigError, match="track_m"):
+        endo_turning_slip(np.array([1.0]), np.array([1.5]), np.array([0.3]), track)
