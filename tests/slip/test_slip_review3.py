@@ -36,3 +36,67 @@ def test_endo_turning_slip_refuses_a_track_that_is_not_a_positive_number(track):
     from terrain.slip.baselines import endo_turning_slip
     with pytest.raises(ConfigError, match="track_m"):
         endo_turning_slip(np.array([1.0]), np.array([1.5]), np.array([0.3]), track)
+
+
+def test_observer_window_of_one_imu_sample_is_that_sample():
+    # a window holding a single IMU sample: its mean is that sample's observer slip (the
+    # count divides the sum; a floor of 2 halved it)
+    import pandas as pd
+
+    from terrain.run import Run
+    from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
+    from terrain.slip.evaluation import observer_window_slip
+    t = np.arange(0.0, 4.0, 0.1)
+    wz = np.where(t < 1.0, 0.0, 0.6)
+    vl, vr = np.full_like(t, 0.4), np.full_like(t, 0.7)
+    run = Run("sim/X/orchard/0", "sim", "ASPHALT",
+              {"imu": pd.DataFrame({"t_s": t, "wz": wz}),
+               "wheels": pd.DataFrame({"t_s": t, "vel_l": vl, "vel_r": vr})})
+    meta = pd.DataFrame({"run_id": [run.run_id] * 2, "t_start_s": t[[12, 30]],
+                         "t_end_s": t[[13, 31]]})
+    out = observer_window_slip([run], meta, HUSKY.track_m)
+    yaw = np.concatenate([[0.0], np.cumsum(np.diff(t) * wz[:-1])])
+    s = slip_ratio_as_sae(np.column_stack([vl, vr]),
+                          observer_slip(t, yaw, vl, vr, 0.5 * HUSKY.track_m))
+    assert np.abs(s[[12, 30]]).min() > 1e-3          # a halved mean would show
+    np.testing.assert_allclose(out, s[[12, 30]], rtol=1e-12, atol=1e-15)
+
+
+def _lag_test_signals():
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 30.0, 0.01)
+    steps = np.repeat(rng.normal(0.0, 1.0, 30), 100)
+    ref = np.convolve(steps, np.ones(50) / 50, mode="same")
+    sig = np.interp(t - 0.2, t, ref) + rng.normal(0.0, 0.02, t.size)
+    return t, ref, sig
+
+
+def test_lag_gate_refuses_a_peak_just_below_min_correlation_and_takes_one_just_above():
+    from terrain.slip.alignment import LagGate, estimate_lag, gated_lag
+    t, ref, sig = _lag_test_signals()
+    est = estimate_lag(t, ref, t, sig)
+    assert 0.05 < est.correlation < 0.95 and not est.at_range_end
+    above = LagGate(min_correlation=est.correlation + 0.01, halves_tolerance_s=None)
+    below = LagGate(min_correlation=est.correlation - 0.01, halves_tolerance_s=None)
+    refused = gated_lag(t, ref, t, sig, gate=above)
+    assert not refused.applied and "below" in refused.reason
+    assert gated_lag(t, ref, t, sig, gate=below).applied
+    assert refused.lag_s == pytest.approx(0.2, abs=0.02)
+
+
+def test_husky_side_slip_with_an_applied_wheel_lag_follows_the_truth():
+    # the applied lag moves the wheel samples back by it before the rim speeds are resampled
+    # onto the filter's grid: the side slips then follow the truth as on the run without a
+    # lag (moved forward instead, the rims were 0.8 s off)
+    from terrain.sim import Effects, SimConfig, simulate_with_physics
+    from terrain.slip import estimate_run
+    from pipelines.validation.harness import simulate_husky, truth_on_grid
+    base = simulate_husky("ASPHALT", seed=2, duration_s=30.0, icr_expansion=1.0)
+    lagged = simulate_with_physics(SimConfig(**{**base.config.__dict__,
+                                                "effects": Effects(wheel_lag=0.4)}))
+    est = estimate_run(lagged.run)
+    assert est.lag.applied and est.lag.lag_s == pytest.approx(0.4, abs=0.05)
+    tr = truth_on_grid(lagged, est.ekf.t_s)
+    moving = (np.abs(tr["v_bx"]) > 0.1).to_numpy() & (est.ekf.t_s > 5)
+    for j in range(2):
+        assert np.nanmedian(np.abs(est.slip[moving, j] - tr[f"slip_{j + 1}"][moving])) < 0.02
