@@ -100,3 +100,43 @@ def test_husky_side_slip_with_an_applied_wheel_lag_follows_the_truth():
     moving = (np.abs(tr["v_bx"]) > 0.1).to_numpy() & (est.ekf.t_s > 5)
     for j in range(2):
         assert np.nanmedian(np.abs(est.slip[moving, j] - tr[f"slip_{j + 1}"][moving])) < 0.02
+
+
+def test_wheel_slip_passes_its_dead_band_on():
+    # creeping wheel, rim 0.03 m/s over ground 0.02 m/s: inside the thesis's 0.05 m/s dead
+    # band the slip is 0 (ch. 7.2.1); without one it is the SAE ratio 1/3 (eq. 7.1)
+    from terrain.slip import wheel_slip
+    args = (np.array([[0.03]]), np.array([0.02]), np.array([0.0]), np.array([0.0]),
+            np.array([[0.0, 0.0]]))
+    assert wheel_slip(*args)[0, 0] == 0.0
+    assert wheel_slip(*args, dead_band_m_s=0.0)[0, 0] == pytest.approx(1.0 / 3.0)
+    assert wheel_slip(*args, dead_band_m_s=0.025)[0, 0] == pytest.approx(1.0 / 3.0)
+
+
+def test_physics_interval_from_the_rolling_loss_uncertainty_alone():
+    # no current noise, no efficiency uncertainty, exact pitch: the traction interval is the
+    # rolling-loss part of the traction times its relative std, either side, mapped through
+    # the stable side of the curve
+    from terrain.slip.physics import (PhysicsSlipSettings, physics_slip,
+                                      traction_from_torque, wheel_torque_from_current)
+    from terrain.terramechanics.catalogue import get_terrain
+    from terrain.terramechanics.inverse import slip_from_traction
+    terrain = get_terrain("SANDY_LOAM")
+    cur = np.array([[4.0, 5.0], [6.0, 4.5]])
+    rim = np.array([[0.8, 0.8], [1.0, 0.9]])
+    pitch = np.zeros(2)
+    settings = PhysicsSlipSettings(current_std_a=0.0, efficiency_rel_std=0.0,
+                                   hysteresis_rel_std=0.15)
+    res = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, pitch, settings=settings)
+    torque = wheel_torque_from_current(HUSKY.motor, cur,
+                                       rim / HUSKY.contact_geometry().wheel_radius_m)
+    mu, _, rolling = traction_from_torque(HUSKY, terrain, torque, rim, pitch)
+    half = settings.coverage_sigma * np.abs(rolling) * settings.hysteresis_rel_std
+    assert half.min() > 0.005 and res.upper.max() < 1.0      # the test can tell
+    np.testing.assert_allclose(res.slip, slip_from_traction(terrain.curve, mu).slip)
+    np.testing.assert_allclose(res.lower, slip_from_traction(terrain.curve, mu - half).slip)
+    np.testing.assert_allclose(res.upper, slip_from_traction(terrain.curve, mu + half).slip)
+    off = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, pitch,
+                       settings=PhysicsSlipSettings(current_std_a=0.0, efficiency_rel_std=0.0,
+                                                    hysteresis_rel_std=0.0))
+    np.testing.assert_allclose(off.std, 0.0, atol=1e-12)
