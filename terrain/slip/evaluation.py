@@ -273,7 +273,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     Parameters
     ----------
     runs : sequence of Run
-        Simulated runs (``wheels`` and ``truth`` streams).
+        Simulated runs (``wheels`` and ``truth`` streams; the truth's ``x``, ``y``, m, are
+        taken in the frame of its pose at the first wheel sample, where dead reckoning
+        starts: origin there, x along its ``yaw``, rad, or along the truth's x without a
+        ``yaw`` column).
     meta : pandas.DataFrame, shape (n, ...)
         Window provenance.
     pred : ndarray, shape (n, 4)
@@ -304,9 +307,9 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     EstimationError
         A run without a ``wheels`` or ``truth`` stream (its id is named).
     NonFiniteError
-        A non-finite time, wheel speed, truth position or (with an IMU) ``wz`` sample (run,
-        column and row named): dead reckoning integrates them, so one would make the run's
-        errors NaN.
+        A non-finite time, wheel speed, truth position or yaw, or (with an IMU) ``wz``
+        sample (run, column and row named): dead reckoning integrates them, so one would make
+        the run's errors NaN.
 
     Warns
     -----
@@ -320,7 +323,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     for rid in run_ids:
         run = _run_with(by_id, rid, ("wheels", "truth"))
         run.require_finite("wheels", ("vel_l", "vel_r"))
-        run.require_finite("truth", ("x", "y"))
+        has_yaw = "yaw" in run.streams["truth"]
+        run.require_finite("truth", ("x", "y", "yaw") if has_yaw else ("x", "y"))
         if "imu" in run.streams:
             run.require_finite("imu", ("wz",))
         sel = np.flatnonzero(meta["run_id"].to_numpy() == rid)
@@ -343,7 +347,7 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         imu = run.streams.get("imu")
         wz = None if imu is None else np.interp(t, imu[TIME].to_numpy(), imu["wz"].to_numpy())
         xy = tr[["x", "y"]].to_numpy()
-        end = np.array([np.interp(t[-1], tr[TIME], tr["x"]), np.interp(t[-1], tr[TIME], tr["y"])])
+        end = _in_start_frame(tr, t[0], t[-1])
         dist = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
 
         def pct(pose: np.ndarray) -> float:
@@ -374,6 +378,16 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
                                        "duration_s", "slid_off", "plain_err_pct",
                                        "compensated_err_pct", "reduction_pct",
                                        "gyro_heading_err_pct", "compensated_gyro_err_pct"])
+
+
+def _in_start_frame(truth: pd.DataFrame, t0_s: float, t1_s: float) -> np.ndarray:
+    """The truth position at ``t1_s`` in the frame of its pose at ``t0_s`` (origin there, x
+    along its heading; heading 0 without a ``yaw`` column), where dead reckoning starts."""
+    at = (lambda col, ts: float(np.interp(ts, truth[TIME], truth[col])))
+    d = np.array([at("x", t1_s) - at("x", t0_s), at("y", t1_s) - at("y", t0_s)])
+    yaw0 = at("yaw", t0_s) if "yaw" in truth.columns else 0.0
+    c, s = np.cos(yaw0), np.sin(yaw0)
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 
 
 def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,

@@ -140,3 +140,26 @@ def test_physics_interval_from_the_rolling_loss_uncertainty_alone():
                        settings=PhysicsSlipSettings(current_std_a=0.0, efficiency_rel_std=0.0,
                                                     hysteresis_rel_std=0.0))
     np.testing.assert_allclose(off.std, 0.0, atol=1e-12)
+
+
+def test_odometry_errors_take_the_truth_in_the_frame_of_its_first_pose():
+    # dead reckoning starts at 0 with heading 0; a truth that starts elsewhere (a run cut
+    # from a longer one, a mocap frame) was compared in its own frame: straight at 1 m/s for
+    # 10 s from (5, 3) heading north scored 139 % with exact wheels
+    import pandas as pd
+
+    from terrain.run import Run
+    from terrain.slip.evaluation import odometry_errors
+    t = np.arange(0.0, 10.0 + 1e-9, 0.05)
+    v = np.ones_like(t)
+    run = Run("sim/ASPHALT/straight/0", "sim", "ASPHALT",
+              {"wheels": pd.DataFrame({"t_s": t, "vel_l": v, "vel_r": v}),
+               "truth": pd.DataFrame({"t_s": t, "x": np.full_like(t, 5.0), "y": 3.0 + t,
+                                      "yaw": np.full_like(t, 0.5 * np.pi)})})
+    meta = pd.DataFrame({"run_id": [run.run_id] * 5, "t_start_s": np.arange(0.0, 10.0, 2.0),
+                         "t_end_s": np.arange(2.0, 12.0, 2.0)})
+    pred = np.column_stack([np.zeros(5), np.zeros(5), np.ones(5), np.zeros(5)])
+    row = odometry_errors([run], meta, pred, HUSKY.track_m, [run.run_id]).iloc[0]
+    assert row["distance_m"] == pytest.approx(10.0)
+    assert row["plain_err_pct"] == pytest.approx(0.0, abs=1e-9)
+    assert row["compensated_err_pct"] == pytest.approx(0.0, abs=1e-9)
