@@ -760,10 +760,15 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
     Raises
     ------
     ConfigError
-        Unknown source, or ``learned`` without a learned model.
+        Unknown source, ``outputs`` without its ``physics`` entry, or ``learned`` without a
+        learned model.
     """
     if source not in ("physics", "learned", "fused"):
         raise ConfigError(f"unknown slip source {source!r}; valid: physics, learned, fused")
+    if "physics" not in outputs:     # every source reads it (a bare KeyError before)
+        raise ConfigError(f"the slip model outputs have no 'physics' entry (got "
+                          f"{sorted(outputs) or 'none'}): every slip source needs the physics "
+                          "window outputs")
     t, sp, vp = outputs["physics"]
     vp = np.maximum(vp, settings.min_std)
     if source == "physics" or (source == "fused" and "learned" not in outputs):
@@ -848,7 +853,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     EstimationError
         No ``wheels`` stream.
     ConfigError
-        Unknown slip model, lag mode or vehicle; ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``
+        Unknown slip model, lag mode or vehicle; ``outputs`` without ``physics``
+        (:func:`pseudo_measurement`); ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``
         (:func:`~terrain.estimation.runner.check_rate_hz`).
     """
     from terrain.estimation.runner import SensorSamples, make_grid

@@ -163,3 +163,14 @@ def test_odometry_errors_take_the_truth_in_the_frame_of_its_first_pose():
     assert row["distance_m"] == pytest.approx(10.0)
     assert row["plain_err_pct"] == pytest.approx(0.0, abs=1e-9)
     assert row["compensated_err_pct"] == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("source", ["physics", "learned", "fused"])
+def test_pseudo_measurement_without_a_physics_output_names_it(source):
+    # every source reads the physics window outputs (its slip, or the fallback and the
+    # heuristic learned std); without them the answer was a bare KeyError: 'physics'
+    from terrain.slip import pseudo_measurement
+    t = np.arange(3.0)
+    learned = (t, np.zeros((3, 2)), np.full((3, 2), 0.01))
+    with pytest.raises(ConfigError, match="physics"):
+        pseudo_measurement({"learned": learned}, source)
