@@ -585,7 +585,9 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         windows would be grouped, split and counted as one run's).
     MissingColumnError
         A run's stream lacks a channel the signals read (a derived wheel channel reads all
-        of :data:`~terrain.run.WHEEL_CHANNELS`), naming the run, the stream and the columns.
+        of :data:`~terrain.run.WHEEL_CHANNELS`, the EKF channels ``wz``, ``vel_l`` and
+        ``vel_r``, and ``config.steady_only`` ``vel_l`` and ``vel_r``), naming the run, the
+        stream and the columns.
     """
     channels = resolve_signals(signals)
     shared = duplicated(run.run_id for run in runs)
@@ -606,17 +608,20 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     # the streams aligned: with both, each is cut to the other's span (the input report)
     counts["streams"] = list(streams)
     # the raw channels the selection reads (the derived ones are made from all four wheel
-    # channels): a stream lacking one ended in a bare KeyError of the windowing
+    # channels, the EKF ones from wz, vel_l and vel_r, the steady-motion filter from
+    # vel_l and vel_r): a stream lacking one ended in a bare KeyError of the windowing
     derived = bool(set(channels) & set(DERIVED_WHEEL_CHANNELS))
-    columns = {"imu": [c for c in IMU_CHANNELS if c in channels],
-               "wheels": [c for c in WHEEL_CHANNELS if derived or c in channels]}
+    ekf = bool(set(channels) & set(EKF_CHANNELS))
+    speeds = ("vel_l", "vel_r") if ekf or config.steady_only else ()
+    columns = {"imu": [c for c in IMU_CHANNELS if c in channels or (ekf and c == "wz")],
+               "wheels": [c for c in WHEEL_CHANNELS if derived or c in channels or c in speeds]}
     for run in iterator:
         if any(s not in run.streams for s in streams):
             counts["skipped_runs"].append(run.run_id)
             if "wheels" not in need and "wheels" not in run.streams:
                 counts["reasons"][run.run_id] = "no wheels stream, which steady_only needs"
             continue
-        for s in need:
+        for s in streams:
             run.require_columns(s, columns[s])
         # the run's own track width: the wheel yaw rate and the EKF are per vehicle
         track_m = derived_track_m(run.vehicle)
