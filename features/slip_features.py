@@ -30,7 +30,7 @@ import pandas as pd
 
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run
 from terrain.sim.sensors import SensorSettings
@@ -140,7 +140,8 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     Raises
     ------
     ConfigError
-        ``x`` is not 2-D with one row per channel, or a channel is missing.
+        ``x`` is not 2-D with one row per channel and at least 2 samples, a channel is
+        missing, or ``rate_hz`` is not a finite number > 0.
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 2 or x.shape[0] != len(channels):
@@ -184,8 +185,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     Raises
     ------
     ConfigError
-        A channel of :data:`SLIP_CHANNELS` is missing, or ``x`` is not 3-D with one row per
-        channel.
+        A channel of :data:`SLIP_CHANNELS` is missing, ``x`` is not 3-D with one row per
+        channel and at least 2 samples, or ``rate_hz`` is not a finite number > 0.
     """
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
@@ -193,6 +194,11 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     if x.ndim != 3 or x.shape[1] != len(channels):     # channels are read by position
         raise ConfigError(f"windows must have shape (n_windows, {len(channels)}, n_samples), "
                           f"got {x.shape}")
+    if x.shape[2] < 2:      # (0/0 gave a NaN slope and pitch with a RuntimeWarning)
+        raise ConfigError(f"windows must hold n_samples >= 2 for the speed slope, got "
+                          f"{x.shape}")
+    # (a negative rate flipped the sign of the slope and of the pitch correction)
+    config_positive("slip_feature_matrix", rate_hz=rate_hz)
     ch = {c: i for i, c in enumerate(channels)}
     cols: dict[str, np.ndarray] = {}
     means, stds = mean(x), std(x)

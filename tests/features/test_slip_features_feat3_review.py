@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from features.slip_features import (INV_CHI_FLOOR_RAD_S, SLIP_CHANNELS, slip_feature_matrix,
                                     slip_targets)
 from features.windows import WindowSet
+from terrain.errors import ConfigError
 from terrain.run import TIME, Run
 from terrain.vehicles import HUSKY, get_vehicle
 
@@ -83,3 +85,20 @@ def test_a_window_without_a_truth_sample_has_nan_targets_not_zeros():
     Y = slip_targets([_truth_run(0.35, 0.3, gap=(3.9, 6.1))], ws, HUSKY.track_m)
     assert np.isfinite(Y.loc[0, ["slip_1", "slip_2", "yaw_rate", "v_by", "chi"]]).all()
     assert Y.loc[1, ["slip_1", "slip_2", "yaw_rate", "v_by", "chi"]].isna().all()
+
+
+@pytest.mark.parametrize("rate", [0.0, -50.0, float("nan"), float("inf"), True])
+def test_a_rate_that_is_not_a_positive_number_is_refused_naming_it(rate):
+    # a negative rate flipped the sign of the slope (and of the pitch correction) without a
+    # word: -50 Hz gave vel_mean__slope -0.2 m/s^2 for a ramp of +0.2; 0 Hz gave NaN
+    t = np.arange(100) / RATE
+    v = (0.5 + 0.2 * t)[None]
+    with pytest.raises(ConfigError, match="slip_feature_matrix.rate_hz"):
+        slip_feature_matrix(_windows(v, v, np.zeros_like(v)), SLIP_CHANNELS, rate, HUSKY)
+
+
+def test_a_window_of_one_sample_is_refused_not_given_a_nan_slope():
+    # one sample has no slope: 0/0 gave vel_mean__slope and pitch NaN with a RuntimeWarning
+    v = np.full((1, 1), 0.5)
+    with pytest.raises(ConfigError, match="n_samples >= 2"):
+        slip_feature_matrix(_windows(v, v, np.zeros_like(v)), SLIP_CHANNELS, RATE, HUSKY)
