@@ -665,3 +665,45 @@ def test_ray_backend_starts_and_stops_only_a_session_of_its_own(monkeypatch):
     with joblib_backend("ray", None):
         pass
     assert calls == []
+
+
+def test_a_cell_keeps_its_training_hop_and_reports_what_its_cut_dropped(monkeypatch):
+    # the grid's train_hop_s must reach every cell (its training cut, its table key), and
+    # the windows its cut dropped and its notes must reach the rows and the result
+    from types import SimpleNamespace
+
+    import terrain.models.compare as compare
+
+    ws = SimpleNamespace(X=np.zeros((4, 1, 5)), run_ids=np.array(["r1", "r1", "r2", "r2"]),
+                         t_start_s=np.array([0.0, 2.0, 0.0, 2.0]),
+                         t_end_s=np.array([2.0, 4.0, 2.0, 4.0]), channels=("ax",),
+                         rate_hz=50.0)
+    labels = np.array(["A", "A", "B", "B"])
+    training = object()
+    asked = {}
+
+    def fake_windows(cell, n_blocks):
+        asked.update(train_hop_s=cell.train_hop_s, n_blocks=n_blocks)
+        return compare.CellWindows(ws, labels, ws.run_ids, training, ("A",), 3, ("a note",))
+
+    def fake_cv(factory, X, y, groups, run_ids, t0, t1, protocol, seeds, n_splits, **kw):
+        assert kw["training"] is training
+        pred = pd.DataFrame({"seed": seeds[0], "fold": [0, 0, 1, 1], "run": run_ids,
+                             "group": groups, "t_start_s": t0, "t_end_s": t1, "true": y,
+                             "predicted": y, "proba_A": [0.9, 0.8, 0.2, 0.1],
+                             "proba_B": [0.1, 0.2, 0.8, 0.9]})
+        folds = pd.DataFrame({"fit_s": [1.0, 3.0], "infer_ms_per_window": [0.5, 1.5]})
+        return SimpleNamespace(predictions=pred, classes=["A", "B"], folds=folds)
+
+    monkeypatch.setattr(compare, "cell_windows", fake_windows)
+    monkeypatch.setattr(compare, "cross_validate", fake_cv)
+    config = CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
+                           datasets=("vulpi",), seeds=(0,), history=(1,), train_hop_s=0.5,
+                           single_run_blocks=4)
+    (cell,) = config.cells()
+    assert cell.train_hop_s == 0.5
+    res = compare.run_cell(cell, config)
+    assert asked == {"train_hop_s": 0.5, "n_blocks": 4}
+    (row,) = res["rows"]
+    assert row["train_hop_s"] == 0.5 and row["n_windows_dropped"] == 3
+    assert res["notes"] == ["a note"] and (res["predictions"]["train_hop_s"] == 0.5).all()

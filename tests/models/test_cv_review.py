@@ -151,3 +151,19 @@ def test_paper_folds_count_partitions_not_windows_per_class():
     with pytest.raises(ConfigError, match="no class has as many 5 s partitions"):
         list(iter_splits("paper", labels, groups, 0, 5))
     assert len(list(iter_splits("paper", labels, groups, 0, 3))) == 3
+
+
+def test_a_run_cut_into_two_blocks_loses_the_windows_straddling_their_boundary():
+    # single_run_blocks=2 (the smallest accepted) gives a run of exactly two units: the
+    # windows of the first block that reach past the second block's start share samples
+    # with its windows and must go, as for more blocks. Windows 2 s long every 0.5 s over
+    # 0-20 s: the second block starts at 10 s, so [8.5, 10.5], [9, 11], [9.5, 11.5] straddle
+    from terrain.models.cv import purge_block_overlaps
+
+    t0 = np.arange(0.0, 20.0, 0.5)
+    labels = np.full(t0.size, "DIRT_ROAD", dtype=object)
+    runs = np.full(t0.size, "v/DIRT_ROAD/1", dtype=object)
+    groups, _ = split_single_run_classes(labels, runs.copy(), t0, n_blocks=2)
+    assert len(set(groups)) == 2 and t0[groups == groups[-1]].min() == 10.0
+    keep = purge_block_overlaps(groups, runs, t0, t0 + 2.0)
+    assert t0[~keep].tolist() == [8.5, 9.0, 9.5]

@@ -84,3 +84,38 @@ def test_fit_pipeline_refuses_ekf_channels_a_served_model_is_not_given(vulpi_run
     config = ExperimentConfig(dataset="vulpi", signals=("all+ekf",), seeds=(0,))
     with pytest.raises(ConfigError, match="EKF-derived channels are for cross-validation"):
         fit_pipeline(config, runs=vulpi_runs)
+
+
+@pytest.mark.parametrize("model, window_ekf", [("cnn", False), ("svm", True)])
+def test_run_cv_builds_each_seeds_model_with_that_seed_and_its_window_ekf(
+        vulpi_runs, monkeypatch, model, window_ekf):
+    # every fold's model comes from factory(seed): a factory that left the seed out would
+    # train the same network under every seed; the SVM with --window-ekf takes the raw
+    # windows and appends the EKF channels per window (features of the raw signals alone
+    # would silently drop them)
+    from types import SimpleNamespace
+
+    import terrain.models.experiment as experiment
+    from terrain.models.window_ekf import WindowEKFClassifier
+
+    seen = {}
+
+    def fake_cv(factory, X, *args, **kwargs):
+        seen.update(factory=factory, X=X)
+        return SimpleNamespace(notes=[])
+
+    monkeypatch.setattr(experiment, "cross_validate", fake_cv)
+    run_cv(ExperimentConfig(dataset="vulpi", model=model, window_ekf=window_ekf, seeds=(0,)),
+           runs=vulpi_runs)
+    assert seen["X"].ndim == 3                       # raw windows, not window features
+    est = seen["factory"](7)
+    if window_ekf:
+        assert isinstance(est, WindowEKFClassifier)
+        est = est.estimator
+    # (the SVM pipeline: the seed of its calibrated SVC step)
+    assert {v for k, v in est.get_params().items() if k.endswith("random_state")} == {7}
+
+
+def test_a_seed_beyond_numpys_range_is_refused():
+    with pytest.raises(ConfigError, match="seeds must be one or more integers"):
+        ExperimentConfig(seeds=(MAX_SEED + 1,))

@@ -68,3 +68,14 @@ def test_every_candidate_of_the_grid_is_scored_by_macro_f1_of_the_inner_folds():
     # refitted on every training window with the chosen settings
     svc = search.best_estimator_.named_steps["svc"]
     assert (svc.C, svc.gamma) == (best["svc__C"], best["svc__gamma"])
+
+
+@pytest.mark.parametrize("probability", [False, True])
+def test_the_svm_weighs_each_class_inversely_to_its_windows(probability):
+    # class_weight="balanced": n / (n_classes n_c), so a rare terrain is not out-voted by
+    # the common ones (README: class weights fitted on the training windows only)
+    X, y, _ = _runs()                                   # a 36, b 24, c 12 windows
+    pipe = make_svm(SVMConfig(probability=probability)).fit(X, y)
+    svc = pipe.named_steps["svc"]
+    svc = svc.calibrated_classifiers_[0].estimator if probability else svc
+    np.testing.assert_allclose(svc.class_weight_, [72 / (3 * 36), 72 / (3 * 24), 72 / (3 * 12)])
