@@ -30,7 +30,7 @@ from typing import Any, Iterator, NamedTuple, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, config_integer, duplicated
+from terrain.errors import ConfigError, config_integer, config_positive, duplicated
 from terrain.models.cv import block_notes, cross_validate, grouped_units
 from terrain.models.ensemble import normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
@@ -151,6 +151,8 @@ class CompareConfig:
         if self.protocol not in COMPARE_PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: "
                               f"{list(COMPARE_PROTOCOLS)}")
+        if self.train_hop_s is not None:   # (text such as '0.5': Python's bare TypeError)
+            config_positive("CompareConfig", train_hop_s=self.train_hop_s)
         if self.train_hop_s is not None and not (self.train_hop_s > 0
                                                  and self.protocol == "grouped"):
             raise ConfigError("train_hop_s must be > 0 s and needs the grouped protocol (the "
@@ -172,9 +174,10 @@ class CompareConfig:
             repeated = duplicated(getattr(self, axis))
             if repeated:  # a repeated value would fit its cells twice and count them as two
                 raise ConfigError(f"{axis} must be distinct: {repeated} given more than once")
-        if not self.seeds or min(self.history, default=0) < 1:
-            raise ConfigError("need at least one seed and history lengths >= 1")
-        for k in self.history:   # (2.5 failed in every cell, after its CV, in pandas)
+        if not self.seeds:
+            raise ConfigError("need at least one seed")
+        # (2.5 failed in every cell, after its CV, in pandas; '5' in a bare min() here)
+        for k in self.history:
             config_integer("CompareConfig.history", k, 1)
         # (n_splits 2.5 passed a '< 2' check, then failed in every cell after its data)
         config_integer("CompareConfig.max_epochs", self.max_epochs, 1)

@@ -707,3 +707,16 @@ def test_a_cell_keeps_its_training_hop_and_reports_what_its_cut_dropped(monkeypa
     (row,) = res["rows"]
     assert row["train_hop_s"] == 0.5 and row["n_windows_dropped"] == 3
     assert res["notes"] == ["a note"] and (res["predictions"]["train_hop_s"] == 0.5).all()
+
+
+@pytest.mark.parametrize("settings, message", [
+    (dict(train_hop_s="0.5"), "train_hop_s must be a real number, got str '0.5'"),
+    (dict(history=("5",)), "CompareConfig.history must be an integer >= 1, got '5'"),
+    (dict(history=(1, "5")), "CompareConfig.history must be an integer >= 1, got '5'"),
+])
+def test_text_for_a_number_is_a_config_error_naming_the_setting(settings, message):
+    # both reached Python's bare TypeError ("'>' not supported between instances of 'str'
+    # and 'int'") in CompareConfig's own comparisons
+    with pytest.raises(ConfigError, match=message):
+        CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
+                      datasets=("vulpi",), seeds=(0,), **settings)
