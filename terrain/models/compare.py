@@ -385,16 +385,25 @@ def cell_windows(cell: Cell, n_blocks: int) -> CellWindows:
     -------
     CellWindows
         ``(ws, labels, groups, training, split_classes, n_dropped, notes)``.
+
+    Raises
+    ------
+    ConfigError
+        No window left (every run shorter than the window,
+        :func:`~terrain.models.experiment.check_windows_left`), or windows of one terrain
+        class only.
     """
     from terrain.io.shipped import load_dataset
     from terrain.models.experiment import (ExperimentConfig, check_two_classes,
-                                           load_training_windows, load_windows)
+                                           check_windows_left, load_training_windows,
+                                           load_windows)
 
     config = ExperimentConfig(dataset=cell.dataset, signals=(cell.signals,),
                               window_s=cell.window_s, protocol=cell.protocol,
                               train_hop_s=cell.train_hop_s)
     runs = load_dataset(cell.dataset)
     ws = load_windows(config, runs)
+    check_windows_left(ws, config)     # (else the CV's '5 folds over 0 split units')
     check_two_classes(ws.labels.astype(str), cell.dataset, ws.run_ids)
     if cell.protocol == "paper":
         return CellWindows(ws, ws.labels.astype(str), ws.groups, None)

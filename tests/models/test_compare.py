@@ -354,14 +354,14 @@ def test_a_failing_cell_leaves_the_finished_cells_logged_and_saved(workdir, caps
     from terrain.tracking import activate_store
 
     out = workdir / "cmp"
-    # the first cell (2 s windows) runs; the second asks for windows longer than most Vulpi
-    # runs (valid settings, so only the cell itself can find out that too few runs hold
-    # one for 5 folds) and fails
+    # the first cell (2 s windows) runs; the second asks for windows longer than every
+    # Vulpi run (valid settings, so only the cell itself can find out that no window is
+    # left) and fails
     status = main(["compare", "--models", "svm", "--signals", "imu", "--windows-s", "2",
                    "5000", "--datasets", "vulpi", "--seeds", "0", "--history", "1",
                    "--n-jobs", "1", "--out", str(out)])
     err = capsys.readouterr().err
-    assert status != 0 and "5 folds over" in err and "Traceback" not in err
+    assert status != 0 and "no window left" in err and "Traceback" not in err
     cells = pd.read_csv(out / "compare_cells.csv")
     assert list(cells["signals"]) == ["imu"] and cells["accuracy"].iloc[0] > 0.5
     activate_store()
@@ -720,3 +720,17 @@ def test_text_for_a_number_is_a_config_error_naming_the_setting(settings, messag
     with pytest.raises(ConfigError, match=message):
         CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
                       datasets=("vulpi",), seeds=(0,), **settings)
+
+
+def test_a_cell_without_a_window_says_so_as_terrain_cv_does(vulpi_runs, monkeypatch):
+    # 200 s windows leave no Vulpi window: the cell reached the CV and failed there with
+    # '5 folds over 0 split units', which names neither the windows nor the cause
+    import terrain.io.shipped as shipped
+    from terrain.models.compare import Cell, run_cell
+
+    monkeypatch.setattr(shipped, "load_dataset", lambda name, data_dir=None: vulpi_runs)
+    config = CompareConfig(models=("svm",), signals=("all",), windows_s=(200.0,),
+                           datasets=("vulpi",), seeds=(0,), history=(1,))
+    with pytest.raises(ConfigError, match="no window left for this dataset, signal set and "
+                                          "window .dataset 'vulpi', signals all, 200 s"):
+        run_cell(Cell("svm", "all", 200.0, "vulpi", 0), config)
