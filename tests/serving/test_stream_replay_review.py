@@ -45,19 +45,22 @@ def test_interleave_yields_every_sample_once_in_time_order_with_ties_in_stream_o
         if flat[i][1] == flat[i + 1][1]:
             assert (flat[i][0], flat[i + 1][0]) == ("a", "b")
     # chunks hold at most max_chunk samples of one stream, and consecutive chunks of one
-    # stream only when the previous one was full
+    # stream only when the previous one was full or the later one is the run's last sample
+    # alone (which ends every run: the service judges staleness from a push's first sample)
     assert all(1 <= len(ts) <= max_chunk for _, ts, _ in events)
-    for (s0, ts0, _), (s1, _, _) in zip(events, events[1:]):
-        assert s0 != s1 or len(ts0) == max_chunk
+    for (s0, ts0, _), (s1, ts1, _) in zip(events, events[1:]):
+        assert s0 != s1 or len(ts0) == max_chunk or len(ts1) == 1
+    for (s0, ts0, _), (s1, _, _) in zip(events, events[1:] + [(None, [], [])]):
+        assert s0 == s1 or len(ts0) == 1
 
 
 def test_interleave_keeps_the_tail_of_each_run_of_one_stream():
     # three samples of "a", then two of "b", then one of "a": chunks of 2 must give
-    # a[0:2], a[2:3], b[0:2], a[3:4]
+    # a[0:2], a[2:3], b[0:1], b[1:2] (a run's last sample alone), a[3:4]
     run = _run({"a": np.array([0.0, 0.1, 0.2, 0.5]), "b": np.array([0.3, 0.4])})
     assert _events(run, ("b", "a"), 2) == [
         ("a", [0.0, 0.1], [0.0, 1.0]), ("a", [0.2], [2.0]),
-        ("b", [0.3, 0.4], [1000.0, 1001.0]), ("a", [0.5], [3.0])]
+        ("b", [0.3], [1000.0]), ("b", [0.4], [1001.0]), ("a", [0.5], [3.0])]
 
 
 def test_overlap_is_the_span_every_stream_covers():
