@@ -18,6 +18,7 @@ the request would cost before any is done.
 
 from __future__ import annotations
 
+import datetime
 import math
 from numbers import Real
 from typing import Any, Mapping, Sequence
@@ -38,6 +39,10 @@ from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
 STREAM = "stream"
 #: consecutive non-finite samples of one channel the readers repair (longer: refused)
 MAX_REPAIR_RUN = 2
+#: cell types that are times, not numbers: pandas's ``to_numeric`` reads a column of them
+#: as ns, us or years since an epoch (pandas's Timestamp and Timedelta subclass these)
+_TIME_TYPES = (datetime.date, datetime.time, datetime.timedelta, np.datetime64,
+               np.timedelta64, pd.Period)
 #: vehicle whose datasheet bounds the run-level rules use when the model names none (the
 #: readers' default: the measured data is all Clearpath Husky)
 DEFAULT_VEHICLE = "husky"
@@ -68,7 +73,8 @@ def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) 
     Raises
     ------
     NonNumericError
-        Text, a boolean (JSON ``true`` is not 1.0), a date, a duration or a complex number.
+        Text, a boolean (JSON ``true`` is not 1.0), a date, a duration or a complex number
+        (of any dtype: a tz-aware or period column, or such values held as objects).
     ImplausibleValueError
         A number beyond the float range (e.g. an integer of 400 digits).
     """
@@ -88,6 +94,13 @@ def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) 
         i = int(np.flatnonzero(is_bool)[0])
         raise NonNumericError(f"boolean value {bool(raw[i])} where a number is expected "
                               f"({int(is_bool.sum())} such value(s))", where, col,
+                              int(rows[i]))
+    # a tz-aware or period column (e.g. from Parquet) reads as one of objects
+    is_time = np.fromiter((isinstance(x, _TIME_TYPES) for x in raw), bool, raw.size)
+    if is_time.any():
+        i = int(np.flatnonzero(is_time)[0])
+        raise NonNumericError(f"{type(raw[i]).__name__} value {_short(raw[i])} where a number "
+                              f"is expected ({int(is_time.sum())} such value(s))", where, col,
                               int(rows[i]))
     try:
         values = pd.to_numeric(pd.Series(raw), errors="coerce").to_numpy(dtype=float)

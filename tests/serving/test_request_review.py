@@ -114,3 +114,21 @@ def test_a_missing_column_with_no_near_name_gets_no_such_hint():
     with pytest.raises(MissingColumnError) as err:
         parse_request(_long_frame().drop(columns="cur_l"), BOTH, 2.0, 10_000)
     assert "missing ['cur_l']" in str(err.value) and "the request has" not in str(err.value)
+
+
+@pytest.mark.parametrize("values", [
+    pd.Series(pd.to_datetime([0, 1, 2], unit="s", utc=True)),          # tz-aware dtype
+    pd.Series([pd.Timestamp(0), pd.Timestamp(1), pd.Timestamp(2)], dtype=object),
+    pd.Series([pd.Timedelta(1, "s")] * 3, dtype=object),
+    pd.Series(pd.period_range("2020", periods=3, freq="Y")),
+    pd.Series([np.datetime64(1, "s")] * 3, dtype=object),
+], ids=["tz-aware", "timestamps", "timedeltas", "periods", "datetime64-objects"])
+def test_dates_and_durations_of_any_dtype_are_not_numbers(values):
+    """A tz-aware timestamp column (as Parquet gives one), or dates and durations held as
+    objects, were read as nanoseconds, microseconds or years since an epoch: a served
+    request then failed on the 'ns clock' rule ("divide the time column by 1e9") or ran
+    on; the naive datetime64 dtype was already refused."""
+    frame = pd.DataFrame({"t_s": values})
+    with pytest.raises(NonNumericError, match=r"where a number is expected") as err:
+        numeric_column(frame, "t_s", np.arange(3), "request")
+    assert err.value.column == "t_s" and err.value.row == 0
