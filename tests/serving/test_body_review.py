@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from terrain.serving.body import body_refusal
 
 LIMIT = 1 << 20
@@ -62,3 +64,15 @@ def test_mlflow_s_tensor_formats_are_left_to_the_served_model():
     # the served model refuses "inputs" and "instances" in its own words (expected a table)
     for key in ("inputs", "instances"):
         assert _json({key: [[0.0, 1.0]]}) is None
+
+
+@pytest.mark.parametrize("row, fields", [(b"1", 1), (b"1,2,3", 3)])
+def test_a_two_column_csv_body_is_checked_for_ragged_rows(row, fields):
+    """The smallest table the row check reads (one column cannot be ragged but for a
+    comma, and is refused for its missing channels anyway): a short or long row of a
+    two-column body is named with its line."""
+    body = b"t_s,cur_l\n0,1\n" + row + b"\n2,3\n"
+    status, answer = body_refusal("text/csv", body, None, 10**6)
+    assert status == 400 and answer["message"].startswith(
+        f"RaggedRowError: a row of {fields} fields under a header of 2")
+    assert answer["message"].endswith("line 3)")

@@ -23,3 +23,14 @@ def test_a_restart_shift_of_exactly_a_gap_is_none_and_one_just_over_it_moves_the
     assert restart_shift(63.5, 0.0, [64.0], [0.25], 2.0) == pytest.approx(0.625)
     assert restart_shift(64.625, 0.0, [64.0], [0.25], 2.0) == 0.0
     assert restart_shift(64.75, 0.0, [64.0], [0.25], 2.0) == pytest.approx(-0.625)
+
+
+def test_a_stream_went_on_live_only_by_half_the_held_span():
+    # a held run of 10 s: another stream that advanced 5 s meanwhile went on live (half
+    # the span: a live clock beside a lagging delivery); 4.9 s or 2.5 s is a backlog or a
+    # re-send sent faster than live, no clock to put the run on
+    from terrain.serving.clocks import went_on_live
+
+    assert went_on_live(10.0, 5.0)
+    assert not went_on_live(10.0, 4.9)
+    assert not went_on_live(10.0, 2.5)
