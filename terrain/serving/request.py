@@ -147,11 +147,13 @@ def _short(value: Any, limit: int = 40) -> str:
 
 
 def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[str],
-                  rows: np.ndarray, window_s: float, where: str) -> None:
-    """The readers' rules on one stream of a request (time, rate, length, NaN bursts)."""
+                  rows: np.ndarray, window_s: float, where: str, tcol: str = TIME) -> None:
+    """The readers' rules on one stream of a request (time, rate, length, NaN bursts);
+    ``tcol``: the request's time column of the stream, named in the errors (the wide
+    format's ``<stream>_t_s``)."""
     if not np.isfinite(t).all():
         i = int(np.flatnonzero(~np.isfinite(t))[0])
-        raise NonFiniteError(f"non-finite timestamp in stream {stream!r}", where, TIME,
+        raise NonFiniteError(f"non-finite timestamp in stream {stream!r}", where, tcol,
                              int(rows[i]))
     beyond = np.flatnonzero(np.abs(t) > MAX_PLAUSIBLE_TIME_S)
     if beyond.size:
@@ -161,22 +163,22 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
         raise TimestampError(f"stream {stream!r}: {beyond.size} timestamp(s) beyond "
                              f"{MAX_PLAUSIBLE_TIME_S:g} s, the first {float(t[beyond[0]])!r} "
                              "(a clock in ms or ns since an epoch?); send seconds, e.g. since "
-                             "the start of the log", where, TIME, int(rows[beyond[0]]))
+                             "the start of the log", where, tcol, int(rows[beyond[0]]))
     dt = np.diff(t)
     if (dt <= 0).any():
         i = int(np.flatnonzero(dt <= 0)[0]) + 1
         what = "duplicated" if dt[i - 1] == 0 else "decreasing"
         raise TimestampError(f"stream {stream!r}: {what} timestamp {float(t[i])!r} after "
                              f"{float(t[i - 1])!r}; timestamps must increase strictly (send each "
-                             "stream in time order)", where, TIME, int(rows[i]))
-    check_rate(t, stream, where, TIME)
+                             "stream in time order)", where, tcol, int(rows[i]))
+    check_rate(t, stream, where, tcol)
     if t.size >= 2 and stream in NOMINAL_RATE_HZ:
         lo, hi = NOMINAL_RATE_HZ[stream]
         rate = implied_rate_hz(t)   # as printed: 1 ms float steps are 1000 Hz, in range
         if not lo <= rate <= hi:
             raise DataFormatError(f"stream {stream!r}: median step implies {rate:.4g} Hz, "
                                   f"outside its nominal {lo:g}-{hi:g} Hz (timestamps in s?)",
-                                  where, TIME)
+                                  where, tcol)
     span = float(t[-1] - t[0]) if t.size else 0.0
     if span < window_s:
         shown = f"{span:.3g}"
@@ -184,7 +186,7 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
             shown = f"{span:.10g}"
         raise DataFormatError(f"stream {stream!r} too short: it spans {shown} s over "
                               f"{t.size} sample(s); one window needs {window_s:g} s", where,
-                              TIME)
+                              tcol)
     for j, col in enumerate(channels):
         bad = ~np.isfinite(v[:, j])
         if not bad.any():
@@ -338,7 +340,7 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
                 else _wide_rows(frame, stream, tcol, channels, where))
         t = numeric_column(frame, tcol, rows, where)
         v = np.column_stack([numeric_column(frame, c, rows, where) for c in channels])
-        _check_stream(stream, t, v, channels, rows, window_s, where)
+        _check_stream(stream, t, v, channels, rows, window_s, where, tcol)
         part = pd.DataFrame({TIME: t, **{c: v[:, j] for j, c in enumerate(channels)}})
         # finite values only: an isolated inf is a non-finite sample as a NaN is (the
         # service flags it non_finite; a burst was refused above), not a value out of range

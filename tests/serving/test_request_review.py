@@ -132,3 +132,29 @@ def test_dates_and_durations_of_any_dtype_are_not_numbers(values):
     with pytest.raises(NonNumericError, match=r"where a number is expected") as err:
         numeric_column(frame, "t_s", np.arange(3), "request")
     assert err.value.column == "t_s" and err.value.row == 0
+
+
+def _wide(frame: pd.DataFrame) -> pd.DataFrame:
+    """The long request as a wide one (``<stream>_t_s`` beside each stream's channels)."""
+    parts = [frame[frame["stream"] == s].drop(columns="stream")[["t_s", *ch]]
+             .rename(columns={"t_s": f"{s}_t_s"}).reset_index(drop=True)
+             for s, ch in BOTH.items()]
+    return pd.concat(parts, axis=1)
+
+
+@pytest.mark.parametrize("spoil, error, words", [
+    (lambda f: f.assign(imu_t_s=f["imu_t_s"].where(f.index != 10, 99.0)), "TimestampError",
+     "decreasing timestamp"),
+    (lambda f: f.iloc[:50], "DataFormatError", "too short"),
+    (lambda f: f.assign(imu_t_s=f["imu_t_s"] * 1000), "UnitError", "milliseconds"),
+], ids=["decreasing", "too short", "ms"])
+def test_a_wide_request_s_time_errors_name_its_own_time_column(spoil, error, words):
+    """A wide request has no 't_s' column: its time errors named one (HTTP probe: a wide
+    request with an IMU stamp out of order was told "column 't_s'"), now
+    '<stream>_t_s'."""
+    frame = spoil(_wide(_long_frame()))
+    with pytest.raises(Exception) as info:
+        parse_request(frame, BOTH, 2.0, 10_000)
+    assert type(info.value).__name__ == error and words in str(info.value)
+    assert f"column '{info.value.column}'" in str(info.value)
+    assert info.value.column in frame.columns and info.value.column.endswith("_t_s")
