@@ -76,3 +76,14 @@ def test_a_two_column_csv_body_is_checked_for_ragged_rows(row, fields):
     assert status == 400 and answer["message"].startswith(
         f"RaggedRowError: a row of {fields} fields under a header of 2")
     assert answer["message"].endswith("line 3)")
+
+
+@pytest.mark.parametrize("kind", ["text/csv", "application/json"])
+def test_a_nul_byte_at_the_very_start_is_named(kind):
+    """A log padded with zeros from its first byte on is refused for its NUL byte at byte
+    0 (the check 'nul > 0' survived: the body then went on to the parsers)."""
+    body = b"\x00" + b"stream,t_s,vel_l\nwheels,0,0.1\n"
+    status, answer = body_refusal(kind, body, None, LIMIT)
+    assert status == 400 and answer["message"].startswith(
+        "EncodingError: the request body holds a NUL byte (0x00) at byte 0")
+    assert answer["message"].endswith("line 1)")
