@@ -31,7 +31,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
-from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError, TimeStepError
 from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
                                 SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
                                 check_physics, contact_forces,
@@ -316,6 +316,54 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
     return np.clip(omega, -wmax, wmax), delta, clipped
 
 
+#: Largest departure of a step of the time grid from its first step, as a fraction of it
+#: (rounding of a grid far from zero passes; a grid that is not uniform does not).
+GRID_STEP_TOLERANCE = 1e-3
+
+
+def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarray:
+    """Refuse a time grid that is not finite, increasing and uniform, or a command without
+    one finite ``(v_x, v_y, yaw_rate)`` per step; return the command as a float array.
+
+    Raises
+    ------
+    ShapeError
+        ``t_s`` not one-dimensional, or ``twist_cmd`` not of shape ``(len(t_s), 3)``.
+    NonFiniteInputError
+        NaN or infinite times or commands.
+    TimeStepError
+        A first step that is not > 0, or a step that departs from it by more than
+        :data:`GRID_STEP_TOLERANCE` of it (the integrator reads the step from the first two
+        times only).
+    """
+    t = np.asarray(t_s, dtype=float)
+    if t.ndim != 1:
+        raise ShapeError(f"integrate: t_s must be one-dimensional, got shape {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise NonFiniteInputError(f"integrate: t_s holds {int(np.sum(~np.isfinite(t)))} "
+                                  "non-finite times")
+    steps = np.diff(t)
+    if not steps[0] > 0:
+        raise TimeStepError(f"integrate: the time grid t_s must increase, its first step is "
+                            f"{steps[0]!r} s")
+    worst = int(np.argmax(np.abs(steps - steps[0])))
+    if abs(steps[worst] - steps[0]) > GRID_STEP_TOLERANCE * steps[0]:
+        raise TimeStepError(f"integrate: the time grid t_s must be uniform (the step is read "
+                            f"from its first two times, {steps[0]:g} s); step {worst} is "
+                            f"{steps[worst]:g} s")
+    cmd = np.asarray(twist_cmd, dtype=float)
+    if cmd.shape != (len(t), 3):
+        raise ShapeError(f"integrate: twist_cmd must have shape ({len(t)}, 3), one "
+                         f"(v_x, v_y, yaw_rate) per time of t_s, got {cmd.shape}")
+    bad = ~np.isfinite(cmd).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise NonFiniteInputError(f"integrate: twist_cmd holds non-finite commands on "
+                                  f"{int(bad.sum())} steps, the first at step {k} "
+                                  f"(t = {t[k]:.3f} s): {cmd[k].tolist()}")
+    return cmd
+
+
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
               t_s: np.ndarray, twist_cmd: np.ndarray, slope_rad: float, chi: float,
               steer_offset_rad: np.ndarray | None = None,
@@ -332,15 +380,15 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         Terrain sequence along the path; the vehicle changes terrain every
         ``segment_length_m`` of travelled distance, cycling through the tuple.
     segment_length_m : float
-        Distance between terrain changes, m.
+        Distance between terrain changes, m (> 0; inf: the first terrain all along).
     t_s : ndarray, shape (n,)
-        Uniform time grid, s (n >= 2: the step is ``t_s[1] - t_s[0]``).
+        Uniform, increasing time grid, s (n >= 2: the step is ``t_s[1] - t_s[0]``).
     twist_cmd : ndarray, shape (n, 3)
         Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
     slope_rad : float
         Plane inclination (rises along world +x), rad.
     chi : float
-        ICR expansion (skid-steer only; 1 = off).
+        ICR expansion (skid-steer only; 1 = off; finite, >= 1).
     steer_offset_rad : ndarray, shape (n_motors,), optional
         Constant steering error inside the dead band (swerve only).
     hook : ControlHook, optional
@@ -362,11 +410,18 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     Raises
     ------
     ConfigError
-        Unknown physics version, or a time grid of fewer than two steps.
+        Unknown physics version, a time grid of fewer than two steps, no terrain, a segment
+        length not > 0 (inf keeps the first terrain), a slope that is not finite or a
+        ``chi`` that is not finite and >= 1.
+    TimeStepError
+        A time grid that does not increase or is not uniform (within
+        :data:`GRID_STEP_TOLERANCE` of its first step).
     ShapeError
-        The hook returned a correction without one value per motor.
+        ``t_s`` not one-dimensional, ``twist_cmd`` not of shape ``(n, 3)``, or the hook
+        returned a correction without one value per motor.
     NonFiniteInputError
-        The hook returned a NaN or infinite correction.
+        NaN or infinite times or commands, or the hook returned a NaN or infinite
+        correction.
     numpy.linalg.LinAlgError
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).
@@ -375,6 +430,15 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     if len(t_s) < 2:
         raise ConfigError(f"the time grid needs at least 2 steps to integrate, got {len(t_s)} "
                           "(a duration shorter than one physics step?)")
+    twist_cmd = _check_grid_and_commands(t_s, twist_cmd)
+    if not len(terrains):
+        raise ConfigError("integrate needs at least one terrain, got an empty terrain tuple")
+    if not float(segment_length_m) > 0:      # (inf: the first terrain all along)
+        raise ConfigError(f"integrate.segment_length_m must be > 0 m, got {segment_length_m}")
+    if not np.isfinite(slope_rad):
+        raise ConfigError(f"integrate.slope_rad must be finite, got {slope_rad}")
+    if not (np.isfinite(chi) and chi >= 1.0):
+        raise ConfigError(f"integrate.chi (ICR expansion) must be finite and >= 1, got {chi}")
     dt = float(t_s[1] - t_s[0])
     n = len(t_s)
     nm = geometry.n_motors
