@@ -318,10 +318,9 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
     Raises
     ------
     ConfigError
-        Non-positive rate.
+        A rate that is not a finite number > 0 (text, None or a boolean included).
     """
-    if not control_rate_hz > 0:
-        raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
+    config_positive("make_hook", control_rate_hz=control_rate_hz)
     period = 1.0 / control_rate_hz
     state = {"next": 0.0}
 
@@ -363,10 +362,10 @@ def _check_control_rate(config: SimConfig, control_rate_hz: float) -> None:
     Raises
     ------
     ConfigError
-        ``control_rate_hz`` not > 0, or above ``config.physics_rate_hz``.
+        ``control_rate_hz`` not a finite number > 0 (text, None or a boolean included), or
+        above ``config.physics_rate_hz``.
     """
-    if not control_rate_hz > 0:
-        raise ConfigError(f"control_rate_hz must be > 0, got {control_rate_hz}")
+    config_positive("closed loop", control_rate_hz=control_rate_hz)
     physics_hz = float(config.physics_rate_hz)
     if float(control_rate_hz) > physics_hz * (1 + 1e-9):
         raise ConfigError(f"the controller is called once per physics step at most, so "

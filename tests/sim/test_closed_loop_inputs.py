@@ -1,0 +1,36 @@
+"""The closed loop refuses a controller rate or sensor settings it cannot use, with a typed
+error naming the argument."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.sim import SimConfig, SensorSettings
+from terrain.sim.closed_loop import (OnlineSensors, make_hook, replay_observations,
+                                     simulate_closed_loop)
+from terrain.sim.simulate import simulate_with_physics
+
+CONFIG = SimConfig(vehicle="husky", scenario="spin", duration_s=0.5, seed=1)
+
+
+def _zero(observation):
+    return np.zeros(2)
+
+
+@pytest.mark.parametrize("rate", [True, "50", None, float("nan"), 0.0, -10.0])
+def test_a_control_rate_that_is_not_a_positive_number_is_refused(rate):
+    # True ran the controller at 1 Hz without a word; "50" and None were bare TypeErrors
+    with pytest.raises(ConfigError, match="control_rate_hz"):
+        simulate_closed_loop(CONFIG, _zero, control_rate_hz=rate)
+    with pytest.raises(ConfigError, match="control_rate_hz"):
+        list(replay_observations(simulate_with_physics(CONFIG), control_rate_hz=rate))
+
+
+@pytest.mark.parametrize("rate", [True, "50", float("inf"), 0.0])
+def test_make_hook_refuses_a_bad_rate(rate):
+    # inf gave a period of 0: the controller was called on every physics step
+    sensors = OnlineSensors("husky", SensorSettings(), 0, 1.0)
+    with pytest.raises(ConfigError, match="control_rate_hz"):
+        make_hook(sensors, _zero, rate)
