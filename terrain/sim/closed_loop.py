@@ -133,13 +133,21 @@ class OnlineSensors:
     ------
     ConfigError
         Unknown vehicle, terrain or physics version, a seed that is not an integer >= 0,
-        or a duration that is not finite and > 0.
+        a duration that is not finite and > 0, ``sensors`` not :class:`SensorSettings`, or
+        ``terrains`` one string instead of a sequence of names.
     """
 
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
                  duration_s: float, physics: str = "v1", terrains: Sequence[str] = ()) -> None:
         config_seed("OnlineSensors.seed", seed)     # SimConfig's rule
         config_positive("OnlineSensors", duration_s=duration_s)
+        if not isinstance(sensors, SensorSettings):
+            raise ConfigError(f"OnlineSensors.sensors must be SensorSettings (the vehicle's "
+                              f"defaults: terrain.sim.DEFAULT_SENSORS), got "
+                              f"{type(sensors).__name__}")
+        if isinstance(terrains, str):
+            raise ConfigError(f"OnlineSensors.terrains must be a sequence of terrain names, "
+                              f"got the string {terrains!r}")
         self.vehicle = get_vehicle(vehicle)
         check_physics(physics)   # here, not at the first current sample of the run
         self.physics = physics

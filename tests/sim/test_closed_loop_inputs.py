@@ -34,3 +34,18 @@ def test_make_hook_refuses_a_bad_rate(rate):
     sensors = OnlineSensors("husky", SensorSettings(), 0, 1.0)
     with pytest.raises(ConfigError, match="control_rate_hz"):
         make_hook(sensors, _zero, rate)
+
+
+@pytest.mark.parametrize("sensors", [None, {"imu_rate_hz": 100.0}])
+def test_online_sensors_refuse_settings_that_are_not_sensor_settings(sensors):
+    # was AttributeError "'NoneType' object has no attribute 'accel_bias_std_m_s2'"
+    with pytest.raises(ConfigError, match="OnlineSensors.sensors must be SensorSettings"):
+        OnlineSensors("husky", sensors, 0, 1.0)
+
+
+def test_online_sensors_refuse_one_string_of_terrains():
+    # "SNOW" was split into letters: "unknown terrain 'S'"
+    with pytest.raises(ConfigError, match="sequence of terrain names"):
+        OnlineSensors("husky", SensorSettings(), 0, 1.0, terrains="SNOW")
+    assert [t.name for t in OnlineSensors("husky", SensorSettings(), 0, 1.0,
+                                          terrains=("SNOW",)).terrains] == ["SNOW"]
