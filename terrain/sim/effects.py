@@ -158,10 +158,15 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     ------
     ConfigError
         Unknown name, malformed item, a name given twice, non-numeric or out-of-range value
-        (a mapping's value that is a boolean, None or not one real number included).
+        (a mapping's value that is a boolean, None or not one real number included), or
+        one string instead of a sequence of items.
     """
     if items is None:
         return Effects()
+    if isinstance(items, str):
+        # a string is iterable too: "gyro_bias=0.1" was read letter by letter ('g' ...)
+        raise ConfigError(f"parse_effects takes a sequence of NAME=VALUE items, got the "
+                          f"string {items!r}; give [{items!r}]")
     pairs: dict[str, float] = {}
     source = items.items() if isinstance(items, Mapping) else None
     if source is None:

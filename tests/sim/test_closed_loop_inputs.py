@@ -1,5 +1,6 @@
-"""The closed loop refuses a controller rate or sensor settings it cannot use, with a typed
-error naming the argument."""
+"""The closed loop, the effects parser and the stream rates refuse an argument they cannot
+use (a controller rate, sensor settings, one string for a list), with a typed error naming
+it."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.sim import SimConfig, SensorSettings
+from terrain.sim import SensorSettings, SimConfig, parse_effects
 from terrain.sim.closed_loop import (OnlineSensors, make_hook, replay_observations,
                                      simulate_closed_loop)
 from terrain.sim.simulate import simulate_with_physics
@@ -49,3 +50,10 @@ def test_online_sensors_refuse_one_string_of_terrains():
         OnlineSensors("husky", SensorSettings(), 0, 1.0, terrains="SNOW")
     assert [t.name for t in OnlineSensors("husky", SensorSettings(), 0, 1.0,
                                           terrains=("SNOW",)).terrains] == ["SNOW"]
+
+
+def test_parse_effects_refuses_one_string_instead_of_a_list_of_items():
+    # "gyro_bias=0.1" was iterated letter by letter: "effect 'g' is not NAME=VALUE"
+    with pytest.raises(ConfigError, match="sequence of NAME=VALUE items.*'gyro_bias=0.1'"):
+        parse_effects("gyro_bias=0.1")
+    assert parse_effects(["gyro_bias=0.1"]).gyro_bias == 0.1
