@@ -90,9 +90,13 @@ def stream_rates_hz(vehicle: str, sensors: SensorSettings | None = None) -> dict
     Raises
     ------
     ConfigError
-        Unknown vehicle.
+        Unknown vehicle, or ``sensors`` neither :class:`SensorSettings` nor None.
     """
     params = get_vehicle(vehicle)
+    if sensors is not None and not isinstance(sensors, SensorSettings):
+        # an empty dict was falsy and gave the defaults; other values an AttributeError
+        raise ConfigError(f"sensors must be SensorSettings or None, got "
+                          f"{type(sensors).__name__}")
     s = sensors or DEFAULT_SENSORS[params.name]
     rates = {"imu": s.imu_rate_hz, "pro": s.wheel_rate_hz, "truth": s.truth_rate_hz}
     if params.contact_geometry().steered:
@@ -132,8 +136,8 @@ def minimum_duration_s(vehicle: str, sensors: SensorSettings | None = None,
     Raises
     ------
     ConfigError
-        Unknown vehicle, or ``physics_rate_hz`` not a finite rate > 0 (0 was a
-        ZeroDivisionError).
+        Unknown vehicle, ``sensors`` neither :class:`SensorSettings` nor None, or
+        ``physics_rate_hz`` not a finite rate > 0 (0 was a ZeroDivisionError).
     """
     config_positive("minimum_duration_s", physics_rate_hz=physics_rate_hz)
     rates = stream_rates_hz(vehicle, sensors)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.sim import SensorSettings, SimConfig, parse_effects
+from terrain.sim import SensorSettings, SimConfig, minimum_duration_s, parse_effects
 from terrain.sim.closed_loop import (OnlineSensors, make_hook, replay_observations,
                                      simulate_closed_loop)
-from terrain.sim.simulate import simulate_with_physics
+from terrain.sim.simulate import simulate_with_physics, stream_rates_hz
 
 CONFIG = SimConfig(vehicle="husky", scenario="spin", duration_s=0.5, seed=1)
 
@@ -57,3 +57,13 @@ def test_parse_effects_refuses_one_string_instead_of_a_list_of_items():
     with pytest.raises(ConfigError, match="sequence of NAME=VALUE items.*'gyro_bias=0.1'"):
         parse_effects("gyro_bias=0.1")
     assert parse_effects(["gyro_bias=0.1"]).gyro_bias == 0.1
+
+
+def test_stream_rates_refuse_settings_that_are_not_sensor_settings():
+    # {} (falsy) silently gave the vehicle's defaults, "x" was an AttributeError
+    for bad in ({}, "x", 3):
+        with pytest.raises(ConfigError, match="sensors must be SensorSettings"):
+            stream_rates_hz("husky", bad)
+        with pytest.raises(ConfigError, match="sensors must be SensorSettings"):
+            minimum_duration_s("husky", bad)
+    assert stream_rates_hz("husky", None) == stream_rates_hz("husky", SensorSettings())
