@@ -54,3 +54,27 @@ def test_a_correction_that_drives_the_command_past_the_limit_is_clipped_and_coun
     assert p.correction_clipped_steps[0] > 50 and p.correction_clipped_steps[1] == 0
     assert np.allclose(p.omega_cmd[1:], np.clip(wanted, -wmax, wmax))
     assert p.speed_clipped_steps.tolist() == [0, 0]    # the scenario's own command fits
+
+
+def test_online_currents_are_rounded_to_the_current_quantum():
+    # noise-free: each online current sample is the drive's report rounded to
+    # current_quantum_a (0.01 A), as the batch stream
+    from dataclasses import replace
+
+    from terrain.sim import DEFAULT_SENSORS
+    from terrain.sim.closed_loop import OnlineSensors
+    from terrain.sim.dynamics import PlantSnapshot
+    from terrain.sim.forces import reported_current_a
+    from terrain.sim.sensors import quantise
+
+    settings = replace(DEFAULT_SENSORS["agrimaro"], current_noise_a=0.0)
+    assert settings.current_quantum_a == 0.01
+    s = OnlineSensors("agrimaro", settings, 0, 1.0)
+    torque = np.array([3.337, -1.261, 0.848])
+    omega = np.array([2.0, -1.5, 0.7])
+    z = np.zeros(3)
+    s.record(PlantSnapshot(0, 0.0, z, z, np.zeros(2), omega, z, omega, torque))
+    got = s.take(0.0, z).currents[0, 1:]
+    want = quantise(np.abs(reported_current_a(AGRIMARO.motor, torque, omega)), 0.01)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert not np.allclose(want, np.round(want, 1))      # not on a coarser grid
