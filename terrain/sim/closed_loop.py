@@ -91,11 +91,28 @@ class Observation(NamedTuple):
     imu_full: np.ndarray
 
 
+#: Tolerance of a sample or call time against its physics step, s (rounding of the grid)
+SCHEDULE_TOLERANCE_S = 1e-9
+
+
 @dataclass
 class _Channel:
+    """A sensor's samples: due at ``n period_s`` (the product, not a running sum of periods,
+    whose rounding drifted past :data:`SCHEDULE_TOLERANCE_S` after ~2170 s at 100 Hz and
+    lost a sample), the rows taken since the controller's last call."""
+
     period_s: float
     next_t: float
     rows: list
+    taken: int = 0
+
+    def due(self, t_s: float) -> bool:
+        """Whether a sample is due at ``t_s``; if so, count it and schedule the next."""
+        if t_s + SCHEDULE_TOLERANCE_S < self.next_t:
+            return False
+        self.taken += 1
+        self.next_t = self.taken * self.period_s
+        return True
 
 
 class OnlineSensors:
@@ -191,15 +208,13 @@ class OnlineSensors:
         s, t = self.settings, snap.t_s
         dt = 0.0 if self._t_prev is None else t - self._t_prev
         self._t_prev = t
-        eps = 1e-9
         c = self.ch["imu"]
-        if t + eps >= c.next_t:
+        if c.due(t):
             n = self.rng.standard_normal(3)
             a = snap.accel_body + self.accel_bias + s.accel_noise_m_s2 * n[:2]
             wz = snap.twist[2] + s.gyro_noise_rad_s * n[2]
             c.rows.append((t, a[0], a[1], wz))
             self.imu_full_rows.append((t, *self._full_imu(snap, a, wz)))
-            c.next_t += c.period_s
         # encoders: count rate per physics step when the speed quantum is 0, then the motor
         # driver's first-order filter, sampled at the wheel rate (as the batch model)
         motor = self.vehicle.motor
@@ -220,32 +235,28 @@ class OnlineSensors:
             self._filtered = raw
         self._omega_prev = snap.omega
         c = self.ch["wheels"]
-        if t + eps >= c.next_t:
+        if c.due(t):
             r = self.vehicle.wheel_radius_m
             om = self._filtered
             if s.speed_quantum_m_s > 0:
                 om = quantise(om * r, s.speed_quantum_m_s) / r
             c.rows.append((t, *om.tolist()))
-            c.next_t += c.period_s
         c = self.ch["currents"]
-        if t + eps >= c.next_t:
+        if c.due(t):
             cur = reported_current_a(motor, np.asarray(snap.torque, dtype=float), snap.omega,
                                      self.physics)
             cur = np.abs(cur + s.current_noise_a * self.rng_current.standard_normal(cur.size))
             cur = quantise(cur, s.current_quantum_a)
             c.rows.append((t, *cur.tolist()))
-            c.next_t += c.period_s
         if not self.steered:
             return
         c = self.ch["steer"]
-        if t + eps >= c.next_t:
+        if c.due(t):
             # (a resolution of 0 is no quantisation, as in the batch model)
             d = quantise(snap.delta, s.steer_quantum_rad)
             c.rows.append((t, *d.tolist()))
-            c.next_t += c.period_s
         c = self.ch["cam"]
-        if t + eps >= c.next_t:
-            c.next_t += c.period_s
+        if c.due(t):
             if any(a <= t < b for a, b in self.outages):
                 self.cam_rows_dropped += 1
             else:
@@ -330,13 +341,14 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
     """
     config_positive("make_hook", control_rate_hz=control_rate_hz)
     period = 1.0 / control_rate_hz
-    state = {"next": 0.0}
+    state = {"calls": 0}
 
     def hook(snap: PlantSnapshot) -> np.ndarray | None:
         sensors.record(snap)
-        if snap.t_s + 1e-9 < state["next"]:
+        # the n-th call at n period (a running sum of periods drifts, _Channel)
+        if snap.t_s + SCHEDULE_TOLERANCE_S < state["calls"] * period:
             return None
-        state["next"] += period
+        state["calls"] += 1
         return controller(sensors.take(snap.t_s, snap.omega_low_level))
 
     return hook
@@ -455,7 +467,7 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     _check_sensor_rates(cfg, settings)
     sensors = OnlineSensors(cfg.vehicle, settings, cfg.seed, cfg.duration_s, cfg.physics,
                             cfg.terrains)
-    period, next_t, n = 1.0 / control_rate_hz, 0.0, len(phys.t_s)
+    period, calls, n = 1.0 / control_rate_hz, 0, len(phys.t_s)
     for k in range(n):
         snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
                              phys.accel_body[k], phys.omega[k], phys.delta[k],
@@ -463,6 +475,6 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
                              float(phys.pitch[k]), float(phys.roll[k]),
                              int(phys.terrain_index[k]))
         sensors.record(snap)
-        if snap.t_s + 1e-9 >= next_t:
-            next_t += period
+        if snap.t_s + SCHEDULE_TOLERANCE_S >= calls * period:
+            calls += 1
             yield sensors.take(snap.t_s, snap.omega_low_level)
