@@ -78,3 +78,25 @@ def test_online_currents_are_rounded_to_the_current_quantum():
     want = quantise(np.abs(reported_current_a(AGRIMARO.motor, torque, omega)), 0.01)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     assert not np.allclose(want, np.round(want, 1))      # not on a coarser grid
+
+
+def test_batch_currents_are_the_motor_currents_rounded_to_the_current_quantum():
+    # noise off: the pro stream's currents are the motor currents at the wheel samples,
+    # rounded to current_quantum_a (0.01 A)
+    from dataclasses import replace
+
+    from terrain.sim import DEFAULT_SENSORS, SimConfig, simulate_with_physics
+    from terrain.sim.sensors import interp_columns, quantise
+    from terrain.sim.simulate import motor_currents
+
+    sensors = replace(DEFAULT_SENSORS["husky"], current_noise_a=0.0)
+    cfg = SimConfig(vehicle="husky", scenario="random", duration_s=3.0, seed=2,
+                    sensors=sensors)
+    sim = simulate_with_physics(cfg)
+    wheels = sim.run.streams["wheels"]
+    cur = motor_currents(sim.physics, get_vehicle("husky"), cfg.effects, cfg.physics)
+    want = quantise(np.abs(interp_columns(wheels["t_s"].to_numpy(), sim.physics.t_s, cur)),
+                    0.01)
+    got = wheels[["cur_l", "cur_r"]].to_numpy()
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert not np.allclose(got, np.round(got, 1))
