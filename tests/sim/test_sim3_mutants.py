@@ -100,3 +100,24 @@ def test_batch_currents_are_the_motor_currents_rounded_to_the_current_quantum():
     got = wheels[["cur_l", "cur_r"]].to_numpy()
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     assert not np.allclose(got, np.round(got, 1))
+
+
+def test_agrimaro_omega_stream_is_the_filtered_encoder_count_rate():
+    # speed quantum 0: the omega stream is the count rate per physics step
+    # (encoder_count_rate), through the driver's first-order filter (encoder_filter_s),
+    # sampled at the wheel times
+    from terrain.sim import SimConfig, simulate_with_physics
+    from terrain.sim.sensors import encoder_count_rate, first_order_filter, interp_columns
+
+    sim = simulate_with_physics(SimConfig(vehicle="agrimaro", scenario="random",
+                                          duration_s=2.0, seed=4))
+    motor, p = AGRIMARO.motor, sim.physics
+    assert motor.encoder_filter_s > 0
+    dt = float(p.t_s[1] - p.t_s[0])
+    want = first_order_filter(encoder_count_rate(p.omega, dt, motor.encoder_counts_per_rev),
+                              dt, motor.encoder_filter_s)
+    om = sim.run.streams["omega"]
+    want = interp_columns(om["t_s"].to_numpy(), p.t_s, want)
+    np.testing.assert_allclose(om[["omega_1", "omega_2", "omega_3"]].to_numpy(), want,
+                               rtol=0, atol=1e-12)
+    assert np.abs(want).max() > 1.0
