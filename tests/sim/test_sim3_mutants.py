@@ -121,3 +121,19 @@ def test_agrimaro_omega_stream_is_the_filtered_encoder_count_rate():
     np.testing.assert_allclose(om[["omega_1", "omega_2", "omega_3"]].to_numpy(), want,
                                rtol=0, atol=1e-12)
     assert np.abs(want).max() > 1.0
+
+
+def test_physics_v2_leaves_the_steered_agrimaro_as_v1_on_a_soil():
+    # v2's lateral soil model, load transfer and tyre law are the skid-steers' (no soil
+    # contact, CoG height 0 and no tyre entry for the AgriMaRo): its v2 run is its v1 run
+    from terrain.sim.dynamics import soil_contacts
+
+    soil = (get_terrain("SANDY_LOAM"),)
+    geo = AGRIMARO.contact_geometry()
+    assert soil_contacts(AGRIMARO, geo, soil) == {}
+    t = np.arange(101) * 0.01
+    cmd = np.column_stack([np.minimum(t, 0.5), 0.2 * np.minimum(t, 0.5), 0.3 * t])
+    v1, v2 = (integrate(AGRIMARO, geo, soil, 1e9, t, cmd, 0.0, 1.0, physics=ph)
+              for ph in ("v1", "v2"))
+    np.testing.assert_array_equal(v2.twist, v1.twist)
+    np.testing.assert_array_equal(v2.torque, v1.torque)
