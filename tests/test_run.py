@@ -65,3 +65,21 @@ def test_require_finite_names_the_first_non_finite_value_of_time_and_the_columns
                                              rf"'{column}', first at row {row}") as err:
         run.require_finite("wheels", ["vel_l"])
     assert (err.value.column, err.value.row, err.value.path) == (column, row, "w.csv")
+
+
+def test_a_sample_belongs_to_the_first_step_at_or_after_it_within_a_nanosecond():
+    from terrain.run import step_index
+
+    grid = np.array([0.0, 0.1, 0.2])
+    t = [0.1 - 1e-12, 0.1, 0.1 + 1e-12, 0.1 + 2e-9, 0.05, 0.25]
+    assert step_index(grid, t).tolist() == [1, 1, 1, 2, 1, 3]
+    assert step_index(grid, t, clip=True).tolist() == [1, 1, 1, 2, 1, 2]
+
+
+def test_times_out_of_order_strict_or_letting_a_repeat_pass():
+    from terrain.run import times_out_of_order
+
+    t = [0.0, 0.1, 0.1, 0.05, np.nan, 0.3, np.inf]
+    assert times_out_of_order(t).tolist() == [2, 3, 4, 6]
+    assert times_out_of_order(t, strict=False).tolist() == [3, 4, 6]
+    assert times_out_of_order([]).tolist() == []

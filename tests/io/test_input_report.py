@@ -77,3 +77,12 @@ def test_windows_dropped_for_one_reason_alone_are_still_reported(dropped_gap, dr
     m = report.metrics()
     assert (m["input_windows_dropped_gap"], m["input_windows_dropped_unsteady"]) == (
         dropped_gap, dropped_unsteady)
+
+
+def test_gaps_are_merged_across_streams_and_totalled_only_when_several():
+    # the gap of a recording shows in both files: counted once, its length as merged
+    one = input_report([_run("r/a", gaps={"imu": [(1.0, 3.5)], "wheels": [(1.2, 3.0)]})])
+    assert "  1 timestamp gap(s) (2.5 s) in r/a; never interpolated across" in one.text()
+    assert (one.metrics()["input_gaps"], one.metrics()["input_gap_s"]) == (1, 2.5)
+    two = input_report([_run("r/b", gaps={"imu": [(1.0, 2.0), (5.0, 5.5)]})])
+    assert "  2 timestamp gap(s) (1.0 s, 0.5 s; 1.5 s in all) in r/b" in two.text()
