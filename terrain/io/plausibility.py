@@ -23,7 +23,8 @@ Vehicle bounds (:data:`VEHICLE_LIMITS`, Clearpath Husky A200, the robot of the m
       :data:`terrain.vehicles.HUSKY`;
     * motor current 80 A: the Husky A200 user manual (Clearpath, 2014, p. 12) rates the
       motors at 8 A continuous "but they will spike to several times this"; the shipped runs
-      peak at 32.6 A. ASSUMED bound: ten times the continuous rating.
+      peak at 32.6 A. ASSUMED bound: ten times the continuous rating; a current beyond
+      it is warned about (rule ``current_range``).
 
 Unit and clock rules (:func:`check_run`)
     ``timestamp_units``
@@ -63,6 +64,11 @@ Unit and clock rules (:func:`check_run`)
         slope of the wheel-speed derivative on the forward specific force (1 s averages) is
         about 1 in m/s (the shipped runs: at most 0.5, the IMU axes being tilted); when the
         correlation is >= 0.5 and the slope exceeds 2.5 the speeds are likely in km/h.
+    ``current_range``
+        Motor currents against the vehicle's bound (vehicles of :data:`VEHICLE_LIMITS`,
+        80 A for the Husky). The bound is assumed, so any sample beyond it is likely
+        (warning, assumed A): a current in another unit or scale; the 1000 A range of
+        :data:`CHANNEL_LIMITS` refuses.
     ``accel_units`` (:func:`check_accel_units`, on the IMU file alone)
         The median norm of the specific force at rest and in motion is gravity: 9.81 in
         m/s^2, 1 in g. Judged on the samples outside the accelerometer's stuck stretches
@@ -494,6 +500,7 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     if wheels is not None and len(wheels) and vehicle in VEHICLE_LIMITS:
         _check_wheel_speed(wheels, imu, VEHICLE_LIMITS[vehicle], src("wheels"), found,
                            [_file_column("wheels", c, columns) for c in ("vel_l", "vel_r")])
+        _check_current(wheels, VEHICLE_LIMITS[vehicle], src("wheels"), found, columns)
     stuck = stuck_stretches(streams)
     for key, spans in stuck.items():
         total = sum(b - a for a, b in spans)
@@ -659,6 +666,25 @@ def _check_wheel_speed(wheels, imu, lim: VehicleLimits, path, found,
     if evidence:
         found.append(f"{path}: rule wheel_speed_units: {'; '.join(evidence)}: wheel speeds "
                      "probably in km/h; assumed m/s as the format requires")
+
+
+def _check_current(wheels, lim: VehicleLimits, path, found,
+                   columns: Mapping[str, Mapping[str, str]] | None = None) -> None:
+    """Rule ``current_range``: motor currents beyond the vehicle's bound, each channel's
+    largest named with its time (a likely finding: the bound is assumed)."""
+    for channel in ("cur_l", "cur_r"):
+        if channel not in wheels.columns:
+            continue
+        current = np.abs(wheels[channel].to_numpy(dtype=float))
+        beyond = current > lim.max_current_a
+        if beyond.any():
+            k = int(np.argmax(current))
+            found.append(f"{path}: rule current_range: {int(beyond.sum())} sample(s) of "
+                         f"{_channel_text(f'wheels.{channel}', columns)} beyond the vehicle's "
+                         f"assumed {lim.max_current_a:g} A, the largest "
+                         f"{wheels[channel].iloc[k]:g} A at t = {wheels[TIME].iloc[k]:.10g} s: "
+                         "a current in another unit or scale?; assumed A as the format "
+                         "requires")
 
 
 def _speed_accel_slope(wheels, imu) -> float | None:
