@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer
 from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES
 from terrain.run import TIME, Run
 
@@ -169,7 +169,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     Raises
     ------
     ConfigError
-        Index out of range [0, 99] or already used by a file of the folder (any
+        Index not an integer in [0, 99] (a boolean, a float or text included) or already
+        used by a file of the folder (any
         ``*_XX.*``, measured runs have no ``meta_XX.json``), no free index left (default
         ``index``: the folder holds runs 00-99), a stream name the readers
         would not read back (``meta`` included) or two streams that go to one file
@@ -188,12 +189,12 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata)")
     folder = Path(out_dir) / terrain
+    if index is not None:    # (True was run 01, 2.7 run 02, "x" int()'s bare ValueError)
+        config_integer("write_run.index", index, 0, 99)
     idx = next_index(folder) if index is None else int(index)
     if index is None and idx > 99:
         raise ConfigError(f"{folder} already holds runs 00-99: the layout numbers a terrain "
                           f"folder's runs with two digits; write to another folder")
-    if not 0 <= idx <= 99:
-        raise ConfigError(f"run index must be in [0, 99], got {idx}")
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
     folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then

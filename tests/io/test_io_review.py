@@ -117,7 +117,7 @@ def test_an_index_in_use_is_refused_and_the_run_there_is_kept(tmp_path, make_run
 def test_an_index_outside_the_two_digit_layout_is_refused(tmp_path, make_run, index):
     from terrain.errors import ConfigError
 
-    with pytest.raises(ConfigError, match=r"must be in \[0, 99\]"):
+    with pytest.raises(ConfigError, match=r"must be an integer in \[0, 99\]"):
         write_run(_wheel_run(make_run), tmp_path, index)
     # nothing is written then, not even the terrain folder (an empty ASPHALT/ was left)
     assert not (tmp_path / "ASPHALT").exists()

@@ -120,3 +120,20 @@ def test_two_streams_that_go_to_one_file_are_refused_before_anything_is_written(
                                           r"to pro_XX\.csv"):
         write_run(both, tmp_path, 0)
     assert not (tmp_path / "ASPHALT").exists()
+
+
+@pytest.mark.parametrize("index", [True, 2.7, "3", None])
+def test_an_index_that_is_not_an_integer_of_the_layout_is_refused_before_writing(
+        tmp_path, index):
+    # True was written as run 01 and 2.7 as run 02 without a word, and "x" raised int()'s
+    # bare ValueError
+    from terrain.errors import ConfigError
+
+    if index is None:       # the default: the next free index
+        assert write_run(_run(0.0), tmp_path / "out")["meta"].name == "meta_00.json"
+        assert write_run(_run(0.0), tmp_path / "out", np.int64(7))["pro"].name == "pro_07.csv"
+        return
+    with pytest.raises(ConfigError, match=r"write_run.index must be an integer in \[0, 99\], "
+                                          rf"got {index!r}"):
+        write_run(_run(0.0), tmp_path / "out", index)
+    assert not (tmp_path / "out").exists()
