@@ -73,3 +73,19 @@ def test_a_stream_running_on_is_warned_beyond_a_tenth_of_a_long_overlap(run_on_s
     assert out["unused_s"] == pytest.approx({"wheels": run_on_s})
     found = [w for w in out["warnings"] if "clock_overlap" in w]
     assert len(found) == warned
+
+
+@pytest.mark.parametrize("rate_hz, warned", [(2004.0, True), (2000.4, False)])
+def test_the_implied_rate_is_judged_to_four_significant_digits(rate_hz, warned):
+    """Rule ``timestamp_units`` judges the rate as printed, to 4 significant digits: an IMU
+    at 2004 Hz is outside its 10-2000 Hz (three digits would make it 2000, inside), and
+    2000.4 Hz is 2000 Hz."""
+    from terrain.io.plausibility import check_rate, implied_rate_hz
+
+    t = np.arange(200) / rate_hz
+    assert implied_rate_hz(t) == round(rate_hz)
+    found: list[str] = []
+    check_rate(t, "imu", "imu_00.csv", found=found)
+    assert len(found) == warned
+    if warned:
+        assert "implied sample rate 2004 Hz outside the nominal 10-2000 Hz" in found[0]
