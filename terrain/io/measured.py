@@ -216,7 +216,10 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             out[name] = numbers[:, header.index(col)]
             continue
         text = pd.Series(cells[:, header.index(col)]).str.strip()
-        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+        # pandas' parser reads a number led by "+" one unit in the last place off (1 in 8 of
+        # them: "+1.4718714553235301"); without its sign it reads float()'s value
+        values = pd.to_numeric(text.str.replace(r"^\+(?=[0-9.])", "", regex=True),
+                               errors="coerce").to_numpy(dtype=float)
         # the words NumPy's fast path reads as non-finite too (C's printf writes -nan)
         is_nan_word = text.str.lower().isin(NON_FINITE_WORDS)
         bad = np.isnan(values) & ~is_nan_word.to_numpy()
