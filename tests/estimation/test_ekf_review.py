@@ -150,7 +150,10 @@ def test_with_step_bounds_the_state_bounds_also_hold_at_steps_without_a_sample()
 def test_one_precise_update_of_a_badly_scaled_covariance_stays_positive_semi_definite():
     # states of scales 1e-3 .. 1e4 observed by rows with noise down to 1e-14: the short form
     # (I - K H) P of eq. 4.12 reaches eigenvalues of -3e-5 times the largest on these
-    # draws; the Joseph form stays within round-off of PSD
+    # draws; the Joseph form stays within round-off of PSD. Round-off here is relative to the
+    # prior (eps |P0|, up to 1e8), not to the posterior: the stored P1 of draw 204 has an
+    # exact eigenvalue of -2.8e-12 times its largest with one OpenBLAS kernel (-1e-12 was
+    # met with another), five orders below the short form's -5e-5 on the same draws
     rng = np.random.default_rng(0)
     n = 4
     worst = 0.0
@@ -162,7 +165,7 @@ def test_one_precise_update_of_a_badly_scaled_covariance_stays_positive_semi_def
         eig = np.linalg.eigvalsh(P1)
         worst = min(worst, eig[0] / eig[-1])
         np.testing.assert_array_equal(P1, P1.T)
-    assert worst > -1e-12
+    assert worst > -1e-10
 
 
 def test_the_streaming_filter_gates_a_sensor_after_an_absent_one():
