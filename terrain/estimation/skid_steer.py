@@ -100,8 +100,8 @@ class SkidSteerSettings:
     Raises
     ------
     ConfigError
-        A standard deviation, ``track_m`` or ``chi0`` not > 0, or a density negative or not
-        finite.
+        A field not a real number (text, a boolean, None), a standard deviation,
+        ``track_m`` or ``chi0`` not > 0, or a density negative or not finite.
     """
 
     track_m: float = HUSKY.track_m
@@ -119,6 +119,8 @@ class SkidSteerSettings:
     chi_min_yaw_rate_rad_s: float = 0.05
 
     def __post_init__(self) -> None:
+        # text passed float() below and was kept as text; True was 1
+        config_numbers("SkidSteerSettings", **vars(self))
         for name in ("track_m", "wheel_std_m_s", "gyro_std_rad_s", "log_chi0_std", "bias0_std",
                      "v0_std", "yaw_rate0_std", "chi0"):
             v = float(getattr(self, name))

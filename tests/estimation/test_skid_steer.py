@@ -373,3 +373,14 @@ def test_windows_equal_the_frame_filter_on_each_window():
         np.testing.assert_allclose(x[i], ref.x, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(y[i], ref.y, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(nis[i], ref.nis, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("field, value", [("wheel_std_m_s", "0.05"), ("track_m", True),
+                                          ("track_m", "abc"), ("bias_psd", None),
+                                          ("chi_min_yaw_rate_rad_s", False)])
+def test_settings_that_are_not_real_numbers_are_refused_naming_the_field(field, value):
+    """Text passed float() and was kept as text (R_diag then raised Python's TypeError on
+    ``'0.05' ** 2``), True was a 1 m track, 'abc' and None were bare ValueError / TypeError:
+    each is a ConfigError naming SkidSteerSettings.<field>."""
+    with pytest.raises(ConfigError, match=rf"SkidSteerSettings\.{field} must be a real number"):
+        SkidSteerSettings(**{field: value})
