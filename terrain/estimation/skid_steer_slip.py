@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, ShapeError, config_numbers
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer_slip import (N_MEASUREMENTS, N_STATES,
                                                           SkidSteerSlipEquationParams,
@@ -160,7 +160,9 @@ class SkidSteerSlipSettings:
     Raises
     ------
     ConfigError
-        A standard deviation not > 0 or a density negative or not finite.
+        A field not a real number (text, a boolean; None except for
+        ``speed_bound_braking_slip``), a standard deviation not > 0 or a density negative or
+        not finite.
     """
 
     track_m: float = HUSKY.track_m
@@ -189,6 +191,9 @@ class SkidSteerSlipSettings:
     speed_bound_hold_s: float = 1.0
 
     def __post_init__(self) -> None:
+        # text passed float() below and was kept as text; True was 1
+        config_numbers("SkidSteerSlipSettings", optional=("speed_bound_braking_slip",),
+                       **vars(self))
         for name in ("track_m", "wheel_std_m_s", "gyro_std_rad_s", "accel_std_m_s2", "chi0",
                      "log_chi0_std", "bias0_std", "v0_std", "yaw_rate0_std", "slip0_std",
                      "accel0_std", "pitch0_std", "slip_std"):

@@ -4,7 +4,9 @@ left out and counted."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from terrain.errors import ConfigError
 from terrain.estimation.runner import SensorSamples
 from terrain.estimation.skid_steer_slip import (MEASUREMENT_NAMES, SkidSteerSlipSettings,
                                                 run_with_pseudo_slip)
@@ -46,3 +48,17 @@ def test_a_pseudo_measurement_outside_the_grid_changes_nothing_but_its_count():
     assert (more.counts["slip_model"]["outside"], more.counts["slip_model"]["used"]) == (2, 3)
     for name in ("x", "P_diag", "y", "S_diag", "nis"):
         np.testing.assert_array_equal(getattr(more, name), getattr(ref, name), err_msg=name)
+
+
+@pytest.mark.parametrize("field, value", [("wheel_std_m_s", "0.05"), ("track_m", True),
+                                          ("jerk_psd", "abc"), ("slip_std", None),
+                                          ("speed_bound_braking_slip", "-0.3")])
+def test_slip_settings_that_are_not_real_numbers_are_refused_naming_the_field(field, value):
+    """Text passed float() and was kept as text (a later ``** 2`` raised Python's TypeError),
+    True was a 1 m track, 'abc' and None were bare ValueError / TypeError: each is a
+    ConfigError naming SkidSteerSlipSettings.<field>; speed_bound_braking_slip may still be
+    None (no bound)."""
+    with pytest.raises(ConfigError,
+                       match=rf"SkidSteerSlipSettings\.{field} must be a real number"):
+        SkidSteerSlipSettings(**{field: value})
+    assert SkidSteerSlipSettings(speed_bound_braking_slip=None).speed_bound_braking_slip is None
