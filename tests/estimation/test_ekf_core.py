@@ -464,3 +464,19 @@ def test_an_update_noise_that_is_not_a_covariance_is_refused_even_when_s_stays_p
     np.testing.assert_array_equal(kf.x, np.zeros(2))
     np.testing.assert_array_equal(kf.P, 100.0 * np.eye(2))
     assert kf.last_innovation is None
+
+
+def test_an_update_of_a_later_row_alone_uses_that_rows_noise():
+    """``rows=[1]`` with a diagonal ``R`` (a vector) takes ``R[1]``, not the first entry: the
+    posterior equals :func:`correct` with ``H = [0, 1]`` and ``R = [R_1]`` (the rows subset
+    tests above only sent row 0, where ``R[:1]`` is the same number)."""
+    R = np.array([1e-4, 0.25])
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), lambda x, dt: x, lambda x, dt: np.eye(2),
+                               lambda x: x, lambda x: np.eye(2), np.zeros(2), R)
+    inn = ekf.update(np.array([1.0]), rows=[1])
+    x, P, ref = correct(np.zeros(2), np.eye(2), np.array([1.0]), np.array([[0.0, 1.0]]),
+                        R[1:])
+    np.testing.assert_allclose(ekf.x, x, rtol=1e-12)
+    np.testing.assert_allclose(ekf.P, P, rtol=1e-12)
+    assert ekf.x[1] == pytest.approx(1.0 / 1.25)          # P / (P + R_1) of a unit innovation
+    assert inn.nis == pytest.approx(ref.nis) and inn.nis == pytest.approx(1.0 / 1.25)
