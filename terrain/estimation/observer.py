@@ -29,7 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError, TimeStepError
+from terrain.errors import (ConfigError, ShapeError, TimeStepError, config_numbers,
+                            config_positive)
 from terrain.vehicles.common import wrap_angle
 from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
 
@@ -55,6 +56,13 @@ class AdaptiveObserverSettings:
         Projection interval of the estimates.
     use_position : bool
         Use the x, y rows (True) or the yaw row only (False).
+
+    Raises
+    ------
+    ConfigError
+        ``half_track_m`` or a gain not a finite number > 0, a tuple of the wrong length or
+        holding something other than real numbers, ``eta_bounds`` not ``0 <= lo < hi``, or
+        ``eta0`` not finite and inside ``eta_bounds``.
     """
 
     half_track_m: float = HUSKY.track_m / 2.0
@@ -65,15 +73,24 @@ class AdaptiveObserverSettings:
     use_position: bool = True
 
     def __post_init__(self) -> None:
-        if not self.half_track_m > 0:
-            raise ConfigError(f"half_track_m must be > 0, got {self.half_track_m}")
-        if len(self.l_gains) != 3 or min(self.l_gains) <= 0:
-            raise ConfigError(f"l_gains needs three values > 0, got {self.l_gains}")
-        if len(self.lambda_gains) != 2 or min(self.lambda_gains) <= 0:
-            raise ConfigError(f"lambda_gains needs two values > 0, got {self.lambda_gains}")
+        # (a NaN gain or eta0 passed the range tests below and made every estimate NaN)
+        owner = "AdaptiveObserverSettings"
+        config_positive(owner, half_track_m=self.half_track_m)
+        for name, size in (("l_gains", 3), ("lambda_gains", 2), ("eta0", 2), ("eta_bounds", 2)):
+            values = getattr(self, name)
+            if np.ndim(values) != 1 or len(values) != size:
+                raise ConfigError(f"{owner}.{name} needs {size} values, got {values!r}")
+            config_numbers(owner, **{f"{name}[{i}]": v for i, v in enumerate(values)})
+        for name in ("l_gains", "lambda_gains"):
+            config_positive(owner, **{f"{name}[{i}]": v
+                                      for i, v in enumerate(getattr(self, name))})
         lo, hi = self.eta_bounds
         if not 0 <= lo < hi:
-            raise ConfigError(f"eta_bounds must satisfy 0 <= lo < hi, got {self.eta_bounds}")
+            raise ConfigError(f"{owner}.eta_bounds must satisfy 0 <= lo < hi, got "
+                              f"{self.eta_bounds}")
+        if not all(lo <= v <= hi for v in self.eta0):
+            raise ConfigError(f"{owner}.eta0 must lie in eta_bounds {self.eta_bounds} (the "
+                              f"estimates are projected into them), got {self.eta0}")
 
 
 @dataclass(frozen=True)

@@ -384,3 +384,18 @@ def test_settings_that_are_not_real_numbers_are_refused_naming_the_field(field, 
     each is a ConfigError naming SkidSteerSettings.<field>."""
     with pytest.raises(ConfigError, match=rf"SkidSteerSettings\.{field} must be a real number"):
         SkidSteerSettings(**{field: value})
+
+
+@pytest.mark.parametrize("field, value", [
+    ("eta0", (np.nan, 1.0)), ("l_gains", (np.nan, 2.0, 10.0)), ("lambda_gains", (np.inf, 50.0)),
+    ("half_track_m", np.inf), ("half_track_m", True), ("l_gains", ("1", "2", "3")),
+    ("eta0", (5.0, 1.0)), ("eta_bounds", ("0", 2.0))])
+def test_observer_settings_without_finite_numbers_are_refused(field, value):
+    """A NaN eta0 or gain, or an infinite adaptation gain, passed the checks and made every
+    estimate NaN from the first step (``min(max(nan, lo), hi)`` is NaN); an infinite half
+    track silenced the yaw row, True was a 1 m half track, text gains or bounds raised
+    Python's TypeError, and an eta0 outside eta_bounds was reported as the first estimate although
+    the observer projects every later one into the bounds. Each is a ConfigError naming the
+    field."""
+    with pytest.raises(ConfigError, match=rf"AdaptiveObserverSettings\.{field}"):
+        AdaptiveObserverSettings(**{field: value})
