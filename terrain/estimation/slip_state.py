@@ -37,7 +37,7 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.estimation.agrimaro import SENSOR_COLUMNS
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams,
                                                    slip_state_observation_into, transition_into)
@@ -207,7 +207,16 @@ def noise_derived_slip_state_model(*, accel_std_m_s2: float = 0.8, omega_std_rad
     Returns
     -------
     SlipStateModel
+
+    Raises
+    ------
+    ConfigError
+        ``accel_std_m_s2`` or ``omega_std_rad_s`` not a finite number > 0 (a negative one
+        was squared into a valid-looking variance), or a ``slip_psd`` that
+        :class:`SlipStateModel` refuses.
     """
+    config_positive("noise_derived_slip_state_model", accel_std_m_s2=accel_std_m_s2,
+                    omega_std_rad_s=omega_std_rad_s)
     r = (omega_std_rad_s ** 2,) * 3 + (accel_std_m_s2 ** 2,) * 2 + (0.005 ** 2, 0.05 ** 2) + (
         5e-4 ** 2,) * 3 + ((1e-4, 1e-4, 1e-4, 4e-6) if camera else ())
     q = (1e-5, 1e-5, 1e-7, 1e-3, 1e-3, 4.0, 400.0, 400.0, slip_psd, slip_psd, slip_psd,

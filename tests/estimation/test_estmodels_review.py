@@ -214,3 +214,17 @@ def test_an_exactly_singular_innovation_covariance_fails_the_factorisation():
     with pytest.raises(CovarianceError, match="Cholesky failed at step 0"):
         run_compiled(model.fast_kernel(), np.full(1, 0.01), Z, model.x0, P0, model.R_diag,
                      np.array([0, 0, 1]), 2)
+
+
+@pytest.mark.parametrize("kwargs", [{"accel_std_m_s2": -0.8}, {"omega_std_rad_s": -0.2},
+                                    {"omega_std_rad_s": "0.2"}, {"accel_std_m_s2": np.nan}])
+def test_the_noise_derived_slip_state_model_refuses_stds_that_are_not_positive(kwargs):
+    """A negative standard deviation was squared into a valid-looking variance (-0.8 m/s^2
+    gave the 0.64 of +0.8) and text raised Python's TypeError on ``'0.2' ** 2``; as
+    :func:`~terrain.estimation.agrimaro.noise_derived_settings` does, each is a ConfigError
+    naming the argument."""
+    from terrain.estimation.slip_state import noise_derived_slip_state_model
+
+    name = next(iter(kwargs))
+    with pytest.raises(ConfigError, match=rf"noise_derived_slip_state_model\.{name}"):
+        noise_derived_slip_state_model(**kwargs)
