@@ -399,3 +399,16 @@ def test_observer_settings_without_finite_numbers_are_refused(field, value):
     field."""
     with pytest.raises(ConfigError, match=rf"AdaptiveObserverSettings\.{field}"):
         AdaptiveObserverSettings(**{field: value})
+
+
+@pytest.mark.parametrize("ground_m_s, bound", [(2.0, 2.0), (0.0, 0.02)])
+def test_observer_estimates_are_projected_onto_eta_bounds(ground_m_s, bound):
+    """Straight driving at 0.5 m/s track speed while the measured pose moves at 2 m/s (eta 4)
+    or stands still (eta 0): both estimates end on the bound of ``eta_bounds`` and never
+    leave the interval (the seed's admissible range, eq. 4)."""
+    t = np.arange(1000) * 0.01
+    pose = np.column_stack([ground_m_s * t, np.zeros_like(t), np.zeros_like(t)])
+    v = np.full(t.size, 0.5)
+    res = run_adaptive_observer(t, pose, v, v, AdaptiveObserverSettings(eta_bounds=(0.02, 2.0)))
+    assert ((res.eta >= 0.02) & (res.eta <= 2.0)).all()
+    np.testing.assert_array_equal(res.eta[-1], [bound, bound])
