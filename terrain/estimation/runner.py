@@ -481,8 +481,13 @@ def _reference_loop(model: StateSpaceModel, dts: np.ndarray, Z: np.ndarray, avai
         lower, upper = (np.asarray(b, dtype=float) for b in bounds)
     N, m = Z.shape
     n = x.shape[0]
-    weights = np.left_shift(np.int64(1), np.arange(m, dtype=np.int64))
-    keys = (avail.astype(np.int64) * weights).sum(axis=1)
+    if m <= 62:     # each step's set of rows as the sum of 2^row (int64)
+        weights = np.left_shift(np.int64(1), np.arange(m, dtype=np.int64))
+        keys = (avail.astype(np.int64) * weights).sum(axis=1)
+    else:   # numbered (a row past 62 has no bit in int64: its samples were dropped)
+        patterns, keys = np.unique(avail, axis=0, return_inverse=True)
+        # key 0 is the step with no row, which sorts first when there is one
+        keys = keys.reshape(-1) + (1 if patterns[0].any() else 0)
     cache: dict[int, tuple] = {}
     for key in np.unique(keys):
         if key == 0:

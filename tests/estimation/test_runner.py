@@ -243,3 +243,50 @@ def test_a_sample_exactly_one_step_before_the_grid_is_outside():
             assert res.counts["gyro"]["outside"] == outside
             assert res.counts["gyro"]["used"] == 1 - outside
             assert np.isfinite(res.y[0, 2]) == (outside == 0)
+
+
+def test_the_reference_loop_uses_a_sample_on_any_row_of_a_model_with_many_rows():
+    """The reference loop keyed each step's set of rows by ``sum(2^row)`` in int64: with 70
+    rows, a sample on row 64 made no key (2^64 does not fit), so it was silently dropped and
+    counted as ``rejected`` with no gate. Row 64 is used and weighs like row 0."""
+    from terrain.estimation.model import StateSpaceModel
+
+    m = 70
+
+    class ManyRows(StateSpaceModel):
+        """One state seen directly by each of 70 one-row sensors (noise 1)."""
+
+        state_names = ("a",)
+        measurement_names = tuple(f"r{i}" for i in range(m))
+        sensor_rows = {f"s{i}": (i,) for i in range(m)}
+        R_diag = np.ones(m)
+        x0 = np.zeros(1)
+        P0 = np.eye(1)
+
+        def f(self, x, dt):
+            return x.copy()
+
+        def F(self, x, dt):
+            return np.eye(1)
+
+        def h(self, x):
+            return np.repeat(x, m)
+
+        def H(self, x):
+            return np.ones((m, 1))
+
+        def Q(self, dt):
+            return np.zeros((1, 1))
+
+    samples = {"s64": SensorSamples(np.array([1.0]), np.array([[1.0]])),
+               "s0": SensorSamples(np.array([2.0]), np.array([[1.0]]))}
+    res = run_filter(ManyRows(), np.arange(3.0), samples, engine="numpy")
+    assert res.accepted[:, 64].tolist() == [False, True, False]
+    assert res.dof.tolist() == [0, 1, 1]
+    np.testing.assert_allclose(res.x[:, 0], [0.0, 0.5, 2.0 / 3.0])   # P 1 -> 1/2 -> 1/3
+    assert res.counts["s64"]["used"] == 1 and res.counts["s64"]["rejected"] == 0
+    # a sample at every step (no step without a row): each is used once
+    samples["s69"] = SensorSamples(np.array([0.0]), np.array([[1.0]]))
+    res = run_filter(ManyRows(), np.arange(3.0), samples, engine="numpy")
+    assert res.dof.tolist() == [1, 1, 1]
+    np.testing.assert_allclose(res.x[:, 0], [0.5, 2.0 / 3.0, 0.75])
