@@ -62,3 +62,15 @@ def test_slip_settings_that_are_not_real_numbers_are_refused_naming_the_field(fi
                        match=rf"SkidSteerSlipSettings\.{field} must be a real number"):
         SkidSteerSlipSettings(**{field: value})
     assert SkidSteerSlipSettings(speed_bound_braking_slip=None).speed_bound_braking_slip is None
+
+
+def test_the_speed_range_of_one_rim_pair_widens_both_ends_by_the_noise_margin():
+    """``[(min(0, a_l) + min(0, a_r)), (max(0, b_l) + max(0, b_r))] / (2 (1 + s_b))`` with
+    ``a = omega r - margin``, ``b = omega r + margin``: standing rims give the symmetric
+    ``+-margin / (1 + s_b)``, slow forward rims a backward end of ``(margin - omega r) /
+    (1 + s_b)``, and a turn on the spot one rim's range each way."""
+    from terrain.estimation.skid_steer_slip import rim_speed_range_m_s
+
+    lo, hi = rim_speed_range_m_s(np.array([[0.0, 0.0], [0.05, 0.05], [0.5, -0.5]]), -0.3, 0.09)
+    np.testing.assert_allclose(lo, [-0.09 / 0.7, -0.04 / 0.7, -0.59 / 1.4], rtol=1e-12)
+    np.testing.assert_allclose(hi, [0.09 / 0.7, 0.14 / 0.7, 0.59 / 1.4], rtol=1e-12)
