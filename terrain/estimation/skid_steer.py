@@ -264,12 +264,14 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         such sample named).
     ConfigError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
-        check_rate_hz`), or a key of ``time_offsets_s`` other than ``wheels`` and ``gyro``.
+        check_rate_hz`), a key of ``time_offsets_s`` other than ``wheels`` and ``gyro``,
+        or a latency that is not a real number (a boolean, text, None).
     """
     if "wheels" not in run.streams:
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
     off = dict(time_offsets_s or {})
     check_sensor_names("time_offsets_s", off, SENSOR_ROWS)
+    config_numbers("time_offsets_s", **off)      # (True was a 1 s latency)
     w = run.require_columns("wheels", ("vel_l", "vel_r"))
     samples = {"wheels": stream_samples(run.run_id, "wheels",
                                         w[TIME].to_numpy(float) - off.get("wheels", 0.0),

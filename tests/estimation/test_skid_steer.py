@@ -412,3 +412,17 @@ def test_observer_estimates_are_projected_onto_eta_bounds(ground_m_s, bound):
     res = run_adaptive_observer(t, pose, v, v, AdaptiveObserverSettings(eta_bounds=(0.02, 2.0)))
     assert ((res.eta >= 0.02) & (res.eta <= 2.0)).all()
     np.testing.assert_array_equal(res.eta[-1], [bound, bound])
+
+
+@pytest.mark.parametrize("offset", [True, "0.05", None])
+def test_a_latency_that_is_not_a_number_is_refused_naming_the_sensor(offset):
+    """time_offsets_s={'gyro': True} shifted the gyro by 1 s without a word, '0.05' was
+    NumPy's bare UFuncTypeError on ``t - '0.05'`` and None Python's TypeError; each is a
+    ConfigError naming time_offsets_s.gyro."""
+    from terrain.run import Run
+    t = np.arange(50) / 10.0
+    run = Run("sim/TEST/03", "sim", "ASPHALT",
+              {"wheels": pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.6}),
+               "imu": pd.DataFrame({"t_s": t, "wz": 0.1})})
+    with pytest.raises(ConfigError, match=r"time_offsets_s\.gyro must be a real number"):
+        estimate_skid_steer(run, time_offsets_s={"gyro": offset})
