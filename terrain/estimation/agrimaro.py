@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from terrain.errors import ConfigError, DataFormatError, config_positive
+from terrain.errors import ConfigError, DataFormatError, config_numbers, config_positive
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
@@ -371,12 +371,14 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         A stream's timestamps not finite and strictly increasing (run, stream and the first
         such sample named).
     ConfigError
-        A key of ``time_offsets_s`` that is not a sensor of :data:`SENSOR_ROWS`.
+        A key of ``time_offsets_s`` that is not a sensor of :data:`SENSOR_ROWS`, or a
+        latency that is not a real number (a boolean, None, an array).
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
     offsets = dict(time_offsets_s or {})
     check_sensor_names("time_offsets_s", offsets, SENSOR_ROWS)
+    config_numbers("time_offsets_s", **offsets)      # (True was a 1 s latency)
     out: dict[str, SensorSamples] = {}
     for sensor, (stream, cols) in SENSOR_COLUMNS.items():
         frame = run.streams.get(stream)
@@ -464,7 +466,8 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     ConfigError, ShapeError, CovarianceError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`); a name in ``sensors`` or ``time_offsets_s`` that is not a sensor of
-        the model (:func:`~terrain.estimation.runner.check_sensor_names`); from
+        the model (:func:`~terrain.estimation.runner.check_sensor_names`), or a latency that
+        is not a real number; from
         :func:`~terrain.estimation.run_filter` (bad engine, shapes, or an innovation
         covariance that is not positive definite).
     """

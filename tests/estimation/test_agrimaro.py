@@ -260,3 +260,14 @@ def test_wheel_speeds_stand_in_for_the_wheel_rates_in_rad_per_s():
     np.testing.assert_allclose(omega.values[:, :2], np.tile([0.5 / r, 0.8 / r], (11, 1)))
     assert np.isnan(omega.values[:, 2]).all()
     np.testing.assert_allclose(omega.t_s, t - 0.05)
+
+
+@pytest.mark.parametrize("offset", [True, None, np.array([0.01, 0.02])])
+def test_a_sensor_latency_that_is_not_one_number_is_refused_naming_the_sensor(offset):
+    """time_offsets_s={'cam': True} moved the camera 1 s earlier without a word, None was
+    Python's bare TypeError in float(None) and an array of two latencies NumPy's; each is a
+    ConfigError naming time_offsets_s.cam."""
+    from terrain.errors import ConfigError
+    from terrain.estimation.agrimaro import agrimaro_samples
+    with pytest.raises(ConfigError, match=r"time_offsets_s\.cam must be a real number"):
+        agrimaro_samples(_tiny_agrimaro_run(), time_offsets_s={"cam": offset})
