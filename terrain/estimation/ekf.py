@@ -189,9 +189,11 @@ def check_time_step(dt: float) -> float:
     Raises
     ------
     TimeStepError
-        Not a number, not finite or not > 0.
+        Not a number (a boolean included), not finite or not > 0.
     """
     try:
+        if isinstance(dt, (bool, np.bool_)):     # float(True) is a 1 s step
+            raise TypeError
         d = float(dt)
     except (TypeError, ValueError):
         raise TimeStepError(f"time step must be a number, got {dt!r}") from None

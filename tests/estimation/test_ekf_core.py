@@ -480,3 +480,17 @@ def test_an_update_of_a_later_row_alone_uses_that_rows_noise():
     np.testing.assert_allclose(ekf.P, P, rtol=1e-12)
     assert ekf.x[1] == pytest.approx(1.0 / 1.25)          # P / (P + R_1) of a unit innovation
     assert inn.nis == pytest.approx(ref.nis) and inn.nis == pytest.approx(1.0 / 1.25)
+
+
+@pytest.mark.parametrize("flag", [True, np.True_])
+def test_a_boolean_time_step_is_refused(flag):
+    """float(True) is 1.0: predict(..., dt=True) propagated the state over one second without
+    a word (a flag passed where the step belongs). It is a TimeStepError like any other step
+    that is not a number of seconds, and the streaming filter keeps its state."""
+    f, F, h, H, Q = _cv_model()
+    with pytest.raises(TimeStepError, match="time step must be a number"):
+        predict(np.array([0.0, 1.0]), np.eye(2), flag, f, F, Q)
+    ekf = ExtendedKalmanFilter(np.array([0.0, 1.0]), np.eye(2), f, F, h, H, Q, np.array([1.0]))
+    with pytest.raises(TimeStepError, match="time step must be a number"):
+        ekf.predict(flag)
+    np.testing.assert_array_equal(ekf.x, [0.0, 1.0])
