@@ -675,7 +675,9 @@ def _check_current(wheels, lim: VehicleLimits, path, found,
     for channel in ("cur_l", "cur_r"):
         if channel not in wheels.columns:
             continue
+        # (a non-finite sample is the non-finite rule's: an inf is no current beyond it)
         current = np.abs(wheels[channel].to_numpy(dtype=float))
+        current[~np.isfinite(current)] = 0.0
         beyond = current > lim.max_current_a
         if beyond.any():
             k = int(np.argmax(current))

@@ -61,3 +61,21 @@ def test_a_husky_file_with_currents_beyond_80_a_is_read_and_warned(tmp_path):
         (run,) = read_runs_dir(tmp_path)
     assert any("rule current_range" in w for w in run.meta["warnings"])
     assert run.streams["wheels"]["cur_l"].max() == 250.0     # nothing rescaled
+
+
+@pytest.mark.parametrize("bad", [np.inf, -np.inf, np.nan])
+def test_a_non_finite_current_is_no_current_beyond_the_bound(bad):
+    # a non-finite sample is the non-finite rule's (a served window flags it non_finite, as
+    # a NaN); an inf was also warned as a current beyond 80 A, on every served window
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        checks = check_run("r/X/00", {"wheels": _wheels(bad)}, "husky",
+                           {"wheels": "pro_00.csv"})
+    assert not [w for w in checks["warnings"] if "rule current_range" in w]
+    frame = _wheels(120.0)
+    frame.loc[5, "cur_l"] = bad          # beside a real 120 A peak: that one is named
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        checks = check_run("r/X/00", {"wheels": frame}, "husky", {"wheels": "pro_00.csv"})
+    (msg,) = [w for w in checks["warnings"] if "rule current_range" in w]
+    assert "1 sample(s)" in msg and "the largest 120 A at t = 10 s" in msg
