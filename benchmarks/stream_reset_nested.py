@@ -33,7 +33,8 @@ the three seeds run as three processes side by side on a 2-core machine,
 ``OMP_NUM_THREADS=1``). Results: docs/streaming.md, "One-second windows" (the reset) and
 "Held-out concatenated streams" (the smoothing grid, 2026-11-27).
 ``--out DIR`` keeps one JSON file per seed, and ``--merge FILE ...`` pools such files
-(seeds run as separate processes) without training anything.
+(seeds run as separate processes) without training anything; each seed's outer fold once,
+the recipe and number of inner folds those of the files.
 """
 
 from __future__ import annotations
@@ -141,6 +142,49 @@ def report(rows: list[dict]) -> dict[str, float]:
     return metrics
 
 
+def merged_rows(paths: list[Path]) -> tuple[str, int | None, list[dict]]:
+    """Pool the rows of ``--out`` files of earlier runs.
+
+    Parameters
+    ----------
+    paths : list of pathlib.Path
+        JSON files written by ``--out`` (one per seed).
+
+    Returns
+    -------
+    kind : str
+        Their recipe.
+    inner_folds : int or None
+        Their number of inner folds (None: files written before it was kept).
+    rows : list of dict
+        Every outer fold's row.
+
+    Raises
+    ------
+    SystemExit
+        The files mix recipes or numbers of inner folds, or two of them hold the same
+        seed and outer fold (a rerun beside the first: pooling both would count it twice).
+    """
+    rows, kinds, inner, where = [], set(), set(), {}
+    for path in paths:
+        doc = json.loads(Path(path).read_text())
+        kinds.add(doc["kind"])
+        inner.add(doc.get("inner_folds"))
+        for row in doc["rows"]:
+            key = (row["seed"], row["fold"])
+            if key in where:
+                raise SystemExit(f"seed {key[0]} fold {key[1]} is in both {where[key]} and "
+                                 f"{path}: pool each seed once")
+            where[key] = path
+            rows.append(row)
+    if len(kinds) != 1:
+        raise SystemExit(f"the files mix recipes: {sorted(kinds)}")
+    if len(inner) != 1:
+        raise SystemExit(f"the files mix numbers of inner folds: "
+                         f"{sorted(inner, key=str)}")
+    return kinds.pop(), inner.pop(), rows
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--kind", default="all-ensemble-dense-no-speed-1s", choices=list(RECIPES))
@@ -153,12 +197,7 @@ def main() -> int:
     args = ap.parse_args()
     start = time.perf_counter()
     if args.merge:
-        saved = [json.loads(path.read_text()) for path in args.merge]
-        rows = [r for doc in saved for r in doc["rows"]]
-        kind = {doc["kind"] for doc in saved}
-        if len(kind) != 1:
-            raise SystemExit(f"the files mix recipes: {sorted(kind)}")
-        args.kind = kind.pop()
+        args.kind, args.inner_folds, rows = merged_rows(args.merge)
     else:
         recipe = RECIPES[args.kind]
         runs = load_dataset("borealtc")
@@ -170,14 +209,16 @@ def main() -> int:
                 if args.out is not None:
                     args.out.mkdir(parents=True, exist_ok=True)
                     (args.out / f"{args.kind}_seed{seed}.json").write_text(json.dumps(
-                        {"kind": args.kind, "rows": seed_rows}, default=_jsonable))
+                        {"kind": args.kind, "inner_folds": args.inner_folds,
+                         "rows": seed_rows}, default=_jsonable))
     metrics = report(rows)
     print(f"{time.perf_counter() - start:.0f} s")
     if not args.no_mlflow:
         seeds = ",".join(str(s) for s in sorted({r["seed"] for r in rows}))
         with tracked_run("terrain-benchmark", run_name="stream-reset-nested",
                          params={"kind": args.kind, "seeds": seeds,
-                                 "inner_folds": args.inner_folds,
+                                 "inner_folds": ("not recorded" if args.inner_folds is None
+                                                 else args.inner_folds),
                                  "rules": ",".join(RULES)}) as run:
             run.log_metrics(metrics)
     return 0

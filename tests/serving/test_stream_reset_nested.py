@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import runpy
+import sys
 from pathlib import Path
 
 import pytest
@@ -53,3 +55,37 @@ def test_each_fold_is_scored_with_the_rule_its_inner_streams_chose(script, capsy
     assert metrics["chosen_smoothing_filter"] == 1.0
     assert metrics["chosen_reset_filter"] == 2.0
     assert "chosen among 'smoothing'" in capsys.readouterr().out
+
+
+def _saved(tmp_path, name: str, seed: int, folds=(0, 1), **extra) -> Path:
+    rules = list(runpy.run_path(str(SCRIPT))["RULES"])
+    rows = [{"seed": seed, "fold": f, "inner_accuracy": {r: 0.5 for r in rules},
+             "outer": {r: _row(0.8) for r in rules}} for f in folds]
+    path = tmp_path / name
+    path.write_text(json.dumps({"kind": "wheels", "rows": rows, **extra}))
+    return path
+
+
+def test_merge_refuses_a_seed_fold_held_by_two_files(script, tmp_path, monkeypatch, capsys):
+    # the same seed saved twice (a rerun beside the first) counted every fold twice
+    a = _saved(tmp_path, "a.json", 0)
+    b = _saved(tmp_path, "b.json", 0, folds=(1,))
+    monkeypatch.setattr(sys, "argv", ["stream_reset_nested.py", "--merge", str(a), str(b),
+                                      "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert "seed 0 fold 1" in str(stop.value)
+    assert "a.json" in str(stop.value) and "b.json" in str(stop.value)
+    assert "seeds [0]" not in capsys.readouterr().out
+
+
+def test_merge_takes_the_inner_folds_of_the_files(script, tmp_path):
+    a = _saved(tmp_path, "a.json", 0, inner_folds=3)
+    b = _saved(tmp_path, "b.json", 1, inner_folds=3)
+    kind, inner, rows = script["merged_rows"]([a, b])
+    assert (kind, inner, len(rows)) == ("wheels", 3, 4)
+    c = _saved(tmp_path, "c.json", 2, inner_folds=4)
+    with pytest.raises(SystemExit, match="inner folds"):
+        script["merged_rows"]([a, c])
+    # files written before the count was kept say nothing of it
+    assert script["merged_rows"]([_saved(tmp_path, "d.json", 3)])[1] is None
