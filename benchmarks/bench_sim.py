@@ -1,8 +1,13 @@
 """Benchmark: simulate 10 minutes of each vehicle with every sensor at its rate.
 
 Each vehicle first simulates ``WARMUP_S`` seconds untimed (the process's one-off costs), then
-the timed run. Prints seconds per simulated minute and the real-time factor, and logs them
-to MLflow (experiment ``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]
+the timed run. Prints seconds per simulated minute (wall clock, and CPU time of this process,
+``*_cpu_s_per_sim_min``) and the real-time factor. A fixed single-threaded NumPy workload
+(``reference_ms``: sorting 4096 floats, median of 200, timed before and after the
+simulations and averaged) is the reference of the same run: ``{vehicle}_over_reference`` is
+the wall seconds per simulated minute over its milliseconds, comparable between a loaded
+and a quiet machine where the absolute figures are not. Logged to MLflow (experiment
+``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]
 [--physics v1|v2] [--terrains ASPHALT,GRASS]`` (v2 on ``SANDY_LOAM,SNOW`` exercises the
 lateral wheel-soil model).
 """
@@ -10,8 +15,11 @@ lateral wheel-soil model).
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from dataclasses import replace
+
+import numpy as np
 
 from terrain.sim import SimConfig, simulate
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -20,12 +28,32 @@ from terrain.tracking import tracked_run
 #: Simulated seconds of each vehicle's untimed warm-up run (the first simulation of a
 #: process pays lazy imports and numba cache loads, 0.2-0.25 s on the 2-core machine).
 WARMUP_S = 2.0
+#: The reference workload's input (a fixed NumPy sort, single-threaded like the simulator).
+_REFERENCE = np.random.default_rng(0).standard_normal(4096)
+
+
+def reference_ms(repeats: int = 200) -> float:
+    """Median wall time of sorting 4096 fixed floats, ms (the same-run reference)."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        np.sort(_REFERENCE)
+        times.append(time.perf_counter() - start)
+    return 1e3 * float(np.median(times))
+
+
+def _minutes(text: str) -> float:
+    """``--minutes``: a positive finite number."""
+    value = float(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of minutes, not {text}")
+    return value
 
 
 def main() -> int:
     """Run the benchmark; returns 0."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--minutes", type=float, default=10.0)
+    parser.add_argument("--minutes", type=_minutes, default=10.0)
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS)
     parser.add_argument("--terrains", default="ASPHALT,GRASS",
                         help="comma-separated terrain sequence")
@@ -33,17 +61,27 @@ def main() -> int:
     args = parser.parse_args()
     duration = 60.0 * args.minutes
     metrics = {}
+    ref_before = reference_ms()
     for vehicle in ("husky", "agrimaro", "tracked"):
         cfg = SimConfig(vehicle=vehicle, terrains=tuple(args.terrains.split(",")),
                         scenario="random", duration_s=duration, seed=0, physics=args.physics)
         simulate(replace(cfg, duration_s=WARMUP_S))      # untimed: the process's one-off costs
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         simulate(cfg)
         elapsed = time.perf_counter() - start
+        metrics[f"{vehicle}_cpu_s_per_sim_min"] = (time.process_time() - cpu_start) / args.minutes
         metrics[f"{vehicle}_s_per_sim_min"] = elapsed / args.minutes
         metrics[f"{vehicle}_realtime_factor"] = duration / elapsed
-        print(f"{vehicle:9s} {elapsed / args.minutes:6.3f} s per simulated minute, "
-              f"{duration / elapsed:6.1f}x real time")
+    metrics["reference_ms"] = 0.5 * (ref_before + reference_ms())
+    for vehicle in ("husky", "agrimaro", "tracked"):
+        per_min = metrics[f"{vehicle}_s_per_sim_min"]
+        metrics[f"{vehicle}_over_reference"] = 1e3 * per_min / metrics["reference_ms"]
+        print(f"{vehicle:9s} {per_min:6.3f} s per simulated minute "
+              f"({metrics[f'{vehicle}_cpu_s_per_sim_min']:.3f} s CPU), "
+              f"{metrics[f'{vehicle}_realtime_factor']:6.1f}x real time, "
+              f"{metrics[f'{vehicle}_over_reference']:.0f} x the reference")
+    print(f"reference (sort of 4096 floats) {metrics['reference_ms']:.4f} ms "
+          f"(before {ref_before:.4f} ms)")
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name="bench_sim",
                          params={"minutes": args.minutes, "physics_rate_hz": 100,

@@ -54,3 +54,23 @@ def test_the_first_vehicle_does_not_pay_the_process_warm_up(script, monkeypatch)
     logged = _main(script, monkeypatch, ["--minutes", "0.5"], simulate)
     per_min = [logged[f"{v}_s_per_sim_min"] for v in ("husky", "agrimaro", "tracked")]
     assert max(per_min) < 1.5 * min(per_min), per_min
+
+
+def test_a_short_run_logs_cpu_time_and_the_reference_ratio(script, monkeypatch, capsys):
+    logged = _main(script, monkeypatch, ["--minutes", "0.02"])
+    assert "reference" in capsys.readouterr().out
+    assert logged["reference_ms"] > 0
+    for vehicle in ("husky", "agrimaro", "tracked"):
+        assert logged[f"{vehicle}_cpu_s_per_sim_min"] > 0
+        assert logged[f"{vehicle}_over_reference"] == pytest.approx(
+            1e3 * logged[f"{vehicle}_s_per_sim_min"] / logged["reference_ms"])
+
+
+@pytest.mark.parametrize("minutes", ["0", "-1", "nan", "inf"])
+def test_minutes_must_be_positive_and_finite(script, monkeypatch, capsys, minutes):
+    # 0 and -1 were the simulator's ConfigError traceback, nan and inf another
+    monkeypatch.setattr(sys, "argv", ["bench_sim.py", "--minutes", minutes, "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    assert "--minutes" in capsys.readouterr().err
