@@ -98,8 +98,9 @@ def main() -> int:
             classes = [c[6:] for c in frame.columns
                        if c.startswith("proba_") and frame[c].notna().all()]
             voted = soft_vote(members, classes)
+            # a cell's times are the same in each of its history rows: one row per member
             sub = cells[(cells[keys] == pd.Series(key, index=keys)).all(axis=1)
-                        & cells["model"].isin(vote) & (cells["history"] == args.history[0])]
+                        & cells["model"].isin(vote)].drop_duplicates("model")
             fields = {**dict(zip(keys, key)), "model": name,
                       "fit_s_per_fold": float(sub["fit_s_per_fold"].sum()),
                       "infer_ms_per_window": float(sub["infer_ms_per_window"].sum())}

@@ -734,3 +734,27 @@ def test_a_cell_without_a_window_says_so_as_terrain_cv_does(vulpi_runs, monkeypa
     with pytest.raises(ConfigError, match="no window left for this dataset, signal set and "
                                           "window .dataset 'vulpi', signals all, 200 s"):
         run_cell(Cell("svm", "all", 200.0, "vulpi", 0), config)
+
+
+def test_merge_compare_vote_times_do_not_depend_on_the_history_asked(tmp_path, monkeypatch):
+    import runpy
+    import sys
+
+    # the folders' cells hold history 1 only; a vote scored at history 3 took its members'
+    # times from their history-3 rows, which do not exist: fit 0 s and inference 0 ms
+    m1 = np.array([0.1] * 3 + [0.9] * 3 + [0.8] * 6)
+    m2 = np.array([0.3] * 3 + [0.05] * 3 + [0.4] * 3 + [0.9] * 3)
+    _compare_folder(tmp_path / "a", "m1", m1, with_protocol=True)
+    _compare_folder(tmp_path / "b", "m2", m2, with_protocol=True)
+    out = tmp_path / "merged"
+    monkeypatch.setattr(sys, "argv", [
+        "merge_compare.py", str(tmp_path / "a"), str(tmp_path / "b"), "--vote", "m1", "m2",
+        "--history", "3", "--out", str(out)])
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
+                       run_name="__main__")
+    assert done.value.code == 0
+    vote = pd.read_csv(out / "compare_cells.csv").set_index("model").loc["vote(m1+m2)"]
+    assert vote["history"] == 3
+    assert vote["fit_s_per_fold"] == pytest.approx(2.0)
+    assert vote["infer_ms_per_window"] == pytest.approx(1.0)
