@@ -33,6 +33,21 @@ def test_scaler_from_own_statistics_is_the_plain_svm():
     assert np.array_equal(got, plain.predict(Xt))
 
 
+def test_scaler_from_own_statistics_is_the_plain_svm_whatever_the_feature_units():
+    # features in large units: the RBF width is set on the standardised features, as
+    # gamma="scale" does inside the pipeline, not on the raw ones (1e4 times too narrow)
+    rng = np.random.default_rng(2)
+    X, y = _blobs(rng)
+    Xt, _ = _blobs(rng, 40)
+    X, Xt = 100.0 * X + 3.0, 100.0 * Xt + 3.0
+    config = SimpleNamespace(svm=SVMConfig())
+    got = SCRIPT["_scaler_from_all_predict"](config, X, y, Xt, X)
+    plain = make_pipeline(StandardScaler(), SVC(C=config.svm.C, gamma="scale",
+                                                class_weight="balanced")).fit(X, y)
+    assert np.array_equal(got, plain.predict(Xt))
+    assert len(set(got)) == 2
+
+
 def test_scaler_keeps_the_statistics_it_was_given():
     # pooled statistics in which feature 0, the informative one, spreads 1000 times wider:
     # standardised with them it carries almost no distance, so the decisions change
