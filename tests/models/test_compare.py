@@ -740,12 +740,17 @@ def test_merge_compare_vote_times_do_not_depend_on_the_history_asked(tmp_path, m
     import runpy
     import sys
 
-    # the folders' cells hold history 1 only; a vote scored at history 3 took its members'
-    # times from their history-3 rows, which do not exist: fit 0 s and inference 0 ms
+    # the folders' cells hold histories 1 and 10; a vote scored at history 3 took its
+    # members' times from their history-3 rows, which do not exist: fit 0 s, inference 0 ms
     m1 = np.array([0.1] * 3 + [0.9] * 3 + [0.8] * 6)
     m2 = np.array([0.3] * 3 + [0.05] * 3 + [0.4] * 3 + [0.9] * 3)
     _compare_folder(tmp_path / "a", "m1", m1, with_protocol=True)
     _compare_folder(tmp_path / "b", "m2", m2, with_protocol=True)
+    # and history 10 as well: each member's times are counted once, not once per history
+    for folder in ("a", "b"):
+        cells = pd.read_csv(tmp_path / folder / "compare_cells.csv")
+        pd.concat([cells, cells.assign(history=10)]).to_csv(
+            tmp_path / folder / "compare_cells.csv", index=False)
     out = tmp_path / "merged"
     monkeypatch.setattr(sys, "argv", [
         "merge_compare.py", str(tmp_path / "a"), str(tmp_path / "b"), "--vote", "m1", "m2",
@@ -754,7 +759,8 @@ def test_merge_compare_vote_times_do_not_depend_on_the_history_asked(tmp_path, m
         runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
                        run_name="__main__")
     assert done.value.code == 0
-    vote = pd.read_csv(out / "compare_cells.csv").set_index("model").loc["vote(m1+m2)"]
+    merged = pd.read_csv(out / "compare_cells.csv")
+    vote = merged[merged["model"] == "vote(m1+m2)"].squeeze()
     assert vote["history"] == 3
     assert vote["fit_s_per_fold"] == pytest.approx(2.0)
     assert vote["infer_ms_per_window"] == pytest.approx(1.0)

@@ -89,3 +89,22 @@ def test_merge_takes_the_inner_folds_of_the_files(script, tmp_path):
         script["merged_rows"]([a, c])
     # files written before the count was kept say nothing of it
     assert script["merged_rows"]([_saved(tmp_path, "d.json", 3)])[1] is None
+
+
+def test_out_files_keep_the_inner_folds_for_merge(script, tmp_path, monkeypatch):
+    rules = list(script["RULES"])
+
+    def run_seed(runs, recipe, seed, inner_folds, bar):
+        return [{"seed": seed, "fold": 0, "inner_accuracy": {r: 0.5 for r in rules},
+                 "outer": {r: _row(0.8) for r in rules}}]
+
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "run_seed", run_seed)
+    monkeypatch.setitem(env, "load_dataset", lambda name: [])
+    monkeypatch.setattr(sys, "argv", ["stream_reset_nested.py", "--kind", "wheels",
+                                      "--seeds", "0", "--inner-folds", "3", "--out",
+                                      str(tmp_path), "--no-mlflow"])
+    assert script["main"]() == 0
+    saved = tmp_path / "wheels_seed0.json"
+    assert json.loads(saved.read_text())["inner_folds"] == 3
+    assert script["merged_rows"]([saved])[:2] == ("wheels", 3)

@@ -74,3 +74,20 @@ def test_minutes_must_be_positive_and_finite(script, monkeypatch, capsys, minute
         script["main"]()
     assert stop.value.code == 2
     assert "--minutes" in capsys.readouterr().err
+
+
+def test_reference_and_cpu_time_are_per_call_and_per_simulated_minute(script, monkeypatch):
+    def busy(cfg):
+        end = time.process_time() + cfg.duration_s / 6000.0
+        while time.process_time() < end:
+            pass
+
+    monkeypatch.setitem(script["main"].__globals__, "reference_ms", lambda: 0.01)
+    logged = _main(script, monkeypatch, ["--minutes", "4"], busy)
+    assert logged["reference_ms"] == pytest.approx(0.01)
+    for vehicle in ("husky", "agrimaro", "tracked"):
+        # one thread: its CPU time per simulated minute is at most the wall time's
+        assert 0 < logged[f"{vehicle}_cpu_s_per_sim_min"] \
+            <= 1.05 * logged[f"{vehicle}_s_per_sim_min"]
+        assert logged[f"{vehicle}_over_reference"] == pytest.approx(
+            1e5 * logged[f"{vehicle}_s_per_sim_min"])
