@@ -1,0 +1,45 @@
+"""benchmarks/bench_control.py: the fastest-chunk timing and the inputs it times."""
+
+from __future__ import annotations
+
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "bench_control.py"
+
+
+@pytest.fixture
+def script():
+    return runpy.run_path(str(SCRIPT))
+
+
+def test_best_per_step_is_the_fastest_whole_chunk_per_step(script, monkeypatch):
+    clock = [0.0]
+    env = script["_best_per_step"].__globals__
+    monkeypatch.setitem(env, "_clock", lambda: clock[0])
+
+    def step(cost):
+        clock[0] += cost
+
+    # chunks of 2: (3, 5) 4 per step, (1, 9) 5, (2, 2) 2; the odd last row is no chunk
+    rows = [3.0, 5.0, 1.0, 9.0, 2.0, 2.0, 0.0]
+    assert script["_best_per_step"](rows, step, 2) == pytest.approx(2.0)
+    # one chunk of everything but the last row: 22 / 6
+    assert script["_best_per_step"](rows, step, 6) == pytest.approx(22.0 / 6.0)
+    # the last whole chunk counts: (2, 0.5) is the fastest
+    assert script["_best_per_step"]([3.0, 5.0, 2.0, 0.5], step, 2) == pytest.approx(1.25)
+
+
+def test_inputs_hold_the_slip_they_are_built_from(script):
+    x = script["make_inputs"](500, 3, np.random.default_rng(0))
+    assert x["omega"].shape == (500, 3) and x["a"].shape == (500, 3)
+    r = script["WHEEL_RADIUS_M"]
+    slip = np.clip(x["slip"], -0.5, 0.5)
+    # SAE driving slip: (omega r - v) / (omega r), so omega r = v / (1 - slip)
+    np.testing.assert_allclose(1.0 - x["v_long"] / (x["omega"] * r), slip, rtol=1e-9,
+                               atol=1e-12)
+    np.testing.assert_allclose(x["omega_ll"][:, 0] * r, x["chassis"])
+    assert x["chassis"].min() > 0.1      # never standing: accelerate, cruise, brake
