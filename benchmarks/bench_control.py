@@ -14,8 +14,9 @@ enabling, Power_state or limits), and one :func:`terrain.slip.sae_slip` call per
 The figure is the fastest chunk of ``--chunk`` consecutive steps over ``--steps`` x
 ``--repeats`` (as timeit's min), measured twice: in CPU time of this process (``time.process_time``:
 the step's own cost, robust on a machine shared with other jobs; metrics without suffix) and
-in wall-clock time (metrics ``*_wall``). Printed and logged to MLflow (experiment
-``terrain-benchmark``).
+in wall-clock time (metrics ``*_wall``). The ratio to the same run's reference,
+``{setup}_over_simple_pid`` (our us per wheel over simple-pid's), is comparable between a
+loaded and a quiet machine. Printed and logged to MLflow (experiment ``terrain-benchmark``).
 
 Run: ``python benchmarks/bench_control.py [--steps 20000] [--repeats 5] [--chunk 50]
 [--no-mlflow]``.
@@ -134,12 +135,14 @@ def main() -> int:
                  "us_per_step": best[name] * 1e6,
                  "simple_pid_us_per_wheel": best[f"{name}_simple_pid"] * 1e6 / n,
                  "sae_slip_us_per_step": best[f"{name}_sae_slip"] * 1e6}
+            m["over_simple_pid"] = m["us_per_wheel"] / m["simple_pid_us_per_wheel"]
             metrics.update({f"{name}_{k}{sfx}": val for k, val in m.items()})
             verdict = "met" if m["us_per_wheel"] < 20.0 else "MISSED"
             print(f"  {name:12s} {n} units, slip {'given' if given else 'computed'}: "
                   f"{m['us_per_wheel']:6.2f} us/wheel ({m['us_per_step']:6.1f} us/step; "
                   f"target < 20 us/wheel: {verdict}); simple-pid PID alone "
-                  f"{m['simple_pid_us_per_wheel']:.2f} us/wheel; sae_slip alone "
+                  f"{m['simple_pid_us_per_wheel']:.2f} us/wheel ("
+                  f"{m['over_simple_pid']:.1f} x simple-pid); sae_slip alone "
                   f"{m['sae_slip_us_per_step']:.1f} us/step")
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", run_name="bench_control",

@@ -43,3 +43,30 @@ def test_inputs_hold_the_slip_they_are_built_from(script):
                                atol=1e-12)
     np.testing.assert_allclose(x["omega_ll"][:, 0] * r, x["chassis"])
     assert x["chassis"].min() > 0.1      # never standing: accelerate, cruise, brake
+
+
+def test_a_short_run_logs_the_ratio_to_its_same_run_reference(script, monkeypatch, capsys):
+    import sys
+
+    logged = {}
+
+    class Run:
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def log_metrics(self, metrics):
+            logged.update(metrics)
+
+    monkeypatch.setitem(script["main"].__globals__, "tracked_run", lambda *a, **k: Run())
+    monkeypatch.setattr(sys, "argv", ["bench_control.py", "--steps", "100", "--repeats", "1",
+                                      "--chunk", "50"])
+    assert script["main"]() == 0
+    for name in ("agrimaro", "husky", "four_wheels"):
+        for sfx in ("", "_wall"):
+            assert logged[f"{name}_over_simple_pid{sfx}"] == pytest.approx(
+                logged[f"{name}_us_per_wheel{sfx}"]
+                / logged[f"{name}_simple_pid_us_per_wheel{sfx}"])
+    assert "x simple-pid" in capsys.readouterr().out
