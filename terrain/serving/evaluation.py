@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from features.windows import WindowConfig, make_windows, runs_track_m
-from terrain.errors import ConfigError, DataFormatError, first_items
+from terrain.errors import ConfigError, DataFormatError, config_positive, first_items
 from terrain.models.cv import iter_splits
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -182,8 +182,15 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     ConfigError
         Fewer than two terrains among the usable runs (those holding ``streams``, their
         streams overlapping for at least ``min(min_s, 10 s)``); the message names the runs
-        too short and their lengths.
+        too short and their lengths. ``min_s`` or ``max_s`` not a finite number > 0,
+        ``max_s`` below ``min_s``, or ``gap_s`` not a finite number >= 0 (a negative gap
+        would lay each piece over the end of the one before).
     """
+    config_positive("concatenated_streams", min_s=min_s, max_s=max_s)
+    config_positive("concatenated_streams", allow_zero=True, gap_s=gap_s)
+    if max_s < min_s:
+        raise ConfigError(f"concatenated_streams.max_s must be >= min_s ({min_s!r} s), "
+                          f"got {max_s!r}")
     rng = np.random.default_rng(seed)
     pool = [r for r in runs if all(s in r.streams for s in streams)]
     if len({r.terrain for r in pool}) < 2:
