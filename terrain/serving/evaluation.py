@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 
 from features.windows import WindowConfig, make_windows, runs_track_m
-from terrain.errors import ConfigError, DataFormatError, config_positive, first_items
+from terrain.errors import (ConfigError, DataFormatError, config_integer, config_positive,
+                            first_items)
 from terrain.models.cv import iter_splits
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -159,7 +160,7 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     streams : sequence of str
         Streams to keep.
     seed : int
-        Seed of the order and piece lengths.
+        Seed of the order and piece lengths (>= 0).
     min_s, max_s : float
         Piece length bounds, s.
     gap_s : float
@@ -184,8 +185,10 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
         streams overlapping for at least ``min(min_s, 10 s)``); the message names the runs
         too short and their lengths. ``min_s`` or ``max_s`` not a finite number > 0,
         ``max_s`` below ``min_s``, or ``gap_s`` not a finite number >= 0 (a negative gap
-        would lay each piece over the end of the one before).
+        would lay each piece over the end of the one before), or ``seed`` not an integer
+        >= 0 (``None`` would string an unseeded stream, another at every call).
     """
+    config_integer("concatenated_streams.seed", seed, 0)
     config_positive("concatenated_streams", min_s=min_s, max_s=max_s)
     config_positive("concatenated_streams", allow_zero=True, gap_s=gap_s)
     if max_s < min_s:
