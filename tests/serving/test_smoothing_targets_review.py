@@ -3,6 +3,8 @@ class across a skipped silent stretch; the desired-slip table's fallback entry."
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -74,3 +76,31 @@ def test_catalogue_targets_fall_back_on_a_terrain_the_model_does_not_know():
     targets = CataloguePeakTargets(("ASPHALT", "ICE"))
     assert "SNOW" not in targets.table
     assert targets.target_for("SNOW", 0.99, False) == targets.fallback
+
+
+@pytest.mark.parametrize("kwargs", [dict(evidence_power=1.5), dict(evidence_power=-0.5),
+                                    dict(reset_confidence=1.2), dict(hysteresis=-0.1)])
+def test_smoothing_settings_beyond_their_range_ends_are_refused(kwargs):
+    # an evidence power above 1 would weigh one of the overlapping windows as more than one
+    # observation; a confidence above 1 is never reached (a reset that never fires)
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError):
+        SmoothingConfig(**kwargs)
+
+
+def test_smoothing_settings_at_their_closed_range_ends_are_taken():
+    # evidence power 1 (untempered), a reset at probability 1, no hysteresis; a dwell so
+    # long that one certain window alone does not move the filter off class 1 (p0 0.0625)
+    config = SmoothingConfig(dwell_s=1e5, evidence_power=1.0, reset_confidence=1.0,
+                             reset_windows=1, hysteresis=0.0)
+    for reset in (False, True):
+        filt = ForwardFilter(2, 0.5, config if reset else replace(config, reset_confidence=None))
+        for _ in range(20):
+            assert filt.update(np.array([0.2, 0.8]))[0] == 1
+        decided, p = filt.update(np.array([1.0, 0.0]))
+        if reset:   # restarted from the floored window
+            assert decided == 0
+            np.testing.assert_allclose(p, np.array([1.0, 1e-4]) / 1.0001, rtol=1e-12)
+        else:
+            assert decided == 1 and 0.05 < p[0] < 0.07
