@@ -34,7 +34,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.audit.replay import LOWPASS_MIN_SAMPLES, Replay, lowpass
+from terrain.audit.replay import LOWPASS_MIN_SAMPLES, Replay, lowpass, require_ordered
 from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
 from terrain.errors import DataWarning, config_positive
 from terrain.run import TIME, Run
@@ -302,6 +302,9 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     NonFiniteError
         One of those or its ``t_s`` holds a NaN or infinite value (a
         :class:`~terrain.errors.DataFormatError` naming the run, column and first row).
+    TimestampError
+        The IMU's times do not strictly increase
+        (:func:`~terrain.audit.replay.require_ordered`).
 
     Warns
     -----
@@ -321,6 +324,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     if imu is not None:
         run.require_columns("imu", ("wz", "ax", "ay"))
         run.require_finite("imu", ("wz", "ax", "ay"))
+        require_ordered(run, "imu")
     if imu is not None and len(imu) < MIN_IMU_SAMPLES:
         warnings.warn(f"{run.run_id}: IMU stream of {len(imu)} samples ignored (fewer than "
                       f"{MIN_IMU_SAMPLES}, too short to low-pass): audited as a run without "

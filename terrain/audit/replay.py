@@ -36,8 +36,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, DataFormatError
-from terrain.run import TIME, Run
+from terrain.errors import ConfigError, DataFormatError, TimestampError
+from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
@@ -280,6 +280,34 @@ def speed_resolution(values: np.ndarray, tol: float = 0.01) -> float:
     return step if np.all(np.abs(k - np.round(k)) < tol) else 0.0
 
 
+def require_ordered(run: Run, stream: str) -> None:
+    """Refuse a stream whose times do not strictly increase (the :class:`~terrain.run.Run`
+    contract): ``numpy.interp``, which puts the replay's inputs and the IMU on the comparison
+    clock, does not check its abscissae and returns values from the wrong time.
+
+    Parameters
+    ----------
+    run : Run
+        The run (``stream`` present, ``t_s`` finite: :meth:`~terrain.run.Run.require_finite`
+        first).
+    stream : str
+        Stream name, a key of ``run.streams``.
+
+    Raises
+    ------
+    TimestampError
+        A time equal to or before the previous one (run, stream, count and first row named;
+        a :class:`~terrain.errors.DataFormatError`).
+    """
+    t = run.streams[stream][TIME].to_numpy(dtype=float)
+    bad = times_out_of_order(t)
+    if bad.size:
+        i = int(bad[0])
+        raise TimestampError(f"run {run.run_id}: {stream} time {t[i]} at row {i} does not "
+                             f"follow the previous one ({t[i - 1]}); {bad.size} such row(s): "
+                             "the audit needs strictly increasing times", run.source, TIME, i)
+
+
 def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
                terrain: TerrainParams | None = None) -> Replay:
     """Replay one measured run through the simulator (see the module docstring).
@@ -305,7 +333,8 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
         No wheel stream, or fewer than 4 wheel samples; a
         :class:`~terrain.errors.MissingColumnError` when it lacks one of its columns, a
         :class:`~terrain.errors.NonFiniteError` (run, column and first row named) when one
-        of them holds a NaN or infinite value.
+        of them holds a NaN or infinite value, a :class:`~terrain.errors.TimestampError`
+        (:func:`require_ordered`) when its times do not strictly increase.
     """
     vehicle_name = str(run.vehicle).lower()
     if vehicle_name not in SKID_STEER_VEHICLES:
@@ -324,6 +353,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
         raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
                               run.source)
     run.require_finite("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
+    require_ordered(run, "wheels")
     vehicle = get_vehicle(vehicle_name)
     geometry = vehicle.contact_geometry()
     t_w = wheels[TIME].to_numpy(dtype=float)
