@@ -65,3 +65,29 @@ def test_imu_times_out_of_order_are_refused_naming_the_row():
     # the ordered record is audited
     ok = _run(_pro(), _imu())
     assert prepare_frame(ok, replay_run(ok)).has_imu
+
+
+def test_the_gyro_is_read_at_t_minus_the_lag_of_a_late_wheel_stream():
+    # timing convention (terrain.audit.timing): lag > 0 = wheel stream late, a wheel sample
+    # stamped t describes the robot at IMU time t - lag; the frame must read the gyro there
+    from terrain.vehicles import get_vehicle
+    lag, b = 0.5, get_vehicle("husky").track_m
+    t = np.arange(0.0, 60.0, 0.15)
+
+    def x_true(tau):
+        return 0.4 * np.sin(2.0 * np.pi * tau / 8.0)
+    x_w = x_true(t - lag)                                  # the late wheel stream
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": 0.5 - 0.5 * b * x_w,
+                        "vel_r": 0.5 + 0.5 * b * x_w})
+    ti = np.arange(0.0, 60.0, 0.01)
+    imu = pd.DataFrame({"t_s": ti, "wz": x_true(ti), "ax": 0.0, "ay": 0.0})
+    run = _run(pro, imu)
+    frame = prepare_frame(run, replay_run(run))
+    assert frame.lag.identifiable
+    assert frame.lag.median_s == pytest.approx(lag, abs=0.03)
+    m = frame.score_imu
+    assert m.sum() > 200
+    # aligned: the gyro equals the commanded yaw rate (ideal drive) up to the filters
+    assert np.sqrt(np.mean((frame.wz[m] - frame.commanded_yaw_rate[m]) ** 2)) < 0.01
+    # the raw clock is off by the lag: 0.4 * 2 pi / 8 * 0.5 s ~ 0.16 rad/s amplitude
+    assert np.sqrt(np.mean((frame.wz_at_lag(0.0)[m] - frame.commanded_yaw_rate[m]) ** 2)) > 0.05
