@@ -91,3 +91,20 @@ def test_the_gyro_is_read_at_t_minus_the_lag_of_a_late_wheel_stream():
     assert np.sqrt(np.mean((frame.wz[m] - frame.commanded_yaw_rate[m]) ** 2)) < 0.01
     # the raw clock is off by the lag: 0.4 * 2 pi / 8 * 0.5 s ~ 0.16 rad/s amplitude
     assert np.sqrt(np.mean((frame.wz_at_lag(0.0)[m] - frame.commanded_yaw_rate[m]) ** 2)) > 0.05
+
+
+def test_manoeuvre_thresholds_are_inclusive_as_documented():
+    # frames module table: turning from |x| >= turn_rad_s, curve when |v| >= |x| B / 2,
+    # moving when a side reaches moving_m_s (values exact in binary: 0.125, 0.5, 0.0625)
+    from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, FrameSettings
+    from terrain.audit.frames import classify_manoeuvres
+    s = FrameSettings(turn_rad_s=0.125, moving_m_s=0.0625)
+    track = 0.5
+    x = np.array([0.125, 0.0625, 0.5, 0.5, 0.0])
+    v = np.array([1.0, 1.0, 0.125, 0.124, 0.0])
+    vel_l, vel_r = v - 0.5 * track * x, v + 0.5 * track * x
+    vel_l[4], vel_r[4] = 0.0625, -0.0625             # both sides exactly at moving_m_s
+    out = classify_manoeuvres(x, v, vel_l, vel_r, track, s)
+    assert list(out) == [CURVE, STRAIGHT, CURVE, SPIN, STRAIGHT]
+    vel_l[4] = vel_r[4] = 0.06
+    assert classify_manoeuvres(x, v, vel_l, vel_r, track, s)[4] == STOP
