@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, DataFormatError, TimestampError
+from terrain.errors import ConfigError, DataFormatError, TimestampError, config_positive
 from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
@@ -98,7 +98,14 @@ class ReplaySettings:
     input_cutoff_hz: float | None = None
 
     def __post_init__(self) -> None:
+        """Refuse settings out of range (ConfigError naming them): an infinite
+        ``input_cutoff_hz`` read as "no low-pass" but was clipped to 0.45 of the wheel rate
+        and filtered the inputs, and ``True`` passed as a 1 Hz cut-off or a headroom of 1."""
         check_physics(self.physics)
+        config_positive("ReplaySettings", output_cutoff_hz=self.output_cutoff_hz,
+                        speed_headroom=self.speed_headroom)
+        if self.input_cutoff_hz is not None:
+            config_positive("ReplaySettings", input_cutoff_hz=self.input_cutoff_hz)
         if not 50.0 <= float(self.physics_rate_hz) <= 1000.0:
             raise ConfigError(f"physics_rate_hz must be in [50, 1000], got {self.physics_rate_hz}")
         if not 0.0 < float(self.output_cutoff_hz) < 0.5 * float(self.physics_rate_hz):

@@ -108,3 +108,17 @@ def test_manoeuvre_thresholds_are_inclusive_as_documented():
     assert list(out) == [CURVE, STRAIGHT, CURVE, SPIN, STRAIGHT]
     vel_l[4] = vel_r[4] = 0.06
     assert classify_manoeuvres(x, v, vel_l, vel_r, track, s)[4] == STOP
+
+
+@pytest.mark.parametrize("kw", [{"input_cutoff_hz": float("inf")}, {"input_cutoff_hz": True},
+                                {"output_cutoff_hz": True}, {"speed_headroom": float("inf")},
+                                {"speed_headroom": True}])
+def test_replay_settings_refuse_infinite_or_boolean_values(kw):
+    # input_cutoff_hz=inf reads as "no low-pass" but was accepted and then clipped by
+    # lowpass() to 0.45 of the wheel rate (2.9 Hz on BorealTC): the inputs were filtered;
+    # True passed as a 1 Hz cut-off or a headroom of 1
+    from terrain.audit.replay import ReplaySettings
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=next(iter(kw))):
+        ReplaySettings(**kw)
+    ReplaySettings(input_cutoff_hz=2.0, output_cutoff_hz=1.0, speed_headroom=1.0)
