@@ -28,7 +28,7 @@ from terrain.audit.effects import (EffectSettings, YawParams, effect_params,
                                    predict_current, predict_yaw)
 from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
                                   FrameSettings, prepare_frame, scored_span)
-from terrain.audit.replay import ReplaySettings, replay_run
+from terrain.audit.replay import ReplaySettings, replay_run, require_replayable
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
 from terrain.audit.timing import LagSettings
@@ -582,7 +582,9 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         yaw rate and ``(v_R - v_L) / B`` over the turning samples of every chosen run at
         least ``settings.frames.edge_s`` from either end of its record, the audit frames'
         scored span (inf when the replayed robot does not turn; NaN when no run of
-        ``terrain`` turns, or none inside that span).
+        ``terrain`` turns, or none inside that span). ``attrs["skipped"]``: run id ->
+        why a run of ``terrain`` with an IMU could not be replayed
+        (:func:`~terrain.audit.replay.require_replayable`; left out, as the audit skips it).
 
     Raises
     ------
@@ -596,9 +598,14 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     from terrain.terramechanics.catalogue import get_terrain
 
     base = get_terrain(terrain)
-    chosen = []
+    chosen, skipped = [], {}
     for run in runs:
         if run.terrain != terrain or not run.has_imu or "wheels" not in run.streams:
+            continue
+        try:                # a run the audit skips (listed there) would stop the sweep
+            require_replayable(run, base)
+        except (ConfigError, DataFormatError) as exc:
+            skipped[run.run_id] = str(exc)
             continue
         w = run.streams["wheels"]
         _, x = skid_steer_forward(w["vel_l"].to_numpy(), w["vel_r"].to_numpy(),
@@ -621,7 +628,9 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         rows.append({"terrain": terrain, "factor": float(factor),
                      "lateral_friction": ter.lateral_friction, "replay_chi": chi,
                      "measured_chi": measured_chi, "n_runs": len(chosen)})
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows)
+    out.attrs["skipped"] = skipped
+    return out
 
 
 def _with_details(group: GroupResult, name: str, extra: dict) -> GroupResult:

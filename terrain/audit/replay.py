@@ -315,6 +315,47 @@ def require_ordered(run: Run, stream: str) -> None:
                              "the audit needs strictly increasing times", run.source, TIME, i)
 
 
+def require_replayable(run: Run, terrain: TerrainParams | None = None) -> str:
+    """The checks of :func:`replay_run` on its inputs, without replaying.
+
+    Parameters
+    ----------
+    run : Run
+        The run to replay.
+    terrain : TerrainParams, optional
+        Terrain to replay on instead of the catalogue entry of ``run.terrain``.
+
+    Returns
+    -------
+    str
+        The vehicle name (lower case), one of :data:`SKID_STEER_VEHICLES`.
+
+    Raises
+    ------
+    ConfigError, DataFormatError
+        As :func:`replay_run`.
+    """
+    vehicle_name = str(run.vehicle).lower()
+    if vehicle_name not in SKID_STEER_VEHICLES:
+        raise ConfigError(f"the audit replays skid-steer vehicles only "
+                          f"({', '.join(SKID_STEER_VEHICLES)}), run {run.run_id} is "
+                          f"{run.vehicle!r}")
+    if terrain is None:
+        if run.terrain is None:
+            raise ConfigError(f"run {run.run_id} has no terrain label")
+        get_terrain(run.terrain)
+    wheels = run.streams.get("wheels")
+    if wheels is None:
+        raise DataFormatError(f"run {run.run_id} has no wheel stream", run.source)
+    run.require_columns("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
+    if len(wheels) < 4:
+        raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
+                              run.source)
+    run.require_finite("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
+    require_ordered(run, "wheels")
+    return vehicle_name
+
+
 def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
                terrain: TerrainParams | None = None) -> Replay:
     """Replay one measured run through the simulator (see the module docstring).
@@ -343,24 +384,10 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
         of them holds a NaN or infinite value, a :class:`~terrain.errors.TimestampError`
         (:func:`require_ordered`) when its times do not strictly increase.
     """
-    vehicle_name = str(run.vehicle).lower()
-    if vehicle_name not in SKID_STEER_VEHICLES:
-        raise ConfigError(f"the audit replays skid-steer vehicles only "
-                          f"({', '.join(SKID_STEER_VEHICLES)}), run {run.run_id} is "
-                          f"{run.vehicle!r}")
+    vehicle_name = require_replayable(run, terrain)
     if terrain is None:
-        if run.terrain is None:
-            raise ConfigError(f"run {run.run_id} has no terrain label")
-        terrain = get_terrain(run.terrain)
-    wheels = run.streams.get("wheels")
-    if wheels is None:
-        raise DataFormatError(f"run {run.run_id} has no wheel stream", run.source)
-    run.require_columns("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
-    if len(wheels) < 4:
-        raise DataFormatError(f"run {run.run_id} has {len(wheels)} wheel samples (need 4)",
-                              run.source)
-    run.require_finite("wheels", ("vel_l", "vel_r", "cur_l", "cur_r"))
-    require_ordered(run, "wheels")
+        terrain = get_terrain(str(run.terrain))
+    wheels = run.streams["wheels"]
     vehicle = get_vehicle(vehicle_name)
     geometry = vehicle.contact_geometry()
     t_w = wheels[TIME].to_numpy(dtype=float)

@@ -122,3 +122,39 @@ def test_replay_settings_refuse_infinite_or_boolean_values(kw):
     with pytest.raises(ConfigError, match=next(iter(kw))):
         ReplaySettings(**kw)
     ReplaySettings(input_cutoff_hz=2.0, output_cutoff_hz=1.0, speed_headroom=1.0)
+
+
+def _turning_run(run_id: str) -> Run:
+    t = np.arange(0.0, 20.0, 0.15)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": -0.3, "vel_r": 0.3})
+    ti = np.arange(0.0, 20.0, 0.01)
+    imu = pd.DataFrame({"t_s": ti, "wz": 0.5, "ax": 0.0, "ay": 0.0})
+    return Run(run_id=run_id, dataset="x", terrain="ASPHALT",
+               streams={"wheels": pro, "imu": imu}, vehicle="husky")
+
+
+@pytest.mark.parametrize("spoil", ["nan", "missing", "order"])
+def test_the_friction_sweep_leaves_out_a_run_the_audit_skips(spoil):
+    # run_audit lists a run it cannot replay as skipped; the what-if sweep then replayed the
+    # same run again and stopped the whole audit (NonFiniteError, TimestampError, or a bare
+    # KeyError 'vel_l' for a missing column)
+    from dataclasses import replace
+
+    from terrain.audit import AuditSettings, run_audit
+    good, bad = _turning_run("x/ASPHALT/00"), _turning_run("x/ASPHALT/01")
+    wheels = bad.streams["wheels"].copy()
+    if spoil == "nan":
+        wheels.loc[40, "vel_r"] = np.nan
+    elif spoil == "missing":
+        wheels = wheels.drop(columns=["vel_l"])
+    else:
+        t = wheels.t_s.to_numpy().copy()
+        t[40], t[41] = t[41], t[40]
+        wheels["t_s"] = t
+    bad = replace(bad, streams={**bad.streams, "wheels": wheels})
+    from terrain.audit.core import lateral_friction_sweep
+    tab = lateral_friction_sweep([good, bad], "ASPHALT", (1.0,))
+    assert list(tab.n_runs) == [1] and np.isfinite(tab.replay_chi).all()
+    assert list(tab.attrs["skipped"]) == ["x/ASPHALT/01"]
+    res = run_audit([good, bad], AuditSettings(sweep_factors=(1.0,)))
+    assert "x/ASPHALT/01" in res.skipped and list(res.sweep.n_runs) == [1]
