@@ -158,3 +158,20 @@ def test_the_friction_sweep_leaves_out_a_run_the_audit_skips(spoil):
     assert list(tab.attrs["skipped"]) == ["x/ASPHALT/01"]
     res = run_audit([good, bad], AuditSettings(sweep_factors=(1.0,)))
     assert "x/ASPHALT/01" in res.skipped and list(res.sweep.n_runs) == [1]
+
+
+def test_the_replay_is_sampled_on_the_wheel_clock_without_a_delay():
+    # the replay's outputs are sampled at the wheel timestamps: the replayed yaw rate must
+    # follow the commanded one without a shift beyond the body's own response time
+    from terrain.audit.timing import LagSettings, best_lag
+    from terrain.vehicles import get_vehicle
+    b = get_vehicle("husky").track_m
+    t = np.arange(0.0, 60.0, 0.15)
+    x = 0.4 * np.sin(2.0 * np.pi * t / 8.0)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": 0.5 - 0.5 * b * x,
+                        "vel_r": 0.5 + 0.5 * b * x})
+    rep = replay_run(_run(pro))
+    lag, r2, slope = best_lag(t, x, rep.t_s, rep.yaw_rate,
+                              LagSettings(max_lag_s=1.0, lag_step_s=0.01))
+    assert r2 > 0.95 and slope > 0
+    assert abs(lag) < 0.08
