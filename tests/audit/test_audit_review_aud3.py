@@ -175,3 +175,28 @@ def test_the_replay_is_sampled_on_the_wheel_clock_without_a_delay():
                               LagSettings(max_lag_s=1.0, lag_step_s=0.01))
     assert r2 > 0.95 and slope > 0
     assert abs(lag) < 0.08
+
+
+def test_imu_samples_are_scored_edge_s_inside_the_overlap_on_the_wheel_clock_too():
+    # FrameSettings.edge_s: samples closer than edge_s to either end of the overlap of both
+    # streams are not scored. With an early wheel stream (lag < 0) the gyro is read at
+    # t + |lag|, which lies edge_s inside the IMU record before t itself does
+    from terrain.audit.frames import FrameSettings
+    from terrain.vehicles import get_vehicle
+    lag, b, edge = -0.5, get_vehicle("husky").track_m, FrameSettings().edge_s
+    t = np.arange(0.0, 60.0, 0.15)
+
+    def x_true(tau):
+        return 0.4 * np.sin(2.0 * np.pi * tau / 8.0)
+    x_w = x_true(t - lag)
+    pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": 0.5 - 0.5 * b * x_w,
+                        "vel_r": 0.5 + 0.5 * b * x_w})
+    ti = np.arange(10.0, 60.0, 0.01)                    # the IMU starts 10 s later
+    imu = pd.DataFrame({"t_s": ti, "wz": x_true(ti), "ax": 0.0, "ay": 0.0})
+    run = _run(pro, imu)
+    frame = prepare_frame(run, replay_run(run))
+    assert frame.lag.median_s == pytest.approx(lag, abs=0.03)
+    scored = frame.t_s[frame.score_imu]
+    assert scored.min() >= ti[0] + edge
+    assert scored.min() < ti[0] + edge + 0.2            # and no later than the next samples
+    assert scored.max() <= min(t[-1], ti[-1]) - edge
