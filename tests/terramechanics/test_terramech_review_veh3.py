@@ -1,0 +1,83 @@
+"""Review veh3: the slopes of the slip-sinkage, slip-compaction, rate-weakening and
+combined-slip laws against finite differences and their formulas (hand mutants of each
+slope survived the targeted tests)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from terrain.terramechanics.catalogue import TERRAINS
+from terrain.terramechanics.lateral import (SOILS, SlipCompactionResistance,
+                                            rate_weakening_factor, slip_sinkage_m,
+                                            soil_contact)
+
+HUSKY_LOAD_N = 50.0 * 9.80665 / 4.0
+
+
+def _contact(ratio=3.0):
+    soil = replace(SOILS["SANDY_LOAM"], slip_sinkage_ratio=ratio)
+    return soil_contact(soil, 0.11, 0.08, 0.1651, 4.0 * HUSKY_LOAD_N)
+
+
+def test_slip_sinkage_is_linear_in_the_slip_with_the_slope_it_reports():
+    contact = _contact(3.0)
+    z0 = float(np.interp(HUSKY_LOAD_N, contact.load_grid_n, contact.sinkage_grid_m))
+    s = np.array([0.0, 0.2, 0.5, 0.9])
+    z, dz = slip_sinkage_m(contact, HUSKY_LOAD_N, s)
+    np.testing.assert_allclose(z, z0 * (1.0 + 3.0 * s), rtol=1e-12)
+    np.testing.assert_allclose(dz, np.full(4, 3.0 * z0), rtol=1e-12)
+    h = 1e-6
+    fd = (slip_sinkage_m(contact, HUSKY_LOAD_N, s + h)[0]
+          - slip_sinkage_m(contact, HUSKY_LOAD_N, s)[0]) / h
+    np.testing.assert_allclose(dz, fd, rtol=1e-6)
+
+
+def test_slip_sinkage_slope_is_zero_where_the_sinkage_is_capped():
+    contact = _contact(1e4)          # any slip above 1e-3 sinks the wheel to its radius
+    z, dz = slip_sinkage_m(contact, HUSKY_LOAD_N, np.array([0.5]))
+    assert z[0] == pytest.approx(0.1651)
+    assert dz[0] == 0.0
+
+
+def test_slip_compaction_slope_is_the_derivative_of_its_resistance():
+    contact = _contact(3.0)
+    base = TERRAINS["SANDY_LOAM"].curve
+    curve = SlipCompactionResistance(base, contact, HUSKY_LOAD_N)
+    s = np.array([0.05, 0.2, 0.6])
+    c = curve.coefficients(s, 0.08)
+    h = 1e-6
+    fd = (curve.coefficients(s + h, 0.08).resistance - c.resistance) / h
+    np.testing.assert_allclose(c.dresistance_ds, fd, rtol=1e-4)
+    # at rest the rut is the static one: the base curve's resistance, no more
+    assert curve.coefficients(np.array([0.0]), 0.08).resistance[0] == pytest.approx(0.08)
+    # the deeper rut of a slipping wheel resists more
+    assert np.all(np.diff(c.resistance) > 0.0)
+
+
+def test_rate_weakening_halves_the_strength_at_its_speed_with_the_slope_it_reports():
+    soil = replace(SOILS["SNOW"], rate_weakening_speed_m_s=0.2)
+    u = np.array([0.0, 0.1, 0.2, 1.0])
+    f, df = rate_weakening_factor(u, soil)
+    np.testing.assert_allclose(f, 1.0 / (1.0 + u / 0.2), rtol=1e-15)
+    assert f[2] == 0.5
+    h = 1e-7
+    fd = (rate_weakening_factor(u + h, soil)[0] - f) / h
+    np.testing.assert_allclose(df, fd, rtol=1e-5)
+    # a soil without it keeps the whole strength
+    f1, df1 = rate_weakening_factor(u, SOILS["SNOW"])
+    assert np.all(f1 == 1.0) and np.all(df1 == 0.0)
+
+
+def test_combined_slip_tangent_at_exactly_the_hold_slip_is_the_curve_slope():
+    from terrain.terramechanics.combined_slip import combined_slip_coefficients
+
+    curve = TERRAINS["SANDY_LOAM"].curve        # rising up to s = 1: a nonzero slope there
+    out = combined_slip_coefficients(curve, np.array([1.0, 0.6]), np.array([0.0, 0.8]), 0.6)
+    slope = curve.coefficients(np.array([1.0]), 0.0).dmu_ds[0]
+    assert slope > 0.0
+    np.testing.assert_allclose(out.tangent, [slope, slope], rtol=1e-12)   # s_res = 1 both
+    beyond = combined_slip_coefficients(curve, np.array([0.9]), np.array([0.9]), 0.6)
+    assert beyond.tangent[0] == 0.0
