@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_numbers, config_positive
 from terrain.terramechanics.traction import traction_peak
 
 G_M_S2 = 9.80665
@@ -222,9 +222,13 @@ def can_turn_in_place(geometry, terrain) -> bool:
     return drive > resist
 
 
-def _check_bekker_plate(width_m: float, length_m: float, k_c: float, k_phi: float,
-                        n: float) -> None:
-    """Refuse a plate or soil for which Bekker's relation has no sinkage (ConfigError)."""
+def _check_bekker_plate(load_n: float, width_m: float, length_m: float, k_c: float,
+                        k_phi: float, n: float) -> None:
+    """Refuse a load, plate or soil for which Bekker's relation has no sinkage (ConfigError):
+    a load that is not a finite real number (any sign: an unloaded plate does not sink)."""
+    config_numbers("bekker_sinkage_m", load_n=load_n, k_c=k_c, k_phi=k_phi)
+    if not math.isfinite(load_n):
+        raise ConfigError(f"bekker_sinkage_m.load_n must be a finite load, N, got {load_n!r}")
     config_positive("bekker_sinkage_m", width_m=width_m, length_m=length_m, n=n)
     modulus = k_c / width_m + k_phi
     if not (math.isfinite(modulus) and modulus > 0.0):
@@ -258,12 +262,13 @@ def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
     Raises
     ------
     ConfigError
-        ``width_m``, ``length_m`` or ``n`` not a finite value > 0, or a pressure-sinkage
-        modulus ``k_c / width_m + k_phi`` that is not finite and > 0 (no sinkage solves
-        ``p = (k_c / b + k_phi) z^n``: a negative one made the sinkage complex, zero
-        divided by it).
+        ``load_n`` not a finite real number (NaN gave a NaN sinkage, ``True`` a 1 N load),
+        ``k_c`` or ``k_phi`` not a real number, ``width_m``, ``length_m`` or ``n`` not a
+        finite value > 0, or a pressure-sinkage modulus ``k_c / width_m + k_phi`` that is
+        not finite and > 0 (no sinkage solves ``p = (k_c / b + k_phi) z^n``: a negative
+        one made the sinkage complex, zero divided by it).
     """
-    _check_bekker_plate(width_m, length_m, k_c, k_phi, n)
+    _check_bekker_plate(load_n, width_m, length_m, k_c, k_phi, n)
     if load_n <= 0:
         return 0.0
     p = load_n / (width_m * length_m)
@@ -292,7 +297,7 @@ def bekker_compaction_coefficient(load_n: float, width_m: float, length_m: float
     ConfigError
         As :func:`bekker_sinkage_m`.
     """
-    _check_bekker_plate(width_m, length_m, k_c, k_phi, n)
+    _check_bekker_plate(load_n, width_m, length_m, k_c, k_phi, n)
     if load_n <= 0:
         return 0.0
     z = bekker_sinkage_m(load_n, width_m, length_m, k_c, k_phi, n)

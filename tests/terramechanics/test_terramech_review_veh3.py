@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from terrain.errors import ConfigError
 from terrain.terramechanics.catalogue import TERRAINS
 from terrain.terramechanics.lateral import (SOILS, SlipCompactionResistance,
                                             rate_weakening_factor, slip_sinkage_m,
@@ -81,3 +82,27 @@ def test_combined_slip_tangent_at_exactly_the_hold_slip_is_the_curve_slope():
     np.testing.assert_allclose(out.tangent, [slope, slope], rtol=1e-12)   # s_res = 1 both
     beyond = combined_slip_coefficients(curve, np.array([0.9]), np.array([0.9]), 0.6)
     assert beyond.tangent[0] == 0.0
+
+
+@pytest.mark.parametrize("load_n", [float("nan"), float("inf"), True, "100", None])
+def test_bekker_plate_refuses_a_load_that_is_not_a_finite_number(load_n):
+    # before: NaN gave a NaN sinkage and inf an infinite one without a word, True a 1 N
+    # load, '100' and None Python's bare TypeError on the comparison with 0
+    from terrain.terramechanics.resistance import (bekker_compaction_coefficient,
+                                                   bekker_sinkage_m)
+
+    plate = dict(width_m=0.11, length_m=0.08, k_c=5.27e3, k_phi=1515.04e3, n=0.7)
+    with pytest.raises(ConfigError, match=r"bekker_sinkage_m\.load_n"):
+        bekker_sinkage_m(load_n, **plate)
+    with pytest.raises(ConfigError, match=r"bekker_sinkage_m\.load_n"):
+        bekker_compaction_coefficient(load_n, **plate)
+
+
+@pytest.mark.parametrize("field, value", [("k_c", "5270"), ("k_phi", None)])
+def test_bekker_plate_refuses_moduli_that_are_not_real_numbers(field, value):
+    # before: Python's bare TypeError on '5270' / 0.11 and None + 5270 / 0.11
+    from terrain.terramechanics.resistance import bekker_sinkage_m
+
+    plate = dict(width_m=0.11, length_m=0.08, k_c=5.27e3, k_phi=1515.04e3, n=0.7)
+    with pytest.raises(ConfigError, match=rf"bekker_sinkage_m\.{field}"):
+        bekker_sinkage_m(100.0, **{**plate, field: value})
