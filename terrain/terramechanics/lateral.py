@@ -55,12 +55,20 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer, config_positive
+from terrain.errors import ConfigError, config_integer, config_numbers, config_positive
 from terrain.terramechanics.resistance import bekker_sinkage_m, compaction_resistance_n
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
                                              patch_mobilisation)
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
+
+
+#: Numeric fields of :class:`SoilParams`, refused unless real numbers (``None`` allowed for
+#: the optional ones): a boolean is not a modulus, text not an angle.
+_SOIL_NUMBERS = ("n", "k_c", "k_phi", "cohesion_pa", "friction_angle_deg", "shear_modulus_m",
+                 "unit_weight_n_m3")
+_OPTIONAL_SOIL_NUMBERS = ("lateral_shear_modulus_m", "layer_depth_m", "residual_ratio",
+                          "slip_sinkage_ratio", "rate_weakening_speed_m_s")
 
 
 @dataclass(frozen=True)
@@ -148,10 +156,11 @@ class SoilParams:
     Raises
     ------
     ConfigError
-        ``n``, ``shear_modulus_m`` or ``lateral_shear_modulus_m`` is not a finite value
-        > 0, ``friction_angle_deg`` is outside (0, 90) (the bearing-capacity factors of
-        :func:`bearing_capacity_factors` divide by ``tan phi``), ``cohesion_pa`` or
-        ``unit_weight_n_m3`` is negative or not finite, ``k_c`` or ``k_phi`` is not
+        A numeric field that is not a real number (text, a boolean, ``None`` but for the
+        optional fields), ``n``, ``shear_modulus_m`` or ``lateral_shear_modulus_m`` is not a
+        finite value > 0, ``friction_angle_deg`` is outside (0, 90) (the bearing-capacity
+        factors of :func:`bearing_capacity_factors` divide by ``tan phi``), ``cohesion_pa``
+        or ``unit_weight_n_m3`` is negative or not finite, ``k_c`` or ``k_phi`` is not
         finite, ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
         ``slip_sinkage_ratio`` is negative or not finite, or ``rate_weakening_speed_m_s``
         is not a finite positive speed, or ``combined_shear`` or ``slip_compaction`` is
@@ -176,6 +185,8 @@ class SoilParams:
     slip_compaction: bool = False
 
     def __post_init__(self) -> None:
+        config_numbers(self.name, optional=_OPTIONAL_SOIL_NUMBERS, **{
+            key: getattr(self, key) for key in _SOIL_NUMBERS + _OPTIONAL_SOIL_NUMBERS})
         positive = {"n": self.n, "shear_modulus_m": self.shear_modulus_m}
         if self.lateral_shear_modulus_m is not None:
             positive["lateral_shear_modulus_m"] = self.lateral_shear_modulus_m

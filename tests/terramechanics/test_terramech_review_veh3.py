@@ -106,3 +106,28 @@ def test_bekker_plate_refuses_moduli_that_are_not_real_numbers(field, value):
     plate = dict(width_m=0.11, length_m=0.08, k_c=5.27e3, k_phi=1515.04e3, n=0.7)
     with pytest.raises(ConfigError, match=rf"bekker_sinkage_m\.{field}"):
         bekker_sinkage_m(100.0, **{**plate, field: value})
+
+
+@pytest.mark.parametrize("field, value", [
+    ("friction_angle_deg", True),        # before: a soil with phi = 1 degree
+    ("friction_angle_deg", "29"),        # before: bare TypeError on 0.0 < '29'
+    ("k_c", "5270"),                     # before: bare TypeError from np.isfinite
+    ("k_phi", None),                     # before: bare TypeError from np.isfinite
+    ("layer_depth_m", True),             # before: a 1 m layer
+    ("slip_sinkage_ratio", True),        # before: k_s = 1
+    ("rate_weakening_speed_m_s", True),  # before: u_c = 1 m/s
+    ("residual_ratio", "0.5"),           # before: bare TypeError on 0.0 < '0.5'
+    ("lateral_shear_modulus_m", True),   # (refused before too, by config_positive)
+])
+def test_soil_params_refuse_values_that_are_not_real_numbers(field, value):
+    with pytest.raises(ConfigError, match=rf"\.{field} must be a real number"):
+        replace(SOILS["SANDY_LOAM"], **{field: value})
+
+
+def test_soil_params_keep_the_shipped_rows_and_the_optional_none():
+    for soil in SOILS.values():
+        assert replace(soil) == soil
+    bare = replace(SOILS["SANDY_LOAM"], lateral_shear_modulus_m=None, layer_depth_m=None,
+                   residual_ratio=None, slip_sinkage_ratio=None,
+                   rate_weakening_speed_m_s=None)
+    assert bare.shear_modulus_y_m == bare.shear_modulus_m
