@@ -699,11 +699,25 @@ class SlipCompactionResistance:
         Tabulated wheel-soil contact; its soil has a ``slip_sinkage_ratio``.
     load_n : float
         Wheel load, N (> 0).
+
+    Raises
+    ------
+    ConfigError
+        ``load_n`` not a finite load > 0 (the coefficient divides by it: 0 gave NaN at
+        every slip), or a ``contact`` whose soil has no ``slip_sinkage_ratio`` (no deeper
+        rut to compact).
     """
 
     base: TractionCurve
     contact: SoilContact
     load_n: float
+
+    def __post_init__(self) -> None:
+        config_positive("SlipCompactionResistance", load_n=self.load_n)
+        if self.contact.soil.slip_sinkage_ratio is None:
+            raise ConfigError(f"SlipCompactionResistance: the soil {self.contact.soil.name!r} "
+                              f"has no slip_sinkage_ratio (static sinkage only: no deeper rut "
+                              f"to compact)")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """``base``'s coefficients with the slip-sinkage compaction added to the resistance.

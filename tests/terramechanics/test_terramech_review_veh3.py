@@ -131,3 +131,18 @@ def test_soil_params_keep_the_shipped_rows_and_the_optional_none():
                    residual_ratio=None, slip_sinkage_ratio=None,
                    rate_weakening_speed_m_s=None)
     assert bare.shear_modulus_y_m == bare.shear_modulus_m
+
+
+@pytest.mark.parametrize("load_n", [0.0, -5.0, float("nan"), float("inf"), True])
+def test_slip_compaction_refuses_a_load_that_is_not_a_finite_positive_one(load_n):
+    # before: 0 and NaN gave a NaN resistance and slope at every slip (0/0), -5 N silently
+    # the base resistance, True a 1 N wheel
+    with pytest.raises(ConfigError, match=r"SlipCompactionResistance\.load_n"):
+        SlipCompactionResistance(TERRAINS["SANDY_LOAM"].curve, _contact(3.0), load_n)
+
+
+def test_slip_compaction_refuses_a_soil_without_slip_sinkage():
+    # before: Python's bare TypeError (None * float) at the first coefficients() call
+    contact = soil_contact(SOILS["SANDY_LOAM"], 0.11, 0.08, 0.1651, 4.0 * HUSKY_LOAD_N)
+    with pytest.raises(ConfigError, match="slip_sinkage_ratio"):
+        SlipCompactionResistance(TERRAINS["SANDY_LOAM"].curve, contact, HUSKY_LOAD_N)
