@@ -322,7 +322,7 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     soil : SoilParams
         Soil.
     iterations : int
-        Fixed-point iterations.
+        Fixed-point iterations (an integer >= 1).
 
     Returns
     -------
@@ -330,7 +330,14 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
         z, m (at most ``r``).
     contact_length_m : float
         l, m.
+
+    Raises
+    ------
+    ConfigError
+        ``iterations`` not an integer >= 1 (0 returned no sinkage at all), or a load, plate
+        or soil :func:`~terrain.terramechanics.resistance.bekker_sinkage_m` refuses.
     """
+    config_integer("wheel_sinkage_m iterations", iterations, 1)
     if load_n <= 0:
         return 0.0, footprint_length_m
     length = footprint_length_m

@@ -146,3 +146,25 @@ def test_slip_compaction_refuses_a_soil_without_slip_sinkage():
     contact = soil_contact(SOILS["SANDY_LOAM"], 0.11, 0.08, 0.1651, 4.0 * HUSKY_LOAD_N)
     with pytest.raises(ConfigError, match="slip_sinkage_ratio"):
         SlipCompactionResistance(TERRAINS["SANDY_LOAM"].curve, contact, HUSKY_LOAD_N)
+
+
+@pytest.mark.parametrize("iterations", [0, -3, 2.5, True])
+def test_wheel_sinkage_refuses_an_iteration_count_that_is_not_a_positive_integer(iterations):
+    # before: 0 (or -3) returned (0.0, footprint) as the wheel's sinkage without a word, a
+    # Husky wheel on SNOW that sinks 73 mm; 2.5 raised range()'s bare TypeError; True ran one
+    from terrain.terramechanics.lateral import wheel_sinkage_m
+
+    with pytest.raises(ConfigError, match="iterations"):
+        wheel_sinkage_m(HUSKY_LOAD_N, 0.11, 0.08, 0.1651, SOILS["SNOW"], iterations=iterations)
+
+
+def test_wheel_sinkage_is_the_fixed_point_of_bekker_on_the_sunk_chord():
+    from terrain.terramechanics.lateral import contact_chord_m, wheel_sinkage_m
+    from terrain.terramechanics.resistance import bekker_sinkage_m
+
+    soil = SOILS["SNOW"]
+    z, length = wheel_sinkage_m(HUSKY_LOAD_N, 0.11, 0.08, 0.1651, soil)
+    assert z == pytest.approx(0.0730, abs=5e-4)          # docs/physics_v2.md: 73 mm
+    assert length == pytest.approx(float(contact_chord_m(z, 0.1651, 0.08)), rel=1e-9)
+    assert z == pytest.approx(bekker_sinkage_m(HUSKY_LOAD_N, 0.11, length, soil.k_c,
+                                               soil.k_phi, soil.n), rel=1e-9)
