@@ -85,9 +85,10 @@ def check_motor(vehicle) -> None:
 class MotorParams:
     """Speed-controlled drive motor (one per side or per wheel).
 
-    The motor current follows the DC-motor torque law ``I = I_0 sign(omega) + T / (G k_t eta)``
-    (torque constant ``k_t``, gear ratio ``G``, gearbox efficiency ``eta``, no-load current
-    ``I_0``).
+    The motor current follows the DC-motor torque law
+    ``I = I_0 tanh(omega / 0.05 rad/s) + T / (G k_t eta)`` (torque constant ``k_t``, gear
+    ratio ``G``, gearbox efficiency ``eta``, no-load current ``I_0``; the sign of the wheel
+    speed ``omega`` smoothed over 0.05 rad/s, :meth:`current_from_torque`).
 
     Parameters
     ----------
@@ -153,7 +154,8 @@ class MotorParams:
         wheel_torque_nm : ndarray, shape (...)
             Torque at the wheel (after the gearbox), N m.
         omega_rad_s : ndarray, shape (...)
-            Wheel angular speed, rad/s (sets the sign of the no-load current).
+            Wheel angular speed, rad/s: the no-load current is ``I_0 tanh(omega / 0.05)``
+            (its sign, smoothed; 76 % of ``I_0`` at 0.05 rad/s, 0 at standstill).
 
         Returns
         -------
