@@ -168,3 +168,15 @@ def test_wheel_sinkage_is_the_fixed_point_of_bekker_on_the_sunk_chord():
     assert length == pytest.approx(float(contact_chord_m(z, 0.1651, 0.08)), rel=1e-9)
     assert z == pytest.approx(bekker_sinkage_m(HUSKY_LOAD_N, 0.11, length, soil.k_c,
                                                soil.k_phi, soil.n), rel=1e-9)
+
+
+def test_lateral_strength_is_cohesion_friction_and_the_bulldozed_wall_of_the_chord():
+    from terrain.terramechanics.lateral import bulldozing_force_n, lateral_strength_n
+
+    soil = SOILS["SNOW"]
+    width, load, z, chord = 0.11, np.array([123.0]), np.array([0.073]), np.array([0.274])
+    want = (soil.cohesion_pa * width * chord + load * np.tan(np.radians(23.2))
+            + bulldozing_force_n(z, chord, soil))       # the wall is as wide as the chord
+    np.testing.assert_allclose(lateral_strength_n(soil, width, load, z, chord), want,
+                               rtol=1e-12)
+    assert bulldozing_force_n(z, chord, soil)[0] > 2.0 * bulldozing_force_n(z, width, soil)[0]

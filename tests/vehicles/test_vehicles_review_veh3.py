@@ -1,4 +1,5 @@
-"""Review veh3: the motor law's no-load term as MotorParams documents it."""
+"""Review veh3: the motor law's no-load term as MotorParams documents it, and the direction
+of chi_from_truth's regression."""
 
 from __future__ import annotations
 
@@ -21,3 +22,17 @@ def test_no_load_current_is_the_smoothed_sign_of_the_wheel_speed(vehicle):
     torque = m.current_from_torque(10.0, 5.0) - got[3]
     assert torque == pytest.approx(10.0 / (m.gear_ratio * m.torque_constant_nm_per_a
                                            * m.efficiency), rel=1e-12)
+
+
+def test_chi_from_truth_regresses_the_side_speed_difference_on_the_yaw_rate():
+    from terrain.vehicles.icr import chi_from_truth
+
+    # d = v_R - v_L regressed on B w through the origin: sum(d B w) / sum((B w)^2) =
+    # (0.3 * 0.2 + 0.5 * 0.4) / (0.2^2 + 0.4^2) = 1.3 with B = 1 (the reverse regression,
+    # w on d, inverted, gives 0.34 / 0.26 = 1.3077); the standing sample (w = 0.05 below the
+    # 0.1 rad/s threshold) is left out
+    left = np.array([0.0, 0.0, 0.0])
+    right = np.array([0.3, 0.5, 2.0])
+    w = np.array([0.2, 0.4, 0.05])
+    assert chi_from_truth(left, right, w, 1.0) == pytest.approx(1.3, rel=1e-12)
+    assert chi_from_truth(left, 2.0 * right, w, 2.0) == pytest.approx(1.3, rel=1e-12)
