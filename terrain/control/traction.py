@@ -497,12 +497,16 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         An input array's shape differs from the state's ``(n,)`` (named in the message).
     DataFormatError
         An input that is not a real number (text, ``None`` for a scalar, a complex
-        scalar), named.
+        scalar, a boolean or an array of booleans), named.
     ImplausibleValueError
         A non-finite ``omega_low_level_rad_s``: the command the correction is added to
         (a non-finite measurement or estimate only suspends the correction, as before).
     """
     cfg = config
+    _refuse_booleans(omega_low_level_rad_s=omega_low_level_rad_s,
+                     omega_meas_rad_s=omega_meas_rad_s, v_long_m_s=v_long_m_s,
+                     a_local_m_s2=a_local_m_s2, chassis_speed_m_s=chassis_speed_m_s,
+                     dt_s=dt_s, input_age_s=input_age_s, slip=slip)
     try:
         omega_ll = np.asarray(omega_low_level_rad_s, dtype=float)
         omega = np.asarray(omega_meas_rad_s, dtype=float)
@@ -620,6 +624,25 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     new_state = TractionState(table[8], table[9], table[10] > 0.5, table[11], table[12],
                               table[13] > 0.5)
     return out, new_state
+
+
+def _refuse_booleans(**inputs) -> None:
+    """Raise a :class:`~terrain.errors.DataFormatError` naming the first input that is a
+    boolean or holds booleans: ``float(True)`` is 1, so ``dt_s=True`` integrated over a whole
+    second and a boolean array was a command of 1 rad/s."""
+    for name, x in inputs.items():
+        if isinstance(x, np.ndarray):
+            boolean = x.dtype == bool
+        elif isinstance(x, (list, tuple)):
+            try:
+                boolean = np.asarray(x).dtype == bool
+            except (TypeError, ValueError):   # ragged: the conversion's error names it
+                continue
+        else:
+            boolean = isinstance(x, (bool, np.bool_))
+        if boolean:
+            raise DataFormatError(f"traction control step: {name} must hold real numbers, "
+                                  f"got a boolean {x!r:.60}", column=name)
 
 
 def _name_unreal(**inputs) -> None:
