@@ -238,9 +238,9 @@ def encoder_resolution_speed_m_s(motor, wheel_radius_m: float,
     motor : MotorParams
         Drive with ``encoder_counts_per_rev`` and ``encoder_filter_s`` (s).
     wheel_radius_m : float
-        Rolling radius r, m.
+        Rolling radius r, m (finite, > 0).
     slip_resolution : float
-        Largest tolerated slip error of one count (dimensionless, > 0;
+        Largest tolerated slip error of one count (dimensionless, finite, > 0;
         :data:`ENCODER_SLIP_RESOLUTION`: 4 counts per filter time constant).
 
     Returns
@@ -253,10 +253,13 @@ def encoder_resolution_speed_m_s(motor, wheel_radius_m: float,
     Raises
     ------
     ConfigError
-        ``slip_resolution`` not > 0, or a wheel radius not > 0.
+        ``slip_resolution`` or the wheel radius not a real number (text, ``None``, a
+        boolean; named), or not finite and > 0.
     """
-    if not (slip_resolution > 0 and wheel_radius_m > 0):
-        raise ConfigError(f"slip_resolution and wheel_radius_m must be > 0, got "
+    config_numbers("encoder_resolution_speed_m_s", wheel_radius_m=wheel_radius_m,
+                   slip_resolution=slip_resolution)
+    if not (0 < slip_resolution < math.inf and 0 < wheel_radius_m < math.inf):  # NaN fails
+        raise ConfigError(f"slip_resolution and wheel_radius_m must be finite and > 0, got "
                           f"{slip_resolution}, {wheel_radius_m}")
     tau = float(motor.encoder_filter_s)
     if tau <= 0:

@@ -47,3 +47,33 @@ def test_numeric_inputs_still_give_table_8_1_case_1a():
         out, _ = traction_control_step(cfg, TractionState.zeros(1), TARGETS, **_args(**kw))
         assert out.omega_cmd_rad_s[0] == pytest.approx(0.7 + 0.1 - 0.1 / 0.7)   # 0.6571
         assert not out.safe[0]
+
+
+@pytest.mark.parametrize("radius, resolution", [
+    (0.165, "0.25"), (None, 0.25), (0.165, True), (True, 0.25), (0.165, np.inf),
+    (np.inf, 0.25), (0.165, np.nan)])
+def test_encoder_resolution_refuses_what_is_not_a_finite_positive_number(radius, resolution):
+    """Before: text or None was Python's bare TypeError of ``'>' not supported``, True a
+    radius or resolution of 1 (AgriMaRo: 2.33 m/s or 0.096 m/s instead of 0.384 m/s), an
+    infinite resolution a threshold of 0 m/s (no dead band at all) and an infinite radius an
+    infinite one (the controller never acts)."""
+    from terrain.control.traction import encoder_resolution_speed_m_s
+    from terrain.errors import ConfigError
+    from terrain.vehicles import get_vehicle
+
+    motor = get_vehicle("agrimaro").motor
+    with pytest.raises(ConfigError, match="wheel_radius_m|slip_resolution"):
+        encoder_resolution_speed_m_s(motor, radius, resolution)
+
+
+def test_encoder_resolution_of_the_agrimaro_is_0_384_m_s():
+    """r q / (tau s_res) = 0.165 (2 pi / 90) / (0.12 0.25) = 0.384 m/s (its docstring);
+    numeric inputs of NumPy types are taken as before."""
+    from terrain.control.traction import encoder_resolution_speed_m_s
+    from terrain.vehicles import get_vehicle
+
+    motor = get_vehicle("agrimaro").motor
+    expected = 0.165 * (2 * np.pi / 90) / (0.12 * 0.25)
+    assert encoder_resolution_speed_m_s(motor, 0.165) == pytest.approx(expected)
+    assert encoder_resolution_speed_m_s(motor, np.float64(0.165), 1) == pytest.approx(
+        expected * 0.25)
