@@ -207,14 +207,28 @@ class TractionLoop:
         -------
         ndarray, shape (n_units,)
             Wheel speed correction, rad/s (zeros in shadow mode).
+
+        Raises
+        ------
+        ConfigError
+            ``terrain_decision`` returned something other than a pair ``(label or None,
+            confidence)`` or a triple ``(label, confidence, t_decided_s)`` (a bare label, a
+            1-tuple, None), or a decision time that is not a real number or None (text, a
+            boolean).
         """
         if self.observer is not None:
             self.observer(obs)
         est = self.estimator.update(obs)
         decision = self.terrain_decision(obs.t_s)
+        if isinstance(decision, (str, bytes)) or not isinstance(decision, (tuple, list)) \
+                or len(decision) not in (2, 3):   # "GRASS" was label "G", confidence "R"
+            raise ConfigError(f"terrain_decision({obs.t_s}) must return (label or None, "
+                              "confidence) or (label, confidence, t_decided_s), got "
+                              f"{type(decision).__name__} {decision!r:.60}")
         label, conf = decision[0], decision[1]
         # a decision of unknown time (stamp None) has no age: the fallback (select_target)
         stamp = decision[2] if len(decision) > 2 else obs.t_s
+        config_numbers("terrain_decision", optional=("t_decided_s",), t_decided_s=stamp)
         age = None if stamp is None else obs.t_s - float(stamp)
         targets = select_target(self.table, label, conf, decision_age_s=age)
         # the first call has no previous one: no interval has elapsed, so the PID integrates
