@@ -240,14 +240,16 @@ class TractionLoop:
         a = np.asarray(est.a_local_m_s2, dtype=float)
         if self.a_filtered is None or not np.all(np.isfinite(self.a_filtered)):
             self.a_filtered = a.copy()
-        elif self.accel_tau_s > 0:
-            self.a_filtered = self.a_filtered + (1 - math.exp(-dt / self.accel_tau_s)) * (
-                a - self.a_filtered)
+        elif self.accel_tau_s > 0:   # a call back in time (dt < 0) moves the filter by 0
+            self.a_filtered = self.a_filtered + (
+                1 - math.exp(-max(dt, 0.0) / self.accel_tau_s)) * (a - self.a_filtered)
         else:
             self.a_filtered = a
+        # a repeated time is floored at 1 us; a time that went back (dt < 0) is passed on:
+        # the traction step's safe output, which clears the memory
         out = self.controller.step(targets, obs.omega_low_level, est.omega_meas_rad_s,
                                    est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
-                                   max(dt, 1e-6), est.age_s)
+                                   dt if dt < 0.0 else max(dt, 1e-6), est.age_s)
         correction = out.correction_rad_s
         ff_terrain = (targets.terrain if targets.terrain in TERRAIN_NAMES
                       else self._fallback_basis)

@@ -479,7 +479,8 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     dt_s : float
         Time since the previous step, s (> 0); zero, negative or non-finite -> the safe
         output, which clears the memory (a repeated time stamp restarts the integral;
-        :class:`terrain.control.closed_loop.TractionLoop` floors repeated times at 1 us).
+        :class:`terrain.control.closed_loop.TractionLoop` floors repeated times at 1 us
+        and passes a time that went back on as it is).
     input_age_s : float
         Age of the slip / velocity estimates, s; not in ``[0, max_input_age_s]``
         (:func:`age_is_fresh`: older, negative or non-finite) -> the safe output.

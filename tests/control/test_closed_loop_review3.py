@@ -58,3 +58,36 @@ def test_well_formed_decisions_still_pick_the_table_row(decision, fallback):
     assert loop.log[-1]["fallback"] is fallback
     assert loop.log[-1]["target_traction"] == pytest.approx(0.0098, abs=1e-4) if fallback \
         else loop.log[-1]["target_traction"] == pytest.approx(0.3)
+
+
+def test_a_call_whose_time_goes_back_gives_the_safe_output():
+    """A call stamped before the previous one (a clock stepped back) has no interval to
+    integrate over: the traction step's rule for a negative ``dt_s`` is the safe output,
+    which clears the wheel's memory. Before, the loop floored the interval to 1 us like a
+    repeated time and ran a normal step (ICE, slip 0.09 against 0.0098, ki 50: the integral
+    of -0.162 rad/s was kept and -0.325 rad/s applied), and the acceleration filter moved
+    away from the estimate with a negative weight (0.5 -> 0.483 towards 1)."""
+    cfg, n = config_for_vehicle("husky", kp=2.0, ki=50.0)
+    r = cfg.wheel_radius_m
+
+    class Slipping(_Cruise):   # ground 0.5 m/s, wheels 0.55 m/s rim (below omega_max)
+        def update(self, obs):
+            return VelocityEstimate(np.full(n, 0.55 / r), np.full(n, 0.5), np.ones(n), 0.5,
+                                    0.0)
+
+    loop = TractionLoop(cfg, n, Slipping(r), build_slip_table(["ICE"]),
+                        lambda t: ("ICE", 1.0), feed_forward=False, accel_tau_s=0.3)
+    omega = np.full(n, 0.55 / r)
+    for t in (0.02, 0.04, 0.06):
+        loop(observation(t, omega))
+    assert not loop.log[-1]["safe"].any()
+    assert np.all(loop.controller.state.integral < -0.1)
+    a_before = np.full(n, 0.5)          # a filter still settling towards the estimate's 1
+    loop.a_filtered = a_before.copy()
+    c = loop(observation(0.05, omega))
+    assert loop.log[-1]["safe"].all() and np.all(c == 0.0)
+    np.testing.assert_array_equal(loop.a_filtered, a_before)
+    assert np.all(loop.controller.state.integral == 0.0)
+    # the next call in order runs normally again, from a cleared memory
+    c = loop(observation(0.07, omega))
+    assert not loop.log[-1]["safe"].any() and np.all(c < 0.0)
