@@ -1,4 +1,5 @@
-"""A small wheel-only and an IMU+wheel model fitted on real BorealTC runs (session scope)."""
+"""A small wheel-only and an IMU+wheel model fitted on real BorealTC runs, and the latter
+served (session scope)."""
 
 from __future__ import annotations
 
@@ -38,3 +39,17 @@ def wheel_model(train_runs):
 def all_model(train_runs):
     """IMU + wheel model on a 50 Hz clock."""
     return _fit(train_runs, "all", 50.0)
+
+
+@pytest.fixture(scope="session")
+def served_all(all_model, tmp_path_factory):
+    """The IMU + wheel model, served (loaded as ``mlflow models serve`` does)."""
+    import mlflow.pyfunc
+
+    from terrain.serving.pyfunc import save_model
+    from terrain.serving.served import save_served_model, served_settings
+
+    root, m = tmp_path_factory.mktemp("served_all"), all_model
+    save_model(root / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
+    save_served_model(root / "served", root / "train", served_settings(m))
+    return mlflow.pyfunc.load_model(str(root / "served"))

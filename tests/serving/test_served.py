@@ -367,17 +367,6 @@ def test_plausibility_flags():
 
 
 @pytest.fixture(scope="module")
-def served_all(all_model, tmp_path_factory):
-    """The session's IMU + wheel model, served (loaded as ``mlflow models serve`` does)."""
-    import mlflow.pyfunc
-
-    root, m = tmp_path_factory.mktemp("served_all"), all_model
-    save_model(root / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
-    save_served_model(root / "served", root / "train", served_settings(m))
-    return mlflow.pyfunc.load_model(str(root / "served"))
-
-
-@pytest.fixture(scope="module")
 def long_unseen_run(borealtc_runs, train_runs):
     """An unseen run with an IMU whose wheel stream lasts over 31 s."""
     seen = {r.run_id for r in train_runs}

@@ -19,20 +19,7 @@ import pytest
 from terrain.serving import decisions_frame
 from terrain.serving.replay import interleave, replay_run
 from terrain.serving.request import parse_request
-from terrain.serving.served import save_served_model, served_settings
-from terrain.serving.pyfunc import save_model
 from terrain.serving.service import StreamService
-
-
-@pytest.fixture(scope="module")
-def served_both(all_model, tmp_path_factory):
-    """The session's IMU + wheel model, served."""
-    import mlflow.pyfunc
-
-    root, m = tmp_path_factory.mktemp("served_tail"), all_model
-    save_model(root / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
-    save_served_model(root / "served", root / "train", served_settings(m))
-    return mlflow.pyfunc.load_model(str(root / "served"))
 
 
 @pytest.fixture(scope="module")
@@ -68,12 +55,12 @@ def _sample_by_sample(served, frame):
 @pytest.mark.parametrize("stops", [("imu", 5.0), ("imu", 8.0), ("wheels", 5.0),
                                    ("imu", 3.0)])
 def test_a_stream_that_outlasts_the_others_gets_the_decisions_it_is_due(
-        served_both, both_streams, stops):
+        served_all, both_streams, stops):
     stream, at = stops
     f = both_streams
     t0 = float(f["t_s"].min())
     frame = f[~((f["stream"] == stream) & (f["t_s"] > t0 + at))].reset_index(drop=True)
-    got, want = _served(served_both, frame), _sample_by_sample(served_both, frame)
+    got, want = _served(served_all, frame), _sample_by_sample(served_all, frame)
     assert len(got) == len(want)
     np.testing.assert_allclose(got["t_s"], want["t_s"])
     # (the served answer adds the run-level findings: here the clocks' short overlap)
