@@ -13,6 +13,7 @@ import json
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced, add_train_hop,
                                  add_window_ekf, output_file, positive_number, seed_value)
 from terrain.errors import ConfigError
+from terrain.io.jsonfile import json_ready
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS
@@ -227,7 +228,10 @@ def main(args: argparse.Namespace) -> int:
     print(f"  timings: {', '.join(f'{k} {v:.1f}' for k, v in result.timings_s.items())}")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=1, default=str) + "\n")
+        # strict JSON (RFC 8259): an undefined figure (the recall of a class without a
+        # window) is null, not the bare token NaN that jq and JSON.parse refuse
+        args.json.write_text(json.dumps(json_ready(report, None), indent=1, default=str,
+                                        allow_nan=False) + "\n")
         print(f"  report written to {args.json}")
     print(run.describe())
     return 0

@@ -1,0 +1,54 @@
+"""Review tests of the command-line layer (pass pipe3): outputs as documented, options
+checked before the work, no traceback."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+
+from cli_helpers import RecordingRun, exit_code
+
+
+def _cv_result(config):
+    """A cross-validation outcome whose second class has no window (recall NaN)."""
+    folds = pd.DataFrame({"seed": [0], "fold": [0], "accuracy": [0.75],
+                          "balanced_accuracy": [0.75], "macro_f1": [0.7],
+                          "run_majority_accuracy": [np.nan]})
+    pooled = pd.DataFrame({"seed": [0], "accuracy": [0.75], "balanced_accuracy": [0.75],
+                           "macro_f1": [0.7], "run_majority_accuracy": [np.nan]})
+    confusion = pd.DataFrame([[3, 1], [0, 0]], index=["ICE", "SNOW"], columns=["ICE", "SNOW"])
+    report = SimpleNamespace(classes=["ICE", "SNOW"], folds=folds, pooled=pooled,
+                             confusion=confusion, notes=[], predictions=pd.DataFrame(),
+                             summary=lambda: {c: {"mean": float(folds[c].mean()),
+                                                  "std": 0.0, "min": float(folds[c].min()),
+                                                  "max": float(folds[c].max()), "n_folds": 1}
+                                              for c in folds.columns[2:]})
+    return SimpleNamespace(config=config, report=report, n_windows=4, n_runs=2,
+                           timings_s={"cv": 0.1}, counts={}, input_notes=[])
+
+
+def test_cv_json_is_strict_json_with_null_for_an_undefined_figure(tmp_path, monkeypatch):
+    # a class without a window has no recall (NaN) and a fold without a whole run no run
+    # vote: json.dumps wrote the bare token NaN, which jq and JSON.parse refuse
+    import pipelines.cv as cv
+
+    monkeypatch.setattr(cv, "load_dataset", lambda name: [])
+    monkeypatch.setattr(cv, "run_cv", lambda config, runs, progress: _cv_result(config))
+    monkeypatch.setattr(cv, "input_report", lambda *a: SimpleNamespace(
+        text=lambda: "", metrics=lambda: {}, table=pd.DataFrame()))
+    monkeypatch.setattr(cv, "plot_confusion", lambda *a: None)
+    monkeypatch.setattr(cv, "tracked_run", RecordingRun())
+    out = tmp_path / "cv.json"
+    assert exit_code(["cv", "--seeds", "0", "--json", str(out), "--no-progress"]) == 0
+    text = out.read_text()
+    report = json.loads(text, parse_constant=lambda token: pytest_fail(token))
+    assert report["pooled_recall"] == {"ICE": 0.75, "SNOW": None}
+    assert report["pooled"]["run_majority_accuracy"] == {"mean": None, "std": None}
+    assert report["pooled"]["accuracy"]["mean"] == 0.75
+
+
+def pytest_fail(token):
+    raise AssertionError(f"not strict JSON: {token}")
