@@ -62,7 +62,9 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        When the model cannot be loaded, ``args.run_dir`` is not a folder, holds no run
+        When a smoothing option is out of range
+        (:func:`pipelines.arguments.smoothing_from_args`, checked before the model is
+        loaded), the model cannot be loaded, ``args.run_dir`` is not a folder, holds no run
         files, holds several runs and ``--index`` is not given, lacks the run ``--index``
         (:func:`~terrain.io.measured.read_folder_run`), or lacks a stream the model needs.
     DataFormatError
@@ -70,10 +72,11 @@ def main(args: argparse.Namespace) -> int:
         its streams overlap for less than one window, or the service's per-sample rules
         refused the samples it needed.
     """
+    smoothing = smoothing_from_args(args)   # the options' own checks, before any reading
     model = load_stream_model(args.model)
     run = read_folder_run(args.run_dir, args.index)
     config = StreamConfig(hop_s=args.hop_s, min_confidence=args.min_confidence,
-                          smoothing=smoothing_from_args(args))
+                          smoothing=smoothing)
     targets = TableTargets(model.classes, DesiredSlipConfig(min_confidence=args.min_confidence))
     replay = replay_recorded(StreamService(model, targets, config), run)
     print(replay.input_report().text())

@@ -52,3 +52,20 @@ def test_cv_json_is_strict_json_with_null_for_an_undefined_figure(tmp_path, monk
 
 def pytest_fail(token):
     raise AssertionError(f"not strict JSON: {token}")
+
+
+def test_stream_refuses_its_smoothing_options_before_loading_the_model(
+        tmp_path, monkeypatch, capsys):
+    # --dwell-s -1 (or --reset-windows without --reset-confidence) was refused only after
+    # the model was loaded (seconds for an ensemble) and the run read, as serve refuses it
+    import pipelines.stream as stream
+
+    loaded = []
+    monkeypatch.setattr(stream, "load_stream_model", lambda path: loaded.append(path))
+    monkeypatch.setattr(stream, "read_folder_run", lambda *a: loaded.append(a))
+    for options in (["--dwell-s", "-1"], ["--reset-windows", "3"]):
+        assert exit_code(["stream", "--model", str(tmp_path / "m"), str(tmp_path / "r"),
+                          "--out", str(tmp_path / "d.csv"), *options]) == 2
+        err = capsys.readouterr().err
+        assert options[0] in err and "Traceback" not in err
+    assert loaded == []
