@@ -112,6 +112,13 @@ def _portable(path: Path) -> str:
         return str(path)
 
 
+def _exact(value: float) -> str:
+    """``value`` as short as ``:g`` writes it where that reads back the same float, else in
+    full (``:g`` keeps 6 significant digits: 2.123456789 read back as 2.12346)."""
+    short = f"{value:g}"
+    return short if float(short) == value else repr(value)
+
+
 def _command(args: argparse.Namespace) -> str:
     """The ``terrain audit`` command line that reproduces this run."""
     parts = ["terrain", "audit"]
@@ -125,7 +132,7 @@ def _command(args: argparse.Namespace) -> str:
         parts += ["--physics", args.physics]
     parts += ["--compare-physics"] * args.compare_physics
     if args.replay_input_lowpass_hz is not None:
-        parts += ["--replay-input-lowpass-hz", f"{args.replay_input_lowpass_hz:g}"]
+        parts += ["--replay-input-lowpass-hz", _exact(args.replay_input_lowpass_hz)]
     parts += ["--no-pooled"] * args.no_pooled
     parts += ["--sweep-lateral-friction"] * args.sweep_lateral_friction
     return shlex.join(parts)

@@ -69,3 +69,25 @@ def test_stream_refuses_its_smoothing_options_before_loading_the_model(
         err = capsys.readouterr().err
         assert options[0] in err and "Traceback" not in err
     assert loaded == []
+
+
+def test_audit_reproduce_line_gives_back_the_low_pass_it_ran_with(tmp_path, monkeypatch):
+    # the report's reproduce line wrote the cut-off with :g, 6 significant digits:
+    # 2.123456789 Hz came back as 2.12346 Hz, another replay than the one reported
+    import shlex
+
+    import pipelines.audit as audit
+    from terrain.cli import build_parser
+
+    calls = []
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(audit, "load_dataset", lambda name: [])
+    monkeypatch.setattr(audit, "_audit", lambda args, *rest: calls.append(args))
+    for hz in ("2.123456789", "2", "0.1"):
+        assert exit_code(["audit", "--dataset", "vulpi", "--json", "a.json", "--no-mlflow",
+                          "--replay-input-lowpass-hz", hz]) == 0
+        line = audit._command(calls[-1])
+        again = build_parser().parse_args(shlex.split(line)[1:])
+        assert again.replay_input_lowpass_hz == float(hz)
+    assert line.endswith("--replay-input-lowpass-hz 0.1")
+    assert audit._command(calls[1]).endswith("--replay-input-lowpass-hz 2")
