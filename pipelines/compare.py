@@ -77,7 +77,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--datasets", nargs="+", default=list(d.datasets))
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=list(d.seeds))
-    parser.add_argument("--history", type=int, nargs="+", default=list(d.history))
+    parser.add_argument("--history", type=positive_integer, nargs="+", default=list(d.history),
+                        help="decision histories k reported for every cell: the class of the "
+                             "probabilities averaged over the last k windows of a run")
     parser.add_argument("--max-epochs", type=positive_integer, default=d.max_epochs)
     parser.add_argument("--threads", type=integer_up_to(MAX_TORCH_THREADS), default=None,
                         help="torch threads per CNN fit")

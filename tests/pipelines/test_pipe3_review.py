@@ -91,3 +91,12 @@ def test_audit_reproduce_line_gives_back_the_low_pass_it_ran_with(tmp_path, monk
         assert again.replay_input_lowpass_hz == float(hz)
     assert line.endswith("--replay-input-lowpass-hz 0.1")
     assert audit._command(calls[1]).endswith("--replay-input-lowpass-hz 2")
+
+
+def test_compare_history_below_one_is_refused_as_the_option(capsys):
+    # --history 0 was refused by the grid's field ('CompareConfig.history must be an integer
+    # >= 1'), a name the command line does not have
+    for value in ("0", "-1", "x"):
+        assert exit_code(["compare", "--history", value]) == 2
+        err = capsys.readouterr().err
+        assert "argument --history:" in err and "CompareConfig" not in err
