@@ -106,6 +106,8 @@ def main(args: argparse.Namespace) -> int:
         (:data:`features.slip_features.SLIP_WINDOW`, 2 s), or a duration (``--duration-s``, or an
         ``--orchard-duration-s`` longer than it or NaN) the simulation refuses; checked
         before any run is simulated.
+    DataFormatError
+        The ``--measured`` dataset cannot be read (read before any run is simulated).
     """
     from threadpoolctl import threadpool_limits
     both = sorted(set(args.train_seeds) & set(args.test_seeds))
@@ -118,6 +120,8 @@ def main(args: argparse.Namespace) -> int:
     _simulation_takes("--duration-s", args.duration_s)
     if not args.orchard_duration_s <= args.duration_s:  # NaN, or an orchard run to simulate
         _simulation_takes("--orchard-duration-s", args.orchard_duration_s)
+    # a --measured dataset that cannot be read fails here, not after hours of fitting
+    measured = load_dataset(args.measured) if args.measured else None
     vehicle = get_vehicle("husky")
     spec = SlipDataSpec(tuple(args.terrains), tuple(args.scenarios),
                         tuple(args.train_seeds) + tuple(args.test_seeds), args.duration_s)
@@ -181,8 +185,8 @@ def main(args: argparse.Namespace) -> int:
                           ("odometry.png", odometry_figure(odo))):
             fig.savefig(args.out / name, dpi=110)
             run.log_figure(fig, name)
-        if args.measured:
-            checks = _measured(args.measured, model, vehicle)
+        if measured is not None:
+            checks = _measured(measured, model, vehicle)
             checks.to_csv(args.out / "measured_checks.csv", index=False)
             run.log_table(checks, "measured_checks.csv")
             print(checks.round(4).to_string(index=False))
@@ -226,8 +230,8 @@ def _long_orchard(args: argparse.Namespace, vehicle, model: SlipRegressor) -> pd
     return odo.assign(scenario=f"orchard_{args.orchard_duration_s:g}s")
 
 
-def _measured(dataset: str, model: SlipRegressor, vehicle) -> pd.DataFrame:
-    ws = slip_windows(load_dataset(dataset))
+def _measured(runs: list, model: SlipRegressor, vehicle) -> pd.DataFrame:
+    ws = slip_windows(runs)
     X = slip_features(ws, vehicle, one_hot_probabilities(ws.labels.astype(str), TERRAIN_NAMES))
     return measured_checks(X, model.predict(X), ws.run_ids, ws.labels.astype(str),
                            vehicle.track_m)

@@ -100,3 +100,22 @@ def test_compare_history_below_one_is_refused_as_the_option(capsys):
         assert exit_code(["compare", "--history", value]) == 2
         err = capsys.readouterr().err
         assert "argument --history:" in err and "CompareConfig" not in err
+
+
+def test_slip_fit_reads_the_measured_dataset_before_simulating(tmp_path, monkeypatch, capsys):
+    # --measured borealtc was read only after the runs were simulated and the model fitted
+    # (hours): a dataset that cannot be read failed at the very end, nothing registered
+    import pipelines.slip_fit as slip_fit
+    from terrain.errors import DataFormatError
+
+    def unreadable(name):
+        raise DataFormatError(f"{name}: manifest not found", tmp_path / "manifest.json")
+
+    simulated = []
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(slip_fit, "load_dataset", unreadable)
+    monkeypatch.setattr(slip_fit, "simulated_runs", lambda *a: simulated.append(a))
+    assert exit_code(["slip-fit", "--measured", "borealtc", "--terrains", "ICE",
+                      "--scenarios", "orchard"]) == 2
+    assert "manifest not found" in capsys.readouterr().err
+    assert simulated == []
