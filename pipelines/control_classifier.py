@@ -181,9 +181,7 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
         (``controlled_runs``) the vehicle has no closed loop or the estimator is not one of
         its own.
     """
-    shared = sorted(set(seeds) & (set(reserved_seeds) | set(TUNING_SEEDS)))
-    if shared:
-        raise ConfigError(f"classifier seeds {shared} are evaluation or tuning seeds")
+    check_classifier_seeds(seeds, reserved_seeds)
     if not terrains or not seeds or not scenarios:
         raise ConfigError("the classifier needs at least one terrain, seed and scenario")
     settings = {"vehicle": vehicle, "terrains": sorted(str(t).upper() for t in terrains),
@@ -260,6 +258,27 @@ def add_classifier_options(parser) -> None:
     parser.add_argument("--classifier-uncontrolled-only", action="store_true",
                         help="train the live-sim classifier on uncontrolled runs only "
                              "(default: also on runs with the traction controller on)")
+
+
+def check_classifier_seeds(seeds: Sequence[int], reserved_seeds: Sequence[int]) -> None:
+    """Refuse live-sim classifier training seeds that are evaluation or tuning seeds.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Training seeds of the classifier.
+    reserved_seeds : sequence of int
+        Seeds of the runs the classifier will serve (the evaluation seeds); the gain-tuning
+        seeds (:data:`terrain.control.grid.TUNING_SEEDS`) are always reserved.
+
+    Raises
+    ------
+    ConfigError
+        A training seed is a reserved one (named).
+    """
+    shared = sorted(set(seeds) & (set(reserved_seeds) | set(TUNING_SEEDS)))
+    if shared:
+        raise ConfigError(f"classifier seeds {shared} are evaluation or tuning seeds")
 
 
 def check_decision_options(source: str, model_dir: str | None,

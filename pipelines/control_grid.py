@@ -25,8 +25,8 @@ from pathlib import Path
 from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, option_params,
                                  output_dir, seed_value, sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
-                                          add_classifier_options, check_decision_options,
-                                          decision_source)
+                                          add_classifier_options, check_classifier_seeds,
+                                          check_decision_options, decision_source)
 from pipelines.control_sim import SCENARIOS, check_duration
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
@@ -134,6 +134,8 @@ def check_grid(args: argparse.Namespace) -> None:
         :class:`terrain.control.traction.TractionControlConfig` refuses (negative or not
         finite; their argparse type refuses them first, naming the option), an evaluation
         seed that is a tuning seed, a value repeated on an axis or in a gain grid, a
+        live-sim classifier seed that is an evaluation or tuning seed
+        (:func:`pipelines.control_classifier.check_classifier_seeds`), a
         terrain-source option the source
         would ignore (:func:`pipelines.control_classifier.check_decision_options`), gain
         grids other than the default with ``--no-tune``, or a ``--husky-estimator`` or
@@ -157,6 +159,8 @@ def check_grid(args: argparse.Namespace) -> None:
     check_grid_axes(args.vehicles, args.terrains, args.scenarios, args.seeds)
     check_decision_options(args.terrain_source, args.model, args.classifier_seeds,
                            args.classifier_uncontrolled_only)
+    if args.terrain_source == "live-sim":   # the classifier is trained after the tuning
+        check_classifier_seeds(args.classifier_seeds or CLASSIFIER_SEEDS, args.seeds)
     for option, values in (("--kp-grid", args.kp_grid), ("--ki-grid", args.ki_grid)):
         repeated = duplicated(values)
         if repeated:

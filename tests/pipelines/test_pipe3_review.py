@@ -119,3 +119,23 @@ def test_slip_fit_reads_the_measured_dataset_before_simulating(tmp_path, monkeyp
                       "--scenarios", "orchard"]) == 2
     assert "manifest not found" in capsys.readouterr().err
     assert simulated == []
+
+
+def test_control_grid_refuses_reserved_classifier_seeds_before_tuning(
+        tmp_path, monkeypatch, capsys):
+    # --terrain-source live-sim with a classifier seed that is an evaluation (--seeds) or
+    # tuning seed was refused by the classifier's training, after every vehicle's gains
+    # were tuned (minutes of closed-loop runs)
+    import pipelines.control_grid as control_grid
+
+    tuned = []
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(control_grid, "tune_gains", lambda *a, **k: tuned.append(a))
+    for seeds in (["--classifier-seeds", "0", "--seeds", "0"],
+                  ["--classifier-seeds", "1000", "2000"]):
+        assert exit_code(["control-grid", "--vehicles", "husky", "--terrains", "ICE",
+                          "--terrain-source", "live-sim", *seeds, "--out", "g"]) == 2
+        err = capsys.readouterr().err
+        assert "are evaluation or tuning seeds" in err
+        assert ("[0]" if "0" in seeds[1:2] else "[1000]") in err
+    assert tuned == []
