@@ -26,7 +26,7 @@ from terrain.errors import ConfigError
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
                                     grid_markdown, iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
-from terrain.models.registry import MAX_TORCH_THREADS, MODELS, check_dependencies
+from terrain.models.registry import MAX_TORCH_THREADS, MODELS, check_dependencies, cnn_kinds
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-compare"
@@ -123,7 +123,9 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
     Raises
     ------
     ConfigError
-        ``--quick`` with a grid option it would ignore, or a grid
+        ``--quick`` with a grid option it would ignore, ``--early-stopping``,
+        ``--max-epochs`` or ``--threads`` with no CNN in ``--models`` (they train the CNNs
+        only), or a grid
         :class:`~terrain.models.compare.CompareConfig` refuses.
     """
     if args.quick:
@@ -143,6 +145,16 @@ def config_from_args(args: argparse.Namespace) -> CompareConfig:
         quick = {**QUICK, **({"windows_s": (1.7,)} if args.protocol == "paper" else {})}
         return CompareConfig(**quick, history=tuple(args.history), protocol=args.protocol,
                              train_hop_s=args.train_hop_s, cnn_seeds=args.cnn_seeds)
+    d = CompareConfig()
+    unused = [option for option, value, default in (
+        ("--early-stopping", args.early_stopping, d.early_stopping),
+        ("--max-epochs", args.max_epochs, d.max_epochs), ("--threads", args.threads, None))
+        if value != default]
+    if unused and not any(cnn_kinds(model) for model in args.models):
+        # they train the CNNs only: ignored, and logged to MLflow as if used
+        raise ConfigError(f"{', '.join(unused)} train{'s' if len(unused) == 1 else ''} the "
+                          f"CNNs and none of the models {list(args.models)} has one: leave "
+                          f"{'it' if len(unused) == 1 else 'them'} out")
     return CompareConfig(models=tuple(args.models), signals=tuple(args.signals),
                          windows_s=tuple(args.windows_s), datasets=tuple(args.datasets),
                          seeds=tuple(args.seeds), history=tuple(args.history),

@@ -139,3 +139,24 @@ def test_control_grid_refuses_reserved_classifier_seeds_before_tuning(
         assert "are evaluation or tuning seeds" in err
         assert ("[0]" if "0" in seeds[1:2] else "[1000]") in err
     assert tuned == []
+
+
+def test_compare_refuses_cnn_training_options_for_a_grid_without_a_cnn(capsys):
+    # --models svm minirocket with --early-stopping, --max-epochs or --threads ran the grid
+    # with the option ignored (and logged to MLflow as if used), as --cnn-seeds is refused
+    from pipelines.compare import config_from_args
+    from terrain.cli import build_parser
+    from terrain.errors import ConfigError
+
+    import pytest
+
+    for option in (["--early-stopping"], ["--max-epochs", "3"], ["--threads", "2"]):
+        args = build_parser().parse_args(["compare", "--models", "svm", "minirocket",
+                                          *option])
+        with pytest.raises(ConfigError, match=f"{option[0]} .*none of the models"):
+            config_from_args(args)
+        # with a CNN in the grid, or an ensemble holding one, they are taken
+        for models in (["svm", "cnn"], ["ensemble"]):
+            args = build_parser().parse_args(["compare", "--models", *models, *option])
+            config = config_from_args(args)
+            assert config.early_stopping or config.max_epochs == 3 or config.n_threads == 2
