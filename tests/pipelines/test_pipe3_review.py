@@ -160,3 +160,123 @@ def test_compare_refuses_cnn_training_options_for_a_grid_without_a_cnn(capsys):
             args = build_parser().parse_args(["compare", "--models", *models, *option])
             config = config_from_args(args)
             assert config.early_stopping or config.max_epochs == 3 or config.n_threads == 2
+
+
+def test_option_types_take_their_documented_bounds_and_refuse_just_beyond():
+    # each argparse type's range as its help and message state it, both ends included where
+    # the message says so (a bound moved by one would refuse a documented value)
+    import argparse
+
+    import pytest
+
+    from pipelines.arguments import (integer_in, non_negative_number, positive_integer,
+                                     positive_number, probability, seed_value, sim_duration_s)
+    from terrain.models.experiment import MAX_SEED
+    from terrain.sim.simulate import MAX_DURATION_S
+
+    accepted = [(positive_number, "1e-9", 1e-9),
+                (sim_duration_s, f"{MAX_DURATION_S:g}", MAX_DURATION_S),
+                (non_negative_number, "0", 0.0), (positive_integer, "1", 1),
+                (integer_in(10, 100), "10", 10), (integer_in(10, 100), "100", 100),
+                (probability, "0", 0.0), (probability, "1", 1.0),
+                (seed_value, "0", 0), (seed_value, str(MAX_SEED), MAX_SEED)]
+    for parse, text, value in accepted:
+        assert parse(text) == value
+    refused = [(positive_number, "0"), (positive_number, "inf"), (positive_number, "nan"),
+               (sim_duration_s, str(MAX_DURATION_S + 0.001)), (sim_duration_s, "0"),
+               (non_negative_number, "-1e-9"), (positive_integer, "0"),
+               (integer_in(10, 100), "9"), (integer_in(10, 100), "101"),
+               (probability, "1.0000001"), (probability, "-0.0001"), (probability, "nan"),
+               (seed_value, "-1"), (seed_value, str(MAX_SEED + 1))]
+    for parse, text in refused:
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse(text)
+
+
+def test_serve_port_range_and_backlog_floor(monkeypatch):
+    # port 65535 is a port, 65536 is not; the listen backlog never drops below 16 however
+    # tight the open-file limit, and --max-connections must fit twice under it
+    import argparse
+
+    import pytest
+
+    import pipelines.serve as serve
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="outside 1-65535"):
+        serve.bind_port("127.0.0.1", 65536)
+    with pytest.raises(ConfigError, match="outside 1-65535"):
+        serve.bind_port("127.0.0.1", -1)
+    for port in (0, 65535):     # the system's free port; the last port (in use: its reason)
+        sock = None
+        try:
+            sock = serve.bind_port("127.0.0.1", port)
+        except ConfigError as exc:
+            assert "outside" not in str(exc)
+        finally:
+            if sock is not None:
+                sock.close()
+    monkeypatch.setattr(serve, "_open_file_limit", lambda: 200)
+    assert serve.accept_backlog(60) == 16            # (200 - 64 - 120) // 3 = 5 -> 16
+    assert serve.accept_backlog(10) == (200 - 64 - 20) // 3
+    args = argparse.Namespace(max_body_bytes=1, max_decisions=1, max_in_flight=1,
+                              max_connections=68, header_timeout_s=1.0, hop_s=0.5,
+                              dwell_s=10.0, reset_confidence=None, reset_windows=None)
+    serve._check_args(args)                          # 2 x 68 = 136 <= 200 - 64
+    with pytest.raises(ConfigError, match="--max-connections 69"):
+        serve._check_args(argparse.Namespace(**{**vars(args), "max_connections": 69}))
+
+
+def test_a_reset_confidence_of_zero_is_refused_with_its_reason():
+    # at 0 every window would reset the forward filter: smoothing off, said the wrong way
+    import argparse
+
+    import pytest
+
+    from pipelines.arguments import smoothing_from_args
+    from terrain.errors import ConfigError
+
+    args = argparse.Namespace(dwell_s=10.0, reset_confidence=0.0, reset_windows=None)
+    with pytest.raises(ConfigError, match="--reset-confidence must be > 0"):
+        smoothing_from_args(args)
+    args.reset_confidence = 1e-6
+    assert smoothing_from_args(args).reset_confidence == 1e-6
+
+
+def test_no_help_line_shows_a_default_of_none():
+    # an option without a default (None: computed, or off) shows no '(default: None)',
+    # which would read as the value None being passed
+    from terrain.cli import build_parser
+
+    parser = build_parser()
+    commands = parser._subparsers._group_actions[0].choices
+    for name, command in commands.items():
+        text = command.format_help()
+        assert "(default: None)" not in text, name
+    assert "(default: 0.5)" in commands["stream"].format_help()      # --hop-s
+
+
+def test_stream_eval_refuses_a_single_fold_before_reading_the_data(monkeypatch, capsys):
+    # one fold holds every run out and trains on none
+    import pipelines.stream_eval as stream_eval
+
+    read = []
+    monkeypatch.setattr(stream_eval, "load_dataset", lambda name: read.append(name))
+    assert exit_code(["stream-eval", "--folds", "1"]) == 2
+    assert "--folds must be at least 2" in capsys.readouterr().err and read == []
+
+
+def test_simulate_reads_the_vehicle_name_in_any_case(tmp_path, monkeypatch):
+    # --vehicle HUSKY is the husky (as --terrain ice is ICE), not an unknown vehicle
+    import pipelines.simulate as simulate
+
+    configs = []
+
+    def capture(config):
+        configs.append(config)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(simulate, "simulate", capture)
+    assert exit_code(["simulate", "--vehicle", "HUSKY", "--terrain", "ice", "--duration-s",
+                      "1", "--out", str(tmp_path / "s")]) == 130
+    assert configs[0].vehicle == "husky" and configs[0].terrains == ("ICE",)
