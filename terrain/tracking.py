@@ -29,6 +29,7 @@ import pandas as pd
 
 import terrain
 from terrain.errors import ConfigError
+from terrain.io.jsonfile import json_ready
 
 DB_FILE = "mlflow.db"
 ARTIFACT_DIR = "mlartifacts"
@@ -318,16 +319,20 @@ class TrackedRun:
         self.client.log_figure(self.run_id, figure, name)
 
     def log_dict(self, data: Mapping[str, Any], name: str) -> None:
-        """Log a JSON-serialisable mapping as an artifact.
+        """Log a JSON-serialisable mapping as an artifact, in strict JSON.
+
+        Non-finite floats become ``null`` (:func:`terrain.io.jsonfile.json_ready`, floats
+        kept in full): MLflow writes them as the bare tokens ``NaN`` / ``Infinity``, which
+        strict readers (``jq``, ``JSON.parse``) refuse.
 
         Parameters
         ----------
         data : mapping
-            JSON-serialisable content.
+            JSON-serialisable content (numpy scalars and tuples allowed).
         name : str
             Artifact path, e.g. ``report.json``.
         """
-        self.client.log_dict(self.run_id, dict(data), name)
+        self.client.log_dict(self.run_id, json_ready(data, None), name)
 
     def log_text(self, text: str, name: str) -> None:
         """Log text (e.g. a Markdown report) as an artifact.

@@ -104,6 +104,26 @@ def test_a_table_is_logged_as_csv_under_a_csv_name_only(tmp_path, monkeypatch):
     assert pd.read_csv(root / "tuning.csv").equals(table)
 
 
+def test_a_logged_dict_is_strict_json_with_undefined_figures_null(tmp_path, monkeypatch):
+    # MLflow writes a dict with json.dumps' defaults: a NaN figure (the recall of a class
+    # without a window in cv_report.json) became the bare token NaN that jq and JSON.parse
+    # refuse; numpy scalars and tuples are written as JSON numbers and lists, floats in full
+    import json
+
+    import numpy as np
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    data = {"recall": {"SNOW": float("nan"), "ICE": np.float64(0.123456789)},
+            "delays_s": (1.5, np.inf), "n": np.int64(3)}
+    with tracked_run("terrain-test", announce=False) as run:
+        run.log_dict(data, "report.json")
+    text = (tmp_path / "mlartifacts" / "terrain-test" / run.run_id / "artifacts"
+            / "report.json").read_text()
+    assert json.loads(text, parse_constant=lambda c: pytest.fail(f"bare {c} in {text}")) == {
+        "recall": {"SNOW": None, "ICE": 0.123456789}, "delays_s": [1.5, None], "n": 3}
+
+
 def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     other = tmp_path / "elsewhere.db"
     monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{other}")
