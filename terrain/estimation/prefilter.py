@@ -110,12 +110,13 @@ def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) 
     Raises
     ------
     EstimationError
-        ``rate_hz`` or ``window_s`` not a finite number > 0, or ``values`` not of shape
-        ``(k,)`` or ``(k, d)``.
+        ``rate_hz`` or ``window_s`` not a finite number > 0 (a boolean or text included), or
+        ``values`` not of shape ``(k,)`` or ``(k, d)``.
     """
     for name, value in (("rate_hz", rate_hz), ("window_s", window_s)):
-        try:
-            ok = bool(np.isfinite(float(value)) and float(value) > 0.0)
+        try:     # (float() takes True as 1 and the text "100" as 100: neither is a rate)
+            ok = (not isinstance(value, (bool, np.bool_, str, bytes))
+                  and bool(np.isfinite(float(value)) and float(value) > 0.0))
         except (TypeError, ValueError):
             ok = False
         if not ok:

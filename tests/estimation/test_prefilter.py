@@ -10,10 +10,12 @@ from terrain.estimation import robust_noise_std
 
 
 @pytest.mark.parametrize("rate_hz, window_s", [(np.nan, 0.5), (0.0, 0.5), (-5.0, 0.5),
-                                               (100.0, np.nan), (100.0, 0.0), ("a", 0.5)])
+                                               (100.0, np.nan), (100.0, 0.0), ("a", 0.5),
+                                               (True, 0.5), ("100", 0.5), (100.0, True)])
 def test_robust_noise_std_refuses_a_bad_rate_or_window(rate_hz, window_s):
     # a NaN rate raised "cannot convert float NaN to integer"; a rate of 0 or -5 Hz silently
-    # used a 3-sample window and returned 0.0 for a constant signal
+    # used a 3-sample window and returned 0.0 for a constant signal; True passed as 1 Hz
+    # (or a 1 s window) and the text "100" as 100 Hz through float()
     with pytest.raises(EstimationError, match="rate_hz|window_s"):
         robust_noise_std(np.ones(10), rate_hz, window_s)
 
