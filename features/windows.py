@@ -78,12 +78,18 @@ def resolve_signals(signals: str | Sequence[str]) -> tuple[str, ...]:
     Raises
     ------
     ConfigError
-        Unknown set or channel name (the message lists the valid ones), or an empty
-        selection.
+        Unknown set or channel name, or something that is not a name (the message lists the
+        valid ones), or an empty selection.
     """
-    items = [signals] if isinstance(signals, str) else list(signals)
+    try:
+        items = [signals] if isinstance(signals, str) else list(signals)
+    except TypeError:     # None, a number: list() cannot take them
+        items = [signals]
     out: list[str] = []
     for item in items:
+        if not isinstance(item, str):
+            raise ConfigError(f"a signal is a set or channel name, got {item!r}; valid sets "
+                              f"{list(SIGNAL_SETS)} or channels {list(KNOWN_CHANNELS)}")
         names = SIGNAL_SETS.get(item, (item,))
         for name in names:
             if name not in KNOWN_CHANNELS:

@@ -260,6 +260,13 @@ def test_all_no_speed_drops_the_forward_speeds_only(make_run):
     assert not any("per_speed" in n or n.startswith("vel_l") for n in names)
 
 
+@pytest.mark.parametrize("signals", [None, 5, ["imu", None], [["imu"]]])
+def test_resolve_signals_refuses_what_is_not_names(signals):
+    # None and 5 were Python's bare TypeError (list(None)), a nested list was unhashable
+    with pytest.raises(ConfigError, match="signal"):
+        resolve_signals(signals)
+
+
 @pytest.mark.parametrize("signals", ["imus", ["imu", "speed"], ["WZ"], []])
 def test_resolve_signals_rejects_unknown_names(signals):
     with pytest.raises(ConfigError) as info:
