@@ -47,7 +47,6 @@ Rigid surfaces keep the Coulomb law of
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from functools import cached_property
 from types import MappingProxyType
@@ -56,7 +55,8 @@ from typing import Mapping
 import numpy as np
 
 from terrain.errors import ConfigError, config_integer, config_numbers, config_positive
-from terrain.terramechanics.resistance import bekker_sinkage_m, compaction_resistance_n
+from terrain.terramechanics.resistance import (bekker_sinkage_m, check_slide_speed,
+                                               compaction_resistance_n)
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
                                              patch_mobilisation)
 
@@ -840,9 +840,7 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     ConfigError
         ``slide_speed_m_s`` not a finite value > 0.
     """
-    if not (isinstance(slide_speed_m_s, float) and 0.0 < slide_speed_m_s < math.inf):
-        # (the isinstance test is the per-step fast path; anything else checked in full)
-        config_positive("soil_lateral_force_and_slope", slide_speed_m_s=slide_speed_m_s)
+    check_slide_speed("soil_lateral_force_and_slope", slide_speed_m_s)
     n_load = np.clip(np.asarray(normal_load_n, dtype=float), 0.0, contact.load_grid_n[-1])
     if contact.soil.slip_sinkage_ratio is not None and slip_ratio is not None:
         strength, length = slip_sunk_strength_n(contact, n_load,

@@ -91,6 +91,29 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     return mass_kg * G_M_S2 * np.sin(np.asarray(pitch_rad, dtype=float))
 
 
+def check_slide_speed(owner: str, slide_speed_m_s: float) -> None:
+    """Refuse a lateral law's slide speed that is not a finite value > 0, m/s (0 divides by
+    zero, a negative one turns the friction into a pushing force).
+
+    Called on every simulator step: a float in range passes on one ``isinstance`` test;
+    anything else goes through :func:`terrain.errors.config_positive`.
+
+    Parameters
+    ----------
+    owner : str
+        The law's name, for the message.
+    slide_speed_m_s : float
+        Smoothing (regularisation) speed, m/s.
+
+    Raises
+    ------
+    ConfigError
+        ``slide_speed_m_s`` not a finite value > 0, named ``owner.slide_speed_m_s``.
+    """
+    if not (isinstance(slide_speed_m_s, float) and 0.0 < slide_speed_m_s < math.inf):
+        config_positive(owner, slide_speed_m_s=slide_speed_m_s)
+
+
 def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
                             v_lateral_m_s: np.ndarray, slide_speed_m_s: float = 0.02
                             ) -> tuple[np.ndarray, np.ndarray]:
@@ -126,9 +149,7 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
         ``slide_speed_m_s`` not a finite value > 0 (0 divides by zero, a negative one turns
         the friction into a pushing force).
     """
-    if not (isinstance(slide_speed_m_s, float) and 0.0 < slide_speed_m_s < math.inf):
-        # (the isinstance test is the per-step fast path; anything else checked in full)
-        config_positive("lateral_force_and_slope", slide_speed_m_s=slide_speed_m_s)
+    check_slide_speed("lateral_force_and_slope", slide_speed_m_s)
     normal = np.asarray(normal_load_n)
     v = np.asarray(v_lateral_m_s)
     th_l = np.tanh(v / slide_speed_m_s)
