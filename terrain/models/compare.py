@@ -153,8 +153,7 @@ class CompareConfig:
                               f"{list(COMPARE_PROTOCOLS)}")
         if self.train_hop_s is not None:   # (text such as '0.5': Python's bare TypeError)
             config_positive("CompareConfig", train_hop_s=self.train_hop_s)
-        if self.train_hop_s is not None and not (self.train_hop_s > 0
-                                                 and self.protocol == "grouped"):
+        if self.train_hop_s is not None and self.protocol != "grouped":
             raise ConfigError("train_hop_s must be > 0 s and needs the grouped protocol (the "
                               f"paper protocol fixes its windows); got {self.train_hop_s}")
         if self.protocol == "paper":
