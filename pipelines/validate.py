@@ -2,6 +2,8 @@
 
 terrain validate estimation   every table of docs/estimation_validation.md (about 75 s)
 terrain validate sim          the tables of docs/sim_validation.md (about 30 s)
+With --out FILE, the estimation report also draws its figure beside FILE
+(<FILE stem>_slip_tracking.png).
 The checks with tolerances are tests (tests/estimation, tests/slip, tests/sim); the simulator
 speed is benchmarks/bench_sim.py. Tables are printed as Markdown (--out also writes them).
 """
@@ -24,6 +26,9 @@ from pipelines.arguments import output_file
 REPORTS: Mapping[str, str] = MappingProxyType({
     "estimation": "pipelines.validation.estimation_tables",
     "sim": "pipelines.validation.sim_tables"})
+#: report name -> module with ``figures(out_file, quick)``, written beside ``--out``
+FIGURES: Mapping[str, str] = MappingProxyType({
+    "estimation": "pipelines.validation.estimation_figures"})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true",
                         help="fewer seeds / shorter runs (smoke run, not the published figures)")
     parser.add_argument("--out", type=output_file, default=None,
-                        help="also write the Markdown here")
+                        help="also write the Markdown here (and, for the estimation report, "
+                             "its figure beside it: <stem>_slip_tracking.png)")
 
 
 def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:
@@ -92,4 +98,8 @@ def main(args: argparse.Namespace) -> int:
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text("\n".join(text))
+        if args.report in FIGURES:
+            for path in importlib.import_module(FIGURES[args.report]).figures(args.out,
+                                                                              args.quick):
+                print(f"figure: {path}", flush=True)
     return 0
