@@ -2,8 +2,8 @@
 
 terrain validate estimation   every table of docs/estimation_validation.md (about 75 s)
 terrain validate sim          the tables of docs/sim_validation.md (about 30 s)
-With --out FILE, the estimation report also draws its figure beside FILE
-(<FILE stem>_slip_tracking.png).
+With --out FILE, each report also draws its figure beside FILE (<FILE stem>_slip_tracking.png,
+<FILE stem>_straight_line.png).
 The checks with tolerances are tests (tests/estimation, tests/slip, tests/sim); the simulator
 speed is benchmarks/bench_sim.py. Tables are printed as Markdown (--out also writes them).
 """
@@ -28,7 +28,8 @@ REPORTS: Mapping[str, str] = MappingProxyType({
     "sim": "pipelines.validation.sim_tables"})
 #: report name -> module with ``figures(out_file, quick)``, written beside ``--out``
 FIGURES: Mapping[str, str] = MappingProxyType({
-    "estimation": "pipelines.validation.estimation_figures"})
+    "estimation": "pipelines.validation.estimation_figures",
+    "sim": "pipelines.validation.sim_figures"})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,8 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true",
                         help="fewer seeds / shorter runs (smoke run, not the published figures)")
     parser.add_argument("--out", type=output_file, default=None,
-                        help="also write the Markdown here (and, for the estimation report, "
-                             "its figure beside it: <stem>_slip_tracking.png)")
+                        help="also write the Markdown here, and the report's figure beside "
+                             "it (<stem>_slip_tracking.png or <stem>_straight_line.png)")
 
 
 def to_markdown(table: pd.DataFrame, digits: int = 4) -> str:

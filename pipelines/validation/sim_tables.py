@@ -6,7 +6,8 @@ The checks with tolerances are tests (``tests/sim``); this module only computes 
 
 from __future__ import annotations
 
-from typing import Callable
+from types import MappingProxyType
+from typing import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,42 @@ from terrain.vehicles import HUSKY
 
 #: ICR expansion planted in the straight-line current runs (the measured asphalt chi).
 STRAIGHT_CHI = 1.55
+
+#: The thesis's measured straight-line slip per terrain (seed ``001_59da564c4b2d6a48.txt``
+#: ch. 7.2.3, figs. 7.2-7.4; AgriMaRo, 1 m/s^2 to 1 m/s): ``(steady_lo, steady_hi, peak)``,
+#: dimensionless SAE slip. Tiles: steady "a maximum of 0.01 from zero", peak 0.16; grass:
+#: steady 11.6-13.5 %; gravel (firm soil with loose gravel): 12.2-14.6 %. The grass and
+#: gravel peaks (0.339, 0.475) are read off figs. 7.3-7.4, as in the catalogue's calibration
+#: (:mod:`terrain.terramechanics.catalogue`).
+THESIS_STRAIGHT_LINE: Mapping[str, tuple[float, float, float]] = MappingProxyType({
+    "TILES": (-0.01, 0.01, 0.16), "GRASS": (0.116, 0.135, 0.339),
+    "GRAVEL": (0.122, 0.146, 0.475)})
+
+
+def straight_line_slip(terrain: str, duration_s: float = 8.0, seed: int = 0
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """True SAE slip of a simulated AgriMaRo ``straight_accel`` run, averaged over its wheels.
+
+    Parameters
+    ----------
+    terrain : str
+        Terrain class.
+    duration_s : float
+        Simulated time, s.
+    seed : int
+        Seed of the run.
+
+    Returns
+    -------
+    t_s : numpy.ndarray
+        ``(n,)`` times of the truth stream, s.
+    slip : numpy.ndarray
+        ``(n,)`` mean of ``slip_1..slip_3`` (dimensionless).
+    """
+    run = simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,),
+                             scenario="straight_accel", duration_s=duration_s, seed=seed))
+    tr = run.streams["truth"]
+    return tr[TIME].to_numpy(), tr[["slip_1", "slip_2", "slip_3"]].to_numpy().mean(axis=1)
 
 
 def thesis_straight_line_table(duration_s: float = 8.0, seed: int = 0) -> pd.DataFrame:
@@ -36,17 +73,15 @@ def thesis_straight_line_table(duration_s: float = 8.0, seed: int = 0) -> pd.Dat
     -------
     pandas.DataFrame
         terrain, ``steady_slip`` (mean of the three-wheel average after 4 s), ``peak_slip``
-        (maximum of the three-wheel average after 0.2 s).
+        (maximum of the three-wheel average after 0.2 s), and the thesis's figures
+        ``thesis_steady_lo, thesis_steady_hi, thesis_peak`` (:data:`THESIS_STRAIGHT_LINE`).
     """
     rows = []
-    for terrain in ("TILES", "GRASS", "GRAVEL"):
-        run = simulate(SimConfig(vehicle="agrimaro", terrains=(terrain,),
-                                 scenario="straight_accel", duration_s=duration_s, seed=seed))
-        tr = run.streams["truth"]
-        t = tr[TIME].to_numpy()
-        mean_slip = tr[["slip_1", "slip_2", "slip_3"]].to_numpy().mean(axis=1)
+    for terrain, (lo, hi, peak) in THESIS_STRAIGHT_LINE.items():
+        t, mean_slip = straight_line_slip(terrain, duration_s, seed)
         rows.append({"terrain": terrain, "steady_slip": float(mean_slip[t > 4.0].mean()),
-                     "peak_slip": float(mean_slip[t > 0.2].max())})
+                     "peak_slip": float(mean_slip[t > 0.2].max()),
+                     "thesis_steady_lo": lo, "thesis_steady_hi": hi, "thesis_peak": peak})
     return pd.DataFrame(rows)
 
 
