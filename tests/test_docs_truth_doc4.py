@@ -12,7 +12,9 @@ leaves out:
   value of its option (a synopsis may leave out required options);
 * every ``pip install`` extra they name is one of ``pyproject.toml``'s, and every pin they
   state (``torch==2.13.0``) is the one there;
-* every MLflow experiment they name (```terrain-<name>```) is one the code logs to.
+* every MLflow experiment they name (```terrain-<name>```) is one the code logs to;
+* every class (```...Error```, ```...Config```, ```...Settings``` ...) and constant
+  (```DEFAULT_GAINS```) they name in backticks is defined or quoted by the code.
 """
 
 from __future__ import annotations
@@ -265,3 +267,28 @@ def test_every_mlflow_experiment_named_is_one_the_code_logs_to(doc):
     # README "MLflow": "one experiment per pipeline (`terrain-cv`, `terrain-train`, ...)"
     named = set(re.findall(r"`(terrain-[a-z0-9-]+)`", doc.read_text(encoding="utf-8")))
     assert named <= _experiments(), sorted(named - _experiments())
+
+
+@cache
+def _code_names() -> frozenset[str]:
+    """Names the code defines (``class``, ``def``, a module-level or class-level assignment)
+    or quotes as a string (an environment variable, an error code)."""
+    names = set()
+    for folder in ("terrain", "features", "pipelines", "benchmarks"):
+        for path in (ROOT / folder).rglob("*.py"):
+            source = path.read_text(encoding="utf-8")
+            names |= set(re.findall(r"^\s*(?:class|def)\s+(\w+)", source, re.M))
+            names |= set(re.findall(r"^\s*(\w+)\s*(?::[^=\n]+)?=", source, re.M))
+            names |= set(re.findall(r"[\"'](\w+)[\"']", source))
+    return frozenset(names)
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_class_and_constant_named_is_the_codes(doc):
+    # `ServiceBusyError`, `SmoothingConfig`, `DEFAULT_GAINS`, `BODY_TIMEOUT_S`: a class or
+    # constant renamed in the code would leave its old name in the docs
+    text = doc.read_text(encoding="utf-8")
+    named = set(re.findall(r"`([A-Z]\w*(?:Error|Warning|Config|Settings|Pipeline|Model))`", text))
+    named |= set(re.findall(r"`([A-Z][A-Z0-9]+_[A-Z0-9_]+)`", text))
+    missing = sorted(n for n in named if n not in _code_names() and n not in TERRAIN_NAMES)
+    assert not missing, missing
