@@ -14,7 +14,10 @@ leaves out:
   state (``torch==2.13.0``) is the one there;
 * every MLflow experiment they name (```terrain-<name>```) is one the code logs to;
 * every class (```...Error```, ```...Config```, ```...Settings``` ...) and constant
-  (```DEFAULT_GAINS```) they name in backticks is defined or quoted by the code.
+  (```DEFAULT_GAINS```) they name in backticks is defined or quoted by the code;
+* every output file they name (```measured_checks.csv```, ```compare_cells.csv```) is a
+  name the code writes or reads, unless the repository holds it or the doc's own command
+  writes it.
 """
 
 from __future__ import annotations
@@ -292,3 +295,45 @@ def test_every_class_and_constant_named_is_the_codes(doc):
     named |= set(re.findall(r"`([A-Z][A-Z0-9]+_[A-Z0-9_]+)`", text))
     missing = sorted(n for n in named if n not in _code_names() and n not in TERRAIN_NAMES)
     assert not missing, missing
+
+
+_EXTENSIONS = r"(?:csv|png|json|md|pkl|parquet)"
+
+
+@cache
+def _written_file_names() -> tuple[re.Pattern, ...]:
+    """The file names the code writes or reads (string literals, names in its docstrings),
+    one pattern each, in any case (an f-string's ``{...}`` and a docs placeholder's
+    ``<...>`` stand for any name part; a name that is nearly all placeholder,
+    ``f"{name}.csv"``, is left out)."""
+    names = set()
+    for folder in ("terrain", "features", "pipelines", "benchmarks"):
+        for path in (ROOT / folder).rglob("*.py"):
+            source = path.read_text(encoding="utf-8")
+            names |= {Path(n).name for n in re.findall(
+                rf"[\"']([\w{{}}<>.:!\- /\[\]]*?\.{_EXTENSIONS})[\"']", source)}
+            names |= set(re.findall(rf"``([\w<>.-]+\.{_EXTENSIONS})``", source))
+    patterns = []
+    for name in names:
+        parts = re.split(r"\{[^{}]*\}", name)
+        if len(re.findall(r"[A-Za-z0-9]", re.sub(rf"\.{_EXTENSIONS}$", "", "".join(parts)))) < 3:
+            continue  # f"{name}.csv" would match any name
+        patterns.append(re.compile(r"[\w<>.-]+".join(map(re.escape, parts)), re.I))
+    return tuple(patterns)
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_output_file_named_is_one_the_code_writes(doc):
+    # docs/slip_learning.md: "`slip_errors.csv`, `odometry.csv`, `measured_checks.csv`",
+    # README: "`compare_table.md/.csv`, `compare_cells.csv`": a renamed output would
+    # leave the old name; a file of the repository (docs/...) or one the doc's own
+    # commands write (`--out x.csv`, `@request.csv`) is no output of the code
+    text = doc.read_text(encoding="utf-8")
+    own = set(re.findall(rf"(?:--\w[\w-]* |@|> )(?:\S*/)?([\w.-]+\.{_EXTENSIONS})\b", text))
+    wrong = []
+    for name in set(re.findall(rf"`([\w<>.-]+\.{_EXTENSIONS})`", text)):
+        if (name in own or list(ROOT.glob(f"*/{name}")) or (ROOT / name).exists()
+                or any(p.fullmatch(name) for p in _written_file_names())):
+            continue
+        wrong.append(name)
+    assert not wrong, sorted(wrong)
