@@ -10,6 +10,8 @@ leaves out:
 * synopses (``terrain cv|train ... --window-ekf``, ``--physics {v1,v2}``, ``[--json]``,
   ``--kind K``) parse too, each alternative in turn, a placeholder standing for a valid
   value of its option (a synopsis may leave out required options);
+* every ``--option value`` quoted without its command (```--estimator observer```) names
+  one of the option's choices, where it takes choices;
 * every ``pip install`` extra they name is one of ``pyproject.toml``'s, and every pin they
   state (``torch==2.13.0``) is the one there;
 * every MLflow experiment they name (```terrain-<name>```) is one the code logs to;
@@ -144,11 +146,17 @@ def _commands(doc: Path, program: str) -> list[tuple[str, list[str], bool]]:
     return commands
 
 
-@pytest.fixture(scope="module")
-def subparsers() -> dict[str, argparse.ArgumentParser]:
+@cache
+def _subparsers() -> dict[str, argparse.ArgumentParser]:
+    """``{subcommand: its parser}`` of :func:`terrain.cli.build_parser`."""
     action, = (a for a in build_parser()._actions
                if isinstance(a, argparse._SubParsersAction))
     return dict(action.choices)
+
+
+@pytest.fixture(scope="module")
+def subparsers() -> dict[str, argparse.ArgumentParser]:
+    return _subparsers()
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
@@ -171,6 +179,7 @@ class _Parsed(Exception):
     """Raised instead of running a benchmark once its arguments are parsed."""
 
 
+@cache
 def _benchmark_parser(script: Path) -> argparse.ArgumentParser:
     """The argument parser a benchmark script's ``main`` builds (its ``main`` not run)."""
     spec = importlib.util.spec_from_file_location(f"doc4_benchmark_{script.stem}", script)
@@ -190,13 +199,8 @@ def _benchmark_parser(script: Path) -> argparse.ArgumentParser:
     return built[0]
 
 
-@pytest.fixture(scope="module")
-def benchmark_parsers() -> dict[str, argparse.ArgumentParser]:
-    return {}
-
-
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
-def test_every_benchmark_command_parses_with_its_script_parser(doc, benchmark_parsers):
+def test_every_benchmark_command_parses_with_its_script_parser(doc):
     # docs/model_comparison.md quoted `benchmarks/ensemble_weights.py ... --threads 1`
     # without the --out the script requires; tests/test_docs only checks option names
     wrong = []
@@ -206,9 +210,7 @@ def test_every_benchmark_command_parses_with_its_script_parser(doc, benchmark_pa
         if not (ROOT / script).exists():
             wrong.append(f"{script}: no such script")
             continue
-        if script not in benchmark_parsers:
-            benchmark_parsers[script] = _benchmark_parser(ROOT / script)
-        error = _parse_error(benchmark_parsers[script], args)
+        error = _parse_error(_benchmark_parser(ROOT / script), args)
         if error:
             wrong.append(f"{script} {error}")
     assert not wrong, "\n".join(wrong)
@@ -337,3 +339,34 @@ def test_every_output_file_named_is_one_the_code_writes(doc):
             continue
         wrong.append(name)
     assert not wrong, sorted(wrong)
+
+
+@cache
+def _option_choices() -> dict[str, list[list[str] | None]]:
+    """``{option: [its choices in each parser that has it, None where it takes any value]}``
+    over the ``terrain`` subcommands and the benchmark scripts."""
+    parsers = [*_subparsers().values(),
+               *(_benchmark_parser(s) for s in sorted((ROOT / "benchmarks").glob("*.py")))]
+    choices: dict[str, list[list[str] | None]] = {}
+    for parser in parsers:
+        for a in parser._actions:
+            for option in a.option_strings:
+                choices.setdefault(option, []).append(
+                    None if a.choices is None else [str(c) for c in a.choices])
+    return choices
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_option_value_in_prose_is_one_of_its_choices(doc):
+    # prose spans without their command, "(`--estimator observer`)", "`--kind all-dense`":
+    # the value of an option that takes choices (in every parser that has it) is one of them
+    wrong = []
+    for code, _ in _snippets(doc.read_text(encoding="utf-8")):
+        for option, value in re.findall(r"(?<![\w-])(--[a-z][\w-]*)[ =]([^\s`\[\]|{}]+)", code):
+            known = _option_choices().get(option, [None])
+            if (value.startswith("-") or PLACEHOLDER.search(value)
+                    or any(c is None for c in known)):
+                continue
+            if not any(value in c for c in known):
+                wrong.append(f"{option} {value}: choices {known}")
+    assert not wrong, sorted(set(wrong))
