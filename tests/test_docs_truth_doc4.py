@@ -19,7 +19,8 @@ leaves out:
   (```DEFAULT_GAINS```) they name in backticks is defined or quoted by the code;
 * every output file they name (```measured_checks.csv```, ```compare_cells.csv```) is a
   name the code writes or reads, unless the repository holds it or the doc's own command
-  writes it.
+  writes it;
+* every Markdown link and image target (``![grid](model_comparison_grid.png)``) exists.
 """
 
 from __future__ import annotations
@@ -370,3 +371,13 @@ def test_every_option_value_in_prose_is_one_of_its_choices(doc):
             if not any(value in c for c in known):
                 wrong.append(f"{option} {value}: choices {known}")
     assert not wrong, sorted(set(wrong))
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_link_and_image_target_exists(doc):
+    # `![grid](model_comparison_grid.png)`, `[docs/...](docs/...)`: relative to the doc's
+    # folder, as a Markdown viewer resolves them (tests/test_docs checks backticked paths)
+    targets = re.findall(r"\]\(([^)\s]+)\)", doc.read_text(encoding="utf-8"))
+    missing = [t for t in targets if not re.match(r"[a-z]+:|#", t)
+               and not (doc.parent / t.split("#")[0]).exists()]
+    assert not missing, missing
