@@ -20,7 +20,8 @@ leaves out:
 * every output file they name (```measured_checks.csv```, ```compare_cells.csv```) is a
   name the code writes or reads, unless the repository holds it or the doc's own command
   writes it;
-* every Markdown link and image target (``![grid](model_comparison_grid.png)``) exists.
+* every Markdown link and image target (``![grid](model_comparison_grid.png)``) exists, and
+  so does every repository file named in plain text (``docs/streaming.md``, not backticked).
 """
 
 from __future__ import annotations
@@ -380,4 +381,17 @@ def test_every_link_and_image_target_exists(doc):
     targets = re.findall(r"\]\(([^)\s]+)\)", doc.read_text(encoding="utf-8"))
     missing = [t for t in targets if not re.match(r"[a-z]+:|#", t)
                and not (doc.parent / t.split("#")[0]).exists()]
+    assert not missing, missing
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_repository_file_named_in_prose_exists(doc):
+    # "(docs/streaming.md, "Latency")", "benchmarks/stream_reset_nested.py": tests/test_docs
+    # checks the backticked paths; a file named in plain text (with its extension) must
+    # exist too, at the repository root or under docs/
+    text = doc.read_text(encoding="utf-8")
+    paths = set(re.findall(r"(?<![\w/.`-])((?:terrain|features|pipelines|benchmarks|tests|docs"
+                           r"|data)/[\w/.-]*\w\.[a-z]{2,7})\b", text))
+    missing = sorted(p for p in paths if not (ROOT / p).exists()
+                     and not (ROOT / "docs" / p).exists())
     assert not missing, missing
