@@ -21,7 +21,9 @@ leaves out:
   name the code writes or reads, unless the repository holds it or the doc's own command
   writes it;
 * every Markdown link and image target (``![grid](model_comparison_grid.png)``) exists, and
-  so does every repository file named in plain text (``docs/streaming.md``, not backticked).
+  so does every repository file named in plain text (``docs/streaming.md``, not backticked);
+* every loopback URL they quote (``http://127.0.0.1:5001/invocations``) is an endpoint of
+  ``terrain serve``.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from pathlib import Path
 import pytest
 
 from terrain.cli import SUBCOMMANDS, build_parser
+from terrain.serving.http import ENDPOINTS
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -397,3 +400,11 @@ def test_every_repository_file_named_in_prose_exists(doc):
     missing = sorted(p for p in paths if not (ROOT / p).exists()
                      and not (ROOT / "docs" / p).exists())
     assert not missing, missing
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_served_url_is_an_endpoint_of_terrain_serve(doc):
+    # README's curl example posts to http://127.0.0.1:5001/invocations
+    paths = re.findall(r"https?://(?:127\.0\.0\.1|localhost|\[::1\])(?::\d+)?(/[\w/.-]*)",
+                       doc.read_text(encoding="utf-8"))
+    assert not [p for p in paths if p not in ENDPOINTS], (paths, ENDPOINTS)
