@@ -77,8 +77,10 @@ def build_parser() -> argparse.ArgumentParser:
     argparse.ArgumentParser
         The ``terrain`` parser (global ``--debug``, a required ``COMMAND``).
     """
+    # allow_abbrev=False: a prefix of an option is an error, not that option (``terrain cv
+    # --seed 1`` ran a full cross-validation as ``--seeds 1``, unsaid)
     parser = argparse.ArgumentParser(
-        prog="terrain",
+        prog="terrain", allow_abbrev=False,
         description="Terrain classification, slip estimation and simulation for field robots.")
     parser.add_argument("--debug", action="store_true",
                         help="show the full traceback of an error")
@@ -92,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
             raise
         doc = (module.__doc__ or name).strip()
         sp = sub.add_parser(name, help=doc.splitlines()[0], description=doc,
-                            formatter_class=_HelpFormatter)
+                            formatter_class=_HelpFormatter, allow_abbrev=False)
         sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                         help="show the full traceback of an error")
         module.add_arguments(sp)

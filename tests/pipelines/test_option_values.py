@@ -387,3 +387,22 @@ def test_run_balanced_with_window_ekf_is_refused_in_the_flags_own_names(
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err
     assert "--run-balanced" in err and "--window-ekf" in err
+
+
+@pytest.mark.parametrize("argv", [
+    ["cv", "--seed", "1"],                      # --seeds
+    ["cv", "--data", "borealtc"],               # --dataset
+    ["compare", "--quick", "--model", "svm"],   # --models
+    ["--deb", "cv"],                            # --debug
+])
+def test_a_prefix_of_an_option_is_a_usage_error_not_that_option(argv, capsys, tmp_path,
+                                                                monkeypatch):
+    # argparse's default took a prefix as the option it starts: `terrain cv --seed 1` ran
+    # a whole cross-validation as --seeds 1 and wrote an MLflow store, unsaid
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "unrecognized arguments" in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())
