@@ -1,7 +1,7 @@
 """Reproduce the validation reports: docs/estimation_validation.md or docs/sim_validation.md.
 
 terrain validate estimation   every table of docs/estimation_validation.md (about 75 s)
-terrain validate sim          the tables of docs/sim_validation.md (about 30 s)
+terrain validate sim          the tables of docs/sim_validation.md (about 35 s)
 With --out FILE, each report also draws its figure beside FILE (<FILE stem>_slip_tracking.png,
 <FILE stem>_straight_line.png).
 The checks with tolerances are tests (tests/estimation, tests/slip, tests/sim); the simulator
