@@ -238,7 +238,10 @@ class ForwardFilter:
         n_steps : int
             Hops skipped, >= 0.
         """
-        if self.config.dwell_s is None or n_steps <= 0:
+        if n_steps <= 0:
+            return
+        if self.config.dwell_s is None:   # no memory: the uniform distribution, as update(None)
+            self.p = np.full(len(self.p), 1.0 / len(self.p))
             return
         self.p = predict_steps(self.p, n_steps, self.p_switch)
         if self.current is not None:

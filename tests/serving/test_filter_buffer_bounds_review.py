@@ -1,0 +1,42 @@
+"""Review of the forward filter, ring buffer and catalogue targets at their bounds (hand
+mutants of smoothing.py, buffers.py and targets.py that the other tests let live)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+
+
+def test_without_the_filter_a_skipped_stretch_reports_no_memory_as_windows_not_classified():
+    # skip(n) is documented as n update(None) calls: without the filter each gives the
+    # uniform distribution (no memory), so a skip must too; the decided class stays
+    a, b = (ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=None)) for _ in range(2))
+    for f in (a, b):
+        assert f.update(np.array([0.1, 0.7, 0.2]))[0] == 1
+    for _ in range(3):
+        decided, p = a.update(None)
+    b.skip(3)
+    np.testing.assert_array_equal(b.p, p)
+    np.testing.assert_array_equal(b.p, np.full(3, 1 / 3))
+    assert b.current == decided == 1
+    b.skip(0)   # no hop skipped: nothing moves
+    assert b.current == 1
+
+
+def test_a_skipped_stretch_keeps_a_decision_the_hysteresis_holds():
+    # the prediction only draws p towards uniform, so a class held by the hysteresis margin
+    # (another class ahead of it by less than the margin) stays decided over a skip, as over
+    # the update(None) calls it stands for
+    a, b = (ForwardFilter(2, 0.5, SmoothingConfig(dwell_s=5.0, hysteresis=0.3))
+            for _ in range(2))
+    for f in (a, b):
+        assert f.update(np.array([0.9, 0.1]))[0] == 0
+        for _ in range(6):
+            f.update(np.array([0.4, 0.6]))
+        assert f.current == 0 and f.p[1] > f.p[0]   # held by the margin
+    for _ in range(4):
+        decided, p = a.update(None)
+    b.skip(4)
+    np.testing.assert_allclose(b.p, p, rtol=1e-12)
+    assert b.current == decided == 0
