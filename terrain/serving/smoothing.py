@@ -168,6 +168,12 @@ class ForwardFilter:
         Time between decisions, s.
     config : SmoothingConfig
 
+    Raises
+    ------
+    ConfigError
+        ``n_classes`` not an integer >= 1, or ``hop_s`` not a finite number > 0 (a hop of 0
+        never leaves the first class, a negative one gives negative probabilities).
+
     Attributes
     ----------
     evidence : bool
@@ -176,6 +182,10 @@ class ForwardFilter:
     """
 
     def __init__(self, n_classes: int, hop_s: float, config: SmoothingConfig) -> None:
+        config_integer("n_classes", n_classes, 1)
+        config_numbers("ForwardFilter", hop_s=hop_s)
+        if not (math.isfinite(hop_s) and hop_s > 0):
+            raise ConfigError(f"ForwardFilter hop_s must be a finite number > 0, got {hop_s}")
         self.config = config
         # a dwell under K/(K-1) hops is no memory (a uniform prior), not a push away from
         # the last terrain (lam of predict_steps would turn negative)

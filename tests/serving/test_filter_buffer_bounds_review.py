@@ -4,7 +4,9 @@ mutants of smoothing.py, buffers.py and targets.py that the other tests let live
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from terrain.errors import ConfigError
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 
 
@@ -40,3 +42,23 @@ def test_a_skipped_stretch_keeps_a_decision_the_hysteresis_holds():
     b.skip(4)
     np.testing.assert_allclose(b.p, p, rtol=1e-12)
     assert b.current == decided == 0
+
+
+@pytest.mark.parametrize("n_classes, hop_s", [(3, 0.0), (3, -0.5), (3, float("nan")),
+                                              (3, float("inf")), (3, True), (3, "0.5"),
+                                              (0, 0.5), (2.0, 0.5), (True, 0.5)])
+def test_the_filter_refuses_a_hop_or_class_count_that_is_no_clock(n_classes, hop_s):
+    # a hop of 0 made p_switch 0 (a filter that never leaves its first class, the
+    # infinite dwell SmoothingConfig refuses), a negative one negative probabilities, a NaN
+    # one no memory at all; 0 classes a ZeroDivisionError
+    with pytest.raises(ConfigError):
+        ForwardFilter(n_classes, hop_s, SmoothingConfig())
+
+
+def test_a_negative_hop_never_gives_negative_probabilities_because_it_is_refused():
+    with pytest.raises(ConfigError, match="hop_s"):
+        ForwardFilter(3, -0.5, SmoothingConfig(dwell_s=10.0))
+    f = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=10.0))   # the same, a valid hop
+    for q in ([0.98, 0.01, 0.01], [0.98, 0.01, 0.01], None, [0.01, 0.01, 0.98]):
+        p = f.update(None if q is None else np.array(q))[1]
+        assert (p >= 0).all() and p.sum() == pytest.approx(1.0)
