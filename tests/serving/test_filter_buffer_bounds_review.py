@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
+from terrain.serving.buffers import RingBuffer
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+from terrain.serving.targets import CataloguePeakTargets
 
 
 def test_without_the_filter_a_skipped_stretch_reports_no_memory_as_windows_not_classified():
@@ -62,3 +64,27 @@ def test_a_negative_hop_never_gives_negative_probabilities_because_it_is_refused
     for q in ([0.98, 0.01, 0.01], [0.98, 0.01, 0.01], None, [0.01, 0.01, 0.98]):
         p = f.update(None if q is None else np.array(q))[1]
         assert (p >= 0).all() and p.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("n_channels, capacity", [(3, 0), (0, 4), (-1, 4), (3, -2)])
+def test_ring_buffer_refuses_an_empty_shape(n_channels, capacity):
+    with pytest.raises(ConfigError):
+        RingBuffer(n_channels, capacity)
+
+
+def test_ring_buffer_median_step_of_two_samples_is_their_step():
+    buf = RingBuffer(1, 4)
+    buf.append(np.array([1.0]), np.zeros((1, 1)))
+    assert np.isnan(buf.median_step())
+    buf.append(np.array([1.25]), np.zeros((1, 1)))
+    assert buf.median_step() == 0.25
+    assert buf.median_step(through_s=1.0) != buf.median_step(through_s=1.0)   # one: NaN
+    assert buf.median_step(through_s=1.1) == 0.25
+
+
+def test_catalogue_targets_take_a_zero_confidence_threshold_and_refuse_no_class():
+    targets = CataloguePeakTargets(["ASPHALT", "ICE"], min_confidence=0.0)
+    assert targets.target_for("ASPHALT", 0.0, False) == targets.table["ASPHALT"]
+    assert targets.target_for("ASPHALT", 0.0, False) != targets.fallback
+    with pytest.raises(ConfigError, match="at least one class"):
+        CataloguePeakTargets([])
