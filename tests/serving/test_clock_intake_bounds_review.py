@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.clocks import UNITS_STEPS, StreamClock, steps_ahead
-from terrain.serving.intake import OVERFLOW
-from test_intake import _intake
+from terrain.serving.config import StreamConfig
+from terrain.serving.intake import OVERFLOW, DecisionClock, StreamIntake
+from terrain.serving.rules import DEFAULT_RULES
+from test_intake import _chunk, _intake
 
 
 def test_a_step_of_exactly_a_clocks_step_is_no_step_ahead():
@@ -38,3 +41,49 @@ def test_a_clock_found_in_ms_stays_in_ms_while_too_few_steps_say_otherwise():
     assert clock.judge_ms() == (True, True)
     clock.restamp(np.array([500.0, 510.0, 520.0]))
     assert clock.judge_ms() == (True, False) and clock.on_ms_clock
+
+
+def test_a_clock_restart_beside_a_silent_stream_restarts_every_clock():
+    # the wheels fall silent at 1.9 s, the IMU goes on to 9.98 s; its clock then goes back
+    # to 0 and runs 6 s: no stream went on beside it (the wheels' newest did not advance),
+    # so every clock restarts; a stream that merely did not move is no running clock
+    streams = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    intake = StreamIntake(streams, StreamConfig(streams=streams, buffer_samples=1024),
+                          DEFAULT_RULES, DecisionClock(window_s=2.0, rate_hz=10.0))
+    t, w = _chunk(0.0, 20)
+    intake.ingest("wheels", t, w)
+
+    def imu(t_s):   # live values (no sample repeats an old one: no re-send)
+        return np.column_stack([np.zeros((len(t_s), 5)), 9.81 + 0.01 * np.sin(7.0 * t_s)])
+
+    t_imu = 0.02 * np.arange(500)                      # 50 Hz to 9.98 s
+    intake.ingest("imu", t_imu, imu(t_imu + 0.5))
+    for ti in 0.02 * np.arange(301):                   # the IMU again from 0 to 6 s
+        intake.ingest("imu", np.array([ti]), imu(np.array([ti])))
+    assert intake.restarts == 1
+    assert len(intake.buffers["wheels"]) == 0          # every buffer started again
+    assert intake.buffers["imu"].first_t == 0.0 and intake.buffers["imu"].last_t == 6.0
+    assert intake.clocks["imu"].offset_s == 0.0        # not moved: no clock to move it on
+
+
+def test_a_stream_that_never_sent_is_not_rejoining_after_a_restart():
+    # only a stream silent *through* a restart (it had samples on the old clock) has its
+    # first sample judged against the shorter step; one that never sent is judged as any
+    # first sample: 10 s from the IMU is a lag (under max_backlog_s), taken, not held
+    streams = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    intake = StreamIntake(streams, StreamConfig(streams=streams, buffer_samples=1024),
+                          DEFAULT_RULES, DecisionClock(window_s=2.0, rate_hz=10.0))
+
+    def imu(t_s):
+        return np.column_stack([np.zeros((len(t_s), 5)), 9.81 + 0.01 * np.sin(7.0 * t_s)])
+
+    t_imu = 0.02 * np.arange(500)
+    intake.ingest("imu", t_imu, imu(t_imu + 0.5))
+    for ti in 0.02 * np.arange(301):
+        intake.ingest("imu", np.array([ti]), imu(np.array([ti])))
+    assert intake.restarts == 1
+    assert not intake.clocks["wheels"].rejoining
+    t, w = _chunk(16.0, 1)
+    intake.ingest("wheels", t, w)
+    assert intake.clocks["wheels"].held() == {}
+    assert intake.buffers["wheels"].last_t == 16.0
