@@ -87,3 +87,28 @@ def test_a_stream_that_never_sent_is_not_rejoining_after_a_restart():
     intake.ingest("wheels", t, w)
     assert intake.clocks["wheels"].held() == {}
     assert intake.buffers["wheels"].last_t == 16.0
+
+
+def test_a_clock_stepped_back_by_a_run_of_exactly_stale_s_is_put_back():
+    # the IMU's clock steps back 1 s (stale_s) at 10 s while the wheels go on: the late run
+    # 9.0-10.0 s spans exactly stale_s, the IMU's next sample continues it, so it is a
+    # restart of the IMU alone (binary-exact 8 Hz stamps)
+    streams = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    intake = StreamIntake(streams, StreamConfig(streams=streams, buffer_samples=1024),
+                          DEFAULT_RULES, DecisionClock(window_s=2.0, rate_hz=10.0))
+
+    def imu(ti):
+        return np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 9.81 + 0.01 * np.sin(7.0 * ti)]])
+
+    t = 0.125 * np.arange(81)                       # 0 to 10 s
+    _, w = _chunk(0.0, 1)
+    for ti in t:
+        intake.ingest("imu", np.array([ti]), imu(ti + 0.3))
+        intake.ingest("wheels", np.array([ti]), w)
+    for k in range(1, 10):                          # the IMU from 9.0 s again, wheels on
+        intake.ingest("imu", np.array([9.0 + 0.125 * (k - 1)]), imu(100.0 + k))
+        intake.ingest("wheels", np.array([10.0 + 0.125 * k]), w)
+    assert intake.restarts == 0 and len(intake.clocks["imu"].late) == 9   # 9.0-10.0 s
+    intake.ingest("imu", np.array([10.125]), imu(200.0))
+    assert intake.restarts == 1
+    assert intake.clocks["imu"].offset_s > 0.9      # put back beside the wheels
