@@ -27,16 +27,19 @@ class Decision:
     t_s : float
         Decision time on the service clock, s.
     terrain : str or None
-        Decided (smoothed) terrain; ``None`` before the first valid window.
+        Decided (smoothed) terrain; ``None`` before the first window taken as evidence.
     confidence : float
-        Smoothed probability of ``terrain``.
+        Smoothed probability of ``terrain`` (0 when ``terrain`` is ``None``); a terrain
+        decided below the service's ``min_confidence`` gets the provider's fallback
+        targets (flag ``low_confidence``).
     proba : numpy.ndarray
         ``(n_classes,)`` smoothed class probabilities, in the model's class order.
     target_slip_traction, target_slip_braking, target_slip_steady : float
         Slip targets from the provider (dimensionless SAE slip).
     window_age_s : float
         ``t_s`` minus the end of the window the decision rests on (its last aligned sample
-        plus one period), s; 0 when the window reaches ``t_s``.
+        plus one period), s; 0 when the window reaches ``t_s``, ``inf`` when no window
+        could be aligned at all (flag ``short``).
     flags : str
         ``|``-separated flags (:mod:`terrain.serving.service`); empty when clean.
     """
