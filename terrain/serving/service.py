@@ -90,7 +90,7 @@ from terrain.serving.intake import DecisionClock, StreamIntake
 from terrain.serving.model import StreamModel, model_track_m, model_vehicle
 from terrain.serving.rules import DEFAULT_RULES, SampleRule
 from terrain.serving.smoothing import ForwardFilter
-from terrain.serving.targets import TargetProvider
+from terrain.serving.targets import TargetProvider, check_provider
 
 # StreamConfig is the service's settings (terrain.serving.config), imported from here too
 __all__ = ["StreamService", "StreamConfig", "UNCLASSIFIED_FLAGS"]
@@ -120,7 +120,9 @@ class StreamService:
         ``model``, ``config``, ``targets`` or ``rules`` of the wrong kind (e.g. ``None``),
         a channel the model needs is in none of the configured streams, the hop is
         shorter than one period of the model's clock (:func:`check_hop`), or
-        ``buffer_samples`` cannot hold one window of the model (plus 2 samples).
+        ``buffer_samples`` cannot hold one window of the model (plus 2 samples), or a
+        provider whose own threshold is above ``config.min_confidence`` or which lacks a
+        class of the model (:func:`~terrain.serving.targets.check_provider`).
     """
 
     def __init__(self, model: StreamModel, targets: TargetProvider,
@@ -143,6 +145,7 @@ class StreamService:
                               f"functions, got {type(rules).__name__} {rules!r:.60}")
         rules = given
         check_hop(config.hop_s, model.window.rate_hz)
+        check_provider(targets, model.classes, config.min_confidence)
         if config.buffer_samples < model.window.n_samples + 2:
             raise ConfigError(f"buffer_samples {config.buffer_samples} cannot hold one "
                               f"{model.window.window_s:g} s window of the model "

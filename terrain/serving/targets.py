@@ -20,7 +20,15 @@ from terrain.terramechanics import get_terrain, steady_slip, traction_peak
 
 
 class TargetProvider(Protocol):
-    """Desired-slip lookup injected into the service."""
+    """Desired-slip lookup injected into the service.
+
+    A provider may also expose ``classes`` (the terrain classes it holds targets for) and
+    ``min_confidence`` (the confidence below which it returns its fallback);
+    :class:`~terrain.serving.service.StreamService` then checks them against its model and
+    its own threshold (:func:`check_provider`), since a decision the provider answers with
+    its fallback for either reason would carry no flag saying so. Both providers here
+    expose them.
+    """
 
     def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
         """Targets for a decided terrain.
@@ -85,6 +93,7 @@ class CataloguePeakTargets:
         if not table:
             raise ConfigError("CataloguePeakTargets needs at least one class")
         self.table: Mapping[str, SlipTargets] = MappingProxyType(table)
+        self.classes = tuple(table)
         self.fallback = min(table.values(), key=lambda s: s.traction)
         self.min_confidence = float(min_confidence)
 
@@ -140,6 +149,8 @@ class TableTargets:
                               f"{type(config).__name__}")
 
         self.table = build_slip_table(classes, config or DesiredSlipConfig())
+        self.classes = tuple(self.table.entries)
+        self.min_confidence = float(self.table.config.min_confidence)
         fb = self.table.fallback
         self.fallback = SlipTargets(fb.traction, fb.braking, fb.steady)
 
@@ -162,6 +173,45 @@ class TableTargets:
         age = 2.0 * self.table.config.max_decision_age_s if stale else 0.0
         e = select_target(self.table, terrain, confidence, age)
         return SlipTargets(e.traction, e.braking, e.steady)
+
+
+def check_provider(targets, classes: Sequence[str], min_confidence: float) -> None:
+    """Refuse a provider that would answer a trusted decision with its fallback, unflagged.
+
+    The service flags ``low_confidence`` below its own ``min_confidence`` and asks for the
+    fallback there; a provider with a higher threshold of its own, or without targets for a
+    class of the model, would return the fallback for decisions the service trusts, and
+    nothing in the decision would say so. A provider without ``classes`` or
+    ``min_confidence`` attributes is not checked on that point.
+
+    Parameters
+    ----------
+    targets : TargetProvider
+        The provider.
+    classes : sequence of str
+        Classes of the service's model.
+    min_confidence : float
+        The service's threshold, in [0, 1].
+
+    Raises
+    ------
+    ConfigError
+        The provider's ``min_confidence`` above the service's, or a model class missing
+        from the provider's ``classes`` (both named).
+    """
+    floor = getattr(targets, "min_confidence", None)
+    if floor is not None and float(floor) > float(min_confidence):
+        raise ConfigError(f"{type(targets).__name__}.min_confidence {float(floor):g} is above "
+                          f"the service's min_confidence {float(min_confidence):g}: decisions "
+                          "between the two would get the fallback targets without the "
+                          "low_confidence flag; give both the same threshold")
+    held = getattr(targets, "classes", None)
+    if held is not None:
+        missing = [str(c) for c in classes if c not in set(held)]
+        if missing:
+            raise ConfigError(f"{type(targets).__name__} holds no targets for the model's "
+                              f"class(es) {missing} (it has {[str(c) for c in held]}): their "
+                              "decisions would get the fallback targets without a flag")
 
 
 def _class_names(classes, owner: str) -> tuple[str, ...]:
