@@ -191,10 +191,15 @@ def code_version() -> str:
     -------
     str
         Git commit of the source tree (with ``-dirty`` when tracked files are modified),
-        else ``terrain-<package version>`` outside a git checkout.
+        else ``terrain-<package version>`` outside a git checkout, or when this module is not
+        tracked by the checkout around it (an install inside another project's checkout).
     """
-    here = Path(__file__).resolve().parent
+    module = Path(__file__).resolve()
+    here = module.parent
     try:
+        # (a package installed in another project's checkout took that project's commit)
+        subprocess.run(["git", "ls-files", "--error-unmatch", "--", module.name], cwd=here,
+                       capture_output=True, timeout=5, check=True)
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True,
                              text=True, timeout=5, check=True).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],

@@ -495,3 +495,28 @@ def test_metrics_logged_at_steps_keep_their_steps(tmp_path, monkeypatch):
     history = sorted((m.step, m.value) for m in client.get_metric_history(run.run_id, "cost"))
     assert history == [(0, 3.0), (1, 2.0), (2, 1.5)]
     assert [m.step for m in client.get_metric_history(run.run_id, "final")] == [0]
+
+
+def test_code_version_of_a_package_inside_another_projects_checkout_is_its_version(
+        tmp_path, monkeypatch):
+    """An install inside another project's git checkout (a virtual environment in it, its
+    site-packages untracked or ignored) is not that project's source tree: its commit is
+    not the code's version, so the run gets the package version."""
+    import subprocess
+
+    import terrain
+    import terrain.tracking as tracking
+
+    def git(*args):
+        return subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                              cwd=tmp_path, check=True, capture_output=True, text=True)
+
+    git("init", "-q")
+    (tmp_path / ".gitignore").write_text(".venv/\n")
+    git("add", ".gitignore")
+    git("commit", "-q", "-m", "their project")
+    package = tmp_path / ".venv" / "site-packages" / "terrain"
+    package.mkdir(parents=True)
+    (package / "tracking.py").write_text("x = 1\n")
+    monkeypatch.setattr(tracking, "__file__", str(package / "tracking.py"))
+    assert code_version() == f"terrain-{terrain.__version__}"
