@@ -789,6 +789,9 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
 BACKENDS = ("loky", "dask", "ray")
 #: Message of a ``ray`` backend asked for without the optional extra.
 RAY_MISSING = "the ray backend needs the optional extra: pip install 'terrain[ray]'"
+#: Message of a ``dask`` backend asked for where ``distributed`` is not installed.
+DASK_MISSING = ("the dask backend needs dask's distributed scheduler (a dependency of "
+                "terrain): pip install 'dask[distributed]'")
 
 
 def check_backend(backend: str, address: str | None) -> None:
@@ -805,10 +808,13 @@ def check_backend(backend: str, address: str | None) -> None:
     ------
     ConfigError
         Unknown backend, an address with ``loky`` (local processes: the address would be
-        ignored and the grid run here), or ``ray`` without its optional extra installed.
+        ignored and the grid run here), ``ray`` without its optional extra installed, or
+        ``dask`` without ``distributed``.
     """
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; valid: {list(BACKENDS)}")
+    if backend == "dask" and importlib.util.find_spec("distributed") is None:
+        raise ConfigError(DASK_MISSING)   # (Python's bare ModuleNotFoundError, in the run)
     if backend == "ray" and importlib.util.find_spec("ray") is None:
         raise ConfigError(RAY_MISSING)
     if backend == "loky" and address is not None:
