@@ -18,3 +18,13 @@ def test_the_dask_backend_without_distributed_is_a_config_error(monkeypatch):
     with pytest.raises(ConfigError, match="dask backend needs"):
         with joblib_backend("dask", "tcp://scheduler:8786"):
             pass
+
+
+def test_a_groups_truth_is_its_first_windows_label_as_documented():
+    """``run_majority_accuracy`` takes a group's true label from its first window (its
+    docstring); the mean is over groups, not windows."""
+    from terrain.models.metrics import run_majority_accuracy
+
+    # r1: truth a (first window), vote b -> wrong; r2: truth b, vote b -> right
+    assert run_majority_accuracy(["a", "b", "b", "b"], ["b", "b", "b", "b"],
+                                 ["r1", "r1", "r1", "r2"]) == 0.5
