@@ -217,9 +217,16 @@ def _experiment_id(client: Any, name: str, uri: str) -> str:
     database folder is the working directory). MLflow's own default for a ``sqlite:///``
     store named by ``MLFLOW_TRACKING_URI`` is ``./mlruns`` of whichever folder first creates
     the experiment: a stray ``mlruns/`` there, and one store's artifacts spread over
-    folders. Other stores choose their own location.
+    folders. Other stores choose their own location. A deleted experiment (``mlflow
+    experiments delete``) is a :class:`~terrain.errors.ConfigError` naming it and how to
+    restore it: MLflow's own refusal of its runs named neither.
     """
     exp = client.get_experiment_by_name(name)
+    if exp is not None and getattr(exp, "lifecycle_stage", "active") == "deleted":
+        raise ConfigError(f"MLflow experiment {name!r} (id {exp.experiment_id}) is deleted in "
+                          f"the store {uri}: restore it (mlflow experiments restore "
+                          f"--experiment-id {exp.experiment_id}, with MLFLOW_TRACKING_URI="
+                          f"{uri}), delete it for good (mlflow gc), or use another store")
     if exp is not None:
         return exp.experiment_id
     database = sqlite_database(uri)
@@ -517,7 +524,8 @@ def tracked_run(experiment: str, run_name: str | None = None,
     Raises
     ------
     ConfigError
-        A store that cannot be used (:func:`check_store`), before any run is opened.
+        A store that cannot be used (:func:`check_store`), or ``experiment`` deleted in it,
+        before any run is opened.
     """
     import mlflow
 

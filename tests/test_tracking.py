@@ -520,3 +520,27 @@ def test_code_version_of_a_package_inside_another_projects_checkout_is_its_versi
     (package / "tracking.py").write_text("x = 1\n")
     monkeypatch.setattr(tracking, "__file__", str(package / "tracking.py"))
     assert code_version() == f"terrain-{terrain.__version__}"
+
+
+def test_a_deleted_experiment_is_refused_by_name_with_its_remedy():
+    """An experiment deleted in the store (``mlflow experiments delete``) was reused as it
+    was: MLflow then refused the run with "The experiment 1 must be in the 'active' state",
+    naming neither the experiment nor the remedy."""
+    from types import SimpleNamespace
+
+    from terrain.tracking import _experiment_id
+
+    class Client:
+        def get_experiment_by_name(self, name):
+            return SimpleNamespace(experiment_id="7", lifecycle_stage="deleted", name=name)
+
+        def create_experiment(self, *args, **kwargs):     # pragma: no cover - the bug
+            raise AssertionError("a deleted experiment's name cannot be created again")
+
+    uri = "sqlite:////tmp/x/mlflow.db"
+    with pytest.raises(ConfigError, match=r"experiment 'terrain-cv' \(id 7\) .* deleted.*"
+                                          r"mlflow experiments restore --experiment-id 7"):
+        _experiment_id(Client(), "terrain-cv", uri)
+    live = SimpleNamespace(experiment_id="3", lifecycle_stage="active")
+    Client.get_experiment_by_name = lambda self, name: live
+    assert _experiment_id(Client(), "terrain-cv", uri) == "3"
