@@ -300,7 +300,9 @@ class ExperimentResult:
     feature_names : list of str
         Names of the window features (``get_feature_names_out`` of the extractor).
     timings_s : dict of str to float
-        ``windowing_s``, ``features_s`` and ``cv_s``: wall-clock time of each stage, s.
+        ``windowing_s`` (loading, cutting the evaluation windows), ``features_s`` (their
+        features, and the training cut of ``train_hop_s``: its windows and features) and
+        ``cv_s`` (the cross-validation): wall-clock time of each stage, s.
     input_notes : tuple of str
         The notes of ``report.notes`` that restate the windowing's book-keeping (runs
         skipped for a missing stream, windows dropped, window positions inside a gap, run
@@ -498,7 +500,6 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     # other model (and the SVM with --window-ekf) takes the raw windows
     on_features = config.model == "svm" and not config.window_ekf
     F = fx.transform(ws.X) if on_features else ws.X
-    t2 = time.perf_counter()
     input_notes = []
     if ws.counts["skipped_runs"]:
         input_notes.append(f"{len(ws.counts['skipped_runs'])} run(s) skipped for a missing "
@@ -518,6 +519,7 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
     notes += input_notes
     training = load_training_windows(config, runs, ws, groups,
                                      fx.transform if on_features else None, progress)
+    t2 = time.perf_counter()   # (the training cut was counted in cv_s)
     if training is not None:
         unused = int(sum(u is None for u in training.units))
         notes.append(f"each fold trains on the windows cut every {config.train_hop_s:g} s "
