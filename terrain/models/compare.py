@@ -226,7 +226,9 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     Returns
     -------
     numpy.ndarray
-        ``(n_rows,)`` predicted labels, aligned with ``predictions``' rows.
+        ``(n_rows,)`` predicted labels, aligned with ``predictions``' rows: the class of the
+        largest mean probability (over fewer than ``k`` windows at the start of a run; a tie
+        goes to the first class in ``classes`` order).
 
     Raises
     ------

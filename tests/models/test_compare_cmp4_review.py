@@ -54,3 +54,43 @@ def test_run_cv_times_the_training_cut_outside_the_cross_validation(vulpi_runs, 
         dataset="vulpi", signals=("wheels",), seeds=(0,)), runs=vulpi_runs)
     assert result.timings_s["cv_s"] < 0.3
     assert result.timings_s["features_s"] >= 0.4
+
+
+def test_soft_vote_gives_the_weighted_mean_of_the_members_probabilities():
+    """Equal weights average the members' probabilities (each row still sums to 1); given
+    weights are normalised; the vote is the class of the largest mean."""
+    import numpy as np
+    import pandas as pd
+
+    from terrain.models.compare import soft_vote
+
+    def member(p_a):
+        return pd.DataFrame({"seed": 0, "fold": [0, 0], "run": ["r1", "r2"],
+                             "t_start_s": [0.0, 0.0], "proba_a": p_a,
+                             "proba_b": 1 - np.asarray(p_a)})
+
+    one, two = member([0.9, 0.2]), member([0.3, 0.4])
+    out = soft_vote([one, two], ["a", "b"])
+    assert np.allclose(out["proba_a"], [0.6, 0.3])
+    assert np.allclose(out[["proba_a", "proba_b"]].sum(axis=1), 1.0)
+    assert out["predicted"].tolist() == ["a", "b"]
+    weighted = soft_vote([one, two], ["a", "b"], weights=[3.0, 1.0])
+    assert np.allclose(weighted["proba_a"], [0.75 * 0.9 + 0.25 * 0.3, 0.75 * 0.2 + 0.25 * 0.4])
+
+
+def test_history_over_fewer_than_k_windows_and_ties():
+    """Before ``k`` windows of a run exist, the decision averages those there are; a tie of
+    mean probabilities goes to the first class in ``classes`` order (the alphabetical order
+    the CV gives, as the run vote's ties)."""
+    import numpy as np
+    import pandas as pd
+
+    from terrain.models.compare import history_predictions
+
+    rows = pd.DataFrame({"group": ["r1"] * 3 + ["r2"], "t_start_s": [0.0, 1.0, 2.0, 0.0],
+                         "proba_a": [0.4, 0.6, 0.2, 0.5], "proba_b": [0.6, 0.4, 0.8, 0.5]})
+    # r1, k = 5: mean of 1, 2 then 3 windows: b (0.6), tie 0.5/0.5 -> a, b (0.4 vs 0.6)
+    # r2: its own first window, a tie -> a
+    assert history_predictions(rows, ["a", "b"], 5).tolist() == ["b", "a", "b", "a"]
+    assert history_predictions(rows, ["b", "a"], 5).tolist() == ["b", "b", "b", "b"]
+    assert np.array_equal(history_predictions(rows, ["a", "b"], 1), ["b", "a", "b", "a"])
