@@ -94,3 +94,16 @@ def test_history_over_fewer_than_k_windows_and_ties():
     assert history_predictions(rows, ["a", "b"], 5).tolist() == ["b", "a", "b", "a"]
     assert history_predictions(rows, ["b", "a"], 5).tolist() == ["b", "b", "b", "b"]
     assert np.array_equal(history_predictions(rows, ["a", "b"], 1), ["b", "a", "b", "a"])
+
+
+def test_params_log_the_effective_hop_of_non_overlapping_windows():
+    """``as_params`` logs the effective hop: the window length when ``hop_s`` is unset
+    (non-overlapping windows), and the same for an unset ``train_hop_s``; ``n_threads``
+    None is 0 and the lists are comma-joined."""
+    from terrain.models.experiment import ExperimentConfig
+
+    params = ExperimentConfig(window_s=2.0, seeds=(0, 3)).as_params()
+    assert params["hop_s"] == 2.0 and params["train_hop_s"] == 2.0
+    assert params["seeds"] == "0,3" and params["n_threads"] == 0
+    dense = ExperimentConfig(window_s=2.0, hop_s=1.0, train_hop_s=0.5).as_params()
+    assert dense["hop_s"] == 1.0 and dense["train_hop_s"] == 0.5
