@@ -107,3 +107,48 @@ def test_params_log_the_effective_hop_of_non_overlapping_windows():
     assert params["seeds"] == "0,3" and params["n_threads"] == 0
     dense = ExperimentConfig(window_s=2.0, hop_s=1.0, train_hop_s=0.5).as_params()
     assert dense["hop_s"] == 1.0 and dense["train_hop_s"] == 0.5
+
+
+def test_inference_latency_is_in_milliseconds_per_window():
+    """``inference_ms_per_window`` times one window per call, in ms (a stand-in that takes
+    about 3 ms a call gives about 3, not 0.003), and falls back to ``predict`` where
+    ``predict_proba`` is missing."""
+    import time
+
+    import numpy as np
+
+    from terrain.models.cv import inference_ms_per_window
+
+    class Slow:
+        def __init__(self):
+            self.sizes = []
+
+        def predict(self, X):
+            self.sizes.append(len(X))
+            time.sleep(0.003)
+            return np.zeros(len(X))
+
+    model = Slow()
+    ms = inference_ms_per_window(model, np.zeros((10, 2)), 4)
+    assert 2.5 <= ms < 100.0
+    assert model.sizes == [1] * 5                      # warm-up and 4 timed, one window each
+
+
+def test_confusion_figure_normalises_each_true_class_row():
+    """``plot_confusion`` colours each cell by its share of the true class (row), a class
+    without windows stays 0, and the counts are kept in the cell text."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from terrain.models.metrics import confusion, plot_confusion
+
+    cm = confusion(["a", "a", "a", "a", "b", "b"], ["a", "a", "a", "b", "b", "b"],
+                   ["a", "b", "c"])
+    fig = plot_confusion(cm, "t")
+    shown = np.asarray(fig.axes[0].images[0].get_array())
+    assert np.allclose(shown, [[0.75, 0.25, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]])
+    assert "3\n0.75" in [t.get_text() for t in fig.axes[0].texts]
+    plt.close(fig)
