@@ -95,9 +95,13 @@ class ExperimentConfig:
     ------
     ConfigError
         Unknown model, dataset, protocol or signal, ``search`` with a model other than
-        the SVM or with ``run_balanced``, a ``train_hop_s`` that is not a finite positive
-        number or comes with ``paper``, no seed, one outside ``0..MAX_SEED`` or a repeated
-        one, ``single_run_blocks`` or ``n_splits`` not an integer >= 2, or window
+        the SVM or with ``window_ekf`` or ``run_balanced``, ``window_ekf`` with signals
+        lacking ``vel_l``, ``vel_r`` or ``wz`` or holding an EKF channel, a ``train_hop_s``
+        that is not a finite positive number or comes with ``paper``, ``paper`` with a
+        ``window_s`` or ``hop_s`` other than its own (or the defaults), no seed, one
+        outside ``0..MAX_SEED`` or a repeated one, ``single_run_blocks`` or ``n_splits`` not
+        an integer >= 2, the classifier's own refusals
+        (:class:`~terrain.models.registry.ModelConfig`, e.g. ``cnn_seeds``), or window
         settings :class:`~features.windows.WindowConfig` refuses (``rate_hz`` 0 included).
     """
 
