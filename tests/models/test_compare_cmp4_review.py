@@ -152,3 +152,14 @@ def test_confusion_figure_normalises_each_true_class_row():
     assert np.allclose(shown, [[0.75, 0.25, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]])
     assert "3\n0.75" in [t.get_text() for t in fig.axes[0].texts]
     plt.close(fig)
+
+
+def test_an_inner_split_over_exactly_as_many_runs_as_folds_is_accepted():
+    """``require_runs`` refuses fewer runs than inner folds, naming them and the setting; as
+    many runs as folds is enough (each fold holds one out)."""
+    from terrain.models.cv import require_runs
+
+    require_runs(["r1", "r2", "r3", "r1"], 3, "early stopping", "ModelConfig.inner_splits")
+    with pytest.raises(ConfigError, match=r"3 inner folds \(ModelConfig.inner_splits\): it "
+                                          r"got 2 runs \(.*r1.*r2.*\) and needs at least 3"):
+        require_runs(["r1", "r2", "r1"], 3, "early stopping", "ModelConfig.inner_splits")
