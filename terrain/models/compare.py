@@ -533,10 +533,12 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        One row per group: ``<metric>_mean``, ``<metric>_std`` for the table metrics,
-        ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and ``n_seeds`` (rows of the
-        group). A value missing (NaN) in any of the group's rows makes its mean and std NaN:
-        they are never those of fewer seeds than ``n_seeds`` says.
+        One row per group: ``<metric>_mean``, ``<metric>_std`` (the population std over
+        the seeds, ddof=0, as :meth:`~terrain.models.cv.CVReport.summary`; 0 for one seed)
+        for the table metrics, ``fit_s_per_fold``, ``infer_ms_per_window`` (means) and
+        ``n_seeds`` (rows of the group). A value missing (NaN) in any of the group's rows
+        makes its mean and std NaN: they are never those of fewer seeds than ``n_seeds``
+        says.
     """
     rows = with_default_keys(rows)
     keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "history", "model"]
