@@ -227,7 +227,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         ConfigError
             ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
             integer >= 2 or above the number of runs, or with no validation split that
-            leaves a training run of every class.
+            leaves a training run of every class; (spectrogram CNN) ``augment_noise_std``
+            not a finite number >= 0.
         ValueError
             ``sample_weight`` of another length than ``y``, negative, not finite, or all 0.
         """
@@ -582,10 +583,10 @@ class SpectrogramCNNClassifier(_WindowCNN):
 
     def _augmented(self, Z: np.ndarray, y_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The standardised spectra and one noise-perturbed copy (``augment_noise_std``)."""
+        config_positive(type(self).__name__, allow_zero=True,
+                        augment_noise_std=self.augment_noise_std)
         if self.augment_noise_std == 0:
             return Z, y_idx
-        if not self.augment_noise_std > 0:
-            raise ConfigError(f"augment_noise_std must be >= 0, got {self.augment_noise_std}")
         rng = np.random.default_rng(self.random_state)
         copy = Z + rng.normal(0.0, self.augment_noise_std, Z.shape).astype(np.float32)
         if self.mask_ is not None:     # set by ``fit`` before it calls this
