@@ -228,7 +228,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
             integer >= 2 or above the number of runs, or with no validation split that
             leaves a training run of every class; (spectrogram CNN) ``augment_noise_std``
-            not a finite number >= 0.
+            not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
+            ``inf``) per channel.
         ValueError
             ``sample_weight`` of another length than ``y``, negative, not finite, or all 0.
         """
@@ -494,7 +495,8 @@ class SpectrogramCNNClassifier(_WindowCNN):
     band_limits_hz : tuple of float or None
         ``(n_channels,)`` highest meaningful frequency of each channel, Hz (the Nyquist
         frequency of its native sensor rate; ``inf`` for channels sampled at ``rate_hz``).
-        Bins above it are zeroed after standardisation. ``None``: no limit.
+        Bins above it are zeroed after standardisation. ``None``: no limit. NaN or a
+        negative limit is refused (``ConfigError`` in ``fit``).
     max_epochs : int
         Fixed epoch budget (upper bound with ``early_stopping``).
     lr : float
@@ -602,6 +604,9 @@ class SpectrogramCNNClassifier(_WindowCNN):
         if limits.shape != (shape[1],):
             raise ConfigError(f"band_limits_hz has {limits.size} entries for {shape[1]} "
                               "channels")
+        if not (limits >= 0).all():     # NaN or < 0: no bin is kept, the channel drops out
+            raise ConfigError(f"band_limits_hz must be frequencies >= 0 Hz (inf: no limit), "
+                              f"got {tuple(limits.tolist())}")
         return (self.freqs_hz_[None, :] <= limits[:, None]).astype(np.float32)[..., None]
 
     def _module_spec(self, n_inputs: int, n_classes: int) -> tuple[type, dict]:

@@ -21,3 +21,15 @@ def test_a_noise_copy_of_infinite_or_negative_spread_is_a_config_error(std):
     X, y, _ = _planted(n_runs=2, per_run=4)
     with pytest.raises(ConfigError, match="augment_noise_std"):
         SpectrogramCNNClassifier(**ONE_EPOCH, augment_noise_std=std).fit(X, y)
+
+
+@pytest.mark.parametrize("limit", [np.nan, -1.0])
+def test_a_band_limit_that_is_not_a_frequency_is_a_config_error(limit):
+    """band_limits_hz (nan, ...) or (-1, ...) zeroed every bin of that channel (nothing is
+    <= NaN or a negative frequency): the channel silently dropped out of the model."""
+    X, y, _ = _planted(n_runs=2, per_run=4)
+    with pytest.raises(ConfigError, match="band_limits_hz"):
+        SpectrogramCNNClassifier(**ONE_EPOCH, band_limits_hz=(limit, 3.25, np.inf)).fit(X, y)
+    # 0 Hz keeps the level (the 0 Hz bin) and inf every bin: both are limits
+    model = SpectrogramCNNClassifier(**ONE_EPOCH, band_limits_hz=(0.0, 3.25, np.inf)).fit(X, y)
+    assert model.mask_[0, :, 0].tolist() == [1.0] + [0.0] * 25 and model.mask_[2].all()
