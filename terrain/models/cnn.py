@@ -191,6 +191,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                         dtype=np.float32, order="C")
         if X.ndim > 3:
             raise ValueError(f"expected 2-D or 3-D windows, got {X.ndim}-D")
+        if X.ndim == 3 and 0 in X.shape[1:]:    # check_array counts only 2-D features
+            raise ValueError(f"empty windows of shape {X.shape[1:]} (channels, samples)")
         return X
 
     def _device(self) -> str:
@@ -231,7 +233,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
             ``inf``) per channel.
         ValueError
-            ``sample_weight`` of another length than ``y``, negative, not finite, or all 0.
+            ``sample_weight`` of another length than ``y``, negative, not finite, or all 0;
+            windows not finite, not 2-D or 3-D, or empty (0 channels or 0 samples).
         """
         from skorch import NeuralNetClassifier
         from skorch.callbacks import EarlyStopping
@@ -341,7 +344,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            Another number of channels than in ``fit``.
+            Another number of channels than in ``fit``; windows not finite, not 2-D or 3-D,
+            or empty (0 channels or 0 samples).
         ShapeError
             Windows of another length than in ``fit`` (``window_shape_``; a model saved
             before it was recorded takes any length).
