@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_cnn import FAST, _planted  # same folder (pytest's default prepend import)
+from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default prepend import)
 
 from terrain.errors import ConfigError
-from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
+from terrain.models.cnn import (POWER_FLOOR, RawCNNClassifier, SpectrogramCNNClassifier,
+                                log_spectrogram)
 
 ONE_EPOCH = {**FAST, "max_epochs": 1}
 
@@ -47,3 +48,44 @@ def test_empty_windows_are_refused_with_a_value_error(cls, shape):
     model = cls(**ONE_EPOCH).fit(X, yy)
     with pytest.raises(ValueError, match=r"empty windows"):
         model.predict_proba(np.zeros((2,) + shape[1:], dtype=np.float32))
+
+
+def test_a_silent_channel_sits_at_minus_ten_the_documented_power_floor():
+    """log10(|STFT|^2 + 1e-10): a silent channel's every bin is -10, whatever the constant's
+    name (the earlier test compares with log10(POWER_FLOOR), which follows any value)."""
+    spec, _ = log_spectrogram(np.zeros((1, 2, 100), dtype=np.float32), RATE_HZ, 0.2, 0.1)
+    np.testing.assert_allclose(spec, -10.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("hop_s, hop", [(0.012, 1), (0.016, 2), (0.024, 2), (0.026, 3)])
+def test_the_hop_is_the_nearest_whole_number_of_samples(hop_s, hop):
+    """1.2 samples is a hop of 1 and 1.6 one of 2 (neither truncated nor rounded up)."""
+    X = np.random.default_rng(0).normal(size=(1, 1, 200)).astype(np.float32)
+    spec, _ = log_spectrogram(X, RATE_HZ, segment_s=0.29, hop_s=hop_s)
+    assert spec.shape[-1] == (200 - 29) // hop + 1
+    np.testing.assert_array_equal(spec[..., 1], log_spectrogram(
+        X[..., hop:], RATE_HZ, segment_s=0.29, hop_s=hop_s)[0][..., 0])
+
+
+def test_the_noise_copy_is_drawn_from_random_state():
+    """The same seed draws the same copy, another seed another one."""
+    Z = np.random.default_rng(1).normal(size=(20, 2, 26, 8)).astype(np.float32)
+    y = np.arange(20) % 2
+
+    def copy(seed):
+        model = SpectrogramCNNClassifier(augment_noise_std=0.3, random_state=seed)
+        model.mask_ = None
+        return model._augmented(Z, y)[0][20:]
+
+    np.testing.assert_array_equal(copy(4), copy(4))
+    assert not np.allclose(copy(4), copy(5), atol=0.1)
+
+
+def test_a_three_sample_segment_is_hann_tapered():
+    """np.hanning(3) is [0, 1, 0]: every bin of a 3-sample segment is the middle sample's
+    power (only segments under 3 samples are rectangular)."""
+    X = np.array([[[1.0, 2.0, 4.0, -3.0]]], dtype=np.float32)
+    spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=0.03, hop_s=0.01)
+    assert spec.shape == (1, 1, 2, 2) and freqs.tolist() == pytest.approx([0.0, 100 / 3])
+    np.testing.assert_allclose(spec[0, 0, :, 0], np.log10(4.0 + POWER_FLOOR), rtol=1e-6)
+    np.testing.assert_allclose(spec[0, 0, :, 1], np.log10(16.0 + POWER_FLOOR), rtol=1e-6)

@@ -1,0 +1,58 @@
+"""Review tests (mod4) of the compiled fast path: when it must give way to scikit-learn's."""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.preprocessing import StandardScaler
+
+from terrain.models.compiled import CompiledPipeline, scale_unchecked
+
+
+class _Final(ClassifierMixin, BaseEstimator):
+    """A final step whose predict_proba takes a routed parameter."""
+
+    def fit(self, X, y):
+        self.classes_ = np.unique(y)
+        return self
+
+    def predict_proba(self, X, shift=0.0):
+        return np.full((len(X), 2), 0.5) + shift * np.array([1.0, -1.0])
+
+    def predict(self, X, shift=0.0):
+        return self.classes_[self.predict_proba(X, shift).argmax(axis=1)]
+
+
+class _Toy(CompiledPipeline):
+    def _compiled(self):
+        return self.steps[-1][1]
+
+    def _compiled_proba(self, compiled, Xt):
+        return np.tile([0.9, 0.1], (len(Xt), 1))
+
+
+def test_a_scaler_fitted_on_another_width_is_left_to_scikit_learn():
+    """A one-column input broadcast against a 3-feature scaler into a (n, 3) result."""
+    F = np.random.default_rng(0).normal(size=(20, 3))
+    scaler = StandardScaler().fit(F)
+    assert scale_unchecked(scaler, F[:, :1]) is None
+    assert scale_unchecked(scaler, F[:, :2].astype(np.float32)) is None
+    assert scale_unchecked(scaler, F).shape == (20, 3)
+
+
+def test_routed_parameters_take_scikit_learns_path():
+    X = np.random.default_rng(0).normal(size=(6, 3))
+    y = np.array([0, 1] * 3)
+    model = _Toy([("scale", StandardScaler()), ("final", _Final())]).fit(X, y)
+    np.testing.assert_array_equal(model.predict_proba(X[:2]), [[0.9, 0.1]] * 2)
+    np.testing.assert_allclose(model.predict_proba(X[:2], shift=0.25), [[0.75, 0.25]] * 2)
+    assert model.predict(X[:2]).tolist() == [0, 0]
+    assert model.predict(X[:2], shift=-0.25).tolist() == [1, 1]
+
+
+def test_passthrough_steps_are_skipped_on_the_fast_path():
+    X = np.random.default_rng(0).normal(size=(6, 3))
+    y = np.array([0, 1] * 3)
+    model = _Toy([("scale", StandardScaler()), ("skip", "passthrough"), ("none", None),
+                  ("final", _Final())]).fit(X, y)
+    np.testing.assert_array_equal(model.predict_proba(X[:2]), [[0.9, 0.1]] * 2)
