@@ -233,7 +233,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
             ``inf``) per channel.
         ValueError
-            ``sample_weight`` of another length than ``y``, negative, not finite, or all 0;
+            ``sample_weight`` of another length than ``y``, negative, not finite, or all 0
+            (on the training runs: the early-stopping runs are never drawn);
             windows not finite, not 2-D or 3-D, or empty (0 channels or 0 samples).
         """
         from skorch import NeuralNetClassifier
@@ -280,6 +281,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             self.validation_groups_ = np.unique(np.asarray(groups)[val_idx])
             train_split = predefined_split(Dataset(Z[val_idx], y_idx[val_idx]))
             callbacks = [EarlyStopping(patience=self.patience, load_best=True)]
+        if sample_weight is not None and not sample_weight[fit_idx].sum() > 0:
+            raise ValueError("sample_weight is 0 on every training window (the runs held out "
+                             "for early stopping, validation_groups_, are never drawn)")
         # the loss's class weights balance the windows the network trains on: the
         # validation runs held out for early stopping take no part in them
         counts = np.bincount(y_idx[fit_idx], minlength=len(self.classes_)).astype(np.float32)

@@ -89,3 +89,15 @@ def test_a_three_sample_segment_is_hann_tapered():
     assert spec.shape == (1, 1, 2, 2) and freqs.tolist() == pytest.approx([0.0, 100 / 3])
     np.testing.assert_allclose(spec[0, 0, :, 0], np.log10(4.0 + POWER_FLOOR), rtol=1e-6)
     np.testing.assert_allclose(spec[0, 0, :, 1], np.log10(16.0 + POWER_FLOOR), rtol=1e-6)
+
+
+def test_weights_positive_only_on_the_early_stopping_runs_are_refused():
+    """The validation runs take no part in the draws: weights > 0 on them only reached
+    torch's RuntimeError 'invalid multinomial distribution (sum of probabilities <= 0)'."""
+    X, y, groups = _planted(n_runs=8, per_run=4)
+    settings = dict(ONE_EPOCH, early_stopping=True, validation_splits=4)
+    held_out = RawCNNClassifier(**settings).fit(X, y, groups=groups).validation_groups_
+    weights = np.isin(groups, held_out).astype(float)
+    with pytest.raises(ValueError, match="sample_weight is 0 on every training window"):
+        RawCNNClassifier(**settings).fit(X, y, groups=groups, sample_weight=weights)
+    RawCNNClassifier(**settings).fit(X, y, groups=groups, sample_weight=1.0 - weights)
