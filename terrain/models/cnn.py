@@ -174,7 +174,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
 
     @staticmethod
     def _check_windows(X) -> np.ndarray:
-        """Finite C-contiguous float32 windows, 2-D or 3-D, none empty (ValueError otherwise).
+        """Finite C-contiguous float32 windows, 2-D or 3-D, none empty, not booleans
+        (ValueError otherwise).
 
         A non-empty float NumPy array that is finite in float32 is converted directly:
         scikit-learn's ``check_array`` accepts it unchanged and costs 0.06-0.1 ms per call,
@@ -187,6 +188,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             X32 = np.ascontiguousarray(X, dtype=np.float32)
             if np.isfinite(X32).all():
                 return X32
+        if np.asarray(X).dtype.kind == "b":     # check_array reads them as 0.0 and 1.0
+            raise ValueError("windows hold booleans (a mask?) where signal values are "
+                             "expected")
         X = check_array(X, accept_sparse=False, ensure_2d=True, allow_nd=True,
                         dtype=np.float32, order="C")
         if X.ndim > 3:
@@ -235,7 +239,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         ValueError
             ``sample_weight`` of another length than ``y``, negative, not finite, or all 0
             (on the training runs: the early-stopping runs are never drawn);
-            windows not finite, not 2-D or 3-D, or empty (0 channels or 0 samples).
+            windows not finite, booleans, not 2-D or 3-D, or empty (0 channels or 0
+            samples).
         """
         from skorch import NeuralNetClassifier
         from skorch.callbacks import EarlyStopping
@@ -348,8 +353,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            Another number of channels than in ``fit``; windows not finite, not 2-D or 3-D,
-            or empty (0 channels or 0 samples).
+            Another number of channels than in ``fit``; windows not finite, booleans, not
+            2-D or 3-D, or empty (0 channels or 0 samples).
         ShapeError
             Windows of another length than in ``fit`` (``window_shape_``; a model saved
             before it was recorded takes any length).

@@ -101,3 +101,16 @@ def test_weights_positive_only_on_the_early_stopping_runs_are_refused():
     with pytest.raises(ValueError, match="sample_weight is 0 on every training window"):
         RawCNNClassifier(**settings).fit(X, y, groups=groups, sample_weight=weights)
     RawCNNClassifier(**settings).fit(X, y, groups=groups, sample_weight=1.0 - weights)
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_boolean_windows_are_refused(cls):
+    """A mask handed over for the signals (X > 0) trained and predicted on 0/1 values."""
+    X, y, _ = _planted(n_runs=2, per_run=4)
+    with pytest.raises(ValueError, match="windows hold booleans"):
+        cls(**ONE_EPOCH).fit(X > 0, y)
+    with pytest.raises(ValueError, match="windows hold booleans"):
+        cls(**ONE_EPOCH).fit((X > 0).tolist(), y)
+    model = cls(**ONE_EPOCH).fit(X, y)
+    with pytest.raises(ValueError, match="windows hold booleans"):
+        model.predict_proba(X[:2] > 0)
