@@ -45,6 +45,15 @@ def require_aeon() -> None:
                           "aeon==1.3.0 deprecated==1.3.1 (see README)")
 
 
+def _signal_windows(X) -> np.ndarray:
+    """``X`` as float32 windows; booleans (a mask handed over for the signals) refused."""
+    X = np.asarray(X)
+    if X.dtype.kind == "b":     # aeon would read them as 0.0 and 1.0
+        raise ValueError("MiniRocket windows hold booleans (a mask?) where signal values are "
+                         "expected")
+    return np.asarray(X, dtype=np.float32)
+
+
 class MiniRocketFeatures(TransformerMixin, BaseEstimator):
     """scikit-learn transformer around aeon's ``MiniRocket`` (kept as the fitted ``rocket_``).
 
@@ -89,6 +98,8 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         ------
         ConfigError
             aeon is not installed.
+        ValueError
+            Boolean windows.
         """
         require_aeon()
         try:
@@ -96,7 +107,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         except ImportError as exc:  # installed, but it or one of its imports is broken
             raise ConfigError(f"the minirocket model needs aeon, which does not import: "
                               f"{exc}") from exc
-        X = np.asarray(X, dtype=np.float32)
+        X = _signal_windows(X)
         self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
                                   max_dilations_per_kernel=self.max_dilations_per_kernel,
                                   n_jobs=self.n_jobs, random_state=self.random_state).fit(X)
@@ -115,8 +126,13 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         -------
         numpy.ndarray
             ``(n_windows, n_features)``.
+
+        Raises
+        ------
+        ValueError
+            Boolean windows.
         """
-        return np.asarray(self.rocket_.transform(np.asarray(X, dtype=np.float32)))
+        return np.asarray(self.rocket_.transform(_signal_windows(X)))
 
 
 def softmax_logistic_proba(Z: np.ndarray, logreg: LogisticRegression) -> np.ndarray:

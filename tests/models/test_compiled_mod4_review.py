@@ -1,8 +1,10 @@
-"""Review tests (mod4) of the compiled fast path: when it must give way to scikit-learn's."""
+"""Review tests (mod4) of the compiled fast path (when it must give way to scikit-learn's) and
+of the MiniRocket windows."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.preprocessing import StandardScaler
 
@@ -56,3 +58,20 @@ def test_passthrough_steps_are_skipped_on_the_fast_path():
     model = _Toy([("scale", StandardScaler()), ("skip", "passthrough"), ("none", None),
                   ("final", _Final())]).fit(X, y)
     np.testing.assert_array_equal(model.predict_proba(X[:2]), [[0.9, 0.1]] * 2)
+
+
+def test_minirocket_refuses_boolean_windows():
+    """aeon read a mask handed over for the signals (X > 0) as 0/1 windows, silently."""
+    pytest.importorskip("aeon")
+    from terrain.models.minirocket import make_minirocket
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(12, 2, 40)).astype(np.float32)
+    y = np.array(["A", "B", "C"] * 4)
+    with pytest.raises(ValueError, match="windows hold booleans"):
+        make_minirocket(0, n_kernels=84, max_dilations_per_kernel=2).fit(X > 0, y)
+    model = make_minirocket(0, n_kernels=84, max_dilations_per_kernel=2).fit(X, y)
+    with pytest.raises(ValueError, match="windows hold booleans"):
+        model.predict_proba(X[:1] > 0)
+    with pytest.raises(ValueError, match="windows hold booleans"):
+        model.named_steps["minirocket"].transform((X[:1] > 0).tolist())
