@@ -43,7 +43,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
                                       column_or_1d)
 
-from terrain.errors import ConfigError, ShapeError, config_positive
+from terrain.errors import ConfigError, ShapeError, config_integer, config_positive
 from terrain.models.cv import class_keeping_split
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -231,6 +231,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
+            ``max_epochs`` not an integer >= 1, ``n_threads`` neither ``None`` nor one;
             ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
             integer >= 2 or above the number of runs, or with no validation split that
             leaves a training run of every class; (spectrogram CNN) ``augment_noise_std``
@@ -247,6 +248,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         from skorch.dataset import Dataset
         from skorch.helper import predefined_split
 
+        config_integer("max_epochs", self.max_epochs, 1)
+        if self.n_threads is not None:
+            config_integer("n_threads", self.n_threads, 1)
         X = self._check_windows(X)
         y = column_or_1d(y, warn=True)
         check_consistent_length(X, y)

@@ -114,3 +114,15 @@ def test_boolean_windows_are_refused(cls):
     model = cls(**ONE_EPOCH).fit(X, y)
     with pytest.raises(ValueError, match="windows hold booleans"):
         model.predict_proba(X[:2] > 0)
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+@pytest.mark.parametrize("setting, value", [("max_epochs", 0), ("max_epochs", True),
+                                            ("n_threads", 0), ("n_threads", -1)])
+def test_an_empty_epoch_budget_or_thread_count_is_a_config_error(cls, setting, value):
+    """max_epochs=0 'fitted' without a single epoch (n_epochs_ 0) and predicted with the
+    random initial weights; n_threads=0 silently kept torch's count, -1 reached torch's
+    RuntimeError 'set_num_threads expects a positive integer'."""
+    X, y, _ = _planted(n_runs=2, per_run=4)
+    with pytest.raises(ConfigError, match=f"{setting} must be an integer >= 1, got {value}"):
+        cls(**{**ONE_EPOCH, setting: value}).fit(X, y)
