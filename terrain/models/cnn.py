@@ -231,7 +231,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``max_epochs`` not an integer >= 1, ``n_threads`` neither ``None`` nor one;
+            ``max_epochs`` not an integer >= 1, ``n_threads`` neither ``None`` nor one,
+            ``random_state`` not an integer in [0, 2**32 - 1];
             ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
             integer >= 2 or above the number of runs, or with no validation split that
             leaves a training run of every class; (spectrogram CNN) ``augment_noise_std``
@@ -249,6 +250,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         from skorch.helper import predefined_split
 
         config_integer("max_epochs", self.max_epochs, 1)
+        # torch.Generator.manual_seed takes Python integers only; numpy's seeds end at 2**32
+        config_integer("random_state", self.random_state, 0, 2 ** 32 - 1)
+        seed = int(self.random_state)
         if self.n_threads is not None:
             config_integer("n_threads", self.n_threads, 1)
         X = self._check_windows(X)
@@ -302,11 +306,11 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         # fit leaves the caller's random streams as it found them on a GPU machine too
         cuda = list(range(torch.cuda.device_count())) if torch.cuda.is_available() else []
         with torch.random.fork_rng(devices=cuda):
-            torch.manual_seed(self.random_state)
+            torch.manual_seed(seed)
             if self.n_threads:
                 torch.set_num_threads(self.n_threads)
             try:
-                gen = torch.Generator().manual_seed(self.random_state)
+                gen = torch.Generator().manual_seed(seed)
                 Z_fit, y_fit = self._augmented(Z[fit_idx], y_idx[fit_idx])
                 if sample_weight is None:
                     order = {"iterator_train__shuffle": True, "iterator_train__generator": gen}
@@ -445,7 +449,7 @@ class RawCNNClassifier(_WindowCNN):
     patience : int
         Epochs without validation improvement before stopping.
     random_state : int
-        Seed of weights, shuffling, dropout and the validation split.
+        Seed of weights, shuffling, dropout and the validation split, in [0, 2**32 - 1].
     device : str
         ``"auto"`` (CUDA when available, else CPU), ``"cpu"`` or a torch device string.
     n_threads : int or None
@@ -533,7 +537,7 @@ class SpectrogramCNNClassifier(_WindowCNN):
     patience : int
         Epochs without validation improvement before stopping.
     random_state : int
-        Seed of weights, shuffling, dropout and the validation split.
+        Seed of weights, shuffling, dropout and the validation split, in [0, 2**32 - 1].
     device : str
         ``"auto"`` (CUDA when available, else CPU), ``"cpu"`` or a torch device string.
     n_threads : int or None

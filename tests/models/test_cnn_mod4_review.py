@@ -126,3 +126,23 @@ def test_an_empty_epoch_budget_or_thread_count_is_a_config_error(cls, setting, v
     X, y, _ = _planted(n_runs=2, per_run=4)
     with pytest.raises(ConfigError, match=f"{setting} must be an integer >= 1, got {value}"):
         cls(**{**ONE_EPOCH, setting: value}).fit(X, y)
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_a_numpy_integer_seed_trains_the_same_network_as_the_python_one(cls):
+    """random_state=np.int64(3) (a seed from np.arange) raised TypeError 'an integer is
+    required' from torch.Generator.manual_seed."""
+    X, y, _ = _planted(n_runs=2, per_run=4)
+    python = cls(**ONE_EPOCH, random_state=3).fit(X, y).predict_proba(X)
+    np.testing.assert_array_equal(
+        cls(**ONE_EPOCH, random_state=np.int64(3)).fit(X, y).predict_proba(X), python)
+
+
+@pytest.mark.parametrize("seed", [None, -1, 2.0, True, 2 ** 32])
+def test_a_seed_that_is_not_an_integer_in_numpys_range_is_a_config_error(seed):
+    """None and 2.0 reached torch's TypeError / RuntimeError; -1 trained without early
+    stopping or a noise copy and failed with them (numpy's 'Seed must be between 0 and
+    2**32 - 1')."""
+    X, y, _ = _planted(n_runs=2, per_run=4)
+    with pytest.raises(ConfigError, match="random_state must be an integer in"):
+        RawCNNClassifier(**ONE_EPOCH, random_state=seed).fit(X, y)
