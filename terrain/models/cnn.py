@@ -231,8 +231,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``max_epochs`` not an integer >= 1, ``n_threads`` neither ``None`` nor one,
-            ``random_state`` not an integer in [0, 2**32 - 1];
+            ``max_epochs`` or ``width`` not an integer >= 1, ``n_threads`` neither ``None``
+            nor one, ``random_state`` not an integer in [0, 2**32 - 1];
             ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
             integer >= 2 or above the number of runs, or with no validation split that
             leaves a training run of every class; (spectrogram CNN) ``augment_noise_std``
@@ -250,6 +250,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         from skorch.helper import predefined_split
 
         config_integer("max_epochs", self.max_epochs, 1)
+        config_integer("width", self.width, 1)
         # torch.Generator.manual_seed takes Python integers only; numpy's seeds end at 2**32
         config_integer("random_state", self.random_state, 0, 2 ** 32 - 1)
         seed = int(self.random_state)

@@ -146,3 +146,13 @@ def test_a_seed_that_is_not_an_integer_in_numpys_range_is_a_config_error(seed):
     X, y, _ = _planted(n_runs=2, per_run=4)
     with pytest.raises(ConfigError, match="random_state must be an integer in"):
         RawCNNClassifier(**ONE_EPOCH, random_state=seed).fit(X, y)
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+@pytest.mark.parametrize("width", [0, 8.0])
+def test_a_network_width_that_is_not_a_positive_integer_is_a_config_error(cls, width):
+    """width=0 reached torch's RuntimeError 'Given groups=1, expected weight to be at least 1
+    at dimension 0 ...' from the first convolution."""
+    X, y, _ = _planted(n_runs=2, per_run=4)
+    with pytest.raises(ConfigError, match=f"width must be an integer >= 1, got {width}"):
+        cls(**{**ONE_EPOCH, "width": width}).fit(X, y)
