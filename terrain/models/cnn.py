@@ -82,7 +82,8 @@ def segment_samples(rate_hz: float, segment_s: float, n_samples: int) -> int:
     Returns
     -------
     int
-        The nearest whole number of samples, at least 2 and at most ``n_samples``.
+        The nearest whole number of samples, at least 2 and at most ``n_samples`` (a window
+        of 1 sample is one segment of 1 sample).
     """
     return int(np.clip(round(segment_s * rate_hz), 2, n_samples))
 
@@ -99,8 +100,8 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
         Sampling rate, Hz.
     segment_s : float
         STFT segment length, s (:func:`segment_samples`: clipped to the window length, at
-        least 2 samples; a segment of fewer than 3 samples is tapered with a rectangular
-        window, since a Hann window of 2 samples is all zeros).
+        least 2 samples where the window has them; a segment of fewer than 3 samples is
+        tapered with a rectangular window, since a Hann window of 2 samples is all zeros).
     hop_s : float
         Hop between segments, s.
 

@@ -10,7 +10,7 @@ from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default pr
 
 from terrain.errors import ConfigError
 from terrain.models.cnn import (POWER_FLOOR, RawCNNClassifier, SpectrogramCNNClassifier,
-                                log_spectrogram)
+                                log_spectrogram, segment_samples)
 
 ONE_EPOCH = {**FAST, "max_epochs": 1}
 
@@ -156,3 +156,12 @@ def test_a_network_width_that_is_not_a_positive_integer_is_a_config_error(cls, w
     X, y, _ = _planted(n_runs=2, per_run=4)
     with pytest.raises(ConfigError, match=f"width must be an integer >= 1, got {width}"):
         cls(**{**ONE_EPOCH, "width": width}).fit(X, y)
+
+
+def test_a_one_sample_window_is_one_one_sample_segment():
+    """The segment is at least 2 samples where the window has them; a 1-sample window (as
+    scikit-learn's 1-feature check feeds) is one 1-sample segment: its power, one bin."""
+    assert segment_samples(RATE_HZ, 0.001, 200) == 2 and segment_samples(RATE_HZ, 0.5, 1) == 1
+    spec, freqs = log_spectrogram(np.full((1, 1, 1), 3.0, np.float32), RATE_HZ, 0.5, 0.2)
+    assert spec.shape == (1, 1, 1, 1) and freqs.tolist() == [0.0]
+    np.testing.assert_allclose(spec[0, 0, 0, 0], np.log10(9.0 + POWER_FLOOR), rtol=1e-6)
