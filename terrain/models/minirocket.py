@@ -46,12 +46,22 @@ def require_aeon() -> None:
 
 
 def _signal_windows(X) -> np.ndarray:
-    """``X`` as float32 windows; booleans (a mask handed over for the signals) refused."""
+    """``X`` as float32 windows; booleans (a mask handed over for the signals) and values
+    not finite in float32 refused (aeon refuses NaN only: inf gives finite features)."""
     X = np.asarray(X)
     if X.dtype.kind == "b":     # aeon would read them as 0.0 and 1.0
         raise ValueError("MiniRocket windows hold booleans (a mask?) where signal values are "
                          "expected")
-    return np.asarray(X, dtype=np.float32)
+    with np.errstate(over="ignore"):    # beyond float32: inf, refused below with its place
+        X = np.asarray(X, dtype=np.float32)
+    finite = np.isfinite(X)
+    if not finite.all():
+        where = [int(i) for i in np.argwhere(~finite)[0]]
+        names = {2: ("window", "sample"), 3: ("window", "channel", "sample")}.get(X.ndim)
+        at = ", ".join(f"{n} {i}" for n, i in zip(names, where)) if names else str(where)
+        raise ValueError(f"MiniRocket windows hold {int((~finite).sum())} value(s) not finite "
+                         f"in float32 (NaN, inf or beyond +-3.4e38), the first at {at}")
+    return X
 
 
 class MiniRocketFeatures(TransformerMixin, BaseEstimator):
@@ -99,7 +109,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             aeon is not installed.
         ValueError
-            Boolean windows.
+            Boolean windows, or values not finite in float32.
         """
         require_aeon()
         try:
@@ -130,7 +140,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            Boolean windows.
+            Boolean windows, or values not finite in float32.
         """
         return np.asarray(self.rocket_.transform(_signal_windows(X)))
 

@@ -75,3 +75,24 @@ def test_minirocket_refuses_boolean_windows():
         model.predict_proba(X[:1] > 0)
     with pytest.raises(ValueError, match="windows hold booleans"):
         model.named_steps["minirocket"].transform((X[:1] > 0).tolist())
+
+
+@pytest.mark.parametrize("bad", [np.inf, -np.inf, np.nan, 1e40])
+def test_minirocket_refuses_windows_that_are_not_finite_in_float32(bad):
+    """aeon refuses NaN but transformed inf (and 1e40, inf once cast to float32) into finite
+    features: fit and predict_proba gave probabilities without a word."""
+    pytest.importorskip("aeon")
+    from terrain.models.minirocket import make_minirocket
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(12, 2, 40))
+    y = np.array(["A", "B", "C"] * 4)
+    spoiled = X.copy()
+    spoiled[1, 0, 3] = bad
+    with pytest.raises(ValueError, match=r"not finite .*window 1, channel 0, sample 3"):
+        make_minirocket(0, n_kernels=84, max_dilations_per_kernel=2).fit(spoiled, y)
+    model = make_minirocket(0, n_kernels=84, max_dilations_per_kernel=2).fit(X, y)
+    with pytest.raises(ValueError, match=r"not finite .*window 1, channel 0, sample 3"):
+        model.predict_proba(spoiled[:2])
+    with pytest.raises(ValueError, match=r"not finite .*window 1, sample 3"):
+        make_minirocket(0, n_kernels=84, max_dilations_per_kernel=2).fit(spoiled[:, 0], y)
