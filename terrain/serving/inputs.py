@@ -192,6 +192,14 @@ def real_array(x, stream: str, column: str) -> np.ndarray:
             raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers (s and "
                                   f"SI units), got {'booleans' if kind == 'b' else 'NumPy times'}"
                                   f" ({raw.dtype})", f"stream {stream}", column)
+        # NumPy reads text that spells a number ("10.5") and an object array's booleans
+        # as floats without a word
+        text = kind in "USa" or (kind == "O" and any(
+            isinstance(v, (str, bytes, bool, np.bool_)) for v in raw.flat))
+        if text:
+            raise DataFormatError(f"stream {stream!r}: {column} must hold real numbers (s and "
+                                  "SI units), got text or booleans", f"stream {stream}",
+                                  column)
         a = None if kind == "c" else np.asarray(raw, dtype=float)
     except (TypeError, ValueError, OverflowError) as exc:
         if isinstance(exc, DataFormatError):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from terrain.errors import DataFormatError
-from terrain.serving.inputs import values_matrix
+from terrain.serving.inputs import real_array, values_matrix
 
 CHANNELS = ["vel_l", "vel_r", "cur_l", "cur_r"]
 
@@ -23,3 +23,20 @@ def test_a_flat_row_of_one_value_per_channel_is_not_taken_for_several_samples(n)
     # refused in the project's words (not numpy's reshape error, nor read as one sample)
     with pytest.raises(DataFormatError, match=rf"expected values of shape \({n}, 4\)"):
         values_matrix(np.arange(4.0), n, CHANNELS, "wheels")
+
+
+@pytest.mark.parametrize("x", ["10.5", ["1.5", "2"], np.array(["1", "2"]), np.array([b"1.5"]),
+                               np.array(["1.0"], dtype=object), np.array([1.0, "2"], dtype=object),
+                               np.array([True, 1.0], dtype=object)])
+@pytest.mark.parametrize("column", ["t_s", "vel_l", "values"])
+def test_numbers_written_as_text_or_booleans_in_an_object_array_are_refused(x, column):
+    # NumPy converts text that spells a number ("10.5" was taken as 10.5 s) and an object
+    # array's booleans (True as 1.0) without a word; the docstring and README promise a
+    # DataFormatError for text and booleans
+    with pytest.raises(DataFormatError, match=f"{column} must hold real numbers"):
+        real_array(x, "wheels", column)
+
+
+def test_an_object_array_of_numbers_and_missing_values_is_read():
+    got = real_array(np.array([1.0, None, 2], dtype=object), "wheels", "t_s")
+    np.testing.assert_array_equal(got, [1.0, np.nan, 2.0])
