@@ -87,3 +87,14 @@ def test_a_nul_byte_at_the_very_start_is_named(kind):
     assert status == 400 and answer["message"].startswith(
         "EncodingError: the request body holds a NUL byte (0x00) at byte 0")
     assert answer["message"].endswith("line 1)")
+
+
+def test_a_field_over_the_csv_readers_limit_is_refused_under_a_one_column_header():
+    """Under a header of one column the ragged-row scan (which catches the csv module's
+    field limit) does not run; the scan for numbers beyond the float range then hit it:
+    csv.Error escaped body_refusal and the server answered uvicorn's plain-text 500."""
+    body = b'a\n"' + b"x" * 200_000 + b'"\n1e400\n'
+    status, answer = body_refusal("text/csv", body, None, 10**8)
+    assert status == 400, answer
+    assert answer["message"].startswith("DataFormatError: unreadable CSV: a field longer "
+                                        "than 131072 characters")
