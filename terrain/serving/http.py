@@ -282,9 +282,9 @@ class RequestGuard:
       and a 405's ``Allow`` header kept; a plain-text answer (MLflow's 415, its 504
       timeout) becomes JSON as well;
     * an exception that escapes MLflow's handler (a JSON body nested 100,000 deep raises
-      ``RecursionError`` in the parser) is answered 400 when it is the request's fault,
-      else 500 with one line (the traceback goes to the server log); the server keeps
-      serving either way.
+      ``RecursionError`` in the parser) or the guard's own body checks is answered 400
+      when it is the request's fault, else 500 with one line (the traceback goes to the
+      server log); the server keeps serving either way.
 
     Success answers pass through untouched and unbuffered.
 
@@ -409,8 +409,11 @@ class RequestGuard:
                         return
                     if body is None:  # the client went away
                         return
-                    refused = body_refusal(headers.get(b"content-type", b"").decode(
-                        "latin-1"), body, self.max_rows, self.max_body_bytes)
+                    try:
+                        refused = body_refusal(headers.get(b"content-type", b"").decode(
+                            "latin-1"), body, self.max_rows, self.max_body_bytes)
+                    except Exception as exc:  # past the guard, Starlette's plain-text 500
+                        refused = _failure(exc)
                     if refused is None:
                         await self._answer(scope, _replay(body, receive), send)
                         return

@@ -815,3 +815,23 @@ def test_an_empty_quoted_parameter_value_is_unquoted():
 
     assert normalised_content_type(b'text/csv; Charset=""') == b"text/csv; charset="
     assert normalised_content_type(b'text/csv; x="') == b'text/csv; x="'
+
+
+def test_a_failure_of_the_guards_own_body_checks_is_a_one_line_500(monkeypatch, caplog):
+    """An exception in the guard's body checks went past it to uvicorn, whose answer is a
+    plain-text 500; it is the project's one-line JSON error, the traceback in the log."""
+    import terrain.serving.http as http_module
+
+    def broken(*args):
+        raise RuntimeError("secret detail of the request")
+
+    monkeypatch.setattr(http_module, "body_refusal", broken)
+    app, seen = _echo_app()
+    client = _Client([b"ab"])
+    guard = RequestGuard(app, max_body_bytes=100)
+    asyncio.run(guard(_scope(), client.receive, client.send))
+    status, answer = client.answer()
+    assert status == 500 and not seen and guard.in_flight == 0
+    assert answer["error_code"] == "INTERNAL_ERROR" and answer["sqlstate"]
+    assert answer["message"] == "internal error (RuntimeError); see the server log"
+    assert "secret detail" in caplog.text
