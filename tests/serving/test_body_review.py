@@ -98,3 +98,12 @@ def test_a_field_over_the_csv_readers_limit_is_refused_under_a_one_column_header
     assert status == 400, answer
     assert answer["message"].startswith("DataFormatError: unreadable CSV: a field longer "
                                         "than 131072 characters")
+
+
+def test_a_record_with_as_many_keys_as_record_0_but_another_one_is_refused():
+    # the same count of keys is not the same keys: pandas would add the column 'vel_r',
+    # NaN in record 0, and fill 'vel_l' with NaN in record 1
+    records = [{"t_s": 0.0, "vel_l": 0.1}, {"t_s": 0.1, "vel_r": 0.1}]
+    status, answer = _json({"dataframe_records": records})
+    assert status == 400
+    assert answer["message"].startswith("RaggedRowError: record 1 (0-based) lacks ['vel_l']")
