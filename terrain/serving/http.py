@@ -259,13 +259,14 @@ class RequestGuard:
 
     * a path other than :data:`ENDPOINTS` is answered 404 (``/invocations/`` included: a
       redirect would lose the body of a client that does not follow it);
-    * a POST without ``Content-Length`` is answered 411, one with ``Transfer-Encoding`` as
-      well 400 (the two disagree on where the body ends), one over ``max_body_bytes`` 413,
-      one without ``Content-Type`` 415 (MLflow's handler would fail on it with a 500), one
-      with a ``Content-Encoding`` 415 (its bytes would be read as text), one with two
-      different Content-Type headers 400 (compared as :func:`normalised_content_type`
-      writes them); the Content-Type is handed on so written (media types, parameter
-      names and the charset are case-insensitive; MLflow compares them as written);
+    * a POST to ``/invocations`` without ``Content-Length`` is answered 411, one with
+      ``Transfer-Encoding`` as well 400 (the two disagree on where the body ends), one over
+      ``max_body_bytes`` 413, one without ``Content-Type`` 415 (MLflow's handler would fail
+      on it with a 500), one with a ``Content-Encoding`` 415 (its bytes would be read as
+      text), one with two different Content-Type headers 400 (compared as
+      :func:`normalised_content_type` writes them); the Content-Type is handed on so
+      written (media types, parameter names and the charset are case-insensitive; MLflow
+      compares them as written); a POST elsewhere is MLflow's to answer (405);
     * ``HEAD`` on ``/ping``, ``/health`` and ``/version`` is run as ``GET`` (the server
       sends no body for it);
     * the body of ``/invocations`` is read here, counting its bytes (longer than announced
@@ -384,7 +385,7 @@ class RequestGuard:
             # sends no body for it
             scope = {**scope, "method": "GET"}
         invocation = scope["method"] == "POST" and path == "/invocations"
-        if scope["method"] == "POST":
+        if invocation:  # a POST elsewhere is MLflow's to answer: 405, whatever its length
             refused = self.refusal(path, scope["headers"])
             headers = dict(scope["headers"])
             if refused is None and invocation:

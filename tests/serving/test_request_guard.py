@@ -835,3 +835,21 @@ def test_a_failure_of_the_guards_own_body_checks_is_a_one_line_500(monkeypatch, 
     assert answer["error_code"] == "INTERNAL_ERROR" and answer["sqlstate"]
     assert answer["message"] == "internal error (RuntimeError); see the server log"
     assert "secret detail" in caplog.text
+
+
+@pytest.mark.parametrize("headers", [[], [(b"content-length", b"2x")],
+                                     [(b"content-length", b"5000")]])
+def test_a_post_elsewhere_is_the_apps_to_answer_whatever_its_length(headers):
+    """README: a wrong method answers 405. A POST to /ping without Content-Length (curl -X
+    POST) was answered 411 by the guard, one over the body limit 413: the body rules are
+    those of /invocations; elsewhere MLflow answers the method (a 405 on /ping)."""
+    async def app(scope, receive, send):
+        await send({"type": "http.response.start", "status": 405,
+                    "headers": [(b"allow", b"GET")]})
+        await send({"type": "http.response.body", "body": b'{"detail": "Method Not Allowed"}'})
+
+    client = _Client([])
+    asyncio.run(RequestGuard(app, max_body_bytes=1000)(_raw_scope("POST", "/ping", headers),
+                                                       client.receive, client.send))
+    status, answer = client.answer()
+    assert status == 405 and answer["message"].startswith("MethodNotAllowedError: ")
