@@ -133,9 +133,10 @@ def _typed_error(status: int, text: str) -> TerrainError:
                              + (f" ({byte.group(2)} at byte {byte.group(1)})" if byte else ""),
                              where)
     if "valid JSON" in text:
-        reason = re.search(r"JSONDecodeError\('(.*)'\)", detail)
+        # the repr quotes a reason holding a quote with double quotes
+        reason = re.search(r"JSONDecodeError\((['\"])(.*)\1\)", detail)
         return DataFormatError("the request body is not valid JSON "
-                               f"({reason.group(1) if reason else detail[:200]})", where)
+                               f"({reason.group(2) if reason else detail[:200]})", where)
     if status == 415:
         return DataFormatError(f"unsupported request content type: {text.strip()}", where)
     text = re.sub(r"<class '([\w.]+)'>", r"\1", text.strip())  # Python type reprs

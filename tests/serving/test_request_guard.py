@@ -853,3 +853,22 @@ def test_a_post_elsewhere_is_the_apps_to_answer_whatever_its_length(headers):
                                                        client.receive, client.send))
     status, answer = client.answer()
     assert status == 405 and answer["message"].startswith("MethodNotAllowedError: ")
+
+
+@pytest.mark.parametrize("body, reason", [
+    (b'{"dataframe_split": ', "Expecting value: line 1 column 21 (char 20)"),
+    (b'{"a": 1 "b": "secret")}', "Expecting ',' delimiter: line 1 column 9 (char 8)"),
+])
+def test_mlflow_s_json_error_is_told_by_its_reason_without_the_body(body, reason):
+    """MLflow's message of a body that is not JSON holds the exception's repr and then the
+    whole body ("Input: ..."); a reason with a quote in it has a double-quoted repr,
+    which was shown as JSONDecodeError("Expecting ',' delimiter: ...")."""
+    from mlflow.exceptions import MlflowException
+    from mlflow.pyfunc.scoring_server import _decode_json_input
+
+    from terrain.serving.http import project_message
+
+    with pytest.raises(MlflowException) as raised:
+        _decode_json_input(body)
+    assert project_message(400, raised.value.message) == (
+        f"DataFormatError: the request body is not valid JSON ({reason}) (file request)")
