@@ -208,6 +208,16 @@ def _unterminated_quote(body: bytes) -> int | None:
 
 def _csv_refusal(body: bytes) -> tuple[int, dict] | None:
     """Refusal of a CSV body (see :func:`body_refusal`), or None."""
+    if body.lstrip(b"\xef\xbb\xbf \t\r\n")[:1] in (b"{", b"["):
+        # read as CSV, a JSON table's first line is a header of fragments: "duplicated
+        # column name(s) ['-0.0236220472440944', ...]" or a missing stream
+        try:
+            json.loads(body)
+        except (ValueError, RecursionError):
+            pass   # a CSV header that opens with a brace
+        else:
+            return _refusal(DataFormatError("the CSV body is a JSON document; send it with "
+                                            "Content-Type application/json", _WHERE))
     opening = _unterminated_quote(body) if b'"' in body else None
     if opening is not None:
         line = len(LINE_END.findall(body, 0, opening)) + 1
@@ -460,6 +470,7 @@ def body_refusal(content_type: str, body: bytes, max_rows: int | None,
     * a JSON key given twice in one object (a record's column, a table's ``columns``):
       ``json`` keeps the last value and drops the other silently; named with the record;
     * an unterminated quote in a CSV body, named with the line where it opens;
+    * a CSV body that is a JSON document (a JSON table sent as ``text/csv``);
     * a JSON body that is not one ``dataframe_split`` or ``dataframe_records`` table of the
       right shape (MLflow's ``inputs`` / ``instances`` are left to the served model, which
       refuses them with its own message);

@@ -107,3 +107,24 @@ def test_a_record_with_as_many_keys_as_record_0_but_another_one_is_refused():
     status, answer = _json({"dataframe_records": records})
     assert status == 400
     assert answer["message"].startswith("RaggedRowError: record 1 (0-based) lacks ['vel_l']")
+
+
+@pytest.mark.parametrize("table", ["dataframe_split", "dataframe_records"])
+def test_a_json_body_sent_as_csv_is_told_to_be_sent_as_json(table):
+    """A JSON table sent with Content-Type text/csv was read as a CSV header of JSON
+    fragments: "duplicated column name(s) ['-0.0236220472440944', ...]" or a missing
+    stream; the answer now says what the body is and which Content-Type to send."""
+    columns = ["stream", "t_s", "vel_l", "vel_r", "cur_l", "cur_r"]
+    data = [["wheels", 0.154 * i, -0.02, -0.02, 1.0, 1.0] for i in range(3)]
+    doc = ({"dataframe_split": {"columns": columns, "data": data}}
+           if table == "dataframe_split" else
+           {"dataframe_records": [dict(zip(columns, row)) for row in data]})
+    body = b" \r\n" + json.dumps(doc, indent=1).encode()
+    status, answer = body_refusal("text/csv", body, None, LIMIT)
+    assert status == 400
+    assert answer["message"].startswith("DataFormatError: the CSV body is a JSON document; "
+                                        "send it with Content-Type application/json"), answer
+
+
+def test_a_csv_header_that_opens_with_a_brace_is_still_csv():
+    assert body_refusal("text/csv", b"{a},t_s\n1,2\n", None, LIMIT) is None
