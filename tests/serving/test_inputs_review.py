@@ -40,3 +40,14 @@ def test_numbers_written_as_text_or_booleans_in_an_object_array_are_refused(x, c
 def test_an_object_array_of_numbers_and_missing_values_is_read():
     got = real_array(np.array([1.0, None, 2], dtype=object), "wheels", "t_s")
     np.testing.assert_array_equal(got, [1.0, np.nan, 2.0])
+
+
+def test_same_values_is_float32_precision_not_looser():
+    """A re-sent sample's values may have gone through float32 (a relative error under
+    6e-8); values 1e-5 apart (a current of 15.04 A against 15.04015 A) are other values."""
+    from terrain.serving.inputs import same_values
+
+    a = np.array([15.04, -0.094, np.nan])
+    assert same_values(a, a.astype(np.float32).astype(float))
+    assert not same_values(a, a * (1 + 1e-5))
+    assert not same_values(a, np.array([15.04, -0.094, 1.0]))   # NaN against a number
