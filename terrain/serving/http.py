@@ -3,9 +3,11 @@
 MLflow's scoring server answers some malformed requests itself (a body it cannot parse as
 CSV, JSON or Parquet, a missing content type) with its own message, a ``stack_trace`` field
 or a bare 500. :class:`RequestGuard`, an ASGI middleware, sits outside MLflow's handler and
-gives every error answer the project's form: one line, ``<ErrorClass>: ...`` with the
-:mod:`terrain.errors` class, no stack trace and no dump of the request; it also enforces the
-body-size limit. ``terrain serve`` (:mod:`pipelines.serve`) adds it to the app.
+gives every error answer the project's form: one line, no stack trace and no dump of the
+request; a 4xx's message is ``<ErrorClass>: ...`` with the :mod:`terrain.errors` class (an
+unexpected failure's or MLflow's 5xx says what failed, e.g. ``internal error (KeyError); see
+the server log`` or MLflow's timeout). It also enforces the body-size limit. ``terrain
+serve`` (:mod:`pipelines.serve`) adds it to the app.
 """
 
 from __future__ import annotations
@@ -280,8 +282,9 @@ class RequestGuard:
       is answered 503 at once;
     * every error answer (status >= 400) is rewritten to the project's JSON error: MLflow's
       ``stack_trace`` field is dropped and the message is one line, ``<ErrorClass>: ...``
-      (:func:`project_message`), with ``sqlstate`` and ``error_class`` (:func:`classified`)
-      and a 405's ``Allow`` header kept; a plain-text answer (MLflow's 415, its 504
+      for a 4xx (MLflow's 5xx is only made one line, :func:`project_message`), with
+      ``sqlstate`` and ``error_class`` (:func:`classified`) and a 405's ``Allow`` header
+      kept; a plain-text answer (MLflow's 415, its 504
       timeout) becomes JSON as well;
     * an exception that escapes MLflow's handler (a JSON body nested 100,000 deep raises
       ``RecursionError`` in the parser) or the guard's own body checks is answered 400
