@@ -19,6 +19,7 @@ from typing import Sequence
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.metrics import log_loss
+from sklearn.utils import _safe_indexing
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError
@@ -201,7 +202,9 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             raise ValueError(f"{type(self).__name__} requires y to be passed, but the target "
                              "y is None: give the (n_windows,) labels of the training windows")
         y = np.asarray(y)
-        shape = np.shape(X)
+        # X.shape of an array or sparse matrix; np.shape would call an array-like's
+        # __array_function__ (scikit-learn's _NotAnArray refuses it)
+        shape = X.shape if hasattr(X, "shape") else np.asarray(X).shape
         if len(shape) >= 2:
             self.n_features_in_ = shape[1]
         self.classes_ = np.unique(y)
@@ -219,7 +222,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
                                          "choosing the ensemble weights", "inner_splits",
                                          "fixed weights")
             self.validation_groups_ = np.unique(groups[va])
-            probas = [aligned_proba(fit_with_groups(clone(est), X[tr], y[tr], groups[tr]), X[va],
+            X_tr, X_va = _safe_indexing(X, tr), _safe_indexing(X, va)   # a list too
+            probas = [aligned_proba(fit_with_groups(clone(est), X_tr, y[tr], groups[tr]), X_va,
                                     self.classes_) for _, est in self.estimators]
             best, best_w = np.inf, None
             for w in grid:
