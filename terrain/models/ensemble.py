@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.metrics import log_loss
-from sklearn.utils import _safe_indexing
+from sklearn.utils import _safe_indexing, get_tags
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError
@@ -170,6 +170,16 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         self.weight_step = weight_step
         self.inner_splits = inner_splits
         self.random_state = random_state
+
+    def __sklearn_tags__(self):
+        """scikit-learn's tags, with the input tags of the members: sparse input or NaN
+        is accepted only when every member accepts it (as scikit-learn's own voting
+        ensembles do); the members' fits raise their own errors otherwise."""
+        tags = super().__sklearn_tags__()
+        members = [est for _, est in self.estimators]
+        tags.input_tags.sparse = all(get_tags(est).input_tags.sparse for est in members)
+        tags.input_tags.allow_nan = all(get_tags(est).input_tags.allow_nan for est in members)
+        return tags
 
     def fit(self, X, y, groups=None):
         """Choose the weights on held-out training runs, then fit every member.

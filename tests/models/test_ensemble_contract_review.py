@@ -8,7 +8,9 @@ import pytest
 from sklearn.base import clone
 from sklearn.linear_model import LogisticRegression
 from sklearn.tree import DecisionTreeClassifier
+from sklearn.utils import get_tags
 from sklearn.utils.estimator_checks import check_classifier_data_not_an_array
+from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from terrain.models.ensemble import SoftVotingEnsemble
 
@@ -18,6 +20,27 @@ pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered in cas
 
 def _members():
     return [("lr", LogisticRegression()), ("tree", DecisionTreeClassifier(random_state=0))]
+
+
+@parametrize_with_checks([SoftVotingEnsemble(_members()),
+                          SoftVotingEnsemble(_members(), weights=(1.0, 3.0))])
+def test_soft_voting_ensemble_follows_sklearn_contract(estimator, check):
+    # every check, none expected to fail: the input tags follow the members (both take
+    # sparse input here; the sparse tag said no and sparse fits passed)
+    check(estimator)
+
+
+def test_input_tags_are_those_every_member_has():
+    from sklearn.ensemble import HistGradientBoostingClassifier
+    from sklearn.svm import SVC
+    both = get_tags(SoftVotingEnsemble(_members())).input_tags
+    assert both.sparse and not both.allow_nan
+    nan = get_tags(SoftVotingEnsemble([("hgb", HistGradientBoostingClassifier()),
+                                       ("hgb2", HistGradientBoostingClassifier())])).input_tags
+    assert nan.allow_nan and not nan.sparse
+    mixed = get_tags(SoftVotingEnsemble([("hgb", HistGradientBoostingClassifier()),
+                                         ("svc", SVC())])).input_tags
+    assert not mixed.allow_nan and not mixed.sparse
 
 
 def test_an_array_like_that_is_not_an_ndarray_is_fitted_as_its_array():
