@@ -12,7 +12,9 @@ from sklearn.utils import get_tags
 from sklearn.utils.estimator_checks import check_classifier_data_not_an_array
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
+from terrain.errors import NonFiniteInputError
 from terrain.models.ensemble import SoftVotingEnsemble
+from terrain.models.weighting import run_shares, within_class_run_weights
 
 #: check_supervised_y_no_nan feeds NaN labels on purpose; sklearn's cast warns before raising
 pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered in cast:RuntimeWarning")
@@ -62,3 +64,28 @@ def test_weights_are_chosen_for_a_list_input_as_for_its_array():
     assert a.weight_scores_ == b.weight_scores_
     np.testing.assert_array_equal(a.predict_proba(X), b.predict_proba(X.tolist()))
     assert b.n_features_in_ == 3
+
+
+@pytest.mark.parametrize("labels, groups, name", [
+    (np.array([1.0, np.nan, np.nan, 2.0]), np.array(["a", "b", "b", "c"]), "labels"),
+    (np.array(["x", "x", "x"]), np.array([1.0, np.nan, np.nan]), "groups"),
+    (np.array(["x", "x", "x"]), np.array(["a", None, None], dtype=object), "groups"),
+    (np.array(["x", None], dtype=object), np.array(["a", "a"]), "labels")])
+def test_a_missing_label_or_run_is_refused_not_weighted_from_unset_memory(labels, groups, name):
+    # a NaN label or run equals nothing (labels == nan is all False), so its windows'
+    # shares were never written: np.empty's leftovers came back as weights (labels
+    # [1, nan, nan, 2] gave [1, 3, 6, 1]), and a None run was a bare TypeError from sorting
+    with pytest.raises(NonFiniteInputError, match=rf"{name}.*index 1"):
+        run_shares(labels, groups)
+    with pytest.raises(NonFiniteInputError, match=name):
+        within_class_run_weights(labels, groups)
+
+
+def test_one_run_per_class_or_no_window_gives_unit_weights():
+    np.testing.assert_array_equal(within_class_run_weights(["A", "A", "B"], [0, 0, 1]),
+                                  [1.0, 1.0, 1.0])
+    np.testing.assert_array_equal(run_shares(["A", "A", "B"], [0, 0, 1]), [0.5, 0.5, 1.0])
+    assert within_class_run_weights([], []).shape == (0,)
+    # runs numbered alike in two classes are two runs: class A's run 0 and class B's run 0
+    np.testing.assert_allclose(within_class_run_weights(["A", "A", "A", "B"], [0, 0, 1, 0]),
+                               [0.75, 0.75, 1.5, 1.0])
