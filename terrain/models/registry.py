@@ -124,11 +124,12 @@ class ModelConfig:
     Raises
     ------
     ConfigError
-        An unknown ``kind`` or ensemble member; ``max_epochs``, ``minirocket_kernels`` or
-        ``minirocket_max_dilations`` not an integer >= 1; ``spectrogram_noise_std`` not a
-        finite number >= 0; ``track_m`` not a finite number > 0; ``cnn_seeds`` or
-        ``n_threads`` out of range, ``cnn_seeds > 1`` without a CNN, or ``run_balanced``
-        with ``window_ekf``.
+        An unknown ``kind`` or ensemble member; ``tune_weights``, ``early_stopping``,
+        ``window_ekf`` or ``run_balanced`` not True or False; ``max_epochs``,
+        ``minirocket_kernels`` or ``minirocket_max_dilations`` not an integer >= 1;
+        ``spectrogram_noise_std`` not a finite number >= 0; ``track_m`` not a finite number
+        > 0; ``cnn_seeds`` or ``n_threads`` out of range, ``cnn_seeds > 1`` without a CNN,
+        or ``run_balanced`` with ``window_ekf``.
     """
 
     kind: str = "svm"
@@ -149,6 +150,11 @@ class ModelConfig:
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
             raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
+        for flag in ("tune_weights", "early_stopping", "window_ekf", "run_balanced"):
+            # a text such as "no" from a config file was truthy and switched the setting on
+            value = getattr(self, flag)
+            if not isinstance(value, (bool, np.bool_)):
+                raise ConfigError(f"ModelConfig.{flag} must be True or False, got {value!r}")
         if self.run_balanced and self.window_ekf:
             raise ConfigError("run_balanced (--run-balanced) is not implemented with "
                               "window_ekf (--window-ekf): choose one")
