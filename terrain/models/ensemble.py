@@ -200,17 +200,20 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            Fixed ``weights`` not one per member, negative, non-finite or all 0
-            (:func:`normalised_weights`); weights to choose with fewer runs (``groups``)
-            than ``inner_splits``, or where every inner split holds out every run of a
-            class (:func:`~terrain.models.cv.class_keeping_split`), or a ``weight_step``
-            :func:`simplex_grid` refuses.
+            No member (``estimators`` empty); fixed ``weights`` not one per member,
+            negative, non-finite or all 0 (:func:`normalised_weights`); weights to choose
+            with fewer runs (``groups``) than ``inner_splits``, or where every inner split
+            holds out every run of a class (:func:`~terrain.models.cv.class_keeping_split`),
+            or a ``weight_step`` :func:`simplex_grid` refuses.
         ValueError
             ``y`` is None.
         """
         if y is None:      # scikit-learn's own "y should be a 1d array, got ... shape ()"
             raise ValueError(f"{type(self).__name__} requires y to be passed, but the target "
                              "y is None: give the (n_windows,) labels of the training windows")
+        if len(self.estimators) == 0:
+            raise ConfigError(f"{type(self).__name__} needs at least one member "
+                              "(estimators: a list of (name, estimator)), got none")
         y = np.asarray(y)
         # X.shape of an array or sparse matrix; np.shape would call an array-like's
         # __array_function__ (scikit-learn's _NotAnArray refuses it)

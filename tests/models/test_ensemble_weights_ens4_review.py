@@ -64,3 +64,13 @@ def test_a_member_that_saw_fewer_classes_gets_its_own_columns():
                               ("bc", _Fixed(("B", "C"), (0.2, 0.8)))], weights=(1, 1))
     ens.fit(np.zeros((3, 1)), np.array(["A", "B", "C"]))
     np.testing.assert_allclose(ens.predict_proba(np.zeros((1, 1))), [[0.3, 0.25, 0.45]])
+
+
+@pytest.mark.parametrize("fit_kw", [{}, {"groups": np.arange(12) % 4}])
+@pytest.mark.parametrize("weights", [None, ()])
+def test_an_ensemble_without_members_is_refused_at_fit(fit_kw, weights):
+    # no members was float division by zero (equal weights), or with runs a "fitted"
+    # ensemble whose weights_ were None and whose predict_proba was a bare TypeError
+    X, y = np.zeros((12, 2)), np.repeat(["A", "B"], 6)
+    with pytest.raises(ConfigError, match="at least one member"):
+        SoftVotingEnsemble([], weights=weights).fit(X, y, **fit_kw)
