@@ -74,9 +74,11 @@ def simplex_grid(n_members: int, step: float) -> np.ndarray:
     Raises
     ------
     ConfigError
-        ``step`` outside (0, 1] or ``1 / step`` not an integer.
+        ``step`` not a number (a boolean included), outside (0, 1] or ``1 / step`` not an
+        integer.
     """
-    n = round(1.0 / step) if isinstance(step, Real) and 0 < step <= 1 else 0
+    n = (round(1.0 / step) if isinstance(step, Real) and not isinstance(step, bool)
+         and 0 < step <= 1 else 0)
     if n < 1 or not np.isclose(n * step, 1.0):
         raise ConfigError(f"weight_step must be in (0, 1] with 1 / weight_step an integer "
                           f"(0.5, 0.25, 0.1, ...), got {step!r}")

@@ -35,8 +35,9 @@ def test_the_grid_holds_every_point_of_the_simplex_at_the_step():
     assert len(simplex_grid(4, 0.25)) == 35                 # C(4 + 4 - 1, 4 - 1)
 
 
-@pytest.mark.parametrize("step", [0.0, -0.5, 1.5, 0.3, np.nan, "0.5", None])
+@pytest.mark.parametrize("step", [0.0, -0.5, 1.5, 0.3, np.nan, "0.5", None, True])
 def test_a_step_the_grid_cannot_take_is_refused(step):
+    # True passed as the number 1 (isinstance(True, Real)) and searched the vertices only
     with pytest.raises(ConfigError, match="weight_step"):
         simplex_grid(2, step)
 
