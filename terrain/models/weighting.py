@@ -185,9 +185,12 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         self.estimator_ = fit_with_groups(clone(self.estimator), X, y, groups, **{
             self.weight_param: within_class_run_weights(y, groups)})
         self.classes_ = self.estimator_.classes_
-        shape = np.shape(X)
-        n_features = getattr(self.estimator_, "n_features_in_",
-                             shape[1] if len(shape) >= 2 else None)
+        n_features = getattr(self.estimator_, "n_features_in_", None)
+        if n_features is None:
+            # X.shape of an array or sparse matrix; np.shape would call an array-like's
+            # __array_function__ (scikit-learn's _NotAnArray refuses it)
+            shape = X.shape if hasattr(X, "shape") else np.asarray(X).shape
+            n_features = shape[1] if len(shape) >= 2 else None
         if n_features is not None:
             self.n_features_in_ = n_features
         return self

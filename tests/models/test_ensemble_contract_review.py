@@ -89,3 +89,17 @@ def test_one_run_per_class_or_no_window_gives_unit_weights():
     # runs numbered alike in two classes are two runs: class A's run 0 and class B's run 0
     np.testing.assert_allclose(within_class_run_weights(["A", "A", "A", "B"], [0, 0, 1, 0]),
                                [0.75, 0.75, 1.5, 1.0])
+
+
+def test_run_balanced_wrapper_takes_an_array_like_that_is_not_an_ndarray():
+    # np.shape(X) in fit called the array-like's __array_function__, which scikit-learn's
+    # _NotAnArray refuses (TypeError), although the wrapped LogisticRegression takes it
+    from sklearn.utils.estimator_checks import _NotAnArray
+
+    from terrain.models.weighting import RunBalancedClassifier
+    rng = np.random.default_rng(0)
+    X, y, groups = rng.normal(size=(20, 3)), np.repeat(["A", "B"], 10), np.arange(20) % 4
+    wrapped = RunBalancedClassifier(LogisticRegression()).fit(_NotAnArray(X), y, groups)
+    direct = RunBalancedClassifier(LogisticRegression()).fit(X, y, groups)
+    assert wrapped.n_features_in_ == 3
+    np.testing.assert_allclose(wrapped.predict_proba(X), direct.predict_proba(X))
