@@ -75,3 +75,17 @@ def test_an_ensemble_without_members_is_refused_at_fit(fit_kw, weights):
     X, y = np.zeros((12, 2)), np.repeat(["A", "B"], 6)
     with pytest.raises(ConfigError, match="at least one member"):
         SoftVotingEnsemble([], weights=weights).fit(X, y, **fit_kw)
+
+
+def test_fixed_or_equal_weights_hold_no_run_out():
+    # validation_groups_ is documented empty when the weights are not chosen: fixed weights
+    # with runs given, or no runs (equal weights)
+    X, y = np.zeros((8, 1)), np.array(["A", "B"] * 4)
+    groups = np.array(["r0", "r1", "r2", "r3"] * 2)
+    members = [("a", _Fixed()), ("b", _Fixed())]
+    fixed = SoftVotingEnsemble(members, weights=(1, 3)).fit(X, y, groups=groups)
+    assert fixed.validation_groups_.size == 0 and fixed.weight_scores_ == {}
+    np.testing.assert_allclose(fixed.weights_, [0.25, 0.75])
+    equal = SoftVotingEnsemble(members).fit(X, y)
+    assert equal.validation_groups_.size == 0 and equal.weight_scores_ == {}
+    np.testing.assert_allclose(equal.weights_, [0.5, 0.5])
