@@ -27,7 +27,7 @@ import numpy as np
 
 from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M
-from terrain.errors import ConfigError, config_integer, config_positive
+from terrain.errors import ConfigError, config_integer, config_positive, duplicated
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket, require_aeon
@@ -124,8 +124,9 @@ class ModelConfig:
     Raises
     ------
     ConfigError
-        An unknown ``kind`` or ensemble member; ``tune_weights``, ``early_stopping``,
-        ``window_ekf`` or ``run_balanced`` not True or False; ``max_epochs``,
+        An unknown ``kind`` or ensemble member, or a member named twice;
+        ``tune_weights``, ``early_stopping``, ``window_ekf`` or ``run_balanced`` not True or
+        False; ``max_epochs``,
         ``minirocket_kernels`` or ``minirocket_max_dilations`` not an integer >= 1;
         ``spectrogram_noise_std`` not a finite number >= 0; ``track_m`` not a finite number
         > 0; ``cnn_seeds`` or ``n_threads`` out of range, ``cnn_seeds > 1`` without a CNN,
@@ -170,6 +171,11 @@ class ModelConfig:
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")
+        if duplicated(self.ensemble_members):
+            # two members of one kind are built with the same seed: the same model twice
+            raise ConfigError(f"ensemble members name {duplicated(self.ensemble_members)} "
+                              f"more than once, got {list(self.ensemble_members)}: name each "
+                              "member once")
         if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
                                                     and 1 <= self.cnn_seeds <= MAX_CNN_SEEDS):
             raise ConfigError(f"cnn_seeds must be an integer in 1-{MAX_CNN_SEEDS}, got "

@@ -29,3 +29,11 @@ def test_an_unknown_model_lists_every_valid_name():
         ModelConfig(kind="SVM")
     assert "unknown model 'SVM'" in str(err.value)
     assert all(repr(m) in str(err.value) for m in MODELS)
+
+
+def test_an_ensemble_member_named_twice_is_refused():
+    # ("svm", "svm") built two identically seeded SVMs whose vote is the one SVM's, served
+    # and reported as an ensemble at twice the cost
+    with pytest.raises(ConfigError, match=r"more than once.*'svm'"):
+        ModelConfig(kind="ensemble", ensemble_members=("svm", "cnn", "svm"))
+    assert ModelConfig(kind="ensemble", ensemble_members=("svm", "cnn")).ensemble_members
