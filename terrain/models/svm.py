@@ -55,9 +55,9 @@ class SVMConfig:
     Raises
     ------
     ConfigError
-        ``C`` or a ``search_C`` value not a finite number > 0; ``gamma`` or a
-        ``search_gamma`` value neither ``"scale"``, ``"auto"`` nor a finite number > 0; an
-        empty grid; ``inner_splits`` not an integer >= 2.
+        ``probability`` not True or False; ``C`` or a ``search_C`` value not a finite
+        number > 0; ``gamma`` or a ``search_gamma`` value neither ``"scale"``, ``"auto"``
+        nor a finite number > 0; an empty grid; ``inner_splits`` not an integer >= 2.
     """
 
     C: float = 30.0
@@ -71,6 +71,10 @@ class SVMConfig:
         # C <= 0 or an unknown gamma reached SVC's InvalidParameterError at the first fit,
         # gamma 0 fitted a constant kernel, and inner_splits 1 or an empty grid raised
         # scikit-learn's bare ValueError inside the CV, after the data was windowed
+        if not isinstance(self.probability, (bool, np.bool_)):
+            # a text such as "no" from a config file was truthy and calibrated the SVC
+            raise ConfigError(f"SVMConfig.probability must be True or False, got "
+                              f"{self.probability!r}")
         config_positive("SVMConfig", C=self.C)
         _check_gamma("gamma", self.gamma)
         config_integer("SVMConfig.inner_splits", self.inner_splits, 2)

@@ -27,3 +27,13 @@ def test_a_pair_decided_at_exactly_zero_votes_for_its_first_class_as_sklearn(int
     expected = 1.0 / (1.0 + np.exp(-ovr))
     expected /= expected.sum(axis=1, keepdims=True)
     np.testing.assert_allclose(calibrated_rbf_proba(X, arrays), expected, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("value", ["no", "false", 0, 1, None])
+def test_probability_is_true_or_false_not_anything_truthy(value):
+    # probability="no" was truthy and wrapped the SVC in Platt calibration
+    from terrain.errors import ConfigError
+    from terrain.models.svm import SVMConfig
+    with pytest.raises(ConfigError, match="SVMConfig.probability must be True or False"):
+        SVMConfig(probability=value)
+    assert SVMConfig(probability=np.bool_(True)).probability
