@@ -26,10 +26,6 @@ from pipelines.arguments import output_file
 REPORTS: Mapping[str, str] = MappingProxyType({
     "estimation": "pipelines.validation.estimation_tables",
     "sim": "pipelines.validation.sim_tables"})
-#: report name -> module with ``figures(out_file, quick)``, written beside ``--out``
-FIGURES: Mapping[str, str] = MappingProxyType({
-    "estimation": "pipelines.validation.estimation_figures",
-    "sim": "pipelines.validation.sim_figures"})
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -99,8 +95,7 @@ def main(args: argparse.Namespace) -> int:
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text("\n".join(text))
-        if args.report in FIGURES:
-            for path in importlib.import_module(FIGURES[args.report]).figures(args.out,
-                                                                              args.quick):
-                print(f"figure: {path}", flush=True)
+        from pipelines.validation.figures import figures   # matplotlib: only with --out
+        for path in figures(args.report, args.out, args.quick):
+            print(f"figure: {path}", flush=True)
     return 0

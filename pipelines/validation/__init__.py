@@ -5,8 +5,7 @@
 * :mod:`pipelines.validation.estimation_tables`: every table of
   ``docs/estimation_validation.md``;
 * :mod:`pipelines.validation.sim_tables`: the tables of ``docs/sim_validation.md``;
-* :mod:`pipelines.validation.estimation_figures`, :mod:`pipelines.validation.sim_figures`:
-  the figure of each report.
+* :mod:`pipelines.validation.figures`: the figure of each report.
 
 ``terrain validate {estimation,sim}`` (:mod:`pipelines.validate`) prints the tables and,
 with ``--out``, draws the figures beside the file.

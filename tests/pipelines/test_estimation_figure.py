@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from pipelines.validation.estimation_figures import binned_nis, slip_tracking
+from pipelines.validation.figures import binned_nis, slip_tracking
 
 
 def test_binned_nis_sums_each_bin_and_scales_its_chi_square_interval():

@@ -1,30 +1,48 @@
-"""Figure of ``docs/estimation_validation.md``: estimated against true wheel slip over time.
+"""Figures of ``docs/estimation_validation.md`` and ``docs/sim_validation.md``.
 
-``terrain validate estimation --out FILE`` (:mod:`pipelines.validate`) writes it beside FILE
-as ``<FILE stem>_slip_tracking.png``. The scenario is the tables' first one (thesis
-``straight_accel``, AgriMaRo, fine encoder, seed 1; seed ``001_59da564c4b2d6a48.txt`` ch. 7.2.3),
-so the figure shows over time what the "Steady-state slip error per wheel" table sums up: the
-``noise`` tuning follows the true slip once the drive settles, the ``thesis`` tuning (eqs.
-6.9/6.13/6.14) stays 0.07-0.09 low on grass and gravel (the ch. 4.6 "modelling blindness").
-The second row is the filter's consistency step by step: the NIS of the ``noise`` tuning
-against its 95 % chi-square band for each step's degrees of freedom (seed 001 eqs.
-4.15-4.16). Nothing in the library imports this module.
+``terrain validate REPORT --out FILE`` (:mod:`pipelines.validate`) draws each figure of
+:data:`FIGURES` beside FILE as ``<FILE stem>_<name>.png`` (:func:`figures`):
+
+* ``estimation``, ``slip_tracking``: the tables' first scenario (thesis ``straight_accel``,
+  AgriMaRo, fine encoder, seed 1; seed ``001_59da564c4b2d6a48.txt`` ch. 7.2.3) over time,
+  what the "Steady-state slip error per wheel" table sums up: the ``noise`` tuning follows
+  the true slip once the drive settles, the ``thesis`` tuning (eqs. 6.9/6.13/6.14) stays
+  0.07-0.09 low on grass and gravel (the ch. 4.6 "modelling blindness"); below it the
+  ``noise`` tuning's NIS per degree of freedom in 1 s bins (seed 001 eqs. 4.15-4.16);
+* ``sim``, ``straight_line``: the simulated true slip of the same scenario against the
+  thesis's measured steady range and peak
+  (:data:`pipelines.validation.sim_tables.THESIS_STRAIGHT_LINE`).
+
+Nothing in the library imports this module.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from types import MappingProxyType
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
 from pipelines.validation.harness import THESIS_TERRAINS, simulate_agrimaro, truth_on_grid
+from pipelines.validation.sim_tables import THESIS_STRAIGHT_LINE, straight_line_slip
 from terrain.slip.estimate import estimate_run
 
 #: tunings of :func:`terrain.slip.estimate.estimate_run` drawn, in legend order
 TUNINGS = ("noise", "thesis")
+
+
+def _save(fig, path: Path, title: str) -> Path:
+    """Title, lay out, write and close ``fig``; returns ``path``."""
+    import matplotlib.pyplot as plt
+
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
 
 
 def slip_tracking(terrains: Sequence[str] = THESIS_TERRAINS, seed: int = 1,
@@ -149,29 +167,74 @@ def plot_slip_tracking(frame: pd.DataFrame, path: Path, smooth_s: float = 0.5) -
     axes[0, 0].legend(fontsize=7)
     axes[1, 0].legend(fontsize=7)
     seeds = ", ".join(str(s) for s in sorted(set(frame["seed"])))
-    fig.suptitle(f"AgriMaRo straight_accel (thesis ch. 7.2.3), fine encoder, seed {seeds}",
-                 fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, "AgriMaRo straight_accel (thesis ch. 7.2.3), fine encoder, "
+                            f"seed {seeds}")
 
 
-def figures(out_file: Path, quick: bool = False) -> list[Path]:
-    """Write the report's figures beside its Markdown file.
+def plot_straight_line(path: Path, duration_s: float = 8.0, seed: int = 0) -> Path:
+    """Draw the simulated slip of each thesis terrain against the thesis's figures.
 
     Parameters
     ----------
+    path : pathlib.Path
+        PNG file to write (its folder must exist).
+    duration_s : float
+        Simulated time of each run, s.
+    seed : int
+        Seed of the runs.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(THESIS_STRAIGHT_LINE), figsize=(10.2, 3.0), sharex=True)
+    for ax, (terrain, (lo, hi, peak)) in zip(axes, THESIS_STRAIGHT_LINE.items()):
+        t, slip = straight_line_slip(terrain, duration_s, seed)
+        ax.axhspan(lo, hi, color="0.85", label="thesis steady range")
+        ax.axhline(peak, color="C3", ls="--", lw=0.9, label="thesis peak")
+        ax.plot(t, slip, "k", lw=1.0, label="simulated (true slip)")
+        ax.set(title=terrain, xlabel="t (s)",
+               ylabel="slip ratio, mean of 3 wheels" if ax is axes[0] else None)
+    axes[0].legend(fontsize=7)
+    return _save(fig, path, "AgriMaRo straight_accel (1 m/s^2 to 1 m/s, thesis ch. 7.2.3), "
+                            f"seed {seed}")
+
+
+def _draw_slip_tracking(path: Path, quick: bool) -> Path:
+    """:func:`plot_slip_tracking` of :func:`slip_tracking` (8 s runs when ``quick``)."""
+    return plot_slip_tracking(slip_tracking(duration_s=8.0 if quick else 20.0), path)
+
+
+def _draw_straight_line(path: Path, quick: bool) -> Path:
+    """:func:`plot_straight_line` (its runs are short already: ``quick`` changes nothing)."""
+    return plot_straight_line(path)
+
+
+#: report -> figure name -> ``draw(path, quick) -> path`` (read-only)
+FIGURES: Mapping[str, Mapping[str, Callable[[Path, bool], Path]]] = MappingProxyType({
+    "estimation": MappingProxyType({"slip_tracking": _draw_slip_tracking}),
+    "sim": MappingProxyType({"straight_line": _draw_straight_line})})
+
+
+def figures(report: str, out_file: Path, quick: bool = False) -> list[Path]:
+    """Draw the figures of ``report`` beside its Markdown file.
+
+    Parameters
+    ----------
+    report : str
+        Report name (a key of :data:`FIGURES`; another name has no figure).
     out_file : pathlib.Path
         The report's ``--out`` file; figures are ``<stem>_<name>.png`` in its folder.
     quick : bool
-        8 s runs instead of 20 s (a smoke run, not the published figure).
+        Shorter runs where a figure has them (a smoke run, not the published figure).
 
     Returns
     -------
     list of pathlib.Path
         Files written.
     """
-    frame = slip_tracking(duration_s=8.0 if quick else 20.0)
-    path = out_file.with_name(f"{out_file.stem}_slip_tracking.png")
-    return [plot_slip_tracking(frame, path)]
+    return [draw(out_file.with_name(f"{out_file.stem}_{name}.png"), quick)
+            for name, draw in FIGURES.get(report, {}).items()]
