@@ -67,7 +67,9 @@ def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0
 
 
 def default_encoder_table(seed: int = 1) -> pd.DataFrame:
-    """The same with the simulator's default (undithered 3.49 rad/s) encoder quantisation.
+    """The same with the simulator's default AgriMaRo encoder: the count rate of its
+    90 count/rev encoder before the driver's filter (``speed_quantum_m_s=0``,
+    :func:`terrain.sim.sensors.encoder_count_rate`), not the fine encoder of the other tables.
 
     Parameters
     ----------
@@ -321,7 +323,7 @@ def sections(quick: bool = False) -> list[tuple[str, Callable[[], pd.DataFrame]]
     return [
         ("Steady-state slip error per wheel (straight_accel, 20 s)",
          lambda: steady_slip_table((1,) if q else (1, 2, 3))),
-        ("Simulator default encoder (undithered quantisation)", default_encoder_table),
+        ("Simulator default encoder (count-rate quantisation)", default_encoder_table),
         ("Consistency (Monte Carlo NEES/NIS) and RMSE per terrain",
          lambda: consistency_table(4 if q else 10)),
         ("Coriolis sign convention (random driving, GRASS)", coriolis_table),

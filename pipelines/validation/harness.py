@@ -4,11 +4,13 @@ Used by the tests, ``benchmarks/bench_ekf.py`` and ``terrain validate estimation
 (:mod:`pipelines.validation.estimation_tables`, every figure of
 ``docs/estimation_validation.md``); nothing in :mod:`terrain` imports it.
 
-Simulated AgriMaRo runs use a fine wheel encoder (``speed_quantum_m_s=1e-6``): with the
-default sensor settings the simulator rounds the *filtered* wheel speed to its 90 count/rev
-Hall resolution at 50 Hz (3.49 rad/s, 0.58 m/s at the rim) without dithering, so a constant
-speed is reported with a constant error of up to 0.29 m/s and no estimator can recover the
-slip from it (reported in the validation document).
+Simulated AgriMaRo runs use a fine wheel encoder (``speed_quantum_m_s=1e-6``, the true
+wheel speed through the driver's filter, rounded to 1e-6 m/s), so that the figures show the
+estimators alone. The simulator's default AgriMaRo encoder (``speed_quantum_m_s=0``) reports
+the count rate of its 90 count/rev encoder before the driver's filter
+(:func:`terrain.sim.sensors.encoder_count_rate`: quantised, unbiased on average); it no
+longer rounds the filtered speed to 3.49 rad/s, and
+:func:`pipelines.validation.estimation_tables.default_encoder_table` gives its figures.
 """
 
 from __future__ import annotations

@@ -130,3 +130,25 @@ def test_measured_table_takes_the_median_of_each_terrains_runs(monkeypatch):
         "dataset": "borealtc", "terrain": "SNOW", "runs": 3, "chi_ekf": 1.1,
         "chi_observer": 2.0, "eta_R": 0.8, "eta_L": 0.9, "gyro_bias": 0.1,
         "turning_fraction": 0.2}
+
+
+def test_default_encoder_table_uses_the_simulators_unbiased_count_rate_encoder(monkeypatch):
+    # the table is the simulator's default AgriMaRo encoder (count rate of 90 counts/rev,
+    # unbiased on average since the simulator counts): its steady slip error is that of the
+    # fine encoder (< 0.01), not the 0.11-0.13 of the former undithered 3.49 rad/s rounding
+    from pipelines.validation import estimation_tables
+    from terrain.sim.simulate import DEFAULT_SENSORS
+
+    seen = []
+    simulate = estimation_tables.simulate_agrimaro
+
+    def recording(terrain, seed, duration_s, sensors):
+        seen.append(sensors)
+        return simulate(terrain, seed, duration_s, sensors=sensors)
+
+    monkeypatch.setattr(estimation_tables, "THESIS_TERRAINS", ("GRASS",))
+    monkeypatch.setattr(estimation_tables, "simulate_agrimaro", recording)
+    table = estimation_tables.default_encoder_table()
+    assert seen == [DEFAULT_SENSORS["agrimaro"]]
+    steady = table[["steady_err_1", "steady_err_2", "steady_err_3"]].abs().to_numpy()
+    assert steady.max() < 0.01
