@@ -152,3 +152,22 @@ def test_default_encoder_table_uses_the_simulators_unbiased_count_rate_encoder(m
     assert seen == [DEFAULT_SENSORS["agrimaro"]]
     steady = table[["steady_err_1", "steady_err_2", "steady_err_3"]].abs().to_numpy()
     assert steady.max() < 0.01
+
+
+def test_husky_current_is_the_cruise_mean_after_the_ramp_and_matches_the_measured_one(
+        monkeypatch):
+    # docs/sim_validation.md: the simulated straight-line current equals the measured mean
+    # (hysteresis calibrated on it, within 0.2 %) once the ramp to the measured speed is over;
+    # a mean that took in the ramp (its acceleration current) would not
+    from types import MappingProxyType
+
+    from pipelines.validation import sim_tables
+    from terrain.terramechanics import MEASURED_HUSKY_STRAIGHT
+
+    monkeypatch.setattr(sim_tables, "MEASURED_HUSKY_STRAIGHT", MappingProxyType(
+        {"ASPHALT": MEASURED_HUSKY_STRAIGHT["ASPHALT"]}))
+    monkeypatch.setattr(sim_tables, "simulate", lambda config: None)
+    monkeypatch.setattr(sim_tables, "regression_chi", lambda run: 1.0)
+    row = sim_tables.husky_current_chi_table().iloc[0]
+    assert row["terrain"] == "ASPHALT" and row["baseline_chi"] == 1.0
+    assert row["sim_a"] == pytest.approx(row["measured_a"], rel=0.002)
