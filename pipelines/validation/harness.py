@@ -507,7 +507,8 @@ def husky_comparison(result: Simulation,
     pose = pose + rng.standard_normal(pose.shape) * np.array(
         [pose_noise[0], pose_noise[0], pose_noise[1]])
     obs = run_adaptive_observer(t, pose, vr, vl, observer)
-    omega_obs = (obs.eta_right * vr - obs.eta_left * vl) / (2.0 * d)
+    # the observer's Omega^ with the d it estimated its etas with
+    omega_obs = (obs.eta_right * vr - obs.eta_left * vl) / (2.0 * observer.half_track_m)
     with np.errstate(divide="ignore", invalid="ignore"):
         chi_obs = (vr - vl) / (B * omega_obs)
     eta_true = eta_from_truth(v_true, w_true, rim_r, rim_l, d)
@@ -585,7 +586,7 @@ def measured_skid_steer_summary(runs: Sequence[Run], settings: SkidSteerSettings
         theta = np.concatenate([[0.0], np.cumsum(0.5 * (wz[1:] + wz[:-1]) * np.diff(t))])
         pose = np.column_stack([np.full(t.size, np.nan), np.full(t.size, np.nan), theta])
         obs = run_adaptive_observer(t, pose, vr, vl, observer)
-        d = settings.track_m / 2.0
+        d = observer.half_track_m        # the d the observer estimated its etas with
         omega_obs = (obs.eta_right * vr - obs.eta_left * vl) / (2.0 * d)
         turning = np.abs(ekf.state("yaw_rate")) > 0.15
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -171,3 +171,31 @@ def test_husky_current_is_the_cruise_mean_after_the_ramp_and_matches_the_measure
     row = sim_tables.husky_current_chi_table().iloc[0]
     assert row["terrain"] == "ASPHALT" and row["baseline_chi"] == 1.0
     assert row["sim_a"] == pytest.approx(row["measured_a"], rel=0.002)
+
+
+def test_measured_observer_chi_uses_the_observers_own_half_track():
+    # Omega^ = (eta_R^ v_R - eta_L^ v_L) / (2 d) with the d the observer estimated its etas
+    # with (seed 000 eq. 8): an observer given another half-track had its Omega^ taken with
+    # the EKF's track / 2
+    from pipelines.validation.harness import measured_skid_steer_summary, simulate_husky
+    from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+    from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
+    from terrain.run import TIME
+
+    run = simulate_husky("ASPHALT", 1, 12.0, "random").run
+    observer = AdaptiveObserverSettings(use_position=False, half_track_m=0.4)
+    row = measured_skid_steer_summary([run], observer=observer).iloc[0]
+    settings = SkidSteerSettings()
+    ekf = estimate_skid_steer(run, settings)
+    t, wheels, imu = ekf.t_s, run.streams["wheels"], run.streams["imu"]
+    vl = np.interp(t, wheels[TIME], wheels["vel_l"])
+    vr = np.interp(t, wheels[TIME], wheels["vel_r"])
+    wz = np.interp(t, imu[TIME], imu["wz"]) - ekf.state("gyro_bias")[-1]
+    theta = np.concatenate([[0.0], np.cumsum(0.5 * (wz[1:] + wz[:-1]) * np.diff(t))])
+    pose = np.column_stack([np.full(t.size, np.nan), np.full(t.size, np.nan), theta])
+    obs = run_adaptive_observer(t, pose, vr, vl, observer)
+    omega = (obs.eta_right * vr - obs.eta_left * vl) / (2.0 * 0.4)
+    turning = np.abs(ekf.state("yaw_rate")) > 0.15
+    with np.errstate(divide="ignore", invalid="ignore"):
+        chi = (vr - vl) / (settings.track_m * omega)
+    assert row["chi_observer"] == pytest.approx(np.nanmedian(chi[turning]), rel=1e-12)
