@@ -482,13 +482,14 @@ def husky_comparison(result: Simulation,
     pose_noise : tuple of float
         Std of the position (m) and yaw (rad) noise given to the observer.
     rng : numpy.random.Generator, optional
-        Noise source (default seeded 0).
+        Noise source (default seeded with the run's seed, ``result.config.seed``).
 
     Returns
     -------
     HuskyComparison
     """
-    rng = rng if rng is not None else np.random.default_rng(0)
+    # default: the run's own seed, so runs of different seeds get different observer noise
+    rng = rng if rng is not None else np.random.default_rng(int(result.config.seed))
     run = result.run
     ekf = estimate_skid_steer(run, settings)
     tr = run.streams["truth"]
