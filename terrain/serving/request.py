@@ -29,6 +29,7 @@ import pandas as pd
 from terrain.errors import (DataFormatError, ImplausibleValueError, MissingColumnError,
                             NonFiniteError, NonNumericError, TimestampError, duplicated,
                             first_items, listed)
+from terrain.io.measured import NON_FINITE_WORDS
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_accel_units, check_ranges,
                                      check_rate, check_run, implied_rate_hz)
 from terrain.run import TIME, Run
@@ -68,15 +69,21 @@ def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) 
     Returns
     -------
     numpy.ndarray
-        ``(n,)`` float values; empty cells NaN.
+        ``(n,)`` float values; empty cells NaN. Text holding a number (``"0.5"``, a JSON
+        string too) is read as that number, as the readers read a CSV cell: a CSV body is
+        text, and a CSV column holding one non-numeric cell reaches the model as a column
+        of text (the in-process :meth:`~terrain.serving.service.StreamService.push`, whose
+        callers hold typed arrays, refuses text); ``"inf"`` is a non-finite sample.
 
     Raises
     ------
     NonNumericError
-        Text, a boolean (JSON ``true`` is not 1.0), a date, a duration or a complex number
-        (of any dtype: a tz-aware or period column, or such values held as objects).
+        Text that is no number (``"abc"``, ``"nan"``), a boolean (JSON ``true`` is not
+        1.0), a date, a duration or a complex number (of any dtype: a tz-aware or period
+        column, or such values held as objects).
     ImplausibleValueError
-        A number beyond the float range (e.g. an integer of 400 digits).
+        A number beyond the float range (e.g. an integer of 400 digits, or the text
+        ``"1e400"``).
     """
     raw = frame[col].to_numpy()[rows]
     if raw.dtype.kind in "iuf":
@@ -106,6 +113,14 @@ def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) 
         values = pd.to_numeric(pd.Series(raw), errors="coerce").to_numpy(dtype=float)
     except (OverflowError, TypeError, ValueError):  # a cell pandas cannot even coerce
         values = np.array([_to_float(x, where, col, int(r)) for x, r in zip(raw, rows)])
+    # text beyond the float range ("1e400", 400 digits) reads as inf: a value, not a missing
+    # sample, refused as the readers refuse it (_refuse_overflow); "inf" itself is one
+    over = [i for i in np.flatnonzero(np.isinf(values)) if isinstance(raw[i], str)
+            and raw[i].strip().lower() not in NON_FINITE_WORDS]
+    if over:
+        raise ImplausibleValueError(f"number {_short(raw[over[0]])} beyond the float range "
+                                    f"(|x| < {np.finfo(float).max:.4g}; {len(over)} such "
+                                    "value(s))", where, col, int(rows[over[0]]))
     bad = np.flatnonzero(np.isnan(values) & pd.notna(pd.Series(raw)).to_numpy())
     if bad.size:
         raise NonNumericError(f"non-numeric value {_short(raw[bad[0]])} ({bad.size} such "
