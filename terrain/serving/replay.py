@@ -27,7 +27,8 @@ from terrain.serving.service import StreamService
 
 def interleave(run: Run, streams: Sequence[str], max_chunk: int = 1
                ) -> Iterator[tuple[str, np.ndarray, np.ndarray]]:
-    """Samples of ``streams`` of ``run`` merged in timestamp order.
+    """Samples of ``streams`` of ``run`` merged in timestamp order (samples of two streams
+    at the same time in the order of ``streams``).
 
     Parameters
     ----------

@@ -77,3 +77,16 @@ def test_interleave_of_no_sample_of_the_named_streams_yields_nothing(times):
     # streams absent from the run are skipped (docstring): none present, or none holding a
     # sample, is nothing to replay (was numpy's ValueError / an IndexError)
     assert _events(_run(times), ("a", "b"), 4) == []
+
+
+def test_streams_overlapping_exactly_one_window_are_not_too_short():
+    # one window fits in an overlap of exactly window_s (planned_decisions: 1 decision)
+    from terrain.serving.replay import RunReplay
+
+    run = _run({"a": np.arange(0.0, 2.001, 0.01)})
+    frame = pd.DataFrame({"flags": []})
+
+    def replay(overlap_s):
+        return RunReplay(run, frame, 0, overlap_s, 2.0, 0.5, 3.0, ("a",), {}, {}, 0)
+
+    assert not replay(2.0).too_short and replay(np.nextafter(2.0, 0)).too_short
