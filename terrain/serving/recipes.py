@@ -22,7 +22,7 @@ from sklearn.pipeline import Pipeline
 from features.transformers import SerialFeatureUnion, WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import HUSKY_TRACK_M, WindowConfig, make_windows, runs_track_m
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
@@ -57,6 +57,8 @@ def wheel_features(channels: tuple[str, ...], rate_hz: float, short_s: float | N
                                          short_s=short_s, track_m=track_m))])
 
 
+#: Trees of an ``extra_trees`` recipe unless it says otherwise.
+_DEFAULT_N_TREES = 300
 #: Feature sets and classifiers a recipe may name.
 FEATURE_SETS = ("stats", "physics", "stats+physics")
 CLASSIFIERS = ("svm", "extra_trees") + ENSEMBLES
@@ -89,7 +91,8 @@ class ModelRecipe:
         plus the raw 1-D CNN. An ensemble takes the raw windows, so ``features`` must be
         ``"stats"``, the SVM member's.
     n_trees : int
-        Trees of ``extra_trees``.
+        Trees of ``extra_trees`` (an integer >= 1; another value on another classifier is
+        refused, not ignored).
     run_balanced : bool
         Weight the training windows so that every class weighs the same and, inside a
         class, every run weighs the same (:func:`run_balanced_weights`), instead of
@@ -109,6 +112,13 @@ class ModelRecipe:
         ``ModelConfig.cnn_seeds`` of an ensemble's CNNs: each is the probability average of
         this many independently seeded networks (seed bagging); 1: one network. Ensembles
         only.
+
+    Raises
+    ------
+    ConfigError
+        An unknown feature set or classifier, ``n_trees`` not an integer >= 1, or a
+        setting the classifier does not use (``n_trees``, ``spectrogram_noise_std``,
+        ``cnn_seeds``, ``run_balanced``, ``window_ekf``) given to it.
     """
 
     signals: str
@@ -117,13 +127,16 @@ class ModelRecipe:
     train_hop_s: float
     features: str = "stats"
     classifier: str = "svm"
-    n_trees: int = 300
+    n_trees: int = _DEFAULT_N_TREES
     run_balanced: bool = False
     window_ekf: bool = False
     spectrogram_noise_std: float = 0.0
     cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
+        config_integer("n_trees", self.n_trees, 1)
+        if self.n_trees != _DEFAULT_N_TREES and self.classifier != "extra_trees":
+            raise ConfigError("n_trees sets the trees of an extra_trees recipe only")
         if self.spectrogram_noise_std and self.classifier not in ENSEMBLES:
             raise ConfigError("spectrogram_noise_std perturbs the spectrogram CNN of an "
                               "ensemble recipe only")
