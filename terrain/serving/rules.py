@@ -50,7 +50,8 @@ SampleRule = Callable[[Sequence[str], np.ndarray, np.ndarray, float], tuple[np.n
 
 def time_increasing(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray,
                     last_t_s: float) -> tuple[np.ndarray, str]:
-    """Keep samples whose time is strictly after every earlier kept sample of the stream.
+    """Keep samples whose time is strictly after every earlier kept sample of the stream
+    (a NaN stamp is refused and judges no later sample).
 
     Parameters
     ----------
@@ -70,7 +71,9 @@ def time_increasing(channels: Sequence[str], t_s: np.ndarray, values: np.ndarray
     reason : str
         ``"time_not_increasing"``.
     """
-    running = np.maximum.accumulate(np.concatenate(((last_t_s,), t_s)))
+    # fmax: a NaN stamp (refused, by finite_values too) leaves the running maximum as it
+    # was; with maximum it became NaN and every later sample of the chunk was refused
+    running = np.fmax.accumulate(np.concatenate(((last_t_s,), t_s)))
     return t_s > running[:-1], "time_not_increasing"
 
 

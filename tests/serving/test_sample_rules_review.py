@@ -8,7 +8,7 @@ import numpy as np
 from terrain.io.plausibility import CHANNEL_LIMITS
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.rules import (DEFAULT_RULES, finite_values, plausible_gyro,
-                                   plausible_time, plausible_values)
+                                   plausible_time, plausible_values, time_increasing)
 
 
 def test_a_non_finite_timestamp_is_refused_as_non_finite_whatever_the_values():
@@ -46,3 +46,16 @@ def test_range_rules_judge_each_channel_by_the_readers_bound_on_both_sides():
             values[:, j] = [lim, -lim, np.nextafter(lim, np.inf), -np.nextafter(lim, np.inf)]
             keep, _ = rule(channels, np.arange(4.0), values, -np.inf)
             assert keep.tolist() == [True, True, False, False], c
+
+
+def test_a_nan_stamp_does_not_make_time_increasing_refuse_the_samples_after_it():
+    # the rules are pluggable and each judges the whole chunk: before, the running maximum
+    # became NaN at the NaN stamp and every later sample of the chunk was refused as
+    # time_not_increasing (keep [True, False, False, False, False])
+    keep, reason = time_increasing(IMU_CHANNELS, np.array([1.0, np.nan, 2.0, 1.5, 3.0]),
+                                   np.zeros((5, 6)), -np.inf)
+    assert reason == "time_not_increasing"
+    assert keep.tolist() == [True, False, True, False, True]
+    keep, _ = time_increasing(IMU_CHANNELS, np.array([np.nan, 0.5, 2.0]), np.zeros((3, 6)),
+                              1.0)
+    assert keep.tolist() == [False, False, True]
