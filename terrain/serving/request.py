@@ -73,12 +73,13 @@ def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) 
         string too) is read as that number, as the readers read a CSV cell: a CSV body is
         text, and a CSV column holding one non-numeric cell reaches the model as a column
         of text (the in-process :meth:`~terrain.serving.service.StreamService.push`, whose
-        callers hold typed arrays, refuses text); ``"inf"`` is a non-finite sample.
+        callers hold typed arrays, refuses text); ``"nan"``, ``"inf"`` and the readers'
+        other :data:`~terrain.io.measured.NON_FINITE_WORDS` are a non-finite sample.
 
     Raises
     ------
     NonNumericError
-        Text that is no number (``"abc"``, ``"nan"``), a boolean (JSON ``true`` is not
+        Text that is no number (``"abc"``), a boolean (JSON ``true`` is not
         1.0), a date, a duration or a complex number (of any dtype: a tz-aware or period
         column, or such values held as objects).
     ImplausibleValueError
@@ -121,7 +122,10 @@ def numeric_column(frame: pd.DataFrame, col: str, rows: np.ndarray, where: str) 
         raise ImplausibleValueError(f"number {_short(raw[over[0]])} beyond the float range "
                                     f"(|x| < {np.finfo(float).max:.4g}; {len(over)} such "
                                     "value(s))", where, col, int(rows[over[0]]))
-    bad = np.flatnonzero(np.isnan(values) & pd.notna(pd.Series(raw)).to_numpy())
+    # text the readers read as a missing sample ("nan", "", NON_FINITE_WORDS) is one here too
+    not_word = np.fromiter((not isinstance(x, str) or x.strip().lower() not in NON_FINITE_WORDS
+                            for x in raw), bool, raw.size)
+    bad = np.flatnonzero(np.isnan(values) & pd.notna(pd.Series(raw)).to_numpy() & not_word)
     if bad.size:
         raise NonNumericError(f"non-numeric value {_short(raw[bad[0]])} ({bad.size} such "
                               "value(s))", where, col, int(rows[bad[0]]))

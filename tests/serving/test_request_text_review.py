@@ -46,3 +46,12 @@ def test_text_that_is_no_number_is_refused_naming_its_row():
     with pytest.raises(NonNumericError, match="'abc'") as err:
         numeric_column(frame, "cur_l", np.arange(3), "request")
     assert err.value.row == 2
+
+
+@pytest.mark.parametrize("word", ["nan", "NaN", " -nan ", ""])
+def test_text_naming_a_missing_sample_is_one_as_in_the_readers(word):
+    # the readers' NON_FINITE_WORDS: before, "inf" was a non-finite sample but "nan" and an
+    # empty text were refused as non-numeric values
+    frame = pd.DataFrame({"cur_l": ["0.5", word, "0.7"]})
+    values = numeric_column(frame, "cur_l", np.arange(3), "request")
+    assert values[0] == 0.5 and values[2] == 0.7 and np.isnan(values[1])
