@@ -74,3 +74,9 @@ def test_the_wheel_channels_are_not_needed_by_an_imu_model():
                                      **{c: 0.5 for c in WHEEL_CHANNELS}})])
     run = parse_request(frame.reset_index(drop=True), IMU, 2.0, 10_000)
     assert list(run.streams) == ["imu"] and run.meta["unused"] == {"wheels": 60}
+
+
+def test_a_known_stream_absent_from_the_request_is_not_counted_unused():
+    # an IMU model sent IMU rows only: no wheel row is unused (the answer flags none)
+    run = parse_request(_imu(np.arange(300) / 100.0), IMU, 2.0, 10_000)
+    assert run.meta["unused"] == {} and run.meta["ignored_columns"] == []
