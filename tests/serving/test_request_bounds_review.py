@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError, DataWarning, TimestampError
+from terrain.errors import DataFormatError, DataWarning, NonFiniteError, TimestampError
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.request import parse_request, planned_decisions
 from terrain.serving.rules import MAX_PLAUSIBLE_TIME_S
@@ -80,3 +80,18 @@ def test_a_known_stream_absent_from_the_request_is_not_counted_unused():
     # an IMU model sent IMU rows only: no wheel row is unused (the answer flags none)
     run = parse_request(_imu(np.arange(300) / 100.0), IMU, 2.0, 10_000)
     assert run.meta["unused"] == {} and run.meta["ignored_columns"] == []
+
+
+def test_a_wide_row_after_a_streams_last_stamp_holding_its_values_is_refused():
+    # only a shorter stream's trailing cells may be empty: values without a stamp after
+    # the stream's last stamped row are not trailing cells (they would be dropped)
+    imu = _imu(np.arange(300) / 100.0).drop(columns="stream").rename(columns={"t_s": "imu_t_s"})
+    wheels = pd.DataFrame({"wheels_t_s": np.arange(60) / 20.0,
+                           **{c: 0.5 for c in WHEEL_CHANNELS}})
+    wide = pd.concat([imu, wheels], axis=1)
+    both = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    assert len(parse_request(wide, both, 2.0, 10_000).streams["wheels"]) == 60
+    wide.loc[60, "vel_l"] = 0.5
+    with pytest.raises(NonFiniteError, match="holds values of the stream's channels") as err:
+        parse_request(wide, both, 2.0, 10_000)
+    assert err.value.row == 60 and err.value.column == "wheels_t_s"
