@@ -1,4 +1,4 @@
-"""The figure of docs/estimation_validation.md (`terrain validate estimation --out FILE`)."""
+"""The figures of the validation reports (`terrain validate {estimation,sim} --out FILE`)."""
 
 from __future__ import annotations
 
@@ -42,20 +42,24 @@ def test_slip_tracking_shows_the_thesis_tuning_blindness_on_grass():
     assert steady["slip_true"].between(0.12, 0.15).all()
 
 
-def test_validate_estimation_out_draws_the_figure_beside_the_tables(tmp_path, monkeypatch,
-                                                                    capsys):
+@pytest.mark.parametrize("report, figure, quick, min_aspect", [
+    ("estimation", "slip_tracking", True, 1.0), ("sim", "straight_line", False, 2.0)])
+def test_validate_out_draws_the_reports_figure_beside_the_tables(report, figure, quick,
+                                                                 min_aspect, tmp_path,
+                                                                 monkeypatch, capsys):
     import matplotlib.image
 
     import pipelines.validate as validate
 
-    tables = types.ModuleType("fake_estimation_tables")
+    tables = types.ModuleType("fake_report_tables")
     tables.sections = lambda quick: [("T", lambda: pd.DataFrame({"x": [1.0]}))]
-    monkeypatch.setitem(sys.modules, "fake_estimation_tables", tables)
-    monkeypatch.setattr(validate, "REPORTS", {"estimation": "fake_estimation_tables"})
+    monkeypatch.setitem(sys.modules, "fake_report_tables", tables)
+    monkeypatch.setattr(validate, "REPORTS", {report: "fake_report_tables"})
     out = tmp_path / "validation.md"
-    assert validate.main(argparse.Namespace(report="estimation", quick=True, out=out)) == 0
-    png = tmp_path / "validation_slip_tracking.png"
+    assert validate.main(argparse.Namespace(report=report, quick=quick, out=out)) == 0
+    png = tmp_path / f"validation_{figure}.png"
     assert f"figure: {png}" in capsys.readouterr().out
     image = matplotlib.image.imread(png)
-    assert image.ndim == 3 and image.shape[1] > image.shape[0] > 300
+    assert image.ndim == 3 and image.shape[1] > min_aspect * image.shape[0]
+    assert image.shape[0] > 250
     assert np.ptp(image[..., :3]) > 0.5       # drawn, not blank
