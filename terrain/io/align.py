@@ -12,12 +12,14 @@ Method (recorded in the returned frame's ``attrs``):
    extension (point reflection about each end sample) keeps a long segment's end values
    close (a linear ramp's to 1e-5 of its span), not a short one's: filtered with one sample
    of padding, two samples of a 30 Hz tone at 100 Hz, 0.296 and 0.817, become 0.196 and
-   0.283. A one-sample segment is kept as it is. A stream between 1 and 1.5 times the grid
-   rate is NOT filtered (the margin keeps a clock's jitter about the grid rate from
-   filtering a stream sampled at it); no shipped or simulated stream falls there, but
-   content of such a stream between 0.5 x ``rate_hz`` and its own Nyquist frequency
-   aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on a 50 Hz grid): resample it at
-   its own rate or at under 2/3 of it.
+   0.283. A one-sample segment is kept as it is. A NaN or inf sample is kept, and each
+   run of finite samples around it is filtered on its own (the filter spread it over its
+   whole segment), so it spoils only the grid points next to it (step 3). A stream
+   between 1 and 1.5 times the grid rate is NOT filtered (the margin keeps a clock's
+   jitter about the grid rate from filtering a stream sampled at it); no shipped or
+   simulated stream falls there, but content of such a stream between 0.5 x ``rate_hz``
+   and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on
+   a 50 Hz grid): resample it at its own rate or at under 2/3 of it.
 3. Every stream is then linearly interpolated onto the grid. The ~6.5 Hz (BorealTC) or
    ~15 Hz (Vulpi) wheel stream is thus interpolated between its samples.
 4. Grid points that fall inside a timestamp gap of any stream (a step longer than
@@ -204,12 +206,35 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
             gaps = np.flatnonzero(is_gap)
             # filter each gap-free segment on its own: never smear across a gap
             for a, b in zip(np.r_[0, gaps + 1], np.r_[gaps + 1, len(t)]):
-                if b - a > 1:
-                    v[a:b] = signal.sosfiltfilt(sos, v[a:b], axis=0,
-                                                padlen=min(FILTER_PAD_SAMPLES, b - a - 1))
+                v[a:b] = _filter_segment(sos, v[a:b])
         _interp_into(np.asarray(grid_s, dtype=float), np.asarray(t, dtype=float),
                      np.asarray(v, dtype=float), is_gap, out, col)
         col += v.shape[1]
+    return out
+
+
+def _filter_segment(sos: np.ndarray, seg: np.ndarray) -> np.ndarray:
+    """Zero-phase low-pass of one gap-free segment ``(m, c)``, every column on its own.
+
+    A finite segment is filtered whole (odd extension of ``min(FILTER_PAD_SAMPLES, m - 1)``
+    samples, one sample kept as it is). In a column holding NaN or inf each run of finite
+    samples is filtered on its own and the non-finite samples are kept: the filter spread
+    one NaN over the whole segment (every window of the run dropped), and interpolation
+    then spoils only the grid points next to it, as in a stream that is not filtered.
+    """
+    finite = np.isfinite(seg)
+    if finite.all():
+        if len(seg) < 2:
+            return seg
+        return signal.sosfiltfilt(sos, seg, axis=0,
+                                  padlen=min(FILTER_PAD_SAMPLES, len(seg) - 1))
+    out = seg.copy()
+    for k in range(seg.shape[1]):
+        edges = np.flatnonzero(np.diff(np.r_[0, finite[:, k].astype(np.int8), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):
+            if b - a > 1:
+                out[a:b, k] = signal.sosfiltfilt(sos, seg[a:b, k],
+                                                 padlen=min(FILTER_PAD_SAMPLES, b - a - 1))
     return out
 
 

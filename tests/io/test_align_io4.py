@@ -1,0 +1,56 @@
+"""Review io4 of terrain.io.align: non-finite values of a filtered stream, a stream of one
+sample."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from terrain.io.align import align_arrays, align_streams
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
+
+
+def _imu(t, **cols):
+    frame = pd.DataFrame({TIME: t, **{c: np.zeros(len(t)) for c in IMU_CHANNELS}})
+    for c, v in cols.items():
+        frame[c] = v
+    return frame
+
+
+def _wheels(t):
+    return pd.DataFrame({TIME: t, **{c: np.full(len(t), 0.5) for c in WHEEL_CHANNELS}})
+
+
+def test_one_nan_sample_of_a_filtered_stream_stays_local(make_run):
+    # the 100 Hz IMU is low-passed before resampling: one NaN sample went through the
+    # zero-phase filter and made the whole gap-free segment NaN (all 247 grid rows of wx
+    # here, every window of the run dropped); it must spoil only the grid points next to it,
+    # as it does in a stream that is not filtered
+    t = np.arange(0, 500) / 100.0
+    wx = np.sin(2 * np.pi * 1.0 * t)
+    clean = align_streams(make_run({"imu": _imu(t, wx=wx), "wheels": _wheels(t[::7])}))
+    wx_nan = wx.copy()
+    wx_nan[200] = np.nan                                    # t = 2.00 s
+    frame = align_streams(make_run({"imu": _imu(t, wx=wx_nan), "wheels": _wheels(t[::7])}))
+    tt = frame[TIME].to_numpy()
+    bad = np.isnan(frame["wx"].to_numpy())
+    assert bad.any() and (np.abs(tt[bad] - 2.0) < 0.011).all()
+    assert np.isfinite(frame.drop(columns=["wx"]).to_numpy()).all()   # other channels intact
+    # far from the NaN the values are the clean run's (the segments' ends settle)
+    far = np.abs(tt - 2.0) > 0.5
+    np.testing.assert_allclose(frame["wx"].to_numpy()[far], clean["wx"].to_numpy()[far],
+                               atol=1e-3)
+
+
+def test_a_finite_filtered_stream_is_unchanged_by_the_non_finite_split():
+    # a finite segment is filtered whole, as before (the documented figures)
+    from scipy import signal
+
+    t = np.arange(0, 300) / 100.0
+    v = np.random.default_rng(0).standard_normal((300, 2))
+    grid = np.arange(0, 100) / 50.0 + 0.5
+    got = align_arrays([t], [v], grid, 50.0)
+    sos = signal.butter(4, 20.0, fs=100.0, output="sos")
+    filt = signal.sosfiltfilt(sos, v, axis=0, padlen=15)
+    expected = np.column_stack([np.interp(grid, t, filt[:, k]) for k in range(2)])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
