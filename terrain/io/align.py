@@ -395,8 +395,8 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         (NaN or inf made no step a gap, 1 or less nearly every one), or two streams share a
         channel name.
     DataFormatError
-        If none of ``streams`` is in the run, one of them has no samples, or their time
-        spans do not overlap.
+        If none of ``streams`` is in the run, one of them has fewer than 2 samples, or
+        their time spans do not overlap.
     TimestampError
         A stream's ``t_s`` not finite and strictly increasing (the :class:`Run` contract),
         naming the stream and the first offending row.
@@ -422,9 +422,11 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                           "separately")
     times = [f[TIME].to_numpy(dtype=float) for f in frames]
     for name, t in zip(present, times):
-        if t.size == 0:   # the overlap's ends read each stream's first and last sample
-            raise DataFormatError(f"stream {name!r} has no samples: nothing to align",
-                                  run.source, TIME)
+        if t.size < 2:    # the overlap's ends read each stream's first and last sample
+            # (one sample made an empty grid: "do not overlap in time", which was untrue)
+            count = "no samples" if t.size == 0 else "1 sample"
+            raise DataFormatError(f"stream {name!r} has {count}: nothing to align (a stream "
+                                  f"needs 2 to be interpolated)", run.source, TIME)
         # the interpolation takes the order for granted: two swapped samples were read
         # without a word, a NaN time made the grid's length a bare ValueError
         out_of_order = times_out_of_order(t)

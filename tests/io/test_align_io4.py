@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
+from terrain.errors import DataFormatError
 from terrain.io.align import align_arrays, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
@@ -54,3 +56,11 @@ def test_a_finite_filtered_stream_is_unchanged_by_the_non_finite_split():
     filt = signal.sosfiltfilt(sos, v, axis=0, padlen=15)
     expected = np.column_stack([np.interp(grid, t, filt[:, k]) for k in range(2)])
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+
+
+def test_a_stream_of_one_sample_is_named_not_called_disjoint(make_run):
+    # one IMU sample inside the wheels' span: "do not overlap in time" was the message
+    t_wh = np.arange(0, 20) / 10.0
+    run = make_run({"imu": _imu(np.array([1.0])), "wheels": _wheels(t_wh)})
+    with pytest.raises(DataFormatError, match="'imu' has 1 sample"):
+        align_streams(run)
