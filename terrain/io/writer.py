@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError, config_integer
+from terrain.io.jsonfile import json_ready
 from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES
 from terrain.run import TIME, Run
 
@@ -153,8 +154,10 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     Parameters
     ----------
     run : Run
-        Run to write (e.g. from :func:`terrain.sim.simulate`); its ``meta`` must be
-        JSON-serialisable (values that are not are written with ``str``).
+        Run to write (e.g. from :func:`terrain.sim.simulate`); its ``meta`` is written as
+        standard JSON by :func:`terrain.io.jsonfile.json_ready` (NumPy scalars as numbers
+        and booleans, NaN and inf as ``null``, tuples as lists); other values that JSON
+        cannot hold (an array) are written with ``str``.
     out_dir : str or Path
         Root folder; the run goes to ``out_dir / <TERRAIN>`` (``run.terrain``, ``UNLABELLED``
         when it has none).
@@ -210,6 +213,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     meta["index"] = f"{idx:02d}"
     meta["files"] = {k: p.name for k, p in paths.items()}
     path = folder / f"meta_{idx:02d}.json"
-    path.write_text(json.dumps(meta, indent=2, default=str))
+    # numpy scalars as JSON numbers and booleans (default=str wrote np.int64(3) as "3"), NaN
+    # and inf as null (the bare token NaN is not JSON): terrain.io.jsonfile's rule
+    path.write_text(json.dumps(json_ready(meta, None), indent=2, default=str,
+                               allow_nan=False))
     paths["meta"] = path
     return paths
