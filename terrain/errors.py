@@ -24,7 +24,7 @@ class DataFormatError(TerrainError, ValueError):
     message : str
         What is wrong.
     path : str or None
-        File that holds the problem.
+        File that holds the problem (None or ``""``: not named in the message).
     column : str or None
         Column that holds the problem, as named in the file.
     row : int or None
@@ -42,7 +42,7 @@ class DataFormatError(TerrainError, ValueError):
         self.row = row
         self.line = line
         where = []
-        if path is not None:
+        if path is not None and str(path):     # (an in-memory run's source is "")
             where.append(f"file {path}")
         if column is not None:
             where.append(f"column {column!r}")

@@ -46,3 +46,11 @@ def test_interpolated_mean_count_of_one_point_between_two_samples_by_hand():
     assert interpolated_mean_count(1, 50.0, 10.0, n_phases=2) == pytest.approx(1.6)
     # the uniform average tends to 1 / (2/3) = 1.5
     assert interpolated_mean_count(1, 50.0, 10.0, n_phases=256) == pytest.approx(1.5, abs=1e-4)
+
+
+def test_a_run_built_in_memory_is_not_named_as_a_blank_file():
+    # Run.source defaults to "": every error about such a run read "(file , column 't_s')"
+    err = DataFormatError("stream 'imu' has no samples", "", "t_s")
+    assert str(err) == "stream 'imu' has no samples (column 't_s')"
+    assert str(DataFormatError("no overlap", "")) == "no overlap"
+    assert err.path == ""
