@@ -31,7 +31,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import MissingColumnError, NonFiniteError
+from terrain.errors import DataFormatError, MissingColumnError, NonFiniteError
 
 TIME = "t_s"
 IMU_CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az")
@@ -216,6 +216,12 @@ class Run:
         ------
         KeyError
             If the run has no such stream.
+        DataFormatError
+            The stream has fewer than 2 samples (no step: the rate was NaN without a
+            word), naming the run, the stream and the run's source.
         """
         t = self.streams[stream][TIME].to_numpy()
+        if t.size < 2:
+            raise DataFormatError(f"run {self.run_id}: stream {stream!r} has {t.size} "
+                                  f"sample(s): no time step to give a rate", self.source, TIME)
         return float(1.0 / pd.Series(t).diff().median())

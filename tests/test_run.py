@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import MissingColumnError, NonFiniteError
+from terrain.errors import DataFormatError, MissingColumnError, NonFiniteError
 from terrain.run import Run
 
 
@@ -83,3 +83,13 @@ def test_times_out_of_order_strict_or_letting_a_repeat_pass():
     assert times_out_of_order(t).tolist() == [2, 3, 4, 6]
     assert times_out_of_order(t, strict=False).tolist() == [3, 4, 6]
     assert times_out_of_order([]).tolist() == []
+
+
+@pytest.mark.parametrize("t", [[], [2.0]])
+def test_the_rate_of_a_stream_of_fewer_than_two_samples_is_an_error_naming_it(t):
+    # the median of no step was NaN, returned as the rate without a word (the slip
+    # features then said "interpolated_mean_count needs ... rates > 0, got ..., nan")
+    run = Run("r/X/00", "r", None, {"wheels": pd.DataFrame({"t_s": t})}, source="pro_00.csv")
+    with pytest.raises(DataFormatError, match=r"run r/X/00: stream 'wheels' has "
+                       rf"{len(t)} sample\(s\)[^(]*\(file pro_00.csv, column 't_s'\)"):
+        run.rate_hz("wheels")
