@@ -54,3 +54,12 @@ def test_a_run_built_in_memory_is_not_named_as_a_blank_file():
     assert str(err) == "stream 'imu' has no samples (column 't_s')"
     assert str(DataFormatError("no overlap", "")) == "no overlap"
     assert err.path == ""
+
+
+@pytest.mark.parametrize("args", [(2.5, 50.0, 10.0), (True, 50.0, 10.0), (10, True, 5.0),
+                                  (10, 50.0, float("inf")), (10, 50.0, float("nan")),
+                                  (0, 50.0, 10.0), (10, 50.0, 10.0, 0)])
+def test_interpolated_mean_count_refuses_a_window_length_or_rate_that_is_not_one(args):
+    # 2.5 samples gave 1.607 and True (as 1 sample) 1.5 without a word
+    with pytest.raises(ConfigError, match="interpolated_mean_count"):
+        interpolated_mean_count(*args)

@@ -44,8 +44,8 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_numbers,
-                            config_positive, duplicated)
+from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_integer,
+                            config_numbers, config_positive, duplicated)
 from terrain.run import TIME, Run, times_out_of_order
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -318,11 +318,12 @@ def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: floa
     Raises
     ------
     ConfigError
-        A non-positive count or rate.
+        A count that is not an integer >= 1 (a boolean or 2.5 gave a count without a word),
+        or a rate that is not a finite number > 0, named.
     """
-    if n_samples < 1 or not rate_hz > 0 or not native_rate_hz > 0 or n_phases < 1:
-        raise ConfigError(f"interpolated_mean_count needs n_samples >= 1 and rates > 0, got "
-                          f"{n_samples}, {rate_hz}, {native_rate_hz}")
+    config_integer("interpolated_mean_count.n_samples", n_samples, 1)
+    config_integer("interpolated_mean_count.n_phases", n_phases, 1)
+    config_positive("interpolated_mean_count", rate_hz=rate_hz, native_rate_hz=native_rate_hz)
     if native_rate_hz >= rate_hz:
         return float(n_samples)
     t = np.arange(n_samples) / rate_hz
