@@ -126,11 +126,15 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not a finite number > 0.
+        If ``rate_hz`` is not a finite number > 0, or ``before_s`` not a number (NaN
+        included; -inf and inf give none and all points).
     """
     t0, n = _grid_span(times_s, rate_hz, "overlap_grid_tail")
+    config_numbers("overlap_grid_tail", before_s=before_s)
+    if np.isnan(before_s):      # (int(ceil(nan)) was a bare ValueError, of inf OverflowError)
+        raise ConfigError(f"overlap_grid_tail.before_s must be a time, got {before_s!r}")
     # first k with t0 + k / rate >= before_s, on the grid's own float arithmetic
-    end = min(max(int(np.ceil((before_s - t0) * rate_hz)), 0), n)
+    end = int(np.ceil(np.clip((before_s - t0) * rate_hz, 0, n)))
     while end > 0 and t0 + (end - 1) / rate_hz >= before_s:
         end -= 1
     while end < n and t0 + end / rate_hz < before_s:

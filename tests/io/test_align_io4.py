@@ -64,3 +64,19 @@ def test_a_stream_of_one_sample_is_named_not_called_disjoint(make_run):
     run = make_run({"imu": _imu(np.array([1.0])), "wheels": _wheels(t_wh)})
     with pytest.raises(DataFormatError, match="'imu' has 1 sample"):
         align_streams(run)
+
+
+def test_grid_tail_before_an_infinite_time_is_the_whole_grid_and_nan_is_refused():
+    # int(ceil(inf)) raised a bare OverflowError, int(ceil(nan)) a bare ValueError
+    from terrain.errors import ConfigError
+    from terrain.io.align import overlap_grid, overlap_grid_tail
+
+    times = [np.arange(0, 101) / 100.0, np.arange(0, 11) / 10.0]
+    grid = overlap_grid(times, 50.0)
+    tail, end = overlap_grid_tail(times, 50.0, np.inf, 3)
+    assert end == grid.size
+    np.testing.assert_array_equal(tail, grid[-3:])
+    tail, end = overlap_grid_tail(times, 50.0, -np.inf, 3)
+    assert end == 0 and tail.size == 0
+    with pytest.raises(ConfigError, match="overlap_grid_tail.before_s"):
+        overlap_grid_tail(times, 50.0, float("nan"), 3)
