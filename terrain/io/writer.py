@@ -148,6 +148,14 @@ def next_index(folder: str | Path) -> int:
     return i
 
 
+def _json_default(value):
+    """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
+    (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
+    if isinstance(value, np.ndarray):
+        return json_ready(value.tolist(), None)
+    return str(value)
+
+
 def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[str, Path]:
     """Write every stream of a run and its metadata in the measured-data layout.
 
@@ -156,8 +164,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     run : Run
         Run to write (e.g. from :func:`terrain.sim.simulate`); its ``meta`` is written as
         standard JSON by :func:`terrain.io.jsonfile.json_ready` (NumPy scalars as numbers
-        and booleans, NaN and inf as ``null``, tuples as lists); other values that JSON
-        cannot hold (an array) are written with ``str``.
+        and booleans, NaN and inf as ``null``, tuples and arrays as lists); other values
+        that JSON cannot hold are written with ``str``.
     out_dir : str or Path
         Root folder; the run goes to ``out_dir / <TERRAIN>`` (``run.terrain``, ``UNLABELLED``
         when it has none).
@@ -215,7 +223,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     path = folder / f"meta_{idx:02d}.json"
     # numpy scalars as JSON numbers and booleans (default=str wrote np.int64(3) as "3"), NaN
     # and inf as null (the bare token NaN is not JSON): terrain.io.jsonfile's rule
-    path.write_text(json.dumps(json_ready(meta, None), indent=2, default=str,
+    path.write_text(json.dumps(json_ready(meta, None), indent=2, default=_json_default,
                                allow_nan=False))
     paths["meta"] = path
     return paths

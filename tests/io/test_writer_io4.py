@@ -41,3 +41,13 @@ def test_numpy_scalars_and_non_finite_values_of_meta_read_back_as_json_values(tm
         warnings.simplefilter("ignore")
         back = read_runs_dir(tmp_path)[0]
     assert back.meta["seed"] == 3 and back.meta["noisy"] is True and back.meta["lag_s"] is None
+
+
+def test_an_array_of_meta_is_written_as_a_json_list_in_full(tmp_path):
+    # default=str wrote an array as its printed form, cut to "[   0    1    2 ... 1997 1998
+    # 1999]" past 1000 values: read back as text, the values lost
+    meta = {"wheel_radii_m": np.array([0.165, np.nan]), "ids": np.arange(2000)}
+    text = write_run(_run(meta), tmp_path, 0)["meta"].read_text()
+    written = json.loads(text)
+    assert written["wheel_radii_m"] == [0.165, None]
+    assert written["ids"] == list(range(2000))
