@@ -397,8 +397,8 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     ------
     ConfigError
         If ``rate_hz`` is not a finite number > 0, ``gap_factor`` not a finite number > 1
-        (NaN or inf made no step a gap, 1 or less nearly every one), or two streams share a
-        channel name.
+        (NaN or inf made no step a gap, 1 or less nearly every one), ``streams`` one text
+        instead of a tuple of names, or two streams share a channel name.
     DataFormatError
         If none of ``streams`` is in the run, one of them has fewer than 2 samples, or
         their time spans do not overlap.
@@ -408,6 +408,9 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     """
     config_positive("align_streams", rate_hz=rate_hz)
     check_gap_factor("align_streams", gap_factor)
+    if isinstance(streams, str):    # ("imu" was read as the streams 'i', 'm', 'u')
+        raise ConfigError(f"align_streams.streams is a tuple of stream names, got the text "
+                          f"{streams!r}: write ({streams!r},)")
     present = [s for s in streams if s in run.streams]
     if not present:
         raise DataFormatError(f"run has none of the streams {list(streams)} "

@@ -80,3 +80,14 @@ def test_grid_tail_before_an_infinite_time_is_the_whole_grid_and_nan_is_refused(
     assert end == 0 and tail.size == 0
     with pytest.raises(ConfigError, match="overlap_grid_tail.before_s"):
         overlap_grid_tail(times, 50.0, float("nan"), 3)
+
+
+def test_streams_given_as_one_name_is_refused_not_spelt_out(make_run):
+    # streams="imu" was iterated letter by letter: "run has none of the streams
+    # ['i', 'm', 'u']", and "wheels" the same, although the run has both
+    from terrain.errors import ConfigError
+
+    t = np.arange(0, 100) / 100.0
+    run = make_run({"imu": _imu(t), "wheels": _wheels(t[::7])})
+    with pytest.raises(ConfigError, match=r"align_streams.streams .*\('imu',\)"):
+        align_streams(run, streams="imu")
