@@ -235,6 +235,18 @@ def _experiment_id(client: Any, name: str, uri: str) -> str:
     return client.create_experiment(name, artifact_location=location)
 
 
+def _is_number(value) -> bool:
+    """Whether a metric value is a number ``float`` reads as such (Python or NumPy number,
+    boolean, 0-d array); text, None and anything ``float`` refuses are not."""
+    if value is None or isinstance(value, (str, bytes)):
+        return False
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
 @dataclass(frozen=True)
 class TrackedRun:
     """Handle on an open MLflow run: thin typed wrappers over MLflow's client API.
@@ -278,12 +290,25 @@ class TrackedRun:
         Parameters
         ----------
         metrics : mapping of str to float
-            Name -> value.
+            Name -> value (a real number; a boolean is 0 or 1).
         step : int, optional
             Step of every value (default 0).
+
+        Raises
+        ------
+        ConfigError
+            A value that is not a number: text (``'0.5'`` was logged as 0.5 through
+            ``float``), None (a bare TypeError from ``float``), named with the metric;
+            nothing of the call is logged.
         """
         from mlflow.entities import Metric
 
+        wrong = {k: v for k, v in metrics.items() if not _is_number(v)}
+        if wrong:
+            raise ConfigError("log_metrics takes real numbers, got "
+                              + ", ".join(f"{k}={v!r:.40} ({type(v).__name__})"
+                                          for k, v in list(wrong.items())[:5])
+                              + (f" and {len(wrong) - 5} more" if len(wrong) > 5 else ""))
         good = {k: float(v) for k, v in metrics.items() if math.isfinite(float(v))}
         bad = sorted(set(metrics) - set(good))
         now_ms = int(time.time() * 1000)

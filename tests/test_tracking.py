@@ -88,6 +88,22 @@ def test_non_finite_metrics_of_every_call_stay_listed(tmp_path, monkeypatch):
     assert logged.data.metrics == {"ok": 1.0, "ok2": 2.0}
 
 
+def test_metric_values_that_are_not_numbers_are_refused_by_name(tmp_path, monkeypatch):
+    # text was logged through float ('0.5' -> 0.5, a column read as text unnoticed) and None
+    # was Python's bare TypeError from float()
+    import numpy as np
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    with tracked_run("terrain-test", announce=False) as run:
+        with pytest.raises(ConfigError, match=r"log_metrics takes real numbers, got "
+                                              r"acc='0\.5' \(str\), t=None \(NoneType\)"):
+            run.log_metrics({"ok": 1.0, "acc": "0.5", "t": None})
+        run.log_metrics({"f32": np.float32(0.25), "flag": np.bool_(True), "n": np.int64(3)})
+    logged = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id)
+    assert logged.data.metrics == {"f32": 0.25, "flag": 1.0, "n": 3.0}
+
+
 def test_a_table_is_logged_as_csv_under_a_csv_name_only(tmp_path, monkeypatch):
     # log_table writes CSV whatever the name: `terrain control-grid` logged its tuning and
     # comparison tables as CSV text in files named tuning_husky.json and comparison.json
