@@ -232,6 +232,31 @@ def config_numbers(owner: str, optional: tuple = (), **values) -> None:
                               f"{type(value).__name__} {value!r:.60}")
 
 
+def config_flags(owner: str, **values) -> None:
+    """Refuse on/off settings that are not booleans.
+
+    A switch read by truthiness takes the text ``"no"`` of a config file, or ``1``, as on.
+
+    Parameters
+    ----------
+    owner : str
+        The configuration's name, for the message (e.g. ``"ModelConfig"``).
+    **values
+        Field name -> value.
+
+    Raises
+    ------
+    ConfigError
+        A value that is neither ``True`` nor ``False`` (a NumPy boolean is one), named.
+    """
+    import numpy as np
+
+    for name, value in values.items():
+        if not isinstance(value, (bool, np.bool_)):
+            raise ConfigError(f"{owner}.{name} must be True or False, got "
+                              f"{type(value).__name__} {value!r:.60}")
+
+
 def config_seed(name: str, value) -> None:
     """Refuse a random seed that is not a whole number >= 0.
 

@@ -63,7 +63,7 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
-                            config_integer, config_numbers)
+                            config_flags, config_integer, config_numbers)
 from terrain.slip import sae_slip
 from terrain.vehicles import contact_geometry, get_vehicle
 
@@ -143,9 +143,7 @@ class TractionControlConfig:
     def __post_init__(self) -> None:
         numeric = {f: getattr(self, f) for f in self.__dataclass_fields__ if f != "one_sided"}
         config_numbers("TractionControlConfig", **numeric)
-        if not isinstance(self.one_sided, (bool, np.bool_)):
-            raise ConfigError(f"TractionControlConfig.one_sided must be True or False, got "
-                              f"{type(self.one_sided).__name__} {self.one_sided!r:.60}")
+        config_flags("TractionControlConfig", one_sided=self.one_sided)
         bad = {f: v for f, v in numeric.items() if not math.isfinite(float(v))}
         if bad:
             raise ConfigError("traction control settings must be finite, got "

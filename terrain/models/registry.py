@@ -27,7 +27,8 @@ import numpy as np
 
 from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M
-from terrain.errors import ConfigError, config_integer, config_positive, duplicated
+from terrain.errors import (ConfigError, config_flags, config_integer, config_positive,
+                            duplicated)
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket, require_aeon
@@ -151,11 +152,9 @@ class ModelConfig:
     def __post_init__(self) -> None:
         if self.kind not in MODELS:
             raise ConfigError(f"unknown model {self.kind!r}; valid: {list(MODELS)}")
-        for flag in ("tune_weights", "early_stopping", "window_ekf", "run_balanced"):
-            # a text such as "no" from a config file was truthy and switched the setting on
-            value = getattr(self, flag)
-            if not isinstance(value, (bool, np.bool_)):
-                raise ConfigError(f"ModelConfig.{flag} must be True or False, got {value!r}")
+        # a text such as "no" from a config file was truthy and switched the setting on
+        config_flags("ModelConfig", **{flag: getattr(self, flag) for flag in (
+            "tune_weights", "early_stopping", "window_ekf", "run_balanced")})
         if self.run_balanced and self.window_ekf:
             raise ConfigError("run_balanced (--run-balanced) is not implemented with "
                               "window_ekf (--window-ekf): choose one")

@@ -20,7 +20,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
 from features.transformers import WindowFeatures
-from terrain.errors import ConfigError, config_integer, config_positive
+from terrain.errors import ConfigError, config_flags, config_integer, config_positive
 from terrain.models.compiled import CompiledPipeline
 from terrain.models.cv import require_runs
 
@@ -71,10 +71,8 @@ class SVMConfig:
         # C <= 0 or an unknown gamma reached SVC's InvalidParameterError at the first fit,
         # gamma 0 fitted a constant kernel, and inner_splits 1 or an empty grid raised
         # scikit-learn's bare ValueError inside the CV, after the data was windowed
-        if not isinstance(self.probability, (bool, np.bool_)):
-            # a text such as "no" from a config file was truthy and calibrated the SVC
-            raise ConfigError(f"SVMConfig.probability must be True or False, got "
-                              f"{self.probability!r}")
+        # a text such as "no" from a config file was truthy and calibrated the SVC
+        config_flags("SVMConfig", probability=self.probability)
         config_positive("SVMConfig", C=self.C)
         _check_gamma("gamma", self.gamma)
         config_integer("SVMConfig.inner_splits", self.inner_splits, 2)
