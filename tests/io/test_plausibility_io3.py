@@ -12,6 +12,7 @@ import pytest
 from terrain.errors import DataWarning
 from terrain.io.plausibility import check_run
 from terrain.run import TIME
+from test_file_lines_and_bounds import _streams
 
 
 def _turning_run(noise: float, seed: int = 3):
@@ -61,15 +62,9 @@ def test_a_stream_running_on_is_warned_beyond_a_tenth_of_a_long_overlap(run_on_s
     way)."""
     imu_t = np.arange(5001) / 50.0                           # 0 .. 100 s
     wheel_t = np.arange(round((100.0 + run_on_s) * 10) + 1) / 10.0
-    rng = np.random.default_rng(0)
-    imu = pd.DataFrame({TIME: imu_t, **{c: 0.01 * rng.standard_normal(imu_t.size)
-                                        for c in ("wx", "wy", "wz", "ax", "ay")},
-                        "az": 9.81 + 0.01 * rng.standard_normal(imu_t.size)})
-    wheels = pd.DataFrame({TIME: wheel_t, "vel_l": 0.5, "vel_r": 0.5,
-                           "cur_l": 5.0 + np.sin(wheel_t), "cur_r": 6.0 + np.cos(wheel_t)})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataWarning)
-        out = check_run("r", {"imu": imu, "wheels": wheels}, "husky", {"imu": "imu.csv"})
+        out = check_run("r", _streams(imu_t, wheel_t), "husky", {"imu": "imu.csv"})
     assert out["unused_s"] == pytest.approx({"wheels": run_on_s})
     found = [w for w in out["warnings"] if "clock_overlap" in w]
     assert len(found) == warned

@@ -531,6 +531,17 @@ def test_the_grid_holds_every_combination_of_its_axes_once():
     assert {(c.protocol, c.train_hop_s) for c in cells} == {("grouped", None)}
 
 
+def _two_run_windows():
+    """Four windows of two 4 s runs (r1: A, r2: B) in the shape cell_windows returns."""
+    from types import SimpleNamespace
+
+    ws = SimpleNamespace(X=np.zeros((4, 1, 5)), run_ids=np.array(["r1", "r1", "r2", "r2"]),
+                         t_start_s=np.array([0.0, 2.0, 0.0, 2.0]),
+                         t_end_s=np.array([2.0, 4.0, 2.0, 4.0]), channels=("ax",),
+                         rate_hz=50.0)
+    return ws, np.array(["A", "A", "B", "B"])
+
+
 def test_a_cell_cross_validates_with_its_own_seed_and_reports_means_over_folds(monkeypatch):
     # the cell's seed must reach the CV (its split and models): every seed of a grid gave
     # the same cell otherwise; the times per fold are means over the folds
@@ -538,11 +549,7 @@ def test_a_cell_cross_validates_with_its_own_seed_and_reports_means_over_folds(m
 
     import terrain.models.compare as compare
 
-    ws = SimpleNamespace(X=np.zeros((4, 1, 5)), run_ids=np.array(["r1", "r1", "r2", "r2"]),
-                         t_start_s=np.array([0.0, 2.0, 0.0, 2.0]),
-                         t_end_s=np.array([2.0, 4.0, 2.0, 4.0]), channels=("ax",),
-                         rate_hz=50.0)
-    labels = np.array(["A", "A", "B", "B"])
+    ws, labels = _two_run_windows()
     monkeypatch.setattr(compare, "cell_windows", lambda cell, n: compare.CellWindows(
         ws, labels, ws.run_ids, None, (), 0, ()))
     seen = {}
@@ -674,11 +681,7 @@ def test_a_cell_keeps_its_training_hop_and_reports_what_its_cut_dropped(monkeypa
 
     import terrain.models.compare as compare
 
-    ws = SimpleNamespace(X=np.zeros((4, 1, 5)), run_ids=np.array(["r1", "r1", "r2", "r2"]),
-                         t_start_s=np.array([0.0, 2.0, 0.0, 2.0]),
-                         t_end_s=np.array([2.0, 4.0, 2.0, 4.0]), channels=("ax",),
-                         rate_hz=50.0)
-    labels = np.array(["A", "A", "B", "B"])
+    ws, labels = _two_run_windows()
     training = object()
     asked = {}
 
