@@ -542,11 +542,21 @@ def _two_run_windows():
     return ws, np.array(["A", "A", "B", "B"])
 
 
+def _perfect_cv(seed, y, groups, run_ids, t0, t1):
+    """A cross_validate result on :func:`_two_run_windows` that names every window right
+    (two folds; fit 1 and 3 s, inference 0.5 and 1.5 ms per window)."""
+    from types import SimpleNamespace
+
+    pred = pd.DataFrame({"seed": seed, "fold": [0, 0, 1, 1], "run": run_ids, "group": groups,
+                         "t_start_s": t0, "t_end_s": t1, "true": y, "predicted": y,
+                         "proba_A": [0.9, 0.8, 0.2, 0.1], "proba_B": [0.1, 0.2, 0.8, 0.9]})
+    folds = pd.DataFrame({"fit_s": [1.0, 3.0], "infer_ms_per_window": [0.5, 1.5]})
+    return SimpleNamespace(predictions=pred, classes=["A", "B"], folds=folds)
+
+
 def test_a_cell_cross_validates_with_its_own_seed_and_reports_means_over_folds(monkeypatch):
     # the cell's seed must reach the CV (its split and models): every seed of a grid gave
     # the same cell otherwise; the times per fold are means over the folds
-    from types import SimpleNamespace
-
     import terrain.models.compare as compare
 
     ws, labels = _two_run_windows()
@@ -556,12 +566,7 @@ def test_a_cell_cross_validates_with_its_own_seed_and_reports_means_over_folds(m
 
     def fake_cv(factory, X, y, groups, run_ids, t0, t1, protocol, seeds, n_splits, **kw):
         seen.update(seeds=seeds, n_splits=n_splits)
-        pred = pd.DataFrame({"seed": seeds[0], "fold": [0, 0, 1, 1], "run": run_ids,
-                             "group": groups, "t_start_s": t0, "t_end_s": t1, "true": y,
-                             "predicted": y, "proba_A": [0.9, 0.8, 0.2, 0.1],
-                             "proba_B": [0.1, 0.2, 0.8, 0.9]})
-        folds = pd.DataFrame({"fit_s": [1.0, 3.0], "infer_ms_per_window": [0.5, 1.5]})
-        return SimpleNamespace(predictions=pred, classes=["A", "B"], folds=folds)
+        return _perfect_cv(seeds[0], y, groups, run_ids, t0, t1)
 
     monkeypatch.setattr(compare, "cross_validate", fake_cv)
     config = CompareConfig(models=("svm",), signals=("all",), windows_s=(2.0,),
@@ -677,8 +682,6 @@ def test_ray_backend_starts_and_stops_only_a_session_of_its_own(monkeypatch):
 def test_a_cell_keeps_its_training_hop_and_reports_what_its_cut_dropped(monkeypatch):
     # the grid's train_hop_s must reach every cell (its training cut, its table key), and
     # the windows its cut dropped and its notes must reach the rows and the result
-    from types import SimpleNamespace
-
     import terrain.models.compare as compare
 
     ws, labels = _two_run_windows()
@@ -691,12 +694,7 @@ def test_a_cell_keeps_its_training_hop_and_reports_what_its_cut_dropped(monkeypa
 
     def fake_cv(factory, X, y, groups, run_ids, t0, t1, protocol, seeds, n_splits, **kw):
         assert kw["training"] is training
-        pred = pd.DataFrame({"seed": seeds[0], "fold": [0, 0, 1, 1], "run": run_ids,
-                             "group": groups, "t_start_s": t0, "t_end_s": t1, "true": y,
-                             "predicted": y, "proba_A": [0.9, 0.8, 0.2, 0.1],
-                             "proba_B": [0.1, 0.2, 0.8, 0.9]})
-        folds = pd.DataFrame({"fit_s": [1.0, 3.0], "infer_ms_per_window": [0.5, 1.5]})
-        return SimpleNamespace(predictions=pred, classes=["A", "B"], folds=folds)
+        return _perfect_cv(seeds[0], y, groups, run_ids, t0, t1)
 
     monkeypatch.setattr(compare, "cell_windows", fake_windows)
     monkeypatch.setattr(compare, "cross_validate", fake_cv)
