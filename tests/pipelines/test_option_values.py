@@ -66,6 +66,19 @@ def test_experiment_config_checks_seeds_and_windows_before_any_data(kwargs, matc
         ExperimentConfig(**kwargs)
 
 
+def _usage_error(argv, capsys, tmp_path, monkeypatch) -> str:
+    """Run ``terrain argv`` in ``tmp_path``: it must stop with a usage error (exit 2), show
+    no traceback and write nothing; returns its stderr."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert not any(tmp_path.iterdir())
+    return err
+
+
 @pytest.mark.parametrize("argv", [
     ["cv", "--dataset", "vulpi", "--seeds", "0", "1", "0"],
     ["compare", "--quick", "--seeds", "2", "2"],
@@ -77,13 +90,7 @@ def test_experiment_config_checks_seeds_and_windows_before_any_data(kwargs, matc
 ])
 def test_a_seed_given_twice_is_a_usage_error(argv, capsys, tmp_path, monkeypatch):
     # it would run one split (or simulation) twice and count it as two seeds
-    monkeypatch.chdir(tmp_path)
-    with pytest.raises(SystemExit) as exc:
-        main(argv)
-    assert exc.value.code == 2
-    err = capsys.readouterr().err
-    assert "given twice" in err and "Traceback" not in err
-    assert not any(tmp_path.iterdir())
+    assert "given twice" in _usage_error(argv, capsys, tmp_path, monkeypatch)
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -399,10 +406,4 @@ def test_a_prefix_of_an_option_is_a_usage_error_not_that_option(argv, capsys, tm
                                                                 monkeypatch):
     # argparse's default took a prefix as the option it starts: `terrain cv --seed 1` ran
     # a whole cross-validation as --seeds 1 and wrote an MLflow store, unsaid
-    monkeypatch.chdir(tmp_path)
-    with pytest.raises(SystemExit) as exc:
-        main(argv)
-    assert exc.value.code == 2
-    err = capsys.readouterr().err
-    assert "unrecognized arguments" in err and "Traceback" not in err
-    assert not any(tmp_path.iterdir())
+    assert "unrecognized arguments" in _usage_error(argv, capsys, tmp_path, monkeypatch)
