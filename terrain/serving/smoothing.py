@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer, config_numbers
+from terrain.errors import ConfigError, config_integer, config_numbers, config_positive
 
 #: floor on classifier probabilities so one window can never veto a class for good
 PROBA_FLOOR = 1e-4
@@ -183,9 +183,7 @@ class ForwardFilter:
 
     def __init__(self, n_classes: int, hop_s: float, config: SmoothingConfig) -> None:
         config_integer("n_classes", n_classes, 1)
-        config_numbers("ForwardFilter", hop_s=hop_s)
-        if not (math.isfinite(hop_s) and hop_s > 0):
-            raise ConfigError(f"ForwardFilter hop_s must be a finite number > 0, got {hop_s}")
+        config_positive("ForwardFilter", hop_s=hop_s)
         self.config = config
         # a dwell under K/(K-1) hops is no memory (a uniform prior), not a push away from
         # the last terrain (lam of predict_steps would turn negative)
