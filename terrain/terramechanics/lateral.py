@@ -54,7 +54,8 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer, config_numbers, config_positive
+from terrain.errors import (ConfigError, config_flags, config_integer, config_numbers,
+                            config_positive)
 from terrain.terramechanics.resistance import (bekker_sinkage_m, check_slide_speed,
                                                compaction_resistance_n)
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
@@ -164,7 +165,7 @@ class SoilParams:
         finite, ``layer_depth_m`` is not positive, ``residual_ratio`` is outside (0, 1),
         ``slip_sinkage_ratio`` is negative or not finite, or ``rate_weakening_speed_m_s``
         is not a finite positive speed, or ``combined_shear`` or ``slip_compaction`` is
-        not a bool.
+        not ``True`` or ``False`` (a NumPy boolean is one).
     """
 
     name: str
@@ -209,10 +210,8 @@ class SoilParams:
                 np.isfinite(self.slip_sinkage_ratio) and self.slip_sinkage_ratio >= 0.0):
             raise ConfigError(f"{self.name}: slip_sinkage_ratio must be a finite value >= 0 "
                               f"or None, got {self.slip_sinkage_ratio}")
-        for key in ("combined_shear", "slip_compaction"):
-            if not isinstance(getattr(self, key), bool):
-                raise ConfigError(f"{self.name}: {key} must be True or False, got "
-                                  f"{getattr(self, key)!r}")
+        config_flags(self.name, combined_shear=self.combined_shear,
+                     slip_compaction=self.slip_compaction)
         if self.layer_depth_m is not None and not self.layer_depth_m > 0:
             raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
                               f"{self.layer_depth_m}")

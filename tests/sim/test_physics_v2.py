@@ -305,6 +305,10 @@ def test_combined_shear_keeps_a_spinning_wheel_within_the_soil_strength():
     assert results[True] <= strength
     with pytest.raises(ConfigError, match="combined_shear"):
         replace(loam, combined_shear=1)
+    with pytest.raises(ConfigError, match="slip_compaction"):
+        replace(loam, slip_compaction="no")
+    # a NumPy boolean (a flag read from an array or a parquet table) is a boolean
+    assert replace(loam, combined_shear=np.bool_(True)).combined_shear
 
 
 def test_combined_shear_lets_the_husky_spin_more_freely_on_sandy_loam(monkeypatch):
