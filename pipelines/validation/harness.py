@@ -420,7 +420,9 @@ class HuskyComparison:
     obs_chi_err, obs_chi_p90, obs_chi_conv_s : float
         Observer ICR factor: the same.
     ekf_eta_err : float
-        Median relative error of the EKF's eta.
+        Median relative error of the EKF's eta, over the samples where it is defined (a
+        measured side speed below ``eta_from_truth``'s ``min_speed_m_s`` leaves it NaN;
+        the observer's eta error keeps those samples).
     obs_eta_err, obs_eta_p90, obs_eta_conv_s : float
         Observer eta: median, 90th percentile relative error, convergence time (s).
     """
@@ -521,9 +523,11 @@ def husky_comparison(result: Simulation,
 
     e_chi_ekf = rel(chi_ekf, chi_loc, steady)
     e_chi_obs = rel(chi_obs, chi_loc, steady)
-    ok_eta &= np.isfinite(eta_ekf).all(axis=1)
+    # the EKF's eta is undefined where a measured side speed is below eta_from_truth's
+    # min_speed_m_s: those samples leave the EKF's error only, not the observer's
+    ok_ekf = ok_eta & np.isfinite(eta_ekf).all(axis=1)
     e_eta_obs = np.abs(obs.eta[ok_eta] / eta_true[ok_eta] - 1.0).max(axis=1)
-    e_eta_ekf = np.abs(eta_ekf[ok_eta] / eta_true[ok_eta] - 1.0).max(axis=1)
+    e_eta_ekf = np.abs(eta_ekf[ok_ekf] / eta_true[ok_ekf] - 1.0).max(axis=1)
     med = (lambda e: float(np.median(e)) if e.size else float("nan"))
     p90 = (lambda e: float(np.percentile(e, 90)) if e.size else float("nan"))
     chi_true = float(np.median(chi_loc[steady])) if steady.any() else float("nan")
