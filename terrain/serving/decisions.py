@@ -109,7 +109,7 @@ def with_run_stuck_flags(frame: pd.DataFrame, stuck: Mapping[str, list], window_
         Decisions whose window holds a stuck stretch.
     """
     run_stuck = stuck_decision_flags(frame, stuck, window_s)
-    live = ["|".join(f for f in str(cell).split("|") if f and not f.startswith("stuck:"))
+    live = ["|".join(f for f in _flag_list(cell) if not f.startswith("stuck:"))
             for cell in frame["flags"]]
     return join_flags(live, run_stuck, *extra), int((run_stuck != "").sum())
 
@@ -122,15 +122,23 @@ def join_flags(*columns: Sequence[str]) -> list[str]:
     ----------
     *columns : sequence of str
         Equal-length flag columns (e.g. ``decisions_frame(...)["flags"]`` and
-        :func:`stuck_decision_flags`); ``""`` is no flag.
+        :func:`stuck_decision_flags`); ``""`` is no flag, and so is a missing cell (None or
+        NaN, as pandas reads an empty CSV cell), never a flag ``"nan"``.
 
     Returns
     -------
     list of str
         ``(n_decisions,)`` joined flags.
     """
-    return ["|".join(sorted({f for cell in cells for f in str(cell).split("|") if f}))
+    return ["|".join(sorted({f for cell in cells for f in _flag_list(cell)}))
             for cells in zip(*columns)]
+
+
+def _flag_list(cell) -> list[str]:
+    """The flags of one ``|``-separated cell; a missing cell (None, NaN) holds none."""
+    if cell is None or (isinstance(cell, float) and cell != cell):
+        return []
+    return [f for f in str(cell).split("|") if f]
 
 
 def decisions_frame(decisions: Sequence[Decision], classes: Sequence[str]) -> pd.DataFrame:

@@ -1483,6 +1483,9 @@ def test_join_flags_is_the_sorted_union_of_each_decisions_flags():
                                           "stuck:wheels.cur_l"]
     assert join_flags(service, stuck, warn)[1] == "warning:clock_overlap"
     assert join_flags(["gap|gap"], ["gap"]) == ["gap"]
+    # a missing cell (None, or NaN as pandas reads an empty CSV cell) is no flag, not "nan"
+    assert join_flags([None, float("nan"), np.nan], ["gap", "", "stale"]) == ["gap", "",
+                                                                              "stale"]
 
 
 def test_wheel_speeds_in_kmh_are_flagged_and_not_classified(wheel_model, unseen_run):
