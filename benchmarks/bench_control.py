@@ -102,7 +102,7 @@ def time_sae_slip(x: dict[str, np.ndarray], chunk: int) -> float:
 
 def main() -> int:
     """Run the benchmark; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--chunk", type=int, default=50, help="steps per timed chunk")

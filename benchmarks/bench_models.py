@@ -52,7 +52,7 @@ def _reference_ms(repeats: int = 200) -> float:
 
 def main() -> int:
     """Time every model on one BorealTC fold; print and log the figures."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
     parser.add_argument("--threads", type=int, default=2, help="torch threads when training")
     parser.add_argument("--repeats", type=int, default=50, help="timed single windows")

@@ -142,7 +142,7 @@ def _serve(model_dir: Path) -> tuple[subprocess.Popen, str]:
 
 def main() -> int:
     """Run the benchmark; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--kind", choices=list(RECIPES), default="wheels")
     parser.add_argument("--model", type=Path, default=None,
                         help="model directory of terrain train --model-out")

@@ -170,7 +170,7 @@ def soak(model, run, sample_every: int = 1000) -> dict:
 
 def main() -> int:
     """Run the benchmark; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--kind", choices=list(RECIPES), default=DEFAULT_RECIPES["all"])
     parser.add_argument("--model", type=Path, default=None, help="model directory to use")
     parser.add_argument("--minutes", type=float, default=30.0,

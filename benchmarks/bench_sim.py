@@ -52,7 +52,7 @@ def _minutes(text: str) -> float:
 
 def main() -> int:
     """Run the benchmark; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=_minutes, default=10.0)
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS)
     parser.add_argument("--terrains", default="ASPHALT,GRASS",

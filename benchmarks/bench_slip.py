@@ -47,7 +47,7 @@ from terrain.vehicles import HUSKY
 
 def main() -> None:
     """Fit, time, print, log."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--cache-dir", default="out/slip_cache")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--singles", type=int, default=200)

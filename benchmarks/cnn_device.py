@@ -85,7 +85,7 @@ def device_rows(kind: str, device: str, seeds: list[int], threads: int,
 
 def main() -> int:
     """Cross-validate every model on every device, print and log the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", default=["cnn-spectrogram", "cnn"])
     parser.add_argument("--devices", nargs="+", default=["cuda", "cpu"])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])

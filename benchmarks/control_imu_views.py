@@ -54,7 +54,7 @@ SLIDE_FACTOR = 2.0
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--kinds", nargs="+", default=[k for _, k in KINDS],
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}))
     parser.add_argument("--terrains", nargs="+",

@@ -138,7 +138,7 @@ def member_votes(members: dict[str, list[pd.DataFrame]], classes: list[str]
 
 def main() -> int:
     """Cross-validate the members, score the votes, print and log the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--model-seeds", type=int, default=3,

@@ -57,7 +57,7 @@ def _fold(ws, labels, groups, classes, dataset, seed, fold, train, test, threads
 
 def main() -> int:
     """Cross-validate both weightings, print and log the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--history", type=int, nargs="+", default=[1, 10])

@@ -57,7 +57,7 @@ def mean_abs_yaw_rate(predictions: pd.DataFrame, runs) -> np.ndarray:
 
 def main() -> int:
     """Print accuracy by class and manoeuvre, and the straight windows' confusion."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("run_id", help="MLflow run of terrain cv (experiment terrain-cv)")
     parser.add_argument("--dataset", default="borealtc")
     parser.add_argument("--turning-rad-s", type=float, default=0.1)

@@ -225,7 +225,7 @@ def ceiling_figure(table: pd.DataFrame, spins: pd.DataFrame) -> Figure:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("--dataset", choices=("borealtc", "vulpi"), default="borealtc",
                     help="shipped dataset (Husky runs)")
     ap.add_argument("--out", default=None,

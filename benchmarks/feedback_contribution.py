@@ -93,7 +93,7 @@ def decided_labels(pairs: list[str]) -> list[tuple[str, str]]:
 
 def main() -> int:
     """Run the grid, print the table, log it; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--vehicles", nargs="+", default=["agrimaro", "husky"])
     parser.add_argument("--terrains", nargs="+",
                         default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])

@@ -93,7 +93,7 @@ def learning_curve_figure(table: pd.DataFrame, title: str = "") -> Figure:
 
 def main() -> int:
     """Cross-validate at every number of folds, print and log the learning curve."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
     parser.add_argument("--splits", type=int, nargs="+", default=[2, 3, 5, 10])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])

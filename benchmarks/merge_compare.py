@@ -70,7 +70,7 @@ def _cells_in_several_folders(cells: pd.DataFrame, keys: list[str]) -> list[str]
 
 def main() -> int:
     """Merge the folders, add the vote, write the table and figure."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("dirs", nargs="+", type=Path)
     parser.add_argument("--vote", nargs="+", action="append", default=None,
                         help="members of one equal-weight vote; repeat for several votes "

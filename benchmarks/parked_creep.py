@@ -61,7 +61,7 @@ def parked_speed(terrain: str, physics: str, seconds: float, slope_deg: float
 
 def main() -> int:
     """Print and log the creep table; returns 0."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--slope-deg", type=float, default=15.0)
     parser.add_argument("--terrains", default="ASPHALT,GRASS,SANDY_LOAM,SNOW,ICE")

@@ -62,7 +62,7 @@ def current_errors(dataset: str, cutoffs_hz: list[float]) -> pd.DataFrame:
 
 def main() -> int:
     """Print the current RMSE per terrain, cut-off and physics version; returns 0."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("--dataset", default="vulpi", choices=["borealtc", "vulpi"])
     ap.add_argument("--cutoffs-hz", type=float, nargs="+", default=[2.0, 1.0],
                     help="input low-pass cut-offs, Hz (the record as measured is always "

@@ -43,7 +43,7 @@ def _seeds(spec: str) -> tuple[int, ...]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="200-211", help="e.g. 200-211 or 100-102,300-305")
     parser.add_argument("--settings", default="[{}]", help="JSON list of filter overrides")
     parser.add_argument("--cache-dir", default="out/slip_cache")

@@ -190,7 +190,7 @@ def online(args) -> int:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--terrains", nargs="+",
                         default=["ASPHALT", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
     parser.add_argument("--scenarios", nargs="+",

@@ -161,7 +161,7 @@ def good_decisions(result) -> tuple[int, int]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, nargs=2, default=[0, 300],
                         metavar=("FIRST", "END"))
     parser.add_argument("--out", help="save every outcome (pickle)")

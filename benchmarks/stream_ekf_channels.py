@@ -142,7 +142,7 @@ def window_cv(seeds, log: bool) -> int:
 
 def main() -> int:
     """Run the A/B over folds and seeds, print and log the pooled scores."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--window-cv", action="store_true",
                         help="where the window-CV gain of the EKF channels comes from "

@@ -132,7 +132,7 @@ def plot(results: dict, path: Path) -> None:
 
 def main() -> int:
     """Replay one held-out stream per recipe; plot, print and log it."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--fold", type=int, default=0)
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),

@@ -71,7 +71,7 @@ def at_times(t_from: np.ndarray, proba: np.ndarray, t_to: np.ndarray) -> np.ndar
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--members", nargs=2, default=[SHORT, LONG], choices=sorted(RECIPES),
                     metavar="RECIPE", help="the two recipes averaged; the second's decision "

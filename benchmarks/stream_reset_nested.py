@@ -186,7 +186,7 @@ def merged_rows(paths: list[Path]) -> tuple[str, int | None, list[dict]]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     ap.add_argument("--kind", default="all-ensemble-dense-no-speed-1s", choices=list(RECIPES))
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--inner-folds", type=int, default=4)

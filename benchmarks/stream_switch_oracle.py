@@ -104,7 +104,7 @@ def pooled(folds: list[dict], rule: str) -> tuple[float, float, float]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     ap.add_argument("--kind", default="all-ensemble-dense-no-speed", choices=list(RECIPES))
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--no-mlflow", action="store_true")

@@ -63,7 +63,7 @@ def window_shares(segments, hop_s: float, window_s: float) -> tuple[int, int, in
 
 def main() -> int:
     """Print the shares over folds and seeds and the settled accuracy a target needs."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--hop-s", type=float, default=0.5)
     parser.add_argument("--window-s", type=float, default=2.0)

@@ -111,7 +111,7 @@ def score_seed(features: np.ndarray, labels: np.ndarray, runs: np.ndarray, group
 
 def main() -> int:
     """Score both variants, print the table and log it to MLflow."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

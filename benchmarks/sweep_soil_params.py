@@ -260,7 +260,7 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
 
 def main() -> int:
     """Run the sweep; returns 0."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("--terrain", required=True)
     ap.add_argument("--dataset", default="borealtc", choices=["borealtc", "vulpi"],
                     help="shipped dataset of the --terrain runs (soil sweeps, --per-run-chi "

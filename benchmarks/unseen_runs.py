@@ -39,7 +39,7 @@ from terrain.tracking import tracked_run
 
 def main() -> int:
     """Leave-runs-out comparison of the default model and the SVM; print and log it."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--threads", type=int, default=1, help="torch threads per CNN fit")

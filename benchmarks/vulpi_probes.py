@@ -238,7 +238,7 @@ def _metric_key(variant: str) -> str:
 
 def main() -> int:
     """Score every variant, print the table and log it to MLflow."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")

@@ -31,3 +31,41 @@ def test_benchmark_imports_and_answers_help(path, monkeypatch, capsys):
         module.main()
     assert stop.value.code == 0
     assert "usage:" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("path", SCRIPTS, ids=[p.stem for p in SCRIPTS])
+def test_benchmark_refuses_a_prefix_of_an_option(path, monkeypatch, capsys):
+    # as `terrain` does (allow_abbrev=False): `--seed 1` must not run a benchmark as
+    # `--seeds 1`, a prefix is a usage error (exit 2), not the option it abbreviates
+    import argparse
+
+    spec = importlib.util.spec_from_file_location(f"benchmark_prefix_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    parsers = []
+
+    def capture(self, args=None, namespace=None):
+        parsers.append(self)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", capture)
+    monkeypatch.setattr(sys, "argv", [path.name])
+    with pytest.raises(SystemExit):
+        module.main()
+    assert parsers, "the benchmark builds no argparse parser"
+    parser = parsers[0]
+    options = [s for a in parser._actions for s in a.option_strings
+               if s.startswith("--") and s != "--help" and len(s) > 4]
+    if not options:
+        pytest.skip("no long option to abbreviate")
+    monkeypatch.undo()
+    prefix = options[0][:-1]
+    if any(s != options[0] and s.startswith(prefix) for s in options):
+        pytest.skip(f"{options[0]} has no unique prefix")
+    for action in parser._actions:            # a missing required option would end the
+        if action.option_strings:             # parse before the prefix is looked at
+            action.required = False
+    with pytest.raises(SystemExit) as stop:
+        parser.parse_args([prefix, "1"])
+    assert stop.value.code == 2
+    assert "unrecognized arguments" in capsys.readouterr().err
