@@ -15,7 +15,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from terrain.errors import ConfigError, config_fraction, config_positive
+from terrain.errors import ConfigError, config_fraction, config_numbers, config_positive
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                soil_resistance_coefficient)
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
@@ -96,10 +96,16 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     Raises
     ------
     ConfigError
-        ``speed_m_s`` not positive and finite (the loss has no sign to calibrate).
+        ``current_a`` or ``speed_m_s`` not a real number (text, ``None``, a boolean),
+        ``current_a`` not finite (NaN gave hysteresis 0 without a word), or ``speed_m_s``
+        not positive and finite (the loss has no sign to calibrate).
     """
     from terrain.vehicles.skid_steer import HUSKY
 
+    config_numbers("husky_hysteresis_for_current", current_a=current_a, speed_m_s=speed_m_s)
+    if not math.isfinite(current_a):
+        raise ConfigError(f"husky_hysteresis_for_current: current_a must be a finite current, "
+                          f"A, got {current_a}")
     if not (math.isfinite(speed_m_s) and speed_m_s > 0.0):
         raise ConfigError(f"husky_hysteresis_for_current: speed_m_s must be positive and "
                           f"finite, got {speed_m_s}")
