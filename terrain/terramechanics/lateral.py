@@ -356,13 +356,24 @@ def bearing_capacity_factors(friction_angle_deg: float) -> tuple[float, float, f
     Parameters
     ----------
     friction_angle_deg : float
-        Internal friction angle phi, degrees (> 0).
+        Internal friction angle phi, degrees, in (0, 90).
 
     Returns
     -------
     tuple of float
         ``(N_c, N_q, N_gamma)``, dimensionless (Wong ch. 2.5).
+
+    Raises
+    ------
+    ConfigError
+        ``friction_angle_deg`` not a real number or outside (0, 90): ``N_c`` divides by
+        ``tan phi`` (0 gave ``-inf``), a negative angle gave negative factors and 90
+        infinite ones.
     """
+    config_numbers("bearing_capacity_factors", friction_angle_deg=friction_angle_deg)
+    if not 0.0 < friction_angle_deg < 90.0:
+        raise ConfigError(f"bearing_capacity_factors: friction_angle_deg must be in (0, 90) "
+                          f"degrees, got {friction_angle_deg}")
     phi = np.radians(friction_angle_deg)
     n_q = np.exp(np.pi * np.tan(phi)) * np.tan(np.pi / 4 + phi / 2) ** 2
     n_c = (n_q - 1.0) / np.tan(phi)

@@ -7,6 +7,7 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain
 from terrain.terramechanics.calibration import husky_hysteresis_for_current
+from terrain.terramechanics.lateral import bearing_capacity_factors
 
 
 @pytest.mark.parametrize("current", [float("nan"), float("inf"), -float("inf"), True, "3.9",
@@ -27,3 +28,20 @@ def test_hysteresis_calibration_refuses_a_boolean_speed():
 def test_hysteresis_below_the_traction_current_is_zero_not_negative():
     # documented: >= 0 (a target below the no-load plus traction current buys no loss)
     assert husky_hysteresis_for_current(get_terrain("SANDY_LOAM"), 0.0, 0.45) == 0.0
+
+
+def test_bearing_capacity_factors_are_the_cited_closed_forms():
+    # N_q = e^(pi tan phi) tan^2(45 + phi/2), N_c = (N_q - 1) cot phi, N_gamma = 2 (N_q + 1)
+    # tan phi (Vesic 1973), as the docstring cites them; tabulated (Das, Principles of
+    # Foundation Engineering, Vesic's table) at 29 deg: 27.86, 16.44, 19.34
+    n_c, n_q, n_g = bearing_capacity_factors(29.0)
+    assert (n_c, n_q, n_g) == pytest.approx((27.86, 16.44, 19.34), abs=0.01)
+
+
+@pytest.mark.parametrize("phi", [0.0, -10.0, 90.0, 120.0, float("nan"), float("inf"), True,
+                                 "29", None])
+def test_bearing_capacity_factors_refuse_an_angle_outside_0_90(phi):
+    # phi = 0 gave N_c = -inf (0 / tan 0 after rounding), a negative angle negative factors,
+    # 90 infinite ones, NaN NaN, all without a word; True was 1 degree
+    with pytest.raises(ConfigError, match="friction_angle_deg"):
+        bearing_capacity_factors(phi)
