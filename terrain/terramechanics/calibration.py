@@ -40,8 +40,10 @@ def steady_slip(terrain, extra_demand: float = 0.0) -> float:
     Raises
     ------
     ConfigError
-        A non-finite ``extra_demand`` (NaN came out as 1.0, full spin).
+        An ``extra_demand`` that is not a real number (a boolean, text, ``None``) or not
+        finite (NaN came out as 1.0, full spin).
     """
+    config_numbers("steady_slip", extra_demand=extra_demand)
     if not math.isfinite(extra_demand):
         raise ConfigError(f"steady_slip: extra_demand must be finite, got {extra_demand}")
     f = lambda s: float(traction_coefficient(terrain.curve, s)  # noqa: E731

@@ -6,7 +6,7 @@ import pytest
 
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain
-from terrain.terramechanics.calibration import husky_hysteresis_for_current
+from terrain.terramechanics.calibration import husky_hysteresis_for_current, steady_slip
 from terrain.terramechanics.lateral import bearing_capacity_factors
 
 
@@ -45,3 +45,11 @@ def test_bearing_capacity_factors_refuse_an_angle_outside_0_90(phi):
     # 90 infinite ones, NaN NaN, all without a word; True was 1 degree
     with pytest.raises(ConfigError, match="friction_angle_deg"):
         bearing_capacity_factors(phi)
+
+
+@pytest.mark.parametrize("demand", [True, "0.1", None])
+def test_steady_slip_refuses_a_demand_that_is_not_a_real_number(demand):
+    # True was a demand of 1 (slip 1.0, full spin, on every terrain), '0.1' and None a bare
+    # TypeError inside math.isfinite
+    with pytest.raises(ConfigError, match="extra_demand"):
+        steady_slip(get_terrain("SANDY_LOAM"), demand)
