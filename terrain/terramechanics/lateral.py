@@ -25,11 +25,12 @@ over a frozen, cited :class:`SoilParams`:
    depth ``z`` and width ``l`` sideways, the passive earth pressure of Wong eq. 2.61
    ``R_b = l (0.67 c z K_pc + 0.5 z^2 gamma_s K_pgamma)`` with
    ``K_pc = (N_c - tan phi) cos^2 phi``, ``K_pgamma = (2 N_gamma / tan phi + 1) cos^2 phi``
-   and Terzaghi's bearing-capacity factors (Wong eqs. 2.62-2.63; ``N_q = exp(pi tan phi)
-   tan^2(45 deg + phi / 2)``, ``N_c = (N_q - 1) cot phi``, ``N_gamma = 2 (N_q + 1) tan phi``,
-   Vesic's form). Wong writes it for the wheel's front face; applying it to the side face
-   is an ANALOGY. The passive pressure is taken to mobilise with the same displacement law
-   as the shear (ASSUMED: both need the soil to move).
+   and bearing-capacity factors (Wong eqs. 2.62-2.63 name Terzaghi's) in the closed forms
+   of Prandtl-Reissner, ``N_q = exp(pi tan phi) tan^2(45 deg + phi / 2)``, ``N_c = (N_q - 1)
+   cot phi``, and Vesic (1973), ``N_gamma = 2 (N_q + 1) tan phi``
+   (:func:`bearing_capacity_factors`). Wong writes it for the wheel's front face; applying it
+   to the side face is an ANALOGY. The passive pressure is taken to mobilise with the same
+   displacement law as the shear (ASSUMED: both need the soil to move).
 
 The longitudinal traction of the same contact is the Janosi-Hanamoto curve of the same soil
 on the sunk patch (:func:`longitudinal_curve`, shear modulus K_x; the lateral shear has its
@@ -351,7 +352,17 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
 
 
 def bearing_capacity_factors(friction_angle_deg: float) -> tuple[float, float, float]:
-    """Terzaghi bearing-capacity factors ``N_c, N_q, N_gamma`` (Vesic's closed forms).
+    """Bearing-capacity factors ``N_c, N_q, N_gamma`` in the Prandtl-Reissner / Vesic forms.
+
+    ``N_q = exp(pi tan phi) tan^2(45 deg + phi / 2)`` (Reissner), ``N_c = (N_q - 1) cot phi``
+    (Prandtl) and ``N_gamma = 2 (N_q + 1) tan phi`` (Vesic 1973): 27.86, 16.44 and 19.34 at
+    29 deg. Wong's bulldozing coefficients (eq. 2.61) cite Terzaghi's factors, whose
+    ``K_pc = (N_c - tan phi) cos^2 phi`` and ``K_pgamma = (2 N_gamma / tan phi + 1)
+    cos^2 phi`` are Terzaghi's own definitions of ``N_c`` and ``N_gamma`` solved for the
+    passive earth-pressure coefficients; Terzaghi's closed forms are larger (``N_q =
+    e^((3 pi / 2 - phi) tan phi) / (2 cos^2(45 deg + phi / 2))``: ``N_c`` 34.24 and ``N_q``
+    19.98 at 29 deg, so ``K_pc`` 25.8 against 20.9 here). These factors are used as they
+    stand: the documented physics-v2 figures were measured with them.
 
     Parameters
     ----------
