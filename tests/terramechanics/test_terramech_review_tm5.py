@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.terramechanics import get_terrain
+from terrain.terramechanics import get_terrain, sae_slip, traction_peak
 from terrain.terramechanics.calibration import husky_hysteresis_for_current, steady_slip
-from terrain.terramechanics.lateral import bearing_capacity_factors
+from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors, contact_chord_m,
+                                            wheel_sinkage_m)
+from terrain.terramechanics.resistance import bekker_sinkage_m
+from terrain.terramechanics.traction import CurveCoefficients
 
 
 @pytest.mark.parametrize("current", [float("nan"), float("inf"), -float("inf"), True, "3.9",
@@ -53,3 +59,45 @@ def test_steady_slip_refuses_a_demand_that_is_not_a_real_number(demand):
     # TypeError inside math.isfinite
     with pytest.raises(ConfigError, match="extra_demand"):
         steady_slip(get_terrain("SANDY_LOAM"), demand)
+
+
+@pytest.mark.parametrize("load_n", [200.0, 300.0, 400.0])
+def test_wheel_sinkage_is_the_fixed_point_on_a_soil_where_plain_iteration_oscillates(load_n):
+    # with n = 0.5 (a clay-like exponent) on SNOW's moduli the map z -> bekker(W, b, l(z))
+    # is steeper than 1 and the undamped iteration z_k+1 = bekker(l(z_k)) oscillates (at
+    # 300 N it stops at z = 6.98 mm with bekker(l) = 11.4 mm); the damped one returns a pair
+    # with z = bekker(W, b, l) and l = max(l_0, 2 sqrt(2 r z - z^2)) (8.96 mm, 0.107 m)
+    soil = replace(SOILS["SNOW"], n=0.5)
+    z, length = wheel_sinkage_m(load_n, 0.11, 0.08, 0.165, soil)
+    assert 0.0 < z < 0.165
+    assert z == pytest.approx(bekker_sinkage_m(load_n, 0.11, length, soil.k_c, soil.k_phi,
+                                               soil.n), rel=1e-9)
+    assert length == pytest.approx(float(contact_chord_m(z, 0.165, 0.08)), rel=1e-9)
+
+
+def test_dead_band_zeroes_the_slip_only_below_its_speed():
+    # seed 001 ch. 7.2.1: slip 0 when both speeds "fall below" 0.05 m/s; at exactly 0.05
+    # m/s the slip is the formula's, (0.05 - 0.04) / 0.05 = 0.2
+    assert float(sae_slip(0.05, 0.04)) == pytest.approx(0.2)
+    assert float(sae_slip(0.0499, 0.04)) == 0.0
+    assert float(sae_slip(0.04, 0.05)) == pytest.approx(-0.2)
+
+
+class _RoundedPlateau:
+    """A curve that saturates at s = 0.1 and then loses 1e-12 of its value by s = 1
+    (rounding-level): flat, not an interior peak."""
+
+    def coefficients(self, abs_slip, soil_resistance):
+        s = np.asarray(abs_slip, dtype=float)
+        mu = 0.6 * np.minimum(s / 0.1, 1.0) * (1.0 - 1e-12 * s)
+        zero = np.zeros_like(s)
+        return CurveCoefficients(mu, zero, zero, zero)
+
+
+def test_traction_peak_reads_a_rounding_level_fall_as_a_flat_top():
+    # a plateau that falls by 1e-12 is monotonic: the peak is the first slip reaching 95 %
+    # of the maximum (0.095), not the start of the plateau as an interior maximum (0.1)
+    peak = traction_peak(_RoundedPlateau())
+    assert peak.monotonic
+    assert peak.slip == pytest.approx(0.095, abs=1e-4)
+    assert peak.mu_max == pytest.approx(0.6, rel=1e-9)
