@@ -527,13 +527,15 @@ def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
     Raises
     ------
     ConfigError
-        ``max_load_n`` not a finite load > 0 or ``n_grid`` not an integer >= 2 (the table
-        would hold no loaded row, and every wheel's load would be clipped to 0: no lateral
-        force at all), or ``width_m``, ``footprint_length_m`` or ``wheel_radius_m`` not a
-        finite length > 0 (a negative radius made the sinkage negative).
+        ``max_load_n`` not a finite load > 0 (a boolean, text or ``None`` included) or
+        ``n_grid`` not an integer >= 2 (the table would hold no loaded row, and every
+        wheel's load would be clipped to 0: no lateral force at all), or ``width_m``,
+        ``footprint_length_m`` or ``wheel_radius_m`` not a finite length > 0 (a negative
+        radius made the sinkage negative).
     """
     config_positive("soil_contact", width_m=width_m, footprint_length_m=footprint_length_m,
                     wheel_radius_m=wheel_radius_m)
+    config_numbers("soil_contact", max_load_n=max_load_n)
     if not (np.isfinite(max_load_n) and max_load_n > 0.0):
         raise ConfigError(f"soil_contact: max_load_n must be a finite load > 0 N, got "
                           f"{max_load_n}")

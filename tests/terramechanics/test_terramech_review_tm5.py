@@ -11,7 +11,7 @@ from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain, sae_slip, traction_peak
 from terrain.terramechanics.calibration import husky_hysteresis_for_current, steady_slip
 from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors, contact_chord_m,
-                                            wheel_sinkage_m)
+                                            soil_contact, wheel_sinkage_m)
 from terrain.terramechanics.resistance import bekker_sinkage_m
 from terrain.terramechanics.traction import CurveCoefficients
 
@@ -101,3 +101,11 @@ def test_traction_peak_reads_a_rounding_level_fall_as_a_flat_top():
     assert peak.monotonic
     assert peak.slip == pytest.approx(0.095, abs=1e-4)
     assert peak.mu_max == pytest.approx(0.6, rel=1e-9)
+
+
+@pytest.mark.parametrize("max_load", [True, "300", None, float("inf")])
+def test_soil_contact_refuses_a_largest_load_that_is_not_a_finite_number(max_load):
+    # True tabulated the wheel up to 1 N without a word (every load clipped to 1 N: almost
+    # no lateral force), '300' and None raised NumPy's bare 'isfinite not supported'
+    with pytest.raises(ConfigError, match="max_load_n"):
+        soil_contact(SOILS["SNOW"], 0.11, 0.08, 0.165, max_load)
