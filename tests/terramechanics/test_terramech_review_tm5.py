@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -10,10 +11,11 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain, sae_slip, traction_peak
 from terrain.terramechanics.calibration import husky_hysteresis_for_current, steady_slip
-from terrain.terramechanics.lateral import (SOILS, bearing_capacity_factors, contact_chord_m,
+from terrain.terramechanics.lateral import (SOILS, SoilParams, bearing_capacity_factors,
+                                            contact_chord_m,
                                             soil_contact, wheel_sinkage_m)
 from terrain.terramechanics.resistance import bekker_sinkage_m
-from terrain.terramechanics.traction import CurveCoefficients
+from terrain.terramechanics.traction import CurveCoefficients, patch_mobilisation
 
 
 @pytest.mark.parametrize("current", [float("nan"), float("inf"), -float("inf"), True, "3.9",
@@ -109,3 +111,55 @@ def test_soil_contact_refuses_a_largest_load_that_is_not_a_finite_number(max_loa
     # no lateral force), '300' and None raised NumPy's bare 'isfinite not supported'
     with pytest.raises(ConfigError, match="max_load_n"):
         soil_contact(SOILS["SNOW"], 0.11, 0.08, 0.165, max_load)
+
+
+def _taylor(coefficient, x, terms=25):
+    """``sum_k coefficient(k) x^k`` for ``k = 1..terms`` (exact to rounding for x < 0.1)."""
+    return math.fsum(coefficient(k) * x ** k for k in range(1, terms + 1))
+
+
+@pytest.mark.parametrize("a", [2e-4, 1e-3, 3e-3, 9e-3])
+def test_exponential_patch_mean_is_exact_between_the_series_and_the_curve(a):
+    # g(a) = 1 - (1 - e^-a) / a = sum_k>=1 (-1)^(k+1) a^k / (k+1)!, g'(a) its derivative;
+    # a second-order series used up to a = 1e-2 is 7e-6 off at 9e-3
+    g_exact = _taylor(lambda k: (-1) ** (k + 1) / math.factorial(k + 1), a)
+    dg_exact = _taylor(lambda k: (-1) ** k * (k + 1) / math.factorial(k + 2), a) + 0.5
+    g, dg = patch_mobilisation(np.array([a]))
+    assert g[0] == pytest.approx(g_exact, rel=1e-10)
+    assert dg[0] == pytest.approx(dg_exact, rel=1e-10)
+
+
+@pytest.mark.parametrize("kr", [0.4, 0.9])
+@pytest.mark.parametrize("u_end", [2e-4, 1e-3, 5e-3])
+def test_hump_patch_mean_is_exact_between_the_series_and_the_curve(kr, u_end):
+    # Wong's hump curve f(u) = K_r (1 - e^-u) + K_r B e (e^-u - e^-2u); its patch mean
+    # (1/U) int_0^U f by Taylor series: int (1 - e^-u) = sum_k>=2 (-1)^k U^k / k!,
+    # int (e^-u - e^-2u) = sum_k>=1 (-1)^(k+1) (1 - 2^(k-1)) U^k / k!; at U of a few
+    # 1e-3 a second-order series is 1e-6 off
+    b = 1.0 / (kr * (1.0 - math.exp(-1.0))) - 1.0
+    s0 = kr * (1.0 + b * math.e)
+    first = _taylor(lambda k: 0.0 if k < 2 else (-1) ** k / math.factorial(k), u_end)
+    second = _taylor(lambda k: (-1) ** (k + 1) * (1 - 2 ** (k - 1)) / math.factorial(k),
+                     u_end)
+    mean = kr * (first + b * math.e * second) / u_end
+    f_end = kr * (1.0 + b * math.exp(1.0 - u_end)) * -math.expm1(-u_end)
+    g, dg = patch_mobilisation(np.array([s0 * u_end]), kr)
+    assert g[0] == pytest.approx(mean, rel=1e-10)
+    assert dg[0] == pytest.approx((f_end - mean) / u_end / s0, rel=1e-7)
+
+
+def test_soil_refuses_a_friction_angle_of_90_degrees():
+    # tan 90 deg is infinite: Mohr-Coulomb has no strength and the bearing-capacity
+    # factors are infinite (the docstring: phi in (0, 90))
+    base = SOILS["SANDY_LOAM"]
+    with pytest.raises(ConfigError, match="friction_angle_deg"):
+        SoilParams("x", base.n, base.k_c, base.k_phi, base.cohesion_pa, 90.0,
+                   base.shear_modulus_m, base.unit_weight_n_m3, "test")
+
+
+@pytest.mark.parametrize("kr", [1.0, 0.0, 1.5])
+def test_patch_mobilisation_refuses_a_residual_ratio_outside_0_1(kr):
+    # K_r = 1 is no residual below the peak: f(1) = 1 and the curve then rises above its
+    # peak strength (1.05 at u = 2); 0 and 1.5 are no ratio of a residual at all
+    with pytest.raises(ConfigError, match="residual_ratio"):
+        patch_mobilisation(np.array([0.5]), kr)
