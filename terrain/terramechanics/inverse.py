@@ -127,6 +127,10 @@ def stable_side(curve: TractionCurve, points: int = INVERSE_GRID_POINTS
         ``mu`` would read as saturated at slip 0).
     """
     config_integer("stable_side points", points, 2)
+    try:
+        hash(curve)
+    except TypeError:   # a curve holding arrays (physics v2's SlipCompactionResistance)
+        return _build_stable_side(curve, points)
     return _stable_side_table(curve, points)
 
 
@@ -135,6 +139,11 @@ def _stable_side_table(curve: TractionCurve, points: int) -> tuple[np.ndarray, n
     """:func:`stable_side`, memoised per (frozen, hashable) curve: a pure function of its
     arguments, so the table is built once per curve and handed out read-only (the per-window
     physics slip inverts the same few catalogue curves thousands of times)."""
+    return _build_stable_side(curve, points)
+
+
+def _build_stable_side(curve: TractionCurve, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """The table of :func:`stable_side`, read-only (unmemoised: any curve)."""
     s_end, _ = stable_side_end(curve)
     s = np.linspace(0.0, s_end, points)
     mu = traction_coefficient(curve, s)

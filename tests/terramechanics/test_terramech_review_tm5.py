@@ -11,11 +11,14 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain, sae_slip, traction_peak
 from terrain.terramechanics.calibration import husky_hysteresis_for_current, steady_slip
+from terrain.terramechanics.inverse import slip_from_traction, stable_side
 from terrain.terramechanics.lateral import (SOILS, SoilParams, bearing_capacity_factors,
-                                            contact_chord_m,
+                                            SlipCompactionResistance, contact_chord_m,
+                                            longitudinal_curve,
                                             soil_contact, wheel_sinkage_m)
 from terrain.terramechanics.resistance import bekker_sinkage_m
-from terrain.terramechanics.traction import CurveCoefficients, patch_mobilisation
+from terrain.terramechanics.traction import (CurveCoefficients, TractionAndResistance,
+                                             patch_mobilisation, traction_coefficient)
 
 
 @pytest.mark.parametrize("current", [float("nan"), float("inf"), -float("inf"), True, "3.9",
@@ -163,3 +166,22 @@ def test_patch_mobilisation_refuses_a_residual_ratio_outside_0_1(kr):
     # peak strength (1.05 at u = 2); 0 and 1.5 are no ratio of a residual at all
     with pytest.raises(ConfigError, match="residual_ratio"):
         patch_mobilisation(np.array([0.5]), kr)
+
+
+def test_inverse_of_a_curve_holding_arrays_is_the_inverse_not_a_hash_error():
+    # physics v2's curve on a soil with slip compaction holds a SoilContact (NumPy arrays):
+    # the memoised stable side hashed it and raised Python's bare 'unhashable type:
+    # numpy.ndarray'; its traction is the soil's Janosi curve, so its inverse is that one's
+    soil = replace(SOILS["SANDY_LOAM"], slip_sinkage_ratio=5.0, slip_compaction=True)
+    contact = soil_contact(soil, 0.11, 0.08, 0.165, 400.0)
+    janosi = longitudinal_curve(contact, 122.6)
+    curve = TractionAndResistance(
+        janosi, SlipCompactionResistance(get_terrain("SANDY_LOAM").curve, contact, 122.6))
+    mu = np.array([0.1, -0.3, 0.5])
+    got = slip_from_traction(curve, mu)
+    want = slip_from_traction(janosi, mu)
+    np.testing.assert_array_equal(got.slip, want.slip)
+    np.testing.assert_array_equal(got.saturated, want.saturated)
+    s_grid, mu_grid = stable_side(curve)
+    assert not s_grid.flags.writeable and not mu_grid.flags.writeable
+    np.testing.assert_allclose(traction_coefficient(curve, got.slip[:2]), mu[:2], rtol=1e-5)
