@@ -14,9 +14,10 @@ from terrain.terramechanics.calibration import husky_hysteresis_for_current, ste
 from terrain.terramechanics.inverse import slip_from_traction, stable_side
 from terrain.terramechanics.lateral import (SOILS, SoilParams, bearing_capacity_factors,
                                             SlipCompactionResistance, contact_chord_m,
-                                            longitudinal_curve,
+                                            longitudinal_curve, slip_sinkage_m,
+                                            soil_lateral_force_and_slope,
                                             soil_contact, wheel_sinkage_m)
-from terrain.terramechanics.resistance import bekker_sinkage_m
+from terrain.terramechanics.resistance import bekker_sinkage_m, soil_resistance_coefficient
 from terrain.terramechanics.traction import (CurveCoefficients, TractionAndResistance,
                                              patch_mobilisation, traction_coefficient)
 
@@ -185,3 +186,41 @@ def test_inverse_of_a_curve_holding_arrays_is_the_inverse_not_a_hash_error():
     s_grid, mu_grid = stable_side(curve)
     assert not s_grid.flags.writeable and not mu_grid.flags.writeable
     np.testing.assert_allclose(traction_coefficient(curve, got.slip[:2]), mu[:2], rtol=1e-5)
+
+
+def test_lateral_shear_of_a_softening_soil_follows_its_hump_curve():
+    # module docstring: SNOW (K_r = 0.4) follows Wong's hump-type curve laterally too; far
+    # past the peak (a about 140) the patch mean nears K_r, not the exponential's 0.99
+    soil = SOILS["SNOW"]
+    c = soil_contact(soil, 0.11, 0.08, 0.165, 500.0)
+    load = 122.6
+    strength = np.interp(load, c.load_grid_n, c.strength_grid_n)
+    length = np.interp(load, c.load_grid_n, c.length_grid_m)
+    v, wr = np.array([0.004, 0.5]), np.array([0.3, 0.02])
+    a = length * np.abs(v) / (soil.shear_modulus_y_m * wr)
+    g_hump = patch_mobilisation(a, soil.residual_ratio)[0]
+    assert g_hump[1] < 0.6 * patch_mobilisation(a)[0][1]
+    f = soil_lateral_force_and_slope(c, np.full(2, load), v, wr)[0]
+    np.testing.assert_allclose(f, -np.tanh(v / 0.02) * strength * g_hump, rtol=1e-12)
+
+
+def test_slip_sinkage_is_even_in_the_slip():
+    # docstring: the sign of the slip ratio is ignored (a braking wheel digs in as a
+    # driving one does, z = z_0 (1 + k_s |s|)); a signed s made braking lift the wheel
+    soil = replace(SOILS["SANDY_LOAM"], slip_sinkage_ratio=5.0)
+    c = soil_contact(soil, 0.11, 0.08, 0.165, 400.0)
+    z_drive, dz_drive = slip_sinkage_m(c, 122.6, np.array([0.3]))
+    z_brake, dz_brake = slip_sinkage_m(c, 122.6, np.array([-0.3]))
+    z0 = np.interp(122.6, c.load_grid_n, c.sinkage_grid_m)
+    assert z_brake[0] == z_drive[0] == pytest.approx(z0 * 2.5, rel=1e-12)
+    assert dz_brake[0] == dz_drive[0]
+
+
+def test_soil_resistance_clips_the_slip_to_one():
+    # docstring: the slip is clipped to [-1, 1]; Brixius's 1/Bn + 0.5 |s| / sqrt(Bn) grew
+    # without bound for |s| > 1 otherwise
+    terrain = get_terrain("PLOUGHED")
+    at_one = float(soil_resistance_coefficient(terrain, 1.0))
+    assert float(soil_resistance_coefficient(terrain, 3.0)) == at_one
+    assert float(soil_resistance_coefficient(terrain, -3.0)) == at_one
+    assert at_one > float(soil_resistance_coefficient(terrain, 0.5))
