@@ -30,7 +30,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError, ImplausibleValueError, ShapeError, config_numbers
+from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
+                            config_numbers)
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -134,13 +135,18 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         ``|target_slip|`` not a finite value below 1 (at 1 no ground speed limits the wheel:
         it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, ``dt_s``
         negative or not finite, ``accel_limit_m_s2`` not finite (a NaN reference never
-        limits), or one of these not a real number (named).
+        limits), or one of these not a real number (text, ``None``, a boolean; named).
     ImplausibleValueError
         A non-finite ``omega_low_level_rad_s`` or ``v_ref_m_s`` (named): the wheel's
         reference would become NaN, its limit never bind again (a non-finite estimate
         counts as 0, as before).
+    DataFormatError
+        ``omega_low_level_rad_s``, ``v_est_m_s`` or ``v_ref_m_s`` holding booleans (named).
     """
     try:
+        if any(isinstance(x, (bool, np.bool_))   # float(True) is 1: dt_s=True was a second
+               for x in (accel_limit_m_s2, target_slip, wheel_radius_m, dt_s)):
+            raise TypeError("a boolean")
         s_t, radius, dt_s = abs(float(target_slip)), float(wheel_radius_m), float(dt_s)
         a_max = float(accel_limit_m_s2)
     except (TypeError, ValueError):   # the slow path names the argument
@@ -153,6 +159,11 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     if not math.isfinite(a_max):   # a NaN reference never binds, and stays NaN for good
         raise ConfigError(f"feedforward_step: accel_limit_m_s2 must be finite, got "
                           f"{accel_limit_m_s2}")
+    for name, x in (("omega_low_level_rad_s", omega_low_level_rad_s),
+                    ("v_est_m_s", v_est_m_s), ("v_ref_m_s", v_ref_m_s)):
+        if np.asarray(x).dtype == bool:   # a boolean command was 1 rad/s
+            raise DataFormatError(f"feedforward_step: {name} must hold real numbers, got a "
+                                  f"boolean {x!r:.60}", column=name)
     omega = np.asarray(omega_low_level_rad_s, dtype=float)
     v_est = np.asarray(v_est_m_s, dtype=float)
     v_ref = np.asarray(v_ref_m_s, dtype=float)
