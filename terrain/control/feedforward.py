@@ -57,8 +57,18 @@ def traction_acceleration_limit(terrain: TerrainParams, slip: float) -> float:
     float
         Acceleration, m/s^2; negative when the soil resistance exceeds the traction there
         (the robot cannot accelerate at that slip).
+
+    Raises
+    ------
+    ConfigError
+        ``slip`` not a real number (text, ``None``, a boolean; named) or its magnitude not
+        in [0, 1] (NaN included).
     """
+    config_numbers("traction_acceleration_limit", slip=slip)
     s = abs(float(slip))
+    if not s <= 1.0:   # NaN fails: a NaN limit; beyond 1 the curve is read past full spin
+        raise ConfigError(f"traction_acceleration_limit: slip must be a slip magnitude in "
+                          f"[0, 1], got {slip}")
     return G_M_S2 * float(traction_coefficient(terrain.curve, s)
                           - soil_resistance_coefficient(terrain, s))
 

@@ -42,3 +42,25 @@ def test_a_boolean_array_is_a_typed_error_naming_it(name):
     """A boolean command array was a command of 1 rad/s (limit engaged, correction -0.89)."""
     with pytest.raises(DataFormatError, match=f"{name} must hold real numbers"):
         feedforward_step(**_args(**{name: np.array([True, True])}))
+
+
+@pytest.mark.parametrize("slip", [True, "0.1", None, float("nan"), float("inf"), 1.5, -2.0])
+def test_the_acceleration_limit_refuses_a_slip_that_is_not_a_magnitude_in_0_1(slip):
+    """slip is a slip magnitude in [0, 1] (its sign ignored). True was slip 1, the text
+    '0.1' slip 0.1, 1.5 read the curve beyond full spin (ICE: 0.49 m/s^2) and NaN gave a
+    NaN limit, all without a word."""
+    from terrain.control.feedforward import traction_acceleration_limit
+    from terrain.terramechanics import get_terrain
+
+    with pytest.raises(ConfigError, match="slip"):
+        traction_acceleration_limit(get_terrain("ICE"), slip)
+
+
+def test_the_acceleration_limit_still_takes_either_end_of_the_range():
+    """0 and +-1 are slips (at rest, full spin or a locked wheel); g (mu - rho) there."""
+    from terrain.control.feedforward import traction_acceleration_limit
+    from terrain.terramechanics import get_terrain
+
+    ice = get_terrain("ICE")
+    assert traction_acceleration_limit(ice, 0.0) == pytest.approx(0.0, abs=1e-12)
+    assert traction_acceleration_limit(ice, -1.0) == traction_acceleration_limit(ice, 1.0)
