@@ -1,0 +1,47 @@
+"""Fifth review pass of the closed loop (terrain.control.closed_loop.TractionLoop)."""
+
+from __future__ import annotations
+
+import numpy as np
+from control_helpers import observation
+
+from terrain.control import build_slip_table, config_for_vehicle
+from terrain.control.closed_loop import TractionLoop
+from terrain.control.estimators import VelocityEstimate
+
+
+class _Spinning:
+    """Constant estimate: ground 0.2 m/s, wheels at 0.6 m/s rim (slip 0.67), accelerating."""
+
+    name, limits = "fixed", "constant stub"
+
+    def __init__(self, radius):
+        self.radius = radius
+
+    def update(self, obs):
+        n = len(obs.omega_low_level)
+        return VelocityEstimate(np.full(n, 0.6 / self.radius), np.full(n, 0.2), np.ones(n),
+                                0.2, 0.0)
+
+
+def test_a_call_whose_time_goes_back_does_not_move_the_feed_forward_ramp():
+    """With the feed-forward on, a call stamped before the previous one has no interval:
+    the ramp of the reference ground speed grows by a_max x 0 (it is still lifted to the
+    estimate, 0.2 m/s), the correction is the safe output's 0, and the next call in order
+    ramps from there. A negative interval handed to feedforward_step is a ConfigError that
+    stopped the run."""
+    cfg, n = config_for_vehicle("husky", kp=2.0)
+    r = cfg.wheel_radius_m
+    loop = TractionLoop(cfg, n, _Spinning(r), build_slip_table(["ICE"]),
+                        lambda t: ("ICE", 1.0), feed_forward=True)
+    omega = np.full(n, 0.6 / r)
+    for t in (0.02, 0.04, 0.06):
+        loop(observation(t, omega))
+    assert loop.ff_engaged.all()
+    v_ref = loop.v_ref.copy()
+    c = loop(observation(0.05, omega))
+    assert loop.log[-1]["safe"].all() and np.all(c == 0.0)
+    np.testing.assert_array_equal(loop.v_ref, np.maximum(v_ref, 0.2))
+    c = loop(observation(0.07, omega))
+    assert not loop.log[-1]["safe"].any() and np.all(c < 0.0)
+    assert np.all(loop.v_ref > v_ref)
