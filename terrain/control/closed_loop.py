@@ -30,7 +30,7 @@ from terrain.control.desired_slip import SlipTable, select_target
 from terrain.control.estimators import SlipEstimator, estimator_for
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_flags, config_numbers
 from terrain.sim.closed_loop import Observation
 from terrain.sim.sensors import physics_step_index
 from terrain.sim.simulate import Simulation, motor_currents
@@ -166,8 +166,9 @@ class TractionLoop:
     Raises
     ------
     ConfigError
-        ``accel_tau_s`` not a real number, or not finite and >= 0 (named); ``n_units`` not
-        an integer >= 1 (:class:`~terrain.control.traction.TractionController`).
+        ``accel_tau_s`` not a real number, or not finite and >= 0 (named); ``apply`` or
+        ``feed_forward`` not a boolean (``"no"``, 0; named); ``n_units`` not an integer
+        >= 1 (:class:`~terrain.control.traction.TractionController`).
     """
 
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
@@ -176,6 +177,8 @@ class TractionLoop:
                  feed_forward: bool = True,
                  observer: Callable[[Observation], None] | None = None) -> None:
         config_numbers("TractionLoop", accel_tau_s=accel_tau_s)
+        # read by truthiness, apply="no" ran the controller instead of the shadow mode
+        config_flags("TractionLoop", apply=apply, feed_forward=feed_forward)
         if not 0.0 <= accel_tau_s < math.inf:   # NaN fails: it turned the filter off, unsaid
             raise ConfigError(f"TractionLoop accel_tau_s must be a finite time constant >= 0 "
                               f"s (0 = no filter), got {accel_tau_s}")
@@ -549,7 +552,8 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     ------
     ConfigError
         Unknown vehicle, terrain or scenario, bad gains (not a pair of real numbers, named,
-        or refused by :class:`~terrain.control.traction.TractionControlConfig`), or both
+        or refused by :class:`~terrain.control.traction.TractionControlConfig`),
+        ``controller_on`` or ``feed_forward`` not a boolean (:class:`TractionLoop`), or both
         ``terrain_decision`` and ``live_terrain`` given.
     """
     from terrain.control.desired_slip import build_slip_table

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from control_helpers import observation
 
 from terrain.control import build_slip_table, config_for_vehicle
 from terrain.control.closed_loop import TractionLoop
 from terrain.control.estimators import VelocityEstimate
+from terrain.errors import ConfigError
 
 
 class _Spinning:
@@ -45,3 +47,19 @@ def test_a_call_whose_time_goes_back_does_not_move_the_feed_forward_ramp():
     c = loop(observation(0.07, omega))
     assert not loop.log[-1]["safe"].any() and np.all(c < 0.0)
     assert np.all(loop.v_ref > v_ref)
+
+
+@pytest.mark.parametrize("name, value", [("apply", "no"), ("apply", 0), ("apply", None),
+                                         ("feed_forward", "off"), ("feed_forward", 1)])
+def test_a_switch_that_is_not_a_boolean_is_a_typed_error_naming_it(name, value):
+    """apply and feed_forward were read by truthiness: apply='no' (the text of a config
+    file) ran the controller on the robot instead of in shadow mode, feed_forward='off'
+    switched the feed-forward on, and 0 / 1 passed as False / True; a NumPy boolean is
+    still a boolean."""
+    cfg, n = config_for_vehicle("husky", kp=2.0)
+    args = (cfg, n, _Spinning(cfg.wheel_radius_m), build_slip_table(["ICE"]),
+            lambda t: ("ICE", 1.0))
+    with pytest.raises(ConfigError, match=f"TractionLoop.{name} must be True or False"):
+        TractionLoop(*args, **{name: value})
+    loop = TractionLoop(*args, **{name: np.False_})
+    assert getattr(loop, name) is False
