@@ -209,7 +209,9 @@ class TractionLoop:
         Returns
         -------
         ndarray, shape (n_units,)
-            Wheel speed correction, rad/s (zeros in shadow mode).
+            Wheel speed correction, rad/s (zeros in shadow mode; the traction step's safe
+            output, zeros, at a call whose time went back or is not finite, and at the call
+            after a non-finite one: no interval is known).
 
         Raises
         ------
@@ -240,12 +242,15 @@ class TractionLoop:
         first = self.t_prev is None
         dt = 0.0 if first else obs.t_s - self.t_prev
         self.t_prev = obs.t_s
+        # the interval the filter and the ramp move by: 0 for a time that went back or is
+        # unknown (NaN: max(nan, 0.0) is nan, which stopped the feed-forward)
+        elapsed = dt if dt > 0.0 else 0.0
         a = np.asarray(est.a_local_m_s2, dtype=float)
         if self.a_filtered is None or not np.all(np.isfinite(self.a_filtered)):
             self.a_filtered = a.copy()
         elif self.accel_tau_s > 0:   # a call back in time (dt < 0) moves the filter by 0
             self.a_filtered = self.a_filtered + (
-                1 - math.exp(-max(dt, 0.0) / self.accel_tau_s)) * (a - self.a_filtered)
+                1 - math.exp(-elapsed / self.accel_tau_s)) * (a - self.a_filtered)
         else:
             self.a_filtered = a
         # a repeated time is floored at 1 us; a time that went back (dt < 0) is passed on:
@@ -264,7 +269,7 @@ class TractionLoop:
             ff = feedforward_step(self.v_ref, est.v_long_m_s, obs.omega_low_level,
                                   self._accel_limit[key], targets.traction,
                                   self.controller.config.wheel_radius_m,
-                                  FIRST_FEEDFORWARD_STEP_S if first else max(dt, 0.0),
+                                  FIRST_FEEDFORWARD_STEP_S if first else elapsed,
                                   self.ff_engaged)
             self.v_ref, self.ff_engaged = ff.v_ref_m_s, ff.engaged
             # the feed-forward replaces the feedback only where its limit binds (engaged) and
