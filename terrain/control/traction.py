@@ -496,7 +496,8 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     Raises
     ------
     ShapeError
-        An input array's shape differs from the state's ``(n,)`` (named in the message).
+        An input array's shape, or a field of ``state``, differs from the state's integral
+        ``(n,)`` (named in the message).
     DataFormatError
         An input that is not a real number (text, ``None`` for a scalar, a complex
         scalar, a boolean or an array of booleans), named.
@@ -530,6 +531,12 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                  and math.isfinite(targets.traction) and math.isfinite(targets.braking)
                  and math.isfinite(targets.steady))
     n = state.integral.shape
+    # zip below stops at the shortest array: a state field of another length dropped wheels
+    if (state.slip_prev.shape != n or state.slip_valid.shape != n or state.derivative.shape
+            != n or state.correction.shape != n or state.active.shape != n):
+        bad = [f"{k} {np.shape(a)}" for k, a in zip(state._fields, state) if np.shape(a) != n]
+        raise ShapeError(f"traction control step: the state's integral has {n} drive units, "
+                         f"its {', '.join(bad)}")
     arrays = {"omega_low_level_rad_s": omega_ll, "omega_meas_rad_s": omega, "v_long_m_s": v,
               "a_local_m_s2": acc}
     if slip is not None:
