@@ -473,7 +473,7 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     a_local_m_s2 : ndarray, shape (n,)
         Longitudinal acceleration of each wheel centre, m/s^2.
     chassis_speed_m_s : float
-        Magnitude of the chassis velocity, m/s.
+        Magnitude of the chassis velocity, m/s (>= 0; NaN: the safe output).
     dt_s : float
         Time since the previous step, s (> 0); zero, negative or non-finite -> the safe
         output, which clears the memory (a repeated time stamp restarts the integral;
@@ -503,7 +503,8 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         scalar, a boolean or an array of booleans), named.
     ImplausibleValueError
         A non-finite ``omega_low_level_rad_s``: the command the correction is added to
-        (a non-finite measurement or estimate only suspends the correction, as before).
+        (a non-finite measurement or estimate only suspends the correction, as before);
+        a negative ``chassis_speed_m_s`` (a signed speed, not a magnitude).
     """
     cfg = config
     _refuse_booleans(omega_low_level_rad_s=omega_low_level_rad_s,
@@ -525,6 +526,10 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                      a_local_m_s2=a_local_m_s2, chassis_speed_m_s=chassis_speed_m_s,
                      dt_s=dt_s, input_age_s=input_age_s, slip=slip)
         raise
+    if chassis_speed_m_s < 0.0:   # a signed speed: never enabled while reversing
+        raise ImplausibleValueError(
+            f"traction control step: chassis_speed_m_s is the magnitude of the chassis "
+            f"velocity, got {chassis_speed_m_s}", column="chassis_speed_m_s")
     radius = cfg.wheel_radius_m
     global_ok = (math.isfinite(chassis_speed_m_s) and math.isfinite(dt_s) and dt_s > 0.0
                  and age_is_fresh(input_age_s, cfg.max_input_age_s)
