@@ -31,6 +31,7 @@ import numpy as np
 
 from terrain.errors import (ConfigError, ShapeError, TimeStepError, config_numbers,
                             config_positive)
+from terrain.run import times_out_of_order
 from terrain.vehicles.common import wrap_angle
 from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
 
@@ -159,7 +160,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     ShapeError
         Inconsistent shapes.
     TimeStepError
-        Times not strictly increasing.
+        Times not finite and strictly increasing (the first such sample named).
     """
     t = np.asarray(t_s, dtype=float)
     p = np.asarray(pose, dtype=float)
@@ -169,9 +170,11 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     if t.ndim != 1 or p.shape != (n, 3) or vr.shape != (n,) or vl.shape != (n,):
         raise ShapeError(f"need t (N,), pose (N, 3), v_right (N,), v_left (N,); got "
                          f"{t.shape}, {p.shape}, {vr.shape}, {vl.shape}")
+    bad = times_out_of_order(t)      # (a NaN time passed ``dt <= 0``: NaN compares False)
+    if bad.size:
+        raise TimeStepError(f"observer sample times must be finite and increase strictly: "
+                            f"sample {bad[0]} at {t[bad[0]]:.6g} s")
     dt = np.diff(t)
-    if (dt <= 0).any():
-        raise TimeStepError("observer sample times must increase strictly")
     s = settings
     d = s.half_track_m
     l1, l2, l3 = s.l_gains

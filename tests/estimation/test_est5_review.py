@@ -1,0 +1,28 @@
+"""Review est5: inputs and settings of the estimators that were silently accepted."""
+
+import numpy as np
+import pytest
+
+from terrain.errors import TimeStepError
+from terrain.estimation.observer import run_adaptive_observer
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_observer_refuses_a_non_finite_sample_time_naming_it(bad):
+    # a NaN time passed the "strictly increasing" test (NaN compares False) and made every
+    # estimate from that sample on NaN
+    t = np.array([0.0, 0.01, bad, 0.03, 0.04])
+    pose = np.zeros((5, 3))
+    pose[:, 0] = np.arange(5) * 0.01
+    v = np.ones(5)
+    with pytest.raises(TimeStepError, match="sample 2"):
+        run_adaptive_observer(t, pose, v, v)
+
+
+def test_observer_still_runs_on_finite_increasing_times():
+    t = np.arange(5) * 0.01
+    pose = np.zeros((5, 3))
+    pose[:, 0] = t
+    v = np.ones(5)
+    res = run_adaptive_observer(t, pose, v, v)
+    assert np.isfinite(res.eta).all()
