@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import (ConfigError, ShapeError, TimeStepError, config_numbers,
-                            config_positive)
+from terrain.errors import (ConfigError, ShapeError, TimeStepError, config_flags,
+                            config_numbers, config_positive)
 from terrain.run import times_out_of_order
 from terrain.vehicles.common import wrap_angle
 from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
@@ -63,7 +63,7 @@ class AdaptiveObserverSettings:
     ConfigError
         ``half_track_m`` or a gain not a finite number > 0, a tuple of the wrong length or
         holding something other than real numbers, ``eta_bounds`` not ``0 <= lo < hi``, or
-        ``eta0`` not finite and inside ``eta_bounds``.
+        ``eta0`` not finite and inside ``eta_bounds``, or ``use_position`` not a boolean.
     """
 
     half_track_m: float = HUSKY.track_m / 2.0
@@ -77,6 +77,7 @@ class AdaptiveObserverSettings:
         # (a NaN gain or eta0 passed the range tests below and made every estimate NaN)
         owner = "AdaptiveObserverSettings"
         config_positive(owner, half_track_m=self.half_track_m)
+        config_flags(owner, use_position=self.use_position)   # ("no" was read as on)
         for name, size in (("l_gains", 3), ("lambda_gains", 2), ("eta0", 2), ("eta_bounds", 2)):
             values = getattr(self, name)
             if np.ndim(values) != 1 or len(values) != size:

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from terrain.errors import TimeStepError
-from terrain.estimation.observer import run_adaptive_observer
+from terrain.errors import ConfigError, TimeStepError
+from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
@@ -26,3 +26,14 @@ def test_observer_still_runs_on_finite_increasing_times():
     v = np.ones(5)
     res = run_adaptive_observer(t, pose, v, v)
     assert np.isfinite(res.eta).all()
+
+
+@pytest.mark.parametrize("value", ["no", 1, None])
+def test_observer_use_position_must_be_a_boolean(value):
+    # read by truthiness: the text "no" (or 1) ran the position rows
+    with pytest.raises(ConfigError, match="use_position"):
+        AdaptiveObserverSettings(use_position=value)
+
+
+def test_observer_use_position_takes_a_numpy_boolean():
+    assert AdaptiveObserverSettings(use_position=np.bool_(False)).use_position == np.False_
