@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, ShapeError,
-                            config_numbers)
+                            config_numbers, config_positive)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
@@ -145,7 +145,7 @@ class SkidSteerModel(KernelModel):
     wheel_r_scale : float
         Multiplies the wheel-speed variance (e.g. the up-sampling factor when the wheel
         stream has been interpolated onto a faster clock, so that the correlated repeats do
-        not count as independent measurements), dimensionless.
+        not count as independent measurements), dimensionless, finite and > 0.
 
     Attributes
     ----------
@@ -153,6 +153,11 @@ class SkidSteerModel(KernelModel):
         :data:`STATE_NAMES` (4).
     measurement_names : tuple of str
         :data:`MEASUREMENT_NAMES` (3).
+
+    Raises
+    ------
+    ConfigError
+        ``wheel_r_scale`` not a finite real number > 0 (text, a boolean).
     """
 
     settings: SkidSteerSettings = field(default_factory=SkidSteerSettings)
@@ -161,6 +166,12 @@ class SkidSteerModel(KernelModel):
     measurement_names: tuple[str, ...] = field(default=MEASUREMENT_NAMES, init=False)
     transition_kernel = staticmethod(transition_into)
     observation_kernel = staticmethod(observation_into)
+
+    def __post_init__(self) -> None:
+        # (the text "2" was a variance 2 x, True 1 x; 0, negative or NaN failed later
+        # in run_filter as an R that is not a covariance, without naming the field)
+        config_positive("SkidSteerModel", wheel_r_scale=self.wheel_r_scale)
+        super().__post_init__()
 
     @property
     def sensor_rows(self) -> Mapping[str, tuple[int, ...]]:

@@ -5,6 +5,7 @@ import pytest
 
 from terrain.errors import ConfigError, TimeStepError
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.estimation.skid_steer import SkidSteerModel
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
@@ -37,3 +38,16 @@ def test_observer_use_position_must_be_a_boolean(value):
 
 def test_observer_use_position_takes_a_numpy_boolean():
     assert AdaptiveObserverSettings(use_position=np.bool_(False)).use_position == np.False_
+
+
+@pytest.mark.parametrize("value", ["2", True, 0.0, -1.0, np.nan, np.inf, None])
+def test_skid_steer_wheel_variance_scale_must_be_a_finite_number_gt_0(value):
+    # "2" gave a variance 2 x, True 1 x, a negative or NaN one failed later without naming it
+    with pytest.raises(ConfigError, match="wheel_r_scale"):
+        SkidSteerModel(wheel_r_scale=value)
+
+
+def test_skid_steer_wheel_variance_scale_multiplies_the_wheel_rows_only():
+    base = SkidSteerModel().R_diag
+    np.testing.assert_allclose(SkidSteerModel(wheel_r_scale=np.float64(4.0)).R_diag,
+                               base * [4.0, 4.0, 1.0])
