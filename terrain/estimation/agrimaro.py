@@ -131,9 +131,9 @@ class AgriMaRoEKFSettings:
     Raises
     ------
     ConfigError
-        Wrong number of values, non-finite or negative variances (``r_diag`` must be > 0),
-        unknown ``q_per`` / ``coriolis``, or an EMA entry with an unknown sensor or an alpha
-        outside [0, 1).
+        Wrong number of values, a value that is not a real number (text, a boolean),
+        non-finite or negative variances (``r_diag`` must be > 0), unknown ``q_per`` /
+        ``coriolis``, or an EMA entry with an unknown sensor or an alpha outside [0, 1).
     """
 
     p0_diag: tuple[float, ...] = THESIS_P0
@@ -145,8 +145,11 @@ class AgriMaRoEKFSettings:
     name: str = "thesis"
 
     def __post_init__(self) -> None:
+        owner = "AgriMaRoEKFSettings"
         for label, values, size in (("p0_diag", self.p0_diag, 12), ("r_diag", self.r_diag, 14),
                                     ("q_diag", self.q_diag, 12)):
+            if np.ndim(values) == 1:     # (float() took True as 1 and the text "0.5")
+                config_numbers(owner, **{f"{label}[{i}]": x for i, x in enumerate(values)})
             v = np.asarray(values, dtype=float)
             if v.shape != (size,) or not np.isfinite(v).all():
                 raise ConfigError(f"{label} needs {size} finite values, got {values}")
@@ -160,6 +163,7 @@ class AgriMaRoEKFSettings:
             raise ConfigError(f"unknown coriolis convention {self.coriolis!r}; valid: "
                               f"{', '.join(CORIOLIS_CONVENTIONS)}")
         for sensor, alpha in self.ema_alpha:
+            config_numbers(owner, **{f"ema_alpha[{sensor!r}]": alpha})
             if sensor not in SENSOR_ROWS or not 0.0 <= float(alpha) < 1.0:
                 raise ConfigError(f"bad EMA entry ({sensor!r}, {alpha}); sensors "
                                   f"{list(SENSOR_ROWS)}, alpha in [0, 1)")

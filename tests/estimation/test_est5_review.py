@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError, TimeStepError
+from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.skid_steer import SkidSteerModel
 
@@ -51,3 +52,22 @@ def test_skid_steer_wheel_variance_scale_multiplies_the_wheel_rows_only():
     base = SkidSteerModel().R_diag
     np.testing.assert_allclose(SkidSteerModel(wheel_r_scale=np.float64(4.0)).R_diag,
                                base * [4.0, 4.0, 1.0])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(p0_diag=(True,) * 12), r"p0_diag\[0\]"),
+    (dict(q_diag=("0.5",) + THESIS_Q[1:]), r"q_diag\[0\]"),
+    (dict(r_diag=THESIS_R[:13] + ("5e-4",)), r"r_diag\[13\]"),
+    (dict(ema_alpha=(("cam", "0.2"),)), "ema_alpha"),
+    (dict(ema_alpha=(("cam", False),)), "ema_alpha"),
+])
+def test_agrimaro_settings_refuse_text_and_booleans_as_numbers(kwargs, match):
+    # np.asarray(..., float) turned True into a variance of 1 and "0.5" into 0.5
+    with pytest.raises(ConfigError, match=match):
+        AgriMaRoEKFSettings(**kwargs)
+
+
+def test_agrimaro_settings_take_numpy_numbers():
+    s = AgriMaRoEKFSettings(p0_diag=tuple(np.float64(v) for v in THESIS_P0),
+                            ema_alpha=(("cam", np.float32(0.2)),))
+    assert s.alpha("cam") == pytest.approx(0.2)
