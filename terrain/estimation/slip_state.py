@@ -37,7 +37,7 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_flags, config_numbers, config_positive
 from terrain.estimation.agrimaro import SENSOR_COLUMNS
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams,
                                                    slip_state_observation_into, transition_into)
@@ -92,7 +92,8 @@ class SlipStateModel(KernelModel):
     Raises
     ------
     ConfigError
-        Unknown ``accel`` or ``q_per``, ``r_diag`` of the wrong length or not finite and
+        Unknown ``accel`` or ``q_per``, ``camera`` not a boolean, a variance that is not a
+        real number (text, a boolean), ``r_diag`` of the wrong length or not finite and
         > 0, ``p0_diag`` / ``q_diag`` without 14 finite values >= 0.
     """
 
@@ -112,6 +113,12 @@ class SlipStateModel(KernelModel):
     def __post_init__(self) -> None:
         if self.accel not in ("coriolis", "direct"):
             raise ConfigError(f"accel must be 'coriolis' or 'direct', got {self.accel!r}")
+        owner = "SlipStateModel"
+        config_flags(owner, camera=self.camera)        # ("no" appended the camera rows)
+        for label in ("p0_diag", "r_diag", "q_diag"):  # (float() took True and "0.1")
+            values = getattr(self, label)
+            if values is not None and np.ndim(values) == 1:
+                config_numbers(owner, **{f"{label}[{i}]": x for i, x in enumerate(values)})
         names = ["omega_1", "omega_2", "omega_3", "ax", "ay", "wz", "yaw_imu", "delta_1",
                  "delta_2", "delta_3"]
         if self.camera:

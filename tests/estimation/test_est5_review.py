@@ -7,6 +7,7 @@ from terrain.errors import ConfigError, TimeStepError
 from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.skid_steer import SkidSteerModel
+from terrain.estimation.slip_state import SlipStateModel
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
@@ -71,3 +72,21 @@ def test_agrimaro_settings_take_numpy_numbers():
     s = AgriMaRoEKFSettings(p0_diag=tuple(np.float64(v) for v in THESIS_P0),
                             ema_alpha=(("cam", np.float32(0.2)),))
     assert s.alpha("cam") == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(camera="no"), "camera"),
+    (dict(camera=1), "camera"),
+    (dict(p0_diag=(True,) * 14), r"p0_diag\[0\]"),
+    (dict(q_diag=("0.1",) * 14), r"q_diag\[0\]"),
+    (dict(r_diag=(1e-3,) * 9 + (True,)), r"r_diag\[9\]"),
+])
+def test_slip_state_model_refuses_text_and_booleans(kwargs, match):
+    # camera="no" appended the four camera rows; True and "0.1" passed float()
+    with pytest.raises(ConfigError, match=match):
+        SlipStateModel(**kwargs)
+
+
+def test_slip_state_model_takes_numpy_values():
+    m = SlipStateModel(camera=np.bool_(True), q_diag=tuple(np.float64(0.01) for _ in range(14)))
+    assert m.n_measurements == 14
