@@ -37,7 +37,7 @@ from scipy import stats
 from scipy.linalg import lapack
 
 from terrain.errors import (ConfigError, CovarianceError, NonFiniteInputError, ShapeError,
-                            TimeStepError)
+                            TimeStepError, config_integer, config_numbers)
 
 #: Relative tolerance of the symmetry check of a covariance matrix.
 SYMMETRY_RTOL = 1e-6
@@ -220,7 +220,8 @@ class Gate:
     Raises
     ------
     ConfigError
-        ``probability`` not a number in (0, 1), or ``max_dof`` < 1 (a ``ValueError``).
+        ``probability`` not a real number in (0, 1) (text, a boolean), or ``max_dof`` not an
+        integer >= 1 (a ``ValueError``).
     """
 
     probability: float = 0.999
@@ -229,14 +230,14 @@ class Gate:
 
     def __post_init__(self) -> None:
         try:
+            config_numbers("Gate", probability=self.probability)   # (the text "0.999" passed)
             p = float(self.probability)
-        except (TypeError, ValueError):
+        except ConfigError:
             p = float("nan")
         if not 0.0 < p < 1.0:
             raise ConfigError(f"gate probability must be in (0, 1) exclusive, e.g. 0.999, got "
-                              f"{self.probability}")
-        if int(self.max_dof) < 1:
-            raise ConfigError(f"gate max_dof must be >= 1, got {self.max_dof}")
+                              f"{self.probability!r}")
+        config_integer("Gate.max_dof", self.max_dof, 1)   # (2.7 was 2 and True 1)
         table = stats.chi2.ppf(float(self.probability), np.arange(1, int(self.max_dof) + 1))
         object.__setattr__(self, "_thresholds", table)
 

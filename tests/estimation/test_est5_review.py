@@ -5,6 +5,7 @@ import pytest
 
 from terrain.errors import ConfigError, TimeStepError
 from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
+from terrain.estimation.ekf import Gate
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.skid_steer import SkidSteerModel
 from terrain.estimation.slip_state import SlipStateModel
@@ -90,3 +91,19 @@ def test_slip_state_model_refuses_text_and_booleans(kwargs, match):
 def test_slip_state_model_takes_numpy_values():
     m = SlipStateModel(camera=np.bool_(True), q_diag=tuple(np.float64(0.01) for _ in range(14)))
     assert m.n_measurements == 14
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(probability="0.999"), "probability"),
+    (dict(max_dof=True), "max_dof"),
+    (dict(max_dof=2.7), "max_dof"),
+])
+def test_gate_refuses_text_and_non_integer_sizes(kwargs, match):
+    # "0.999" passed float(); max_dof=2.7 built thresholds for 2, True for 1 degree of freedom
+    with pytest.raises(ConfigError, match=match):
+        Gate(**kwargs)
+
+
+def test_gate_takes_numpy_numbers():
+    g = Gate(np.float64(0.99), max_dof=np.int64(3))
+    assert g.threshold(1) == pytest.approx(6.634896601021214)
