@@ -1,12 +1,17 @@
 """Review est5: inputs and settings of the estimators that were silently accepted."""
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
 from terrain.errors import ConfigError, TimeStepError
 from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
 from terrain.estimation.ekf import Gate
+from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.estimation.prefilter import ema_filter
+from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.estimation.skid_steer import SkidSteerModel
 from terrain.estimation.slip_state import SlipStateModel
 
@@ -107,3 +112,75 @@ def test_gate_refuses_text_and_non_integer_sizes(kwargs, match):
 def test_gate_takes_numpy_numbers():
     g = Gate(np.float64(0.99), max_dof=np.int64(3))
     assert g.threshold(1) == pytest.approx(6.634896601021214)
+
+
+def test_a_non_finite_sample_outside_the_grid_is_counted_once_as_outside():
+    # (mutation: counting it as non_finite too made the counts add up to more samples)
+    t = np.array([-5.0, 0.5, 99.0])
+    values = np.array([[np.nan], [0.0], [np.inf]])
+    res = run_filter(SkidSteerModel(), make_grid(0.0, 1.0, 100.0),
+                     {"gyro": SensorSamples(t, values)})
+    c = res.counts["gyro"]
+    assert (c["outside"], c["non_finite"], c["used"]) == (2, 0, 1)
+
+
+@dataclass(frozen=True)
+class _DriftModel(StateSpaceModel):
+    """One state drifting up at 1 per second, bounded above by 0.5, one direct row."""
+
+    state_names: tuple = ("s",)
+    measurement_names: tuple = ("z",)
+
+    @property
+    def sensor_rows(self):
+        return {"z": (0,)}
+
+    def f(self, x, dt):
+        return x + dt
+
+    def F(self, x, dt):
+        return np.eye(1)
+
+    def h(self, x):
+        return x.copy()
+
+    def H(self, x):
+        return np.eye(1)
+
+    def Q(self, dt):
+        return np.eye(1) * 1e-4
+
+    @property
+    def R_diag(self):
+        return np.ones(1)
+
+    @property
+    def x0(self):
+        return np.zeros(1)
+
+    @property
+    def P0(self):
+        return np.eye(1)
+
+    @property
+    def state_bounds(self):
+        return np.array([-np.inf]), np.array([0.5])
+
+
+def test_state_bounds_clip_every_step_when_step_bounds_are_given():
+    # run_filter: with step_bounds the model's state_bounds clip after each step's update
+    # or prediction (a step with no sample included), not only after an update
+    grid = make_grid(0.0, 2.0, 10.0)
+    free = (np.full((grid.size, 1), -np.inf), np.full((grid.size, 1), np.inf))
+    res = run_filter(_DriftModel(), grid, {}, step_bounds=free)
+    assert res.x.max() <= 0.5
+    assert res.meta["state_bounds_clipped"] == int((grid > 0.5 + 1e-9).sum())   # after 0.5 s
+    # without step_bounds and without samples nothing clips (the documented rule)
+    assert run_filter(_DriftModel(), grid, {}).x[-1, 0] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("alpha", [0.1, 0.5, 0.9])
+def test_ema_starts_at_the_first_sample(alpha):
+    # eq. 6.12 with y_0 = z_0: a constant input comes out unchanged from the first sample
+    out = ema_filter(np.full((4, 2), 3.0), alpha)
+    np.testing.assert_allclose(out, 3.0)
