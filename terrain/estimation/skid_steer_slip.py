@@ -606,8 +606,11 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     dd = dd.max(axis=1) if dd.ndim == 2 else dd
     ts = np.zeros(tp.size) if transient_std is None else np.asarray(transient_std, float)
     ts = ts.max(axis=1) if ts.ndim == 2 else ts
-    if sp.shape != (tp.size, 2) or sd.shape != (tp.size,) or dd.shape != (tp.size,) \
-            or ts.shape != (tp.size,):
+    # (k,) or (k, 2) each: a (k, 3) array passed once reduced over its columns
+    sides = all(np.ndim(a) < 2 or np.shape(a)[1] == 2
+                for a in (pseudo_std, drift_std, transient_std))
+    if not sides or sp.shape != (tp.size, 2) or sd.shape != (tp.size,) \
+            or dd.shape != (tp.size,) or ts.shape != (tp.size,):
         raise ShapeError(f"pseudo-measurements need t (k,), slip (k, 2), std and drift std "
                          f"(k,) or (k, 2); got {tp.shape}, {sp.shape}, {np.shape(pseudo_std)}, "
                          f"{np.shape(drift_std)}, {np.shape(transient_std)}")

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError, TimeStepError
+from terrain.errors import ConfigError, ShapeError, TimeStepError
 from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
 from terrain.estimation.ekf import Gate
 from terrain.estimation.model import StateSpaceModel
@@ -13,6 +13,7 @@ from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_o
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.estimation.skid_steer import SkidSteerModel
+from terrain.estimation.skid_steer_slip import run_with_pseudo_slip
 from terrain.estimation.slip_state import SlipStateModel
 
 
@@ -184,3 +185,16 @@ def test_ema_starts_at_the_first_sample(alpha):
     # eq. 6.12 with y_0 = z_0: a constant input comes out unchanged from the first sample
     out = ema_filter(np.full((4, 2), 3.0), alpha)
     np.testing.assert_allclose(out, 3.0)
+
+
+@pytest.mark.parametrize("name, value", [("pseudo_std", np.full((1, 3), 0.1)),
+                                         ("drift_std", np.full((1, 3), 0.1)),
+                                         ("transient_std", np.full((1, 3), 0.1))])
+def test_pseudo_slip_stds_of_three_columns_are_a_shape_error(name, value):
+    # (k, 3) passed the shape check after its max over the columns; pseudo_std then failed
+    # in a bare NumPy broadcast ValueError
+    kwargs = dict(pseudo_t_s=np.array([0.5]), pseudo_slip=np.zeros((1, 2)),
+                  pseudo_std=np.full(1, 0.1))
+    kwargs[name] = value
+    with pytest.raises(ShapeError, match="pseudo-measurements"):
+        run_with_pseudo_slip(make_grid(0.0, 1.0, 10.0), {}, **kwargs)
