@@ -7,13 +7,15 @@ import pytest
 
 from terrain.errors import ConfigError, ShapeError, TimeStepError
 from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
+from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.estimation.ekf import Gate
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
-from terrain.estimation.prefilter import ema_filter
+from terrain.estimation.prefilter import ema_filter, robust_noise_std
 from terrain.estimation.runner import SensorSamples, make_grid, run_filter
 from terrain.estimation.skid_steer import SkidSteerModel
-from terrain.estimation.skid_steer_slip import run_with_pseudo_slip
+from terrain.estimation.skid_steer_slip import STATE_NAMES as SKID_SLIP_STATES
+from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, run_with_pseudo_slip
 from terrain.estimation.slip_state import SlipStateModel
 
 
@@ -198,3 +200,34 @@ def test_pseudo_slip_stds_of_three_columns_are_a_shape_error(name, value):
     kwargs[name] = value
     with pytest.raises(ShapeError, match="pseudo-measurements"):
         run_with_pseudo_slip(make_grid(0.0, 1.0, 10.0), {}, **kwargs)
+
+
+def test_slip_states_are_bounded_to_the_sae_range_and_nothing_else():
+    lower, upper = SkidSteerSlipModel().state_bounds
+    slips = [SKID_SLIP_STATES.index("slip_1"), SKID_SLIP_STATES.index("slip_2")]
+    np.testing.assert_array_equal(lower[slips], -1.0)
+    np.testing.assert_array_equal(upper[slips], 1.0)
+    others = np.setdiff1d(np.arange(lower.size), slips)
+    assert np.isneginf(lower[others]).all() and np.isposinf(upper[others]).all()
+
+
+def test_the_autocorrelation_sum_stops_at_the_first_lag_below_the_threshold():
+    # Sokal's window: a periodic series whose autocorrelation comes back above the threshold
+    # after its first dip sums only the lags before that dip
+    rng = np.random.default_rng(3)
+    k = np.arange(4000)
+    x = np.sin(2 * np.pi * k / 40.0) + 0.3 * rng.standard_normal(k.size)
+    d = x - x.mean()
+    rho = np.array([d[:-j] @ d[j:] for j in range(1, 200)]) / (d @ d)
+    first_below = int(np.argmax(rho < 0.05))
+    expected = 1.0 + 2.0 * rho[:first_below].sum()
+    assert rho[first_below:].max() > 0.5              # it does come back
+    tau = float(integrated_autocorrelation_time(x, max_lag=200))
+    assert tau == pytest.approx(expected, rel=1e-9)
+
+
+def test_robust_noise_std_uses_a_centred_odd_window():
+    # +-1 alternating: a centred 5-sample mean is +-0.2, so the residual is +-0.8 (an even
+    # 4-sample window would average to 0 and give 1.0)
+    x = np.where(np.arange(400) % 2 == 0, 1.0, -1.0)
+    assert float(robust_noise_std(x, rate_hz=8.0, window_s=0.5)) == pytest.approx(1.4826 * 0.8)
