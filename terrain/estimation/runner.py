@@ -62,11 +62,14 @@ def check_rate_hz(rate_hz: float | None, name: str = "rate_hz") -> float | None:
     Raises
     ------
     ConfigError
-        Not a finite number in ``[MIN_RATE_HZ, MAX_RATE_HZ]`` Hz.
+        Not a finite number in ``[MIN_RATE_HZ, MAX_RATE_HZ]`` Hz (a boolean or text is not a
+        number).
     """
     if rate_hz is None:
         return None
     try:
+        if isinstance(rate_hz, (bool, np.bool_, str, bytes)):   # True was 1 Hz, "100" 100 Hz
+            raise TypeError
         rate = float(rate_hz)
     except (TypeError, ValueError):
         raise ConfigError(f"{name} must be a number of Hz, got {rate_hz!r}") from None

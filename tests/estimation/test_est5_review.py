@@ -12,7 +12,7 @@ from terrain.estimation.ekf import Gate
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.prefilter import ema_filter, robust_noise_std
-from terrain.estimation.runner import SensorSamples, make_grid, run_filter
+from terrain.estimation.runner import SensorSamples, check_rate_hz, make_grid, run_filter
 from terrain.estimation.skid_steer import SkidSteerModel
 from terrain.estimation.skid_steer_slip import STATE_NAMES as SKID_SLIP_STATES
 from terrain.estimation.skid_steer_slip import SkidSteerSlipModel, run_with_pseudo_slip
@@ -231,3 +231,14 @@ def test_robust_noise_std_uses_a_centred_odd_window():
     # 4-sample window would average to 0 and give 1.0)
     x = np.where(np.arange(400) % 2 == 0, 1.0, -1.0)
     assert float(robust_noise_std(x, rate_hz=8.0, window_s=0.5)) == pytest.approx(1.4826 * 0.8)
+
+
+@pytest.mark.parametrize("rate", [True, np.True_, "100"])
+def test_a_filter_rate_that_is_a_boolean_or_text_is_refused(rate):
+    # float(True) ran the filter at 1 Hz, float("100") at 100 Hz from text
+    with pytest.raises(ConfigError, match="rate_hz must be a number"):
+        check_rate_hz(rate)
+
+
+def test_a_filter_rate_may_be_a_numpy_number():
+    assert check_rate_hz(np.float32(200.0)) == 200.0 and check_rate_hz(np.int64(50)) == 50.0
