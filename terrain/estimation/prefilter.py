@@ -52,15 +52,22 @@ def ema_filter(values: np.ndarray, alpha: float,
     Raises
     ------
     EstimationError
-        ``alpha`` outside [0, 1), or an angle column outside the values' columns.
+        ``alpha`` not a number in [0, 1) (a boolean or text included), or an angle column
+        outside the values' columns.
 
     Examples
     --------
     >>> ema_filter(np.array([0.0, 10.0, np.nan, 10.0]), 0.5).tolist()
     [0.0, 5.0, nan, 8.75]
     """
-    if not 0.0 <= float(alpha) < 1.0:
-        raise EstimationError(f"EMA alpha must be in [0, 1), got {alpha}")
+    try:      # (float() took the text "0.5", and False as "no filtering")
+        if isinstance(alpha, (bool, np.bool_, str, bytes)):
+            raise TypeError
+        ok = 0.0 <= float(alpha) < 1.0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise EstimationError(f"EMA alpha must be a number in [0, 1), got {alpha!r}")
     v = np.asarray(values, dtype=float)
     n_columns = v.shape[1] if v.ndim == 2 else 1
     if any(not 0 <= int(c) < n_columns for c in angle_columns):

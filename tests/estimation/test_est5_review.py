@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError, ShapeError, TimeStepError
+from terrain.errors import ConfigError, EstimationError, ShapeError, TimeStepError
 from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
 from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.estimation.ekf import Gate
@@ -242,3 +242,10 @@ def test_a_filter_rate_that_is_a_boolean_or_text_is_refused(rate):
 
 def test_a_filter_rate_may_be_a_numpy_number():
     assert check_rate_hz(np.float32(200.0)) == 200.0 and check_rate_hz(np.int64(50)) == 50.0
+
+
+@pytest.mark.parametrize("alpha", [False, np.False_, "0.5", None])
+def test_ema_alpha_that_is_a_boolean_or_text_is_refused(alpha):
+    # float("0.5") smoothed with text, float(False) passed as "no filtering"
+    with pytest.raises(EstimationError, match="EMA alpha must be"):
+        ema_filter(np.arange(4.0), alpha)
