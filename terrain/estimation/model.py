@@ -304,7 +304,8 @@ class KernelModel(StateSpaceModel):
         fx : ndarray, shape (n,)
         F : ndarray, shape (n, n)
         """
-        return transition_pair(type(self).transition_kernel, x, NO_INPUT, dt, self._p)
+        return transition_pair(type(self).transition_kernel, x, NO_INPUT, dt, self._p,
+                               self.n_states)
 
     def h(self, x: np.ndarray) -> np.ndarray:
         """Measurement model: first output of :meth:`observation`.
@@ -348,7 +349,7 @@ class KernelModel(StateSpaceModel):
         H : ndarray, shape (m, n)
         """
         return observation_pair(type(self).observation_kernel, x, self._p,
-                                len(self.measurement_names))
+                                len(self.measurement_names), self.n_states)
 
     def kernel_for_fast_loop(self, q_diag: tuple[float, ...], q_per: str) -> FastKernel:
         """The model's kernels and constants for the compiled loop of

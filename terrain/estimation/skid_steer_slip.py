@@ -276,7 +276,7 @@ class SkidSteerSlipModel(StateSpaceModel):
         fx : ndarray, shape (8,)
         F : ndarray, shape (8, 8)
         """
-        return transition_pair(transition_into, x, NO_INPUT, dt, self._p)
+        return transition_pair(transition_into, x, NO_INPUT, dt, self._p, N_STATES)
 
     def f(self, x: np.ndarray, dt: float) -> np.ndarray:
         """Next state.
@@ -343,7 +343,7 @@ class SkidSteerSlipModel(StateSpaceModel):
         hx : ndarray, shape (7,)
         H : ndarray, shape (7, 8)
         """
-        return observation_pair(observation_into, x, self._p, N_MEASUREMENTS)
+        return observation_pair(observation_into, x, self._p, N_MEASUREMENTS, N_STATES)
 
     def h(self, x: np.ndarray) -> np.ndarray:
         """Measurement ``[vel_l, vel_r, wz, slip_1, slip_2, ax, az]``.

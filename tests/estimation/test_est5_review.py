@@ -6,9 +6,13 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError, EstimationError, ShapeError, TimeStepError
-from terrain.estimation.agrimaro import THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings
+from terrain.estimation.agrimaro import (THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings,
+                                         AgriMaRoModel)
 from terrain.estimation.consistency import integrated_autocorrelation_time
 from terrain.estimation.ekf import Gate
+from terrain.estimation.equations import agrimaro as eq_agrimaro
+from terrain.estimation.equations import skid_steer as eq_skid
+from terrain.estimation.equations import skid_steer_slip as eq_skid_slip
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.prefilter import ema_filter, robust_noise_std
@@ -249,3 +253,32 @@ def test_ema_alpha_that_is_a_boolean_or_text_is_refused(alpha):
     # float("0.5") smoothed with text, float(False) passed as "no filtering"
     with pytest.raises(EstimationError, match="EMA alpha must be"):
         ema_filter(np.arange(4.0), alpha)
+
+
+def _models_of_every_kernel():
+    return [AgriMaRoModel(), SlipStateModel(), SkidSteerModel(), SkidSteerSlipModel()]
+
+
+@pytest.mark.parametrize("model", _models_of_every_kernel(), ids=lambda m: type(m).__name__)
+@pytest.mark.parametrize("method", ["f", "F", "h", "H", "transition", "observation"])
+def test_a_state_of_the_wrong_length_is_a_shape_error_not_a_kernel_call(model, method):
+    # the compiled kernels run without bounds checks: AgriMaRoModel().f(np.ones(5), 0.1)
+    # returned values read past the array, SkidSteerModel().h(np.ones(2)) crashed the
+    # interpreter (segmentation fault)
+    x = np.ones(model.n_states - 2)
+    call = getattr(model, method)
+    with pytest.raises(ShapeError, match=f"{model.n_states}"):
+        call(x, 0.1) if method in ("f", "F", "transition") else call(x)
+
+
+@pytest.mark.parametrize("module, n", [(eq_skid, 4), (eq_skid_slip, 8), (eq_agrimaro, 12)])
+def test_the_equation_functions_refuse_a_state_of_the_wrong_length(module, n):
+    with pytest.raises(ShapeError, match=f"{n}"):
+        module.h(np.ones(n - 1))
+    with pytest.raises(ShapeError, match=f"{n}"):
+        module.H(np.ones(n + 1))
+
+
+def test_a_state_of_the_right_length_still_evaluates():
+    m = SkidSteerModel()
+    np.testing.assert_allclose(m.h(np.array([1.0, 0.0, 0.01, 0.0])), [1.0, 1.0, 0.01])

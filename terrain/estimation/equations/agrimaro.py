@@ -380,7 +380,8 @@ def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     ndarray, shape (14,)
         Rows in the order of :data:`terrain.estimation.agrimaro.MEASUREMENT_NAMES`.
     """
-    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL)[0]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL,
+                            N_STATES_FINAL)[0]
 
 
 def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
@@ -397,7 +398,8 @@ def H(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) 
     -------
     ndarray, shape (14, 12)
     """
-    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL)[1]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS_FINAL,
+                            N_STATES_FINAL)[1]
 
 
 __all__ = ["AgriMaRoEquationParams", "NO_INPUT", "wheel_rim_speed", "transition_into",

@@ -11,14 +11,27 @@ from typing import Callable
 
 import numpy as np
 
+from terrain.errors import ShapeError
+
 #: No control input: the models of :mod:`terrain.estimation.equations` are driven by their
 #: states (accelerations, random walks), not by an input vector.
 NO_INPUT = np.zeros(0)
 NO_INPUT.flags.writeable = False
 
 
+def _state(x: np.ndarray, n_states: int | None) -> np.ndarray:
+    """``x`` as a C-contiguous float64 vector of ``n_states`` entries (the compiled kernels
+    run without bounds checks: a shorter state was read, and written, past its end)."""
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if x.ndim != 1 or (n_states is not None and x.shape[0] != n_states):
+        want = f"({n_states},)" if n_states is not None else "(n,)"
+        raise ShapeError(f"the model's state must have shape {want}, got {x.shape}")
+    return x
+
+
 def transition_pair(kernel: Callable[..., None], x: np.ndarray, u: np.ndarray, dt: float,
-                    p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                    p: np.ndarray, n_states: int | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """``(f(x), F(x))`` of a process kernel, in new arrays.
 
     Parameters
@@ -33,6 +46,8 @@ def transition_pair(kernel: Callable[..., None], x: np.ndarray, u: np.ndarray, d
         Step, s.
     p : ndarray
         The model's packed constants (``as_array()`` of its parameter dataclass).
+    n_states : int, optional
+        The state length the kernel reads (None: not checked).
 
     Returns
     -------
@@ -40,8 +55,13 @@ def transition_pair(kernel: Callable[..., None], x: np.ndarray, u: np.ndarray, d
         Next state.
     F : ndarray, shape (n, n)
         Jacobian ``df/dx``.
+
+    Raises
+    ------
+    ShapeError
+        ``x`` not one-dimensional, or not of length ``n_states``.
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
+    x = _state(x, n_states)
     n = x.shape[0]
     fx, F = np.empty(n), np.empty((n, n))
     kernel(x, u, float(dt), p, fx, F)
@@ -49,7 +69,7 @@ def transition_pair(kernel: Callable[..., None], x: np.ndarray, u: np.ndarray, d
 
 
 def observation_pair(kernel: Callable[..., None], x: np.ndarray, p: np.ndarray,
-                     m: int) -> tuple[np.ndarray, np.ndarray]:
+                     m: int, n_states: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(h(x), H(x))`` of a measurement kernel, in new arrays.
 
     Parameters
@@ -62,6 +82,8 @@ def observation_pair(kernel: Callable[..., None], x: np.ndarray, p: np.ndarray,
         The model's packed constants (``as_array()`` of its parameter dataclass).
     m : int
         Number of measurement rows the kernel writes.
+    n_states : int, optional
+        The state length the kernel reads (None: not checked).
 
     Returns
     -------
@@ -69,8 +91,13 @@ def observation_pair(kernel: Callable[..., None], x: np.ndarray, p: np.ndarray,
         Predicted measurement.
     H : ndarray, shape (m, n)
         Jacobian ``dh/dx``.
+
+    Raises
+    ------
+    ShapeError
+        ``x`` not one-dimensional, or not of length ``n_states``.
     """
-    x = np.ascontiguousarray(x, dtype=np.float64)
+    x = _state(x, n_states)
     hx, H = np.empty(m), np.empty((m, x.shape[0]))
     kernel(x, p, hx, H)
     return hx, H

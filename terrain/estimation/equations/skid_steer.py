@@ -129,7 +129,8 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (4,)
     """
-    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array(),
+                           N_STATES)[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -151,7 +152,8 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (4, 4)
     """
-    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array(),
+                           N_STATES)[1]
 
 
 def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
@@ -168,7 +170,8 @@ def h(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     -------
     ndarray, shape (3,)
     """
-    return observation_pair(observation_into, x, params.as_array(), N_ROWS)[0]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS,
+                            N_STATES)[0]
 
 
 def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()) -> np.ndarray:
@@ -185,7 +188,8 @@ def H(x: np.ndarray, params: SkidSteerEquationParams = SkidSteerEquationParams()
     -------
     ndarray, shape (3, 4)
     """
-    return observation_pair(observation_into, x, params.as_array(), N_ROWS)[1]
+    return observation_pair(observation_into, x, params.as_array(), N_ROWS,
+                            N_STATES)[1]
 
 
 __all__ = ["SkidSteerEquationParams", "NO_INPUT", "transition_into", "observation_into",

@@ -173,7 +173,8 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (8,)
     """
-    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array(),
+                           N_STATES)[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -195,7 +196,8 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     -------
     ndarray, shape (8, 8)
     """
-    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
+    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array(),
+                           N_STATES)[1]
 
 
 def h(x: np.ndarray,
@@ -213,7 +215,8 @@ def h(x: np.ndarray,
     -------
     ndarray, shape (7,)
     """
-    return observation_pair(observation_into, x, params.as_array(), N_MEASUREMENTS)[0]
+    return observation_pair(observation_into, x, params.as_array(), N_MEASUREMENTS,
+                            N_STATES)[0]
 
 
 def H(x: np.ndarray,
@@ -231,7 +234,8 @@ def H(x: np.ndarray,
     -------
     ndarray, shape (7, 8)
     """
-    return observation_pair(observation_into, x, params.as_array(), N_MEASUREMENTS)[1]
+    return observation_pair(observation_into, x, params.as_array(), N_MEASUREMENTS,
+                            N_STATES)[1]
 
 
 __all__ = ["SkidSteerSlipEquationParams", "N_STATES", "N_MEASUREMENTS", "STANDARD_GRAVITY_M_S2",
