@@ -282,3 +282,12 @@ def test_the_equation_functions_refuse_a_state_of_the_wrong_length(module, n):
 def test_a_state_of_the_right_length_still_evaluates():
     m = SkidSteerModel()
     np.testing.assert_allclose(m.h(np.array([1.0, 0.0, 0.01, 0.0])), [1.0, 1.0, 0.01])
+
+
+@pytest.mark.parametrize("n", [5, 13, 15])
+def test_the_agrimaro_process_function_takes_12_or_14_states_only(n):
+    # its kernel reads states 0..7 and copies n: a 5-state vector was read past its end
+    for fun in (eq_agrimaro.f, eq_agrimaro.F):
+        with pytest.raises(ShapeError, match="12 or 14"):
+            fun(np.ones(n), None, 0.1)
+    assert eq_agrimaro.f(np.zeros(14), None, 0.1).shape == (14,)

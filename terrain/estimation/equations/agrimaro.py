@@ -48,6 +48,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
+from terrain.errors import ShapeError
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.vehicles.swerve import (AGRIMARO, AgriMaRoParams, point_velocity, rim_speed_row,
                                      wheel_rim_speed)
@@ -321,6 +322,15 @@ def slip_state_observation_into(x, p, hx, H):
 
 # -- python-control style API -----------------------------------------------------------------
 
+def _either_design(x: np.ndarray) -> np.ndarray:
+    """``x`` when it is a state of either design (12 or 14 entries); the kernel reads entries
+    0..7 and copies the rest without bounds checks, so anything else is a ShapeError."""
+    if np.shape(x) not in ((N_STATES_FINAL,), (N_STATES_SLIP,)):
+        raise ShapeError(f"an AgriMaRo state has shape ({N_STATES_FINAL},) or "
+                         f"({N_STATES_SLIP},) (12 or 14 states), got {np.shape(x)}")
+    return x
+
+
 def f(x: np.ndarray, u: np.ndarray | None, dt: float,
       params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
     """Next state (eqs. 6.2 / 4.36 with the eq. 4.33-4.34 Coriolis signs).
@@ -339,8 +349,14 @@ def f(x: np.ndarray, u: np.ndarray | None, dt: float,
     Returns
     -------
     ndarray, shape (n,)
+
+    Raises
+    ------
+    ShapeError
+        ``x`` not of 12 or 14 states.
     """
-    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[0]
+    return transition_pair(transition_into, _either_design(x), NO_INPUT, dt,
+                           params.as_array())[0]
 
 
 def F(x: np.ndarray, u: np.ndarray | None, dt: float,
@@ -361,8 +377,14 @@ def F(x: np.ndarray, u: np.ndarray | None, dt: float,
     Returns
     -------
     ndarray, shape (n, n)
+
+    Raises
+    ------
+    ShapeError
+        ``x`` not of 12 or 14 states.
     """
-    return transition_pair(transition_into, x, NO_INPUT, dt, params.as_array())[1]
+    return transition_pair(transition_into, _either_design(x), NO_INPUT, dt,
+                           params.as_array())[1]
 
 
 def h(x: np.ndarray, params: AgriMaRoEquationParams = AgriMaRoEquationParams()) -> np.ndarray:
