@@ -433,7 +433,17 @@ def quantile_sorted(sorted_x, q):   # pragma: no cover - compiled
     -------
     float
         The ``q`` quantile, in the unit of ``sorted_x``.
+
+    Raises
+    ------
+    ValueError
+        ``q`` outside [0, 1] (or NaN), or ``sorted_x`` empty (compiled code has no bounds
+        check: they read memory beyond the array's ends).
     """
+    if not 0.0 <= q <= 1.0:
+        raise ValueError("quantile_sorted: q must be a number in [0, 1]")
+    if sorted_x.shape[0] < 1:
+        raise ValueError("quantile_sorted: sorted_x must hold at least one value")
     pos = q * (sorted_x.shape[0] - 1)
     lo = int(np.floor(pos))
     hi = min(lo + 1, sorted_x.shape[0] - 1)
