@@ -15,7 +15,7 @@ import numba
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, ShapeError, config_numbers
+from terrain.errors import ConfigError, ShapeError, config_integer, config_numbers
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
@@ -300,7 +300,7 @@ def band_weights(n_samples: int, rate_hz: float,
     Parameters
     ----------
     n_samples : int
-        Window length, samples.
+        Window length, samples (an integer >= 1).
     rate_hz : float
         Sampling rate, Hz.
     bands_hz : tuple of (low, high)
@@ -319,10 +319,12 @@ def band_weights(n_samples: int, rate_hz: float,
     Raises
     ------
     ConfigError
-        ``rate_hz`` not a finite number > 0, or a band that is not finite, has
-        ``low >= high``, ends at or below 0 Hz or starts above the Nyquist frequency (it
-        would hold no content, only a borrowed nearest bin).
+        ``n_samples`` not an integer >= 1, ``rate_hz`` not a finite number > 0, or a band
+        that is not finite, has ``low >= high``, ends at or below 0 Hz or starts above the
+        Nyquist frequency (it would hold no content, only a borrowed nearest bin).
     """
+    # (0 was a bare ZeroDivisionError, 2.5 or -4 an error inside NumPy, True one sample)
+    config_integer("band_weights.n_samples", n_samples, 1)
     config_numbers("band_weights", rate_hz=rate_hz)
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise ConfigError(f"band_weights: rate_hz must be a finite number > 0 Hz, "

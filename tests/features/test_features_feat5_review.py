@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from features import calculators as calc
+from terrain.errors import ConfigError
 
 
 @pytest.mark.parametrize("q", [1.5, -0.1, np.nan])
@@ -21,3 +22,12 @@ def test_quantile_sorted_refuses_an_empty_array():
     """No sample has no quantile (it read the memory before the array)."""
     with pytest.raises(ValueError, match="at least one value"):
         calc.quantile_sorted(np.zeros(0), 0.5)
+
+
+@pytest.mark.parametrize("n", [0, -4, 2.5, True])
+def test_band_weights_refuse_a_window_length_that_is_not_a_count(n):
+    """0 samples raised Python's bare ZeroDivisionError, -4 NumPy's 'zero-size array to
+    reduction operation minimum', 2.5 NumPy's 'n should be an integer', naming no
+    argument; True was taken as 1 sample."""
+    with pytest.raises(ConfigError, match="band_weights.n_samples must be an integer >= 1"):
+        calc.band_weights(n, 50.0, ((0.0, 5.0),))
