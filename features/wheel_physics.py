@@ -190,10 +190,11 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     track_m : float
         Track width B, m (Husky A200 by default; > 0).
     speed_scale_m_s : float
-        Speed scale ``v0`` of ``m_v``; below it the robot counts as standing, m/s (> 0).
+        Speed scale ``v0`` of ``m_v``; at or below it the robot counts as standing
+        (``moving__fraction`` counts ``|v| > v0``), m/s (> 0).
     yaw_scale_rad_s : float
-        Yaw-rate scale ``w0`` of ``m_w``; below it the robot counts as going straight,
-        rad/s (> 0).
+        Yaw-rate scale ``w0`` of ``m_w``; at or below it the robot counts as going straight
+        (``turning__fraction`` counts ``|omega| > w0``), rad/s (> 0).
     ridge : float
         Ridge weight of the fits (per sample, squared regressor units; > 0, so that a
         window without motion still has one solution).

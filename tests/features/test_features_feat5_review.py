@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from features import calculators as calc
+from features.wheel_physics import PHYSICS_FEATURES, physics_features
 from terrain.errors import ConfigError
 
 
@@ -31,3 +32,23 @@ def test_band_weights_refuse_a_window_length_that_is_not_a_count(n):
     argument; True was taken as 1 sample."""
     with pytest.raises(ConfigError, match="band_weights.n_samples must be an integer >= 1"):
         calc.band_weights(n, 50.0, ((0.0, 5.0),))
+
+
+def test_moving_and_turning_fractions_count_speeds_strictly_above_their_scales():
+    """A window driven at exactly the speed scale v0 (yaw rate exactly w0) counts as
+    standing (straight): moving__fraction is the share of samples with |v| > v0."""
+    n = 20
+    names = list(PHYSICS_FEATURES)
+    track = 0.5
+    cur = np.full((1, n), 2.0)
+
+    def fractions(vel_l, vel_r):
+        out = physics_features(np.full((1, n), vel_l), np.full((1, n), vel_r), cur, cur,
+                               10.0, track_m=track, speed_scale_m_s=0.25,
+                               yaw_scale_rad_s=0.5)[0]
+        return out[names.index("moving__fraction")], out[names.index("turning__fraction")]
+
+    assert fractions(0.25, 0.25) == (0.0, 0.0)          # |v| = v0: standing
+    assert fractions(0.375, 0.375) == (1.0, 0.0)
+    assert fractions(0.125, 0.375) == (0.0, 0.0)         # v = v0, omega = 0.25/0.5 = w0
+    assert fractions(0.0, 0.5) == (0.0, 1.0)             # v = v0, omega = 1.0 > w0
