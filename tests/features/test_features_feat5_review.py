@@ -4,11 +4,16 @@ formulas pinned by known values (tests written for defects and surviving hand mu
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from features import calculators as calc
+from features import slip_features
+from features.slip_features import SLIP_CHANNELS, slip_targets
+from features.windows import WindowSet
 from features.wheel_physics import PHYSICS_FEATURES, physics_features
 from terrain.errors import ConfigError
+from terrain.run import TIME, Run
 
 
 @pytest.mark.parametrize("q", [1.5, -0.1, np.nan])
@@ -52,3 +57,40 @@ def test_moving_and_turning_fractions_count_speeds_strictly_above_their_scales()
     assert fractions(0.375, 0.375) == (1.0, 0.0)
     assert fractions(0.125, 0.375) == (0.0, 0.0)         # v = v0, omega = 0.25/0.5 = w0
     assert fractions(0.0, 0.5) == (0.0, 1.0)             # v = v0, omega = 1.0 > w0
+
+
+def _quarter_second_truth(yaw_rate):
+    """A simulated run whose truth holds slip_1 = t on a 0.25 s clock (exact sums)."""
+    tt = np.arange(0.0, 10.0, 0.25)
+    truth = pd.DataFrame({TIME: tt, "slip_1": tt, "slip_2": 0.5, "yaw_rate": yaw_rate,
+                          "v_by": 0.0, "terrain": "SNOW"})
+    return Run("sim1", "sim", "SNOW", {"truth": truth})
+
+
+def _two_second_windows(t0):
+    n, dv = 100, 0.25
+    values = {c: np.zeros((len(t0), n)) for c in SLIP_CHANNELS}
+    values.update(vel_l=np.full((len(t0), n), 0.5), vel_r=np.full((len(t0), n), 0.5 + dv),
+                  vel_diff=np.full((len(t0), n), dv))
+    X = np.stack([values[c] for c in SLIP_CHANNELS], axis=1)
+    ids = np.array(["sim1"] * len(t0), dtype=object)
+    t0 = np.asarray(t0, dtype=float)
+    return WindowSet(X, SLIP_CHANNELS, ids, ids, ids, t0, t0 + 2.0, 50.0)
+
+
+def test_slip_targets_average_the_truth_inside_the_window_end_excluded():
+    """A window is [t_start, t_end): the truth sample at t_end belongs to the next window
+    (slip_1 = t on a 0.25 s clock: the 0-2 s window averages 0, 0.25, ..., 1.75 -> 0.875,
+    not 1.0 with the sample at 2 s)."""
+    Y = slip_targets([_quarter_second_truth(0.5)], _two_second_windows([0.0, 2.0]), 0.5)
+    np.testing.assert_allclose(Y["slip_1"], [0.875, 2.875], rtol=0, atol=1e-15)
+
+
+def test_the_chi_target_is_defined_at_exactly_the_minimum_turn_rate(monkeypatch):
+    """chi is NaN only when the robot turns slower than MIN_TURN_RATE_RAD_S (module
+    docstring): at exactly that rate it is mean(v_R - v_L) / (B yaw rate)."""
+    monkeypatch.setattr(slip_features, "MIN_TURN_RATE_RAD_S", 0.125)   # exact window sums
+    Y = slip_targets([_quarter_second_truth(0.125)], _two_second_windows([0.0]), 0.5)
+    assert Y.loc[0, "chi"] == 0.25 / (0.5 * 0.125)
+    Y = slip_targets([_quarter_second_truth(0.0625)], _two_second_windows([0.0]), 0.5)
+    assert np.isnan(Y.loc[0, "chi"])
