@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import stats as sps
 
 from features import calculators as calc
+from features.reference import reference_features
 from features import slip_features
 from features.slip_features import SLIP_CHANNELS, slip_targets
 from features.windows import WindowSet
@@ -94,3 +96,20 @@ def test_the_chi_target_is_defined_at_exactly_the_minimum_turn_rate(monkeypatch)
     assert Y.loc[0, "chi"] == 0.25 / (0.5 * 0.125)
     Y = slip_targets([_quarter_second_truth(0.0625)], _two_second_windows([0.0]), 0.5)
     assert np.isnan(Y.loc[0, "chi"])
+
+
+@pytest.mark.parametrize("scale, shaped", [(3e-6, True), (5e-7, False)])
+def test_the_shape_moments_floor_is_a_population_variance_of_1e_12(scale, shaped):
+    """Skewness and kurtosis are 0 only where m2 <= 1e-12 (std <= 1e-6 in the channel's
+    unit, the documented floor of near-constant windows, as the scipy reference has it):
+    9.81 m/s^2 with a spike of 3 um/s^2 (std 3.9e-6) keeps scipy's shape values
+    (Bernoulli 1/4: 2/sqrt(3), -2/3); with 0.5 um/s^2 (std 6.5e-7) both are 0."""
+    x = (9.81 + scale * np.array([0.0, 0.0, 0.0, 3.0]))[None, None, :]
+    got = calc.statistics(x, ("skewness", "kurtosis"))[0, 0]
+    if shaped:
+        np.testing.assert_allclose(got, [sps.skew(x[0, 0]), sps.kurtosis(x[0, 0])], rtol=1e-6)
+        np.testing.assert_allclose(got, [2.0 / np.sqrt(3.0), -2.0 / 3.0], rtol=1e-6)
+    else:
+        assert got.tolist() == [0.0, 0.0]
+    ref = reference_features(x, ("ax",), 50.0)[0]
+    assert ref[2:4].tolist() == pytest.approx(got.tolist(), rel=1e-6)
