@@ -49,8 +49,15 @@ def reference_features(X: np.ndarray, channels: Sequence[str], rate_hz: float) -
                 continue
             f, p = signal.periodogram(w[idx[c]], fs=rate_hz, window="hann", detrend="constant",
                                       scaling="density")
+            # WindowFeatures' rule: [lo, hi) with a bin within 1e-9 of the bin spacing of
+            # an edge on it (rfftfreq gives 5 Hz as 4.999999999999999), and the nearest
+            # bin(s) for a band holding none (a short window's bins are wider than a band)
+            tol = 1e-9 * (f[1] - f[0]) if len(f) > 1 else 0.0
             for lo, hi in fx.bands_:
-                sel = (f >= lo) & (f < hi)
+                sel = (f >= lo - tol) & (f < hi - tol)
+                if not sel.any():
+                    gap = np.abs(f - 0.5 * (lo + hi))
+                    sel = gap == gap.min()
                 row.append(np.log10(p[sel].mean() + 1e-12))
         for name in fx.get_feature_names_out()[len(row):]:
             sig = name.split("__")[0]

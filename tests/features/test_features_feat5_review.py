@@ -3,6 +3,8 @@ formulas pinned by known values (tests written for defects and surviving hand mu
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,6 +14,7 @@ from features import calculators as calc
 from features.reference import reference_features
 from features import slip_features
 from features.slip_features import SLIP_CHANNELS, slip_targets
+from features.transformers import WindowFeatures
 from features.windows import WindowSet
 from features.wheel_physics import PHYSICS_FEATURES, physics_features
 from terrain.errors import ConfigError
@@ -113,3 +116,18 @@ def test_the_shape_moments_floor_is_a_population_variance_of_1e_12(scale, shaped
         assert got.tolist() == [0.0, 0.0]
     ref = reference_features(x, ("ax",), 50.0)[0]
     assert ref[2:4].tolist() == pytest.approx(got.tolist(), rel=1e-6)
+
+
+@pytest.mark.parametrize("n", [10, 70])
+def test_the_scipy_reference_gives_the_columns_of_window_features_for_any_length(n):
+    """The reference took a band's mean over the periodogram bins with ``low <= f < high``
+    exactly: 10-sample windows at 50 Hz (5 Hz bins) left 2.5 Hz bands without a bin (NaN,
+    where WindowFeatures takes the nearest bin), and at 70 samples rfftfreq's 5 Hz bin
+    (4.999999999999999) went to the 2.5-5 Hz band (log power off by 0.42)."""
+    rng = np.random.default_rng(1)
+    X = rng.standard_normal((3, 2, n))
+    want = WindowFeatures(("ax", "wz"), 50.0).fit_transform(X)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")       # (no 'Mean of empty slice')
+        got = reference_features(X, ("ax", "wz"), 50.0)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
