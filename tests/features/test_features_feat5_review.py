@@ -11,6 +11,7 @@ import pytest
 from scipy import stats as sps
 
 from features import calculators as calc
+from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from features.reference import reference_features
 from features import slip_features
 from features.slip_features import SLIP_CHANNELS, slip_targets
@@ -131,3 +132,13 @@ def test_the_scipy_reference_gives_the_columns_of_window_features_for_any_length
         warnings.simplefilter("error")       # (no 'Mean of empty slice')
         got = reference_features(X, ("ax", "wz"), 50.0)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+
+
+def test_a_one_row_frame_gets_nan_ekf_channels_not_a_filter_step():
+    """A frame shorter than 2 rows gets the EKF channels as NaN (documented); a '< 1'
+    mutant ran the filter on one row at an assumed 1 Hz clock (ekf_v_bx 0.547 m/s)."""
+    frame = pd.DataFrame({TIME: [0.0], "vel_l": [0.5], "vel_r": [0.6], "wz": [0.1]})
+    out = add_ekf_channels(frame)
+    assert list(out.columns) == list(frame.columns) + list(EKF_CHANNELS)
+    assert out[list(EKF_CHANNELS)].isna().all().all()
+    pd.testing.assert_frame_equal(out[list(frame.columns)], frame)
