@@ -14,12 +14,16 @@ from features import calculators as calc
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from features.reference import reference_features
 from features import slip_features
-from features.slip_features import SLIP_CHANNELS, slip_targets
+from features.slip_features import SLIP_CHANNELS, slip_targets, slip_windows
+from features.slip_outputs import slip_model_outputs
 from features.transformers import WindowFeatures
 from features.windows import WindowSet
 from features.wheel_physics import PHYSICS_FEATURES, physics_features
 from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir
+from terrain.io.writer import write_run
 from terrain.run import TIME, Run
+from terrain.sim import SimConfig, simulate
 
 
 @pytest.mark.parametrize("q", [1.5, -0.1, np.nan])
@@ -142,3 +146,17 @@ def test_a_one_row_frame_gets_nan_ekf_channels_not_a_filter_step():
     assert list(out.columns) == list(frame.columns) + list(EKF_CHANNELS)
     assert out[list(EKF_CHANNELS)].isna().all().all()
     pd.testing.assert_frame_equal(out[list(frame.columns)], frame)
+
+
+def test_slip_model_outputs_are_stamped_at_the_window_centres(tmp_path):
+    """Each output's t_s is the centre of its 2 s window (the time a window mean
+    describes, documented), one hop (1 s) apart: start + 1 s, not the window start."""
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                                 scenario="straight_accel", duration_s=6.0, seed=3)), tmp_path)
+    run = read_runs_dir(tmp_path, dataset="centre")[0]
+    ws = slip_windows([run])
+    out = slip_model_outputs(run)
+    assert len(ws) >= 3
+    for key in ("physics", "physics_interval", "physics_current", "physics_transient"):
+        np.testing.assert_allclose(out[key][0], ws.t_start_s + 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.diff(out["physics"][0]), 1.0, rtol=0, atol=1e-12)
