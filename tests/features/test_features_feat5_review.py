@@ -160,3 +160,18 @@ def test_slip_model_outputs_are_stamped_at_the_window_centres(tmp_path):
     for key in ("physics", "physics_interval", "physics_current", "physics_transient"):
         np.testing.assert_allclose(out[key][0], ws.t_start_s + 1.0, rtol=0, atol=1e-12)
     np.testing.assert_allclose(np.diff(out["physics"][0]), 1.0, rtol=0, atol=1e-12)
+
+
+def test_the_transient_std_is_the_slip_change_beyond_the_current_noise(tmp_path):
+    """physics_transient's std is the quadrature difference of the physics std with and
+    without the traction that changed inside the window: 0 on the steady windows after
+    the acceleration of straight_accel (where physics_current's std, the current noise,
+    is not), above the current noise while the robot accelerates; the std with the change
+    itself (the mutant that survived) is never 0."""
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                                 scenario="straight_accel", duration_s=6.0, seed=3)), tmp_path)
+    out = slip_model_outputs(read_runs_dir(tmp_path, dataset="transient")[0])
+    noise, change = out["physics_current"][2], out["physics_transient"][2]
+    assert (noise[-2:] > 0).all() and (change[-2:] == 0).all()
+    assert (change[0] > noise[0]).all()
+    assert (out["physics"][2] >= change).all()
