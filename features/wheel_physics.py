@@ -305,8 +305,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             channels are read by position), ``rate_hz`` not a finite number > 0, or
             ``short_s`` not a finite number (text, a bool, NaN, inf) or None.
         ValueError
-            ``X`` not of 3 dimensions, of another number of channels than ``channels``, or
-            of 0 windows.
+            ``X`` not of 3 dimensions, of another number of channels than ``channels``, of 0
+            windows or of windows of 0 samples.
         """
         missing = [c for c in WHEEL_CHANNELS if c not in self.channels]
         if missing:
@@ -323,6 +323,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             raise ConfigError(f"WheelPhysicsFeatures.short_s must be a finite number of "
                               f"seconds or None, got {self.short_s!r}")
         X = as_windows(X, self.channels)
+        if X.shape[2] < 1:       # (names fixed, then transform failed in physics_features)
+            raise ValueError(f"windows need at least 1 sample, got X of shape {X.shape}")
         self.feature_names_out_ = np.asarray(
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
              for f in PHYSICS_FEATURES], dtype=object)

@@ -18,7 +18,7 @@ from features.slip_features import SLIP_CHANNELS, slip_targets, slip_windows
 from features.slip_outputs import slip_model_outputs
 from features.transformers import WindowFeatures
 from features.windows import WindowSet
-from features.wheel_physics import PHYSICS_FEATURES, physics_features
+from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import write_run
@@ -175,3 +175,13 @@ def test_the_transient_std_is_the_slip_change_beyond_the_current_noise(tmp_path)
     assert (noise[-2:] > 0).all() and (change[-2:] == 0).all()
     assert (change[0] > noise[0]).all()
     assert (out["physics"][2] >= change).all()
+
+
+def test_wheel_physics_fit_refuses_windows_without_a_sample():
+    """fit took windows of 0 samples and fixed 25 feature names; transform then failed in
+    physics_features (ShapeError): the refusal belongs to fit, as WindowFeatures'."""
+    X = np.zeros((2, 4, 0))
+    with pytest.raises(ValueError, match="at least 1 sample"):
+        WheelPhysicsFeatures().fit(X)
+    assert WheelPhysicsFeatures().fit(np.ones((2, 4, 1))).transform(np.ones((2, 4, 1))).shape \
+        == (2, len(PHYSICS_FEATURES))
