@@ -14,16 +14,21 @@ from features import calculators as calc
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from features.reference import reference_features
 from features import slip_features
-from features.slip_features import SLIP_CHANNELS, slip_targets, slip_windows
+from features.slip_features import (SLIP_CHANNELS, slip_feature_matrix, slip_targets,
+                                    slip_windows)
 from features.slip_outputs import slip_model_outputs
 from features.transformers import WindowFeatures
 from features.windows import WindowSet
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from terrain.errors import ConfigError
+from terrain.io.align import interpolated_mean_count
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import write_run
 from terrain.run import TIME, Run
 from terrain.sim import SimConfig, simulate
+from terrain.sim.sensors import SensorSettings
+from terrain.slip.physics import physics_slip, pitch_std_from_accelerometer
+from terrain.vehicles import get_vehicle
 
 
 @pytest.mark.parametrize("q", [1.5, -0.1, np.nan])
@@ -185,3 +190,32 @@ def test_wheel_physics_fit_refuses_windows_without_a_sample():
         WheelPhysicsFeatures().fit(X)
     assert WheelPhysicsFeatures().fit(np.ones((2, 4, 1))).transform(np.ones((2, 4, 1))).shape \
         == (2, len(PHYSICS_FEATURES))
+
+
+def test_the_phys_columns_are_the_physics_slip_of_the_window_means(tmp_path):
+    """phys_slip_l/_r and phys_std are terrain.slip.physics.physics_slip of the window
+    means with the wheel angular acceleration vel_mean__slope / r_w (rad/s^2) and the
+    mean of the two sides' stds; mutants multiplying by r_w, or taking the larger std,
+    survived. Checked on the accelerating windows of a simulated run."""
+    write_run(simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                                 scenario="straight_accel", duration_s=6.0, seed=3)), tmp_path)
+    run = read_runs_dir(tmp_path, dataset="phys")[0]
+    ws = slip_windows([run])
+    vehicle = get_vehicle(run.vehicle)
+    probs = {"SANDY_LOAM": np.ones(len(ws))}
+    names, f = slip_feature_matrix(ws.X, ws.channels, ws.rate_hz, vehicle, probs)
+    col = {n: f[:, j] for j, n in enumerate(names)}
+    slope = col["vel_mean__slope"]
+    assert np.abs(slope).max() > 0.1                      # the acceleration shows
+    want = physics_slip(
+        vehicle, probs, np.column_stack([col["cur_l__mean"], col["cur_r__mean"]]),
+        np.column_stack([col["vel_l__mean"], col["vel_r__mean"]]), col["pitch"],
+        np.column_stack([slope, slope]) / vehicle.contact_geometry().wheel_radius_m,
+        n_averaged=interpolated_mean_count(ws.X.shape[-1], ws.rate_hz,
+                                           SensorSettings.wheel_rate_hz),
+        current_within_std_a=np.column_stack([col["cur_l__std"], col["cur_r__std"]]),
+        pitch_std_rad=pitch_std_from_accelerometer(ws.X[:, list(ws.channels).index("ax")]))
+    np.testing.assert_array_equal(col["phys_slip_l"], want.slip[:, 0])
+    np.testing.assert_array_equal(col["phys_slip_r"], want.slip[:, 1])
+    np.testing.assert_array_equal(col["phys_std"], want.std.mean(axis=1))
+    assert (want.std[:, 0] != want.std[:, 1]).any()       # mean and max differ here
