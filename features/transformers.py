@@ -74,9 +74,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
     bands_hz : tuple of (float, float) or None
         Spectral bands, Hz, computed for the IMU channels present (log10 PSD). ``None``:
         contiguous bands of ``band_width_hz`` up to the Nyquist frequency. Fine linear bands
-        up to Nyquist matter: on BorealTC, 2.5 Hz bands up to 25 Hz (the Nyquist frequency
-        of the 50 Hz clock: 10 bands) raise run-grouped accuracy from 0.81 (five log-spaced
-        bands) to 0.86 (measured, 3 seeds).
+        up to Nyquist matter: on BorealTC, 2.5 Hz bands up to 50 Hz raise run-grouped
+        accuracy from 0.81 (five log-spaced bands) to 0.86 (measured, 3 seeds).
     band_width_hz : float
         Width of the default bands, Hz.
     min_speed_m_s : float
