@@ -39,6 +39,7 @@ is held out) predicts with the model without that candidate.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
@@ -49,7 +50,7 @@ from terrain.audit.effects import (EFFECT_VOCABULARY, GROUP_MODELS, GROUPS, Curr
                                    effect_cause, effect_details, effect_params)
 from terrain.audit.frames import AuditFrame, split_frame
 from terrain.audit.timing import LagSettings
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer
 from terrain.io.jsonfile import json_ready
 
 #: fitted model of one group
@@ -87,9 +88,10 @@ class SelectionSettings:
     Raises
     ------
     ConfigError
-        ``n_bootstrap`` outside ``MIN_BOOTSTRAP..MAX_BOOTSTRAP``, ``n_param_bootstrap`` outside
-        ``0..MAX_PARAM_BOOTSTRAP``, ``min_units < 2``, ``min_gain`` outside [0, 1) or NaN,
-        or ``seed < 0``.
+        ``n_bootstrap`` not an integer in ``MIN_BOOTSTRAP..MAX_BOOTSTRAP``,
+        ``n_param_bootstrap`` not one in ``0..MAX_PARAM_BOOTSTRAP``, ``min_units`` not one
+        >= 2, ``seed`` not one >= 0 (:func:`~terrain.errors.config_integer`: a boolean or a
+        float such as 10.5 or NaN is no count), or ``min_gain`` not a number in [0, 1).
     """
 
     n_bootstrap: int = 1000
@@ -99,18 +101,18 @@ class SelectionSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        if not (MIN_BOOTSTRAP <= self.n_bootstrap <= MAX_BOOTSTRAP
-                and 0 <= self.n_param_bootstrap <= MAX_PARAM_BOOTSTRAP):
-            raise ConfigError(f"n_bootstrap must be in {MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,} and "
-                              f"n_param_bootstrap in 0-{MAX_PARAM_BOOTSTRAP:,}, got "
-                              f"{self.n_bootstrap} and {self.n_param_bootstrap}")
-        if self.min_units < 2:
-            raise ConfigError(f"min_units must be >= 2, got {self.min_units}")
-        if not 0.0 <= self.min_gain < 1.0:  # NaN included: it would support no effect
+        # (10.5 resamples or a NaN seed passed range checks, then numpy's TypeError at the
+        # first bootstrap draw; min_units inf an OverflowError cutting runs into segments)
+        config_integer("SelectionSettings.n_bootstrap", self.n_bootstrap, MIN_BOOTSTRAP,
+                       MAX_BOOTSTRAP)
+        config_integer("SelectionSettings.n_param_bootstrap", self.n_param_bootstrap, 0,
+                       MAX_PARAM_BOOTSTRAP)
+        config_integer("SelectionSettings.min_units", self.min_units, 2)
+        config_integer("SelectionSettings.seed", self.seed, 0)
+        if not (isinstance(self.min_gain, numbers.Real) and not isinstance(self.min_gain, bool)
+                and 0.0 <= self.min_gain < 1.0):  # NaN included: it would support no effect
             raise ConfigError(f"min_gain must be in [0, 1) (a fraction of the baseline "
-                              f"RMSE), got {self.min_gain}")
-        if self.seed < 0:
-            raise ConfigError(f"seed must be >= 0, got {self.seed}")
+                              f"RMSE), got {self.min_gain!r}")
 
 
 @dataclass(frozen=True, kw_only=True)
