@@ -3,11 +3,18 @@ effects fitted with a negative sign, and the learned transfer's history lags."""
 
 from __future__ import annotations
 
+import copy
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from terrain.audit.report import to_markdown
 from terrain.audit.selection import SelectionSettings
 from terrain.errors import ConfigError
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -33,3 +40,40 @@ def test_selection_settings_take_numpy_integers_and_the_documented_bounds():
                           seed=np.int64(7), min_gain=0.0)
     assert (s.n_bootstrap, s.n_param_bootstrap, s.min_units, s.seed) == (10, 0, 2, 7)
     SelectionSettings(n_bootstrap=100_000, n_param_bootstrap=10_000)
+
+
+@pytest.fixture(scope="module")
+def shipped_json():
+    """The committed JSON report (read only; tests change deep copies)."""
+    return json.loads((DOCS / "audit_report.json").read_text())
+
+
+def _findings(report):
+    page = to_markdown(report)
+    return page.split("## Findings", 1)[1].split("## Error per signal", 1)[0]
+
+
+def test_a_negative_current_offset_is_told_as_the_left_motor_reading_more(shipped_json):
+    report = copy.deepcopy(shipped_json)
+    e = next(e for e in report["effects"]
+             if e["terrain"] == "ASPHALT" and e["name"] == "current_offset")
+    assert e["supported"] and e["params"]["offset_a"] > 0
+    assert ("driving straight, the right motor reads 1.05 A more than the left"
+            in _findings(report))
+    e["params"]["offset_a"] = -0.83
+    text = _findings(report)
+    # before: "the right motor reads -0.83 A more than the left"
+    assert "driving straight, the left motor reads 0.83 A more than the right" in text
+    assert "-0.83" not in text
+
+
+def test_a_negative_wheel_lag_is_told_as_early(shipped_json):
+    report = copy.deepcopy(shipped_json)
+    e = next(e for e in report["effects"]
+             if e["terrain"] == "ICE" and e["name"] == "wheel_lag")
+    e.update(supported=True, step=1, params={"lag_s": -0.3}, heldout_gain=0.12)
+    # before: "the wheel stream is -0.30 s late on every run"
+    assert "the wheel stream is 0.30 s early on every run (held-out gain 12 %)" \
+        in _findings(report)
+    e["params"]["lag_s"] = 0.25
+    assert "the wheel stream is 0.25 s late on every run" in _findings(report)
