@@ -425,7 +425,8 @@ def history_features(frame: AuditFrame, prediction: np.ndarray,
     prediction : ndarray, shape (n,) or (n, k)
         Physics prediction(s) of the target signal at the frame's samples.
     lags : sequence of int
-        Past samples of the commanded speed and yaw rate included, in wheel samples.
+        Past samples of the commanded speed and yaw rate included, in wheel samples (each
+        an integer >= 1).
 
     Returns
     -------
@@ -433,7 +434,15 @@ def history_features(frame: AuditFrame, prediction: np.ndarray,
         ``x, v, |x|, |v|``, ``x`` and ``v`` at every lag (the first sample repeated before
         the run starts), the time in the current manoeuvre (s), the pitch (rad) and the
         prediction(s).
+
+    Raises
+    ------
+    ConfigError
+        A lag that is not an integer >= 1 (0 built an empty column, a negative lag a
+        negative array size, 1.5 a float slice index: numpy's bare errors).
     """
+    for i, lag in enumerate(lags):
+        config_integer(f"history_features lags[{i}]", lag, 1)
     x, v = frame.commanded_yaw_rate, frame.commanded_speed
     cols = [x, v, np.abs(x), np.abs(v)]
     for lag in lags:

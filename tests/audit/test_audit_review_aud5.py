@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from audit_helpers import synthetic_frame
+from terrain.audit.ceiling import history_features
 from terrain.audit.report import to_markdown
 from terrain.audit.selection import SelectionSettings
 from terrain.errors import ConfigError
@@ -77,3 +79,21 @@ def test_a_negative_wheel_lag_is_told_as_early(shipped_json):
         in _findings(report)
     e["params"]["lag_s"] = 0.25
     assert "the wheel stream is 0.25 s late on every run" in _findings(report)
+
+
+@pytest.mark.parametrize("lags", [(0,), (1, -2), (1.5,), (True,)])
+def test_history_lags_must_be_whole_samples_back(lags):
+    frame = synthetic_frame("s/ASPHALT/0")
+    # before: lag 0 built an empty column (numpy's ValueError from column_stack), -2 a
+    # negative dimension, 1.5 a float slice index (TypeError), True a lag of one sample
+    with pytest.raises(ConfigError, match="lags"):
+        history_features(frame, frame.sim_wz, lags)
+
+
+def test_history_lags_shift_the_command_back_by_whole_samples():
+    frame = synthetic_frame("s/ASPHALT/0")
+    feats = history_features(frame, frame.sim_wz, (1, 3))
+    x = frame.commanded_yaw_rate
+    assert feats.shape == (frame.n, 6 + 2 * 2 + 1)
+    np.testing.assert_array_equal(feats[:, 4], np.r_[x[0], x[:-1]])
+    np.testing.assert_array_equal(feats[:, 6], np.r_[[x[0]] * 3, x[:-3]])
