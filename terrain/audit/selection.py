@@ -132,7 +132,7 @@ class EffectResult:
         unit of :attr:`~terrain.audit.effects.EffectSpec.unit`.
     ci95 : mapping of str to (float, float)
         Parameter name -> ``(low, high)`` bootstrap interval over units (empty when too few
-        resamples could be fitted).
+        resamples could be fitted to a finite parameter).
     heldout_gain : float or None
         Fraction of the baseline RMSE removed on held-out units (increment at the effect's
         step; for unsupported effects, increment over the final model); None when the effect
@@ -584,7 +584,9 @@ def _param_ci(units: Units, group: str, spec: Sequence[str], name: str, form: st
               settings: EffectSettings, rng: np.random.Generator,
               n_boot: int) -> dict[str, tuple[float, float]]:
     """Bootstrap interval of the parameter of ``name`` refitted on units resampled within
-    each terrain (:func:`stratified_resamples`)."""
+    each terrain (:func:`stratified_resamples`). A refit that fails (not identifiable) or
+    gives a parameter that is not finite is no draw; fewer than ``max(5, n_boot // 4)``
+    draws give no interval (empty)."""
     if n_boot <= 0:
         return {}
     fit = GROUP_MODELS[group].fit
@@ -597,11 +599,13 @@ def _param_ci(units: Units, group: str, spec: Sequence[str], name: str, form: st
             p = fit(frames, list(spec), settings, form)
         except NotIdentifiable:
             continue
-        draws.append(effect_params(name, p))
+        values = effect_params(name, p)
+        if np.all(np.isfinite(list(values.values()))):
+            draws.append(values)
     if len(draws) < max(5, n_boot // 4):
         return {}
-    return {k: (float(np.nanpercentile([d[k] for d in draws], 2.5)),
-                float(np.nanpercentile([d[k] for d in draws], 97.5))) for k in draws[0]}
+    return {k: (float(np.percentile([d[k] for d in draws], 2.5)),
+                float(np.percentile([d[k] for d in draws], 97.5))) for k in draws[0]}
 
 
 def _form_of(name: str, params: GroupParams) -> str | None:

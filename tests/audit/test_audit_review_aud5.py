@@ -97,3 +97,31 @@ def test_history_lags_shift_the_command_back_by_whole_samples():
     assert feats.shape == (frame.n, 6 + 2 * 2 + 1)
     np.testing.assert_array_equal(feats[:, 4], np.r_[x[0], x[:-1]])
     np.testing.assert_array_equal(feats[:, 6], np.r_[[x[0]] * 3, x[:-3]])
+
+
+def test_a_parameter_interval_counts_only_refits_with_a_finite_parameter(monkeypatch):
+    # a refit whose parameter is NaN (a yaw fit without a chi) is no draw: before, it
+    # counted towards the max(5, n / 4) refits an interval needs and was then dropped by
+    # nanpercentile, so 3 finite draws of 40 made a "95 % interval", and 0 a NaN one
+    from dataclasses import replace
+
+    from terrain.audit import selection
+    from terrain.audit.effects import GROUP_MODELS, EffectSettings
+    yaw = GROUP_MODELS["yaw"]
+    units = [[synthetic_frame(f"s/ASPHALT/{i}", seed=i, bias_rad_s=0.01)] for i in range(4)]
+
+    def interval(finite):
+        calls = []
+
+        def fit(frames, spec, settings, form=None):
+            calls.append(1)
+            p = yaw.fit(frames, spec, settings, form)
+            return p if len(calls) <= finite else replace(p, bias_rad_s=float("nan"))
+        monkeypatch.setattr(selection, "GROUP_MODELS", {"yaw": replace(yaw, fit=fit)})
+        return selection._param_ci(units, "yaw", ["gyro_bias"], "gyro_bias", None,
+                                   EffectSettings(), np.random.default_rng(0), 40)
+    assert interval(0) == {}
+    assert interval(3) == {}
+    assert interval(9) == {}                           # 9 of 40: below 40 / 4
+    lo, hi = interval(10)["bias_rad_s"]
+    assert np.isfinite([lo, hi]).all() and lo <= 0.01 <= hi
