@@ -471,6 +471,16 @@ def _unscored_reason(frames: Sequence[AuditFrame], group: str,
             + "; ".join(spans))
 
 
+def _require_unique_ids(run_ids: Sequence[str]) -> None:
+    """Refuse runs that share a run id (the second one's samples replaced the first one's
+    in the sample table, and the per-run rows of both merged)."""
+    counts = pd.Series(run_ids, dtype=object).value_counts(sort=False)
+    dup = counts[counts > 1]
+    if len(dup):
+        raise ConfigError("run ids must be unique, got " + ", ".join(
+            f"{k} ({v} runs)" for k, v in dup.items()))
+
+
 def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
               frames: Sequence[AuditFrame] | None = None) -> AuditResult:
     """Audit the simulator against measured runs (module docstring).
@@ -493,13 +503,18 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
     ------
     DataFormatError
         No run could be audited.
+    ConfigError
+        Two runs (or two given frames) share a run id: every per-run table, the skipped
+        list and the sample table are keyed by it.
     """
     timings = {}
     t0 = time.perf_counter()
     skipped: dict[str, str] = {}
     if frames is None:
+        _require_unique_ids([r.run_id for r in runs])
         frames, skipped = prepare_frames(runs, settings)
     frames = list(frames)
+    _require_unique_ids([f.run_id for f in frames])
     timings["replay_s"] = time.perf_counter() - t0
     if not frames:
         raise DataFormatError("no run could be audited: " + "; ".join(

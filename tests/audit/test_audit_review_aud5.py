@@ -125,3 +125,21 @@ def test_a_parameter_interval_counts_only_refits_with_a_finite_parameter(monkeyp
     assert interval(9) == {}                           # 9 of 40: below 40 / 4
     lo, hi = interval(10)["bias_rad_s"]
     assert np.isfinite([lo, hi]).all() and lo <= 0.01 <= hi
+
+
+def test_runs_sharing_a_run_id_are_refused_not_merged():
+    # before: the sample table keyed each frame by (run id, first time), so a second run
+    # with the same id and start replaced the first one's samples in every residual
+    # statistic (pooled wz n 4640 of 5800) while the selection scored both as units
+    from terrain.audit import AuditSettings, run_audit
+    settings = AuditSettings(selection=SelectionSettings(n_bootstrap=50, n_param_bootstrap=0),
+                             pooled=False)
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(4)]
+    twin = synthetic_frame("s/ASPHALT/0", seed=9)
+    with pytest.raises(ConfigError, match=r"run ids must be unique.*s/ASPHALT/0 \(2 runs\)"):
+        run_audit([], settings, frames=frames + [twin])
+    result = run_audit([], settings, frames=frames)
+    r = result.residuals
+    pooled = r[(r.signal == "wz") & (r.model == "replay") & (r.run_id == "*")
+               & (r.manoeuvre == "all")]
+    assert int(pooled.n.iloc[0]) == sum(int(f.score_imu.sum()) for f in frames)
