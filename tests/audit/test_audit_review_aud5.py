@@ -143,3 +143,21 @@ def test_runs_sharing_a_run_id_are_refused_not_merged():
     pooled = r[(r.signal == "wz") & (r.model == "replay") & (r.run_id == "*")
                & (r.manoeuvre == "all")]
     assert int(pooled.n.iloc[0]) == sum(int(f.score_imu.sum()) for f in frames)
+
+
+def test_the_physics_gain_interval_is_a_point_when_every_run_gains_alike():
+    # each run's candidate error is a quarter of its reference error, on runs of different
+    # lengths: every resample's gain is 1 - sqrt(1/4) = 0.5 exactly, so the interval is
+    # [0.5, 0.5] (a resample's two RMSEs must share its own sample count)
+    import pandas as pd
+
+    from terrain.audit.physics import PhysicsComparisonSettings, gain_table
+    n = np.array([50, 400, 120, 900])
+    sse_ref = np.array([3.0, 10.0, 7.0, 40.0])
+    per_run = pd.DataFrame({"run_id": [f"r{i}" for i in range(4)], "terrain": "ASPHALT",
+                            "signal": "wz", "scope": "moving", "n": n, "sse_ref": sse_ref,
+                            "sse_new": sse_ref / 4.0})
+    row = gain_table(per_run, PhysicsComparisonSettings(n_bootstrap=200)).iloc[0]
+    assert row.gain == pytest.approx(0.5)
+    assert (row.gain_lo, row.gain_hi) == (pytest.approx(0.5), pytest.approx(0.5))
+    assert row.rmse_ref == pytest.approx(np.sqrt(sse_ref.sum() / n.sum()))
