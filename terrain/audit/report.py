@@ -192,7 +192,9 @@ def _md_table(rows: Sequence[Sequence], header: Sequence[str]) -> str:
 def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     """Lateral friction at which the replay's chi equals the measured one, as text.
 
-    Linear interpolation between the two sweep points that bracket the measured chi.
+    Linear interpolation between the two sweep points that bracket the measured chi; where
+    the upper one's replay digs in completely (chi inf), no interpolation: the two
+    frictions are given.
 
     Parameters
     ----------
@@ -203,9 +205,10 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     Returns
     -------
     str
-        ``~<mu>``; ``below <lowest>`` / ``above <highest>`` when the sweep does not bracket
-        the measured chi; ``-`` without a measured chi or without a replayed chi (no run
-        of the terrain turns inside the scored span).
+        ``~<mu>``; ``between <mu_k> and <mu_k+1>`` when the replay's chi goes from below
+        the measured chi to inf between them; ``below <lowest>`` / ``above <highest>``
+        when the sweep does not bracket the measured chi; ``-`` without a measured chi or
+        without a replayed chi (no run of the terrain turns inside the scored span).
     """
     g = sweep.sort_values("lateral_friction")
     target = g.measured_chi.iloc[0]
@@ -216,6 +219,8 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
         if chi[k] <= target <= chi[k + 1] and np.isfinite(chi[k + 1]):
             frac = (target - chi[k]) / max(chi[k + 1] - chi[k], 1e-12)
             return f"~{mu[k] + frac * (mu[k + 1] - mu[k]):.2f}"
+        if chi[k] <= target and chi[k + 1] == np.inf:   # digs in at the next friction
+            return f"between {mu[k]:.3g} and {mu[k + 1]:.3g}"
     return f"below {mu[0]:.3g}" if target < chi[0] else f"above {mu[-1]:.3g}"
 
 

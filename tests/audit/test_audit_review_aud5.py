@@ -161,3 +161,20 @@ def test_the_physics_gain_interval_is_a_point_when_every_run_gains_alike():
     assert row.gain == pytest.approx(0.5)
     assert (row.gain_lo, row.gain_hi) == (pytest.approx(0.5), pytest.approx(0.5))
     assert row.rmse_ref == pytest.approx(np.sqrt(sse_ref.sum() / n.sum()))
+
+
+def test_a_measured_chi_below_a_replay_that_digs_in_is_matched_between_two_frictions():
+    # the replayed chi grows from 1.6 at mu 0.5 to inf (digs in) at mu 1.0: a measured chi
+    # of 2.0 is matched between them; before: 'above 1', a friction beyond the sweep
+    import pandas as pd
+
+    from terrain.audit.report import matching_lateral_friction
+
+    def sweep(chis, target=2.0):
+        return pd.DataFrame({"lateral_friction": [0.25, 0.5, 1.0], "replay_chi": chis,
+                             "measured_chi": [target] * 3})
+    assert matching_lateral_friction(sweep([1.2, 1.6, np.inf])) == "between 0.5 and 1"
+    assert matching_lateral_friction(sweep([1.2, 1.6, 2.4])) == "~0.75"
+    assert matching_lateral_friction(sweep([1.2, 1.6, 1.8])) == "above 1"
+    assert matching_lateral_friction(sweep([2.2, 2.6, np.inf])) == "below 0.25"
+    assert matching_lateral_friction(sweep([1.2, 1.6, 1.9], target=None)) == "-"

@@ -82,7 +82,9 @@ def _sweep(chi, measured):
 @pytest.mark.parametrize("chi, measured, text", [
     ([1.2, 1.6, 3.0], 1.5, "~0.35"),           # 0.2 + (1.5 - 1.2) / (1.6 - 1.2) * 0.2
     ([1.2, 1.6, 3.0], 2.3, "~0.60"),
-    ([1.2, 1.6, np.inf], 2.3, "above 0.8"),    # dug in at 0.8: no bracket to interpolate
+    # dug in at 0.8 (chi inf > 2.3): the match lies between 0.4 and 0.8, not above 0.8,
+    # and there is nothing to interpolate towards
+    ([1.2, 1.6, np.inf], 2.3, "between 0.4 and 0.8"),
     ([1.2, 1.6, 3.0], 1.6, "~0.40"),           # on a sweep point: that point's friction
     ([1.2, 1.6, 3.0], 1.2, "~0.20"),
     ([1.2, 1.6, 3.0], 3.0, "~0.80"),
