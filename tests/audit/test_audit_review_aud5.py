@@ -178,3 +178,34 @@ def test_a_measured_chi_below_a_replay_that_digs_in_is_matched_between_two_frict
     assert matching_lateral_friction(sweep([1.2, 1.6, 1.8])) == "above 1"
     assert matching_lateral_friction(sweep([2.2, 2.6, np.inf])) == "below 0.25"
     assert matching_lateral_friction(sweep([1.2, 1.6, 1.9], target=None)) == "-"
+
+
+def test_the_grade_term_acts_on_moving_samples_only():
+    # fit_current: "the model adds, on moving samples, ... k_a_per_rad |pitch| to both
+    # sides"; a robot at rest on a slope draws no climbing current
+    from dataclasses import replace
+
+    from terrain.audit.effects import CurrentParams, predict_current
+    from terrain.audit.frames import STOP
+    f = synthetic_frame("s/ASPHALT/0")
+    man = f.manoeuvre.copy()
+    man[:100] = STOP                                   # the first straight stretch at rest
+    f = replace(f, pitch=np.full(f.n, 0.1), manoeuvre=man)
+    stop = f.manoeuvre == STOP
+    assert stop.any() and (~stop).any()
+    pred = predict_current(f, CurrentParams(k_a_per_rad=20.0))
+    np.testing.assert_allclose(pred[stop], f.sim_cur[stop])
+    np.testing.assert_allclose(pred[~stop], f.sim_cur[~stop] + 2.0)
+
+
+def test_the_physics_comparison_page_leaves_out_the_stop_rows():
+    import pandas as pd
+
+    from terrain.audit.physics import comparison_markdown
+    rows = [("ASPHALT", "cur", scope, 2, 100, 2.0, 1.5, 0.25, 0.1, 0.4)
+            for scope in ("moving", "stop")]
+    table = pd.DataFrame(rows, columns=["terrain", "signal", "scope", "n_runs", "n",
+                                        "rmse_ref", "rmse_new", "gain", "gain_lo", "gain_hi"])
+    page = comparison_markdown(table, {"reference": "v1", "candidate": "v2"})
+    assert "| ASPHALT | cur | moving | 2 | 100 | 2 | 1.5 | +0.250 [+0.100, +0.400] |" in page
+    assert "| stop |" not in page
