@@ -594,7 +594,9 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         hi = min(limit, room_hi)
         lo = max(-limit, (-w_max if ll < 0.0 else 0.0) - ll)
         if one_sided:  # limiter: only towards the ground speed (less |slip|)
-            slow_down = (mode != BRAKING) == (ll > 0.0)
+            # braking speeds the wheel up only where the ground moves the command's way;
+            # against it (ll v_long < 0) the ground speed lies beyond 0: slow it there too
+            slow_down = (mode != BRAKING or ll * vl < 0.0) == (ll > 0.0)
             hi, lo = (min(hi, 0.0), lo) if slow_down else (hi, max(lo, 0.0))
         # no room left (|omega_ll| beyond omega_max + limit, or beyond omega_max against the
         # limiter's side): the wheel speed limit and the half-line win, on either sign

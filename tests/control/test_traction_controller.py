@@ -100,7 +100,7 @@ def _check_limits(cfg):
         assert np.all(cmd * omega_ll >= -1e-12) and np.all(cmd[omega_ll == 0] == 0)
         assert np.all(np.abs(state.integral) <= 0.25 * 20.0 + 1e-12)
         if cfg.one_sided:      # limiter: only towards the ground speed
-            towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
+            towards = _limiter_side(out.mode, omega_ll, v)
             assert np.all(out.correction_rad_s * towards >= -1e-12)
         largest_correction = max(largest_correction, np.abs(out.correction_rad_s).max())
         largest_cmd = max(largest_cmd, np.abs(cmd).max())
@@ -445,7 +445,8 @@ def test_integral_stays_on_the_limiters_side_across_a_mode_change():
 
 def test_integral_never_on_the_forbidden_side():
     """Random inputs, one-sided: the integral always lies on the side the limiter lets the
-    correction take (traction / steady: slowing the wheel, braking: speeding it up)."""
+    correction take (traction / steady: slowing the wheel, braking: speeding it up, unless
+    the ground moves against the command)."""
     cfg = TractionControlConfig(kp=5.0, ki=10.0, omega_max_rad_s=20.0, output_fraction=0.25)
     rng = np.random.default_rng(5)
     state = TractionState.zeros(4)
@@ -455,8 +456,16 @@ def test_integral_never_on_the_forbidden_side():
         v = omega * 0.1 * rng.uniform(0.3, 1.2, 4)
         out, state = _step(cfg, state, omega_ll, omega, v, rng.normal(0, 2, 4),
                            chassis=abs(rng.normal(0.5, 0.5)))
-        towards = np.where(out.mode == BRAKING, 1.0, -1.0) * np.sign(omega_ll)
+        towards = _limiter_side(out.mode, omega_ll, v)
         assert np.all(state.integral * towards >= -1e-12)
+
+
+def _limiter_side(mode, omega_ll, v_long):
+    """Sign the one-sided correction may take, towards the ground speed: speeding the wheel
+    up (sgn(omega_ll)) only while braking with the ground moving the command's way, else
+    slowing it (a ground speed against the command lies beyond 0)."""
+    braking_along = (mode == BRAKING) & (omega_ll * v_long > 0.0)
+    return np.where(braking_along, 1.0, -1.0) * np.sign(omega_ll)
 
 
 def test_the_enabling_wheel_speed_follows_the_encoder_resolution():
