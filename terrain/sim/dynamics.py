@@ -31,7 +31,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dgesv
 
-from terrain.errors import ConfigError, NonFiniteInputError, ShapeError, TimeStepError
+from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, TimeStepError,
+                            config_numbers)
 from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
                                 SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
                                 check_physics, contact_forces,
@@ -386,7 +387,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     twist_cmd : ndarray, shape (n, 3)
         Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
     slope_rad : float
-        Plane inclination (rises along world +x), rad.
+        Plane inclination (rises along world +x; negative: falls along it), rad, in
+        (-pi/2, pi/2).
     chi : float
         ICR expansion (skid-steer only; 1 = off; finite, >= 1).
     steer_offset_rad : ndarray, shape (n_motors,), optional
@@ -411,8 +413,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     ------
     ConfigError
         Unknown physics version, a time grid of fewer than two steps, no terrain, a segment
-        length not > 0 (inf keeps the first terrain), a slope that is not finite or a
-        ``chi`` that is not finite and >= 1.
+        length not > 0 (inf keeps the first terrain), a slope that is not a finite
+        inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1, or a segment
+        length, slope or ``chi`` given as text, None or a boolean.
     TimeStepError
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).
@@ -433,10 +436,15 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     twist_cmd = _check_grid_and_commands(t_s, twist_cmd)
     if not len(terrains):
         raise ConfigError("integrate needs at least one terrain, got an empty terrain tuple")
+    # text or None was a bare TypeError below; True ran as 1 (slope_rad: a 57 deg plane)
+    config_numbers("integrate", segment_length_m=segment_length_m, slope_rad=slope_rad,
+                   chi=chi)
     if not float(segment_length_m) > 0:      # (inf: the first terrain all along)
         raise ConfigError(f"integrate.segment_length_m must be > 0 m, got {segment_length_m}")
-    if not np.isfinite(slope_rad):
-        raise ConfigError(f"integrate.slope_rad must be finite, got {slope_rad}")
+    if not abs(float(slope_rad)) < 0.5 * np.pi:     # (NaN and inf fail it too)
+        # steeper than vertical: cos(slope) < 0 gave negative normal loads, 2 pi a level plane
+        raise ConfigError(f"integrate.slope_rad must be a finite inclination in (-pi/2, pi/2) "
+                          f"rad, got {slope_rad}")
     if not (np.isfinite(chi) and chi >= 1.0):
         raise ConfigError(f"integrate.chi (ICR expansion) must be finite and >= 1, got {chi}")
     dt = float(t_s[1] - t_s[0])

@@ -1,0 +1,47 @@
+"""Review sim5: integrator arguments that were silently accepted or gave bare tracebacks,
+and mutants of the sim / vehicles area that no test killed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.sim.dynamics import integrate
+from terrain.terramechanics.catalogue import get_terrain
+from terrain.vehicles import get_vehicle
+
+HUSKY = get_vehicle("husky")
+AGRIMARO = get_vehicle("agrimaro")
+ASPHALT = (get_terrain("ASPHALT"),)
+T = np.arange(21) * 0.01
+CMD = np.column_stack([np.full(21, 0.5), np.zeros(21), np.zeros(21)])
+
+
+def _run(vehicle=HUSKY, segment=25.0, slope=0.0, chi=1.0, offset=None):
+    return integrate(vehicle, vehicle.contact_geometry(), ASPHALT, segment, T, CMD, slope,
+                     chi, offset)
+
+
+@pytest.mark.parametrize("name, kwargs", [
+    ("slope_rad", {"slope": True}), ("slope_rad", {"slope": "0.1"}),
+    ("slope_rad", {"slope": None}), ("chi", {"chi": True}), ("chi", {"chi": "1.2"}),
+    ("segment_length_m", {"segment": True}), ("segment_length_m", {"segment": "5"})])
+def test_integrate_refuses_a_boolean_or_text_for_a_number_naming_it(name, kwargs):
+    # slope True ran on a 1 rad (57 deg) plane, chi and segment True as 1; text was a bare
+    # TypeError from np.isfinite or from //
+    with pytest.raises(ConfigError, match=name):
+        _run(**kwargs)
+
+
+@pytest.mark.parametrize("slope", [np.pi / 2, -2.0, 2.0 * np.pi])
+def test_integrate_refuses_a_plane_steeper_than_vertical(slope):
+    # 2 rad gave negative normal loads (cos < 0); 2 pi ran as a level plane
+    with pytest.raises(ConfigError, match="slope_rad"):
+        _run(slope=slope)
+
+
+def test_integrate_keeps_a_downhill_plane():
+    # a plane falling along +x: gravity pushes a vehicle facing +x forward
+    p = _run(slope=-0.2)
+    assert p.pose[-1, 0] > _run().pose[-1, 0]
