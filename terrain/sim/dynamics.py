@@ -365,6 +365,31 @@ def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarr
     return cmd
 
 
+def _checked_steer_offset(steer_offset_rad, geometry: ContactGeometry) -> np.ndarray:
+    """The steering offset as one finite angle per motor of a steered vehicle, rad.
+
+    Raises
+    ------
+    ConfigError
+        An offset for a vehicle that does not steer (it was silently ignored).
+    ShapeError
+        Not one angle per motor (a bare broadcasting ValueError).
+    NonFiniteInputError
+        A NaN or infinite angle (a bare ValueError deep in the step).
+    """
+    if not geometry.steered:
+        raise ConfigError("integrate.steer_offset_rad is a swerve-drive steering error; this "
+                          "vehicle does not steer, so it would change nothing: leave it None")
+    offset = np.asarray(steer_offset_rad, dtype=float)
+    if offset.shape != (geometry.n_motors,):
+        raise ShapeError(f"integrate.steer_offset_rad must hold one angle per motor, shape "
+                         f"({geometry.n_motors},), got shape {offset.shape}")
+    if not np.all(np.isfinite(offset)):
+        raise NonFiniteInputError(f"integrate.steer_offset_rad holds non-finite angles: "
+                                  f"{offset.tolist()}")
+    return offset
+
+
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
               t_s: np.ndarray, twist_cmd: np.ndarray, slope_rad: float, chi: float,
               steer_offset_rad: np.ndarray | None = None,
@@ -392,7 +417,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     chi : float
         ICR expansion (skid-steer only; 1 = off; finite, >= 1).
     steer_offset_rad : ndarray, shape (n_motors,), optional
-        Constant steering error inside the dead band (swerve only).
+        Constant steering error inside the dead band, rad (swerve only: refused for a
+        vehicle that does not steer).
     hook : ControlHook, optional
         Closed loop: called after every step with a :class:`PlantSnapshot`; the correction
         it returns (rad/s per motor) is added to the low-level wheel command of the following
@@ -420,11 +446,12 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).
     ShapeError
-        ``t_s`` not one-dimensional, ``twist_cmd`` not of shape ``(n, 3)``, or the hook
-        returned a correction without one value per motor.
+        ``t_s`` not one-dimensional, ``twist_cmd`` not of shape ``(n, 3)``,
+        ``steer_offset_rad`` not of shape ``(n_motors,)``, or the hook returned a correction
+        without one value per motor.
     NonFiniteInputError
-        NaN or infinite times or commands, or the hook returned a NaN or infinite
-        correction.
+        NaN or infinite times, commands or steering offsets, or the hook returned a NaN or
+        infinite correction.
     numpy.linalg.LinAlgError
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).
@@ -504,7 +531,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         omega_cmd = omega_cmd.copy()
         corr_clipped = np.zeros(nm, dtype=np.int64)
     if steer_offset_rad is not None:
-        delta_cmd = delta_cmd + steer_offset_rad
+        delta_cmd = delta_cmd + _checked_steer_offset(steer_offset_rad, geometry)
 
     pose_out = np.zeros((n, 3))
     twist_out = np.zeros((n, 3))

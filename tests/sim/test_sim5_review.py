@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.sim.dynamics import integrate
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
@@ -45,3 +45,21 @@ def test_integrate_keeps_a_downhill_plane():
     # a plane falling along +x: gravity pushes a vehicle facing +x forward
     p = _run(slope=-0.2)
     assert p.pose[-1, 0] > _run().pose[-1, 0]
+
+
+def test_integrate_refuses_a_steering_offset_it_cannot_apply():
+    # NaN: ValueError 'cannot convert float NaN to integer' deep in the step; two values for
+    # three wheels: a bare broadcasting ValueError; on a skid-steer: silently ignored
+    with pytest.raises(NonFiniteInputError, match="steer_offset_rad"):
+        _run(AGRIMARO, offset=np.array([np.nan, 0.0, 0.0]))
+    with pytest.raises(ShapeError, match="steer_offset_rad"):
+        _run(AGRIMARO, offset=np.array([0.01, 0.0]))
+    with pytest.raises(ConfigError, match="steer_offset_rad"):
+        _run(HUSKY, offset=np.array([0.01, 0.0]))
+
+
+def test_a_steering_offset_turns_the_agrimaro_off_its_straight_line():
+    # the offset inside the dead band (seed 001 ch. 6.1.1) is applied to every wheel
+    straight = _run(AGRIMARO)
+    off = _run(AGRIMARO, offset=np.full(3, 0.02))
+    assert np.allclose(off.delta[-1], straight.delta[-1] + 0.02, atol=1e-12)
