@@ -75,8 +75,8 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     commanded_yaw_rate_rad_s : ndarray, shape (..., n)
         Ideal differential-drive yaw rate ``x = (v_R - v_L) / B`` at the same samples, rad/s.
     floor_rad_s : float, optional
-        Ridge floor, rad/s (default 0: plain least squares): the denominator is
-        ``sum(x^2) + n floor^2``.
+        Ridge floor, rad/s (finite, >= 0; default 0: plain least squares): the denominator
+        is ``sum(x^2) + n floor^2``.
 
     Returns
     -------
@@ -88,11 +88,15 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     ------
     ShapeError
         The two arrays differ in shape.
+    ConfigError
+        ``floor_rad_s`` not a finite number >= 0 (text, None or a boolean included).
 
     References
     ----------
     Seed ``000_f24201ff985633bf.txt`` eqs. 2-3; Mandow et al., IROS 2007 (ICR expansion).
     """
+    # NaN gave NaN for every fit, a negative floor acted as its absolute value (squared)
+    config_positive("inverse_icr_factor", allow_zero=True, floor_rad_s=floor_rad_s)
     y = np.asarray(yaw_rate_rad_s, dtype=float)
     x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
@@ -157,7 +161,7 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     track_m : float
         Track width B, m (finite, > 0).
     min_yaw_rate_rad_s : float
-        Samples turning slower than this are left out, rad/s.
+        Samples turning slower than this are left out, rad/s (finite, >= 0).
 
     Returns
     -------
@@ -170,13 +174,16 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
         The three arrays differ in shape.
     ConfigError
         ``track_m`` is not a finite length > 0 (a negative one flipped chi's sign, 0 gave
-        NaN).
+        NaN), or ``min_yaw_rate_rad_s`` not a finite number >= 0 (text, None or a boolean
+        included).
 
     References
     ----------
     Mandow et al., IROS 2007 (ICR expansion); seed ``000_f24201ff985633bf.txt`` eqs. 2-3.
     """
     config_positive("chi_from_truth", track_m=track_m)
+    # NaN left every sample out (NaN: "never turns"), True was a 1 rad/s threshold
+    config_positive("chi_from_truth", allow_zero=True, min_yaw_rate_rad_s=min_yaw_rate_rad_s)
     w = np.asarray(yaw_rate_rad_s, dtype=float)
     left, right = np.asarray(v_left_m_s, dtype=float), np.asarray(v_right_m_s, dtype=float)
     _same_shape(v_left_m_s=left, v_right_m_s=right, yaw_rate_rad_s=w)

@@ -1,0 +1,35 @@
+"""Review sim5 (vehicles): ICR thresholds that were taken as given, and kinematic invariants
+that no test pinned (mutants that survived)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.vehicles.icr import chi_from_truth, inverse_icr_factor
+
+W = np.array([0.5, -0.5, 0.3])
+B = 0.5
+# a vehicle turning as if its track were 1.5 B wide
+V_L, V_R = -0.5 * 1.5 * B * W, 0.5 * 1.5 * B * W
+
+
+@pytest.mark.parametrize("threshold", [float("nan"), True, "0.1", -0.1])
+def test_chi_from_truth_refuses_a_threshold_that_is_not_a_yaw_rate(threshold):
+    # NaN left every sample out and reported NaN ("never turns") for a turning run, True
+    # was a 1 rad/s threshold, text a bare UFuncTypeError
+    with pytest.raises(ConfigError, match="min_yaw_rate_rad_s"):
+        chi_from_truth(V_L, V_R, W, B, threshold)
+
+
+def test_chi_from_truth_finds_the_planted_expansion():
+    assert chi_from_truth(V_L, V_R, W, B) == pytest.approx(1.5)
+    assert chi_from_truth(V_L, V_R, W, B, 0.0) == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize("floor", [float("nan"), float("inf"), True, "0.1", -0.1])
+def test_inverse_icr_factor_refuses_a_floor_that_is_not_a_yaw_rate(floor):
+    # NaN gave a = NaN for every window, silently; -0.1 acted as +0.1 (squared)
+    with pytest.raises(ConfigError, match="floor_rad_s"):
+        inverse_icr_factor(W, W, floor_rad_s=floor)
