@@ -96,18 +96,22 @@ class AgriMaRoParams:
 
     def __post_init__(self) -> None:
         """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
-        three finite wheel positions (x, y), a finite 3-vector camera lever arm, radius, mass,
-        inertia, steering rate and patch finite and > 0, dead band finite and >= 0, wheels
-        per motor an integer >= 1, ``motor`` a :class:`MotorParams`."""
+        three finite wheel positions (x, y), a finite 3-vector camera lever arm (numbers, not
+        booleans), radius, mass, inertia, steering rate and patch finite and > 0, dead band
+        finite and >= 0, wheels per motor an integer >= 1, ``motor`` a
+        :class:`MotorParams`."""
         for name, shape in (("wheel_positions_m", (3, 2)), ("camera_lever_arm_m", (3,))):
             value = getattr(self, name)
             try:
                 arr = np.asarray(value, dtype=float)
+                # a boolean converts to 1 or 0 (True was a wheel at x = 1 m)
+                flag = any(isinstance(v, (bool, np.bool_))
+                           for v in np.asarray(value, dtype=object).ravel())
             except (TypeError, ValueError):
-                arr = None
-            if arr is None or arr.shape != shape or not np.isfinite(arr).all():
+                arr, flag = None, False
+            if arr is None or flag or arr.shape != shape or not np.isfinite(arr).all():
                 raise ConfigError(f"AgriMaRoParams.{name} must be finite numbers of shape "
-                                  f"{shape}, got {value!r:.80}")
+                                  f"{shape} (not booleans), got {value!r:.80}")
         check_fields(self, positive=("wheel_radius_m", "mass_kg", "yaw_inertia_kg_m2",
                                      "steering_rate_rad_s", "contact_length_m",
                                      "contact_width_m"),

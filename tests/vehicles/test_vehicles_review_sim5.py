@@ -33,3 +33,16 @@ def test_inverse_icr_factor_refuses_a_floor_that_is_not_a_yaw_rate(floor):
     # NaN gave a = NaN for every window, silently; -0.1 acted as +0.1 (squared)
     with pytest.raises(ConfigError, match="floor_rad_s"):
         inverse_icr_factor(W, W, floor_rad_s=floor)
+
+
+@pytest.mark.parametrize("field, value", [
+    ("wheel_positions_m", ((True, 0.0), (0.5075, 0.0), (0.0, -0.756))),
+    ("camera_lever_arm_m", (0.6685, -0.26875, False)),
+    ("camera_lever_arm_m", (0.6685, -0.26875, np.bool_(False)))])
+def test_agrimaro_geometry_refuses_a_boolean_coordinate(field, value):
+    # True was taken as a wheel at x = 1 m, False as a lever arm of 0 m
+    from dataclasses import replace
+
+    from terrain.vehicles import AGRIMARO
+    with pytest.raises(ConfigError, match=field):
+        replace(AGRIMARO, **{field: value})
