@@ -155,7 +155,10 @@ class TrackedParams:
         ``m (l^2 + B^2) / 12`` (uniform plate over the footprint).
     n_segments : int
         Contact points per track used to discretise the track-ground contact (a numerical
-        choice: no physical quantity depends on it).
+        choice; the turning resistance converges as it grows: with 0.2 m/s and 0.5 rad/s
+        commanded on SANDY_LOAM the yaw rate after 8 s is 0.144 rad/s with 5 points, 0.140
+        with 50; 1 point puts each track's contact at its centre, with no turning
+        resistance: 0.460 rad/s; straight driving does not depend on it).
     motor : MotorParams
         Drive motor of each side / wheel (sources in ``MotorParams.source``).
     wheels_per_motor : int
