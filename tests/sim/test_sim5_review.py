@@ -63,3 +63,16 @@ def test_a_steering_offset_turns_the_agrimaro_off_its_straight_line():
     straight = _run(AGRIMARO)
     off = _run(AGRIMARO, offset=np.full(3, 0.02))
     assert np.allclose(off.delta[-1], straight.delta[-1] + 0.02, atol=1e-12)
+
+
+def test_swerve_commands_keep_each_unit_on_the_solution_nearest_its_last_angle():
+    # a crab direction turning from 80 to 100 deg: each unit steers on through 90 deg and
+    # keeps rolling forward (mutant: without the previous angle, the solution within pi/2 of
+    # 0 flipped every unit to -80 deg with its wheel reversed, a 180 deg steering jump)
+    from terrain.sim.dynamics import wheel_commands
+
+    ang = np.radians(np.linspace(80.0, 100.0, 41))
+    cmd = np.column_stack([0.5 * np.cos(ang), 0.5 * np.sin(ang), np.zeros(41)])
+    omega, delta, _ = wheel_commands(AGRIMARO, AGRIMARO.contact_geometry(), cmd)
+    np.testing.assert_allclose(delta, np.repeat(ang[:, None], 3, axis=1), atol=1e-12)
+    np.testing.assert_allclose(omega, 0.5 / AGRIMARO.wheel_radius_m, rtol=1e-12)
