@@ -76,3 +76,21 @@ def test_swerve_commands_keep_each_unit_on_the_solution_nearest_its_last_angle()
     omega, delta, _ = wheel_commands(AGRIMARO, AGRIMARO.contact_geometry(), cmd)
     np.testing.assert_allclose(delta, np.repeat(ang[:, None], 3, axis=1), atol=1e-12)
     np.testing.assert_allclose(omega, 0.5 / AGRIMARO.wheel_radius_m, rtol=1e-12)
+
+
+def test_the_closed_loop_snapshot_carries_the_attitude_of_its_pose_on_a_slope():
+    # the hook's pitch (nose up) and roll (right side down) are slope_attitude of the pose
+    # (mutant: the two swapped, so the online IMU's gravity went to the wrong axes)
+    from terrain.sim.dynamics import slope_attitude
+
+    t = np.arange(201) * 0.01
+    cmd = np.column_stack([np.full(201, 0.3), np.zeros(201), np.full(201, 0.8)])
+    snaps = []
+    integrate(HUSKY, HUSKY.contact_geometry(), ASPHALT, 25.0, t, cmd, 0.2, 1.0,
+              hook=lambda s: snaps.append(s))
+    yaw = np.array([s.pose[2] for s in snaps])
+    pitch, roll = slope_attitude(0.2, yaw)
+    assert yaw[-1] > 0.5                 # it turned, so both angles vary
+    np.testing.assert_allclose([s.pitch for s in snaps], pitch, atol=1e-12)
+    np.testing.assert_allclose([s.roll for s in snaps], roll, atol=1e-12)
+    assert snaps[0].pitch == pytest.approx(0.2, abs=1e-3)
