@@ -68,3 +68,13 @@ def test_tracked_turning_resistance_converges_with_the_track_discretisation():
     assert yaw_rate[5] == pytest.approx(0.144, abs=0.002)
     assert yaw_rate[5] == pytest.approx(yaw_rate[20], rel=0.05)
     assert yaw_rate[1] > 3.0 * yaw_rate[5]
+
+
+def test_a_lossless_gearbox_is_accepted_and_a_gain_refused():
+    # efficiency in (0, 1]: 1 is an ideal gearbox (mutant: refused), above 1 creates energy
+    from dataclasses import replace
+
+    from terrain.vehicles import HUSKY
+    assert replace(HUSKY.motor, efficiency=1.0).efficiency == 1.0
+    with pytest.raises(ConfigError, match="efficiency"):
+        replace(HUSKY.motor, efficiency=1.01)
