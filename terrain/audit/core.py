@@ -32,7 +32,7 @@ from terrain.audit.replay import ReplaySettings, replay_run, require_replayable
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
 from terrain.audit.timing import LagSettings
-from terrain.errors import ConfigError, DataFormatError, config_positive
+from terrain.errors import ConfigError, DataFormatError, config_flags, config_positive
 from terrain.run import Run
 from terrain.vehicles import get_vehicle, skid_steer_forward
 from terrain.vehicles.icr import icr_expansion_factor
@@ -87,14 +87,17 @@ class AuditSettings:
     sweep_factors: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        """Refuse a sweep factor that is not a finite number >= 0 before the audit runs.
+        """Refuse a sweep factor that is not a finite number >= 0, and a ``pooled`` that is
+        not a boolean, before the audit runs.
 
         Raises
         ------
         ConfigError
-            A factor NaN, infinite, negative or not a number.
+            A factor NaN, infinite, negative or not a number, or ``pooled`` not ``True`` or
+            ``False`` (the text ``"no"`` of a config file fitted the pooled terrain).
         """
         _check_factors("AuditSettings.sweep_factors", self.sweep_factors)
+        config_flags("AuditSettings", pooled=self.pooled)
 
     def as_params(self) -> dict[str, object]:
         """Flat ``section.name -> value`` mapping (for MLflow parameters and the report).

@@ -36,7 +36,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, DataFormatError, TimestampError, config_positive
+from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_flags,
+                            config_positive)
 from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
@@ -100,10 +101,12 @@ class ReplaySettings:
     def __post_init__(self) -> None:
         """Refuse settings out of range (ConfigError naming them): an infinite
         ``input_cutoff_hz`` read as "no low-pass" but was clipped to 0.45 of the wheel rate
-        and filtered the inputs, and ``True`` passed as a 1 Hz cut-off or a headroom of 1."""
+        and filtered the inputs, ``True`` passed as a 1 Hz cut-off or a headroom of 1, the
+        text ``"100"`` as a physics rate, and ``merge_subresolution="no"`` merged the sides."""
         check_physics(self.physics)
         config_positive("ReplaySettings", output_cutoff_hz=self.output_cutoff_hz,
-                        speed_headroom=self.speed_headroom)
+                        speed_headroom=self.speed_headroom, physics_rate_hz=self.physics_rate_hz)
+        config_flags("ReplaySettings", merge_subresolution=self.merge_subresolution)
         if self.input_cutoff_hz is not None:
             config_positive("ReplaySettings", input_cutoff_hz=self.input_cutoff_hz)
         if not 50.0 <= float(self.physics_rate_hz) <= 1000.0:

@@ -209,3 +209,24 @@ def test_the_physics_comparison_page_leaves_out_the_stop_rows():
     page = comparison_markdown(table, {"reference": "v1", "candidate": "v2"})
     assert "| ASPHALT | cur | moving | 2 | 100 | 2 | 1.5 | +0.250 [+0.100, +0.400] |" in page
     assert "| stop |" not in page
+
+
+def test_replay_and_audit_settings_refuse_text_and_numbers_as_switches_and_rates():
+    # a config file's text: merge_subresolution="no" and pooled="no" were read by
+    # truthiness (on), physics_rate_hz="100" passed float() and ran at 100 Hz
+    from terrain.audit.core import AuditSettings
+    from terrain.audit.replay import ReplaySettings
+
+    with pytest.raises(ConfigError, match="merge_subresolution"):
+        ReplaySettings(merge_subresolution="no")
+    with pytest.raises(ConfigError, match="physics_rate_hz"):
+        ReplaySettings(physics_rate_hz="100")
+    with pytest.raises(ConfigError, match="physics_rate_hz"):
+        ReplaySettings(physics_rate_hz=True)
+    with pytest.raises(ConfigError, match="pooled"):
+        AuditSettings(pooled="no")
+    with pytest.raises(ConfigError, match="pooled"):
+        AuditSettings(pooled=1)
+    replay = ReplaySettings(merge_subresolution=np.bool_(False), physics_rate_hz=200)
+    assert replay.physics_rate_hz == 200
+    assert AuditSettings(pooled=np.bool_(False)).pooled == np.bool_(False)
