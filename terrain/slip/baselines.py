@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError, DataWarning, ShapeError, config_positive
+from terrain.errors import DataWarning, ShapeError, config_positive
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.skid_steer import TRACKED, endo_slip_ratio_ratio
@@ -195,10 +195,10 @@ def observer_slip(t_s: np.ndarray, yaw_rad: np.ndarray, v_left_m_s: np.ndarray,
     Raises
     ------
     ConfigError
-        Bad observer settings.
+        ``half_track_m`` not a finite number > 0 (:func:`terrain.errors.config_positive`;
+        text or a list raised a bare TypeError), or other bad observer settings.
     """
-    if not half_track_m > 0:
-        raise ConfigError(f"half_track_m must be > 0, got {half_track_m}")
+    config_positive("observer_slip", half_track_m=half_track_m)
     pose = np.column_stack([np.full(len(t_s), np.nan), np.full(len(t_s), np.nan), yaw_rad])
     res = run_adaptive_observer(t_s, pose, v_right_m_s, v_left_m_s,
                                 AdaptiveObserverSettings(half_track_m=half_track_m,

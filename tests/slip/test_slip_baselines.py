@@ -50,6 +50,14 @@ def test_observer_refuses_a_zero_half_track():
         observer_slip(t, np.zeros_like(t), np.ones_like(t), np.ones_like(t), 0.0)
 
 
+@pytest.mark.parametrize("half_track", ["0.3", [0.3], None])
+def test_observer_names_a_half_track_that_is_not_a_number(half_track):
+    # text made the '> 0' check raise Python's bare TypeError, naming nothing
+    t = np.arange(0.0, 1.0, 0.1)
+    with pytest.raises(ConfigError, match="observer_slip.half_track_m"):
+        observer_slip(t, np.zeros_like(t), np.ones_like(t), np.ones_like(t), half_track)
+
+
 def test_dead_reckon_refuses_a_repeated_time():
     t = np.array([0.0, 0.1, 0.1, 0.2])
     with pytest.raises(TimeStepError, match="strictly increasing"):
