@@ -104,10 +104,19 @@ def pitch_slip(coefficients: Mapping[str, tuple[float, float]], pitch_rad: np.nd
     -------
     ndarray, shape (n,)
         Slip (NaN for a terrain without coefficients).
+
+    Raises
+    ------
+    ShapeError
+        ``terrains`` has another shape than ``pitch_rad`` (one bare string is not a terrain
+        for every window).
     """
     p = np.asarray(pitch_rad, dtype=float)
     out = np.full(p.shape, np.nan)
     lab = np.asarray(terrains, dtype=object)
+    if lab.shape != p.shape:    # a numpy IndexError, or one string's line on every window
+        raise ShapeError(f"pitch_slip: terrains has shape {lab.shape} for pitch_rad of shape "
+                         f"{p.shape} (one terrain per window)")
     for name, (a, b) in coefficients.items():
         sel = lab == name
         out[sel] = a + b * p[sel]

@@ -7,9 +7,9 @@ import warnings
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError, DataWarning, TimeStepError
+from terrain.errors import ConfigError, DataWarning, ShapeError, TimeStepError
 from terrain.slip.baselines import (endo_turning_slip, fit_pitch_slip, observer_slip,
-                                    slip_ratio_as_sae)
+                                    pitch_slip, slip_ratio_as_sae)
 from terrain.slip.odometry import BRAKING_SLIP_FLOOR, dead_reckon
 
 
@@ -56,6 +56,20 @@ def test_observer_names_a_half_track_that_is_not_a_number(half_track):
     t = np.arange(0.0, 1.0, 0.1)
     with pytest.raises(ConfigError, match="observer_slip.half_track_m"):
         observer_slip(t, np.zeros_like(t), np.ones_like(t), np.ones_like(t), half_track)
+
+
+def test_pitch_slip_is_the_eq22_line_of_each_window_terrain():
+    coef = {"SNOW": (0.02, 0.4), "ICE": (0.1, -1.0)}
+    out = pitch_slip(coef, np.array([0.05, 0.05, 0.0]), ["SNOW", "ICE", "GRASS"])
+    np.testing.assert_allclose(out, [0.04, 0.05, np.nan])
+
+
+@pytest.mark.parametrize("terrains", [["SNOW", "SNOW"], "SNOW"])
+def test_pitch_slip_refuses_terrains_of_another_length(terrains):
+    # two labels for three pitches raised numpy's bare IndexError; one bare string gave its
+    # terrain's line to every window whatever it was
+    with pytest.raises(ShapeError, match="terrains"):
+        pitch_slip({"SNOW": (0.02, 0.4)}, np.zeros(3), terrains)
 
 
 def test_dead_reckon_refuses_a_repeated_time():
