@@ -29,7 +29,7 @@ import warnings
 import numpy as np
 
 from terrain.errors import (ConfigError, DataWarning, NonFiniteInputError, ShapeError,
-                            TimeStepError, first_items)
+                            TimeStepError, config_positive, first_items)
 from terrain.run import times_out_of_order
 from terrain.terramechanics.slip import ground_speed_from_slip
 
@@ -83,7 +83,9 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         A speed, slip, ``chi``, lateral velocity or yaw rate sample that is NaN or infinite
         (the pose would be NaN from it on); the message names the argument and counts them.
     ConfigError
-        ``track_m`` or a ``chi`` sample not > 0 where the yaw rate comes from the wheels.
+        ``track_m`` not a finite number > 0 (:func:`terrain.errors.config_positive`: text,
+        booleans and inf refused too) or a ``chi`` sample not > 0, where the yaw rate comes
+        from the wheels.
     """
     t = np.asarray(t_s, dtype=float)
     vl = np.asarray(v_left_m_s, dtype=float)
@@ -95,9 +97,8 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         raise ShapeError("dead_reckon: no sample (the pose starts at the first one)")
     if times_out_of_order(t).size:
         raise TimeStepError("dead_reckon: times must be finite and strictly increasing")
-    if yaw_rate_rad_s is None and not track_m > 0:
-        raise ConfigError(f"dead_reckon: track_m must be > 0 for the wheels' yaw rate, got "
-                          f"{track_m}")
+    if yaw_rate_rad_s is None:      # inf made the wheels' yaw rate 0: a turn driven straight
+        config_positive("dead_reckon", track_m=track_m)
     _finite("v_left_m_s", vl)
     _finite("v_right_m_s", vr)
     gl = vl if slip_left is None else _ground_speed(vl, _per_sample("slip_left", slip_left,

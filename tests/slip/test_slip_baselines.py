@@ -72,6 +72,22 @@ def test_pitch_slip_refuses_terrains_of_another_length(terrains):
         pitch_slip({"SNOW": (0.02, 0.4)}, np.zeros(3), terrains)
 
 
+@pytest.mark.parametrize("track", [np.inf, True, "0.5", np.nan, -0.5])
+def test_dead_reckon_names_a_track_that_is_not_a_finite_length(track):
+    # inf divided the wheels' yaw rate to 0: a turning robot (0.9 / 1.1 m/s) was
+    # dead-reckoned straight ([0.4, 0, 0] after 0.4 s); True drove a 1 m track; text raised a
+    # bare TypeError
+    t = np.arange(5) * 0.1
+    with pytest.raises(ConfigError, match="dead_reckon.track_m"):
+        dead_reckon(t, np.full(5, 0.9), np.full(5, 1.1), track)
+
+
+def test_dead_reckon_takes_any_track_with_a_measured_yaw_rate():
+    t = np.arange(5) * 0.1          # the track is unused when the gyro gives the heading
+    pose = dead_reckon(t, np.ones(5), np.ones(5), np.nan, yaw_rate_rad_s=np.zeros(5))
+    np.testing.assert_allclose(pose[-1], [0.4, 0.0, 0.0])
+
+
 def test_dead_reckon_refuses_a_repeated_time():
     t = np.array([0.0, 0.1, 0.1, 0.2])
     with pytest.raises(TimeStepError, match="strictly increasing"):
