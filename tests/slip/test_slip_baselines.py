@@ -101,3 +101,47 @@ def test_dead_reckon_slip_exactly_at_the_braking_floor_is_not_said_to_be_held():
         pose = dead_reckon(t, np.ones(4), np.ones(4), 0.5, np.full(4, BRAKING_SLIP_FLOOR),
                            np.full(4, BRAKING_SLIP_FLOOR))
     assert pose[-1, 0] == pytest.approx(3.0 / (1.0 + BRAKING_SLIP_FLOOR))
+
+
+def test_dead_reckon_follows_a_constant_turn_along_its_arc():
+    # 1 m/s at 1 rad/s for 1 s: the circle x = sin(1), y = 1 - cos(1); the midpoint heading
+    # keeps the error at ~(w dt)^2 / 24 of the step (the start heading was off by ~0.04 m)
+    t = np.arange(11) * 0.1
+    pose = dead_reckon(t, np.ones(11), np.ones(11), 0.5, yaw_rate_rad_s=np.ones(11))
+    np.testing.assert_allclose(pose[-1], [np.sin(1.0), 1.0 - np.cos(1.0), 1.0], atol=1e-3)
+
+
+def test_dead_reckon_turns_a_sideways_slide_with_the_body():
+    # sliding 1 m/s to the body's left while turning at 1 rad/s: world velocity
+    # (-sin(wt), cos(wt)), so x = cos(1) - 1 < 0 and y = sin(1) after 1 s
+    t = np.arange(11) * 0.1
+    pose = dead_reckon(t, np.zeros(11), np.zeros(11), 0.5, lateral_m_s=1.0,
+                       yaw_rate_rad_s=np.ones(11))
+    np.testing.assert_allclose(pose[-1], [np.cos(1.0) - 1.0, np.sin(1.0), 1.0], atol=1e-3)
+
+
+def test_dead_reckon_reversing_in_traction_goes_slower_than_the_rims():
+    # rim -0.3 m/s, SAE slip -1/3 (traction while reversing, signed by the travel): ground
+    # -0.2 m/s, 0.2 m back after 1 s, and no slip held at the braking floor
+    t = np.arange(11) * 0.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pose = dead_reckon(t, np.full(11, -0.3), np.full(11, -0.3), 0.5, -1 / 3, -1 / 3)
+    np.testing.assert_allclose(pose[-1], [-0.2, 0.0, 0.0], atol=1e-12)
+
+
+def test_dead_reckon_slip_of_exactly_one_is_not_said_to_be_held():
+    t = np.arange(4.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # 1 is the SAE saturation itself, not beyond it
+        pose = dead_reckon(t, np.ones(4), np.ones(4), 0.5, 1.0, 1.0)
+    np.testing.assert_allclose(pose[-1], [0.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_fit_pitch_slip_leaves_a_nan_slip_window_out_and_counts_it():
+    pitch = np.linspace(0.0, 0.05, 6)
+    slip = 0.02 + 0.4 * pitch
+    slip[2] = np.nan
+    with pytest.warns(DataWarning, match="1 of 6 windows"):
+        coef = fit_pitch_slip(pitch, slip, ["SNOW"] * 6)
+    assert coef["SNOW"] == pytest.approx((0.02, 0.4))
