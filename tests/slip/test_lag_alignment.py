@@ -85,3 +85,15 @@ def test_a_half_without_a_clear_peak_of_its_own_is_not_compared():
     est = gated_lag(T, ref, T, sig)
     assert est.applied and est.reason == ""
     assert est.lag_s == pytest.approx(0.37, abs=0.01)
+
+
+def test_halves_check_refuses_a_disagreement_just_over_the_tolerance():
+    # first half delayed 0.30 s, second 0.45 s: 0.15 s apart, over 0.1 s, under 0.2 s
+    from terrain.slip import LagGate
+    t = np.arange(0, 40, 0.01)
+    steps = np.clip(t - 2.0, 0, 1) + 0.5 * np.clip(t - 8.0, 0, 1) * (t < 12) \
+        - 0.7 * np.clip(t - 25.0, 0, 1) + 0.4 * np.clip(t - 31.0, 0, 1) * (t < 35)
+    half = np.where(t < 20, np.interp(t - 0.3, t, steps), np.interp(t - 0.45, t, steps))
+    split = gated_lag(t, steps, t, half, gate=LagGate(halves_tolerance_s=0.1))
+    assert not split.applied and "(+0.300 and +0.450 s)" in split.reason
+    assert gated_lag(t, steps, t, half, gate=LagGate(halves_tolerance_s=0.2)).applied
