@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, EstimationError, config_numbers
+from terrain.errors import (ConfigError, EstimationError, ShapeError, TimeStepError,
+                            config_numbers)
 from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, estimate_agrimaro,
                                          noise_derived_settings)
 from terrain.estimation.ekf import Gate
@@ -39,7 +40,7 @@ from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import check_rate_hz
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
-from terrain.run import TIME, Run
+from terrain.run import TIME, Run, times_out_of_order
 from terrain.slip.alignment import LagEstimate, gated_lag
 from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_side_slip,
                                wheel_longitudinal_velocity)
@@ -177,7 +178,24 @@ def resample(t_grid_s: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.nd
     ndarray, shape (N, c)
         NaN outside a column's finite samples, and everywhere for a column with fewer than
         two of them.
+
+    Raises
+    ------
+    ShapeError
+        ``values`` is not 2-D with one row per ``t_s`` sample.
+    TimeStepError
+        A ``t_s`` sample not finite or before the previous one (:func:`np.interp` read them
+        silently wrong); the first such sample and the count are named.
     """
+    t_s = np.asarray(t_s, dtype=float)
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 2 or t_s.shape != values.shape[:1]:
+        raise ShapeError(f"resample: values must have shape ({t_s.size}, c) for t_s of shape "
+                         f"{t_s.shape}, got {values.shape}")
+    bad = times_out_of_order(t_s, strict=False)
+    if bad.size:
+        raise TimeStepError(f"resample: t_s must be finite and increasing: sample {bad[0]} "
+                            f"({t_s[bad[0]]:.6g} s) is not, {bad.size} such sample(s) in all")
     out = np.empty((t_grid_s.size, values.shape[1]))
     for j in range(values.shape[1]):
         ok = np.isfinite(values[:, j])

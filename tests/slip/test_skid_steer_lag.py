@@ -32,3 +32,28 @@ def test_resample_gives_nan_for_a_column_with_a_single_finite_sample():
     out = resample(np.array([0.5, 1.0, 2.5]), t, values)
     np.testing.assert_allclose(out[:, 0], [1.5, 2.0, np.nan])
     assert np.isnan(out[:, 1]).all()             # one sample: no line to interpolate on
+
+
+def test_resample_names_sample_times_out_of_order():
+    # np.interp read unsorted or NaN times silently: [0, 2, 1] gave NaN at 1.5 s (1.5 in
+    # time order), one NaN time made the whole column NaN
+    import pytest
+
+    from terrain.errors import TimeStepError
+    from terrain.slip.estimate import resample
+    values = np.array([[0.0], [2.0], [1.0]])
+    for t, row in ((np.array([0.0, 2.0, 1.0]), 2), (np.array([0.0, np.nan, 2.0]), 1)):
+        with pytest.raises(TimeStepError, match=f"resample: t_s .*sample {row} "):
+            resample(np.array([0.5, 1.5]), t, values)
+
+
+def test_resample_names_values_of_another_shape():
+    # 1-D values raised a bare IndexError (tuple index out of range)
+    import pytest
+
+    from terrain.errors import ShapeError
+    from terrain.slip.estimate import resample
+    t = np.array([0.0, 1.0, 2.0])
+    for values in (np.array([0.0, 1.0, 2.0]), np.zeros((2, 1))):
+        with pytest.raises(ShapeError, match="resample: values"):
+            resample(np.array([0.5, 1.5]), t, values)
