@@ -37,8 +37,8 @@ import pandas as pd
 from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFileError,
                             EncodingError, ImplausibleValueError, MissingColumnError,
                             NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
-                            TimestampError, UnreadableFileError, config_integer, duplicated,
-                            first_items)
+                            TimestampError, UnreadableFileError, config_flags, config_integer,
+                            duplicated, first_items)
 from terrain.io.align import check_gap_factor
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
@@ -826,7 +826,10 @@ def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = 
         If ``path`` is not a folder, holds no run file, holds run files itself beside
         terrain folders with runs, or a file named like a run file that is not read (in
         the folders read: a terrain folder's sibling folders are not looked at).
+    ConfigError
+        ``labelled`` or ``progress`` not True or False (the text ``"no"`` was read as on).
     """
+    config_flags("read_runs_path", labelled=labelled, progress=progress)
     path = Path(path)
     if path.name in ("", ".", ".."):     # "." has no name and "." as parent
         path = path.resolve()
@@ -878,7 +881,10 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
         As :func:`list_run_files` (with ``only``: the folder holds no run file, or a file
         named like a run file that is not read), or a file that cannot be read
         (:func:`read_run`).
+    ConfigError
+        ``labelled`` or ``progress`` not True or False (the text ``"no"`` labelled the runs).
     """
+    config_flags("read_runs_dir", labelled=labelled, progress=progress)
     root = Path(root)
     dataset = dataset or root.resolve().name
     runs = []

@@ -1,0 +1,37 @@
+"""Review tests of terrain.io (pass io6): on/off settings of the run readers."""
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir, read_runs_path
+
+IMU = "time,wx,wy,wz,ax,ay,az\n" + "".join(
+    f"{i * 0.01:.2f},0.1,0.2,0.3,0.1,0.2,9.8\n" for i in range(300))
+PRO = "time,velL,velR,curL,curR\n" + "".join(
+    f"{i * 0.1:.1f},0.5,0.5,2.0,2.1\n" for i in range(30))
+
+
+def _runs_folder(tmp_path):
+    folder = tmp_path / "runs" / "GRASS"
+    folder.mkdir(parents=True)
+    (folder / "imu_00.csv").write_text(IMU)
+    (folder / "pro_00.csv").write_text(PRO)
+    return tmp_path / "runs"
+
+
+@pytest.mark.parametrize("reader", [read_runs_dir, read_runs_path])
+@pytest.mark.parametrize("option", ["labelled", "progress"])
+@pytest.mark.parametrize("value", ["no", "false", 0, 1, None])
+def test_reader_flags_refuse_text_and_numbers(tmp_path, reader, option, value):
+    # labelled="no" (a config file's text) was read by truthiness: the runs were labelled
+    root = _runs_folder(tmp_path)
+    message = rf"{reader.__name__}\.{option} must be True or False"
+    with pytest.raises(ConfigError, match=message):
+        reader(root, **{option: value})
+
+
+@pytest.mark.parametrize("reader", [read_runs_dir, read_runs_path])
+def test_reader_flags_take_booleans(tmp_path, reader):
+    root = _runs_folder(tmp_path)
+    assert [r.terrain for r in reader(root, labelled=True)] == ["GRASS"]
+    assert [r.terrain for r in reader(root, labelled=False)] == [None]
