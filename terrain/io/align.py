@@ -126,10 +126,12 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not a finite number > 0, or ``before_s`` not a number (NaN
-        included; -inf and inf give none and all points).
+        If ``rate_hz`` is not a finite number > 0, ``before_s`` not a number (NaN
+        included; -inf and inf give none and all points), or ``n_last`` not an integer
+        >= 0 (2.5 gave points between the grid's).
     """
     t0, n = _grid_span(times_s, rate_hz, "overlap_grid_tail")
+    config_integer("overlap_grid_tail.n_last", n_last, 0)
     config_numbers("overlap_grid_tail", before_s=before_s)
     if np.isnan(before_s):      # (int(ceil(nan)) was a bare ValueError, of inf OverflowError)
         raise ConfigError(f"overlap_grid_tail.before_s must be a time, got {before_s!r}")

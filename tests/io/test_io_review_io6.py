@@ -1,8 +1,10 @@
 """Review tests of terrain.io (pass io6): on/off settings of the run readers."""
 
+import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
+from terrain.io.align import overlap_grid, overlap_grid_tail
 from terrain.io.measured import read_runs_dir, read_runs_path
 
 IMU = "time,wx,wy,wz,ax,ay,az\n" + "".join(
@@ -35,3 +37,21 @@ def test_reader_flags_take_booleans(tmp_path, reader):
     root = _runs_folder(tmp_path)
     assert [r.terrain for r in reader(root, labelled=True)] == ["GRASS"]
     assert [r.terrain for r in reader(root, labelled=False)] == [None]
+
+
+@pytest.mark.parametrize("n_last", [2.5, True, -1, "3", None])
+def test_overlap_grid_tail_refuses_a_count_that_is_not_a_whole_number(n_last):
+    # n_last=2.5 returned [4.975, 4.985, 4.995] at 100 Hz: points that are not on the grid
+    # its docstring promises (overlap_grid's values); "3" was a bare TypeError
+    t = np.arange(0.0, 10.0, 0.01)
+    with pytest.raises(ConfigError, match=r"overlap_grid_tail\.n_last must be an integer"):
+        overlap_grid_tail([t], 100.0, 5.0, n_last)
+
+
+def test_overlap_grid_tail_is_the_end_of_the_grid():
+    t = np.arange(0.0, 10.0, 0.01)
+    grid = overlap_grid([t], 100.0)
+    tail, end = overlap_grid_tail([t], 100.0, 5.0, 3)
+    assert end == 500
+    np.testing.assert_array_equal(tail, grid[497:500])
+    assert overlap_grid_tail([t], 100.0, 5.0, 0)[0].size == 0
