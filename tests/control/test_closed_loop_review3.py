@@ -13,24 +13,25 @@ from terrain.control.estimators import VelocityEstimate
 from terrain.errors import ConfigError
 
 
-class _Cruise:
-    """Constant estimate: ground 1 m/s, wheels at 1.1 m/s rim, accelerating (traction)."""
+class _ConstantEstimate:
+    """Constant estimate: every wheel at ``rim_m_s`` (m/s at the rim) over the ground speed
+    ``ground_m_s`` (m/s, also the chassis speed), accelerating at 1 m/s^2 (traction)."""
 
     name, limits = "fixed", "constant stub"
 
-    def __init__(self, radius):
-        self.radius = radius
+    def __init__(self, radius, rim_m_s=1.1, ground_m_s=1.0):
+        self.radius, self.rim_m_s, self.ground_m_s = radius, rim_m_s, ground_m_s
 
     def update(self, obs):
         n = len(obs.omega_low_level)
-        return VelocityEstimate(np.full(n, 1.1 / self.radius), np.full(n, 1.0), np.ones(n),
-                                1.0, 0.0)
+        return VelocityEstimate(np.full(n, self.rim_m_s / self.radius),
+                                np.full(n, self.ground_m_s), np.ones(n), self.ground_m_s, 0.0)
 
 
 def _loop(decision):
     cfg, n = config_for_vehicle("husky", kp=2.0)
-    loop = TractionLoop(cfg, n, _Cruise(cfg.wheel_radius_m), build_slip_table(["GRASS", "ICE"]),
-                        decision, feed_forward=False)
+    loop = TractionLoop(cfg, n, _ConstantEstimate(cfg.wheel_radius_m),
+                        build_slip_table(["GRASS", "ICE"]), decision, feed_forward=False)
     return loop, np.full(n, 1.1 / cfg.wheel_radius_m)
 
 
@@ -70,12 +71,8 @@ def test_a_call_whose_time_goes_back_gives_the_safe_output():
     cfg, n = config_for_vehicle("husky", kp=2.0, ki=50.0)
     r = cfg.wheel_radius_m
 
-    class Slipping(_Cruise):   # ground 0.5 m/s, wheels 0.55 m/s rim (below omega_max)
-        def update(self, obs):
-            return VelocityEstimate(np.full(n, 0.55 / r), np.full(n, 0.5), np.ones(n), 0.5,
-                                    0.0)
-
-    loop = TractionLoop(cfg, n, Slipping(r), build_slip_table(["ICE"]),
+    # ground 0.5 m/s, wheels 0.55 m/s rim (below omega_max)
+    loop = TractionLoop(cfg, n, _ConstantEstimate(r, 0.55, 0.5), build_slip_table(["ICE"]),
                         lambda t: ("ICE", 1.0), feed_forward=False, accel_tau_s=0.3)
     omega = np.full(n, 0.55 / r)
     for t in (0.02, 0.04, 0.06):

@@ -5,25 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from control_helpers import observation
+from test_closed_loop_review3 import _ConstantEstimate
 
 from terrain.control import build_slip_table, config_for_vehicle
 from terrain.control.closed_loop import TractionLoop
-from terrain.control.estimators import VelocityEstimate
 from terrain.errors import ConfigError
 
 
-class _Spinning:
+def _spinning(radius):
     """Constant estimate: ground 0.2 m/s, wheels at 0.6 m/s rim (slip 0.67), accelerating."""
-
-    name, limits = "fixed", "constant stub"
-
-    def __init__(self, radius):
-        self.radius = radius
-
-    def update(self, obs):
-        n = len(obs.omega_low_level)
-        return VelocityEstimate(np.full(n, 0.6 / self.radius), np.full(n, 0.2), np.ones(n),
-                                0.2, 0.0)
+    return _ConstantEstimate(radius, 0.6, 0.2)
 
 
 def test_a_call_whose_time_goes_back_does_not_move_the_feed_forward_ramp():
@@ -34,7 +25,7 @@ def test_a_call_whose_time_goes_back_does_not_move_the_feed_forward_ramp():
     stopped the run."""
     cfg, n = config_for_vehicle("husky", kp=2.0)
     r = cfg.wheel_radius_m
-    loop = TractionLoop(cfg, n, _Spinning(r), build_slip_table(["ICE"]),
+    loop = TractionLoop(cfg, n, _spinning(r), build_slip_table(["ICE"]),
                         lambda t: ("ICE", 1.0), feed_forward=True)
     omega = np.full(n, 0.6 / r)
     for t in (0.02, 0.04, 0.06):
@@ -57,7 +48,7 @@ def test_a_switch_that_is_not_a_boolean_is_a_typed_error_naming_it(name, value):
     switched the feed-forward on, and 0 / 1 passed as False / True; a NumPy boolean is
     still a boolean."""
     cfg, n = config_for_vehicle("husky", kp=2.0)
-    args = (cfg, n, _Spinning(cfg.wheel_radius_m), build_slip_table(["ICE"]),
+    args = (cfg, n, _spinning(cfg.wheel_radius_m), build_slip_table(["ICE"]),
             lambda t: ("ICE", 1.0))
     with pytest.raises(ConfigError, match=f"TractionLoop.{name} must be True or False"):
         TractionLoop(*args, **{name: value})
@@ -75,7 +66,7 @@ def test_a_call_at_a_non_finite_time_gives_the_safe_output_with_or_without_feed_
     the acceleration filter now move by a zero interval, as for a time that went back."""
     cfg, n = config_for_vehicle("husky", kp=2.0)
     r = cfg.wheel_radius_m
-    loop = TractionLoop(cfg, n, _Spinning(r), build_slip_table(["ICE"]),
+    loop = TractionLoop(cfg, n, _spinning(r), build_slip_table(["ICE"]),
                         lambda t: ("ICE", 1.0), feed_forward=feed_forward)
     omega = np.full(n, 0.6 / r)
     for t in (0.02, 0.04):
