@@ -232,6 +232,25 @@ def config_numbers(owner: str, optional: tuple = (), **values) -> None:
                               f"{type(value).__name__} {value!r:.60}")
 
 
+def indexed(name: str, values) -> dict[str, object]:
+    """The entries of a sequence setting as fields ``name[0]``, ``name[1]``, ... for the
+    ``config_*`` checks, so that a refusal names the entry (``q_diag[3]``).
+
+    Parameters
+    ----------
+    name : str
+        The setting's name.
+    values : iterable
+        Its entries.
+
+    Returns
+    -------
+    dict
+        ``"name[i]" -> entry``, in order.
+    """
+    return {f"{name}[{i}]": value for i, value in enumerate(values)}
+
+
 def config_flags(owner: str, **values) -> None:
     """Refuse on/off settings that are not booleans.
 

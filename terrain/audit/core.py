@@ -32,7 +32,8 @@ from terrain.audit.replay import ReplaySettings, replay_run, require_replayable
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
 from terrain.audit.timing import LagSettings
-from terrain.errors import ConfigError, DataFormatError, config_flags, config_positive
+from terrain.errors import (ConfigError, DataFormatError, config_flags, config_positive,
+                            indexed)
 from terrain.run import Run
 from terrain.vehicles import get_vehicle, skid_steer_forward
 from terrain.vehicles.icr import icr_expansion_factor
@@ -217,8 +218,7 @@ def _check_factors(owner: str, factors: Sequence[float]) -> None:
     """Lateral-friction multipliers must be finite and >= 0: NaN stopped the replay with a
     bare ValueError, and a negative factor replayed a friction that pushes the tyre along its
     own slip."""
-    config_positive(owner, allow_zero=True,
-                    **{f"factors[{i}]": f for i, f in enumerate(factors)})
+    config_positive(owner, allow_zero=True, **indexed("factors", factors))
 
 
 def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings()

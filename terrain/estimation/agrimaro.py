@@ -58,7 +58,8 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from terrain.errors import ConfigError, DataFormatError, config_numbers, config_positive
+from terrain.errors import (ConfigError, DataFormatError, config_numbers, config_positive,
+                            indexed)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
@@ -149,7 +150,7 @@ class AgriMaRoEKFSettings:
         for label, values, size in (("p0_diag", self.p0_diag, 12), ("r_diag", self.r_diag, 14),
                                     ("q_diag", self.q_diag, 12)):
             if np.ndim(values) == 1:     # (float() took True as 1 and the text "0.5")
-                config_numbers(owner, **{f"{label}[{i}]": x for i, x in enumerate(values)})
+                config_numbers(owner, **indexed(label, values))
             v = np.asarray(values, dtype=float)
             if v.shape != (size,) or not np.isfinite(v).all():
                 raise ConfigError(f"{label} needs {size} finite values, got {values}")

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain.errors import (ConfigError, ShapeError, TimeStepError, config_flags,
-                            config_numbers, config_positive)
+                            config_numbers, config_positive, indexed)
 from terrain.run import times_out_of_order
 from terrain.vehicles.common import wrap_angle
 from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
@@ -82,10 +82,9 @@ class AdaptiveObserverSettings:
             values = getattr(self, name)
             if np.ndim(values) != 1 or len(values) != size:
                 raise ConfigError(f"{owner}.{name} needs {size} values, got {values!r}")
-            config_numbers(owner, **{f"{name}[{i}]": v for i, v in enumerate(values)})
+            config_numbers(owner, **indexed(name, values))
         for name in ("l_gains", "lambda_gains"):
-            config_positive(owner, **{f"{name}[{i}]": v
-                                      for i, v in enumerate(getattr(self, name))})
+            config_positive(owner, **indexed(name, getattr(self, name)))
         lo, hi = self.eta_bounds
         if not 0 <= lo < hi:
             raise ConfigError(f"{owner}.eta_bounds must satisfy 0 <= lo < hi, got "

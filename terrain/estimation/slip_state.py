@@ -37,7 +37,8 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_flags, config_numbers, config_positive
+from terrain.errors import (ConfigError, config_flags, config_numbers, config_positive,
+                            indexed)
 from terrain.estimation.agrimaro import SENSOR_COLUMNS
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams,
                                                    slip_state_observation_into, transition_into)
@@ -118,7 +119,7 @@ class SlipStateModel(KernelModel):
         for label in ("p0_diag", "r_diag", "q_diag"):  # (float() took True and "0.1")
             values = getattr(self, label)
             if values is not None and np.ndim(values) == 1:
-                config_numbers(owner, **{f"{label}[{i}]": x for i, x in enumerate(values)})
+                config_numbers(owner, **indexed(label, values))
         names = ["omega_1", "omega_2", "omega_3", "ax", "ay", "wz", "yaw_imu", "delta_1",
                  "delta_2", "delta_3"]
         if self.camera:
