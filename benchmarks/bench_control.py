@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from pipelines.arguments import positive_integer
 from terrain.control.desired_slip import build_slip_table
 from terrain.control.traction import TractionControlConfig, TractionState, traction_control_step
 from terrain.slip import sae_slip
@@ -103,11 +104,14 @@ def time_sae_slip(x: dict[str, np.ndarray], chunk: int) -> float:
 def main() -> int:
     """Run the benchmark; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=20000)
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--chunk", type=int, default=50, help="steps per timed chunk")
+    parser.add_argument("--steps", type=positive_integer, default=20000)
+    parser.add_argument("--repeats", type=positive_integer, default=5)
+    parser.add_argument("--chunk", type=positive_integer, default=50, help="steps per timed chunk")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if args.chunk > args.steps:     # no whole chunk to time: every figure would be inf
+        parser.error(f"argument --chunk: {args.chunk} steps per chunk, more than --steps "
+                     f"{args.steps}")
     rng = np.random.default_rng(0)
     cfg = TractionControlConfig(kp=2.0, ki=5.0, kd=0.02, wheel_radius_m=WHEEL_RADIUS_M,
                                 omega_max_rad_s=20.0)

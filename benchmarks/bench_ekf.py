@@ -32,6 +32,7 @@ import time
 
 import numpy as np
 
+from pipelines.arguments import positive_integer, positive_number
 from terrain.estimation import SensorSamples, predict, run_filter, update
 from terrain.estimation.agrimaro import AgriMaRoModel, estimate_agrimaro
 from pipelines.validation.harness import data_driven_settings, simulate_agrimaro
@@ -118,9 +119,9 @@ def bench_filterpy(model: AgriMaRoModel, z: np.ndarray, dt: float) -> float:
 def main() -> int:
     """Run the benchmark; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=20000)
-    parser.add_argument("--minutes", type=float, default=20.0)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--steps", type=positive_integer, default=20000)
+    parser.add_argument("--minutes", type=positive_number, default=20.0)
+    parser.add_argument("--repeats", type=positive_integer, default=3)
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     rng = np.random.default_rng(0)

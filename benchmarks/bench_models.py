@@ -32,10 +32,12 @@ import time
 import numpy as np
 from sklearn.pipeline import Pipeline
 
+from pipelines.arguments import integer_up_to, positive_integer
 from terrain.errors import ConfigError
 from terrain.models.cv import fit_with_groups, inference_ms_per_window, iter_splits
 from terrain.models.experiment import ExperimentConfig, load_windows
-from terrain.models.registry import MODELS, ModelConfig, cnn_seeds_for, make_model
+from terrain.models.registry import (MAX_CNN_SEEDS, MODELS, ModelConfig, cnn_seeds_for,
+                                     make_model)
 from terrain.tracking import tracked_run
 
 
@@ -54,12 +56,13 @@ def main() -> int:
     """Time every model on one BorealTC fold; print and log the figures."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
-    parser.add_argument("--threads", type=int, default=2, help="torch threads when training")
-    parser.add_argument("--repeats", type=int, default=50, help="timed single windows")
-    parser.add_argument("--minirocket-max-dilations", type=int,
+    parser.add_argument("--threads", type=positive_integer, default=2,
+                        help="torch threads when training")
+    parser.add_argument("--repeats", type=positive_integer, default=50, help="timed single windows")
+    parser.add_argument("--minirocket-max-dilations", type=positive_integer,
                         default=ModelConfig().minirocket_max_dilations,
                         help="MiniRocket dilations per kernel at most")
-    parser.add_argument("--cnn-seeds", type=int, default=1,
+    parser.add_argument("--cnn-seeds", type=integer_up_to(MAX_CNN_SEEDS), default=1,
                         help="networks averaged per CNN (models holding a CNN only)")
     args = parser.parse_args()
     ws = load_windows(ExperimentConfig(dataset="borealtc"))

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from pipelines.arguments import integer_in, positive_integer, positive_number
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
 from terrain.serving.pyfunc import save_model
@@ -146,13 +147,13 @@ def main() -> int:
     parser.add_argument("--kind", choices=list(RECIPES), default="wheels")
     parser.add_argument("--model", type=Path, default=None,
                         help="model directory of terrain train --model-out")
-    parser.add_argument("--requests", type=int, default=2000)
-    parser.add_argument("--concurrency", type=int, default=4)
-    parser.add_argument("--request-s", type=float, default=4.0,
+    parser.add_argument("--requests", type=positive_integer, default=2000)
+    parser.add_argument("--concurrency", type=positive_integer, default=4)
+    parser.add_argument("--request-s", type=positive_number, default=4.0,
                         help="seconds of stream per request")
-    parser.add_argument("--behind-long", type=int, default=0, metavar="K",
+    parser.add_argument("--behind-long", type=integer_in(0, 100), default=0, metavar="K",
                         help="send K long requests at once, then short ones behind them")
-    parser.add_argument("--long-bytes", type=int, default=7_500_000,
+    parser.add_argument("--long-bytes", type=positive_integer, default=7_500_000,
                         help="largest long request body, bytes (the server's limit: 8 MB)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

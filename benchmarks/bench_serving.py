@@ -42,6 +42,7 @@ import numpy as np
 import psutil
 
 from features.windows import WindowConfig, make_windows
+from pipelines.arguments import integer_in, non_negative_number
 from terrain.io.shipped import load_dataset
 from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
@@ -173,9 +174,10 @@ def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--kind", choices=list(RECIPES), default=DEFAULT_RECIPES["all"])
     parser.add_argument("--model", type=Path, default=None, help="model directory to use")
-    parser.add_argument("--minutes", type=float, default=30.0,
+    parser.add_argument("--minutes", type=non_negative_number, default=30.0,
                         help="soak stream length (0: no soak)")
-    parser.add_argument("--warmup", type=int, default=20, help="decisions not timed")
+    parser.add_argument("--warmup", type=integer_in(0, 100_000), default=20,
+                        help="decisions not timed")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     runs = load_dataset("borealtc")

@@ -38,6 +38,7 @@ from threadpoolctl import threadpool_limits
 
 from features.slip_features import (one_hot_probabilities, slip_features, slip_table,
                                     slip_windows, window_feature_vector)
+from pipelines.arguments import positive_integer
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -49,8 +50,8 @@ def main() -> None:
     """Fit, time, print, log."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--cache-dir", default="out/slip_cache")
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--singles", type=int, default=200)
+    parser.add_argument("--repeats", type=positive_integer, default=5)
+    parser.add_argument("--singles", type=positive_integer, default=200)
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     spec = SlipDataSpec(terrains=("ASPHALT", "SANDY_LOAM", "SNOW", "ICE", "GRASS"),

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
 from terrain.models.compare import Cell, CompareConfig, cell_windows
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ModelConfig, make_model
@@ -88,8 +89,10 @@ def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", default=["cnn-spectrogram", "cnn"])
     parser.add_argument("--devices", nargs="+", default=["cuda", "cpu"])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--threads", type=int, default=2, help="torch CPU threads per fit")
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
+    parser.add_argument("--threads", type=positive_integer, default=2,
+                        help="torch CPU threads per fit")
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

@@ -29,6 +29,7 @@ import argparse
 
 import pandas as pd
 
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import compare, run_grid
@@ -61,7 +62,8 @@ def main() -> int:
                         default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])
     parser.add_argument("--scenarios", nargs="+",
                         default=["straight_accel", "orchard", "slope_turn"])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=[0, 1, 2])
     args = parser.parse_args()
     vehicle_of = {k: v for v, ks in ESTIMATORS.items() for k in ks}
     with tracked_run("terrain-benchmark", "control-imu-views", vars(args)) as run:

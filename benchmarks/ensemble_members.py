@@ -38,6 +38,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.pipeline import Pipeline
 
 from features.wheel_physics import WheelPhysicsFeatures
+from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
@@ -140,11 +141,12 @@ def main() -> int:
     """Cross-validate the members, score the votes, print and log the table."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--model-seeds", type=int, default=3,
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
+    parser.add_argument("--model-seeds", type=positive_integer, default=3,
                         help="initialisations of each CNN (model seed = split seed + 10 m)")
-    parser.add_argument("--max-epochs", type=int, default=30)
-    parser.add_argument("--threads", type=int, default=1, help="torch threads per CNN")
+    parser.add_argument("--max-epochs", type=positive_integer, default=30)
+    parser.add_argument("--threads", type=positive_integer, default=1, help="torch threads per CNN")
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 
+from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import fit_with_groups, iter_splits
 from terrain.models.ensemble import aligned_proba
@@ -59,10 +60,13 @@ def main() -> int:
     """Cross-validate both weightings, print and log the table."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--history", type=int, nargs="+", default=[1, 10])
-    parser.add_argument("--threads", type=int, default=1, help="torch threads per CNN fit")
-    parser.add_argument("--n-jobs", type=int, default=1, help="joblib workers over folds")
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
+    parser.add_argument("--history", type=positive_integer, nargs="+", default=[1, 10])
+    parser.add_argument("--threads", type=positive_integer, default=1,
+                        help="torch threads per CNN fit")
+    parser.add_argument("--n-jobs", type=positive_integer, default=1,
+                        help="joblib workers over folds")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     config = CompareConfig(datasets=(args.dataset,), signals=("all",), windows_s=(2.0,))

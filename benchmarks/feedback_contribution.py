@@ -31,6 +31,7 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
+from pipelines.arguments import DistinctSeeds, positive_number, seed_value, sim_duration_s
 from terrain.control.closed_loop import default_gains, run_closed_loop
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import ConfigError
@@ -99,9 +100,10 @@ def main() -> int:
                         default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])
     parser.add_argument("--scenarios", nargs="+",
                         default=["straight_accel", "orchard", "slope_turn"])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--duration-s", type=float, default=20.0)
-    parser.add_argument("--strong-kp", type=float, default=20.0)
+    parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=[0, 1, 2])
+    parser.add_argument("--duration-s", type=sim_duration_s, default=20.0)
+    parser.add_argument("--strong-kp", type=positive_number, default=20.0)
     parser.add_argument("--decided", nargs="+", default=[], metavar="PLANT=LABEL")
     parser.add_argument("--out", type=Path, default=Path("out/feedback_contribution"))
     parser.add_argument("--no-mlflow", action="store_true")

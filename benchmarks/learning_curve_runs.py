@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from pipelines.arguments import DistinctSeeds, integer_in, positive_integer, seed_value
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
@@ -95,11 +96,12 @@ def main() -> int:
     """Cross-validate at every number of folds, print and log the learning curve."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="borealtc")
-    parser.add_argument("--splits", type=int, nargs="+", default=[2, 3, 5, 10])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--splits", type=integer_in(2, 1000), nargs="+", default=[2, 3, 5, 10])
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
     parser.add_argument("--models", nargs="+", default=["svm", "cnn", "cnn-spectrogram"])
-    parser.add_argument("--max-epochs", type=int, default=30)
-    parser.add_argument("--threads", type=int, default=1, help="torch threads per CNN")
+    parser.add_argument("--max-epochs", type=positive_integer, default=30)
+    parser.add_argument("--threads", type=positive_integer, default=1, help="torch threads per CNN")
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
     parser.add_argument("--figure", type=Path, default=None, help="write the figure (PNG)")
     parser.add_argument("--no-mlflow", action="store_true")

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pipelines.arguments import positive_integer
 from terrain.models.compare import (grid_markdown, markdown_table, plot_comparison, plot_grid,
                                     score_rows, soft_vote, spans_grid, summary_table,
                                     with_default_keys)
@@ -75,7 +76,7 @@ def main() -> int:
     parser.add_argument("--vote", nargs="+", action="append", default=None,
                         help="members of one equal-weight vote; repeat for several votes "
                              "(default: svm cnn cnn-spectrogram)")
-    parser.add_argument("--history", type=int, nargs="+", default=[1, 5, 10])
+    parser.add_argument("--history", type=positive_integer, nargs="+", default=[1, 5, 10])
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "seed"]

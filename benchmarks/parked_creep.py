@@ -20,6 +20,7 @@ import argparse
 
 import numpy as np
 
+from pipelines.arguments import parse_number, sim_duration_s
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import PHYSICS_VERSIONS
 from terrain.terramechanics import get_terrain
@@ -59,11 +60,16 @@ def parked_speed(terrain: str, physics: str, seconds: float, slope_deg: float
     return p.pose[:, 0], p.twist[:, 0]
 
 
+def _slope_deg(text: str) -> float:
+    """``--slope-deg``: a finite angle in (-90, 90) degrees (negative: facing down)."""
+    return parse_number(text, lambda x: -90.0 < x < 90.0, "an angle in (-90, 90) degrees")
+
+
 def main() -> int:
     """Print and log the creep table; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=20.0)
-    parser.add_argument("--slope-deg", type=float, default=15.0)
+    parser.add_argument("--seconds", type=sim_duration_s, default=20.0)
+    parser.add_argument("--slope-deg", type=_slope_deg, default=15.0)
     parser.add_argument("--terrains", default="ASPHALT,GRASS,SANDY_LOAM,SNOW,ICE")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

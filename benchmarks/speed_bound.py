@@ -40,6 +40,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from features.slip_outputs import slip_model_outputs
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.control.estimators import IMU_VIEWS
 from terrain.estimation.skid_steer_slip import STATE_NAMES
 from terrain.io.shipped import read_shipped
@@ -195,7 +196,8 @@ def main() -> int:
                         default=["ASPHALT", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
     parser.add_argument("--scenarios", nargs="+",
                         default=["straight_accel", "orchard", "slope_turn", "random"])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
+                        default=[0, 1, 2])
     parser.add_argument("--measured-terrains", nargs="*", default=[],
                         help="BorealTC terrains to run (default: all)")
     shipped = BATCH_FUSION.filter

@@ -33,6 +33,7 @@ import traceback
 import numpy as np
 
 from features.windows import WindowConfig, make_windows
+from pipelines.arguments import seed_value
 from terrain.io.shipped import read_shipped
 from terrain.models.experiment import inference_pipeline
 from terrain.models.svm import SVMConfig
@@ -162,7 +163,7 @@ def good_decisions(result) -> tuple[int, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seeds", type=int, nargs=2, default=[0, 300],
+    parser.add_argument("--seeds", type=seed_value, nargs=2, default=[0, 300],
                         metavar=("FIRST", "END"))
     parser.add_argument("--out", help="save every outcome (pickle)")
     parser.add_argument("--compare", help="a saved --out of another version")

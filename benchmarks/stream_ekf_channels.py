@@ -48,6 +48,7 @@ import numpy as np
 import pandas as pd
 
 from features.windows import WindowConfig, make_windows
+from pipelines.arguments import DistinctSeeds, positive_number, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.models.compare import Cell, cell_windows
 from terrain.models.cv import cross_validate
@@ -143,12 +144,13 @@ def window_cv(seeds, log: bool) -> int:
 def main() -> int:
     """Run the A/B over folds and seeds, print and log the pooled scores."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
     parser.add_argument("--window-cv", action="store_true",
                         help="where the window-CV gain of the EKF channels comes from "
                              "(spectrogram CNN: all / all+ekf / windowed EKF)")
     parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
-    parser.add_argument("--train-hop-s", type=float, default=None,
+    parser.add_argument("--train-hop-s", type=positive_number, default=None,
                         help="hop of the training windows, s (default: the window, 2 s; "
                              "0.5 trains as the dense recipes of terrain stream-eval)")
     parser.add_argument("--no-mlflow", action="store_true")

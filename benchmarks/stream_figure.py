@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pipelines.arguments import integer_in, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import held_out_folds, raw_decisions, score_stream, truth_at
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
@@ -133,8 +134,8 @@ def plot(results: dict, path: Path) -> None:
 def main() -> int:
     """Replay one held-out stream per recipe; plot, print and log it."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--fold", type=int, default=0)
+    parser.add_argument("--seed", type=seed_value, default=0)
+    parser.add_argument("--fold", type=integer_in(0, 4), default=0)
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
                         default=list(DEFAULT_RECIPES.values()))
     parser.add_argument("--out", type=Path, default=Path("docs/streaming_example.png"))

@@ -36,6 +36,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (encode_stream_scores, held_out_folds, pool_scores,
                                         raw_decisions, score_smoothing, seed_accuracies)
@@ -72,7 +73,7 @@ def at_times(t_from: np.ndarray, proba: np.ndarray, t_to: np.ndarray) -> np.ndar
 
 def main() -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds, default=[0, 1, 2])
     ap.add_argument("--members", nargs=2, default=[SHORT, LONG], choices=sorted(RECIPES),
                     metavar="RECIPE", help="the two recipes averaged; the second's decision "
                     "times are used (default: %(default)s)")

@@ -49,6 +49,7 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
+from pipelines.arguments import DistinctSeeds, integer_in, seed_value
 from pipelines.stream_eval import SMOOTHINGS
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import held_out_folds, pool_scores, raw_decisions, score_smoothing
@@ -188,8 +189,8 @@ def merged_rows(paths: list[Path]) -> tuple[str, int | None, list[dict]]:
 def main() -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     ap.add_argument("--kind", default="all-ensemble-dense-no-speed-1s", choices=list(RECIPES))
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    ap.add_argument("--inner-folds", type=int, default=4)
+    ap.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds, default=[0, 1, 2])
+    ap.add_argument("--inner-folds", type=integer_in(2, 100), default=4)
     ap.add_argument("--out", type=Path, default=None, help="keep one JSON file per seed here")
     ap.add_argument("--merge", type=Path, nargs="+", default=None,
                     help="pool these JSON files of earlier runs instead of training")

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_scores,
                                         raw_decisions, score_stream, truth_at)
@@ -106,7 +107,7 @@ def pooled(folds: list[dict], rule: str) -> tuple[float, float, float]:
 def main() -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     ap.add_argument("--kind", default="all-ensemble-dense-no-speed", choices=list(RECIPES))
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    ap.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds, default=[0, 1, 2])
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
     recipe = RECIPES[args.kind]

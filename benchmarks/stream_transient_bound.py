@@ -26,6 +26,7 @@ import argparse
 
 import numpy as np
 
+from pipelines.arguments import DistinctSeeds, positive_number, probability, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import held_out_folds, truth_at
 from terrain.tracking import tracked_run
@@ -64,12 +65,13 @@ def window_shares(segments, hop_s: float, window_s: float) -> tuple[int, int, in
 def main() -> int:
     """Print the shares over folds and seeds and the settled accuracy a target needs."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--hop-s", type=float, default=0.5)
-    parser.add_argument("--window-s", type=float, default=2.0)
-    parser.add_argument("--target", type=float, default=0.92,
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
+    parser.add_argument("--hop-s", type=positive_number, default=0.5)
+    parser.add_argument("--window-s", type=positive_number, default=2.0)
+    parser.add_argument("--target", type=probability, default=0.92,
                         help="per-decision accuracy target (issue 12: 0.92)")
-    parser.add_argument("--settled-accuracy", type=float, default=None,
+    parser.add_argument("--settled-accuracy", type=probability, default=None,
                         help="a measured settled-window accuracy to bound (optional)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

@@ -30,6 +30,7 @@ from sklearn.base import clone
 from sklearn.metrics import log_loss
 from sklearn.model_selection import StratifiedGroupKFold
 
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.models.cv import iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
 from terrain.models.metrics import window_metrics
@@ -112,7 +113,8 @@ def score_seed(features: np.ndarray, labels: np.ndarray, runs: np.ndarray, group
 def main() -> int:
     """Score both variants, print the table and log it to MLflow."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     warnings.filterwarnings("ignore", message="y_pred contains classes not in y_true")

@@ -46,6 +46,7 @@ from sklearn.svm import SVC
 
 from features import calculators
 from features.transformers import linear_bands
+from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.models.cv import grouped_units, iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
 from terrain.models.svm import make_svm
@@ -239,7 +240,8 @@ def _metric_key(variant: str) -> str:
 def main() -> int:
     """Score every variant, print the table and log it to MLflow."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
+                        default=[0, 1, 2])
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

@@ -56,3 +56,86 @@ def test_benchmark_refuses_a_prefix_of_an_option(path, capsys):
         parser.parse_args([prefix, "1"])
     assert stop.value.code == 2
     assert "unrecognized arguments" in capsys.readouterr().err
+
+
+def _parser(path):
+    import copy
+
+    from test_docs_truth_doc4 import _benchmark_parser
+
+    return copy.deepcopy(_benchmark_parser(path))     # the cached one stays untouched
+
+
+@pytest.mark.parametrize("path", SCRIPTS, ids=[p.stem for p in SCRIPTS])
+def test_every_number_option_has_a_range_check(path):
+    # `bench_control.py --chunk 0` ended in "ValueError: range() arg 3 must not be zero",
+    # `--repeats 0` in "KeyError: 'agrimaro'", `bench_served_load.py --behind-long -1` sent
+    # every long body but one: a bare int / float type accepts any count, NaN and inf
+    bare = [a.option_strings[0] if a.option_strings else a.dest
+            for a in _parser(path)._actions if a.type in (int, float)]
+    assert not bare, f"{path.name}: options without a range check: {bare}"
+
+
+@pytest.mark.parametrize("path", SCRIPTS, ids=[p.stem for p in SCRIPTS])
+def test_every_seed_list_refuses_a_repeated_seed(path, capsys):
+    # `--seeds 0 0` ran seed 0 twice and pooled it as two seeds
+    parser = _parser(path)
+    seeds = [a for a in parser._actions if "--seeds" in a.option_strings]
+    if not seeds or seeds[0].nargs != "+":
+        pytest.skip("no list of seeds")
+    for action in parser._actions:
+        if action.option_strings:
+            action.required = False
+        else:
+            action.nargs = "?"
+    with pytest.raises(SystemExit) as stop:
+        parser.parse_args(["--seeds", "1", "1"])
+    assert stop.value.code == 2
+    assert "given twice" in capsys.readouterr().err
+
+
+BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", "0"),
+              ("bench_control", "--steps", "-5"), ("bench_ekf", "--steps", "0"),
+              ("bench_ekf", "--minutes", "-1"), ("bench_ekf", "--minutes", "nan"),
+              ("bench_serving", "--minutes", "inf"), ("bench_serving", "--minutes", "-1"),
+              ("bench_serving", "--warmup", "-1"), ("bench_served_load", "--behind-long", "-1"),
+              ("bench_served_load", "--requests", "0"),
+              ("bench_served_load", "--concurrency", "0"), ("bench_slip", "--repeats", "0"),
+              ("bench_slip", "--singles", "-3"), ("bench_models", "--repeats", "0"),
+              ("bench_models", "--threads", "0"), ("cnn_device", "--seeds", "-1"),
+              ("learning_curve_runs", "--splits", "1"), ("stream_reset_nested",
+                                                         "--inner-folds", "1"),
+              ("stream_figure", "--fold", "5"), ("stream_transient_bound", "--target", "1.5"),
+              ("stream_transient_bound", "--hop-s", "0"), ("parked_creep", "--seconds", "0"),
+              ("parked_creep", "--slope-deg", "nan"), ("ensemble_weights", "--n-jobs", "0"),
+              ("merge_compare", "--history", "0"), ("unseen_runs", "--seed", "-1"),
+              ("errors_by_manoeuvre", "--turning-rad-s", "-0.1")]
+
+
+@pytest.mark.parametrize("script, option, value", BAD_VALUES,
+                         ids=[f"{s}{o}={v}" for s, o, v in BAD_VALUES])
+def test_an_option_out_of_its_range_is_a_usage_error(script, option, value, capsys):
+    parser = _parser(SCRIPTS[[p.stem for p in SCRIPTS].index(script)])
+    for action in parser._actions:            # a missing required option or positional
+        if action.option_strings:             # would end the parse first
+            action.required = False
+        else:
+            action.nargs = "?"
+    with pytest.raises(SystemExit) as stop:
+        parser.parse_args([option, value])
+    assert stop.value.code == 2
+    assert option in capsys.readouterr().err
+
+
+def test_bench_control_refuses_a_chunk_longer_than_the_steps(monkeypatch, capsys):
+    # `--steps 10` (chunk 50) timed no chunk: every figure inf, every ratio NaN, printed
+    # as "inf us/wheel ... MISSED"
+    path = SCRIPTS[[p.stem for p in SCRIPTS].index("bench_control")]
+    spec = importlib.util.spec_from_file_location("benchmark_bench_control_chunk", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(sys, "argv", [path.name, "--steps", "10", "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        module.main()
+    assert stop.value.code == 2
+    assert "--chunk" in capsys.readouterr().err
