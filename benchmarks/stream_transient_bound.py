@@ -6,8 +6,10 @@ decision (one every ``--hop-s``, each resting on the last ``--window-s`` of samp
 in one of three classes by where its window lies:
 
 * settled: the whole window inside the decision's piece;
-* mostly new: the window straddles a switch, more than half of it on the new terrain;
-* mostly old: the window straddles a switch, at least half of it on the previous terrain.
+* mostly new: the window straddles a switch, at least half of it on the new terrain (the
+  terrain at the decision's time: a window split in two halves counts as new, so the bound
+  below stays an upper bound);
+* mostly old: the window straddles a switch, more than half of it on the previous terrain.
 
 A decision rule (classifier and smoother) with accuracy ``a`` on the settled decisions that
 decides every straddling window by its majority terrain (better than any causal filter can
@@ -48,7 +50,8 @@ def window_shares(segments, hop_s: float, window_s: float) -> tuple[int, int, in
     -------
     n, settled, mostly_new, mostly_old : int
         Scored decisions (the first full window on), whole window in the piece, straddling
-        with more than half on the new terrain, straddling with at least half on the old.
+        with at least half on the new terrain, straddling with more than half on the old
+        (the window's middle lies before the switch).
     """
     start = segments[0].t_from_s + segments[0].t_offset_s
     end = segments[-1].t_from_s + segments[-1].t_offset_s + segments[-1].duration_s

@@ -18,7 +18,7 @@ def test_window_shares_of_one_switch():
     assert n == 36                       # t = 2.0 ... 19.5
     assert settled == 16 + 16            # t < 10 in A; t >= 12 in B
     assert mostly_old == 2               # t = 10.0, 10.5: more than half of the window on A
-    assert mostly_new == 2               # t = 11.0, 11.5
+    assert mostly_new == 2               # t = 11.0 (half on each: new), 11.5
     # a second piece of the same terrain is no switch
     same = [Segment("a/A/0", "A", 0.0, 0.0, 10.0), Segment("a/A/1", "A", 0.0, 10.0, 10.0)]
     assert window_shares(same, 0.5, 2.0) == (36, 36, 0, 0)
