@@ -70,3 +70,8 @@ def test_a_short_run_logs_the_ratio_to_its_same_run_reference(script, monkeypatc
                 logged[f"{name}_us_per_wheel{sfx}"]
                 / logged[f"{name}_simple_pid_us_per_wheel{sfx}"])
     assert "x simple-pid" in capsys.readouterr().out
+    # per wheel (per side for the Husky): the step's time over its units
+    for name, units in (("agrimaro", 3), ("husky", 2), ("four_wheels", 4)):
+        for sfx in ("", "_wall"):
+            assert logged[f"{name}_us_per_wheel{sfx}"] == pytest.approx(
+                logged[f"{name}_us_per_step{sfx}"] / units)

@@ -91,3 +91,11 @@ def test_reference_and_cpu_time_are_per_call_and_per_simulated_minute(script, mo
             <= 1.05 * logged[f"{vehicle}_s_per_sim_min"]
         assert logged[f"{vehicle}_over_reference"] == pytest.approx(
             1e5 * logged[f"{vehicle}_s_per_sim_min"])
+
+
+def test_the_reference_is_the_mean_of_its_times_before_and_after(script, monkeypatch):
+    # a machine whose load changes during the run: before 0.01 ms, after 0.03 ms
+    times = iter([0.01, 0.03])
+    monkeypatch.setitem(script["main"].__globals__, "reference_ms", lambda: next(times))
+    logged = _main(script, monkeypatch, ["--minutes", "1"], lambda cfg: None)
+    assert logged["reference_ms"] == pytest.approx(0.02)
