@@ -1,0 +1,82 @@
+"""benchmarks/bench_serving.py: what its latency and soak figures count (no model trained)."""
+
+from __future__ import annotations
+
+import dataclasses
+import runpy
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "bench_serving.py"
+
+
+@pytest.fixture
+def script():
+    return runpy.run_path(str(SCRIPT))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Model:
+    pipeline: object
+    classes: tuple = ("A", "B")
+    channels: tuple = ("c",)
+    window: object = dataclasses.field(
+        default_factory=lambda: SimpleNamespace(window_s=2.0, rate_hz=10.0))
+
+
+class _Pipeline:
+    classes_ = np.array(["A", "B"])
+
+    def predict_proba(self, X):
+        return np.full((len(X), 2), 0.5)
+
+
+class _Service:
+    """One decision per push; each push calls the model's pipeline as the service does."""
+
+    def __init__(self, model, targets, config):
+        self.model = model
+
+    def push(self, stream, t, v):
+        self.model.pipeline.predict_proba(np.zeros((1, 1, 1)))
+        return [object()]
+
+
+def _fake(script, monkeypatch, n_pushes: int, rss=None):
+    env = script["latency"].__globals__
+    monkeypatch.setitem(env, "StreamService", _Service)
+    monkeypatch.setitem(env, "CataloguePeakTargets", lambda classes: None)
+    monkeypatch.setitem(env, "make_windows",
+                        lambda *a, **k: SimpleNamespace(X=np.zeros((3, 1, 1))))
+    monkeypatch.setitem(env, "_pushes", lambda svc, run: (
+        ("wheels", np.array([10.0 * k]), {"c": np.zeros(1)}) for k in range(n_pushes)))
+    if rss is not None:
+        memory = iter(rss)
+        process = SimpleNamespace(memory_info=lambda: SimpleNamespace(rss=next(memory)))
+        monkeypatch.setitem(env, "psutil", SimpleNamespace(Process=lambda: process))
+
+
+def test_the_warm_up_decisions_are_not_timed(script, monkeypatch):
+    _fake(script, monkeypatch, 12)
+    out = script["latency"](_Model(_Pipeline()), None, 5)
+    assert {k: len(v) for k, v in out.items()} == {"decision": 7, "in_decision": 7, "hot": 7,
+                                                   "reference": 7}
+    assert (out["in_decision"] > 0).all()       # the pipeline call inside each decision
+
+
+def test_memory_growth_counts_only_after_the_first_two_minutes(script, monkeypatch):
+    # a sample every 10 s of stream (one push each, sample_every=1): RSS climbs 1 MiB a
+    # sample for the first 2 min (warm-up: caches, buffers), then stays flat
+    mib = 2 ** 20
+    rss = [100 * mib + min(k, 12) * mib for k in range(31)]
+    _fake(script, monkeypatch, 31, rss)
+    result = script["soak"](_Model(_Pipeline()), None, sample_every=1)
+    assert result["stream_s"] == pytest.approx(300.0)
+    assert result["decisions"] == 31
+    assert result["rss_peak_mb"] == pytest.approx(112.0)
+    assert result["rss_after_2min_mb"] == pytest.approx(112.0)
+    assert result["rss_growth_mb"] == pytest.approx(0.0)
+
