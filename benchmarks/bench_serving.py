@@ -188,6 +188,9 @@ def main() -> int:
     usable = [r for r in runs if all(s in r.streams for s in need)]
     longest = max(usable, key=lambda r: r.duration_s)
     timed = {k: v * 1e3 for k, v in latency(model, longest, args.warmup).items()}
+    if not timed["decision"].size:      # every decision of the run was warm-up
+        parser.error(f"argument --warmup: {args.warmup} warm-up decisions leave none of "
+                     f"{longest.run_id}'s ({longest.duration_s:.0f} s) to time")
     lat, pipe, ref = timed["decision"], timed["hot"], timed["reference"]
     inside = timed["in_decision"]
     metrics = {"decision_p50_ms": float(np.percentile(lat, 50)),

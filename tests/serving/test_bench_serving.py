@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import runpy
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -80,3 +81,18 @@ def test_memory_growth_counts_only_after_the_first_two_minutes(script, monkeypat
     assert result["rss_after_2min_mb"] == pytest.approx(112.0)
     assert result["rss_growth_mb"] == pytest.approx(0.0)
 
+
+def test_a_warm_up_longer_than_the_run_is_a_usage_error(script, monkeypatch, capsys):
+    # every decision of the run was warm-up: np.percentile of nothing was an IndexError
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "fit_stream_model", lambda *a, **k: _Model(_Pipeline()))
+    run = SimpleNamespace(run_id="r", duration_s=60.0, streams={"imu": 0, "wheels": 0})
+    monkeypatch.setitem(env, "load_dataset", lambda name: [run])
+    monkeypatch.setitem(env, "latency", lambda model, run, warmup: {
+        k: np.array([]) for k in ("decision", "in_decision", "hot", "reference")})
+    monkeypatch.setattr(sys, "argv", ["bench_serving.py", "--warmup", "5000", "--minutes", "0",
+                                      "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    assert "--warmup" in capsys.readouterr().err
