@@ -1,0 +1,59 @@
+"""benchmarks/bench_served_load.py: the request bodies it sends (no server started)."""
+
+from __future__ import annotations
+
+import json
+import runpy
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.run import TIME
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "bench_served_load.py"
+
+
+@pytest.fixture(scope="module")
+def script():
+    return runpy.run_path(str(SCRIPT))
+
+
+def _run(run_id: str, seconds: float, rate_hz: float = 10.0):
+    t = np.arange(0.0, seconds, 1.0 / rate_hz)
+    frame = pd.DataFrame({TIME: t, "vel_l": np.ones_like(t), "vel_r": np.ones_like(t)})
+    return SimpleNamespace(run_id=run_id, duration_s=seconds, streams={"wheels": frame})
+
+
+def _rows(body: bytes) -> pd.DataFrame:
+    split = json.loads(body)["dataframe_split"]
+    return pd.DataFrame(split["data"], columns=split["columns"])
+
+
+def test_long_bodies_repeat_a_run_up_to_the_byte_limit(script):
+    runs = [_run("long", 100.0), _run("short", 20.0)]
+    one = len(script["long_bodies"](runs, ("wheels",), 1, 10 ** 9, max_span_s=101.0)[0])
+    (body,) = script["long_bodies"](runs, ("wheels",), 1, int(3.5 * one))
+    assert len(body) <= 3.5 * one
+    rows = _rows(body)
+    assert len(rows) == 3 * 1000                  # the longest run, three times
+    # on one clock: each copy shifted by the run's span plus 1 s
+    assert rows[TIME].is_monotonic_increasing
+    assert rows[TIME].iloc[-1] == pytest.approx(2 * 100.9 + 99.9)
+
+
+def test_a_run_longer_than_the_limit_is_sent_once(script):
+    (body,) = script["long_bodies"]([_run("long", 100.0)], ("wheels",), 1, 10)
+    assert len(_rows(body)) == 1000
+
+
+def test_request_bodies_slice_the_stream_they_say(script):
+    bodies = script["request_bodies"]([_run("r", 60.0)], ("wheels",), 4.0, 5)
+    assert len(bodies) == 5
+    for body in bodies:
+        rows = _rows(body)
+        assert len(rows) in (40, 41)              # 4 s at 10 Hz
+        assert set(rows["stream"]) == {"wheels"}
+
