@@ -167,6 +167,11 @@ def main() -> int:
                                    m.classes, {"dataset": "borealtc", "kind": args.kind})
         window = load_stream_model(model_dir).window
         request_s = max(args.request_s, window.window_s + 1.0)
+        longest = max((r.duration_s for r in runs if all(s in r.streams for s in streams)),
+                      default=0.0)
+        if request_s + 1.0 >= longest:  # no run to slice a request from
+            parser.error(f"argument --request-s: {request_s:g} s per request, but the longest "
+                         f"BorealTC run with {' and '.join(streams)} lasts {longest:.0f} s")
         if args.behind_long:
             return _behind_long(args, runs, streams, model_dir, request_s)
         bodies = request_bodies(runs, streams, request_s, args.requests)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import runpy
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -57,3 +58,17 @@ def test_request_bodies_slice_the_stream_they_say(script):
         assert len(rows) in (40, 41)              # 4 s at 10 Hz
         assert set(rows["stream"]) == {"wheels"}
 
+
+def test_a_request_longer_than_every_run_is_a_usage_error(script, monkeypatch, capsys):
+    # `--request-s 600`: no run was long enough to slice, and rng.integers(0) ended in
+    # "ValueError: high <= 0"
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "load_dataset", lambda name: [_run("r", 60.0)])
+    monkeypatch.setitem(env, "load_stream_model",
+                        lambda path: SimpleNamespace(window=SimpleNamespace(window_s=2.0)))
+    monkeypatch.setattr(sys, "argv", ["bench_served_load.py", "--model", "m", "--request-s",
+                                      "600", "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    assert "--request-s" in capsys.readouterr().err
