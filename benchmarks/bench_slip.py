@@ -11,7 +11,8 @@ the same process and run:
   ``--singles`` calls; the latency of scoring one new window alone;
 * ``reference_batch_ms_per_window`` / ``reference_single_ms_per_window``: the same with
   scikit-learn's own ``predict`` (:meth:`SlipRegressor.predict_reference`), the reference
-  measured under the same machine load;
+  measured under the same machine load; ``batch_over_reference`` /
+  ``single_over_reference``: ours over it (comparable between a loaded and a quiet machine);
 * ``features_ms_per_window``: feature table of a run (:func:`features.slip_features.slip_features`,
   physics slip included) per window; ``single_features_ms``: the NumPy single-window path
   (:func:`features.slip_features.window_feature_vector`) for one window;
@@ -90,6 +91,7 @@ def main() -> None:
                    "single_features_ms": 1e3 * float(np.median(one)),
                    "single_end_to_end_ms": 1e3 * float(np.median(e2e)),
                    "n_windows": float(n), "n_features": float(X.shape[1])})
+    result.update(reference_ratios(result))
     for k, v in result.items():
         print(f"{k:>32s}: {v:.4f}")
     print(f"target < 0.2 ms per window (model inference): batch "
@@ -98,6 +100,24 @@ def main() -> None:
     if not args.no_mlflow:
         with tracked_run("terrain-benchmark", "bench_slip", {"benchmark": "slip"}) as run:
             run.log_metrics(result)
+
+
+def reference_ratios(result: dict[str, float]) -> dict[str, float]:
+    """The compiled path's time per window over scikit-learn's, measured in the same run.
+
+    Parameters
+    ----------
+    result : dict
+        ``batch_ms_per_window``, ``single_ms_per_window`` and their ``reference_`` twins, ms.
+
+    Returns
+    -------
+    dict
+        ``batch_over_reference`` and ``single_over_reference`` (dimensionless; below 1: the
+        compiled path is faster), comparable between a loaded and a quiet machine.
+    """
+    return {f"{mode}_over_reference": result[f"{mode}_ms_per_window"]
+            / result[f"reference_{mode}_ms_per_window"] for mode in ("batch", "single")}
 
 
 def _timed(fn) -> float:
