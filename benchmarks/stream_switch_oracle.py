@@ -104,6 +104,42 @@ def pooled(folds: list[dict], rule: str) -> tuple[float, float, float]:
     return score["accuracy"], score["accuracy_settled"], score["median_delay_s"]
 
 
+def report(by_seed: dict[int, list[dict]], seeds: list[int], chosen: str) -> dict[str, float]:
+    """Print every rule's pooled scores over all seeds, the first and the rest; the metrics.
+
+    Parameters
+    ----------
+    by_seed : dict
+        ``{seed: [fold, ...]}``, each fold with its ``rules`` (:func:`rules`).
+    seeds : list of int
+        Seeds in order; the reset rule was chosen on the first.
+    chosen : str
+        The reset rule chosen.
+
+    Returns
+    -------
+    dict
+        ``{label}_{rule}_accuracy``, ``_accuracy_settled`` and ``_median_delay_s`` (s) of
+        every printed line, ``label`` one of ``all``, ``first``, ``rest``.
+    """
+    metrics = {}
+    first, rest = seeds[:1], seeds[1:]
+    for label, part in (("all", seeds), ("first", first), ("rest", rest)):
+        folds = [f for s in part for f in by_seed[s]]
+        if not folds:
+            continue
+        print(f"seeds {part}:")
+        for rule in ("raw", "filter", "oracle restart", "oracle hybrid", chosen):
+            acc, settled, delay = pooled(folds, rule)
+            print(f"  {rule:<18} per decision {acc:.4f}  settled {settled:.4f}  "
+                  f"median delay {delay:.2f} s")
+            key = re.sub(r"[^A-Za-z0-9.]+", "_", rule).strip("_")
+            metrics.update({f"{label}_{key}_accuracy": acc,
+                            f"{label}_{key}_accuracy_settled": settled,
+                            f"{label}_{key}_median_delay_s": delay})
+    return metrics
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     ap.add_argument("--kind", default="all-ensemble-dense-no-speed", choices=list(RECIPES))
@@ -126,21 +162,10 @@ def main() -> int:
                 fold["rules"] = rules(fold)
                 by_seed[seed].append(fold)
                 bar.update()
-    first, rest = args.seeds[:1], args.seeds[1:]
+    first = args.seeds[:1]
     grid = [f"reset({th}, {m})" for th in THETAS for m in STREAKS]
     chosen = max(grid, key=lambda r: pooled(by_seed[first[0]], r)[0])
-    metrics = {}
-    for label, seeds in (("all", args.seeds), ("first", first), ("rest", rest)):
-        folds = [f for s in seeds for f in by_seed[s]]
-        if not folds:
-            continue
-        print(f"seeds {seeds}:")
-        for rule in ("raw", "filter", "oracle restart", "oracle hybrid", chosen):
-            acc, settled, delay = pooled(folds, rule)
-            print(f"  {rule:<18} per decision {acc:.4f}  settled {settled:.4f}  "
-                  f"median delay {delay:.2f} s")
-            key = re.sub(r"[^A-Za-z0-9.]+", "_", rule).strip("_")
-            metrics[f"{label}_{key}_accuracy"] = acc
+    metrics = report(by_seed, args.seeds, chosen)
     print(f"reset rule chosen on seed {first[0]}: {chosen}; "
           f"{time.perf_counter() - start:.0f} s")
     if not args.no_mlflow:

@@ -55,3 +55,19 @@ def test_the_oracle_restarts_at_the_first_window_wholly_in_the_new_piece(script,
     script["rules"](fold)
     (restart,) = seen
     np.testing.assert_array_equal(t[restart], [32.0])
+
+
+def test_every_printed_score_is_logged(script, monkeypatch, capsys):
+    # settled accuracy and median delay were printed per rule, only the accuracy logged
+    scores = {"raw": (0.80, 0.85, 1.0), "filter": (0.86, 0.90, 4.0),
+              "oracle restart": (0.88, 0.92, 2.0), "oracle hybrid": (0.89, 0.92, 1.5),
+              "reset(0.9, 2)": (0.87, 0.91, 3.0)}
+    monkeypatch.setitem(script["report"].__globals__, "pooled",
+                        lambda folds, rule: scores[rule])
+    metrics = script["report"]({0: [{}], 1: [{}]}, [0, 1], "reset(0.9, 2)")
+    for label in ("all", "first", "rest"):
+        assert metrics[f"{label}_filter_accuracy"] == 0.86
+        assert metrics[f"{label}_oracle_restart_accuracy_settled"] == 0.92
+        assert metrics[f"{label}_reset_0.9_2_median_delay_s"] == 3.0
+    assert len(metrics) == 3 * 5 * 3
+    assert "settled 0.9100  median delay 3.00 s" in capsys.readouterr().out
