@@ -1,0 +1,56 @@
+"""benchmarks/bench_ekf.py: its figures from the times it measures (nothing filtered)."""
+
+from __future__ import annotations
+
+import runpy
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).parents[2] / "benchmarks" / "bench_ekf.py"
+
+
+class _Run:
+    def __init__(self, logged: dict) -> None:
+        self.logged = logged
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def log_metrics(self, metrics):
+        self.logged.update(metrics)
+
+
+def test_ratios_are_filterpy_time_over_ours_and_best_of_the_repeats(monkeypatch, capsys):
+    script = runpy.run_path(str(SCRIPT))
+    env = script["main"].__globals__
+    # seconds per 100 steps: numba 0.4 then 0.5 (the best counts, not the last), numpy 2.0,
+    # pure 4.0, filterpy 2.0
+    numba = iter([0.4, 0.5])
+    monkeypatch.setitem(env, "bench_ours", lambda model, t, z, engine="numba":
+                        next(numba) if engine == "numba" else 2.0)
+    monkeypatch.setitem(env, "first_compiled_call", lambda *a: (0.1, "compiled"))
+    monkeypatch.setitem(env, "bench_pure", lambda *a: 4.0)
+    monkeypatch.setitem(env, "bench_filterpy", lambda *a: 2.0)
+    monkeypatch.setitem(env, "simulate_agrimaro", lambda *a, **k: SimpleNamespace(run=None))
+    monkeypatch.setitem(env, "data_driven_settings", lambda run: None)
+    monkeypatch.setitem(env, "estimate_agrimaro",
+                        lambda run, settings, engine: SimpleNamespace(t_s=np.zeros(1000)))
+    logged: dict = {}
+    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Run(logged))
+    monkeypatch.setattr(sys, "argv", ["bench_ekf.py", "--steps", "100", "--repeats", "2",
+                                      "--minutes", "1"])
+    assert script["main"]() == 0
+    assert logged["ours_steps_per_s"] == pytest.approx(250.0)
+    assert logged["filterpy_steps_per_s"] == pytest.approx(50.0)
+    assert logged["ratio_ours_vs_filterpy"] == pytest.approx(5.0)      # 5x faster
+    assert logged["ratio_reference_vs_filterpy"] == pytest.approx(1.0)
+    assert logged["ratio_pure_vs_filterpy"] == pytest.approx(0.5)
+    assert logged["long_run_steps"] == 1000.0
+    assert "ratio ours / filterpy      5.00x" in capsys.readouterr().out
