@@ -46,6 +46,10 @@ def test_votes_average_initialisations_then_members(script):
     np.testing.assert_allclose(p["ensemble3, CNNs x2 + wheel-trees"],
                                [(0.9 + 0.3 + 0.3 + 0.6) / 4, (0.2 + 0.6 + 0.6 + 0.6) / 4,
                                 (0.4 + 0.1 + 0.5 + 0.6) / 4])
+    # first initialisations plus wheel-trees: (svm + spec + wheel-trees) / 3
+    np.testing.assert_allclose(p["ensemble + wheel-trees"],
+                               [(0.9 + 0.2 + 0.6) / 3, (0.2 + 0.8 + 0.6) / 3,
+                                (0.4 + 0.9 + 0.6) / 3])
     assert (votes["ensemble3"].set_index(["fold", "t_start_s"]).sort_index()["predicted"]
             .tolist() == ["B", "B", "B"])
 

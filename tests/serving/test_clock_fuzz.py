@@ -20,9 +20,11 @@ def fuzz():
 def test_perturb_applies_the_drawn_faults(fuzz):
     t = np.arange(1000) * 0.01
     v = np.ones((1000, 2))
-    for seed in range(40):
+    drawn = set()
+    for seed in range(200):
         log = []
         tp, vp, arrival = fuzz["perturb"](np.random.default_rng(seed), t, v, t, "imu", log, 1)
+        drawn |= {fault for _, fault, _ in log}
         assert len(tp) == len(vp) == len(arrival)
         if not log:
             assert np.array_equal(tp, t) and np.array_equal(arrival, t)
@@ -33,13 +35,17 @@ def test_perturb_applies_the_drawn_faults(fuzz):
         elif fault == "step_fwd":
             assert tp[k] - tp[k - 1] >= 2.0
         elif fault == "pause":
-            assert len(tp) < len(t) and tp[k] - tp[k - 1] > 0.04
+            # (a pause that runs to the end leaves no sample after it)
+            assert len(tp) < len(t) and (k == len(tp) or tp[k] - tp[k - 1] > 0.04)
         elif fault == "resend":
             assert len(tp) > len(t) and tp[k] <= tp[k - 1]
         elif fault == "lag":
             assert arrival[k] > t[k] and np.array_equal(tp, t)
         elif fault == "nan":
             assert np.isnan(vp[k]).all()
+        elif fault in ("ms", "us"):       # the clock switches unit from sample k on
+            np.testing.assert_allclose(tp[k:], t[k:] * (1e3 if fault == "ms" else 1e6))
+    assert {"ms", "us"} <= drawn          # both units among these seeds
 
 
 def test_random_clock_faults_never_raise(fuzz, borealtc_runs, wheel_model, all_model,

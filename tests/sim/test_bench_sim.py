@@ -91,6 +91,9 @@ def test_reference_and_cpu_time_are_per_call_and_per_simulated_minute(script, mo
             <= 1.05 * logged[f"{vehicle}_s_per_sim_min"]
         assert logged[f"{vehicle}_over_reference"] == pytest.approx(
             1e5 * logged[f"{vehicle}_s_per_sim_min"])
+        # simulated seconds per wall second
+        assert logged[f"{vehicle}_realtime_factor"] == pytest.approx(
+            60.0 / logged[f"{vehicle}_s_per_sim_min"])
 
 
 def test_the_reference_is_the_mean_of_its_times_before_and_after(script, monkeypatch):
