@@ -25,3 +25,34 @@ def test_mean_abs_yaw_rate_of_each_window():
     out = mean_abs_yaw_rate(pred, runs)
     np.testing.assert_allclose(out[:3], [0.3, 0.15, 0.0], atol=1e-12)
     assert np.isnan(out[3])                                # no IMU: unknown, not straight
+
+
+def _main(tmp_path, monkeypatch, capsys, *options):
+    import sys
+    from types import SimpleNamespace
+
+    script = runpy.run_path(str(SCRIPT))
+    t = np.arange(0.0, 20.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": np.where(t < 10.0, -0.3, 0.0)})
+    csv = tmp_path / "predictions.csv"
+    pd.DataFrame({"run": ["x/A/0"] * 3, "t_start_s": [2.0, 9.0, 14.0],
+                  "t_end_s": [4.0, 11.0, 16.0], "true": ["A"] * 3,
+                  "predicted": ["A", "B", "B"]}).to_csv(csv, index=False)
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "activate_store", lambda: None)
+    monkeypatch.setitem(env, "mlflow", SimpleNamespace(artifacts=SimpleNamespace(
+        download_artifacts=lambda **k: str(csv))))
+    runs = [Run("x/A/0", "x", "A", {"imu": imu})]
+    monkeypatch.setitem(env, "load_dataset", lambda name: runs)
+    monkeypatch.setattr(sys, "argv", ["errors_by_manoeuvre.py", "RUN", *options])
+    assert script["main"]() == 0
+    return capsys.readouterr().out
+
+
+def test_windows_above_the_threshold_are_turning(tmp_path, monkeypatch, capsys):
+    # mean |wz| 0.3 (right), 0.15 (wrong), 0.0 (wrong)
+    out = _main(tmp_path, monkeypatch, capsys, "--turning-rad-s", "0.1")
+    assert "accuracy straight 0.000, turning 0.500" in out
+    out = _main(tmp_path, monkeypatch, capsys, "--turning-rad-s", "0.2")
+    assert "accuracy straight 0.000, turning 1.000" in out
+
