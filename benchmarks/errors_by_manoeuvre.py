@@ -79,7 +79,9 @@ def main() -> int:
           f"without IMU), turning = mean |wz| > {args.turning_rad_s:g} rad/s")
     print(table.round(3).to_string())
     share = (pred.loc[known, "manoeuvre"] == "straight").mean()
-    overall = pred[known].groupby("manoeuvre")["correct"].mean()
+    # NaN for a manoeuvre with no window (e.g. a threshold above every window's |wz|)
+    overall = pred[known].groupby("manoeuvre")["correct"].mean().reindex(
+        ["straight", "turning"])
     print(f"straight windows {share:.3f} of all; accuracy straight {overall['straight']:.3f}, "
           f"turning {overall['turning']:.3f}")
     straight = pred[known & (pred["manoeuvre"] == "straight")]

@@ -56,3 +56,8 @@ def test_windows_above_the_threshold_are_turning(tmp_path, monkeypatch, capsys):
     out = _main(tmp_path, monkeypatch, capsys, "--turning-rad-s", "0.2")
     assert "accuracy straight 0.000, turning 1.000" in out
 
+
+def test_no_turning_window_is_no_keyerror(tmp_path, monkeypatch, capsys):
+    # `--turning-rad-s 1` on these windows ended in "KeyError: 'turning'"
+    out = _main(tmp_path, monkeypatch, capsys, "--turning-rad-s", "1")
+    assert "accuracy straight 0.333, turning nan" in out
