@@ -41,6 +41,7 @@ import pandas as pd
 from pipelines.arguments import integer_in, positive_integer, positive_number
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
+from terrain.serving.evaluation import recipe_stream_names
 from terrain.serving.pyfunc import save_model
 from terrain.serving import load_stream_model
 from terrain.serving.recipes import RECIPES, fit_stream_model
@@ -158,7 +159,7 @@ def main() -> int:
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     runs = load_dataset("borealtc")
-    streams = ("wheels",) if RECIPES[args.kind].signals == "wheels" else ("imu", "wheels")
+    streams = recipe_stream_names(RECIPES[args.kind])
     with tempfile.TemporaryDirectory() as tmp:
         model_dir = args.model
         if model_dir is None:

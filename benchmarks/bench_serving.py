@@ -48,7 +48,7 @@ from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
 from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
                              interleave, load_stream_model)
-from terrain.serving.evaluation import concatenated_streams
+from terrain.serving.evaluation import concatenated_streams, recipe_stream_names
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.tracking import tracked_run
 
@@ -182,7 +182,7 @@ def main() -> int:
     args = parser.parse_args()
     runs = load_dataset("borealtc")
     recipe = RECIPES[args.kind]
-    need = ("wheels",) if recipe.signals == "wheels" else ("imu", "wheels")
+    need = recipe_stream_names(recipe)
     model = (load_stream_model(args.model) if args.model
              else fit_stream_model(recipe, runs, seed=0))
     usable = [r for r in runs if all(s in r.streams for s in need)]

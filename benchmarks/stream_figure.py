@@ -29,7 +29,8 @@ import numpy as np
 
 from pipelines.arguments import integer_in, seed_value
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import held_out_folds, raw_decisions, score_stream, truth_at
+from terrain.serving.evaluation import (held_out_folds, raw_decisions, recipe_stream_names,
+                                        score_stream, truth_at)
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.serving.replay import replay_run
 from terrain.serving.service import StreamConfig, StreamService
@@ -62,7 +63,7 @@ def replay(kind: str, seed: int, fold: int, runs) -> dict:
         two :class:`~terrain.serving.evaluation.StreamScore`.
     """
     recipe = RECIPES[kind]
-    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    need = recipe_stream_names(recipe)
     folds = held_out_folds(runs, need, seed)
     _, train, stream, segments = next(f for f in folds if f[0] == fold)
     model = fit_stream_model(recipe, train, seed)

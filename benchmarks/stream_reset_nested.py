@@ -52,7 +52,8 @@ from tqdm import tqdm
 from pipelines.arguments import DistinctSeeds, integer_in, seed_value
 from pipelines.stream_eval import SMOOTHINGS
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import held_out_folds, pool_scores, raw_decisions, score_smoothing
+from terrain.serving.evaluation import (held_out_folds, pool_scores, raw_decisions,
+                                        recipe_stream_names, score_smoothing)
 from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
@@ -93,7 +94,7 @@ def choose(inner_accuracy: Mapping[str, float], candidates: list[str]) -> str:
 
 def run_seed(runs, recipe, seed: int, inner_folds: int, bar) -> list[dict]:
     """One row per outer fold: every rule's inner accuracy and outer score."""
-    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    need = recipe_stream_names(recipe)
     out = []
     for fold, train, stream, segments in held_out_folds(runs, need, seed):
         inner = [replay(recipe, itrain, istream, isegs, seed) for _f, itrain, istream, isegs

@@ -37,8 +37,8 @@ from tqdm import tqdm
 
 from pipelines.arguments import DistinctSeeds, seed_value
 from terrain.io.shipped import load_dataset
-from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_scores,
-                                        raw_decisions, score_stream, truth_at)
+from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_scores, raw_decisions,
+                                        recipe_stream_names, score_stream, truth_at)
 from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.tracking import tracked_run
@@ -147,7 +147,7 @@ def main() -> int:
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
     recipe = RECIPES[args.kind]
-    need = ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
+    need = recipe_stream_names(recipe)
     runs = load_dataset("borealtc")
     start = time.perf_counter()
     by_seed: dict[int, list[dict]] = {}
