@@ -168,6 +168,9 @@ def main() -> None:
     parser.add_argument("--out", help="save every outcome (pickle)")
     parser.add_argument("--compare", help="a saved --out of another version")
     args = parser.parse_args()
+    if args.seeds[1] <= args.seeds[0]:      # range(FIRST, END) would be empty
+        parser.error(f"argument --seeds: END {args.seeds[1]} must be above FIRST "
+                     f"{args.seeds[0]} (seeds FIRST to END - 1)")
     models, runs = fit_models(read_shipped("borealtc"))
     results = {}
     for seed in range(*args.seeds):

@@ -66,3 +66,18 @@ def test_random_clock_faults_never_raise(fuzz, borealtc_runs, wheel_model, all_m
         units = any(len(x) > 1 and x[1] in ("ms", "us") for x in log[4:])
         assert good_clean > 20 and good > 0, (seed, log)
         assert units or good >= 0.6 * min(n, good_clean), (seed, good, n, good_clean, log)
+
+
+def test_an_empty_seed_range_is_a_usage_error(fuzz, monkeypatch, capsys):
+    # `--seeds 300 0` fitted both models, ran no seed and printed an empty summary
+    import sys
+
+    def refuse(*a):
+        raise AssertionError("models fitted for no seed")
+
+    monkeypatch.setitem(fuzz["main"].__globals__, "fit_models", refuse)
+    monkeypatch.setattr(sys, "argv", ["stream_clock_fuzz.py", "--seeds", "300", "0"])
+    with pytest.raises(SystemExit) as stop:
+        fuzz["main"]()
+    assert stop.value.code == 2
+    assert "--seeds" in capsys.readouterr().err
