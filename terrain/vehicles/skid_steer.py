@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
+from terrain.errors import config_positive
 from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
 
 
@@ -251,7 +252,14 @@ def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m:
     -------
     v_m_s : ndarray, shape (n,)
     yaw_rate_rad_s : ndarray, shape (n,)
+
+    Raises
+    ------
+    ConfigError
+        ``track_m`` or ``chi`` not a finite number > 0 (0 gave an infinite yaw rate, a
+        negative one a yaw rate of the wrong sign; booleans refused).
     """
+    config_positive("skid_steer_forward", track_m=track_m, chi=chi)
     return body_rates(np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float),
                       np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float), track_m, chi)
 
@@ -299,7 +307,14 @@ def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: f
     Returns
     -------
     v_left_m_s, v_right_m_s : ndarray, shape (n,)
+
+    Raises
+    ------
+    ConfigError
+        ``track_m`` or ``chi`` not a finite number > 0 (a negative one swapped the inner and
+        outer side; booleans refused).
     """
+    config_positive("skid_steer_inverse", track_m=track_m, chi=chi)
     return side_speeds(np.asarray(v_m_s, dtype=float), np.asarray(yaw_rate_rad_s, dtype=float),
                        track_m, chi)
 

@@ -1,0 +1,38 @@
+"""Review veh7: impossible geometry of the skid-steer wrappers, chi of a recording with no
+commanded turn, Endo's ratio at a standing left track, and pinned values of the vehicle
+kinematics against the seed equations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.vehicles import skid_steer_forward, skid_steer_inverse
+
+
+@pytest.mark.parametrize("kwargs", [dict(track_m=0.0), dict(track_m=-0.5),
+                                    dict(track_m=float("nan")), dict(track_m=True),
+                                    dict(track_m=0.5, chi=0.0), dict(track_m=0.5, chi=-1.5),
+                                    dict(track_m=0.5, chi=float("inf")),
+                                    dict(track_m=0.5, chi=True)])
+def test_skid_steer_wrappers_refuse_an_impossible_track_or_chi(kwargs):
+    # track 0 gave an infinite yaw rate, a negative track or chi one of the wrong sign
+    # (a left turn read as a right turn), True a 1 m track
+    with pytest.raises(ConfigError, match="track_m|chi"):
+        skid_steer_forward(np.array([1.0]), np.array([2.0]), **kwargs)
+    with pytest.raises(ConfigError, match="track_m|chi"):
+        skid_steer_inverse(np.array([1.0]), np.array([0.5]), **kwargs)
+
+
+def test_skid_steer_forward_pins_seed_000_eq_3():
+    # V_G = (eta_R v_R + eta_L v_L) / 2, Omega = (eta_R v_R - eta_L v_L) / (chi 2 d):
+    # v_L = 1, v_R = 2, eta_L = 0.9, eta_R = 0.8, B = 0.5, chi = 1.25:
+    # V_G = (1.6 + 0.9) / 2 = 1.25, Omega = (1.6 - 0.9) / 0.625 = 1.12 (left turn, > 0)
+    v, r = skid_steer_forward(np.array([1.0]), np.array([2.0]), 0.5, eta_left=0.9,
+                              eta_right=0.8, chi=1.25)
+    assert v[0] == pytest.approx(1.25, rel=1e-12)
+    assert r[0] == pytest.approx(1.12, rel=1e-12)
+    vl, vr = skid_steer_inverse(np.array([1.0]), np.array([0.4]), 0.5, chi=1.5)
+    # v -+ chi B r / 2 = 1 -+ 0.15: the left (inner) side slower in a left turn
+    assert (vl[0], vr[0]) == (pytest.approx(0.85, rel=1e-12), pytest.approx(1.15, rel=1e-12))
