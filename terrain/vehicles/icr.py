@@ -124,7 +124,8 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     float
         ``chi`` (dimensionless, 1 = ideal differential drive); ``inf`` when
         ``sum(x y) <= 0`` (the vehicle does not turn, or turns against the command); NaN
-        when a sample is NaN (an unknown chi, not a dug-in vehicle).
+        when a sample is NaN or no turn was commanded (``sum(x^2) = 0``: no sample, or a
+        straight run with the ICR at infinity): an unknown chi, not a dug-in vehicle.
 
     Raises
     ------
@@ -139,10 +140,10 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     y = np.asarray(yaw_rate_rad_s, dtype=float)
     x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
-    sxy = float(np.sum(x * y))
-    if np.isnan(sxy):
+    sxy, sxx = float(np.sum(x * y)), float(np.sum(x * x))
+    if np.isnan(sxy) or sxx == 0.0:     # a straight run or no sample gave inf ("dug in")
         return float("nan")
-    return float(np.sum(x * x)) / sxy if sxy > 0 else float("inf")
+    return sxx / sxy if sxy > 0 else float("inf")
 
 
 def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray,

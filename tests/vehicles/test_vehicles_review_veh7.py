@@ -36,3 +36,17 @@ def test_skid_steer_forward_pins_seed_000_eq_3():
     vl, vr = skid_steer_inverse(np.array([1.0]), np.array([0.4]), 0.5, chi=1.5)
     # v -+ chi B r / 2 = 1 -+ 0.15: the left (inner) side slower in a left turn
     assert (vl[0], vr[0]) == (pytest.approx(0.85, rel=1e-12), pytest.approx(1.15, rel=1e-12))
+
+
+def test_icr_expansion_factor_of_no_commanded_turn_is_unknown_not_dug_in():
+    from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
+
+    # a straight run (x = 0: the ICR at infinity) says nothing about chi; it returned inf,
+    # the answer reserved for a vehicle that does not turn the commanded way
+    straight = np.zeros(20)
+    assert np.isnan(icr_expansion_factor(np.full(20, 0.05), straight))
+    assert np.isnan(icr_expansion_factor(straight, straight))
+    assert np.isnan(icr_expansion_factor(np.empty(0), np.empty(0)))     # no sample
+    assert np.isnan(inverse_icr_factor(np.full(20, 0.05), straight))     # the same as 1/chi
+    # a commanded turn the vehicle does not follow is still inf
+    assert icr_expansion_factor(straight, np.full(20, 0.3)) == np.inf
