@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import config_positive
+from terrain.errors import EstimationError, config_positive
 from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
 
 
@@ -377,13 +377,27 @@ def endo_slip_ratio_ratio(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     v_left_m_s, v_right_m_s : ndarray, shape (n,)
         Input track speeds, m/s (non-zero).
     n : float
-        Endo's turning slip exponent (seed 003 eq. 27), dimensionless.
+        Endo's turning slip exponent (seed 003 eq. 27), dimensionless, finite and >= 0.
 
     Returns
     -------
     ndarray, shape (n,)
-        Ratio of left to right slip ratio, dimensionless.
+        Ratio of left to right slip ratio, dimensionless (NaN where a speed is NaN).
+
+    Raises
+    ------
+    EstimationError
+        A left track speed of exactly 0 (the ratio is undefined there: it was NaN with a
+        RuntimeWarning), naming its index.
+    ConfigError
+        ``n`` not a finite number >= 0 (NaN, a boolean, a negative exponent).
     """
+    config_positive("endo_slip_ratio_ratio", allow_zero=True, n=n)
     vl = np.asarray(v_left_m_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
+    standing = np.flatnonzero(vl == 0.0)
+    if standing.size:
+        raise EstimationError(f"endo_slip_ratio_ratio: v_left_m_s is 0 at index "
+                              f"{int(standing[0])} ({standing.size} samples); the ratio "
+                              f"|v_r / v_l|^n is undefined there")
     return -np.sign(vr * vl) * np.abs(vr / vl) ** n

@@ -50,3 +50,19 @@ def test_icr_expansion_factor_of_no_commanded_turn_is_unknown_not_dug_in():
     assert np.isnan(inverse_icr_factor(np.full(20, 0.05), straight))     # the same as 1/chi
     # a commanded turn the vehicle does not follow is still inf
     assert icr_expansion_factor(straight, np.full(20, 0.3)) == np.inf
+
+
+def test_endo_ratio_pins_seed_003_eq_27_and_refuses_a_standing_left_track():
+    from terrain.errors import EstimationError
+    from terrain.vehicles import endo_slip_ratio_ratio
+
+    # alpha_l / alpha_r = -sgn(v_r v_l) |v_r / v_l|^n: v_l = 0.1, v_r = 0.4, n = 0.5 ->
+    # -sqrt(4) = -2; a counter-rotating pair (v_l = -0.1) gives +2
+    got = endo_slip_ratio_ratio(np.array([0.1, -0.1]), np.array([0.4, 0.4]), n=0.5)
+    np.testing.assert_allclose(got, [-2.0, 2.0], rtol=1e-12)
+    # v_l = 0: |v_r / 0|^n times sgn(0) was NaN with a RuntimeWarning
+    with pytest.raises(EstimationError, match=r"v_left_m_s.*index 1"):
+        endo_slip_ratio_ratio(np.array([0.1, 0.0]), np.array([0.4, 0.4]))
+    for n in (float("nan"), -0.8, True):
+        with pytest.raises(ConfigError, match="n"):
+            endo_slip_ratio_ratio(np.array([0.1]), np.array([0.4]), n=n)
