@@ -96,10 +96,10 @@ class AgriMaRoParams:
 
     def __post_init__(self) -> None:
         """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
-        three finite wheel positions (x, y), a finite 3-vector camera lever arm (numbers, not
-        booleans), radius, mass, inertia, steering rate and patch finite and > 0, dead band
-        finite and >= 0, wheels per motor an integer >= 1, ``motor`` a
-        :class:`MotorParams`."""
+        three finite wheel positions (x, y), not all at one point, a finite 3-vector camera
+        lever arm (numbers, not booleans), radius, mass, inertia, steering rate and patch
+        finite and > 0, dead band finite and >= 0, wheels per motor an integer >= 1,
+        ``motor`` a :class:`MotorParams`."""
         for name, shape in (("wheel_positions_m", (3, 2)), ("camera_lever_arm_m", (3,))):
             value = getattr(self, name)
             try:
@@ -112,6 +112,10 @@ class AgriMaRoParams:
             if arr is None or flag or arr.shape != shape or not np.isfinite(arr).all():
                 raise ConfigError(f"AgriMaRoParams.{name} must be finite numbers of shape "
                                   f"{shape} (not booleans), got {value!r:.80}")
+        if not np.ptp(self.positions, axis=0).any():
+            # all steering axes at one point: eq. 2.4 cannot give the yaw rate (H^+ gave 0)
+            raise ConfigError(f"AgriMaRoParams.wheel_positions_m must hold at least two "
+                              f"distinct positions, got {self.wheel_positions_m!r:.80}")
         check_fields(self, positive=("wheel_radius_m", "mass_kg", "yaw_inertia_kg_m2",
                                      "steering_rate_rad_s", "contact_length_m",
                                      "contact_width_m"),

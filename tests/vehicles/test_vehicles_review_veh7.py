@@ -66,3 +66,29 @@ def test_endo_ratio_pins_seed_003_eq_27_and_refuses_a_standing_left_track():
     for n in (float("nan"), -0.8, True):
         with pytest.raises(ConfigError, match="n"):
             endo_slip_ratio_ratio(np.array([0.1]), np.array([0.4]), n=n)
+
+
+def test_swerve_geometry_with_coincident_wheels_is_refused():
+    from terrain.vehicles import AgriMaRoParams
+
+    # three steering axes at one point: H of eq. 2.3 has rank 2, the yaw rate of eq. 2.4
+    # cannot be solved (H^+ gave 0 rad/s for any wheel speeds)
+    with pytest.raises(ConfigError, match="wheel_positions_m"):
+        AgriMaRoParams(wheel_positions_m=((0.2, 0.1), (0.2, 0.1), (0.2, 0.1)))
+
+
+def test_swerve_inverse_standing_unit_keeps_its_angle_and_reverse_flips():
+    from terrain.vehicles import AGRIMARO, swerve_inverse
+
+    prev = np.array([0.3, -0.2, 1.0])
+    d, w = swerve_inverse(np.zeros(3), delta_prev_rad=prev)
+    np.testing.assert_array_equal(d, prev)
+    np.testing.assert_array_equal(w, 0.0)
+    # reversing at 0.5 m/s from straight ahead: angle 0 kept, wheels turn backward
+    d, w = swerve_inverse(np.array([0.0, -0.5, 0.0]), delta_prev_rad=np.zeros(3))
+    np.testing.assert_allclose(np.abs(d), 0.0, atol=1e-12)
+    np.testing.assert_allclose(w, -0.5 / AGRIMARO.wheel_radius_m, rtol=1e-12)
+    # sideways to the left (v_y > 0): every unit at +pi/2, wheels forward
+    d, w = swerve_inverse(np.array([0.0, 0.0, 0.5]))
+    np.testing.assert_allclose(d, np.pi / 2, rtol=1e-12)
+    np.testing.assert_allclose(w, 0.5 / AGRIMARO.wheel_radius_m, rtol=1e-12)
