@@ -19,7 +19,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_positive
 from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
                                      wrap_angle)
 
@@ -321,7 +321,7 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     delta_prev_rad : ndarray, shape (..., 3), optional
         Previous steering angles, rad.
     min_speed_m_s : float
-        Speed below which a unit keeps its previous angle, m/s.
+        Speed below which a unit keeps its previous angle, m/s (finite, >= 0).
 
     Returns
     -------
@@ -330,7 +330,14 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     omega_rad_s : ndarray, shape (..., 3)
         Wheel angular speeds, rad/s: contact speed over the wheel radius, negative on a
         flipped unit, 0 on a unit that keeps its angle.
+
+    Raises
+    ------
+    ConfigError
+        ``min_speed_m_s`` not a finite number >= 0 (NaN let no standing unit keep its
+        angle; booleans refused).
     """
+    config_positive("swerve_inverse", allow_zero=True, min_speed_m_s=min_speed_m_s)
     vel = wheel_contact_velocity(params.positions, twist)
     speed = np.hypot(vel[..., 0], vel[..., 1])
     delta0 = np.arctan2(vel[..., 1], vel[..., 0])

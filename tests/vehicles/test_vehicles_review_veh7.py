@@ -77,6 +77,15 @@ def test_swerve_geometry_with_coincident_wheels_is_refused():
         AgriMaRoParams(wheel_positions_m=((0.2, 0.1), (0.2, 0.1), (0.2, 0.1)))
 
 
+@pytest.mark.parametrize("bad", [float("nan"), -1.0, True])
+def test_swerve_inverse_refuses_a_bad_min_speed(bad):
+    from terrain.vehicles import swerve_inverse
+
+    # NaN: no unit ever kept its angle (a standing unit snapped to 0 or -pi)
+    with pytest.raises(ConfigError, match="min_speed_m_s"):
+        swerve_inverse(np.zeros(3), min_speed_m_s=bad)
+
+
 def test_swerve_inverse_standing_unit_keeps_its_angle_and_reverse_flips():
     from terrain.vehicles import AGRIMARO, swerve_inverse
 
