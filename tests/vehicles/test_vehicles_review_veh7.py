@@ -101,3 +101,16 @@ def test_swerve_inverse_standing_unit_keeps_its_angle_and_reverse_flips():
     d, w = swerve_inverse(np.array([0.0, 0.0, 0.5]))
     np.testing.assert_allclose(d, np.pi / 2, rtol=1e-12)
     np.testing.assert_allclose(w, 0.5 / AGRIMARO.wheel_radius_m, rtol=1e-12)
+
+
+def test_chi_from_truth_leaves_out_a_sample_turning_exactly_at_the_threshold():
+    from terrain.vehicles.icr import chi_from_truth
+
+    # "turning faster than min_yaw_rate_rad_s": the sample at exactly 0.1 rad/s is left out,
+    # so chi = 0.6 / 0.4 = 1.5 from the one at 0.4 rad/s (B = 1); with it the fit would be
+    # (0.6 * 0.4 + 0.5 * 0.1) / (0.16 + 0.01) = 1.706
+    left = np.zeros(2)
+    right = np.array([0.6, 0.5])
+    w = np.array([0.4, 0.1])
+    assert chi_from_truth(left, right, w, 1.0, min_yaw_rate_rad_s=0.1) == pytest.approx(
+        1.5, rel=1e-12)

@@ -1,0 +1,33 @@
+"""Review veh7: pinned values of the simulator's vibration pole and of the planted-effect
+ranges (each line's mutant survived the existing tests)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.sim.effects import Effects
+from terrain.sim.sensors import vibration_pole
+
+
+def test_vibration_pole_is_the_discrete_first_order_pole_of_the_corner_frequency():
+    # a = exp(-2 pi f_c / f_s): 15 Hz at 100 Hz -> exp(-0.3 pi) = 0.38966; the -3 dB corner
+    # of y_k = a y_(k-1) + (1 - a) x_k is at about f_c for f_c << f_s (1 Hz at 1 kHz)
+    assert vibration_pole(100.0, 15.0) == pytest.approx(np.exp(-0.3 * np.pi), rel=1e-12)
+    assert vibration_pole(100.0, 15.0) == pytest.approx(0.38966, abs=1e-5)
+    a = vibration_pole(1000.0, 1.0)
+    z = np.exp(2j * np.pi * 1.0 / 1000.0)
+    gain = abs((1.0 - a) / (1.0 - a / z))
+    assert gain == pytest.approx(1.0 / np.sqrt(2.0), rel=1e-3)
+    assert vibration_pole(100.0, 0.0) == 1.0       # bandwidth 0: the vibration is off
+
+
+def test_icr_expansion_below_one_is_refused():
+    # chi < 1 would put the contact lines inside the track (a vehicle turning faster than
+    # ideal differential drive); the range is [1, 20]
+    assert Effects(icr_expansion=1.0).active() == {}
+    assert Effects(icr_expansion=20.0).active() == {"icr_expansion": 20.0}
+    for bad in (0.99, 20.5):
+        with pytest.raises(ConfigError, match="icr_expansion"):
+            Effects(icr_expansion=bad)
