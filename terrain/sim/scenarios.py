@@ -165,7 +165,8 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
         tw[:, 2] = _rate_limit(tw[:, 2], 2.0, dt_s)
     elif name == "slope_turn":
         v = min(0.2, vmax)
-        tw[:, 0] = np.where((t // 10.0) % 2 == 0, v, 0.05)
+        # the slow segment capped too (0.05 m/s ran above a limit under 0.053 m/s)
+        tw[:, 0] = np.where((t // 10.0) % 2 == 0, v, min(0.05, v))
         tw[:, 2] = np.radians(20.0) * np.where((t // 20.0) % 2 == 0, 1.0, -1.0)
         tw[:, 0] = _rate_limit(tw[:, 0], 0.5, dt_s)
         tw[:, 2] = _rate_limit(tw[:, 2], 1.0, dt_s)

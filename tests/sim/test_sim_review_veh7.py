@@ -31,3 +31,15 @@ def test_icr_expansion_below_one_is_refused():
     for bad in (0.99, 20.5):
         with pytest.raises(ConfigError, match="icr_expansion"):
             Effects(icr_expansion=bad)
+
+
+def test_slope_turn_stays_within_a_speed_limit_below_its_slow_segment():
+    from terrain.sim.scenarios import make_commands
+
+    # max speed 0.04 m/s: vmax 0.038; the 0.05 m/s segment ran above the limit
+    c = make_commands("slope_turn", 30.0, 0.01, np.random.default_rng(0), 0.04)
+    assert c.twist[:, 0].max() <= 0.95 * 0.04 + 1e-12
+    # the default limits keep the seed 003 speeds: 0.2 m/s, then 0.05 m/s from t = 10 s
+    c = make_commands("slope_turn", 30.0, 0.01, np.random.default_rng(0), 1.0)
+    assert c.twist[900, 0] == pytest.approx(0.2, rel=1e-12)
+    assert c.twist[1900, 0] == pytest.approx(0.05, rel=1e-12)
