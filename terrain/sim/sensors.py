@@ -99,7 +99,7 @@ def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
     Parameters
     ----------
     duration_s : float
-        Last time (inclusive, within 1e-9 s), s.
+        Last time (inclusive, within 1e-9 s), s (finite, >= 0).
     rate_hz : float
         Sampling rate, Hz (> 0).
 
@@ -111,9 +111,12 @@ def sample_times(duration_s: float, rate_hz: float) -> np.ndarray:
     Raises
     ------
     ConfigError
-        ``rate_hz`` not a finite rate > 0 (0 was a ZeroDivisionError).
+        ``rate_hz`` not a finite rate > 0 (0 was a ZeroDivisionError), or ``duration_s``
+        not a finite time >= 0 (NaN raised NumPy's bare ValueError, a negative one gave no
+        sample).
     """
     config_positive("sample_times", rate_hz=rate_hz)
+    config_positive("sample_times", allow_zero=True, duration_s=duration_s)
     return np.arange(0.0, duration_s + 1e-9, 1.0 / rate_hz)
 
 

@@ -43,3 +43,19 @@ def test_slope_turn_stays_within_a_speed_limit_below_its_slow_segment():
     c = make_commands("slope_turn", 30.0, 0.01, np.random.default_rng(0), 1.0)
     assert c.twist[900, 0] == pytest.approx(0.2, rel=1e-12)
     assert c.twist[1900, 0] == pytest.approx(0.05, rel=1e-12)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), -1.0, float("inf"), True])
+def test_sample_times_refuses_an_impossible_duration(bad):
+    from terrain.sim.sensors import sample_times
+
+    # NaN and inf raised NumPy's bare ValueError from arange, -1 s gave no sample at all
+    with pytest.raises(ConfigError, match="duration_s"):
+        sample_times(bad, 100.0)
+
+
+def test_sample_times_include_the_last_time_on_the_grid():
+    from terrain.sim.sensors import sample_times
+
+    np.testing.assert_allclose(sample_times(0.3, 10.0), [0.0, 0.1, 0.2, 0.3], atol=1e-12)
+    np.testing.assert_array_equal(sample_times(0.0, 10.0), [0.0])
