@@ -177,12 +177,14 @@ def vibration_pole(rate_hz: float, bandwidth_hz: float) -> float:
     rate_hz : float
         Sampling rate ``f_s`` of the IMU, Hz (> 0).
     bandwidth_hz : float
-        Corner frequency ``f_c`` (:attr:`SensorSettings.vibration_bandwidth_hz`), Hz.
+        Corner frequency ``f_c`` (:attr:`SensorSettings.vibration_bandwidth_hz`), Hz
+        (>= 0).
 
     Returns
     -------
     float
-        Pole ``a`` in (0, 1).
+        Pole ``a`` in (0, 1]: 1 for ``f_c = 0`` (the vibration off: :func:`coloured_noise`
+        scales its input by ``sqrt(1 - a^2) = 0``).
     """
     return float(np.exp(-2.0 * np.pi * bandwidth_hz / rate_hz))
 
