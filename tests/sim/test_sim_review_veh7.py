@@ -59,3 +59,36 @@ def test_sample_times_include_the_last_time_on_the_grid():
 
     np.testing.assert_allclose(sample_times(0.3, 10.0), [0.0, 0.1, 0.2, 0.3], atol=1e-12)
     np.testing.assert_array_equal(sample_times(0.0, 10.0), [0.0])
+
+
+def _standing_on_a_slope(n: int, pitch: float, roll: float):
+    """A vehicle standing on an inclined plane (pitch nose-up, roll right side down), rad."""
+    from terrain.sim.dynamics import PhysicsResult
+
+    z = np.zeros(n)
+    return PhysicsResult(
+        t_s=np.arange(n) * 0.01, pose=np.zeros((n, 3)), twist=np.zeros((n, 3)),
+        accel_body=np.zeros((n, 2)), omega=np.zeros((n, 2)), omega_cmd=np.zeros((n, 2)),
+        slip_motor=np.zeros((n, 2)), delta=np.zeros((n, 2)), torque=np.zeros((n, 2)),
+        pitch=np.full(n, pitch), roll=roll + z, terrain_index=np.zeros(n, dtype=int),
+        terrain_names=("ASPHALT",), speed_clipped_steps=np.zeros(2, dtype=int))
+
+
+@pytest.mark.parametrize("pitch, roll", [(0.2, 0.0), (0.0, 0.3), (-0.1, 0.0)])
+def test_imu_at_rest_on_a_slope_reads_gravity_along_the_plane(pitch, roll):
+    from terrain.sim.sensors import SensorSettings, imu
+    from terrain.terramechanics import get_terrain
+    from terrain.terramechanics.resistance import G_M_S2
+
+    # no noise, no bias: the specific force of a standing vehicle is -g in body axes:
+    # nose up by 0.2 rad -> ax = +g sin(0.2) = 1.949 m/s^2 (gravity pulls it back, the
+    # accelerometer reads the reaction forward); right side down by 0.3 rad -> the left
+    # side (+y) is up: ay = +g sin(0.3) = 2.899 m/s^2; az = g cos(slope)
+    quiet = SensorSettings(gyro_noise_rad_s=0.0, accel_noise_m_s2=0.0,
+                           accel_bias_std_m_s2=0.0)
+    _, data = imu(_standing_on_a_slope(101, pitch, roll), (get_terrain("ASPHALT"),), quiet,
+                  0.0, np.random.default_rng(0), 1.0)
+    np.testing.assert_allclose(data[:, 3], G_M_S2 * np.sin(pitch), atol=1e-9)
+    np.testing.assert_allclose(data[:, 4], G_M_S2 * np.sin(roll), atol=1e-9)
+    np.testing.assert_allclose(data[:, 5], G_M_S2 * np.cos(np.hypot(pitch, roll)),
+                               atol=1e-9)
