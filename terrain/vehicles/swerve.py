@@ -19,7 +19,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, ShapeError, config_positive
 from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
                                      wrap_angle)
 
@@ -292,9 +292,19 @@ def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
     -------
     ndarray, shape (..., 3)
         Least-squares twist ``[yaw_rate, v_x, v_y]`` (rad/s, m/s, m/s).
+
+    Raises
+    ------
+    ShapeError
+        ``delta_rad`` and ``omega_rad_s`` of different shapes, or a last axis that is not
+        one entry per wheel (NumPy's bare broadcast or matmul ValueError before).
     """
     d = np.asarray(delta_rad, dtype=float)
     w = np.asarray(omega_rad_s, dtype=float)
+    n_wheels = len(params.positions)
+    if d.shape != w.shape or d.ndim == 0 or d.shape[-1] != n_wheels:
+        raise ShapeError(f"swerve_forward: delta_rad {d.shape} and omega_rad_s {w.shape} must "
+                         f"have one shape (..., {n_wheels}), one entry per wheel")
     rw = params.wheel_radius_m * w
     s_omega = np.empty(d.shape[:-1] + (2 * d.shape[-1],))
     s_omega[..., 0::2] = rw * np.cos(d)       # eq. 2.1: s_i(delta_i) omega_i

@@ -114,3 +114,15 @@ def test_chi_from_truth_leaves_out_a_sample_turning_exactly_at_the_threshold():
     w = np.array([0.4, 0.1])
     assert chi_from_truth(left, right, w, 1.0, min_yaw_rate_rad_s=0.1) == pytest.approx(
         1.5, rel=1e-12)
+
+
+@pytest.mark.parametrize("delta, omega", [(np.zeros(2), np.zeros(2)),
+                                          (np.zeros(3), np.zeros(4)),
+                                          (np.zeros((5, 3)), np.zeros((4, 3)))])
+def test_swerve_forward_names_a_wrong_shape(delta, omega):
+    from terrain.errors import ShapeError
+    from terrain.vehicles import swerve_forward
+
+    # NumPy's bare "matmul: Input operand 1 has a mismatch" / broadcast ValueError before
+    with pytest.raises(ShapeError, match="delta_rad"):
+        swerve_forward(delta, omega)
