@@ -62,7 +62,8 @@ class AgriMaRoParams:
         wheelbarrow tyre (ch. 2.2 "electric wheelbarrow" hub motor) has about 0.33 m diameter.
     mass_kg : float
         ASSUMED 150 kg: not given in the thesis; gantry frame with three 60 N m hub motors and
-        NEMA 34 steering (ch. 2.2) sized "for payload".
+        steering units geared to a 25 N m design torque (ch. 2.2), built to carry "the
+        operational payload".
     yaw_inertia_kg_m2 : float
         ASSUMED m (w^2 + t^2) / 12 for a plate spanning the wheel triangle.
     camera_lever_arm_m : tuple of float
