@@ -319,8 +319,9 @@ class ServedStreamModel(PythonModel):
         ------
         DataFormatError
             Besides :func:`parse_request`'s errors: a request whose time span would make
-            more than ``max_decisions`` decisions, or one that gave no decision while the
-            service still held samples of it when it ended.
+            more than ``max_decisions`` decisions, or one that gave no decision (the service
+            still held samples of it when it ended, or its streams do not hold one window
+            together: each spans a window, but not the same one).
         """
         service = StreamService(self.model, self.targets, self.config)
         streams = {s: service.streams[s] for s in service.needed_streams}
@@ -343,6 +344,14 @@ class ServedStreamModel(PythonModel):
                                             for (s, r), n in sorted(held.items()))
                 + " when the request ended; send the other streams' samples of that time "
                 "in the same request", "request", TIME)
+        if not decisions:   # no decision came due: an empty answer would give no reason
+            spans = ", ".join(f"{s} {float(f[TIME].iloc[0]):.10g}..{float(f[TIME].iloc[-1]):.10g}"
+                              " s" for s, f in run.streams.items())
+            raise DataFormatError(
+                f"no decision: the streams ({spans}) do not hold one window of {window_s:g} s "
+                "together (the first decision is due one window after the last stream starts, "
+                "and no stream ran on long enough past it); send the streams' samples of the "
+                "same time in one request", "request", TIME)
         out = decisions_frame(decisions, self.model.classes)
         out["flags"] = _plausibility_flags(out, window_s, run.meta, held)
         # (a list, not the .str accessor: an answer without decisions has no text dtype)
