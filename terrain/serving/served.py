@@ -63,7 +63,7 @@ from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
 from terrain.errors import ConfigError, DataFormatError, TerrainError, listed
 from terrain.run import TIME
-from terrain.serving.config import StreamConfig, check_hop
+from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
                                    load_stream_model, model_vehicle, new_model_directory)
@@ -408,9 +408,11 @@ class ServedStreamModel(PythonModel):
 def is_long(model_input: Any) -> bool:
     """Whether a served request takes the long lane: a table of more than
     :data:`LONG_REQUEST_ROWS` rows, or whose timestamps (``t_s``, or the wide format's
-    ``<stream>_t_s``; non-numeric and non-finite cells ignored) span more than
-    :data:`LONG_REQUEST_S` seconds. A time column that cannot be read as numbers at all (an
-    integer beyond the float range) leaves the request short; the model refuses it.
+    ``<stream>_t_s`` of a known stream, :data:`~terrain.serving.config.KNOWN_STREAMS`; a
+    column of another sensor is not read; non-numeric and non-finite cells ignored) span
+    more than :data:`LONG_REQUEST_S` seconds. A time column that cannot be read as numbers
+    at all (an integer beyond the float range) leaves the request short; the model refuses
+    it.
 
     Parameters
     ----------
@@ -426,8 +428,9 @@ def is_long(model_input: Any) -> bool:
         return False
     if len(model_input) > LONG_REQUEST_ROWS:
         return True
-    times = [c for c in model_input.columns
-             if isinstance(c, str) and (c == TIME or c.endswith(f"_{TIME}"))]
+    # the columns the model reads: a column of no known stream (``gps_t_s``) is ignored
+    read = {TIME, *(f"{s}_{TIME}" for s in KNOWN_STREAMS)}
+    times = [c for c in model_input.columns if isinstance(c, str) and c in read]
     if not times:
         return False
     try:

@@ -60,3 +60,14 @@ def test_streams_that_hold_no_window_together_are_a_typed_400_not_an_empty_answe
 def test_streams_that_hold_a_window_together_still_make_decisions(served_all, imu_run):
     status, body = _answer(served_all, _request(imu_run, (0.0, 4.0), (1.5, 4.0)))
     assert status == 200 and len(body["predictions"]) >= 1, body
+
+
+def test_a_time_column_of_no_known_stream_does_not_choose_the_lane():
+    """A column the model ignores (``gps_t_s``: another sensor's epoch stamps) put a robot's
+    short request in the long lane, behind bulk logs; the lane is chosen by ``t_s`` and the
+    known streams' ``<stream>_t_s`` only (the columns the model reads)."""
+    from terrain.serving.served import LONG_REQUEST_S, is_long
+
+    short = pd.DataFrame({"wheels_t_s": [0.0, 1.0, 2.0], "gps_t_s": [1.7e9, 1.7e9 + 1.0, 0.0]})
+    assert not is_long(short)
+    assert is_long(short.assign(wheels_t_s=[0.0, 1.0, LONG_REQUEST_S + 1.0]))
