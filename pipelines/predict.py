@@ -121,7 +121,8 @@ def main(args: argparse.Namespace) -> int:
         raise DataFormatError(f"no window to predict in {len(runs)} run(s) (see above; a "
                               f"window is {window_s:g} s)", args.runs_dir)
     pred = pd.concat(parts, ignore_index=True)
-    used = len(counts["per_run"])
+    # as the input report counts them: a run too short for one window gave none
+    used = sum(1 for r in counts["per_run"] if r not in counts["too_short_runs"])
     with tracked_run(EXPERIMENT, params={"model": str(args.model),
                                          "runs_dir": str(args.runs_dir)}) as run:
         args.out.parent.mkdir(parents=True, exist_ok=True)

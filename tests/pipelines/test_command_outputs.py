@@ -82,11 +82,15 @@ def test_predict_counts_the_runs_used_skipped_and_noted_apart(
     assert main(["predict", "--model", str(tmp_path), str(runs), "--out", str(out),
                  "--no-progress"]) == 0
     text = capsys.readouterr().out
-    assert "11 windows from 4 of 6 runs -> " + str(out) in text
+    # the 1.5 s run gave no window: not used (it was counted as used, "from 4 of 6 runs",
+    # while the input report above said "6 run(s), 3 used")
+    assert "input: 6 run(s), 3 used" in text
+    assert "11 windows from 3 of 6 runs -> " + str(out) in text
     assert "predicted windows per class: {'ICE': 11}" in text
     assert text.count("IMU is sampled at 50 Hz") == 1
     m = run.metrics
-    assert (m["n_windows"], m["n_runs"], m["n_runs_used"], m["n_runs_skipped"]) == (11, 6, 4, 2)
+    assert (m["n_windows"], m["n_runs"], m["n_runs_used"], m["n_runs_skipped"]) == (11, 6, 3, 2)
+    assert m["input_runs_used"] == m["n_runs_used"]
     assert (m["n_runs_other_vehicle"], m["n_runs_slower_imu"]) == (6, 1)
     assert m["input_runs_too_short"] == 1     # the 1.5 s run; 200 samples fill one window
     assert m["n_windows_flagged"] == 0
