@@ -36,6 +36,8 @@ from terrain.tracking import tracked_run
 EXPERIMENT = "terrain-stream-eval"
 #: default hop of the wheel-cv part's windows, s (non-overlapping 2 s decisions)
 WHEEL_CV_HOP_S = 2.0
+#: default folds over runs of the held-out streams (the headline protocol)
+STREAM_FOLDS = 5
 #: smoothing settings scored on the same replayed decisions: none, hysteresis alone (a
 #: margin on the window's own probabilities), the forward filter alone, and both
 SMOOTHINGS = {"raw": SmoothingConfig(dwell_s=None),
@@ -75,12 +77,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"recipe's, {RECIPES['wheels'].window_s:g} s)")
     parser.add_argument("--hop-s", type=positive_number, default=None,
                         help=f"wheel-cv hop, s (default {WHEEL_CV_HOP_S:g})")
-    parser.add_argument("--folds", type=int, default=5,
+    parser.add_argument("--folds", type=int, default=None,
                         help="folds over runs of the held-out streams: each fold's model is "
                              "trained on (N-1)/N of the runs and its held-out runs are one "
                              "stream (default 5, the headline protocol; more folds train on "
                              "more runs, closer to a model trained on every shipped run)")
-    parser.add_argument("--switch-gap-s", type=float, default=0.0,
+    parser.add_argument("--switch-gap-s", type=float, default=None,
                         help="dropout added at every terrain switch of the held-out streams, "
                              "s (default 0: the clock runs on across a switch, as on a robot "
                              "driving onto the next terrain; before, 0.1 s, which the service "
@@ -106,7 +108,8 @@ def main(args: argparse.Namespace) -> int:
         ``--part none`` without ``--model-out``, a recipe repeated in ``--kinds``,
         ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
         :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
-        that does not run the wheel CV, a negative or infinite ``--switch-gap-s``, a
+        that does not run the wheel CV, ``--folds`` or ``--switch-gap-s`` given with a
+        ``--part`` that runs no held-out stream, a negative or infinite ``--switch-gap-s``, a
         ``--model-out`` folder of a recipe that is not empty: checked before any run is read;
         more ``--folds`` than runs to cut the streams from: checked once the runs are read,
         before any model is fitted.
@@ -120,6 +123,15 @@ def main(args: argparse.Namespace) -> int:
     if given and not wheel_cv:   # they were ignored (and logged to MLflow as if used)
         raise ConfigError(f"{' and '.join(given)} set the wheel-cv part's windows; --part "
                           f"{args.part} does not run it")
+    streams = args.part in ("streams", "both")
+    for option, value in (("--folds", args.folds), ("--switch-gap-s", args.switch_gap_s)):
+        if value is not None and not streams:   # ignored, and logged to MLflow as if used
+            raise ConfigError(f"{option} shapes the held-out streams; --part {args.part} does "
+                              "not run them")
+    if args.folds is None:
+        args.folds = STREAM_FOLDS
+    if args.switch_gap_s is None:
+        args.switch_gap_s = 0.0
     if args.window_s is None:
         args.window_s = RECIPES["wheels"].window_s
     if args.hop_s is None:
@@ -149,7 +161,9 @@ def main(args: argparse.Namespace) -> int:
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",
                      params={"part": args.part, "seeds": ",".join(map(str, args.seeds)),
-                             "switch_gap_s": args.switch_gap_s, "folds": args.folds,
+                             # the held-out streams' settings, only where they are scored
+                             **({"switch_gap_s": args.switch_gap_s, "folds": args.folds}
+                                if streams else {}),
                              # the wheel-cv windows, only where that part runs
                              **({"window_s": args.window_s, "hop_s": args.hop_s}
                                 if wheel_cv else {}),

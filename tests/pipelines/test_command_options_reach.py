@@ -190,6 +190,27 @@ def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(mo
     monkeypatch.setattr(stream_eval, "window_cv", lambda *a, **k: calls.append(a) or _stop())
     assert main(["stream-eval", "--part", "wheel-cv", "--seeds", "4"]) == 1
     assert "kinds" not in tracking.starts[-1] and tracking.starts[-1]["part"] == "wheel-cv"
+    # nor the held-out streams' folds and switch gap, which it does not use
+    assert "folds" not in tracking.starts[-1] and "switch_gap_s" not in tracking.starts[-1]
+
+
+@pytest.mark.parametrize("part", ["wheel-cv", "none"])
+def test_stream_eval_refuses_the_stream_options_with_a_part_that_runs_no_stream(
+        part, tmp_path, monkeypatch, capsys):
+    """--folds and --switch-gap-s shape the held-out streams only: ``--part wheel-cv --folds
+    3`` ran the wheel CV's fixed 5 folds and logged folds=3 to MLflow, without a word."""
+    import pipelines.stream_eval as stream_eval
+
+    monkeypatch.chdir(tmp_path)
+    read = []
+    monkeypatch.setattr(stream_eval, "load_dataset", lambda name: read.append(name) or [])
+    extra = ["--model-out", str(tmp_path / "m")] if part == "none" else []
+    for option, value in (("--folds", "3"), ("--switch-gap-s", "0.5")):
+        assert main(["stream-eval", "--part", part, option, value, *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err[-1] == (f"terrain stream-eval: error: {option} shapes the held-out "
+                           f"streams; --part {part} does not run them")
+    assert read == [] and not (tmp_path / "m").exists()
 
 
 def _stop():
