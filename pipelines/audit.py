@@ -186,8 +186,10 @@ def main(args: argparse.Namespace) -> int:
     else:
         from terrain.tracking import tracked_run
 
+        # --compare-physics is no audit setting: its v1/v2 replays are said here
         with tracked_run(EXPERIMENT, run_name=name,
-                         params={**source, **settings.as_params()}) as tracked:
+                         params={**source, **settings.as_params(),
+                                 "compare_physics": args.compare_physics}) as tracked:
             _audit(args, runs, settings, source, name, tracked)
     return 0
 

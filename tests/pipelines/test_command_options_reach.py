@@ -408,3 +408,20 @@ def test_quick_compare_keeps_the_history_and_the_paper_protocols_windows():
     assert config.history == (1, 3) and config.windows_s == (2.0,)
     paper = config_from_args(parser.parse_args(["--quick", "--protocol", "paper"]))
     assert paper.protocol == "paper" and paper.windows_s == (1.7,)   # the papers' windows
+
+
+@pytest.mark.parametrize("compare", [False, True])
+def test_audit_logs_whether_it_compared_the_physics_versions(compare, tmp_path, monkeypatch):
+    """``--compare-physics`` replays every run twice more and adds the v1/v2 gain table to
+    the report; its MLflow run did not say it had (no parameter of it among the settings)."""
+    import pipelines.audit as audit
+    import terrain.tracking as tracking
+
+    monkeypatch.setattr(audit, "load_dataset", lambda name: [])
+    monkeypatch.setattr(audit, "_audit", lambda *args: None)
+    recording = RecordingRun()
+    monkeypatch.setattr(tracking, "tracked_run", recording)
+    argv = ["audit", "--dataset", "vulpi", "--json", str(tmp_path / "a.json")]
+    assert main(argv + ["--compare-physics"] * compare) == 0
+    assert recording.starts[-1]["compare_physics"] is compare
+    assert recording.starts[-1]["dataset"] == "vulpi"
