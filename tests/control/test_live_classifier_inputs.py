@@ -134,3 +134,25 @@ def test_the_classifier_applies_to_its_own_vehicle_and_classes(metadata, vehicle
         assert sorted(table.entries) == ["ICE", "SNOW"]
     else:
         assert live is None and table is None and "comes from the label" in note
+
+
+def test_decision_hop_of_a_train_model_without_one_is_the_streaming_default():
+    """A ``terrain train`` model stores ``hop_s: null`` (its batch windows back to back): the
+    live classifier then decides every 0.5 s, the streaming service's default and ``terrain
+    stream --hop-s``'s (README, control-sim); a hop the model names is taken as it is,
+    from its metadata first, else from its window."""
+    from pipelines.live_terrain import decision_hop_s
+    from terrain.serving.service import StreamConfig
+
+    def model(metadata, hop_s):
+        return StreamModel(RecordingPipeline(), CHANNELS,
+                           WindowConfig(window_s=2.0, hop_s=hop_s, rate_hz=50.0),
+                           ("ICE", "SNOW"), metadata)
+
+    assert StreamConfig().hop_s == 0.5
+    assert decision_hop_s(model({"vehicle": "husky", "hop_s": None}, None)) == 0.5
+    assert decision_hop_s(model({"vehicle": "husky"}, None)) == 0.5
+    assert decision_hop_s(model({"vehicle": "husky"}, 1.0)) == 1.0
+    assert decision_hop_s(model({"vehicle": "husky", "hop_s": 0.25}, 1.0)) == 0.25
+    # and the classifier's streaming service decides at that hop
+    assert LiveClassifier(model({"hop_s": None}, None), "husky").service.config.hop_s == 0.5
