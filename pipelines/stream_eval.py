@@ -64,7 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also fit each --kinds recipe on every BorealTC run and save it "
                              "to DIR/<kind> (a model directory for terrain stream)")
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
-                        default=[0, 1, 2])
+                        default=None,
+                        help="seeds of the wheel CV's folds and of the held-out streams "
+                             "(default 0 1 2)")
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
                         default=list(DEFAULT_RECIPES.values()),
                         help="recipes of the held-out stream evaluation and of --model-out "
@@ -109,10 +111,10 @@ def main(args: argparse.Namespace) -> int:
         ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
         :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
         that does not run the wheel CV, ``--folds`` or ``--switch-gap-s`` given with a
-        ``--part`` that runs no held-out stream, a negative or infinite ``--switch-gap-s``, a
-        ``--model-out`` folder of a recipe that is not empty: checked before any run is read;
-        more ``--folds`` than runs to cut the streams from: checked once the runs are read,
-        before any model is fitted.
+        ``--part`` that runs no held-out stream, ``--seeds`` with ``--part none``, a
+        negative or infinite ``--switch-gap-s``, a ``--model-out`` folder of a recipe that
+        is not empty: checked before any run is read; more ``--folds`` than runs to cut the
+        streams from: checked once the runs are read, before any model is fitted.
     """
     if args.part == "none" and args.model_out is None:   # an empty MLflow run, nothing done
         raise ConfigError("--part none evaluates nothing and only saves the --model-out "
@@ -124,6 +126,11 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError(f"{' and '.join(given)} set the wheel-cv part's windows; --part "
                           f"{args.part} does not run it")
     streams = args.part in ("streams", "both")
+    if args.seeds is not None and args.part == "none":  # ignored, and logged as if used
+        raise ConfigError("--seeds seed the wheel CV and the held-out streams; --part none "
+                          "runs neither")
+    if args.seeds is None:
+        args.seeds = [0, 1, 2]
     for option, value in (("--folds", args.folds), ("--switch-gap-s", args.switch_gap_s)):
         if value is not None and not streams:   # ignored, and logged to MLflow as if used
             raise ConfigError(f"{option} shapes the held-out streams; --part {args.part} does "
@@ -160,7 +167,9 @@ def main(args: argparse.Namespace) -> int:
                               "streams are cut from: every fold holds at least one run out")
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",
-                     params={"part": args.part, "seeds": ",".join(map(str, args.seeds)),
+                     params={"part": args.part,
+                             **({"seeds": ",".join(map(str, args.seeds))}
+                                if args.part != "none" else {}),
                              # the held-out streams' settings, only where they are scored
                              **({"switch_gap_s": args.switch_gap_s, "folds": args.folds}
                                 if streams else {}),

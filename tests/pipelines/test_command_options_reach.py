@@ -425,3 +425,31 @@ def test_audit_logs_whether_it_compared_the_physics_versions(compare, tmp_path, 
     assert main(argv + ["--compare-physics"] * compare) == 0
     assert recording.starts[-1]["compare_physics"] is compare
     assert recording.starts[-1]["dataset"] == "vulpi"
+
+
+def test_stream_eval_part_none_refuses_seeds_and_logs_none(tmp_path, monkeypatch, capsys):
+    """``--part none`` only fits and saves the --model-out models, on every run, seedless:
+    ``--part none --seeds 7`` was taken and logged to MLflow as seeds=7 (and without
+    --seeds the unused default seeds=0,1,2)."""
+    import pipelines.stream_eval as stream_eval
+
+    monkeypatch.chdir(tmp_path)
+    read = []
+    monkeypatch.setattr(stream_eval, "load_dataset", lambda name: read.append(name) or [])
+    argv = ["stream-eval", "--part", "none", "--kinds", "wheels",
+            "--model-out", str(tmp_path / "m")]
+    assert main(argv + ["--seeds", "7"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "terrain stream-eval: error: --seeds seed the wheel CV and the held-out streams; "
+        "--part none runs neither")
+    assert read == []
+    recording = RecordingRun()
+    monkeypatch.setattr(stream_eval, "tracked_run", recording)
+    monkeypatch.setattr(stream_eval, "fit_stream_model", lambda recipe, runs: _stop())
+    assert main(argv) == 1                     # reached the fit (the stand-in stops there)
+    assert recording.starts[-1] == {"part": "none", "kinds": "wheels"}
+    # elsewhere the default seeds are 0 1 2, and logged
+    monkeypatch.setattr(stream_eval, "window_cv", lambda runs, recipe, hop, seeds, s:
+                        read.append(seeds) or _stop())
+    assert main(["stream-eval", "--part", "wheel-cv"]) == 1
+    assert read[-1] == [0, 1, 2] and recording.starts[-1]["seeds"] == "0,1,2"
