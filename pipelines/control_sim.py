@@ -171,7 +171,8 @@ def main(args: argparse.Namespace) -> int:
                                        ("--ki", args.ki is not None),
                                        ("--no-feed-forward", args.no_feed_forward)) if given]
     if args.controller == "off" and unused and not controlled_training:
-        raise ConfigError(f"{', '.join(unused)} act on the traction controller, which "
+        verb = "acts" if len(unused) == 1 else "act"
+        raise ConfigError(f"{', '.join(unused)} {verb} on the traction controller, which "
                           f"--controller off does not run (terrain source {source!r}"
                           + (", uncontrolled classifier runs" if source == "live-sim" else "")
                           + "): leave them out")

@@ -125,7 +125,7 @@ def test_a_value_repeated_on_a_grid_axis_is_refused_before_any_work(argv, messag
     # ran and ignored --kp without a word (CLI fuzz)
     (["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
       "--controller", "off", "--json", "c.json", "--terrain-source", "label", "--kp", "5"],
-     "--kp act on the traction controller, which --controller off does not run"),
+     "--kp acts on the traction controller, which --controller off does not run"),
     (["control-sim", "--vehicle", "husky", "--terrain", "SNOW", "--scenario", "orchard",
       "--controller", "off", "--json", "c.json", "--classifier-uncontrolled-only", "--ki",
       "1", "--no-feed-forward"],
