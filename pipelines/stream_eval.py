@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seeds of the wheel CV's folds and of the held-out streams "
                              "(default 0 1 2)")
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
-                        default=list(DEFAULT_RECIPES.values()),
+                        default=None,
                         help="recipes of the held-out stream evaluation and of --model-out "
                              "(all: window statistics + SVM; all-ensemble: + spectrogram CNN, "
                              "soft vote; all-ensemble3: + raw CNN as well; wheels: physics "
@@ -111,7 +111,8 @@ def main(args: argparse.Namespace) -> int:
         ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
         :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
         that does not run the wheel CV, ``--folds`` or ``--switch-gap-s`` given with a
-        ``--part`` that runs no held-out stream, ``--seeds`` with ``--part none``, a
+        ``--part`` that runs no held-out stream, ``--seeds`` with ``--part none``,
+        ``--kinds`` with ``--part wheel-cv`` and no ``--model-out``, a
         negative or infinite ``--switch-gap-s``, a ``--model-out`` folder of a recipe that
         is not empty: checked before any run is read; more ``--folds`` than runs to cut the
         streams from: checked once the runs are read, before any model is fitted.
@@ -143,6 +144,11 @@ def main(args: argparse.Namespace) -> int:
         args.window_s = RECIPES["wheels"].window_s
     if args.hop_s is None:
         args.hop_s = WHEEL_CV_HOP_S
+    if args.kinds is not None and not (streams or args.model_out):   # ignored unsaid
+        raise ConfigError(f"--kinds chooses the recipes of the held-out streams and of "
+                          f"--model-out; --part {args.part} without --model-out uses neither")
+    if args.kinds is None:
+        args.kinds = list(DEFAULT_RECIPES.values())
     repeated = duplicated(args.kinds)
     if repeated:  # each would be fitted and logged twice under one name
         raise ConfigError(f"--kinds: {repeated} given more than once")

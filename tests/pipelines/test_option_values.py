@@ -98,6 +98,9 @@ def test_a_seed_given_twice_is_a_usage_error(argv, capsys, tmp_path, monkeypatch
     (["compare", "--windows-s", "2", "2.0"], "windows_s must be distinct: [2.0]"),
     (["compare", "--history", "1", "5", "1"], "history must be distinct: [1]"),
     (["stream-eval", "--kinds", "wheels", "wheels"], "--kinds: ['wheels'] given more"),
+    # the wheel CV alone uses no recipe: the list was ignored (and not logged) unsaid
+    (["stream-eval", "--part", "wheel-cv", "--kinds", "all"],
+     "--kinds chooses the recipes of the held-out streams and of --model-out; --part wheel-cv"),
     (["control-grid", "--terrains", "ICE", "ice", "--out", "g"], "terrains: ['ICE'] given"),
     (["control-grid", "--vehicles", "husky", "husky", "--out", "g"], "vehicles: ['husky']"),
     (["control-grid", "--ki-grid", "0", "0", "--out", "g"], "--ki-grid: [0.0] given"),
