@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer, config_numbers, config_positive
+from terrain.errors import (ConfigError, DataFormatError, config_integer, config_numbers,
+                            config_positive)
 
 #: floor on classifier probabilities so one window can never veto a class for good
 PROBA_FLOOR = 1e-4
@@ -214,7 +215,17 @@ class ForwardFilter:
         p : numpy.ndarray
             ``(K,)`` filtered probabilities (a copy); without the filter, ``q``, or the
             uniform distribution when ``q`` is ``None``.
+
+        Raises
+        ------
+        DataFormatError
+            ``q`` not of shape ``(K,)`` (a ``(1, K)`` row broadcast into a 2-D ``p``, a
+            scalar into a decided class 0; nothing is folded in).
         """
+        if q is not None and np.shape(q) != self.p.shape:
+            raise DataFormatError(f"ForwardFilter.update: q must be the {self.p.shape} "
+                                  f"probabilities of the filter's {len(self.p)} classes, "
+                                  f"got shape {np.shape(q)}")
         # the one finiteness test of a window's probabilities (the service reads evidence)
         if q is not None and not np.isfinite(q).all():
             q = None
