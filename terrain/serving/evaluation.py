@@ -150,8 +150,9 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     differs from the previous piece's and after which the runs left can still alternate, so
     the terrain changes at every switch wherever the runs allow it; each piece is a random
     stretch of ``min_s``-``max_s`` seconds (capped at the run's length). Every run is used
-    once, except a run whose streams overlap for less than ``min(min_s, 10 s)``: it is left
-    out and named in ``meta["skipped_runs"]`` (BorealTC's ASPHALT/02, 9.5 s).
+    once, except a run whose streams overlap for less than ``min(min_s, 10 s)`` (one whose
+    stream holds no sample included): it is left out and named in ``meta["skipped_runs"]``
+    (BorealTC's ASPHALT/02, 9.5 s).
 
     Parameters
     ----------
@@ -199,8 +200,10 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
     if len({r.terrain for r in pool}) < 2:
         raise ConfigError("a concatenated stream needs runs of at least two terrains")
     # each run's span with every stream present; a run shorter than a piece is skipped
+    # (one whose stream holds no sample spans nothing)
     bounds = [(max(r.streams[s][TIME].iloc[0] for s in streams),
-               min(r.streams[s][TIME].iloc[-1] for s in streams)) for r in pool]
+               min(r.streams[s][TIME].iloc[-1] for s in streams))
+              if all(len(r.streams[s]) for s in streams) else (0.0, 0.0) for r in pool]
     shortest_s = min(min_s, 10.0)
     kept = {k for k, (lo, hi) in enumerate(bounds) if hi - lo >= shortest_s}
     if len({pool[k].terrain for k in kept}) < 2:

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from terrain.errors import DataFormatError
+from terrain.run import Run
+from terrain.serving.evaluation import concatenated_streams
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 
 
@@ -18,3 +21,20 @@ def test_filter_refuses_probabilities_of_another_shape_than_its_classes(q):
     with pytest.raises(DataFormatError, match=r"\(3,\)"):
         filt.update(q)
     np.testing.assert_allclose(filt.p, np.full(3, 1 / 3))     # nothing folded in
+
+
+def test_a_run_with_an_empty_stream_is_named_as_too_short_not_an_index_error():
+    """A run whose wheel frame holds no sample overlaps for 0 s: it is left out and named
+    in ``skipped_runs`` as any run too short for a piece (was pandas's bare IndexError
+    'single positional indexer is out-of-bounds' from ``iloc[0]``)."""
+    def run(i, terrain, n):
+        t = np.arange(n) * 0.2
+        frame = pd.DataFrame({"t_s": t, "vel_l": 0.5, "vel_r": 0.5, "cur_l": 1.0,
+                              "cur_r": 1.0})
+        return Run(f"syn/{terrain}/{i:02d}", "syn", terrain, {"wheels": frame})
+
+    runs = [run(0, "ICE", 300), run(1, "SNOW", 300), run(2, "SNOW", 0)]
+    stream, segments = concatenated_streams(runs, ("wheels",), seed=0)
+    assert [s.run_id for s in segments] in (["syn/ICE/00", "syn/SNOW/01"],
+                                            ["syn/SNOW/01", "syn/ICE/00"])
+    assert stream.meta["skipped_runs"] == ["syn/SNOW/02"]
