@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import config_integer
 from terrain.io.align import median_step
 
 
@@ -27,13 +27,13 @@ class RingBuffer:
     Raises
     ------
     ConfigError
-        Non-positive ``n_channels`` or ``capacity``.
+        ``n_channels`` or ``capacity`` not an integer > 0 (a boolean, a float such as 4.7
+        included: ``True`` made a buffer of one sample).
     """
 
     def __init__(self, n_channels: int, capacity: int) -> None:
-        if n_channels <= 0 or capacity <= 0:
-            raise ConfigError(f"ring buffer needs n_channels > 0 and capacity > 0, got "
-                              f"{n_channels}, {capacity}")
+        config_integer("RingBuffer.n_channels", n_channels, 1)
+        config_integer("RingBuffer.capacity", capacity, 1)
         self.capacity = int(capacity)
         self._t = np.empty(2 * self.capacity)
         self._v = np.empty((2 * self.capacity, n_channels))

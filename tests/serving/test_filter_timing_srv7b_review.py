@@ -6,8 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
+from terrain.serving.buffers import RingBuffer
 from terrain.serving.evaluation import concatenated_streams
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 
@@ -38,3 +39,12 @@ def test_a_run_with_an_empty_stream_is_named_as_too_short_not_an_index_error():
     assert [s.run_id for s in segments] in (["syn/ICE/00", "syn/SNOW/01"],
                                             ["syn/SNOW/01", "syn/ICE/00"])
     assert stream.meta["skipped_runs"] == ["syn/SNOW/02"]
+
+
+@pytest.mark.parametrize("n_channels,capacity", [(2, True), (True, 4), (2, 4.7), (2.5, 4),
+                                                 (2, 0), (0, 4)])
+def test_ring_buffer_refuses_sizes_that_are_not_positive_integers(n_channels, capacity):
+    """``capacity=True`` made a buffer of one sample, without a word; 4.7 or 2.5 was a
+    bare TypeError of NumPy."""
+    with pytest.raises(ConfigError, match="RingBuffer"):
+        RingBuffer(n_channels, capacity)
