@@ -21,8 +21,9 @@ from sklearn.pipeline import Pipeline
 
 from features.transformers import SerialFeatureUnion, WindowFeatures
 from features.wheel_physics import WheelPhysicsFeatures
-from features.windows import HUSKY_TRACK_M, WindowConfig, make_windows, runs_track_m
-from terrain.errors import ConfigError, config_integer
+from features.windows import (HUSKY_TRACK_M, SIGNAL_SETS, WindowConfig, make_windows,
+                              runs_track_m)
+from terrain.errors import ConfigError, config_flags, config_integer
 from terrain.models.forest import ForestPipeline
 from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
@@ -116,9 +117,12 @@ class ModelRecipe:
     Raises
     ------
     ConfigError
-        An unknown feature set or classifier, ``n_trees`` not an integer >= 1, or a
-        setting the classifier does not use (``n_trees``, ``spectrogram_noise_std``,
-        ``cnn_seeds``, ``run_balanced``, ``window_ekf``) given to it.
+        An unknown signal set, feature set or classifier, ``window_s``, ``rate_hz`` or
+        ``train_hop_s`` not a finite number > 0 (:class:`~features.windows.WindowConfig`'s
+        checks), ``run_balanced`` or ``window_ekf`` not a boolean (the text ``"False"``
+        read as on), ``n_trees`` not an integer >= 1, or a setting the classifier does not
+        use (``n_trees``, ``spectrogram_noise_std``, ``cnn_seeds``, ``run_balanced``,
+        ``window_ekf``) given to it.
     """
 
     signals: str
@@ -134,6 +138,12 @@ class ModelRecipe:
     cnn_seeds: int = 1
 
     def __post_init__(self) -> None:
+        if not isinstance(self.signals, str) or self.signals not in SIGNAL_SETS:
+            raise ConfigError(f"recipe signals must be one of {tuple(SIGNAL_SETS)}, got "
+                              f"{self.signals!r:.60}")
+        # the windows' own checks, now rather than at the first fit
+        WindowConfig(window_s=self.window_s, hop_s=self.train_hop_s, rate_hz=self.rate_hz)
+        config_flags("ModelRecipe", run_balanced=self.run_balanced, window_ekf=self.window_ekf)
         config_integer("n_trees", self.n_trees, 1)
         if self.n_trees != _DEFAULT_N_TREES and self.classifier != "extra_trees":
             raise ConfigError("n_trees sets the trees of an extra_trees recipe only")

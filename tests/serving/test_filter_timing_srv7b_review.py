@@ -10,6 +10,7 @@ from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
 from terrain.serving.buffers import RingBuffer
 from terrain.serving.evaluation import concatenated_streams
+from terrain.serving.recipes import ModelRecipe
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 
 
@@ -48,3 +49,18 @@ def test_ring_buffer_refuses_sizes_that_are_not_positive_integers(n_channels, ca
     bare TypeError of NumPy."""
     with pytest.raises(ConfigError, match="RingBuffer"):
         RingBuffer(n_channels, capacity)
+
+
+@pytest.mark.parametrize("setting", [
+    {"signals": "wheel"}, {"signals": None}, {"window_s": float("nan")}, {"window_s": True},
+    {"rate_hz": -10.0}, {"train_hop_s": 0.0}, {"run_balanced": "False"},
+    {"run_balanced": 1}])
+def test_a_recipe_refuses_settings_its_windows_or_switches_cannot_take(setting):
+    """Each was accepted by ModelRecipe: the numbers and the signal set failed only at the
+    first fit (after the runs were read), and ``run_balanced="False"`` trained run-balanced
+    (read by truthiness)."""
+    base = dict(signals="wheels", window_s=4.0, rate_hz=10.0, train_hop_s=2.0,
+                features="physics", classifier="extra_trees")
+    ModelRecipe(**base)     # the base itself is valid
+    with pytest.raises(ConfigError):
+        ModelRecipe(**{**base, **setting})
