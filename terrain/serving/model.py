@@ -86,6 +86,14 @@ class StreamModel:
     metadata : Mapping
         The model directory's whole ``metadata`` (``dataset``, ``vehicle``, ...), read-only;
         empty for a model built in memory. Not compared or hashed.
+
+    Raises
+    ------
+    ConfigError
+        The pipeline's ``classes_`` hold none of ``classes`` (labels of another training,
+        another case, integers for text): every window's probabilities would read 0 for
+        every class, and the service decided the first class at confidence 1/K with its
+        targets, unflagged. (A class the pipeline lacks, the others present, reads 0.)
     """
 
     pipeline: Any
@@ -94,6 +102,15 @@ class StreamModel:
     classes: tuple[str, ...]
     metadata: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}),
                                         compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        held = getattr(self.pipeline, "classes_", None)
+        # the service's own lookup (StreamService: a class of the model in classes_)
+        if held is not None and not any(c in list(held) for c in self.classes):
+            raise ConfigError(f"StreamModel: the pipeline's classes_ "
+                              f"{[c for c in held][:10]!r:.200} hold none of the model's "
+                              f"classes {list(self.classes)[:10]!r:.200}: every window would "
+                              "read probability 0 for every class")
 
     @property
     def raw_channels(self) -> tuple[str, ...]:

@@ -6,9 +6,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from features.windows import WindowConfig
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
 from terrain.serving.buffers import RingBuffer
+from terrain.serving.model import StreamModel
 from terrain.serving.evaluation import concatenated_streams
 from terrain.serving.recipes import ModelRecipe
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
@@ -64,3 +66,25 @@ def test_a_recipe_refuses_settings_its_windows_or_switches_cannot_take(setting):
     ModelRecipe(**base)     # the base itself is valid
     with pytest.raises(ConfigError):
         ModelRecipe(**{**base, **setting})
+
+
+class _Labelled:
+    """A fitted classifier stand-in with the given ``classes_``."""
+
+    def __init__(self, classes):
+        self.classes_ = np.asarray(classes)
+
+    def predict_proba(self, X):
+        return np.full((len(X), len(self.classes_)), 1.0 / len(self.classes_))
+
+
+@pytest.mark.parametrize("held", [["asphalt", "snow"], [0, 1], ["ICE", "GRASS"]])
+def test_a_model_whose_classifier_holds_none_of_its_classes_is_refused(held):
+    """Every probability read 0 and the service decided ASPHALT at confidence 0.5 (at
+    min_confidence: trusted, ASPHALT's targets, no flag) on every window."""
+    window = WindowConfig(window_s=1.0, rate_hz=10.0)
+    with pytest.raises(ConfigError, match="none of the model's classes"):
+        StreamModel(_Labelled(held), ("vel_l", "vel_r"), window, ("ASPHALT", "SNOW"))
+    # one class of the model held is a model (the other reads 0, as before)
+    StreamModel(_Labelled(["ASPHALT", "ICE"]), ("vel_l", "vel_r"), window,
+                ("ASPHALT", "SNOW"))
