@@ -10,10 +10,12 @@ from features.windows import WindowConfig
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
 from terrain.serving.buffers import RingBuffer
-from terrain.serving.model import StreamModel
 from terrain.serving.evaluation import concatenated_streams
+from terrain.serving.model import StreamModel
 from terrain.serving.recipes import ModelRecipe
+from terrain.serving.service import StreamConfig, StreamService
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
+from terrain.serving.targets import CataloguePeakTargets
 
 
 @pytest.mark.parametrize("q", [np.array([0.2, 0.8]), np.array([[0.2, 0.3, 0.5]]),
@@ -88,3 +90,33 @@ def test_a_model_whose_classifier_holds_none_of_its_classes_is_refused(held):
     # one class of the model held is a model (the other reads 0, as before)
     StreamModel(_Labelled(["ASPHALT", "ICE"]), ("vel_l", "vel_r"), window,
                 ("ASPHALT", "SNOW"))
+
+
+class _MeanSpeed:
+    """Two-class stand-in: P(SNOW) a logistic of the window's mean ``vel_l``."""
+
+    classes_ = np.array(["ASPHALT", "SNOW"])
+
+    def predict_proba(self, X):
+        p = 1.0 / (1.0 + np.exp(-X[:, 0].mean(axis=1)))
+        return np.column_stack([1.0 - p, p])
+
+
+def test_decisions_of_a_silent_stretch_are_skipped_from_max_backlog_s_before_the_newest():
+    """A wheel stream at 10 Hz until 2.9 s, then silent until 11.0 s, max_backlog_s 5: the
+    decisions at 4.5, 5.0 and 5.5 s are due more than 5 s before the newest sample with no
+    sample in their window, so they are skipped (and counted); 6.0 s is exactly 5 s before
+    it and is made. (Mutant: a backlog of twice max_backlog_s skipped none, no test
+    failed.)"""
+    window = WindowConfig(window_s=1.0, rate_hz=10.0)
+    model = StreamModel(_MeanSpeed(), ("vel_l", "vel_r"), window, ("ASPHALT", "SNOW"))
+    svc = StreamService(model, CataloguePeakTargets(model.classes),
+                        StreamConfig(hop_s=0.5, max_backlog_s=5.0,
+                                     streams={"wheels": ("vel_l", "vel_r")}))
+    row = np.array([1.0, 1.0])
+    early = [d for k in range(30) for d in svc.push("wheels", k * 0.1, row)]
+    assert [d.t_s for d in early] == pytest.approx([1.0, 1.5, 2.0, 2.5])
+    late = [d for k in range(5) for d in svc.push("wheels", 11.0 + k * 0.1, row)]
+    assert svc.skipped_decisions == 3
+    made = [3.0, 3.5, 4.0] + list(np.arange(6.0, 11.1, 0.5))
+    assert [d.t_s for d in late] == pytest.approx(made)
