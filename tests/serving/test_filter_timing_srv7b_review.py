@@ -10,6 +10,7 @@ from features.windows import WindowConfig
 from terrain.errors import ConfigError, DataFormatError
 from terrain.run import Run
 from terrain.serving.buffers import RingBuffer
+from terrain.serving.decisions import stuck_decision_flags
 from terrain.serving.evaluation import concatenated_streams
 from terrain.serving.model import StreamModel
 from terrain.serving.recipes import ModelRecipe
@@ -120,3 +121,15 @@ def test_decisions_of_a_silent_stretch_are_skipped_from_max_backlog_s_before_the
     assert svc.skipped_decisions == 3
     made = [3.0, 3.5, 4.0] + list(np.arange(6.0, 11.1, 0.5))
     assert [d.t_s for d in late] == pytest.approx(made)
+
+
+def test_a_replays_stuck_flags_sit_on_the_window_a_decision_rests_on_not_its_time():
+    """The window of a decision is ``[t_s - window_age_s - window_s, t_s - window_age_s)``:
+    a stuck stretch at 8.5-8.9 s lies in the window of a fresh decision at 10 s and of a
+    decision at 12 s whose window is 3 s old, not in that of a decision at 10 s resting on
+    a window 3 s old, nor of one with no window (infinite age). (Mutant: the window taken
+    as ending at ``t_s``, no test failed.)"""
+    frame = pd.DataFrame({"t_s": [10.0, 10.0, 12.0, 10.0],
+                          "window_age_s": [0.0, 3.0, 3.0, np.inf]})
+    flags = stuck_decision_flags(frame, {"wheels.vel_l": [[8.5, 8.9]]}, window_s=2.0)
+    assert list(flags) == ["stuck:wheels.vel_l", "", "stuck:wheels.vel_l", ""]
