@@ -91,18 +91,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "flags as a gap on the 100 Hz IMU)")
 
 
-def main(args: argparse.Namespace) -> int:
-    """Run the chosen parts, print and log them.
+def resolve_options(args: argparse.Namespace) -> None:
+    """Check the options against each other and fill the defaults of those left out.
+
+    An option that shapes a part ``--part`` does not run is refused rather than ignored
+    (and logged to MLflow as if used); the defaults (``--seeds 0 1 2``, ``--folds 5``,
+    ``--switch-gap-s 0``, the wheels recipe's window and hop, the default recipe per signal
+    set) are filled in place. Nothing is read.
 
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed arguments of :func:`add_arguments`.
-
-    Returns
-    -------
-    int
-        Exit status, 0 on success.
+        Parsed arguments of :func:`add_arguments`; modified in place.
 
     Raises
     ------
@@ -114,8 +114,7 @@ def main(args: argparse.Namespace) -> int:
         ``--part`` that runs no held-out stream, ``--seeds`` with ``--part none``,
         ``--kinds`` with ``--part wheel-cv`` and no ``--model-out``, a
         negative or infinite ``--switch-gap-s``, a ``--model-out`` folder of a recipe that
-        is not empty: checked before any run is read; more ``--folds`` than runs to cut the
-        streams from: checked once the runs are read, before any model is fitted.
+        is not empty.
     """
     if args.part == "none" and args.model_out is None:   # an empty MLflow run, nothing done
         raise ConfigError("--part none evaluates nothing and only saves the --model-out "
@@ -165,8 +164,39 @@ def main(args: argparse.Namespace) -> int:
             model_dir(str(args.model_out / kind))
         except argparse.ArgumentTypeError as exc:
             raise ConfigError(f"--model-out: {exc}") from None
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run the chosen parts, print and log them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        Exit status, 0 on success.
+
+    Raises
+    ------
+    ConfigError
+        ``--part none`` without ``--model-out``, a recipe repeated in ``--kinds``,
+        ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
+        :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
+        that does not run the wheel CV, ``--folds`` or ``--switch-gap-s`` given with a
+        ``--part`` that runs no held-out stream, ``--seeds`` with ``--part none``,
+        ``--kinds`` with ``--part wheel-cv`` and no ``--model-out``, a
+        negative or infinite ``--switch-gap-s``, a ``--model-out`` folder of a recipe that
+        is not empty (:func:`resolve_options`, before any run is read); more ``--folds``
+        than runs to cut the streams from: checked once the runs are read, before any model
+        is fitted.
+    """
+    resolve_options(args)   # before any run is read
+    wheel_cv, streams = args.part in ("wheel-cv", "both"), args.part in ("streams", "both")
     runs = load_dataset("borealtc")
-    for kind in args.kinds if args.part in ("streams", "both") else []:
+    for kind in args.kinds if streams else []:
         n_runs = len(runs_holding(runs, recipe_stream_names(RECIPES[kind])))
         if args.folds > n_runs:  # iter_splits' own check, before the wheel CV and any fit
             raise ConfigError(f"--folds {args.folds} over the {n_runs} runs the {kind} "

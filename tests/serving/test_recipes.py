@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from features.windows import WindowConfig, add_derived_channels, make_windows, window_frame
-from pipelines.stream_eval import add_arguments
+from pipelines.stream_eval import add_arguments, resolve_options
 from terrain.errors import ConfigError
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.forest import ForestPipeline
@@ -90,10 +90,17 @@ def test_defaults_follow_the_default_recipes():
     assert all(RECIPES[k].signals == s for s, k in DEFAULT_RECIPES.items())
     parser = argparse.ArgumentParser()
     add_arguments(parser)
-    assert parser.parse_args([]).kinds == list(DEFAULT_RECIPES.values())
+
+    def resolved(argv):
+        args = parser.parse_args(argv)
+        resolve_options(args)
+        return args
+
+    assert resolved([]).kinds == list(DEFAULT_RECIPES.values())
+    assert (resolved([]).seeds, resolved([]).folds) == ([0, 1, 2], 5)
     # held-out streams run on a continuous clock across switches unless a dropout is asked
-    assert parser.parse_args([]).switch_gap_s == 0.0
-    assert parser.parse_args(["--switch-gap-s", "0.1"]).switch_gap_s == 0.1
+    assert resolved([]).switch_gap_s == 0.0
+    assert resolved(["--switch-gap-s", "0.1"]).switch_gap_s == 0.1
     # the all-signal default is the SVM: the ensembles' decisions cost over 1 ms at p99;
     # fitted on windows cut every 0.5 s, more accurate on the held-out streams
     assert RECIPES[DEFAULT_RECIPES["all"]].classifier == "svm"
