@@ -649,7 +649,10 @@ def fit_pipeline(config: ExperimentConfig, runs: Sequence[Run] | None = None,
             if split:
                 info["search_split_classes"] = ",".join(split)
         fx = feature_extractor(tuned)
-        search = make_search(config.svm, config.seeds[0], n_jobs=n_jobs)
+        # the search picks C and gamma only (the pipeline below is calibrated either way):
+        # it tunes the plain SVC, whose parameters are svc__C and svc__gamma
+        search = make_search(replace(config.svm, probability=False), config.seeds[0],
+                             n_jobs=n_jobs)
         search.fit(fx.transform(tuned.X), tuned_y, groups=units)
         best = search.best_params_
         svm = replace(svm, C=best["svc__C"], gamma=best["svc__gamma"])

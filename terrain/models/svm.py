@@ -176,10 +176,15 @@ def make_search(config: SVMConfig = SVMConfig(), random_state: int = 0,
     -------
     GroupedSearch
         Unfitted ``GridSearchCV`` scored by macro F1, refitted on the whole training split
-        with the best ``svc__C`` and ``svc__gamma``.
+        with the best ``svc__C`` and ``svc__gamma`` (``svc__estimator__C`` and
+        ``svc__estimator__gamma`` with ``config.probability``: the SVC inside the
+        calibration).
     """
     inner = StratifiedGroupKFold(config.inner_splits, shuffle=True, random_state=random_state)
-    grid = {"svc__C": list(config.search_C), "svc__gamma": list(config.search_gamma)}
+    # with probability the step is a CalibratedClassifierCV: its SVC is svc__estimator
+    # (svc__C raised scikit-learn's bare "Invalid parameter 'C'" at the search's first fit)
+    svc = "svc__estimator__" if config.probability else "svc__"
+    grid = {f"{svc}C": list(config.search_C), f"{svc}gamma": list(config.search_gamma)}
     return GroupedSearch(make_svm(config, random_state), grid, cv=inner, scoring="f1_macro",
                          n_jobs=n_jobs, refit=True)
 
