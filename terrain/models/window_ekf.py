@@ -48,6 +48,9 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
         The fitted clone of ``estimator``.
     classes_ : numpy.ndarray
         Its classes.
+    n_features_in_ : int
+        ``X.shape[1]`` in ``fit``: the channels of the input windows (``len(channels)``;
+        the wrapped classifier sees ``len(EKF_CHANNELS)`` more).
 
     Notes
     -----
@@ -112,9 +115,11 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
         WindowEKFClassifier
             ``self``.
         """
-        est = fit_with_groups(clone(self.estimator), self.augment(X), y, groups)
+        augmented = self.augment(X)
+        est = fit_with_groups(clone(self.estimator), augmented, y, groups)
         self.estimator_ = est
         self.classes_ = est.classes_
+        self.n_features_in_ = augmented.shape[1] - len(EKF_CHANNELS)
         return self
 
     def predict_proba(self, X: np.ndarray) -> np.ndarray:

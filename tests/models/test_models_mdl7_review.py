@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 from sklearn.calibration import CalibratedClassifierCV
+from sklearn.dummy import DummyClassifier
 
+from features.ekf_signals import EKF_CHANNELS
 from terrain.models.svm import SVMConfig, make_search
+from terrain.models.window_ekf import WindowEKFClassifier
 
 
 def _runs(n_runs=12, per_run=6, seed=0):
@@ -48,3 +51,16 @@ def test_fit_pipeline_searches_for_a_calibrated_svm_config(vulpi_runs):
     svc = model.named_steps["svc"]
     assert isinstance(svc, CalibratedClassifierCV) and svc.estimator.C == info["best_C"]
     np.testing.assert_allclose(model.predict_proba(ws.X[:5]).sum(axis=1), 1.0)
+
+
+def test_the_window_ekf_wrapper_records_its_input_width_as_scikit_learn_asks():
+    # scikit-learn's fitted-estimator convention (n_features_in_, as RunBalancedClassifier
+    # and SoftVotingEnsemble keep): the wrapper kept none, so tools reading the input width
+    # of a fitted model (check_n_features_in, serving checks) found nothing
+    rng = np.random.default_rng(0)
+    X = rng.normal(0.5, 0.1, size=(6, 4, 40))           # 4 channels, 2 s at 20 Hz
+    y = np.array(list("ababab"))
+    model = WindowEKFClassifier(DummyClassifier(), ("vel_l", "vel_r", "wz", "ax"), 20.0)
+    assert model.fit(X, y).n_features_in_ == 4          # the windows' channels, not augmented
+    # what the wrapped model saw: the channels and the EKF's
+    assert model.estimator_.n_features_in_ == 4 + len(EKF_CHANNELS)
