@@ -5,7 +5,9 @@ to 1. With ``weights=None`` and the run of every training window given to ``fit`
 weights are chosen on a grid of the simplex (step ``weight_step``) by the log loss of the
 members' probabilities on whole runs held out of the training data (the first
 ``StratifiedGroupKFold(inner_splits)`` split that leaves every class a training run):
-nothing outside the training fold is seen.
+nothing outside the training fold is seen. A vector replaces the best one before it in
+:func:`simplex_grid`'s order only when its log loss is lower by more than 1e-12: a tie goes to
+the first.
 The members are then refitted on every training window. Without ``groups`` the weights are
 equal.
 """

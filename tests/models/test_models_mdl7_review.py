@@ -64,3 +64,51 @@ def test_the_window_ekf_wrapper_records_its_input_width_as_scikit_learn_asks():
     assert model.fit(X, y).n_features_in_ == 4          # the windows' channels, not augmented
     # what the wrapped model saw: the channels and the EKF's
     assert model.estimator_.n_features_in_ == 4 + len(EKF_CHANNELS)
+
+
+def test_only_a_class_of_a_single_run_is_cut_into_time_blocks():
+    # a class of two or three runs is split by run like any other: cutting it into blocks
+    # would put windows of both runs into one block (named after the first run), a test
+    # block then sharing a run with a training block
+    from terrain.models.cv import split_single_run_classes
+
+    runs = np.array(["d/0"] * 8 + ["g/1"] * 4 + ["g/2"] * 4 + ["s/1", "s/2", "s/3"] * 2,
+                    dtype=object)
+    labels = np.array([r.split("/")[0] for r in runs], dtype=object)
+    t0 = np.arange(runs.size, dtype=float)
+    groups, split = split_single_run_classes(labels, runs.copy(), t0, n_blocks=2)
+    assert split == ["d"]
+    assert groups[:8].tolist() == ["d/0@block0"] * 4 + ["d/0@block1"] * 4
+    assert groups[8:].tolist() == runs[8:].tolist()
+
+
+def test_tied_weight_vectors_go_to_the_first_of_the_grid():
+    # two identical members score every weight vector the same (to rounding): the choice is
+    # the first vector of simplex_grid's order, (0, 1), not whichever comes last
+    from terrain.models.ensemble import SoftVotingEnsemble, simplex_grid
+
+    X, y, groups = _runs()
+    members = [("a", DummyClassifier(strategy="prior")), ("b", DummyClassifier(strategy="prior"))]
+    model = SoftVotingEnsemble(members, weight_step=0.25, inner_splits=3).fit(X, y, groups)
+    scores = list(model.weight_scores_.values())
+    assert max(scores) - min(scores) < 1e-12 and len(scores) == 5
+    np.testing.assert_array_equal(model.weights_, simplex_grid(2, 0.25)[0])
+    np.testing.assert_array_equal(model.weights_, [0.0, 1.0])
+
+
+def test_the_vote_weighs_each_members_probabilities_by_its_weight():
+    # fixed weights (3, 1) -> (0.75, 0.25): the vote is 0.75 p_prior + 0.25 p_uniform, per
+    # window, and each row sums to 1
+    from terrain.models.ensemble import SoftVotingEnsemble
+
+    X, y, _ = _runs()
+    y = y.copy()
+    y[:30] = "a"                                        # priors a 0.58, b 0.21, c 0.21
+    prior = DummyClassifier(strategy="prior").fit(X, y).predict_proba(X[:3])
+    members = [("prior", DummyClassifier(strategy="prior")),
+               ("uniform", DummyClassifier(strategy="uniform"))]
+    model = SoftVotingEnsemble(members, weights=(3.0, 1.0)).fit(X, y)
+    np.testing.assert_allclose(model.weights_, [0.75, 0.25])
+    expected = 0.75 * prior + 0.25 / 3.0
+    np.testing.assert_allclose(model.predict_proba(X[:3]), expected, rtol=1e-12)
+    np.testing.assert_allclose(model.predict_proba(X[:3]).sum(axis=1), 1.0, rtol=1e-12)
