@@ -4,6 +4,7 @@ scikit-learn attributes of the window-EKF wrapper."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from sklearn.calibration import CalibratedClassifierCV
 from sklearn.dummy import DummyClassifier
 
@@ -112,3 +113,18 @@ def test_the_vote_weighs_each_members_probabilities_by_its_weight():
     expected = 0.75 * prior + 0.25 / 3.0
     np.testing.assert_allclose(model.predict_proba(X[:3]), expected, rtol=1e-12)
     np.testing.assert_allclose(model.predict_proba(X[:3]).sum(axis=1), 1.0, rtol=1e-12)
+
+
+def test_as_many_runs_as_inner_folds_is_enough():
+    # StratifiedGroupKFold(k) needs k runs: k runs pass (one run per fold), k - 1 do not
+    from terrain.errors import ConfigError
+    from terrain.models.cv import require_runs
+
+    runs = np.array(["r/1", "r/1", "r/2", "r/3"])
+    require_runs(runs, 3, "the search", "SVMConfig.inner_splits")
+    X, y, groups = _runs(n_runs=3, per_run=6)
+    search = make_search(SVMConfig(inner_splits=3, search_C=(1.0,), search_gamma=("scale",)))
+    assert search.fit(X, y, groups=groups).best_params_ == {"svc__C": 1.0,
+                                                            "svc__gamma": "scale"}
+    with pytest.raises(ConfigError, match="it got 2 runs"):
+        require_runs(runs[:3], 3, "the search", "SVMConfig.inner_splits")
