@@ -1,5 +1,6 @@
-"""Review (mdl7) of the window classifiers: the nested search of a calibrated SVM and the
-scikit-learn attributes of the window-EKF wrapper."""
+"""Review (mdl7) of the window classifiers: the nested search of a calibrated SVM, the
+scikit-learn attributes of the window-EKF wrapper, the single-run time blocks, the soft
+vote's weights, the inner-fold run count, the confusion frame and missing labels or runs."""
 
 from __future__ import annotations
 
@@ -128,3 +129,27 @@ def test_as_many_runs_as_inner_folds_is_enough():
                                                             "svc__gamma": "scale"}
     with pytest.raises(ConfigError, match="it got 2 runs"):
         require_runs(runs[:3], 3, "the search", "SVMConfig.inner_splits")
+
+
+def test_the_confusion_frame_follows_the_task_classes_absent_ones_included():
+    # rows and columns are the task's classes in the order given, a class absent from a
+    # fold (here c) a row and a column of zeros: the frames of folds and seeds add up
+    from terrain.models.metrics import confusion
+
+    cm = confusion(["b", "b", "a"], ["b", "a", "a"], ["b", "a", "c"])
+    assert cm.index.tolist() == ["b", "a", "c"] and cm.columns.tolist() == ["b", "a", "c"]
+    np.testing.assert_array_equal(cm.to_numpy(), [[1, 1, 0], [0, 1, 0], [0, 0, 0]])
+
+
+@pytest.mark.parametrize("argument", ["labels", "groups"])
+def test_a_nan_label_or_run_in_an_object_array_is_refused(argument):
+    # labels and runs read from a table are object arrays: a missing value there is a float
+    # NaN (pandas) and equals nothing, so its window got no share
+    from terrain.errors import NonFiniteInputError
+    from terrain.models.weighting import run_shares
+
+    values = {"labels": np.array(["a", "a", "b", "b"], dtype=object),
+              "groups": np.array(["r1", "r1", "r2", "r3"], dtype=object)}
+    values[argument][1] = float("nan")
+    with pytest.raises(NonFiniteInputError, match=f"{argument} holds 1 missing.*index 1"):
+        run_shares(values["labels"], values["groups"])
