@@ -347,7 +347,7 @@ class StreamService:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
         w = self.model.window
         lo = t - w.window_s - 2.0 / w.rate_hz
-        times, values, steps, gap = [], [], [], False
+        times, values, steps = [], [], []
         for buf in self._intake.buffers.values():
             ts, vs = buf.since(lo)
             # up to the first sample at or past t, whatever came after it: the IMU's
@@ -361,8 +361,6 @@ class StreamService:
             # few samples of one window, which a long gap would dominate; its step up to the
             # window's last sample read (later arrivals would move it with the chunking)
             steps.append(buf.median_step(through_s=t))
-            if (np.diff(ts) > self.config.gap_factor * steps[-1]).any():
-                gap = True
             times.append(ts)
             values.append(vs)
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s):
@@ -377,6 +375,10 @@ class StreamService:
         age = age if age > 1e-9 else 0.0
         if end < self._n:
             return None, age, {"short"}
+        # a gap counts where it holds a grid point of the window: a step that ends at or
+        # before the first point (read for the look-back margin) leaves the window whole
+        gap = any((np.diff(ts)[ts[1:] > tail[0]] > self.config.gap_factor * step).any()
+                  for ts, step in zip(times, steps))
         aligned = align_arrays(times, values, tail, w.rate_hz, self.config.gap_factor,
                                steps).T
         if self._wheel_cols is not None:

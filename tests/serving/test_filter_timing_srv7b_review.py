@@ -133,3 +133,22 @@ def test_a_replays_stuck_flags_sit_on_the_window_a_decision_rests_on_not_its_tim
                           "window_age_s": [0.0, 3.0, 3.0, np.inf]})
     flags = stuck_decision_flags(frame, {"wheels.vel_l": [[8.5, 8.9]]}, window_s=2.0)
     assert list(flags) == ["stuck:wheels.vel_l", "", "stuck:wheels.vel_l", ""]
+
+
+def test_a_gap_that_ends_before_a_windows_first_grid_point_does_not_drop_the_window():
+    """Wheels at 10 Hz (samples at 0.05 + k 0.1 s) miss 2.65, 2.75 and 2.85 s; decisions
+    every 0.5 s from 1.05 s. The windows of 3.05 s (``[2.05, 3.05)``) and 3.55 s hold the
+    gap's grid points and are dropped as ``gap``; that of 4.05 s (``[3.05, 4.05)``) lies
+    wholly between live samples and is classified, as a batch window over the same span
+    would be. (It was flagged ``gap``: the service judged every step it read, down to the
+    sample before the look-back start ``t - window_s - 2 / rate``, here 2.55 -> 2.95 s.)"""
+    window = WindowConfig(window_s=1.0, rate_hz=10.0)
+    model = StreamModel(_MeanSpeed(), ("vel_l", "vel_r"), window, ("ASPHALT", "SNOW"))
+    svc = StreamService(model, CataloguePeakTargets(model.classes),
+                        StreamConfig(hop_s=0.5, streams={"wheels": ("vel_l", "vel_r")}))
+    times = [0.05 + 0.1 * k for k in range(60)]
+    times = [t for t in times if not 2.6 < t < 2.9]
+    flags = {round(d.t_s, 6): d.flags for t in times
+             for d in svc.push("wheels", t, np.array([1.0, 1.0]))}
+    assert [t for t, f in flags.items() if "gap" in f] == [3.05, 3.55]
+    assert {2.55, 4.05, 4.55} <= set(flags)
