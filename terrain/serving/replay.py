@@ -225,7 +225,8 @@ class RunReplay:
             skipped += "; " + ", ".join(f"{n} samples of stream {s} still held at the end "
                                         f"({r}: their clock not yet told)"
                                         for (s, r), n in sorted(self.held.items()))
-        text = (f"{self.run.run_id}: {len(frame)} decisions every {self.hop_s} s from "
+        plural = "" if len(frame) == 1 else "s"
+        text = (f"{self.run.run_id}: {len(frame)} decision{plural} every {self.hop_s} s from "
                 f"streams {list(self.streams)}; {flagged} flagged{detail}{skipped}; "
                 f"written to {out}")
         classes = [c[len("proba_"):] for c in frame.columns if c.startswith("proba_")]

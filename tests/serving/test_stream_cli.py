@@ -347,6 +347,8 @@ def test_replay_recorded_reports_what_the_service_did(borealtc_runs, train_runs,
     empty = replace(replay, frame=replay.frame.iloc[:0], refused={("wheels", "duplicate"): 7})
     with pytest.raises(DataFormatError, match=r"refused: 7 of stream wheels \(duplicate\)"):
         empty.check(".")
+    one = replace(replay, frame=replay.frame.iloc[:1])
+    assert one.summary("d.csv").startswith(f"{run.run_id}: 1 decision every 1.0 s from")
     # an IMU + wheel model cannot replay the wheels alone
     wheel_only = replace(run, streams={"wheels": run.streams["wheels"]})
     with pytest.raises(ConfigError, match=r"needs stream\(s\) \['imu'\], absent from run"):
