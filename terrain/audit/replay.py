@@ -17,8 +17,9 @@ on the motors:
 With these inputs the physics predicts the body twist (hence the yaw rate, including the
 lateral scrub that the contact model produces by itself), the body-frame accelerations (what
 a level, unbiased accelerometer would read minus gravity) and the motor currents (traction,
-rolling loss and wheel inertia torque through ``I = I_0 sgn(omega) + T / (G k_t eta)``,
-reported as magnitudes like the simulator's sensor model).
+rolling loss and wheel inertia torque through
+``I = I_0 tanh(omega / 0.05 rad/s) + T / (G k_t eta)``, reported as magnitudes like the
+simulator's sensor model).
 
 Predictions are low-pass filtered (zero phase, ``output_cutoff_hz``) and sampled at the
 wheel-stream timestamps, the clock on which the audit compares them with measurements.

@@ -3,8 +3,8 @@
 The chain, every relation called from where it is defined (nothing re-typed):
 
 1. motor current -> wheel torque: the vehicle's motor law
-   :meth:`terrain.vehicles.MotorParams.current_from_torque` (``I = I_0 sgn(omega) +
-   T / (G k_t eta)``, Husky A200 constants in :mod:`terrain.vehicles.skid_steer`) is affine in
+   :meth:`terrain.vehicles.MotorParams.current_from_torque` (``I = I_0 tanh(omega / 0.05 rad/s)
+   + T / (G k_t eta)``, Husky A200 constants in :mod:`terrain.vehicles.skid_steer`) is affine in
    the torque, so it is inverted by evaluating it at two torques
    (:func:`wheel_torque_from_current`);
 2. wheel torque -> gross traction coefficient: the simulator's torque law
