@@ -97,3 +97,17 @@ def test_halves_check_refuses_a_disagreement_just_over_the_tolerance():
     split = gated_lag(t, steps, t, half, gate=LagGate(halves_tolerance_s=0.1))
     assert not split.applied and "(+0.300 and +0.450 s)" in split.reason
     assert gated_lag(t, steps, t, half, gate=LagGate(halves_tolerance_s=0.2)).applied
+
+
+def test_the_default_gate_wants_the_halves_within_0_1_s():
+    # docs/estimation_validation.md: `--lag xcorr` applies a lag only where the two halves of
+    # the run agree within 0.1 s; the default gate refuses halves 0.15 s apart
+    # (hand mutant: default halves_tolerance_s 0.3, no test failed)
+    t = np.arange(0, 40, 0.01)
+    steps = np.clip(t - 2.0, 0, 1) + 0.5 * np.clip(t - 8.0, 0, 1) * (t < 12) \
+        - 0.7 * np.clip(t - 25.0, 0, 1) + 0.4 * np.clip(t - 31.0, 0, 1) * (t < 35)
+    half = np.where(t < 20, np.interp(t - 0.3, t, steps), np.interp(t - 0.45, t, steps))
+    est = gated_lag(t, steps, t, half)
+    assert not est.applied and "(+0.300 and +0.450 s)" in est.reason
+    same = np.interp(t - 0.3, t, steps)
+    assert gated_lag(t, steps, t, same).applied
