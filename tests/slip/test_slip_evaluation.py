@@ -202,3 +202,13 @@ def test_measured_checks_compare_learned_and_physics_slip_on_straight_windows_on
     assert row["spearman_slip_current"] == pytest.approx(1.0)
     assert row["n_runs"] == 2 and row["n_turning_windows"] == 1
     assert row["yaw_rms_plain_rad_s"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_steady_straight_windows_are_straight_accel_from_3_s_with_yaw_below_0_05():
+    # docs/slip_learning.md's target table: windows of straight_accel starting after 3 s
+    # (past the 1 m/s^2 ramp) with |true yaw rate| < 0.05 rad/s
+    # (hand mutant: STEADY_AFTER_S 1.0, no test failed)
+    meta = pd.DataFrame({"scenario": ["straight_accel"] * 5 + ["orchard"],
+                         "t_start_s": [1.0, 2.5, 3.0, 6.0, 6.0, 6.0]})
+    yaw = np.array([0.0, 0.0, 0.0, 0.049, -0.05, 0.0])
+    assert steady_straight(meta, yaw).tolist() == [False, False, True, True, False, False]
