@@ -713,3 +713,10 @@ def test_an_undecided_terrain_gives_the_fused_estimator_the_fallback_terrain():
     m = run_closed_loop("husky", "ICE", "straight_accel", True, 0, 2.0,
                         terrain_decision=lambda t: (None, 0.0))[2]
     assert m["estimator_pseudo_measurements"] > 0
+
+
+def test_bus_voltages_are_the_cited_ones():
+    # AgriMaRo: seed 001 ch. 3, the UuMotor hub motor "powered at 48V"; Husky A200: 24 V
+    # (Clearpath data sheet); docs/control_validation.md's energy_j_per_m uses them
+    # (hand mutant: AgriMaRo 24 V, no test failed: the tests compared with the constant)
+    assert dict(BUS_VOLTAGE_V) == {"agrimaro": 48.0, "husky": 24.0}
