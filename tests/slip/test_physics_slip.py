@@ -483,3 +483,18 @@ def test_load_uncertainty_scales_the_whole_torque_share_of_the_traction():
     k = quiet.coverage_sigma
     np.testing.assert_allclose(out.lower, slip_from_traction(terrain.curve, mu - k * sd).slip)
     np.testing.assert_allclose(out.upper, slip_from_traction(terrain.curve, mu + k * sd).slip)
+
+
+def test_a_terrain_of_probability_0_001_or_more_enters_the_average_one_below_does_not():
+    # docs/slip_learning.md section 1: the slip is computed under every terrain with
+    # probability >= 0.001 and averaged with the probabilities (renormalised over those)
+    # (hand mutant: min_probability 0.3, no test failed: the mixtures tested were 50/50)
+    cur = np.full((1, 2), 4.0)
+    rim = np.full((1, 2), 0.5)
+    a = physics_slip(HUSKY, {"SANDY_LOAM": 1.0}, cur, rim, np.zeros(1))
+    b = physics_slip(HUSKY, {"SNOW": 1.0}, cur, rim, np.zeros(1))
+    assert np.all(np.abs(a.slip - b.slip) > 0.01)
+    mix = physics_slip(HUSKY, {"SANDY_LOAM": 0.99, "SNOW": 0.01}, cur, rim, np.zeros(1))
+    np.testing.assert_allclose(mix.slip, 0.99 * a.slip + 0.01 * b.slip)
+    low = physics_slip(HUSKY, {"SANDY_LOAM": 0.9995, "SNOW": 0.0005}, cur, rim, np.zeros(1))
+    np.testing.assert_allclose(low.slip, a.slip)
