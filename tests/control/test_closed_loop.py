@@ -720,3 +720,13 @@ def test_bus_voltages_are_the_cited_ones():
     # (Clearpath data sheet); docs/control_validation.md's energy_j_per_m uses them
     # (hand mutant: AgriMaRo 24 V, no test failed: the tests compared with the constant)
     assert dict(BUS_VOLTAGE_V) == {"agrimaro": 48.0, "husky": 24.0}
+
+
+def test_default_gains_are_the_tuned_ones_the_docs_state():
+    # docs/control_validation.md, "Gain tuning" (re-tuned 2026-11-26): DEFAULT_GAINS AgriMaRo
+    # (5, 0), Husky with the fused estimate (2, 0), ESTIMATOR_GAINS observer (5, 0); every
+    # control figure there was measured with them (hand mutant: AgriMaRo ki 10, no test failed)
+    from terrain.control.closed_loop import default_gains
+    assert default_gains("agrimaro") == (5.0, 0.0)
+    assert default_gains("husky") == default_gains("husky", "fused") == (2.0, 0.0)
+    assert default_gains("husky", "observer") == (5.0, 0.0)
