@@ -329,6 +329,22 @@ def test_slip_target_chi_uses_the_track_width_given():
         assert np.isnan(chi[ws.t_start_s >= 5.0]).all()
 
 
+def test_slip_target_chi_is_defined_from_a_turn_of_0_1_rad_s():
+    """docs/slip_learning.md section 2: ``chi`` is a target on windows where the robot turns,
+    |yaw rate| >= 0.1 rad/s: 0.12 rad/s gives one, 0.08 rad/s none (hand mutant: the floor
+    at 0.2 rad/s, no test failed: the test above reads the floor from the constant)."""
+    from features.slip_features import slip_targets, slip_windows
+
+    run = _with_truth(lambda t: {"slip_1": 0.0, "slip_2": 0.0, "v_by": 0.0,
+                                 "yaw_rate": np.where(t < 5.0, 0.12, -0.08),
+                                 "terrain": "GRASS"})
+    ws = slip_windows([run])
+    chi = slip_targets([run], ws)["chi"].to_numpy()
+    first, second = ws.t_end_s <= 5.0 + 1e-9, ws.t_start_s >= 5.0
+    assert first.any() and second.any()
+    assert np.isfinite(chi[first]).all() and np.isnan(chi[second]).all()
+
+
 def test_slip_features_refuse_probabilities_of_another_number_of_windows():
     """Terrain probabilities must have one row per window: a table of the wrong length is a
     ConfigError naming both counts (it failed inside NumPy on broadcasting)."""
