@@ -15,6 +15,7 @@ from features.wheel_physics import WheelPhysicsFeatures
 from features.windows import WindowConfig, make_windows
 from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.models.forest import ForestPipeline
+from terrain.serving.recipes import extra_trees, run_balanced_weights
 from terrain.tree_predict import forest_proba, pack_forest
 
 
@@ -54,6 +55,21 @@ def test_packed_forest_equals_sklearn_on_real_windows(wheel_windows, forest):
     assert len(np.unique(ref.argmax(axis=1))) >= 3 and ref.max() > 0.8
     with pytest.raises(ShapeError):
         forest_proba(pack_forest(forest), Ft[:, :5])
+
+
+def test_packed_forest_equals_sklearn_with_the_wheel_recipes_run_balanced_weights(
+        wheel_windows):
+    # the shipped wheel recipe fits its trees with run-balanced sample weights, not
+    # class_weight (docs/streaming.md, Latency): weights change the stored leaf fractions only
+    train, test = wheel_windows
+    F, Ft = _features(train), _features(test)
+    forest = extra_trees(40, 3, class_weight=None)
+    weights = run_balanced_weights(train.labels.astype(str), np.asarray(train.run_ids))
+    assert len(np.unique(np.round(weights, 12))) > 1     # not uniform: the test weighs
+    forest.fit(F, train.labels.astype(str), sample_weight=weights)
+    unweighted = extra_trees(40, 3, class_weight=None).fit(F, train.labels.astype(str))
+    assert not np.array_equal(forest.predict_proba(Ft), unweighted.predict_proba(Ft))
+    assert np.array_equal(forest_proba(pack_forest(forest), Ft), forest.predict_proba(Ft))
 
 
 def test_inputs_on_and_just_above_a_split_threshold_take_sklearns_side():
