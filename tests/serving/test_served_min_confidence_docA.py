@@ -63,3 +63,28 @@ def test_the_served_targets_use_the_models_min_confidence(wheel_model, borealtc_
     fell_back = np.isclose(got["target_slip_traction"], fallback.traction)
     low = got["confidence"] < min_confidence
     assert (fell_back[low]).all() and (low.any() or min_confidence < 0.5)
+
+
+def test_terrain_serves_options_reach_the_wrapped_models_settings(wheel_model, tmp_path):
+    # README, "Served model": --hop-s, --dwell-s, --min-confidence, --reset-* and
+    # --max-decisions are the wrapped model's settings (mutants: pipelines/serve.py passing
+    # 0.5 for args.min_confidence or for args.hop_s, no test failed)
+    import yaml
+
+    from pipelines.serve import wrap_model
+    from terrain.cli import build_parser
+
+    m = wheel_model
+    save_model(tmp_path / "train", m.pipeline, m.channels, m.window, m.classes,
+               {"dataset": "t"})
+    args = build_parser().parse_args(
+        ["serve", "--model", str(tmp_path / "train"), "--hop-s", "1.0", "--dwell-s", "20",
+         "--min-confidence", "0.3", "--reset-confidence", "0.8", "--reset-windows", "3",
+         "--max-decisions", "100"])
+    out = wrap_model(tmp_path / "train", tmp_path / "served", args)
+    config = yaml.safe_load((out / "MLmodel").read_text())["flavors"]["python_function"][
+        "config"]
+    assert {k: config[k] for k in ("hop_s", "dwell_s", "min_confidence", "reset_confidence",
+                                   "reset_windows", "max_decisions")} == {
+        "hop_s": 1.0, "dwell_s": 20.0, "min_confidence": 0.3, "reset_confidence": 0.8,
+        "reset_windows": 3, "max_decisions": 100}
