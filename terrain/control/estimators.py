@@ -296,8 +296,10 @@ class AgriMaRoVisualOdometryEKF:
         two-sample or Allan variance at the block length, IEEE Std 952-1997, annex C)
         estimates the variance of a block mean, whatever the noise's colour, as long as its
         correlation time is short against a block. It is averaged over the last
-        ``adapt_blocks`` blocks and floored at the white-noise variance of a block mean,
-        ``accel_std_m_s2^2 / n``.
+        ``adapt_blocks`` blocks (used from the second such difference on: one difference is
+        no estimate) and floored at the white-noise variance of a block mean,
+        ``accel_std_m_s2^2 / n`` (``n`` the block's samples; a block closes at the first
+        sample ``accel_block_s`` after its first, so at 100 Hz a 0.1 s block holds 11).
 
         Parameters
         ----------
