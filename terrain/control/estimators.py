@@ -233,7 +233,7 @@ class AgriMaRoVisualOdometryEKF:
             if t > self.t:
                 self.ekf.predict(t - self.t)
                 self.t = t
-            if name == "wheels":
+            if name == "wheels" and np.all(np.isfinite(z)):   # a NaN one is skipped below
                 self.omega = z.copy()
             if name == "imu_full":      # wx wy wz ax ay az
                 if self.imu != "full":

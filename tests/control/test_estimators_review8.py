@@ -19,6 +19,18 @@ def _agrimaro_obs(t, wheels=EMPTY, imu_full=np.zeros((0, 7))):
                        imu_full)
 
 
+def test_the_agrimaro_ekf_skips_a_non_finite_wheel_sample():
+    """An encoder sample holding NaN (a dropout of one hub motor's encoder) is left out of
+    the filter and must not become the latest encoder speed handed to the controller, as
+    in the Husky's estimators: 2 rad/s on every wheel, then (3, NaN, 3) keeps (2, 2, 2)."""
+    est = AgriMaRoVisualOdometryEKF()
+    est.update(_agrimaro_obs(0.1, np.array([[0.05, 2.0, 2.0, 2.0]])))
+    e = est.update(_agrimaro_obs(0.2, np.array([[0.15, 3.0, np.nan, 3.0]])))
+    np.testing.assert_array_equal(e.omega_meas_rad_s, [2.0, 2.0, 2.0])
+    e = est.update(_agrimaro_obs(0.3, np.array([[0.25, 4.0, 4.0, 4.0]])))
+    np.testing.assert_array_equal(e.omega_meas_rad_s, [4.0, 4.0, 4.0])
+
+
 def test_the_fused_observer_hands_on_its_acceleration_state():
     """``a_local_m_s2`` is the filter's ``accel_x`` state (which selects the controller's
     traction / steady / braking mode), not another state: 3 s of 0.5 m/s^2 on the clean
