@@ -27,7 +27,7 @@ import pandas as pd
 from terrain.control.closed_loop import run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
-from terrain.errors import ConfigError, config_positive, duplicated
+from terrain.errors import ConfigError, config_numbers, config_positive, duplicated
 from terrain.terramechanics import get_terrain, steady_slip
 
 #: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
@@ -307,13 +307,13 @@ def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
     terrain : str
         Catalogued terrain.
     peak_slip_open : float
-        Peak slip without control.
+        Peak slip magnitude without control, in [0, 1].
     cut : float
-        Fraction of the peak to remove (0.5 = the issue's target).
+        Fraction of the peak to remove, in [0, 1] (0.5 = the issue's target).
     accel_m_s2 : float
-        Commanded acceleration, m/s^2 (straight_accel: 1).
+        Commanded acceleration, m/s^2 (finite, > 0; straight_accel: 1).
     cruise_m_s : float
-        Cruise speed, m/s.
+        Cruise speed, m/s (finite, > 0).
 
     Returns
     -------
@@ -322,7 +322,19 @@ def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
         ``slip_for_command`` (slip needed for ``accel_m_s2``); ``accel_at_limit_m_s2``
         (``g (mu - resistance)`` at the limit); ``min_time_to_cruise_s`` (``cruise /
         min(accel_at_limit, accel)``, inf when it is <= 0) against ``command_time_s``.
+
+    Raises
+    ------
+    ConfigError
+        An unknown terrain; an argument that is not a real number (a boolean included) or
+        outside its range, named (an acceleration of 0 divided by zero, a cut above 1 gave a
+        negative slip limit).
     """
+    config_positive("slip_limit_bound", accel_m_s2=accel_m_s2, cruise_m_s=cruise_m_s)
+    config_numbers("slip_limit_bound", peak_slip_open=peak_slip_open, cut=cut)
+    for name, value in (("peak_slip_open", peak_slip_open), ("cut", cut)):
+        if not 0.0 <= value <= 1.0:   # NaN fails too
+            raise ConfigError(f"slip_limit_bound.{name} must be in [0, 1], got {value!r}")
     ter = get_terrain(terrain)
     s_lim = (1.0 - cut) * float(peak_slip_open)
     a_lim = traction_acceleration_limit(ter, s_lim)

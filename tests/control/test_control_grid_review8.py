@@ -1,0 +1,40 @@
+"""Eighth review pass of the control grid (terrain.control.grid): the quasi-static bound's
+inputs."""
+
+from __future__ import annotations
+
+import pytest
+
+from terrain.control.grid import slip_limit_bound
+from terrain.errors import ConfigError
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"accel_m_s2": 0.0}, "accel_m_s2"),          # ZeroDivisionError
+    ({"accel_m_s2": -1.0}, "accel_m_s2"),         # a negative time to cruise
+    ({"cruise_m_s": -1.0}, "cruise_m_s"),         # a negative time to cruise
+    ({"cruise_m_s": float("inf")}, "cruise_m_s"),
+    ({"cut": 1.5}, "cut"),                        # a negative slip limit, scored as reachable
+    ({"cut": -0.1}, "cut"),
+    ({"cut": float("nan")}, "cut"),
+    ({"peak_slip_open": True}, "peak_slip_open"),  # read as a peak slip of 1
+    ({"peak_slip_open": 1.2}, "peak_slip_open"),   # no SAE slip magnitude
+    ({"peak_slip_open": -0.1}, "peak_slip_open"),
+])
+def test_the_slip_limit_bound_refuses_inputs_outside_their_range_naming_them(kwargs, field):
+    """A commanded acceleration of 0 divided by zero, a cut above 1 gave a negative slip
+    limit (TILES, peak 0.1, cut 1.5: -0.05) whose acceleration was scored as available, a
+    negative speed or acceleration a negative time to cruise, True a peak slip of 1: each is
+    refused with the argument named."""
+    args = {"terrain": "TILES", "peak_slip_open": 0.1, **kwargs}
+    with pytest.raises(ConfigError, match=field):
+        slip_limit_bound(**args)
+
+
+def test_the_slip_limit_bound_keeps_the_range_ends():
+    """No cut keeps the peak as the limit, a full cut leaves slip 0 and no acceleration (inf
+    to cruise); a peak of 0 is a run that never slipped."""
+    assert slip_limit_bound("TILES", 0.1, cut=0.0)["slip_limit"] == pytest.approx(0.1)
+    full = slip_limit_bound("TILES", 0.1, cut=1.0)
+    assert full["slip_limit"] == 0.0 and full["min_time_to_cruise_s"] == float("inf")
+    assert slip_limit_bound("TILES", 0.0)["slip_limit"] == 0.0
