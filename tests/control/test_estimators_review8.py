@@ -97,3 +97,24 @@ def test_the_averaged_view_trusts_the_measured_variance_from_two_block_differenc
     stds = _averaged_blocks([0.0, 3.0, 3.0])
     np.testing.assert_allclose(stds[1], 0.8 / np.sqrt(11), rtol=1e-12)
     np.testing.assert_allclose(stds[2], [np.sqrt(2.25), 0.8 / np.sqrt(11)], rtol=1e-12)
+
+
+def test_the_agrimaro_full_view_reads_ax_ay_wz_from_the_full_imus_columns():
+    """``full``: the model's ``ax, ay, wz`` rows get the full IMU's columns 4, 5 and 3
+    (``t, wx, wy, wz, ax, ay, az``): 1 s of a forward 0.5 m/s^2 at 100 Hz moves the
+    acceleration state ``ax`` towards 0.5 and leaves ``ay`` near 0."""
+    est = AgriMaRoVisualOdometryEKF(imu="full")
+    for k in range(1, 101):
+        t = 0.01 * k
+        est.update(_agrimaro_obs(t, imu_full=np.array([[t, 0.0, 0.0, 0.0, 0.5, 0.0, 9.81]])))
+    ax, ay = est.ekf.x[6], est.ekf.x[7]
+    assert 0.3 < ax < 0.6 and abs(ay) < 0.05
+
+
+def test_the_fused_observer_takes_no_pseudo_measurement_under_an_uncatalogued_decision():
+    """A decided class outside the terrain catalogue has no traction curve to invert: no
+    pseudo-measurement (counted 0, the estimate stale), and no error in the loop."""
+    est = FusedSlipObserver("husky", lambda t: ("MARS_REGOLITH", 1.0))
+    e = est.update(observation(0.3, np.ones(2), wheels=np.array([[0.1, 5.0, 5.0]]),
+                               currents=np.array([[0.1, 4.0, 4.0], [0.2, 4.0, 4.0]])))
+    assert est.pseudo_count == 0 and e.age_s == float("inf")
