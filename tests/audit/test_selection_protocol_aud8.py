@@ -124,3 +124,39 @@ def test_too_few_runs_are_cut_into_at_least_min_units_segments():
     units, segmented = make_units(frames, 4, lambda f: bool(f.score_imu.any()))
     assert segmented and len(units) == 6
     assert len({u[0].group for u in units}) == 6
+
+
+def test_the_bias_without_chi_is_the_gyro_minus_the_replay_on_quiet_samples():
+    # straight stretches command 0.04 rad/s (quiet): the replay turns at 0.04 / 1.2 there,
+    # so the bias is what the gyro reads on top of it, not the gyro's mean
+    from terrain.audit.effects import fit_yaw
+    frames = [u[0] for u in _units(2, bias_rad_s=0.01, drift_rad_s=0.04, noise=0.001)]
+    assert fit_yaw(frames, ["gyro_bias"]).bias_rad_s == pytest.approx(0.01, abs=5e-4)
+
+
+def test_current_offsets_act_on_moving_samples_and_both_sides_count():
+    from dataclasses import replace
+
+    from terrain.audit.effects import current_sse, predict_current
+    from terrain.audit.frames import STOP, STRAIGHT
+    f = synthetic_frame("s/ASPHALT/0")
+    man = f.manoeuvre.copy()
+    man[:30] = STOP
+    f = replace(f, manoeuvre=man)
+    pred = predict_current(f, CurrentParams(offset_left_a=1.0, offset_right_a=2.0))
+    assert np.array_equal(pred[:30], f.sim_cur[:30])
+    assert np.allclose(pred[30:] - f.sim_cur[30:], [1.0, 2.0])
+    assert current_sse(f, CurrentParams())[1] == 2 * f.score_cur.sum()
+    assert current_sse(f, CurrentParams(), "straight_diff")[1] == np.sum(
+        f.score_cur & (man == STRAIGHT))
+
+
+def test_a_positive_lag_reads_the_gyro_earlier_than_the_wheel_stamp():
+    # wheel data late by 0.3 s: the replay at wheel time t is the gyro at t - 0.3
+    from dataclasses import replace
+
+    from terrain.audit.effects import LagParams, lag_sse
+    f = synthetic_frame("s/ASPHALT/0")
+    t = f.t_s
+    f = replace(f, imu_wz=np.sin(0.5 * t), sim_wz=np.sin(0.5 * (t - 0.3)))
+    assert lag_sse(f, LagParams(0.3))[0] < 1e-6 < lag_sse(f, LagParams(-0.3))[0]
