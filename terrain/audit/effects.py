@@ -273,8 +273,22 @@ class EffectSettings:
             A rate scale, ratio or time not finite and > 0 (``immobile_ratio`` also <= 1);
             ``min_pitch_spread_rad`` or ``min_rate_contrast`` not finite and >= 0; an
             iteration or sample count not an integer >= 1; a threshold quantile outside
-            (0, 1); a ``negligible`` floor not finite and >= 0.
+            (0, 1); a ``negligible`` entry that is not a ``(name, floor)`` pair, names an
+            effect outside :data:`EFFECT_VOCABULARY` or one already named (a misspelt name
+            left that effect without a floor, a repeated one kept the last floor), or a
+            floor not finite and >= 0.
         """
+        seen = set()
+        for entry in self.negligible:
+            if not (isinstance(entry, (tuple, list)) and len(entry) == 2):
+                raise ConfigError(f"EffectSettings.negligible entries must be (effect, floor) "
+                                  f"pairs, got {entry!r}")
+            if entry[0] not in EFFECT_VOCABULARY:
+                raise ConfigError(f"EffectSettings.negligible names {entry[0]!r}, not an "
+                                  f"effect; valid: {list(EFFECT_VOCABULARY)}")
+            if entry[0] in seen:
+                raise ConfigError(f"EffectSettings.negligible names {entry[0]!r} twice")
+            seen.add(entry[0])
         config_positive("EffectSettings", turn_ref_rad_s=self.turn_ref_rad_s,
                         coulomb_scale_rad_s=self.coulomb_scale_rad_s,
                         immobile_ratio=self.immobile_ratio,

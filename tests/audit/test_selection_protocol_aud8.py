@@ -160,3 +160,16 @@ def test_a_positive_lag_reads_the_gyro_earlier_than_the_wheel_stamp():
     t = f.t_s
     f = replace(f, imu_wz=np.sin(0.5 * t), sim_wz=np.sin(0.5 * (t - 0.3)))
     assert lag_sse(f, LagParams(0.3))[0] < 1e-6 < lag_sse(f, LagParams(-0.3))[0]
+
+
+@pytest.mark.parametrize("negligible, match", [
+    ((("icr_expanson", 0.05),), "icr_expanson"),              # a typo dropped every floor
+    ((("gyro_bias", 0.01), ("gyro_bias", 0.5)), "twice"),     # the last one won silently
+    (("gyro_bias",), "pair"),                                 # a bare ValueError
+])
+def test_negligible_floors_name_effects_of_the_vocabulary_once(negligible, match):
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=match):
+        EffectSettings(negligible=negligible)
+    assert dict(EffectSettings(negligible=(("gyro_bias", 0.01),)).negligible) == {
+        "gyro_bias": 0.01}
