@@ -173,3 +173,21 @@ def test_negligible_floors_name_effects_of_the_vocabulary_once(negligible, match
         EffectSettings(negligible=negligible)
     assert dict(EffectSettings(negligible=(("gyro_bias", 0.01),)).negligible) == {
         "gyro_bias": 0.01}
+
+
+def test_units_without_samples_in_scope_give_the_gain_interval_no_spread():
+    # one ASPHALT and one SNOW run turn, two more SNOW runs drive straight: icr_expansion is
+    # scored on one unit per terrain, so there is no interval (the straight SNOW units hold
+    # nothing to resample), however large the gain
+    from dataclasses import replace
+
+    from terrain.audit.frames import STRAIGHT
+    straight = [replace(f, manoeuvre=np.full(f.n, STRAIGHT, dtype=np.int8))
+                for f in (synthetic_frame(f"s/SNOW/{i}", terrain="SNOW", seed=i + 1)
+                          for i in (1, 2))]
+    units = [[synthetic_frame("s/ASPHALT/0", chi=1.5)],
+             [synthetic_frame("s/SNOW/0", terrain="SNOW", chi=1.5, seed=5)],
+             [straight[0]], [straight[1]]]
+    t = score_candidate(units, "yaw", [], "icr_expansion", [YawParams()] * 4,
+                        EffectSettings(), np.random.default_rng(0), 100)
+    assert t.gain > 0.5 and np.isnan(t.gain_ci95).all() and not is_supported(t, FAST)
