@@ -376,7 +376,10 @@ def unphysical(name: str, params: GroupParams) -> str | None:
     estimate is correlated with something else (accelerations, vibration) and the effect is
     not supported whatever its gain. ``icr_expansion`` must turn the robot the way its
     wheels command: a ``chi`` that is NaN or <= 0 (a gyro mounted upside down fits ``chi < 0``,
-    a dead one ``chi = NaN``) describes a sensor, not a wider track.
+    a dead one ``chi = NaN``) describes a sensor, not a wider track; and tyre scrub only moves
+    the sides' ICRs outward, so ``chi < 1`` (the robot turning faster than ideal differential
+    drive, seed 000 eqs. 2-3: a wrong wheel radius or track width, or a gyro scale error) is
+    no ICR expansion either (the simulator plants ``chi`` in [1, 20]).
 
     Parameters
     ----------
@@ -396,6 +399,9 @@ def unphysical(name: str, params: GroupParams) -> str | None:
     if name == "icr_expansion" and not params.chi > 0:
         return (f"chi = {params.chi:.3g} not > 0: the gyro turns against the wheels' "
                 "command (or not at all), which no ICR expansion does")
+    if name == "icr_expansion" and params.chi < 1.0:
+        return (f"chi = {params.chi:.3g} < 1: the robot turns faster than ideal differential "
+                "drive, which no ICR expansion does (wheel radius, track width or gyro scale)")
     return None
 
 

@@ -191,3 +191,17 @@ def test_units_without_samples_in_scope_give_the_gain_interval_no_spread():
     t = score_candidate(units, "yaw", [], "icr_expansion", [YawParams()] * 4,
                         EffectSettings(), np.random.default_rng(0), 100)
     assert t.gain > 0.5 and np.isnan(t.gain_ci95).all() and not is_supported(t, FAST)
+
+
+def test_a_chi_below_1_is_no_icr_expansion():
+    # a gyro reading 1.25 times the ideal differential-drive yaw rate (chi = 0.8: a wrong
+    # wheel radius or track width, or a gyro scale error) was supported as an ICR expansion
+    # and reported as "the robot turns 0.80 times slower than ideal differential drive":
+    # scrub only moves the ICRs outward, chi >= 1 (the simulator plants chi in [1, 20])
+    units = _units(chi=0.8, noise=0.01)
+    g = select_group(units, "yaw", "ASPHALT", FAST)
+    icr = next(e for e in g.effects if e.name == "icr_expansion")
+    assert icr.params["chi"] == pytest.approx(0.8, abs=0.01)
+    assert not icr.supported and "chi" in icr.details["unphysical"]
+    assert unphysical("icr_expansion", YawParams(kinematic=True, inverse_chi=1.0)) is None
+    assert unphysical("icr_expansion", YawParams(kinematic=True, inverse_chi=1 / 0.99))
