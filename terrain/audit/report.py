@@ -224,14 +224,24 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     return f"below {mu[0]:.3g}" if target < chi[0] else f"above {mu[-1]:.3g}"
 
 
+def _segmented_scopes(report: Mapping) -> set[tuple[str, str]]:
+    """``(terrain, group)`` of the groups whose units are segments of runs."""
+    return {(g["terrain"], g["group"]) for g in report["groups"] if g.get("segmented")}
+
+
 def _timing_finding(report: Mapping) -> dict | None:
     """Numbers of the timing finding (None without any identifiable lag): ``constant``
-    lists the terrains where a constant ``wheel_lag`` is supported across runs,
-    ``constant_one_run`` those where it is supported between segments of a single run
-    (nothing is known there about other runs)."""
+    lists the terrains where a constant ``wheel_lag`` is supported across runs (held-out
+    units are whole runs), ``constant_one_run`` those where it is supported between
+    segments of a single run (nothing is known there about other runs), and
+    ``constant_segments`` those where it is supported between segments of two or more runs
+    (a held-out segment was fitted on its own run's other segments too: transfer between
+    runs is not shown)."""
     lags = [x for x in report["lags"] if x["identifiable"]]
     if not lags:
         return None
+    lag_effects = [e for e in report["effects"] if e["name"] == "wheel_lag" and e["supported"]]
+    segmented = _segmented_scopes(report)
     drifts = [abs(x["drift_s_per_min"]) for x in lags if x["drift_s_per_min"] is not None]
     return {"n_runs": len(lags),
             "lag_min_s": min(x["lag_min_s"] for x in lags),
@@ -239,12 +249,11 @@ def _timing_finding(report: Mapping) -> dict | None:
             "median_min_s": min(x["lag_s"] for x in lags),
             "median_max_s": max(x["lag_s"] for x in lags),
             "max_drift_s_per_min": max(drifts) if drifts else None,
-            "constant": [e["terrain"] for e in report["effects"]
-                         if e["name"] == "wheel_lag" and e["supported"]
-                         and e["n_runs"] >= 2],
-            "constant_one_run": [e["terrain"] for e in report["effects"]
-                                 if e["name"] == "wheel_lag" and e["supported"]
-                                 and e["n_runs"] < 2]}
+            "constant": [e["terrain"] for e in lag_effects if e["n_runs"] >= 2
+                         and (e["terrain"], e["group"]) not in segmented],
+            "constant_one_run": [e["terrain"] for e in lag_effects if e["n_runs"] < 2],
+            "constant_segments": [e["terrain"] for e in lag_effects if e["n_runs"] >= 2
+                                  and (e["terrain"], e["group"]) in segmented]}
 
 
 def _standstill_finding(report: Mapping) -> dict | None:
@@ -350,13 +359,16 @@ def to_markdown(report: Mapping, figures: Mapping[str, str] | None = None,
         # a supported effect fitted the other way round says so (effects.effect_cause)
         causes += [(f"{name} on {e['terrain']}", e["cause"]) for e in effects
                    if e["name"] == name and e["supported"] and e["cause"] != spec.cause]
-    segmented = sorted({f"{g['terrain']} ({g['group']})" for g in report["groups"]
-                        if g.get("segmented")})
+    scopes = _segmented_scopes(report)
+    segmented = sorted(f"{t} ({g})" for t, g in scopes)
+    # segments of two or more runs: a held-out segment is fitted on its own run's others
+    segmented_runs = sorted({f"{e['terrain']} ({e['group']})" for e in effects
+                             if (e["terrain"], e["group"]) in scopes and e["n_runs"] >= 2})
     sweep_rows, sweep_header = _sweep_table(report)
     return _environment().get_template("audit_report.md.j2").render(
         report=report, settings=report["settings"], figures=dict(figures or {}),
         commands=list(commands), title=title, findings=findings, causes=causes,
-        segmented=segmented, timing=_timing_finding(report),
+        segmented=segmented, segmented_runs=segmented_runs, timing=_timing_finding(report),
         standstill=_standstill_finding(report), scope_text=SCOPE_TEXT,
         sweep_rows=sweep_rows, sweep_header=sweep_header,
         manoeuvre_rows=_manoeuvre_rows(report))
