@@ -202,6 +202,31 @@ def check_time_step(dt: float) -> float:
     return d
 
 
+def _row_partition(groups: Sequence[Any], m: int) -> list[np.ndarray]:
+    """``groups`` as integer row arrays, refused (:class:`ShapeError`) unless they partition
+    ``range(m)``: a row in no group was never gated (an outlier on it went into the state),
+    a row out of range was a bare IndexError and a repeated one a false "S is singular"."""
+    out = []
+    for g in groups:
+        a = np.asarray(g).reshape(-1)
+        if a.size and a.dtype.kind not in "iu":
+            raise ShapeError(f"gate groups must hold integer row numbers, got {g!r}")
+        out.append(a.astype(int))
+    rows = np.concatenate(out) if out else np.zeros(0, dtype=int)
+    outside = rows[(rows < 0) | (rows >= m)]
+    if outside.size:
+        raise ShapeError(f"gate groups name row(s) {sorted(set(outside.tolist()))} outside "
+                         f"0..{m - 1}")
+    count = np.bincount(rows, minlength=m)
+    if (count > 1).any():
+        raise ShapeError(f"gate groups must partition the {m} rows: row(s) "
+                         f"{np.flatnonzero(count > 1).tolist()} in more than one group")
+    if (count == 0).any():
+        raise ShapeError(f"gate groups must partition the {m} rows: row(s) "
+                         f"{np.flatnonzero(count == 0).tolist()} in no group (never gated)")
+    return out
+
+
 @dataclass(frozen=True)
 class Gate:
     """Chi-square innovation gate.
@@ -377,10 +402,10 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
     gate : Gate or None
         Chi-square gate applied to each group of ``groups``; None = no gating.
     groups : sequence of int arrays or None
-        Row indices of each sensor group (a partition of ``range(m)``); None = all rows form
-        one group.
+        Row indices of each sensor group (a partition of ``range(m)``: each row in exactly
+        one group); None = all rows form one group.
     check : bool
-        Validate shapes, finiteness and covariances.
+        Validate shapes, finiteness, covariances and that ``groups`` partition the rows.
 
     Returns
     -------
@@ -392,8 +417,9 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
     Raises
     ------
     ShapeError, NonFiniteInputError
-        Bad shapes or non-finite values (``check`` True); a non-finite innovation among the
-        rows used (always checked; a gate rejects such a row instead).
+        Bad shapes or non-finite values, or ``groups`` that do not partition the rows (a row
+        in no group, in two, or outside ``0..m-1``; ``check`` True); a non-finite innovation
+        among the rows used (always checked; a gate rejects such a row instead).
     CovarianceError
         ``P`` not symmetric PSD or ``R`` not positive definite (``check`` True), or the
         innovation covariance ``S`` is singular or indefinite (always checked).
@@ -415,6 +441,8 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
         if not np.isfinite(H).all():
             raise NonFiniteInputError("H has non-finite entries")
         R = as_covariance(R, m, "R", definite=True)
+        if groups is not None:
+            groups = _row_partition(groups, m)
     R = np.asarray(R, dtype=float)
     r_diag = R if R.ndim == 1 else None
     HP = np.dot(H, P)
@@ -645,7 +673,7 @@ class ExtendedKalmanFilter:
     gate : Gate, optional
         Chi-square gating of each group of ``groups``.
     groups : sequence of int arrays, optional
-        Sensor groups (rows of ``z``) for the gate.
+        Sensor groups (rows of ``z``) for the gate: a partition of ``range(m)``.
 
     Attributes
     ----------
@@ -660,7 +688,7 @@ class ExtendedKalmanFilter:
     ------
     ShapeError, NonFiniteInputError, CovarianceError
         An initial state or matrix of the wrong shape (``R`` a scalar included), not finite,
-        or not a covariance.
+        or not a covariance; ``groups`` that do not partition the rows of ``R``.
     """
 
     def __init__(self, x0: np.ndarray, P0: np.ndarray, f: Callable, F: Callable,
@@ -681,7 +709,7 @@ class ExtendedKalmanFilter:
             as_covariance(R, self._m, "R", definite=True)
         self._residual = residual
         self._gate = gate
-        self._groups = None if groups is None else [np.asarray(g) for g in groups]
+        self._groups = None if groups is None else _row_partition(groups, self._m)
         self.last_innovation: Innovation | None = None
 
     @property

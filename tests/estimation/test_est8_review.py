@@ -1,0 +1,46 @@
+"""Review est8: EKF core inputs that were silently accepted, and missing tests (mutants)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ShapeError
+from terrain.estimation.ekf import ExtendedKalmanFilter, Gate, correct
+
+
+def _three_rows():
+    """Two states, three rows: rows 0 and 1 see a state each, row 2 their sum."""
+    H = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    return np.zeros(2), np.eye(2), H, np.full(3, 0.01)
+
+
+@pytest.mark.parametrize("groups,match", [
+    ([[0, 1]], r"row\(s\) \[2\] in no group"),
+    ([[0, 1], [2, 3]], r"outside 0\.\.2"),
+    ([[0, 1, 1], [2]], r"row\(s\) \[1\] in more than one group"),
+    ([[0, 1], [1, 2]], r"row\(s\) \[1\] in more than one group"),
+    ([[0.5], [1, 2]], "integer row numbers")])
+def test_gate_groups_that_are_not_a_partition_of_the_rows_are_refused(groups, match):
+    # groups=[[0, 1]] for 3 rows left row 2 ungated: a 50-sigma outlier on it was accepted
+    # and moved the state by 16.6; [2, 3] was a bare IndexError, a repeated row a false
+    # "S is singular"
+    x, P, H, R = _three_rows()
+    y = np.array([0.1, 0.1, 50.0])
+    with pytest.raises(ShapeError, match=match):
+        correct(x, P, y, H, R, gate=Gate(), groups=[np.asarray(g) for g in groups])
+    with pytest.raises(ShapeError, match=match):
+        ExtendedKalmanFilter(x, P, lambda v, dt: v, lambda v, dt: np.eye(2), lambda v: H @ v,
+                             lambda v: H, np.eye(2) * 0.1, R, gate=Gate(), groups=groups)
+
+
+def test_a_partition_gates_the_outlier_row_and_keeps_the_others():
+    x, P, H, R = _three_rows()
+    y = np.array([0.1, 0.1, 50.0])
+    xn, _, inn = correct(x, P, y, H, R, gate=Gate(), groups=[np.array([0, 1]), np.array([2])])
+    assert inn.accepted.tolist() == [True, True, False] and inn.dof == 2
+    assert np.all(np.abs(xn) < 0.2)
+    ekf = ExtendedKalmanFilter(x, P, lambda v, dt: v, lambda v, dt: np.eye(2), lambda v: H @ v,
+                               lambda v: H, np.eye(2) * 0.1, R, gate=Gate(),
+                               groups=[[0, 1], [2]])
+    assert ekf.update(H @ x + y).accepted.tolist() == [True, True, False]
