@@ -44,3 +44,21 @@ def test_a_partition_gates_the_outlier_row_and_keeps_the_others():
                                lambda v: H, np.eye(2) * 0.1, R, gate=Gate(),
                                groups=[[0, 1], [2]])
     assert ekf.update(H @ x + y).accepted.tolist() == [True, True, False]
+
+
+def test_default_gate_is_the_documented_0_999_quantile_of_the_group_size():
+    # Gate's docstring: probability 0.999, a consistent filter rejects 0.1 % of good samples;
+    # dof = rows of the group (mutants: default 0.99, or the table shifted by one dof, passed
+    # every test but one that only checks the table's end)
+    gate = Gate()
+    assert gate.probability == 0.999
+    assert gate.threshold(1) == pytest.approx(10.828, abs=1e-3)      # chi2.ppf(0.999, 1)
+    assert gate.threshold(2) == pytest.approx(13.816, abs=1e-3)
+    assert gate.threshold(4) == pytest.approx(18.467, abs=1e-3)
+    x, P, H, R = _three_rows()
+    # one row of NIS 10.0 passes, 11.0 fails: S = P + R = 1.01 on row 0
+    for nis, ok in ((10.0, True), (11.0, False)):
+        y = np.array([np.sqrt(nis * 1.01), 0.0, 0.0])
+        _, _, inn = correct(x, P, y, H, R, gate=gate,
+                            groups=[np.array([0]), np.array([1]), np.array([2])])
+        assert inn.accepted[0] == ok
