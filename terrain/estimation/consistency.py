@@ -135,7 +135,8 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
     dof : float
         Degrees of freedom of each value.
     n_samples : float
-        Number of (effectively independent) values averaged (>= 1).
+        Number of (effectively independent) values averaged, > 0 (a fraction of one
+        effective sample is taken as 1).
     probability : float
         Two-sided coverage, in (0, 1).
 
@@ -148,14 +149,15 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
     ------
     ConfigError
         ``probability`` not a number in (0, 1), ``dof`` not a finite number > 0 or
-        ``n_samples`` not a finite number (each gave bounds of NaN).
+        ``n_samples`` not a finite number (each gave bounds of NaN), or ``n_samples`` <= 0
+        (the mean of no value; it got the bounds of one sample).
     """
     _check_probability(probability)
     config_positive("mean_chi2_bounds", dof=dof)
     config_numbers("mean_chi2_bounds", n_samples=n_samples)
-    if not np.isfinite(n_samples):
-        raise ConfigError(f"mean_chi2_bounds.n_samples must be a finite number, got "
-                          f"{n_samples!r}")
+    if not (np.isfinite(n_samples) and n_samples > 0):
+        raise ConfigError(f"mean_chi2_bounds.n_samples must be a finite number > 0 (values "
+                          f"averaged), got {n_samples!r}")
     n = max(float(n_samples), 1.0)
     a = (1.0 - probability) / 2.0
     return (float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n))

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import stats
 
-from terrain.errors import ShapeError
+from terrain.errors import ConfigError, ShapeError
+from terrain.estimation.consistency import mean_chi2_bounds
 from terrain.estimation.ekf import ExtendedKalmanFilter, Gate, correct
 
 
@@ -62,3 +64,14 @@ def test_default_gate_is_the_documented_0_999_quantile_of_the_group_size():
         _, _, inn = correct(x, P, y, H, R, gate=gate,
                             groups=[np.array([0]), np.array([1]), np.array([2])])
         assert inn.accepted[0] == ok
+
+
+@pytest.mark.parametrize("n_samples", [0, -5])
+def test_chi_square_bounds_of_a_mean_of_no_sample_are_refused(n_samples):
+    # mean_chi2_bounds(2, 0) and (2, -5) gave the bounds of one sample, (0.0506, 7.38),
+    # for an average of no value (a fraction of an effective sample is still taken as 1)
+    with pytest.raises(ConfigError, match="n_samples"):
+        mean_chi2_bounds(2, n_samples)
+    assert mean_chi2_bounds(2, 0.5) == mean_chi2_bounds(2, 1)
+    lo, hi = mean_chi2_bounds(2, 1)
+    assert (lo, hi) == pytest.approx((stats.chi2.ppf(0.025, 2), stats.chi2.ppf(0.975, 2)))
