@@ -314,7 +314,8 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     values : ndarray, shape (N,)
         NEES or NIS values (NaN entries are ignored).
     dof : float or ndarray, shape (N,)
-        Degrees of freedom of each value (the number of rows for NIS).
+        Degrees of freedom of each value (the number of rows for NIS), >= 0; a value of
+        dof 0 (a step without an accepted row) or a NaN value is left out.
     probability : float
         Two-sided coverage of the bounds, in (0, 1).
 
@@ -325,7 +326,8 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     Raises
     ------
     ConfigError
-        ``probability`` not a number in (0, 1), or an infinite ``dof``
+        ``probability`` not a number in (0, 1), a ``dof`` that is negative or NaN (the index
+        named; such values were dropped silently), or an infinite ``dof``
         (:func:`mean_chi2_bounds`).
     ShapeError
         ``values`` not 1-D, or ``dof`` neither a number nor of the shape of ``values``.
@@ -337,6 +339,10 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
         raise ShapeError(f"values (N,) and dof (a number or (N,)) expected, got values "
                          f"{v.shape} and dof {dof.shape}")
     d = np.broadcast_to(dof, v.shape)
+    bad = np.flatnonzero(~(d >= 0))      # (NaN and negative dof dropped their values)
+    if bad.size:
+        raise ConfigError(f"chi2_test: dof must be >= 0 (0: a step without rows, left out), "
+                          f"got {d[bad[0]]!r} at index {int(bad[0])}")
     ok = np.isfinite(v) & (d > 0)
     v, d = v[ok], d[ok]
     if v.size == 0:

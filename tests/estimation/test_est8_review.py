@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from terrain.errors import ConfigError, ShapeError
-from terrain.estimation.consistency import mean_chi2_bounds
+from terrain.estimation.consistency import chi2_test, mean_chi2_bounds
 from terrain.estimation.ekf import ExtendedKalmanFilter, Gate, correct
 
 
@@ -75,3 +75,14 @@ def test_chi_square_bounds_of_a_mean_of_no_sample_are_refused(n_samples):
     assert mean_chi2_bounds(2, 0.5) == mean_chi2_bounds(2, 1)
     lo, hi = mean_chi2_bounds(2, 1)
     assert (lo, hi) == pytest.approx((stats.chi2.ppf(0.025, 2), stats.chi2.ppf(0.975, 2)))
+
+
+@pytest.mark.parametrize("bad", [-1.0, np.nan])
+def test_chi2_test_refuses_a_negative_or_nan_dof_instead_of_dropping_its_value(bad):
+    # chi2_test([1, 2, 3], [1, -1, nan]) dropped the last two values silently and tested
+    # the first alone (n_samples 1)
+    with pytest.raises(ConfigError, match=r"dof .*index 1"):
+        chi2_test(np.array([1.0, 2.0, 3.0]), np.array([1.0, bad, 2.0]))
+    # dof 0 (a step with no accepted row, NIS NaN) is still left out of n_samples
+    test = chi2_test(np.array([1.0, np.nan, 3.0]), np.array([1, 0, 3]))
+    assert test.n_samples == 2 and test.dof == 2.0 and test.mean == 2.0
