@@ -191,7 +191,8 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     Returns
     -------
     ndarray, shape (...)
-        ``tau`` (>= 1); 1 for a constant row or fewer than 3 samples.
+        ``tau`` (>= 1); 1 for a constant row or fewer than 3 samples; NaN for a row holding
+        a non-finite value (it was given 1, i.e. independent samples).
 
     Raises
     ------
@@ -213,7 +214,7 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     # keep the lags before the first one below the threshold
     kept = np.cumprod(np.nan_to_num(acf, nan=-1.0) >= threshold, axis=-1, dtype=bool)
     tau = 1.0 + 2.0 * np.where(kept, acf, 0.0).sum(axis=-1)
-    return np.where(var > 0, tau, 1.0)
+    return np.where(var > 0, tau, np.where(np.isfinite(var), 1.0, np.nan))
 
 
 def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:

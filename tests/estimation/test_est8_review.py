@@ -7,7 +7,8 @@ import pytest
 from scipy import stats
 
 from terrain.errors import ConfigError, ShapeError
-from terrain.estimation.consistency import chi2_test, mean_chi2_bounds
+from terrain.estimation.consistency import (chi2_test, integrated_autocorrelation_time,
+                                            mean_chi2_bounds)
 from terrain.estimation.ekf import ExtendedKalmanFilter, Gate, correct
 
 
@@ -86,3 +87,15 @@ def test_chi2_test_refuses_a_negative_or_nan_dof_instead_of_dropping_its_value(b
     # dof 0 (a step with no accepted row, NIS NaN) is still left out of n_samples
     test = chi2_test(np.array([1.0, np.nan, 3.0]), np.array([1, 0, 3]))
     assert test.n_samples == 2 and test.dof == 2.0 and test.mean == 2.0
+
+
+def test_autocorrelation_time_of_a_row_with_a_non_finite_value_is_nan_not_one():
+    # a NaN sample made the variance NaN and the row was given tau = 1 (independent
+    # samples); the other rows keep their value
+    rng = np.random.default_rng(0)
+    x = np.cumsum(rng.standard_normal((2, 400)), axis=1)      # strongly correlated rows
+    clean = integrated_autocorrelation_time(x)
+    x[1, 7] = np.nan
+    tau = integrated_autocorrelation_time(x)
+    assert clean[1] > 5.0 and np.isnan(tau[1]) and tau[0] == clean[0]
+    assert integrated_autocorrelation_time(np.ones(10)) == 1.0             # constant row
