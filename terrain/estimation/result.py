@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from terrain.errors import EstimationError
+
 
 @dataclass(frozen=True)
 class LoopArrays:
@@ -118,10 +120,10 @@ class EKFResult:
 
         Raises
         ------
-        ValueError
-            Unknown state name.
+        EstimationError
+            Unknown state name (a ``ValueError``; the name and the states named).
         """
-        return self.x[:, self.state_names.index(name)]
+        return self.x[:, self._state_index(name)]
 
     def std(self, name: str) -> np.ndarray:
         """Posterior standard deviation of state ``name``.
@@ -138,10 +140,17 @@ class EKFResult:
 
         Raises
         ------
-        ValueError
-            Unknown state name.
+        EstimationError
+            Unknown state name (a ``ValueError``; the name and the states named).
         """
-        return np.sqrt(self.P_diag[:, self.state_names.index(name)])
+        return np.sqrt(self.P_diag[:, self._state_index(name)])
+
+    def _state_index(self, name: str) -> int:
+        """Column of state ``name`` (a bare ``tuple.index(x): x not in tuple`` before)."""
+        if name not in self.state_names:
+            raise EstimationError(f"unknown state {name!r}; the filter's states: "
+                                  f"{list(self.state_names)}")
+        return self.state_names.index(name)
 
     def sensor_nis(self, sensor: str) -> np.ndarray:
         """Sum of squared normalised innovations of one sensor's rows.
@@ -158,7 +167,15 @@ class EKFResult:
         -------
         ndarray, shape (N,)
             Dimensionless.
+
+        Raises
+        ------
+        EstimationError
+            ``sensor`` not a key of :attr:`sensor_rows` (a bare ``KeyError`` before).
         """
+        if sensor not in self.sensor_rows:
+            raise EstimationError(f"unknown sensor {sensor!r}; the filter's sensors: "
+                                  f"{list(self.sensor_rows)}")
         rows = list(self.sensor_rows[sensor])
         nu2 = np.where(self.accepted[:, rows], self.y[:, rows] ** 2 / self.S_diag[:, rows],
                        0.0)

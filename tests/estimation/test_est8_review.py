@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, EstimationError, ShapeError
 from terrain.estimation.consistency import (chi2_test, integrated_autocorrelation_time,
                                             mean_chi2_bounds)
 from terrain.estimation.ekf import ExtendedKalmanFilter, Gate, correct
+from terrain.estimation.result import EKFResult
 
 
 def _three_rows():
@@ -99,3 +100,19 @@ def test_autocorrelation_time_of_a_row_with_a_non_finite_value_is_nan_not_one():
     tau = integrated_autocorrelation_time(x)
     assert clean[1] > 5.0 and np.isnan(tau[1]) and tau[0] == clean[0]
     assert integrated_autocorrelation_time(np.ones(10)) == 1.0             # constant row
+
+
+def test_an_unknown_state_or_sensor_of_a_result_is_named():
+    # state('vx') and std('vx') were a bare "tuple.index(x): x not in tuple", sensor_nis('cam')
+    # a bare KeyError 'cam'
+    res = EKFResult(t_s=np.arange(2.0), x=np.array([[1.0], [2.0]]), P_diag=np.full((2, 1), 4.0),
+                    P=None, y=np.array([[1.0], [np.nan]]), S_diag=np.array([[2.0], [np.nan]]),
+                    accepted=np.array([[True], [False]]), nis=np.array([0.5, np.nan]),
+                    dof=np.array([1, 0]), state_names=("v_bx",), measurement_names=("wz",),
+                    sensor_rows={"gyro": (0,)}, counts={})
+    for call, name in ((res.state, "vx"), (res.std, "vx"), (res.sensor_nis, "cam")):
+        with pytest.raises(EstimationError, match=f"unknown (state|sensor) '{name}'.*"
+                                                  f"(v_bx|gyro)"):
+            call(name)
+    assert res.state("v_bx").tolist() == [1.0, 2.0] and res.std("v_bx").tolist() == [2.0, 2.0]
+    np.testing.assert_array_equal(res.sensor_nis("gyro"), [0.5, np.nan])
