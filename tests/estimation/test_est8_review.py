@@ -116,3 +116,24 @@ def test_an_unknown_state_or_sensor_of_a_result_is_named():
             call(name)
     assert res.state("v_bx").tolist() == [1.0, 2.0] and res.std("v_bx").tolist() == [2.0, 2.0]
     np.testing.assert_array_equal(res.sensor_nis("gyro"), [0.5, np.nan])
+
+
+def test_the_speed_bound_widens_each_rim_by_three_wheel_noise_stds():
+    """The bound on v_bx allows each rim speed 3 wheel-noise stds (two-sided 99.7 %) and
+    the deepest braking slip: rims at 1 m/s with 0.03 m/s noise and s_b = -0.3 bound the
+    speed to [0, (1 + 0.09) / 0.7] = [0, 1.557] m/s (mutant: 2 stds, 1.471, passed every
+    test)."""
+    from terrain.estimation.runner import SensorSamples
+    from terrain.estimation.skid_steer_slip import (SkidSteerSlipSettings, _speed_bounds,
+                                                    rim_speed_range_m_s)
+    settings = SkidSteerSlipSettings(wheel_std_m_s=0.03, speed_bound_braking_slip=-0.3,
+                                     speed_bound_hold_s=0.0)
+    assert settings.speed_bound_rim_margin_m_s == pytest.approx(0.09)
+    t = np.arange(5) * 0.1
+    lower, upper = _speed_bounds(t, SensorSamples(t, np.ones((5, 2))), settings)
+    np.testing.assert_allclose(upper[:, 0], 1.09 / 0.7)
+    np.testing.assert_allclose(lower[:, 0], 0.0)
+    assert np.isinf(upper[:, 1:]).all() and np.isinf(lower[:, 1:]).all()   # v_bx only
+    # a spot turn's rims (+-0.05 m/s): the margin lets the body move either way
+    lo, up = rim_speed_range_m_s(np.array([[0.05, -0.05]]), -0.3, 0.09)
+    np.testing.assert_allclose([lo[0], up[0]], [-0.18 / 2 / 0.7, 0.18 / 2 / 0.7])
