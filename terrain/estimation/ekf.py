@@ -36,8 +36,8 @@ import numpy as np
 from scipy import stats
 from scipy.linalg import lapack
 
-from terrain.errors import (ConfigError, CovarianceError, NonFiniteInputError, ShapeError,
-                            TimeStepError, config_integer, config_numbers)
+from terrain.errors import (ConfigError, CovarianceError, EstimationError, NonFiniteInputError,
+                            ShapeError, TimeStepError, config_integer, config_numbers)
 
 #: Relative tolerance of the symmetry check of a covariance matrix.
 SYMMETRY_RTOL = 1e-6
@@ -45,6 +45,14 @@ SYMMETRY_RTOL = 1e-6
 PSD_RTOL = 1e-9
 
 Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def _refuse_booleans(v: Any, name: str) -> None:
+    """Refuse a boolean array or scalar (``np.asarray(mask, float)`` silently gave 0 and 1)."""
+    if isinstance(v, (bool, np.bool_)) or getattr(v, "dtype", None) == np.bool_ or (
+            isinstance(v, (list, tuple)) and v and all(isinstance(e, (bool, np.bool_))
+                                                       for e in v)):
+        raise EstimationError(f"{name} must hold numbers, got booleans: {v!r}")
 
 
 def as_vector(v: Any, name: str, size: int | None = None) -> np.ndarray:
@@ -70,7 +78,10 @@ def as_vector(v: Any, name: str, size: int | None = None) -> np.ndarray:
         Not one-dimensional, or the wrong length.
     NonFiniteInputError
         NaN or inf entries (their indices are named).
+    EstimationError
+        A boolean array (a mask is not a state or a measurement; it was read as 0 and 1).
     """
+    _refuse_booleans(v, name)
     a = np.asarray(v, dtype=float)
     if a.ndim != 1 or (size is not None and a.shape[0] != size):
         want = f"({size},)" if size is not None else "(n,)"
@@ -107,7 +118,11 @@ def as_covariance(P: Any, size: int, name: str, *, definite: bool = False) -> np
     ShapeError, NonFiniteInputError, CovarianceError
         Wrong shape, non-finite entries, asymmetric, not positive semi-definite (or not
         positive definite with ``definite``).
+    EstimationError
+        A boolean array (read as 0 and 1 before: ``np.eye(n, dtype=bool)`` was a unit
+        covariance).
     """
+    _refuse_booleans(P, name)
     a = np.asarray(P, dtype=float)
     if a.ndim == 1 and a.shape[0] == size:
         a = np.diag(a)

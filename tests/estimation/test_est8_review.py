@@ -9,7 +9,8 @@ from scipy import stats
 from terrain.errors import ConfigError, EstimationError, ShapeError
 from terrain.estimation.consistency import (chi2_test, integrated_autocorrelation_time,
                                             mean_chi2_bounds)
-from terrain.estimation.ekf import ExtendedKalmanFilter, Gate, correct
+from terrain.estimation.ekf import (ExtendedKalmanFilter, Gate, as_covariance, as_vector,
+                                    correct)
 from terrain.estimation.result import EKFResult
 
 
@@ -137,3 +138,21 @@ def test_the_speed_bound_widens_each_rim_by_three_wheel_noise_stds():
     # a spot turn's rims (+-0.05 m/s): the margin lets the body move either way
     lo, up = rim_speed_range_m_s(np.array([[0.05, -0.05]]), -0.3, 0.09)
     np.testing.assert_allclose([lo[0], up[0]], [-0.18 / 2 / 0.7, 0.18 / 2 / 0.7])
+
+
+def test_boolean_states_measurements_and_covariances_are_refused():
+    # a mask passed as a measurement was read as 0 and 1 (update(z=[True, False]) corrected
+    # the state towards 1 and 0), np.eye(2, dtype=bool) was a unit covariance
+    with pytest.raises(EstimationError, match="z must hold numbers, got booleans"):
+        as_vector(np.array([True, False]), "z")
+    with pytest.raises(EstimationError, match="booleans"):
+        as_vector([True, False], "x0")
+    with pytest.raises(EstimationError, match="P0 must hold numbers"):
+        as_covariance(np.eye(2, dtype=bool), 2, "P0")
+    x, P, H, R = _three_rows()
+    ekf = ExtendedKalmanFilter(x, P, lambda v, dt: v, lambda v, dt: np.eye(2), lambda v: H @ v,
+                               lambda v: H, np.eye(2) * 0.1, R)
+    with pytest.raises(EstimationError, match="booleans"):
+        ekf.update(np.array([True, False, True]))
+    assert np.array_equal(ekf.x, x)                         # nothing changed
+    np.testing.assert_array_equal(as_vector([1, 0.5], "z"), [1.0, 0.5])    # numbers pass
