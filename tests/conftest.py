@@ -126,3 +126,30 @@ def borealtc_runs(data_dir):
 def vulpi_runs(data_dir):
     """Every shipped Vulpi run."""
     return read_shipped("vulpi", data_dir)
+
+
+class _LoggedRun:
+    """Stand-in of :func:`terrain.tracking.tracked_run`'s run: keeps the metrics logged."""
+
+    def __init__(self, logged: dict) -> None:
+        self.logged = logged
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def log_metrics(self, metrics):
+        self.logged.update(metrics)
+
+
+@pytest.fixture
+def logged_metrics(monkeypatch):
+    """Route a benchmark script's MLflow run to a dict: call with the script's globals
+    (``runpy.run_path(...)["main"].__globals__``); returns the dict its metrics land in."""
+    def capture(script_globals: dict) -> dict:
+        logged: dict = {}
+        monkeypatch.setitem(script_globals, "tracked_run", lambda *a, **k: _LoggedRun(logged))
+        return logged
+    return capture

@@ -45,22 +45,11 @@ def test_inputs_hold_the_slip_they_are_built_from(script):
     assert x["chassis"].min() > 0.1      # never standing: accelerate, cruise, brake
 
 
-def test_a_short_run_logs_the_ratio_to_its_same_run_reference(script, monkeypatch, capsys):
+def test_a_short_run_logs_the_ratio_to_its_same_run_reference(script, monkeypatch, capsys,
+                                                              logged_metrics):
     import sys
 
-    logged = {}
-
-    class Run:
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            return False
-
-        def log_metrics(self, metrics):
-            logged.update(metrics)
-
-    monkeypatch.setitem(script["main"].__globals__, "tracked_run", lambda *a, **k: Run())
+    logged = logged_metrics(script["main"].__globals__)
     monkeypatch.setattr(sys, "argv", ["bench_control.py", "--steps", "100", "--repeats", "1",
                                       "--chunk", "50"])
     assert script["main"]() == 0

@@ -13,21 +13,8 @@ import pytest
 SCRIPT = Path(__file__).parents[2] / "benchmarks" / "bench_ekf.py"
 
 
-class _Run:
-    def __init__(self, logged: dict) -> None:
-        self.logged = logged
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def log_metrics(self, metrics):
-        self.logged.update(metrics)
-
-
-def test_ratios_are_filterpy_time_over_ours_and_best_of_the_repeats(monkeypatch, capsys):
+def test_ratios_are_filterpy_time_over_ours_and_best_of_the_repeats(
+        monkeypatch, capsys, logged_metrics):
     script = runpy.run_path(str(SCRIPT))
     env = script["main"].__globals__
     # seconds per 100 steps: numba 0.4 then 0.5 (the best counts, not the last), numpy 2.0,
@@ -42,8 +29,7 @@ def test_ratios_are_filterpy_time_over_ours_and_best_of_the_repeats(monkeypatch,
     monkeypatch.setitem(env, "data_driven_settings", lambda run: None)
     monkeypatch.setitem(env, "estimate_agrimaro",
                         lambda run, settings, engine: SimpleNamespace(t_s=np.zeros(1000)))
-    logged: dict = {}
-    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Run(logged))
+    logged = logged_metrics(env)
     monkeypatch.setattr(sys, "argv", ["bench_ekf.py", "--steps", "100", "--repeats", "2",
                                       "--minutes", "1"])
     assert script["main"]() == 0

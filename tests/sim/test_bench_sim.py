@@ -17,24 +17,9 @@ def script():
     return runpy.run_path(str(SCRIPT))
 
 
-class _Run:
-    def __init__(self, logged: dict) -> None:
-        self.logged = logged
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def log_metrics(self, metrics):
-        self.logged.update(metrics)
-
-
-def _main(script, monkeypatch, argv: list[str], simulate=None) -> dict:
-    logged: dict = {}
+def _main(script, monkeypatch, logged_metrics, argv: list[str], simulate=None) -> dict:
     env = script["main"].__globals__
-    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Run(logged))
+    logged = logged_metrics(env)
     if simulate is not None:
         monkeypatch.setitem(env, "simulate", simulate)
     monkeypatch.setattr(sys, "argv", ["bench_sim.py", *argv])
@@ -42,7 +27,7 @@ def _main(script, monkeypatch, argv: list[str], simulate=None) -> dict:
     return logged
 
 
-def test_the_first_vehicle_does_not_pay_the_process_warm_up(script, monkeypatch):
+def test_the_first_vehicle_does_not_pay_the_process_warm_up(script, monkeypatch, logged_metrics):
     # the process's first simulation carries one-off costs (lazy imports, numba caches):
     # 0.2-0.25 s here, 10 % of a 2-minute Husky run, charged to the Husky alone
     calls = []
@@ -51,13 +36,14 @@ def test_the_first_vehicle_does_not_pay_the_process_warm_up(script, monkeypatch)
         time.sleep((0.3 if not calls else 0.0) + cfg.duration_s / 600.0)
         calls.append(cfg.vehicle)
 
-    logged = _main(script, monkeypatch, ["--minutes", "0.5"], simulate)
+    logged = _main(script, monkeypatch, logged_metrics, ["--minutes", "0.5"], simulate)
     per_min = [logged[f"{v}_s_per_sim_min"] for v in ("husky", "agrimaro", "tracked")]
     assert max(per_min) < 1.5 * min(per_min), per_min
 
 
-def test_a_short_run_logs_cpu_time_and_the_reference_ratio(script, monkeypatch, capsys):
-    logged = _main(script, monkeypatch, ["--minutes", "0.02"])
+def test_a_short_run_logs_cpu_time_and_the_reference_ratio(script, monkeypatch, capsys,
+                                                           logged_metrics):
+    logged = _main(script, monkeypatch, logged_metrics, ["--minutes", "0.02"])
     assert "reference" in capsys.readouterr().out
     assert logged["reference_ms"] > 0
     for vehicle in ("husky", "agrimaro", "tracked"):
@@ -76,14 +62,15 @@ def test_minutes_must_be_positive_and_finite(script, monkeypatch, capsys, minute
     assert "--minutes" in capsys.readouterr().err
 
 
-def test_reference_and_cpu_time_are_per_call_and_per_simulated_minute(script, monkeypatch):
+def test_reference_and_cpu_time_are_per_call_and_per_simulated_minute(script, monkeypatch,
+                                                                      logged_metrics):
     def busy(cfg):
         end = time.process_time() + cfg.duration_s / 6000.0
         while time.process_time() < end:
             pass
 
     monkeypatch.setitem(script["main"].__globals__, "reference_ms", lambda: 0.01)
-    logged = _main(script, monkeypatch, ["--minutes", "4"], busy)
+    logged = _main(script, monkeypatch, logged_metrics, ["--minutes", "4"], busy)
     assert logged["reference_ms"] == pytest.approx(0.01)
     for vehicle in ("husky", "agrimaro", "tracked"):
         # one thread: its CPU time per simulated minute is at most the wall time's
@@ -96,9 +83,10 @@ def test_reference_and_cpu_time_are_per_call_and_per_simulated_minute(script, mo
             60.0 / logged[f"{vehicle}_s_per_sim_min"])
 
 
-def test_the_reference_is_the_mean_of_its_times_before_and_after(script, monkeypatch):
+def test_the_reference_is_the_mean_of_its_times_before_and_after(script, monkeypatch,
+                                                                 logged_metrics):
     # a machine whose load changes during the run: before 0.01 ms, after 0.03 ms
     times = iter([0.01, 0.03])
     monkeypatch.setitem(script["main"].__globals__, "reference_ms", lambda: next(times))
-    logged = _main(script, monkeypatch, ["--minutes", "1"], lambda cfg: None)
+    logged = _main(script, monkeypatch, logged_metrics, ["--minutes", "1"], lambda cfg: None)
     assert logged["reference_ms"] == pytest.approx(0.02)
