@@ -182,16 +182,9 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        ``--part none`` without ``--model-out``, a recipe repeated in ``--kinds``,
-        ``--folds`` below 2, a ``--window-s`` or ``--hop-s`` that
-        :class:`~features.windows.WindowConfig` refuses, or either given with a ``--part``
-        that does not run the wheel CV, ``--folds`` or ``--switch-gap-s`` given with a
-        ``--part`` that runs no held-out stream, ``--seeds`` with ``--part none``,
-        ``--kinds`` with ``--part wheel-cv`` and no ``--model-out``, a
-        negative or infinite ``--switch-gap-s``, a ``--model-out`` folder of a recipe that
-        is not empty (:func:`resolve_options`, before any run is read); more ``--folds``
-        than runs to cut the streams from: checked once the runs are read, before any model
-        is fitted.
+        An option :func:`resolve_options` refuses (before any run is read); more
+        ``--folds`` than runs to cut the streams from (once the runs are read, before any
+        model is fitted).
     """
     resolve_options(args)   # before any run is read
     wheel_cv, streams = args.part in ("wheel-cv", "both"), args.part in ("streams", "both")
