@@ -124,7 +124,8 @@ class RunEstimate:
         update), median slip of each wheel, encoder lag (or that it was not applied),
         non-finite samples skipped, samples a later one in the same filter step superseded
         (a ``rate_hz`` below a sensor's rate), samples outside the filter's time span (a
-        stream that starts before or ends after the grid).
+        stream that starts before or ends after the grid), samples the chi-square gate
+        rejected (``gate``; ``counts[sensor]["rejected"]``).
 
         Returns
         -------
@@ -151,6 +152,9 @@ class RunEstimate:
         # a stream that starts before or ends after the filter's grid loses those samples
         outside = {k: f"{v['outside']} of {v['samples']}"
                    for k, v in ekf.counts.items() if v.get("outside")}
+        # a gated filter drops the measurements whose innovation fails the chi-square test
+        rejected = {k: f"{v['rejected']} of {v['samples']}"
+                    for k, v in ekf.counts.items() if v.get("rejected")}
         return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
                 f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
                 f"{dof:.2f}), median {slips}, encoder lag {lag}"
@@ -158,7 +162,8 @@ class RunEstimate:
                 + (f", samples unused (a later one in the same filter step wins) "
                    f"{superseded}" if superseded else "")
                 + (f", samples outside the filter's time span (dropped) {outside}"
-                   if outside else ""))
+                   if outside else "")
+                + (f", samples rejected by the gate {rejected}" if rejected else ""))
 
 
 def resample(t_grid_s: np.ndarray, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:

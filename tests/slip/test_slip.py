@@ -395,3 +395,23 @@ def test_side_slip_refuses_a_track_that_is_not_a_positive_length():
     for bad in (-0.55, 0.0, float("nan"), float("inf"), "0.55"):
         with pytest.raises(ConfigError, match="track_m"):
             skid_steer_side_slip(rim, v, w, bad)
+
+
+def test_summary_shows_samples_rejected_by_the_gate():
+    """With ``--gate`` the EKF counts per sensor the measurements the chi-square gate
+    rejected (counts[sensor]['rejected']) but the summary line did not show them: a simulated
+    5 s Husky run with Gate(0.01) rejects 31 of 33 wheel and 475 of 501 gyro samples, and the
+    line read as if every sample had been used."""
+    from terrain.estimation.ekf import Gate
+
+    run = simulate_husky("ASPHALT", seed=2, duration_s=5.0).run
+    est = estimate_run(run, lag="none", gate=Gate(0.01))
+    c = est.ekf.counts
+    assert c["wheels"]["rejected"] > 0 and c["gyro"]["rejected"] > 0
+    line = est.summary()
+    assert "samples rejected by the gate {" in line
+    for k in ("wheels", "gyro"):
+        assert f"'{k}': '{c[k]['rejected']} of {c[k]['samples']}'" in line
+    plain = estimate_run(run, lag="none")         # no gate: nothing rejected, nothing said
+    assert all(v["rejected"] == 0 for v in plain.ekf.counts.values())
+    assert "rejected" not in plain.summary()
