@@ -111,3 +111,26 @@ def test_the_default_gate_wants_the_halves_within_0_1_s():
     assert not est.applied and "(+0.300 and +0.450 s)" in est.reason
     same = np.interp(t - 0.3, t, steps)
     assert gated_lag(t, steps, t, same).applied
+
+
+def test_the_gate_bounds_are_inclusive_as_documented():
+    """A peak of exactly ``min_correlation`` is clear ("at least"), and halves exactly
+    ``halves_tolerance_s`` apart agree ("differ by more than" is refused); a hair past either
+    bound is refused (hand mutants: ``<=`` and ``>=`` in gated_lag survived every test)."""
+    from terrain.slip import LagGate
+    half = np.where(T < 20, np.interp(T - 0.3, T, STEPS), np.interp(T - 0.45, T, STEPS))
+    whole = estimate_lag(T, STEPS, T, half)
+    at = gated_lag(T, STEPS, T, half,
+                   gate=LagGate(min_correlation=whole.correlation, halves_tolerance_s=None))
+    assert at.applied and at.reason == ""
+    above = gated_lag(T, STEPS, T, half, gate=LagGate(
+        min_correlation=float(np.nextafter(whole.correlation, 1.0)), halves_tolerance_s=None))
+    assert not above.applied and "below" in above.reason
+    # the halves gated_lag compares: split at the middle of the overlap
+    first = T < 0.5 * (T[0] + T[-1])
+    lags = [estimate_lag(T[m], STEPS[m], T[m], half[m]).lag_s for m in (first, ~first)]
+    apart = abs(lags[0] - lags[1])
+    assert apart == pytest.approx(0.15, abs=0.002)
+    assert gated_lag(T, STEPS, T, half, gate=LagGate(halves_tolerance_s=apart)).applied
+    assert not gated_lag(T, STEPS, T, half, gate=LagGate(
+        halves_tolerance_s=float(np.nextafter(apart, 0.0)))).applied
