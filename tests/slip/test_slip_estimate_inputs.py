@@ -107,3 +107,25 @@ def test_a_full_slip_window_side_enters_as_the_centre_of_its_physics_interval():
     assert est.meta["pseudo_full_slip_use"] == "interval centre"
     late = est.ekf.t_s > 10.0
     np.testing.assert_allclose(np.median(est.slip[late], axis=0), 0.3, atol=0.02)
+
+
+def test_agrimaro_encoder_lag_compares_speeds_not_velocities_when_reversing():
+    """The camera reference is the speed |v_c|; the rim speed must be |omega| r too: a run
+    driven backwards (omega < 0) with the encoders 0.3 s late still gives +0.3 s, applied
+    (hand mutant: the mean of the signed omega survived every test; it anti-correlates with
+    the reference and the peak moves)."""
+    import pandas as pd
+
+    from terrain.run import Run
+    from terrain.slip.estimate import agrimaro_encoder_lag
+    from terrain.vehicles import AGRIMARO
+
+    t = np.arange(0, 40, 0.01)
+    speed = 0.2 + np.clip(t - 2.0, 0, 1) + 0.5 * np.clip(t - 8.0, 0, 1) * (t < 12) \
+        - 0.7 * np.clip(t - 25.0, 0, 1) + 0.4 * np.clip(t - 31.0, 0, 1) * (t < 35)
+    cam = pd.DataFrame({"t_s": t, "v_cx": -speed, "v_cy": np.zeros_like(t)})
+    run = Run("sim/ASPHALT/0", "sim", "ASPHALT", {"cam": cam}, vehicle="agrimaro")
+    om = -np.interp(t - 0.3, t, speed) / AGRIMARO.wheel_radius_m
+    est = agrimaro_encoder_lag(run, t, np.column_stack([om, om, om]))
+    assert est.applied and est.lag_s == pytest.approx(0.3, abs=0.005)
+    assert est.correlation > 0.99
