@@ -18,7 +18,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, DataWarning, EstimationError
+from terrain.errors import ConfigError, DataWarning, EstimationError, ShapeError
 from terrain.run import TIME, Run
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -95,9 +95,17 @@ def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray
 
     Raises
     ------
+    ShapeError
+        ``train`` or ``test`` is not a boolean array of shape ``(n,)`` (integer 0/1 masks were
+        read by ``X[mask]`` as column labels: a bare KeyError).
     ConfigError
         The masks overlap or one is empty.
     """
+    for name, mask in (("train", train), ("test", test)):
+        mask = np.asarray(mask)
+        if mask.dtype != bool or mask.shape != (len(X),):
+            raise ShapeError(f"fit_predict: {name} must be a boolean mask of shape ({len(X)},)"
+                             f" (one per window), got {mask.dtype} of shape {mask.shape}")
     if np.any(train & test) or not train.any() or not test.any():
         raise ConfigError("train and test windows must be disjoint and non-empty")
     model = make_model()

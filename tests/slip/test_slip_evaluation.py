@@ -212,3 +212,24 @@ def test_steady_straight_windows_are_straight_accel_from_3_s_with_yaw_below_0_05
                          "t_start_s": [1.0, 2.5, 3.0, 6.0, 6.0, 6.0]})
     yaw = np.array([0.0, 0.0, 0.0, 0.049, -0.05, 0.0])
     assert steady_straight(meta, yaw).tolist() == [False, False, True, True, False, False]
+
+
+def test_fit_predict_refuses_masks_that_are_not_one_boolean_per_window():
+    """train/test are boolean window masks: integer 0/1 masks raised pandas' bare KeyError
+    "None of [Index([1, 1, 1, 0, 0, 0])] are in the [columns]" (X[mask] read them as column
+    labels), and a mask one window short numpy's bare "operands could not be broadcast";
+    now a ShapeError naming the argument."""
+    from sklearn.linear_model import LinearRegression
+
+    from terrain.errors import ShapeError
+    from terrain.slip.evaluation import fit_predict
+
+    X = pd.DataFrame({"a": np.arange(6.0)})
+    Y = np.column_stack([2.0 * np.arange(6.0), np.arange(6.0)])
+    train = np.arange(6) < 3
+    np.testing.assert_allclose(fit_predict(LinearRegression, X, Y, train, ~train)[3:],
+                               Y[3:], atol=1e-9)
+    with pytest.raises(ShapeError, match="train must be a boolean mask of shape \\(6,\\)"):
+        fit_predict(LinearRegression, X, Y, train.astype(int), ~train)
+    with pytest.raises(ShapeError, match="test must be a boolean mask of shape \\(6,\\)"):
+        fit_predict(LinearRegression, X, Y, train, ~train[:5])
