@@ -1052,3 +1052,20 @@ def test_odometry_errors_refuse_a_non_finite_sample_by_name():
         bad.streams[stream].loc[40, col] = np.nan
         with pytest.raises(NonFiniteError, match=f"{stream} column '{col}', first at row 40"):
             odometry_errors([bad], meta, pred, HUSKY.track_m, [bad.run_id])
+
+
+def test_dead_reckon_counts_only_slips_beyond_its_bounds():
+    """A slip exactly at BRAKING_SLIP_FLOOR or at 1 is within the bounds, not held: no
+    warning, and the ground speed is its exact inverse; also reversing, where the floor is
+    in the rim's direction (hand mutants: ``q <= BRAKING_SLIP_FLOOR`` survived every test)."""
+    t = np.linspace(0.0, 1.0, 11)
+    for sign in (1.0, -1.0):
+        rim = np.full_like(t, 0.5 * sign)
+        left = np.full_like(t, sign * BRAKING_SLIP_FLOOR)
+        right = np.full_like(t, sign * 1.0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            pose = dead_reckon(t, rim, rim, HUSKY.track_m, left, right)
+        ground = 0.5 * (ground_speed_from_slip(rim, left) + ground_speed_from_slip(rim, right))
+        assert pose[-1, 0] == pytest.approx(np.trapezoid(ground, t))
+        assert pose[-1, 0] == pytest.approx(sign * 0.5 * 0.5 / 0.05)   # 1 / (1 + s) rim, 0
