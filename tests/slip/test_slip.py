@@ -456,3 +456,15 @@ def test_agrimaro_slip_std_is_the_first_order_propagation_of_one_sigma():
     ratio = est.slip_std[ok] / np.sqrt(var[ok])
     assert 0.97 < np.median(ratio) < 1.02
     assert np.percentile(ratio, 1) > 0.9 and np.percentile(ratio, 99) < 1.05
+
+
+def test_fixed_wheels_ignore_the_lateral_velocity_even_when_unknown():
+    """Fixed wheels (delta None: skid-steer) roll along x only, so v_long = v_bx - r d_y and
+    v_by does not enter, not even as NaN (NaN sin(0) is NaN; hand mutant: passing v_by on
+    survived every test)."""
+    from terrain.slip import wheel_longitudinal_velocity
+
+    pos = np.array([[0.3, 0.25], [0.3, -0.25]])
+    out = wheel_longitudinal_velocity(np.array([1.0, 0.5]), np.array([np.nan, 0.2]),
+                                      np.array([0.4, -0.2]), pos)
+    np.testing.assert_allclose(out, [[0.9, 1.1], [0.55, 0.45]], atol=1e-12)
