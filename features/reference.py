@@ -22,7 +22,9 @@ def reference_features(X: np.ndarray, channels: Sequence[str], rate_hz: float) -
     Parameters
     ----------
     X : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)`` windows, each channel in its SI unit.
+        ``(n_windows, n_channels, n_samples)`` windows, each channel in its SI unit (read
+        as float64, as ``WindowFeatures`` reads them: float32 windows are not computed in
+        float32).
     channels : sequence of str
         Names of the channels, in the order of axis 1 of ``X``.
     rate_hz : float
@@ -35,6 +37,7 @@ def reference_features(X: np.ndarray, channels: Sequence[str], rate_hz: float) -
         ``(n_windows, n_features)``, columns in the order of
         ``WindowFeatures(channels, rate_hz).get_feature_names_out()``.
     """
+    X = np.asarray(X, dtype=float)     # (float32 moments were 1e-2 off WindowFeatures')
     fx = WindowFeatures(tuple(channels), rate_hz).fit(X)
     idx = {c: i for i, c in enumerate(channels)}
     rows = []
