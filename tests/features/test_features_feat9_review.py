@@ -56,3 +56,42 @@ def test_the_reference_of_float32_windows_is_computed_in_float64(n_samples):
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(want, WindowFeatures(_CHANNELS, 100.0).fit_transform(
         X.astype(float)), rtol=0, atol=0)
+
+
+def test_every_column_is_the_feature_its_name_says():
+    """Names and values in one order: each ``<channel>__<stat>`` column is that statistic
+    of that channel (scipy / NumPy), each ``<imu>__band_<lo>_<hi>hz`` column the log10 mean
+    periodogram density of that channel's bins in [lo, hi) on the rate's frequency axis
+    (0.5 Hz bins of a 200-sample window at 100 Hz), and the cross terms their formulas. The
+    scipy reference builds its rows in the same order as the transformer's values, so it
+    cannot tell a name list in another order; this reads each column by its name."""
+    from scipy import signal, stats as sps
+    rng = np.random.default_rng(11)
+    X = _windows(rng, 3, 200)
+    fx = WindowFeatures(_CHANNELS, 100.0).fit(X)
+    F = fx.transform(X)
+    idx = {c: i for i, c in enumerate(_CHANNELS)}
+    stat = {"mean": np.mean, "std": np.std, "rms": lambda v: np.sqrt(np.mean(v ** 2)),
+            "min": np.min, "max": np.max, "mean_abs_diff": lambda v: np.mean(np.abs(np.diff(v))),
+            "skewness": lambda v: sps.skew(v) if np.std(v) > 1e-6 else 0.0,
+            "kurtosis": lambda v: sps.kurtosis(v) if np.std(v) > 1e-6 else 0.0}
+    names = list(fx.get_feature_names_out())
+    assert len(names) == F.shape[1] == 6 * 8 + 3 * 20 + 2
+    for j, name in enumerate(names):
+        sig, feat = name.split("__", 1)
+        for w in range(len(X)):
+            x = X[w, idx[sig]] if sig in idx else None
+            if feat in stat:
+                want = stat[feat](x)
+            elif feat.startswith("band_"):
+                lo, hi = (float(v.replace("p", ".")) for v in feat[5:-2].split("_"))
+                f, p = signal.periodogram(x, fs=100.0, window="hann", detrend="constant")
+                assert f[-1] == 50.0 and f[1] == 0.5
+                want = np.log10(p[(f >= lo) & (f < hi)].mean() + 1e-12)
+            elif feat == "per_speed":
+                want = x.mean() / max(np.abs(X[w, idx["vel_l"]]).mean(), fx.min_speed_m_s)
+            else:
+                assert name == "wz__gain_on_yaw_rate_wheels"
+                u = X[w, idx["yaw_rate_wheels"]]
+                want = np.dot(u, x) / (np.dot(u, u) + len(u) * fx.turn_floor_rad_s ** 2)
+            assert F[w, j] == pytest.approx(want, rel=1e-9, abs=1e-12), (name, w)
