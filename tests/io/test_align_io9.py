@@ -1,0 +1,25 @@
+"""Review io9 of terrain.io.align: short finite runs in a filtered stream, the usual steps
+a caller passes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrain.io.align import align_arrays
+
+
+def test_two_finite_samples_between_nans_are_filtered_with_one_sample_of_padding():
+    # the module's example: two samples of a 30 Hz tone at 100 Hz, 0.296 and 0.817,
+    # filtered with one sample of padding become 0.196 and 0.283; here they are a run of
+    # finite samples between two NaNs of a 100 Hz stream on a 50 Hz grid, filtered on
+    # their own (leaving a 2-sample run unfiltered let 30 Hz through onto the grid)
+    t = np.arange(40) * 0.01
+    v = np.sin(2 * np.pi * 3 * t)[:, None]
+    v[10] = v[13] = np.nan
+    v[11], v[12] = 0.296, 0.817
+    out = align_arrays([t], [v], np.array([0.11, 0.12]), 50.0)
+    np.testing.assert_allclose(out[:, 0], [0.196, 0.283], atol=1e-3)
+    # a single finite sample between NaNs is kept as it is
+    v[12] = np.nan
+    v[11] = 0.296
+    assert align_arrays([t], [v], np.array([0.11]), 50.0)[0, 0] == 0.296
