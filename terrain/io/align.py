@@ -198,7 +198,18 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
     numpy.ndarray
         ``(n, sum(c_i))``: the streams' channels side by side, in the order given; NaN at
         grid points inside a gap of that stream.
+
+    Raises
+    ------
+    ConfigError
+        ``steps_s`` not one finite time > 0 per stream (a step of 0 was a bare
+        ZeroDivisionError; NaN made no step a gap and left a fast stream unfiltered).
     """
+    if steps_s is not None:
+        if len(steps_s) != len(times_s):
+            raise ConfigError(f"align_arrays.steps_s holds one step per stream: "
+                              f"{len(times_s)} stream(s), {len(steps_s)} step(s)")
+        config_positive("align_arrays", **{f"steps_s[{k}]": s for k, s in enumerate(steps_s)})
     out = np.empty((len(grid_s), sum(v.shape[1] for v in values)))
     col = 0
     for k, (t, v) in enumerate(zip(times_s, values)):

@@ -4,6 +4,7 @@ a caller passes."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from terrain.io.align import align_arrays
 
@@ -23,3 +24,19 @@ def test_two_finite_samples_between_nans_are_filtered_with_one_sample_of_padding
     v[12] = np.nan
     v[11] = 0.296
     assert align_arrays([t], [v], np.array([0.11]), 50.0)[0, 0] == 0.296
+
+
+@pytest.mark.parametrize("steps, match", [
+    ([0.0], r"align_arrays.steps_s\[0\] must be a finite value > 0, got 0.0"),
+    ([float("nan")], r"steps_s\[0\] must be a finite value > 0, got nan"),
+    ([-0.01], r"steps_s\[0\] must be a finite value > 0"),
+    ([0.01, 0.01], r"one step per stream: 1 stream\(s\), 2 step\(s\)"),
+])
+def test_a_step_that_is_not_a_positive_time_is_refused(steps, match):
+    # a usual step of 0 was a bare ZeroDivisionError, NaN made no step a gap and switched
+    # the anti-alias filter off without a word (the samples' median: 0.01 s, 100 Hz)
+    from terrain.errors import ConfigError
+    t = np.arange(40) * 0.01
+    v = np.sin(2 * np.pi * 30 * t)[:, None]
+    with pytest.raises(ConfigError, match=match):
+        align_arrays([t], [v], np.array([0.1, 0.12]), 50.0, steps_s=steps)
