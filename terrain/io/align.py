@@ -202,9 +202,20 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
     Raises
     ------
     ConfigError
-        ``steps_s`` not one finite time > 0 per stream (a step of 0 was a bare
+        ``values`` not one ``(m_i, c_i)`` array per timestamp array (20 rows for 40
+        timestamps were read as a stream of 20 samples), or ``steps_s`` not one finite
+        time > 0 per stream (a step of 0 was a bare
         ZeroDivisionError; NaN made no step a gap and left a fast stream unfiltered).
     """
+    if len(values) != len(times_s):
+        raise ConfigError(f"align_arrays: {len(times_s)} timestamp array(s) and "
+                          f"{len(values)} value array(s): one of each per stream")
+    for k, (t, v) in enumerate(zip(times_s, values)):
+        if np.ndim(v) != 2 or len(v) != len(t):
+            raise ConfigError(f"align_arrays: stream {k}: " + (
+                f"values of shape {np.shape(v)}, expected (samples, channels)"
+                if np.ndim(v) != 2 else
+                f"{len(v)} row(s) of values for {len(t)} timestamp(s)"))
     if steps_s is not None:
         if len(steps_s) != len(times_s):
             raise ConfigError(f"align_arrays.steps_s holds one step per stream: "

@@ -40,3 +40,18 @@ def test_a_step_that_is_not_a_positive_time_is_refused(steps, match):
     v = np.sin(2 * np.pi * 30 * t)[:, None]
     with pytest.raises(ConfigError, match=match):
         align_arrays([t], [v], np.array([0.1, 0.12]), 50.0, steps_s=steps)
+
+
+def test_values_that_do_not_match_their_timestamps_are_refused():
+    # 20 values for 40 timestamps were read as a stream of 20 samples (0.7 s got the 20th
+    # value, 19.0, held past 0.38 s), a second stream without values was left out
+    from terrain.errors import ConfigError
+    t = np.arange(40) * 0.02
+    v = np.arange(20.0)[:, None]
+    with pytest.raises(ConfigError, match=r"stream 0: 20 row\(s\) of values for 40 "
+                                          r"timestamp\(s\)"):
+        align_arrays([t], [v], np.array([0.1, 0.7]), 50.0)
+    with pytest.raises(ConfigError, match=r"2 timestamp array\(s\) and 1 value array"):
+        align_arrays([t, t], [np.ones((40, 1))], np.array([0.1, 0.7]), 50.0)
+    with pytest.raises(ConfigError, match=r"stream 0: values of shape \(40,\)"):
+        align_arrays([t], [np.ones(40)], np.array([0.1, 0.7]), 50.0)
