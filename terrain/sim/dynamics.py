@@ -322,12 +322,27 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
 GRID_STEP_TOLERANCE = 1e-3
 
 
+def _refuse_booleans(name: str, values) -> None:
+    """Refuse a boolean array where numbers are meant (``float(True)`` is 1: a run of 1 m/s
+    or 1 rad commands, or a 1 rad steering error, from a mask passed by mistake).
+
+    Raises
+    ------
+    ConfigError
+        ``values`` is a boolean array (or a list of booleans), named.
+    """
+    if np.asarray(values).dtype == bool:
+        raise ConfigError(f"{name} must hold numbers, got booleans")
+
+
 def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarray:
     """Refuse a time grid that is not finite, increasing and uniform, or a command without
     one finite ``(v_x, v_y, yaw_rate)`` per step; return the command as a float array.
 
     Raises
     ------
+    ConfigError
+        ``t_s`` or ``twist_cmd`` given as booleans.
     ShapeError
         ``t_s`` not one-dimensional, or ``twist_cmd`` not of shape ``(len(t_s), 3)``.
     NonFiniteInputError
@@ -337,6 +352,8 @@ def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarr
         :data:`GRID_STEP_TOLERANCE` of it (the integrator reads the step from the first two
         times only).
     """
+    _refuse_booleans("integrate: t_s", t_s)
+    _refuse_booleans("integrate: twist_cmd", twist_cmd)
     t = np.asarray(t_s, dtype=float)
     if t.ndim != 1:
         raise ShapeError(f"integrate: t_s must be one-dimensional, got shape {t.shape}")
@@ -371,7 +388,7 @@ def _checked_steer_offset(steer_offset_rad, geometry: ContactGeometry) -> np.nda
     Raises
     ------
     ConfigError
-        An offset for a vehicle that does not steer (it was silently ignored).
+        An offset for a vehicle that does not steer (it was silently ignored), or booleans.
     ShapeError
         Not one angle per motor (a bare broadcasting ValueError).
     NonFiniteInputError
@@ -380,6 +397,7 @@ def _checked_steer_offset(steer_offset_rad, geometry: ContactGeometry) -> np.nda
     if not geometry.steered:
         raise ConfigError("integrate.steer_offset_rad is a swerve-drive steering error; this "
                           "vehicle does not steer, so it would change nothing: leave it None")
+    _refuse_booleans("integrate.steer_offset_rad", steer_offset_rad)
     offset = np.asarray(steer_offset_rad, dtype=float)
     if offset.shape != (geometry.n_motors,):
         raise ShapeError(f"integrate.steer_offset_rad must hold one angle per motor, shape "
@@ -441,7 +459,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         Unknown physics version, a time grid of fewer than two steps, no terrain, a segment
         length not > 0 (inf keeps the first terrain), a slope that is not a finite
         inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1, or a segment
-        length, slope or ``chi`` given as text, None or a boolean.
+        length, slope or ``chi`` given as text, None or a boolean, or ``t_s``,
+        ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans.
     TimeStepError
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).
@@ -624,6 +643,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                      nxt.copy(), torque_out[k].copy(), float(pitch_k),
                                      float(roll_k), ti))
             if new is not None:
+                _refuse_booleans(f"the closed-loop hook's correction at step {k}", new)
                 new = np.asarray(new, dtype=float)
                 if new.size != nm:
                     raise ShapeError(f"the closed-loop hook returned {new.size} values for "
