@@ -47,3 +47,79 @@ def test_a_boolean_hook_correction_is_refused():
     # the hook's [True, True] added 1 rad/s to both motors' commands
     with pytest.raises(ConfigError, match="hook.*booleans"):
         _run(hook=lambda snap: np.array([True, True]))
+
+
+def _turn(t_s, v_x=0.8, v_y=0.0, yaw_rate=0.5):
+    return np.column_stack([np.full(len(t_s), v_x), np.full(len(t_s), v_y),
+                            np.full(len(t_s), yaw_rate)])
+
+
+T2 = np.arange(0.0, 2.0, 0.01)
+
+
+@pytest.mark.parametrize("vehicle, terrain, physics, slope", [
+    ("husky", "ASPHALT", "v1", 0.0), ("husky", "ASPHALT", "v2", 0.1),
+    ("husky", "SANDY_LOAM", "v2", 0.1), ("tracked", "SNOW", "v2", -0.1)])
+def test_a_mirrored_turn_gives_the_mirrored_run(vehicle, terrain, physics, slope):
+    # mirrored about the body x axis (a left-right symmetric vehicle on a plane rising along
+    # world +x): (v_x, v_y, r) -> (v_x, -v_y, -r) must give (x, -y, -yaw), the left and right
+    # motors swapped; a sign slip in a lateral force, the Coriolis terms, the gravity's side
+    # component or the lateral load transfer breaks it
+    veh = get_vehicle(vehicle)
+    ter = (get_terrain(terrain),)
+    v_x = 0.8 if vehicle == "husky" else 0.3       # (the tracked sprockets stop at 10 rad/s)
+    left = _run(T2, _turn(T2, v_x), veh, ter, slope, physics=physics)
+    right = _run(T2, _turn(T2, v_x, yaw_rate=-0.5), veh, ter, slope, physics=physics)
+    assert abs(left.pose[-1, 2]) > 0.3                     # it did turn
+    assert not left.speed_clipped_steps.any()
+    np.testing.assert_allclose(right.pose, left.pose * [1.0, -1.0, -1.0], atol=1e-9)
+    np.testing.assert_allclose(right.twist, left.twist * [1.0, -1.0, -1.0], atol=1e-9)
+    np.testing.assert_allclose(right.torque, left.torque[:, ::-1], atol=1e-7)
+    np.testing.assert_allclose(right.slip_motor, left.slip_motor[:, ::-1], atol=1e-9)
+
+
+def test_agrimaro_mirrored_front_to_back_gives_the_mirrored_run():
+    # AgriMaRo's units sit at x = -+0.5075 m on its axis and one at (0, -0.756 m): symmetric
+    # front to back, so (v_x, v_y, r) -> (-v_x, v_y, -r) must give (-x, y, -yaw)
+    fwd = _run(T2, _turn(T2, 0.4, 0.2, 0.3), AGRIMARO)
+    back = _run(T2, _turn(T2, -0.4, 0.2, -0.3), AGRIMARO)
+    assert abs(fwd.pose[-1, 2]) > 0.2
+    np.testing.assert_allclose(back.pose, fwd.pose * [-1.0, 1.0, -1.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("vehicle, terrain, physics, v_x", [
+    ("husky", "ASPHALT", "v2", 0.8), ("husky", "ICE", "v2", 0.8),
+    ("husky", "SANDY_LOAM", "v2", 0.8), ("tracked", "SNOW", "v2", 0.3),
+    ("husky", "GRAVEL", "v1", 0.8), ("agrimaro", "GRASS", "v1", 0.8)])
+def test_a_vehicle_stopping_on_level_ground_never_gains_kinetic_energy(vehicle, terrain,
+                                                                       physics, v_x):
+    # a turn at v_x, 0.3 rad/s, then zero commands: with no grade to feed it and the rims
+    # behind the body, every step of the stop must lose kinetic energy (not on ICE in v1:
+    # its body lags the rims by the end of the turn, which push on for 2 steps after it)
+    veh = get_vehicle(vehicle)
+    t = np.arange(0.0, 2.5, 0.01)
+    cmd = _turn(t, v_x, 0.0, 0.3)
+    cmd[t >= 1.0] = 0.0
+    p = _run(t, cmd, veh, (get_terrain(terrain),), physics=physics)
+    ke = 0.5 * veh.mass_kg * (p.twist[:, 0] ** 2 + p.twist[:, 1] ** 2) \
+        + 0.5 * veh.yaw_inertia_kg_m2 * p.twist[:, 2] ** 2
+    stop = ke[t >= 1.0]
+    assert stop[0] > 0.5                                   # it was moving
+    assert np.all(np.diff(stop) <= 1e-9 * stop[0])
+    assert stop[-1] < 1e-3 * stop[0]                       # and it stopped
+
+
+@pytest.mark.parametrize("vehicle, terrain, physics", [
+    ("husky", "ASPHALT", "v2"), ("husky", "SANDY_LOAM", "v2"), ("tracked", "SNOW", "v1")])
+def test_the_run_converges_as_the_step_shrinks(vehicle, terrain, physics):
+    # linearly implicit Euler is first order: the end pose of a 1.5 s turn at dt = 10, 5,
+    # 2.5 ms moves by less each halving (about half), and 10 ms is within 2 cm of 1.25 ms
+    veh = get_vehicle(vehicle)
+    ends = []
+    for dt in (0.01, 0.005, 0.0025, 0.00125):
+        t = np.arange(0.0, 1.5 + 1e-9, dt)
+        ends.append(_run(t, _turn(t, 0.3, 0.0, 0.3), veh, (get_terrain(terrain),),
+                         physics=physics).pose[-1])
+    gaps = [np.abs(a - b).max() for a, b in zip(ends, ends[1:])]
+    assert gaps[1] < 0.75 * gaps[0] and gaps[2] < 0.75 * gaps[1]
+    assert np.abs(ends[0] - ends[-1]).max() < 0.02
