@@ -42,6 +42,7 @@ from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
                                 velocity_maps)
 from terrain.terramechanics.lateral import (SOILS, SlipCompactionResistance, SoilContact,
                                             longitudinal_curve, soil_contact)
+from terrain.terramechanics.catalogue import TerrainParams
 from terrain.terramechanics.resistance import is_deformable
 from terrain.terramechanics.slip import sae_slip
 from terrain.terramechanics.traction import TractionAndResistance
@@ -456,7 +457,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     Raises
     ------
     ConfigError
-        Unknown physics version, a time grid of fewer than two steps, no terrain, a segment
+        Unknown physics version, a time grid of fewer than two steps, no terrain, terrains
+        that are not a tuple (or list) of TerrainParams (one TerrainParams, names), a segment
         length not > 0 (inf keeps the first terrain), a slope that is not a finite
         inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1, or a segment
         length, slope or ``chi`` given as text, None or a boolean, or ``t_s``,
@@ -480,8 +482,16 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         raise ConfigError(f"the time grid needs at least 2 steps to integrate, got {len(t_s)} "
                           "(a duration shorter than one physics step?)")
     twist_cmd = _check_grid_and_commands(t_s, twist_cmd)
+    if isinstance(terrains, TerrainParams) or not isinstance(terrains, (tuple, list)):
+        raise ConfigError(f"integrate.terrains must be a tuple of TerrainParams "
+                          f"(terrain.terramechanics.catalogue.get_terrain), got "
+                          f"{type(terrains).__name__}")
     if not len(terrains):
         raise ConfigError("integrate needs at least one terrain, got an empty terrain tuple")
+    for i, ter in enumerate(terrains):
+        if not isinstance(ter, TerrainParams):
+            raise ConfigError(f"integrate.terrains[{i}] must be a TerrainParams "
+                              f"(terrain.terramechanics.catalogue.get_terrain), got {ter!r}")
     # text or None was a bare TypeError below; True ran as 1 (slope_rad: a 57 deg plane)
     config_numbers("integrate", segment_length_m=segment_length_m, slope_rad=slope_rad,
                    chi=chi)

@@ -123,3 +123,13 @@ def test_the_run_converges_as_the_step_shrinks(vehicle, terrain, physics):
     gaps = [np.abs(a - b).max() for a, b in zip(ends, ends[1:])]
     assert gaps[1] < 0.75 * gaps[0] and gaps[2] < 0.75 * gaps[1]
     assert np.abs(ends[0] - ends[-1]).max() < 0.02
+
+
+@pytest.mark.parametrize("terrains, shown", [
+    (get_terrain("ASPHALT"), "TerrainParams"), (("ASPHALT",), "'ASPHALT'"),
+    ((get_terrain("ASPHALT"), None), "None")])
+def test_terrains_that_are_not_a_sequence_of_terrain_params_are_refused(terrains, shown):
+    # one TerrainParams was a bare "object of type 'TerrainParams' has no len()", a name a
+    # bare "'str' object has no attribute 'name'"
+    with pytest.raises(ConfigError, match=f"terrains.*{shown}"):
+        _run(terrains=terrains)
