@@ -133,3 +133,19 @@ def test_terrains_that_are_not_a_sequence_of_terrain_params_are_refused(terrains
     # bare "'str' object has no attribute 'name'"
     with pytest.raises(ConfigError, match=f"terrains.*{shown}"):
         _run(terrains=terrains)
+
+
+def test_a_lifting_wheel_keeps_five_percent_of_its_static_load():
+    # the floor is 0.05 of the static load (MIN_LOAD_FRACTION; a test that reads the
+    # constant cannot see it change): in a 50 m/s^2 left turn the Husky's inner wheels ask
+    # for -348 N each, sit at 0.05 x 122.6 N and are rescaled with the outer ones to the
+    # static total 490.3 N: 0.05 W 4 W / (2 (0.05 W) + 2 (W + 471 N)), 2.50 N
+    from terrain.sim.forces import LOAD_TRANSFER, contact_layout, transferred_normal_loads
+    w = 50.0 * 9.80665 / 4.0
+    layout = contact_layout(HUSKY.contact_geometry(), HUSKY.mass_kg, 0.0, 1.0)
+    n = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m, HUSKY.mass_kg,
+                                 LOAD_TRANSFER["husky"].cog_height_m, 0.0, 50.0)
+    shift = HUSKY.mass_kg * LOAD_TRANSFER["husky"].cog_height_m * 50.0 / (4 * abs(layout.y_m[0]))
+    inner = 0.05 * w * 4 * w / (2 * 0.05 * w + 2 * (w + shift))
+    assert inner == pytest.approx(2.50, abs=0.01)
+    np.testing.assert_allclose(n[layout.y_m > 0], inner, rtol=1e-9)
