@@ -178,7 +178,7 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
     derivative at fixed rim speed ``w`` is ``-w sign(v) / v^2`` where the body speed sets the
     denominator (``|v| >= max(|w|, floor)``), ``-1 / den`` otherwise, and 0 where the slip is
     saturated. It is the contact-force Jacobian factor of the simulator
-    (:func:`terrain.sim.dynamics.contact_forces`).
+    (:func:`terrain.sim.forces.contact_forces`).
 
     Parameters
     ----------
