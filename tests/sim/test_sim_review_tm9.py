@@ -151,7 +151,6 @@ def test_a_lifting_wheel_keeps_five_percent_of_its_static_load():
     np.testing.assert_allclose(n[layout.y_m > 0], inner, rtol=1e-9)
 
 
-
 def test_a_step_longer_than_the_motor_lag_reaches_the_command_without_overshoot():
     # the speed loop is a first-order lag of 0.1 s (Husky) stepped with
     # alpha = min(1, dt / tau): a 0.2 s step lands on the command, it must not overshoot
