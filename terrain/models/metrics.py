@@ -8,6 +8,8 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score, recall_score
 
+from terrain.errors import ShapeError
+
 
 def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
                    classes: Sequence[str]) -> dict[str, float]:
@@ -87,7 +89,17 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
     -------
     float
         Correctly voted groups / groups, in [0, 1] (see :func:`majority_vote`).
+
+    Raises
+    ------
+    ShapeError
+        The three sequences not of one length (was pandas's bare "Length of values does
+        not match length of index").
     """
+    lengths = (len(y_true), len(y_pred), len(groups))
+    if len(set(lengths)) > 1:
+        raise ShapeError(f"run_majority_accuracy: y_true, y_pred and groups must hold one "
+                         f"entry per window, got lengths {lengths}")
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
     truth = truth[~truth.index.duplicated()]
     vote = majority_vote(y_pred, groups)

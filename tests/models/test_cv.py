@@ -9,7 +9,7 @@ from sklearn.model_selection import StratifiedKFold
 from sklearn.pipeline import Pipeline
 
 from features.windows import WindowConfig, WindowSet, make_windows
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.models.cv import (PAPER_RANDOM_STATE, cross_validate, grouped_units,
                                iter_splits, purge_block_overlaps, split_single_run_classes)
 from terrain.models.experiment import PAPER_WINDOW, ExperimentConfig, run_cv
@@ -241,6 +241,9 @@ def test_run_majority_accuracy_on_a_hand_example():
     assert vote.to_dict() == {"r1": "A", "r2": "A", "r3": "B"}
     assert run_majority_accuracy(y_true, y_pred, groups) == pytest.approx(1 / 3)
     assert run_majority_accuracy(y_true, y_true, groups) == 1.0
+    # one prediction short: pandas's bare "All arrays must be of the same length" before
+    with pytest.raises(ShapeError, match=r"lengths \(8, 7, 8\)"):
+        run_majority_accuracy(y_true, y_pred[:-1], groups)
 
 
 # --- cross_validate: planted effect and null case ----------------------------------------------
