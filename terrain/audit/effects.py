@@ -241,6 +241,8 @@ class EffectSettings:
         Practical floor of each effect's size below which it is not supported: relative
         change of chi against the replay's own chi, ``|bias_rad_s|`` (rad/s), ``|lag_s|``
         (s), ``fraction``, ``|k_a|`` (A), ``|offset_a|`` (A), ``|k_a_per_rad|`` (A/rad).
+        The tuple replaces the default as a whole: an effect left out of it has no floor
+        (any fitted size counts), so to change one floor give them all.
     min_rate_contrast : float
         The ``rate_dependent`` form is considered only where the immobile fraction above the
         threshold exceeds the one below by at least this much (sinkage grows with the slip
