@@ -11,6 +11,8 @@ stuck sensor) are :class:`DataWarning`: they say what the reader assumed and nev
 
 from __future__ import annotations
 
+import numpy as np
+
 
 class TerrainError(Exception):
     """Base class of every error raised on purpose by :mod:`terrain`."""
@@ -188,6 +190,35 @@ def duplicated(items) -> list:
     from collections import Counter
 
     return sorted(c for c, n in Counter(items).items() if n > 1)
+
+
+def holds_booleans(x) -> bool:
+    """Whether ``x`` is a boolean or holds booleans, where numbers are meant (``float(True)``
+    is 1: a mask passed by mistake became commands of 1 m/s or a unit covariance).
+
+    The one test behind the refusals of the traction step, the feed-forward, the EKF's inputs
+    and the simulator's commands (each raises its own typed error).
+
+    Parameters
+    ----------
+    x : object
+        A scalar, an array (anything with a ``dtype``: NumPy, pandas) or a list/tuple.
+
+    Returns
+    -------
+    bool
+        True for a Python or NumPy boolean, an array of boolean dtype, or a list/tuple that
+        converts to one; False otherwise (a ragged list included: its conversion names it).
+    """
+    dtype = getattr(x, "dtype", None)
+    if dtype is not None:
+        return dtype == bool
+    if isinstance(x, (list, tuple)):
+        try:
+            return np.asarray(x).dtype == bool
+        except (TypeError, ValueError):
+            return False
+    return isinstance(x, bool)
 
 
 class ConfigError(TerrainError, ValueError):

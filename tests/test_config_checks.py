@@ -78,3 +78,16 @@ def test_config_numbers_takes_real_scalars_and_optional_none():
     from terrain.errors import config_numbers
     config_numbers("StreamConfig", ("dwell_s",), hop_s=0.5, n=3, f=np.float32(1.5),
                    i=np.int16(2), zero_d=np.array(2.5), dwell_s=None)
+
+
+def test_holds_booleans_is_the_one_test_of_a_boolean_where_numbers_are_meant():
+    import pandas as pd
+
+    from terrain.errors import holds_booleans
+
+    for x in (True, np.bool_(False), np.array([True, False]), [True, False], (False,),
+              [[True], [False]], pd.Series([True, False])):
+        assert holds_booleans(x), x
+    for x in (1, 1.0, np.float64(2.0), np.ones(3), [1, 0], [], "True", None,
+              pd.Series([1.0]), [[1.0], [2.0, 3.0]]):   # the last one ragged
+        assert not holds_booleans(x), x

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
-                            config_numbers)
+                            config_numbers, holds_booleans)
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -171,7 +171,7 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
                           f"{accel_limit_m_s2}")
     for name, x in (("omega_low_level_rad_s", omega_low_level_rad_s),
                     ("v_est_m_s", v_est_m_s), ("v_ref_m_s", v_ref_m_s)):
-        if np.asarray(x).dtype == bool:   # a boolean command was 1 rad/s
+        if holds_booleans(x):   # a boolean command was 1 rad/s
             raise DataFormatError(f"feedforward_step: {name} must hold real numbers, got a "
                                   f"boolean {x!r:.60}", column=name)
     omega = np.asarray(omega_low_level_rad_s, dtype=float)

@@ -63,7 +63,7 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
-                            config_flags, config_integer, config_numbers)
+                            config_flags, config_integer, config_numbers, holds_booleans)
 from terrain.slip import sae_slip
 from terrain.vehicles import contact_geometry, get_vehicle
 
@@ -647,16 +647,7 @@ def _refuse_booleans(**inputs) -> None:
     boolean or holds booleans: ``float(True)`` is 1, so ``dt_s=True`` integrated over a whole
     second and a boolean array was a command of 1 rad/s."""
     for name, x in inputs.items():
-        if isinstance(x, np.ndarray):
-            boolean = x.dtype == bool
-        elif isinstance(x, (list, tuple)):
-            try:
-                boolean = np.asarray(x).dtype == bool
-            except (TypeError, ValueError):   # ragged: the conversion's error names it
-                continue
-        else:
-            boolean = isinstance(x, (bool, np.bool_))
-        if boolean:
+        if holds_booleans(x):
             raise DataFormatError(f"traction control step: {name} must hold real numbers, "
                                   f"got a boolean {x!r:.60}", column=name)
 

@@ -37,7 +37,8 @@ from scipy import stats
 from scipy.linalg import lapack
 
 from terrain.errors import (ConfigError, CovarianceError, EstimationError, NonFiniteInputError,
-                            ShapeError, TimeStepError, config_integer, config_numbers)
+                            ShapeError, TimeStepError, config_integer, config_numbers,
+                            holds_booleans)
 
 #: Relative tolerance of the symmetry check of a covariance matrix.
 SYMMETRY_RTOL = 1e-6
@@ -49,9 +50,7 @@ Residual = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 def _refuse_booleans(v: Any, name: str) -> None:
     """Refuse a boolean array or scalar (``np.asarray(mask, float)`` silently gave 0 and 1)."""
-    if isinstance(v, (bool, np.bool_)) or getattr(v, "dtype", None) == np.bool_ or (
-            isinstance(v, (list, tuple)) and v and all(isinstance(e, (bool, np.bool_))
-                                                       for e in v)):
+    if holds_booleans(v):
         raise EstimationError(f"{name} must hold numbers, got booleans: {v!r}")
 
 

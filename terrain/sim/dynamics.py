@@ -32,7 +32,7 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, TimeStepError,
-                            config_numbers)
+                            config_numbers, holds_booleans)
 from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
                                 SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
                                 check_physics, contact_forces,
@@ -332,7 +332,7 @@ def _refuse_booleans(name: str, values) -> None:
     ConfigError
         ``values`` is a boolean array (or a list of booleans), named.
     """
-    if np.asarray(values).dtype == bool:
+    if holds_booleans(values):
         raise ConfigError(f"{name} must hold numbers, got booleans")
 
 
