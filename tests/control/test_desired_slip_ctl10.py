@@ -1,0 +1,21 @@
+"""Review pass ctl10 of the desired-slip table's trust rules (terrain.control.desired_slip)."""
+
+from __future__ import annotations
+
+import pytest
+
+from terrain.control.desired_slip import FALLBACK_LABEL, build_slip_table, select_target
+
+
+@pytest.mark.parametrize("confidence, trusted", [
+    (0.6 + 0.3 + 0.1, True),      # a soft vote of certain members: 1 + 1 ulp, rounding
+    (1.0 + 1e-12, True),
+    (1.0 + 1e-6, False),          # no rounding: not a probability, the fallback
+    (1.001, False),
+])
+def test_only_rounding_above_one_is_a_trusted_confidence(confidence, trusted):
+    """CONFIDENCE_ROUNDING (1e-9) is the slack above 1 taken as float rounding; a confidence
+    1e-6 above 1 is no probability and gets the conservative fallback."""
+    table = build_slip_table(["ASPHALT", "ICE"])
+    got = select_target(table, "ASPHALT", confidence, 0.0)
+    assert got.terrain == ("ASPHALT" if trusted else FALLBACK_LABEL)

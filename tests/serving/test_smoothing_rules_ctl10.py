@@ -1,0 +1,52 @@
+"""Review pass ctl10 of the forward filter's skips and the live stuck-sensor rule."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from terrain.serving.smoothing import ForwardFilter, SmoothingConfig, predict_steps
+
+
+def test_one_class_filter_skips_without_dividing_by_zero():
+    """With one class the prediction has no other class to move to (lambda of
+    :func:`predict_steps` would divide by K - 1 = 0): p stays [1]."""
+    assert predict_steps(np.array([1.0]), 5, 0.0).tolist() == [1.0]
+    filt = ForwardFilter(1, 0.5, SmoothingConfig())
+    assert filt.update(np.array([1.0]))[0] == 0
+    filt.skip(7)
+    assert filt.p.tolist() == [1.0] and filt.current == 0
+
+
+def test_skipping_zero_hops_without_the_filter_keeps_the_last_probabilities():
+    """``skip(0)`` is no step at all: without the filter the last window's probabilities
+    stay (``skip(n >= 1)`` forgets them, as ``update(None)`` does)."""
+    filt = ForwardFilter(3, 0.5, SmoothingConfig(dwell_s=None))
+    q = np.array([0.7, 0.2, 0.1])
+    filt.update(q)
+    filt.skip(0)
+    np.testing.assert_array_equal(filt.p, q)
+    filt.skip(1)
+    np.testing.assert_allclose(filt.p, np.full(3, 1 / 3))
+
+
+def test_stuck_watch_counts_a_chunk_inside_the_stretch_sample_by_sample():
+    """A gyro stretch of exactly STUCK_MIN_SAMPLES (10) samples at 8 Hz (1.125 s >= 1 s) is
+    stuck; fed in chunks of two, whole chunks lie inside the stretch and each of their
+    samples counts (one short and the stretch would be missed)."""
+    from terrain.io.plausibility import STUCK_MIN_SAMPLES, stuck_stretches
+    from terrain.run import TIME
+    from terrain.serving.rules import StuckWatch
+
+    rng = np.random.default_rng(3)
+    n_before, n_after = 6, 6
+    t = np.arange(n_before + STUCK_MIN_SAMPLES + n_after) * 0.125
+    wx = rng.normal(size=len(t))
+    wx[n_before:n_before + STUCK_MIN_SAMPLES] = 0.25
+    values = wx[:, None]
+    want = stuck_stretches({"imu": pd.DataFrame({TIME: t, "wx": wx})})
+    assert want == {"imu.wx": [[t[n_before], t[n_before + STUCK_MIN_SAMPLES - 1]]]}
+    watch = StuckWatch("imu", ("wx",))
+    for a in range(0, len(t), 2):
+        watch.update(t[a:a + 2], values[a:a + 2])
+    assert [list(s) for s in watch.ended[0]] == want["imu.wx"]
