@@ -15,6 +15,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from terrain.errors import DataFormatError
 from terrain.io.plausibility import stuck_window_flags
 
 
@@ -129,7 +130,16 @@ def join_flags(*columns: Sequence[str]) -> list[str]:
     -------
     list of str
         ``(n_decisions,)`` joined flags.
+
+    Raises
+    ------
+    DataFormatError
+        Columns of different lengths (named): ``zip`` would drop the last decisions.
     """
+    lengths = [len(col) for col in columns]
+    if len(set(lengths)) > 1:
+        raise DataFormatError("join_flags needs one flag per decision in every column, got "
+                              f"columns of lengths {', '.join(map(str, lengths))}")
     return ["|".join(sorted({f for cell in cells for f in _flag_list(cell)}))
             for cells in zip(*columns)]
 
