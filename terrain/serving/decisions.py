@@ -165,7 +165,17 @@ def decisions_frame(decisions: Sequence[Decision], classes: Sequence[str]) -> pd
     pandas.DataFrame
         ``t_s, terrain, confidence, proba_<CLASS>..., target_slip_traction,
         target_slip_braking, target_slip_steady, window_age_s, flags``.
+
+    Raises
+    ------
+    DataFormatError
+        A decision whose ``proba`` does not hold one probability per class (named).
     """
+    for i, d in enumerate(decisions):
+        if np.size(d.proba) != len(classes):
+            raise DataFormatError(f"decisions_frame: decision {i} (t_s {d.t_s}) holds "
+                                  f"{np.size(d.proba)} probabilities for {len(classes)} "
+                                  f"class(es) {list(classes)!r:.200}")
     cols = (["t_s", "terrain", "confidence"] + [f"proba_{c}" for c in classes]
             + ["target_slip_traction", "target_slip_braking", "target_slip_steady",
                "window_age_s", "flags"])
