@@ -35,8 +35,11 @@ friction-peak rule.
 Fallback (:func:`select_target`): an unknown class, a decision below ``min_confidence``,
 older than ``max_decision_age_s`` or of a negative age gets the most conservative entry of
 the table: the smallest traction and steady targets and the braking target closest to zero
-over all classes, so the wheel never runs past the friction peak of any catalogued surface (on
-a deformable soil it then gives away pull, never stability).
+over the table's classes, so the wheel never runs past the friction peak of any surface in the
+table (on a deformable soil it then gives away pull, never stability). Only of those: a
+catalogue surface the table does not hold may peak lower (a table of ASPHALT and SNOW falls
+back to 0.100 traction slip, past PACKED_SNOW's peak at 0.060); the classifier's table holds
+ICE, whose targets are the fallback.
 """
 
 from __future__ import annotations

@@ -19,3 +19,15 @@ def test_only_rounding_above_one_is_a_trusted_confidence(confidence, trusted):
     table = build_slip_table(["ASPHALT", "ICE"])
     got = select_target(table, "ASPHALT", confidence, 0.0)
     assert got.terrain == ("ASPHALT" if trusted else FALLBACK_LABEL)
+
+
+def test_the_fallback_is_the_most_conservative_entry_of_the_table_only():
+    """The fallback is taken over the table's classes, not the whole catalogue: a table of
+    ASPHALT and SNOW falls back to ASPHALT's traction and braking targets, past the friction
+    peak of PACKED_SNOW (0.060), a surface it does not hold."""
+    from terrain.terramechanics import get_terrain, traction_peak
+
+    table = build_slip_table(["ASPHALT", "SNOW"])
+    assert (table.fallback.traction, table.fallback.braking) == (
+        table.entries["ASPHALT"].traction, table.entries["ASPHALT"].braking)
+    assert table.fallback.traction > traction_peak(get_terrain("PACKED_SNOW").curve).slip
