@@ -184,9 +184,23 @@ def classifier_classes(measured: Sequence[str]) -> tuple[str, ...]:
     -------
     tuple of str
         Sorted measured classes, then the thesis classes not already among them.
+
+    Raises
+    ------
+    ConfigError
+        ``measured`` one class name (text) instead of a sequence of them.
     """
+    _refuse_one_name(measured, "classifier_classes")
     upper = sorted({str(c).upper() for c in measured})
     return tuple(upper) + tuple(c for c in THESIS_CLASSES if c not in upper)
+
+
+def _refuse_one_name(classes, owner: str) -> None:
+    """A :class:`ConfigError` for one class name (text, bytes) where a sequence is meant:
+    iterated, it would be read as one class per letter."""
+    if isinstance(classes, (str, bytes)):
+        raise ConfigError(f"{owner} needs a sequence of class names, got one name "
+                          f"{classes!r:.60}")
 
 
 def _basis(terrain: TerrainParams) -> str:
@@ -322,8 +336,10 @@ def build_slip_table(classes: Sequence[str],
     Raises
     ------
     ConfigError
-        A class missing from the catalogue (the message lists the valid ones).
+        A class missing from the catalogue (the message lists the valid ones), or
+        ``classes`` one class name (text) instead of a sequence of them.
     """
+    _refuse_one_name(classes, "build_slip_table")
     missing = [c for c in classes if str(c).upper() not in TERRAIN_NAMES]
     if missing:
         raise ConfigError(f"no desired slip for class(es) {missing}: a target comes from the "

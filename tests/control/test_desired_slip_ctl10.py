@@ -31,3 +31,19 @@ def test_the_fallback_is_the_most_conservative_entry_of_the_table_only():
     assert (table.fallback.traction, table.fallback.braking) == (
         table.entries["ASPHALT"].traction, table.entries["ASPHALT"].braking)
     assert table.fallback.traction > traction_peak(get_terrain("PACKED_SNOW").curve).slip
+
+
+def test_one_class_name_is_not_a_sequence_of_letters():
+    """``classifier_classes("ICE")`` returned ('C', 'E', 'I', 'TILES', 'GRASS', 'GRAVEL')
+    silently, and ``build_slip_table("ICE")`` complained of classes 'I', 'C', 'E'; both now
+    refuse one name where a sequence of names is meant."""
+    from terrain.control.desired_slip import classifier_classes
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="sequence of class names.*'ICE'"):
+        classifier_classes("ICE")
+    with pytest.raises(ConfigError, match="sequence of class names.*'ICE'"):
+        build_slip_table("ICE")
+    assert classifier_classes(["ice", "ASPHALT"]) == ("ASPHALT", "ICE", "TILES", "GRASS",
+                                                      "GRAVEL")
+    assert list(build_slip_table(("ice",)).entries) == ["ICE"]
