@@ -228,7 +228,19 @@ def desired_slip(terrain: TerrainParams, config: DesiredSlipConfig = DesiredSlip
     Returns
     -------
     DesiredSlip
+
+    Raises
+    ------
+    ConfigError
+        ``terrain`` not a :class:`TerrainParams` (a name: pass ``get_terrain(name)``) or
+        ``config`` not a :class:`DesiredSlipConfig`.
     """
+    if not isinstance(terrain, TerrainParams):
+        raise ConfigError(f"desired_slip needs a catalogue entry (TerrainParams, "
+                          f"get_terrain(name)), got {type(terrain).__name__} {terrain!r:.60}")
+    if not isinstance(config, DesiredSlipConfig):
+        raise ConfigError(f"desired_slip config must be a DesiredSlipConfig, got "
+                          f"{type(config).__name__}")
     curve = terrain.curve
     braking_peak = slip_at_peak_fraction(curve, config.braking_fraction)
     head = terrain.source.split(";")[0]
@@ -336,8 +348,9 @@ def build_slip_table(classes: Sequence[str],
     Raises
     ------
     ConfigError
-        A class missing from the catalogue (the message lists the valid ones), or
-        ``classes`` one class name (text) instead of a sequence of them.
+        A class missing from the catalogue (the message lists the valid ones),
+        ``classes`` one class name (text) instead of a sequence of them, or ``config`` not a
+        :class:`DesiredSlipConfig` (:func:`desired_slip`).
     """
     _refuse_one_name(classes, "build_slip_table")
     missing = [c for c in classes if str(c).upper() not in TERRAIN_NAMES]

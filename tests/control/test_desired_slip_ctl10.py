@@ -47,3 +47,18 @@ def test_one_class_name_is_not_a_sequence_of_letters():
     assert classifier_classes(["ice", "ASPHALT"]) == ("ASPHALT", "ICE", "TILES", "GRASS",
                                                       "GRAVEL")
     assert list(build_slip_table(("ice",)).entries) == ["ICE"]
+
+
+def test_a_config_or_terrain_of_the_wrong_type_is_a_config_error():
+    """``build_slip_table(classes, None)`` (TableTargets takes None for the defaults) raised
+    AttributeError 'NoneType' object has no attribute 'braking_fraction', and
+    ``desired_slip("ICE")`` 'str' object has no attribute 'curve'."""
+    from terrain.control.desired_slip import desired_slip
+    from terrain.errors import ConfigError
+    from terrain.terramechanics import get_terrain
+
+    with pytest.raises(ConfigError, match="DesiredSlipConfig.*NoneType"):
+        build_slip_table(["ICE"], None)
+    with pytest.raises(ConfigError, match="TerrainParams.*get_terrain.*'ICE'"):
+        desired_slip("ICE")
+    assert desired_slip(get_terrain("ICE")).terrain == "ICE"
