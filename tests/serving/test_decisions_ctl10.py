@@ -30,3 +30,15 @@ def test_decisions_frame_refuses_probabilities_of_another_class_count():
         decisions_frame([_decision([1.0]), _decision([0.9, 0.1])], ["ASPHALT"])
     frame = decisions_frame([_decision([0.9, 0.1])], ["ASPHALT", "ICE"])
     assert frame["proba_ICE"].tolist() == [0.1]
+
+
+def test_a_missing_flag_cell_read_back_from_csv_is_no_flag():
+    """pandas reads an empty flags cell of a decisions CSV as NaN: no flag, never 'nan'."""
+    import io
+
+    import pandas as pd
+
+    back = pd.read_csv(io.StringIO("t_s,flags\n0.5,\n1.0,gap\n"))
+    assert np.isnan(back["flags"][0])
+    assert join_flags(back["flags"], ["stale", ""]) == ["stale", "gap"]
+    assert join_flags([np.float64("nan")], [None]) == [""]
