@@ -62,3 +62,21 @@ def test_a_config_or_terrain_of_the_wrong_type_is_a_config_error():
     with pytest.raises(ConfigError, match="TerrainParams.*get_terrain.*'ICE'"):
         desired_slip("ICE")
     assert desired_slip(get_terrain("ICE")).terrain == "ICE"
+
+
+def test_method_says_capped_only_where_the_cap_binds_and_reads_calibration_from_the_source():
+    """``(capped)`` marks a deformable soil whose efficiency optimum lies above the cap
+    (SNOW 0.460), not one below it (UNPLOUGHED 0.118); a catalogue source whose first part
+    says CALIBRATED is 'calibrated' even when its curve's own source does not say so."""
+    import dataclasses
+
+    from terrain.control.desired_slip import desired_slip
+    from terrain.terramechanics import get_terrain
+
+    assert "at 0.460 (capped)" in desired_slip(get_terrain("SNOW")).method
+    assert "(capped)" not in desired_slip(get_terrain("UNPLOUGHED")).method
+    grass = get_terrain("GRASS")
+    assert "CALIBRATED" in grass.source.split(";")[0]
+    plain_curve = dataclasses.replace(grass, curve=dataclasses.replace(grass.curve,
+                                                                       source="Janosi"))
+    assert desired_slip(plain_curve).method.endswith("[calibrated]")

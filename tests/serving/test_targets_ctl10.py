@@ -1,0 +1,27 @@
+"""Review pass ctl10 of the target providers (terrain.serving.targets)."""
+
+from __future__ import annotations
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.serving.targets import CataloguePeakTargets, TableTargets
+
+
+def test_table_targets_fallback_attribute_is_what_it_answers_untrusted_decisions():
+    """``TableTargets.fallback`` is the table's conservative row, steady target included:
+    over SNOW and GRASS the smallest steady slip is GRASS's 0.125, not 0."""
+    targets = TableTargets(["SNOW", "GRASS"])
+    assert targets.fallback == targets.target_for(None, 1.0, False)
+    assert targets.fallback == targets.target_for("SNOW", 0.1, False)
+    assert targets.fallback.steady == pytest.approx(0.1253, abs=1e-4)
+
+
+@pytest.mark.parametrize("provider", [CataloguePeakTargets, TableTargets])
+@pytest.mark.parametrize("classes, message", [
+    ("ICE", "needs a sequence of class names, got str 'ICE'"),
+    (["ICE", 2], r"class names must be text, got \('ICE', 2\)"),
+])
+def test_providers_name_a_class_list_that_is_not_text_labels(provider, classes, message):
+    with pytest.raises(ConfigError, match=f"{provider.__name__} {message}"):
+        provider(classes)
