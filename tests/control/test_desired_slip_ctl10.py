@@ -80,3 +80,21 @@ def test_method_says_capped_only_where_the_cap_binds_and_reads_calibration_from_
     plain_curve = dataclasses.replace(grass, curve=dataclasses.replace(grass.curve,
                                                                        source="Janosi"))
     assert desired_slip(plain_curve).method.endswith("[calibrated]")
+
+
+def test_gravel_is_the_fourth_janosi_soil_the_cap_binds_on():
+    """docs/control_validation.md's soft-soil table: GRAVEL (Janosi, calibrated) has its
+    efficiency optimum at 0.379 (eta 0.318), 0.364 without the hysteresis term, 0.143
+    without the soil resistance; its traction target is the 0.30 cap."""
+    from dataclasses import replace
+
+    from terrain.control.desired_slip import desired_slip
+    from terrain.terramechanics import get_terrain
+    from terrain.terramechanics.efficiency import max_tractive_efficiency
+
+    gravel = get_terrain("GRAVEL")
+    s_best, eta = max_tractive_efficiency(gravel)
+    assert (round(s_best, 3), round(eta, 3)) == (0.379, 0.318)
+    assert round(max_tractive_efficiency(replace(gravel, hysteresis=0.0))[0], 3) == 0.364
+    assert round(max_tractive_efficiency(replace(gravel, soil_resistance=0.0))[0], 3) == 0.143
+    assert desired_slip(gravel).traction == 0.30
