@@ -172,8 +172,9 @@ class ForwardFilter:
     Raises
     ------
     ConfigError
-        ``n_classes`` not an integer >= 1, or ``hop_s`` not a finite number > 0 (a hop of 0
-        never leaves the first class, a negative one gives negative probabilities).
+        ``n_classes`` not an integer >= 1, ``hop_s`` not a finite number > 0 (a hop of 0
+        never leaves the first class, a negative one gives negative probabilities), or
+        ``config`` not a :class:`SmoothingConfig`.
 
     Attributes
     ----------
@@ -185,6 +186,9 @@ class ForwardFilter:
     def __init__(self, n_classes: int, hop_s: float, config: SmoothingConfig) -> None:
         config_integer("n_classes", n_classes, 1)
         config_positive("ForwardFilter", hop_s=hop_s)
+        if not isinstance(config, SmoothingConfig):
+            raise ConfigError("ForwardFilter config must be a SmoothingConfig, got "
+                              f"{type(config).__name__}")
         self.config = config
         # a dwell under K/(K-1) hops is no memory (a uniform prior), not a push away from
         # the last terrain (lam of predict_steps would turn negative)

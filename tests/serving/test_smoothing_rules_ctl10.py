@@ -50,3 +50,15 @@ def test_stuck_watch_counts_a_chunk_inside_the_stretch_sample_by_sample():
     for a in range(0, len(t), 2):
         watch.update(t[a:a + 2], values[a:a + 2])
     assert [list(s) for s in watch.ended[0]] == want["imu.wx"]
+
+
+def test_a_filter_without_a_smoothing_config_is_a_config_error():
+    """``ForwardFilter(3, 0.5, None)`` raised AttributeError 'NoneType' object has no
+    attribute 'dwell_s' (a dict of settings the same)."""
+    import pytest
+
+    from terrain.errors import ConfigError
+
+    for config in (None, {"dwell_s": 5.0}):
+        with pytest.raises(ConfigError, match="SmoothingConfig"):
+            ForwardFilter(3, 0.5, config)
