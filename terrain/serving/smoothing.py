@@ -224,12 +224,18 @@ class ForwardFilter:
         ------
         DataFormatError
             ``q`` not of shape ``(K,)`` (a ``(1, K)`` row broadcast into a 2-D ``p``, a
-            scalar into a decided class 0; nothing is folded in).
+            scalar into a decided class 0) or not real numbers (booleans: a mask read as
+            certainty; text); nothing is folded in.
         """
-        if q is not None and np.shape(q) != self.p.shape:
-            raise DataFormatError(f"ForwardFilter.update: q must be the {self.p.shape} "
-                                  f"probabilities of the filter's {len(self.p)} classes, "
-                                  f"got shape {np.shape(q)}")
+        if q is not None:
+            q = np.asarray(q)
+            if q.shape != self.p.shape:
+                raise DataFormatError(f"ForwardFilter.update: q must be the {self.p.shape} "
+                                      f"probabilities of the filter's {len(self.p)} classes, "
+                                      f"got shape {q.shape}")
+            if q.dtype.kind not in "fiu":
+                raise DataFormatError("ForwardFilter.update: q must be real numbers "
+                                      f"(probabilities), got dtype {q.dtype}")
         # the one finiteness test of a window's probabilities (the service reads evidence)
         if q is not None and not np.isfinite(q).all():
             q = None

@@ -62,3 +62,23 @@ def test_a_filter_without_a_smoothing_config_is_a_config_error():
     for config in (None, {"dwell_s": 5.0}):
         with pytest.raises(ConfigError, match="SmoothingConfig"):
             ForwardFilter(3, 0.5, config)
+
+
+def test_a_window_of_booleans_or_text_is_refused_not_read_as_probabilities():
+    """A boolean mask passed as a window's probabilities was read as certainty
+    ([True, False, False] decided class 0 at 0.98); text raised numpy's bare 'ufunc isfinite
+    not supported'. Both are DataFormatErrors naming the dtype, with or without the filter,
+    and nothing is folded in."""
+    import pytest
+
+    from terrain.errors import DataFormatError
+
+    for config in (SmoothingConfig(), SmoothingConfig(dwell_s=None)):
+        filt = ForwardFilter(3, 0.5, config)
+        for q in (np.array([True, False, False]), [False, True, False],
+                  np.array(["0.2", "0.3", "0.5"])):
+            with pytest.raises(DataFormatError, match=r"real numbers.*(bool|<U3)"):
+                filt.update(q)
+        np.testing.assert_array_equal(filt.p, np.full(3, 1 / 3))
+        assert filt.current is None
+        assert filt.update([0, 1, 0])[0] == 1     # integers are numbers
