@@ -196,10 +196,16 @@ def check_provider(targets, classes: Sequence[str], min_confidence: float) -> No
     Raises
     ------
     ConfigError
-        The provider's ``min_confidence`` above the service's, or a model class missing
-        from the provider's ``classes`` (both named).
+        The provider's ``min_confidence`` not a number in [0, 1] (NaN: every decision gets
+        the fallback) or above the service's, or a model class missing from the provider's
+        ``classes`` (each named).
     """
     floor = getattr(targets, "min_confidence", None)
+    if floor is not None:
+        owner = type(targets).__name__
+        config_numbers(owner, min_confidence=floor)
+        if not 0.0 <= float(floor) <= 1.0:
+            raise ConfigError(f"{owner}.min_confidence must be in [0, 1], got {floor}")
     if floor is not None and float(floor) > float(min_confidence):
         raise ConfigError(f"{type(targets).__name__}.min_confidence {float(floor):g} is above "
                           f"the service's min_confidence {float(min_confidence):g}: decisions "

@@ -25,3 +25,27 @@ def test_table_targets_fallback_attribute_is_what_it_answers_untrusted_decisions
 def test_providers_name_a_class_list_that_is_not_text_labels(provider, classes, message):
     with pytest.raises(ConfigError, match=f"{provider.__name__} {message}"):
         provider(classes)
+
+
+class _Custom:
+    """A robot's own provider with a threshold of its own."""
+
+    classes = ("ASPHALT", "ICE")
+
+    def __init__(self, floor):
+        self.min_confidence = floor
+
+    def target_for(self, terrain, confidence, stale):
+        return (0.1, -0.1, 0.0) if confidence >= self.min_confidence else (0.01, -0.01, 0.0)
+
+
+@pytest.mark.parametrize("floor", [float("nan"), "high", False, -0.1])
+def test_check_provider_refuses_a_provider_threshold_that_is_not_a_number(floor):
+    """A provider whose min_confidence is NaN answers every decision with its fallback
+    (``c >= nan`` is false) and passed the check (``nan > 0.5`` is false too); text raised
+    a bare ValueError from float(), a boolean passed as 1 or 0, a negative one as no floor."""
+    from terrain.serving.targets import check_provider
+
+    with pytest.raises(ConfigError, match=r"_Custom\.min_confidence"):
+        check_provider(_Custom(floor), ("ASPHALT",), 0.5)
+    check_provider(_Custom(0.5), ("ASPHALT",), 0.5)
