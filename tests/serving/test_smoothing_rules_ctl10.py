@@ -82,3 +82,26 @@ def test_a_window_of_booleans_or_text_is_refused_not_read_as_probabilities():
         np.testing.assert_array_equal(filt.p, np.full(3, 1 / 3))
         assert filt.current is None
         assert filt.update([0, 1, 0])[0] == 1     # integers are numbers
+
+
+def test_forward_step_is_rabiners_recursion_with_a_row_stochastic_transition_matrix():
+    """Rabiner (1989) eq. 20 normalised: ``alpha_k ∝ (alpha_{k-1} A) * b_k`` with
+    ``A = (1 - p) I + p (J - I) / (K - 1)`` (rows sum to 1) and ``b = max(q, floor)**power``;
+    :func:`predict_steps` is ``p A**n``; every filtered distribution sums to 1."""
+    from terrain.serving.smoothing import PROBA_FLOOR, forward_step
+
+    rng = np.random.default_rng(7)
+    for k in (2, 3, 5):
+        for p_switch in (0.0, 0.05, (k - 1) / k):
+            a = (1 - p_switch) * np.eye(k) + p_switch * (1 - np.eye(k)) / (k - 1)
+            np.testing.assert_allclose(a.sum(axis=1), 1.0)
+            p = rng.dirichlet(np.ones(k))
+            for _ in range(20):
+                q = rng.dirichlet(np.ones(k) * 0.3)
+                alpha = (p @ a) * np.maximum(q, PROBA_FLOOR) ** 0.5
+                got = forward_step(p, q, p_switch, 0.5)
+                np.testing.assert_allclose(got, alpha / alpha.sum(), rtol=1e-12)
+                assert abs(got.sum() - 1.0) < 1e-12
+                p = got
+            np.testing.assert_allclose(predict_steps(p, 6, p_switch),
+                                       p @ np.linalg.matrix_power(a, 6), atol=1e-12)
