@@ -302,8 +302,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         ------
         ConfigError
             A wheel channel is missing from ``channels`` or named twice there (the
-            channels are read by position), ``rate_hz`` not a finite number > 0, or
-            ``short_s`` not a finite number (text, a bool, NaN, inf) or None.
+            channels are read by position), ``rate_hz``, ``track_m`` or ``ridge`` not a
+            finite number > 0 (text and bools refused), or ``short_s`` not a finite number
+            (text, a bool, NaN, inf) or None.
         ValueError
             ``X`` not of 3 dimensions, of another number of channels than ``channels``, of 0
             windows or of windows of 0 samples.
@@ -317,8 +318,10 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         # they set the scales' sample counts and names (True was a 1 s scale, "__last1s")
         config_numbers("WheelPhysicsFeatures", optional=("short_s",), rate_hz=self.rate_hz,
                        short_s=self.short_s)
-        # (NaN or inf failed in int(round(...)) naming no field; a rate <= 0 passed fit)
-        config_positive("WheelPhysicsFeatures", rate_hz=self.rate_hz)
+        # (NaN or inf failed in int(round(...)) naming no field; a rate, track or ridge
+        # <= 0 passed fit and was refused only at transform, by physics_features)
+        config_positive("WheelPhysicsFeatures", rate_hz=self.rate_hz, track_m=self.track_m,
+                        ridge=self.ridge)
         if self.short_s is not None and not np.isfinite(self.short_s):
             raise ConfigError(f"WheelPhysicsFeatures.short_s must be a finite number of "
                               f"seconds or None, got {self.short_s!r}")
