@@ -403,10 +403,14 @@ def as_windows(X, channels: Sequence[str]) -> np.ndarray:
     Raises
     ------
     ValueError
-        ``X`` not of 3 dimensions, of another number of channels than ``channels``, or of 0
-        windows.
+        ``X`` not of real numbers (booleans, text, complex: a conversion to float made a
+        mask samples of 0 and 1, parsed text and dropped imaginary parts), not of 3
+        dimensions, of another number of channels than ``channels``, or of 0 windows.
     """
-    X = np.asarray(X, dtype=float)
+    X = np.asarray(X)
+    if X.dtype.kind not in "iufO":     # (object: a pandas or mixed array, converted below)
+        raise ValueError(f"X must hold real numbers (signal samples), got dtype {X.dtype}")
+    X = X.astype(float, copy=False)
     if X.ndim != 3 or X.shape[1] != len(channels):
         raise ValueError(f"expected X of shape (n_windows, {len(channels)}, n_samples), "
                          f"got {X.shape}")
