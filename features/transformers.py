@@ -14,7 +14,8 @@ from sklearn.pipeline import FeatureUnion
 from sklearn.utils.validation import check_is_fitted
 
 from features import calculators
-from features.windows import ALL_CHANNELS, as_windows, refuse_non_finite
+from features.windows import (ALL_CHANNELS, as_windows, refuse_changed_layout,
+                              refuse_non_finite)
 from terrain.errors import ConfigError, config_positive, duplicated, first_items
 from terrain.run import IMU_CHANNELS
 
@@ -110,6 +111,13 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         refuse_non_finite(X, self.channels)
         return X
 
+    def _layout(self) -> tuple:
+        """The settings that fix the output columns and the FFT helpers, comparably."""
+        bands = None if self.bands_hz is None else tuple(tuple(b) for b in self.bands_hz)
+        return (("channels", tuple(self.channels)), ("stats", tuple(self.stats)),
+                ("rate_hz", self.rate_hz), ("bands_hz", bands),
+                ("band_width_hz", self.band_width_hz))
+
     def _cross_terms(self) -> list[tuple[str, tuple[str, str]]]:
         ch = set(self.channels)
         terms = [(f"{c}__per_speed", (c, v)) for c, v in (("cur_l", "vel_l"), ("cur_r", "vel_r"))
@@ -132,8 +140,9 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Returns
         -------
         WindowFeatures
-            ``self``, with ``feature_names_out_``, ``bands_`` (Hz), ``n_samples_in_`` and the
-            FFT helpers ``taper_`` / ``band_weights_`` of that window length set.
+            ``self``, with ``feature_names_out_``, ``bands_`` (Hz), ``n_samples_in_``, the
+            FFT helpers ``taper_`` / ``band_weights_`` of that window length and
+            ``layout_`` (the settings they were made with) set.
 
         Raises
         ------
@@ -178,6 +187,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         self.taper_ = calculators.hann_taper(self.n_samples_in_)
         self.band_weights_ = weights
         self.feature_names_out_ = np.asarray(names, dtype=object)
+        self.layout_ = self._layout()
         return self
 
     def transform(self, X: np.ndarray) -> np.ndarray:
@@ -198,12 +208,15 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         sklearn.exceptions.NotFittedError
-            ``fit`` has not been called.
+            ``fit`` has not been called, or ``channels``, ``stats``, ``rate_hz``,
+            ``bands_hz`` or ``band_width_hz`` were changed since (the columns would no
+            longer be the names fixed at fit).
         ValueError
             ``X`` of the wrong shape, of 0 windows, of windows of fewer than 2 samples, or
             non-finite.
         """
         check_is_fitted(self, "feature_names_out_")
+        refuse_changed_layout(self)
         X = self._check(X)
         parts = [calculators.statistics(X, self.stats).reshape(len(X), -1)]
         imu = [i for i, c in enumerate(self.channels) if c in IMU_CHANNELS]

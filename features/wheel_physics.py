@@ -34,7 +34,8 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from features.calculators import quantile_sorted
-from features.windows import HUSKY_TRACK_M, as_windows, refuse_non_finite
+from features.windows import (HUSKY_TRACK_M, as_windows, refuse_changed_layout,
+                              refuse_non_finite)
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
                             config_positive, duplicated, first_items)
 from terrain.run import WHEEL_CHANNELS
@@ -283,6 +284,10 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
                 scales.append((f"__last{self.short_s:g}s", m))
         return scales
 
+    def _layout(self) -> tuple:
+        """The settings that fix the output columns (the time scales and their names)."""
+        return (("rate_hz", self.rate_hz), ("short_s", self.short_s))
+
     def fit(self, X: np.ndarray, y: np.ndarray | None = None) -> "WheelPhysicsFeatures":
         """Check the channels and fix the output names. Returns self.
 
@@ -296,7 +301,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Returns
         -------
         WheelPhysicsFeatures
-            ``self``, with ``feature_names_out_`` and ``n_samples_in_`` set.
+            ``self``, with ``feature_names_out_``, ``n_samples_in_`` and ``layout_`` (the
+            ``rate_hz`` and ``short_s`` that fixed the names) set.
 
         Raises
         ------
@@ -332,6 +338,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
              for f in PHYSICS_FEATURES], dtype=object)
         self.n_samples_in_ = X.shape[2]
+        self.layout_ = self._layout()
         return self
 
     def transform(self, X: np.ndarray) -> np.ndarray:
@@ -354,8 +361,12 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             than at fit, of 0 windows, or non-finite.
         ConfigError
             A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
+        sklearn.exceptions.NotFittedError
+            ``fit`` has not been called, or ``rate_hz`` or ``short_s`` were changed since
+            (they fixed the time scales and the names).
         """
         check_is_fitted(self, "feature_names_out_")
+        refuse_changed_layout(self)
         X = as_windows(X, self.channels)
         if X.shape[2] != self.n_samples_in_:
             raise ValueError(f"expected windows of {self.n_samples_in_} samples, got {X.shape}")

@@ -420,6 +420,38 @@ def as_windows(X, channels: Sequence[str]) -> np.ndarray:
     return X
 
 
+def refuse_changed_layout(transformer) -> None:
+    """Refuse to transform after a setting that fixed the output columns was changed.
+
+    A feature transformer fixes its output names at ``fit`` from some of its settings; a
+    ``set_params`` after ``fit`` changed the columns ``transform`` builds but not the names
+    (``stats=("mean",)``: 22 columns under 36 names). Transformers fitted before
+    ``layout_`` existed are not checked.
+
+    Parameters
+    ----------
+    transformer : object
+        A fitted transformer with ``_layout()`` (``(setting, value)`` pairs) and the
+        ``layout_`` that ``fit`` stored.
+
+    Raises
+    ------
+    sklearn.exceptions.NotFittedError
+        A setting differs from its value at ``fit``; the message names it.
+    """
+    fitted = getattr(transformer, "layout_", None)
+    if fitted is None:
+        return
+    now = transformer._layout()
+    if now != fitted:
+        from sklearn.exceptions import NotFittedError
+
+        changed = [name for (name, a), (_, b) in zip(now, fitted) if a != b]
+        raise NotFittedError(f"{type(transformer).__name__}: settings {listed(changed)} "
+                             "changed since fit, which fixed the output columns from them; "
+                             "fit again")
+
+
 def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:
     """Refuse windows holding NaN or inf, naming the channels and the first windows.
 

@@ -103,3 +103,45 @@ def test_serial_feature_union_hands_parallel_settings_to_feature_union(monkeypat
         out = union.transform(X)
         assert calls == ([] if n_jobs in (None, 1) else [n_jobs])
         np.testing.assert_array_equal(out, WheelPhysicsFeatures(short_s=None).fit_transform(X))
+
+
+@pytest.mark.parametrize("make, change", [
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")), {"stats": ("mean",)}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")),
+     {"stats": tuple(reversed(WindowFeatures().stats))}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")),
+     {"channels": ("ax", "wz", "cur_l", "vel_l")}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")), {"band_width_hz": 5.0}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")), {"rate_hz": 100.0}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")),
+     {"bands_hz": ((1.0, 2.0),)}),
+    (lambda: WheelPhysicsFeatures(), {"short_s": 1.0}),
+    (lambda: WheelPhysicsFeatures(), {"rate_hz": 20.0}),
+])
+def test_settings_changed_after_fit_are_refused_until_refit(make, change):
+    """transform built its columns from the current settings while get_feature_names_out
+    kept those fixed at fit: set_params(stats=('mean',)) after fit gave 22 columns under 36
+    names, reversed statistics or swapped channels the same count under the wrong names,
+    and WheelPhysicsFeatures' short_s 1 s its last 10 samples under '__last2s' names,
+    without a word. A transform after such a change is refused, naming the setting; a refit
+    takes it."""
+    from sklearn.exceptions import NotFittedError
+
+    X = np.random.default_rng(2).standard_normal((3, 4, 40)) + 1.0
+    fx = make().fit(X)
+    fx.set_params(**change)
+    with pytest.raises(NotFittedError, match=f"{next(iter(change))}.*fit again"):
+        fx.transform(X)
+    F = fx.fit(X).transform(X)
+    assert F.shape == (3, len(fx.get_feature_names_out()))
+    np.testing.assert_array_equal(F, make().set_params(**change).fit_transform(X))
+
+
+def test_settings_left_as_they_were_fitted_keep_transforming():
+    X = np.random.default_rng(3).standard_normal((3, 4, 40))
+    for fx in (WindowFeatures(channels=["wz", "ax", "cur_l", "vel_l"], stats=["mean", "std"],
+                              bands_hz=[[1.0, 2.0], [2.0, 5.0]]),
+               WheelPhysicsFeatures(channels=list(WheelPhysicsFeatures().channels))):
+        F = fx.fit(X).transform(X)
+        fx.set_params(**fx.get_params())           # the same values, new objects
+        np.testing.assert_array_equal(fx.transform(X), F)

@@ -27,11 +27,16 @@ def test_a_refused_refit_keeps_the_previous_fit_whole(bad):
     X = _windows()
     fx = WindowFeatures(channels=CHANNELS, rate_hz=50.0, stats=("mean",)).fit(X)
     names, F = fx.get_feature_names_out(), fx.transform(X)
+    before = fx.get_params()
     fx.set_params(**bad)
     with pytest.raises(ConfigError):
         fx.fit(X)
     np.testing.assert_array_equal(fx.get_feature_names_out(), names)
-    np.testing.assert_array_equal(fx.transform(X), F)
+    # the settings now differ from the fitted ones: transform refuses them (ftr10) ...
+    with pytest.raises(NotFittedError, match=r"settings \['bands_hz'\] changed since fit"):
+        fx.transform(X)
+    # ... and the previous fit, whole, transforms under its own settings
+    np.testing.assert_array_equal(fx.set_params(**before).transform(X), F)
 
 
 def test_a_refused_first_fit_leaves_the_transformer_unfitted():
