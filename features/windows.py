@@ -20,8 +20,8 @@ import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
-from terrain.errors import (ConfigError, config_numbers, config_positive, duplicated,
-                            first_items, listed)
+from terrain.errors import (ConfigError, config_flags, config_numbers, config_positive,
+                            duplicated, first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, get_vehicle
@@ -248,7 +248,8 @@ class WindowConfig:
         positive number, ``partition_s`` shorter than ``window_s``, a window of fewer than
         4 or more than :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample
         (window starts and lengths are rounded to whole samples), or a steady-motion
-        threshold that is not a finite number >= 0 (NaN made every window unsteady).
+        threshold that is not a finite number >= 0 (NaN made every window unsteady), or a
+        ``steady_only`` that is not True or False (text, a number, None).
     """
 
     window_s: float = 2.0
@@ -284,6 +285,8 @@ class WindowConfig:
             raise ConfigError("a window must hold at least 4 samples")
         config_positive("WindowConfig", allow_zero=True, min_speed_m_s=self.min_speed_m_s,
                         max_speed_std_m_s=self.max_speed_std_m_s)
+        # read by truthiness, the text "no" of a config file turned the filter on
+        config_flags("WindowConfig", steady_only=self.steady_only)
 
     @property
     def n_samples(self) -> int:

@@ -145,3 +145,15 @@ def test_settings_left_as_they_were_fitted_keep_transforming():
         F = fx.fit(X).transform(X)
         fx.set_params(**fx.get_params())           # the same values, new objects
         np.testing.assert_array_equal(fx.transform(X), F)
+
+
+@pytest.mark.parametrize("value", ["no", "False", 1, 0, None, np.array([True])])
+def test_a_steady_only_switch_that_is_not_a_boolean_is_refused(value):
+    # read by truthiness, the text "no" (or "False") of a config file turned the
+    # steady-motion filter on, and dropped every window under 0.1 m/s without a word
+    from features.windows import WindowConfig
+
+    with pytest.raises(ConfigError, match="WindowConfig.steady_only must be True or False"):
+        WindowConfig(steady_only=value)
+    assert WindowConfig(steady_only=np.bool_(True)).steady_only
+    assert not WindowConfig(steady_only=False).steady_only
