@@ -542,6 +542,10 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     ConfigError
         ``config.steady_only`` and the frame has no ``vel_l`` or ``vel_r`` column.
     """
+    missing = sorted({"vel_l", "vel_r"} - set(frame.columns)) if config.steady_only else []
+    if missing:     # (checked before a frame shorter than one window returns)
+        raise ConfigError(f"steady_only needs the wheel speeds; the frame has no "
+                          f"{missing} column(s)")
     n, hop = config.n_samples, config.hop_samples
     values = frame[list(channels)].to_numpy(dtype=float)
     t = frame[TIME].to_numpy()
@@ -575,10 +579,6 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     counts["dropped_gap"] = int((~keep & ~empty).sum())
     counts["empty_gap"] = int(empty.sum())
     if config.steady_only:
-        missing = sorted({"vel_l", "vel_r"} - set(frame.columns))
-        if missing:
-            raise ConfigError(f"steady_only needs the wheel speeds; the frame has no "
-                              f"{missing} column(s)")
         v = 0.5 * (frame["vel_l"].to_numpy() + frame["vel_r"].to_numpy())[idx]
         # a wheel gap inside windows of finite selected channels (an IMU-only selection)
         # is a gap, not unsteady motion

@@ -157,3 +157,19 @@ def test_a_steady_only_switch_that_is_not_a_boolean_is_refused(value):
         WindowConfig(steady_only=value)
     assert WindowConfig(steady_only=np.bool_(True)).steady_only
     assert not WindowConfig(steady_only=False).steady_only
+
+
+@pytest.mark.parametrize("n_rows", [3, 300])
+def test_window_frame_refuses_steady_only_without_wheel_speeds_however_short(n_rows):
+    # the documented refusal came after the return of a frame shorter than one window:
+    # 3 rows of an IMU-only frame gave 0 windows, 300 rows the ConfigError
+    import pandas as pd
+
+    from features.windows import WindowConfig, window_frame
+    from terrain.run import TIME
+
+    frame = pd.DataFrame({TIME: np.arange(n_rows) / 50.0, "wz": 0.0})
+    with pytest.raises(ConfigError, match=r"steady_only needs the wheel speeds.*vel_l"):
+        window_frame(frame, ["wz"], WindowConfig(window_s=2.0, steady_only=True))
+    X, *_ = window_frame(frame, ["wz"], WindowConfig(window_s=2.0))
+    assert len(X) == (0 if n_rows < 100 else 3)
