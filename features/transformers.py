@@ -147,7 +147,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            Unknown statistic name, a ``min_speed_m_s`` or ``turn_floor_rad_s`` that is not a
+            ``channels`` or ``stats`` given as one text instead of a sequence of names,
+            an unknown statistic name, a ``min_speed_m_s`` or ``turn_floor_rad_s`` that is not a
             finite number > 0, a ``rate_hz`` or ``band_width_hz`` :func:`linear_bands`
             refuses, or a band of ``bands_hz`` that :func:`features.calculators.band_weights`
             refuses (not finite, inverted, or outside 0 Hz to the Nyquist frequency), or a
@@ -157,6 +158,10 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
             ``X`` of the wrong shape, of 0 windows, of windows of fewer than 2 samples, or
             non-finite.
         """
+        for field, value in (("channels", self.channels), ("stats", self.stats)):
+            if isinstance(value, str):      # ("ax" was read as the channels 'a' and 'x')
+                raise ConfigError(f"WindowFeatures.{field} must be a sequence of names, got "
+                                  f"the text {value!r}; one name is written ({value!r},)")
         unknown = [s for s in self.stats if s not in calculators.STATISTICS]
         if unknown:
             raise ConfigError(f"unknown statistics {unknown}; valid: "

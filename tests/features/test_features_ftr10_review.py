@@ -173,3 +173,17 @@ def test_window_frame_refuses_steady_only_without_wheel_speeds_however_short(n_r
         window_frame(frame, ["wz"], WindowConfig(window_s=2.0, steady_only=True))
     X, *_ = window_frame(frame, ["wz"], WindowConfig(window_s=2.0))
     assert len(X) == (0 if n_rows < 100 else 3)
+
+
+@pytest.mark.parametrize("field, value", [("channels", "ax"), ("channels", "wz"),
+                                          ("stats", "mean")])
+def test_window_features_refuse_one_text_for_a_list_of_names(field, value):
+    # channels="ax" was read letter by letter: windows of 2 channels named 'a' and 'x'
+    # (a__mean, x__mean, ..., no band of the IMU channel ax) without a word; stats="mean"
+    # was refused as the unknown statistics ['m', 'e', 'a', 'n']
+    X = np.ones((2, 2, 10))
+    with pytest.raises(ConfigError, match=f"WindowFeatures.{field} must be a sequence of "
+                                          f"names, got the text '{value}'"):
+        WindowFeatures(**{field: value}).fit(X)
+    fx = WindowFeatures(channels=("ax",), stats=("mean",)).fit(np.ones((2, 1, 10)))
+    assert list(fx.get_feature_names_out())[:2] == ["ax__mean", "ax__band_0_2p5hz"]
