@@ -155,8 +155,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
             feature name that occurs twice (a repeated channel or statistic, or two bands
             whose names agree).
         ValueError
-            ``X`` of the wrong shape, of 0 windows, of windows of fewer than 2 samples, or
-            non-finite.
+            ``X`` not of real numbers (booleans, text, complex), of the wrong shape, of 0
+            windows, of windows of fewer than 2 samples, or non-finite.
         """
         for field, value in (("channels", self.channels), ("stats", self.stats)):
             if isinstance(value, str):      # ("ax" was read as the channels 'a' and 'x')
@@ -217,8 +217,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
             ``bands_hz`` or ``band_width_hz`` were changed since (the columns would no
             longer be the names fixed at fit).
         ValueError
-            ``X`` of the wrong shape, of 0 windows, of windows of fewer than 2 samples, or
-            non-finite.
+            ``X`` not of real numbers (booleans, text, complex), of the wrong shape, of 0
+            windows, of windows of fewer than 2 samples, or non-finite.
         """
         check_is_fitted(self, "feature_names_out_")
         refuse_changed_layout(self)

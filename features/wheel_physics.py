@@ -312,8 +312,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
             finite number > 0 (text and bools refused), or ``short_s`` not a finite number
             (text, a bool, NaN, inf) or None.
         ValueError
-            ``X`` not of 3 dimensions, of another number of channels than ``channels``, of 0
-            windows or of windows of 0 samples.
+            ``X`` not of real numbers (booleans, text, complex), not of 3 dimensions, of
+            another number of channels than ``channels``, of 0 windows or of windows of 0
+            samples.
         """
         missing = [c for c in WHEEL_CHANNELS if c not in self.channels]
         if missing:
@@ -357,8 +358,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            ``X`` of another number of channels than ``channels`` or another window length
-            than at fit, of 0 windows, or non-finite.
+            ``X`` not of real numbers (booleans, text, complex), of another number of
+            channels than ``channels`` or another window length than at fit, of 0 windows,
+            or non-finite.
         ConfigError
             A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
         sklearn.exceptions.NotFittedError
