@@ -20,8 +20,8 @@ import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
-from terrain.errors import (ConfigError, config_flags, config_numbers, config_positive,
-                            duplicated, first_items, listed)
+from terrain.errors import (ConfigError, ShapeError, config_flags, config_numbers,
+                            config_positive, duplicated, first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, get_vehicle
@@ -367,8 +367,31 @@ class WindowSet:
             selected windows, and ``not_selected`` (in total and per run) the windows of
             this set that the selection leaves out (added to any count already there). The
             counts of what windowing dropped or skipped are kept as they are.
+
+        Raises
+        ------
+        ShapeError
+            ``mask`` not 1-D, a boolean mask of another length than the windows, an index
+            outside the windows (``-n..n-1``), or neither booleans nor integers.
         """
-        rows = np.arange(len(self))[mask]
+        n, sel = len(self), np.asarray(mask)
+        if sel.ndim != 1:       # (NumPy's bare IndexError named neither mask nor windows)
+            raise ShapeError(f"WindowSet.subset: mask must be 1-D (a boolean mask or window "
+                             f"indices), got shape {sel.shape}")
+        if sel.size == 0:
+            sel = sel.astype(int)
+        if sel.dtype == bool and sel.size != n:
+            raise ShapeError(f"WindowSet.subset: boolean mask of {sel.size} entries for {n} "
+                             "windows")
+        if sel.dtype != bool and sel.dtype.kind not in "iu":
+            raise ShapeError(f"WindowSet.subset: mask must be booleans or window indices, got "
+                             f"dtype {sel.dtype}")
+        if sel.dtype != bool:
+            outside = (sel < -n) | (sel >= n)
+            if outside.any():
+                raise ShapeError(f"WindowSet.subset: window index {sel[outside][0]} outside "
+                                 f"0..{n - 1} (or -{n}..-1 from the end)")
+        rows = np.arange(n)[sel]
         counts = copy.deepcopy(self.counts)
         if "windows" in counts:
             counts["windows"] = int(rows.size)

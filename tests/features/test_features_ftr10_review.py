@@ -3,6 +3,8 @@ are given, and the lines a hand mutation left untested."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -187,3 +189,39 @@ def test_window_features_refuse_one_text_for_a_list_of_names(field, value):
         WindowFeatures(**{field: value}).fit(X)
     fx = WindowFeatures(channels=("ax",), stats=("mean",)).fit(np.ones((2, 1, 10)))
     assert list(fx.get_feature_names_out())[:2] == ["ax__mean", "ax__band_0_2p5hz"]
+
+
+def _window_set(n=6):
+    from features.windows import WindowSet
+
+    ids = np.array(["r1"] * 3 + ["r2"] * (n - 3), dtype=object)
+    return WindowSet(np.zeros((n, 1, 4)), ("wz",), ids, ids.copy(), ids.copy(),
+                     np.arange(n, dtype=float), np.arange(n) + 1.0, 50.0,
+                     {"windows": n, "per_run": {"r1": {"windows": 3}, "r2": {"windows": n - 3}}})
+
+
+@pytest.mark.parametrize("mask, words", [
+    (np.ones(7, dtype=bool), "7 entries for 6 windows"),
+    (np.ones(5, dtype=bool), "5 entries for 6 windows"),
+    (np.array([0.0, 2.0]), "dtype float64"),
+    (np.array([0, 6]), "index 6 outside 0..5"),
+    (np.array([-7]), "index -7 outside 0..5"),
+    (np.ones((6, 1), dtype=bool), "shape (6, 1)"),
+])
+def test_a_subset_mask_that_does_not_select_windows_is_a_shape_error(mask, words):
+    # NumPy's bare IndexError ("boolean index did not match indexed array along axis 0",
+    # "arrays used as indices must be of integer (or boolean) type", "index 6 is out of
+    # bounds") named neither the mask nor the window set
+    from terrain.errors import ShapeError
+
+    with pytest.raises(ShapeError, match=re.escape(words)):
+        _window_set().subset(mask)
+
+
+def test_a_subset_by_mask_list_or_indices_selects_those_windows():
+    ws = _window_set()
+    for mask in (np.arange(6) % 2 == 0, [True, False] * 3, np.array([0, 2, 4]), [0, -4, 4]):
+        sub = ws.subset(mask)
+        np.testing.assert_array_equal(sub.t_start_s, [0.0, 2.0, 4.0])
+        assert sub.counts["windows"] == 3 and sub.counts["not_selected"] == 3
+    assert len(ws.subset(np.array([], dtype=int))) == 0
