@@ -112,11 +112,12 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         return X
 
     def _layout(self) -> tuple:
-        """The settings that fix the output columns and the FFT helpers, comparably."""
+        """Every setting, comparably: fit checked them and fixed the columns from them."""
         bands = None if self.bands_hz is None else tuple(tuple(b) for b in self.bands_hz)
         return (("channels", tuple(self.channels)), ("stats", tuple(self.stats)),
                 ("rate_hz", self.rate_hz), ("bands_hz", bands),
-                ("band_width_hz", self.band_width_hz))
+                ("band_width_hz", self.band_width_hz), ("min_speed_m_s", self.min_speed_m_s),
+                ("turn_floor_rad_s", self.turn_floor_rad_s))
 
     def _cross_terms(self) -> list[tuple[str, tuple[str, str]]]:
         ch = set(self.channels)
@@ -213,9 +214,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         sklearn.exceptions.NotFittedError
-            ``fit`` has not been called, or ``channels``, ``stats``, ``rate_hz``,
-            ``bands_hz`` or ``band_width_hz`` were changed since (the columns would no
-            longer be the names fixed at fit).
+            ``fit`` has not been called, or a setting was changed since (``set_params``):
+            fit checked the settings and fixed the names of the columns from them.
         ValueError
             ``X`` not of real numbers (booleans, text, complex), of the wrong shape, of 0
             windows, of windows of fewer than 2 samples, or non-finite.

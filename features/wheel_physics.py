@@ -285,8 +285,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         return scales
 
     def _layout(self) -> tuple:
-        """The settings that fix the output columns (the time scales and their names)."""
-        return (("rate_hz", self.rate_hz), ("short_s", self.short_s))
+        """Every setting: fit checked them and fixed the time scales and names from them."""
+        return (("channels", tuple(self.channels)), ("rate_hz", self.rate_hz),
+                ("short_s", self.short_s), ("track_m", self.track_m), ("ridge", self.ridge))
 
     def fit(self, X: np.ndarray, y: np.ndarray | None = None) -> "WheelPhysicsFeatures":
         """Check the channels and fix the output names. Returns self.
@@ -302,7 +303,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         -------
         WheelPhysicsFeatures
             ``self``, with ``feature_names_out_``, ``n_samples_in_`` and ``layout_`` (the
-            ``rate_hz`` and ``short_s`` that fixed the names) set.
+            settings checked, which fixed the names) set.
 
         Raises
         ------
@@ -364,8 +365,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             A non-positive or non-finite ``rate_hz``, ``track_m`` or ``ridge``.
         sklearn.exceptions.NotFittedError
-            ``fit`` has not been called, or ``rate_hz`` or ``short_s`` were changed since
-            (they fixed the time scales and the names).
+            ``fit`` has not been called, or a setting was changed since (``set_params``):
+            fit checked the settings and fixed the time scales and names from them.
         """
         check_is_fitted(self, "feature_names_out_")
         refuse_changed_layout(self)

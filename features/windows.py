@@ -447,12 +447,13 @@ def as_windows(X, channels: Sequence[str]) -> np.ndarray:
 
 
 def refuse_changed_layout(transformer) -> None:
-    """Refuse to transform after a setting that fixed the output columns was changed.
+    """Refuse to transform after a setting was changed since ``fit``.
 
-    A feature transformer fixes its output names at ``fit`` from some of its settings; a
+    A feature transformer checks its settings and fixes its output names at ``fit``; a
     ``set_params`` after ``fit`` changed the columns ``transform`` builds but not the names
-    (``stats=("mean",)``: 22 columns under 36 names). Transformers fitted before
-    ``layout_`` existed are not checked.
+    (``stats=("mean",)``: 22 columns under 36 names), or brought in a setting fit would
+    refuse (a speed floor of 0: infinite features). Transformers fitted before ``layout_``
+    existed are not checked.
 
     Parameters
     ----------
@@ -474,8 +475,8 @@ def refuse_changed_layout(transformer) -> None:
 
         changed = [name for (name, a), (_, b) in zip(now, fitted) if a != b]
         raise NotFittedError(f"{type(transformer).__name__}: settings {listed(changed)} "
-                             "changed since fit, which fixed the output columns from them; "
-                             "fit again")
+                             "changed since fit, which checked them and fixed the output "
+                             "columns from them; fit again")
 
 
 def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:

@@ -117,7 +117,14 @@ def test_serial_feature_union_hands_parallel_settings_to_feature_union(monkeypat
     (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")), {"rate_hz": 100.0}),
     (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")),
      {"bands_hz": ((1.0, 2.0),)}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")),
+     {"min_speed_m_s": 0.2}),
+    (lambda: WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")),
+     {"turn_floor_rad_s": 0.1}),
     (lambda: WheelPhysicsFeatures(), {"short_s": 1.0}),
+    (lambda: WheelPhysicsFeatures(), {"track_m": 0.393}),
+    (lambda: WheelPhysicsFeatures(), {"ridge": 1e-2}),
+    (lambda: WheelPhysicsFeatures(), {"channels": ("vel_r", "vel_l", "cur_l", "cur_r")}),
     (lambda: WheelPhysicsFeatures(), {"rate_hz": 20.0}),
 ])
 def test_settings_changed_after_fit_are_refused_until_refit(make, change):
@@ -125,8 +132,8 @@ def test_settings_changed_after_fit_are_refused_until_refit(make, change):
     kept those fixed at fit: set_params(stats=('mean',)) after fit gave 22 columns under 36
     names, reversed statistics or swapped channels the same count under the wrong names,
     and WheelPhysicsFeatures' short_s 1 s its last 10 samples under '__last2s' names,
-    without a word. A transform after such a change is refused, naming the setting; a refit
-    takes it."""
+    without a word. A transform after any change of a setting (fit checked them all) is
+    refused, naming the setting; a refit takes it."""
     from sklearn.exceptions import NotFittedError
 
     X = np.random.default_rng(2).standard_normal((3, 4, 40)) + 1.0
@@ -137,6 +144,21 @@ def test_settings_changed_after_fit_are_refused_until_refit(make, change):
     F = fx.fit(X).transform(X)
     assert F.shape == (3, len(fx.get_feature_names_out()))
     np.testing.assert_array_equal(F, make().set_params(**change).fit_transform(X))
+
+
+def test_a_floor_fit_refuses_cannot_be_set_after_fit():
+    # fit refuses a speed floor of 0 (infinite current per speed of a standing window);
+    # set after fit it reached transform: cur_l__per_speed inf for a standing window
+    from sklearn.exceptions import NotFittedError
+
+    X = np.zeros((2, 4, 40))
+    X[:, 2] = 5.0                                        # 5 A, standing
+    fx = WindowFeatures(channels=("wz", "ax", "cur_l", "vel_l")).fit(X)
+    fx.set_params(min_speed_m_s=0.0)
+    with pytest.raises(NotFittedError, match=r"\['min_speed_m_s'\] changed since fit"):
+        fx.transform(X)
+    with pytest.raises(ConfigError, match="min_speed_m_s must be a finite value > 0"):
+        fx.fit(X)
 
 
 def test_settings_left_as_they_were_fitted_keep_transforming():
