@@ -247,3 +247,4 @@ def test_a_subset_by_mask_list_or_indices_selects_those_windows():
         np.testing.assert_array_equal(sub.t_start_s, [0.0, 2.0, 4.0])
         assert sub.counts["windows"] == 3 and sub.counts["not_selected"] == 3
     assert len(ws.subset(np.array([], dtype=int))) == 0
+    assert len(ws.subset([])) == 0        # (np.asarray([]) is float64: no window, not refused)
