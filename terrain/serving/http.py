@@ -358,11 +358,11 @@ class RequestGuard:
                          "message": "DataFormatError: request without Content-Length (a "
                                     "chunked body is not accepted); send the body with its "
                                     "length"}
-        try:
-            n = int(size)
-        except ValueError:
+        # 1*DIGIT (RFC 9110, 8.6): int() also read "-5" (answered 413), "+2" and "2_0" (20)
+        if not size.strip().isdigit():
             return 400, {"error_code": "BAD_REQUEST",
                          "message": "DataFormatError: Content-Length is not a number"}
+        n = int(size)
         if n > self.max_body_bytes:
             return 413, {"error_code": "REQUEST_LIMIT_EXCEEDED",
                          "message": f"DataFormatError: request body of {n} bytes exceeds "
