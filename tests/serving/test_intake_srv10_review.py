@@ -75,6 +75,23 @@ def test_a_sample_back_before_a_units_hold_drops_it_only_past_max_backlog_s():
         assert intake.buffers["wheels"].last_t == newest and not intake.clocks["wheels"].held()
 
 
+def test_a_chunk_that_goes_on_past_a_stray_stamp_then_back_counts_every_sample_refused():
+    # wheels to 1.9 s, one sample 98 s ahead (units hold), then one chunk of two more on
+    # that clock and two back on the old one: the held sample and the chunk's two before
+    # the step back are refused as time_ahead (3), the two after are taken (mutant: the
+    # chunk's two dropped without a count)
+    intake, _ = _intake(buffer_samples=64)
+    t, v = _chunk(0.0, 20)
+    intake.ingest("wheels", t, v)
+    t, v = _chunk(100.0, 1)
+    intake.ingest("wheels", t, v)
+    t, v = _chunk(0.0, 4)
+    intake.ingest("wheels", _stamps(100.1, 100.2, 2.0, 2.1), v + 0.01 * np.arange(4)[:, None])
+    assert intake.refused == {("wheels", AHEAD): 3}
+    np.testing.assert_allclose(intake.buffers["wheels"].times()[-3:], [1.9, 2.0, 2.1])
+    assert len(intake.buffers["wheels"]) == 22 and not intake.clocks["wheels"].held()
+
+
 def _imu(t_s: np.ndarray) -> np.ndarray:
     """Live IMU values (no sample repeats another: no re-send)."""
     return np.column_stack([np.zeros((len(t_s), 5)), 9.81 + 0.01 * np.sin(7.0 * t_s)])
@@ -103,3 +120,110 @@ def test_a_step_back_shorter_than_stale_s_is_a_lag_not_a_clock_moved():
     assert intake.restarts == 0 and intake.clocks["wheels"].offset_s == 0.0
     assert intake.refused == {("wheels", TIME_RULE): 5}
     np.testing.assert_allclose(intake.buffers["wheels"].times()[-3:], [9.9, 10.0, 10.1])
+
+
+def _wheels(t_s: np.ndarray) -> np.ndarray:
+    """Live wheel values (no sample repeats another)."""
+    return np.column_stack([0.5 + 0.01 * np.sin(t_s), 0.5 + 0.01 * np.cos(t_s),
+                            2.0 + 0.1 * np.sin(5.0 * t_s), 2.0 + 0.1 * np.cos(5.0 * t_s)])
+
+
+class _Taken:
+    """Samples each stream's buffers took (appended less dropped as on a clock in ms) and
+    pushed out (counted as buffer_overflow), by number of channels."""
+
+    def __init__(self, monkeypatch) -> None:
+        self.taken: dict[int, int] = {}
+        self.pushed_out: dict[int, int] = {}
+        append, drop, evicted = RingBuffer.append, RingBuffer.drop_newest, RingBuffer.evicted
+        tally = self
+
+        def counted_append(buf, t_s, values):
+            key = buf._v.shape[1]
+            tally.taken[key] = tally.taken.get(key, 0) + len(t_s)
+            append(buf, t_s, values)
+
+        def counted_drop(buf, n):
+            key = buf._v.shape[1]
+            tally.taken[key] = tally.taken.get(key, 0) - min(max(int(n), 0), len(buf))
+            drop(buf, n)
+
+        def counted_evicted(buf, t_s, since_s):
+            lost = evicted(buf, t_s, since_s)
+            key = buf._v.shape[1]
+            tally.pushed_out[key] = tally.pushed_out.get(key, 0) + lost
+            return lost
+
+        monkeypatch.setattr(RingBuffer, "append", counted_append)
+        monkeypatch.setattr(RingBuffer, "drop_newest", counted_drop)
+        monkeypatch.setattr(RingBuffer, "evicted", counted_evicted)
+
+
+def test_random_clock_faults_lose_no_sample_uncounted_and_hold_within_bounds(monkeypatch):
+    # two streams pushed in random chunks (1 to 300 samples) with random clock faults:
+    # steps back and forward (0.3 s to 1000 s), switches to ms and back, NaN stamps and
+    # re-sends. After every push, each sample pushed is taken, refused (counted by reason)
+    # or held (held_samples); every hold stays within buffer_samples (the units hold: one
+    # chunk more); and 70 s of both streams live afterwards leave nothing held
+    tally = _Taken(monkeypatch)
+    live = {"imu": (_imu, 0.02), "wheels": (_wheels, 0.1)}
+    streams = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    for seed in range(8):
+        tally.taken.clear()
+        tally.pushed_out.clear()
+        rng = np.random.default_rng(seed)
+        bound = int(rng.choice([16, 64, 256]))
+        intake = StreamIntake(streams, StreamConfig(streams=streams, buffer_samples=bound),
+                              DEFAULT_RULES, DecisionClock(window_s=2.0, rate_hz=10.0))
+        decisions = intake._decisions
+        own = {"imu": 0.0, "wheels": 0.0}
+        scale = {"imu": 1.0, "wheels": 1.0}
+        pushed = {"imu": 0, "wheels": 0}
+
+        def push(stream, t_s, values):
+            pushed[stream] += len(t_s)
+            intake.ingest(stream, t_s + intake.clocks[stream].offset_s, values)
+            newest = intake.newest()
+            if decisions.next_t is None and newest > -np.inf:
+                decisions.next_t = newest
+            elif decisions.next_t is not None and newest > decisions.next_t:
+                decisions.advance(int((newest - decisions.next_t) // 0.5) + 1, 0.5)
+            for s in streams:
+                clock, key = intake.clocks[s], len(streams[s])
+                refused = sum(n for (r, _), n in intake.refused.items() if r == s)
+                held = sum(clock.held().values())
+                accounted = (tally.taken.get(key, 0) + refused
+                             - tally.pushed_out.get(key, 0) + held)
+                # (>: a restart of one clock takes again what its old buffer had taken)
+                assert accounted >= pushed[s], (seed, s, pushed[s], accounted)
+                assert len(clock.late) <= bound and len(clock.unjudged) <= bound + 300
+                assert clock.ahead is None or len(clock.ahead) <= bound
+
+        for _ in range(300):
+            stream = "imu" if rng.random() < 0.6 else "wheels"
+            values, step = live[stream]
+            n = int(rng.choice([1, 1, 1, 3, 10, 50, 300]))
+            fault = rng.random()
+            if fault < 0.05:
+                own[stream] -= rng.choice([0.3, 2.0, 8.0, 100.0])
+            elif fault < 0.10:
+                own[stream] += rng.choice([0.3, 3.0, 8.0, 70.0, 1000.0])
+            elif fault < 0.12:
+                scale[stream] = 1000.0 if scale[stream] == 1.0 else 1.0
+            t = own[stream] + step * np.arange(n)
+            own[stream] = t[-1] + step
+            stamps, v = t * scale[stream], values(t)
+            if rng.random() < 0.03:
+                stamps[rng.integers(n)] = np.nan
+            if rng.random() < 0.03 and len(intake.buffers[stream]):   # a re-send
+                bt, v = intake.buffers[stream].since(intake.buffers[stream].last_t - 1.0)
+                stamps = bt - intake.clocks[stream].offset_s
+            push(stream, stamps, v)
+        scale = {"imu": 1.0, "wheels": 1.0}
+        for _ in range(700):   # both live, interleaved: 70 s
+            for stream, n in (("imu", 5), ("wheels", 1)):
+                values, step = live[stream]
+                t = own[stream] + step * np.arange(n)
+                own[stream] = t[-1] + step
+                push(stream, t, values(t))
+        assert not any(c.held() for c in intake.clocks.values()), seed
