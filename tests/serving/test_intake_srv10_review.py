@@ -4,6 +4,7 @@ mutants of buffers.py and intake.py that the other tests let live)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.buffers import RingBuffer
@@ -227,3 +228,29 @@ def test_random_clock_faults_lose_no_sample_uncounted_and_hold_within_bounds(mon
                 own[stream] = t[-1] + step
                 push(stream, t, values(t))
         assert not any(c.held() for c in intake.clocks.values()), seed
+
+
+def test_samples_a_restart_of_one_clock_uses_are_no_longer_counted_refused():
+    # wheels (10 Hz) and IMU (50 Hz) to 9.9 s; the wheel clock goes back to 0 s and runs
+    # 7 s while the IMU goes on live: its samples are refused as late until they run 5 s
+    # (clock_restart_s), then put on the IMU's clock (one restart, offset 10.01 s: half a
+    # wheel step after the IMU's newest when the run began) and taken. None of the 70 stays
+    # counted as refused (mutant: the 51 held ones still counted time_not_increasing)
+    streams = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    intake = StreamIntake(streams, StreamConfig(streams=streams, buffer_samples=1024),
+                          DEFAULT_RULES, DecisionClock(window_s=2.0, rate_hz=10.0))
+    t = 0.1 * np.arange(100)
+    intake.ingest("wheels", t, _wheels(t))
+    t_imu = 0.02 * np.arange(496)
+    intake.ingest("imu", t_imu, _imu(t_imu))
+    k = 496
+    for j in range(70):
+        t_imu = 0.02 * (k + np.arange(5))
+        k += 5
+        intake.ingest("imu", t_imu, _imu(t_imu))
+        t = np.array([0.1 * j])     # pushed as the service does: with the stream's offset
+        intake.ingest("wheels", t + intake.clocks["wheels"].offset_s, _wheels(t + 100.0))
+    assert intake.restarts == 1 and not intake.refused
+    assert intake.clocks["wheels"].offset_s == pytest.approx(10.01)
+    assert len(intake.buffers["wheels"]) == 70
+    np.testing.assert_allclose(intake.buffers["wheels"].times()[[0, -1]], [10.01, 16.91])
