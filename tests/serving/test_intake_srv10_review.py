@@ -254,3 +254,45 @@ def test_samples_a_restart_of_one_clock_uses_are_no_longer_counted_refused():
     assert intake.clocks["wheels"].offset_s == pytest.approx(10.01)
     assert len(intake.buffers["wheels"]) == 70
     np.testing.assert_allclose(intake.buffers["wheels"].times()[[0, -1]], [10.01, 16.91])
+
+
+def _two_streams() -> StreamIntake:
+    streams = {"imu": IMU_CHANNELS, "wheels": WHEEL_CHANNELS}
+    return StreamIntake(streams, StreamConfig(streams=streams, buffer_samples=1024),
+                        DEFAULT_RULES, DecisionClock(window_s=2.0, rate_hz=10.0))
+
+
+def test_a_stamp_refused_before_its_streams_first_sample_is_flagged_at_the_services_now():
+    # the IMU to 5 s; the wheels' first push opens with a NaN stamp: refused, counted and
+    # flagged at the service's newest time (5 s), the stream having none of its own
+    # (mutant: noted at the empty buffer's -inf, a span no window ever holds)
+    intake = _two_streams()
+    t_imu = 0.02 * np.arange(251)
+    intake.ingest("imu", t_imu, _imu(t_imu))
+    intake.ingest("wheels", _stamps(np.nan, 5.1), _wheels(_stamps(0.0, 5.1)))
+    assert intake.refused == {("wheels", "non_finite"): 1}
+    assert list(intake.events["wheels"]) == [(5.0, 5.0, "non_finite")]
+    assert intake.buffers["wheels"].last_t == 5.1 and not intake.unplaced
+
+
+def test_streams_whose_clocks_restart_together_some_seconds_apart_are_taken_as_they_are():
+    # both streams to 19.9 s; both clocks restart, the IMU from 0 s and the wheels from
+    # 12 s (a lag under max_backlog_s): one restart of every clock, and the wheels, which
+    # sent on the new clock, are no stream silent through it (its shorter first step):
+    # taken as they are (mutant marking every stream with samples as rejoining: the 70
+    # wheel samples held as on another clock)
+    intake = _two_streams()
+    for j in range(200):
+        t_imu = 0.1 * j + 0.02 * np.arange(5)
+        intake.ingest("imu", t_imu, _imu(t_imu))
+        t = _stamps(0.1 * j)
+        intake.ingest("wheels", t, _wheels(t))
+    for j in range(70):
+        t_imu = 0.1 * j + 0.02 * np.arange(5)
+        intake.ingest("imu", t_imu, _imu(t_imu + 50.0))
+        t = _stamps(12.0 + 0.1 * j)
+        intake.ingest("wheels", t, _wheels(t + 50.0))
+    assert intake.restarts == 1 and not intake.refused
+    assert not any(c.held() or c.rejoining for c in intake.clocks.values())
+    assert len(intake.buffers["wheels"]) == 70 and intake.buffers["wheels"].first_t == 12.0
+    assert len(intake.buffers["imu"]) == 350
