@@ -176,8 +176,11 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
 
     The slip is :func:`sae_slip` with ``speed_floor_m_s`` (no dead band, saturation 1). Its
     derivative at fixed rim speed ``w`` is ``-w sign(v) / v^2`` where the body speed sets the
-    denominator (``|v| >= max(|w|, floor)``), ``-1 / den`` otherwise, and 0 where the slip is
-    saturated. It is the contact-force Jacobian factor of the simulator
+    denominator (``|v| >= max(|w|, floor)``), ``-1 / den`` otherwise, and 0 beyond saturation
+    (``|w - v| / den > 1``). At exactly ``|slip| = 1`` it is the slope of the unsaturated
+    side: a wheel turning on a body at rest gets ``-1 / den``, so the simulator's linearly
+    implicit step from rest holds the body behind its rims instead of stepping it
+    explicitly. It is the contact-force Jacobian factor of the simulator
     (:func:`terrain.sim.forces.contact_forces`).
 
     Parameters
@@ -208,7 +211,7 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
     body_dominant = np.abs(v) >= np.maximum(np.abs(rim_speed_m_s), speed_floor_m_s)
     ds_dv = np.where(body_dominant,
                      -rim_speed_m_s * np.sign(v) / np.maximum(v * v, 1e-6), -1.0 / den)
-    ds_dv = np.where(np.abs(ratio) >= 1.0, 0.0, ds_dv)
+    ds_dv = np.where(np.abs(ratio) > 1.0, 0.0, ds_dv)
     return np.minimum(np.maximum(ratio, -1.0), 1.0), ds_dv
 
 

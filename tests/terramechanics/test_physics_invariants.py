@@ -137,6 +137,30 @@ def test_velocity_slope_of_the_slip_is_its_derivative(rim, v):
     assert ds_dv[0] == pytest.approx(float(fd), rel=1e-5)
 
 
+@pytest.mark.parametrize("rim, v, side", [(0.05, 0.0, 1.0), (-0.05, 0.0, -1.0),
+                                          (0.3, 0.0, 1.0)])
+def test_velocity_slope_at_saturation_is_the_unsaturated_sides(rim, v, side):
+    # |slip| exactly 1 at a body at rest under a turning wheel: the slope is the one-sided
+    # derivative from inside [-1, 1] (-1 / |rim|), not the saturated side's 0; the
+    # simulator's implicit step needs it to hold a body started from rest behind its rims
+    floor, h = 0.02, 1e-7
+    slip, ds_dv = sae_slip_and_velocity_slope(np.array([rim]), np.array([v]), floor)
+    assert abs(slip[0]) == 1.0
+    inside = (sae_slip(rim, v + side * h, speed_floor_m_s=floor, dead_band_m_s=0.0)
+              - slip[0]) / (side * h)
+    assert ds_dv[0] != 0.0 and ds_dv[0] == pytest.approx(float(inside), rel=1e-5)
+    # one step further out the slip stays saturated and its slope is 0
+    beyond = sae_slip_and_velocity_slope(np.array([rim]), np.array([v - side * 0.01]), floor)
+    assert abs(beyond[0][0]) == 1.0 and beyond[1][0] == 0.0
+
+
+def test_velocity_slope_of_a_locked_wheel_is_zero():
+    # rim 0 under a moving body: the slip is -sign(v) at every speed beyond the floor
+    slip, ds_dv = sae_slip_and_velocity_slope(np.zeros(2), np.array([0.05, -0.05]), 0.02)
+    np.testing.assert_array_equal(slip, [-1.0, 1.0])
+    np.testing.assert_array_equal(np.abs(ds_dv), [0.0, 0.0])
+
+
 def test_lateral_friction_opposes_the_slide_and_is_bounded_by_mu_n():
     # Coulomb -mu N sign(v) smoothed by tanh(v / v_slide); slope = secant F / v
     v = np.array([-0.5, -0.02, -1e-9, 0.0, 1e-9, 0.02, 0.5])
