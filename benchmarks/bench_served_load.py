@@ -9,6 +9,11 @@ streams interleaved as logged, a different slice each time), are sent; any answe
 HTTP 200 with at least one decision row counts as an error (the number of rows is not
 checked against the windows due in the slice). Throughput, error count and
 request latency p50/p99 print and are logged to MLflow (experiment ``terrain-benchmark``).
+The reference, in the same run: the first ``--reference`` bodies (default 500) decided
+in-process, one at a time, by the model the server runs (the trained model as ``terrain
+serve`` wraps it, ``mlflow.pyfunc.load_model(...).predict`` on the parsed frame); the served
+throughput and p50 latency are also given as ratios to it (the cost of HTTP, JSON and the
+server, and the gain or cost of the concurrency).
 
 ``--behind-long K`` measures instead what a robot's short request waits behind bulk logs: K
 long requests (the longest runs with both streams, each repeated on a shifted clock until the
@@ -18,7 +23,7 @@ each short request's latency prints and the first one's and the largest of the o
 logged.
 
 Run: ``python benchmarks/bench_served_load.py [--kind wheels|all] [--model DIR]
-[--requests 2000] [--concurrency 4] [--behind-long K] [--no-mlflow]``.
+[--requests 2000] [--concurrency 4] [--reference 500] [--behind-long K] [--no-mlflow]``.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from pipelines.arguments import integer_in, positive_integer, positive_number
+from pipelines.serve import is_served_model
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
 from terrain.serving.evaluation import recipe_stream_names
@@ -109,6 +115,39 @@ def behind_long(base: str, longs: list[bytes], shorts: list[bytes]) -> dict:
             "errors": sum(not r[0] for r in short + long)}
 
 
+def in_process_latencies(model_dir: Path, bodies: list[bytes]) -> np.ndarray:
+    """Seconds each body takes to decide in-process, one at a time, after one warm-up.
+
+    Parameters
+    ----------
+    model_dir : Path
+        The served streaming model (``terrain serve --served-out``: the trained model
+        wrapped with the service's settings), whose ``predict`` the server calls.
+    bodies : list of bytes
+        JSON request bodies (``dataframe_split``), parsed before the clock starts.
+
+    Returns
+    -------
+    ndarray, shape (len(bodies),)
+        Wall-clock seconds of ``predict`` per body.
+    """
+    import mlflow.pyfunc
+
+    model = mlflow.pyfunc.load_model(str(model_dir))
+    frames = []
+    for body in bodies:
+        split = json.loads(body)["dataframe_split"]
+        frames.append(pd.DataFrame(split["data"], columns=split["columns"]))
+    if frames:
+        model.predict(frames[0])  # warm-up, as for the server
+    out = np.empty(len(frames))
+    for i, frame in enumerate(frames):
+        start = time.perf_counter()
+        model.predict(frame)
+        out[i] = time.perf_counter() - start
+    return out
+
+
 def _post(url: str, body: bytes) -> tuple[bool, float]:
     start = time.perf_counter()
     req = urllib.request.Request(url, body, {"Content-Type": "application/json"})
@@ -120,12 +159,13 @@ def _post(url: str, body: bytes) -> tuple[bool, float]:
     return ok, time.perf_counter() - start
 
 
-def _serve(model_dir: Path) -> tuple[subprocess.Popen, str]:
+def _serve(model_dir: Path, served_out: Path | None = None) -> tuple[subprocess.Popen, str]:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
+    keep = [] if served_out is None else ["--served-out", str(served_out)]
     proc = subprocess.Popen([sys.executable, "-m", "terrain.cli", "serve", "--model",
-                             str(model_dir), "--host", "127.0.0.1", "--port", str(port)],
+                             str(model_dir), "--host", "127.0.0.1", "--port", str(port)] + keep,
                             stdout=subprocess.DEVNULL)
     base = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 120
@@ -152,6 +192,8 @@ def main() -> int:
     parser.add_argument("--concurrency", type=positive_integer, default=4)
     parser.add_argument("--request-s", type=positive_number, default=4.0,
                         help="seconds of stream per request")
+    parser.add_argument("--reference", type=integer_in(0, 100_000), default=500, metavar="N",
+                        help="bodies decided in-process as the same-run reference (0: none)")
     parser.add_argument("--behind-long", type=integer_in(0, 100), default=0, metavar="K",
                         help="send K long requests at once, then short ones behind them")
     parser.add_argument("--long-bytes", type=positive_integer, default=7_500_000,
@@ -176,7 +218,10 @@ def main() -> int:
         if args.behind_long:
             return _behind_long(args, runs, streams, model_dir, request_s)
         bodies = request_bodies(runs, streams, request_s, args.requests)
-        proc, base = _serve(model_dir)
+        # the reference decides with the streaming model the server runs (terrain serve
+        # wraps a trained model into it; --served-out keeps that copy)
+        served = model_dir if is_served_model(model_dir) else Path(tmp) / "served"
+        proc, base = _serve(model_dir, None if served == model_dir else served)
         try:
             _post(base + "/invocations", bodies[0])  # warm-up
             start = time.perf_counter()
@@ -186,6 +231,7 @@ def main() -> int:
         finally:
             proc.terminate()
             proc.wait(timeout=20)
+        reference = in_process_latencies(served, bodies[:args.reference]) * 1e3
     lat = np.array([r[1] for r in results]) * 1e3
     errors = int(sum(not r[0] for r in results))
     metrics = {"served_requests": len(results), "served_errors": errors,
@@ -196,10 +242,24 @@ def main() -> int:
           f"of {request_s:g} s of stream, {args.concurrency} concurrent, in {wall:.1f} s: "
           f"{metrics['served_throughput_rps']:.1f} req/s, {errors} errors; latency p50 "
           f"{metrics['served_p50_ms']:.1f} ms, p99 {metrics['served_p99_ms']:.1f} ms")
+    if len(reference):
+        metrics.update({"inprocess_p50_ms": float(np.percentile(reference, 50)),
+                        "inprocess_p99_ms": float(np.percentile(reference, 99)),
+                        "inprocess_throughput_rps": len(reference) / (reference.sum() / 1e3)})
+        metrics["served_over_inprocess_throughput"] = (metrics["served_throughput_rps"]
+                                                       / metrics["inprocess_throughput_rps"])
+        metrics["served_over_inprocess_p50"] = (metrics["served_p50_ms"]
+                                                / metrics["inprocess_p50_ms"])
+        print(f"in-process reference ({len(reference)} of the same bodies, one at a time): "
+              f"{metrics['inprocess_throughput_rps']:.1f} req/s, latency p50 "
+              f"{metrics['inprocess_p50_ms']:.1f} ms, p99 {metrics['inprocess_p99_ms']:.1f} "
+              f"ms; served / in-process: throughput "
+              f"{metrics['served_over_inprocess_throughput']:.2f}x, p50 "
+              f"{metrics['served_over_inprocess_p50']:.2f}x")
     if not args.no_mlflow:
         _log(f"served-load-{args.kind}", metrics,
              {"kind": args.kind, "requests": args.requests, "concurrency": args.concurrency,
-              "request_s": request_s})
+              "request_s": request_s, "reference": len(reference)})
     return 0
 
 

@@ -72,3 +72,22 @@ def test_a_request_longer_than_every_run_is_a_usage_error(script, monkeypatch, c
         script["main"]()
     assert stop.value.code == 2
     assert "--request-s" in capsys.readouterr().err
+
+
+def test_the_in_process_reference_decides_each_body_once_on_its_frame(script, monkeypatch):
+    import mlflow.pyfunc
+
+    seen = []
+
+    class Model:
+        def predict(self, frame):
+            seen.append(frame)
+
+    monkeypatch.setattr(mlflow.pyfunc, "load_model", lambda path: Model())
+    bodies = script["request_bodies"]([_run("r", 60.0)], ("wheels",), 4.0, 3)
+    latencies = script["in_process_latencies"](Path("m"), bodies)
+    assert latencies.shape == (3,) and np.all(latencies >= 0)
+    assert len(seen) == 4                         # one warm-up, then each body once
+    for frame, body in zip(seen[1:], bodies):
+        pd.testing.assert_frame_equal(frame, _rows(body))
+    assert script["in_process_latencies"](Path("m"), []).shape == (0,)
