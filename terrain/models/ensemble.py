@@ -24,7 +24,7 @@ from sklearn.metrics import log_loss
 from sklearn.utils import _safe_indexing, get_tags
 from sklearn.utils.validation import check_is_fitted
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, holds_booleans
 from terrain.models.cv import class_keeping_split, fit_with_groups
 
 
@@ -46,9 +46,12 @@ def normalised_weights(weights, n_members: int) -> np.ndarray:
     Raises
     ------
     ConfigError
-        Not one weight per member (a member would be dropped silently), a negative or
-        non-finite weight, or all weights 0.
+        Not one weight per member (a member would be dropped silently), a boolean weight
+        (a member mask read as 1 / 0), a negative or non-finite weight, or all weights 0.
     """
+    if holds_booleans(weights) or (isinstance(weights, (list, tuple)) and any(
+            isinstance(v, (bool, np.bool_)) for v in weights)):   # [True, 0.5] is float
+        raise ConfigError(f"member weights must be numbers, not booleans, got {weights!r:.80}")
     w = np.asarray(weights, dtype=float).ravel()
     if w.size != n_members:
         raise ConfigError(f"{w.size} weight(s) for {n_members} members: give one per member")
@@ -205,7 +208,7 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         ------
         ConfigError
             No member (``estimators`` empty); fixed ``weights`` not one per member,
-            negative, non-finite or all 0 (:func:`normalised_weights`); weights to choose
+            boolean, negative, non-finite or all 0 (:func:`normalised_weights`); weights to choose
             with fewer runs (``groups``) than ``inner_splits``, or where every inner split
             holds out every run of a class (:func:`~terrain.models.cv.class_keeping_split`),
             or a ``weight_step`` :func:`simplex_grid` refuses.
