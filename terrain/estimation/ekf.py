@@ -599,7 +599,8 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     P : ndarray, shape (n, n)
         Its covariance.
     lower, upper : ndarray, shape (n,)
-        Bounds, the states' units (``-inf`` / ``inf``: none); ``lower <= upper``.
+        Bounds, the states' units (``-inf`` / ``inf``: none; NaN is refused, not taken as
+        none); ``lower <= upper``.
     movable : ndarray of bool, shape (n,), optional
         States the projection may move (default: all). Bounds of held states are not applied.
 
@@ -615,6 +616,9 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     ------
     ShapeError
         Shapes that do not match, or ``lower > upper`` somewhere.
+    NonFiniteInputError
+        A NaN bound (named ``lower`` or ``upper``, with its states): every comparison with
+        NaN is false, so it would be no bound without a word.
     """
     x = np.asarray(x, dtype=float)
     n = x.shape[0]
@@ -622,6 +626,11 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     upper = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
     if np.shape(P) != (n, n):
         raise ShapeError(f"P must have shape ({n}, {n}) for a state of {n}; got {np.shape(P)}")
+    for name, b in (("lower", lower), ("upper", upper)):
+        if np.isnan(b).any():
+            raise NonFiniteInputError(f"{name} holds NaN at state(s) "
+                                      f"{np.flatnonzero(np.isnan(b)).tolist()}: give -inf / "
+                                      "inf for no bound")
     if (lower > upper).any():
         raise ShapeError(f"lower bound above upper bound at state(s) "
                          f"{np.flatnonzero(lower > upper).tolist()}")
