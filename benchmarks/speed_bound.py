@@ -137,7 +137,8 @@ def measured(terrains, fusions) -> list[dict]:
 def measured_online(terrains, bounds, imu: str = "full-gyro") -> list[dict]:
     """Per shipped BorealTC run with an IMU and bound (and none): the online observer's
     largest |v_bx| (from the streams' common start), the run's largest rim speed, the share of
-    calls above 1.5 times it, and the projected samples."""
+    calls above 1.5 times it, the projected samples, and the IMU and wheel samples no call
+    received (``not_replayed``)."""
     from terrain.control.estimators import CONTROL_FUSION, FusedSlipObserver
     from terrain.control.replay import measured_observations
     from terrain.vehicles import get_vehicle
@@ -151,14 +152,17 @@ def measured_online(terrains, bounds, imu: str = "full-gyro") -> list[dict]:
                                     settings=fusion, imu=imu)
             pitch = []
             v = []
-            for obs in measured_observations(run, radius):
+            replay = measured_observations(run, radius)
+            for obs in replay:
                 v.append(est.update(obs).chassis_speed_m_s)
                 pitch.append(abs(float(est.x[STATE_NAMES.index("pitch")])))
             v = np.abs(v)
             rows.append({"run": run.run_id, "terrain": run.terrain, "setting": name,
                          "v_max": float(v.max()), "rim_max": rim,
                          "over_1_5_rim_pct": 100.0 * float(np.mean(v > 1.5 * rim)),
-                         "held_samples": est.bound_count, "pitch_max": float(max(pitch))})
+                         "held_samples": est.bound_count, "pitch_max": float(max(pitch)),
+                         "not_replayed": sum(replay.dropped_before_start.values())
+                         + sum(replay.dropped_after_end.values())})
     return rows
 
 
@@ -174,6 +178,10 @@ def online(args) -> int:
         print("measured BorealTC runs through the online observer (no truth): largest "
               "|v_bx| and rim speed, m/s")
         print(wide.round(3).to_markdown())
+        left = meas.groupby("run")["not_replayed"].first()
+        print(f"samples outside the streams' common span (before the later start, after the "
+              f"last call), not replayed: {int(left.sum())} on {int((left > 0).sum())} of "
+              f"{len(left)} runs")
         by_setting = meas.groupby("setting")[["v_max", "over_1_5_rim_pct", "held_samples",
                                               "pitch_max"]]
         print(by_setting.agg(["mean", "max"]).round(3).to_markdown())

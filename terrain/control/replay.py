@@ -21,8 +21,37 @@ from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.closed_loop import Observation
 
 
+class MeasuredObservations:
+    """The observations of :func:`measured_observations` (an iterator, once through), and
+    the logged samples that no call receives, counted per stream.
+
+    Parameters
+    ----------
+    calls : iterator of Observation
+        The observations, in call order.
+    dropped_before_start : dict
+        Stream (``imu``, ``wheels``) -> samples before the first call: the earlier stream's
+        samples before the later one starts.
+    dropped_after_end : dict
+        Stream -> samples after the last call: the longer stream's samples after the
+        shorter one ends, and those of both after the last call time of the grid.
+    """
+
+    def __init__(self, calls: Iterator[Observation], dropped_before_start: dict[str, int],
+                 dropped_after_end: dict[str, int]) -> None:
+        self._calls = calls
+        self.dropped_before_start = dropped_before_start
+        self.dropped_after_end = dropped_after_end
+
+    def __iter__(self) -> "MeasuredObservations":
+        return self
+
+    def __next__(self) -> Observation:
+        return next(self._calls)
+
+
 def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: float = 50.0
-                          ) -> Iterator[Observation]:
+                          ) -> MeasuredObservations:
     """Observations of a recorded skid-steer run, as a controller at ``control_rate_hz``
     would have received them.
 
@@ -33,7 +62,9 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     loop's drives report them. Both IMU views carry the logged samples: ``imu_full`` all six
     channels, ``imu`` its ``ax, ay, wz``, with the gravity and the vibration that the
     simulated loop's ``imu`` leaves out (a real IMU has no clean view). The low-level
-    command is not logged and is given as zeros.
+    command is not logged and is given as zeros. The samples that no call receives (before
+    ``t0``, after the last call) are counted per stream in the result's
+    ``dropped_before_start`` and ``dropped_after_end``.
 
     Parameters
     ----------
@@ -46,10 +77,12 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     control_rate_hz : float
         Call rate, Hz (> 0).
 
-    Yields
-    ------
-    Observation
-        Samples since the previous call (``steer`` and ``cam`` empty).
+    Returns
+    -------
+    MeasuredObservations
+        Iterator of :class:`~terrain.sim.closed_loop.Observation` s, the samples since the
+        previous call (``steer`` and ``cam`` empty); with the counts of the samples left
+        out.
 
     Raises
     ------
@@ -101,9 +134,22 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
                          f"time (imu {imu[0, 0]:.2f}-{imu[-1, 0]:.2f} s, wheels "
                          f"{wh[0, 0]:.2f}-{wh[-1, 0]:.2f} s)", path=run.source or None)
     period = 1.0 / control_rate_hz
+    last = int(np.floor((t1 - t0) / period + 1e-9))
     data = {"imu": imu, "wheels": wheels, "currents": currents, "imu_full": full}
+    before = {name: int(np.searchsorted(data[name][:, 0], t0, side="left"))
+              for name in ("imu", "wheels")}
+    t_last = t0 + last * period           # (the same call time as the last cut of _calls)
+    after = {name: len(data[name]) - int(np.searchsorted(data[name][:, 0], t_last, "right"))
+             for name in ("imu", "wheels")}
+    return MeasuredObservations(_calls(data, t0, period, last), before, after)
+
+
+def _calls(data: dict[str, np.ndarray], t0: float, period: float, last: int
+           ) -> Iterator[Observation]:
+    """The calls ``t0 + k period``, ``k = 0..last``, of :func:`measured_observations`, each
+    with the rows of ``data`` (stream -> rows ``t, ...``) since the previous call."""
     cuts = dict.fromkeys(data, 0)
-    for k in range(int(np.floor((t1 - t0) / period + 1e-9)) + 1):
+    for k in range(last + 1):
         t = t0 + k * period
         taken = {}
         for name, rows in data.items():
