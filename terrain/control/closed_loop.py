@@ -551,7 +551,10 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     sim : Simulation
     loop : TractionLoop
     metrics : dict
-        :func:`loop_metrics` plus the estimator's name and limits.
+        :func:`loop_metrics` plus the estimator's name and limits, and its counts where it
+        keeps them (None otherwise): pseudo-measurements used, samples the speed bound
+        projected, samples skipped for a NaN or infinite value
+        (``estimator_nonfinite_samples``).
 
     Raises
     ------
@@ -597,6 +600,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
     metrics.update(estimator=estimator.name, estimator_limits=estimator.limits,
                    estimator_pseudo_measurements=getattr(estimator, "pseudo_count", None),
                    estimator_speed_bound_samples=getattr(estimator, "bound_count", None),
+                   estimator_nonfinite_samples=getattr(estimator, "nonfinite_count", None),
                    kp=float(kp), ki=float(ki), feed_forward=bool(feed_forward))
     return sim, loop, metrics
 

@@ -166,6 +166,11 @@ class AgriMaRoVisualOdometryEKF:
     ConfigError
         Another ``imu`` view; a non-positive block, fewer than 2 blocks or a non-positive
         speed-slope window.
+
+    Notes
+    -----
+    A sample with a NaN or infinite value among those the view reads is skipped (in part: a
+    full-IMU sample's finite gyro is still used) and counted in ``nonfinite_count``.
     """
 
     name = "agrimaro-ekf-vo-full-gyro"
@@ -203,6 +208,8 @@ class AgriMaRoVisualOdometryEKF:
         self._block_var: deque[np.ndarray] = deque(maxlen=int(adapt_blocks))
         #: accelerometer std of the last block mean used, m/s^2 (``full-averaged``)
         self.accel_block_std_m_s2 = np.full(2, math.nan)
+        #: samples skipped, in whole or part, for a NaN or infinite value the filter reads
+        self.nonfinite_count = 0
         self.vehicle = get_vehicle("agrimaro")
         self.model = AgriMaRoModel(self.vehicle, noise_derived_settings(
             accel_std_m_s2=accel_std_m_s2))
@@ -241,10 +248,14 @@ class AgriMaRoVisualOdometryEKF:
                     continue
                 name, z = "imu", z[[3, 4, 2]]   # the model's ax, ay, wz
             z = z[:3]
-            if name in self.rows and np.all(np.isfinite(z)):
+            if name not in self.rows:
+                continue
+            if np.all(np.isfinite(z)):
                 self.ekf.update(z, rows=self.rows[name])
                 if name == "cam":   # only a sample the filter used renews the reference
                     self.t_cam = t
+            else:
+                self.nonfinite_count += 1
         x = self.ekf.x
         vx, vy, w, ax, ay = x[3], x[4], x[5], x[6], x[7]
         pos = np.asarray(self.vehicle.wheel_positions_m)
@@ -310,9 +321,12 @@ class AgriMaRoVisualOdometryEKF:
         """
         wz, a_xy = z[2], z[3:5]
         rows = self.rows["imu"]             # the model's ax, ay, wz rows
+        accel_ok = self.imu == "full-gyro" or bool(np.all(np.isfinite(a_xy)))
         if math.isfinite(wz):
             self.ekf.update(np.array([wz]), rows=rows[2:3])
-        if self.imu == "full-gyro" or not np.all(np.isfinite(a_xy)):
+        if not (accel_ok and math.isfinite(wz)):
+            self.nonfinite_count += 1
+        if self.imu == "full-gyro" or not accel_ok:
             return
         if self._block_n == 0:
             self._block_t0 = t
@@ -364,6 +378,11 @@ class WheelImuObserver:
     ------
     ConfigError
         ``tau_s`` not a finite number > 0 (inf would never pull to the wheels).
+
+    Notes
+    -----
+    An IMU or wheel sample holding a NaN or infinite value is skipped and counted in
+    ``nonfinite_count``.
     """
 
     name = "wheel-imu-observer"
@@ -385,6 +404,8 @@ class WheelImuObserver:
         self.t_imu: float | None = None
         self.t_wheel: float | None = None
         self.omega = np.zeros(2)
+        #: IMU and wheel samples skipped for a NaN or infinite value
+        self.nonfinite_count = 0
 
     def update(self, obs: Observation) -> VelocityEstimate:
         """See :meth:`SlipEstimator.update`.
@@ -400,11 +421,16 @@ class WheelImuObserver:
         """
         r = self.vehicle.wheel_radius_m
         for t, name, z in _merged(obs):
-            if name == "imu" and np.all(np.isfinite(z)):
+            if name not in ("imu", "wheels"):
+                continue
+            if not np.all(np.isfinite(z)):
+                self.nonfinite_count += 1
+                continue
+            if name == "imu":
                 if self.t_imu is not None:
                     self.v += (t - self.t_imu) * float(z[0])
                 self.t_imu, self.a, self.w = t, float(z[0]), float(z[2])
-            elif name == "wheels" and np.all(np.isfinite(z)):
+            else:
                 self.omega = z.copy()
                 # centre speed each side implies (left + B w / 2, right - B w / 2)
                 half_w = 0.5 * self.vehicle.track_m * self.w
@@ -483,6 +509,10 @@ class FusedSlipObserver:
       (:data:`~terrain.estimation.skid_steer_slip.SPEED_BOUND_STATES`); ``bound_count``
       counts the projected samples.
 
+    A sample holding a NaN or infinite value is skipped and counted in ``nonfinite_count``
+    (as are those of :class:`AgriMaRoVisualOdometryEKF` and :class:`WheelImuObserver`;
+    ``estimator_nonfinite_samples`` of the closed loop's metrics).
+
     Differences from the batch estimate (``limits``): causal windows (the batch centres a
     2 s window on the estimate, i.e. uses 1 s of future data), no learned model (the
     registered one is trained on 2 s windows), no lag estimation.
@@ -559,6 +589,8 @@ class FusedSlipObserver:
         # speed bound: (t, lower, upper) of the wheel samples that can still hold it
         self.bound_rows: list[tuple[float, float, float]] = []
         self.bound_count = 0
+        #: samples skipped for a NaN or infinite value
+        self.nonfinite_count = 0
         self._v = STATE_NAMES.index("v_bx")
 
     def _correct(self, z: np.ndarray, rows: tuple[int, ...], r_diag: np.ndarray) -> None:
@@ -633,6 +665,7 @@ class FusedSlipObserver:
                                          self.model.F, self.model.Q, check=False)
             self.t = t if self.t is None else max(self.t, t)
             if not np.all(np.isfinite(z)):
+                self.nonfinite_count += 1
                 continue
             if name == "imu":
                 self._correct(z[[2]], rows["gyro"], self.r_diag[list(rows["gyro"])])
