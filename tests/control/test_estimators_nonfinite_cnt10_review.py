@@ -42,8 +42,9 @@ def test_wheel_imu_observer_counts_each_skipped_sample():
     est.update(_husky_obs(0.02))
     est.update(_husky_obs(0.04, imu=np.array([[0.031, NAN, 0.0, 0.0]]),
                           wheels=np.array([[0.035, NAN, 1.0]]),
-                          imu_full=np.array([[0.031, 0.0, 0.0, NAN, 0.0, 0.0, 9.81]])))
-    assert est.nonfinite_count == 2          # the full IMU is not read: not counted
+                          imu_full=np.array([[0.031, 0.0, 0.0, NAN, 0.0, 0.0, 9.81]]),
+                          currents=np.array([[0.035, NAN, 2.0]])))
+    assert est.nonfinite_count == 2          # the full IMU and the currents are not read
     assert np.isfinite(est.v)
 
 
