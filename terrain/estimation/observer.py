@@ -107,13 +107,19 @@ class ObserverResult:
     eta : ndarray, shape (N, 2)
         ``eta_R^, eta_L^`` (dimensionless).
     error : ndarray, shape (N, 3)
-        Observation error ``e`` (eq. 9).
+        Observation error ``e`` (eq. 9); NaN at a missing sample (no correction).
     """
 
     t_s: np.ndarray
     pose_hat: np.ndarray
     eta: np.ndarray
     error: np.ndarray
+
+    @property
+    def missing_samples(self) -> int:
+        """Samples skipped for a non-finite value among those read (no correction: their
+        ``error`` is NaN)."""
+        return int(np.isnan(self.error[:, 2]).sum())
 
     @property
     def eta_right(self) -> np.ndarray:
