@@ -4,18 +4,9 @@ receives (before the streams' common start, after the last call) are counted."""
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from terrain.control.replay import measured_observations
-from terrain.run import Run
-
-
-def _run(imu_t, wheel_t):
-    imu = pd.DataFrame({"t_s": imu_t, "wx": 0.0, "wy": 0.0, "wz": 0.0, "ax": 0.0, "ay": 0.0,
-                        "az": 9.81})
-    wheels = pd.DataFrame({"t_s": wheel_t, "vel_l": 0.2, "vel_r": 0.2, "cur_l": 1.0,
-                           "cur_r": 1.0})
-    return Run("test/SNOW/00", "test", "SNOW", {"imu": imu, "wheels": wheels}, source="mem")
+from test_measured_replay_review import _run  # same folder (pytest's prepend import)
 
 
 def test_samples_outside_the_calls_are_counted_per_stream():

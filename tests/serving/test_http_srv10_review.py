@@ -9,24 +9,13 @@ import json
 import pytest
 
 from terrain.serving.http import RequestGuard
+from test_request_guard import _echo_app  # same folder (pytest's default prepend import)
 
 
 def _guard_answer(length: bytes, chunks: list[bytes], max_body_bytes: int = 1000):
     """(status, JSON answer, bodies the app saw) of one POST /invocations."""
-    seen, sent = [], []
-
-    async def app(scope, receive, send):
-        body = b""
-        while True:
-            message = await receive()
-            body += message.get("body", b"")
-            if not message.get("more_body"):
-                break
-        seen.append(body)
-        await send({"type": "http.response.start", "status": 200, "headers": []})
-        await send({"type": "http.response.body", "body": json.dumps({"n": len(body)})
-                    .encode()})
-
+    app, seen = _echo_app()
+    sent = []
     queue = list(chunks)
 
     async def receive():
