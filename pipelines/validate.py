@@ -19,7 +19,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from pipelines.arguments import output_file
+from pipelines.arguments import check_derived_output, output_file
 
 #: report name -> module with ``sections(quick)`` (read-only; imported when run, so that
 #: building the ``terrain`` parser stays light)
@@ -83,7 +83,17 @@ def main(args: argparse.Namespace) -> int:
     -------
     int
         0.
+
+    Raises
+    ------
+    ConfigError
+        With ``--out``, a figure file beside it (``<stem>_<name>.png``) cannot be written
+        (checked before any table is computed, as ``--out`` itself is).
     """
+    if args.out is not None:
+        from pipelines.validation.figures import figure_paths
+        for path in figure_paths(args.report, args.out).values():
+            check_derived_output("--out", path, [])
     text = []
     report = importlib.import_module(REPORTS[args.report])
     for title, table_fn in report.sections(args.quick):

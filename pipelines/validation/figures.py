@@ -236,5 +236,24 @@ def figures(report: str, out_file: Path, quick: bool = False) -> list[Path]:
     list of pathlib.Path
         Files written.
     """
-    return [draw(out_file.with_name(f"{out_file.stem}_{name}.png"), quick)
-            for name, draw in FIGURES.get(report, {}).items()]
+    paths = figure_paths(report, out_file)
+    return [draw(paths[name], quick) for name, draw in FIGURES.get(report, {}).items()]
+
+
+def figure_paths(report: str, out_file: Path) -> dict[str, Path]:
+    """The files :func:`figures` writes for ``report`` beside ``out_file`` (drawing nothing).
+
+    Parameters
+    ----------
+    report : str
+        Report name (a key of :data:`FIGURES`; another name has no figure).
+    out_file : pathlib.Path
+        The report's ``--out`` file.
+
+    Returns
+    -------
+    dict
+        Figure name -> ``<out_file stem>_<name>.png`` in ``out_file``'s folder.
+    """
+    return {name: out_file.with_name(f"{out_file.stem}_{name}.png")
+            for name in FIGURES.get(report, {})}

@@ -59,3 +59,28 @@ def test_validate_out_writes_every_printed_table(tmp_path, monkeypatch, capsys):
     assert "### Second\n\n| n |\n|---|\n| 3 |\n\n(" in text and "Long" not in text
     assert text.index("### First") < text.index("### Second")
     assert all(line in printed for line in text.splitlines())
+
+
+def test_validate_refuses_a_figure_path_it_cannot_write_before_any_table(tmp_path, monkeypatch):
+    # --out's figure (<stem>_straight_line.png) was written after every table had been
+    # computed (35 s for sim, minutes for estimation): a folder of that name stopped the
+    # command only then, with the Markdown written and no figure
+    import argparse
+    import sys
+    import types
+
+    import pytest
+
+    import pipelines.validate as validate
+    from terrain.errors import ConfigError
+
+    computed = []
+    report = types.ModuleType("fake_sim_report")
+    report.sections = lambda quick: [("T", lambda: computed.append(1) or pd.DataFrame({"n": [3]}))]
+    monkeypatch.setitem(sys.modules, "fake_sim_report", report)
+    monkeypatch.setattr(validate, "REPORTS", {"sim": "fake_sim_report"})
+    (tmp_path / "report_straight_line.png").mkdir()
+    out = tmp_path / "report.md"
+    with pytest.raises(ConfigError, match=r"--out: cannot write .*report_straight_line\.png"):
+        validate.main(argparse.Namespace(report="sim", quick=True, out=out))
+    assert not computed and not out.exists()
