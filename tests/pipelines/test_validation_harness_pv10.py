@@ -89,3 +89,73 @@ def test_the_quick_sim_report_runs_the_shorter_orchard(monkeypatch):
     for quick in (True, False):
         dict(sim_tables.sections(quick))["Husky straight-line currents and chi"]()
     assert seen == [60.0, 120.0]
+
+
+class _Estimate:
+    """Stand-in of a filter result whose every state and std is its step time."""
+
+    def __init__(self, t_s):
+        self.t_s = t_s
+
+    def std(self, name):
+        return self.t_s
+
+    def state(self, name):
+        return self.t_s
+
+
+def test_outage_table_averages_each_phase_over_its_own_interval(monkeypatch):
+    # before 6-8 s, end of the outage 10.5-11 s, after 13-16 s (docs/estimation_validation.md)
+    from pipelines.validation import estimation_tables as tables
+
+    t = np.round(np.arange(0.0, 16.0001, 0.01), 2)
+    monkeypatch.setattr(tables, "simulate_agrimaro", lambda *a, **k: None)
+    monkeypatch.setattr(tables, "outage_experiment", lambda *a: (_Estimate(t), None))
+    monkeypatch.setattr(tables, "truth_on_grid", lambda result, grid: pd.DataFrame(
+        {"v_bx": 0.0 * grid, "v_by": 0.0 * grid}))
+    table = tables.outage_table().set_index("phase")
+    assert table["std_v_bx"].to_numpy() == pytest.approx([7.0, 10.75, 14.505])
+    assert table["abs_err_v_by"].to_numpy() == pytest.approx([7.0, 10.75, 14.505])
+
+
+def test_consistency_table_averages_the_slip_rmse_of_the_first_three_seeds(monkeypatch):
+    from pipelines.validation import estimation_tables as tables
+
+    seeds = []
+    monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS",))
+    monkeypatch.setattr(tables, "agrimaro_consistency",
+                        lambda terrain, runs, duration: SimpleNamespace(as_dict=lambda: {}))
+    monkeypatch.setattr(tables, "simulate_agrimaro",
+                        lambda terrain, seed, duration: seeds.append(seed)
+                        or SimpleNamespace(run=seed))
+    monkeypatch.setattr(tables, "estimate_run", lambda run: run)
+    monkeypatch.setattr(tables, "_slip_errors", lambda result, est: {"rmse": float(est)})
+    table = tables.consistency_table(n_runs=10)
+    assert seeds == [0, 1, 2]
+    assert table["rmse_slip"].tolist() == [1.0]
+
+
+def test_steady_slip_and_lag_tables_run_each_tuning_and_report_the_estimated_lag(monkeypatch):
+    from pipelines.validation import estimation_tables as tables
+
+    calls = []
+
+    def estimate(run, **kwargs):
+        calls.append(kwargs)
+        lag = SimpleNamespace(lag_s=0.123) if kwargs.get("lag") == "xcorr" else None
+        return SimpleNamespace(lag=lag, tuning=kwargs.get("tuning"))
+
+    monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS",))
+    monkeypatch.setattr(tables, "simulate_agrimaro",
+                        lambda *a, **k: SimpleNamespace(run=None, effects=k.get("effects")))
+    monkeypatch.setattr(tables, "estimate_run", estimate)
+    monkeypatch.setattr(tables, "_slip_errors", lambda result, est: {
+        "steady_err_1": 0.0, "steady_err_2": 0.0, "steady_err_3": 0.0,
+        "transient_rmse": 0.0, "tuning_seen": est.tuning})
+    steady = tables.steady_slip_table(seeds=(1,))
+    assert steady["tuning"].tolist() == ["noise", "thesis"]
+    assert steady["tuning_seen"].tolist() == ["noise", "thesis"]
+    calls.clear()
+    lags = tables.lag_table(lags_s=(0.1,))
+    assert [c["lag"] for c in calls] == ["none", "ema", "xcorr"]
+    assert lags["estimated_lag_s"].tolist() == [0.123]
