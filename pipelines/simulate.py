@@ -48,8 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--effect", action="append", default=[], metavar="NAME=VALUE",
                         help=f"plant a named effect (repeatable, each name once): {ranges}; "
                              "terrain.sim.effects says what each does")
-    parser.add_argument("--segment-m", type=positive_number, default=25.0,
-                        help="distance between terrain changes, m")
+    parser.add_argument("--segment-m", type=positive_number, default=None,
+                        help=f"distance between terrain changes, m (default "
+                             f"{SimConfig.segment_length_m:g}; with several terrains only)")
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS,
                         help="physics version (v2: load transfer, lateral wheel-soil model, "
                              "docs/physics_v2.md)")
@@ -76,13 +77,18 @@ def main(args: argparse.Namespace) -> int:
         repeated effect, or out-of-range settings (a duration too short for two samples of
         every stream).
     """
-    config = SimConfig(vehicle=args.vehicle.lower(), terrains=parse_terrain_list(args.terrain),
+    terrains = parse_terrain_list(args.terrain)
+    segment = {} if args.segment_m is None else {"segment_length_m": args.segment_m}
+    config = SimConfig(vehicle=args.vehicle.lower(), terrains=terrains,
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
-                       effects=parse_effects(args.effect), segment_length_m=args.segment_m,
-                       physics=args.physics)
+                       effects=parse_effects(args.effect), physics=args.physics, **segment)
     run = simulate(config)
     paths = write_run(run, args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")
+    if segment and len(set(terrains)) == 1:
+        # an option that changes nothing is said, not silently ignored
+        print(f"note: --segment-m {args.segment_m:g} not used: one terrain ({terrains[0]}) "
+              "along the whole path")
     for note in (unreached_terrains_note(run, config), clipped_commands_note(run)):
         if note:
             print(note)

@@ -317,3 +317,22 @@ def test_an_effect_item_with_two_equals_signs_is_refused():
     the second ``=`` being dropped."""
     with pytest.raises(ConfigError, match="gyro_bias needs a number"):
         parse_effects(["gyro_bias=0.1=0.2"])
+
+
+def test_segment_m_with_one_terrain_is_said_not_silently_ignored(tmp_path, capsys):
+    # --segment-m sets where the terrain changes along the path: with one terrain it changed
+    # nothing and nothing said so (estimate says so of an option for the other vehicle kind)
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--segment-m", "5",
+                 "--duration-s", "1", "--out", str(tmp_path / "one")]) == 0
+    out = capsys.readouterr().out
+    assert "note: --segment-m 5 not used: one terrain (ICE) along the whole path" in out
+    (run,) = read_runs_dir(tmp_path / "one")
+    assert run.meta["segment_length_m"] == 5.0
+    # left out, or with several terrains: no note; the default is still 25 m
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "1",
+                 "--out", str(tmp_path / "default")]) == 0
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE,SNOW", "--segment-m", "5",
+                 "--duration-s", "1", "--out", str(tmp_path / "two")]) == 0
+    assert "--segment-m" not in capsys.readouterr().out.replace("(--segment-m)", "")
+    (run,) = read_runs_dir(tmp_path / "default")
+    assert run.meta["segment_length_m"] == 25.0
