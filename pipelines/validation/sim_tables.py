@@ -86,7 +86,11 @@ def thesis_straight_line_table(duration_s: float = 8.0, seed: int = 0) -> pd.Dat
 
 
 def regression_chi(run: Run) -> float:
-    """ICR factor from regressing ``wz`` on ``(v_R - v_L) / B`` where the latter > 0.2 rad/s.
+    """ICR factor from regressing ``wz`` on ``x = (v_R - v_L) / B`` where ``|x| > 0.2`` rad/s.
+
+    The least-squares slope of ``wz`` on ``x`` through the origin is ``1 / chi``, so chi is
+    ``sum(x^2) / sum(x wz)`` over those samples (turns either way; ``wz`` interpolated at the
+    wheel samples' times).
 
     Parameters
     ----------
@@ -96,7 +100,7 @@ def regression_chi(run: Run) -> float:
     Returns
     -------
     float
-        chi (dimensionless).
+        chi (dimensionless); NaN when no sample turns faster than 0.2 rad/s.
     """
     wheels, imu = run.streams["wheels"], run.streams["imu"]
     x = ((wheels.vel_r - wheels.vel_l) / HUSKY.track_m).to_numpy()
