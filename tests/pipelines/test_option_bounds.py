@@ -7,7 +7,8 @@ import argparse
 
 import pytest
 
-from pipelines.arguments import integer_in, integer_up_to, sim_duration_s
+from pipelines.arguments import (integer_in, integer_up_to, non_negative_number,
+                                 probability, sim_duration_s)
 from terrain.audit.selection import MAX_BOOTSTRAP, MIN_BOOTSTRAP
 from terrain.cli import main
 from terrain.models.registry import MAX_CNN_SEEDS
@@ -20,6 +21,22 @@ def test_sim_duration_takes_its_maximum_and_refuses_more():
     with pytest.raises(argparse.ArgumentTypeError,
                        match=rf"must be a finite number in \(0, {MAX_DURATION_S:g}\] s, got "):
         sim_duration_s(f"{MAX_DURATION_S + 0.5:g}")
+
+
+def test_probability_takes_both_ends_and_refuses_beyond_them():
+    # [0, 1] closed (--min-confidence 1: only certain windows); NaN is no probability
+    assert probability("0") == 0.0 and probability("1") == 1.0
+    for value in ("-1e-9", "1.000001", "nan"):
+        with pytest.raises(argparse.ArgumentTypeError, match="must be a probability in"):
+            probability(value)
+
+
+def test_non_negative_number_takes_zero_and_refuses_infinity():
+    # a controller gain: 0 switches the term off; inf is no gain
+    assert non_negative_number("0") == 0.0
+    for value in ("inf", "-1e-9", "nan"):
+        with pytest.raises(argparse.ArgumentTypeError, match="must be a finite number >= 0"):
+            non_negative_number(value)
 
 
 def test_integer_up_to_takes_its_maximum_and_refuses_one_more():
