@@ -195,6 +195,36 @@ def test_slip_model_dir_not_used_is_said(run_dir, tmp_path, capsys):
                  "--slip-model", "physics", "--slip-model-dir", str(tmp_path / "nope")]) == 0
     out = capsys.readouterr().out
     assert "--slip-model-dir" in out and "not used" in out
+    # the reason: the slip source chosen uses no model, or no run is a skid-steer one
+    assert (f"note: --slip-model-dir {tmp_path / 'nope'} not used: --slip-model physics uses "
+            "no learned model") in out
+    agri = tmp_path / "agri"
+    write_run(simulate(SimConfig(vehicle="agrimaro", terrains=("SNOW",),
+                                 scenario="straight_accel", duration_s=1.0, seed=1)), agri)
+    assert main(["estimate", str(agri), "--out", str(tmp_path / "a.csv"),
+                 "--slip-model-dir", str(tmp_path / "nope")]) == 0
+    assert (f"note: --slip-model-dir {tmp_path / 'nope'} not used: no skid-steer run (the "
+            "AgriMaRo EKF observes its slip)") in capsys.readouterr().out
+
+
+def test_the_states_table_keeps_nine_significant_digits(run_dir, tmp_path):
+    # the states go to 9 significant digits (pipelines/estimate.py): a gyro bias of 1e-4
+    # rad/s printed to 4 digits would lose what a 1e-8 rad/s change of it tells
+    import pandas as pd
+
+    from terrain.io.measured import read_runs_path
+    from terrain.slip.estimate import estimate_skid_steer_slip_run
+
+    out = tmp_path / "s.csv"
+    assert main(["estimate", str(run_dir), "--out", str(out), "--slip-model", "ekf"]) == 0
+    written = pd.read_csv(out)
+    (run,) = read_runs_path(run_dir)
+    frame = estimate_skid_steer_slip_run(run, "ekf").to_frame()
+    assert list(written.columns) == list(frame.columns)
+    for column in ("v_bx", "yaw_rate", "gyro_bias", "std_v_bx", "nis"):
+        expected = frame[column].to_numpy(float)
+        assert np.allclose(written[column].to_numpy(float), expected, rtol=1e-8, atol=0.0,
+                           equal_nan=True), column
 
 
 def test_a_run_shorter_than_a_slip_window_names_that_reason(tmp_path, capsys):
