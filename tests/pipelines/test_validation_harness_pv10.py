@@ -159,3 +159,31 @@ def test_steady_slip_and_lag_tables_run_each_tuning_and_report_the_estimated_lag
     lags = tables.lag_table(lags_s=(0.1,))
     assert [c["lag"] for c in calls] == ["none", "ema", "xcorr"]
     assert lags["estimated_lag_s"].tolist() == [0.123]
+
+
+def test_binned_nis_leaves_out_a_bin_without_an_accepted_row():
+    # "one row per bin holding an accepted row": a step without rows (dof 0) makes no bin of
+    # its own (it would read 0 / 0)
+    from pipelines.validation.figures import binned_nis
+
+    table = binned_nis(np.array([0.0, 0.5, 1.5]), np.array([2.0, 4.0, 0.0]),
+                       np.array([2.0, 2.0, 0.0]))
+    assert table["t_s"].tolist() == [0.5]
+    assert table["nis_per_dof"].tolist() == [1.5] and table["dof"].tolist() == [4.0]
+
+
+def test_slip_tracking_draws_wheel_one(monkeypatch):
+    # the figure is wheel 1's slip, estimated against true
+    from pipelines.validation import figures
+
+    t = np.arange(0.0, 1.0, 0.25)
+    slip = np.column_stack([t, 10 + t, 20 + t])
+    est = SimpleNamespace(ekf=SimpleNamespace(t_s=t, nis=np.ones(t.size), dof=np.ones(t.size)),
+                          slip=slip)
+    monkeypatch.setattr(figures, "simulate_agrimaro", lambda *a: SimpleNamespace(run=None))
+    monkeypatch.setattr(figures, "estimate_run", lambda run, tuning: est)
+    monkeypatch.setattr(figures, "truth_on_grid", lambda result, grid: pd.DataFrame(
+        {"slip_1": -grid, "slip_2": 10 - grid}))
+    frame = figures.slip_tracking(terrains=("GRASS",))
+    assert frame["slip_est"].tolist() == (t.tolist() * 2)
+    assert frame["slip_true"].tolist() == ((-t).tolist() * 2)
