@@ -328,6 +328,10 @@ def test_segment_m_with_one_terrain_is_said_not_silently_ignored(tmp_path, capsy
     assert "note: --segment-m 5 not used: one terrain (ICE) along the whole path" in out
     (run,) = read_runs_dir(tmp_path / "one")
     assert run.meta["segment_length_m"] == 5.0
+    # a list naming one terrain twice is one terrain too
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE,ICE", "--segment-m", "5",
+                 "--duration-s", "1", "--out", str(tmp_path / "twice")]) == 0
+    assert "note: --segment-m 5 not used: one terrain (ICE)" in capsys.readouterr().out
     # left out, or with several terrains: no note; the default is still 25 m
     assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "1",
                  "--out", str(tmp_path / "default")]) == 0
