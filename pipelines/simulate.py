@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 
 from pipelines.arguments import output_dir, positive_number, seed_value, sim_duration_s
-from terrain.io.writer import write_run
+from terrain.io.writer import free_index, write_run
 from terrain.run import Run
 from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SimConfig, parse_effects,
                          parse_terrain_list, simulate)
@@ -75,13 +75,16 @@ def main(args: argparse.Namespace) -> int:
     ConfigError
         Unknown vehicle, terrain, scenario or effect, an empty name in the terrain list, a
         repeated effect, or out-of-range settings (a duration too short for two samples of
-        every stream).
+        every stream); the terrain folder already holds runs 00-99 (checked before
+        simulating).
     """
     terrains = parse_terrain_list(args.terrain)
     segment = {} if args.segment_m is None else {"segment_length_m": args.segment_m}
     config = SimConfig(vehicle=args.vehicle.lower(), terrains=terrains,
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
                        effects=parse_effects(args.effect), physics=args.physics, **segment)
+    # the writer's folder (the run's terrain: MIXED for a list) refused before simulating
+    free_index(args.out / (terrains[0] if len(terrains) == 1 else "MIXED"))
     run = simulate(config)
     paths = write_run(run, args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")

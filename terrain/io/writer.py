@@ -148,6 +148,31 @@ def next_index(folder: str | Path) -> int:
     return i
 
 
+def free_index(folder: str | Path) -> int:
+    """:func:`next_index` of ``folder``, refused when the two-digit layout has none left.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Terrain folder (need not exist).
+
+    Returns
+    -------
+    int
+        The index the next run written there gets, 0-99.
+
+    Raises
+    ------
+    ConfigError
+        The folder already holds runs 00-99.
+    """
+    idx = next_index(folder)
+    if idx > 99:
+        raise ConfigError(f"{folder} already holds runs 00-99: the layout numbers a terrain "
+                          f"folder's runs with two digits; write to another folder")
+    return idx
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -202,10 +227,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     folder = Path(out_dir) / terrain
     if index is not None:    # (True was run 01, 2.7 run 02, "x" int()'s bare ValueError)
         config_integer("write_run.index", index, 0, 99)
-    idx = next_index(folder) if index is None else int(index)
-    if index is None and idx > 99:
-        raise ConfigError(f"{folder} already holds runs 00-99: the layout numbers a terrain "
-                          f"folder's runs with two digits; write to another folder")
+    idx = free_index(folder) if index is None else int(index)
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
     folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then

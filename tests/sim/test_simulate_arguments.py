@@ -340,3 +340,23 @@ def test_segment_m_with_one_terrain_is_said_not_silently_ignored(tmp_path, capsy
     assert "--segment-m" not in capsys.readouterr().out.replace("(--segment-m)", "")
     (run,) = read_runs_dir(tmp_path / "default")
     assert run.meta["segment_length_m"] == 25.0
+
+
+def test_a_full_terrain_folder_is_refused_before_simulating(tmp_path, monkeypatch, capsys):
+    # the layout numbers a terrain folder's runs 00-99: with all of them taken, the run was
+    # simulated (up to 2 h of simulated time) and only then refused by the writer
+    import pipelines.simulate as simulate_command
+
+    for name in ("ICE", "MIXED"):
+        folder = tmp_path / name
+        folder.mkdir()
+        for i in range(100):
+            (folder / f"imu_{i:02d}.csv").touch()
+    simulated = []
+    monkeypatch.setattr(simulate_command, "simulate", lambda config: simulated.append(config))
+    for terrain, folder in (("ICE", "ICE"), ("ICE,SNOW", "MIXED"), ("ICE,ICE", "MIXED")):
+        assert main(["simulate", "--vehicle", "husky", "--terrain", terrain, "--duration-s",
+                     "1", "--out", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert (f"terrain simulate: error: {tmp_path / folder} already holds runs 00-99" in err)
+    assert not simulated
