@@ -1,0 +1,81 @@
+"""Review tests (rtm10): the traction peak of a curve that falls only a little after its
+maximum, and the slip conditioning options that are not finite."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrain.errors import EstimationError
+from terrain.terramechanics import (BurckhardtCurve, JanosiCurve, sae_slip,
+                                    sae_slip_and_velocity_slope, traction_coefficient,
+                                    traction_peak)
+from terrain.terramechanics.lateral import SOILS
+
+
+def test_traction_peak_finds_the_maximum_of_a_curve_falling_less_than_one_percent():
+    # Burckhardt mu = c1 (1 - e^(-c2 s)) - c3 s peaks at s* = ln(c1 c2 / c3) / c2; with
+    # c3 = 0.005 the curve at s = 1 is only 0.27 % below its peak, which is still an
+    # interior maximum (rtm10 mutant: a 1 % tolerance on the fall read it as monotonic and
+    # gave the 95 % slip 0.15 instead of the peak 0.4147)
+    c1, c2, c3 = 1.0, 20.0, 0.005
+    peak = traction_peak(BurckhardtCurve(c1, c2, c3))
+    s_star = math.log(c1 * c2 / c3) / c2
+    mu_star = c1 * (1.0 - math.exp(-c2 * s_star)) - c3 * s_star
+    assert not peak.monotonic
+    assert peak.slip == pytest.approx(s_star, abs=1e-6)
+    assert peak.mu == pytest.approx(mu_star, rel=1e-12)
+    assert peak.mu_max == peak.mu
+
+
+# Wong, Theory of Ground Vehicles, 4th ed., Table 2.3: n, k_c (kN/m^(n+1)), k_phi
+# (kN/m^(n+2)), c (kPa), phi (deg); and the bulk density (t/m^3) each entry's source states
+# for its specific weight gamma_s
+_WONG_T23_ROWS = {
+    "SANDY_LOAM": (0.7, 5.27, 1515.04, 1.72, 29.0, 1.6),    # sandy loam (LLL), 15 % moisture
+    "PLOUGHED": (0.7, 5.27, 1515.04, 1.72, 29.0, 1.6),      # the same row by analogy
+    "SNOW": (1.6, 2.49, 245.90, 0.62, 23.2, 0.25),          # snow (U.S., Harrison)
+}
+
+
+@pytest.mark.parametrize("name", sorted(_WONG_T23_ROWS))
+def test_physics_v2_soils_are_their_wong_table_2_3_rows_in_si_units(name):
+    # rtm10 mutants that lived: SNOW's cohesion 0.62 -> 0.60 kPa and SANDY_LOAM's gamma_s
+    # 15.7 -> 15.0 kN/m^3 moved no test
+    n, k_c, k_phi, c_kpa, phi, density_t_m3 = _WONG_T23_ROWS[name]
+    soil = SOILS[name]
+    assert (soil.n, soil.friction_angle_deg) == (n, phi)
+    assert soil.k_c == pytest.approx(k_c * 1e3, rel=1e-12)       # N/m^(n+1)
+    assert soil.k_phi == pytest.approx(k_phi * 1e3, rel=1e-12)   # N/m^(n+2)
+    assert soil.cohesion_pa == pytest.approx(c_kpa * 1e3, rel=1e-12)
+    # gamma_s = rho g, rounded to three digits in the entry
+    assert soil.unit_weight_n_m3 == pytest.approx(density_t_m3 * 1e3 * 9.80665, rel=2e-3)
+
+
+def test_sae_slip_refuses_a_zero_saturation():
+    # rtm10 mutant (saturation >= 0 accepted) lived: a zero bound clips every slip to 0
+    with pytest.raises(EstimationError, match="sae_slip"):
+        sae_slip(1.0, 0.5, saturation=0.0)
+
+
+@pytest.mark.parametrize("rim, v", [(0.01, 0.025), (-0.015, -0.021), (0.02, 0.03),
+                                    (0.03, 0.031), (0.5, 0.6)])
+def test_slip_velocity_slope_is_the_derivative_where_the_body_is_faster_near_the_floor(rim, v):
+    # where |v| >= max(|rim|, floor) the slip is (rim - v) / |v| and d s / d v = -rim sign(v)
+    # / v^2: at v = 0.025 m/s, rim 0.01 m/s that is -16 s/m (rtm10 mutant flooring v^2 at
+    # 1e-3 instead of 1e-6 gave -10 there, every |v| below 0.032 m/s)
+    floor, h = 0.02, 1e-7
+    slip, slope = sae_slip_and_velocity_slope(np.array([rim]), np.array([v]), floor)
+    up = sae_slip(rim, v + h, speed_floor_m_s=floor, dead_band_m_s=0.0)
+    dn = sae_slip(rim, v - h, speed_floor_m_s=floor, dead_band_m_s=0.0)
+    assert slope[0] == pytest.approx(-rim * np.sign(v) / v ** 2, rel=1e-12)
+    assert slope[0] == pytest.approx((up - dn) / (2 * h), rel=1e-5)
+
+
+def test_janosi_curve_with_zero_strength_is_accepted_and_gives_no_traction():
+    # the class refuses a negative mu_max only: a soil with neither cohesion nor friction
+    # (mu_max = 0) gives mu = 0 at every slip (rtm10 mutant refusing mu_max = 0 lived)
+    curve = JanosiCurve(0.0, 0.3)
+    np.testing.assert_array_equal(traction_coefficient(curve, np.linspace(-1, 1, 11)), 0.0)
