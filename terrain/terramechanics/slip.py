@@ -39,13 +39,16 @@ THESIS_DEAD_BAND_M_S = 0.05
 
 def _check(speed_floor_m_s: float, dead_band_m_s: float, saturation: float) -> None:
     try:
-        valid = bool(speed_floor_m_s >= 0 and dead_band_m_s >= 0 and saturation > 0)
+        # an infinite floor or dead band gave slip 0 everywhere; an infinite saturation
+        # clips nothing and is kept
+        valid = bool(0 <= speed_floor_m_s < np.inf and 0 <= dead_band_m_s < np.inf
+                     and saturation > 0)
     except (TypeError, ValueError):  # text, None or an array given for a scalar option
         valid = False
     if not valid:
         raise EstimationError(
-            f"sae_slip: speed floor and dead band must be >= 0 and saturation > 0, got "
-            f"speed_floor_m_s={speed_floor_m_s}, dead band {dead_band_m_s}, saturation "
+            f"sae_slip: speed floor and dead band must be finite and >= 0 and saturation > 0, "
+            f"got speed_floor_m_s={speed_floor_m_s}, dead band {dead_band_m_s}, saturation "
             f"{saturation}")
 
 
@@ -119,13 +122,13 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
         Longitudinal velocity of the wheel centre (or contact point) along its rolling
         direction, m/s (eq. 7.5); broadcast with ``rim_speed_m_s``.
     speed_floor_m_s : float, optional
-        Floor of the denominator, m/s, >= 0 (0: none, the thesis's formula; the simulator
-        uses 0.02 m/s).
+        Floor of the denominator, m/s, finite and >= 0 (0: none, the thesis's formula; the
+        simulator uses 0.02 m/s).
     dead_band_m_s : float, optional
-        Speed below which (both speeds) the slip is 0, m/s, >= 0 (default 0.05, ch. 7.2.1;
-        the simulator passes 0).
+        Speed below which (both speeds) the slip is 0, m/s, finite and >= 0 (default 0.05,
+        ch. 7.2.1; the simulator passes 0).
     saturation : float, optional
-        Clip bound, > 0 (1 in ch. 7.2.1).
+        Clip bound, > 0 (1 in ch. 7.2.1; infinite: no clipping).
 
     Returns
     -------
@@ -135,7 +138,8 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
     Raises
     ------
     EstimationError
-        Negative, NaN or non-numeric speed floor or dead band, or non-positive saturation.
+        Negative, infinite, NaN or non-numeric speed floor or dead band, or non-positive
+        saturation.
     DataFormatError
         A speed that is not a number (text, None).
     ShapeError
@@ -190,7 +194,7 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
     v_long_m_s : ndarray, shape (c,)
         Longitudinal contact velocities, m/s.
     speed_floor_m_s : float
-        Floor of the denominator, m/s, > 0.
+        Floor of the denominator, m/s, finite and > 0.
 
     Returns
     -------
@@ -202,10 +206,10 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
     Raises
     ------
     EstimationError
-        Non-positive speed floor.
+        Non-positive or infinite speed floor.
     """
-    if not speed_floor_m_s > 0:
-        raise EstimationError(f"speed_floor_m_s must be > 0, got {speed_floor_m_s}")
+    if not 0 < speed_floor_m_s < np.inf:   # inf gave slip 0 and slope 0 everywhere
+        raise EstimationError(f"speed_floor_m_s must be finite and > 0, got {speed_floor_m_s}")
     ratio, den = _ratio(rim_speed_m_s, v_long_m_s, speed_floor_m_s)
     v = v_long_m_s
     body_dominant = np.abs(v) >= np.maximum(np.abs(rim_speed_m_s), speed_floor_m_s)

@@ -30,6 +30,27 @@ def test_traction_peak_finds_the_maximum_of_a_curve_falling_less_than_one_percen
     assert peak.mu_max == peak.mu
 
 
+@pytest.mark.parametrize("option", [{"dead_band_m_s": math.inf},
+                                    {"speed_floor_m_s": math.inf}])
+def test_sae_slip_refuses_an_infinite_dead_band_or_speed_floor(option):
+    # before: sae_slip(1.0, 0.5, dead_band_m_s=inf) put every sample in the dead band and
+    # sae_slip(1.0, 0.5, speed_floor_m_s=inf) divided by an infinite denominator: both
+    # returned slip 0.0 for a rim twice as fast as the ground (0.5), without a word
+    with pytest.raises(EstimationError, match="sae_slip"):
+        sae_slip(1.0, 0.5, **option)
+
+
+def test_sae_slip_keeps_an_infinite_saturation_as_no_clip():
+    # saturation bounds the slip; an infinite one clips nothing (still accepted)
+    assert sae_slip(1.0, 0.5, saturation=math.inf) == pytest.approx(0.5)
+
+
+def test_slip_velocity_slope_refuses_an_infinite_speed_floor():
+    # before: slip 0 and slope 0 for a wheel at 1 m/s on a body at 0.5 m/s
+    with pytest.raises(EstimationError, match="speed_floor_m_s"):
+        sae_slip_and_velocity_slope(np.array([1.0]), np.array([0.5]), math.inf)
+
+
 # Wong, Theory of Ground Vehicles, 4th ed., Table 2.3: n, k_c (kN/m^(n+1)), k_phi
 # (kN/m^(n+2)), c (kPa), phi (deg); and the bulk density (t/m^3) each entry's source states
 # for its specific weight gamma_s
