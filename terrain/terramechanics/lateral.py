@@ -92,7 +92,9 @@ class SoilParams:
     friction_angle_deg : float
         Mohr-Coulomb internal friction angle phi, degrees.
     shear_modulus_m : float
-        Janosi-Hanamoto shear deformation modulus K of the lateral shear, m.
+        Janosi-Hanamoto shear deformation modulus K_x of the longitudinal shear
+        (:func:`longitudinal_curve`), and of the lateral shear too where
+        ``lateral_shear_modulus_m`` is None, m.
     unit_weight_n_m3 : float
         Specific weight of the soil gamma_s, N/m^3 (bulldozing).
     source : str
