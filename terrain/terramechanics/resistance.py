@@ -128,7 +128,8 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
     Parameters
     ----------
     mu_lateral : float
-        Lateral resistance coefficient (friction plus bulldozing of sunk wheels).
+        Lateral resistance coefficient (friction plus bulldozing of sunk wheels),
+        dimensionless, finite and >= 0.
     normal_load_n : ndarray, shape (n,)
         Normal load of each contact, N.
     v_lateral_m_s : ndarray, shape (n,)
@@ -147,9 +148,13 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
     ------
     ConfigError
         ``slide_speed_m_s`` not a finite value > 0 (0 divides by zero, a negative one turns
-        the friction into a pushing force).
+        the friction into a pushing force), or ``mu_lateral`` not a finite real number
+        >= 0 (a negative one pushed the wheel along its slide, NaN gave NaN forces).
     """
     check_slide_speed("lateral_force_and_slope", slide_speed_m_s)
+    # called on every simulator step: a float in range passes on one isinstance test
+    if not (isinstance(mu_lateral, float) and 0.0 <= mu_lateral < math.inf):
+        config_positive("lateral_force_and_slope", allow_zero=True, mu_lateral=mu_lateral)
     normal = np.asarray(normal_load_n)
     v = np.asarray(v_lateral_m_s)
     th_l = np.tanh(v / slide_speed_m_s)
@@ -185,7 +190,8 @@ def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s:
     Raises
     ------
     ConfigError
-        ``slide_speed_m_s`` not a finite value > 0.
+        ``slide_speed_m_s`` not a finite value > 0, or ``mu_lateral`` not a finite value
+        >= 0.
     """
     return lateral_force_and_slope(mu_lateral, normal_load_n, v_lateral_m_s,
                                    slide_speed_m_s)[0]

@@ -100,3 +100,24 @@ def test_janosi_curve_with_zero_strength_is_accepted_and_gives_no_traction():
     # (mu_max = 0) gives mu = 0 at every slip (rtm10 mutant refusing mu_max = 0 lived)
     curve = JanosiCurve(0.0, 0.3)
     np.testing.assert_array_equal(traction_coefficient(curve, np.linspace(-1, 1, 11)), 0.0)
+
+
+@pytest.mark.parametrize("mu_lateral", [-0.5, float("nan"), math.inf, True, "0.5", None])
+def test_lateral_friction_refuses_a_coefficient_that_is_not_finite_and_non_negative(mu_lateral):
+    # before: lateral_force_and_slope(-0.5, [100 N], [0.1 m/s]) returned +50 N, a force
+    # pushing the wheel further along its slide, with a positive (destabilising) slope of
+    # +500 N s/m; NaN gave a NaN force and True a coefficient of 1
+    from terrain.errors import ConfigError
+    from terrain.terramechanics.resistance import lateral_force_and_slope
+
+    with pytest.raises(ConfigError, match="mu_lateral"):
+        lateral_force_and_slope(mu_lateral, np.array([100.0]), np.array([0.1]))
+
+
+def test_lateral_friction_of_zero_and_integer_coefficients_is_kept():
+    from terrain.terramechanics.resistance import lateral_force_and_slope
+
+    np.testing.assert_array_equal(lateral_force_and_slope(0.0, np.array([100.0]),
+                                                          np.array([0.1]))[0], 0.0)
+    force = lateral_force_and_slope(1, np.array([100.0]), np.array([1.0]))[0]
+    assert force[0] == pytest.approx(-100.0 * np.tanh(1.0 / 0.02))
