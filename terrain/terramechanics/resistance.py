@@ -217,8 +217,16 @@ def turning_resistance_moment_nm(mu_lateral: float, weight_n: float,
     Returns
     -------
     float
-        Moment resisting yaw, N m.
+        Moment resisting yaw, N m (>= 0).
+
+    Raises
+    ------
+    ConfigError
+        An input that is not a finite real number >= 0 (a negative one gave a moment that
+        helps the yaw, NaN a NaN moment), named.
     """
+    config_positive("turning_resistance_moment_nm", allow_zero=True, mu_lateral=mu_lateral,
+                    weight_n=weight_n, contact_length_m=contact_length_m)
     return mu_lateral * weight_n * contact_length_m / 4.0
 
 

@@ -121,3 +121,17 @@ def test_lateral_friction_of_zero_and_integer_coefficients_is_kept():
                                                           np.array([0.1]))[0], 0.0)
     force = lateral_force_and_slope(1, np.array([100.0]), np.array([1.0]))[0]
     assert force[0] == pytest.approx(-100.0 * np.tanh(1.0 / 0.02))
+
+
+@pytest.mark.parametrize("field, value", [("mu_lateral", -0.5), ("weight_n", -100.0),
+                                          ("contact_length_m", float("nan")),
+                                          ("weight_n", math.inf), ("mu_lateral", True)])
+def test_turning_resistance_moment_refuses_negative_or_non_finite_inputs(field, value):
+    # before: turning_resistance_moment_nm(-0.5, 100, 0.6) returned -7.5 N m, a moment
+    # helping the yaw it is meant to resist; NaN and inf passed through
+    from terrain.errors import ConfigError
+    from terrain.terramechanics import turning_resistance_moment_nm
+
+    args = {"mu_lateral": 0.5, "weight_n": 100.0, "contact_length_m": 0.6, field: value}
+    with pytest.raises(ConfigError, match=field):
+        turning_resistance_moment_nm(**args)
