@@ -336,10 +336,16 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     Raises
     ------
     ConfigError
-        ``iterations`` not an integer >= 1 (0 returned no sinkage at all), or a load, plate
-        or soil :func:`~terrain.terramechanics.resistance.bekker_sinkage_m` refuses.
+        ``iterations`` not an integer >= 1 (0 returned no sinkage at all), ``load_n`` not a
+        real number (``None`` and text raised a bare ``TypeError``), ``width_m``,
+        ``footprint_length_m`` or ``wheel_radius_m`` not a finite length > 0 (a negative
+        radius gave a negative sinkage), or a load, plate or soil
+        :func:`~terrain.terramechanics.resistance.bekker_sinkage_m` refuses.
     """
     config_integer("wheel_sinkage_m iterations", iterations, 1)
+    config_numbers("wheel_sinkage_m", load_n=load_n)
+    config_positive("wheel_sinkage_m", width_m=width_m, footprint_length_m=footprint_length_m,
+                    wheel_radius_m=wheel_radius_m)
     if load_n <= 0:
         return 0.0, footprint_length_m
     length = footprint_length_m

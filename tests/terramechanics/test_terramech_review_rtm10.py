@@ -135,3 +135,23 @@ def test_turning_resistance_moment_refuses_negative_or_non_finite_inputs(field, 
     args = {"mu_lateral": 0.5, "weight_n": 100.0, "contact_length_m": 0.6, field: value}
     with pytest.raises(ConfigError, match=field):
         turning_resistance_moment_nm(**args)
+
+
+@pytest.mark.parametrize("field, value", [("load_n", None), ("load_n", "100"),
+                                          ("wheel_radius_m", -0.165),
+                                          ("wheel_radius_m", float("nan")),
+                                          ("footprint_length_m", -0.08), ("width_m", 0.0)])
+def test_wheel_sinkage_refuses_a_load_or_wheel_that_is_not_one(field, value):
+    # before: a wheel of radius -0.165 m under 100 N on SNOW sank by -0.165 m (a negative
+    # sinkage, capped at the 'radius'), None or text as the load raised a bare TypeError
+    # from 'load_n <= 0', and an unloaded wheel returned a negative footprint as its
+    # contact length
+    from terrain.errors import ConfigError
+    from terrain.terramechanics.lateral import wheel_sinkage_m
+
+    args = {"load_n": 100.0, "width_m": 0.11, "footprint_length_m": 0.08,
+            "wheel_radius_m": 0.165, field: value}
+    if field == "footprint_length_m":
+        args["load_n"] = 0.0
+    with pytest.raises(ConfigError, match=field):
+        wheel_sinkage_m(soil=SOILS["SNOW"], **args)
