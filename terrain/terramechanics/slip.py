@@ -269,13 +269,16 @@ def ground_speed_from_slip(rim_speed_m_s: np.ndarray | float, slip: np.ndarray |
     rim_speed_m_s : float or ndarray, shape (...)
         Rim speed ``omega r``, m/s.
     slip : float or ndarray, shape (...)
-        SAE slip, dimensionless, ``|slip| < 1``; broadcast with ``rim_speed_m_s``.
+        SAE slip, dimensionless, ``|slip| < 1`` (``q = 1``: a wheel spinning on a body at
+        rest, ground speed 0); broadcast with ``rim_speed_m_s``.
 
     Returns
     -------
     ndarray, broadcast shape of the inputs
-        Ground speed, m/s.
+        Ground speed, m/s; NaN where ``q > 1`` or ``q <= -1`` (no ground speed gives that
+        slip: ``q > 1`` made it run against the rim, ``q = -1`` gave 1e12 m/s).
     """
     rim = np.asarray(rim_speed_m_s, dtype=float)
     q = np.where(rim >= 0.0, 1.0, -1.0) * np.asarray(slip, dtype=float)
-    return np.where(q >= 0.0, rim * (1.0 - q), rim / (1.0 + np.maximum(q, -1.0 + 1e-12)))
+    v = np.where(q >= 0.0, rim * (1.0 - q), rim / (1.0 + np.maximum(q, -1.0 + 1e-12)))
+    return np.where((q > 1.0) | (q <= -1.0), np.nan, v)

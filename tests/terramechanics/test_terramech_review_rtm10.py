@@ -155,3 +155,19 @@ def test_wheel_sinkage_refuses_a_load_or_wheel_that_is_not_one(field, value):
         args["load_n"] = 0.0
     with pytest.raises(ConfigError, match=field):
         wheel_sinkage_m(soil=SOILS["SNOW"], **args)
+
+
+def test_ground_speed_from_a_slip_outside_its_domain_is_nan_not_a_made_up_speed():
+    # the SAE slip lies in [-1, 1] and its inverse needs q = sign(omega r) s in (-1, 1]:
+    # before, a rim at 1 m/s with slip 1.5 (sae_slip's saturation 2 allows it) gave a
+    # ground speed of -0.5 m/s (the wheel spinning forward, the body backwards), and slip
+    # -1 or -1.5 gave 1.0e12 m/s through the 1e-12 floor of 1 + q
+    from terrain.terramechanics.slip import ground_speed_from_slip
+
+    rim = np.array([1.0, 1.0, 1.0, -1.0, 1.0, 1.0, -2.0])
+    slip = np.array([1.5, -1.0, -1.5, -1.5, 1.0, -0.5, 0.5])
+    got = ground_speed_from_slip(rim, slip)
+    np.testing.assert_array_equal(np.isnan(got), [True, True, True, True, False, False, False])
+    # inside it, eqs. 7.1 / 7.2 solved for v: q = 1 is a wheel spinning on a body at rest
+    np.testing.assert_allclose(got[4:], [0.0, 2.0, -4.0])
+    np.testing.assert_allclose(sae_slip(rim[4:], got[4:], dead_band_m_s=0.0), slip[4:])
