@@ -4,14 +4,15 @@ maximum, and the slip conditioning options that are not finite."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 
 from terrain.errors import EstimationError
-from terrain.terramechanics import (BurckhardtCurve, JanosiCurve, sae_slip,
-                                    sae_slip_and_velocity_slope, traction_coefficient,
-                                    traction_peak)
+from terrain.terramechanics import (TERRAIN_NAMES, BurckhardtCurve, JanosiCurve, get_terrain,
+                                    sae_slip, sae_slip_and_velocity_slope,
+                                    traction_coefficient, traction_peak)
 from terrain.terramechanics.lateral import SOILS
 
 
@@ -171,3 +172,41 @@ def test_ground_speed_from_a_slip_outside_its_domain_is_nan_not_a_made_up_speed(
     # inside it, eqs. 7.1 / 7.2 solved for v: q = 1 is a wheel spinning on a body at rest
     np.testing.assert_allclose(got[4:], [0.0, 2.0, -4.0])
     np.testing.assert_allclose(sae_slip(rim[4:], got[4:], dead_band_m_s=0.0), slip[4:])
+
+
+_STATED = re.compile(r"(lateral_friction|soil_resistance|hysteresis)(?: ASSUMED| =[^0-9;]*?)? "
+                     r"(\d+\.\d+)")
+
+
+@pytest.mark.parametrize("name", TERRAIN_NAMES)
+def test_every_value_an_entrys_source_states_is_the_value_it_holds(name):
+    # the source text is the citation of each number ('soil_resistance 0.10 ASSUMED',
+    # 'lateral_friction 0.8 ASSUMED', 'hysteresis 0.1875 CALIBRATED'): rtm10 mutants of
+    # SNOW's lateral_friction (0.8 -> 0.7) and SANDY_LOAM's soil_resistance (0.08 -> 0.07)
+    # moved no test while the text still said the old value
+    terrain = get_terrain(name)
+    stated = _STATED.findall(terrain.source)
+    assert stated, terrain.source
+    for field, value in stated:
+        assert getattr(terrain, field) == pytest.approx(float(value), abs=5e-5), (field, value)
+
+
+# shear moduli K_x, K_y (m) and residual ratio K_r of the physics-v2 soils, as their source
+# text states them (chosen on the training runs, docs/physics_v2.md)
+_V2_SHEAR = {
+    "SANDY_LOAM": (0.006, 0.010, 0.9, ("K_x = 0.006 m", "K_y = 0.010 m", "K_r = 0.9")),
+    "SNOW": (0.02, 0.05, 0.4, ("K_x = 0.02 m", "K_y = 0.05 m", "K_r = 0.4")),
+    "PLOUGHED": (0.025, 0.025, None, ("K_x = K_y = 0.025 m",)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(_V2_SHEAR))
+def test_physics_v2_shear_moduli_and_residual_ratio_are_the_ones_the_source_states(name):
+    # rtm10 mutants of SNOW's K_x (0.02 -> 0.025), K_y (0.05 -> 0.04), K_r (0.4 -> 0.5) and
+    # PLOUGHED's K_x (0.025 -> 0.02) moved no test
+    k_x, k_y, k_r, phrases = _V2_SHEAR[name]
+    soil = SOILS[name]
+    got = (soil.shear_modulus_m, soil.shear_modulus_y_m, soil.residual_ratio)
+    assert got == (k_x, k_y, k_r)
+    for phrase in phrases:
+        assert phrase in soil.source, phrase
