@@ -837,7 +837,9 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     contact : SoilContact
         Tabulated wheel-soil contact.
     normal_load_n : ndarray, shape (c,)
-        Normal load of each wheel, N.
+        Normal load of each wheel, N, taken within the table's ``[0, max_load_n]``
+        (:func:`soil_contact`): a negative load is an unloaded wheel (no force) and a load
+        above the table gets the strength and contact length of its largest row.
     v_lateral_m_s : ndarray, shape (c,)
         Lateral velocity of each contact, m/s.
     rim_speed_m_s : ndarray, shape (c,)

@@ -210,3 +210,15 @@ def test_physics_v2_shear_moduli_and_residual_ratio_are_the_ones_the_source_stat
     assert got == (k_x, k_y, k_r)
     for phrase in phrases:
         assert phrase in soil.source, phrase
+
+
+def test_soil_lateral_force_takes_the_load_within_its_table_as_documented():
+    # a negative load is an unloaded wheel (no force), a load above the table's max_load_n
+    # gets the force of its largest row (undocumented before rtm10)
+    from terrain.terramechanics.lateral import soil_contact, soil_lateral_force_and_slope
+
+    contact = soil_contact(SOILS["SNOW"], 0.11, 0.08, 0.165, 200.0)
+    force = soil_lateral_force_and_slope(contact, np.array([-50.0, 0.0, 200.0, 400.0]),
+                                         np.full(4, 0.1), np.full(4, 0.5))[0]
+    assert force[0] == 0.0 and force[1] == 0.0
+    assert force[2] < 0.0 and force[3] == force[2]
