@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_numbers
 
 
 class CombinedSlip(NamedTuple):
@@ -90,8 +90,13 @@ def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarr
     Raises
     ------
     ConfigError
-        ``side_force_factor`` or ``hold_slip`` outside (0, 1].
+        ``side_force_factor`` or ``hold_slip`` not a real number (a boolean, text,
+        ``None``) or outside (0, 1].
     """
+    # called on every simulator step: floats in range pass on two isinstance tests
+    if not (isinstance(side_force_factor, float) and isinstance(hold_slip, float)):
+        config_numbers("combined_slip_coefficients", side_force_factor=side_force_factor,
+                       hold_slip=hold_slip)
     if not 0.0 < side_force_factor <= 1.0:
         raise ConfigError(f"side_force_factor must be in (0, 1], got {side_force_factor}")
     if not 0.0 < hold_slip <= 1.0:

@@ -222,3 +222,18 @@ def test_soil_lateral_force_takes_the_load_within_its_table_as_documented():
                                          np.full(4, 0.1), np.full(4, 0.5))[0]
     assert force[0] == 0.0 and force[1] == 0.0
     assert force[2] < 0.0 and force[3] == force[2]
+
+
+@pytest.mark.parametrize("field, value", [("side_force_factor", True),
+                                          ("side_force_factor", "0.8"),
+                                          ("side_force_factor", None),
+                                          ("hold_slip", True), ("hold_slip", "1")])
+def test_combined_slip_refuses_a_factor_that_is_not_a_number(field, value):
+    # before: True passed as k_S = 1 (or hold slip 1) without a word, and text or None
+    # raised a bare TypeError from the range comparison
+    from terrain.errors import ConfigError
+    from terrain.terramechanics.combined_slip import combined_slip_coefficients
+
+    args = {"side_force_factor": 0.8, "hold_slip": 1.0, field: value}
+    with pytest.raises(ConfigError, match=field):
+        combined_slip_coefficients(get_terrain("ASPHALT").curve, 0.1, 0.1, **args)
