@@ -207,12 +207,13 @@ def holds_booleans(x) -> bool:
     Returns
     -------
     bool
-        True for a Python or NumPy boolean, an array of boolean dtype, or a list/tuple that
-        converts to one; False otherwise (a ragged list included: its conversion names it).
+        True for a Python or NumPy boolean, an array of boolean dtype (pandas' nullable
+        ``boolean`` included), or a list/tuple that converts to one; False otherwise (a
+        ragged list included: its conversion names it).
     """
     dtype = getattr(x, "dtype", None)
-    if dtype is not None:
-        return dtype == bool
+    if dtype is not None:   # (pandas' nullable ``boolean`` is kind "b" but not == bool)
+        return dtype == bool or getattr(dtype, "kind", None) == "b"
     if isinstance(x, (list, tuple)):
         try:
             return np.asarray(x).dtype == bool

@@ -91,3 +91,17 @@ def test_holds_booleans_is_the_one_test_of_a_boolean_where_numbers_are_meant():
     for x in (1, 1.0, np.float64(2.0), np.ones(3), [1, 0], [], "True", None,
               pd.Series([1.0]), [[1.0], [2.0, 3.0]]):   # the last one ragged
         assert not holds_booleans(x), x
+
+
+def test_holds_booleans_sees_pandas_nullable_boolean_masks():
+    """A pandas ``boolean`` (nullable) mask is a boolean dtype too: ``np.asarray(mask,
+    float)`` reads it as 1 and 0, as a NumPy mask."""
+    import pandas as pd
+
+    from terrain.errors import holds_booleans
+
+    for x in (pd.Series([True, False], dtype="boolean"), pd.array([True, False]),
+              pd.Series([True, None], dtype="boolean")):
+        assert holds_booleans(x), x
+    for x in (pd.Series([1, 0], dtype="Int64"), pd.Series([1.0], dtype="Float64")):
+        assert not holds_booleans(x), x
