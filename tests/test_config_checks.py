@@ -105,3 +105,39 @@ def test_holds_booleans_sees_pandas_nullable_boolean_masks():
         assert holds_booleans(x), x
     for x in (pd.Series([1, 0], dtype="Int64"), pd.Series([1.0], dtype="Float64")):
         assert not holds_booleans(x), x
+
+
+@pytest.mark.parametrize("value, ok", [(0, True), (3, True), (3.0, True), (np.int64(7), True),
+                                       (2.7, False), (-1, False), (True, False),
+                                       (float("nan"), False), (float("inf"), False),
+                                       ("3", False), (None, False)])
+def test_config_seed_takes_whole_numbers_from_zero(value, ok):
+    from terrain.errors import config_seed
+
+    if ok:
+        config_seed("SimConfig.seed", value)
+    else:
+        with pytest.raises(ConfigError, match=r"^SimConfig\.seed must be an integer >= 0, got "):
+            config_seed("SimConfig.seed", value)
+
+
+@pytest.mark.parametrize("value, ok", [(1.0, True), (0.5, True), (np.float32(1e-3), True),
+                                       (0.0, False), (-0.1, False), (1.0001, False),
+                                       (95, False), (float("nan"), False)])
+def test_config_fraction_takes_the_half_open_unit_interval(value, ok):
+    from terrain.errors import config_fraction
+
+    if ok:
+        config_fraction("traction_peak", share=value)
+    else:
+        with pytest.raises(ConfigError, match=r"^traction_peak: share must be in \(0, 1\]"):
+            config_fraction("traction_peak", share=value)
+
+
+@pytest.mark.parametrize("value", [1, 0, "no", "False", None, np.array([True])])
+def test_config_flags_refuse_what_is_not_true_or_false_by_name(value):
+    from terrain.errors import config_flags
+
+    config_flags("ModelConfig", scale=True, balance=np.bool_(False))
+    with pytest.raises(ConfigError, match=r"^ModelConfig\.balance must be True or False"):
+        config_flags("ModelConfig", scale=True, balance=value)
