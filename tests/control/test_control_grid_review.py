@@ -130,3 +130,19 @@ def test_the_peak_slip_cut_is_the_share_of_the_uncontrolled_peak_removed():
     row = grid.compare(pd.DataFrame(rows)).iloc[0]
     assert row["peak_slip_cut"] == pytest.approx(0.75)
     assert "| 0.400 -> 0.100 | 75 % |" in grid.markdown_table(grid.compare(pd.DataFrame(rows)))
+
+
+def test_the_tuning_cost_weights_each_term_by_its_own_weight(monkeypatch):
+    """cost = slip RMSE + time_weight x time increase + steady_weight x steady miss (module
+    docstring): with RMSE 0.05, +50 % to cruise and a steady miss of 1 - 0.8 = 0.2, weights
+    0.25 and 2.0 give 0.05 + 0.125 + 0.4 = 0.575 (the weights swapped: 0.05 + 1.0 + 0.05)."""
+    def fake_run(vehicle, terrain, scenario, on, seed, duration_s, gains=None, **kw):
+        return None, None, {"time_to_speed_s": 3.0 if on else 2.0, "slip_rmse": 0.05,
+                            "steady_slip_within_0_02": 0.8}
+
+    monkeypatch.setattr(grid, "run_closed_loop", fake_run)
+    _, table = grid.tune_gains("husky", ["ICE"], [1.0], [0.0], seeds=(1000,),
+                               time_weight=0.25, steady_weight=2.0)
+    row = table.iloc[0]
+    assert (row["time_increase"], row["steady_miss"]) == pytest.approx((0.5, 0.2))
+    assert row["cost"] == pytest.approx(0.575, abs=1e-12)
