@@ -280,3 +280,23 @@ def test_an_output_file_given_with_a_trailing_slash_is_refused_as_a_folder(tmp_p
         output_file(str(tmp_path / "results") + "/")
     assert not (tmp_path / "results").exists()
     assert output_file(str(tmp_path / "results")) == tmp_path / "results"
+
+
+@pytest.mark.parametrize("message, shown", [
+    ("bad value\n  in column 'x'\n\tline 4", "bad value in column 'x' line 4"),
+    ("v" * 2000, "v" * 497 + "..."),
+])
+def test_a_multi_line_or_long_error_reaches_the_user_as_one_short_line(
+        message, shown, monkeypatch, capsys):
+    """A project error's message with line breaks is joined into one line, and one longer
+    than 500 characters is cut to 500 (a message holding a table dumped the table)."""
+    import pipelines.slip_table as slip_table
+    import terrain.cli as cli
+    from terrain.errors import ConfigError
+
+    def fail(args):
+        raise ConfigError(message)
+
+    monkeypatch.setattr(slip_table, "main", fail)
+    assert cli.main(["slip-table"]) == 2
+    assert capsys.readouterr().err == f"terrain slip-table: error: {shown}\n"
