@@ -237,14 +237,24 @@ def _experiment_id(client: Any, name: str, uri: str) -> str:
 
 def _is_number(value) -> bool:
     """Whether a metric value is a number ``float`` reads as such (Python or NumPy number,
-    boolean, 0-d array); text, None and anything ``float`` refuses are not."""
+    boolean, 0-d array, an integer beyond the float range included); text, None and
+    anything ``float`` refuses are not."""
     if value is None or isinstance(value, (str, bytes)):
         return False
     try:
-        float(value)
+        _as_float(value)
     except (TypeError, ValueError):
         return False
     return True
+
+
+def _as_float(value) -> float:
+    """``float(value)``, or an infinity of its sign for an integer beyond the float range
+    (``float(10**400)`` raises ``OverflowError``)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 @dataclass(frozen=True)
@@ -284,8 +294,9 @@ class TrackedRun:
                                                    for k, v in params.items()])
 
     def log_metrics(self, metrics: Mapping[str, float], step: int | None = None) -> None:
-        """Log numeric metrics; non-finite values are skipped and listed in a tag
-        (``non_finite_metrics``: the names of every call so far, sorted).
+        """Log numeric metrics; non-finite values (and integers beyond the float range) are
+        skipped and listed in a tag (``non_finite_metrics``: the names of every call so far,
+        sorted).
 
         Parameters
         ----------
@@ -309,7 +320,8 @@ class TrackedRun:
                               + ", ".join(f"{k}={v!r:.40} ({type(v).__name__})"
                                           for k, v in list(wrong.items())[:5])
                               + (f" and {len(wrong) - 5} more" if len(wrong) > 5 else ""))
-        good = {k: float(v) for k, v in metrics.items() if math.isfinite(float(v))}
+        values = {k: _as_float(v) for k, v in metrics.items()}
+        good = {k: v for k, v in values.items() if math.isfinite(v)}
         bad = sorted(set(metrics) - set(good))
         now_ms = int(time.time() * 1000)
         self.client.log_batch(self.run_id, metrics=[Metric(k, v, now_ms, step or 0)

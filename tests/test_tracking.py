@@ -560,3 +560,16 @@ def test_a_deleted_experiment_is_refused_by_name_with_its_remedy():
     live = SimpleNamespace(experiment_id="3", lifecycle_stage="active")
     Client.get_experiment_by_name = lambda self, name: live
     assert _experiment_id(Client(), "terrain-cv", uri) == "3"
+
+
+def test_an_integer_metric_beyond_the_float_range_is_skipped_as_non_finite(tmp_path,
+                                                                           monkeypatch):
+    # float(10**400) raised Python's bare OverflowError out of log_metrics, and nothing of
+    # the call was logged: it is a real number MLflow cannot hold, as inf
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    with tracked_run("terrain-test", announce=False) as run:
+        run.log_metrics({"count": 10**400, "neg": -10**400, "ok": 1.0})
+    logged = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id)
+    assert logged.data.metrics == {"ok": 1.0}
+    assert logged.data.tags["non_finite_metrics"] == "count,neg"
