@@ -27,7 +27,8 @@ import pandas as pd
 from terrain.control.closed_loop import run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
-from terrain.errors import ConfigError, config_numbers, config_positive, duplicated
+from terrain.errors import (ConfigError, config_numbers, config_positive, config_seed,
+                            duplicated)
 from terrain.terramechanics import get_terrain, steady_slip
 
 #: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
@@ -134,8 +135,11 @@ def check_grid_axes(vehicles: Sequence[str], terrains: Sequence[str], scenarios:
     Raises
     ------
     ConfigError
-        A value given more than once, naming the axis.
+        A value given more than once, naming the axis, or a seed that is not a whole
+        number >= 0 (:func:`~terrain.errors.config_seed`, named ``seeds[i]``).
     """
+    for i, seed in enumerate(seeds):   # (int() made 0.5 a repeat of seed 0)
+        config_seed(f"seeds[{i}]", seed)
     _check_axes({"vehicles": [str(v).lower() for v in vehicles],
                  "terrains": [str(t).upper() for t in terrains],
                  "scenarios": list(scenarios), "seeds": [int(s) for s in seeds]})

@@ -38,3 +38,17 @@ def test_the_slip_limit_bound_keeps_the_range_ends():
     full = slip_limit_bound("TILES", 0.1, cut=1.0)
     assert full["slip_limit"] == 0.0 and full["min_time_to_cruise_s"] == float("inf")
     assert slip_limit_bound("TILES", 0.0)["slip_limit"] == 0.0
+
+
+@pytest.mark.parametrize("seeds, bad", [([0, 0.5], r"seeds\[1\]"), (["a"], r"seeds\[0\]"),
+                                        ([None], r"seeds\[0\]"), ([True, 1], r"seeds\[0\]"),
+                                        ([1, -2], r"seeds\[1\]")])
+def test_grid_seeds_that_are_not_whole_numbers_are_named_not_called_repeats(seeds, bad):
+    """The axis check read each seed through int(): 0.5 became 0 and was reported as a
+    repeat of seed 0, True as a repeat of 1, and text or None were Python's bare
+    ValueError/TypeError. Each is now the seed named as not an integer >= 0."""
+    from terrain.control.grid import check_grid_axes
+
+    with pytest.raises(ConfigError, match=rf"^{bad} must be an integer >= 0"):
+        check_grid_axes(["husky"], ["ICE"], ["straight_accel"], seeds)
+    check_grid_axes(["husky"], ["ICE"], ["straight_accel"], [0, 1.0, 2])
