@@ -81,11 +81,14 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     ------
     ConfigError
         ``terrains``, ``seeds``, ``kp_grid`` or ``ki_grid`` empty or with a value given
-        more than once (a repeated seed counts its runs twice), or a weight that is not a
-        finite real number >= 0 (named), before any run.
+        more than once (a repeated seed counts its runs twice), a seed that is not a whole
+        number >= 0 (:func:`~terrain.errors.config_seed`), or a weight that is not a finite
+        real number >= 0 (named), before any run.
     """
     config_positive("tune_gains", allow_zero=True, time_weight=time_weight,
                     steady_weight=steady_weight)
+    for i, seed in enumerate(seeds):   # (before the runs of the seeds before it)
+        config_seed(f"tune_gains seeds[{i}]", seed)
     _check_axes({"terrains": [str(t).upper() for t in terrains], "seeds": list(seeds),
                  "kp_grid": list(kp_grid), "ki_grid": list(ki_grid)}, "tune_gains ",
                 nonempty=True)

@@ -23,6 +23,8 @@ def _fake_run(vehicle, terrain, scenario, on, seed, duration_s, gains=None, **kw
     ({"time_weight": float("nan")}, "time_weight"),
     ({"steady_weight": -0.5}, "steady_weight"),
     ({"time_weight": "0.5"}, "time_weight"),
+    ({"seeds": (1000, 0.5)}, r"seeds\[1\] must be an integer >= 0"),
+    ({"seeds": (True,)}, r"seeds\[0\] must be an integer >= 0"),
 ])
 def test_tuning_refuses_settings_that_leave_no_or_a_skewed_choice(monkeypatch, kwargs, match):
     """An empty grid ended in pandas' KeyError 'cost', empty seeds or a NaN weight in
