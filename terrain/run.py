@@ -91,8 +91,10 @@ def times_out_of_order(t_s, strict: bool = True) -> np.ndarray:
         The offending rows, ascending (0-based); empty when every time is in order.
     """
     t = np.asarray(t_s, dtype=float)
-    step = np.diff(t)
-    back = step <= 0.0 if strict else step < 0.0
+    with np.errstate(invalid="ignore"):     # (inf - inf: NaN, judged below)
+        step = np.diff(t)
+    # (after +inf every step is -inf: judged by the finite check alone, as after NaN)
+    back = (step <= 0.0 if strict else step < 0.0) & np.isfinite(t[:-1])
     return np.flatnonzero(~np.isfinite(t) | np.r_[False, back])
 
 

@@ -93,3 +93,17 @@ def test_the_rate_of_a_stream_of_fewer_than_two_samples_is_an_error_naming_it(t)
     with pytest.raises(DataFormatError, match=r"run r/X/00: stream 'wheels' has "
                        rf"{len(t)} sample\(s\)[^(]*\(file pro_00.csv, column 't_s'\)"):
         run.rate_hz("wheels")
+
+
+def test_a_row_after_an_infinite_time_is_not_counted_again():
+    """The docstring's rule: a row after a non-finite time is not counted again. After NaN
+    it held (NaN compares False) and after -inf (1 - -inf = inf > 0), but after +inf the
+    step 1 - inf = -inf counted the in-order row 2 as going back: [0, inf, 1, 2] gave rows
+    [1, 2], "2 such rows" for one bad time."""
+    from terrain.run import times_out_of_order
+
+    for bad in (np.nan, np.inf, -np.inf):
+        for strict in (True, False):
+            assert times_out_of_order([0.0, bad, 1.0, 2.0], strict).tolist() == [1]
+    assert times_out_of_order([0.0, np.inf, np.inf, 3.0, 2.0]).tolist() == [1, 2, 4]
+    assert times_out_of_order([0.0, 2.0, 1.0, 3.0]).tolist() == [2]
