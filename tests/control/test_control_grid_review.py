@@ -148,3 +148,22 @@ def test_the_tuning_cost_weights_each_term_by_its_own_weight(monkeypatch):
     row = table.iloc[0]
     assert (row["time_increase"], row["steady_miss"]) == pytest.approx((0.5, 0.2))
     assert row["cost"] == pytest.approx(0.575, abs=1e-12)
+
+
+def test_the_terrain_accuracy_is_the_controlled_runs_and_an_undefined_cut_reads_n_a():
+    """terrain_accuracy_on is the mean over the controlled runs (0.8 and 1.0: 0.9), not the
+    uncontrolled runs' (0.2); a cut with no defined value (no run moves: energy NaN) is
+    written n/a in the Markdown table, not "nan %"."""
+    import pandas as pd
+
+    rows = [{"vehicle": "husky", "terrain": "ICE", "scenario": "straight_accel", "seed": s,
+             "controller": c, "peak_slip": 0.4 if c == "off" else 0.2,
+             "energy_j_per_m": float("nan"), "time_to_speed_s": 2.0, "slip_rmse": 0.1,
+             "steady_slip_within_0_02": 1.0, "mean_speed_m_s": 0.5,
+             "terrain_accuracy": 0.2 if c == "off" else 0.8 + 0.2 * s}
+            for s in (0, 1) for c in ("off", "traction")]
+    table = grid.compare(pd.DataFrame(rows))
+    assert table.loc[0, "terrain_accuracy_on"] == pytest.approx(0.9)
+    md = grid.markdown_table(table)
+    assert "| n/a -> n/a (0 -> 0 of 2 runs) | n/a % |" in md and "nan" not in md
+    assert md.rstrip().endswith("| 0.90 |")
