@@ -205,10 +205,10 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     """
     from terrain.control.closed_loop import trace_frame
 
+    check_grid_axes(vehicles, terrains, scenarios, seeds)   # (whole numbers: hashable)
     shared = sorted(set(seeds) & set(TUNING_SEEDS))
     if shared:
         raise ConfigError(f"evaluation seeds {shared} are tuning seeds")
-    check_grid_axes(vehicles, terrains, scenarios, seeds)
     missing = [v for v in vehicles if v not in gains]
     if missing:   # a KeyError after every run of the vehicles before it
         raise ConfigError(f"run_grid: no gains (kp, ki) for vehicle(s) {missing}; gains has "

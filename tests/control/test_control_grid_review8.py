@@ -52,3 +52,14 @@ def test_grid_seeds_that_are_not_whole_numbers_are_named_not_called_repeats(seed
     with pytest.raises(ConfigError, match=rf"^{bad} must be an integer >= 0"):
         check_grid_axes(["husky"], ["ICE"], ["straight_accel"], seeds)
     check_grid_axes(["husky"], ["ICE"], ["straight_accel"], [0, 1.0, 2])
+
+
+def test_a_grid_seed_that_cannot_be_hashed_is_named_before_the_tuning_seed_check():
+    """run_grid compared the seeds with the tuning seeds through set() first: a seed given
+    as a list ([[1]]) was Python's bare "unhashable type: 'list'"."""
+    from terrain.control.grid import run_grid
+
+    with pytest.raises(ConfigError, match=r"^seeds\[0\] must be an integer >= 0, got \[1\]"):
+        run_grid(["husky"], ["ICE"], ["straight_accel"], [[1]], {"husky": (1.0, 0.0)})
+    with pytest.raises(ConfigError, match=r"evaluation seeds \[1000\] are tuning seeds"):
+        run_grid(["husky"], ["ICE"], ["straight_accel"], [0, 1000], {"husky": (1.0, 0.0)})
