@@ -141,3 +141,16 @@ def test_config_flags_refuse_what_is_not_true_or_false_by_name(value):
     config_flags("ModelConfig", scale=True, balance=np.bool_(False))
     with pytest.raises(ConfigError, match=r"^ModelConfig\.balance must be True or False"):
         config_flags("ModelConfig", scale=True, balance=value)
+
+
+def test_a_data_format_error_names_what_it_knows_and_skips_an_empty_source():
+    """An in-memory run's source is "": no "file " in the message; the file line is named
+    when known, else the 0-based data row; a message without a place is left alone."""
+    from terrain.errors import DataFormatError
+
+    assert str(DataFormatError("bad", path="", column="t_s", line=3)) == \
+        "bad (column 't_s', line 3)"
+    assert str(DataFormatError("bad", path="a.csv", column="t_s", row=4, line=6)) == \
+        "bad (file a.csv, column 't_s', line 6)"
+    assert str(DataFormatError("bad", row=4)) == "bad (data row 4 (0-based))"
+    assert str(DataFormatError("bad", path="")) == "bad"
