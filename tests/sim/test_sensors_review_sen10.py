@@ -1,0 +1,67 @@
+"""Review sen10 of the simulated sensors, scenarios and planted effects: values pinned to
+their equations where the existing tests only checked an invariant."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrain.sim import DEFAULT_SENSORS
+from terrain.sim.closed_loop import OnlineSensors
+from terrain.sim.dynamics import PlantSnapshot
+from terrain.sim.sensors import coloured_noise, vibration_pole
+from terrain.vehicles import get_vehicle
+
+
+def test_vibration_pole_is_the_discrete_pole_of_the_corner_frequency():
+    # a = exp(-2 pi f_c / f_s): the IMU's defaults (100 Hz, 15 Hz) give exp(-0.3 pi)
+    assert vibration_pole(100.0, 15.0) == pytest.approx(math.exp(-0.3 * math.pi), rel=1e-12)
+    assert vibration_pole(100.0, 15.0) == pytest.approx(0.38966, abs=1e-5)
+    # at f_c = f_s / (2 pi) the pole is 1/e; f_c = 0 is the vibration off (pole 1)
+    assert vibration_pole(2.0 * math.pi, 1.0) == pytest.approx(math.exp(-1.0), rel=1e-12)
+    assert vibration_pole(100.0, 0.0) == 1.0
+
+
+def test_coloured_noise_half_power_at_the_corner_frequency():
+    # the shaped noise's spectrum |H(f)|^2 = (1 - a^2) / |1 - a e^{-j w}|^2 falls to half its
+    # DC value near the corner (the discrete pole's -3 dB point, within 10 % at 5 Hz / 100 Hz)
+    fs, fc = 100.0, 5.0
+    a = vibration_pole(fs, fc)
+    w = 2.0 * np.pi * fc / fs
+    h_dc = 1.0 / (1.0 - a) ** 2
+    h_fc = 1.0 / abs(1.0 - a * np.exp(-1j * w)) ** 2
+    assert h_fc / h_dc == pytest.approx(0.5, abs=0.05)
+    # and the filter is that transfer function: its impulse response decays by a per sample
+    impulse = np.zeros((6, 1))
+    impulse[0] = 1.0
+    y, _ = coloured_noise(impulse, a)
+    assert y[1:, 0] / y[:-1, 0] == pytest.approx(np.full(5, a), rel=1e-12)
+
+
+def test_a_10_hz_channel_samples_on_every_tenth_step_of_a_100_hz_grid():
+    # the 10 Hz wheel channel's 3rd sample is due at 3 * 0.1 = 0.30000000000000004 s, the
+    # step at 30 * 0.01 = 0.3 s: the 1e-9 s tolerance takes it there, not one step late
+    s = OnlineSensors("tracked", DEFAULT_SENSORS["tracked"], 0, 2.0)
+    wheels = s.ch["wheels"]
+    assert wheels.period_s == pytest.approx(0.1)
+    steps = [k for k in range(201) if wheels.due(float(k * 0.01))]
+    assert steps == list(range(0, 201, 10))
+
+
+def test_online_wheel_filter_starts_at_the_first_speed_and_holds_a_constant():
+    # the motor driver's filter (AgriMaRo: 0.12 s) starts at its first input, as the batch
+    # first_order_filter's y = x_0: a wheel already turning at 5 rad/s reads 5 rad/s from
+    # the first sample on, then the filtered count rate stays near 5 (not a rise from 0)
+    agrimaro = get_vehicle("agrimaro")
+    assert agrimaro.motor.encoder_filter_s == pytest.approx(0.12)
+    s = OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 0, 1.0)
+    om = np.full(3, 5.0)
+    for k in range(31):
+        s.record(PlantSnapshot(k, k * 0.01, np.zeros(3), np.zeros(3), np.zeros(2), om,
+                               np.zeros(3), om, np.zeros(3), 0.0, 0.0, 0))
+    wheels = s.take(0.3, om).wheels
+    assert len(wheels) == 16                      # 50 Hz over 0.3 s
+    np.testing.assert_array_equal(wheels[0, 1:], 5.0)
+    assert np.mean(wheels[:, 1:]) == pytest.approx(5.0, abs=0.5)
