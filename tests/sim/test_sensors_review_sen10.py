@@ -4,14 +4,18 @@ their equations where the existing tests only checked an invariant."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from terrain.sim import DEFAULT_SENSORS
 from terrain.sim.closed_loop import OnlineSensors
-from terrain.sim.dynamics import PlantSnapshot
-from terrain.sim.sensors import SensorSettings, coloured_noise, sample_times, vibration_pole
+from terrain.sim.dynamics import PhysicsResult, PlantSnapshot
+from terrain.sim.sensors import (SensorSettings, coloured_noise, imu, sample_times,
+                                 vibration_pole)
+from terrain.terramechanics import get_terrain
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles import get_vehicle
 
 
@@ -86,3 +90,27 @@ def test_the_husky_wheel_stream_rate_as_it_is_now():
     assert rate == pytest.approx(6.50195, abs=1e-5)
     t = sample_times(60.0, rate)
     assert len(t) == 391 and t[-1] == pytest.approx(59.982, abs=1e-3)
+
+
+def test_batch_imu_on_a_slope_reads_gravity_along_the_plane():
+    # parked nose-up 0.2 rad and right side down 0.1 rad, noise, bias and vibration off:
+    # the batch accelerometer reads the specific force g sin(pitch) on x (x points uphill),
+    # g sin(roll) on y (y, left, points uphill) and g cos on z, as the online full IMU does
+    n = 201
+    z = np.zeros(n)
+    phys = PhysicsResult(
+        t_s=np.arange(n) * 0.01, pose=np.zeros((n, 3)), twist=np.zeros((n, 3)),
+        accel_body=np.zeros((n, 2)), omega=np.zeros((n, 2)), omega_cmd=np.zeros((n, 2)),
+        slip_motor=np.zeros((n, 2)), delta=np.zeros((n, 2)), torque=np.zeros((n, 2)),
+        pitch=z + 0.2, roll=z, terrain_index=np.zeros(n, dtype=int),
+        terrain_names=("ASPHALT",), speed_clipped_steps=np.zeros(2, dtype=int))
+    quiet = SensorSettings(gyro_noise_rad_s=0.0, accel_noise_m_s2=0.0,
+                           accel_bias_std_m_s2=0.0, vibration_bandwidth_hz=0.0)
+    _, data = imu(phys, (get_terrain("ASPHALT"),), quiet, 0.0, np.random.default_rng(0), 2.0)
+    np.testing.assert_allclose(data[:, 3], G_M_S2 * np.sin(0.2), rtol=1e-12)
+    np.testing.assert_allclose(data[:, 4], 0.0, atol=1e-12)
+    np.testing.assert_allclose(data[:, 5], G_M_S2 * np.cos(0.2), rtol=1e-12)
+    _, data = imu(replace(phys, pitch=z, roll=z + 0.1), (get_terrain("ASPHALT"),), quiet, 0.0,
+                  np.random.default_rng(0), 2.0)
+    np.testing.assert_allclose(data[:, 3], 0.0, atol=1e-12)
+    np.testing.assert_allclose(data[:, 4], G_M_S2 * np.sin(0.1), rtol=1e-12)
