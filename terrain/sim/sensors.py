@@ -280,10 +280,12 @@ def gravity_specific_force(pitch_rad: np.ndarray, roll_rad: np.ndarray
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Gravity part of the accelerometer's specific force on an inclined plane, body axes.
 
-    With inclination ``theta = hypot(pitch, roll)`` and the uphill direction
-    ``psi = atan2(-roll, pitch)`` in body axes: ``g_x = g sin(theta) cos(psi)``,
-    ``g_y = -g sin(theta) sin(psi)``, ``g_z = g cos(theta)`` (x forward, y left, z up;
-    pitch nose-up positive, roll right side down positive).
+    With inclination ``theta = hypot(pitch, roll)`` and ``psi = atan2(-roll, pitch)``, the
+    uphill direction measured from x towards the right (the uphill direction in body axes is
+    ``-psi``: right side down puts the uphill side on the left, +y, at ``psi = -pi/2``):
+    ``g_x = g sin(theta) cos(psi)``, ``g_y = -g sin(theta) sin(psi)``, ``g_z = g cos(theta)``
+    (x forward, y left, z up; pitch nose-up positive, roll right side down positive), so the
+    accelerometer reads ``+g sin`` along the uphill direction.
 
     Parameters
     ----------
