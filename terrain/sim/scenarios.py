@@ -7,8 +7,10 @@ at the physics rate and the inclination of the ground plane.
 ``orchard``         seed 000 sec. III: rows at constant speed, U-turns at the headland with
                     constant speed and turning radius (1.5 m), alternating left/right; the
                     speed leaves a skid-steer's outer side within the speed limit in the turn.
-``slope_turn``      seed 003 Experiment III: turning at 20 deg/s and 0.05-0.2 m/s on a 15 deg
-                    slope (the plane rises along world +x).
+``slope_turn``      seed 003 Experiment III: turning at 20 deg/s (the direction reversing every
+                    20 s) on a 15 deg slope (the plane rises along world +x), at 0.2 m/s and
+                    the seed's 0.05 m/s alternately, 10 s each (0.2 m/s first). The seed drove
+                    at 5 cm/s only: the 0.2 m/s segments are ASSUMED, not from the seed.
 ``spin``            spin in place at 0.6 rad/s, reversing every 8 s.
 ``random``          piecewise-constant random commands (2-6 s segments), acceleration-limited.
 
