@@ -41,7 +41,11 @@ class SensorSettings:
     current_noise_a : float
         White noise std of the motor current sensor, A.
     current_quantum_a, speed_quantum_m_s : float
-        Resolution of reported current and wheel speed.
+        Resolution of reported current (A) and wheel rim speed (m/s); 0: no rounding of the
+        current, while a speed quantum of 0 switches the wheel speed to the motor encoder's
+        count rate per physics step (:func:`encoder_count_rate`, the vehicle's
+        ``encoder_counts_per_rev``: the AgriMaRo's default), in the batch model and the
+        closed loop's online sensors alike.
     steer_quantum_rad : float
         Steering encoder resolution (12-bit absolute encoder ASSUMED), rad.
     cam_noise_m_s, cam_yaw_rate_noise_rad_s, cam_yaw_noise_rad : float
