@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from terrain.sim import DEFAULT_SENSORS
-from terrain.sim.closed_loop import OnlineSensors
+from terrain.errors import ConfigError
+from terrain.sim import DEFAULT_SENSORS, SimConfig
+from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
 from terrain.sim.dynamics import PhysicsResult, PlantSnapshot
+from terrain.sim.effects import Effects
 from terrain.sim.sensors import (SensorSettings, coloured_noise, imu, sample_times,
                                  vibration_pole)
 from terrain.terramechanics import get_terrain
@@ -114,3 +117,57 @@ def test_batch_imu_on_a_slope_reads_gravity_along_the_plane():
                   np.random.default_rng(0), 2.0)
     np.testing.assert_allclose(data[:, 3], 0.0, atol=1e-12)
     np.testing.assert_allclose(data[:, 4], G_M_S2 * np.sin(0.1), rtol=1e-12)
+
+
+class _Quiet:
+    """Sensors stand-in: records nothing, hands back the call time."""
+
+    def record(self, snap):
+        return None
+
+    def take(self, t_s, omega_low_level):
+        return t_s
+
+
+def test_a_10_hz_controller_is_called_on_every_tenth_step_of_a_100_hz_grid():
+    # the 3rd call is due at 3 * 0.1 = 0.30000000000000004 s, the step at 30 * 0.01 = 0.3 s
+    calls = []
+    hook = make_hook(_Quiet(), calls.append, 10.0)
+    for k in range(201):
+        hook(SimpleNamespace(t_s=float(k * 0.01), omega_low_level=None))
+    assert calls == [float(k * 0.01) for k in range(0, 201, 10)]
+
+
+def test_the_closed_loop_refuses_a_steering_encoder_or_camera_faster_than_the_physics():
+    # the AgriMaRo's steering encoders and camera are sampled once per physics step at most
+    for field in ("steer_rate_hz", "cam_rate_hz"):
+        sensors = replace(DEFAULT_SENSORS["agrimaro"], **{field: 200.0})
+        config = SimConfig(vehicle="agrimaro", duration_s=1.0, sensors=sensors)
+        with pytest.raises(ConfigError, match=field):
+            simulate_closed_loop(config, lambda obs: np.zeros(3), 50.0)
+
+
+def test_online_camera_noise_is_independent_on_each_channel_with_its_own_std():
+    # parked AgriMaRo, no outages: v_cx, v_cy, yaw_rate_c and yaw_c are pure noise, each its
+    # own draw at its configured std (a shared draw made yaw_c a copy of yaw_rate_c's noise)
+    settings = replace(DEFAULT_SENSORS["agrimaro"], cam_outage_rate_hz=0.0)
+    s = OnlineSensors("agrimaro", settings, 3, 30.0)
+    z3 = np.zeros(3)
+    for k in range(3001):
+        s.record(PlantSnapshot(k, k * 0.01, z3, z3, np.zeros(2), z3, z3, z3, z3, 0.0, 0.0, 0))
+    cam = s.take(30.0, z3).cam
+    assert len(cam) == 901
+    std = cam[:, 1:].std(axis=0)
+    np.testing.assert_allclose(std, [settings.cam_noise_m_s, settings.cam_noise_m_s,
+                                     settings.cam_yaw_rate_noise_rad_s,
+                                     settings.cam_yaw_noise_rad], rtol=0.1)
+    corr = np.corrcoef(cam[:, 1:].T)
+    assert np.all(np.abs(corr[np.triu_indices(4, 1)]) < 0.15)
+
+
+def test_negative_planted_effects_are_active_and_the_off_values_are_not():
+    # gyro_bias and current_offset take negative values: those are on (listed in a run's
+    # metadata ``active_effects``) as much as positive ones; the off values are not
+    on = Effects(gyro_bias=-0.1, current_offset=-2.0, icr_expansion=1.2)
+    assert on.active() == {"gyro_bias": -0.1, "current_offset": -2.0, "icr_expansion": 1.2}
+    assert Effects().active() == {}
