@@ -5,9 +5,9 @@ name                     unit      meaning (value when off)
 =======================  ========  ============================================================
 ``icr_expansion``        1         chi: skid-steer yaw rate ``(v_R - v_L) / (chi B)`` (1)
 ``gyro_bias``            rad/s     constant offset added to the IMU ``wz`` (0)
-``wheel_lag``            s         the wheel streams at time t hold the true value at t - lag:
-                                   ``pro_`` (speeds and currents) and AgriMaRo's ``omega``
-                                   and ``cur`` (0)
+``wheel_lag``            s         the wheel streams at time t hold the true value at t - lag
+                                   (the value at 0 while t < lag): ``pro_`` (speeds and
+                                   currents) and AgriMaRo's ``omega`` and ``cur`` (0)
 ``turning_resistance``   A         extra current on both sides while turning:
                                    ``value * tanh(|yaw_rate| / 0.1 rad/s)`` (0)
 ``current_offset``       A         mean ``curR - curL`` shift: added to the right side when

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.sim import DEFAULT_SENSORS, SimConfig
+from terrain.sim import DEFAULT_SENSORS, SimConfig, simulate
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
 from terrain.sim.dynamics import PhysicsResult, PlantSnapshot
 from terrain.sim.effects import Effects
@@ -171,3 +171,17 @@ def test_negative_planted_effects_are_active_and_the_off_values_are_not():
     on = Effects(gyro_bias=-0.1, current_offset=-2.0, icr_expansion=1.2)
     assert on.active() == {"gyro_bias": -0.1, "current_offset": -2.0, "icr_expansion": 1.2}
     assert Effects().active() == {}
+
+
+def test_wheel_lag_holds_the_first_value_until_the_lag_has_passed():
+    # a 1 s lag on a 1 m/s^2 ramp from rest: the wheel speeds read the t = 0 value (rest)
+    # until t = 1 s
+    base = SimConfig(scenario="straight_accel", duration_s=2.0, seed=2)
+    lagged = simulate(replace(base, effects=Effects(wheel_lag=1.0))).streams["wheels"]
+    plain = simulate(base).streams["wheels"]
+    early = lagged["t_s"] < 1.0
+    assert early.sum() == 7
+    np.testing.assert_array_equal(lagged.loc[early, ["vel_l", "vel_r"]], 0.0)
+    # after it, the ramp shows up one second late (the plain run is at 0.08 m/s by 0.15 s)
+    assert plain["vel_l"].iloc[1] > 0.05
+    assert np.all(np.diff(lagged.loc[~early, "vel_l"]) > 0) and lagged["vel_l"].iloc[7] > 0
