@@ -185,3 +185,14 @@ def test_wheel_lag_holds_the_first_value_until_the_lag_has_passed():
     # after it, the ramp shows up one second late (the plain run is at 0.08 m/s by 0.15 s)
     assert plain["vel_l"].iloc[1] > 0.05
     assert np.all(np.diff(lagged.loc[~early, "vel_l"]) > 0) and lagged["vel_l"].iloc[7] > 0
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    "known modelling gap, left because wrapping would move every simulated AgriMaRo steer "
+    "stream: SensorSettings calls the steering encoder a 12-bit absolute encoder, whose "
+    "reading lies within one turn, but the steer stream reports the unwrapped module angle "
+    "(random scenario, seed 3: past pi at 14.92 s, 3.69 rad by 16 s, 11.48 rad by 60 s)"))
+def test_the_steering_encoders_read_within_one_turn():
+    run = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=16.0, seed=3))
+    delta = run.streams["steer"][["delta_1", "delta_2", "delta_3"]].to_numpy()
+    assert np.all(np.abs(delta) <= np.pi)
