@@ -118,7 +118,9 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     rng : numpy.random.Generator
         Randomness of ``random`` (others are deterministic).
     max_speed_m_s : float
-        Vehicle speed limit; scenario speeds are scaled down to it.
+        Vehicle speed limit, m/s; scenario speeds stay within 0.95 of it (``straight_accel``,
+        ``orchard`` and ``slope_turn`` are capped there, ``random`` draws its speeds as
+        fractions of it; ``spin`` commands no speed).
     omnidirectional : bool
         Whether lateral velocity commands are allowed (swerve drive).
     track_m : float
