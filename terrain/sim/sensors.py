@@ -27,7 +27,10 @@ class SensorSettings:
     Parameters
     ----------
     imu_rate_hz, wheel_rate_hz, steer_rate_hz, cam_rate_hz, truth_rate_hz : float
-        Sampling rates, Hz. Husky defaults follow borealtc (IMU 100 Hz, wheels 6.5 Hz).
+        Sampling rates, Hz. Husky defaults follow borealtc: IMU 100 Hz; wheels
+        ``1 / 0.1538 s = 6.502 Hz``, while BorealTC's ``pro_`` files step by exactly
+        ``1 / 6.5 s`` (a known gap, kept so as not to move the simulated wheel streams:
+        ``tests/sim/test_sensors_review_sen10.py``).
     gyro_noise_rad_s : float
         White noise std of each gyro axis per sample, rad/s.
     accel_noise_m_s2 : float
