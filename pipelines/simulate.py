@@ -83,8 +83,7 @@ def main(args: argparse.Namespace) -> int:
     config = SimConfig(vehicle=args.vehicle.lower(), terrains=terrains,
                        scenario=args.scenario, duration_s=args.duration_s, seed=args.seed,
                        effects=parse_effects(args.effect), physics=args.physics, **segment)
-    # the writer's folder (the run's terrain: MIXED for a list) refused before simulating
-    free_index(args.out / (terrains[0] if len(terrains) == 1 else "MIXED"))
+    free_index(args.out / config.run_terrain)   # a full folder refused before simulating
     run = simulate(config)
     paths = write_run(run, args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")

@@ -297,6 +297,13 @@ class SimConfig:
                               f"{self.scenario} scenario is on level ground, so it would "
                               "change nothing: plant it on slope_turn or leave it out")
 
+    @property
+    def run_terrain(self) -> str:
+        """The run's terrain label: the terrain, or ``MIXED`` for a list of several (the
+        ``terrain`` of its metadata and the folder :func:`terrain.io.writer.write_run` puts
+        it in)."""
+        return self.terrains[0] if len(self.terrains) == 1 else "MIXED"
+
 
 @dataclass(frozen=True)
 class Simulation:
@@ -508,7 +515,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
     meta = {
         "vehicle": vehicle.name, "dataset": "sim", "scenario": config.scenario,
         "seed": int(config.seed), "duration_s": duration, "physics": config.physics,
-        "terrain": config.terrains[0] if len(config.terrains) == 1 else "MIXED",
+        "terrain": config.run_terrain,
         "terrains": list(config.terrains), "segment_length_m": float(config.segment_length_m),
         "effects": config.effects.as_dict(), "active_effects": config.effects.active(),
         "rates_hz": rates, "slope_rad": cmds.slope_rad,
