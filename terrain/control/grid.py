@@ -58,7 +58,8 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     time_weight : float
         Weight of the relative time-to-cruise increase in the cost (a controlled run that
         never reaches cruise counts as reaching it at the end of the run, ``duration_s``,
-        the earliest it could; a run whose uncontrolled twin never reaches it counts 1).
+        the earliest it could; a run whose uncontrolled twin never reaches it counts 1; a
+        controlled run faster than its twin counts 0, not a negative increase).
     steady_weight : float
         Weight of the share of steady control steps with ``|slip - target| > 0.02`` (the
         issue's steady-driving target; a run without steady samples counts as 1).
