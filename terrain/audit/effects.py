@@ -84,7 +84,8 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
-from terrain.errors import ConfigError, TerrainError, config_integer, config_positive
+from terrain.errors import (ConfigError, TerrainError, config_integer, config_positive,
+                            duplicated)
 from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
 
@@ -280,7 +281,6 @@ class EffectSettings:
             left that effect without a floor, a repeated one kept the last floor), or a
             floor not finite and >= 0.
         """
-        seen = set()
         for entry in self.negligible:
             if not (isinstance(entry, (tuple, list)) and len(entry) == 2):
                 raise ConfigError(f"EffectSettings.negligible entries must be (effect, floor) "
@@ -288,9 +288,9 @@ class EffectSettings:
             if entry[0] not in EFFECT_VOCABULARY:
                 raise ConfigError(f"EffectSettings.negligible names {entry[0]!r}, not an "
                                   f"effect; valid: {list(EFFECT_VOCABULARY)}")
-            if entry[0] in seen:
-                raise ConfigError(f"EffectSettings.negligible names {entry[0]!r} twice")
-            seen.add(entry[0])
+        repeated = duplicated(name for name, _ in self.negligible)
+        if repeated:
+            raise ConfigError(f"EffectSettings.negligible names {repeated[0]!r} twice")
         config_positive("EffectSettings", turn_ref_rad_s=self.turn_ref_rad_s,
                         coulomb_scale_rad_s=self.coulomb_scale_rad_s,
                         immobile_ratio=self.immobile_ratio,
