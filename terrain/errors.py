@@ -416,6 +416,32 @@ def config_fraction(owner: str, **values) -> None:
             raise ConfigError(f"{owner}: {name} must be in (0, 1], got {value}")
 
 
+def config_probability(owner: str, **values) -> None:
+    """Refuse configuration values that are not real numbers in the closed range [0, 1]: a
+    probability threshold (a minimum confidence), a fraction that may be 0 or 1.
+
+    :func:`config_fraction` is the half-open (0, 1] of a fraction that must be positive.
+
+    Parameters
+    ----------
+    owner : str
+        The configuration's name, for the message (``"StreamConfig"``).
+    **values
+        Field name -> value.
+
+    Raises
+    ------
+    ConfigError
+        The first value that is not a real number (:func:`config_numbers`), or not in
+        [0, 1] (NaN included: a NaN threshold is never crossed), named as
+        ``owner.name`` with the value given.
+    """
+    config_numbers(owner, **values)
+    for name, value in values.items():
+        if not 0.0 <= value <= 1.0:
+            raise ConfigError(f"{owner}.{name} must be in [0, 1], got {value}")
+
+
 class EstimationError(TerrainError, ValueError):
     """Bad input to a state estimator (:mod:`terrain.estimation`, :mod:`terrain.slip`).
 

@@ -134,6 +134,24 @@ def test_config_fraction_takes_the_half_open_unit_interval(value, ok):
             config_fraction("traction_peak", share=value)
 
 
+@pytest.mark.parametrize("value, ok", [(0.0, True), (1.0, True), (0, True), (np.float32(0.5), True),
+                                       (-1e-9, False), (1.0001, False), (95, False),
+                                       (float("nan"), False), (float("inf"), False)])
+def test_config_probability_takes_the_closed_unit_interval(value, ok):
+    """0 and 1 are thresholds a user may mean (never / always the fallback); NaN is refused
+    (a NaN threshold is never crossed), named as owner.field."""
+    from terrain.errors import config_probability
+
+    if ok:
+        config_probability("StreamConfig", min_confidence=value)
+    else:
+        with pytest.raises(ConfigError,
+                           match=r"^StreamConfig\.min_confidence must be in \[0, 1\], got "):
+            config_probability("StreamConfig", min_confidence=value)
+    with pytest.raises(ConfigError, match=r"StreamConfig\.min_confidence must be a real number"):
+        config_probability("StreamConfig", min_confidence=True)
+
+
 @pytest.mark.parametrize("value", [1, 0, "no", "False", None, np.array([True])])
 def test_config_flags_refuse_what_is_not_true_or_false_by_name(value):
     from terrain.errors import config_flags

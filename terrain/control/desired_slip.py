@@ -44,16 +44,16 @@ ICE, whose targets are the fallback.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
-import numpy as np
 import pandas as pd
 
 from terrain.control.traction import age_is_fresh, check_slip_targets
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_numbers, config_probability
 from terrain.terramechanics import (TerrainParams, get_terrain, is_deformable,
                                     steady_slip, traction_peak)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -74,6 +74,31 @@ FALLBACK_LABEL = "UNKNOWN"
 #: members that are all certain sums its float weights to one ulp above 1 (weights 0.6, 0.3,
 #: 0.1 give 1.0000000000000002), which is rounding, not a percentage.
 CONFIDENCE_ROUNDING = 1e-9
+
+
+def confidence_is_trusted(confidence: float | None, min_confidence: float) -> bool:
+    """Whether a decision's confidence may be trusted: a probability at or above the
+    threshold.
+
+    The one rule for the confidence of a terrain decision (:func:`select_target`,
+    :class:`terrain.serving.targets.CataloguePeakTargets`).
+
+    Parameters
+    ----------
+    confidence : float or None
+        Probability of the decided class, dimensionless (None: a decision without one).
+    min_confidence : float
+        Lowest trusted probability, in [0, 1] (a confidence equal to it is trusted).
+
+    Returns
+    -------
+    bool
+        False for a confidence below ``min_confidence``, above 1 (a percentage: 45 would
+        pass a 0.5 threshold; up to ``CONFIDENCE_ROUNDING`` above 1 is rounding and
+        trusted), not finite (NaN, +-inf) or None.
+    """
+    return (confidence is not None and math.isfinite(confidence)
+            and min_confidence <= confidence <= 1.0 + CONFIDENCE_ROUNDING)
 
 
 @dataclass(frozen=True)
@@ -123,11 +148,11 @@ class DesiredSlipConfig:
                               f"{self.traction_fraction}, {self.braking_fraction}")
         if not 0.0 < self.deformable_cap < 1.0:
             raise ConfigError(f"deformable_cap must be in (0, 1), got {self.deformable_cap}")
+        config_probability("DesiredSlipConfig", min_confidence=self.min_confidence)
         # inf: no decision would ever turn stale, the last class would hold for good
-        if not (0.0 <= self.min_confidence <= 1.0
-                and 0.0 < self.max_decision_age_s < float("inf")):
-            raise ConfigError("min_confidence must be in [0, 1] and max_decision_age_s > 0 "
-                              f"(finite), got {self.min_confidence}, {self.max_decision_age_s}")
+        if not 0.0 < self.max_decision_age_s < float("inf"):
+            raise ConfigError("DesiredSlipConfig: need max_decision_age_s > 0 s and finite, "
+                              f"got {self.max_decision_age_s}")
 
 
 @dataclass(frozen=True)
@@ -397,7 +422,6 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
                    confidence=confidence, decision_age_s=decision_age_s)
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
-    trusted = (key in table.entries and confidence is not None and np.isfinite(confidence)
-               and cfg.min_confidence <= confidence <= 1.0 + CONFIDENCE_ROUNDING
+    trusted = (key in table.entries and confidence_is_trusted(confidence, cfg.min_confidence)
                and age_is_fresh(decision_age_s, cfg.max_decision_age_s))
     return table.entries[key] if trusted else table.fallback

@@ -27,8 +27,8 @@ import pandas as pd
 from terrain.control.closed_loop import run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
-from terrain.errors import (ConfigError, config_numbers, config_positive, config_seed,
-                            duplicated)
+from terrain.errors import (ConfigError, config_positive, config_probability,
+                            config_seed, duplicated)
 from terrain.terramechanics import get_terrain, steady_slip
 
 #: Seeds reserved for gain tuning; evaluation seeds must not overlap them.
@@ -339,10 +339,7 @@ def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
         negative slip limit).
     """
     config_positive("slip_limit_bound", accel_m_s2=accel_m_s2, cruise_m_s=cruise_m_s)
-    config_numbers("slip_limit_bound", peak_slip_open=peak_slip_open, cut=cut)
-    for name, value in (("peak_slip_open", peak_slip_open), ("cut", cut)):
-        if not 0.0 <= value <= 1.0:   # NaN fails too
-            raise ConfigError(f"slip_limit_bound.{name} must be in [0, 1], got {value!r}")
+    config_probability("slip_limit_bound", peak_slip_open=peak_slip_open, cut=cut)
     ter = get_terrain(terrain)
     s_lim = (1.0 - cut) * float(peak_slip_open)
     a_lim = traction_acceleration_limit(ter, s_lim)

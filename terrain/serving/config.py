@@ -13,7 +13,8 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_integer, config_numbers, duplicated
+from terrain.errors import (ConfigError, config_integer, config_numbers, config_probability,
+                            duplicated)
 from terrain.io.align import check_gap_factor
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.smoothing import SmoothingConfig
@@ -106,8 +107,7 @@ class StreamConfig:
             if not 0 < getattr(self, name) < np.inf:
                 raise ConfigError(f"{name} must be a finite number of seconds > 0, got "
                                   f"{getattr(self, name)}")
-        if not 0 <= self.min_confidence <= 1:
-            raise ConfigError(f"min_confidence must be in [0, 1], got {self.min_confidence}")
+        config_probability("StreamConfig", min_confidence=self.min_confidence)
         config_integer("buffer_samples", self.buffer_samples, 2, MAX_BUFFER_SAMPLES)
         check_gap_factor("StreamConfig", self.gap_factor)
         unknown = [s for s in self.clock_offsets_s if s not in self.streams]

@@ -61,7 +61,8 @@ import pandas as pd
 
 from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
-from terrain.errors import ConfigError, DataFormatError, TerrainError, listed
+from terrain.errors import (ConfigError, DataFormatError, TerrainError, config_probability,
+                            listed)
 from terrain.run import TIME
 from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
@@ -195,9 +196,7 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     """
     check_hop(settings["hop_s"], settings["rate_hz"])
     smoothing_of(settings)
-    conf = float(settings["min_confidence"])
-    if not 0.0 <= conf <= 1.0:
-        raise ConfigError(f"min_confidence must be in [0, 1], got {conf:g}")
+    config_probability("served settings", min_confidence=settings["min_confidence"])
     for key in ("max_rows", "max_decisions"):
         if key in settings and not int(settings[key]) > 0:
             raise ConfigError(f"{key} must be a positive number, got {settings[key]}")

@@ -13,9 +13,10 @@ from types import MappingProxyType
 from typing import Mapping, Protocol, Sequence
 
 from terrain.control import DesiredSlipConfig, build_slip_table, select_target
+from terrain.control.desired_slip import confidence_is_trusted
 # the controller's record (signs and range checked), re-exported: one class for the targets
 from terrain.control.traction import SlipTargets
-from terrain.errors import ConfigError, config_numbers
+from terrain.errors import ConfigError, config_probability
 from terrain.terramechanics import get_terrain, steady_slip, traction_peak
 
 
@@ -81,10 +82,8 @@ class CataloguePeakTargets:
 
     def __init__(self, classes: Sequence[str], min_confidence: float = 0.5) -> None:
         classes = _class_names(classes, "CataloguePeakTargets")
-        config_numbers("CataloguePeakTargets", min_confidence=min_confidence)
-        if not 0.0 <= float(min_confidence) <= 1.0:  # NaN would never take the fallback
-            raise ConfigError(f"CataloguePeakTargets.min_confidence must be in [0, 1], got "
-                              f"{min_confidence}")
+        # NaN is refused: it would never take the fallback
+        config_probability("CataloguePeakTargets", min_confidence=min_confidence)
         table = {}
         for name in classes:
             params = get_terrain(name)
@@ -105,7 +104,9 @@ class CataloguePeakTargets:
         terrain : str or None
             Decided class.
         confidence : float
-            Its smoothed probability (NaN: not trusted, the fallback).
+            Its smoothed probability; not trusted (the fallback) below ``min_confidence``,
+            above 1 or not finite, as the table's rule
+            (:func:`terrain.control.desired_slip.confidence_is_trusted`).
         stale : bool
             Stale input.
 
@@ -113,9 +114,8 @@ class CataloguePeakTargets:
         -------
         SlipTargets
         """
-        # (not >=: a NaN confidence is no trust, as in select_target)
-        if terrain is None or stale or not confidence >= self.min_confidence \
-                or terrain not in self.table:
+        if terrain is None or stale or terrain not in self.table \
+                or not confidence_is_trusted(confidence, self.min_confidence):
             return self.fallback
         return self.table[terrain]
 
@@ -203,9 +203,7 @@ def check_provider(targets, classes: Sequence[str], min_confidence: float) -> No
     floor = getattr(targets, "min_confidence", None)
     if floor is not None:
         owner = type(targets).__name__
-        config_numbers(owner, min_confidence=floor)
-        if not 0.0 <= float(floor) <= 1.0:
-            raise ConfigError(f"{owner}.min_confidence must be in [0, 1], got {floor}")
+        config_probability(owner, min_confidence=floor)
     if floor is not None and float(floor) > float(min_confidence):
         raise ConfigError(f"{type(targets).__name__}.min_confidence {float(floor):g} is above "
                           f"the service's min_confidence {float(min_confidence):g}: decisions "

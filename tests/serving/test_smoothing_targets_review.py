@@ -104,3 +104,20 @@ def test_smoothing_settings_at_their_closed_range_ends_are_taken():
             np.testing.assert_allclose(p, np.array([1.0, 1e-4]) / 1.0001, rtol=1e-12)
         else:
             assert decided == 1 and 0.05 < p[0] < 0.07
+
+
+def test_catalogue_targets_trust_a_confidence_by_the_tables_rule():
+    """A percentage (45 for 45 %) or an infinite confidence passed 'confidence >= 0.5' and got
+    the terrain's own targets; the desired-slip table's select_target falls back on both.
+    Both providers now apply one rule (confidence_is_trusted)."""
+    from terrain.control import build_slip_table, select_target
+    from terrain.serving.targets import CataloguePeakTargets
+
+    classes = ("ASPHALT", "ICE", "SNOW")
+    targets = CataloguePeakTargets(classes)
+    table = build_slip_table(list(classes))
+    own = max(targets.table, key=lambda c: targets.table[c].traction)
+    for confidence, trusted in ((45.0, False), (float("inf"), False), (1.0 + 1e-12, True),
+                                (0.5, True), (0.4999, False)):
+        assert (targets.target_for(own, confidence, False) != targets.fallback) == trusted
+        assert (select_target(table, own, confidence) is not table.fallback) == trusted
