@@ -52,6 +52,11 @@ from terrain.run import TIME, Run, times_out_of_order
 #: every dataset gets identical features and the combined model sees one definition.
 DEFAULT_RATE_HZ = 50.0
 
+#: Most points of one batch grid (:func:`align_streams`): 50 million, 11.6 days at 50 Hz and
+#: 3.6 GB for 8 channels, far beyond a logged run. A longer span is a clock that jumps (a
+#: last timestamp of 1.7e9 s, the Unix epoch, after 30 s of data asked for 8.5e10 points,
+#: 633 GiB, a bare MemoryError) or a clock in other units, not a run to align.
+MAX_GRID_POINTS = 50_000_000
 
 #: Samples of odd extension at each end of a gap-free segment for the zero-phase anti-alias
 #: filter: ``scipy.signal.sosfiltfilt``'s default for the filter's two second-order sections
@@ -424,8 +429,9 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         (NaN or inf made no step a gap, 1 or less nearly every one), ``streams`` one text
         instead of a tuple of names, or two streams share a channel name.
     DataFormatError
-        If none of ``streams`` is in the run, one of them has fewer than 2 samples, or
-        their time spans do not overlap.
+        If none of ``streams`` is in the run, one of them has fewer than 2 samples, their
+        time spans do not overlap, or their overlap would make more than
+        :data:`MAX_GRID_POINTS` grid points (naming the stream's longest step and its row).
     TimestampError
         A stream's ``t_s`` not finite and strictly increasing (the :class:`Run` contract),
         naming the stream and the first offending row.
@@ -466,7 +472,19 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
             row = int(out_of_order[0])
             raise TimestampError(f"stream {name!r}: timestamps must increase strictly, got "
                                  f"{float(t[row])!r} at row {row}", run.source, TIME, row)
-    grid = overlap_grid(times, rate_hz)
+    t0, n_points = _grid_span(times, rate_hz, "align_streams")
+    if n_points > MAX_GRID_POINTS:
+        # name the longest step inside the overlap: where the clock most likely jumps
+        steps = [np.diff(t) for t in times]
+        k = int(np.argmax([d.max() for d in steps]))
+        row = int(np.argmax(steps[k])) + 1
+        raise DataFormatError(
+            f"streams {present} overlap for {n_points / rate_hz:.4g} s: {n_points:.3g} points "
+            f"at {rate_hz:g} Hz, more than the {MAX_GRID_POINTS:.3g} of a run's clock; stream "
+            f"{present[k]!r} steps from {float(times[k][row - 1])!r} to "
+            f"{float(times[k][row])!r} s at row {row} (a clock that jumps, or in other units "
+            "than seconds?)", run.source, TIME, row)
+    grid = t0 + np.arange(n_points) / rate_hz   # overlap_grid's points
     if grid.size == 0:
         raise DataFormatError(f"streams {present} do not overlap in time", run.source)
     aligned = align_arrays(times, [f[ch].to_numpy(dtype=float) for f, ch in

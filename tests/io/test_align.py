@@ -387,3 +387,26 @@ def test_text_columns_left_out_are_recorded_in_attrs(make_run):
     assert frame.attrs["n_dropped_columns"] == 2
     plain = align_streams(run, ("wheels",), rate_hz=50.0)
     assert plain.attrs["dropped_columns"] == () and plain.attrs["n_dropped_columns"] == 0
+
+
+def test_a_clock_that_jumps_is_named_not_a_memory_error(make_run):
+    """A last wheel timestamp of 1.7e9 s (the Unix epoch) after 10 s of data: the overlap
+    asked for an 8.5e10-point grid (633 GiB, a bare MemoryError through every wheel-only
+    command). It is refused before any grid is built, naming the step and its row; a span
+    just under the bound still aligns."""
+    from terrain.io.align import MAX_GRID_POINTS
+
+    t = np.arange(66) / 6.5
+    jumped = np.append(t, 1.7e9)
+    run = make_run({"wheels": _wheels(jumped)})
+    with pytest.raises(DataFormatError, match=r"stream 'wheels' steps from 10\.0 to "
+                                              r"1700000000\.0 s at row 66") as info:
+        align_streams(run, ("wheels",), rate_hz=50.0)
+    assert info.value.column == TIME and info.value.row == 66
+    # the bound is on the grid's points: at 1 Hz the same 1.7e9 s span is still refused,
+    # a span of MAX_GRID_POINTS - 1 steps at 1e-3 Hz is not (7 points aligned)
+    slow = np.array([0.0, (MAX_GRID_POINTS - 1) * 1e3 / 2, (MAX_GRID_POINTS - 1) * 1e3])
+    with pytest.raises(DataFormatError, match="more than the"):
+        align_streams(make_run({"wheels": _wheels(jumped)}), ("wheels",), rate_hz=1.0)
+    assert len(align_streams(make_run({"wheels": _wheels(slow)}), ("wheels",),
+                             rate_hz=1e-3)) == MAX_GRID_POINTS
