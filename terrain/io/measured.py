@@ -321,6 +321,35 @@ def read_text(path: Path) -> str:
                             line=line) from None
 
 
+def text_place(text: str, pos: int) -> tuple[int, int]:
+    """1-based line and column of a character of a text, lines ended as the readers end them.
+
+    A line ends with LF, CR LF or a lone CR (:func:`read_stream_csv`, :func:`read_text`),
+    as an editor shows it; :class:`json.JSONDecodeError` counts LF only, so a JSON file
+    with lone CR line ends was named at line 1 and a column far beyond its lines.
+
+    Parameters
+    ----------
+    text : str
+        The text (as :func:`read_text` returns it: line ends kept).
+    pos : int
+        0-based index of the character (e.g. :attr:`json.JSONDecodeError.pos`).
+
+    Returns
+    -------
+    line : int
+        1-based line holding the character.
+    column : int
+        1-based position of the character in its line.
+    """
+    head = text[:pos]
+    if head.endswith("\r") and text[pos:pos + 1] == "\n":
+        head = head[:-1]    # the LF of a CR LF: the CR ends the same line
+    line = head.count("\n") + head.count("\r") - head.count("\r\n") + 1
+    start = max(head.rfind("\n"), head.rfind("\r")) + 1
+    return line, pos - start + 1
+
+
 def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.ndarray, dict]:
     """Header fields, data rows (fields), their 1-based file lines, skipped-line counts."""
     raw = text.split("\n")
@@ -705,11 +734,13 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         raise OrphanFileError("run has no wheel file pro_XX.csv beside it", other)
     meta: dict = {}
     if "meta" in files:
+        text = read_text(files["meta"])
         try:
-            meta = json.loads(read_text(files["meta"]))
+            meta = json.loads(text)
         except json.JSONDecodeError as exc:
-            raise DataFormatError(f"invalid JSON: {exc.msg}, column {exc.colno}",
-                                  files["meta"], line=exc.lineno) from None
+            line, column = text_place(text, exc.pos)    # (a lone CR ends a line too)
+            raise DataFormatError(f"invalid JSON: {exc.msg}, column {column}",
+                                  files["meta"], line=line) from None
         if not isinstance(meta, dict):
             raise DataFormatError("run metadata must be a JSON object", files["meta"])
     vehicle = meta.get("vehicle", "husky")

@@ -29,7 +29,7 @@ import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, DataWarning, MissingColumnError,
                             NonFiniteError, NonNumericError, TimestampError)
-from terrain.io.measured import list_run_files, read_run, read_text
+from terrain.io.measured import list_run_files, read_run, read_text, text_place
 from terrain.io.plausibility import check_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 
@@ -280,13 +280,15 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
 def _parse_manifest(path: Path, hint: str):
     """Parse a manifest file, a failure named with its line and column and ``hint``."""
     try:
-        return json.loads(read_text(path))
+        text = read_text(path)
+        return json.loads(text)
     except DataFormatError as exc:  # not UTF-8 (byte offset and line), not a file
         raise type(exc)(f"unreadable manifest: {exc.message}; {hint}", path,
                         line=exc.line) from None
     except json.JSONDecodeError as exc:  # where the parser stopped: line and column
+        line, column = text_place(text, exc.pos)    # (a lone CR ends a line too)
         raise DataFormatError(f"unreadable manifest (invalid JSON: {exc.msg}, column "
-                              f"{exc.colno}); {hint}", path, line=exc.lineno) from None
+                              f"{column}); {hint}", path, line=line) from None
     except (ValueError, OSError) as exc:  # UnicodeDecodeError included
         raise DataFormatError(f"unreadable manifest ({type(exc).__name__}); {hint}",
                               path) from None

@@ -1,0 +1,51 @@
+"""Review tests of terrain.io (pass io11): line numbers of JSON files as an editor shows
+them, and behaviours hand mutants showed unpinned."""
+
+import json
+
+import pytest
+
+from terrain.errors import DataFormatError
+from terrain.io.measured import read_runs_dir
+from terrain.io.shipped import read_manifest
+
+PRO = "time,velL,velR,curL,curR\n" + "".join(
+    f"{i * 0.1:.1f},0.5,0.5,2.0,2.1\n" for i in range(30))
+#: a metadata file whose third line holds the error (a doubled comma), column 12
+BAD_JSON_LINES = ["{", ' "vehicle": "husky",', ' "seed": 3,,', "}"]
+
+
+def _meta_error(tmp_path, text: str) -> DataFormatError:
+    folder = tmp_path / "runs" / "ICE"
+    folder.mkdir(parents=True)
+    (folder / "pro_00.csv").write_text(PRO)
+    (folder / "meta_00.json").write_bytes(text.encode())
+    with pytest.raises(DataFormatError, match="invalid JSON") as info:
+        read_runs_dir(tmp_path / "runs")
+    return info.value
+
+
+@pytest.mark.parametrize("end", ["\n", "\r\n", "\r"])
+def test_invalid_run_metadata_names_the_editor_line_whatever_the_line_ends(tmp_path, end):
+    # a lone CR ends a line as the CSV reader and read_text count it (classic Mac OS): the
+    # JSON parser counted LF only, and named line 1, column 35 for line 3, column 12
+    err = _meta_error(tmp_path, end.join(BAD_JSON_LINES) + end)
+    assert err.line == 3
+    assert "column 12" in str(err) and "line 3" in str(err)
+
+
+@pytest.mark.parametrize("end", ["\n", "\r\n", "\r"])
+def test_unreadable_manifest_names_the_editor_line_whatever_the_line_ends(tmp_path, end):
+    (tmp_path / "manifest.json").write_bytes(end.join(BAD_JSON_LINES).encode())
+    with pytest.raises(DataFormatError, match=r"invalid JSON: .*column 12\)") as info:
+        read_manifest(tmp_path)
+    assert info.value.line == 3
+
+
+def test_invalid_json_control_character_line_is_its_own(tmp_path):
+    # a raw CR LF inside a string: the error points at its CR, on the line it ends
+    text = '{\r\n "vehicle": "hus\r\nky"\r\n}\r\n'
+    with pytest.raises(json.JSONDecodeError):
+        json.loads(text)
+    err = _meta_error(tmp_path, text)
+    assert err.line == 2
