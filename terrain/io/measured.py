@@ -398,8 +398,9 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
     ragged = np.flatnonzero(n_fields != len(header))
     if ragged.size:
         k = int(ragged[0])
+        # (the file's last line, not merely its last data row: a comment may follow it)
         hint = _ragged_hint(header, rows[k], int(lines[k]), int(n_fields[k]),
-                            unended and k == len(rows) - 1)
+                            unended and int(lines[k]) == len(raw))
         raise RaggedRowError(f"{ragged.size} of {len(rows)} data rows have a field count "
                              f"other than the header's {len(header)} (first: {n_fields[k]} "
                              f"fields) at {first_items(lines[ragged])}{hint}", path,

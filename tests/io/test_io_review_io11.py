@@ -5,8 +5,8 @@ import json
 
 import pytest
 
-from terrain.errors import DataFormatError
-from terrain.io.measured import read_runs_dir
+from terrain.errors import DataFormatError, RaggedRowError
+from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.shipped import read_manifest
 
 PRO = "time,velL,velR,curL,curR\n" + "".join(
@@ -49,3 +49,25 @@ def test_invalid_json_control_character_line_is_its_own(tmp_path):
         json.loads(text)
     err = _meta_error(tmp_path, text)
     assert err.line == 2
+
+
+@pytest.mark.parametrize("after", ["\n# end of log", "\n   ", "\n# end of log\n"])
+def test_a_short_last_row_followed_by_a_line_is_not_said_cut_off(tmp_path, after):
+    # the hint "it is the last line and has no line break" was given whenever the file
+    # ended without a line break, though a comment or blank line followed the short row
+    rows = PRO.splitlines()
+    rows[-1] = rows[-1].rsplit(",", 1)[0]            # line 31: 4 fields of 5
+    path = tmp_path / "pro_00.csv"
+    path.write_text("\n".join(rows) + after)
+    with pytest.raises(RaggedRowError) as info:
+        read_stream_csv(path, "pro")
+    assert info.value.line == 31 and "no line break" not in str(info.value)
+
+
+def test_a_short_last_line_without_a_line_break_is_said_cut_off(tmp_path):
+    rows = PRO.splitlines()
+    rows[-1] = rows[-1].rsplit(",", 1)[0]
+    path = tmp_path / "pro_00.csv"
+    path.write_text("\n".join(rows))
+    with pytest.raises(RaggedRowError, match="it is the last line and has no line break"):
+        read_stream_csv(path, "pro")
