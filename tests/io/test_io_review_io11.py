@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from terrain.errors import DataFormatError, RaggedRowError
+from terrain.errors import DataFormatError, NonNumericError, RaggedRowError
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.shipped import read_manifest
 
@@ -71,3 +71,20 @@ def test_a_short_last_line_without_a_line_break_is_said_cut_off(tmp_path):
     path.write_text("\n".join(rows))
     with pytest.raises(RaggedRowError, match="it is the last line and has no line break"):
         read_stream_csv(path, "pro")
+
+
+def test_an_extra_stream_with_a_text_clock_is_refused_as_non_numeric(tmp_path):
+    # a text column of an extra stream is a string channel (a per-sample terrain label); the
+    # clock never is: read as one, the time checks met text (a bare TypeError)
+    path = tmp_path / "truth_00.csv"
+    path.write_text("time,x\n" + "".join(f"t{i},{i}\n" for i in range(5)))
+    with pytest.raises(NonNumericError) as info:
+        read_stream_csv(path, "truth")
+    assert (info.value.column, info.value.line) == ("time", 2)
+
+
+def test_an_extra_stream_keeps_a_text_channel_as_text(tmp_path):
+    path = tmp_path / "truth_00.csv"
+    path.write_text("time,terrain\n" + "".join(f"{i * 0.1:.1f},SNOW\n" for i in range(5)))
+    frame, _ = read_stream_csv(path, "truth")
+    assert list(frame["terrain"]) == ["SNOW"] * 5
