@@ -123,7 +123,8 @@ def used_indexes(folder: str | Path) -> set[int]:
     if folder.is_dir():
         for p in folder.iterdir():
             stem = p.stem
-            if "_" in stem and stem.rsplit("_", 1)[1].isdigit():
+            # (isdecimal: "²".isdigit() is True, and int("²") a bare ValueError)
+            if "_" in stem and stem.rsplit("_", 1)[1].isdecimal():
                 used.add(int(stem.rsplit("_", 1)[1]))
     return used
 

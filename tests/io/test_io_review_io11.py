@@ -8,6 +8,7 @@ import pytest
 from terrain.errors import DataFormatError, NonNumericError, RaggedRowError
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.shipped import read_manifest
+from terrain.io.writer import next_index, used_indexes
 
 PRO = "time,velL,velR,curL,curR\n" + "".join(
     f"{i * 0.1:.1f},0.5,0.5,2.0,2.1\n" for i in range(30))
@@ -88,3 +89,13 @@ def test_an_extra_stream_keeps_a_text_channel_as_text(tmp_path):
     path.write_text("time,terrain\n" + "".join(f"{i * 0.1:.1f},SNOW\n" for i in range(5)))
     frame, _ = read_stream_csv(path, "truth")
     assert list(frame["terrain"]) == ["SNOW"] * 5
+
+
+def test_used_indexes_pass_over_a_name_ending_in_a_superscript_digit(tmp_path):
+    # "²".isdigit() is True but int("²") a bare ValueError: a note named scan_².txt in a
+    # terrain folder stopped every write_run there
+    (tmp_path / "scan_².txt").write_text("12")
+    (tmp_path / "imu_03.csv").write_text("")
+    (tmp_path / "meta_٠٤.json").write_text("{}")      # Arabic-Indic 04: a decimal index
+    assert used_indexes(tmp_path) == {3, 4}
+    assert next_index(tmp_path) == 0
