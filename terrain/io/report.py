@@ -64,8 +64,9 @@ class InputReport:
         ``stuck`` lists stuck channels; ``partition_tail_s`` is the time after a run's last
         full partition, which no window is cut from (s; 0 without partitions), and
         ``window_tail_s`` the time after the last window of the run or of each partition,
-        which no window covers (s); window columns are empty (-1) when the command does not
-        window.
+        which no window covers (s); ``windows`` is -1 for a run the command does not
+        window (the other window columns, ``dropped_gap`` to ``window_tail_s``, are 0 then,
+        and :meth:`metrics` leaves them out).
     """
 
     table: pd.DataFrame
@@ -197,10 +198,11 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
         positions wholly inside a gap, ``partition_tail_s`` and ``window_tail_s`` may be
         absent from a ``per_run`` entry, and ``reasons``, run id -> why it was skipped or
         is too short, from ``counts``; ``streams``, the streams the command aligned, from
-        :func:`features.windows.required_streams` of its channels). Without it the window
-        columns are -1. Only where both streams are aligned is each cut to the other's
-        span: with one (a wheel-only model) all of it is used and the other not at all, so
-        no ``unused_*_s`` is counted; without ``streams`` the readers' account is kept.
+        :func:`features.windows.required_streams` of its channels). Without it (or a run
+        without its ``per_run`` entry) ``windows`` is -1 and the other window columns 0.
+        Only where both streams are aligned is each cut to the other's span: with one (a
+        wheel-only model) all of it is used and the other not at all, so no
+        ``unused_*_s`` is counted; without ``streams`` the readers' account is kept.
     window_s : float, optional
         Window length, s (for the too-short reason where ``counts`` gives none).
     flagged : Mapping[str, int], optional

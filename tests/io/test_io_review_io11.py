@@ -3,12 +3,15 @@ them, and behaviours hand mutants showed unpinned."""
 
 import json
 
+import pandas as pd
 import pytest
 
 from terrain.errors import DataFormatError, NonNumericError, RaggedRowError
 from terrain.io.measured import read_runs_dir, read_stream_csv
+from terrain.io.report import input_report
 from terrain.io.shipped import read_manifest
 from terrain.io.writer import next_index, used_indexes
+from terrain.run import Run
 
 PRO = "time,velL,velR,curL,curR\n" + "".join(
     f"{i * 0.1:.1f},0.5,0.5,2.0,2.1\n" for i in range(30))
@@ -99,3 +102,21 @@ def test_used_indexes_pass_over_a_name_ending_in_a_superscript_digit(tmp_path):
     (tmp_path / "meta_٠٤.json").write_text("{}")      # Arabic-Indic 04: a decimal index
     assert used_indexes(tmp_path) == {3, 4}
     assert next_index(tmp_path) == 0
+
+
+def test_a_run_not_windowed_has_windows_minus_one_and_other_window_columns_zero():
+    # the docstrings said every window column is -1 without window counts: only ``windows``
+    # is; the counts are 0 and the metrics leave such runs out of the window totals
+    frame = pd.DataFrame({"t_s": [0.0, 1.0], "vel_l": [0.1, 0.2]})
+    used = Run("r/used", "r", "SNOW", {"wheels": frame})
+    none = Run("r/none", "r", "SNOW", {"wheels": frame})
+    counts = {"per_run": {"r/used": {"windows": 10, "dropped_gap": 2, "dropped_unsteady": 1,
+                                     "partition_tail_s": 0.5, "window_tail_s": 0.25}}}
+    report = input_report([used, none], counts)
+    row = report.table.set_index("run_id").loc["r/none"]
+    assert row["windows"] == -1
+    assert [row[c] for c in ("dropped_gap", "empty_gap", "dropped_unsteady",
+                             "partition_tail_s", "window_tail_s")] == [0, 0, 0, 0.0, 0.0]
+    m = report.metrics("")
+    assert (m["windows_dropped_gap"], m["windows_dropped_unsteady"]) == (2.0, 1.0)
+    assert (m["partition_tail_s"], m["window_tail_s"]) == (0.5, 0.25)
