@@ -2,6 +2,7 @@
 them, and behaviours hand mutants showed unpinned."""
 
 import json
+import warnings
 
 import pandas as pd
 import pytest
@@ -9,7 +10,7 @@ import pytest
 from terrain.errors import DataFormatError, NonNumericError, RaggedRowError
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report
-from terrain.io.shipped import read_manifest
+from terrain.io.shipped import convert_dataset, read_manifest
 from terrain.io.writer import next_index, used_indexes
 from terrain.run import Run
 
@@ -120,3 +121,21 @@ def test_a_run_not_windowed_has_windows_minus_one_and_other_window_columns_zero(
     m = report.metrics("")
     assert (m["windows_dropped_gap"], m["windows_dropped_unsteady"]) == (2.0, 1.0)
     assert (m["partition_tail_s"], m["window_tail_s"]) == (0.5, 0.25)
+
+
+@pytest.mark.parametrize("imu_hz, warned", [(54.0, False), (46.0, False), (56.0, True),
+                                            (44.0, True), (75.0, True)])
+def test_convert_warns_of_an_imu_rate_more_than_a_tenth_from_the_datasets(
+        tmp_path, synth_imu, synth_pro, write_run, imu_hz, warned):
+    # Vulpi's windows are aligned at its native 50 Hz: an IMU at 56 Hz is resampled there;
+    # a warning at 10 % (not only at the 100 % of a BorealTC run) says so
+    write_run(tmp_path / "csv", "CONCRETE", "00", imu=synth_imu(duration_s=20.0,
+                                                                rate_hz=imu_hz),
+              pro=synth_pro(duration_s=20.0, rate_hz=15.0))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        convert_dataset(tmp_path / "csv", "vulpi", tmp_path / "data")
+    said = [str(w.message) for w in seen if "IMU runs at" in str(w.message)]
+    assert bool(said) == warned
+    if warned:
+        assert f"IMU runs at {imu_hz:g} Hz, dataset 'vulpi' at 50 Hz" in said[0]
