@@ -210,7 +210,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         used by a file of the folder (any
         ``*_XX.*``, measured runs have no ``meta_XX.json``), no free index left (default
         ``index``: the folder holds runs 00-99), a stream name the readers
-        would not read back (``meta`` included) or two streams that go to one file
+        would not read back (``meta`` included, and ``pro``: ``pro_XX.csv`` is read back as
+        ``wheels``) or two streams that go to one file
         (:func:`to_file_frames`), or a terrain that is not a folder name (``A/B``, ``..``);
         nothing is written then.
     """
@@ -220,11 +221,17 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         raise ConfigError(f"terrain {terrain!r} is not a folder name: the run would be "
                           f"written where the readers never look")
     frames = to_file_frames(run)
-    odd = [k for k in frames if not re.fullmatch(FILE_KIND_PATTERN, k) or k == "meta"]
-    if odd:     # the readers take <kind>_XX.csv with that kind only; meta_XX is the metadata
+    # the readers take <kind>_XX.csv with that kind only, as the stream STREAM_NAMES gives
+    # it (pro_XX.csv: 'wheels', so a stream named 'pro' came back as 'wheels'); meta_XX is
+    # the metadata
+    odd = [name for name in run.streams
+           if not re.fullmatch(FILE_KIND_PATTERN, file_kind(name)) or name == "meta"
+           or STREAM_NAMES.get(file_kind(name), name) != name]
+    if odd:
         raise ConfigError(f"stream names {odd} would be written but never read back: a "
                           f"stream name is lower-case letters and digits, starting with a "
-                          f"letter, and not 'meta' (meta_XX.json holds the run's metadata)")
+                          f"letter, and not 'meta' (meta_XX.json holds the run's metadata) "
+                          f"nor 'pro' (pro_XX.csv is read back as the stream 'wheels')")
     folder = Path(out_dir) / terrain
     if index is not None:    # (True was run 01, 2.7 run 02, "x" int()'s bare ValueError)
         config_integer("write_run.index", index, 0, 99)

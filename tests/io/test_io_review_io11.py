@@ -4,14 +4,15 @@ them, and behaviours hand mutants showed unpinned."""
 import json
 import warnings
 
+import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import DataFormatError, NonNumericError, RaggedRowError
+from terrain.errors import ConfigError, DataFormatError, NonNumericError, RaggedRowError
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report
 from terrain.io.shipped import convert_dataset, read_manifest
-from terrain.io.writer import next_index, used_indexes
+from terrain.io.writer import next_index, used_indexes, write_run
 from terrain.run import Run
 
 PRO = "time,velL,velR,curL,curR\n" + "".join(
@@ -139,3 +140,18 @@ def test_convert_warns_of_an_imu_rate_more_than_a_tenth_from_the_datasets(
     assert bool(said) == warned
     if warned:
         assert f"IMU runs at {imu_hz:g} Hz, dataset 'vulpi' at 50 Hz" in said[0]
+
+
+def test_a_stream_named_pro_alone_is_refused_not_read_back_as_wheels(tmp_path):
+    # pro_XX.csv is read back as the stream 'wheels': a run's stream named 'pro' (without a
+    # 'wheels' beside it) was written there and came back under another name
+    t = np.arange(40) * 0.1
+    frame = pd.DataFrame({"t_s": t, "vel_l": 0.5 + 0.01 * np.sin(t), "vel_r": 0.6 + 0 * t,
+                          "cur_l": 5.0 + np.sin(3 * t), "cur_r": 6.0 + np.cos(2 * t)})
+    run = Run("x/SNOW/00", "x", "SNOW", {"pro": frame})
+    with pytest.raises(ConfigError, match=r"stream names \['pro'\] would be written but "
+                                          r"never read back"):
+        write_run(run, tmp_path)
+    assert not (tmp_path / "SNOW").exists()
+    back = write_run(Run("x/SNOW/00", "x", "SNOW", {"wheels": frame}), tmp_path)
+    assert back["pro"].name == "pro_00.csv"
