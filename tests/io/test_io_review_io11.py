@@ -11,7 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import ConfigError, DataFormatError, NonNumericError, RaggedRowError
+from terrain.errors import (ConfigError, DataFormatError, EncodingError, NonFiniteError,
+                            NonNumericError, RaggedRowError)
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report
 from terrain.io.shipped import convert_dataset, read_manifest
@@ -215,3 +216,27 @@ def test_an_extra_stream_written_reads_back_exactly(extra, seed):
             np.testing.assert_array_equal(got[c].to_numpy(), frame[c].to_numpy())
     assert (meta["seed"], meta["scale"], meta["on"]) == (seed, 0.5, True)
     assert back.meta["seed"] == seed and back.meta["ignored_columns"] == {}
+
+
+@pytest.mark.parametrize("encoding, mark", [("utf-16-le", b"\xff\xfe"),
+                                            ("utf-16-be", b"\xfe\xff")])
+def test_a_utf16_file_of_either_byte_order_says_so(tmp_path, encoding, mark):
+    path = tmp_path / "pro_00.csv"
+    path.write_bytes(mark + PRO.encode(encoding))
+    with pytest.raises(EncodingError, match="starts with a UTF-16 byte-order mark") as info:
+        read_stream_csv(path, "pro")
+    assert (info.value.line, info.value.path) == (1, str(path))
+
+
+def test_only_rows_of_empty_cells_are_called_a_spreadsheets_emptied_rows(tmp_path):
+    # a missing timestamp beside its values is not an emptied row: no such hint then
+    path = tmp_path / "pro_00.csv"
+    path.write_text(PRO + ",0.5,0.5,2.0,2.1\n" + ",,,,\n")
+    with pytest.raises(NonFiniteError, match=r"2 non-finite timestamp\(s\) at lines 32, 33; "
+                                             r"1 of them a line of empty cells only") as info:
+        read_stream_csv(path, "pro")
+    assert (info.value.column, info.value.line) == ("time", 32)
+    path.write_text(PRO + ",0.5,0.5,2.0,2.1\n")
+    with pytest.raises(NonFiniteError) as info:
+        read_stream_csv(path, "pro")
+    assert "empty cells" not in str(info.value)
