@@ -240,3 +240,20 @@ def test_only_rows_of_empty_cells_are_called_a_spreadsheets_emptied_rows(tmp_pat
     with pytest.raises(NonFiniteError) as info:
         read_stream_csv(path, "pro")
     assert "empty cells" not in str(info.value)
+
+
+@pytest.mark.parametrize("name, plain", [("meta_00.json.gz", "meta_00.json"),
+                                         ("meta_00.json.zst", "meta_00.json"),
+                                         ("Meta_00.json", None)])
+def test_a_compressed_or_upper_case_metadata_file_is_named_not_left_out(tmp_path, name,
+                                                                        plain):
+    # left out, the run was read as the Husky's whatever its metadata said
+    folder = tmp_path / "runs" / "ICE"
+    folder.mkdir(parents=True)
+    (folder / "pro_00.csv").write_text(PRO)
+    (folder / name).write_bytes(b"{}")
+    why = (f"compressed run files are not read: decompress it to {plain}" if plain
+           else "run file names are lower case: rename it to meta_00.json")
+    with pytest.raises(DataFormatError, match=why) as info:
+        read_runs_dir(tmp_path / "runs")
+    assert info.value.path == str(folder / name)
