@@ -15,7 +15,7 @@ from terrain.errors import (ConfigError, DataFormatError, EncodingError, NonFini
                             NonNumericError, RaggedRowError)
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report
-from terrain.io.shipped import convert_dataset, read_manifest
+from terrain.io.shipped import convert_dataset, dataset_entry, read_manifest
 from terrain.io.writer import next_index, used_indexes, write_run
 from terrain.run import Run
 
@@ -257,3 +257,31 @@ def test_a_compressed_or_upper_case_metadata_file_is_named_not_left_out(tmp_path
     with pytest.raises(DataFormatError, match=why) as info:
         read_runs_dir(tmp_path / "runs")
     assert info.value.path == str(folder / name)
+
+
+def _entry(gaps):
+    return {"datasets": {"vulpi": {
+        "terrains": ["ICE"], "files": {"vulpi/wheels.parquet": "0" * 64}, "source": "s",
+        "runs": [{"run_id": "vulpi/ICE/00", "terrain": "ICE", "repaired": {},
+                  "gaps": gaps}]}}}
+
+
+@pytest.mark.parametrize("pair", [[True, 2.0], [1.0, False], ["1", 2.0], [1.0, 2.0, 3.0]])
+def test_a_manifest_gap_that_is_not_a_pair_of_times_is_refused(pair):
+    # a JSON boolean is a Python int: [true, 2.0] was taken for the gap 1 s -> 2 s
+    with pytest.raises(DataFormatError, match=r"datasets\.vulpi\.runs\[0\]\.gaps' must be an "
+                                              r"object of lists of \[t_start_s, t_end_s\]"):
+        dataset_entry(_entry({"wheels": [pair]}), "vulpi", "manifest.json")
+    entry = dataset_entry(_entry({"wheels": [[1, 2.5]]}), "vulpi", "manifest.json")
+    assert entry["runs"][0]["gaps"] == {"wheels": [[1, 2.5]]}
+
+
+@pytest.mark.parametrize("terrain", ["A\\B", "A/B", "..", "."])
+def test_a_terrain_that_is_no_folder_name_is_refused_backslash_included(tmp_path, terrain):
+    # 'A\\B' is one folder on Linux but a path on Windows: the readers never look there
+    t = np.arange(40) * 0.1
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t,
+                           "cur_l": 5.0 + np.sin(t), "cur_r": 6.0 + np.cos(t)})
+    with pytest.raises(ConfigError, match="is not a folder name"):
+        write_run(Run("x/A/00", "x", terrain, {"wheels": wheels}), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
