@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from terrain.errors import (ConfigError, DataFormatError, EncodingError, NonFiniteError,
                             NonNumericError, RaggedRowError)
-from terrain.io.measured import read_runs_dir, read_stream_csv
+from terrain.io.measured import read_runs_dir, read_stream_csv, text_place
 from terrain.io.report import input_report
 from terrain.io.shipped import convert_dataset, dataset_entry, read_manifest
 from terrain.io.writer import next_index, used_indexes, write_run
@@ -285,3 +285,11 @@ def test_a_terrain_that_is_no_folder_name_is_refused_backslash_included(tmp_path
     with pytest.raises(ConfigError, match="is not a folder name"):
         write_run(Run("x/A/00", "x", terrain, {"wheels": wheels}), tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("text, pos, place", [
+    ("ab\ncd", 4, (2, 2)), ("ab\r\ncd", 5, (2, 2)), ("ab\rcd", 4, (2, 2)),
+    ("ab\r\ncd", 3, (1, 4)),        # the LF of a CR LF ends line 1, as its CR does
+    ("ab\r\ncd", 2, (1, 3)), ("ab", 0, (1, 1)), ("a\n\r\rb", 4, (4, 1))])
+def test_text_place_counts_lines_as_an_editor_does(text, pos, place):
+    assert text_place(text, pos) == place
