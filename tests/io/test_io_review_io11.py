@@ -293,3 +293,21 @@ def test_a_terrain_that_is_no_folder_name_is_refused_backslash_included(tmp_path
     ("ab\r\ncd", 2, (1, 3)), ("ab", 0, (1, 1)), ("a\n\r\rb", 4, (4, 1))])
 def test_text_place_counts_lines_as_an_editor_does(text, pos, place):
     assert text_place(text, pos) == place
+
+
+def test_the_input_report_adds_up_repaired_cells_and_skipped_lines_of_every_channel():
+    # the counts reach the user as sums over the run's channels and files, not as the
+    # number of channels or files that had any
+    frame = pd.DataFrame({"t_s": [0.0, 1.0], "vel_l": [0.1, 0.2]})
+    run = Run("r/SNOW/00", "r", "SNOW", {"wheels": frame},
+              meta={"repaired": {"imu.wx": 3, "wheels.vel_l": 2},
+                    "skipped_lines": {"imu.blank": 2, "imu.comment": 3, "wheels.blank": 1}})
+    report = input_report([run])
+    row = report.table.iloc[0]
+    assert (row["repaired_cells"], row["skipped_lines"]) == (5, 6)
+    assert row["repaired"] == "imu.wx:3, wheels.vel_l:2"
+    m = report.metrics()
+    assert (m["input_repaired_cells"], m["input_skipped_lines"]) == (5.0, 6.0)
+    text = report.text()
+    assert "repaired 5 isolated non-finite cell(s)" in text
+    assert "skipped 6 blank/comment line(s): r/SNOW/00" in text
