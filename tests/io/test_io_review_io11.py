@@ -311,3 +311,15 @@ def test_the_input_report_adds_up_repaired_cells_and_skipped_lines_of_every_chan
     text = report.text()
     assert "repaired 5 isolated non-finite cell(s)" in text
     assert "skipped 6 blank/comment line(s): r/SNOW/00" in text
+
+
+@pytest.mark.parametrize("word", ["INF", "-Infinity", "+inf", "NaN"])
+def test_a_non_finite_word_of_any_case_is_repaired_not_taken_for_an_overflow(tmp_path, word):
+    # '1e400' is a number beyond float64 (refused); 'INF' is a missing sample's word, of
+    # any case, repaired and counted as 'inf' is
+    rows = PRO.splitlines()
+    rows[10] = rows[10].replace(",0.5,", f",{word},", 1)
+    path = tmp_path / "pro_00.csv"
+    path.write_text("\n".join(rows) + "\n")
+    frame, report = read_stream_csv(path, "pro")
+    assert report.repaired == {"vel_l": 1} and frame["vel_l"].iloc[9] == 0.5
