@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, config_integer
+from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.io.jsonfile import json_ready
 from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES
 from terrain.run import TIME, Run
@@ -91,7 +91,8 @@ def to_file_frames(run: Run) -> dict[str, pd.DataFrame]:
     ------
     ConfigError
         Two streams that go to one file (``wheels`` and ``pro``: the second overwrote the
-        first).
+        first), or a stream with two columns of one file name (a channel ``time`` beside
+        ``t_s``, ``velL`` beside ``vel_l``: the readers refuse the file).
     """
     frames: dict[str, pd.DataFrame] = {}
     for name, frame in run.streams.items():
@@ -103,6 +104,10 @@ def to_file_frames(run: Run) -> dict[str, pd.DataFrame]:
         mapping = COLUMN_MAPS.get(kind, {"time": TIME})
         inverse = {canonical: column for column, canonical in mapping.items()}
         frames[kind] = frame.rename(columns=inverse)
+        twice = duplicated(list(frames[kind].columns))
+        if twice:   # (a channel 'time' beside t_s: a header the readers refuse)
+            raise ConfigError(f"stream {name!r} of run {run.run_id} has columns that its "
+                              f"file names alike: {twice}; rename them")
     return frames
 
 

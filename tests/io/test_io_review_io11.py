@@ -323,3 +323,20 @@ def test_a_non_finite_word_of_any_case_is_repaired_not_taken_for_an_overflow(tmp
     path.write_text("\n".join(rows) + "\n")
     frame, report = read_stream_csv(path, "pro")
     assert report.repaired == {"vel_l": 1} and frame["vel_l"].iloc[9] == 0.5
+
+
+@pytest.mark.parametrize("name, extra, column", [("truth", "time", "time"),
+                                                 ("wheels", "velL", "velL")])
+def test_a_channel_named_as_another_column_of_its_file_is_refused_before_writing(
+        tmp_path, name, extra, column):
+    # a truth channel 'time' beside t_s (written 'time' too), or a wheel column 'velL'
+    # beside vel_l, made a file with one name twice that the readers refuse
+    t = np.arange(40) * 0.1
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t,
+                           "cur_l": 5.0 + np.sin(t), "cur_r": 6.0 + np.cos(t)})
+    streams = {"wheels": wheels, "truth": pd.DataFrame({"t_s": t, "x": t})}
+    streams[name] = streams[name].assign(**{extra: t + 100.0})
+    with pytest.raises(ConfigError, match=rf"stream {name!r} of run x/SNOW/00 has columns "
+                                          rf"that its file names alike: \[{column!r}\]"):
+        write_run(Run("x/SNOW/00", "x", "SNOW", streams), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
