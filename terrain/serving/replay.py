@@ -201,8 +201,8 @@ class RunReplay:
 
     def summary(self, out: str | Path) -> str:
         """What a user is told of the replay: decisions, flags by kind, decisions skipped,
-        samples still held, where they were written, and the share decided as the run's
-        label.
+        samples refused (by stream and reason), samples still held, where they were
+        written, and the share decided as the run's label.
 
         Parameters
         ----------
@@ -221,6 +221,10 @@ class RunReplay:
             if kinds else ""
         skipped = (f"; {self.skipped} skipped in silent stretches (no sample of any stream "
                    f"for over {self.max_backlog_s:g} s)" if self.skipped else "")
+        if self.refused:   # counted per sample (a re-sent one flags no decision)
+            skipped += "; refused " + ", ".join(
+                f"{n}{' samples' if i == 0 else ''} of stream {s} ({r})"
+                for i, ((s, r), n) in enumerate(sorted(self.refused.items())))
         if self.held:
             skipped += "; " + ", ".join(f"{n} samples of stream {s} still held at the end "
                                         f"({r}: their clock not yet told)"
