@@ -86,8 +86,8 @@ def replay_run(service: StreamService, run: Run, max_chunk: int = 1) -> list[Dec
     ----------
     service : StreamService
     run : Run
-        Its stream frames' channel order must match the service's streams (it does for
-        runs read by :mod:`terrain.io`).
+        Its stream frames must hold every channel of the service's streams; they are read
+        by name, in any column order (runs read by :mod:`terrain.io` do).
     max_chunk : int
         See :func:`interleave`.
 
@@ -99,6 +99,9 @@ def replay_run(service: StreamService, run: Run, max_chunk: int = 1) -> list[Dec
     ------
     ConfigError
         ``max_chunk`` not an integer >= 1.
+    MissingColumnError
+        A stream frame lacks a channel of its stream (named;
+        :meth:`StreamService.push <terrain.serving.service.StreamService.push>`).
     """
     out: list[Decision] = []
     for stream, t, v in interleave(run, service.needed_streams, max_chunk):
