@@ -32,6 +32,19 @@ def test_summary_counts_the_samples_the_service_refused():
     assert "refused" not in _replay({}).summary("d.csv")
 
 
+def test_summary_of_no_decision_has_no_label_share():
+    """A replay without decisions gives no share decided as the run's label (the mean of
+    no decision would print as nan), and says 0 decisions."""
+    from dataclasses import replace
+
+    one = _replay({})
+    assert one.summary("d.csv").splitlines()[1] == \
+        "  decided ASPHALT (the folder's label) in 1.000 of the decisions"
+    empty = replace(one, frame=one.frame.iloc[:0])
+    lines = empty.summary("d.csv").splitlines()
+    assert len(lines) == 1 and lines[0].startswith("t/ASPHALT/00: 0 decisions every 0.5 s")
+
+
 def _wz_service():
     """IMU and wheels at 8 Hz, 2 s windows every 0.5 s (the deterministic yaw-rate model
     of ``test_stream_scores``)."""
