@@ -226,7 +226,7 @@ class RunReplay:
                    f"for over {self.max_backlog_s:g} s)" if self.skipped else "")
         if self.refused:   # counted per sample (a re-sent one flags no decision)
             skipped += "; refused " + ", ".join(
-                f"{n}{' samples' if i == 0 else ''} of stream {s} ({r})"
+                f"{n}{(' sample' + 's' * (n != 1)) if i == 0 else ''} of stream {s} ({r})"
                 for i, ((s, r), n) in enumerate(sorted(self.refused.items())))
         if self.held:
             skipped += "; " + ", ".join(f"{n} samples of stream {s} still held at the end "

@@ -28,6 +28,8 @@ def test_summary_counts_the_samples_the_service_refused():
     assert "refused 3 samples of stream imu (non_finite), 7 of stream wheels (duplicate)" \
         in first
     assert first.endswith("written to d.csv")
+    one = _replay({("wheels", "implausible_value"): 1}).summary("d.csv")
+    assert "; refused 1 sample of stream wheels (implausible_value); written" in one
     # nothing refused: no word of it
     assert "refused" not in _replay({}).summary("d.csv")
 
