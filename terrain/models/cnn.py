@@ -235,8 +235,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             ``max_epochs`` or ``width`` not an integer >= 1, ``n_threads`` neither ``None``
             nor one, ``random_state`` not an integer in [0, 2**32 - 1];
             ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
-            integer >= 2 or above the number of runs, or with no validation split that
-            leaves a training run of every class; (spectrogram CNN) ``augment_noise_std``
+            integer >= 2, above the number of runs or above the windows of every class,
+            or with no validation split that leaves a training run of every class;
+            (spectrogram CNN) ``augment_noise_std``
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
             ``inf``) per channel.
         ValueError

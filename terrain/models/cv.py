@@ -383,11 +383,13 @@ class CVReport:
 
 
 def require_runs(groups, n_splits, purpose: str, setting: str,
-                 alternatives: Sequence[str] = ()) -> None:
-    """Refuse an inner split by run into more folds than there are runs.
+                 alternatives: Sequence[str] = (), labels=None) -> None:
+    """Refuse an inner split by run into more folds than there are runs, or (``labels``
+    given) than the largest class has windows.
 
-    scikit-learn's own error ("Cannot have number of splits n_splits=5 greater than the
-    number of groups: 3") names neither the runs nor the setting; this one names both.
+    scikit-learn's own errors ("Cannot have number of splits n_splits=5 greater than the
+    number of groups: 3"; "n_splits=4 cannot be greater than the number of members in each
+    class") name neither the runs nor the setting; this one names both.
 
     Parameters
     ----------
@@ -402,12 +404,17 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
     alternatives : sequence of str
         Other remedies named after "more runs or fewer <setting>" (e.g.
         ``"early_stopping=False"``).
+    labels : array-like or None
+        ``(n_windows,)`` class of every training window, for a stratified split
+        (``StratifiedGroupKFold``, which refuses a split where every class has fewer
+        windows than folds); ``None``: not checked.
 
     Raises
     ------
     ConfigError
-        ``n_splits`` not an integer >= 2, or fewer runs than ``n_splits``; the message
-        names the runs (the first three and a count).
+        ``n_splits`` not an integer >= 2, fewer runs than ``n_splits`` (the message names
+        the runs, the first three and a count), or ``labels`` whose every class has fewer
+        windows than ``n_splits``.
     """
     config_integer(setting, n_splits, 2)
     runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
@@ -418,6 +425,15 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
                           f"inner folds ({setting}): it got {len(runs)} runs ({given}) and "
                           f"needs at least {n_splits}; give {', '.join(remedies[:-1])} or "
                           f"{remedies[-1]}")
+    if labels is not None:
+        _, counts = np.unique(np.asarray(labels), return_counts=True)
+        if counts.size and (counts < n_splits).all():
+            remedies = ["more windows", f"fewer {setting.rsplit('.', 1)[-1]} (>= 2)",
+                        *alternatives]
+            raise ConfigError(f"{purpose} splits its training windows by run into {n_splits} "
+                              f"stratified inner folds ({setting}): no class has {n_splits} "
+                              f"windows (at most {counts.max()}); give "
+                              f"{', '.join(remedies[:-1])} or {remedies[-1]}")
 
 
 def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpose: str,
@@ -452,11 +468,11 @@ def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpos
     Raises
     ------
     ConfigError
-        Fewer runs than ``n_splits`` or ``n_splits`` not an integer >= 2
-        (:func:`require_runs`), or no split that keeps a training run of every class (the
-        message names the classes held out whole).
+        Fewer runs than ``n_splits``, ``n_splits`` not an integer >= 2 or every class with
+        fewer windows than ``n_splits`` (:func:`require_runs`), or no split that keeps a
+        training run of every class (the message names the classes held out whole).
     """
-    require_runs(groups, n_splits, purpose, setting, (alternative,))
+    require_runs(groups, n_splits, purpose, setting, (alternative,), labels)
     classes, y_idx = np.unique(np.asarray(labels), return_inverse=True)
     inner = StratifiedGroupKFold(n_splits, shuffle=True, random_state=random_state)
     lost = set()

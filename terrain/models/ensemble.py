@@ -209,7 +209,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         ConfigError
             No member (``estimators`` empty); fixed ``weights`` not one per member,
             boolean, negative, non-finite or all 0 (:func:`normalised_weights`); weights to choose
-            with fewer runs (``groups``) than ``inner_splits``, or where every inner split
+            with fewer runs (``groups``) than ``inner_splits``, or every class with fewer
+            windows than ``inner_splits``, or where every inner split
             holds out every run of a class (:func:`~terrain.models.cv.class_keeping_split`),
             or a ``weight_step`` :func:`simplex_grid` refuses.
         ValueError

@@ -146,10 +146,12 @@ class GroupedSearch(GridSearchCV):
         ------
         ConfigError
             Fewer runs than inner folds (``SVMConfig.inner_splits``), ``groups`` missing
-            included; the message names the runs.
+            included (the message names the runs), or every class with fewer windows than
+            inner folds.
         """
         require_runs(params.get("groups"), self.cv.get_n_splits(),
-                     "the grouped hyperparameter search", "SVMConfig.inner_splits")
+                     "the grouped hyperparameter search", "SVMConfig.inner_splits",
+                     labels=y)
         return super().fit(X, y, **params)
 
 
