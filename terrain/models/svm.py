@@ -18,6 +18,7 @@ from sklearn.model_selection import GridSearchCV, StratifiedGroupKFold
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
+from sklearn.utils.multiclass import type_of_target
 
 from features.transformers import WindowFeatures
 from terrain.errors import ConfigError, config_flags, config_integer, config_positive
@@ -292,6 +293,53 @@ def calibrated_rbf_proba(Xs: np.ndarray, arrays: _CalibratedRBF) -> np.ndarray:
     return proba
 
 
+def check_calibration_classes(step, y) -> None:
+    """Refuse training labels a ``CalibratedClassifierCV`` step cannot calibrate on.
+
+    Its ``cv`` (an integer, or ``None``: 5) stratified folds of the training windows give
+    every class out-of-fold decision values only when each training part holds the class:
+    scikit-learn raises a bare ``ValueError`` inside ``cross_val_predict`` for a class with
+    a single window ("Only 2 class/es in training fold, but 3 in overall dataset"), and
+    another when every class has fewer windows than folds.
+
+    Parameters
+    ----------
+    step : estimator
+        The final step of the pipeline; anything but a ``CalibratedClassifierCV`` with an
+        integer or default ``cv`` is not checked.
+    y : array-like or None
+        ``(n_windows,)`` training labels; ``None``, a target that is not binary or
+        multiclass labels, or a single class are left to scikit-learn's own errors.
+
+    Raises
+    ------
+    ConfigError
+        A class with one training window, or every class with fewer windows than the
+        calibration's folds; the message names the classes and their windows.
+    """
+    if not isinstance(step, CalibratedClassifierCV) or y is None:
+        return
+    n_folds = 5 if step.cv is None else step.cv
+    if not isinstance(n_folds, (int, np.integer)) or isinstance(n_folds, bool):
+        return
+    if type_of_target(y) not in ("binary", "multiclass"):
+        return      # scikit-learn's own refusal of a target that is no class label
+    classes, counts = np.unique(np.asarray(y), return_counts=True)
+    if len(classes) < 2:
+        return      # scikit-learn's own "one class" refusal
+    single = classes[counts < 2].tolist()
+    if single:
+        raise ConfigError(f"the SVM's probability calibration (SVMConfig.probability) fits "
+                          f"it on {n_folds} stratified folds of its training windows, and "
+                          f"class(es) {single} have 1 training window: every class needs 2 "
+                          f"at least (more runs or shorter windows of those classes)")
+    if (counts < n_folds).all():
+        raise ConfigError(f"the SVM's probability calibration (SVMConfig.probability) needs "
+                          f"a class with as many training windows as its {n_folds} "
+                          f"calibration folds; the largest has {counts.max()} (more runs or "
+                          f"shorter windows)")
+
+
 class SVMPipeline(CompiledPipeline):
     """``features -> scale -> calibrated SVC`` pipeline with a fast ``predict_proba``.
 
@@ -330,7 +378,15 @@ class SVMPipeline(CompiledPipeline):
         -------
         SVMPipeline
             ``self``.
+
+        Raises
+        ------
+        ConfigError
+            A calibrated final step (``SVMConfig.probability``) and a class with a single
+            training window, or every class with fewer windows than the calibration's
+            folds (:func:`check_calibration_classes`).
         """
+        check_calibration_classes(self.steps[-1][1], y)
         super().fit(X, y, **params)
         final = self.steps[-1][1]
         self._fast_arrays = (getattr(final, "calibrated_classifiers_", None),
