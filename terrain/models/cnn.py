@@ -354,7 +354,11 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Parameters
         ----------
         X : array-like
-            ``(n_windows, n_channels, n_samples)`` raw windows (or 2-D: one channel).
+            ``(n_windows, n_channels, n_samples)`` raw windows, or 2-D ``(n_windows,
+            n_samples)`` one-channel windows, in the layout ``fit`` was given:
+            ``n_features_in_`` is ``X.shape[1]`` of ``fit`` (the channels of 3-D windows, the
+            samples of 2-D ones), so a model fitted on 3-D one-channel windows refuses them
+            2-D and one fitted on 2-D windows refuses them 3-D.
 
         Returns
         -------
@@ -364,7 +368,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            Another number of channels than in ``fit``; windows not finite, booleans, not
+            ``X.shape[1]`` other than ``n_features_in_`` (another number of channels than
+            in ``fit``, or another layout, see ``X``); windows not finite, booleans, not
             2-D or 3-D, or empty (0 channels or 0 samples).
         ShapeError
             Windows of another length than in ``fit`` (``window_shape_``; a model saved
