@@ -652,7 +652,8 @@ def score_candidate(units: Units, group: str, spec: Sequence[str], name: str,
     Raises
     ------
     NotIdentifiable
-        The data cannot identify the candidate, or no unit has samples in its scope.
+        The data cannot identify the candidate, no unit has samples in its scope, or the
+        replay has no error there (nothing to remove: no gain can be measured).
     """
     model = GROUP_MODELS[group]
     full = model.fit([f for u in units for f in u], list(spec) + [name], effect_settings)
@@ -662,8 +663,11 @@ def score_candidate(units: Units, group: str, spec: Sequence[str], name: str,
     ref, _ = unit_errors(units, group, before, scope)
     new, _ = unit_errors(units, group, with_params, scope)
     keep = n > 0                                 # units with samples where the effect acts
-    if base[keep].sum() <= 0:
+    if not keep.any():
         raise NotIdentifiable(f"no scored samples in scope {scope!r}")
+    if base[keep].sum() <= 0:                    # (was reported as "no scored samples")
+        raise NotIdentifiable(f"the replay has no error in scope {scope!r} on its "
+                              f"{int(n.sum())} scored samples: nothing to remove")
     gain, ci = bootstrap_gain(ref[keep], new[keep], base[keep], rng, n_bootstrap,
                               _strata(units)[keep])
     n_all = max(n.sum(), 1)
