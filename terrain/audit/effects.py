@@ -341,8 +341,10 @@ class YawParams:
     n_turn, n_quiet : int
         Samples the fit used.
     chi_replay : float
-        The replay's own effective chi on the same mobile turning samples (least squares of
-        ``x`` on the replayed yaw rate): what the simulator already predicts.
+        The replay's own effective chi on the same mobile turning samples,
+        ``sum(x^2) / sum(x sim_wz)`` (:func:`~terrain.vehicles.icr.icr_expansion_factor`:
+        the reciprocal of the least-squares slope of the replayed yaw rate on ``x``, as
+        :attr:`chi` is of the gyro's): what the simulator already predicts.
     """
 
     kinematic: bool = False

@@ -3,6 +3,9 @@ remove, and mutants of the selection and effect fits that the earlier tests let 
 
 from __future__ import annotations
 
+import numpy as np
+import pytest
+
 from audit_helpers import synthetic_frame
 from terrain.audit.selection import SelectionSettings, select_group
 
@@ -22,3 +25,25 @@ def test_a_replay_without_error_is_not_reported_as_having_no_samples():
         assert not e.supported
         assert "no scored samples" not in e.reason
         assert "no error" in e.reason and "scored samples" in e.reason
+
+
+def test_the_replays_chi_is_the_reciprocal_slope_of_its_yaw_rate_on_the_command():
+    # chi_replay = sum(x^2) / sum(x sim_wz) (as chi is of the gyro), not the least squares
+    # of x on the replayed yaw rate, sum(x sim_wz) / sum(sim_wz^2): with a noisy replayed
+    # yaw rate the two differ by the noise's share of sum(sim_wz^2)
+    from dataclasses import replace
+
+    from terrain.audit.effects import fit_yaw
+    from terrain.audit.frames import CURVE, SPIN
+    rng = np.random.default_rng(7)
+    frames = []
+    for i in range(3):
+        f = synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5, noise=0.0)
+        frames.append(replace(f, sim_wz=f.sim_wz + 0.2 * rng.standard_normal(f.n)))
+    p = fit_yaw(frames, ["icr_expansion"])
+    turn = [f.score_imu & np.isin(f.manoeuvre, (CURVE, SPIN)) for f in frames]
+    x = np.concatenate([f.commanded_yaw_rate[m] for f, m in zip(frames, turn)])
+    s = np.concatenate([f.sim_wz[m] for f, m in zip(frames, turn)])
+    assert p.fraction == 0.0 and p.chi == pytest.approx(1.5, rel=1e-9)
+    assert p.chi_replay == pytest.approx(np.sum(x * x) / np.sum(x * s), rel=1e-9)
+    assert abs(p.chi_replay - np.sum(x * s) / np.sum(s * s)) > 0.05
