@@ -312,8 +312,10 @@ def comparison_markdown(table: pd.DataFrame, meta: dict) -> str:
     for r in table.itertuples():
         if r.scope == "stop":
             continue
+        # a pooled row of several runs, one per terrain, has no interval either
         interval = (f"[{r.gain_lo:+.3f}, {r.gain_hi:+.3f}]" if np.isfinite(r.gain_lo)
-                    else "(one run: no interval)")
+                    else "(one run: no interval)" if r.n_runs == 1
+                    else "(one run per terrain: no interval)")
         lines.append(f"| {r.terrain} | {r.signal} | {r.scope} | {r.n_runs} | {r.n} | "
                      f"{r.rmse_ref:.3g} | {r.rmse_new:.3g} | {r.gain:+.3f} {interval} |")
     if meta.get("skipped"):

@@ -47,3 +47,23 @@ def test_the_replays_chi_is_the_reciprocal_slope_of_its_yaw_rate_on_the_command(
     assert p.fraction == 0.0 and p.chi == pytest.approx(1.5, rel=1e-9)
     assert p.chi_replay == pytest.approx(np.sum(x * x) / np.sum(x * s), rel=1e-9)
     assert abs(p.chi_replay - np.sum(x * s) / np.sum(s * s)) > 0.05
+
+
+def test_a_pooled_row_of_one_run_per_terrain_says_so_not_one_run():
+    # two terrains with one run each: the pooled row has 2 runs and no interval (one run per
+    # terrain: resampling within terrains cannot vary); the page said "(one run: ...)"
+    import pandas as pd
+
+    from terrain.audit.physics import PhysicsComparisonSettings, comparison_markdown, gain_table
+    per_run = pd.DataFrame(
+        [("a", "ASPHALT", "wz", "moving", 100, 4.0, 1.0),
+         ("b", "SNOW", "wz", "moving", 100, 9.0, 4.0)],
+        columns=["run_id", "terrain", "signal", "scope", "n", "sse_ref", "sse_new"])
+    table = gain_table(per_run, PhysicsComparisonSettings(n_bootstrap=50))
+    pooled = table[table.terrain == "all"].iloc[0]
+    assert pooled.n_runs == 2 and np.isnan(pooled.gain_lo)
+    page = comparison_markdown(table, {"reference": "v1", "candidate": "v2"})
+    assert "| ASPHALT | wz | moving | 1 | 100 | 0.2 | 0.1 | +0.500 (one run: no interval) |" \
+        in page
+    line = next(ln for ln in page.splitlines() if ln.startswith("| all |"))
+    assert line.endswith("(one run per terrain: no interval) |")
