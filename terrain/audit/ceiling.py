@@ -165,6 +165,12 @@ def _inverse_chi(measured: np.ndarray, x: np.ndarray) -> float:
     return a if np.isfinite(a) else 0.0
 
 
+def _chi_of(a: float) -> float:
+    """``chi`` of a least-squares ``1 / chi``: inf where the vehicle does not turn the
+    commanded way (``a <= 0``), NaN where ``a`` is not defined (no turn commanded)."""
+    return (1.0 / a if a > 0 else np.inf) if np.isfinite(a) else np.nan
+
+
 def _check_training(frames: Sequence[AuditFrame], candidates: Sequence[AuditFrame] | None,
                     train_frames: Sequence[AuditFrame] | None,
                     train_candidates: Sequence[AuditFrame] | None) -> None:
@@ -210,7 +216,9 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
         manoeuvre), ``trained`` (one ``chi_m`` per manoeuvre fitted on ``train_frames``;
         NaN without them; where the training runs hold no sample of a manoeuvre, the
         reference replay, counted in ``attrs["trained_fallback"]``), all in rad/s.
-        ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi`` of the measured yaw rate;
+        ``attrs["chi_shared"]``: manoeuvre -> fitted ``chi`` of the measured yaw rate (inf
+        where the vehicle does not turn the commanded way, NaN where no turn was commanded:
+        unknown);
         ``attrs["chi_trained"]`` (only with ``train_frames``): the same on the training runs;
         ``attrs["chi_reference"]`` and ``attrs["chi_candidate"]`` (the latter only with
         ``candidates``): the same least-squares chi of each replay's yaw rate on the same
@@ -237,22 +245,24 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
     trained_a, fallback = None, 0
     if train_frames is not None:
         train = _yaw_rows(train_frames, None)
+        # (the raw 1 / chi, NaN where no turn was commanded: an unknown chi, not inf)
         trained_a = ({} if train is None else
-                     {code: _inverse_chi(s.measured.to_numpy(), s.x.to_numpy())
+                     {code: inverse_icr_factor(s.measured.to_numpy(), s.x.to_numpy())
                       for code, s in train.groupby("code")})
     for code, sub in tab.groupby("code"):
-        a = _inverse_chi(sub.measured.to_numpy(), sub.x.to_numpy())
-        chi[MANOEUVRES[code]] = 1.0 / a if a > 0 else np.inf
+        a = inverse_icr_factor(sub.measured.to_numpy(), sub.x.to_numpy())
+        chi[MANOEUVRES[code]] = _chi_of(a)
         for name, found in replay_chi.items():
-            b = inverse_icr_factor(sub[name].to_numpy(), sub.x.to_numpy())
-            found[MANOEUVRES[code]] = (1.0 / b if b > 0 else np.inf) if np.isfinite(b) else np.nan
-        tab.loc[sub.index, "shared"] = a * sub.x
+            found[MANOEUVRES[code]] = _chi_of(inverse_icr_factor(sub[name].to_numpy(),
+                                                                 sub.x.to_numpy()))
+        tab.loc[sub.index, "shared"] = (a if np.isfinite(a) else 0.0) * sub.x
         for _, one in sub.groupby("run_id"):
             b = _inverse_chi(one.measured.to_numpy(), one.x.to_numpy())
             tab.loc[one.index, "per_run"] = b * one.x
         if trained_a is not None:
             if code in trained_a:
-                tab.loc[sub.index, "trained"] = trained_a[code] * sub.x
+                a_t = trained_a[code]
+                tab.loc[sub.index, "trained"] = (a_t if np.isfinite(a_t) else 0.0) * sub.x
             else:
                 tab.loc[sub.index, "trained"] = sub.reference
                 fallback += len(sub)
@@ -263,8 +273,7 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
     if candidates is not None:
         out.attrs["chi_candidate"] = replay_chi["candidate"]
     if trained_a is not None:
-        out.attrs["chi_trained"] = {MANOEUVRES[c]: 1.0 / a if a > 0 else np.inf
-                                    for c, a in trained_a.items()}
+        out.attrs["chi_trained"] = {MANOEUVRES[c]: _chi_of(a) for c, a in trained_a.items()}
         out.attrs["trained_fallback"] = fallback
     return out
 

@@ -139,3 +139,18 @@ def test_the_offset_and_grade_alternation_ends_at_its_fixed_point():
     k = np.sum(pitch[mv] * target[mv]) / np.sum(pitch[mv] ** 2)
     assert k == pytest.approx(p.k_a_per_rad, rel=1e-7)
     assert p.k_a_per_rad == pytest.approx(12.0, rel=0.05)
+
+
+def test_the_ceiling_reports_an_unknown_chi_where_no_turn_was_commanded_not_a_dug_in_one():
+    # straight driving with the wheels exactly level (x = 0): the measured chi of the
+    # straight samples is unknown (NaN), as the replays' beside it, not inf ("dug in")
+    from terrain.audit.ceiling import yaw_rate_ceiling_samples
+    frames = [synthetic_frame(f"s/ASPHALT/{i}", seed=i, chi=1.5) for i in range(3)]
+    tab = yaw_rate_ceiling_samples(frames[:2], train_frames=frames[2:])
+    assert np.isnan(tab.attrs["chi_reference"]["straight"])
+    assert np.isnan(tab.attrs["chi_shared"]["straight"])
+    assert np.isnan(tab.attrs["chi_trained"]["straight"])
+    assert tab.attrs["chi_shared"]["spin"] == pytest.approx(1.5, rel=0.01)
+    # the predictions of the straight samples stay 0 yaw rate (x = 0), finite
+    straight = tab[tab.manoeuvre == "straight"]
+    assert np.isfinite(straight[["shared", "per_run", "trained"]].to_numpy()).all()
