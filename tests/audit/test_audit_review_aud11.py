@@ -154,3 +154,30 @@ def test_the_ceiling_reports_an_unknown_chi_where_no_turn_was_commanded_not_a_du
     # the predictions of the straight samples stay 0 yaw rate (x = 0), finite
     straight = tab[tab.manoeuvre == "straight"]
     assert np.isfinite(straight[["shared", "per_run", "trained"]].to_numpy()).all()
+
+
+def test_the_scored_span_keeps_the_samples_exactly_edge_s_from_either_end():
+    from terrain.audit.frames import FrameSettings, scored_span
+    t = np.arange(0.0, 10.25, 0.25)
+    m = scored_span(t, FrameSettings(edge_s=2.0))
+    assert t[m][0] == 2.0 and t[m][-1] == 8.0 and m.sum() == 25
+
+
+def test_the_online_forecast_uses_the_samples_exactly_lead_s_back():
+    # _forgetting_sums' rule: samples with t_j <= t - lead_s; on a clock of 0.25 s steps,
+    # lead 0.5 s reaches the sample two steps back exactly
+    from dataclasses import replace
+
+    from terrain.audit.ceiling import online_current_samples
+    from terrain.audit.frames import STRAIGHT
+    f = synthetic_frame("s/ASPHALT/0", noise=0.0)
+    n = f.n
+    t = np.arange(n) * 0.25
+    cur = f.sim_cur.copy()
+    cur[:, 1] += 1.0                                   # the right side reads 1 A more
+    f = replace(f, t_s=t, cur=cur, manoeuvre=np.full(n, STRAIGHT, dtype=np.int8),
+                score_cur=np.ones(n, dtype=bool))
+    out = online_current_samples([f], lead_s=0.5, memory_s=1e9, prior_s=0.0)
+    right = out[out.side == 1].online.to_numpy() - out[out.side == 1].reference.to_numpy()
+    # sample 2 has samples 0 (t = 0 <= 0.5 - 0.5) as evidence: the full 1 A correction
+    assert right[:2] == pytest.approx([0.0, 0.0]) and right[2] == pytest.approx(1.0)
