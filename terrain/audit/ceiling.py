@@ -515,8 +515,8 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
     Raises
     ------
     ConfigError
-        Unknown signal, overlapping runs, candidates for one set only, or no training
-        sample.
+        Unknown signal, overlapping runs, runs of more than one terrain (training and
+        evaluated together), candidates for one set only, or no training sample.
     """
     if signal not in ("wz", "cur_l", "cur_r"):
         raise ConfigError(f"signal must be wz, cur_l or cur_r, got {signal!r}")
@@ -524,8 +524,12 @@ def learned_transfer_samples(train: Sequence[AuditFrame], test: Sequence[AuditFr
         raise ConfigError("give candidate frames for both the training and the evaluated runs")
     if {f.run_id for f in train} & {f.run_id for f in test}:
         raise ConfigError("training and evaluated runs overlap")
-    _check_pairs(train, train_candidates)
-    _check_pairs(test, test_candidates)
+    # one terrain, as the steady families (a mix trained across terrains without a word)
+    _check_pairs(train, train_candidates, one_terrain=True)
+    _check_pairs(test, test_candidates, one_terrain=True)
+    if test and {f.terrain for f in train} - {f.terrain for f in test}:
+        raise ConfigError("training runs of another terrain: the transfer is learned within "
+                          "one terrain")
     X, y = [], []
     for k, f in enumerate(train):
         cand = train_candidates[k] if train_candidates is not None else None

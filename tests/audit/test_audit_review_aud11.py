@@ -181,3 +181,20 @@ def test_the_online_forecast_uses_the_samples_exactly_lead_s_back():
     right = out[out.side == 1].online.to_numpy() - out[out.side == 1].reference.to_numpy()
     # sample 2 has samples 0 (t = 0 <= 0.5 - 0.5) as evidence: the full 1 A correction
     assert right[:2] == pytest.approx([0.0, 0.0]) and right[2] == pytest.approx(1.0)
+
+
+def test_the_learned_transfer_refuses_runs_of_another_terrain():
+    # its docstring asks for training and evaluated runs of one terrain (the family has one
+    # parameter set per terrain, as the steady ones, which refuse a mix): a SNOW run among
+    # ASPHALT training runs, or ASPHALT runs evaluated on SNOW, trained across terrains
+    # without a word
+    from terrain.audit.ceiling import learned_transfer_samples
+    from terrain.errors import ConfigError
+    asphalt = [synthetic_frame(f"s/ASPHALT/{i}", seed=i) for i in range(3)]
+    snow = synthetic_frame("s/SNOW/0", terrain="SNOW", seed=9)
+    with pytest.raises(ConfigError, match="terrain"):
+        learned_transfer_samples(asphalt[:2], [snow], "wz")
+    with pytest.raises(ConfigError, match="terrain"):
+        learned_transfer_samples(asphalt[:1] + [snow], asphalt[2:], "wz")
+    out = learned_transfer_samples(asphalt[:2], asphalt[2:], "wz")
+    assert set(out.run_id) == {"s/ASPHALT/2"}
