@@ -146,7 +146,8 @@ class AuditResult:
         Wall time of each step, s.
     sweep : pandas.DataFrame
         What-if replays with scaled catalogue lateral friction (empty unless
-        ``settings.sweep_factors``), see :func:`lateral_friction_sweep`.
+        ``settings.sweep_factors``) of the audited runs (those of :attr:`frames`), see
+        :func:`lateral_friction_sweep`.
     """
 
     settings: AuditSettings
@@ -496,7 +497,8 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
     settings : AuditSettings
         Every setting of the audit.
     frames : sequence of AuditFrame, optional
-        Already prepared frames (skips the replay; ``runs`` is then ignored).
+        Already prepared frames (skips the replay; ``runs`` then serve the lateral-friction
+        sweep only, those with a frame).
 
     Returns
     -------
@@ -557,9 +559,12 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
     timings["selection_s"] = time.perf_counter() - t1
     residuals = pd.concat(stats, ignore_index=True) if stats else pd.DataFrame()
     sweep = pd.DataFrame()
-    if settings.sweep_factors and runs:
+    # the runs audited only: the replayed chi is set against their measured chi_pooled
+    audited = {f.run_id for f in frames}
+    swept = [r for r in runs if r.run_id in audited]
+    if settings.sweep_factors and swept:
         t2 = time.perf_counter()
-        sweep = pd.concat([lateral_friction_sweep(runs, t, settings.sweep_factors, settings,
+        sweep = pd.concat([lateral_friction_sweep(swept, t, settings.sweep_factors, settings,
                                                   facts[t].get("chi_pooled"))
                            for t in scopes if t != POOLED], ignore_index=True)
         timings["sweep_s"] = time.perf_counter() - t2

@@ -147,3 +147,30 @@ def test_the_learned_transfer_refuses_runs_of_another_terrain():
         learned_transfer_samples(asphalt[:1] + [snow], asphalt[2:], "wz")
     out = learned_transfer_samples(asphalt[:2], asphalt[2:], "wz")
     assert set(out.run_id) == {"s/ASPHALT/2"}
+
+
+def test_the_friction_sweep_replays_the_runs_the_audit_audited_only():
+    # a run whose gyro holds a NaN is skipped by the audit (its measured chi is not in the
+    # facts), but its wheels replay: the sweep replayed it beside the audited run and set
+    # the replayed chi of two runs against the measured chi of one
+    from dataclasses import replace
+
+    import pandas as pd
+
+    from terrain.audit import AuditSettings, run_audit
+    from terrain.run import Run
+    t = np.arange(0.0, 20.0, 0.15)
+    ti = np.arange(0.0, 20.0, 0.01)
+
+    def run(run_id):
+        pro = pd.DataFrame({"t_s": t, "cur_l": 2.0, "cur_r": 2.0, "vel_l": -0.3, "vel_r": 0.3})
+        imu = pd.DataFrame({"t_s": ti, "wz": 0.5, "ax": 0.0, "ay": 0.0})
+        return Run(run_id=run_id, dataset="x", terrain="ASPHALT",
+                   streams={"wheels": pro, "imu": imu}, vehicle="husky")
+    good, bad = run("x/ASPHALT/00"), run("x/ASPHALT/01")
+    imu = bad.streams["imu"].copy()
+    imu.loc[500, "wz"] = np.nan
+    bad = replace(bad, streams={**bad.streams, "imu": imu})
+    res = run_audit([good, bad], AuditSettings(sweep_factors=(1.0,)))
+    assert list(res.skipped) == ["x/ASPHALT/01"] and res.facts["ASPHALT"]["runs"] == 1
+    assert list(res.sweep.n_runs) == [1]
