@@ -164,7 +164,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     Raises
     ------
     ShapeError
-        Inconsistent shapes.
+        Inconsistent shapes, or no sample (the observer starts at the first pose).
     TimeStepError
         Times not finite and strictly increasing (the first such sample named).
     """
@@ -176,6 +176,8 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     if t.ndim != 1 or p.shape != (n, 3) or vr.shape != (n,) or vl.shape != (n,):
         raise ShapeError(f"need t (N,), pose (N, 3), v_right (N,), v_left (N,); got "
                          f"{t.shape}, {p.shape}, {vr.shape}, {vl.shape}")
+    if n == 0:          # (numpy's bare "argmax of an empty sequence" below)
+        raise ShapeError("adaptive observer: no sample (it starts at the first pose)")
     bad = times_out_of_order(t)      # (a NaN time passed ``dt <= 0``: NaN compares False)
     if bad.size:
         raise TimeStepError(f"observer sample times must be finite and increase strictly: "
