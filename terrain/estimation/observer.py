@@ -12,7 +12,12 @@ of eq. 5 (``eta = 1 - i``, eq. 4; half track ``d``)::
 with ``L = diag(l1, l2, l3)`` and ``Lambda = diag(lambda1, lambda2)`` positive definite.
 The error system (eq. 10) is uniformly globally exponentially stable for constant track
 speeds (Theorem 1). Inputs are the measured pose ``x, y, theta`` and the track (side) speeds
-``v_R, v_L``; the estimator is integrated with forward Euler at the sample rate.
+``v_R, v_L``; the estimator is integrated with forward Euler at the sample rate. Across a
+time gap (a step longer than twice the median step) the correction of the sample before it
+is integrated over one median step and the rest of the gap is predicted without correction
+(``e = 0``, in steps of at most the median step), as over missing samples: one Euler step of
+the correction over the whole gap multiplied the error by ``l3 h`` (a 1 s gap: the etas,
+converged, jumped 0.25 away).
 
 Two practical additions, stated: the estimates are projected onto ``eta_bounds`` after each
 step (the seed's admissible range is 0 < eta < 2, eq. 4), and ``use_position=False`` gives a
@@ -141,7 +146,9 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     Parameters
     ----------
     t_s : ndarray, shape (N,)
-        Sample times, s, strictly increasing.
+        Sample times, s, strictly increasing; a step longer than twice the median one is a
+        time gap, predicted without correction past its first median step (module
+        docstring).
     pose : ndarray, shape (N, 3)
         Measured ``x, y`` (m, world frame) and ``theta`` (rad, unwrapped or wrapped: the
         heading error ``theta - theta^`` is wrapped to [-pi, pi), as an angle innovation of
@@ -183,6 +190,8 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         raise TimeStepError(f"observer sample times must be finite and increase strictly: "
                             f"sample {bad[0]} at {t[bad[0]]:.6g} s")
     dt = np.diff(t)
+    # a step longer than twice the median is a gap: corrected over h_nom, then predicted
+    h_nom = float(np.median(dt)) if dt.size else 0.0
     s = settings
     d = s.half_track_m
     l1, l2, l3 = s.l_gains
@@ -243,12 +252,24 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         dth = w_g + l3 * e_th
         der = lam_r * (0.5 * c * a * e_x + 0.5 * sn * a * e_y + a / (2.0 * d) * e_th)
         del_ = lam_l * (0.5 * c * b * e_x + 0.5 * sn * b * e_y - b / (2.0 * d) * e_th)
+        h_c = h if h <= 2.0 * h_nom else h_nom
         if use_pos:
-            xh += h * dx
-            yh += h * dy
-        th += h * dth
-        er = min(max(er + h * der, lo), hi)
-        el = min(max(el + h * del_, lo), hi)
+            xh += h_c * dx
+            yh += h_c * dy
+        th += h_c * dth
+        er = min(max(er + h_c * der, lo), hi)
+        el = min(max(el + h_c * del_, lo), hi)
+        if h_c < h:
+            # the rest of a time gap: predicted without correction (e = 0), as over
+            # missing samples, in steps of at most h_nom
+            m = math.ceil((h - h_c) / h_nom)
+            hs = (h - h_c) / m
+            v_g, w_g = body_rates(b * el, a * er, 2.0 * d, 1.0)     # eq. 5
+            for _ in range(m):
+                if use_pos:
+                    xh += hs * math.cos(th) * v_g
+                    yh += hs * math.sin(th) * v_g
+                th += hs * w_g
     return ObserverResult(t_s=t, pose_hat=pose_hat, eta=eta, error=err)
 
 
