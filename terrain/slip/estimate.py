@@ -122,7 +122,9 @@ class RunEstimate:
     def summary(self) -> str:
         """One line for the log: steps and rate, mean NIS and dof (both over the steps with an
         update), median slip of each wheel, encoder lag (or that it was not applied),
-        non-finite samples skipped, samples a later one in the same filter step superseded
+        samples holding a non-finite value (``counts[sensor]["non_finite"]``: those values are
+        skipped, the sample's finite rows still used), samples a later one in the same filter
+        step superseded
         (a ``rate_hz`` below a sensor's rate), samples outside the filter's time span (a
         stream that starts before or ends after the grid), samples the chi-square gate
         rejected (``gate``; ``counts[sensor]["rejected"]``).
@@ -158,7 +160,8 @@ class RunEstimate:
         return (f"{self.run_id} ({self.vehicle}): {ekf.t_s.size} steps at "
                 f"{ekf.meta['rate_hz']:.1f} Hz, mean NIS {nis:.2f} (mean dof "
                 f"{dof:.2f}), median {slips}, encoder lag {lag}"
-                + (f", non-finite samples skipped {skipped}" if skipped else "")
+                + (f", samples holding a non-finite value (those values skipped) {skipped}"
+                   if skipped else "")
                 + (f", samples unused (a later one in the same filter step wins) "
                    f"{superseded}" if superseded else "")
                 + (f", samples outside the filter's time span (dropped) {outside}"
