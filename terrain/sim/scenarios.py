@@ -118,9 +118,12 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     rng : numpy.random.Generator
         Randomness of ``random`` (others are deterministic).
     max_speed_m_s : float
-        Vehicle speed limit, m/s; scenario speeds stay within 0.95 of it (``straight_accel``,
-        ``orchard`` and ``slope_turn`` are capped there, ``random`` draws its speeds as
-        fractions of it; ``spin`` commands no speed).
+        Vehicle speed limit, m/s. ``straight_accel``, ``orchard`` and ``slope_turn`` cap their
+        speed at 0.95 of it; ``random`` draws ``v_x`` in ``[-0.3, 1]`` and ``v_y`` in
+        ``[-0.5, 0.5]`` times 0.95 of it, each component within 0.95 of the limit, but not
+        their resultant: an omnidirectional run's body speed ``hypot(v_x, v_y)`` reaches up
+        to ``0.95 sqrt(1.25) = 1.06`` times the limit (1.008 with seed 2 over 120 s); ``spin``
+        commands no speed.
     omnidirectional : bool
         Whether lateral velocity commands are allowed (swerve drive).
     track_m : float
