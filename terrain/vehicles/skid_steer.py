@@ -64,9 +64,14 @@ class HuskyParams:
         ASSUMED tyre contact patch on firm ground, m.
     speed_quantum_m_s : float
         Resolution of the reported wheel speed, m/s: the borealtc ``pro_`` files hold
-        multiples of 0.2 / 25.4 m/s.
+        multiples of 0.2 / 25.4 m/s. A record of the measured files only (written with the
+        vehicle's parameters to a simulated run's metadata): the simulator rounds with
+        :attr:`terrain.sim.sensors.SensorSettings.speed_quantum_m_s`, whose Husky default
+        is the same value, so changing this field changes no stream.
     current_quantum_a : float
-        Resolution of the reported current, A (two decimals in the measured files).
+        Resolution of the reported current, A (two decimals in the measured files). A record
+        only, as ``speed_quantum_m_s``: the simulator rounds with
+        :attr:`terrain.sim.sensors.SensorSettings.current_quantum_a` (same default).
     wheels_per_motor : int
         Wheels turned by each motor, each of inertia ``motor.wheel_inertia_kg_m2``: 2 (one
         motor per side, both wheels of the side chained together, Clearpath Husky

@@ -41,3 +41,22 @@ def test_agrimaro_driving_straight_on_level_ground_does_not_yaw():
                      np.zeros(3))
     assert np.all(phys.delta == 0.0)
     assert np.abs(phys.twist[:, 2]).max() < 1e-6
+
+
+def test_husky_quanta_are_read_from_the_sensor_settings_not_the_vehicle():
+    """HuskyParams.speed_quantum_m_s and current_quantum_a were documented as the resolution
+    of the reported wheel speed and current, but no code reads them: the streams are rounded
+    with the Husky's default SensorSettings, which hold the same values (pinned here, so the
+    two records cannot drift apart unseen)."""
+    from dataclasses import replace
+
+    from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, simulate
+    from terrain.vehicles.skid_steer import HUSKY
+
+    assert DEFAULT_SENSORS["husky"].speed_quantum_m_s == HUSKY.speed_quantum_m_s
+    assert DEFAULT_SENSORS["husky"].current_quantum_a == HUSKY.current_quantum_a
+    coarse = replace(DEFAULT_SENSORS["husky"], speed_quantum_m_s=0.05)
+    run = simulate(SimConfig(scenario="straight_accel", duration_s=3.0, sensors=coarse))
+    vel = run.streams["wheels"][["vel_l", "vel_r"]].to_numpy()
+    np.testing.assert_allclose(vel / 0.05, np.round(vel / 0.05), atol=1e-9)
+    assert np.abs(vel).max() > 0.5
