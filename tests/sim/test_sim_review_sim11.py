@@ -60,3 +60,29 @@ def test_husky_quanta_are_read_from_the_sensor_settings_not_the_vehicle():
     vel = run.streams["wheels"][["vel_l", "vel_r"]].to_numpy()
     np.testing.assert_allclose(vel / 0.05, np.round(vel / 0.05), atol=1e-9)
     assert np.abs(vel).max() > 0.5
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "OnlineSensors.record reports the true wheel speed at its first step (no count rate "
+    "without a previous step) where encoder_count_rate reports 0 (its first difference is "
+    "0); not fixed as it moves the AgriMaRo's closed-loop runs (their wheels turn at most "
+    "0.013 rad/s on the first step of a scenario, so the gap is small there)"))
+def test_online_encoder_matches_the_batch_model_from_a_moving_start():
+    """The closed loop's encoder is documented as the batch model's (count rate per physics
+    step, then the driver's filter). From a wheel already at 3 rad/s on the first step the
+    batch model reports 0 then 0.51 rad/s at 0.04 s, the online one 3.0 then 2.66."""
+    from terrain.sim.closed_loop import OnlineSensors
+    from terrain.sim.dynamics import PlantSnapshot
+    from terrain.sim.sensors import encoder_count_rate, first_order_filter
+    from terrain.sim.simulate import DEFAULT_SENSORS
+
+    s = OnlineSensors("agrimaro", DEFAULT_SENSORS["agrimaro"], 0, 2.0)
+    motor = s.vehicle.motor
+    omega = np.column_stack([np.linspace(3.0, 12.0, 101)] * 3)
+    for k in range(101):
+        s.record(PlantSnapshot(k, 0.01 * k, np.zeros(3), np.zeros(3), np.zeros(2), omega[k],
+                               np.zeros(3), omega[k], np.zeros(3), 0.0, 0.0, 0))
+    online = s.take(1.0, np.zeros(3)).wheels
+    batch = first_order_filter(encoder_count_rate(omega, 0.01, motor.encoder_counts_per_rev),
+                               0.01, motor.encoder_filter_s)
+    np.testing.assert_allclose(online[:, 1:], batch[::2], atol=1e-9)
