@@ -284,7 +284,7 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
     geometry : ContactGeometry
         Contact geometry of the vehicle (steered or not, wheel radius).
     twist_cmd : ndarray, shape (n, 3)
-        Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
+        Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s (``v_y`` 0 for a skid-steer).
 
     Returns
     -------
@@ -292,8 +292,21 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
     delta_cmd : ndarray, shape (n, n_motors), rad (zeros for skid-steer)
     clipped : ndarray of int, shape (n_motors,)
         Steps on which each motor's command exceeded the speed limit (clipped to it).
+
+    Raises
+    ------
+    ConfigError
+        A lateral velocity ``v_y`` other than 0 for a vehicle that does not steer (its
+        inverse kinematics has no ``v_y``: the command was dropped and the run stood
+        still), naming the first step.
     """
     n = len(twist_cmd)
+    if not geometry.steered and np.any(twist_cmd[:, 1] != 0.0):
+        k = int(np.argmax(twist_cmd[:, 1] != 0.0))
+        raise ConfigError(f"a skid-steer ({vehicle.name}) cannot follow a lateral velocity "
+                          f"command; twist_cmd[:, 1] (v_y) must be 0, got "
+                          f"{float(twist_cmd[k, 1])!r} m/s at step {k} "
+                          f"({int(np.count_nonzero(twist_cmd[:, 1]))} such steps)")
     wmax = vehicle.motor.max_wheel_speed_rad_s
     if geometry.steered:
         thesis_twist = twist_cmd[:, [2, 0, 1]]          # seed 001 order [yaw_rate, v_x, v_y]
@@ -429,7 +442,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     t_s : ndarray, shape (n,)
         Uniform, increasing time grid, s (n >= 2: the step is ``t_s[1] - t_s[0]``).
     twist_cmd : ndarray, shape (n, 3)
-        Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s.
+        Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s (``v_y`` 0 for a skid-steer).
     slope_rad : float
         Plane inclination (rises along world +x; negative: falls along it), rad, in
         (-pi/2, pi/2).
@@ -462,7 +475,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         length not > 0 (inf keeps the first terrain), a slope that is not a finite
         inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1, or a segment
         length, slope or ``chi`` given as text, None or a boolean, or ``t_s``,
-        ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans.
+        ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans, or a
+        lateral velocity command (``v_y`` not 0) for a vehicle that does not steer.
     TimeStepError
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).

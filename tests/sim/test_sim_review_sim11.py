@@ -4,6 +4,7 @@ docstring claims and survivors of hand mutation."""
 import numpy as np
 import pytest
 
+from terrain.errors import ConfigError
 from terrain.sim.dynamics import integrate
 from terrain.sim.scenarios import make_commands
 from terrain.terramechanics.catalogue import get_terrain
@@ -86,3 +87,27 @@ def test_online_encoder_matches_the_batch_model_from_a_moving_start():
     batch = first_order_filter(encoder_count_rate(omega, 0.01, motor.encoder_counts_per_rev),
                                0.01, motor.encoder_filter_s)
     np.testing.assert_allclose(online[:, 1:], batch[::2], atol=1e-9)
+
+
+def test_a_skid_steer_refuses_a_lateral_velocity_command():
+    """integrate took (v_x, v_y, yaw_rate) for every vehicle, but a skid-steer's inverse
+    kinematics has no v_y: a Husky commanded 0.3 m/s sideways for 3 s stood still (pose 0,
+    wheel commands 0) with nothing said. It is refused now, naming the first step; v_y 0
+    runs as before and a steered vehicle still takes v_y."""
+    v = get_vehicle("husky")
+    t = np.arange(300) * 0.01
+    tw = np.zeros((300, 3))
+    tw[100:, 1] = 0.3
+    with pytest.raises(ConfigError, match=r"v_y\) must be 0, got 0.3 m/s at step 100 "
+                                          r"\(200 such steps\)"):
+        integrate(v, v.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, t, tw, 0.0, 1.0)
+    tw[:, 1] = 0.0
+    tw[:, 0] = 0.3
+    phys = integrate(v, v.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, t, tw, 0.0,
+                     1.0)
+    assert phys.pose[-1, 0] > 0.5
+    a = get_vehicle("agrimaro")
+    tw[:, :2] = [0.0, 0.3]
+    phys = integrate(a, a.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, t, tw, 0.0,
+                     1.0, np.zeros(3))
+    assert phys.pose[-1, 1] > 0.5
