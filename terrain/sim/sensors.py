@@ -30,19 +30,21 @@ class SensorSettings:
         Sampling rates, Hz. Husky defaults follow borealtc: IMU 100 Hz; wheels
         ``1 / 0.1538 s = 6.502 Hz``, while BorealTC's ``pro_`` files step by exactly
         ``1 / 6.5 s`` (a known gap, kept so as not to move the simulated wheel streams:
-        ``tests/sim/test_sensors_review_sen10.py``).
+        ``tests/sim/test_sensors_review_sen10.py``). The AgriMaRo's steering (50 Hz) and
+        camera (30 Hz) rates are ASSUMED: seed 001 gives none.
     gyro_noise_rad_s : float
-        White noise std of each gyro axis per sample, rad/s.
+        White noise std of each gyro axis per sample, rad/s (0.005 ASSUMED: no datasheet of
+        the robots' IMUs is among the sources, nor are the noise levels below).
     accel_noise_m_s2 : float
-        White noise std of each accelerometer axis per sample, m/s^2.
+        White noise std of each accelerometer axis per sample, m/s^2 (0.05 ASSUMED).
     accel_bias_std_m_s2 : float
-        Std of the constant per-run accelerometer bias, m/s^2 (the z gyro has no baseline
-        bias: ``gyro_bias`` is a named effect).
+        Std of the constant per-run accelerometer bias, m/s^2 (0.02 ASSUMED; the z gyro has
+        no baseline bias: ``gyro_bias`` is a named effect).
     vibration_bandwidth_hz : float
-        Corner frequency of the first-order filter shaping terrain vibration, Hz; 0 turns
-        the vibration off (pole 1, scale ``sqrt(1 - pole^2) = 0``).
+        Corner frequency of the first-order filter shaping terrain vibration, Hz (15
+        ASSUMED); 0 turns the vibration off (pole 1, scale ``sqrt(1 - pole^2) = 0``).
     current_noise_a : float
-        White noise std of the motor current sensor, A.
+        White noise std of the motor current sensor, A (0.08 ASSUMED).
     current_quantum_a, speed_quantum_m_s : float
         Resolution of reported current (A) and wheel rim speed (m/s); 0: no rounding of the
         current, while a speed quantum of 0 switches the wheel speed to the motor encoder's
@@ -52,9 +54,11 @@ class SensorSettings:
     steer_quantum_rad : float
         Steering encoder resolution (12-bit absolute encoder ASSUMED), rad.
     cam_noise_m_s, cam_yaw_rate_noise_rad_s, cam_yaw_noise_rad : float
-        T265 velocity, yaw-rate and yaw noise std.
+        T265 velocity (m/s), yaw-rate (rad/s) and yaw (rad) noise std (0.01, 0.01, 0.002
+        ASSUMED).
     cam_outage_rate_hz : float
-        Rate of visual-odometry outages (Poisson), 1/s; each lasts 0.5-2 s (rows dropped).
+        Rate of visual-odometry outages (Poisson), 1/s; each lasts 0.5-2 s (rows dropped)
+        (one a minute and the durations ASSUMED).
 
     Raises
     ------
