@@ -111,3 +111,19 @@ def test_a_skid_steer_refuses_a_lateral_velocity_command():
     phys = integrate(a, a.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, t, tw, 0.0,
                      1.0, np.zeros(3))
     assert phys.pose[-1, 1] > 0.5
+
+
+def test_orchard_turn_command_ramps_at_2_rad_s2():
+    """The orchard's yaw-rate command is rate-limited at 2 rad/s^2 (its speed at 0.5 m/s^2):
+    the Husky's first U-turn starts at 40 s (20 m at 0.5 m/s) and its yaw rate reaches
+    v / R = 1/3 rad/s after 0.17 s, 0.02 rad/s a step at 100 Hz. A limit of 20 rad/s^2 in
+    place of 2 passed every test (the turn then started in two steps)."""
+    cmd = make_commands("orchard", 100.0, 0.01, np.random.default_rng(0), 1.0, track_m=0.5708)
+    yaw_rate_step = np.diff(cmd.twist[:, 2]) / 0.01
+    assert np.abs(yaw_rate_step).max() == pytest.approx(2.0, rel=1e-9)
+    assert np.abs(np.diff(cmd.twist[:, 0]) / 0.01).max() == pytest.approx(0.5, rel=1e-9)
+    first = int(np.flatnonzero(cmd.twist[:, 2] > 0.0)[0])
+    assert cmd.t_s[first] == pytest.approx(40.0, abs=1e-9)
+    np.testing.assert_allclose(cmd.twist[first:first + 20:5, 2], [0.02, 0.12, 0.22, 0.32],
+                               atol=1e-12)
+    np.testing.assert_allclose(cmd.twist[first + 17:first + 300, 2], 1.0 / 3.0, atol=1e-12)
