@@ -356,9 +356,10 @@ def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarr
     Raises
     ------
     ConfigError
-        ``t_s`` or ``twist_cmd`` given as booleans.
+        ``t_s`` or ``twist_cmd`` given as booleans, or a grid of fewer than two times.
     ShapeError
-        ``t_s`` not one-dimensional, or ``twist_cmd`` not of shape ``(len(t_s), 3)``.
+        ``t_s`` not one-dimensional (a number, None, a 2-D array), or ``twist_cmd`` not of
+        shape ``(len(t_s), 3)``.
     NonFiniteInputError
         NaN or infinite times or commands.
     TimeStepError
@@ -370,7 +371,11 @@ def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarr
     _refuse_booleans("integrate: twist_cmd", twist_cmd)
     t = np.asarray(t_s, dtype=float)
     if t.ndim != 1:
+        # (a number or None was a bare TypeError of len() before this check was reached)
         raise ShapeError(f"integrate: t_s must be one-dimensional, got shape {t.shape}")
+    if len(t) < 2:
+        raise ConfigError(f"the time grid needs at least 2 steps to integrate, got {len(t)} "
+                          "(a duration shorter than one physics step?)")
     if not np.all(np.isfinite(t)):
         raise NonFiniteInputError(f"integrate: t_s holds {int(np.sum(~np.isfinite(t)))} "
                                   "non-finite times")
@@ -481,7 +486,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).
     ShapeError
-        ``t_s`` not one-dimensional, ``twist_cmd`` not of shape ``(n, 3)``,
+        ``t_s`` not one-dimensional (a number or None included), ``twist_cmd`` not of shape
+        ``(n, 3)``,
         ``steer_offset_rad`` not of shape ``(n_motors,)``, or the hook returned a correction
         without one value per motor.
     NonFiniteInputError
@@ -492,9 +498,6 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         vehicles and terrains).
     """
     check_physics(physics)
-    if len(t_s) < 2:
-        raise ConfigError(f"the time grid needs at least 2 steps to integrate, got {len(t_s)} "
-                          "(a duration shorter than one physics step?)")
     twist_cmd = _check_grid_and_commands(t_s, twist_cmd)
     if isinstance(terrains, TerrainParams) or not isinstance(terrains, (tuple, list)):
         raise ConfigError(f"integrate.terrains must be a tuple of TerrainParams "

@@ -4,7 +4,7 @@ docstring claims and survivors of hand mutation."""
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, ShapeError
 from terrain.sim.dynamics import integrate
 from terrain.sim.scenarios import make_commands
 from terrain.terramechanics.catalogue import get_terrain
@@ -127,3 +127,18 @@ def test_orchard_turn_command_ramps_at_2_rad_s2():
     np.testing.assert_allclose(cmd.twist[first:first + 20:5, 2], [0.02, 0.12, 0.22, 0.32],
                                atol=1e-12)
     np.testing.assert_allclose(cmd.twist[first + 17:first + 300, 2], 1.0 / 3.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("t_s", [0.5, np.float64(0.5), None, np.zeros((1, 5))])
+def test_integrate_refuses_a_time_grid_that_is_not_one_dimensional(t_s):
+    """A number or None as the time grid raised Python's bare TypeError ('object of type
+    'float' has no len()') from the two-step check, which ran before the shape check; a
+    (1, 5) array was called a grid of 1 step. Each is a ShapeError now; a grid of one time
+    is still refused as too short."""
+    v = get_vehicle("husky")
+    with pytest.raises(ShapeError, match="t_s must be one-dimensional"):
+        integrate(v, v.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, t_s,
+                  np.zeros((5, 3)), 0.0, 1.0)
+    with pytest.raises(ConfigError, match="needs at least 2 steps to integrate, got 1"):
+        integrate(v, v.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, np.zeros(1),
+                  np.zeros((1, 3)), 0.0, 1.0)
