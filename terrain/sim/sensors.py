@@ -196,7 +196,16 @@ def vibration_pole(rate_hz: float, bandwidth_hz: float) -> float:
     float
         Pole ``a`` in (0, 1]: 1 for ``f_c = 0`` (the vibration off: :func:`coloured_noise`
         scales its input by ``sqrt(1 - a^2) = 0``).
+
+    Raises
+    ------
+    ConfigError
+        ``rate_hz`` not a finite number > 0 (0 was a ZeroDivisionError) or ``bandwidth_hz``
+        not a finite number >= 0 (a negative corner gave a pole above 1 and NaN noise from
+        :func:`coloured_noise`, NaN a NaN pole); booleans and text refused.
     """
+    config_positive("vibration_pole", rate_hz=rate_hz)
+    config_positive("vibration_pole", allow_zero=True, bandwidth_hz=bandwidth_hz)
     return float(np.exp(-2.0 * np.pi * bandwidth_hz / rate_hz))
 
 

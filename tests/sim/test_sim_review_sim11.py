@@ -142,3 +142,19 @@ def test_integrate_refuses_a_time_grid_that_is_not_one_dimensional(t_s):
     with pytest.raises(ConfigError, match="needs at least 2 steps to integrate, got 1"):
         integrate(v, v.contact_geometry(), (get_terrain("ASPHALT"),), 25.0, np.zeros(1),
                   np.zeros((1, 3)), 0.0, 1.0)
+
+
+@pytest.mark.parametrize("rate_hz, bandwidth_hz, match", [
+    (0.0, 15.0, "rate_hz"), (float("nan"), 15.0, "rate_hz"), (-100.0, 15.0, "rate_hz"),
+    (100.0, -15.0, "bandwidth_hz"), (100.0, float("nan"), "bandwidth_hz"),
+    (100.0, True, "bandwidth_hz")])
+def test_vibration_pole_refuses_a_rate_or_corner_it_cannot_use(rate_hz, bandwidth_hz, match):
+    """vibration_pole(0, 15) raised a bare ZeroDivisionError, and a negative corner gave a
+    pole of 2.57 (at 100 Hz, -15 Hz) whose coloured noise was NaN without a word; the
+    valid range is unchanged (0.38966 at 100 Hz / 15 Hz, 1 with the vibration off)."""
+    from terrain.sim.sensors import vibration_pole
+
+    with pytest.raises(ConfigError, match=f"vibration_pole.{match}"):
+        vibration_pole(rate_hz, bandwidth_hz)
+    assert vibration_pole(100.0, 15.0) == pytest.approx(np.exp(-2 * np.pi * 0.15), rel=1e-15)
+    assert vibration_pole(100.0, 0.0) == 1.0
