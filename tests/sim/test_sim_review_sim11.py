@@ -158,3 +158,71 @@ def test_vibration_pole_refuses_a_rate_or_corner_it_cannot_use(rate_hz, bandwidt
         vibration_pole(rate_hz, bandwidth_hz)
     assert vibration_pole(100.0, 15.0) == pytest.approx(np.exp(-2 * np.pi * 0.15), rel=1e-15)
     assert vibration_pole(100.0, 0.0) == 1.0
+
+
+def test_batch_camera_noise_has_its_std_on_each_channel():
+    """The simulated T265 stream is the camera point's velocity, the yaw rate and the yaw
+    plus white noise of std cam_noise_m_s, cam_noise_m_s, cam_yaw_rate_noise_rad_s and
+    cam_yaw_noise_rad (0.01, 0.01, 0.01, 0.002 by default); twice the velocity noise on
+    v_cx survived every test."""
+    from terrain.sim.sensors import interp_columns
+    from terrain.sim.simulate import SimConfig, simulate_with_physics
+
+    sim = simulate_with_physics(SimConfig(vehicle="agrimaro", terrains=("TILES",),
+                                          scenario="random", duration_s=90.0, seed=4))
+    cam, phys = sim.run.streams["cam"], sim.physics
+    s = interp_columns(cam["t_s"].to_numpy(), phys.t_s,
+                       np.column_stack([phys.twist, phys.pose[:, 2]]))
+    lever = get_vehicle("agrimaro").camera_lever_arm_m
+    truth = np.column_stack([s[:, 0] - s[:, 2] * lever[1], s[:, 1] + s[:, 2] * lever[0],
+                             s[:, 2], s[:, 3]])
+    resid = cam[["v_cx", "v_cy", "yaw_rate_c", "yaw_c"]].to_numpy() - truth
+    assert len(resid) > 2000
+    np.testing.assert_allclose(resid.std(axis=0), [0.01, 0.01, 0.01, 0.002], rtol=0.06)
+    np.testing.assert_allclose(resid.mean(axis=0), 0.0, atol=0.001)
+
+
+def test_online_current_noise_has_its_std():
+    """The closed loop's current sensor adds white noise of std current_noise_a (0.08 A) to
+    the drive's report before the magnitude and the 0.01 A quantum; twice that noise
+    survived every test. A Husky wheel pair at 5 rad/s with 20 N m of torque each (about
+    8 A, far from the fold at 0 A), sampled on every step."""
+    from dataclasses import replace
+
+    from terrain.sim.closed_loop import OnlineSensors
+    from terrain.sim.dynamics import PlantSnapshot
+    from terrain.sim.forces import reported_current_a
+    from terrain.sim.simulate import DEFAULT_SENSORS
+
+    every_step = replace(DEFAULT_SENSORS["husky"], wheel_rate_hz=100.0)
+    s = OnlineSensors("husky", every_step, 3, 30.0)
+    omega, torque = np.full(2, 5.0), np.full(2, 20.0)
+    for k in range(2000):
+        s.record(PlantSnapshot(k, 0.01 * k, np.zeros(3), np.zeros(3), np.zeros(2), omega,
+                               np.zeros(2), omega, torque, 0.0, 0.0, 0))
+    cur = s.take(20.0, omega).currents[:, 1:]
+    true = reported_current_a(s.vehicle.motor, torque, omega)
+    assert len(cur) == 2000 and true.min() > 5.0
+    np.testing.assert_allclose(cur.std(axis=0), 0.08, rtol=0.06)
+    np.testing.assert_allclose(cur.mean(axis=0), true, atol=0.006)
+
+
+def test_online_camera_outages_last_half_a_second_to_two_seconds():
+    """The controller's camera outages are drawn as the batch model's: a Poisson number at
+    cam_outage_rate_hz over the run, each starting uniformly in it and lasting a uniform
+    0.5-2 s (mean 1.25 s); lengths of 0.5-1 s survived every test. At 1 outage a second
+    over 2000 s: about 2000 outages."""
+    from dataclasses import replace
+
+    from terrain.sim.closed_loop import OnlineSensors
+    from terrain.sim.simulate import DEFAULT_SENSORS
+
+    often = replace(DEFAULT_SENSORS["agrimaro"], cam_outage_rate_hz=1.0)
+    out = np.array(OnlineSensors("agrimaro", often, 5, 2000.0).outages)
+    assert abs(len(out) - 2000) < 4 * np.sqrt(2000)
+    length = out[:, 1] - out[:, 0]
+    assert length.min() >= 0.5 and length.max() < 2.0
+    assert length.mean() == pytest.approx(1.25, abs=0.03)
+    assert length.max() > 1.95 and length.min() < 0.55
+    assert out[:, 0].min() >= 0.0 and out[:, 0].max() < 2000.0
+    assert out[:, 0].mean() == pytest.approx(1000.0, abs=40.0)
