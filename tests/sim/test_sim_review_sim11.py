@@ -226,3 +226,39 @@ def test_online_camera_outages_last_half_a_second_to_two_seconds():
     assert length.max() > 1.95 and length.min() < 0.55
     assert out[:, 0].min() >= 0.0 and out[:, 0].max() < 2000.0
     assert out[:, 0].mean() == pytest.approx(1000.0, abs=40.0)
+
+
+def test_online_full_imu_at_rest_has_the_white_noise_of_its_settings():
+    """At rest the vibration band is silent (vibration_level 0), so the closed loop's full
+    IMU reads white noise of std gyro_noise_rad_s on wx, wy, wz (0.005 rad/s) and
+    accel_noise_m_s2 on ax, ay, az (0.05 m/s^2) about (0, 0, 0, bias, bias, g + bias);
+    twice the noise on az survived every test."""
+    from terrain.sim.closed_loop import OnlineSensors
+    from terrain.sim.dynamics import PlantSnapshot
+    from terrain.sim.simulate import DEFAULT_SENSORS
+    from terrain.terramechanics.resistance import G_M_S2
+
+    s = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 7, 30.0, terrains=("GRASS",))
+    for k in range(3000):
+        s.record(PlantSnapshot(k, 0.01 * k, np.zeros(3), np.zeros(3), np.zeros(2),
+                               np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), 0.0, 0.0,
+                               0))
+    full = s.take(30.0, np.zeros(2)).imu_full[:, 1:]
+    assert len(full) == 3000
+    np.testing.assert_allclose(full.std(axis=0), [0.005] * 3 + [0.05] * 3, rtol=0.06)
+    assert full[:, 5].mean() == pytest.approx(G_M_S2 + s.accel_bias_z, abs=0.004)
+    np.testing.assert_allclose(full[:, 3:5].mean(axis=0), s.accel_bias, atol=0.004)
+
+
+def test_icr_expansion_moves_only_a_skid_steers_kinematic_contact_lines():
+    """contact_layout places the kinematic contact lines at chi y for a skid-steer only (the
+    ICR expansion of Mandow et al.); a steered vehicle's wheels roll where they are.
+    Applying chi to the steered vehicle too survived every test."""
+    from terrain.sim.forces import contact_layout
+
+    for name, scaled in (("husky", True), ("tracked", True), ("agrimaro", False)):
+        g = get_vehicle(name).contact_geometry()
+        lay = contact_layout(g, 100.0, 0.0, 1.5)
+        want = 1.5 * g.positions_m[:, 1] if scaled else g.positions_m[:, 1]
+        np.testing.assert_array_equal(lay.y_kinematic_m, want)
+        np.testing.assert_array_equal(lay.y_m, g.positions_m[:, 1])
