@@ -452,7 +452,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         Plane inclination (rises along world +x; negative: falls along it), rad, in
         (-pi/2, pi/2).
     chi : float
-        ICR expansion (skid-steer only; 1 = off; finite, >= 1).
+        ICR expansion (skid-steer only: 1 for a steered vehicle; 1 = off; finite, >= 1).
     steer_offset_rad : ndarray, shape (n_motors,), optional
         Constant steering error inside the dead band, rad (swerve only: refused for a
         vehicle that does not steer).
@@ -478,7 +478,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         Unknown physics version, a time grid of fewer than two steps, no terrain, terrains
         that are not a tuple (or list) of TerrainParams (one TerrainParams, names), a segment
         length not > 0 (inf keeps the first terrain), a slope that is not a finite
-        inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1, or a segment
+        inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1 (or not 1 for
+        a steered vehicle, which it would not change), or a segment
         length, slope or ``chi`` given as text, None or a boolean, or ``t_s``,
         ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans, or a
         lateral velocity command (``v_y`` not 0) for a vehicle that does not steer.
@@ -520,6 +521,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                           f"rad, got {slope_rad}")
     if not (np.isfinite(chi) and chi >= 1.0):
         raise ConfigError(f"integrate.chi (ICR expansion) must be finite and >= 1, got {chi}")
+    if geometry.steered and chi != 1.0:
+        # contact_layout applies chi to skid-steers only: it was ignored (as steer_offset_rad
+        # for a vehicle that does not steer, refused below)
+        raise ConfigError(f"integrate.chi is a skid-steer's ICR expansion; this vehicle "
+                          f"steers, so chi {chi} would change nothing: give 1")
     dt = float(t_s[1] - t_s[0])
     n = len(t_s)
     nm = geometry.n_motors

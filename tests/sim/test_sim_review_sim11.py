@@ -262,3 +262,20 @@ def test_icr_expansion_moves_only_a_skid_steers_kinematic_contact_lines():
         want = 1.5 * g.positions_m[:, 1] if scaled else g.positions_m[:, 1]
         np.testing.assert_array_equal(lay.y_kinematic_m, want)
         np.testing.assert_array_equal(lay.y_m, g.positions_m[:, 1])
+
+
+def test_integrate_refuses_an_icr_expansion_for_a_steered_vehicle():
+    """integrate took chi for every vehicle, but applies it to skid-steers only: an
+    AgriMaRo integrated with chi 1.5 gave the run of chi 1 with nothing said (SimConfig
+    refuses the planted effect; integrate itself did not). It is refused now, as a steering
+    offset for a vehicle that does not steer is; chi 1 runs as before."""
+    a = get_vehicle("agrimaro")
+    t = np.arange(200) * 0.01
+    tw = np.zeros((200, 3))
+    tw[:, 0], tw[:, 2] = np.minimum(t, 0.5), 0.3
+    with pytest.raises(ConfigError, match="this vehicle steers, so chi 1.5 would change"):
+        integrate(a, a.contact_geometry(), (get_terrain("GRASS"),), 25.0, t, tw, 0.0, 1.5,
+                  np.zeros(3))
+    phys = integrate(a, a.contact_geometry(), (get_terrain("GRASS"),), 25.0, t, tw, 0.0, 1.0,
+                     np.zeros(3))
+    assert phys.pose[-1, 2] > 0.3
