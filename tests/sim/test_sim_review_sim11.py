@@ -279,3 +279,23 @@ def test_integrate_refuses_an_icr_expansion_for_a_steered_vehicle():
     phys = integrate(a, a.contact_geometry(), (get_terrain("GRASS"),), 25.0, t, tw, 0.0, 1.0,
                      np.zeros(3))
     assert phys.pose[-1, 2] > 0.3
+
+
+def test_minimum_duration_is_exact_where_the_period_is_a_whole_number_of_steps():
+    """A 2.3 Hz wheel stream on 230 Hz physics: its period is 100 steps, but 1 / 2.3 * 230
+    is 100.00000000000001 in floating point; minimum_duration_s keeps the 1e-9 s tolerance
+    of sample_times and asks for 100 steps (a plain ceil asked for 101 and survived every
+    test), and a run of that length holds the two wheel samples the readers need."""
+    from dataclasses import replace
+
+    from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, minimum_duration_s, simulate
+
+    slow = replace(DEFAULT_SENSORS["husky"], wheel_rate_hz=2.3)
+    minimum, why = minimum_duration_s("husky", slow, 230.0)
+    assert minimum == 100 / 230.0
+    assert "100 physics steps" in why
+    run = simulate(SimConfig(scenario="spin", duration_s=minimum, sensors=slow,
+                             physics_rate_hz=230.0))
+    assert len(run.streams["wheels"]) == 2
+    with pytest.raises(ConfigError, match="too short"):
+        SimConfig(scenario="spin", duration_s=99 / 230.0, sensors=slow, physics_rate_hz=230.0)
