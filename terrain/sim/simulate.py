@@ -55,7 +55,10 @@ from terrain.sim.sensors import (SensorSettings, encoder_count_rate, first_order
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
 
-#: Sensor settings of each vehicle (read-only).
+#: Sensor settings of each vehicle (read-only). The Husky's follow BorealTC
+#: (:class:`~terrain.sim.sensors.SensorSettings`); the AgriMaRo's 50 Hz wheel reports (its
+#: encoder's count rate, speed quantum 0) and the tracked vehicle's 10 Hz reports with a
+#: 1 mm/s quantum are ASSUMED: seeds 001 and 003 give no wheel report rate or resolution.
 DEFAULT_SENSORS: Mapping[str, SensorSettings] = MappingProxyType({
     "husky": SensorSettings(),
     "agrimaro": SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=0.0,
