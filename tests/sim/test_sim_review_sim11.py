@@ -299,3 +299,33 @@ def test_minimum_duration_is_exact_where_the_period_is_a_whole_number_of_steps()
     assert len(run.streams["wheels"]) == 2
     with pytest.raises(ConfigError, match="too short"):
         SimConfig(scenario="spin", duration_s=99 / 230.0, sensors=slow, physics_rate_hz=230.0)
+
+
+@pytest.mark.parametrize("vehicle, terrain, physics", [
+    ("husky", "ASPHALT", "v1"), ("husky", "ASPHALT", "v2"), ("husky", "SANDY_LOAM", "v2"),
+    ("tracked", "SNOW", "v2"), ("husky", "ICE", "v2")])
+def test_a_skid_steer_reversing_through_a_turn_gives_the_mirrored_run(vehicle, terrain,
+                                                                      physics):
+    """Reversing symmetry on level ground: a skid-steer is symmetric front to back, so
+    (v_x, r) -> (-v_x, -r) must give (-x, y, -yaw), each motor's speed, torque and slip
+    negated and the same reported current. A sign slip in the motion resistance, the
+    longitudinal load transfer or the braking-current report breaks it."""
+    from terrain.sim.forces import reported_current_a
+
+    veh = get_vehicle(vehicle)
+    t = np.arange(0.0, 2.0, 0.01)
+    v_x = 0.6 if vehicle == "husky" else 0.3
+    fwd_cmd = np.zeros((len(t), 3))
+    fwd_cmd[:, 0], fwd_cmd[:, 2] = np.minimum(t, v_x), np.minimum(t, 0.4)
+    runs = [integrate(veh, veh.contact_geometry(), (get_terrain(terrain),), 25.0, t, cmd,
+                      0.0, 1.0, physics=physics) for cmd in (fwd_cmd, -fwd_cmd)]
+    fwd, back = runs
+    assert abs(fwd.pose[-1, 2]) > 0.2 and fwd.pose[-1, 0] > 0.3
+    np.testing.assert_allclose(back.pose, fwd.pose * [-1.0, 1.0, -1.0], atol=1e-9)
+    np.testing.assert_allclose(back.twist, fwd.twist * [-1.0, 1.0, -1.0], atol=1e-9)
+    np.testing.assert_allclose(back.omega, -fwd.omega, atol=1e-9)
+    np.testing.assert_allclose(back.torque, -fwd.torque, atol=1e-7)
+    np.testing.assert_allclose(back.slip_motor, -fwd.slip_motor, atol=1e-9)
+    np.testing.assert_allclose(
+        reported_current_a(veh.motor, back.torque, back.omega, physics),
+        reported_current_a(veh.motor, fwd.torque, fwd.omega, physics), atol=1e-7)
