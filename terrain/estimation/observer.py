@@ -137,6 +137,21 @@ class ObserverResult:
         return self.eta[:, 1]
 
 
+def _dead_reckon(x: float, y: float, theta: float, v_m_s: float, yaw_rate: float,
+                 h_s: float, n_steps: int, use_position: bool) -> tuple[float, float, float]:
+    """The observer's prediction without correction (``e = 0`` in eq. 8): the pose
+    integrated over ``h_s`` seconds in ``n_steps`` forward Euler steps at body speed
+    ``v_m_s`` (m/s) and yaw rate ``yaw_rate`` (rad/s); ``x, y`` stay as given when the
+    position is not used."""
+    hs = h_s / n_steps
+    for _ in range(n_steps):
+        if use_position:
+            x += hs * math.cos(theta) * v_m_s
+            y += hs * math.sin(theta) * v_m_s
+        theta += hs * yaw_rate
+    return x, y, theta
+
+
 def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.ndarray,
                           v_left_m_s: np.ndarray,
                           settings: AdaptiveObserverSettings = AdaptiveObserverSettings()
@@ -228,10 +243,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
             h = dts[k]
             if started and h > 0.0 and math.isfinite(a_last):
                 v_g, w_g = body_rates(b_last * el, a_last * er, 2.0 * d, 1.0)   # eq. 5
-                if use_pos:
-                    xh += h * math.cos(th) * v_g
-                    yh += h * math.sin(th) * v_g
-                th += h * w_g
+                xh, yh, th = _dead_reckon(xh, yh, th, v_g, w_g, h, 1, use_pos)
             continue
         c, sn = math.cos(theta), math.sin(theta)
         e_th = wrap_angle(theta - th)     # an angle: wrapped to [-pi, pi)
@@ -262,14 +274,9 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         if h_c < h:
             # the rest of a time gap: predicted without correction (e = 0), as over
             # missing samples, in steps of at most h_nom
-            m = math.ceil((h - h_c) / h_nom)
-            hs = (h - h_c) / m
             v_g, w_g = body_rates(b * el, a * er, 2.0 * d, 1.0)     # eq. 5
-            for _ in range(m):
-                if use_pos:
-                    xh += hs * math.cos(th) * v_g
-                    yh += hs * math.sin(th) * v_g
-                th += hs * w_g
+            xh, yh, th = _dead_reckon(xh, yh, th, v_g, w_g, h - h_c,
+                                      math.ceil((h - h_c) / h_nom), use_pos)
     return ObserverResult(t_s=t, pose_hat=pose_hat, eta=eta, error=err)
 
 
