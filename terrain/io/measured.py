@@ -574,6 +574,12 @@ def _near_miss(name: str) -> str | None:
         return f"compressed run files are not read: decompress it to {name[:len(plain)]}"
     if lower != name and (_FILE_RE.match(lower) or _META_RE.match(lower)):
         return f"run file names are lower case: rename it to {lower}"
+    # imu-00.csv, 'imu 00.csv', ' pro_00.csv ': the readers take '_' between stream and
+    # index, and no space around the name; such a file was left out without a word
+    spaced = re.sub(r"[-\s]+", "_", lower.strip())
+    if spaced != lower and (_FILE_RE.match(spaced) or _META_RE.match(spaced)):
+        return (f"run file names join the stream and the index with '_' and hold no space: "
+                f"rename it to {spaced}")
     return None
 
 
@@ -611,7 +617,8 @@ def folder_run_files(folder: str | Path) -> dict[str, dict[str, Path]]:
     ------
     DataFormatError
         A file named like a run file that the readers would not read (upper case,
-        compressed, ``meta_XX.csv``, or ``wheels_XX.csv``: the wheel stream is read from
+        compressed, ``-`` or spaces for ``_`` (``imu-00.csv``), spaces around the name,
+        ``meta_XX.csv``, or ``wheels_XX.csv``: the wheel stream is read from
         ``pro_XX.csv``), naming the file: it would otherwise be left out silently (an IMU
         file named ``IMU_04.csv`` made its run wheel-only) or replace a stream of its run
         (``wheels_XX.csv`` took the place of ``pro_XX.csv``).

@@ -488,6 +488,12 @@ def test_run_files_beside_terrain_folders_are_refused_not_half_read(turning):
     ("IMU_00.csv", "lower case: rename it to imu_00.csv"),
     ("imu_00.csv.gz", "compressed run files are not read: decompress it to imu_00.csv"),
     ("Meta_00.json", "rename it to meta_00.json"),
+    # '-' or spaces for '_' and spaces around the name were left out without a word (io11)
+    ("imu-00.csv", "with '_' and hold no space: rename it to imu_00.csv"),
+    ("IMU 00.csv", "hold no space: rename it to imu_00.csv"),
+    ("imu 00.csv", "rename it to imu_00.csv"),
+    ("imu_00.csv ", "rename it to imu_00.csv"),
+    ("meta-00.json", "rename it to meta_00.json"),
 ])
 def test_a_file_named_like_a_run_file_that_is_not_read_is_named(turning, name, words):
     # an IMU file named IMU_04.csv or imu_04.csv.gz was left out without a word: the run
