@@ -390,7 +390,8 @@ def measured_facts(frames: Sequence[AuditFrame]) -> dict:
     spin = mean(cur[man == SPIN])
     out = {"current_straight_a": straight, "current_spin_a": spin,
            "current_curve_a": mean(cur[man == CURVE]),
-           "spin_to_straight_current_ratio": (spin / straight if spin and straight else None),
+           "spin_to_straight_current_ratio": (spin / straight if spin is not None and straight
+                                              else None),
            "n_straight": int(np.sum(man == STRAIGHT)), "n_spin": int(np.sum(man == SPIN))}
     d = np.concatenate(dcur) if dcur else np.empty(0)
     out["straight_right_minus_left_a"] = mean(d)

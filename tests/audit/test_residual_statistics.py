@@ -190,3 +190,21 @@ def test_turning_forms_without_a_scored_turn_are_unknown_not_perfect():
     details = result.effect("turning_resistance", "ASPHALT").details
     assert np.isnan(details["heldout_rmse_turning_coulomb"])
     assert np.isnan(details["heldout_rmse_turning_proportional"])
+
+
+def test_a_spin_current_of_zero_gives_a_ratio_of_zero_not_none():
+    """'spin / straight if spin and straight' read a mean spin current of exactly 0 A as
+    missing (None); only a missing or zero straight current leaves the ratio undefined."""
+    from dataclasses import replace
+
+    from audit_helpers import synthetic_frame
+    from terrain.audit.core import measured_facts
+
+    frame = synthetic_frame("s/ASPHALT/0", chi=1.5, noise=0.0)
+    spin = (frame.manoeuvre == 3)[:, None]
+    facts = measured_facts([replace(frame, cur=np.where(spin, 0.0, frame.cur))])
+    assert facts["current_spin_a"] == 0.0 and facts["current_straight_a"] > 0
+    assert facts["spin_to_straight_current_ratio"] == 0.0
+    straight = (frame.manoeuvre == 1)[:, None]
+    facts = measured_facts([replace(frame, cur=np.where(straight, 0.0, frame.cur))])
+    assert facts["spin_to_straight_current_ratio"] is None
