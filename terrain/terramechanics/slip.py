@@ -213,8 +213,11 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
     ratio, den = _ratio(rim_speed_m_s, v_long_m_s, speed_floor_m_s)
     v = v_long_m_s
     body_dominant = np.abs(v) >= np.maximum(np.abs(rim_speed_m_s), speed_floor_m_s)
+    # where the body dominates, |v| >= floor > 0: v^2 needs no clamp (one at 1e-6 m^2/s^2
+    # bent the slope below 1 mm/s)
     ds_dv = np.where(body_dominant,
-                     -rim_speed_m_s * np.sign(v) / np.maximum(v * v, 1e-6), -1.0 / den)
+                     -rim_speed_m_s * np.sign(v) / np.where(body_dominant, v * v, 1.0),
+                     -1.0 / den)
     ds_dv = np.where(np.abs(ratio) > 1.0, 0.0, ds_dv)
     return np.minimum(np.maximum(ratio, -1.0), 1.0), ds_dv
 
