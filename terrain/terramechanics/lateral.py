@@ -862,8 +862,10 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     force_n : ndarray, shape (c,)
         Lateral force, N.
     slope_n_s_m : ndarray, shape (c,)
-        Secant slope ``F / v_lat`` (N s/m; its limit at ``v_lat = 0``), never steeper than
-        the tangent, which keeps the implicit integrator stable.
+        Secant slope ``F / v_lat`` (N s/m; its limit at ``v_lat = 0``), never positive:
+        shallower than the tangent while the shear is mobilising (``F ~ v_lat^2`` near 0),
+        steeper once the strength is reached (the tangent falls to 0, or turns positive past
+        a hump's peak), which keeps the implicit integrator stable.
     share_long : ndarray, shape (c,) or None
         With ``shear_long``: the share of its one-direction traction left to each wheel's
         longitudinal shear (:func:`combined_shear_shares`, dimensionless); else None.

@@ -122,8 +122,9 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
     Coulomb friction ``-mu_lat N sign(v_lat)`` smoothed as ``tanh(v_lat / v_slide)``; the
     smoothing speed stands for the lateral compliance of tyre and soil (Wong, *Theory of
     Ground Vehicles*, ch. 7.2: lateral resistance of skid-steered vehicles). The slope is the
-    secant ``F / v_lat`` (``-mu_lat N / v_slide`` at 0), which is never steeper than the
-    tangent and keeps an implicit integrator stable.
+    secant ``F / v_lat`` (``-mu_lat N / v_slide`` at 0), never positive and never shallower
+    than the tangent (``tanh(x) / x >= 1 / cosh^2(x)``), which keeps an implicit integrator
+    stable where the tangent of the saturated friction falls to 0.
 
     Parameters
     ----------
