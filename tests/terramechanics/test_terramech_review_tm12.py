@@ -53,3 +53,48 @@ def test_soil_lateral_slope_is_the_secant_and_never_positive():
         tangent = _fd(lambda x: soil_lateral_force_and_slope(contact, load, x, rim)[0], v)
         assert abs(slope[4]) < abs(tangent[4])       # mobilising: shallower
         assert abs(slope[-1]) > abs(tangent[-1])     # saturated: steeper
+
+
+@pytest.mark.parametrize("residual_ratio", [None, 0.4, 0.9])
+def test_combined_shear_shares_give_the_resultant_shear_along_each_direction(residual_ratio):
+    """Each direction's force is the patch mean of the resultant's shear curve projected on
+    it, ``g(a) a_i / a`` (Wong eq. 2.56 along the resultant displacement), integrated here
+    by quadrature: ``share_i g(a_i)`` must equal it (a long share of ``h_x / h_res``, the
+    inverse, passed the existing tests)."""
+    from scipy.integrate import quad
+
+    from terrain.terramechanics.lateral import combined_shear_shares
+    from terrain.terramechanics.traction import patch_mobilisation
+
+    a_x = np.array([0.7, 2.0, 1e-3, 5.0])
+    a_y = np.array([1.3, 0.5, 0.8, 0.0])
+    share_x, share_y = combined_shear_shares(a_x, a_y, residual_ratio)
+    for i in range(a_x.size):
+        a = np.hypot(a_x[i], a_y[i])
+        mean = quad(lambda t: _shear_curve(t, residual_ratio), 0.0, a)[0] / a
+        for share, a_i in ((share_x[i], a_x[i]), (share_y[i], a_y[i])):
+            if a_i == 0.0:
+                assert share == pytest.approx((mean / a) / 0.5)  # h(0) = 1/2
+                continue
+            one_way = float(patch_mobilisation(np.array([a_i]), residual_ratio)[0][0])
+            assert share * one_way == pytest.approx(mean * a_i / a, rel=1e-9)
+    assert share_x[3] == pytest.approx(1.0)   # no lateral slip: the whole longitudinal shear
+
+
+def _shear_curve(j, residual_ratio):
+    """Wong's shear curve ``tau / tau_max`` at ``j / K`` (exponential, or hump-type with the
+    stiffness-matched ``K_w``, :func:`terrain.terramechanics.traction.patch_mobilisation`)."""
+    if residual_ratio is None:
+        return 1.0 - np.exp(-j)
+    kr = residual_ratio
+    b = 1.0 / (kr * (1.0 - np.exp(-1.0))) - 1.0
+    u = j / (kr * (1.0 + b * np.e))
+    return kr * (1.0 + b * np.exp(1.0 - u)) * (1.0 - np.exp(-u))
+
+
+@pytest.mark.parametrize("floor", [0.0, -0.01, np.inf, np.nan])
+def test_velocity_slope_refuses_a_floor_that_is_not_positive_and_finite(floor):
+    """Floor 0 divided 0 by 0 at a wheel at rest on a body at rest (NaN slip and slope)."""
+    from terrain.errors import EstimationError
+    with pytest.raises(EstimationError, match="speed_floor_m_s"):
+        sae_slip_and_velocity_slope(np.zeros(2), np.array([0.0, 0.1]), floor)
