@@ -69,7 +69,7 @@ def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarr
     ----------
     curve : TractionCurve
         Traction-slip curve of the surface (:mod:`terrain.terramechanics.traction`); it is
-        evaluated at ``min(s_res, 1)``.
+        evaluated at ``min(s_res, hold_slip)``.
     slip_long : ndarray, shape (...)
         Longitudinal SAE slip ``s_L`` in [-1, 1] (dimensionless).
     slip_side : ndarray, shape (...)
