@@ -473,7 +473,8 @@ def shear_mobilisation(a: np.ndarray, residual_ratio: float | None = None) -> np
     Returns
     -------
     ndarray, shape (...)
-        Dimensionless, in [0, 1) for the exponential curve (up to ~1.02 near a hump's peak).
+        Dimensionless, in [0, 1) (the hump-type curve itself rises a few per cent above its
+        peak strength, 1.016 at ``K_r`` 0.4, but its patch mean stays below 1).
     """
     return patch_mobilisation(a, residual_ratio)[0]
 
@@ -642,7 +643,8 @@ def combined_shear_shares(a_long: np.ndarray, a_lat: np.ndarray,
     Returns
     -------
     share_long, share_lat : ndarray, shape (c,)
-        Dimensionless, in (0, 1] (a hump-type curve past its peak can give a share above 1).
+        Dimensionless, in (0, 1], for the hump-type curve too (``h`` never rises: the
+        shear curve never exceeds twice its patch mean).
     """
     a_x = np.abs(np.asarray(a_long, dtype=float))
     a_y = np.abs(np.asarray(a_lat, dtype=float))

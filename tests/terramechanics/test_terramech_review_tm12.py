@@ -98,3 +98,19 @@ def test_velocity_slope_refuses_a_floor_that_is_not_positive_and_finite(floor):
     from terrain.errors import EstimationError
     with pytest.raises(EstimationError, match="speed_floor_m_s"):
         sae_slip_and_velocity_slope(np.zeros(2), np.array([0.0, 0.1]), floor)
+
+
+@pytest.mark.parametrize("residual_ratio", [None, 0.05, 0.2, 0.4, 0.6, 0.9, 0.99])
+def test_patch_mean_stays_below_one_and_shares_never_exceed_one(residual_ratio):
+    """The hump curve itself rises a few per cent above its peak strength (1.016 at K_r
+    0.4, 1.066 at 0.05), but its patch mean stays below 1, and ``h(u) = g(u) / u`` never
+    rises (``f <= 2 g``), so neither combined-shear share exceeds 1 (the docstrings said
+    "up to ~1.02" and "can give a share above 1")."""
+    from terrain.terramechanics.lateral import combined_shear_shares, shear_mobilisation
+    a = np.linspace(0.0, 60.0, 60001)
+    assert shear_mobilisation(a, residual_ratio).max() < 1.0
+    grid = np.geomspace(1e-6, 100.0, 120)
+    ax, ay = np.meshgrid(grid, grid)
+    share_x, share_y = combined_shear_shares(ax.ravel(), ay.ravel(), residual_ratio)
+    assert share_x.max() <= 1.0 + 1e-12 and share_y.max() <= 1.0 + 1e-12
+    assert share_x.min() > 0.0 and share_y.min() > 0.0
