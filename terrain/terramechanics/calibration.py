@@ -22,7 +22,11 @@ from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, tra
 
 
 def steady_slip(terrain, extra_demand: float = 0.0) -> float:
-    """Slip where ``mu(s) = soil_resistance(s) + extra_demand``.
+    """Slip where ``mu(s) = soil_resistance(s) + extra_demand``, on the driving side.
+
+    A demand below ``-soil_resistance(0)`` (a downhill grade the soil resistance does not
+    hold) needs no traction and gives 0: the braking slip that would hold the vehicle at a
+    steady speed there (``s < 0``) is not sought.
 
     Parameters
     ----------
@@ -35,7 +39,8 @@ def steady_slip(terrain, extra_demand: float = 0.0) -> float:
     Returns
     -------
     float
-        Slip in [0, 1]; 1.0 when the demand exceeds the available traction.
+        Slip in [0, 1]; 1.0 when the demand exceeds the available traction, 0.0 when the
+        net demand is <= 0 (see above).
 
     Raises
     ------
