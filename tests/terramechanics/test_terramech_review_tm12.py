@@ -114,3 +114,18 @@ def test_patch_mean_stays_below_one_and_shares_never_exceed_one(residual_ratio):
     share_x, share_y = combined_shear_shares(ax.ravel(), ay.ravel(), residual_ratio)
     assert share_x.max() <= 1.0 + 1e-12 and share_y.max() <= 1.0 + 1e-12
     assert share_x.min() > 0.0 and share_y.min() > 0.0
+
+
+@pytest.mark.parametrize("name", ["ASPHALT", "ICE", "PACKED_SNOW", "SANDY_LOAM", "DIRT_ROAD"])
+@pytest.mark.parametrize("fraction", [0.5, 0.95, 0.99])
+def test_slip_at_peak_fraction_delivers_that_fraction_of_the_peak(name, fraction):
+    """``mu(s) = fraction mu_peak`` on the stable side (a level of ``fraction^2 mu_peak``
+    survived the existing tests)."""
+    from terrain.terramechanics import get_terrain, traction_coefficient
+    from terrain.terramechanics.inverse import slip_at_peak_fraction, stable_side_end
+    curve = get_terrain(name).curve
+    s_peak, mu_peak = stable_side_end(curve)
+    s = slip_at_peak_fraction(curve, fraction)
+    assert 0.0 < s < s_peak
+    assert float(traction_coefficient(curve, s)) == pytest.approx(fraction * mu_peak,
+                                                                  rel=1e-9)
