@@ -111,11 +111,13 @@ class SlipEstimator(Protocol):
 
 def _merged(obs: Observation, imu_view: str = "clean") -> list[tuple[float, str, np.ndarray]]:
     """Every sample of an observation in time order, as ``(t, stream, values)``; the IMU
-    stream of the view (:data:`IMU_VIEWS`): ``imu`` for ``clean``, ``imu_full`` otherwise."""
+    stream of the view (:data:`IMU_VIEWS`): ``imu`` for ``clean``, ``imu_full`` otherwise.
+    Samples of a non-finite time come last (a NaN key left the list unsorted); the
+    estimators skip and count them (``nonfinite_count``)."""
     imu = "imu" if imu_view == "clean" else "imu_full"
     rows = [(float(r[0]), name, r[1:]) for name in (imu, "wheels", "steer", "cam", "currents")
             for r in getattr(obs, name)]
-    rows.sort(key=lambda x: x[0])
+    rows.sort(key=lambda x: (not math.isfinite(x[0]), x[0] if math.isfinite(x[0]) else 0.0))
     return rows
 
 
@@ -169,8 +171,9 @@ class AgriMaRoVisualOdometryEKF:
 
     Notes
     -----
-    A sample with a NaN or infinite value among those the view reads is skipped (in part: a
-    full-IMU sample's finite gyro is still used) and counted in ``nonfinite_count``.
+    A sample of a NaN or infinite time, or with such a value among those the view reads, is
+    skipped (in part: a full-IMU sample's finite gyro is still used) and counted in
+    ``nonfinite_count``.
     """
 
     name = "agrimaro-ekf-vo-full-gyro"
@@ -237,6 +240,10 @@ class AgriMaRoVisualOdometryEKF:
         VelocityEstimate
         """
         for t, name, z in _merged(obs, self.imu):
+            if not math.isfinite(t):   # unknown time: not placed in the filter's time line
+                if name != "currents":   # (the currents are not read)
+                    self.nonfinite_count += 1
+                continue
             if t > self.t:
                 self.ekf.predict(t - self.t)
                 self.t = t
@@ -381,7 +388,7 @@ class WheelImuObserver:
 
     Notes
     -----
-    An IMU or wheel sample holding a NaN or infinite value is skipped and counted in
+    An IMU or wheel sample holding a NaN or infinite time or value is skipped and counted in
     ``nonfinite_count``.
     """
 
@@ -423,7 +430,7 @@ class WheelImuObserver:
         for t, name, z in _merged(obs):
             if name not in ("imu", "wheels"):
                 continue
-            if not np.all(np.isfinite(z)):
+            if not (math.isfinite(t) and np.all(np.isfinite(z))):
                 self.nonfinite_count += 1
                 continue
             if name == "imu":
@@ -509,9 +516,9 @@ class FusedSlipObserver:
       (:data:`~terrain.estimation.skid_steer_slip.SPEED_BOUND_STATES`); ``bound_count``
       counts the projected samples.
 
-    A sample holding a NaN or infinite value is skipped and counted in ``nonfinite_count``
-    (as are those of :class:`AgriMaRoVisualOdometryEKF` and :class:`WheelImuObserver`;
-    ``estimator_nonfinite_samples`` of the closed loop's metrics).
+    A sample holding a NaN or infinite time or value is skipped and counted in
+    ``nonfinite_count`` (as are those of :class:`AgriMaRoVisualOdometryEKF` and
+    :class:`WheelImuObserver`; ``estimator_nonfinite_samples`` of the closed loop's metrics).
 
     Differences from the batch estimate (``limits``): causal windows (the batch centres a
     2 s window on the estimate, i.e. uses 1 s of future data), no learned model (the
@@ -660,6 +667,9 @@ class FusedSlipObserver:
         r = self.vehicle.wheel_radius_m
         rows = SLIP_SENSOR_ROWS
         for t, name, z in _merged(obs, self.imu):
+            if not math.isfinite(t):   # unknown time: inf made the filter's time inf for good
+                self.nonfinite_count += 1
+                continue
             if self.t is not None and t > self.t:
                 self.x, self.P = predict(self.x, self.P, t - self.t, self.model.f,
                                          self.model.F, self.model.Q, check=False)
