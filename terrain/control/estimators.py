@@ -277,7 +277,8 @@ class AgriMaRoVisualOdometryEKF:
     def _speed_slope(self, t: float, v_long: np.ndarray, a_state: np.ndarray) -> np.ndarray:
         """Least-squares slope of the estimated speeds of the last ``speed_slope_s``, m/s^2
         per unit (:func:`numpy.polyfit`, degree 1); ``a_state`` while fewer than three calls
-        at two distinct times are in the window.
+        at two distinct times are in the window, and at a call of non-finite time (not
+        added to the window).
 
         Parameters
         ----------
@@ -293,6 +294,8 @@ class AgriMaRoVisualOdometryEKF:
         ndarray, shape (3,)
         """
         speeds = self._speeds
+        if not math.isfinite(t):   # NaN stayed at the head for good: a LinAlgError at once
+            return a_state
         speeds.append((t, np.asarray(v_long, dtype=float).copy()))
         while speeds[0][0] < t - self.speed_slope_s - 1e-9:
             speeds.popleft()

@@ -67,3 +67,46 @@ def test_merged_keeps_the_finite_times_in_order_around_a_nan_time():
     finite = [t for t in times if math.isfinite(t)]
     assert finite == sorted(finite)
     assert not math.isfinite(times[-1])
+
+
+def _agrimaro_call(t, ts=None):
+    ts = t if ts is None else ts
+    return Observation(t, np.full(3, 3.0), np.zeros((0, 4)),
+                       np.array([[ts - 0.005, 3.0, 3.0, 3.0]]), np.zeros((0, 4)),
+                       np.array([[ts - 0.005, 0.5, 0.0, 0.0, 0.0]]), np.zeros((0, 4)),
+                       np.array([[ts - 0.01, 0.0, 0.0, 0.0, 0.0, 0.0, 9.81]]))
+
+
+def test_agrimaro_speed_slope_survives_a_call_of_unknown_time():
+    """The full-gyro view's speed window took the call time as it came: a NaN time stayed
+    at the window's head for good (nan < t is never true, so it was never dropped), and the
+    next least-squares slope raised numpy's bare LinAlgError ("SVD did not converge"),
+    which stopped the closed loop that promises its safe output at such a call."""
+    est = AgriMaRoVisualOdometryEKF()
+    for k in range(1, 30):
+        est.update(_agrimaro_call(0.02 * k))
+    out = est.update(Observation(NAN, np.full(3, 3.0), np.zeros((0, 4)), np.zeros((0, 4)),
+                                 np.zeros((0, 4)), np.zeros((0, 5)), np.zeros((0, 4)),
+                                 np.zeros((0, 7))))
+    assert not math.isfinite(out.age_s)            # the controller's safe output
+    for k in range(31, 80):
+        out = est.update(_agrimaro_call(0.02 * k))
+    assert np.all(np.isfinite(out.a_local_m_s2)) and math.isfinite(out.age_s)
+    assert all(math.isfinite(t) for t, _ in est._speeds)
+    assert len(est._speeds) <= 0.5 / 0.02 + 2
+
+
+def test_the_closed_loop_on_the_agrimaro_ekf_gives_its_safe_output_at_a_nan_call_time():
+    from terrain.control import build_slip_table, config_for_vehicle
+    from terrain.control.closed_loop import TractionLoop
+
+    cfg, n = config_for_vehicle("agrimaro", kp=5.0)
+    loop = TractionLoop(cfg, n, AgriMaRoVisualOdometryEKF(), build_slip_table(["GRASS"]),
+                        lambda t: ("GRASS", 1.0))
+    for k in range(1, 30):
+        loop(_agrimaro_call(0.02 * k))
+    c = loop(_agrimaro_call(NAN, ts=0.6))
+    assert loop.log[-1]["safe"].all() and np.all(c == 0.0)
+    for k in range(31, 60):
+        loop(_agrimaro_call(0.02 * k))
+    assert not loop.log[-1]["safe"].any()
