@@ -243,8 +243,9 @@ class TractionLoop:
         dt = 0.0 if first else obs.t_s - self.t_prev
         self.t_prev = obs.t_s
         # the interval the filter and the ramp move by: 0 for a time that went back or is
-        # unknown (NaN: max(nan, 0.0) is nan, which stopped the feed-forward)
-        elapsed = dt if dt > 0.0 else 0.0
+        # unknown (NaN: max(nan, 0.0) is nan, which stopped the feed-forward; +inf, a call
+        # at or after one at +-inf, stopped it too)
+        elapsed = dt if 0.0 < dt < math.inf else 0.0
         a = np.asarray(est.a_local_m_s2, dtype=float)
         if self.a_filtered is None or not np.all(np.isfinite(self.a_filtered)):
             self.a_filtered = a.copy()
