@@ -117,7 +117,7 @@ def _merged(obs: Observation, imu_view: str = "clean") -> list[tuple[float, str,
     imu = "imu" if imu_view == "clean" else "imu_full"
     rows = [(float(r[0]), name, r[1:]) for name in (imu, "wheels", "steer", "cam", "currents")
             for r in getattr(obs, name)]
-    rows.sort(key=lambda x: (not math.isfinite(x[0]), x[0] if math.isfinite(x[0]) else 0.0))
+    rows.sort(key=lambda x: x[0] if math.isfinite(x[0]) else math.inf)   # stable
     return rows
 
 
