@@ -2,7 +2,7 @@
 the wheel-physics features is the window's last ``short_s`` seconds; the straight-driving
 mean current leaves out the samples turning on an arc; the slip targets average the truth
 over the half-open window ``[t_start, t_end)`` and give chi at the turn-rate threshold
-itself."""
+itself; a window leaving a gap is a dropped window of data, not an empty position."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pandas as pd
 import features.slip_features as slip_features
 from features.slip_features import SLIP_CHANNELS, slip_targets
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
-from features.windows import WindowSet
+from features.windows import WindowConfig, WindowSet, window_frame
 from terrain.run import TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY
 
@@ -94,3 +94,17 @@ def test_the_chi_target_is_given_at_the_turn_rate_threshold_itself(monkeypatch):
     np.testing.assert_allclose(Y["chi"], 0.3 / (HUSKY.track_m * 0.125), rtol=1e-12)
     below = slip_targets([_truth_run(0.124)], ws, HUSKY.track_m)
     assert np.isnan(below["chi"]).all()
+
+
+def test_a_window_that_starts_inside_a_gap_and_leaves_it_is_dropped_not_empty():
+    # 10 Hz, a gap over samples 5..14, 1 s windows every 0.5 s: the window over 5..14 lies
+    # wholly in the gap (a position, not a window of data: empty_gap); those over 0..9 and
+    # 10..19 hold data on one side of the gap (dropped_gap), whichever side it is on
+    t = np.arange(40) / RATE
+    x = np.where((np.arange(40) >= 5) & (np.arange(40) < 15), np.nan, 1.0 + t)
+    frame = pd.DataFrame({TIME: t, "ax": x, "wz": 2.0 * x})
+    X, t0, t1, _, counts = window_frame(frame, ("ax", "wz"),
+                                        WindowConfig(window_s=1.0, hop_s=0.5, rate_hz=RATE))
+    assert (counts["dropped_gap"], counts["empty_gap"]) == (2, 1)
+    np.testing.assert_allclose(t0, [1.5, 2.0, 2.5, 3.0])
+    assert np.isfinite(X).all()
