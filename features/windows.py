@@ -429,13 +429,20 @@ def as_windows(X, channels: Sequence[str]) -> np.ndarray:
     Raises
     ------
     ValueError
-        ``X`` not of real numbers (booleans, text, complex: a conversion to float made a
-        mask samples of 0 and 1, parsed text and dropped imaginary parts), not of 3
+        ``X`` not of real numbers (booleans, text, complex, as the array's dtype or as
+        items of an object array: a conversion to float made a mask samples of 0 and 1,
+        parsed text and dropped imaginary parts), not of 3
         dimensions, of another number of channels than ``channels``, or of 0 windows.
     """
     X = np.asarray(X)
     if X.dtype.kind not in "iufO":     # (object: a pandas or mixed array, converted below)
         raise ValueError(f"X must hold real numbers (signal samples), got dtype {X.dtype}")
+    if X.dtype.kind == "O":           # (astype(float) read True as 1.0 and parsed "1.5")
+        kinds = (bool, np.bool_, str, bytes, complex, np.complexfloating)
+        odd = next((v for v in X.flat if isinstance(v, kinds)), None)
+        if odd is not None:
+            raise ValueError(f"X must hold real numbers (signal samples), got an object array "
+                             f"holding {odd!r} ({type(odd).__name__})")
     X = X.astype(float, copy=False)
     if X.ndim != 3 or X.shape[1] != len(channels):
         raise ValueError(f"expected X of shape (n_windows, {len(channels)}, n_samples), "

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 import features.slip_features as slip_features
 from features.slip_features import SLIP_CHANNELS, slip_targets
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
-from features.windows import WindowConfig, WindowSet, window_frame
+from features.windows import WindowConfig, WindowSet, as_windows, window_frame
 from terrain.run import TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY
 
@@ -108,3 +109,17 @@ def test_a_window_that_starts_inside_a_gap_and_leaves_it_is_dropped_not_empty():
     assert (counts["dropped_gap"], counts["empty_gap"]) == (2, 1)
     np.testing.assert_allclose(t0, [1.5, 2.0, 2.5, 3.0])
     assert np.isfinite(X).all()
+
+
+@pytest.mark.parametrize("value", [True, "1.5", 1.5 + 2.0j, np.bool_(False)])
+def test_object_windows_of_booleans_text_or_complex_are_refused_as_the_plain_ones(value):
+    # as_windows refused bool, text and complex dtypes, but an object array (a pandas
+    # frame's to_numpy() over mixed columns) holding them was converted: True as 1.0 and
+    # the text "1.5" parsed to 1.5, the very conversions the dtype check is there to stop
+    X = np.full((2, 4, 40), 0.5, dtype=object)
+    X[1, 2, 7] = value
+    with pytest.raises(ValueError, match="X must hold real numbers"):
+        as_windows(X, ("wz", "ax", "cur_l", "vel_l"))
+    fine = np.full((2, 4, 40), 0.5, dtype=object)
+    fine[1, 2, 7] = np.float32(2.0)                  # real numbers of any type stay accepted
+    assert as_windows(fine, ("wz", "ax", "cur_l", "vel_l"))[1, 2, 7] == 2.0
