@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 import features.slip_features as slip_features
-from features.slip_features import SLIP_CHANNELS, slip_targets
+from features.slip_features import SLIP_CHANNELS, slip_feature_matrix, slip_targets
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from features.windows import WindowConfig, WindowSet, as_windows, window_frame
 from terrain.run import TIME, WHEEL_CHANNELS, Run
@@ -123,3 +123,29 @@ def test_object_windows_of_booleans_text_or_complex_are_refused_as_the_plain_one
     fine = np.full((2, 4, 40), 0.5, dtype=object)
     fine[1, 2, 7] = np.float32(2.0)                  # real numbers of any type stay accepted
     assert as_windows(fine, ("wz", "ax", "cur_l", "vel_l"))[1, 2, 7] == 2.0
+
+
+def test_the_pitch_feature_removes_the_window_acceleration_from_the_accelerometer():
+    # level ground, speeding up at 0.5 m/s^2: the accelerometer reads a_x = 0.5 m/s^2 of
+    # specific force that is no tilt; with the slope of the rim speed removed the pitch is
+    # 0 (arctan(0.5 / 9.81) = 0.051 rad of climbing otherwise)
+    n = 100
+    ramp = 0.5 + 0.5 * np.arange(n) / 50.0
+    values = {c: np.zeros((1, n)) for c in SLIP_CHANNELS}
+    values.update(vel_l=ramp[None], vel_r=ramp[None], ax=np.full((1, n), 0.5),
+                  az=np.full((1, n), 9.81))
+    X = np.stack([values[c] for c in SLIP_CHANNELS], axis=1)
+    names, f = slip_feature_matrix(X, SLIP_CHANNELS, 50.0, HUSKY)
+    np.testing.assert_allclose(f[0, names.index("vel_mean__slope")], 0.5, rtol=1e-12)
+    assert abs(f[0, names.index("pitch")]) < 1e-12
+
+
+def test_the_terrain_target_of_a_window_is_the_terrain_at_its_centre():
+    # the truth switches from ICE to SNOW at 0.5 s: the window [0, 2) s, centred on 1 s,
+    # is SNOW's (its first samples are ICE's)
+    run = _truth_run(0.35)
+    truth = run.streams["truth"].copy()
+    truth["terrain"] = np.where(truth[TIME] < 0.5, "ICE", "SNOW")
+    run = Run("sim1", "sim", "SNOW", {"truth": truth})
+    Y = slip_targets([run], _window_set([0.0]), HUSKY.track_m)
+    assert list(Y["terrain"]) == ["SNOW"]
