@@ -33,6 +33,16 @@ def test_a_window_three_hops_after_the_last_takes_two_missed_steps_then_its_own(
     assert list(filter_sequence(PROBA, 0.5, CONFIG)) == [0, 0]
 
 
+def test_missed_hops_are_counted_to_the_nearest_hop_not_down():
+    # decision times as written decimals: 2.3 - 0.8 = 1.4999999999999998 s is three hops,
+    # 2.9999999999999996 of them in floats; rounding down would take one missed step, not
+    # two, and keep class 0 (the two times of the test above, moved by 0.8 s)
+    t = np.array([0.8, 2.3])
+    assert (t[1] - t[0]) / 0.5 < 3.0
+    assert list(filter_sequence(PROBA, 0.5, CONFIG, t)) == \
+        list(filter_sequence(PROBA, 0.5, CONFIG, np.array([0.0, 1.5]))) == [0, 1]
+
+
 def test_decisions_between_pieces_are_not_scored():
     # a 1 s dropout between the pieces (gap_s): the decisions at 10.0 and 10.5 s lie on no
     # terrain; scored against None they would pull the accuracy to 40/42
