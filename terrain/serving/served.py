@@ -51,6 +51,7 @@ otherwise prepend a dump of the request frame).
 from __future__ import annotations
 
 import logging
+import numbers
 import re
 import threading
 from pathlib import Path
@@ -173,10 +174,12 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
                 "dwell_s": None if dwell_s is None else float(dwell_s),
                 "reset_confidence": None if reset_confidence is None else float(reset_confidence),
                 "reset_windows": int(reset_windows),
-                "min_confidence": float(min_confidence), "max_rows": int(max_rows),
-                "max_decisions": int(max_decisions),
+                "min_confidence": float(min_confidence), "max_rows": max_rows,
+                "max_decisions": max_decisions,
                 "vehicle": str(model_vehicle(model.metadata) or DEFAULT_VEHICLE)}
     check_settings(settings)
+    # checked whole numbers; a NumPy integer as Python's, for the JSON of model_config
+    settings["max_rows"], settings["max_decisions"] = int(max_rows), int(max_decisions)
     return settings
 
 
@@ -198,8 +201,12 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     smoothing_of(settings)
     config_probability("served settings", min_confidence=settings["min_confidence"])
     for key in ("max_rows", "max_decisions"):
-        if key in settings and not int(settings[key]) > 0:
-            raise ConfigError(f"{key} must be a positive number, got {settings[key]}")
+        value = settings.get(key, 1)
+        # a count: a float (2.7 was taken as 2), text, None, NaN or a boolean is refused here
+        # rather than by int() in Python's words
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+            raise ConfigError(f"{key} must be a positive number, got {value!r} (a whole "
+                              "number >= 1)")
 
 
 def smoothing_of(settings: Mapping[str, Any]) -> SmoothingConfig:
