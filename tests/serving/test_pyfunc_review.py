@@ -80,3 +80,14 @@ def test_samples_without_a_run_are_refused_not_left_out():
     with pytest.raises(DataFormatError) as info:
         _predict(samples)
     assert info.value.row == 30 and "2 sample(s) without a run" in str(info.value)
+
+
+def test_a_class_the_classifier_does_not_know_gets_probability_zero():
+    # the model's classes A, B, C; the classifier was fitted on B and A only (no window of
+    # C in its training folds): proba_C is 0 ("0 for a class the pipeline does not know"),
+    # so every row's probabilities still sum to 1 (NaN would make the sum NaN)
+    out = predict_windows(_Classifier(), _samples(), ["vel_l", "vel_r"],
+                          WindowConfig(window_s=2.0, rate_hz=20.0), ["A", "B", "C"])
+    assert len(out) == 5
+    assert (out["proba_C"] == 0.0).all()
+    np.testing.assert_allclose(out[["proba_A", "proba_B", "proba_C"]].sum(axis=1), 1.0)
