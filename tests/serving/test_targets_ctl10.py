@@ -49,3 +49,23 @@ def test_check_provider_refuses_a_provider_threshold_that_is_not_a_number(floor)
     with pytest.raises(ConfigError, match=r"_Custom\.min_confidence"):
         check_provider(_Custom(floor), ("ASPHALT",), 0.5)
     check_provider(_Custom(0.5), ("ASPHALT",), 0.5)
+
+
+@pytest.mark.parametrize("provider", [CataloguePeakTargets, TableTargets])
+def test_stale_input_gets_the_fallback_however_confident_the_decision(provider):
+    """A decision on stale input is not trusted: the fallback, as for no decision (the
+    table's rule: an age beyond ``max_decision_age_s``); trusted and fresh, the class's own
+    row, which differs from the fallback for one of the two classes."""
+    targets = provider(["SNOW", "GRASS"])
+    fresh = [targets.target_for(c, 0.99, False) for c in ("SNOW", "GRASS")]
+    assert any(f != targets.fallback for f in fresh)
+    for terrain in ("SNOW", "GRASS"):
+        assert targets.target_for(terrain, 0.99, True) == targets.fallback
+
+
+def test_check_provider_refuses_a_provider_threshold_just_above_the_services():
+    # 0.505 > 0.5: decisions at confidence 0.5-0.505 would get the fallback unflagged
+    from terrain.serving.targets import check_provider
+
+    with pytest.raises(ConfigError, match=r"min_confidence 0\.505 is above the service's"):
+        check_provider(_Custom(0.505), ("ASPHALT",), 0.5)
