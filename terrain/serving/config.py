@@ -13,8 +13,8 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import (ConfigError, config_integer, config_numbers, config_probability,
-                            duplicated)
+from terrain.errors import (ConfigError, config_integer, config_numbers, config_positive,
+                            config_probability, duplicated)
 from terrain.io.align import check_gap_factor
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.smoothing import SmoothingConfig
@@ -159,8 +159,13 @@ def check_hop(hop_s: float, rate_hz: float) -> float:
     Raises
     ------
     ConfigError
-        ``hop_s`` not finite or below ``1 / rate_hz``.
+        ``hop_s`` or ``rate_hz`` not a real number (text, None, a boolean), ``rate_hz`` not
+        finite and > 0, or ``hop_s`` not finite or below ``1 / rate_hz``.
     """
+    # before the division: 0 Hz raised ZeroDivisionError, text or None Python's own error,
+    # and a negative rate gave a negative period that every hop passed
+    config_numbers("check_hop", hop_s=hop_s)
+    config_positive("check_hop", rate_hz=rate_hz)
     period = 1.0 / float(rate_hz)
     hop = float(hop_s)
     if not (np.isfinite(hop) and hop >= period):
