@@ -44,7 +44,7 @@ from features.windows import (DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfi
                               add_derived_channels, derived_track_m, required_streams,
                               window_frame)
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
-                            TimestampError)
+                            TimestampError, duplicated)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
@@ -272,8 +272,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         periods (a hole without rows: a gap must be NaN rows on the uniform clock); names
         the run and row.
     DataFormatError
-        A median sample rate more than 1 % off ``config.rate_hz``, or a sample without a
-        run (``run`` missing: names the first row).
+        A median sample rate more than 1 % off ``config.rate_hz``, a sample without a
+        run (``run`` missing: names the first row), or two runs given as values that read
+        alike (``1`` and ``"1"``: the answer would name both ``"1"``).
     """
     cols = [RUN, TIME] + input_channels(channels)
     missing = [c for c in cols if c not in samples.columns]
@@ -292,6 +293,12 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         row = int(np.flatnonzero(no_run)[0])
         raise DataFormatError(f"{int(no_run.sum())} sample(s) without a run (every sample "
                               "names the run it belongs to)", "model input", RUN, row)
+    # the answer names a run str(run): 1 and "1" are two runs to groupby, one name there
+    alike = duplicated([str(r) for r in pd.unique(samples[RUN])])
+    if alike:
+        raise DataFormatError(f"runs {alike} given as different values (a number and text?) "
+                              "would be answered under the same name; give each run one "
+                              "name", "model input", RUN)
     out, dropped, empty, tail, short = [], 0, 0, 0.0, []
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)

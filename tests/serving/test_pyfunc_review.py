@@ -91,3 +91,12 @@ def test_a_class_the_classifier_does_not_know_gets_probability_zero():
     assert len(out) == 5
     assert (out["proba_C"] == 0.0).all()
     np.testing.assert_allclose(out[["proba_A", "proba_B", "proba_C"]].sum(axis=1), 1.0)
+
+
+def test_two_runs_whose_names_read_alike_are_refused_not_merged():
+    # run 1 (a number) and run "1" (text) are two runs to groupby, but the answer names
+    # each str(run): before, both runs' windows came back under one name "1", same times
+    a = _samples(40).assign(run=1)
+    both = pd.concat([a, a.assign(run="1")], ignore_index=True).astype({"run": object})
+    with pytest.raises(DataFormatError, match=r"runs \['1'\] .* the same name"):
+        _predict(both)
