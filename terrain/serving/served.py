@@ -51,7 +51,6 @@ otherwise prepend a dump of the request frame).
 from __future__ import annotations
 
 import logging
-import numbers
 import re
 import threading
 from pathlib import Path
@@ -62,7 +61,7 @@ import pandas as pd
 
 from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
-from terrain.errors import (ConfigError, DataFormatError, TerrainError, config_probability,
+from terrain.errors import (DataFormatError, TerrainError, config_integer, config_probability,
                             listed)
 from terrain.run import TIME
 from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
@@ -201,12 +200,9 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     smoothing_of(settings)
     config_probability("served settings", min_confidence=settings["min_confidence"])
     for key in ("max_rows", "max_decisions"):
-        value = settings.get(key, 1)
         # a count: a float (2.7 was taken as 2), text, None, NaN or a boolean is refused here
         # rather than by int() in Python's words
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-            raise ConfigError(f"{key} must be a positive number, got {value!r} (a whole "
-                              "number >= 1)")
+        config_integer(key, settings.get(key, 1), 1)
 
 
 def smoothing_of(settings: Mapping[str, Any]) -> SmoothingConfig:

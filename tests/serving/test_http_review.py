@@ -108,8 +108,8 @@ def test_the_served_error_message_cannot_be_rewritten():
 @pytest.mark.parametrize("key, value, words", [
     ("min_confidence", 1.5, "min_confidence must be in [0, 1], got 1.5"),
     ("min_confidence", -0.1, "min_confidence must be in [0, 1], got -0.1"),
-    ("max_rows", 0, "max_rows must be a positive number, got 0"),
-    ("max_decisions", 0, "max_decisions must be a positive number, got 0"),
+    ("max_rows", 0, "max_rows must be an integer >= 1, got 0"),
+    ("max_decisions", 0, "max_decisions must be an integer >= 1, got 0"),
 ])
 def test_served_settings_out_of_range_are_refused(key, value, words):
     from terrain.errors import ConfigError

@@ -23,7 +23,7 @@ def test_a_limit_that_is_no_whole_count_is_refused_naming_it(key, value):
     # (a model's YAML model_config failed to load with Python's words), 2.7 was taken as 2
     # rows and True as 1, "100" as 100
     check_settings(SETTINGS)
-    with pytest.raises(ConfigError, match=rf"^{key} must be a positive number, got "):
+    with pytest.raises(ConfigError, match=rf"^{key} must be an integer >= 1, got "):
         check_settings({**SETTINGS, key: value})
 
 
@@ -34,5 +34,5 @@ def test_served_settings_does_not_round_a_fractional_limit_before_checking_it():
     assert settings["max_rows"] == 5000 and settings["max_decisions"] == 300
     assert type(settings["max_rows"]) is int
     for key in ("max_rows", "max_decisions"):
-        with pytest.raises(ConfigError, match=rf"^{key} must be a positive number, got 2\.7"):
+        with pytest.raises(ConfigError, match=rf"^{key} must be an integer >= 1, got 2\.7"):
             served_settings(model, **{key: 2.7})
