@@ -899,6 +899,10 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
         est.notes = ("note: longitudinal slip common to both sides (slip_1, slip_2) is not "
                      f"observable from wheel speeds + IMU and no slip model is used ({why}): "
                      "slip_* is the turning part only, std_slip_* not available",) + est.notes
+        if "imu" not in run.streams:    # nor the turning part: nothing but the wheels
+            est.notes += (f"note: run {run.run_id} has no IMU stream: no gyro observes its "
+                          "yaw rate, so slip_* (the turning part too) and gyro_bias are the "
+                          "filter's prediction from the wheel speeds alone, not estimates",)
         if slip_model != "ekf":
             est.notes += (f"{slip_model} slip model not used for run {run.run_id}: "
                           f"{missing or 'its window outputs were not given'}",)
