@@ -57,13 +57,17 @@ def test_a_switch_that_is_not_a_boolean_is_a_typed_error_naming_it(name, value):
 
 
 @pytest.mark.parametrize("feed_forward", [False, True])
+@pytest.mark.parametrize("bad_t", [np.nan, np.inf, -np.inf])
 def test_a_call_at_a_non_finite_time_gives_the_safe_output_with_or_without_feed_forward(
-        feed_forward):
+        feed_forward, bad_t):
     """A NaN call time leaves the interval unknown: the traction step's safe output (its
     rule for a non-finite dt_s), on this call and the next (whose interval from a NaN is
     unknown too), then normal steps. With the feed-forward on, the NaN interval reached
     feedforward_step and stopped the run with a ConfigError about its dt_s; the ramp and
-    the acceleration filter now move by a zero interval, as for a time that went back."""
+    the acceleration filter now move by a zero interval, as for a time that went back.
+    +-inf is handled as NaN is (ctl12: +inf gave an interval of +inf that the ramp took as
+    elapsed time, feedforward_step's "a finite dt_s" stopped the run, and the filter jumped
+    to the new sample)."""
     cfg, n = config_for_vehicle("husky", kp=2.0)
     r = cfg.wheel_radius_m
     loop = TractionLoop(cfg, n, _spinning(r), build_slip_table(["ICE"]),
@@ -72,7 +76,7 @@ def test_a_call_at_a_non_finite_time_gives_the_safe_output_with_or_without_feed_
     for t in (0.02, 0.04):
         loop(observation(t, omega))
     v_ref, a = loop.v_ref.copy(), loop.a_filtered.copy()
-    for t in (float("nan"), 0.06):
+    for t in (bad_t, 0.06):
         c = loop(observation(t, omega))
         assert loop.log[-1]["safe"].all() and np.all(c == 0.0)
         np.testing.assert_array_equal(loop.a_filtered, a)
