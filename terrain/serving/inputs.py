@@ -14,7 +14,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import DataFormatError, MissingColumnError
+from terrain.errors import DataFormatError, MissingColumnError, duplicated
 
 
 def chunk_values(values, t_s: np.ndarray, channels: Sequence[str],
@@ -44,11 +44,17 @@ def chunk_values(values, t_s: np.ndarray, channels: Sequence[str],
     MissingColumnError
         A channel of the stream is missing from a mapping or DataFrame.
     DataFormatError
-        A channel's values and the timestamps of different lengths, values of any shape
+        A channel given as several columns of a DataFrame, a channel's values and the
+        timestamps of different lengths, values of any shape
         other than the above (a transposed chunk included), or values that are not real
         numbers (:func:`real_array`).
     """
     if isinstance(values, pd.DataFrame):  # by its column names, not their order
+        twice = duplicated([c for c in values.columns if c in channels])
+        if twice:   # (values[c] is then a frame: a "shape (n, 2)" message)
+            raise DataFormatError(f"stream {stream!r}: channel(s) {twice} given as several "
+                                  "columns of the DataFrame; give each channel once",
+                                  f"stream {stream}", twice[0])
         values = {c: values[c].to_numpy() for c in values.columns if c in channels}
     elif isinstance(values, pd.Series):   # one sample, channel -> value
         values = values.to_dict()

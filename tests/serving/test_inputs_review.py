@@ -51,3 +51,23 @@ def test_same_values_is_float32_precision_not_looser():
     assert same_values(a, a.astype(np.float32).astype(float))
     assert not same_values(a, a * (1 + 1e-5))
     assert not same_values(a, np.array([15.04, -0.094, 1.0]))   # NaN against a number
+
+
+def test_a_channel_given_as_two_dataframe_columns_is_named():
+    """A DataFrame with two 'vel_l' columns (a join gone wrong) was refused with
+    "vel_l must be one number or a 1-D array, got shape (2, 2)": true, but not why."""
+    import pandas as pd
+
+    from terrain.serving.inputs import chunk_values
+
+    channels = ["vel_l", "vel_r"]
+    frame = pd.DataFrame([[0.1, 0.2, 0.3], [0.1, 0.2, 0.3]],
+                         columns=["vel_l", "vel_r", "vel_l"])
+    with pytest.raises(DataFormatError, match=r"stream 'wheels': channel\(s\) \['vel_l'\] "
+                                              r"given as several columns") as info:
+        chunk_values(frame, np.array([0.0, 0.1]), channels, "wheels")
+    assert info.value.column == "vel_l"
+    # a duplicated column the stream does not read is not read, so not refused
+    other = pd.DataFrame([[0.1, 0.2, 9.0, 9.0]], columns=["vel_l", "vel_r", "x", "x"])
+    np.testing.assert_array_equal(chunk_values(other, np.array([0.0]), channels, "wheels"),
+                                  [[0.1, 0.2]])
