@@ -159,10 +159,14 @@ def _yaw_rows(frames: Sequence[AuditFrame],
     return pd.concat(parts, ignore_index=True) if parts else None
 
 
+def _or_zero(a: float) -> float:
+    """A least-squares ``1 / chi`` to predict with: 0 where it is not defined."""
+    return a if np.isfinite(a) else 0.0
+
+
 def _inverse_chi(measured: np.ndarray, x: np.ndarray) -> float:
     """Least-squares ``1 / chi`` of ``measured = x / chi`` (0 where it is not defined)."""
-    a = inverse_icr_factor(measured, x)
-    return a if np.isfinite(a) else 0.0
+    return _or_zero(inverse_icr_factor(measured, x))
 
 
 def _chi_of(a: float) -> float:
@@ -255,14 +259,13 @@ def yaw_rate_ceiling_samples(frames: Sequence[AuditFrame],
         for name, found in replay_chi.items():
             found[MANOEUVRES[code]] = _chi_of(inverse_icr_factor(sub[name].to_numpy(),
                                                                  sub.x.to_numpy()))
-        tab.loc[sub.index, "shared"] = (a if np.isfinite(a) else 0.0) * sub.x
+        tab.loc[sub.index, "shared"] = _or_zero(a) * sub.x
         for _, one in sub.groupby("run_id"):
             b = _inverse_chi(one.measured.to_numpy(), one.x.to_numpy())
             tab.loc[one.index, "per_run"] = b * one.x
         if trained_a is not None:
             if code in trained_a:
-                a_t = trained_a[code]
-                tab.loc[sub.index, "trained"] = (a_t if np.isfinite(a_t) else 0.0) * sub.x
+                tab.loc[sub.index, "trained"] = _or_zero(trained_a[code]) * sub.x
             else:
                 tab.loc[sub.index, "trained"] = sub.reference
                 fallback += len(sub)
