@@ -20,7 +20,8 @@ probability in (0, 1) exclusive; --rate-hz a rate in [1, 10000] Hz, and the grid
 counts the runs of each kind. The skid-steer slip filter keeps its forward speed within what
 the recent rim speeds allow (braking slip down to -0.3;
 terrain.estimation.skid_steer_slip.speed_bounds_m_s); a note counts the steps where it was
-held there.
+held there. With several runs, a run the estimator refuses (a stream it needs missing or
+unreadable) is named and skipped, and a last note counts the runs left without a table.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from pathlib import Path
 from features.slip_outputs import missing_slip_inputs, slip_model_outputs
 from pipelines.arguments import check_derived_output, input_folder, output_file
 from pipelines.slip_model import resolve_slip_model
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError, EstimationError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.runner import MAX_RATE_HZ, MIN_RATE_HZ, check_rate_hz
 from terrain.io.measured import read_runs_path
@@ -101,6 +102,18 @@ def _outputs(args: argparse.Namespace, runs) -> dict[str, Path]:
     return outs
 
 
+def _estimate(run, args: argparse.Namespace, slip_model: str, tuning: str, learned, gate,
+              rate_hz):
+    """One run's estimate: the AgriMaRo EKF or the skid-steer slip filter."""
+    if run.vehicle == "agrimaro":
+        return estimate_run(run, lag=args.lag, tuning=tuning, gate=gate, rate_hz=rate_hz)
+    outputs = slip_model_outputs(run, learned) if slip_model != "ekf" else None
+    missing = (missing_slip_inputs(run) if outputs is None and slip_model != "ekf"
+               else None)
+    return estimate_skid_steer_slip_run(run, slip_model, outputs=outputs, missing=missing,
+                                        lag=args.lag, gate=gate, rate_hz=rate_hz)
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the estimator on each selected run, write its table and print a summary line.
 
@@ -121,8 +134,10 @@ def main(args: argparse.Namespace) -> int:
         any run is read); a ``--slip-model-dir`` that cannot be loaded
         (:func:`pipelines.slip_model.resolve_slip_model`); ``--run`` names no run of
         RUN_DIR; a run's own file beside ``--out`` (several runs) cannot be written or would
-        overwrite an input (:func:`pipelines.arguments.check_derived_output`); a run lacks
-        the streams its estimator needs.
+        overwrite an input (:func:`pipelines.arguments.check_derived_output`); the one
+        selected run lacks the streams its estimator needs, or, with several runs, every run
+        does (a run the estimator refuses among others is named, left without a table and
+        counted in a last note; the others are estimated).
     """
     try:
         gate = Gate(args.gate) if args.gate is not None else None
@@ -159,17 +174,17 @@ def main(args: argparse.Namespace) -> int:
                else "no skid-steer run (the AgriMaRo EKF observes its slip)")
         print(f"note: --slip-model-dir {args.slip_model_dir} not used: {why}")
     lags = {"applied": 0, "not applied": 0, "not estimated": 0}
+    refused: dict[str, str] = {}
     for run in runs:
-        if run.vehicle == "agrimaro":
-            est = estimate_run(run, lag=args.lag, tuning=tuning, gate=gate,
-                               rate_hz=rate_hz)
-        else:
-            outputs = slip_model_outputs(run, learned) if slip_model != "ekf" else None
-            missing = (missing_slip_inputs(run) if outputs is None and slip_model != "ekf"
-                       else None)
-            est = estimate_skid_steer_slip_run(run, slip_model, outputs=outputs,
-                                               missing=missing, lag=args.lag, gate=gate,
-                                               rate_hz=rate_hz)
+        try:
+            est = _estimate(run, args, slip_model, tuning, learned, gate, rate_hz)
+        except (EstimationError, DataFormatError) as exc:
+            if len(runs) == 1:
+                raise
+            # one run the estimator refuses does not cost the others their tables
+            refused[run.run_id] = str(exc)
+            print(f"error: run {run.run_id} not estimated: {exc}")
+            continue
         for note in est.notes:
             if note == LEARNED_FALLBACK_NOTE and wants_model and learned is None:
                 continue        # said once above, with where the model was looked for
@@ -183,9 +198,16 @@ def main(args: argparse.Namespace) -> int:
         frame[TIME] = [repr(float(t)) for t in frame[TIME]]
         frame.to_csv(out, index=False, float_format="%.9g")
         print(f"{est.summary()} -> {out}")
+    estimated = len(runs) - len(refused)
     if lags["not applied"]:
         # a cross-correlation lag is applied only for a clear peak (terrain.slip.alignment)
-        print(f"note: encoder lag applied on {lags['applied']} of {len(runs)} runs, not "
+        print(f"note: encoder lag applied on {lags['applied']} of {estimated} runs, not "
               f"applied on {lags['not applied']} (no clear cross-correlation peak), not "
               f"estimated on {lags['not estimated']}")
+    if refused:
+        listing = "; ".join(f"{run_id} ({why})" for run_id, why in refused.items())
+        if not estimated:
+            raise EstimationError(f"no run of {args.run_dir} could be estimated: {listing}")
+        print(f"note: {len(refused)} of {len(runs)} runs not estimated, no table written for "
+              f"them: {listing}")
     return 0

@@ -106,3 +106,43 @@ def test_tuning_option_reaches_the_agrimaro_filter(run_dir, tmp_path):
     std = [c for c in frames["default"].columns if c.startswith("std_")]
     assert not np.allclose(frames["default"][std].to_numpy(), frames["thesis"][std].to_numpy(),
                            equal_nan=True)
+
+
+def test_a_run_the_estimator_refuses_leaves_the_others_their_tables(
+        run_dir, tmp_path, capsys, monkeypatch):
+    # the readers refuse a bad folder before any run is estimated; a refusal of the estimator
+    # itself (here a grid over its step bound, as a 2 h log at --rate-hz 1000 asks) stopped
+    # the command at that run, leaving the runs after it unestimated and unnamed
+    import pipelines.estimate as command
+    from terrain.errors import TimeStepError
+    real = command.estimate_skid_steer_slip_run
+
+    def refuse_asphalt(run, *args, **kwargs):
+        if run.run_id.endswith("ASPHALT/00"):
+            raise TimeStepError("a grid at 1000 Hz over 7200 s has 7200001 steps")
+        return real(run, *args, **kwargs)
+
+    monkeypatch.setattr(command, "estimate_skid_steer_slip_run", refuse_asphalt)
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "s.csv")]) == 0
+    assert (tmp_path / "s_GRASS_00.csv").is_file()
+    assert not (tmp_path / "s_ASPHALT_00.csv").exists()
+    out = capsys.readouterr().out
+    assert re.search(r"error: run \S*ASPHALT/00 not estimated: a grid at 1000 Hz", out)
+    assert re.search(r"note: 1 of 2 runs not estimated, no table written for them: "
+                     r"\S*ASPHALT/00 \(a grid at 1000 Hz", out)
+    # one run selected, or every run refused: the command fails naming them
+    assert main(["estimate", str(run_dir), "--run", "ASPHALT/00", "--out",
+                 str(tmp_path / "one.csv")]) == 2
+    assert "7200001 steps" in capsys.readouterr().err
+    assert main(["estimate", str(run_dir / "ASPHALT"), "--out", str(tmp_path / "a.csv")]) == 2
+    assert "7200001 steps" in capsys.readouterr().err
+
+    # several runs, every one refused: an error naming each
+    def refuse(run, *args, **kwargs):
+        raise TimeStepError(f"{run.run_id.split('/')[-2]} too long")
+
+    monkeypatch.setattr(command, "estimate_run", refuse)
+    monkeypatch.setattr(command, "estimate_skid_steer_slip_run", refuse)
+    assert main(["estimate", str(run_dir), "--out", str(tmp_path / "b.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "no run of" in err and "ASPHALT too long" in err and "GRASS too long" in err
