@@ -328,10 +328,12 @@ class WindowSet:
         Book-keeping: windows kept, dropped for gaps or unsteady motion, window positions
         wholly inside a gap (``empty_gap``, see :func:`window_frame`), time after the last
         full partition (``partition_tail_s``, s) and after the last window of a run or
-        partition (``window_tail_s``, s), runs skipped for a missing stream and runs
+        partition (``window_tail_s``, s), time between windows cut at a hop longer than
+        the window (``between_windows_s``, s), runs skipped for a missing stream and runs
         shorter than one window or partition (with their ids; ``reasons``: run id -> why),
         and ``per_run``: run id -> ``windows``, ``dropped_gap``, ``empty_gap``,
-        ``dropped_unsteady``, ``partition_tail_s``, ``window_tail_s``, ``aligned_s``;
+        ``dropped_unsteady``, ``partition_tail_s``, ``window_tail_s``,
+        ``between_windows_s``, ``aligned_s``;
         ``streams``: the streams aligned (:func:`required_streams` of the channels, and
         ``wheels`` with ``steady_only``). A
         :meth:`subset` adds
@@ -566,7 +568,9 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         full partition (s; the whole frame when it holds none), which no window is cut
         from (0 when ``partition_s`` is None), and ``window_tail_s``: the time after the
         last window of the frame, or of each partition, which no window covers (s; the
-        whole frame when it is shorter than one window and ``partition_s`` is None).
+        whole frame when it is shorter than one window and ``partition_s`` is None), and
+        ``between_windows_s``: the time between consecutive windows when the hop is longer
+        than the window, which no window covers either (s; 0 when ``hop_s <= window_s``).
 
     Raises
     ------
@@ -590,16 +594,19 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         tail = total - p * len(bounds)
     starts, parts = [], []
     window_tail = 0     # samples after the last window of each partition (or of the frame)
+    between = 0         # samples skipped between windows by a hop longer than the window
     for k, (a, b) in enumerate(bounds):
         s = np.arange(a, b - n + 1, hop)
         starts.append(s)
         parts.append(np.full(s.size, k))
         window_tail += b - (int(s[-1]) + n if s.size else a)
+        between += max(hop - n, 0) * max(s.size - 1, 0)
     start = np.concatenate(starts) if starts else np.zeros(0, int)
     part = np.concatenate(parts) if parts else np.zeros(0, int)
     counts = {"dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
               "partition_tail_s": tail / config.rate_hz,
-              "window_tail_s": window_tail / config.rate_hz}
+              "window_tail_s": window_tail / config.rate_hz,
+              "between_windows_s": between / config.rate_hz}
     if start.size == 0:
         return (np.zeros((0, len(channels), n)), np.zeros(0), np.zeros(0), part, counts)
     idx = start[:, None] + np.arange(n)[None, :]
@@ -637,9 +644,10 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     each in ``counts["reasons"]``; with ``partition_s``, the time after the last full
     partition of each run, which no window is cut from, is counted in
     ``counts["partition_tail_s"]``, and with or without partitions the time after the last
-    window of each run (or partition) in ``counts["window_tail_s"]`` (s, in total and per
-    run). Nothing is dropped silently. The derived wheel channels and the EKF channels use
-    each run's own vehicle's track width (:func:`derived_track_m` of ``run.vehicle``).
+    window of each run (or partition) in ``counts["window_tail_s"]``, and the time between
+    windows cut at a hop longer than the window in ``counts["between_windows_s"]`` (s, in
+    total and per run). Nothing is dropped silently. The derived wheel channels and the EKF
+    channels use each run's own vehicle's track width (:func:`derived_track_m` of ``run.vehicle``).
 
     Parameters
     ----------
@@ -673,7 +681,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     need = required_streams(channels)
     Xs, rids, groups, labels, t0s, t1s = [], [], [], [], [], []
     counts = {"windows": 0, "dropped_gap": 0, "empty_gap": 0, "dropped_unsteady": 0,
-              "partition_tail_s": 0.0, "window_tail_s": 0.0, "skipped_runs": [],
+              "partition_tail_s": 0.0, "window_tail_s": 0.0, "between_windows_s": 0.0,
+              "skipped_runs": [],
               "too_short_runs": [], "reasons": {}, "per_run": {}}
     iterator = runs
     if progress:
@@ -711,6 +720,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         counts["dropped_unsteady"] += c["dropped_unsteady"]
         counts["partition_tail_s"] += c["partition_tail_s"]
         counts["window_tail_s"] += c["window_tail_s"]
+        counts["between_windows_s"] += c["between_windows_s"]
         counts["per_run"][run.run_id] = {"windows": len(X), **c, "aligned_s": len(frame)
                                          / config.rate_hz}
         if len(frame) < config.n_samples:

@@ -107,7 +107,9 @@ def main(args: argparse.Namespace) -> int:
                                          "dropped_gap": int(pred.attrs.get("dropped_windows", 0)),
                                          "empty_gap": int(pred.attrs.get("empty_windows", 0)),
                                          "window_tail_s": float(pred.attrs.get("window_tail_s",
-                                                                               0.0))}
+                                                                               0.0)),
+                                         "between_windows_s": float(
+                                             pred.attrs.get("between_windows_s", 0.0))}
         if len(samples) / float(meta["rate_hz"]) < window_s:
             counts["too_short_runs"].append(run.run_id)
         parts.append(pred)

@@ -41,7 +41,8 @@ def seconds_text(seconds: float) -> str:
 COLUMNS = ("run_id", "status", "reason", "repaired_cells", "repaired", "gaps", "gap_s",
            "gap_list", "skipped_lines", "ignored_columns", "unused_imu_s", "unused_wheels_s",
            "stuck", "windows", "dropped_gap", "empty_gap", "dropped_unsteady",
-           "partition_tail_s", "window_tail_s", "flagged_windows", "warnings")
+           "partition_tail_s", "window_tail_s", "between_windows_s", "flagged_windows",
+           "warnings")
 #: streams whose seconds outside the other's span the report counts (rule clock_overlap)
 UNUSED_STREAMS = ("imu", "wheels")
 
@@ -64,8 +65,10 @@ class InputReport:
         ``stuck`` lists stuck channels; ``partition_tail_s`` is the time after a run's last
         full partition, which no window is cut from (s; 0 without partitions), and
         ``window_tail_s`` the time after the last window of the run or of each partition,
-        which no window covers (s); ``windows`` is -1 for a run the command does not
-        window (the other window columns, ``dropped_gap`` to ``window_tail_s``, are 0 then,
+        which no window covers (s), and ``between_windows_s`` the time between windows cut
+        at a hop longer than the window, which no window covers either (s); ``windows`` is
+        -1 for a run the command does not window (the other window columns,
+        ``dropped_gap`` to ``between_windows_s``, are 0 then,
         and :meth:`metrics` leaves them out).
     """
 
@@ -74,7 +77,8 @@ class InputReport:
     def metrics(self, prefix: str = "input_") -> dict[str, float]:
         """Totals for MLflow: runs used/skipped/too short, repaired cells, gaps, ignored
         file columns, seconds of each stream outside the other's span, windows dropped and
-        flagged, partition and window tails not windowed (s), stuck channels, warnings.
+        flagged, partition and window tails and time between windows not windowed (s),
+        stuck channels, warnings.
 
         Parameters
         ----------
@@ -104,6 +108,7 @@ class InputReport:
             "windows_dropped_unsteady": int(t.loc[windowed, "dropped_unsteady"].sum()),
             "partition_tail_s": float(t.loc[windowed, "partition_tail_s"].sum()),
             "window_tail_s": float(t.loc[windowed, "window_tail_s"].sum()),
+            "between_windows_s": float(t.loc[windowed, "between_windows_s"].sum()),
             "windows_flagged": int(t.loc[t["flagged_windows"] > 0, "flagged_windows"].sum()),
             "warnings": int(t["warnings"].sum()),
         }.items()}
@@ -162,6 +167,9 @@ class InputReport:
         if m["window_tail_s"]:
             parts.append(f"  not windowed: {m['window_tail_s']:.1f} s of run tails after "
                          f"the last full window in {ids(t['window_tail_s'] > 0)}")
+        if m["between_windows_s"]:
+            parts.append(f"  not windowed: {m['between_windows_s']:.1f} s between windows (a "
+                         f"hop longer than the window) in {ids(t['between_windows_s'] > 0)}")
         if m["windows_empty_gap"]:
             parts.append(f"  {int(m['windows_empty_gap'])} window position(s) wholly inside "
                          "a gap of every stream: no data there, not counted as dropped")
@@ -195,7 +203,8 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
     counts : Mapping, optional
         ``WindowSet.counts`` of :func:`features.windows.make_windows` (or the same keys:
         ``per_run``, ``skipped_runs``, ``too_short_runs``; ``empty_gap``, the window
-        positions wholly inside a gap, ``partition_tail_s`` and ``window_tail_s`` may be
+        positions wholly inside a gap, ``partition_tail_s``, ``window_tail_s`` and
+        ``between_windows_s`` may be
         absent from a ``per_run`` entry, and ``reasons``, run id -> why it was skipped or
         is too short, from ``counts``; ``streams``, the streams the command aligned, from
         :func:`features.windows.required_streams` of its channels). Without it (or a run
@@ -256,6 +265,7 @@ def input_report(runs: Sequence[Run], counts: Mapping[str, Any] | None = None,
             "dropped_unsteady": int(w["dropped_unsteady"]) if w else 0,
             "partition_tail_s": float(w.get("partition_tail_s", 0.0)) if w else 0.0,
             "window_tail_s": float(w.get("window_tail_s", 0.0)) if w else 0.0,
+            "between_windows_s": float(w.get("between_windows_s", 0.0)) if w else 0.0,
             "flagged_windows": int(flagged.get(run.run_id, 0)),
             "warnings": len(meta.get("warnings", ())),
         })

@@ -520,6 +520,10 @@ def run_cv(config: ExperimentConfig, runs: Sequence[Run] | None = None,
             n_runs = sum(c.get(key, 0.0) > 0 for c in ws.counts["per_run"].values())
             input_notes.append(f"not windowed: {ws.counts[key]:.1f} s of run tails after the "
                                f"last {after} in {n_runs} run(s)")
+    if ws.counts.get("between_windows_s"):
+        n_runs = sum(c.get("between_windows_s", 0.0) > 0 for c in ws.counts["per_run"].values())
+        input_notes.append(f"not windowed: {ws.counts['between_windows_s']:.1f} s between "
+                           f"windows (a hop longer than the window) in {n_runs} run(s)")
     notes += input_notes
     training = load_training_windows(config, runs, ws, groups,
                                      fx.transform if on_features else None, progress)

@@ -252,8 +252,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         timestamp gap), ``attrs["empty_windows"]`` the window positions wholly inside a gap
         of every stream (no sample at all, so not counted as dropped),
         ``attrs["window_tail_s"]`` the time after each run's last window, which no window
-        covers (s, summed over the runs), and ``attrs["short_runs"]`` lists the runs
-        shorter than one window (no row).
+        covers (s, summed over the runs), ``attrs["between_windows_s"]`` the time between
+        windows cut at a hop longer than the window (s, summed over the runs), and
+        ``attrs["short_runs"]`` lists the runs shorter than one window (no row).
 
     Raises
     ------
@@ -299,7 +300,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         raise DataFormatError(f"runs {alike} given as different values (a number and text?) "
                               "would be answered under the same name; give each run one "
                               "name", "model input", RUN)
-    out, dropped, empty, tail, short = [], 0, 0, 0.0, []
+    out, dropped, empty, tail, between, short = [], 0, 0, 0.0, 0.0, []
     for run_id, frame in samples.groupby(RUN, sort=False):
         frame = frame.reset_index(drop=True)
         t = frame[TIME].to_numpy(dtype=float)
@@ -331,6 +332,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         empty += counts["empty_gap"]
         dropped += counts["dropped_gap"]
         tail += counts["window_tail_s"]
+        between += counts["between_windows_s"]
         if len(X) == 0:
             if len(frame) < round(config.window_s * config.rate_hz):
                 short.append(str(run_id))   # no window fits: named, not left out unsaid
@@ -346,7 +348,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     result = pd.concat(out, ignore_index=True) if out else pd.DataFrame(columns=columns)
     result = result[columns]
     result.attrs.update(dropped_windows=dropped, empty_windows=empty, window_tail_s=tail,
-                        short_runs=short)
+                        between_windows_s=between, short_runs=short)
     return result
 
 

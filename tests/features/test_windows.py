@@ -126,6 +126,33 @@ def test_the_run_tail_after_the_last_window_is_counted_with_and_without_partitio
             "t/ICE/01") in report
 
 
+def test_the_time_between_windows_of_a_hop_longer_than_the_window_is_counted(make_run):
+    # `terrain cv --window-s 2 --hop-s 5` cut a window every 5 s and left the 3 s between
+    # two windows out of every count: only the tail after the last window was reported
+    runs = [make_run(_streams(duration_s=21.0), "t/ICE/00", "ICE")]
+    sparse = make_windows(runs, "all", WindowConfig(window_s=2.0, hop_s=5.0, rate_hz=50.0))
+    c = sparse.counts["per_run"]["t/ICE/00"]
+    # 1051 grid points: windows at 0, 250, 500, 750, 1000 (100 samples each, the last ends at
+    # 1100 > 1051: so four), 150 samples between each pair, 1051 - 850 = 201 after the last
+    assert len(sparse) == 4
+    assert c["between_windows_s"] == pytest.approx(3 * 3.0)
+    assert c["window_tail_s"] == pytest.approx(4.02)
+    # every sample is in a window, between two, or after the last
+    assert (len(sparse) * 2.0 + c["between_windows_s"] + c["window_tail_s"]
+            == pytest.approx(c["aligned_s"]))
+    assert sparse.counts["between_windows_s"] == pytest.approx(9.0)
+    report = input_report(runs, sparse.counts, 2.0)
+    assert ("not windowed: 9.0 s between windows (a hop longer than the window) in t/ICE/00"
+            in report.text())
+    assert report.metrics()["input_between_windows_s"] == pytest.approx(9.0)
+    # overlapping or touching windows leave nothing between them
+    for hop_s in (None, 1.0, 2.0):
+        dense = make_windows(runs, "all", WindowConfig(window_s=2.0, hop_s=hop_s,
+                                                       rate_hz=50.0))
+        assert dense.counts["between_windows_s"] == 0.0
+        assert "between windows" not in input_report(runs, dense.counts, 2.0).text()
+
+
 def test_steady_only_drops_windows_with_speed_changes(make_run):
     # steady 0.5 m/s until 10 s, then a 1 Hz +-0.4 m/s oscillation
     vel = (lambda t: np.where(t < 10.0, 0.5, 0.5 + 0.4 * np.sin(2 * np.pi * (t - 10.0))))

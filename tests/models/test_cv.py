@@ -558,3 +558,15 @@ def test_cv_notes_the_run_tails_not_windowed(vulpi_runs):
     assert note == "not windowed: 232.1 s of run tails after the last full window in 15 run(s)"
     assert note in res.report.notes and note in res.input_notes
     assert not any("last full partition" in n for n in res.report.notes)
+
+
+def test_cv_notes_the_time_between_windows_of_a_long_hop(vulpi_runs):
+    # `terrain cv --window-s 2 --hop-s 10` leaves 8 s between two windows out of every count
+    res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), window_s=2.0,
+                                  hop_s=10.0, seeds=(0,)), vulpi_runs)
+    between = res.counts["between_windows_s"]
+    assert between == pytest.approx(448.0)     # 8 s between each pair of a run's windows
+    # (one of the 15 runs holds a single window, so nothing between two)
+    note = ("not windowed: 448.0 s between windows (a hop longer than the window) in 14 "
+            "run(s)")
+    assert note in res.report.notes and note in res.input_notes

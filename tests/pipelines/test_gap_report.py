@@ -171,3 +171,15 @@ def test_served_model_counts_the_run_tail_after_its_last_window():
     out = predict_windows(_Constant(), _samples(t), ["vel_l", "vel_r", "cur_l", "cur_r"],
                           WindowConfig(window_s=2.0, rate_hz=10.0), CLASSES)
     assert len(out) == 3 and out.attrs["window_tail_s"] == pytest.approx(0.5)
+
+
+def test_served_model_counts_the_time_between_windows_of_a_long_hop():
+    # 10 s at 10 Hz in 2 s windows every 3 s: windows at 0, 3, 6 s (the next would end at
+    # 11 s), 1 s between each pair and 2 s after the last; the 2 s between them were in no
+    # count of terrain predict's input report
+    t = np.round(np.arange(0.0, 10.0, 0.1), 6)
+    out = predict_windows(_Constant(), _samples(t), ["vel_l", "vel_r", "cur_l", "cur_r"],
+                          WindowConfig(window_s=2.0, hop_s=3.0, rate_hz=10.0), CLASSES)
+    assert len(out) == 3
+    assert out.attrs["between_windows_s"] == pytest.approx(2.0)
+    assert out.attrs["window_tail_s"] == pytest.approx(2.0)
