@@ -217,14 +217,20 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``index``: the folder holds runs 00-99), a stream name the readers
         would not read back (``meta`` included, and ``pro``: ``pro_XX.csv`` is read back as
         ``wheels``) or two streams that go to one file
-        (:func:`to_file_frames`), or a terrain that is not a folder name (``A/B``, ``..``);
-        nothing is written then.
+        (:func:`to_file_frames`), a terrain that is not a folder name (``A/B``, ``..``) or
+        not in upper case (the readers upper-case the folder name: ``snow`` is read back as
+        ``SNOW``); nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
         # 'A/B' wrote a folder the readers never look in (they take <root>/<TERRAIN>/)
         raise ConfigError(f"terrain {terrain!r} is not a folder name: the run would be "
                           f"written where the readers never look")
+    if terrain != terrain.upper():
+        # the readers take the label from the folder name, upper-cased: 'snow' came back SNOW
+        raise ConfigError(f"terrain {terrain!r} would be read back as {terrain.upper()!r} "
+                          f"(the readers upper-case the folder name); give the label in "
+                          f"upper case")
     frames = to_file_frames(run)
     # the readers take <kind>_XX.csv with that kind only, as the stream STREAM_NAMES gives
     # it (pro_XX.csv: 'wheels', so a stream named 'pro' came back as 'wheels'); meta_XX is

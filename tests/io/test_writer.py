@@ -63,7 +63,10 @@ def test_the_run_vehicle_is_written_not_a_stale_one_of_its_meta(tmp_path):
 
 @pytest.mark.parametrize("terrain, stream, words", [
     ("A/B", None, "is not a folder name"), ("..", None, "is not a folder name"),
-    ("ASPHALT", "meta", "not 'meta'")])
+    ("ASPHALT", "meta", "not 'meta'"),
+    # a lower-case label: the readers upper-case the folder name, so 'snow' came back SNOW
+    ("snow", None, "would be read back as 'SNOW'"),
+    ("Sandy_Loam", None, "would be read back as 'SANDY_LOAM'")])
 def test_what_would_not_read_back_is_refused_before_anything_is_written(
         tmp_path, terrain, stream, words):
     # a stream 'meta' became meta_00.csv, shadowed by meta_00.json when read back: the
