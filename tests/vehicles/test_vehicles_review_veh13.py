@@ -1,0 +1,78 @@
+"""Review veh13 (vehicles): hand mutants that survived every test of tests/vehicles, and the
+shapes the swerve kinematics and Endo's ratio accept."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.vehicles import (AGRIMARO, HUSKY, TRACKED, AgriMaRoParams, get_vehicle,
+                              swerve_forward, swerve_inverse)
+from terrain.vehicles.icr import inverse_icr_factor
+
+
+@pytest.mark.parametrize("name, steered, motors", [
+    ("agrimaro", True, ("1", "2", "3")),       # three steered swerve units (seed 001)
+    ("husky", False, ("left", "right")),        # fixed wheels along x
+    ("tracked", False, ("left", "right")),
+])
+def test_only_the_swerve_drive_has_steered_contacts(name, steered, motors):
+    # mutants steered=False on AgriMaRo / steered=True on the Husky survived
+    g = get_vehicle(name).contact_geometry()
+    assert g.steered is steered
+    assert g.motor_names == motors and g.n_motors == len(motors)
+
+
+@pytest.mark.parametrize("vehicle, radius", [(HUSKY, 0.1651), (TRACKED, 0.05),
+                                             (AGRIMARO, 0.165)],
+                         ids=["husky", "tracked", "agrimaro"])
+def test_the_contact_geometry_rolls_on_the_vehicle_wheel_radius(vehicle, radius):
+    # the tracked vehicle rolls on its 0.05 m sprocket (mutant: its 0.15 m track width)
+    assert vehicle.wheel_radius_m == pytest.approx(radius, rel=1e-12)
+    assert vehicle.contact_geometry().wheel_radius_m == pytest.approx(radius, rel=1e-12)
+
+
+@pytest.mark.parametrize("vehicle, top_speed_m_s", [(HUSKY, 1.0), (TRACKED, 0.5),
+                                                    (AGRIMARO, 1.6)],
+                         ids=["husky", "tracked", "agrimaro"])
+def test_the_wheel_speed_limit_is_the_documented_top_speed_at_the_rim(vehicle, top_speed_m_s):
+    # Husky 1.0 m/s (datasheet), tracked 0.5 m/s and AgriMaRo 1.6 m/s (MotorParams.source):
+    # omega_max r; 1 / 0.165 for the Husky (a 0.3 % faster robot) survived
+    motor = vehicle.motor
+    assert motor.max_wheel_speed_rad_s * vehicle.wheel_radius_m == pytest.approx(
+        top_speed_m_s, rel=1e-12)
+
+
+def test_get_vehicle_is_case_insensitive():
+    # the docstring says case-insensitive; dropping .lower() survived
+    assert get_vehicle("Husky") is HUSKY
+    assert get_vehicle("AGRIMARO") is AGRIMARO
+    assert get_vehicle("Tracked") is TRACKED
+
+
+def test_swerve_wheels_on_one_line_are_a_valid_geometry():
+    # two distinct steering axes fix the rigid-body twist (eq. 2.4): three units on the line
+    # x = 0 are accepted and their kinematics round trip (mutant: every coordinate had to
+    # vary, which refused this vehicle)
+    on_a_line = AgriMaRoParams(wheel_positions_m=((0.0, 0.5), (0.0, -0.5), (0.0, 0.0)))
+    twists = np.array([[0.4, 0.8, -0.2], [-0.3, 0.0, 0.5]])
+    delta, omega = swerve_inverse(twists, on_a_line)
+    np.testing.assert_allclose(swerve_forward(delta, omega, on_a_line), twists, atol=1e-12)
+
+
+def test_swerve_inverse_accepts_a_zero_minimum_speed():
+    # min_speed_m_s is ">= 0": 0 = no unit keeps its angle (mutant: 0 refused); a unit
+    # exactly on the instantaneous centre of rotation has speed 0 and a wheel at rest
+    x, y = AGRIMARO.positions[2]
+    twist = np.array([0.5, 0.5 * y, -0.5 * x])         # unit 3 on the ICR
+    prev = np.array([0.3, -0.2, 1.0])
+    delta, omega = swerve_inverse(twist, delta_prev_rad=prev, min_speed_m_s=0.0)
+    assert omega[2] == 0.0
+    np.testing.assert_allclose(swerve_forward(delta, omega), twist, atol=1e-12)
+
+
+def test_inverse_icr_factor_of_one_window_is_a_python_float():
+    # "ndarray, shape (...), or float": one window gives a float, not a 0-d array
+    x = np.linspace(-0.5, 0.5, 11)
+    a = inverse_icr_factor(x / 1.5, x)
+    assert type(a) is float and a == pytest.approx(1 / 1.5)
