@@ -269,9 +269,21 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
     -------
     ndarray, shape (..., n_wheels, 2)
         ``(x_dot_i, y_dot_i)`` in the body frame, m/s.
+
+    Raises
+    ------
+    ShapeError
+        ``positions_m`` not of shape (n_wheels, 2) or ``twist`` not of shape (..., 3) (a
+        fourth twist entry or a z coordinate was dropped without a word).
     """
     p = np.asarray(positions_m, dtype=float)
     tw = np.asarray(twist, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ShapeError(f"wheel_contact_velocity: positions_m must have shape (n_wheels, 2), "
+                         f"one (x, y) per wheel, got {p.shape}")
+    if tw.ndim == 0 or tw.shape[-1] != 3:
+        raise ShapeError(f"wheel_contact_velocity: twist must have shape (..., 3), "
+                         f"[yaw_rate, v_x, v_y], got {tw.shape}")
     vx, vy = point_velocity(tw[..., 1:2], tw[..., 2:3], tw[..., 0:1], p[:, 0], p[:, 1])
     return np.stack([vx, vy], axis=-1)
 
@@ -347,6 +359,8 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     ConfigError
         ``min_speed_m_s`` not a finite number >= 0 (NaN let no standing unit keep its
         angle; booleans refused).
+    ShapeError
+        ``twist`` not of shape (..., 3) (:func:`wheel_contact_velocity`).
     """
     config_positive("swerve_inverse", allow_zero=True, min_speed_m_s=min_speed_m_s)
     vel = wheel_contact_velocity(params.positions, twist)

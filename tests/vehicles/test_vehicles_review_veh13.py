@@ -76,3 +76,27 @@ def test_inverse_icr_factor_of_one_window_is_a_python_float():
     x = np.linspace(-0.5, 0.5, 11)
     a = inverse_icr_factor(x / 1.5, x)
     assert type(a) is float and a == pytest.approx(1 / 1.5)
+
+
+@pytest.mark.parametrize("twist", [np.array([0.0, 1.0, 0.0, 5.0]), np.array([0.0, 1.0]),
+                                   np.zeros((4, 2)), np.float64(1.0)])
+def test_a_twist_that_is_not_yaw_rate_vx_vy_is_a_shape_error(twist):
+    from terrain.errors import ShapeError
+    from terrain.vehicles import wheel_contact_velocity
+
+    # [yaw_rate, v_x, v_y, 5.0] steered every unit straight ahead at 1 m/s (the fourth entry
+    # dropped without a word); two entries gave NumPy's bare "could not be broadcast"
+    with pytest.raises(ShapeError, match="twist"):
+        wheel_contact_velocity(AGRIMARO.positions, twist)
+    with pytest.raises(ShapeError, match="twist"):
+        swerve_inverse(twist)
+
+
+@pytest.mark.parametrize("positions", [np.zeros((3, 3)), np.zeros(3), np.zeros((3, 1))])
+def test_wheel_positions_that_are_not_x_y_pairs_are_a_shape_error(positions):
+    from terrain.errors import ShapeError
+    from terrain.vehicles import wheel_contact_velocity
+
+    # (x, y, z) positions were read as (x, y) with z dropped, a flat array raised IndexError
+    with pytest.raises(ShapeError, match="positions_m"):
+        wheel_contact_velocity(positions, np.array([0.1, 1.0, 0.0]))
