@@ -19,7 +19,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import ConfigError, ShapeError, config_positive
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError, config_positive
 from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
                                      wrap_angle)
 
@@ -326,6 +326,23 @@ def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
     return s_omega @ h_pinv.T
 
 
+def _previous_angles(delta_prev_rad, shape: tuple) -> np.ndarray:
+    """``delta_prev_rad`` of :func:`swerve_inverse` broadcast to ``shape`` (ShapeError when
+    it does not broadcast, NonFiniteInputError naming the count of NaN or inf angles)."""
+    prev = np.asarray(delta_prev_rad, dtype=float)
+    try:
+        prev = np.broadcast_to(prev, shape)
+    except ValueError:
+        raise ShapeError(f"swerve_inverse: delta_prev_rad {prev.shape} must broadcast to the "
+                         f"steering angles {shape}, one per unit") from None
+    bad = ~np.isfinite(prev)
+    if bad.any():
+        raise NonFiniteInputError(f"swerve_inverse: delta_prev_rad holds {int(bad.sum())} "
+                                  f"non-finite angles (first {prev[bad][0]!r}); the solution "
+                                  f"closest to the previous angle is not defined")
+    return prev
+
+
 def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
                    delta_prev_rad: np.ndarray | None = None,
                    min_speed_m_s: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
@@ -360,14 +377,18 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
         ``min_speed_m_s`` not a finite number >= 0 (NaN let no standing unit keep its
         angle; booleans refused).
     ShapeError
-        ``twist`` not of shape (..., 3) (:func:`wheel_contact_velocity`).
+        ``twist`` not of shape (..., 3) (:func:`wheel_contact_velocity`), or
+        ``delta_prev_rad`` that does not broadcast to (..., 3).
+    NonFiniteInputError
+        ``delta_prev_rad`` holds NaN or inf (no solution is closest to it: the unit took
+        the k = 0 angle, a standing unit kept NaN).
     """
     config_positive("swerve_inverse", allow_zero=True, min_speed_m_s=min_speed_m_s)
     vel = wheel_contact_velocity(params.positions, twist)
     speed = np.hypot(vel[..., 0], vel[..., 1])
     delta0 = np.arctan2(vel[..., 1], vel[..., 0])
-    prev = np.zeros_like(delta0) if delta_prev_rad is None else np.broadcast_to(
-        np.asarray(delta_prev_rad, dtype=float), delta0.shape)
+    prev = np.zeros_like(delta0) if delta_prev_rad is None else _previous_angles(
+        delta_prev_rad, delta0.shape)
     delta1 = delta0 - np.pi * np.sign(delta0 + 1e-300)        # the k = 1 (flipped) solution
     use_flip = np.abs(wrap_angle(delta1 - prev)) < np.abs(wrap_angle(delta0 - prev))
     delta = np.where(use_flip, delta1, delta0)

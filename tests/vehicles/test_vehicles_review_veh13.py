@@ -100,3 +100,28 @@ def test_wheel_positions_that_are_not_x_y_pairs_are_a_shape_error(positions):
     # (x, y, z) positions were read as (x, y) with z dropped, a flat array raised IndexError
     with pytest.raises(ShapeError, match="positions_m"):
         wheel_contact_velocity(positions, np.array([0.1, 1.0, 0.0]))
+
+
+def test_previous_steering_angles_of_another_shape_are_a_shape_error():
+    from terrain.errors import ShapeError
+
+    # two previous angles for three units raised NumPy's bare broadcast ValueError
+    with pytest.raises(ShapeError, match="delta_prev_rad"):
+        swerve_inverse(np.zeros((5, 3)), delta_prev_rad=np.zeros(2))
+    # one angle for every unit still broadcasts
+    delta, _ = swerve_inverse(np.zeros((5, 3)), delta_prev_rad=0.4)
+    np.testing.assert_array_equal(delta, 0.4)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
+def test_a_non_finite_previous_steering_angle_is_refused(bad):
+    from terrain.errors import NonFiniteInputError
+
+    # "the solution closest to delta_prev_rad": with NaN neither is closer, so the unit took
+    # the k = 0 angle whatever it steered before, and a standing unit kept NaN as its
+    # angle; inf did the same with a RuntimeWarning
+    prev = np.array([3.0, bad, 3.0])
+    with pytest.raises(NonFiniteInputError, match=r"delta_prev_rad.*1 "):
+        swerve_inverse(np.array([0.0, 1.0, 0.0]), delta_prev_rad=prev)
+    with pytest.raises(NonFiniteInputError, match="delta_prev_rad"):
+        swerve_inverse(np.zeros(3), delta_prev_rad=prev)
