@@ -167,7 +167,8 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     Returns
     -------
     float
-        ``chi`` (dimensionless); NaN when the recording never turns.
+        ``chi`` (dimensionless); NaN when the recording never turns, or a yaw rate (or a
+        side speed of a turning sample) is NaN: an unknown chi.
 
     Raises
     ------
@@ -189,6 +190,8 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     left, right = np.asarray(v_left_m_s, dtype=float), np.asarray(v_right_m_s, dtype=float)
     _same_shape(v_left_m_s=left, v_right_m_s=right, yaw_rate_rad_s=w)
     d = right - left
+    if np.isnan(w).any():       # |NaN| > threshold is False: the sample was dropped unseen
+        return float("nan")
     turning = np.abs(w) > min_yaw_rate_rad_s
     if not turning.any():
         return float("nan")

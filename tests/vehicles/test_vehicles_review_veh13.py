@@ -125,3 +125,20 @@ def test_a_non_finite_previous_steering_angle_is_refused(bad):
         swerve_inverse(np.array([0.0, 1.0, 0.0]), delta_prev_rad=prev)
     with pytest.raises(NonFiniteInputError, match="delta_prev_rad"):
         swerve_inverse(np.zeros(3), delta_prev_rad=prev)
+
+
+def test_chi_from_truth_of_a_recording_with_a_missing_yaw_rate_is_unknown():
+    from terrain.vehicles.icr import chi_from_truth
+
+    # a NaN side speed gave NaN, but a NaN yaw rate was dropped with the slow samples
+    # (|NaN| > 0.1 is False): chi 1.5 from the rest, as if the recording were complete
+    track, chi = 0.5, 1.5
+    w = np.array([0.5, -0.4, 0.8, 0.6])
+    left, right = -0.5 * chi * track * w, 0.5 * chi * track * w
+    assert chi_from_truth(left, right, w, track) == pytest.approx(chi, rel=1e-12)
+    w_gap = w.copy()
+    w_gap[2] = np.nan
+    assert np.isnan(chi_from_truth(left, right, w_gap, track))
+    right_gap = right.copy()
+    right_gap[2] = np.nan
+    assert np.isnan(chi_from_truth(left, right_gap, w, track))
