@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import EstimationError, config_positive
+from terrain.errors import EstimationError, ShapeError, config_positive
 from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
 
 
@@ -234,6 +234,18 @@ class TrackedParams:
 TRACKED = TrackedParams()
 
 
+def _broadcast(owner: str, **arrays: np.ndarray) -> list[np.ndarray]:
+    """The arrays as floats broadcast to one shape (a single number stands for every
+    sample); :class:`~terrain.errors.ShapeError` naming every shape when they do not
+    broadcast (NumPy's bare ValueError before)."""
+    values = [np.asarray(a, dtype=float) for a in arrays.values()]
+    try:
+        return np.broadcast_arrays(*values)
+    except ValueError:
+        raise ShapeError(f"{owner}: arrays of shapes that do not broadcast: " + ", ".join(
+            f"{name} {v.shape}" for name, v in zip(arrays, values))) from None
+
+
 def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m: float,
                        eta_left: np.ndarray | float = 1.0, eta_right: np.ndarray | float = 1.0,
                        chi: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -263,10 +275,14 @@ def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m:
     ConfigError
         ``track_m`` or ``chi`` not a finite number > 0 (0 gave an infinite yaw rate, a
         negative one a yaw rate of the wrong sign; booleans refused).
+    ShapeError
+        Speeds and efficiencies of shapes that do not broadcast (a single number stands for
+        every sample).
     """
     config_positive("skid_steer_forward", track_m=track_m, chi=chi)
-    return body_rates(np.asarray(eta_left) * np.asarray(v_left_m_s, dtype=float),
-                      np.asarray(eta_right) * np.asarray(v_right_m_s, dtype=float), track_m, chi)
+    vl, vr, el, er = _broadcast("skid_steer_forward", v_left_m_s=v_left_m_s,
+                                v_right_m_s=v_right_m_s, eta_left=eta_left, eta_right=eta_right)
+    return body_rates(el * vl, er * vr, track_m, chi)
 
 
 @register_jitable
@@ -318,10 +334,12 @@ def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: f
     ConfigError
         ``track_m`` or ``chi`` not a finite number > 0 (a negative one swapped the inner and
         outer side; booleans refused).
+    ShapeError
+        ``v_m_s`` and ``yaw_rate_rad_s`` of shapes that do not broadcast.
     """
     config_positive("skid_steer_inverse", track_m=track_m, chi=chi)
-    return side_speeds(np.asarray(v_m_s, dtype=float), np.asarray(yaw_rate_rad_s, dtype=float),
-                       track_m, chi)
+    v, w = _broadcast("skid_steer_inverse", v_m_s=v_m_s, yaw_rate_rad_s=yaw_rate_rad_s)
+    return side_speeds(v, w, track_m, chi)
 
 
 @register_jitable
@@ -364,11 +382,15 @@ def skid_steer_pose_rates(yaw_rad: np.ndarray, v_m_s: np.ndarray,
     -------
     ndarray, shape (n, 3)
         ``(x_dot, y_dot, yaw_dot)`` in the world frame, m/s and rad/s.
+
+    Raises
+    ------
+    ShapeError
+        Arrays of shapes that do not broadcast (a single number stands for every sample).
     """
-    yaw = np.asarray(yaw_rad, dtype=float)
-    v = np.asarray(v_m_s, dtype=float)
-    return np.stack([v * np.cos(yaw), v * np.sin(yaw),
-                     np.broadcast_to(yaw_rate_rad_s, v.shape)], axis=-1)
+    yaw, v, w = _broadcast("skid_steer_pose_rates", yaw_rad=yaw_rad, v_m_s=v_m_s,
+                           yaw_rate_rad_s=yaw_rate_rad_s)
+    return np.stack([v * np.cos(yaw), v * np.sin(yaw), w], axis=-1)
 
 
 def endo_slip_ratio_ratio(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
@@ -396,10 +418,11 @@ def endo_slip_ratio_ratio(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
         RuntimeWarning), naming its index.
     ConfigError
         ``n`` not a finite number >= 0 (NaN, a boolean, a negative exponent).
+    ShapeError
+        The two speeds of shapes that do not broadcast.
     """
     config_positive("endo_slip_ratio_ratio", allow_zero=True, n=n)
-    vl = np.asarray(v_left_m_s, dtype=float)
-    vr = np.asarray(v_right_m_s, dtype=float)
+    vl, vr = _broadcast("endo_slip_ratio_ratio", v_left_m_s=v_left_m_s, v_right_m_s=v_right_m_s)
     standing = np.flatnonzero(vl == 0.0)
     if standing.size:
         raise EstimationError(f"endo_slip_ratio_ratio: v_left_m_s is 0 at index "

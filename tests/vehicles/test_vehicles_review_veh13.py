@@ -142,3 +142,28 @@ def test_chi_from_truth_of_a_recording_with_a_missing_yaw_rate_is_unknown():
     right_gap = right.copy()
     right_gap[2] = np.nan
     assert np.isnan(chi_from_truth(left, right_gap, w, track))
+
+
+def test_skid_steer_arrays_of_different_lengths_are_a_shape_error():
+    from terrain.errors import ShapeError
+    from terrain.vehicles import (endo_slip_ratio_ratio, skid_steer_forward, skid_steer_inverse,
+                                  skid_steer_pose_rates)
+
+    # each raised NumPy's bare "operands could not be broadcast" (or np.stack's "all input
+    # arrays must have the same shape") ValueError
+    three, two = np.ones(3), np.ones(2)
+    with pytest.raises(ShapeError, match=r"v_left_m_s \(3,\).*v_right_m_s \(2,\)"):
+        skid_steer_forward(three, two, 0.5)
+    with pytest.raises(ShapeError, match=r"eta_right \(2,\)"):
+        skid_steer_forward(three, three, 0.5, eta_right=two)
+    with pytest.raises(ShapeError, match=r"yaw_rate_rad_s \(2,\)"):
+        skid_steer_inverse(three, two, 0.5)
+    with pytest.raises(ShapeError, match=r"v_right_m_s \(2,\)"):
+        endo_slip_ratio_ratio(three, two)
+    with pytest.raises(ShapeError, match=r"v_m_s \(2,\)"):
+        skid_steer_pose_rates(three, two, three)
+    # a single number still stands for every sample
+    v, r = skid_steer_forward(three, 2.0, 0.5, eta_left=0.9)
+    np.testing.assert_allclose(r, (2.0 - 0.9) / 0.5)
+    rates = skid_steer_pose_rates(np.array([0.0, np.pi / 2]), 1.0, 0.3)
+    np.testing.assert_allclose(rates, [[1.0, 0.0, 0.3], [0.0, 1.0, 0.3]], atol=1e-15)
