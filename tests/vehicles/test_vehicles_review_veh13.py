@@ -167,3 +167,70 @@ def test_skid_steer_arrays_of_different_lengths_are_a_shape_error():
     np.testing.assert_allclose(r, (2.0 - 0.9) / 0.5)
     rates = skid_steer_pose_rates(np.array([0.0, np.pi / 2]), 1.0, 0.3)
     np.testing.assert_allclose(rates, [[1.0, 0.0, 0.3], [0.0, 1.0, 0.3]], atol=1e-15)
+
+
+# the rules each __post_init__ documents: finite and > 0, finite and >= 0, integer >= 1
+_RULES = {
+    "HuskyParams": (HUSKY, ("track_m", "wheelbase_m", "wheel_radius_m", "mass_kg",
+                            "yaw_inertia_kg_m2", "contact_length_m", "contact_width_m"),
+                    ("speed_quantum_m_s", "current_quantum_a"), ("wheels_per_motor",)),
+    "TrackedParams": (TRACKED, ("track_m", "track_width_m", "track_length_m", "mass_kg",
+                                "sprocket_radius_m", "yaw_inertia_kg_m2"),
+                      ("cog_height_m", "slip_parameter_n"), ("n_segments", "wheels_per_motor")),
+    "AgriMaRoParams": (AGRIMARO, ("wheel_radius_m", "mass_kg", "yaw_inertia_kg_m2",
+                                  "steering_rate_rad_s", "contact_length_m", "contact_width_m"),
+                       ("steering_dead_band_rad",), ("wheels_per_motor",)),
+    "MotorParams": (HUSKY.motor, ("torque_constant_nm_per_a", "gear_ratio", "efficiency",
+                                  "speed_time_constant_s", "max_wheel_speed_rad_s"),
+                    ("no_load_current_a", "encoder_filter_s", "wheel_inertia_kg_m2"),
+                    ("encoder_counts_per_rev",)),
+}
+_CASES = [(owner, name, value, ok)
+          for owner, (_, positive, non_negative, counts) in _RULES.items()
+          for name, values in ([(f, (0.0, -1.0, float("nan"), float("inf"), True))
+                                for f in positive]
+                               + [(f, (-1.0, float("inf"), False)) for f in non_negative]
+                               + [(f, (0, 2.0, True)) for f in counts])
+          for value, ok in ((v, False) for v in values)]
+_CASES += [(owner, name, 0.0, True) for owner, (_, _, non_negative, _) in _RULES.items()
+           for name in non_negative]
+
+
+@pytest.mark.parametrize("owner, name, value, ok", _CASES,
+                         ids=[f"{o}.{n}={v!r}" for o, n, v, _ in _CASES])
+def test_every_documented_parameter_rule_holds(owner, name, value, ok):
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+
+    # mutants that dropped the Tracked track_m, yaw inertia or CoG height, the Husky contact
+    # width, current quantum or wheels per motor, or AgriMaRo's inertia, patch width or
+    # wheels per motor from their checks survived (a 0 m track divides the yaw rate by 0)
+    base = _RULES[owner][0]
+    if ok:
+        assert getattr(replace(base, **{name: value}), name) == value
+    else:
+        with pytest.raises(ConfigError, match=f"{owner}.{name}"):
+            replace(base, **{name: value})
+
+
+@pytest.mark.parametrize("owner", sorted(_RULES))
+def test_every_number_of_a_parameter_set_has_a_rule(owner):
+    from dataclasses import fields
+
+    # a numeric field added without a check would take NaN, inf or a negative silently
+    base, positive, non_negative, counts = _RULES[owner]
+    numeric = {f.name for f in fields(base) if isinstance(getattr(base, f.name), (int, float))}
+    assert numeric == set(positive) | set(non_negative) | set(counts)
+
+
+@pytest.mark.parametrize("vehicle", [HUSKY, TRACKED, AGRIMARO], ids=["husky", "tracked",
+                                                                     "agrimaro"])
+def test_a_vehicle_without_motor_parameters_is_refused(vehicle):
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+
+    # AgriMaRo's check_motor dropped survived: a dict of motor numbers was accepted
+    with pytest.raises(ConfigError, match=f"{type(vehicle).__name__}.motor"):
+        replace(vehicle, motor={"gear_ratio": 1.0})
