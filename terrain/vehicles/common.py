@@ -172,9 +172,13 @@ class MotorParams:
 
         The back-EMF ``k_t G |omega|`` (SI units: the back-EMF constant equals ``k_t``)
         times the current magnitude: with no winding resistance in this motor law, that is
-        what the drive's duty cycle passes from the bus, ``|omega T| / eta`` plus the
-        no-load loss ``k_t G |omega| I_0``. The bus current times the bus voltage is larger
-        by ``V_bus / (k_t G |omega|)`` (it ignores the duty cycle).
+        what the drive's duty cycle passes from the bus. While the motor drives (torque and
+        speed of one sign) that is ``|omega T| / eta`` plus the no-load loss
+        ``k_t G |omega| I_0 |tanh(omega / 0.05)|``; while it brakes (opposite signs) the two
+        terms of :meth:`current_from_torque` cancel in part, ``k_t G |omega| |I_0
+        tanh(omega / 0.05) + T / (G k_t eta)|``, still counted as drawn (no regeneration).
+        The bus current times the bus voltage is larger by ``V_bus / (k_t G |omega|)`` (it
+        ignores the duty cycle).
 
         Parameters
         ----------

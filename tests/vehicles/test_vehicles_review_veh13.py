@@ -234,3 +234,17 @@ def test_a_vehicle_without_motor_parameters_is_refused(vehicle):
     # AgriMaRo's check_motor dropped survived: a dict of motor numbers was accepted
     with pytest.raises(ConfigError, match=f"{type(vehicle).__name__}.motor"):
         replace(vehicle, motor={"gear_ratio": 1.0})
+
+
+def test_drive_power_while_braking_is_the_back_emf_times_the_partly_cancelled_current():
+    # the docstring said |omega T| / eta plus the no-load loss whatever the signs; braking
+    # at 1 rad/s with -5 N m on the Husky the current is 1 - 5 / (78.71 0.044 0.8) = -0.805 A
+    # and the power k_t G |omega| |I| = 2.79 W, not 5 / 0.8 + 3.46 = 9.71 W
+    m = HUSKY.motor
+    current = m.current_from_torque(-5.0, 1.0)
+    assert current == pytest.approx(np.tanh(20.0) - 5.0 / (78.71 * 0.044 * 0.8), rel=1e-12)
+    assert m.drive_power_w(current, 1.0) == pytest.approx(
+        0.044 * 78.71 * abs(current), rel=1e-12)
+    assert m.drive_power_w(current, 1.0) == pytest.approx(2.79, abs=0.01)
+    assert m.drive_power_w(m.current_from_torque(5.0, 1.0), 1.0) == pytest.approx(
+        5.0 / 0.8 + 0.044 * 78.71 * np.tanh(20.0), rel=1e-12)
