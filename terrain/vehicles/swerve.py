@@ -417,6 +417,11 @@ def camera_to_robot_velocity(v_camera_m_s: np.ndarray, omega_rad_s: np.ndarray,
     -------
     ndarray, shape (..., 3)
         Velocity of the body origin, m/s.
+
+    Raises
+    ------
+    ShapeError
+        As :func:`robot_to_camera_velocity`.
     """
     return robot_to_camera_velocity(v_camera_m_s, -np.asarray(omega_rad_s), lever_arm_m)
 
@@ -440,8 +445,22 @@ def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
     Returns
     -------
     ndarray, shape (..., 3)
+
+    Raises
+    ------
+    ShapeError
+        A velocity or angular velocity not of shape (..., 3) or a lever arm not of shape
+        (3,) (np.cross took two entries as ``(x, y, 0)``).
     """
-    return np.asarray(v_robot_m_s) + np.cross(np.asarray(omega_rad_s), lever_arm_m)
+    v, w, arm = (np.asarray(a, dtype=float) for a in (v_robot_m_s, omega_rad_s, lever_arm_m))
+    for name, a in (("velocity", v), ("omega_rad_s", w)):
+        if a.ndim == 0 or a.shape[-1] != 3:
+            raise ShapeError(f"robot_to_camera_velocity: {name} must have shape (..., 3), "
+                             f"got {a.shape}")
+    if arm.shape != (3,):
+        raise ShapeError(f"robot_to_camera_velocity: lever_arm_m must have shape (3,), got "
+                         f"{arm.shape}")
+    return v + np.cross(w, arm)
 
 
 def t265_tracking_to_robot(vectors: np.ndarray) -> np.ndarray:
@@ -457,5 +476,14 @@ def t265_tracking_to_robot(vectors: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray, shape (..., 3)
+
+    Raises
+    ------
+    ShapeError
+        ``vectors`` not of shape (..., 3) (NumPy's bare matmul ValueError before).
     """
-    return np.asarray(vectors, dtype=float) @ R_ROBOT_FROM_T265_TRACKING.T
+    vec = np.asarray(vectors, dtype=float)
+    if vec.ndim == 0 or vec.shape[-1] != 3:
+        raise ShapeError(f"t265_tracking_to_robot: vectors must have shape (..., 3), got "
+                         f"{vec.shape}")
+    return vec @ R_ROBOT_FROM_T265_TRACKING.T

@@ -248,3 +248,33 @@ def test_drive_power_while_braking_is_the_back_emf_times_the_partly_cancelled_cu
     assert m.drive_power_w(current, 1.0) == pytest.approx(2.79, abs=0.01)
     assert m.drive_power_w(m.current_from_torque(5.0, 1.0), 1.0) == pytest.approx(
         5.0 / 0.8 + 0.044 * 78.71 * np.tanh(20.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("v, omega, arm", [
+    (np.zeros(3), np.array([0.0, 0.0]), np.array(AGRIMARO.camera_lever_arm_m)),
+    (np.zeros(2), np.array([0.0, 0.0, 1.0]), np.array(AGRIMARO.camera_lever_arm_m)),
+    (np.zeros(3), np.array([0.0, 0.0, 1.0]), np.array([0.6685, -0.26875])),
+])
+def test_camera_lever_arm_vectors_must_be_3_vectors(v, omega, arm):
+    import warnings
+
+    from terrain.errors import ShapeError
+    from terrain.vehicles import camera_to_robot_velocity, robot_to_camera_velocity
+
+    # a 2-entry omega or lever arm was taken as (x, y, 0) by np.cross with only NumPy 2's
+    # DeprecationWarning (a planar (0.6685, -0.26875) arm gave the eq. 5.4 answer of a 3-D
+    # one by luck); a 2-entry velocity raised the bare broadcast ValueError
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for f in (robot_to_camera_velocity, camera_to_robot_velocity):
+            with pytest.raises(ShapeError, match=r"\(\.\.\., 3\)|\(3,\)"):
+                f(v, omega, arm)
+
+
+def test_t265_vectors_must_be_3_vectors():
+    from terrain.errors import ShapeError
+    from terrain.vehicles import t265_tracking_to_robot
+
+    # NumPy's bare "matmul: Input operand 1 has a mismatch in its core dimension" before
+    with pytest.raises(ShapeError, match="vectors"):
+        t265_tracking_to_robot(np.zeros(4))
