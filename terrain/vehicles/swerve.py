@@ -98,21 +98,25 @@ class AgriMaRoParams:
     def __post_init__(self) -> None:
         """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
         three finite wheel positions (x, y), not all at one point, a finite 3-vector camera
-        lever arm (numbers, not booleans), radius, mass, inertia, steering rate and patch
-        finite and > 0, dead band finite and >= 0, wheels per motor an integer >= 1,
-        ``motor`` a :class:`MotorParams`."""
+        lever arm (numbers, not booleans or text; both stored as tuples of floats), radius,
+        mass, inertia, steering rate and patch finite and > 0, dead band finite and >= 0,
+        wheels per motor an integer >= 1, ``motor`` a :class:`MotorParams`."""
         for name, shape in (("wheel_positions_m", (3, 2)), ("camera_lever_arm_m", (3,))):
             value = getattr(self, name)
             try:
                 arr = np.asarray(value, dtype=float)
-                # a boolean converts to 1 or 0 (True was a wheel at x = 1 m)
-                flag = any(isinstance(v, (bool, np.bool_))
+                # a boolean converts to 1 or 0 (True was a wheel at x = 1 m), text to its
+                # number (and stayed text in the field)
+                flag = any(isinstance(v, (bool, np.bool_, str, bytes, np.str_, np.bytes_))
                            for v in np.asarray(value, dtype=object).ravel())
             except (TypeError, ValueError):
                 arr, flag = None, False
             if arr is None or flag or arr.shape != shape or not np.isfinite(arr).all():
                 raise ConfigError(f"AgriMaRoParams.{name} must be finite numbers of shape "
-                                  f"{shape} (not booleans), got {value!r:.80}")
+                                  f"{shape} (not booleans or text), got {value!r:.80}")
+            # stored as tuples of floats: arrays made == ambiguous and the hash fail
+            object.__setattr__(self, name, tuple(tuple(r) if isinstance(r, list) else r
+                                                 for r in arr.tolist()))
         if not np.ptp(self.positions, axis=0).any():
             # all steering axes at one point: eq. 2.4 cannot give the yaw rate (H^+ gave 0)
             raise ConfigError(f"AgriMaRoParams.wheel_positions_m must hold at least two "

@@ -278,3 +278,31 @@ def test_t265_vectors_must_be_3_vectors():
     # NumPy's bare "matmul: Input operand 1 has a mismatch in its core dimension" before
     with pytest.raises(ShapeError, match="vectors"):
         t265_tracking_to_robot(np.zeros(4))
+
+
+@pytest.mark.parametrize("field, value", [
+    ("wheel_positions_m", (("-0.5075", "0"), (0.5075, 0.0), (0.0, -0.756))),
+    ("camera_lever_arm_m", ("0.6685", -0.26875, 0.0)),
+    ("camera_lever_arm_m", (b"0.6685", -0.26875, 0.0)),
+])
+def test_agrimaro_geometry_refuses_text_coordinates(field, value):
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+
+    # text was converted by np.asarray(dtype=float) and kept as text in the field (every
+    # scalar parameter refuses text, config_numbers)
+    with pytest.raises(ConfigError, match=field):
+        replace(AGRIMARO, **{field: value})
+
+
+def test_agrimaro_geometry_given_as_arrays_is_stored_as_tuples():
+    from dataclasses import replace
+
+    # arrays were kept as given: comparing the parameters raised NumPy's "truth value of an
+    # array is ambiguous" and hashing them a TypeError
+    v = replace(AGRIMARO, wheel_positions_m=np.array(AGRIMARO.wheel_positions_m),
+                camera_lever_arm_m=np.array(AGRIMARO.camera_lever_arm_m))
+    assert v == AGRIMARO and hash(v) == hash(AGRIMARO)
+    assert v.wheel_positions_m == AGRIMARO.wheel_positions_m
+    assert isinstance(v.camera_lever_arm_m, tuple)
