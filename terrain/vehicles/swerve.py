@@ -37,11 +37,15 @@ def _agrimaro_motor() -> MotorParams:
         torque_constant_nm_per_a=2.0, gear_ratio=1.0, efficiency=0.85, no_load_current_a=0.6,
         speed_time_constant_s=0.08, max_wheel_speed_rad_s=1.6 / 0.165,
         encoder_filter_s=0.12, encoder_counts_per_rev=90, wheel_inertia_kg_m2=0.12,
-        source=("UuMotor 48 V BLDC hub motor, max torque 60 N m (seed 001 ch. 2.2); direct drive "
-                "(G = 1). ASSUMED: k_t = 2.0 N m/A (60 N m reached at 30 A, a typical 48 V "
-                "hub-motor phase current); I_0 = 0.6 A; speed loop 0.08 s; ODrive Hall-encoder "
+        source=("UuMotor 48 V BLDC hub motor, max torque 60 N m (seed 001 ch. 2.2). ASSUMED "
+                "G = 1: ch. 3.1.1 and 3.3.2 put the hub motor's RPM sensor on the motor shaft "
+                "upstream of a gear reduction whose ratio tau was measured but is not given; "
+                "only the product k_t G enters the current and power laws, so k_t = 2.0 N m/A "
+                "is that product at the wheel (60 N m reached at 30 A, a typical 48 V hub-motor "
+                "phase current); I_0 = 0.6 A; speed loop 0.08 s; ODrive Hall-encoder "
                 "filter 0.12 s, the order of the phase delay of ch. 7.2.2; 90 counts/rev = "
-                "15 pole pairs x 6 Hall states; speed limit 1.6 m/s at the rim (the thesis "
+                "15 pole pairs x 6 Hall states (per motor turn: with the reduction tau the "
+                "wheel's quantum is tau times finer); speed limit 1.6 m/s at the rim (the thesis "
                 "tests run at 1 m/s, ch. 7.2.3). wheel_inertia_kg_m2 0.12 ASSUMED: hub motor "
                 "and 13 in tyre of about 6 kg with a radius of gyration of 0.14 m (wheel radius "
                 "0.165 m)."))
