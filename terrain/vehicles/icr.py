@@ -87,7 +87,7 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     Raises
     ------
     ShapeError
-        The two arrays differ in shape.
+        The two arrays differ in shape, or are single numbers (no sample axis).
     ConfigError
         ``floor_rad_s`` not a finite number >= 0 (text, None or a boolean included).
 
@@ -100,6 +100,9 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     y = np.asarray(yaw_rate_rad_s, dtype=float)
     x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
+    if x.ndim == 0:     # x.shape[-1] of _origin_slope raised a bare IndexError
+        raise ShapeError("inverse_icr_factor: the yaw rates need a sample axis, shape (..., n), "
+                         "got single numbers of shape ()")
     out = _origin_slope(y, x, floor_rad_s)
     return float(out) if np.ndim(out) == 0 else out
 

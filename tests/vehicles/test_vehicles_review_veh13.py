@@ -306,3 +306,13 @@ def test_agrimaro_geometry_given_as_arrays_is_stored_as_tuples():
     assert v == AGRIMARO and hash(v) == hash(AGRIMARO)
     assert v.wheel_positions_m == AGRIMARO.wheel_positions_m
     assert isinstance(v.camera_lever_arm_m, tuple)
+
+
+def test_inverse_icr_factor_of_single_numbers_is_a_shape_error():
+    from terrain.errors import ShapeError
+
+    # 0-d arrays have no sample axis: _origin_slope's x.shape[-1] raised a bare IndexError
+    # ("tuple index out of range")
+    with pytest.raises(ShapeError, match=r"sample axis.*\(\)"):
+        inverse_icr_factor(0.5, 0.4)
+    assert inverse_icr_factor(np.array([0.5]), np.array([0.4])) == pytest.approx(0.5 / 0.4)
