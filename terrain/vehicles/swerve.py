@@ -296,6 +296,14 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
     return np.stack([vx, vy], axis=-1)
 
 
+def _check_swerve(owner: str, params) -> None:
+    """ConfigError unless ``params`` is a swerve drive's :class:`AgriMaRoParams` (a
+    skid-steer's parameters raised AttributeError 'positions')."""
+    if not isinstance(params, AgriMaRoParams):
+        raise ConfigError(f"{owner}: params must be AgriMaRoParams (a swerve drive), got "
+                          f"{type(params).__name__}")
+
+
 def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
                    params: AgriMaRoParams = AGRIMARO) -> np.ndarray:
     """Forward kinematics ``V_b = H^+ S(delta) omega`` (seed 001 eq. 2.4).
@@ -319,7 +327,10 @@ def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
     ShapeError
         ``delta_rad`` and ``omega_rad_s`` of different shapes, or a last axis that is not
         one entry per wheel (NumPy's bare broadcast or matmul ValueError before).
+    ConfigError
+        ``params`` not an :class:`AgriMaRoParams` (a skid-steer's parameters).
     """
+    _check_swerve("swerve_forward", params)
     d = np.asarray(delta_rad, dtype=float)
     w = np.asarray(omega_rad_s, dtype=float)
     n_wheels = len(params.positions)
@@ -383,7 +394,7 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
     ------
     ConfigError
         ``min_speed_m_s`` not a finite number >= 0 (NaN let no standing unit keep its
-        angle; booleans refused).
+        angle; booleans refused), or ``params`` not an :class:`AgriMaRoParams`.
     ShapeError
         ``twist`` not of shape (..., 3) (:func:`wheel_contact_velocity`), or
         ``delta_prev_rad`` that does not broadcast to (..., 3).
@@ -392,6 +403,7 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
         the k = 0 angle, a standing unit kept NaN).
     """
     config_positive("swerve_inverse", allow_zero=True, min_speed_m_s=min_speed_m_s)
+    _check_swerve("swerve_inverse", params)
     vel = wheel_contact_velocity(params.positions, twist)
     speed = np.hypot(vel[..., 0], vel[..., 1])
     delta0 = np.arctan2(vel[..., 1], vel[..., 0])

@@ -316,3 +316,14 @@ def test_inverse_icr_factor_of_single_numbers_is_a_shape_error():
     with pytest.raises(ShapeError, match=r"sample axis.*\(\)"):
         inverse_icr_factor(0.5, 0.4)
     assert inverse_icr_factor(np.array([0.5]), np.array([0.4])) == pytest.approx(0.5 / 0.4)
+
+
+def test_swerve_kinematics_of_a_skid_steer_are_a_config_error():
+    from terrain.errors import ConfigError
+
+    # a vehicle from get_vehicle("husky") raised AttributeError "'HuskyParams' object has
+    # no attribute 'positions'"
+    with pytest.raises(ConfigError, match="swerve_inverse.*AgriMaRoParams.*HuskyParams"):
+        swerve_inverse(np.zeros(3), HUSKY)
+    with pytest.raises(ConfigError, match="swerve_forward.*AgriMaRoParams.*TrackedParams"):
+        swerve_forward(np.zeros(3), np.zeros(3), TRACKED)
