@@ -290,7 +290,11 @@ def measured_table(datasets: Sequence[str] = ("borealtc", "vulpi")) -> pd.DataFr
     Returns
     -------
     pandas.DataFrame
-        One row per case (columns as printed in the report).
+        One row per dataset and terrain: ``runs`` (runs with an IMU), ``runs_turning``
+        (those with a defined EKF chi, i.e. a sample turning faster than 0.15 rad/s: the
+        chi and eta medians are over these only), the medians of ``chi_ekf, chi_observer,
+        eta_R, eta_L`` and, over every run, of ``gyro_bias`` (rad/s) and
+        ``turning_fraction``.
     """
     from terrain.io.shipped import load_dataset
     frames = []
@@ -300,7 +304,8 @@ def measured_table(datasets: Sequence[str] = ("borealtc", "vulpi")) -> pd.DataFr
         frames.append(summary)
     df = pd.concat(frames, ignore_index=True)
     return (df.groupby(["dataset", "terrain"])
-            .agg(runs=("run_id", "count"), chi_ekf=("chi_ekf", "median"),
+            .agg(runs=("run_id", "count"), runs_turning=("chi_ekf", "count"),
+                 chi_ekf=("chi_ekf", "median"),
                  chi_observer=("chi_observer", "median"), eta_R=("eta_R", "median"),
                  eta_L=("eta_L", "median"), gyro_bias=("gyro_bias", "median"),
                  turning_fraction=("turning_fraction", "median"))

@@ -127,7 +127,7 @@ def test_measured_table_takes_the_median_of_each_terrains_runs(monkeypatch):
                         lambda runs: rows.copy())
     table = estimation_tables.measured_table(("borealtc",))
     assert table.iloc[0].to_dict() == {
-        "dataset": "borealtc", "terrain": "SNOW", "runs": 3, "chi_ekf": 1.1,
+        "dataset": "borealtc", "terrain": "SNOW", "runs": 3, "runs_turning": 3, "chi_ekf": 1.1,
         "chi_observer": 2.0, "eta_R": 0.8, "eta_L": 0.9, "gyro_bias": 0.1,
         "turning_fraction": 0.2}
 
