@@ -8,7 +8,7 @@
   what the "Steady-state slip error per wheel" table sums up: the ``noise`` tuning follows
   the true slip once the drive settles, the ``thesis`` tuning (eqs. 6.9/6.13/6.14) stays
   0.07-0.09 low on grass and gravel (the ch. 4.6 "modelling blindness"); below it the
-  ``noise`` tuning's NIS per degree of freedom in 1 s bins (seed 001 eqs. 4.15-4.16);
+  ``noise`` tuning's NIS per degree of freedom in 1 s bins (seed 001 eqs. 4.14, 4.16);
 * ``sim``, ``straight_line``: the simulated true slip of the same scenario against the
   thesis's measured steady range and peak
   (:data:`pipelines.validation.sim_tables.THESIS_STRAIGHT_LINE`).
@@ -62,9 +62,10 @@ def slip_tracking(terrains: Sequence[str] = THESIS_TERRAINS, seed: int = 1,
     -------
     pandas.DataFrame
         One row per terrain, tuning and EKF step: ``terrain, tuning, t_s`` (s),
-        ``slip_true, slip_est`` (SAE slip of wheel 1, dimensionless; the estimate NaN in
-        the dead band below 0.05 m/s), ``nis`` (NaN where no row was accepted), ``dof``
-        and ``seed``.
+        ``slip_true, slip_est`` (SAE slip of wheel 1, dimensionless; the estimate 0 by the
+        thesis's convention in the 0.05 m/s dead band, ch. 7.2.1, and NaN on a step past
+        the last wheel sample), ``nis`` (NaN where no row was accepted), ``dof`` and
+        ``seed``.
     """
     frames = []
     for terrain in terrains:
@@ -84,7 +85,7 @@ def binned_nis(t_s: np.ndarray, nis: np.ndarray, dof: np.ndarray, bin_s: float =
     """NIS per degree of freedom over bins of ``bin_s``, with its chi-square interval.
 
     The NIS summed over a bin is chi-square with the summed degrees of freedom when the
-    filter is consistent and the steps independent (seed 001 eqs. 4.15-4.16); divided by
+    filter is consistent and the steps independent (seed 001 eqs. 4.14, 4.16); divided by
     them its expected value is 1. Successive steps of a filter are correlated, so the
     interval is narrower than the true one: it reads as a scale, not as a test (the report's
     consistency table holds the test with the effective sample size).

@@ -25,9 +25,9 @@ STRAIGHT_CHI = 1.55
 #: The thesis's measured straight-line slip per terrain (seed ``001_59da564c4b2d6a48.txt``
 #: ch. 7.2.3, figs. 7.2-7.4; AgriMaRo, 1 m/s^2 to 1 m/s): ``(steady_lo, steady_hi, peak)``,
 #: dimensionless SAE slip. Tiles: steady "a maximum of 0.01 from zero", peak 0.16; grass:
-#: steady 11.6-13.5 %; gravel (firm soil with loose gravel): 12.2-14.6 %. The grass and
-#: gravel peaks (0.339, 0.475) are read off figs. 7.3-7.4, as in the catalogue's calibration
-#: (:mod:`terrain.terramechanics.catalogue`).
+#: steady 11.6-13.5 %, peak 33.9 %; gravel (firm soil with loose gravel): 12.2-14.6 %, peak
+#: 47.5 % (each stated in the text beside its figure; the catalogue's calibration,
+#: :mod:`terrain.terramechanics.catalogue`, takes the same peaks).
 THESIS_STRAIGHT_LINE: Mapping[str, tuple[float, float, float]] = MappingProxyType({
     "TILES": (-0.01, 0.01, 0.16), "GRASS": (0.116, 0.135, 0.339),
     "GRAVEL": (0.122, 0.146, 0.475)})

@@ -26,3 +26,25 @@ def test_measured_table_counts_the_runs_its_turning_medians_are_over(monkeypatch
     assert row["chi_ekf"] == pytest.approx(0.3) and row["eta_L"] == pytest.approx(1.0)
     assert row["gyro_bias"] == pytest.approx(0.1)       # over every run
     assert row["turning_fraction"] == pytest.approx(0.1)
+
+
+def test_thesis_straight_line_figures_are_the_seeds():
+    # seed 001 ch. 7.2.3: tiles "a maximum of 0.01 from zero", peak 0.16; grass 11.6-13.5 %,
+    # peak 33.9 %; firm soil with loose gravel 12.2-14.6 %, peak 47.5 % (the table prints
+    # them beside the simulated slip, the figure draws them)
+    from pipelines.validation.sim_tables import THESIS_STRAIGHT_LINE
+
+    assert dict(THESIS_STRAIGHT_LINE) == {"TILES": (-0.01, 0.01, 0.16),
+                                          "GRASS": (0.116, 0.135, 0.339),
+                                          "GRAVEL": (0.122, 0.146, 0.475)}
+
+
+def test_slip_tracking_estimate_is_zero_in_the_dead_band_not_nan():
+    # the robot starts from rest: both speeds below 0.05 m/s, the slip is 0 by the thesis's
+    # convention (ch. 7.2.1); NaN only where no wheel sample covers the step (the last one)
+    from pipelines.validation.figures import slip_tracking
+
+    frame = slip_tracking(("GRASS",), seed=1, duration_s=1.0)
+    noise = frame[frame["tuning"] == "noise"]
+    assert noise["slip_est"].iloc[0] == 0.0
+    assert noise["slip_est"].iloc[:-1].notna().all()
