@@ -48,3 +48,31 @@ def test_slip_tracking_estimate_is_zero_in_the_dead_band_not_nan():
     noise = frame[frame["tuning"] == "noise"]
     assert noise["slip_est"].iloc[0] == 0.0
     assert noise["slip_est"].iloc[:-1].notna().all()
+
+
+def test_consistency_rmse_is_taken_over_the_evaluated_interval_only(monkeypatch):
+    # t_min_s is the start of the evaluated interval: the velocity RMSE, like the NEES,
+    # leaves out the steps before it (an error of 10 m/s at t = 0 s must not enter)
+    from types import SimpleNamespace
+
+    from pipelines.validation import harness
+    from terrain.estimation.agrimaro import STATE_NAMES
+
+    t = np.arange(4.0)
+    j = STATE_NAMES.index("v_bx")
+
+    def estimate(run, settings, store_covariance=False):
+        x = np.zeros((4, 12))
+        x[:, j] = [10.0, 0.1, -0.1, 0.1]
+        return SimpleNamespace(t_s=t, x=x, P=None, nis=np.ones(4), dof=np.ones(4))
+
+    monkeypatch.setattr(harness, "simulate_agrimaro",
+                        lambda terrain, seed, *a: SimpleNamespace(run=seed))
+    monkeypatch.setattr(harness, "estimate_agrimaro", estimate)
+    monkeypatch.setattr(harness, "agrimaro_truth_states",
+                        lambda result, grid: np.zeros((len(grid), 12)))
+    monkeypatch.setattr(harness, "nees", lambda e, P: np.full(len(e), 12.0))
+    row = harness.agrimaro_consistency("GRASS", seeds=[0, 1], t_min_s=1.0,
+                                       settings_fn=lambda run: None)
+    assert row.rmse["v_bx"] == pytest.approx(0.1)
+    assert row.rmse["v_by"] == 0.0
