@@ -76,3 +76,78 @@ def test_consistency_rmse_is_taken_over_the_evaluated_interval_only(monkeypatch)
                                        settings_fn=lambda run: None)
     assert row.rmse["v_bx"] == pytest.approx(0.1)
     assert row.rmse["v_by"] == 0.0
+
+
+@pytest.fixture(scope="module")
+def husky_run():
+    from pipelines.validation.harness import simulate_husky
+
+    return simulate_husky("ASPHALT", 1, 30.0, "random")
+
+
+def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, monkeypatch):
+    # the observer's eta error planted as 0, 1/n, ... over the run's steps (its left side):
+    # *_err is their median over the steady turns, *_p90 their 90th percentile, and chi_true
+    # the median of the true local ICR factor (v_R - v_L) / (B r) over the same samples
+    import pipelines.validation.harness as harness
+    from terrain.run import TIME
+
+    real_mask, real_observer, real_eta = (harness.steady_turn_mask,
+                                          harness.run_adaptive_observer, harness.eta_from_truth)
+    seen = {}
+
+    def mask(t, yaw_rate, **kwargs):
+        seen["t"], seen["steady"] = t, real_mask(t, yaw_rate, **kwargs)
+        return seen["steady"]
+
+    def observer(*args, **kwargs):
+        seen["obs"] = real_observer(*args, **kwargs)
+        return seen["obs"]
+
+    def eta(*args, **kwargs):
+        truth = real_eta(*args, **kwargs)
+        if "truth" in seen:                       # the EKF's eta: unchanged
+            return truth
+        seen["ramp"] = np.arange(len(truth)) / len(truth)
+        planted = seen["obs"].eta / np.column_stack([np.ones(len(truth)), 1 + seen["ramp"]])
+        seen["truth"] = np.where(np.isfinite(truth), planted, np.nan)
+        return seen["truth"]
+
+    monkeypatch.setattr(harness, "steady_turn_mask", mask)
+    monkeypatch.setattr(harness, "run_adaptive_observer", observer)
+    monkeypatch.setattr(harness, "eta_from_truth", eta)
+    comp = harness.husky_comparison(husky_run)
+    ok = seen["steady"] & np.isfinite(seen["truth"]).all(axis=1)
+    assert ok.sum() > 100
+    assert comp.obs_eta_err == pytest.approx(np.median(seen["ramp"][ok]), rel=1e-9)
+    assert comp.obs_eta_p90 == pytest.approx(np.percentile(seen["ramp"][ok], 90), rel=1e-9)
+    tr = husky_run.run.streams["truth"]
+    at = (lambda col: np.interp(seen["t"], tr[TIME], tr[col]))
+    r = harness.HUSKY.wheel_radius_m
+    chi = (at("omega_2") - at("omega_1")) * r / (harness.HUSKY.track_m * at("yaw_rate"))
+    assert comp.chi_true == pytest.approx(np.median(chi[seen["steady"]]), rel=1e-9)
+
+
+def test_observer_pose_noise_is_the_position_std_on_x_y_and_the_yaw_std_on_yaw(
+        husky_run, monkeypatch):
+    # pose_noise = (position m, yaw rad): a unit draw moves x and y by 0.01 m, yaw by 0.002
+    import pipelines.validation.harness as harness
+    from terrain.run import TIME
+
+    seen = {}
+    real = harness.run_adaptive_observer
+
+    def observer(t, pose, *args, **kwargs):
+        seen["t"], seen["pose"] = t, pose
+        return real(t, pose, *args, **kwargs)
+
+    class Ones:
+        def standard_normal(self, shape):
+            return np.ones(shape)
+
+    monkeypatch.setattr(harness, "run_adaptive_observer", observer)
+    harness.husky_comparison(husky_run, pose_noise=(0.01, 0.002), rng=Ones())
+    tr = husky_run.run.streams["truth"]
+    truth = np.column_stack([np.interp(seen["t"], tr[TIME], tr[c]) for c in ("x", "y", "yaw")])
+    assert seen["pose"] - truth == pytest.approx(
+        np.tile([0.01, 0.01, 0.002], (len(truth), 1)), abs=1e-12)
