@@ -151,3 +151,69 @@ def test_observer_pose_noise_is_the_position_std_on_x_y_and_the_yaw_std_on_yaw(
     truth = np.column_stack([np.interp(seen["t"], tr[TIME], tr[c]) for c in ("x", "y", "yaw")])
     assert seen["pose"] - truth == pytest.approx(
         np.tile([0.01, 0.01, 0.002], (len(truth), 1)), abs=1e-12)
+
+
+def test_slip_state_table_takes_the_steady_error_after_5_s_and_the_nees_per_state(
+        monkeypatch):
+    # docs/estimation_validation.md "Slip inside the state": steady slip error = the worst
+    # wheel's |mean error| after 5 s, ANEES / n with n = 14 states of the ch. 4.3 design
+    from types import SimpleNamespace
+
+    from pipelines.validation import estimation_tables as tables
+    from terrain.estimation.slip_state import STATE_NAMES
+
+    t = np.arange(0.0, 10.5, 0.5)
+    steady = t > 5.0
+    slip_error = np.column_stack([np.where(steady, 0.02, 0.5), np.where(steady, -0.03, 0.4),
+                                  np.zeros_like(t)])
+    x = np.zeros((t.size, 14))
+    x[:, 8:11] = slip_error                   # true slip 0: the estimate is the error
+    x[:, 3] = 0.1                             # v_bx off by 0.1 m/s
+    result = SimpleNamespace(t_s=t, x=x, P=np.broadcast_to(np.eye(14), (t.size, 14, 14)))
+    monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS",))
+    monkeypatch.setattr(tables, "simulate_agrimaro", lambda *a: SimpleNamespace(run=None))
+    monkeypatch.setattr(tables, "data_driven_settings",
+                        lambda run: SimpleNamespace(r_diag=np.full(14, 0.04)))
+    monkeypatch.setattr(tables, "estimate_agrimaro", lambda *a, **k: result)
+    monkeypatch.setattr(tables, "truth_on_grid", lambda res, grid: pd.DataFrame(
+        {name: np.zeros(len(grid)) for name in STATE_NAMES}))
+    monkeypatch.setattr(tables, "estimate_run", lambda run: SimpleNamespace(
+        ekf=SimpleNamespace(t_s=t, state=lambda k: np.zeros_like(t)), slip=slip_error))
+    monkeypatch.setattr(tables, "_slip_errors", lambda res, est: {
+        "steady_err_1": 0.01, "steady_err_2": -0.04, "steady_err_3": 0.0, "rmse": 0.2})
+    table = tables.slip_state_table(seeds=(1,))
+    assert len(table) == 4
+    designs = table.iloc[:3]
+    assert designs["steady_slip_err"].to_numpy() == pytest.approx([0.03] * 3)
+    assert designs["v_bx_rmse"].to_numpy() == pytest.approx([0.1] * 3)
+    assert designs["max_abs_slip"].to_numpy() == pytest.approx([0.5] * 3)
+    nees = (slip_error ** 2).sum(axis=1) + 0.01
+    assert designs["anees_per_state"].to_numpy() == pytest.approx([nees.mean() / 14] * 3)
+    final = table.iloc[3]
+    assert final["steady_slip_err"] == pytest.approx(0.04) and final["slip_rmse"] == 0.2
+    assert np.isnan(final["anees_per_state"])
+
+
+def test_slip_tracking_figure_draws_the_noise_tunings_nis_and_labels_its_units(
+        monkeypatch, tmp_path):
+    # the bottom row is the noise tuning's NIS (TUNINGS[0]); every axis names its quantity,
+    # time in s
+    from pipelines.validation import figures
+    from pipelines.validation.figures import binned_nis
+
+    t = np.arange(0.0, 4.0, 0.1)
+    frame = pd.concat([pd.DataFrame({
+        "terrain": "GRASS", "tuning": tuning, "t_s": t, "slip_true": 0.1,
+        "slip_est": 0.1 + 0.01 * i, "nis": 2.0 * (i + 1), "dof": 4, "seed": 1})
+        for i, tuning in enumerate(figures.TUNINGS)], ignore_index=True)
+    drawn = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path, title: drawn.update(
+        fig=fig, title=title) or path)
+    figures.plot_slip_tracking(frame, tmp_path / "f.png")
+    top, bottom = drawn["fig"].axes[:2]
+    expect = binned_nis(t, np.full(t.size, 2.0), np.full(t.size, 4))["nis_per_dof"]
+    step = [line for line in bottom.get_lines() if line.get_label() == "noise tuning"][0]
+    assert step.get_ydata() == pytest.approx(expect.to_numpy())
+    assert top.get_ylabel() == "slip ratio, wheel 1" and top.get_title() == "GRASS"
+    assert bottom.get_xlabel() == "t (s)" and bottom.get_ylabel().startswith("NIS / dof")
+    assert "seed 1" in drawn["title"]
