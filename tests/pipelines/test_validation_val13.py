@@ -217,3 +217,32 @@ def test_slip_tracking_figure_draws_the_noise_tunings_nis_and_labels_its_units(
     assert top.get_ylabel() == "slip ratio, wheel 1" and top.get_title() == "GRASS"
     assert bottom.get_xlabel() == "t (s)" and bottom.get_ylabel().startswith("NIS / dof")
     assert "seed 1" in drawn["title"]
+
+
+def test_husky_and_coriolis_tables_run_the_cases_the_report_states(monkeypatch):
+    # docs/estimation_validation.md: Husky random 60 s on ASPHALT, FLOORING, ICE and orchard
+    # 120 s on ASPHALT, FLOORING, seeds 3-5; Coriolis: GRASS random 30 s, seeds 1 and 2
+    from types import SimpleNamespace
+
+    from pipelines.validation import estimation_tables as tables
+
+    husky, agrimaro = [], []
+    monkeypatch.setattr(tables, "simulate_husky", lambda terrain, seed, duration, scenario:
+                        husky.append((scenario, duration, terrain, seed)))
+    monkeypatch.setattr(tables, "husky_comparison",
+                        lambda result: SimpleNamespace(as_dict=lambda: {}))
+    table = tables.husky_table()
+    assert husky == [(s, d, t, seed) for s, d, terrains in (
+        ("random", 60.0, ("ASPHALT", "FLOORING", "ICE")),
+        ("orchard", 120.0, ("ASPHALT", "FLOORING"))) for t in terrains for seed in (3, 4, 5)]
+    assert table["scenario"].tolist() == [case[0] for case in husky]
+    monkeypatch.setattr(tables, "simulate_agrimaro", lambda terrain, seed, duration, scenario:
+                        agrimaro.append((terrain, seed, duration, scenario)))
+    monkeypatch.setattr(tables, "coriolis_prediction_error",
+                        lambda result: {"body": 1e-20, "eq6.2": 3e-3})
+    monkeypatch.setattr(tables, "coriolis_filter_rmse", lambda result: {
+        c: {"v_bx": 0.01, "v_by": 0.02, "yaw_rate": 0.005} for c in ("body", "eq6.2")})
+    table = tables.coriolis_table()
+    assert agrimaro == [("GRASS", 1, 30.0, "random"), ("GRASS", 2, 30.0, "random")]
+    assert table["convention"].tolist() == ["body", "eq6.2"] * 2
+    assert table["one_step_err_m_s"].tolist() == [1e-20, 3e-3] * 2
