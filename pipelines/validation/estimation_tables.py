@@ -39,6 +39,12 @@ def _slip_errors(result, est, t_steady_s: float = 5.0, t_transient_s: float = 3.
     return out
 
 
+def _worst_steady_error(err: dict) -> float:
+    """The largest ``|steady_err_i|`` of the three wheels; NaN when a wheel has none (the
+    builtin ``max`` dropped a NaN unless it came first)."""
+    return float(np.max(np.abs([err[f"steady_err_{j}"] for j in (1, 2, 3)])))
+
+
 def steady_slip_table(seeds: Sequence[int] = (1, 2, 3), duration_s: float = 20.0) -> pd.DataFrame:
     """Steady-state slip error per wheel (straight_accel, thesis scenario), per tuning.
 
@@ -187,7 +193,7 @@ def slip_state_table(seeds: Sequence[int] = (1, 2), duration_s: float = 20.0) ->
             tr = truth_on_grid(result, est12.ekf.t_s)
             rows.append({"terrain": terrain, "seed": seed,
                          "design": "12-state (ch. 6.1) + post-hoc slip (ch. 7)",
-                         "steady_slip_err": max(abs(err[f"steady_err_{j}"]) for j in (1, 2, 3)),
+                         "steady_slip_err": _worst_steady_error(err),
                          "slip_rmse": err["rmse"],
                          "v_bx_rmse": rmse(est12.ekf.state("v_bx") - tr["v_bx"], ignore_nan=True),
                          "max_abs_slip": float(np.nanmax(np.abs(est12.slip))),
@@ -220,7 +226,7 @@ def lag_table(lags_s: Sequence[float] = (0.0, 0.1, 0.3), seed: int = 1) -> pd.Da
                 est = estimate_run(run, lag=mode)
                 err = _slip_errors(result, est)
                 row[f"transient_rmse_{mode}"] = err["transient_rmse"]
-                row[f"steady_err_{mode}"] = max(abs(err[f"steady_err_{j}"]) for j in (1, 2, 3))
+                row[f"steady_err_{mode}"] = _worst_steady_error(err)
                 if mode == "xcorr":
                     row["estimated_lag_s"] = est.lag.lag_s if est.lag else float("nan")
             rows.append(row)

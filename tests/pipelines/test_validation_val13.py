@@ -246,3 +246,23 @@ def test_husky_and_coriolis_tables_run_the_cases_the_report_states(monkeypatch):
     assert agrimaro == [("GRASS", 1, 30.0, "random"), ("GRASS", 2, 30.0, "random")]
     assert table["convention"].tolist() == ["body", "eq6.2"] * 2
     assert table["one_step_err_m_s"].tolist() == [1e-20, 3e-3] * 2
+
+
+@pytest.mark.parametrize("position", [0, 1, 2])
+def test_a_wheel_without_a_steady_error_makes_the_worst_wheel_nan(monkeypatch, position):
+    # the lag table's steady_err_<mode> is the worst wheel's |error|: Python's max() kept or
+    # dropped a NaN wheel by its position (NaN first: NaN; NaN second: 0.002, the wheel
+    # left out unsaid)
+    from types import SimpleNamespace
+
+    from pipelines.validation import estimation_tables as tables
+
+    errors = [0.001, 0.002, -0.0015]
+    errors[position] = float("nan")
+    monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS",))
+    monkeypatch.setattr(tables, "simulate_agrimaro", lambda *a, **k: SimpleNamespace(run=None))
+    monkeypatch.setattr(tables, "estimate_run", lambda run, **k: SimpleNamespace(lag=None))
+    monkeypatch.setattr(tables, "_slip_errors", lambda result, est: {
+        "transient_rmse": 0.1, **{f"steady_err_{j + 1}": e for j, e in enumerate(errors)}})
+    row = tables.lag_table(lags_s=(0.0,)).iloc[0]
+    assert np.isnan(row["steady_err_none"]) and np.isnan(row["steady_err_xcorr"])
