@@ -86,9 +86,11 @@ def husky_run():
 
 
 def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, monkeypatch):
-    # the observer's eta error planted as 0, 1/n, ... over the run's steps (its left side):
-    # *_err is their median over the steady turns, *_p90 their 90th percentile, and chi_true
-    # the median of the true local ICR factor (v_R - v_L) / (B r) over the same samples
+    # the observer's eta error planted as 0, 1/n, ... over the run's steps (its left side),
+    # the EKF's as half that on the right and that on the left: *_err is the median of each
+    # sample's worse side over the steady turns, *_p90 the 90th percentile, chi_true the
+    # median of the true local ICR factor (v_R - v_L) / (B r) over the same samples and the
+    # EKF's convergence time that of its own chi error
     import pipelines.validation.harness as harness
     from terrain.run import TIME
 
@@ -106,8 +108,8 @@ def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, 
 
     def eta(*args, **kwargs):
         truth = real_eta(*args, **kwargs)
-        if "truth" in seen:                       # the EKF's eta: unchanged
-            return truth
+        if "truth" in seen:                       # the EKF's eta: off by ramp / 2 and ramp
+            return seen["truth"] * (1 + np.column_stack([seen["ramp"] / 2, seen["ramp"]]))
         seen["ramp"] = np.arange(len(truth)) / len(truth)
         planted = seen["obs"].eta / np.column_stack([np.ones(len(truth)), 1 + seen["ramp"]])
         seen["truth"] = np.where(np.isfinite(truth), planted, np.nan)
@@ -116,16 +118,24 @@ def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, 
     monkeypatch.setattr(harness, "steady_turn_mask", mask)
     monkeypatch.setattr(harness, "run_adaptive_observer", observer)
     monkeypatch.setattr(harness, "eta_from_truth", eta)
+    real_chi = harness.icr_chi
+    monkeypatch.setattr(harness, "icr_chi", lambda ekf: seen.setdefault("chi", real_chi(ekf)))
     comp = harness.husky_comparison(husky_run)
     ok = seen["steady"] & np.isfinite(seen["truth"]).all(axis=1)
     assert ok.sum() > 100
     assert comp.obs_eta_err == pytest.approx(np.median(seen["ramp"][ok]), rel=1e-9)
     assert comp.obs_eta_p90 == pytest.approx(np.percentile(seen["ramp"][ok], 90), rel=1e-9)
+    assert comp.ekf_eta_err == pytest.approx(np.median(seen["ramp"][ok]), rel=1e-9)
     tr = husky_run.run.streams["truth"]
     at = (lambda col: np.interp(seen["t"], tr[TIME], tr[col]))
     r = harness.HUSKY.wheel_radius_m
     chi = (at("omega_2") - at("omega_1")) * r / (harness.HUSKY.track_m * at("yaw_rate"))
-    assert comp.chi_true == pytest.approx(np.median(chi[seen["steady"]]), rel=1e-9)
+    steady = seen["steady"]
+    assert comp.chi_true == pytest.approx(np.median(chi[steady]), rel=1e-9)
+    ekf_err = np.abs(seen["chi"][steady] / chi[steady] - 1.0)
+    assert comp.ekf_chi_err == pytest.approx(np.median(ekf_err), rel=1e-9)
+    assert comp.ekf_chi_conv_s == harness._conv_time(seen["t"][steady], ekf_err)
+    assert comp.ekf_chi_conv_s != comp.obs_chi_conv_s
 
 
 def test_observer_pose_noise_is_the_position_std_on_x_y_and_the_yaw_std_on_yaw(
