@@ -310,3 +310,26 @@ def test_outage_table_runs_the_stated_outage(monkeypatch):
         {"v_bx": 0.0 * grid, "v_by": 0.0 * grid}))
     tables.outage_table()
     assert calls == [(("GRASS", 2, 16.0), {"scenario": "random"}), (8.0, 11.0)]
+
+
+def test_lag_and_default_encoder_tables_plant_and_report_the_lag(monkeypatch):
+    # the lag table plants each wheel_lag on 15 s runs of seed 1; the default-encoder table
+    # reports the cross-correlation estimate (NaN without one)
+    from types import SimpleNamespace
+
+    from pipelines.validation import estimation_tables as tables
+
+    planted, lags = [], iter([SimpleNamespace(lag_s=-0.18), None])
+    monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS",))
+    monkeypatch.setattr(tables, "simulate_agrimaro", lambda terrain, seed, duration, **k:
+                        planted.append((seed, duration, k)) or SimpleNamespace(run=None))
+    monkeypatch.setattr(tables, "estimate_run", lambda run, **k: SimpleNamespace(lag=None))
+    monkeypatch.setattr(tables, "_slip_errors", lambda result, est: {
+        "transient_rmse": 0.1, "steady_err_1": 0.0, "steady_err_2": 0.0, "steady_err_3": 0.0})
+    tables.lag_table(lags_s=(0.0, 0.3))
+    assert [(seed, d, k["effects"].wheel_lag) for seed, d, k in planted] == [
+        (1, 15.0, 0.0), (1, 15.0, 0.3)]
+    monkeypatch.setattr(tables, "estimate_run", lambda run: SimpleNamespace(lag=next(lags)))
+    monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS", "TILES"))
+    table = tables.default_encoder_table()
+    assert table["lag_s"].iloc[0] == -0.18 and np.isnan(table["lag_s"].iloc[1])
