@@ -333,3 +333,27 @@ def test_lag_and_default_encoder_tables_plant_and_report_the_lag(monkeypatch):
     monkeypatch.setattr(tables, "THESIS_TERRAINS", ("GRASS", "TILES"))
     table = tables.default_encoder_table()
     assert table["lag_s"].iloc[0] == -0.18 and np.isnan(table["lag_s"].iloc[1])
+
+
+def test_straight_line_figure_draws_the_thesis_steady_range_and_peak(monkeypatch, tmp_path):
+    # each panel: the thesis's steady range as a band, its peak as a line, the simulated
+    # slip over t in s (THESIS_STRAIGHT_LINE, seed 001 ch. 7.2.3)
+    from pipelines.validation import figures
+
+    t = np.arange(0.0, 8.0, 0.01)
+    monkeypatch.setattr(figures, "straight_line_slip",
+                        lambda terrain, duration_s, seed: (t, np.full(t.size, 0.1)))
+    drawn = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path, title: drawn.update(
+        fig=fig, title=title) or path)
+    figures.plot_straight_line(tmp_path / "f.png")
+    axes = drawn["fig"].axes
+    assert [ax.get_title() for ax in axes] == list(figures.THESIS_STRAIGHT_LINE)
+    for ax, (lo, hi, peak) in zip(axes, figures.THESIS_STRAIGHT_LINE.values()):
+        band, = ax.patches
+        ys = band.get_path().transformed(band.get_patch_transform()).vertices[:, 1]
+        assert (ys.min(), ys.max()) == pytest.approx((lo, hi))
+        peak_line = [line for line in ax.get_lines() if line.get_label() == "thesis peak"]
+        assert peak_line[0].get_ydata()[0] == pytest.approx(peak)
+        assert ax.get_xlabel() == "t (s)"
+    assert axes[0].get_ylabel() == "slip ratio, mean of 3 wheels"
