@@ -125,7 +125,8 @@ def plot_slip_tracking(frame: pd.DataFrame, path: Path, smooth_s: float = 0.5) -
     """Draw :func:`slip_tracking`'s table: slip per terrain (top), NIS of ``noise`` (bottom).
 
     The estimates are drawn as centred moving means over ``smooth_s`` (step by step they
-    carry the encoder quantisation, +-0.05 around the mean, and hide the truth); the NIS as
+    scatter with the filter's velocity estimate, up to about +-0.1 around the mean, and hide
+    the truth; the fine encoder's rim speed is smooth, no quantisation); the NIS as
     :func:`binned_nis`.
 
     Parameters
