@@ -86,11 +86,12 @@ def husky_run():
 
 
 def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, monkeypatch):
-    # the observer's eta error planted as 0, 1/n, ... over the run's steps (its left side),
-    # the EKF's as half that on the right and that on the left: *_err is the median of each
-    # sample's worse side over the steady turns, *_p90 the 90th percentile, chi_true the
-    # median of the true local ICR factor (v_R - v_L) / (B r) over the same samples and the
-    # EKF's convergence time that of its own chi error
+    # the observer's eta error planted as 1, 1 - 1/n, ... over the run's steps (its left
+    # side), the EKF's as half that on the right and that on the left: *_err is the median
+    # of each sample's worse side over the steady turns, *_p90 the 90th percentile, *_conv_s
+    # the time after which it stays below 5 %, chi_true the median of the true local ICR
+    # factor (v_R - v_L) / (B r) over the same samples, and the EKF's convergence time that
+    # of its own chi error
     import pipelines.validation.harness as harness
     from terrain.run import TIME
 
@@ -110,7 +111,7 @@ def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, 
         truth = real_eta(*args, **kwargs)
         if "truth" in seen:                       # the EKF's eta: off by ramp / 2 and ramp
             return seen["truth"] * (1 + np.column_stack([seen["ramp"] / 2, seen["ramp"]]))
-        seen["ramp"] = np.arange(len(truth)) / len(truth)
+        seen["ramp"] = 1.0 - np.arange(len(truth)) / len(truth)
         planted = seen["obs"].eta / np.column_stack([np.ones(len(truth)), 1 + seen["ramp"]])
         seen["truth"] = np.where(np.isfinite(truth), planted, np.nan)
         return seen["truth"]
@@ -126,6 +127,9 @@ def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, 
     assert comp.obs_eta_err == pytest.approx(np.median(seen["ramp"][ok]), rel=1e-9)
     assert comp.obs_eta_p90 == pytest.approx(np.percentile(seen["ramp"][ok], 90), rel=1e-9)
     assert comp.ekf_eta_err == pytest.approx(np.median(seen["ramp"][ok]), rel=1e-9)
+    # the error falls below 5 % in the last 5 % of the run and stays there
+    assert comp.obs_eta_conv_s == harness._conv_time(seen["t"][ok], seen["ramp"][ok])
+    assert 0.9 * seen["t"][-1] < comp.obs_eta_conv_s < seen["t"][-1]
     tr = husky_run.run.streams["truth"]
     at = (lambda col: np.interp(seen["t"], tr[TIME], tr[col]))
     r = harness.HUSKY.wheel_radius_m
