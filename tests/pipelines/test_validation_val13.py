@@ -200,6 +200,8 @@ def test_slip_state_table_takes_the_steady_error_after_5_s_and_the_nees_per_stat
     designs = table.iloc[:3]
     assert designs["steady_slip_err"].to_numpy() == pytest.approx([0.03] * 3)
     assert designs["v_bx_rmse"].to_numpy() == pytest.approx([0.1] * 3)
+    assert designs["slip_rmse"].to_numpy() == pytest.approx(      # over the whole run
+        [np.sqrt(np.mean(slip_error ** 2))] * 3)
     assert designs["max_abs_slip"].to_numpy() == pytest.approx([0.5] * 3)
     nees = (slip_error ** 2).sum(axis=1) + 0.01
     assert designs["anees_per_state"].to_numpy() == pytest.approx([nees.mean() / 14] * 3)
@@ -361,3 +363,39 @@ def test_straight_line_figure_draws_the_thesis_steady_range_and_peak(monkeypatch
         assert peak_line[0].get_ydata()[0] == pytest.approx(peak)
         assert ax.get_xlabel() == "t (s)"
     assert axes[0].get_ylabel() == "slip ratio, mean of 3 wheels"
+
+
+def test_consistency_n_eff_is_the_run_averages_and_every_bound_takes_the_probability(
+        monkeypatch):
+    # n_eff is that of the run-averaged NEES sequence (the ANEES's own), and the probability
+    # asked for sets one step's bounds, the ANEES's and the NIS's alike
+    from types import SimpleNamespace
+
+    from pipelines.validation import harness
+    from terrain.estimation.consistency import chi2_test, mean_chi2_bounds
+
+    t = np.arange(6.0)
+    planted = {0: np.array([3.0, 30.0, 3.0, 30.0, 3.0, 30.0]), 1: np.full(6, 12.0)}
+    nis = {0: np.arange(6.0), 1: np.arange(6.0) + 2.0}
+
+    def estimate(run, settings, store_covariance=False):
+        return SimpleNamespace(t_s=t, x=np.zeros((6, 12)), P=run, nis=nis[run],
+                               dof=np.full(6, 3.0))
+
+    series = []
+    real_ess = harness.effective_sample_size
+    monkeypatch.setattr(harness, "simulate_agrimaro",
+                        lambda terrain, seed, *a: SimpleNamespace(run=seed))
+    monkeypatch.setattr(harness, "estimate_agrimaro", estimate)
+    monkeypatch.setattr(harness, "agrimaro_truth_states",
+                        lambda result, grid: np.zeros((len(grid), 12)))
+    monkeypatch.setattr(harness, "nees", lambda e, P: planted[P])
+    monkeypatch.setattr(harness, "effective_sample_size",
+                        lambda x: series.append(np.array(x)) or real_ess(x))
+    row = harness.agrimaro_consistency("GRASS", seeds=[0, 1], settings_fn=lambda run: None,
+                                       probability=0.5)
+    assert series[0] == pytest.approx((planted[0] + planted[1]) / 2)
+    assert row.nees_n_eff == real_ess((planted[0] + planted[1]) / 2)
+    assert row.nees_step_bounds == mean_chi2_bounds(12, 2, 0.5)
+    assert row.nees_bounds == mean_chi2_bounds(12, 2 * row.nees_n_eff, 0.5)
+    assert row.nis_bounds == chi2_test(np.concatenate([nis[0], nis[1]]), 3.0, 0.5).bounds
