@@ -220,7 +220,8 @@ def test_slip_tracking_figure_draws_the_noise_tunings_nis_and_labels_its_units(
     t = np.arange(0.0, 4.0, 0.1)
     frame = pd.concat([pd.DataFrame({
         "terrain": "GRASS", "tuning": tuning, "t_s": t, "slip_true": 0.1,
-        "slip_est": 0.1 + 0.01 * i, "nis": 2.0 * (i + 1), "dof": 4, "seed": 1})
+        "slip_est": 0.1 + 0.01 * i + 0.05 * (-1) ** np.arange(t.size), "nis": 2.0 * (i + 1),
+        "dof": 4, "seed": 1})
         for i, tuning in enumerate(figures.TUNINGS)], ignore_index=True)
     drawn = {}
     monkeypatch.setattr(figures, "_save", lambda fig, path, title: drawn.update(
@@ -230,6 +231,11 @@ def test_slip_tracking_figure_draws_the_noise_tunings_nis_and_labels_its_units(
     expect = binned_nis(t, np.full(t.size, 2.0), np.full(t.size, 4))["nis_per_dof"]
     step = [line for line in bottom.get_lines() if line.get_label() == "noise tuning"][0]
     assert step.get_ydata() == pytest.approx(expect.to_numpy())
+    # the estimates as centred moving means over 0.5 s (5 steps of 0.1 s)
+    noise = frame[frame["tuning"] == "noise"]["slip_est"]
+    mean = [line for line in top.get_lines() if line.get_label() == "EKF, noise tuning"][0]
+    assert mean.get_ydata() == pytest.approx(
+        noise.rolling(5, center=True, min_periods=1).mean().to_numpy())
     assert top.get_ylabel() == "slip ratio, wheel 1" and top.get_title() == "GRASS"
     assert bottom.get_xlabel() == "t (s)" and bottom.get_ylabel().startswith("NIS / dof")
     assert "seed 1" in drawn["title"]
@@ -399,3 +405,23 @@ def test_consistency_n_eff_is_the_run_averages_and_every_bound_takes_the_probabi
     assert row.nees_step_bounds == mean_chi2_bounds(12, 2, 0.5)
     assert row.nees_bounds == mean_chi2_bounds(12, 2 * row.nees_n_eff, 0.5)
     assert row.nis_bounds == chi2_test(np.concatenate([nis[0], nis[1]]), 3.0, 0.5).bounds
+
+
+def test_quick_estimation_report_runs_fewer_seeds_and_the_full_one_the_published(
+        monkeypatch):
+    # --quick is a smoke run: 1 seed of the steady-slip and slip-in-state tables, 4 Monte
+    # Carlo runs, 1 Husky seed; the published tables use 3 seeds, 10 runs, 2 seeds, 3 seeds
+    from pipelines.validation import estimation_tables as tables
+
+    calls = []
+    for name in ("steady_slip_table", "consistency_table", "slip_state_table", "husky_table"):
+        monkeypatch.setattr(tables, name, lambda arg, name=name: calls.append((name, arg)))
+    for quick in (True, False):
+        for title, table in tables.sections(quick):
+            if "Steady" in title or "Consistency" in title or "Husky" in title \
+                    or "inside the state" in title:
+                table()
+    assert calls == [("steady_slip_table", (1,)), ("consistency_table", 4),
+                     ("slip_state_table", (1,)), ("husky_table", (3,)),
+                     ("steady_slip_table", (1, 2, 3)), ("consistency_table", 10),
+                     ("slip_state_table", (1, 2)), ("husky_table", (3, 4, 5))]
