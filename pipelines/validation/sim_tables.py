@@ -106,6 +106,8 @@ def regression_chi(run: Run) -> float:
     x = ((wheels.vel_r - wheels.vel_l) / HUSKY.track_m).to_numpy()
     wz = np.interp(wheels[TIME], imu[TIME], imu.wz)
     m = np.abs(x) > 0.2
+    if not m.any():
+        return float("nan")
     return float(np.sum(x[m] ** 2) / np.sum(x[m] * wz[m]))
 
 

@@ -425,3 +425,20 @@ def test_quick_estimation_report_runs_fewer_seeds_and_the_full_one_the_published
                      ("slip_state_table", (1,)), ("husky_table", (3,)),
                      ("steady_slip_table", (1, 2, 3)), ("consistency_table", 10),
                      ("slip_state_table", (1, 2)), ("husky_table", (3, 4, 5))]
+
+
+def test_regression_chi_of_a_run_that_never_turns_is_nan_without_a_numpy_warning():
+    # "NaN when no sample turns faster than 0.2 rad/s": it came as 0 / 0 with numpy's
+    # "invalid value encountered in scalar divide", which names no run nor the reason
+    import warnings
+
+    from pipelines.validation.sim_tables import regression_chi
+    from terrain.run import TIME, Run
+
+    t = np.arange(0.0, 5.0, 0.1)
+    run = Run("r", "sim", "ASPHALT", {"wheels": pd.DataFrame({TIME: t, "vel_l": 0.5,
+                                                              "vel_r": 0.5}),
+                                      "imu": pd.DataFrame({TIME: t, "wz": 0.0})}, "husky")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.isnan(regression_chi(run))
