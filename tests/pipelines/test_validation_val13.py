@@ -442,3 +442,33 @@ def test_regression_chi_of_a_run_that_never_turns_is_nan_without_a_numpy_warning
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert np.isnan(regression_chi(run))
+
+
+def test_simulated_agrimaro_runs_take_the_fine_encoder_unless_told_otherwise(monkeypatch):
+    # the report's AgriMaRo tables use FINE_ENCODER; default_encoder_table passes its own
+    from pipelines.validation import harness
+    from terrain.sim import SensorSettings
+
+    configs = []
+    monkeypatch.setattr(harness, "simulate_with_physics", configs.append)
+    harness.simulate_agrimaro("GRASS", 1, 5.0)
+    coarse = SensorSettings(wheel_rate_hz=50.0, speed_quantum_m_s=0.0)
+    harness.simulate_agrimaro("GRASS", 1, 5.0, sensors=coarse)
+    assert [c.sensors for c in configs] == [harness.FINE_ENCODER, coarse]
+    assert harness.FINE_ENCODER.speed_quantum_m_s == 1e-6
+
+
+def test_measured_summary_reports_the_right_sides_eta_as_eta_r(husky_run, monkeypatch):
+    # the observer's eta_R^ (right) and eta_L^ (left) keep their sides in the table
+    from pipelines.validation import harness
+
+    real = harness.run_adaptive_observer
+
+    def sided(*args, **kwargs):
+        obs = real(*args, **kwargs)
+        obs.eta[:, 0], obs.eta[:, 1] = 0.7, 0.9
+        return obs
+
+    monkeypatch.setattr(harness, "run_adaptive_observer", sided)
+    row = harness.measured_skid_steer_summary([husky_run.run]).iloc[0]
+    assert (row["eta_R"], row["eta_L"]) == (0.7, 0.9)
