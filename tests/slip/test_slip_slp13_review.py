@@ -1,0 +1,56 @@
+"""Review slp13: slip baselines and evaluation tables at their documented conventions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.slip.baselines import observer_slip
+
+
+def test_observer_slip_is_left_then_right_and_the_faster_side_of_an_overstated_turn_slips():
+    # right rims 1.0 m/s, left 0.4 m/s; the gyro turns as if the right side delivered 70 %
+    # and the left 90 % of its rim speed (seed 000 eq. 3): a turn the wheels overstate, so
+    # the yaw-only observer gives the faster (right) side the larger slip. Its columns are
+    # 1 - eta_L, 1 - eta_R of the observer fed the right speeds as v_right (a swap of the
+    # columns, or of the speeds in the call, gave the left side the right side's slip)
+    d = 0.3
+    t = np.arange(0.0, 20.0, 0.01)
+    vl, vr = np.full_like(t, 0.4), np.full_like(t, 1.0)
+    yaw = (0.7 * vr - 0.9 * vl) / (2 * d) * t
+    slip = observer_slip(t, yaw, vl, vr, d)
+    res = run_adaptive_observer(t, np.column_stack([np.full_like(t, np.nan),
+                                                    np.full_like(t, np.nan), yaw]),
+                                v_right_m_s=vr, v_left_m_s=vl,
+                                settings=AdaptiveObserverSettings(half_track_m=d,
+                                                                  use_position=False))
+    np.testing.assert_allclose(slip, np.column_stack([1 - res.eta_left, 1 - res.eta_right]))
+    assert slip[-1, 1] > slip[-1, 0] + 0.1
+    # the converged slips reproduce the measured yaw rate (eq. 3 with eta = 1 - slip)
+    w = (vr[-1] * (1 - slip[-1, 1]) - vl[-1] * (1 - slip[-1, 0])) / (2 * d)
+    assert w == pytest.approx((0.7 * 1.0 - 0.9 * 0.4) / (2 * d), rel=1e-3)
+
+
+def _straight_run(run_id, t, rim_m_s, truth_x):
+    from terrain.run import Run
+    streams = {"wheels": pd.DataFrame({"t_s": t, "vel_l": rim_m_s, "vel_r": rim_m_s}),
+               "truth": pd.DataFrame({"t_s": t, "x": truth_x, "y": 0.0})}
+    return Run(run_id, "sim", "ICE", streams)
+
+
+def test_a_run_slid_off_only_past_three_times_its_wheel_path():
+    # wheels 0.1 m/s for 10 s (a 1 m wheel path); the body slid 2.9 m (not yet) or 3.1 m
+    # (SLID_OFF_FACTOR = 3: slid off, no wheel odometry follows it)
+    from terrain.slip.evaluation import SLID_OFF_FACTOR, odometry_errors
+    from terrain.vehicles.skid_steer import HUSKY
+    assert SLID_OFF_FACTOR == 3.0
+    t = np.linspace(0.0, 10.0, 101)
+    meta = pd.DataFrame({"run_id": ["a", "b"], "t_start_s": [0.0, 0.0], "t_end_s": [10.0, 10.0]})
+    runs = [_straight_run("a", t, 0.1, 0.29 * t), _straight_run("b", t, 0.1, 0.31 * t)]
+    odo = odometry_errors(runs, meta, np.tile([0.0, 0.0, 1.0, 0.0], (2, 1)), HUSKY.track_m,
+                          ["a", "b"])
+    assert odo["slid_off"].tolist() == [False, True]
+    # the plain odometry covers 1 m of the 2.9 m: 1.9 m short, 65.5 % of the path
+    assert odo["plain_err_pct"].iloc[0] == pytest.approx(100 * 1.9 / 2.9)
