@@ -144,8 +144,8 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     n : float
         Endo's exponent (default the seed's 0.847, Table 2).
     min_turn_rad_s : float
-        Below this |yaw rate| (or with a zero side speed) the slips are NaN (straight
-        driving leaves eq. 27 undetermined).
+        Below this |yaw rate|, rad/s, finite and >= 0 (or with a zero side speed) the slips
+        are NaN (straight driving leaves eq. 27 undetermined).
 
     Returns
     -------
@@ -155,7 +155,8 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     Raises
     ------
     ConfigError
-        ``track_m`` not a finite number > 0 (:func:`terrain.errors.config_positive`).
+        ``track_m`` not a finite number > 0 or ``min_turn_rad_s`` not a finite number >= 0
+        (:func:`terrain.errors.config_positive`).
 
     Warns
     -----
@@ -164,6 +165,8 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
         against their turn) were clipped (their count of the defined slips).
     """
     config_positive("endo_turning_slip", track_m=track_m)  # B yaw_rate closes eq. 27
+    # (NaN made every window "not turning": every slip NaN without a word)
+    config_positive("endo_turning_slip", allow_zero=True, min_turn_rad_s=min_turn_rad_s)
     vl = np.asarray(v_left_m_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
     w = np.asarray(yaw_rate_rad_s, dtype=float)

@@ -18,7 +18,8 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, DataWarning, EstimationError, ShapeError
+from terrain.errors import (ConfigError, DataWarning, EstimationError, ShapeError,
+                            config_positive)
 from terrain.run import TIME, Run
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -473,13 +474,18 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     track_m : float
         Track B, m.
     min_turn_rad_s : float
-        Turning threshold, rad/s.
+        Turning threshold, rad/s, finite and >= 0.
 
     Returns
     -------
     pandas.DataFrame
-        One row per terrain: ``n_runs, yaw_rms_plain_rad_s, yaw_rms_compensated_rad_s,
-        median_learned_minus_physics, spearman_slip_current``.
+        One row per terrain: ``terrain, n_runs, n_turning_windows, yaw_rms_plain_rad_s,
+        yaw_rms_compensated_rad_s, median_learned_minus_physics, spearman_slip_current``.
+
+    Raises
+    ------
+    ConfigError
+        ``min_turn_rad_s`` not a finite number >= 0 (:func:`terrain.errors.config_positive`).
 
     Warns
     -----
@@ -489,6 +495,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     """
     from scipy.stats import spearmanr
 
+    # (NaN made no window turning: both yaw RMS NaN without a word)
+    config_positive("measured_checks", allow_zero=True, min_turn_rad_s=min_turn_rad_s)
     wz = X["wz__mean"].to_numpy()
     dv = X["vel_diff__mean"].to_numpy()
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on

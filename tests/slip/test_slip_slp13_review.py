@@ -54,3 +54,20 @@ def test_a_run_slid_off_only_past_three_times_its_wheel_path():
     assert odo["slid_off"].tolist() == [False, True]
     # the plain odometry covers 1 m of the 2.9 m: 1.9 m short, 65.5 % of the path
     assert odo["plain_err_pct"].iloc[0] == pytest.approx(100 * 1.9 / 2.9)
+
+
+@pytest.mark.parametrize("threshold", [np.nan, -0.1, np.inf, "0.1", True])
+def test_turn_thresholds_that_are_not_a_finite_rate_are_refused(threshold):
+    # a NaN threshold made every window "not turning": eq. 27 NaN on a turn of 0.5 rad/s
+    # and measured_checks' turning windows none, without a word
+    from terrain.errors import ConfigError
+    from terrain.slip.baselines import endo_turning_slip
+    from terrain.slip.evaluation import measured_checks
+    with pytest.raises(ConfigError, match="min_turn_rad_s"):
+        endo_turning_slip(np.array([0.2]), np.array([0.5]), np.array([0.5]), 0.5,
+                          min_turn_rad_s=threshold)
+    X = pd.DataFrame({"wz__mean": [0.5], "vel_diff__mean": [0.3], "cur_l__mean": [1.0],
+                      "cur_r__mean": [1.0], "phys_slip_l": [0.0], "phys_slip_r": [0.0]})
+    with pytest.raises(ConfigError, match="min_turn_rad_s"):
+        measured_checks(X, np.array([[0.0, 0.0, 1.5, 0.0]]), np.array(["r"]),
+                        np.array(["SNOW"]), 0.5, min_turn_rad_s=threshold)
