@@ -141,7 +141,7 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     pandas.DataFrame
         ``by`` columns, ``median_abs_err``, ``p90_abs_err``, ``n_windows`` (windows of the
         group), ``n_scored`` (side-windows with a finite error, at most ``2 n_windows``),
-        ``n_runs``.
+        ``n_runs``; no row, with these columns, when ``mask`` selects no window.
     """
     err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
     frame = meta.loc[mask, list(by) + ["run_id"]].copy()
@@ -157,7 +157,9 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
                      "p90_abs_err": float(np.percentile(e, 90)) if e.size else np.nan,
                      "n_windows": int(len(g)), "n_scored": int(e.size),
                      "n_runs": int(g["run_id"].nunique())})
-    return pd.DataFrame(rows)
+    # no window to score: the documented columns still (a frame without any was a KeyError)
+    return pd.DataFrame(rows, columns=[*by, "median_abs_err", "p90_abs_err", "n_windows",
+                                       "n_scored", "n_runs"])
 
 
 def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
@@ -193,7 +195,8 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
         side-windows with ``|error| <= k std``; Gaussian 0.683, 0.954; NaN where the model
         gives no std), and over every side-window of the group (NaN if one is):
         ``median_normalised_sq`` (Gaussian 0.455), ``mean_normalised_sq`` (Gaussian 1),
-        ``median_std``, ``median_abs_err``.
+        ``median_std``, ``median_abs_err``; no row, with these columns, when ``mask``
+        selects no window.
     """
     err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
     std = np.asarray(std, float)
@@ -214,7 +217,9 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
                      "mean_normalised_sq": float(np.mean(uu ** 2)),
                      "median_std": float(np.median(std[sel])),
                      "median_abs_err": float(np.median(err[sel]))})
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=[*by, "n_windows", "n_scored", "coverage_1std",
+                                       "coverage_2std", "median_normalised_sq",
+                                       "mean_normalised_sq", "median_std", "median_abs_err"])
 
 
 def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float

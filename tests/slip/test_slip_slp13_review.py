@@ -71,3 +71,28 @@ def test_turn_thresholds_that_are_not_a_finite_rate_are_refused(threshold):
     with pytest.raises(ConfigError, match="min_turn_rad_s"):
         measured_checks(X, np.array([[0.0, 0.0, 1.5, 0.0]]), np.array(["r"]),
                         np.array(["SNOW"]), 0.5, min_turn_rad_s=threshold)
+
+
+def test_error_tables_without_a_window_to_score_keep_their_columns():
+    # no steady straight window among the held-out runs (short runs): the tables had no
+    # column at all, so t["median_abs_err"] was a bare KeyError
+    from terrain.slip.evaluation import error_table, std_calibration_table
+    meta = pd.DataFrame({"terrain": ["SNOW", "ICE"], "scenario": ["orchard", "random"],
+                         "run_id": ["r1", "r2"]})
+    none = np.zeros(2, bool)
+    err = error_table(np.zeros((2, 2)), np.ones((2, 2)), meta, none)
+    assert len(err) == 0
+    assert err.columns.tolist() == ["terrain", "median_abs_err", "p90_abs_err", "n_windows",
+                                    "n_scored", "n_runs"]
+    cal = std_calibration_table(np.zeros((2, 2)), np.ones((2, 2)), np.ones((2, 2)), meta,
+                                none, ("scenario",))
+    assert len(cal) == 0
+    assert cal.columns.tolist() == ["scenario", "n_windows", "n_scored", "coverage_1std",
+                                    "coverage_2std", "median_normalised_sq",
+                                    "mean_normalised_sq", "median_std", "median_abs_err"]
+    # with windows the same columns, in the same order
+    some = np.ones(2, bool)
+    assert error_table(np.zeros((2, 2)), np.ones((2, 2)), meta, some).columns.tolist() == \
+        err.columns.tolist()
+    assert std_calibration_table(np.zeros((2, 2)), np.ones((2, 2)), np.ones((2, 2)), meta,
+                                 some, ("scenario",)).columns.tolist() == cal.columns.tolist()
