@@ -55,6 +55,17 @@ def _clip_chi(chi: np.ndarray) -> tuple[np.ndarray, int]:
     return np.clip(chi, *CHI_RANGE), int(out.sum())
 
 
+def _window_mask(owner: str, name: str, mask, n: int) -> np.ndarray:
+    """``mask`` as a boolean array of one value per window, refused (ShapeError naming
+    ``owner`` and ``name``) otherwise: an integer 0/1 mask was read as row labels or
+    positions (``meta.loc``, fancy indexing), which selects other windows silently."""
+    m = np.asarray(mask)
+    if m.dtype != bool or m.shape != (n,):
+        raise ShapeError(f"{owner}: {name} must be a boolean mask of shape ({n},) (one per "
+                         f"window), got {m.dtype} of shape {m.shape}")
+    return m
+
+
 def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarray:
     """Mask of the steady straight-driving windows (module docstring).
 
@@ -102,11 +113,8 @@ def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray
     ConfigError
         The masks overlap or one is empty.
     """
-    for name, mask in (("train", train), ("test", test)):
-        mask = np.asarray(mask)
-        if mask.dtype != bool or mask.shape != (len(X),):
-            raise ShapeError(f"fit_predict: {name} must be a boolean mask of shape ({len(X)},)"
-                             f" (one per window), got {mask.dtype} of shape {mask.shape}")
+    train = _window_mask("fit_predict", "train", train, len(X))
+    test = _window_mask("fit_predict", "test", test, len(X))
     if np.any(train & test) or not train.any() or not test.any():
         raise ConfigError("train and test windows must be disjoint and non-empty")
     model = make_model()
@@ -142,7 +150,14 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
         ``by`` columns, ``median_abs_err``, ``p90_abs_err``, ``n_windows`` (windows of the
         group), ``n_scored`` (side-windows with a finite error, at most ``2 n_windows``),
         ``n_runs``; no row, with these columns, when ``mask`` selects no window.
+
+    Raises
+    ------
+    ShapeError
+        ``mask`` is not a boolean array of one value per window (an integer 0/1 mask was
+        read as row labels: other windows scored, silently).
     """
+    mask = _window_mask("error_table", "mask", mask, len(meta))
     err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
     frame = meta.loc[mask, list(by) + ["run_id"]].copy()
     frame["e1"] = err[mask, 0]
@@ -197,12 +212,19 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
         ``median_normalised_sq`` (Gaussian 0.455), ``mean_normalised_sq`` (Gaussian 1),
         ``median_std``, ``median_abs_err``; no row, with these columns, when ``mask``
         selects no window.
+
+    Raises
+    ------
+    ShapeError
+        ``mask`` is not a boolean array of one value per window (window indices were taken
+        for a mask: other windows scored, silently).
     """
+    mask = _window_mask("std_calibration_table", "mask", mask, len(meta))
     err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
     std = np.asarray(std, float)
     with np.errstate(divide="ignore", invalid="ignore"):    # std 0: inf (uncovered) or NaN
         u = err / std
-    pos = np.flatnonzero(np.asarray(mask, bool))
+    pos = np.flatnonzero(mask)
     keys = meta[list(by)].iloc[pos].reset_index(drop=True)
     rows = []
     for key, g in keys.groupby(list(by), dropna=False):     # unlabelled windows: kept
@@ -434,8 +456,16 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     Returns
     -------
     dict str -> ndarray, shape (n, 2)
+
+    Raises
+    ------
+    ShapeError
+        ``train`` is not a boolean array of one value per window (an integer 0/1 mask
+        fancy-indexed the windows: eq. 22 fitted on windows 0 and 1 only, silently).
     """
     from terrain.slip.baselines import endo_turning_slip, fit_pitch_slip, pitch_slip
+
+    train = _window_mask("baseline_predictions", "train", train, len(X))
 
     terr = meta["terrain"].to_numpy()
     pitch = X["pitch"].to_numpy()

@@ -96,3 +96,41 @@ def test_error_tables_without_a_window_to_score_keep_their_columns():
         err.columns.tolist()
     assert std_calibration_table(np.zeros((2, 2)), np.ones((2, 2)), np.ones((2, 2)), meta,
                                  some, ("scenario",)).columns.tolist() == cal.columns.tolist()
+
+
+@pytest.mark.parametrize("mask", [np.array([1, 0, 1]), np.array([0, 2]),
+                                  np.array([True, False]), [True, False, True]])
+def test_window_masks_that_are_not_one_boolean_per_window_are_refused(mask):
+    # an integer 0/1 mask was read by meta.loc as row labels: error_table scored window B
+    # twice and A once instead of A and C; std_calibration_table took [0, 2] as a mask
+    # (window B only) and baseline_predictions fancy-indexed its training windows
+    from terrain.errors import ShapeError
+    from terrain.slip.evaluation import baseline_predictions, error_table, std_calibration_table
+    meta = pd.DataFrame({"terrain": ["A", "B", "C"], "run_id": ["r1", "r2", "r3"],
+                         "scenario": ["x", "y", "z"], "t_start_s": 0.0, "t_end_s": 2.0})
+    pred, truth = np.zeros((3, 2)), np.array([[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]])
+    if isinstance(mask, list):      # a list of one boolean per window is one
+        assert error_table(pred, truth, meta, mask)["terrain"].tolist() == ["A", "C"]
+        return
+    with pytest.raises(ShapeError, match="error_table: mask must be a boolean mask"):
+        error_table(pred, truth, meta, mask)
+    with pytest.raises(ShapeError, match="std_calibration_table: mask must be a boolean"):
+        std_calibration_table(pred, np.ones((3, 2)), truth, meta, mask)
+    X = pd.DataFrame({"pitch": 0.0, "vel_l__mean": 0.5, "vel_r__mean": 0.5, "wz__mean": 0.0,
+                      "phys_slip_l": 0.0, "phys_slip_r": 0.0}, index=range(3))
+    with pytest.raises(ShapeError, match="baseline_predictions: train must be a boolean"):
+        baseline_predictions(X, truth, meta, mask, [], 0.5)
+
+
+def test_a_boolean_mask_scores_the_windows_it_selects():
+    from terrain.slip.evaluation import error_table, std_calibration_table
+    meta = pd.DataFrame({"terrain": ["A", "B", "C"], "run_id": ["r1", "r2", "r3"],
+                         "scenario": ["x", "y", "z"]})
+    pred, truth = np.zeros((3, 2)), np.array([[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]])
+    mask = np.array([True, False, True])
+    err = error_table(pred, truth, meta, mask)
+    assert err["terrain"].tolist() == ["A", "C"]
+    np.testing.assert_allclose(err["median_abs_err"], [0.1, 0.3])
+    cal = std_calibration_table(pred, np.full((3, 2), 0.2), truth, meta, mask, ("terrain",))
+    assert cal["terrain"].tolist() == ["A", "C"]
+    np.testing.assert_allclose(cal["coverage_1std"], [1.0, 0.0])
