@@ -134,3 +134,18 @@ def test_a_boolean_mask_scores_the_windows_it_selects():
     cal = std_calibration_table(pred, np.full((3, 2), 0.2), truth, meta, mask, ("terrain",))
     assert cal["terrain"].tolist() == ["A", "C"]
     np.testing.assert_allclose(cal["coverage_1std"], [1.0, 0.0])
+
+
+def test_lag_notes_say_only_a_lag_that_was_not_applied():
+    # an applied lag got the "not applied (no lag)" note too when the check read only None
+    from terrain.run import Run
+    from terrain.slip.alignment import LagEstimate
+    from terrain.slip.estimate import lag_notes
+    run = Run("sim/ASPHALT/0", "sim", "ASPHALT",
+              {"wheels": pd.DataFrame({"t_s": [0.0, 1.0], "vel_l": 0.0, "vel_r": 0.0})})
+    assert lag_notes(run, None) == ()
+    assert lag_notes(run, LagEstimate(0.37, 0.8, 500)) == ()
+    (note,) = lag_notes(run, LagEstimate(-0.665, 0.12, 500, applied=False,
+                                         reason="peak correlation 0.120 below 0.3"))
+    assert "sim/ASPHALT/0" in note and "not applied" in note and "-0.665 s" in note
+    assert "peak correlation 0.120 below 0.3" in note
