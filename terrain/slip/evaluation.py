@@ -507,7 +507,7 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     terrains : ndarray, shape (n,)
         Terrain label of each window.
     track_m : float
-        Track B, m.
+        Track B, m (finite, > 0).
     min_turn_rad_s : float
         Turning threshold, rad/s, finite and >= 0.
 
@@ -520,7 +520,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     Raises
     ------
     ConfigError
-        ``min_turn_rad_s`` not a finite number >= 0 (:func:`terrain.errors.config_positive`).
+        ``min_turn_rad_s`` not a finite number >= 0 or ``track_m`` not a finite number > 0
+        (:func:`terrain.errors.config_positive`).
 
     Warns
     -----
@@ -532,6 +533,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
 
     # (NaN made no window turning: both yaw RMS NaN without a word)
     config_positive("measured_checks", allow_zero=True, min_turn_rad_s=min_turn_rad_s)
+    # (the wheel yaw rate divides by it: 0 gave an infinite RMS, < 0 swapped the sides)
+    config_positive("measured_checks", track_m=track_m)
     wz = X["wz__mean"].to_numpy()
     dv = X["vel_diff__mean"].to_numpy()
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on

@@ -149,3 +149,20 @@ def test_lag_notes_say_only_a_lag_that_was_not_applied():
                                          reason="peak correlation 0.120 below 0.3"))
     assert "sim/ASPHALT/0" in note and "not applied" in note and "-0.665 s" in note
     assert "peak correlation 0.120 below 0.3" in note
+
+
+@pytest.mark.parametrize("track", [0.0, np.nan, -0.5, np.inf, True])
+def test_measured_checks_refuse_a_track_that_is_not_a_finite_width(track):
+    # the wheel yaw rate divides by the track: 0 gave an infinite yaw RMS, NaN a NaN one and
+    # -0.5 turned the wheels' yaw rate the other way (RMS 1.1 and 0.8 instead of 0.1 and
+    # 0.2), all without a word
+    from terrain.errors import ConfigError
+    from terrain.slip.evaluation import measured_checks
+    X = pd.DataFrame({"wz__mean": [0.5], "vel_diff__mean": [0.3], "cur_l__mean": [1.0],
+                      "cur_r__mean": [1.0], "phys_slip_l": [0.0], "phys_slip_r": [0.0]})
+    pred = np.array([[0.0, 0.0, 2.0, 0.0]])
+    row = measured_checks(X, pred, np.array(["r"]), np.array(["SNOW"]), 0.5).iloc[0]
+    assert row["yaw_rms_plain_rad_s"] == pytest.approx(abs(0.5 - 0.3 / 0.5))
+    assert row["yaw_rms_compensated_rad_s"] == pytest.approx(abs(0.5 - 0.3 / (2.0 * 0.5)))
+    with pytest.raises(ConfigError, match="measured_checks.track_m"):
+        measured_checks(X, pred, np.array(["r"]), np.array(["SNOW"]), track)
