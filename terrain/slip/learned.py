@@ -162,6 +162,10 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                 f"{int(bad.sum())} of {len(y)} training windows have an infinite chi target "
                 f"(first rows {np.flatnonzero(bad)[:3].tolist()}): chi is finite, or NaN where "
                 "the robot does not turn")
+        if groups is not None:  # checked whether or not it is used, before any fit
+            groups = np.asarray(groups)
+            if len(groups) != len(X):
+                raise ShapeError(f"groups has {len(groups)} entries for {len(X)} windows")
         self.n_features_in_ = X.shape[1]
         if names is not None:
             self.feature_names_in_ = names
@@ -183,9 +187,6 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         self.packed_trees_ = pack_trees(self._estimators(), self.n_features_in_)
         self.std_model_, self.std_scale_, self.calibration_ = None, float("nan"), {}
         if groups is not None and self.calibration_folds >= 2:
-            groups = np.asarray(groups)
-            if len(groups) != len(X):
-                raise ShapeError(f"groups has {len(groups)} entries for {len(X)} windows")
             n_groups = len(np.unique(groups))
             if n_groups >= self.calibration_folds:
                 self._calibrate(X, y[:, :2], groups)

@@ -166,3 +166,18 @@ def test_measured_checks_refuse_a_track_that_is_not_a_finite_width(track):
     assert row["yaw_rms_compensated_rad_s"] == pytest.approx(abs(0.5 - 0.3 / (2.0 * 0.5)))
     with pytest.raises(ConfigError, match="measured_checks.track_m"):
         measured_checks(X, pred, np.array(["r"]), np.array(["SNOW"]), track)
+
+
+@pytest.mark.parametrize("folds", [0, 1, 3])
+def test_slip_model_refuses_groups_of_another_length_before_fitting(folds, monkeypatch):
+    # with calibration_folds < 2 a groups of 7 entries for 60 windows was taken without a
+    # word (the documented ShapeError came only with a calibration, after the four fits)
+    from terrain.errors import ShapeError
+    from terrain.slip import learned
+    rng = np.random.default_rng(0)
+    X, y = rng.random((60, 3)), rng.random((60, 4))
+    monkeypatch.setattr(learned.SlipRegressor, "_tree",
+                        lambda self: pytest.fail("a model was fitted before the check"))
+    with pytest.raises(ShapeError, match="groups has 7 entries for 60 windows"):
+        learned.SlipRegressor(max_iter=2, calibration_folds=folds).fit(X, y,
+                                                                       groups=np.arange(7))
