@@ -90,7 +90,8 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     Returns
     -------
     ndarray, shape (N, k)
-        SAE slip of each wheel, dimensionless, in [-1, 1] (NaN where an input is NaN).
+        SAE slip of each wheel, dimensionless, in [-1, 1] (NaN where an input is NaN or
+        infinite).
 
     Raises
     ------

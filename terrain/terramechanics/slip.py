@@ -111,7 +111,7 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
 
     ``s = (omega r - v_long) / max(|omega r|, |v_long|, speed_floor_m_s)``, clipped to
     ``[-saturation, saturation]``, 0 where both ``|omega r|`` and ``|v_long|`` are below
-    ``dead_band_m_s`` and where both are exactly 0 (0/0); NaN inputs give NaN.
+    ``dead_band_m_s`` and where both are exactly 0 (0/0); NaN or infinite inputs give NaN.
 
     Parameters
     ----------

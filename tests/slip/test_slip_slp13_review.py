@@ -181,3 +181,15 @@ def test_slip_model_refuses_groups_of_another_length_before_fitting(folds, monke
     with pytest.raises(ShapeError, match="groups has 7 entries for 60 windows"):
         learned.SlipRegressor(max_iter=2, calibration_folds=folds).fit(X, y,
                                                                        groups=np.arange(7))
+
+
+@pytest.mark.parametrize("floor", [0.0, 0.02])
+def test_an_infinite_speed_gives_no_slip_as_a_nan_one_does(floor):
+    # inf / inf: a corrupt sample has no slip, not a saturated +-1 or a dead-band 0
+    from terrain.slip.core import sae_slip, wheel_slip
+    s = sae_slip(np.array([np.inf, 1.0, -np.inf, 0.01, np.nan]),
+                 np.array([1.0, np.inf, 0.0, np.inf, 0.0]), speed_floor_m_s=floor)
+    assert np.isnan(s).all()
+    w = wheel_slip(np.array([[np.inf, 1.0]]), np.array([1.0]), np.array([0.0]),
+                   np.array([0.0]), np.array([[0.0, 0.3], [0.0, -0.3]]))
+    assert np.isnan(w[0, 0]) and w[0, 1] == 0.0
