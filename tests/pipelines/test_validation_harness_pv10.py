@@ -66,13 +66,14 @@ def test_the_outage_drops_the_camera_samples_from_t_off_up_to_t_on_only(monkeypa
     assert 11.0 in set(dropped[TIME]) and 8.0 not in set(dropped[TIME])
 
 
-def test_data_driven_settings_take_the_noisier_accelerometer_axis(monkeypatch):
-    # one accelerometer std for both axes: the larger of the two measured levels (a quiet
-    # axis would make the EKF overconfident on the noisy one)
+@pytest.mark.parametrize("noisy", ["ax", "ay"])
+def test_data_driven_settings_take_the_noisier_accelerometer_axis(monkeypatch, noisy):
+    # one accelerometer std for both axes: the larger of the two measured levels, whichever
+    # axis it is on (a quiet axis would make the EKF overconfident on the noisy one)
     rng = np.random.default_rng(0)
     t = np.arange(0.0, 20.0, 0.01)
-    imu = pd.DataFrame({TIME: t, "ax": 0.5 * rng.standard_normal(t.size),
-                        "ay": 0.05 * rng.standard_normal(t.size)})
+    imu = pd.DataFrame({TIME: t, **{axis: (0.5 if axis == noisy else 0.05)
+                                    * rng.standard_normal(t.size) for axis in ("ax", "ay")}})
     seen = {}
     monkeypatch.setattr(harness, "noise_derived_settings",
                         lambda **kwargs: seen.update(kwargs))

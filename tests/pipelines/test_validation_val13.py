@@ -290,21 +290,6 @@ def test_a_wheel_without_a_steady_error_makes_the_worst_wheel_nan(monkeypatch, p
     assert np.isnan(row["steady_err_none"]) and np.isnan(row["steady_err_xcorr"])
 
 
-def test_data_driven_settings_take_a_noisier_lateral_accelerometer_axis(monkeypatch):
-    # the larger of the two measured levels, whichever axis it is on (the lateral one here)
-    from pipelines.validation import harness
-    from terrain.run import TIME, Run
-
-    rng = np.random.default_rng(1)
-    t = np.arange(0.0, 20.0, 0.01)
-    imu = pd.DataFrame({TIME: t, "ax": 0.05 * rng.standard_normal(t.size),
-                        "ay": 0.5 * rng.standard_normal(t.size)})
-    seen = {}
-    monkeypatch.setattr(harness, "noise_derived_settings", lambda **kw: seen.update(kw))
-    harness.data_driven_settings(Run("r", "sim", "GRASS", {"imu": imu}, "agrimaro"))
-    assert seen["accel_std_m_s2"] == pytest.approx(0.5, rel=0.1)
-
-
 def test_outage_table_runs_the_stated_outage(monkeypatch):
     # docs/estimation_validation.md: GRASS random driving, 16 s, seed 2, camera gone 8-11 s
     from types import SimpleNamespace
