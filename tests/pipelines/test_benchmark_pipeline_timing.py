@@ -1,0 +1,89 @@
+"""pipelines/benchmark.py (``terrain benchmark``): what its figures time (data and CV stubbed)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import pipelines.benchmark as benchmark
+
+
+class _Run:
+    def __init__(self, logged: dict) -> None:
+        self.logged = logged
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def log_metrics(self, metrics):
+        self.logged.update(metrics)
+
+    def describe(self):
+        return "run"
+
+
+class _Windows(SimpleNamespace):
+    def __len__(self):
+        return len(self.X)
+
+
+def _stub(monkeypatch, reference_s: list[float], ours_s: float = 0.001) -> dict:
+    """Shipped data, windows, features and CV stubbed; ``reference_features`` takes the
+    seconds of ``reference_s`` in turn (the last one from then on)."""
+    logged: dict = {}
+    ws = _Windows(X=np.zeros((8, 2, 4)), channels=("a", "b"), rate_hz=10.0)
+    calls = iter(reference_s)
+    last = [reference_s[-1]]
+
+    def reference(X, channels, rate_hz):
+        last[0] = next(calls, last[0])
+        time.sleep(last[0])
+        return np.zeros((len(X), 3))
+
+    def transform(X):
+        time.sleep(ours_s)
+        return np.zeros((len(X), 3))
+
+    report = SimpleNamespace(pooled=pd.DataFrame({"accuracy": [0.9]}))
+    monkeypatch.setattr(benchmark, "tracked_run", lambda *a, **k: _Run(logged))
+    monkeypatch.setattr(benchmark, "load_dataset", lambda name: [])
+    monkeypatch.setattr(benchmark, "make_windows", lambda runs, signals, config: ws)
+    monkeypatch.setattr(benchmark, "feature_extractor",
+                        lambda w: SimpleNamespace(transform=transform))
+    monkeypatch.setattr(benchmark, "reference_features", reference)
+    monkeypatch.setattr(benchmark, "run_cv",
+                        lambda config, runs: SimpleNamespace(report=report))
+    return logged
+
+
+def test_the_reference_is_timed_by_the_same_best_of_repeats_rule_as_ours(monkeypatch, capsys):
+    # ours was the best of --repeats, the reference one call, the process's first (scipy's
+    # lazy imports and cold caches included): a first call 10x the warm ones inflated the
+    # speed-up 10x
+    logged = _stub(monkeypatch, [0.5, 0.05], ours_s=0.005)
+    assert benchmark.main(argparse.Namespace(reference_windows=4, repeats=3)) == 0
+    assert logged["reference_s_per_window"] == pytest.approx(0.05 / 4, rel=0.5)
+    assert logged["speedup_vs_reference"] < 20
+    assert logged["speedup_vs_reference"] == pytest.approx(
+        logged["reference_s_per_window"] / logged["ours_s_per_window"])
+    assert "speedup_vs_reference" in capsys.readouterr().out
+
+
+def test_per_window_figures_divide_by_the_windows_timed(monkeypatch, capsys):
+    # --reference-windows above the windows held: both are timed on all 8, per window
+    logged = _stub(monkeypatch, [0.08], ours_s=0.008)
+    assert benchmark.main(argparse.Namespace(reference_windows=300, repeats=1)) == 0
+    assert "hold 8 windows" in capsys.readouterr().out
+    assert logged["reference_s_per_window"] == pytest.approx(0.01, rel=0.5)
+    assert logged["ours_s_per_window"] == pytest.approx(0.001, rel=0.5)
+    assert logged["n_windows"] == 8 and logged["n_features"] == 3
+    assert logged["max_abs_diff_vs_reference"] == 0.0
+    assert logged["combined_accuracy"] == pytest.approx(0.9)
