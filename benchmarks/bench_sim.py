@@ -9,7 +9,8 @@ the wall seconds per simulated minute over its milliseconds, comparable between 
 and a quiet machine where the absolute figures are not. Logged to MLflow (experiment
 ``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]
 [--physics v1|v2] [--terrains ASPHALT,GRASS]`` (v2 on ``SANDY_LOAM,SNOW`` exercises the
-lateral wheel-soil model).
+lateral wheel-soil model). ``--terrains`` is read as ``terrain simulate --terrain`` reads
+it; a list or a length the simulator refuses is a usage error before anything is timed.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from terrain.sim import SimConfig, simulate
+from terrain.errors import ConfigError
+from terrain.sim import SimConfig, parse_terrain_list, simulate
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.tracking import tracked_run
 
@@ -60,11 +62,18 @@ def main() -> int:
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     duration = 60.0 * args.minutes
+    try:        # the simulator's checks (names, longest run, each vehicle's shortest) first
+        configs = [SimConfig(vehicle=vehicle, terrains=parse_terrain_list(args.terrains),
+                             scenario="random", duration_s=duration, seed=0,
+                             physics=args.physics) for vehicle in ("husky", "agrimaro",
+                                                                   "tracked")]
+    except ConfigError as exc:
+        parser.error(f"argument --minutes / --terrains: {args.minutes:g} min of "
+                     f"{args.terrains!r}: {exc}")
     metrics = {}
     ref_before = reference_ms()
-    for vehicle in ("husky", "agrimaro", "tracked"):
-        cfg = SimConfig(vehicle=vehicle, terrains=tuple(args.terrains.split(",")),
-                        scenario="random", duration_s=duration, seed=0, physics=args.physics)
+    for cfg in configs:
+        vehicle = cfg.vehicle
         simulate(replace(cfg, duration_s=WARMUP_S))      # untimed: the process's one-off costs
         start, cpu_start = time.perf_counter(), time.process_time()
         simulate(cfg)

@@ -90,3 +90,35 @@ def test_the_reference_is_the_mean_of_its_times_before_and_after(script, monkeyp
     monkeypatch.setitem(script["main"].__globals__, "reference_ms", lambda: next(times))
     logged = _main(script, monkeypatch, logged_metrics, ["--minutes", "1"], lambda cfg: None)
     assert logged["reference_ms"] == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["--terrains", "FOO"], "unknown terrain 'FOO'"),
+    (["--terrains", "ASPHALT,"], "empty terrain name"),
+    (["--minutes", "1000"], "7200"),             # 60,000 s: past the simulator's longest run
+    (["--minutes", "0.001"], "husky"),           # 0.06 s: under two Husky wheel reports
+])
+def test_a_simulation_the_simulator_refuses_is_a_usage_error_before_any_timing(
+        script, monkeypatch, capsys, argv, named):
+    # each was the simulator's ConfigError traceback, raised after the reference workload
+    # had been timed (--minutes 1000: the cap is only checked by SimConfig)
+    calls = []
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "simulate", lambda cfg: calls.append(cfg))
+    monkeypatch.setitem(env, "reference_ms", lambda: calls.append("reference") or 0.01)
+    monkeypatch.setattr(sys, "argv", ["bench_sim.py", *argv, "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert named in err and argv[0] in err
+    assert calls == []
+
+
+def test_terrain_names_are_read_as_the_simulate_command_reads_them(script, monkeypatch,
+                                                                   logged_metrics):
+    # "sandy_loam, snow" (any case, spaces after the comma) is SANDY_LOAM then SNOW
+    seen = []
+    _main(script, monkeypatch, logged_metrics, ["--minutes", "1", "--terrains",
+                                                "sandy_loam, snow"], seen.append)
+    assert {cfg.terrains for cfg in seen} == {("SANDY_LOAM", "SNOW")}
