@@ -19,8 +19,9 @@ faster). The first compiled call of the process is timed separately (``fast_firs
 numba compilation when the on-disk cache is cold, loading it otherwise; it says which).
 Then a simulated 20-minute AgriMaRo run (100 Hz IMU, 50 Hz encoders and steering, 30 Hz
 camera) is filtered end to end (``estimate_agrimaro``, pre-filter and scheduling included)
-with both engines and timed (target < 10 s). Everything is logged to MLflow (experiment
-``terrain-benchmark``).
+with both engines and timed (target < 10 s); a length the simulator refuses (over 120
+minutes) is a usage error before anything is timed. Everything is logged to MLflow
+(experiment ``terrain-benchmark``).
 
 Run: ``python benchmarks/bench_ekf.py [--steps 20000] [--minutes 20] [--no-mlflow]``.
 """
@@ -35,8 +36,13 @@ import numpy as np
 from pipelines.arguments import positive_integer, positive_number
 from terrain.estimation import SensorSamples, predict, run_filter, update
 from terrain.estimation.agrimaro import AgriMaRoModel, estimate_agrimaro
-from pipelines.validation.harness import data_driven_settings, simulate_agrimaro
+from pipelines.validation.harness import FINE_ENCODER, data_driven_settings, simulate_agrimaro
+from terrain.errors import ConfigError
+from terrain.sim import SimConfig
 from terrain.tracking import tracked_run
+
+#: Terrain and scenario of the simulated long run.
+LONG_RUN = ("GRASS", "random")
 
 
 def _measurements(model: AgriMaRoModel, n: int, dt: float, rng: np.random.Generator
@@ -124,6 +130,11 @@ def main() -> int:
     parser.add_argument("--repeats", type=positive_integer, default=3)
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    try:        # the long run's simulation is checked before anything is timed
+        SimConfig(vehicle="agrimaro", terrains=(LONG_RUN[0],), scenario=LONG_RUN[1],
+                  duration_s=60.0 * args.minutes, sensors=FINE_ENCODER)
+    except ConfigError as exc:
+        parser.error(f"argument --minutes: {args.minutes:g} min: {exc}")
     rng = np.random.default_rng(0)
     model = AgriMaRoModel()
     dt = 0.01
@@ -155,8 +166,8 @@ def main() -> int:
     print(f"  first compiled call        {first_s:.2f} s ({how})")
 
     start = time.perf_counter()
-    result = simulate_agrimaro("GRASS", seed=0, duration_s=60.0 * args.minutes,
-                               scenario="random")
+    result = simulate_agrimaro(LONG_RUN[0], seed=0, duration_s=60.0 * args.minutes,
+                               scenario=LONG_RUN[1])
     sim_s = time.perf_counter() - start
     run = result.run
     long_s = {}

@@ -40,3 +40,24 @@ def test_ratios_are_filterpy_time_over_ours_and_best_of_the_repeats(
     assert logged["ratio_pure_vs_filterpy"] == pytest.approx(0.5)
     assert logged["long_run_steps"] == 1000.0
     assert "ratio ours / filterpy      5.00x" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("minutes, named", [("1000", "7200"), ("0.0001", "agrimaro")])
+def test_a_long_run_the_simulator_refuses_is_a_usage_error_before_any_timing(
+        monkeypatch, capsys, minutes, named):
+    # --minutes 1000 (60,000 s, past the simulator's 7200 s) was SimConfig's ConfigError
+    # traceback once every timing of the steps had been run (minutes of them by default)
+    script = runpy.run_path(str(SCRIPT))
+    env = script["main"].__globals__
+    timed = []
+    for name in ("bench_ours", "bench_pure", "bench_filterpy", "first_compiled_call",
+                 "_measurements"):
+        monkeypatch.setitem(env, name, lambda *a, name=name, **k: timed.append(name))
+    monkeypatch.setattr(sys, "argv", ["bench_ekf.py", "--steps", "100", "--minutes", minutes,
+                                      "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--minutes" in err and named in err
+    assert timed == []
