@@ -22,8 +22,8 @@ The model is trained here on BorealTC with the ``--kind`` recipe
 print and are logged to MLflow (experiment ``terrain-benchmark``).
 
 Every timed decision is followed by a fixed NumPy reference workload (a sort of 4096
-floats); the ratio of the decision's p50 / p99 to the reference's is printed and logged,
-so runs on a shared, loaded machine can be compared.
+floats, :mod:`pipelines.reference_workload`); the ratio of the decision's p50 / p99 to the
+reference's is printed and logged, so runs on a shared, loaded machine can be compared.
 
 Run: ``python benchmarks/bench_serving.py [--kind KIND] [--minutes 30] [--no-mlflow]``, KIND
 one of ``all-dense`` (default), ``all``, ``all-ensemble``, ``all-ensemble-dense``,
@@ -43,6 +43,7 @@ import psutil
 
 from features.windows import WindowConfig, make_windows
 from pipelines.arguments import integer_in, non_negative_number
+from pipelines.reference_workload import sort_reference_s
 from terrain.io.shipped import load_dataset
 from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
@@ -58,19 +59,6 @@ def _pushes(service, run):
     cols = {s: [c for c in run.streams[s].columns if c != TIME] for s in run.streams}
     for stream, t, v in interleave(run, service.needed_streams):
         yield stream, t, dict(zip(cols[stream], v.T))
-
-
-#: Fixed NumPy workload timed next to every decision (sorting 4096 floats): on a shared,
-#: loaded machine the ratio decision / reference is comparable between runs, the absolute
-#: times are not.
-_REFERENCE = np.random.default_rng(0).standard_normal(4096)
-
-
-def _reference() -> float:
-    """Seconds of one run of the reference workload."""
-    start = time.perf_counter()
-    np.sort(_REFERENCE)
-    return time.perf_counter() - start
 
 
 class _TimedPipeline:
@@ -113,7 +101,7 @@ def latency(model, run, warmup: int) -> dict[str, np.ndarray]:
                 start = time.perf_counter()
                 model.pipeline.predict_proba(x)
                 out["hot"].append(time.perf_counter() - start)
-                out["reference"].append(_reference())
+                out["reference"].append(sort_reference_s())
     return {k: np.asarray(v) for k, v in out.items()}
 
 

@@ -3,9 +3,10 @@
 Each vehicle first simulates ``WARMUP_S`` seconds untimed (the process's one-off costs), then
 the timed run. Prints seconds per simulated minute (wall clock, and CPU time of this process,
 ``*_cpu_s_per_sim_min``) and the real-time factor. A fixed single-threaded NumPy workload
-(``reference_ms``: sorting 4096 floats, median of 200, timed before and after the
-simulations and averaged) is the reference of the same run: ``{vehicle}_over_reference`` is
-the wall seconds per simulated minute over its milliseconds, comparable between a loaded
+(``reference_ms``: :mod:`pipelines.reference_workload`, sorting 4096 floats, median of 200,
+timed before and after the simulations and averaged) is the reference of the same run:
+``{vehicle}_over_reference`` is the wall milliseconds per simulated minute over its
+milliseconds, comparable between a loaded
 and a quiet machine where the absolute figures are not. Logged to MLflow (experiment
 ``terrain-benchmark``). Run: ``python benchmarks/bench_sim.py [--minutes 10]
 [--physics v1|v2] [--terrains ASPHALT,GRASS]`` (v2 on ``SANDY_LOAM,SNOW`` exercises the
@@ -16,12 +17,11 @@ it; a list or a length the simulator refuses is a usage error before anything is
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from dataclasses import replace
 
-import numpy as np
-
+from pipelines.arguments import positive_number
+from pipelines.reference_workload import sort_reference_ms as reference_ms
 from terrain.errors import ConfigError
 from terrain.sim import SimConfig, parse_terrain_list, simulate
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -30,32 +30,12 @@ from terrain.tracking import tracked_run
 #: Simulated seconds of each vehicle's untimed warm-up run (the first simulation of a
 #: process pays lazy imports and numba cache loads, 0.2-0.25 s on the 2-core machine).
 WARMUP_S = 2.0
-#: The reference workload's input (a fixed NumPy sort, single-threaded like the simulator).
-_REFERENCE = np.random.default_rng(0).standard_normal(4096)
-
-
-def reference_ms(repeats: int = 200) -> float:
-    """Median wall time of sorting 4096 fixed floats, ms (the same-run reference)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        np.sort(_REFERENCE)
-        times.append(time.perf_counter() - start)
-    return 1e3 * float(np.median(times))
-
-
-def _minutes(text: str) -> float:
-    """``--minutes``: a positive finite number."""
-    value = float(text)
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number of minutes, not {text}")
-    return value
 
 
 def main() -> int:
     """Run the benchmark; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--minutes", type=_minutes, default=10.0)
+    parser.add_argument("--minutes", type=positive_number, default=10.0)
     parser.add_argument("--physics", choices=list(PHYSICS_VERSIONS), default=DEFAULT_PHYSICS)
     parser.add_argument("--terrains", default="ASPHALT,GRASS",
                         help="comma-separated terrain sequence")
