@@ -35,9 +35,11 @@ class _Windows(SimpleNamespace):
         return len(self.X)
 
 
-def _stub(monkeypatch, reference_s: list[float], ours_s: float = 0.001) -> dict:
+def _stub(monkeypatch, reference_s: list[float], ours_s: float = 0.001, load_s: float = 0.0,
+          reference_offset: float = 0.0) -> dict:
     """Shipped data, windows, features and CV stubbed; ``reference_features`` takes the
-    seconds of ``reference_s`` in turn (the last one from then on)."""
+    seconds of ``reference_s`` in turn (the last one from then on) and returns ours plus
+    ``reference_offset``; reading the data takes ``load_s``."""
     logged: dict = {}
     ws = _Windows(X=np.zeros((8, 2, 4)), channels=("a", "b"), rate_hz=10.0)
     calls = iter(reference_s)
@@ -46,7 +48,7 @@ def _stub(monkeypatch, reference_s: list[float], ours_s: float = 0.001) -> dict:
     def reference(X, channels, rate_hz):
         last[0] = next(calls, last[0])
         time.sleep(last[0])
-        return np.zeros((len(X), 3))
+        return np.full((len(X), 3), reference_offset)
 
     def transform(X):
         time.sleep(ours_s)
@@ -54,7 +56,7 @@ def _stub(monkeypatch, reference_s: list[float], ours_s: float = 0.001) -> dict:
 
     report = SimpleNamespace(pooled=pd.DataFrame({"accuracy": [0.9]}))
     monkeypatch.setattr(benchmark, "tracked_run", lambda *a, **k: _Run(logged))
-    monkeypatch.setattr(benchmark, "load_dataset", lambda name: [])
+    monkeypatch.setattr(benchmark, "load_dataset", lambda name: time.sleep(load_s) or [])
     monkeypatch.setattr(benchmark, "make_windows", lambda runs, signals, config: ws)
     monkeypatch.setattr(benchmark, "feature_extractor",
                         lambda w: SimpleNamespace(transform=transform))
@@ -87,3 +89,20 @@ def test_per_window_figures_divide_by_the_windows_timed(monkeypatch, capsys):
     assert logged["n_windows"] == 8 and logged["n_features"] == 3
     assert logged["max_abs_diff_vs_reference"] == 0.0
     assert logged["combined_accuracy"] == pytest.approx(0.9)
+
+
+def test_the_data_pass_with_and_without_the_readers(monkeypatch, capsys):
+    # windows_and_features_s leaves the readers out, readers_windows_features_s (the < 10 s
+    # target) counts them; load_s is the first, cold read
+    logged = _stub(monkeypatch, [0.001], ours_s=0.001, load_s=0.05)
+    assert benchmark.main(argparse.Namespace(reference_windows=4, repeats=2)) == 0
+    assert logged["load_s"] >= 0.05
+    assert logged["windows_and_features_s"] < 0.04
+    assert logged["readers_windows_features_s"] >= 0.05 + logged["windows_and_features_s"]
+
+
+@pytest.mark.parametrize("offset", [0.25, -0.25])
+def test_the_largest_difference_to_the_reference_is_absolute(monkeypatch, capsys, offset):
+    logged = _stub(monkeypatch, [0.001], reference_offset=offset)
+    assert benchmark.main(argparse.Namespace(reference_windows=4, repeats=1)) == 0
+    assert logged["max_abs_diff_vs_reference"] == pytest.approx(0.25)
