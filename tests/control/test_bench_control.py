@@ -64,3 +64,39 @@ def test_a_short_run_logs_the_ratio_to_its_same_run_reference(script, monkeypatc
         for sfx in ("", "_wall"):
             assert logged[f"{name}_us_per_wheel{sfx}"] == pytest.approx(
                 logged[f"{name}_us_per_step{sfx}"] / units)
+
+
+def test_per_wheel_and_per_step_figures_from_the_seconds_per_step(script, monkeypatch,
+                                                                  logged_metrics):
+    # seconds per step: ours 30 us, simple-pid (every wheel's PID) 6 us, sae_slip 5 us
+    import sys
+
+    env = script["main"].__globals__
+    logged = logged_metrics(env)
+    monkeypatch.setitem(env, "time_ours", lambda *a: 30e-6)
+    monkeypatch.setitem(env, "time_simple_pid", lambda *a: 6e-6)
+    monkeypatch.setitem(env, "time_sae_slip", lambda *a: 5e-6)
+    monkeypatch.setattr(sys, "argv", ["bench_control.py", "--steps", "50", "--repeats", "1"])
+    assert script["main"]() == 0
+    for name, units in (("agrimaro", 3), ("husky", 2), ("four_wheels", 4)):
+        assert logged[f"{name}_us_per_step"] == pytest.approx(30.0)
+        assert logged[f"{name}_us_per_wheel"] == pytest.approx(30.0 / units)
+        assert logged[f"{name}_simple_pid_us_per_wheel"] == pytest.approx(6.0 / units)
+        assert logged[f"{name}_over_simple_pid"] == pytest.approx(5.0)
+        assert logged[f"{name}_sae_slip_us_per_step"] == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize("steps, code", [(49, 2), (50, 0)])
+def test_one_whole_chunk_is_enough(script, monkeypatch, capsys, logged_metrics, steps, code):
+    import sys
+
+    logged_metrics(script["main"].__globals__)
+    monkeypatch.setattr(sys, "argv", ["bench_control.py", "--steps", str(steps), "--repeats",
+                                      "1", "--chunk", "50"])
+    if code:
+        with pytest.raises(SystemExit) as stop:
+            script["main"]()
+        assert stop.value.code == code
+        assert "--chunk" in capsys.readouterr().err
+    else:
+        assert script["main"]() == 0

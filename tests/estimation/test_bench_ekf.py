@@ -38,6 +38,8 @@ def test_ratios_are_filterpy_time_over_ours_and_best_of_the_repeats(
     assert logged["ratio_ours_vs_filterpy"] == pytest.approx(5.0)      # 5x faster
     assert logged["ratio_reference_vs_filterpy"] == pytest.approx(1.0)
     assert logged["ratio_pure_vs_filterpy"] == pytest.approx(0.5)
+    assert logged["ours_reference_steps_per_s"] == pytest.approx(50.0)
+    assert logged["ours_pure_steps_per_s"] == pytest.approx(25.0)
     assert logged["long_run_steps"] == 1000.0
     assert "ratio ours / filterpy      5.00x" in capsys.readouterr().out
 
