@@ -96,3 +96,64 @@ def test_a_warm_up_longer_than_the_run_is_a_usage_error(script, monkeypatch, cap
         script["main"]()
     assert stop.value.code == 2
     assert "--warmup" in capsys.readouterr().err
+
+
+class _Tracked:
+    def __init__(self, logged):
+        self.logged = logged
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def log_metrics(self, metrics):
+        self.logged.update(metrics)
+
+    def describe(self):
+        return "run"
+
+
+def test_latency_figures_are_percentiles_in_ms_of_the_paired_times(script, monkeypatch,
+                                                                   capsys):
+    # decisions of 1, 2, ..., 101 ms; the pipeline inside each half of it, the same pipeline
+    # right after 1 ms, the reference 0.1 ms
+    env = script["main"].__globals__
+    logged = {}
+    decision = np.arange(1, 102) / 1e3
+    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Tracked(logged))
+    monkeypatch.setitem(env, "fit_stream_model", lambda *a, **k: _Model(_Pipeline()))
+    run = SimpleNamespace(run_id="r", duration_s=60.0, streams={"imu": 0, "wheels": 0})
+    monkeypatch.setitem(env, "load_dataset", lambda name: [run])
+    monkeypatch.setitem(env, "latency", lambda model, run, warmup: {
+        "decision": decision, "in_decision": decision / 2,
+        "hot": np.full(101, 1e-3), "reference": np.full(101, 1e-4)})
+    monkeypatch.setitem(env, "pipeline_parts", lambda model, run: {})
+    monkeypatch.setattr(sys, "argv", ["bench_serving.py", "--minutes", "0"])
+    assert script["main"]() == 0
+    expected = {"decision_p50_ms": 51.0, "decision_p99_ms": 100.0, "decision_max_ms": 101.0,
+                "decisions_timed": 101, "pipeline_p50_ms": 1.0, "pipeline_p99_ms": 1.0,
+                "service_overhead_p50_ms": 50.0, "service_overhead_p99_ms": 99.0,
+                "pipeline_in_decision_p50_ms": 25.5, "pipeline_in_decision_p99_ms": 50.0,
+                "service_own_p50_ms": 25.5, "service_own_p99_ms": 50.0,
+                "reference_p50_ms": 0.1, "reference_p99_ms": 0.1,
+                "decision_p50_over_reference": 510.0, "decision_p99_over_reference": 1000.0}
+    assert logged == pytest.approx(expected)
+    assert "p99 100.000 ms" in capsys.readouterr().out
+
+
+def test_a_push_that_completes_several_decisions_or_none_is_not_timed(script, monkeypatch):
+    # a push completing two decisions (a catch-up after a gap) times two decisions' work
+    # as one: neither it nor a push completing none is a decision's latency
+    _fake(script, monkeypatch, 9)
+    decisions = iter([1, 0, 2, 1, 1, 2, 0, 1, 1])
+
+    class Service(_Service):
+        def push(self, stream, t, v):
+            self.model.pipeline.predict_proba(np.zeros((1, 1, 1)))
+            return [object()] * next(decisions)
+
+    monkeypatch.setitem(script["latency"].__globals__, "StreamService", Service)
+    out = script["latency"](_Model(_Pipeline()), None, 1)
+    assert len(out["decision"]) == 4            # 5 one-decision pushes, the first warm-up
