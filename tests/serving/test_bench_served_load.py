@@ -91,3 +91,68 @@ def test_the_in_process_reference_decides_each_body_once_on_its_frame(script, mo
     for frame, body in zip(seen[1:], bodies):
         pd.testing.assert_frame_equal(frame, _rows(body))
     assert script["in_process_latencies"](Path("m"), []).shape == (0,)
+
+
+def test_a_run_too_short_for_a_request_is_never_sliced(script):
+    short = _run("short", 3.0)
+    short.streams["wheels"]["vel_l"] = 2.0
+    bodies = script["request_bodies"]([short, _run("long", 60.0)], ("wheels",), 4.0, 20)
+    for body in bodies:
+        rows = _rows(body)
+        assert len(rows) in (40, 41) and set(rows["vel_l"]) == {1.0}
+
+
+class _Tracked:
+    def __init__(self, logged):
+        self.logged = logged
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def log_metrics(self, metrics):
+        self.logged.update(metrics)
+
+    def describe(self):
+        return "run"
+
+
+def test_served_and_in_process_figures_in_ms_and_requests_per_second(script, monkeypatch,
+                                                                     capsys):
+    # the served requests answered in 10, 20, ..., 80 ms (after a warm-up of 1 s), every
+    # in-process decision 2 ms (500 req/s)
+    import threading
+
+    env = script["main"].__globals__
+    logged = {}
+    lock, answered = threading.Lock(), []
+
+    def post(url, body):
+        with lock:
+            answered.append(url)
+            return True, (0.010 * (len(answered) - 1) if len(answered) > 1 else 1.0)
+    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Tracked(logged))
+    monkeypatch.setitem(env, "load_dataset", lambda name: [_run("r", 60.0)])
+    monkeypatch.setitem(env, "load_stream_model",
+                        lambda path: SimpleNamespace(window=SimpleNamespace(window_s=2.0)))
+    monkeypatch.setitem(env, "is_served_model", lambda path: True)
+    proc = SimpleNamespace(terminate=lambda: None, wait=lambda timeout: 0)
+    monkeypatch.setitem(env, "_serve", lambda model_dir, served_out=None: (proc, "http://x"))
+    monkeypatch.setitem(env, "_post", post)
+    monkeypatch.setitem(env, "in_process_latencies",
+                        lambda model_dir, bodies: np.full(len(bodies), 0.002))
+    monkeypatch.setattr(sys, "argv", ["bench_served_load.py", "--kind", "wheels", "--model",
+                                      "m", "--requests", "8", "--reference", "4"])
+    assert script["main"]() == 0
+    assert logged["served_requests"] == 8 and logged["served_errors"] == 0
+    assert logged["served_p50_ms"] == pytest.approx(45.0)
+    assert logged["served_p99_ms"] == pytest.approx(79.3)
+    assert logged["served_throughput_rps"] == pytest.approx(8 / logged["served_wall_s"])
+    assert logged["inprocess_p50_ms"] == pytest.approx(2.0)
+    assert logged["inprocess_throughput_rps"] == pytest.approx(500.0)
+    assert logged["served_over_inprocess_p50"] == pytest.approx(22.5)
+    assert logged["served_over_inprocess_throughput"] == pytest.approx(
+        logged["served_throughput_rps"] / 500.0)
+    assert "served / in-process" in capsys.readouterr().out
