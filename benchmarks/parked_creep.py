@@ -21,6 +21,8 @@ import argparse
 import numpy as np
 
 from pipelines.arguments import parse_number, sim_duration_s
+from terrain.errors import ConfigError
+from terrain.sim import parse_terrain_list
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import PHYSICS_VERSIONS
 from terrain.terramechanics import get_terrain
@@ -65,19 +67,28 @@ def _slope_deg(text: str) -> float:
     return parse_number(text, lambda x: -90.0 < x < 90.0, "an angle in (-90, 90) degrees")
 
 
+def _terrains(text: str) -> tuple[str, ...]:
+    """``--terrains``: catalogue names, comma-separated (as ``terrain simulate --terrain``
+    reads them: any case, spaces around the commas)."""
+    try:
+        return tuple(get_terrain(t).name for t in parse_terrain_list(text))
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def main() -> int:
     """Print and log the creep table; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=sim_duration_s, default=20.0)
     parser.add_argument("--slope-deg", type=_slope_deg, default=15.0)
-    parser.add_argument("--terrains", default="ASPHALT,GRASS,SANDY_LOAM,SNOW,ICE")
+    parser.add_argument("--terrains", type=_terrains, default="ASPHALT,GRASS,SANDY_LOAM,SNOW,ICE")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     last = int(round(1.0 / STEP_S))
     metrics = {}
     print("physics | terrain | displacement mm | speed over the last second mm/s")
     for physics in PHYSICS_VERSIONS:
-        for terrain in args.terrains.split(","):
+        for terrain in args.terrains:
             x, v = parked_speed(terrain, physics, args.seconds, args.slope_deg)
             disp_mm, speed_mm_s = 1e3 * x[-1], 1e3 * float(np.mean(v[-last:]))
             metrics[f"{physics}_{terrain}_displacement_mm"] = disp_mm
@@ -85,7 +96,7 @@ def main() -> int:
             print(f"{physics} | {terrain} | {disp_mm:.1f} | {speed_mm_s:.3f}", flush=True)
     if not args.no_mlflow:
         params = {"seconds": args.seconds, "slope_deg": args.slope_deg,
-                  "terrains": args.terrains, "vehicle": "husky"}
+                  "terrains": ",".join(args.terrains), "vehicle": "husky"}
         with tracked_run("terrain-benchmark", run_name="parked-creep", params=params) as run:
             run.log_metrics(metrics)
     return 0

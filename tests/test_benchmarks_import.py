@@ -110,7 +110,8 @@ BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", 
                                                          "--inner-folds", "1"),
               ("stream_figure", "--fold", "5"), ("stream_transient_bound", "--target", "1.5"),
               ("stream_transient_bound", "--hop-s", "0"), ("parked_creep", "--seconds", "0"),
-              ("parked_creep", "--slope-deg", "nan"), ("ensemble_weights", "--n-jobs", "0"),
+              ("parked_creep", "--slope-deg", "nan"), ("parked_creep", "--terrains", "FOO"),
+              ("parked_creep", "--terrains", "ICE,"), ("ensemble_weights", "--n-jobs", "0"),
               ("merge_compare", "--history", "0"), ("unseen_runs", "--seed", "-1"),
               ("errors_by_manoeuvre", "--turning-rad-s", "-0.1")]
 
