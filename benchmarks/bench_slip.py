@@ -11,7 +11,9 @@ the same process and run:
   ``--singles`` calls; the latency of scoring one new window alone;
 * ``reference_batch_ms_per_window`` / ``reference_single_ms_per_window``: the same with
   scikit-learn's own ``predict`` (:meth:`SlipRegressor.predict_reference`), the reference
-  measured under the same machine load; ``batch_over_reference`` /
+  measured under the same machine load (its single-window median over fewer calls, the
+  first ``max(20, --singles // 10)`` of the same windows, at most ``--singles``: one call
+  takes milliseconds); ``batch_over_reference`` /
   ``single_over_reference``: ours over it (comparable between a loaded and a quiet machine);
 * ``features_ms_per_window``: feature table of a run (:func:`features.slip_features.slip_features`,
   physics slip included) per window; ``single_features_ms``: the NumPy single-window path
