@@ -39,6 +39,7 @@ from sklearn.pipeline import Pipeline
 
 from features.wheel_physics import WheelPhysicsFeatures
 from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
+from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
@@ -140,7 +141,7 @@ def member_votes(members: dict[str, list[pd.DataFrame]], classes: list[str]
 def main() -> int:
     """Cross-validate the members, score the votes, print and log the table."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", default="borealtc")
+    parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
     parser.add_argument("--model-seeds", type=positive_integer, default=3,

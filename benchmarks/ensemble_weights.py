@@ -26,6 +26,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
+from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import fit_with_groups, iter_splits
 from terrain.models.ensemble import aligned_proba
@@ -59,7 +60,7 @@ def _fold(ws, labels, groups, classes, dataset, seed, fold, train, test, threads
 def main() -> int:
     """Cross-validate both weightings, print and log the table."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", default="borealtc")
+    parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
     parser.add_argument("--history", type=positive_integer, nargs="+", default=[1, 10])

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from pipelines.arguments import non_negative_number
-from terrain.io.shipped import load_dataset
+from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.tracking import activate_store
 
 
@@ -60,7 +60,7 @@ def main() -> int:
     """Print accuracy by class and manoeuvre, and the straight windows' confusion."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("run_id", help="MLflow run of terrain cv (experiment terrain-cv)")
-    parser.add_argument("--dataset", default="borealtc")
+    parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--turning-rad-s", type=non_negative_number, default=0.1)
     parser.add_argument("--out", type=Path, default=None, help="write the per-window table")
     args = parser.parse_args()

@@ -29,6 +29,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from pipelines.arguments import DistinctSeeds, integer_in, positive_integer, seed_value
+from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
@@ -95,7 +96,7 @@ def learning_curve_figure(table: pd.DataFrame, title: str = "") -> Figure:
 def main() -> int:
     """Cross-validate at every number of folds, print and log the learning curve."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", default="borealtc")
+    parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--splits", type=integer_in(2, 1000), nargs="+", default=[2, 3, 5, 10])
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])

@@ -32,7 +32,7 @@ from sklearn.model_selection import StratifiedGroupKFold
 from features.windows import resolve_signals
 from pipelines.arguments import positive_integer, seed_value
 from pipelines.train import DEFAULT_MODELS, DEFAULT_SIGNALS, DEFAULT_TRAIN_HOP_S
-from terrain.io.shipped import load_dataset
+from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline, load_windows
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.tracking import tracked_run
@@ -41,7 +41,7 @@ from terrain.tracking import tracked_run
 def main() -> int:
     """Leave-runs-out comparison of the default model and the SVM; print and log it."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", default="borealtc")
+    parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--seed", type=seed_value, default=0)
     parser.add_argument("--threads", type=positive_integer, default=1,
                         help="torch threads per CNN fit")

@@ -113,7 +113,10 @@ BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", 
               ("parked_creep", "--slope-deg", "nan"), ("parked_creep", "--terrains", "FOO"),
               ("parked_creep", "--terrains", "ICE,"), ("ensemble_weights", "--n-jobs", "0"),
               ("merge_compare", "--history", "0"), ("unseen_runs", "--seed", "-1"),
-              ("errors_by_manoeuvre", "--turning-rad-s", "-0.1")]
+              ("errors_by_manoeuvre", "--turning-rad-s", "-0.1"),
+              *((script, "--dataset", "foo") for script in (
+                  "ensemble_members", "ensemble_weights", "errors_by_manoeuvre",
+                  "learning_curve_runs", "unseen_runs"))]
 
 
 @pytest.mark.parametrize("script, option, value", BAD_VALUES,
