@@ -9,7 +9,9 @@ that differs from another only in its friction or its soil strength shows it whe
 demands traction or turns; driving straight at constant speed it may not.
 
 Run: ``python benchmarks/errors_by_manoeuvre.py RUN_ID [--dataset borealtc]
-[--turning-rad-s 0.1] [--out FILE.csv]``.
+[--turning-rad-s 0.1] [--out FILE.csv]``. A run id without ``predictions.csv``, or
+predictions of runs that ``--dataset`` does not hold (a cv run of another dataset), is a
+usage error.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 import mlflow
 import numpy as np
 import pandas as pd
+from mlflow.exceptions import MlflowException
 
 from pipelines.arguments import non_negative_number
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -65,10 +68,21 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=None, help="write the per-window table")
     args = parser.parse_args()
     activate_store()
-    path = mlflow.artifacts.download_artifacts(run_id=args.run_id,
-                                               artifact_path="predictions.csv")
+    try:
+        path = mlflow.artifacts.download_artifacts(run_id=args.run_id,
+                                                   artifact_path="predictions.csv")
+    except (MlflowException, OSError) as exc:
+        parser.error(f"argument run_id: no predictions.csv of MLflow run {args.run_id!r}: "
+                     f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}")
     pred = pd.read_csv(path).reset_index(drop=True)
-    pred["abs_wz_rad_s"] = mean_abs_yaw_rate(pred, load_dataset(args.dataset))
+    runs = load_dataset(args.dataset)
+    foreign = sorted(set(pred["run"]) - {r.run_id for r in runs})
+    if foreign:     # mean_abs_yaw_rate would count their windows as runs without IMU
+        parser.error(f"argument --dataset: {args.dataset} does not hold {len(foreign)} of "
+                     f"the runs in MLflow run {args.run_id}'s predictions ("
+                     f"{', '.join(foreign[:5])}{', ...' if len(foreign) > 5 else ''}); "
+                     "is it a cv run of another dataset?")
+    pred["abs_wz_rad_s"] = mean_abs_yaw_rate(pred, runs)
     pred["correct"] = pred["true"] == pred["predicted"]
     known = pred["abs_wz_rad_s"].notna()
     pred["manoeuvre"] = np.where(pred["abs_wz_rad_s"] > args.turning_rad_s, "turning",

@@ -61,3 +61,45 @@ def test_no_turning_window_is_no_keyerror(tmp_path, monkeypatch, capsys):
     # `--turning-rad-s 1` on these windows ended in "KeyError: 'turning'"
     out = _main(tmp_path, monkeypatch, capsys, "--turning-rad-s", "1")
     assert "accuracy straight 0.333, turning nan" in out
+
+
+def _refused(monkeypatch, capsys, download, runs) -> str:
+    import sys
+    from types import SimpleNamespace
+
+    import pytest
+
+    script = runpy.run_path(str(SCRIPT))
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "activate_store", lambda: None)
+    monkeypatch.setitem(env, "mlflow", SimpleNamespace(artifacts=SimpleNamespace(
+        download_artifacts=download)))
+    monkeypatch.setitem(env, "load_dataset", lambda name: runs)
+    monkeypatch.setattr(sys, "argv", ["errors_by_manoeuvre.py", "RUN", "--dataset", "vulpi"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    return capsys.readouterr().err
+
+
+def test_a_run_id_without_predictions_is_a_usage_error(monkeypatch, capsys):
+    # an unknown run id was MLflow's "Run with id=... not found" traceback
+    from mlflow.exceptions import MlflowException
+
+    def missing(**kwargs):
+        raise MlflowException("Run with id=RUN not found")
+
+    err = _refused(monkeypatch, capsys, missing, [])
+    assert "RUN" in err and "predictions.csv" in err and "not found" in err
+
+
+def test_predictions_of_another_dataset_are_a_usage_error(tmp_path, monkeypatch, capsys):
+    # a BorealTC cv run read with --dataset vulpi: every window was counted "without IMU"
+    # and the accuracies printed as nan
+    csv = tmp_path / "predictions.csv"
+    pd.DataFrame({"run": ["x/A/0", "x/B/0"], "t_start_s": [2.0, 2.0], "t_end_s": [4.0, 4.0],
+                  "true": ["A", "B"], "predicted": ["A", "B"]}).to_csv(csv, index=False)
+    imu = pd.DataFrame({"t_s": np.arange(0.0, 5.0, 0.01), "wz": 0.0})
+    err = _refused(monkeypatch, capsys, lambda **k: str(csv),
+                   [Run("x/A/0", "x", "A", {"imu": imu})])
+    assert "--dataset: vulpi does not hold 1 of the runs" in err and "(x/B/0)" in err
