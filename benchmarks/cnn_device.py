@@ -29,7 +29,7 @@ import pandas as pd
 from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
 from terrain.models.compare import Cell, CompareConfig, cell_windows
 from terrain.models.cv import cross_validate
-from terrain.models.registry import ModelConfig, make_model
+from terrain.models.registry import CNN_MODELS, ModelConfig, make_model
 
 
 def device_rows(kind: str, device: str, seeds: list[int], threads: int,
@@ -84,11 +84,25 @@ def device_rows(kind: str, device: str, seeds: list[int], threads: int,
     return rows
 
 
+def _device(text: str) -> str:
+    """``--devices``: ``auto`` or a device string torch reads (``cpu``, ``cuda``,
+    ``cuda:1``)."""
+    import torch
+
+    if text != "auto":
+        try:
+            torch.device(text)
+        except RuntimeError as exc:
+            raise argparse.ArgumentTypeError(f"not a torch device: {text!r} ({exc})") from None
+    return text
+
+
 def main() -> int:
     """Cross-validate every model on every device, print and log the table."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--models", nargs="+", default=["cnn-spectrogram", "cnn"])
-    parser.add_argument("--devices", nargs="+", default=["cuda", "cpu"])
+    parser.add_argument("--models", nargs="+", choices=CNN_MODELS,
+                        default=["cnn-spectrogram", "cnn"])
+    parser.add_argument("--devices", nargs="+", type=_device, default=["cuda", "cpu"])
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
     parser.add_argument("--threads", type=positive_integer, default=2,

@@ -32,7 +32,8 @@ from pipelines.arguments import DistinctSeeds, integer_in, positive_integer, see
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
-from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
+from terrain.models.registry import (ENSEMBLES, MODELS, ModelConfig, ensemble_member_kinds,
+                                     make_model)
 from terrain.tracking import tracked_run
 
 #: Equal-weight votes scored when all their members were cross-validated.
@@ -100,7 +101,8 @@ def main() -> int:
     parser.add_argument("--splits", type=integer_in(2, 1000), nargs="+", default=[2, 3, 5, 10])
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
-    parser.add_argument("--models", nargs="+", default=["svm", "cnn", "cnn-spectrogram"])
+    parser.add_argument("--models", nargs="+", choices=MODELS,
+                        default=["svm", "cnn", "cnn-spectrogram"])
     parser.add_argument("--max-epochs", type=positive_integer, default=30)
     parser.add_argument("--threads", type=positive_integer, default=1, help="torch threads per CNN")
     parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")

@@ -116,7 +116,9 @@ BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", 
               ("errors_by_manoeuvre", "--turning-rad-s", "-0.1"),
               *((script, "--dataset", "foo") for script in (
                   "ensemble_members", "ensemble_weights", "errors_by_manoeuvre",
-                  "learning_curve_runs", "unseen_runs"))]
+                  "learning_curve_runs", "unseen_runs")),
+              ("learning_curve_runs", "--models", "foo"), ("cnn_device", "--models", "svm"),
+              ("cnn_device", "--devices", "tpu")]
 
 
 @pytest.mark.parametrize("script, option, value", BAD_VALUES,
