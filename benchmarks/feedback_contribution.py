@@ -32,10 +32,11 @@ import pandas as pd
 from tqdm import tqdm
 
 from pipelines.arguments import DistinctSeeds, positive_number, seed_value, sim_duration_s
-from terrain.control.closed_loop import default_gains, run_closed_loop
+from terrain.control.closed_loop import LOOP_SETTINGS, default_gains, run_closed_loop
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain
+from terrain.sim import SCENARIO_NAMES
 from terrain.tracking import tracked_run
 
 #: metrics of :func:`terrain.control.closed_loop.loop_metrics` kept per run
@@ -95,10 +96,11 @@ def decided_labels(pairs: list[str]) -> list[tuple[str, str]]:
 def main() -> int:
     """Run the grid, print the table, log it; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--vehicles", nargs="+", default=["agrimaro", "husky"])
+    parser.add_argument("--vehicles", nargs="+", choices=list(LOOP_SETTINGS),
+                        default=["agrimaro", "husky"])
     parser.add_argument("--terrains", nargs="+",
                         default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])
-    parser.add_argument("--scenarios", nargs="+",
+    parser.add_argument("--scenarios", nargs="+", choices=SCENARIO_NAMES,
                         default=["straight_accel", "orchard", "slope_turn"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])

@@ -40,13 +40,14 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from features.slip_outputs import slip_model_outputs
-from pipelines.arguments import DistinctSeeds, seed_value
+from pipelines.arguments import DistinctSeeds, seed_value, terrain_name
 from terrain.control.estimators import IMU_VIEWS
 from terrain.estimation.skid_steer_slip import STATE_NAMES
 from terrain.io.shipped import read_shipped
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
 from terrain.slip.evaluation import SLID_OFF_FACTOR
+from terrain.sim import SCENARIO_NAMES
 from terrain.tracking import tracked_run
 
 
@@ -200,9 +201,9 @@ def online(args) -> int:
 
 def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--terrains", nargs="+",
+    parser.add_argument("--terrains", nargs="+", type=terrain_name,
                         default=["ASPHALT", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
-    parser.add_argument("--scenarios", nargs="+",
+    parser.add_argument("--scenarios", nargs="+", choices=SCENARIO_NAMES,
                         default=["straight_accel", "orchard", "slope_turn", "random"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])

@@ -24,6 +24,7 @@ from terrain.models.experiment import MAX_SEED
 from terrain.models.registry import MAX_CNN_SEEDS
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.sim.simulate import MAX_DURATION_S
+from terrain.terramechanics.catalogue import get_terrain
 
 
 def _blocking_ancestor(path: Path) -> Path | None:
@@ -412,6 +413,32 @@ def sim_duration_s(value: str) -> float:
     """
     return parse_number(value, lambda x: 0 < x <= MAX_DURATION_S,
                         f"a finite number in (0, {MAX_DURATION_S:g}] s")
+
+
+def terrain_name(value: str) -> str:
+    """argparse ``type`` of a catalogue terrain name (any case), so an unknown name is
+    refused with the option's name before any run is simulated (benchmarks' ``--terrains``).
+
+    Parameters
+    ----------
+    value : str
+        The option's text.
+
+    Returns
+    -------
+    str
+        The catalogue's name (``"ice"`` -> ``"ICE"``).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not a name of :data:`terrain.terramechanics.catalogue.TERRAIN_NAMES` (the message
+        lists them).
+    """
+    try:
+        return get_terrain(value).name
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def non_negative_number(value: str) -> float:

@@ -118,7 +118,11 @@ BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", 
                   "ensemble_members", "ensemble_weights", "errors_by_manoeuvre",
                   "learning_curve_runs", "unseen_runs")),
               ("learning_curve_runs", "--models", "foo"), ("cnn_device", "--models", "svm"),
-              ("cnn_device", "--devices", "tpu")]
+              ("cnn_device", "--devices", "tpu"), ("speed_bound", "--terrains", "FOO"),
+              ("speed_bound", "--scenarios", "nope"), ("control_imu_views", "--terrains", "FOO"),
+              ("control_imu_views", "--scenarios", "nope"),
+              ("feedback_contribution", "--vehicles", "tracked"),
+              ("feedback_contribution", "--scenarios", "nope")]
 
 
 @pytest.mark.parametrize("script, option, value", BAD_VALUES,
@@ -148,3 +152,10 @@ def test_bench_control_refuses_a_chunk_longer_than_the_steps(monkeypatch, capsys
         module.main()
     assert stop.value.code == 2
     assert "--chunk" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("script", ["speed_bound", "control_imu_views"])
+def test_terrains_are_catalogue_names_in_any_case(script):
+    # as terrain simulate reads them: "ice" is ICE
+    parser = _parser(SCRIPTS[[p.stem for p in SCRIPTS].index(script)])
+    assert parser.parse_args(["--terrains", "ice", "Snow"]).terrains == ["ICE", "SNOW"]
