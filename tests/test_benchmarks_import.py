@@ -159,3 +159,9 @@ def test_terrains_are_catalogue_names_in_any_case(script):
     # as terrain simulate reads them: "ice" is ICE
     parser = _parser(SCRIPTS[[p.stem for p in SCRIPTS].index(script)])
     assert parser.parse_args(["--terrains", "ice", "Snow"]).terrains == ["ICE", "SNOW"]
+
+
+def test_cnn_device_takes_auto_and_torch_device_strings():
+    parser = _parser(SCRIPTS[[p.stem for p in SCRIPTS].index("cnn_device")])
+    assert parser.parse_args(["--devices", "auto", "cpu", "cuda:1"]).devices == [
+        "auto", "cpu", "cuda:1"]
